@@ -1,0 +1,158 @@
+"""Earth model: constant sets, normal gravity, Earth and transport rates, radii of curvature.
+
+Navigation frame vectors are returned in ``frame="enu"`` (east, north, up; default) or ``"ned"``.
+Latitude ``lat`` in rad, height ``h`` in m above the ellipsoid, velocities in m/s in the navigation frame.
+
+Two constant sets:
+
+* :data:`WGS84` — NIMA TR8350.2 (2000): a = 6378137 m, f = 1/298.257223563, ω_ie = 7.292115e-5 rad/s,
+  GM = 3.986004418e14 m³/s²; Somigliana normal gravity with the second-order free-air height term
+  (TR8350.2 eq. 4-1 and 4-3).
+* :data:`PSINS` — the constants of the PSINS toolbox ``glv`` (Yan Gongmin): f = 1/298.257,
+  ω_ie = 7.2921151467e-5 rad/s, g0 = 9.7803267715 m/s², gravity
+  ``g = g0 (1 + 5.27094e-3 sin²L + 2.32718e-5 sin⁴L) − 3.086e-6 h``, so results can be compared with PSINS.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+
+@dataclass(frozen=True)
+class EarthConstants:
+    """One selectable set of Earth constants (SI)."""
+
+    name: str
+    a: float  #: m, equatorial radius
+    f: float  #: flattening
+    omega_ie: float  #: rad/s, Earth rotation rate
+    gm: float  #: m³/s²
+    gravity_model: str  #: "somigliana" or "psins"
+    g_e: float  #: m/s², normal gravity at the equator
+    k_somigliana: float = 0.0  #: Somigliana constant (b γ_p)/(a γ_e) − 1
+
+    @property
+    def e2(self) -> float:
+        """First eccentricity squared."""
+        return self.f * (2.0 - self.f)
+
+    @property
+    def b(self) -> float:
+        """Semi-minor axis, m."""
+        return self.a * (1.0 - self.f)
+
+
+WGS84 = EarthConstants("WGS84", a=6378137.0, f=1.0 / 298.257223563, omega_ie=7.292115e-5,
+                       gm=3.986004418e14, gravity_model="somigliana", g_e=9.7803253359,
+                       k_somigliana=0.00193185265241)
+PSINS = EarthConstants("PSINS", a=6378137.0, f=1.0 / 298.257, omega_ie=7.2921151467e-5,
+                       gm=3.986004418e14, gravity_model="psins", g_e=9.7803267715)
+CONSTANT_SETS = {"wgs84": WGS84, "psins": PSINS}
+
+
+def constants(name: str | EarthConstants = "wgs84") -> EarthConstants:
+    """Look up a constant set by name ("wgs84", "psins") or pass one through."""
+    if isinstance(name, EarthConstants):
+        return name
+    try:
+        return CONSTANT_SETS[str(name).lower()]
+    except KeyError:
+        raise OptinavError(f"unknown Earth constant set {name!r}", "use 'wgs84' or 'psins'") from None
+
+
+def _frame(frame: str) -> str:
+    f = str(frame).lower()
+    if f not in ("enu", "ned"):
+        raise OptinavError(f"unknown navigation frame {frame!r}", "use 'enu' or 'ned'")
+    return f
+
+
+def radii(lat, h=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
+    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``h`` (m)."""
+    e = constants(earth)
+    s2 = np.sin(np.asarray(lat, dtype=float)) ** 2
+    w = np.sqrt(1.0 - e.e2 * s2)
+    rn = e.a / w
+    rm = e.a * (1.0 - e.e2) / w**3
+    return rm + h, rn + h
+
+
+def gravity(lat, h=0.0, earth="wgs84") -> np.ndarray:
+    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``h`` (m)."""
+    e = constants(earth)
+    lat = np.asarray(lat, dtype=float)
+    h = np.asarray(h, dtype=float)
+    s2 = np.sin(lat) ** 2
+    if e.gravity_model == "psins":
+        return e.g_e * (1.0 + 5.27094e-3 * s2 + 2.32718e-5 * s2**2) - 3.086e-6 * h
+    g0 = e.g_e * (1.0 + e.k_somigliana * s2) / np.sqrt(1.0 - e.e2 * s2)
+    m = e.omega_ie**2 * e.a**2 * e.b / e.gm
+    return g0 * (1.0 - 2.0 / e.a * (1.0 + e.f + m - 2.0 * e.f * s2) * h + 3.0 / e.a**2 * h**2)
+
+
+def gravity_vector(lat, h=0.0, frame="enu", earth="wgs84") -> np.ndarray:
+    """Gravity vector g^n (m/s²): ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED; shape (..., 3)."""
+    g = gravity(lat, h, earth)
+    z = np.zeros_like(g)
+    sign = -1.0 if _frame(frame) == "enu" else 1.0
+    return np.stack([z, z, sign * g], -1)
+
+
+def earth_rate(lat, frame="enu", earth="wgs84") -> np.ndarray:
+    """Earth rate ω_ie^n (rad/s): ENU ``[0, ω cos L, ω sin L]``; NED ``[ω cos L, 0, −ω sin L]``."""
+    w = constants(earth).omega_ie
+    lat = np.asarray(lat, dtype=float)
+    c, s, z = w * np.cos(lat), w * np.sin(lat), np.zeros_like(lat)
+    if _frame(frame) == "enu":
+        return np.stack([z, c, s], -1)
+    return np.stack([c, z, -s], -1)
+
+
+def transport_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
+    """Transport rate ω_en^n (rad/s) for navigation-frame velocity ``v_n`` (..., 3) in m/s."""
+    v = np.asarray(v_n, dtype=float)
+    rm, rn = radii(lat, h, earth)
+    t = np.tan(np.asarray(lat, dtype=float))
+    if _frame(frame) == "enu":
+        ve, vn = v[..., 0], v[..., 1]
+        return np.stack([-vn / rm, ve / rn, ve * t / rn], -1)
+    vn, ve = v[..., 0], v[..., 1]
+    return np.stack([ve / rn, -vn / rm, -ve * t / rn], -1)
+
+
+def position_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
+    """Time derivative of ``[lat, lon, h]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
+    v = np.asarray(v_n, dtype=float)
+    rm, rn = radii(lat, h, earth)
+    if _frame(frame) == "enu":
+        ve, vn, vu = v[..., 0], v[..., 1], v[..., 2]
+    else:
+        vn, ve, vu = v[..., 0], v[..., 1], -v[..., 2]
+    return np.stack([vn / rm, ve / (rn * np.cos(lat)), vu], -1)
+
+
+def dcm_e_to_n(lat, lon, frame="enu") -> np.ndarray:
+    """``C_e^n`` from ECEF to the local navigation frame at geodetic ``lat``, ``lon`` (rad)."""
+    lat = np.asarray(lat, dtype=float)
+    lon = np.asarray(lon, dtype=float)
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    z = np.zeros_like(sl)
+    east = np.stack([-so, co, z], -1)
+    north = np.stack([-sl * co, -sl * so, cl], -1)
+    up = np.stack([cl * co, cl * so, sl], -1)
+    if _frame(frame) == "enu":
+        return np.stack([east, north, up], -2)
+    return np.stack([north, east, -up], -2)
+
+
+def geodetic_to_ecef(lat, lon, h, earth="wgs84") -> np.ndarray:
+    """Geodetic ``lat``, ``lon`` (rad), ``h`` (m) → ECEF position (m)."""
+    e = constants(earth)
+    lat = np.asarray(lat, dtype=float)
+    _, rn = radii(lat, 0.0, e)
+    cl = np.cos(lat)
+    return np.stack([(rn + h) * cl * np.cos(lon), (rn + h) * cl * np.sin(lon), (rn * (1 - e.e2) + h) * np.sin(lat)], -1)

@@ -1,0 +1,289 @@
+"""Rotations: direction-cosine matrices, quaternions, Euler angles and rotation vectors.
+
+Conventions (docs/conventions.md): ``C_a^b`` maps a-frame vectors into frame b; an attitude is ``C_b^n``.
+Quaternions are scalar-first ``[w, x, y, z]`` Hamilton quaternions with ``q_b^n ⊗ v_b ⊗ q_b^n* = v_n``.
+Every function is vectorized over leading dimensions: a vector is ``(..., 3)``, a matrix ``(..., 3, 3)``,
+a quaternion ``(..., 4)``. Conversions are a thin layer over :class:`scipy.spatial.transform.Rotation`.
+
+Euler conventions (angles always returned and accepted as ``[roll, pitch, yaw]`` in rad):
+
+* ``"ned"`` (default): body forward-right-down, navigation north-east-down;
+  ``C_b^n = R_z(yaw) R_y(pitch) R_x(roll)``; yaw clockwise from north seen from above.
+* ``"enu"``: body right-forward-up, navigation east-north-up (PSINS);
+  ``C_b^n = R_z(yaw) R_x(pitch) R_y(roll)``; yaw counter-clockwise from north (heading = −yaw).
+
+``R_x, R_y, R_z`` are the active rotation matrices :func:`rot_x`, :func:`rot_y`, :func:`rot_z`.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from optinav.core.validate import as_float_array
+from optinav.errors import OptinavError
+
+_EULER_SEQ = {"ned": "ZYX", "enu": "ZXY"}
+
+#: C_ENU^NED: maps ENU vectors to NED (and, being symmetric and involutory, NED to ENU).
+C_ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+#: C_RFU^FRD: maps right-forward-up body vectors to forward-right-down (same matrix as C_ENU_NED).
+C_RFU_FRD = C_ENU_NED.copy()
+
+
+def _flat(x: np.ndarray, tail: int) -> tuple[np.ndarray, tuple[int, ...]]:
+    lead = x.shape[: x.ndim - tail]
+    return x.reshape((-1,) + x.shape[x.ndim - tail:]), lead
+
+
+def skew(v) -> np.ndarray:
+    """Skew-symmetric cross-product matrix ``[v×]`` with ``[v×] u = v × u``; (..., 3) → (..., 3, 3)."""
+    v = np.asarray(v, dtype=float)
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
+
+
+def vee(m) -> np.ndarray:
+    """Inverse of :func:`skew` (uses the antisymmetric part); (..., 3, 3) → (..., 3)."""
+    m = np.asarray(m, dtype=float)
+    return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1)
+
+
+def small_angle_dcm(phi) -> np.ndarray:
+    """First-order rotation matrix ``I + [φ×]`` of a small rotation vector φ (rad).
+
+    The matrices of the form ``I − [θ×]`` used for non-orthogonality angles (e.g. the rotational-INS
+    paper, eqs. 4–5) are ``small_angle_dcm(-θ)``.
+    """
+    return np.eye(3) + skew(phi)
+
+
+def rot_x(angle) -> np.ndarray:
+    """Active rotation by ``angle`` (rad) about x: [[1,0,0],[0,c,−s],[0,s,c]]; vectorized."""
+    a = np.asarray(angle, dtype=float)
+    c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
+def rot_y(angle) -> np.ndarray:
+    """Active rotation by ``angle`` (rad) about y: [[c,0,s],[0,1,0],[−s,0,c]]; vectorized."""
+    a = np.asarray(angle, dtype=float)
+    c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+
+
+def rot_z(angle) -> np.ndarray:
+    """Active rotation by ``angle`` (rad) about z: [[c,−s,0],[s,c,0],[0,0,1]]; vectorized."""
+    a = np.asarray(angle, dtype=float)
+    c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def rot_axis(axis, angle) -> np.ndarray:
+    """Active rotation by ``angle`` (rad) about a unit ``axis`` (3,), vectorized over ``angle``."""
+    axis = as_float_array(axis, "axis", last_dims=(3,))
+    n = np.linalg.norm(axis, axis=-1, keepdims=True)
+    if np.any(n == 0):
+        raise OptinavError("rotation axis is the zero vector", "give a non-zero axis")
+    return dcm_from_rotvec((axis / n) * np.asarray(angle, dtype=float)[..., None])
+
+
+# --- quaternion algebra -------------------------------------------------------------------------------
+
+def quat_multiply(p, q) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, broadcasting over leading dims."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack([
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    ], -1)
+
+
+def quat_conjugate(q) -> np.ndarray:
+    """Conjugate ``[w, −x, −y, −z]`` (the inverse of a unit quaternion)."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_normalize(q) -> np.ndarray:
+    """Unit quaternion with the same direction; a zero quaternion is an error."""
+    q = np.asarray(q, dtype=float)
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(n == 0):
+        raise OptinavError("cannot normalize a zero quaternion", "check the attitude input")
+    return q / n
+
+
+def quat_canonical(q) -> np.ndarray:
+    """The same rotation with ``w ≥ 0`` (q and −q are one rotation)."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def quat_rotate(q, v) -> np.ndarray:
+    """Rotate vectors: ``C(q) v`` for unit ``q``; broadcasts (..., 4) with (..., 3)."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+# --- conversions (thin layer over scipy) ------------------------------------------------------------
+
+def _rot_from_quat(q) -> tuple[Rotation, tuple[int, ...]]:
+    q = as_float_array(q, "quaternion", last_dims=(4,))
+    flat, lead = _flat(q, 1)
+    if np.any(np.linalg.norm(flat, axis=-1) == 0):
+        raise OptinavError("quaternion of zero norm", "check the attitude input")
+    return Rotation.from_quat(flat, scalar_first=True), lead
+
+
+def _rot_from_dcm(c) -> tuple[Rotation, tuple[int, ...]]:
+    c = as_float_array(c, "direction-cosine matrix", last_dims=(3, 3))
+    flat, lead = _flat(c, 2)
+    return Rotation.from_matrix(flat), lead
+
+
+def _rot_from_rotvec(r) -> tuple[Rotation, tuple[int, ...]]:
+    r = as_float_array(r, "rotation vector", last_dims=(3,))
+    flat, lead = _flat(r, 1)
+    return Rotation.from_rotvec(flat), lead
+
+
+def _rot_from_euler(angles, convention) -> tuple[Rotation, tuple[int, ...]]:
+    seq = _seq(convention)
+    a = as_float_array(angles, "Euler angles", last_dims=(3,))
+    flat, lead = _flat(a, 1)
+    return Rotation.from_euler(seq, flat[:, [2, 1, 0]]), lead
+
+
+def _seq(convention: str) -> str:
+    try:
+        return _EULER_SEQ[convention]
+    except KeyError:
+        raise OptinavError(f"unknown Euler convention {convention!r}", "use 'ned' or 'enu'") from None
+
+
+def _out_quat(r: Rotation, lead) -> np.ndarray:
+    return quat_canonical(r.as_quat(scalar_first=True)).reshape(lead + (4,))
+
+
+def _out_dcm(r: Rotation, lead) -> np.ndarray:
+    return r.as_matrix().reshape(lead + (3, 3))
+
+
+def _out_rotvec(r: Rotation, lead) -> np.ndarray:
+    return r.as_rotvec().reshape(lead + (3,))
+
+
+def _out_euler(r: Rotation, lead, convention) -> np.ndarray:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # gimbal lock: scipy still returns a valid triple
+        e = r.as_euler(_seq(convention))
+    return e[:, [2, 1, 0]].reshape(lead + (3,))
+
+
+def dcm_from_quat(q) -> np.ndarray:
+    """Quaternion ``q_b^n`` (normalized first) → ``C_b^n``."""
+    return _out_dcm(*_rot_from_quat(q))
+
+
+def quat_from_dcm(c) -> np.ndarray:
+    """``C_b^n`` → unit quaternion with ``w ≥ 0`` (a non-orthogonal input is projected to the nearest rotation)."""
+    return _out_quat(*_rot_from_dcm(c))
+
+
+def dcm_from_rotvec(r) -> np.ndarray:
+    """Rotation vector (axis × angle, rad) → DCM, exact (Rodrigues)."""
+    return _out_dcm(*_rot_from_rotvec(r))
+
+
+def rotvec_from_dcm(c) -> np.ndarray:
+    """DCM → rotation vector with angle in [0, π]."""
+    return _out_rotvec(*_rot_from_dcm(c))
+
+
+def quat_from_rotvec(r) -> np.ndarray:
+    """Rotation vector → unit quaternion (``w ≥ 0``)."""
+    return _out_quat(*_rot_from_rotvec(r))
+
+
+def rotvec_from_quat(q) -> np.ndarray:
+    """Unit quaternion → rotation vector with angle in [0, π]."""
+    return _out_rotvec(*_rot_from_quat(q))
+
+
+def dcm_from_euler(angles, convention: str = "ned") -> np.ndarray:
+    """``[roll, pitch, yaw]`` (rad) → ``C_b^n`` in the given convention (module docstring)."""
+    return _out_dcm(*_rot_from_euler(angles, convention))
+
+
+def euler_from_dcm(c, convention: str = "ned") -> np.ndarray:
+    """``C_b^n`` → ``[roll, pitch, yaw]`` (rad); the middle angle is in [−π/2, π/2]."""
+    return _out_euler(*_rot_from_dcm(c), convention)
+
+
+def quat_from_euler(angles, convention: str = "ned") -> np.ndarray:
+    """``[roll, pitch, yaw]`` (rad) → unit quaternion ``q_b^n`` (``w ≥ 0``)."""
+    return _out_quat(*_rot_from_euler(angles, convention))
+
+
+def euler_from_quat(q, convention: str = "ned") -> np.ndarray:
+    """Unit quaternion ``q_b^n`` → ``[roll, pitch, yaw]`` (rad)."""
+    return _out_euler(*_rot_from_quat(q), convention)
+
+
+def dcm_orthonormalize(c) -> np.ndarray:
+    """Nearest rotation matrix in the Frobenius norm (polar decomposition by SVD)."""
+    c = as_float_array(c, "direction-cosine matrix", last_dims=(3, 3))
+    u, _, vt = np.linalg.svd(c)
+    d = np.sign(np.linalg.det(u @ vt))
+    u[..., :, 2] *= d[..., None]
+    return u @ vt
+
+
+def rotation_angle(c) -> np.ndarray:
+    """Angle (rad, in [0, π]) of the rotation ``C``; for an error ``C_1ᵀ C_2`` it is the attitude error."""
+    c = np.asarray(c, dtype=float)
+    tr = np.trace(c, axis1=-2, axis2=-1)
+    # arctan2 form keeps precision for small angles where arccos((tr-1)/2) loses it
+    s = np.linalg.norm(vee(c), axis=-1)
+    return np.arctan2(s, 0.5 * (tr - 1.0))
+
+
+def quat_angle_between(q1, q2) -> np.ndarray:
+    """Angle (rad) of the rotation taking ``q1`` to ``q2``, sign-invariant."""
+    d = np.abs(np.sum(quat_normalize(q1) * quat_normalize(q2), axis=-1))
+    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+
+
+# --- ENU / NED -----------------------------------------------------------------------------------------
+
+def enu_to_ned(v) -> np.ndarray:
+    """Vector(s) in ENU → NED: ``[e, n, u] → [n, e, −u]``."""
+    return np.asarray(v, dtype=float) @ C_ENU_NED.T
+
+
+def ned_to_enu(v) -> np.ndarray:
+    """Vector(s) in NED → ENU: ``[n, e, d] → [e, n, −d]``."""
+    return np.asarray(v, dtype=float) @ C_ENU_NED.T
+
+
+def attitude_enu_to_ned(c_b_n_enu) -> np.ndarray:
+    """``C_b^n`` with b = right-forward-up, n = ENU → ``C_b'^n'`` with b' = forward-right-down, n' = NED."""
+    return C_ENU_NED @ np.asarray(c_b_n_enu, dtype=float) @ C_RFU_FRD.T
+
+
+def attitude_ned_to_enu(c_b_n_ned) -> np.ndarray:
+    """Inverse of :func:`attitude_enu_to_ned`."""
+    return C_ENU_NED.T @ np.asarray(c_b_n_ned, dtype=float) @ C_RFU_FRD

@@ -1,0 +1,65 @@
+"""Input checks shared by every module: each failure is a one-line :class:`OptinavError`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+
+def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: bool = True) -> np.ndarray:
+    """Return ``x`` as a float64 array whose trailing dimensions equal ``last_dims``.
+
+    ``last_dims=(3,)`` accepts a single 3-vector or an (N, 3) array; ``(3, 3)`` a matrix or a stack.
+    """
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise OptinavError(f"{name} is not numeric ({exc})", "pass an array of numbers") from None
+    if last_dims and (a.ndim < len(last_dims) or a.shape[a.ndim - len(last_dims):] != tuple(last_dims)):
+        want = "(..., " + ", ".join(map(str, last_dims)) + ")"
+        raise OptinavError(f"{name} has shape {a.shape}, expected {want}", "check the array's layout")
+    if finite and a.size and not np.all(np.isfinite(a)):
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        raise OptinavError(f"{name} contains {bad} NaN or infinite value(s)",
+                           "remove or interpolate the bad samples before calling")
+    return a
+
+
+def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None
+                     ) -> np.ndarray:
+    """Validate a 1-D timestamp vector in seconds: finite, strictly increasing, optionally without gaps.
+
+    ``max_gap_factor``: a step larger than this multiple of the median step is reported as a gap.
+    """
+    t = as_float_array(t, name)
+    if t.ndim != 1:
+        raise OptinavError(f"{name} must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
+    if t.size < min_count:
+        raise OptinavError(f"{name} has {t.size} sample(s), at least {min_count} are needed",
+                           "record a longer log")
+    dt = np.diff(t)
+    if np.any(dt == 0):
+        i = int(np.flatnonzero(dt == 0)[0])
+        raise OptinavError(f"{name} has a duplicate timestamp at index {i + 1} (t = {t[i + 1]:.6g} s)",
+                           "drop duplicated samples")
+    if np.any(dt < 0):
+        i = int(np.flatnonzero(dt < 0)[0])
+        raise OptinavError(f"{name} is not sorted: t[{i + 1}] = {t[i + 1]:.6g} s < t[{i}] = {t[i]:.6g} s",
+                           "sort the samples by time")
+    if max_gap_factor is not None and dt.size:
+        med = float(np.median(dt))
+        big = dt > max_gap_factor * med
+        if np.any(big):
+            i = int(np.flatnonzero(big)[0])
+            raise OptinavError(f"{name} has a gap of {dt[i]:.6g} s after t = {t[i]:.6g} s "
+                               f"(median step {med:.6g} s)", "split the log at the gap or fill it")
+    return t
+
+
+def check_positive(value, name: str) -> float:
+    """A finite, strictly positive scalar."""
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise OptinavError(f"{name} must be a positive finite number, got {value!r}", f"pass a valid {name}")
+    return v

@@ -1,0 +1,15 @@
+"""The one exception type users see.
+
+Every bad input ends in an :class:`OptinavError` whose message is one line naming the cause and what
+to do; the CLI prints it without a traceback (``--debug`` shows one).
+"""
+
+
+class OptinavError(ValueError):
+    """Bad input or an impossible request; the message is a one-line cause and remedy."""
+
+    def __init__(self, cause: str, remedy: str | None = None):
+        msg = cause if remedy is None else f"{cause}; {remedy}"
+        super().__init__(" ".join(msg.split()))
+        self.cause = cause
+        self.remedy = remedy
