@@ -1,0 +1,92 @@
+"""Unit table, versioned JSON results and input validation."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from optinav import OptinavError
+from optinav.core import units
+from optinav.core.results import Result
+from optinav.core.validate import as_float_array, check_timestamps
+
+
+def test_unit_conversions_by_hand():
+    assert units.to_si(0.005, "deg/h") == pytest.approx(0.005 * np.pi / 180 / 3600)
+    assert units.to_si(0.0005, "deg/sqrt(h)") == pytest.approx(0.0005 * np.pi / 180 / 60)
+    assert units.to_si(20, "ug") == pytest.approx(20e-6 * 9.80665)
+    assert units.to_si(400, "μg/√Hz") == pytest.approx(400e-6 * 9.80665)
+    assert units.to_si(2, "ppm") == pytest.approx(2e-6)
+    assert units.to_si(1, "arcsec") == pytest.approx(np.pi / 180 / 3600)
+    assert units.from_si(units.to_si(7.5, "deg/s"), "deg/s") == pytest.approx(7.5)
+    with pytest.raises(OptinavError, match="unknown unit"):
+        units.to_si(1.0, "furlong/fortnight")
+
+
+@given(st.sampled_from(sorted(units.UNITS)), st.floats(-1e6, 1e6))
+def test_unit_round_trip(unit, x):
+    assert units.from_si(units.to_si(x, unit), unit) == pytest.approx(x, rel=1e-12, abs=1e-300)
+
+
+@dataclasses.dataclass
+class _Demo(Result):
+    SCHEMA = "optinav.test_demo"
+    VERSION = 1
+    bias: np.ndarray = dataclasses.field(metadata={"unit": "m/s^2"})
+    cost: float = dataclasses.field(metadata={"unit": "(m/s^2)^2"})
+    name: str = "x"
+    extra: dict = dataclasses.field(default_factory=dict)
+
+
+def test_result_json_round_trip(tmp_path):
+    r = _Demo(bias=np.array([1.0, -2.5, 3e-9]), cost=float("inf"), name="unit 7",
+              extra={"hist": np.arange(3.0), "n": np.int64(4)})
+    path = tmp_path / "r.json"
+    r.to_json(path)
+    data = json.loads(path.read_text())
+    assert data["schema"] == "optinav.test_demo" and data["version"] == 1
+    assert data["fields"]["bias"]["unit"] == "m/s^2"
+    back = Result.from_json(path)
+    assert isinstance(back, _Demo)
+    np.testing.assert_array_equal(back.bias, r.bias)
+    assert back.cost == float("inf") and back.name == "unit 7"
+    np.testing.assert_array_equal(back.extra["hist"], np.arange(3.0))
+
+
+def test_result_json_errors(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text("{not json")
+    with pytest.raises(OptinavError, match="not valid JSON"):
+        Result.from_json(p)
+    with pytest.raises(OptinavError, match="does not exist"):
+        Result.from_json(tmp_path / "missing.json")
+    with pytest.raises(OptinavError, match="unknown result schema"):
+        Result.from_json('{"schema": "nope", "version": 1, "fields": {}}')
+    with pytest.raises(OptinavError, match="version 9"):
+        Result.from_json('{"schema": "optinav.test_demo", "version": 9, "fields": {}}')
+    with pytest.raises(OptinavError, match="incomplete"):
+        Result.from_json('{"schema": "optinav.test_demo", "version": 1, "fields": {}}')
+
+
+def test_timestamps_checks():
+    check_timestamps([0.0, 0.1, 0.25])
+    with pytest.raises(OptinavError, match="duplicate"):
+        check_timestamps([0.0, 0.1, 0.1])
+    with pytest.raises(OptinavError, match="not sorted"):
+        check_timestamps([0.0, 0.2, 0.1])
+    with pytest.raises(OptinavError, match="gap"):
+        check_timestamps([0.0, 0.1, 0.2, 5.0], max_gap_factor=5)
+    with pytest.raises(OptinavError, match="NaN"):
+        check_timestamps([0.0, np.nan])
+    with pytest.raises(OptinavError, match="at least"):
+        check_timestamps([0.0])
+
+
+def test_array_checks():
+    with pytest.raises(OptinavError, match="shape"):
+        as_float_array(np.zeros((4, 2)), "gyro", last_dims=(3,))
+    with pytest.raises(OptinavError, match="not numeric"):
+        as_float_array(["a", "b"], "gyro")
