@@ -1,0 +1,13 @@
+"""Reports: studies produce tables, checks and figures; ``write_report`` turns them into a folder.
+
+A study is a function ``study(quick: bool, rng) -> StudyResult`` registered with :func:`register_study`
+under a name (``optinav reproduce NAME``). ``write_report(results, out_dir)`` writes ``index.md``,
+``index.html``, ``summary.json`` (every table's numbers and every check) and the PNG figures (when
+matplotlib is installed: ``pip install optinav[plot]``).
+"""
+
+from optinav.reports.report import (Check, Figure, StudyResult, Table, available_studies, get_study,
+                                    register_study, write_report)
+
+__all__ = ["Check", "Figure", "StudyResult", "Table", "available_studies", "get_study", "register_study",
+           "write_report"]

@@ -1,0 +1,74 @@
+"""The ``optinav`` command: one argparse parser, subcommands registered by their modules.
+
+Each command module defines ``register(subparsers)`` that adds its parser and sets ``func`` to a callable
+``func(args) -> int``. Errors: an :class:`OptinavError` prints ``optinav: error: <cause; remedy>`` and exits 2;
+any other exception prints a one-line internal error and exits 1; ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import textwrap
+
+from optinav import __version__
+from optinav.errors import OptinavError
+
+#: modules that define ``register(subparsers)``; later systems add theirs here
+COMMAND_MODULES = ["optinav.cli.reproduce"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="optinav",
+        description="Inertial sensor calibration and attitude estimation posed as optimization problems.",
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav reproduce --quick           reproduce the studies quickly into ./optinav-report
+              optinav reproduce core --out rep    one study into ./rep
+              optinav COMMAND --help              help and a worked example for a command
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"optinav {__version__}")
+    parser.add_argument("--quiet", action="store_true", help="no progress output")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    import importlib
+
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    if args.quiet:
+        os.environ["OPTINAV_QUIET"] = "1"
+    try:
+        return int(args.func(args) or 0)
+    except OptinavError as exc:
+        if args.debug:
+            raise
+        print(f"optinav: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("optinav: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
+        if args.debug:
+            raise
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"optinav: internal error: {type(exc).__name__}: {msg} (run with --debug for the traceback "
+              "and please report it)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,203 @@
+"""Study results and the report writer (Markdown, HTML, JSON, PNG)."""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from optinav.errors import OptinavError
+
+
+@dataclass
+class Table:
+    """A table of a study: ``columns`` names (with units in brackets), ``rows`` lists of cells."""
+
+    title: str
+    columns: list[str]
+    rows: list[list[Any]]
+    note: str = ""
+
+
+@dataclass
+class Check:
+    """A number compared with the limit it must meet (``value <= limit`` unless ``kind='>='``)."""
+
+    name: str
+    value: float
+    limit: float
+    unit: str = ""
+    kind: str = "<="
+
+    @property
+    def passed(self) -> bool:
+        v, lim = float(self.value), float(self.limit)
+        if not (math.isfinite(v) and math.isfinite(lim)):
+            return False
+        return v <= lim if self.kind == "<=" else v >= lim
+
+
+@dataclass
+class Figure:
+    """A figure: ``draw(fig)`` fills a matplotlib figure; saved as ``filename`` (PNG)."""
+
+    filename: str
+    caption: str
+    draw: Callable[[Any], None]
+    size: tuple[float, float] = (7.0, 4.0)
+
+
+@dataclass
+class StudyResult:
+    """What one study reproduced: text, tables, checks, figures and a flat summary of numbers."""
+
+    name: str
+    title: str
+    description: str = ""
+    tables: list[Table] = field(default_factory=list)
+    checks: list[Check] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+    elapsed: float = 0.0
+
+
+_STUDIES: dict[str, tuple[Callable[..., StudyResult], str]] = {}
+
+
+def register_study(name: str, help: str):
+    """Decorator registering ``fn(quick: bool, rng) -> StudyResult`` as reproducible study ``name``."""
+
+    def deco(fn):
+        _STUDIES[name] = (fn, help)
+        return fn
+
+    return deco
+
+
+def available_studies() -> dict[str, str]:
+    """Registered study names → one-line descriptions (imports the modules that register them)."""
+    _import_study_modules()
+    return {k: v[1] for k, v in _STUDIES.items()}
+
+
+def get_study(name: str) -> Callable[..., StudyResult]:
+    _import_study_modules()
+    try:
+        return _STUDIES[name][0]
+    except KeyError:
+        raise OptinavError(f"unknown study {name!r}",
+                           f"choose one of: {', '.join(sorted(_STUDIES))}, or 'all'") from None
+
+
+def _import_study_modules() -> None:
+    # studies register themselves on import; listed here so the CLI needs no knowledge of them
+    import optinav.reports.core_study  # noqa: F401
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, float):
+        if x == 0 or not math.isfinite(x):
+            return str(x)
+        return f"{x:.7g}" if (abs(x) >= 1e-3 and abs(x) < 1e7) else f"{x:.4e}"
+    return str(x)
+
+
+def _md(x: Any) -> str:
+    """A Markdown table cell: formatted, with pipes escaped."""
+    return _fmt(x).replace("|", "\\|")
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if hasattr(x, "tolist"):
+        return _jsonable(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return str(x)
+    return x
+
+
+def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | None]]:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return [(f, None) for f in study.figures]
+    saved = []
+    for f in study.figures:
+        fig = plt.figure(figsize=f.size)
+        try:
+            f.draw(fig)
+            fig.tight_layout()
+            fig.savefig(out / f.filename, dpi=110)
+            saved.append((f, f.filename))
+        finally:
+            plt.close(fig)
+    return saved
+
+
+def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str = "optinav report") -> Path:
+    """Write ``index.md``, ``index.html``, ``summary.json`` and PNGs for ``results`` into ``out_dir``."""
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OptinavError(f"cannot create report folder {out} ({exc.strerror})", "choose a writable --out") from None
+    md = [f"# {title}", "", f"Written {time.strftime('%Y-%m-%d %H:%M:%S')} by optinav.", ""]
+    h = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
+         "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
+         "td,th{border:1px solid #999;padding:2px 6px;text-align:right}th{background:#eee}"
+         ".fail{color:#b00}.pass{color:#070}</style>", f"<h1>{html.escape(title)}</h1>"]
+    summary: dict[str, Any] = {"title": title, "studies": {}}
+    for r in results:
+        md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`, {r.elapsed:.1f} s._", ""]
+        h += [f"<h2>{html.escape(r.title)}</h2>", f"<p>{html.escape(r.description)}</p>"]
+        if r.checks:
+            md += ["| check | value | limit | unit | result |", "|---|---:|---:|---|---|"]
+            h.append("<table><tr><th>check</th><th>value</th><th>limit</th><th>unit</th><th>result</th></tr>")
+            for c in r.checks:
+                verdict = "pass" if c.passed else "FAIL"
+                md.append(f"| {_md(c.name)} | {_md(c.value)} | {c.kind} {_md(c.limit)} | {_md(c.unit)} | {verdict} |")
+                h.append(f"<tr><td>{html.escape(c.name)}</td><td>{_fmt(c.value)}</td><td>{html.escape(c.kind)} "
+                         f"{_fmt(c.limit)}</td><td>{html.escape(c.unit)}</td>"
+                         f"<td class='{verdict.lower()}'>{verdict}</td></tr>")
+            md.append("")
+            h.append("</table>")
+        for t in r.tables:
+            md += [f"**{t.title}**", "", "| " + " | ".join(_md(c) for c in t.columns) + " |",
+                   "|" + "---|" * len(t.columns)]
+            md += ["| " + " | ".join(_md(c) for c in row) + " |" for row in t.rows]
+            if t.note:
+                md += ["", f"_{t.note}_"]
+            md.append("")
+            h.append(f"<h3>{html.escape(t.title)}</h3><table><tr>"
+                     + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
+            h += ["<tr>" + "".join(f"<td>{html.escape(_fmt(c))}</td>" for c in row) + "</tr>" for row in t.rows]
+            h.append("</table>" + (f"<p><i>{html.escape(t.note)}</i></p>" if t.note else ""))
+        for fig, fname in _save_figures(r, out):
+            if fname is None:
+                md += [f"_Figure omitted ({fig.caption}): install matplotlib (`pip install optinav[plot]`)._", ""]
+            else:
+                md += [f"![{fig.caption}]({fname})", "", f"_{fig.caption}_", ""]
+                h.append(f"<figure><img src='{html.escape(fname)}' width='700'>"
+                         f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
+        summary["studies"][r.name] = {
+            "title": r.title, "elapsed_s": r.elapsed, "summary": _jsonable(r.summary),
+            "checks": [{"name": c.name, "value": _jsonable(c.value), "limit": _jsonable(c.limit), "unit": c.unit,
+                        "kind": c.kind, "passed": c.passed} for c in r.checks],
+            "tables": [{"title": t.title, "columns": t.columns, "rows": _jsonable(t.rows), "note": t.note}
+                       for t in r.tables],
+        }
+    (out / "index.md").write_text("\n".join(md) + "\n", encoding="utf-8")
+    (out / "index.html").write_text("\n".join(h) + "\n", encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    return out

@@ -1,0 +1,45 @@
+"""The command line: help, errors as one line, and the README's main job end to end."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from optinav.cli.main import main
+
+
+def test_help_lists_commands(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert "reproduce" in out
+
+
+def test_unknown_study_is_one_line_error(capsys):
+    assert main(["reproduce", "no-such-study", "--out", "unused"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("optinav: error: unknown study 'no-such-study'")
+
+
+def test_unwritable_report_folder(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["--quiet", "reproduce", "core", "--quick", "--out", str(blocker / "sub")]) == 2
+    assert "cannot create report folder" in capsys.readouterr().err
+
+
+def test_reproduce_quick_writes_report(tmp_path):
+    # the README's main job, as a user runs it (installed console entry point via python -m)
+    out = tmp_path / "rep"
+    proc = subprocess.run([sys.executable, "-m", "optinav.cli.main", "--quiet", "reproduce", "--quick",
+                           "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert "core" in summary["studies"]
+    checks = summary["studies"]["core"]["checks"]
+    assert checks and all(c["passed"] for c in checks)
+    assert (out / "index.md").read_text().startswith("# optinav reproduce")
+    assert (out / "index.html").exists()
+    assert list(out.glob("*.png")), "matplotlib is in the test extra, so figures must be written"
