@@ -90,3 +90,12 @@ def test_array_checks():
         as_float_array(np.zeros((4, 2)), "gyro", last_dims=(3,))
     with pytest.raises(OptinavError, match="not numeric"):
         as_float_array(["a", "b"], "gyro")
+
+
+def test_check_positive():
+    from optinav.core.validate import check_positive
+
+    assert check_positive("2.5", "rate") == 2.5
+    for bad in (None, "abc", 0, -1.0, float("inf"), float("nan")):
+        with pytest.raises(OptinavError, match="positive finite"):
+            check_positive(bad, "rate")

@@ -59,7 +59,10 @@ def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_facto
 
 def check_positive(value, name: str) -> float:
     """A finite, strictly positive scalar."""
-    v = float(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
     if not np.isfinite(v) or v <= 0:
         raise OptinavError(f"{name} must be a positive finite number, got {value!r}", f"pass a valid {name}")
     return v
