@@ -1,0 +1,762 @@
+"""IMU error and noise models: one linear deterministic model per sensor triad plus optional noise.
+
+Deterministic part of a triad (accelerometer or gyroscope), in the sensor's output axes::
+
+    y = K x + b  (+ G f for a gyroscope),   K = diag(1 + s) · (I + M)
+
+x is the true input (ω rad/s or f m/s²), b the bias, s the scale-factor errors (dimensionless), M the
+misalignment (zero diagonal, small angles in rad) and G the gyro g-sensitivity (rad/s per m/s²) acting on
+the true specific force f. Index meaning: ``M[i, j]`` (M_ij) is the sensitivity of sensor axis i to input
+axis j, so ``M_xy`` is row x, column y. With this factorization K_ij = (1 + s_i)·M_ij, which is the
+accelerometer paper's E_ij = S_ii·M_ij with S_ii = 1 + s_i (Gao & Zhang, MEMS accelerometer calibration
+by adaptive genetic algorithm, eq. 1). The upper-triangular form keeps only M_xy, M_xz, M_yz (K upper
+triangular), the parametrization identifiable from norm observations. For increments (Δθ rad, Δv m/s
+over an interval dt) the same model reads Δy = K Δx + b·dt (+ G Δv).
+
+Noise part (each optional, independent per axis, added to the output in the sensor axes): white noise of
+density N (ARW rad/√s, VRW m/s/√s = m/s²/√Hz) with σ = N/√dt on rates and N·√dt on increments; bias
+instability as a first-order Gauss–Markov process (stationary σ, correlation time τ, exact
+discretization φ = exp(−dt/τ)); rate / acceleration random walk K (σ of a step = K·√dt); then
+saturation (clip at the measurement range, flags returned) and quantization (LSB on the rate or on the
+increment, the residual carried to the next sample as integrating outputs do). dt may vary per sample.
+
+Two levels: :class:`ImuSpec` is a 1σ engineering specification (a datasheet); ``spec.draw(rng)`` draws
+one unit, an :class:`ImuModel`, whose ``apply`` turns true motion into measurements and whose
+``compensate`` inverts the deterministic part exactly. :func:`preset` returns the specs of the sensors
+the optinav papers use. Everything here is SI; engineering units enter only through
+:meth:`ImuSpec.from_units` and the keyword overrides of :func:`preset` as ``(value, unit)`` pairs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO
+from optinav.core.results import Result
+from optinav.core.units import to_si
+from optinav.core.validate import as_float_array, check_positive
+from optinav.errors import OptinavError
+
+KINDS = ("rate", "increment")
+#: Gauss–Markov σ per unit of datasheet bias instability B: makes the process's Allan-deviation peak
+#: (0.617σ at 1.89τ) equal the flicker floor 0.664·B that IEEE Std 952 reads B from.
+GM_SIGMA_PER_BIAS_INSTABILITY = FLICKER_FLOOR / GM_ADEV_PEAK_RATIO
+
+_RATE_UNIT = {"gyro": "rad/s", "accel": "m/s^2"}
+
+
+# ----------------------------------------------------------------------------------------------------------
+# small private helpers (general; candidates for core.validate)
+# ----------------------------------------------------------------------------------------------------------
+
+def _as_rng(rng) -> np.random.Generator:
+    if isinstance(rng, np.random.Generator):
+        return rng
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError):
+        raise OptinavError(f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}",
+                           "pass e.g. rng=np.random.default_rng(1)") from None
+
+
+def _check_kind(kind: str, name: str = "kind") -> str:
+    if kind not in KINDS:
+        raise OptinavError(f"{name} must be 'rate' or 'increment', got {kind!r}", f"pass {name}='rate' or 'increment'")
+    return kind
+
+
+def _dt(dt, shape: tuple[int, ...], name: str = "dt") -> np.ndarray:
+    """dt as an array broadcast to ``shape`` (the sample shape): a scalar or one value per sample, all > 0."""
+    if dt is None:
+        raise OptinavError(f"{name} is required here", f"pass {name} in s (a scalar or one value per sample)")
+    d = as_float_array(dt, name)
+    if np.any(d <= 0):
+        raise OptinavError(f"{name} must be positive, got a minimum of {float(np.min(d)):.6g} s",
+                           "pass the sample intervals in s")
+    try:
+        return np.broadcast_to(d, shape)
+    except ValueError:
+        raise OptinavError(f"{name} has shape {d.shape}, expected a scalar or {shape}",
+                           "pass one interval per sample") from None
+
+
+def _vec3(x, name: str, *, nonneg: bool = False, allow_inf: bool = False) -> np.ndarray:
+    """A scalar or a 3-vector as a float (3,) array."""
+    a = as_float_array(x, name, finite=not allow_inf)
+    if a.ndim == 0:
+        a = np.full(3, float(a))
+    if a.shape != (3,):
+        raise OptinavError(f"{name} has shape {a.shape}, expected a scalar or 3 values (x, y, z)",
+                           "pass one value or one per axis")
+    if np.any(np.isnan(a)):
+        raise OptinavError(f"{name} contains NaN", f"pass a valid {name}")
+    if nonneg and np.any(a < 0):
+        raise OptinavError(f"{name} must not be negative, got {a.tolist()}",
+                           f"pass |{name}| (a 1σ value or a density)")
+    return a.copy()
+
+
+def _nonneg_scalar(x, name: str) -> float:
+    v = float(as_float_array(x, name))
+    if v < 0:
+        raise OptinavError(f"{name} must not be negative, got {v!r}", f"pass a valid {name}")
+    return v
+
+
+def _samples(x, name: str) -> np.ndarray:
+    a = as_float_array(x, name, last_dims=(3,))
+    if a.ndim != 2:
+        raise OptinavError(f"{name} has shape {a.shape}, expected (N, 3) samples", "pass one row per sample")
+    return a
+
+
+# ----------------------------------------------------------------------------------------------------------
+# deterministic triad model
+# ----------------------------------------------------------------------------------------------------------
+
+_M6_INDEX = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
+_M3_INDEX = ((0, 1), (0, 2), (1, 2))
+
+
+def misalignment_matrix(m6) -> np.ndarray:
+    """3×3 zero-diagonal misalignment from the 6 terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy] (rad)."""
+    m6 = as_float_array(m6, "misalignment", last_dims=(6,))
+    if m6.ndim != 1:
+        raise OptinavError(f"misalignment has shape {m6.shape}, expected (6,)", "pass 6 misalignment terms")
+    M = np.zeros((3, 3))
+    for v, (i, j) in zip(m6, _M6_INDEX):
+        M[i, j] = v
+    return M
+
+
+def upper_misalignment_matrix(m3) -> np.ndarray:
+    """3×3 strictly upper-triangular misalignment from [M_xy, M_xz, M_yz] (rad)."""
+    m3 = as_float_array(m3, "misalignment", last_dims=(3,))
+    if m3.ndim != 1:
+        raise OptinavError(f"misalignment has shape {m3.shape}, expected (3,)", "pass M_xy, M_xz, M_yz")
+    M = np.zeros((3, 3))
+    for v, (i, j) in zip(m3, _M3_INDEX):
+        M[i, j] = v
+    return M
+
+
+@dataclass(eq=False)
+class TriadErrors(Result):
+    """Deterministic errors of one sensor triad: ``y = K x + b (+ G f)``, ``K = diag(1 + s)(I + M)``.
+
+    ``sensor`` is "gyro" (b in rad/s, G allowed) or "accel" (b in m/s², G must be zero). See the module
+    docstring for the index meaning of M. Constructors: the fields directly (M as a 3×3 zero-diagonal
+    matrix), :meth:`from_six`, :meth:`from_upper_triangular`, :meth:`from_matrix`, :meth:`ideal`.
+    """
+
+    SCHEMA = "optinav.triad_errors"
+    VERSION = 1
+
+    sensor: str = field(metadata={"unit": "-"})
+    bias: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s (gyro) | m/s^2 (accel)"})
+    scale: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "1"})
+    misalignment: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)), metadata={"unit": "rad"})
+    g_sensitivity: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)), metadata={"unit": "rad/s/(m/s^2)"})
+
+    def __post_init__(self):
+        if self.sensor not in _RATE_UNIT:
+            raise OptinavError(f"sensor must be 'gyro' or 'accel', got {self.sensor!r}",
+                               "pass sensor='gyro' or 'accel'")
+        self.bias = _vec3(self.bias, "bias")
+        self.scale = _vec3(self.scale, "scale")
+        M = as_float_array(self.misalignment, "misalignment", last_dims=(3, 3))
+        G = as_float_array(self.g_sensitivity, "g_sensitivity", last_dims=(3, 3))
+        if M.ndim != 2 or G.ndim != 2:
+            raise OptinavError("misalignment and g_sensitivity must be single 3×3 matrices", "pass 3×3 arrays")
+        if np.any(np.diag(M) != 0):
+            raise OptinavError(f"misalignment has a non-zero diagonal {np.diag(M).tolist()}",
+                               "put scale-factor errors in scale and keep M's diagonal zero")
+        if self.sensor == "accel" and np.any(G != 0):
+            raise OptinavError("g_sensitivity is a gyroscope error but was given for an accelerometer",
+                               "leave g_sensitivity zero for sensor='accel'")
+        self.misalignment, self.g_sensitivity = M.copy(), G.copy()
+        if np.any(1.0 + self.scale <= 0):
+            raise OptinavError(f"scale-factor errors {self.scale.tolist()} make a gain 1 + s ≤ 0",
+                               "pass scale errors as small fractions (e.g. 2e-6 for 2 ppm)")
+        if np.linalg.cond(self.K) > 1e8:
+            raise OptinavError("the triad matrix K = diag(1+s)(I+M) is singular or ill-conditioned",
+                               "check the misalignment: its terms are small angles in rad")
+
+    # -- constructors -------------------------------------------------------------------------------------
+    @classmethod
+    def ideal(cls, sensor: str) -> "TriadErrors":
+        """An error-free triad."""
+        return cls(sensor=sensor)
+
+    @classmethod
+    def from_six(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0, 0, 0, 0), g_sensitivity=None
+                 ) -> "TriadErrors":
+        """From bias, scale errors and the 6 misalignment terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy] (rad)."""
+        return cls(sensor=sensor, bias=bias, scale=scale, misalignment=misalignment_matrix(misalignment),
+                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+
+    @classmethod
+    def from_upper_triangular(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0), g_sensitivity=None
+                              ) -> "TriadErrors":
+        """Upper-triangular form: bias, scale errors and [M_xy, M_xz, M_yz] (rad); K is upper triangular."""
+        return cls(sensor=sensor, bias=bias, scale=scale, misalignment=upper_misalignment_matrix(misalignment),
+                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+
+    @classmethod
+    def from_matrix(cls, sensor: str, K, bias=0.0, g_sensitivity=None) -> "TriadErrors":
+        """From a raw 3×3 K (factored exactly: s_i = K_ii − 1, M_ij = K_ij / K_ii) and a bias."""
+        K = as_float_array(K, "K", last_dims=(3, 3))
+        if K.ndim != 2:
+            raise OptinavError(f"K has shape {K.shape}, expected (3, 3)", "pass one 3×3 matrix")
+        d = np.diag(K).copy()
+        if np.any(d <= 0):
+            raise OptinavError(f"K has a non-positive diagonal {d.tolist()}", "pass a gain matrix close to identity")
+        M = K / d[:, None]
+        np.fill_diagonal(M, 0.0)
+        return cls(sensor=sensor, bias=bias, scale=d - 1.0, misalignment=M,
+                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+
+    # -- derived ------------------------------------------------------------------------------------------
+    @property
+    def K(self) -> np.ndarray:
+        """Scale-factor and misalignment matrix diag(1 + s)(I + M)."""
+        return (1.0 + self.scale)[:, None] * (np.eye(3) + self.misalignment)
+
+    @property
+    def misalignment6(self) -> np.ndarray:
+        """[M_xy, M_xz, M_yx, M_yz, M_zx, M_zy] (rad)."""
+        return np.array([self.misalignment[i, j] for i, j in _M6_INDEX])
+
+    @property
+    def is_upper_triangular(self) -> bool:
+        """True when M (hence K) has no terms below the diagonal (the 3-term form)."""
+        return bool(np.all(np.tril(self.misalignment) == 0))
+
+    # -- model --------------------------------------------------------------------------------------------
+    def _offset(self, shape, dt, f, kind: str, name_f: str) -> np.ndarray:
+        kind = _check_kind(kind)
+        off = np.broadcast_to(self.bias, shape)
+        if kind == "increment":
+            off = off * _dt(dt, shape[:-1])[..., None]
+        if np.any(self.g_sensitivity != 0):
+            if f is None:
+                raise OptinavError("this gyro has g-sensitivity, so the specific force is needed",
+                                   f"pass {name_f} (m/s² for rates, m/s for increments)")
+            f = as_float_array(f, name_f, last_dims=(3,))
+            if f.shape != tuple(shape):
+                raise OptinavError(f"{name_f} has shape {f.shape}, expected {tuple(shape)} like the gyro samples",
+                                   "pass one specific-force sample per gyro sample")
+            off = off + f @ self.g_sensitivity.T
+        return off
+
+    def apply(self, x, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+        """Truth → measured: ``K x + b (+ G f)`` for rates, ``K Δx + b·dt (+ G Δv)`` for increments.
+
+        x: (..., 3) true rates or increments; dt (s): needed for increments; f: true specific force
+        (m/s², or Δv in m/s for increments), needed when the gyro has g-sensitivity.
+        """
+        x = as_float_array(x, "x", last_dims=(3,))
+        return x @ self.K.T + self._offset(x.shape, dt, f, kind, "f")
+
+    def compensate(self, y, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+        """Measured → corrected: ``K⁻¹ (y − b − G f)`` (exact inverse of :meth:`apply`).
+
+        For a gyro with g-sensitivity pass the compensated accelerometer output as ``f``;
+        :meth:`ImuModel.compensate` does so, which makes the inversion exact without noise.
+        """
+        y = as_float_array(y, "y", last_dims=(3,))
+        r = y - self._offset(y.shape, dt, f, kind, "f")
+        return np.linalg.solve(self.K, r.reshape(-1, 3).T).T.reshape(y.shape)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# stochastic processes (rate-equivalent values per sample; multiply by dt for increments)
+# ----------------------------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def _gauss_markov_kernel(w, phi, sigma):  # pragma: no cover - compiled
+    n, k = w.shape
+    out = np.empty_like(w)
+    for j in range(k):
+        b = sigma[j] * w[0, j]  # stationary start
+        out[0, j] = b
+        for i in range(1, n):
+            p = phi[i, j]
+            b = p * b + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
+            out[i, j] = b
+    return out
+
+
+@njit(cache=True)
+def _quantize_carry_kernel(v, h):  # pragma: no cover - compiled
+    n, k = v.shape
+    out = np.empty_like(v)
+    for j in range(k):
+        r = 0.0
+        for i in range(n):
+            step = h[i, j]
+            if step > 0.0:
+                u = v[i, j] + r
+                q = step * np.floor(u / step + 0.5)
+                r = u - q
+                out[i, j] = q
+            else:
+                out[i, j] = v[i, j]
+    return out
+
+
+def white_noise(n: int, density, dt, rng=None, *, kind: str = "rate") -> np.ndarray:
+    """(n, 3) white noise of density N per axis (rad/√s or m/s/√s): σ = N/√dt (rates), N·√dt (increments)."""
+    kind = _check_kind(kind)
+    N = _vec3(density, "noise density", nonneg=True)
+    d = _dt(dt, (n,))
+    std = N[None, :] * (1.0 / np.sqrt(d) if kind == "rate" else np.sqrt(d))[:, None]
+    return _as_rng(rng).standard_normal((n, 3)) * std
+
+
+def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
+    """(n, 3) first-order Gauss–Markov process at the sample epochs, started stationary.
+
+    x_k = φ_k x_{k−1} + σ√(1 − φ_k²) w_k with φ_k = exp(−dt_k/τ) — the exact discretization, so the
+    stationary σ and the autocorrelation exp(−|Δt|/τ) hold for any (irregular) dt_k, the interval ending
+    at sample k. sigma: stationary 1σ per axis; tau: correlation time(s) in s.
+    """
+    s = _vec3(sigma, "Gauss-Markov sigma", nonneg=True)
+    t = _vec3(tau, "Gauss-Markov tau", allow_inf=True)
+    if np.any(t <= 0):
+        raise OptinavError(f"Gauss-Markov correlation time must be positive, got {t.tolist()}", "pass tau in s")
+    d = _dt(dt, (n,))
+    phi = np.exp(-d[:, None] / t[None, :])
+    return _gauss_markov_kernel(_as_rng(rng).standard_normal((n, 3)), np.ascontiguousarray(phi), s)
+
+
+def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
+    """(n, 3) random walk b_k = b_{k−1} + K√dt_k w_k from b_{−1} = 0; K in rad/s/√s or m/s²/√s."""
+    K = _vec3(density, "random-walk density", nonneg=True)
+    d = _dt(dt, (n,))
+    return np.cumsum(_as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
+
+
+def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
+    """Clip (N, 3) outputs at the measurement range ``limit`` (a rate, per axis; inf = none).
+
+    Increments saturate where their mean rate Δ/dt exceeds the range. Returns (clipped, flags) with
+    flags (N, 3) True exactly where |rate| > limit.
+    """
+    kind = _check_kind(kind)
+    y = _samples(y, "y")
+    lim = _vec3(limit, "range", allow_inf=True)
+    if np.any(lim <= 0):
+        raise OptinavError(f"range must be positive, got {lim.tolist()}", "pass the full-scale range (inf for none)")
+    bound = np.broadcast_to(lim, y.shape) if kind == "rate" else lim[None, :] * _dt(dt, (y.shape[0],))[:, None]
+    flags = np.abs(y) > bound
+    return np.clip(y, -bound, bound), flags
+
+
+def quantize(y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", carry: bool = True) -> np.ndarray:
+    """Quantize (N, 3) outputs to the LSB per axis (0 = off).
+
+    lsb_kind says whether the LSB is a rate (rad/s, m/s²) or an increment (rad, m/s); the output keeps
+    ``kind``. With ``carry`` the rounding residual of each sample is added to the next one, as the
+    increment outputs of integrating sensors do, so the running sum of the outputs never departs from
+    the running sum of the inputs by more than half an LSB (half of LSB·dt for a rate LSB). Without it
+    each sample is rounded on its own (register outputs of MEMS rate sensors).
+    """
+    kind = _check_kind(kind)
+    _check_kind(lsb_kind, "lsb_kind")
+    y = _samples(y, "y")
+    q = _vec3(lsb, "lsb", nonneg=True)
+    if not np.any(q > 0):
+        return y.copy()
+    if not carry and kind == lsb_kind:
+        return _round_to(y, np.broadcast_to(q, y.shape))
+    # otherwise work on the integral (increment) scale, where the carried residual is an angle/velocity
+    d = _dt(dt, (y.shape[0],))[:, None] if "rate" in (kind, lsb_kind) else None
+    v = y * d if kind == "rate" else y
+    h = np.ascontiguousarray(np.broadcast_to(q[None, :] * d if lsb_kind == "rate" else q, y.shape))
+    out = _quantize_carry_kernel(np.ascontiguousarray(v), h) if carry else _round_to(v, h)
+    return out / d if kind == "rate" else out
+
+
+def _round_to(v: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Round to the nearest multiple of ``step`` (half up, like the carry kernel); step 0 = unchanged."""
+    on = step > 0
+    return np.where(on, step * np.floor(v / np.where(on, step, 1.0) + 0.5), v)
+
+
+@dataclass(eq=False)
+class TriadNoise(Result):
+    """Noise parameters of one triad (per axis, SI; 0 switches a term off).
+
+    white: density N (rad/√s gyro ARW, m/s/√s accel VRW); gm_sigma / gm_tau: Gauss–Markov bias
+    instability (stationary σ in rad/s or m/s², correlation time in s); random_walk: rate/acceleration
+    random walk (rad/s/√s, m/s²/√s); range: measurement range as a rate (inf = none); lsb: resolution
+    (a rate or an increment per ``lsb_kind``); carry: carry the quantization residual.
+    """
+
+    SCHEMA = "optinav.triad_noise"
+    VERSION = 1
+
+    white: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/sqrt(s) | m/s/sqrt(s)"})
+    gm_sigma: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2"})
+    gm_tau: np.ndarray = field(default_factory=lambda: np.full(3, np.inf), metadata={"unit": "s"})
+    random_walk: np.ndarray = field(default_factory=lambda: np.zeros(3),
+                                    metadata={"unit": "rad/s/sqrt(s) | m/s^2/sqrt(s)"})
+    range: np.ndarray = field(default_factory=lambda: np.full(3, np.inf), metadata={"unit": "rad/s | m/s^2"})
+    lsb: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2 | rad | m/s"})
+    lsb_kind: str = field(default="rate", metadata={"unit": "-"})
+    carry: bool = field(default=True, metadata={"unit": "-"})
+
+    def __post_init__(self):
+        self.white = _vec3(self.white, "white noise density", nonneg=True)
+        self.gm_sigma = _vec3(self.gm_sigma, "gm_sigma", nonneg=True)
+        self.gm_tau = _vec3(self.gm_tau, "gm_tau", allow_inf=True)
+        self.random_walk = _vec3(self.random_walk, "random_walk", nonneg=True)
+        self.range = _vec3(self.range, "range", allow_inf=True)
+        self.lsb = _vec3(self.lsb, "lsb", nonneg=True)
+        _check_kind(self.lsb_kind, "lsb_kind")
+        self.carry = bool(self.carry)
+        if np.any(self.gm_tau <= 0) or np.any((self.gm_sigma > 0) & ~np.isfinite(self.gm_tau)):
+            raise OptinavError(f"gm_tau must be a positive finite correlation time, got {self.gm_tau.tolist()}",
+                               "pass the bias-instability correlation time in s")
+        if np.any(self.range <= 0):
+            raise OptinavError(f"range must be positive, got {self.range.tolist()}", "pass inf for no saturation")
+
+    def sample(self, n: int, dt, rng=None) -> np.ndarray:
+        """(n, 3) rate-equivalent noise: white + Gauss–Markov + random walk (multiply by dt for increments)."""
+        rng = _as_rng(rng)
+        d = _dt(dt, (n,))
+        e = np.zeros((n, 3))
+        if np.any(self.white > 0):
+            e += white_noise(n, self.white, d, rng, kind="rate")
+        if np.any(self.gm_sigma > 0):
+            e += gauss_markov(n, self.gm_sigma, self.gm_tau, d, rng)
+        if np.any(self.random_walk > 0):
+            e += random_walk(n, self.random_walk, d, rng)
+        return e
+
+    def digitize(self, y, dt, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
+        """Saturate then quantize (N, 3) outputs; returns (outputs, saturation flags)."""
+        y, flags = saturate(y, self.range, dt, kind=kind)
+        return quantize(y, self.lsb, dt, kind=kind, lsb_kind=self.lsb_kind, carry=self.carry), flags
+
+
+# ----------------------------------------------------------------------------------------------------------
+# one unit: ImuModel
+# ----------------------------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class ImuMeasurement(Result):
+    """Simulated IMU outputs: rates (rad/s, m/s²) or increments (rad, m/s) per ``kind``; per-axis saturation flags."""
+
+    SCHEMA = "optinav.imu_measurement"
+    VERSION = 1
+
+    gyro: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
+    accel: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
+    gyro_saturated: np.ndarray = field(metadata={"unit": "1"})
+    accel_saturated: np.ndarray = field(metadata={"unit": "1"})
+    dt: np.ndarray = field(metadata={"unit": "s"})
+    kind: str = field(default="rate", metadata={"unit": "-"})
+
+
+@dataclass(eq=False)
+class ImuCompensated(Result):
+    """IMU outputs corrected for the deterministic errors (same ``kind`` and units as the input)."""
+
+    SCHEMA = "optinav.imu_compensated"
+    VERSION = 1
+
+    gyro: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
+    accel: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
+    kind: str = field(default="rate", metadata={"unit": "-"})
+
+
+@dataclass(eq=False)
+class ImuModel(Result):
+    """One IMU unit: deterministic errors of both triads and their noise parameters (SI)."""
+
+    SCHEMA = "optinav.imu_model"
+    VERSION = 1
+
+    gyro: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("gyro"), metadata={"unit": "-"})
+    accel: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("accel"), metadata={"unit": "-"})
+    gyro_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
+    accel_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
+    sample_rate: float = field(default=100.0, metadata={"unit": "Hz"})
+    name: str = field(default="custom", metadata={"unit": "-"})
+
+    def __post_init__(self):
+        for attr, sensor, cls in (("gyro", "gyro", TriadErrors), ("accel", "accel", TriadErrors),
+                                  ("gyro_noise", None, TriadNoise), ("accel_noise", None, TriadNoise)):
+            v = getattr(self, attr)
+            if not isinstance(v, cls):
+                raise OptinavError(f"ImuModel.{attr} must be a {cls.__name__}", f"build it with {cls.__name__}(...)")
+            if sensor and v.sensor != sensor:
+                raise OptinavError(f"ImuModel.{attr} describes a {v.sensor}",
+                                   f"pass TriadErrors(sensor='{sensor}', ...)")
+        self.sample_rate = check_positive(self.sample_rate, "sample_rate")
+
+    def _dt(self, dt, n: int) -> np.ndarray:
+        return np.array(_dt(1.0 / self.sample_rate if dt is None else dt, (n,)), dtype=float)
+
+    def apply(self, gyro, accel, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
+        """Truth → measured outputs.
+
+        gyro, accel: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
+        epochs, or, with ``kind="increment"``, the true Δθ (rad) and Δv (m/s) over each interval.
+        dt: scalar or (N,) intervals in s (default 1/sample_rate). The g-sensitivity acts on the true
+        specific force. ``noise=False`` leaves out the random terms (saturation and quantization stay).
+        Order: deterministic errors, noise, saturation, quantization.
+        """
+        kind = _check_kind(kind)
+        w, f = _samples(gyro, "gyro"), _samples(accel, "accel")
+        if w.shape != f.shape:
+            raise OptinavError(f"gyro {w.shape} and accel {f.shape} have different shapes",
+                               "pass the same number of gyro and accel samples")
+        n = w.shape[0]
+        d = self._dt(dt, n)
+        ya = self.accel.apply(f, dt=d, kind=kind)
+        yg = self.gyro.apply(w, dt=d, f=f, kind=kind)
+        if noise:
+            rng = _as_rng(rng)
+            scale = 1.0 if kind == "rate" else d[:, None]
+            yg = yg + self.gyro_noise.sample(n, d, rng) * scale
+            ya = ya + self.accel_noise.sample(n, d, rng) * scale
+        yg, sg = self.gyro_noise.digitize(yg, d, kind=kind)
+        ya, sa = self.accel_noise.digitize(ya, d, kind=kind)
+        return ImuMeasurement(gyro=yg, accel=ya, gyro_saturated=sg, accel_saturated=sa, dt=d, kind=kind)
+
+    def compensate(self, gyro, accel, dt=None, *, kind: str = "rate") -> ImuCompensated:
+        """Measured → corrected (inverse of the deterministic part of :meth:`apply`).
+
+        The accelerometers are compensated first; the gyro g-sensitivity is then removed with the
+        compensated specific force, so without noise the result equals the truth to rounding.
+        dt (s) matters only for increments (bias·dt); default 1/sample_rate.
+        """
+        kind = _check_kind(kind)
+        yg, ya = _samples(gyro, "gyro"), _samples(accel, "accel")
+        if yg.shape != ya.shape:
+            raise OptinavError(f"gyro {yg.shape} and accel {ya.shape} have different shapes",
+                               "pass the same number of gyro and accel samples")
+        d = self._dt(dt, yg.shape[0])
+        fa = self.accel.compensate(ya, dt=d, kind=kind)
+        wg = self.gyro.compensate(yg, dt=d, f=fa, kind=kind)
+        return ImuCompensated(gyro=wg, accel=fa, kind=kind)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# specification level: ImuSpec, presets
+# ----------------------------------------------------------------------------------------------------------
+
+def _vfield(unit: str, default=0.0):
+    return field(default_factory=lambda: np.full(3, float(default)), metadata={"unit": unit})
+
+
+@dataclass(eq=False)
+class ImuSpec(Result):
+    """1σ engineering specification of an IMU type (SI; per-axis values are (3,) arrays, a scalar is broadcast).
+
+    Deterministic 1σ values (drawn once per unit): ``*_bias`` (turn-on bias repeatability), ``*_scale``,
+    ``*_misalignment`` (each off-diagonal term; ``misalignment_form`` "full" draws all six, "upper" only
+    M_xy, M_xz, M_yz), ``gyro_g_sensitivity`` (each of the 9 terms). In-run terms: ``*_bias_instability``
+    B (datasheet in-run bias stability, the IEEE 952 flicker coefficient) simulated as Gauss–Markov with
+    correlation time ``*_bias_corr_time`` and σ = 1.076·B so that its Allan-deviation peak is the
+    flicker floor 0.664·B; ``gyro_arw`` / ``accel_vrw`` white-noise densities; ``gyro_rrw`` /
+    ``accel_rrw`` random walks; ``*_range`` (inf = none); ``*_lsb`` resolution (a rate or an increment
+    per ``lsb_kind``; 0 = none); ``sample_rate``.
+    """
+
+    SCHEMA = "optinav.imu_spec"
+    VERSION = 1
+
+    name: str = field(default="custom", metadata={"unit": "-"})
+    sample_rate: float = field(default=100.0, metadata={"unit": "Hz"})
+    gyro_bias: np.ndarray = _vfield("rad/s")
+    gyro_bias_instability: np.ndarray = _vfield("rad/s")
+    gyro_bias_corr_time: np.ndarray = _vfield("s", 100.0)
+    gyro_scale: np.ndarray = _vfield("1")
+    gyro_misalignment: float = field(default=0.0, metadata={"unit": "rad"})
+    gyro_g_sensitivity: float = field(default=0.0, metadata={"unit": "rad/s/(m/s^2)"})
+    gyro_arw: np.ndarray = _vfield("rad/sqrt(s)")
+    gyro_rrw: np.ndarray = _vfield("rad/s/sqrt(s)")
+    gyro_range: np.ndarray = _vfield("rad/s", np.inf)
+    gyro_lsb: np.ndarray = _vfield("rad/s | rad")
+    accel_bias: np.ndarray = _vfield("m/s^2")
+    accel_bias_instability: np.ndarray = _vfield("m/s^2")
+    accel_bias_corr_time: np.ndarray = _vfield("s", 100.0)
+    accel_scale: np.ndarray = _vfield("1")
+    accel_misalignment: float = field(default=0.0, metadata={"unit": "rad"})
+    accel_vrw: np.ndarray = _vfield("m/s/sqrt(s)")
+    accel_rrw: np.ndarray = _vfield("m/s^2/sqrt(s)")
+    accel_range: np.ndarray = _vfield("m/s^2", np.inf)
+    accel_lsb: np.ndarray = _vfield("m/s^2 | m/s")
+    lsb_kind: str = field(default="rate", metadata={"unit": "-"})
+    quantization_carry: bool = field(default=True, metadata={"unit": "-"})
+    misalignment_form: str = field(default="full", metadata={"unit": "-"})
+    source: str = field(default="", metadata={"unit": "-"})
+
+    def __post_init__(self):
+        self.sample_rate = check_positive(self.sample_rate, "sample_rate")
+        for s in ("gyro", "accel"):
+            for name in ("bias", "bias_instability", "scale", "lsb", "rrw", "arw" if s == "gyro" else "vrw"):
+                key = f"{s}_{name}"
+                setattr(self, key, _vec3(getattr(self, key), key, nonneg=True))
+            for key in (f"{s}_range", f"{s}_bias_corr_time"):
+                v = _vec3(getattr(self, key), key, allow_inf=True)
+                if np.any(v <= 0):
+                    raise OptinavError(f"{key} must be positive, got {v.tolist()}", f"pass a positive {key}")
+                setattr(self, key, v)
+            unbounded = ~np.isfinite(getattr(self, f"{s}_bias_corr_time"))
+            if np.any(unbounded & (getattr(self, f"{s}_bias_instability") > 0)):
+                raise OptinavError(f"{s}_bias_corr_time must be finite when {s}_bias_instability is set",
+                                   "pass a correlation time in s")
+            setattr(self, f"{s}_misalignment", _nonneg_scalar(getattr(self, f"{s}_misalignment"), f"{s}_misalignment"))
+        self.gyro_g_sensitivity = _nonneg_scalar(self.gyro_g_sensitivity, "gyro_g_sensitivity")
+        _check_kind(self.lsb_kind, "lsb_kind")
+        self.quantization_carry = bool(self.quantization_carry)
+        if self.misalignment_form not in ("full", "upper"):
+            raise OptinavError(f"misalignment_form must be 'full' or 'upper', got {self.misalignment_form!r}",
+                               "pass 'full' (6 terms) or 'upper' (M_xy, M_xz, M_yz)")
+
+    @classmethod
+    def from_units(cls, **fields) -> "ImuSpec":
+        """Build from field values given as SI numbers or ``(value, unit)`` pairs in any unit of
+        :data:`optinav.core.units.UNITS`, e.g. ``gyro_arw=(0.0005, "deg/sqrt(h)")``."""
+        return cls(**_convert_fields(fields))
+
+    def replace(self, **fields) -> "ImuSpec":
+        """A copy with some fields replaced (SI or ``(value, unit)`` pairs)."""
+        return dataclasses.replace(self, **_convert_fields(fields))
+
+    def draw(self, rng=None, *, errors: bool = True) -> ImuModel:
+        """Draw one unit: deterministic errors ~ N(0, 1σ spec) (zero if ``errors=False``) and its noise."""
+        rng = _as_rng(rng)
+
+        def triad(s: str) -> TriadErrors:
+            if not errors:
+                return TriadErrors.ideal(s)
+            bias = rng.normal(0.0, 1.0, 3) * getattr(self, f"{s}_bias")
+            scale = rng.normal(0.0, 1.0, 3) * getattr(self, f"{s}_scale")
+            sig = getattr(self, f"{s}_misalignment")
+            G = rng.normal(0.0, self.gyro_g_sensitivity, (3, 3)) if s == "gyro" else None
+            if self.misalignment_form == "upper":
+                return TriadErrors.from_upper_triangular(s, bias, scale, rng.normal(0.0, sig, 3), G)
+            return TriadErrors.from_six(s, bias, scale, rng.normal(0.0, sig, 6), G)
+
+        def noise(s: str, white: str) -> TriadNoise:
+            return TriadNoise(white=getattr(self, f"{s}_{white}"),
+                              gm_sigma=GM_SIGMA_PER_BIAS_INSTABILITY * getattr(self, f"{s}_bias_instability"),
+                              gm_tau=getattr(self, f"{s}_bias_corr_time"), random_walk=getattr(self, f"{s}_rrw"),
+                              range=getattr(self, f"{s}_range"), lsb=getattr(self, f"{s}_lsb"),
+                              lsb_kind=self.lsb_kind, carry=self.quantization_carry)
+
+        return ImuModel(gyro=triad("gyro"), accel=triad("accel"), gyro_noise=noise("gyro", "arw"),
+                        accel_noise=noise("accel", "vrw"), sample_rate=self.sample_rate, name=self.name)
+
+
+def _convert_fields(fields: dict) -> dict:
+    names = {f.name for f in dataclasses.fields(ImuSpec)}
+    out = {}
+    for key, value in fields.items():
+        if key not in names:
+            raise OptinavError(f"ImuSpec has no field {key!r}", f"use one of: {', '.join(sorted(names))}")
+        if isinstance(value, tuple) and len(value) == 2 and isinstance(value[1], str):
+            value = to_si(value[0], value[1])
+        out[key] = value
+    return out
+
+
+def _rlg_nav() -> ImuSpec:
+    """Navigation-grade ring-laser-gyro IMU of the dual-axis rotational INS paper (shared/seeds/000, Table 1).
+
+    From the paper: gyro drift stability 0.005 °/h (→ in-run bias instability, and, as the paper's only
+    bias figure, also the turn-on bias 1σ), gyro random walk 0.0005 °/√h (ARW), gyro scale-factor
+    stability 2 ppm, accelerometer bias stability 20 μg (turn-on 1σ and in-run instability), 200 Hz.
+    Chosen here (not in the paper; typical of navigation-grade RLG / quartz-accelerometer IMUs):
+    accelerometer VRW 10 μg/√Hz, accelerometer scale factor 20 ppm, residual misalignment 5″ on both
+    triads, no g-sensitivity (RLGs are g-insensitive), bias correlation times 300 s, ranges ±400 °/s and
+    ±20 g, no quantization (set ``gyro_lsb``/``accel_lsb`` with ``lsb_kind="increment"`` for pulse outputs).
+    """
+    return ImuSpec.from_units(
+        name="rlg-nav", sample_rate=200.0,
+        gyro_bias=(0.005, "deg/h"), gyro_bias_instability=(0.005, "deg/h"), gyro_bias_corr_time=300.0,
+        gyro_scale=(2, "ppm"), gyro_misalignment=(5, "arcsec"), gyro_arw=(0.0005, "deg/sqrt(h)"),
+        gyro_range=(400, "deg/s"),
+        accel_bias=(20, "ug"), accel_bias_instability=(20, "ug"), accel_bias_corr_time=300.0,
+        accel_scale=(20, "ppm"), accel_misalignment=(5, "arcsec"), accel_vrw=(10, "ug/sqrt(Hz)"),
+        accel_range=(20, "g"), lsb_kind="increment",
+        source="dual-axis rotational laser INS paper, Table 1 (gyro 0.005 deg/h, 0.0005 deg/sqrt(h), 2 ppm; "
+               "accel 20 ug; 200 Hz); other values chosen, see optinav.core.imu_model._rlg_nav")
+
+
+def _mems_mti1() -> ImuSpec:
+    """Xsens MTi-1 class MEMS IMU, the unit of the MEMS accelerometer calibration paper (shared/seeds/004).
+
+    Datasheet values (Xsens MTi 1-series datasheet, as tabulated in "Characteristics of IMU Xsens MTI-1
+    sensors", reference-global.com/article/10.2478/tar-2023-0022; the Xsens PDF itself could not be
+    retrieved): gyro range ±2000 °/s, in-run bias stability 10 °/h, noise density 0.007 °/s/√Hz;
+    accelerometer range ±16 g, in-run bias stability 0.03 mg, noise density 120 μg/√Hz.
+    Deterministic 1σ values sized after the errors the paper calibrates on its MTi-1 (Table 2: biases
+    0.04–0.14 m/s², scale factors within 0.4 %, misalignments 0.004–0.006 rad): accelerometer bias
+    0.1 m/s², scale 0.2 %, misalignment 0.005 rad; the same scale and misalignment for the gyros with a
+    0.1 °/s bias (chosen). Chosen as well: bias correlation times 100 s, 100 Hz, floating-point outputs
+    (no quantization), no g-sensitivity.
+    """
+    return ImuSpec.from_units(
+        name="mems-mti1", sample_rate=100.0,
+        gyro_bias=(0.1, "deg/s"), gyro_bias_instability=(10, "deg/h"), gyro_bias_corr_time=100.0,
+        gyro_scale=(0.2, "%"), gyro_misalignment=0.005, gyro_arw=(0.007, "deg/s/sqrt(Hz)"),
+        gyro_range=(2000, "deg/s"),
+        accel_bias=0.1, accel_bias_instability=(0.03, "mg"), accel_bias_corr_time=100.0,
+        accel_scale=(0.2, "%"), accel_misalignment=0.005, accel_vrw=(120, "ug/sqrt(Hz)"),
+        accel_range=(16, "g"),
+        source="Xsens MTi 1-series datasheet (gyro 2000 deg/s, 10 deg/h, 0.007 deg/s/sqrt(Hz); accel 16 g, "
+               "0.03 mg, 120 ug/sqrt(Hz)); deterministic errors after the MEMS calibration paper, Table 2")
+
+
+def _mpu6000() -> ImuSpec:
+    """InvenSense MPU-6000 class MEMS IMU, the unit of the polarization attitude paper (shared/seeds/002).
+
+    Datasheet PS-MPU-6000A-00 rev. 3.4 (2013), §6.1–6.2, FS_SEL = 0 and AFS_SEL = 0: gyro ±250 °/s,
+    131 LSB/(°/s), rate noise spectral density 0.005 °/s/√Hz, initial zero-rate tolerance ±20 °/s,
+    sensitivity tolerance ±3 %, cross-axis sensitivity ±2 %, linear-acceleration sensitivity 0.1 °/s/g;
+    accelerometer ±2 g, 16384 LSB/g, noise 400 μg/√Hz, zero-g tolerance ±50 mg (x, y) and ±80 mg (z),
+    calibration tolerance ±3 %, cross-axis ±2 %. The typical ± tolerances are taken as 1σ (uncalibrated
+    part). Not in the datasheet: in-run bias instability 4.6 °/h (τ = 500 s) and 36 μg (τ = 800 s) from
+    D. Greenheck, MSc thesis, Marquette University 2009, §2.2 (as used by AirSim's ImuSimpleParams);
+    100 Hz (chosen). Outputs are 16-bit registers rounded independently (rate LSB, no carry).
+    """
+    return ImuSpec.from_units(
+        name="mpu6000", sample_rate=100.0,
+        gyro_bias=(20, "deg/s"), gyro_bias_instability=(4.6, "deg/h"), gyro_bias_corr_time=500.0,
+        gyro_scale=(3, "%"), gyro_misalignment=(2, "%"), gyro_g_sensitivity=(0.1, "deg/s/g"),
+        gyro_arw=(0.005, "deg/s/sqrt(Hz)"), gyro_range=(250, "deg/s"), gyro_lsb=(1 / 131, "deg/s"),
+        accel_bias=([50, 50, 80], "mg"), accel_bias_instability=(36, "ug"), accel_bias_corr_time=800.0,
+        accel_scale=(3, "%"), accel_misalignment=(2, "%"), accel_vrw=(400, "ug/sqrt(Hz)"),
+        accel_range=(2, "g"), accel_lsb=(1 / 16384, "g"), lsb_kind="rate", quantization_carry=False,
+        source="InvenSense PS-MPU-6000A-00 rev 3.4 (FS_SEL=0, AFS_SEL=0); bias instability: Greenheck 2009")
+
+
+_PRESETS = {"rlg-nav": _rlg_nav, "mems-mti1": _mems_mti1, "mpu6000": _mpu6000}
+PRESETS = tuple(_PRESETS)
+
+
+def preset(name: str, **overrides) -> ImuSpec:
+    """The :class:`ImuSpec` of a named sensor class, with optional field overrides.
+
+    Names: "rlg-nav" (navigation-grade RLG IMU of the rotational-INS paper), "mems-mti1" (Xsens MTi-1),
+    "mpu6000" (InvenSense MPU-6000); the sources are in the docstrings of ``_rlg_nav``, ``_mems_mti1``
+    and ``_mpu6000`` and in the spec's ``source`` field. Overrides are ImuSpec fields in SI or as
+    ``(value, unit)`` pairs, e.g. ``preset("mpu6000", sample_rate=500, gyro_range=(2000, "deg/s"))``.
+    """
+    try:
+        build = _PRESETS[name]
+    except (KeyError, TypeError):
+        raise OptinavError(f"unknown IMU preset {name!r}", f"use one of: {', '.join(PRESETS)}") from None
+    spec = build()
+    return spec.replace(**overrides) if overrides else spec

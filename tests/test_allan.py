@@ -1,0 +1,128 @@
+"""Overlapping Allan deviation, its EDF confidence interval and the IEEE 952 read-off of noise terms."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+from optinav import OptinavError
+from optinav.core.allan import (FLICKER_FLOOR, GM_ADEV_PEAK_RATIO, GM_ADEV_PEAK_TAU_RATIO, AllanDeviation,
+                                allan_deviation, allan_deviation_model, noise_parameters_from_allan)
+from optinav.core.imu_model import gauss_markov, random_walk, white_noise
+from optinav.core.results import Result
+
+
+def test_white_noise_allan_deviation_within_edf_interval():
+    """White rate noise of density N has σ_A(τ) = N/√τ (IEEE 952 C.1.2). Each estimate lies in its χ²
+    interval built from the white-FM EDF (NIST SP 1065 Table 5) at confidence 1 − 1e-4."""
+    N, dt, n = np.array([1e-3, 5e-3, 2e-2]), 0.01, 2**17
+    x = white_noise(n, N, dt, rng=1)
+    ad = allan_deviation(x, dt, noise="white", confidence=1 - 1e-4)
+    assert ad.tau[0] == dt and ad.m[-1] == 2 ** int(math.log2(n // 4))
+    truth = N[None, :] / np.sqrt(ad.tau)[:, None]
+    assert np.all((ad.lower < truth) & (truth < ad.upper))
+    # the interval is honest, not huge: at m = 1 the white-FM EDF is ≈ 2n/3
+    assert ad.edf[0, 0] == pytest.approx(2 * n / 3, rel=1e-3)
+    # increments give the same deviation as rates
+    inc = allan_deviation(x * dt, dt, kind="increment", noise="white")
+    assert np.allclose(inc.adev, ad.adev, rtol=1e-9)
+    # the read-off of N at τ = 1 s is within 4× its relative 1σ
+    p = noise_parameters_from_allan(ad)
+    assert np.all(np.abs(p.white / N - 1) < 4 * p.white_rel_sigma)
+    assert np.all(np.isnan(p.random_walk)) and np.all(np.isnan(p.bias_instability))
+
+
+def test_white_plus_random_walk_read_off():
+    """N and K of a white + rate-random-walk record (crossover τ = √3N/K = 1 s). The read-off uses points
+    whose slope is within 0.125 of ∓1/2, where the other term's variance ratio r is at most 1/7, biasing
+    by at most √(1 + 1/7) − 1 = 6.9 %; add 4× the read-off's relative 1σ for sampling."""
+    N, dt, n = 1e-3, 0.01, 2**18
+    K = math.sqrt(3) * N / 1.0
+    x = white_noise(n, N, dt, rng=2) + random_walk(n, K, dt, rng=3)
+    ad = allan_deviation(x[:, 0], dt)
+    assert ad.adev.ndim == 1
+    p = noise_parameters_from_allan(ad)
+    assert abs(p.white / N - 1) < 4 * p.white_rel_sigma + 0.069
+    assert abs(p.random_walk / K - 1) < 4 * p.random_walk_rel_sigma + 0.069
+    # the automatic noise identification sees white noise at short τ and random walk at long τ
+    assert ad.alpha[0] == 0 and ad.alpha[np.searchsorted(ad.tau, 20.0)] == -2
+
+
+def test_gauss_markov_allan_matches_model():
+    """A first-order Gauss–Markov process follows the El-Sheimy (2008) curve; the RW-FM EDF is the most
+    conservative of the Table 5 forms (smallest EDF), so the model lies in its 1 − 1e-4 interval.
+    The curve is for the continuous process; point samples differ by O(1/m²) (for a random walk the
+    extra variance is K²dt/(6m), 1/(2m²) relative), so only m ≥ 16 (< 0.2 %) is compared."""
+    sigma, tau_c, dt, n = 1.0, 1.0, 0.05, 2**17
+    x = gauss_markov(n, sigma, tau_c, dt, rng=4)
+    ad = allan_deviation(x, dt, noise="random_walk", confidence=1 - 1e-4)
+    sel = ad.m >= 16
+    model = allan_deviation_model(ad.tau[sel], gm_sigma=sigma, gm_tau=tau_c)[:, None]
+    assert np.all((ad.lower[sel] < model) & (model < ad.upper[sel]))
+
+
+def test_model_constants_and_limits():
+    # IEEE 952 C.1.3: flicker floor factor √(2 ln 2/π) = 0.664
+    assert FLICKER_FLOOR == pytest.approx(0.6643, abs=5e-5)
+    # the Gauss–Markov peak constants are the maximum of the model curve
+    res = minimize_scalar(lambda t: -float(allan_deviation_model(t, gm_sigma=1.0, gm_tau=1.0)), bounds=(0.5, 5),
+                          method="bounded", options={"xatol": 1e-9})
+    assert -res.fun == pytest.approx(GM_ADEV_PEAK_RATIO, rel=1e-8)
+    assert res.x == pytest.approx(GM_ADEV_PEAK_TAU_RATIO, rel=1e-5)
+    # GM limits: random walk K² = 2σ²/T_c at τ ≪ T_c, white N² = 2σ²T_c at τ ≫ T_c
+    s, tc = 0.3, 20.0
+    for t in (1e-6, 1e-4, 1e-2):
+        assert allan_deviation_model(t, gm_sigma=s, gm_tau=tc) == pytest.approx(
+            math.sqrt(2 * s**2 / tc * t / 3), rel=t / tc)
+    assert allan_deviation_model(1e6, gm_sigma=s, gm_tau=tc) == pytest.approx(math.sqrt(2 * s**2 * tc / 1e6),
+                                                                               rel=1e-4)
+    # the IEEE 952 terms
+    assert allan_deviation_model(4.0, white=2.0) == pytest.approx(1.0)
+    assert allan_deviation_model(3.0, random_walk=2.0) == pytest.approx(2.0)
+    assert allan_deviation_model(math.sqrt(3), quantization=2.0) == pytest.approx(2.0)
+    assert allan_deviation_model(123.0, bias_instability=1.0) == pytest.approx(0.6643, abs=5e-5)
+
+
+def test_edf_interval_coverage():
+    """Coverage of the 68.3 % interval at m = 8 over 400 independent white-noise records: the count of
+    misses is Binomial(400, 0.317), mean 127, s.d. 9.3; accept within ±4 s.d."""
+    rng = np.random.default_rng(5)
+    dt, n, m = 1.0, 512, 8
+    x = rng.standard_normal((n, 400))
+    ad = allan_deviation(x, dt, taus=[m * dt], noise="white")
+    miss = np.count_nonzero((ad.lower[0] > 1 / math.sqrt(m)) | (ad.upper[0] < 1 / math.sqrt(m)))
+    assert abs(miss - 400 * 0.317) < 4 * math.sqrt(400 * 0.317 * 0.683)
+
+
+def test_result_serializes():
+    ad = allan_deviation(np.random.default_rng(6).standard_normal(100), 0.1, unit="rad/s")
+    back = Result.from_json(ad.to_json())
+    assert isinstance(back, AllanDeviation) and np.allclose(back.adev, ad.adev) and back.unit == "rad/s"
+    assert back.units()["tau"] == "s"
+    p = noise_parameters_from_allan(ad)
+    assert Result.from_json(p.to_json()).unit == "rad/s"
+
+
+def test_bad_input():
+    x = np.random.default_rng(7).standard_normal(100)
+    bad = x.copy()
+    bad[3] = np.nan
+    cases = [
+        lambda: allan_deviation(bad, 0.1),
+        lambda: allan_deviation(x, 0.0),
+        lambda: allan_deviation(x, np.full(100, 0.1)),
+        lambda: allan_deviation(x[:3], 0.1),
+        lambda: allan_deviation(x.reshape(10, 5, 2), 0.1),
+        lambda: allan_deviation(x, 0.1, taus=[100.0]),
+        lambda: allan_deviation(x, 0.1, taus=[-1.0]),
+        lambda: allan_deviation(x, 0.1, kind="angle"),
+        lambda: allan_deviation(x, 0.1, noise="pink"),
+        lambda: allan_deviation(x, 0.1, confidence=1.5),
+        lambda: noise_parameters_from_allan((np.ones(3), np.ones(3))),
+        lambda: noise_parameters_from_allan(allan_deviation(x, 0.1, taus=[0.1, 0.2])),
+        lambda: allan_deviation_model(-1.0, white=1.0),
+    ]
+    for case in cases:
+        with pytest.raises(OptinavError):
+            case()
