@@ -86,3 +86,13 @@ def test_bad_input():
         earth.earth_rate(0.0, "nwu")
     with pytest.raises(OptinavError, match="constant set"):
         earth.gravity(0.0, earth="grs67")
+
+
+def test_ecef_geodetic_round_trip():
+    lat = np.radians([-89.9, -45.0, 0.0, 30.0, 89.99])
+    lon = np.radians([-170.0, 10.0, 0.0, 120.0, 45.0])
+    h = np.array([-100.0, 0.0, 8848.0, 350.0, 1e5])
+    back = earth.ecef_to_geodetic(earth.geodetic_to_ecef(lat, lon, h))
+    np.testing.assert_allclose(back[:, 0], lat, atol=1e-12)
+    np.testing.assert_allclose(back[:, 1], lon, atol=1e-12)
+    np.testing.assert_allclose(back[:, 2], h, atol=1e-6)

@@ -10,7 +10,7 @@ from scipy.integrate import quad, solve_ivp
 from optinav import OptinavError
 from optinav.core import earth, simulate as S
 from optinav.core.results import Result
-from optinav.core.rotations import (dcm_from_euler, dcm_from_quat, dcm_from_rotvec, quat_angle_between,
+from optinav.core.rotations import (unit_axis, dcm_from_euler, dcm_from_quat, dcm_from_rotvec, quat_angle_between,
                                     quat_multiply, rot_axis, rot_x, rot_y, rot_z, rotation_angle, rotvec_from_dcm)
 
 # the reference quadratures ask for tolerances at the rounding level; QUADPACK warns when it reaches it
@@ -97,8 +97,8 @@ def test_orientation_from_up_and_describe():
             c = S.orientation_from_up(up, north, frame)
             np.testing.assert_allclose(c @ c.T, np.eye(3), atol=1e-15)
             assert np.linalg.det(c) == pytest.approx(1.0)
-            np.testing.assert_allclose(c @ S._unit_axis(up), up_n, atol=1e-15)
-            np.testing.assert_allclose(c @ S._unit_axis(north), north_n, atol=1e-15)
+            np.testing.assert_allclose(c @ unit_axis(up), up_n, atol=1e-15)
+            np.testing.assert_allclose(c @ unit_axis(north), north_n, atol=1e-15)
     c = S.orientation_from_up("z") @ rot_y(np.radians(30))
     assert S.describe_pose(c) == "z up, tilted 30° about y, y north"
     assert S.describe_pose(S.orientation_from_up("-y", "x")) == "y down, x north"
@@ -256,7 +256,7 @@ def test_turntable_any_rotation(axis, angle, duration, profile, frame, rate):
 
 def test_turntable_ned_equals_enu():
     m = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]])  # C_ENU^NED
-    sched_ned = [S.Rotate(m @ S._unit_axis(r.axis), r.angle, r.duration, r.frame, r.profile, r.accel_time)
+    sched_ned = [S.Rotate(m @ unit_axis(r.axis), r.angle, r.duration, r.frame, r.profile, r.accel_time)
                  if isinstance(r, S.Rotate) and r.frame == "nav" else r for r in SCHEDULE]
     a = S.turntable(SCHEDULE, 10.0, LAT, initial=C0)
     b = S.turntable(sched_ned, 10.0, LAT, initial=m @ C0, frame="ned")

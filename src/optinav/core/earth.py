@@ -64,7 +64,8 @@ def constants(name: str | EarthConstants = "wgs84") -> EarthConstants:
         raise OptinavError(f"unknown Earth constant set {name!r}", "use 'wgs84' or 'psins'") from None
 
 
-def _frame(frame: str) -> str:
+def check_frame(frame: str) -> str:
+    """Validated navigation-frame name, lower case: "enu" or "ned"."""
     f = str(frame).lower()
     if f not in ("enu", "ned"):
         raise OptinavError(f"unknown navigation frame {frame!r}", "use 'enu' or 'ned'")
@@ -98,7 +99,7 @@ def gravity_vector(lat, h=0.0, frame="enu", earth="wgs84") -> np.ndarray:
     """Gravity vector g^n (m/s²): ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED; shape (..., 3)."""
     g = gravity(lat, h, earth)
     z = np.zeros_like(g)
-    sign = -1.0 if _frame(frame) == "enu" else 1.0
+    sign = -1.0 if check_frame(frame) == "enu" else 1.0
     return np.stack([z, z, sign * g], -1)
 
 
@@ -107,7 +108,7 @@ def earth_rate(lat, frame="enu", earth="wgs84") -> np.ndarray:
     w = constants(earth).omega_ie
     lat = np.asarray(lat, dtype=float)
     c, s, z = w * np.cos(lat), w * np.sin(lat), np.zeros_like(lat)
-    if _frame(frame) == "enu":
+    if check_frame(frame) == "enu":
         return np.stack([z, c, s], -1)
     return np.stack([c, z, -s], -1)
 
@@ -117,7 +118,7 @@ def transport_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
     v = np.asarray(v_n, dtype=float)
     rm, rn = radii(lat, h, earth)
     t = np.tan(np.asarray(lat, dtype=float))
-    if _frame(frame) == "enu":
+    if check_frame(frame) == "enu":
         ve, vn = v[..., 0], v[..., 1]
         return np.stack([-vn / rm, ve / rn, ve * t / rn], -1)
     vn, ve = v[..., 0], v[..., 1]
@@ -128,7 +129,7 @@ def position_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
     """Time derivative of ``[lat, lon, h]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
     v = np.asarray(v_n, dtype=float)
     rm, rn = radii(lat, h, earth)
-    if _frame(frame) == "enu":
+    if check_frame(frame) == "enu":
         ve, vn, vu = v[..., 0], v[..., 1], v[..., 2]
     else:
         vn, ve, vu = v[..., 0], v[..., 1], -v[..., 2]
@@ -144,7 +145,7 @@ def dcm_e_to_n(lat, lon, frame="enu") -> np.ndarray:
     east = np.stack([-so, co, z], -1)
     north = np.stack([-sl * co, -sl * so, cl], -1)
     up = np.stack([cl * co, cl * so, sl], -1)
-    if _frame(frame) == "enu":
+    if check_frame(frame) == "enu":
         return np.stack([east, north, up], -2)
     return np.stack([north, east, -up], -2)
 
@@ -156,3 +157,20 @@ def geodetic_to_ecef(lat, lon, h, earth="wgs84") -> np.ndarray:
     _, rn = radii(lat, 0.0, e)
     cl = np.cos(lat)
     return np.stack([(rn + h) * cl * np.cos(lon), (rn + h) * cl * np.sin(lon), (rn * (1 - e.e2) + h) * np.sin(lat)], -1)
+
+
+def ecef_to_geodetic(r, earth="wgs84") -> np.ndarray:
+    """ECEF position (..., 3) in m → geodetic ``[lat, lon, h]`` (rad, rad, m); fixed-point iteration on latitude."""
+    r = np.asarray(r, dtype=float)
+    e = constants(earth)
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    p = np.hypot(x, y)
+    lat = np.arctan2(z, p * (1.0 - e.e2))
+    h = np.zeros_like(p)
+    for _ in range(8):  # converges to < 1e-15 rad within ~4 iterations near the surface
+        n = e.a / np.sqrt(1.0 - e.e2 * np.sin(lat) ** 2)
+        h = np.where(np.abs(np.cos(lat)) > 1e-3, p / np.cos(lat) - n, z / np.sin(lat) - n * (1 - e.e2))
+        lat = np.arctan2(z, p * (1.0 - e.e2 * n / (n + h)))
+    n = e.a / np.sqrt(1.0 - e.e2 * np.sin(lat) ** 2)
+    h = np.where(np.abs(np.cos(lat)) > 1e-3, p / np.cos(lat) - n, z / np.sin(lat) - n * (1 - e.e2))
+    return np.stack([lat, np.arctan2(y, x), h], -1)

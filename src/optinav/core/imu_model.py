@@ -38,7 +38,7 @@ from numba import njit
 from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO
 from optinav.core.results import Result
 from optinav.core.units import to_si
-from optinav.core.validate import as_float_array, check_positive
+from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 
 KINDS = ("rate", "increment")
@@ -52,16 +52,6 @@ _RATE_UNIT = {"gyro": "rad/s", "accel": "m/s^2"}
 # ----------------------------------------------------------------------------------------------------------
 # small private helpers (general; candidates for core.validate)
 # ----------------------------------------------------------------------------------------------------------
-
-def _as_rng(rng) -> np.random.Generator:
-    if isinstance(rng, np.random.Generator):
-        return rng
-    try:
-        return np.random.default_rng(rng)
-    except (TypeError, ValueError):
-        raise OptinavError(f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}",
-                           "pass e.g. rng=np.random.default_rng(1)") from None
-
 
 def _check_kind(kind: str, name: str = "kind") -> str:
     if kind not in KINDS:
@@ -315,7 +305,7 @@ def white_noise(n: int, density, dt, rng=None, *, kind: str = "rate") -> np.ndar
     N = _vec3(density, "noise density", nonneg=True)
     d = _dt(dt, (n,))
     std = N[None, :] * (1.0 / np.sqrt(d) if kind == "rate" else np.sqrt(d))[:, None]
-    return _as_rng(rng).standard_normal((n, 3)) * std
+    return as_rng(rng).standard_normal((n, 3)) * std
 
 
 def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
@@ -331,14 +321,14 @@ def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
         raise OptinavError(f"Gauss-Markov correlation time must be positive, got {t.tolist()}", "pass tau in s")
     d = _dt(dt, (n,))
     phi = np.exp(-d[:, None] / t[None, :])
-    return _gauss_markov_kernel(_as_rng(rng).standard_normal((n, 3)), np.ascontiguousarray(phi), s)
+    return _gauss_markov_kernel(as_rng(rng).standard_normal((n, 3)), np.ascontiguousarray(phi), s)
 
 
 def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
     """(n, 3) random walk b_k = b_{k−1} + K√dt_k w_k from b_{−1} = 0; K in rad/s/√s or m/s²/√s."""
     K = _vec3(density, "random-walk density", nonneg=True)
     d = _dt(dt, (n,))
-    return np.cumsum(_as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
+    return np.cumsum(as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
 
 
 def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
@@ -428,7 +418,7 @@ class TriadNoise(Result):
 
     def sample(self, n: int, dt, rng=None) -> np.ndarray:
         """(n, 3) rate-equivalent noise: white + Gauss–Markov + random walk (multiply by dt for increments)."""
-        rng = _as_rng(rng)
+        rng = as_rng(rng)
         d = _dt(dt, (n,))
         e = np.zeros((n, 3))
         if np.any(self.white > 0):
@@ -523,7 +513,7 @@ class ImuModel(Result):
         ya = self.accel.apply(f, dt=d, kind=kind)
         yg = self.gyro.apply(w, dt=d, f=f, kind=kind)
         if noise:
-            rng = _as_rng(rng)
+            rng = as_rng(rng)
             scale = 1.0 if kind == "rate" else d[:, None]
             yg = yg + self.gyro_noise.sample(n, d, rng) * scale
             ya = ya + self.accel_noise.sample(n, d, rng) * scale
@@ -635,7 +625,7 @@ class ImuSpec(Result):
 
     def draw(self, rng=None, *, errors: bool = True) -> ImuModel:
         """Draw one unit: deterministic errors ~ N(0, 1σ spec) (zero if ``errors=False``) and its noise."""
-        rng = _as_rng(rng)
+        rng = as_rng(rng)
 
         def triad(s: str) -> TriadErrors:
             if not errors:

@@ -82,13 +82,36 @@ def rot_z(angle) -> np.ndarray:
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
 
 
+def unit_axis(axis, name: str = "axis") -> np.ndarray:
+    """Unit 3-vector from a vector or an axis name: "x", "-y", "+z" (suffixes "_b"/"_n" ignored)."""
+    if isinstance(axis, str):
+        return _axis_from_name(axis)
+    a = as_float_array(axis, name, last_dims=(3,))
+    if a.ndim != 1:
+        raise OptinavError(f"{name} must be one 3-vector, got shape {a.shape}", "pass e.g. [0, 0, 1] or 'z'")
+    n = np.linalg.norm(a)
+    if n == 0:
+        raise OptinavError(f"{name} is the zero vector", "give a non-zero rotation axis")
+    return a / n
+
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def _axis_from_name(s: str) -> np.ndarray:
+    key = s.strip().lower()
+    sign = -1.0 if key.startswith("-") else 1.0
+    key = key.lstrip("+-").removesuffix("_b").removesuffix("_n")
+    if key not in _AXES:
+        raise OptinavError(f"unknown axis {s!r}", "use 'x', 'y', 'z' with an optional sign, or a 3-vector")
+    v = np.zeros(3)
+    v[_AXES[key]] = sign
+    return v
+
+
 def rot_axis(axis, angle) -> np.ndarray:
-    """Active rotation by ``angle`` (rad) about a unit ``axis`` (3,), vectorized over ``angle``."""
-    axis = as_float_array(axis, "axis", last_dims=(3,))
-    n = np.linalg.norm(axis, axis=-1, keepdims=True)
-    if np.any(n == 0):
-        raise OptinavError("rotation axis is the zero vector", "give a non-zero axis")
-    return dcm_from_rotvec((axis / n) * np.asarray(angle, dtype=float)[..., None])
+    """Active rotation by ``angle`` (rad) about ``axis`` (a 3-vector or a name like "-z"), vectorized over ``angle``."""
+    return dcm_from_rotvec(unit_axis(axis) * np.asarray(angle, dtype=float)[..., None])
 
 
 # --- quaternion algebra -------------------------------------------------------------------------------

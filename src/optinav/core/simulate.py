@@ -38,7 +38,7 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import (C_ENU_NED, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
+from optinav.core.rotations import (C_ENU_NED, unit_axis, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
                                     quat_multiply, rot_axis, rotvec_from_dcm)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -107,13 +107,6 @@ class ImuTruth(Result):
 
 # --- small validated inputs --------------------------------------------------------------------------------
 
-def _check_frame(frame) -> str:
-    f = str(frame).lower()
-    if f not in ("enu", "ned"):
-        raise OptinavError(f"unknown navigation frame {frame!r}", "use 'enu' or 'ned'")
-    return f
-
-
 def _check_earth(earth) -> str:
     if isinstance(earth, _earth.EarthConstants):
         return earth.name.lower()
@@ -150,32 +143,6 @@ def _as_dcms(c, name: str) -> np.ndarray:
             f"(|CᵀC − I| = {float(np.max(err)):.2g}, det = {float(np.min(det)):.6g})",
             "build it with rotations.dcm_from_euler, rot_axis or orientation_from_up")
     return dcm_orthonormalize(c)
-
-
-def _unit_axis(axis, name="axis") -> np.ndarray:
-    if isinstance(axis, str):
-        return _axis_from_name(axis)
-    a = as_float_array(axis, name, last_dims=(3,))
-    if a.ndim != 1:
-        raise OptinavError(f"{name} must be one 3-vector, got shape {a.shape}", "pass e.g. [0, 0, 1] or 'z'")
-    n = np.linalg.norm(a)
-    if n == 0:
-        raise OptinavError(f"{name} is the zero vector", "give a non-zero rotation axis")
-    return a / n
-
-
-_AXES = {"x": 0, "y": 1, "z": 2}
-
-
-def _axis_from_name(s: str) -> np.ndarray:
-    key = s.strip().lower()
-    sign = -1.0 if key.startswith("-") else 1.0
-    key = key.lstrip("+-").removesuffix("_b").removesuffix("_n")
-    if key not in _AXES:
-        raise OptinavError(f"unknown axis {s!r}", "use 'x', 'y', 'z' with an optional sign, or a 3-vector")
-    v = np.zeros(3)
-    v[_AXES[key]] = sign
-    return v
 
 
 def _to_enu(c_b_n, frame):
@@ -385,7 +352,7 @@ def chain_attitude(fixed, axes, theta, theta_dot, theta_ddot=None):
     theta_dot = np.atleast_2d(np.asarray(theta_dot, float))
     theta_ddot = np.zeros_like(theta) if theta_ddot is None else np.atleast_2d(np.asarray(theta_ddot, float))
     m = theta.shape[1] if k else 1
-    axes = [_unit_axis(a) for a in axes]
+    axes = [unit_axis(a) for a in axes]
     B = np.broadcast_to(np.asarray(fixed[k], float), (m, 3, 3)).copy()
     omega = np.zeros((m, 3))  # rate of B (the tail of the chain) in its own last frame
     omega_dot = np.zeros((m, 3))
@@ -431,7 +398,7 @@ class _Fixed(_Piece):
 class _Chain(_Piece):
     def __init__(self, t0, t1, label, fixed, axes, angles, *, breakpoints=(), max_step=np.inf):
         super().__init__(t0, t1, label)
-        self.fixed, self.axes, self.angles = fixed, [_unit_axis(a) for a in axes], angles
+        self.fixed, self.axes, self.angles = fixed, [unit_axis(a) for a in axes], angles
         self.breakpoints = [b for b in breakpoints if t0 < b < t1]
         self.max_step = max_step
 
@@ -505,22 +472,6 @@ class _FixedPosition:
         return np.broadcast_to(self.p, (n, 3)).copy(), z, z.copy()
 
 
-def _ecef_to_geodetic(r, earth):
-    """ECEF (m) → geodetic lat, lon (rad), h (m), iterated to convergence (private; see module report)."""
-    e = _earth.constants(earth)
-    x, y, z = r[..., 0], r[..., 1], r[..., 2]
-    p = np.hypot(x, y)
-    lat = np.arctan2(z, p * (1.0 - e.e2))
-    h = np.zeros_like(p)
-    for _ in range(8):  # converges to < 1e-15 rad within ~4 iterations near the surface
-        n = e.a / np.sqrt(1.0 - e.e2 * np.sin(lat) ** 2)
-        h = np.where(np.abs(np.cos(lat)) > 1e-3, p / np.cos(lat) - n, z / np.sin(lat) - n * (1 - e.e2))
-        lat = np.arctan2(z, p * (1.0 - e.e2 * n / (n + h)))
-    n = e.a / np.sqrt(1.0 - e.e2 * np.sin(lat) ** 2)
-    h = np.where(np.abs(np.cos(lat)) > 1e-3, p / np.cos(lat) - n, z / np.sin(lat) - n * (1 - e.e2))
-    return np.stack([lat, np.arctan2(y, x), h], -1)
-
-
 class _TangentSpline:
     """Position as a spline p(t) (m) in the ENU tangent frame at (lat0, lon0, h0), mapped exactly to geodetic.
 
@@ -541,7 +492,7 @@ class _TangentSpline:
     def evaluate(self, t):
         t = np.atleast_1d(np.asarray(t, float))
         p, v, a = self.spline(t), self.spline(t, 1), self.spline(t, 2)
-        pos = _ecef_to_geodetic(self.r0 + p @ self.c_t_e.T, self.geo)
+        pos = _earth.ecef_to_geodetic(self.r0 + p @ self.c_t_e.T, self.geo)
         if self.earth == "none":
             return pos, v, a
         c_e_n = _earth.dcm_e_to_n(pos[:, 0], pos[:, 1], "enu")
@@ -779,11 +730,11 @@ def orientation_from_up(up, north=None, frame="enu") -> np.ndarray:
     Axes as names (``"x"``, ``"-z"``, …) or body vectors. Default ``north``: ``y`` when x or z is up, ``z`` when
     y is up. The two axes must be perpendicular.
     """
-    frame = _check_frame(frame)
-    u = _unit_axis(up, "up")
+    frame = _earth.check_frame(frame)
+    u = unit_axis(up, "up")
     if north is None:
         north = _DEFAULT_NORTH[int(np.argmax(np.abs(u)))]
-    nb = _unit_axis(north, "north")
+    nb = unit_axis(north, "north")
     if abs(u @ nb) > 1e-9:
         raise OptinavError(f"up axis {up!r} and north axis {north!r} are not perpendicular",
                            "choose a north axis at right angles to the up axis")
@@ -808,7 +759,7 @@ def describe_pose(c_b_n, frame="enu") -> str:
 
     E.g. ``"x up, y north"``, ``"z down, tilted 45° about y, x east"``.
     """
-    frame = _check_frame(frame)
+    frame = _earth.check_frame(frame)
     c = _to_enu(np.asarray(c_b_n, float), frame)
     up_b = c.T @ _UP["enu"]
     k = int(np.argmax(np.abs(up_b)))
@@ -857,7 +808,7 @@ def static_positions(orientations, dwell, rate, lat, h=0.0, lon=0.0, frame="enu"
     ``transition_profile`` (see :func:`rate_profile`). Epochs ``t`` (s from the start) override ``rate``.
     Labels are the position index, -1 in transitions; ``segment_names`` describe each pose in words.
     """
-    frame, earth = _check_frame(frame), _check_earth(earth)
+    frame, earth = _earth.check_frame(frame), _check_earth(earth)
     cs = _as_dcms(orientations, "orientations")
     if cs.ndim == 2:
         cs = cs[None]
@@ -930,7 +881,7 @@ class Rotate:
 
 
 def _axis_words(axis, frame):
-    v = _unit_axis(axis)
+    v = unit_axis(axis)
     j = int(np.argmax(np.abs(v)))
     sub = "b" if frame == "body" else "n"
     if abs(abs(v[j]) - 1) < 1e-12:
@@ -947,7 +898,7 @@ def turntable(schedule, rate, lat, h=0.0, initial=None, frame="enu", earth="wgs8
     Labels are the segment index; ``segment_names`` give each segment in words (the pose at rest, the rotation
     otherwise). For two axes turning at once use :func:`gimbal`.
     """
-    frame, earth = _check_frame(frame), _check_earth(earth)
+    frame, earth = _earth.check_frame(frame), _check_earth(earth)
     if not schedule:
         raise OptinavError("the turntable schedule is empty", "give a list of Rest and Rotate segments")
     c = np.eye(3) if initial is None else _as_dcms(initial, "initial")
@@ -968,7 +919,7 @@ def turntable(schedule, rate, lat, h=0.0, initial=None, frame="enu", earth="wgs8
             if seg.frame not in ("body", "nav"):
                 raise OptinavError(f"schedule[{i}] frame {seg.frame!r} is unknown", "use 'body' or 'nav'")
             _check_profile(seg.profile, d, seg.accel_time)
-            a = _unit_axis(seg.axis, f"schedule[{i}] axis")
+            a = unit_axis(seg.axis, f"schedule[{i}] axis")
             f = _SegmentAngle(t0, d, ang, seg.profile, seg.accel_time)
             brk = [t0 + b for b in _profile_breaks(seg.profile, d, seg.accel_time)]
             step = 1.0 / (_profile_peak_rate(seg.profile, d, ang, seg.accel_time) + 2 * np.pi / d)
@@ -1003,7 +954,7 @@ def gimbal(fixed, axes, angles, duration, rate, lat, h=0.0, frame="enu", earth="
     with the rates sampled at the epochs). Labels: rest intervals (all schedules at rest) are numbered 0, 1, …; motion
     is -1 (with plain callables the whole run is segment 0).
     """
-    frame, earth = _check_frame(frame), _check_earth(earth)
+    frame, earth = _earth.check_frame(frame), _check_earth(earth)
     duration = check_positive(duration, "duration")
     k = len(axes)
     if len(angles) != k:
@@ -1133,7 +1084,7 @@ def coning(half_angle, frequency, duration, rate, earth="none", *, frame="enu", 
     inertial and, unless ``gravity`` g^n is given, the specific force is zero; with an Earth model the base is
     static at (lat, lon, h) and the Earth-rate part of ``dtheta`` and ``dv`` come from quadrature.
     """
-    frame, earth = _check_frame(frame), _check_earth(earth)
+    frame, earth = _earth.check_frame(frame), _check_earth(earth)
     beta = _scalar(half_angle, "half_angle")
     if not (0 <= beta < np.pi):
         raise OptinavError(f"cone half-angle {beta:.6g} rad is outside [0, π)", "give the half-angle in radians")
@@ -1168,7 +1119,7 @@ def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth
     from scipy.interpolate import CubicSpline
     from scipy.spatial.transform import Rotation, RotationSpline
 
-    frame, earth = _check_frame(frame), _check_earth(earth)
+    frame, earth = _earth.check_frame(frame), _check_earth(earth)
     tk = check_timestamps(t_knots, "t_knots")
     K = tk.size
     if abs(tk[0]) > 1e-12:

@@ -57,6 +57,17 @@ def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_facto
     return t
 
 
+def as_rng(rng) -> np.random.Generator:
+    """A ``numpy.random.Generator`` from a Generator, an int seed, a SeedSequence or None (fresh entropy)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError):
+        raise OptinavError(f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}",
+                           "pass e.g. rng=np.random.default_rng(1)") from None
+
+
 def check_positive(value, name: str) -> float:
     """A finite, strictly positive scalar."""
     try:
