@@ -165,6 +165,11 @@ def ecef_to_geodetic(r, earth="wgs84") -> np.ndarray:
     e = constants(earth)
     x, y, z = r[..., 0], r[..., 1], r[..., 2]
     p = np.hypot(x, y)
+    with np.errstate(divide="ignore", invalid="ignore"):  # np.where evaluates the branch it then discards
+        return _ecef_to_geodetic_iter(x, y, z, p, e)
+
+
+def _ecef_to_geodetic_iter(x, y, z, p, e):
     lat = np.arctan2(z, p * (1.0 - e.e2))
     h = np.zeros_like(p)
     for _ in range(8):  # converges to < 1e-15 rad within ~4 iterations near the surface
