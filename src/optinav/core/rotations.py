@@ -286,8 +286,9 @@ def rotation_angle(c) -> np.ndarray:
 
 def quat_angle_between(q1, q2) -> np.ndarray:
     """Angle (rad) of the rotation taking ``q1`` to ``q2``, sign-invariant."""
-    d = np.abs(np.sum(quat_normalize(q1) * quat_normalize(q2), axis=-1))
-    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+    e = quat_multiply(quat_conjugate(quat_normalize(q1)), quat_normalize(q2))
+    # atan2 of the vector part keeps precision for tiny angles where arccos(w) loses it below ~1e-8 rad
+    return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), np.abs(e[..., 0]))
 
 
 # --- ENU / NED -----------------------------------------------------------------------------------------
