@@ -59,7 +59,7 @@ def _axes(up, rate):
     u = up / np.linalg.norm(up)
     e = np.cross(rate, u)
     ne = np.linalg.norm(e)
-    if ne < 1e-3 * np.linalg.norm(rate):
+    if not ne > 1e-3 * np.linalg.norm(rate) or not ne > 0:
         raise OptinavError("Earth rate is parallel to gravity (latitude ±90° or no rotation seen)",
                            "coarse heading is undefined here; give the heading from another source")
     e = e / ne
@@ -132,8 +132,9 @@ def _error_model(c_b_n, lat, h, frame, earth):
 
 def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=None,
                    gyro_white=1e-6, accel_white=1e-4, gyro_bias_std=1e-6, accel_bias_std=1e-3,
-                   initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1
-                   ) -> AlignmentResult:
+                   initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1,
+                   gyro_bias_instability=0.0, gyro_bias_tau=np.inf, accel_bias_instability=0.0,
+                   accel_bias_tau=np.inf) -> AlignmentResult:
     """Kalman-filter fine alignment on a static base from increments ``dtheta`` (rad), ``dv`` (m/s).
 
     ``t``: (N+1,) epochs (s); increments over (t[k], t[k+1]]. ``q0``: initial attitude (default: coarse
@@ -141,6 +142,10 @@ def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=
     biases (rad/s, m/s²) and of the initial attitude error (rad, navigation axes). ``velocity_noise`` (m/s,
     1σ of the zero-velocity measurement; default from the VRW over one filter step). The filter steps every
     ``kf_interval`` seconds on summed increments (the base is static, so sums over 0.1 s lose nothing).
+    In-run bias drift: with ``*_bias_instability`` (σ, rad/s or m/s²) and ``*_bias_tau`` (s) the bias states are
+    first-order Gauss–Markov (ḃ = −b/τ + w, PSD 2σ²/τ) instead of random constants. Model it when the unit
+    drifts: gyrocompassing reads heading from the tilt rate, and an accelerometer bias drifting by ∇/τ looks
+    like a heading error of (∇/τ)/(g ω_ie cos L) to a filter that believes the bias constant.
     """
     from optinav.core.strapdown import attitude_update
 
@@ -151,6 +156,14 @@ def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=
         raise OptinavError(f"dtheta {dth.shape} and dv {dvv.shape} must be ({t.size - 1}, 3) for {t.size} epochs",
                            "pass one increment per interval between epochs")
     check_positive(kf_interval, "kf_interval")
+    taus = np.array([gyro_bias_tau, accel_bias_tau], dtype=float)
+    inst = np.array([gyro_bias_instability, accel_bias_instability], dtype=float)
+    if np.any(np.isnan(taus)) or np.any(taus <= 0):
+        raise OptinavError(f"bias correlation times {taus.tolist()} must be > 0 s", "pass τ in s (inf = constant)")
+    if np.any(inst < 0) or not np.all(np.isfinite(inst)):
+        raise OptinavError("bias instability must be a finite number ≥ 0", "pass σ in rad/s (gyro) or m/s² (accel)")
+    gm_decay = np.repeat(1.0 / taus, 3)  # 0 for τ = inf: a random constant
+    gm_psd = np.repeat(2.0 * inst**2 / taus, 3)
     dt = np.diff(t)
     if q0 is None:
         span = t[-1] - t[0]
@@ -183,8 +196,10 @@ def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=
         q = qs[-1]
         c = dcm_from_quat(q)
         F, G = _error_model(c, lat, h, frame, earth)
+        F[6:12, 6:12] -= np.diag(gm_decay)
         Phi = np.eye(12) + F * T + F @ F * (T * T / 2)
         Qd = G @ qn @ G.T * T
+        Qd[6:12, 6:12] += np.diag(gm_psd) * T
         P = Phi @ P @ Phi.T + Qd
         r_std = velocity_noise if velocity_noise is not None else max(accel_white * np.sqrt(T), 1e-6)
         S = H @ P @ H.T + np.eye(3) * r_std**2
