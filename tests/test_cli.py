@@ -27,7 +27,9 @@ def test_unwritable_report_folder(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert main(["--quiet", "reproduce", "core", "--quick", "--out", str(blocker / "sub")]) == 2
-    assert "cannot create report folder" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "cannot create report folder" in err
+    assert "study core" not in err  # failed before doing the work
 
 
 def test_reproduce_quick_writes_report(tmp_path):

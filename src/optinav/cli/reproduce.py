@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from optinav.reports import available_studies, get_study, write_report
+from optinav.reports import available_studies, get_study, prepare_report_dir, write_report
 
 
 def register(sub) -> None:
@@ -39,6 +39,7 @@ def register(sub) -> None:
 def run(args) -> int:
     names = list(available_studies()) if args.study == "all" else [args.study]
     fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
+    prepare_report_dir(args.out)
     results = []
     rng = np.random.default_rng(args.seed)
     for name, fn in fns:

@@ -7,7 +7,7 @@ matplotlib is installed: ``pip install optinav[plot]``).
 """
 
 from optinav.reports.report import (Check, Figure, StudyResult, Table, available_studies, get_study,
-                                    register_study, write_report)
+                                    prepare_report_dir, register_study, write_report)
 
-__all__ = ["Check", "Figure", "StudyResult", "Table", "available_studies", "get_study", "register_study",
-           "write_report"]
+__all__ = ["Check", "Figure", "StudyResult", "Table", "available_studies", "get_study", "prepare_report_dir",
+           "register_study", "write_report"]

@@ -145,13 +145,19 @@ def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | Non
     return saved
 
 
-def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str = "optinav report") -> Path:
-    """Write ``index.md``, ``index.html``, ``summary.json`` and PNGs for ``results`` into ``out_dir``."""
+def prepare_report_dir(out_dir: str | Path) -> Path:
+    """Create the report folder (before any long work, so a bad path fails at once)."""
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OptinavError(f"cannot create report folder {out} ({exc.strerror})", "choose a writable --out") from None
+    return out
+
+
+def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str = "optinav report") -> Path:
+    """Write ``index.md``, ``index.html``, ``summary.json`` and PNGs for ``results`` into ``out_dir``."""
+    out = prepare_report_dir(out_dir)
     md = [f"# {title}", "", f"Written {time.strftime('%Y-%m-%d %H:%M:%S')} by optinav.", ""]
     h = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
          "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
