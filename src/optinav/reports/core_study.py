@@ -193,7 +193,7 @@ def _strapdown_section(quick, rng):
 SECTIONS = [_earth_section, _rotation_section, _imu_noise_section, _strapdown_section, _alignment_section]
 
 
-@register_study("core", "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory")
+@register_study("core")
 def core_study(quick: bool = True, rng=None) -> StudyResult:
     rng = np.random.default_rng(rng)
     res = StudyResult("core", "Shared core checks",

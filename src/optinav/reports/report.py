@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import html
+import importlib
 import json
 import math
 import time
@@ -66,37 +67,37 @@ class StudyResult:
     elapsed: float = 0.0
 
 
-_STUDIES: dict[str, tuple[Callable[..., StudyResult], str]] = {}
+#: study name → (module that registers it, one-line description). Listing the studies (``--help``) reads only
+#: this table; a study's module, with its heavy imports, is loaded when the study runs.
+STUDIES: dict[str, tuple[str, str]] = {
+    "core": ("optinav.reports.core_study",
+             "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory"),
+}
+
+_REGISTERED: dict[str, Callable[..., StudyResult]] = {}
 
 
-def register_study(name: str, help: str):
-    """Decorator registering ``fn(quick: bool, rng) -> StudyResult`` as reproducible study ``name``."""
+def register_study(name: str):
+    """Decorator registering ``fn(quick: bool, rng) -> StudyResult`` as study ``name`` (listed in STUDIES)."""
 
     def deco(fn):
-        _STUDIES[name] = (fn, help)
+        _REGISTERED[name] = fn
         return fn
 
     return deco
 
 
 def available_studies() -> dict[str, str]:
-    """Registered study names → one-line descriptions (imports the modules that register them)."""
-    _import_study_modules()
-    return {k: v[1] for k, v in _STUDIES.items()}
+    """Study names → one-line descriptions, without importing the studies."""
+    return {k: v[1] for k, v in STUDIES.items()}
 
 
 def get_study(name: str) -> Callable[..., StudyResult]:
-    _import_study_modules()
-    try:
-        return _STUDIES[name][0]
-    except KeyError:
-        raise OptinavError(f"unknown study {name!r}",
-                           f"choose one of: {', '.join(sorted(_STUDIES))}, or 'all'") from None
-
-
-def _import_study_modules() -> None:
-    # studies register themselves on import; listed here so the CLI needs no knowledge of them
-    import optinav.reports.core_study  # noqa: F401
+    """The study function ``name`` (imports its module)."""
+    if name not in STUDIES:
+        raise OptinavError(f"unknown study {name!r}", f"choose one of: {', '.join(sorted(STUDIES))}, or 'all'")
+    importlib.import_module(STUDIES[name][0])
+    return _REGISTERED[name]
 
 
 def _fmt(x: Any) -> str:
