@@ -26,6 +26,7 @@ from optinav.core import earth as _earth
 from optinav.core.results import Result
 from optinav.core.rotations import (dcm_from_quat, euler_from_dcm, quat_from_dcm, quat_from_rotvec, quat_multiply,
                                     rotvec_from_dcm, skew)
+from optinav.core.strapdown import attitude_update
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
@@ -147,8 +148,6 @@ def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=
     drifts: gyrocompassing reads heading from the tilt rate, and an accelerometer bias drifting by ∇/τ looks
     like a heading error of (∇/τ)/(g ω_ie cos L) to a filter that believes the bias constant.
     """
-    from optinav.core.strapdown import attitude_update
-
     t = check_timestamps(t, "t")
     dth = as_float_array(dtheta, "dtheta", last_dims=(3,))
     dvv = as_float_array(dv, "dv", last_dims=(3,))

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 
 from . import ga, local, pso
@@ -67,11 +68,7 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
         raise OptinavError(f"method {method!r} has no option(s) {', '.join(unknown)}",
                            f"its options are {', '.join(defaults) or 'none'}")
     used = {**defaults, **options}
-    try:
-        gen = np.random.default_rng(rng)
-    except (TypeError, ValueError) as exc:
-        raise OptinavError(f"rng={rng!r} is not a seed or Generator ({exc})",
-                           "pass an int seed or numpy.random.Generator") from None
+    gen = as_rng(rng)
 
     t0 = time.perf_counter()
     ev = Evaluator(problem)
