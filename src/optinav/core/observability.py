@@ -664,14 +664,9 @@ class NeesResult(Result):
 def nees_test(errors, covariance, confidence: float = 0.99) -> NeesResult:
     """Consistency test: N·ANEES ~ χ²(N·n) for independent Gaussian errors with the right covariance."""
     q = nees(errors, covariance)
-    if not (0.0 < confidence < 1.0):
-        raise OptinavError(f"confidence must be in (0, 1), got {confidence!r}", "pass e.g. 0.99")
-    e = np.asarray(errors, dtype=float)
-    dim = e.shape[-1]
+    dim = np.asarray(errors, dtype=float).shape[-1]
     N = q.size
-    k = N * dim
-    lo = stats.chi2.ppf((1 - confidence) / 2, k) / N
-    hi = stats.chi2.ppf((1 + confidence) / 2, k) / N
+    lo, hi = _chi2_band(N * dim, N, confidence)
     a = float(np.mean(q))
     return NeesResult(anees=a, lower=float(lo), upper=float(hi), n_samples=N, dim=dim,
                       confidence=float(confidence), consistent=bool(lo <= a <= hi))
@@ -685,9 +680,16 @@ def rmse_ratio_band(n_runs: int, confidence: float = 0.99) -> tuple[float, float
     """
     if n_runs < 1:
         return float("nan"), float("nan")
-    lo = stats.chi2.ppf((1 - confidence) / 2, n_runs) / n_runs
-    hi = stats.chi2.ppf((1 + confidence) / 2, n_runs) / n_runs
+    lo, hi = _chi2_band(n_runs, n_runs, confidence)
     return float(np.sqrt(lo)), float(np.sqrt(hi))
+
+
+def _chi2_band(dof: int, n: int, confidence: float) -> tuple[float, float]:
+    """Two-sided ``confidence`` band of χ²(dof)/n: the mean of n squared-normal sums over dof/n dimensions."""
+    if not (0.0 < confidence < 1.0):
+        raise OptinavError(f"confidence must be in (0, 1), got {confidence!r}", "pass e.g. 0.99")
+    return (float(stats.chi2.ppf((1 - confidence) / 2, dof) / n),
+            float(stats.chi2.ppf((1 + confidence) / 2, dof) / n))
 
 
 # ----------------------------------------------------------------------------------------------------------
