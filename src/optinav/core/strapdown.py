@@ -99,6 +99,17 @@ def _renorm(w, x, y, z):
 
 
 @numba.njit(cache=True, inline="always")
+def _rotate(w, x, y, z, fx, fy, fz, nav, zx, zy, zz):
+    """q ← q(−ζ) ⊗ q ⊗ q(φ), renormalized: body rotation φ, then (if ``nav``) the frame rotation ζ."""
+    bw, bx, by, bz = _rv2q(fx, fy, fz)
+    w, x, y, z = _qmul(w, x, y, z, bw, bx, by, bz)
+    if nav:
+        nw, nx, ny, nz = _rv2q(-zx, -zy, -zz)
+        w, x, y, z = _qmul(nw, nx, ny, nz, w, x, y, z)
+    return _renorm(w, x, y, z)
+
+
+@numba.njit(cache=True, inline="always")
 def _prev_coef(cprev, hp, h):
     # For a linear rate over (−h_{k−1}, h_k], ½∫α×ω over the current step is (h³/12) a×b and
     # Δθ_{k−1}×Δθ_k = h_{k−1} h (h_{k−1} + h)/2 a×b, so the exact coefficient is h²/(6 h_{k−1}(h_{k−1}+h))
@@ -130,13 +141,8 @@ def _attitude_single(q0, dth, zeta, zstep, cprev, hs, out, store):
         fy = ay + c * (pz * ax - px * az)
         fz = az + c * (px * ay - py * ax)
         px, py, pz = ax, ay, az
-        bw, bx, by, bz = _rv2q(fx, fy, fz)
-        w, x, y, z = _qmul(w, x, y, z, bw, bx, by, bz)
-        if zstep >= 0:
-            i = k * zstep
-            nw, nx, ny, nz = _rv2q(-zeta[i, 0], -zeta[i, 1], -zeta[i, 2])
-            w, x, y, z = _qmul(nw, nx, ny, nz, w, x, y, z)
-        w, x, y, z = _renorm(w, x, y, z)
+        i = k * zstep if zstep > 0 else 0  # zstep: 1 per sample, 0 constant, -1 none (value unused)
+        w, x, y, z = _rotate(w, x, y, z, fx, fy, fz, zstep >= 0, zeta[i, 0], zeta[i, 1], zeta[i, 2])
         if store:
             out[k + 1, 0] = w
             out[k + 1, 1] = x
@@ -183,12 +189,7 @@ def _attitude_multi(q0, dth, zeta, zstep, idx, cs, out, store):
         fx = sx + cy * lz - cz * ly
         fy = sy + cz * lx - cx * lz
         fz = sz + cx * ly - cy * lx
-        bw, bx, by, bz = _rv2q(fx, fy, fz)
-        w, x, y, z = _qmul(w, x, y, z, bw, bx, by, bz)
-        if zstep >= 0:
-            nw, nx, ny, nz = _rv2q(-zx, -zy, -zz)
-            w, x, y, z = _qmul(nw, nx, ny, nz, w, x, y, z)
-        w, x, y, z = _renorm(w, x, y, z)
+        w, x, y, z = _rotate(w, x, y, z, fx, fy, fz, zstep >= 0, zx, zy, zz)
         if store:
             out[j + 1, 0] = w
             out[j + 1, 1] = x
