@@ -59,6 +59,8 @@ class Result:
     """Base of every optinav result; see the module docstring."""
 
     SCHEMA: ClassVar[str] = "optinav.result"
+    #: True for results with their own flat JSON layout (they override from_dict/to_dict)
+    _FLAT: ClassVar[bool] = False
     VERSION: ClassVar[int] = 1
 
     def __init_subclass__(cls, **kwargs):
@@ -91,6 +93,11 @@ class Result:
 
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
+        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) else None
+        if flat is not None and flat._FLAT:
+            if cls is not Result and not issubclass(flat, cls):
+                raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}", "pass the right result file")
+            return flat.from_dict(data)  # a result with its own flat layout (e.g. RESULT.json of a calibration)
         if not isinstance(data, dict) or "schema" not in data or "fields" not in data:
             raise OptinavError("not an optinav result (no 'schema'/'fields' keys)",
                                "pass a JSON file written by optinav")

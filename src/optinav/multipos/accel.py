@@ -1,0 +1,292 @@
+"""Accelerometer calibration by norm observation on static poses (no turntable).
+
+Estimators of θ = [K_xx, K_yy, K_zz, K_xy, K_xz, K_yz, b_x, b_y, b_z] (see :mod:`optinav.multipos.model`),
+all through :func:`optinav.core.optimize.minimize`:
+
+* ``"lm"`` (default), ``"gn"``, ``"trf"`` — weighted least squares on the per-pose means with the analytic
+  Jacobian, started from the closed-form ellipsoid fit (:func:`initial_estimate`). Each residual is divided by
+  its standard deviation ``σ_k = sqrt(ûᵀK⁻¹Σ_kK⁻ᵀû / n_k)`` (Σ_k the sample covariance of pose k), so the
+  cost is a χ² and the Gauss–Newton covariance is the Cramér–Rao bound of white noise.
+* ``"ga"`` — the adaptive real-coded GA of Gao & Zhang (2019), fitness 1/E with E = Σ r² (paper eq. 6–7),
+  initial population drawn in the search interval inverted from the output model (:func:`search_interval`).
+* ``"newton"`` — Newton iteration on E (Frosio et al. 2009, the paper's baseline), from the centre of the
+  same interval; ``"pso"`` — particle swarm in that interval.
+
+``data="means"`` (default) fits one residual per pose; ``data="samples"`` one per sample, as the paper
+does — that biases ‖a‖ upward by about σ²_⊥/g (noise across the gravity direction) and costs far more.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import field
+
+import numpy as np
+
+from optinav.core.observability import ObservabilityReport, analyze
+from optinav.core.optimize import Problem, minimize
+from optinav.core.results import Result
+from optinav.core.validate import as_float_array, check_positive
+from optinav.errors import OptinavError
+
+from . import model
+
+METHODS = ("lm", "gn", "trf", "newton", "ga", "pso")
+_CORE_METHOD = {"lm": "lm", "gn": "gauss-newton", "trf": "trf", "newton": "newton", "ga": "ga", "pso": "pso"}
+#: parameters held at zero when the norm observations cannot separate the misalignments
+MISALIGNMENT = (3, 4, 5)
+MODELS = ("auto", "full", "diagonal")
+
+
+@dataclasses.dataclass
+class PoseStatistics:
+    """Per-pose statistics of the raw accelerometer output (raw units)."""
+
+    means: np.ndarray        # (P, 3)
+    covariances: np.ndarray  # (P, 3, 3) sample covariance of one sample
+    counts: np.ndarray       # (P,)
+
+
+def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
+    """Means and sample covariances of ``raw`` (N, 3) over index ranges [[i0, i1), …], skipping invalid rows."""
+    raw = as_float_array(raw, "accelerometer samples", last_dims=(3,), finite=False)
+    ok = np.all(np.isfinite(raw), axis=1) if valid is None else (np.asarray(valid, bool) &
+                                                                  np.all(np.isfinite(raw), axis=1))
+    means, covs, counts = [], [], []
+    for k, (i0, i1) in enumerate(np.asarray(index_ranges, dtype=int)):
+        x = raw[i0:i1][ok[i0:i1]]
+        if x.shape[0] < 2:
+            raise OptinavError(f"static pose {k} has {x.shape[0]} valid sample(s)",
+                               "lengthen the static interval or drop it from the section list")
+        means.append(x.mean(axis=0))
+        covs.append(np.cov(x.T, ddof=1))
+        counts.append(x.shape[0])
+    return PoseStatistics(np.array(means), np.array(covs), np.array(counts))
+
+
+def _fit_quadric(D: np.ndarray) -> np.ndarray:
+    """The unit coefficient vector minimizing ‖D v‖ (smallest right singular vector)."""
+    return np.linalg.svd(D, full_matrices=True)[2][-1]  # full: D may have fewer rows than columns
+
+
+def initial_estimate(means, g: float) -> np.ndarray:
+    """Closed-form θ from the pose means: an algebraic ellipsoid fit (raw − b)ᵀA(raw − b) = g² with
+    A = K⁻ᵀK⁻¹, K the upper-triangular Cholesky factor.
+
+    A general ellipsoid (9 degrees of freedom) with ≥ 9 poses, an axis-aligned one (6) with ≥ 6, a sphere (4)
+    with ≥ 4; fewer poses or a fit that is not an ellipsoid fall back to the next simpler form. Raw units
+    need no guess: the means are normalized by their median norm first.
+    """
+    m = as_float_array(means, "pose means", last_dims=(3,))
+    P = m.shape[0]
+    s = float(np.median(np.linalg.norm(m, axis=1)))
+    if not s > 0:
+        raise OptinavError("the accelerometer means are all zero", "check the accelerometer columns")
+    c0 = m.mean(axis=0) if P < 4 else np.zeros(3)
+    x = (m - c0) / s
+    X, Y, Z = x.T
+    one = np.ones(P)
+    forms = []
+    if P >= 9:
+        forms.append(("general", np.column_stack([X * X, Y * Y, Z * Z, 2 * X * Y, 2 * X * Z, 2 * Y * Z,
+                                                  2 * X, 2 * Y, 2 * Z, one])))
+    if P >= 6:
+        forms.append(("axis", np.column_stack([X * X, Y * Y, Z * Z, 2 * X, 2 * Y, 2 * Z, one])))
+    if P >= 4:
+        forms.append(("sphere", np.column_stack([X * X + Y * Y + Z * Z, 2 * X, 2 * Y, 2 * Z, one])))
+    for form, D in forms:
+        v = _fit_quadric(D)
+        if form == "general":
+            a, bq, c, d, e, f, p, q, r, k = v
+            A = np.array([[a, d, e], [d, bq, f], [e, f, c]])
+        elif form == "axis":
+            a, bq, c, p, q, r, k = v
+            A = np.diag([a, bq, c])
+        else:
+            a, p, q, r, k = v
+            A = a * np.eye(3)
+        lin = np.array([p, q, r])
+        try:
+            center = -np.linalg.solve(A, lin)
+        except np.linalg.LinAlgError:
+            continue
+        level = center @ A @ center - k  # (x − c)ᵀA(x − c) = level
+        if level == 0:
+            continue
+        A = A / level
+        ev = np.linalg.eigvalsh(A)
+        if not np.all(ev > 0):
+            continue
+        U = np.linalg.cholesky(A * g ** 2).T  # ‖K⁻¹(m − b)‖ = g ⇔ (x − c)ᵀ(s²K⁻ᵀK⁻¹/g²)(x − c) = 1, x = m/s
+        K = np.linalg.inv(U) * s
+        b = center * s + c0
+        return model.Kb_to_theta(np.triu(K), b)
+    k = s / g
+    return np.array([k, k, k, 0, 0, 0, *(c0 if P < 4 else np.zeros(3))])
+
+
+def search_interval(means, g: float, *, scale_tol: float = 0.05, bias_tol: float = 0.05,
+                    misalignment: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """GA/PSO search interval inverted from the output model N = K·f + B (Gao & Zhang 2019, sec. 2.2).
+
+    Axis i spans roughly ±K_ii·g over poses that put it near the vertical, so from the extreme pose means
+    K_ii⁰ = (max − min)/(2g) and b_i⁰ = (max + min)/2. The interval is K_ii⁰(1 ± ``scale_tol``),
+    b_i⁰ ± ``bias_tol``·K_ii⁰·g and off-diagonals ±``misalignment``·K_ii⁰ (rad). An axis never near the
+    vertical (|mean| < 0.9·norm in every pose) gets its scale from the median norm and a ±25 % interval.
+    """
+    m = as_float_array(means, "pose means", last_dims=(3,))
+    hi, lo = m.max(axis=0), m.min(axis=0)
+    norm = np.linalg.norm(m, axis=1)
+    k0 = (hi - lo) / (2 * g)
+    b0 = (hi + lo) / 2
+    tol = np.full(3, scale_tol)
+    for i in range(3):
+        if not np.any(np.abs(m[:, i] - b0[i]) > 0.9 * norm) or k0[i] <= 0:
+            k0[i], b0[i], tol[i] = np.median(norm) / g, 0.0, 0.25
+    lower = np.r_[k0 * (1 - tol), -misalignment * k0[[0, 0, 1]], b0 - bias_tol * k0 * g]
+    upper = np.r_[k0 * (1 + tol), misalignment * k0[[0, 0, 1]], b0 + bias_tol * k0 * g]
+    return lower, upper
+
+
+def residual_sigma(theta, stats: PoseStatistics) -> np.ndarray:
+    """σ of each pose's norm residual (m/s²) from its sample covariance: sqrt(ûᵀK⁻¹Σ_kK⁻ᵀû / n_k)."""
+    K, _ = model.theta_to_Kb(theta)
+    u = model.corrected(theta, stats.means)
+    w = np.linalg.solve(K.T, (u / np.linalg.norm(u, axis=1, keepdims=True)).T).T  # K⁻ᵀû
+    var = np.einsum("ki,kij,kj->k", w, stats.covariances, w) / stats.counts
+    return np.sqrt(np.maximum(var, np.finfo(float).tiny))
+
+
+@dataclasses.dataclass
+class AccelFit(Result):
+    """One accelerometer fit: parameters, uncertainty, observability and the optimizer's trace."""
+
+    SCHEMA = "optinav.accel_fit"
+    VERSION = 1
+
+    K: np.ndarray = field(metadata={"unit": "raw/(m/s^2)"})
+    b: np.ndarray = field(metadata={"unit": "raw"})
+    theta: np.ndarray = field(metadata={"unit": "raw/(m/s^2) | raw"})
+    std: np.ndarray = field(metadata={"unit": "raw/(m/s^2) | raw"})
+    estimated: list = field(metadata={"unit": "-"})
+    held: list = field(metadata={"unit": "-"})
+    method: str = field(metadata={"unit": "-"})
+    data: str = field(metadata={"unit": "-"})
+    g: float = field(metadata={"unit": "m/s^2"})
+    residuals: np.ndarray = field(metadata={"unit": "m/s^2"})
+    residual_sigma: np.ndarray = field(metadata={"unit": "m/s^2"})
+    chi2: float = field(metadata={"unit": ""})
+    dof: int = field(metadata={"unit": ""})
+    observability: ObservabilityReport = field(metadata={"unit": "-"})
+    success: bool = field(metadata={"unit": "-"})
+    message: str = field(metadata={"unit": "-"})
+    nfev: int = field(metadata={"unit": ""})
+    nit: int = field(metadata={"unit": ""})
+    history: np.ndarray = field(metadata={"unit": "(m/s^2)^2"})
+    elapsed_s: float = field(metadata={"unit": "s"})
+    population_history: np.ndarray | None = field(default=None, metadata={"unit": "-"})
+
+
+def _observability(J, sigma, free) -> ObservabilityReport:
+    names = [model.ACCEL_PARAMS[i] for i in free]
+    units = ["raw/(m/s^2)" if i < 6 else "raw" for i in free]
+    return analyze(J[:, free], sigma, names=names, units=units)
+
+
+def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray) -> tuple[list[int], list[int], ObservabilityReport]:
+    full = list(range(9))
+    rep = _observability(J, sigma, full)
+    if rep.full_rank or requested == "full":
+        if not rep.full_rank:
+            raise OptinavError("the poses cannot determine all 9 accelerometer parameters: "
+                               + "; ".join(rep.unobservable_directions),
+                               "add poses (>= 9, including ones tilted about 45° between axes) or use model='auto'")
+        return full, [], rep
+    diag = [0, 1, 2, 6, 7, 8]
+    rep6 = _observability(J, sigma, diag)
+    if not rep6.full_rank:
+        raise OptinavError("the poses cannot determine the accelerometer scale factors and biases: "
+                           + "; ".join(rep6.unobservable_directions),
+                           "use at least 6 poses with each axis both up and down (e.g. ±x, ±y, ±z up)")
+    if requested == "auto" or requested == "diagonal":
+        return diag, list(MISALIGNMENT), rep
+    raise OptinavError(f"unknown accelerometer model {requested!r}", f"use one of {', '.join(MODELS)}")
+
+
+def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
+              samples=None, x0=None, rng=None, interval=None, **options) -> AccelFit:
+    """Fit θ to static-pose data (see the module docstring).
+
+    ``stats``: per-pose raw statistics. ``g``: local gravity (m/s²). ``model_form``: "auto" (all 9 when
+    observable, else scales and biases with the misalignments held at 0 and reported), "full" (error if not
+    observable), "diagonal". ``data="samples"`` needs ``samples`` (list of (n_k, 3) raw arrays per pose).
+    ``options`` go to the optimizer (e.g. ``generations`` for the GA).
+    """
+    g = check_positive(g, "gravity")
+    if method not in METHODS:
+        raise OptinavError(f"unknown calibration method {method!r}", f"use one of {', '.join(METHODS)}")
+    if data not in ("means", "samples"):
+        raise OptinavError(f"data={data!r} is not understood", "use 'means' or 'samples'")
+    P = stats.means.shape[0]
+    if P < 6:
+        raise OptinavError(f"{P} static pose(s) found; norm observation needs at least 6 (9 for misalignments)",
+                           "record more poses: each axis up and down, plus tilted poses")
+    t0 = time.perf_counter()
+    start = initial_estimate(stats.means, g)
+    sig0 = residual_sigma(start, stats)
+    J0 = model.norm_jacobian(start, stats.means)
+    free, held, _ = _choose_model(model_form if model_form in MODELS else "?", J0, sig0)
+    if x0 is None:
+        if method in ("ga", "pso", "newton"):
+            lo, hi = search_interval(stats.means, g) if interval is None else interval
+            x0 = 0.5 * (lo + hi)
+        else:
+            x0 = start
+    x0 = as_float_array(x0, "x0").copy()
+    x0[held] = 0.0
+    weighted = method in ("lm", "gn", "trf")
+    if data == "samples":
+        if samples is None or len(samples) != P:
+            raise OptinavError("data='samples' needs the raw samples of every pose", "pass samples=[...] per pose")
+        pts = np.concatenate([np.asarray(s, float) for s in samples])
+        w = np.concatenate([np.full(len(s), 1.0 / (sig0[k] * np.sqrt(stats.counts[k])))
+                            for k, s in enumerate(samples)]) if weighted else np.ones(len(pts))
+    else:
+        pts = stats.means
+        w = 1.0 / sig0 if weighted else np.ones(P)
+
+    def full_theta(z):
+        th = np.array(x0, dtype=float) if np.ndim(z) == 1 else np.tile(x0, (z.shape[0], 1))
+        th[..., free] = z
+        return th
+
+    problem = Problem(
+        residuals=lambda z: w * model.norm_residuals(full_theta(z), pts, g),
+        jacobian=lambda z: w[:, None] * model.norm_jacobian(full_theta(z), pts)[:, free],
+        residuals_batch=lambda Z: w * model.norm_residuals(full_theta(Z), pts, g),
+        x0=x0[free],
+        names=[model.ACCEL_PARAMS[i] for i in free],
+        x_scale=np.maximum(np.abs(start[free]), np.abs(start[:3]).mean() * 1e-3),
+        search_interval=None if not method in ("ga", "pso") else tuple(
+            np.asarray(v)[free] for v in (search_interval(stats.means, g) if interval is None else interval)),
+    )
+    if method == "pso" and "v_max" not in options:
+        lo, hi = problem.search_interval
+        options["v_max"] = 0.2 * (hi - lo)  # the paper's V ∈ [−1, 1] is for unit-sized parameters
+    res = minimize(problem, _CORE_METHOD[method], rng=rng, **options)
+    theta = full_theta(res.x)
+    r = model.norm_residuals(theta, stats.means, g)
+    sig = residual_sigma(theta, stats)
+    J = model.norm_jacobian(theta, stats.means)
+    rep = _observability(J, sig, list(range(9)))  # all 9: names what the poses cannot determine
+    std = np.full(9, np.nan)
+    std[free] = rep.crlb_std if not held else _observability(J, sig, free).crlb_std
+    std[held] = np.nan
+    K, b = model.theta_to_Kb(theta)
+    return AccelFit(K=K, b=b, theta=theta, std=std, estimated=[model.ACCEL_PARAMS[i] for i in free],
+                    held=[model.ACCEL_PARAMS[i] for i in held], method=method, data=data, g=g, residuals=r,
+                    residual_sigma=sig, chi2=float(np.sum((r / sig) ** 2)), dof=int(P - len(free)),
+                    observability=rep, success=bool(res.success), message=str(res.message), nfev=int(res.nfev),
+                    nit=int(res.nit), history=np.asarray(res.history, float),
+                    elapsed_s=time.perf_counter() - t0)
