@@ -169,6 +169,7 @@ class AccelFit(Result):
     b: np.ndarray = field(metadata={"unit": "raw"})
     theta: np.ndarray = field(metadata={"unit": "raw/(m/s^2) | raw"})
     std: np.ndarray = field(metadata={"unit": "raw/(m/s^2) | raw"})
+    crlb_std: np.ndarray = field(metadata={"unit": "raw/(m/s^2) | raw"})
     estimated: list = field(metadata={"unit": "-"})
     held: list = field(metadata={"unit": "-"})
     method: str = field(metadata={"unit": "-"})
@@ -215,13 +216,14 @@ def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray) -> tuple[lis
 
 
 def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
-              samples=None, x0=None, rng=None, interval=None, **options) -> AccelFit:
+              samples=None, x0=None, rng=None, interval=None, bias_instability=None, **options) -> AccelFit:
     """Fit θ to static-pose data (see the module docstring).
 
     ``stats``: per-pose raw statistics. ``g``: local gravity (m/s²). ``model_form``: "auto" (all 9 when
     observable, else scales and biases with the misalignments held at 0 and reported), "full" (error if not
     observable), "diagonal". ``data="samples"`` needs ``samples`` (list of (n_k, 3) raw arrays per pose).
-    ``options`` go to the optimizer (e.g. ``generations`` for the GA).
+    ``bias_instability`` (raw units, scalar or per axis): 1σ of the bias drift over the session, added in
+    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``options`` go to the optimizer (e.g. ``generations`` for the GA).
     """
     g = check_positive(g, "gravity")
     if method not in METHODS:
@@ -280,13 +282,21 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     sig = residual_sigma(theta, stats)
     J = model.norm_jacobian(theta, stats.means)
     rep = _observability(J, sig, list(range(9)))  # all 9: names what the poses cannot determine
-    std = np.full(9, np.nan)
-    std[free] = rep.crlb_std if not held else _observability(J, sig, free).crlb_std
+    crlb = np.full(9, np.nan)
+    crlb[free] = rep.crlb_std if not held else _observability(J, sig, free).crlb_std
+    chi2 = float(np.sum((r / sig) ** 2))
+    dof = int(P - len(free))
+    # Correlated noise (bias instability) shifts whole pose means, which the within-pose scatter cannot
+    # show; the a-posteriori variance factor χ²/dof (never below 1) carries it into the reported std.
+    std = crlb * np.sqrt(max(1.0, chi2 / dof)) if dof > 0 else crlb
+    if bias_instability is not None:
+        # a drift common to all poses moves b without leaving a residual: only a noise model can bound it
+        std[6:9] = np.hypot(std[6:9], np.broadcast_to(np.abs(as_float_array(bias_instability, "bias_instability")), 3))
     std[held] = np.nan
     K, b = model.theta_to_Kb(theta)
     return AccelFit(K=K, b=b, theta=theta, std=std, estimated=[model.ACCEL_PARAMS[i] for i in free],
                     held=[model.ACCEL_PARAMS[i] for i in held], method=method, data=data, g=g, residuals=r,
-                    residual_sigma=sig, chi2=float(np.sum((r / sig) ** 2)), dof=int(P - len(free)),
+                    residual_sigma=sig, chi2=chi2, dof=dof, crlb_std=crlb,
                     observability=rep, success=bool(res.success), message=str(res.message), nfev=int(res.nfev),
                     nit=int(res.nit), history=np.asarray(res.history, float),
                     elapsed_s=time.perf_counter() - t0)

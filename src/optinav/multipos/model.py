@@ -128,3 +128,19 @@ def from_paper(S, M_xy: float, M_xz: float, M_yz: float, B, g: float) -> tuple[n
     S = as_float_array(S, "S", last_dims=(3,)) / g
     K = np.array([[S[0], S[0] * M_xy, S[0] * M_xz], [0.0, S[1], S[1] * M_yz], [0.0, 0.0, S[2]]])
     return K, as_float_array(B, "B", last_dims=(3,)).copy()
+
+
+def upper_triangular_form(K) -> tuple[np.ndarray, np.ndarray]:
+    """K = U·Q with U upper triangular (positive diagonal) and Q a rotation: the part of a full K that norm
+    observations determine (U) and the frame rotation they cannot see (Q). A gyroscope calibrated against
+    this accelerometer's gravity directions comes out as K_g·Qᵀ (its axes expressed in the same frame)."""
+    from scipy.linalg import rq
+
+    K = as_float_array(K, "K", last_dims=(3, 3))
+    U, Q = rq(K)
+    s = np.sign(np.diag(U))
+    s[s == 0] = 1.0
+    U, Q = U * s[None, :], s[:, None] * Q
+    if np.linalg.det(Q) < 0:
+        raise OptinavError("K has a negative determinant (a left-handed triad)", "check the axis signs")
+    return U, Q

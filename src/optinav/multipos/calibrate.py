@@ -1,0 +1,210 @@
+"""Calibrate a multi-position session from a raw log: static intervals → accelerometer → gyroscope → result.
+
+``calibrate_session`` is what ``optinav calibrate accel`` runs. Steps:
+
+1. Rows with NaN/inf are dropped and counted; saturated samples (``acc_range``/``gyro_range`` in raw units,
+   or, for raw counts, values at a 16/24/32-bit full scale) are excluded from the pose means and counted.
+2. Static intervals: a section list (manual override) or the moving-variance detector. With the automatic
+   threshold every candidate threshold of :func:`optinav.multipos.static.threshold_candidates` is scored by
+   a quick fit: the reduced χ² (χ²/dof, residuals normalized by their within-pose noise, so it does not
+   reward fewer intervals); among candidates whose reduced χ² is acceptable (≤ the 99 % χ² point, or ≤ 1.5 ×
+   the best) the one with the most intervals, then the most static time, wins.
+3. Accelerometer: :func:`optinav.multipos.accel.fit_accel` (closed-form start, then the chosen method).
+4. Gyroscope (when given): :func:`optinav.multipos.gyro.calibrate_gyro` on the same intervals, with the
+   gravity directions measured by the calibrated accelerometer.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy import stats as _stats
+
+from optinav.core.earth import WGS84
+from optinav.core.earth import gravity as normal_gravity
+from optinav.core.units import G_STANDARD
+from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.errors import OptinavError
+
+from . import accel, model, static
+from .result import CalibrationResult
+
+OMEGA_E = WGS84.omega_ie
+_FULL_SCALE = [float(2 ** k) for k in (15, 23, 31)]
+
+
+def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
+    """Rows (N,) with any axis at or beyond ``limit`` (raw units, scalar or per axis); for raw ``counts``
+    without a limit, rows at a signed 16/24/32-bit full scale (e.g. −32768 or 32767)."""
+    raw = np.asarray(raw, float)
+    if limit is not None:
+        lim = np.broadcast_to(np.abs(as_float_array(limit, "range")), (3,))
+        return np.any(np.abs(raw) >= lim, axis=1)
+    if not counts:
+        return np.zeros(raw.shape[0], bool)
+    a = np.abs(raw)
+    return np.any(np.isin(a, _FULL_SCALE) | np.isin(a + 1, _FULL_SCALE), axis=1) & np.any(a >= 32767, axis=1)
+
+
+def local_gravity(g=None, lat_deg=None, height_m: float = 0.0) -> tuple[float, str]:
+    """Gravity magnitude (m/s²) and how it was obtained: given, normal gravity at lat/height, or standard."""
+    if g is not None:
+        g = check_positive(g, "gravity")
+        if not 9.7 < g < 9.9:
+            raise OptinavError(f"gravity {g:g} m/s^2 is outside 9.7–9.9", "give the local gravity in m/s^2")
+        return g, "given"
+    if lat_deg is not None:
+        lat = float(lat_deg)
+        if not -90 <= lat <= 90:
+            raise OptinavError(f"latitude {lat:g}° is outside ±90°", "give the latitude in degrees")
+        return float(normal_gravity(np.radians(lat), float(height_m))), f"normal gravity at {lat:g}°, {height_m:g} m"
+    return G_STANDARD, "standard gravity (give --gravity or --latitude for the local value)"
+
+
+def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
+    cands = static.threshold_candidates(t, acc, gyro=gyro, window_s=window_s, min_duration_s=min_duration_s,
+                                        acc_unit=acc_unit, gyro_unit=gyro_unit)
+    scores = []
+    seen = {}
+    for k, det in enumerate(cands.detections):
+        key = tuple(np.asarray(det.index_ranges).ravel())
+        if key in seen:
+            scores.append(seen[key])
+            continue
+        red, dof = np.nan, 0
+        if det.n_intervals >= 6:
+            try:
+                st = accel.pose_statistics(acc, det.index_ranges, valid=valid)
+                fit = accel.fit_accel(st, g)
+                red, dof = (fit.chi2 / fit.dof, fit.dof) if fit.dof > 0 else (np.nan, 0)
+            except OptinavError:
+                pass
+        seen[key] = (red, dof)
+        scores.append((red, dof))
+    red = np.array([s[0] for s in scores])
+    dof = np.array([s[1] for s in scores])
+    ok = np.isfinite(red)
+    if not np.any(ok):
+        return cands.default, {"rule": "default (no candidate had >= 7 intervals to score)",
+                               "thresholds": cands.thresholds, "n_intervals": cands.n_intervals}
+    limit = np.where(dof > 0, _stats.chi2.ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
+    good = ok & ((red <= limit) | (red <= 1.5 * np.nanmin(red)))
+    order = sorted(np.flatnonzero(good), key=lambda k: (cands.n_intervals[k], cands.static_time_s[k]))
+    best = int(order[-1])
+    return cands.detections[best], {"rule": "most intervals with an acceptable reduced chi-square",
+                                    "thresholds": cands.thresholds, "n_intervals": cands.n_intervals,
+                                    "reduced_chi2": red, "chosen": best}
+
+
+def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
+                      lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
+                      data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
+                      threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
+                      source: str = "", method_options: dict | None = None, acc_bias_instability=None
+                      ) -> CalibrationResult:
+    """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
+
+    t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
+    come out in raw units per SI unit). ``g`` (m/s²) or ``lat_deg``/``height_m`` set the local gravity.
+    ``sections``: manual static sections (list of (t0, t1) s, or a file — see
+    :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
+    over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
+    """
+    t_start = time.perf_counter()
+    t = as_float_array(t, "time", finite=False)
+    acc = as_float_array(acc, "accelerometer data", last_dims=(3,), finite=False)
+    if acc.ndim != 2 or t.ndim != 1 or acc.shape[0] != t.shape[0]:
+        raise OptinavError(f"time ({t.shape}) and accelerometer ({acc.shape}) data do not match",
+                           "give one time stamp per accelerometer sample")
+    if gyro is not None:
+        gyro = as_float_array(gyro, "gyroscope data", last_dims=(3,), finite=False)
+        if gyro.shape != acc.shape:
+            raise OptinavError(f"gyroscope data {gyro.shape} and accelerometer data {acc.shape} differ in length",
+                               "give both sensors on the same time column")
+    finite = np.isfinite(t) & np.all(np.isfinite(acc), axis=1)
+    if gyro is not None:
+        finite &= np.all(np.isfinite(gyro), axis=1)
+    n_nan = int(np.count_nonzero(~finite))
+    if n_nan:
+        t, acc = t[finite], acc[finite]
+        gyro = gyro[finite] if gyro is not None else None
+    t = check_timestamps(t, "time", min_count=10)
+    g, g_source = local_gravity(g, lat_deg, height_m)
+    sat_a = saturated_mask(acc, acc_range, counts=acc_unit == "counts")
+    sat_g = saturated_mask(gyro, gyro_range, counts=gyro_unit == "counts") if gyro is not None else None
+    valid = ~sat_a
+
+    selection = {}
+    if sections is not None:
+        sl = static.sections_from_list(sections, t)
+        ranges, t_int, how = np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float), "manual sections"
+    elif threshold is not None:
+        det = static.detect_static(t, acc, gyro=gyro, window_s=window_s, threshold=threshold,
+                                   min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
+        ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "threshold"
+    else:
+        det, selection = _select_threshold(t, acc, gyro, g, valid, window_s=window_s,
+                                           min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
+        ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
+        selection["threshold"] = det.threshold
+    st = accel.pose_statistics(acc, ranges, valid=valid)
+    samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
+    fit = accel.fit_accel(st, g, method=method, model_form=model_form, data=data, samples=samples, rng=rng,
+                          bias_instability=acc_bias_instability, **(method_options or {}))
+    used = np.zeros(len(t), bool)
+    for i0, i1 in ranges:
+        used[i0:i1] = True
+    used &= valid
+    a_used = np.linalg.solve(fit.K, (acc[used] - fit.b).T).T
+    residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a_used, axis=1) - g) ** 2)))
+
+    K_std = np.zeros((3, 3))
+    for j, (r, c) in enumerate(model.K_INDEX):
+        K_std[r, c] = fit.std[j]
+    acc_entry = {"K": fit.K, "b": fit.b, "K_std": K_std, "b_std": fit.std[6:9], "form": "upper-triangular",
+                 "estimated": fit.estimated, "held": fit.held, "chi2": fit.chi2, "dof": fit.dof,
+                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g)}
+    obs = fit.observability
+    observability = {"accelerometer": {"rank": obs.rank, "n_params": obs.n_params,
+                                       "singular_values": obs.singular_values,
+                                       "unobservable": list(obs.unobservable_directions),
+                                       "statements": list(obs.statements)}}
+    observability.update({k: observability["accelerometer"][k] for k in ("rank", "n_params", "singular_values",
+                                                                         "unobservable")})
+    gyro_entry = None
+    excluded = {"nan_rows": n_nan, "saturated_acc": int(np.count_nonzero(sat_a))}
+    if gyro is not None:
+        from . import gyro as gyro_cal
+
+        excluded["saturated_gyro"] = int(np.count_nonzero(sat_g))
+        if np.any(sat_g):
+            i = int(np.flatnonzero(sat_g)[0])
+            raise OptinavError(f"the gyroscope saturates at t = {t[i]:.6g} s ({excluded['saturated_gyro']} samples)",
+                               "turn the unit more slowly between poses, or raise the gyro range")
+        up = st.means - fit.b
+        up = np.linalg.solve(fit.K, up.T).T
+        up /= np.linalg.norm(up, axis=1, keepdims=True)
+        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rng=rng)
+        b_std = np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))  # Earth rate is neglected (module docs)
+        gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
+                      "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
+                      "bias_mode": gc.bias_mode, "unobservable": list(gc.unobservable)}
+        gobs = gc.observability
+        observability["gyroscope"] = {"rank": gobs.rank, "n_params": gobs.n_params,
+                                      "singular_values": gobs.singular_values,
+                                      "unobservable": list(gobs.unobservable_directions)}
+    quality = {"n_poses": int(len(ranges)), "pose_residual_rms": float(np.sqrt(np.mean(fit.residuals ** 2))),
+               "chi2": fit.chi2, "dof": fit.dof, "interval_selection": how, "gravity_source": g_source,
+               "optimizer_success": fit.success, "optimizer_message": fit.message, "nfev": fit.nfev,
+               "data": data}
+    if selection:
+        quality["threshold_selection"] = selection
+    units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "time": "s", "residual_rms": "m/s^2",
+             "gravity": "m/s^2", "K": "raw per SI unit", "b": "raw"}
+    if gyro is not None:
+        units.update({"gyroscope_raw": gyro_unit, "gyroscope": "rad/s"})
+    return CalibrationResult(accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g,
+                             residual_rms=residual_rms, static_intervals=t_int, observability=observability,
+                             method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
+                             quality=quality, source=source)

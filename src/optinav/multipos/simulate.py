@@ -1,0 +1,148 @@
+"""Simulated multi-position calibration sessions (raw logs with truth), built on the core simulator.
+
+A session is an initial rest period, then static poses joined by smooth rotations (zero rate at both ends),
+recorded by one IMU unit drawn from a spec (default the MTi-1 class of Gao & Zhang 2019) and written in the
+requested raw units. The truth of each triad is given in the calibration convention raw = K·x + b.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import field
+
+import numpy as np
+
+from optinav.core import rotations
+from optinav.core.earth import gravity as normal_gravity
+from optinav.core.imu_model import ImuModel, ImuSpec, TriadErrors, preset
+from optinav.core.results import Result
+from optinav.core.simulate import static_positions
+from optinav.core.units import DEG, G_STANDARD
+from optinav.core.validate import as_float_array, as_rng, check_positive
+from optinav.errors import OptinavError
+
+from . import model
+
+S45 = float(np.sqrt(0.5))
+#: the positions of Gao & Zhang (2019), recovered from their Table 1 (see optinav.multipos.design): the
+#: specific-force direction in the sensor frame, i.e. the sensor-frame vector pointing up, in test order
+PAPER_SCHEME = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (1, 0, 0), (S45, -S45, 0),
+                         (S45, 0, S45), (0, -S45, S45), (-S45, S45, 0), (-S45, 0, -S45), (0, S45, -S45)], float)
+SIX_SCHEME = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
+#: 18 poses: the six axis poses, the eight corners and four 45° poses — well conditioned for all 9 parameters
+SCHEME_18 = np.vstack([SIX_SCHEME, np.array([(sx, sy, sz) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)])
+                       / np.sqrt(3), [(S45, S45, 0), (-S45, 0, S45), (0, S45, -S45), (S45, 0, -S45)]])
+SCHEMES = {"paper12": PAPER_SCHEME, "six": SIX_SCHEME, "18": SCHEME_18}
+#: Gao & Zhang (2019) Table 2, "traditional multi-position" reference of their MTi-1: S per 1 g, M (rad), B m/s²
+PAPER_REFERENCE = {"S": (9.80518, 9.78718, 9.77107), "M_xy": -0.0058, "M_xz": 0.00522, "M_yz": 0.00393,
+                   "B": (0.11646, 0.0361, 0.13644), "M_yx": 0.00607, "M_zx": -0.0036, "M_zy": -0.0062}
+RAW_UNITS = ("m/s^2", "g", "counts")
+
+
+def orientation_for_up(up, yaw: float = 0.0) -> np.ndarray:
+    """A C_b^n (ENU) whose sensor-frame up vector is ``up`` (the shortest rotation), then turned by ``yaw``."""
+    u = as_float_array(up, "up", last_dims=(3,))
+    n = np.linalg.norm(u)
+    if not n > 0:
+        raise OptinavError("an up vector is zero", "give each pose a non-zero up direction")
+    u = u / n
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(u, z)
+    s, c = np.linalg.norm(axis), float(u @ z)
+    if s < 1e-12:
+        C = np.eye(3) if c > 0 else rotations.rot_x(np.pi).T
+    else:
+        C = rotations.dcm_from_rotvec(axis / s * np.arctan2(s, c))
+    return rotations.rot_z(yaw).T @ C if yaw else C
+
+
+@dataclasses.dataclass
+class SimulatedSession(Result):
+    """A simulated raw log with truth (raw = K·x + b per triad, raw in ``acc_unit`` / ``gyro_unit``)."""
+
+    SCHEMA = "optinav.simulated_session"
+    VERSION = 1
+
+    t: np.ndarray = field(metadata={"unit": "s"})
+    acc: np.ndarray = field(metadata={"unit": "acc_unit"})
+    gyro: np.ndarray = field(metadata={"unit": "gyro_unit"})
+    acc_unit: str = field(metadata={"unit": "-"})
+    gyro_unit: str = field(metadata={"unit": "-"})
+    acc_K: np.ndarray = field(metadata={"unit": "acc_unit/(m/s^2)"})
+    acc_b: np.ndarray = field(metadata={"unit": "acc_unit"})
+    gyro_K: np.ndarray = field(metadata={"unit": "gyro_unit/(rad/s)"})
+    gyro_b: np.ndarray = field(metadata={"unit": "gyro_unit"})
+    gravity: float = field(metadata={"unit": "m/s^2"})
+    up_dirs: np.ndarray = field(metadata={"unit": ""})
+    static_intervals: np.ndarray = field(metadata={"unit": "s"})
+    labels: np.ndarray = field(metadata={"unit": ""})
+    acc_noise_sigma: float = field(metadata={"unit": "acc_unit"})
+    acc_bias_instability: float = field(default=0.0, metadata={"unit": "acc_unit"})
+    descriptions: list = field(default_factory=list, metadata={"unit": "-"})
+
+
+def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
+    if kind == "acc":
+        table = {"m/s^2": 1.0, "g": 1.0 / G_STANDARD, "counts": counts_per_si}
+    else:
+        table = {"rad/s": 1.0, "deg/s": 1.0 / DEG, "counts": counts_per_si}
+    if unit not in table:
+        raise OptinavError(f"unknown {kind} unit {unit!r}", f"use one of {', '.join(table)}")
+    return table[unit]
+
+
+def simulate_session(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", dwell_s: float = 60.0,
+                     rate_hz: float | None = None, transition_s: float = 4.0, rest_s: float = 10.0,
+                     lat_deg: float = 38.88, height_m: float = 35.0, truth: str = "draw",
+                     acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", acc_counts_per_si: float = 2048 / G_STANDARD,
+                     gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
+    """Simulate a static multi-position session.
+
+    ``scheme``: a name in :data:`SCHEMES` or (P, 3) sensor-frame up vectors. ``spec``: an ImuSpec (a unit is
+    drawn with ``rng``), an ImuModel, or a preset name. ``truth="paper"`` replaces the accelerometer errors by
+    Gao & Zhang's Table 2 reference (S per local g, three misalignments, biases). Poses alternate yaw so that
+    consecutive transitions turn about varied axes. ``jitter``: timestamp jitter as a fraction of the step
+    (irregular sampling). Units: raw outputs are written in ``acc_unit`` / ``gyro_unit``.
+    """
+    gen = as_rng(rng)
+    ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
+    if ups is None:
+        raise OptinavError(f"unknown scheme {scheme!r}", f"use one of {', '.join(SCHEMES)} or give up vectors")
+    unit_model = preset(spec) if isinstance(spec, str) else spec
+    unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
+    if not isinstance(unit_model, ImuModel):
+        raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
+    rate = unit_model.sample_rate if rate_hz is None else check_positive(rate_hz, "rate_hz")
+    lat = np.radians(lat_deg)
+    g = float(normal_gravity(lat, height_m))
+    if truth == "paper":
+        K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
+                                PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
+        unit_model = dataclasses.replace(unit_model, accel=TriadErrors.from_matrix("accel", K, b))
+    elif truth != "draw":
+        raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
+    poses = np.stack([orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2)
+                                                      for k, u in enumerate(ups)])
+    dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
+    n = int(round((dwell.sum() + transition_s * len(ups)) * rate))
+    t = np.arange(n) / rate
+    if jitter:
+        t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
+        t[0] = 0.0
+    tr = static_positions(poses, dwell, rate, lat, h=height_m, transition=transition_s, t=t)
+    meas = unit_model.apply(tr.omega_ib_b, tr.f_b, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
+    fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
+    fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
+    labels = tr.labels.copy()
+    labels[labels == 0] = -2  # the rest period is not a calibration pose
+    labels[labels > 0] -= 1
+    intervals = np.array([[tr.t[labels == k][0], tr.t[labels == k][-1]] for k in range(len(ups))])
+    vrw = np.asarray(unit_model.accel_noise.white, float)
+    from optinav.core.simulate import describe_pose
+    return SimulatedSession(
+        t=tr.t, acc=meas.accel * fa, gyro=meas.gyro * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
+        acc_K=unit_model.accel.K * fa, acc_b=unit_model.accel.bias * fa,
+        gyro_K=unit_model.gyro.K * fg, gyro_b=unit_model.gyro.bias * fg, gravity=g, up_dirs=ups,
+        static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
+        acc_bias_instability=float(np.max(unit_model.accel_noise.gm_sigma) * fa),
+        descriptions=[describe_pose(c) for c in poses[1:]])
