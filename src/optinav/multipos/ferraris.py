@@ -1,0 +1,312 @@
+"""Closed-form Ferraris calibration of an accelerometer and a gyroscope triad.
+
+Ferraris, Grimaldi & Parvis, "Procedure for effortless in-field calibration of three-axial rate gyros and
+accelerometers", Sensors and Materials 7(5), 1995, pp. 311–330; the section layout and sign conventions follow
+imucal's ``FerrarisCalibration`` (Küderle et al., JOSS 7(73):4338, 2022), so its results are reproduced.
+
+Recording: six static poses with each sensor axis up and down (``x_p``, ``x_a``, ``y_p``, ``y_a``, ``z_p``,
+``z_a``: the accelerometer axis reads +g / −g) and three rotations by a known angle about x, y and z
+(``x_rot``, ``y_rot``, ``z_rot``, each started from the corresponding ``_p`` pose).
+
+Model in optinav's convention (``raw`` in the input units, x in SI)::
+
+    acc_raw  = K_a f + b_a                     f specific force (m/s²)
+    gyro_raw = K_g ω + G f + b_g               ω angular rate (rad/s), G g-sensitivity (raw per m/s²)
+
+With U₊, U₋ (3×3) the mean raw outputs of the six poses stacked as columns (x, y, z) and g the local
+gravity magnitude, the closed form is (Ferraris eqs. 19–23; 9; 12–15)::
+
+    K_a = (U₊ − U₋) / (2g)            b_a,i = ((U₊ + U₋)/2)_ii
+    G   = (V₊ − V₋) / (2g)            b_g   = mean of all static gyro samples
+    K_g = W diag(θ)⁻¹,  W_:j = ∫ (gyro_raw − G f̂ − b_g) dt over rotation j,  f̂ = K_a⁻¹(acc_raw − b_a)
+
+with V± the gyro pose means and θ the expected rotation angles (rad). imucal factors K_a = K'_a R_a and
+K_g = K'_g R_g (diagonal scale × rows of unit sensitivity axes) and calibrates the gyro to deg/s, so
+``K_g(ours) = K'_g R_g · 180/π``; :mod:`optinav.multipos.convert` converts both ways. Limitations of the
+method: the Earth rate is ignored (it enters b_g and K_g at the 1e-4 level for a 360° turn in ~10 s), the
+rotations must be about single axes, and the bias estimate of an axis uses only the two poses of that axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from optinav.core.results import Result
+from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.errors import OptinavError
+
+__all__ = ["FerrarisCalibration", "ferraris_calibration", "ferraris_from_sections", "POSES", "ROTATIONS",
+           "SECTIONS", "IMUCAL_GRAVITY"]
+
+#: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
+POSES = ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a")
+#: rotation section names
+ROTATIONS = ("x_rot", "y_rot", "z_rot")
+SECTIONS = POSES + ROTATIONS
+#: imucal's default gravity (m/s²); pass the local gravity (optinav.core.earth.gravity) for best accuracy
+IMUCAL_GRAVITY = 9.81
+
+
+@dataclass(eq=False)
+class FerrarisCalibration(Result):
+    """Result of :func:`ferraris_calibration` in the convention ``raw = K x + b`` (module docstring).
+
+    ``acc_K`` (raw acc per m/s²), ``acc_b`` (raw acc), ``gyro_K`` (raw gyro per rad/s), ``gyro_G`` (raw
+    gyro per m/s²), ``gyro_b`` (raw gyro). Diagnostics: ``acc_static_norm`` (6,) the norms of the corrected
+    pose means (m/s², equal to ``gravity`` up to the inconsistency of the six poses), the pose means,
+    the samples per pose and the rotation durations.
+    """
+
+    SCHEMA = "optinav.ferraris_calibration"
+    VERSION = 1
+
+    acc_K: np.ndarray = field(metadata={"unit": "acc raw unit / (m/s^2)"})
+    acc_b: np.ndarray = field(metadata={"unit": "acc raw unit"})
+    gyro_K: np.ndarray = field(metadata={"unit": "gyro raw unit / (rad/s)"})
+    gyro_G: np.ndarray = field(metadata={"unit": "gyro raw unit / (m/s^2)"})
+    gyro_b: np.ndarray = field(metadata={"unit": "gyro raw unit"})
+    gravity: float = field(metadata={"unit": "m/s^2"})
+    expected_angle: np.ndarray = field(metadata={"unit": "rad"})
+    acc_unit: str = field(default="raw", metadata={"unit": "-"})
+    gyro_unit: str = field(default="raw", metadata={"unit": "-"})
+    acc_static_means: np.ndarray | None = field(default=None, metadata={"unit": "acc raw unit"})
+    gyro_static_means: np.ndarray | None = field(default=None, metadata={"unit": "gyro raw unit"})
+    static_counts: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    rotation_duration: np.ndarray | None = field(default=None, metadata={"unit": "s"})
+    acc_static_norm: np.ndarray | None = field(default=None, metadata={"unit": "m/s^2"})
+
+    def correct_acc(self, acc_raw) -> np.ndarray:
+        """Specific force (..., 3) m/s² from raw accelerometer samples: K_a⁻¹(raw − b_a)."""
+        a = as_float_array(acc_raw, "acc_raw", last_dims=(3,))
+        return np.linalg.solve(self.acc_K, (a - self.acc_b).reshape(-1, 3).T).T.reshape(a.shape)
+
+    def correct_gyro(self, gyro_raw, acc_si) -> np.ndarray:
+        """Angular rate (..., 3) rad/s: K_g⁻¹(raw − G f − b_g), f the corrected specific force (m/s²)."""
+        w = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
+        f = as_float_array(acc_si, "acc_si", last_dims=(3,))
+        if f.shape != w.shape:
+            raise OptinavError(f"acc_si has shape {f.shape} but gyro_raw has {w.shape}",
+                               "pass one corrected acc sample per gyro sample")
+        r = w - f @ self.gyro_G.T - self.gyro_b
+        return np.linalg.solve(self.gyro_K, r.reshape(-1, 3).T).T.reshape(w.shape)
+
+    def correct(self, acc_raw, gyro_raw) -> tuple[np.ndarray, np.ndarray]:
+        """(specific force m/s², angular rate rad/s) from raw samples (imucal's ``calibrate`` in SI)."""
+        f = self.correct_acc(acc_raw)
+        return f, self.correct_gyro(gyro_raw, f)
+
+    def to_imucal(self, comment: str | None = None):
+        """The same calibration as an :class:`optinav.multipos.convert.ImucalCalibration` (outputs m/s², deg/s)."""
+        from optinav.multipos.convert import ImucalCalibration
+
+        return ImucalCalibration.from_optinav(self.acc_K, self.acc_b, self.gyro_K, self.gyro_G, self.gyro_b,
+                                              from_acc_unit=self.acc_unit, from_gyr_unit=self.gyro_unit,
+                                              comment=comment)
+
+
+# --------------------------------------------------------------------------------------------------------
+# input handling
+# --------------------------------------------------------------------------------------------------------
+
+def _sections(x, names: tuple[str, ...], what: str) -> list:
+    """A dict by name or a sequence in ``names`` order → list of arrays (each (3,) or (N, 3))."""
+    if isinstance(x, dict):
+        missing = [n for n in names if n not in x]
+        if missing:
+            raise OptinavError(f"{what} lacks the section(s) {', '.join(missing)}",
+                               f"give all of {', '.join(names)}")
+        items = [x[n] for n in names]
+    else:
+        if isinstance(x, np.ndarray) and x.ndim == 2 and x.shape == (len(names), 3):
+            items = list(x)
+        else:
+            try:
+                items = list(x)
+            except TypeError:
+                raise OptinavError(f"{what} is not a sequence of {len(names)} sections",
+                                   f"pass a dict or a list in the order {', '.join(names)}") from None
+        if len(items) != len(names):
+            raise OptinavError(f"{what} has {len(items)} sections, expected {len(names)}",
+                               f"pass them in the order {', '.join(names)}")
+    out = []
+    for n, it in zip(names, items):
+        a = as_float_array(it, f"{what}[{n}]", last_dims=(3,))
+        if a.ndim > 2 or (a.ndim == 2 and a.shape[0] == 0):
+            raise OptinavError(f"{what}[{n}] has shape {a.shape}", "pass (N, 3) samples or a (3,) mean")
+        out.append(a)
+    return out
+
+
+def _pose_means(x, what: str) -> tuple[np.ndarray, np.ndarray | None]:
+    secs = _sections(x, POSES, what)
+    means = np.array([s if s.ndim == 1 else s.mean(axis=0) for s in secs])
+    counts = np.array([s.shape[0] for s in secs], dtype=np.int64) if all(s.ndim == 2 for s in secs) else None
+    return means, counts
+
+
+# --------------------------------------------------------------------------------------------------------
+# calibration
+# --------------------------------------------------------------------------------------------------------
+
+def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate: float | None = None, dt=None,
+                         expected_angle=-2.0 * np.pi, gravity: float = IMUCAL_GRAVITY, static_counts=None,
+                         acc_unit: str = "raw", gyro_unit: str = "raw") -> FerrarisCalibration:
+    """Ferraris closed form (module docstring) from the six poses and the three rotations.
+
+    acc_static, gyro_static: the poses ``x_p, x_a, y_p, y_a, z_p, z_a`` as a dict by name or a sequence in
+    that order, each (N_i, 3) samples or a (3,) mean (input units). acc_rot, gyro_rot: the rotations
+    ``x_rot, y_rot, z_rot`` as (M_j, 3) samples (dict or sequence). Time step: ``rate`` (Hz; the integral is
+    Σ samples / rate, as imucal) or ``dt`` (s; a scalar or a sequence of 3 arrays (M_j,) of per-sample steps).
+    expected_angle: rad, scalar or (3,) per axis; imucal's default −360° (a clockwise turn seen from the
+    axis tip, which makes the gyro read negative). gravity: m/s² (imucal default 9.81; pass the local
+    value). static_counts: samples per pose when means are given, to weight the gyro bias as imucal does
+    (with samples given the counts are taken from them). acc_unit/gyro_unit: names of the raw units.
+    """
+    g = check_positive(gravity, "gravity")
+    th = np.broadcast_to(as_float_array(expected_angle, "expected_angle"), (3,)).astype(float).copy() \
+        if np.ndim(expected_angle) == 0 else as_float_array(expected_angle, "expected_angle")
+    if th.shape != (3,) or np.any(th == 0):
+        raise OptinavError(f"expected_angle must be a non-zero scalar or 3 non-zero angles (rad), got {th!r}",
+                           "pass e.g. expected_angle=-2*pi (imucal's -360 deg)")
+    Ua, ca = _pose_means(acc_static, "acc_static")
+    Ug, cg = _pose_means(gyro_static, "gyro_static")
+    if static_counts is not None:
+        sc = as_float_array(static_counts, "static_counts")
+        if sc.shape != (6,) or np.any(sc <= 0):
+            raise OptinavError(f"static_counts must be 6 positive counts, got {np.ravel(sc).tolist()}",
+                               "give the number of samples of each pose")
+        cg = sc
+    ar = _sections(acc_rot, ROTATIONS, "acc_rot")
+    gr = _sections(gyro_rot, ROTATIONS, "gyro_rot")
+    for n, a, w in zip(ROTATIONS, ar, gr):
+        if a.ndim != 2 or w.ndim != 2 or a.shape != w.shape:
+            raise OptinavError(f"rotation {n}: acc {a.shape} and gyro {w.shape} samples do not match",
+                               "pass (M, 3) acc and gyro samples of the same rotation")
+    if (rate is None) == (dt is None):
+        raise OptinavError("give exactly one of rate (Hz) and dt (s)", "e.g. rate=102.4")
+    if rate is not None:
+        r = check_positive(rate, "rate")
+        steps = [None, None, None]
+        durations = np.array([w.shape[0] / r for w in gr])
+    elif isinstance(dt, (int, float, np.number)) or (isinstance(dt, np.ndarray) and dt.ndim == 0):
+        d = check_positive(dt, "dt")
+        steps = [np.full(w.shape[0], d) for w in gr]
+        durations = np.array([w.shape[0] * d for w in gr])
+    else:
+        steps = [as_float_array(s, f"dt[{n}]") for n, s in zip(ROTATIONS, _seq3(dt))]
+        for n, s, w in zip(ROTATIONS, steps, gr):
+            if s.shape != (w.shape[0],) or np.any(s <= 0):
+                raise OptinavError(f"dt[{n}] must hold {w.shape[0]} positive steps, got shape {s.shape}",
+                                   "give one step (s) per rotation sample")
+        durations = np.array([s.sum() for s in steps])
+
+    # accelerometer (Ferraris eqs. 19-23): columns are the x, y, z poses
+    Up, Un = Ua[0::2].T, Ua[1::2].T
+    acc_K = (Up - Un) / (2.0 * g)
+    acc_b = 0.5 * np.diag(Up + Un)
+    if _singular(acc_K):
+        raise OptinavError("the six accelerometer pose means give a singular scale matrix",
+                           "check that the poses x_p..z_a point each axis up and down, in imucal's order")
+    # gyroscope g-sensitivity (eq. 9) and bias (all static samples)
+    Vp, Vn = Ug[0::2].T, Ug[1::2].T
+    G = (Vp - Vn) / (2.0 * g)
+    gyro_b = Ug.mean(axis=0) if cg is None else (cg[:, None] * Ug).sum(axis=0) / cg.sum()
+    # rotations (eqs. 12-15): integrate the offset-free gyro output
+    W = np.zeros((3, 3))
+    Kinv = np.linalg.inv(acc_K)
+    for j, (a, w) in enumerate(zip(ar, gr)):
+        f = (a - acc_b) @ Kinv.T
+        c = w - f @ G.T - gyro_b
+        W[:, j] = c.sum(axis=0) / r if steps[j] is None else (c * steps[j][:, None]).sum(axis=0)
+    gyro_K = W / th[None, :]
+    if _singular(gyro_K):
+        raise OptinavError("the three rotations give a singular gyro scale matrix",
+                           "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle")
+    norms = np.linalg.norm((Ua - acc_b) @ Kinv.T, axis=1)
+    return FerrarisCalibration(acc_K=acc_K, acc_b=acc_b, gyro_K=gyro_K, gyro_G=G, gyro_b=gyro_b, gravity=g,
+                               expected_angle=th, acc_unit=str(acc_unit), gyro_unit=str(gyro_unit),
+                               acc_static_means=Ua, gyro_static_means=Ug,
+                               static_counts=None if ca is None else ca, rotation_duration=durations,
+                               acc_static_norm=norms)
+
+
+def _singular(M: np.ndarray) -> bool:
+    if not np.all(np.isfinite(M)) or not np.any(M):
+        return True
+    return bool(np.linalg.cond(M) > 1e10)
+
+
+def _seq3(x):
+    try:
+        items = list(x)
+    except TypeError:
+        raise OptinavError("dt is neither a scalar nor 3 per-sample step arrays",
+                           "pass dt=1/rate or 3 arrays") from None
+    if len(items) != 3:
+        raise OptinavError(f"dt has {len(items)} entries, expected 3 (x_rot, y_rot, z_rot)",
+                           "pass a scalar dt or one step array per rotation")
+    return items
+
+
+def ferraris_from_sections(t_or_rate, acc, gyro, sections, **kwargs) -> FerrarisCalibration:
+    """Ferraris calibration of a continuous log with annotated sections.
+
+    t_or_rate: timestamps (N,) s, or the sample rate in Hz for a uniformly sampled log without timestamps.
+    acc, gyro: (N, 3) raw samples (input units). sections: the nine sections ``x_p … z_rot`` (imucal's
+    names) as a dict name → (i0, i1) half-open sample ranges, a dict name → {"start": i0, "end": i1}
+    (imucal's section list), a :class:`optinav.multipos.static.SectionList`, or a path to imucal's JSON
+    section list. With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate,
+    Σ samples / rate (imucal). Other keywords go to :func:`ferraris_calibration`.
+    """
+    from optinav.multipos.static import SectionList, sections_from_list
+
+    acc = as_float_array(acc, "acc", last_dims=(3,))
+    gyro = as_float_array(gyro, "gyro", last_dims=(3,))
+    if acc.ndim != 2 or gyro.shape != acc.shape:
+        raise OptinavError(f"acc {acc.shape} and gyro {gyro.shape} must be (N, 3) arrays of equal length",
+                           "pass one acc and one gyro sample per epoch")
+    N = acc.shape[0]
+    if np.ndim(t_or_rate) == 0:
+        rate = check_positive(t_or_rate, "rate")
+        t = None
+    else:
+        rate = None
+        t = check_timestamps(t_or_rate, "t", min_count=2)
+        if t.size != N:
+            raise OptinavError(f"t has {t.size} samples but acc has {N}", "pass one timestamp per sample")
+    if isinstance(sections, (str, Path)):
+        sections = sections_from_list(sections, t if t is not None else np.arange(N) / rate)
+    if isinstance(sections, SectionList):
+        sections = sections.as_dict()
+    if not isinstance(sections, dict):
+        raise OptinavError("sections must map the section names to sample ranges",
+                           "pass {'x_p': (i0, i1), ..., 'z_rot': (i0, i1)}")
+    missing = [n for n in SECTIONS if n not in sections]
+    if missing:
+        raise OptinavError(f"sections lacks {', '.join(missing)}", f"annotate all of {', '.join(SECTIONS)}")
+    idx = {}
+    for n in SECTIONS:
+        v = sections[n]
+        try:
+            i0, i1 = (v["start"], v["end"]) if isinstance(v, dict) else tuple(v)
+            i0, i1 = int(i0), int(i1)
+        except (KeyError, TypeError, ValueError):
+            raise OptinavError(f"section {n!r} is {v!r}, not a sample range (i0, i1)",
+                               "give half-open sample index ranges") from None
+        if not 0 <= i0 < i1 <= N:
+            raise OptinavError(f"section {n!r} range [{i0}, {i1}) is empty or outside the log of {N} samples",
+                               "give 0 ≤ i0 < i1 ≤ N")
+        idx[n] = (i0, i1)
+    acc_static = {n: acc[slice(*idx[n])] for n in POSES}
+    gyro_static = {n: gyro[slice(*idx[n])] for n in POSES}
+    acc_rot = {n: acc[slice(*idx[n])] for n in ROTATIONS}
+    gyro_rot = {n: gyro[slice(*idx[n])] for n in ROTATIONS}
+    if rate is not None:
+        return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, rate=rate, **kwargs)
+    step = np.diff(t)
+    step = np.append(step, step[-1])
+    dts = [step[slice(*idx[n])] for n in ROTATIONS]
+    return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, dt=dts, **kwargs)

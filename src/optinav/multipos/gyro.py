@@ -1,0 +1,674 @@
+"""Gyroscope calibration from a multi-position session without a turntable (Tedaldi, Pretto & Menegatti 2014).
+
+Forward model of the gyro triad (the optinav calibration convention)::
+
+    raw = K·ω + b,     ω = K⁻¹(raw − b)
+
+``ω`` is the true angular rate (rad/s) in the frame of the gravity directions ``u`` (the calibrated
+accelerometer's frame), ``raw`` the output in the input units (counts, deg/s, …), ``K`` (3×3, full: scale
+factors and all six misalignments; raw units per rad/s) and ``b`` (raw units).
+
+Observation (Tedaldi et al., ICRA 2014, §IV-B, eqs. 17–19): the device rests in static intervals
+k = 0 … K−1 and is turned by hand between them. ``u_k`` is the unit specific-force ("up") direction of
+interval k in the body frame, measured by the calibrated accelerometer. Integrating the corrected gyro over
+the motion from the last sample of interval k to the first of interval k+1 gives the body rotation
+``C_k = C_{b(k+1)}^{b(k)}``; with the right K and b the gravity direction carried along must land on the
+measured one::
+
+    r_k(θ) = C_k(θ)ᵀ u_k − u_{k+1}        (3 components, stacked over the K−1 transitions)
+
+The component of r_k along u_{k+1} is of second order (both vectors are unit), so each transition gives
+two constraints: ``n_transitions ≥ 5`` for the 9 entries of K (one spare for the noise estimate).
+
+Integration. Samples may be irregular: rates ω_j = K⁻¹(raw_j − b) are turned into trapezoidal increments
+``Δθ_j = ½(ω_j + ω_{j+1})(t_{j+1} − t_j)`` and composed with
+:func:`optinav.core.strapdown.attitude_update` using ``coning="previous"`` (the default), whose
+coefficient adapts to unequal steps (the multi-sample algorithms assume equal steps within a group).
+All transitions go through one numba call: the increment between two transitions is set to zero, which
+also zeroes the coning cross term, and ``C_k`` is ``q(start)* ⊗ q(end)``.
+
+Initial guess without hand-set numbers: ``K₀ = k₀·I`` where ``k₀`` comes from a 1-D search. The raw
+rotation of transition k (``‖∫(raw − b)dt‖`` in raw·s) over the gravity-direction change ``α_k`` bounds
+the scale from above, ``k̂ = ΣΘ_k/Σα_k``; the cost ``Σ‖r‖²`` of ``K = k·I`` is scanned on a log grid
+over ``[k̂/20, 2k̂]`` and refined by bounded 1-D minimization. The full K (and b) then follow by
+Levenberg–Marquardt (default) or Gauss–Newton / trust region through :func:`optinav.core.optimize.minimize`
+with finite-difference Jacobians. The first fit carries a weak pull to the initial guess,
+``σ_ref·(θ − θ₀)/(0.1·k₀)`` (``σ_ref`` the residual noise, so ±10 % scale / ±0.1 rad misalignment), so
+that directions the data do not fix cannot wander off to fit noise while the rank is judged; a full-rank
+problem is then refit without it (the reported K and b carry no prior).
+
+Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"rest"`` — mean over a
+rest window ``(t0, t1)`` s (fixed); ``"estimate"`` — b fitted with K, with each static interval's mean
+added as three residuals ``(m_k − b)/s_k`` (``s_k`` the standard error of the mean from the interval's
+sample scatter, white noise assumed) and the angle residuals weighted by ``1/σ̂`` from a first fit with
+the static bias; both groups are then rescaled to a unit variance factor (variance components, up to three
+passes), since the static means also scatter by the projected Earth rate and g-sensitivity, which the
+sample scatter does not show; a 3-vector — b fixed to it.
+
+Uncertainty. ``σ̂² = Σ‖r_k‖²/(2T − n)`` (the residual-estimated noise per tangential component, T
+transitions, n fitted parameters); covariance ``σ̂²(JᵀJ)⁻¹`` (Gauss–Newton at the solution; on the
+observable subspace, from :func:`optinav.core.observability.analyze`). With a fixed bias from data the
+bias' standard error is propagated into K (``G Σ_b Gᵀ`` with ``G = −(JᵀJ)⁻¹Jᵀ ∂r/∂b``). In
+``"estimate"`` mode the joint whitened residuals give the variance factor.
+
+Earth rate is neglected: the navigation frame turns by at most ``Ω_E·T_k`` during transition k, and a bias
+taken from static data absorbs the projected Earth rate (at most ``Ω_E`` rad/s), which integrates to at
+most ``Ω_E·T_k`` more; so each transition's residual is off by at most ``β_k = 2·Ω_E·T_k`` (≈ 2.9e-4 rad
+for a 2 s turn). :attr:`GyroCalibration.earth_rate_param_bound` propagates ``β`` to first order into each
+parameter (``Σ_k ‖(J⁺)_{i,k}‖ β_k``, and ``‖K_i,:‖·Ω_E`` for a static bias).
+
+Observability. A parameter combination whose standard deviation would exceed ``max_std`` (in units of
+``k₀`` for K, i.e. 5 % of the scale or 50 mrad of misalignment by default; ``0.01·k₀`` rad/s for b) counts
+as unobservable. A rank-deficient fit raises :class:`OptinavError` naming the combinations and the body
+axes about which rotations are missing, unless ``allow_unobservable=True``: then those directions are held
+at the initial guess, fitted on the observable subspace only, and listed in ``unobservable``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize as _sp
+
+from optinav.core import earth as _earth
+from optinav.core.observability import DEFAULT_REL_TOL, ObservabilityReport, analyze
+from optinav.core.optimize import Problem, minimize
+from optinav.core.results import Result
+from optinav.core.rotations import quat_conjugate, quat_multiply, quat_rotate
+from optinav.core.strapdown import attitude_update
+from optinav.core.validate import as_float_array, as_rng, check_timestamps
+from optinav.errors import OptinavError
+
+__all__ = ["GYRO_PARAMS", "GyroCalibration", "calibrate_gyro", "theta_to_Kb", "Kb_to_theta",
+           "transition_residuals", "MIN_TRANSITIONS"]
+
+#: parameter names in θ order: K row-major (K_ij: raw axis i per unit true rate about axis j), then b
+GYRO_PARAMS = ("K_xx", "K_xy", "K_xz", "K_yx", "K_yy", "K_yz", "K_zx", "K_zy", "K_zz", "b_x", "b_y", "b_z")
+#: fewest transitions: 2 constraints each for the 9 entries of K, plus one for the noise estimate
+MIN_TRANSITIONS = 5
+BIAS_MODES = ("static", "rest", "estimate")
+METHODS = ("lm", "gauss-newton", "trf")
+_CONING = ("previous", "none")
+_UNIT_TOL = 0.05   # |‖u‖ − 1| accepted for the up directions (they are normalized afterwards)
+_B_SCALE = 0.01    # rad/s: the magnitude b is judged at (x_scale, observability threshold)
+_PRIOR_K = 0.1     # std (units of k₀) of the pull to K₀ in the first, regularized fit
+_PRIOR_B = 1.0     # the same for b (rad/s × k₀): loose, b is fixed by the static means
+_COEF_TOL = 1e-2   # couplings below 1 % (scaled units) are left out of the words: weak noise-driven mixing
+
+
+def theta_to_Kb(theta) -> tuple[np.ndarray, np.ndarray]:
+    """θ (12,) → K (3, 3) and b (3,)."""
+    th = np.asarray(theta, dtype=float)
+    return th[:9].reshape(3, 3).copy(), th[9:12].copy()
+
+
+def Kb_to_theta(K, b) -> np.ndarray:
+    """K (3, 3), b (3,) → θ (12,) in :data:`GYRO_PARAMS` order."""
+    K = as_float_array(K, "K", last_dims=(3, 3))
+    b = as_float_array(b, "b", last_dims=(3,))
+    return np.concatenate([K.reshape(-1), b])
+
+
+@dataclass
+class GyroCalibration(Result):
+    """Gyro K (raw per rad/s) and b (raw) from gravity-direction matching; see the module docstring.
+
+    ``covariance`` is over θ = (K row-major, b) in :data:`GYRO_PARAMS` order; ``std`` entries are ``inf``
+    for parameters that are not individually observable and 0 for a bias given by the user.
+    """
+
+    SCHEMA = "optinav.gyro_calibration"
+    VERSION = 1
+
+    K: np.ndarray = field(metadata={"unit": "raw/(rad/s)"})
+    b: np.ndarray = field(metadata={"unit": "raw"})
+    K_std: np.ndarray = field(metadata={"unit": "raw/(rad/s)"})
+    b_std: np.ndarray = field(metadata={"unit": "raw"})
+    covariance: np.ndarray = field(metadata={"unit": "param^2"})
+    residual_rms: float = field(metadata={"unit": "rad"})
+    transition_residuals: np.ndarray = field(metadata={"unit": "rad"})
+    transition_angles: np.ndarray = field(metadata={"unit": "rad"})
+    transition_durations: np.ndarray = field(metadata={"unit": "s"})
+    n_transitions: int = field(metadata={"unit": ""})
+    sigma: float = field(metadata={"unit": "rad"})
+    dof: int = field(metadata={"unit": ""})
+    k0: float = field(metadata={"unit": "raw/(rad/s)"})
+    observability: ObservabilityReport = field(metadata={"unit": "-"})
+    unobservable: list = field(metadata={"unit": "-"})
+    earth_rate_bound: np.ndarray = field(metadata={"unit": "rad"})
+    earth_rate_param_bound: np.ndarray = field(metadata={"unit": "param"})
+    method: str = field(metadata={"unit": "-"})
+    bias_mode: str = field(metadata={"unit": "-"})
+    coning: str = field(metadata={"unit": "-"})
+    success: bool = field(metadata={"unit": "-"})
+    message: str = field(metadata={"unit": "-"})
+    nfev: int = field(metadata={"unit": ""})
+    elapsed_s: float = field(metadata={"unit": "s"})
+
+    def correct(self, gyro_raw) -> np.ndarray:
+        """Calibrated rate ω = K⁻¹(raw − b), rad/s, for raw (..., 3)."""
+        raw = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
+        return np.linalg.solve(np.asarray(self.K), (raw - np.asarray(self.b)).reshape(-1, 3).T).T.reshape(
+            raw.shape)
+
+    def scale_misalignment(self) -> tuple[np.ndarray, np.ndarray]:
+        """Relative scale factors ``diag(K)/k`` (k = mean diagonal) and misalignments ``K_ij/K_ii`` (rad)."""
+        K = np.asarray(self.K)
+        d = np.diag(K)
+        return d / d.mean(), K / d[:, None] - np.eye(3)
+
+    def summary(self) -> str:
+        K, Ks = np.asarray(self.K), np.asarray(self.K_std)
+        lines = [f"Gyro calibration ({self.method}, bias {self.bias_mode}): {self.n_transitions} transitions, "
+                 f"residual RMS {self.residual_rms:.3g} rad, σ̂ {self.sigma:.3g} rad ({self.dof} dof), "
+                 f"{self.elapsed_s:.3g} s"]
+        for i in range(3):
+            row = "  ".join(f"{K[i, j]:12.6g} ± {Ks[i, j]:.2g}" for j in range(3))
+            lines.append(f"  K[{'xyz'[i]}] = {row}  raw/(rad/s)")
+        lines.append("  b = " + ", ".join(f"{v:.6g} ± {s:.2g}" for v, s in zip(self.b, self.b_std)) + " raw")
+        if self.unobservable:
+            lines.append("  held at the initial guess (unobservable): " + "; ".join(self.unobservable))
+        lines.append(f"  Earth rate neglected: ≤ {np.max(self.earth_rate_bound):.2g} rad per transition")
+        return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------------------------
+# input handling
+# ------------------------------------------------------------------------------------------------------
+
+def _intervals(static_intervals, t: np.ndarray, units: str) -> np.ndarray:
+    iv = as_float_array(static_intervals, "static_intervals", last_dims=(2,))
+    if iv.ndim != 2:
+        raise OptinavError(f"static_intervals has shape {iv.shape}, expected (K, 2)",
+                           "pass one [start, end) pair per static interval")
+    n = t.size
+    if units == "samples":
+        if np.any(iv != np.round(iv)):
+            raise OptinavError("static_intervals are not whole sample indices",
+                               "pass integer [i0, i1) index pairs, or interval_units='s' for times")
+        idx = iv.astype(np.int64)
+    elif units == "s":
+        if np.any(iv[:, 1] <= iv[:, 0]):
+            k = int(np.flatnonzero(iv[:, 1] <= iv[:, 0])[0])
+            raise OptinavError(f"static interval {k} ends before it starts ({iv[k, 0]:.6g} s → {iv[k, 1]:.6g} s)",
+                               "give [t0, t1] with t0 < t1")
+        idx = np.stack([np.searchsorted(t, iv[:, 0], "left"), np.searchsorted(t, iv[:, 1], "right")], 1)
+    else:
+        raise OptinavError(f"interval_units={units!r} is not understood", "use 'samples' or 's'")
+    bad = (idx[:, 0] < 0) | (idx[:, 1] > n)
+    if np.any(bad):
+        k = int(np.flatnonzero(bad)[0])
+        raise OptinavError(f"static interval {k} [{idx[k, 0]}, {idx[k, 1]}) is outside the {n} samples",
+                           "give sample ranges within the log")
+    short = idx[:, 1] - idx[:, 0] < 2
+    if np.any(short):
+        k = int(np.flatnonzero(short)[0])
+        raise OptinavError(f"static interval {k} holds {max(int(idx[k, 1] - idx[k, 0]), 0)} sample(s)",
+                           "give each static interval at least two samples")
+    over = idx[1:, 0] < idx[:-1, 1]
+    if np.any(over):
+        k = int(np.flatnonzero(over)[0])
+        what = "overlaps" if idx[k + 1, 0] >= idx[k, 0] else "starts before"
+        raise OptinavError(f"static interval {k + 1} {what} interval {k} "
+                           f"([{idx[k + 1, 0]}, {idx[k + 1, 1]}) vs [{idx[k, 0]}, {idx[k, 1]}))",
+                           "pass disjoint intervals sorted in time")
+    return idx
+
+
+def _up_dirs(up_dirs, n_int: int) -> np.ndarray:
+    u = as_float_array(up_dirs, "up_dirs", last_dims=(3,))
+    if u.ndim != 2 or u.shape[0] != n_int:
+        raise OptinavError(f"up_dirs has shape {u.shape}, expected ({n_int}, 3) for {n_int} static intervals",
+                           "give one gravity direction per static interval")
+    nrm = np.linalg.norm(u, axis=1)
+    bad = np.abs(nrm - 1.0) > _UNIT_TOL
+    if np.any(bad):
+        k = int(np.flatnonzero(bad)[0])
+        raise OptinavError(f"up_dirs[{k}] has norm {nrm[k]:.4g}, not a unit vector",
+                           "normalize the mean calibrated specific force of each interval")
+    return u / nrm[:, None]
+
+
+def _choice(value, options, name: str) -> str:
+    v = str(value).lower() if isinstance(value, str) else None
+    if v not in options:
+        raise OptinavError(f"{name}={value!r} is not understood", f"use one of {', '.join(map(repr, options))}")
+    return v
+
+
+# ------------------------------------------------------------------------------------------------------
+# the model
+# ------------------------------------------------------------------------------------------------------
+
+class _Transitions:
+    """The motion samples of all transitions, concatenated for one strapdown call per evaluation."""
+
+    def __init__(self, t, raw, idx, u, coning):
+        segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in range(idx.shape[0] - 1)]
+        lens = np.array([s.size for s in segs])
+        self.ends = np.cumsum(lens) - 1
+        self.starts = self.ends - lens + 1
+        sel = np.concatenate(segs)
+        self.raw = raw[sel]
+        tt = t[sel]
+        h = np.diff(tt)
+        self.gap = np.zeros(h.size, dtype=bool)
+        self.gap[self.ends[:-1]] = True          # increment joining two transitions
+        h[self.gap] = np.median(h[~self.gap])    # any positive step: its increment is zero
+        self.h = h
+        self.durations = tt[self.ends] - tt[self.starts]
+        self.u0, self.u1 = u[:-1], u[1:]
+        self.coning = coning
+
+    def rotations(self, K, b) -> np.ndarray:
+        """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
+        w = (self.raw - b) @ np.linalg.inv(K).T
+        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
+        dth[self.gap] = 0.0
+        q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
+        return quat_multiply(quat_conjugate(q[self.starts]), q[self.ends])
+
+    def residuals(self, K, b) -> np.ndarray:
+        """r_k = C_kᵀ u_k − u_{k+1}, (T, 3)."""
+        q = self.rotations(K, b)
+        return quat_rotate(quat_conjugate(q), self.u0) - self.u1
+
+    def raw_rotation(self, b) -> np.ndarray:
+        """‖∫(raw − b)dt‖ per transition (raw·s), the rotation angle times the scale for K = k·I."""
+        w = self.raw - b
+        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
+        dth[self.gap] = 0.0
+        cs = np.vstack([np.zeros((1, 3)), np.cumsum(dth, axis=0)])
+        return np.linalg.norm(cs[self.ends] - cs[self.starts], axis=1)
+
+
+def transition_residuals(t, gyro_raw, static_intervals, up_dirs, K, b, *, interval_units: str = "samples",
+                         coning: str = "previous") -> np.ndarray:
+    """Residuals r_k = C_kᵀu_k − u_{k+1} (T, 3) of a given K (raw per rad/s) and b (raw); see the module doc."""
+    t = check_timestamps(t, "t")
+    raw = _raw(gyro_raw, t.size)
+    idx = _intervals(static_intervals, t, _choice(interval_units, ("samples", "s"), "interval_units"))
+    u = _up_dirs(up_dirs, idx.shape[0])
+    tr = _Transitions(t, raw, idx, u, _choice(coning, _CONING, "coning"))
+    return tr.residuals(as_float_array(K, "K", last_dims=(3, 3)), as_float_array(b, "b", last_dims=(3,)))
+
+
+def _raw(gyro_raw, n: int) -> np.ndarray:
+    raw = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
+    if raw.ndim != 2 or raw.shape[0] != n:
+        raise OptinavError(f"gyro_raw has shape {raw.shape}, expected ({n}, 3) to match t",
+                           "pass one gyro sample per timestamp")
+    return raw
+
+
+def _angles(r: np.ndarray, u1: np.ndarray) -> np.ndarray:
+    """Angle between the predicted (r + u1) and measured (u1) directions, rad."""
+    p = r + u1
+    return np.arctan2(np.linalg.norm(np.cross(p, u1), axis=1), np.einsum("ij,ij->i", p, u1))
+
+
+def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
+    """k₀ of K = k₀·I by a log-grid scan and a bounded 1-D refinement (see the module docstring)."""
+    theta = tr.raw_rotation(b)
+    alpha = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
+    if alpha.sum() < np.radians(5.0) or theta.sum() <= 0:
+        raise OptinavError(f"the transitions change the gravity direction by only {np.degrees(alpha.sum()):.3g}° "
+                           "in total, so the gyro scale cannot be found",
+                           "turn the device between poses so that the up axis changes (e.g. flips about x, y, z)")
+    k_hat = theta.sum() / alpha.sum()
+
+    def cost(s):
+        r = tr.residuals(np.exp(s) * np.eye(3), b)
+        return float(np.sum(r * r))
+
+    grid = np.log(k_hat) + np.linspace(np.log(1 / 20), np.log(2.0), 49)
+    c = np.array([cost(s) for s in grid])
+    i = int(np.argmin(c))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    res = _sp.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
+    s = res.x if res.fun <= c[i] else grid[i]
+    return float(np.exp(s))
+
+
+def _stats(raw, idx):
+    """Per-interval means (K, 3), standard errors of the means (K, 3) and sample counts (K,)."""
+    n = idx[:, 1] - idx[:, 0]
+    m = np.array([raw[i0:i1].mean(0) for i0, i1 in idx])
+    s = np.array([raw[i0:i1].std(0, ddof=1) for i0, i1 in idx]) / np.sqrt(n)[:, None]
+    return m, s, n
+
+
+def _missing_axes(rep: ObservabilityReport) -> str:
+    cols = set()
+    for d in rep.unobservable_directions:
+        for j, ax in enumerate("xyz"):
+            if any(f"K_{r}{ax}" in d for r in "xyz"):
+                cols.add(j)
+    bias = any("b_" in d for d in rep.unobservable_directions)
+    if cols:
+        ax = ["xyz"[j] for j in sorted(cols)]
+        axes = ax[0] if len(ax) == 1 else ", ".join(ax[:-1]) + " and " + ax[-1]
+        txt = (f"add poses whose transitions rotate about the body {axes} {'axes' if len(cols) > 1 else 'axis'} "
+               f"(e.g. flip the device about {axes} so that gravity moves in the plane normal to it)")
+    else:
+        txt = "add transitions about other axes and between more different poses"
+    if bias:
+        txt += "; give longer static intervals or a bias vector"
+    return txt + ", or pass allow_unobservable=True"
+
+
+# ------------------------------------------------------------------------------------------------------
+# the calibration
+# ------------------------------------------------------------------------------------------------------
+
+def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", rest=None, method: str = "lm",
+                   x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
+                   allow_unobservable: bool = False, max_std: float = 0.05) -> GyroCalibration:
+    """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
+
+    Parameters
+    ----------
+    t : (N,) s, strictly increasing (irregular steps are fine).
+    gyro_raw : (N, 3) gyro output in raw units (counts, deg/s, …: K and b come out in those units).
+    static_intervals : (K, 2) static intervals in time order, disjoint: sample index pairs ``[i0, i1)``
+        (``interval_units="samples"``, default) or times ``[t0, t1]`` in s (``interval_units="s"``).
+    up_dirs : (K, 3) unit specific-force direction of each interval in the body frame (normalized mean of
+        the calibrated accelerometer); defines the frame of ω.
+    bias : "static", "rest", "estimate" or a 3-vector in raw units (module docstring).
+    rest : (t0, t1) s, the rest window of ``bias="rest"``.
+    method : "lm" (default), "gauss-newton" or "trf" (:func:`optinav.core.optimize.minimize`).
+    x0 : initial K (3, 3) raw per rad/s, or θ (12,) = (K row-major, b); None = the 1-D scale step.
+    rng : seed or Generator, passed to the optimizer (the local methods are deterministic).
+    coning : "previous" (default, adapts to irregular steps) or "none".
+    allow_unobservable : hold unobservable directions at the initial guess instead of raising.
+    max_std : combinations with a larger standard deviation (units of k₀ for K, 0.01·k₀ for b) are
+        treated as unobservable.
+    """
+    t_start = time.perf_counter()
+    t = check_timestamps(t, "t", min_count=4)
+    raw = _raw(gyro_raw, t.size)
+    units = _choice(interval_units, ("samples", "s"), "interval_units")
+    idx = _intervals(static_intervals, t, units)
+    u = _up_dirs(up_dirs, idx.shape[0])
+    method = _choice(method, METHODS, "method")
+    coning = _choice(coning, _CONING, "coning")
+    try:
+        max_std = float(max_std)
+    except (TypeError, ValueError):
+        max_std = float("nan")
+    if not (np.isfinite(max_std) and max_std > 0):
+        raise OptinavError(f"max_std must be a positive number, got {max_std!r}", "pass e.g. 0.05")
+    n_tr = idx.shape[0] - 1
+    if n_tr < MIN_TRANSITIONS:
+        raise OptinavError(f"{n_tr} transition(s) between {idx.shape[0]} static intervals, at least "
+                           f"{MIN_TRANSITIONS} are needed (each gives 2 constraints on the 9 entries of K, "
+                           "plus one for the noise estimate)",
+                           f"record at least {MIN_TRANSITIONS + 1} static poses with turns about all three axes")
+    gen = as_rng(rng)
+
+    # --- bias
+    means, sems, counts = _stats(raw, idx)
+    if isinstance(bias, str):
+        mode = _choice(bias, BIAS_MODES, "bias")
+        b_fixed = None
+    else:
+        mode = "given"
+        b_fixed = as_float_array(bias, "bias", last_dims=(3,))
+        if b_fixed.shape != (3,):
+            raise OptinavError(f"bias has shape {b_fixed.shape}, expected (3,)", "pass one bias per axis (raw)")
+    if rest is not None and mode != "rest":
+        raise OptinavError(f"rest was given but bias={bias if mode != 'given' else 'a vector'!r}",
+                           "pass bias='rest' to use the rest window, or drop rest")
+    b_cov = np.zeros((3, 3))
+    if mode == "rest":
+        if rest is None:
+            raise OptinavError("bias='rest' needs the rest window", "pass rest=(t0, t1) in s")
+        w = as_float_array(rest, "rest")
+        if w.shape != (2,) or not w[1] > w[0]:
+            raise OptinavError(f"rest must be (t0, t1) with t0 < t1 in s, got {w.tolist()}", "pass rest=(t0, t1)")
+        sel = (t >= w[0]) & (t <= w[1])
+        if np.count_nonzero(sel) < 2:
+            raise OptinavError(f"the rest window [{w[0]:.6g}, {w[1]:.6g}] s holds {np.count_nonzero(sel)} sample(s)",
+                               "give a window inside the log with at least two samples")
+        b_fixed = raw[sel].mean(0)
+        b_cov = np.diag(raw[sel].var(0, ddof=1) / np.count_nonzero(sel))
+    elif mode in ("static", "estimate"):
+        b_static = (counts[:, None] * means).sum(0) / counts.sum()
+        b_cov = np.diag((counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2)
+        if mode == "static":
+            b_fixed = b_static
+    b_init = b_fixed if b_fixed is not None else b_static
+
+    tr = _Transitions(t, raw, idx, u, coning)
+
+    # --- initial guess
+    if x0 is None:
+        k0 = _scale_guess(tr, b_init)
+        K0 = k0 * np.eye(3)
+    else:
+        xa = as_float_array(x0, "x0")
+        if xa.shape == (3, 3):
+            K0 = xa
+        elif xa.shape == (12,):
+            K0, bx = theta_to_Kb(xa)
+            if mode == "estimate":
+                b_init = bx
+        else:
+            raise OptinavError(f"x0 has shape {xa.shape}, expected K (3, 3) or θ (12,)", "pass the initial K")
+        if abs(np.linalg.det(K0)) <= 1e-12 * np.abs(K0).max() ** 3:
+            raise OptinavError("x0 is a singular K", "pass an invertible initial K (raw per rad/s)")
+        k0 = float(np.abs(np.diag(K0)).mean())
+
+    n_par = 12 if mode == "estimate" else 9
+    names = list(GYRO_PARAMS[:n_par])
+    scales = np.array([k0] * 9 + [k0 * _B_SCALE] * 3)[:n_par]
+    param_units = (["raw/(rad/s)"] * 9 + ["raw"] * 3)[:n_par]
+
+    def split(p):
+        if mode == "estimate":
+            return p[:9].reshape(3, 3), p[9:12]
+        return p.reshape(3, 3), b_fixed
+
+    def angle_res(p):
+        K, b = split(p)
+        try:
+            return tr.residuals(K, b).reshape(-1)
+        except np.linalg.LinAlgError:
+            return np.full(3 * n_tr, 2.0)
+
+    p_guess = np.concatenate([K0.reshape(-1), b_init]) if mode == "estimate" else K0.reshape(-1)
+    prior_sd = np.array([_PRIOR_K * k0] * 9 + [_PRIOR_B * k0] * 3)[:n_par]
+
+    # --- fit (in "estimate" a first fit with the static bias sets the weight 1/σ̂ of the angle residuals)
+    sigma_w = 1.0
+    p_start = p_guess
+    nfev = 0
+    if mode == "estimate":
+        def ang_static(p):
+            return angle_res(np.concatenate([p, b_static]))
+
+        pre, n_ev = _fit_regularized(ang_static, K0.reshape(-1), K0.reshape(-1), prior_sd[:9], 2 * n_tr - 9,
+                                     names[:9], scales[:9], method, gen)
+        nfev += n_ev
+        sigma_w = max(_sigma_hat(ang_static(pre.x), 2 * n_tr - 9), 1e-12)
+        p_start = np.concatenate([pre.x, b_init])
+        # the static means scatter about one b by more than their noise when the projected Earth rate or
+        # g-sensitivity exceed it: scale that group to a unit variance factor before weighing it
+        zs = (means - b_static) / sems
+        wts = {"a": sigma_w, "s": max(1.0, float(np.sqrt(np.sum(zs * zs) / max(zs.size - 3, 1))))}
+
+        def residuals(p):
+            return np.concatenate([angle_res(p) / wts["a"], ((means - p[9:12]) / (sems * wts["s"])).reshape(-1)])
+    else:
+        residuals = angle_res
+
+    n_res_eff = 2 * n_tr + (3 * idx.shape[0] if mode == "estimate" else 0)
+    dof = n_res_eff - n_par
+    res_a, n_ev = _fit_regularized(residuals, p_guess, p_start, prior_sd, dof, names, scales, method, gen)
+    nfev += n_ev
+    r_a = residuals(res_a.x)
+    J_a = np.asarray(res_a.jacobian)[: r_a.size]
+    rep = _report(J_a, r_a, dof, names, param_units, scales, max_std)
+    if rep.full_rank:
+        res = _fit(residuals, res_a.x, names, scales, method, gen)
+        nfev += res.nfev
+        if mode == "estimate":
+            # variance components: rescale each group to a unit variance factor (the static means also carry
+            # the projected Earth rate and g-sensitivity, which their sample scatter does not show)
+            for _ in range(3):
+                ra, rs = res.residuals[: 3 * n_tr], res.residuals[3 * n_tr:]
+                fa = float(ra @ ra) / max(2 * n_tr - 9, 1)
+                fs = float(rs @ rs) / max(3 * idx.shape[0] - 3, 1)
+                if fa <= 0 or fs <= 0 or 0.8 < fa / fs < 1.25:
+                    break
+                wts["a"] *= np.sqrt(fa)
+                wts["s"] *= np.sqrt(fs)
+                res = _fit(residuals, res.x, names, scales, method, gen)
+                nfev += res.nfev
+            sigma_w = wts["a"]
+            sems = sems * wts["s"]
+        p_hat, J, r_fin = res.x, np.asarray(res.jacobian), np.asarray(res.residuals)
+        rep = _report(J, r_fin, dof, names, param_units, scales, max_std)
+        J_a, r_a = J, r_fin
+    unobservable: list[str] = []
+    if not rep.full_rank:
+        unobservable = list(rep.unobservable_directions)
+        if not allow_unobservable:
+            raise OptinavError(
+                f"gyro calibration is rank-deficient (rank {rep.rank}/{n_par}); unobservable: "
+                + "; ".join(unobservable), _missing_axes(rep))
+        # hold the null directions at the initial guess: fit only along the observable subspace
+        Js = (J_a / _sigma_hat(r_a, dof)) * scales[None, :]
+        _, _, vt = np.linalg.svd(Js, full_matrices=True)
+        basis = (vt[: rep.rank].T) * scales[:, None]
+
+        def sub(z):
+            return residuals(p_guess + basis @ z)
+
+        res = _fit(sub, np.zeros(rep.rank), [f"z{i}" for i in range(rep.rank)], np.ones(rep.rank), method, gen)
+        nfev += res.nfev
+        p_hat = p_guess + basis @ res.x
+        r_fin = residuals(p_hat)
+        J = _jac(residuals, p_hat, scales, r_fin)
+        dof = n_res_eff - rep.rank
+        rep = _report(J, r_fin, dof, names, param_units, scales, max_std)
+
+    # --- uncertainty
+    sig_hat = _sigma_hat(r_fin, dof)
+    cov_fit = np.asarray(rep.covariance)
+    K_hat, b_hat = split(p_hat)
+    cov = np.zeros((12, 12))
+    cov[:n_par, :n_par] = cov_fit
+    A = _pinv(J, scales, rep.rank)                                    # n_par × m, on the observable subspace
+    r_ang = tr.residuals(K_hat, b_hat)
+    if mode == "estimate":
+        sigma_ang = sigma_w * sig_hat
+    else:
+        sigma_ang = sig_hat
+        cov[9:, 9:] = b_cov
+        if mode in ("static", "rest"):
+            Jb = _jac(lambda bb: tr.residuals(K_hat, bb).reshape(-1), b_hat, np.full(3, k0 * _B_SCALE),
+                      r_ang.reshape(-1))
+            G = -A @ Jb
+            cov[:9, :9] += G @ b_cov @ G.T
+            cov[:9, 9:] = G @ b_cov
+            cov[9:, :9] = cov[:9, 9:].T
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    obs = np.ones(12, dtype=bool)
+    obs[:n_par] = np.asarray(rep.observable, dtype=bool)
+    std = np.where(obs, std, np.inf)
+
+    # --- Earth-rate bound (first order, see the module docstring)
+    om = _earth.constants("wgs84").omega_ie
+    beta = 2.0 * om * tr.durations
+    bound = np.zeros(12)
+    Aa = A[:, : 3 * n_tr].reshape(n_par, n_tr, 3)
+    scale_ang = 1.0 / sigma_w if mode == "estimate" else 1.0
+    bound[:n_par] = np.linalg.norm(Aa, axis=2) @ beta * scale_ang
+    row_norm = np.linalg.norm(K_hat, axis=1)
+    if mode == "estimate":
+        As = np.abs(A[:, 3 * n_tr:]).reshape(n_par, idx.shape[0], 3)
+        bound[:n_par] += np.einsum("pki,ki->p", As, (row_norm * om)[None, :] / sems)
+    elif mode in ("static", "rest"):
+        bound[9:] = row_norm * om
+    bound[~obs] = np.inf
+
+    angles = _angles(r_ang, tr.u1)
+    rot_ang = 2.0 * np.arctan2(np.linalg.norm(tr.rotations(K_hat, b_hat)[:, 1:], axis=1),
+                               np.abs(tr.rotations(K_hat, b_hat)[:, 0]))
+    return GyroCalibration(
+        K=K_hat.copy(), b=np.asarray(b_hat, dtype=float).copy(), K_std=std[:9].reshape(3, 3),
+        b_std=std[9:].copy(), covariance=cov, residual_rms=float(np.sqrt(np.mean(angles ** 2))),
+        transition_residuals=angles, transition_angles=rot_ang, transition_durations=tr.durations.copy(),
+        n_transitions=int(n_tr), sigma=float(sigma_ang), dof=int(dof), k0=float(k0), observability=rep,
+        unobservable=unobservable, earth_rate_bound=beta, earth_rate_param_bound=bound, method=method,
+        bias_mode=mode, coning=coning, success=bool(res.success), message=str(res.message), nfev=int(nfev),
+        elapsed_s=time.perf_counter() - t_start)
+
+
+def _sigma_hat(r, dof: int) -> float:
+    """σ̂ = √(Σr²/dof) (the radial residual components are ~0, so dof counts 2 per transition)."""
+    r = np.asarray(r)
+    return float(np.sqrt(r @ r / dof)) if dof > 0 else float("nan")
+
+
+def _fit(residuals, p0, names, scales, method, gen):
+    prob = Problem(residuals=residuals, x0=np.asarray(p0, dtype=float), names=list(names), x_scale=scales)
+    opts = {"max_iter": 50} if method == "gauss-newton" else {}
+    return minimize(prob, method, rng=gen, **opts)
+
+
+def _fit_regularized(residuals, p_guess, p_start, prior_sd, dof, names, scales, method, gen):
+    """Fit with a weak pull to the initial guess, ``σ_ref·(p − p_guess)/prior_sd`` appended to the residuals.
+
+    Directions the data do not fix would otherwise wander off to fit noise, which spoils σ̂ and the Jacobian
+    the rank is judged on. ``σ_ref`` puts the pull in the residuals' units: first the RMS residual at the
+    start (an overestimate, so a weaker pull), then σ̂ of that first fit. The caller refits without the pull.
+    """
+    r0 = np.asarray(residuals(p_start))
+    sig = float(np.sqrt(r0 @ r0 / r0.size))
+    x, nfev = np.asarray(p_start, dtype=float), 0
+    for _ in range(2):
+        s_ref = sig if np.isfinite(sig) and sig > 0 else 1.0
+
+        def fun(p, s_ref=s_ref):
+            return np.concatenate([residuals(p), s_ref * (p - p_guess) / prior_sd])
+
+        res = _fit(fun, x, names, scales, method, gen)
+        nfev += res.nfev
+        x = res.x
+        sig = _sigma_hat(residuals(x), dof)
+    return res, nfev
+
+
+def _pinv(J, scales, rank: int) -> np.ndarray:
+    """Pseudo-inverse of J truncated to its ``rank`` strongest directions in scaled units (u = p/scales)."""
+    U, s, vt = np.linalg.svd(J * scales[None, :], full_matrices=False)
+    return (scales[:, None] * vt[:rank].T / s[:rank]) @ U[:, :rank].T
+
+
+def _jac(fun, p, scales, r0):
+    """Forward-difference Jacobian with steps √ε·max(|p|, scale) (same rule as the optimizer's)."""
+    h = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(p), scales)
+    J = np.empty((r0.size, p.size))
+    for j in range(p.size):
+        e = np.zeros(p.size)
+        e[j] = h[j]
+        J[:, j] = (np.asarray(fun(p + e)).reshape(-1) - r0) / h[j]
+    return J
+
+
+def _report(J, r, dof, names, units, scales, max_std) -> ObservabilityReport:
+    """analyze() with σ̂ from the residuals and a rank threshold of std ≤ max_std in units of ``scales``."""
+    sig = _sigma_hat(r, dof)
+    if not np.isfinite(sig) or sig <= 0:
+        sig = 1e-300 if np.isfinite(sig) else 1.0
+    Js = (J / sig) * scales[None, :]
+    s = np.linalg.svd(Js, compute_uv=False)
+    if s.size == 0 or s[0] <= 0:
+        raise OptinavError("the transitions carry no information on the gyro parameters",
+                           "turn the device between the static poses")
+    rel = min(max(1.0 / (max_std * s[0]), DEFAULT_REL_TOL), 0.999)
+    return analyze(J, sigma=sig, names=names, units=units, scales=scales, rel_tol=rel, coef_tol=_COEF_TOL)

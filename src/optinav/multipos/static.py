@@ -1,0 +1,555 @@
+"""Static-interval detection on raw IMU logs, and manual section lists.
+
+A sample is *static* when the total moving variance of the accelerometer (and, if given, of the gyroscope)
+over a centred window of ``window_s`` seconds is below a threshold. The moving variance is
+``v(t_i) = Σ_axes var{x(t) : |t − t_i| ≤ window_s/2}`` (population variance, in the input units²), computed
+for irregular timestamps from cumulative sums with window bounds found by ``searchsorted``. Runs of static
+samples become intervals; each is trimmed by ``trim_s`` (default half a window) at both ends so that slow
+motion onsets do not leak in, and intervals shorter than ``min_duration_s`` after trimming are dropped.
+
+Automatic threshold (imu_tk's idea, Tedaldi et al., ICRA 2014, §IV-A: thresholds as multiples of the noise
+variance): the noise floor is the mode of log10(v) (a calibration log is mostly at rest, so the densest
+variance level is the at-rest noise; ``init_rest_s`` uses the variance of an initial rest period instead, as
+imu_tk does). Candidates are ``m × floor`` for geometrically spaced multipliers ``m``; the same ``m`` applies
+to the gyroscope floor. :func:`threshold_candidates` returns them all with their detections, so a
+calibrator can choose by a fit criterion; :func:`detect_static` with ``threshold=None`` takes the default
+rule below (:func:`default_candidate`), which never prefers a candidate just because it finds fewer
+intervals:
+
+    the largest interval count that is *stable*, i.e. found by at least :data:`STABLE_RUN` consecutive
+    candidates (a factor ≈ 1.9 in threshold); the middle candidate of its longest such run.
+
+Too-low thresholds split poses into fragments that ``min_duration_s`` drops, too-high ones merge poses
+through slow motion; both give fewer intervals, so the largest stable count is the plateau of separated
+poses, and its geometric middle is farthest from both failure modes. A count that appears for one or two
+candidates only (a borderline pause) is not trusted. Note that an accelerometer alone cannot see a rotation
+about the vertical; pass ``gyro`` to exclude such turns.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from optinav.core.results import Result
+from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.errors import OptinavError
+
+__all__ = ["StaticDetection", "ThresholdCandidates", "SectionList", "moving_variance", "noise_floor",
+           "threshold_candidates", "default_candidate", "detect_static", "intervals_from_mask",
+           "sections_from_list", "detection_from_sections", "DEFAULT_MULTIPLIERS", "STABLE_RUN"]
+
+#: default threshold multipliers of the noise floor (geometric, 1.5 … 300, ratio ≈ 1.37)
+DEFAULT_MULTIPLIERS = tuple(float(m) for m in np.geomspace(1.5, 300.0, 18))
+#: a count is "stable" when it holds over this many consecutive candidates (a factor ≈ 1.9 in threshold)
+STABLE_RUN = 3
+
+_EPS = np.finfo(float).eps
+
+
+# --------------------------------------------------------------------------------------------------------
+# results
+# --------------------------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class StaticDetection(Result):
+    """Static intervals found in a log.
+
+    ``t_intervals`` (K, 2) are [t0, t1] in s (first and last sample time); ``index_ranges`` (K, 2) are the
+    half-open sample ranges [i0, i1) of the same intervals; ``acc_means``/``gyro_means`` (K, 3) the mean
+    outputs per interval (input units) and ``counts`` (K,) the samples per interval. ``acc_variance`` and
+    ``gyro_variance`` (N,) are the moving variances (input units²); ``threshold``/``gyro_threshold`` the
+    values used. ``method`` is "auto", "threshold" or "manual".
+    """
+
+    SCHEMA = "optinav.static_detection"
+    VERSION = 1
+
+    t_intervals: np.ndarray = field(metadata={"unit": "s"})
+    index_ranges: np.ndarray = field(metadata={"unit": ""})
+    acc_means: np.ndarray = field(metadata={"unit": "input acc units"})
+    gyro_means: np.ndarray | None = field(metadata={"unit": "input gyro units"})
+    counts: np.ndarray = field(metadata={"unit": ""})
+    acc_variance: np.ndarray | None = field(metadata={"unit": "(input acc units)^2"})
+    gyro_variance: np.ndarray | None = field(metadata={"unit": "(input gyro units)^2"})
+    threshold: float | None = field(metadata={"unit": "(input acc units)^2"})
+    gyro_threshold: float | None = field(metadata={"unit": "(input gyro units)^2"})
+    window_s: float | None = field(metadata={"unit": "s"})
+    min_duration_s: float | None = field(metadata={"unit": "s"})
+    trim_s: float | None = field(metadata={"unit": "s"})
+    method: str = field(default="threshold", metadata={"unit": "-"})
+    names: list | None = field(default=None, metadata={"unit": "-"})
+
+    @property
+    def n_intervals(self) -> int:
+        return int(len(self.index_ranges))
+
+    @property
+    def durations(self) -> np.ndarray:
+        """Interval durations t1 − t0 (s)."""
+        ti = np.asarray(self.t_intervals, dtype=float).reshape(-1, 2)
+        return ti[:, 1] - ti[:, 0]
+
+    def mask(self, n: int) -> np.ndarray:
+        """Boolean (n,) mask of the samples inside the intervals."""
+        m = np.zeros(int(n), dtype=bool)
+        for i0, i1 in np.asarray(self.index_ranges, dtype=int).reshape(-1, 2):
+            m[i0:i1] = True
+        return m
+
+
+@dataclass(eq=False)
+class ThresholdCandidates:
+    """Candidate thresholds ``multipliers × noise floor`` and the detection each gives.
+
+    ``thresholds``/``gyro_thresholds`` (M,) in input units²; ``n_intervals`` (M,), ``static_time_s`` (M,);
+    ``detections`` the M :class:`StaticDetection` (sharing the variance arrays); ``default_index`` the
+    candidate picked by the rule in the module docstring.
+    """
+
+    multipliers: np.ndarray
+    noise_floor: float
+    gyro_noise_floor: float | None
+    thresholds: np.ndarray
+    gyro_thresholds: np.ndarray | None
+    n_intervals: np.ndarray
+    static_time_s: np.ndarray
+    detections: list
+    default_index: int
+
+    @property
+    def default(self) -> StaticDetection:
+        return self.detections[self.default_index]
+
+
+@dataclass(eq=False)
+class SectionList(Result):
+    """Validated, time-ordered sections of a log: ``t_intervals`` (K, 2) [t0, t1] s (first and last sample
+    time), ``index_ranges`` (K, 2) half-open sample ranges [i0, i1), ``names`` (K,) ('' when unnamed)."""
+
+    SCHEMA = "optinav.section_list"
+    VERSION = 1
+
+    t_intervals: np.ndarray = field(metadata={"unit": "s"})
+    index_ranges: np.ndarray = field(metadata={"unit": ""})
+    names: list = field(metadata={"unit": "-"})
+
+    def as_dict(self) -> dict:
+        """name → (i0, i1) (needs unique non-empty names)."""
+        if len(set(self.names)) != len(self.names) or "" in self.names:
+            raise OptinavError("the sections are not uniquely named", "name every section once")
+        return {n: (int(a), int(b)) for n, (a, b) in zip(self.names, np.asarray(self.index_ranges, dtype=int))}
+
+
+# --------------------------------------------------------------------------------------------------------
+# moving variance and noise floor
+# --------------------------------------------------------------------------------------------------------
+
+def _check_t_x(t, x, name: str) -> tuple[np.ndarray, np.ndarray]:
+    t = check_timestamps(t, "t", min_count=2)
+    x = as_float_array(x, name, last_dims=(3,))
+    if x.ndim != 2 or x.shape[0] != t.size:
+        raise OptinavError(f"{name} has shape {x.shape} but t has {t.size} samples",
+                           f"pass {name} as an (N, 3) array with one row per timestamp")
+    return t, x
+
+
+def _window_bounds(t: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+    half = 0.5 * window_s
+    # a tiny relative slack keeps samples exactly half a window away inside despite rounding of t
+    slack = 1e-9 * max(window_s, 1e-300)
+    lo = np.searchsorted(t, t - half - slack, side="left")
+    hi = np.searchsorted(t, t + half + slack, side="right")
+    return lo, hi
+
+
+def _moving_variance(t: np.ndarray, x: np.ndarray, window_s: float) -> tuple[np.ndarray, float]:
+    """Variance (N,) and its rounding resolution (input units²)."""
+    lo, hi = _window_bounds(t, window_s)
+    xc = x - x.mean(axis=0)  # centring limits the cancellation in the cumulative sums of squares
+    c1 = np.zeros((xc.shape[0] + 1, 3))
+    c2 = np.zeros((xc.shape[0] + 1, 3))
+    np.cumsum(xc, axis=0, out=c1[1:])
+    np.cumsum(xc * xc, axis=0, out=c2[1:])
+    n = (hi - lo).astype(float)[:, None]
+    mean = (c1[hi] - c1[lo]) / n
+    var = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
+    # rounding error of a difference of two cumulative sums ≈ eps × (running sum) / (window count)
+    resolution = float(8 * _EPS * c2[-1].sum() / max(float(n.min()), 1.0))
+    return np.maximum(var, 0.0), resolution
+
+
+def moving_variance(t, x, window_s: float) -> np.ndarray:
+    """Total moving variance (N,) of the 3 axes of ``x`` (N, 3) over a centred window of ``window_s`` s.
+
+    ``v_i = Σ_axes var{x_k : |t_k − t_i| ≤ window_s/2}`` (population variance, input units²); windows are
+    cut at the ends of the log. ``t`` (N,) s, strictly increasing, any spacing.
+    """
+    t, x = _check_t_x(t, x, "x")
+    window_s = check_positive(window_s, "window_s")
+    return _moving_variance(t, x, window_s)[0]
+
+
+def noise_floor(variance, *, resolution: float = 0.0) -> float:
+    """Robust at-rest level of a moving-variance series: the mode of log10(variance).
+
+    Histogram of log10 v in 0.05-decade bins smoothed over 5 bins; the densest bin's centre. ``resolution``
+    (the rounding level of v) is a lower bound, so noise-free data give a finite floor.
+    """
+    v = np.asarray(variance, dtype=float)
+    v = v[np.isfinite(v)]
+    lowest = max(float(resolution), np.finfo(float).tiny)
+    if v.size == 0:
+        return lowest
+    # values at the rounding level count as that level (noise-free or quantized data at rest)
+    lv = np.log10(np.maximum(v, lowest))
+    lo, hi = float(lv.min()), float(lv.max())
+    if hi - lo < 0.1:
+        return float(10.0 ** np.median(lv))
+    nb = int(np.ceil((hi - lo) / 0.05))
+    h, e = np.histogram(lv, bins=nb, range=(lo, hi))
+    hs = np.convolve(h, np.ones(5) / 5.0, mode="same")
+    k = int(np.argmax(hs))
+    return float(max(10.0 ** (0.5 * (e[k] + e[k + 1])), lowest))
+
+
+# --------------------------------------------------------------------------------------------------------
+# intervals
+# --------------------------------------------------------------------------------------------------------
+
+def intervals_from_mask(t, mask, *, min_duration_s: float = 0.0, trim_s: float = 0.0) -> np.ndarray:
+    """Half-open index ranges (K, 2) of the runs of ``mask``, each trimmed by ``trim_s`` s at both ends and
+    kept when its duration (last − first sample time) is at least ``min_duration_s``."""
+    t = np.asarray(t, dtype=float)
+    m = np.asarray(mask, dtype=bool)
+    d = np.diff(np.concatenate([[0], m.view(np.int8), [0]]))
+    starts = np.flatnonzero(d == 1)
+    ends = np.flatnonzero(d == -1)  # exclusive
+    if trim_s > 0 and starts.size:
+        starts = np.searchsorted(t, t[starts] + trim_s, side="left")
+        ends = np.searchsorted(t, t[ends - 1] - trim_s, side="right")
+    ok = ends > starts
+    starts, ends = starts[ok], ends[ok]
+    if starts.size:
+        dur = t[ends - 1] - t[starts]
+        keep = dur >= min_duration_s - 1e-9 * max(min_duration_s, 1.0)
+        starts, ends = starts[keep], ends[keep]
+    return np.column_stack([starts, ends]).astype(np.int64).reshape(-1, 2)
+
+
+def _means(x: np.ndarray, ranges: np.ndarray) -> np.ndarray:
+    if ranges.size == 0:
+        return np.zeros((0, 3))
+    return np.array([x[a:b].mean(axis=0) for a, b in ranges])
+
+
+def _detection(t, acc, gyro, va, vg, thr, gthr, window_s, min_duration_s, trim_s, method) -> StaticDetection:
+    mask = va <= thr
+    if vg is not None and gthr is not None:
+        mask &= vg <= gthr
+    ranges = intervals_from_mask(t, mask, min_duration_s=min_duration_s, trim_s=trim_s)
+    ti = np.column_stack([t[ranges[:, 0]], t[ranges[:, 1] - 1]]) if ranges.size else np.zeros((0, 2))
+    return StaticDetection(
+        t_intervals=ti, index_ranges=ranges, acc_means=_means(acc, ranges),
+        gyro_means=_means(gyro, ranges) if gyro is not None else None,
+        counts=(ranges[:, 1] - ranges[:, 0]).astype(np.int64), acc_variance=va, gyro_variance=vg,
+        threshold=float(thr), gyro_threshold=None if gthr is None else float(gthr), window_s=float(window_s),
+        min_duration_s=float(min_duration_s), trim_s=float(trim_s), method=method)
+
+
+def _levels(v: np.ndarray, unit: str) -> str:
+    return (f"moving variance min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} {unit}")
+
+
+def _prepare(t, acc, gyro, window_s, min_duration_s, trim_s):
+    t, acc = _check_t_x(t, acc, "acc")
+    if gyro is not None:
+        gyro = as_float_array(gyro, "gyro", last_dims=(3,))
+        if gyro.shape != acc.shape:
+            raise OptinavError(f"gyro has shape {gyro.shape} but acc has {acc.shape}",
+                               "pass gyro and acc sampled at the same timestamps")
+    window_s = check_positive(window_s, "window_s")
+    min_duration_s = float(min_duration_s)
+    if not np.isfinite(min_duration_s) or min_duration_s < 0:
+        raise OptinavError(f"min_duration_s must be ≥ 0, got {min_duration_s!r}", "pass a duration in s")
+    trim_s = 0.5 * window_s if trim_s is None else float(trim_s)
+    if not np.isfinite(trim_s) or trim_s < 0:
+        raise OptinavError(f"trim_s must be ≥ 0, got {trim_s!r}", "pass a trim in s (default half a window)")
+    span = t[-1] - t[0]
+    if window_s > 0.5 * span:
+        raise OptinavError(f"window_s = {window_s:g} s is more than half the log ({span:.6g} s)",
+                           "use a shorter window (about 1 s) or a longer log")
+    return t, acc, gyro, window_s, min_duration_s, trim_s
+
+
+def threshold_candidates(t, acc, *, gyro=None, window_s: float = 1.0, min_duration_s: float = 2.0,
+                         trim_s: float | None = None, multipliers=None, init_rest_s: float | None = None,
+                         acc_unit: str = "input units", gyro_unit: str = "input units") -> ThresholdCandidates:
+    """Candidate thresholds ``m × noise floor`` (``multipliers``, default :data:`DEFAULT_MULTIPLIERS`) with
+    their detections; see the module docstring for the floor and the default rule.
+
+    ``init_rest_s``: if given, the floor is the total variance of the first ``init_rest_s`` seconds (the log
+    must start at rest, as imu_tk assumes). Other arguments as in :func:`detect_static`.
+    """
+    t, acc, gyro, window_s, min_duration_s, trim_s = _prepare(t, acc, gyro, window_s, min_duration_s, trim_s)
+    va, ra = _moving_variance(t, acc, window_s)
+    vg, rg = _moving_variance(t, gyro, window_s) if gyro is not None else (None, 0.0)
+    if init_rest_s is not None:
+        init_rest_s = check_positive(init_rest_s, "init_rest_s")
+        k = int(np.searchsorted(t, t[0] + init_rest_s, side="right"))
+        if k < 3 or init_rest_s < window_s:
+            raise OptinavError(f"init_rest_s = {init_rest_s:g} s covers {k} samples, fewer than a window",
+                               "pass an initial rest of at least one window (imu_tk uses ~50 s) or leave it None")
+        fa = max(float(acc[:k].var(axis=0).sum()), ra, np.finfo(float).tiny)
+        fg = max(float(gyro[:k].var(axis=0).sum()), rg, np.finfo(float).tiny) if gyro is not None else None
+    else:
+        fa = noise_floor(va, resolution=ra)
+        fg = noise_floor(vg, resolution=rg) if gyro is not None else None
+    mult = np.asarray(DEFAULT_MULTIPLIERS if multipliers is None else multipliers, dtype=float).ravel()
+    if mult.size == 0 or not np.all(np.isfinite(mult)) or np.any(mult <= 0):
+        raise OptinavError("multipliers must be positive finite numbers", "pass e.g. multipliers=[2, 5, 10]")
+    mult = np.unique(mult)
+    dets = [_detection(t, acc, gyro, va, vg, m * fa, None if fg is None else m * fg, window_s, min_duration_s,
+                       trim_s, "auto") for m in mult]
+    n = np.array([d.n_intervals for d in dets], dtype=np.int64)
+    st = np.array([float(d.durations.sum()) for d in dets])
+    if n.max() == 0:
+        what = _levels(va, f"({acc_unit})^2")
+        if vg is not None:
+            what += "; gyro " + _levels(vg, f"({gyro_unit})^2")
+        raise OptinavError(
+            f"no static interval of at least {min_duration_s:g} s found with thresholds up to "
+            f"{mult.max():g} × the noise floor {fa:.3g} ({acc_unit})^2 ({what})",
+            "try a longer window_s, a larger threshold (or multipliers), a shorter min_duration_s, "
+            "or give the static sections by hand (--sections)")
+    return ThresholdCandidates(multipliers=mult, noise_floor=fa, gyro_noise_floor=fg, thresholds=mult * fa,
+                               gyro_thresholds=None if fg is None else mult * fg, n_intervals=n,
+                               static_time_s=st, detections=dets, default_index=default_candidate(n))
+
+
+def default_candidate(n_intervals, stable: int = STABLE_RUN) -> int:
+    """Index of the default threshold from the interval counts of increasing candidates.
+
+    The largest count that persists over at least ``stable`` consecutive candidates; the middle candidate
+    of its longest run (ties: the first run). Without any run that long: the largest threshold with the
+    largest count.
+    """
+    n = np.asarray(n_intervals, dtype=np.int64).ravel()
+    if n.size == 0:
+        raise OptinavError("no threshold candidates", "pass at least one multiplier")
+    runs = []  # (count, length, start)
+    s = 0
+    for k in range(1, n.size + 1):
+        if k == n.size or n[k] != n[s]:
+            runs.append((int(n[s]), k - s, s))
+            s = k
+    ok = [r for r in runs if r[1] >= stable and r[0] > 0]
+    if not ok:
+        return int(np.flatnonzero(n == n.max())[-1])
+    top = max(r[0] for r in ok)
+    cnt, length, start = max((r for r in ok if r[0] == top), key=lambda r: (r[1], -r[2]))
+    return int(start + (length - 1) // 2)
+
+
+def detect_static(t, acc, *, gyro=None, window_s: float = 1.0, threshold: float | None = None,
+                  gyro_threshold: float | None = None, min_duration_s: float = 2.0, trim_s: float | None = None,
+                  multipliers=None, init_rest_s: float | None = None, acc_unit: str = "input units",
+                  gyro_unit: str = "input units") -> StaticDetection:
+    """Static intervals of a log from the moving variance of ``acc`` (and ``gyro``).
+
+    t (N,) s; acc, gyro (N, 3) in any input units. A sample is static when the acc moving variance over a
+    centred ``window_s`` window is ≤ ``threshold`` (input units²) and, with ``gyro``, the gyro variance is ≤
+    ``gyro_threshold``. ``threshold=None``: automatic (module docstring; the gyro uses the same multiple of
+    its own floor). A given ``threshold`` with ``gyro`` but no ``gyro_threshold`` uses the acc alone.
+    Intervals are trimmed by ``trim_s`` (default ``window_s/2``) at both ends, then those shorter than
+    ``min_duration_s`` are dropped. ``acc_unit``/``gyro_unit`` only label error messages.
+    """
+    if threshold is None:
+        if gyro_threshold is not None:
+            raise OptinavError("gyro_threshold was given without threshold",
+                               "give both thresholds, or neither for the automatic choice")
+        return threshold_candidates(t, acc, gyro=gyro, window_s=window_s, min_duration_s=min_duration_s,
+                                    trim_s=trim_s, multipliers=multipliers, init_rest_s=init_rest_s,
+                                    acc_unit=acc_unit, gyro_unit=gyro_unit).default
+    thr = check_positive(threshold, "threshold")
+    gthr = None if gyro_threshold is None else check_positive(gyro_threshold, "gyro_threshold")
+    t, acc, gyro, window_s, min_duration_s, trim_s = _prepare(t, acc, gyro, window_s, min_duration_s, trim_s)
+    va, _ = _moving_variance(t, acc, window_s)
+    vg = _moving_variance(t, gyro, window_s)[0] if gyro is not None else None
+    det = _detection(t, acc, gyro, va, vg, thr, gthr, window_s, min_duration_s, trim_s, "threshold")
+    if det.n_intervals == 0:
+        what = _levels(va, f"({acc_unit})^2")
+        if vg is not None and gthr is not None:
+            what += f"; gyro threshold {gthr:.3g}, " + _levels(vg, f"({gyro_unit})^2")
+        raise OptinavError(f"no static interval of at least {min_duration_s:g} s with acc threshold "
+                           f"{thr:.3g} ({acc_unit})^2 ({what})",
+                           "try a longer window_s, a larger threshold, a shorter min_duration_s, "
+                           "or give the static sections by hand (--sections)")
+    return det
+
+
+# --------------------------------------------------------------------------------------------------------
+# manual sections
+# --------------------------------------------------------------------------------------------------------
+
+def _parse_text(text: str, src: str) -> list:
+    rows = []
+    for ln, line in enumerate(text.splitlines(), 1):
+        s = line.split("#", 1)[0].replace(",", " ").replace(";", " ").strip()
+        if not s:
+            continue
+        parts = s.split()
+        try:
+            if len(parts) == 2:
+                rows.append(("", float(parts[0]), float(parts[1])))
+            elif len(parts) == 3:
+                rows.append((parts[0], float(parts[1]), float(parts[2])))
+            else:
+                raise ValueError
+        except ValueError:
+            raise OptinavError(f"{src} line {ln} is not 'start end' or 'name start end' in seconds: {line.strip()!r}",
+                               "write one section per line, times in seconds") from None
+    return rows
+
+
+def _load_sections(sections):
+    """→ (rows [(name, a, b)], kind 'time'|'index', named)."""
+    src = "sections"
+    if isinstance(sections, (str, Path)):
+        text = str(sections)
+        p = Path(text)
+        if isinstance(sections, Path) or not (text.lstrip().startswith(("{", "[")) or "\n" in text):
+            if not p.is_file():
+                raise OptinavError(f"section file {p} does not exist", "check the path")
+            src, text = str(p), p.read_text(encoding="utf-8")
+        if text.lstrip().startswith(("{", "[")):
+            try:
+                sections = json.loads(text)
+            except json.JSONDecodeError as exc:
+                raise OptinavError(f"{src} is not valid JSON ({exc.msg} at line {exc.lineno})",
+                                   "fix the file or write 'start end' lines in seconds") from None
+        else:
+            rows = _parse_text(text, src)
+            return rows, "time", any(r[0] for r in rows)
+    if isinstance(sections, SectionList):
+        return [(n, int(a), int(b)) for n, (a, b) in zip(sections.names, sections.index_ranges)], "index", True
+    if isinstance(sections, dict):
+        rows, kinds = [], set()
+        for name, v in sections.items():
+            if isinstance(v, dict):
+                if "start" not in v or "end" not in v:
+                    raise OptinavError(f"section {name!r} has no 'start'/'end' keys",
+                                       "use {'name': {'start': i0, 'end': i1}} (sample indices)")
+                a, b = v["start"], v["end"]
+                if not all(isinstance(q, (int, np.integer)) or (isinstance(q, float) and q.is_integer())
+                           for q in (a, b)):
+                    raise OptinavError(f"section {name!r} start/end {a!r}, {b!r} are not sample indices",
+                                       "imucal section lists hold integer sample indices")
+                rows.append((str(name), int(a), int(b)))
+                kinds.add("index")
+            else:
+                try:
+                    a, b = (float(q) for q in v)
+                except (TypeError, ValueError):
+                    raise OptinavError(f"section {name!r} is {v!r}, not (start, end) in seconds",
+                                       "give each section as (start_s, end_s)") from None
+                rows.append((str(name), a, b))
+                kinds.add("time")
+        if len(kinds) > 1:
+            raise OptinavError("the section list mixes sample indices and times",
+                               "use one layout for all sections")
+        return rows, (kinds.pop() if kinds else "time"), True
+    if isinstance(sections, (list, tuple)) and len(sections) == 0:
+        return [], "time", False
+    try:
+        arr = np.asarray(sections, dtype=float)
+    except (TypeError, ValueError):
+        raise OptinavError("sections is not a list of (start, end) times", "pass [(t0, t1), ...] in seconds") from None
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise OptinavError(f"sections has shape {arr.shape}, expected (K, 2)", "pass [(t0, t1), ...] in seconds")
+    return [("", float(a), float(b)) for a, b in arr], "time", False
+
+
+def sections_from_list(sections, t) -> SectionList:
+    """Validated manual sections of the log with timestamps ``t`` (N,) s.
+
+    ``sections``: a list of (start, end) times in s; a dict name → (start, end) in s; the path of a text
+    file with one ``start end`` or ``name start end`` line per section (s; '#' comments, commas allowed; a
+    string containing a newline is taken as such text) or of a JSON file holding any layout here; or
+    imucal's section-list layout
+    ``{"name": {"start": i0, "end": i1}}`` whose values are **sample indices** into ``t`` (half-open
+    [i0, i1), as imucal slices with ``iloc``); for a log without timestamps pass ``t = arange(N) / rate``.
+    A section in seconds keeps the samples with start ≤ t ≤ end.
+
+    Checks: start < end, inside the log, at least one sample, no overlap. Unnamed sections must be in time
+    order (an unsorted list is usually a typo); named ones are sorted by start.
+    """
+    t = check_timestamps(t, "t", min_count=2)
+    rows, kind, named = _load_sections(sections)
+    if not rows:
+        raise OptinavError("the section list is empty", "give at least one (start, end) section")
+    N = t.size
+    names, ranges, times = [], [], []
+    for k, (name, a, b) in enumerate(rows):
+        label = f"section {name!r}" if name else f"section {k + 1}"
+        if kind == "index":
+            if not (0 <= a < b <= N):
+                raise OptinavError(f"{label} sample range [{a}, {b}) is not inside the log of {N} samples "
+                                   "or is empty", "give 0 ≤ start < end ≤ number of samples")
+            i0, i1 = int(a), int(b)
+        else:
+            if not (np.isfinite(a) and np.isfinite(b)) or a >= b:
+                raise OptinavError(f"{label} has start {a:g} s ≥ end {b:g} s", "give start < end in seconds")
+            tol = 1e-9 * max(1.0, abs(t[-1]))
+            if a < t[0] - tol or b > t[-1] + tol:
+                raise OptinavError(f"{label} [{a:g}, {b:g}] s is outside the log [{t[0]:g}, {t[-1]:g}] s",
+                                   "give times in seconds on the log's time axis")
+            i0 = int(np.searchsorted(t, a - tol, side="left"))
+            i1 = int(np.searchsorted(t, b + tol, side="right"))
+            if i1 <= i0:
+                raise OptinavError(f"{label} [{a:g}, {b:g}] s contains no sample", "widen the section")
+        names.append(name)
+        ranges.append((i0, i1))
+        times.append((a, b))
+    ranges = np.array(ranges, dtype=np.int64)
+    order = np.argsort(ranges[:, 0], kind="stable")
+    if not named and np.any(order != np.arange(len(order))):
+        k = int(np.flatnonzero(np.diff(ranges[:, 0]) < 0)[0])
+        raise OptinavError(f"sections are not in time order: section {k + 2} starts before section {k + 1}",
+                           "sort the sections by start time")
+    ranges = ranges[order]
+    names = [names[i] for i in order]
+    for k in range(1, len(ranges)):
+        if ranges[k, 0] < ranges[k - 1, 1]:
+            a = names[k - 1] or f"{k}"
+            b = names[k] or f"{k + 1}"
+            raise OptinavError(f"sections {a!r} and {b!r} overlap "
+                               f"(t = {t[ranges[k, 0]]:.6g} s .. {t[ranges[k - 1, 1] - 1]:.6g} s)",
+                               "make the sections disjoint")
+    ti = np.column_stack([t[ranges[:, 0]], t[ranges[:, 1] - 1]])
+    return SectionList(t_intervals=ti, index_ranges=ranges, names=names)
+
+
+def detection_from_sections(sections, t, acc, *, gyro=None) -> StaticDetection:
+    """A :class:`StaticDetection` (method "manual", no variances) of hand-given static sections, so a
+    calibrator treats detected and manual intervals alike. ``sections`` as in :func:`sections_from_list`
+    (or a :class:`SectionList`); t (N,) s; acc, gyro (N, 3) input units."""
+    t, acc = _check_t_x(t, acc, "acc")
+    if gyro is not None:
+        gyro = as_float_array(gyro, "gyro", last_dims=(3,))
+        if gyro.shape != acc.shape:
+            raise OptinavError(f"gyro has shape {gyro.shape} but acc has {acc.shape}",
+                               "pass gyro and acc sampled at the same timestamps")
+    sl = sections if isinstance(sections, SectionList) else sections_from_list(sections, t)
+    r = np.asarray(sl.index_ranges, dtype=np.int64).reshape(-1, 2)
+    if r.size and r.max() > t.size:
+        raise OptinavError(f"the sections reach sample {int(r.max())} but the log has {t.size}",
+                           "give sections of this log")
+    return StaticDetection(t_intervals=np.asarray(sl.t_intervals, dtype=float).reshape(-1, 2), index_ranges=r,
+                           acc_means=_means(acc, r), gyro_means=_means(gyro, r) if gyro is not None else None,
+                           counts=(r[:, 1] - r[:, 0]).astype(np.int64), acc_variance=None, gyro_variance=None,
+                           threshold=None, gyro_threshold=None, window_s=None, min_duration_s=None, trim_s=None,
+                           method="manual", names=list(sl.names))

@@ -1,0 +1,385 @@
+"""Ferraris calibration (optinav.multipos.ferraris) and imu_tk / imucal conversions (optinav.multipos.convert).
+
+Reference values: imucal 2.6.0 (mad-lab-fau/imucal) on its own example data, copied to
+$OPTINAV_SHARED_DATA/imucal (see README_SOURCE.txt there).
+"""
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optinav.core.results import Result
+from optinav.core.units import DEG, G_STANDARD
+from optinav.errors import OptinavError
+from optinav.multipos.convert import (ImucalCalibration, from_imu_tk, from_imucal, read_imu_tk, read_imucal_json,
+                                      to_imu_tk, to_imucal, write_imu_tk, write_imucal_json)
+from optinav.multipos.ferraris import (POSES, ROTATIONS, FerrarisCalibration, ferraris_calibration,
+                                       ferraris_from_sections)
+
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
+
+
+def _cols(d, prefix):
+    return np.column_stack([d[f"{prefix}_x"], d[f"{prefix}_y"], d[f"{prefix}_z"]])
+
+
+@pytest.fixture(scope="module")
+def example():
+    """imucal's example session (102.4 Hz, acc m/s^2, gyro deg/s), its sections and our calibration."""
+    if not DATA.is_dir():
+        pytest.skip("shared imucal data not available")
+    d = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    acc, gyro = _cols(d, "acc"), _cols(d, "gyr")
+    sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    cal = ferraris_from_sections(102.4, acc, gyro, sections, acc_unit="m/s^2", gyro_unit="deg/s")
+    return acc, gyro, sections, cal
+
+
+def _rel(a, b):
+    return float(np.max(np.abs(np.asarray(a) - np.asarray(b))) / np.max(np.abs(b)))
+
+
+# --- against imucal's results on real data ----------------------------------------------------------------
+
+@needs_data
+def test_example_session_matches_imucal_calibration(example):
+    *_, cal = example
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json")
+    # imucal convention -> ours by hand: K = K_a R_a (m/s^2 raw per m/s^2); gyro deg/s raw per rad/s
+    assert _rel(cal.acc_K, ref.K_a @ ref.R_a) < 1e-12
+    assert _rel(cal.acc_b, ref.b_a) < 1e-12
+    assert _rel(cal.gyro_K, ref.K_g @ ref.R_g / DEG) < 1e-12
+    assert _rel(cal.gyro_G, ref.K_ga) < 1e-12
+    assert _rel(cal.gyro_b, ref.b_g) < 1e-12
+    back = cal.to_imucal()
+    assert isinstance(back, ImucalCalibration) and back.from_acc_unit == "m/s^2"
+    for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
+        assert _rel(getattr(back, k), getattr(ref, k)) < 1e-12, k
+    # README_SOURCE: static |a| means after calibration 9.8096 .. 9.8106 m/s^2
+    assert cal.acc_static_norm.min() == pytest.approx(9.8096, abs=1e-4)
+    assert cal.acc_static_norm.max() == pytest.approx(9.8106, abs=1e-4)
+
+
+@needs_data
+def test_example_session_reproduces_imucal_calibrated_rows(example):
+    acc, gyro, _, cal = example
+    h = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
+    f, w = cal.correct(acc[:50], gyro[:50])
+    np.testing.assert_allclose(f, _cols(h, "acc"), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(w / DEG, _cols(h, "gyr"), rtol=1e-6, atol=1e-12)  # imucal outputs deg/s
+    # the same through the imucal representation
+    a2, g2 = cal.to_imucal().calibrate(acc[:50], gyro[:50])
+    np.testing.assert_allclose(a2, _cols(h, "acc"), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(g2, _cols(h, "gyr"), rtol=1e-9, atol=1e-12)
+
+
+@needs_data
+def test_timestamps_give_the_rate_result(example):
+    acc, gyro, sections, cal = example
+    cal_t = ferraris_from_sections(np.arange(acc.shape[0]) / 102.4, acc, gyro, sections)
+    assert _rel(cal_t.gyro_K, cal.gyro_K) < 1e-12
+    assert _rel(cal_t.acc_K, cal.acc_K) == 0.0
+
+
+@needs_data
+def test_annotated_session_in_counts_matches_imucal_snapshot():
+    with open(DATA / "annotated_session.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    head = rows[0]
+    part = np.array([r[0] for r in rows[1:]])
+    x = np.array([[float(v) for v in r[2:]] for r in rows[1:]])
+    acc = x[:, [head.index(c) - 2 for c in ("acc_x", "acc_y", "acc_z")]]
+    gyr = x[:, [head.index(c) - 2 for c in ("gyr_x", "gyr_y", "gyr_z")]]
+    pick = {n: (acc[part == n], gyr[part == n]) for n in POSES + ROTATIONS}
+    cal = ferraris_calibration({n: pick[n][0] for n in POSES}, {n: pick[n][1] for n in POSES},
+                               {n: pick[n][0] for n in ROTATIONS}, {n: pick[n][1] for n in ROTATIONS},
+                               rate=204.8, expected_angle=-2 * np.pi, gravity=9.81,
+                               acc_unit="counts", gyro_unit="counts")
+    ref = read_imucal_json(DATA / "reference" / "example_cal_annotated_session.json")
+    assert ref.from_acc_unit == "a.u."
+    got = cal.to_imucal()
+    for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
+        assert _rel(getattr(got, k), getattr(ref, k)) < 1e-12, k
+    # ~2048 counts/g and ~16.4 counts/(deg/s): sanity of the units
+    assert np.diag(cal.acc_K) * 9.81 == pytest.approx([2048] * 3, rel=0.05)
+    assert np.abs(np.diag(cal.gyro_K)) * DEG == pytest.approx([16.4] * 3, rel=0.05)
+
+
+@needs_data
+def test_legacy_imucal_file_is_the_example_in_counts():
+    """The pre-2.0 export is the example session's calibration in counts (2048/9.81 per m/s^2, 16.384 per deg/s)."""
+    legacy = read_imucal_json(DATA / "legacy_calibration_pre_2.0.json").to_optinav()
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
+    sa, sg = 2048 / 9.81, 16.384
+    for k, s in (("acc_K", sa), ("acc_b", sa), ("gyro_K", sg), ("gyro_G", sg), ("gyro_b", sg)):
+        assert _rel(legacy[k], s * ref[k]) < 1e-9, k
+
+
+# --- simulated truth -----------------------------------------------------------------------------------------
+
+def _truth(rng):
+    K_a = np.diag([208.0, 210.0, 205.0]) @ (np.eye(3) + rng.uniform(-0.02, 0.02, (3, 3)))
+    b_a = rng.uniform(-50, 50, 3)
+    K_g = np.diag([938.0, 955.0, 925.0]) @ (np.eye(3) + rng.uniform(-0.02, 0.02, (3, 3)))  # counts per rad/s
+    G = rng.uniform(-0.05, 0.05, (3, 3))  # counts per m/s^2
+    b_g = rng.uniform(-5, 5, 3)
+    return K_a, b_a, K_g, G, b_g
+
+
+def _session(truth, g, rate, n_static, theta, rng=None, sa=0.0, sg=0.0):
+    K_a, b_a, K_g, G, b_g = truth
+    rng = rng or np.random.default_rng(0)
+    acc_s, gyr_s, acc_r, gyr_r = {}, {}, {}, {}
+    for i, ax in enumerate("xyz"):
+        for sign, suf in ((1, "p"), (-1, "a")):
+            f = np.zeros(3)
+            f[i] = sign * g
+            acc_s[f"{ax}_{suf}"] = K_a @ f + b_a + rng.normal(scale=sa, size=(n_static, 3))
+            gyr_s[f"{ax}_{suf}"] = G @ f + b_g + rng.normal(scale=sg, size=(n_static, 3))
+        f = np.zeros(3)
+        f[i] = g  # rotation about the vertical axis of the _p pose
+        m = 800
+        w = np.zeros(3)
+        w[i] = theta[i] / (m / rate)
+        acc_r[f"{ax}_rot"] = np.tile(K_a @ f + b_a, (m, 1))
+        gyr_r[f"{ax}_rot"] = np.tile(K_g @ w + G @ f + b_g, (m, 1))
+    return acc_s, gyr_s, acc_r, gyr_r
+
+
+def test_noise_free_session_recovers_the_truth_exactly():
+    rng = np.random.default_rng(4)
+    truth = _truth(rng)
+    theta = np.array([-2 * np.pi, 2 * np.pi, -4 * np.pi])
+    sess = _session(truth, 9.80, 200.0, 400, theta)
+    cal = ferraris_calibration(*sess, rate=200.0, expected_angle=theta, gravity=9.80)
+    for got, want in zip((cal.acc_K, cal.acc_b, cal.gyro_K, cal.gyro_G, cal.gyro_b), truth):
+        assert _rel(got, want) < 1e-12
+    np.testing.assert_allclose(cal.acc_static_norm, 9.80, rtol=1e-13)
+    # corrected outputs are the true inputs
+    f_true = np.array([[9.8, 0, 0], [0, -9.8, 0]])
+    w_true = np.array([[0.1, -0.2, 0.3], [1.0, 0.0, -2.0]])
+    raw_a = f_true @ truth[0].T + truth[1]
+    raw_g = w_true @ truth[2].T + f_true @ truth[3].T + truth[4]
+    f, w = cal.correct(raw_a, raw_g)
+    np.testing.assert_allclose(f, f_true, atol=1e-12)
+    np.testing.assert_allclose(w, w_true, atol=1e-12)
+    # means instead of samples give the same result (equal counts)
+    acc_s, gyr_s, acc_r, gyr_r = sess
+    cal2 = ferraris_calibration({k: v.mean(axis=0) for k, v in acc_s.items()},
+                                [gyr_s[n].mean(axis=0) for n in POSES], acc_r, gyr_r, dt=1 / 200.0,
+                                expected_angle=theta, gravity=9.80)
+    assert _rel(cal2.gyro_K, cal.gyro_K) < 1e-12 and _rel(cal2.gyro_b, cal.gyro_b) < 1e-12
+
+
+def test_noisy_session_errors_match_the_noise():
+    rng = np.random.default_rng(9)
+    truth = _truth(rng)
+    g, n, sa, sg = 9.81, 500, 2.0, 0.5  # counts
+    sess = _session(truth, g, 100.0, n, np.full(3, -2 * np.pi), rng=rng, sa=sa, sg=sg)
+    cal = ferraris_calibration(*sess, rate=100.0, gravity=g)
+    # K_a column = (mean_p - mean_a)/(2g): sigma sa*sqrt(2/n)/(2g); b_a: sa*sqrt(2/n)/2; b_g: sg/sqrt(6n)
+    assert np.all(np.abs(cal.acc_K - truth[0]) < 5 * sa * np.sqrt(2 / n) / (2 * g))
+    assert np.all(np.abs(cal.acc_b - truth[1]) < 5 * sa * np.sqrt(2 / n) / 2)
+    assert np.all(np.abs(cal.gyro_G - truth[3]) < 5 * sg * np.sqrt(2 / n) / (2 * g))
+    assert np.all(np.abs(cal.gyro_b - truth[4]) < 5 * sg / np.sqrt(6 * n))
+    assert np.any(np.abs(cal.acc_K - truth[0]) > 0.1 * sa * np.sqrt(2 / n) / (2 * g))  # noise did enter
+
+
+def test_irregular_timestamps_integrate_exactly():
+    rng = np.random.default_rng(2)
+    truth = _truth(rng)
+    K_a, b_a, K_g, G, b_g = truth
+    g = 9.81
+    acc, gyr, sections = [], [], {}
+    t = [0.0]
+    i = 0
+
+    def add(name, a, w, m):
+        nonlocal i
+        acc.append(np.tile(a, (m, 1)))
+        gyr.append(np.tile(w, (m, 1)))
+        sections[name] = (i, i + m)
+        i += m
+
+    for k, ax in enumerate("xyz"):
+        for sign, suf in ((1, "p"), (-1, "a")):
+            f = np.zeros(3)
+            f[k] = sign * g
+            add(f"{ax}_{suf}", K_a @ f + b_a, G @ f + b_g, 300)
+    steps = rng.uniform(0.004, 0.016, 5000)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    nstat = i
+    for k, ax in enumerate("xyz"):
+        f = np.zeros(3)
+        f[k] = g
+        m = 500
+        i0 = nstat + k * m
+        T = t[i0 + m] - t[i0]  # forward steps of the m samples
+        w = np.zeros(3)
+        w[k] = -2 * np.pi / T
+        add(f"{ax}_rot", K_a @ f + b_a, K_g @ w + G @ f + b_g, m)
+    add("tail", K_a @ np.array([0, 0, g]) + b_a, b_g, 10)
+    acc, gyr = np.concatenate(acc), np.concatenate(gyr)
+    t = t[: acc.shape[0]]
+    cal = ferraris_from_sections(t, acc, gyr, sections)
+    assert _rel(cal.gyro_K, K_g) < 1e-12
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"rate": 100.0, "dt": 0.01}, "exactly one"),
+    ({}, "exactly one"),
+    ({"rate": 100.0, "expected_angle": 0.0}, "non-zero"),
+    ({"rate": -1.0}, "rate"),
+])
+def test_bad_arguments(kwargs, match):
+    sess = _session(_truth(np.random.default_rng(1)), 9.81, 100.0, 50, np.full(3, -2 * np.pi))
+    with pytest.raises(OptinavError, match=match):
+        ferraris_calibration(*sess, **kwargs)
+
+
+def test_bad_sections_and_degenerate_poses():
+    acc_s, gyr_s, acc_r, gyr_r = _session(_truth(np.random.default_rng(1)), 9.81, 100.0, 50, np.full(3, -6.28))
+    del acc_s["y_a"]
+    with pytest.raises(OptinavError, match="y_a"):
+        ferraris_calibration(acc_s, gyr_s, acc_r, gyr_r, rate=100.0)
+    same = {n: np.ones((10, 3)) for n in POSES}
+    with pytest.raises(OptinavError, match="singular"):
+        ferraris_calibration(same, same, acc_r, gyr_r, rate=100.0)
+    N = 100
+    with pytest.raises(OptinavError, match="z_rot"):
+        ferraris_from_sections(100.0, np.zeros((N, 3)), np.zeros((N, 3)), {n: (0, 5) for n in POSES})
+    secs = {n: (0, 5) for n in POSES + ROTATIONS}
+    secs["x_rot"] = (90, 120)
+    with pytest.raises(OptinavError, match="outside"):
+        ferraris_from_sections(100.0, np.zeros((N, 3)), np.zeros((N, 3)), secs)
+
+
+def test_result_json_round_trip(tmp_path):
+    sess = _session(_truth(np.random.default_rng(3)), 9.81, 100.0, 50, np.full(3, -2 * np.pi))
+    cal = ferraris_calibration(*sess, rate=100.0, acc_unit="counts", gyro_unit="counts")
+    cal.to_json(tmp_path / "c.json")
+    back = Result.from_json(tmp_path / "c.json")
+    assert isinstance(back, FerrarisCalibration) and back.acc_unit == "counts"
+    np.testing.assert_array_equal(back.gyro_K, cal.gyro_K)
+    assert json.loads((tmp_path / "c.json").read_text())["schema"] == "optinav.ferraris_calibration"
+
+
+# --- conversions ---------------------------------------------------------------------------------------------
+
+_small = st.floats(-0.2, 0.2, allow_nan=False)
+_gain = st.floats(0.05, 5000.0, allow_nan=False)
+_bias = st.floats(-1e4, 1e4, allow_nan=False)
+
+
+@st.composite
+def _kb(draw, upper=False, signed=False):
+    d = np.array([draw(_gain) for _ in range(3)])
+    if signed:
+        d *= np.array([draw(st.sampled_from([-1.0, 1.0])) for _ in range(3)])
+    M = np.array([[draw(_small) for _ in range(3)] for _ in range(3)])
+    np.fill_diagonal(M, 0.0)
+    if upper:
+        M = np.triu(M)
+    return d[:, None] * (np.eye(3) + M), np.array([draw(_bias) for _ in range(3)])
+
+
+@settings(max_examples=60, deadline=None)
+@given(_kb(upper=True))
+def test_imu_tk_body_round_trip(kb):
+    K, b = kb
+    p = to_imu_tk(K, b)
+    assert set(p) == {"mis_yz", "mis_zy", "mis_zx", "scale", "bias"}
+    K2, b2 = from_imu_tk(p)
+    assert _rel(K2, K) < 1e-12 and np.array_equal(b2, b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_kb(signed=True))
+def test_imu_tk_general_round_trip(kb):
+    K, b = kb
+    K2, b2 = from_imu_tk(to_imu_tk(K, b, form="general"))
+    assert _rel(K2, K) < 1e-11 and np.array_equal(b2, b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_kb(signed=True), st.booleans())
+def test_imucal_round_trip(kb, gyro):
+    K, b = kb
+    if gyro:
+        G = K[::-1] * 1e-3
+        p = to_imucal(K, b, G=G)
+        assert np.all(np.diag(p["K"]) > 0) and np.allclose(np.linalg.norm(p["R"], axis=1), 1.0)
+        K2, b2, G2 = from_imucal(p["K"], p["R"], p["b"], K_ga=p["K_ga"])
+        assert _rel(G2, G) < 1e-13
+    else:
+        p = to_imucal(K, b)
+        K2, b2 = from_imucal(p["K"], p["R"], p["b"])
+    assert _rel(K2, K) < 1e-13 and np.array_equal(b2, b)
+
+
+def test_imu_tk_model_and_units():
+    rng = np.random.default_rng(6)
+    K = np.array([[200.0, 3.0, -2.0], [0.0, 210.0, 1.5], [0.0, 0.0, 190.0]])
+    b = np.array([10.0, -20.0, 5.0])
+    x = rng.normal(size=(5, 3)) * 9.81
+    raw = x @ K.T + b
+    # imu_tk: x' = T S (raw - B); with output unit g, x' = x / 9.80665
+    for unit, scale in ((None, 1.0), ("g", 1 / G_STANDARD)):
+        p = to_imu_tk(K, b, calibrated_unit=unit)
+        T = np.array([[1, -p["mis_yz"], p["mis_zy"]], [0, 1, -p["mis_zx"]], [0, 0, 1]])
+        T_S = T @ np.diag(p["scale"])
+        np.testing.assert_allclose((raw - p["bias"]) @ T_S.T, x * scale, rtol=1e-12, atol=1e-12)
+        K2, _ = from_imu_tk(p, calibrated_unit=unit)
+        assert _rel(K2, K) < 1e-14
+    # a K with a lower triangle is not imu_tk's body form
+    with pytest.raises(OptinavError, match="body form"):
+        to_imu_tk(K.T, b)
+
+
+def test_imu_tk_file_round_trip(tmp_path):
+    K = np.array([[1.02, 0.01, -0.003], [-0.02, 0.98, 0.004], [0.01, 0.006, 1.01]])
+    b = np.array([0.1, -0.2, 0.3])
+    p = to_imu_tk(K, b, form="general")
+    write_imu_tk(tmp_path / "gyro.calib", p)
+    q = read_imu_tk(tmp_path / "gyro.calib")
+    assert q["form"] == "general"
+    K2, b2 = from_imu_tk({k: v for k, v in q.items() if k != "form"})
+    assert _rel(K2, K) < 1e-15 and np.array_equal(b2, b)
+    # a file as imu_tk's C++ stream writes it (6 significant digits, aligned columns)
+    (tmp_path / "acc.calib").write_text("       1 -0.00120  0.00340\n       0        1 -0.00560\n       0        0"
+                                        "        1\n\n 0.0481    0    0\n    0 0.0479    0\n    0    0 0.0482\n\n"
+                                        "  33.1\n -12.5\n  40.2\n\n")
+    r = read_imu_tk(tmp_path / "acc.calib")
+    assert r["form"] == "body" and r["mis_yz"] == pytest.approx(0.0012) and r["mis_zx"] == pytest.approx(0.0056)
+    K3, b3 = from_imu_tk({k: v for k, v in r.items() if k != "form"})
+    assert np.allclose(np.tril(K3, -1), 0) and b3.tolist() == [33.1, -12.5, 40.2]
+    (tmp_path / "bad.calib").write_text("1 2 3\n")
+    with pytest.raises(OptinavError, match="21"):
+        read_imu_tk(tmp_path / "bad.calib")
+
+
+@needs_data
+def test_imucal_json_write_read(tmp_path):
+    src = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    ref = read_imucal_json(src)
+    write_imucal_json(tmp_path / "cal.json", ref)
+    mine = json.loads((tmp_path / "cal.json").read_text())
+    theirs = json.loads(src.read_text())
+    assert set(mine) == set(theirs) and mine["_format_version"] == "2.0.0" and mine["cal_type"] == "Ferraris"
+    for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
+        assert mine[k] == theirs[k]
+    back = read_imucal_json(tmp_path / "cal.json")
+    assert back.comment == ref.comment and back.from_gyr_unit == "deg/s"
+    with pytest.raises(OptinavError, match="version"):
+        read_imucal_json(json.dumps({**theirs, "_format_version": "3.0.0"}))
+    with pytest.raises(OptinavError, match="Ferraris"):
+        read_imucal_json(json.dumps({**theirs, "cal_type": "Other"}))
+    with pytest.raises(OptinavError, match="lacks"):
+        read_imucal_json(json.dumps({k: v for k, v in theirs.items() if k != "K_ga"}))
