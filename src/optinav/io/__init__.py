@@ -1,0 +1,11 @@
+"""Data files in and out: tables (CSV/TSV/text, NPZ, HDF5, MATLAB) and IMU logs.
+
+``read_table`` returns named numpy arrays; ``read_imu`` interprets them as an :class:`ImuLog` (time in s,
+accelerometer in m/s² or counts, gyroscope in rad/s or counts); ``write_imu`` writes a log back as CSV/TSV/text,
+NPZ, HDF5 or MAT. Formats, column aliases and units: docs/file-formats.md.
+"""
+
+from optinav.io.imu import ALIASES, STANDARD_NAMES, ImuLog, read_imu, write_imu
+from optinav.io.readers import read_table
+
+__all__ = ["read_table", "read_imu", "write_imu", "ImuLog", "STANDARD_NAMES", "ALIASES"]

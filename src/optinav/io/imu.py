@@ -1,0 +1,587 @@
+"""IMU logs: accelerometer and gyroscope samples read from data files into an :class:`ImuLog`, and written back.
+
+:func:`read_imu` finds the standard quantities ``t, ax, ay, az, gx, gy, gz`` (also ``acc``/``gyro`` as N×3
+arrays, a ``sample`` counter and a ``label`` column) by name or common alias, converts ``g`` and ``deg/s`` to SI
+and keeps raw ``counts`` as they are (the calibrator then estimates the scale). Formats, aliases and units:
+docs/file-formats.md.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from optinav.core.results import Result
+from optinav.core.units import to_si, from_si
+from optinav.core.validate import check_positive, check_timestamps
+from optinav.errors import OptinavError
+from optinav.io.readers import LABEL_COLUMNS, SKIP_NAMES, Table, load_table, normalize_name, parse_columns
+
+__all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
+
+#: accepted accelerometer unit spellings → canonical unit
+ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
+             "g": "g", "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
+#: accepted gyroscope unit spellings → canonical unit
+GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
+              "deg/s": "deg/s", "dps": "deg/s", "°/s": "deg/s", "deg/sec": "deg/s", "degrees/s": "deg/s",
+              "rad/s": "rad/s", "rad/sec": "rad/s"}
+#: time units → seconds per unit
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+_TIME_SPELLINGS = {"s": "s", "sec": "s", "ms": "ms", "us": "us", "µs": "us", "μs": "us", "ns": "ns"}
+_CANONICAL = {"acc": ("counts", "g", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"), "time": ("s", "ms", "us", "ns")}
+
+#: the names read_imu understands: time, accelerometer and gyroscope components, N×3 triads, counter, labels
+STANDARD_NAMES = ("t", "ax", "ay", "az", "gx", "gy", "gz", "acc", "gyro", "sample", "label")
+_COMPONENTS = {"acc": ("ax", "ay", "az"), "gyro": ("gx", "gy", "gz")}
+
+
+def _build_aliases() -> dict[str, tuple[str, str | None]]:
+    """Normalized column name → (standard name, time unit the name implies)."""
+    al: dict[str, tuple[str, str | None]] = {n: (n, None) for n in STANDARD_NAMES}
+    for n in ("time", "times", "timestamp", "timestamps", "time_stamp", "time_s", "t_s", "timestamp_s", "sec", "secs",
+              "seconds", "elapsed", "elapsed_time"):
+        al[n] = ("t", None)
+    for unit in ("ms", "us", "ns"):
+        for n in (f"time_{unit}", f"t_{unit}", f"timestamp_{unit}", unit):
+            al[n] = ("t", unit)
+    for n in ("n_samples", "n_sample", "sample", "samples", "sample_index", "sample_idx", "sample_number",
+              "sample_nr", "samplenumber", "packet_counter", "packetcounter", "counter", "index", "idx"):
+        al[n] = ("sample", None)
+    for n in ("part", "label", "labels", "section", "segment", "pose", "phase"):
+        al[n] = ("label", None)
+    acc_prefix = ("a", "acc", "accel", "accl", "accelerometer", "acceleration", "f", "sf", "specific_force",
+                  "lin_acc", "linear_acceleration", "imu_acc")
+    gyro_prefix = ("g", "gyr", "gyro", "gyros", "gyroscope", "w", "omega", "rate", "angular_velocity",
+                   "angular_rate", "ang_vel", "angvel", "imu_gyro")
+    for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
+        for p in prefixes:
+            for axis in "xyz":
+                al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
+    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf"):
+        al[n] = ("acc", None)
+    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate"):
+        al[n] = ("gyro", None)
+    return al
+
+
+#: normalized column name (see :func:`optinav.io.readers.normalize_name`) → (standard name, implied time unit)
+ALIASES = _build_aliases()
+
+
+# --- result -------------------------------------------------------------------------------------------------
+
+@dataclass
+class ImuLog(Result):
+    """IMU samples read from a file.
+
+    ``t`` (N,) in s, strictly increasing (irregular spacing allowed); ``acc`` (N, 3) in m/s² or raw counts and
+    ``gyro`` (N, 3) in rad/s or raw counts, as ``acc_unit``/``gyro_unit`` say (None when the file had no such
+    triad); ``acc_input_unit``/``gyro_input_unit`` are the units of the file (``g``, ``deg/s``, … before the
+    conversion to SI). Rows with NaN/inf in ``acc``/``gyro`` are kept; ``nan_rows`` counts them.
+    ``labels`` (N,) str or int section labels, ``sample`` (N,) the file's sample counter (never used as time).
+    """
+
+    SCHEMA: ClassVar[str] = "optinav.imu_log"
+    VERSION: ClassVar[int] = 1
+
+    t: np.ndarray = field(metadata={"unit": "s"})
+    acc: np.ndarray | None = field(default=None, metadata={"unit": "acc_unit"})
+    gyro: np.ndarray | None = field(default=None, metadata={"unit": "gyro_unit"})
+    acc_unit: str = field(default="m/s^2", metadata={"unit": "-"})
+    gyro_unit: str = field(default="rad/s", metadata={"unit": "-"})
+    source: str = field(default="", metadata={"unit": "-"})
+    n_rows_read: int = field(default=0, metadata={"unit": ""})
+    nan_rows: int = field(default=0, metadata={"unit": ""})
+    labels: np.ndarray | None = field(default=None, metadata={"unit": "-"})
+    sample: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    acc_input_unit: str | None = field(default=None, metadata={"unit": "-"})
+    gyro_input_unit: str | None = field(default=None, metadata={"unit": "-"})
+
+    def __post_init__(self):
+        self.t = np.asarray(self.t, dtype=float)
+        if self.t.ndim != 1:
+            raise OptinavError(f"ImuLog.t must be one-dimensional, got shape {self.t.shape}",
+                               "pass one time per sample")
+        n = self.t.size
+        for name in ("acc", "gyro"):
+            v = getattr(self, name)
+            if v is not None:
+                v = np.asarray(v, dtype=float)
+                if v.shape != (n, 3):
+                    raise OptinavError(f"ImuLog.{name} has shape {v.shape}, expected ({n}, 3)",
+                                       "pass one triad per sample")
+                setattr(self, name, v)
+        for name in ("labels", "sample"):
+            v = getattr(self, name)
+            if v is not None:
+                v = np.asarray(v)
+                if v.shape != (n,):
+                    raise OptinavError(f"ImuLog.{name} has shape {v.shape}, expected ({n},)", "pass one per sample")
+                setattr(self, name, v)
+        for name, allowed in (("acc_unit", ("counts", "m/s^2")), ("gyro_unit", ("counts", "rad/s"))):
+            if getattr(self, name) not in allowed:
+                raise OptinavError(f"ImuLog.{name} is {getattr(self, name)!r}", f"use one of {', '.join(allowed)}")
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def finite(self) -> np.ndarray:
+        """(N,) True where every used acc/gyro value is finite (the rows the calibrator can use)."""
+        ok = np.ones(self.t.size, dtype=bool)
+        for v in (self.acc, self.gyro):
+            if v is not None:
+                ok &= np.all(np.isfinite(v), axis=1)
+        return ok
+
+    @property
+    def rate(self) -> float:
+        """Median sample rate (Hz) from the timestamps."""
+        return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
+
+    def select(self, rows) -> "ImuLog":
+        """The samples picked by a boolean mask, an index array or a slice (``nan_rows`` recounted)."""
+        if isinstance(rows, slice):
+            idx = np.arange(self.t.size)[rows]
+        else:
+            rows = np.asarray(rows)
+            if rows.dtype == bool:
+                if rows.shape != self.t.shape:
+                    raise OptinavError(f"mask has shape {rows.shape}, the log has {self.t.size} samples",
+                                       "pass one boolean per sample")
+                idx = np.flatnonzero(rows)
+            elif rows.dtype.kind in "iu":
+                idx = rows.reshape(-1)
+                if idx.size and (idx.min() < -self.t.size or idx.max() >= self.t.size):
+                    raise OptinavError("row index out of range", f"use indices below {self.t.size}")
+            else:
+                raise OptinavError(f"cannot select rows with a {rows.dtype} array", "pass a boolean mask or indices")
+        if idx.size > 1 and np.any(np.diff(np.where(idx < 0, idx + self.t.size, idx)) <= 0):
+            raise OptinavError("selected rows are not increasing", "select rows in time order, each once")
+        take = lambda v: None if v is None else v[idx]  # noqa: E731
+        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyro=take(self.gyro), acc_unit=self.acc_unit,
+                     gyro_unit=self.gyro_unit, source=self.source, n_rows_read=self.n_rows_read, nan_rows=0,
+                     labels=take(self.labels), sample=take(self.sample), acc_input_unit=self.acc_input_unit,
+                     gyro_input_unit=self.gyro_input_unit)
+        out.nan_rows = int(np.count_nonzero(~out.finite))
+        return out
+
+    def summary(self) -> str:
+        """One line: samples, duration, rate, units, NaN rows, source."""
+        span = float(self.t[-1] - self.t[0]) if self.t.size else 0.0
+        parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate:.6g} Hz)"]
+        if self.acc is not None:
+            parts.append(f"acc in {self.acc_unit}" + (f" (file: {self.acc_input_unit})"
+                                                       if self.acc_input_unit not in (None, self.acc_unit) else ""))
+        if self.gyro is not None:
+            parts.append(f"gyro in {self.gyro_unit}" + (f" (file: {self.gyro_input_unit})"
+                                                         if self.gyro_input_unit not in (None, self.gyro_unit) else ""))
+        parts.append(f"{self.nan_rows} row(s) with NaN")
+        return ", ".join(parts) + (f"; from {self.source}" if self.source else "")
+
+
+# --- reading ------------------------------------------------------------------------------------------------
+
+@dataclass
+class _Part:
+    """What one file contributes: raw arrays, their names and the units the file declares."""
+
+    path: Path
+    table: Table
+    n: int
+    t: np.ndarray | None = None
+    t_name: str | None = None
+    acc: np.ndarray | None = None
+    gyro: np.ndarray | None = None
+    labels: np.ndarray | None = None
+    sample: np.ndarray | None = None
+    declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
+
+
+def _canonical(kind: str, unit: str, option: str) -> str:
+    """Canonical spelling of a unit option (``acc``: counts|g|m/s^2, ``gyro``: counts|deg/s|rad/s, ``time``)."""
+    table = ACC_UNITS if kind == "acc" else GYRO_UNITS if kind == "gyro" else _TIME_SPELLINGS
+    key = str(unit).strip()
+    for cand in (key, key.lower()):
+        if cand in table:
+            return table[cand]
+    raise OptinavError(f"unknown {option} {unit!r}", f"use one of: {', '.join(_CANONICAL[kind])}")
+
+
+def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, default: str) -> str:
+    """The unit of one quantity: the option, else what the file declares, else ``default``; conflicts are errors."""
+    declared = {}
+    for src, unit in part.declared[kind].items():
+        try:
+            declared[src] = _canonical(kind, unit, option)
+        except OptinavError:
+            if given is None:
+                raise OptinavError(f"{part.path.name}: {src} declares the unit {unit!r}, which optinav does not "
+                                   f"convert (accepted: {', '.join(_CANONICAL[kind])})",
+                                   f"convert the file, or pass {option}=... to state the unit") from None
+    if given is not None:
+        for src, unit in declared.items():
+            if unit != given:
+                raise OptinavError(f"{part.path.name}: {src} declares {unit} but {option}={given!r} was passed",
+                                   f"drop {option} or correct the file")
+        return given
+    units = set(declared.values())
+    if len(units) > 1:
+        shown = ", ".join(f"{s}: {u}" for s, u in declared.items())
+        raise OptinavError(f"{part.path.name} declares different {kind} units ({shown})",
+                           f"convert the file to one unit, or pass {option}=... to override")
+    return units.pop() if units else default
+
+
+def _std(name: str, what: str) -> str:
+    hit = ALIASES.get(normalize_name(name)[0])
+    if hit is None:
+        raise OptinavError(f"{what}: {name!r} is not a standard name",
+                           f"use {', '.join(STANDARD_NAMES)} (or an alias) on the left of '='")
+    return hit[0]
+
+
+def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
+    positional, mapping = parse_columns(columns, what)
+    if datasets is not None:
+        _, extra = parse_columns(datasets, "datasets")
+        for k, v in extra.items():
+            if k in mapping and mapping[k] != v:
+                raise OptinavError(f"{k!r} is mapped by both {what} ({mapping[k]!r}) and datasets ({v!r})",
+                                   "map it once")
+            mapping[k] = v
+    label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
+    table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
+                       text_columns=LABEL_COLUMNS + label_sources)
+    found: dict[str, tuple[str, np.ndarray]] = {}  # std → (source name, array)
+    implied: dict[str, str] = {}
+    for key, name in mapping.items():
+        std = _std(key, what)
+        if std in found:
+            raise OptinavError(f"{what} maps {std!r} twice", "give one source per standard name")
+        found[std] = (name, table.get(name))
+    mapped_sources = {table.find(n) for n in mapping.values()}
+    candidates: dict[str, str] = {}
+    for key in table.data:
+        if key in mapped_sources or key in SKIP_NAMES:
+            continue
+        hit = ALIASES.get(normalize_name(key)[0])
+        if hit is None or hit[0] in found:
+            continue
+        std = hit[0]
+        if std in candidates:
+            raise OptinavError(f"{table.path.name}: columns {candidates[std]!r} and {key!r} both look like {std!r}",
+                               f"say which one with columns='{std}={candidates[std]}' (or skip one with '_')")
+        candidates[std] = key
+        if hit[1]:
+            implied[key] = hit[1]
+    for std, key in candidates.items():
+        found[std] = (key, table.data[key])
+    # a file holding one samples × 3 matrix named like a triad ("acc", "gyro")
+    if table.table is not None and not (set(found) & {"acc", "gyro", "ax", "gx"}):
+        hit = ALIASES.get(normalize_name(table.table)[0])
+        if hit and hit[0] in _COMPONENTS and table.table_array.shape[1] == 3:
+            found[hit[0]] = (table.table, table.table_array)
+    part = _Part(path=Path(path), table=table, n=0)
+    lengths: dict[str, int] = {}
+    for std, (name, arr) in found.items():
+        if std not in ("acc", "gyro") and arr.ndim != 1:
+            raise OptinavError(f"{part.path.name}: {std!r} must be one column but {name!r} has shape {arr.shape}",
+                               f"map {std} to a single column/vector")
+        if std not in ("label",) and arr.dtype.kind != "f":
+            raise OptinavError(f"{part.path.name}: {name!r} ({std}) holds text, not numbers",
+                               "map the standard name to a numeric column")
+        lengths[name] = arr.shape[0]
+    if len(set(lengths.values())) > 1:
+        shown = ", ".join(f"{k}: {v}" for k, v in lengths.items())
+        raise OptinavError(f"{part.path.name}: the columns have different lengths ({shown})",
+                           "pass columns/arrays with one value per sample")
+    for kind in ("acc", "gyro"):
+        comps = [c for c in _COMPONENTS[kind] if c in found]
+        if comps and kind in found:
+            raise OptinavError(f"{part.path.name}: both {found[kind][0]!r} and component columns "
+                               f"({', '.join(found[c][0] for c in comps)}) look like {kind}",
+                               f"say which with columns='{comps[0]}=...' or skip one")
+        if comps and len(comps) < 3:
+            missing = [c for c in _COMPONENTS[kind] if c not in found]
+            raise OptinavError(f"{part.path.name}: found {', '.join(f'{c} ({found[c][0]!r})' for c in comps)} but no "
+                               f"{', '.join(missing)} column (found: {table.names()})",
+                               f"name the missing column(s), e.g. columns='{missing[0]}=...'")
+        if kind in found:
+            name, arr = found[kind]
+            if arr.ndim != 2 or arr.shape[1] != 3:
+                hint = " (transpose it)" if arr.ndim == 2 and arr.shape[0] == 3 else ""
+                raise OptinavError(f"{part.path.name}: {name!r} has shape {arr.shape}, expected (N, 3){hint}",
+                                   f"store {kind} as one row per sample, or map ax/ay/az-style columns")
+            tri = arr
+            srcs = [name]
+        elif comps:
+            tri = np.column_stack([found[c][1] for c in _COMPONENTS[kind]])
+            srcs = [found[c][0] for c in _COMPONENTS[kind]]
+        else:
+            continue
+        setattr(part, kind, tri)
+        for s in srcs:
+            unit = table.units.get(s) or normalize_name(s)[1]
+            if unit:
+                part.declared[kind][f"column {s!r}"] = unit
+        if f"{kind}_unit" in table.meta:
+            part.declared[kind]["the file's unit record"] = table.meta[f"{kind}_unit"]
+    if "t" in found:
+        part.t_name, part.t = found["t"]
+        unit = table.units.get(part.t_name) or normalize_name(part.t_name)[1] or implied.get(part.t_name)
+        if unit:
+            part.declared["time"][f"column {part.t_name!r}"] = unit
+    if "time_unit" in table.meta:
+        part.declared["time"]["the file's unit record"] = table.meta["time_unit"]
+    if "label" in found:
+        part.labels = _labels(part.path, *found["label"])
+    if "sample" in found:
+        s = found["sample"][1]
+        part.sample = s.astype(np.int64) if np.all(np.isfinite(s)) and np.all(s == np.round(s)) else s
+    part.n = next(iter(lengths.values())) if lengths else 0
+    if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
+        kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
+        names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
+        raise OptinavError(f"{part.path.name} has no {kind} data ({names}; found: {table.names()})",
+                           "use standard names or aliases in the header, or pass columns='t,ax,ay,az,gx,gy,gz' "
+                           "(one name per column, '_' to skip) or std=name entries")
+    return part
+
+
+def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
+    if arr.ndim != 1:
+        raise OptinavError(f"{path.name}: label {name!r} has shape {arr.shape}", "store one label per sample")
+    if arr.dtype.kind == "f":
+        if not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
+            raise OptinavError(f"{path.name}: label column {name!r} holds non-integer numbers",
+                               "use text or integer labels, or skip the column with '_'")
+        return arr.astype(np.int64)
+    return arr.astype(str)
+
+
+def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
+             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
+             datasets=None, delimiter: str | None = None) -> ImuLog:
+    """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
+
+    ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
+    aliases, ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3
+    array); without it the names are recognised by alias (docs/file-formats.md). ``gyro_path``/``gyro_columns``:
+    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g,
+    m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
+    declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
+    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g`` and ``deg/s`` are
+    converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
+    column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
+    """
+    acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
+    gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
+    time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
+    if rate is not None:
+        rate = check_positive(rate, "rate")
+    if gyro_columns is not None and gyro_path is None:
+        raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
+    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
+    parts = [main]
+    if gyro_path is not None:
+        gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns")
+        parts.append(gpart)
+        main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
+        gpart.acc = None
+    times = []
+    for p in parts:
+        if p.t is not None:
+            if rate is not None:
+                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate={rate:g} was given too",
+                                   "drop the rate, or skip the time column with '_' in columns")
+            unit = _resolve_unit("time", time_u, p, "time_unit", "s")
+            times.append((p, p.t * TIME_UNITS[unit]))
+    if len(parts) == 2 and parts[0].n != parts[1].n:
+        raise OptinavError(f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
+                           "the accelerometer and gyroscope files must hold the same samples")
+    if len(times) == 2:
+        _check_same_time(*times)
+    if times:
+        p, t = times[0]
+        t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
+    elif rate is None:
+        raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
+                           "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
+    else:
+        t = np.arange(main.n) / rate
+        check_timestamps(t, f"{main.path.name}")
+    acc = gyro = None
+    acc_in = gyro_in = None
+    if main.acc is not None:
+        acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", "m/s^2")
+        acc = main.acc if acc_in != "g" else to_si(main.acc, "g")
+    if main.gyro is not None:
+        gpart = parts[-1]
+        gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
+        gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
+    log = ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
+                 gyro_unit="counts" if gyro_in == "counts" else "rad/s",
+                 source=" + ".join(str(p.path) for p in parts), n_rows_read=main.n, labels=main.labels,
+                 sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in)
+    log.nan_rows = int(np.count_nonzero(~log.finite))
+    return log
+
+
+def _check_same_time(a, b) -> None:
+    (pa, ta), (pb, tb) = a, b
+    where = f"time columns of {pa.path.name} ({pa.t_name!r}) and {pb.path.name} ({pb.t_name!r})"
+    if ta.shape != tb.shape:
+        raise OptinavError(f"{where} differ in length: {ta.size} vs {tb.size} samples",
+                           "pass files holding the same samples")
+    tol = 1e-12 * np.maximum(1.0, np.abs(ta))
+    with np.errstate(invalid="ignore"):
+        bad = ~(np.abs(ta - tb) <= tol) & ~((ta == tb) | (np.isnan(ta) & np.isnan(tb)))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise OptinavError(f"{where} differ: {int(np.count_nonzero(bad))} sample(s), first at row {i + 1}: "
+                           f"{float(ta[i])!r} s vs {float(tb[i])!r} s", "resample both files onto the same time stamps")
+
+
+# --- writing ------------------------------------------------------------------------------------------------
+
+_WRITE_TEXT = {".csv": ",", ".tsv": "\t", ".txt": " ", ".dat": " "}
+_WRITE_FORMATS = (*_WRITE_TEXT, ".npz", ".h5", ".hdf5", ".mat")
+
+
+def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | None, str]:
+    v = getattr(log, kind)
+    have = getattr(log, f"{kind}_unit")
+    if unit is None:
+        return v, have
+    unit = _canonical(kind, unit, f"{kind}_unit")
+    if v is None:
+        return None, unit
+    if (have == "counts") != (unit == "counts"):
+        raise OptinavError(f"the log's {kind} is in {have} and cannot be written in {unit}",
+                           f"write it in {have}" + (" (calibrate it first)" if have == "counts" else ""))
+    return (v if unit in ("counts", have) else from_si(v, unit)), unit
+
+
+def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str | None = None) -> Path:
+    """Write ``log`` to ``path`` so that :func:`read_imu` reads it back with the same values.
+
+    ``.csv`` / ``.tsv`` / ``.txt`` (comma, tab, space): a comment line with the units (``# units: t=s
+    acc=m/s^2 gyro=rad/s``), a header of standard names ``t,[sample,]ax,ay,az,gx,gy,gz[,label]`` and rows
+    in the shortest exact form (exact round trip); ``.npz``: arrays ``t``, ``acc``, ``gyro``, ``sample``,
+    ``labels`` and the strings ``acc_unit``, ``gyro_unit``, ``time_unit``; ``.h5``/``.hdf5`` (h5py): the same as
+    datasets and root attributes; ``.mat`` (v5): the same as variables. ``acc_unit`` ∈ {m/s^2, g},
+    ``gyro_unit`` ∈ {rad/s, deg/s} convert SI logs on output; counts are written as counts. Written atomically.
+    """
+    path = Path(path)
+    if not isinstance(log, ImuLog):
+        raise OptinavError(f"write_imu needs an ImuLog, got {type(log).__name__}", "read or build an ImuLog first")
+    suffix = path.suffix.lower()
+    if suffix not in _WRITE_FORMATS:
+        raise OptinavError(f"cannot write {path.name}: unknown file type {path.suffix or '(none)'}",
+                           f"use one of {', '.join(_WRITE_FORMATS)}")
+    if not path.parent.is_dir():
+        raise OptinavError(f"directory {path.parent} does not exist", "create it first")
+    acc, acc_u = _out_values(log, "acc", acc_unit)
+    gyro, gyro_u = _out_values(log, "gyro", gyro_unit)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
+    try:
+        if suffix in _WRITE_TEXT:
+            _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
+        elif suffix == ".npz":
+            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **arrays)
+        elif suffix == ".mat":
+            import scipy.io
+
+            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+            # column vectors as MATLAB keeps them; text labels become a char matrix (one padded row per sample)
+            arrays = {k: (v.reshape(-1, 1) if v.ndim == 1 and v.dtype.kind != "U" else v) for k, v in arrays.items()}
+            scipy.io.savemat(tmp, arrays, do_compression=True)
+        else:
+            from optinav.io.readers import _h5py
+
+            h5py = _h5py()
+            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+            with h5py.File(tmp, "w") as fh:
+                for k, v in arrays.items():
+                    if v.ndim == 0:
+                        fh.attrs[k] = str(v)
+                    elif v.dtype.kind == "U":
+                        fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
+                    else:
+                        fh.create_dataset(k, data=v)
+        tmp.replace(path)
+    except OSError as exc:
+        raise OptinavError(f"cannot write {path} ({exc.strerror or exc})",
+                           "check the directory and free space") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def _arrays(log, acc, gyro, acc_u, gyro_u) -> dict[str, np.ndarray]:
+    out = {"t": log.t}
+    if acc is not None:
+        out["acc"] = acc
+        out["acc_unit"] = np.asarray(acc_u)
+    if gyro is not None:
+        out["gyro"] = gyro
+        out["gyro_unit"] = np.asarray(gyro_u)
+    if log.sample is not None:
+        out["sample"] = np.asarray(log.sample)
+    if log.labels is not None:
+        lab = np.asarray(log.labels)
+        out["labels"] = lab.astype(str) if lab.dtype.kind in "OSU" else lab
+    out["time_unit"] = np.asarray("s")
+    return out
+
+
+def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
+    from optinav import __version__
+
+    names, cols = ["t"], [log.t]
+    if log.sample is not None:
+        names.append("sample")
+        cols.append(np.asarray(log.sample, dtype=float))
+    if acc is not None:
+        names += ["ax", "ay", "az"]
+        cols += [acc[:, 0], acc[:, 1], acc[:, 2]]
+    if gyro is not None:
+        names += ["gx", "gy", "gz"]
+        cols += [gyro[:, 0], gyro[:, 1], gyro[:, 2]]
+    labels = None
+    if log.labels is not None:
+        labels = np.asarray(log.labels)
+        if labels.dtype.kind in "OSU":
+            labels = labels.astype(str)
+            forbidden = f'#"\n\r{delim}'
+            bad = [str(x) for x in np.unique(labels) if x != x.strip() or not x or any(c in x for c in forbidden)]
+            if bad:
+                raise OptinavError(f"label {bad[0]!r} cannot be written to a {path.suffix} file (empty, or holds the "
+                                   "delimiter, '#', a quote or surrounding spaces)", "rename the labels or write .npz")
+            labels = list(labels)
+        else:
+            labels = [str(int(x)) for x in labels]
+        names.append("label")
+    units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
+    head = [f"# optinav {__version__} IMU log ({len(log)} samples); source: {log.source or '-'}".replace("\n", " "),
+            f"# units: {' '.join(units)}", delim.join(names)]
+    # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
+    integral = [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
+    fmt = delim.join("%d" if i else "%r" for i in integral)
+    rows = np.column_stack(cols).tolist()
+    if labels is None:
+        body = [fmt % tuple(r) for r in rows]
+    else:
+        body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels)]
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write("\n".join(head + body))
+        fh.write("\n")

@@ -1,0 +1,781 @@
+"""Tabular data files → named numpy arrays: text (CSV/TSV/whitespace), NPZ/NPY, HDF5 and MATLAB (v4/v5, v7.3).
+
+:func:`read_table` is the public entry; :func:`load_table` returns the :class:`Table` with the file's declared
+units and metadata that :func:`optinav.io.read_imu` interprets. File formats and column naming:
+docs/file-formats.md. Every bad input ends in a one-line :class:`~optinav.errors.OptinavError`; pickles are
+never loaded.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import gzip
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+__all__ = ["read_table", "load_table", "parse_columns", "Table", "SUFFIXES", "LABEL_COLUMNS", "SKIP_NAMES"]
+
+#: file suffix → format (``.gz`` after a text suffix is decompressed first)
+SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text",
+                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat"}
+#: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
+LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
+#: positional column names that skip a column
+SKIP_NAMES = ("_", "-")
+
+_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+_MAX_LISTED = 20
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
+_BRACKET_UNIT = re.compile(r"^(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
+
+
+@dataclasses.dataclass
+class Table:
+    """The raw content of a data file.
+
+    ``data`` maps names (header names, ``col1..colN`` without a header, NPZ array names, HDF5/MAT paths such
+    as ``imu/acc``) to 1-D columns or 2-D arrays; ``units`` maps names to units the file declares (header
+    brackets ``acc_x [g]``, a units row, HDF5 ``unit`` attributes); ``meta`` holds file-level strings
+    (``acc_unit``, ``gyro_unit``, ``time_unit`` from an optinav comment line, NPZ/MAT variables, HDF5
+    attributes). ``table`` names the 2-D array split into ``col1..colK`` when the file held a single one.
+    """
+
+    path: Path
+    kind: str
+    data: dict[str, np.ndarray]
+    units: dict[str, str] = dataclasses.field(default_factory=dict)
+    meta: dict[str, str] = dataclasses.field(default_factory=dict)
+    table: str | None = None
+    table_array: np.ndarray | None = None
+    skipped: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def names(self, limit: int = _MAX_LISTED) -> str:
+        """The available names as one short comma list (for error messages)."""
+        names = list(self.data)
+        more = f", … ({len(names) - limit} more)" if len(names) > limit else ""
+        text = ", ".join(names[:limit]) + more if names else "none"
+        if self.table is not None:
+            text += f" (columns of the {self.table_array.shape[0]}×{self.table_array.shape[1]} array {self.table!r})"
+        if self.skipped:
+            text += "; unreadable: " + ", ".join(f"{k} ({v})" for k, v in list(self.skipped.items())[:5])
+        return text
+
+    def find(self, name: str) -> str | None:
+        """The key matching ``name``: exactly, without a leading '/', with '.' for '/', or case-insensitively."""
+        for cand in (name, name.lstrip("/"), name.lstrip("/").replace(".", "/")):
+            if cand in self.data:
+                return cand
+        low = [k for k in self.data if k.lower() == name.lstrip("/").lower()]
+        return low[0] if len(low) == 1 else None
+
+    def get(self, name: str) -> np.ndarray:
+        """The array called ``name`` (see :meth:`find`); a clear error listing what exists otherwise."""
+        key = self.find(name)
+        if key is None and self.table is not None and name.lstrip("/").lower() == self.table.lower():
+            return self.table_array
+        if key is None:
+            what = "column" if self.kind == "text" else "array/dataset"
+            raise OptinavError(f"{self.path} has no {what} named {name!r} (found: {self.names()})",
+                               "use one of the names found")
+        return self.data[key]
+
+
+# --- column specifications ----------------------------------------------------------------------------------
+
+def parse_columns(columns, what: str = "columns") -> tuple[list[str] | None, dict[str, str]]:
+    """Split a column specification into positional names and ``std=name`` mappings.
+
+    ``columns`` is a comma list (``"t,ax,ay,az,_,gx,gy,gz"`` or ``"t=time,ax=acc_x"``), a sequence of such
+    entries or a mapping ``{std: name}``. Returns ``(positional or None, mapping)``; the two kinds cannot mix.
+    """
+    if columns is None:
+        return None, {}
+    if isinstance(columns, Mapping):
+        items = [f"{k}={v}" for k, v in columns.items()]
+    elif isinstance(columns, str):
+        items = columns.split(",")
+    elif isinstance(columns, Sequence):
+        items = [str(c) for c in columns]
+    else:
+        raise OptinavError(f"{what} must be a comma list, a list of names or a mapping, got {type(columns).__name__}",
+                           f"pass e.g. {what}='t,ax,ay,az'")
+    items = [c.strip() for c in items]
+    if not items or any(not c for c in items):
+        raise OptinavError(f"{what} {columns!r} has an empty entry", "give one name per column, '_' to skip one")
+    mapped = [c for c in items if "=" in c]
+    if mapped and len(mapped) != len(items):
+        raise OptinavError(f"{what} {columns!r} mixes positional names and std=name entries",
+                           "use either one name per column in order, or only std=name entries")
+    if not mapped:
+        seen = [c for c in items if c not in SKIP_NAMES]
+        dup = sorted({c for c in seen if seen.count(c) > 1})
+        if dup:
+            raise OptinavError(f"{what} names {', '.join(map(repr, dup))} more than once",
+                               "give each column its own name")
+        return items, {}
+    mapping: dict[str, str] = {}
+    for entry in items:
+        std, _, name = (s.strip() for s in entry.partition("="))
+        if not std or not name:
+            raise OptinavError(f"{what} entry {entry!r} is incomplete", "write entries as std=name, e.g. t=timestamp")
+        if std in mapping:
+            raise OptinavError(f"{what} maps {std!r} twice", "give one source per standard name")
+        mapping[std] = name
+    return None, mapping
+
+
+# --- public entry points ------------------------------------------------------------------------------------
+
+def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
+               text_columns: Sequence[str] = LABEL_COLUMNS) -> dict[str, np.ndarray]:
+    """Read a data file into ``{name: array}``.
+
+    Formats by suffix: ``.csv .tsv .txt .dat`` (optionally ``.gz``; header auto-detected, ``#`` comments,
+    delimiter ``, \\t ;`` or whitespace auto-detected unless ``delimiter`` is given), ``.npz``/``.npy``
+    (no pickles), ``.h5``/``.hdf5`` (h5py), ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to
+    MATLAB's row/column layout).
+
+    ``columns``: names of the file's columns in order (``"_"``/``"-"`` skips one; a header line is then
+    ignored), or ``std=name`` entries returning only those names, taken from header columns, NPZ arrays or
+    datasets. ``datasets``: ``{std: dataset path}`` (same as ``std=name`` entries; reads only those datasets
+    of an HDF5 file). Without either, every column/array is returned under its own name (``col1..colN`` for a
+    text file without a header or a file holding a single 2-D array). Text cells are allowed only in columns
+    named in ``text_columns`` (label columns, returned as str arrays); elsewhere they are an error.
+    """
+    positional, mapping = parse_columns(columns)
+    _, extra = parse_columns(datasets, "datasets") if datasets is not None else (None, {})
+    if datasets is not None and not extra:
+        raise OptinavError("datasets must map names to dataset paths", "pass e.g. datasets={'t': '/imu/time'}")
+    for k, v in extra.items():
+        if k in mapping and mapping[k] != v:
+            raise OptinavError(f"{k!r} is mapped by both columns ({mapping[k]!r}) and datasets ({v!r})",
+                               "map it once")
+        mapping[k] = v
+    table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
+                       text_columns=text_columns)
+    if mapping:
+        return {std: table.get(name) for std, name in mapping.items()}
+    return dict(table.data)
+
+
+def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
+               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS) -> Table:
+    """Read ``path`` into a :class:`Table` (see :func:`read_table`).
+
+    ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
+    HDF5 reader read just those).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise OptinavError(f"data file {path} does not exist", "check the path")
+    if path.is_dir():
+        raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
+    suffixes = [s.lower() for s in path.suffixes]
+    gz = bool(suffixes) and suffixes[-1] == ".gz"
+    suffix = (suffixes[-2] if len(suffixes) > 1 else "") if gz else (suffixes[-1] if suffixes else "")
+    kind = SUFFIXES.get(suffix)
+    if kind is None or (gz and kind != "text"):
+        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
+        raise OptinavError(f"{path.name}: unknown data file type {shown}",
+                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
+    if size == 0:
+        raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
+    labels = {normalize_name(n)[0] for n in text_columns}
+    if kind == "text":
+        table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
+    else:
+        if delimiter is not None:
+            raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
+        if kind in ("npz", "npy"):
+            table = _load_numpy(path)
+        elif kind == "hdf5":
+            table = _load_hdf5(path, only, matlab=False)
+        else:
+            table = _load_mat(path, only)
+        table = _split_single_table(table)
+        if names is not None:
+            table = _name_table_columns(table, names)
+    return table
+
+
+def normalize_name(name: str) -> tuple[str, str | None]:
+    """Alias key of a column name and the unit it declares in brackets.
+
+    ``"Acc X [m/s^2]"`` → ``("acc_x", "m/s^2")``; ``"imu/gyro"`` → ``("gyro", None)``: lower case, the last
+    path component, spaces, dots and dashes as ``_``.
+    """
+    s = str(name).strip()
+    unit = None
+    m = _BRACKET_UNIT.match(s)
+    if m and m.group(1):
+        s, unit = m.group(1), m.group(2).strip() or None
+    s = s.replace("\\", "/").rstrip("/").split("/")[-1]
+    s = re.sub(r"[\s.\-]+", "_", s.lower()).strip("_")
+    return re.sub(r"_+", "_", s), unit
+
+
+# --- text -----------------------------------------------------------------------------------------------------
+
+def _read_bytes(path: Path, gz: bool) -> bytes:
+    try:
+        if gz:
+            with gzip.open(path, "rb") as fh:
+                return fh.read()
+        return path.read_bytes()
+    except OSError as exc:  # includes gzip.BadGzipFile
+        raise OptinavError(f"cannot read {path} ({exc})",
+                           "check the file (a .gz file must be gzip-compressed)") from None
+    except (EOFError, ValueError) as exc:  # truncated or corrupt gzip stream
+        raise OptinavError(f"{path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
+
+
+def _decode(path: Path, raw: bytes) -> str:
+    if b"\x00" in raw:
+        raise OptinavError(f"{path} looks binary (it contains NUL bytes), not a text table",
+                           "pass a CSV/TSV/text file, or give the file its real extension (.npz, .h5, .mat)")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")  # e.g. '°' written by Windows tools; only names can hold such bytes
+
+
+def _delimiter_option(delimiter: str | None) -> tuple[bool, str | None]:
+    """(given?, delimiter) with None meaning whitespace."""
+    if delimiter is None:
+        return False, None
+    named = {"comma": ",", "tab": "\t", "\\t": "\t", "semicolon": ";", "whitespace": None, "space": None, " ": None}
+    if delimiter in named:
+        return True, named[delimiter]
+    if len(delimiter) == 1 and delimiter not in "#\"\n\r" and not delimiter.isalnum() and delimiter not in ".+-":
+        return True, delimiter
+    raise OptinavError(f"delimiter {delimiter!r} is not usable",
+                       "use ',', ';', 'tab' or 'whitespace' (or leave it out to auto-detect)")
+
+
+def _sniff(sample: list[str]) -> str | None:
+    """Delimiter found on every sample line the same number of times (tab, then ';', then ','), else a guess."""
+    for cand in ("\t", ";", ","):
+        counts = {line.count(cand) for line in sample}
+        if len(counts) == 1 and counts.pop() > 0:
+            return cand
+    first = sample[0]
+    for cand in (",", "\t", ";"):
+        if cand in first:
+            return cand
+    return None
+
+
+def _strip_comment(line: str) -> str:
+    return line.split("#", 1)[0] if "#" in line else line
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        toks = line.split()
+    elif '"' in line:
+        try:
+            toks = next(csv.reader([line], delimiter=delim, skipinitialspace=True))
+        except (csv.Error, StopIteration):
+            toks = line.split(delim)
+    else:
+        toks = line.split(delim)
+    out = []
+    for tok in toks:
+        tok = tok.strip()
+        if len(tok) >= 2 and tok[0] == tok[-1] == '"':
+            tok = tok[1:-1].strip()
+        out.append(tok)
+    return out
+
+
+def _is_number(tok: str) -> bool:
+    if tok == "":
+        return True  # an empty cell is a missing number
+    try:
+        float(tok)
+        return True
+    except ValueError:
+        return False
+
+
+def _is_header(tokens: list[str], following: list[str] | None) -> bool:
+    """A header has a non-numeric token; when a next line exists, in a column where it is numeric or in all."""
+    text = [not _is_number(t) for t in tokens]
+    if not any(text):
+        return False
+    if following is None or len(following) != len(tokens) or all(text):
+        return True
+    return any(t and _is_number(f) and f != "" for t, f in zip(text, following))
+
+
+def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
+               labels: set[str]) -> Table:
+    given, delim = _delimiter_option(delimiter)
+    text = _decode(path, raw)
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    comments: list[str] = []
+    last_comment = -2
+    content: list[int] = []  # indices of the first few non-comment, non-blank lines
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            if not content:
+                comments.append(s.lstrip("#").strip())
+                last_comment = i
+            continue
+        if not _strip_comment(s).strip():
+            continue
+        content.append(i)
+        if len(content) >= 10:
+            break
+    if not content:
+        raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
+    sample = [_strip_comment(lines[i]) for i in content]
+    if not given:
+        delim = _sniff(sample)
+    toks0 = _split(sample[0], delim)
+    is_header = _is_header(toks0, _split(sample[1], delim) if len(sample) > 1 else None)
+    units: dict[str, str] = {}
+    start = content[0]
+    header: list[str] | None = None
+    if is_header:
+        header = toks0
+        start = content[0] + 1
+        if len(sample) > 1:  # a row of units right below the header
+            toks1 = _split(sample[1], delim)
+            if len(toks1) == len(header) and all(t and not _is_number(t) for t in toks1) and len(sample) > 2:
+                units = {h: u for h, u in zip(header, toks1)}
+                start = content[1] + 1
+    elif comments and last_comment == content[0] - 1:
+        # numpy.savetxt writes its header as a '# a,b,c' comment: use the comment line right above the data if it fits
+        cand = _split(comments[-1], delim)
+        if len(cand) == len(toks0) > 1 and all(t and not _is_number(t) for t in cand):
+            header = cand
+    ncol = len(header) if header is not None else len(toks0)
+    if names is not None:
+        if len(names) != ncol:
+            shown = f"header: {','.join(header)}" if header is not None else f"first row: {','.join(toks0)}"
+            raise OptinavError(f"columns names {len(names)} column(s) but {path.name} has {ncol} ({shown[:120]})",
+                               "give one name per column in order, '_' to skip one")
+        colnames = list(names)
+    elif header is not None:
+        colnames = [h if h else f"col{j + 1}" for j, h in enumerate(header)]
+        seen: dict[str, int] = {}
+        for j, h in enumerate(colnames):
+            if h in seen:
+                raise OptinavError(f"{path.name}: the header names column {h!r} twice "
+                                   f"(columns {seen[h] + 1} and {j + 1})",
+                                   "rename one, or name the columns with columns='...'")
+            seen[h] = j
+    else:
+        colnames = [f"col{j + 1}" for j in range(ncol)]
+    if header is not None and names is not None:
+        units = {n: units[h] for n, h in zip(colnames, header) if h in units}
+    for j, h in enumerate(colnames):
+        unit = normalize_name(h)[1]
+        if unit and h not in units:
+            units[h] = unit
+    keep = [j for j, n in enumerate(colnames) if n not in SKIP_NAMES]
+    if not keep:
+        raise OptinavError("columns skips every column", "name at least one column")
+    textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
+    data = _parse_fast(lines, start, delim, ncol, keep, textable)
+    if data is None:
+        data = _parse_slow(path, lines, start, delim, colnames, keep, textable)
+    meta = _comment_meta(comments)
+    table = Table(path=path, kind="text", data={colnames[j]: data[j] for j in keep}, units=units, meta=meta)
+    n = len(next(iter(table.data.values()))) if table.data else 0
+    if n == 0:
+        raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
+    return table
+
+
+def _loadtxt(lines, delim, dtype, usecols=None):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return np.loadtxt(lines, delimiter=delim, comments="#", dtype=dtype, ndmin=2, quotechar='"', usecols=usecols)
+
+
+def _parse_fast(lines, start, delim, ncol, keep, textable) -> dict[int, np.ndarray] | None:
+    """numpy's C parser; None when the file needs the exact (slow) parser: errors, empty cells, text."""
+    body = lines[start:]
+    try:
+        arr = _loadtxt(body, delim, float)
+        if arr.shape[1] != ncol:
+            return None
+        return {j: arr[:, j] for j in keep}
+    except Exception:  # noqa: BLE001 - any parser failure falls back to the exact parser, which explains it
+        pass
+    if len(keep) == ncol and not textable:
+        return None
+    numeric = [j for j in keep if j not in textable]
+    try:
+        if delim is not None and _uniform(body, delim, ncol):
+            # usecols would let ragged rows pass, hence the field count check above
+            out = {}
+            if numeric:
+                arr = _loadtxt(body, delim, float, usecols=numeric)
+                out.update({j: arr[:, k] for k, j in enumerate(numeric)})
+            if textable:
+                cols = sorted(textable)
+                arr = _loadtxt(body, delim, str, usecols=cols)
+                out.update({j: _text_column(arr[:, k]) for k, j in enumerate(cols)})
+            return out
+        arr = _loadtxt(body, delim, str)
+        if arr.shape[1] != ncol:
+            return None
+        return {j: _text_column(arr[:, j]) if j in textable else arr[:, j].astype(float) for j in keep}
+    except Exception:  # noqa: BLE001
+        return None
+
+
+def _uniform(body: list[str], delim: str, ncol: int) -> bool:
+    """Every non-blank line has ncol fields and no quotes or comments."""
+    k = ncol - 1
+    odd = [line for line in body if line.count(delim) != k or '"' in line or "#" in line]
+    return all(not line.strip() for line in odd)
+
+
+def _text_column(cells: np.ndarray) -> np.ndarray:
+    """A label column: numbers if every cell is one, else stripped strings."""
+    cells = np.char.strip(np.asarray(cells, dtype=str))
+    if cells.size and _is_number(str(cells[0])) and cells[0] != "":
+        try:
+            return cells.astype(float)
+        except ValueError:
+            pass
+    return cells
+
+
+def _parse_slow(path, lines, start, delim, colnames, keep, textable) -> dict[int, np.ndarray]:
+    """Line-by-line parser: exact line numbers in errors; empty cells become NaN."""
+    ncol = len(colnames)
+    cols: dict[int, list] = {j: [] for j in keep}
+    numeric = [j for j in keep if j not in textable]
+    for i in range(start, len(lines)):
+        s = _strip_comment(lines[i])
+        if not s.strip():
+            continue
+        toks = _split(s, delim)
+        if len(toks) != ncol:
+            how = "truncated" if len(toks) < ncol else "too long"
+            raise OptinavError(f"{path.name} line {i + 1} has {len(toks)} field(s), {ncol} expected "
+                               f"({how} or ragged row)",
+                               "fix or delete that row, or check the delimiter")
+        for j in textable:
+            cols[j].append(toks[j])
+        for j in numeric:
+            tok = toks[j]
+            if tok == "":
+                cols[j].append(np.nan)
+                continue
+            try:
+                cols[j].append(float(tok))
+            except ValueError:
+                hint = ("decimal commas are not supported: write decimal points" if _DECIMAL_COMMA.match(tok)
+                        else "fix the cell or skip the column ('_' in columns); text is kept only in label "
+                        "columns (part, label, section, …)")
+                raise OptinavError(f"{path.name} line {i + 1}, column {j + 1} ({colnames[j]!r}): "
+                                   f"{tok[:40]!r} is not a number", hint) from None
+    out = {}
+    for j in keep:
+        out[j] = _text_column(np.asarray(cols[j], dtype=str)) if j in textable else np.asarray(cols[j], dtype=float)
+    return out
+
+
+def _comment_meta(comments: list[str]) -> dict[str, str]:
+    """``# units: t=s acc=m/s^2 gyro=rad/s`` (as written by write_imu) → {time_unit, acc_unit, gyro_unit}."""
+    meta: dict[str, str] = {}
+    keys = {"t": "time_unit", "time": "time_unit", "acc": "acc_unit", "gyro": "gyro_unit"}
+    for c in comments:
+        m = re.search(r"\bunits?\s*:\s*(.*)$", c, re.IGNORECASE)
+        if not m:
+            continue
+        for k, v in re.findall(r"([A-Za-z_]\w*)\s*=\s*([^\s,;]+)", m.group(1)):
+            if k.lower() in keys:
+                meta[keys[k.lower()]] = v
+    return meta
+
+
+# --- numpy, HDF5, MATLAB ------------------------------------------------------------------------------------
+
+def _convert(arr) -> tuple[str, object]:
+    """Classify a loaded array: ("array", ndarray) | ("meta", str) | ("fields", {name: ndarray}) | ("skip", why)."""
+    a = np.asarray(arr)
+    if a.dtype.names:
+        fields = {}
+        for name in a.dtype.names:
+            kind, val = _convert(a[name])
+            if kind == "array":
+                fields[name] = val
+        return ("fields", fields) if fields else ("skip", "no numeric fields")
+    k = a.dtype.kind
+    if k in "biuf":
+        a = a.astype(float)
+    elif k == "M":
+        a = a.astype("datetime64[ns]").astype(np.int64) * 1e-9
+    elif k == "m":
+        a = a.astype("timedelta64[ns]").astype(np.int64) * 1e-9
+    elif k in "US":
+        a = np.char.decode(a, "utf-8", "replace") if k == "S" else a
+        a = np.char.strip(a.astype(str))
+    elif k == "O":
+        try:
+            items = [x.decode("utf-8", "replace") if isinstance(x, bytes) else x for x in a.ravel()]
+        except Exception:  # noqa: BLE001
+            return "skip", "object array"
+        if all(isinstance(x, str) for x in items):
+            a = np.asarray([x.strip() for x in items], dtype=str).reshape(a.shape)
+        else:
+            return "skip", "object array"
+    else:
+        return "skip", f"unsupported dtype {a.dtype}"
+    if a.ndim == 0:
+        return "meta", str(a.item())
+    if a.ndim == 2 and 1 in a.shape and a.size > 1:
+        a = a.reshape(-1)
+    if a.ndim > 2:
+        return "skip", f"{a.ndim}-D"
+    if a.size == 1:
+        return "meta", str(a.reshape(-1)[0])
+    if a.size == 0:
+        return "skip", "empty"
+    return "array", a
+
+
+def _add(table: Table, name: str, arr) -> None:
+    kind, val = _convert(arr)
+    if kind == "array":
+        table.data[name] = val
+    elif kind == "meta":
+        table.meta[name.split("/")[-1]] = val
+    elif kind == "fields":
+        for k, v in val.items():
+            table.data[f"{name}/{k}" if name else k] = v
+    else:
+        table.skipped[name] = val
+
+
+def _load_numpy(path: Path) -> Table:
+    kind = path.suffix.lower()[1:]
+    table = Table(path=path, kind=kind, data={})
+    try:
+        obj = np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "pickle" in str(exc).lower():
+            raise OptinavError(f"{path} holds pickled data (or is not an NPZ/NPY file); optinav never loads pickles",
+                               "save plain numeric arrays with numpy.savez / numpy.save") from None
+        raise OptinavError(f"{path} is not a readable {kind.upper()} file ({exc})", "re-save it with numpy") from None
+    except Exception as exc:  # noqa: BLE001 - zipfile/format errors of a damaged file
+        raise OptinavError(f"{path} is not a readable {kind.upper()} file ({type(exc).__name__}: {exc})",
+                           "re-save it with numpy.savez / numpy.save") from None
+    if isinstance(obj, np.ndarray):
+        _add(table, path.stem, obj)
+        # a structured .npy is a table whose fields are the columns
+        table.data = {k.split("/", 1)[-1] if "/" in k else k: v for k, v in table.data.items()}
+        return table
+    with obj:
+        for name in obj.files:
+            try:
+                arr = obj[name]
+            except ValueError as exc:
+                if "pickle" in str(exc).lower():
+                    raise OptinavError(f"{path}: array {name!r} is pickled (object dtype); optinav never loads pickles",
+                                       "save it as a numeric or string array") from None
+                raise OptinavError(f"{path}: array {name!r} is unreadable ({exc})", "re-save the file") from None
+            except Exception as exc:  # noqa: BLE001
+                raise OptinavError(f"{path}: array {name!r} is unreadable ({type(exc).__name__}: {exc})",
+                                   "re-save the file") from None
+            _add(table, name, arr)
+    _check_nonempty(table)
+    return table
+
+
+def _h5py():
+    try:
+        import h5py
+    except ImportError:
+        raise OptinavError("reading HDF5 and MATLAB v7.3 files needs h5py, which is not installed",
+                           "pip install 'optinav[hdf5]'") from None
+    return h5py
+
+
+def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table:
+    h5py = _h5py()
+    table = Table(path=path, kind="mat73" if matlab else "hdf5", data={})
+    try:
+        fh = h5py.File(path, "r")
+    except Exception as exc:  # noqa: BLE001 - OSError for non-HDF5 files, others for damaged ones
+        raise OptinavError(f"{path} is not a readable HDF5 file ({exc})", "check that the file is complete") from None
+    try:
+        with fh:
+            for k, v in fh.attrs.items():
+                if isinstance(v, (bytes, str, np.bytes_, np.str_)):
+                    table.meta[k] = v.decode("utf-8", "replace") if isinstance(v, (bytes, np.bytes_)) else str(v)
+            found: list[str] = []
+
+            def visit(name, obj):
+                if isinstance(obj, h5py.Dataset) and not (matlab and name.startswith("#")):
+                    found.append(name)
+
+            fh.visititems(visit)
+            wanted = found
+            if only:
+                wanted = []
+                for name in only:
+                    key = _h5_find(fh, found, name, h5py)
+                    if key is None:
+                        listed = ", ".join(found[:_MAX_LISTED]) + (" …" if len(found) > _MAX_LISTED else "")
+                        raise OptinavError(f"{path} has no dataset {name!r} (datasets: {listed or 'none'})",
+                                           "use one of the dataset paths listed")
+                    wanted.append(key)
+            for name in wanted:
+                ds = fh[name]
+                arr = _h5_read(fh, ds, matlab, h5py)
+                if arr is None:
+                    table.skipped[name] = "unsupported MATLAB/HDF5 type"
+                    continue
+                _add(table, name, arr)
+                unit = ds.attrs.get("unit", ds.attrs.get("units"))
+                if isinstance(unit, (bytes, np.bytes_)):
+                    unit = unit.decode("utf-8", "replace")
+                if isinstance(unit, str) and name in table.data:
+                    table.units[name] = unit
+    except OptinavError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
+        raise OptinavError(f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})",
+                           "check that the file is complete") from None
+    _check_nonempty(table)
+    return table
+
+
+def _h5_find(fh, found: list[str], name: str, h5py) -> str | None:
+    for cand in (name.lstrip("/"), name.lstrip("/").replace(".", "/")):
+        if cand in found:
+            return cand
+        obj = fh.get(cand)
+        if obj is not None and isinstance(obj, h5py.Dataset):
+            return obj.name.lstrip("/")
+    low = [f for f in found if f.lower() == name.lstrip("/").lower()]
+    return low[0] if len(low) == 1 else None
+
+
+def _h5_read(fh, ds, matlab: bool, h5py):
+    """A dataset's value; MATLAB v7.3 data are transposed back and chars/cells of strings decoded."""
+    if not matlab:
+        if ds.dtype.kind == "O" and h5py.check_string_dtype(ds.dtype) is None:
+            return None  # references or other object data
+        return ds[()]
+    cls = ds.attrs.get("MATLAB_class", b"")
+    cls = cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
+    if ds.attrs.get("MATLAB_empty", 0):
+        return None
+    if cls == "char":
+        codes = np.asarray(ds[()]).T  # rows × characters in MATLAB layout
+        codes = np.atleast_2d(codes)
+        rows = ["".join(map(chr, r)).rstrip() for r in codes.astype(np.int64)]
+        return np.asarray(rows[0] if len(rows) == 1 else rows, dtype=str)
+    if cls == "cell":
+        refs = np.asarray(ds[()]).T.ravel()
+        items = []
+        for ref in refs:
+            val = _h5_read(fh, fh[ref], True, h5py)
+            if val is None or np.asarray(val).dtype.kind != "U" or np.asarray(val).ndim != 0:
+                return None
+            items.append(str(val))
+        return np.asarray(items, dtype=str)
+    if ds.dtype.kind not in "biuf":
+        return None
+    return np.asarray(ds[()]).T
+
+
+def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(520)
+    except OSError as exc:
+        raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
+    if head.startswith(b"MATLAB 7.3") or head[512:520] == _HDF5_MAGIC:
+        return _load_hdf5(path, only, matlab=True)
+    if head.startswith(_HDF5_MAGIC):
+        return _load_hdf5(path, only, matlab=False)
+    import scipy.io
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mat = scipy.io.loadmat(path, simplify_cells=True)
+    except Exception as exc:  # noqa: BLE001 - scipy raises many types for damaged or foreign files
+        raise OptinavError(f"{path} is not a readable MATLAB file ({type(exc).__name__}: {str(exc)[:120]})",
+                           "save it from MATLAB with save(..., '-v7') or '-v7.3'") from None
+    table = Table(path=path, kind="mat", data={})
+
+    def walk(prefix: str, value) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                walk(f"{prefix}/{k}" if prefix else k, v)
+        elif isinstance(value, (list, tuple)):
+            if value and all(isinstance(v, str) for v in value):
+                _add(table, prefix, np.asarray([v.strip() for v in value], dtype=str))
+            elif value and all(isinstance(v, (int, float, np.number)) for v in value):
+                _add(table, prefix, np.asarray(value, dtype=float))
+            else:
+                table.skipped[prefix] = "cell array"
+        elif isinstance(value, str):
+            table.meta[prefix.split("/")[-1]] = value
+        else:
+            _add(table, prefix, value)
+
+    for key, value in mat.items():
+        if not key.startswith("__"):
+            walk(key, value)
+    _check_nonempty(table)
+    return table
+
+
+def _check_nonempty(table: Table) -> None:
+    if not table.data:
+        extra = f" (unreadable: {table.names()})" if table.skipped else ""
+        raise OptinavError(f"{table.path} holds no numeric arrays{extra}",
+                           "save the data as numeric arrays (one per quantity, or one samples × columns matrix)")
+
+
+def _split_single_table(table: Table) -> Table:
+    """A file whose only numeric array is 2-D with several columns becomes columns col1..colK."""
+    numeric = [k for k, v in table.data.items() if v.dtype.kind == "f"]
+    if len(numeric) == 1 and table.data[numeric[0]].ndim == 2 and table.data[numeric[0]].shape[1] >= 2:
+        name = numeric[0]
+        arr = table.data.pop(name)
+        cols = {f"col{j + 1}": arr[:, j] for j in range(arr.shape[1])}
+        table.data = {**cols, **table.data}
+        table.table, table.table_array = name, arr
+    return table
+
+
+def _name_table_columns(table: Table, names: Sequence[str]) -> Table:
+    if table.table is None:
+        raise OptinavError(f"{table.path.name} holds named arrays ({table.names()}), not one samples × columns table, "
+                           "so positional column names do not apply", "use std=name entries, e.g. columns='t=time'")
+    cols = [k for k in table.data if re.fullmatch(r"col\d+", k)]
+    if len(cols) != len(names):
+        raise OptinavError(f"columns names {len(names)} column(s) but {table.table!r} in {table.path.name} has "
+                           f"{len(cols)} (is it stored transposed?)",
+                           "give one name per column in order, '_' to skip one")
+    data = {n: table.data[c] for n, c in zip(names, cols) if n not in SKIP_NAMES}
+    data.update({k: v for k, v in table.data.items() if k not in cols})
+    table.data = data
+    return table

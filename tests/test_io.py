@@ -1,0 +1,551 @@
+"""optinav.io: table readers (text, NPZ, HDF5, MATLAB v5/v7.3), read_imu, write_imu and their errors."""
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from optinav.core.units import G_STANDARD
+from optinav.errors import OptinavError
+from optinav.io import ImuLog, read_imu, read_table, write_imu
+from optinav.io.readers import load_table
+
+try:
+    import h5py
+except ImportError:  # the hdf5 extra is optional
+    h5py = None
+needs_h5py = pytest.mark.skipif(h5py is None, reason="h5py not installed")
+
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
+IMUCAL = SHARED / "imucal"
+
+
+def _log(n=50, seed=0, counts=False, labels=False):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.005, 0.015, n))  # irregular steps
+    acc = rng.normal(0, 5, (n, 3))
+    gyro = rng.normal(0, 1, (n, 3))
+    if counts:
+        acc, gyro = np.round(acc * 400), np.round(gyro * 900)
+    lab = np.repeat(np.array(["x_p", "x_a", "z_rot"]), -(-n // 3))[:n] if labels else None
+    return ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if counts else "m/s^2",
+                  gyro_unit="counts" if counts else "rad/s", labels=lab, sample=np.arange(n) + 7)
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _same(a: ImuLog, b: ImuLog):
+    assert np.array_equal(a.t, b.t)
+    for name in ("acc", "gyro"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert (x is None) == (y is None)
+        if x is not None:
+            np.testing.assert_array_equal(x, y)
+    assert a.acc_unit == b.acc_unit and a.gyro_unit == b.gyro_unit
+    if a.labels is not None:
+        assert list(map(str, a.labels)) == list(map(str, b.labels))
+    if a.sample is not None:
+        np.testing.assert_array_equal(a.sample, b.sample)
+
+
+# --- write/read round trips -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("suffix", [".csv", ".tsv", ".txt", ".npz", ".mat",
+                                    pytest.param(".h5", marks=needs_h5py)])
+@pytest.mark.parametrize("counts", [False, True])
+def test_round_trip_every_format(tmp_path, suffix, counts):
+    log = _log(counts=counts, labels=True)
+    path = write_imu(tmp_path / f"log{suffix}", log)
+    back = read_imu(path)
+    _same(log, back)
+    assert back.n_rows_read == 50 and back.nan_rows == 0
+    assert back.acc_input_unit == ("counts" if counts else "m/s^2")
+    assert not list(tmp_path.glob(".*tmp*"))  # the atomic write left nothing behind
+
+
+def test_round_trip_keeps_nan_rows_and_units_on_output(tmp_path):
+    log = _log()
+    log.acc[3, 1] = np.nan
+    log.gyro[10, 2] = np.inf
+    log.gyro[3, 0] = np.nan  # same row as the acc NaN: counted once
+    log.nan_rows = 2
+    back = read_imu(write_imu(tmp_path / "x.csv", log, acc_unit="g", gyro_unit="deg/s"))
+    assert back.nan_rows == 2 and back.acc_input_unit == "g" and back.gyro_input_unit == "deg/s"
+    np.testing.assert_allclose(back.acc, log.acc, rtol=1e-15)
+    np.testing.assert_allclose(back.gyro, log.gyro, rtol=1e-15)
+    assert np.isnan(back.acc[3, 1]) and np.isinf(back.gyro[10, 2])
+    text = (tmp_path / "x.csv").read_text().splitlines()
+    assert text[1] == "# units: t=s acc=g gyro=deg/s" and text[2] == "t,sample,ax,ay,az,gx,gy,gz"
+    with pytest.raises(OptinavError, match="declares g but acc_unit='m/s\\^2'"):
+        read_imu(tmp_path / "x.csv", acc_unit="m/s^2")
+
+
+def test_write_refuses_bad_requests(tmp_path):
+    with pytest.raises(OptinavError, match="cannot be written in g"):
+        write_imu(tmp_path / "x.csv", _log(counts=True), acc_unit="g")
+    with pytest.raises(OptinavError, match="unknown file type .xlsx"):
+        write_imu(tmp_path / "x.xlsx", _log())
+    bad = _log(labels=True)
+    bad.labels = bad.labels.astype("<U8")
+    bad.labels[0] = "a,b"
+    with pytest.raises(OptinavError, match="label 'a,b' cannot be written"):
+        write_imu(tmp_path / "x.csv", bad)
+    back = read_imu(write_imu(tmp_path / "x.npz", bad))  # NPZ keeps any label text
+    assert back.labels[0] == "a,b"
+
+
+def test_imulog_json_and_select():
+    log = _log(labels=True)
+    log.acc[5, 0] = np.nan
+    log.nan_rows = 1
+    back = ImuLog.from_json(log.to_json())
+    _same(log, back)
+    part = log.select(log.labels == "x_a")
+    assert len(part) == np.count_nonzero(log.labels == "x_a") and part.nan_rows == 0
+    assert log.select(slice(0, 10)).nan_rows == 1
+    assert log.select(np.array([1, 5, 9])).sample.tolist() == [8, 12, 16]
+    assert "50 samples" in log.summary()
+    with pytest.raises(OptinavError, match="not increasing"):
+        log.select(np.array([3, 1]))
+    with pytest.raises(OptinavError, match="expected \\(50, 3\\)"):
+        ImuLog(t=log.t, acc=log.acc[:-1])
+
+
+# --- text tables ----------------------------------------------------------------------------------------------
+
+ROWS = [[0.0, 1.5, -2.0, 9.81], [0.01, 1.25, -2.5, 9.8], [0.02, 1.0, 3e-3, -9.75]]
+
+
+@pytest.mark.parametrize("delim", [",", "\t", ";", " ", "   "])
+@pytest.mark.parametrize("header", [True, False])
+def test_text_delimiters_and_header_detection(tmp_path, delim, header):
+    lines = ["# exported by a logger", ""] + ([delim.join(["time", "acc_x", "acc_y", "acc_z"])] if header else [])
+    lines += [delim.join(repr(v) for v in r) for r in ROWS]
+    path = _write(tmp_path / "d.txt", "\r\n".join(lines) + "\n")
+    table = read_table(path)
+    names = ["time", "acc_x", "acc_y", "acc_z"] if header else ["col1", "col2", "col3", "col4"]
+    assert list(table) == names
+    np.testing.assert_array_equal(np.column_stack([table[n] for n in names]), ROWS)
+    log = read_imu(path, columns=None if header else "t,ax,ay,az")
+    np.testing.assert_array_equal(log.acc, np.asarray(ROWS)[:, 1:])
+    np.testing.assert_array_equal(log.t, np.asarray(ROWS)[:, 0])
+    assert log.gyro is None
+
+
+def test_explicit_delimiter_and_positional_columns(tmp_path):
+    path = _write(tmp_path / "d.dat", "a|b|c|d\n" + "\n".join("|".join(map(str, r)) for r in ROWS) + "\n")
+    table = read_table(path, delimiter="|", columns="t,_,x,-")
+    assert list(table) == ["t", "x"] and table["x"].tolist() == [-2.0, -2.5, 3e-3]
+    assert read_table(path, delimiter="|", columns="ax=c")["ax"].tolist() == [-2.0, -2.5, 3e-3]
+    with pytest.raises(OptinavError, match="delimiter '5' is not usable"):
+        read_table(path, delimiter="5")
+
+
+def test_aliases_are_recognised(tmp_path):
+    header = "Timestamp [ms],Gyro_X,gyr.y,omega-z,AccX,accel_y,a_z,n_samples,Section"
+    rows = ["0,1,2,3,4,5,6,10,a", "20,1,2,3,4,5,6,11,a", "40,1,2,3,4,5,6,12,b"]
+    log = read_imu(_write(tmp_path / "a.csv", "\n".join([header, *rows])))
+    np.testing.assert_allclose(log.t, [0, 0.02, 0.04], rtol=0, atol=1e-17)  # ms from the header
+    np.testing.assert_array_equal(log.acc, [[4, 5, 6]] * 3)
+    np.testing.assert_array_equal(log.gyro, [[1, 2, 3]] * 3)
+    assert log.sample.tolist() == [10, 11, 12] and log.labels.tolist() == ["a", "a", "b"]
+    # a name implying its unit and a mapping entry
+    log = read_imu(_write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,6\n"),
+                   columns="t=zeit", gyro_unit="deg/s")
+    assert log.t.tolist() == [5.0, 6.0] and log.acc is None
+    np.testing.assert_allclose(log.gyro[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
+    log = read_imu(tmp_path / "b.csv")
+    assert log.t.tolist() == [0.0, 500e-6]
+
+
+def test_units_convert_to_si_and_counts_are_kept(tmp_path):
+    path = _write(tmp_path / "u.csv", "t,ax,ay,az,gx,gy,gz\n0,1,0,-1,180,0,-90\n1,0.5,2,0,360,1,0\n")
+    log = read_imu(path, acc_unit="g", gyro_unit="deg/s")
+    assert log.acc[0, 0] == G_STANDARD == 9.80665 and log.acc[0, 2] == -9.80665
+    assert log.gyro[0, 0] == pytest.approx(math.pi, rel=1e-15) and log.gyro[1, 0] == pytest.approx(2 * math.pi)
+    assert (log.acc_unit, log.gyro_unit, log.acc_input_unit, log.gyro_input_unit) == ("m/s^2", "rad/s", "g", "deg/s")
+    raw = read_imu(path, acc_unit="counts", gyro_unit="counts")
+    assert raw.acc_unit == raw.gyro_unit == "counts" and raw.gyro[0, 0] == 180.0 and raw.acc[1, 0] == 0.5
+    si = read_imu(path)
+    assert si.acc[0, 0] == 1.0 and si.gyro[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
+    assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-3]
+    for kw, accepted in (({"acc_unit": "mg"}, "counts, g, m/s\\^2"), ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
+                         ({"time_unit": "min"}, "s, ms, us, ns")):
+        with pytest.raises(OptinavError, match=f"unknown {next(iter(kw))} .*use one of: {accepted}"):
+            read_imu(path, **kw)
+
+
+def test_text_errors_name_the_line_and_column(tmp_path):
+    head = "t,ax,ay,az\n0,1,2,3\n"
+    cases = {
+        "1,1,2\n": "line 3 has 3 field\\(s\\), 4 expected \\(truncated",
+        "1,1,2,3,4\n": "line 3 has 5 field\\(s\\), 4 expected \\(too long",
+        "1,1,abc,3\n": "line 3, column 3 \\('ay'\\): 'abc' is not a number",
+        "# note\n\n1;1;2;3\n": "line 5 has 1 field",
+    }
+    for i, (tail, msg) in enumerate(cases.items()):
+        with pytest.raises(OptinavError, match=msg):
+            read_imu(_write(tmp_path / f"e{i}.csv", head + tail))
+    with pytest.raises(OptinavError, match="decimal commas"):
+        read_table(_write(tmp_path / "dc.csv", "a;b\n1;2,5\n3;4\n"))
+    with pytest.raises(OptinavError, match="is empty"):
+        read_table(_write(tmp_path / "empty.csv", ""))
+    with pytest.raises(OptinavError, match="no data rows"):
+        read_table(_write(tmp_path / "c.csv", "# only\n\n"))
+    with pytest.raises(OptinavError, match="header but no data rows"):
+        read_table(_write(tmp_path / "h.csv", "t,ax\n"))
+    with pytest.raises(OptinavError, match="does not exist"):
+        read_table(tmp_path / "missing.csv")
+    with pytest.raises(OptinavError, match="unknown data file type .xls; use one of .csv"):
+        read_table(_write(tmp_path / "x.xls", "1,2\n"))
+    with pytest.raises(OptinavError, match="columns names 3 column\\(s\\) but .* has 4"):
+        read_imu(tmp_path / "e0.csv", columns="t,ax,ay")
+    with pytest.raises(OptinavError, match="header names column 't' twice"):
+        read_table(_write(tmp_path / "dup.csv", "t,t\n1,2\n"))
+    with pytest.raises(OptinavError, match="looks binary"):
+        read_table(_write(tmp_path / "bin.csv", "1,2\x00"))
+
+
+def test_empty_cells_are_nan_and_counted(tmp_path):
+    path = _write(tmp_path / "n.csv", "t,ax,ay,az,gx,gy,gz\n0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n"
+                                      "3,inf,2,3,1,1,nan\n")
+    log = read_imu(path)
+    assert log.nan_rows == 3 and len(log) == 4 and log.finite.tolist() == [False, False, True, False]
+    assert np.isnan(log.acc[0, 1])
+
+
+def test_missing_columns_and_time_errors(tmp_path):
+    with pytest.raises(OptinavError, match="found ax \\('acc_x'\\), ay \\('acc_y'\\) but no az column"):
+        read_imu(_write(tmp_path / "a.csv", "t,acc_x,acc_y\n0,1,2\n1,1,2\n"))
+    with pytest.raises(OptinavError, match="no accelerometer or gyroscope data .*found: t, temp"):
+        read_imu(_write(tmp_path / "b.csv", "t,temp\n0,1\n1,2\n"))
+    nt = _write(tmp_path / "c.csv", "sample,ax,ay,az\n5,1,2,3\n6,1,2,3\n")
+    with pytest.raises(OptinavError, match="has no time column .*pass rate="):
+        read_imu(nt)
+    log = read_imu(nt, rate=50)
+    assert log.t.tolist() == [0.0, 0.02] and log.sample.tolist() == [5, 6]
+    with pytest.raises(OptinavError, match="rate must be a positive"):
+        read_imu(nt, rate=-1)
+    with pytest.raises(OptinavError, match="has a time column \\('t'\\) and rate=50"):
+        read_imu(_write(tmp_path / "r.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n"), rate=50)
+    with pytest.raises(OptinavError, match="not sorted: t\\[2\\]"):
+        read_imu(_write(tmp_path / "u.csv", "t,ax,ay,az\n0,1,2,3\n2,1,2,3\n1,1,2,3\n"))
+    with pytest.raises(OptinavError, match="duplicate timestamp"):
+        read_imu(_write(tmp_path / "d.csv", "t,ax,ay,az\n0,1,2,3\n0,1,2,3\n"))
+    with pytest.raises(OptinavError, match="NaN or infinite"):
+        read_imu(_write(tmp_path / "f.csv", "t,ax,ay,az\n0,1,2,3\n,1,2,3\n2,1,2,3\n"))
+    with pytest.raises(OptinavError, match="'time' and 'timestamp' both look like 't'"):
+        read_imu(_write(tmp_path / "g.csv", "time,timestamp,ax,ay,az\n0,0,1,2,3\n1,1,1,2,3\n"))
+    with pytest.raises(OptinavError, match="has no column named 'nope' \\(found: t, acc_x, acc_y\\)"):
+        read_imu(tmp_path / "a.csv", columns="t=nope")
+    with pytest.raises(OptinavError, match="'foo' is not a standard name"):
+        read_imu(tmp_path / "a.csv", columns="foo=t")
+
+
+def test_label_column_text_is_kept_elsewhere_refused(tmp_path):
+    body = "x_p,0,1,2,3\nx_p,1,1,2,3\nz_rot,2,1,2,3\n"
+    log = read_imu(_write(tmp_path / "l.csv", "part,t,ax,ay,az\n" + body))
+    assert log.labels.tolist() == ["x_p", "x_p", "z_rot"]
+    with pytest.raises(OptinavError, match="line 2, column 1 \\('kind'\\): 'x_p' is not a number"):
+        read_imu(_write(tmp_path / "k.csv", "kind,t,ax,ay,az\n" + body))
+    # positional names: the text column skipped or named as labels, without a header
+    log = read_imu(_write(tmp_path / "n.csv", body), columns="_,t,ax,ay,az")
+    assert log.labels is None and len(log) == 3
+    assert read_imu(tmp_path / "n.csv", columns="section,t,ax,ay,az").labels[-1] == "z_rot"
+    assert read_imu(tmp_path / "k.csv", columns="label=kind").labels.tolist() == ["x_p", "x_p", "z_rot"]
+    with pytest.raises(OptinavError, match="line 3 has 4 field\\(s\\), 5 expected"):
+        read_imu(_write(tmp_path / "r.csv", "part,t,ax,ay,az\nx_p,0,1,2,3\nx_p,1,1,2\nz_rot,2,1,2,3\n"))
+    quoted = read_imu(_write(tmp_path / "q.csv", 'part,t,ax,ay,az\n"a, b",0,1,2,3\nc,1,1,2,3\n'))
+    assert quoted.labels.tolist() == ["a, b", "c"]
+    numeric = read_imu(_write(tmp_path / "i.csv", "label,t,ax,ay,az\n-1,0,1,2,3\n4,1,1,2,3\n"))
+    assert numeric.labels.dtype.kind == "i" and numeric.labels.tolist() == [-1, 4]
+
+
+def test_two_files_share_the_time_column(tmp_path):
+    acc = _write(tmp_path / "acc.csv", "t,ax,ay,az\n0,1,2,3\n0.01,1,2,3\n0.02,1,2,3\n")
+    gyr = _write(tmp_path / "gyr.csv", "time,gx,gy,gz\n0,4,5,6\n0.01,4,5,6\n0.02,4,5,7\n")
+    log = read_imu(acc, gyro_path=gyr, gyro_unit="deg/s")
+    np.testing.assert_allclose(log.gyro[2], np.deg2rad([4, 5, 7]), rtol=1e-15)
+    assert log.acc[0].tolist() == [1, 2, 3] and " + " in log.source
+    # positional names for the gyro file without a header
+    gyr2 = _write(tmp_path / "g2.txt", "0 4 5 6\n0.01 4 5 6\n0.02 4 5 7\n")
+    assert read_imu(acc, gyro_path=gyr2, gyro_columns="t,gx,gy,gz").gyro[2, 2] == 7
+    bad = _write(tmp_path / "bad.csv", "t,gx,gy,gz\n0,4,5,6\n0.011,4,5,6\n0.02,4,5,7\n")
+    with pytest.raises(OptinavError, match="differ: 1 sample\\(s\\), first at row 2: 0.01 s vs 0.011 s"):
+        read_imu(acc, gyro_path=bad)
+    short = _write(tmp_path / "short.csv", "t,gx,gy,gz\n0,4,5,6\n0.01,4,5,6\n")
+    with pytest.raises(OptinavError, match="acc.csv has 3 rows but short.csv has 2"):
+        read_imu(acc, gyro_path=short)
+    with pytest.raises(OptinavError, match="has no gyroscope data"):
+        read_imu(acc, gyro_path=acc)
+    with pytest.raises(OptinavError, match="gyro_columns was given without gyro_path"):
+        read_imu(acc, gyro_columns="t,gx,gy,gz")
+
+
+# --- NPZ, HDF5, MATLAB ----------------------------------------------------------------------------------------
+
+def test_npz_named_arrays_single_table_and_pickles(tmp_path):
+    t = np.arange(5) * 0.1
+    data = np.column_stack([t, np.ones((5, 3)), np.zeros((5, 3))])
+    np.savez(tmp_path / "one.npz", data=data)
+    table = read_table(tmp_path / "one.npz")
+    assert list(table) == [f"col{j}" for j in range(1, 8)]
+    log = read_imu(tmp_path / "one.npz", columns="t,ax,ay,az,gx,gy,gz")
+    np.testing.assert_array_equal(log.t, t)
+    assert read_table(tmp_path / "one.npz", columns="x=data")["x"].shape == (5, 7)
+    with pytest.raises(OptinavError, match="columns names 3 column\\(s\\) but 'data' .* has 7"):
+        read_imu(tmp_path / "one.npz", columns="t,ax,ay")
+    np.save(tmp_path / "acc.npy", np.ones((5, 3)))  # a single triad named like one
+    assert read_imu(tmp_path / "acc.npy", rate=10).acc.shape == (5, 3)
+    np.savez(tmp_path / "named.npz", time=t, accelerometer=np.ones((5, 3)), temp=np.arange(5.0))
+    log = read_imu(tmp_path / "named.npz", acc_unit="g")
+    assert log.acc[0, 0] == G_STANDARD and log.gyro is None
+    with pytest.raises(OptinavError, match="positional column names do not apply"):
+        read_imu(tmp_path / "named.npz", columns="t,ax,ay,az")
+    np.savez(tmp_path / "t3.npz", t=t[:3], acc=np.ones((3, 5)))
+    with pytest.raises(OptinavError, match="'acc' has shape \\(3, 5\\), expected \\(N, 3\\) \\(transpose it\\)"):
+        read_imu(tmp_path / "t3.npz")
+    np.savez(tmp_path / "p.npz", t=t, acc=np.array([object()] * 5, dtype=object))
+    with pytest.raises(OptinavError, match="array 'acc' is pickled"):
+        read_imu(tmp_path / "p.npz")
+    _write(tmp_path / "fake.npz", "not a zip")
+    with pytest.raises(OptinavError, match="never loads pickles"):
+        read_table(tmp_path / "fake.npz")
+
+
+@needs_h5py
+def test_hdf5_datasets_and_tables(tmp_path):
+    t = np.arange(6) * 0.01
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        g = f.create_group("imu")
+        g["time"] = t
+        g["acc"] = np.full((6, 3), 2.0)
+        g["acc"].attrs["unit"] = "g"
+        g["gyro_raw"] = np.full((6, 3), 5.0)
+        f["camera"] = np.zeros((6, 2, 2))
+    log = read_imu(tmp_path / "a.h5")
+    assert log.acc[0, 0] == 2 * G_STANDARD and log.acc_input_unit == "g" and log.gyro is None
+    log = read_imu(tmp_path / "a.h5", datasets={"t": "/imu/time", "acc": "imu/acc", "gyro": "imu/gyro_raw"},
+                   gyro_unit="counts")
+    assert log.gyro_unit == "counts" and log.gyro[0, 0] == 5
+    with pytest.raises(OptinavError, match="no dataset 'imu/gyro' \\(datasets: camera, imu/acc, imu/gyro_raw, imu/t"):
+        read_imu(tmp_path / "a.h5", datasets="t=imu/time,gyro=imu/gyro")
+    with h5py.File(tmp_path / "b.hdf5", "w") as f:
+        f["log"] = np.column_stack([t, np.ones((6, 6))])
+    assert read_imu(tmp_path / "b.hdf5", columns="t,gx,gy,gz,ax,ay,az").gyro.shape == (6, 3)
+    rec = np.zeros(6, dtype=[("t", "f8"), ("ax", "f4"), ("ay", "f4"), ("az", "f4")])
+    rec["t"], rec["az"] = t, 9.81
+    with h5py.File(tmp_path / "c.h5", "w") as f:
+        f["data"] = rec  # a compound dataset is a table with named columns
+    assert read_imu(tmp_path / "c.h5").acc[0, 2] == pytest.approx(9.81, rel=1e-7)
+    _write(tmp_path / "bad.h5", "garbage")
+    with pytest.raises(OptinavError, match="not a readable HDF5 file"):
+        read_table(tmp_path / "bad.h5")
+
+
+def test_missing_h5py_is_a_clear_error(tmp_path, monkeypatch):
+    import sys
+
+    (tmp_path / "x.h5").write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(100))
+    monkeypatch.setitem(sys.modules, "h5py", None)  # makes "import h5py" raise ImportError
+    with pytest.raises(OptinavError, match="needs h5py.*pip install 'optinav\\[hdf5\\]'"):
+        read_table(tmp_path / "x.h5")
+
+
+def test_mat_v5_variables_structs_and_single_matrix(tmp_path):
+    import scipy.io
+
+    t = np.arange(4) * 0.5
+    scipy.io.savemat(tmp_path / "a.mat", {"imu": {"t": t.reshape(-1, 1), "gyr": np.ones((4, 3))},
+                                          "gyro_unit": "deg/s", "part": np.array(["a", "a", "b", "b"], dtype=object)})
+    log = read_imu(tmp_path / "a.mat")
+    np.testing.assert_array_equal(log.t, t)
+    assert log.gyro_input_unit == "deg/s" and log.gyro[0, 0] == pytest.approx(math.pi / 180)
+    assert log.labels.tolist() == ["a", "a", "b", "b"]
+    assert read_imu(tmp_path / "a.mat", columns="t=imu.t,gyro=imu/gyr", gyro_unit="deg/s").gyro.shape == (4, 3)
+    scipy.io.savemat(tmp_path / "m.mat", {"M": np.column_stack([t, np.zeros((4, 3))])})
+    log = read_imu(tmp_path / "m.mat", columns="t,ax,ay,az")
+    np.testing.assert_array_equal(log.t, t)
+    _write(tmp_path / "bad.mat", "MATLAB 5.0 MAT-file but not really")
+    with pytest.raises(OptinavError, match="not a readable MATLAB file"):
+        read_table(tmp_path / "bad.mat")
+
+
+def _write_mat73(path: Path, variables: dict) -> None:
+    """A MATLAB v7.3 file as MATLAB lays it out: HDF5 with a 512-byte user block holding the 128-byte MAT header,
+    column-major data (so h5py sees every matrix transposed), MATLAB_class attributes, chars as uint16 and cell
+    arrays as object references into '#refs#'."""
+    with h5py.File(path, "w", userblock_size=512) as f:
+        refs = f.create_group("#refs#")
+
+        def char(group, name, text):
+            ds = group.create_dataset(name, data=np.array([[ord(c)] for c in text], dtype=np.uint16))
+            ds.attrs["MATLAB_class"] = np.bytes_("char")
+            return ds
+
+        for name, value in variables.items():
+            if isinstance(value, str):
+                char(f, name, value)
+            elif isinstance(value, list):  # cell array of strings, a MATLAB 1×n cell
+                r = [char(refs, f"{name}{i}", s).ref for i, s in enumerate(value)]
+                ds = f.create_dataset(name, data=np.array(r, dtype=h5py.ref_dtype).reshape(-1, 1))
+                ds.attrs["MATLAB_class"] = np.bytes_("cell")
+            else:
+                a = np.asarray(value, dtype=float)
+                a = a.reshape(-1, 1) if a.ndim == 1 else a  # a MATLAB column vector
+                ds = f.create_dataset(name, data=a.T)
+                ds.attrs["MATLAB_class"] = np.bytes_("double")
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 ."
+    with open(path, "r+b") as fh:
+        fh.write(header.ljust(116, b" ") + bytes(8) + b"\x00\x02IM")
+
+
+@needs_h5py
+def test_mat_v73_is_read_transposed_back(tmp_path):
+    t = np.arange(5) * 0.1
+    acc = np.arange(15.0).reshape(5, 3)
+    _write_mat73(tmp_path / "v73.mat", {"t": t, "acc": acc, "acc_unit": "g", "labels": ["a", "b", "b", "c", "c"]})
+    log = read_imu(tmp_path / "v73.mat")
+    np.testing.assert_array_equal(log.t, t)
+    np.testing.assert_array_equal(log.acc, acc * G_STANDARD)  # rows are samples again
+    assert log.acc_input_unit == "g" and log.labels.tolist() == ["a", "b", "b", "c", "c"]
+    _write_mat73(tmp_path / "tab.mat", {"data": np.column_stack([t, acc])})
+    assert read_table(tmp_path / "tab.mat", columns="t,ax,ay,az")["ay"].tolist() == acc[:, 1].tolist()
+
+
+# --- real data ------------------------------------------------------------------------------------------------
+
+def _shared(name: str) -> Path:
+    path = IMUCAL / name
+    if not path.is_file():
+        pytest.skip(f"shared data {path} not available (set OPTINAV_SHARED_DATA)")
+    return path
+
+
+def test_real_ferraris_session():
+    log = read_imu(_shared("example_ferraris_session.csv"), rate=102.4, gyro_unit="deg/s")
+    assert log.acc.shape == log.gyro.shape == (10376, 3) and log.nan_rows == 0
+    assert log.acc[0, 0] == 10.332114257812501 and log.acc[0, 2] == 0.51732421875
+    assert log.gyro[0, 0] == pytest.approx(-0.6103515625 * math.pi / 180, rel=1e-15)
+    assert log.t[-1] == pytest.approx(10375 / 102.4) and log.sample[-1] == 10375
+    assert log.acc_unit == "m/s^2" and log.gyro_input_unit == "deg/s"
+
+
+def test_real_annotated_session_keeps_text_labels():
+    log = read_imu(_shared("annotated_session.csv"), rate=204.8, acc_unit="counts", gyro_unit="counts")
+    assert log.acc.shape == (9414, 3) and log.acc_unit == "counts"
+    assert log.acc[0].tolist() == [-2052.0, -28.0, -73.0] and log.gyro[0].tolist() == [1.0, 0.0, -5.0]
+    names, counts = np.unique(log.labels, return_counts=True)
+    assert dict(zip(names, counts))["x_a"] == 1061 and len(names) == 9
+    assert log.sample[0] == 1028  # the non-monotonic sample counter is kept, never used as time
+
+
+# --- fuzz -----------------------------------------------------------------------------------------------------
+
+_ALPHABET = st.sampled_from(list("0123456789.,;\t -+eE#\"\nnaif_xyzt") + ["\r\n", "nan", "inf", "acc_x", "gyr_y", "t",
+                                                                        "time", "part", "1e400", "\x00", "é"])
+
+
+def _valid(log: ImuLog) -> None:
+    assert isinstance(log, ImuLog) and log.t.ndim == 1 and len(log) >= 2
+    assert np.all(np.isfinite(log.t)) and np.all(np.diff(log.t) > 0)
+    assert log.acc is not None or log.gyro is not None
+    for v in (log.acc, log.gyro):
+        assert v is None or v.shape == (len(log), 3)
+    assert log.nan_rows == int(np.count_nonzero(~log.finite))
+
+
+_MUTATION = st.tuples(st.sampled_from(["truncate", "replace", "insert", "delete"]), st.floats(0, 1),
+                      st.binary(min_size=1, max_size=8))
+_SEED_FILES: dict[str, bytes] = {}
+
+
+def _seed_file(tmp_path: Path, suffix: str) -> bytes:
+    """The bytes of a valid IMU file (with NaN, labels and units) to mutate."""
+    if suffix not in _SEED_FILES:
+        log = _log(n=12, labels=True)
+        log.acc[2, 1] = np.nan
+        _SEED_FILES[suffix] = write_imu(tmp_path / f"seed{suffix}", log, acc_unit="g").read_bytes()
+    return _SEED_FILES[suffix]
+
+
+def _mutate(raw: bytes, mutations) -> bytes:
+    for op, where, chunk in mutations:
+        i = int(where * len(raw))
+        if op == "truncate":
+            raw = raw[:i]
+        elif op == "replace":
+            raw = raw[:i] + chunk + raw[i + len(chunk):]
+        elif op == "insert":
+            raw = raw[:i] + chunk + raw[i:]
+        else:
+            raw = raw[:i] + raw[i + len(chunk):]
+    return raw
+
+
+_SUFFIXES = [".csv", ".txt", ".tsv", ".npz", ".mat", ".npy"] + ([".h5"] if h5py is not None else [])
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(content=st.one_of(st.binary(max_size=300), st.text(max_size=300),
+                         st.lists(_ALPHABET, max_size=120).map("".join),
+                         st.lists(_MUTATION, max_size=3)),
+       suffix=st.sampled_from(_SUFFIXES),
+       rate=st.sampled_from([None, 100.0]),
+       prefix=st.sampled_from([b"", b"PK\x03\x04", b"\x93NUMPY", b"MATLAB 5.0 MAT-file", b"\x89HDF\r\n\x1a\n"]))
+def test_fuzz_read_imu_returns_a_log_or_an_optinav_error(tmp_path, content, suffix, rate, prefix):
+    """Arbitrary bytes, text, or a valid file with bytes truncated/replaced/inserted/deleted."""
+    path = tmp_path / f"fuzz{suffix}"
+    if isinstance(content, list):
+        raw = _mutate(_seed_file(tmp_path, suffix if suffix != ".npy" else ".npz"), content)
+    else:
+        raw = content.encode("utf-8", "surrogatepass") if isinstance(content, str) else content
+        raw = prefix + raw if suffix not in (".csv", ".txt", ".tsv") else raw
+    path.write_bytes(raw)
+    try:
+        log = read_imu(path, rate=rate)
+    except OptinavError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    _valid(log)
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(rows=st.lists(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.just("")),
+                              min_size=1, max_size=8), min_size=1, max_size=8),
+       header=st.booleans(), delim=st.sampled_from([",", "\t", ";", " "]))
+def test_fuzz_numeric_tables(tmp_path, rows, header, delim):
+    """Near-valid tables: ragged rows, empty cells, NaN/inf; a log (with consistent counts) or a clear error."""
+    lines = ([delim.join(["t", "ax", "ay", "az", "gx", "gy", "gz", "x"][: len(rows[0])])] if header else [])
+    lines += [delim.join(repr(v) if v != "" else "" for v in r) for r in rows]
+    path = _write(tmp_path / "f.csv", "\n".join(lines) + "\n")
+    try:
+        table = load_table(path)
+        log = read_imu(path, columns=None if header else ",".join(["t", "ax", "ay", "az", "gx", "gy", "gz", "_"]
+                                                                  [: len(rows[0])]))
+    except OptinavError:
+        return
+    assert all(v.shape == (len(log),) for v in table.data.values())
+    _valid(log)
+
+
+@pytest.mark.slow
+def test_million_row_csv_reads_in_seconds(tmp_path):
+    import time
+
+    n = 1_000_000
+    rng = np.random.default_rng(3)
+    log = ImuLog(t=np.arange(n) / 100.0, acc=rng.normal(0, 9, (n, 3)), gyro=rng.normal(0, 1, (n, 3)))
+    path = write_imu(tmp_path / "big.csv", log)
+    start = time.perf_counter()
+    back = read_imu(path)
+    elapsed = time.perf_counter() - start
+    _same(log, back)
+    assert elapsed < 30.0, f"reading {n} rows took {elapsed:.1f} s"
