@@ -96,5 +96,6 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
         method=method, nit=int(out["nit"]), nfev=int(ev.nfev), njev=int(ev.njev),
         history=np.asarray(out["history"], dtype=float), elapsed=time.perf_counter() - t0,
         jacobian=out.get("jacobian"), residuals=out.get("residuals"), names=problem.param_names,
+        trace=out.get("trace", {}),
         options={k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in used.items()},
     )

@@ -96,6 +96,8 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
     b = int(np.argmin(E))
     best_x, best_E = P[b].copy(), float(E[b])
     history = [best_E]
+    finite = np.isfinite(E)
+    mean_cost, best_xs = [float(E[finite].mean()) if finite.any() else np.inf], [best_x.copy()]
     message = f"completed {G} generations"
     g = 0
     for g in range(1, G + 1):
@@ -139,6 +141,9 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
             kids[w], kidE[w] = best_x, best_E
         P, E = kids, kidE
         history.append(best_E)
+        finite = np.isfinite(E)
+        mean_cost.append(float(E[finite].mean()) if finite.any() else np.inf)
+        best_xs.append(best_x.copy())
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]
             if old - best_E <= ftol * old:
@@ -148,4 +153,5 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
     success = bool(np.isfinite(best_E))
     if not success:
         message = "no individual had a finite cost"
-    return dict(x=best_x, cost=best_E, success=success, message=message, nit=g, history=np.asarray(history))
+    return dict(x=best_x, cost=best_E, success=success, message=message, nit=g, history=np.asarray(history),
+                trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)})

@@ -214,6 +214,8 @@ class OptimizeResult(Result):
     residuals: np.ndarray | None = field(default=None, metadata={"unit": "residual units"})
     names: list | None = field(default=None, metadata={"unit": "-"})
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
+    #: per-generation traces of the population methods: ``mean_cost`` (G+1,) and ``best_x`` (G+1, n)
+    trace: dict = field(default_factory=dict, metadata={"unit": "-"})
 
 
 class Evaluator:

@@ -63,6 +63,7 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
     k = int(np.argmin(pbest_f))
     gbest, gbest_f = pbest[k].copy(), float(pbest_f[k])
     history = [gbest_f]
+    mean_cost, best_xs = [_finite_mean(f)], [gbest.copy()]
     message = f"completed {generations} generations"
     g = 0
     for g in range(1, generations + 1):
@@ -77,6 +78,8 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
         if pbest_f[k] < gbest_f:
             gbest, gbest_f = pbest[k].copy(), float(pbest_f[k])
         history.append(gbest_f)
+        mean_cost.append(_finite_mean(f))
+        best_xs.append(gbest.copy())
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]
             if old - gbest_f <= ftol * old:
@@ -86,4 +89,10 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
     success = bool(np.isfinite(gbest_f))
     if not success:
         message = "no particle had a finite cost"
-    return dict(x=gbest, cost=gbest_f, success=success, message=message, nit=g, history=np.asarray(history))
+    return dict(x=gbest, cost=gbest_f, success=success, message=message, nit=g, history=np.asarray(history),
+                trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)})
+
+
+def _finite_mean(f) -> float:
+    ok = np.isfinite(f)
+    return float(f[ok].mean()) if ok.any() else float("inf")
