@@ -88,7 +88,8 @@ def test_lm_recovers_truth_within_reported_sigma_and_std_is_honest():
         raw, idx, _ = simulate(K, b, SCHEME18, n=300, sigma=2.0, rng=seed)
         fit = accel.fit_accel(accel.pose_statistics(raw, idx), G)
         assert fit.success and fit.held == []
-        z.append((fit.theta - th_true) / fit.std)
+        assert np.all(fit.std >= fit.crlb_std)
+        z.append((fit.theta - th_true) / fit.crlb_std)
     z = np.array(z)
     assert np.all(np.abs(z) < 5.5)
     rms = np.sqrt(np.mean(z ** 2, axis=0))

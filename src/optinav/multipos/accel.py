@@ -186,7 +186,8 @@ class AccelFit(Result):
     nit: int = field(metadata={"unit": ""})
     history: np.ndarray = field(metadata={"unit": "(m/s^2)^2"})
     elapsed_s: float = field(metadata={"unit": "s"})
-    population_history: np.ndarray | None = field(default=None, metadata={"unit": "-"})
+    #: GA/PSO per-generation ``mean_cost`` and ``best_x`` (the estimated parameters, ``estimated`` order)
+    trace: dict = field(default_factory=dict, metadata={"unit": "-"})
 
 
 def _observability(J, sigma, free) -> ObservabilityReport:
@@ -299,4 +300,4 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
                     residual_sigma=sig, chi2=chi2, dof=dof, crlb_std=crlb,
                     observability=rep, success=bool(res.success), message=str(res.message), nfev=int(res.nfev),
                     nit=int(res.nit), history=np.asarray(res.history, float),
-                    elapsed_s=time.perf_counter() - t0)
+                    elapsed_s=time.perf_counter() - t0, trace=dict(res.trace))
