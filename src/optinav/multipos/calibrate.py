@@ -135,10 +135,14 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     sat_g = saturated_mask(gyro, gyro_range, counts=gyro_unit == "counts") if gyro is not None else None
     valid = ~sat_a
 
+    if method == "ferraris":
+        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source)
     selection = {}
     if sections is not None:
         sl = static.sections_from_list(sections, t)
-        ranges, t_int, how = np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float), "manual sections"
+        keep = [k for k, name in enumerate(sl.names) if not str(name).endswith("_rot")]  # imucal's rotations
+        ranges = np.asarray(sl.index_ranges, int)[keep]
+        t_int, how = np.asarray(sl.t_intervals, float)[keep], "manual sections"
     elif threshold is not None:
         det = static.detect_static(t, acc, gyro=gyro, window_s=window_s, threshold=threshold,
                                    min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
@@ -148,6 +152,14 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                                            min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
         selection["threshold"] = det.threshold
+    if len(ranges) < 6 and sections is None:
+        v = static.moving_variance(t, acc, window_s)
+        raise OptinavError(
+            f"only {len(ranges)} static interval(s) of at least {min_duration_s:g} s found (acc moving variance "
+            f"min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} ({acc_unit})^2; threshold "
+            f"{float(selection.get('threshold') or threshold or np.nan):.3g}); norm observation needs at least 6 poses",
+            "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
+            "--min-duration, or give the poses by hand with --sections")
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     fit = accel.fit_accel(st, g, method=method, model_form=model_form, data=data, samples=samples, rng=rng,
@@ -208,3 +220,41 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                              residual_rms=residual_rms, static_intervals=t_int, observability=observability,
                              method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
                              quality=quality, source=source)
+
+
+def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source):
+    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them)."""
+    from . import ferraris
+
+    if gyro is None or sections is None:
+        raise OptinavError("the Ferraris method needs gyroscope data and the nine named sections "
+                           "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
+                           "pass --gyro (or gyro columns) and --sections FILE")
+    if np.any(sat_a):
+        raise OptinavError(f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
+                           "the Ferraris method has no way to skip them: cut them from the sections")
+    fc = ferraris.ferraris_from_sections(t, acc, gyro, sections, gravity=g)
+    sl = static.sections_from_list(sections, t)
+    names = list(sl.names)
+    static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
+    a = fc.correct_acc(acc)
+    mask = np.zeros(len(t), bool)
+    for i0, i1 in np.asarray(sl.index_ranges, int)[static_idx]:
+        mask[i0:i1] = True
+    residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a[mask], axis=1) - g) ** 2)))
+    nan3 = np.full((3, 3), np.nan)
+    acc_entry = {"K": fc.acc_K, "b": fc.acc_b, "K_std": nan3, "b_std": np.full(3, np.nan), "form": "full",
+                 "estimated": ["K (9)", "b (3)"], "held": []}
+    gyro_entry = {"K": fc.gyro_K, "b": fc.gyro_b, "G": fc.gyro_G, "K_std": nan3, "b_std": np.full(3, np.nan),
+                  "form": "full"}
+    units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "gyroscope_raw": gyro_unit,
+             "gyroscope": "rad/s", "time": "s", "residual_rms": "m/s^2", "gravity": "m/s^2",
+             "K": "raw per SI unit", "b": "raw", "G": "gyro raw per m/s^2"}
+    return CalibrationResult(
+        accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g, residual_rms=residual_rms,
+        static_intervals=np.asarray(sl.t_intervals, float)[static_idx],
+        observability={"note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
+                               "parameter exactly; no uncertainty is estimated", "unobservable": []},
+        method="ferraris", elapsed_s=time.perf_counter() - t_start,
+        excluded={"nan_rows": n_nan, "saturated_acc": 0}, quality={"gravity_source": g_source,
+                                                                   "sections": names}, source=source)

@@ -1,0 +1,69 @@
+"""``optinav apply RESULT.json DATA --out FILE``: correct raw data with a calibration result."""
+
+from __future__ import annotations
+
+import argparse
+import textwrap
+from pathlib import Path
+
+from optinav.cli.common import add_input_options, parse_pairs
+from optinav.errors import OptinavError
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "apply", help="apply a calibration result to raw data",
+        description=textwrap.dedent("""\
+            Correct raw data with RESULT.json: a = K⁻¹(raw − b) (m/s^2) and ω = K_g⁻¹(raw − G·a − b_g) (rad/s).
+            The data are read in the raw units the calibration was made in (as recorded in RESULT.json)
+            unless --acc-unit/--gyro-unit say otherwise. The output holds t and the corrected triads in SI
+            units (format by extension: .csv, .tsv, .txt, .npz, .h5, .mat)."""),
+        epilog=textwrap.dedent("""\
+            example:
+              optinav apply result.json session.csv --out corrected.csv
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("result", help="RESULT.json written by optinav calibrate")
+    p.add_argument("data", help="raw data file")
+    p.add_argument("--out", required=True, metavar="FILE", help="corrected data file")
+    add_input_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from optinav.cli.common import raw_units
+    from optinav.io import ImuLog, read_imu, write_imu
+    from optinav.multipos.result import CalibrationResult
+
+    res = CalibrationResult.from_json(args.result)
+    out = Path(args.out)
+    if not out.parent.exists():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
+    gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
+    log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
+                   time_unit=args.time_unit, rate=args.rate, datasets=parse_pairs(args.datasets),
+                   delimiter=args.delimiter)
+    acc = gyro = None
+    if res.accelerometer is not None and log.acc is not None:
+        raw, unit = raw_units(log, "acc")
+        _check_unit("accelerometer", unit, res.units.get("accelerometer_raw"))
+        acc = res.correct_accel(raw)
+    if res.gyroscope is not None and log.gyro is not None:
+        raw, unit = raw_units(log, "gyro")
+        _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
+        gyro = res.correct_gyro(raw, acc)
+    if acc is None and gyro is None:
+        raise OptinavError(f"{args.data} has no data for the sensors in {args.result}",
+                           "check --columns (t,ax,ay,az,gx,gy,gz)")
+    corrected = ImuLog(t=log.t, acc=acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="rad/s",
+                       source=f"optinav apply {Path(args.result).name} {Path(args.data).name}", labels=log.labels)
+    write_imu(out, corrected)
+    print(f"optinav: wrote {len(log.t)} corrected samples to {out} (m/s^2, rad/s)")
+    return 0
+
+
+def _check_unit(sensor: str, unit: str, expected: str | None) -> None:
+    if expected and unit != expected:
+        raise OptinavError(f"the {sensor} data are in {unit} but the calibration was made in {expected}",
+                           f"pass data in {expected} (or --{'acc' if sensor[0] == 'a' else 'gyro'}-unit {expected})")

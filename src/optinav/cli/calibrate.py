@@ -1,0 +1,112 @@
+"""``optinav calibrate accel``: multi-position calibration of a raw log (accelerometer, and gyroscope if present)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from pathlib import Path
+
+from optinav.cli.common import add_input_options, parse_pairs, raw_units
+from optinav.errors import OptinavError
+
+METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "calibrate", help="calibrate sensors from a raw log (multi-position, no turntable)",
+        description="Calibrate an accelerometer (and the gyroscope in the same session) from static poses.",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    kinds = p.add_subparsers(dest="sensor", metavar="SENSOR", title="sensors")
+    a = kinds.add_parser(
+        "accel", help="accelerometer by norm observation; gyroscope from the turns between poses",
+        description=textwrap.dedent("""\
+            Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
+            Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
+            'ferraris' = closed form for 6 axis poses + 3 rotations (needs --sections with imucal's names).
+            With gyroscope data the gyro scale, misalignment and bias come from the turns between poses
+            (imu_tk's method). The result is raw = K·x + b per sensor (x in m/s^2 or rad/s, raw in the
+            file's unit); see docs/file-formats.md."""),
+        epilog=textwrap.dedent("""\
+            example (a simulated session, then its calibration):
+              optinav simulate accel-multipos --out session.csv --acc-unit counts --gyro-unit deg/s
+              optinav calibrate accel session.csv --latitude 38.88 --height 35 --out result.json --report rep
+              optinav apply result.json session.csv --out corrected.csv
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
+    a.add_argument("--gyro", metavar="GYRODATA", help="gyroscope in a second file sharing the time column")
+    a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+    a.add_argument("--no-gyro", action="store_true", help="ignore gyroscope columns in DATA")
+    add_input_options(a)
+    grav = a.add_mutually_exclusive_group()
+    grav.add_argument("--gravity", type=float, metavar="G", help="local gravity in m/s^2")
+    grav.add_argument("--latitude", type=float, metavar="DEG", help="latitude in degrees (normal gravity)")
+    a.add_argument("--height", type=float, default=0.0, metavar="M", help="height in m with --latitude (default 0)")
+    a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
+    a.add_argument("--model", choices=["auto", "full", "diagonal"], default="auto",
+                   help="accelerometer model: auto (9 parameters when observable, else scales and biases), "
+                        "full (9, error if not observable), diagonal (6)")
+    a.add_argument("--fit-samples", action="store_true",
+                   help="fit every sample instead of the pose means (as the paper does; biased by sigma^2/g)")
+    a.add_argument("--sections", metavar="FILE", help="static sections by hand: 'start end' lines in s, JSON, "
+                                                      "or imucal's section list (sample indices)")
+    a.add_argument("--window", type=float, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
+    a.add_argument("--min-duration", type=float, default=2.0, metavar="S",
+                   help="shortest static interval kept (default 2 s)")
+    a.add_argument("--threshold", type=float, help="static threshold on the acc moving variance (raw units^2); "
+                                                    "default automatic")
+    a.add_argument("--acc-range", type=float, metavar="R", help="accelerometer range in raw units (saturation)")
+    a.add_argument("--gyro-range", type=float, metavar="R", help="gyroscope range in raw units (saturation)")
+    a.add_argument("--gyro-bias", choices=["static", "estimate"], default="static",
+                   help="gyro bias from the static intervals (default) or estimated with K")
+    a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
+    a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
+    a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
+    a.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    a.set_defaults(func=run_accel)
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def run_accel(args) -> int:
+    from optinav.io import read_imu
+    from optinav.multipos.calibrate import calibrate_session
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".json":
+        raise OptinavError(f"--out {out} is not a .json file", "name the result file RESULT.json")
+    if not out.parent.exists():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    if args.report:
+        from optinav.reports import prepare_report_dir
+        prepare_report_dir(args.report)
+    log = read_imu(args.data, columns=args.columns, gyro_path=args.gyro, gyro_columns=args.gyro_columns,
+                   acc_unit=args.acc_unit, gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
+                   datasets=parse_pairs(args.datasets), delimiter=args.delimiter)
+    if log.acc is None:
+        raise OptinavError(f"{args.data} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
+    acc, acc_unit = raw_units(log, "acc")
+    gyro, gyro_unit = (None, None) if args.no_gyro or log.gyro is None else raw_units(log, "gyro")
+    options = {}
+    if args.generations is not None:
+        if args.method not in ("ga", "pso"):
+            raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
+        options["generations"] = args.generations
+    if not getattr(args, "quiet", False):
+        print(f"optinav: calibrating {len(log.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    res = calibrate_session(log.t, acc, gyro, acc_unit=acc_unit, gyro_unit=gyro_unit or "rad/s", g=args.gravity,
+                            lat_deg=args.latitude, height_m=args.height, method=args.method, model_form=args.model,
+                            data="samples" if args.fit_samples else "means", sections=args.sections,
+                            window_s=args.window, min_duration_s=args.min_duration, threshold=args.threshold,
+                            acc_range=args.acc_range, gyro_range=args.gyro_range, gyro_bias=args.gyro_bias,
+                            rng=args.seed, source=str(args.data), method_options=options)
+    res.excluded["nan_rows"] = int(res.excluded.get("nan_rows", 0))
+    res.to_json(out)
+    print(res.summary())
+    print(f"optinav: result written to {out}")
+    if args.report:
+        from optinav.reports.calibration_report import write_calibration_report
+        path = write_calibration_report(res, log.t, acc, gyro, args.report)
+        print(f"optinav: report written to {path}/index.md")
+    return 0

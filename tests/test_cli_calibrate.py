@@ -1,0 +1,167 @@
+"""`optinav simulate accel-multipos`, `calibrate accel`, `apply` end to end, and the real imucal session."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+from optinav.multipos import model
+from optinav.multipos.result import CalibrationResult
+
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sess")
+    data = d / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "15",
+                 "--acc-unit", "counts", "--gyro-unit", "deg/s", "--jitter", "0.2", "--seed", "3"]) == 0
+    return d, data, json.loads((d / "s.truth.json").read_text())
+
+
+def test_simulate_calibrate_apply_round_trip(session, capsys):
+    d, data, truth = session
+    out = d / "r.json"
+    rep = d / "rep"
+    assert main(["calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35", "--out", str(out),
+                 "--report", str(rep)]) == 0
+    res = CalibrationResult.from_json(out)
+    raw = json.loads(out.read_text())
+    for key in ("accelerometer", "gyroscope", "residual_rms", "static_intervals", "observability", "method",
+                "elapsed_s", "units", "optinav_version"):
+        assert key in raw
+    assert raw["units"]["accelerometer_raw"] == "counts" and raw["units"]["gyroscope_raw"] == "deg/s"
+    assert len(raw["static_intervals"]) == 18
+    # accelerometer: compare with the upper-triangular form of the true K (norms cannot see a rotation)
+    U, Q = model.upper_triangular_form(np.array(truth["accelerometer"]["K"]))
+    acc = res.accelerometer
+    iu = np.triu_indices(3)
+    z = (acc["K"] - U)[iu] / acc["K_std"][iu]
+    assert np.all(np.abs(z) < 5), z
+    assert np.all(np.abs(acc["b"] - truth["accelerometer"]["b"]) < 5 * acc["b_std"])
+    # gyroscope: calibrated in the accelerometer's frame, K_g·Qᵀ
+    gy = res.gyroscope
+    Kg = np.array(truth["gyroscope"]["K"]) @ Q.T
+    assert np.all(np.abs(gy["K"] - Kg) < 5 * gy["K_std"] + 1e-3 * np.abs(Kg).max())
+    assert np.all(np.abs(gy["b"] - truth["gyroscope"]["b"]) < 5 * gy["b_std"])
+    assert (rep / "index.md").is_file() and (rep / "summary.json").is_file()
+    # apply: corrected static samples have |a| = g and the gyro reads ~0 at rest
+    corrected = d / "c.npz"
+    assert main(["apply", str(out), str(data), "--out", str(corrected)]) == 0
+    z = np.load(corrected)
+    t, a, w = z["t"], z["acc"], z["gyro"]
+    iv = np.array(truth["static_intervals"])
+    m = np.zeros(len(t), bool)
+    for t0, t1 in iv:
+        m |= (t > t0 + 1) & (t < t1 - 1)
+    assert abs(np.mean(np.linalg.norm(a[m], axis=1)) - truth["gravity"]) < 2e-4
+    assert np.all(np.abs(w[m].mean(axis=0)) < 2e-4)  # Earth rate (7e-5 rad/s) + residual bias
+
+
+@pytest.mark.parametrize("method", ["gn", "newton"])
+def test_other_methods_from_the_cli(session, method):
+    d, data, truth = session
+    out = d / f"r_{method}.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--no-gyro", "--gravity", str(truth["gravity"]),
+                 "--method", method, "--out", str(out)]) == 0
+    res = CalibrationResult.from_json(out)
+    U, _ = model.upper_triangular_form(np.array(truth["accelerometer"]["K"]))
+    np.testing.assert_allclose(np.diag(res.accelerometer["K"]), np.diag(U), rtol=2e-4)
+    assert res.gyroscope is None
+
+
+def test_two_files_sharing_the_time_column(session, tmp_path):
+    d, data, truth = session
+    from optinav.io import read_imu
+    log = read_imu(data)
+    acc_f, gyro_f = tmp_path / "acc.csv", tmp_path / "gyro.csv"
+    np.savetxt(acc_f, np.column_stack([log.t, log.acc]), delimiter=",", header="t,ax,ay,az", comments="")
+    np.savetxt(gyro_f, np.column_stack([log.t, log.gyro / (np.pi / 180)]), delimiter=" ")
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(gyro_f),
+                 "--gyro-columns", "t,gx,gy,gz", "--gyro-unit", "deg/s", "--latitude", "38.88", "--height", "35",
+                 "--out", str(out)]) == 0
+    res = CalibrationResult.from_json(out)
+    assert res.gyroscope is not None and res.units["gyroscope_raw"] == "deg/s"
+    # mismatched time columns → one-line error, exit 2
+    g2 = tmp_path / "gyro2.csv"
+    np.savetxt(g2, np.column_stack([log.t + 0.001, log.gyro]), delimiter=",")
+    assert main(["calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(g2), "--gyro-columns",
+                 "t,gx,gy,gz", "--out", str(tmp_path / "x.json")]) == 2
+
+
+def test_bad_inputs_give_one_line_errors(tmp_path, capsys):
+    # a log without any rest: no static interval → error naming the variance levels
+    rng = np.random.default_rng(0)
+    t = np.arange(3000) / 100.0
+    acc = np.column_stack([np.sin(t * 3), np.cos(t * 2), np.sin(t)]) * 9.8 + rng.normal(0, 0.01, (3000, 3))
+    f = tmp_path / "moving.csv"
+    np.savetxt(f, np.column_stack([t, acc]), delimiter=",", header="t,ax,ay,az", comments="")
+    assert main(["--quiet", "calibrate", "accel", str(f), "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "static interval" in err[0] and "variance" in err[0], err
+    assert main(["calibrate", "accel", str(tmp_path / "missing.csv"), "--out", str(tmp_path / "r.json")]) == 2
+    assert main(["calibrate", "accel", str(f), "--out", str(tmp_path / "r.txt")]) == 2
+    with pytest.raises(SystemExit) as exc:  # argparse: usage and one error line naming the accepted units
+        main(["calibrate", "accel", str(f), "--acc-unit", "furlongs", "--out", str(tmp_path / "r.json")])
+    assert exc.value.code == 2
+
+
+def test_nan_rows_are_excluded_and_counted(session, tmp_path):
+    d, data, truth = session
+    from optinav.io import read_imu
+    log = read_imu(data)
+    acc = log.acc.copy()
+    acc[[100, 5000, 9000]] = np.nan
+    f = tmp_path / "nan.csv"
+    np.savetxt(f, np.column_stack([log.t, acc]), delimiter=",", header="t,ax,ay,az", comments="")
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(f), "--acc-unit", "counts", "--out", str(out)]) == 0
+    assert CalibrationResult.from_json(out).excluded["nan_rows"] == 3
+
+
+@needs_data
+def test_imucal_session_norm_observation_reports_unobservable_misalignments(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
+                 "--gyro-unit", "deg/s", "--no-gyro", "--gravity", "9.81",
+                 "--sections", str(DATA / "example_ferraris_session_list.json"), "--out", str(out)]) == 0
+    res = CalibrationResult.from_json(out)
+    acc = res.accelerometer
+    assert acc["held"] == ["K_xy", "K_xz", "K_yz"]
+    text = " ".join(res.observability["unobservable"])
+    assert "K_xy" in text and "K_yz" in text
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    # imucal: raw = K_a R_a a + b_a; the row norms of K_a R_a are the per-axis sensitivities
+    KR = np.array(ref["K_a"]) @ np.array(ref["R_a"])
+    np.testing.assert_allclose(np.diag(acc["K"]), np.linalg.norm(KR, axis=1), rtol=2e-3)
+    np.testing.assert_allclose(acc["b"], ref["b_a"], atol=0.02)
+    assert res.residual_rms < 0.05
+    assert "unobservable" in capsys.readouterr().out
+
+
+@needs_data
+def test_imucal_session_ferraris_method_matches_reference(tmp_path):
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
+                 "--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris",
+                 "--sections", str(DATA / "example_ferraris_session_list.json"), "--out", str(out)]) == 0
+    res = CalibrationResult.from_json(out)
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    np.testing.assert_allclose(res.accelerometer["K"], np.array(ref["K_a"]) @ np.array(ref["R_a"]), rtol=1e-10)
+    np.testing.assert_allclose(res.gyroscope["K"] * np.pi / 180, np.array(ref["K_g"]) @ np.array(ref["R_g"]),
+                               rtol=1e-10)
+    # apply reproduces imucal's calibrated head-50 snapshot
+    corrected = tmp_path / "c.csv"
+    assert main(["--quiet", "apply", str(out), str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
+                 "--out", str(corrected)]) == 0
+    from optinav.io import read_imu
+    got = read_imu(corrected)
+    snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(got.acc[:50, 0], snap["acc_x"], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got.gyro[:50, 2] * 180 / np.pi, snap["gyr_z"], rtol=1e-8, atol=1e-8)
