@@ -17,3 +17,32 @@ def test_readme_has_examples():
 def test_readme_example_runs(code, capsys):
     exec(compile(code, str(README), "exec"), {"__name__": "readme"})
     assert capsys.readouterr().out.strip()
+
+
+def _cli_lines() -> list[str]:
+    """`optinav …` command lines of the README's bash blocks, except the long reproduce runs and pip lines."""
+    lines = []
+    for block in re.findall(r"```bash\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S):
+        for line in block.splitlines():
+            cmd = line.split("#")[0].strip()
+            if cmd.startswith("optinav ") and " reproduce" not in cmd:
+                lines.append(cmd)
+    return lines
+
+
+def test_readme_cli_examples_run_as_written(tmp_path, monkeypatch, capsys):
+    """The CLI examples work in an empty folder, in order (later ones use the files earlier ones write)."""
+    import shlex
+
+    from optinav.cli.main import main
+
+    cmds = _cli_lines()
+    assert any(c.startswith("optinav calibrate") for c in cmds)
+    monkeypatch.chdir(tmp_path)
+    for cmd in cmds:
+        argv = shlex.split(cmd)[1:]
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # --help
+            code = exc.code
+        assert code == 0, cmd
