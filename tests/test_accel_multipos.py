@@ -180,3 +180,14 @@ def test_unknown_method_and_data_are_errors():
         accel.fit_accel(st, G, method="simplex")
     with pytest.raises(OptinavError, match="samples"):
         accel.fit_accel(st, G, data="samples")
+
+
+def test_efficiency_monte_carlo_is_near_one():
+    """The default estimator attains the CRLB (white noise): RMSE/√CRLB inside the 99.9 % band of 150 runs."""
+    from optinav.core.observability import rmse_ratio_band
+
+    K, b = truth_counts()
+    eff, crlb = accel.efficiency(K, b, SCHEME18, G, 2.0, 400, 150, rng=11)
+    lo, hi = rmse_ratio_band(150, 0.999)
+    assert np.all((eff > lo) & (eff < hi)), eff
+    assert np.all(crlb > 0)
