@@ -165,3 +165,23 @@ def test_imucal_session_ferraris_method_matches_reference(tmp_path):
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     np.testing.assert_allclose(got.acc[:50, 0], snap["acc_x"], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(got.gyro[:50, 2] * 180 / np.pi, snap["gyr_z"], rtol=1e-8, atol=1e-8)
+
+
+def test_saturated_samples_are_excluded_and_counted(session):
+    from optinav.io import read_imu
+    from optinav.multipos.calibrate import calibrate_session, saturated_mask
+
+    d, data, truth = session
+    log = read_imu(data)
+    acc = log.acc.copy()
+    iv = np.array(truth["static_intervals"])
+    i0 = int(np.searchsorted(log.t, iv[2, 0] + 2))
+    acc[i0:i0 + 50, 0] = 2500.0  # clipped at a ±2500-count range
+    ref = calibrate_session(log.t, log.acc, acc_unit="counts", g=truth["gravity"])
+    res = calibrate_session(log.t, acc, acc_unit="counts", g=truth["gravity"], acc_range=2500.0)
+    assert res.excluded["saturated_acc"] == 50
+    np.testing.assert_allclose(res.accelerometer["K"], ref.accelerometer["K"], atol=3 * np.nanmax(
+        ref.accelerometer["K_std"]))
+    # raw counts at a 16-bit full scale are flagged without a range
+    assert saturated_mask(np.array([[32767.0, 0, 0], [100.0, 0, 0], [0, -32768.0, 0]]), counts=True).tolist() == \
+        [True, False, True]
