@@ -1,1 +1,23 @@
-"""Accelerometer and gyroscope multi-position calibration (Gao & Zhang 2019; imu_tk-style gyro; Ferraris)."""
+"""Accelerometer and gyroscope multi-position calibration without a turntable.
+
+Modules: :mod:`~optinav.multipos.model` (norm-observation model, analytic Jacobian), :mod:`~.accel` (estimators:
+LM/GN/TRF on pose means — the default —, the adaptive GA of Gao & Zhang 2019, Newton, PSO), :mod:`~.design`
+(observability, the paper's Table 1, pose-scheme design), :mod:`~.static` (static-interval detection),
+:mod:`~.gyro` (gyroscope from the turns between poses, imu_tk's method), :mod:`~.ferraris` (closed form),
+:mod:`~.convert` (imu_tk and imucal parameterizations and files), :mod:`~.calibrate` (a raw log to a result),
+:mod:`~.result` (RESULT.json), :mod:`~.simulate` (simulated sessions with truth).
+"""
+
+from .accel import PoseStatistics, fit_accel, initial_estimate, pose_statistics
+from .calibrate import calibrate_session
+from .design import design_scheme, evaluate_scheme, observability_vs_n, predict_std
+from .ferraris import ferraris_calibration, ferraris_from_sections
+from .gyro import calibrate_gyro
+from .result import CalibrationResult
+from .simulate import simulate_session
+from .static import detect_static, sections_from_list
+
+__all__ = ["PoseStatistics", "fit_accel", "initial_estimate", "pose_statistics", "calibrate_session",
+           "design_scheme", "evaluate_scheme", "observability_vs_n", "predict_std", "ferraris_calibration",
+           "ferraris_from_sections", "calibrate_gyro", "CalibrationResult", "simulate_session", "detect_static",
+           "sections_from_list"]

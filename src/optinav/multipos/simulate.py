@@ -22,12 +22,11 @@ from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 
 from . import model
+from .design import PAPER_SCHEME_UP, pose_orientation
 
 S45 = float(np.sqrt(0.5))
-#: the positions of Gao & Zhang (2019), recovered from their Table 1 (see optinav.multipos.design): the
-#: specific-force direction in the sensor frame, i.e. the sensor-frame vector pointing up, in test order
-PAPER_SCHEME = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (1, 0, 0), (S45, -S45, 0),
-                         (S45, 0, S45), (0, -S45, S45), (-S45, S45, 0), (-S45, 0, -S45), (0, S45, -S45)], float)
+#: the positions of Gao & Zhang (2019) recovered from their Table 1: the sensor-frame up vector, in test order
+PAPER_SCHEME = np.array(PAPER_SCHEME_UP[:12])
 SIX_SCHEME = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
 #: 18 poses: the six axis poses, the eight corners and four 45° poses — well conditioned for all 9 parameters
 SCHEME_18 = np.vstack([SIX_SCHEME, np.array([(sx, sy, sz) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)])
@@ -40,20 +39,10 @@ RAW_UNITS = ("m/s^2", "g", "counts")
 
 
 def orientation_for_up(up, yaw: float = 0.0) -> np.ndarray:
-    """A C_b^n (ENU) whose sensor-frame up vector is ``up`` (the shortest rotation), then turned by ``yaw``."""
-    u = as_float_array(up, "up", last_dims=(3,))
-    n = np.linalg.norm(u)
-    if not n > 0:
-        raise OptinavError("an up vector is zero", "give each pose a non-zero up direction")
-    u = u / n
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(u, z)
-    s, c = np.linalg.norm(axis), float(u @ z)
-    if s < 1e-12:
-        C = np.eye(3) if c > 0 else rotations.rot_x(np.pi).T
-    else:
-        C = rotations.dcm_from_rotvec(axis / s * np.arctan2(s, c))
-    return rotations.rot_z(yaw).T @ C if yaw else C
+    """A C_b^n (ENU) whose sensor-frame up vector is ``up`` (:func:`optinav.multipos.design.pose_orientation`),
+    turned by ``yaw`` (rad) about the vertical."""
+    c = pose_orientation(up)
+    return rotations.rot_z(yaw).T @ c if yaw else c
 
 
 @dataclasses.dataclass

@@ -72,6 +72,8 @@ class StudyResult:
 STUDIES: dict[str, tuple[str, str]] = {
     "core": ("optinav.reports.core_study",
              "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory"),
+    "accel-ga": ("optinav.reports.accel_ga_study",
+                 "Gao & Zhang 2019: accelerometer norm-observation calibration, GA vs Newton vs optinav LM"),
 }
 
 _REGISTERED: dict[str, Callable[..., StudyResult]] = {}
