@@ -185,3 +185,14 @@ def test_saturated_samples_are_excluded_and_counted(session):
     # raw counts at a 16-bit full scale are flagged without a range
     assert saturated_mask(np.array([[32767.0, 0, 0], [100.0, 0, 0], [0, -32768.0, 0]]), counts=True).tolist() == \
         [True, False, True]
+
+
+def test_gyro_bias_from_an_initial_rest_period(session, tmp_path):
+    d, data, truth = session
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35",
+                 "--gyro-bias", "rest", "--rest", "0.5", "9.5", "--out", str(out)]) == 0
+    gy = CalibrationResult.from_json(out).gyroscope
+    assert gy["bias_mode"] == "rest"
+    assert np.all(np.abs(gy["b"] - truth["gyroscope"]["b"]) < 5 * gy["b_std"])
+    assert main(["--quiet", "calibrate", "accel", str(data), "--gyro-bias", "rest", "--out", str(out)]) == 2

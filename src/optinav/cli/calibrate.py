@@ -59,8 +59,11 @@ def register(sub) -> None:
                                                     "default automatic")
     a.add_argument("--acc-range", type=float, metavar="R", help="accelerometer range in raw units (saturation)")
     a.add_argument("--gyro-range", type=float, metavar="R", help="gyroscope range in raw units (saturation)")
-    a.add_argument("--gyro-bias", choices=["static", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default) or estimated with K")
+    a.add_argument("--gyro-bias", choices=["static", "rest", "estimate"], default="static",
+                   help="gyro bias from the static intervals (default), from an initial rest period "
+                        "(--rest), or estimated with K")
+    a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
+                   help="rest period in s for --gyro-bias rest")
     a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
     a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
@@ -88,6 +91,8 @@ def run_accel(args) -> int:
         raise OptinavError(f"{args.data} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
     gyro, gyro_unit = (None, None) if args.no_gyro or log.gyro is None else raw_units(log, "gyro")
+    if (args.gyro_bias == "rest") != (args.rest is not None):
+        raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
     options = {}
     if args.generations is not None:
         if args.method not in ("ga", "pso"):
@@ -100,7 +105,8 @@ def run_accel(args) -> int:
                             data="samples" if args.fit_samples else "means", sections=args.sections,
                             window_s=args.window, min_duration_s=args.min_duration, threshold=args.threshold,
                             acc_range=args.acc_range, gyro_range=args.gyro_range, gyro_bias=args.gyro_bias,
-                            rng=args.seed, source=str(args.data), method_options=options)
+                            rng=args.seed, source=str(args.data), method_options=options,
+                            rest=tuple(args.rest) if args.rest else None)
     res.excluded["nan_rows"] = int(res.excluded.get("nan_rows", 0))
     res.to_json(out)
     print(res.summary())

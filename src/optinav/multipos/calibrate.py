@@ -101,8 +101,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                       lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
                       data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
                       threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
-                      source: str = "", method_options: dict | None = None, acc_bias_instability=None
-                      ) -> CalibrationResult:
+                      source: str = "", method_options: dict | None = None, acc_bias_instability=None,
+                      rest=None) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -110,6 +110,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     ``sections``: manual static sections (list of (t0, t1) s, or a file — see
     :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
     over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
+    ``gyro_bias``: "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
+    rest period), "estimate" (jointly with K_g) or a 3-vector in raw units.
     """
     t_start = time.perf_counter()
     t = as_float_array(t, "time", finite=False)
@@ -197,7 +199,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         up = st.means - fit.b
         up = np.linalg.solve(fit.K, up.T).T
         up /= np.linalg.norm(up, axis=1, keepdims=True)
-        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rng=rng)
+        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng)
         b_std = np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))  # Earth rate is neglected (module docs)
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
                       "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
