@@ -191,3 +191,13 @@ def test_efficiency_monte_carlo_is_near_one():
     lo, hi = rmse_ratio_band(150, 0.999)
     assert np.all((eff > lo) & (eff < hi)), eff
     assert np.all(crlb > 0)
+
+
+def test_diagonal_model_is_honoured_and_unknown_models_are_errors():
+    K, b = truth_counts()
+    raw, idx, _ = simulate(K, b, SCHEME18, rng=12)
+    st = accel.pose_statistics(raw, idx)
+    fit = accel.fit_accel(st, G, model_form="diagonal")  # all 9 observable, 6 asked for
+    assert fit.held == ["K_xy", "K_xz", "K_yz"] and np.all(fit.theta[3:6] == 0)
+    with pytest.raises(OptinavError, match="unknown accelerometer model"):
+        accel.fit_accel(st, G, model_form="triangular")

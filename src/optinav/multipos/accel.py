@@ -196,24 +196,23 @@ def _observability(J, sigma, free) -> ObservabilityReport:
     return analyze(J[:, free], sigma, names=names, units=units)
 
 
-def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray) -> tuple[list[int], list[int], ObservabilityReport]:
-    full = list(range(9))
-    rep = _observability(J, sigma, full)
-    if rep.full_rank or requested == "full":
-        if not rep.full_rank:
+def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray) -> tuple[list[int], list[int]]:
+    """(estimated, held) parameter indices for model ``requested`` ("auto", "full", "diagonal")."""
+    full, diag = list(range(9)), [0, 1, 2, 6, 7, 8]
+    if requested != "diagonal":
+        rep = _observability(J, sigma, full)
+        if rep.full_rank:
+            return full, []
+        if requested == "full":
             raise OptinavError("the poses cannot determine all 9 accelerometer parameters: "
                                + "; ".join(rep.unobservable_directions),
                                "add poses (>= 9, including ones tilted about 45° between axes) or use model='auto'")
-        return full, [], rep
-    diag = [0, 1, 2, 6, 7, 8]
     rep6 = _observability(J, sigma, diag)
     if not rep6.full_rank:
         raise OptinavError("the poses cannot determine the accelerometer scale factors and biases: "
                            + "; ".join(rep6.unobservable_directions),
                            "use at least 6 poses with each axis both up and down (e.g. ±x, ±y, ±z up)")
-    if requested == "auto" or requested == "diagonal":
-        return diag, list(MISALIGNMENT), rep
-    raise OptinavError(f"unknown accelerometer model {requested!r}", f"use one of {', '.join(MODELS)}")
+    return diag, list(MISALIGNMENT)
 
 
 def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
@@ -229,6 +228,8 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     g = check_positive(g, "gravity")
     if method not in METHODS:
         raise OptinavError(f"unknown calibration method {method!r}", f"use one of {', '.join(METHODS)}")
+    if model_form not in MODELS:
+        raise OptinavError(f"unknown accelerometer model {model_form!r}", f"use one of {', '.join(MODELS)}")
     if data not in ("means", "samples"):
         raise OptinavError(f"data={data!r} is not understood", "use 'means' or 'samples'")
     P = stats.means.shape[0]
@@ -239,10 +240,11 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     start = initial_estimate(stats.means, g)
     sig0 = residual_sigma(start, stats)
     J0 = model.norm_jacobian(start, stats.means)
-    free, held, _ = _choose_model(model_form if model_form in MODELS else "?", J0, sig0)
+    free, held = _choose_model(model_form, J0, sig0)
+    if method in ("ga", "pso", "newton"):
+        lo, hi = search_interval(stats.means, g) if interval is None else interval
     if x0 is None:
         if method in ("ga", "pso", "newton"):
-            lo, hi = search_interval(stats.means, g) if interval is None else interval
             x0 = 0.5 * (lo + hi)
         else:
             x0 = start
@@ -271,12 +273,10 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
         x0=x0[free],
         names=[model.ACCEL_PARAMS[i] for i in free],
         x_scale=np.maximum(np.abs(start[free]), np.abs(start[:3]).mean() * 1e-3),
-        search_interval=None if not method in ("ga", "pso") else tuple(
-            np.asarray(v)[free] for v in (search_interval(stats.means, g) if interval is None else interval)),
+        search_interval=(np.asarray(lo)[free], np.asarray(hi)[free]) if method in ("ga", "pso") else None,
     )
     if method == "pso" and "v_max" not in options:
-        lo, hi = problem.search_interval
-        options["v_max"] = 0.2 * (hi - lo)  # the paper's V ∈ [−1, 1] is for unit-sized parameters
+        options["v_max"] = 0.2 * (hi - lo)[free]  # the paper's V ∈ [−1, 1] is for unit-sized parameters
     res = minimize(problem, _CORE_METHOD[method], rng=rng, **options)
     theta = full_theta(res.x)
     r = model.norm_residuals(theta, stats.means, g)
