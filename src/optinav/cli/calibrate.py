@@ -107,7 +107,6 @@ def run_accel(args) -> int:
                             acc_range=args.acc_range, gyro_range=args.gyro_range, gyro_bias=args.gyro_bias,
                             rng=args.seed, source=str(args.data), method_options=options,
                             rest=tuple(args.rest) if args.rest else None)
-    res.excluded["nan_rows"] = int(res.excluded.get("nan_rows", 0))
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")

@@ -155,10 +155,9 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
         selection["threshold"] = det.threshold
     if len(ranges) < 6 and sections is None:
-        v = static.moving_variance(t, acc, window_s)
+        levels = static._levels(static.moving_variance(t, acc, window_s), f"({acc_unit})^2")
         raise OptinavError(
-            f"only {len(ranges)} static interval(s) of at least {min_duration_s:g} s found (acc moving variance "
-            f"min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} ({acc_unit})^2; threshold "
+            f"only {len(ranges)} static interval(s) of at least {min_duration_s:g} s found (acc {levels}; threshold "
             f"{float(selection.get('threshold') or threshold or np.nan):.3g}); norm observation needs at least 6 poses",
             "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
             "--min-duration, or give the poses by hand with --sections")
@@ -170,7 +169,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     for i0, i1 in ranges:
         used[i0:i1] = True
     used &= valid
-    a_used = np.linalg.solve(fit.K, (acc[used] - fit.b).T).T
+    a_used = model.corrected(fit.theta, acc[used])
     residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a_used, axis=1) - g) ** 2)))
 
     K_std = np.zeros((3, 3))
@@ -196,8 +195,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
             i = int(np.flatnonzero(sat_g)[0])
             raise OptinavError(f"the gyroscope saturates at t = {t[i]:.6g} s ({excluded['saturated_gyro']} samples)",
                                "turn the unit more slowly between poses, or raise the gyro range")
-        up = st.means - fit.b
-        up = np.linalg.solve(fit.K, up.T).T
+        up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng)
         b_std = np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))  # Earth rate is neglected (module docs)

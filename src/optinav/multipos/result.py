@@ -21,10 +21,8 @@ the Ferraris method). Standard deviations are NaN for parameters that were held 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from dataclasses import field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -134,21 +132,6 @@ class CalibrationResult(Result):
             return cls(**kwargs)
         except TypeError as exc:
             raise OptinavError(f"calibration result is incomplete ({exc})", "re-run the calibration") from None
-
-    @classmethod
-    def from_json(cls, source) -> "CalibrationResult":
-        text = str(source)
-        if not text.lstrip().startswith("{"):
-            p = Path(source)
-            if not p.is_file():
-                raise OptinavError(f"result file {p} does not exist", "check the path")
-            text = p.read_text(encoding="utf-8")
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise OptinavError(f"result file is not valid JSON ({exc.msg} at line {exc.lineno})",
-                               "pass an unmodified optinav result file") from None
-        return cls.from_dict(data)
 
     def correct_accel(self, raw) -> np.ndarray:
         """a = K⁻¹(raw − b) (m/s²) for raw (N, 3) in the calibrated input units."""

@@ -264,13 +264,18 @@ def _levels(v: np.ndarray, unit: str) -> str:
     return (f"moving variance min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} {unit}")
 
 
-def _prepare(t, acc, gyro, window_s, min_duration_s, trim_s):
+def _check_t_acc_gyro(t, acc, gyro):
     t, acc = _check_t_x(t, acc, "acc")
     if gyro is not None:
         gyro = as_float_array(gyro, "gyro", last_dims=(3,))
         if gyro.shape != acc.shape:
             raise OptinavError(f"gyro has shape {gyro.shape} but acc has {acc.shape}",
                                "pass gyro and acc sampled at the same timestamps")
+    return t, acc, gyro
+
+
+def _prepare(t, acc, gyro, window_s, min_duration_s, trim_s):
+    t, acc, gyro = _check_t_acc_gyro(t, acc, gyro)
     window_s = check_positive(window_s, "window_s")
     min_duration_s = float(min_duration_s)
     if not np.isfinite(min_duration_s) or min_duration_s < 0:
@@ -537,12 +542,7 @@ def detection_from_sections(sections, t, acc, *, gyro=None) -> StaticDetection:
     """A :class:`StaticDetection` (method "manual", no variances) of hand-given static sections, so a
     calibrator treats detected and manual intervals alike. ``sections`` as in :func:`sections_from_list`
     (or a :class:`SectionList`); t (N,) s; acc, gyro (N, 3) input units."""
-    t, acc = _check_t_x(t, acc, "acc")
-    if gyro is not None:
-        gyro = as_float_array(gyro, "gyro", last_dims=(3,))
-        if gyro.shape != acc.shape:
-            raise OptinavError(f"gyro has shape {gyro.shape} but acc has {acc.shape}",
-                               "pass gyro and acc sampled at the same timestamps")
+    t, acc, gyro = _check_t_acc_gyro(t, acc, gyro)
     sl = sections if isinstance(sections, SectionList) else sections_from_list(sections, t)
     r = np.asarray(sl.index_ranges, dtype=np.int64).reshape(-1, 2)
     if r.size and r.max() > t.size:

@@ -38,7 +38,7 @@ import numpy as np
 from optinav.core.validate import check_positive
 from optinav.errors import OptinavError
 
-from .problem import Evaluator, Problem
+from .problem import Evaluator, Problem, finite_mean
 
 _FMIN_COST = 1e-300  # E below this counts as 1e-300 so that 1/E and sums of it stay finite
 
@@ -96,8 +96,7 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
     b = int(np.argmin(E))
     best_x, best_E = P[b].copy(), float(E[b])
     history = [best_E]
-    finite = np.isfinite(E)
-    mean_cost, best_xs = [float(E[finite].mean()) if finite.any() else np.inf], [best_x.copy()]
+    mean_cost, best_xs = [finite_mean(E)], [best_x.copy()]
     message = f"completed {G} generations"
     g = 0
     for g in range(1, G + 1):
@@ -141,8 +140,7 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
             kids[w], kidE[w] = best_x, best_E
         P, E = kids, kidE
         history.append(best_E)
-        finite = np.isfinite(E)
-        mean_cost.append(float(E[finite].mean()) if finite.any() else np.inf)
+        mean_cost.append(finite_mean(E))
         best_xs.append(best_x.copy())
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]

@@ -21,6 +21,12 @@ from optinav.errors import OptinavError
 _EPS = np.finfo(float).eps
 
 
+def finite_mean(costs) -> float:
+    """Mean of the finite costs of a population (inf when none is finite), for the per-generation traces."""
+    ok = np.isfinite(costs)
+    return float(costs[ok].mean()) if ok.any() else float("inf")
+
+
 @dataclasses.dataclass
 class Problem:
     """An objective for :func:`optinav.core.optimize.minimize`.

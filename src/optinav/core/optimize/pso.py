@@ -19,7 +19,7 @@ import numpy as np
 from optinav.core.validate import check_positive
 from optinav.errors import OptinavError
 
-from .problem import Evaluator, Problem
+from .problem import Evaluator, Problem, finite_mean
 
 
 def pso_velocity(V, X, pbest, gbest, r1, r2, *, w: float, c1: float, c2: float, v_min, v_max) -> np.ndarray:
@@ -63,7 +63,7 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
     k = int(np.argmin(pbest_f))
     gbest, gbest_f = pbest[k].copy(), float(pbest_f[k])
     history = [gbest_f]
-    mean_cost, best_xs = [_finite_mean(f)], [gbest.copy()]
+    mean_cost, best_xs = [finite_mean(f)], [gbest.copy()]
     message = f"completed {generations} generations"
     g = 0
     for g in range(1, generations + 1):
@@ -78,7 +78,7 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
         if pbest_f[k] < gbest_f:
             gbest, gbest_f = pbest[k].copy(), float(pbest_f[k])
         history.append(gbest_f)
-        mean_cost.append(_finite_mean(f))
+        mean_cost.append(finite_mean(f))
         best_xs.append(gbest.copy())
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]
@@ -91,8 +91,3 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
         message = "no particle had a finite cost"
     return dict(x=gbest, cost=gbest_f, success=success, message=message, nit=g, history=np.asarray(history),
                 trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)})
-
-
-def _finite_mean(f) -> float:
-    ok = np.isfinite(f)
-    return float(f[ok].mean()) if ok.any() else float("inf")
