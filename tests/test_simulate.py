@@ -458,6 +458,17 @@ def test_trajectory_passes_through_knots():
     np.testing.assert_allclose(ned.vel_n, tr.vel_n[:, [1, 0, 2]] * [1, 1, -1], atol=1e-12)
 
 
+def test_trajectory_end_velocities_are_in_the_frame_axes():
+    tk, att, pos = knots()
+    v0, v1 = np.array([3.0, -1.0, 0.5]), np.array([-2.0, 4.0, -1.5])  # ENU
+    enu = S.trajectory(tk, att, pos, 20.0, lat0=0.7, bc_type=((1, v0), (1, v1)))
+    swap = [1, 0, 2], np.array([1, 1, -1])
+    ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, swap[0]] * swap[1], 20.0,
+                       frame="ned", lat0=0.7, bc_type=((1, v0[swap[0]] * swap[1]), (1, v1[swap[0]] * swap[1])))
+    np.testing.assert_allclose(ned.f_b, enu.f_b, atol=1e-12)
+    np.testing.assert_allclose(ned.vel_n[0], v0[swap[0]] * swap[1], atol=1e-6)
+
+
 def test_trajectory_velocity_and_position_derivatives():
     tk, att, pos = knots()
     lat0 = 0.7

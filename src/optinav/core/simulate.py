@@ -1104,6 +1104,21 @@ def coning(half_angle, frequency, duration, rate, earth="none", *, frame="enu", 
 
 # --- trajectory -----------------------------------------------------------------------------------------
 
+def _bc_to_enu(bc_type, frame):
+    """Derivative end conditions given in ``frame`` axes, in the ENU axes the spline is built in."""
+    if isinstance(bc_type, str):
+        return bc_type
+    out = []
+    for end in bc_type:
+        if isinstance(end, str):
+            out.append(end)
+            continue
+        order, value = end
+        v = np.asarray(value, dtype=float)
+        out.append((order, _vec_to_enu(v, frame) if v.shape == (3,) else v))
+    return tuple(out)
+
+
 def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth="wgs84", *, lat0, lon0=0.0,
                h0=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
@@ -1111,7 +1126,8 @@ def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth
 
     ``t_knots`` (K,) s from 0; ``attitude_knots`` (K, 3, 3) ``C_b^n`` or (K, 4) quaternions ``q_b^n`` in
     ``frame``; ``position_knots`` (K, 3) m in the local tangent frame (axes of ``frame``) at the origin.
-    ``bc_type`` is passed to ``scipy.interpolate.CubicSpline`` (``"clamped"`` starts and stops at rest).
+    ``bc_type`` is passed to ``scipy.interpolate.CubicSpline`` (``"clamped"`` starts and stops at rest); the
+    derivative values of an explicit ``((order, value), (order, value))`` pair are in the axes of ``frame`` too.
     The spline's rate and angular acceleration are analytic (body frame); the position maps exactly to
     lat/lon/h through ECEF; ``v^n`` and ``a^n`` are analytic (see ``_TangentSpline``), and ω_ib^b, f^b follow from
     the mechanization equations. Increments: Gauss–Legendre quadrature between knots.
@@ -1143,6 +1159,7 @@ def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth
     g = _gravity_arg(gravity, earth)
     cs = np.stack([_to_enu(c, frame) for c in cs])
     pk = _vec_to_enu(pk, frame)
+    bc_type = _bc_to_enu(bc_type, frame)
     rs = RotationSpline(tk, Rotation.from_matrix(cs))
     try:
         ps = CubicSpline(tk, pk, axis=0, bc_type=bc_type)
