@@ -6,7 +6,8 @@ import argparse
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options, parse_pairs
+from optinav.cli.common import add_input_options
+from optinav.io import parse_pairs, raw_units
 from optinav.errors import OptinavError
 
 
@@ -31,7 +32,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from optinav.cli.common import raw_units
     from optinav.io import ImuLog, read_imu, write_imu
     from optinav.multipos.result import CalibrationResult
 

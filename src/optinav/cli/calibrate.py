@@ -7,7 +7,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options, parse_pairs, raw_units
+from optinav.cli.common import add_input_options, register_system_hooks
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
@@ -15,8 +15,10 @@ METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "calibrate", help="calibrate sensors from a raw log (multi-position, no turntable)",
-        description="Calibrate an accelerometer (and the gyroscope in the same session) from static poses.",
+        "calibrate", help="calibrate sensors or a system from a log (multi-position IMU, rotational INS, gyro-free array)",
+        description="Calibrate an accelerometer and gyroscope from static poses (accel), the gimbal "
+                    "non-orthogonality of a dual-axis rotational INS (rins), or the installation errors of a "
+                    "gyro-free accelerometer array on a turntable (gfimu).",
         formatter_class=argparse.RawDescriptionHelpFormatter)
     kinds = p.add_subparsers(dest="sensor", metavar="SENSOR", title="sensors")
     a = kinds.add_parser(
@@ -38,6 +40,17 @@ def register(sub) -> None:
     a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
     a.add_argument("--gyro", metavar="GYRODATA", help="gyroscope in a second file sharing the time column")
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+    add_calibration_options(a)
+    a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
+    a.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    a.set_defaults(func=run_accel)
+    register_system_hooks(kinds, "register_calibrate")
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def add_calibration_options(a) -> None:
+    """The reading and estimation options of ``calibrate accel`` (shared with ``batch calibrate accel``);
+    their destinations are the fields of :class:`optinav.multipos.calibrate.FileOptions`."""
     a.add_argument("--no-gyro", action="store_true", help="ignore gyroscope columns in DATA")
     add_input_options(a)
     grav = a.add_mutually_exclusive_group()
@@ -66,15 +79,10 @@ def register(sub) -> None:
                    help="rest period in s for --gyro-bias rest")
     a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
     a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
-    a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
-    a.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
-    a.set_defaults(func=run_accel)
-    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
 def run_accel(args) -> int:
-    from optinav.io import read_imu
-    from optinav.multipos.calibrate import calibrate_session
+    from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
     out = Path(args.out)
     if out.suffix.lower() != ".json":
@@ -84,34 +92,17 @@ def run_accel(args) -> int:
     if args.report:
         from optinav.reports import prepare_report_dir
         prepare_report_dir(args.report)
-    log = read_imu(args.data, columns=args.columns, gyro_path=args.gyro, gyro_columns=args.gyro_columns,
-                   acc_unit=args.acc_unit, gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
-                   datasets=parse_pairs(args.datasets), delimiter=args.delimiter)
-    if log.acc is None:
-        raise OptinavError(f"{args.data} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
-    acc, acc_unit = raw_units(log, "acc")
-    gyro, gyro_unit = (None, None) if args.no_gyro or log.gyro is None else raw_units(log, "gyro")
-    if (args.gyro_bias == "rest") != (args.rest is not None):
-        raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
-    options = {}
-    if args.generations is not None:
-        if args.method not in ("ga", "pso"):
-            raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
-        options["generations"] = args.generations
+    options = FileOptions.from_args(args)
+    options.check()
+    data = read_session_file(args.data, options)
     if not getattr(args, "quiet", False):
-        print(f"optinav: calibrating {len(log.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
-    res = calibrate_session(log.t, acc, gyro, acc_unit=acc_unit, gyro_unit=gyro_unit or "rad/s", g=args.gravity,
-                            lat_deg=args.latitude, height_m=args.height, method=args.method, model_form=args.model,
-                            data="samples" if args.fit_samples else "means", sections=args.sections,
-                            window_s=args.window, min_duration_s=args.min_duration, threshold=args.threshold,
-                            acc_range=args.acc_range, gyro_range=args.gyro_range, gyro_bias=args.gyro_bias,
-                            rng=args.seed, source=str(args.data), method_options=options,
-                            rest=tuple(args.rest) if args.rest else None)
+        print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    res = calibrate_data(data, options, source=str(args.data))
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")
     if args.report:
         from optinav.reports.calibration_report import write_calibration_report
-        path = write_calibration_report(res, log.t, acc, gyro, args.report)
+        path = write_calibration_report(res, data.t, data.acc, data.gyro, args.report)
         print(f"optinav: report written to {path}/index.md")
     return 0

@@ -2,9 +2,22 @@
 
 from __future__ import annotations
 
-import numpy as np
+from optinav.io import parse_pairs, raw_units  # noqa: F401 - the CLI's spelling of the shared helpers
 
-from optinav.core.units import factor
+#: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
+#: ``register_calibrate(kinds)`` (a sensor/system under ``optinav calibrate``). Top-level commands of a system
+#: (``gfimu``, ``sun``, ``attitude``) are listed in ``main.COMMAND_MODULES`` instead.
+SYSTEM_MODULES: list[str] = []
+
+
+def register_system_hooks(kinds, hook: str) -> None:
+    """Call ``hook`` (``register_simulate``/``register_calibrate``) of every system CLI module that has it."""
+    import importlib
+
+    for name in SYSTEM_MODULES:
+        fn = getattr(importlib.import_module(name), hook, None)
+        if fn is not None:
+            fn(kinds)
 
 
 def add_input_options(p, *, gyro: bool = True) -> None:
@@ -20,28 +33,3 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     p.add_argument("--rate", type=float, help="sample rate in Hz for files without a time column")
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
-
-
-def parse_pairs(text: str | None) -> dict | None:
-    if not text:
-        return None
-    out = {}
-    for item in text.split(","):
-        k, _, v = item.partition("=")
-        if not v:
-            from optinav.errors import OptinavError
-            raise OptinavError(f"--datasets entry {item!r} is not std=name", "write e.g. t=imu/time,acc=imu/acc")
-        out[k.strip()] = v.strip()
-    return out
-
-
-def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
-    """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
-
-    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back."""
-    values = log.acc if kind == "acc" else log.gyro
-    unit = log.acc_unit if kind == "acc" else log.gyro_unit
-    file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit
-    if file_unit == unit or values is None:
-        return values, unit
-    return values / factor(file_unit), file_unit

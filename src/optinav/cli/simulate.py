@@ -8,6 +8,7 @@ import textwrap
 from pathlib import Path
 
 
+from optinav.cli.common import register_system_hooks
 from optinav.errors import OptinavError
 
 
@@ -46,6 +47,7 @@ def register(sub) -> None:
     a.add_argument("--height", type=float, default=35.0, metavar="M")
     a.add_argument("--seed", type=int, default=0)
     a.set_defaults(func=run_accel_multipos)
+    register_system_hooks(kinds, "register_simulate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 

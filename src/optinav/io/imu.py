@@ -16,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.core.results import Result
-from optinav.core.units import to_si, from_si
+from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
 from optinav.io.readers import LABEL_COLUMNS, SKIP_NAMES, Table, load_table, normalize_name, parse_columns
@@ -585,3 +585,28 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("\n".join(head + body))
         fh.write("\n")
+
+
+def parse_pairs(text: str | None) -> dict | None:
+    """``"t=imu/time,acc=imu/acc"`` (the ``--datasets`` option) → ``{"t": "imu/time", "acc": "imu/acc"}``."""
+    if not text:
+        return None
+    out = {}
+    for item in text.split(","):
+        k, _, v = item.partition("=")
+        if not v:
+            raise OptinavError(f"--datasets entry {item!r} is not std=name", "write e.g. t=imu/time,acc=imu/acc")
+        out[k.strip()] = v.strip()
+    return out
+
+
+def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
+    """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
+
+    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back."""
+    values = log.acc if kind == "acc" else log.gyro
+    unit = log.acc_unit if kind == "acc" else log.gyro_unit
+    file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit
+    if file_unit == unit or values is None:
+        return values, unit
+    return values / factor(file_unit), file_unit

@@ -12,11 +12,16 @@
 3. Accelerometer: :func:`optinav.multipos.accel.fit_accel` (closed-form start, then the chosen method).
 4. Gyroscope (when given): :func:`optinav.multipos.gyro.calibrate_gyro` on the same intervals, with the
    gravity directions measured by the calibrated accelerometer.
+
+``calibrate_file(path, FileOptions(...))`` reads one log and calibrates it with the options of
+``optinav calibrate accel`` (same names); the CLI command and ``optinav batch calibrate accel`` both run it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats as _stats
@@ -26,6 +31,7 @@ from optinav.core.earth import gravity as normal_gravity
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
+from optinav.io import parse_pairs, raw_units, read_imu
 
 from . import accel, model, static
 from .result import CalibrationResult
@@ -258,3 +264,97 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
         method="ferraris", elapsed_s=time.perf_counter() - t_start,
         excluded={"nan_rows": n_nan, "saturated_acc": 0}, quality={"gravity_source": g_source,
                                                                    "sections": names}, source=source)
+
+
+@dataclasses.dataclass(frozen=True)
+class FileOptions:
+    """How to read and calibrate one log: the options of ``optinav calibrate accel``, same names and units
+    (``gyro``/``gyro_columns``: a second file holding the gyroscope; ``datasets``: "std=name,..." text;
+    ``gravity`` m/s², ``latitude`` degrees, ``height`` m, ``window``/``min_duration`` s, ``rest`` (t0, t1) s,
+    ranges and ``threshold`` in raw units). Picklable, so batch workers receive it as is."""
+
+    columns: str | None = None
+    gyro: str | None = None
+    gyro_columns: str | None = None
+    no_gyro: bool = False
+    acc_unit: str | None = None
+    gyro_unit: str | None = None
+    time_unit: str | None = None
+    rate: float | None = None
+    delimiter: str | None = None
+    datasets: str | None = None
+    gravity: float | None = None
+    latitude: float | None = None
+    height: float = 0.0
+    method: str = "lm"
+    model: str = "auto"
+    fit_samples: bool = False
+    sections: str | None = None
+    window: float = 1.0
+    min_duration: float = 2.0
+    threshold: float | None = None
+    acc_range: float | None = None
+    gyro_range: float | None = None
+    gyro_bias: str = "static"
+    rest: tuple | None = None
+    generations: int | None = None
+    seed: int = 0
+
+    @classmethod
+    def from_args(cls, args) -> "FileOptions":
+        """The options from an argparse namespace (attributes of the same names; missing ones keep defaults)."""
+        kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if hasattr(args, f.name)}
+        if kw.get("rest") is not None:
+            kw["rest"] = tuple(float(v) for v in kw["rest"])
+        return cls(**kw)
+
+    def check(self) -> None:
+        """Reject contradictory options before any file is read."""
+        if (self.gyro_bias == "rest") != (self.rest is not None):
+            raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
+        if self.generations is not None and self.method not in ("ga", "pso"):
+            raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
+
+
+class SessionData(NamedTuple):
+    """A log's samples in the file's own units (the units K and b are stated in)."""
+
+    t: np.ndarray
+    acc: np.ndarray
+    acc_unit: str
+    gyro: np.ndarray | None
+    gyro_unit: str | None
+
+
+def read_session_file(path, options: FileOptions) -> SessionData:
+    """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units."""
+    o = options
+    log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
+                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate=o.rate, datasets=parse_pairs(o.datasets),
+                   delimiter=o.delimiter)
+    if log.acc is None:
+        raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
+    acc, acc_unit = raw_units(log, "acc")
+    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
+    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit)
+
+
+def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
+    """:func:`calibrate_session` of ``data`` with ``options``."""
+    o = options
+    o.check()
+    method_options = {} if o.generations is None else {"generations": o.generations}
+    return calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+                             gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
+                             height_m=o.height, method=o.method, model_form=o.model,
+                             data="samples" if o.fit_samples else "means", sections=o.sections,
+                             window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
+                             acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
+                             source=source, method_options=method_options, rest=o.rest)
+
+
+def calibrate_file(path, options: FileOptions | None = None) -> CalibrationResult:
+    """Read ``path`` and calibrate it (what ``optinav calibrate accel`` does, without writing files)."""
+    options = FileOptions() if options is None else options
+    options.check()
+    return calibrate_data(read_session_file(path, options), options, source=str(path))

@@ -1,0 +1,485 @@
+"""Batch calibration: every unit's log in a folder, in parallel, one table row per unit, resumable.
+
+A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
+(:data:`optinav.io.readers.SUFFIXES`: .csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat, text also as .gz), in
+sorted file-name order; hidden files (leading ".") and the batch's own output/journal are skipped
+(``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
+without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
+
+Each unit runs :func:`optinav.multipos.calibrate.calibrate_file` (what ``optinav calibrate accel`` runs) in a
+worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed),
+in this process (``workers=0``), or a dask.distributed cluster (``scheduler="tcp://host:8786"``; the
+optional extra ``optinav[dask]``, imported only then). A unit's failure (an :class:`OptinavError` or any
+other exception) becomes a ``failed`` row with the one-line message; the other units continue.
+
+Resume: every finished row is appended to the journal ``OUT.journal.jsonl`` (one JSON line, flushed and
+fsynced) before it counts as done; the output table is rebuilt from the journal and written atomically
+(temporary file in the same folder, then :func:`os.replace`). A re-run with the same ``out`` skips every unit
+whose journal entry matches its file name, size, modification time (ns) and the options' hash; a killed run
+therefore loses at most the units in flight. The journal is kept (it is the resume record; delete it, or pass
+``fresh=True``, to recompute everything). See docs/batch.md for the columns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed as _local_as_completed
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+from optinav.multipos.calibrate import FileOptions
+
+JOURNAL_SCHEMA = "optinav.batch_journal"
+JOURNAL_VERSION = 1
+OUTPUT_SUFFIXES = (".csv", ".parquet")
+_AX = "xyz"
+
+
+def _matrix_columns(prefix: str) -> list[str]:
+    k = [f"{prefix}_K_{_AX[i]}{_AX[j]}" for i in range(3) for j in range(3)]
+    b = [f"{prefix}_b_{_AX[i]}" for i in range(3)]
+    return k + b + [f"{c}_std" for c in k + b]
+
+
+#: (column, type) of the results table, in order; units: K in raw per SI unit (raw = ``acc_unit`` /
+#: ``gyro_unit``, SI = m/s² / rad/s), b and its std in raw units, the rest as the column name says
+COLUMNS: list[tuple[str, str]] = (
+    [("unit", "str"), ("file", "str"), ("status", "str"), ("error", "str"), ("elapsed_s", "float"),
+     ("method", "str"), ("acc_form", "str"), ("acc_unit", "str"), ("gyro_unit", "str"), ("gravity_m_s2", "float"),
+     ("n_samples", "int"), ("n_poses", "int"), ("reduced_chi2", "float"), ("chi2", "float"), ("dof", "int"),
+     ("residual_rms_m_s2", "float"), ("pose_residual_rms_m_s2", "float"), ("acc_rank", "int"),
+     ("acc_n_params", "int"), ("acc_unobservable", "str"), ("acc_held", "str")]
+    + [(c, "float") for c in _matrix_columns("acc")]
+    + [(c, "float") for c in _matrix_columns("gyro")]
+    + [("gyro_residual_rms_rad", "float"), ("gyro_rank", "int"), ("gyro_n_params", "int"),
+       ("gyro_unobservable", "str"), ("file_size", "int"), ("file_mtime_ns", "int"), ("options_hash", "str"),
+       ("optinav_version", "str"), ("finished_utc", "str")])
+COLUMN_NAMES = [c for c, _ in COLUMNS]
+_TYPES = dict(COLUMNS)
+
+
+@dataclasses.dataclass(frozen=True)
+class Unit:
+    """One data file of the batch folder; ``size`` (bytes) and ``mtime_ns`` identify its content for resume."""
+
+    name: str
+    path: Path
+    size: int
+    mtime_ns: int
+
+
+@dataclasses.dataclass
+class BatchSummary:
+    """What :func:`run_batch` did: counts, the rows in unit order, where they were written."""
+
+    out: Path
+    journal: Path
+    rows: list[dict]
+    n_units: int
+    n_ok: int
+    n_failed: int
+    n_resumed: int
+    n_computed: int
+    n_lost: int = 0  # units whose worker died: reported failed, not journaled, retried by the next run
+
+    def summary(self) -> str:
+        lines = [f"optinav batch: {self.n_units} units: {self.n_ok} ok, {self.n_failed} failed "
+                 f"({self.n_resumed} resumed from the journal, {self.n_computed} computed now)"]
+        lines += [f"  failed: {r['unit']}: {r['error']}" for r in self.rows if r["status"] != "ok"]
+        return "\n".join(lines)
+
+
+def _data_suffix(name: str) -> str | None:
+    from optinav.io.readers import SUFFIXES
+
+    parts = name.lower().split(".")
+    if len(parts) < 2:
+        return None
+    last = "." + parts[-1]
+    if last == ".gz" and len(parts) >= 3 and SUFFIXES.get("." + parts[-2]) == "text":
+        return "." + parts[-2] + last
+    return last if last in SUFFIXES else None
+
+
+def find_units(directory, *, exclude=()) -> list[Unit]:
+    """The units of ``directory`` (module docstring rule), sorted by file name; ``exclude``: paths to skip."""
+    d = Path(directory)
+    if not d.is_dir():
+        raise OptinavError(f"{d} is not a folder", "pass the folder holding one data file per unit")
+    skip = {Path(p).resolve() for p in exclude}
+    found = []
+    for p in sorted(d.iterdir(), key=lambda q: q.name):
+        if p.name.startswith(".") or not p.is_file() or p.resolve() in skip:
+            continue
+        suffix = _data_suffix(p.name)
+        if suffix is None:
+            continue
+        st = p.stat()
+        found.append((p.name[: -len(suffix)], p, st))
+    stems = [s for s, _, _ in found]
+    return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
+
+
+def options_hash(options: FileOptions) -> str:
+    """A short hash of the calibration options (a journal row is reused only under the same options)."""
+    text = json.dumps(dataclasses.asdict(options), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _num(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _triad_columns(row: dict, prefix: str, d: dict | None) -> None:
+    if d is None:
+        return
+    K, b = np.asarray(d["K"], float), np.asarray(d["b"], float)
+    Ks = np.asarray(d.get("K_std", np.full((3, 3), np.nan)), float)
+    bs = np.asarray(d.get("b_std", np.full(3, np.nan)), float)
+    for i in range(3):
+        for j in range(3):
+            row[f"{prefix}_K_{_AX[i]}{_AX[j]}"] = _num(K[i, j])
+            row[f"{prefix}_K_{_AX[i]}{_AX[j]}_std"] = _num(Ks[i, j])
+        row[f"{prefix}_b_{_AX[i]}"] = _num(b[i])
+        row[f"{prefix}_b_{_AX[i]}_std"] = _num(bs[i])
+
+
+def result_row(res, n_samples: int | None = None) -> dict:
+    """The table columns a :class:`~optinav.multipos.result.CalibrationResult` fills (see :data:`COLUMNS`)."""
+    q, obs = res.quality or {}, res.observability or {}
+    acc_obs, gyro_obs = obs.get("accelerometer", {}), obs.get("gyroscope", {})
+    chi2, dof = q.get("chi2"), q.get("dof")
+    row = {"method": res.method, "acc_unit": res.units.get("accelerometer_raw"),
+           "gyro_unit": res.units.get("gyroscope_raw"), "gravity_m_s2": _num(res.gravity), "n_samples": n_samples,
+           "n_poses": int(q.get("n_poses", len(res.static_intervals))), "chi2": _num(chi2),
+           "dof": None if dof is None else int(dof),
+           "reduced_chi2": _num(chi2 / dof) if chi2 is not None and dof else None,
+           "residual_rms_m_s2": _num(res.residual_rms), "pose_residual_rms_m_s2": _num(q.get("pose_residual_rms")),
+           "acc_rank": acc_obs.get("rank"), "acc_n_params": acc_obs.get("n_params"),
+           "acc_unobservable": "; ".join(acc_obs.get("unobservable", []) or obs.get("unobservable", []) or []),
+           "gyro_rank": gyro_obs.get("rank"), "gyro_n_params": gyro_obs.get("n_params"),
+           "gyro_unobservable": "; ".join(gyro_obs.get("unobservable", []) or [])}
+    if res.accelerometer is not None:
+        row["acc_form"] = res.accelerometer.get("form")
+        row["acc_held"] = "; ".join(res.accelerometer.get("held", []) or [])
+    _triad_columns(row, "acc", res.accelerometer)
+    _triad_columns(row, "gyro", res.gyroscope)
+    if res.gyroscope is not None:
+        row["gyro_residual_rms_rad"] = _num(res.gyroscope.get("residual_rms_rad"))
+    return row
+
+
+def calibrate_unit(path: str, options: FileOptions, name: str = "") -> dict:
+    """Calibrate one unit's file and return its table row; never raises for a bad unit (status "failed" and the
+    one-line error instead). Runs in a worker process, so it takes and returns plain picklable values."""
+    from optinav import __version__
+    from optinav.multipos.calibrate import calibrate_data, read_session_file
+
+    p = Path(path)
+    row = {"unit": name or p.name, "file": p.name, "optinav_version": __version__,
+           "options_hash": options_hash(options), "method": options.method}
+    start = time.perf_counter()
+    try:
+        data = read_session_file(p, options)
+        res = calibrate_data(data, options, source=str(p))
+        row.update(result_row(res, len(data.t)))
+        row.update(status="ok", error="")
+    except OptinavError as exc:
+        row.update(status="failed", error=str(exc))
+    except Exception as exc:  # noqa: BLE001 - a unit's crash is its row, not the batch's end
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        row.update(status="failed", error=f"internal error: {type(exc).__name__}: {msg}")
+    row["elapsed_s"] = time.perf_counter() - start
+    row["finished_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    return row
+
+
+def _complete(row: dict) -> dict:
+    return {c: row.get(c) for c in COLUMN_NAMES}
+
+
+# --------------------------------------------------------------------------------------------------- journal
+class Journal:
+    """Append-only JSON-lines record of finished units (``OUT.journal.jsonl``), locked against a second batch.
+
+    Each line: ``{"schema", "version", "row": {...}}``; a line torn by a kill is ignored on reading."""
+
+    def __init__(self, path: Path, *, fresh: bool = False):
+        self.path = Path(path)
+        try:
+            self._fh = open(self.path, "a+", encoding="utf-8")
+        except OSError as exc:
+            raise OptinavError(f"cannot open the journal {self.path} ({exc.strerror})",
+                               "choose a writable --out folder") from None
+        try:
+            import fcntl
+
+            fcntl.flock(self._fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:  # no advisory locks on this platform: one batch per output is then the user's care
+            pass
+        except OSError:
+            self._fh.close()
+            raise OptinavError(f"another optinav batch is writing {self.path}",
+                               "wait for it to finish, or use another --out") from None
+        if fresh:
+            self._fh.truncate(0)
+        self.rows = self._read()
+
+    def _read(self) -> dict[str, dict]:
+        self._fh.seek(0)
+        text = self._fh.read()
+        rows = {}
+        for line in text.splitlines():
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue  # a line torn by a kill
+            if isinstance(rec, dict) and rec.get("schema") == JOURNAL_SCHEMA and isinstance(rec.get("row"), dict):
+                rows[rec["row"].get("file")] = rec["row"]  # a later line for the same file wins
+        if text and not text.endswith("\n"):
+            self._fh.write("\n")  # start the next record on its own line after a torn one
+            self._sync()
+        return rows
+
+    def _sync(self) -> None:
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def append(self, row: dict) -> None:
+        rec = {"schema": JOURNAL_SCHEMA, "version": JOURNAL_VERSION, "row": row}
+        self._fh.write(json.dumps(rec, allow_nan=False) + "\n")
+        self._sync()
+        self.rows[row["file"]] = row
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool) -> bool:
+    return (row is not None and row.get("file_size") == unit.size and row.get("file_mtime_ns") == unit.mtime_ns
+            and row.get("options_hash") == ohash and not (retry_failed and row.get("status") != "ok"))
+
+
+# ---------------------------------------------------------------------------------------------------- output
+def _check_output(out: Path) -> str:
+    kind = out.suffix.lower()
+    if kind not in OUTPUT_SUFFIXES:
+        raise OptinavError(f"--out {out} is neither .csv nor .parquet", "name the results RESULTS.csv or .parquet")
+    if not out.parent.is_dir():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    if kind == ".parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            raise OptinavError("parquet output needs pyarrow, which is not installed",
+                               "pip install 'optinav[parquet]', or write --out RESULTS.csv") from None
+    return kind
+
+
+def _csv_cell(v) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def write_table(rows: list[dict], out) -> Path:
+    """Write ``rows`` (complete :data:`COLUMNS`) to ``out`` (.csv or .parquet) atomically: a temporary file in
+    the same folder, fsynced, then :func:`os.replace` — a reader sees the old table or the new, never half."""
+    import csv
+
+    out = Path(out)
+    kind = _check_output(out)
+    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
+    try:
+        if kind == ".csv":
+            with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
+                w = csv.writer(fh)
+                w.writerow(COLUMN_NAMES)
+                for r in rows:
+                    w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
+                fh.flush()
+                os.fsync(fh.fileno())
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            os.close(fd)
+            types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
+            schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
+                               metadata={"schema": "optinav.batch_results", "version": "1"})
+            table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+            pq.write_table(table, tmp)
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+        # mkstemp makes the file private (0600); give the table the permissions an ordinary file would get
+        os.chmod(tmp, (out.stat().st_mode & 0o777) if out.exists() else 0o644)
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return out
+
+
+def read_results(path) -> list[dict]:
+    """The rows of a results table written by :func:`write_table` (.csv or .parquet), typed as :data:`COLUMNS`
+    (empty CSV cells → None)."""
+    import csv
+
+    path = Path(path)
+    if not path.is_file():
+        raise OptinavError(f"results table {path} does not exist", "run `optinav batch calibrate accel` first")
+    if path.suffix.lower() == ".parquet":
+        _check_output(path)
+        import pyarrow.parquet as pq
+
+        return pq.read_table(path).to_pylist()
+    conv = {"str": str, "float": float, "int": int}
+    with open(path, newline="", encoding="utf-8") as fh:
+        return [{k: (None if v == "" and _TYPES.get(k) != "str" else conv[_TYPES.get(k, "str")](v))
+                 for k, v in r.items()} for r in csv.DictReader(fh)]
+
+
+# ------------------------------------------------------------------------------------------------- executors
+def _default_workers() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+def _mp_context():
+    import multiprocessing as mp
+
+    # forkserver/spawn rather than fork: the parent may hold threads (a dask client, numba), which fork copies badly
+    return mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
+
+
+def _require_distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise OptinavError("--scheduler needs dask.distributed, which is not installed",
+                           "pip install 'optinav[dask]', or drop --scheduler to use local processes") from None
+    return distributed
+
+
+def _dask_client(address: str):
+    Client = _require_distributed().Client
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        raise OptinavError(f"cannot reach the dask scheduler at {address} ({msg})",
+                           "start it (`dask scheduler`, workers with optinav installed) or check the address") from None
+
+
+def _run_jobs(jobs, options, workers, scheduler):
+    """Yield (unit, row or None, error text) as units finish; error text when the worker itself was lost."""
+    if scheduler is not None:
+        from distributed import as_completed
+
+        client = _dask_client(scheduler)
+        try:
+            futures = {client.submit(calibrate_unit, str(u.path), options, u.name, pure=False,
+                                     key=f"optinav-batch-{u.name}-{os.getpid()}-{time.time_ns()}"): u for u in jobs}
+            for fut in as_completed(list(futures)):
+                yield _outcome(futures[fut], fut)
+        finally:
+            client.close()
+        return
+    if workers == 0:
+        for u in jobs:
+            yield u, calibrate_unit(str(u.path), options, u.name), None
+        return
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_mp_context())
+    try:
+        futures = {pool.submit(calibrate_unit, str(u.path), options, u.name): u for u in jobs}
+        for fut in _local_as_completed(futures):
+            yield _outcome(futures[fut], fut)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _outcome(unit, fut):
+    try:
+        return unit, fut.result(), None
+    except Exception as exc:  # noqa: BLE001 - the worker (not the unit) failed: killed, out of memory, ...
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        return unit, None, f"worker lost: {type(exc).__name__}: {msg}"
+
+
+def run_batch(directory, out, options: FileOptions | None = None, *, workers: int | None = None,
+              scheduler: str | None = None, fresh: bool = False, retry_failed: bool = False,
+              show_progress: bool | None = None) -> BatchSummary:
+    """Calibrate every unit of ``directory`` and write the table ``out`` (.csv/.parquet); see the module docs.
+
+    ``workers``: local processes (default: the usable cores; 0 = in this process); ``scheduler``: a
+    dask.distributed scheduler address instead (the workers must see ``directory`` at the same path and have
+    optinav installed). ``fresh``: ignore the journal and recompute every unit; ``retry_failed``: recompute units
+    whose journal row failed (otherwise a failed unit is retried only once its file changes).
+    ``show_progress``: None follows :func:`optinav.core.progress.progress_enabled`.
+    """
+    from optinav.core.progress import progress
+
+    options = FileOptions() if options is None else options
+    options.check()
+    out = Path(out)
+    _check_output(out)
+    if scheduler is not None and workers is not None:
+        raise OptinavError("--workers applies to local processes; a dask cluster has its own workers",
+                           "drop --workers with --scheduler")
+    if workers is not None and workers < 0:
+        raise OptinavError(f"--workers {workers} is negative", "give a number of processes (0 = in this process)")
+    workers = _default_workers() if workers is None else int(workers)
+    journal_path = out.with_name(out.name + ".journal.jsonl")
+    units = find_units(directory, exclude=(out, journal_path))
+    if not units:
+        raise OptinavError(f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
+                           "pass the folder with one data file per unit")
+    if scheduler is not None:
+        _require_distributed()
+    ohash = options_hash(options)
+    journal = Journal(journal_path, fresh=fresh)
+    lost: dict[str, dict] = {}
+    n_computed = 0
+    try:
+        resumed = {u.name for u in units if _done(journal.rows.get(u.path.name), u, ohash, retry_failed)}
+        jobs = [u for u in units if u.name not in resumed]
+        if jobs:
+            it = _run_jobs(jobs, options, workers, scheduler)
+            for unit, row, lost_msg in progress(it, total=len(jobs), desc="batch calibrate", enabled=show_progress):
+                if row is None:
+                    lost[unit.path.name] = {"unit": unit.name, "file": unit.path.name, "status": "failed",
+                                            "error": lost_msg, "options_hash": ohash}
+                    continue
+                row.update(unit=unit.name, file=unit.path.name, file_size=unit.size, file_mtime_ns=unit.mtime_ns)
+                journal.append(_complete(row))
+                n_computed += 1
+    finally:
+        # rebuilt from the journal on disk, also when interrupted (an interrupt may land between a row's
+        # fsync and its bookkeeping): the table then holds exactly what the journal holds
+        journal.rows = journal._read()
+        rows = []
+        for u in units:
+            r = journal.rows.get(u.path.name)
+            if _done(r, u, ohash, False):
+                rows.append(_complete(r))
+            elif u.path.name in lost:
+                rows.append(_complete(lost[u.path.name]))
+        journal.close()
+        write_table(rows, out)
+    n_ok = sum(r["status"] == "ok" for r in rows)
+    return BatchSummary(out=out, journal=journal_path, rows=rows, n_units=len(units), n_ok=n_ok,
+                        n_failed=len(rows) - n_ok, n_resumed=len(resumed), n_computed=n_computed, n_lost=len(lost))

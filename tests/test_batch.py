@@ -1,0 +1,240 @@
+"""``optinav batch calibrate accel``: a real dask.distributed LocalCluster, local processes, parquet, a corrupt
+unit, resume from the journal, and an interrupted / killed run that loses nothing finished."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optinav import batch
+from optinav.batch import find_units, read_results, run_batch
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import ImuLog, write_imu
+from optinav.multipos import model
+from optinav.multipos.calibrate import FileOptions, calibrate_file
+from optinav.multipos.simulate import simulate_session
+
+LAT, HEIGHT = 38.88, 35.0
+OPTIONS = FileOptions(latitude=LAT, height=HEIGHT)
+CAL_ARGS = ["--latitude", str(LAT), "--height", str(HEIGHT)]
+# (file name, accelerometer unit written, seed): small sessions (18 poses of 5 s at 20 Hz) calibrate in ~0.1 s
+UNITS = [("u1.csv", "m/s^2", 11), ("u2.csv", "counts", 12), ("u3.npz", "m/s^2", 13)]
+BAD = "u0_corrupt.csv"
+
+
+@pytest.fixture(scope="module")
+def units(tmp_path_factory):
+    d = tmp_path_factory.mktemp("units")
+    truth = {}
+    for name, acc_unit, seed in UNITS:
+        s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=LAT,
+                             height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
+        write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
+        truth[Path(name).stem] = s
+    (d / BAD).write_text("t,ax,ay,az\n0,1,2\n1,2,oops,4\n")
+    (d / "u1.truth.json").write_text("{}")  # not a unit
+    (d / ".hidden.csv").write_text("t,ax,ay,az\n")  # not a unit
+    return d, truth
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        yield c
+
+
+def _check_rows_against_truth(rows, truth, units_dir):
+    by = {r["unit"]: r for r in rows}
+    assert sorted(by) == ["u0_corrupt", "u1", "u2", "u3"]  # sorted unit order, hidden/truth files skipped
+    assert [r["unit"] for r in rows] == ["u0_corrupt", "u1", "u2", "u3"]
+    bad = by["u0_corrupt"]
+    with pytest.raises(OptinavError) as exc:
+        calibrate_file(units_dir / BAD, OPTIONS)
+    assert bad["status"] == "failed" and bad["error"] == str(exc.value) and bad["acc_K_xx"] is None
+    for unit, s in truth.items():
+        r = by[unit]
+        assert r["status"] == "ok" and r["error"] == "", r["error"]
+        assert r["acc_unit"] == s.acc_unit and r["n_poses"] == 18 and r["acc_rank"] == 9
+        K = np.array([[r[f"acc_K_{a}{b}"] for b in "xyz"] for a in "xyz"])
+        Ks = np.array([[r[f"acc_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
+        bias = np.array([r[f"acc_b_{a}"] for a in "xyz"])
+        bs = np.array([r[f"acc_b_{a}_std"] for a in "xyz"])
+        # norm observation sees K only up to a rotation: compare with the upper-triangular form of the truth
+        U, Q = model.upper_triangular_form(s.acc_K)
+        iu = np.triu_indices(3)
+        assert np.all(np.abs(K - U)[iu] < 5 * Ks[iu]), (unit, (K - U)[iu] / Ks[iu])
+        assert np.all(np.abs(bias - s.acc_b) < 5 * bs), (unit, (bias - s.acc_b) / bs)
+        Kg = np.array([[r[f"gyro_K_{a}{b}"] for b in "xyz"] for a in "xyz"])
+        Kgs = np.array([[r[f"gyro_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
+        bg = np.array([r[f"gyro_b_{a}"] for a in "xyz"])
+        bgs = np.array([r[f"gyro_b_{a}_std"] for a in "xyz"])
+        assert np.all(np.abs(Kg - s.gyro_K @ Q.T) < 5 * Kgs), unit
+        assert np.all(np.abs(bg - s.gyro_b) < 5 * bgs), unit
+        assert 0 < r["reduced_chi2"] < 5 and r["elapsed_s"] > 0 and r["optinav_version"]
+
+
+def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path, capsys):
+    d, truth = units
+    out = tmp_path / "results.csv"
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(out),
+                 "--scheduler", cluster.scheduler_address, *CAL_ARGS]) == 0
+    assert "4 units: 3 ok, 1 failed" in capsys.readouterr().out
+    rows = read_results(out)
+    _check_rows_against_truth(rows, truth, d)
+    journal = tmp_path / "results.csv.journal.jsonl"
+    assert len(journal.read_text().splitlines()) == 4
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]  # the atomic write left no temp file
+    # re-run: every unit is in the journal with the same file and options → nothing recomputed
+    before = journal.read_bytes()
+    s = run_batch(d, out, OPTIONS, scheduler=cluster.scheduler_address, show_progress=False)
+    assert (s.n_resumed, s.n_computed, s.n_ok, s.n_failed) == (4, 0, 3, 1)
+    assert journal.read_bytes() == before
+    assert read_results(out) == rows  # same elapsed_s and finish times: the rows were kept, not recomputed
+    # other options are another calibration: nothing is reused
+    s = run_batch(d, out, FileOptions(latitude=LAT, height=HEIGHT, method="gn"),
+                  scheduler=cluster.scheduler_address, show_progress=False)
+    assert (s.n_resumed, s.n_computed) == (0, 4) and {r["method"] for r in s.rows} == {"gn"}
+
+
+def test_local_processes_parquet_and_changed_file(units, tmp_path, monkeypatch):
+    pytest.importorskip("pyarrow")
+    d, truth = units
+    for name in ("dask", "distributed"):  # the local mode must not need the optional dask extra
+        monkeypatch.setitem(sys.modules, name, None)
+    out = tmp_path / "results.parquet"
+    s = run_batch(d, out, OPTIONS, workers=2, show_progress=False)
+    assert (s.n_units, s.n_ok, s.n_failed, s.n_computed) == (4, 3, 1, 4)
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out)
+    assert table.column_names == batch.COLUMN_NAMES and table.num_rows == 4
+    assert str(table.schema.field("acc_K_xx").type) == "double"
+    rows = read_results(out)
+    _check_rows_against_truth(rows, truth, d)
+    # a unit whose file changed (new mtime) is recomputed, the others are kept
+    st = (d / "u2.csv").stat()
+    os.utime(d / "u2.csv", ns=(st.st_atime_ns, st.st_mtime_ns + 10 ** 9))
+    try:
+        s2 = run_batch(d, out, OPTIONS, workers=2, show_progress=False)
+    finally:
+        os.utime(d / "u2.csv", ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert (s2.n_resumed, s2.n_computed) == (3, 1)
+    new = {r["unit"]: r for r in read_results(out)}
+    old = {r["unit"]: r for r in rows}
+    assert new["u1"] == old["u1"] and new["u2"]["finished_utc"] >= old["u2"]["finished_utc"]
+    assert new["u2"]["acc_K_xx"] == pytest.approx(old["u2"]["acc_K_xx"], rel=1e-12)
+
+
+def test_interrupted_run_keeps_finished_rows_and_resumes(units, tmp_path, monkeypatch):
+    d, _ = units
+    out = tmp_path / "r.csv"
+    real = batch.calibrate_unit
+    calls = []
+
+    def interrupted_on_third(path, options, name=""):
+        calls.append(name)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(path, options, name)
+
+    monkeypatch.setattr(batch, "calibrate_unit", interrupted_on_third)
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    journal = [json.loads(x)["row"] for x in (tmp_path / "r.csv.journal.jsonl").read_text().splitlines()]
+    assert [r["unit"] for r in journal] == ["u0_corrupt", "u1"]
+    assert [r["unit"] for r in read_results(out)] == ["u0_corrupt", "u1"]  # the table holds what finished
+    monkeypatch.setattr(batch, "calibrate_unit", real)
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (s.n_resumed, s.n_computed, s.n_ok) == (2, 2, 3)
+    assert s.rows[1] == batch._complete(journal[1])  # u1 was kept as journaled
+
+
+def test_killed_process_loses_nothing_finished(units, tmp_path):
+    d, _ = units
+    out = tmp_path / "r.csv"
+    journal = tmp_path / "r.csv.journal.jsonl"
+    cmd = [sys.executable, "-m", "optinav.cli.main", "--quiet", "batch", "calibrate", "accel", str(d), "--out",
+           str(out), "--workers", "1", *CAL_ARGS]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.is_file() and journal.read_text().count("\n") >= 1:
+                break
+            time.sleep(0.01)
+        assert journal.is_file(), proc.stderr.read().decode() if proc.poll() is not None else "no journal"
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)  # the batch and its worker processes: its own session
+        proc.wait(timeout=30)
+        proc.stderr.close()
+    finished = {json.loads(x)["row"]["unit"]: json.loads(x)["row"]
+                for x in journal.read_text().splitlines() if x.strip()}
+    assert 1 <= len(finished) <= 4
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert s.n_resumed == len(finished) and s.n_computed == 4 - len(finished) and s.n_ok == 3
+    for r in s.rows:
+        if r["unit"] in finished:
+            assert r == batch._complete(finished[r["unit"]])  # kept, not recomputed
+
+
+def test_lost_worker_is_reported_but_retried_next_run(units, tmp_path, monkeypatch):
+    d, _ = units
+    real = batch._run_jobs
+
+    def one_worker_dies(jobs, options, workers, scheduler):
+        for unit, row, lost in real(jobs, options, workers, scheduler):
+            yield (unit, None, "worker lost: KilledWorker: oom") if unit.name == "u2" else (unit, row, lost)
+
+    monkeypatch.setattr(batch, "_run_jobs", one_worker_dies)
+    out = tmp_path / "r.csv"
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert s.n_lost == 1 and s.n_computed == 3
+    row = {r["unit"]: r for r in read_results(out)}["u2"]
+    assert row["status"] == "failed" and row["error"].startswith("worker lost")
+    monkeypatch.setattr(batch, "_run_jobs", real)
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (s.n_resumed, s.n_computed, s.n_ok) == (3, 1, 3)
+
+
+def test_unit_rule(tmp_path):
+    for name in ("b.csv", "a.txt.gz", "a.npz", "c.tsv", "notes.md", "x.truth.json", ".h.csv", "results.csv"):
+        (tmp_path / name).write_bytes(b"1")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "d.csv").write_bytes(b"1")
+    units = find_units(tmp_path, exclude=[tmp_path / "results.csv"])
+    assert [(u.name, u.path.name) for u in units] == [("a.npz", "a.npz"), ("a.txt.gz", "a.txt.gz"), ("b", "b.csv"),
+                                                      ("c", "c.tsv")]
+
+
+def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):
+    d, _ = units
+    for argv in (["--out", str(tmp_path / "r.json")],
+                 ["--out", str(tmp_path / "missing" / "r.csv")],
+                 ["--out", str(tmp_path / "r.csv"), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"],
+                 ["--out", str(tmp_path / "r.csv"), "--workers", "-1"],
+                 ["--out", str(tmp_path / "r.csv"), "--generations", "3"]):
+        assert main(["--quiet", "batch", "calibrate", "accel", str(d), *argv]) == 2
+    assert main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "nope"), "--out",
+                 str(tmp_path / "r.csv")]) == 2
+    (tmp_path / "empty").mkdir()
+    assert main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "empty"), "--out",
+                 str(tmp_path / "r.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("optinav: error:") == 7 and "Traceback" not in err
+    # the optional extras missing: the error names them
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    with pytest.raises(OptinavError, match=r"optinav\[parquet\]"):
+        run_batch(d, tmp_path / "r.parquet", OPTIONS)
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(OptinavError, match=r"optinav\[dask\]"):
+        run_batch(d, tmp_path / "r.csv", OPTIONS, scheduler="tcp://127.0.0.1:1")
+    assert not (tmp_path / "r.csv").exists()  # nothing started, nothing written
