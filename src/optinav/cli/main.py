@@ -17,7 +17,7 @@ from optinav.errors import OptinavError
 
 #: modules that define ``register(subparsers)``; later systems add theirs here
 COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
-                   "optinav.cli.reproduce", "optinav.cli.batch"]
+                   "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
 
 
 def build_parser() -> argparse.ArgumentParser:

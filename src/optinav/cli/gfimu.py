@@ -1,0 +1,215 @@
+"""``optinav gfimu analyze``, ``optinav simulate gfimu-turntable`` and ``optinav calibrate gfimu``.
+
+Gyro-free IMU (accelerometer array): identifiability of a configuration, simulation of the turntable
+calibration of Hao & Liu (2011) and the calibration of the 5 installation errors per accelerometer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import textwrap
+from pathlib import Path
+
+from optinav.errors import OptinavError
+
+
+def _load_array(config: str | None, builtin_name: str | None):
+    from optinav.gfimu.array import AccelerometerArray, builtin
+
+    if config and builtin_name:
+        raise OptinavError("both CONFIG.json and --builtin were given", "pass one of them")
+    if builtin_name:
+        return builtin(builtin_name)
+    if not config:
+        raise OptinavError("no configuration given", "pass CONFIG.json or --builtin cylinder10")
+    return AccelerometerArray.load(config)
+
+
+def _check_out(path: str, suffixes: tuple[str, ...], what: str) -> Path:
+    out = Path(path)
+    if out.suffix.lower() not in suffixes:
+        raise OptinavError(f"--out {out} is not a {'/'.join(suffixes)} file", f"name the {what} e.g. x{suffixes[0]}")
+    if not out.parent.exists():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    return out
+
+
+def _floats(text: str, n: int | None, name: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise OptinavError(f"{name} {text!r} is not a comma list of numbers", f"write e.g. {name} 0.5,1.0") from None
+    if n is not None and len(vals) != n:
+        raise OptinavError(f"{name} needs {n} numbers, got {len(vals)}", f"write {n} comma-separated numbers")
+    if not all(math.isfinite(v) for v in vals):
+        raise OptinavError(f"{name} has a non-finite number", "give finite numbers")
+    return vals
+
+
+# ------------------------------------------------------------------------------------------------------------
+# optinav gfimu analyze
+# ------------------------------------------------------------------------------------------------------------
+
+def register(sub) -> None:
+    p = sub.add_parser("gfimu", help="gyro-free IMU: identifiability of an accelerometer array",
+                       description="Gyro-free IMU (accelerometer array) tools.",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmds = p.add_subparsers(dest="gfimu_command", metavar="COMMAND", title="commands")
+    a = cmds.add_parser(
+        "analyze", help="what an accelerometer configuration can solve",
+        description=textwrap.dedent("""\
+            Identifiability of an N-accelerometer array, f_i = θ_iᵀ(A + ω̇×r_i + ω×(ω×r_i)): the rank of the
+            part linear in [A, ω̇], the rank with the six quadratic rate terms, how many quadratic combinations
+            are observable and which components of A and ω̇ are solvable without knowing ω.
+            CONFIG.json: {"accelerometers": [{"position": [x, y, z] (m), "direction": [x, y, z] (unit),
+            "noise": σ (m/s², optional)}, ...]}. A configuration that cannot solve [A, ω̇] even with the rate
+            known is an error naming what cannot be solved (--allow-deficient writes the analysis anyway)."""),
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav gfimu analyze --builtin cylinder10 --out cyl.json
+              optinav gfimu analyze my_array.json
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    a.add_argument("config", nargs="?", metavar="CONFIG.json", help="configuration file")
+    a.add_argument("--builtin", choices=["cylinder10"], help="a built-in configuration instead of CONFIG.json")
+    a.add_argument("--out", metavar="FILE", help="write the analysis as JSON")
+    a.add_argument("--allow-deficient", action="store_true", help="report a rank-deficient configuration "
+                                                                  "instead of failing")
+    a.set_defaults(func=run_analyze)
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def run_analyze(args) -> int:
+    from optinav.gfimu.array import identifiability
+
+    arr = _load_array(args.config, args.builtin)
+    out = _check_out(args.out, (".json",), "analysis") if args.out else None
+    idf = identifiability(arr)
+    if not args.allow_deficient:
+        idf.require(("linear",))
+    data = idf.to_summary()
+    data["positions_m"] = arr.positions.tolist()
+    data["directions"] = arr.directions.tolist()
+    if out:
+        out.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+    print(idf.summary())
+    if out:
+        print(f"optinav: analysis written to {out}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------------------
+# optinav simulate gfimu-turntable
+# ------------------------------------------------------------------------------------------------------------
+
+def register_simulate(kinds) -> None:
+    s = kinds.add_parser(
+        "gfimu-turntable", help="turntable calibration data of a gyro-free accelerometer array",
+        description=textwrap.dedent("""\
+            The six calibration cases of Hao & Liu (2011): the array on a wedge of angle γ on a horizontal
+            turntable at constant rate, table axis in the body x–z, y–z and x–y planes (mountings 1, 2, 3), two
+            rates each; gravity included, Earth rate neglected. Installation errors: the paper's (Δr = 1 mm on
+            every axis, Δα = Δβ = 0.01 rad) or random. Writes DATA (.npz, .csv or .h5: t, f1..fN or f, case,
+            mounting, table_rate (rad/s), wedge (rad), gravity (m/s²)) and DATA's stem + '.truth.json'."""),
+        epilog=textwrap.dedent("""\
+            example:
+              optinav simulate gfimu-turntable --builtin cylinder10 --rates 0.5,1.0 --out tt.npz --seed 1
+              optinav calibrate gfimu tt.npz --builtin cylinder10 --out result.json
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    s.add_argument("--config", metavar="CONFIG.json", help="array configuration (default --builtin cylinder10)")
+    s.add_argument("--builtin", choices=["cylinder10"], help="built-in configuration")
+    s.add_argument("--out", required=True, metavar="DATA", help="output data file (.npz, .csv, .h5)")
+    s.add_argument("--rates", default="0.5,1.0", metavar="W1,W2", help="table rates in rad/s (default 0.5,1.0)")
+    s.add_argument("--wedge-deg", type=float, default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
+    s.add_argument("--errors", choices=["paper", "random"], default="paper",
+                   help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)")
+    s.add_argument("--noise", type=float, default=1e-6 * 9.80665, metavar="M/S2",
+                   help="accelerometer white noise std per sample (default 1 µg)")
+    s.add_argument("--sample-rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    s.add_argument("--duration", type=float, default=10.0, metavar="S", help="seconds per case (default 10)")
+    s.add_argument("--offset", metavar="X,Y,Z", help="array centre from the table axis, body m (default 0)")
+    s.add_argument("--seed", type=int, default=0)
+    s.set_defaults(func=run_simulate)
+
+
+def run_simulate(args) -> int:
+    from optinav.gfimu.errors import InstallationErrors
+    from optinav.gfimu.turntable import simulate
+
+    arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
+    out = _check_out(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data file")
+    rates = _floats(args.rates, None, "--rates")
+    e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
+         else InstallationErrors.random(arr.n, rng=args.seed + 1))
+    off = _floats(args.offset, 3, "--offset") if args.offset else None
+    data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
+                    duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
+    data.save(out)
+    truth = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+             "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
+             "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
+             "samples_per_case": int(round(args.duration * args.sample_rate))}
+    tp = out.with_name(out.stem + ".truth.json")
+    tp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
+    print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------------------
+# optinav calibrate gfimu
+# ------------------------------------------------------------------------------------------------------------
+
+def register_calibrate(kinds) -> None:
+    c = kinds.add_parser(
+        "gfimu", help="installation errors of a gyro-free accelerometer array from turntable data",
+        description=textwrap.dedent("""\
+            Estimate the position (Δr, m) and direction (Δα, Δβ, rad) installation errors of every
+            accelerometer of an array from the six turntable cases of Hao & Liu (2011). Default: nonlinear
+            least squares over the case means (Levenberg–Marquardt, analytic Jacobian) with covariance and
+            CRLB; --method closed-form: the paper's differences between the two rates. DATA as written by
+            `optinav simulate gfimu-turntable` (docs/methods/gfimu.md)."""),
+        epilog=textwrap.dedent("""\
+            example:
+              optinav simulate gfimu-turntable --builtin cylinder10 --out tt.npz
+              optinav calibrate gfimu tt.npz --builtin cylinder10 --out result.json
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    c.add_argument("data", metavar="DATA", help="turntable data (.npz, .csv, .h5)")
+    c.add_argument("--config", metavar="CONFIG.json", help="nominal array configuration")
+    c.add_argument("--builtin", choices=["cylinder10"], help="built-in nominal configuration")
+    c.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
+    c.add_argument("--offset", metavar="X,Y,Z", help="measured array centre from the table axis, body m "
+                                                     "(default 0; 'estimate' to try estimating it)")
+    c.add_argument("--noise", type=float, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+    c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
+    c.set_defaults(func=run_calibrate)
+
+
+def run_calibrate(args) -> int:
+    from optinav.gfimu.array import identifiability
+    from optinav.gfimu.turntable import TurntableData, calibrate
+
+    arr = _load_array(args.config, args.builtin)
+    out = _check_out(args.out, (".json",), "result file")
+    identifiability(arr).require(("linear",))
+    data = TurntableData.load(args.data, arr.n)
+    if args.offset is None:
+        offset = "zero"
+    elif args.offset.strip() == "estimate":
+        offset = "estimate"
+    else:
+        offset = _floats(args.offset, 3, "--offset")
+    if args.noise is not None and not args.noise > 0:
+        raise OptinavError("--noise must be positive", "give the accelerometer noise std in m/s^2")
+    if not getattr(args, "quiet", False):
+        print(f"optinav: calibrating {arr.n} accelerometers from {len(data.t)} samples ({args.method}) ...",
+              file=sys.stderr)
+    res = calibrate(arr, data, method=args.method, offset=offset, sigma=args.noise)
+    res.to_json(out)
+    print(res.summary())
+    print(f"optinav: result written to {out}")
+    return 0

@@ -1,0 +1,221 @@
+"""Solving an accelerometer array for A, ω̇ and the angular rate, vectorized over time where possible.
+
+* :func:`solve_linear` — weighted least squares of ``f = H_lin [A; ω̇] + H_quad q`` for every epoch at once
+  (one pseudo-inverse): A, ω̇ (NaN for components not solvable without the rate) and the observable
+  quadratic combinations ``z = B q`` (``B`` = :attr:`Identifiability.quadratic_basis`).
+* :func:`rate_integration` — the paper's integration method: ω = ω₀ + ∫ω̇ dt (trapezoid).
+* :func:`rate_quadratic` — ω from the observable quadratic combinations (magnitudes; e.g. for cylinder10
+  |ωx| = √((z_xy² + z_xz²)/(ωy² + ωz²))), the branch (signs) taken from the predicted rate
+  ω_{k−1} + ∫ω̇: a few Gauss–Newton steps on ‖B q(ω) − z‖² with a weak prior at the prediction.
+* :func:`rate_gauss_newton` — per epoch, Gauss–Newton on the raw outputs for [A, ω̇, ω] (9 unknowns)
+  with the predicted rate as a Gaussian prior (σ = ``prior_std``).
+
+Units: f m/s², t s, ω rad/s, ω̇ rad/s², A m/s².
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from optinav.core.validate import as_float_array, check_timestamps
+from optinav.errors import OptinavError
+from optinav.gfimu.array import AccelerometerArray, LINEAR_NAMES, identifiability, quadratic_products
+
+__all__ = ["LinearSolution", "solve_linear", "rate_integration", "rate_quadratic", "rate_gauss_newton",
+           "solve_rate", "RATE_METHODS"]
+
+RATE_METHODS = ("integration", "quadratic", "gauss-newton")
+#: accelerometer noise (m/s², 1σ) assumed for weighting when the configuration gives none (≈ 10 µg)
+DEFAULT_SIGMA = 1e-4
+
+
+def _sigma(array: AccelerometerArray, sigma) -> np.ndarray:
+    if sigma is not None:
+        s = np.broadcast_to(as_float_array(sigma, "sigma"), (array.n,)).astype(float)
+        if np.any(s <= 0):
+            raise OptinavError("sigma must be positive", "give the accelerometer noise std in m/s^2")
+        return s
+    return array.noise if array.noise is not None else np.full(array.n, DEFAULT_SIGMA)
+
+
+@dataclass
+class LinearSolution:
+    """Per-epoch least-squares solution: A (T, 3) m/s², wdot (T, 3) rad/s², z (T, k) rad²/s² with
+    ``z = basis @ q(ω)``; ``solvable`` marks the components of [A, ω̇] that do not need the rate."""
+
+    A: np.ndarray
+    wdot: np.ndarray
+    z: np.ndarray
+    basis: np.ndarray
+    solvable: np.ndarray
+    z_cov: np.ndarray
+
+
+def _outputs(array: AccelerometerArray, f) -> np.ndarray:
+    f = as_float_array(f, "f")
+    if f.ndim == 1:
+        f = f[None, :]
+    if f.ndim != 2 or f.shape[1] != array.n:
+        raise OptinavError(f"outputs have shape {f.shape}, expected (T, {array.n}) for {array.n} accelerometers",
+                           "pass one column per accelerometer of the configuration")
+    return f
+
+
+def solve_linear(array: AccelerometerArray, f) -> LinearSolution:
+    """Weighted least squares of the array outputs ``f`` (T, N) for every epoch; see the module docstring."""
+    f = _outputs(array, f)
+    ident = identifiability(array)
+    ident.require(("linear",))
+    w = array.weights()
+    H = array.H * w[:, None]
+    D = np.linalg.norm(H, axis=0)
+    D = np.where(D > 0, D, 1.0)
+    Pinv = np.linalg.pinv(H / D, rcond=1e-9) / D[:, None]      # (12, N): minimum-norm in scaled units
+    theta = (f * w) @ Pinv.T                                    # (T, 12); estimable parts are unique
+    solvable = np.array([n in ident.solvable_without_rate for n in LINEAR_NAMES])
+    x = np.where(solvable, theta[:, :6], np.nan)
+    B = ident.quadratic_basis
+    z = theta[:, 6:] @ B.T
+    Pq = Pinv[6:]                                               # z noise covariance (σ given → m/s² units)
+    z_cov = B @ Pq @ Pq.T @ B.T
+    return LinearSolution(A=x[:, :3], wdot=x[:, 3:], z=z, basis=B, solvable=solvable, z_cov=z_cov)
+
+
+def _time(t, n) -> np.ndarray:
+    t = check_timestamps(t, "t", min_count=2)
+    if t.shape[0] != n:
+        raise OptinavError(f"{t.shape[0]} timestamps for {n} output rows", "give one timestamp per row")
+    return t
+
+
+def _omega0(omega0) -> np.ndarray:
+    w = as_float_array(np.zeros(3) if omega0 is None else omega0, "omega0")
+    if w.shape != (3,):
+        raise OptinavError(f"omega0 has shape {w.shape}, expected (3,)", "give the initial rate in rad/s")
+    return w
+
+
+def rate_integration(array: AccelerometerArray, f, t, omega0=None) -> np.ndarray:
+    """Angular rate (T, 3) rad/s by trapezoidal integration of the least-squares ω̇ (paper, §4).
+
+    When ω̇ is separable from the quadratic terms (nominal cylinder10) this is one vectorized solve. Otherwise
+    (e.g. a calibrated, slightly irregular geometry) each epoch first subtracts ``H_quad q(ω⁻)`` with the
+    predicted rate ω⁻ = ω̂_{k−1} + ω̇̂_{k−1}Δt and solves [A; ω̇] from H_lin — the paper's compensation
+    ("compute the installation-error part of the outputs, subtract it, solve with the nominal formulas")
+    written for the calibrated geometry.
+    """
+    f = _outputs(array, f)
+    t = _time(t, f.shape[0])
+    ident = identifiability(array)
+    ident.require(("linear",))
+    w0 = _omega0(omega0)
+    dt = np.diff(t)
+    if all(n in ident.solvable_without_rate for n in LINEAR_NAMES[3:]):
+        sol = solve_linear(array, f)
+        inc = 0.5 * (sol.wdot[1:] + sol.wdot[:-1]) * dt[:, None]
+        return w0 + np.vstack([np.zeros((1, 3)), np.cumsum(inc, axis=0)])
+    wts = array.weights()
+    P = np.linalg.pinv(array.H_lin * wts[:, None])[3:] * wts[None, :]       # ω̇ rows (3, N)
+    Hq = array.H_quad
+    out = np.empty((f.shape[0], 3))
+    w = w0.copy()
+    wd = P @ (f[0] - Hq @ quadratic_products(w))
+    out[0] = w
+    for k in range(1, f.shape[0]):
+        pred = w + wd * dt[k - 1]
+        wd_new = P @ (f[k] - Hq @ quadratic_products(pred))
+        w = w + 0.5 * (wd + wd_new) * dt[k - 1]
+        wd = wd_new
+        out[k] = w
+    return out
+
+
+def _dq(w) -> np.ndarray:
+    """∂q/∂ω (6 × 3)."""
+    x, y, z = w
+    return np.array([[2 * x, 0, 0], [0, 2 * y, 0], [0, 0, 2 * z], [y, x, 0], [z, 0, x], [0, z, y]])
+
+
+def rate_quadratic(array: AccelerometerArray, f, t, omega0=None, *, prior_std: float = 0.05,
+                   iterations: int = 3, sigma=None) -> np.ndarray:
+    """Angular rate (T, 3) rad/s from the observable quadratic combinations, branch from the predicted rate.
+
+    Each epoch: predict ω⁻ = ω̂_{k−1} + ½(ω̇_{k−1} + ω̇_k)Δt, then Gauss–Newton on
+    ``‖L (B q(ω) − z_k)‖² + ‖(ω − ω⁻)/prior_std‖²`` (L whitens z). The prior only picks the branch (the
+    sign of ω, which q cannot see) and bridges epochs where the magnitudes are degenerate (e.g. ωx → 0).
+    Needs ≥ 3 observable quadratic combinations.
+    """
+    f = _outputs(array, f)
+    t = _time(t, f.shape[0])
+    sol = solve_linear(array, f)
+    if sol.basis.shape[0] < 3:
+        raise OptinavError(f"configuration has {sol.basis.shape[0]} observable quadratic rate combination(s), "
+                           "the quadratic method needs 3", "use method 'integration' or 'gauss-newton'")
+    if not sol.solvable[3:].all():
+        identifiability(array).require(("linear", "without_rate"))
+    s2 = float(np.mean(_sigma(array, sigma) ** 2)) if array.noise is None else 1.0
+    Lz = np.linalg.cholesky(np.linalg.inv(s2 * sol.z_cov)).T
+    B = sol.basis
+    out = np.empty((f.shape[0], 3))
+    w = _omega0(omega0).copy()
+    out[0] = w
+    ip = 1.0 / prior_std
+    for k in range(1, f.shape[0]):
+        pred = w + 0.5 * (sol.wdot[k] + sol.wdot[k - 1]) * (t[k] - t[k - 1])
+        w = pred.copy()
+        for _ in range(iterations):
+            r = np.concatenate([Lz @ (B @ quadratic_products(w) - sol.z[k]), ip * (w - pred)])
+            J = np.vstack([Lz @ B @ _dq(w), ip * np.eye(3)])
+            w = w - np.linalg.lstsq(J, r, rcond=None)[0]
+        out[k] = w
+    return out
+
+
+def rate_gauss_newton(array: AccelerometerArray, f, t, omega0=None, *, prior_std: float = 0.05,
+                      iterations: int = 3, sigma=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-epoch Gauss–Newton for [A, ω̇, ω] on the raw outputs with the predicted rate as prior.
+
+    Residuals ``W (f_k − H_lin [A; ω̇] − H_quad q(ω))`` (W = 1/σ_i, or 1 without noise figures) and
+    ``(ω − ω⁻)/prior_std`` with ω⁻ = ω̂_{k−1} + ω̇̂_{k−1} Δt. Returns ω, A, ω̇ (each (T, 3)). Works for any
+    configuration with rank [A, ω̇] = 6 (also when ω̇ needs the rate).
+    """
+    f = _outputs(array, f)
+    t = _time(t, f.shape[0])
+    identifiability(array).require(("linear",))
+    wts = 1.0 / _sigma(array, sigma)
+    Hl, Hq = array.H_lin * wts[:, None], array.H_quad * wts[:, None]
+    fw = f * wts
+    T = f.shape[0]
+    om, A, wd = np.empty((T, 3)), np.empty((T, 3)), np.empty((T, 3))
+    w = _omega0(omega0).copy()
+    x = np.linalg.lstsq(Hl, fw[0] - Hq @ quadratic_products(w), rcond=None)[0]
+    om[0], A[0], wd[0] = w, x[:3], x[3:]
+    ip = 1.0 / prior_std
+    for k in range(1, T):
+        pred = w + x[3:] * (t[k] - t[k - 1])
+        w = pred.copy()
+        for _ in range(iterations):
+            x = np.linalg.lstsq(Hl, fw[k] - Hq @ quadratic_products(w), rcond=None)[0]
+            r = np.concatenate([fw[k] - Hl @ x - Hq @ quadratic_products(w), ip * (pred - w)])
+            J = np.zeros((len(r), 9))
+            J[:array.n, :6] = Hl
+            J[:array.n, 6:] = Hq @ _dq(w)
+            J[array.n:, 6:] = ip * np.eye(3)
+            step = np.linalg.lstsq(J, r, rcond=None)[0]
+            x = x + step[:6]
+            w = w + step[6:]
+        om[k], A[k], wd[k] = w, x[:3], x[3:]
+    return om, A, wd
+
+
+def solve_rate(array: AccelerometerArray, f, t, omega0=None, method: str = "integration", **options) -> np.ndarray:
+    """Angular rate (T, 3) rad/s by ``method`` in RATE_METHODS."""
+    if method == "integration":
+        return rate_integration(array, f, t, omega0, **options)
+    if method == "quadratic":
+        return rate_quadratic(array, f, t, omega0, **options)
+    if method == "gauss-newton":
+        return rate_gauss_newton(array, f, t, omega0, **options)[0]
+    raise OptinavError(f"unknown rate method {method!r}", f"use one of {', '.join(RATE_METHODS)}")

@@ -1,0 +1,131 @@
+"""gfimu: array model, identifiability, builtin cylinder10, rate solvers, installation-error effect."""
+
+import json
+
+import numpy as np
+import pytest
+
+from optinav.errors import OptinavError
+from optinav.gfimu import (AccelerometerArray, InstallationErrors, builtin, coning_motion, error_effect,
+                           identifiability, perturb, quadratic_products, solve_linear, solve_rate, spinning_motion)
+from optinav.gfimu.errors import errors_from_geometry, local_frames
+
+
+def _numeric_output(r, th, A, wdot, w):
+    return th @ (A + np.cross(wdot, r) + np.cross(w, np.cross(w, r)))
+
+
+def test_model_matches_cross_products():
+    rng = np.random.default_rng(0)
+    arr = AccelerometerArray(rng.normal(size=(7, 3)), np.eye(3)[rng.integers(0, 3, 7)] * 1.0 + 0)
+    A, wd, w = rng.normal(size=(3,)), rng.normal(size=(3,)), rng.normal(size=(3,))
+    f = arr.outputs(A[None], wd[None], w[None])[0]
+    ref = [_numeric_output(arr.positions[i], arr.directions[i], A, wd, w) for i in range(arr.n)]
+    np.testing.assert_allclose(f, ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(quadratic_products([1.0, 2.0, 3.0]), [1, 4, 9, 2, 3, 6])
+
+
+def test_cylinder10_identifiability():
+    arr = builtin("cylinder10")
+    assert arr.n == 10
+    assert np.allclose(np.linalg.norm(arr.positions[:, 1:], axis=1), 0.04)      # all on the rim, l = 0.04
+    assert np.all(np.abs(arr.positions[:, 0]) <= 0.02 + 1e-12)                  # within L = 0.04
+    idf = identifiability(arr)
+    assert (idf.rank_linear, idf.rank_full, idf.n_quadratic_observable, idf.rank_quadratic) == (6, 10, 4, 4)
+    assert idf.solvable_without_rate == ["A_x", "A_y", "A_z", "wdot_x", "wdot_y", "wdot_z"]
+    assert "wy^2 + wz^2" in idf.quadratic_observable
+    # the basis rows are estimable: z = B q recovered exactly from noise-free outputs
+    rng = np.random.default_rng(1)
+    w = rng.normal(size=(5, 3))
+    A, wd = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    sol = solve_linear(arr, arr.outputs(A, wd, w))
+    np.testing.assert_allclose(sol.A, A, atol=1e-10)
+    np.testing.assert_allclose(sol.wdot, wd, atol=1e-9)
+    np.testing.assert_allclose(sol.z, quadratic_products(w) @ sol.basis.T, atol=1e-9)
+
+
+def test_six_radial_array_needs_rate_and_deficient_error():
+    # six accelerometers on the axes, all sensing radially: no angular acceleration at all
+    p = np.vstack([np.eye(3), -np.eye(3)]) * 0.05
+    arr = AccelerometerArray(p, np.vstack([np.eye(3), np.eye(3)]))
+    idf = identifiability(arr)
+    assert idf.rank_linear == 3
+    assert idf.solvable_without_rate == ["A_x", "A_y", "A_z"]
+    with pytest.raises(OptinavError, match="wdot_x, wdot_y, wdot_z"):
+        idf.require()
+    with pytest.raises(OptinavError, match="rank deficient"):
+        solve_linear(arr, np.zeros((2, 6)))
+
+
+def test_config_roundtrip_and_bad_configs(tmp_path):
+    arr = builtin()
+    p = arr.save(tmp_path / "c.json")
+    back = AccelerometerArray.load(p)
+    np.testing.assert_allclose(back.positions, arr.positions)
+    bad = {
+        "shape": ({"accelerometers": [{"position": [0, 0], "direction": [1, 0, 0]}]}, "accelerometer 1 position"),
+        "zero": ({"accelerometers": [{"position": [0, 0, 0], "direction": [0, 0, 0]}]}, "direction is zero"),
+        "nonunit": ({"accelerometers": [{"position": [0, 0, 0], "direction": [1, 1, 0]}]}, "norm 1.414"),
+        "dup": ({"accelerometers": [{"position": [0, 0, 1], "direction": [1, 0, 0]},
+                                    {"position": [0, 0, 1], "direction": [1, 0, 0]}]}, "accelerometer 2 duplicates"),
+        "nolist": ({"sensors": []}, "no 'accelerometers'"),
+        "key": ({"accelerometers": [{"position": [0, 0, 0], "direction": [1, 0, 0], "pos": 1}]}, "unknown key"),
+    }
+    for name, (cfg, msg) in bad.items():
+        f = tmp_path / f"{name}.json"
+        f.write_text(json.dumps(cfg))
+        with pytest.raises(OptinavError, match=msg):
+            AccelerometerArray.load(f)
+    (tmp_path / "broken.json").write_text("{")
+    with pytest.raises(OptinavError, match="not valid JSON"):
+        AccelerometerArray.load(tmp_path / "broken.json")
+
+
+def test_rate_methods_exact_and_noisy():
+    arr = builtin()
+    m = coning_motion(20.0, 0.01)
+    f = arr.outputs(m.A, m.wdot, m.omega)
+    # noise-free: integration error is the trapezoid error O(dt²·ω̈); the quadratic method is exact
+    for method, tol in (("integration", 2e-4), ("quadratic", 1e-5), ("gauss-newton", 5e-3)):
+        w = solve_rate(arr, f, m.t, m.omega[0], method)
+        assert np.abs(w - m.omega).max() < tol, method
+    # with 1e-4 m/s² noise the integration error is a random walk: σ_ω̇·√(T·dt)
+    rng = np.random.default_rng(3)
+    fn = f + rng.normal(0, 1e-4, f.shape)
+    sol = solve_linear(arr, fn)
+    s_wd = np.std(sol.wdot - m.wdot, axis=0).max()
+    w = solve_rate(arr, fn, m.t, m.omega[0], "integration")
+    assert np.abs(w[-1] - m.omega[-1]).max() < 4 * s_wd * np.sqrt(20.0 * 0.01)
+    wq = solve_rate(arr, fn, m.t, m.omega[0], "quadratic")
+    assert np.sqrt(np.mean((wq - m.omega) ** 2)) < 0.05
+
+
+def test_installation_error_frames_and_inverse():
+    fr = local_frames(np.eye(3))
+    np.testing.assert_allclose(fr[0], np.eye(3))             # sensor along x: (x, y, z)
+    rng = np.random.default_rng(2)
+    arr = builtin()
+    e = InstallationErrors.random(10, rng=rng)
+    act = perturb(arr, e)
+    back = errors_from_geometry(arr, act.positions, act.directions)
+    np.testing.assert_allclose(back.vector(), e.vector(), atol=1e-14)
+    # small-angle form of the paper for a sensor along x: θ = [1, Δβ, Δα]
+    x_arr = AccelerometerArray(np.zeros((1, 3)), np.array([[1.0, 0, 0]]))
+    th = perturb(x_arr, InstallationErrors(np.zeros((1, 3)), 0.01, 0.02), small_angle=True).directions[0]
+    np.testing.assert_allclose(th, [1, 0.02, 0.01])
+    th = perturb(x_arr, InstallationErrors(np.zeros((1, 3)), 0.01, 0.02)).directions[0]
+    np.testing.assert_allclose(th, [1, 0.02, 0.01], atol=3e-4)
+
+
+def test_fig3_effect_position_vs_direction():
+    """Paper Fig. 3: Δr = 1 mm on all sensors → negligible rate error; Δα = Δβ = 0.01 rad → large."""
+    arr = builtin()
+    m = coning_motion(100.0, 0.01)
+    e_pos = error_effect(arr, perturb(arr, InstallationErrors(np.full((10, 3), 1e-3), 0, 0)), m)
+    e_dir = error_effect(arr, perturb(arr, InstallationErrors(np.zeros((10, 3)), 0.01, 0.01)), m)
+    e_none = error_effect(arr, arr, m)
+    # a common position error only moves the reference point of A: the rate error is the solver's own
+    assert np.abs(e_pos).max() < 2 * np.abs(e_none).max() + 1e-9
+    assert np.abs(e_dir).max() > 100 * np.abs(e_pos).max()
+    s = spinning_motion(10.0)
+    assert np.abs(error_effect(arr, arr, s)).max() < 1e-3

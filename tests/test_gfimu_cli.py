@@ -1,0 +1,81 @@
+"""CLI: `optinav gfimu analyze`, `simulate gfimu-turntable`, `calibrate gfimu`."""
+
+import json
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+from optinav.gfimu import builtin
+
+
+def test_analyze_builtin_and_config(tmp_path, capsys):
+    out = tmp_path / "a.json"
+    assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)]) == 0
+    a = json.loads(out.read_text())
+    assert (a["n_accelerometers"], a["rank_linear"], a["rank_full"], a["n_quadratic_observable"]) == (10, 6, 10, 4)
+    assert a["solvable_without_rate"] == ["A_x", "A_y", "A_z", "wdot_x", "wdot_y", "wdot_z"]
+    # six tangential accelerometers on the axes: [A, ω̇] solvable only with the rate known
+    cfg = {"accelerometers": [
+        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
+    p = tmp_path / "cube.json"
+    p.write_text(json.dumps(cfg))
+    assert main(["gfimu", "analyze", str(p), "--out", str(out)]) == 0
+    a = json.loads(out.read_text())
+    assert a["n_accelerometers"] == 6 and a["rank_linear"] == 6 and a["rank_full"] == 6
+    assert a["n_quadratic_observable"] == 0
+    assert a["solvable_without_rate"] == [] and a["rank_quadratic"] == 3
+
+
+def test_rank_deficient_and_malformed(tmp_path, capsys):
+    p = tmp_path / "radial.json"
+    p.write_text(json.dumps({"accelerometers": [{"position": [0.05 * s * (k == j) for j in range(3)],
+                                                 "direction": [1.0 * (k == j) for j in range(3)]}
+                                                for s in (1, -1) for k in range(3)]}))
+    assert main(["gfimu", "analyze", str(p)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "rank deficient" in err and "wdot_x, wdot_y, wdot_z" in err
+    assert main(["gfimu", "analyze", str(p), "--allow-deficient", "--out", str(tmp_path / "x.json")]) == 0
+    for cfg, msg in (({"accelerometers": [{"position": [0, 0, 0], "direction": [0, 0, 0]}]}, "direction is zero"),
+                     ({"accelerometers": [{"position": [0, 0, 0, 1], "direction": [1, 0, 0]}]}, "not 3 numbers"),
+                     ({"accelerometers": [{"position": [0, 0, 0], "direction": [2, 0, 0]}]}, "not 1")):
+        p.write_text(json.dumps(cfg))
+        assert main(["gfimu", "analyze", str(p)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert msg in err and err.count("\n") == 0
+    assert main(["gfimu", "analyze", str(tmp_path / "none.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".csv"])
+def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
+    cfg = tmp_path / "c.json"
+    builtin().save(cfg)
+    data = tmp_path / f"tt{suffix}"
+    assert main(["--quiet", "simulate", "gfimu-turntable", "--config", str(cfg), "--errors", "random",
+                 "--duration", "2", "--out", str(data), "--seed", "4"]) == 0
+    truth = json.loads((tmp_path / "tt.truth.json").read_text())
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out)]) == 0
+    r = json.loads(out.read_text())["fields"]
+    est = np.array(r["estimate"]["value"]["__ndarray__"])
+    std = np.array(r["std"]["value"]["__ndarray__"])
+    tv = np.array(list(truth["coefficients"].values()))
+    assert est.shape == (50,)
+    assert np.abs((est - tv) / std).max() < 4.5
+
+
+def test_calibrate_errors(tmp_path, capsys):
+    data = tmp_path / "tt.npz"
+    assert main(["--quiet", "simulate", "gfimu-turntable", "--duration", "0.5", "--out", str(data)]) == 0
+    cfg = tmp_path / "six.json"
+    a = builtin()
+    a.with_geometry(a.positions[:6], a.directions[:6]).save(cfg)
+    assert main(["calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(tmp_path / "r.json")]) == 2
+    assert "10 accelerometer columns, the configuration 6" in capsys.readouterr().err
+    assert main(["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--offset", "estimate",
+                 "--out", str(tmp_path / "r.json")]) == 2
+    assert "cannot be separated" in capsys.readouterr().err
+    assert main(["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(tmp_path / "r.txt")]) == 2
