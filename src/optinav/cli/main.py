@@ -16,8 +16,8 @@ from optinav import __version__
 from optinav.errors import OptinavError
 
 #: modules that define ``register(subparsers)``; later systems add theirs here
-COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
-                   "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
+COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.attitude",
+                   "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
 
 
 def build_parser() -> argparse.ArgumentParser:

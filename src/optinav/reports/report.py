@@ -76,6 +76,8 @@ STUDIES: dict[str, tuple[str, str]] = {
                  "Gao & Zhang 2019: accelerometer norm-observation calibration, GA vs Newton vs optinav LM"),
     "gfimu": ("optinav.reports.gfimu_study",
               "Hao & Liu 2011: gyro-free 10-accelerometer array, 50 installation errors on a turntable"),
+    "polarized": ("optinav.reports.polarized_study",
+                  "Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF"),
 }
 
 _REGISTERED: dict[str, Callable[..., StudyResult]] = {}

@@ -1,0 +1,93 @@
+"""Real attitude data: the BROAD benchmark (Laidig et al. 2021, Data 6(7):72, CC BY 4.0) and synthesized
+skylight polarization for real trajectories.
+
+BROAD HDF5 layout (dlaidig/broad, data_hdf5/): ``imu_gyr`` (N, 3) rad/s, ``imu_acc`` (N, 3) m/s²,
+``imu_mag`` (N, 3) µT, ``opt_quat`` (N, 4) [w, x, y, z] body → ENU optical reference (NaN rows where
+tracking was lost), ``opt_pos`` (N, 3) m, ``movement`` (N,) bool (the samples the BROAD metrics use); root
+attribute ``sampling_rate`` Hz.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from optinav.attitude.measurement import PolarizationMeasurement, default_c_b_m, predicted_aop
+from optinav.core.validate import as_rng
+from optinav.errors import OptinavError
+
+__all__ = ["BroadTrial", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
+
+#: relative path of the BROAD trial shipped in the shared data folder
+BROAD_TRIAL_02 = Path("attitude") / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+
+
+def shared_data_dir() -> Path:
+    """The shared data folder: $OPTINAV_SHARED_DATA if set, else /work/shared/data."""
+    return Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
+
+
+@dataclass
+class BroadTrial:
+    """One BROAD trial (SI units; frame ENU; ``q_ref`` body → ENU with NaN rows)."""
+
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    q_ref: np.ndarray
+    movement: np.ndarray
+    rate: float
+    name: str
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.rate
+
+    @property
+    def eval_mask(self) -> np.ndarray:
+        """BROAD's evaluation samples: movement phase with a valid optical reference."""
+        return self.movement & np.all(np.isfinite(self.q_ref), axis=1)
+
+
+def load_broad(path) -> BroadTrial:
+    """Read a BROAD trial HDF5 file (needs h5py: ``pip install optinav[hdf5]``)."""
+    p = Path(path)
+    if not p.is_file():
+        raise OptinavError(f"BROAD file {p} not found", "download it from github.com/dlaidig/broad (data_hdf5/)")
+    try:
+        import h5py
+    except ImportError:
+        raise OptinavError("reading BROAD needs h5py", "pip install 'optinav[hdf5]'") from None
+    with h5py.File(p, "r") as f:
+        missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in f]
+        if missing:
+            raise OptinavError(f"{p.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 file")
+        rate = float(f.attrs.get("sampling_rate", np.nan))
+        if not np.isfinite(rate) or rate <= 0:
+            raise OptinavError(f"{p.name} has no valid 'sampling_rate' attribute", "pass a BROAD trial HDF5 file")
+        return BroadTrial(gyr=np.asarray(f["imu_gyr"], float), acc=np.asarray(f["imu_acc"], float),
+                          mag=np.asarray(f["imu_mag"], float) if "imu_mag" in f else np.full((0, 3), np.nan),
+                          q_ref=np.asarray(f["opt_quat"], float), movement=np.asarray(f["movement"], bool),
+                          rate=rate, name=p.stem)
+
+
+def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop_noise: float = 0.0,
+                            rng=None, **options) -> PolarizationMeasurement:
+    """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
+
+    q_ref (N, 4) body → ``frame`` (NaN rows give missing samples); sun_n (3,) or (N, 3) unit sun vector in the
+    frame; ``aop_noise`` rad (white, Gaussian). ``options`` go to :class:`PolarizationMeasurement`.
+    """
+    q = np.asarray(q_ref, dtype=float)
+    ok = np.all(np.isfinite(q), axis=1)
+    c_b_m = default_c_b_m(frame) if C_b_m is None else np.asarray(C_b_m, float)
+    aop = np.full(q.shape[0], np.nan)
+    s = np.asarray(sun_n, float)
+    aop[ok] = predicted_aop(q[ok], s if s.ndim == 1 else s[ok], c_b_m, frame)
+    if aop_noise:
+        aop[ok] += as_rng(rng).normal(0.0, aop_noise, int(ok.sum()))
+    aop = (aop + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+    return PolarizationMeasurement(aop, s, C_b_m=c_b_m, frame=frame, **options)

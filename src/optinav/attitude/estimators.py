@@ -1,0 +1,347 @@
+"""Attitude estimators from gyroscope + accelerometer (+ skylight polarization): batch and streaming APIs.
+
+Methods (one measurement model, :mod:`optinav.attitude.measurement`; per-sample loops are numba kernels):
+
+* ``"gd"`` — gradient descent, Madgwick's filter (Madgwick 2010): q̇ = ½ q⊗ω − β ∇F/‖∇F‖.
+* ``"cg"`` — conjugate gradient: the same update with the Polak–Ribière+ conjugate direction.
+* ``"qn"`` — quasi-Newton as published by Jin et al. (2021, §2.3): the gyro propagates q, then one
+  iteration q ← exp(λ_k D_k/2) ⊗ q with D_k = −B_k⁻¹∇F (BFGS), the dynamic step factor
+  λ_k = (β₀ + κ‖q̇‖)·Δt (small when the attitude changes little, large when it changes fast) and the state
+  threshold (|‖a‖ − g| > ε shrinks the step). B_k lives on the 3-parameter navigation-frame error angle: the
+  4×4 Hessian in q-space is singular along q itself, and in navigation coordinates the gravity curvature
+  I − u uᵀ is constant, so BFGS can carry it from sample to sample.
+* ``"mekf"`` — multiplicative extended Kalman filter with gyro-bias states (the strong baseline).
+
+Inputs: gyr (N, 3) rad/s, acc (N, 3) m/s² (specific force, body axes), dt scalar or (N,) s (the step from
+the previous sample to this one). Output q_b^n (N, 4) [w, x, y, z] with n = ``frame`` ("NED": body
+forward-right-down; "ENU": body right-forward-up). Without polarization the heading is the gyro's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from optinav.attitude import _kernels
+from optinav.attitude.measurement import (PolarizationMeasurement, _frame, default_c_b_m, up_vector, wrap_axial,
+                                          predicted_aop)
+from optinav.core.results import Result
+from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_multiply
+from optinav.core.units import G_STANDARD
+from optinav.core.validate import as_float_array
+from optinav.errors import OptinavError
+
+__all__ = ["METHODS", "DEFAULTS", "AttitudeEstimate", "estimate", "estimate_attitude", "initial_attitude",
+           "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
+
+METHODS = ("qn", "gd", "cg", "mekf")
+
+#: default options per method (units in the comments; see the class docstrings)
+DEFAULTS: dict[str, dict[str, float]] = {
+    # β (rad/s): Madgwick's gain; 0.033 is ahrs's default for gyro+acc
+    "gd": {"gain": 0.033, "pol_weight": 1.0},
+    "cg": {"gain": 0.033, "restart": 10, "pol_weight": 1.0},
+    # β₀ (1/s) base rate of the correction, κ (1/rad) its growth with ‖q̇‖ (rad/s), max step (fraction), g (m/s²),
+    # ε (m/s²) accelerometer state threshold, step factor beyond it, BFGS reset bound on trace(H)
+    "qn": {"gain": 0.5, "rate_gain": 0.3, "max_step": 0.5, "gravity": G_STANDARD, "acc_threshold": 0.8,
+           "acc_shrink": 0.1, "h_reset": 100.0, "pol_weight": 1.0},
+    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s)
+    "mekf": {"gyro_noise": 0.002, "bias_noise": 5e-5, "acc_noise": 0.1, "pol_noise": np.radians(1.0),
+             "gravity": G_STANDARD, "acc_threshold": 0.8, "acc_inflate": 5.0, "init_att_std": 0.05,
+             "init_bias_std": 0.01},
+}
+
+
+@dataclass
+class AttitudeEstimate(Result):
+    """Estimated attitude q_b^n per sample and how the measurements were used."""
+
+    SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
+    VERSION: ClassVar[int] = 1
+
+    q: np.ndarray = field(metadata={"unit": ""})
+    method: str = "qn"
+    frame: str = "NED"
+    options: dict = field(default_factory=dict)
+    pol_used: int = 0
+    pol_skipped: dict = field(default_factory=dict)
+    acc_threshold_hits: int = 0
+    att_std: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
+    gyro_bias: np.ndarray | None = field(default=None, metadata={"unit": "rad/s"})
+
+    def euler(self) -> np.ndarray:
+        """[roll, pitch, yaw] (N, 3) rad in the frame's Euler convention."""
+        return euler_from_quat(self.q, self.frame.lower())
+
+    def summary(self) -> str:
+        skipped = sum(self.pol_skipped.values())
+        s = f"{self.method}: {self.q.shape[0]} samples ({self.frame})"
+        if self.pol_used or skipped:
+            s += f"; polarization used {self.pol_used}, skipped {skipped} " + str(self.pol_skipped)
+        return s
+
+
+def _options(method: str, options: dict) -> dict:
+    if method not in METHODS:
+        raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    opts = dict(DEFAULTS[method])
+    for k, v in options.items():
+        if k not in opts:
+            raise OptinavError(f"option {k!r} does not apply to method {method!r}",
+                               f"valid options: {', '.join(sorted(opts))}")
+        try:
+            fv = float(v)
+        except (TypeError, ValueError):
+            fv = float("nan")
+        if not np.isfinite(fv) or fv < 0:
+            raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
+        opts[k] = fv
+    if method == "cg" and opts["restart"] < 1:
+        raise OptinavError("restart must be >= 1", "pass restart=1 (plain gradient) or more")
+    return opts
+
+
+def _as_dt(dt, n: int) -> np.ndarray:
+    d = as_float_array(dt, "dt")
+    if d.ndim == 0:
+        d = d.reshape(1)
+    elif d.shape != (n,):
+        raise OptinavError(f"dt has shape {d.shape}, expected a scalar or ({n},)", "pass one step per sample")
+    if np.any(d <= 0):
+        raise OptinavError(f"dt has {int(np.count_nonzero(d <= 0))} non-positive step(s)",
+                           "pass strictly positive time steps in s (check the time column)")
+    return np.ascontiguousarray(d)
+
+
+def _as_q0(q0) -> np.ndarray:
+    q = as_float_array(q0, "q0", last_dims=(4,))
+    if q.shape != (4,) or np.linalg.norm(q) == 0:
+        raise OptinavError(f"q0 must be one non-zero quaternion [w, x, y, z], got shape {q.shape}",
+                           "pass e.g. q0=[1, 0, 0, 0]")
+    return q / np.linalg.norm(q)
+
+
+def initial_attitude(acc0, frame: str = "NED", pol: PolarizationMeasurement | None = None,
+                     index: int = 0) -> np.ndarray:
+    """q_b^n from one accelerometer sample (roll, pitch; yaw 0) and, if ``pol`` is usable at ``index``, the
+    heading that best explains its AoP. A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π;
+    the branch with |ψ| ≤ 90° is taken (pass q0 when the heading may be outside)."""
+    frame = _frame(frame)
+    a = np.asarray(acc0, dtype=float)
+    na = np.linalg.norm(a)
+    if not np.isfinite(na) or na == 0:
+        raise OptinavError("the first accelerometer sample is zero or not finite", "pass q0 or drop the sample")
+    u = a / na
+    if frame == "NED":  # FRD body: a = g·[sin θ, −sin φ cos θ, −cos φ cos θ]
+        roll, pitch = np.arctan2(-u[1], -u[2]), np.arctan2(u[0], np.hypot(u[1], u[2]))
+    else:  # RFU body, ENU convention C = Rz(ψ)Rx(θ)Ry(φ): a = g·[−sin φ cos θ, sin θ, cos φ cos θ]
+        roll, pitch = np.arctan2(-u[0], u[2]), np.arctan2(u[1], np.hypot(u[0], u[2]))
+    q = quat_from_euler([roll, pitch, 0.0], frame.lower())
+    if pol is not None:
+        use, _ = pol.usable()
+        if use[index]:
+            yaws = np.radians(np.arange(-180.0, 180.0, 0.5))
+            qs = quat_multiply(_quat_about(up_vector(frame), yaws), q)
+            sn = pol.sun_n[index if pol.sun_n.shape[0] > 1 else 0]
+            pred = predicted_aop(qs, sn, pol.C_b_m, frame)
+            cost = np.abs(wrap_axial(pred - pol.aop[index]))
+            order = np.argsort(cost)
+            best = yaws[order[0]]
+            if abs(best) > np.pi / 2:
+                best = best - np.sign(best) * np.pi
+            q = quat_multiply(_quat_about(up_vector(frame), np.array([best]))[0], q)
+    return q / np.linalg.norm(q)
+
+
+def _quat_about(axis, angles) -> np.ndarray:
+    angles = np.asarray(angles, dtype=float)
+    h = 0.5 * angles
+    return np.column_stack([np.cos(h), np.sin(h)[:, None] * np.asarray(axis)[None, :]])
+
+
+def _pol_arrays(pol, n: int, frame: str):
+    if pol is None:
+        return (np.zeros(n, bool), np.array([[1.0, 0.0, 0.0]]), default_c_b_m(frame), np.zeros(n), np.zeros(n),
+                0.0, {})
+    if not isinstance(pol, PolarizationMeasurement):
+        raise OptinavError(f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
+                           "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)")
+    if pol.frame != frame:
+        raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
+    if len(pol) != n:
+        raise OptinavError(f"pol has {len(pol)} samples but the IMU has {n}", "align polarization with the IMU")
+    use, skipped = pol.usable()
+    aop = np.where(use, pol.aop, 0.0)
+    return (use, np.ascontiguousarray(pol.sun_n), np.ascontiguousarray(pol.C_b_m), np.cos(2 * aop),
+            np.sin(2 * aop), float(np.sin(pol.min_sun_separation) ** 2), skipped)
+
+
+def _init_state(method: str, q: np.ndarray, opts: dict) -> np.ndarray:
+    if method in ("gd", "cg"):
+        s = np.zeros(13)
+        s[:4] = q
+    elif method == "qn":
+        s = np.zeros(13)
+        s[:4] = q
+        s[4:13] = np.eye(3).ravel()
+    else:
+        s = np.zeros(43)
+        s[:4] = q
+        P = np.diag([opts["init_att_std"] ** 2] * 3 + [opts["init_bias_std"] ** 2] * 3)
+        s[7:43] = P.ravel()
+    return s
+
+
+def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts):
+    if method in ("gd", "cg"):
+        _kernels.run_gd_cg(gyr, acc, dt, un, use, sn, cbm, c2, s2, opts["pol_weight"], min_d2, opts["gain"],
+                           method == "cg", int(opts.get("restart", 1)), state, out, counts)
+    elif method == "qn":
+        _kernels.run_qn(gyr, acc, dt, un, use, sn, cbm, c2, s2, opts["pol_weight"], min_d2, opts["gain"],
+                        opts["rate_gain"], opts["max_step"], opts["gravity"], opts["acc_threshold"],
+                        opts["acc_shrink"], opts["h_reset"], state, out, counts)
+    else:
+        _kernels.run_mekf(gyr, acc, dt, un, use, sn, cbm, c2, s2, 1.0, min_d2, opts["gyro_noise"],
+                          opts["bias_noise"], opts["acc_noise"], opts["pol_noise"], opts["gravity"],
+                          opts["acc_threshold"], opts["acc_inflate"], state, out, std, counts)
+
+
+def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str = "qn",
+                      frame: str = "NED", q0=None, **options) -> AttitudeEstimate:
+    """Like :func:`estimate`, returning an :class:`AttitudeEstimate` (q plus skipped-sample counts, MEKF σ)."""
+    frame = _frame(frame)
+    method = str(method).lower()
+    opts = _options(method, options)
+    gyr = as_float_array(gyr, "gyr", last_dims=(3,))
+    acc = as_float_array(acc, "acc", last_dims=(3,))
+    if gyr.ndim != 2 or acc.ndim != 2 or gyr.shape[0] == 0:
+        raise OptinavError(f"gyr {gyr.shape} and acc {acc.shape} must be (N, 3) with N >= 1",
+                           "pass one row per sample")
+    if acc.shape != gyr.shape:
+        raise OptinavError(f"gyr has {gyr.shape[0]} samples but acc has {acc.shape[0]}", "align the two triads")
+    n = gyr.shape[0]
+    dts = _as_dt(dt, n)
+    use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, frame)
+    q = _as_q0(q0) if q0 is not None else initial_attitude(acc[0], frame, pol, 0)
+    state = _init_state(method, q, opts)
+    out = np.empty((n, 4))
+    std = np.empty((n, 3))
+    counts = np.zeros(3, dtype=np.int64)
+    _run(method, opts, state, np.ascontiguousarray(gyr), np.ascontiguousarray(acc), dts, up_vector(frame), use,
+         sn, cbm, c2, s2, min_d2, out, std, counts)
+    if pol is not None:
+        skipped = dict(skipped)
+        skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
+    return AttitudeEstimate(q=out, method=method, frame=frame, options=opts, pol_used=int(counts[0]),
+                            pol_skipped=skipped, acc_threshold_hits=int(counts[_kernels.C_ACC_SHRUNK]),
+                            att_std=std if method == "mekf" else None,
+                            gyro_bias=state[4:7].copy() if method == "mekf" else None)
+
+
+def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str = "qn", frame: str = "NED",
+             q0=None, **options) -> np.ndarray:
+    """Attitude q_b^n (N, 4) [w, x, y, z] from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)).
+
+    ``method`` "qn" (default), "gd", "cg" or "mekf"; ``pol`` optional :class:`PolarizationMeasurement`
+    (without it roll and pitch are observed and the heading follows the gyro); ``q0`` the initial attitude
+    (default: levelled from acc[0], heading from pol[0] if usable, else 0). ``options`` override
+    :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
+    """
+    return estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
+
+
+# --- streaming ------------------------------------------------------------------------------------------------
+
+class _Filter:
+    """Per-sample attitude filter running the same kernel as :func:`estimate` (one sample at a time)."""
+
+    METHOD = "qn"
+
+    def __init__(self, frame: str = "NED", q0=None, C_b_m=None, *, min_sun_elevation: float = 0.0,
+                 min_dop: float = 0.05, min_sun_separation: float = np.radians(10.0), **options):
+        self.frame = _frame(frame)
+        self.options = _options(self.METHOD, options)
+        self.C_b_m = default_c_b_m(self.frame) if C_b_m is None else np.asarray(C_b_m, dtype=float)
+        self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop,
+                            min_sun_separation=min_sun_separation)
+        self._q0 = None if q0 is None else _as_q0(q0)
+        self.state = None
+        self.counts = np.zeros(3, dtype=np.int64)
+        self.pol_skipped: dict[str, int] = {}
+        self._out = np.empty((1, 4))
+        self._std = np.empty((1, 3))
+        self._un = up_vector(self.frame)
+
+    @property
+    def q(self) -> np.ndarray | None:
+        """Current q_b^n (None before the first update)."""
+        return None if self.state is None else self.state[:4].copy()
+
+    def update(self, gyr, acc, dt, pol_sample=None) -> np.ndarray:
+        """Process one sample: gyr (3,) rad/s, acc (3,) m/s², dt s; ``pol_sample`` None, (aop, sun_n) or
+        (aop, sun_n, dop). Returns q_b^n (4,)."""
+        g = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(1, 3)
+        a = as_float_array(acc, "acc", last_dims=(3,)).reshape(1, 3)
+        dts = _as_dt(dt, 1)
+        pol = None
+        if pol_sample is not None:
+            if len(pol_sample) not in (2, 3):
+                raise OptinavError("pol_sample must be (aop, sun_n) or (aop, sun_n, dop)", "pass a tuple")
+            dop = None if len(pol_sample) == 2 or pol_sample[2] is None else [pol_sample[2]]
+            pol = PolarizationMeasurement(np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m,
+                                          self.frame, **self._pol_kw)
+        use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
+        for k, v in skipped.items():
+            self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
+        if self.state is None:
+            q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
+            self.state = _init_state(self.METHOD, q, self.options)
+        _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
+             self._std, self.counts)
+        return self._out[0].copy()
+
+
+class GradientDescent(_Filter):
+    """Madgwick's gradient-descent filter (``method="gd"``); options: gain β (rad/s), pol_weight."""
+
+    METHOD = "gd"
+
+
+class ConjugateGradient(_Filter):
+    """Conjugate-gradient filter (``method="cg"``); options: gain β, restart (samples), pol_weight."""
+
+    METHOD = "cg"
+
+
+class QuasiNewton(_Filter):
+    """Quasi-Newton filter of Jin et al. 2021 (``method="qn"``); options in ``DEFAULTS["qn"]``."""
+
+    METHOD = "qn"
+
+
+class MEKF(_Filter):
+    """Multiplicative EKF with gyro bias (``method="mekf"``); options in ``DEFAULTS["mekf"]``."""
+
+    METHOD = "mekf"
+
+    @property
+    def att_std(self) -> np.ndarray:
+        """Attitude-error σ (rad, body axes) after the last update."""
+        return self._std[0].copy()
+
+    @property
+    def gyro_bias(self) -> np.ndarray:
+        return self.state[4:7].copy()
+
+
+_CLASSES = {"gd": GradientDescent, "cg": ConjugateGradient, "qn": QuasiNewton, "mekf": MEKF}
+
+
+def make_filter(method: str = "qn", **kwargs) -> _Filter:
+    """Streaming filter for ``method`` (same options as :func:`estimate`)."""
+    m = str(method).lower()
+    if m not in _CLASSES:
+        raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    return _CLASSES[m](**kwargs)

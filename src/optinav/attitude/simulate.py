@@ -1,0 +1,287 @@
+"""UAV flight simulator for polarization-aided attitude: MPU6000-class IMU + zenith-viewing point-source
+polarization sensor, at the place and times of Jin et al. (2021).
+
+Truth from :mod:`optinav.core.simulate` (``static_positions`` for the static test, ``trajectory`` for the
+dynamic flight), IMU errors from :func:`optinav.core.imu_model.preset`, the sun from the NREL SPA
+(:mod:`optinav.sky.sun`) at every sample, the sky from :mod:`optinav.sky.polarization` (Rayleigh by default)
+and the sensor from :class:`optinav.sky.polarization.PointSensor`.
+
+Frames: ``frame="NED"`` (the paper's; body forward-right-down) or ``"ENU"`` (body right-forward-up). The sensor
+frame m is related to the body by ``C_b_m`` (default: zenith viewing, reference axis forward — the mounting of
+:func:`optinav.attitude.measurement.default_c_b_m`). AoP convention: α = atan2(E·Y_m, E·X_m) in [−π/2, π/2),
+E ∝ s_m × Z_m for Rayleigh; see docs/methods/sky.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from optinav.core.imu_model import ImuSpec, preset
+from optinav.core.results import Result
+from optinav.core.rotations import dcm_from_euler, dcm_from_quat
+from optinav.core.units import DEG
+from optinav.core.validate import as_float_array, as_rng, check_positive
+from optinav.errors import OptinavError
+
+__all__ = ["FlightData", "simulate_flight", "PAPER_SITE", "PAPER_TIMES"]
+
+#: the paper's site: roof of the mechanical east building, Dalian University of Technology (lat, lon deg, h m)
+PAPER_SITE = {"lat_deg": 38.8814192, "lon_deg": 121.528255, "height": 35.0}
+#: the paper's experiment times (local China time, UTC+08:00)
+PAPER_TIMES = {"static": "2021-01-17T10:34:00+08:00", "dynamic": "2021-01-16T16:33:00+08:00"}
+
+
+def _f(unit):
+    return field(metadata={"unit": unit})
+
+
+@dataclass
+class FlightData(Result):
+    """A simulated flight: IMU samples, true attitude, the polarization sensor's output and the sun.
+
+    Samples k = 0..N−1 at ``t`` (s from ``start_time``). ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s² (specific
+    force) in the body frame; ``q_true`` (N, 4) [w, x, y, z] body → navigation (``frame``); ``aop`` (N,) rad
+    measured angle of polarization in frame m (NaN between polarization samples), ``dop`` (N,) measured degree;
+    ``aop_true``/``dop_true`` the sky model's values; ``sun_n`` (N, 3) unit sun vector in the navigation frame;
+    ``sun_elevation``/``sun_azimuth`` (N,) rad (apparent; azimuth from north towards east); ``C_b_m`` mounting.
+    Feed the estimators with ``gyr, acc, dt`` and :meth:`polarization`.
+    """
+
+    SCHEMA = "optinav.flight_data"
+    VERSION = 1
+
+    t: np.ndarray = _f("s")
+    dt: float = _f("s")
+    gyr: np.ndarray = _f("rad/s")
+    acc: np.ndarray = _f("m/s^2")
+    q_true: np.ndarray = _f("")
+    aop: np.ndarray = _f("rad")
+    dop: np.ndarray = _f("")
+    aop_true: np.ndarray = _f("rad")
+    dop_true: np.ndarray = _f("")
+    sun_n: np.ndarray = _f("")
+    sun_elevation: np.ndarray = _f("rad")
+    sun_azimuth: np.ndarray = _f("rad")
+    C_b_m: np.ndarray = _f("")
+    frame: str = _f("-")
+    kind: str = _f("-")
+    start_time: str = _f("-")
+    lat: float = _f("rad")
+    lon: float = _f("rad")
+    height: float = _f("m")
+    gyr_true: np.ndarray = _f("rad/s")
+    acc_true: np.ndarray = _f("m/s^2")
+    metadata: dict = field(default_factory=dict, metadata={"unit": "-"})
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def C_b_n(self) -> np.ndarray:
+        """True attitude C_b^n (N, 3, 3)."""
+        return dcm_from_quat(self.q_true)
+
+    @property
+    def euler(self) -> np.ndarray:
+        """True [roll, pitch, yaw] (N, 3) rad in the convention of ``frame``."""
+        from optinav.core.rotations import euler_from_quat
+
+        return euler_from_quat(self.q_true, self.frame.lower())
+
+    def polarization(self, **options):
+        """The polarization samples as :class:`optinav.attitude.measurement.PolarizationMeasurement`
+        (``options``: its skip thresholds, e.g. ``min_dop``)."""
+        from optinav.attitude.measurement import PolarizationMeasurement
+
+        return PolarizationMeasurement(aop=self.aop, sun_n=self.sun_n, dop=self.dop, C_b_m=self.C_b_m,
+                                       frame=self.frame, **options)
+
+
+def _frame(frame) -> str:
+    f = str(frame).upper()
+    if f not in ("NED", "ENU"):
+        raise OptinavError(f"unknown navigation frame {frame!r}", "use frame='NED' or frame='ENU'")
+    return f
+
+
+def _smooth_signal(rng, t, f_lo, f_hi, n_terms=3):
+    # a sum of sinusoids with random frequencies and phases, normalized to unit peak over t
+    f = rng.uniform(f_lo, f_hi, n_terms)
+    ph = rng.uniform(0, 2 * np.pi, n_terms)
+    amp = rng.uniform(0.5, 1.0, n_terms)
+    x = np.sum(amp[:, None] * np.sin(2 * np.pi * f[:, None] * t[None, :] + ph[:, None]), axis=0)
+    return x / np.max(np.abs(x))
+
+
+def _envelope(t, duration, rest, ramp):
+    # 0 during the initial rest, a smooth (C¹) ramp to 1, 1, a ramp down to 0 over the last ``ramp`` s
+    def smooth(x):
+        x = np.clip(x, 0.0, 1.0)
+        return x * x * (3 - 2 * x)
+
+    return smooth((t - rest) / ramp) * smooth((duration - t) / ramp)
+
+
+def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, knot_spacing):
+    from scipy.integrate import cumulative_trapezoid
+
+    from optinav.core.simulate import trajectory
+
+    rest = min(5.0, 0.1 * duration)  # still on the ground first: the estimators initialize from gravity
+    ramp = min(3.0, 0.15 * duration)
+    fine = np.linspace(0.0, duration, int(np.ceil(duration / 0.01)) + 1)
+    env = _envelope(fine, duration, rest, ramp)
+    # horizontal accelerations up to ~accel_level (m/s²), vertical a fifth of it; 0.05–0.3 Hz manoeuvres
+    acc = accel_level * np.stack([_smooth_signal(rng, fine, 0.05, 0.3), _smooth_signal(rng, fine, 0.05, 0.3),
+                                  0.2 * _smooth_signal(rng, fine, 0.05, 0.3)], axis=1) * env[:, None]
+    vel = cumulative_trapezoid(acc, fine, axis=0, initial=0.0)
+    pos = cumulative_trapezoid(vel, fine, axis=0, initial=0.0)
+    # attitude: roll/pitch within ±tilt (0.1–0.4 Hz), heading turning at up to 45 °/s
+    roll = tilt * _smooth_signal(rng, fine, 0.1, 0.4) * env
+    pitch = tilt * _smooth_signal(rng, fine, 0.1, 0.4) * env
+    yaw_rate = 45 * DEG * _smooth_signal(rng, fine, 0.03, 0.15) * env
+    yaw = rng.uniform(-np.pi, np.pi) + cumulative_trapezoid(yaw_rate, fine, initial=0.0)
+    n_k = max(int(np.ceil(duration / knot_spacing - 1e-9)), 3)
+    tk = np.linspace(0.0, duration, n_k + 1)
+
+    def at(x):  # the fine-grid signal at the knots
+        x2 = x.reshape(fine.size, -1)
+        return np.stack([np.interp(tk, fine, x2[:, j]) for j in range(x2.shape[1])], axis=1).reshape(
+            (tk.size,) + x.shape[1:])
+
+    eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
+    if frame == "ENU":
+        eul[:, 2] = -eul[:, 2]  # the same heading in the ENU (counter-clockwise yaw) convention
+        pos = pos[:, [1, 0, 2]] * [1, 1, -1]
+        vel = vel[:, [1, 0, 2]] * [1, 1, -1]
+    conv = frame.lower()
+    c = dcm_from_euler(eul, conv)
+    bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
+    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, h0=h, bc_type=bc)
+
+
+def simulate_flight(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
+                    lat_deg: float = PAPER_SITE["lat_deg"], lon_deg: float = PAPER_SITE["lon_deg"],
+                    height: float = PAPER_SITE["height"], frame: str = "NED", imu: str | ImuSpec = "mpu6000",
+                    imu_errors: bool = False, gyro_bias=None, attitude_deg=(1.0, -2.0, 30.0),
+                    accel_level: float = 4.0, tilt_deg: float = 30.0, knot_spacing_s: float = 0.1,
+                    sky_model: str = "rayleigh", d_max: float | None = None, neutral_distance: float | None = None,
+                    sensor=None, pol_noise: float | None = None, pol_rate_hz: float | None = None, C_b_m=None,
+                    pressure_mbar: float | None = 1013.25, temperature_c: float = 5.0, delta_t: float | None = None,
+                    rng=None) -> FlightData:
+    """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
+
+    kind: ``"static"`` (one attitude ``attitude_deg`` = [roll, pitch, yaw] deg held for ``duration_s``) or
+    ``"dynamic"`` (smooth random manoeuvres: horizontal accelerations up to ``accel_level`` m/s² (vertical a fifth),
+    roll/pitch within ±``tilt_deg`` at 0.1–0.4 Hz, heading turning at up to 45 °/s; still for the first
+    min(5 s, 10 %), smooth ramps in and out; attitude/position splined through knots every ``knot_spacing_s``).
+    time: ISO-8601 start with UTC offset (default: the paper's time for ``kind``). Site in
+    degrees/m (default: the paper's). frame ``"NED"`` (body FRD) or ``"ENU"`` (body RFU).
+
+    IMU: preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB);
+    ``imu_errors=True`` also draws the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000);
+    ``gyro_bias`` (3,) rad/s adds a constant residual bias. Sky: ``sky_model`` "rayleigh"/"berry" with
+    ``d_max`` and ``neutral_distance`` (rad). Sensor: a :class:`PointSensor` (default 3 channels, ER 100,
+    relative noise ``pol_noise`` = 0.002), sampled at ``pol_rate_hz`` (default every IMU sample; NaN between).
+    The sun: SPA at every sample with refraction (``pressure_mbar``/``temperature_c``; None = geometric).
+    rng: seed or Generator (trajectory, IMU and sensor noise).
+    """
+    from optinav.core.simulate import static_positions
+    from optinav.sky import polarization as P
+    from optinav.sky.sun import solar_position_deg, utc_seconds
+
+    kind = str(kind).lower()
+    if kind not in ("static", "dynamic"):
+        raise OptinavError(f"unknown flight kind {kind!r}", "use 'static' or 'dynamic'")
+    frame = _frame(frame)
+    duration = check_positive(duration_s, "duration_s")
+    rate = check_positive(rate_hz, "rate_hz")
+    if duration * rate < 2:
+        raise OptinavError("the flight has fewer than 2 samples", "increase duration_s or rate_hz")
+    if not -90 <= float(lat_deg) <= 90:
+        raise OptinavError(f"lat_deg = {lat_deg} is outside [-90, 90]", "pass the latitude in degrees")
+    lat, lon = float(lat_deg) * DEG, float(lon_deg) * DEG
+    rng = as_rng(rng)
+    start = PAPER_TIMES[kind] if time is None else time
+    t0 = float(utc_seconds(start))  # raises for a time without UTC offset
+    spec = preset(imu) if isinstance(imu, str) else imu
+    if not isinstance(spec, ImuSpec):
+        raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
+    spec = spec.replace(sample_rate=rate)
+    conv = frame.lower()
+
+    if kind == "static":
+        att = as_float_array(attitude_deg, "attitude_deg", last_dims=(3,))
+        c = dcm_from_euler(att * DEG, "ned")
+        if frame == "ENU":
+            from optinav.core.rotations import attitude_ned_to_enu
+
+            c = attitude_ned_to_enu(c)
+        truth = static_positions(c[None], duration, rate, lat, height, lon, frame=conv)
+    else:
+        truth = _dynamic_truth(duration, rate, frame, lat, lon, float(height), rng, float(accel_level),
+                               float(tilt_deg) * DEG, check_positive(knot_spacing_s, "knot_spacing_s"))
+
+    t = truth.t
+    w_true, f_true = truth.omega_ib_b, truth.f_b
+    model = spec.draw(rng, errors=bool(imu_errors))
+    meas = model.apply(w_true, f_true, dt=1.0 / rate, rng=rng)
+    gyr = meas.gyro
+    if gyro_bias is not None:
+        gyr = gyr + as_float_array(gyro_bias, "gyro_bias", last_dims=(3,))
+
+    # the sun at every sample (the vehicle moves < 1 km: the site's position is used)
+    times = (np.round((t0 + t) * 1e9)).astype("datetime64[ns]")
+    sp = solar_position_deg(times, lat_deg, lon_deg, height, pressure_mbar=pressure_mbar,
+                            temperature_c=temperature_c, delta_t=delta_t)
+    sun_n = sp.sun_vector(conv)
+
+    from optinav.attitude.measurement import default_c_b_m
+
+    c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
+    if c_b_m.shape != (3, 3) or not np.allclose(c_b_m @ c_b_m.T, np.eye(3), atol=1e-9) or np.linalg.det(c_b_m) < 0:
+        raise OptinavError("C_b_m is not a rotation matrix", "pass the sensor mounting C_b^m (orthonormal, det +1)")
+    c_n_b = np.swapaxes(dcm_from_quat(truth.q_b_n), -1, -2)
+    c_n_m = c_b_m @ c_n_b
+    sun_m = np.einsum("nij,nj->ni", c_n_m, sun_n)
+    view_m = np.broadcast_to([0.0, 0.0, 1.0], sun_m.shape)
+    kw = {}
+    if d_max is not None:
+        kw["d_max"] = d_max
+    if sky_model.lower() == "berry":
+        up_n = np.array([0.0, 0.0, -1.0]) if frame == "NED" else np.array([0.0, 0.0, 1.0])
+        kw["up"] = np.einsum("nij,j->ni", c_n_m, up_n)
+        if neutral_distance is not None:
+            kw["neutral_distance"] = neutral_distance
+    sky = P.sky_polarization(sun_m, view_m, model=sky_model, **kw)
+    aop_true = P.aop_in_sensor(sky.e)
+    dop_true = sky.dop
+    if sensor is None:
+        sensor = P.PointSensor(noise=0.002 if pol_noise is None else float(pol_noise))
+    elif pol_noise is not None:
+        raise OptinavError("pass either sensor or pol_noise", "set the noise in the PointSensor")
+    reading = sensor.measure(aop_true, dop_true, rng)
+    aop, dop = reading.aop.copy(), reading.dop.copy()
+    aop[~np.isfinite(aop_true)] = np.nan  # sun on the viewing axis: no usable angle
+    if pol_rate_hz is not None:
+        pr = check_positive(pol_rate_hz, "pol_rate_hz")
+        step = max(int(round(rate / pr)), 1)
+        keep = np.zeros(t.size, bool)
+        keep[::step] = True
+        aop[~keep], dop[~keep] = np.nan, np.nan
+    meta = {"imu": spec.name, "imu_errors": bool(imu_errors), "sky_model": sky_model,
+            "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
+            "sensor_noise": float(sensor.noise), "extinction_ratio": float(sensor.extinction_ratio),
+            "gyro_saturated": int(np.count_nonzero(meas.gyro_saturated)),
+            "accel_saturated": int(np.count_nonzero(meas.accel_saturated)),
+            "max_rate_deg_s": float(np.degrees(np.max(np.linalg.norm(w_true, axis=1)))),
+            "max_specific_force_m_s2": float(np.max(np.linalg.norm(f_true, axis=1))),
+            "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
+            "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
+            "refraction": sp.refraction}
+    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.accel, q_true=truth.q_b_n, aop=aop, dop=dop,
+                      aop_true=aop_true, dop_true=dop_true, sun_n=sun_n, sun_elevation=sp.elevation,
+                      sun_azimuth=sp.azimuth, C_b_m=c_b_m, frame=frame, kind=kind, start_time=str(start),
+                      lat=lat, lon=lon, height=float(height), gyr_true=w_true, acc_true=f_true, metadata=meta)

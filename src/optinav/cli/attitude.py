@@ -1,0 +1,201 @@
+"""``optinav attitude``: attitude from a gyroscope + accelerometer log (+ skylight polarization) to CSV."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from optinav.cli.common import add_input_options, parse_pairs
+from optinav.errors import OptinavError
+
+METHOD_NAMES = ("qn", "gd", "cg", "mekf")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "attitude", help="attitude (quaternion, roll/pitch/yaw) from gyro + accelerometer (+ polarization)",
+        description=textwrap.dedent("""\
+            Estimate the attitude q_b^n of every sample from a gyroscope + accelerometer log with the
+            quasi-Newton filter of Jin et al. 2021 (qn, default), gradient descent (gd, Madgwick), conjugate
+            gradient (cg) or a multiplicative EKF with gyro bias (mekf). Without polarization the roll and
+            pitch are observed and the heading follows the gyro. With --pol-columns the file's angle of
+            polarization (a zenith-viewing sensor, reference axis forward; see docs/methods/attitude.md)
+            corrects the heading; the sun comes from --lat/--lon/--start-time (NREL SPA at every sample)
+            or from --sun-azimuth/--sun-elevation. Output CSV columns: t [s], qw, qx, qy, qz,
+            roll_deg, pitch_deg, yaw_deg (Euler angles of --frame: NED = forward-right-down body, yaw
+            clockwise from north; ENU = right-forward-up body, yaw counter-clockwise from north)."""),
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav attitude imu.csv --columns t,ax,ay,az,gx,gy,gz --gyro-unit deg/s --out att.csv
+              optinav attitude flight.csv --method mekf --pol-columns aop,dop --aop-unit deg \\
+                  --lat 38.8814192 --lon 121.528255 --start-time 2021-01-16T16:33:00+08:00 \\
+                  --out att.csv --report rep
+              optinav attitude trial.hdf5 --datasets acc=imu_acc,gyro=imu_gyr --rate 285.714 --frame ENU \\
+                  --out att.csv   (a BROAD trial)
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
+    add_input_options(p)
+    p.add_argument("--method", choices=METHOD_NAMES, default="qn", help="estimator (default qn)")
+    p.add_argument("--frame", choices=["NED", "ENU"], default="NED",
+                   help="navigation frame (default NED; body forward-right-down)")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="estimator option in SI units, e.g. gain=0.1 (repeatable; see docs/methods/attitude.md)")
+    p.add_argument("--q0-deg", metavar="ROLL,PITCH,YAW",
+                   help="initial roll, pitch, yaw in deg (default: levelled from the first sample, heading "
+                        "from polarization if available, else 0)")
+    pol = p.add_argument_group("polarization (optional)")
+    pol.add_argument("--pol-columns", metavar="AOP[,DOP]",
+                     help="names of the angle-of-polarization column (and degree of polarization) in DATA; "
+                          "NaN = no sample")
+    pol.add_argument("--aop-unit", choices=["rad", "deg"], default="rad", help="unit of the AoP column")
+    pol.add_argument("--lat", type=float, metavar="DEG", help="latitude, deg (sun position)")
+    pol.add_argument("--lon", type=float, metavar="DEG", help="longitude, deg east (sun position)")
+    pol.add_argument("--height", type=float, default=0.0, metavar="M", help="height, m (default 0)")
+    pol.add_argument("--start-time", metavar="ISO8601", help="time of t = 0 with UTC offset")
+    pol.add_argument("--sun-azimuth", type=float, metavar="DEG", help="fixed sun azimuth, deg from north to east")
+    pol.add_argument("--sun-elevation", type=float, metavar="DEG", help="fixed sun elevation, deg")
+    pol.add_argument("--min-dop", type=float, default=0.05, help="skip samples with a lower DoP (default 0.05)")
+    p.add_argument("--out", required=True, metavar="ATTITUDE.csv", help="output CSV")
+    p.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    p.set_defaults(func=run)
+
+
+def _options(items) -> dict:
+    out = {}
+    for item in items:
+        k, _, v = item.partition("=")
+        if not v:
+            raise OptinavError(f"--option {item!r} is not KEY=VALUE", "write e.g. --option gain=0.1")
+        try:
+            out[k.strip()] = float(v)
+        except ValueError:
+            raise OptinavError(f"--option {item!r}: {v!r} is not a number", "give options as numbers") from None
+    return out
+
+
+def _sun(args, t, frame):
+    fixed = args.sun_azimuth is not None or args.sun_elevation is not None
+    place = any(v is not None for v in (args.lat, args.lon, args.start_time))
+    if fixed and place:
+        raise OptinavError("both a fixed sun (--sun-azimuth/--sun-elevation) and a place/time were given",
+                           "give one of them")
+    from optinav.sky import solar_position_deg, sun_vector
+
+    if fixed:
+        if args.sun_azimuth is None or args.sun_elevation is None:
+            raise OptinavError("--sun-azimuth and --sun-elevation go together", "give both")
+        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame.lower())
+    if args.lat is None or args.lon is None or args.start_time is None:
+        raise OptinavError("polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
+                           "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
+    from optinav.sky.sun import utc_seconds
+
+    t0 = float(utc_seconds(args.start_time))
+    times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
+    sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
+    return sp.sun_vector(frame.lower())
+
+
+def run(args) -> int:
+    from optinav.attitude import PolarizationMeasurement, estimate_attitude
+    from optinav.core.rotations import euler_from_quat, quat_from_euler
+    from optinav.io import read_imu
+
+    from optinav.attitude.estimators import _options as check_options
+
+    options = _options(args.option)
+    check_options(args.method, options)  # fail before reading the data
+    out = Path(args.out)
+    if out.suffix.lower() != ".csv":
+        raise OptinavError(f"--out {out} is not a .csv file", "name the output ATTITUDE.csv")
+    if not out.parent.exists():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    if args.report:
+        from optinav.reports import prepare_report_dir
+        prepare_report_dir(args.report)
+    log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                   time_unit=args.time_unit, rate=args.rate, datasets=parse_pairs(args.datasets),
+                   delimiter=args.delimiter)
+    if log.acc is None or log.gyro is None:
+        raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
+                           "name them with --columns t,ax,ay,az,gx,gy,gz")
+    if log.acc_unit == "counts" or log.gyro_unit == "counts":
+        raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+    ok = log.finite
+    if not np.all(ok):
+        raise OptinavError(f"{args.data} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
+                           "remove or interpolate them first")
+    t = log.t
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
+    pol = None
+    if args.pol_columns:
+        from optinav.io.readers import read_table
+
+        names = [s.strip() for s in args.pol_columns.split(",")]
+        if len(names) not in (1, 2):
+            raise OptinavError(f"--pol-columns {args.pol_columns!r} needs AOP or AOP,DOP", "name one or two columns")
+        table = read_table(args.data, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
+                           delimiter=args.delimiter)
+        aop = np.asarray(table["aop"], float).reshape(-1)
+        if aop.size != t.size:
+            raise OptinavError(f"AoP column has {aop.size} rows, the IMU {t.size}", "check --pol-columns")
+        if args.aop_unit == "deg":
+            aop = np.radians(aop)
+        dop = np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None
+        pol = PolarizationMeasurement(aop, _sun(args, t, args.frame), dop=dop, frame=args.frame,
+                                      min_dop=args.min_dop)
+    elif any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth, args.sun_elevation)):
+        raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
+    q0 = None
+    if args.q0_deg:
+        try:
+            e = [float(x) for x in args.q0_deg.split(",")]
+        except ValueError:
+            e = []
+        if len(e) != 3:
+            raise OptinavError(f"--q0-deg {args.q0_deg!r} is not ROLL,PITCH,YAW", "write e.g. --q0-deg 0,0,90")
+        q0 = quat_from_euler(np.radians(e), args.frame.lower())
+    if not getattr(args, "quiet", False):
+        print(f"optinav: attitude of {t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    res = estimate_attitude(log.gyro, log.acc, dt, pol=pol, method=args.method, frame=args.frame, q0=q0,
+                            **options)
+    eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
+    table = np.column_stack([t, res.q, eul])
+    header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+    np.savetxt(out, table, delimiter=",", header=header, comments="", fmt="%.9g")
+    print(res.summary())
+    print(f"optinav: attitude written to {out}")
+    if args.report:
+        path = _report(res, t, eul, args)
+        print(f"optinav: report written to {path}/index.md")
+    return 0
+
+
+def _report(res, t, eul, args):
+    from optinav.reports.report import Figure, StudyResult, Table, write_report
+
+    rows = [["method", res.method], ["frame", res.frame], ["samples", int(t.size)],
+            ["polarization used", res.pol_used]]
+    rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
+    rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
+    if res.gyro_bias is not None:
+        rows.append(["final gyro bias [deg/s]", " ".join(f"{v:.4f}" for v in np.degrees(res.gyro_bias))])
+
+    def draw(fig):
+        axs = fig.subplots(3, 1, sharex=True)
+        for k, name in enumerate(("roll", "pitch", "yaw")):
+            axs[k].plot(t, eul[:, k], lw=0.8)
+            axs[k].set_ylabel(f"{name} [deg]")
+            axs[k].grid(alpha=0.3)
+        axs[-1].set_xlabel("t [s]")
+
+    study = StudyResult(name="attitude", title=f"Attitude of {Path(args.data).name} ({res.method})",
+                        description=res.summary(),
+                        tables=[Table("Estimation summary", ["item", "value"], rows)],
+                        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))])
+    return write_report([study], args.report, title="optinav attitude")

@@ -1,0 +1,71 @@
+"""`optinav attitude` end to end on a simulated flight written to CSV (with polarization columns)."""
+
+import numpy as np
+import pytest
+
+from optinav.attitude.metrics import euler_errors
+from optinav.cli.main import main
+from optinav.core.rotations import quat_angle_between
+
+
+@pytest.fixture(scope="module")
+def flight(tmp_path_factory):
+    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES, simulate_flight
+
+    d = simulate_flight("dynamic", duration_s=40, rate_hz=100, rng=4, gyro_bias=np.radians([0.3, -0.2, 0.25]))
+    folder = tmp_path_factory.mktemp("att")
+    path = folder / "flight.csv"
+    cols = np.column_stack([d.t, d.acc, np.degrees(d.gyr), np.degrees(d.aop), d.dop])
+    np.savetxt(path, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz,aop_deg,dop", comments="", fmt="%.10g")
+    return d, folder, path, PAPER_SITE, PAPER_TIMES
+
+
+def _read(path):
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return data
+
+
+def test_cli_attitude_with_polarization(flight, capsys):
+    d, folder, path, site, times = flight
+    out, rep = folder / "att.csv", folder / "rep"
+    assert main(["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--method", "mekf",
+                 "--pol-columns", "aop_deg,dop", "--aop-unit", "deg", "--lat", str(site["lat_deg"]),
+                 "--lon", str(site["lon_deg"]), "--height", "35", "--start-time", times["dynamic"],
+                 "--option", "acc_noise=0.4", "--q0-deg", ",".join(str(v) for v in np.degrees(d.euler[0])),
+                 "--out", str(out), "--report", str(rep)]) == 0
+    r = _read(out)
+    assert r.dtype.names == ("t", "qw", "qx", "qy", "qz", "roll_deg", "pitch_deg", "yaw_deg")
+    q = np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]])
+    err = np.degrees(quat_angle_between(q, d.q_true))
+    assert np.sqrt(np.mean(err[500:] ** 2)) < 3.0
+    # the Euler columns are the quaternion's, in degrees
+    e = np.degrees(euler_errors(q, d.q_true))
+    assert np.allclose(np.degrees(d.euler[:, :2]) + e[:, :2], np.column_stack([r["roll_deg"], r["pitch_deg"]]),
+                       atol=1e-5)
+    assert (rep / "index.md").is_file()
+    assert "polarization used" in (rep / "index.md").read_text()
+
+
+def test_cli_attitude_gyro_acc_only(flight):
+    d, folder, path, *_ = flight
+    out = folder / "att6.csv"
+    assert main(["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--method", "qn", "--out", str(out)]) == 0
+    r = _read(out)
+    assert r.shape == (len(d),)
+    tilt = np.degrees(euler_errors(np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]]), d.q_true))[:, :2]
+    assert np.sqrt(np.mean(tilt[500:] ** 2)) < 5.0
+
+
+@pytest.mark.parametrize("extra, msg", [
+    (["--option", "gain"], "KEY=VALUE"),
+    (["--option", "bogus=1"], "does not apply"),
+    (["--lat", "38"], "without --pol-columns"),
+    (["--pol-columns", "aop_deg"], "needs the sun"),
+    (["--pol-columns", "nope", "--sun-azimuth", "10", "--sun-elevation", "20"], "no column"),
+    (["--q0-deg", "1,2"], "ROLL,PITCH,YAW"),
+])
+def test_cli_attitude_errors(flight, capsys, extra, msg):
+    _, folder, path, *_ = flight
+    assert main(["attitude", str(path), "--gyro-unit", "deg/s", "--out", str(folder / "x.csv")] + extra) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("optinav: error:") and msg in err and err.count("\n") == 1

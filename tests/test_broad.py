@@ -1,0 +1,64 @@
+"""Real data: BROAD trial 02 (optical truth). Inclination RMSE with gyro + accelerometer only against the
+reference figures of README_SOURCE.txt (VQF 0.43°, ahrs Madgwick(0.033) 0.61°, ahrs Mahony 0.46°), and heading
+with polarization synthesized from the optical truth by the Rayleigh model, the sun at the paper's place and
+static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
+
+import numpy as np
+import pytest
+
+from optinav.attitude import estimate
+from optinav.attitude.data import BROAD_TRIAL_02, load_broad, shared_data_dir, synthesize_polarization
+from optinav.attitude.metrics import heading_error, inclination_error, rmse
+
+PATH = shared_data_dir() / BROAD_TRIAL_02
+pytestmark = pytest.mark.skipif(not PATH.is_file(), reason=f"BROAD data absent ({PATH})")
+
+#: BROAD inclination RMSE limits (deg), defaults of each method. GD/CG are Madgwick's filter with ahrs's gain:
+#: the ahrs reference 0.61° + 15 %. QN (as published: proportional correction, no gyro-bias state; this IMU has
+#: ~0.2 °/s bias) within 30 % of Madgwick. MEKF (gyro-bias states, like VQF) within 15 % of VQF's 0.43°.
+LIMITS_DEG = {"gd": 0.70, "cg": 0.70, "qn": 0.80, "mekf": 0.50}
+
+
+@pytest.fixture(scope="module")
+def trial():
+    return load_broad(PATH)
+
+
+@pytest.mark.parametrize("method", ["gd", "cg", "qn", "mekf"])
+def test_broad_inclination_rmse_6d(trial, method):
+    q = estimate(trial.gyr, trial.acc, trial.dt, method=method, frame="ENU")
+    err = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
+    assert err < LIMITS_DEG[method], f"{method}: {err:.3f} deg"
+
+
+def test_broad_gd_reproduces_ahrs_madgwick(trial):
+    ahrs = pytest.importorskip("ahrs")
+    q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate, gain=0.033).Q
+    ref = np.degrees(rmse(inclination_error(q_ahrs, trial.q_ref), trial.eval_mask))
+    q = estimate(trial.gyr, trial.acc, trial.dt, method="gd", frame="ENU", gain=0.033)
+    ours = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
+    assert abs(ref - 0.61) < 0.01  # the README's figure
+    assert abs(ours - ref) < 0.05
+
+
+def test_broad_heading_with_synthesized_polarization(trial):
+    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
+    from optinav.sky import solar_position_deg
+
+    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sun = sp.sun_vector("enu")
+    pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
+    i0 = int(np.flatnonzero(np.all(np.isfinite(trial.q_ref), axis=1))[0])  # start at the first optical sample
+    sl = slice(i0, None)
+    mask = trial.eval_mask[sl]
+    res = {}
+    for method in ("gd", "qn", "mekf"):
+        q = estimate(trial.gyr[sl], trial.acc[sl], trial.dt, pol=pol.select(sl), method=method, frame="ENU",
+                     q0=trial.q_ref[i0])
+        res[method] = np.degrees(rmse(heading_error(q, trial.q_ref[sl]), mask))
+    q6 = estimate(trial.gyr[sl], trial.acc[sl], trial.dt, method="gd", frame="ENU", q0=trial.q_ref[i0])
+    no_pol = np.degrees(rmse(heading_error(q6, trial.q_ref[sl]), mask))
+    # the gyro alone drifts by > 5° (z bias ≈ 0.22 °/s over 3 min); polarization holds the heading to < 1°
+    assert no_pol > 5.0
+    assert res["gd"] < 1.0 and res["qn"] < 1.0 and res["mekf"] < 0.5, res
