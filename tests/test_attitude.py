@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from optinav.attitude import (DEFAULT_C_B_M, DEFAULT_C_B_M_ENU, MEKF, PolarizationMeasurement, QuasiNewton,
                               estimate, estimate_attitude, initial_attitude, make_filter, measurement_error,
                               predicted_aop)
+from optinav.attitude.metrics import heading_error, rmse
 from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, euler_from_quat, quat_angle_between,
                                     quat_from_dcm, quat_from_euler, quat_from_rotvec, quat_multiply)
 from optinav.errors import OptinavError
@@ -34,14 +35,16 @@ def aop_truth(q, s_n, c_b_m):
 
 
 def synth(n=3000, rate=100.0, seed=0, amp=1.0, q_start=None, gyro_sigma=0.0, acc_sigma=0.0, aop_sigma=0.0,
-          bias=(0.0, 0.0, 0.0)):
-    """NED / FRD rotation-only motion: gyr (N,3), acc (N,3), dt, q_true (N,4), aop (N,), sun."""
+          bias=(0.0, 0.0, 0.0), rest=0):
+    """NED / FRD rotation-only motion (at rest for the first ``rest`` samples): gyr (N,3), acc (N,3), dt,
+    q_true (N,4), aop (N,), sun."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) / rate
     f = rng.uniform(0.05, 0.3, 3)
     ph = rng.uniform(0, 2 * np.pi, 3)
     w = amp * np.column_stack([np.sin(2 * np.pi * f[k] * t + ph[k]) for k in range(3)])
     w[:, 2] *= 0.5
+    w[:rest] = 0.0
     dt = 1.0 / rate
     steps = quat_from_rotvec(w * dt)
     q = np.empty((n, 4))
@@ -251,6 +254,53 @@ def test_mekf_estimates_gyro_bias_and_reports_consistent_sigma():
     assert 0.5 < np.mean(nees) < 9.0
 
 
+def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization():
+    """Heading is unobservable from gravity, so without polarization the MEKF may not do worse than the gyro.
+
+    A body rests for 30 s (like BROAD's trials), then rotates about all axes (up to 2 rad/s), with a constant
+    gyro bias b, |b| = 0.35 °/s. Integrating the gyro alone from the true start, the attitude error (heading
+    included) grows at most at the rate |b| — the error rotation rate is the bias — plus the angle random walk
+    of the white rate noise σ (per sample, 100 Hz): per axis σ·√(Δt·t), so bound(t) = |b|·t + 4σ·√(3Δt·t).
+    The filter noise is matched to the simulation. Without polarization the MEKF's heading error must stay
+    within that bound at every sample (before the null-space-consistent propagation and the heading consider
+    update it rose to 22° here while the bound was 10°); with polarization it converges to the AoP noise.
+    """
+    n, rest, sigma = 12000, 3000, 0.005
+    bias = np.array([0.004, 0.002, -0.004])
+    d = synth(n, amp=2.0, seed=0, rest=rest, gyro_sigma=sigma, acc_sigma=0.05, aop_sigma=np.radians(0.5),
+              bias=bias)
+    opts = dict(gyro_noise=sigma * np.sqrt(d["dt"]), acc_noise=0.05 / G)
+    t = np.arange(1, n + 1) * d["dt"]
+    bound = np.linalg.norm(bias) * t + 4 * sigma * np.sqrt(3 * d["dt"] * t)
+    r = estimate_attitude(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], **opts)
+    head = heading_error(r.q, d["q"])
+    assert np.all(head <= bound), f"{np.degrees(np.max(head - bound)):.2f} deg above the gyro-only bound"
+    # tilt: better than one accelerometer sample (0.05/g rad = 0.29°); a heading leak would show here first
+    assert rmse(_tilt_err_deg(r.q, d["q"])) < np.degrees(0.05 / G)
+    # the rotation makes every bias component observable (the filter's σ of it ≈ 0.03 °/s)
+    assert np.max(np.abs(r.gyro_bias - bias)) < np.radians(0.1)
+    # the gyro alone is near its bound at the end of the rest (the vertical bias is unobservable at rest)
+    q_gyro = estimate(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
+    assert heading_error(q_gyro[rest - 1], d["q"][rest - 1]) > 0.5 * bound[rest - 1]
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    rp = estimate_attitude(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
+                           pol_noise=np.radians(0.5), **opts)
+    assert np.degrees(np.max(heading_error(rp.q[rest:], d["q"][rest:]))) < 0.5
+
+
+def test_mekf_heading_sigma_is_capped_without_heading_measurement():
+    """Level and at rest, the vertical is body z: its σ grows with the unobservable vertical bias
+    (init_bias_std · t = 0.1 rad/s · 20 s = 2 rad) until max_heading_std; tilt σ is unaffected."""
+    n = 2000
+    gyr, acc = np.zeros((n, 3)), np.tile([0.0, 0.0, -G], (n, 1))
+    free = estimate_attitude(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1)
+    capped = estimate_attitude(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1,
+                               max_heading_std=0.3)
+    assert free.att_std[-1, 2] > 1.5
+    assert np.max(capped.att_std[:, 2]) <= 0.3 * (1 + 1e-9) + np.sqrt(0.002 ** 2 * 0.01)
+    assert np.allclose(capped.att_std[:, :2], free.att_std[:, :2], rtol=1e-6)
+
+
 # --- batch vs streaming, input checks ------------------------------------------------------------------
 
 @pytest.mark.parametrize("method", METHODS)
@@ -287,6 +337,8 @@ def test_streaming_classes_and_state():
     (dict(q0=[0, 0, 0, 0]), "q0"),
     (dict(gain=-1), "non-negative"),
     (dict(method="mekf", gain=0.1), "does not apply"),
+    (dict(method="mekf", couple_heading=0.5), "0 or 1"),
+    (dict(method="mekf", max_heading_std=0.0), "max_heading_std"),
 ])
 def test_bad_input_raises_optinav_error(kwargs, match):
     base = dict(gyr=np.zeros((5, 3)), acc=np.tile([0, 0, -G], (5, 1)), dt=0.01)
@@ -330,3 +382,13 @@ def test_gd_close_to_ahrs_madgwick():
     theirs = theirs[1:]
     # same filter, different Jacobian normalization (ours is tangent to the unit sphere): agree to ~0.1°
     assert np.max(np.degrees(quat_angle_between(ours, theirs))) < 0.2
+
+
+def test_euler_errors_keep_nan_reference_rows():
+    from optinav.attitude.metrics import euler_errors
+
+    q_est = np.array([[1.0, 0, 0, 0], quat_from_euler([0.1, -0.2, 0.3], "ned")])
+    q_ref = np.array([[np.nan] * 4, [1.0, 0, 0, 0]])
+    e = euler_errors(q_est, q_ref)
+    assert np.isnan(e[0]).all()
+    np.testing.assert_allclose(e[1], [0.1, -0.2, 0.3], atol=1e-12)

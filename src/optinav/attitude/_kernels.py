@@ -411,14 +411,101 @@ def _scalar_update(P, hrow, z, r, dx, Ph):
 
 
 @numba.njit(**_NJ)
+def _cap_heading(P, v, cap2, w):
+    """Scale the attitude error along the unit body vector v (the vertical: heading) so that its variance
+    vᵀP_θθv ≤ cap2: P ← S P Sᵀ with S = I + (f − 1)·v̄v̄ᵀ, v̄ = [v, 0], f = √(cap2/vᵀPv). Correlation
+    coefficients are kept, P stays positive semi-definite."""
+    for a in range(6):
+        w[a] = P[a, 0] * v[0] + P[a, 1] * v[1] + P[a, 2] * v[2]
+    pv = v[0] * w[0] + v[1] * w[1] + v[2] * w[2]
+    if pv <= cap2:
+        return
+    f1 = math.sqrt(cap2 / pv) - 1.0
+    c = f1 * f1 * pv
+    for a in range(6):
+        va = v[a] if a < 3 else 0.0
+        for b in range(6):
+            vb_ = v[b] if b < 3 else 0.0
+            P[a, b] += f1 * (w[a] * vb_ + va * w[b]) + c * va * vb_
+
+
+@numba.njit(**_NJ)
+def _scalar_update_consider(P, hrow, z, r, dx, Ph, v):
+    """:func:`_scalar_update` with the attitude error along the unit body vector v (the vertical: heading) as
+    a Schmidt "consider" state: its gain is removed, k = P hᵀ/s − c v̄ with c = v̄ᵀP hᵀ/s, and P is updated
+    with that gain (Joseph form, which reduces to P − P hᵀh P/s + s c² v̄v̄ᵀ), so it stays the covariance of
+    the estimate actually made."""
+    s = r
+    for a in range(6):
+        t = 0.0
+        for b in range(6):
+            t += P[a, b] * hrow[b]
+        Ph[a] = t
+        s += hrow[a] * t
+    innov = z
+    for a in range(6):
+        innov -= hrow[a] * dx[a]
+    c = (v[0] * Ph[0] + v[1] * Ph[1] + v[2] * Ph[2]) / s
+    for a in range(6):
+        k = Ph[a] / s
+        if a < 3:
+            k -= c * v[a]
+        dx[a] += k * innov
+    for a in range(6):
+        for b in range(6):
+            P[a, b] -= Ph[a] * Ph[b] / s
+    sc2 = s * c * c
+    for a in range(3):
+        for b in range(3):
+            P[a, b] += sc2 * v[a] * v[b]
+
+
+@numba.njit(**_NJ)
+def _transfer_heading(P, v, R, w, d):
+    """Move the attitude-error covariance's component along the unit body vector v (the vertical before the
+    reset q ← q ⊗ Δr, R = C(Δr)) onto the vertical after it, v⁺ = Rᵀv: P ← T P Tᵀ, T = I + (v̄⁺ − v̄)v̄ᵀ
+    (identity on the tilt plane ⊥ v, so the rest of P is left as without a reset). The full first-order
+    reset G = I − ½[δθ×] would turn v by half the correction only."""
+    for a in range(3):
+        d[a] = R[0, a] * v[0] + R[1, a] * v[1] + R[2, a] * v[2] - v[a]
+    for a in range(6):
+        w[a] = P[a, 0] * v[0] + P[a, 1] * v[1] + P[a, 2] * v[2]
+    pv = v[0] * w[0] + v[1] * w[1] + v[2] * w[2]
+    for a in range(3):
+        for b in range(6):
+            P[a, b] += d[a] * w[b]
+    for a in range(6):
+        for b in range(3):
+            P[a, b] += w[a] * d[b]
+    for a in range(3):
+        for b in range(3):
+            P[a, b] += pv * d[a] * d[b]
+
+
+@numba.njit(**_NJ)
 def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_noise, bias_noise, acc_noise, pol_noise,
-             g_ref, acc_threshold, acc_inflate, state, out, std_out, counts):
+             g_ref, acc_threshold, acc_inflate, max_heading_std, consider_heading, state, out, std_out, counts):
     """Multiplicative EKF: error state [δθ_b (body-frame attitude error), δb (gyro bias)].
 
-    Predict q ← q ⊗ exp((ω − b)dt/2), Φ = [[I − [ω̂×]dt, −I dt], [0, I]], Q = diag(σ_g² dt I, σ_b² dt I)
+    Predict q ← q ⊗ exp((ω − b)dt/2) = q ⊗ Δq, Φ = [[C(Δq)ᵀ, −I dt], [0, I]], Q = diag(σ_g² dt I, σ_b² dt I)
     (σ_g rad/s/√Hz, σ_b rad/s²/√Hz). Update with the shared model rows (body-frame Jacobian): gravity with
     variance acc_noise² (× acc_inflate² when |‖a‖ − g_ref| > acc_threshold), polarization (doubled angle,
-    weight 1) with variance (2·pol_noise)². Scalar sequential updates; reset by q ← q ⊗ exp(δθ/2).
+    weight 1) with variance (2·pol_noise)². Scalar sequential updates; reset q ← q ⊗ exp(δθ/2) = q ⊗ Δr.
+
+    Heading is unobservable from gravity: its error is a rotation about the navigation vertical, along
+    v_b = C_n^b u_n in body axes, whatever the heading error's size. The exact transition C(Δq)ᵀ (not
+    I − [ω×]dt) and, at the reset, the transfer of the covariance's v_b component onto the corrected
+    vertical C(Δr)ᵀv_b (:func:`_transfer_heading`) map the unobservable direction exactly from sample to
+    sample, so the linearized filter keeps the nonlinear system's null space (observability-constrained EKF,
+    Huang, Mourikis & Roumeliotis 2010). Without that, the heading variance, which grows without a heading
+    measurement, leaks into the tilt directions and the gravity update "observes" heading through spurious
+    correlations (BROAD: heading errors of 50° from a 13° gyro drift). The heading σ is capped at
+    ``max_heading_std`` (rad; the vertical's row and column scaled, correlations kept) on samples without a
+    polarization row. With ``consider_heading`` the heading is moreover a Schmidt "consider" state on those
+    samples (:func:`_scalar_update_consider`): the gravity rows correct tilt and bias but never the heading,
+    which then follows the bias-corrected gyro; otherwise they also correct it through the heading–bias
+    correlation (right when the model is, but a bias transient at motion onset then swings the heading by up
+    to its σ).
     state = [q(4), b(3), P(36)]; std_out (N, 3) = attitude-error σ (rad, body axes).
     """
     n = gyr.shape[0]
@@ -435,34 +522,29 @@ def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_nois
     tmp = np.empty(4)
     dx = np.empty(6)
     hrow = np.zeros(6)
-    A = np.empty((3, 3))
+    R = np.empty((3, 3))
     Pn = np.empty((6, 6))
+    cap2 = max_heading_std * max_heading_std
     Ph = np.empty(6)
     for i in range(n):
         h, na = _prepare(i, gyr, acc, dt, sn, ah)
         wx, wy, wz = gyr[i, 0] - bias[0], gyr[i, 1] - bias[1], gyr[i, 2] - bias[2]
         _right_rotate(q, wx * h, wy * h, wz * h, dq, tmp)
-        # P ← Φ P Φᵀ + Q with Φ = [[A, −h I], [0, I]], A = I − [ω×]h
-        A[0, 0] = 1.0
-        A[0, 1] = wz * h
-        A[0, 2] = -wy * h
-        A[1, 0] = -wz * h
-        A[1, 1] = 1.0
-        A[1, 2] = wx * h
-        A[2, 0] = wy * h
-        A[2, 1] = -wx * h
-        A[2, 2] = 1.0
+        # P ← Φ P Φᵀ + Q with Φ = [[A, −h I], [0, I]], A = C(Δq)ᵀ: R = C(Δq), A[a, k] = R[k, a]. The exact
+        # rotation, not I − [ω×]h: its second-order error would turn the vertical by ~(ωh)²/2 per step and
+        # leak the (large, unobserved) heading variance into tilt
+        _dcm(dq, R)
         # rows 0..2 of ΦP: A P[0:3,:] − h P[3:6,:]
         for a in range(3):
             for b in range(6):
-                Pn[a, b] = A[a, 0] * P[0, b] + A[a, 1] * P[1, b] + A[a, 2] * P[2, b] - h * P[3 + a, b]
+                Pn[a, b] = R[0, a] * P[0, b] + R[1, a] * P[1, b] + R[2, a] * P[2, b] - h * P[3 + a, b]
         for a in range(3):
             for b in range(6):
                 Pn[3 + a, b] = P[3 + a, b]
         # (ΦP)Φᵀ: columns 0..2 = (ΦP)[:,0:3] Aᵀ − h (ΦP)[:,3:6]
         for a in range(6):
             for b in range(3):
-                P[a, b] = Pn[a, 0] * A[b, 0] + Pn[a, 1] * A[b, 1] + Pn[a, 2] * A[b, 2] - h * Pn[a, 3 + b]
+                P[a, b] = Pn[a, 0] * R[0, b] + Pn[a, 1] * R[1, b] + Pn[a, 2] * R[2, b] - h * Pn[a, 3 + b]
             for b in range(3):
                 P[a, 3 + b] = Pn[a, 3 + b]
         qg = gyro_noise * gyro_noise * h
@@ -483,6 +565,8 @@ def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_nois
                 ra *= acc_inflate * acc_inflate
                 counts[C_ACC_SHRUNK] += 1
             rp = 4.0 * pol_noise * pol_noise
+            if nr == 3:
+                _cap_heading(P, vb, cap2, Ph)
             for a in range(6):
                 dx[a] = 0.0
             for r in range(nr):
@@ -490,8 +574,13 @@ def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_nois
                 hrow[1] = J[r, 1]
                 hrow[2] = J[r, 2]
                 # residual z − h(x̂) = −F (the model's error is prediction − measurement)
-                _scalar_update(P, hrow, -F[r], ra if r < 3 else rp, dx, Ph)
+                if nr == 3 and consider_heading:
+                    _scalar_update_consider(P, hrow, -F[r], ra, dx, Ph, vb)
+                else:
+                    _scalar_update(P, hrow, -F[r], ra if r < 3 else rp, dx, Ph)
             _right_rotate(q, dx[0], dx[1], dx[2], dq, tmp)
+            _dcm(dq, R)
+            _transfer_heading(P, vb, R, Ph, hrow)
             bias[0] += dx[3]
             bias[1] += dx[4]
             bias[2] += dx[5]

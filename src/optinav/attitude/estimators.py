@@ -47,10 +47,12 @@ DEFAULTS: dict[str, dict[str, float]] = {
     # ε (m/s²) accelerometer state threshold, step factor beyond it, BFGS reset bound on trace(H)
     "qn": {"gain": 0.5, "rate_gain": 0.3, "max_step": 0.5, "gravity": G_STANDARD, "acc_threshold": 0.8,
            "acc_shrink": 0.1, "h_reset": 100.0, "pol_weight": 1.0},
-    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s)
+    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s),
+    # bound on the heading σ (rad) while no heading measurement is used (a heading error is at most π), and
+    # couple_heading 0/1: 1 lets the gravity update correct the heading through its correlation with the bias
     "mekf": {"gyro_noise": 0.002, "bias_noise": 5e-5, "acc_noise": 0.1, "pol_noise": np.radians(1.0),
              "gravity": G_STANDARD, "acc_threshold": 0.8, "acc_inflate": 5.0, "init_att_std": 0.05,
-             "init_bias_std": 0.01},
+             "init_bias_std": 0.01, "max_heading_std": np.pi, "couple_heading": 0.0},
 }
 
 
@@ -98,6 +100,11 @@ def _options(method: str, options: dict) -> dict:
         if not np.isfinite(fv) or fv < 0:
             raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
         opts[k] = fv
+    if method == "mekf" and opts["max_heading_std"] <= 0:
+        raise OptinavError("max_heading_std must be > 0", "pass a bound in rad, e.g. max_heading_std=3.14")
+    if method == "mekf" and opts["couple_heading"] not in (0.0, 1.0):
+        raise OptinavError(f"couple_heading={opts['couple_heading']:g} must be 0 or 1",
+                           "pass couple_heading=0 (heading from the gyro alone) or 1")
     if method == "cg" and opts["restart"] < 1:
         raise OptinavError("restart must be >= 1", "pass restart=1 (plain gradient) or more")
     return opts
@@ -205,7 +212,8 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
     else:
         _kernels.run_mekf(gyr, acc, dt, un, use, sn, cbm, c2, s2, 1.0, min_d2, opts["gyro_noise"],
                           opts["bias_noise"], opts["acc_noise"], opts["pol_noise"], opts["gravity"],
-                          opts["acc_threshold"], opts["acc_inflate"], state, out, std, counts)
+                          opts["acc_threshold"], opts["acc_inflate"], opts["max_heading_std"],
+                          opts["couple_heading"] == 0.0, state, out, std, counts)
 
 
 def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str = "qn",

@@ -51,10 +51,14 @@ def total_error(q_est, q_ref) -> np.ndarray:
 
 
 def euler_errors(q_est, q_ref, frame: str = "NED") -> np.ndarray:
-    """[roll, pitch, yaw] of the estimate minus the reference (rad, wrapped to (−π, π]), shape (N, 3)."""
+    """[roll, pitch, yaw] of the estimate minus the reference (rad, wrapped to (−π, π]), shape (N, 3).
+
+    Rows where either quaternion is NaN (a reference that lost tracking) stay NaN, as in the other metrics."""
     a, b = _pair(q_est, q_ref)
     conv = str(frame).lower()
-    d = euler_from_quat(a, conv) - euler_from_quat(b, conv)
+    ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
+    d = np.full(a.shape[:-1] + (3,), np.nan)
+    d[ok] = euler_from_quat(a[ok], conv) - euler_from_quat(b[ok], conv)
     return np.angle(np.exp(1j * d))
 
 
