@@ -45,3 +45,18 @@ def test_reproduce_quick_writes_report(tmp_path):
     assert (out / "index.md").read_text().startswith("# optinav reproduce")
     assert (out / "index.html").exists()
     assert list(out.glob("*.png")), "matplotlib is in the test extra, so figures must be written"
+
+
+def test_closed_stdout_is_not_an_error():
+    """``optinav sun ... | head -1``: the reader leaving early ends the command quietly with status 0."""
+    import subprocess
+    import sys
+
+    times = [f"--time=2021-01-17T{h:02d}:{m:02d}:00+08:00" for h in range(24) for m in range(0, 60, 2)]
+    proc = subprocess.Popen([sys.executable, "-m", "optinav.cli.main", "sun", "--lat", "38.9", "--lon", "121.5",
+                             *times], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout.readline().strip() == b"["
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0, err
+    assert "error" not in err
