@@ -182,7 +182,7 @@ def _rank(s: np.ndarray, rel_tol: float) -> int:
     return int(np.count_nonzero(s > rel_tol * s[0]))
 
 
-def _rref(M: np.ndarray, tol: float) -> np.ndarray:
+def rref(M, tol: float = 1e-9) -> np.ndarray:
     """Reduced row echelon form (Gauss–Jordan with partial pivoting); entries below ``tol`` become zero.
 
     The RREF of a row space is unique, so it gives a canonical, readable basis; if the space splits into
@@ -216,8 +216,13 @@ def _orthonormal(B: np.ndarray) -> np.ndarray:
     return q
 
 
-def _format_combination(coef: np.ndarray, names: Sequence[str]) -> str:
-    """``[1, -0.71]`` → ``'b_x − 0.71·M_xy'`` (3 significant digits; the first term carries the sign)."""
+def format_combination(coef, names: Sequence[str], *, normalize: bool = False) -> str:
+    """``[1, -0.71]`` → ``'b_x − 0.71·M_xy'`` (3 significant digits; the first term carries the sign).
+
+    ``normalize`` first divides by the first nonzero coefficient, so that parameter reads with coefficient 1."""
+    coef = np.asarray(coef, dtype=float)
+    if normalize:
+        coef = _pivot_normalize(coef[None])[0]
     parts = []
     for c, nm in zip(coef, names):
         if c == 0.0:
@@ -265,11 +270,11 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
     observable = np.ones(n, dtype=bool)
     statements: list[str] = []
     if r < n:
-        N = _rref(null_u.T, coef_tol)                         # canonical null basis, u coordinates
+        N = rref(null_u.T, coef_tol)                         # canonical null basis, u coordinates
         support = N != 0.0
         observable = ~support.any(axis=0)
         for row in N:
-            unobs_words.append(_format_combination(_pivot_normalize((d * row)[None])[0], names))
+            unobs_words.append(format_combination(_pivot_normalize((d * row)[None])[0], names))
         # coupled groups: parameters linked through a common null direction (union–find over the RREF rows)
         parent = list(range(n))
 
@@ -293,9 +298,9 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
             est = vtb[rb:]                                      # estimable functionals on g, u coordinates
             if est.shape[0] == 0:
                 continue  # every parameter of g is then a single-parameter unobservable direction itself
-            est = _rref(est, coef_tol)
+            est = rref(est, coef_tol)
             est_p = _pivot_normalize(est / d[g][None, :])      # cᵀu = (c/d)ᵀp
-            words = [_format_combination(row, [names[i] for i in g]) for row in est_p]
+            words = [format_combination(row, [names[i] for i in g]) for row in est_p]
             comb_words.extend(words)
         statements = [f"unobservable: {w}" for w in unobs_words]
         if observable.any():
@@ -440,6 +445,8 @@ def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units:
     names, units : parameter names and unit strings (for the words and ``summary()``).
     rel_tol : rank tolerance relative to the largest singular value of the column-scaled, whitened Jacobian.
     scales : expected magnitude of each parameter (its units); ``None`` normalizes each column (unit-invariant).
+        A column that is zero only up to rounding is then scaled up and looks observable: pass ``scales``
+        when a parameter may be structurally unobservable.
     residuals : residual vector at the solution (m,), for the a-posteriori variance factor
         ``s² = rᵀR⁻¹r / (m − rank)``; with ``estimate_sigma=True`` the covariance is multiplied by it.
     coef_tol : coupling coefficients below this (in scaled units) count as zero when naming combinations.

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.core.observability import format_combination, rref
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
@@ -233,40 +234,6 @@ def _rowspace(H: np.ndarray, tol: float = RANK_TOL) -> tuple[int, np.ndarray]:
     return r, vt[:r]
 
 
-def _fmt_comb(c, names) -> str:
-    c = np.asarray(c, float)
-    k = int(np.argmax(np.abs(c) > 1e-9))
-    c = c / c[k]
-    parts = []
-    for v, nm in zip(c, names):
-        if abs(v) < 1e-9:
-            continue
-        term = nm if abs(abs(v) - 1) < 1e-6 else f"{abs(v):.3g}·{nm}"
-        parts.append(("−" if v < 0 else "") + term if not parts else f"{'+' if v > 0 else '−'} {term}")
-    return " ".join(parts)
-
-
-def _rref_rows(B: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    A = np.array(B, float)
-    rows, cols = A.shape
-    r = 0
-    for c in range(cols):
-        if r == rows:
-            break
-        i = r + int(np.argmax(np.abs(A[r:, c])))
-        if abs(A[i, c]) <= tol:
-            continue
-        A[[r, i]] = A[[i, r]]
-        A[r] /= A[r, c]
-        for k in range(rows):
-            if k != r:
-                A[k] -= A[k, c] * A[r]
-        r += 1
-    A = A[:r]
-    A[np.abs(A) < tol] = 0.0
-    return A
-
-
 @dataclass
 class Identifiability(Result):
     """What an accelerometer array can solve, from its design matrix (see :func:`identifiability`)."""
@@ -365,18 +332,19 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
     B = B * D[6:][None, :]             # functionals: cᵀu = (D c)ᵀq with u = D q
     nq = B.shape[0]
     Bq = np.linalg.qr(B.T)[0].T if nq else B
-    words_q = [_fmt_comb(row, QUAD_NAMES) for row in _rref_rows(B)] if nq else []
+    words_q = [format_combination(row, QUAD_NAMES, normalize=True) for row in rref(B)] if nq else []
     # unobservable directions of [x; q] (null space of Hs, RREF for readable words)
     _, s_all, vt_all = np.linalg.svd(Hs, full_matrices=True)
     null = vt_all[rf:]
     unobs = []
     if null.shape[0]:
-        N = _rref_rows(null)
-        unobs = [_fmt_comb(row / D, LINEAR_NAMES + QUAD_NAMES) for row in N]
+        N = rref(null)
+        unobs = [format_combination(row / D, LINEAR_NAMES + QUAD_NAMES, normalize=True) for row in N]
     # words for the linear part only (with the rate known)
     _, s_l, vt_l = np.linalg.svd(Hs[:, :6], full_matrices=True)
     null_l = vt_l[rl:]
-    unobs_lin = [_fmt_comb(row / D[:6], LINEAR_NAMES) for row in _rref_rows(null_l)] if null_l.shape[0] else []
+    unobs_lin = ([format_combination(row / D[:6], LINEAR_NAMES, normalize=True) for row in rref(null_l)]
+                 if null_l.shape[0] else [])
     s_lin = np.linalg.svd(array.H_lin * array.weights()[:, None], compute_uv=False)
     cond = float(s_lin[0] / s_lin[5]) if s_lin.size >= 6 and s_lin[5] > 1e-12 * s_lin[0] else float("inf")
     st = [f"[A, wdot] with the rate known: rank {rl}/6"

@@ -74,6 +74,8 @@ STUDIES: dict[str, tuple[str, str]] = {
              "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory"),
     "accel-ga": ("optinav.reports.accel_ga_study",
                  "Gao & Zhang 2019: accelerometer norm-observation calibration, GA vs Newton vs optinav LM"),
+    "rins-pso": ("optinav.reports.rins_study",
+                 "Li et al. 2023: dual-axis rotational INS gimbal non-orthogonality, PSO vs axis method vs LM"),
     "gfimu": ("optinav.reports.gfimu_study",
               "Hao & Liu 2011: gyro-free 10-accelerometer array, 50 installation errors on a turntable"),
     "polarized": ("optinav.reports.polarized_study",

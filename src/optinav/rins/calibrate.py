@@ -1,0 +1,497 @@
+"""Gimbal non-orthogonality calibration of a dual-axis rotational INS (Li et al. 2023) and its RESULT.json.
+
+Methods (``method=``):
+
+* ``"none"`` — uncompensated (all six angles zero): the vehicle-attitude error the paper's Table 4 starts from.
+* ``"axis"`` — the "previous method" (paper ref. [6], as reconstructed here): the gimbal rotation-axis
+  directions in the IMU frame from the gyro increments of each forward/reverse move (Earth rate removed with
+  the strapdown attitude, forward and reverse moves averaged so drift cancels), fitted to the first-order
+  axis model ``u_in = C_h1^s e_z``, ``u_out(α) = C_h1^s R_z(α)ᵀ C_h2^h0 e_y`` by least squares. It reads
+  the raw gyros, so gyro misalignment and scale errors enter the axis vectors (the paper's remark).
+* ``"pso"`` — as published: global-best PSO (ω 0.8, c1 = c2 = 2, N = 20, G = 150, velocity clamp V ∈ [−1, 1]
+  in units of 5 % of the search half-width, default ±0.01 rad) on the fitness of eqs. 12–14 over all six
+  angles, the swarm evaluated at once.
+* ``"lm"`` (default) — Levenberg–Marquardt on the same residuals with the analytic Jacobian
+  (:func:`optinav.rins.model.residual_jacobian`), restricted to the observable subspace and started from the
+  linearized least-squares solution.
+
+Observability: the rank and null space of the first-order residual Jacobian (evaluated on a noise-free chain
+following the recorded encoder angles), parameters scaled by 1 mrad. For ±180° dual-axis schemes the rank is
+4: ``θz − ηz`` (the IMU turned about the inner axis versus the inner-zero frame turned about it) and ``ηy``
+(the outer-encoder zero, i.e. the vehicle frame's definition about the outer axis) never change the attitude
+*change* of eq. 12, so they are reported as null; ``θz + ηz`` is estimated as a combination.
+
+Uncertainty: the residuals (strapdown attitude errors) are strongly autocorrelated, so the white-noise
+covariance ``σ̂² (JᵀJ)⁻¹`` is inflated by the integrated autocorrelation time of the residuals (Sokal's
+windowed estimate): ``std = sqrt(τ_int)`` × the white-noise standard deviation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import field
+from typing import Any
+
+import numpy as np
+
+from optinav.core import earth as _earth
+from optinav.core.observability import analyze, format_combination, rref
+from optinav.core.optimize import Problem, minimize
+from optinav.core.results import Result
+from optinav.core.validate import as_rng
+from optinav.errors import OptinavError
+from optinav.rins.model import (PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals,
+                                sensor_attitude)
+from optinav.rins.process import SensorAttitude, motion_mask, sensor_attitude_from_imu
+
+__all__ = ["METHODS", "RinsCalibration", "calibrate", "prepare", "observability", "attitude_errors"]
+
+METHODS = ("lm", "pso", "axis", "none")
+SCALE = 1e-3  #: typical size of a non-orthogonality angle (rad), the column scaling of the rank test
+REL_TOL = 1e-3  #: rank tolerance of the first-order Jacobian (relative to its largest scaled singular value)
+PSO_PAPER = dict(n_particles=20, generations=150, w=0.8, c1=2.0, c2=2.0)
+
+
+# --- data preparation -----------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Prepared:
+    """Decimated epochs used by the residuals (epoch 0 = navigation start) and the full-rate attitude."""
+
+    t: np.ndarray
+    c_s_n: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    full: SensorAttitude
+    data: Any
+
+    @property
+    def pieces(self):
+        """Gimbal rotations (Z_t, Y_t) of the residual epochs, computed once."""
+        if getattr(self, "_pieces", None) is None:
+            self._pieces = chain_pieces(self.alpha, self.beta)
+        return self._pieces
+
+
+def prepare(data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None,
+            sa: SensorAttitude | None = None) -> Prepared:
+    """Align, integrate ``C_s^n`` once, and pick the residual epochs (``residual_rate`` Hz, epoch 0 kept).
+
+    window: optional ``(t0, t1)`` in s restricting the calibration epochs (e.g. one 16-position cycle).
+    """
+    if sa is None:
+        sa = sensor_attitude_from_imu(data, align_s=align_s)
+    t = sa.t
+    step = float(np.median(np.diff(t)))
+    stride = max(1, int(round(1.0 / (residual_rate * step)))) if residual_rate else 1
+    keep = np.zeros(t.size, bool)
+    keep[::stride] = True
+    if window is not None:
+        keep &= (t >= window[0]) & (t <= window[1])
+        keep[0] = True
+    idx = np.flatnonzero(keep)
+    return Prepared(t=t[idx], c_s_n=sa.c_s_n[idx], alpha=sa.alpha[idx], beta=sa.beta[idx], full=sa, data=data)
+
+
+def _motion_check(alpha, beta) -> None:
+    ra = np.ptp(alpha) if alpha.size else 0.0
+    rb = np.ptp(beta) if beta.size else 0.0
+    thr = np.radians(5.0)
+    if ra < thr and rb < thr:
+        raise OptinavError("no gimbal motion after the alignment: none of the six angles "
+                           f"({', '.join(PARAM_NAMES)}) can be calibrated", "record a rotation scheme turning "
+                           "both the inner (alpha) and the outer (beta) axis, e.g. the 16-position sequence")
+    if ra < thr or rb < thr:
+        moving, still = ("inner (alpha)", "outer (beta)") if rb < thr else ("outer (beta)", "inner (alpha)")
+        rep = observability(alpha, beta)
+        lost = [s.split(": ", 1)[1] for s in rep.statements if s.startswith("unobservable")]
+        raise OptinavError(f"only the {moving} axis turns, the {still} encoder stays still: "
+                           f"{'; '.join(lost)} cannot be calibrated (rank {rep.rank}/6)",
+                           "record a scheme turning both axes (if the axis did turn, its encoder channel is "
+                           "missing or frozen)")
+
+
+def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
+    """Gyros turning by large angles while both encoders report rest → a frozen encoder channel."""
+    idx = sa.index
+    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    rate = np.linalg.norm(dth, axis=1) / np.diff(sa.t)
+    moving = (motion_mask(sa.alpha) | motion_mask(sa.beta)).astype(float)
+    # the encoders see a move a little later/earlier than the gyros (slow start of a rate profile): widen it
+    w = max(1, int(round(2.0 / np.median(np.diff(sa.t)))))
+    still = (np.convolve(moving, np.ones(2 * w + 1), mode="same") == 0)[1:]
+    turning = rate > np.radians(1.0)  # far above Earth rate
+    bad = still & turning
+    if bad.sum() * np.median(np.diff(sa.t)) > 2.0:
+        k = int(np.flatnonzero(bad)[0])
+        raise OptinavError(f"the gyros turn at {np.degrees(rate[k]):.3g} °/s at t = {sa.t[k + 1]:.6g} s while "
+                           "both encoders report rest: an encoder channel is frozen or missing",
+                           "check the alpha/beta columns (and that they belong to this IMU recording)")
+
+
+# --- observability ------------------------------------------------------------------------------------------
+
+def observability(alpha, beta, p=None, sigma=1.0):
+    """First-order observability of the six angles for gimbal angles ``alpha``, ``beta`` (rad).
+
+    The Jacobian is evaluated on a noise-free chain following the given angles (so it does not depend on the
+    recording's errors); parameters scaled by :data:`SCALE`. Returns an ObservabilityReport.
+    """
+    p = np.zeros(6) if p is None else np.asarray(p, float)
+    stride = max(1, len(alpha) // 3000)  # the rank needs the shape of the trajectory, not every epoch
+    alpha, beta = np.asarray(alpha, float)[::stride], np.asarray(beta, float)[::stride]
+    cs = sensor_attitude(np.broadcast_to(np.eye(3), (len(alpha), 3, 3)), alpha, beta, p)
+    J = residual_jacobian(cs, alpha, beta, p)
+    # rel_tol 1e-3: encoder noise (~1″) makes exactly unobservable directions look 1e-5 × observable
+    return analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
+
+
+def _combinations(rep) -> tuple[np.ndarray, list[str]]:
+    """Estimable combinations as RREF rows of the observable subspace, and their names."""
+    null = np.asarray(rep.null_space, float)
+    if null.shape[1] == 0:
+        return np.eye(6), list(PARAM_NAMES)
+    u, s, vt = np.linalg.svd(null.T)
+    rowspace = vt[null.shape[1]:]  # orthogonal complement of the null space
+    C = rref(rowspace, 1e-8)
+    return C, [format_combination(c, PARAM_NAMES) for c in C]
+
+
+def _systematic_cov(prep: Prepared, p, V, gyro_misalignment: float, gyro_scale: float) -> np.ndarray:
+    """Covariance (rad²) of p̂ caused by unknown gyro scale/misalignment errors of the given 1σ.
+
+    A gyro triad error δK turns the measured rotations like a tilted gimbal axis, so it maps into the angles
+    one-to-one; propagated by re-integrating ``C_s^n`` with ``(I − δK)Δθ`` for each of the 9 elements and
+    one linearized step ``Δp = −(J V)⁺ Δr``.
+    """
+    from optinav.core.rotations import dcm_from_quat, quat_from_dcm
+    from optinav.core.strapdown import attitude_update
+
+    sa, data = prep.full, prep.data
+    if gyro_misalignment <= 0 and gyro_scale <= 0:
+        return np.zeros((6, 6))
+    dth = np.asarray(data.dtheta, float)[sa.index[1:]]
+    dt = np.diff(sa.t)
+    w_ie = _earth.earth_rate(data.lat, "enu")
+    q0 = quat_from_dcm(sa.c_s_n[0])
+    sel = np.searchsorted(sa.t, prep.t)
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
+    r0 = residuals(cs, a, b, p)
+    JV = residual_jacobian(cs, a, b, p) @ V
+    pinv = np.linalg.pinv(JV)
+    cov = np.zeros((6, 6))
+    for i in range(3):
+        for j in range(3):
+            sig = gyro_scale if i == j else gyro_misalignment
+            if sig <= 0:
+                continue
+            dK = np.zeros((3, 3))
+            dK[i, j] = sig
+            q = attitude_update(q0, dth - dth @ dK.T, coning="previous", omega_in_n=w_ie, dt=dt)
+            dr = residuals(dcm_from_quat(q[sel]), a, b, p) - r0
+            dp = V @ (-pinv @ dr)
+            cov += np.outer(dp, dp)
+    return cov
+
+
+def _autocorr_time(r: np.ndarray) -> float:
+    """Integrated autocorrelation time (samples) of the residual components, Sokal's window (c = 5)."""
+    taus = []
+    for x in np.atleast_2d(r.T):
+        x = x - x.mean()
+        n = x.size
+        if n < 8 or not np.any(x):
+            continue
+        f = np.fft.rfft(x, 2 * n)
+        acf = np.fft.irfft(f * np.conj(f))[:n]
+        acf = acf / acf[0]
+        tau = 1.0
+        for m in range(1, n):
+            tau = 1.0 + 2.0 * acf[1:m + 1].sum()
+            if m >= 5 * tau:
+                break
+        taus.append(max(tau, 1.0))
+    return float(np.mean(taus)) if taus else 1.0
+
+
+# --- the result ---------------------------------------------------------------------------------------------
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, np.ndarray):
+        return _plain(v.tolist())
+    if isinstance(v, (np.floating, float)):
+        f = float(v)
+        return f if math.isfinite(f) else None
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (np.bool_,)):
+        return bool(v)
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    return v
+
+
+@dataclasses.dataclass
+class RinsCalibration(Result):
+    """RESULT.json of ``optinav calibrate rins`` (flat layout; docs/methods/rins.md).
+
+    ``angles``: name → rad, or None when the angle is not individually observable (never calibrated);
+    ``angles_std``: 1σ (rad, autocorrelation-inflated) or None; ``combinations``: every estimable combination
+    ``{name, coefficients (θx…ηz), value (rad), std, crlb_std}``; ``observability``: ``{rank, singular_values,
+    null_space (vectors ordered θx, θy, θz, ηx, ηy, ηz), statements}``; ``p_used``: the six angles applied in
+    compensation (unobservable directions set to zero, they do not change the attitude change);
+    ``rmse_before_deg``/``rmse_after_deg``: RMS of [pitch, roll, yaw] of the extracted attitude change.
+    """
+
+    SCHEMA = "optinav.rins_calibration"
+    VERSION = 1
+    _FLAT = True
+
+    angles: dict = field(default_factory=dict, metadata={"unit": "rad"})
+    angles_std: dict = field(default_factory=dict, metadata={"unit": "rad"})
+    combinations: list = field(default_factory=list, metadata={"unit": "rad"})
+    observability: dict = field(default_factory=dict, metadata={"unit": "-"})
+    rmse_before_deg: list = field(default_factory=list, metadata={"unit": "deg"})
+    rmse_after_deg: list = field(default_factory=list, metadata={"unit": "deg"})
+    method: str = field(default="lm", metadata={"unit": "-"})
+    elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
+    p_used: list = field(default_factory=lambda: [0.0] * 6, metadata={"unit": "rad"})
+    fitness_history_deg: list = field(default_factory=list, metadata={"unit": "deg"})
+    correlation_time: float = field(default=1.0, metadata={"unit": "samples"})
+    n_epochs: int = field(default=0, metadata={"unit": ""})
+    residual_rate_hz: float = field(default=float("nan"), metadata={"unit": "Hz"})
+    options: dict = field(default_factory=dict, metadata={"unit": "-"})
+    source: str = field(default="", metadata={"unit": "-"})
+
+    def to_dict(self) -> dict:
+        from optinav import __version__
+
+        out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__}
+        for f in dataclasses.fields(self):
+            out[f.name] = _plain(getattr(self, f.name))
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "RinsCalibration":
+        if not isinstance(data, dict) or data.get("schema") != cls.SCHEMA:
+            raise OptinavError(f"not a rotational-INS calibration result (schema is not {cls.SCHEMA!r})",
+                               "pass the RESULT.json written by `optinav calibrate rins`")
+        if data.get("version") != cls.VERSION:
+            raise OptinavError(f"rins calibration result version {data.get('version')} is not supported",
+                               "re-run the calibration")
+        names = {f.name for f in dataclasses.fields(cls)}
+        kw = {k: v for k, v in data.items() if k in names}
+        for k in ("elapsed_s", "residual_rate_hz"):
+            if k in kw and kw[k] is None:
+                kw[k] = float("nan")
+        return cls(**kw)
+
+    @property
+    def p(self) -> np.ndarray:
+        """The six angles used for compensation (rad)."""
+        return np.asarray(self.p_used, float)
+
+    def summary(self) -> str:
+        lines = [f"optinav rotational-INS non-orthogonality calibration ({self.method}, {self.elapsed_s:.3g} s)"]
+        for nm in PARAM_NAMES:
+            v, s = self.angles.get(nm), self.angles_std.get(nm)
+            if v is None:
+                lines.append(f"  {nm:8s} = null (not observable individually)")
+            else:
+                lines.append(f"  {nm:8s} = {v: .6e} rad" + (f" ± {s:.2e}" if s is not None else ""))
+        for c in self.combinations:
+            if "+" in c["name"] or "−" in c["name"]:
+                std = c.get("std")
+                lines.append(f"  {c['name']} = {c['value']: .6e} rad" + (f" ± {std:.2e}" if std else ""))
+        for s in self.observability.get("statements", []):
+            lines.append(f"  observability: {s}")
+        b, a = self.rmse_before_deg, self.rmse_after_deg
+        lines.append("  attitude RMSE [pitch, roll, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
+                     + "; after " + ", ".join(f"{x:.4g}" for x in a))
+        return "\n".join(lines)
+
+
+# --- methods ---------------------------------------------------------------------------------------------------
+
+def attitude_errors(prep: Prepared, p) -> np.ndarray:
+    """[pitch, roll, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
+    return residuals(prep.c_s_n, prep.alpha, prep.beta, p).reshape(-1, 3)
+
+
+def _rms_deg(e) -> list:
+    return np.degrees(np.sqrt(np.mean(np.asarray(e) ** 2, axis=0))).tolist()
+
+
+def _fit_lm(prep, V, p_start=None):
+    """LM in the observable subspace p = V z; start from the linearized LS solution (one GN step from 0)."""
+    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    p0 = np.zeros(6) if p_start is None else np.asarray(p_start, float)
+    r0 = residuals(cs, a, b, p0, pieces=pc)
+    J0 = residual_jacobian(cs, a, b, p0, pieces=pc) @ V
+    z0 = -np.linalg.lstsq(J0, r0, rcond=None)[0]
+    prob = Problem(residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
+                   jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
+                   x0=z0, x_scale=SCALE, names=[f"z{i}" for i in range(V.shape[1])])
+    res = minimize(prob, "lm", xtol=1e-10, ftol=1e-10)
+    return p0 + V @ res.x, res
+
+
+def _fit_pso(prep, rng, search: float, small_angle: bool, options: dict):
+    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    # the paper's V ∈ [−1, 1] in units of 5 % of the search half-width (±1 rad steps would overshoot mrad angles)
+    opts = {**PSO_PAPER, "v_max": 0.05 * search, **options}
+    prob = Problem(residuals=lambda p: residuals(cs, a, b, p, small_angle, pc),
+                   residuals_batch=lambda P: residuals(cs, a, b, P, small_angle, pc),
+                   x0=np.zeros(6), search_interval=(np.full(6, -search), np.full(6, search)),
+                   names=list(PARAM_NAMES))
+    res = minimize(prob, "pso", rng=rng, final_jacobian=False, **opts)
+    return res.x, res
+
+
+def axis_vectors(p, alpha_out) -> tuple[np.ndarray, np.ndarray]:
+    """Model axis directions in the IMU frame: inner ``C_h1^s e_z`` (3,), outer ``C_h1^s R_z(α)ᵀ C_h2^h0 e_y``
+    at the inner angles ``alpha_out`` (K, 3)."""
+    A, B = nonorth_dcm(p[0:3]), nonorth_dcm(p[3:6])
+    Z, _ = chain_pieces(np.asarray(alpha_out, float), np.zeros(len(alpha_out)))
+    return A @ np.array([0.0, 0, 1]), (A @ Z @ B @ np.array([0.0, 1, 0])).reshape(-1, 3)
+
+
+def _measure_axes(prep: Prepared):
+    """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα)], outer [(u, Δβ, α)])."""
+    data, sa = prep.data, prep.full
+    idx = sa.index
+    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    dt = np.diff(sa.t)
+    w_ie = _earth.earth_rate(data.lat, "enu")
+    # Earth rate in the IMU frame along the strapdown attitude (start of each interval)
+    earth_s = np.einsum("kji,j->ki", sa.c_s_n[:-1], w_ie) * dt[:, None]
+    rel = dth - earth_s
+    out = {"Z": [], "Y": []}
+    for axis, ang, other in (("Z", sa.alpha, sa.beta), ("Y", sa.beta, sa.alpha)):
+        mv = motion_mask(ang)[1:]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], mv.astype(int), [0]])))
+        for s, e in zip(edges[::2], edges[1::2]):
+            s0, e1 = max(s - 5, 0), min(e + 5, mv.size)  # a few samples of margin: the move starts between rows
+            d_ang = ang[e1] - ang[s0]
+            if abs(d_ang) < np.radians(20) or np.ptp(other[s0:e1 + 1]) > np.radians(0.1):
+                continue
+            u = rel[s0:e1].sum(0) / d_ang
+            out[axis].append((u, d_ang, float(np.mean(other[s0:e1 + 1]))))
+    return out
+
+
+def _fit_axis(prep: Prepared, V):
+    """Axis-vector baseline: forward/reverse-averaged axis directions → first-order LS for p in span(V)."""
+    moves = _measure_axes(prep)
+    if not moves["Z"] or not moves["Y"]:
+        raise OptinavError("the axis method needs moves of both gimbals of at least 20°",
+                           "use a dual-axis scheme (or --method lm)")
+    rows, meas = [], []
+
+    def add(u_list, which):
+        # average forward and reverse moves (per inner angle for the outer axis) so drift terms cancel
+        groups: dict = {}
+        for u, d, other in u_list:
+            key = 0 if which == "Z" else int(np.round(np.degrees(other) / 90.0)) % 4
+            groups.setdefault(key, {1: [], -1: []})[int(np.sign(d))].append(u / np.linalg.norm(u))
+        for key, g in groups.items():
+            ends = [np.mean(g[s], axis=0) for s in (1, -1) if g[s]]
+            u = np.mean(ends, axis=0)
+            u /= np.linalg.norm(u)
+            a_in = np.radians(90.0 * key)
+            f = (lambda p: axis_vectors(p, [a_in])[0]) if which == "Z" else (lambda p: axis_vectors(p, [a_in])[1][0])
+            u0 = f(np.zeros(6))
+            H = np.stack([(f(SCALE * e) - f(-SCALE * e)) / (2 * SCALE) for e in np.eye(6)], axis=1)
+            rows.append(H)
+            meas.append(u - u0)
+
+    add(moves["Z"], "Z")
+    add(moves["Y"], "Y")
+    H = np.concatenate(rows) @ V
+    y = np.concatenate(meas)
+    z = np.linalg.lstsq(H, y, rcond=1e-8)[0]
+    return V @ z, {"n_inner_moves": len(moves["Z"]), "n_outer_moves": len(moves["Y"])}
+
+
+def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, residual_rate: float = 10.0,
+              align_s: float | None = None, window=None, rng=None, search: float = 0.01,
+              small_angle: bool = False, pso_options: dict | None = None, source: str = "",
+              gyro_misalignment: float = np.radians(5 / 3600), gyro_scale: float = 2e-6) -> RinsCalibration:
+    """Calibrate the six non-orthogonality angles from a :class:`~optinav.rins.simulate.RinsData` recording.
+
+    method: "lm" (default), "pso", "axis" or "none" (module docstring). residual_rate: Hz of the residual
+    epochs (the strapdown attitude is integrated at the full rate). search: PSO search half-width (rad),
+    also its velocity clamp. small_angle: PSO particles as the paper's linear matrices (eqs. 10–11).
+    prep: a :func:`prepare` result to reuse (C_s^n computed once for several methods).
+    gyro_misalignment (rad), gyro_scale (fraction): 1σ of the uncalibrated gyro triad errors, propagated into
+    the reported std (default the "rlg-nav" preset: 5″, 2 ppm); 0 leaves them out.
+    """
+    if method not in METHODS:
+        raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    t_start = time.perf_counter()
+    if prep is None:
+        if data is None:
+            raise OptinavError("calibrate needs data or prep", "pass a RinsData recording")
+        prep = prepare(data, residual_rate=residual_rate, align_s=align_s, window=window)
+    data = prep.data
+    _frozen_encoder_check(data, prep.full)
+    _motion_check(prep.alpha, prep.beta)
+    t_fit = time.perf_counter()
+    rep0 = observability(prep.alpha, prep.beta)
+    null = np.asarray(rep0.null_space, float)
+    _, s_, vt = np.linalg.svd(null.T) if null.shape[1] else (None, None, np.eye(6))
+    V = vt[null.shape[1]:].T if null.shape[1] else np.eye(6)  # orthonormal basis of the observable subspace
+    history: list = []
+    info: dict = {}
+    n_res = prep.alpha.size - 1
+    if method == "none":
+        p = np.zeros(6)
+    elif method == "lm":
+        p, res = _fit_lm(prep, V)
+        history = np.degrees(np.sqrt(np.asarray(res.history) / n_res)).tolist()
+        info = {"nfev": res.nfev, "njev": res.njev, "message": res.message}
+    elif method == "pso":
+        p_raw, res = _fit_pso(prep, as_rng(rng), search, small_angle, pso_options or {})
+        history = np.degrees(np.sqrt(np.asarray(res.history) / n_res)).tolist()
+        info = {"nfev": res.nfev, "p_raw": p_raw.tolist(), "small_angle": small_angle, "search": search,
+                **{k: v for k, v in res.options.items() if k in ("n_particles", "generations", "w", "c1", "c2")}}
+        p = V @ (V.T @ p_raw)  # the unobservable directions do not change the residuals; report none of them
+    else:
+        p, info = _fit_axis(prep, V)
+    elapsed = time.perf_counter() - t_fit
+    e_before = attitude_errors(prep, np.zeros(6))
+    e_after = attitude_errors(prep, p)
+    # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
+    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p)
+    r = e_after.ravel()
+    sigma = float(np.sqrt(np.mean(r**2))) if np.any(r) else 1e-12
+    tau = _autocorr_time(e_after)
+    rep = analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
+    cov_noise = np.asarray(rep.crlb) * tau
+    cov_sys = _systematic_cov(prep, p, V, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
+    cov = cov_noise + cov_sys
+    C, cnames = _combinations(rep0)
+    combos, angles, stds = [], {}, {}
+    for c, nm in zip(C, cnames):
+        sd = float(np.sqrt(max(c @ cov @ c, 0.0)))
+        combos.append({"name": nm, "coefficients": c.tolist(), "value": float(c @ p), "std": sd,
+                       "std_noise": float(np.sqrt(max(c @ cov_noise @ c, 0.0))),
+                       "std_gyro_errors": float(np.sqrt(max(c @ cov_sys @ c, 0.0))),
+                       "crlb_std": float(np.sqrt(max(c @ np.asarray(rep.crlb) @ c, 0.0)))})
+    for i, nm in enumerate(PARAM_NAMES):
+        ok = bool(rep0.observable[i]) and method != "none"
+        angles[nm] = float(p[i]) if ok else None
+        stds[nm] = float(np.sqrt(cov[i, i])) if ok else None
+    obs = {"rank": int(rep0.rank), "singular_values": np.asarray(rep0.singular_values).tolist(),
+           "null_space": np.asarray(rep0.null_space).T.tolist(), "statements": list(rep0.statements),
+           "observable": [bool(x) for x in rep0.observable], "scale_rad": SCALE}
+    return RinsCalibration(angles=angles, angles_std=stds, combinations=combos, observability=obs,
+                           rmse_before_deg=_rms_deg(e_before), rmse_after_deg=_rms_deg(e_after), method=method,
+                           elapsed_s=elapsed if method != "none" else time.perf_counter() - t_start,
+                           p_used=p.tolist(), fitness_history_deg=history, correlation_time=tau,
+                           n_epochs=int(prep.alpha.size), residual_rate_hz=float(residual_rate or np.nan),
+                           options=info, source=source)

@@ -1,0 +1,111 @@
+"""Rotational-INS data files: NPZ, CSV and HDF5 with the columns of docs/methods/rins.md.
+
+Columns (all SI): ``time`` (s, end of each increment interval), ``dtheta_x, dtheta_y, dtheta_z`` (rad, gyro
+increments over (t[k−1], t[k]]), ``dv_x, dv_y, dv_z`` (m/s), ``alpha`` (rad, inner encoder at t[k]),
+``beta`` (rad, outer encoder). Site: ``lat_deg`` and ``height_m`` — NPZ scalar arrays, HDF5 file attributes,
+or a CSV comment line ``# optinav rins: lat_deg=28.2 height_m=50``.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+from optinav.io.readers import read_table
+from optinav.rins.simulate import RinsData
+
+COLUMNS = ("time", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
+_FORMATS = {".npz": "npz", ".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5"}
+
+__all__ = ["COLUMNS", "write_rins", "read_rins"]
+
+
+def _fmt(path) -> str:
+    p = Path(path)
+    f = _FORMATS.get(p.suffix.lower())
+    if f is None:
+        raise OptinavError(f"{p.name}: unknown rotational-INS file type {p.suffix!r}",
+                           "use .npz, .csv or .h5 (see docs/methods/rins.md)")
+    return f
+
+
+def write_rins(path, data: RinsData) -> Path:
+    """Write ``data`` to ``path`` (format by suffix: .npz, .csv, .h5/.hdf5)."""
+    path = Path(path)
+    kind = _fmt(path)
+    cols = {"time": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
+            "dtheta_z": data.dtheta[:, 2], "dv_x": data.dv[:, 0], "dv_y": data.dv[:, 1], "dv_z": data.dv[:, 2],
+            "alpha": data.alpha, "beta": data.beta}
+    site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.h)}
+    if kind == "npz":
+        np.savez(path, **cols, **{k: np.array(v) for k, v in site.items()})
+    elif kind == "hdf5":
+        try:
+            import h5py
+        except ImportError:
+            raise OptinavError("writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv") from None
+        with h5py.File(path, "w") as fh:
+            for k, v in cols.items():
+                ds = fh.create_dataset(k, data=np.asarray(v, float))
+                ds.attrs["unit"] = {"time": "s", "dv_x": "m/s", "dv_y": "m/s", "dv_z": "m/s"}.get(k, "rad")
+            for k, v in site.items():
+                fh.attrs[k] = v
+    else:
+        table = np.column_stack([cols[c] for c in COLUMNS])
+        header = (f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
+                  "units: time=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS))
+        np.savetxt(path, table, delimiter=",", header=header, comments="# ", fmt="%.17g")
+    return path
+
+
+def _site_from_csv(path: Path) -> dict:
+    out = {}
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for _ in range(20):
+            line = fh.readline()
+            if not line.startswith("#"):
+                continue
+            for k, v in re.findall(r"(lat_deg|height_m)\s*=\s*([-+0-9.eE]+)", line):
+                out[k] = float(v)
+    return out
+
+
+def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = None) -> RinsData:
+    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat_deg``/``height_m`` override the file's."""
+    path = Path(path)
+    if not path.is_file():
+        raise OptinavError(f"data file {path} does not exist", "check the path")
+    kind = _fmt(path)
+    tab = read_table(path)
+    low = {k.lower().lstrip("/"): k for k in tab}
+    missing = [c for c in COLUMNS if c not in low]
+    if missing:
+        raise OptinavError(f"{path.name} has no column(s) {', '.join(missing)} (found: {', '.join(list(tab)[:12])})",
+                           f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)")
+    col = {c: np.asarray(tab[low[c]], dtype=float).ravel() for c in COLUMNS}
+    site = {}
+    if kind == "csv":
+        site = _site_from_csv(path)
+    elif kind == "npz":
+        with np.load(path, allow_pickle=False) as z:  # scalars (0-d arrays) are not table columns
+            site = {k: float(np.asarray(z[k]).ravel()[0]) for k in ("lat_deg", "height_m") if k in z.files}
+    else:
+        import h5py
+
+        with h5py.File(path, "r") as fh:
+            site = {k: float(fh.attrs[k]) for k in ("lat_deg", "height_m") if k in fh.attrs}
+    lat = lat_deg if lat_deg is not None else site.get("lat_deg")
+    if lat is None:
+        raise OptinavError(f"{path.name} does not state the latitude", "pass --lat DEG (the alignment needs it)")
+    h = height_m if height_m is not None else site.get("height_m", 0.0)
+    n = col["time"].size
+    for c in COLUMNS:
+        if col[c].size != n:
+            raise OptinavError(f"column {c} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
+                               "resample the encoder angles to the IMU epochs first")
+    return RinsData(t=col["time"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
+                    dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
+                    beta=col["beta"], lat=float(np.radians(lat)), h=float(h))

@@ -1,0 +1,154 @@
+"""Gimbal chain of a dual-axis rotational INS with non-orthogonality errors (Li et al. 2023, eqs. 1–6, 12–14).
+
+Frames (paper §1.1): n = East-North-Up; b = vehicle right-front-up; s = IMU (orthogonal, on the sensitive
+axes), fixed to the inner gimbal; h1 = inner frame (z_h1 on the inner axis, turns by α); h0 = inner-zero frame
+(h1 at α = 0, fixed to the outer gimbal); h2 = outer frame (y_h2 on the outer axis, turns by β, h2 = b at β = 0).
+These are exactly optinav's ``"enu"`` convention (docs/conventions.md: n ENU, b right-forward-up, Euler
+``C_b^n = R_z(yaw) R_x(pitch) R_y(roll)``).
+
+Chain (eq. 6)::
+
+    C_b^n = C_s^n · C_h1^s(θ) · C_h0^h1(α) · C_h2^h0(η) · C_b^h2(β)
+
+with ``C_h0^h1(α) = R_z(α)ᵀ`` (eq. 1 transposed), ``C_b^h2(β) = R_y(β)ᵀ`` (eq. 2, ``R_y`` the active rotation
+:func:`optinav.core.rotations.rot_y`). The non-orthogonality matrices are exact rotations (eq. 3)::
+
+    C_h1^s(θ) = (C_s^h1)ᵀ = R_z(θz) R_x(θx) R_y(θy),      C_h2^h0(η) = R_z(ηz) R_x(ηx) R_y(ηy)
+
+whose first-order forms are ``I + [θ×]`` and ``I + [η×]`` (eqs. 4, 5: ``C_s^h1 = I − [θ×]``);
+``small_angle=True`` uses those linear forms instead (as the paper's particles, eqs. 10–11).
+
+Residual (eqs. 12–14): the attitude change of the extracted vehicle attitude relative to the first epoch,
+``E_t = C̃_{b,0}^nᵀ C̃_{b,t}^n``, as Euler angles ``[pitch, roll, yaw]`` (PSINS ``m2att`` order) per epoch.
+On a static base the true ``E_t`` is the identity, so the paper's fitness is ``F = sqrt(Σ_t |e_t|² / T)``.
+
+Parameter vector ``p = [θx, θy, θz, ηx, ηy, ηz]`` (rad); every function takes ``p`` as (6,) or a batch (P, 6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optinav.core.rotations import rot_x, rot_y, rot_z, skew
+from optinav.errors import OptinavError
+
+__all__ = ["PARAM_NAMES", "nonorth_dcm", "chain_pieces", "vehicle_attitude", "attitude_change",
+           "euler_pr_y", "residuals", "residual_jacobian", "sensor_attitude"]
+
+#: parameter names in the order of ``p``
+PARAM_NAMES = ("theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z")
+
+
+def _params(p) -> tuple[np.ndarray, bool]:
+    p = np.asarray(p, dtype=float)
+    single = p.ndim == 1
+    p2 = np.atleast_2d(p)
+    if p2.ndim != 2 or p2.shape[1] != 6:
+        raise OptinavError(f"non-orthogonality parameters have shape {p.shape}, expected (6,) or (P, 6)",
+                           "pass [theta_x, theta_y, theta_z, eta_x, eta_y, eta_z] in rad")
+    return p2, single
+
+
+def nonorth_dcm(angles, small_angle: bool = False) -> np.ndarray:
+    """``R_z(a_z) R_x(a_x) R_y(a_y)`` (exact, eq. 3 transposed) or ``I + [a×]`` (eqs. 4–5 transposed).
+
+    angles: (..., 3) [a_x, a_y, a_z] in rad. Gives ``C_h1^s`` for θ and ``C_h2^h0`` for η.
+    """
+    a = np.asarray(angles, dtype=float)
+    if small_angle:
+        return np.eye(3) + skew(a)
+    return rot_z(a[..., 2]) @ rot_x(a[..., 0]) @ rot_y(a[..., 1])
+
+
+def chain_pieces(alpha, beta):
+    """``Z_t = C_h0^h1(α_t) = R_z(α)ᵀ`` and ``Y_t = C_b^h2(β_t) = R_y(β)ᵀ``, each (T, 3, 3)."""
+    return np.swapaxes(rot_z(np.asarray(alpha, float)), -1, -2), np.swapaxes(rot_y(np.asarray(beta, float)), -1, -2)
+
+
+def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> np.ndarray:
+    """Eq. 6: ``C_b^n`` (T, 3, 3), or (P, T, 3, 3) for a batch of parameter vectors.
+
+    c_s_n: (T, 3, 3) IMU attitude; alpha, beta: (T,) encoder angles (rad); p: (6,) or (P, 6) rad.
+    pieces: optional precomputed :func:`chain_pieces` (Z, Y) of these angles (saves their cost per call).
+    """
+    p2, single = _params(p)
+    Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
+    A = nonorth_dcm(p2[:, 0:3], small_angle)  # (P,3,3)
+    B = nonorth_dcm(p2[:, 3:6], small_angle)
+    c = np.asarray(c_s_n, float)
+    # stacked matmul is several times faster than einsum for 3×3 blocks
+    out = c[None] @ A[:, None]
+    out = out @ Z[None]
+    out = out @ B[:, None]
+    out = out @ Y[None]
+    return out[0] if single else out
+
+
+def sensor_attitude(c_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
+    """Inverse of eq. 6: ``C_s^n = C_b^n C_h2^b(β) C_h0^h2 C_h1^h0(α) C_s^h1`` (T, 3, 3) for one ``p`` (6,)."""
+    p = np.asarray(p, float)
+    Z, Y = chain_pieces(alpha, beta)
+    A = nonorth_dcm(p[0:3], small_angle)
+    B = nonorth_dcm(p[3:6], small_angle)
+    tr = lambda m: np.swapaxes(m, -1, -2)  # noqa: E731
+    return np.asarray(c_b_n, float) @ tr(Y) @ B.T @ tr(Z) @ A.T
+
+
+def euler_pr_y(c) -> np.ndarray:
+    """``[pitch, roll, yaw]`` (rad) of ``C = R_z(yaw) R_x(pitch) R_y(roll)`` (ENU convention, PSINS m2att order)."""
+    c = np.asarray(c, float)
+    pitch = np.arcsin(np.clip(c[..., 2, 1], -1.0, 1.0))
+    roll = np.arctan2(-c[..., 2, 0], c[..., 2, 2])
+    yaw = np.arctan2(-c[..., 0, 1], c[..., 1, 1])
+    return np.stack([pitch, roll, yaw], axis=-1)
+
+
+def attitude_change(c_b_n) -> np.ndarray:
+    """``E_t = C_{b,0}^nᵀ C_{b,t}^n`` for (..., T, 3, 3) attitudes (eqs. 12–14, relative to the first epoch)."""
+    c = np.asarray(c_b_n, float)
+    return np.swapaxes(c[..., :1, :, :], -1, -2) @ c
+
+
+def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> np.ndarray:
+    """Eqs. 12–14: Euler angles [pitch, roll, yaw] of ``E_t`` for t ≥ 1, flattened (3(T−1),) or (P, 3(T−1))."""
+    p2, single = _params(p)
+    e = euler_pr_y(attitude_change(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)))[:, 1:]
+    e = e.reshape(p2.shape[0], -1)
+    return e[0] if single else e
+
+
+def _param_axes(a: np.ndarray) -> np.ndarray:
+    """Right-perturbation axes: ``∂(R_z R_x R_y)/∂a_k = (R_z R_x R_y)[w_k×]``; rows w_x, w_y, w_z (3, 3)."""
+    ry = rot_y(a[1])
+    rxy = rot_x(a[0]) @ ry
+    m = rot_z(a[2]) @ rxy
+    return np.stack([ry.T @ np.array([1.0, 0, 0]), np.array([0.0, 1, 0]), m.T @ np.array([0.0, 0, 1])])
+
+
+def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
+    """Analytic ∂r/∂p (3(T−1), 6) of :func:`residuals` for the exact chain.
+
+    A change of θ_k turns ``C̃_t`` on the right by ``v_t = (Z_t B Y_t)ᵀ w_k`` (η_k: ``v_t = Y_tᵀ u_k``), so
+    ``E_t`` turns on the right by ``d_t = v_t − E_tᵀ v_0``; the Euler rates follow from the body rate by
+    ``ω = [e_y, R_y(γ)ᵀe_x, R_y(γ)ᵀR_x(θ)ᵀe_z]·[γ̇, θ̇, ψ̇]`` (ENU Euler kinematics).
+    """
+    p = np.asarray(p, float)
+    Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
+    A = nonorth_dcm(p[0:3])
+    B = nonorth_dcm(p[3:6])
+    ZBY = Z @ B @ Y
+    c = (np.asarray(c_s_n, float) @ A) @ ZBY
+    E = c[0].T @ c
+    W = _param_axes(p[0:3])  # (3,3) rows
+    U = _param_axes(p[3:6])
+    v = np.concatenate([W @ ZBY, U @ Y], axis=1)  # rows (ZBY)ᵀw_k, Yᵀu_k: (T,6,3)
+    d = v - v[0] @ E  # rows E_tᵀ v_0
+    eul = euler_pr_y(E)
+    pitch, roll = eul[:, 0], eul[:, 1]
+    cr, sr, cp, sp = (x[:, None] for x in (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)))
+    wx, wy, wz = d[..., 0], d[..., 1], d[..., 2]
+    pitch_rate = cr * wx + sr * wz
+    yaw_rate = (cr * wz - sr * wx) / cp
+    roll_rate = wy - yaw_rate * sp
+    J = np.stack([pitch_rate, roll_rate, yaw_rate], axis=-1)  # (T, 6, [pitch, roll, yaw])
+    return np.transpose(J[1:], (0, 2, 1)).reshape(-1, 6)
