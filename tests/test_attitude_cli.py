@@ -69,3 +69,21 @@ def test_cli_attitude_errors(flight, capsys, extra, msg):
     assert main(["attitude", str(path), "--gyro-unit", "deg/s", "--out", str(folder / "x.csv")] + extra) == 2
     err = capsys.readouterr().err
     assert err.startswith("optinav: error:") and msg in err and err.count("\n") == 1
+
+
+def test_cli_simulate_flight_then_attitude(tmp_path, capsys):
+    """`optinav simulate flight` writes what `optinav attitude` reads; the heading follows the truth."""
+    data, out = tmp_path / "flight.csv", tmp_path / "att.csv"
+    assert main(["simulate", "flight", "--kind", "dynamic", "--duration", "20", "--seed", "3",
+                 "--out", str(data)]) == 0
+    msg = capsys.readouterr().err
+    e0 = msg.rsplit(":", 1)[1].strip()
+    truth = np.loadtxt(tmp_path / "flight.truth.csv", delimiter=",", skiprows=1)
+    assert main(["--quiet", "attitude", str(data), "--method", "mekf", "--pol-columns", "aop_deg,dop",
+                 "--aop-unit", "deg", "--lat", "38.8814192", "--lon", "121.528255", "--start-time",
+                 "2021-01-16T16:33:00+08:00", "--q0-deg", e0.replace(" ", ""), "--out", str(out)]) == 0
+    r = _read(out)
+    q = np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]])
+    yaw = np.degrees(euler_errors(q, truth[:, 1:]))[:, 2]
+    assert np.sqrt(np.mean(yaw ** 2)) < 2.0
+    assert main(["simulate", "flight", "--out", str(tmp_path / "f.npz")]) == 2

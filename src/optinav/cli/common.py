@@ -7,7 +7,7 @@ from optinav.io import parse_pairs, raw_units  # noqa: F401 - the CLI's spelling
 #: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
 #: ``register_calibrate(kinds)`` (a sensor/system under ``optinav calibrate``). Top-level commands of a system
 #: (``gfimu``, ``sun``, ``attitude``) are listed in ``main.COMMAND_MODULES`` instead.
-SYSTEM_MODULES = ["optinav.cli.rins", "optinav.cli.gfimu"]
+SYSTEM_MODULES = ["optinav.cli.rins", "optinav.cli.gfimu", "optinav.cli.attitude"]
 
 
 def register_system_hooks(kinds, hook: str) -> None:

@@ -23,13 +23,15 @@ def register_simulate(kinds) -> None:
             [rad]) and DATA's stem + '.truth.json' with the six true angles in rad."""),
         epilog=textwrap.dedent("""\
             example:
-              optinav simulate rins --nonorth 1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4 --unit rad --seed 1 --out rins.npz
+              (the paper's Table 3 angles, read as radians)
+              optinav simulate rins --nonorth=-0.000279,-0.000963,-0.002212,0.000721,-0.000806,-0.009205 --out rins.npz
               optinav calibrate rins rins.npz --out result.json
             schemes: psins16 (default), dual4, single4 (inner axis only), or steps such as 'Z+180,Y-180,Z-180,Y+180'
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--nonorth", required=True, metavar="TX,TY,TZ,EX,EY,EZ",
-                   help="true theta_x,theta_y,theta_z,eta_x,eta_y,eta_z (in --unit)")
+                   help="true theta_x,theta_y,theta_z,eta_x,eta_y,eta_z (in --unit); write --nonorth=-1e-4,... "
+                        "when the first value is negative")
     p.add_argument("--unit", choices=["rad", "deg"], default="rad", help="unit of --nonorth (default rad)")
     p.add_argument("--scheme", default="psins16", help="rotation scheme (default psins16)")
     p.add_argument("--cycles", type=int, default=1, help="repetitions of the scheme (default 1)")
@@ -99,7 +101,8 @@ def register_calibrate(kinds) -> None:
             not observable (for +-180 deg dual-axis schemes theta_z - eta_z and eta_y) are written as null."""),
         epilog=textwrap.dedent("""\
             example:
-              optinav simulate rins --nonorth 1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4 --unit rad --seed 1 --out rins.npz
+              (the paper's Table 3 angles, read as radians)
+              optinav simulate rins --nonorth=-0.000279,-0.000963,-0.002212,0.000721,-0.000806,-0.009205 --out rins.npz
               optinav calibrate rins rins.npz --method lm --out result.json --report rep
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
