@@ -6,7 +6,7 @@ import argparse
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options
+from optinav.cli.common import add_input_options, output_path
 from optinav.io import parse_pairs, raw_units
 from optinav.errors import OptinavError
 
@@ -36,9 +36,7 @@ def run(args) -> int:
     from optinav.multipos.result import CalibrationResult
 
     res = CalibrationResult.from_json(args.result)
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out)
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,

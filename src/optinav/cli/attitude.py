@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.cli.common import add_input_options, parse_pairs
+from optinav.cli.common import add_input_options, output_path, parse_pairs
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("qn", "gd", "cg", "mekf")
@@ -110,11 +110,7 @@ def run(args) -> int:
 
     options = _options(args.option)
     check_options(args.method, options)  # fail before reading the data
-    out = Path(args.out)
-    if out.suffix.lower() != ".csv":
-        raise OptinavError(f"--out {out} is not a .csv file", "name the output ATTITUDE.csv")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out, (".csv",), "ATTITUDE.csv")
     if args.report:
         from optinav.reports import prepare_report_dir
         prepare_report_dir(args.report)
@@ -234,11 +230,7 @@ def register_simulate(kinds) -> None:
 def run_simulate_flight(args) -> int:
     from optinav.attitude.simulate import simulate_flight
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".csv":
-        raise OptinavError(f"--out {out.name} is not a .csv file", "name the output like flight.csv")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out, (".csv",), "flight.csv")
     bias = None
     if args.gyro_bias:
         try:

@@ -5,10 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-from pathlib import Path
 
-from optinav.cli.common import add_input_options, register_system_hooks
-from optinav.errors import OptinavError
+from optinav.cli.common import add_input_options, output_path, register_system_hooks
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -84,11 +82,7 @@ def add_calibration_options(a) -> None:
 def run_accel(args) -> int:
     from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".json":
-        raise OptinavError(f"--out {out} is not a .json file", "name the result file RESULT.json")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out, (".json",), "RESULT.json")
     if args.report:
         from optinav.reports import prepare_report_dir
         prepare_report_dir(args.report)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from optinav.errors import OptinavError
 from optinav.io import parse_pairs, raw_units  # noqa: F401 - the CLI's spelling of the shared helpers
 
 #: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
@@ -33,3 +36,14 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     p.add_argument("--rate", type=float, help="sample rate in Hz for files without a time column")
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
+
+
+def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "") -> Path:
+    """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given) and an existing folder."""
+    out = Path(path)
+    if suffixes and out.suffix.lower() not in suffixes:
+        raise OptinavError(f"--out {out} is not a {'/'.join(suffixes)} file",
+                           f"name it like {example or 'out' + suffixes[0]}")
+    if not out.parent.exists():
+        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    return out

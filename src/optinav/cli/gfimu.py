@@ -11,8 +11,8 @@ import json
 import math
 import sys
 import textwrap
-from pathlib import Path
 
+from optinav.cli.common import output_path
 from optinav.errors import OptinavError
 
 
@@ -26,15 +26,6 @@ def _load_array(config: str | None, builtin_name: str | None):
     if not config:
         raise OptinavError("no configuration given", "pass CONFIG.json or --builtin cylinder10")
     return AccelerometerArray.load(config)
-
-
-def _check_out(path: str, suffixes: tuple[str, ...], what: str) -> Path:
-    out = Path(path)
-    if out.suffix.lower() not in suffixes:
-        raise OptinavError(f"--out {out} is not a {'/'.join(suffixes)} file", f"name the {what} e.g. x{suffixes[0]}")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
-    return out
 
 
 def _floats(text: str, n: int | None, name: str) -> list[float]:
@@ -86,7 +77,7 @@ def run_analyze(args) -> int:
     from optinav.gfimu.array import identifiability
 
     arr = _load_array(args.config, args.builtin)
-    out = _check_out(args.out, (".json",), "analysis") if args.out else None
+    out = output_path(args.out, (".json",), "analysis.json") if args.out else None
     idf = identifiability(arr)
     if not args.allow_deficient:
         idf.require(("linear",))
@@ -141,7 +132,7 @@ def run_simulate(args) -> int:
     from optinav.gfimu.turntable import simulate
 
     arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
-    out = _check_out(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data file")
+    out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
     rates = _floats(args.rates, None, "--rates")
     e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
          else InstallationErrors.random(arr.n, rng=args.seed + 1))
@@ -194,7 +185,7 @@ def run_calibrate(args) -> int:
     from optinav.gfimu.turntable import TurntableData, calibrate
 
     arr = _load_array(args.config, args.builtin)
-    out = _check_out(args.out, (".json",), "result file")
+    out = output_path(args.out, (".json",), "RESULT.json")
     identifiability(arr).require(("linear",))
     data = TurntableData.load(args.data, arr.n)
     if args.offset is None:

@@ -6,10 +6,10 @@ import argparse
 import json
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 
+from optinav.cli.common import output_path
 from optinav.errors import OptinavError
 
 
@@ -67,9 +67,7 @@ def run_simulate(args) -> int:
     from optinav.rins.model import PARAM_NAMES
     from optinav.rins.simulate import simulate_rins
 
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out)
     p = _parse_nonorth(args.nonorth, args.unit)
     arc = np.radians(1 / 3600)
     d = simulate_rins(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
@@ -122,11 +120,7 @@ def run_calibrate(args) -> int:
     from optinav.rins.calibrate import calibrate, prepare
     from optinav.rins.io import read_rins
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".json":
-        raise OptinavError(f"--out {out} is not a .json file", "name the result file RESULT.json")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out, (".json",), "RESULT.json")
     if args.report:
         from optinav.reports import prepare_report_dir
         prepare_report_dir(args.report)

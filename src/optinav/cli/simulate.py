@@ -8,8 +8,7 @@ import textwrap
 from pathlib import Path
 
 
-from optinav.cli.common import register_system_hooks
-from optinav.errors import OptinavError
+from optinav.cli.common import output_path, register_system_hooks
 
 
 def register(sub) -> None:
@@ -61,9 +60,7 @@ def run_accel_multipos(args) -> int:
     from optinav.io import ImuLog, write_imu
     from optinav.multipos.simulate import simulate_session
 
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    out = output_path(args.out)
     s = simulate_session(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
                          transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
                          height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,

@@ -21,6 +21,27 @@ from optinav.errors import OptinavError
 _REGISTRY: dict[str, type["Result"]] = {}
 
 
+def plain(value: Any) -> Any:
+    """``value`` as plain JSON types, for results with their own flat layout: arrays → lists, numpy scalars →
+    Python numbers, NaN/inf → ``None`` (JSON has no NaN), nested results → their ``to_dict()``."""
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, (np.floating, float)):
+        f = float(value)
+        return f if math.isfinite(f) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, dict):
+        return {str(k): plain(x) for k, x in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(x) for x in value]
+    if isinstance(value, Result):
+        return value.to_dict()
+    return value
+
+
 def _encode(value: Any) -> Any:
     if isinstance(value, Result):
         return value.to_dict()

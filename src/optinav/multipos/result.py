@@ -23,34 +23,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import field
-from typing import Any
 
 import numpy as np
 
-from optinav.core.results import Result
+from optinav.core.results import Result, plain
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
 MODEL = "raw = K x + b"
-
-
-def _plain(v: Any) -> Any:
-    if isinstance(v, np.ndarray):
-        return _plain(v.tolist())
-    if isinstance(v, (np.floating, float)):
-        f = float(v)
-        return f if math.isfinite(f) else None
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.bool_,)):
-        return bool(v)
-    if isinstance(v, dict):
-        return {str(k): _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    if isinstance(v, Result):
-        return v.to_dict()
-    return v
 
 
 def _nan(v):
@@ -112,7 +92,7 @@ class CalibrationResult(Result):
 
         out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__, "model": MODEL}
         for f in dataclasses.fields(self):
-            out[f.name] = _plain(getattr(self, f.name))
+            out[f.name] = plain(getattr(self, f.name))
         return out
 
     @classmethod

@@ -29,7 +29,6 @@ windowed estimate): ``std = sqrt(τ_int)`` × the white-noise standard deviation
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from dataclasses import field
 from typing import Any
@@ -39,7 +38,7 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core.observability import analyze, format_combination, rref
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import Result
+from optinav.core.results import Result, plain
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.rins.model import (PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals,
@@ -218,23 +217,6 @@ def _autocorr_time(r: np.ndarray) -> float:
 
 # --- the result ---------------------------------------------------------------------------------------------
 
-def _plain(v: Any) -> Any:
-    if isinstance(v, np.ndarray):
-        return _plain(v.tolist())
-    if isinstance(v, (np.floating, float)):
-        f = float(v)
-        return f if math.isfinite(f) else None
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.bool_,)):
-        return bool(v)
-    if isinstance(v, dict):
-        return {str(k): _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    return v
-
-
 @dataclasses.dataclass
 class RinsCalibration(Result):
     """RESULT.json of ``optinav calibrate rins`` (flat layout; docs/methods/rins.md).
@@ -272,7 +254,7 @@ class RinsCalibration(Result):
 
         out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__}
         for f in dataclasses.fields(self):
-            out[f.name] = _plain(getattr(self, f.name))
+            out[f.name] = plain(getattr(self, f.name))
         return out
 
     @classmethod
