@@ -65,6 +65,12 @@ def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
     tv = np.array(list(truth["coefficients"].values()))
     assert est.shape == (50,)
     assert np.abs((est - tv) / std).max() < 4.5
+    if suffix == ".npz":  # the report: every coefficient with its std, and the figure
+        rep = tmp_path / "rep"
+        assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out),
+                     "--report", str(rep)]) == 0
+        md = (rep / "index.md").read_text()
+        assert md.count("CRLB") >= 50 and "installation_errors.png" in md
 
 
 def test_calibrate_errors(tmp_path, capsys):
