@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.cli.common import add_input_options, output_path, parse_pairs
+from optinav.cli.common import add_input_options, output_path, parse_floats, parse_pairs
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("qn", "gd", "cg", "mekf")
@@ -149,12 +149,7 @@ def run(args) -> int:
         raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
     q0 = None
     if args.q0_deg:
-        try:
-            e = [float(x) for x in args.q0_deg.split(",")]
-        except ValueError:
-            e = []
-        if len(e) != 3:
-            raise OptinavError(f"--q0-deg {args.q0_deg!r} is not ROLL,PITCH,YAW", "write e.g. --q0-deg 0,0,90")
+        e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
         q0 = quat_from_euler(np.radians(e), args.frame.lower())
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
@@ -231,14 +226,7 @@ def run_simulate_flight(args) -> int:
     from optinav.attitude.simulate import simulate_flight
 
     out = output_path(args.out, (".csv",), "flight.csv")
-    bias = None
-    if args.gyro_bias:
-        try:
-            bias = np.radians([float(v) for v in args.gyro_bias.split(",")])
-        except ValueError:
-            bias = np.empty(0)
-        if bias.shape != (3,):
-            raise OptinavError(f"--gyro-bias {args.gyro_bias!r} is not three numbers", "write e.g. 0.3,-0.2,0.25")
+    bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"

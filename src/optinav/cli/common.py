@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from optinav.errors import OptinavError
@@ -47,3 +48,19 @@ def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = ""
     if not out.parent.exists():
         raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
     return out
+
+
+def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
+    """``"0.5,1.0"`` → ``[0.5, 1.0]`` for a comma-list option: finite numbers, exactly ``n`` of them when given.
+
+    ``names`` (e.g. ``"ROLL,PITCH,YAW"``) is the spelling shown in the error's remedy."""
+    form = names or ",".join(["X"] * (n or 2))
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise OptinavError(f"{option} {text!r} is not a comma list of numbers", f"write {option} {form}") from None
+    if n is not None and len(vals) != n:
+        raise OptinavError(f"{option} needs {n} numbers ({form}), got {len(vals)}", f"write {option} {form}")
+    if not all(math.isfinite(v) for v in vals):
+        raise OptinavError(f"{option} has a non-finite number", "give finite numbers")
+    return vals

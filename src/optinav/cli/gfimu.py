@@ -12,7 +12,7 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import output_path
+from optinav.cli.common import output_path, parse_floats
 from optinav.errors import OptinavError
 
 
@@ -26,18 +26,6 @@ def _load_array(config: str | None, builtin_name: str | None):
     if not config:
         raise OptinavError("no configuration given", "pass CONFIG.json or --builtin cylinder10")
     return AccelerometerArray.load(config)
-
-
-def _floats(text: str, n: int | None, name: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise OptinavError(f"{name} {text!r} is not a comma list of numbers", f"write e.g. {name} 0.5,1.0") from None
-    if n is not None and len(vals) != n:
-        raise OptinavError(f"{name} needs {n} numbers, got {len(vals)}", f"write {n} comma-separated numbers")
-    if not all(math.isfinite(v) for v in vals):
-        raise OptinavError(f"{name} has a non-finite number", "give finite numbers")
-    return vals
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -133,10 +121,10 @@ def run_simulate(args) -> int:
 
     arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
     out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
-    rates = _floats(args.rates, None, "--rates")
+    rates = parse_floats(args.rates, None, "--rates", "W1,W2")
     e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
          else InstallationErrors.random(arr.n, rng=args.seed + 1))
-    off = _floats(args.offset, 3, "--offset") if args.offset else None
+    off = parse_floats(args.offset, 3, "--offset", "X,Y,Z") if args.offset else None
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
@@ -194,7 +182,7 @@ def run_calibrate(args) -> int:
     elif args.offset.strip() == "estimate":
         offset = "estimate"
     else:
-        offset = _floats(args.offset, 3, "--offset")
+        offset = parse_floats(args.offset, 3, "--offset", "X,Y,Z")
     if args.noise is not None and not args.noise > 0:
         raise OptinavError("--noise must be positive", "give the accelerometer noise std in m/s^2")
     if not getattr(args, "quiet", False):

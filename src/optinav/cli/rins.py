@@ -9,8 +9,7 @@ import textwrap
 
 import numpy as np
 
-from optinav.cli.common import output_path
-from optinav.errors import OptinavError
+from optinav.cli.common import output_path, parse_floats
 
 
 def register_simulate(kinds) -> None:
@@ -52,13 +51,7 @@ def register_simulate(kinds) -> None:
 
 
 def _parse_nonorth(text: str, unit: str) -> np.ndarray:
-    try:
-        v = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise OptinavError(f"--nonorth {text!r} is not six comma-separated numbers",
-                           "write e.g. --nonorth 1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4") from None
-    if v.size != 6:
-        raise OptinavError(f"--nonorth has {v.size} values", "give theta_x,theta_y,theta_z,eta_x,eta_y,eta_z")
+    v = np.array(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
     return np.radians(v) if unit == "deg" else v
 
 
