@@ -18,6 +18,7 @@ import numpy as np
 from optinav.attitude.measurement import PolarizationMeasurement, default_c_b_m, predicted_aop
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
+from optinav.sky.polarization import wrap_axial
 
 __all__ = ["BroadTrial", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
 
@@ -89,5 +90,5 @@ def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop
     aop[ok] = predicted_aop(q[ok], s if s.ndim == 1 else s[ok], c_b_m, frame)
     if aop_noise:
         aop[ok] += as_rng(rng).normal(0.0, aop_noise, int(ok.sum()))
-    aop = (aop + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+    aop = wrap_axial(aop)
     return PolarizationMeasurement(aop, s, C_b_m=c_b_m, frame=frame, **options)

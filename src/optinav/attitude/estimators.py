@@ -28,7 +28,7 @@ from optinav.attitude import _kernels
 from optinav.attitude.measurement import (PolarizationMeasurement, _frame, default_c_b_m, up_vector, wrap_axial,
                                           predicted_aop)
 from optinav.core.results import Result
-from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_multiply
+from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_from_rotvec, quat_multiply
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
@@ -146,26 +146,17 @@ def initial_attitude(acc0, frame: str = "NED", pol: PolarizationMeasurement | No
     else:  # RFU body, ENU convention C = Rz(ψ)Rx(θ)Ry(φ): a = g·[−sin φ cos θ, sin θ, cos φ cos θ]
         roll, pitch = np.arctan2(-u[0], u[2]), np.arctan2(u[1], np.hypot(u[0], u[2]))
     q = quat_from_euler([roll, pitch, 0.0], frame.lower())
-    if pol is not None:
-        use, _ = pol.usable()
-        if use[index]:
-            yaws = np.radians(np.arange(-180.0, 180.0, 0.5))
-            qs = quat_multiply(_quat_about(up_vector(frame), yaws), q)
-            sn = pol.sun_n[index if pol.sun_n.shape[0] > 1 else 0]
-            pred = predicted_aop(qs, sn, pol.C_b_m, frame)
-            cost = np.abs(wrap_axial(pred - pol.aop[index]))
-            order = np.argsort(cost)
-            best = yaws[order[0]]
-            if abs(best) > np.pi / 2:
-                best = best - np.sign(best) * np.pi
-            q = quat_multiply(_quat_about(up_vector(frame), np.array([best]))[0], q)
+    if pol is not None and pol.select(slice(index, index + 1)).usable()[0][0]:
+        up = up_vector(frame)
+        yaws = np.radians(np.arange(-180.0, 180.0, 0.5))
+        qs = quat_multiply(quat_from_rotvec(yaws[:, None] * up), q)
+        sn = pol.sun_n[index if pol.sun_n.shape[0] > 1 else 0]
+        pred = predicted_aop(qs, sn, pol.C_b_m, frame)
+        best = yaws[np.argmin(np.abs(wrap_axial(pred - pol.aop[index])))]
+        if abs(best) > np.pi / 2:
+            best = best - np.sign(best) * np.pi
+        q = quat_multiply(quat_from_rotvec(best * up), q)
     return q / np.linalg.norm(q)
-
-
-def _quat_about(axis, angles) -> np.ndarray:
-    angles = np.asarray(angles, dtype=float)
-    h = 0.5 * angles
-    return np.column_stack([np.cos(h), np.sin(h)[:, None] * np.asarray(axis)[None, :]])
 
 
 def _pol_arrays(pol, n: int, frame: str):

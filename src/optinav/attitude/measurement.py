@@ -37,6 +37,7 @@ import numpy as np
 from optinav.attitude import _kernels
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
+from optinav.sky.polarization import wrap_axial
 
 __all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "FRAMES", "PolarizationMeasurement", "up_vector",
            "default_c_b_m", "measurement_error", "predicted_aop", "sun_elevation", "wrap_axial"]
@@ -64,12 +65,6 @@ def up_vector(frame: str = "NED") -> np.ndarray:
 def default_c_b_m(frame: str = "NED") -> np.ndarray:
     """Zenith-viewing mounting: :data:`DEFAULT_C_B_M` (NED, FRD body) or :data:`DEFAULT_C_B_M_ENU`."""
     return (DEFAULT_C_B_M if _frame(frame) == "NED" else DEFAULT_C_B_M_ENU).copy()
-
-
-def wrap_axial(angle) -> np.ndarray:
-    """Wrap an axial angle (rad) to [−π/2, π/2)."""
-    a = np.asarray(angle, dtype=float)
-    return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
 
 
 def sun_elevation(sun_n, frame: str = "NED") -> np.ndarray:

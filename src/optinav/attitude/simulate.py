@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from optinav.attitude.measurement import _frame, default_c_b_m, up_vector
 from optinav.core.imu_model import ImuSpec, preset
 from optinav.core.results import Result
-from optinav.core.rotations import dcm_from_euler, dcm_from_quat
+from optinav.core.rotations import dcm_from_euler, dcm_from_quat, ned_to_enu
 from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -99,13 +100,6 @@ class FlightData(Result):
                                        frame=self.frame, **options)
 
 
-def _frame(frame) -> str:
-    f = str(frame).upper()
-    if f not in ("NED", "ENU"):
-        raise OptinavError(f"unknown navigation frame {frame!r}", "use frame='NED' or frame='ENU'")
-    return f
-
-
 def _smooth_signal(rng, t, f_lo, f_hi, n_terms=3):
     # a sum of sinusoids with random frequencies and phases, normalized to unit peak over t
     f = rng.uniform(f_lo, f_hi, n_terms)
@@ -154,8 +148,7 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
     if frame == "ENU":
         eul[:, 2] = -eul[:, 2]  # the same heading in the ENU (counter-clockwise yaw) convention
-        pos = pos[:, [1, 0, 2]] * [1, 1, -1]
-        vel = vel[:, [1, 0, 2]] * [1, 1, -1]
+        pos, vel = ned_to_enu(pos), ned_to_enu(vel)
     conv = frame.lower()
     c = dcm_from_euler(eul, conv)
     bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
@@ -238,8 +231,6 @@ def simulate_flight(kind: str = "static", duration_s: float = 60.0, rate_hz: flo
                             temperature_c=temperature_c, delta_t=delta_t)
     sun_n = sp.sun_vector(conv)
 
-    from optinav.attitude.measurement import default_c_b_m
-
     c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
     if c_b_m.shape != (3, 3) or not np.allclose(c_b_m @ c_b_m.T, np.eye(3), atol=1e-9) or np.linalg.det(c_b_m) < 0:
         raise OptinavError("C_b_m is not a rotation matrix", "pass the sensor mounting C_b^m (orthonormal, det +1)")
@@ -251,8 +242,7 @@ def simulate_flight(kind: str = "static", duration_s: float = 60.0, rate_hz: flo
     if d_max is not None:
         kw["d_max"] = d_max
     if sky_model.lower() == "berry":
-        up_n = np.array([0.0, 0.0, -1.0]) if frame == "NED" else np.array([0.0, 0.0, 1.0])
-        kw["up"] = np.einsum("nij,j->ni", c_n_m, up_n)
+        kw["up"] = np.einsum("nij,j->ni", c_n_m, up_vector(frame))
         if neutral_distance is not None:
             kw["neutral_distance"] = neutral_distance
     sky = P.sky_polarization(sun_m, view_m, model=sky_model, **kw)

@@ -43,20 +43,20 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _row(r, i) -> dict:
+def _row(r, i, times, ned, enu) -> dict:
     def deg(a):
         return round(math.degrees(float(a[i])), 7)
 
     return {
-        "time_utc": str(r.time[i].astype("datetime64[ms]")) + "Z",
+        "time_utc": str(times[i].astype("datetime64[ms]")) + "Z",
         "zenith_deg": deg(r.zenith), "azimuth_deg": deg(r.azimuth), "elevation_deg": deg(r.elevation),
         "elevation_geometric_deg": deg(r.elevation_geometric), "declination_deg": deg(r.declination),
         "hour_angle_deg": deg(r.hour_angle), "right_ascension_deg": deg(r.right_ascension),
         "equation_of_time_min": round(float(r.equation_of_time[i]) / 60.0, 6),
         "earth_sun_distance_au": round(float(r.earth_sun_distance[i]), 10),
         "delta_t_s": round(float(r.delta_t[i]), 3), "refraction": bool(r.refraction),
-        "sun_ned": [round(float(v), 9) for v in r.sun_vector("ned")[i]],
-        "sun_enu": [round(float(v), 9) for v in r.sun_vector("enu")[i]],
+        "sun_ned": [round(float(v), 9) for v in ned[i]],
+        "sun_enu": [round(float(v), 9) for v in enu[i]],
     }
 
 
@@ -69,7 +69,8 @@ def run(args) -> int:
         raise OptinavError("--temperature without --pressure has no effect", "add --pressure MBAR for refraction")
     r = solar_position_deg(np.asarray(args.time, dtype=object), args.lat, args.lon, args.height,
                            pressure_mbar=args.pressure, temperature_c=args.temperature, delta_t=args.delta_t)
-    rows = [_row(r, i) for i in range(len(args.time))]
+    times, ned, enu = r.time, r.sun_vector("ned"), r.sun_vector("enu")  # whole arrays: once, not per row
+    rows = [_row(r, i, times, ned, enu) for i in range(len(args.time))]
     out = {"lat_deg": args.lat, "lon_deg": args.lon, "height_m": args.height}
     data = [{**out, **row} for row in rows]
     print(json.dumps(data[0] if len(data) == 1 else data, indent=2))

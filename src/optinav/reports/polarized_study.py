@@ -49,6 +49,7 @@ def _mekf_options(spec, dyn: bool, pol_sigma: float) -> dict:
 def _run_flight(kind, duration, seed):
     from optinav.attitude import estimate_attitude
     from optinav.attitude.metrics import euler_errors
+    from optinav.sky.polarization import wrap_axial
     from optinav.attitude.simulate import simulate_flight
     from optinav.core.imu_model import preset
     from optinav.core.rotations import quat_conjugate, quat_multiply, rotvec_from_quat
@@ -56,7 +57,7 @@ def _run_flight(kind, duration, seed):
     d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(GYRO_BIAS_DEG_S))
     pol = d.polarization()
     ok = np.isfinite(d.aop) & np.isfinite(d.aop_true)
-    pol_sigma = float(np.std((d.aop[ok] - d.aop_true[ok] + np.pi / 2) % np.pi - np.pi / 2))
+    pol_sigma = float(np.std(wrap_axial(d.aop[ok] - d.aop_true[ok])))
     out = {"data": d, "pol_sigma": pol_sigma}
     for m in METHODS:
         opts = dict(QN_FLIGHT) if m == "qn" else {}
@@ -73,13 +74,10 @@ def _run_flight(kind, duration, seed):
     return out
 
 
-def _stats(e, skip):
-    x = e[skip:]
-    return {"mean": x.mean(0), "std": x.std(0), "max_abs": np.abs(x).max(0), "rms": np.sqrt(np.mean(x ** 2, 0))}
-
-
 @register_study("polarized")
 def run(quick: bool = False, rng=None) -> StudyResult:
+    from optinav.attitude.metrics import error_statistics
+
     t_start = time.perf_counter()
     seed0 = 11 if rng is None or not isinstance(rng, (int, np.integer)) else int(rng)
     dur_s, dur_d = (60.0, 60.0) if quick else (300.0, 180.0)
@@ -110,7 +108,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     rows = []
     st = {}
     for m in METHODS:
-        s = _stats(static[m]["err"], skip_s)
+        s = error_statistics(static[m]["err"][skip_s:])
         st[m] = s
         for k, a in enumerate(ANGLES):
             rows.append([LABELS[m], a, f"{s['mean'][k]:+.4f}", f"{s['std'][k]:.4f}", f"{s['max_abs'][k]:.4f}",
@@ -141,8 +139,9 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     summary["static_mekf_nees"] = nees_static
 
     # Tables 2-3: dynamic
-    per_seed = {m: np.array([_stats(r[m]["err"], skip_s)["rms"] for r in dyn]) for m in METHODS}
-    per_seed_max = {m: np.array([_stats(r[m]["err"], skip_s)["max_abs"] for r in dyn]) for m in METHODS}
+    dyn_stats = {m: [error_statistics(r[m]["err"][skip_s:]) for r in dyn] for m in METHODS}
+    per_seed = {m: np.array([st["rms"] for st in dyn_stats[m]]) for m in METHODS}
+    per_seed_max = {m: np.array([st["max_abs"] for st in dyn_stats[m]]) for m in METHODS}
     rows2, rows3 = [], []
     for m in METHODS:
         mx, rm = per_seed_max[m].mean(0), per_seed[m].mean(0)

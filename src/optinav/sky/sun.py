@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from optinav.core.earth import check_frame
 from optinav.core.results import Result
 from optinav.core.units import DEG
 from optinav.errors import OptinavError
@@ -348,12 +349,9 @@ def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
     navigation frame ``"ned"`` (north, east, down) or ``"enu"`` (east, north, up); shape (..., 3)."""
     az, el = np.broadcast_arrays(np.asarray(azimuth, dtype=float), np.asarray(elevation, dtype=float))
     n, e, u = np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)
-    f = str(frame).lower()
-    if f == "ned":
+    if check_frame(frame) == "ned":
         return np.stack([n, e, -u], axis=-1)
-    if f == "enu":
-        return np.stack([e, n, u], axis=-1)
-    raise OptinavError(f"unknown navigation frame {frame!r}", "use 'ned' or 'enu'")
+    return np.stack([e, n, u], axis=-1)
 
 
 def _scalar(x, name, lo=-np.inf, hi=np.inf) -> float:
