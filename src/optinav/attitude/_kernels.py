@@ -191,8 +191,8 @@ def model_batch(q, acc, un, use_pol, sn, Cbm, aop, wpol, min_d2, mode, F, J, row
 
 
 @numba.njit(**_NJ)
-def _prepare(i, gyr, acc, dt, sn, ah):
-    """Per-sample: step, unit accelerometer direction (False if ‖a‖ = 0) and its norm."""
+def _prepare(i, acc, dt, ah):
+    """Per-sample: step h and ‖a‖; ``ah`` ← the unit accelerometer direction (left as it was when ‖a‖ = 0)."""
     h = dt[i] if dt.shape[0] > 1 else dt[0]
     na = math.sqrt(acc[i, 0] ** 2 + acc[i, 1] ** 2 + acc[i, 2] ** 2)
     if na > 0.0:
@@ -227,7 +227,7 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
     g = np.empty(4)
     qd = np.empty(4)
     for i in range(n):
-        h, na = _prepare(i, gyr, acc, dt, sn, ah)
+        h, na = _prepare(i, acc, dt, ah)
         wx, wy, wz = gyr[i, 0], gyr[i, 1], gyr[i, 2]
         qd[0] = 0.5 * (-q[1] * wx - q[2] * wy - q[3] * wz)
         qd[1] = 0.5 * (q[0] * wx + q[2] * wz - q[3] * wy)
@@ -324,7 +324,7 @@ def run_qn(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, rate_
     dq = np.empty(4)
     tmp = np.empty(4)
     for i in range(n):
-        h, na = _prepare(i, gyr, acc, dt, sn, ah)
+        h, na = _prepare(i, acc, dt, ah)
         wx, wy, wz = gyr[i, 0], gyr[i, 1], gyr[i, 2]
         _right_rotate(q, wx * h, wy * h, wz * h, dq, tmp)
         if na > 0.0:
@@ -527,7 +527,7 @@ def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_nois
     cap2 = max_heading_std * max_heading_std
     Ph = np.empty(6)
     for i in range(n):
-        h, na = _prepare(i, gyr, acc, dt, sn, ah)
+        h, na = _prepare(i, acc, dt, ah)
         wx, wy, wz = gyr[i, 0] - bias[0], gyr[i, 1] - bias[1], gyr[i, 2] - bias[2]
         _right_rotate(q, wx * h, wy * h, wz * h, dq, tmp)
         # P ← Φ P Φᵀ + Q with Φ = [[A, −h I], [0, I]], A = C(Δq)ᵀ: R = C(Δq), A[a, k] = R[k, a]. The exact

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude.measurement import PolarizationMeasurement, default_c_b_m, predicted_aop
+from optinav.attitude.measurement import PolarizationMeasurement, as_c_b_m, predicted_aop
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
@@ -84,7 +84,7 @@ def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop
     """
     q = np.asarray(q_ref, dtype=float)
     ok = np.all(np.isfinite(q), axis=1)
-    c_b_m = default_c_b_m(frame) if C_b_m is None else np.asarray(C_b_m, float)
+    c_b_m = as_c_b_m(C_b_m, frame)
     aop = np.full(q.shape[0], np.nan)
     s = np.asarray(sun_n, float)
     aop[ok] = predicted_aop(q[ok], s if s.ndim == 1 else s[ok], c_b_m, frame)

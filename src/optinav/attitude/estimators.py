@@ -25,8 +25,8 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
-from optinav.attitude.measurement import (PolarizationMeasurement, _frame, default_c_b_m, up_vector, wrap_axial,
-                                          predicted_aop)
+from optinav.attitude.measurement import (PolarizationMeasurement, _frame, as_c_b_m, default_c_b_m, predicted_aop,
+                                          up_vector, wrap_axial)
 from optinav.core.results import Result
 from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_from_rotvec, quat_multiply
 from optinav.core.units import G_STANDARD
@@ -262,7 +262,7 @@ class _Filter:
                  min_dop: float = 0.05, min_sun_separation: float = np.radians(10.0), **options):
         self.frame = _frame(frame)
         self.options = _options(self.METHOD, options)
-        self.C_b_m = default_c_b_m(self.frame) if C_b_m is None else np.asarray(C_b_m, dtype=float)
+        self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop,
                             min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)

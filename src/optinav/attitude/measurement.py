@@ -40,7 +40,7 @@ from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
 __all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "FRAMES", "PolarizationMeasurement", "up_vector",
-           "default_c_b_m", "measurement_error", "predicted_aop", "sun_elevation", "wrap_axial"]
+           "default_c_b_m", "as_c_b_m", "measurement_error", "predicted_aop", "sun_elevation", "wrap_axial"]
 
 #: C_b^m for a zenith-viewing sensor on a forward-right-down body: X_m = x_b (forward), Z_m = −z_b (up)
 DEFAULT_C_B_M = np.diag([1.0, -1.0, -1.0])
@@ -65,6 +65,16 @@ def up_vector(frame: str = "NED") -> np.ndarray:
 def default_c_b_m(frame: str = "NED") -> np.ndarray:
     """Zenith-viewing mounting: :data:`DEFAULT_C_B_M` (NED, FRD body) or :data:`DEFAULT_C_B_M_ENU`."""
     return (DEFAULT_C_B_M if _frame(frame) == "NED" else DEFAULT_C_B_M_ENU).copy()
+
+
+def as_c_b_m(C_b_m, frame: str = "NED") -> np.ndarray:
+    """The sensor mounting C_b^m checked as a rotation matrix; ``None`` → :func:`default_c_b_m`."""
+    if C_b_m is None:
+        return default_c_b_m(frame)
+    c = as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
+    if c.shape != (3, 3) or not np.allclose(c @ c.T, np.eye(3), atol=1e-6) or np.linalg.det(c) < 0:
+        raise OptinavError("C_b_m is not a 3x3 rotation matrix", "pass the sensor mounting C_b^m (orthonormal)")
+    return c
 
 
 def sun_elevation(sun_n, frame: str = "NED") -> np.ndarray:
@@ -121,11 +131,7 @@ class PolarizationMeasurement:
             if d.shape != (n,):
                 raise OptinavError(f"dop has shape {d.shape}, expected ({n},)", "pass one degree per sample")
             self.dop = d
-        c = default_c_b_m(self.frame) if self.C_b_m is None else as_float_array(self.C_b_m, "C_b_m",
-                                                                                  last_dims=(3, 3))
-        if c.shape != (3, 3) or not np.allclose(c @ c.T, np.eye(3), atol=1e-6) or np.linalg.det(c) < 0:
-            raise OptinavError("C_b_m is not a 3x3 rotation matrix", "pass the sensor mounting C_b^m (orthonormal)")
-        self.C_b_m = c
+        self.C_b_m = as_c_b_m(self.C_b_m, self.frame)
         if self.valid is not None:
             v = np.asarray(self.valid)
             if v.shape != (n,):
@@ -174,7 +180,7 @@ def predicted_aop(q, sun_n, C_b_m=None, frame: str = "NED") -> np.ndarray:
     """
     from optinav.core.rotations import dcm_from_quat
 
-    c_b_m = default_c_b_m(frame) if C_b_m is None else np.asarray(C_b_m, dtype=float)
+    c_b_m = as_c_b_m(C_b_m, frame)
     q = as_float_array(q, "q", last_dims=(4,))
     s = as_float_array(sun_n, "sun_n", last_dims=(3,))
     s_b = np.einsum("...ji,...j->...i", dcm_from_quat(q), s)

@@ -400,12 +400,11 @@ def solar_position(time, lat, lon, height=0.0, *, pressure=None, temperature=285
     jd = julian_day(s)
     parts = []
     if s.size:
-        slow = _slow_terms_fast(jd + dts / 86400.0) if s.size > _CHUNK else None
+        slow = _slow_terms_fast(jd + dts / 86400.0)
         for i in range(0, s.size, _CHUNK):
             sl = slice(i, i + _CHUNK)
-            sl_terms = tuple(v[sl] for v in slow) if slow is not None else _slow_terms_fast(jd[sl] + dts[sl] / 86400.0)
             parts.append(_spa_block(jd[sl], dts[sl], lat / DEG, lon / DEG, height, p_mbar, t_c, refract, atmos,
-                                    sl_terms))
+                                    tuple(v[sl] for v in slow)))
     keys = ("elevation", "elevation_geometric", "azimuth", "declination", "declination_topocentric",
             "right_ascension", "hour_angle", "hour_angle_topocentric", "equation_of_time", "earth_sun_distance")
     out = {}
