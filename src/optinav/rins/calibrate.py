@@ -29,6 +29,7 @@ windowed estimate): ``std = sqrt(τ_int)`` × the white-noise standard deviation
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import field
 from typing import Any
@@ -66,12 +67,28 @@ class Prepared:
     full: SensorAttitude
     data: Any
 
-    @property
+    @functools.cached_property
     def pieces(self):
         """Gimbal rotations (Z_t, Y_t) of the residual epochs, computed once."""
-        if getattr(self, "_pieces", None) is None:
-            self._pieces = chain_pieces(self.alpha, self.beta)
-        return self._pieces
+        return chain_pieces(self.alpha, self.beta)
+
+    @functools.cached_property
+    def subspace(self):
+        """(observability report, V, C, names) of the gimbal motion — they depend on α, β only, so every
+        method run on this preparation shares them. The bad-input checks run here, once, on first use.
+        V: orthonormal basis (6, k) of the observable subspace; C, names: its RREF rows and their names."""
+        _frozen_encoder_check(self.data, self.full)
+        _motion_check(self.alpha, self.beta)
+        rep = observability(self.alpha, self.beta)
+        null = np.asarray(rep.null_space, float)
+        V = np.linalg.svd(null.T)[2][null.shape[1]:].T if null.shape[1] else np.eye(6)
+        C = rref(V.T, 1e-8)
+        return rep, V, C, [format_combination(c, PARAM_NAMES) for c in C]
+
+    @functools.cached_property
+    def _gyro_perturbed(self) -> dict:
+        """C_s^n at the residual epochs re-integrated with (I − δK)Δθ, per perturbed element and size."""
+        return {}
 
 
 def prepare(data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None,
@@ -147,23 +164,13 @@ def observability(alpha, beta, p=None, sigma=1.0):
     return analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
 
 
-def _combinations(rep) -> tuple[np.ndarray, list[str]]:
-    """Estimable combinations as RREF rows of the observable subspace, and their names."""
-    null = np.asarray(rep.null_space, float)
-    if null.shape[1] == 0:
-        return np.eye(6), list(PARAM_NAMES)
-    u, s, vt = np.linalg.svd(null.T)
-    rowspace = vt[null.shape[1]:]  # orthogonal complement of the null space
-    C = rref(rowspace, 1e-8)
-    return C, [format_combination(c, PARAM_NAMES) for c in C]
-
-
-def _systematic_cov(prep: Prepared, p, V, gyro_misalignment: float, gyro_scale: float) -> np.ndarray:
+def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro_scale: float) -> np.ndarray:
     """Covariance (rad²) of p̂ caused by unknown gyro scale/misalignment errors of the given 1σ.
 
     A gyro triad error δK turns the measured rotations like a tilted gimbal axis, so it maps into the angles
     one-to-one; propagated by re-integrating ``C_s^n`` with ``(I − δK)Δθ`` for each of the 9 elements and
-    one linearized step ``Δp = −(J V)⁺ Δr``.
+    one linearized step ``Δp = −(J V)⁺ Δr``. ``JV``, ``r0``: the residual Jacobian times V and the residuals
+    at ``p``. The re-integrated attitudes depend on the preparation only and are kept on it.
     """
     from optinav.core.rotations import dcm_from_quat, quat_from_dcm
     from optinav.core.strapdown import attitude_update
@@ -171,14 +178,7 @@ def _systematic_cov(prep: Prepared, p, V, gyro_misalignment: float, gyro_scale: 
     sa, data = prep.full, prep.data
     if gyro_misalignment <= 0 and gyro_scale <= 0:
         return np.zeros((6, 6))
-    dth = np.asarray(data.dtheta, float)[sa.index[1:]]
-    dt = np.diff(sa.t)
-    w_ie = _earth.earth_rate(data.lat, "enu")
-    q0 = quat_from_dcm(sa.c_s_n[0])
-    sel = np.searchsorted(sa.t, prep.t)
-    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
-    r0 = residuals(cs, a, b, p)
-    JV = residual_jacobian(cs, a, b, p) @ V
+    a, b = prep.alpha, prep.beta
     pinv = np.linalg.pinv(JV)
     cov = np.zeros((6, 6))
     for i in range(3):
@@ -186,10 +186,15 @@ def _systematic_cov(prep: Prepared, p, V, gyro_misalignment: float, gyro_scale: 
             sig = gyro_scale if i == j else gyro_misalignment
             if sig <= 0:
                 continue
-            dK = np.zeros((3, 3))
-            dK[i, j] = sig
-            q = attitude_update(q0, dth - dth @ dK.T, coning="previous", omega_in_n=w_ie, dt=dt)
-            dr = residuals(dcm_from_quat(q[sel]), a, b, p) - r0
+            cs = prep._gyro_perturbed.get((i, j, sig))
+            if cs is None:
+                dth = np.asarray(data.dtheta, float)[sa.index[1:]]
+                dK = np.zeros((3, 3))
+                dK[i, j] = sig
+                q = attitude_update(quat_from_dcm(sa.c_s_n[0]), dth - dth @ dK.T, coning="previous",
+                                    omega_in_n=_earth.earth_rate(data.lat, "enu"), dt=np.diff(sa.t))
+                cs = prep._gyro_perturbed[(i, j, sig)] = dcm_from_quat(q[np.searchsorted(sa.t, prep.t)])
+            dr = residuals(cs, a, b, p, pieces=prep.pieces) - r0
             dp = V @ (-pinv @ dr)
             cov += np.outer(dp, dp)
     return cov
@@ -301,7 +306,7 @@ class RinsCalibration(Result):
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
     """[pitch, roll, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
-    return residuals(prep.c_s_n, prep.alpha, prep.beta, p).reshape(-1, 3)
+    return residuals(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces).reshape(-1, 3)
 
 
 def _rms_deg(e) -> list:
@@ -420,13 +425,8 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
             raise OptinavError("calibrate needs data or prep", "pass a RinsData recording")
         prep = prepare(data, residual_rate=residual_rate, align_s=align_s, window=window)
     data = prep.data
-    _frozen_encoder_check(data, prep.full)
-    _motion_check(prep.alpha, prep.beta)
+    rep0, V, C, cnames = prep.subspace  # checks the input on first use
     t_fit = time.perf_counter()
-    rep0 = observability(prep.alpha, prep.beta)
-    null = np.asarray(rep0.null_space, float)
-    _, s_, vt = np.linalg.svd(null.T) if null.shape[1] else (None, None, np.eye(6))
-    V = vt[null.shape[1]:].T if null.shape[1] else np.eye(6)  # orthonormal basis of the observable subspace
     history: list = []
     info: dict = {}
     n_res = prep.alpha.size - 1
@@ -448,15 +448,15 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     e_before = attitude_errors(prep, np.zeros(6))
     e_after = attitude_errors(prep, p)
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
-    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p)
+    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces)
     r = e_after.ravel()
     sigma = float(np.sqrt(np.mean(r**2))) if np.any(r) else 1e-12
     tau = _autocorr_time(e_after)
     rep = analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
     cov_noise = np.asarray(rep.crlb) * tau
-    cov_sys = _systematic_cov(prep, p, V, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
+    cov_sys = (_systematic_cov(prep, p, V, J @ V, r, gyro_misalignment, gyro_scale) if method != "none"
+               else np.zeros((6, 6)))
     cov = cov_noise + cov_sys
-    C, cnames = _combinations(rep0)
     combos, angles, stds = [], {}, {}
     for c, nm in zip(C, cnames):
         sd = float(np.sqrt(max(c @ cov @ c, 0.0)))

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optinav.core.rotations import rot_x, rot_y, rot_z, skew
+from optinav.core.rotations import rot_x, rot_y, rot_z, small_angle_dcm
 from optinav.errors import OptinavError
 
 __all__ = ["PARAM_NAMES", "nonorth_dcm", "chain_pieces", "vehicle_attitude", "attitude_change",
@@ -56,7 +56,7 @@ def nonorth_dcm(angles, small_angle: bool = False) -> np.ndarray:
     """
     a = np.asarray(angles, dtype=float)
     if small_angle:
-        return np.eye(3) + skew(a)
+        return small_angle_dcm(a)
     return rot_z(a[..., 2]) @ rot_x(a[..., 0]) @ rot_y(a[..., 1])
 
 
