@@ -19,6 +19,9 @@ def test_noise_free_both_methods_exact():
     d = simulate(arr, e, noise=1e-12, duration=0.05, rng=0)
     np.testing.assert_allclose(closed_form(arr, d).vector(), e.vector(), atol=1e-8)
     np.testing.assert_allclose(calibrate(arr, d, sigma=1e-12).estimate, e.vector(), atol=1e-9)
+    for bad in (0.0, -1e-5):  # a wrong noise std would give a plausible result with a wrong std
+        with pytest.raises(OptinavError, match="sigma must be positive"):
+            calibrate(arr, d, sigma=bad)
 
 
 def test_paper_setup_errors_and_crlb():

@@ -183,8 +183,6 @@ def run_calibrate(args) -> int:
         offset = "estimate"
     else:
         offset = parse_floats(args.offset, 3, "--offset", "X,Y,Z")
-    if args.noise is not None and not args.noise > 0:
-        raise OptinavError("--noise must be positive", "give the accelerometer noise std in m/s^2")
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {arr.n} accelerometers from {len(data.t)} samples ({args.method}) ...",
               file=sys.stderr)

@@ -228,10 +228,11 @@ def _as_rows(x, name) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------------------
 
 def _rowspace(H: np.ndarray, tol: float = RANK_TOL) -> tuple[int, np.ndarray]:
-    """Rank and orthonormal basis (rank × n) of the row space of the column-normalized H (scale-invariant)."""
+    """Rank r and the right singular vectors (n × n) of the column-normalized H (scale-invariant): rows
+    ``[:r]`` span its row space, rows ``[r:]`` its null space."""
     _, s, vt = np.linalg.svd(H, full_matrices=True)
     r = int(np.count_nonzero(s > tol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
-    return r, vt[:r]
+    return r, vt
 
 
 @dataclass
@@ -267,10 +268,6 @@ class Identifiability(Result):
                 "unobservable": list(self.unobservable),
                 "unobservable_linear": list(self.unobservable_linear), "statements": list(self.statements),
                 "condition_linear": self.condition_linear}
-
-    @property
-    def full_linear(self) -> bool:
-        return self.rank_linear == 6
 
     def require(self, needed=("linear",)) -> None:
         """Raise a one-line :class:`OptinavError` naming what cannot be solved when [A, ω̇] is not identifiable."""
@@ -311,14 +308,14 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
     norms = np.linalg.norm(H, axis=0)
     D = np.where(norms > 0, norms, 1.0)
     Hs = H / D
-    rl, _ = _rowspace(Hs[:, :6])
+    rl, vt_l = _rowspace(Hs[:, :6])
     rq, _ = _rowspace(Hs[:, 6:])
-    rf, V = _rowspace(Hs)
+    rf, vt_all = _rowspace(Hs)
+    V, Vl = vt_all[:rf], vt_l[:rl]
     # estimable functionals cᵀ[x; q] ⇔ c ∈ rowspace(Hs) (in scaled coordinates, which keep zero patterns)
     P = V.T @ V
     solv_free = [LINEAR_NAMES[k] for k in range(6) if norms[k] > 0 and np.linalg.norm(P[:, k] - np.eye(12)[k]) < 1e-7]
     # with q known, [A, ω̇] components estimable from H_lin alone
-    _, Vl = _rowspace(Hs[:, :6])
     Pl = Vl.T @ Vl
     solv_rate = [LINEAR_NAMES[k] for k in range(6) if norms[k] > 0 and np.linalg.norm(Pl[:, k] - np.eye(6)[k]) < 1e-7]
     # quadratic combinations: a ∈ null(V[:, :6]ᵀ) → b = aᵀ V[:, 6:]
@@ -334,14 +331,12 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
     Bq = np.linalg.qr(B.T)[0].T if nq else B
     words_q = [format_combination(row, QUAD_NAMES, normalize=True) for row in rref(B)] if nq else []
     # unobservable directions of [x; q] (null space of Hs, RREF for readable words)
-    _, s_all, vt_all = np.linalg.svd(Hs, full_matrices=True)
     null = vt_all[rf:]
     unobs = []
     if null.shape[0]:
         N = rref(null)
         unobs = [format_combination(row / D, LINEAR_NAMES + QUAD_NAMES, normalize=True) for row in N]
     # words for the linear part only (with the rate known)
-    _, s_l, vt_l = np.linalg.svd(Hs[:, :6], full_matrices=True)
     null_l = vt_l[rl:]
     unobs_lin = ([format_combination(row / D[:6], LINEAR_NAMES, normalize=True) for row in rref(null_l)]
                  if null_l.shape[0] else [])

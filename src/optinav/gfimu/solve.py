@@ -31,12 +31,17 @@ RATE_METHODS = ("integration", "quadratic", "gauss-newton")
 DEFAULT_SIGMA = 1e-4
 
 
+def noise_sigma(sigma, n: int) -> np.ndarray:
+    """Accelerometer noise std (m/s², 1σ): one value or one per sensor, broadcast to (n,) and positive."""
+    s = np.broadcast_to(as_float_array(sigma, "sigma"), (n,)).astype(float)
+    if np.any(s <= 0):
+        raise OptinavError("sigma must be positive", "give the accelerometer noise std in m/s^2")
+    return s
+
+
 def _sigma(array: AccelerometerArray, sigma) -> np.ndarray:
     if sigma is not None:
-        s = np.broadcast_to(as_float_array(sigma, "sigma"), (array.n,)).astype(float)
-        if np.any(s <= 0):
-            raise OptinavError("sigma must be positive", "give the accelerometer noise std in m/s^2")
-        return s
+        return noise_sigma(sigma, array.n)
     return array.noise if array.noise is not None else np.full(array.n, DEFAULT_SIGMA)
 
 
@@ -162,12 +167,15 @@ def rate_quadratic(array: AccelerometerArray, f, t, omega0=None, *, prior_std: f
     w = _omega0(omega0).copy()
     out[0] = w
     ip = 1.0 / prior_std
+    LB, Lzk = Lz @ B, sol.z @ Lz.T  # the whitened design and observations, once for all epochs
+    J = np.zeros((LB.shape[0] + 3, 3))
+    J[LB.shape[0]:] = ip * np.eye(3)
     for k in range(1, f.shape[0]):
         pred = w + 0.5 * (sol.wdot[k] + sol.wdot[k - 1]) * (t[k] - t[k - 1])
         w = pred.copy()
         for _ in range(iterations):
-            r = np.concatenate([Lz @ (B @ quadratic_products(w) - sol.z[k]), ip * (w - pred)])
-            J = np.vstack([Lz @ B @ _dq(w), ip * np.eye(3)])
+            r = np.concatenate([LB @ quadratic_products(w) - Lzk[k], ip * (w - pred)])
+            J[:LB.shape[0]] = LB @ _dq(w)
             w = w - np.linalg.lstsq(J, r, rcond=None)[0]
         out[k] = w
     return out
@@ -193,16 +201,18 @@ def rate_gauss_newton(array: AccelerometerArray, f, t, omega0=None, *, prior_std
     x = np.linalg.lstsq(Hl, fw[0] - Hq @ quadratic_products(w), rcond=None)[0]
     om[0], A[0], wd[0] = w, x[:3], x[3:]
     ip = 1.0 / prior_std
+    Hl_pinv = np.linalg.pinv(Hl)  # rank [A, ω̇] = 6 (required above): the LS solve is this fixed matrix
+    J = np.zeros((array.n + 3, 9))  # constant blocks filled once; only ∂/∂ω of the quadratic terms changes
+    J[:array.n, :6] = Hl
+    J[array.n:, 6:] = ip * np.eye(3)
     for k in range(1, T):
         pred = w + x[3:] * (t[k] - t[k - 1])
         w = pred.copy()
         for _ in range(iterations):
-            x = np.linalg.lstsq(Hl, fw[k] - Hq @ quadratic_products(w), rcond=None)[0]
-            r = np.concatenate([fw[k] - Hl @ x - Hq @ quadratic_products(w), ip * (pred - w)])
-            J = np.zeros((len(r), 9))
-            J[:array.n, :6] = Hl
+            fq = fw[k] - Hq @ quadratic_products(w)
+            x = Hl_pinv @ fq
+            r = np.concatenate([fq - Hl @ x, ip * (pred - w)])
             J[:array.n, 6:] = Hq @ _dq(w)
-            J[array.n:, 6:] = ip * np.eye(3)
             step = np.linalg.lstsq(J, r, rcond=None)[0]
             x = x + step[:6]
             w = w + step[6:]

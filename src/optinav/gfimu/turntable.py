@@ -41,6 +41,7 @@ from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray
+from optinav.gfimu.solve import noise_sigma
 from optinav.gfimu.errors import (InstallationErrors, direction, direction_derivatives,
                                   errors_from_geometry, local_frames, perturb)
 
@@ -229,10 +230,6 @@ def case_means(data: TurntableData) -> CaseMeans:
     return CaseMeans(mnt, rate, mean, cnt, sigma)
 
 
-def _geometry_errors(nominal, positions, directions) -> InstallationErrors:
-    return errors_from_geometry(nominal, positions, directions)
-
-
 def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, gamma: float | None = None,
                 gravity: float | None = None) -> InstallationErrors:
     """The paper's closed-form solution (two rates per mounting, three mountings, offset 0)."""
@@ -260,7 +257,7 @@ def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, ga
     for i in range(nominal.n):
         M = np.array([th[i] @ (np.outer(u, u) - np.eye(3)) for u in U])
         pos[i] = np.linalg.lstsq(M, C[:, i], rcond=None)[0]
-    return _geometry_errors(nominal, pos, th)
+    return errors_from_geometry(nominal, pos, th)
 
 
 @dataclass
@@ -437,7 +434,7 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
             raise OptinavError("cannot estimate the accelerometer noise (one sample per case or constant outputs)",
                                "give the noise std (sigma / --noise)")
     else:
-        sig = np.broadcast_to(as_float_array(sigma, "sigma"), (nominal.n,)).astype(float)
+        sig = noise_sigma(sigma, nominal.n)  # a wrong σ would give a plausible result with a wrong std
     if fixed is not None:
         fk = np.broadcast_to(fixed, (3, 3))
         fixed = np.array([fk[int(m) - 1] for m in cm.mounting])
@@ -470,8 +467,6 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
             x0 = np.zeros(5 * nominal.n)
         if offset == "estimate":
             x0 = np.r_[x0, np.zeros(model.n_off)]
-            c = x0[:5 * nominal.n].reshape(-1, 5)[:, :3].mean(axis=0)
-            x0.reshape(-1)[:5 * nominal.n].reshape(-1, 5)[:, :3] -= c
             G = np.zeros((3, model.n_params))
             for i in range(nominal.n):
                 G[:, 5 * i:5 * i + 3] = np.eye(3)
