@@ -60,3 +60,13 @@ def test_closed_stdout_is_not_an_error():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 0, err
     assert "error" not in err
+
+
+def test_building_the_parser_loads_no_numpy():
+    """``optinav --help`` stays instant: command modules import numerical code only when a command runs."""
+    import subprocess
+    import sys
+
+    code = "import sys; from optinav.cli.main import build_parser; build_parser(); print('numpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

@@ -337,6 +337,11 @@ def test_hdf5_datasets_and_tables(tmp_path):
     assert log.gyro_unit == "counts" and log.gyro[0, 0] == 5
     with pytest.raises(OptinavError, match="no dataset 'imu/gyro' \\(datasets: camera, imu/acc, imu/gyro_raw, imu/t"):
         read_imu(tmp_path / "a.h5", datasets="t=imu/time,gyro=imu/gyro")
+    # read_imu and read_table share the datasets rules: names must be mapped, each once
+    with pytest.raises(OptinavError, match="datasets must map names"):
+        read_imu(tmp_path / "a.h5", datasets="t")
+    with pytest.raises(OptinavError, match="maps 't' twice"):
+        read_imu(tmp_path / "a.h5", datasets="t=imu/time,t=imu/acc")
     with h5py.File(tmp_path / "b.hdf5", "w") as f:
         f["log"] = np.column_stack([t, np.ones((6, 6))])
     assert read_imu(tmp_path / "b.hdf5", columns="t,gx,gy,gz,ax,ay,az").gyro.shape == (6, 3)

@@ -7,7 +7,6 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import add_input_options, output_path
-from optinav.io import parse_pairs, raw_units
 from optinav.errors import OptinavError
 
 
@@ -32,7 +31,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from optinav.io import ImuLog, read_imu, write_imu
+    from optinav.io import ImuLog, raw_units, read_imu, write_imu
     from optinav.multipos.result import CalibrationResult
 
     res = CalibrationResult.from_json(args.result)
@@ -40,7 +39,7 @@ def run(args) -> int:
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=parse_pairs(args.datasets),
+                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
     acc = gyro = None
     if res.accelerometer is not None and log.acc is not None:

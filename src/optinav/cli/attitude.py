@@ -7,9 +7,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
-
-from optinav.cli.common import add_input_options, output_path, parse_floats, parse_pairs
+from optinav.cli.common import add_input_options, output_path, parse_floats
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("qn", "gd", "cg", "mekf")
@@ -79,6 +77,8 @@ def _options(items) -> dict:
 
 
 def _sun(args, t, frame):
+    import numpy as np
+
     fixed = args.sun_azimuth is not None or args.sun_elevation is not None
     place = any(v is not None for v in (args.lat, args.lon, args.start_time))
     if fixed and place:
@@ -102,6 +102,8 @@ def _sun(args, t, frame):
 
 
 def run(args) -> int:
+    import numpy as np
+
     from optinav.attitude import PolarizationMeasurement, estimate_attitude
     from optinav.core.rotations import euler_from_quat, quat_from_euler
     from optinav.io import read_imu
@@ -115,7 +117,7 @@ def run(args) -> int:
         from optinav.reports import prepare_report_dir
         prepare_report_dir(args.report)
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=parse_pairs(args.datasets),
+                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
     if log.acc is None or log.gyro is None:
         raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
@@ -168,6 +170,8 @@ def run(args) -> int:
 
 
 def _report(res, t, eul, args):
+    import numpy as np
+
     from optinav.reports.report import Figure, StudyResult, Table, write_report
 
     rows = [["method", res.method], ["frame", res.frame], ["samples", int(t.size)],
@@ -223,6 +227,8 @@ def register_simulate(kinds) -> None:
 
 
 def run_simulate_flight(args) -> int:
+    import numpy as np
+
     from optinav.attitude.simulate import simulate_flight
 
     out = output_path(args.out, (".csv",), "flight.csv")

@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 
 from optinav.errors import OptinavError
-from optinav.io import parse_pairs, raw_units  # noqa: F401 - the CLI's spelling of the shared helpers
 
 #: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
 #: ``register_calibrate(kinds)`` (a sensor/system under ``optinav calibrate``). Top-level commands of a system

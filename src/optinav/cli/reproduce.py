@@ -7,8 +7,6 @@ import sys
 import textwrap
 import time
 
-import numpy as np
-
 from optinav.reports import available_studies, get_study, prepare_report_dir, write_report
 
 
@@ -37,6 +35,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     names = list(available_studies()) if args.study == "all" else [args.study]
     fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
     prepare_report_dir(args.out)

@@ -7,8 +7,6 @@ import json
 import sys
 import textwrap
 
-import numpy as np
-
 from optinav.cli.common import output_path, parse_floats
 
 
@@ -51,11 +49,15 @@ def register_simulate(kinds) -> None:
 
 
 def _parse_nonorth(text: str, unit: str) -> np.ndarray:
+    import numpy as np
+
     v = np.array(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
     return np.radians(v) if unit == "deg" else v
 
 
 def run_simulate(args) -> int:
+    import numpy as np
+
     from optinav.rins.io import write_rins
     from optinav.rins.model import PARAM_NAMES
     from optinav.rins.simulate import simulate_rins
@@ -133,6 +135,8 @@ def run_calibrate(args) -> int:
 
 def write_rins_report(res, prep, out_dir):
     """index.md/html + PNGs: angle table and the attitude-change curves before/after compensation."""
+    import numpy as np
+
     from optinav.reports.report import Figure, StudyResult, Table, write_report
     from optinav.rins.calibrate import attitude_errors
 

@@ -5,7 +5,7 @@ accelerometer in m/s² or counts, gyroscope in rad/s or counts); ``write_imu`` w
 NPZ, HDF5 or MAT. Formats, column aliases and units: docs/file-formats.md.
 """
 
-from optinav.io.imu import ALIASES, STANDARD_NAMES, ImuLog, parse_pairs, raw_units, read_imu, write_imu
+from optinav.io.imu import ALIASES, STANDARD_NAMES, ImuLog, raw_units, read_imu, write_imu
 from optinav.io.readers import read_table
 
-__all__ = ["read_table", "read_imu", "write_imu", "ImuLog", "STANDARD_NAMES", "ALIASES", "parse_pairs", "raw_units"]
+__all__ = ["read_table", "read_imu", "write_imu", "ImuLog", "STANDARD_NAMES", "ALIASES", "raw_units"]

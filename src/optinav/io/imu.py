@@ -19,7 +19,8 @@ from optinav.core.results import Result
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.readers import LABEL_COLUMNS, SKIP_NAMES, Table, load_table, normalize_name, parse_columns
+from optinav.io.readers import (LABEL_COLUMNS, SKIP_NAMES, Table, load_table, merge_datasets, normalize_name,
+                                parse_columns)
 
 __all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
 
@@ -248,13 +249,7 @@ def _std(name: str, what: str) -> str:
 
 def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
     positional, mapping = parse_columns(columns, what)
-    if datasets is not None:
-        _, extra = parse_columns(datasets, "datasets")
-        for k, v in extra.items():
-            if k in mapping and mapping[k] != v:
-                raise OptinavError(f"{k!r} is mapped by both {what} ({mapping[k]!r}) and datasets ({v!r})",
-                                   "map it once")
-            mapping[k] = v
+    merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
     table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
                        text_columns=LABEL_COLUMNS + label_sources)
@@ -585,19 +580,6 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("\n".join(head + body))
         fh.write("\n")
-
-
-def parse_pairs(text: str | None) -> dict | None:
-    """``"t=imu/time,acc=imu/acc"`` (the ``--datasets`` option) → ``{"t": "imu/time", "acc": "imu/acc"}``."""
-    if not text:
-        return None
-    out = {}
-    for item in text.split(","):
-        k, _, v = item.partition("=")
-        if not v:
-            raise OptinavError(f"--datasets entry {item!r} is not std=name", "write e.g. t=imu/time,acc=imu/acc")
-        out[k.strip()] = v.strip()
-    return out
 
 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:

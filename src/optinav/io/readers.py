@@ -133,6 +133,21 @@ def parse_columns(columns, what: str = "columns") -> tuple[list[str] | None, dic
 
 # --- public entry points ------------------------------------------------------------------------------------
 
+def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
+    """Add ``datasets`` (``{std: name}`` or ``"std=name,..."``) to the ``std=name`` ``mapping`` of ``what``."""
+    if datasets is None:
+        return mapping
+    _, extra = parse_columns(datasets, "datasets")
+    if not extra:
+        raise OptinavError("datasets must map names to dataset paths", "pass e.g. datasets={'t': '/imu/time'}")
+    for k, v in extra.items():
+        if k in mapping and mapping[k] != v:
+            raise OptinavError(f"{k!r} is mapped by both {what} ({mapping[k]!r}) and datasets ({v!r})",
+                               "map it once")
+        mapping[k] = v
+    return mapping
+
+
 def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
                text_columns: Sequence[str] = LABEL_COLUMNS) -> dict[str, np.ndarray]:
     """Read a data file into ``{name: array}``.
@@ -150,14 +165,7 @@ def read_table(path, *, columns=None, delimiter: str | None = None, datasets=Non
     named in ``text_columns`` (label columns, returned as str arrays); elsewhere they are an error.
     """
     positional, mapping = parse_columns(columns)
-    _, extra = parse_columns(datasets, "datasets") if datasets is not None else (None, {})
-    if datasets is not None and not extra:
-        raise OptinavError("datasets must map names to dataset paths", "pass e.g. datasets={'t': '/imu/time'}")
-    for k, v in extra.items():
-        if k in mapping and mapping[k] != v:
-            raise OptinavError(f"{k!r} is mapped by both columns ({mapping[k]!r}) and datasets ({v!r})",
-                               "map it once")
-        mapping[k] = v
+    merge_datasets(mapping, datasets)
     table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
                        text_columns=text_columns)
     if mapping:

@@ -31,7 +31,7 @@ from optinav.core.earth import gravity as normal_gravity
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io import parse_pairs, raw_units, read_imu
+from optinav.io import raw_units, read_imu
 
 from . import accel, model, static
 from .result import CalibrationResult
@@ -330,7 +330,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units."""
     o = options
     log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
-                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate=o.rate, datasets=parse_pairs(o.datasets),
+                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate=o.rate, datasets=o.datasets or None,
                    delimiter=o.delimiter)
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
