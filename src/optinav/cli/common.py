@@ -63,3 +63,15 @@ def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list
     if not all(math.isfinite(v) for v in vals):
         raise OptinavError(f"{option} has a non-finite number", "give finite numbers")
     return vals
+
+
+def write_truth(data_path, truth: dict) -> Path:
+    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path."""
+    import json
+
+    p = Path(data_path)
+    tp = p.with_name(p.stem + ".truth.json")
+    tmp = tp.with_name(tp.name + ".tmp")
+    tmp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
+    tmp.replace(tp)
+    return tp

@@ -12,7 +12,7 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import output_path, parse_floats
+from optinav.cli.common import output_path, parse_floats, write_truth
 from optinav.errors import OptinavError
 
 
@@ -132,8 +132,7 @@ def run_simulate(args) -> int:
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}
-    tp = out.with_name(out.stem + ".truth.json")
-    tp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
+    tp = write_truth(out, truth)
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 

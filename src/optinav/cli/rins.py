@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import textwrap
 
-from optinav.cli.common import output_path, parse_floats
+from optinav.cli.common import output_path, parse_floats, write_truth
 
 
 def register_simulate(kinds) -> None:
@@ -76,8 +75,7 @@ def run_simulate(args) -> int:
              "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
              "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
              "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = out.with_name(out.stem + ".truth.json")
-    tp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
+    tp = write_truth(out, truth)
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0

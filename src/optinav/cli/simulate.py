@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import textwrap
-from pathlib import Path
 
-
-from optinav.cli.common import output_path, register_system_hooks
+from optinav.cli.common import output_path, register_system_hooks, write_truth
 
 
 def register(sub) -> None:
@@ -50,11 +47,6 @@ def register(sub) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
-def truth_path(data_path) -> Path:
-    p = Path(data_path)
-    return p.with_name(p.stem + ".truth.json")
-
-
 def run_accel_multipos(args) -> int:
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
@@ -81,10 +73,7 @@ def run_accel_multipos(args) -> int:
              "gravity": s.gravity, "latitude_deg": args.latitude, "height_m": args.height,
              "static_intervals": s.static_intervals.tolist(), "up_dirs": s.up_dirs.tolist(),
              "poses": s.descriptions, "seed": args.seed, "preset": args.preset, "truth": args.truth}
-    tp = truth_path(out)
-    tmp = tp.with_name(tp.name + ".tmp")
-    tmp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
-    tmp.replace(tp)
+    tp = write_truth(out, truth)
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")
