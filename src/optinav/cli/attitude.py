@@ -7,7 +7,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options, output_path, parse_floats
+from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, parse_floats,
+                                prepare_report)
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("qn", "gd", "cg", "mekf")
@@ -59,7 +60,7 @@ def register(sub) -> None:
     pol.add_argument("--sun-elevation", type=float, metavar="DEG", help="fixed sun elevation, deg")
     pol.add_argument("--min-dop", type=float, default=0.05, help="skip samples with a lower DoP (default 0.05)")
     p.add_argument("--out", required=True, metavar="ATTITUDE.csv", help="output CSV")
-    p.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    add_report_option(p)
     p.set_defaults(func=run)
 
 
@@ -113,9 +114,7 @@ def run(args) -> int:
     options = _options(args.option)
     check_options(args.method, options)  # fail before reading the data
     out = output_path(args.out, (".csv",), "ATTITUDE.csv")
-    if args.report:
-        from optinav.reports import prepare_report_dir
-        prepare_report_dir(args.report)
+    prepare_report(args)
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                    time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
@@ -163,13 +162,11 @@ def run(args) -> int:
     np.savetxt(out, table, delimiter=",", header=header, comments="", fmt="%.9g")
     print(res.summary())
     print(f"optinav: attitude written to {out}")
-    if args.report:
-        path = _report(res, t, eul, args)
-        print(f"optinav: report written to {path}/index.md")
+    finish_report(args, lambda d: _report(res, t, eul, args.data, d))
     return 0
 
 
-def _report(res, t, eul, args):
+def _report(res, t, eul, source, out_dir):
     import numpy as np
 
     from optinav.reports.report import Figure, StudyResult, Table, write_report
@@ -189,11 +186,11 @@ def _report(res, t, eul, args):
             axs[k].grid(alpha=0.3)
         axs[-1].set_xlabel("t [s]")
 
-    study = StudyResult(name="attitude", title=f"Attitude of {Path(args.data).name} ({res.method})",
+    study = StudyResult(name="attitude", title=f"Attitude of {Path(source).name} ({res.method})",
                         description=res.summary(),
                         tables=[Table("Estimation summary", ["item", "value"], rows)],
                         figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))])
-    return write_report([study], args.report, title="optinav attitude")
+    return write_report([study], out_dir, title="optinav attitude")
 
 
 def register_simulate(kinds) -> None:

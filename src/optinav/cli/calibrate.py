@@ -6,7 +6,8 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import add_input_options, output_path, register_system_hooks
+from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, prepare_report,
+                                register_system_hooks)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -40,7 +41,7 @@ def register(sub) -> None:
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
-    a.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    add_report_option(a)
     a.set_defaults(func=run_accel)
     register_system_hooks(kinds, "register_calibrate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
@@ -83,9 +84,7 @@ def run_accel(args) -> int:
     from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
     out = output_path(args.out, (".json",), "RESULT.json")
-    if args.report:
-        from optinav.reports import prepare_report_dir
-        prepare_report_dir(args.report)
+    prepare_report(args)
     options = FileOptions.from_args(args)
     options.check()
     data = read_session_file(args.data, options)
@@ -95,8 +94,7 @@ def run_accel(args) -> int:
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")
-    if args.report:
-        from optinav.reports.calibration_report import write_calibration_report
-        path = write_calibration_report(res, data.t, data.acc, data.gyro, args.report)
-        print(f"optinav: report written to {path}/index.md")
+    from optinav.reports.calibration_report import write_calibration_report
+
+    finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyro, d))
     return 0

@@ -75,3 +75,22 @@ def write_truth(data_path, truth: dict) -> Path:
     tmp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
     tmp.replace(tp)
     return tp
+
+
+def add_report_option(p) -> None:
+    """``--report DIR`` of the commands that produce results."""
+    p.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+
+
+def prepare_report(args) -> None:
+    """Check (and create) the ``--report`` folder before any work, so a bad folder fails fast."""
+    if args.report:
+        from optinav.reports import prepare_report_dir
+
+        prepare_report_dir(args.report)
+
+
+def finish_report(args, write) -> None:
+    """``write(folder) -> path`` the report when ``--report`` was given, and say where it is."""
+    if args.report:
+        print(f"optinav: report written to {write(args.report)}/index.md")

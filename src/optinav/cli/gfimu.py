@@ -12,7 +12,7 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import output_path, parse_floats, write_truth
+from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
 from optinav.errors import OptinavError
 
 
@@ -164,7 +164,7 @@ def register_calibrate(kinds) -> None:
                                                      "(default 0; 'estimate' to try estimating it)")
     c.add_argument("--noise", type=float, metavar="M/S2", help="accelerometer noise std (default: from the data)")
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
-    c.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    add_report_option(c)
     c.set_defaults(func=run_calibrate)
 
 
@@ -185,16 +185,12 @@ def run_calibrate(args) -> int:
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {arr.n} accelerometers from {len(data.t)} samples ({args.method}) ...",
               file=sys.stderr)
-    if args.report:
-        from optinav.reports import prepare_report_dir
-        prepare_report_dir(args.report)
+    prepare_report(args)
     res = calibrate(arr, data, method=args.method, offset=offset, sigma=args.noise)
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")
-    if args.report:
-        path = write_gfimu_report(res, args.data, args.report)
-        print(f"optinav: report written to {path}/index.md")
+    finish_report(args, lambda d: write_gfimu_report(res, args.data, d))
     return 0
 
 

@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import output_path, parse_floats, write_truth
+from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
 
 
 def register_simulate(kinds) -> None:
@@ -105,7 +105,7 @@ def register_calibrate(kinds) -> None:
                    help="epochs per second of the attitude residuals (default 10)")
     p.add_argument("--seed", type=int, default=0, help="random seed of PSO (default 0)")
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
-    p.add_argument("--report", metavar="DIR", help="also write plots and index.md/index.html into DIR")
+    add_report_option(p)
     p.set_defaults(func=run_calibrate)
 
 
@@ -114,9 +114,7 @@ def run_calibrate(args) -> int:
     from optinav.rins.io import read_rins
 
     out = output_path(args.out, (".json",), "RESULT.json")
-    if args.report:
-        from optinav.reports import prepare_report_dir
-        prepare_report_dir(args.report)
+    prepare_report(args)
     data = read_rins(args.data, lat_deg=args.lat)
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
@@ -125,9 +123,7 @@ def run_calibrate(args) -> int:
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")
-    if args.report:
-        path = write_rins_report(res, prep, args.report)
-        print(f"optinav: report written to {path}/index.md")
+    finish_report(args, lambda d: write_rins_report(res, prep, d))
     return 0
 
 
