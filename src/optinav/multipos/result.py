@@ -26,7 +26,7 @@ from dataclasses import field
 
 import numpy as np
 
-from optinav.core.results import Result, plain
+from optinav.core.results import Result
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
@@ -65,6 +65,9 @@ class CalibrationResult(Result):
     SCHEMA = "optinav.calibration"
     VERSION = 1
     _FLAT = True
+    _FLAT_WHAT = "calibration result"
+    _FLAT_REMEDY = "pass the RESULT.json written by `optinav calibrate`"
+    _FLAT_EXTRA = {"model": MODEL}
 
     accelerometer: dict | None = field(default=None, metadata={"unit": "raw per m/s^2 | raw"})
     gyroscope: dict | None = field(default=None, metadata={"unit": "raw per rad/s | raw"})
@@ -86,32 +89,6 @@ class CalibrationResult(Result):
         if self.accelerometer is None and self.gyroscope is None:
             raise OptinavError("the calibration result has neither an accelerometer nor a gyroscope",
                                "pass a result file written by `optinav calibrate`")
-
-    def to_dict(self) -> dict:
-        from optinav import __version__
-
-        out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__, "model": MODEL}
-        for f in dataclasses.fields(self):
-            out[f.name] = plain(getattr(self, f.name))
-        return out
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "CalibrationResult":
-        if not isinstance(data, dict) or data.get("schema") != cls.SCHEMA:
-            raise OptinavError("not an optinav calibration result (schema is not 'optinav.calibration')",
-                               "pass the RESULT.json written by `optinav calibrate`")
-        if data.get("version") != cls.VERSION:
-            raise OptinavError(f"calibration result version {data.get('version')} is not supported "
-                               f"(this optinav reads version {cls.VERSION})", "re-run the calibration")
-        names = {f.name for f in dataclasses.fields(cls)}
-        kwargs = {k: v for k, v in data.items() if k in names}
-        for key in ("gravity", "residual_rms", "elapsed_s"):
-            if key in kwargs and kwargs[key] is None:
-                kwargs[key] = float("nan")
-        try:
-            return cls(**kwargs)
-        except TypeError as exc:
-            raise OptinavError(f"calibration result is incomplete ({exc})", "re-run the calibration") from None
 
     def correct_accel(self, raw) -> np.ndarray:
         """a = K⁻¹(raw − b) (m/s²) for raw (N, 3) in the calibrated input units."""

@@ -39,7 +39,7 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core.observability import analyze, format_combination, rref
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import Result, plain
+from optinav.core.results import Result
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.rins.model import (PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals,
@@ -237,6 +237,8 @@ class RinsCalibration(Result):
     SCHEMA = "optinav.rins_calibration"
     VERSION = 1
     _FLAT = True
+    _FLAT_WHAT = "rotational-INS calibration result"
+    _FLAT_REMEDY = "pass the RESULT.json written by `optinav calibrate rins`"
 
     angles: dict = field(default_factory=dict, metadata={"unit": "rad"})
     angles_std: dict = field(default_factory=dict, metadata={"unit": "rad"})
@@ -253,29 +255,6 @@ class RinsCalibration(Result):
     residual_rate_hz: float = field(default=float("nan"), metadata={"unit": "Hz"})
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
-
-    def to_dict(self) -> dict:
-        from optinav import __version__
-
-        out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__}
-        for f in dataclasses.fields(self):
-            out[f.name] = plain(getattr(self, f.name))
-        return out
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "RinsCalibration":
-        if not isinstance(data, dict) or data.get("schema") != cls.SCHEMA:
-            raise OptinavError(f"not a rotational-INS calibration result (schema is not {cls.SCHEMA!r})",
-                               "pass the RESULT.json written by `optinav calibrate rins`")
-        if data.get("version") != cls.VERSION:
-            raise OptinavError(f"rins calibration result version {data.get('version')} is not supported",
-                               "re-run the calibration")
-        names = {f.name for f in dataclasses.fields(cls)}
-        kw = {k: v for k, v in data.items() if k in names}
-        for k in ("elapsed_s", "residual_rate_hz"):
-            if k in kw and kw[k] is None:
-                kw[k] = float("nan")
-        return cls(**kw)
 
     @property
     def p(self) -> np.ndarray:
