@@ -6,8 +6,8 @@ sorted file-name order; hidden files (leading ".") and the batch's own output/jo
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
-Each unit runs :func:`optinav.multipos.calibrate.calibrate_file` (what ``optinav calibrate accel`` runs) in a
-worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed),
+Each unit runs :mod:`optinav.multipos.calibrate`'s ``read_session_file`` + ``calibrate_data`` (what ``optinav
+calibrate accel`` runs) in a worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed),
 in this process (``workers=0``), or a dask.distributed cluster (``scheduler="tcp://host:8786"``; the
 optional extra ``optinav[dask]``, imported only then). A unit's failure (an :class:`OptinavError` or any
 other exception) becomes a ``failed`` row with the one-line message; the other units continue.

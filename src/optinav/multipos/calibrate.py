@@ -13,8 +13,9 @@
 4. Gyroscope (when given): :func:`optinav.multipos.gyro.calibrate_gyro` on the same intervals, with the
    gravity directions measured by the calibrated accelerometer.
 
-``calibrate_file(path, FileOptions(...))`` reads one log and calibrates it with the options of
-``optinav calibrate accel`` (same names); the CLI command and ``optinav batch calibrate accel`` both run it.
+``read_session_file(path, FileOptions(...))`` reads one log and ``calibrate_data`` calibrates it with the options
+of ``optinav calibrate accel`` (same names) — the CLI command and ``optinav batch calibrate accel`` both run these
+two; ``calibrate_file`` chains them for library users.
 """
 
 from __future__ import annotations
