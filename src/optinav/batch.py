@@ -7,10 +7,11 @@ sorted file-name order; hidden files (leading ".") and the batch's own output/jo
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
 Each unit runs :mod:`optinav.multipos.calibrate`'s ``read_session_file`` + ``calibrate_data`` (what ``optinav
-calibrate accel`` runs) in a worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed),
-in this process (``workers=0``), or a dask.distributed cluster (``scheduler="tcp://host:8786"``; the
-optional extra ``optinav[dask]``, imported only then). A unit's failure (an :class:`OptinavError` or any
-other exception) becomes a ``failed`` row with the one-line message; the other units continue.
+calibrate accel`` runs) in a worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib,
+so no extra is needed), in this process (``workers=0``), or a dask.distributed cluster
+(``scheduler="tcp://host:8786"``; the optional extra ``optinav[dask]``, imported only then). A unit's failure
+(an :class:`OptinavError` or any other exception) becomes a ``failed`` row with the one-line message; the
+other units continue.
 
 Resume: every finished row is appended to the journal ``OUT.journal.jsonl`` (one JSON line, flushed and
 fsynced) before it counts as done; the output table is rebuilt from the journal and written atomically
