@@ -25,7 +25,7 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
-from optinav.attitude.measurement import (PolarizationMeasurement, _frame, as_c_b_m, default_c_b_m, predicted_aop,
+from optinav.attitude.measurement import (PolarizationMeasurement, _frame, as_c_b_m, pol_inputs, predicted_aop,
                                           up_vector, wrap_axial)
 from optinav.core.results import Result
 from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_from_rotvec, quat_multiply
@@ -160,20 +160,8 @@ def initial_attitude(acc0, frame: str = "NED", pol: PolarizationMeasurement | No
 
 
 def _pol_arrays(pol, n: int, frame: str):
-    if pol is None:
-        return (np.zeros(n, bool), np.array([[1.0, 0.0, 0.0]]), default_c_b_m(frame), np.zeros(n), np.zeros(n),
-                0.0, {})
-    if not isinstance(pol, PolarizationMeasurement):
-        raise OptinavError(f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
-                           "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)")
-    if pol.frame != frame:
-        raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
-    if len(pol) != n:
-        raise OptinavError(f"pol has {len(pol)} samples but the IMU has {n}", "align polarization with the IMU")
-    use, skipped = pol.usable()
-    aop = np.where(use, pol.aop, 0.0)
-    return (use, np.ascontiguousarray(pol.sun_n), np.ascontiguousarray(pol.C_b_m), np.cos(2 * aop),
-            np.sin(2 * aop), float(np.sin(pol.min_sun_separation) ** 2), skipped)
+    use, sn, cbm, aop, min_d2, skipped = pol_inputs(pol, n, frame, "the IMU")
+    return use, sn, cbm, np.cos(2 * aop), np.sin(2 * aop), min_d2, skipped
 
 
 def _init_state(method: str, q: np.ndarray, opts: dict) -> np.ndarray:

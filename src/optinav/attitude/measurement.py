@@ -189,6 +189,23 @@ def predicted_aop(q, sun_n, C_b_m=None, frame: str = "NED") -> np.ndarray:
     return wrap_axial(np.arctan2(-s_m[..., 0], s_m[..., 1]))
 
 
+def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
+    """The kernels' polarization inputs for ``n`` samples: (usable mask, sun_n, C_b_m, AoP with 0 where unusable,
+    sin² of the minimum sun separation, skipped counts); ``pol`` None gives "never usable"."""
+    if pol is None:
+        return np.zeros(n, bool), np.array([[1.0, 0.0, 0.0]]), default_c_b_m(frame), np.zeros(n), 0.0, {}
+    if not isinstance(pol, PolarizationMeasurement):
+        raise OptinavError(f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
+                           "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)")
+    if pol.frame != frame:
+        raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
+    if len(pol) != n:
+        raise OptinavError(f"pol has {len(pol)} samples but {what} has {n}", "align the polarization samples with it")
+    use, skipped = pol.usable()
+    return (use, np.ascontiguousarray(pol.sun_n), np.ascontiguousarray(pol.C_b_m), np.where(use, pol.aop, 0.0),
+            float(np.sin(pol.min_sun_separation) ** 2), skipped)
+
+
 def measurement_error(q, acc, *, pol: PolarizationMeasurement | None = None, frame: str = "NED",
                       jacobian: str = "quat", pol_weight: float = 1.0):
     """F(q) = [ε_b; ε_m] and its Jacobian at each sample (numpy face of the estimators' kernel).
@@ -209,20 +226,11 @@ def measurement_error(q, acc, *, pol: PolarizationMeasurement | None = None, fra
         raise OptinavError(f"q has {n} rows but acc has {acc.shape[0]}", "pass one accelerometer sample per q")
     if np.any(np.linalg.norm(acc, axis=1) == 0):
         raise OptinavError("acc contains zero vectors", "drop samples without accelerometer data")
-    if pol is not None:
-        if pol.frame != frame:
-            raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
-        if len(pol) != n:
-            raise OptinavError(f"pol has {len(pol)} samples but q has {n}", "align the polarization samples")
-        use, _ = pol.usable()
-        sn, cbm, aop = pol.sun_n, pol.C_b_m, np.nan_to_num(pol.aop)
-        min_d2 = np.sin(pol.min_sun_separation) ** 2
-    else:
-        use, sn, cbm, aop, min_d2 = np.zeros(n, bool), np.array([[1.0, 0, 0]]), np.eye(3), np.zeros(n), 0.0
+    use, sn, cbm, aop, min_d2, _ = pol_inputs(pol, n, frame, "q")
     ncol = 4 if jacobian == "quat" else 3
     F = np.full((n, 5), np.nan)
     J = np.full((n, 5, ncol), np.nan)
     rows = np.zeros(n, dtype=np.int64)
-    _kernels.model_batch(q, acc, up_vector(frame), use, np.ascontiguousarray(sn), np.ascontiguousarray(cbm), aop,
+    _kernels.model_batch(q, acc, up_vector(frame), use, sn, cbm, aop,
                          float(pol_weight), float(min_d2), _JAC_MODES[jacobian], F, J, rows)
     return F, J, rows
