@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from optinav.errors import OptinavError
-from optinav.io.readers import read_table
+from optinav.io.readers import load_table
 from optinav.rins.simulate import RinsData
 
 COLUMNS = ("time", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
@@ -76,22 +76,19 @@ def _site_from_csv(path: Path) -> dict:
 def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = None) -> RinsData:
     """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat_deg``/``height_m`` override the file's."""
     path = Path(path)
-    if not path.is_file():
-        raise OptinavError(f"data file {path} does not exist", "check the path")
     kind = _fmt(path)
-    tab = read_table(path)
-    low = {k.lower().lstrip("/"): k for k in tab}
-    missing = [c for c in COLUMNS if c not in low]
+    tab = load_table(path)
+    missing = [c for c in COLUMNS if tab.find(c) is None]
     if missing:
-        raise OptinavError(f"{path.name} has no column(s) {', '.join(missing)} (found: {', '.join(list(tab)[:12])})",
+        found = ", ".join(list(tab.data)[:12])
+        raise OptinavError(f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
                            f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)")
-    col = {c: np.asarray(tab[low[c]], dtype=float).ravel() for c in COLUMNS}
+    col = {c: np.asarray(tab.get(c), dtype=float).ravel() for c in COLUMNS}
     site = {}
     if kind == "csv":
         site = _site_from_csv(path)
-    elif kind == "npz":
-        with np.load(path, allow_pickle=False) as z:  # scalars (0-d arrays) are not table columns
-            site = {k: float(np.asarray(z[k]).ravel()[0]) for k in ("lat_deg", "height_m") if k in z.files}
+    elif kind == "npz":  # scalars (0-d arrays) are the table's metadata, not columns
+        site = {k: float(tab.meta[k]) for k in ("lat_deg", "height_m") if k in tab.meta}
     else:
         import h5py
 
