@@ -34,8 +34,8 @@ def run(args) -> int:
     from optinav.io import ImuLog, raw_units, read_imu, write_imu
     from optinav.multipos.result import CalibrationResult
 
-    res = CalibrationResult.from_json(args.result)
     out = output_path(args.out)
+    res = CalibrationResult.from_json(args.result)
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,

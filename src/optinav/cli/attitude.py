@@ -9,6 +9,7 @@ from pathlib import Path
 
 from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, parse_floats,
                                 prepare_report)
+from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("qn", "gd", "cg", "mekf")
@@ -159,7 +160,7 @@ def run(args) -> int:
     eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
-    np.savetxt(out, table, delimiter=",", header=header, comments="", fmt="%.9g")
+    write_csv(out, table, header, "%.9g")
     print(res.summary())
     print(f"optinav: attitude written to {out}")
     finish_report(args, lambda d: _report(res, t, eul, args.data, d))
@@ -229,14 +230,13 @@ def run_simulate_flight(args) -> int:
     from optinav.attitude.simulate import simulate_flight
 
     out = output_path(args.out, (".csv",), "flight.csv")
+    truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
-    np.savetxt(out, cols, delimiter=",", header=head, comments="", fmt="%.10g")
-    truth = out.with_name(out.stem + ".truth.csv")
-    np.savetxt(truth, np.column_stack([d.t, d.q_true]), delimiter=",", header="t,qw,qx,qy,qz", comments="",
-               fmt="%.12g")
+    write_csv(out, cols, head, "%.10g")
+    write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
           f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",

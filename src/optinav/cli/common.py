@@ -38,15 +38,16 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
 
 
-def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "") -> Path:
-    """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given) and an existing folder."""
+def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
+    """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given), not an input of the
+    command, not a folder, in an existing writable folder."""
+    from optinav.core.files import check_output
+
     out = Path(path)
     if suffixes and out.suffix.lower() not in suffixes:
-        raise OptinavError(f"--out {out} is not a {'/'.join(suffixes)} file",
+        raise OptinavError(f"{option} {out} is not a {'/'.join(suffixes)} file",
                            f"name it like {example or 'out' + suffixes[0]}")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
-    return out
+    return check_output(out, option)
 
 
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
@@ -65,15 +66,26 @@ def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list
     return vals
 
 
-def write_truth(data_path, truth: dict) -> Path:
-    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path."""
-    import json
+#: how every truth file written by :func:`write_truth` starts (so an existing one may be replaced)
+TRUTH_SIGNATURE = '{\n  "schema": "optinav.'
+
+
+def truth_path(data_path) -> Path:
+    """``STEM.truth.json`` beside ``data_path``, checked before any work: an existing file there is replaced only
+    when optinav wrote it."""
+    from optinav.core.files import check_sidecar
 
     p = Path(data_path)
-    tp = p.with_name(p.stem + ".truth.json")
-    tmp = tp.with_name(tp.name + ".tmp")
-    tmp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
-    tmp.replace(tp)
+    return check_sidecar(p.with_name(p.stem + ".truth.json"), TRUTH_SIGNATURE)
+
+
+def write_truth(data_path, truth: dict) -> Path:
+    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path; the
+    ``schema`` key comes first (default ``optinav.simulation_truth``)."""
+    from optinav.core.files import write_json
+
+    tp = truth_path(data_path)
+    write_json(tp, {"schema": truth.get("schema", "optinav.simulation_truth"), **truth})
     return tp
 
 

@@ -7,12 +7,12 @@ calibration of Hao & Liu (2011) and the calibration of the 5 installation errors
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import textwrap
 
-from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
+from optinav.cli.common import (add_report_option, finish_report, output_path, parse_floats, prepare_report,
+                                truth_path, write_truth)
 from optinav.errors import OptinavError
 
 
@@ -62,6 +62,8 @@ def register(sub) -> None:
 
 
 def run_analyze(args) -> int:
+    from optinav.core.files import write_json
+    from optinav.core.results import plain
     from optinav.gfimu.array import identifiability
 
     arr = _load_array(args.config, args.builtin)
@@ -73,7 +75,7 @@ def run_analyze(args) -> int:
     data["positions_m"] = arr.positions.tolist()
     data["directions"] = arr.directions.tolist()
     if out:
-        out.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+        write_json(out, plain(data))  # non-finite numbers (an unsolvable term's std) as null
     print(idf.summary())
     if out:
         print(f"optinav: analysis written to {out}")
@@ -121,6 +123,7 @@ def run_simulate(args) -> int:
 
     arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
     out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
+    truth_path(out)
     rates = parse_floats(args.rates, None, "--rates", "W1,W2")
     e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
          else InstallationErrors.random(arr.n, rng=args.seed + 1))
@@ -128,7 +131,7 @@ def run_simulate(args) -> int:
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
-    truth = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+    truth = {"schema": "optinav.gfimu_truth", "version": 1, "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}

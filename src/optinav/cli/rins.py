@@ -6,7 +6,8 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
+from optinav.cli.common import (add_report_option, finish_report, output_path, parse_floats, prepare_report,
+                                truth_path, write_truth)
 
 
 def register_simulate(kinds) -> None:
@@ -62,6 +63,7 @@ def run_simulate(args) -> int:
     from optinav.rins.simulate import simulate_rins
 
     out = output_path(args.out)
+    truth_path(out)
     p = _parse_nonorth(args.nonorth, args.unit)
     arc = np.radians(1 / 3600)
     d = simulate_rins(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import output_path, register_system_hooks, write_truth
+from optinav.cli.common import output_path, register_system_hooks, truth_path, write_truth
 
 
 def register(sub) -> None:
@@ -53,6 +53,7 @@ def run_accel_multipos(args) -> int:
     from optinav.multipos.simulate import simulate_session
 
     out = output_path(args.out)
+    truth_path(out)
     s = simulate_session(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
                          transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
                          height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,

@@ -1,0 +1,184 @@
+"""Bad input and OS faults through the CLI, in-process: every case ends in a one-line error with exit 2 (or
+succeeds), and no input file is changed (issue 17)."""
+
+import errno
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from optinav.cli.main import main
+from optinav.core import files
+from optinav.errors import OptinavError
+
+
+def digest(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def one_line_error(capsys, *needles) -> str:
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith("optinav: error:"), err
+    for n in needles:
+        assert n in err, err
+    return err
+
+
+@pytest.fixture
+def cube(tmp_path):
+    """A valid gyro-free configuration file (six tangential accelerometers)."""
+    cfg = {"accelerometers": [
+        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
+    p = tmp_path / "cube.json"
+    p.write_text(json.dumps(cfg))
+    return p
+
+
+def _data(tmp_path) -> Path:
+    p = tmp_path / "session.csv"
+    p.write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{k / 100},0,0,9.8,0,0,0\n" for k in range(50)))
+    return p
+
+
+# --- inputs are never overwritten -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("link", ["same", "symlink", "hardlink"])
+def test_out_onto_an_input_is_refused(tmp_path, capsys, cube, link):
+    target = cube
+    if link == "symlink":
+        target = tmp_path / "alias.json"
+        target.symlink_to(cube)
+    elif link == "hardlink":
+        target = tmp_path / "hard.json"
+        os.link(cube, target)
+    before = digest(cube)
+    assert main(["gfimu", "analyze", str(cube), "--out", str(target)]) == 2
+    one_line_error(capsys, "is the input", "choose another --out")
+    assert digest(cube) == before
+
+
+def test_apply_and_calibrate_refuse_out_onto_inputs(tmp_path, capsys):
+    data = _data(tmp_path)
+    result = tmp_path / "result.json"
+    result.write_text("{}")
+    sections = tmp_path / "sections.json"
+    sections.write_text('{"x_p": [0, 1]}')
+    before = {p: digest(p) for p in (data, result, sections)}
+    for argv in (["apply", str(result), str(data), "--out", str(data)],
+                 ["apply", str(result), str(data), "--out", str(result)],
+                 ["calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(sections),
+                  "--out", str(sections)]):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, "is the input")
+    assert {p: digest(p) for p in before} == before
+
+
+def test_foreign_sidecar_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "x.csv"
+    truth = tmp_path / "x.truth.csv"
+    truth.write_text("my own measurements\n1,2,3\n")
+    before = digest(truth)
+    assert main(["simulate", "flight", "--out", str(out), "--duration", "1"]) == 2
+    one_line_error(capsys, "x.truth.csv exists and was not written by optinav")
+    assert digest(truth) == before and not out.exists()
+
+
+def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
+    out = tmp_path / "tt.npz"
+    argv = ["simulate", "gfimu-turntable", "--out", str(out), "--duration", "0.2"]
+    assert main(argv) == 0
+    assert main(argv) == 0  # a second run replaces the truth optinav wrote
+    truth = json.loads((tmp_path / "tt.truth.json").read_text())
+    assert truth["schema"] == "optinav.gfimu_truth"
+    (tmp_path / "tt.truth.json").write_text('{"mine": 1}')
+    assert main(argv) == 2
+    one_line_error(capsys, "was not written by optinav")
+
+
+# --- output checks before any work -----------------------------------------------------------------------------
+
+def test_bad_output_locations(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    (tmp_path / "dir.json").mkdir()
+    cases = [(tmp_path / "dir.json", "is a folder"), (blocker / "a.json", "is a file"), (blocker / "s" / "a.json", "lies below the file"),
+             (tmp_path / "nope" / "a.json", "does not exist")]
+    for out, why in cases:
+        assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)]) == 2
+        one_line_error(capsys, why)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.json", "file"]
+
+
+# --- the atomic writer ------------------------------------------------------------------------------------------
+
+def test_atomic_writer_keeps_the_old_file_on_failure(tmp_path, monkeypatch):
+    out = tmp_path / "r.json"
+    out.write_text("old")
+
+    def full(*_a, **_k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", full)
+    with pytest.raises(OptinavError, match="no space left on the device"):
+        files.write_text(out, "new")
+    assert out.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["r.json"]
+
+
+def test_atomic_writer_replaces_a_symlink_not_its_target(tmp_path):
+    target = tmp_path / "target.txt"
+    target.write_text("keep")
+    link = tmp_path / "out.txt"
+    link.symlink_to(target)
+    files.write_text(link, "new")
+    assert target.read_text() == "keep" and link.read_text() == "new" and not link.is_symlink()
+    assert oct(link.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    m = os.umask(0)
+    os.umask(m)
+    return m
+
+
+def test_file_size_limit_is_a_one_line_error(tmp_path):
+    # a real write failure (EFBIG under ulimit -f), through the installed command in a subprocess
+    import resource
+
+    out = tmp_path / "a.json"
+    env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "optinav.cli.main", "gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)],
+        capture_output=True, text=True, timeout=120, env=env,
+        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200)))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().count("\n") == 0 and "file-size limit" in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- JSON inputs: every parser failure is one line --------------------------------------------------------------
+
+@pytest.mark.parametrize("content, why", [
+    (b"[" * 100_000 + b"]" * 100_000, "nested"),
+    (b'{"a":' * 200 + b"1" + b"}" * 200, "nested more than"),
+    (b'{"schema": "optinav.calibration", "x": "\xff\xfe"}', "not UTF-8"),
+    (b'{"version": ' + b"9" * 5000 + b"}", "not readable JSON"),
+    (b'{"schema": ', "not valid JSON"),
+])
+def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
+    bad = tmp_path / "bad.json"
+    bad.write_bytes(content)
+    data = _data(tmp_path)
+    before = digest(data)
+    for argv in (["apply", str(bad), str(data), "--out", str(tmp_path / "o.csv")],
+                 ["gfimu", "analyze", str(bad)],
+                 ["--quiet", "calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(bad),
+                  "--out", str(tmp_path / "r.json")]):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, why)
+    assert digest(data) == before and not (tmp_path / "o.csv").exists()
