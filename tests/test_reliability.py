@@ -182,3 +182,59 @@ def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
         assert main(argv) == 2, argv
         one_line_error(capsys, why)
     assert digest(data) == before and not (tmp_path / "o.csv").exists()
+
+
+# --- option ranges at parsing: one line, exit 2 ----------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, why", [
+    (["sun", "--lat", "95", "--lon", "0", "--time", "2021-01-01T00:00:00Z"], "--lat: 95 is out of range"),
+    (["sun", "--lat", "10", "--lon", "0", "--height", "1e7", "--time", "2021-01-01T00:00:00Z"], "--height"),
+    (["simulate", "gfimu-turntable", "--out", "x.npz", "--noise", "-1"], "--noise: -1 is out of range"),
+    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--cycles", "0", "--out", "x.npz"], "--cycles"),
+    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--lat", "95", "--out", "x.npz"], "--lat"),
+    (["simulate", "accel-multipos", "--out", "x.csv", "--dwell", "nan"], "not finite"),
+    (["calibrate", "rins", "x.npz", "--lat", "-91", "--out", "r.json"], "--lat"),
+])
+def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and why in err and "see optinav" in err, err
+
+
+# --- rins quality gates: wrong latitude, swapped encoders ------------------------------------------------------
+
+RINS = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "100"]
+
+
+@pytest.fixture(scope="module")
+def rins_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rins")
+    data = d / "r.npz"
+    assert main(["--quiet", "simulate", "rins", "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3", "--seed", "3",
+                 "--out", str(data), *RINS]) == 0
+    return data
+
+
+@pytest.mark.parametrize("lat", ["-28.2", "25", "90"])
+def test_rins_latitude_must_match_the_measured_earth_rate(rins_file, tmp_path, capsys, lat):
+    # the file was recorded at 28.2°; the gyros measure it to ~0.02°, so 3° off or the other hemisphere is refused
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", lat, "--out", str(out)]) == 2
+    one_line_error(capsys, f"the latitude {float(lat):.4g}° disagrees with the 28.", "--lat")
+    assert not out.exists()
+
+
+def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
+    import numpy as np
+
+    d = dict(np.load(rins_file))
+    d["alpha"], d["beta"] = d["beta"], d["alpha"]
+    swapped = tmp_path / "swapped.npz"
+    np.savez(swapped, **d)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(swapped), "--out", str(out)]) == 2
+    one_line_error(capsys, "alpha/beta")
+    assert not out.exists()
+    assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", "28.3", "--out", str(out)]) == 0

@@ -11,8 +11,8 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import (add_report_option, finish_report, output_path, parse_floats, prepare_report,
-                                truth_path, write_truth)
+from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, finish_report, number,
+                                output_path, parse_floats, prepare_report, truth_path, write_truth)
 from optinav.errors import OptinavError
 
 
@@ -105,15 +105,15 @@ def register_simulate(kinds) -> None:
     s.add_argument("--builtin", choices=["cylinder10"], help="built-in configuration")
     s.add_argument("--out", required=True, metavar="DATA", help="output data file (.npz, .csv, .h5)")
     s.add_argument("--rates", default="0.5,1.0", metavar="W1,W2", help="table rates in rad/s (default 0.5,1.0)")
-    s.add_argument("--wedge-deg", type=float, default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
+    s.add_argument("--wedge-deg", type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"), default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
     s.add_argument("--errors", choices=["paper", "random"], default="paper",
                    help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)")
-    s.add_argument("--noise", type=float, default=1e-6 * 9.80665, metavar="M/S2",
+    s.add_argument("--noise", type=NON_NEGATIVE, default=1e-6 * 9.80665, metavar="M/S2",
                    help="accelerometer white noise std per sample (default 1 µg)")
-    s.add_argument("--sample-rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
-    s.add_argument("--duration", type=float, default=10.0, metavar="S", help="seconds per case (default 10)")
+    s.add_argument("--sample-rate", type=RATE, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    s.add_argument("--duration", type=POSITIVE, default=10.0, metavar="S", help="seconds per case (default 10)")
     s.add_argument("--offset", metavar="X,Y,Z", help="array centre from the table axis, body m (default 0)")
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--seed", type=SEED, default=0)
     s.set_defaults(func=run_simulate)
 
 
@@ -165,7 +165,7 @@ def register_calibrate(kinds) -> None:
     c.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
     c.add_argument("--offset", metavar="X,Y,Z", help="measured array centre from the table axis, body m "
                                                      "(default 0; 'estimate' to try estimating it)")
-    c.add_argument("--noise", type=float, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+    c.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
     c.set_defaults(func=run_calibrate)

@@ -20,8 +20,16 @@ COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli
                    "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with one-line errors (``optinav COMMAND: error: ...; see --help``) instead of usage + error;
+    subcommand parsers inherit the class."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see {self.prog} --help\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="optinav",
         description="Inertial sensor calibration and attitude estimation posed as optimization problems.",
         epilog=textwrap.dedent("""\
