@@ -238,3 +238,50 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
     one_line_error(capsys, "alpha/beta")
     assert not out.exists()
     assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", "28.3", "--out", str(out)]) == 0
+
+
+# --- sun: the SPA's whole valid range, refused outside --------------------------------------------------------
+
+def test_sun_beyond_datetime64_ns_range(capsys):
+    import numpy as np
+
+    from optinav.sky.sun import solar_position_deg
+
+    # June solstice of 2300 and of 1600: declination = obliquity (23.4393° − 0.013°/century from J2000,
+    # Meeus eq. 22.2 to first order) and a distance within perihelion/aphelion
+    for year, eps in ((2300, 23.4393 - 0.0130 * 3), (1600, 23.4393 + 0.0130 * 4)):
+        t = np.datetime64(f"{year}-06-10T00:00") + np.arange(0, 24 * 24, 3).astype("timedelta64[h]")
+        r = solar_position_deg(t, 38.88, 121.5)
+        assert np.max(r.declination) == pytest.approx(np.radians(eps), abs=np.radians(0.01))
+        assert np.all((r.earth_sun_distance > 0.983) & (r.earth_sun_distance < 1.017))
+        assert str(r.time[0]).startswith(f"{year}-06-10")
+    assert main(["sun", "--lat", "38.88", "--lon", "121.5", "--time", "2300-06-21T04:00:00Z"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["time_utc"] == "2300-06-21T04:00:00.000Z" and 0.98 < out["earth_sun_distance_au"] < 1.02
+    assert main(["sun", "--lat", "38.88", "--lon", "121.5", "--time", "7000-01-01T00:00:00Z"]) == 2
+    one_line_error(capsys, "outside the years -2000 to 6000")
+
+
+# --- apply refuses a calibration no sensor can have -------------------------------------------------------------
+
+@pytest.mark.parametrize("K, why", [(1e300, "outside"), (3.0, "outside"), (0.1, "outside"),
+                                    ([[1, 1, 0], [1, 1.01, 0], [0, 0, 1]], "condition number")])
+def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
+    import numpy as np
+
+    from optinav.multipos.result import CalibrationResult
+
+    data = _data(tmp_path)
+    good = CalibrationResult(accelerometer={"K": np.eye(3), "b": np.zeros(3)}, units={"accelerometer_raw": "m/s^2"})
+    good.to_json(tmp_path / "good.json")
+    assert main(["apply", str(tmp_path / "good.json"), str(data), "--out", str(tmp_path / "ok.csv")]) == 0
+    capsys.readouterr()
+    Kb = np.asarray(K, float) * (np.eye(3) if np.ndim(K) == 0 else 1)
+    bad = tmp_path / "bad.json"
+    d = good.to_dict()
+    d["accelerometer"]["K"] = Kb.tolist()
+    bad.write_text(json.dumps(d))
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2
+    one_line_error(capsys, "implausible", why)
+    assert not out.exists()
