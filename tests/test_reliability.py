@@ -285,3 +285,49 @@ def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
     assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2
     one_line_error(capsys, "implausible", why)
     assert not out.exists()
+
+
+# --- gfimu quality gates: stuck outputs, table-rate unit, residual against --noise -------------------------------
+
+@pytest.fixture(scope="module")
+def turntable(tmp_path_factory):
+    d = tmp_path_factory.mktemp("gfimu")
+    data = d / "tt.npz"
+    assert main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--duration", "1",
+                 "--seed", "2", "--out", str(data)]) == 0
+    import numpy as np
+
+    return data, dict(np.load(data))
+
+
+@pytest.mark.parametrize("case, extra, why", [
+    ("constant", [], "barely change between the turntable cases"),
+    ("stuck4", [], "accelerometer(s) 4 barely change"),
+    ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
+    ("good", ["--noise", "1e-9"], "against --noise"),
+])
+def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
+    import numpy as np
+
+    path, d = turntable
+    d = {k: v.copy() for k, v in d.items()}
+    if case == "constant":  # every output constant up to a little noise: used to be "all observable", 31.6 m
+        d["f"] = 1.0 + 1e-5 * np.random.default_rng(0).standard_normal(d["f"].shape)
+    elif case == "stuck4":
+        d["f"][:, 3] = 0.2
+    elif case == "deg":
+        d["table_rate"] = np.degrees(d["table_rate"])
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **d)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(bad), "--builtin", "cylinder10", *extra, "--out", str(out)]) == 2
+    one_line_error(capsys, why)
+    assert not out.exists()
+    if case == "deg":  # the flag the error names makes it right: the truth's 1 mm errors within 4σ
+        assert main(["--quiet", "calibrate", "gfimu", str(bad), "--builtin", "cylinder10", "--rate-unit", "deg/s",
+                     "--out", str(out)]) == 0
+        res = json.loads(out.read_text())["fields"]
+        truth = json.loads(path.with_name("tt.truth.json").read_text())
+        dr = np.asarray(res["dr"]["value"]["__ndarray__"])
+        std = np.asarray(res["std"]["value"]["__ndarray__"]).reshape(-1, 5)[:, :3]
+        assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)

@@ -165,6 +165,8 @@ def register_calibrate(kinds) -> None:
     c.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
     c.add_argument("--offset", metavar="X,Y,Z", help="measured array centre from the table axis, body m "
                                                      "(default 0; 'estimate' to try estimating it)")
+    c.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
+                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
     c.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
@@ -172,6 +174,8 @@ def register_calibrate(kinds) -> None:
 
 
 def run_calibrate(args) -> int:
+    import numpy as np
+
     from optinav.gfimu.array import identifiability
     from optinav.gfimu.turntable import TurntableData, calibrate
 
@@ -179,6 +183,8 @@ def run_calibrate(args) -> int:
     out = output_path(args.out, (".json",), "RESULT.json")
     identifiability(arr).require(("linear",))
     data = TurntableData.load(args.data, arr.n)
+    if args.rate_unit == "deg/s":
+        data.table_rate = np.radians(data.table_rate)
     if args.offset is None:
         offset = "zero"
     elif args.offset.strip() == "estimate":
