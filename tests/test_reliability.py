@@ -331,3 +331,101 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
         dr = np.asarray(res["dr"]["value"]["__ndarray__"])
         std = np.asarray(res["std"]["value"]["__ndarray__"]).reshape(-1, 5)[:, :3]
         assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
+
+
+# --- batch: inputs, options once, workers that die ---------------------------------------------------------------
+
+def _batch_units(tmp_path):
+    from optinav.io import ImuLog, write_imu
+    from optinav.multipos.simulate import simulate_session
+
+    d = tmp_path / "units"
+    d.mkdir()
+    for k in (1, 2):
+        s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=38.88,
+                             height_m=35.0, rng=k)
+        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+    return d
+
+
+def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsys):
+    d = _batch_units(tmp_path)
+    before = digest(d / "u2.csv")
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "u2.csv"), "--workers", "0",
+                 "--latitude", "38.88"]) == 2
+    one_line_error(capsys, "is not an optinav results table")
+    assert digest(d / "u2.csv") == before
+    for bad in (["--gravity", "0"], ["--latitude", "95"]):
+        assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"),
+                     "--workers", "0", *bad]) == 2
+        one_line_error(capsys)
+    assert not (tmp_path / "r.csv").exists() and not (tmp_path / "r.csv.journal.jsonl").exists()
+    # a batch with a failed unit exits 1; its table is written, and a re-run may replace it
+    (d / "u3.csv").write_text("t,ax,ay,az\n0,1,2\n")
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
+                 "--latitude", "38.88", "--height", "35"]) == 1
+    assert "3 units: 2 ok, 1 failed" in capsys.readouterr().out
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
+                 "--latitude", "38.88", "--height", "35", "--fresh"]) == 1
+
+
+def dies_on_u2(path, options, name):
+    """A unit job for the pool tests: the worker of unit u2 is killed (as by the OOM killer)."""
+    import signal
+
+    if name == "u2":
+        os.kill(os.getpid(), signal.SIGKILL)
+    return {"unit": name, "status": "ok"}
+
+
+def sleeps(path, options, name):
+    """A unit job that records its worker's pid and works for a long time."""
+    import time
+
+    Path(path).write_text(str(os.getpid()))
+    time.sleep(60)
+    return {"unit": name, "status": "ok"}
+
+
+def test_a_killed_worker_loses_only_its_unit(tmp_path):
+    from optinav import batch
+
+    units = [batch.Unit(f"u{k}", tmp_path / f"u{k}", 1, 1) for k in range(1, 5)]
+    out = {u.name: (row, lost) for u, row, lost in batch._run_local(units, None, 2, fn=dies_on_u2)}
+    assert sorted(out) == [u.name for u in units]
+    assert out["u2"][0] is None and out["u2"][1].startswith("worker lost")
+    assert all(out[n][0] == {"unit": n, "status": "ok"} for n in out if n != "u2")
+
+
+def test_workers_die_with_the_batch(tmp_path):
+    import signal
+    import time
+
+    code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); from pathlib import Path\n"
+            "from optinav import batch; import test_reliability as t\n"
+            f"units = [batch.Unit(f'u{{k}}', Path({str(tmp_path)!r}) / f'pid{{k}}', 1, 1) for k in (1, 2)]\n"
+            "list(batch._run_local(units, None, 2, fn=t.sleeps))\n")
+    env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and len(list(tmp_path.glob("pid*"))) < 2:
+            time.sleep(0.05)
+        pids = [int(p.read_text()) for p in tmp_path.glob("pid*") if p.read_text()]
+        assert len(pids) == 2
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+
+    def alive(pid):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        with open(f"/proc/{pid}/stat") as fh:  # a zombie is dead
+            return fh.read().split(") ")[1][0] != "Z"
+
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(alive(p) for p in pids):
+        time.sleep(0.1)
+    assert not any(alive(p) for p in pids)
