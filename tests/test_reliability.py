@@ -429,3 +429,17 @@ def test_workers_die_with_the_batch(tmp_path):
     while time.monotonic() < deadline and any(alive(p) for p in pids):
         time.sleep(0.1)
     assert not any(alive(p) for p in pids)
+
+
+# --- sizes that cannot fit are refused up front with the estimate ------------------------------------------------
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "flight", "--out", "{d}/f.csv", "--duration", "1e7"],
+    ["simulate", "accel-multipos", "--out", "{d}/m.csv", "--dwell", "1e7"],
+    ["simulate", "rins", "--nonorth=0,0,0,0,0,0", "--dwell", "1e7", "--out", "{d}/r.npz"],
+    ["simulate", "gfimu-turntable", "--duration", "1e9", "--out", "{d}/g.npz"],
+])
+def test_simulations_that_cannot_fit_are_refused(tmp_path, capsys, argv):
+    assert main([a.format(d=tmp_path) for a in argv]) == 2
+    one_line_error(capsys, "GiB of memory", "available")
+    assert list(tmp_path.iterdir()) == []

@@ -39,7 +39,8 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
         if (lo is not None and (v < lo or (lo_open and v == lo))) or (hi is not None and v > hi):
             lo_s = "" if lo is None else (f"> {lo:g}" if lo_open else f">= {lo:g}")
             hi_s = "" if hi is None else f"<= {hi:g}"
-            raise argparse.ArgumentTypeError(f"{text} is out of range (must be {' and '.join(filter(None, (lo_s, hi_s)))})")
+            bounds = " and ".join(filter(None, (lo_s, hi_s)))
+            raise argparse.ArgumentTypeError(f"{text} is out of range (must be {bounds})")
         return v
 
     parse.__name__ = what  # argparse names the type in its "invalid ... value" message
@@ -58,6 +59,32 @@ COUNT = number(1, integer=True, what="an integer >= 1")
 SEED = number(0, integer=True, what="a seed (integer >= 0)")
 #: sample rates (Hz): what an IMU or a logger can record
 RATE = number(0.0, 1e6, lo_open=True, what="a rate in Hz")
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (Linux MemAvailable; elsewhere the free physical pages)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 1 << 40
+
+
+def check_memory(n_rows: float, bytes_per_row: float, what: str, remedy: str) -> None:
+    """Refuse up front a simulation of ``n_rows`` samples whose estimated peak memory (``bytes_per_row`` each,
+    measured for that simulator) does not fit in half the available memory, with the estimate in the message."""
+    need, have = float(n_rows) * bytes_per_row, available_memory()
+    if not math.isfinite(need) or need > 0.5 * have:
+        raise OptinavError(f"{what} would need {n_rows:.3g} samples, about {need / 2**30:.3g} GiB of memory "
+                           f"({have / 2**30:.3g} GiB available)", remedy)
 
 
 def add_input_options(p, *, gyro: bool = True) -> None:

@@ -11,9 +11,13 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, finish_report, number,
-                                output_path, parse_floats, prepare_report, truth_path, write_truth)
+from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, finish_report,
+                                number, output_path, parse_floats, prepare_report, truth_path, write_truth)
 from optinav.errors import OptinavError
+
+
+#: fastest turntable rate accepted (rad/s, about 480 rpm): beyond it the centripetal terms dwarf gravity
+MAX_TABLE_RATE = 50.0
 
 
 def _load_array(config: str | None, builtin_name: str | None):
@@ -105,7 +109,8 @@ def register_simulate(kinds) -> None:
     s.add_argument("--builtin", choices=["cylinder10"], help="built-in configuration")
     s.add_argument("--out", required=True, metavar="DATA", help="output data file (.npz, .csv, .h5)")
     s.add_argument("--rates", default="0.5,1.0", metavar="W1,W2", help="table rates in rad/s (default 0.5,1.0)")
-    s.add_argument("--wedge-deg", type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"), default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
+    s.add_argument("--wedge-deg", type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"),
+                   default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
     s.add_argument("--errors", choices=["paper", "random"], default="paper",
                    help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)")
     s.add_argument("--noise", type=NON_NEGATIVE, default=1e-6 * 9.80665, metavar="M/S2",
@@ -125,13 +130,19 @@ def run_simulate(args) -> int:
     out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
     truth_path(out)
     rates = parse_floats(args.rates, None, "--rates", "W1,W2")
+    if not all(0 < w <= MAX_TABLE_RATE for w in rates):
+        raise OptinavError(f"--rates {args.rates}: table rates must be in (0, {MAX_TABLE_RATE:g}] rad/s",
+                           "give turntable rates in rad/s, e.g. --rates 0.5,1.0")
+    check_memory(3 * len(rates) * args.duration * args.sample_rate, 100 * (arr.n + 6), "this data set",
+                 "shorten --duration or lower --sample-rate")
     e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
          else InstallationErrors.random(arr.n, rng=args.seed + 1))
     off = parse_floats(args.offset, 3, "--offset", "X,Y,Z") if args.offset else None
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
-    truth = {"schema": "optinav.gfimu_truth", "version": 1, "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+    truth = {"schema": "optinav.gfimu_truth", "version": 1,
+             "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}

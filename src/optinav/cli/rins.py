@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option,
+from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory,
                                 finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
 
 
@@ -32,9 +32,11 @@ def register_simulate(kinds) -> None:
     p.add_argument("--unit", choices=["rad", "deg"], default="rad", help="unit of --nonorth (default rad)")
     p.add_argument("--scheme", default="psins16", help="rotation scheme (default psins16)")
     p.add_argument("--cycles", type=COUNT, default=1, help="repetitions of the scheme (default 1)")
-    p.add_argument("--move", type=POSITIVE, default=10.0, metavar="S", help="duration of each 180° move (default 10 s)")
+    p.add_argument("--move", type=POSITIVE, default=10.0, metavar="S",
+                   help="duration of each 180° move (default 10 s)")
     p.add_argument("--dwell", type=POSITIVE, default=50.0, metavar="S", help="rest after each move (default 50 s)")
-    p.add_argument("--align", type=POSITIVE, default=600.0, metavar="S", help="initial static alignment (default 600 s)")
+    p.add_argument("--align", type=POSITIVE, default=600.0, metavar="S",
+                   help="initial static alignment (default 600 s)")
     p.add_argument("--rate", type=RATE, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)")
     p.add_argument("--lat", type=LATITUDE, default=28.2, metavar="DEG", help="latitude in degrees (default 28.2)")
     p.add_argument("--gyro-misalignment-arcsec", type=NON_NEGATIVE, metavar="ARCSEC",
@@ -65,6 +67,12 @@ def run_simulate(args) -> int:
     out = output_path(args.out)
     truth_path(out)
     p = _parse_nonorth(args.nonorth, args.unit)
+    from optinav.rins.simulate import scheme_steps
+
+    # measured: about 470 B per sample at the peak, 800 with margin
+    n_moves = args.cycles * len(scheme_steps(args.scheme))
+    check_memory(args.rate * (args.align + n_moves * (args.move + args.dwell)), 800, "this session",
+                 "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
     d = simulate_rins(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
                       align_s=args.align, rate=args.rate, lat_deg=args.lat,

@@ -251,8 +251,8 @@ def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: floa
     * stuck or constant outputs: a sensor whose case means span less than a tenth of what the nominal geometry
       predicts (the cases turn gravity through the wedge angle, so every sensor's output must change);
     * the table-rate unit: per mounting, the change of the case means between two rates is
-      ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1 (0.5–2),
-      (π/180)² means rates in deg/s labelled rad/s."""
+      ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
+      (0.5–2); (π/180)² means rates in deg/s labelled rad/s."""
     pred = nominal_case_means(nominal, cm, gamma, g)
     s = _rate_scale(cm, pred)
     deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
