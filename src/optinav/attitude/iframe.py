@@ -38,7 +38,7 @@ _D2R = np.pi / 180.0
 
 #: options of ``method="iframe"`` (SI units: s, rad, rad/s, m/s²; ``mag_norm_th`` relative)
 IFRAME_DEFAULTS: dict[str, float] = {
-    "tau_acc": 3.0,                  # s, accelerometer low-pass time constant in the almost-inertial frame
+    "tau_acc": 4.0,                  # s, accelerometer low-pass time constant in the almost-inertial frame
     "rest_tau": 0.5,                 # s, low-pass of the rest detector
     "rest_gyr": 2.0 * _D2R,          # rad/s, max gyro deviation at rest
     "rest_acc": 0.5,                 # m/s², max accelerometer deviation at rest
@@ -46,14 +46,14 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "bias_sigma0": 0.5 * _D2R,       # rad/s, initial bias σ
     "bias_rw": 0.003 * _D2R,         # rad/s/√s, bias random walk
     "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
-    "bias_motion": 0.1 * _D2R,       # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
+    "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
     "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
     "motion_max_gyr": 2.0,           # rad/s, no motion bias update above this rate
     "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
     "gravity": 9.81,                 # m/s²
     "tau_mag": 10.0,                 # s, heading correction time constant
-    "mag_norm_th": 0.1,              # relative deviation of |m| from the reference
-    "mag_dip_th": 10.0 * _D2R,       # rad, deviation of the dip angle from the reference
+    "mag_norm_th": 0.05,             # relative deviation of |m| from the reference
+    "mag_dip_th": 5.0 * _D2R,        # rad, deviation of the dip angle from the reference
     "mag_new_time": 20.0,            # s, a steady new field becomes the reference after this time
     "tau_mag_ref": 30.0,             # s, averaging time of the learned reference
 }
