@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import math
 import textwrap
 
 from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, prepare_report,
@@ -69,15 +70,38 @@ def add_calibration_options(a) -> None:
                    help="shortest static interval kept (default 2 s)")
     a.add_argument("--threshold", type=float, help="static threshold on the acc moving variance (raw units^2); "
                                                     "default automatic")
-    a.add_argument("--acc-range", type=float, metavar="R", help="accelerometer range in raw units (saturation)")
-    a.add_argument("--gyro-range", type=float, metavar="R", help="gyroscope range in raw units (saturation)")
+    a.add_argument("--acc-range", type=full_scale, metavar="R|LO:HI",
+                   help="accelerometer full scale in raw units: R for ±R (e.g. 32768 for signed 16-bit counts) or "
+                        "a span LO:HI (e.g. 0:65535 for unsigned 16-bit); samples at or beyond it count as saturated "
+                        "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
+    a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
+                   help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
     a.add_argument("--gyro-bias", choices=["static", "rest", "estimate"], default="static",
                    help="gyro bias from the static intervals (default), from an initial rest period "
                         "(--rest), or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
+    a.add_argument("--allow-unobservable", action="store_true",
+                   help="hold the gyro parameters the turns do not determine at their initial guess instead of "
+                        "stopping (they are listed in the result)")
     a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
     a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
+
+
+def full_scale(text: str):
+    """``R`` (±R) or ``LO:HI`` (a span) in raw units → float or (lo, hi); argparse type of --acc/--gyro-range."""
+    try:
+        if ":" in text:
+            lo, hi = (float(v) for v in text.split(":"))
+            if lo < hi and math.isfinite(lo) and math.isfinite(hi):
+                return (lo, hi)
+        else:
+            r = float(text)
+            if r > 0 and math.isfinite(r):
+                return r
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(f"{text!r} is not R > 0 or LO:HI with LO < HI (raw units)")
 
 
 def run_accel(args) -> int:
@@ -92,6 +116,8 @@ def run_accel(args) -> int:
         print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     res = calibrate_data(data, options, source=str(args.data))
     res.to_json(out)
+    for note in res.quality.get("notes", []):
+        print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
     print(f"optinav: result written to {out}")
     from optinav.reports.calibration_report import write_calibration_report

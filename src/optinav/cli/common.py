@@ -91,7 +91,7 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets."""
     p.add_argument("--columns", help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
                                      "or std=name pairs for named columns/arrays; default: recognised headers")
-    p.add_argument("--acc-unit", choices=["counts", "g", "m/s^2"], help="accelerometer unit in the file "
+    p.add_argument("--acc-unit", choices=["counts", "g", "mg", "m/s^2"], help="accelerometer unit in the file "
                                                                           "(default: as declared, else m/s^2)")
     if gyro:
         p.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"],

@@ -25,7 +25,8 @@ __all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_U
 
 #: accepted accelerometer unit spellings → canonical unit
 ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
-             "g": "g", "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
+             "g": "g", "mg": "mg", "milli-g": "mg",
+             "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
 #: accepted gyroscope unit spellings → canonical unit
 GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
               "deg/s": "deg/s", "dps": "deg/s", "°/s": "deg/s", "deg/sec": "deg/s", "degrees/s": "deg/s",
@@ -33,7 +34,8 @@ GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "co
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 _TIME_SPELLINGS = {"s": "s", "sec": "s", "ms": "ms", "us": "us", "µs": "us", "μs": "us", "ns": "ns"}
-_CANONICAL = {"acc": ("counts", "g", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"), "time": ("s", "ms", "us", "ns")}
+_CANONICAL = {"acc": ("counts", "g", "mg", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"),
+              "time": ("s", "ms", "us", "ns")}
 
 #: the names read_imu understands: time, accelerometer and gyroscope components, N×3 triads, counter, labels
 STANDARD_NAMES = ("t", "ax", "ay", "az", "gx", "gy", "gz", "acc", "gyro", "sample", "label")
@@ -367,10 +369,10 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
     aliases, ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3
     array); without it the names are recognised by alias (docs/file-formats.md). ``gyro_path``/``gyro_columns``:
-    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g,
+    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g, mg,
     m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
     declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
-    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g`` and ``deg/s`` are
+    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
     converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     """
@@ -414,7 +416,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     acc_in = gyro_in = None
     if main.acc is not None:
         acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", "m/s^2")
-        acc = main.acc if acc_in != "g" else to_si(main.acc, "g")
+        acc = to_si(main.acc, acc_in) if acc_in in ("g", "mg") else main.acc
     if main.gyro is not None:
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")

@@ -245,8 +245,9 @@ def _choice(value, options, name: str) -> str:
 class _Transitions:
     """The motion samples of all transitions, concatenated for one strapdown call per evaluation."""
 
-    def __init__(self, t, raw, idx, u, coning):
-        segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in range(idx.shape[0] - 1)]
+    def __init__(self, t, raw, idx, u, coning, keep=None):
+        keep = np.arange(idx.shape[0] - 1) if keep is None else np.asarray(keep, int)
+        segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in keep]
         lens = np.array([s.size for s in segs])
         self.ends = np.cumsum(lens) - 1
         self.starts = self.ends - lens + 1
@@ -259,7 +260,7 @@ class _Transitions:
         h[self.gap] = np.median(h[~self.gap])    # any positive step: its increment is zero
         self.h = h
         self.durations = tt[self.ends] - tt[self.starts]
-        self.u0, self.u1 = u[:-1], u[1:]
+        self.u0, self.u1 = u[keep], u[keep + 1]
         self.coning = coning
 
     def rotations(self, K, b) -> np.ndarray:
@@ -318,6 +319,7 @@ def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
                            "in total, so the gyro scale cannot be found",
                            "turn the device between poses so that the up axis changes (e.g. flips about x, y, z)")
     k_hat = theta.sum() / alpha.sum()
+    _check_axes(tr, b, k_hat)
 
     def cost(s):
         r = tr.residuals(np.exp(s) * np.eye(3), b)
@@ -330,6 +332,27 @@ def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
     res = _sp.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
     s = res.x if res.fun <= c[i] else grid[i]
     return float(np.exp(s))
+
+
+def _check_axes(tr: _Transitions, b: np.ndarray, k: float) -> None:
+    """Axis-swap diagnosis: the cost of K = k·P for the 48 signed axis permutations P; a clearly better P than
+    the identity means the gyro columns are swapped or flipped against the accelerometer's (a local fit from
+    K ∝ I cannot reach a permutation)."""
+    from optinav.multipos import gates
+
+    best, costs = None, {}
+    for P in gates.signed_permutations():
+        r = tr.residuals(k * P, b)
+        costs[P.tobytes()] = c = float(np.sum(r * r))
+        if best is None or c < costs[best.tobytes()]:
+            best = P
+    c_id = costs[np.eye(3).tobytes()]
+    if not np.array_equal(best, np.eye(3)) and costs[best.tobytes()] < 0.1 * c_id:
+        raise OptinavError("the gyroscope axes look swapped or flipped against the accelerometer's: "
+                           + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
+                           + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
+                           f"{np.sqrt(c_id / len(tr.u0)):.2g} as labelled)",
+                           "fix the column order or signs (--columns or --gyro-columns)")
 
 
 def _stats(raw, idx):
@@ -356,7 +379,7 @@ def _missing_axes(rep: ObservabilityReport) -> str:
         txt = "add transitions about other axes and between more different poses"
     if bias:
         txt += "; give longer static intervals or a bias vector"
-    return txt + ", or pass allow_unobservable=True"
+    return txt + ", or pass --allow-unobservable to hold what the turns do not determine"
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -365,7 +388,8 @@ def _missing_axes(rep: ObservabilityReport) -> str:
 
 def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", rest=None, method: str = "lm",
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
-                   allow_unobservable: bool = False, max_std: float = 0.05) -> GyroCalibration:
+                   allow_unobservable: bool = False, max_std: float = 0.05,
+                   drop_transitions=()) -> GyroCalibration:
     """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -385,6 +409,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     allow_unobservable : hold unobservable directions at the initial guess instead of raising.
     max_std : combinations with a larger standard deviation (units of k₀ for K, 0.01·k₀ for b) are
         treated as unobservable.
+    drop_transitions : indices k of transitions (interval k → k+1) left out, e.g. where the gyro saturates.
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)
@@ -400,9 +425,11 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         max_std = float("nan")
     if not (np.isfinite(max_std) and max_std > 0):
         raise OptinavError(f"max_std must be a positive number, got {max_std!r}", "pass e.g. 0.05")
-    n_tr = idx.shape[0] - 1
+    drop = {int(k) for k in np.ravel(drop_transitions)}
+    keep = np.array([k for k in range(idx.shape[0] - 1) if k not in drop], int)
+    n_tr = keep.size
     if n_tr < MIN_TRANSITIONS:
-        raise OptinavError(f"{n_tr} transition(s) between {idx.shape[0]} static intervals, at least "
+        raise OptinavError(f"{n_tr} transition(s) usable between {idx.shape[0]} static intervals, at least "
                            f"{MIN_TRANSITIONS} are needed (each gives 2 constraints on the 9 entries of K, "
                            "plus one for the noise estimate)",
                            f"record at least {MIN_TRANSITIONS + 1} static poses with turns about all three axes")
@@ -441,7 +468,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             b_fixed = b_static
     b_init = b_fixed if b_fixed is not None else b_static
 
-    tr = _Transitions(t, raw, idx, u, coning)
+    tr = _Transitions(t, raw, idx, u, coning, keep)
 
     # --- initial guess
     if x0 is None:
