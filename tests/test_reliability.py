@@ -355,10 +355,17 @@ def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsy
                  "--latitude", "38.88"]) == 2
     one_line_error(capsys, "is not an optinav results table")
     assert digest(d / "u2.csv") == before
-    for bad in (["--gravity", "0"], ["--latitude", "95"]):
-        assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"),
-                     "--workers", "0", *bad]) == 2
-        one_line_error(capsys)
+    # bad site options fail once, before any unit (they used to fail every unit and exit 0)
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"),
+                 "--workers", "0", "--gravity", "5"]) == 2
+    one_line_error(capsys, "gravity 5 m/s^2 is outside")
+    from optinav.batch import run_batch
+    from optinav.multipos.calibrate import FileOptions
+
+    with pytest.raises(OptinavError, match="latitude 95"):
+        run_batch(d, tmp_path / "r.csv", FileOptions(latitude=95), workers=0)
+    with pytest.raises(SystemExit):  # the CLI refuses it at parsing already
+        main(["batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"), "--latitude", "95"])
     assert not (tmp_path / "r.csv").exists() and not (tmp_path / "r.csv.journal.jsonl").exists()
     # a batch with a failed unit exits 1; its table is written, and a re-run may replace it
     (d / "u3.csv").write_text("t,ax,ay,az\n0,1,2\n")
@@ -443,3 +450,12 @@ def test_simulations_that_cannot_fit_are_refused(tmp_path, capsys, argv):
     assert main([a.format(d=tmp_path) for a in argv]) == 2
     one_line_error(capsys, "GiB of memory", "available")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_height_without_latitude_is_an_error(tmp_path, capsys):
+    data = _data(tmp_path)
+    assert main(["calibrate", "accel", str(data), "--height", "35", "--out", str(tmp_path / "r.json")]) == 2
+    one_line_error(capsys, "--height without --latitude")
+    with pytest.raises(SystemExit):
+        main(["calibrate", "accel", str(data), "--gravity", "0", "--out", str(tmp_path / "r.json")])
+    assert "--gravity: 0 is out of range" in capsys.readouterr().err

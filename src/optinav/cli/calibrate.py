@@ -7,8 +7,8 @@ import sys
 import math
 import textwrap
 
-from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, prepare_report,
-                                register_system_hooks)
+from optinav.cli.common import (HEIGHT, LATITUDE, POSITIVE, add_input_options, add_report_option, finish_report,
+                                output_path, prepare_report, register_system_hooks)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -54,9 +54,9 @@ def add_calibration_options(a) -> None:
     a.add_argument("--no-gyro", action="store_true", help="ignore gyroscope columns in DATA")
     add_input_options(a)
     grav = a.add_mutually_exclusive_group()
-    grav.add_argument("--gravity", type=float, metavar="G", help="local gravity in m/s^2")
-    grav.add_argument("--latitude", type=float, metavar="DEG", help="latitude in degrees (normal gravity)")
-    a.add_argument("--height", type=float, default=0.0, metavar="M", help="height in m with --latitude (default 0)")
+    grav.add_argument("--gravity", type=POSITIVE, metavar="G", help="local gravity in m/s^2")
+    grav.add_argument("--latitude", type=LATITUDE, metavar="DEG", help="latitude in degrees (normal gravity)")
+    a.add_argument("--height", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)")
     a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
     a.add_argument("--model", choices=["auto", "full", "diagonal"], default="auto",
                    help="accelerometer model: auto (9 parameters when observable, else scales and biases), "
