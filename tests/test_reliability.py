@@ -459,3 +459,43 @@ def test_height_without_latitude_is_an_error(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["calibrate", "accel", str(data), "--gravity", "0", "--out", str(tmp_path / "r.json")])
     assert "--gravity: 0 is out of range" in capsys.readouterr().err
+
+
+# --- every JSON input: any bytes end in a value or a one-line OptinavError ---------------------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_json = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=5),
+                     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4),
+                     max_leaves=20)
+_keys = st.sampled_from(["schema", "version", "fields", "accelerometer", "gyroscope", "K", "b", "units",
+                         "accelerometers", "position", "direction", "noise", "start", "end", "x_p", "value",
+                         "__ndarray__", "__float__", "dtype", "angles"])
+_shaped = st.recursive(st.none() | st.floats() | st.integers() | st.sampled_from(["optinav.calibration", "float64"]),
+                       lambda kids: st.lists(kids, max_size=4) | st.dictionaries(_keys, kids, max_size=5),
+                       max_leaves=25)
+
+
+def _readers():
+    from optinav.core.results import Result
+    from optinav.gfimu.array import AccelerometerArray
+    from optinav.multipos.result import CalibrationResult
+    from optinav.multipos.static import _load_sections
+    from optinav.rins.calibrate import RinsCalibration
+
+    return [Result.from_json, CalibrationResult.from_json, RinsCalibration.from_json, AccelerometerArray.load,
+            _load_sections]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(content=st.one_of(st.binary(max_size=200), _json.map(lambda v: json.dumps(v).encode()),
+                         _shaped.map(lambda v: json.dumps(v).encode())))
+def test_json_readers_never_crash(tmp_path, content):
+    p = tmp_path / "in.json"
+    p.write_bytes(content)
+    for read in _readers():
+        try:
+            read(Path(p))
+        except OptinavError as exc:
+            assert "\n" not in str(exc)

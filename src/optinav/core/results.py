@@ -126,7 +126,8 @@ class Result:
     def from_dict(cls, data: dict) -> "Result":
         if cls._FLAT:
             return cls._from_flat(data)
-        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) else None
+        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) and isinstance(data.get("schema"),
+                                                                                          str) else None
         if flat is not None and flat._FLAT:
             if cls is not Result and not issubclass(flat, cls):
                 raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}", "pass the right result file")
@@ -178,4 +179,12 @@ class Result:
         text, src = str(source), "result file"
         if not text.lstrip().startswith("{"):
             text, src = read_text(source, "result file"), f"result file {source}"
-        return cls.from_dict(parse_json(text, src, "pass an unmodified optinav result file"))
+        data = parse_json(text, src, "pass an unmodified optinav result file")
+        try:
+            return cls.from_dict(data)
+        except OptinavError:
+            raise
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+            # a value of the wrong type deep inside (a list where a name belongs, a string as an array ...)
+            raise OptinavError(f"{src} is not a valid optinav result ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())[:80]})", "pass an unmodified optinav result file") from None
