@@ -87,6 +87,15 @@ def test_foreign_sidecar_is_not_overwritten(tmp_path, capsys):
     assert main(["simulate", "flight", "--out", str(out), "--duration", "1"]) == 2
     one_line_error(capsys, "x.truth.csv exists and was not written by optinav")
     assert digest(truth) == before and not out.exists()
+    truth.unlink()
+    for _ in range(2):  # a truth optinav wrote is replaced by the next run
+        assert main(["simulate", "flight", "--out", str(out), "--duration", "1"]) == 0
+    assert truth.read_text().startswith("t,qw,qx,qy,qz\n")
+    capsys.readouterr()
+    before = digest(out)
+    assert main(["attitude", str(out), "--out", str(out)]) == 2
+    one_line_error(capsys, "is the input")
+    assert digest(out) == before
 
 
 def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
