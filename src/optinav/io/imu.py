@@ -447,7 +447,6 @@ def _check_same_time(a, b) -> None:
 # --- writing ------------------------------------------------------------------------------------------------
 
 _WRITE_TEXT = {".csv": ",", ".tsv": "\t", ".txt": " ", ".dat": " "}
-_WRITE_BLOCK = 100_000  #: rows formatted at a time by the text writer
 _WRITE_FORMATS = (*_WRITE_TEXT, ".npz", ".h5", ".hdf5", ".mat")
 
 
@@ -568,17 +567,14 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
     # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
     integral = [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
     fmt = delim.join("%d" if i else "%r" for i in integral)
-    table = np.column_stack(cols)
+    rows = np.column_stack(cols).tolist()
+    if labels is None:
+        body = [fmt % tuple(r) for r in rows]
+    else:
+        body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels)]
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("\n".join(head) + "\n")
-        # in blocks: the text of a whole 10 M-row log held at once took about 1 GB per million rows
-        for k in range(0, len(table), _WRITE_BLOCK):
-            rows = table[k:k + _WRITE_BLOCK].tolist()
-            if labels is None:
-                body = [fmt % tuple(r) for r in rows]
-            else:
-                body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels[k:k + _WRITE_BLOCK])]
-            fh.write("\n".join(body) + "\n")
+        fh.write("\n".join(head + body))
+        fh.write("\n")
 
 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
