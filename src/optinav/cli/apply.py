@@ -6,7 +6,7 @@ import argparse
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options, output_path
+from optinav.cli.common import add_input_options, output_path, require_files
 from optinav.errors import OptinavError
 
 
@@ -31,6 +31,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    require_files((args.result, "result file"), (args.data, "data file"))
     from optinav.io import ImuLog, raw_units, read_imu, write_imu
     from optinav.multipos.result import CalibrationResult
 

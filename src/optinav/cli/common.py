@@ -114,6 +114,15 @@ def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = ""
     return check_output(out, option)
 
 
+def require_files(*items: tuple[str | None, str]) -> None:
+    """``(path, what)`` pairs that must name existing files, checked before a command imports its numerical
+    modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped."""
+    for path, what in items:
+        if path is not None and not Path(path).is_file():
+            p = Path(path)
+            raise OptinavError(f"{what} {p} {'is a folder' if p.is_dir() else 'does not exist'}", "check the path")
+
+
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
     """``"0.5,1.0"`` → ``[0.5, 1.0]`` for a comma-list option: finite numbers, exactly ``n`` of them when given.
 

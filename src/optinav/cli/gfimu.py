@@ -12,7 +12,8 @@ import sys
 import textwrap
 
 from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, finish_report,
-                                number, output_path, parse_floats, prepare_report, truth_path, write_truth)
+                                number, output_path, parse_floats, prepare_report, require_files, truth_path,
+                                write_truth)
 from optinav.errors import OptinavError
 
 
@@ -66,6 +67,7 @@ def register(sub) -> None:
 
 
 def run_analyze(args) -> int:
+    require_files((args.config, "configuration file"))
     from optinav.core.files import write_json
     from optinav.core.results import plain
     from optinav.gfimu.array import identifiability
@@ -185,6 +187,7 @@ def register_calibrate(kinds) -> None:
 
 
 def run_calibrate(args) -> int:
+    require_files((args.data, "data file"), (args.config, "configuration file"))
     import numpy as np
 
     from optinav.gfimu.array import identifiability

@@ -7,7 +7,8 @@ import sys
 import textwrap
 
 from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
+                                finish_report, output_path, parse_floats, prepare_report, require_files, truth_path,
+                                write_truth)
 
 
 def register_simulate(kinds) -> None:
@@ -120,6 +121,7 @@ def register_calibrate(kinds) -> None:
 
 
 def run_calibrate(args) -> int:
+    require_files((args.data, "data file"))
     from optinav.rins.calibrate import calibrate, prepare
     from optinav.rins.io import read_rins
 
