@@ -26,7 +26,8 @@ def register(sub) -> None:
         description=textwrap.dedent("""\
             Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
             Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
-            'ferraris' = closed form for 6 axis poses + 3 rotations (needs --sections with imucal's names).
+            'ferraris' = closed form for 6 axis poses + 3 rotations named as imucal names them (x_p … z_rot),
+            from a label column of the log or --sections.
             With gyroscope data the gyro scale, misalignment and bias come from the turns between poses
             (imu_tk's method). The result is raw = K·x + b per sensor (x in m/s^2 or rad/s, raw in the
             file's unit); see docs/file-formats.md."""),
@@ -81,6 +82,9 @@ def add_calibration_options(a) -> None:
                         "(--rest), or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
+    a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
+                   help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
+                        "clockwise full turn seen from the axis tip)")
     a.add_argument("--allow-unobservable", action="store_true",
                    help="hold the gyro parameters the turns do not determine at their initial guess instead of "
                         "stopping (they are listed in the result)")
