@@ -471,6 +471,7 @@ class SessionData(NamedTuple):
     gyro: np.ndarray | None
     gyro_unit: str | None
     labels: np.ndarray | None = None
+    notes: tuple = ()
 
 
 def read_session_file(path, options: FileOptions) -> SessionData:
@@ -483,7 +484,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
     gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
-    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels)
+    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
@@ -496,7 +497,7 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    return calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+    res = calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
                              gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
                              height_m=o.height, method=o.method, model_form=o.model,
                              data="samples" if o.fit_samples else "means", sections=sections,
@@ -504,6 +505,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                              acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
                              source=source, method_options=method_options, rest=o.rest,
                              allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle)
+    res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
+    return res
 
 
 def calibrate_file(path, options: FileOptions | None = None) -> CalibrationResult:
