@@ -199,3 +199,23 @@ def test_imucal_repeated_poses_fall_back_to_the_diagonal_model(tmp_path, capsys)
     assert r.accelerometer["held"] == ["K_xy", "K_xz", "K_yz"]
     msg = _cli_error(capsys, args[:-2] + ["--model", "full", "--out", str(tmp_path / "f.json")])
     assert "6 distinct pose directions" in msg and "--model diagonal" in msg
+
+
+def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
+    s, acc, _ = sim
+    path = _write(tmp_path, "a.csv", s.t, acc, None)
+    base = ["calibrate", "accel", str(path), "--acc-unit", "counts", "--gravity", str(s.gravity)]
+    out = tmp_path / "r.json"
+    assert main(["--quiet", *base, "--out", str(out)]) == 0
+    plain = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--acc-bias-instability", "5", "--out", str(out)]) == 0
+    drift = CalibrationResult.from_json(out)
+    np.testing.assert_allclose(drift.accelerometer["b_std"], np.hypot(plain.accelerometer["b_std"], 5.0))
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0.02", "--out", str(out)]) == 0
+    wide = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0", "--out", str(out)]) == 0
+    narrow = CalibrationResult.from_json(out)
+    assert wide.accelerometer["held_std_rad"] == 0.02
+    assert np.all(np.diag(wide.accelerometer["K_std"]) > np.diag(narrow.accelerometer["K_std"]))
+    msg = _cli_error(capsys, ["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
+    assert "--held-misalignment" in msg

@@ -85,6 +85,12 @@ def add_calibration_options(a) -> None:
     a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
                    help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
                         "clockwise full turn seen from the axis tip)")
+    a.add_argument("--acc-bias-instability", type=float, metavar="RAW",
+                   help="1-sigma accelerometer bias drift over the session in raw units (datasheet bias "
+                        "instability or run-to-run), added to the bias std: the poses cannot reveal a common drift")
+    a.add_argument("--held-misalignment", type=float, default=0.005, metavar="RAD",
+                   help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
+                        "datasheet value); their model error enters the scale and bias std")
     a.add_argument("--allow-unobservable", action="store_true",
                    help="hold the gyro parameters the turns do not determine at their initial guess instead of "
                         "stopping (they are listed in the result)")

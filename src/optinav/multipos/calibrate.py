@@ -132,8 +132,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                       data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
                       threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
                       source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-                      rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0
-                      ) -> CalibrationResult:
+                      rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
+                      held_misalignment: float = accel.HELD_MISALIGNMENT) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -145,7 +145,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
     ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
     turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
-    ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
+    stds of the scales and biases). ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
     Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
@@ -209,7 +210,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
                            samples=samples, rng=rng, bias_instability=acc_bias_instability,
-                           **(method_options or {}))
+                           held_misalignment=held_misalignment, **(method_options or {}))
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
         used[i0:i1] = True
@@ -222,7 +223,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         K_std[r, c] = fit.std[j]
     acc_entry = {"K": fit.K, "b": fit.b, "K_std": K_std, "b_std": fit.std[6:9], "form": "upper-triangular",
                  "estimated": fit.estimated, "held": fit.held, "chi2": fit.chi2, "dof": fit.dof,
-                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g)}
+                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g),
+                 "held_std_rad": held_misalignment if fit.held else None}
     obs = fit.observability
     observability = {"accelerometer": {"rank": obs.rank, "n_params": obs.n_params,
                                        "singular_values": obs.singular_values,
@@ -443,6 +445,8 @@ class FileOptions:
     rest: tuple | None = None
     allow_unobservable: bool = False
     rotation_angle: float = -360.0
+    acc_bias_instability: float | None = None
+    held_misalignment: float = accel.HELD_MISALIGNMENT
     generations: int | None = None
     seed: int = 0
 
@@ -458,6 +462,11 @@ class FileOptions:
         """Reject contradictory options before any file is read."""
         if (self.gyro_bias == "rest") != (self.rest is not None):
             raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
+        for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
+                           ("held_misalignment", "--held-misalignment")):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -504,7 +513,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                              window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
                              acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
                              source=source, method_options=method_options, rest=o.rest,
-                             allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle)
+                             allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
+                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 
