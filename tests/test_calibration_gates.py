@@ -219,3 +219,26 @@ def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
     assert np.all(np.diag(wide.accelerometer["K_std"]) > np.diag(narrow.accelerometer["K_std"]))
     msg = _cli_error(capsys, ["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
     assert "--held-misalignment" in msg
+
+
+def test_too_few_distinct_poses_is_an_error_however_many_intervals():
+    """Eight intervals, but only four directions (each pose twice): not even scales and biases are determined."""
+    ups = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)] * 2, float)
+    s = simulate_session(ups, dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=2)
+    with pytest.raises(OptinavError, match="4 distinct pose directions .*at least 6 distinct poses"):
+        calibrate_session(s.t, s.acc, acc_unit="counts", g=s.gravity)
+
+
+def test_a_drifting_gyro_bias_fails_static_and_calibrates_with_local(sim):
+    s, acc, gyr = sim
+    ramp = np.outer(s.t / s.t[-1], [60.0, -40.0, 50.0])  # counts: about 3.6 °/s of drift over the session
+    with pytest.raises(OptinavError, match="--gyro-bias local"):
+        calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                          gyro_bias="local")
+    _, Q = model.upper_triangular_form(s.acc_K)
+    Kg = s.gyro_K @ Q.T
+    assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])
+    # the reported bias is the session mean; its std spans the drift
+    assert np.all(np.abs(r.gyroscope["b"] - (s.gyro_b + OFFSET + ramp.mean(axis=0))) < 3 * r.gyroscope["b_std"])
+    assert np.all(r.gyroscope["b_std"] > 0.2 * np.abs(ramp[-1]))

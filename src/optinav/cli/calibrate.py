@@ -77,9 +77,9 @@ def add_calibration_options(a) -> None:
                         "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
     a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
                    help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
-    a.add_argument("--gyro-bias", choices=["static", "rest", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default), from an initial rest period "
-                        "(--rest), or estimated with K")
+    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="static",
+                   help="gyro bias from the static intervals (default), per turn from the two rests it joins "
+                        "(local: a bias that drifts), from an initial rest period (--rest), or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
     a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",

@@ -347,8 +347,9 @@ def _gyro_gates(gc, gyro_unit: str) -> None:
     if gc.residual_rms > gates.MAX_GYRO_RESIDUAL_RAD:
         raise OptinavError(f"the turns do not carry gravity onto the next pose: residual RMS "
                            f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
-                           "check for motion inside the static intervals (--threshold, --sections) and the time "
-                           "column (--rate, --time-unit)")
+                           "for a gyro bias that drifts during the session pass --gyro-bias local; else check for "
+                           "motion inside the static intervals (--threshold, --sections) and the time column "
+                           "(--rate, --time-unit)")
 
 
 def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
