@@ -28,7 +28,6 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as _local_as_completed
@@ -36,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.core.files import atomic_open, atomic_path
 from optinav.errors import OptinavError
 from optinav.multipos.calibrate import FileOptions
 
@@ -302,34 +302,22 @@ def write_table(rows: list[dict], out) -> Path:
 
     out = Path(out)
     kind = _check_output(out)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    try:
-        if kind == ".csv":
-            with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-                w = csv.writer(fh)
-                w.writerow(COLUMN_NAMES)
-                for r in rows:
-                    w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
-                fh.flush()
-                os.fsync(fh.fileno())
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+    if kind == ".csv":
+        with atomic_open(out, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(COLUMN_NAMES)
+            for r in rows:
+                w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
+    else:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
-            os.close(fd)
-            types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
-            schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
-                               metadata={"schema": "optinav.batch_results", "version": "1"})
-            table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+        types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
+        schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
+                           metadata={"schema": "optinav.batch_results", "version": "1"})
+        table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+        with atomic_path(out) as tmp:
             pq.write_table(table, tmp)
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-        # mkstemp makes the file private (0600); give the table the permissions an ordinary file would get
-        os.chmod(tmp, (out.stat().st_mode & 0o777) if out.exists() else 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return out
 
 

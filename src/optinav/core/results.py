@@ -117,10 +117,9 @@ class Result:
         """Serialize; also write to ``path`` when given (atomically)."""
         text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
         if path is not None:
-            path = Path(path)
-            tmp = path.with_name(path.name + ".tmp")
-            tmp.write_text(text + "\n", encoding="utf-8")
-            tmp.replace(path)
+            from optinav.core.files import write_text
+
+            write_text(path, text + "\n")
         return text
 
     @classmethod
@@ -174,15 +173,9 @@ class Result:
     @classmethod
     def from_json(cls, source: str | Path) -> "Result":
         """Load from a path or a JSON string."""
-        text = str(source)
+        from optinav.core.files import parse_json, read_text
+
+        text, src = str(source), "result file"
         if not text.lstrip().startswith("{"):
-            p = Path(source)
-            if not p.is_file():
-                raise OptinavError(f"result file {p} does not exist", "check the path")
-            text = p.read_text(encoding="utf-8")
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise OptinavError(f"result file is not valid JSON ({exc.msg} at line {exc.lineno})",
-                               "pass an unmodified optinav result file") from None
-        return cls.from_dict(data)
+            text, src = read_text(source, "result file"), f"result file {source}"
+        return cls.from_dict(parse_json(text, src, "pass an unmodified optinav result file"))

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from optinav.core.files import atomic_open, atomic_path, write_csv
 from optinav.core.observability import analyze
 from optinav.core.optimize import Problem, minimize
 from optinav.core.results import Result
@@ -109,19 +110,20 @@ class TurntableData:
                 "table_rate": self.table_rate, "wedge": np.full(n, self.gamma), "gravity": np.full(n, self.gravity)}
         suf = path.suffix.lower()
         if suf == ".npz":
-            np.savez(path, f=self.f, **cols)
+            with atomic_open(path, "wb") as fh:
+                np.savez(fh, f=self.f, **cols)
         elif suf in (".csv", ".txt"):
             header = ["t"] + [f"f{i + 1}" for i in range(self.f.shape[1])] + ["case", "mounting", "table_rate",
                                                                                 "wedge", "gravity"]
             data = np.column_stack([self.t, self.f, cols["case"], cols["mounting"], self.table_rate, cols["wedge"],
                                     cols["gravity"]])
-            np.savetxt(path, data, delimiter=",", header=",".join(header), comments="", fmt="%.12g")
+            write_csv(path, data, ",".join(header), "%.12g")
         elif suf in (".h5", ".hdf5"):
             try:
                 import h5py
             except ImportError:
                 raise OptinavError("writing HDF5 needs h5py", "pip install h5py, or use .npz/.csv") from None
-            with h5py.File(path, "w") as fh:
+            with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
                 fh["f"] = self.f
                 for k, v in cols.items():
                     fh[k] = v

@@ -8,7 +8,6 @@ docs/file-formats.md.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -536,8 +535,9 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
         raise OptinavError(f"directory {path.parent} does not exist", "create it first")
     acc, acc_u = _out_values(log, "acc", acc_unit)
     gyro, gyro_u = _out_values(log, "gyro", gyro_unit)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
-    try:
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
         if suffix in _WRITE_TEXT:
             _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
         elif suffix == ".npz":
@@ -564,13 +564,6 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
                         fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
                     else:
                         fh.create_dataset(k, data=v)
-        tmp.replace(path)
-    except OSError as exc:
-        raise OptinavError(f"cannot write {path} ({exc.strerror or exc})",
-                           "check the directory and free space") from None
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 
