@@ -468,6 +468,9 @@ class FileOptions:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
                 raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
+        if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
+            raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
+                               "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
