@@ -1,15 +1,13 @@
 """`optinav reproduce rins-pso --quick`: every check passes (Table 4, units finding, observability, PSO Monte Carlo)."""
 
-import numpy as np
-
-from optinav.reports import get_study
+from report_fixture import quick_report, study_failures  # noqa: F401
 
 
-def test_rins_pso_quick_study_checks_pass():
-    res = get_study("rins-pso")(quick=True, rng=np.random.default_rng(5))
-    failed = [f"{c.name}: {c.value} vs {c.limit}" for c in res.checks if not c.passed]
-    assert not failed, failed
-    assert len(res.tables) >= 5 and len(res.figures) == 5
+def test_rins_pso_quick_study_checks_pass(quick_report):
+    st = quick_report.study("rins-pso")
+    assert not study_failures(st)
+    assert len(st["tables"]) >= 5
+    s = st["summary"]
     # Table 3 read as radians reproduces the paper's uncompensated yaw RMSE (0.9263°) within 5 %
-    assert abs(res.summary["units_rmse_deg"]["rad"][2] / 0.9263 - 1) < 0.05
-    assert res.summary["rmse_deg"]["lm"][2] < 0.01 * res.summary["rmse_deg"]["none"][2]
+    assert abs(s["units_rmse_deg"]["rad"][2] / 0.9263 - 1) < 0.05
+    assert s["rmse_deg"]["lm"][2] < 0.01 * s["rmse_deg"]["none"][2]
