@@ -127,6 +127,12 @@ def get_study(name: str) -> Callable[..., StudyResult]:
 
 
 def _fmt(x: Any) -> str:
+    if x is None:
+        return "—"
+    if hasattr(x, "dtype") and getattr(x, "ndim", 1) == 0:
+        x = x.item()  # a NumPy scalar
+    if isinstance(x, bool):
+        return "yes" if x else "no"
     if isinstance(x, float):
         if x == 0 or not math.isfinite(x):
             return str(x)
