@@ -9,6 +9,19 @@ from report_fixture import quick_report  # noqa: F401
 MARKUP = re.compile(r":(func|class|data|meth|mod|attr):|\(issue \d+\)|as they are added|``")
 
 
+def test_quick_report_headline_first_and_plain(quick_report):
+    assert quick_report.returncode == 0, quick_report.stderr
+    text = (quick_report.out / "index.md").read_text(encoding="utf-8")
+    assert text.startswith("# optinav reproduce")
+    sections = [line for line in text.splitlines() if line.startswith("## ")]
+    assert sections[0] == "## Headline" and len(sections) == 1 + len(quick_report.summary["studies"])
+    assert not MARKUP.findall(text), MARKUP.findall(text)[:5]
+    for name, st in quick_report.summary["studies"].items():
+        assert st["headline"], f"{name} has no headline numbers"
+        for hl in st["headline"]:
+            assert all(v is None or isinstance(v, (int, float)) for v in (hl["paper"], hl["rebuild"], hl["best"]))
+
+
 def test_quick_report_writes_every_figure(quick_report):
     text = (quick_report.out / "index.md").read_text(encoding="utf-8")
     assert "Figure omitted" not in text

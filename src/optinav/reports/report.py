@@ -169,7 +169,7 @@ def _headline(results: list[StudyResult]) -> tuple[list[str], list[str]]:
         rows = r.headline or [Headline("—", "", None, None, None)]
         for k, hl in enumerate(rows):
             cells = [r.name if k == 0 else "", ok if k == 0 else "", hl.quantity,
-                     *("—" if v is None else _fmt(float(v)) for v in (hl.paper, hl.rebuild, hl.best)), hl.unit]
+                     *("—" if v is None else f"{float(v):.3g}" for v in (hl.paper, hl.rebuild, hl.best)), hl.unit]
             md.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
             h.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
     md.append("")

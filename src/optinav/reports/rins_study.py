@@ -108,15 +108,14 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                      "gimbal angles.")
     arows = []
     for i, nm in enumerate(PARAM_NAMES):
-        arows.append([nm, f"{truth[i]:.6f}", *["null" if res[m].angles[nm] is None else f"{res[m].angles[nm]:.6f}"
-                                                for m in ("axis", "pso", "lm")]])
+        arows.append([nm, float(truth[i]), *[res[m].angles[nm] for m in ("axis", "pso", "lm")]])
     for c in res["lm"].combinations:
         if " " in c["name"]:
             tv = float(np.dot(c["coefficients"], truth))
             vals = [next(x["value"] for x in res[m].combinations if x["name"] == c["name"])
                     for m in ("axis", "pso", "lm")]
-            arows.append([c["name"], f"{tv:.6f}", *[f"{v:.6f}" for v in vals]])
-    tang = Table("Table 3: calibrated angles [rad] (null = not observable)", ["angle", "truth", "axis", "PSO", "LM"],
+            arows.append([c["name"], tv, *[float(v) for v in vals]])
+    tang = Table("Table 3: calibrated angles [rad] (— = not observable)", ["angle", "truth", "axis", "PSO", "LM"],
                  arows, note="theta_z − eta_z and eta_y do not change the attitude change of eq. 12 (rank 4/6): "
                              "the paper's separate values of theta_z, eta_z and eta_y are not determined by its data.")
     raw = np.array([r.options["p_raw"] for r in mc])
@@ -126,10 +125,11 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     mc_rmse = np.array([r.rmse_after_deg for r in mc])
     tmc = Table(f"Monte Carlo of PSO ({n_mc} random initial swarms, Fig. 10)",
                 ["quantity", "value"],
-                [["RMSE pitch/roll/yaw mean [deg]", " / ".join(f"{x:.5f}" for x in mc_rmse.mean(0))],
-                 ["RMSE spread max−min (norm) [deg]", f"{np.ptp(np.linalg.norm(mc_rmse, axis=1)):.5f}"],
+                [*[[f"RMSE {a}, mean over runs [deg]", float(x)] for a, x in zip(("pitch", "roll", "yaw"),
+                                                                                    mc_rmse.mean(0))],
+                 ["RMSE spread max−min (norm) [deg]", float(np.ptp(np.linalg.norm(mc_rmse, axis=1)))],
                  ["paper: spread within [deg] (one run of 50 fluctuating)", PAPER_MC_SPREAD_DEG],
-                 *[[f"std of PSO's raw {k} over runs [rad]", f"{v:.3e}"] for k, v in spread.items()]])
+                 *[[f"std of PSO's raw {k} over runs [rad]", v] for k, v in spread.items()]])
     tu = Table("Units finding: uncompensated RMSE [deg] of the noise-free chain with Table 3's angles",
                ["reading of Table 3", "pitch", "roll", "yaw"],
                [["degrees (as labelled)", *np.round(units["deg"], 5)], ["radians", *np.round(units["rad"], 5)],
@@ -139,7 +139,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     tobs = Table("Observability of the six angles (first-order Jacobian, 16-position scheme)", ["", "value"],
                  [["rank", res["lm"].observability["rank"]],
                   ["singular values (scaled by 1 mrad)",
-                   " ".join(f"{x:.3g}" for x in res["lm"].observability["singular_values"])],
+                   " ".join(f"{x:.3g}" for x in res["lm"].observability["singular_values"])],  # one cell
                   *[["statement", s] for s in res["lm"].observability["statements"]]])
 
     # --- checks ----------------------------------------------------------------------------------------------
@@ -199,11 +199,15 @@ def run(quick: bool = False, rng=None) -> StudyResult:
 
     def mcfig(fig):
         ax = fig.add_subplot(111)
+        from matplotlib.ticker import MaxNLocator
+
         for k, nm in enumerate(("pitch", "roll", "yaw")):
-            ax.plot(np.arange(1, n_mc + 1), mc_rmse[:, k], "o-", ms=3, label=nm)
+            line, = ax.plot(np.arange(1, n_mc + 1), mc_rmse[:, k], "o-", ms=3, label=f"PSO, {nm}")
+            ax.axhline(lm_mc.rmse_after_deg[k], color=line.get_color(), ls="--", lw=0.8, label=f"LM, {nm}")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("Monte Carlo run")
         ax.set_ylabel("attitude RMSE [deg]")
-        ax.legend()
+        ax.legend(fontsize=7, ncol=3)
 
     figs = [Figure("rins_fig5_convergence.png", "Fig. 5: PSO fitness over generations (each MC run)", conv),
             *[Figure(f"rins_fig{6 + k}_{nm}.png", f"Fig. {6 + k}: vehicle {nm} error by method", att(k))
