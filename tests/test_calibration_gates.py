@@ -199,3 +199,47 @@ def test_imucal_repeated_poses_fall_back_to_the_diagonal_model(tmp_path, capsys)
     assert r.accelerometer["held"] == ["K_xy", "K_xz", "K_yz"]
     msg = _cli_error(capsys, args[:-2] + ["--model", "full", "--out", str(tmp_path / "f.json")])
     assert "6 distinct pose directions" in msg and "--model diagonal" in msg
+
+
+def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
+    s, acc, _ = sim
+    path = _write(tmp_path, "a.csv", s.t, acc, None)
+    base = ["calibrate", "accel", str(path), "--acc-unit", "counts", "--gravity", str(s.gravity)]
+    out = tmp_path / "r.json"
+    assert main(["--quiet", *base, "--out", str(out)]) == 0
+    plain = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--acc-bias-instability", "5", "--out", str(out)]) == 0
+    drift = CalibrationResult.from_json(out)
+    np.testing.assert_allclose(drift.accelerometer["b_std"], np.hypot(plain.accelerometer["b_std"], 5.0))
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0.02", "--out", str(out)]) == 0
+    wide = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0", "--out", str(out)]) == 0
+    narrow = CalibrationResult.from_json(out)
+    assert wide.accelerometer["held_std_rad"] == 0.02
+    assert np.all(np.diag(wide.accelerometer["K_std"]) > np.diag(narrow.accelerometer["K_std"]))
+    with pytest.raises(SystemExit):  # argparse: a one-line usage error
+        main(["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
+    assert "--held-misalignment" in capsys.readouterr().err
+
+
+def test_too_few_distinct_poses_is_an_error_however_many_intervals():
+    """Eight intervals, but only four directions (each pose twice): not even scales and biases are determined."""
+    ups = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)] * 2, float)
+    s = simulate_session(ups, dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=2)
+    with pytest.raises(OptinavError, match="4 distinct pose directions .*at least 6 distinct poses"):
+        calibrate_session(s.t, s.acc, acc_unit="counts", g=s.gravity)
+
+
+def test_a_drifting_gyro_bias_fails_static_and_calibrates_with_local(sim):
+    s, acc, gyr = sim
+    ramp = np.outer(s.t / s.t[-1], [60.0, -40.0, 50.0])  # counts: about 3.6 °/s of drift over the session
+    with pytest.raises(OptinavError, match="--gyro-bias local"):
+        calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                          gyro_bias="local")
+    _, Q = model.upper_triangular_form(s.acc_K)
+    Kg = s.gyro_K @ Q.T
+    assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])
+    # the reported bias is the session mean; its std spans the drift
+    assert np.all(np.abs(r.gyroscope["b"] - (s.gyro_b + OFFSET + ramp.mean(axis=0))) < 3 * r.gyroscope["b_std"])
+    assert np.all(r.gyroscope["b_std"] > 0.2 * np.abs(ramp[-1]))

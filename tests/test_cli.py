@@ -7,6 +7,7 @@ import sys
 import pytest
 
 from optinav.cli.main import main
+from report_fixture import quick_report  # noqa: F401
 
 
 def test_help_lists_commands(capsys):
@@ -32,19 +33,17 @@ def test_unwritable_report_folder(tmp_path, capsys):
     assert "study core" not in err  # failed before doing the work
 
 
-def test_reproduce_quick_writes_report(tmp_path):
-    # the README's main job, as a user runs it (installed console entry point via python -m)
-    out = tmp_path / "rep"
-    proc = subprocess.run([sys.executable, "-m", "optinav.cli.main", "--quiet", "reproduce", "--quick",
-                           "--out", str(out)], capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+def test_reproduce_quick_writes_report(quick_report):
+    # the README's main job, as a user runs it (the session's one quick run, via python -m)
+    out = quick_report.out
+    assert quick_report.returncode == 0, quick_report.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert "core" in summary["studies"]
     checks = summary["studies"]["core"]["checks"]
     assert checks and all(c["passed"] for c in checks)
     assert (out / "index.md").read_text().startswith("# optinav reproduce")
     assert (out / "index.html").exists()
-    assert list(out.glob("*.png")), "matplotlib is in the test extra, so figures must be written"
+    assert list(out.glob("*.png")), "matplotlib is a core dependency, so figures must be written"
 
 
 def test_closed_stdout_is_not_an_error():

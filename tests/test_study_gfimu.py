@@ -1,13 +1,19 @@
 """`optinav reproduce gfimu --quick`: every check of the study passes."""
 
-import numpy as np
-
-from optinav.reports import get_study
+from report_fixture import quick_report, study_failures  # noqa: F401
 
 
-def test_gfimu_quick_study_checks_pass():
-    res = get_study("gfimu")(quick=True, rng=np.random.default_rng(5))
-    failed = [f"{c.name}: {c.value} vs {c.limit}" for c in res.checks if not c.passed]
-    assert not failed, failed
-    assert len(res.tables) >= 5 and len(res.figures) == 2
-    assert res.summary["table_stats"]["high"]["lm_pos_max"] < 1.0
+def test_gfimu_quick_study_checks_pass(quick_report):
+    st = quick_report.study("gfimu")
+    assert not study_failures(st)
+    assert len(st["tables"]) >= 5
+    assert st["summary"]["table_stats"]["high"]["lm_pos_max"] < 1.0
+
+
+def test_gfimu_closed_form_and_lm_on_the_same_samples(quick_report):
+    st = quick_report.study("gfimu")
+    same = st["summary"]["same_data"]
+    for k in ("low", "high"):
+        # LM lowers the worst position error on the same data; the closed form is within a factor 2 of it
+        assert same[k]["lm_pos"] < same[k]["cf_pos"] < 2 * same[k]["lm_pos"]
+    assert any(t["title"].startswith("Closed form vs optinav LM on the same data") for t in st["tables"])

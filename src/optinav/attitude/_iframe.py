@@ -7,7 +7,7 @@ I, where gravity is nearly constant while the body rotates; the accelerometer is
 Butterworth, bilinear with pre-warping, time constant ``tau_acc``), and a tilt correction q_c = q_I^n' turns
 the low-passed specific force onto the vertical. A heading correction δ about the vertical (magnetometer)
 completes q_b^n = R_up(δ) ⊗ q_c ⊗ q_g. The gyro bias is a 3-state Kalman filter fed by detected rest (H = I)
-and, in motion, by the tilt-correction rate (its horizontal part equals −C_b^n δb).
+and, in motion, by the tilt-correction rate (its horizontal part equals −C_b^n δb through the low-pass).
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ S_ACC_USED, S_MAG_USED, S_BIAS_MOTION = 54, 55, 56   # last sample's flags (1/0)
 S_Q = 57                                             # output q_b^n (4)
 S_TIME = 61                                          # time since start (s)
 S_RDT = 62                                           # dt of the cached rest coefficients, then α (1)
-STATE_SIZE = 64
+S_LPC = 64                                           # Butterworth memory of C_b^I (9 entries × 4)
+STATE_SIZE = 100
 
 # --- parameter layout (all SI: s, rad, rad/s, m/s², relative) ------------------------------------------------
 P_TAU_ACC, P_REST_TAU, P_REST_GYR, P_REST_ACC, P_REST_TIME = 0, 1, 2, 3, 4
@@ -95,9 +96,9 @@ def _butter(st, par, h):
 
 
 @numba.njit(**_NJ)
-def _lp(st, j, x):
-    """One Butterworth step (direct form I) on axis j."""
-    m = S_LP + 4 * j
+def _lp(st, j, x, base=S_LP):
+    """One Butterworth step (direct form I) on channel j of the memory at ``base``."""
+    m = base + 4 * j
     b0, b1, a1, a2 = st[S_DT + 1], st[S_DT + 2], st[S_DT + 3], st[S_DT + 4]
     y = b0 * x + b1 * st[m] + b0 * st[m + 1] - a1 * st[m + 2] - a2 * st[m + 3]
     st[m + 1] = st[m]
@@ -159,6 +160,9 @@ def _init(st, par, ax, ay, az):
             st[S_LP + 4 * j + k] = a[j]
         st[S_RA + j] = a[j]
         st[S_RG + j] = 0.0
+    for j in range(9):
+        for k in range(4):
+            st[S_LPC + 4 * j + k] = 1.0 if j % 4 == 0 else 0.0
     st[S_DELTA] = 0.0
     st[S_INIT] = 1.0
 
@@ -205,6 +209,10 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if rest:
         r = par[P_BIAS_REST] ** 2 / h
         for j in range(3):
+            # a bias step (innovation beyond 3σ of the low-passed gyro) resets that axis to its prior σ
+            z = st[S_RG + j] - st[S_BIAS + j]
+            if z * z > 9.0 * (st[S_P + 4 * j] + par[P_BIAS_REST] ** 2 / par[P_REST_TAU]):
+                st[S_P + 4 * j] = max(st[S_P + 4 * j], par[P_BIAS_SIGMA0] ** 2, z * z)
             hj0 = 1.0 if j == 0 else 0.0
             hj1 = 1.0 if j == 1 else 0.0
             hj2 = 1.0 if j == 2 else 0.0
@@ -225,6 +233,15 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         _butter(st, par, h)
         ix, iy, iz = _rot(g0, g1, g2, g3, ax, ay, az)
         lx, ly, lz = _lp(st, 0, ix), _lp(st, 1, iy), _lp(st, 2, iz)
+        # C_b^I low-passed like the specific force: the correction rate responds to the bias through it
+        for col in range(3):
+            ex_ = 1.0 if col == 0 else 0.0
+            ey_ = 1.0 if col == 1 else 0.0
+            ez_ = 1.0 if col == 2 else 0.0
+            r0, r1, r2 = _rot(g0, g1, g2, g3, ex_, ey_, ez_)
+            _lp(st, col, r0, S_LPC)
+            _lp(st, 3 + col, r1, S_LPC)
+            _lp(st, 6 + col, r2, S_LPC)
         nl = math.sqrt(lx * lx + ly * ly + lz * lz)
         if nl > 0.0:
             vx, vy, vz = _rot(c0, c1, c2, c3, lx / nl, ly / nl, lz / nl)
@@ -240,16 +257,19 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 c0, c1, c2, c3 = _qmul(e0, e1, e2, e3, c0, c1, c2, c3)
                 _store_q(st, S_QC, c0, c1, c2, c3)
                 c0, c1, c2, c3 = st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3]
-                # in motion: the correction rate is the horizontal projection of −C_b^n δb
+                # in motion: the correction rate is the horizontal projection of −C_b^n δb, as seen through
+                # the low-pass (rows of C(q_c)·LP(C_b^I))
                 gn = math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
                 if (not rest and par[P_BIAS_MOTION] > 0.0 and gn < par[P_MOTION_MAX_GYR]
                         and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]):
                     st[S_BIAS_MOTION] = 1.0
-                    t0, t1, t2, t3 = _qmul(c0, c1, c2, c3, g0, g1, g2, g3)  # q_b^n' without δ
                     r = par[P_BIAS_MOTION] ** 2 / h
+                    L = S_LPC
                     for (px, py, pz) in ((nx, ny, nz), (wx, wy, wz)):
-                        # row of C_b^n' projected on p: p·C v = (Cᵀp)·v
-                        hx, hy, hz = _rot(t0, -t1, -t2, -t3, px, py, pz)
+                        jx, jy, jz = _rot(c0, -c1, -c2, -c3, px, py, pz)  # p into I
+                        hx = jx * st[L + 4 * 0 + 2] + jy * st[L + 4 * 3 + 2] + jz * st[L + 4 * 6 + 2]
+                        hy = jx * st[L + 4 * 1 + 2] + jy * st[L + 4 * 4 + 2] + jz * st[L + 4 * 7 + 2]
+                        hz = jx * st[L + 4 * 2 + 2] + jy * st[L + 4 * 5 + 2] + jz * st[L + 4 * 8 + 2]
                         z = -(ex * px + ey * py + ez * pz) / h
                         _bias_update(st, hx, hy, hz, z, r, clip)
     # --- magnetometer heading ------------------------------------------------------------------------------
@@ -327,3 +347,9 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias):
         flags[i, 3] = st[S_BIAS_MOTION] != 0.0
         for k in range(3):
             bias[i, k] = st[S_BIAS + k]
+
+
+@numba.njit(**_NJ)
+def step6(st, par, g, a, h):
+    """:func:`step` with gyr and acc as 3-sequences (arrays or tuples) and no magnetometer."""
+    step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)

@@ -41,8 +41,8 @@ from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_attitude", "initial_attitude",
-           "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
+__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_attitude",
+           "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
 
 METHODS = ("iframe", "qn", "gd", "cg", "mekf")
 
@@ -267,7 +267,9 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
                            "gyro across it would be wrong", "pass --allow-gaps (allow_gaps=True) to restart the "
                            "estimate after each gap")
     if gaps.size:
-        parts = [estimate_attitude(gyr[a:b], acc[a:b], dts[a:b] if dts.shape[0] > 1 else dts, pol=(
+        seg_dt = dts.copy()
+        seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
+        parts = [estimate_attitude(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
             None if pol is None else pol.select(slice(a, b))), method=method, frame=frame, q0=q0 if a == 0 else None,
             mag=None if mag is None else mag[a:b], offline=offline, input_stage=input_stage, checks=False, **options)
             for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]

@@ -179,21 +179,19 @@ class AttitudeFilter:
         self._par = _params(self.frame, self.options)
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
         self._step = _k.step
-        self._nan = float("nan")
+        self._step6 = _k.step6
 
-    def update(self, gyr, acc, mag=None, dt=None) -> np.ndarray:
-        """One sample: gyr (3,) rad/s, acc (3,) m/s², mag (3,) or None, dt s (default: the filter's).
-        Returns q_b^n (4,)."""
+    def update(self, gyr, acc, mag=None, dt=None) -> None:
+        """One sample: gyr (3,) rad/s, acc (3,) m/s², mag (3,) or None, dt s (default: the filter's); then read
+        :attr:`q`, :attr:`rest`, ... Inputs go to the compiled step unchecked (speed): pass finite floats."""
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
         if mag is None:
-            self._step(self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], self._nan,
-                       self._nan, self._nan, h)
+            self._step6(self._state, self._par, gyr, acc, h)
         else:
             self._step(self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1],
                        mag[2], h)
-        return self._state[_k.S_Q:_k.S_Q + 4].copy()
 
     def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
         """A chunk (N, 3) of samples; dt scalar, (N,) or None (the filter's). Per-sample outputs."""

@@ -7,8 +7,8 @@ import sys
 import math
 import textwrap
 
-from optinav.cli.common import (HEIGHT, LATITUDE, POSITIVE, add_input_options, add_report_option, finish_report,
-                                output_path, prepare_report, register_system_hooks)
+from optinav.cli.common import (COUNT, HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, SEED, add_input_options,
+                                add_report_option, finish_report, output_path, prepare_report, register_system_hooks)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -26,7 +26,8 @@ def register(sub) -> None:
         description=textwrap.dedent("""\
             Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
             Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
-            'ferraris' = closed form for 6 axis poses + 3 rotations (needs --sections with imucal's names).
+            'ferraris' = closed form for 6 axis poses + 3 rotations named as imucal names them (x_p … z_rot),
+            from a label column of the log or --sections.
             With gyroscope data the gyro scale, misalignment and bias come from the turns between poses
             (imu_tk's method). The result is raw = K·x + b per sensor (x in m/s^2 or rad/s, raw in the
             file's unit); see docs/file-formats.md."""),
@@ -65,10 +66,10 @@ def add_calibration_options(a) -> None:
                    help="fit every sample instead of the pose means (as the paper does; biased by sigma^2/g)")
     a.add_argument("--sections", metavar="FILE", help="static sections by hand: 'start end' lines in s, JSON, "
                                                       "or imucal's section list (sample indices)")
-    a.add_argument("--window", type=float, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
-    a.add_argument("--min-duration", type=float, default=2.0, metavar="S",
+    a.add_argument("--window", type=POSITIVE, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
+    a.add_argument("--min-duration", type=NON_NEGATIVE, default=2.0, metavar="S",
                    help="shortest static interval kept (default 2 s)")
-    a.add_argument("--threshold", type=float, help="static threshold on the acc moving variance (raw units^2); "
+    a.add_argument("--threshold", type=POSITIVE, help="static threshold on the acc moving variance (raw units^2); "
                                                     "default automatic")
     a.add_argument("--acc-range", type=full_scale, metavar="R|LO:HI",
                    help="accelerometer full scale in raw units: R for ±R (e.g. 32768 for signed 16-bit counts) or "
@@ -76,16 +77,25 @@ def add_calibration_options(a) -> None:
                         "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
     a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
                    help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
-    a.add_argument("--gyro-bias", choices=["static", "rest", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default), from an initial rest period "
-                        "(--rest), or estimated with K")
+    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="static",
+                   help="gyro bias from the static intervals (default), per turn from the two rests it joins "
+                        "(local: a bias that drifts), from an initial rest period (--rest), or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
+    a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
+                   help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
+                        "clockwise full turn seen from the axis tip)")
+    a.add_argument("--acc-bias-instability", type=NON_NEGATIVE, metavar="RAW",
+                   help="1-sigma accelerometer bias drift over the session in raw units (datasheet bias "
+                        "instability or run-to-run), added to the bias std: the poses cannot reveal a common drift")
+    a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
+                   help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
+                        "datasheet value); their model error enters the scale and bias std")
     a.add_argument("--allow-unobservable", action="store_true",
                    help="hold the gyro parameters the turns do not determine at their initial guess instead of "
                         "stopping (they are listed in the result)")
-    a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
-    a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
+    a.add_argument("--generations", type=COUNT, help="GA/PSO generations (default: the optimizer's)")
+    a.add_argument("--seed", type=SEED, default=0, help="random seed for GA/PSO (default 0)")
 
 
 def full_scale(text: str):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import textwrap
 import time
@@ -37,15 +38,19 @@ def register(sub) -> None:
 def run(args) -> int:
     import numpy as np
 
+    from optinav.core.progress import progress_enabled, task
+
     names = list(available_studies()) if args.study == "all" else [args.study]
     fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
     prepare_report_dir(args.out, "--out")
     results = []
     rng = np.random.default_rng(args.seed)
-    for name, fn in fns:
-        print(f"optinav: study {name} ...", file=sys.stderr, flush=True)
+    for k, (name, fn) in enumerate(fns, 1):
+        if not progress_enabled() and not os.environ.get("OPTINAV_QUIET"):
+            print(f"optinav: study {name} ...", file=sys.stderr, flush=True)  # a log, when no bar is shown
         t0 = time.perf_counter()
-        r = fn(quick=args.quick, rng=np.random.default_rng(rng.integers(2**63)))
+        with task(f"study {k}/{len(fns)} {name}"):
+            r = fn(quick=args.quick, rng=np.random.default_rng(rng.integers(2**63)))
         r.elapsed = time.perf_counter() - t0
         results.append(r)
     out = write_report(results, args.out, title="optinav reproduce" + (" (quick)" if args.quick else ""))

@@ -1,18 +1,24 @@
-"""Progress display for long work: a one-line meter on stderr, silent when not wanted.
+"""Progress display for long work (tqdm bars on stderr), silent when not wanted.
 
-``progress(iterable, total=None, desc="", enabled=None)`` yields the items; ``enabled=None`` shows the
-meter only when stderr is a terminal and ``OPTINAV_QUIET`` is unset (the CLI's ``--quiet`` sets it).
+``progress(iterable, total=None, desc="", enabled=None)`` yields the items behind a bar; ``enabled=None``
+shows it only when stderr is a terminal and ``OPTINAV_QUIET`` is unset (the CLI's ``--quiet`` sets it).
+``task(desc)`` opens a bar for a job made of named steps (``optinav reproduce`` opens one per study) and
+``step(label)`` advances the innermost open task, so a study reports its steps without knowing who shows them.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
-import time
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
+from tqdm.auto import tqdm
+
 T = TypeVar("T")
+
+_TASKS: list = []  # open task bars, innermost last
 
 
 def progress_enabled() -> bool:
@@ -22,35 +28,34 @@ def progress_enabled() -> bool:
 
 def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
              enabled: bool | None = None, min_interval: float = 0.2) -> Iterator[T]:
-    """Iterate over ``iterable`` while printing ``desc  k/total  pct  elapsed  eta`` to stderr."""
+    """Iterate over ``iterable`` behind a progress bar (``desc  k/total  elapsed  eta``) on stderr."""
     show = progress_enabled() if enabled is None else enabled
-    if total is None:
-        try:
-            total = len(iterable)  # type: ignore[arg-type]
-        except TypeError:
-            total = None
     if not show:
         yield from iterable
         return
-    start = last = time.perf_counter()
-    k = 0
-    for k, item in enumerate(iterable, 1):
-        yield item
-        now = time.perf_counter()
-        if now - last >= min_interval or (total is not None and k == total):
-            last = now
-            _draw(desc, k, total, now - start)
-    sys.stderr.write("\n")
-    sys.stderr.flush()
+    # nested under an open task: the bar goes below it and disappears when done
+    with tqdm(iterable, total=total, desc=desc, file=sys.stderr, mininterval=min_interval, dynamic_ncols=True,
+              leave=not _TASKS, position=len(_TASKS) or None) as bar:
+        yield from bar
 
 
-def _draw(desc: str, k: int, total: int | None, elapsed: float) -> None:
-    if total:
-        frac = k / total
-        eta = elapsed / frac - elapsed if frac > 0 else 0.0
-        bar = "#" * int(20 * frac)
-        line = f"\r{desc} [{bar:<20}] {k}/{total} {100 * frac:5.1f}% {elapsed:6.1f}s eta {eta:6.1f}s"
-    else:
-        line = f"\r{desc} {k} {elapsed:6.1f}s"
-    sys.stderr.write(line)
-    sys.stderr.flush()
+@contextlib.contextmanager
+def task(desc: str, total: int | None = None, enabled: bool | None = None):
+    """A bar for one job of named steps; ``step(label)`` inside advances it (see the module docstring)."""
+    show = progress_enabled() if enabled is None else enabled
+    bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=not show, dynamic_ncols=True,
+               bar_format="{desc}: {n_fmt} steps, {elapsed}{postfix}" if total is None else None)
+    _TASKS.append(bar)
+    try:
+        yield bar
+    finally:
+        _TASKS.remove(bar)
+        bar.close()
+
+
+def step(label: str) -> None:
+    """Mark the start of step ``label`` of the innermost open task (no-op outside a task)."""
+    if _TASKS:
+        bar = _TASKS[-1]
+        bar.set_postfix_str(label, refresh=False)
+        bar.update(1)

@@ -38,6 +38,8 @@ _CORE_METHOD = {"lm": "lm", "gn": "gauss-newton", "trf": "trf", "newton": "newto
 #: parameters held at zero when the norm observations cannot separate the misalignments
 MISALIGNMENT = (3, 4, 5)
 MODELS = ("auto", "full", "diagonal")
+#: default 1σ (rad) of misalignments held at 0: the MEMS class of Gao & Zhang's MTi-1 (preset mems-mti1)
+HELD_MISALIGNMENT = 0.005
 
 
 @dataclasses.dataclass
@@ -239,14 +241,17 @@ def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.n
 
 
 def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
-              samples=None, x0=None, rng=None, interval=None, bias_instability=None, **options) -> AccelFit:
+              samples=None, x0=None, rng=None, interval=None, bias_instability=None,
+              held_misalignment: float = HELD_MISALIGNMENT, **options) -> AccelFit:
     """Fit θ to static-pose data (see the module docstring).
 
     ``stats``: per-pose raw statistics. ``g``: local gravity (m/s²). ``model_form``: "auto" (all 9 when
     observable, else scales and biases with the misalignments held at 0 and reported), "full" (error if not
     observable), "diagonal". ``data="samples"`` needs ``samples`` (list of (n_k, 3) raw arrays per pose).
     ``bias_instability`` (raw units, scalar or per axis): 1σ of the bias drift over the session, added in
-    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``options`` go to the optimizer (e.g. ``generations`` for the GA).
+    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``held_misalignment``
+    (rad): 1σ of the misalignments a reduced model holds at 0; their effect on the fitted scales and biases
+    (first order, through the Jacobian) is added to those stds — the model error of what was held. ``options`` go to the optimizer (e.g. ``generations`` for the GA).
     """
     g = check_positive(g, "gravity")
     if method not in METHODS:
@@ -308,9 +313,19 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     crlb[free] = rep.crlb_std if not held else _observability(J, sig, free).crlb_std
     chi2 = float(np.sum((r / sig) ** 2))
     dof = int(P - len(free))
-    # Correlated noise (bias instability) shifts whole pose means, which the within-pose scatter cannot
-    # show; the a-posteriori variance factor χ²/dof (never below 1) carries it into the reported std.
-    std = crlb * np.sqrt(max(1.0, chi2 / dof)) if dof > 0 else crlb
+    add_var, extra_chi2 = np.zeros(len(free)), 0.0
+    if held and held_misalignment:
+        # model error of the held terms: θ_free moves by G·δθ_held, G = −(J_fᵀWJ_f)⁻¹J_fᵀWJ_h (whitened J);
+        # what the free terms cannot absorb, (J_h + J_f·G)·δθ_held, is expected in χ²
+        Jw = J / sig[:, None]
+        G = -np.linalg.lstsq(Jw[:, free], Jw[:, held], rcond=None)[0]
+        s_h = abs(float(held_misalignment)) * np.abs(theta[[0, 0, 1]])  # K_xy, K_xz ∝ K_xx; K_yz ∝ K_yy
+        add_var = (G ** 2) @ s_h ** 2
+        extra_chi2 = float(np.sum(((Jw[:, held] + Jw[:, free] @ G) ** 2) @ s_h ** 2))
+    # Correlated noise shifts whole pose means, which the within-pose scatter cannot show; the a-posteriori
+    # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
+    std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
+    std[free] = np.sqrt(std[free] ** 2 + add_var)
     if bias_instability is not None:
         # a drift common to all poses moves b without leaving a residual: only a noise model can bound it
         std[6:9] = np.hypot(std[6:9], np.broadcast_to(np.abs(as_float_array(bias_instability, "bias_instability")), 3))

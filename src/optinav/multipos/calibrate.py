@@ -132,7 +132,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                       data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
                       threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
                       source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-                      rest=None, allow_unobservable: bool = False) -> CalibrationResult:
+                      rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
+                      held_misalignment: float = accel.HELD_MISALIGNMENT) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -143,7 +144,10 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     ``gyro_bias``: "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
     rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
     ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
-    turns do not determine instead of failing. Every fit passes the gates of :mod:`optinav.multipos.gates`
+    turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
+    ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
+    stds of the scales and biases). ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
     t_start = time.perf_counter()
@@ -178,7 +182,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
-        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source)
+        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
+                         notes, np.radians(rotation_angle_deg))
     selection = {}
     if sections is not None:
         sl = static.sections_from_list(sections, t)
@@ -205,7 +210,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
                            samples=samples, rng=rng, bias_instability=acc_bias_instability,
-                           **(method_options or {}))
+                           held_misalignment=held_misalignment, **(method_options or {}))
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
         used[i0:i1] = True
@@ -218,7 +223,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         K_std[r, c] = fit.std[j]
     acc_entry = {"K": fit.K, "b": fit.b, "K_std": K_std, "b_std": fit.std[6:9], "form": "upper-triangular",
                  "estimated": fit.estimated, "held": fit.held, "chi2": fit.chi2, "dof": fit.dof,
-                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g)}
+                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g),
+                 "held_std_rad": held_misalignment if fit.held else None}
     obs = fit.observability
     observability = {"accelerometer": {"rank": obs.rank, "n_params": obs.n_params,
                                        "singular_values": obs.singular_values,
@@ -341,30 +347,53 @@ def _gyro_gates(gc, gyro_unit: str) -> None:
     if gc.residual_rms > gates.MAX_GYRO_RESIDUAL_RAD:
         raise OptinavError(f"the turns do not carry gravity onto the next pose: residual RMS "
                            f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
-                           "check for motion inside the static intervals (--threshold, --sections) and the time "
-                           "column (--rate, --time-unit)")
+                           "for a gyro bias that drifts during the session pass --gyro-bias local; else check for "
+                           "motion inside the static intervals (--threshold, --sections) and the time column "
+                           "(--rate, --time-unit)")
 
 
-def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source):
-    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them)."""
+def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
+              rotation_angle):
+    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
     from . import ferraris
 
     if gyro is None or sections is None:
         raise OptinavError("the Ferraris method needs gyroscope data and the nine named sections "
                            "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
-                           "pass --gyro (or gyro columns) and --sections FILE")
+                           "give the gyro columns and either a label column naming the sections or --sections FILE")
     if np.any(sat_a):
         raise OptinavError(f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
                            "the Ferraris method has no way to skip them: cut them from the sections")
-    fc = ferraris.ferraris_from_sections(t, acc, gyro, sections, gravity=g)
-    sl = static.sections_from_list(sections, t)
-    names = list(sl.names)
+    sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
+    fc = ferraris.ferraris_from_sections(t, acc, gyro, sl if sl is not None else sections, gravity=g,
+                                         expected_angle=rotation_angle)
+    if sl is None:
+        names = list(sections)
+        idx = np.array([sections[n] for n in names], int)
+        t_iv = np.column_stack([t[idx[:, 0]], t[idx[:, 1] - 1]])
+    else:
+        names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
     a = fc.correct_acc(acc)
     mask = np.zeros(len(t), bool)
-    for i0, i1 in np.asarray(sl.index_ranges, int)[static_idx]:
+    for i0, i1 in idx[static_idx]:
         mask[i0:i1] = True
     residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a[mask], axis=1) - g) ** 2)))
+    # gates: the six poses agree on g, both matrices are plausible, the turns go the stated way
+    pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
+    if pose_rms > gates.MAX_RESIDUAL_G * g:
+        raise OptinavError(f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2",
+                           "check that the sections x_p … z_a hold still poses in imucal's order (--sections)")
+    acc_nominal = float(np.median(np.abs(np.diag(fc.acc_K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
+    gates.check_matrix(fc.acc_K, acc_nominal, "accelerometer", acc_unit, option="--acc-unit",
+                       columns_flag="--columns, or the section names")
+    if np.all(np.diag(fc.gyro_K) < 0):
+        raise OptinavError(f"the three rotations turn the other way than --rotation-angle "
+                           f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
+                           f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}")
+    gyro_nominal = float(np.median(np.abs(np.diag(fc.gyro_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
+    gates.check_matrix(fc.gyro_K, gyro_nominal, "gyroscope", gyro_unit, option="--gyro-unit",
+                       columns_flag="--columns or --gyro-columns, or --rotation-angle")
     nan3 = np.full((3, 3), np.nan)
     acc_entry = {"K": fc.acc_K, "b": fc.acc_b, "K_std": nan3, "b_std": np.full(3, np.nan), "form": "full",
                  "estimated": ["K (9)", "b (3)"], "held": []}
@@ -375,12 +404,13 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
              "K": "raw per SI unit", "b": "raw", "G": "gyro raw per m/s^2"}
     return CalibrationResult(
         accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g, residual_rms=residual_rms,
-        static_intervals=np.asarray(sl.t_intervals, float)[static_idx],
+        static_intervals=t_iv[static_idx],
         observability={"note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
                                "parameter exactly; no uncertainty is estimated", "unobservable": []},
         method="ferraris", elapsed_s=time.perf_counter() - t_start,
-        excluded={"nan_rows": n_nan, "saturated_acc": 0}, quality={"gravity_source": g_source,
-                                                                   "sections": names}, source=source)
+        excluded={"nan_rows": n_nan, "saturated_acc": 0},
+        quality={"gravity_source": g_source, "sections": names, "pose_residual_rms": pose_rms,
+                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -415,6 +445,9 @@ class FileOptions:
     gyro_bias: str = "static"
     rest: tuple | None = None
     allow_unobservable: bool = False
+    rotation_angle: float = -360.0
+    acc_bias_instability: float | None = None
+    held_misalignment: float = accel.HELD_MISALIGNMENT
     generations: int | None = None
     seed: int = 0
 
@@ -435,6 +468,14 @@ class FileOptions:
         """Reject contradictory options before any file is read."""
         if (self.gyro_bias == "rest") != (self.rest is not None):
             raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
+        for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
+                           ("held_misalignment", "--held-misalignment")):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
+        if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
+            raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
+                               "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -447,6 +488,8 @@ class SessionData(NamedTuple):
     acc_unit: str
     gyro: np.ndarray | None
     gyro_unit: str | None
+    labels: np.ndarray | None = None
+    notes: tuple = ()
 
 
 def read_session_file(path, options: FileOptions) -> SessionData:
@@ -459,7 +502,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
     gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
-    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit)
+    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
@@ -467,14 +510,22 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
     o = options
     o.check()
     method_options = {} if o.generations is None else {"generations": o.generations}
-    return calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+    sections = o.sections
+    if sections is None and o.method == "ferraris":
+        from .ferraris import sections_from_labels
+
+        sections = sections_from_labels(data.labels)
+    res = calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
                              gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
                              height_m=o.height, method=o.method, model_form=o.model,
-                             data="samples" if o.fit_samples else "means", sections=o.sections,
+                             data="samples" if o.fit_samples else "means", sections=sections,
                              window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
                              acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
                              source=source, method_options=method_options, rest=o.rest,
-                             allow_unobservable=o.allow_unobservable)
+                             allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
+                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment)
+    res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
+    return res
 
 
 def calibrate_file(path, options: FileOptions | None = None) -> CalibrationResult:

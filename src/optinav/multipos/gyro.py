@@ -37,7 +37,9 @@ with finite-difference Jacobians. The first fit carries a weak pull to the initi
 that directions the data do not fix cannot wander off to fit noise while the rank is judged; a full-rank
 problem is then refit without it (the reported K and b carry no prior).
 
-Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"rest"`` — mean over a
+Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"local"`` — during each turn the
+bias interpolated linearly in time between the means of the two static intervals it joins (a bias that drifts
+during the session; the session mean is reported, its std the spread of the interval means); ``"rest"`` — mean over a
 rest window ``(t0, t1)`` s (fixed); ``"estimate"`` — b fitted with K, with each static interval's mean
 added as three residuals ``(m_k − b)/s_k`` (``s_k`` the standard error of the mean from the interval's
 sample scatter, white noise assumed) and the angle residuals weighted by ``1/σ̂`` from a first fit with
@@ -88,7 +90,7 @@ __all__ = ["GYRO_PARAMS", "GyroCalibration", "calibrate_gyro", "theta_to_Kb", "K
 GYRO_PARAMS = ("K_xx", "K_xy", "K_xz", "K_yx", "K_yy", "K_yz", "K_zx", "K_zy", "K_zz", "b_x", "b_y", "b_z")
 #: fewest transitions: 2 constraints each for the 9 entries of K, plus one for the noise estimate
 MIN_TRANSITIONS = 5
-BIAS_MODES = ("static", "rest", "estimate")
+BIAS_MODES = ("static", "local", "rest", "estimate")
 METHODS = ("lm", "gauss-newton", "trf")
 _CONING = ("previous", "none")
 _UNIT_TOL = 0.05   # |‖u‖ − 1| accepted for the up directions (they are normalized afterwards)
@@ -249,11 +251,13 @@ class _Transitions:
         keep = np.arange(idx.shape[0] - 1) if keep is None else np.asarray(keep, int)
         segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in keep]
         lens = np.array([s.size for s in segs])
+        self.seg = np.repeat(np.arange(lens.size), lens)  # transition of each row (a per-transition bias)
         self.ends = np.cumsum(lens) - 1
         self.starts = self.ends - lens + 1
         sel = np.concatenate(segs)
         self.raw = raw[sel]
         tt = t[sel]
+        self.t_rows = tt
         h = np.diff(tt)
         self.gap = np.zeros(h.size, dtype=bool)
         self.gap[self.ends[:-1]] = True          # increment joining two transitions
@@ -265,7 +269,7 @@ class _Transitions:
 
     def rotations(self, K, b) -> np.ndarray:
         """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
-        w = (self.raw - b) @ np.linalg.inv(K).T
+        w = (self.raw - b) @ np.linalg.inv(K).T  # b: (3,) or one per row (the "local" bias)
         dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
         dth[self.gap] = 0.0
         q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
@@ -461,14 +465,26 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                                "give a window inside the log with at least two samples")
         b_fixed = raw[sel].mean(0)
         b_cov = np.diag(raw[sel].var(0, ddof=1) / np.count_nonzero(sel))
-    elif mode in ("static", "estimate"):
+    elif mode in ("static", "local", "estimate"):
         b_static = (counts[:, None] * means).sum(0) / counts.sum()
         b_cov = np.diag((counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2)
         if mode == "static":
             b_fixed = b_static
+        elif mode == "local":
+            b_fixed = b_static  # replaced by the per-sample interpolation once the turns are cut out
     b_init = b_fixed if b_fixed is not None else b_static
 
     tr = _Transitions(t, raw, idx, u, coning, keep)
+    if mode == "local":
+        # a drifting bias: during a turn, the bias interpolated linearly in time between the means of the two
+        # rests it joins (exact for a linear drift); the session mean is reported, with the spread of the rest
+        # means as its std (the bias at any one time is within it)
+        tc = np.array([t[i0:i1].mean() for i0, i1 in idx])
+        k0_, k1_ = keep[tr.seg], keep[tr.seg] + 1
+        f = ((tr.t_rows - tc[k0_]) / (tc[k1_] - tc[k0_]))[:, None]
+        b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
+        b_init = b_fixed
+        b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
 
     # --- initial guess
     if x0 is None:
@@ -595,13 +611,17 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     else:
         sigma_ang = sig_hat
         cov[9:, 9:] = b_cov
-        if mode in ("static", "rest"):
-            Jb = _jac(lambda bb: tr.residuals(K_hat, bb).reshape(-1), b_hat, np.full(3, k0 * _B_SCALE),
-                      r_ang.reshape(-1))
+        if mode in ("static", "local", "rest"):
+            b_ref = b_hat if mode != "local" else b_static
+            Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
+                      np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
             G = -A @ Jb
             cov[:9, :9] += G @ b_cov @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
+    if mode == "local":
+        # K saw the local (noise-limited) biases; the reported session mean carries the drift
+        cov[9:, 9:] = np.diag(np.maximum(np.diag(b_cov), means.var(axis=0, ddof=1)))
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     obs = np.ones(12, dtype=bool)
     obs[:n_par] = np.asarray(rep.observable, dtype=bool)
@@ -618,7 +638,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     if mode == "estimate":
         As = np.abs(A[:, 3 * n_tr:]).reshape(n_par, idx.shape[0], 3)
         bound[:n_par] += np.einsum("pki,ki->p", As, (row_norm * om)[None, :] / sems)
-    elif mode in ("static", "rest"):
+    elif mode in ("static", "local", "rest"):
         bound[9:] = row_norm * om
     bound[~obs] = np.inf
 
@@ -626,7 +646,8 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     rot_ang = 2.0 * np.arctan2(np.linalg.norm(tr.rotations(K_hat, b_hat)[:, 1:], axis=1),
                                np.abs(tr.rotations(K_hat, b_hat)[:, 0]))
     return GyroCalibration(
-        K=K_hat.copy(), b=np.asarray(b_hat, dtype=float).copy(), K_std=std[:9].reshape(3, 3),
+        K=K_hat.copy(), b=np.asarray(b_static if mode == "local" else b_hat, dtype=float).copy(),
+        K_std=std[:9].reshape(3, 3),
         b_std=std[9:].copy(), covariance=cov, residual_rms=float(np.sqrt(np.mean(angles ** 2))),
         transition_residuals=angles, transition_angles=rot_ang, transition_durations=tr.durations.copy(),
         n_transitions=int(n_tr), sigma=float(sigma_ang), dof=int(dof), k0=float(k0), observability=rep,

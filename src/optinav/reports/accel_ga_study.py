@@ -1,11 +1,14 @@
 """Study ``accel-ga``: Gao & Zhang (2019), MEMS accelerometer calibration by norm observation and an adaptive GA.
 
-Reproduces the paper's Tables 1–4 and Figs. 4–5 on a simulated MTi-1 whose accelerometer has the paper's
+Reproduces the paper's Tables 1 to 4 and Figs. 4 and 5 on a simulated MTi-1 whose accelerometer has the paper's
 "traditional multi-position" values (Table 2) as truth, with the MTi-1 datasheet noise (white noise and bias
-instability), 12 positions of the scheme recovered from Table 1, and puts our default estimator
-(Levenberg–Marquardt on pose means, analytic Jacobian) beside the paper's GA and Newton baseline. The paper's
-numbers are measured on a real unit against a reference calibration; ours against simulation truth, so they
-agree in kind (who beats whom, by what order), not digit for digit.
+instability) and the 12 positions recovered from Table 1. The paper's GA is rebuilt with its own operators
+(uniform ranking selection, gene exchange crossover, per-individual mutation, adaptive Pc and Pm, fitness 1/E
+summed over the positions); optinav's GA variant (arithmetic crossover, per-gene non-uniform mutation), the
+Newton baseline and optinav's default (Levenberg–Marquardt on the pose means, analytic Jacobian) run on the same
+session. The paper's numbers are measured on a real unit against a reference calibration, ours against
+simulation truth, so they agree in kind (who beats whom, by what order), not digit for digit; the findings
+table says which of the paper's head-to-head findings this reproduces.
 """
 
 from __future__ import annotations
@@ -16,12 +19,13 @@ import time
 import numpy as np
 
 from optinav.core import rotations
+from optinav.core.progress import step
 from optinav.core.imu_model import TriadErrors, preset
 from optinav.core.observability import rmse_ratio_band
 from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
 from optinav.multipos.simulate import PAPER_REFERENCE, simulate_session
-from optinav.reports.report import Check, Figure, StudyResult, Table, register_study
+from optinav.reports.report import Check, Figure, Headline, StudyResult, Table, register_study
 
 NAMES = ["B_x", "B_y", "B_z", "S_xx", "S_yy", "S_zz", "M_xy", "M_xz", "M_yz"]
 #: Table 2 of the paper: relative errors (%) of Newton and of the GA against the reference calibration
@@ -56,7 +60,7 @@ def _table1(rng):
         rows.append([int(n), int(r), int(rank_p), " ".join(f"{x:.3f}" for x in s), f"{d.max():.1e}"])
     table = Table("Table 1 — rank and singular values of Q = [H; HA; …; HA⁸] vs the number of positions",
                   ["N", "rank (ours)", "rank (paper)", "singular values (ours)", "max |ours − paper|"], rows,
-                  "Positions: the sequence recovered from the printed table (design.PAPER_SCHEME_UP); "
+                  "Positions: the sequence recovered from the printed table; "
                   f"g = {design.PAPER_G:.5f} m/s². N = 3 is rank deficient, N ≥ 4 full rank for this linear "
                   "model (3 outputs per pose). Our estimator observes only the norm (1 scalar per pose), so "
                   "it needs N ≥ 9 — see the design table.")
@@ -112,10 +116,14 @@ def _tables_2_to_4(quick, rng):
     st = accel.pose_statistics(sess.acc, idx)
     samples = [sess.acc[i0:i1] for i0, i1 in idx]
     fits = {}
-    t0 = time.perf_counter()
-    fits["ga"] = accel.fit_accel(st, g, method="ga", data="samples", samples=samples, rng=rng,
-                                 generations=200 if quick else 500)
-    fits["ga"].elapsed_s = time.perf_counter() - t0
+    gens = 200 if quick else 500
+    for key, ops in (("ga", "paper"), ("ga_optinav", "optinav")):
+        step(f"GA ({ops} operators)")
+        t0 = time.perf_counter()
+        fits[key] = accel.fit_accel(st, g, method="ga", data="samples", samples=samples, rng=rng,
+                                    generations=gens, operators=ops)
+        fits[key].elapsed_s = time.perf_counter() - t0
+    step("Newton and LM")
     t0 = time.perf_counter()
     fits["newton"] = accel.fit_accel(st, g, method="newton", data="samples", samples=samples)
     fits["newton"].elapsed_s = time.perf_counter() - t0
@@ -129,19 +137,22 @@ def _tables_2_to_4(quick, rng):
     rows = []
     for j, nm in enumerate(NAMES):
         pe = [PAPER_REL_ERR[m][j] for m in ("newton", "ga")]
-        rows.append([nm, f"{truth[j]:.6g}", f"{vec['newton'][j]:.6g}", f"{rel['newton'][j]:+.4f}",
-                     "—" if pe[0] is None else f"{pe[0]:+.4g}", f"{vec['ga'][j]:.6g}", f"{rel['ga'][j]:+.4f}",
-                     f"{pe[1]:+.4g}", f"{vec['lm'][j]:.6g} ± {std_p[j]:.1g}", f"{rel['lm'][j]:+.4f}"])
-    t2 = Table("Table 2 — calibration results and relative errors (%) against the truth",
-               ["parameter", "truth (paper ref.)", "Newton", "rel. err %", "paper Newton %", "GA", "rel. err %",
-                "paper GA %", "optinav LM", "rel. err %"], rows,
-               f"Simulated MTi-1 (datasheet noise incl. bias instability), 12 positions × {dwell:g} s at 100 Hz. "
-               "B in m/s², S per 1 g input, M in rad. GA and Newton fit every sample (as in the paper), LM the "
-               "pose means. The paper's Newton 'failed' on the misalignments (marked —).")
+        rows.append([nm, float(truth[j]), float(vec["newton"][j]), float(rel["newton"][j]), pe[0],
+                     float(vec["ga"][j]), float(rel["ga"][j]), pe[1], float(rel["ga_optinav"][j]),
+                     float(vec["lm"][j]), float(std_p[j]), float(rel["lm"][j])])
+    t2 = Table("Table 2: calibration results and relative errors (%) against the truth",
+               ["parameter", "truth (paper ref.)", "Newton", "Newton rel. err [%]", "paper Newton [%]",
+                "GA (paper's operators)", "GA rel. err [%]", "paper GA [%]", "GA, optinav operators, rel. err [%]",
+                "optinav LM", "LM std", "LM rel. err [%]"], rows,
+               f"Simulated MTi-1 (datasheet noise incl. bias instability), 12 positions × {dwell:g} s at 100 Hz, "
+               f"one session for all methods. B in m/s², S per 1 g input, M in rad. Both GAs ({gens} generations, "
+               "population 50) and Newton fit every sample (as in the paper), LM the pose means (the same "
+               "least-squares minimum, weighted). The paper's Newton failed on the misalignments (empty cells).")
     t3 = Table("Table 3 — computation time", ["method", "time [s] (optinav)", "time [s] (paper)"],
-               [["adaptive GA", f"{fits['ga'].elapsed_s:.3f}", PAPER_TIME_S["ga"]],
-                ["Newton", f"{fits['newton'].elapsed_s:.3f}", PAPER_TIME_S["newton"]],
-                ["optinav LM (pose means)", f"{fits['lm'].elapsed_s:.4f}", "—"]],
+               [["adaptive GA (paper's operators)", fits["ga"].elapsed_s, PAPER_TIME_S["ga"]],
+                ["adaptive GA (optinav operators)", fits["ga_optinav"].elapsed_s, None],
+                ["Newton", fits["newton"].elapsed_s, PAPER_TIME_S["newton"]],
+                ["optinav LM (pose means)", fits["lm"].elapsed_s, None]],
                "Paper: MATLAB on the authors' PC; optinav: this machine.")
 
     # Table 4: levelling with each calibration on a static test pose outside the calibration set
@@ -154,16 +165,17 @@ def _tables_2_to_4(quick, rng):
     p0, r0 = _level(f_true)
     lrows, lev = [], {}
     for name, (K, b) in {"uncalibrated": (np.eye(3), np.zeros(3)), "Newton": (fits["newton"].K, fits["newton"].b),
-                         "adaptive GA": (fits["ga"].K, fits["ga"].b), "optinav LM": (fits["lm"].K, fits["lm"].b)
+                         "adaptive GA": (fits["ga"].K, fits["ga"].b),
+                         "adaptive GA, optinav operators": (fits["ga_optinav"].K, fits["ga_optinav"].b),
+                         "optinav LM": (fits["lm"].K, fits["lm"].b)
                          }.items():
         f = np.linalg.solve(K, meas.accel.mean(axis=0) - b)
         p, r = _level(f)
         lev[name] = (p - p0, r - r0)
         paper = {"Newton": PAPER_LEVEL_DEG["newton"], "adaptive GA": PAPER_LEVEL_DEG["ga"]}.get(name)
-        lrows.append([name, f"{p - p0:+.4f}", f"{r - r0:+.4f}",
-                      "—" if paper is None else f"{paper[0]:+.3f} / {paper[1]:+.3f}"])
-    t4 = Table("Table 4 — static levelling error after calibration (deg)",
-               ["calibration", "pitch error", "roll error", "paper pitch / roll"], lrows,
+        lrows.append([name, p - p0, r - r0, None if paper is None else paper[0], None if paper is None else paper[1]])
+    t4 = Table("Table 4: static levelling error after calibration (deg)",
+               ["calibration", "pitch error", "roll error", "paper pitch", "paper roll"], lrows,
                "A 60 s static test pose (roll 3°, pitch −5°) outside the calibration set; pitch/roll from the mean "
                "corrected specific force. The paper's 'traditional' reference: 0.015 / 0.109.")
     z = (vec["lm"] - truth) / std_p
@@ -189,7 +201,7 @@ def _tables_2_to_4(quick, rng):
         ax.semilogy(gen, 1 / ga.trace["mean_cost"], label="1 / population mean of E")
         ax.set_xlabel("generation")
         ax.set_ylabel("fitness [1/(m/s²)²]")
-        ax.set_title("Adaptive GA fitness (paper Fig. 4)")
+        ax.set_title("Adaptive GA with the paper's operators: fitness (paper Fig. 4)")
         ax.legend()
         ax.grid(True, alpha=0.3)
 
@@ -202,15 +214,54 @@ def _tables_2_to_4(quick, rng):
             ax.plot((bx[:, j] - th_true[j]) / (hi[j] - lo[j]), label=nm, lw=1)
         ax.set_xlabel("generation")
         ax.set_ylabel("(best − truth) / search-interval width")
-        ax.set_title("GA parameter convergence (paper Fig. 5)")
+        ax.set_title("GA with the paper's operators: parameter convergence (paper Fig. 5)")
         ax.legend(ncol=3, fontsize=7)
         ax.grid(True, alpha=0.3)
 
-    figs = [Figure("accel_ga_fitness.png", "Best and mean fitness of the adaptive GA per generation", draw_fit),
-            Figure("accel_ga_convergence.png", "Convergence of the GA's best individual, per parameter", draw_conv)]
+    figs = [Figure("accel_ga_fitness.png", "Best and mean fitness of the adaptive GA (paper's operators) per "
+                                           "generation", draw_fit),
+            Figure("accel_ga_convergence.png", "Convergence of the GA's best individual, per parameter (paper's "
+                                               "operators): gene exchange only recombines values the population "
+                                               "already holds, and the adaptive mutation rate of the fitter half "
+                                               "is near zero, so the search stalls early", draw_conv)]
     summary = {"truth": truth, "relative_error_percent": {k: v for k, v in rel.items()},
                "time_s": {k: f.elapsed_s for k, f in fits.items()}, "levelling_error_deg": lev}
-    return [t2, t3, t4], checks, figs, summary
+    t5, found = _findings(rel, fits, lev)
+    summary["findings_reproduced"] = found
+    return [t2, t3, t4, t5], checks, figs, summary
+
+
+def _findings(rel, fits, lev):
+    """The paper's head-to-head findings, each against the same-session numbers (reproduced or not, and why)."""
+    ab = {k: np.abs(v) for k, v in rel.items()}
+    bias_ratio = float(np.median(ab["newton"][:3] / np.maximum(ab["ga"][:3], 1e-12)))
+    scale_ratio = float(np.median(ab["newton"][3:6] / np.maximum(ab["ga"][3:6], 1e-12)))
+    time_ratio = fits["ga"].elapsed_s / fits["newton"].elapsed_s
+    mis_ratio = float(np.max(ab["newton"][6:9]) / max(np.max(ab["ga"][6:9]), 1e-12))
+    lev_n = float(np.max(np.abs(lev["Newton"])))
+    lev_ratio = lev_n / max(float(np.max(np.abs(lev["adaptive GA"]))), 1e-12)
+    same_min = ("Newton converges to the least-squares minimum of the same objective (smooth, one minimum near "
+                "the start); a GA can only approach that minimum, so it cannot be more accurate")
+    rows = [["GA biases 1–3 orders of magnitude more accurate than Newton's", "≥ 10",
+             bias_ratio, bias_ratio >= 10, same_min],
+            ["GA scale factors 1–3 orders of magnitude more accurate than Newton's", "≥ 10",
+             scale_ratio, scale_ratio >= 10, same_min],
+            ["GA 61 % faster than Newton (time GA / Newton)", "0.39", time_ratio, time_ratio <= 0.5,
+             "a Newton step on 9 parameters costs a few evaluations of the objective with its analytic "
+             "derivatives; the GA needs population × generations evaluations"],
+            ["Newton fails on the misalignments (max rel. error Newton / GA)", "failed", mis_ratio,
+             mis_ratio >= 10, "the 12 positions observe the misalignments (full rank); Newton from the "
+             "interval centre converges on them as on the rest"],
+            ["Newton levelling error ≈ 0.24°, ≈ 4× the GA's (ratio Newton / GA)", "3.9", lev_ratio,
+             lev_ratio >= 2, f"with both at the same minimum the levelling errors agree (Newton {lev_n:.3f}°)"]]
+    for r in rows:
+        if r[3]:
+            r[4] = "reproduced on this session"
+        r[3] = "yes" if r[3] else "no"
+    table = Table("The paper's head-to-head findings, checked on the same session",
+                  ["paper's finding", "paper", "optinav (same data)", "reproduced", "reason"], rows,
+                  "GA = the paper's operators, as rebuilt; ratios are medians over the axes where stated.")
+    return table, int(sum(r[3] == "yes" for r in rows))
 
 
 def _efficiency(quick, rng):
@@ -241,10 +292,27 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                       description=__doc__.split("\n\n", 1)[1].replace("\n", " "))
     spec = preset("mems-mti1")
     sigma = float(np.max(spec.accel_vrw) * np.sqrt(100.0))  # per sample at 100 Hz
-    for part in (_table1(rng), _design(sigma, 100.0, 60.0), _tables_2_to_4(quick, rng), _efficiency(quick, rng)):
-        tables, checks, figs, summary = part
+    parts = (("Table 1", _table1), ("pose design", lambda rng_: _design(sigma, 100.0, 60.0)),
+             ("Tables 2-4", lambda rng_: _tables_2_to_4(quick, rng_)),
+             ("efficiency", lambda rng_: _efficiency(quick, rng_)))
+    for label, part in parts:
+        step(label)
+        tables, checks, figs, summary = part(rng)
         res.tables += tables
         res.checks += checks
         res.figures += figs
         res.summary.update(summary)
+    rel, t, lev = res.summary["relative_error_percent"], res.summary["time_s"], res.summary["levelling_error_deg"]
+    worst = lambda v, sl: float(np.max(np.abs(np.asarray(v)[sl])))  # noqa: E731
+    pga = {k: [x for x in v if x is not None] for k, v in PAPER_REL_ERR.items()}
+    res.headline = [
+        Headline("worst bias relative error", "%", worst(pga["ga"], slice(0, 3)), worst(rel["ga"], slice(0, 3)),
+                 worst(rel["lm"], slice(0, 3)), "rebuild = GA with the paper's operators; best = LM; same session"),
+        Headline("worst scale-factor relative error", "%", worst(pga["ga"], slice(3, 6)),
+                 worst(rel["ga"], slice(3, 6)), worst(rel["lm"], slice(3, 6)), ""),
+        Headline("calibration time", "s", PAPER_TIME_S["ga"], t["ga"], t["lm"], "paper: MATLAB; ours: this machine"),
+        Headline("worst levelling error", "deg", max(map(abs, PAPER_LEVEL_DEG["ga"])),
+                 float(np.max(np.abs(lev["adaptive GA"]))), float(np.max(np.abs(lev["optinav LM"]))), ""),
+        Headline("paper's head-to-head findings reproduced (of 5)", "", None,
+                 float(res.summary["findings_reproduced"]), None, "see the findings table")]
     return res

@@ -1,24 +1,29 @@
 """Study ``polarized``: Jin et al. (2021), MIMU + skylight-polarization attitude by quasi-Newton optimization.
 
 Reproduces the paper's static test (Table 1: mean and spread of the attitude angles) and dynamic test
-(Tables 2–3: maximum absolute error and RMS per angle) for gradient descent (Madgwick, ahrs's gain 0.033),
-conjugate gradient (same gain), the published quasi-Newton filter and optinav's MEKF with gyro-bias states,
-on flights of :func:`optinav.attitude.simulate.simulate_flight` (MPU6000 noise, zenith-viewing point-source
-sensor, Rayleigh sky, the sun by the SPA at the paper's place and times). The gyro carries a residual bias of
-(0.3, −0.2, 0.25) °/s (an MPU6000 after the autopilot's start-up calibration). The paper's table values are
-not in the available text (only its claims: static alike; dynamic QN 50 % lower error than GD and 37–50 %
-lower than CG), so the tables put those claims beside our numbers. The paper's reference was the autopilot's
-own attitude, ours is simulation truth.
+(Tables 2 and 3: maximum absolute error and RMS per angle) for gradient descent (Madgwick), conjugate gradient,
+the published quasi-Newton filter and optinav's multiplicative EKF with gyro-bias states, on simulated flights
+(MPU6000 noise, zenith-viewing point-source sensor, Rayleigh sky, the sun by the SPA at the paper's place and
+times). The gyro carries a residual bias of (0.3, −0.2, 0.25) °/s (an MPU6000 after the autopilot's start-up
+calibration). Fair comparison: every method is tuned by one procedure (a grid of 18 settings of its two main
+options, chosen by the mean RMS error over the three angles on training flights) and scored on other flights;
+the same methods at their defaults are shown too. No method is given the simulator's sensor specification.
+The paper's table values are not in the available text (only its claims: static alike; dynamic QN 50 % lower
+error than GD and 37–50 % lower than CG), so the tables put those claims beside our numbers. The paper's
+reference was the autopilot's own attitude, ours is simulation truth. A last section runs the methods on the
+real BROAD recordings when they are present.
 """
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
 
-from optinav.core.units import G_STANDARD
-from optinav.reports.report import Check, Figure, StudyResult, Table, register_study
+from optinav.core.progress import progress, step
+from optinav.core.validate import as_rng
+from optinav.reports.report import Check, Figure, Headline, StudyResult, Table, register_study
 
 METHODS = ("gd", "cg", "qn", "mekf")
 LABELS = {"gd": "GD (Madgwick)", "cg": "CG", "qn": "QN (paper)", "mekf": "MEKF + gyro bias"}
@@ -29,217 +34,341 @@ PAPER_QN_VS_GD = 50.0
 PAPER_QN_VS_CG = (37.0, 50.0)
 #: the paper's quoted sun angles (deg): elevation, azimuth (convention not stated)
 PAPER_SUN = {"static": (26.12, -0.8), "dynamic": (2.64, -143.16)}
-#: QN settings for the flight (chosen on a different seed than the study's): the default β₀ = 0.5/s suits
-#: slow rotations (BROAD); a UAV with 4 m/s² manoeuvres needs a smaller base step
-QN_FLIGHT = {"gain": 0.1, "rate_gain": 0.1}
+#: the tuning grid: each method's two main options, 6 × 3 = 18 settings each
+GRID = {"gd": {"gain": [0.01, 0.02, 0.033, 0.06, 0.1, 0.2], "pol_weight": [0.3, 1.0, 3.0]},
+        "cg": {"gain": [0.01, 0.02, 0.033, 0.06, 0.1, 0.2], "pol_weight": [0.3, 1.0, 3.0]},
+        "qn": {"gain": [0.05, 0.1, 0.2, 0.5, 1.0, 2.0], "rate_gain": [0.0, 0.1, 0.3]},
+        "mekf": {"acc_noise": [0.02, 0.05, 0.1, 0.2, 0.4, 0.8], "bias_noise": [5e-6, 5e-5, 5e-4]}}
 ACCEL_LEVEL = 4.0  # m/s², the simulated manoeuvres
+SKIP = 500  # the first 5 s: the simulated vehicle rests, the estimators settle from the true start
 
 
-def _mekf_options(spec, dyn: bool, pol_sigma: float) -> dict:
-    """MEKF noise from the sensor spec; in flight the manoeuvre accelerations are added as accelerometer noise."""
-    rate = spec.sample_rate
-    acc_white = float(spec.accel_vrw[0]) * np.sqrt(rate) / G_STANDARD
-    acc = float(np.hypot(acc_white, ACCEL_LEVEL / G_STANDARD)) if dyn else acc_white
-    tau = float(spec.gyro_bias_corr_time[0])
-    bias_rw = float(spec.gyro_bias_instability[0]) * np.sqrt(2.0 / tau)
-    return {"gyro_noise": float(spec.gyro_arw[0]), "acc_noise": acc, "bias_noise": max(bias_rw, 1e-6),
-            "pol_noise": pol_sigma, "init_bias_std": np.radians(0.5)}
+def _settings(m):
+    keys = list(GRID[m])
+    return [dict(zip(keys, vals)) for vals in itertools.product(*(GRID[m][k] for k in keys))]
 
 
-def _run_flight(kind, duration, seed):
+def _simulate(kind, duration, seed):
+    from optinav.attitude.simulate import simulate_flight
+    from optinav.sky.polarization import wrap_axial
+
+    d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(GYRO_BIAS_DEG_S),
+                        accel_level=ACCEL_LEVEL)
+    ok = np.isfinite(d.aop) & np.isfinite(d.aop_true)
+    return {"data": d, "pol": d.polarization(), "pol_sigma": float(np.std(wrap_axial(d.aop[ok] - d.aop_true[ok])))}
+
+
+def _estimate(fl, m, opts):
+    """One method on one flight: the estimate, its Euler errors (deg) and run time."""
     from optinav.attitude import estimate_attitude
     from optinav.attitude.metrics import euler_errors
-    from optinav.sky.polarization import wrap_axial
-    from optinav.attitude.simulate import simulate_flight
-    from optinav.core.imu_model import preset
+
+    d = fl["data"]
+    t0 = time.perf_counter()
+    r = estimate_attitude(d.gyr, d.acc, d.dt, pol=fl["pol"], method=m, frame=d.frame, q0=d.q_true[0], **opts)
+    el = time.perf_counter() - t0
+    return {"res": r, "err": np.degrees(euler_errors(r.q, d.q_true, d.frame)), "elapsed": el, "options": opts}
+
+
+def _score(err):
+    """The tuning score: mean over the three angles of the RMS error (deg) after the settling time."""
+    return float(np.mean(np.sqrt(np.nanmean(err[SKIP:] ** 2, axis=0))))
+
+
+def _tune(train):
+    """Each method's grid setting with the lowest mean score over the training flights."""
+    best, table = {}, {}
+    for m in METHODS:
+        scores = [(float(np.mean([_score(_estimate(fl, m, o)["err"]) for fl in train])), o) for o in _settings(m)]
+        table[m] = scores
+        best[m] = min(scores, key=lambda x: x[0])[1]
+    return best, table
+
+
+def _nees(fl, r):
     from optinav.core.rotations import quat_conjugate, quat_multiply, rotvec_from_quat
 
-    d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(GYRO_BIAS_DEG_S))
-    pol = d.polarization()
-    ok = np.isfinite(d.aop) & np.isfinite(d.aop_true)
-    pol_sigma = float(np.std(wrap_axial(d.aop[ok] - d.aop_true[ok])))
-    out = {"data": d, "pol_sigma": pol_sigma}
-    for m in METHODS:
-        opts = dict(QN_FLIGHT) if m == "qn" else {}
-        if m == "mekf":
-            opts = _mekf_options(preset("mpu6000").replace(sample_rate=1.0 / d.dt), kind == "dynamic", pol_sigma)
-        t0 = time.perf_counter()
-        r = estimate_attitude(d.gyr, d.acc, d.dt, pol=pol, method=m, frame=d.frame, q0=d.q_true[0], **opts)
-        el = time.perf_counter() - t0
-        e = np.degrees(euler_errors(r.q, d.q_true, d.frame))
-        out[m] = {"res": r, "err": e, "elapsed": el, "options": opts}
-        if m == "mekf":
-            rv = rotvec_from_quat(quat_multiply(quat_conjugate(d.q_true), r.q))
-            out[m]["nees"] = np.sum((rv / r.att_std) ** 2, axis=1)
-    return out
+    rv = rotvec_from_quat(quat_multiply(quat_conjugate(fl["data"].q_true), r.q))
+    return np.sum((rv / r.att_std) ** 2, axis=1)
+
+
+def _break_wraps(t, y, jump=90.0):
+    """NaN between samples whose error jumps by more than ``jump`` deg (a ±180° wrap), so no line is drawn."""
+    y = np.asarray(y, float).copy()
+    y[1:][np.abs(np.diff(y)) > jump] = np.nan
+    return t, y
+
+
+def _broad_section(quick, tuned):
+    """The methods at their defaults on the real BROAD trials in the shared data folder (skipped when absent)."""
+    from optinav.attitude import estimate
+    from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
+    from optinav.attitude.metrics import heading_error, inclination_error, rmse
+    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
+    from optinav.sky import solar_position_deg
+
+    folder = shared_data_dir() / "attitude" / "broad"
+    files = sorted(folder.glob("*.hdf5"))
+    title = "BROAD: real recordings with optical truth (Laidig et al. 2021)"
+    cols = ["trial", "method", "inclination RMSE, gyro + acc [deg]", "heading RMSE, + polarization [deg]"]
+    try:
+        import h5py  # noqa: F401
+    except ImportError:
+        files, why = [], "skipped: reading BROAD needs h5py (pip install h5py)"
+    else:
+        why = f"skipped: data not found in {folder}"
+    if not files:
+        return Table(title, cols, [], why), {"broad": why}
+    if quick:
+        files = [f for f in files if f.name.startswith(("02_", "07_"))] or files[:1]
+    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sun = sp.sun_vector("enu")
+    rows, out = [], {}
+    for f in files:
+        tr = load_broad(f)
+        i0 = int(np.flatnonzero(np.all(np.isfinite(tr.q_ref), axis=1))[0])
+        sl = slice(i0, None)
+        mask = tr.eval_mask[sl]
+        pol = synthesize_polarization(tr.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
+        for m in METHODS:
+            q6 = estimate(tr.gyr, tr.acc, tr.dt, method=m, frame="ENU")
+            inc = float(np.degrees(rmse(inclination_error(q6, tr.q_ref), tr.eval_mask)))
+            qp = estimate(tr.gyr[sl], tr.acc[sl], tr.dt, pol=pol.select(sl), method=m, frame="ENU",
+                          q0=tr.q_ref[i0])
+            hd = float(np.degrees(rmse(heading_error(qp, tr.q_ref[sl]), mask)))
+            rows.append([f.stem, LABELS[m], inc, hd])
+            out[f"{f.stem}/{m}"] = {"inclination_rmse_deg": inc, "heading_rmse_deg": hd}
+    note = ("Every method at its defaults (the flight-tuned settings suit a UAV, not a hand-held IMU). Inclination "
+            "from gyro and accelerometer only, over BROAD's evaluation samples; heading with a zenith polarization "
+            "angle synthesized from the optical truth by the Rayleigh model (0.5° noise), the sun at the paper's "
+            "place and static-test time, started from the optical truth."
+            + ("" if not quick else " The quick run uses two trials; the full run all HDF5 trials present."))
+    return Table(title, cols, rows, note), {"broad": out}
 
 
 @register_study("polarized")
 def run(quick: bool = False, rng=None) -> StudyResult:
     from optinav.attitude.metrics import error_statistics
+    from optinav.attitude.estimators import DEFAULTS
 
     t_start = time.perf_counter()
-    seed0 = 11 if rng is None or not isinstance(rng, (int, np.integer)) else int(rng)
+    seed0 = int(as_rng(rng).integers(2**31))
     dur_s, dur_d = (60.0, 60.0) if quick else (300.0, 180.0)
-    seeds = [seed0, seed0 + 1, seed0 + 2] if quick else [seed0 + k for k in range(6)]
-    skip_s = 500  # the first 5 s: the simulated vehicle rests, the estimators settle from the true start
-
-    static = _run_flight("static", dur_s, seed0)
-    dyn = [_run_flight("dynamic", dur_d, s) for s in seeds]
-    tables, checks, figures, summary = [], [], [], {}
+    n_train, n_test = (2, 3) if quick else (3, 6)
+    step("simulate flights")
+    static = _simulate("static", dur_s, seed0)
+    flights = [_simulate("dynamic", dur_d, seed0 + 1 + k)
+               for k in progress(range(n_train + n_test), desc="flights")]
+    train, test = flights[:n_train], flights[n_train:]
+    step("tune on training flights")
+    tuned, grid_scores = _tune(train)
+    step("score on test flights")
+    runs = {setting: [{m: _estimate(fl, m, (tuned[m] if setting == "tuned" else {})) for m in METHODS}
+                      for fl in test] for setting in ("tuned", "defaults")}
+    dyn = runs["tuned"]
+    static_run = {m: _estimate(static, m, tuned[m]) for m in METHODS}
+    tables, checks, summary = [], [], {"seeds": {"static": seed0, "train": [seed0 + 1 + k for k in range(n_train)],
+                                                 "test": [seed0 + 1 + n_train + k for k in range(n_test)]}}
 
     # conditions
     rows = []
-    for kind, run_ in (("static", static), ("dynamic", dyn[0])):
-        d = run_["data"]
-        rows.append([kind, d.start_time, f"{np.degrees(np.mean(d.sun_elevation)):.2f}",
-                     f"{np.degrees(np.mean(d.sun_azimuth)):.2f}", f"{PAPER_SUN[kind][0]:.2f}",
-                     f"{PAPER_SUN[kind][1]:.2f}", f"{np.degrees(run_['pol_sigma']):.3f}",
-                     f"{d.metadata['max_rate_deg_s']:.0f}", f"{d.metadata['max_specific_force_m_s2']:.1f}"])
+    for kind, fl in (("static", static), ("dynamic", test[0])):
+        d = fl["data"]
+        rows.append([kind, d.start_time, float(np.degrees(np.mean(d.sun_elevation))),
+                     float(np.degrees(np.mean(d.sun_azimuth))), PAPER_SUN[kind][0], PAPER_SUN[kind][1],
+                     float(np.degrees(fl["pol_sigma"])), float(d.metadata["max_rate_deg_s"]),
+                     float(d.metadata["max_specific_force_m_s2"])])
     tables.append(Table("Test conditions (Dalian, 121.528255° E, 38.8814192° N, 35 m)",
                         ["test", "start (local)", "sun elevation [deg] (SPA)", "sun azimuth [deg] (SPA, from N to E)",
                          "paper elevation [deg]", "paper azimuth [deg]", "AoP noise σ [deg]",
                          "max rate [deg/s]", "max |f| [m/s²]"], rows,
-                        "The paper's quoted sun angles disagree with the SPA at those local times (issue 6); "
-                        "the simulation uses the SPA. Static: 1°, −2°, 30° held; dynamic: random manoeuvres "
-                        f"(accelerations up to {ACCEL_LEVEL:g} m/s², tilts ±30°, turns up to 45 °/s)."))
+                        "The paper's quoted sun angles disagree with the SPA at those local times; the simulation "
+                        "uses the SPA. Static: 1°, −2°, 30° held; dynamic: random manoeuvres (accelerations up "
+                        f"to {ACCEL_LEVEL:g} m/s², tilts ±30°, turns up to 45 °/s)."))
+
+    # tuning
+    rows = []
+    for m in METHODS:
+        sc = sorted(grid_scores[m], key=lambda x: x[0])
+        rows.append([LABELS[m], ", ".join(f"{k} = {v:g}" for k, v in tuned[m].items()), sc[0][0], sc[-1][0],
+                     ", ".join(f"{k} = {DEFAULTS[m][k]:g}" for k in GRID[m])])
+    tables.append(Table(f"Tuning: the same grid procedure for every method ({len(train)} training flights of "
+                        f"{dur_d:g} s, other seeds than the test flights)",
+                        ["method", "chosen setting", "best mean RMS [deg]", "worst mean RMS on the grid [deg]",
+                         "defaults"], rows,
+                        "Grid: " + "; ".join(f"{m}: " + " × ".join(f"{k} ∈ {{{', '.join(f'{v:g}' for v in vals)}}}"
+                                                                    for k, vals in GRID[m].items())
+                                             for m in METHODS)
+                        + ". Score: mean over roll, pitch and yaw of the RMS error after the first 5 s."))
 
     # Table 1: static
-    rows = []
-    st = {}
+    rows, st = [], {}
     for m in METHODS:
-        s = error_statistics(static[m]["err"][skip_s:])
-        st[m] = s
+        s_ = error_statistics(static_run[m]["err"][SKIP:])
+        st[m] = s_
         for k, a in enumerate(ANGLES):
-            rows.append([LABELS[m], a, f"{s['mean'][k]:+.4f}", f"{s['std'][k]:.4f}", f"{s['max_abs'][k]:.4f}",
-                         f"{s['rms'][k]:.4f}"])
-    tables.append(Table(f"Table 1 — static test: attitude error statistics [deg] ({dur_s:g} s at 100 Hz)",
-                        ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
-                        "Paper (Table 1, values not in the source text): the three optimization methods show no "
-                        "obvious difference in the static test and stay close to the reference. Here GD and CG "
-                        "agree; QN as published has no gyro-bias state and corrects in proportion to the error, so "
-                        "the residual gyro bias b leaves a constant error ≈ b/β₀ (not reproduced: 'alike')."))
-    worst_static = max(float(np.max(st[m]["rms"])) for m in ("gd", "cg", "mekf"))
-    # GD chatters by ≤ 2·β·dt = 0.038° around the optimum and rejects the bias (its step has a fixed rate 2β);
-    # with the sensor noise the static RMS stays well below 0.2°
-    checks.append(Check("static: worst RMS of GD, CG, MEKF (any angle)", worst_static, 0.2, "deg"))
-    checks.append(Check("static: GD and CG alike (|difference| of their worst-angle RMS)",
-                        abs(float(np.max(st["gd"]["rms"]) - np.max(st["cg"]["rms"]))), 0.1, "deg"))
+            rows.append([LABELS[m], a, float(s_["mean"][k]), float(s_["std"][k]), float(s_["max_abs"][k]),
+                         float(s_["rms"][k])])
+    worst_static = max(float(np.max(st[m]["rms"])) for m in METHODS)
+    spread = max(float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn")) - min(
+        float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn"))
+    checks.append(Check("static: worst RMS of any method, any angle (paper: all close to the reference)",
+                        worst_static, 2.0, "deg"))
+    summary["static_spread_gd_cg_qn_deg"] = spread
+    tables.append(Table(f"Table 1: static test, attitude error statistics [deg] ({dur_s:g} s at 100 Hz, tuned "
+                        "settings)", ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
+                        "Paper (values not in the source text): the three optimization methods show no obvious "
+                        "difference in the static test. Not reproduced in detail: QN as published has no gyro-bias "
+                        "state and corrects in proportion to the error, so the residual gyro bias b leaves a "
+                        "constant error ≈ b/β₀ (spread of the worst-angle RMS of GD, CG and QN: "
+                        f"{spread:.2f}°). The settings are those tuned on the dynamic flights."))
     # QN corrects in proportion to the error: a constant gyro bias b leaves the error b/β₀ per body axis
-    pred = np.asarray(GYRO_BIAS_DEG_S) / QN_FLIGHT["gain"]
+    pred = np.asarray(GYRO_BIAS_DEG_S) / tuned["qn"]["gain"]  # at rest ‖q̇‖ ≈ 0: the step rate is β₀
     ratio = st["qn"]["mean"] / pred
-    checks.append(Check("static: QN mean error / (gyro bias/β₀), smallest over the axes", float(ratio.min()), 0.7,
+    checks.append(Check("static: QN mean error / (gyro bias/β₀), smallest over the axes", float(ratio.min()), 0.5,
                         "", ">="))
-    checks.append(Check("static: QN mean error / (gyro bias/β₀), largest over the axes", float(ratio.max()), 1.3))
+    checks.append(Check("static: QN mean error / (gyro bias/β₀), largest over the axes", float(ratio.max()), 1.5))
     summary["static_qn_bias_ratio"] = ratio.tolist()
-    nees_static = float(np.mean(static["mekf"]["nees"][skip_s:]))
-    checks.append(Check("static: MEKF mean NEES (3 dof; consistent ≈ 3) ≤ 3·3", nees_static, 9.0))
-    checks.append(Check("static: MEKF mean NEES ≥ 3/3", nees_static, 1.0, "", ">="))
     summary["static_rms_deg"] = {m: st[m]["rms"].tolist() for m in METHODS}
-    summary["static_mekf_nees"] = nees_static
 
-    # Tables 2-3: dynamic
-    dyn_stats = {m: [error_statistics(r[m]["err"][skip_s:]) for r in dyn] for m in METHODS}
-    per_seed = {m: np.array([st["rms"] for st in dyn_stats[m]]) for m in METHODS}
-    per_seed_max = {m: np.array([st["max_abs"] for st in dyn_stats[m]]) for m in METHODS}
-    rows2, rows3 = [], []
-    for m in METHODS:
-        mx, rm = per_seed_max[m].mean(0), per_seed[m].mean(0)
-        rows2.append([LABELS[m]] + [f"{v:.3f}" for v in mx])
-        rows3.append([LABELS[m]] + [f"{v:.3f}" for v in rm])
+    # Tables 2-3: dynamic, tuned and at defaults
+    def per_flight(setting, key):
+        return {m: np.array([error_statistics(r[m]["err"][SKIP:])[key] for r in runs[setting]]) for m in METHODS}
 
-    def improvement(a, b):  # % by which a is lower than b, averaged over seeds
+    rms = {s_: per_flight(s_, "rms") for s_ in runs}
+    mx = {s_: per_flight(s_, "max_abs") for s_ in runs}
+
+    def improvement(a, b):  # % by which a is lower than b, averaged over flights
         return 100.0 * (1.0 - (a / b)).mean(0)
 
-    imp_gd = improvement(per_seed["qn"], per_seed["gd"])
-    imp_cg = improvement(per_seed["qn"], per_seed["cg"])
-    imp_gd_max = improvement(per_seed_max["qn"], per_seed_max["gd"])
-    imp_cg_max = improvement(per_seed_max["qn"], per_seed_max["cg"])
-    rows2.append(["QN vs GD: lower by [%] (paper ≈ 50)"] + [f"{v:+.0f}" for v in imp_gd_max])
-    rows2.append(["QN vs CG: lower by [%] (paper 37–50)"] + [f"{v:+.0f}" for v in imp_cg_max])
-    rows3.append(["QN vs GD: lower by [%] (paper ≈ 50)"] + [f"{v:+.0f}" for v in imp_gd])
-    rows3.append(["QN vs CG: lower by [%] (paper 37–50)"] + [f"{v:+.0f}" for v in imp_cg])
-    note = (f"Mean over {len(seeds)} simulated flights of {dur_d:g} s (first 5 s excluded). "
-            "QN settings for the flight: "
-            f"β₀ = {QN_FLIGHT['gain']}/s, κ = {QN_FLIGHT['rate_gain']} (chosen on another seed); GD/CG: β = 0.033. "
-            "QN's proportional correction leaves a heading error of (z gyro bias)/β₀, which GD's normalized step "
-            "(a bang-bang correction of rate 2β) does not; the MEKF estimates the bias.")
-    tables.append(Table("Table 2 — dynamic test: maximum absolute error [deg]", ["method", *ANGLES], rows2, note))
-    tables.append(Table("Table 3 — dynamic test: RMS error [deg]", ["method", *ANGLES], rows3, note))
-    tilt = lambda m: per_seed[m][:, :2]  # noqa: E731
-    checks.append(Check("dynamic: QN roll/pitch RMS lower than GD's in every flight (max ratio QN/GD)",
-                        float(np.max(tilt("qn") / tilt("gd"))), 1.0))
-    checks.append(Check("dynamic: QN roll/pitch RMS lower than CG's in every flight (max ratio QN/CG)",
-                        float(np.max(tilt("qn") / tilt("cg"))), 1.0))
-    checks.append(Check("dynamic: MEKF RMS lower than GD's, every angle and flight (max ratio MEKF/GD)",
-                        float(np.max(per_seed["mekf"] / per_seed["gd"])), 1.0))
-    checks.append(Check("dynamic: polarization keeps the heading: worst yaw RMS of any method", float(
-        max(per_seed[m][:, 2].max() for m in METHODS)), 5.0, "deg"))
-    nees_dyn = float(np.mean([np.mean(r["mekf"]["nees"][skip_s:]) for r in dyn]))
-    summary.update({"dynamic_rms_deg": {m: per_seed[m].mean(0).tolist() for m in METHODS},
-                    "dynamic_max_abs_deg": {m: per_seed_max[m].mean(0).tolist() for m in METHODS},
-                    "qn_vs_gd_rms_lower_pct": imp_gd.tolist(), "qn_vs_cg_rms_lower_pct": imp_cg.tolist(),
-                    "dynamic_mekf_nees": nees_dyn,
+    note = (f"Mean over {n_test} test flights of {dur_d:g} s (first 5 s excluded), each method at its tuned "
+            "setting and at its defaults. QN's proportional correction leaves a heading error of (z gyro bias)/β₀; "
+            "the MEKF estimates the bias.")
+    for tname, stat in (("Table 2: dynamic test, maximum absolute error [deg]", mx),
+                        ("Table 3: dynamic test, RMS error [deg]", rms)):
+        rows = []
+        for setting in ("tuned", "defaults"):
+            for m in METHODS:
+                rows.append([LABELS[m], setting, *stat[setting][m].mean(0).tolist()])
+        for setting in ("tuned", "defaults"):
+            rows.append([f"QN vs GD, {setting}: lower by [%] (paper ≈ 50)", setting,
+                         *improvement(stat[setting]["qn"], stat[setting]["gd"]).tolist()])
+            rows.append([f"QN vs CG, {setting}: lower by [%] (paper 37–50)", setting,
+                         *improvement(stat[setting]["qn"], stat[setting]["cg"]).tolist()])
+        tables.append(Table(tname, ["method", "setting", *ANGLES], rows, note))
+
+    # CG vs GD: the same filter to first order
+    cg_gd = max(float(np.max(np.abs(r["cg"]["err"] - r["gd"]["err"]))) for r in runs["defaults"])
+    cg_gd_rms = 100 * float(np.max(np.abs(rms["defaults"]["cg"] / rms["defaults"]["gd"] - 1)))
+    st_diff = float(np.max(np.abs(st["cg"]["rms"] - st["gd"]["rms"])))
+    tables.append(Table("Why CG is almost GD", ["quantity", "value"],
+                        [["max |CG − GD| attitude error difference, dynamic test flights, defaults [deg]", cg_gd],
+                         ["max relative difference of their RMS per angle and flight, defaults [%]", cg_gd_rms],
+                         ["max |RMS difference| per angle, static test, tuned [deg]", st_diff]],
+                        "Both filters take one normalized step of length β·Δt per sample. CG's conjugate "
+                        "coefficient (Polak–Ribière, bounded by Fletcher–Reeves) is proportional to the change of "
+                        "the gradient from one sample to the next. In manoeuvres the gradient is large and changes "
+                        "little at 100 Hz, so the coefficient is near zero and CG's direction is the gradient's: "
+                        "CG reduces to GD. At rest the gradient is small and noisy, its change relatively large, "
+                        "and the two differ more. This is a property of the method run one iteration per sample, "
+                        "not a fault of the code; in flight CG is not a second baseline."))
+
+    tilt = lambda m: rms["tuned"][m][:, :2]  # noqa: E731
+    r_t = {m: rms["tuned"][m].mean(0) for m in METHODS}
+    checks.append(Check("dynamic, tuned: MEKF mean RMS over the angles / best of GD, CG, QN",
+                        float(r_t["mekf"].mean() / min(r_t[m].mean() for m in ("gd", "cg", "qn"))), 1.0))
+    checks.append(Check("dynamic, tuned: polarization keeps the heading: worst yaw RMS of any method",
+                        float(max(rms["tuned"][m][:, 2].max() for m in METHODS)), 5.0, "deg"))
+    checks.append(Check("dynamic, tuned: QN roll/pitch RMS / GD's, worst flight (finding, paper: ≈ 0.5)",
+                        float(np.max(tilt("qn") / tilt("gd"))), 3.0))
+    nees_static = float(np.mean(_nees(static, static_run["mekf"]["res"])[SKIP:]))
+    nees_dyn = float(np.mean([np.mean(_nees(fl, r["mekf"]["res"])[SKIP:]) for fl, r in zip(test, dyn)]))
+    tables.append(Table("MEKF consistency at the tuned setting (mean NEES, 3 degrees of freedom: 3 if consistent)",
+                        ["test", "mean NEES"], [["static", nees_static], ["dynamic", nees_dyn]],
+                        "The filter is tuned for accuracy, not told the sensor specification, so its σ need not "
+                        "be consistent: NEES above 3 means the σ is optimistic."))
+    summary.update({"tuned_options": tuned, "cg_minus_gd_max_deg": cg_gd, "cg_vs_gd_rms_max_pct": cg_gd_rms,
+                    "dynamic_rms_deg": {s_: {m: rms[s_][m].mean(0).tolist() for m in METHODS} for s_ in rms},
+                    "dynamic_max_abs_deg": {s_: {m: mx[s_][m].mean(0).tolist() for m in METHODS} for s_ in mx},
+                    "qn_vs_gd_rms_lower_pct": improvement(rms["tuned"]["qn"], rms["tuned"]["gd"]).tolist(),
+                    "qn_vs_cg_rms_lower_pct": improvement(rms["tuned"]["qn"], rms["tuned"]["cg"]).tolist(),
+                    "static_mekf_nees": nees_static, "dynamic_mekf_nees": nees_dyn,
                     "elapsed_per_method_s": {m: dyn[0][m]["elapsed"] for m in METHODS}})
 
+    step("BROAD")
+    tb, sb = _broad_section(quick, tuned)
+    tables.append(tb)
+    summary.update(sb)
+
     # figures
-    d0 = dyn[0]
+    fl0, d0 = test[0], dyn[0]
+    style = {"gd": dict(lw=2.2, color="tab:blue"), "cg": dict(lw=0.8, color="tab:orange", ls="--"),
+             "qn": dict(lw=0.9, color="tab:green"), "mekf": dict(lw=0.9, color="tab:red")}
+
+    def draw_errors(fig, t, errs, title):
+        axs = fig.subplots(3, 1, sharex=True)
+        for k, a in enumerate(ANGLES):
+            for m in METHODS:  # GD wide underneath, CG dashed on top: the two coincide
+                axs[k].plot(*_break_wraps(t, errs[m][:, k]), label=LABELS[m], **style[m])
+            axs[k].set_ylabel(f"{a} error [deg]")
+            axs[k].grid(alpha=0.3)
+        axs[0].legend(fontsize=7, ncol=4)
+        axs[-1].set_xlabel("t [s]")
+        axs[0].set_title(title)
 
     def draw_dyn(fig):
-        t = d0["data"].t
-        axs = fig.subplots(3, 1, sharex=True)
-        for k, a in enumerate(ANGLES):
-            for m in METHODS:
-                axs[k].plot(t, d0[m]["err"][:, k], lw=0.7, label=LABELS[m])
-            axs[k].set_ylabel(f"{a} error [deg]")
-            axs[k].grid(alpha=0.3)
-        axs[0].legend(fontsize=7, ncol=4)
-        axs[-1].set_xlabel("t [s]")
-        axs[0].set_title("Dynamic test: attitude errors (cf. the paper's Fig. 6)")
+        draw_errors(fig, fl0["data"].t, {m: d0[m]["err"] for m in METHODS},
+                    "Dynamic test, tuned settings: attitude errors (cf. the paper's Fig. 6; CG coincides with GD)")
 
     def draw_static(fig):
-        t = static["data"].t
-        axs = fig.subplots(3, 1, sharex=True)
-        for k, a in enumerate(ANGLES):
-            for m in METHODS:
-                axs[k].plot(t[skip_s:], static[m]["err"][skip_s:, k], lw=0.7, label=LABELS[m])
-            axs[k].set_ylabel(f"{a} error [deg]")
-            axs[k].grid(alpha=0.3)
-        axs[0].legend(fontsize=7, ncol=4)
-        axs[-1].set_xlabel("t [s]")
-        axs[0].set_title("Static test: attitude errors (cf. the paper's Fig. 4)")
+        t = static["data"].t[SKIP:]
+        draw_errors(fig, t, {m: static_run[m]["err"][SKIP:] for m in METHODS},
+                    "Static test, tuned settings: attitude errors (cf. the paper's Fig. 4)")
 
     def draw_bars(fig):
-        ax = fig.add_subplot(111)
+        axs = fig.subplots(1, 2, sharey=True)
         w = 0.2
-        for j, m in enumerate(METHODS):
-            ax.bar(np.arange(3) + (j - 1.5) * w, per_seed[m].mean(0), w, yerr=per_seed[m].std(0), label=LABELS[m])
-        ax.set_xticks(range(3), ANGLES)
-        ax.set_ylabel("RMS error [deg]")
-        ax.set_title(f"Dynamic test: RMS error, mean ± std over {len(seeds)} flights")
-        ax.legend(fontsize=8)
-        ax.grid(axis="y", alpha=0.3)
+        for ax, setting in zip(axs, ("tuned", "defaults")):
+            for j, m in enumerate(METHODS):
+                ax.bar(np.arange(3) + (j - 1.5) * w, rms[setting][m].mean(0), w, yerr=rms[setting][m].std(0),
+                       label=LABELS[m], color=style[m]["color"])
+            ax.set_xticks(range(3), ANGLES)
+            ax.set_title(f"{setting}: mean ± std over {n_test} flights", fontsize=9)
+            ax.grid(axis="y", alpha=0.3)
+        axs[0].set_ylabel("RMS error [deg]")
+        axs[0].legend(fontsize=7)
 
     def draw_mekf(fig):
-        t = d0["data"].t
+        t = fl0["data"].t
         r = d0["mekf"]
         axs = fig.subplots(3, 1, sharex=True)
         for k, a in enumerate(ANGLES):
-            axs[k].plot(t, r["err"][:, k], lw=0.7, label="Euler error")
-            axs[k].plot(t, 3 * np.degrees(r["res"].att_std[:, k]), "k--", lw=0.7, label="±3σ (body axis)")
-            axs[k].plot(t, -3 * np.degrees(r["res"].att_std[:, k]), "k--", lw=0.7)
+            axs[k].plot(*_break_wraps(t, r["err"][:, k]), lw=0.7, label="Euler error")
+            sig = 3 * np.degrees(r["res"].att_std[:, k])
+            axs[k].fill_between(t, -sig, sig, color="k", alpha=0.15, label="±3σ (body axis)")
             axs[k].set_ylabel(f"{a} [deg]")
             axs[k].grid(alpha=0.3)
         axs[0].legend(fontsize=7)
         axs[-1].set_xlabel("t [s]")
-        axs[0].set_title("MEKF error and its 3σ (dynamic flight)")
+        axs[0].set_title("MEKF error and its 3σ (dynamic flight, tuned setting)")
 
-    figures += [Figure("polarized_dynamic_errors.png", "Dynamic flight: roll, pitch, yaw errors of GD, CG, QN, MEKF",
-                       draw_dyn, (8, 7)),
-                Figure("polarized_static_errors.png", "Static test: roll, pitch, yaw errors", draw_static, (8, 7)),
-                Figure("polarized_dynamic_rms.png", "Dynamic RMS per angle and method", draw_bars, (7, 4)),
-                Figure("polarized_mekf_sigma.png", "MEKF error with its ±3σ", draw_mekf, (8, 7))]
+    figures = [Figure("polarized_dynamic_errors.png", "Dynamic flight: roll, pitch, yaw errors of GD, CG, QN, MEKF",
+                      draw_dyn, (8, 7)),
+               Figure("polarized_static_errors.png", "Static test: roll, pitch, yaw errors", draw_static, (8, 7)),
+               Figure("polarized_dynamic_rms.png", "Dynamic RMS per angle and method, tuned and at defaults",
+                      draw_bars, (9, 4)),
+               Figure("polarized_mekf_sigma.png", "MEKF error with its ±3σ", draw_mekf, (8, 7))]
+    mean3 = lambda setting, m: float(rms[setting][m].mean())  # noqa: E731
+    headline = [Headline("dynamic RMS, mean of roll, pitch, yaw, tuned", "deg", None, mean3("tuned", "qn"),
+                         mean3("tuned", "mekf"), f"rebuild = QN, best = MEKF; {n_test} test flights"),
+                Headline("dynamic RMS, mean of roll, pitch, yaw, tuned: GD (the paper's baseline)", "deg", None,
+                         mean3("tuned", "gd"), None, "the same flights"),
+                Headline("dynamic RMS, mean of roll, pitch, yaw, defaults", "deg", None, mean3("defaults", "qn"),
+                         mean3("defaults", "mekf"), ""),
+                Headline("QN RMS lower than GD's, tuned (mean of the angles)", "%", PAPER_QN_VS_GD,
+                         float(np.mean(summary["qn_vs_gd_rms_lower_pct"])), None, "")]
     return StudyResult(
-        name="polarized", title="Jin et al. 2021 — MIMU + skylight polarization attitude: GD vs CG vs QN vs MEKF",
-        description=__doc__.split("\n\n", 1)[1].replace("\n", " "), tables=tables, checks=checks, figures=figures,
-        summary=summary, elapsed=time.perf_counter() - t_start)
+        name="polarized", title="Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF",
+        description=" ".join(__doc__.split("\n\n", 1)[1].split()), tables=tables, checks=checks, figures=figures,
+        summary=summary, elapsed=time.perf_counter() - t_start, headline=headline)

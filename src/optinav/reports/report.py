@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import importlib
 import json
@@ -29,13 +30,16 @@ class Table:
 
 @dataclass
 class Check:
-    """A number compared with the limit it must meet (``value <= limit`` unless ``kind='>='``)."""
+    """A number compared with the limit it must meet (``value <= limit`` unless ``kind='>='``).
+
+    ``note``: one line for the reader when a passing value looks alarming (why it is right)."""
 
     name: str
     value: float
     limit: float
     unit: str = ""
     kind: str = "<="
+    note: str = ""
 
     @property
     def passed(self) -> bool:
@@ -56,6 +60,19 @@ class Figure:
 
 
 @dataclass
+class Headline:
+    """One headline number of a study: the paper's value, optinav's rebuild of the paper's method and optinav's
+    best method, measured on the same data (None where a column does not apply)."""
+
+    quantity: str
+    unit: str
+    paper: float | None
+    rebuild: float | None
+    best: float | None
+    note: str = ""
+
+
+@dataclass
 class StudyResult:
     """What one study reproduced: text, tables, checks, figures and a flat summary of numbers."""
 
@@ -67,6 +84,7 @@ class StudyResult:
     figures: list[Figure] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
     elapsed: float = 0.0
+    headline: list[Headline] = field(default_factory=list)
 
 
 #: study name → (module that registers it, one-line description). Listing the studies (``--help``) reads only
@@ -111,6 +129,12 @@ def get_study(name: str) -> Callable[..., StudyResult]:
 
 
 def _fmt(x: Any) -> str:
+    if x is None:
+        return "—"
+    if hasattr(x, "dtype") and getattr(x, "ndim", 1) == 0:
+        x = x.item()  # a NumPy scalar
+    if isinstance(x, bool):
+        return "yes" if x else "no"
     if isinstance(x, float):
         if x == 0 or not math.isfinite(x):
             return str(x)
@@ -133,6 +157,26 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, float) and not math.isfinite(x):
         return str(x)
     return x
+
+
+def _headline(results: list[StudyResult]) -> tuple[list[str], list[str]]:
+    """The table at the top of the report: per study its checks and headline numbers (Markdown, HTML)."""
+    cols = ["study", "checks passed", "quantity", "paper", "optinav rebuild of the paper's method",
+            "optinav best", "unit"]
+    md = ["## Headline", "", "Each row compares methods on the same simulated data; the paper's value is "
+          "from its own experiment.", "", "| " + " | ".join(cols) + " |", "|---|---|---|---:|---:|---:|---|"]
+    h = ["<h2>Headline</h2><table><tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cols) + "</tr>"]
+    for r in results:
+        ok = f"{sum(c.passed for c in r.checks)}/{len(r.checks)}"
+        rows = r.headline or [Headline("—", "", None, None, None)]
+        for k, hl in enumerate(rows):
+            cells = [r.name if k == 0 else "", ok if k == 0 else "", hl.quantity,
+                     *("—" if v is None else f"{float(v):.3g}" for v in (hl.paper, hl.rebuild, hl.best)), hl.unit]
+            md.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+            h.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+    md.append("")
+    h.append("</table>")
+    return md, h
 
 
 def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | None]]:
@@ -182,18 +226,23 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
          "td,th{border:1px solid #999;padding:2px 6px;text-align:right}th{background:#eee}"
          ".fail{color:#b00}.pass{color:#070}</style>", f"<h1>{html.escape(title)}</h1>"]
     summary: dict[str, Any] = {"title": title, "studies": {}}
+    hmd, hh = _headline(results)
+    md += hmd
+    h += hh
     for r in results:
         md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`, {r.elapsed:.1f} s._", ""]
         h += [f"<h2>{html.escape(r.title)}</h2>", f"<p>{html.escape(r.description)}</p>"]
         if r.checks:
-            md += ["| check | value | limit | unit | result |", "|---|---:|---:|---|---|"]
-            h.append("<table><tr><th>check</th><th>value</th><th>limit</th><th>unit</th><th>result</th></tr>")
+            md += ["| check | value | limit | unit | result | comment |", "|---|---:|---:|---|---|---|"]
+            h.append("<table><tr><th>check</th><th>value</th><th>limit</th><th>unit</th><th>result</th>"
+                     "<th>comment</th></tr>")
             for c in r.checks:
                 verdict = "pass" if c.passed else "FAIL"
-                md.append(f"| {_md(c.name)} | {_md(c.value)} | {c.kind} {_md(c.limit)} | {_md(c.unit)} | {verdict} |")
+                md.append(f"| {_md(c.name)} | {_md(c.value)} | {c.kind} {_md(c.limit)} | {_md(c.unit)} | {verdict} "
+                          f"| {_md(c.note)} |")
                 h.append(f"<tr><td>{html.escape(c.name)}</td><td>{_fmt(c.value)}</td><td>{html.escape(c.kind)} "
                          f"{_fmt(c.limit)}</td><td>{html.escape(c.unit)}</td>"
-                         f"<td class='{verdict.lower()}'>{verdict}</td></tr>")
+                         f"<td class='{verdict.lower()}'>{verdict}</td><td>{html.escape(c.note)}</td></tr>")
             md.append("")
             h.append("</table>")
         for t in r.tables:
@@ -209,15 +258,16 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
             h.append("</table>" + (f"<p><i>{html.escape(t.note)}</i></p>" if t.note else ""))
         for fig, fname in _save_figures(r, out):
             if fname is None:
-                md += [f"_Figure omitted ({fig.caption}): install matplotlib (`pip install optinav[plot]`)._", ""]
+                md += [f"_Figure omitted ({fig.caption}): install matplotlib._", ""]
             else:
                 md += [f"![{fig.caption}]({fname})", "", f"_{fig.caption}_", ""]
                 h.append(f"<figure><img src='{html.escape(fname)}' width='700'>"
                          f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
         summary["studies"][r.name] = {
             "title": r.title, "elapsed_s": r.elapsed, "summary": _jsonable(r.summary),
+            "headline": [_jsonable(dataclasses.asdict(hl)) for hl in r.headline],
             "checks": [{"name": c.name, "value": _jsonable(c.value), "limit": _jsonable(c.limit), "unit": c.unit,
-                        "kind": c.kind, "passed": c.passed} for c in r.checks],
+                        "kind": c.kind, "passed": c.passed, "note": c.note} for c in r.checks],
             "tables": [{"title": t.title, "columns": t.columns, "rows": _jsonable(t.rows), "note": t.note}
                        for t in r.tables],
         }

@@ -48,7 +48,7 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
     * ``"bfgs"`` — ``scipy.optimize.minimize(method='BFGS')`` (gtol, xrtol, max_iter, jac); no bounds.
     * ``"pso"`` — particle swarm (n_particles, generations, w, c1, c2, v_max, v_min, ftol, stall_generations).
     * ``"ga"`` — adaptive real-coded GA (population, generations, k1..k4, selection_fraction, mutation,
-      mutation_shape, pm_min, ftol, stall_generations).
+      mutation_shape, pm_min, ftol, stall_generations, operators "optinav" or "paper").
 
     ``jac`` selects the finite-difference scheme ('2-point' or '3-point') used when the problem has no
     analytic Jacobian. ``rng`` (Generator or seed) drives PSO/GA: the same seed gives the same result.

@@ -27,6 +27,11 @@ fitness) the formula is 0/0 and the below-average rates ``k3``/``k4`` are used, 
 collapsed population while elitism keeps its best member.
 
 The population never leaves the search interval (convex crossover, in-interval mutation).
+
+``operators="paper"`` uses the operators as Gao & Zhang describe them instead of steps 2–3: crossover
+exchanges part of the chromosomes (with probability Pc a pair swaps the genes after a random cut point) and
+mutation acts per individual (with probability Pm an offspring gets one gene, chosen at random, re-drawn
+uniformly in its search interval); selection, the adaptive Pc/Pm, the fitness 1/E and elitism are shared.
 """
 
 from __future__ import annotations
@@ -66,9 +71,11 @@ def fitness(E) -> np.ndarray:
 def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, population: int = 50,
            generations: int = 200, k1: float = 1.0, k2: float = 0.5, k3: float = 1.0, k4: float = 0.5,
            selection_fraction: float = 0.5, mutation: str = "non-uniform", mutation_shape: float = 2.0,
-           pm_min: float = 0.005, ftol: float | None = None, stall_generations: int = 20) -> dict:
+           pm_min: float = 0.005, ftol: float | None = None, stall_generations: int = 20,
+           operators: str = "optinav") -> dict:
     """Adaptive GA; ``ftol`` (off by default) stops once the best cost improved by less than ``ftol·E``
-    over ``stall_generations`` generations."""
+    over ``stall_generations`` generations. ``operators``: "optinav" (arithmetic crossover, per-gene
+    non-uniform mutation) or "paper" (gene exchange, per-individual mutation; module docstring)."""
     n = ev.n
     M = int(population)
     G = int(generations)
@@ -77,6 +84,8 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
                            "increase the population or the number of generations")
     if not 0 < selection_fraction <= 1:
         raise OptinavError(f"selection_fraction = {selection_fraction!r} must be in (0, 1]", "e.g. 0.5")
+    if operators not in ("optinav", "paper"):
+        raise OptinavError(f"operators={operators!r} is unknown", "use 'optinav' or 'paper'")
     if mutation not in ("non-uniform", "uniform"):
         raise OptinavError(f"mutation={mutation!r} is unknown", "use 'non-uniform' or 'uniform'")
     for name, val in (("k1", k1), ("k2", k2), ("k3", k3), ("k4", k4)):
@@ -107,10 +116,15 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
         a, bb = pool[0::2], pool[1::2]
         pc = adaptive_probability(np.maximum(fit[a], fit[bb]), fmax, favg, k1, k3)
         cross = rng.random(npairs) < pc
-        lam = rng.random((npairs, 1))
         A, B = P[a], P[bb]
-        C1 = np.where(cross[:, None], lam * A + (1 - lam) * B, A)
-        C2 = np.where(cross[:, None], (1 - lam) * A + lam * B, B)
+        if operators == "paper":
+            # gene exchange: the genes after a random cut point (1..n−1) swap between the parents
+            swap = cross[:, None] & (np.arange(n)[None, :] >= rng.integers(1, max(n, 2), size=(npairs, 1)))
+            C1, C2 = np.where(swap, B, A), np.where(swap, A, B)
+        else:
+            lam = rng.random((npairs, 1))
+            C1 = np.where(cross[:, None], lam * A + (1 - lam) * B, A)
+            C2 = np.where(cross[:, None], (1 - lam) * A + lam * B, B)
         kids = np.vstack([C1, C2])[:M]
         kidE = np.concatenate([E[a], E[bb]])[:M]
         # identical parents give identical children: nothing new to evaluate
@@ -119,11 +133,15 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
             kidE[new] = ev.cost_batch(kids[new])
 
         pm = np.maximum(adaptive_probability(fitness(kidE), fmax, favg, k2, k4), pm_min)
-        mut = rng.random((M, n)) < pm[:, None]
+        if operators == "paper":
+            # per individual: with probability Pm one gene, chosen at random, is re-drawn in its interval
+            mut = (rng.random(M) < pm)[:, None] & (np.arange(n)[None, :] == rng.integers(0, n, size=(M, 1)))
+        else:
+            mut = rng.random((M, n)) < pm[:, None]
         u = rng.random((M, n))
         up = rng.random((M, n)) < 0.5
         if mut.any():
-            if mutation == "uniform":
+            if mutation == "uniform" or operators == "paper":
                 v = lo + (hi - lo) * u
             else:
                 shrink = 1.0 - u ** ((1.0 - (g - 1) / G) ** mutation_shape)
