@@ -58,7 +58,7 @@ def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: fl
 
 def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> str:
     """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint."""
-    k = min(gyr.shape[0], 200_000)
+    k = min(gyr.shape[0], 60_000)
     g, a, d = gyr[:k], acc[:k], dts[:k] if dts.shape[0] > 1 else dts
     if np.max(np.linalg.norm(g, axis=1)) * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
