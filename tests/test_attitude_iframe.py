@@ -139,6 +139,8 @@ def test_streaming_equals_batch_and_online_is_causal():
         rest[i] = f.rest
     assert np.max(np.abs(qs - r.q)) < 1e-12 and np.array_equal(rest, r.rest)
     assert np.allclose(f.bias, r.gyro_bias, atol=1e-15)
+    with pytest.raises(OptinavError, match="3 components"):
+        f.update(w[0, :2], acc[0], dt=DT)
     g = AttitudeFilter(rate_hz=RATE)
     chunks = [g.update_batch(w[a:a + 500], acc[a:a + 500]).q for a in range(0, n, 500)]
     assert np.max(np.abs(np.vstack(chunks) - estimate(w, acc, DT))) < 1e-12
