@@ -293,7 +293,7 @@ def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw
 
 def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> None:
     """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`)."""
-    if not fit.success:
+    if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
         raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
                            f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
                                                        "intervals (--threshold, --sections)")
@@ -338,7 +338,7 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
 
 def _gyro_gates(gc, gyro_unit: str) -> None:
     """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`)."""
-    if not gc.success:
+    if not gc.success or not (np.all(np.isfinite(gc.K)) and np.all(np.isfinite(gc.b)) and np.isfinite(gc.residual_rms)):
         raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
                            "check the static intervals (--threshold, --sections) and --gyro-unit")
     nominal = float(np.median(np.abs(np.diag(gc.K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
