@@ -5,7 +5,7 @@ Data: every BROAD trial in ``../shared/data/attitude/broad`` ($OPTINAV_SHARED_DA
 (inclination / heading RMSE over the movement samples with a valid optical reference). Rows, per trial and
 mean: 6D online inclination, 6D offline inclination, 9D heading. Methods: optinav iframe (default; online,
 offline, 9D), the published gd/cg/qn/mekf (as published, and qn/mekf with the input stage), VQF 2.x online
-(``VQF.updateBatch``) and offline (``offlineVQF``), imufusion's AHRS (default settings), ahrs Madgwick
+(``VQF.updateBatch``) and offline (``offlineVQF``), imufusion's AHRS (its example's settings), ahrs Madgwick
 (gain 0.033) and Mahony (defaults) — the comparison methods are the ``bench`` extra. Throughput in samples/s,
 side by side in one run: batch on trial 02 tiled to ≥ 1 M samples, and streaming (one Python call per sample,
 20 000 samples) for optinav's AttitudeFilter, VQF and imufusion. Targets (issue 12): online ≤ 0.55°, offline
@@ -60,16 +60,25 @@ def _methods():
         import imufusion
 
         def fusion(g, a, mg, dt, use_mag=False):
-            ahrs_ = imufusion.Ahrs()  # the library's default settings in the ENU convention of BROAD's reference
-            ahrs_.settings = imufusion.Settings(imufusion.CONVENTION_ENU, 0.5, 2000, 10, 10, int(5 / dt))
+            # the settings of imufusion's own example (gain 0.5, 2000 °/s, rejection 10°/10°, 5 s timeout) in the
+            # ENU convention of BROAD's reference; its bare defaults switch the rejections off
+            ahrs_ = imufusion.Ahrs()
+            settings = imufusion.AhrsSettings()
+            settings.convention = imufusion.CONVENTION_ENU
+            settings.sample_rate = 1.0 / dt
+            settings.gyroscope_range = 2000.0
+            settings.acceleration_rejection = 10.0
+            settings.magnetic_rejection = 10.0
+            settings.rejection_timeout = int(5.0 / dt)
+            ahrs_.set_settings(settings)
             out = np.empty((g.shape[0], 4))
             gd, ad = np.degrees(g), a / 9.81  # imufusion: deg/s and g
             for i in range(g.shape[0]):
                 if use_mag:
-                    ahrs_.update(gd[i], ad[i], mg[i], dt)
+                    ahrs_.update(gd[i], ad[i], mg[i])
                 else:
-                    ahrs_.update_no_magnetometer(gd[i], ad[i], dt)
-                out[i] = ahrs_.quaternion.wxyz
+                    ahrs_.update_no_magnetometer(gd[i], ad[i])
+                out[i] = ahrs_.get_quaternion()
             return out
 
         m["imufusion"] = ("6d", fusion)
@@ -146,7 +155,7 @@ def _throughput(tr, quick: bool) -> list[dict]:
         def fu():
             f = imufusion.Ahrs()
             for i in range(n):
-                f.update_no_magnetometer(gd[i], ad[i], tr.dt)
+                f.update_no_magnetometer(gd[i], ad[i])
 
         stream["imufusion Ahrs.update_no_magnetometer"] = fu
     except ImportError:
@@ -190,18 +199,19 @@ def markdown(rows: list[dict]) -> str:
     """Means, worst trials and throughput as one Markdown table per group (methods side by side)."""
     out = []
     groups = [g for i, g in enumerate(r["group"] for r in rows) if g not in [r["group"] for r in rows][:i]]
+    def per_trial(g):
+        return g.startswith(("attitude 6D", "attitude 9D")) and "mean of" not in g and "worst of" not in g
+
     for grp in groups:
-        if "BROAD" in grp and "mean" not in grp and "worst" not in grp:
+        if per_trial(grp):
             continue
         out.append(f"**{grp}**\n\n| method | value |\n|---|---|")
         for r in rows:
             if r["group"] == grp:
                 out.append(f"| {r['method']} | {r['value']:.4g} {r['unit']} ({r['metric']}) |")
         out.append("")
-    names = sorted({r["method"] for r in rows if "BROAD" in r["group"] and "mean" not in r["group"]
-                    and "worst" not in r["group"]})
-    trials = sorted({r["group"].split("BROAD ")[1] for r in rows if "BROAD" in r["group"] and "mean" not in
-                     r["group"] and "worst" not in r["group"]})
+    names = sorted({r["method"] for r in rows if per_trial(r["group"])})
+    trials = sorted({r["group"].split("BROAD ")[1] for r in rows if per_trial(r["group"])})
     for label in ("6D online", "6D offline", "9D"):
         sel = [r for r in rows if r["group"].startswith(f"attitude {label}, BROAD")]
         if not sel:

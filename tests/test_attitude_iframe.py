@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from optinav.attitude import AttitudeFilter, estimate, estimate_attitude
-from optinav.attitude.checks import FrameWarning
+from optinav.attitude.checks import FrameWarning, _check_clipping
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, quat_angle_between, quat_from_dcm,
                                     quat_from_rotvec, quat_multiply)
@@ -139,6 +139,8 @@ def test_streaming_equals_batch_and_online_is_causal():
         rest[i] = f.rest
     assert np.max(np.abs(qs - r.q)) < 1e-12 and np.array_equal(rest, r.rest)
     assert np.allclose(f.bias, r.gyro_bias, atol=1e-15)
+    with pytest.raises(OptinavError, match="3 components"):
+        f.update(w[0, :2], acc[0], dt=DT)
     g = AttitudeFilter(rate_hz=RATE)
     chunks = [g.update_batch(w[a:a + 500], acc[a:a + 500]).q for a in range(0, n, 500)]
     assert np.max(np.abs(np.vstack(chunks) - estimate(w, acc, DT))) < 1e-12
@@ -220,6 +222,17 @@ def test_mislabelled_or_damaged_imu_refused(case, match):
         w = np.clip(w, -1.5, 1.5)
     with pytest.raises(OptinavError, match=match):
         estimate(w, acc, DT)
+
+
+def test_quantized_natural_peak_is_not_clipping():
+    """1 kHz, 1 mrad/s steps: a 3 rad/s peak stays on its top code for many samples but is reached by one LSB."""
+    t = np.arange(4000) * 0.001
+    w = np.zeros((4000, 3))
+    w[:, 0] = np.round(3.0 * np.sin(2 * np.pi * 0.5 * t) / 0.001) * 0.001
+    assert np.count_nonzero(w[:, 0] == w[:, 0].max()) >= 3
+    _check_clipping(w, None, 0.001)  # no error
+    with pytest.raises(OptinavError, match="clipped"):
+        _check_clipping(np.clip(w, -2.5, 2.5), None, 0.001)
 
 
 def test_frame_warning_names_the_remedy():

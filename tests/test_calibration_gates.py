@@ -243,3 +243,13 @@ def test_a_drifting_gyro_bias_fails_static_and_calibrates_with_local(sim):
     # the reported bias is the session mean; its std spans the drift
     assert np.all(np.abs(r.gyroscope["b"] - (s.gyro_b + OFFSET + ramp.mean(axis=0))) < 3 * r.gyroscope["b_std"])
     assert np.all(r.gyroscope["b_std"] > 0.2 * np.abs(ramp[-1]))
+
+
+def test_gyro_g_sensitivity_enters_the_std():
+    """A gyro g-sensitivity of 0.1 °/s/g (1σ per element) the model leaves out: the bias is several σ off as
+    reported, and within its std with --gyro-g-sensitivity (RMS(error/std) over a few seeded sessions)."""
+    from optinav.multipos.uncertainty import gyro_g_sensitivity_study
+
+    res = gyro_g_sensitivity_study(4, rng=0)
+    ignored, given = res["gyro, g-sensitivity ignored"], res["gyro, --gyro-g-sensitivity"]
+    assert ignored["bias"] > 2.0 and 0.5 < given["bias"] < 1.5 and 0.5 < given["scale"] < 1.5, res

@@ -11,7 +11,8 @@ from optinav.cli.main import main
 from optinav.multipos import model
 from optinav.multipos.result import CalibrationResult
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"  # ../shared relative to the project root
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", SHARED)) / "imucal"
 needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
 
 

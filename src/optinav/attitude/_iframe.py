@@ -234,14 +234,15 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         ix, iy, iz = _rot(g0, g1, g2, g3, ax, ay, az)
         lx, ly, lz = _lp(st, 0, ix), _lp(st, 1, iy), _lp(st, 2, iz)
         # C_b^I low-passed like the specific force: the correction rate responds to the bias through it
-        for col in range(3):
-            ex_ = 1.0 if col == 0 else 0.0
-            ey_ = 1.0 if col == 1 else 0.0
-            ez_ = 1.0 if col == 2 else 0.0
-            r0, r1, r2 = _rot(g0, g1, g2, g3, ex_, ey_, ez_)
-            _lp(st, col, r0, S_LPC)
-            _lp(st, 3 + col, r1, S_LPC)
-            _lp(st, 6 + col, r2, S_LPC)
+        _lp(st, 0, g0 * g0 + g1 * g1 - g2 * g2 - g3 * g3, S_LPC)
+        _lp(st, 1, 2.0 * (g1 * g2 - g0 * g3), S_LPC)
+        _lp(st, 2, 2.0 * (g1 * g3 + g0 * g2), S_LPC)
+        _lp(st, 3, 2.0 * (g1 * g2 + g0 * g3), S_LPC)
+        _lp(st, 4, g0 * g0 - g1 * g1 + g2 * g2 - g3 * g3, S_LPC)
+        _lp(st, 5, 2.0 * (g2 * g3 - g0 * g1), S_LPC)
+        _lp(st, 6, 2.0 * (g1 * g3 - g0 * g2), S_LPC)
+        _lp(st, 7, 2.0 * (g2 * g3 + g0 * g1), S_LPC)
+        _lp(st, 8, g0 * g0 - g1 * g1 - g2 * g2 + g3 * g3, S_LPC)
         nl = math.sqrt(lx * lx + ly * ly + lz * lz)
         if nl > 0.0:
             vx, vy, vz = _rot(c0, c1, c2, c3, lx / nl, ly / nl, lz / nl)

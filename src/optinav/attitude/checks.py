@@ -58,7 +58,7 @@ def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: fl
 
 def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> str:
     """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint."""
-    k = min(gyr.shape[0], 200_000)
+    k = min(gyr.shape[0], 60_000)
     g, a, d = gyr[:k], acc[:k], dts[:k] if dts.shape[0] > 1 else dts
     if np.max(np.linalg.norm(g, axis=1)) * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
@@ -88,24 +88,36 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
     if hint:
         raise OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
                            "π/180 does", f"it looks like {hint}")
-    _check_clipping(gyr, gyro_range)
+    _check_clipping(gyr, gyro_range, float(np.median(dts)))
 
 
-def _check_clipping(gyr: np.ndarray, gyro_range: float | None) -> None:
-    """A saturated axis sits at one extreme value for several consecutive samples."""
+def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> None:
+    """A saturated axis sits at one extreme value for ≥ 3 consecutive samples and enters or leaves that plateau
+    steeply (a step > 0.5 % of the limit), or stays there ≥ 0.1 s: a natural peak of quantized data is flat
+    too, but briefly, and is reached by steps of one least significant bit. ``dt`` s: the median step."""
     for k in range(3):
         x = gyr[:, k]
         for sgn in (1.0, -1.0):
-            m = float(np.max(sgn * x))
+            y = sgn * x
+            m = float(np.max(y))
             if m < 1.0 and gyro_range is None:  # < 57 °/s: no realistic range saturates there
                 continue
-            at = sgn * x >= m - 1e-9 * max(m, 1.0)
+            at = y >= m - 1e-9 * max(m, 1.0)
             if gyro_range is not None:
-                at |= sgn * x >= 0.999 * gyro_range
-            runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))))[::2]
-            if runs.size and int(runs.max()) >= 3:
-                raise OptinavError(f"gyro axis {'xyz'[k]} is clipped at {sgn * m:.4g} rad/s "
-                                   f"({int(at.sum())} samples at the limit, up to {int(runs.max())} in a row)",
+                at |= y >= 0.999 * gyro_range
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], at.astype(np.int8), [0]])))
+            starts, ends = edges[::2], edges[1::2]  # run [s, e)
+            steep = 0
+            for s, e in zip(starts, ends):
+                if e - s < 3:
+                    continue
+                step_in = y[s] - y[s - 1] if s > 0 else 0.0
+                step_out = y[e - 1] - y[e] if e < y.size else 0.0
+                if max(step_in, step_out) > 0.005 * m or (e - s) * dt >= 0.1:
+                    steep += 1
+            if steep:
+                raise OptinavError(f"gyro axis {'xyz'[k]} is clipped at {sgn * m:.4g} rad/s ({steep} flat run(s) "
+                                   f"of ≥ 3 samples at the limit)",
                                    "record with a larger gyro range; no attitude is reliable through saturation")
 
 

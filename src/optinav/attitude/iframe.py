@@ -183,10 +183,12 @@ class AttitudeFilter:
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
         """One sample: gyr (3,) rad/s, acc (3,) m/s², mag (3,) or None, dt s (default: the filter's); then read
-        :attr:`q`, :attr:`rest`, ... Inputs go to the compiled step unchecked (speed): pass finite floats."""
+        :attr:`q`, :attr:`rest`, ... Only the lengths are checked (speed): pass finite floats."""
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
+        if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
+            raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
         if mag is None:
             self._step6(self._state, self._par, gyr, acc, h)
         else:

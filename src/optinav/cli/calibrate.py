@@ -91,6 +91,9 @@ def add_calibration_options(a) -> None:
     a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
                    help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
                         "datasheet value); their model error enters the scale and bias std")
+    a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
+                   help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
+                        "model leaves out; added to the gyro bias and K std")
     a.add_argument("--allow-unobservable", action="store_true",
                    help="hold the gyro parameters the turns do not determine at their initial guess instead of "
                         "stopping (they are listed in the result)")

@@ -133,7 +133,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                       threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
                       source: str = "", method_options: dict | None = None, acc_bias_instability=None,
                       rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
-                      held_misalignment: float = accel.HELD_MISALIGNMENT) -> CalibrationResult:
+                      held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None
+                      ) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -146,7 +147,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
     turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
     ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
-    stds of the scales and biases). ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    stds of the scales and biases). ``gyro_g_sensitivity`` (raw gyro per m/s², 1σ): the unmodelled gyro
+    g-sensitivity, added to the gyro bias and K std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
     Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
@@ -243,7 +245,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
-                                     allow_unobservable=allow_unobservable, drop_transitions=drop)
+                                     allow_unobservable=allow_unobservable, drop_transitions=drop,
+                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g)
         _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
@@ -293,7 +296,7 @@ def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw
 
 def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> None:
     """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`)."""
-    if not fit.success:
+    if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
         raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
                            f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
                                                        "intervals (--threshold, --sections)")
@@ -338,7 +341,7 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
 
 def _gyro_gates(gc, gyro_unit: str) -> None:
     """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`)."""
-    if not gc.success:
+    if not gc.success or not (np.all(np.isfinite(gc.K)) and np.all(np.isfinite(gc.b)) and np.isfinite(gc.residual_rms)):
         raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
                            "check the static intervals (--threshold, --sections) and --gyro-unit")
     nominal = float(np.median(np.abs(np.diag(gc.K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
@@ -448,6 +451,7 @@ class FileOptions:
     rotation_angle: float = -360.0
     acc_bias_instability: float | None = None
     held_misalignment: float = accel.HELD_MISALIGNMENT
+    gyro_g_sensitivity: float | None = None
     generations: int | None = None
     seed: int = 0
 
@@ -469,7 +473,7 @@ class FileOptions:
         if (self.gyro_bias == "rest") != (self.rest is not None):
             raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
         for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
-                           ("held_misalignment", "--held-misalignment")):
+                           ("held_misalignment", "--held-misalignment"), ("gyro_g_sensitivity", "--gyro-g-sensitivity")):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
                 raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
@@ -523,7 +527,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                              acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
                              source=source, method_options=method_options, rest=o.rest,
                              allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
-                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment)
+                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
+                             gyro_g_sensitivity=o.gyro_g_sensitivity)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 

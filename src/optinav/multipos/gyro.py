@@ -393,7 +393,8 @@ def _missing_axes(rep: ObservabilityReport) -> str:
 def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", rest=None, method: str = "lm",
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
                    allow_unobservable: bool = False, max_std: float = 0.05,
-                   drop_transitions=()) -> GyroCalibration:
+                   drop_transitions=(), g_sensitivity_std: float | None = None,
+                   gravity: float = 9.80665) -> GyroCalibration:
     """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -414,6 +415,10 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     max_std : combinations with a larger standard deviation (units of k₀ for K, 0.01·k₀ for b) are
         treated as unobservable.
     drop_transitions : indices k of transitions (interval k → k+1) left out, e.g. where the gyro saturates.
+    g_sensitivity_std : 1σ of each element of the gyro g-sensitivity (raw per m/s², datasheet value), which
+        the model leaves out. A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests, ``gravity``
+        m/s² along the mean up direction), added to the bias variance; each turn sees G·(f − f̄), at most
+        σ·g per axis, propagated into K like a bias error.
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)
@@ -616,12 +621,17 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
                       np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
             G = -A @ Jb
-            cov[:9, :9] += G @ b_cov @ G.T
+            b_prop = b_cov + (np.eye(3) * (abs(float(g_sensitivity_std)) * gravity) ** 2 if g_sensitivity_std else 0)
+            cov[:9, :9] += G @ b_prop @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
     if mode == "local":
         # K saw the local (noise-limited) biases; the reported session mean carries the drift
         cov[9:, 9:] = np.diag(np.maximum(np.diag(b_cov), means.var(axis=0, ddof=1)))
+    if g_sensitivity_std:
+        sg = abs(float(g_sensitivity_std)) * float(gravity)
+        fbar = (counts[:, None] * u).sum(0) / counts.sum() if mode != "rest" else np.ones(1)
+        cov[9:, 9:] += np.eye(3) * sg ** 2 * float(fbar @ fbar)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     obs = np.ones(12, dtype=bool)
     obs[:n_par] = np.asarray(rep.observable, dtype=bool)
