@@ -160,6 +160,22 @@ def test_offline_beats_online_on_translation():
     assert off < on
 
 
+def test_offline_bias_is_the_gyro_bias_over_the_whole_recording():
+    """The backward pass sees the gyro negated, so its bias is −b: the offline per-sample bias is the smoothed
+    +b everywhere (rest at the start, motion after), not ≈ 0 at the start, and the offline tilt is below online."""
+    from optinav.attitude.iframe import run_iframe
+
+    n = 20000
+    w, acc, q_true = motion(n, seed=3, amp=1.0, rest=500)
+    bias = np.radians([0.4, -0.3, 0.3])
+    g = np.ascontiguousarray(w + bias)
+    r = run_iframe(g, np.ascontiguousarray(acc), np.array([DT]), offline=True)
+    assert np.max(np.abs(np.degrees(r.bias[n // 10:] - bias))) < 0.05
+    assert np.max(np.abs(np.degrees(r.bias[:100] - bias))) < 0.1
+    on = run_iframe(g, np.ascontiguousarray(acc), np.array([DT]))
+    assert tilt_deg(r.q, q_true, slice(1000, None)) < tilt_deg(on.q, q_true, slice(1000, None))
+
+
 def test_iframe_enu_and_ned_agree():
     n = 3000
     w, acc, q = motion(n, seed=8, amp=1.5, rest=200)
@@ -222,6 +238,21 @@ def test_mislabelled_or_damaged_imu_refused(case, match):
         w = np.clip(w, -1.5, 1.5)
     with pytest.raises(OptinavError, match=match):
         estimate(w, acc, DT)
+
+
+def test_gyro_unit_judged_where_the_gyro_turns():
+    """The unit check looks at the 20 s with the most turning: a deg/s gyro declared rad/s that only moves after
+    11 min of rest (beyond the first 60 000 samples) is still refused, at the cost of 20 s of strapdown."""
+    from optinav.attitude.checks import _gyro_unit_hint, _turning_window
+
+    n, rest = 70000, 66000
+    w, acc, _ = motion(n, seed=10, amp=2.0, rest=rest)
+    sl = _turning_window(np.linalg.norm(w, axis=1), np.array([DT]))
+    assert sl.stop - sl.start == 2000 and sl.start >= rest
+    assert _gyro_unit_hint(w, acc, np.array([DT])) == ""
+    assert "--gyro-unit deg/s" in _gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
+    with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
+        estimate(np.degrees(w), acc, DT)
 
 
 def test_quantized_natural_peak_is_not_clipping():

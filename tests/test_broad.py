@@ -124,10 +124,10 @@ def test_nine_trials_default_online_beats_vqf_and_no_trial_above_target(nine):
 
 
 def test_nine_trials_offline_better_than_online(nine):
-    """Offline (forward–backward) below online on average and within 10 % of VQF offline (measured 0.50° vs
-    0.488°: the issue's 0.44° target is not reached)."""
+    """Offline (forward–backward fusion + zero-phase tilt refinement) below online on average and below VQF
+    offline (measured 0.484° vs 0.488°: the issue's 0.44° target is not reached); worst trial 0.96°."""
     assert nine[:, 1].mean() < nine[:, 0].mean()
-    assert nine[:, 1].mean() < 1.1 * VQF_OFFLINE_DEG
+    assert nine[:, 1].mean() < VQF_OFFLINE_DEG, nine[:, 1]
     assert nine[:, 1].max() < 1.5
 
 

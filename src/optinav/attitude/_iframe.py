@@ -354,3 +354,21 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias):
 def step6(st, par, g, a, h):
     """:func:`step` with gyr and acc as 3-sequences (arrays or tuples) and no magnetometer."""
     step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)
+
+
+@numba.njit(**_NJ)
+def strapdown(gyr, bias, dt, out):
+    """q_g = q_b^I of the bias-corrected gyro for every sample, the arithmetic of :func:`step` (identity before
+    the first sample); ``bias`` (N, 3) rad/s, ``dt`` 1 or N entries."""
+    q0, q1, q2, q3 = 1.0, 0.0, 0.0, 0.0
+    for i in range(gyr.shape[0]):
+        h = dt[i] if dt.shape[0] > 1 else dt[0]
+        d0, d1, d2, d3 = _rotvec_q((gyr[i, 0] - bias[i, 0]) * h, (gyr[i, 1] - bias[i, 1]) * h,
+                                   (gyr[i, 2] - bias[i, 2]) * h)
+        q0, q1, q2, q3 = _qmul(q0, q1, q2, q3, d0, d1, d2, d3)
+        n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q0, q1, q2, q3 = q0 / n, q1 / n, q2 / n, q3 / n
+        out[i, 0] = q0
+        out[i, 1] = q1
+        out[i, 2] = q2
+        out[i, 3] = q3

@@ -56,11 +56,37 @@ def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: fl
     return float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
 
 
-def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> str:
-    """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint."""
-    k = min(gyr.shape[0], 60_000)
-    g, a, d = gyr[:k], acc[:k], dts[:k] if dts.shape[0] > 1 else dts
-    if np.max(np.linalg.norm(g, axis=1)) * max(_SCALES) * float(np.median(d)) * k < 0.5:
+#: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
+UNIT_WINDOW_S = 20.0
+
+
+def _norm(x: np.ndarray) -> np.ndarray:
+    """Row norms of an (N, 3) array (cheaper than np.linalg.norm on long recordings)."""
+    return np.sqrt(np.einsum("ij,ij->i", x, x))
+
+
+def _turning_window(ng: np.ndarray, dts: np.ndarray) -> slice:
+    """The UNIT_WINDOW_S-long stretch with the largest gyro-integrated angle (the whole recording if shorter);
+    the choice does not depend on the gyro's unit factor."""
+    n = ng.shape[0]
+    dt = float(np.median(dts))
+    w = int(np.ceil(UNIT_WINDOW_S / dt)) if dt > 0 else n
+    if n <= w:
+        return slice(0, n)
+    c = np.concatenate([[0.0], np.cumsum(ng)])
+    i = int(np.argmax(c[w:] - c[:-w]))
+    return slice(i, i + w)
+
+
+def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None) -> str:
+    """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint. Judged on
+    the UNIT_WINDOW_S s where the gyro turns most (the strapdowns' cost is independent of the recording's
+    length). ``ng``: the gyro's row norms if already computed."""
+    ng = _norm(gyr) if ng is None else ng
+    sl = _turning_window(ng, dts)
+    g, a, d = gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts
+    k = g.shape[0]
+    if np.max(ng[sl]) * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
     spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
     best = min(spread, key=spread.get)
@@ -70,8 +96,8 @@ def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> str:
 def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None) -> None:
     """Refuse inputs whose magnitudes contradict their declared units (acc m/s², gyr rad/s), swapped triads and
     a clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if known."""
-    na = np.linalg.norm(acc, axis=1)
-    ng = np.linalg.norm(gyr, axis=1)
+    na = _norm(acc)
+    ng = _norm(gyr)
     med_a, med_g = float(np.median(na)), float(np.median(ng))
     if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
         raise OptinavError(f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the "
@@ -84,7 +110,7 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
     if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
         raise OptinavError(f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
                            "declare the unit with --gyro-unit deg/s")
-    hint = _gyro_unit_hint(gyr, acc, dts)
+    hint = _gyro_unit_hint(gyr, acc, dts, ng)
     if hint:
         raise OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
                            "π/180 does", f"it looks like {hint}")
@@ -105,8 +131,10 @@ def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> Non
             at = y >= m - 1e-9 * max(m, 1.0)
             if gyro_range is not None:
                 at |= y >= 0.999 * gyro_range
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], at.astype(np.int8), [0]])))
-            starts, ends = edges[::2], edges[1::2]  # run [s, e)
+            idx = np.flatnonzero(at)  # few samples at the extreme: runs from their indices
+            brk = np.flatnonzero(np.diff(idx) > 1)
+            starts = np.concatenate([idx[:1], idx[brk + 1]])
+            ends = np.concatenate([idx[brk] + 1, idx[-1:] + 1])  # run [s, e)
             steep = 0
             for s, e in zip(starts, ends):
                 if e - s < 3:

@@ -16,8 +16,11 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
-  recording started from the forward end state (so its bias has seen the whole recording), and the two
-  estimates fused (mean of the error rotation): the forward pass lags the low-pass, the backward pass leads.
+  recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
+  is negated, so is its bias), and the two estimates fused (mean of the error rotation): the forward pass lags
+  the low-pass, the backward pass leads. Then a zero-phase refinement: the specific force in the almost-inertial
+  frame of the smoothed bias, low-passed forward and backward (Butterworth, same ``tau_acc``), gives a lag-free
+  up direction; the fused estimate is turned halfway towards it (tilt only).
 
 Frames: ``q`` = q_b^n [w, x, y, z]; ``frame`` NED or ENU (the up and north vectors are the only frame input,
 so the estimator is frame-equivariant).
@@ -137,11 +140,50 @@ def run_iframe(gyr, acc, dts, *, mag=None, frame: str = "NED", q0=None, offline:
     fwd = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
     if not offline:
         return fwd
-    bwd = _run(fwd.state.copy(), par, *_reverse(gyr, acc, m, dts))
-    qb = bwd.q[::-1]
-    q = _fuse(fwd.q, qb)
-    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1],
-                     0.5 * (fwd.bias + bwd.bias[::-1]), fwd.state)
+    # the reversed recording sees the gyro negated, so its bias is −b: start the backward pass from the forward
+    # end state with the bias negated, and negate it back; the backward bias at t has seen the whole recording
+    # (the forward pass's end state and the samples from t on), the forward one only the samples before t
+    st = fwd.state.copy()
+    st[_k.S_BIAS:_k.S_BIAS + 3] *= -1.0
+    bwd = _run(st, par, *_reverse(gyr, acc, m, dts))
+    bias = -bwd.bias[::-1]
+    q = _fuse(fwd.q, bwd.q[::-1])
+    q = _zero_phase_tilt(q, gyr, acc, dts, bias, frame, opts["tau_acc"])
+    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias,
+                     fwd.state)
+
+
+def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
+    """Offline tilt refinement: the specific force low-passed in the almost-inertial frame of the smoothed bias
+    with a zero-phase (forward–backward) Butterworth filter of the same time constant gives the up direction
+    without lag; ``q`` is turned halfway towards it (a tilt-only rotation, the heading is kept). Skipped when
+    the recording is too short or the accelerometer has non-finite samples."""
+    from scipy.signal import butter, filtfilt
+
+    from optinav.core.rotations import quat_conjugate, quat_from_rotvec, quat_multiply, quat_rotate
+
+    n = gyr.shape[0]
+    h = float(np.mean(dts))
+    pad = int(min(n - 1, np.ceil(3.0 * tau / h)))
+    if n < 16 or not np.isfinite(acc).all():
+        return q
+    qg = np.empty((n, 4))
+    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg)
+    fc = np.sqrt(2.0) / (2.0 * np.pi * tau)  # the cutoff of the causal low-pass (rate-independent)
+    b, a = butter(2, min(2.0 * fc * h, 0.98))
+    lp = filtfilt(b, a, quat_rotate(qg, acc), axis=0, padlen=pad)
+    up_b = quat_rotate(quat_conjugate(qg), lp)
+    nrm = np.linalg.norm(up_b, axis=1)
+    ok = nrm > 0.0
+    if not ok.all():
+        return q
+    cur = quat_rotate(q, up_b / nrm[:, None])       # the zero-phase up, in n with the current estimate
+    up = _UP[frame]
+    ax = np.cross(cur, up)
+    sn = np.linalg.norm(ax, axis=1)
+    ang = np.arctan2(sn, cur @ up)
+    rv = ax * (0.5 * ang / np.maximum(sn, 1e-300))[:, None]
+    return quat_multiply(quat_from_rotvec(rv), q)
 
 
 def input_stage(gyr, acc, dts, frame: str = "NED", **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
