@@ -214,7 +214,8 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     spread = max(float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn")) - min(
         float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn"))
     checks.append(Check("static: worst RMS of any method, any angle (paper: all close to the reference)",
-                        worst_static, 2.0, "deg"))
+                        worst_static, 2.0, "deg", note="the largest is QN's: its constant error b/β₀ from the "
+                                                         "residual gyro bias (checked below)"))
     summary["static_spread_gd_cg_qn_deg"] = spread
     tables.append(Table(f"Table 1: static test, attitude error statistics [deg] ({dur_s:g} s at 100 Hz, tuned "
                         "settings)", ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
@@ -280,8 +281,10 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                         float(r_t["mekf"].mean() / min(r_t[m].mean() for m in ("gd", "cg", "qn"))), 1.0))
     checks.append(Check("dynamic, tuned: polarization keeps the heading: worst yaw RMS of any method",
                         float(max(rms["tuned"][m][:, 2].max() for m in METHODS)), 5.0, "deg"))
-    checks.append(Check("dynamic, tuned: QN roll/pitch RMS / GD's, worst flight (finding, paper: ≈ 0.5)",
-                        float(np.max(tilt("qn") / tilt("gd"))), 3.0))
+    qn_gd = float(np.max(tilt("qn") / tilt("gd")))
+    checks.append(Check("dynamic, tuned: QN roll/pitch RMS / GD's, worst flight (finding, paper: ≈ 0.5)", qn_gd, 3.0,
+                        note="the limit only guards against a broken filter; QN is not better than GD here, so the "
+                             "paper's ≈ 0.5 is not reproduced" if qn_gd > 1 else ""))
     nees_static = float(np.mean(_nees(static, static_run["mekf"]["res"])[SKIP:]))
     nees_dyn = float(np.mean([np.mean(_nees(fl, r["mekf"]["res"])[SKIP:]) for fl, r in zip(test, dyn)]))
     tables.append(Table("MEKF consistency at the tuned setting (mean NEES, 3 degrees of freedom: 3 if consistent)",
