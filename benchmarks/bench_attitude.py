@@ -1,34 +1,90 @@
-"""Attitude estimators: throughput and accuracy of QN, GD, CG, MEKF beside ahrs's Madgwick on the same data.
+"""Attitude estimators on real recordings: optinav beside VQF, imufusion and ahrs on the BROAD trials.
 
-Data: BROAD trial 02 (53 240 samples at 285.7 Hz, optical truth; $OPTINAV_SHARED_DATA or /work/shared/data)
-if present, else a simulated dynamic flight (optinav.attitude.simulate). Throughput = samples per second of
-the batch API ``optinav.attitude.estimate`` (best of several runs after a warm-up, numba compiled) on the
-data tiled to ≥ 1 M samples; accuracy = BROAD inclination RMSE (movement samples, NaN rows excluded), gyro +
-accelerometer only. ahrs (test extra) runs its Madgwick over the same arrays. Target (issue 6): QN batch
-throughput ≥ 1 million samples/s.
+Data: every BROAD trial in ``../shared/data/attitude/broad`` ($OPTINAV_SHARED_DATA; Laidig et al. 2021, CC BY
+4.0), gyro + accelerometer (6D) and + magnetometer (9D), default options of every method, BROAD's metric
+(inclination / heading RMSE over the movement samples with a valid optical reference). Rows, per trial and
+mean: 6D online inclination, 6D offline inclination, 9D heading. Methods: optinav iframe (default; online,
+offline, 9D), the published gd/cg/qn/mekf (as published, and qn/mekf with the input stage), VQF 2.x online
+(``VQF.updateBatch``) and offline (``offlineVQF``), imufusion's AHRS (default settings), ahrs Madgwick
+(gain 0.033) and Mahony (defaults) — the comparison methods are the ``bench`` extra. Throughput in samples/s,
+side by side in one run: batch on trial 02 tiled to ≥ 1 M samples, and streaming (one Python call per sample,
+20 000 samples) for optinav's AttitudeFilter, VQF and imufusion. Targets (issue 12): online ≤ 0.55°, offline
+≤ 0.44°, 9D heading ≤ 2.0°, no trial > 1.5°; ≥ 2 M samples/s batch, ≥ 300 k updates/s streaming.
+``python benchmarks/bench_attitude.py [--quick] [--json FILE] [--md FILE]`` writes JSON and a Markdown table.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude import estimate
-from optinav.attitude.metrics import inclination_error, rmse
+from optinav.attitude import AttitudeFilter, estimate
+from optinav.attitude.data import load_broad, shared_data_dir
+from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
 
-def _data(quick: bool):
-    from optinav.attitude.data import BROAD_TRIAL_02, load_broad, shared_data_dir
+def _trials(quick: bool):
+    folder = shared_data_dir() / "attitude" / "broad"
+    paths = sorted(p for p in folder.glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
+    return [load_broad(p) for p in (paths[:3] if quick else paths)]
 
-    path = shared_data_dir() / BROAD_TRIAL_02
-    if path.is_file():
-        tr = load_broad(path)
-        return "BROAD trial 02", "ENU", tr.gyr, tr.acc, tr.dt, tr.q_ref, tr.eval_mask
-    from optinav.attitude.simulate import simulate_flight
 
-    d = simulate_flight("dynamic", duration_s=60 if quick else 300, rng=1)
-    return "simulated flight", d.frame, d.gyr, d.acc, d.dt, d.q_true, np.ones(len(d), bool)
+def _methods():
+    """name → (kind, fn(gyr, acc, mag, dt) -> q (N, 4) body → ENU); kind: 6d, 6d-offline or 9d."""
+    m = {"optinav iframe": ("6d", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU", checks=False)),
+         "optinav iframe offline": ("6d-offline", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU",
+                                                                                offline=True, checks=False)),
+         "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU", mag=mg, checks=False))}
+    for meth in ("gd", "cg", "qn", "mekf"):
+        m[f"optinav {meth} (as published)"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate(
+            g, a, dt, frame="ENU", method=meth, checks=False))
+    for meth in ("qn", "mekf"):
+        m[f"optinav {meth} + input stage"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate(
+            g, a, dt, frame="ENU", method=meth, input_stage=True, checks=False))
+    try:
+        import vqf
+
+        c = np.ascontiguousarray
+        m["vqf online"] = ("6d", lambda g, a, mg, dt: vqf.VQF(dt).updateBatch(c(g), c(a))["quat6D"])
+        m["vqf offline"] = ("6d-offline", lambda g, a, mg, dt: vqf.offlineVQF(c(g), c(a), None, dt)["quat6D"])
+        m["vqf online 9D"] = ("9d", lambda g, a, mg, dt: vqf.VQF(dt).updateBatch(c(g), c(a), c(mg))["quat9D"])
+        m["vqf offline 9D"] = ("9d", lambda g, a, mg, dt: vqf.offlineVQF(c(g), c(a), c(mg), dt)["quat9D"])
+    except ImportError:
+        pass
+    try:
+        import imufusion
+
+        def fusion(g, a, mg, dt, use_mag=False):
+            ahrs_ = imufusion.Ahrs()  # the library's default settings in the ENU convention of BROAD's reference
+            ahrs_.settings = imufusion.Settings(imufusion.CONVENTION_ENU, 0.5, 2000, 10, 10, int(5 / dt))
+            out = np.empty((g.shape[0], 4))
+            gd, ad = np.degrees(g), a / 9.81  # imufusion: deg/s and g
+            for i in range(g.shape[0]):
+                if use_mag:
+                    ahrs_.update(gd[i], ad[i], mg[i], dt)
+                else:
+                    ahrs_.update_no_magnetometer(gd[i], ad[i], dt)
+                out[i] = ahrs_.quaternion.wxyz
+            return out
+
+        m["imufusion"] = ("6d", fusion)
+        m["imufusion 9D"] = ("9d", lambda g, a, mg, dt: fusion(g, a, mg, dt, True))
+    except ImportError:
+        pass
+    try:
+        import ahrs
+
+        m["ahrs Madgwick (0.033)"] = ("6d", lambda g, a, mg, dt: ahrs.filters.Madgwick(
+            gyr=g, acc=a, frequency=1 / dt, gain=0.033).Q)
+        m["ahrs Mahony"] = ("6d", lambda g, a, mg, dt: ahrs.filters.Mahony(gyr=g, acc=a, frequency=1 / dt).Q)
+    except ImportError:
+        pass
+    return m
 
 
 def _best_time(fn, reps: int) -> float:
@@ -40,35 +96,141 @@ def _best_time(fn, reps: int) -> float:
     return best
 
 
-def run(quick: bool) -> list[dict]:
-    name, frame, gyr, acc, dt, q_ref, mask = _data(quick)
-    n_target = 1_000_000
-    k = int(np.ceil(n_target / gyr.shape[0]))
-    big_g, big_a = np.tile(gyr, (k, 1)), np.tile(acc, (k, 1))
+def _throughput(tr, quick: bool) -> list[dict]:
     rows = []
-    group_t = f"attitude throughput ({name} tiled to {big_g.shape[0]} samples)"
-    group_a = f"attitude accuracy ({name}, {gyr.shape[0]} samples, gyro+acc)"
-    reps = 2 if quick else 5
-    for method in ("qn", "gd", "cg", "mekf"):
-        estimate(gyr[:100], acc[:100], dt, method=method, frame=frame)  # compile / load the numba cache
-        t = _best_time(lambda: estimate(big_g, big_a, dt, method=method, frame=frame), reps)
-        rows.append({"group": group_t, "method": f"optinav {method}", "metric": "throughput",
-                     "value": big_g.shape[0] / t, "unit": "samples/s"})
-        q = estimate(gyr, acc, dt, method=method, frame=frame)
-        rows.append({"group": group_a, "method": f"optinav {method}", "metric": "inclination RMSE",
-                     "value": float(np.degrees(rmse(inclination_error(q, q_ref), mask))), "unit": "deg"})
+    k = int(np.ceil((200_000 if quick else 1_000_000) / tr.gyr.shape[0]))
+    g, a = np.tile(tr.gyr, (k, 1)), np.tile(tr.acc, (k, 1))
+    group = f"attitude batch throughput (BROAD {tr.name} tiled to {g.shape[0]} samples, 6D)"
+    batch = {"optinav iframe": lambda: estimate(g, a, tr.dt, frame="ENU", checks=False),
+             "optinav iframe (with input checks)": lambda: estimate(g, a, tr.dt, frame="ENU")}
+    for meth in ("gd", "qn", "mekf"):
+        batch[f"optinav {meth}"] = lambda meth=meth: estimate(g, a, tr.dt, frame="ENU", method=meth, checks=False)
     try:
-        import ahrs
+        import vqf
+
+        batch["vqf online"] = lambda: vqf.VQF(tr.dt).updateBatch(g, a)
     except ImportError:
-        ahrs = None
-    if ahrs is not None:
-        rate = 1.0 / float(np.atleast_1d(dt)[0])
-        n_ahrs = min(gyr.shape[0], 20_000 if quick else gyr.shape[0])  # pure Python: ~10 µs per sample
-        t = _best_time(lambda: ahrs.filters.Madgwick(gyr=gyr[:n_ahrs], acc=acc[:n_ahrs], frequency=rate,
-                                                     gain=0.033), 1)
-        rows.append({"group": group_t, "method": "ahrs Madgwick (gain 0.033)", "metric": "throughput",
-                     "value": n_ahrs / t, "unit": "samples/s"})
-        q = ahrs.filters.Madgwick(gyr=gyr, acc=acc, frequency=rate, gain=0.033).Q
-        rows.append({"group": group_a, "method": "ahrs Madgwick (gain 0.033)", "metric": "inclination RMSE",
-                     "value": float(np.degrees(rmse(inclination_error(q, q_ref), mask))), "unit": "deg"})
+        pass
+    estimate(g[:100], a[:100], tr.dt, frame="ENU", checks=False)  # numba cache
+    for name, fn in batch.items():
+        rows.append({"group": group, "method": name, "metric": "throughput", "unit": "samples/s",
+                     "value": g.shape[0] / _best_time(fn, 1 if quick else 3)})
+    n = 20_000
+    gl, al = [tuple(x) for x in tr.gyr[:n]], [tuple(x) for x in tr.acc[:n]]
+    group = f"attitude streaming (one Python call per sample, {n} samples)"
+
+    def ours():
+        f = AttitudeFilter(tr.rate, frame="ENU")
+        for i in range(n):
+            f.update(gl[i], al[i])
+
+    stream = {"optinav AttitudeFilter.update": ours}
+    try:
+        import vqf
+
+        ga, aa = np.ascontiguousarray(tr.gyr[:n]), np.ascontiguousarray(tr.acc[:n])
+
+        def v():
+            f = vqf.VQF(tr.dt)
+            for i in range(n):
+                f.update(ga[i], aa[i])
+
+        stream["vqf VQF.update"] = v
+    except ImportError:
+        pass
+    try:
+        import imufusion
+
+        gd, ad = np.degrees(tr.gyr[:n]), tr.acc[:n] / 9.81
+
+        def fu():
+            f = imufusion.Ahrs()
+            for i in range(n):
+                f.update_no_magnetometer(gd[i], ad[i], tr.dt)
+
+        stream["imufusion Ahrs.update_no_magnetometer"] = fu
+    except ImportError:
+        pass
+    ours()
+    for name, fn in stream.items():
+        rows.append({"group": group, "method": name, "metric": "throughput", "unit": "updates/s",
+                     "value": n / _best_time(fn, 1 if quick else 3)})
     return rows
+
+
+def run(quick: bool) -> list[dict]:
+    trials = _trials(quick)
+    if not trials:
+        return []
+    rows = []
+    kinds = {"6d": ("6D online", "inclination RMSE", inclination_error),
+             "6d-offline": ("6D offline", "inclination RMSE", inclination_error),
+             "9d": ("9D", "heading RMSE", heading_error)}
+    for name, (kind, fn) in _methods().items():
+        label, metric, err = kinds[kind]
+        vals = []
+        for tr in trials:
+            if quick and name.startswith(("ahrs", "imufusion")):
+                continue
+            q = fn(tr.gyr, tr.acc, tr.mag, tr.dt)
+            v = float(np.degrees(rmse(err(q, tr.q_ref), tr.eval_mask)))
+            vals.append(v)
+            rows.append({"group": f"attitude {label}, BROAD {tr.name}", "method": name, "metric": metric,
+                         "value": v, "unit": "deg"})
+        if vals:
+            rows.append({"group": f"attitude {label}, mean of {len(vals)} BROAD trials", "method": name,
+                         "metric": metric, "value": float(np.mean(vals)), "unit": "deg"})
+            rows.append({"group": f"attitude {label}, worst of {len(vals)} BROAD trials", "method": name,
+                         "metric": metric, "value": float(np.max(vals)), "unit": "deg"})
+    rows += _throughput(trials[0], quick)
+    return rows
+
+
+def markdown(rows: list[dict]) -> str:
+    """Means, worst trials and throughput as one Markdown table per group (methods side by side)."""
+    out = []
+    groups = [g for i, g in enumerate(r["group"] for r in rows) if g not in [r["group"] for r in rows][:i]]
+    for grp in groups:
+        if "BROAD" in grp and "mean" not in grp and "worst" not in grp:
+            continue
+        out.append(f"**{grp}**\n\n| method | value |\n|---|---|")
+        for r in rows:
+            if r["group"] == grp:
+                out.append(f"| {r['method']} | {r['value']:.4g} {r['unit']} ({r['metric']}) |")
+        out.append("")
+    names = sorted({r["method"] for r in rows if "BROAD" in r["group"] and "mean" not in r["group"]
+                    and "worst" not in r["group"]})
+    trials = sorted({r["group"].split("BROAD ")[1] for r in rows if "BROAD" in r["group"] and "mean" not in
+                     r["group"] and "worst" not in r["group"]})
+    for label in ("6D online", "6D offline", "9D"):
+        sel = [r for r in rows if r["group"].startswith(f"attitude {label}, BROAD")]
+        if not sel:
+            continue
+        meths = [n for n in names if any(r["method"] == n for r in sel)]
+        out.append(f"**{label} per trial [deg]**\n\n| trial | " + " | ".join(meths) + " |\n|---|"
+                   + "---|" * len(meths))
+        for t in trials:
+            vals = {r["method"]: r["value"] for r in sel if r["group"].endswith(t)}
+            out.append(f"| {t} | " + " | ".join(f"{vals[m]:.3f}" if m in vals else "" for m in meths) + " |")
+        out.append("")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="three trials, fewer repetitions")
+    ap.add_argument("--json", default=None, help="write the rows as JSON")
+    ap.add_argument("--md", default=None, help="write the Markdown tables")
+    args = ap.parse_args(argv)
+    rows = run(args.quick)
+    md = markdown(rows)
+    print(md)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"rows": rows}, indent=2) + "\n")
+    if args.md:
+        Path(args.md).write_text(md + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

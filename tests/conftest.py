@@ -1,8 +1,16 @@
-"""Test configuration: studies marked ``slow`` run only with OPTINAV_FULL=1 (CI runs their quick versions)."""
+"""Test configuration: studies marked ``slow`` run only with OPTINAV_FULL=1 (CI runs their quick versions).
+
+With the environment variable ``CI`` set (the README's test command sets it) Hypothesis uses the ``ci`` profile:
+derandomized, so every CI run draws the same examples and a failure reproduces on every machine."""
 
 import os
 
 import pytest
+from hypothesis import settings
+
+settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -60,7 +60,8 @@ def test_cli_attitude_gyro_acc_only(flight):
     (["--option", "gain"], "KEY=VALUE"),
     (["--option", "bogus=1"], "does not apply"),
     (["--lat", "38"], "without --pol-columns"),
-    (["--pol-columns", "aop_deg"], "needs the sun"),
+    (["--pol-columns", "aop_deg", "--aop-unit", "deg"], "needs the sun"),
+    (["--pol-columns", "aop_deg", "--sun-azimuth", "10", "--sun-elevation", "20"], "--aop-unit deg"),
     (["--pol-columns", "nope", "--sun-azimuth", "10", "--sun-elevation", "20"], "no column"),
     (["--q0-deg", "1,2"], "ROLL,PITCH,YAW"),
 ])

@@ -85,7 +85,7 @@ def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path,
     d, truth = units
     out = tmp_path / "results.csv"
     assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(out),
-                 "--scheduler", cluster.scheduler_address, *CAL_ARGS]) == 0
+                 "--scheduler", cluster.scheduler_address, *CAL_ARGS]) == 1  # the corrupt unit failed
     assert "4 units: 3 ok, 1 failed" in capsys.readouterr().out
     rows = read_results(out)
     _check_rows_against_truth(rows, truth, d)

@@ -176,7 +176,8 @@ def test_units_convert_to_si_and_counts_are_kept(tmp_path):
     si = read_imu(path)
     assert si.acc[0, 0] == 1.0 and si.gyro[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
     assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-3]
-    for kw, accepted in (({"acc_unit": "mg"}, "counts, g, m/s\\^2"), ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
+    assert read_imu(path, acc_unit="mg").acc[1, 0] == pytest.approx(0.5e-3 * 9.80665, rel=1e-15)
+    for kw, accepted in (({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"), ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
                          ({"time_unit": "min"}, "s, ms, us, ns")):
         with pytest.raises(OptinavError, match=f"unknown {next(iter(kw))} .*use one of: {accepted}"):
             read_imu(path, **kw)

@@ -28,7 +28,6 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as _local_as_completed
@@ -36,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.core.files import atomic_open, atomic_path, check_output
 from optinav.errors import OptinavError
 from optinav.multipos.calibrate import FileOptions
 
@@ -220,7 +220,7 @@ class Journal:
     def __init__(self, path: Path, *, fresh: bool = False):
         self.path = Path(path)
         try:
-            self._fh = open(self.path, "a+", encoding="utf-8")
+            self._fh = open(self.path, "a+", encoding="utf-8", errors="replace")
         except OSError as exc:
             raise OptinavError(f"cannot open the journal {self.path} ({exc.strerror})",
                                "choose a writable --out folder") from None
@@ -280,6 +280,11 @@ def _check_output(out: Path) -> str:
         raise OptinavError(f"--out {out} is neither .csv nor .parquet", "name the results RESULTS.csv or .parquet")
     if not out.parent.is_dir():
         raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
+    check_output(out)
+    if out.is_file() and not _is_results_table(out, kind):
+        # e.g. --out DIR/unit002.csv: the unit's raw log would be dropped from the batch and overwritten
+        raise OptinavError(f"--out {out} exists and is not an optinav results table (a unit's data file?)",
+                           "choose another --out; it is never overwritten")
     if kind == ".parquet":
         try:
             import pyarrow  # noqa: F401
@@ -287,6 +292,23 @@ def _check_output(out: Path) -> str:
             raise OptinavError("parquet output needs pyarrow, which is not installed",
                                "pip install 'optinav[parquet]', or write --out RESULTS.csv") from None
     return kind
+
+
+def _is_results_table(path: Path, kind: str) -> bool:
+    """Whether ``path`` is a table :func:`write_table` wrote (its CSV header / its Parquet schema metadata)."""
+    try:
+        if kind == ".csv":
+            with open(path, "rb") as fh:
+                return fh.read(len(COLUMN_NAMES[0]) + 40).startswith(",".join(COLUMN_NAMES[:3]).encode())
+        with open(path, "rb") as fh:
+            if fh.read(4) != b"PAR1":
+                return path.stat().st_size == 0
+        import pyarrow.parquet as pq
+
+        meta = pq.read_schema(path).metadata or {}
+        return meta.get(b"schema") == b"optinav.batch_results"
+    except Exception:  # noqa: BLE001 - unreadable: not ours
+        return False
 
 
 def _csv_cell(v) -> str:
@@ -302,34 +324,22 @@ def write_table(rows: list[dict], out) -> Path:
 
     out = Path(out)
     kind = _check_output(out)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    try:
-        if kind == ".csv":
-            with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-                w = csv.writer(fh)
-                w.writerow(COLUMN_NAMES)
-                for r in rows:
-                    w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
-                fh.flush()
-                os.fsync(fh.fileno())
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+    if kind == ".csv":
+        with atomic_open(out, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(COLUMN_NAMES)
+            for r in rows:
+                w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
+    else:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
-            os.close(fd)
-            types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
-            schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
-                               metadata={"schema": "optinav.batch_results", "version": "1"})
-            table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+        types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
+        schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
+                           metadata={"schema": "optinav.batch_results", "version": "1"})
+        table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+        with atomic_path(out) as tmp:
             pq.write_table(table, tmp)
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-        # mkstemp makes the file private (0600); give the table the permissions an ordinary file would get
-        os.chmod(tmp, (out.stat().st_mode & 0o777) if out.exists() else 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return out
 
 
@@ -364,7 +374,11 @@ def _mp_context():
     import multiprocessing as mp
 
     # forkserver/spawn rather than fork: the parent may hold threads (a dask client, numba), which fork copies badly
-    return mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(["optinav.batch"])  # workers start with numpy and optinav imported: cheap restarts
+        return ctx
+    return mp.get_context("spawn")
 
 
 def _require_distributed():
@@ -387,30 +401,82 @@ def _dask_client(address: str):
 
 
 def _run_jobs(jobs, options, workers, scheduler):
-    """Yield (unit, row or None, error text) as units finish; error text when the worker itself was lost."""
+    """Yield (unit, row or None, error text) as units finish; error text when the worker itself was lost.
+
+    ``scheduler``: None (local processes), a dask address or a connected ``distributed.Client`` (not closed)."""
     if scheduler is not None:
         from distributed import as_completed
 
-        client = _dask_client(scheduler)
+        client = _dask_client(scheduler) if isinstance(scheduler, str) else scheduler
         try:
             futures = {client.submit(calibrate_unit, str(u.path), options, u.name, pure=False,
                                      key=f"optinav-batch-{u.name}-{os.getpid()}-{time.time_ns()}"): u for u in jobs}
             for fut in as_completed(list(futures)):
                 yield _outcome(futures[fut], fut)
         finally:
-            client.close()
+            if isinstance(scheduler, str):
+                client.close()
         return
     if workers == 0:
         for u in jobs:
             yield u, calibrate_unit(str(u.path), options, u.name), None
         return
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_mp_context())
-    try:
-        futures = {pool.submit(calibrate_unit, str(u.path), options, u.name): u for u in jobs}
-        for fut in _local_as_completed(futures):
-            yield _outcome(futures[fut], fut)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    yield from _run_local(jobs, options, workers)
+
+
+def _run_local(jobs, options, workers, fn=None):
+    """Local worker processes that survive a worker's death: when one dies (killed, out of memory) the pool
+    breaks and every unit in flight or queued fails with it; those are run again in a fresh pool, and if that
+    one breaks too, each alone in its own worker — so only the unit that kills its worker is lost."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    fn = calibrate_unit if fn is None else fn  # ``fn(path, options, name) -> row``: a module-level function
+    pending, stage = list(jobs), 0
+    while pending:
+        groups = [pending] if stage < 2 else [[u] for u in pending]
+        broken = []
+        for group in groups:
+            pool = ProcessPoolExecutor(max_workers=min(workers, len(group)), mp_context=_mp_context(),
+                                       initializer=_worker_init, initargs=(os.getpid(),))
+            try:
+                futures = {pool.submit(fn, str(u.path), options, u.name): u for u in group}
+                for fut in _local_as_completed(futures):
+                    if isinstance(fut.exception(), BrokenProcessPool) and stage < 2:
+                        broken.append(futures[fut])
+                    else:
+                        yield _outcome(futures[fut], fut)
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
+        pending, stage = broken, stage + 1
+
+
+def _worker_init(parent_pid: int) -> None:
+    """In each worker: die with the batch process. Linux: PR_SET_PDEATHSIG (SIGKILL when the parent — the
+    batch, or the fork server between them — exits); everywhere: a watchdog thread that exits when the batch
+    process is gone (the fork server may outlive it for a moment)."""
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while True:
+            try:
+                os.kill(parent_pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # a reused pid of another user: the batch is gone
+                os._exit(1)
+            time.sleep(0.5)
+
+    threading.Thread(target=watch, name="optinav-batch-watchdog", daemon=True).start()
 
 
 def _outcome(unit, fut):
@@ -432,10 +498,11 @@ def run_batch(directory, out, options: FileOptions | None = None, *, workers: in
     whose journal row failed (otherwise a failed unit is retried only once its file changes).
     ``show_progress``: None follows :func:`optinav.core.progress.progress_enabled`.
     """
-    from optinav.core.progress import progress
+    from optinav.multipos.calibrate import local_gravity
 
     options = FileOptions() if options is None else options
     options.check()
+    local_gravity(options.gravity, options.latitude, options.height)  # bad site options: once, not per unit
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:
@@ -449,8 +516,20 @@ def run_batch(directory, out, options: FileOptions | None = None, *, workers: in
     if not units:
         raise OptinavError(f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
                            "pass the folder with one data file per unit")
+    client = None
     if scheduler is not None:
         _require_distributed()
+        client = _dask_client(scheduler)  # unreachable: one-line error before any file is written
+    try:
+        return _run_batch(units, out, journal_path, options, workers, client, fresh, retry_failed, show_progress)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_failed, show_progress):
+    from optinav.core.progress import progress
+
     ohash = options_hash(options)
     journal = Journal(journal_path, fresh=fresh)
     lost: dict[str, dict] = {}
@@ -459,7 +538,7 @@ def run_batch(directory, out, options: FileOptions | None = None, *, workers: in
         resumed = {u.name for u in units if _done(journal.rows.get(u.path.name), u, ohash, retry_failed)}
         jobs = [u for u in units if u.name not in resumed]
         if jobs:
-            it = _run_jobs(jobs, options, workers, scheduler)
+            it = _run_jobs(jobs, options, workers, client)
             for unit, row, lost_msg in progress(it, total=len(jobs), desc="batch calibrate", enabled=show_progress):
                 if row is None:
                     lost[unit.path.name] = {"unit": unit.name, "file": unit.path.name, "status": "failed",

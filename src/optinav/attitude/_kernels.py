@@ -210,7 +210,9 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
 
     P = ∇F = Jᵀ F (gradient descent), or for ``conj`` the Polak–Ribière+ conjugate direction
     P_k = ∇F_k + β_k P_{k−1} (hybrid β_k = max(0, min(PR, FR)), PR = ∇F_kᵀ(∇F_k − ∇F_{k−1})/‖∇F_{k−1}‖²,
-    FR = ‖∇F_k‖²/‖∇F_{k−1}‖²; restart every ``restart`` samples).
+    FR = ‖∇F_k‖²/‖∇F_{k−1}‖²; restart every ``restart`` samples), bounded by β_k ≤ 1: when the gradient grows
+    (FR > 1) an unbounded β amplifies the previous direction sample after sample, and with it rounding, so that
+    the same motion in ENU and NED axes gave attitudes up to 0.3° apart.
     state = [q(4), previous gradient(4), previous direction(4), iteration count(1)].
     """
     n = gyr.shape[0]
@@ -256,7 +258,7 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
                         num += g[k] * (g[k] - gp[k])
                         gg += g[k] * g[k]
                     # hybrid PR–FR (Gilbert & Nocedal 1992): PR bounded by FR keeps the direction descent
-                    beta = max(0.0, min(num / den, gg / den))
+                    beta = max(0.0, min(num / den, gg / den, 1.0))
                 for k in range(4):
                     gp[k] = g[k]
                     g[k] = g[k] + beta * dp[k]

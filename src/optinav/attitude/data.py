@@ -20,7 +20,7 @@ from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["BroadTrial", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
+__all__ = ["BroadTrial", "is_broad", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
 
 #: relative path of the BROAD trial shipped in the shared data folder
 BROAD_TRIAL_02 = Path("attitude") / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
@@ -53,26 +53,47 @@ class BroadTrial:
         return self.movement & np.all(np.isfinite(self.q_ref), axis=1)
 
 
+def is_broad(path) -> bool:
+    """True for an HDF5 or MAT file (by suffix) holding BROAD's ``imu_gyr`` and ``imu_acc``."""
+    p = Path(path)
+    if p.suffix.lower() not in (".h5", ".hdf5", ".mat") or not p.is_file():
+        return False
+    from optinav.io.readers import load_table
+
+    data = load_table(p).data
+    return "imu_gyr" in data and "imu_acc" in data
+
+
 def load_broad(path) -> BroadTrial:
-    """Read a BROAD trial HDF5 file (needs h5py: ``pip install optinav[hdf5]``)."""
+    """Read a BROAD trial as published: HDF5 (``sampling_rate`` attribute) or MAT (``sampling_rate`` variable)."""
+    from optinav.io.readers import load_table
+
     p = Path(path)
     if not p.is_file():
         raise OptinavError(f"BROAD file {p} not found", "download it from github.com/dlaidig/broad (data_hdf5/)")
-    try:
+    tab = load_table(p)
+    missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in tab.data]
+    if missing:
+        raise OptinavError(f"{p.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 or MAT file")
+    rate = tab.meta.get("sampling_rate")
+    if rate is None and "sampling_rate" in tab.data:
+        rate = np.asarray(tab.get("sampling_rate"), float).ravel()[0]
+    if rate is None and tab.kind == "hdf5":
         import h5py
-    except ImportError:
-        raise OptinavError("reading BROAD needs h5py", "pip install 'optinav[hdf5]'") from None
-    with h5py.File(p, "r") as f:
-        missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in f]
-        if missing:
-            raise OptinavError(f"{p.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 file")
-        rate = float(f.attrs.get("sampling_rate", np.nan))
-        if not np.isfinite(rate) or rate <= 0:
-            raise OptinavError(f"{p.name} has no valid 'sampling_rate' attribute", "pass a BROAD trial HDF5 file")
-        return BroadTrial(gyr=np.asarray(f["imu_gyr"], float), acc=np.asarray(f["imu_acc"], float),
-                          mag=np.asarray(f["imu_mag"], float) if "imu_mag" in f else np.full((0, 3), np.nan),
-                          q_ref=np.asarray(f["opt_quat"], float), movement=np.asarray(f["movement"], bool),
-                          rate=rate, name=p.stem)
+
+        with h5py.File(p, "r") as f:
+            rate = f.attrs.get("sampling_rate")
+    try:
+        rate = float(np.asarray(rate, float).ravel()[0])
+    except (TypeError, ValueError, IndexError):
+        rate = float("nan")
+    if not np.isfinite(rate) or rate <= 0:
+        raise OptinavError(f"{p.name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+    gyr = np.asarray(tab.get("imu_gyr"), float)
+    mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
+    return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,
+                      q_ref=np.asarray(tab.get("opt_quat"), float),
+                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate=rate, name=p.stem)
 
 
 def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop_noise: float = 0.0,

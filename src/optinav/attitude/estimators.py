@@ -2,6 +2,9 @@
 
 Methods (one measurement model, :mod:`optinav.attitude.measurement`; per-sample loops are numba kernels):
 
+* ``"iframe"`` (default without polarization) — gyro + accelerometer (+ magnetometer) filtered in an
+  almost-inertial frame with rest detection and a gyro-bias filter, after VQF (Laidig & Seel 2023); online
+  or offline (forward–backward); see :mod:`optinav.attitude.iframe`. No polarization input.
 * ``"gd"`` — gradient descent, Madgwick's filter (Madgwick 2010): q̇ = ½ q⊗ω − β ∇F/‖∇F‖.
 * ``"cg"`` — conjugate gradient: the same update with the Polak–Ribière+ conjugate direction.
 * ``"qn"`` — quasi-Newton as published by Jin et al. (2021, §2.3): the gyro propagates q, then one
@@ -13,7 +16,9 @@ Methods (one measurement model, :mod:`optinav.attitude.measurement`; per-sample 
 * ``"mekf"`` — multiplicative extended Kalman filter with gyro-bias states (the strong baseline).
 
 Inputs: gyr (N, 3) rad/s, acc (N, 3) m/s² (specific force, body axes), dt scalar or (N,) s (the step from
-the previous sample to this one). Output q_b^n (N, 4) [w, x, y, z] with n = ``frame`` ("NED": body
+the previous sample to this one), mag (N, 3) any unit (``iframe`` only). ``input_stage=True`` puts the
+iframe front end (gyro bias from rest and motion, accelerometer low-passed in the almost-inertial frame) before
+gd/cg/qn/mekf; off (default) they run as published. Output q_b^n (N, 4) [w, x, y, z] with n = ``frame`` ("NED": body
 forward-right-down; "ENU": body right-forward-up). Without polarization the heading is the gyro's.
 """
 
@@ -25,6 +30,9 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
+from optinav.attitude.checks import check_frame, check_imu, find_gaps
+from optinav.attitude.iframe import IFRAME_DEFAULTS, AttitudeFilter, run_iframe
+from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.measurement import (PolarizationMeasurement, _frame, as_c_b_m, pol_inputs, predicted_aop,
                                           up_vector, wrap_axial)
 from optinav.core.results import Result
@@ -33,13 +41,14 @@ from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["METHODS", "DEFAULTS", "AttitudeEstimate", "estimate", "estimate_attitude", "initial_attitude",
-           "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
+__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_attitude",
+           "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
 
-METHODS = ("qn", "gd", "cg", "mekf")
+METHODS = ("iframe", "qn", "gd", "cg", "mekf")
 
 #: default options per method (units in the comments; see the class docstrings)
 DEFAULTS: dict[str, dict[str, float]] = {
+    "iframe": IFRAME_DEFAULTS,
     # β (rad/s): Madgwick's gain; 0.033 is ahrs's default for gyro+acc
     "gd": {"gain": 0.033, "pol_weight": 1.0},
     "cg": {"gain": 0.033, "restart": 10, "pol_weight": 1.0},
@@ -61,10 +70,10 @@ class AttitudeEstimate(Result):
     """Estimated attitude q_b^n per sample and how the measurements were used."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
 
     q: np.ndarray = field(metadata={"unit": ""})
-    method: str = "qn"
+    method: str = "iframe"
     frame: str = "NED"
     options: dict = field(default_factory=dict)
     pol_used: int = 0
@@ -72,6 +81,12 @@ class AttitudeEstimate(Result):
     acc_threshold_hits: int = 0
     att_std: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
     gyro_bias: np.ndarray | None = field(default=None, metadata={"unit": "rad/s"})
+    rest: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    acc_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    mag_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    offline: bool = False
+    input_stage: bool = False
+    segments: int = 1
 
     def euler(self) -> np.ndarray:
         """[roll, pitch, yaw] (N, 3) rad in the frame's Euler convention."""
@@ -79,7 +94,13 @@ class AttitudeEstimate(Result):
 
     def summary(self) -> str:
         skipped = sum(self.pol_skipped.values())
-        s = f"{self.method}: {self.q.shape[0]} samples ({self.frame})"
+        s = f"{self.method}{' offline' if self.offline else ''}: {self.q.shape[0]} samples ({self.frame})"
+        if self.segments > 1:
+            s += f", {self.segments} segments between time gaps"
+        if self.rest is not None:
+            s += f"; rest {100 * np.mean(self.rest):.0f} %"
+        if self.mag_used is not None:
+            s += f"; magnetometer used {100 * np.mean(self.mag_used):.0f} %"
         if self.pol_used or skipped:
             s += f"; polarization used {self.pol_used}, skipped {skipped} " + str(self.pol_skipped)
         return s
@@ -195,12 +216,8 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
                           opts["couple_heading"] == 0.0, state, out, std, counts)
 
 
-def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str = "qn",
-                      frame: str = "NED", q0=None, **options) -> AttitudeEstimate:
-    """Like :func:`estimate`, returning an :class:`AttitudeEstimate` (q plus skipped-sample counts, MEKF σ)."""
-    frame = _frame(frame)
-    method = str(method).lower()
-    opts = _options(method, options)
+def _checked_imu(gyr, acc, mag=None):
+    """(N, 3) float arrays gyr, acc (and mag or None) with matching N >= 1."""
     gyr = as_float_array(gyr, "gyr", last_dims=(3,))
     acc = as_float_array(acc, "acc", last_dims=(3,))
     if gyr.ndim != 2 or acc.ndim != 2 or gyr.shape[0] == 0:
@@ -208,33 +225,104 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
                            "pass one row per sample")
     if acc.shape != gyr.shape:
         raise OptinavError(f"gyr has {gyr.shape[0]} samples but acc has {acc.shape[0]}", "align the two triads")
+    if mag is not None:
+        mag = as_float_array(mag, "mag", last_dims=(3,), finite=False)
+        if mag.shape != gyr.shape:
+            raise OptinavError(f"mag has shape {mag.shape}, expected {gyr.shape}", "align the magnetometer")
+        mag = np.ascontiguousarray(mag)
+    return np.ascontiguousarray(gyr), np.ascontiguousarray(acc), mag
+
+
+def _method(method, pol) -> str:
+    if method is None:
+        return "iframe" if pol is None else "mekf"
+    m = str(method).lower()
+    if m == "iframe" and pol is not None:
+        raise OptinavError("method iframe takes no polarization input",
+                           "use --method mekf (or gd, cg, qn) with --pol-columns")
+    return m
+
+
+def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+                      frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
+                      allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
+    """Like :func:`estimate`, returning an :class:`AttitudeEstimate` (q plus per-sample flags, counts, σ)."""
+    frame = _frame(frame)
+    method = _method(method, pol)
+    opts = _options(method, options)
+    gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]
     dts = _as_dt(dt, n)
+    if mag is not None and method != "iframe":
+        raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
+    if offline and method != "iframe":
+        raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
+    if checks:
+        check_imu(gyr, acc, dts)
+        check_frame(acc, frame)
+    gaps = find_gaps(dts)
+    if gaps.size and not allow_gaps:
+        i = int(gaps[0])
+        raise OptinavError(f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
+                           "gyro across it would be wrong", "pass --allow-gaps (allow_gaps=True) to restart the "
+                           "estimate after each gap")
+    if gaps.size:
+        seg_dt = dts.copy()
+        seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
+        parts = [estimate_attitude(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
+            None if pol is None else pol.select(slice(a, b))), method=method, frame=frame, q0=q0 if a == 0 else None,
+            mag=None if mag is None else mag[a:b], offline=offline, input_stage=input_stage, checks=False, **options)
+            for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
+        first = parts[0]
+        cat = (lambda name: None if getattr(first, name) is None else
+               np.concatenate([getattr(p, name) for p in parts]))
+        return AttitudeEstimate(q=cat("q"), method=method, frame=frame, options=first.options,
+                                pol_used=sum(p.pol_used for p in parts),
+                                pol_skipped={k: sum(p.pol_skipped.get(k, 0) for p in parts) for k in first.pol_skipped},
+                                acc_threshold_hits=sum(p.acc_threshold_hits for p in parts), att_std=cat("att_std"),
+                                gyro_bias=parts[-1].gyro_bias, rest=cat("rest"), acc_used=cat("acc_used"),
+                                mag_used=cat("mag_used"), offline=offline, input_stage=first.input_stage,
+                                segments=len(parts))
+    if method == "iframe":
+        r = run_iframe(gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline,
+                       **opts)
+        return AttitudeEstimate(q=r.q, method=method, frame=frame, options=opts, gyro_bias=r.bias[-1].copy(),
+                                rest=r.rest, acc_used=r.acc_used, mag_used=r.mag_used if mag is not None else None,
+                                offline=offline, input_stage=True,
+                                acc_threshold_hits=int(np.count_nonzero(~r.acc_used)))
+    front = None
+    if input_stage:
+        gyr, acc, front = _input_stage(gyr, acc, dts, frame=frame)
     use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, frame)
     q = _as_q0(q0) if q0 is not None else initial_attitude(acc[0], frame, pol, 0)
     state = _init_state(method, q, opts)
     out = np.empty((n, 4))
     std = np.empty((n, 3))
     counts = np.zeros(3, dtype=np.int64)
-    _run(method, opts, state, np.ascontiguousarray(gyr), np.ascontiguousarray(acc), dts, up_vector(frame), use,
-         sn, cbm, c2, s2, min_d2, out, std, counts)
+    _run(method, opts, state, gyr, acc, dts, up_vector(frame), use, sn, cbm, c2, s2, min_d2, out, std, counts)
     if pol is not None:
         skipped = dict(skipped)
         skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
+    bias = state[4:7].copy() if method == "mekf" else None
+    if front is not None:
+        bias = front.bias[-1] + (0.0 if bias is None else bias)
     return AttitudeEstimate(q=out, method=method, frame=frame, options=opts, pol_used=int(counts[0]),
                             pol_skipped=skipped, acc_threshold_hits=int(counts[_kernels.C_ACC_SHRUNK]),
-                            att_std=std if method == "mekf" else None,
-                            gyro_bias=state[4:7].copy() if method == "mekf" else None)
+                            att_std=std if method == "mekf" else None, gyro_bias=bias,
+                            rest=None if front is None else front.rest, input_stage=input_stage)
 
 
-def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str = "qn", frame: str = "NED",
-             q0=None, **options) -> np.ndarray:
+def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+             frame: str = "NED", q0=None, **options) -> np.ndarray:
     """Attitude q_b^n (N, 4) [w, x, y, z] from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)).
 
-    ``method`` "qn" (default), "gd", "cg" or "mekf"; ``pol`` optional :class:`PolarizationMeasurement`
-    (without it roll and pitch are observed and the heading follows the gyro); ``q0`` the initial attitude
-    (default: levelled from acc[0], heading from pol[0] if usable, else 0). ``options`` override
-    :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
+    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
+    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
+    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
+    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
+    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
+    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
+    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
     """
     return estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
 
@@ -323,10 +411,10 @@ class MEKF(_Filter):
         return self.state[4:7].copy()
 
 
-_CLASSES = {"gd": GradientDescent, "cg": ConjugateGradient, "qn": QuasiNewton, "mekf": MEKF}
+_CLASSES = {"iframe": AttitudeFilter, "gd": GradientDescent, "cg": ConjugateGradient, "qn": QuasiNewton, "mekf": MEKF}
 
 
-def make_filter(method: str = "qn", **kwargs) -> _Filter:
+def make_filter(method: str = "iframe", **kwargs):
     """Streaming filter for ``method`` (same options as :func:`estimate`)."""
     m = str(method).lower()
     if m not in _CLASSES:

@@ -34,8 +34,12 @@ def run(args) -> int:
     from optinav.io import ImuLog, raw_units, read_imu, write_imu
     from optinav.multipos.result import CalibrationResult
 
-    res = CalibrationResult.from_json(args.result)
     out = output_path(args.out)
+    res = CalibrationResult.from_json(args.result)
+    for sensor, entry, key in (("accelerometer", res.accelerometer, "accelerometer_raw"),
+                               ("gyroscope", res.gyroscope, "gyroscope_raw")):
+        if entry is not None:
+            check_plausible_K(sensor, entry, res.units.get(key))
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
@@ -58,6 +62,43 @@ def run(args) -> int:
     write_imu(out, corrected)
     print(f"optinav: wrote {len(log.t)} corrected samples to {out} (m/s^2, rad/s)")
     return 0
+
+
+#: accepted ratio of a calibrated scale to its nominal value (1 / the SI factor of the raw unit); MEMS scale
+#: errors are percent, so a factor 2 only lets through what cannot be a calibration of that unit
+SCALE_FACTOR = 2.0
+#: raw counts per SI unit that any real ADC and range give (16 to 32 bits, ranges 0.5 g to 400 g, 10 to 5000 °/s)
+COUNTS_PER_SI = (1e-2, 1e9)
+#: largest condition number of K: misalignments are degrees at most, so K is close to a scaled identity
+MAX_COND = 10.0
+
+
+def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
+    """Refuse a calibration whose K/b cannot be a sensor's (non-finite, ill-conditioned, scale far from the raw
+    unit's nominal, e.g. K = 1e300 of a damaged file): applied, it would write plausible-looking garbage."""
+    import numpy as np
+
+    from optinav.core.units import factor
+
+    K, b = np.asarray(entry["K"], float), np.asarray(entry["b"], float)
+    cause = None
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(b))):
+        cause = "K or b is not finite"
+    elif np.linalg.cond(K) > MAX_COND:
+        cause = f"K has condition number {np.linalg.cond(K):.3g} (> {MAX_COND:g}: axes nearly parallel)"
+    else:
+        scale = np.abs(np.diag(K))
+        if raw_unit in (None, "counts"):
+            lo, hi = COUNTS_PER_SI
+        else:
+            nominal = 1.0 / factor(raw_unit)
+            lo, hi = nominal / SCALE_FACTOR, nominal * SCALE_FACTOR
+        if np.any(scale < lo) or np.any(scale > hi):
+            cause = (f"the scales diag(K) = {', '.join(f'{v:.4g}' for v in scale)} {raw_unit or 'raw'} per SI unit "
+                     f"are outside {lo:.3g}..{hi:.3g}")
+    if cause:
+        raise OptinavError(f"the {sensor} calibration is implausible: {cause}",
+                           "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)")
 
 
 def _check_unit(sensor: str, unit: str, expected: str | None) -> None:

@@ -7,21 +7,25 @@ import sys
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, parse_floats,
-                                prepare_report)
+from optinav.cli.common import (add_input_options, add_report_option, check_memory, finish_report, output_path,
+                                parse_floats, prepare_report)
+from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
-METHOD_NAMES = ("qn", "gd", "cg", "mekf")
+METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "attitude", help="attitude (quaternion, roll/pitch/yaw) from gyro + accelerometer (+ polarization)",
         description=textwrap.dedent("""\
-            Estimate the attitude q_b^n of every sample from a gyroscope + accelerometer log with the
-            quasi-Newton filter of Jin et al. 2021 (qn, default), gradient descent (gd, Madgwick), conjugate
-            gradient (cg) or a multiplicative EKF with gyro bias (mekf). Without polarization the roll and
-            pitch are observed and the heading follows the gyro. With --pol-columns the file's angle of
+            Estimate the attitude q_b^n of every sample from a gyroscope + accelerometer log with iframe
+            (default: accelerometer filtered in an almost-inertial frame, rest detection, gyro bias, optional
+            magnetometer with --mag, --offline smoothing; after VQF, Laidig & Seel 2023), the quasi-Newton
+            filter of Jin et al. 2021 (qn), gradient descent (gd, Madgwick), conjugate gradient (cg) or a
+            multiplicative EKF with gyro bias (mekf; the default with --pol-columns). gd/cg/qn/mekf run as
+            published unless --input-stage. Without polarization or magnetometer the roll and pitch are
+            observed and the heading follows the gyro. With --pol-columns the file's angle of
             polarization (a zenith-viewing sensor, reference axis forward; see docs/methods/attitude.md)
             corrects the heading; the sun comes from --lat/--lon/--start-time (NREL SPA at every sample)
             or from --sun-azimuth/--sun-elevation. Output CSV columns: t [s], qw, qx, qy, qz,
@@ -33,13 +37,25 @@ def register(sub) -> None:
               optinav attitude flight.csv --method mekf --pol-columns aop,dop --aop-unit deg \\
                   --lat 38.8814192 --lon 121.528255 --start-time 2021-01-16T16:33:00+08:00 \\
                   --out att.csv --report rep
-              optinav attitude trial.hdf5 --datasets acc=imu_acc,gyro=imu_gyr --rate 285.714 --frame ENU \\
-                  --out att.csv   (a BROAD trial)
+              optinav attitude 02_undisturbed_slow_rotation_B.hdf5 --frame ENU --mag --offline \\
+                  --reference --out att.csv   (a BROAD trial, scored against its optical reference)
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
     add_input_options(p)
-    p.add_argument("--method", choices=METHOD_NAMES, default="qn", help="estimator (default qn)")
+    p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
+    p.add_argument("--offline", action="store_true",
+                   help="iframe: use the whole recording (forward-backward); default online (no future sample)")
+    p.add_argument("--input-stage", action="store_true",
+                   help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method")
+    p.add_argument("--mag", action="store_true",
+                   help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz)")
+    p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
+    p.add_argument("--allow-gaps", action="store_true",
+                   help="restart the estimate after a time gap instead of refusing the file")
+    p.add_argument("--reference", action="store_true",
+                   help="score against the file's reference orientation (BROAD: opt_quat, movement): "
+                        "inclination and heading RMSE")
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED",
                    help="navigation frame (default NED; body forward-right-down)")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
@@ -102,19 +118,23 @@ def _sun(args, t, frame):
     return sp.sun_vector(frame.lower())
 
 
-def run(args) -> int:
+def _read_log(args):
+    """(t, gyr, acc, mag or None, reference or None) from a BROAD file as published or any IMU log."""
     import numpy as np
 
-    from optinav.attitude import PolarizationMeasurement, estimate_attitude
-    from optinav.core.rotations import euler_from_quat, quat_from_euler
+    from optinav.attitude.data import is_broad, load_broad
+
+    want_mag = args.mag or bool(args.mag_columns)
+    if is_broad(args.data) and not args.columns and not args.datasets:
+        tr = load_broad(args.data)
+        t = np.arange(tr.gyr.shape[0]) / tr.rate
+        return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
+    from optinav.io.readers import read_table
 
-    from optinav.attitude.estimators import _options as check_options
-
-    options = _options(args.option)
-    check_options(args.method, options)  # fail before reading the data
-    out = output_path(args.out, (".csv",), "ATTITUDE.csv")
-    prepare_report(args)
+    if args.reference:
+        raise OptinavError(f"{args.data} is not a BROAD file with opt_quat and movement",
+                           "drop --reference or pass a BROAD trial")
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                    time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
@@ -127,7 +147,40 @@ def run(args) -> int:
     if not np.all(ok):
         raise OptinavError(f"{args.data} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
                            "remove or interpolate them first")
-    t = log.t
+    mag = None
+    if want_mag:
+        names = [s.strip() for s in (args.mag_columns or "mx,my,mz").split(",")]
+        if len(names) != 3:
+            raise OptinavError(f"--mag-columns {args.mag_columns!r} needs three names", "write e.g. mx,my,mz")
+        tab = read_table(args.data, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)),
+                         delimiter=args.delimiter)
+        mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
+        if mag.shape[0] != log.t.size:
+            raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
+    return log.t, log.gyro, log.acc, mag, None
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from optinav.attitude import PolarizationMeasurement, estimate_attitude
+    from optinav.attitude.checks import check_aop
+    from optinav.core.rotations import euler_from_quat, quat_from_euler
+
+    from optinav.attitude.estimators import _method
+    from optinav.attitude.estimators import _options as check_options
+
+    options = _options(args.option)
+    method = _method(args.method, True if args.pol_columns else None)
+    check_options(method, options)  # fail before reading the data
+    out = output_path(args.out, (".csv",), "ATTITUDE.csv")
+    if out.exists() and out.resolve() == Path(args.data).resolve():
+        raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
+    prepare_report(args)
+    t, gyr, acc, mag, ref = _read_log(args)
+    if t.size > 1 and not np.all(np.diff(t) > 0):
+        raise OptinavError(f"the time column of {args.data} is not strictly increasing",
+                           "sort the log or fix its time column")
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
     pol = None
     if args.pol_columns:
@@ -143,6 +196,8 @@ def run(args) -> int:
             raise OptinavError(f"AoP column has {aop.size} rows, the IMU {t.size}", "check --pol-columns")
         if args.aop_unit == "deg":
             aop = np.radians(aop)
+        else:
+            check_aop(aop)
         dop = np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None
         pol = PolarizationMeasurement(aop, _sun(args, t, args.frame), dop=dop, frame=args.frame,
                                       min_dop=args.min_dop)
@@ -153,20 +208,39 @@ def run(args) -> int:
         e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
         q0 = quat_from_euler(np.radians(e), args.frame.lower())
     if not getattr(args, "quiet", False):
-        print(f"optinav: attitude of {t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
-    res = estimate_attitude(log.gyro, log.acc, dt, pol=pol, method=args.method, frame=args.frame, q0=q0,
+        print(f"optinav: attitude of {t.size} samples from {args.data} ({method}) ...", file=sys.stderr)
+    res = estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
+                            offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
                             **options)
     eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
-    np.savetxt(out, table, delimiter=",", header=header, comments="", fmt="%.9g")
+    write_csv(out, table, header, "%.9g")
     print(res.summary())
+    score = None
+    if args.reference:
+        score = _score(res.q, *ref, args.frame)
+        print(f"reference: inclination RMSE {score[0]:.3f} deg, heading RMSE {score[1]:.3f} deg "
+              f"({score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
-    finish_report(args, lambda d: _report(res, t, eul, args.data, d))
+    finish_report(args, lambda d: _report(res, t, eul, args.data, d, score))
     return 0
 
 
-def _report(res, t, eul, source, out_dir):
+def _score(q, q_ref, movement, frame):
+    """BROAD inclination and heading RMSE (deg) over movement samples with a finite reference."""
+    import numpy as np
+
+    from optinav.attitude.metrics import heading_error, inclination_error, rmse
+
+    if frame != "ENU":
+        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
+    mask = movement & np.all(np.isfinite(q_ref), axis=1)
+    return (float(np.degrees(rmse(inclination_error(q, q_ref), mask))),
+            float(np.degrees(rmse(heading_error(q, q_ref), mask))), int(mask.sum()))
+
+
+def _report(res, t, eul, source, out_dir, score=None):
     import numpy as np
 
     from optinav.reports.report import Figure, StudyResult, Table, write_report
@@ -175,6 +249,9 @@ def _report(res, t, eul, source, out_dir):
             ["polarization used", res.pol_used]]
     rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
     rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
+    if score is not None:
+        rows += [["inclination RMSE vs reference [deg]", f"{score[0]:.3f}"],
+                 ["heading RMSE vs reference [deg]", f"{score[1]:.3f}"]]
     if res.gyro_bias is not None:
         rows.append(["final gyro bias [deg/s]", " ".join(f"{v:.4f}" for v in np.degrees(res.gyro_bias))])
 
@@ -229,14 +306,15 @@ def run_simulate_flight(args) -> int:
     from optinav.attitude.simulate import simulate_flight
 
     out = output_path(args.out, (".csv",), "flight.csv")
+    # measured: about 2500 B per sample at the peak, 4000 with margin
+    check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
+    truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
-    np.savetxt(out, cols, delimiter=",", header=head, comments="", fmt="%.10g")
-    truth = out.with_name(out.stem + ".truth.csv")
-    np.savetxt(truth, np.column_stack([d.t, d.q_true]), delimiter=",", header="t,qw,qx,qy,qz", comments="",
-               fmt="%.12g")
+    write_csv(out, cols, head, "%.10g")
+    write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
           f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",

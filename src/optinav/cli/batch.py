@@ -29,7 +29,8 @@ def register(sub) -> None:
             with the same --out skips units whose file (name, size, mtime) and options are unchanged, so a killed
             run loses nothing already finished. Local processes by default; --scheduler ADDRESS runs on a
             dask.distributed cluster (pip install 'optinav[dask]'; workers must see DIR at the same path).
-            See docs/batch.md."""),
+            A worker that dies only loses its own unit (the others are run again); workers exit with the batch.
+            Exit status 1 when any unit failed or was lost. See docs/batch.md."""),
         epilog=textwrap.dedent("""\
             example (three simulated units, calibrated on 2 local processes, then resumed):
               mkdir units
@@ -65,4 +66,4 @@ def run_batch_accel(args) -> int:
                   fresh=args.fresh, retry_failed=args.retry_failed)
     print(s.summary())
     print(f"optinav: results written to {s.out} (journal {s.journal.name})")
-    return 0
+    return 1 if s.n_failed else 0  # a failed or lost unit is not a successful batch

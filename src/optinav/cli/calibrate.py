@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+import math
 import textwrap
 
-from optinav.cli.common import (add_input_options, add_report_option, finish_report, output_path, prepare_report,
-                                register_system_hooks)
+from optinav.cli.common import (COUNT, HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, SEED, add_input_options,
+                                add_report_option, finish_report, output_path, prepare_report, register_system_hooks)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -25,7 +26,8 @@ def register(sub) -> None:
         description=textwrap.dedent("""\
             Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
             Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
-            'ferraris' = closed form for 6 axis poses + 3 rotations (needs --sections with imucal's names).
+            'ferraris' = closed form for 6 axis poses + 3 rotations named as imucal names them (x_p … z_rot),
+            from a label column of the log or --sections.
             With gyroscope data the gyro scale, misalignment and bias come from the turns between poses
             (imu_tk's method). The result is raw = K·x + b per sensor (x in m/s^2 or rad/s, raw in the
             file's unit); see docs/file-formats.md."""),
@@ -53,9 +55,9 @@ def add_calibration_options(a) -> None:
     a.add_argument("--no-gyro", action="store_true", help="ignore gyroscope columns in DATA")
     add_input_options(a)
     grav = a.add_mutually_exclusive_group()
-    grav.add_argument("--gravity", type=float, metavar="G", help="local gravity in m/s^2")
-    grav.add_argument("--latitude", type=float, metavar="DEG", help="latitude in degrees (normal gravity)")
-    a.add_argument("--height", type=float, default=0.0, metavar="M", help="height in m with --latitude (default 0)")
+    grav.add_argument("--gravity", type=POSITIVE, metavar="G", help="local gravity in m/s^2")
+    grav.add_argument("--latitude", type=LATITUDE, metavar="DEG", help="latitude in degrees (normal gravity)")
+    a.add_argument("--height", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)")
     a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
     a.add_argument("--model", choices=["auto", "full", "diagonal"], default="auto",
                    help="accelerometer model: auto (9 parameters when observable, else scales and biases), "
@@ -64,20 +66,52 @@ def add_calibration_options(a) -> None:
                    help="fit every sample instead of the pose means (as the paper does; biased by sigma^2/g)")
     a.add_argument("--sections", metavar="FILE", help="static sections by hand: 'start end' lines in s, JSON, "
                                                       "or imucal's section list (sample indices)")
-    a.add_argument("--window", type=float, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
-    a.add_argument("--min-duration", type=float, default=2.0, metavar="S",
+    a.add_argument("--window", type=POSITIVE, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
+    a.add_argument("--min-duration", type=NON_NEGATIVE, default=2.0, metavar="S",
                    help="shortest static interval kept (default 2 s)")
-    a.add_argument("--threshold", type=float, help="static threshold on the acc moving variance (raw units^2); "
+    a.add_argument("--threshold", type=POSITIVE, help="static threshold on the acc moving variance (raw units^2); "
                                                     "default automatic")
-    a.add_argument("--acc-range", type=float, metavar="R", help="accelerometer range in raw units (saturation)")
-    a.add_argument("--gyro-range", type=float, metavar="R", help="gyroscope range in raw units (saturation)")
-    a.add_argument("--gyro-bias", choices=["static", "rest", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default), from an initial rest period "
-                        "(--rest), or estimated with K")
+    a.add_argument("--acc-range", type=full_scale, metavar="R|LO:HI",
+                   help="accelerometer full scale in raw units: R for ±R (e.g. 32768 for signed 16-bit counts) or "
+                        "a span LO:HI (e.g. 0:65535 for unsigned 16-bit); samples at or beyond it count as saturated "
+                        "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
+    a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
+                   help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
+    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="static",
+                   help="gyro bias from the static intervals (default), per turn from the two rests it joins "
+                        "(local: a bias that drifts), from an initial rest period (--rest), or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
-    a.add_argument("--generations", type=int, help="GA/PSO generations (default: the optimizer's)")
-    a.add_argument("--seed", type=int, default=0, help="random seed for GA/PSO (default 0)")
+    a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
+                   help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
+                        "clockwise full turn seen from the axis tip)")
+    a.add_argument("--acc-bias-instability", type=NON_NEGATIVE, metavar="RAW",
+                   help="1-sigma accelerometer bias drift over the session in raw units (datasheet bias "
+                        "instability or run-to-run), added to the bias std: the poses cannot reveal a common drift")
+    a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
+                   help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
+                        "datasheet value); their model error enters the scale and bias std")
+    a.add_argument("--allow-unobservable", action="store_true",
+                   help="hold the gyro parameters the turns do not determine at their initial guess instead of "
+                        "stopping (they are listed in the result)")
+    a.add_argument("--generations", type=COUNT, help="GA/PSO generations (default: the optimizer's)")
+    a.add_argument("--seed", type=SEED, default=0, help="random seed for GA/PSO (default 0)")
+
+
+def full_scale(text: str):
+    """``R`` (±R) or ``LO:HI`` (a span) in raw units → float or (lo, hi); argparse type of --acc/--gyro-range."""
+    try:
+        if ":" in text:
+            lo, hi = (float(v) for v in text.split(":"))
+            if lo < hi and math.isfinite(lo) and math.isfinite(hi):
+                return (lo, hi)
+        else:
+            r = float(text)
+            if r > 0 and math.isfinite(r):
+                return r
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(f"{text!r} is not R > 0 or LO:HI with LO < HI (raw units)")
 
 
 def run_accel(args) -> int:
@@ -92,6 +126,8 @@ def run_accel(args) -> int:
         print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     res = calibrate_data(data, options, source=str(args.data))
     res.to_json(out)
+    for note in res.quality.get("notes", []):
+        print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
     print(f"optinav: result written to {out}")
     from optinav.reports.calibration_report import write_calibration_report

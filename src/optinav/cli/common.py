@@ -23,30 +23,95 @@ def register_system_hooks(kinds, hook: str) -> None:
             fn(kinds)
 
 
+def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
+           what: str = "a number"):
+    """An argparse ``type=`` that accepts a finite number in [lo, hi] (lo excluded when ``lo_open``); anything
+    else is a one-line argparse error naming the valid range."""
+    import argparse
+
+    def parse(text: str):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{text!r} is not finite")
+        if (lo is not None and (v < lo or (lo_open and v == lo))) or (hi is not None and v > hi):
+            lo_s = "" if lo is None else (f"> {lo:g}" if lo_open else f">= {lo:g}")
+            hi_s = "" if hi is None else f"<= {hi:g}"
+            bounds = " and ".join(filter(None, (lo_s, hi_s)))
+            raise argparse.ArgumentTypeError(f"{text} is out of range (must be {bounds})")
+        return v
+
+    parse.__name__ = what  # argparse names the type in its "invalid ... value" message
+    return parse
+
+
+#: argparse types of the physical quantities every command takes (degrees and metres at the CLI)
+LATITUDE = number(-90.0, 90.0, what="a latitude in degrees")
+LONGITUDE = number(-180.0, 360.0, what="a longitude in degrees")
+#: height above the ellipsoid: from the deepest ocean floor to the top of the normal-gravity model's use
+HEIGHT = number(-11_000.0, 100_000.0, what="a height in m")
+ELEVATION = number(-90.0, 90.0, what="an elevation in degrees")
+POSITIVE = number(0.0, lo_open=True, what="a positive number")
+NON_NEGATIVE = number(0.0, what="a number >= 0")
+COUNT = number(1, integer=True, what="an integer >= 1")
+SEED = number(0, integer=True, what="a seed (integer >= 0)")
+#: sample rates (Hz): what an IMU or a logger can record
+RATE = number(0.0, 1e6, lo_open=True, what="a rate in Hz")
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (Linux MemAvailable; elsewhere the free physical pages)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 1 << 40
+
+
+def check_memory(n_rows: float, bytes_per_row: float, what: str, remedy: str) -> None:
+    """Refuse up front a simulation of ``n_rows`` samples whose estimated peak memory (``bytes_per_row`` each,
+    measured for that simulator) does not fit in half the available memory, with the estimate in the message."""
+    need, have = float(n_rows) * bytes_per_row, available_memory()
+    if not math.isfinite(need) or need > 0.5 * have:
+        raise OptinavError(f"{what} would need {n_rows:.3g} samples, about {need / 2**30:.3g} GiB of memory "
+                           f"({have / 2**30:.3g} GiB available)", remedy)
+
+
 def add_input_options(p, *, gyro: bool = True) -> None:
     """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets."""
     p.add_argument("--columns", help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
                                      "or std=name pairs for named columns/arrays; default: recognised headers")
-    p.add_argument("--acc-unit", choices=["counts", "g", "m/s^2"], help="accelerometer unit in the file "
+    p.add_argument("--acc-unit", choices=["counts", "g", "mg", "m/s^2"], help="accelerometer unit in the file "
                                                                           "(default: as declared, else m/s^2)")
     if gyro:
         p.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"],
                        help="gyroscope unit in the file (default: as declared, else rad/s)")
     p.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column (default s)")
-    p.add_argument("--rate", type=float, help="sample rate in Hz for files without a time column")
+    p.add_argument("--rate", type=RATE, help="sample rate in Hz for files without a time column")
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
 
 
-def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "") -> Path:
-    """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given) and an existing folder."""
+def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
+    """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given), not an input of the
+    command, not a folder, in an existing writable folder."""
+    from optinav.core.files import check_output
+
     out = Path(path)
     if suffixes and out.suffix.lower() not in suffixes:
-        raise OptinavError(f"--out {out} is not a {'/'.join(suffixes)} file",
+        raise OptinavError(f"{option} {out} is not a {'/'.join(suffixes)} file",
                            f"name it like {example or 'out' + suffixes[0]}")
-    if not out.parent.exists():
-        raise OptinavError(f"the folder of --out ({out.parent}) does not exist", "create it first")
-    return out
+    return check_output(out, option)
 
 
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
@@ -65,15 +130,26 @@ def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list
     return vals
 
 
-def write_truth(data_path, truth: dict) -> Path:
-    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path."""
-    import json
+#: how every truth file written by :func:`write_truth` starts (so an existing one may be replaced)
+TRUTH_SIGNATURE = '{\n  "schema": "optinav.'
+
+
+def truth_path(data_path) -> Path:
+    """``STEM.truth.json`` beside ``data_path``, checked before any work: an existing file there is replaced only
+    when optinav wrote it."""
+    from optinav.core.files import check_sidecar
 
     p = Path(data_path)
-    tp = p.with_name(p.stem + ".truth.json")
-    tmp = tp.with_name(tp.name + ".tmp")
-    tmp.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
-    tmp.replace(tp)
+    return check_sidecar(p.with_name(p.stem + ".truth.json"), TRUTH_SIGNATURE)
+
+
+def write_truth(data_path, truth: dict) -> Path:
+    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path; the
+    ``schema`` key comes first (default ``optinav.simulation_truth``)."""
+    from optinav.core.files import write_json
+
+    tp = truth_path(data_path)
+    write_json(tp, {"schema": truth.get("schema", "optinav.simulation_truth"), **truth})
     return tp
 
 

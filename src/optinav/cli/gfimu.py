@@ -7,13 +7,17 @@ calibration of Hao & Liu (2011) and the calibration of the 5 installation errors
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import textwrap
 
-from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
+from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, finish_report,
+                                number, output_path, parse_floats, prepare_report, truth_path, write_truth)
 from optinav.errors import OptinavError
+
+
+#: fastest turntable rate accepted (rad/s, about 480 rpm): beyond it the centripetal terms dwarf gravity
+MAX_TABLE_RATE = 50.0
 
 
 def _load_array(config: str | None, builtin_name: str | None):
@@ -62,6 +66,8 @@ def register(sub) -> None:
 
 
 def run_analyze(args) -> int:
+    from optinav.core.files import write_json
+    from optinav.core.results import plain
     from optinav.gfimu.array import identifiability
 
     arr = _load_array(args.config, args.builtin)
@@ -73,7 +79,7 @@ def run_analyze(args) -> int:
     data["positions_m"] = arr.positions.tolist()
     data["directions"] = arr.directions.tolist()
     if out:
-        out.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+        write_json(out, plain(data))  # non-finite numbers (an unsolvable term's std) as null
     print(idf.summary())
     if out:
         print(f"optinav: analysis written to {out}")
@@ -103,15 +109,16 @@ def register_simulate(kinds) -> None:
     s.add_argument("--builtin", choices=["cylinder10"], help="built-in configuration")
     s.add_argument("--out", required=True, metavar="DATA", help="output data file (.npz, .csv, .h5)")
     s.add_argument("--rates", default="0.5,1.0", metavar="W1,W2", help="table rates in rad/s (default 0.5,1.0)")
-    s.add_argument("--wedge-deg", type=float, default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
+    s.add_argument("--wedge-deg", type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"),
+                   default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
     s.add_argument("--errors", choices=["paper", "random"], default="paper",
                    help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)")
-    s.add_argument("--noise", type=float, default=1e-6 * 9.80665, metavar="M/S2",
+    s.add_argument("--noise", type=NON_NEGATIVE, default=1e-6 * 9.80665, metavar="M/S2",
                    help="accelerometer white noise std per sample (default 1 µg)")
-    s.add_argument("--sample-rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
-    s.add_argument("--duration", type=float, default=10.0, metavar="S", help="seconds per case (default 10)")
+    s.add_argument("--sample-rate", type=RATE, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    s.add_argument("--duration", type=POSITIVE, default=10.0, metavar="S", help="seconds per case (default 10)")
     s.add_argument("--offset", metavar="X,Y,Z", help="array centre from the table axis, body m (default 0)")
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--seed", type=SEED, default=0)
     s.set_defaults(func=run_simulate)
 
 
@@ -121,14 +128,21 @@ def run_simulate(args) -> int:
 
     arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
     out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
+    truth_path(out)
     rates = parse_floats(args.rates, None, "--rates", "W1,W2")
+    if not all(0 < w <= MAX_TABLE_RATE for w in rates):
+        raise OptinavError(f"--rates {args.rates}: table rates must be in (0, {MAX_TABLE_RATE:g}] rad/s",
+                           "give turntable rates in rad/s, e.g. --rates 0.5,1.0")
+    check_memory(3 * len(rates) * args.duration * args.sample_rate, 100 * (arr.n + 6), "this data set",
+                 "shorten --duration or lower --sample-rate")
     e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
          else InstallationErrors.random(arr.n, rng=args.seed + 1))
     off = parse_floats(args.offset, 3, "--offset", "X,Y,Z") if args.offset else None
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
-    truth = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+    truth = {"schema": "optinav.gfimu_truth", "version": 1,
+             "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}
@@ -162,13 +176,17 @@ def register_calibrate(kinds) -> None:
     c.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
     c.add_argument("--offset", metavar="X,Y,Z", help="measured array centre from the table axis, body m "
                                                      "(default 0; 'estimate' to try estimating it)")
-    c.add_argument("--noise", type=float, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+    c.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
+                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
+    c.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
     c.set_defaults(func=run_calibrate)
 
 
 def run_calibrate(args) -> int:
+    import numpy as np
+
     from optinav.gfimu.array import identifiability
     from optinav.gfimu.turntable import TurntableData, calibrate
 
@@ -176,6 +194,8 @@ def run_calibrate(args) -> int:
     out = output_path(args.out, (".json",), "RESULT.json")
     identifiability(arr).require(("linear",))
     data = TurntableData.load(args.data, arr.n)
+    if args.rate_unit == "deg/s":
+        data.table_rate = np.radians(data.table_rate)
     if args.offset is None:
         offset = "zero"
     elif args.offset.strip() == "estimate":

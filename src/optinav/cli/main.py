@@ -20,8 +20,16 @@ COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli
                    "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with one-line errors (``optinav COMMAND: error: ...; see --help``) instead of usage + error;
+    subcommand parsers inherit the class."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see {self.prog} --help\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="optinav",
         description="Inertial sensor calibration and attitude estimation posed as optimization problems.",
         epilog=textwrap.dedent("""\
@@ -52,8 +60,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.quiet:
         os.environ["OPTINAV_QUIET"] = "1"
+    from optinav.core.files import protect_inputs
+
     try:
-        return int(args.func(args) or 0)
+        with protect_inputs(_input_paths(args)):
+            return int(args.func(args) or 0)
     except OptinavError as exc:
         if args.debug:
             raise
@@ -74,6 +85,23 @@ def main(argv: list[str] | None = None) -> int:
         print(f"optinav: internal error: {type(exc).__name__}: {msg} (run with --debug for the traceback "
               "and please report it)", file=sys.stderr)
         return 1
+
+
+#: options that name what a command writes, never what it reads
+_OUTPUT_OPTIONS = {"out", "report", "truth_out"}
+
+
+def _input_paths(args) -> list[str]:
+    """Every string option or argument of ``args`` that names an existing file: the command's inputs, which no
+    output may overwrite (see :mod:`optinav.core.files`)."""
+    found = []
+    for name, value in vars(args).items():
+        if name in _OUTPUT_OPTIONS:
+            continue
+        for v in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(v, str) and v and os.path.isfile(v):
+                found.append(v)
+    return found
 
 
 if __name__ == "__main__":

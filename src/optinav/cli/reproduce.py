@@ -42,7 +42,7 @@ def run(args) -> int:
 
     names = list(available_studies()) if args.study == "all" else [args.study]
     fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
-    prepare_report_dir(args.out)
+    prepare_report_dir(args.out, "--out")
     results = []
     rng = np.random.default_rng(args.seed)
     for k, (name, fn) in enumerate(fns, 1):

@@ -6,7 +6,8 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import add_report_option, finish_report, output_path, parse_floats, prepare_report, write_truth
+from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory,
+                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
 
 
 def register_simulate(kinds) -> None:
@@ -30,19 +31,21 @@ def register_simulate(kinds) -> None:
                         "when the first value is negative")
     p.add_argument("--unit", choices=["rad", "deg"], default="rad", help="unit of --nonorth (default rad)")
     p.add_argument("--scheme", default="psins16", help="rotation scheme (default psins16)")
-    p.add_argument("--cycles", type=int, default=1, help="repetitions of the scheme (default 1)")
-    p.add_argument("--move", type=float, default=10.0, metavar="S", help="duration of each 180° move (default 10 s)")
-    p.add_argument("--dwell", type=float, default=50.0, metavar="S", help="rest after each move (default 50 s)")
-    p.add_argument("--align", type=float, default=600.0, metavar="S", help="initial static alignment (default 600 s)")
-    p.add_argument("--rate", type=float, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)")
-    p.add_argument("--lat", type=float, default=28.2, metavar="DEG", help="latitude in degrees (default 28.2)")
-    p.add_argument("--gyro-misalignment-arcsec", type=float, metavar="ARCSEC",
+    p.add_argument("--cycles", type=COUNT, default=1, help="repetitions of the scheme (default 1)")
+    p.add_argument("--move", type=POSITIVE, default=10.0, metavar="S",
+                   help="duration of each 180° move (default 10 s)")
+    p.add_argument("--dwell", type=POSITIVE, default=50.0, metavar="S", help="rest after each move (default 50 s)")
+    p.add_argument("--align", type=POSITIVE, default=600.0, metavar="S",
+                   help="initial static alignment (default 600 s)")
+    p.add_argument("--rate", type=RATE, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)")
+    p.add_argument("--lat", type=LATITUDE, default=28.2, metavar="DEG", help="latitude in degrees (default 28.2)")
+    p.add_argument("--gyro-misalignment-arcsec", type=NON_NEGATIVE, metavar="ARCSEC",
                    help="1σ of each gyro misalignment term (default the preset's 5)")
-    p.add_argument("--gyro-scale-ppm", type=float, metavar="PPM", help="1σ gyro scale error (default 2)")
-    p.add_argument("--lock-error-arcsec", type=float, default=0.0, metavar="ARCSEC",
+    p.add_argument("--gyro-scale-ppm", type=NON_NEGATIVE, metavar="PPM", help="1σ gyro scale error (default 2)")
+    p.add_argument("--lock-error-arcsec", type=NON_NEGATIVE, default=0.0, metavar="ARCSEC",
                    help="1σ gimbal stop error not seen by the encoders (default 0)")
-    p.add_argument("--wobble-arcsec", type=float, default=0.0, metavar="ARCSEC", help="axis wobble amplitude")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--wobble-arcsec", type=NON_NEGATIVE, default=0.0, metavar="ARCSEC", help="axis wobble amplitude")
+    p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("--out", required=True, metavar="DATA", help="output file (.npz, .csv, .h5)")
     p.set_defaults(func=run_simulate)
 
@@ -62,7 +65,14 @@ def run_simulate(args) -> int:
     from optinav.rins.simulate import simulate_rins
 
     out = output_path(args.out)
+    truth_path(out)
     p = _parse_nonorth(args.nonorth, args.unit)
+    from optinav.rins.simulate import scheme_steps
+
+    # measured: about 470 B per sample at the peak, 800 with margin
+    n_moves = args.cycles * len(scheme_steps(args.scheme))
+    check_memory(args.rate * (args.align + n_moves * (args.move + args.dwell)), 800, "this session",
+                 "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
     d = simulate_rins(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
                       align_s=args.align, rate=args.rate, lat_deg=args.lat,
@@ -99,11 +109,11 @@ def register_calibrate(kinds) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="data file (.npz, .csv, .h5) with time, dtheta_x..z, dv_x..z, alpha, beta")
     p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
-    p.add_argument("--lat", type=float, metavar="DEG", help="latitude in degrees (default: from the file)")
-    p.add_argument("--align", type=float, metavar="S", help="longest alignment window (default: the initial rest)")
-    p.add_argument("--residual-rate", type=float, default=10.0, metavar="HZ",
+    p.add_argument("--lat", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from the file)")
+    p.add_argument("--align", type=POSITIVE, metavar="S", help="longest alignment window (default: the initial rest)")
+    p.add_argument("--residual-rate", type=RATE, default=10.0, metavar="HZ",
                    help="epochs per second of the attitude residuals (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of PSO (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(p)
     p.set_defaults(func=run_calibrate)

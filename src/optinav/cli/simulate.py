@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import output_path, register_system_hooks, write_truth
+from optinav.cli.common import (HEIGHT, LATITUDE, POSITIVE, RATE, SEED, check_memory, number, output_path,
+                                register_system_hooks, truth_path, write_truth)
 
 
 def register(sub) -> None:
@@ -32,16 +33,17 @@ def register(sub) -> None:
     a.add_argument("--preset", default="mems-mti1", help="IMU preset (default mems-mti1)")
     a.add_argument("--truth", default="draw", choices=["draw", "paper"],
                    help="draw the unit's errors from the preset, or use the paper's Table 2 accelerometer")
-    a.add_argument("--dwell", type=float, default=60.0, metavar="S", help="dwell per pose in s (default 60)")
-    a.add_argument("--transition", type=float, default=4.0, metavar="S", help="turn duration in s (default 4)")
-    a.add_argument("--rest", type=float, default=10.0, metavar="S", help="initial rest in s (default 10)")
-    a.add_argument("--rate", type=float, metavar="HZ", help="sample rate (default the preset's)")
-    a.add_argument("--jitter", type=float, default=0.0, help="timestamp jitter as a fraction of the step")
+    a.add_argument("--dwell", type=POSITIVE, default=60.0, metavar="S", help="dwell per pose in s (default 60)")
+    a.add_argument("--transition", type=POSITIVE, default=4.0, metavar="S", help="turn duration in s (default 4)")
+    a.add_argument("--rest", type=POSITIVE, default=10.0, metavar="S", help="initial rest in s (default 10)")
+    a.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
+    a.add_argument("--jitter", type=number(0.0, 0.5, what="a fraction of the step"), default=0.0,
+                   help="timestamp jitter as a fraction of the step")
     a.add_argument("--acc-unit", choices=["counts", "g", "m/s^2"], default="m/s^2")
     a.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"], default="rad/s")
-    a.add_argument("--latitude", type=float, default=38.88, metavar="DEG")
-    a.add_argument("--height", type=float, default=35.0, metavar="M")
-    a.add_argument("--seed", type=int, default=0)
+    a.add_argument("--latitude", type=LATITUDE, default=38.88, metavar="DEG")
+    a.add_argument("--height", type=HEIGHT, default=35.0, metavar="M")
+    a.add_argument("--seed", type=SEED, default=0)
     a.set_defaults(func=run_accel_multipos)
     register_system_hooks(kinds, "register_simulate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
@@ -53,6 +55,14 @@ def run_accel_multipos(args) -> int:
     from optinav.multipos.simulate import simulate_session
 
     out = output_path(args.out)
+    truth_path(out)
+    from optinav.core.imu_model import preset
+    from optinav.multipos.simulate import SCHEMES
+
+    rate = args.rate or preset(args.preset).sample_rate
+    # measured: about 650 B per sample at the peak (simulation and writing), 1000 with margin
+    check_memory(rate * (args.rest + len(SCHEMES[args.scheme]) * (args.dwell + args.transition)), 1000,
+                 "this session", "shorten --dwell/--rest/--transition or lower --rate")
     s = simulate_session(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
                          transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
                          height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,

@@ -7,6 +7,7 @@ import json
 import math
 import textwrap
 
+from optinav.cli.common import HEIGHT, LATITUDE, LONGITUDE, number
 from optinav.errors import OptinavError
 
 
@@ -29,16 +30,17 @@ def register(sub) -> None:
                   (the SPA report's example: zenith 50.11162, azimuth 194.34024)
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lat", type=float, required=True, metavar="DEG", help="geodetic latitude, deg (north +)")
-    p.add_argument("--lon", type=float, required=True, metavar="DEG", help="longitude, deg (east +)")
-    p.add_argument("--height", type=float, default=0.0, metavar="M", help="height, m (parallax; default 0)")
+    p.add_argument("--lat", type=LATITUDE, required=True, metavar="DEG", help="geodetic latitude, deg (north +)")
+    p.add_argument("--lon", type=LONGITUDE, required=True, metavar="DEG", help="longitude, deg (east +)")
+    p.add_argument("--height", type=HEIGHT, default=0.0, metavar="M", help="height, m (parallax; default 0)")
     p.add_argument("--time", action="append", required=True, metavar="ISO8601",
                    help="time with UTC offset, e.g. 2021-01-17T10:34:00+08:00 (repeatable)")
-    p.add_argument("--pressure", type=float, default=None, metavar="MBAR",
+    p.add_argument("--pressure", type=number(0.0, 2000.0, lo_open=True, what="a pressure in mbar"), metavar="MBAR",
                    help="air pressure, mbar (hPa); enables the refraction correction")
-    p.add_argument("--temperature", type=float, default=12.0, metavar="C",
+    p.add_argument("--temperature", type=number(-100.0, 100.0, what="a temperature in deg C"), default=12.0,
+                   metavar="C",
                    help="air temperature, deg C, for refraction (default 12)")
-    p.add_argument("--delta-t", type=float, default=None, metavar="S",
+    p.add_argument("--delta-t", type=number(-1e6, 1e6, what="TT - UT1 in s"), default=None, metavar="S",
                    help="TT - UT1 in s (default: Espenak-Meeus polynomial)")
     p.set_defaults(func=run)
 

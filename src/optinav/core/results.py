@@ -117,17 +117,17 @@ class Result:
         """Serialize; also write to ``path`` when given (atomically)."""
         text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
         if path is not None:
-            path = Path(path)
-            tmp = path.with_name(path.name + ".tmp")
-            tmp.write_text(text + "\n", encoding="utf-8")
-            tmp.replace(path)
+            from optinav.core.files import write_text
+
+            write_text(path, text + "\n")
         return text
 
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
         if cls._FLAT:
             return cls._from_flat(data)
-        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) else None
+        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) and isinstance(data.get("schema"),
+                                                                                          str) else None
         if flat is not None and flat._FLAT:
             if cls is not Result and not issubclass(flat, cls):
                 raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}", "pass the right result file")
@@ -174,15 +174,17 @@ class Result:
     @classmethod
     def from_json(cls, source: str | Path) -> "Result":
         """Load from a path or a JSON string."""
-        text = str(source)
+        from optinav.core.files import parse_json, read_text
+
+        text, src = str(source), "result file"
         if not text.lstrip().startswith("{"):
-            p = Path(source)
-            if not p.is_file():
-                raise OptinavError(f"result file {p} does not exist", "check the path")
-            text = p.read_text(encoding="utf-8")
+            text, src = read_text(source, "result file"), f"result file {source}"
+        data = parse_json(text, src, "pass an unmodified optinav result file")
         try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise OptinavError(f"result file is not valid JSON ({exc.msg} at line {exc.lineno})",
-                               "pass an unmodified optinav result file") from None
-        return cls.from_dict(data)
+            return cls.from_dict(data)
+        except OptinavError:
+            raise
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+            # a value of the wrong type deep inside (a list where a name belongs, a string as an array ...)
+            raise OptinavError(f"{src} is not a valid optinav result ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())[:80]})", "pass an unmodified optinav result file") from None

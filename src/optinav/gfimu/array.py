@@ -17,7 +17,6 @@ unknowns (a linear identifiability analysis, the standard one for gyro-free arra
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -153,9 +152,9 @@ class AccelerometerArray:
         return out
 
     def save(self, path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_config(), indent=2) + "\n", encoding="utf-8")
-        return path
+        from optinav.core.files import write_json
+
+        return write_json(path, self.to_config())
 
     @classmethod
     def from_config(cls, cfg, source: str = "configuration") -> "AccelerometerArray":
@@ -196,16 +195,9 @@ class AccelerometerArray:
 
     @classmethod
     def load(cls, path) -> "AccelerometerArray":
-        path = Path(path)
-        if not path.is_file():
-            raise OptinavError(f"configuration file {path} does not exist", "check the path")
-        try:
-            cfg = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise OptinavError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno})",
-                               "fix the configuration file") from None
-        except UnicodeDecodeError:
-            raise OptinavError(f"{path} is not a UTF-8 text file", "pass a JSON configuration") from None
+        from optinav.core.files import parse_json, read_text
+
+        cfg = parse_json(read_text(path, "configuration file"), str(path), "fix the configuration file")
         return cls.from_config(cfg, str(path))
 
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from optinav.core.files import atomic_open, atomic_path, write_csv
 from optinav.core.observability import analyze
 from optinav.core.optimize import Problem, minimize
 from optinav.core.results import Result
@@ -109,19 +110,20 @@ class TurntableData:
                 "table_rate": self.table_rate, "wedge": np.full(n, self.gamma), "gravity": np.full(n, self.gravity)}
         suf = path.suffix.lower()
         if suf == ".npz":
-            np.savez(path, f=self.f, **cols)
+            with atomic_open(path, "wb") as fh:
+                np.savez(fh, f=self.f, **cols)
         elif suf in (".csv", ".txt"):
             header = ["t"] + [f"f{i + 1}" for i in range(self.f.shape[1])] + ["case", "mounting", "table_rate",
                                                                                 "wedge", "gravity"]
             data = np.column_stack([self.t, self.f, cols["case"], cols["mounting"], self.table_rate, cols["wedge"],
                                     cols["gravity"]])
-            np.savetxt(path, data, delimiter=",", header=",".join(header), comments="", fmt="%.12g")
+            write_csv(path, data, ",".join(header), "%.12g")
         elif suf in (".h5", ".hdf5"):
             try:
                 import h5py
             except ImportError:
                 raise OptinavError("writing HDF5 needs h5py", "pip install h5py, or use .npz/.csv") from None
-            with h5py.File(path, "w") as fh:
+            with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
                 fh["f"] = self.f
                 for k, v in cols.items():
                     fh[k] = v
@@ -228,6 +230,65 @@ def case_means(data: TurntableData) -> CaseMeans:
     else:
         sigma = np.full(data.f.shape[1], np.nan)
     return CaseMeans(mnt, rate, mean, cnt, sigma)
+
+
+#: plausible installation errors: a position error up to 5 cm and a direction error up to 0.2 rad (11°); the
+#: paper's are 1 mm and 0.01 rad, so anything beyond is a wrong configuration, wrong units or broken data
+MAX_DR_M, MAX_DANGLE_RAD = 0.05, 0.2
+#: largest accepted reduced χ² of the case-mean fit (residual RMS 5σ)
+MAX_REDUCED_CHI2 = 25.0
+
+
+def nominal_case_means(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> np.ndarray:
+    """Case means (K, N) m/s² the nominal array would read (no installation errors, centre on the axis)."""
+    U = table_axes(gamma, cm.mounting)
+    return np.array([model_outputs(nominal.positions, nominal.directions, u, w, g) for u, w in zip(U, cm.rate)])
+
+
+def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> None:
+    """Checks of the turntable data against the nominal array before a fit (one-line errors):
+
+    * stuck or constant outputs: a sensor whose case means span less than a tenth of what the nominal geometry
+      predicts (the cases turn gravity through the wedge angle, so every sensor's output must change);
+    * the table-rate unit: per mounting, the change of the case means between two rates is
+      ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
+      (0.5–2); (π/180)² means rates in deg/s labelled rad/s."""
+    pred = nominal_case_means(nominal, cm, gamma, g)
+    s = _rate_scale(cm, pred)
+    deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
+    if deg:
+        raise OptinavError(f"the table_rate column looks like deg/s labelled rad/s (the rate-dependent change of the "
+                           f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
+                           "pass --rate-unit deg/s")
+    span_m, span_p = np.ptp(cm.mean, axis=0), np.ptp(pred, axis=0)
+    stuck = np.flatnonzero(span_m < 0.1 * span_p)
+    if stuck.size:
+        i = int(stuck[0])
+        raise OptinavError(f"accelerometer(s) {', '.join(str(k + 1) for k in stuck)} barely change between the "
+                           f"turntable cases (accelerometer {i + 1}: {span_m[i]:.3g} m/s² where the nominal array "
+                           f"changes by {span_p[i]:.3g}): stuck or constant outputs",
+                           "check those channels (or pass the configuration the data was recorded with)")
+    if s is not None and not 0.5 < s < 2.0:
+        raise OptinavError(f"the table rates disagree with the centripetal terms the accelerometers measure (the "
+                           f"rate-dependent change of the outputs is {s:.3g}× the predicted)",
+                           "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s)")
+
+
+def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
+    """Least-squares scale of the measured against the predicted change of the case means between the two rates
+    of each mounting; None when that change is not well above the noise."""
+    num = den = var = 0.0
+    for m in np.unique(cm.mounting):
+        k = np.flatnonzero(cm.mounting == m)
+        if len(k) < 2 or np.ptp(cm.rate[k]) == 0:
+            continue
+        a, b = k[np.argmin(cm.rate[k])], k[np.argmax(cm.rate[k])]
+        d_meas, d_pred = cm.mean[b] - cm.mean[a], pred[b] - pred[a]
+        num, den = num + d_meas @ d_pred, den + d_pred @ d_pred
+        var = var + np.sum(d_pred**2 * (cm.sigma**2) * (1 / cm.count[a] + 1 / cm.count[b]))
+    if den > 0 and np.all(np.isfinite(cm.sigma)) and den > 100 * np.sqrt(var):
+        return float(num / den)
+    return None
 
 
 def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, gamma: float | None = None,
@@ -428,6 +489,7 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
         raise OptinavError(f"the data has {data.f.shape[1]} accelerometer outputs, the configuration {nominal.n}",
                            "pass the configuration the data was recorded with")
     cm = case_means(data)
+    check_data(nominal, cm, data.gamma, data.gravity)
     if sigma is None:
         sig = cm.sigma
         if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
@@ -484,6 +546,7 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
     J = model.jacobian(x)
     r = model.residuals(x)
     rep = analyze(J, 1.0, names=names, units=units)
+    _quality_gates(method, out if method == "lm" else None, x[:5 * nominal.n], r, int(rep.rank), sigma is None)
     std, crlb, cov = np.array(rep.std), np.array(rep.crlb_std), np.array(rep.covariance)
     if offset == "estimate":
         # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
@@ -511,6 +574,27 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
         n_params=model.n_params, statements=statements, samples_per_case=cm.count, sigma=sig,
         residual_rms=float(np.sqrt(np.mean(r ** 2))), gamma=float(data.gamma),
         elapsed=time.perf_counter() - t0, gauge=gauge)
+
+
+def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> None:
+    """After the fit: converged, plausible installation errors, residual consistent with the noise."""
+    if out is not None and not out.success:
+        raise OptinavError(f"the LM fit did not converge ({out.message})",
+                           "check the data against the configuration, or try --method closed-form")
+    e = InstallationErrors.from_vector(x)
+    dr, da = float(np.max(np.abs(e.dr))), float(np.max(np.abs(np.r_[e.dalpha, e.dbeta])))
+    if dr > MAX_DR_M or da > MAX_DANGLE_RAD:
+        raise OptinavError(f"the fitted installation errors are implausible (|dr| up to {dr:.3g} m, direction errors "
+                           f"up to {da:.3g} rad; limits {MAX_DR_M} m, {MAX_DANGLE_RAD} rad): the data do not "
+                           "belong to this configuration, or a column is in the wrong unit",
+                           "pass the configuration the data was recorded with and check the units")
+    dof = r.size - rank
+    chi2 = float(r @ r) / dof if dof > 0 else float("nan")
+    if dof > 0 and chi2 > MAX_REDUCED_CHI2:
+        why = "the noise measured within the cases" if sigma_from_data else "--noise"
+        raise OptinavError(f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
+                           f"{why}: the model does not explain the data",
+                           "check --noise (accelerometer noise std in m/s^2), the configuration and --offset")
 
 
 def scheme_identifiability(nominal: AccelerometerArray, *, rates=(0.5, 1.0), gamma: float = np.radians(30.0),

@@ -8,7 +8,6 @@ docs/file-formats.md.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -19,14 +18,15 @@ from optinav.core.results import Result
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.readers import (LABEL_COLUMNS, SKIP_NAMES, Table, load_table, merge_datasets, normalize_name,
-                                parse_columns)
+from optinav.io.readers import (LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, load_table, merge_datasets,
+                                normalize_name, parse_columns)
 
 __all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
 
 #: accepted accelerometer unit spellings → canonical unit
 ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
-             "g": "g", "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
+             "g": "g", "mg": "mg", "milli-g": "mg",
+             "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
 #: accepted gyroscope unit spellings → canonical unit
 GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
               "deg/s": "deg/s", "dps": "deg/s", "°/s": "deg/s", "deg/sec": "deg/s", "degrees/s": "deg/s",
@@ -34,7 +34,8 @@ GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "co
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 _TIME_SPELLINGS = {"s": "s", "sec": "s", "ms": "ms", "us": "us", "µs": "us", "μs": "us", "ns": "ns"}
-_CANONICAL = {"acc": ("counts", "g", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"), "time": ("s", "ms", "us", "ns")}
+_CANONICAL = {"acc": ("counts", "g", "mg", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"),
+              "time": ("s", "ms", "us", "ns")}
 
 #: the names read_imu understands: time, accelerometer and gyroscope components, N×3 triads, counter, labels
 STANDARD_NAMES = ("t", "ax", "ay", "az", "gx", "gy", "gz", "acc", "gyro", "sample", "label")
@@ -102,6 +103,8 @@ class ImuLog(Result):
     sample: np.ndarray | None = field(default=None, metadata={"unit": ""})
     acc_input_unit: str | None = field(default=None, metadata={"unit": "-"})
     gyro_input_unit: str | None = field(default=None, metadata={"unit": "-"})
+    #: what the reader inferred or left out (rate from the file, an incomplete last line), one line each
+    notes: list = field(default_factory=list, metadata={"unit": "-"})
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float)
@@ -320,6 +323,7 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) 
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
+        _check_values(part.path, kind, tri, srcs)
         setattr(part, kind, tri)
         for s in srcs:
             unit = table.units.get(s) or normalize_name(s)[1]
@@ -360,6 +364,44 @@ def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
     return arr.astype(str)
 
 
+#: largest magnitude accepted in an accelerometer or gyroscope cell (any unit, counts included)
+MAX_VALUE = 1e12
+
+
+def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str]) -> None:
+    """A column without a single number, or a finite cell beyond :data:`MAX_VALUE` (1e308 …), is an error;
+    NaN and inf mark missing samples (rows the calibration drops and counts)."""
+    names = srcs if len(srcs) == 3 else [f"{srcs[0]}[:, {j}]" for j in range(3)]
+    for j in range(3):
+        col = tri[:, j]
+        if col.size and np.all(np.isnan(col)):
+            raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds no number (all cells empty or NaN)",
+                               "check the column names (--columns) or fill the column")
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.isfinite(col) & (np.abs(col) > MAX_VALUE))
+        if bad.size:
+            raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds {col[bad[0]]:g} in data row "
+                               f"{bad[0] + 1} ({bad.size} such cell(s)), not a sensor reading",
+                               "fix or delete those rows (an empty cell or NaN marks a missing sample)")
+
+
+def _file_rate(table: Table) -> tuple[float, str] | None:
+    """The sample rate (Hz) a file states: a ``key,value`` preamble line or an HDF5 attribute (``Fs``, ``rate``,
+    ``sampling_rate`` …) or a scalar NPZ/MAT variable of such a name; None when it states none."""
+    if "rate" in table.meta:
+        return float(table.meta["rate"]), f"the preamble line {table.meta.get('rate_key', 'rate')!r}"
+    for k, v in table.meta.items():
+        if normalize_name(k)[0] in RATE_KEYS:
+            try:
+                return float(v), f"the attribute {k!r}"
+            except ValueError:
+                continue
+    for k, v in table.data.items():
+        if normalize_name(k)[0] in RATE_KEYS and np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
+            return float(np.asarray(v).ravel()[0]), f"the variable {k!r}"
+    return None
+
+
 def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
              gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
              datasets=None, delimiter: str | None = None) -> ImuLog:
@@ -368,13 +410,14 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
     aliases, ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3
     array); without it the names are recognised by alias (docs/file-formats.md). ``gyro_path``/``gyro_columns``:
-    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g,
+    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g, mg,
     m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
     declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
-    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g`` and ``deg/s`` are
+    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
     converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     """
+    notes: list[str] = []
     acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
     gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
     time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
@@ -405,17 +448,21 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     if times:
         p, t = times[0]
         t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
-    elif rate is None:
+    elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
                            "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
     else:
+        if rate is None:
+            rate, where = _file_rate(main.table)
+            rate = check_positive(rate, f"the sample rate in {where} of {main.path.name}")
+            notes.append(f"sample rate {rate:g} Hz from {where} of {main.path.name}")
         t = np.arange(main.n) / rate
         check_timestamps(t, f"{main.path.name}")
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
         acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", "m/s^2")
-        acc = main.acc if acc_in != "g" else to_si(main.acc, "g")
+        acc = to_si(main.acc, acc_in) if acc_in in ("g", "mg") else main.acc
     if main.gyro is not None:
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
@@ -423,7 +470,11 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     log = ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
                  gyro_unit="counts" if gyro_in == "counts" else "rad/s",
                  source=" + ".join(str(p.path) for p in parts), n_rows_read=main.n, labels=main.labels,
-                 sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in)
+                 sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in, notes=notes)
+    for p in parts:
+        if "truncated_line" in p.table.meta:
+            notes.append(f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was "
+                         "left out")
     log.nan_rows = int(np.count_nonzero(~log.finite))
     return log
 
@@ -484,8 +535,9 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
         raise OptinavError(f"directory {path.parent} does not exist", "create it first")
     acc, acc_u = _out_values(log, "acc", acc_unit)
     gyro, gyro_u = _out_values(log, "gyro", gyro_unit)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
-    try:
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
         if suffix in _WRITE_TEXT:
             _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
         elif suffix == ".npz":
@@ -512,13 +564,6 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
                         fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
                     else:
                         fh.create_dataset(k, data=v)
-        tmp.replace(path)
-    except OSError as exc:
-        raise OptinavError(f"cannot write {path} ({exc.strerror or exc})",
-                           "check the directory and free space") from None
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 

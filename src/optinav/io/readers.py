@@ -23,7 +23,7 @@ from optinav.errors import OptinavError
 __all__ = ["read_table", "load_table", "parse_columns", "Table", "SUFFIXES", "LABEL_COLUMNS", "SKIP_NAMES"]
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
-SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text",
+SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
                             ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat"}
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
@@ -188,17 +188,21 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     suffixes = [s.lower() for s in path.suffixes]
     gz = bool(suffixes) and suffixes[-1] == ".gz"
     suffix = (suffixes[-2] if len(suffixes) > 1 else "") if gz else (suffixes[-1] if suffixes else "")
-    kind = SUFFIXES.get(suffix)
-    if kind is None or (gz and kind != "text"):
-        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
-        raise OptinavError(f"{path.name}: unknown data file type {shown}",
-                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
     try:
         size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
     except OSError as exc:
         raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
     if size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
+    kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
+    if kind == "gztext":
+        kind, gz = "text", True
+    if kind is None or (gz and kind != "text"):
+        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
+        raise OptinavError(f"{path.name}: unknown data file type {shown}",
+                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
@@ -215,6 +219,29 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
         if names is not None:
             table = _name_table_columns(table, names)
     return table
+
+
+_MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
+          (b"\x1f\x8b", "gztext"))
+
+
+def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
+    """The format from the first bytes before the suffix: binary formats by their magic numbers (MATLAB v7.3
+    files start with "MATLAB" too), and a ``.mat`` that is text (MATLAB's ``save -ascii``) as text; else what
+    the suffix says (.npz/.npy/.h5 files holding text are damaged files and get their format's error)."""
+    if gz:
+        return by_suffix
+    for magic, kind in _MAGIC:
+        if head.startswith(magic):
+            return kind
+    if by_suffix == "mat" and b"\x00" not in head:
+        try:
+            head.decode("utf-8")
+            return "text"
+        except UnicodeDecodeError as exc:
+            if exc.start >= len(head) - 3:  # a multi-byte character cut at the end of the sample
+                return "text"
+    return by_suffix
 
 
 def normalize_name(name: str) -> tuple[str, str | None]:
@@ -347,10 +374,12 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
         if not _strip_comment(s).strip():
             continue
         content.append(i)
-        if len(content) >= 10:
+        if len(content) >= 10 + _MAX_PREAMBLE:
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
+    preamble = _preamble(lines, content)
+    content = content[int(preamble.pop("_preamble_lines", 0)):][:10]
     sample = [_strip_comment(lines[i]) for i in content]
     if not given:
         delim = _sniff(sample)
@@ -401,9 +430,14 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
     data = _parse_fast(lines, start, delim, ncol, keep, textable)
+    truncated = None
     if data is None:
-        data = _parse_slow(path, lines, start, delim, colnames, keep, textable)
+        data, truncated = _parse_slow(path, lines, start, delim, colnames, keep, textable,
+                                      complete=text.endswith(("\n", "\r")))
     meta = _comment_meta(comments)
+    meta.update(preamble)
+    if truncated is not None:
+        meta["truncated_line"] = str(truncated)
     table = Table(path=path, kind="text", data={colnames[j]: data[j] for j in keep}, units=units, meta=meta)
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
@@ -468,16 +502,24 @@ def _text_column(cells: np.ndarray) -> np.ndarray:
     return cells
 
 
-def _parse_slow(path, lines, start, delim, colnames, keep, textable) -> dict[int, np.ndarray]:
-    """Line-by-line parser: exact line numbers in errors; empty cells become NaN."""
+def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True
+                ) -> tuple[dict[int, np.ndarray], int | None]:
+    """Line-by-line parser: exact line numbers in errors; empty cells become NaN. Without a final newline
+    (``complete`` False: a logger stopped mid-write) a last line with too few fields is dropped and its line
+    number returned with the columns."""
     ncol = len(colnames)
     cols: dict[int, list] = {j: [] for j in keep}
     numeric = [j for j in keep if j not in textable]
+    last = max((i for i in range(start, len(lines)) if _strip_comment(lines[i]).strip()), default=-1)
+    truncated = None
     for i in range(start, len(lines)):
         s = _strip_comment(lines[i])
         if not s.strip():
             continue
         toks = _split(s, delim)
+        if i == last and i > start and not complete and len(toks) < ncol:
+            truncated = i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
+            break
         if len(toks) != ncol:
             how = "truncated" if len(toks) < ncol else "too long"
             raise OptinavError(f"{path.name} line {i + 1} has {len(toks)} field(s), {ncol} expected "
@@ -501,7 +543,44 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable) -> dict[int
     out = {}
     for j in keep:
         out[j] = _text_column(np.asarray(cols[j], dtype=str)) if j in textable else np.asarray(cols[j], dtype=float)
-    return out
+    return out, truncated
+
+
+#: longest ``key,value`` preamble (lines) looked for before the header
+_MAX_PREAMBLE = 50
+_KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*[,;:=\t]\s*([^,;\t]*?)\s*[,;\t]*\s*$")
+#: preamble keys (normalized) that give the sample rate in Hz
+RATE_KEYS = ("fs", "rate", "sampling_rate", "sample_rate", "samplerate", "sampling_frequency", "rate_hz", "fs_hz",
+             "frequency", "odr")
+
+
+def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
+    """Leading ``key,value`` lines (a logger's settings: ``Fs,100``, ``device: MTi``) above a table with more
+    columns; ``{key: value}``, with ``rate`` set from :data:`RATE_KEYS` (Hz). Empty when there is none."""
+    out: dict[str, str] = {}
+    n = 0
+    for i in content[:-1]:
+        m = _KEY_VALUE.match(_strip_comment(lines[i]))
+        if not m or _is_number(m.group(1)):
+            break
+        out[m.group(1).strip()] = m.group(2)
+        n += 1
+    if n == 0 or n >= len(content):
+        return {}
+    rest = _strip_comment(lines[content[n]])
+    if max(len(rest.split(d)) for d in (",", ";", "\t")) <= 2 and len(rest.split()) <= 2:
+        return {}  # a two-column table, not a preamble
+    meta = {f"preamble:{k}": v for k, v in out.items()}
+    for k, v in out.items():
+        if normalize_name(k)[0] in RATE_KEYS:
+            try:
+                rate = float(v.lower().replace("hz", "").strip())
+            except ValueError:
+                continue
+            meta.setdefault("rate", repr(rate))
+            meta.setdefault("rate_key", k)
+    meta["_preamble_lines"] = str(n)
+    return meta
 
 
 def _comment_meta(comments: list[str]) -> dict[str, str]:
@@ -633,6 +712,8 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
             for k, v in fh.attrs.items():
                 if isinstance(v, (bytes, str, np.bytes_, np.str_)):
                     table.meta[k] = v.decode("utf-8", "replace") if isinstance(v, (bytes, np.bytes_)) else str(v)
+                elif np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
+                    table.meta[k] = repr(float(np.asarray(v).ravel()[0]))  # e.g. a sampling_rate attribute
             found: list[str] = []
 
             def visit(name, obj):

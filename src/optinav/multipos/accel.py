@@ -8,9 +8,10 @@ all through :func:`optinav.core.optimize.minimize`:
   its standard deviation ``σ_k = sqrt(ûᵀK⁻¹Σ_kK⁻ᵀû / n_k)`` (Σ_k the sample covariance of pose k), so the
   cost is a χ² and the Gauss–Newton covariance is the Cramér–Rao bound of white noise.
 * ``"ga"`` — the adaptive real-coded GA of Gao & Zhang (2019), fitness 1/E with E = Σ r² (paper eq. 6–7),
-  initial population drawn in the search interval inverted from the output model (:func:`search_interval`).
-* ``"newton"`` — Newton iteration on E (Frosio et al. 2009, the paper's baseline), from the centre of the
-  same interval; ``"pso"`` — particle swarm in that interval.
+  initial population drawn in a search interval around the closed-form estimate (:func:`search_interval`).
+* ``"newton"`` — Newton iteration on E (Frosio et al. 2009, the paper's baseline) and ``"pso"`` — particle
+  swarm in that interval; both, like the GA, start from the closed form, so raw counts with offsets far
+  above the g span need no hand-set interval.
 
 ``data="means"`` (default) fits one residual per pose; ``data="samples"`` one per sample, as the paper
 does — that biases ‖a‖ upward by about σ²_⊥/g (noise across the gravity direction) and costs far more.
@@ -30,13 +31,15 @@ from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
 
-from . import model
+from . import gates, model
 
 METHODS = ("lm", "gn", "trf", "newton", "ga", "pso")
 _CORE_METHOD = {"lm": "lm", "gn": "gauss-newton", "trf": "trf", "newton": "newton", "ga": "ga", "pso": "pso"}
 #: parameters held at zero when the norm observations cannot separate the misalignments
 MISALIGNMENT = (3, 4, 5)
 MODELS = ("auto", "full", "diagonal")
+#: default 1σ (rad) of misalignments held at 0: the MEMS class of Gao & Zhang's MTi-1 (preset mems-mti1)
+HELD_MISALIGNMENT = 0.005
 
 
 @dataclasses.dataclass
@@ -70,13 +73,13 @@ def _fit_quadric(D: np.ndarray) -> np.ndarray:
     return np.linalg.svd(D, full_matrices=True)[2][-1]  # full: D may have fewer rows than columns
 
 
-def initial_estimate(means, g: float) -> np.ndarray:
+def initial_estimate(means, g: float, *, general: bool = True) -> np.ndarray:
     """Closed-form θ from the pose means: an algebraic ellipsoid fit (raw − b)ᵀA(raw − b) = g² with
     A = K⁻ᵀK⁻¹, K the upper-triangular Cholesky factor.
 
     A general ellipsoid (9 degrees of freedom) with ≥ 9 poses, an axis-aligned one (6) with ≥ 6, a sphere (4)
-    with ≥ 4; fewer poses or a fit that is not an ellipsoid fall back to the next simpler form. Raw units
-    need no guess: the means are normalized by their median norm first.
+    with ≥ 4; fewer poses, ``general=False`` or a fit that is not an ellipsoid fall back to the next simpler
+    form. Raw units need no guess: the means are normalized by their median norm first.
     """
     m = as_float_array(means, "pose means", last_dims=(3,))
     P = m.shape[0]
@@ -88,7 +91,7 @@ def initial_estimate(means, g: float) -> np.ndarray:
     X, Y, Z = x.T
     one = np.ones(P)
     forms = []
-    if P >= 9:
+    if P >= 9 and general:
         forms.append(("general", np.column_stack([X * X, Y * Y, Z * Z, 2 * X * Y, 2 * X * Z, 2 * Y * Z,
                                                   2 * X, 2 * Y, 2 * Z, one])))
     if P >= 6:
@@ -127,26 +130,19 @@ def initial_estimate(means, g: float) -> np.ndarray:
 
 
 def search_interval(means, g: float, *, scale_tol: float = 0.05, bias_tol: float = 0.05,
-                    misalignment: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
-    """GA/PSO search interval inverted from the output model N = K·f + B (Gao & Zhang 2019, sec. 2.2).
+                    misalignment: float = 0.05, center=None) -> tuple[np.ndarray, np.ndarray]:
+    """GA/PSO search interval around the closed-form estimate, in raw units (Gao & Zhang 2019, sec. 2.2,
+    invert the output model N = K·f + B for the interval; the centre here is :func:`initial_estimate`, which
+    unlike the paper's per-axis extremes holds for raw counts with offsets far above the g span).
 
-    Axis i spans roughly ±K_ii·g over poses that put it near the vertical, so from the extreme pose means
-    K_ii⁰ = (max − min)/(2g) and b_i⁰ = (max + min)/2. The interval is K_ii⁰(1 ± ``scale_tol``),
-    b_i⁰ ± ``bias_tol``·K_ii⁰·g and off-diagonals ±``misalignment``·K_ii⁰ (rad). An axis never near the
-    vertical (|mean| < 0.9·norm in every pose) gets its scale from the median norm and a ±25 % interval.
+    With K⁰, b⁰ the centre (``center``, θ (9,), default the closed form): K_ii⁰(1 ± ``scale_tol``),
+    b_i⁰ ± ``bias_tol``·K_ii⁰·g and off-diagonals K_ij⁰ ± ``misalignment``·K_ii⁰ (rad).
     """
     m = as_float_array(means, "pose means", last_dims=(3,))
-    hi, lo = m.max(axis=0), m.min(axis=0)
-    norm = np.linalg.norm(m, axis=1)
-    k0 = (hi - lo) / (2 * g)
-    b0 = (hi + lo) / 2
-    tol = np.full(3, scale_tol)
-    for i in range(3):
-        if not np.any(np.abs(m[:, i] - b0[i]) > 0.9 * norm) or k0[i] <= 0:
-            k0[i], b0[i], tol[i] = np.median(norm) / g, 0.0, 0.25
-    lower = np.r_[k0 * (1 - tol), -misalignment * k0[[0, 0, 1]], b0 - bias_tol * k0 * g]
-    upper = np.r_[k0 * (1 + tol), misalignment * k0[[0, 0, 1]], b0 + bias_tol * k0 * g]
-    return lower, upper
+    c = initial_estimate(m, g) if center is None else as_float_array(center, "center")
+    k = np.abs(c[:3])
+    half = np.r_[scale_tol * k, misalignment * k[[0, 0, 1]], bias_tol * k * g]
+    return c - half, c + half
 
 
 def residual_sigma(theta, stats: PoseStatistics) -> np.ndarray:
@@ -188,6 +184,10 @@ class AccelFit(Result):
     elapsed_s: float = field(metadata={"unit": "s"})
     #: GA/PSO per-generation ``mean_cost`` and ``best_x`` (the estimated parameters, ``estimated`` order)
     trace: dict = field(default_factory=dict, metadata={"unit": "-"})
+    #: distinct pose directions (poses within gates.SAME_POSE_DEG count once)
+    n_distinct: int = field(default=0, metadata={"unit": ""})
+    #: why parameters were held, when the model was reduced automatically ("" otherwise)
+    note: str = field(default="", metadata={"unit": "-"})
 
 
 def _observability(J, sigma, free) -> ObservabilityReport:
@@ -196,34 +196,62 @@ def _observability(J, sigma, free) -> ObservabilityReport:
     return analyze(J[:, free], sigma, names=names, units=units)
 
 
-def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray) -> tuple[list[int], list[int]]:
-    """(estimated, held) parameter indices for model ``requested`` ("auto", "full", "diagonal")."""
+def pose_directions(means, g: float) -> np.ndarray:
+    """Unit gravity directions (P, 3) of the pose means from the axis-aligned closed form (robust with
+    repeated poses, where the general ellipsoid is underdetermined); used to count distinct poses."""
+    u = model.corrected(initial_estimate(means, g, general=False), means)
+    return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def _distinct_report(J: np.ndarray, sigma: np.ndarray, labels: np.ndarray, free) -> ObservabilityReport:
+    """Observability of ``free`` from one averaged Jacobian row per distinct pose (repeats count once)."""
+    n = labels.max() + 1
+    Jd = np.array([J[labels == c].mean(axis=0) for c in range(n)])
+    sd = np.array([np.sqrt(1.0 / np.sum(1.0 / sigma[labels == c] ** 2)) for c in range(n)])
+    return _observability(Jd, sd, free)
+
+
+def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.ndarray
+                  ) -> tuple[list[int], list[int], str]:
+    """(estimated, held) parameter indices for model ``requested`` ("auto", "full", "diagonal") and a note
+    saying why the misalignments were held (empty when they were not, or were held on request)."""
     full, diag = list(range(9)), [0, 1, 2, 6, 7, 8]
+    n_distinct = int(labels.max() + 1)
     if requested != "diagonal":
-        rep = _observability(J, sigma, full)
-        if rep.full_rank:
-            return full, []
+        rep = _distinct_report(J, sigma, labels, full)
+        if rep.full_rank and _observability(J, sigma, full).full_rank:
+            return full, [], ""
+        why = (f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within {gates.SAME_POSE_DEG:g}° "
+               f"count once) cannot determine all 9 accelerometer parameters: "
+               + "; ".join(rep.unobservable_directions or ["rank deficient"]))
         if requested == "full":
-            raise OptinavError("the poses cannot determine all 9 accelerometer parameters: "
-                               + "; ".join(rep.unobservable_directions),
-                               "add poses (>= 9, including ones tilted about 45° between axes) or use model='auto'")
-    rep6 = _observability(J, sigma, diag)
+            raise OptinavError(why, "add poses (>= 9 distinct directions, including ones tilted about 45° "
+                                    "between axes), or pass --model auto or --model diagonal")
+        note = (f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within "
+                f"{gates.SAME_POSE_DEG:g}° count once) cannot determine the misalignments (>= 9 distinct, some "
+                "tilted, are needed): K_xy, K_xz, K_yz are held at 0, scales and biases fitted")
+    else:
+        note = ""
+    rep6 = _distinct_report(J, sigma, labels, diag)
     if not rep6.full_rank:
-        raise OptinavError("the poses cannot determine the accelerometer scale factors and biases: "
-                           + "; ".join(rep6.unobservable_directions),
-                           "use at least 6 poses with each axis both up and down (e.g. ±x, ±y, ±z up)")
-    return diag, list(MISALIGNMENT)
+        raise OptinavError(f"{n_distinct} distinct pose directions ({len(labels)} poses) cannot determine the "
+                           "accelerometer scale factors and biases: " + "; ".join(rep6.unobservable_directions),
+                           "record at least 6 distinct poses with each axis both up and down (e.g. ±x, ±y, ±z up)")
+    return diag, list(MISALIGNMENT), note
 
 
 def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
-              samples=None, x0=None, rng=None, interval=None, bias_instability=None, **options) -> AccelFit:
+              samples=None, x0=None, rng=None, interval=None, bias_instability=None,
+              held_misalignment: float = HELD_MISALIGNMENT, **options) -> AccelFit:
     """Fit θ to static-pose data (see the module docstring).
 
     ``stats``: per-pose raw statistics. ``g``: local gravity (m/s²). ``model_form``: "auto" (all 9 when
     observable, else scales and biases with the misalignments held at 0 and reported), "full" (error if not
     observable), "diagonal". ``data="samples"`` needs ``samples`` (list of (n_k, 3) raw arrays per pose).
     ``bias_instability`` (raw units, scalar or per axis): 1σ of the bias drift over the session, added in
-    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``options`` go to the optimizer (e.g. ``generations`` for the GA).
+    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``held_misalignment``
+    (rad): 1σ of the misalignments a reduced model holds at 0; their effect on the fitted scales and biases
+    (first order, through the Jacobian) is added to those stds — the model error of what was held. ``options`` go to the optimizer (e.g. ``generations`` for the GA).
     """
     g = check_positive(g, "gravity")
     if method not in METHODS:
@@ -240,14 +268,12 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     start = initial_estimate(stats.means, g)
     sig0 = residual_sigma(start, stats)
     J0 = model.norm_jacobian(start, stats.means)
-    free, held = _choose_model(model_form, J0, sig0)
-    if method in ("ga", "pso", "newton"):
-        lo, hi = search_interval(stats.means, g) if interval is None else interval
+    labels = gates.distinct_directions(pose_directions(stats.means, g))
+    free, held, note = _choose_model(model_form, J0, sig0, labels)
+    if method in ("ga", "pso"):
+        lo, hi = search_interval(stats.means, g, center=start) if interval is None else interval
     if x0 is None:
-        if method in ("ga", "pso", "newton"):
-            x0 = 0.5 * (lo + hi)
-        else:
-            x0 = start
+        x0 = start
     x0 = as_float_array(x0, "x0").copy()
     x0[held] = 0.0
     weighted = method in ("lm", "gn", "trf")
@@ -287,9 +313,19 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
     crlb[free] = rep.crlb_std if not held else _observability(J, sig, free).crlb_std
     chi2 = float(np.sum((r / sig) ** 2))
     dof = int(P - len(free))
-    # Correlated noise (bias instability) shifts whole pose means, which the within-pose scatter cannot
-    # show; the a-posteriori variance factor χ²/dof (never below 1) carries it into the reported std.
-    std = crlb * np.sqrt(max(1.0, chi2 / dof)) if dof > 0 else crlb
+    add_var, extra_chi2 = np.zeros(len(free)), 0.0
+    if held and held_misalignment:
+        # model error of the held terms: θ_free moves by G·δθ_held, G = −(J_fᵀWJ_f)⁻¹J_fᵀWJ_h (whitened J);
+        # what the free terms cannot absorb, (J_h + J_f·G)·δθ_held, is expected in χ²
+        Jw = J / sig[:, None]
+        G = -np.linalg.lstsq(Jw[:, free], Jw[:, held], rcond=None)[0]
+        s_h = abs(float(held_misalignment)) * np.abs(theta[[0, 0, 1]])  # K_xy, K_xz ∝ K_xx; K_yz ∝ K_yy
+        add_var = (G ** 2) @ s_h ** 2
+        extra_chi2 = float(np.sum(((Jw[:, held] + Jw[:, free] @ G) ** 2) @ s_h ** 2))
+    # Correlated noise shifts whole pose means, which the within-pose scatter cannot show; the a-posteriori
+    # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
+    std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
+    std[free] = np.sqrt(std[free] ** 2 + add_var)
     if bias_instability is not None:
         # a drift common to all poses moves b without leaving a residual: only a noise model can bound it
         std[6:9] = np.hypot(std[6:9], np.broadcast_to(np.abs(as_float_array(bias_instability, "bias_instability")), 3))
@@ -300,7 +336,8 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
                     residual_sigma=sig, chi2=chi2, dof=dof, crlb_std=crlb,
                     observability=rep, success=bool(res.success), message=str(res.message), nfev=int(res.nfev),
                     nit=int(res.nit), history=np.asarray(res.history, float),
-                    elapsed_s=time.perf_counter() - t0, trace=dict(res.trace))
+                    elapsed_s=time.perf_counter() - t0, trace=dict(res.trace), n_distinct=int(labels.max() + 1),
+                    note=note)
 
 
 def efficiency(K, b, up_dirs, g: float, sigma: float, n_per_pose: int, n_runs: int, rng=None

@@ -29,29 +29,52 @@ from scipy import stats as _stats
 
 from optinav.core.earth import WGS84
 from optinav.core.earth import gravity as normal_gravity
-from optinav.core.units import G_STANDARD
+from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 from optinav.io import raw_units, read_imu
 
-from . import accel, model, static
+from . import accel, gates, model, static
 from .result import CalibrationResult
 
 OMEGA_E = WGS84.omega_ie
-_FULL_SCALE = [float(2 ** k) for k in (15, 23, 31)]
+_INT_BITS = (16, 24, 32)
+
+
+def count_range(raw) -> tuple[float, float]:
+    """Full scale (lo, hi) of the integer type that raw counts (N, 3) were written in, inferred from their
+    range: unsigned (offset binary) 0 … 2^k − 1 when no sample is negative, else signed −2^(k−1) … 2^(k−1) − 1,
+    with k the smallest of 16, 24, 32 bits that holds every sample."""
+    x = np.asarray(raw, float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return -np.inf, np.inf
+    lo, hi = float(x.min()), float(x.max())
+    for k in _INT_BITS:
+        if lo >= 0 and hi <= 2.0 ** k - 1:
+            return 0.0, 2.0 ** k - 1
+        if lo >= -(2.0 ** (k - 1)) and hi <= 2.0 ** (k - 1) - 1:
+            return -(2.0 ** (k - 1)), 2.0 ** (k - 1) - 1
+    return -np.inf, np.inf
 
 
 def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
-    """Rows (N,) with any axis at or beyond ``limit`` (raw units, scalar or per axis); for raw ``counts``
-    without a limit, rows at a signed 16/24/32-bit full scale (e.g. −32768 or 32767)."""
+    """Rows (N,) with any axis at or beyond the full scale: ``limit`` (raw units) is ±R (a scalar or one per
+    axis) or a span (lo, hi); without it, raw ``counts`` saturate at the ends of the integer type they were
+    written in (:func:`count_range`: never at mid-scale, so an unsigned ADC resting near 32768 is not
+    saturated), and other units are not judged."""
     raw = np.asarray(raw, float)
-    if limit is not None:
+    if limit is None:
+        if not counts:
+            return np.zeros(raw.shape[0], bool)
+        lo, hi = count_range(raw)
+    elif isinstance(limit, tuple) and len(limit) == 2:
+        lo, hi = float(limit[0]), float(limit[1])
+    else:
         lim = np.broadcast_to(np.abs(as_float_array(limit, "range")), (3,))
-        return np.any(np.abs(raw) >= lim, axis=1)
-    if not counts:
-        return np.zeros(raw.shape[0], bool)
-    a = np.abs(raw)
-    return np.any(np.isin(a, _FULL_SCALE) | np.isin(a + 1, _FULL_SCALE), axis=1) & np.any(a >= 32767, axis=1)
+        lo, hi = -lim, lim
+    with np.errstate(invalid="ignore"):
+        return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
 def local_gravity(g=None, lat_deg=None, height_m: float = 0.0) -> tuple[float, str]:
@@ -66,7 +89,7 @@ def local_gravity(g=None, lat_deg=None, height_m: float = 0.0) -> tuple[float, s
         if not -90 <= lat <= 90:
             raise OptinavError(f"latitude {lat:g}° is outside ±90°", "give the latitude in degrees")
         return float(normal_gravity(np.radians(lat), float(height_m))), f"normal gravity at {lat:g}°, {height_m:g} m"
-    return G_STANDARD, "standard gravity (give --gravity or --latitude for the local value)"
+    return G_STANDARD, "standard gravity, by default"
 
 
 def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
@@ -109,7 +132,8 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                       data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
                       threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
                       source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-                      rest=None) -> CalibrationResult:
+                      rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
+                      held_misalignment: float = accel.HELD_MISALIGNMENT) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -118,7 +142,13 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
     over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
     ``gyro_bias``: "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
-    rest period), "estimate" (jointly with K_g) or a 3-vector in raw units.
+    rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
+    ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
+    turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
+    ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
+    stds of the scales and biases). ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    Every fit passes the gates of :mod:`optinav.multipos.gates`
+    or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
     t_start = time.perf_counter()
     t = as_float_array(t, "time", finite=False)
@@ -140,12 +170,20 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         gyro = gyro[finite] if gyro is not None else None
     t = check_timestamps(t, "time", min_count=10)
     g, g_source = local_gravity(g, lat_deg, height_m)
+    notes = [f"g = {g:.6g} m/s^2 ({g_source})" + (": give --gravity or --latitude for the local value (it "
+                                                   "differs from standard gravity by up to 0.3 %)"
+                                                   if g_source.startswith("standard") else "")]
     sat_a = saturated_mask(acc, acc_range, counts=acc_unit == "counts")
     sat_g = saturated_mask(gyro, gyro_range, counts=gyro_unit == "counts") if gyro is not None else None
     valid = ~sat_a
+    if not np.any(valid):
+        raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
+    rest_norm = float(np.median(np.linalg.norm(acc[valid], axis=1)))
+    gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
-        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source)
+        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
+                         notes, np.radians(rotation_angle_deg))
     selection = {}
     if sections is not None:
         sl = static.sections_from_list(sections, t)
@@ -170,8 +208,9 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
             "--min-duration, or give the poses by hand with --sections")
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
-    fit = accel.fit_accel(st, g, method=method, model_form=model_form, data=data, samples=samples, rng=rng,
-                          bias_instability=acc_bias_instability, **(method_options or {}))
+    fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
+                           samples=samples, rng=rng, bias_instability=acc_bias_instability,
+                           held_misalignment=held_misalignment, **(method_options or {}))
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
         used[i0:i1] = True
@@ -184,12 +223,13 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         K_std[r, c] = fit.std[j]
     acc_entry = {"K": fit.K, "b": fit.b, "K_std": K_std, "b_std": fit.std[6:9], "form": "upper-triangular",
                  "estimated": fit.estimated, "held": fit.held, "chi2": fit.chi2, "dof": fit.dof,
-                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g)}
+                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g),
+                 "held_std_rad": held_misalignment if fit.held else None}
     obs = fit.observability
     observability = {"accelerometer": {"rank": obs.rank, "n_params": obs.n_params,
                                        "singular_values": obs.singular_values,
                                        "unobservable": list(obs.unobservable_directions),
-                                       "statements": list(obs.statements)}}
+                                       "statements": list(obs.statements), "distinct_poses": fit.n_distinct}}
     observability.update({k: observability["accelerometer"][k] for k in ("rank", "n_params", "singular_values",
                                                                          "unobservable")})
     gyro_entry = None
@@ -198,13 +238,16 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         from . import gyro as gyro_cal
 
         excluded["saturated_gyro"] = int(np.count_nonzero(sat_g))
-        if np.any(sat_g):
-            i = int(np.flatnonzero(sat_g)[0])
-            raise OptinavError(f"the gyroscope saturates at t = {t[i]:.6g} s ({excluded['saturated_gyro']} samples)",
-                               "turn the unit more slowly between poses, or raise the gyro range")
+        drop = _saturated_turns(t, sat_g, ranges, notes)
+        excluded["saturated_turns"] = len(drop)
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
-        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng)
+        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
+                                     allow_unobservable=allow_unobservable, drop_transitions=drop)
+        _gyro_gates(gc, gyro_unit)
+        if gc.unobservable:
+            notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
+                         + "; ".join(gc.unobservable))
         b_std = np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))  # Earth rate is neglected (module docs)
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
                       "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
@@ -216,7 +259,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
     quality = {"n_poses": int(len(ranges)), "pose_residual_rms": float(np.sqrt(np.mean(fit.residuals ** 2))),
                "chi2": fit.chi2, "dof": fit.dof, "interval_selection": how, "gravity_source": g_source,
                "optimizer_success": fit.success, "optimizer_message": fit.message, "nfev": fit.nfev,
-               "data": data}
+               "data": data, "notes": notes}
     if selection:
         quality["threshold_selection"] = selection
     units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "time": "s", "residual_rms": "m/s^2",
@@ -229,26 +272,128 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
                              quality=quality, source=source)
 
 
-def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source):
-    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them)."""
+def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw) -> accel.AccelFit:
+    """:func:`accel.fit_accel` that passes the gates; with ``model_form="auto"`` a full model that fails one
+    falls back to the diagonal model with a note naming the cause."""
+    fit = accel.fit_accel(st, g, model_form=model_form, **kw)
+    try:
+        _accel_gates(fit, st, acc_unit)
+    except OptinavError as exc:
+        if model_form != "auto" or fit.held:
+            raise
+        fit = accel.fit_accel(st, g, model_form="diagonal", **kw)
+        _accel_gates(fit, st, acc_unit)
+        notes.append(f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
+                     "held at 0 (scales and biases fitted; --model full insists on the full model)")
+        return fit
+    if fit.note:
+        notes.append(fit.note)
+    return fit
+
+
+def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> None:
+    """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`)."""
+    if not fit.success:
+        raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
+                           f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
+                                                       "intervals (--threshold, --sections)")
+    rms = float(np.sqrt(np.mean(fit.residuals ** 2)))
+    if rms > gates.MAX_RESIDUAL_G * fit.g:
+        k = int(np.argmax(np.abs(fit.residuals)))
+        raise OptinavError(f"the poses do not fit one accelerometer model: residual RMS of |a| - g is {rms:.3g} "
+                           f"m/s^2 (pose {k + 1}: {fit.residuals[k]:+.3g} m/s^2; noise of a pose mean "
+                           f"{float(np.median(fit.residual_sigma)):.2g} m/s^2)",
+                           "check for motion inside the static intervals (a lower --threshold, a longer "
+                           "--min-duration, or --sections)")
+    # counts have no nominal scale: the axes are judged against each other
+    nominal = float(np.median(np.abs(np.diag(fit.K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
+    gates.check_matrix(fit.K, nominal, "accelerometer", acc_unit, option="--acc-unit", columns_flag="--columns")
+    u = model.corrected(fit.theta, st.means)
+    v = (st.means - fit.b) / np.diag(fit.K)
+    cosang = np.einsum("ij,ij->i", u, v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1))
+    ang = np.degrees(np.arccos(np.clip(cosang, -1, 1)))
+    if np.max(ang) > gates.MAX_TURN_DEG:
+        k = int(np.argmax(ang))
+        raise OptinavError(f"the calibration turns pose {k + 1} by {ang[k]:.3g}° away from its raw direction "
+                           f"(> {gates.MAX_TURN_DEG:g}°): an implausible misalignment", "pass --model diagonal")
+
+
+def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
+    """Transitions (indices k: interval k → k+1) during which the gyro saturates; a saturated static interval
+    is an error (its bias and the pose would be wrong)."""
+    if sat_g is None or not np.any(sat_g):
+        return []
+    for i0, i1 in ranges:
+        if np.any(sat_g[i0:i1]):
+            i = i0 + int(np.flatnonzero(sat_g[i0:i1])[0])
+            raise OptinavError(f"the gyroscope is at its full scale at rest (t = {t[i]:.6g} s)",
+                               "check --gyro-range and --gyro-unit")
+    drop = [k for k in range(len(ranges) - 1) if np.any(sat_g[ranges[k][1]:ranges[k + 1][0]])]
+    if drop:
+        when = ", ".join(f"{t[ranges[k][1]]:.4g}–{t[ranges[k + 1][0]]:.4g} s" for k in drop[:5])
+        notes.append(f"the gyroscope saturates during {len(drop)} turn(s) ({when}{', …' if len(drop) > 5 else ''}); "
+                     "those turns are left out of the gyro calibration (turn more slowly, or raise the range)")
+    return drop
+
+
+def _gyro_gates(gc, gyro_unit: str) -> None:
+    """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`)."""
+    if not gc.success:
+        raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
+                           "check the static intervals (--threshold, --sections) and --gyro-unit")
+    nominal = float(np.median(np.abs(np.diag(gc.K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
+    gates.check_matrix(gc.K, nominal, "gyroscope", gyro_unit, option="--gyro-unit",
+                       columns_flag="--columns or --gyro-columns")
+    if gc.residual_rms > gates.MAX_GYRO_RESIDUAL_RAD:
+        raise OptinavError(f"the turns do not carry gravity onto the next pose: residual RMS "
+                           f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
+                           "for a gyro bias that drifts during the session pass --gyro-bias local; else check for "
+                           "motion inside the static intervals (--threshold, --sections) and the time column "
+                           "(--rate, --time-unit)")
+
+
+def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
+              rotation_angle):
+    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
     from . import ferraris
 
     if gyro is None or sections is None:
         raise OptinavError("the Ferraris method needs gyroscope data and the nine named sections "
                            "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
-                           "pass --gyro (or gyro columns) and --sections FILE")
+                           "give the gyro columns and either a label column naming the sections or --sections FILE")
     if np.any(sat_a):
         raise OptinavError(f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
                            "the Ferraris method has no way to skip them: cut them from the sections")
-    fc = ferraris.ferraris_from_sections(t, acc, gyro, sections, gravity=g)
-    sl = static.sections_from_list(sections, t)
-    names = list(sl.names)
+    sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
+    fc = ferraris.ferraris_from_sections(t, acc, gyro, sl if sl is not None else sections, gravity=g,
+                                         expected_angle=rotation_angle)
+    if sl is None:
+        names = list(sections)
+        idx = np.array([sections[n] for n in names], int)
+        t_iv = np.column_stack([t[idx[:, 0]], t[idx[:, 1] - 1]])
+    else:
+        names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
     a = fc.correct_acc(acc)
     mask = np.zeros(len(t), bool)
-    for i0, i1 in np.asarray(sl.index_ranges, int)[static_idx]:
+    for i0, i1 in idx[static_idx]:
         mask[i0:i1] = True
     residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a[mask], axis=1) - g) ** 2)))
+    # gates: the six poses agree on g, both matrices are plausible, the turns go the stated way
+    pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
+    if pose_rms > gates.MAX_RESIDUAL_G * g:
+        raise OptinavError(f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2",
+                           "check that the sections x_p … z_a hold still poses in imucal's order (--sections)")
+    acc_nominal = float(np.median(np.abs(np.diag(fc.acc_K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
+    gates.check_matrix(fc.acc_K, acc_nominal, "accelerometer", acc_unit, option="--acc-unit",
+                       columns_flag="--columns, or the section names")
+    if np.all(np.diag(fc.gyro_K) < 0):
+        raise OptinavError(f"the three rotations turn the other way than --rotation-angle "
+                           f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
+                           f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}")
+    gyro_nominal = float(np.median(np.abs(np.diag(fc.gyro_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
+    gates.check_matrix(fc.gyro_K, gyro_nominal, "gyroscope", gyro_unit, option="--gyro-unit",
+                       columns_flag="--columns or --gyro-columns, or --rotation-angle")
     nan3 = np.full((3, 3), np.nan)
     acc_entry = {"K": fc.acc_K, "b": fc.acc_b, "K_std": nan3, "b_std": np.full(3, np.nan), "form": "full",
                  "estimated": ["K (9)", "b (3)"], "held": []}
@@ -259,12 +404,13 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
              "K": "raw per SI unit", "b": "raw", "G": "gyro raw per m/s^2"}
     return CalibrationResult(
         accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g, residual_rms=residual_rms,
-        static_intervals=np.asarray(sl.t_intervals, float)[static_idx],
+        static_intervals=t_iv[static_idx],
         observability={"note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
                                "parameter exactly; no uncertainty is estimated", "unobservable": []},
         method="ferraris", elapsed_s=time.perf_counter() - t_start,
-        excluded={"nan_rows": n_nan, "saturated_acc": 0}, quality={"gravity_source": g_source,
-                                                                   "sections": names}, source=source)
+        excluded={"nan_rows": n_nan, "saturated_acc": 0},
+        quality={"gravity_source": g_source, "sections": names, "pose_residual_rms": pose_rms,
+                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -272,7 +418,7 @@ class FileOptions:
     """How to read and calibrate one log: the options of ``optinav calibrate accel``, same names and units
     (``gyro``/``gyro_columns``: a second file holding the gyroscope; ``datasets``: "std=name,..." text;
     ``gravity`` m/s², ``latitude`` degrees, ``height`` m, ``window``/``min_duration`` s, ``rest`` (t0, t1) s,
-    ranges and ``threshold`` in raw units). Picklable, so batch workers receive it as is."""
+    ranges (±R, or a (lo, hi) span) and ``threshold`` in raw units). Picklable, so batch workers receive it as is."""
 
     columns: str | None = None
     gyro: str | None = None
@@ -298,6 +444,10 @@ class FileOptions:
     gyro_range: float | None = None
     gyro_bias: str = "static"
     rest: tuple | None = None
+    allow_unobservable: bool = False
+    rotation_angle: float = -360.0
+    acc_bias_instability: float | None = None
+    held_misalignment: float = accel.HELD_MISALIGNMENT
     generations: int | None = None
     seed: int = 0
 
@@ -307,12 +457,25 @@ class FileOptions:
         kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if hasattr(args, f.name)}
         if kw.get("rest") is not None:
             kw["rest"] = tuple(float(v) for v in kw["rest"])
+        if "height" in kw and kw["height"] is None:  # the CLI's --height defaults to None to see it was given
+            kw["height"] = 0.0
+        elif kw.get("height") is not None and kw.get("latitude") is None:
+            raise OptinavError("--height without --latitude has no effect (it sets the normal gravity's height)",
+                               "add --latitude DEG, or drop --height")
         return cls(**kw)
 
     def check(self) -> None:
         """Reject contradictory options before any file is read."""
         if (self.gyro_bias == "rest") != (self.rest is not None):
             raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
+        for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
+                           ("held_misalignment", "--held-misalignment")):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
+        if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
+            raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
+                               "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -325,6 +488,8 @@ class SessionData(NamedTuple):
     acc_unit: str
     gyro: np.ndarray | None
     gyro_unit: str | None
+    labels: np.ndarray | None = None
+    notes: tuple = ()
 
 
 def read_session_file(path, options: FileOptions) -> SessionData:
@@ -337,7 +502,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
     gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
-    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit)
+    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
@@ -345,13 +510,22 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
     o = options
     o.check()
     method_options = {} if o.generations is None else {"generations": o.generations}
-    return calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+    sections = o.sections
+    if sections is None and o.method == "ferraris":
+        from .ferraris import sections_from_labels
+
+        sections = sections_from_labels(data.labels)
+    res = calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
                              gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
                              height_m=o.height, method=o.method, model_form=o.model,
-                             data="samples" if o.fit_samples else "means", sections=o.sections,
+                             data="samples" if o.fit_samples else "means", sections=sections,
                              window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
                              acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
-                             source=source, method_options=method_options, rest=o.rest)
+                             source=source, method_options=method_options, rest=o.rest,
+                             allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
+                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment)
+    res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
+    return res
 
 
 def calibrate_file(path, options: FileOptions | None = None) -> CalibrationResult:

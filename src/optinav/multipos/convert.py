@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.core.files import parse_json, read_text, write_text
 from optinav.core.units import factor
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
@@ -143,7 +144,7 @@ def write_imu_tk(path, params: dict) -> None:
         return "\n".join(" ".join(f"{v:.17g}" for v in row) for row in M)
 
     text = mat(T) + "\n\n" + mat(S) + "\n\n" + "\n".join(f"{v:.17g}" for v in B) + "\n\n"
-    Path(path).write_text(text, encoding="utf-8")
+    write_text(path, text)
 
 
 def read_imu_tk(path, *, tol: float = 1e-12) -> dict:
@@ -151,9 +152,7 @@ def read_imu_tk(path, *, tol: float = 1e-12) -> dict:
     ``form`` ("body" when T's lower triangle is zero). The file must hold 21 numbers; T's diagonal must be 1
     and S diagonal. Note that imu_tk (C++ streams) writes only 6 significant digits by default."""
     p = Path(path)
-    if not p.is_file():
-        raise OptinavError(f"imu_tk parameter file {p} does not exist", "check the path")
-    tokens = p.read_text(encoding="utf-8").split()
+    tokens = read_text(p, "imu_tk parameter file").split()
     try:
         vals = np.array([float(x) for x in tokens])
     except ValueError:
@@ -305,14 +304,8 @@ def read_imucal_json(source) -> ImucalCalibration:
     src = "imucal JSON"
     if not text.lstrip().startswith("{"):
         p = Path(source)
-        if not p.is_file():
-            raise OptinavError(f"imucal calibration file {p} does not exist", "check the path")
-        src, text = str(p), p.read_text(encoding="utf-8")
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise OptinavError(f"{src} is not valid JSON ({exc.msg} at line {exc.lineno})",
-                           "pass a file written by imucal's to_json_file") from None
+        src, text = str(p), read_text(p, "imucal calibration file")
+    d = parse_json(text, src, "pass a file written by imucal's to_json_file")
     if not isinstance(d, dict):
         raise OptinavError(f"{src} is not a JSON object", "pass a file written by imucal's to_json_file")
     version = d.pop("_format_version", None)
@@ -345,4 +338,4 @@ def write_imucal_json(path, cal: ImucalCalibration) -> None:
     for k in ImucalCalibration._MATS:
         if not all(math.isfinite(v) for v in np.ravel(d[k])):
             raise OptinavError(f"imucal field {k} is not finite", "check the calibration")
-    Path(path).write_text(json.dumps(d, indent=4) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(d, indent=4) + "\n")

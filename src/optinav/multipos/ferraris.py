@@ -38,7 +38,8 @@ from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
-__all__ = ["FerrarisCalibration", "ferraris_calibration", "ferraris_from_sections", "POSES", "ROTATIONS",
+__all__ = ["FerrarisCalibration", "ferraris_calibration", "ferraris_from_sections", "sections_from_labels", "POSES",
+           "ROTATIONS",
            "SECTIONS", "IMUCAL_GRAVITY"]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -249,6 +250,30 @@ def _seq3(x):
         raise OptinavError(f"dt has {len(items)} entries, expected 3 (x_rot, y_rot, z_rot)",
                            "pass a scalar dt or one step array per rotation")
     return items
+
+
+def sections_from_labels(labels) -> dict | None:
+    """The nine sections ``x_p … z_rot`` as {name: (i0, i1)} half-open sample ranges from a per-sample label
+    column (imucal's annotated ``part`` column); None when the labels name none of them. Each named section
+    must be one contiguous run, and all nine must be present."""
+    if labels is None:
+        return None
+    lab = np.asarray(labels).astype(str)
+    present = [n for n in SECTIONS if np.any(lab == n)]
+    if not present:
+        return None
+    missing = [n for n in SECTIONS if n not in present]
+    if missing:
+        raise OptinavError(f"the label column names {', '.join(present)} but not {', '.join(missing)}",
+                           "label all nine Ferraris sections, or give them with --sections FILE")
+    out = {}
+    for n in SECTIONS:
+        i = np.flatnonzero(lab == n)
+        if i[-1] - i[0] + 1 != i.size:
+            raise OptinavError(f"the label {n!r} marks {i.size} samples that are not one contiguous run",
+                               "label each Ferraris section once, or give them with --sections FILE")
+        out[n] = (int(i[0]), int(i[-1]) + 1)
+    return out
 
 
 def ferraris_from_sections(t_or_rate, acc, gyro, sections, **kwargs) -> FerrarisCalibration:

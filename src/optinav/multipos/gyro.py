@@ -37,7 +37,9 @@ with finite-difference Jacobians. The first fit carries a weak pull to the initi
 that directions the data do not fix cannot wander off to fit noise while the rank is judged; a full-rank
 problem is then refit without it (the reported K and b carry no prior).
 
-Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"rest"`` — mean over a
+Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"local"`` — during each turn the
+bias interpolated linearly in time between the means of the two static intervals it joins (a bias that drifts
+during the session; the session mean is reported, its std the spread of the interval means); ``"rest"`` — mean over a
 rest window ``(t0, t1)`` s (fixed); ``"estimate"`` — b fitted with K, with each static interval's mean
 added as three residuals ``(m_k − b)/s_k`` (``s_k`` the standard error of the mean from the interval's
 sample scatter, white noise assumed) and the angle residuals weighted by ``1/σ̂`` from a first fit with
@@ -88,7 +90,7 @@ __all__ = ["GYRO_PARAMS", "GyroCalibration", "calibrate_gyro", "theta_to_Kb", "K
 GYRO_PARAMS = ("K_xx", "K_xy", "K_xz", "K_yx", "K_yy", "K_yz", "K_zx", "K_zy", "K_zz", "b_x", "b_y", "b_z")
 #: fewest transitions: 2 constraints each for the 9 entries of K, plus one for the noise estimate
 MIN_TRANSITIONS = 5
-BIAS_MODES = ("static", "rest", "estimate")
+BIAS_MODES = ("static", "local", "rest", "estimate")
 METHODS = ("lm", "gauss-newton", "trf")
 _CONING = ("previous", "none")
 _UNIT_TOL = 0.05   # |‖u‖ − 1| accepted for the up directions (they are normalized afterwards)
@@ -245,26 +247,29 @@ def _choice(value, options, name: str) -> str:
 class _Transitions:
     """The motion samples of all transitions, concatenated for one strapdown call per evaluation."""
 
-    def __init__(self, t, raw, idx, u, coning):
-        segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in range(idx.shape[0] - 1)]
+    def __init__(self, t, raw, idx, u, coning, keep=None):
+        keep = np.arange(idx.shape[0] - 1) if keep is None else np.asarray(keep, int)
+        segs = [np.arange(idx[k, 1] - 1, idx[k + 1, 0] + 1) for k in keep]
         lens = np.array([s.size for s in segs])
+        self.seg = np.repeat(np.arange(lens.size), lens)  # transition of each row (a per-transition bias)
         self.ends = np.cumsum(lens) - 1
         self.starts = self.ends - lens + 1
         sel = np.concatenate(segs)
         self.raw = raw[sel]
         tt = t[sel]
+        self.t_rows = tt
         h = np.diff(tt)
         self.gap = np.zeros(h.size, dtype=bool)
         self.gap[self.ends[:-1]] = True          # increment joining two transitions
         h[self.gap] = np.median(h[~self.gap])    # any positive step: its increment is zero
         self.h = h
         self.durations = tt[self.ends] - tt[self.starts]
-        self.u0, self.u1 = u[:-1], u[1:]
+        self.u0, self.u1 = u[keep], u[keep + 1]
         self.coning = coning
 
     def rotations(self, K, b) -> np.ndarray:
         """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
-        w = (self.raw - b) @ np.linalg.inv(K).T
+        w = (self.raw - b) @ np.linalg.inv(K).T  # b: (3,) or one per row (the "local" bias)
         dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
         dth[self.gap] = 0.0
         q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
@@ -318,6 +323,7 @@ def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
                            "in total, so the gyro scale cannot be found",
                            "turn the device between poses so that the up axis changes (e.g. flips about x, y, z)")
     k_hat = theta.sum() / alpha.sum()
+    _check_axes(tr, b, k_hat)
 
     def cost(s):
         r = tr.residuals(np.exp(s) * np.eye(3), b)
@@ -330,6 +336,27 @@ def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
     res = _sp.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
     s = res.x if res.fun <= c[i] else grid[i]
     return float(np.exp(s))
+
+
+def _check_axes(tr: _Transitions, b: np.ndarray, k: float) -> None:
+    """Axis-swap diagnosis: the cost of K = k·P for the 48 signed axis permutations P; a clearly better P than
+    the identity means the gyro columns are swapped or flipped against the accelerometer's (a local fit from
+    K ∝ I cannot reach a permutation)."""
+    from optinav.multipos import gates
+
+    best, costs = None, {}
+    for P in gates.signed_permutations():
+        r = tr.residuals(k * P, b)
+        costs[P.tobytes()] = c = float(np.sum(r * r))
+        if best is None or c < costs[best.tobytes()]:
+            best = P
+    c_id = costs[np.eye(3).tobytes()]
+    if not np.array_equal(best, np.eye(3)) and costs[best.tobytes()] < 0.1 * c_id:
+        raise OptinavError("the gyroscope axes look swapped or flipped against the accelerometer's: "
+                           + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
+                           + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
+                           f"{np.sqrt(c_id / len(tr.u0)):.2g} as labelled)",
+                           "fix the column order or signs (--columns or --gyro-columns)")
 
 
 def _stats(raw, idx):
@@ -356,7 +383,7 @@ def _missing_axes(rep: ObservabilityReport) -> str:
         txt = "add transitions about other axes and between more different poses"
     if bias:
         txt += "; give longer static intervals or a bias vector"
-    return txt + ", or pass allow_unobservable=True"
+    return txt + ", or pass --allow-unobservable to hold what the turns do not determine"
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -365,7 +392,8 @@ def _missing_axes(rep: ObservabilityReport) -> str:
 
 def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", rest=None, method: str = "lm",
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
-                   allow_unobservable: bool = False, max_std: float = 0.05) -> GyroCalibration:
+                   allow_unobservable: bool = False, max_std: float = 0.05,
+                   drop_transitions=()) -> GyroCalibration:
     """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -385,6 +413,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     allow_unobservable : hold unobservable directions at the initial guess instead of raising.
     max_std : combinations with a larger standard deviation (units of k₀ for K, 0.01·k₀ for b) are
         treated as unobservable.
+    drop_transitions : indices k of transitions (interval k → k+1) left out, e.g. where the gyro saturates.
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)
@@ -400,9 +429,11 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         max_std = float("nan")
     if not (np.isfinite(max_std) and max_std > 0):
         raise OptinavError(f"max_std must be a positive number, got {max_std!r}", "pass e.g. 0.05")
-    n_tr = idx.shape[0] - 1
+    drop = {int(k) for k in np.ravel(drop_transitions)}
+    keep = np.array([k for k in range(idx.shape[0] - 1) if k not in drop], int)
+    n_tr = keep.size
     if n_tr < MIN_TRANSITIONS:
-        raise OptinavError(f"{n_tr} transition(s) between {idx.shape[0]} static intervals, at least "
+        raise OptinavError(f"{n_tr} transition(s) usable between {idx.shape[0]} static intervals, at least "
                            f"{MIN_TRANSITIONS} are needed (each gives 2 constraints on the 9 entries of K, "
                            "plus one for the noise estimate)",
                            f"record at least {MIN_TRANSITIONS + 1} static poses with turns about all three axes")
@@ -434,14 +465,26 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                                "give a window inside the log with at least two samples")
         b_fixed = raw[sel].mean(0)
         b_cov = np.diag(raw[sel].var(0, ddof=1) / np.count_nonzero(sel))
-    elif mode in ("static", "estimate"):
+    elif mode in ("static", "local", "estimate"):
         b_static = (counts[:, None] * means).sum(0) / counts.sum()
         b_cov = np.diag((counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2)
         if mode == "static":
             b_fixed = b_static
+        elif mode == "local":
+            b_fixed = b_static  # replaced by the per-sample interpolation once the turns are cut out
     b_init = b_fixed if b_fixed is not None else b_static
 
-    tr = _Transitions(t, raw, idx, u, coning)
+    tr = _Transitions(t, raw, idx, u, coning, keep)
+    if mode == "local":
+        # a drifting bias: during a turn, the bias interpolated linearly in time between the means of the two
+        # rests it joins (exact for a linear drift); the session mean is reported, with the spread of the rest
+        # means as its std (the bias at any one time is within it)
+        tc = np.array([t[i0:i1].mean() for i0, i1 in idx])
+        k0_, k1_ = keep[tr.seg], keep[tr.seg] + 1
+        f = ((tr.t_rows - tc[k0_]) / (tc[k1_] - tc[k0_]))[:, None]
+        b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
+        b_init = b_fixed
+        b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
 
     # --- initial guess
     if x0 is None:
@@ -568,13 +611,17 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     else:
         sigma_ang = sig_hat
         cov[9:, 9:] = b_cov
-        if mode in ("static", "rest"):
-            Jb = _jac(lambda bb: tr.residuals(K_hat, bb).reshape(-1), b_hat, np.full(3, k0 * _B_SCALE),
-                      r_ang.reshape(-1))
+        if mode in ("static", "local", "rest"):
+            b_ref = b_hat if mode != "local" else b_static
+            Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
+                      np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
             G = -A @ Jb
             cov[:9, :9] += G @ b_cov @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
+    if mode == "local":
+        # K saw the local (noise-limited) biases; the reported session mean carries the drift
+        cov[9:, 9:] = np.diag(np.maximum(np.diag(b_cov), means.var(axis=0, ddof=1)))
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     obs = np.ones(12, dtype=bool)
     obs[:n_par] = np.asarray(rep.observable, dtype=bool)
@@ -591,7 +638,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     if mode == "estimate":
         As = np.abs(A[:, 3 * n_tr:]).reshape(n_par, idx.shape[0], 3)
         bound[:n_par] += np.einsum("pki,ki->p", As, (row_norm * om)[None, :] / sems)
-    elif mode in ("static", "rest"):
+    elif mode in ("static", "local", "rest"):
         bound[9:] = row_norm * om
     bound[~obs] = np.inf
 
@@ -599,7 +646,8 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     rot_ang = 2.0 * np.arctan2(np.linalg.norm(tr.rotations(K_hat, b_hat)[:, 1:], axis=1),
                                np.abs(tr.rotations(K_hat, b_hat)[:, 0]))
     return GyroCalibration(
-        K=K_hat.copy(), b=np.asarray(b_hat, dtype=float).copy(), K_std=std[:9].reshape(3, 3),
+        K=K_hat.copy(), b=np.asarray(b_static if mode == "local" else b_hat, dtype=float).copy(),
+        K_std=std[:9].reshape(3, 3),
         b_std=std[9:].copy(), covariance=cov, residual_rms=float(np.sqrt(np.mean(angles ** 2))),
         transition_residuals=angles, transition_angles=rot_ang, transition_durations=tr.durations.copy(),
         n_transitions=int(n_tr), sigma=float(sigma_ang), dof=int(dof), k0=float(k0), observability=rep,

@@ -28,12 +28,12 @@ about the vertical; pass ``gyro`` to exclude such turns.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from optinav.core.files import parse_json, read_text
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -427,15 +427,9 @@ def _load_sections(sections):
         text = str(sections)
         p = Path(text)
         if isinstance(sections, Path) or not (text.lstrip().startswith(("{", "[")) or "\n" in text):
-            if not p.is_file():
-                raise OptinavError(f"section file {p} does not exist", "check the path")
-            src, text = str(p), p.read_text(encoding="utf-8")
+            src, text = str(p), read_text(p, "section file")
         if text.lstrip().startswith(("{", "[")):
-            try:
-                sections = json.loads(text)
-            except json.JSONDecodeError as exc:
-                raise OptinavError(f"{src} is not valid JSON ({exc.msg} at line {exc.lineno})",
-                                   "fix the file or write 'start end' lines in seconds") from None
+            sections = parse_json(text, src, "fix the file or write 'start end' lines in seconds")
         else:
             rows = _parse_text(text, src)
             return rows, "time", any(r[0] for r in rows)

@@ -7,12 +7,14 @@ import html
 import importlib
 import json
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from optinav.core.files import atomic_path, describe, write_text
 from optinav.errors import OptinavError
 
 
@@ -191,20 +193,27 @@ def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | Non
         try:
             f.draw(fig)
             fig.tight_layout()
-            fig.savefig(out / f.filename, dpi=110)
+            with atomic_path(out / f.filename, "--report") as tmp:
+                fig.savefig(tmp, dpi=110)
             saved.append((f, f.filename))
         finally:
             plt.close(fig)
     return saved
 
 
-def prepare_report_dir(out_dir: str | Path) -> Path:
-    """Create the report folder (before any long work, so a bad path fails at once)."""
+def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
+    """Create the report folder and check it is writable (before any long work, so a bad path fails at once)."""
     out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise OptinavError(f"the report folder {out} is a file", f"choose another {option}")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OptinavError(f"cannot create report folder {out} ({exc.strerror})", "choose a writable --out") from None
+        raise OptinavError(f"cannot create report folder {out}: {describe(exc)}",
+                           f"choose a writable {option}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise OptinavError(f"cannot write into the report folder {out}: permission denied",
+                           f"choose a writable {option}")
     return out
 
 
@@ -262,7 +271,7 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
             "tables": [{"title": t.title, "columns": t.columns, "rows": _jsonable(t.rows), "note": t.note}
                        for t in r.tables],
         }
-    (out / "index.md").write_text("\n".join(md) + "\n", encoding="utf-8")
-    (out / "index.html").write_text("\n".join(h) + "\n", encoding="utf-8")
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    write_text(out / "index.md", "\n".join(md) + "\n", "--report")
+    write_text(out / "index.html", "\n".join(h) + "\n", "--report")
+    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n", "--report")
     return out

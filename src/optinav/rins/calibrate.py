@@ -52,6 +52,11 @@ METHODS = ("lm", "pso", "axis", "none")
 SCALE = 1e-3  #: typical size of a non-orthogonality angle (rad), the column scaling of the rank test
 REL_TOL = 1e-3  #: rank tolerance of the first-order Jacobian (relative to its largest scaled singular value)
 PSO_PAPER = dict(n_particles=20, generations=150, w=0.8, c1=2.0, c2=2.0)
+#: largest plausible non-orthogonality angle (rad): machining and assembly give mrad, the paper's largest is 9 mrad
+MAX_ANGLE = 0.05
+#: largest accepted ratio of the fitted attitude-residual RMS to the attitude random walk of the gyro noise over
+#: the recording (a correct fit on simulated navigation-grade data leaves about 10: gyro scale/misalignment)
+MAX_RESIDUAL_RATIO = 100.0
 
 
 # --- data preparation -----------------------------------------------------------------------------------
@@ -383,6 +388,37 @@ def _fit_axis(prep: Prepared, V):
     return V @ z, {"n_inner_moves": len(moves["Z"]), "n_outer_moves": len(moves["Y"])}
 
 
+def noise_walk(prep: Prepared) -> float:
+    """Attitude random walk (rad) of the gyro white noise over the calibrated span: the per-sample noise of the
+    increments at rest (first differences, so the Earth rate drops out) times √(samples)."""
+    k = int(prep.full.index[0]) + 1
+    dth = np.asarray(prep.data.dtheta, float)[:k]
+    sd = float(np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2)) if k > 2 else 0.0
+    return sd * np.sqrt(prep.full.t.size)
+
+
+def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> None:
+    """A fit that did not converge, an implausible angle or a residual far above the gyro noise ends in a
+    one-line error instead of a result (issue 13: no wrong answer with exit 0)."""
+    if method == "lm" and res is not None and not res.success:
+        raise OptinavError(f"the LM fit did not converge ({res.message})",
+                           "check the data (encoder columns, --lat) or try --method pso")
+    values = [(nm, float(c @ p)) for c, nm in zip(C, cnames)]
+    bad = [(nm, v) for nm, v in values if abs(v) > MAX_ANGLE]
+    if bad:
+        nm, v = max(bad, key=lambda x: abs(x[1]))
+        raise OptinavError(f"the fitted {nm} = {v:.4g} rad is not a plausible non-orthogonality (|angle| ≤ "
+                           f"{MAX_ANGLE} rad): the alpha/beta columns may be swapped, in degrees or of another "
+                           "recording", "check the encoder columns (alpha = inner, beta = outer, rad)")
+    rms = float(np.sqrt(np.mean(np.asarray(e_after) ** 2)))
+    walk = noise_walk(prep)
+    if walk > 0 and rms > MAX_RESIDUAL_RATIO * walk:
+        raise OptinavError(f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, "
+                           f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains: the gimbal "
+                           "model does not fit this recording",
+                           "check the encoder columns (alpha = inner, beta = outer, rad) and --lat")
+
+
 def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, residual_rate: float = 10.0,
               align_s: float | None = None, window=None, rng=None, search: float = 0.01,
               small_angle: bool = False, pso_options: dict | None = None, source: str = "",
@@ -426,6 +462,8 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     elapsed = time.perf_counter() - t_fit
     e_before = attitude_errors(prep, np.zeros(6))
     e_after = attitude_errors(prep, p)
+    if method != "none":
+        _quality_gates(method, p, V, C, cnames, res if method in ("lm", "pso") else None, e_after, prep)
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
     J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces)
     r = e_after.ravel()

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.core.files import atomic_open, atomic_path, write_csv
 from optinav.errors import OptinavError
 from optinav.io.readers import load_table
 from optinav.rins.simulate import RinsData
@@ -41,13 +42,14 @@ def write_rins(path, data: RinsData) -> Path:
             "alpha": data.alpha, "beta": data.beta}
     site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.h)}
     if kind == "npz":
-        np.savez(path, **cols, **{k: np.array(v) for k, v in site.items()})
+        with atomic_open(path, "wb") as fh:
+            np.savez(fh, **cols, **{k: np.array(v) for k, v in site.items()})
     elif kind == "hdf5":
         try:
             import h5py
         except ImportError:
             raise OptinavError("writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv") from None
-        with h5py.File(path, "w") as fh:
+        with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
             for k, v in cols.items():
                 ds = fh.create_dataset(k, data=np.asarray(v, float))
                 ds.attrs["unit"] = {"time": "s", "dv_x": "m/s", "dv_y": "m/s", "dv_z": "m/s"}.get(k, "rad")
@@ -57,7 +59,7 @@ def write_rins(path, data: RinsData) -> Path:
         table = np.column_stack([cols[c] for c in COLUMNS])
         header = (f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
                   "units: time=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS))
-        np.savetxt(path, table, delimiter=",", header=header, comments="# ", fmt="%.17g")
+        write_csv(path, table, header, comments="# ")
     return path
 
 

@@ -82,6 +82,36 @@ def check_data(data) -> None:
                                    "interpolate the encoder angles to the IMU epochs (sample-rate mismatch)")
 
 
+#: smallest latitude disagreement (deg) reported; gyro bias of a navigation-grade IMU moves the measured
+#: latitude by far less (0.01 °/h against 15 °/h of Earth rate: 0.04°)
+LAT_TOL_DEG = 2.0
+
+
+def measured_latitude(dth, dv, span: float) -> tuple[float, float]:
+    """Latitude (rad) from the Earth rate the gyros see at rest: the angle between the mean rate and the
+    horizontal plane, up from the mean specific force; and its 1σ (rad) from the gyro noise (first differences of
+    the increments, so the constant Earth rate drops out). ``dth`` (rad), ``dv`` (m/s) over ``span`` seconds."""
+    w = dth.sum(0) / span
+    up = dv.sum(0) / np.linalg.norm(dv.sum(0))
+    w_up = float(w @ up)
+    w_h = float(np.linalg.norm(w - w_up * up))
+    noise = np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2) * np.sqrt(len(dth)) / span
+    return float(np.arctan2(w_up, w_h)), float(noise / _earth.WGS84.omega_ie)
+
+
+def latitude_check(dth, dv, span: float, lat: float) -> None:
+    """The declared latitude ``lat`` (rad) must agree with the one the gyros measure at rest (a wrong latitude
+    misplaces the Earth rate removed by the strapdown and every angle comes out wrong)."""
+    if not -np.pi / 2 <= lat <= np.pi / 2:
+        raise OptinavError(f"latitude {np.degrees(lat):.6g}° is outside [-90°, 90°]", "pass --lat DEG (north +)")
+    meas, sd = measured_latitude(dth, dv, span)
+    tol = max(np.radians(LAT_TOL_DEG), 5 * sd)
+    if sd < np.radians(10) and abs(meas - lat) > tol:
+        raise OptinavError(f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
+                           f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest",
+                           "check --lat (north positive) or the file's lat_deg")
+
+
 def _rest_rows(data, align_s) -> int:
     """Number of initial rows with both encoders still (capped to ``align_s`` seconds)."""
     moving = motion_mask(data.alpha) | motion_mask(data.beta)
@@ -112,6 +142,9 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     ep = np.concatenate([[t[0] - step], t[:k_a]])
     dth, dv = data.dtheta[:k_a], data.dv[:k_a]
     span = ep[-1] - ep[0]
+    # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
+    k_lat = max(2, k_a - int(round(2.0 / step)))
+    latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, data.lat)
     coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.h, "enu")
     if fine:
         al = fine_alignment(ep, dth, dv, data.lat, data.h, frame="enu", q0=coarse.q_b_n, gyro_white=5e-7,

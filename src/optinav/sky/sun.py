@@ -72,12 +72,13 @@ def _one_seconds(x) -> float:
 
 
 def _datetime64_seconds(a: np.ndarray) -> np.ndarray:
-    ns = a.astype("datetime64[ns]").astype(np.int64)
     if np.any(a != a):  # NaT
         raise OptinavError("time contains NaT values", "remove the missing times")
-    # split whole seconds and the fraction so that float rounding stays at the ns level
-    sec = np.floor_divide(ns, 1_000_000_000)
-    return sec.astype(float) + (ns - sec * 1_000_000_000) * 1e-9
+    # µs rather than ns: datetime64[ns] ends in 1677 and 2262, inside the SPA's years -2000..6000
+    us = a.astype("datetime64[us]").astype(np.int64)
+    # split whole seconds and the fraction so that float rounding stays at the µs level
+    sec = np.floor_divide(us, 1_000_000)
+    return sec.astype(float) + (us - sec * 1_000_000) * 1e-6
 
 
 def utc_seconds(time) -> np.ndarray:
@@ -158,8 +159,21 @@ def delta_t_espenak(decimal_year) -> np.ndarray:
     return out
 
 
+#: the years for which the SPA is valid (Reda & Andreas 2008, abstract: -2000 to 6000), as Unix seconds
+SPA_VALID_S = (float(np.datetime64("-2000-01-01T00:00:00", "s").astype(np.int64)),
+               float(np.datetime64("6001-01-01T00:00:00", "s").astype(np.int64)))
+
+
+def _check_valid_range(unix_seconds: np.ndarray) -> None:
+    bad = (unix_seconds < SPA_VALID_S[0]) | (unix_seconds >= SPA_VALID_S[1])
+    if np.any(bad):
+        t = np.floor(unix_seconds[bad][0]).astype(np.int64).astype("datetime64[s]")
+        raise OptinavError(f"time {t}Z is outside the years -2000 to 6000 for which the SPA is valid",
+                           "pass a time within -2000..6000")
+
+
 def _decimal_year(unix_seconds: np.ndarray) -> np.ndarray:
-    d = (unix_seconds * 1e9).astype("datetime64[ns]")  # ns precision is ample for a month index
+    d = np.floor(unix_seconds).astype(np.int64).astype("datetime64[s]")  # seconds are ample for a month index
     year = d.astype("datetime64[Y]").astype(np.int64) + 1970
     month = d.astype("datetime64[M]").astype(np.int64) % 12 + 1
     return year + (month - 0.5) / 12.0
@@ -340,8 +354,8 @@ class SolarPosition(Result):
 
     @property
     def time(self) -> np.ndarray:
-        """The times as datetime64[ns] (UTC)."""
-        return np.round(np.asarray(self.unix_time) * 1e9).astype("datetime64[ns]")
+        """The times as datetime64[us] (UTC; µs, not ns, so that years -2000..6000 fit)."""
+        return np.round(np.asarray(self.unix_time) * 1e6).astype(np.int64).astype("datetime64[us]")
 
 
 def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
@@ -386,6 +400,7 @@ def solar_position(time, lat, lon, height=0.0, *, pressure=None, temperature=285
     secs = utc_seconds(time)
     shape = secs.shape
     s = secs.ravel()
+    _check_valid_range(s)
     if delta_t is None:
         dts = delta_t_espenak(_decimal_year(s))
     else:

@@ -1,0 +1,355 @@
+"""numba core of the ``iframe`` estimator (private; the API is :mod:`optinav.attitude.iframe`).
+
+One scalar step :func:`step` per sample on a flat ``state`` array (the streaming filter calls it directly, the
+batch loop :func:`run` calls it N times), so batch and streaming are the same arithmetic. Design after VQF
+(Laidig & Seel, Information Fusion 91, 2023): the gyro strapdown q_g = q_b^I defines an almost-inertial frame
+I, where gravity is nearly constant while the body rotates; the accelerometer is low-passed there (second-order
+Butterworth, bilinear with pre-warping, time constant ``tau_acc``), and a tilt correction q_c = q_I^n' turns
+the low-passed specific force onto the vertical. A heading correction δ about the vertical (magnetometer)
+completes q_b^n = R_up(δ) ⊗ q_c ⊗ q_g. The gyro bias is a 3-state Kalman filter fed by detected rest (H = I)
+and, in motion, by the tilt-correction rate (its horizontal part equals −C_b^n δb through the low-pass).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+_NJ = dict(cache=True, nogil=True, fastmath=False)
+
+# --- state layout ---------------------------------------------------------------------------------------------
+S_QG, S_QC, S_DELTA, S_BIAS, S_P = 0, 4, 8, 9, 12   # q_g (4), q_c (4), δ (1), bias (3), P bias (9)
+S_LP = 21                                            # Butterworth memory: x1, x2, y1, y2 per axis (12)
+S_DT = 33                                            # dt of the cached coefficients, then b0, b1, a1, a2 (4)
+S_RG, S_RA = 38, 41                                  # rest low-pass of gyr (3) and acc (3)
+S_REST_T, S_REST = 44, 45                            # time at rest so far (s), rest flag
+S_M_NORM, S_M_DIP, S_M_REF_T = 46, 47, 48            # magnetic reference: norm (µT or any), dip (rad), time
+S_M_DIST_T, S_M_C_NORM, S_M_C_DIP = 49, 50, 51       # time disturbed, candidate norm, candidate dip
+S_M_INIT = 52                                        # 1 once δ was set from the first usable mag sample
+S_INIT = 53                                          # 1 once the first sample initialized the state
+S_ACC_USED, S_MAG_USED, S_BIAS_MOTION = 54, 55, 56   # last sample's flags (1/0)
+S_Q = 57                                             # output q_b^n (4)
+S_TIME = 61                                          # time since start (s)
+S_RDT = 62                                           # dt of the cached rest coefficients, then α (1)
+S_LPC = 64                                           # Butterworth memory of C_b^I (9 entries × 4)
+STATE_SIZE = 100
+
+# --- parameter layout (all SI: s, rad, rad/s, m/s², relative) ------------------------------------------------
+P_TAU_ACC, P_REST_TAU, P_REST_GYR, P_REST_ACC, P_REST_TIME = 0, 1, 2, 3, 4
+P_BIAS_SIGMA0, P_BIAS_RW, P_BIAS_REST, P_BIAS_MOTION, P_BIAS_CLIP = 5, 6, 7, 8, 9
+P_MOTION_MAX_GYR, P_MOTION_MAX_ACC, P_GRAVITY = 10, 11, 12
+P_TAU_MAG, P_MAG_NORM_TH, P_MAG_DIP_TH, P_MAG_NEW_TIME, P_TAU_MAG_REF = 13, 14, 15, 16, 17
+P_UP, P_NORTH = 18, 21                               # unit up and north of the navigation frame
+PAR_SIZE = 24
+
+
+@numba.njit(**_NJ)
+def _qmul(p0, p1, p2, p3, r0, r1, r2, r3):
+    return (p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3, p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2,
+            p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1, p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0)
+
+
+@numba.njit(**_NJ)
+def _rot(q0, q1, q2, q3, x, y, z):
+    """C(q)·v for a unit quaternion q."""
+    tx = 2.0 * (q2 * z - q3 * y)
+    ty = 2.0 * (q3 * x - q1 * z)
+    tz = 2.0 * (q1 * y - q2 * x)
+    return (x + q0 * tx + q2 * tz - q3 * ty, y + q0 * ty + q3 * tx - q1 * tz, z + q0 * tz + q1 * ty - q2 * tx)
+
+
+@numba.njit(**_NJ)
+def _rotvec_q(vx, vy, vz):
+    a = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if a < 1e-8:
+        s = 0.5 - a * a / 48.0
+        return 1.0 - a * a / 8.0, s * vx, s * vy, s * vz
+    s = math.sin(0.5 * a) / a
+    return math.cos(0.5 * a), s * vx, s * vy, s * vz
+
+
+@numba.njit(**_NJ)
+def _store_q(st, k, q0, q1, q2, q3):
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    st[k] = q0 / n
+    st[k + 1] = q1 / n
+    st[k + 2] = q2 / n
+    st[k + 3] = q3 / n
+
+
+@numba.njit(**_NJ)
+def _butter(st, par, h):
+    """Second-order Butterworth low-pass coefficients for step h, cached in the state (rate-independent:
+    cutoff f_c = √2/(2π τ) with τ = ``tau_acc``)."""
+    if st[S_DT] != h:
+        fc = math.sqrt(2.0) / (2.0 * math.pi * par[P_TAU_ACC])
+        k = math.tan(math.pi * min(fc * h, 0.49))
+        nrm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+        b0 = k * k * nrm
+        st[S_DT] = h
+        st[S_DT + 1] = b0
+        st[S_DT + 2] = 2.0 * b0
+        st[S_DT + 3] = 2.0 * (k * k - 1.0) * nrm
+        st[S_DT + 4] = (1.0 - math.sqrt(2.0) * k + k * k) * nrm
+
+
+@numba.njit(**_NJ)
+def _lp(st, j, x, base=S_LP):
+    """One Butterworth step (direct form I) on channel j of the memory at ``base``."""
+    m = base + 4 * j
+    b0, b1, a1, a2 = st[S_DT + 1], st[S_DT + 2], st[S_DT + 3], st[S_DT + 4]
+    y = b0 * x + b1 * st[m] + b0 * st[m + 1] - a1 * st[m + 2] - a2 * st[m + 3]
+    st[m + 1] = st[m]
+    st[m] = x
+    st[m + 3] = st[m + 2]
+    st[m + 2] = y
+    return y
+
+
+@numba.njit(**_NJ)
+def _bias_update(st, h0, h1, h2, z, r, clip):
+    """Scalar Kalman update of the gyro bias with row h, residual z (rad/s), variance r; bias clipped."""
+    P = st[S_P:S_P + 9]
+    ph0 = P[0] * h0 + P[1] * h1 + P[2] * h2
+    ph1 = P[3] * h0 + P[4] * h1 + P[5] * h2
+    ph2 = P[6] * h0 + P[7] * h1 + P[8] * h2
+    s = r + h0 * ph0 + h1 * ph1 + h2 * ph2
+    k0, k1, k2 = ph0 / s, ph1 / s, ph2 / s
+    b = st[S_BIAS:S_BIAS + 3]
+    b[0] = min(max(b[0] + k0 * z, -clip), clip)
+    b[1] = min(max(b[1] + k1 * z, -clip), clip)
+    b[2] = min(max(b[2] + k2 * z, -clip), clip)
+    P[0] -= k0 * ph0
+    P[1] -= k0 * ph1
+    P[2] -= k0 * ph2
+    P[3] -= k1 * ph0
+    P[4] -= k1 * ph1
+    P[5] -= k1 * ph2
+    P[6] -= k2 * ph0
+    P[7] -= k2 * ph1
+    P[8] -= k2 * ph2
+
+
+@numba.njit(**_NJ)
+def _init(st, par, ax, ay, az):
+    """Level q_c from the first accelerometer sample unless q0 was put there (q_g = identity, δ = 0); fill the
+    filter memories."""
+    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
+    na = math.sqrt(ax * ax + ay * ay + az * az)
+    st[S_QG] = 1.0
+    st[S_QG + 1] = st[S_QG + 2] = st[S_QG + 3] = 0.0
+    given = st[S_QC] ** 2 + st[S_QC + 1] ** 2 + st[S_QC + 2] ** 2 + st[S_QC + 3] ** 2 > 0.0  # q0 passed
+    if not given and na > 0.0:
+        vx, vy, vz = ax / na, ay / na, az / na
+        # shortest rotation v → up
+        cx, cy, cz = vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux
+        c = vx * ux + vy * uy + vz * uz
+        if c < -0.999999:  # upside down: half turn about any horizontal axis
+            nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
+            _store_q(st, S_QC, 0.0, nx, ny, nz)
+        else:
+            _store_q(st, S_QC, 1.0 + c, cx, cy, cz)
+    elif not given:
+        st[S_QC] = 1.0
+        st[S_QC + 1] = st[S_QC + 2] = st[S_QC + 3] = 0.0
+    a = (ax, ay, az)
+    for j in range(3):
+        for k in range(4):
+            st[S_LP + 4 * j + k] = a[j]
+        st[S_RA + j] = a[j]
+        st[S_RG + j] = 0.0
+    for j in range(9):
+        for k in range(4):
+            st[S_LPC + 4 * j + k] = 1.0 if j % 4 == 0 else 0.0
+    st[S_DELTA] = 0.0
+    st[S_INIT] = 1.0
+
+
+@numba.njit(**_NJ)
+def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
+    """Advance one sample: gyr (rad/s), acc (m/s²), mag (any unit; NaN = none), step h (s). Writes q_b^n to
+    st[S_Q:S_Q+4] and the per-sample flags."""
+    if st[S_INIT] == 0.0:
+        _init(st, par, ax, ay, az)
+    st[S_TIME] += h
+    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
+    nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
+    wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
+    # --- rest detection: deviation from first-order low-passes, in physical units -----------------------
+    if st[S_RDT] != h:
+        st[S_RDT] = h
+        st[S_RDT + 1] = 1.0 - math.exp(-h / par[P_REST_TAU])
+    al = st[S_RDT + 1]
+    dg = 0.0
+    da = 0.0
+    g = (gx, gy, gz)
+    a = (ax, ay, az)
+    for j in range(3):
+        st[S_RG + j] += al * (g[j] - st[S_RG + j])
+        st[S_RA + j] += al * (a[j] - st[S_RA + j])
+        dg += (g[j] - st[S_RG + j]) ** 2
+        da += (a[j] - st[S_RA + j]) ** 2
+    rg2 = par[P_REST_GYR] ** 2
+    still = dg < rg2 and da < par[P_REST_ACC] ** 2
+    gl2 = st[S_RG] ** 2 + st[S_RG + 1] ** 2 + st[S_RG + 2] ** 2
+    clip = par[P_BIAS_CLIP]
+    if still and gl2 < (clip + par[P_REST_GYR]) ** 2:
+        st[S_REST_T] += h
+    else:
+        st[S_REST_T] = 0.0
+    rest = st[S_REST_T] >= par[P_REST_TIME]
+    st[S_REST] = 1.0 if rest else 0.0
+    # --- bias: random walk, rest measurement -------------------------------------------------------------
+    qrw = par[P_BIAS_RW] ** 2 * h
+    st[S_P] += qrw
+    st[S_P + 4] += qrw
+    st[S_P + 8] += qrw
+    if rest:
+        r = par[P_BIAS_REST] ** 2 / h
+        for j in range(3):
+            # a bias step (innovation beyond 3σ of the low-passed gyro) resets that axis to its prior σ
+            z = st[S_RG + j] - st[S_BIAS + j]
+            if z * z > 9.0 * (st[S_P + 4 * j] + par[P_BIAS_REST] ** 2 / par[P_REST_TAU]):
+                st[S_P + 4 * j] = max(st[S_P + 4 * j], par[P_BIAS_SIGMA0] ** 2, z * z)
+            hj0 = 1.0 if j == 0 else 0.0
+            hj1 = 1.0 if j == 1 else 0.0
+            hj2 = 1.0 if j == 2 else 0.0
+            _bias_update(st, hj0, hj1, hj2, st[S_RG + j] - st[S_BIAS + j], r, clip)
+    # --- gyro strapdown in the almost-inertial frame ------------------------------------------------------
+    bx, by, bz = st[S_BIAS], st[S_BIAS + 1], st[S_BIAS + 2]
+    d0, d1, d2, d3 = _rotvec_q((gx - bx) * h, (gy - by) * h, (gz - bz) * h)
+    q0, q1, q2, q3 = _qmul(st[S_QG], st[S_QG + 1], st[S_QG + 2], st[S_QG + 3], d0, d1, d2, d3)
+    _store_q(st, S_QG, q0, q1, q2, q3)
+    g0, g1, g2, g3 = st[S_QG], st[S_QG + 1], st[S_QG + 2], st[S_QG + 3]
+    # --- accelerometer low-passed in I, tilt correction ----------------------------------------------------
+    na = math.sqrt(ax * ax + ay * ay + az * az)
+    st[S_ACC_USED] = 0.0
+    st[S_BIAS_MOTION] = 0.0
+    c0, c1, c2, c3 = st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3]
+    if na > 0.0 and math.isfinite(na):
+        st[S_ACC_USED] = 1.0
+        _butter(st, par, h)
+        ix, iy, iz = _rot(g0, g1, g2, g3, ax, ay, az)
+        lx, ly, lz = _lp(st, 0, ix), _lp(st, 1, iy), _lp(st, 2, iz)
+        # C_b^I low-passed like the specific force: the correction rate responds to the bias through it
+        for col in range(3):
+            ex_ = 1.0 if col == 0 else 0.0
+            ey_ = 1.0 if col == 1 else 0.0
+            ez_ = 1.0 if col == 2 else 0.0
+            r0, r1, r2 = _rot(g0, g1, g2, g3, ex_, ey_, ez_)
+            _lp(st, col, r0, S_LPC)
+            _lp(st, 3 + col, r1, S_LPC)
+            _lp(st, 6 + col, r2, S_LPC)
+        nl = math.sqrt(lx * lx + ly * ly + lz * lz)
+        if nl > 0.0:
+            vx, vy, vz = _rot(c0, c1, c2, c3, lx / nl, ly / nl, lz / nl)
+            # rotation vector e that turns v onto up (e ⊥ up: the heading is untouched)
+            cx, cy, cz = vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux
+            sn = math.sqrt(cx * cx + cy * cy + cz * cz)
+            cs = vx * ux + vy * uy + vz * uz
+            ang = math.atan2(sn, cs)
+            if sn > 0.0:
+                f = ang / sn
+                ex, ey, ez = cx * f, cy * f, cz * f
+                e0, e1, e2, e3 = _rotvec_q(ex, ey, ez)
+                c0, c1, c2, c3 = _qmul(e0, e1, e2, e3, c0, c1, c2, c3)
+                _store_q(st, S_QC, c0, c1, c2, c3)
+                c0, c1, c2, c3 = st[S_QC], st[S_QC + 1], st[S_QC + 2], st[S_QC + 3]
+                # in motion: the correction rate is the horizontal projection of −C_b^n δb, as seen through
+                # the low-pass (rows of C(q_c)·LP(C_b^I))
+                gn = math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
+                if (not rest and par[P_BIAS_MOTION] > 0.0 and gn < par[P_MOTION_MAX_GYR]
+                        and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]):
+                    st[S_BIAS_MOTION] = 1.0
+                    r = par[P_BIAS_MOTION] ** 2 / h
+                    L = S_LPC
+                    for (px, py, pz) in ((nx, ny, nz), (wx, wy, wz)):
+                        jx, jy, jz = _rot(c0, -c1, -c2, -c3, px, py, pz)  # p into I
+                        hx = jx * st[L + 4 * 0 + 2] + jy * st[L + 4 * 3 + 2] + jz * st[L + 4 * 6 + 2]
+                        hy = jx * st[L + 4 * 1 + 2] + jy * st[L + 4 * 4 + 2] + jz * st[L + 4 * 7 + 2]
+                        hz = jx * st[L + 4 * 2 + 2] + jy * st[L + 4 * 5 + 2] + jz * st[L + 4 * 8 + 2]
+                        z = -(ex * px + ey * py + ez * pz) / h
+                        _bias_update(st, hx, hy, hz, z, r, clip)
+    # --- magnetometer heading ------------------------------------------------------------------------------
+    t0, t1, t2, t3 = _qmul(c0, c1, c2, c3, g0, g1, g2, g3)
+    st[S_MAG_USED] = 0.0
+    nm = math.sqrt(mx * mx + my * my + mz * mz)
+    if nm > 0.0 and math.isfinite(nm):
+        vx, vy, vz = _rot(t0, t1, t2, t3, mx, my, mz)
+        mn = vx * nx + vy * ny + vz * nz
+        mw = vx * wx + vy * wy + vz * wz
+        dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
+        phi = math.atan2(mw, mn)  # azimuth of the field, from north toward west (positive about up)
+        if st[S_M_REF_T] == 0.0:
+            st[S_M_NORM] = nm
+            st[S_M_DIP] = dip
+        ok = (abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM]
+              and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH])
+        if ok:
+            st[S_M_DIST_T] = 0.0
+            kr = h / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + h)
+            st[S_M_REF_T] += h
+            st[S_M_NORM] += kr * (nm - st[S_M_NORM])
+            st[S_M_DIP] += kr * (dip - st[S_M_DIP])
+            err = -phi - st[S_DELTA]
+            err = math.atan2(math.sin(err), math.cos(err))
+            if st[S_M_INIT] == 0.0:
+                st[S_DELTA] = -phi
+                st[S_M_INIT] = 1.0
+            else:
+                k = h / max(par[P_TAU_MAG], min(st[S_TIME], par[P_TAU_MAG]) + h)
+                st[S_DELTA] += k * err
+            st[S_MAG_USED] = 1.0
+        else:
+            # a new, steady field (moved to another place) becomes the reference after mag_new_time
+            if st[S_M_DIST_T] == 0.0:
+                st[S_M_C_NORM] = nm
+                st[S_M_C_DIP] = dip
+            kc = h / max(1.0, st[S_M_DIST_T] + h)
+            st[S_M_C_NORM] += kc * (nm - st[S_M_C_NORM])
+            st[S_M_C_DIP] += kc * (dip - st[S_M_C_DIP])
+            if (abs(nm - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
+                    and abs(dip - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]):
+                st[S_M_DIST_T] += h
+            else:
+                st[S_M_DIST_T] = 0.0
+            if st[S_M_DIST_T] > par[P_MAG_NEW_TIME]:
+                st[S_M_NORM] = st[S_M_C_NORM]
+                st[S_M_DIP] = st[S_M_C_DIP]
+                st[S_M_REF_T] = h
+                st[S_M_DIST_T] = 0.0
+    h0, h1, h2, h3 = _rotvec_q(st[S_DELTA] * ux, st[S_DELTA] * uy, st[S_DELTA] * uz)
+    o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, t0, t1, t2, t3)
+    _store_q(st, S_Q, o0, o1, o2, o3)
+
+
+@numba.njit(**_NJ)
+def run(st, par, gyr, acc, mag, dt, out, flags, bias):
+    """Batch loop over :func:`step`: out (N, 4) q_b^n; flags (N, 4) int8 rest, acc used, mag used, motion
+    bias update; bias (N, 3) rad/s. ``mag`` may have 0 rows (none); ``dt`` 1 or N entries."""
+    n = gyr.shape[0]
+    has_mag = mag.shape[0] == n
+    nan = np.nan
+    for i in range(n):
+        h = dt[i] if dt.shape[0] > 1 else dt[0]
+        if has_mag:
+            step(st, par, gyr[i, 0], gyr[i, 1], gyr[i, 2], acc[i, 0], acc[i, 1], acc[i, 2],
+                 mag[i, 0], mag[i, 1], mag[i, 2], h)
+        else:
+            step(st, par, gyr[i, 0], gyr[i, 1], gyr[i, 2], acc[i, 0], acc[i, 1], acc[i, 2], nan, nan, nan, h)
+        for k in range(4):
+            out[i, k] = st[S_Q + k]
+        flags[i, 0] = st[S_REST] != 0.0
+        flags[i, 1] = st[S_ACC_USED] != 0.0
+        flags[i, 2] = st[S_MAG_USED] != 0.0
+        flags[i, 3] = st[S_BIAS_MOTION] != 0.0
+        for k in range(3):
+            bias[i, k] = st[S_BIAS + k]
+
+
+@numba.njit(**_NJ)
+def step6(st, par, g, a, h):
+    """:func:`step` with gyr and acc as 3-sequences (arrays or tuples) and no magnetometer."""
+    step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)

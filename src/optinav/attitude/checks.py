@@ -1,0 +1,135 @@
+"""Physics checks of attitude inputs before any estimate: time gaps, units, swapped triads, clipping, frame.
+
+Each failed check ends in an :class:`OptinavError` naming the cause and the CLI flag that helps (no silently
+wrong attitude); the frame check warns once (an upside-down start is possible).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from optinav.core.units import G_STANDARD
+from optinav.errors import OptinavError
+
+__all__ = ["find_gaps", "check_imu", "check_aop", "check_frame", "FrameWarning"]
+
+#: a step this many times the median step (and longer than MIN_GAP_S) is a gap
+GAP_FACTOR = 5.0
+MIN_GAP_S = 0.5
+
+
+class FrameWarning(UserWarning):
+    """The accelerometer at rest contradicts the chosen navigation frame."""
+
+
+def find_gaps(dts: np.ndarray) -> np.ndarray:
+    """Indices i whose step dt[i] (from sample i−1, s) is a time gap: > GAP_FACTOR × median and > MIN_GAP_S."""
+    if dts.shape[0] < 3:
+        return np.zeros(0, dtype=np.int64)
+    med = float(np.median(dts[1:]))
+    return np.flatnonzero((dts > GAP_FACTOR * med) & (dts > MIN_GAP_S))
+
+
+#: gyro unit factors tried against the declared rad/s: deg/s declared rad/s, rad/s declared deg/s
+_SCALES = {1.0: "", np.pi / 180: "deg/s declared rad/s: --gyro-unit deg/s",
+           180 / np.pi: "rad/s declared deg/s: --gyro-unit rad/s"}
+
+
+def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float) -> float:
+    """RMS angle (rad) between the specific force carried into the gyro-integrated frame and its 2-s moving
+    mean: small when the gyro (× scale) explains how gravity turns in the body, whatever the translation."""
+    from optinav.core.rotations import quat_rotate
+    from optinav.core.strapdown import attitude_update
+
+    h = dts[:, None] if dts.shape[0] > 1 else dts[0]
+    q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h * scale, coning="none")[1:]
+    a_i = quat_rotate(q, acc)
+    w = max(2, int(round(2.0 / float(np.median(dts)))))
+    if a_i.shape[0] <= w:
+        w = max(2, a_i.shape[0] // 2)
+    c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
+    m = (c[w:] - c[:-w]) / w
+    x = a_i[w // 2: w // 2 + m.shape[0]]
+    cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
+    return float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
+
+
+def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> str:
+    """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint."""
+    k = min(gyr.shape[0], 200_000)
+    g, a, d = gyr[:k], acc[:k], dts[:k] if dts.shape[0] > 1 else dts
+    if np.max(np.linalg.norm(g, axis=1)) * max(_SCALES) * float(np.median(d)) * k < 0.5:
+        return ""  # too little rotation to tell
+    spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
+    best = min(spread, key=spread.get)
+    return _SCALES[best] if best != 1.0 and spread[1.0] > 2.0 * spread[best] + 0.02 else ""
+
+
+def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None) -> None:
+    """Refuse inputs whose magnitudes contradict their declared units (acc m/s², gyr rad/s), swapped triads and
+    a clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if known."""
+    na = np.linalg.norm(acc, axis=1)
+    ng = np.linalg.norm(gyr, axis=1)
+    med_a, med_g = float(np.median(na)), float(np.median(ng))
+    if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
+        raise OptinavError(f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the "
+                           "two triads look swapped", "check the column order of --columns (t,ax,ay,az,gx,gy,gz)")
+    if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
+        unit = "g" if 0.3 < med_a < 3 else "another unit"
+        raise OptinavError(f"the accelerometer's median norm is {med_a:.3g} m/s², not about 9.8: it looks like "
+                           f"{unit}", "declare the unit with --acc-unit (g, mg, m/s^2)")
+    peak = float(np.max(ng))
+    if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
+        raise OptinavError(f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
+                           "declare the unit with --gyro-unit deg/s")
+    hint = _gyro_unit_hint(gyr, acc, dts)
+    if hint:
+        raise OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
+                           "π/180 does", f"it looks like {hint}")
+    _check_clipping(gyr, gyro_range)
+
+
+def _check_clipping(gyr: np.ndarray, gyro_range: float | None) -> None:
+    """A saturated axis sits at one extreme value for several consecutive samples."""
+    for k in range(3):
+        x = gyr[:, k]
+        for sgn in (1.0, -1.0):
+            m = float(np.max(sgn * x))
+            if m < 1.0 and gyro_range is None:  # < 57 °/s: no realistic range saturates there
+                continue
+            at = sgn * x >= m - 1e-9 * max(m, 1.0)
+            if gyro_range is not None:
+                at |= sgn * x >= 0.999 * gyro_range
+            runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))))[::2]
+            if runs.size and int(runs.max()) >= 3:
+                raise OptinavError(f"gyro axis {'xyz'[k]} is clipped at {sgn * m:.4g} rad/s "
+                                   f"({int(at.sum())} samples at the limit, up to {int(runs.max())} in a row)",
+                                   "record with a larger gyro range; no attitude is reliable through saturation")
+
+
+def check_aop(aop: np.ndarray) -> None:
+    """AoP in rad lies in [−π, π]; values beyond 2π are degrees declared rad."""
+    a = aop[np.isfinite(aop)]
+    if a.size and float(np.max(np.abs(a))) > 2 * np.pi:
+        raise OptinavError(f"the angle of polarization reaches {float(np.max(np.abs(a))):.1f}, beyond 2π rad: it "
+                           "looks like degrees declared rad", "declare the unit with --aop-unit deg")
+
+
+def check_frame(acc: np.ndarray, frame: str) -> None:
+    """Warn once when the first second's specific force (a body at rest reads +g along body up) contradicts the
+    frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g)."""
+    a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
+    na = float(np.linalg.norm(a))
+    if na == 0 or not np.isfinite(na):
+        return
+    z = a[2] / na
+    if frame == "NED" and z > 0.9:
+        warnings.warn("the accelerometer reads +g along body z at the start: that is an up-pointing z "
+                      "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')",
+                      FrameWarning, stacklevel=3)
+    elif frame == "ENU" and z < -0.9:
+        warnings.warn("the accelerometer reads −g along body z at the start: that is a down-pointing z "
+                      "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')",
+                      FrameWarning, stacklevel=3)

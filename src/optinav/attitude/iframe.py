@@ -1,0 +1,224 @@
+"""``iframe``: attitude from gyro + accelerometer (+ magnetometer) filtered in an almost-inertial frame.
+
+After VQF (Laidig & Seel, "VQF: Highly accurate IMU orientation estimation with bias estimation and magnetic
+disturbance rejection", Information Fusion 91, 2023); written here from the paper's ideas:
+
+* the bias-corrected gyro strapdown q_g = q_b^I defines an almost-inertial frame I in which gravity is
+  nearly constant; the specific force is low-passed there (second-order Butterworth, time constant
+  ``tau_acc`` s, independent of the sampling rate), so a horizontal acceleration that averages out over
+  ``tau_acc`` does not tilt the estimate, whatever its norm;
+* the tilt correction q_c turns the low-passed specific force onto the vertical: q_b^n = R_up(δ) ⊗ q_c ⊗ q_g;
+* rest is detected from the deviation of gyro and accelerometer from their low-passes (thresholds in rad/s and
+  m/s² over ``rest_time`` s); a 3-state Kalman filter estimates the gyro bias from rest (all three axes) and,
+  in motion, from the tilt-correction rate (its horizontal part is −C_b^n δb, so rotations reveal every
+  axis); the bias is clipped at ``bias_clip``;
+* the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
+  a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
+  gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
+* offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
+  recording started from the forward end state (so its bias has seen the whole recording), and the two
+  estimates fused (mean of the error rotation): the forward pass lags the low-pass, the backward pass leads.
+
+Frames: ``q`` = q_b^n [w, x, y, z]; ``frame`` NED or ENU (the up and north vectors are the only frame input,
+so the estimator is frame-equivariant).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from optinav.attitude import _iframe as _k
+from optinav.errors import OptinavError
+
+__all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "IframeRun", "run_iframe", "input_stage"]
+
+_D2R = np.pi / 180.0
+
+#: options of ``method="iframe"`` (SI units: s, rad, rad/s, m/s²; ``mag_norm_th`` relative)
+IFRAME_DEFAULTS: dict[str, float] = {
+    "tau_acc": 4.0,                  # s, accelerometer low-pass time constant in the almost-inertial frame
+    "rest_tau": 0.5,                 # s, low-pass of the rest detector
+    "rest_gyr": 2.0 * _D2R,          # rad/s, max gyro deviation at rest
+    "rest_acc": 0.5,                 # m/s², max accelerometer deviation at rest
+    "rest_time": 1.5,                # s, minimum still time before rest is declared
+    "bias_sigma0": 0.5 * _D2R,       # rad/s, initial bias σ
+    "bias_rw": 0.003 * _D2R,         # rad/s/√s, bias random walk
+    "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
+    "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
+    "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
+    "motion_max_gyr": 2.0,           # rad/s, no motion bias update above this rate
+    "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
+    "gravity": 9.81,                 # m/s²
+    "tau_mag": 10.0,                 # s, heading correction time constant
+    "mag_norm_th": 0.05,             # relative deviation of |m| from the reference
+    "mag_dip_th": 5.0 * _D2R,        # rad, deviation of the dip angle from the reference
+    "mag_new_time": 20.0,            # s, a steady new field becomes the reference after this time
+    "tau_mag_ref": 30.0,             # s, averaging time of the learned reference
+}
+_ORDER = ("tau_acc", "rest_tau", "rest_gyr", "rest_acc", "rest_time", "bias_sigma0", "bias_rw", "bias_rest",
+          "bias_motion", "bias_clip", "motion_max_gyr", "motion_max_acc", "gravity", "tau_mag", "mag_norm_th",
+          "mag_dip_th", "mag_new_time", "tau_mag_ref")
+_POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
+
+_NORTH = {"NED": np.array([1.0, 0.0, 0.0]), "ENU": np.array([0.0, 1.0, 0.0])}
+_UP = {"NED": np.array([0.0, 0.0, -1.0]), "ENU": np.array([0.0, 0.0, 1.0])}
+
+
+def _params(frame: str, opts: dict) -> np.ndarray:
+    for k in _POSITIVE:
+        if not opts[k] > 0:
+            raise OptinavError(f"option {k}={opts[k]!r} must be > 0", f"pass a positive {k}")
+    p = np.zeros(_k.PAR_SIZE)
+    p[:len(_ORDER)] = [opts[k] for k in _ORDER]
+    p[_k.P_UP:_k.P_UP + 3] = _UP[frame]
+    p[_k.P_NORTH:_k.P_NORTH + 3] = _NORTH[frame]
+    return p
+
+
+def _new_state(opts: dict, q0=None) -> np.ndarray:
+    st = np.zeros(_k.STATE_SIZE)
+    st[_k.S_P:_k.S_P + 9] = (np.eye(3) * opts["bias_sigma0"] ** 2).ravel()
+    if q0 is not None:
+        # start from q0: q_g = identity, q_c = q0 without heading (δ carries it); filter memories from acc[0]
+        st[_k.S_QC:_k.S_QC + 4] = q0
+    return st
+
+
+@dataclass
+class IframeRun:
+    """Per-sample outputs of the ``iframe`` estimator."""
+
+    q: np.ndarray          # (N, 4) q_b^n
+    rest: np.ndarray       # (N,) bool
+    acc_used: np.ndarray   # (N,) bool
+    mag_used: np.ndarray   # (N,) bool
+    bias: np.ndarray       # (N, 3) rad/s
+    state: np.ndarray      # final state
+
+
+def _run(st, par, gyr, acc, mag, dts) -> IframeRun:
+    n = gyr.shape[0]
+    out = np.empty((n, 4))
+    flags = np.empty((n, 4), np.int8)
+    bias = np.empty((n, 3))
+    _k.run(st, par, gyr, acc, mag, dts, out, flags, bias)
+    f = flags.astype(bool)
+    return IframeRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st)
+
+
+def _reverse(gyr, acc, mag, dts):
+    """Time-reversed inputs: reversed step k goes from sample N−k to N−1−k with −ω_{N−k} over dt_{N−k}."""
+    n = gyr.shape[0]
+    g = np.empty_like(gyr)
+    g[0] = 0.0
+    g[1:] = -gyr[:0:-1]
+    d = dts if dts.shape[0] == 1 else np.concatenate([dts[-1:], dts[:0:-1]])
+    return g, acc[::-1].copy(), (mag[::-1].copy() if mag.shape[0] else mag), np.ascontiguousarray(d)
+
+
+def _fuse(qf, qb):
+    """Mean of two attitude estimates: exp(½·log(q_b ⊗ q_f*)) ⊗ q_f."""
+    from optinav.core.rotations import quat_conjugate, quat_from_rotvec, quat_multiply, rotvec_from_quat
+
+    r = rotvec_from_quat(quat_multiply(qb, quat_conjugate(qf)))
+    return quat_multiply(quat_from_rotvec(0.5 * r), qf)
+
+
+def run_iframe(gyr, acc, dts, *, mag=None, frame: str = "NED", q0=None, offline: bool = False,
+               **options) -> IframeRun:
+    """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
+    None. Options override :data:`IFRAME_DEFAULTS`."""
+    opts = dict(IFRAME_DEFAULTS)
+    opts.update(options)
+    par = _params(frame, opts)
+    m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
+    fwd = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+    if not offline:
+        return fwd
+    bwd = _run(fwd.state.copy(), par, *_reverse(gyr, acc, m, dts))
+    qb = bwd.q[::-1]
+    q = _fuse(fwd.q, qb)
+    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1],
+                     0.5 * (fwd.bias + bwd.bias[::-1]), fwd.state)
+
+
+def input_stage(gyr, acc, dts, frame: str = "NED", **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
+    """The iframe front end for other estimators: bias-corrected gyro (rad/s) and the specific force low-passed
+    in the almost-inertial frame, expressed back in body axes (m/s²)."""
+    from optinav.core.rotations import quat_rotate, quat_conjugate
+
+    r = run_iframe(gyr, acc, dts, frame=frame, **options)
+    # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
+    # the measured norm's low-pass so the published methods' norm checks still see the dynamics
+    up = _UP[frame]
+    acc_f = quat_rotate(quat_conjugate(r.q), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
+    return gyr - r.bias, acc_f, r
+
+
+class AttitudeFilter:
+    """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
+
+    ``rate_hz`` or ``dt`` (s) gives the default step. After each update: :attr:`q` (q_b^n), :attr:`rest`,
+    :attr:`bias` (rad/s), :attr:`acc_used`, :attr:`mag_used`. :meth:`update_batch` runs chunks with the same
+    arithmetic as :func:`optinav.attitude.estimate`.
+    """
+
+    def __init__(self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = "NED", q0=None,
+                 **options):
+        from optinav.attitude.estimators import _as_q0, _frame, _options
+
+        self.frame = _frame(frame)
+        self.options = _options("iframe", options)
+        if dt is None and rate_hz is not None:
+            dt = 1.0 / float(rate_hz)
+        if dt is not None and not (np.isfinite(dt) and dt > 0):
+            raise OptinavError(f"dt={dt!r} must be a positive step in s", "pass rate_hz or dt > 0")
+        self.dt = dt
+        self._par = _params(self.frame, self.options)
+        self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
+        self._step = _k.step
+        self._step6 = _k.step6
+
+    def update(self, gyr, acc, mag=None, dt=None) -> None:
+        """One sample: gyr (3,) rad/s, acc (3,) m/s², mag (3,) or None, dt s (default: the filter's); then read
+        :attr:`q`, :attr:`rest`, ... Inputs go to the compiled step unchecked (speed): pass finite floats."""
+        h = self.dt if dt is None else dt
+        if h is None or not h > 0:
+            raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
+        if mag is None:
+            self._step6(self._state, self._par, gyr, acc, h)
+        else:
+            self._step(self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1],
+                       mag[2], h)
+
+    def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
+        """A chunk (N, 3) of samples; dt scalar, (N,) or None (the filter's). Per-sample outputs."""
+        from optinav.attitude.estimators import _as_dt, _checked_imu
+
+        g, a, m = _checked_imu(gyr, acc, mag)
+        h = self.dt if dt is None else dt
+        if h is None:
+            raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
+        return _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
+
+    @property
+    def q(self) -> np.ndarray:
+        return self._state[_k.S_Q:_k.S_Q + 4].copy()
+
+    @property
+    def rest(self) -> bool:
+        return bool(self._state[_k.S_REST])
+
+    @property
+    def bias(self) -> np.ndarray:
+        return self._state[_k.S_BIAS:_k.S_BIAS + 3].copy()
+
+    @property
+    def acc_used(self) -> bool:
+        return bool(self._state[_k.S_ACC_USED])
+
+    @property
+    def mag_used(self) -> bool:
+        return bool(self._state[_k.S_MAG_USED])

@@ -1,0 +1,248 @@
+"""Writing output files safely: one atomic writer for every output, and inputs that are never overwritten.
+
+Every file optinav writes goes through :func:`atomic_path` (or the helpers built on it): a unique temporary file
+in the target's folder, written, fsynced and renamed over the target with :func:`os.replace`, so a reader sees
+the old file or the new one, never half of one; on failure the temporary file is removed and the OS error
+becomes a one-line :class:`OptinavError` naming the path and the cause. ``os.replace`` replaces a symlink at the
+target rather than following it.
+
+The CLI registers the files a command reads with :func:`protect_inputs`; while they are registered, any write
+that would land on one of them (same path, symlink or hard link) is refused, so ``--out`` equal to an input
+cannot destroy it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterable, Iterator
+
+from optinav.errors import OptinavError
+
+#: (st_dev, st_ino) → path as given, of the files the running command reads
+_PROTECTED: dict[tuple[int, int], str] = {}
+
+_CAUSES = {
+    errno.EROFS: "the file system is read-only",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.ENOSPC: "no space left on the device",
+    errno.EFBIG: "the file-size limit was reached (disk full or ulimit -f)",
+    errno.EDQUOT: "the disk quota is exceeded",
+    errno.EISDIR: "it is a folder",
+    errno.ENOTDIR: "a part of its folder path is a file",
+    errno.ENOENT: "its folder does not exist",
+    errno.ENAMETOOLONG: "the name is too long",
+}
+
+
+def describe(exc: OSError) -> str:
+    """The cause of an OS error in words ("the file system is read-only", ...)."""
+    return _CAUSES.get(exc.errno or -1) or (exc.strerror or type(exc).__name__)
+
+
+def os_error(path, exc: OSError, option: str = "--out") -> OptinavError:
+    """The one-line error for an OS failure while writing ``path``."""
+    return OptinavError(f"cannot write {path}: {describe(exc)}", f"choose a writable {option} with free space")
+
+
+def _key(path) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+@contextlib.contextmanager
+def protect_inputs(paths: Iterable) -> Iterator[None]:
+    """While active, refuse every write onto one of ``paths`` (existing regular files; others are ignored)."""
+    added = []
+    for p in paths:
+        k = _key(p)
+        if k is not None and os.path.isfile(p) and k not in _PROTECTED:
+            _PROTECTED[k] = str(p)
+            added.append(k)
+    try:
+        yield
+    finally:
+        for k in added:
+            _PROTECTED.pop(k, None)
+
+
+def input_at(path) -> str | None:
+    """The protected input that ``path`` would overwrite (same file, symlink or hard link), else None."""
+    k = _key(path)
+    return _PROTECTED.get(k) if k is not None else None
+
+
+def check_output(path, option: str = "--out") -> Path:
+    """Check before any work that ``path`` can be written: not an input, not a folder, its folder exists,
+    is a folder and is writable. Returns ``path`` as a :class:`Path`."""
+    out = Path(path)
+    src = input_at(out)
+    if src is not None:
+        raise OptinavError(f"{option} {out} is the input {src}: writing it would destroy the input",
+                           f"choose another {option}")
+    if out.is_dir():
+        raise OptinavError(f"{option} {out} is a folder", f"give a file name for {option}")
+    parent = out.parent
+    if not parent.exists():
+        # a regular file somewhere up the path makes it "does not exist" too; say which
+        for up in parent.parents:
+            if up.exists():
+                if not up.is_dir():
+                    raise OptinavError(f"the folder of {option} ({parent}) lies below the file {up}",
+                                       f"choose another {option}")
+                break
+        raise OptinavError(f"the folder of {option} ({parent}) does not exist", "create it first")
+    if not parent.is_dir():
+        raise OptinavError(f"the folder of {option} ({parent}) is a file", f"choose another {option}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OptinavError(f"cannot write {out}: the folder {parent} is not writable", f"choose a writable {option}")
+    return out
+
+
+@contextlib.contextmanager
+def atomic_path(path, option: str = "--out") -> Iterator[Path]:
+    """Yield a unique temporary path beside ``path`` (same suffix, so format-by-suffix writers work); when the
+    block ends without error the file is fsynced and renamed to ``path``, otherwise removed. OS errors become
+    a one-line :class:`OptinavError`; a protected input at ``path`` is refused."""
+    path = Path(path)
+    src = input_at(path)
+    if src is not None:
+        raise OptinavError(f"{option} {path} is the input {src}: writing it would destroy the input",
+                           f"choose another {option}")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
+        os.close(fd)
+    except OSError as exc:
+        raise os_error(path, exc, option) from None
+    tmp = Path(tmp)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        # mkstemp makes the file private (0600); give it the permissions an ordinary new file would get
+        try:
+            mode = os.stat(path).st_mode & 0o777
+        except OSError:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise os_error(path, exc, option) from None
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_open(path, mode: str = "w", option: str = "--out", **kwargs) -> Iterator:
+    """:func:`atomic_path` opened as a file (``mode`` "w" or "wb"; text defaults to UTF-8)."""
+    if "b" not in mode:
+        kwargs.setdefault("encoding", "utf-8")
+    with atomic_path(path, option) as tmp:
+        try:
+            with open(tmp, mode, **kwargs) as fh:
+                yield fh
+        except OSError as exc:
+            raise os_error(path, exc, option) from None
+
+
+def write_text(path, text: str, option: str = "--out") -> Path:
+    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    with atomic_open(path, "w", option, newline="\n") as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def write_json(path, data, option: str = "--out", **kwargs) -> Path:
+    """Write ``data`` as indented JSON (strict: no NaN) to ``path`` atomically."""
+    return write_text(path, json.dumps(data, indent=2, allow_nan=False, **kwargs) + "\n", option)
+
+
+def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "", delimiter: str = ",",
+              option: str = "--out") -> Path:
+    """Write a 2-D numeric ``table`` as delimited text with ``header`` (lines prefixed by ``comments``)
+    atomically."""
+    import numpy as np
+
+    with atomic_open(path, "w", option, newline="\n") as fh:
+        np.savetxt(fh, table, delimiter=delimiter, header=header, comments=comments, fmt=fmt)
+    return Path(path)
+
+
+def check_sidecar(path, signature: str, option: str = "--out") -> Path:
+    """A file written beside the main output (e.g. ``x.truth.json``): refuse to replace an existing file that
+    does not start with ``signature`` (i.e. one optinav did not write), and any protected input."""
+    p = Path(path)
+    src = input_at(p)
+    if src is not None:
+        raise OptinavError(f"{p} (written beside {option}) is the input {src}", f"choose another {option}")
+    if p.is_dir():
+        raise OptinavError(f"{p} (written beside {option}) is a folder", f"choose another {option}")
+    if p.exists():
+        try:
+            with open(p, "rb") as fh:
+                head = fh.read(len(signature.encode()) + 64)
+        except OSError:
+            head = b""
+        if not head.lstrip().startswith(signature.encode()):
+            raise OptinavError(f"{p} exists and was not written by optinav; writing beside {option} would replace it",
+                               f"move it away or choose another {option}")
+    return p
+
+
+# --- reading small text inputs (results, configurations, section lists) -----------------------------------
+
+#: deeper JSON than this is not something optinav wrote (its files nest a few levels)
+MAX_JSON_DEPTH = 64
+
+
+def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
+    """The UTF-8 text of ``path``; a missing file, a folder, an OS error or bytes that are not UTF-8 become a
+    one-line :class:`OptinavError` naming ``what``."""
+    p = Path(path)
+    if p.is_dir():
+        raise OptinavError(f"{what} {p} is a folder", "pass a file")
+    if not p.is_file():
+        raise OptinavError(f"{what} {p} does not exist", remedy)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise OptinavError(f"cannot read {what} {p}: {exc.strerror or exc}", "check the file's permissions") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise OptinavError(f"{what} {p} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+                           "pass the text file optinav or your tool wrote, saved as UTF-8") from None
+
+
+def parse_json(text: str, src: str, remedy: str):
+    """``json.loads(text)`` with every parser failure (syntax, nesting deeper than :data:`MAX_JSON_DEPTH`,
+    numbers too long to convert) as a one-line :class:`OptinavError` naming ``src``."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise OptinavError(f"{src} is not valid JSON ({exc.msg} at line {exc.lineno})", remedy) from None
+    except RecursionError:
+        raise OptinavError(f"{src} is JSON nested too deeply to read", remedy) from None
+    except ValueError as exc:  # e.g. an integer literal with thousands of digits
+        raise OptinavError(f"{src} is not readable JSON ({' '.join(str(exc).split())[:80]})", remedy) from None
+    stack = [(data, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_JSON_DEPTH:
+            raise OptinavError(f"{src} is JSON nested more than {MAX_JSON_DEPTH} levels deep", remedy)
+        if isinstance(node, dict):
+            stack.extend((v, depth + 1) for v in node.values())
+        elif isinstance(node, list):
+            stack.extend((v, depth + 1) for v in node)
+    return data

@@ -1,0 +1,157 @@
+"""Quality gates of a multi-position calibration: a fit that fails one ends in a one-line error, never a result.
+
+After each fit (:mod:`optinav.multipos.calibrate`):
+
+* **distinct poses** — poses whose gravity directions lie within :data:`SAME_POSE_DEG` of each other count
+  once in the rank test (a pose repeated after a 360° turn adds noise averaging, not a new direction), so the
+  misalignments are judged observable only from ≥ 9 distinct directions that determine them;
+* **convergence** — the optimizer reports success (an evaluation limit hit is a failure);
+* **residual** — the pose residual RMS is within :data:`MAX_RESIDUAL_G` × g: a larger one means motion in a
+  "static" interval or data that no ellipsoid fits (the within-pose noise already inflates the std);
+* **plausibility** — diagonal scales within ×:data:`SCALE_FACTOR` of the nominal scale of the declared unit,
+  couplings ``|K_ij|/K_ii`` ≤ :data:`MAX_COUPLING`, corrected pose directions within :data:`MAX_TURN_DEG` of
+  the raw ones (no axis swap or sign flip), and for the gyroscope a K close to a positive diagonal; when it is
+  close to a signed axis permutation instead, :func:`axis_permutation` names it (48 signed permutations).
+
+Units are checked against physics: the rest norm of the accelerometer in the declared unit must be near g
+(:func:`check_acc_unit`), and the gyro scale near 1 in the declared unit (a factor 57.3 is a deg/rad mix-up).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from optinav.core.units import factor
+from optinav.errors import OptinavError
+
+#: poses closer than this (degrees) count as one direction in the rank test
+SAME_POSE_DEG = 10.0
+#: largest accepted RMS of the pose residuals |a| − g, as a fraction of g
+MAX_RESIDUAL_G = 0.01
+#: diagonal scale factors must lie within nominal/SCALE_FACTOR … nominal·SCALE_FACTOR
+SCALE_FACTOR = 1.5
+#: largest accepted |K_ij| / K_ii (misalignment or cross-coupling, rad)
+MAX_COUPLING = 0.2
+#: largest accepted angle (degrees) between a corrected pose direction and its raw direction
+MAX_TURN_DEG = 20.0
+#: largest accepted RMS (rad) of the gyro transition residuals (angle between carried and measured gravity)
+MAX_GYRO_RESIDUAL_RAD = 0.05
+#: accelerometer rest norm / g outside 1/UNIT_TOL … UNIT_TOL is a unit error
+UNIT_TOL = 1.3
+
+_ACC_UNITS = ("m/s^2", "g", "mg")
+_GYRO_UNITS = ("rad/s", "deg/s")
+
+
+def distinct_directions(dirs, tol_deg: float = SAME_POSE_DEG) -> np.ndarray:
+    """Cluster label (P,) of each direction (P, 3): greedy, a direction joins the first cluster whose first
+    member is within ``tol_deg``; labels count 0, 1, … in order of first appearance."""
+    d = np.asarray(dirs, float)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    cos_tol = np.cos(np.radians(tol_deg))
+    reps: list[np.ndarray] = []
+    labels = np.empty(len(d), int)
+    for k, u in enumerate(d):
+        for j, r in enumerate(reps):
+            if u @ r >= cos_tol:
+                labels[k] = j
+                break
+        else:
+            labels[k] = len(reps)
+            reps.append(u)
+    return labels
+
+
+def nominal_acc_scale(unit: str, rest_norm: float, g: float) -> float:
+    """Nominal K_ii (raw per m/s²) of an accelerometer in ``unit``; for counts, the median rest norm / g."""
+    return rest_norm / g if unit == "counts" else 1.0 / factor(unit)
+
+
+def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-unit") -> None:
+    """One-line error when the rest norm (in ``unit``) contradicts g: names the likely unit."""
+    if unit == "counts" or not np.isfinite(rest_norm):
+        return
+    si = rest_norm * factor(unit)
+    if 1 / UNIT_TOL < si / g < UNIT_TOL:
+        return
+    likely = [u for u in _ACC_UNITS if 1 / UNIT_TOL < rest_norm * factor(u) / g < UNIT_TOL]
+    guess = likely[0] if likely else "counts"
+    what = "raw counts?" if guess == "counts" else f"data in {guess}?"
+    raise OptinavError(f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}",
+                       f"pass {option} {guess}")
+
+
+def signed_permutations() -> list[np.ndarray]:
+    """The 48 signed axis permutations (3×3, one ±1 per row and column), the identity first."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            P = np.zeros((3, 3))
+            P[range(3), perm] = signs
+            out.append(P)
+    return out
+
+
+def axis_permutation(K) -> tuple[np.ndarray, float]:
+    """The signed axis permutation P (3×3, one ±1 per row and column; 48 of them) closest to K up to a positive
+    scale per row, and how much of K it explains (Σ|K_i,p(i)| / Σ|K_ij|, 1 for an exact permutation)."""
+    K = np.asarray(K, float)
+    A = np.abs(K) / np.maximum(np.abs(K).max(axis=1, keepdims=True), np.finfo(float).tiny)
+    best, score = np.eye(3), -np.inf
+    for perm in itertools.permutations(range(3)):
+        s = sum(A[i, perm[i]] for i in range(3))
+        if s > score:
+            score, best = s, perm
+    P = np.zeros((3, 3))
+    for i, j in enumerate(best):
+        P[i, j] = np.sign(K[i, j]) or 1.0
+    return P, float(sum(abs(K[i, best[i]]) for i in range(3)) / np.abs(K).sum())
+
+
+def describe_permutation(P, sensor: str, frame: str) -> str:
+    """'raw gyro x measures −y, …' for a signed permutation P (rows: raw axes, columns: frame axes)."""
+    parts = []
+    for i in range(3):
+        j = int(np.flatnonzero(P[i])[0])
+        if i != j or P[i, j] < 0:
+            parts.append(f"{sensor} {'xyz'[i]} reads {'-' if P[i, j] < 0 else '+'}{'xyz'[j]}")
+    return f"{', '.join(parts)} of the {frame}"
+
+
+def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: str, columns_flag: str) -> None:
+    """Plausibility of a fitted K (raw per SI unit): diagonal positive and within ×SCALE_FACTOR of ``nominal``
+    (None: not checked), couplings ≤ MAX_COUPLING; a K close to a signed axis permutation is named as such."""
+    K = np.asarray(K, float)
+    d = np.diag(K)
+    coupling = np.abs(K - np.diag(d)) / np.maximum(np.abs(d)[:, None], np.finfo(float).tiny)
+    if np.any(d <= 0) or np.any(coupling > MAX_COUPLING):
+        P, share = axis_permutation(K)
+        if share > 0.8 and not np.allclose(P, np.eye(3)):
+            raise OptinavError(f"the {sensor} axes look swapped or flipped against the accelerometer's: "
+                               f"{describe_permutation(P, sensor, 'accelerometer frame')}",
+                               f"fix the column order or signs ({columns_flag})")
+        i, j = np.unravel_index(int(np.argmax(np.where(np.isfinite(coupling), coupling, np.inf))), (3, 3))
+        raise OptinavError(f"the {sensor} fit is implausible: K_{'xyz'[i]}{'xyz'[j]}/K_{'xyz'[i]}{'xyz'[i]} = "
+                           f"{coupling[i, j]:.3g} (> {MAX_COUPLING:g}) or a non-positive scale "
+                           f"(diagonal {', '.join(f'{v:.4g}' for v in d)})",
+                           "check the static intervals (--threshold, --sections) and the column order "
+                           f"({columns_flag})")
+    if nominal is None:
+        return
+    ratio = d / nominal
+    bad = (ratio > SCALE_FACTOR) | (ratio < 1 / SCALE_FACTOR)
+    if not np.any(bad):
+        return
+    if sensor == "gyroscope":
+        r = float(np.median(d))
+        likely = [u for u in _GYRO_UNITS if u != unit and 1 / SCALE_FACTOR < r * factor(u) < SCALE_FACTOR]
+        if likely:
+            raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
+                               f"the data look like {likely[0]}", f"pass {option} {likely[0]}")
+    k = int(np.flatnonzero(bad)[0])
+    raise OptinavError(f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
+                       f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
+                       f"check {option} and the static intervals (--threshold, --sections)"
+                       + (", or use --model diagonal" if sensor == "accelerometer" else ""))

@@ -1,0 +1,245 @@
+"""Quality gates of `calibrate accel`: each bad input that used to give a wrong result with exit 0 now gives the
+right answer (with a note) or a one-line error naming the cause and a flag that exists."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.multipos import gates, model
+from optinav.multipos.calibrate import calibrate_session, count_range, saturated_mask
+from optinav.multipos.result import CalibrationResult
+from optinav.multipos.simulate import simulate_session
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
+needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
+OFFSET = 32768.0
+
+
+@pytest.fixture(scope="module")
+def sim():
+    """18 poses in raw counts, written as an unsigned 16-bit ADC does (offset binary, centred at 32768)."""
+    s = simulate_session("18", dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=5)
+    return s, np.round(s.acc + OFFSET), np.round(s.gyro + OFFSET)
+
+
+def _cli_error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("optinav: error: ") and "Traceback" not in "\n".join(err)
+    return err[-1]
+
+
+def _write(tmp_path, name, t, acc, gyro, acc_unit="m/s^2", gyro_unit="rad/s"):
+    """A text log whose header declares no unit (the CLI options then state it)."""
+    path = tmp_path / name
+    cols = np.column_stack([t, acc] + ([gyro] if gyro is not None else []))
+    head = "t,ax,ay,az" + (",gx,gy,gz" if gyro is not None else "")
+    np.savetxt(path, cols, delimiter=",", header=head, comments="", fmt="%.10g")
+    return path
+
+
+# ---------------------------------------------------------------------------------------------------- counts
+
+def test_unsigned_counts_are_not_saturated_at_mid_scale():
+    raw = np.array([[32767.0, 32768, 40000], [30000, 32767, 32768]])
+    assert count_range(raw) == (0.0, 65535.0)
+    assert not saturated_mask(raw, counts=True).any()
+    assert count_range(raw - OFFSET) == (-32768.0, 32767.0)
+    assert saturated_mask(np.array([[0.0, 1, 2], [65535, 3, 4], [5, 6, 7]]), counts=True).tolist() == [True, True,
+                                                                                                         False]
+    assert saturated_mask(np.array([[-8388608.0, 0, 0], [40000, 0, 0]]), counts=True).tolist() == [True, False]
+    assert saturated_mask(np.array([[99.0, 0, 0], [-101, 0, 0]]), 100.0).tolist() == [False, True]
+    assert saturated_mask(np.array([[99.0, 0, 5], [-101, 0, 5]]), (0.0, 100.0)).tolist() == [True, True]
+
+
+def test_unsigned_counts_calibrate_against_truth(sim):
+    s, acc, gyr = sim
+    r = calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    assert r.excluded["saturated_acc"] == 0 and r.excluded["saturated_gyro"] == 0
+    U, Q = model.upper_triangular_form(s.acc_K)
+    a = r.accelerometer
+    iu = np.triu_indices(3)
+    # rounding to counts adds 1/√12 count of noise: tolerance from the reported std
+    assert np.all(np.abs(a["K"] - U)[iu] < 5 * a["K_std"][iu] + 1e-9)
+    assert np.all(np.abs(a["b"] - (s.acc_b + OFFSET)) < 5 * a["b_std"])
+    Kg = s.gyro_K @ Q.T
+    assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"] + 1e-3 * np.abs(Kg).max())
+
+
+@pytest.mark.parametrize("method", ["newton", "ga", "pso"])
+def test_paper_methods_on_raw_counts_with_big_offsets_agree_with_lm(sim, method):
+    s, acc, _ = sim
+    ref = calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity)
+    r = calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, method=method, rng=1)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(ref.accelerometer["K"]), rtol=5e-3)
+    # bias within 0.5 % of the g span (K·g) of LM's
+    assert np.all(np.abs(r.accelerometer["b"] - ref.accelerometer["b"])
+                  < 5e-3 * s.gravity * np.diag(ref.accelerometer["K"]))
+
+
+def test_a_gyro_turn_at_full_scale_is_left_out_with_a_note(sim):
+    s, acc, gyr = sim
+    gyr = gyr.copy()
+    iv = s.static_intervals
+    k = int(np.flatnonzero((s.t > iv[3, 1]) & (s.t < iv[4, 0]))[5])
+    gyr[k, 0] = 65535.0
+    r = calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    assert r.excluded["saturated_turns"] == 1 and r.excluded["saturated_gyro"] == 1
+    assert any("saturates during 1 turn" in n for n in r.quality["notes"])
+    _, Q = model.upper_triangular_form(s.acc_K)
+    Kg = s.gyro_K @ Q.T
+    assert r.gyroscope["n_transitions"] == len(iv) - 2
+    assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"] + 1e-3 * np.abs(Kg).max())
+
+
+# ---------------------------------------------------------------------------------------------------- units
+
+@pytest.mark.parametrize("true_unit, fac", [("g", 1 / 9.80665), ("mg", 1000 / 9.80665), ("counts", 208.8)])
+def test_mislabelled_accelerometer_unit_names_the_likely_one(sim, tmp_path, capsys, true_unit, fac):
+    s, _, _ = sim
+    path = _write(tmp_path, "a.csv", s.t, s.acc / (2048 / 9.80665) * fac, None)
+    msg = _cli_error(capsys, ["calibrate", "accel", str(path), "--acc-unit", "m/s^2", "--out", str(tmp_path / "r.json")])
+    assert f"--acc-unit {true_unit}" in msg and "at rest" in msg
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_data_in_mg_calibrates_with_acc_unit_mg(sim, tmp_path, capsys):
+    s, _, _ = sim
+    acc_mg = s.acc / (2048 / 9.80665) * (1000 / 9.80665)
+    path = _write(tmp_path, "a.csv", s.t, acc_mg, None)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--acc-unit", "mg", "--gravity", str(s.gravity), "--out",
+                 str(out)]) == 0
+    r = CalibrationResult.from_json(out)
+    assert r.units["accelerometer_raw"] == "mg"
+    U, _ = model.upper_triangular_form(s.acc_K / (2048 / 9.80665) * (1000 / 9.80665))
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=1e-3)
+    err = capsys.readouterr().err
+    assert f"g = {s.gravity:.6g} m/s^2 (given)" in err
+
+
+def test_standard_gravity_default_is_announced(sim):
+    s, acc, _ = sim
+    r = calibrate_session(s.t, acc, acc_unit="counts")
+    assert "standard gravity, by default" in r.quality["notes"][0] and "--latitude" in r.quality["notes"][0]
+
+
+def test_gyro_in_degrees_labelled_radians_is_a_unit_error(sim):
+    s, _, _ = sim
+    acc = s.acc / (2048 / 9.80665)
+    gyr_deg = s.gyro / 16.4  # counts → deg/s
+    with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
+        calibrate_session(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
+
+
+# ---------------------------------------------------------------------------------------------------- axes
+
+@pytest.mark.parametrize("how", ["swap", "flip"])
+def test_swapped_or_flipped_axes_are_named(sim, how):
+    s, acc, gyr = sim
+    gyr = gyr.copy()
+    if how == "swap":
+        gyr[:, [0, 1]] = gyr[:, [1, 0]]
+    else:
+        gyr[:, 2] = 2 * OFFSET - gyr[:, 2]
+    with pytest.raises(OptinavError, match="swapped or flipped") as exc:
+        calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    assert ("gyroscope x reads +y" in str(exc.value)) if how == "swap" else ("gyroscope z reads -z" in str(exc.value))
+
+
+def test_axis_permutation_diagnosis_covers_the_48_signed_permutations():
+    import itertools
+
+    rng = np.random.default_rng(0)
+    seen = set()
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1, -1), repeat=3):
+            P = np.zeros((3, 3))
+            P[range(3), perm] = signs
+            K = np.diag(rng.uniform(50, 60, 3)) @ P + rng.normal(0, 0.5, (3, 3))
+            found, share = gates.axis_permutation(K)
+            assert np.array_equal(found, P) and share > 0.9
+            seen.add(P.tobytes())
+    assert len(seen) == 48
+
+
+# ---------------------------------------------------------------------------------------------------- fits
+
+def test_motion_inside_the_static_intervals_fails_the_residual_gate(sim):
+    s, acc, _ = sim
+    iv = s.static_intervals
+    shifted = [(a + 6.0, b + 3.0) for a, b in iv[:-1]]  # each "pose" now holds most of a turn
+    with pytest.raises(OptinavError, match="do not fit one accelerometer model|implausible|did not converge"):
+        calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, sections=shifted)
+
+
+def test_optimizer_that_stops_early_is_an_error(sim):
+    s, acc, _ = sim
+    with pytest.raises(OptinavError, match="did not converge.*--model diagonal"):
+        calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, method="gn", model_form="full",
+                          method_options={"max_iter": 1})
+
+
+@needs_data
+def test_imucal_repeated_poses_fall_back_to_the_diagonal_model(tmp_path, capsys):
+    """The issue's case: 11 intervals but 6 distinct poses gave K_zz = 468 with exit 0."""
+    out = tmp_path / "r.json"
+    args = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit",
+            "deg/s", "--no-gyro", "--gravity", "9.81", "--out", str(out)]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "6 distinct pose directions" in err and "held at 0" in err
+    r = CalibrationResult.from_json(out)
+    # imucal's diagonal scale (reference/example_ferraris_session_cal_102p4Hz.json, g = 9.81): 0.99675,
+    # 1.00244, 1.02340; its cross terms (< 0.015) are what the diagonal model leaves out
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), [0.99675, 1.00244, 1.02340], atol=1e-3)
+    assert r.accelerometer["held"] == ["K_xy", "K_xz", "K_yz"]
+    msg = _cli_error(capsys, args[:-2] + ["--model", "full", "--out", str(tmp_path / "f.json")])
+    assert "6 distinct pose directions" in msg and "--model diagonal" in msg
+
+
+def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
+    s, acc, _ = sim
+    path = _write(tmp_path, "a.csv", s.t, acc, None)
+    base = ["calibrate", "accel", str(path), "--acc-unit", "counts", "--gravity", str(s.gravity)]
+    out = tmp_path / "r.json"
+    assert main(["--quiet", *base, "--out", str(out)]) == 0
+    plain = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--acc-bias-instability", "5", "--out", str(out)]) == 0
+    drift = CalibrationResult.from_json(out)
+    np.testing.assert_allclose(drift.accelerometer["b_std"], np.hypot(plain.accelerometer["b_std"], 5.0))
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0.02", "--out", str(out)]) == 0
+    wide = CalibrationResult.from_json(out)
+    assert main(["--quiet", *base, "--model", "diagonal", "--held-misalignment", "0", "--out", str(out)]) == 0
+    narrow = CalibrationResult.from_json(out)
+    assert wide.accelerometer["held_std_rad"] == 0.02
+    assert np.all(np.diag(wide.accelerometer["K_std"]) > np.diag(narrow.accelerometer["K_std"]))
+    with pytest.raises(SystemExit):  # argparse: a one-line usage error
+        main(["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
+    assert "--held-misalignment" in capsys.readouterr().err
+
+
+def test_too_few_distinct_poses_is_an_error_however_many_intervals():
+    """Eight intervals, but only four directions (each pose twice): not even scales and biases are determined."""
+    ups = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)] * 2, float)
+    s = simulate_session(ups, dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=2)
+    with pytest.raises(OptinavError, match="4 distinct pose directions .*at least 6 distinct poses"):
+        calibrate_session(s.t, s.acc, acc_unit="counts", g=s.gravity)
+
+
+def test_a_drifting_gyro_bias_fails_static_and_calibrates_with_local(sim):
+    s, acc, gyr = sim
+    ramp = np.outer(s.t / s.t[-1], [60.0, -40.0, 50.0])  # counts: about 3.6 °/s of drift over the session
+    with pytest.raises(OptinavError, match="--gyro-bias local"):
+        calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                          gyro_bias="local")
+    _, Q = model.upper_triangular_form(s.acc_K)
+    Kg = s.gyro_K @ Q.T
+    assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])
+    # the reported bias is the session mean; its std spans the drift
+    assert np.all(np.abs(r.gyroscope["b"] - (s.gyro_b + OFFSET + ramp.mean(axis=0))) < 3 * r.gyroscope["b_std"])
+    assert np.all(r.gyroscope["b_std"] > 0.2 * np.abs(ramp[-1]))

@@ -1,0 +1,124 @@
+"""Files as loggers write them: text under a .mat/.log name, key,value preambles with the rate, rate attributes
+and variables, an incomplete last line, an empty column, absurd cells — read, or a one-line error."""
+
+import gzip
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import read_imu
+from optinav.multipos.result import CalibrationResult
+from optinav.multipos.simulate import simulate_session
+
+ROWS = "1,2,3,4,5,6\n2,3,4,5,6,7\n3,4,5,6,7,8\n"
+
+
+def _w(path, text):
+    path.write_bytes(text.encode("latin-1") if isinstance(text, str) else text)
+    return path
+
+
+@pytest.mark.parametrize("key, value", [("Fs", "100"), ("rate", "100 Hz"), ("sampling_rate", "100"),
+                                        ("Sample Rate", "100")])
+def test_preamble_before_the_header_gives_the_rate(tmp_path, key, value):
+    log = read_imu(_w(tmp_path / "a.csv", f"device,MTi-1\n{key},{value}\nserial: 0x12\nax,ay,az,gx,gy,gz\n" + ROWS))
+    np.testing.assert_allclose(log.t, [0.0, 0.01, 0.02])
+    assert log.acc[2].tolist() == [3.0, 4.0, 5.0]
+    assert any("100 Hz" in n and key in n for n in log.notes)
+
+
+def test_two_column_table_is_not_a_preamble(tmp_path):
+    from optinav.io.readers import read_table
+
+    d = read_table(_w(tmp_path / "b.csv", "name,value\nfoo,1\nbar,2\n"), text_columns=("name",))
+    assert list(d) == ["name", "value"] and d["value"].tolist() == [1.0, 2.0]
+
+
+@pytest.mark.parametrize("suffix", [".mat", ".log", ".dat"])
+def test_text_under_a_binary_or_logger_suffix_is_text(tmp_path, suffix):
+    log = read_imu(_w(tmp_path / f"x{suffix}", "t ax ay az\n0 1 2 3\n0.5 1 2 3\n"))
+    assert log.t.tolist() == [0.0, 0.5]
+
+
+def test_latin1_header_reads(tmp_path):
+    log = read_imu(_w(tmp_path / "l.csv", "t,ax [m/s²],ay,az\n0,1,2,3\n1,1,2,3\n".encode("latin-1")))
+    assert log.acc.shape == (2, 3)
+
+
+def test_incomplete_last_line_is_left_out_with_a_note(tmp_path):
+    log = read_imu(_w(tmp_path / "c.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n2,1,2"))
+    assert len(log) == 2 and any("last line (4) is incomplete" in n for n in log.notes)
+    with pytest.raises(OptinavError, match="line 4 has 3 field"):  # a complete line with a field missing
+        read_imu(_w(tmp_path / "d.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n2,1,2\n"))
+
+
+def test_rate_attribute_and_variable(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(tmp_path / "a.h5", "w") as fh:
+        fh["acc"] = np.ones((4, 3))
+        fh.attrs["sampling_rate"] = 50.0
+    assert read_imu(tmp_path / "a.h5").t[1] == pytest.approx(0.02)
+    import scipy.io
+
+    scipy.io.savemat(tmp_path / "b.mat", {"acc": np.ones((4, 3)), "Fs": 25.0})
+    assert read_imu(tmp_path / "b.mat").t[1] == pytest.approx(0.04)
+
+
+@pytest.mark.parametrize("body, match", [
+    ("0,1,,3\n1,1,,3\n", "column 'ay' holds no number"),
+    ("0,1,2,3\n1,1e308,2,3\n", "column 'ax' holds 1e\\+308 in data row 2"),
+])
+def test_bad_columns_and_cells_are_one_line_errors(tmp_path, body, match):
+    with pytest.raises(OptinavError, match=match) as exc:
+        read_imu(_w(tmp_path / "e.csv", "t,ax,ay,az\n" + body))
+    assert "\n" not in str(exc.value)
+
+
+def test_damaged_gzip_is_a_one_line_error(tmp_path):
+    raw = gzip.compress(("t,ax,ay,az\n" + "0,1,2,3\n" * 1000).encode())
+    with pytest.raises(OptinavError, match="damaged gzip|cannot read"):
+        read_imu(_w(tmp_path / "g.csv.gz", raw[: len(raw) // 2]))
+
+
+def test_a_raw_logger_file_calibrates_with_the_unit_options_alone(tmp_path, capsys):
+    """Unsigned 16-bit counts, text saved under .mat, a preamble with the rate, a last line cut short."""
+    s = simulate_session("18", dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=11)
+    raw = np.round(np.column_stack([s.acc, s.gyro]) + 32768).astype(int)
+    rows = "\n".join(",".join(map(str, r)) for r in raw)
+    path = _w(tmp_path / "log.mat", f"Fs,{1 / np.median(np.diff(s.t)):g}\nax,ay,az,gx,gy,gz\n{rows}\n12,13")
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts", "--gravity",
+                 str(s.gravity), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "sample rate 100 Hz from the preamble line 'Fs'" in err and "is incomplete" in err
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=5e-4)
+    np.testing.assert_allclose(r.accelerometer["b"], s.acc_b + 32768, atol=0.5)
+    assert r.excluded["saturated_acc"] == 0 and r.excluded["saturated_gyro"] == 0
+
+
+_PIECES = st.sampled_from(["Fs,100\n", "rate: 1e308\n", "ax,ay,az\n", "t,ax,ay,az\n", "1,2,3\n", "1,2,3,4\n",
+                           "1e308,inf,-inf\n", "nan,,\n", ",,,\n", "\xe9\xb0,1\n", "1;2;3\n", "\"a\",b\n", "1,2"])
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(pieces=st.lists(_PIECES, max_size=10), suffix=st.sampled_from([".csv", ".mat", ".log", ".dat"]),
+       rate=st.sampled_from([None, 10.0]))
+def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, rate):
+    path = _w(tmp_path / f"f{suffix}", "".join(pieces))
+    try:
+        log = read_imu(path, rate=rate)
+    except OptinavError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    assert np.all(np.diff(log.t) > 0)
+    for v in (log.acc, log.gyro):
+        if v is not None:
+            assert v.shape == (len(log), 3) and not np.any(np.isfinite(v) & (np.abs(v) > 1e12))

@@ -1,0 +1,501 @@
+"""Bad input and OS faults through the CLI, in-process: every case ends in a one-line error with exit 2 (or
+succeeds), and no input file is changed (issue 17)."""
+
+import errno
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from optinav.cli.main import main
+from optinav.core import files
+from optinav.errors import OptinavError
+
+
+def digest(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def one_line_error(capsys, *needles) -> str:
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith("optinav: error:"), err
+    for n in needles:
+        assert n in err, err
+    return err
+
+
+@pytest.fixture
+def cube(tmp_path):
+    """A valid gyro-free configuration file (six tangential accelerometers)."""
+    cfg = {"accelerometers": [
+        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
+    p = tmp_path / "cube.json"
+    p.write_text(json.dumps(cfg))
+    return p
+
+
+def _data(tmp_path) -> Path:
+    p = tmp_path / "session.csv"
+    p.write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{k / 100},0,0,9.8,0,0,0\n" for k in range(50)))
+    return p
+
+
+# --- inputs are never overwritten -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("link", ["same", "symlink", "hardlink"])
+def test_out_onto_an_input_is_refused(tmp_path, capsys, cube, link):
+    target = cube
+    if link == "symlink":
+        target = tmp_path / "alias.json"
+        target.symlink_to(cube)
+    elif link == "hardlink":
+        target = tmp_path / "hard.json"
+        os.link(cube, target)
+    before = digest(cube)
+    assert main(["gfimu", "analyze", str(cube), "--out", str(target)]) == 2
+    one_line_error(capsys, "is the input", "choose another --out")
+    assert digest(cube) == before
+
+
+def test_apply_and_calibrate_refuse_out_onto_inputs(tmp_path, capsys):
+    data = _data(tmp_path)
+    result = tmp_path / "result.json"
+    result.write_text("{}")
+    sections = tmp_path / "sections.json"
+    sections.write_text('{"x_p": [0, 1]}')
+    before = {p: digest(p) for p in (data, result, sections)}
+    for argv in (["apply", str(result), str(data), "--out", str(data)],
+                 ["apply", str(result), str(data), "--out", str(result)],
+                 ["calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(sections),
+                  "--out", str(sections)]):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, "is the input")
+    assert {p: digest(p) for p in before} == before
+
+
+def test_foreign_sidecar_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "x.csv"
+    truth = tmp_path / "x.truth.csv"
+    truth.write_text("my own measurements\n1,2,3\n")
+    before = digest(truth)
+    assert main(["simulate", "flight", "--out", str(out), "--duration", "1"]) == 2
+    one_line_error(capsys, "x.truth.csv exists and was not written by optinav")
+    assert digest(truth) == before and not out.exists()
+
+
+def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
+    out = tmp_path / "tt.npz"
+    argv = ["simulate", "gfimu-turntable", "--out", str(out), "--duration", "0.2"]
+    assert main(argv) == 0
+    assert main(argv) == 0  # a second run replaces the truth optinav wrote
+    truth = json.loads((tmp_path / "tt.truth.json").read_text())
+    assert truth["schema"] == "optinav.gfimu_truth"
+    (tmp_path / "tt.truth.json").write_text('{"mine": 1}')
+    assert main(argv) == 2
+    one_line_error(capsys, "was not written by optinav")
+
+
+# --- output checks before any work -----------------------------------------------------------------------------
+
+def test_bad_output_locations(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    (tmp_path / "dir.json").mkdir()
+    cases = [(tmp_path / "dir.json", "is a folder"), (blocker / "a.json", "is a file"), (blocker / "s" / "a.json", "lies below the file"),
+             (tmp_path / "nope" / "a.json", "does not exist")]
+    for out, why in cases:
+        assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)]) == 2
+        one_line_error(capsys, why)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.json", "file"]
+
+
+# --- the atomic writer ------------------------------------------------------------------------------------------
+
+def test_atomic_writer_keeps_the_old_file_on_failure(tmp_path, monkeypatch):
+    out = tmp_path / "r.json"
+    out.write_text("old")
+
+    def full(*_a, **_k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", full)
+    with pytest.raises(OptinavError, match="no space left on the device"):
+        files.write_text(out, "new")
+    assert out.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["r.json"]
+
+
+def test_atomic_writer_replaces_a_symlink_not_its_target(tmp_path):
+    target = tmp_path / "target.txt"
+    target.write_text("keep")
+    link = tmp_path / "out.txt"
+    link.symlink_to(target)
+    files.write_text(link, "new")
+    assert target.read_text() == "keep" and link.read_text() == "new" and not link.is_symlink()
+    assert oct(link.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    m = os.umask(0)
+    os.umask(m)
+    return m
+
+
+def test_file_size_limit_is_a_one_line_error(tmp_path):
+    # a real write failure (EFBIG under ulimit -f), through the installed command in a subprocess
+    import resource
+
+    out = tmp_path / "a.json"
+    env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "optinav.cli.main", "gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)],
+        capture_output=True, text=True, timeout=120, env=env,
+        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200)))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().count("\n") == 0 and "file-size limit" in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- JSON inputs: every parser failure is one line --------------------------------------------------------------
+
+@pytest.mark.parametrize("content, why", [
+    (b"[" * 100_000 + b"]" * 100_000, "nested"),
+    (b'{"a":' * 200 + b"1" + b"}" * 200, "nested more than"),
+    (b'{"schema": "optinav.calibration", "x": "\xff\xfe"}', "not UTF-8"),
+    (b'{"version": ' + b"9" * 5000 + b"}", "not readable JSON"),
+    (b'{"schema": ', "not valid JSON"),
+])
+def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
+    bad = tmp_path / "bad.json"
+    bad.write_bytes(content)
+    data = _data(tmp_path)
+    before = digest(data)
+    for argv in (["apply", str(bad), str(data), "--out", str(tmp_path / "o.csv")],
+                 ["gfimu", "analyze", str(bad)],
+                 ["--quiet", "calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(bad),
+                  "--out", str(tmp_path / "r.json")]):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, why)
+    assert digest(data) == before and not (tmp_path / "o.csv").exists()
+
+
+# --- option ranges at parsing: one line, exit 2 ----------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, why", [
+    (["sun", "--lat", "95", "--lon", "0", "--time", "2021-01-01T00:00:00Z"], "--lat: 95 is out of range"),
+    (["sun", "--lat", "10", "--lon", "0", "--height", "1e7", "--time", "2021-01-01T00:00:00Z"], "--height"),
+    (["simulate", "gfimu-turntable", "--out", "x.npz", "--noise", "-1"], "--noise: -1 is out of range"),
+    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--cycles", "0", "--out", "x.npz"], "--cycles"),
+    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--lat", "95", "--out", "x.npz"], "--lat"),
+    (["simulate", "accel-multipos", "--out", "x.csv", "--dwell", "nan"], "not finite"),
+    (["calibrate", "rins", "x.npz", "--lat", "-91", "--out", "r.json"], "--lat"),
+])
+def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and why in err and "see optinav" in err, err
+
+
+# --- rins quality gates: wrong latitude, swapped encoders ------------------------------------------------------
+
+RINS = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "100"]
+
+
+@pytest.fixture(scope="module")
+def rins_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rins")
+    data = d / "r.npz"
+    assert main(["--quiet", "simulate", "rins", "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3", "--seed", "3",
+                 "--out", str(data), *RINS]) == 0
+    return data
+
+
+@pytest.mark.parametrize("lat", ["-28.2", "25", "90"])
+def test_rins_latitude_must_match_the_measured_earth_rate(rins_file, tmp_path, capsys, lat):
+    # the file was recorded at 28.2°; the gyros measure it to ~0.02°, so 3° off or the other hemisphere is refused
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", lat, "--out", str(out)]) == 2
+    one_line_error(capsys, f"the latitude {float(lat):.4g}° disagrees with the 28.", "--lat")
+    assert not out.exists()
+
+
+def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
+    import numpy as np
+
+    d = dict(np.load(rins_file))
+    d["alpha"], d["beta"] = d["beta"], d["alpha"]
+    swapped = tmp_path / "swapped.npz"
+    np.savez(swapped, **d)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(swapped), "--out", str(out)]) == 2
+    one_line_error(capsys, "alpha/beta")
+    assert not out.exists()
+    assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", "28.3", "--out", str(out)]) == 0
+
+
+# --- sun: the SPA's whole valid range, refused outside --------------------------------------------------------
+
+def test_sun_beyond_datetime64_ns_range(capsys):
+    import numpy as np
+
+    from optinav.sky.sun import solar_position_deg
+
+    # June solstice of 2300 and of 1600: declination = obliquity (23.4393° − 0.013°/century from J2000,
+    # Meeus eq. 22.2 to first order) and a distance within perihelion/aphelion
+    for year, eps in ((2300, 23.4393 - 0.0130 * 3), (1600, 23.4393 + 0.0130 * 4)):
+        t = np.datetime64(f"{year}-06-10T00:00") + np.arange(0, 24 * 24, 3).astype("timedelta64[h]")
+        r = solar_position_deg(t, 38.88, 121.5)
+        assert np.max(r.declination) == pytest.approx(np.radians(eps), abs=np.radians(0.01))
+        assert np.all((r.earth_sun_distance > 0.983) & (r.earth_sun_distance < 1.017))
+        assert str(r.time[0]).startswith(f"{year}-06-10")
+    assert main(["sun", "--lat", "38.88", "--lon", "121.5", "--time", "2300-06-21T04:00:00Z"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["time_utc"] == "2300-06-21T04:00:00.000Z" and 0.98 < out["earth_sun_distance_au"] < 1.02
+    assert main(["sun", "--lat", "38.88", "--lon", "121.5", "--time", "7000-01-01T00:00:00Z"]) == 2
+    one_line_error(capsys, "outside the years -2000 to 6000")
+
+
+# --- apply refuses a calibration no sensor can have -------------------------------------------------------------
+
+@pytest.mark.parametrize("K, why", [(1e300, "outside"), (3.0, "outside"), (0.1, "outside"),
+                                    ([[1, 1, 0], [1, 1.01, 0], [0, 0, 1]], "condition number")])
+def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
+    import numpy as np
+
+    from optinav.multipos.result import CalibrationResult
+
+    data = _data(tmp_path)
+    good = CalibrationResult(accelerometer={"K": np.eye(3), "b": np.zeros(3)}, units={"accelerometer_raw": "m/s^2"})
+    good.to_json(tmp_path / "good.json")
+    assert main(["apply", str(tmp_path / "good.json"), str(data), "--out", str(tmp_path / "ok.csv")]) == 0
+    capsys.readouterr()
+    Kb = np.asarray(K, float) * (np.eye(3) if np.ndim(K) == 0 else 1)
+    bad = tmp_path / "bad.json"
+    d = good.to_dict()
+    d["accelerometer"]["K"] = Kb.tolist()
+    bad.write_text(json.dumps(d))
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2
+    one_line_error(capsys, "implausible", why)
+    assert not out.exists()
+
+
+# --- gfimu quality gates: stuck outputs, table-rate unit, residual against --noise -------------------------------
+
+@pytest.fixture(scope="module")
+def turntable(tmp_path_factory):
+    d = tmp_path_factory.mktemp("gfimu")
+    data = d / "tt.npz"
+    assert main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--duration", "1",
+                 "--seed", "2", "--out", str(data)]) == 0
+    import numpy as np
+
+    return data, dict(np.load(data))
+
+
+@pytest.mark.parametrize("case, extra, why", [
+    ("constant", [], "barely change between the turntable cases"),
+    ("stuck4", [], "accelerometer(s) 4 barely change"),
+    ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
+    ("good", ["--noise", "1e-9"], "against --noise"),
+])
+def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
+    import numpy as np
+
+    path, d = turntable
+    d = {k: v.copy() for k, v in d.items()}
+    if case == "constant":  # every output constant up to a little noise: used to be "all observable", 31.6 m
+        d["f"] = 1.0 + 1e-5 * np.random.default_rng(0).standard_normal(d["f"].shape)
+    elif case == "stuck4":
+        d["f"][:, 3] = 0.2
+    elif case == "deg":
+        d["table_rate"] = np.degrees(d["table_rate"])
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **d)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(bad), "--builtin", "cylinder10", *extra, "--out", str(out)]) == 2
+    one_line_error(capsys, why)
+    assert not out.exists()
+    if case == "deg":  # the flag the error names makes it right: the truth's 1 mm errors within 4σ
+        assert main(["--quiet", "calibrate", "gfimu", str(bad), "--builtin", "cylinder10", "--rate-unit", "deg/s",
+                     "--out", str(out)]) == 0
+        res = json.loads(out.read_text())["fields"]
+        truth = json.loads(path.with_name("tt.truth.json").read_text())
+        dr = np.asarray(res["dr"]["value"]["__ndarray__"])
+        std = np.asarray(res["std"]["value"]["__ndarray__"]).reshape(-1, 5)[:, :3]
+        assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
+
+
+# --- batch: inputs, options once, workers that die ---------------------------------------------------------------
+
+def _batch_units(tmp_path):
+    from optinav.io import ImuLog, write_imu
+    from optinav.multipos.simulate import simulate_session
+
+    d = tmp_path / "units"
+    d.mkdir()
+    for k in (1, 2):
+        s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=38.88,
+                             height_m=35.0, rng=k)
+        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+    return d
+
+
+def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsys):
+    d = _batch_units(tmp_path)
+    before = digest(d / "u2.csv")
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "u2.csv"), "--workers", "0",
+                 "--latitude", "38.88"]) == 2
+    one_line_error(capsys, "is not an optinav results table")
+    assert digest(d / "u2.csv") == before
+    # bad site options fail once, before any unit (they used to fail every unit and exit 0)
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"),
+                 "--workers", "0", "--gravity", "5"]) == 2
+    one_line_error(capsys, "gravity 5 m/s^2 is outside")
+    from optinav.batch import run_batch
+    from optinav.multipos.calibrate import FileOptions
+
+    with pytest.raises(OptinavError, match="latitude 95"):
+        run_batch(d, tmp_path / "r.csv", FileOptions(latitude=95), workers=0)
+    with pytest.raises(SystemExit):  # the CLI refuses it at parsing already
+        main(["batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"), "--latitude", "95"])
+    assert not (tmp_path / "r.csv").exists() and not (tmp_path / "r.csv.journal.jsonl").exists()
+    # a batch with a failed unit exits 1; its table is written, and a re-run may replace it
+    (d / "u3.csv").write_text("t,ax,ay,az\n0,1,2\n")
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
+                 "--latitude", "38.88", "--height", "35"]) == 1
+    assert "3 units: 2 ok, 1 failed" in capsys.readouterr().out
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
+                 "--latitude", "38.88", "--height", "35", "--fresh"]) == 1
+
+
+def dies_on_u2(path, options, name):
+    """A unit job for the pool tests: the worker of unit u2 is killed (as by the OOM killer)."""
+    import signal
+
+    if name == "u2":
+        os.kill(os.getpid(), signal.SIGKILL)
+    return {"unit": name, "status": "ok"}
+
+
+def sleeps(path, options, name):
+    """A unit job that records its worker's pid and works for a long time."""
+    import time
+
+    Path(path).write_text(str(os.getpid()))
+    time.sleep(60)
+    return {"unit": name, "status": "ok"}
+
+
+def test_a_killed_worker_loses_only_its_unit(tmp_path):
+    from optinav import batch
+
+    units = [batch.Unit(f"u{k}", tmp_path / f"u{k}", 1, 1) for k in range(1, 5)]
+    out = {u.name: (row, lost) for u, row, lost in batch._run_local(units, None, 2, fn=dies_on_u2)}
+    assert sorted(out) == [u.name for u in units]
+    assert out["u2"][0] is None and out["u2"][1].startswith("worker lost")
+    assert all(out[n][0] == {"unit": n, "status": "ok"} for n in out if n != "u2")
+
+
+def test_workers_die_with_the_batch(tmp_path):
+    import signal
+    import time
+
+    code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); from pathlib import Path\n"
+            "from optinav import batch; import test_reliability as t\n"
+            f"units = [batch.Unit(f'u{{k}}', Path({str(tmp_path)!r}) / f'pid{{k}}', 1, 1) for k in (1, 2)]\n"
+            "list(batch._run_local(units, None, 2, fn=t.sleeps))\n")
+    env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and len(list(tmp_path.glob("pid*"))) < 2:
+            time.sleep(0.05)
+        pids = [int(p.read_text()) for p in tmp_path.glob("pid*") if p.read_text()]
+        assert len(pids) == 2
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+
+    def alive(pid):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        with open(f"/proc/{pid}/stat") as fh:  # a zombie is dead
+            return fh.read().split(") ")[1][0] != "Z"
+
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(alive(p) for p in pids):
+        time.sleep(0.1)
+    assert not any(alive(p) for p in pids)
+
+
+# --- sizes that cannot fit are refused up front with the estimate ------------------------------------------------
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "flight", "--out", "{d}/f.csv", "--duration", "1e7"],
+    ["simulate", "accel-multipos", "--out", "{d}/m.csv", "--dwell", "1e7"],
+    ["simulate", "rins", "--nonorth=0,0,0,0,0,0", "--dwell", "1e7", "--out", "{d}/r.npz"],
+    ["simulate", "gfimu-turntable", "--duration", "1e9", "--out", "{d}/g.npz"],
+])
+def test_simulations_that_cannot_fit_are_refused(tmp_path, capsys, argv):
+    assert main([a.format(d=tmp_path) for a in argv]) == 2
+    one_line_error(capsys, "GiB of memory", "available")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_height_without_latitude_is_an_error(tmp_path, capsys):
+    data = _data(tmp_path)
+    assert main(["calibrate", "accel", str(data), "--height", "35", "--out", str(tmp_path / "r.json")]) == 2
+    one_line_error(capsys, "--height without --latitude")
+    with pytest.raises(SystemExit):
+        main(["calibrate", "accel", str(data), "--gravity", "0", "--out", str(tmp_path / "r.json")])
+    assert "--gravity: 0 is out of range" in capsys.readouterr().err
+
+
+# --- every JSON input: any bytes end in a value or a one-line OptinavError ---------------------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_json = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=5),
+                     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4),
+                     max_leaves=20)
+_keys = st.sampled_from(["schema", "version", "fields", "accelerometer", "gyroscope", "K", "b", "units",
+                         "accelerometers", "position", "direction", "noise", "start", "end", "x_p", "value",
+                         "__ndarray__", "__float__", "dtype", "angles"])
+_shaped = st.recursive(st.none() | st.floats() | st.integers() | st.sampled_from(["optinav.calibration", "float64"]),
+                       lambda kids: st.lists(kids, max_size=4) | st.dictionaries(_keys, kids, max_size=5),
+                       max_leaves=25)
+
+
+def _readers():
+    from optinav.core.results import Result
+    from optinav.gfimu.array import AccelerometerArray
+    from optinav.multipos.result import CalibrationResult
+    from optinav.multipos.static import _load_sections
+    from optinav.rins.calibrate import RinsCalibration
+
+    return [Result.from_json, CalibrationResult.from_json, RinsCalibration.from_json, AccelerometerArray.load,
+            _load_sections]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(content=st.one_of(st.binary(max_size=200), _json.map(lambda v: json.dumps(v).encode()),
+                         _shaped.map(lambda v: json.dumps(v).encode())))
+def test_json_readers_never_crash(tmp_path, content):
+    p = tmp_path / "in.json"
+    p.write_bytes(content)
+    for read in _readers():
+        try:
+            read(Path(p))
+        except OptinavError as exc:
+            assert "\n" not in str(exc)
