@@ -48,3 +48,19 @@ def test_write_report_headline_and_check_notes(tmp_path):
                               "note": ""}]
     assert s["checks"][0]["note"] == "within 3σ of the filter"
     assert (out / "demo.png").stat().st_size > 1000
+
+
+def test_progress_bars_only_when_wanted(capsys, monkeypatch):
+    from optinav.core.progress import progress, step, task
+
+    with task("study demo", enabled=True):
+        step("first")
+        assert list(progress(range(3), desc="runs", enabled=True)) == [0, 1, 2]
+        step("second")
+    err = capsys.readouterr().err
+    assert "study demo" in err and "second" in err and "runs" in err
+    monkeypatch.setenv("OPTINAV_QUIET", "1")
+    with task("quiet"):
+        step("x")
+        assert list(progress(range(3))) == [0, 1, 2]
+    assert capsys.readouterr().err == ""

@@ -7,7 +7,7 @@ def test_polarized_quick_study_checks_pass(quick_report):
     st = quick_report.study("polarized")
     assert not study_failures(st)
     assert len(st["checks"]) >= 6 and len(st["tables"]) >= 7
-    assert st["elapsed_s"] < 60.0
+    assert st["elapsed_s"] < 120.0  # about 25 s on an idle 2-core machine
     # Table 3 holds the improvement rows beside the paper's claims, tuned and at defaults
     t3 = next(t for t in st["tables"] if t["title"].startswith("Table 3"))
     assert any("paper" in str(row[0]) for row in t3["rows"])

@@ -288,7 +288,7 @@ def _efficiency(quick, rng):
 def run(quick: bool = False, rng=None) -> StudyResult:
     rng = np.random.default_rng(rng)
     res = StudyResult(name="accel-ga", title="MEMS accelerometer calibration by norm observation "
-                                              "(Gao & Zhang 2019, adaptive GA) — reproduced and beaten",
+                                              "(Gao & Zhang 2019, adaptive GA): the paper's GA rebuilt, against Newton and LM",
                       description=__doc__.split("\n\n", 1)[1].replace("\n", " "))
     spec = preset("mems-mti1")
     sigma = float(np.max(spec.accel_vrw) * np.sqrt(100.0))  # per sample at 100 Hz

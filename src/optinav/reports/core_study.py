@@ -188,8 +188,10 @@ def _strapdown_section(quick, rng):
         rows.append([alg, theory * deg_h, measured * deg_h, rel])
         # the theory is first order in sin²α; its O(α⁴) remainder is < 1e-4 relative for the low-order
         # algorithms but up to ~20 % for the 3- and 4-sample ones, whose leading term is tiny
-        checks.append(Check(f"coning drift vs theory ({alg})", rel, 25.0 if alg in ("three-sample", "four-sample")
-                            else 1.0, "%"))
+        high = alg in ("three-sample", "four-sample")
+        checks.append(Check(f"coning drift vs theory ({alg})", rel, 25.0 if high else 1.0, "%",
+                            note="the theory is first order in sin²α; its remainder is a large part of this "
+                                 "algorithm's tiny drift" if high and rel > 1.0 else ""))
     table = Table(f"Coning drift, half-angle 0.1°, {freq:g} Hz cone, {rate:g} Hz updates",
                   ["algorithm", "theory [deg/h]", "measured [deg/h]", "difference [%]"], rows,
                   "Theory: Ignagni (1990), first order in sin²α, exact in Ωh; truth: closed-form coning; drift = "

@@ -48,11 +48,11 @@ def _settings(m):
     return [dict(zip(keys, vals)) for vals in itertools.product(*(GRID[m][k] for k in keys))]
 
 
-def _simulate(kind, duration, seed):
+def _simulate(kind, duration, seed, gyro_bias=GYRO_BIAS_DEG_S):
     from optinav.attitude.simulate import simulate_flight
     from optinav.sky.polarization import wrap_axial
 
-    d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(GYRO_BIAS_DEG_S),
+    d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(gyro_bias),
                         accel_level=ACCEL_LEVEL)
     ok = np.isfinite(d.aop) & np.isfinite(d.aop_true)
     return {"data": d, "pol": d.polarization(), "pol_sigma": float(np.std(wrap_axial(d.aop[ok] - d.aop_true[ok])))}
@@ -99,7 +99,7 @@ def _break_wraps(t, y, jump=90.0):
     return t, y
 
 
-def _broad_section(quick, tuned):
+def _broad_section(quick):
     """The methods at their defaults on the real BROAD trials in the shared data folder (skipped when absent)."""
     from optinav.attitude import estimate
     from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
@@ -139,7 +139,12 @@ def _broad_section(quick, tuned):
             hd = float(np.degrees(rmse(heading_error(qp, tr.q_ref[sl]), mask)))
             rows.append([f.stem, LABELS[m], inc, hd])
             out[f"{f.stem}/{m}"] = {"inclination_rmse_deg": inc, "heading_rmse_deg": hd}
-    note = ("Every method at its defaults (the flight-tuned settings suit a UAV, not a hand-held IMU). Inclination "
+    n_trials = len(files)
+    wins = {m: sum(min(METHODS, key=lambda k: out[f"{f.stem}/{k}"]["inclination_rmse_deg"]) == m for f in files)
+            for m in METHODS}
+    note = (f"Lowest inclination RMSE on {n_trials} trials: "
+            + ", ".join(f"{LABELS[m]} {wins[m]}" for m in METHODS) + ". "
+            "Every method at its defaults (the flight-tuned settings suit a UAV, not a hand-held IMU). Inclination "
             "from gyro and accelerometer only, over BROAD's evaluation samples; heading with a zenith polarization "
             "angle synthesized from the optical truth by the Rayleigh model (0.5° noise), the sun at the paper's "
             "place and static-test time, started from the optical truth."
@@ -191,16 +196,19 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     rows = []
     for m in METHODS:
         sc = sorted(grid_scores[m], key=lambda x: x[0])
+        edge = [k for k, v in tuned[m].items() if v in (min(GRID[m][k]), max(GRID[m][k]))]
         rows.append([LABELS[m], ", ".join(f"{k} = {v:g}" for k, v in tuned[m].items()), sc[0][0], sc[-1][0],
-                     ", ".join(f"{k} = {DEFAULTS[m][k]:g}" for k in GRID[m])])
+                     ", ".join(edge) or "—", ", ".join(f"{k} = {DEFAULTS[m][k]:g}" for k in GRID[m])])
     tables.append(Table(f"Tuning: the same grid procedure for every method ({len(train)} training flights of "
                         f"{dur_d:g} s, other seeds than the test flights)",
                         ["method", "chosen setting", "best mean RMS [deg]", "worst mean RMS on the grid [deg]",
-                         "defaults"], rows,
+                         "chosen at the grid's edge", "defaults"], rows,
                         "Grid: " + "; ".join(f"{m}: " + " × ".join(f"{k} ∈ {{{', '.join(f'{v:g}' for v in vals)}}}"
                                                                     for k, vals in GRID[m].items())
                                              for m in METHODS)
-                        + ". Score: mean over roll, pitch and yaw of the RMS error after the first 5 s."))
+                        + ". Score: mean over roll, pitch and yaw of the RMS error after the first 5 s. A setting "
+                          "at the grid's edge means that method might gain from a wider grid; every method gets "
+                          "the same number of settings."))
 
     # Table 1: static
     rows, st = [], {}
@@ -214,7 +222,8 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     spread = max(float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn")) - min(
         float(np.max(st[m]["rms"])) for m in ("gd", "cg", "qn"))
     checks.append(Check("static: worst RMS of any method, any angle (paper: all close to the reference)",
-                        worst_static, 2.0, "deg"))
+                        worst_static, 2.0, "deg", note="the largest is QN's: its constant error b/β₀ from the "
+                                                         "residual gyro bias (checked below)"))
     summary["static_spread_gd_cg_qn_deg"] = spread
     tables.append(Table(f"Table 1: static test, attitude error statistics [deg] ({dur_s:g} s at 100 Hz, tuned "
                         "settings)", ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
@@ -280,8 +289,10 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                         float(r_t["mekf"].mean() / min(r_t[m].mean() for m in ("gd", "cg", "qn"))), 1.0))
     checks.append(Check("dynamic, tuned: polarization keeps the heading: worst yaw RMS of any method",
                         float(max(rms["tuned"][m][:, 2].max() for m in METHODS)), 5.0, "deg"))
-    checks.append(Check("dynamic, tuned: QN roll/pitch RMS / GD's, worst flight (finding, paper: ≈ 0.5)",
-                        float(np.max(tilt("qn") / tilt("gd"))), 3.0))
+    qn_gd = float(np.max(tilt("qn") / tilt("gd")))
+    checks.append(Check("dynamic, tuned: QN roll/pitch RMS / GD's, worst flight (finding, paper: ≈ 0.5)", qn_gd, 3.0,
+                        note="the limit only guards against a broken filter; QN is not better than GD here, so the "
+                             "paper's ≈ 0.5 is not reproduced" if qn_gd > 1 else ""))
     nees_static = float(np.mean(_nees(static, static_run["mekf"]["res"])[SKIP:]))
     nees_dyn = float(np.mean([np.mean(_nees(fl, r["mekf"]["res"])[SKIP:]) for fl, r in zip(test, dyn)]))
     tables.append(Table("MEKF consistency at the tuned setting (mean NEES, 3 degrees of freedom: 3 if consistent)",
@@ -296,8 +307,26 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                     "static_mekf_nees": nees_static, "dynamic_mekf_nees": nees_dyn,
                     "elapsed_per_method_s": {m: dyn[0][m]["elapsed"] for m in METHODS}})
 
+    # the same procedure on flights without gyro bias: the case the published QN was designed for
+    step("flights without gyro bias")
+    nb_seeds = [seed0 + 1 + n_train + n_test + k for k in range(n_train + n_test)]
+    nb = [_simulate("dynamic", dur_d, sd, gyro_bias=(0.0, 0.0, 0.0)) for sd in progress(nb_seeds, desc="flights")]
+    tuned_nb, _ = _tune(nb[:n_train])
+    rms_nb = {m: np.array([error_statistics(_estimate(fl, m, tuned_nb[m])["err"][SKIP:])["rms"]
+                           for fl in nb[n_train:]]) for m in METHODS}
+    best_nb = min(METHODS, key=lambda m: rms_nb[m].mean())
+    tables.append(Table("Without gyro bias: dynamic RMS error [deg], each method tuned by the same procedure",
+                        ["method", "chosen setting", *ANGLES],
+                        [[LABELS[m], ", ".join(f"{k} = {v:g}" for k, v in tuned_nb[m].items()),
+                          *rms_nb[m].mean(0).tolist()] for m in METHODS],
+                        f"{n_train} training and {n_test} test flights of {dur_d:g} s, other seeds than above, "
+                        "gyro bias 0. Lowest mean RMS over the angles: "
+                        f"{LABELS[best_nb]}. The MEKF's advantage above comes from estimating the gyro bias."))
+    summary["no_bias_rms_deg"] = {m: rms_nb[m].mean(0).tolist() for m in METHODS}
+    summary["no_bias_tuned_options"] = tuned_nb
+
     step("BROAD")
-    tb, sb = _broad_section(quick, tuned)
+    tb, sb = _broad_section(quick)
     tables.append(tb)
     summary.update(sb)
 
