@@ -398,7 +398,9 @@ def sleeps(path, options, name):
     """A unit job that records its worker's pid and works for a long time."""
     import time
 
-    Path(path).write_text(str(os.getpid()))
+    tmp = Path(f"{path}.{os.getpid()}.part")  # renamed into place so the test never reads half a pid
+    tmp.write_text(str(os.getpid()))
+    os.replace(tmp, path)
     time.sleep(60)
     return {"unit": name, "status": "ok"}
 
@@ -425,9 +427,11 @@ def test_workers_die_with_the_batch(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", code], env=env, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and len(list(tmp_path.glob("pid*"))) < 2:
+        # a pid file can exist before its worker has written the pid: wait for both numbers
+        pids = []
+        while time.monotonic() < deadline and len(pids) < 2:
             time.sleep(0.05)
-        pids = [int(p.read_text()) for p in tmp_path.glob("pid*") if p.read_text()]
+            pids = [int(t) for t in (p.read_text() for p in tmp_path.glob("pid*")) if t.strip()]
         assert len(pids) == 2
     finally:
         proc.send_signal(signal.SIGKILL)
