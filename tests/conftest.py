@@ -3,6 +3,7 @@
 With the environment variable ``CI`` set (the README's test command sets it) Hypothesis uses the ``ci`` profile:
 derandomized, so every CI run draws the same examples and a failure reproduces on every machine."""
 
+import json
 import os
 
 import pytest
@@ -20,3 +21,15 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "slow" in item.keywords:
             item.add_marker(skip)
+
+
+@pytest.fixture
+def cube(tmp_path):
+    """A valid gyro-free configuration file (six tangential accelerometers)."""
+    cfg = {"accelerometers": [
+        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
+        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
+    p = tmp_path / "cube.json"
+    p.write_text(json.dumps(cfg))
+    return p

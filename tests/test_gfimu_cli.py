@@ -9,20 +9,14 @@ from optinav.cli.main import main
 from optinav.gfimu import builtin
 
 
-def test_analyze_builtin_and_config(tmp_path, capsys):
+def test_analyze_builtin_and_config(tmp_path, capsys, cube):
     out = tmp_path / "a.json"
     assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)]) == 0
     a = json.loads(out.read_text())
     assert (a["n_accelerometers"], a["rank_linear"], a["rank_full"], a["n_quadratic_observable"]) == (10, 6, 10, 4)
     assert a["solvable_without_rate"] == ["A_x", "A_y", "A_z", "wdot_x", "wdot_y", "wdot_z"]
     # six tangential accelerometers on the axes: [A, ω̇] solvable only with the rate known
-    cfg = {"accelerometers": [
-        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
-    p = tmp_path / "cube.json"
-    p.write_text(json.dumps(cfg))
-    assert main(["gfimu", "analyze", str(p), "--out", str(out)]) == 0
+    assert main(["gfimu", "analyze", str(cube), "--out", str(out)]) == 0
     a = json.loads(out.read_text())
     assert a["n_accelerometers"] == 6 and a["rank_linear"] == 6 and a["rank_full"] == 6
     assert a["n_quadratic_observable"] == 0

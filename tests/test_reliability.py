@@ -28,18 +28,6 @@ def one_line_error(capsys, *needles) -> str:
     return err
 
 
-@pytest.fixture
-def cube(tmp_path):
-    """A valid gyro-free configuration file (six tangential accelerometers)."""
-    cfg = {"accelerometers": [
-        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
-    p = tmp_path / "cube.json"
-    p.write_text(json.dumps(cfg))
-    return p
-
-
 def _data(tmp_path) -> Path:
     p = tmp_path / "session.csv"
     p.write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{k / 100},0,0,9.8,0,0,0\n" for k in range(50)))
