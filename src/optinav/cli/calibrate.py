@@ -118,17 +118,22 @@ def full_scale(text: str):
 
 
 def run_accel(args) -> int:
-    from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
+    from optinav.core.progress import step, task
 
-    out = output_path(args.out, (".json",), "RESULT.json")
-    prepare_report(args)
-    options = FileOptions.from_args(args)
-    options.check()
-    data = read_session_file(args.data, options)
-    if not getattr(args, "quiet", False):
-        print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
-    res = calibrate_data(data, options, source=str(args.data))
-    res.to_json(out)
+    with task("calibrate accel"):
+        step("read")
+        from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
+
+        out = output_path(args.out, (".json",), "RESULT.json")
+        prepare_report(args)
+        options = FileOptions.from_args(args)
+        options.check()
+        data = read_session_file(args.data, options)
+        if not getattr(args, "quiet", False):
+            print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+        res = calibrate_data(data, options, source=str(args.data))
+        step("write")
+        res.to_json(out)
     for note in res.quality.get("notes", []):
         print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())

@@ -53,6 +53,11 @@ def task(desc: str, total: int | None = None, enabled: bool | None = None):
         bar.close()
 
 
+def in_task() -> bool:
+    """Whether a task is open: library loops (GA/PSO generations) show a bar only inside one, i.e. from the CLI."""
+    return bool(_TASKS)
+
+
 def step(label: str) -> None:
     """Mark the start of step ``label`` of the innermost open task (no-op outside a task)."""
     if _TASKS:

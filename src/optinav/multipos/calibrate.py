@@ -29,6 +29,7 @@ from scipy import stats as _stats
 
 from optinav.core.earth import WGS84
 from optinav.core.earth import gravity as normal_gravity
+from optinav.core.progress import step
 from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -187,6 +188,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
                          notes, np.radians(rotation_angle_deg))
     selection = {}
+    step("detect static intervals")
     if sections is not None:
         sl = static.sections_from_list(sections, t)
         keep = [k for k, name in enumerate(sl.names) if not str(name).endswith("_rot")]  # imucal's rotations
@@ -210,6 +212,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
             "--min-duration, or give the poses by hand with --sections")
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
+    step(f"fit accelerometer ({method}) and gates")
     fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
                            samples=samples, rng=rng, bias_instability=acc_bias_instability,
                            held_misalignment=held_misalignment, **(method_options or {}))
@@ -244,6 +247,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         excluded["saturated_turns"] = len(drop)
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
+        step("fit gyroscope and gates")
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
                                      g_sensitivity_std=gyro_g_sensitivity, gravity=g)

@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 
+from optinav.core.progress import in_task, progress
 from optinav.core.validate import check_positive
 from optinav.errors import OptinavError
 
@@ -108,7 +109,7 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
     mean_cost, best_xs = [finite_mean(E)], [best_x.copy()]
     message = f"completed {G} generations"
     g = 0
-    for g in range(1, G + 1):
+    for g in progress(range(1, G + 1), total=G, desc="GA generations", enabled=None if in_task() else False):
         fit = fitness(E)
         fmax, favg = float(fit.max()), float(fit.mean())
         order = np.argsort(E, kind="stable")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from optinav.core.progress import in_task, progress
 from optinav.core.validate import check_positive
 from optinav.errors import OptinavError
 
@@ -66,7 +67,8 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
     mean_cost, best_xs = [finite_mean(f)], [gbest.copy()]
     message = f"completed {generations} generations"
     g = 0
-    for g in range(1, generations + 1):
+    for g in progress(range(1, generations + 1), total=generations, desc="PSO generations",
+                      enabled=None if in_task() else False):
         r1 = rng.random((n_particles, n))
         r2 = rng.random((n_particles, n))
         V = pso_velocity(V, X, pbest, gbest, r1, r2, w=w, c1=c1, c2=c2, v_min=vmin, v_max=vmax)
