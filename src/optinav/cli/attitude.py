@@ -161,7 +161,16 @@ def _read_log(args):
 
 
 def run(args) -> int:
+    from optinav.core.progress import task
+
+    with task("attitude"):
+        return _run(args)
+
+
+def _run(args) -> int:
     import numpy as np
+
+    from optinav.core.progress import step
 
     from optinav.attitude import PolarizationMeasurement, estimate_attitude
     from optinav.attitude.checks import check_aop
@@ -177,7 +186,9 @@ def run(args) -> int:
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
+    step("read")
     t, gyr, acc, mag, ref = _read_log(args)
+    step("checks")
     if t.size > 1 and not np.all(np.diff(t) > 0):
         raise OptinavError(f"the time column of {args.data} is not strictly increasing",
                            "sort the log or fix its time column")
@@ -209,12 +220,14 @@ def run(args) -> int:
         q0 = quat_from_euler(np.radians(e), args.frame.lower())
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {t.size} samples from {args.data} ({method}) ...", file=sys.stderr)
+    step(f"estimate ({method})")
     res = estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
                             offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
                             **options)
     eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+    step("write")
     write_csv(out, table, header, "%.9g")
     print(res.summary())
     score = None
@@ -301,7 +314,16 @@ def register_simulate(kinds) -> None:
 
 
 def run_simulate_flight(args) -> int:
+    from optinav.core.progress import task
+
+    with task("simulate flight"):
+        return _run_simulate_flight(args)
+
+
+def _run_simulate_flight(args) -> int:
     import numpy as np
+
+    from optinav.core.progress import step
 
     from optinav.attitude.simulate import simulate_flight
 
@@ -310,9 +332,11 @@ def run_simulate_flight(args) -> int:
     check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
+    step("simulate")
     d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
+    step("write")
     write_csv(out, cols, head, "%.10g")
     write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
     e0 = np.degrees(d.euler[0])

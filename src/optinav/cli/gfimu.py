@@ -187,7 +187,15 @@ def register_calibrate(kinds) -> None:
 
 
 def run_calibrate(args) -> int:
+    from optinav.core.progress import task
+
+    with task("calibrate gfimu"):
+        return _run_calibrate(args)
+
+
+def _run_calibrate(args) -> int:
     require_files((args.data, "data file"), (args.config, "configuration file"))
+    from optinav.core.progress import step
     import numpy as np
 
     from optinav.gfimu.array import identifiability
@@ -196,6 +204,7 @@ def run_calibrate(args) -> int:
     arr = _load_array(args.config, args.builtin)
     out = output_path(args.out, (".json",), "RESULT.json")
     identifiability(arr).require(("linear",))
+    step("read")
     data = TurntableData.load(args.data, arr.n)
     if args.rate_unit == "deg/s":
         data.table_rate = np.radians(data.table_rate)
@@ -209,7 +218,9 @@ def run_calibrate(args) -> int:
         print(f"optinav: calibrating {arr.n} accelerometers from {len(data.t)} samples ({args.method}) ...",
               file=sys.stderr)
     prepare_report(args)
+    step(f"fit ({args.method})")
     res = calibrate(arr, data, method=args.method, offset=offset, sigma=args.noise)
+    step("write")
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")

@@ -121,17 +121,29 @@ def register_calibrate(kinds) -> None:
 
 
 def run_calibrate(args) -> int:
+    from optinav.core.progress import task
+
+    with task("calibrate rins"):
+        return _run_calibrate(args)
+
+
+def _run_calibrate(args) -> int:
     require_files((args.data, "data file"))
+    from optinav.core.progress import step
     from optinav.rins.calibrate import calibrate, prepare
     from optinav.rins.io import read_rins
 
     out = output_path(args.out, (".json",), "RESULT.json")
     prepare_report(args)
+    step("read")
     data = read_rins(args.data, lat_deg=args.lat)
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    step("prepare")
     prep = prepare(data, residual_rate=args.residual_rate, align_s=args.align)
+    step(f"fit ({args.method})")
     res = calibrate(method=args.method, prep=prep, rng=args.seed, source=str(args.data))
+    step("write")
     res.to_json(out)
     print(res.summary())
     print(f"optinav: result written to {out}")

@@ -50,6 +50,14 @@ def register(sub) -> None:
 
 
 def run_accel_multipos(args) -> int:
+    from optinav.core.progress import task
+
+    with task("simulate accel-multipos"):
+        return _run_accel_multipos(args)
+
+
+def _run_accel_multipos(args) -> int:
+    from optinav.core.progress import step
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
     from optinav.multipos.simulate import simulate_session
@@ -63,6 +71,7 @@ def run_accel_multipos(args) -> int:
     # measured (benchmarks/bench_memory.py): about 1150 B per sample at the peak, 1500 with margin
     check_memory(rate * (args.rest + len(SCHEMES[args.scheme]) * (args.dwell + args.transition)), 1500,
                  "this session", "shorten --dwell/--rest/--transition or lower --rate")
+    step("simulate")
     s = simulate_session(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
                          transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
                          height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
@@ -72,6 +81,7 @@ def run_accel_multipos(args) -> int:
     gyro = s.gyro if args.gyro_unit in ("counts", "rad/s") else s.gyro * factor(args.gyro_unit)
     log = ImuLog(t=s.t, acc=acc, gyro=gyro, acc_unit="counts" if args.acc_unit == "counts" else "m/s^2",
                  gyro_unit="counts" if args.gyro_unit == "counts" else "rad/s", source="optinav simulate")
+    step("write")
     write_imu(out, log, acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
               gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
     truth = {"schema": "optinav.simulation_truth", "version": 1, "model": "raw = K x + b",

@@ -1,0 +1,48 @@
+"""Progress of long CLI commands: step labels on a terminal, nothing when piped or with --quiet."""
+
+import sys
+
+import pytest
+
+from optinav.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    d = tmp_path_factory.mktemp("progress")
+    data = d / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--acc-unit", "counts",
+                 "--gyro-unit", "deg/s", "--seed", "1"]) == 0
+    return d, data
+
+
+def _calibrate(d, data, *extra):
+    return main([*extra, "calibrate", "accel", str(data), "--latitude", "38.88", "--out", str(d / "r.json"),
+                 "--method", "ga", "--generations", "5"])
+
+
+def test_calibrate_shows_steps_on_a_terminal(session, capsys, monkeypatch):
+    monkeypatch.setenv("OPTINAV_QUIET", "")
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert _calibrate(*session) == 0
+    err = capsys.readouterr().err
+    assert "calibrate accel:" in err and "GA generations" in err and ", write" in err
+
+
+def test_calibrate_silent_when_piped_or_quiet(session, capsys, monkeypatch):
+    monkeypatch.setenv("OPTINAV_QUIET", "")
+    assert _calibrate(*session) == 0  # stderr is not a terminal
+    err = capsys.readouterr().err
+    assert "GA generations" not in err and "steps" not in err and "\r" not in err
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert _calibrate(*session, "--quiet") == 0
+    assert capsys.readouterr().err.count("\r") == 0
+
+
+def test_attitude_and_flight_steps(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("optinav.core.progress.progress_enabled", lambda: True)
+    f = tmp_path / "f.csv"
+    assert main(["simulate", "flight", "--out", str(f), "--duration", "5"]) == 0
+    assert main(["attitude", str(f), "--out", str(tmp_path / "q.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "simulate flight:" in err and "attitude:" in err and err.count(", write") >= 2
