@@ -46,3 +46,13 @@ def test_attitude_and_flight_steps(tmp_path, capsys, monkeypatch):
     assert main(["attitude", str(f), "--out", str(tmp_path / "q.csv")]) == 0
     err = capsys.readouterr().err
     assert "simulate flight:" in err and "attitude:" in err and err.count(", write") >= 2
+
+
+def test_generation_bars_only_directly_inside_a_task():
+    from optinav.core.progress import in_task, progress, task
+
+    assert not in_task()
+    with task("job", enabled=False):
+        assert in_task()
+        for _ in progress(range(1), enabled=True):
+            assert not in_task()  # one outer bar per run is enough

@@ -19,6 +19,7 @@ from tqdm.auto import tqdm
 T = TypeVar("T")
 
 _TASKS: list = []  # open task bars, innermost last
+_LOOPS: list = []  # open loop bars of progress()
 
 
 def progress_enabled() -> bool:
@@ -36,7 +37,11 @@ def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
     # nested under an open task: the bar goes below it and disappears when done
     with tqdm(iterable, total=total, desc=desc, file=sys.stderr, mininterval=min_interval, dynamic_ncols=True,
               leave=not _TASKS, position=len(_TASKS) or None) as bar:
-        yield from bar
+        _LOOPS.append(bar)
+        try:
+            yield from bar
+        finally:
+            _LOOPS.remove(bar)
 
 
 @contextlib.contextmanager
@@ -54,8 +59,9 @@ def task(desc: str, total: int | None = None, enabled: bool | None = None):
 
 
 def in_task() -> bool:
-    """Whether a task is open: library loops (GA/PSO generations) show a bar only inside one, i.e. from the CLI."""
-    return bool(_TASKS)
+    """Whether a task is open and no loop bar runs inside it: library loops (GA/PSO generations) show a bar
+    only then, i.e. from the CLI and not once per run of an outer loop."""
+    return bool(_TASKS) and not _LOOPS
 
 
 def step(label: str) -> None:
