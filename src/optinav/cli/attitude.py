@@ -77,7 +77,7 @@ def register(sub) -> None:
     pol.add_argument("--min-dop", type=float, default=0.05, help="skip samples with a lower DoP (default 0.05)")
     p.add_argument("--out", required=True, metavar="ATTITUDE.csv", help="output CSV")
     add_report_option(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, progress_task="attitude")
 
 
 def _options(items) -> dict:
@@ -161,13 +161,6 @@ def _read_log(args):
 
 
 def run(args) -> int:
-    from optinav.core.progress import task
-
-    with task("attitude"):
-        return _run(args)
-
-
-def _run(args) -> int:
     import numpy as np
 
     from optinav.core.progress import step
@@ -310,17 +303,10 @@ def register_simulate(kinds) -> None:
     p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
     p.add_argument("--gyro-bias", metavar="BX,BY,BZ", help="constant residual gyro bias, deg/s (default none)")
     p.add_argument("--seed", type=int, default=0)
-    p.set_defaults(func=run_simulate_flight)
+    p.set_defaults(func=run_simulate_flight, progress_task="simulate flight")
 
 
 def run_simulate_flight(args) -> int:
-    from optinav.core.progress import task
-
-    with task("simulate flight"):
-        return _run_simulate_flight(args)
-
-
-def _run_simulate_flight(args) -> int:
     import numpy as np
 
     from optinav.core.progress import step

@@ -44,7 +44,7 @@ def register(sub) -> None:
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(a)
-    a.set_defaults(func=run_accel)
+    a.set_defaults(func=run_accel, progress_task="calibrate accel")
     register_system_hooks(kinds, "register_calibrate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
@@ -118,22 +118,20 @@ def full_scale(text: str):
 
 
 def run_accel(args) -> int:
-    from optinav.core.progress import step, task
+    from optinav.core.progress import step
+    from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
-    with task("calibrate accel"):
-        step("read")
-        from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
-
-        out = output_path(args.out, (".json",), "RESULT.json")
-        prepare_report(args)
-        options = FileOptions.from_args(args)
-        options.check()
-        data = read_session_file(args.data, options)
-        if not getattr(args, "quiet", False):
-            print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
-        res = calibrate_data(data, options, source=str(args.data))
-        step("write")
-        res.to_json(out)
+    out = output_path(args.out, (".json",), "RESULT.json")
+    prepare_report(args)
+    options = FileOptions.from_args(args)
+    options.check()
+    step("read")
+    data = read_session_file(args.data, options)
+    if not getattr(args, "quiet", False):
+        print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
+    res = calibrate_data(data, options, source=str(args.data))
+    step("write")
+    res.to_json(out)
     for note in res.quality.get("notes", []):
         print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())

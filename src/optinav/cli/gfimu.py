@@ -183,17 +183,10 @@ def register_calibrate(kinds) -> None:
     c.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
-    c.set_defaults(func=run_calibrate)
+    c.set_defaults(func=run_calibrate, progress_task="calibrate gfimu")
 
 
 def run_calibrate(args) -> int:
-    from optinav.core.progress import task
-
-    with task("calibrate gfimu"):
-        return _run_calibrate(args)
-
-
-def _run_calibrate(args) -> int:
     require_files((args.data, "data file"), (args.config, "configuration file"))
     from optinav.core.progress import step
     import numpy as np

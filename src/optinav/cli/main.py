@@ -8,6 +8,7 @@ any other exception prints a one-line internal error and exits 1; ``--debug`` sh
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import textwrap
@@ -61,9 +62,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.quiet:
         os.environ["OPTINAV_QUIET"] = "1"
     from optinav.core.files import protect_inputs
+    from optinav.core.progress import task
 
+    # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
+    label = getattr(args, "progress_task", None)
     try:
-        with protect_inputs(_input_paths(args)):
+        with protect_inputs(_input_paths(args)), (task(label) if label else contextlib.nullcontext()):
             return int(args.func(args) or 0)
     except OptinavError as exc:
         if args.debug:

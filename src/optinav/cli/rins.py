@@ -117,17 +117,10 @@ def register_calibrate(kinds) -> None:
     p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(p)
-    p.set_defaults(func=run_calibrate)
+    p.set_defaults(func=run_calibrate, progress_task="calibrate rins")
 
 
 def run_calibrate(args) -> int:
-    from optinav.core.progress import task
-
-    with task("calibrate rins"):
-        return _run_calibrate(args)
-
-
-def _run_calibrate(args) -> int:
     require_files((args.data, "data file"))
     from optinav.core.progress import step
     from optinav.rins.calibrate import calibrate, prepare

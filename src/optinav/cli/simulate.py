@@ -44,19 +44,12 @@ def register(sub) -> None:
     a.add_argument("--latitude", type=LATITUDE, default=38.88, metavar="DEG")
     a.add_argument("--height", type=HEIGHT, default=35.0, metavar="M")
     a.add_argument("--seed", type=SEED, default=0)
-    a.set_defaults(func=run_accel_multipos)
+    a.set_defaults(func=run_accel_multipos, progress_task="simulate accel-multipos")
     register_system_hooks(kinds, "register_simulate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
 def run_accel_multipos(args) -> int:
-    from optinav.core.progress import task
-
-    with task("simulate accel-multipos"):
-        return _run_accel_multipos(args)
-
-
-def _run_accel_multipos(args) -> int:
     from optinav.core.progress import step
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
