@@ -127,9 +127,14 @@ def _tables_2_to_4(quick, rng):
     t0 = time.perf_counter()
     fits["newton"] = accel.fit_accel(st, g, method="newton", data="samples", samples=samples)
     fits["newton"].elapsed_s = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    fits["lm"] = accel.fit_accel(st, g, method="lm", bias_instability=sess.acc_bias_instability)
-    fits["lm"].elapsed_s = time.perf_counter() - t0
+    # LM takes milliseconds, so one scheduler hiccup could be most of a single timing: the best of five
+    # (the fit is deterministic) is its cost
+    lm_times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        fits["lm"] = accel.fit_accel(st, g, method="lm", bias_instability=sess.acc_bias_instability)
+        lm_times.append(time.perf_counter() - t0)
+    fits["lm"].elapsed_s = min(lm_times)
     vec = {k: _paper_vector(f.K, f.b, g) for k, f in fits.items()}
     rel = {k: 100 * (v - truth) / truth for k, v in vec.items()}
     std_p = np.r_[fits["lm"].std[6:9], fits["lm"].std[:3] * g,
