@@ -17,6 +17,9 @@ import math
 import numba
 import numpy as np
 
+from optinav.attitude._kernels import qmul as _qmul
+from optinav.attitude._kernels import rotvec_q as _rotvec_q
+
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
 # --- state layout ---------------------------------------------------------------------------------------------
@@ -46,28 +49,12 @@ PAR_SIZE = 24
 
 
 @numba.njit(**_NJ)
-def _qmul(p0, p1, p2, p3, r0, r1, r2, r3):
-    return (p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3, p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2,
-            p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1, p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0)
-
-
-@numba.njit(**_NJ)
 def _rot(q0, q1, q2, q3, x, y, z):
     """C(q)·v for a unit quaternion q."""
     tx = 2.0 * (q2 * z - q3 * y)
     ty = 2.0 * (q3 * x - q1 * z)
     tz = 2.0 * (q1 * y - q2 * x)
     return (x + q0 * tx + q2 * tz - q3 * ty, y + q0 * ty + q3 * tx - q1 * tz, z + q0 * tz + q1 * ty - q2 * tx)
-
-
-@numba.njit(**_NJ)
-def _rotvec_q(vx, vy, vz):
-    a = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if a < 1e-8:
-        s = 0.5 - a * a / 48.0
-        return 1.0 - a * a / 8.0, s * vx, s * vy, s * vz
-    s = math.sin(0.5 * a) / a
-    return math.cos(0.5 * a), s * vx, s * vy, s * vz
 
 
 @numba.njit(**_NJ)

@@ -48,27 +48,33 @@ def _normalize(q):
 
 
 @numba.njit(**_NJ)
-def _rotvec_quat(vx, vy, vz, out):
-    """Exact quaternion of the rotation vector v (rad)."""
+def rotvec_q(vx, vy, vz):
+    """Exact quaternion (w, x, y, z) of the rotation vector v (rad), as four scalars."""
     a = math.sqrt(vx * vx + vy * vy + vz * vz)
     if a < 1e-8:
         s = 0.5 - a * a / 48.0
-        out[0] = 1.0 - a * a / 8.0
-    else:
-        s = math.sin(0.5 * a) / a
-        out[0] = math.cos(0.5 * a)
-    out[1] = s * vx
-    out[2] = s * vy
-    out[3] = s * vz
+        return 1.0 - a * a / 8.0, s * vx, s * vy, s * vz
+    s = math.sin(0.5 * a) / a
+    return math.cos(0.5 * a), s * vx, s * vy, s * vz
+
+
+@numba.njit(**_NJ)
+def qmul(p0, p1, p2, p3, r0, r1, r2, r3):
+    """p ⊗ r on scalar components, as four scalars."""
+    return (p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3, p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2,
+            p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1, p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0)
+
+
+@numba.njit(**_NJ)
+def _rotvec_quat(vx, vy, vz, out):
+    """Exact quaternion of the rotation vector v (rad), into ``out``."""
+    out[0], out[1], out[2], out[3] = rotvec_q(vx, vy, vz)
 
 
 @numba.njit(**_NJ)
 def _qmul_into(p, r, out):
     """out = p ⊗ r (out must not alias p or r)."""
-    out[0] = p[0] * r[0] - p[1] * r[1] - p[2] * r[2] - p[3] * r[3]
-    out[1] = p[0] * r[1] + p[1] * r[0] + p[2] * r[3] - p[3] * r[2]
-    out[2] = p[0] * r[2] - p[1] * r[3] + p[2] * r[0] + p[3] * r[1]
-    out[3] = p[0] * r[3] + p[1] * r[2] - p[2] * r[1] + p[3] * r[0]
+    out[0], out[1], out[2], out[3] = qmul(p[0], p[1], p[2], p[3], r[0], r[1], r[2], r[3])
 
 
 @numba.njit(**_NJ)
