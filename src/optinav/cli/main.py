@@ -12,6 +12,7 @@ import contextlib
 import os
 import sys
 import textwrap
+import warnings
 
 from optinav import __version__
 from optinav.errors import OptinavError
@@ -67,7 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
     label = getattr(args, "progress_task", None)
     try:
-        with protect_inputs(_input_paths(args)), (task(label) if label else contextlib.nullcontext()):
+        with protect_inputs(_input_paths(args)), warnings.catch_warnings(), \
+                (task(label) if label else contextlib.nullcontext()):
+            warnings.showwarning = _one_line_warning
             return int(args.func(args) or 0)
     except OptinavError as exc:
         if args.debug:
@@ -89,6 +92,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"optinav: internal error: {type(exc).__name__}: {msg} (run with --debug for the traceback "
               "and please report it)", file=sys.stderr)
         return 1
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """CLI users get a warning as one line like the errors, not Python's file:line and source echo."""
+    print(f"optinav: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
 
 #: options that name what a command writes, never what it reads
