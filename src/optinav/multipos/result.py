@@ -50,7 +50,9 @@ def _triad(d: dict | None, name: str) -> dict | None:
     out["b"] = as_float_array(d["b"], f"{name} b", last_dims=(3,))
     if out["K"].shape != (3, 3) or out["b"].shape != (3,):
         raise OptinavError(f"the {name} K/b have shapes {out['K'].shape}/{out['b'].shape}", "expect 3×3 and 3")
-    if abs(np.linalg.det(out["K"])) < 1e-300:
+    with np.errstate(over="ignore"):  # a huge K (a damaged file) overflows to inf: not singular; apply judges it
+        det = np.linalg.det(out["K"])
+    if abs(det) < 1e-300:
         raise OptinavError(f"the {name} matrix K is singular", "the result file is corrupt; re-run the calibration")
     for key in ("K_std", "b_std", "G"):
         if d.get(key) is not None:
