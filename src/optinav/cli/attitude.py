@@ -179,6 +179,8 @@ def run(args) -> int:
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
+    if args.reference and args.frame != "ENU":  # before the estimate, not after it
+        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     step("read")
     t, gyr, acc, mag, ref = _read_log(args)
     step("checks")
@@ -225,7 +227,7 @@ def run(args) -> int:
     print(res.summary())
     score = None
     if args.reference:
-        score = _score(res.q, *ref, args.frame)
+        score = _score(res.q, *ref)
         print(f"reference: inclination RMSE {score[0]:.3f} deg, heading RMSE {score[1]:.3f} deg "
               f"({score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
@@ -233,14 +235,12 @@ def run(args) -> int:
     return 0
 
 
-def _score(q, q_ref, movement, frame):
+def _score(q, q_ref, movement):
     """BROAD inclination and heading RMSE (deg) over movement samples with a finite reference."""
     import numpy as np
 
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
-    if frame != "ENU":
-        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     mask = movement & np.all(np.isfinite(q_ref), axis=1)
     return (float(np.degrees(rmse(inclination_error(q, q_ref), mask))),
             float(np.degrees(rmse(heading_error(q, q_ref), mask))), int(mask.sum()))
