@@ -129,7 +129,7 @@ def _throughput(tr, quick: bool) -> list[dict]:
     group = f"attitude streaming (one Python call per sample, {n} samples)"
 
     def ours():
-        f = AttitudeFilter(tr.rate, frame="ENU")
+        f = AttitudeFilter(tr.rate_hz, frame="ENU")
         for i in range(n):
             f.update(gl[i], al[i])
 

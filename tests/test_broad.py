@@ -34,7 +34,7 @@ def test_broad_inclination_rmse_6d(trial, method):
 
 def test_broad_gd_reproduces_ahrs_madgwick(trial):
     ahrs = pytest.importorskip("ahrs")
-    q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate, gain=0.033).Q
+    q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate_hz, gain=0.033).Q
     ref = np.degrees(rmse(inclination_error(q_ahrs, trial.q_ref), trial.eval_mask))
     q = estimate_q(trial.gyr, trial.acc, trial.dt, method="gd", frame="ENU", gain=0.033)
     ours = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
@@ -44,10 +44,10 @@ def test_broad_gd_reproduces_ahrs_madgwick(trial):
 
 def test_broad_heading_with_synthesized_polarization(trial):
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
-    from optinav.sky import solar_position_deg
+    from optinav.sky import solar_position
 
-    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
     sun = sp.sun_vector("enu")
     pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
     i0 = int(np.flatnonzero(np.all(np.isfinite(trial.q_ref), axis=1))[0])  # start at the first optical sample

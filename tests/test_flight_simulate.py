@@ -112,7 +112,7 @@ def test_enu_frame_same_physics_and_options():
 
 
 def test_flight_data_roundtrip(tmp_path):
-    f = simulate("static", 0.5, 20.0, rng=5, lat_deg=PAPER_SITE["lat_deg"])
+    f = simulate("static", 0.5, 20.0, rng=5, lat=PAPER_SITE["lat"])
     path = tmp_path / "flight.json"
     f.to_json(path)
     back = FlightData.from_json(path)

@@ -14,7 +14,7 @@ from optinav.rins.model import (nonorth_dcm, residual_jacobian, residuals, senso
 from optinav.rins.simulate import simulate
 
 P_TRUE = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
-SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate=100.0)
+SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate_hz=100.0)
 
 
 def _truth_combo(c):
@@ -131,7 +131,7 @@ def test_none_method_reports_nothing_calibrated(noisy):
 @pytest.mark.parametrize("suffix", [".npz", ".csv", ".h5"])
 def test_file_round_trip(tmp_path, suffix):
     pytest.importorskip("h5py") if suffix == ".h5" else None
-    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate=50)
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
     path = write_rins(tmp_path / f"x{suffix}", d)
     e = read_rins(path)
     for f in ("t", "dtheta", "dv", "alpha", "beta"):
@@ -152,7 +152,7 @@ def test_bad_input_errors():
     nomo.dtheta[:] = base.dtheta[:100].mean(0)
     _err(nomo, "never move|no gimbal motion")
     # only the inner axis turns
-    inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate=100)
+    inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate_hz=100)
     _err(inner, r"only the inner \(alpha\) axis turns.*eta_x.*cannot be calibrated")
     # frozen outer encoder while the outer gimbal turns
     frozen = dataclasses.replace(base, beta=np.zeros_like(base.beta))

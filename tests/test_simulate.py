@@ -31,7 +31,7 @@ def body(v_n, c_b_n):
 @pytest.mark.parametrize("earth_name", ["wgs84", "psins"])
 def test_static_six_positions_truth(frame, earth_name):
     h = 250.0
-    tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, h=h, frame=frame, earth=earth_name,
+    tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, height_m=h, frame=frame, earth=earth_name,
                             transition=2.0)
     c = tr.dcm_b_n
     rest = tr.labels >= 0
@@ -58,7 +58,7 @@ def test_static_six_positions_truth(frame, earth_name):
 
 
 def test_static_frames_describe_the_same_motion():
-    kw = dict(dwell=[3.0, 4.0, 2.0], rate=20.0, lat=LAT, transition=[1.5, 2.5])
+    kw = dict(dwell=[3.0, 4.0, 2.0], rate_hz=20.0, lat=LAT, transition=[1.5, 2.5])
     cs_enu = np.stack([dcm_from_euler([0.1, -0.2, 0.3], "enu"), S.orientation_from_up("-x"),
                        S.orientation_from_up("y", "-x")])
     cs_ned = np.stack([np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ c for c in cs_enu])
@@ -114,7 +114,7 @@ def test_orientation_from_up_and_describe():
 def test_static_gravity_norm_any_pose(roll, pitch, yaw, lat, h):
     # |f| = normal gravity and f·(C_n^b up) = g in any pose at any site (f^b = C_n^b(−g^n), C orthogonal)
     c = dcm_from_euler([roll, pitch, yaw], "ned")
-    tr = S.static_positions(c, 1.0, 4.0, lat, h=h, frame="ned")
+    tr = S.static_positions(c, 1.0, 4.0, lat, height_m=h, frame="ned")
     g = earth.gravity(lat, h)
     np.testing.assert_allclose(np.linalg.norm(tr.f_b, axis=1), g, rtol=2e-16 * 8)
     np.testing.assert_allclose(tr.f_b @ (c.T @ [0, 0, -1.0]), g, rtol=1e-15)
@@ -179,7 +179,7 @@ def test_coning_noncommutativity_closed_form(h_frac):
 
 def test_coning_with_earth_rate_and_gravity():
     c0 = dcm_from_euler([0.2, -0.1, 1.0], "enu")
-    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, h=100.0, initial=c0)
+    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, height_m=100.0, initial=c0)
     ref = S.coning(BETA, FREQ, 1.0, 100.0, initial=c0)
     c = tr.dcm_b_n
     np.testing.assert_allclose(c, ref.dcm_b_n, atol=1e-15)
@@ -272,7 +272,7 @@ def test_turntable_increments_with_earth_rate_against_quadrature():
     # Σ Δθ over the cosine move equals ∫(ω_nb + C_n^b ω_ie) dt evaluated by adaptive quadrature of an
     # independent model: C(t) = C_0 R_z(θ(t)), ω_nb = θ̇ e_z
     sched = [S.Rest(1.0), S.Rotate("z", 90 * DEG, 3.0), S.Rest(1.0)]
-    tr = S.turntable(sched, 10.0, LAT, h=30.0, initial=C0)
+    tr = S.turntable(sched, 10.0, LAT, height_m=30.0, initial=C0)
     w_ie = earth.earth_rate(LAT)
     g = earth.gravity_vector(LAT, 30.0)
 

@@ -40,12 +40,12 @@ class BroadTrial:
     mag: np.ndarray
     q_ref: np.ndarray
     movement: np.ndarray
-    rate: float
+    rate_hz: float
     name: str
 
     @property
     def dt(self) -> float:
-        return 1.0 / self.rate
+        return 1.0 / self.rate_hz
 
     @property
     def eval_mask(self) -> np.ndarray:
@@ -93,7 +93,7 @@ def load_broad(path) -> BroadTrial:
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
     return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,
                       q_ref=np.asarray(tab.get("opt_quat"), float),
-                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate=rate, name=p.stem)
+                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate_hz=rate, name=p.stem)
 
 
 def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop_noise: float = 0.0,

@@ -173,15 +173,16 @@ class PolarizationMeasurement:
             self.min_sun_separation)
 
 
-def predicted_aop(q, sun_n, C_b_m=None, frame: str = "NED") -> np.ndarray:
-    """Rayleigh AoP (rad, [−π/2, π/2)) seen by the sensor at attitude(s) q for sun vector(s) sun_n (nav frame).
+def predicted_aop(q_b_n, sun_n, C_b_m=None, frame: str = "NED") -> np.ndarray:
+    """Rayleigh AoP (rad, [−π/2, π/2)) seen by the sensor at attitude(s) q_b_n for sun vector(s) sun_n (nav
+    frame).
 
     The forward model of the shared measurement model, also used to synthesize measurements.
     """
     from optinav.core.rotations import dcm_from_quat
 
     c_b_m = as_c_b_m(C_b_m, frame)
-    q = as_float_array(q, "q", last_dims=(4,))
+    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,))
     s = as_float_array(sun_n, "sun_n", last_dims=(3,))
     s_b = np.einsum("...ji,...j->...i", dcm_from_quat(q), s)
     s_m = s_b @ c_b_m.T
@@ -206,11 +207,11 @@ def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
             float(np.sin(pol.min_sun_separation) ** 2), skipped)
 
 
-def measurement_error(q, acc, *, pol: PolarizationMeasurement | None = None, frame: str = "NED",
+def measurement_error(q_b_n, acc, *, pol: PolarizationMeasurement | None = None, frame: str = "NED",
                       jacobian: str = "quat", pol_weight: float = 1.0):
     """F(q) = [ε_b; ε_m] and its Jacobian at each sample (numpy face of the estimators' kernel).
 
-    q (N, 4) q_b^n; acc (N, 3) specific force (any unit, only its direction is used). Returns
+    q_b_n (N, 4) attitude q_b^n; acc (N, 3) specific force (any unit, only its direction is used). Returns
     ``F`` (N, 5), ``J`` (N, 5, 3 or 4) and ``rows`` (N,) = 3 (gravity only), 5 (with polarization) or −3
     (polarization requested but the sun within ``min_sun_separation`` of the viewing axis); unused rows are NaN.
     ``jacobian``: "quat" (tangent, 4 columns), "body" or "nav" error angle (3 columns).
@@ -218,7 +219,7 @@ def measurement_error(q, acc, *, pol: PolarizationMeasurement | None = None, fra
     frame = _frame(frame)
     if jacobian not in _JAC_MODES:
         raise OptinavError(f"unknown jacobian {jacobian!r}", "use 'quat', 'body' or 'nav'")
-    q = as_float_array(q, "q", last_dims=(4,)).reshape(-1, 4)
+    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,)).reshape(-1, 4)
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     acc = as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3)
     n = q.shape[0]

@@ -44,7 +44,7 @@ def run(args) -> int:
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                   time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
     acc = gyro = None
     if res.accelerometer is not None and log.acc is not None:

@@ -127,7 +127,7 @@ def _read_log(args):
     want_mag = args.mag or bool(args.mag_columns)
     if is_broad(args.data) and not args.columns and not args.datasets:
         tr = load_broad(args.data)
-        t = np.arange(tr.gyr.shape[0]) / tr.rate
+        t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
     from optinav.io.readers import read_table
@@ -136,7 +136,7 @@ def _read_log(args):
         raise OptinavError(f"{args.data} is not a BROAD file with opt_quat and movement",
                            "drop --reference or pass a BROAD trial")
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                   time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter)
     if log.acc is None or log.gyro is None:
         raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",

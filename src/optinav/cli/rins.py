@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import textwrap
 
@@ -76,7 +77,7 @@ def run_simulate(args) -> int:
                  "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
     d = simulate(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
-                 align_s=args.align, rate=args.rate, lat_deg=args.lat,
+                 align_s=args.align, rate_hz=args.rate, lat=np.radians(args.lat),
                  gyro_misalignment=None if args.gyro_misalignment_arcsec is None
                  else args.gyro_misalignment_arcsec * arc,
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
@@ -129,7 +130,7 @@ def run_calibrate(args) -> int:
     out = output_path(args.out, (".json",), "RESULT.json")
     prepare_report(args)
     step("read")
-    data = read_rins(args.data, lat_deg=args.lat)
+    data = read_rins(args.data, lat=None if args.lat is None else math.radians(args.lat))
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     step("prepare")

@@ -50,6 +50,8 @@ def register(sub) -> None:
 
 
 def run_accel_multipos(args) -> int:
+    import numpy as np
+
     from optinav.core.progress import step
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
@@ -66,7 +68,7 @@ def run_accel_multipos(args) -> int:
                  "this session", "shorten --dwell/--rest/--transition or lower --rate")
     step("simulate")
     s = simulate(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
-                 transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
+                 transition_s=args.transition, rest_s=args.rest, lat=np.radians(args.latitude),
                  height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                  jitter=args.jitter, rng=args.seed)
     # the log holds SI or counts; write_imu converts SI back to the requested file unit

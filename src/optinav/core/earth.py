@@ -72,8 +72,9 @@ def check_frame(frame: str) -> str:
     return f
 
 
-def radii(lat, h=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
-    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``h`` (m)."""
+def radii(lat, height_m=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
+    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``height_m`` (m)."""
+    h = height_m
     e = constants(earth)
     s2 = np.sin(np.asarray(lat, dtype=float)) ** 2
     w = np.sqrt(1.0 - e.e2 * s2)
@@ -82,11 +83,11 @@ def radii(lat, h=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
     return rm + h, rn + h
 
 
-def gravity(lat, h=0.0, earth="wgs84") -> np.ndarray:
-    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``h`` (m)."""
+def gravity(lat, height_m=0.0, earth="wgs84") -> np.ndarray:
+    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``height_m`` (m)."""
     e = constants(earth)
     lat = np.asarray(lat, dtype=float)
-    h = np.asarray(h, dtype=float)
+    h = np.asarray(height_m, dtype=float)
     s2 = np.sin(lat) ** 2
     if e.gravity_model == "psins":
         return e.g_e * (1.0 + 5.27094e-3 * s2 + 2.32718e-5 * s2**2) - 3.086e-6 * h
@@ -95,9 +96,9 @@ def gravity(lat, h=0.0, earth="wgs84") -> np.ndarray:
     return g0 * (1.0 - 2.0 / e.a * (1.0 + e.f + m - 2.0 * e.f * s2) * h + 3.0 / e.a**2 * h**2)
 
 
-def gravity_vector(lat, h=0.0, frame="enu", earth="wgs84") -> np.ndarray:
+def gravity_vector(lat, height_m=0.0, frame="enu", earth="wgs84") -> np.ndarray:
     """Gravity vector g^n (m/s²): ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED; shape (..., 3)."""
-    g = gravity(lat, h, earth)
+    g = gravity(lat, height_m, earth)
     z = np.zeros_like(g)
     sign = -1.0 if check_frame(frame) == "enu" else 1.0
     return np.stack([z, z, sign * g], -1)
@@ -113,10 +114,10 @@ def earth_rate(lat, frame="enu", earth="wgs84") -> np.ndarray:
     return np.stack([c, z, -s], -1)
 
 
-def transport_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
+def transport_rate(lat, height_m, v_n, frame="enu", earth="wgs84") -> np.ndarray:
     """Transport rate ω_en^n (rad/s) for navigation-frame velocity ``v_n`` (..., 3) in m/s."""
     v = np.asarray(v_n, dtype=float)
-    rm, rn = radii(lat, h, earth)
+    rm, rn = radii(lat, height_m, earth)
     t = np.tan(np.asarray(lat, dtype=float))
     if check_frame(frame) == "enu":
         ve, vn = v[..., 0], v[..., 1]
@@ -125,10 +126,10 @@ def transport_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
     return np.stack([ve / rn, -vn / rm, -ve * t / rn], -1)
 
 
-def position_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
-    """Time derivative of ``[lat, lon, h]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
+def position_rate(lat, height_m, v_n, frame="enu", earth="wgs84") -> np.ndarray:
+    """Time derivative of ``[lat, lon, height_m]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
     v = np.asarray(v_n, dtype=float)
-    rm, rn = radii(lat, h, earth)
+    rm, rn = radii(lat, height_m, earth)
     if check_frame(frame) == "enu":
         ve, vn, vu = v[..., 0], v[..., 1], v[..., 2]
     else:
@@ -150,9 +151,10 @@ def dcm_e_to_n(lat, lon, frame="enu") -> np.ndarray:
     return np.stack([north, east, -up], -2)
 
 
-def geodetic_to_ecef(lat, lon, h, earth="wgs84") -> np.ndarray:
-    """Geodetic ``lat``, ``lon`` (rad), ``h`` (m) → ECEF position (m)."""
+def geodetic_to_ecef(lat, lon, height_m, earth="wgs84") -> np.ndarray:
+    """Geodetic ``lat``, ``lon`` (rad), ``height_m`` (m) → ECEF position (m)."""
     e = constants(earth)
+    h = height_m
     lat = np.asarray(lat, dtype=float)
     _, rn = radii(lat, 0.0, e)
     cl = np.cos(lat)

@@ -243,23 +243,23 @@ class TriadErrors(Result):
             off = off + f @ self.g_sensitivity.T
         return off
 
-    def apply(self, x, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+    def apply(self, x, *, dt=None, acc=None, kind: str = "rate") -> np.ndarray:
         """Truth → measured: ``K x + b (+ G f)`` for rates, ``K Δx + b·dt (+ G Δv)`` for increments.
 
-        x: (..., 3) true rates or increments; dt (s): needed for increments; f: true specific force
+        x: (..., 3) true rates or increments; dt (s): needed for increments; acc: true specific force
         (m/s², or Δv in m/s for increments), needed when the gyro has g-sensitivity.
         """
         x = as_float_array(x, "x", last_dims=(3,))
-        return x @ self.K.T + self._offset(x.shape, dt, f, kind, "f")
+        return x @ self.K.T + self._offset(x.shape, dt, acc, kind, "acc")
 
-    def compensate(self, y, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+    def compensate(self, y, *, dt=None, acc=None, kind: str = "rate") -> np.ndarray:
         """Measured → corrected: ``K⁻¹ (y − b − G f)`` (exact inverse of :meth:`apply`).
 
-        For a gyro with g-sensitivity pass the compensated accelerometer output as ``f``;
+        For a gyro with g-sensitivity pass the compensated accelerometer output as ``acc``;
         :meth:`ImuModel.compensate` does so, which makes the inversion exact without noise.
         """
         y = as_float_array(y, "y", last_dims=(3,))
-        r = y - self._offset(y.shape, dt, f, kind, "f")
+        r = y - self._offset(y.shape, dt, acc, kind, "acc")
         return np.linalg.solve(self.K, r.reshape(-1, 3).T).T.reshape(y.shape)
 
 
@@ -494,24 +494,24 @@ class ImuModel(Result):
     def _dt(self, dt, n: int) -> np.ndarray:
         return np.array(_dt(1.0 / self.sample_rate if dt is None else dt, (n,)), dtype=float)
 
-    def apply(self, gyro, accel, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
+    def apply(self, gyr, acc, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
         """Truth → measured outputs.
 
-        gyro, accel: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
+        gyr, acc: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
         epochs, or, with ``kind="increment"``, the true Δθ (rad) and Δv (m/s) over each interval.
         dt: scalar or (N,) intervals in s (default 1/sample_rate). The g-sensitivity acts on the true
         specific force. ``noise=False`` leaves out the random terms (saturation and quantization stay).
         Order: deterministic errors, noise, saturation, quantization.
         """
         kind = _check_kind(kind)
-        w, f = _samples(gyro, "gyro"), _samples(accel, "accel")
+        w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
         if w.shape != f.shape:
-            raise OptinavError(f"gyro {w.shape} and accel {f.shape} have different shapes",
+            raise OptinavError(f"gyr {w.shape} and acc {f.shape} have different shapes",
                                "pass the same number of gyro and accel samples")
         n = w.shape[0]
         d = self._dt(dt, n)
         ya = self.accel.apply(f, dt=d, kind=kind)
-        yg = self.gyro.apply(w, dt=d, f=f, kind=kind)
+        yg = self.gyro.apply(w, dt=d, acc=f, kind=kind)
         if noise:
             rng = as_rng(rng)
             scale = 1.0 if kind == "rate" else d[:, None]
@@ -521,7 +521,7 @@ class ImuModel(Result):
         ya, sa = self.accel_noise.digitize(ya, d, kind=kind)
         return ImuMeasurement(gyro=yg, accel=ya, gyro_saturated=sg, accel_saturated=sa, dt=d, kind=kind)
 
-    def compensate(self, gyro, accel, dt=None, *, kind: str = "rate") -> ImuCompensated:
+    def compensate(self, gyr, acc, dt=None, *, kind: str = "rate") -> ImuCompensated:
         """Measured → corrected (inverse of the deterministic part of :meth:`apply`).
 
         The accelerometers are compensated first; the gyro g-sensitivity is then removed with the
@@ -529,13 +529,13 @@ class ImuModel(Result):
         dt (s) matters only for increments (bias·dt); default 1/sample_rate.
         """
         kind = _check_kind(kind)
-        yg, ya = _samples(gyro, "gyro"), _samples(accel, "accel")
+        yg, ya = _samples(gyr, "gyr"), _samples(acc, "acc")
         if yg.shape != ya.shape:
-            raise OptinavError(f"gyro {yg.shape} and accel {ya.shape} have different shapes",
+            raise OptinavError(f"gyr {yg.shape} and acc {ya.shape} have different shapes",
                                "pass the same number of gyro and accel samples")
         d = self._dt(dt, yg.shape[0])
         fa = self.accel.compensate(ya, dt=d, kind=kind)
-        wg = self.gyro.compensate(yg, dt=d, f=fa, kind=kind)
+        wg = self.gyro.compensate(yg, dt=d, acc=fa, kind=kind)
         return ImuCompensated(gyro=wg, accel=fa, kind=kind)
 
 

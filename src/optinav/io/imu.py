@@ -403,7 +403,7 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
 
 
 def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
-             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
+             gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
              datasets=None, delimiter: str | None = None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
@@ -414,15 +414,16 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
     declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
     unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
-    converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
+    converted to SI, counts kept. ``rate_hz`` (Hz) gives ``t = arange(N)/rate_hz`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     """
+    rate = rate_hz
     notes: list[str] = []
     acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
     gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
     time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
     if rate is not None:
-        rate = check_positive(rate, "rate")
+        rate = check_positive(rate, "rate_hz")
     if gyro_columns is not None and gyro_path is None:
         raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
@@ -436,7 +437,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     for p in parts:
         if p.t is not None:
             if rate is not None:
-                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate={rate:g} was given too",
+                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate_hz={rate:g} was given too",
                                    "drop the rate, or skip the time column with '_' in columns")
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t * TIME_UNITS[unit]))
@@ -450,7 +451,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
-                           "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
+                           "pass rate_hz=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
     else:
         if rate is None:
             rate, where = _file_rate(main.table)

@@ -105,7 +105,7 @@ def _broad_section(quick):
     from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
-    from optinav.sky import solar_position_deg
+    from optinav.sky import solar_position
 
     folder = shared_data_dir() / "attitude" / "broad"
     files = sorted(folder.glob("*.hdf5"))
@@ -121,8 +121,8 @@ def _broad_section(quick):
         return Table(title, cols, [], why), {"broad": why}
     if quick:
         files = [f for f in files if f.name.startswith(("02_", "07_"))] or files[:1]
-    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
     sun = sp.sun_vector("enu")
     rows, out = [], {}
     for f in files:

@@ -75,8 +75,9 @@ def _site_from_csv(path: Path) -> dict:
     return out
 
 
-def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = None) -> RinsData:
-    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat_deg``/``height_m`` override the file's."""
+def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
+    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat`` (rad) / ``height_m`` (m) override the
+    file's site (stored there as ``lat_deg``, ``height_m``)."""
     path = Path(path)
     kind = _fmt(path)
     tab = load_table(path)
@@ -96,7 +97,8 @@ def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = No
 
         with h5py.File(path, "r") as fh:
             site = {k: float(fh.attrs[k]) for k in ("lat_deg", "height_m") if k in fh.attrs}
-    lat = lat_deg if lat_deg is not None else site.get("lat_deg")
+    if lat is None and "lat_deg" in site:
+        lat = np.radians(site["lat_deg"])
     if lat is None:
         raise OptinavError(f"{path.name} does not state the latitude", "pass --lat DEG (the alignment needs it)")
     h = height_m if height_m is not None else site.get("height_m", 0.0)
@@ -107,4 +109,4 @@ def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = No
                                "resample the encoder angles to the IMU epochs first")
     return RinsData(t=col["time"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
                     dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
-                    beta=col["beta"], lat=float(np.radians(lat)), h=float(h))
+                    beta=col["beta"], lat=float(lat), h=float(h))

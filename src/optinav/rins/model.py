@@ -84,14 +84,14 @@ def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=No
     return out[0] if single else out
 
 
-def sensor_attitude(c_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
+def sensor_attitude(C_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
     """Inverse of eq. 6: ``C_s^n = C_b^n C_h2^b(β) C_h0^h2 C_h1^h0(α) C_s^h1`` (T, 3, 3) for one ``p`` (6,)."""
     p = np.asarray(p, float)
     Z, Y = chain_pieces(alpha, beta)
     A = nonorth_dcm(p[0:3], small_angle)
     B = nonorth_dcm(p[3:6], small_angle)
     tr = lambda m: np.swapaxes(m, -1, -2)  # noqa: E731
-    return np.asarray(c_b_n, float) @ tr(Y) @ B.T @ tr(Z) @ A.T
+    return np.asarray(C_b_n, float) @ tr(Y) @ B.T @ tr(Z) @ A.T
 
 
 def euler_pr_y(c) -> np.ndarray:
@@ -103,9 +103,9 @@ def euler_pr_y(c) -> np.ndarray:
     return np.stack([pitch, roll, yaw], axis=-1)
 
 
-def attitude_change(c_b_n) -> np.ndarray:
+def attitude_change(C_b_n) -> np.ndarray:
     """``E_t = C_{b,0}^nᵀ C_{b,t}^n`` for (..., T, 3, 3) attitudes (eqs. 12–14, relative to the first epoch)."""
-    c = np.asarray(c_b_n, float)
+    c = np.asarray(C_b_n, float)
     return np.swapaxes(c[..., :1, :, :], -1, -2) @ c
 
 
