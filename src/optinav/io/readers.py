@@ -181,6 +181,28 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     HDF5 reader read just those).
     """
     path = Path(path)
+    kind, gz = _file_kind(path)
+    labels = {normalize_name(n)[0] for n in text_columns}
+    if kind == "text":
+        table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
+    else:
+        if delimiter is not None:
+            raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
+        if kind in ("npz", "npy"):
+            table = _load_numpy(path)
+        elif kind == "hdf5":
+            table = _load_hdf5(path, only, matlab=False)
+        else:
+            table = _load_mat(path, only)
+        table = _split_single_table(table)
+        if names is not None:
+            table = _name_table_columns(table, names)
+    return table
+
+
+def _file_kind(path: Path) -> tuple[str, bool]:
+    """(format, gzip-compressed?) of ``path`` from its first bytes and suffix; one-line errors for a missing,
+    empty or unknown file."""
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
     if path.is_dir():
@@ -203,22 +225,7 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
         shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
         raise OptinavError(f"{path.name}: unknown data file type {shown}",
                            f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
-    labels = {normalize_name(n)[0] for n in text_columns}
-    if kind == "text":
-        table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
-    else:
-        if delimiter is not None:
-            raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
-        if kind in ("npz", "npy"):
-            table = _load_numpy(path)
-        elif kind == "hdf5":
-            table = _load_hdf5(path, only, matlab=False)
-        else:
-            table = _load_mat(path, only)
-        table = _split_single_table(table)
-        if names is not None:
-            table = _name_table_columns(table, names)
-    return table
+    return kind, gz
 
 
 _MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
@@ -354,11 +361,25 @@ def _is_header(tokens: list[str], following: list[str] | None) -> bool:
     return any(t and _is_number(f) and f != "" for t, f in zip(text, following))
 
 
-def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
-               labels: set[str]) -> Table:
+@dataclasses.dataclass
+class _Layout:
+    """How a text table is laid out, from its first lines: delimiter, column names, header units, metadata of
+    the comments and preamble, the index of the first data line, the kept and the text columns."""
+
+    delim: str | None
+    colnames: list[str]
+    units: dict[str, str]
+    meta: dict[str, str]
+    start: int
+    keep: list[int]
+    textable: set[int]
+
+
+def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None,
+                 labels: set[str]) -> _Layout:
+    """The :class:`_Layout` of a text file from its first lines (all lines up to the 10th after a preamble of at
+    most :data:`_MAX_PREAMBLE` lines suffice)."""
     given, delim = _delimiter_option(delimiter)
-    text = _decode(path, raw)
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     comments: list[str] = []
     last_comment = -2
     content: list[int] = []  # indices of the first few non-comment, non-blank lines
@@ -374,7 +395,7 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
         if not _strip_comment(s).strip():
             continue
         content.append(i)
-        if len(content) >= 10 + _MAX_PREAMBLE:
+        if len(content) >= _HEAD_CONTENT:
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
@@ -429,16 +450,36 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
     if not keep:
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
-    data = _parse_fast(lines, start, delim, ncol, keep, textable)
-    truncated = None
-    if data is None:
-        data, truncated = _parse_slow(path, lines, start, delim, colnames, keep, textable,
-                                      complete=text.endswith(("\n", "\r")))
     meta = _comment_meta(comments)
     meta.update(preamble)
+    return _Layout(delim, colnames, units, meta, start, keep, textable)
+
+
+def _parse_block(path: Path, lay: _Layout, lines: list[str], start: int, *, complete: bool = True,
+                 offset: int = 0, first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
+    """Columns of ``lines[start:]`` (numpy's C parser; the exact line parser when that fails, which names the
+    line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
+    the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
+    newline (only the block holding it passes False)."""
+    data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
+    if data is not None:
+        return data, None
+    return _parse_slow(path, lines, start, lay.delim, lay.colnames, lay.keep, lay.textable, complete=complete,
+                       offset=offset, first=first)
+
+
+def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
+               labels: set[str]) -> Table:
+    text = _decode(path, raw)
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    lay = _text_layout(path, lines, names, delimiter, labels)
+    data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")),
+                                   first=lay.start)
+    meta = dict(lay.meta)
     if truncated is not None:
         meta["truncated_line"] = str(truncated)
-    table = Table(path=path, kind="text", data={colnames[j]: data[j] for j in keep}, units=units, meta=meta)
+    table = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep}, units=dict(lay.units),
+                  meta=meta)
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
         raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
@@ -502,12 +543,14 @@ def _text_column(cells: np.ndarray) -> np.ndarray:
     return cells
 
 
-def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True
-                ) -> tuple[dict[int, np.ndarray], int | None]:
+def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True, offset: int = 0,
+                first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
     """Line-by-line parser: exact line numbers in errors; empty cells become NaN. Without a final newline
     (``complete`` False: a logger stopped mid-write) a last line with too few fields is dropped and its line
-    number returned with the columns."""
+    number returned with the columns. ``offset``: file line index of ``lines[0]`` (a block of a streamed file);
+    ``first``: index of the file's first data line in ``lines`` (None: not in ``lines``)."""
     ncol = len(colnames)
+    first = -1 if first is None else first
     cols: dict[int, list] = {j: [] for j in keep}
     numeric = [j for j in keep if j not in textable]
     last = max((i for i in range(start, len(lines)) if _strip_comment(lines[i]).strip()), default=-1)
@@ -517,12 +560,12 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
         if not s.strip():
             continue
         toks = _split(s, delim)
-        if i == last and i > start and not complete and len(toks) < ncol:
-            truncated = i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
+        if i == last and i > first and not complete and len(toks) < ncol:
+            truncated = offset + i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
             break
         if len(toks) != ncol:
             how = "truncated" if len(toks) < ncol else "too long"
-            raise OptinavError(f"{path.name} line {i + 1} has {len(toks)} field(s), {ncol} expected "
+            raise OptinavError(f"{path.name} line {offset + i + 1} has {len(toks)} field(s), {ncol} expected "
                                f"({how} or ragged row)",
                                "fix or delete that row, or check the delimiter")
         for j in textable:
@@ -538,7 +581,7 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
                 hint = ("decimal commas are not supported: write decimal points" if _DECIMAL_COMMA.match(tok)
                         else "fix the cell or skip the column ('_' in columns); text is kept only in label "
                         "columns (part, label, section, …)")
-                raise OptinavError(f"{path.name} line {i + 1}, column {j + 1} ({colnames[j]!r}): "
+                raise OptinavError(f"{path.name} line {offset + i + 1}, column {j + 1} ({colnames[j]!r}): "
                                    f"{tok[:40]!r} is not a number", hint) from None
     out = {}
     for j in keep:
@@ -548,6 +591,8 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
 
 #: longest ``key,value`` preamble (lines) looked for before the header
 _MAX_PREAMBLE = 50
+#: non-blank, non-comment lines that :func:`_text_layout` looks at (a preamble, then 10 table lines)
+_HEAD_CONTENT = 10 + _MAX_PREAMBLE
 _KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*[,;:=\t]\s*([^,;\t]*?)\s*[,;\t]*\s*$")
 #: preamble keys (normalized) that give the sample rate in Hz
 RATE_KEYS = ("fs", "rate", "sampling_rate", "sample_rate", "samplerate", "sampling_frequency", "rate_hz", "fs_hz",
