@@ -18,10 +18,10 @@ from optinav.core.results import Result
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.readers import (LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, load_table, merge_datasets,
-                                normalize_name, parse_columns)
+from optinav.io.readers import (CHUNK_ROWS, LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, iter_table, load_table,
+                                merge_datasets, normalize_name, parse_columns)
 
-__all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
+__all__ = ["ImuLog", "read_imu", "iter_imu", "ImuChunks", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
 
 #: accepted accelerometer unit spellings → canonical unit
 ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
@@ -205,6 +205,7 @@ class _Part:
     labels: np.ndarray | None = None
     sample: np.ndarray | None = None
     declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
+    srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
 
 
 def _canonical(kind: str, unit: str, option: str) -> str:
@@ -250,12 +251,23 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
+def _part_spec(columns, datasets, what: str) -> tuple[list[str] | None, dict, dict]:
+    """(positional names, std=name mapping, keyword arguments of load_table/iter_table) of a column option."""
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
-    table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=LABEL_COLUMNS + label_sources)
+    return positional, mapping, {"names": positional, "only": list(mapping.values()) or None,
+                                 "text_columns": LABEL_COLUMNS + label_sources}
+
+
+def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
+    _, mapping, kw = _part_spec(columns, datasets, what)
+    return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
+
+
+def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
+    """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
+    the file's check of that is the caller's)."""
     found: dict[str, tuple[str, np.ndarray]] = {}  # std → (source name, array)
     implied: dict[str, str] = {}
     for key, name in mapping.items():
@@ -323,8 +335,9 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) 
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
-        _check_values(part.path, kind, tri, srcs)
+        _check_values(part.path, kind, tri, srcs, row0=table.row0, empty_ok=block)
         setattr(part, kind, tri)
+        part.srcs[kind] = srcs
         for s in srcs:
             unit = table.units.get(s) or normalize_name(s)[1]
             if unit:
@@ -368,20 +381,31 @@ def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
 MAX_VALUE = 1e12
 
 
-def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str]) -> None:
-    """A column without a single number, or a finite cell beyond :data:`MAX_VALUE` (1e308 …), is an error;
-    NaN and inf mark missing samples (rows the calibration drops and counts)."""
-    names = srcs if len(srcs) == 3 else [f"{srcs[0]}[:, {j}]" for j in range(3)]
+def _value_names(srcs: list[str]) -> list[str]:
+    return srcs if len(srcs) == 3 else [f"{srcs[0]}[:, {j}]" for j in range(3)]
+
+
+def _no_number(path: Path, kind: str, name: str) -> OptinavError:
+    return OptinavError(f"{path.name}: the {kind} column {name!r} holds no number (all cells empty or NaN)",
+                        "check the column names (--columns) or fill the column")
+
+
+def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, row0: int = 0,
+                  empty_ok: bool = False) -> None:
+    """A column without a single number (unless ``empty_ok``: a block of a streamed file), or a finite cell beyond
+    :data:`MAX_VALUE` (1e308 …), is an error; NaN and inf mark missing samples (rows the calibration drops and
+    counts). ``row0``: index of the first row in the file."""
+    names = _value_names(srcs)
     for j in range(3):
         col = tri[:, j]
-        if col.size and np.all(np.isnan(col)):
-            raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds no number (all cells empty or NaN)",
-                               "check the column names (--columns) or fill the column")
+        if col.size and not empty_ok and np.all(np.isnan(col)):
+            raise _no_number(path, kind, names[j])
         with np.errstate(invalid="ignore"):
             bad = np.flatnonzero(np.isfinite(col) & (np.abs(col) > MAX_VALUE))
         if bad.size:
+            more = f" ({bad.size} such cell(s))" if not empty_ok else ""
             raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds {col[bad[0]]:g} in data row "
-                               f"{bad[0] + 1} ({bad.size} such cell(s)), not a sensor reading",
+                               f"{row0 + bad[0] + 1}{more}, not a sensor reading",
                                "fix or delete those rows (an empty cell or NaN marks a missing sample)")
 
 
@@ -417,14 +441,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     """
-    notes: list[str] = []
-    acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
-    gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
-    time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
-    if rate is not None:
-        rate = check_positive(rate, "rate")
-    if gyro_columns is not None and gyro_path is None:
-        raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
+    acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
     parts = [main]
     if gyro_path is not None:
@@ -432,6 +449,26 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
+    return _log_of(parts, acc_u, gyro_u, time_u, rate)
+
+
+def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
+    acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
+    gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
+    time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
+    if rate is not None:
+        rate = check_positive(rate, "rate")
+    if gyro_columns is not None and gyro_path is None:
+        raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
+    return acc_u, gyro_u, time_u, rate
+
+
+def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, prev_t: float | None = None,
+            block: bool = False) -> ImuLog:
+    """The :class:`ImuLog` of the parts read (main file, optional gyro file). A block of a streamed file
+    (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
+    notes: list[str] = []
+    main = parts[0]
     times = []
     for p in parts:
         if p.t is not None:
@@ -447,7 +484,11 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         _check_same_time(*times)
     if times:
         p, t = times[0]
-        t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
+        what = f"time column {p.t_name!r} of {p.path.name}"
+        if prev_t is None:
+            t = check_timestamps(t, what, min_count=1 if block else 2)
+        else:
+            check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
                            "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
@@ -455,9 +496,11 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         if rate is None:
             rate, where = _file_rate(main.table)
             rate = check_positive(rate, f"the sample rate in {where} of {main.path.name}")
-            notes.append(f"sample rate {rate:g} Hz from {where} of {main.path.name}")
-        t = np.arange(main.n) / rate
-        check_timestamps(t, f"{main.path.name}")
+            if row0 == 0:
+                notes.append(f"sample rate {rate:g} Hz from {where} of {main.path.name}")
+        t = (np.arange(main.n) + row0) / rate if row0 else np.arange(main.n) / rate
+        if not block:
+            check_timestamps(t, f"{main.path.name}")
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
@@ -477,6 +520,67 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
                          "left out")
     log.nan_rows = int(np.count_nonzero(~log.finite))
     return log
+
+
+def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
+             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
+             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS) -> "ImuChunks":
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
+    concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
+    first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
+    not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
+    return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
+                     gyro_unit=gyro_unit, time_unit=time_unit, rate=rate, datasets=datasets, delimiter=delimiter,
+                     chunk_rows=chunk_rows)
+
+
+class ImuChunks:
+    """The blocks of :func:`iter_imu`; ``size``/``position`` (bytes of the file, read so far) tell the progress
+    and ``rows`` the samples yielded so far."""
+
+    def __init__(self, path, *, chunk_rows: int = CHUNK_ROWS, **kw):
+        self.path, self.kw = Path(path), kw
+        self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate"], kw["gyro_path"],
+                                 kw["gyro_columns"])
+        _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns")
+        self.chunk_rows = int(chunk_rows)
+        self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
+        self.size, self.rows = self.tables.size, 0
+
+    @property
+    def position(self) -> int:
+        return self.tables.position
+
+    def __iter__(self):
+        if self.tables.kind != "text" or self.kw["gyro_path"] is not None:
+            log = read_imu(self.path, **self.kw)
+            self.tables.position = self.size
+            for a in range(0, len(log), self.chunk_rows):
+                part = log.select(slice(a, a + self.chunk_rows))
+                part.notes = list(log.notes) if a == 0 else []
+                self.rows += len(part)
+                yield part
+            return
+        prev_t = None
+        seen: dict[str, np.ndarray] = {}  # kind → which components held a number so far
+        part = None
+        for table in self.tables:
+            part = _part_of(self.path, table, self.mapping, None, "columns", block=True)
+            log = _log_of([part], *self.opts, row0=table.row0, prev_t=prev_t, block=True)
+            for kind in ("acc", "gyro"):
+                v = getattr(part, kind)
+                if v is not None:
+                    seen[kind] = seen.get(kind, np.zeros(3, bool)) | ~np.all(np.isnan(v), axis=0)
+            prev_t = float(log.t[-1])
+            self.rows += len(log)
+            yield log
+        for kind, ok in seen.items():
+            if not ok.all():
+                raise _no_number(self.path, kind, _value_names(part.srcs[kind])[int(np.argmin(ok))])
+        if self.rows < 2:
+            what = (f"time column {part.t_name!r} of {self.path.name}" if part.t is not None else
+                    f"{self.path.name}")
+            raise OptinavError(f"{what} has {self.rows} sample(s), at least 2 are needed", "record a longer log")
 
 
 def _check_same_time(a, b) -> None:

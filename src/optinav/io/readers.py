@@ -11,7 +11,9 @@ from __future__ import annotations
 import csv
 import dataclasses
 import gzip
+import itertools
 import re
+import zlib
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -20,7 +22,8 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["read_table", "load_table", "parse_columns", "Table", "SUFFIXES", "LABEL_COLUMNS", "SKIP_NAMES"]
+__all__ = ["read_table", "load_table", "iter_table", "TableChunks", "parse_columns", "Table", "SUFFIXES",
+           "LABEL_COLUMNS", "SKIP_NAMES", "CHUNK_ROWS"]
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
 SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
@@ -55,6 +58,8 @@ class Table:
     table: str | None = None
     table_array: np.ndarray | None = None
     skipped: dict[str, str] = dataclasses.field(default_factory=dict)
+    #: index of the first row in the file (0 unless the table is one block of a streamed text file)
+    row0: int = 0
 
     def names(self, limit: int = _MAX_LISTED) -> str:
         """The available names as one short comma list (for error messages)."""
@@ -199,6 +204,111 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
             table = _name_table_columns(table, names)
     return table
 
+
+#: lines per block of the streamed text reader (:func:`iter_table`): about 100 B of text and 8 B per parsed
+#: cell each, so a block holds some tens of MB whatever the file's length
+CHUNK_ROWS = 200_000
+
+
+def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
+               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
+               chunk_rows: int = CHUNK_ROWS) -> "TableChunks":
+    """:func:`load_table` in blocks: an iterable of :class:`Table` of at most ``chunk_rows`` rows each (``row0``
+    their first row in the file) for text files, read line block by line block (gzip too) so that memory does
+    not grow with the file; other formats (one array read whole by their libraries) come as a single table.
+    The layout (header, units, preamble, delimiter) comes from the first lines; a bad cell fails when its block
+    is parsed, naming its line and column; an incomplete last line is dropped and reported in the last block's
+    ``meta['truncated_line']`` as :func:`load_table` does."""
+    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows)
+
+
+class TableChunks:
+    """The blocks of :func:`iter_table`; ``size`` (bytes of the file) and ``position`` (bytes read so far, of the
+    compressed file for ``.gz``) tell the progress."""
+
+    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int):
+        if int(chunk_rows) < 1:
+            raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
+        self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
+        self.text_columns, self.chunk_rows = text_columns, int(chunk_rows)
+        self.kind, self.gz = _file_kind(path)
+        self.size = path.stat().st_size
+        self.position = 0
+
+    def __iter__(self):
+        if self.kind != "text":
+            yield load_table(self.path, names=self.names, delimiter=self.delimiter, only=self.only,
+                             text_columns=self.text_columns)
+            self.position = self.size
+            return
+        try:
+            yield from self._text()
+        except OSError as exc:  # includes gzip.BadGzipFile
+            raise OptinavError(f"cannot read {self.path} ({exc})",
+                               "check the file (a .gz file must be gzip-compressed)") from None
+        except (EOFError, zlib.error) as exc:  # truncated or corrupt gzip stream
+            raise OptinavError(f"{self.path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
+
+    def _text(self):
+        path, n = self.path, self.chunk_rows
+        labels = {normalize_name(c)[0] for c in self.text_columns}
+        with open(path, "rb") as raw:
+            src = gzip.GzipFile(fileobj=raw, mode="rb") if self.gz else raw
+            state = {"complete": True}
+
+            def block() -> list[str]:
+                got = list(itertools.islice(src, n))
+                self.position = raw.tell()
+                if not got:
+                    return []
+                state["complete"] = got[-1].endswith((b"\n", b"\r"))
+                text = _decode(path, b"".join(got))
+                lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+                if lines and lines[-1] == "" and text.endswith("\n"):
+                    lines.pop()  # the split after the last newline
+                return lines
+
+            # the layout from the first lines (enough blocks for the preamble and ten table lines)
+            head: list[str] = []
+            while True:
+                more = block()
+                head += more
+                content = sum(1 for x in head if _strip_comment(x).strip())
+                if not more or content >= _HEAD_CONTENT:
+                    break
+            lay = _text_layout(path, head, self.names, self.delimiter, labels)
+            pending = head[lay.start:]
+            offset = lay.start  # file line index of pending[0]
+            first = True        # pending[0] is the file's first data line
+            rows = 0
+            held = None  # the last parsed block, yielded once the next one is known (an empty last block
+            nxt = block()  # may still carry the incomplete-line note)
+            while pending or nxt:
+                while len(pending) < n and nxt:
+                    pending += nxt
+                    nxt = block()
+                lines, pending = pending[:n], pending[n:]
+                last = not pending and not nxt
+                data, truncated = _parse_block(path, lay, lines, 0, complete=state["complete"] or not last,
+                                               offset=offset, first=0 if first else None)
+                offset += len(lines)
+                first = False
+                k = len(data[lay.keep[0]])
+                if k == 0:
+                    if truncated is not None and held is not None:
+                        held.meta["truncated_line"] = str(truncated)
+                    continue
+                if held is not None:
+                    yield held
+                meta = dict(lay.meta)
+                if truncated is not None:
+                    meta["truncated_line"] = str(truncated)
+                held = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep},
+                             units=dict(lay.units), meta=meta, row0=rows)
+                rows += k
+            if held is None:
+                raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
+            yield held
 
 def _file_kind(path: Path) -> tuple[str, bool]:
     """(format, gzip-compressed?) of ``path`` from its first bytes and suffix; one-line errors for a missing,
