@@ -8,6 +8,7 @@ docs/file-formats.md.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -21,7 +22,7 @@ from optinav.errors import OptinavError
 from optinav.io.readers import (CHUNK_ROWS, LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, iter_table, load_table,
                                 merge_datasets, normalize_name, parse_columns)
 
-__all__ = ["ImuLog", "read_imu", "iter_imu", "ImuChunks", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
+__all__ = ["ImuLog", "read_imu", "iter_imu", "ImuChunks", "write_imu", "open_imu_writer", "ImuWriter", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
 
 #: accepted accelerometer unit spellings → canonical unit
 ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
@@ -628,47 +629,57 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
     datasets and root attributes; ``.mat`` (v5): the same as variables. ``acc_unit`` ∈ {m/s^2, g},
     ``gyro_unit`` ∈ {rad/s, deg/s} convert SI logs on output; counts are written as counts. Written atomically.
     """
-    path = Path(path)
     if not isinstance(log, ImuLog):
         raise OptinavError(f"write_imu needs an ImuLog, got {type(log).__name__}", "read or build an ImuLog first")
+    path = _check_out(path)
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
+        _write_whole(tmp, log, acc_unit, gyro_unit)
+    return path
+
+
+def _check_out(path) -> Path:
+    path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _WRITE_FORMATS:
         raise OptinavError(f"cannot write {path.name}: unknown file type {path.suffix or '(none)'}",
                            f"use one of {', '.join(_WRITE_FORMATS)}")
     if not path.parent.is_dir():
         raise OptinavError(f"directory {path.parent} does not exist", "create it first")
+    return path
+
+
+def _write_whole(tmp: Path, log: ImuLog, acc_unit, gyro_unit) -> None:
+    suffix = tmp.suffix.lower()
     acc, acc_u = _out_values(log, "acc", acc_unit)
     gyro, gyro_u = _out_values(log, "gyro", gyro_unit)
-    from optinav.core.files import atomic_path
+    if suffix in _WRITE_TEXT:
+        _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
+    elif suffix == ".npz":
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+    elif suffix == ".mat":
+        import scipy.io
 
-    with atomic_path(path) as tmp:
-        if suffix in _WRITE_TEXT:
-            _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
-        elif suffix == ".npz":
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **arrays)
-        elif suffix == ".mat":
-            import scipy.io
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        # column vectors as MATLAB keeps them; text labels become a char matrix (one padded row per sample)
+        arrays = {k: (v.reshape(-1, 1) if v.ndim == 1 and v.dtype.kind != "U" else v) for k, v in arrays.items()}
+        scipy.io.savemat(tmp, arrays, do_compression=True)
+    else:
+        from optinav.io.readers import _h5py
 
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            # column vectors as MATLAB keeps them; text labels become a char matrix (one padded row per sample)
-            arrays = {k: (v.reshape(-1, 1) if v.ndim == 1 and v.dtype.kind != "U" else v) for k, v in arrays.items()}
-            scipy.io.savemat(tmp, arrays, do_compression=True)
-        else:
-            from optinav.io.readers import _h5py
-
-            h5py = _h5py()
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            with h5py.File(tmp, "w") as fh:
-                for k, v in arrays.items():
-                    if v.ndim == 0:
-                        fh.attrs[k] = str(v)
-                    elif v.dtype.kind == "U":
-                        fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
-                    else:
-                        fh.create_dataset(k, data=v)
-    return path
+        h5py = _h5py()
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        with h5py.File(tmp, "w") as fh:
+            for k, v in arrays.items():
+                if v.ndim == 0:
+                    fh.attrs[k] = str(v)
+                elif v.dtype.kind == "U":
+                    fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
+                else:
+                    fh.create_dataset(k, data=v)
 
 
 def _arrays(log, acc, gyro, acc_u, gyro_u) -> dict[str, np.ndarray]:
@@ -688,18 +699,25 @@ def _arrays(log, acc, gyro, acc_u, gyro_u) -> dict[str, np.ndarray]:
     return out
 
 
-def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
+def _text_head(log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str, n: int | None) -> str:
     from optinav import __version__
 
-    names, cols = ["t"], [log.t]
+    names = ["t"] + (["sample"] if log.sample is not None else []) + (["ax", "ay", "az"] if acc is not None else [])
+    names += (["gx", "gy", "gz"] if gyro is not None else []) + (["label"] if log.labels is not None else [])
+    units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
+    count = f" ({n} samples)" if n is not None else ""
+    head = [f"# optinav {__version__} IMU log{count}; source: {log.source or '-'}".replace("\n", " "),
+            f"# units: {' '.join(units)}", delim.join(names)]
+    return "\n".join(head) + "\n"
+
+
+def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str) -> str:
+    cols = [log.t]
     if log.sample is not None:
-        names.append("sample")
         cols.append(np.asarray(log.sample, dtype=float))
     if acc is not None:
-        names += ["ax", "ay", "az"]
         cols += [acc[:, 0], acc[:, 1], acc[:, 2]]
     if gyro is not None:
-        names += ["gx", "gy", "gz"]
         cols += [gyro[:, 0], gyro[:, 1], gyro[:, 2]]
     labels = None
     if log.labels is not None:
@@ -714,10 +732,6 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
             labels = list(labels)
         else:
             labels = [str(int(x)) for x in labels]
-        names.append("label")
-    units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
-    head = [f"# optinav {__version__} IMU log ({len(log)} samples); source: {log.source or '-'}".replace("\n", " "),
-            f"# units: {' '.join(units)}", delim.join(names)]
     # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
     integral = [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
     fmt = delim.join("%d" if i else "%r" for i in integral)
@@ -726,9 +740,73 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
         body = [fmt % tuple(r) for r in rows]
     else:
         body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels)]
+    return "\n".join(body) + "\n" if body else ""
+
+
+def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("\n".join(head + body))
-        fh.write("\n")
+        fh.write(_text_head(log, acc, gyro, acc_u, gyro_u, delim, len(log)))
+        fh.write(_text_rows(path, log, acc, gyro, delim))
+
+
+class ImuWriter:
+    """Write an IMU log block by block (see :func:`open_imu_writer`): ``write(block)`` appends an
+    :class:`ImuLog` whose fields (acc, gyro, sample, labels) are those of the first block."""
+
+    def __init__(self, path: Path, tmp: Path, acc_unit, gyro_unit):
+        self.path, self.tmp, self.acc_unit, self.gyro_unit = path, tmp, acc_unit, gyro_unit
+        self.suffix = path.suffix.lower()
+        self.rows, self._fh, self._blocks, self._kinds = 0, None, [], None
+
+    def write(self, log: ImuLog) -> None:
+        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyro", "sample", "labels"))
+        if self._kinds is None:
+            self._kinds = kinds
+        elif kinds != self._kinds:
+            raise OptinavError("the blocks of one IMU log differ in their fields", "write blocks of one log")
+        self.rows += len(log)
+        if self.suffix not in _WRITE_TEXT:  # binary formats hold whole arrays: gathered, written at the end
+            self._blocks.append(log)
+            return
+        acc, acc_u = _out_values(log, "acc", self.acc_unit)
+        gyro, gyro_u = _out_values(log, "gyro", self.gyro_unit)
+        delim = _WRITE_TEXT[self.suffix]
+        if self._fh is None:
+            self._fh = open(self.tmp, "w", encoding="utf-8", newline="\n")
+            self._fh.write(_text_head(log, acc, gyro, acc_u, gyro_u, delim, None))
+        self._fh.write(_text_rows(self.path, log, acc, gyro, delim))
+
+    def _close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            return
+        if not self._blocks:
+            raise OptinavError(f"no samples to write to {self.path}", "pass a log with samples")
+        first = self._blocks[0]
+        cat = (lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks]))
+        log = ImuLog(t=cat("t"), acc=cat("acc"), gyro=cat("gyro"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+                     source=first.source, labels=cat("labels"), sample=cat("sample"))
+        self._blocks = []
+        _write_whole(self.tmp, log, self.acc_unit, self.gyro_unit)
+
+
+@contextlib.contextmanager
+def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None = None):
+    """A context giving an :class:`ImuWriter` for ``path``: text formats are written block by block (memory does
+    not grow with the log; the first comment line then holds no sample count), NPZ/HDF5/MAT gathered and
+    written at the end; atomically (nothing under ``path`` unless the block ends without error). Formats and
+    units as :func:`write_imu`."""
+    path = _check_out(path)
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
+        w = ImuWriter(path, tmp, acc_unit, gyro_unit)
+        try:
+            yield w
+        finally:
+            if w._fh is not None:
+                w._fh.close()
+        w._close()
 
 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
