@@ -711,7 +711,7 @@ def _text_head(log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str, n: int | None)
     return "\n".join(head) + "\n"
 
 
-def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str) -> str:
+def _text_columns(log: ImuLog, acc, gyro) -> list[np.ndarray]:
     cols = [log.t]
     if log.sample is not None:
         cols.append(np.asarray(log.sample, dtype=float))
@@ -719,9 +719,21 @@ def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str) -> str:
         cols += [acc[:, 0], acc[:, 1], acc[:, 2]]
     if gyro is not None:
         cols += [gyro[:, 0], gyro[:, 1], gyro[:, 2]]
+    return cols
+
+
+def _integral(cols: list[np.ndarray]) -> list[bool]:
+    """Which columns hold only integers (counts, sample), written without ".0"."""
+    return [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
+
+
+def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str, integral: list[bool] | None = None,
+               rows: slice = slice(None)) -> str:
+    """The lines of ``rows`` of the log (``integral``: per column, default judged on those rows)."""
+    cols = [c[rows] for c in _text_columns(log, acc, gyro)]
     labels = None
     if log.labels is not None:
-        labels = np.asarray(log.labels)
+        labels = np.asarray(log.labels)[rows]
         if labels.dtype.kind in "OSU":
             labels = labels.astype(str)
             forbidden = f'#"\n\r{delim}'
@@ -733,7 +745,7 @@ def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str) -> str:
         else:
             labels = [str(int(x)) for x in labels]
     # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
-    integral = [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
+    integral = _integral(cols) if integral is None else integral
     fmt = delim.join("%d" if i else "%r" for i in integral)
     rows = np.column_stack(cols).tolist()
     if labels is None:
@@ -744,9 +756,12 @@ def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str) -> str:
 
 
 def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
+    integral = _integral(_text_columns(log, acc, gyro))
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(_text_head(log, acc, gyro, acc_u, gyro_u, delim, len(log)))
-        fh.write(_text_rows(path, log, acc, gyro, delim))
+        # formatted block by block: the text of a whole long log would take about 1 kB per row
+        for a in range(0, len(log), CHUNK_ROWS):
+            fh.write(_text_rows(path, log, acc, gyro, delim, integral, slice(a, a + CHUNK_ROWS)))
 
 
 class ImuWriter:
