@@ -93,17 +93,29 @@ class AttitudeEstimate(Result):
         return euler_from_quat(self.q, self.frame.lower())
 
     def summary(self) -> str:
-        skipped = sum(self.pol_skipped.values())
-        s = f"{self.method}{' offline' if self.offline else ''}: {self.q.shape[0]} samples ({self.frame})"
-        if self.segments > 1:
-            s += f", {self.segments} segments between time gaps"
-        if self.rest is not None:
-            s += f"; rest {100 * np.mean(self.rest):.0f} %"
-        if self.mag_used is not None:
-            s += f"; magnetometer used {100 * np.mean(self.mag_used):.0f} %"
-        if self.pol_used or skipped:
-            s += f"; polarization used {self.pol_used}, skipped {skipped} " + str(self.pol_skipped)
-        return s
+        return summary_line(self.method, self.frame, self.q.shape[0], offline=self.offline, segments=self.segments,
+                            rest=None if self.rest is None else float(np.mean(self.rest)),
+                            mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
+                            pol_used=self.pol_used, pol_skipped=self.pol_skipped)
+
+
+def summary_line(method: str, frame: str, n: int, *, offline: bool = False, segments: int = 1,
+                 rest: float | None = None, mag_used: float | None = None, pol_used: int = 0,
+                 pol_skipped: dict | None = None) -> str:
+    """One line on an estimate of ``n`` samples; ``rest``/``mag_used`` the fractions of samples at rest and with
+    the magnetometer used."""
+    pol_skipped = pol_skipped or {}
+    skipped = sum(pol_skipped.values())
+    s = f"{method}{' offline' if offline else ''}: {n} samples ({frame})"
+    if segments > 1:
+        s += f", {segments} segments between time gaps"
+    if rest is not None:
+        s += f"; rest {100 * rest:.0f} %"
+    if mag_used is not None:
+        s += f"; magnetometer used {100 * mag_used:.0f} %"
+    if pol_used or skipped:
+        s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
+    return s
 
 
 def _options(method: str, options: dict) -> dict:
