@@ -115,3 +115,41 @@ def test_the_vocabulary_check_flags_synonyms_and_degrees():
 
     bad = _violations([("optinav.multipos.x.f", f), ("optinav.core.x.f", f), ("optinav.rins.io.f", f)])
     assert len(bad) == 4 + 3 + 3  # q is an attitude only in the systems; degrees are fine in file I/O
+
+
+# --- one frame spelling, one validator, documented defaults ------------------------------------------------
+
+def test_frame_name_is_the_one_validator():
+    from optinav.core.rotations import FRAMES, frame_name
+    from optinav.errors import OptinavError
+
+    assert [frame_name(f) for f in ("NED", "ned", " Enu ", "ENU")] == ["ned", "ned", "enu", "enu"]
+    assert set(FRAMES) == {"enu", "ned"}
+    for bad in ("nwu", "", None, "body"):
+        with pytest.raises(OptinavError, match="unknown navigation frame"):
+            frame_name(bad)
+
+
+def test_frame_defaults_are_the_documented_ones():
+    """Core navigation defaults to CORE_FRAME (ENU, as PSINS); Euler angles and the attitude system to
+    DEFAULT_FRAME (NED); every default is spelled as frame_name returns it (docs/conventions.md)."""
+    from optinav.core.rotations import CORE_FRAME, DEFAULT_FRAME
+
+    # BROAD's recordings are ENU: the synthesizer for them defaults to their frame
+    data_frames = {"optinav.attitude.data.synthesize_polarization": "enu"}
+    seen = 0
+    for name, fn in _public_callables():
+        for key in ("frame", "convention"):
+            p = inspect.signature(fn).parameters.get(key)
+            if p is None or p.default is inspect.Parameter.empty or not isinstance(p.default, str):
+                continue
+            seen += 1
+            if name in data_frames:
+                want = data_frames[name]
+            elif name.startswith(("optinav.core.earth", "optinav.core.simulate", "optinav.core.strapdown",
+                                  "optinav.core.alignment")):
+                want = CORE_FRAME
+            else:
+                want = DEFAULT_FRAME
+            assert p.default == want, f"{name}({key}={p.default!r}): expected {want!r}"
+    assert seen > 30

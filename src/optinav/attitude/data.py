@@ -96,7 +96,7 @@ def load_broad(path) -> BroadTrial:
                       movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate_hz=rate, name=p.stem)
 
 
-def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop_noise: float = 0.0,
+def synthesize_polarization(q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop_noise: float = 0.0,
                             rng=None, **options) -> PolarizationMeasurement:
     """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
 

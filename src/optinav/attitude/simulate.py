@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.attitude.measurement import _frame, default_c_b_m, up_vector
+from optinav.attitude.measurement import default_c_b_m, up_vector
 from optinav.core.imu_model import ImuSpec, preset
 from optinav.core.results import Result
-from optinav.core.rotations import dcm_from_euler, dcm_from_quat, ned_to_enu
+from optinav.core.rotations import DEFAULT_FRAME, dcm_from_euler, dcm_from_quat, frame_name, ned_to_enu
 from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -90,7 +90,7 @@ class FlightData(Result):
         """True [roll, pitch, yaw] (N, 3) rad in the convention of ``frame``."""
         from optinav.core.rotations import euler_from_quat
 
-        return euler_from_quat(self.q_true, self.frame.lower())
+        return euler_from_quat(self.q_true, frame_name(self.frame))
 
     def polarization(self, **options):
         """The polarization samples as :class:`optinav.attitude.measurement.PolarizationMeasurement`
@@ -147,10 +147,10 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
             (tk.size,) + x.shape[1:])
 
     eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
-    if frame == "ENU":
+    if frame == "enu":
         eul[:, 2] = -eul[:, 2]  # the same heading in the ENU (counter-clockwise yaw) convention
         pos, vel = ned_to_enu(pos), ned_to_enu(vel)
-    conv = frame.lower()
+    conv = frame
     c = dcm_from_euler(eul, conv)
     bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
     return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, h0=h, bc_type=bc)
@@ -158,7 +158,7 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
 
 def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
              lat: float = PAPER_SITE["lat"], lon: float = PAPER_SITE["lon"],
-             height_m: float = PAPER_SITE["height_m"], frame: str = "NED", imu: str | ImuSpec = "mpu6000",
+             height_m: float = PAPER_SITE["height_m"], frame: str = DEFAULT_FRAME, imu: str | ImuSpec = "mpu6000",
              imu_errors: bool = False, gyro_bias=None,
              attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
              accel_level: float = 4.0, tilt: float = float(np.radians(30.0)), knot_spacing_s: float = 0.1,
@@ -191,7 +191,7 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     kind = str(kind).lower()
     if kind not in ("static", "dynamic"):
         raise OptinavError(f"unknown flight kind {kind!r}", "use 'static' or 'dynamic'")
-    frame = _frame(frame)
+    frame = frame_name(frame)
     duration = check_positive(duration_s, "duration_s")
     rate = check_positive(rate_hz, "rate_hz")
     if duration * rate < 2:
@@ -206,12 +206,12 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     if not isinstance(spec, ImuSpec):
         raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
     spec = spec.replace(sample_rate=rate)
-    conv = frame.lower()
+    conv = frame
 
     if kind == "static":
         att = as_float_array(attitude, "attitude", last_dims=(3,))
         c = dcm_from_euler(att, "ned")
-        if frame == "ENU":
+        if frame == "enu":
             from optinav.core.rotations import attitude_ned_to_enu
 
             c = attitude_ned_to_enu(c)

@@ -38,7 +38,7 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import (C_ENU_NED, unit_axis, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
+from optinav.core.rotations import (CORE_FRAME, C_ENU_NED, frame_name, unit_axis, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
                                     quat_multiply, rot_axis, rotvec_from_dcm)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -724,13 +724,13 @@ _NORTH = {"enu": np.array([0.0, 1.0, 0.0]), "ned": np.array([1.0, 0.0, 0.0])}
 _DEFAULT_NORTH = {0: "y", 1: "z", 2: "y"}
 
 
-def orientation_from_up(up, north=None, frame="enu") -> np.ndarray:
+def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
     """``C_b^n`` of a level pose: body axis ``up`` points up, body axis ``north`` points north.
 
     Axes as names (``"x"``, ``"-z"``, …) or body vectors. Default ``north``: ``y`` when x or z is up, ``z`` when
     y is up. The two axes must be perpendicular.
     """
-    frame = _earth.check_frame(frame)
+    frame = frame_name(frame)
     u = unit_axis(up, "up")
     if north is None:
         north = _DEFAULT_NORTH[int(np.argmax(np.abs(u)))]
@@ -744,7 +744,7 @@ def orientation_from_up(up, north=None, frame="enu") -> np.ndarray:
     return C_ENU_NED @ c_b_enu if frame == "ned" else c_b_enu
 
 
-def six_positions(frame="enu") -> np.ndarray:
+def six_positions(frame=CORE_FRAME) -> np.ndarray:
     """The standard six-position set: +x, −x, +y, −y, +z, −z up (default north axes), shape (6, 3, 3)."""
     return np.stack([orientation_from_up(a, frame=frame) for a in ("x", "-x", "y", "-y", "z", "-z")])
 
@@ -754,12 +754,12 @@ def _fmt_deg(x):
     return f"{d:.0f}" if abs(d - round(d)) < 1e-6 else f"{d:.2f}"
 
 
-def describe_pose(C_b_n, frame="enu") -> str:
+def describe_pose(C_b_n, frame=CORE_FRAME) -> str:
     """Words a technician can follow: the body axis up/down, any tilt, and which axis faces north.
 
     E.g. ``"x up, y north"``, ``"z down, tilted 45° about y, x east"``.
     """
-    frame = _earth.check_frame(frame)
+    frame = frame_name(frame)
     c = _to_enu(np.asarray(C_b_n, float), frame)
     up_b = c.T @ _UP["enu"]
     k = int(np.argmax(np.abs(up_b)))
@@ -795,7 +795,7 @@ def describe_pose(C_b_n, frame="enu") -> str:
 
 # --- generators ----------------------------------------------------------------------------------------------
 
-def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, frame="enu", earth="wgs84",
+def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, frame=CORE_FRAME, earth="wgs84",
                      transition=None, *, transition_profile="cosine", names=None, t=None, lever_arm=None,
                      gravity=None) -> ImuTruth:
     """Static multi-position test: dwell at each pose, optionally turning smoothly between poses.
@@ -809,7 +809,7 @@ def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, f
     Labels are the position index, -1 in transitions; ``segment_names`` describe each pose in words.
     """
     rate, h = rate_hz, height_m
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     cs = _as_dcms(orientations, "orientations")
     if cs.ndim == 2:
         cs = cs[None]
@@ -891,7 +891,7 @@ def _axis_words(axis, frame):
     return f"[{v[0]:.3f}, {v[1]:.3f}, {v[2]:.3f}]_{sub}"
 
 
-def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame="enu", earth="wgs84", *, lon=0.0, t=None,
+def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRAME, earth="wgs84", *, lon=0.0, t=None,
               lever_arm=None, gravity=None) -> ImuTruth:
     """A turntable / gimbal schedule of :class:`Rest` and :class:`Rotate` segments on a static base.
 
@@ -900,7 +900,7 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame="enu", e
     otherwise). For two axes turning at once use :func:`gimbal`.
     """
     rate, h = rate_hz, height_m
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     if not schedule:
         raise OptinavError("the turntable schedule is empty", "give a list of Rest and Rotate segments")
     c = np.eye(3) if initial is None else _as_dcms(initial, "initial")
@@ -943,7 +943,7 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame="enu", e
     return motion.simulate(_epochs(t0, rate, t), _lever(lever_arm))
 
 
-def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame="enu", earth="wgs84", *, lon=0.0, t=None,
+def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84", *, lon=0.0, t=None,
            breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Exact truth of a gimbal chain ``C_b^n(t) = C_0 R_1(θ_1(t)) C_1 … R_k(θ_k(t)) C_k`` on a static base.
 
@@ -957,7 +957,7 @@ def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame="enu
     is -1 (with plain callables the whole run is segment 0).
     """
     rate, h = rate_hz, height_m
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     duration = check_positive(duration, "duration")
     k = len(axes)
     if len(angles) != k:
@@ -1077,7 +1077,7 @@ def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndar
     return 0.5 * np.stack([x, y, z], -1)
 
 
-def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame="enu", lat=0.0, height_m=0.0, lon=0.0,
+def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame=CORE_FRAME, lat=0.0, height_m=0.0, lon=0.0,
            initial=None, phase=0.0, gravity=None, t=None, lever_arm=None) -> ImuTruth:
     """Classic coning motion with closed-form attitude, rate and increments (Savage, Strapdown Analytics §7.1.1).
 
@@ -1088,7 +1088,7 @@ def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame="enu
     static at (lat, lon, h) and the Earth-rate part of ``dtheta`` and ``dv`` come from quadrature.
     """
     rate, h = rate_hz, height_m
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     beta = _scalar(half_angle, "half_angle")
     if not (0 <= beta < np.pi):
         raise OptinavError(f"cone half-angle {beta:.6g} rad is outside [0, π)", "give the half-angle in radians")
@@ -1123,7 +1123,7 @@ def _bc_to_enu(bc_type, frame):
     return tuple(out)
 
 
-def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame="enu", earth="wgs84", *, lat0, lon0=0.0,
+def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAME, earth="wgs84", *, lat0, lon0=0.0,
                h0=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
     cubic spline in the tangent frame at (lat0, lon0, h0).
@@ -1140,7 +1140,7 @@ def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame="enu", ea
     from scipy.interpolate import CubicSpline
     from scipy.spatial.transform import Rotation, RotationSpline
 
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     tk = check_timestamps(t_knots, "t_knots")
     K = tk.size
     if abs(tk[0]) > 1e-12:

@@ -46,7 +46,8 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import C_ENU_NED, quat_conjugate, quat_from_dcm, quat_multiply
+from optinav.core.rotations import (CORE_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm,
+                                    quat_multiply)
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 
@@ -510,7 +511,7 @@ def _earth_params(e: _earth.EarthConstants) -> np.ndarray:
     return np.array([e.a, e.e2, e.omega_ie, e.f, gmodel, e.g_e, e.k_somigliana, m])
 
 
-def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = "enu", earth="wgs84", coning: str = "previous",
+def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs84", coning: str = "previous",
               sculling: bool = True, vertical: str = "free") -> NavSolution:
     """Strapdown attitude/velocity/position integration in a local-level frame (Savage 1998; T&W ch. 11).
 
@@ -538,7 +539,7 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = "enu", earth="wgs84", 
     if tt.size != dth.shape[0] + 1:
         raise OptinavError(f"t has {tt.size} samples for {dth.shape[0]} increments",
                            "pass N+1 times for N increments (t[k] to t[k+1] bounds increment k)")
-    fr = _earth.check_frame(frame)
+    fr = frame_name(frame)
     e = _earth.constants(earth)
     q = _as_quat0(q0)
     v = as_float_array(vel0, "vel0", last_dims=(3,))

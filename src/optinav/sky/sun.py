@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.core.earth import check_frame
+from optinav.core.rotations import frame_name
 from optinav.core.results import Result
 from optinav.core.units import DEG
 from optinav.errors import OptinavError
@@ -363,7 +363,7 @@ def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
     navigation frame ``"ned"`` (north, east, down) or ``"enu"`` (east, north, up); shape (..., 3)."""
     az, el = np.broadcast_arrays(np.asarray(azimuth, dtype=float), np.asarray(elevation, dtype=float))
     n, e, u = np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)
-    if check_frame(frame) == "ned":
+    if frame_name(frame) == "ned":
         return np.stack([n, e, -u], axis=-1)
     return np.stack([e, n, u], axis=-1)
 
