@@ -40,7 +40,7 @@ def run(quick: bool) -> list[dict]:
             best = min(best, r.elapsed_s)
         res[name] = r
         rows += [{"group": group, "method": name, "metric": "fit time", "value": best, "unit": "s"},
-                 {"group": group, "method": name, "metric": "attitude RMSE (norm of pitch, roll, yaw)",
+                 {"group": group, "method": name, "metric": "attitude RMSE (norm of roll, pitch, yaw)",
                   "value": float(np.linalg.norm(r.rmse_after_deg)), "unit": "deg"}]
         r.elapsed_s = best
     rows.append({"group": group, "method": "optinav lm", "metric": "speed-up vs PSO",

@@ -139,6 +139,46 @@ def test_file_round_trip(tmp_path, suffix):
     assert e.lat == pytest.approx(d.lat, abs=1e-12) and e.h == pytest.approx(d.h)
 
 
+def test_increments_follow_the_encoders_over_t_k_to_t_k_plus_1():
+    """Row k's increments cover (t[k], t[k+1]]: with no Earth rate in the way that matters (10⁻⁵ rad/s · 10 ms)
+    a pure inner-axis turn gives dtheta_z[k] = alpha[k+1] − alpha[k], not alpha[k] − alpha[k−1]."""
+    d = simulate(np.zeros(6), noise=False, imu_errors=False, scheme="Z+180", align_s=2.0, dwell_s=1.0,
+                 move_s=2.0, rate_hz=100.0, encoder_lsb=0.0)
+    da = np.diff(d.alpha)
+    moving = np.abs(da) > 1e-3
+    assert moving.sum() > 100
+    np.testing.assert_allclose(d.dtheta[:-1, 2][moving], da[moving], rtol=0, atol=2e-6)
+    assert np.abs(d.dtheta[1:, 2][moving] - da[moving]).max() > 1e-4  # row k+1 with alpha[k+1] − alpha[k]: off
+
+
+def test_residual_euler_order_is_roll_pitch_yaw():
+    from optinav.core.rotations import dcm_from_euler, euler_from_dcm
+    from optinav.rins.model import euler_rpy
+
+    eul = np.array([[0.01, -0.02, 0.3], [-0.2, 0.1, -2.0]])
+    c = dcm_from_euler(eul, "enu")
+    np.testing.assert_allclose(euler_rpy(c), eul, atol=1e-15)
+    np.testing.assert_allclose(euler_rpy(c), euler_from_dcm(c, "enu"), atol=1e-15)
+
+
+def test_files_with_interval_end_times_are_read(tmp_path):
+    """The older layout (a 'time' column: the end of each interval, encoders at that end) pairs each end
+    epoch's encoders with the next row's increments."""
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    step = d.t[1] - d.t[0]
+    # the same recording as an IMU outputs it: row j = (end epoch, increments ending there, encoders there)
+    end = d.t[1:]
+    cols = [end, *d.dtheta[:-1].T, *d.dv[:-1].T, d.alpha[1:], d.beta[1:]]
+    path = tmp_path / "old.csv"
+    header = "# optinav rins: lat_deg=28.2 height_m=50\ntime,dtheta_x,dtheta_y,dtheta_z,dv_x,dv_y,dv_z,alpha,beta"
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
+    e = read_rins(path)
+    np.testing.assert_allclose(e.t, d.t[1:-1], rtol=0, atol=1e-9 * step)
+    np.testing.assert_array_equal(e.dtheta, d.dtheta[1:-1])
+    np.testing.assert_array_equal(e.alpha, d.alpha[1:-1])
+    assert e.lat == pytest.approx(np.radians(28.2))
+
+
 def _err(data, match):
     with pytest.raises(OptinavError, match=match):
         calibrate(data, "lm")

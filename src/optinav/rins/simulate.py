@@ -69,8 +69,9 @@ def scheme_steps(scheme) -> list[tuple[str, float]]:
 class RinsData(Result):
     """A rotational-INS recording: IMU increments and encoder angles at common epochs (+ truth if simulated).
 
-    Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k−1], t[k]]`` (``t[−1] = t[0] − dt``);
-    ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer encoder angles at ``t[k]``. ``truth`` (simulations):
+    Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k], t[k+1]]`` (the last row ends one
+    step after ``t[-1]``), as docs/conventions.md says; ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer
+    encoder angles at ``t[k]``, the start of row k's increments. ``truth`` (simulations):
     the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None.
     """
 
@@ -177,10 +178,10 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
         spec = spec.replace(sample_rate=rate)
     unit = spec.draw(gen, errors=imu_errors)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, gen, kind="increment", noise=noise)
-    te = truth.t[1:]
+    ts = truth.t[:-1]  # row k: the increments over (t[k], t[k+1]] and the encoders at t[k]
     enc = []
     for s in (cz, cy):
-        a = s(te)[0]
+        a = s(ts)[0]
         if noise and encoder_noise > 0:
             a = a + gen.normal(0.0, encoder_noise, a.shape)
         if encoder_lsb > 0:
@@ -190,5 +191,5 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
             "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyro.K.tolist(),
             "gyro_bias": unit.gyro.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
             "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
-    return RinsData(t=te, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
+    return RinsData(t=ts, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
                     h=float(h), truth=p.copy(), c_b_n=c_b_n, align_s=float(align_s), info=info)
