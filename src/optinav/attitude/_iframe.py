@@ -17,8 +17,8 @@ import math
 import numba
 import numpy as np
 
-from optinav.attitude._kernels import qmul as _qmul
-from optinav.attitude._kernels import rotvec_q as _rotvec_q
+from optinav.core._quat import qmul as _qmul
+from optinav.core._quat import rv2q as _rotvec_q
 
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
