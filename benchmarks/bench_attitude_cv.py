@@ -16,15 +16,20 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from optinav.attitude import estimate_q
-from optinav.attitude.data import load_broad, shared_data_dir
+from optinav.attitude.data import load_broad
 from optinav.attitude.iframe import IFRAME_DEFAULTS
 from optinav.attitude.metrics import inclination_error, rmse
+
+#: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+
 
 _CATEGORIES = ("motion", "speed", "disturbance")   # the trial groups of BROAD's trials.json that define a fold
 _D2R = np.pi / 180.0
@@ -57,7 +62,7 @@ def logo_cv(err: np.ndarray, groups: list[str]) -> tuple[np.ndarray, dict]:
 
 
 def run(quick: bool) -> list[dict]:
-    folder = shared_data_dir() / "attitude" / "broad"
+    folder = SHARED / "attitude" / "broad"
     paths = sorted(p for p in folder.glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
     if len(paths) < 3 or not (folder / "trials.json").is_file():
         return []

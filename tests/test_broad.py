@@ -3,15 +3,20 @@ reference figures of README_SOURCE.txt (VQF 0.43°, ahrs Madgwick(0.033) 0.61°,
 with polarization synthesized from the optical truth by the Rayleigh model, the sun at the paper's place and
 static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from optinav.attitude import estimate_q
-from optinav.attitude.data import BROAD_TRIAL_02, load_broad, shared_data_dir, synthesize_polarization
+from optinav.attitude.data import BROAD_TRIAL_02, load_broad, synthesize_polarization
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.core.strapdown import attitude_update
 
-PATH = shared_data_dir() / BROAD_TRIAL_02
+#: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+PATH = SHARED / BROAD_TRIAL_02
 pytestmark = pytest.mark.skipif(not PATH.is_file(), reason=f"BROAD data absent ({PATH})")
 
 #: BROAD inclination RMSE limits (deg), defaults of each method. GD/CG are Madgwick's filter with ahrs's gain:
@@ -90,7 +95,7 @@ def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
 
 # --- the nine BROAD trials in shared/ (issue 12): default iframe against the targets and VQF --------------------
 
-NINE = sorted(p for p in (shared_data_dir() / "attitude" / "broad").glob("[0-9][0-9]_*")
+NINE = sorted(p for p in (SHARED / "attitude" / "broad").glob("[0-9][0-9]_*")
               if p.suffix in (".hdf5", ".mat"))
 #: VQF 2.1.2 on the same nine trials, default options (issue 12; benchmarks/bench_attitude.py measures it again)
 VQF_ONLINE_DEG, VQF_OFFLINE_DEG, VQF_HEADING_9D_DEG = 0.608, 0.488, 2.21

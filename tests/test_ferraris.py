@@ -22,7 +22,7 @@ from optinav.multipos.convert import (ImucalCalibration, from_imu_tk, from_imuca
 from optinav.multipos.ferraris import (POSES, ROTATIONS, FerrarisCalibration, ferraris_calibration,
                                        ferraris_from_sections)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
 
 

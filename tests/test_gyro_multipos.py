@@ -32,7 +32,7 @@ ARW = 1.7e-4                                     # rad/s/√Hz (≈ 0.01 deg/s/�
 RATE = 100.0
 U_NOISE = 1e-4                                   # rad, per component of the measured up directions
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 
 
 def _poses():

@@ -20,7 +20,7 @@ except ImportError:  # the hdf5 extra is optional
     h5py = None
 needs_h5py = pytest.mark.skipif(h5py is None, reason="h5py not installed")
 
-SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 IMUCAL = SHARED / "imucal"
 
 

@@ -14,7 +14,7 @@ from optinav.multipos.static import (SectionList, StaticDetection, default_candi
                                      detection_from_sections,
                                      moving_variance, noise_floor, sections_from_list, threshold_candidates)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 
 
 def _brute_variance(t, x, w):

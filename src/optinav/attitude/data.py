@@ -9,7 +9,6 @@ attribute ``sampling_rate`` Hz.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,15 +19,11 @@ from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["BroadTrial", "is_broad", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
+__all__ = ["BroadTrial", "is_broad", "load_broad", "BROAD_TRIAL_02", "synthesize_polarization"]
 
-#: relative path of the BROAD trial shipped in the shared data folder
+#: path of BROAD trial 02 inside a data folder laid out as the project's shared data (``attitude/broad/``);
+#: the library reads only the paths it is given, the CLI, tests and benchmarks resolve the folder
 BROAD_TRIAL_02 = Path("attitude") / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
-
-
-def shared_data_dir() -> Path:
-    """The shared data folder: $OPTINAV_SHARED_DATA if set, else /work/shared/data."""
-    return Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
 
 
 @dataclass
