@@ -37,7 +37,7 @@ def test_module_constants_stay_importable():
 #: parameter name → the name the conventions page uses instead
 BANNED = {"rate": "rate_hz", "sample_rate": "rate_hz", "h": "height_m", "height": "height_m", "gyro": "gyr",
           "omega_ib_b": "gyr", "omega_b": "gyr", "accel": "acc", "f_b": "acc", "f": "acc", "dcm_b_n": "C_b_n",
-          "c_b_n": "C_b_n", "q_true": "q_b_n"}
+          "c_b_n": "C_b_n", "q_true": "q_b_n", "h0": "height0_m"}
 #: in the systems (not in core.rotations, where a quaternion is any quaternion) an attitude is q_b_n
 BANNED_IN_SYSTEMS = {"q": "q_b_n", "dcm": "C_b_n"}
 #: library functions that take degrees on purpose, and why
@@ -58,7 +58,8 @@ def _public_modules():
     for system in ("multipos", "rins", "gfimu", "attitude", "sky"):
         pkg = importlib.import_module(f"optinav.{system}")
         names.append(f"optinav.{system}")
-        names += [f"optinav.{system}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if not m.name.startswith("_")]
+        names += [f"optinav.{system}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__)
+                  if not m.name.startswith("_")]
     return names
 
 

@@ -444,7 +444,7 @@ def knots(seed=3, n=7):
 
 def test_trajectory_passes_through_knots():
     tk, att, pos = knots()
-    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, h0=50.0)
+    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, height0_m=50.0)
     idx = np.searchsorted(tr.t, tk)
     np.testing.assert_allclose(tr.dcm_b_n[idx], att, atol=1e-15)
     # the geodetic positions map back to the tangent-frame knots (ECEF rounding 6.4e6 m × 2e-16 ≈ 1e-9 m)
@@ -452,7 +452,7 @@ def test_trajectory_passes_through_knots():
     r = earth.geodetic_to_ecef(tr.pos[idx, 0], tr.pos[idx, 1], tr.pos[idx, 2])
     np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0).T, pos, atol=5e-9)
     ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, [1, 0, 2]] * [1, 1, -1],
-                       20.0, frame="ned", lat0=0.7, lon0=2.0, h0=50.0)
+                       20.0, frame="ned", lat0=0.7, lon0=2.0, height0_m=50.0)
     for name in ("omega_ib_b", "f_b", "dtheta", "dv", "pos"):
         np.testing.assert_allclose(getattr(ned, name), getattr(tr, name), atol=1e-12)
     np.testing.assert_allclose(ned.vel_n, tr.vel_n[:, [1, 0, 2]] * [1, 1, -1], atol=1e-12)
@@ -473,7 +473,7 @@ def test_trajectory_velocity_and_position_derivatives():
     tk, att, pos = knots()
     lat0 = 0.7
     t = np.linspace(2.3, 2.5, 201)  # 1 kHz inside one knot interval
-    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, h0=50.0, t=t)
+    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t)
     c = tr.dcm_b_n
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
     w_ie, w_en = earth.earth_rate(lat), earth.transport_rate(lat, h, v)
@@ -492,7 +492,7 @@ def test_trajectory_velocity_and_position_derivatives():
     np.testing.assert_allclose(p_fd[:, :2], rate[:, :2], rtol=0, atol=1e-13)
     np.testing.assert_allclose(p_fd[:, 2], rate[:, 2], rtol=0, atol=1e-6)
     # ω_ib − ω_nb = C_n^b(ω_ie + ω_en)
-    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, h0=50.0, t=t, earth="none")
+    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, earth="none")
     np.testing.assert_allclose(tr.omega_ib_b - tn.omega_ib_b, body(w_ie + w_en, c), atol=1e-17)
 
 

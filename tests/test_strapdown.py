@@ -352,7 +352,7 @@ def _trajectory(rate=None, t=None, frame="enu"):
     eul = np.radians(np.column_stack([[0, 5, -5, 3, -4, 2, 0], [0, 2, -3, 1, 0, -2, 0], [0, 20, 60, 90, 60, 30, 0]]))
     pk = np.array([[0, 0, 0], [30, 100, 1], [120, 180, 3], [250, 200, 2], [350, 150, 0], [420, 60, -1],
                    [450, 0, 0]], float)
-    return S.trajectory(tk, dcm_from_euler(eul, "enu"), pk, rate, frame, lat0=30 * DEG, h0=50.0, t=t)
+    return S.trajectory(tk, dcm_from_euler(eul, "enu"), pk, rate, frame, lat0=30 * DEG, height0_m=50.0, t=t)
 
 
 def _nav_errors(tr, **kw):

@@ -153,7 +153,7 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     conv = frame
     c = dcm_from_euler(eul, conv)
     bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
-    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, h0=h, bc_type=bc)
+    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, height0_m=h, bc_type=bc)
 
 
 def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,

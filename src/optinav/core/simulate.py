@@ -38,8 +38,8 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import (CORE_FRAME, C_ENU_NED, frame_name, unit_axis, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
-                                    quat_multiply, rot_axis, rotvec_from_dcm)
+from optinav.core.rotations import (C_ENU_NED, CORE_FRAME, dcm_from_quat, dcm_orthonormalize, frame_name,
+                                    quat_canonical, quat_from_dcm, quat_multiply, rot_axis, rotvec_from_dcm, unit_axis)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
@@ -943,8 +943,8 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRA
     return motion.simulate(_epochs(t0, rate, t), _lever(lever_arm))
 
 
-def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84", *, lon=0.0, t=None,
-           breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
+def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84", *, lon=0.0,
+           t=None, breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Exact truth of a gimbal chain ``C_b^n(t) = C_0 R_1(θ_1(t)) C_1 … R_k(θ_k(t)) C_k`` on a static base.
 
     ``fixed``: k+1 constant DCMs (``C_0`` maps into the navigation frame ``frame``); ``axes``: k joint axes
@@ -1123,10 +1123,10 @@ def _bc_to_enu(bc_type, frame):
     return tuple(out)
 
 
-def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAME, earth="wgs84", *, lat0, lon0=0.0,
-               h0=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
+def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAME, earth="wgs84", *, lat0,
+               lon0=0.0, height0_m=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
-    cubic spline in the tangent frame at (lat0, lon0, h0).
+    cubic spline in the tangent frame at (lat0, lon0, height0_m).
 
     ``t_knots`` (K,) s from 0; ``attitude_knots`` (K, 3, 3) ``C_b^n`` or (K, 4) quaternions ``q_b^n`` in
     ``frame``; ``position_knots`` (K, 3) m in the local tangent frame (axes of ``frame``) at the origin.
@@ -1160,7 +1160,7 @@ def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAM
     if pk.shape != (K, 3):
         raise OptinavError(f"position_knots has shape {pk.shape}, expected ({K}, 3)", "give one position per knot")
     lat0 = _check_lat(lat0, "lat0")
-    lon0, h0 = _scalar(lon0, "lon0"), _scalar(h0, "h0")
+    lon0, h0 = _scalar(lon0, "lon0"), _scalar(height0_m, "height0_m")
     g = _gravity_arg(gravity, earth)
     cs = np.stack([_to_enu(c, frame) for c in cs])
     pk = _vec_to_enu(pk, frame)
