@@ -41,7 +41,7 @@ from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_attitude",
+__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_q",
            "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
 
 METHODS = ("iframe", "qn", "gd", "cg", "mekf")
@@ -255,10 +255,20 @@ def _method(method, pol) -> str:
     return m
 
 
-def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-                      frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
-                      allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
-    """Like :func:`estimate`, returning an :class:`AttitudeEstimate` (q plus per-sample flags, counts, σ)."""
+def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+             frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
+             allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
+    """Attitude q_b^n from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)) as an :class:`AttitudeEstimate`
+    (``q`` (N, 4) [w, x, y, z] plus per-sample flags, counts and σ); :func:`estimate_q` returns only ``q``.
+
+    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
+    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
+    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
+    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
+    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
+    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
+    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
+    """
     frame = _frame(frame)
     method = _method(method, pol)
     opts = _options(method, options)
@@ -281,7 +291,7 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
     if gaps.size:
         seg_dt = dts.copy()
         seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
-        parts = [estimate_attitude(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
+        parts = [estimate(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
             None if pol is None else pol.select(slice(a, b))), method=method, frame=frame, q0=q0 if a == 0 else None,
             mag=None if mag is None else mag[a:b], offline=offline, input_stage=input_stage, checks=False, **options)
             for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
@@ -324,19 +334,10 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
                             rest=None if front is None else front.rest, input_stage=input_stage)
 
 
-def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-             frame: str = "NED", q0=None, **options) -> np.ndarray:
-    """Attitude q_b^n (N, 4) [w, x, y, z] from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)).
-
-    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
-    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
-    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
-    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
-    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
-    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
-    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
-    """
-    return estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
+def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+               frame: str = "NED", q0=None, **options) -> np.ndarray:
+    """The quaternions q_b^n (N, 4) [w, x, y, z] of :func:`estimate` (same arguments), without the diagnostics."""
+    return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
 
 
 # --- streaming ------------------------------------------------------------------------------------------------

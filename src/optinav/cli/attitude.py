@@ -166,7 +166,7 @@ def run(args) -> int:
 
     from optinav.core.progress import step
 
-    from optinav.attitude import PolarizationMeasurement, estimate_attitude
+    from optinav.attitude import PolarizationMeasurement, estimate
     from optinav.attitude.checks import check_aop
     from optinav.core.rotations import euler_from_quat, quat_from_euler
 
@@ -220,9 +220,9 @@ def run(args) -> int:
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {t.size} samples from {args.data} ({method}) ...", file=sys.stderr)
     step(f"estimate ({method})")
-    res = estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
-                            offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
-                            **options)
+    res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
+                   offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
+                   **options)
     eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
@@ -403,7 +403,7 @@ def run_simulate_flight(args) -> int:
 
     from optinav.core.progress import step
 
-    from optinav.attitude.simulate import simulate_flight
+    from optinav.attitude.simulate import simulate
 
     out = output_path(args.out, (".csv",), "flight.csv")
     # measured: about 2500 B per sample at the peak, 4000 with margin
@@ -411,7 +411,7 @@ def run_simulate_flight(args) -> int:
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
-    d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
+    d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
     step("write")
