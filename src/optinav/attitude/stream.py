@@ -5,7 +5,7 @@
 over the blocks (the first keeps three floats per sample for the exact medians, the second the gyro-unit
 window and the samples at the gyro's extremes); :class:`StreamEstimator` runs the online estimators over
 consecutive blocks with their state carried, so the concatenated output equals
-:func:`~optinav.attitude.estimate_attitude` on the whole log (same kernels, same order of operations).
+:func:`~optinav.attitude.estimate` on the whole log (same kernels, same order of operations).
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ class StreamChecks:
 class StreamEstimator:
     """An online estimator run over consecutive blocks: :meth:`run` (gyr, acc, dts of one block) returns its
     q_b^n (n, 4); :meth:`restart` starts a new segment (after a time gap: levelled from its first sample).
-    ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate_attitude`."""
+    ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate`."""
 
     def __init__(self, method: str, *, frame: str = "NED", q0=None, input_stage: bool = False, **options):
         if method not in STREAM_METHODS:
