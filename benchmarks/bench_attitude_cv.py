@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude import estimate
+from optinav.attitude import estimate_q
 from optinav.attitude.data import load_broad, shared_data_dir
 from optinav.attitude.iframe import IFRAME_DEFAULTS
 from optinav.attitude.metrics import inclination_error, rmse
@@ -70,7 +70,7 @@ def run(quick: bool) -> list[dict]:
     if default not in grid:
         grid.append(default)
     err = {mode: np.array([[np.degrees(rmse(inclination_error(
-        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, **cfg), tr.q_ref),
+        estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, **cfg), tr.q_ref),
         tr.eval_mask)) for tr in trials] for cfg in grid]) for mode, offline in (("6D online", False),
                                                                                  ("6D offline", True))}
     rows = []

@@ -94,8 +94,8 @@ def test_gyro_bias_in_fast_motion():
     n = 30000
     w, acc, q_true = motion(n, seed=11, amp=3.0)
     bias = np.radians([0.4, -0.3, 0.3])
-    r = estimate_attitude(w + bias, acc, DT)
-    lim = estimate_attitude(w + bias, acc, DT, motion_max_gyr=2.0)
+    r = estimate(w + bias, acc, DT)
+    lim = estimate(w + bias, acc, DT, motion_max_gyr=2.0)
     assert np.max(np.abs(np.degrees(r.gyro_bias - bias))) < 0.05        # measured 0.007 °/s
     assert np.max(np.abs(np.degrees(lim.gyro_bias - bias))) > 0.05      # measured 0.15 °/s
     # measured 0.03° against 0.30° tilt RMS over the second half
