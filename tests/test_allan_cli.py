@@ -81,3 +81,22 @@ def test_allan_refusals(rest, tmp_path, capsys):
     short.write_text("\n".join(header + body[:40]) + "\n")
     assert main(["allan", str(short), "--out", str(tmp_path / "s.json")]) == 2
     assert "record a longer static log" in capsys.readouterr().err
+
+
+def test_streamed_log_matches_in_memory(rest, tmp_path):
+    """Read in blocks of 997 rows and folded into the angle sums block by block, the deviation equals the
+    in-memory computation on the whole log (to rounding)."""
+    from optinav.core.allan import allan_deviation
+    from optinav.io import read_imu
+
+    _, data, _ = rest
+    out = tmp_path / "a.json"
+    assert main(["--quiet", "allan", str(data), "--out", str(out), "--sensor", "gyro", "--chunk-rows", "997"]) == 0
+    res = Result.from_json(out)
+    assert res.accelerometer is None
+    log = read_imu(data)
+    dt = (log.t[-1] - log.t[0]) / (len(log.t) - 1)
+    ref = allan_deviation(log.gyro, dt, unit="rad/s")
+    dev = res.gyroscope["deviation"]
+    assert np.allclose(dev.tau, ref.tau, rtol=1e-12)
+    assert np.max(np.abs(dev.adev / ref.adev - 1)) < 1e-9

@@ -154,23 +154,71 @@ def _alpha_from_slopes(tau: np.ndarray, adev: np.ndarray) -> np.ndarray:
 CHUNK_ROWS = 1 << 20
 
 
-def _overlapping_avar(X: np.ndarray, dt: float, m: np.ndarray, kind: str, progress_desc: str | None
-                      ) -> np.ndarray:
-    """Overlapping Allan variance (n_tau, k) of the columns of X at cluster sizes m, chunk by chunk."""
+class AngleAccumulator:
+    """θ_k = Σ_{i<k} (x_i − offset)·dt (rates) or Σ (x_i − offset) (increments), built block by block, so a long
+    log can be read in chunks and forgotten (only θ, one float per sample and column, is kept).
+
+    ``offset`` (k,): subtracted from every sample; it leaves the second differences of θ unchanged but keeps θ
+    small, avoiding cancellation (default: the first block's mean). ``add(block)`` appends (n_i, k) samples;
+    :func:`allan_deviation_from_angle` computes the deviation.
+    """
+
+    def __init__(self, dt: float, *, kind: str = "rate", offset=None):
+        if kind not in _KINDS:
+            raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
+        if np.ndim(dt) != 0:
+            raise OptinavError("the Allan deviation needs one regular sample interval dt",
+                               "resample an irregular log to a constant rate first")
+        self.dt = check_positive(dt, "dt")
+        self.kind = kind
+        self.offset = None if offset is None else np.asarray(offset, float).ravel()
+        self._blocks: list[np.ndarray] = []
+        self._carry: np.ndarray | None = None
+        self.n = 0
+
+    def add(self, block) -> None:
+        X = as_float_array(block, "x")
+        X = X[:, None] if X.ndim == 1 else X
+        if X.ndim != 2 or X.shape[0] == 0:
+            raise OptinavError(f"a block has shape {X.shape}; expected (n, k) samples", "pass one column per axis")
+        if self.offset is None:
+            self.offset = X.mean(axis=0)
+        if self._carry is None:
+            self._carry = np.zeros(X.shape[1])
+        if X.shape[1] != self._carry.size or self.offset.size != X.shape[1]:
+            raise OptinavError(f"a block has {X.shape[1]} columns, the first had {self._carry.size}",
+                               "pass blocks of the same columns")
+        scale = self.dt if self.kind == "rate" else 1.0
+        for a in range(0, X.shape[0], CHUNK_ROWS):
+            th = np.cumsum((X[a:a + CHUNK_ROWS] - self.offset) * scale, axis=0)
+            th += self._carry
+            self._carry = th[-1].copy()
+            self._blocks.append(th)
+        self.n += X.shape[0]
+
+    def set_dt(self, dt: float) -> None:
+        """Replace the sample interval once the whole log is known (θ of rates is rescaled to match)."""
+        dt = check_positive(dt, "dt")
+        if self.kind == "rate" and self._carry is not None:
+            for th in self._blocks:
+                th *= dt / self.dt
+            self._carry = self._carry * (dt / self.dt)
+        self.dt = dt
+
+    def theta(self) -> np.ndarray:
+        """(n + 1, k) θ with θ_0 = 0 (the blocks joined once; later calls reuse the joined array)."""
+        if self._carry is None:
+            raise OptinavError("no samples were added", "add the log's blocks first")
+        if len(self._blocks) != 1 or self._blocks[0].shape[0] != self.n + 1:
+            self._blocks = [np.concatenate([np.zeros((1, self._carry.size))] + self._blocks)]
+        return self._blocks[0]
+
+
+def _overlapping_avar(theta: np.ndarray, dt: float, m: np.ndarray, progress_desc: str | None) -> np.ndarray:
+    """Overlapping Allan variance (n_tau, k) at cluster sizes m from θ (n+1, k), chunk by chunk."""
     from optinav.core.progress import progress
 
-    n, k = X.shape
-    scale = dt if kind == "rate" else 1.0
-    # removing the mean leaves the second differences unchanged but keeps θ small, avoiding cancellation
-    mean = X.mean(axis=0)
-    theta = np.empty((n + 1, k))
-    theta[0] = 0.0
-    carry = np.zeros(k)
-    for a in range(0, n, CHUNK_ROWS):
-        b = min(a + CHUNK_ROWS, n)
-        np.cumsum((X[a:b] - mean) * scale, axis=0, out=theta[a + 1:b + 1])
-        theta[a + 1:b + 1] += carry
-        carry = theta[b].copy()
+    n, k = theta.shape[0] - 1, theta.shape[1]
     jobs = [(i, int(mi), a) for i, mi in enumerate(m) for a in range(0, n + 1 - 2 * int(mi), CHUNK_ROWS)]
     sums = np.zeros((m.size, k))
     for i, mi, a in progress(jobs, total=len(jobs), desc=progress_desc or "", enabled=None if progress_desc else False):
@@ -201,10 +249,6 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
     """
     if kind not in _KINDS:
         raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
-    if noise != "auto" and noise not in NOISE_ALPHA:
-        raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
-    if not 0.0 < float(confidence) < 1.0:
-        raise OptinavError(f"confidence must lie in (0, 1), got {confidence!r}", "pass e.g. 0.683 for 1σ")
     if np.ndim(dt) != 0:
         raise OptinavError("allan_deviation needs one regular sample interval dt",
                            "resample an irregular log to a constant rate first")
@@ -214,10 +258,30 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
         raise OptinavError(f"x must be (N,) or (N, k), got shape {x.shape}", "pass one column per axis")
     one_d = x.ndim == 1
     X = x[:, None] if one_d else x
-    n = X.shape[0]
-    if n < 4:
-        raise OptinavError(f"x has {n} samples; the Allan deviation needs at least 4", "record a longer log")
+    if X.shape[0] < 4:
+        raise OptinavError(f"x has {X.shape[0]} samples; the Allan deviation needs at least 4", "record a longer log")
+    acc = AngleAccumulator(dt, kind=kind, offset=X.mean(axis=0))
+    acc.add(X)
+    res = allan_deviation_from_angle(acc, taus, noise=noise, confidence=confidence, unit=unit,
+                                     progress_desc=progress_desc)
+    if one_d:
+        for name in ("adev", "lower", "upper", "edf", "alpha"):
+            setattr(res, name, getattr(res, name)[:, 0])
+    return res
 
+
+def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str = "auto",
+                               confidence: float = 0.683, unit: str = "", progress_desc: str | None = None
+                               ) -> AllanDeviation:
+    """:func:`allan_deviation` of the samples gathered in an :class:`AngleAccumulator` (a streamed log);
+    arrays are (n_tau, k)."""
+    if noise != "auto" and noise not in NOISE_ALPHA:
+        raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
+    if not 0.0 < float(confidence) < 1.0:
+        raise OptinavError(f"confidence must lie in (0, 1), got {confidence!r}", "pass e.g. 0.683 for 1σ")
+    n, dt, kind = angle.n, angle.dt, angle.kind
+    if n < 4:
+        raise OptinavError(f"the record has {n} samples; the Allan deviation needs at least 4", "record a longer log")
     if taus is None:
         m = 2 ** np.arange(int(np.floor(np.log2(max(n // 4, 1)))) + 1)
     else:
@@ -228,7 +292,7 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
         if m[0] < 1 or m[-1] > n // 2:
             raise OptinavError(f"taus must lie between dt = {dt:.6g} s and N·dt/2 = {n // 2 * dt:.6g} s",
                                "choose cluster times the record can resolve")
-    avar = _overlapping_avar(X, dt, m, kind, progress_desc)
+    avar = _overlapping_avar(angle.theta(), dt, m, progress_desc)
     tau = m * dt
     adev = np.sqrt(avar)
     if noise == "auto":
@@ -239,8 +303,6 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
     c = float(confidence)
     lower = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 + c), edf))
     upper = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 - c), edf))
-    if one_d:
-        adev, lower, upper, edf, alpha = adev[:, 0], lower[:, 0], upper[:, 0], edf[:, 0], alpha[:, 0]
     return AllanDeviation(tau=tau, adev=adev, lower=lower, upper=upper, edf=edf, alpha=alpha, m=m, dt=dt,
                           n_samples=int(n), confidence=c, kind=kind, unit=unit)
 
