@@ -185,3 +185,29 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     assert "--gyro-out" in capsys.readouterr().err
     assert main(["apply", str(yml), str(data), "--out", str(tmp_path / "x.csv")]) == 2
     assert "holds no biases" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, why", [
+    ("model: scale-misalignment\naccelerometers: {M: [[1, 0]]}\n", "3×3"),
+    ("!!python/object/apply:os.system ['echo hi']\n", "not valid YAML"),
+    ("model: [unclosed\n", "not valid YAML"),
+    ("model: calibrated\n", "not 'scale-misalignment'"),
+])
+def test_kalibr_reader_refuses_in_one_line(tmp_path, text, why):
+    p = tmp_path / "imu.yaml"
+    p.write_text(text)
+    with pytest.raises(OptinavError, match=why):
+        calibration_from_kalibr(read_kalibr_imu_yaml(p))
+
+
+@pytest.mark.parametrize("text, why", [("hello world\n", "non-numeric"), ("1 2 3\n", "21"),
+                                       ('{"K_a": [[1]], "cal_type": "Ferraris"}', "lacks"), ('{"foo": 1}', "neither")])
+def test_apply_refuses_unreadable_calibrations(tmp_path, capsys, text, why):
+    cal = tmp_path / "cal.txt"
+    cal.write_text(text)
+    data = tmp_path / "d.csv"
+    data.write_text("t,ax,ay,az\n0,0,0,9.8\n0.01,0,0,9.8\n")
+    assert main(["apply", str(cal), str(data), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and why in err, err
+    assert not (tmp_path / "o.csv").exists()

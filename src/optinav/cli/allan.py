@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import textwrap
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, output_path, prepare_report,

@@ -17,7 +17,6 @@ an imu_tk accelerometer file (with the gyroscope file beside it) back into a ``C
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -99,7 +98,7 @@ def load_calibration(path, gyro_path=None):
         if isinstance(data, dict) and "schema" in data:
             return CalibrationResult.from_json(path)
         if isinstance(data, dict) and "K_a" in data:
-            cal = read_imucal_json(json.dumps(data))
+            cal = read_imucal_json(path)
             p = cal.to_optinav()
             units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
             for sensor, key in (("accelerometer", "from_acc_unit"), ("gyroscope", "from_gyr_unit")):
