@@ -3,8 +3,12 @@
 ``allan_deviation`` computes the overlapping Allan deviation of rate samples (ω rad/s, f m/s²) or of
 increments (Δθ, Δv) at cluster times τ = m·dt, with an approximate confidence interval from the
 equivalent degrees of freedom (EDF) of the estimate. ``noise_parameters_from_allan`` reads the noise
-coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −1, −1/2, 0, +1/2), and
-``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations).
+coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −1, −1/2, 0, +1/2),
+``fit_noise_model`` fits the four-term model to the whole curve (generalized least squares with the χ² variance
+and the octave-to-octave correlation of the estimates; not biased by neighbouring terms as the read-off is), and
+``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations). A long log read
+in blocks is folded into an :class:`AngleAccumulator` and passed to ``allan_deviation_from_angle``;
+:class:`AllanAnalysis` is the result of ``optinav allan`` (and :func:`kalibr_noise` its Kalibr keys).
 
 Frequency-stability names of the noise terms (rate ↔ fractional frequency, angle ↔ phase):
 quantization = white PM (α = 2), white rate noise (ARW / VRW) = white FM (α = 0), bias instability =
