@@ -122,18 +122,20 @@ def nine():
 
 
 def test_nine_trials_default_online_beats_vqf_and_no_trial_above_target(nine):
-    """Online 6D inclination: mean below VQF's 0.608° (measured 0.58°; the issue's 0.55° is not reached), every
-    trial below the 1.5° target (worst 1.02°, fast rotation)."""
-    assert nine[:, 0].mean() < VQF_ONLINE_DEG, nine[:, 0]
-    assert nine[:, 0].max() < 1.5
+    """Online 6D inclination: mean 0.569° against VQF's 0.608° (the issue's 0.55° is not reached; 0.582° with the
+    former 2 rad/s limit on the motion bias update, so the 0.575° bound catches its return), every trial below
+    the 1.5° target (worst 1.00°, fast rotation)."""
+    assert nine[:, 0].mean() < 0.575, nine[:, 0]
+    assert nine[:, 0].mean() < VQF_ONLINE_DEG
+    assert nine[:, 0].max() < 1.1
 
 
 def test_nine_trials_offline_better_than_online(nine):
     """Offline (forward–backward fusion + zero-phase tilt refinement) below online on average and below VQF
     offline (measured 0.484° vs 0.488°: the issue's 0.44° target is not reached); worst trial 0.96°."""
-    assert nine[:, 1].mean() < nine[:, 0].mean()
+    assert nine[:, 1].mean() < nine[:, 0].mean() - 0.05
     assert nine[:, 1].mean() < VQF_OFFLINE_DEG, nine[:, 1]
-    assert nine[:, 1].max() < 1.5
+    assert nine[:, 1].max() < 1.05
 
 
 def test_nine_trials_9d_heading_meets_target(nine):

@@ -11,7 +11,7 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
 * rest is detected from the deviation of gyro and accelerometer from their low-passes (thresholds in rad/s and
   m/s² over ``rest_time`` s); a 3-state Kalman filter estimates the gyro bias from rest (all three axes) and,
   in motion, from the tilt-correction rate (its horizontal part is −C_b^n δb, so rotations reveal every
-  axis); the bias is clipped at ``bias_clip``;
+  axis; at any rotation rate unless ``motion_max_gyr`` > 0 sets a limit); the bias is clipped at ``bias_clip``;
 * the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
@@ -52,7 +52,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
     "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
     "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
-    "motion_max_gyr": 2.0,           # rad/s, no motion bias update above this rate
+    "motion_max_gyr": 0.0,           # rad/s, no motion bias update above this rate; 0 = no limit
     "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
     "gravity": 9.81,                 # m/s²
     "tau_mag": 10.0,                 # s, heading correction time constant

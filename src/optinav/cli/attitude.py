@@ -296,7 +296,7 @@ def _run_stream(args, method, options, q0, out) -> int:
     gaps = checks.gaps
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {checks.n} samples from {args.data} ({method}) ...", file=sys.stderr)
-    step(f"estimate ({method})")
+    step(f"estimate ({method}), write")  # one pass does both
     with atomic_open(out, "w", newline="\n") as fh:
         fh.write(_HEADER + "\n")
         for row0, log, dts in blocks(f"attitude: {method}"):

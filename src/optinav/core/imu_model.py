@@ -331,6 +331,28 @@ def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
     return np.cumsum(as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
 
 
+def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
+    """(n, 3) flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis (rad/s, m/s²).
+
+    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from 1/(n·dt) to the
+    Nyquist frequency, made by shaping the spectrum of white noise (Kasdin, Proc. IEEE 83(5), 1995): its Allan
+    variance is 2·ln2·B²/π, the flat 0.664·B, between a few dt and a fraction of the record (NIST SP 1065
+    Table 3: σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling (scalar dt) only.
+    """
+    B = _vec3(bias_instability, "bias instability", nonneg=True)
+    dt = check_positive(dt, "dt")
+    n = int(n)
+    if n < 2:
+        raise OptinavError(f"flicker noise needs at least 2 samples, got {n}", "pass n >= 2")
+    w = as_rng(rng).standard_normal((n, 3))
+    spec = np.fft.rfft(w, axis=0)
+    f = np.fft.rfftfreq(n, dt)
+    # unit white noise has one-sided PSD 2·dt; scale each bin to the target PSD, no DC
+    gain = np.zeros_like(f)
+    gain[1:] = np.sqrt(1.0 / (np.pi * f[1:]) / (2.0 * dt))
+    return np.fft.irfft(spec * gain[:, None], n=n, axis=0) * B[None, :]
+
+
 def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
     """Clip (N, 3) outputs at the measurement range ``limit`` (a rate, per axis; inf = none).
 
