@@ -152,13 +152,11 @@ def truth_path(data_path) -> Path:
     return check_sidecar(p.with_name(p.stem + ".truth.json"), TRUTH_SIGNATURE)
 
 
-def write_truth(data_path, truth: dict) -> Path:
-    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path; the
-    ``schema`` key comes first (default ``optinav.simulation_truth``)."""
-    from optinav.core.files import write_json
-
+def write_truth(data_path, truth) -> Path:
+    """Write a simulation's :class:`~optinav.core.results.Truth` beside its data as ``STEM.truth.json``
+    (atomically) and return that path."""
     tp = truth_path(data_path)
-    write_json(tp, {"schema": truth.get("schema", "optinav.simulation_truth"), **truth})
+    truth.to_json(tp)
     return tp
 
 

@@ -143,12 +143,13 @@ def run_simulate(args) -> int:
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
-    truth = {"schema": "optinav.gfimu_truth", "version": 1,
-             "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+    from optinav.gfimu.turntable import turntable_truth
+
+    info = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, turntable_truth(e, info))
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 

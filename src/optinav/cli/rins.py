@@ -82,11 +82,12 @@ def run_simulate(args) -> int:
                       gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
                       lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
-    truth = {"schema": "optinav.rins_truth", "version": 1, "unit": "rad",
-             "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
+    from optinav.rins.calibrate import rins_truth
+
+    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
              "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
              "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, rins_truth(p, d.alpha, d.beta, info))
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0
