@@ -187,6 +187,30 @@ def register_calibrate(kinds) -> None:
     c.set_defaults(func=run_calibrate, progress_task="calibrate gfimu")
 
 
+def _offset(text: str):
+    """--offset of the batch: 'zero', 'estimate' or X,Y,Z in m (argparse type)."""
+    t = text.strip()
+    if t in ("zero", "estimate"):
+        return t
+    try:
+        return tuple(parse_floats(t, 3, "--offset", "X,Y,Z"))
+    except OptinavError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate gfimu``: the options of ``calibrate gfimu`` (registry hook; destinations are
+    the fields of :class:`optinav.gfimu.unit.GfimuOptions`)."""
+    p.add_argument("--config", metavar="CONFIG.json", help="nominal array configuration")
+    p.add_argument("--builtin", choices=["cylinder10"], help="built-in nominal configuration")
+    p.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
+    p.add_argument("--offset", type=_offset, default="zero", metavar="X,Y,Z",
+                   help="measured array centre from the table axis, body m (default zero; 'estimate' to estimate it)")
+    p.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
+                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
+    p.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"), (args.config, "configuration file"))
     from optinav.core.progress import step

@@ -121,6 +121,19 @@ def register_calibrate(kinds) -> None:
     p.set_defaults(func=run_calibrate, progress_task="calibrate rins")
 
 
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate rins``: the options of ``calibrate rins`` (registry hook; destinations are the
+    fields of :class:`optinav.rins.unit.RinsOptions`)."""
+    p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
+    p.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
+                   help="latitude in degrees (default: from each file)")
+    p.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
+                   help="longest alignment window (default: the initial rest)")
+    p.add_argument("--residual-rate", dest="residual_rate_hz", type=RATE, default=10.0, metavar="HZ",
+                   help="epochs per second of the attitude residuals (default 10)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"))
     from optinav.core.progress import step
