@@ -8,11 +8,16 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (add_input_options, add_report_option, check_memory, finish_report, output_path,
-                                parse_floats, prepare_report)
+                                parse_floats, prepare_report, truth_path, write_truth)
 from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
+
+
+def register_commands(sub) -> None:
+    """The system's top-level command (registry hook)."""
+    register(sub)
 
 
 def register(sub) -> None:
@@ -281,7 +286,8 @@ def register_simulate(kinds) -> None:
             MPU-6000-class IMU and a zenith-viewing 3-channel polarization sensor (Rayleigh sky, sun by the
             NREL SPA). Writes a CSV with t [s], ax, ay, az [m/s^2], gx, gy, gz [rad/s] (body forward-right-
             down), aop_deg (angle of polarization, deg, NaN when not measured) and dop, plus STEM.truth.csv
-            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output."""),
+            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output, and STEM.truth.json
+            (the truth in the result layout: q_b_n, roll, pitch, yaw; docs/results.md)."""),
         epilog=textwrap.dedent("""\
             example:
               optinav simulate flight --kind dynamic --duration 30 --seed 1 --out flight.csv
@@ -312,6 +318,7 @@ def run_simulate_flight(args) -> int:
     # measured: about 2500 B per sample at the peak, 4000 with margin
     check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
+    truth_path(out)
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
     d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
@@ -320,6 +327,10 @@ def run_simulate_flight(args) -> int:
     step("write")
     write_csv(out, cols, head, "%.10g")
     write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
+    from optinav.attitude.estimators import attitude_truth
+
+    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+                                                         "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
           f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",

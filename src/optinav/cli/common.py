@@ -7,20 +7,20 @@ from pathlib import Path
 
 from optinav.errors import OptinavError
 
-#: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
-#: ``register_calibrate(kinds)`` (a sensor/system under ``optinav calibrate``). Top-level commands of a system
-#: (``gfimu``, ``sun``, ``attitude``) are listed in ``main.COMMAND_MODULES`` instead.
-SYSTEM_MODULES = ["optinav.cli.rins", "optinav.cli.gfimu", "optinav.cli.attitude"]
-
-
 def register_system_hooks(kinds, hook: str) -> None:
-    """Call ``hook`` (``register_simulate``/``register_calibrate``) of every system CLI module that has it."""
+    """Call ``hook`` (``register_simulate``/``register_calibrate``/``register_commands``) of the CLI module of
+    every system in :mod:`optinav.registry` that defines it."""
     import importlib
 
-    for name in SYSTEM_MODULES:
-        fn = getattr(importlib.import_module(name), hook, None)
-        if fn is not None:
-            fn(kinds)
+    from optinav import registry
+
+    seen = set()
+    for system in registry.systems():
+        if system.cli and system.cli not in seen:
+            seen.add(system.cli)
+            fn = getattr(importlib.import_module(system.cli), hook, None)
+            if fn is not None:
+                fn(kinds)
 
 
 def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,

@@ -37,6 +37,11 @@ def _load_array(config: str | None, builtin_name: str | None):
 # optinav gfimu analyze
 # ------------------------------------------------------------------------------------------------------------
 
+def register_commands(sub) -> None:
+    """The system's top-level command (registry hook)."""
+    register(sub)
+
+
 def register(sub) -> None:
     p = sub.add_parser("gfimu", help="gyro-free IMU: identifiability of an accelerometer array",
                        description="Gyro-free IMU (accelerometer array) tools.",
