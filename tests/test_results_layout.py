@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from optinav.attitude.estimators import AttitudeEstimate, attitude_truth, estimate_attitude
-from optinav.attitude.simulate import simulate_flight
+from optinav.attitude.estimators import AttitudeEstimate, attitude_truth, estimate
+from optinav.attitude.simulate import simulate as simulate_flight
 from optinav.cli.main import main
 from optinav.core.results import Estimate, Parameter, Result, Truth
 from optinav.errors import OptinavError
@@ -17,9 +17,9 @@ from optinav.gfimu.array import builtin
 from optinav.gfimu.errors import InstallationErrors
 from optinav.gfimu.turntable import TurntableCalibration, calibrate, simulate, turntable_truth
 from optinav.io import ImuLog, write_imu
-from optinav.multipos.calibrate import calibrate_session
+from optinav.multipos.calibrate import calibrate as calibrate_session
 from optinav.multipos.result import CalibrationResult, session_truth
-from optinav.multipos.simulate import simulate_session
+from optinav.multipos.simulate import simulate as simulate_session
 from optinav.rins.calibrate import RinsCalibration
 
 LEGACY = Path(__file__).parent / "data" / "legacy"
@@ -75,7 +75,7 @@ def test_gfimu_layout_and_truth_field_by_field():
 
 def test_attitude_layout_and_truth_field_by_field():
     d = simulate_flight("static", duration_s=10.0, rate_hz=100.0, rng=3)
-    res = estimate_attitude(d.gyr, d.acc, 1 / 100, method="mekf", frame=d.frame)
+    res = estimate(d.gyr, d.acc, 1 / 100, method="mekf", frame=d.frame)
     raw = _check_layout(res, "optinav.attitude.estimate")
     assert raw["convergence"]["converged"] is None  # a filter: nothing to converge
     p = res.parameters()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude.estimators import AttitudeEstimate, _method, _options, estimate_attitude
+from optinav.attitude.estimators import AttitudeEstimate, _method, _options, estimate
 from optinav.errors import OptinavError
 
 
@@ -84,7 +84,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
 
 
 def steps(t, path="") -> np.ndarray:
-    """The step before each sample (s), the first one repeated: what :func:`estimate_attitude` takes as dt."""
+    """The step before each sample (s), the first one repeated: what :func:`estimate` takes as dt."""
     t = np.asarray(t, float)
     if t.size > 1 and not np.all(np.diff(t) > 0):
         raise OptinavError(f"the time column of {path} is not strictly increasing", "sort the log or fix its time column")
@@ -118,7 +118,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
     if reference and embedded is not None and o.frame.upper() != "ENU":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     dt = steps(t, p)
-    res = estimate_attitude(gyr, acc, dt, method=_method(o.method, None), frame=o.frame, mag=mag, offline=o.offline,
+    res = estimate(gyr, acc, dt, method=_method(o.method, None), frame=o.frame, mag=mag, offline=o.offline,
                             input_stage=o.input_stage, allow_gaps=o.allow_gaps, **dict(o.options))
     extra = {"n_samples": int(t.size), "duration_s": float(t[-1] - t[0]) if t.size else 0.0}
     if reference:

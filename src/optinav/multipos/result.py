@@ -230,7 +230,7 @@ register_legacy(CalibrationResult, "optinav.calibration", 1, _legacy_v1)
 
 def session_truth(acc_K, acc_b, gyro_K=None, gyro_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s",
                   info: dict | None = None) -> Truth:
-    """A simulated unit's truth in the parameterization :func:`~optinav.multipos.calibrate.calibrate_session`
+    """A simulated unit's truth in the parameterization :func:`~optinav.multipos.calibrate.calibrate`
     estimates: the accelerometer K in the upper-triangular form U (K = U·Q with Q a rotation: norm observations
     fix the sensor z axis and y-z plane) and the gyroscope K expressed in that frame (K_g·Qᵀ); raw units as
     written (``acc_unit``/``gyro_unit``)."""
