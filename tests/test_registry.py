@@ -90,6 +90,7 @@ def test_the_four_systems_are_declared_once():
         assert issubclass(s.load("result"), Estimate) and s.load("result").SCHEMA.startswith(f"optinav.{s.name}.")
         assert dataclasses.is_dataclass(s.load("options")) and callable(s.load("run_unit"))
         assert callable(s.load("truth")) and callable(s.load("report")) and callable(s.load("read"))
+        assert callable(s.load("simulate")) and callable(s.load("fit"))
     parser = build_parser()
     assert _choices(parser, "batch", "calibrate") == {"accel", "rins", "gfimu"}
     assert {"attitude", "calibrate"} <= _choices(parser, "batch")
