@@ -90,9 +90,23 @@ def test_attitude_layout_and_truth_field_by_field():
 
 
 def test_truth_round_trip_and_compare_rules():
-    t = Truth("toy", {"a": Parameter(1.0, "rad"), "q_x": Parameter(np.array([[1.0, 0, 0, 0]]), "")})
+    q = np.array([[0.6, 0.8, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]])
+    t = Truth("toy", {"a": Parameter(np.pi - 0.01, "rad"), "b": Parameter(2.0, "m"), "q_b_n": Parameter(q, ""),
+                      "hidden": Parameter(5.0, "m")})
     back = Truth.from_dict(json.loads(t.to_json()))
-    assert back.system == "toy" and back.parameters["a"].value == 1.0
+    assert back.system == "toy" and back.parameters["a"].value == np.pi - 0.01
+    np.testing.assert_array_equal(back.parameters["q_b_n"].value, q)
+
+    class Toy(Estimate):
+        def parameters(self):
+            return {"a": Parameter(-np.pi + 0.02, "rad", std=0.01), "b": Parameter(2.5, "m", std=0.25),
+                    "q_b_n": Parameter(-q, ""), "hidden": Parameter(None, "m", observable=False, reason="toy")}
+
+    cmp = back.compare(Toy())
+    assert sorted(cmp) == ["a", "b", "q_b_n"]  # an unobservable parameter is not compared
+    assert cmp["a"]["error"] == pytest.approx(0.03) and cmp["a"]["z"] == pytest.approx(3.0)  # on the circle
+    assert cmp["b"]["z"] == pytest.approx(2.0)
+    np.testing.assert_allclose(cmp["q_b_n"]["error"], 0.0, atol=1e-15)  # −q is the same rotation
     with pytest.raises(OptinavError):
         Truth.from_dict({"schema": "optinav.unknown", "version": 1})
 

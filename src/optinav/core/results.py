@@ -3,7 +3,12 @@
 A result class subclasses :class:`Result`, sets ``SCHEMA`` (a stable name) and ``VERSION``, and gives
 each field its unit in the field metadata: ``bias: np.ndarray = field(metadata={"unit": "m/s^2"})``.
 ``to_json`` writes ``{"schema", "version", "optinav_version", "fields": {name: {"value", "unit"}}}``;
-``from_json`` checks the schema and version and rebuilds numpy arrays and nested results.
+``from_json`` checks the schema and version and rebuilds numpy arrays and nested results; layouts of older
+versions are read through :func:`register_legacy`.
+
+Calibrations and estimates derive :class:`Estimate`, which adds the layout every system shares (parameters with
+value, std, CRLB std, unit and observability; convergence; quality gates; ``elapsed_s``), and simulated truth is a
+:class:`Truth` under the same parameter names (docs/results.md).
 """
 
 from __future__ import annotations
@@ -82,13 +87,6 @@ class Result:
     """Base of every optinav result; see the module docstring."""
 
     SCHEMA: ClassVar[str] = "optinav.result"
-    #: True for results written in a flat layout (``{"schema", "version", "optinav_version", field: value, …}``,
-    #: plain JSON, non-finite floats as null), e.g. a calibration's RESULT.json; ``_FLAT_WHAT`` names the file in
-    #: errors, ``_FLAT_REMEDY`` says where a good one comes from, ``_FLAT_EXTRA`` holds constant keys written too
-    _FLAT: ClassVar[bool] = False
-    _FLAT_WHAT: ClassVar[str] = "result"
-    _FLAT_REMEDY: ClassVar[str] = "pass a JSON file written by optinav"
-    _FLAT_EXTRA: ClassVar[dict] = {}
     VERSION: ClassVar[int] = 1
 
     def __init_subclass__(cls, **kwargs):
@@ -103,12 +101,6 @@ class Result:
     def to_dict(self) -> dict:
         from optinav import __version__
 
-        if self._FLAT:
-            out = {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__,
-                   **self._FLAT_EXTRA}
-            for f in dataclasses.fields(self):
-                out[f.name] = plain(getattr(self, f.name))
-            return out
         fields = {}
         for f in dataclasses.fields(self):
             fields[f.name] = {"value": _encode(getattr(self, f.name)), "unit": f.metadata.get("unit", "-")}
@@ -126,8 +118,6 @@ class Result:
 
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
-        if cls._FLAT:
-            return cls._from_flat(data)
         if isinstance(data, dict) and isinstance(data.get("schema"), str):
             legacy = _LEGACY.get((data["schema"], data.get("version")))
             if legacy is not None:
@@ -136,12 +126,6 @@ class Result:
                     raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}",
                                        "pass the right result file")
                 return target._from_legacy(convert, data)
-        flat = _REGISTRY.get(data.get("schema")) if isinstance(data, dict) and isinstance(data.get("schema"),
-                                                                                          str) else None
-        if flat is not None and flat._FLAT:
-            if cls is not Result and not issubclass(flat, cls):
-                raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}", "pass the right result file")
-            return flat._from_flat(data)
         if not isinstance(data, dict) or "schema" not in data or "fields" not in data:
             raise OptinavError("not an optinav result (no 'schema'/'fields' keys)",
                                "pass a JSON file written by optinav")
@@ -174,23 +158,6 @@ class Result:
         except (TypeError, KeyError) as exc:
             raise OptinavError(f"{data['schema']} version {data.get('version')} file is incomplete "
                                f"({type(exc).__name__}: {exc})", "pass an unmodified optinav result file") from None
-
-    @classmethod
-    def _from_flat(cls, data) -> "Result":
-        if not isinstance(data, dict) or data.get("schema") != cls.SCHEMA:
-            raise OptinavError(f"not an optinav {cls._FLAT_WHAT} (schema is not {cls.SCHEMA!r})", cls._FLAT_REMEDY)
-        if data.get("version") != cls.VERSION:
-            raise OptinavError(f"{cls._FLAT_WHAT} version {data.get('version')} is not supported "
-                               f"(this optinav reads version {cls.VERSION})", "re-run the calibration")
-        fields = dataclasses.fields(cls)
-        kwargs = {f.name: data[f.name] for f in fields if f.name in data}
-        for f in fields:  # plain() wrote non-finite floats as null
-            if f.type in ("float", float) and f.name in kwargs and kwargs[f.name] is None:
-                kwargs[f.name] = float("nan")
-        try:
-            return cls(**kwargs)
-        except TypeError as exc:
-            raise OptinavError(f"{cls._FLAT_WHAT} is incomplete ({exc})", "re-run the calibration") from None
 
     @classmethod
     def from_json(cls, source: str | Path) -> "Result":
