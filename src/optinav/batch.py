@@ -157,6 +157,15 @@ def _num(v):
     return v if math.isfinite(v) else None
 
 
+def _cell(v):
+    """A system column's value as a table cell: text, bool and integers as they are, numbers as finite floats."""
+    if v is None or isinstance(v, (str, bool)):
+        return v
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    return _num(v)
+
+
 def _flat(name: str, value, out: dict, suffix: str = "") -> bool:
     """``out[name + suffix] = value`` for a scalar, ``out[name_x + suffix] …`` for a vector of ≤ 4 elements;
     False (nothing written) for a larger array (a time series)."""
@@ -183,8 +192,10 @@ def result_columns(res) -> dict:
            "unobservable": "; ".join(res.unobservable())}
     for name, p in res.parameters().items():
         if _flat(name, p.value, row):
-            _flat(name, p.std, row, "_std")
-            _flat(name, p.crlb_std, row, "_crlb_std")
+            scalar = p.value is None or np.ndim(p.value) == 0
+            for v, suffix in ((p.std, "_std"), (p.crlb_std, "_crlb_std")):
+                if v is not None or scalar:  # a vector without std gets no columns for it
+                    _flat(name, v, row, suffix)
     return row
 
 
@@ -224,7 +235,7 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
     start = time.perf_counter()
     try:
         res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
-        row.update({k: v if isinstance(v, str) or v is None else _num(v) for k, v in extra.items()})
+        row.update({k: _cell(v) for k, v in extra.items()})
         row.update(result_columns(res))
         if job.reference:
             row.update(truth_columns(res, p))

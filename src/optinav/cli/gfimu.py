@@ -22,15 +22,9 @@ MAX_TABLE_RATE = 50.0
 
 
 def _load_array(config: str | None, builtin_name: str | None):
-    from optinav.gfimu.array import AccelerometerArray, builtin
+    from optinav.gfimu.unit import GfimuOptions
 
-    if config and builtin_name:
-        raise OptinavError("both CONFIG.json and --builtin were given", "pass one of them")
-    if builtin_name:
-        return builtin(builtin_name)
-    if not config:
-        raise OptinavError("no configuration given", "pass CONFIG.json or --builtin cylinder10")
-    return AccelerometerArray.load(config)
+    return GfimuOptions(config=config, builtin=builtin_name).array()
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -27,12 +27,13 @@ class GfimuOptions:
     noise: float | None = None
 
     def array(self) -> AccelerometerArray:
+        """The nominal array: the configuration file or the built-in one."""
         if self.config and self.builtin:
             raise OptinavError("both CONFIG.json and --builtin were given", "pass one of them")
         if self.builtin:
             return builtin(self.builtin)
         if not self.config:
-            raise OptinavError("no configuration given", "pass --config CONFIG.json or --builtin cylinder10")
+            raise OptinavError("no configuration given", "pass CONFIG.json (--config in a batch) or --builtin cylinder10")
         return AccelerometerArray.load(self.config)
 
 
