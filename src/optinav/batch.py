@@ -612,7 +612,7 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
         jobs = [u for u in units if u.name not in resumed]
         if jobs:
             it = _run_jobs(jobs, options, workers, client)
-            desc = f"batch {'calibrate ' if 'calibr' in registry_kind(options) else ''}{options.system}"
+            desc = f"batch {_command(options)}"
             for unit, row, lost_msg in progress(it, total=len(jobs), desc=desc, enabled=show_progress):
                 if row is None:
                     lost[unit.path.name] = {"unit": unit.name, "file": unit.path.name, "status": "failed",
@@ -639,7 +639,9 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
                         n_failed=len(rows) - n_ok, n_resumed=len(resumed), n_computed=n_computed, n_lost=len(lost))
 
 
-def registry_kind(job: BatchJob) -> str:
+def _command(job: BatchJob) -> str:
+    """The CLI words of the job's system (``calibrate accel``, ``attitude``), for the progress bar."""
     from optinav.registry import SYSTEMS
 
-    return SYSTEMS[job.system].kind
+    s = SYSTEMS[job.system]
+    return f"calibrate {s.command}" if s.kind == "calibration" else s.command
