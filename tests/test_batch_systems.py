@@ -25,7 +25,7 @@ NONORTH = [np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4, np.array([-2.0, 1.
 SYSTEMS = {
     "rins": (["calibrate", "rins"], RinsOptions(), [],
              lambda k, out: ["simulate", "rins", "--nonorth=" + ",".join(f"{x:.6g}" for x in NONORTH[k]),
-                             "--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "50",
+                             "--scheme", "dual4", "--align", "40", "--dwell", "5", "--move", "5", "--rate", "25",
                              "--seed", str(k + 1), "--out", out], ["r1.npz", "r2.npz"]),
     "gfimu": (["calibrate", "gfimu"], GfimuOptions(builtin="cylinder10"), ["--builtin", "cylinder10"],
               lambda k, out: ["simulate", "gfimu-turntable", "--builtin", "cylinder10", "--errors", "random",

@@ -162,6 +162,21 @@ def test_legacy_attitude_estimate_loads():
     np.testing.assert_array_equal(again.q, res.q)
 
 
+def test_a_fresh_interpreter_reads_every_file_through_the_base_class():
+    """``Result.from_json`` / ``Truth.from_json`` find the system's class without the caller importing it."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from optinav.core.results import Result, Truth; "
+            "print([type(Result.from_json(p)).__name__ for p in sys.argv[1:5]], "
+            "[Truth.from_json(p).system for p in sys.argv[5:]])")
+    files = [LEGACY / f for f in ("multipos_v1.json", "rins_v1.json", "gfimu_v1.json", "attitude_v2.json",
+                                  "multipos_truth_v1.json", "rins_truth_v1.json", "gfimu_truth_v1.json")]
+    out = subprocess.run([sys.executable, "-c", code, *map(str, files)], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ("['CalibrationResult', 'RinsCalibration', 'TurntableCalibration', "
+                                  "'AttitudeEstimate'] ['multipos', 'rins', 'gfimu']")
+
+
 def test_wrong_class_and_damaged_legacy_files_are_one_line_errors(tmp_path):
     with pytest.raises(OptinavError, match="is not a"):
         CalibrationResult.from_json(LEGACY / "rins_v1.json")

@@ -119,6 +119,8 @@ class Result:
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
         if isinstance(data, dict) and isinstance(data.get("schema"), str):
+            if data["schema"] not in _REGISTRY and (data["schema"], data.get("version")) not in _LEGACY:
+                _import_systems()
             legacy = _LEGACY.get((data["schema"], data.get("version")))
             if legacy is not None:
                 target, convert = legacy
@@ -176,6 +178,18 @@ class Result:
             # a value of the wrong type deep inside (a list where a name belongs, a string as an array ...)
             raise OptinavError(f"{src} is not a valid optinav result ({type(exc).__name__}: "
                                f"{' '.join(str(exc).split())[:80]})", "pass an unmodified optinav result file") from None
+
+
+def _import_systems() -> None:
+    """Import every registered system's result module, so that their schemas (and the layouts of earlier
+    versions they read) are known to :meth:`Result.from_dict` without the caller importing them first."""
+    from optinav import registry
+
+    for system in registry.systems():
+        try:
+            system.load("result")
+        except (ImportError, AttributeError):  # a plugin system that is not installed: its files stay unknown
+            continue
 
 
 # ------------------------------------------------------------------------------------- the common result layout
@@ -352,6 +366,7 @@ class Truth:
                 raise OptinavError(f"{schema} file has no parameters", "pass an unmodified truth file")
             return cls(schema[len("optinav."):-len(".truth")],
                        {n: Parameter.from_dict(p) for n, p in params.items()}, info)
+        _import_systems()
         for system, (old_schema, convert) in _TRUTH_LEGACY.items():
             if schema == old_schema:
                 return cls(system, convert(data), info)
