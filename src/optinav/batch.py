@@ -8,9 +8,10 @@ sorted file-name order; hidden files (leading ".") and the batch's own output/jo
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
 Each unit runs its system's ``run_unit`` (:mod:`optinav.registry`; for ``multipos`` that is
-``read_session_file`` + ``calibrate_data``, what ``optinav calibrate accel`` runs) in a worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib,
-so no extra is needed), in this process (``workers=0``), or a dask.distributed cluster
-(``scheduler="tcp://host:8786"``; the optional extra ``optinav[dask]``, imported only then). A unit's failure
+``read_session_file`` + ``calibrate_data``, what ``optinav calibrate accel`` runs) in a worker: local processes
+(:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed), in this process
+(``workers=0``), or a dask.distributed cluster (``scheduler="tcp://host:8786"``; the optional extra
+``optinav[dask]``, imported only then). A unit's failure
 (an :class:`OptinavError` or any other exception) becomes a ``failed`` row with the one-line message; the
 other units continue.
 
@@ -22,10 +23,10 @@ therefore loses at most the units in flight. The journal is kept (it is the resu
 ``fresh=True``, to recompute everything). See docs/batch.md for the columns.
 
 Rows are read from the result through the common layout (:class:`optinav.core.results.Estimate`): one
-column per parameter (``NAME``, ``NAME_std``, ``NAME_crlb_std``; a vector of up to four elements as
-``NAME_x``…; time series are left out), the convergence, the quality gates and the names of the unobservable
-parameters, plus the system's own columns. With ``reference=True`` a unit's simulated truth beside it
-(``STEM.truth.json``) is compared field by field (``NAME_error`` and ``truth_max_z``).
+column per parameter (``NAME``, ``NAME_std``, ``NAME_crlb_std``; a triad as ``NAME_x`` … ``NAME_z``, another
+vector of up to four elements as ``NAME_0`` …; time series are left out), the convergence, the quality gates
+and the names of the unobservable parameters, plus the system's own columns. With ``reference=True`` a unit's
+simulated truth beside it (``STEM.truth.json``) is compared field by field (``NAME_error`` and ``truth_max_z``).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ JOURNAL_VERSION = 1
 #: the row layout: part of the options hash, so rows journaled by another layout are recomputed
 LAYOUT = 2
 OUTPUT_SUFFIXES = (".csv", ".parquet")
-_AX = "xyzw"
+_AX = "xyz"
 
 #: (column, type) every table starts with
 HEAD: list[tuple[str, str]] = [
@@ -167,7 +168,8 @@ def _cell(v):
 
 
 def _flat(name: str, value, out: dict, suffix: str = "") -> bool:
-    """``out[name + suffix] = value`` for a scalar, ``out[name_x + suffix] …`` for a vector of ≤ 4 elements;
+    """``out[name + suffix] = value`` for a scalar, ``out[name_x + suffix] …`` for a 3-vector (``name_0`` … for
+    another vector of ≤ 4 elements);
     False (nothing written) for a larger array (a time series)."""
     if value is None:
         out[name + suffix] = None
@@ -176,8 +178,8 @@ def _flat(name: str, value, out: dict, suffix: str = "") -> bool:
     if v.ndim == 0:
         out[name + suffix] = _num(v)
     elif v.ndim == 1 and v.size <= 4:
-        for i, x in enumerate(v):
-            out[f"{name}_{_AX[i]}{suffix}"] = _num(x)
+        for i, x in enumerate(v):  # a triad's axes by name, other vectors by index
+            out[f"{name}_{_AX[i] if v.size == 3 else i}{suffix}"] = _num(x)
     else:
         return False
     return True
@@ -204,7 +206,7 @@ def truth_columns(res, path: Path) -> dict:
     and ``truth_max_z`` (the largest |error|/std); nothing when there is no truth file beside the unit."""
     from optinav.core.results import Truth
 
-    tp = path.with_name(path.name.split(".")[0] + ".truth.json")
+    tp = path.with_name(path.stem + ".truth.json")  # where optinav simulate writes it
     if not tp.is_file():
         return {}
     cmp = Truth.from_json(tp).compare(res)

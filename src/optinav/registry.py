@@ -31,11 +31,11 @@ class System:
     ``optinav calibrate`` / ``optinav batch calibrate`` (or the top-level command of an estimate); ``kind``:
     "calibration" or "estimate". The other fields are ``"module:attribute"`` references (None: not offered):
     ``result`` the :class:`~optinav.core.results.Estimate` subclass; ``simulate`` the simulator; ``fit`` the
-    calibrator or estimator returning ``result``; ``options`` the batch options dataclass
-    and ``check(options)`` its checks, run once before a batch; ``run_unit(path, options, reference)`` reads one recording and
-    returns ``(result, extra table columns)``; ``truth`` builds a :class:`~optinav.core.results.Truth`;
-    ``report(result, out_dir, **context)`` writes its report section; ``read``/``write`` its data files;
-    ``cli`` the module with its command-line hooks."""
+    calibrator or estimator returning ``result``; ``options`` the batch options dataclass and ``check(options)``
+    its checks, run once before a batch; ``run_unit(path, options, reference)`` reads one recording and returns
+    ``(result, extra table columns)``; ``truth`` builds a :class:`~optinav.core.results.Truth`; ``report`` writes
+    its report section (the result plus what the system plots, then the folder); ``read``/``write`` its data
+    files; ``cli`` the module with its command-line hooks."""
 
     name: str
     command: str
@@ -100,7 +100,8 @@ register(System(
     name="multipos", command="accel", kind="calibration",
     result="optinav.multipos.result:CalibrationResult", simulate="optinav.multipos.simulate:simulate",
     fit="optinav.multipos.calibrate:calibrate", options="optinav.multipos.calibrate:FileOptions",
-    run_unit="optinav.multipos.unit:run_unit", check="optinav.multipos.unit:check", truth="optinav.multipos.result:session_truth",
+    run_unit="optinav.multipos.unit:run_unit", check="optinav.multipos.unit:check",
+    truth="optinav.multipos.result:session_truth",
     report="optinav.reports.calibration_report:write_calibration_report",
     read="optinav.multipos.calibrate:read_session_file", write="optinav.io:write_imu",
     cli="optinav.cli.calibrate", help="multi-position accelerometer (and gyroscope) calibration"))
@@ -108,20 +109,23 @@ register(System(
     name="rins", command="rins", kind="calibration",
     result="optinav.rins.calibrate:RinsCalibration", simulate="optinav.rins.simulate:simulate",
     fit="optinav.rins.calibrate:calibrate", options="optinav.rins.unit:RinsOptions",
-    run_unit="optinav.rins.unit:run_unit", check="optinav.rins.unit:check", truth="optinav.rins.calibrate:rins_truth",
+    run_unit="optinav.rins.unit:run_unit", check="optinav.rins.unit:check",
+    truth="optinav.rins.calibrate:rins_truth",
     report="optinav.cli.rins:write_rins_report", read="optinav.rins.io:read_rins", write="optinav.rins.io:write_rins",
     cli="optinav.cli.rins", help="gimbal non-orthogonality of a dual-axis rotational INS"))
 register(System(
     name="gfimu", command="gfimu", kind="calibration",
     result="optinav.gfimu.turntable:TurntableCalibration", simulate="optinav.gfimu.turntable:simulate",
     fit="optinav.gfimu.turntable:calibrate", options="optinav.gfimu.unit:GfimuOptions",
-    run_unit="optinav.gfimu.unit:run_unit", check="optinav.gfimu.unit:check", truth="optinav.gfimu.turntable:turntable_truth",
+    run_unit="optinav.gfimu.unit:run_unit", check="optinav.gfimu.unit:check",
+    truth="optinav.gfimu.turntable:turntable_truth",
     report="optinav.cli.gfimu:write_gfimu_report", read="optinav.gfimu.turntable:TurntableData.load",
     cli="optinav.cli.gfimu", help="installation errors of a gyro-free accelerometer array"))
 register(System(
     name="attitude", command="attitude", kind="estimate",
     result="optinav.attitude.estimators:AttitudeEstimate", simulate="optinav.attitude.simulate:simulate",
     fit="optinav.attitude.estimators:estimate", options="optinav.attitude.unit:AttitudeOptions",
-    run_unit="optinav.attitude.unit:run_unit", check="optinav.attitude.unit:check", truth="optinav.attitude.estimators:attitude_truth",
+    run_unit="optinav.attitude.unit:run_unit", check="optinav.attitude.unit:check",
+    truth="optinav.attitude.estimators:attitude_truth",
     report="optinav.cli.attitude:_report", read="optinav.attitude.unit:read_log",
     cli="optinav.cli.attitude", help="attitude from gyroscope + accelerometer (+ magnetometer, polarization)"))

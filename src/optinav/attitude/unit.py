@@ -87,7 +87,8 @@ def steps(t, path="") -> np.ndarray:
     """The step before each sample (s), the first one repeated: what :func:`estimate` takes as dt."""
     t = np.asarray(t, float)
     if t.size > 1 and not np.all(np.diff(t) > 0):
-        raise OptinavError(f"the time column of {path} is not strictly increasing", "sort the log or fix its time column")
+        raise OptinavError(f"the time column of {path} is not strictly increasing",
+                           "sort the log or fix its time column")
     return np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
 
 

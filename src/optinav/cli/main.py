@@ -3,8 +3,9 @@
 Each command module defines ``register(subparsers)`` that adds its parser and sets ``func`` to a callable
 ``func(args) -> int``; a system's own top-level commands (``attitude``, ``gfimu analyze``) come from the
 ``register_commands(subparsers)`` hook of its CLI module in :mod:`optinav.registry`, and its ``simulate``,
-``calibrate`` and ``batch`` entries from the other hooks there. Errors: an :class:`OptinavError` prints ``optinav: error: <cause; remedy>`` and exits 2;
-any other exception prints a one-line internal error and exits 1; ``--debug`` shows the traceback instead.
+``calibrate`` and ``batch`` entries from the other hooks there. Errors: an :class:`OptinavError` prints
+``optinav: error: <cause; remedy>`` and exits 2; any other exception prints a one-line internal error and exits
+1; ``--debug`` shows the traceback instead.
 """
 
 from __future__ import annotations

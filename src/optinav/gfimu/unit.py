@@ -33,7 +33,8 @@ class GfimuOptions:
         if self.builtin:
             return builtin(self.builtin)
         if not self.config:
-            raise OptinavError("no configuration given", "pass CONFIG.json (--config in a batch) or --builtin cylinder10")
+            raise OptinavError("no configuration given",
+                               "pass CONFIG.json (--config in a batch) or --builtin cylinder10")
         return AccelerometerArray.load(self.config)
 
 
