@@ -11,7 +11,7 @@ import textwrap
 
 from optinav import registry
 
-_COMMON = """\
+_COMMON = """
     A unit is one data file directly in DIR (.csv .tsv .txt .dat, optionally .gz, .npz .npy .h5 .hdf5 .mat;
     hidden files and STEM.truth.* skipped), in sorted order. A failing unit is recorded as failed and the
     others continue. Finished rows go to RESULTS.csv.journal.jsonl as they finish; a re-run with the same --out
@@ -69,11 +69,11 @@ def _add_common(p) -> None:
 def _system_parser(sub, system: registry.System):
     p = sub.add_parser(
         system.command, help=system.help,
-        description=textwrap.dedent(f"""\
-            Run `optinav {'calibrate ' if system.kind == 'calibration' else ''}{system.command}` (same options) on
-            every unit's recording in DIR in parallel and write one row per unit to RESULTS.csv or .parquet:
-            status, error text, every parameter with its std and CRLB std, convergence, quality gates.
-            """) + textwrap.dedent(_COMMON),
+        description=textwrap.fill(
+            f"Run `optinav {'calibrate ' if system.kind == 'calibration' else ''}{system.command}` (same options) "
+            "on every unit's recording in DIR in parallel and write one row per unit to RESULTS.csv or .parquet: "
+            "status, error text, every parameter with its std and CRLB std, convergence, quality gates. "
+            + " ".join(_COMMON.split()), 110),
         epilog=textwrap.dedent(_EXAMPLES.get(system.command, "")),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_common(p)
