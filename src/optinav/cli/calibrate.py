@@ -52,6 +52,11 @@ def register(sub) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate accel``: the options of ``calibrate accel`` (registry hook)."""
+    add_calibration_options(p)
+
+
 def add_calibration_options(a) -> None:
     """The reading and estimation options of ``calibrate accel`` (shared with ``batch calibrate accel``);
     their destinations are the fields of :class:`optinav.multipos.calibrate.FileOptions`."""

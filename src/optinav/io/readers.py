@@ -205,9 +205,9 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     return table
 
 
-#: lines per block of the streamed text reader (:func:`iter_table`): about 100 B of text and 8 B per parsed
-#: cell each, so a block holds some tens of MB whatever the file's length
-CHUNK_ROWS = 200_000
+#: lines per block of the streamed text reader (:func:`iter_table`), defined beside the atomic writers so that the
+#: CLI's parser can show it without loading numpy
+from optinav.core.files import CHUNK_ROWS  # noqa: E402
 
 
 def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,

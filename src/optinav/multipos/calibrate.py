@@ -30,6 +30,7 @@ from scipy import stats as _stats
 from optinav.core.earth import WGS84
 from optinav.core.earth import gravity as normal_gravity
 from optinav.core.progress import step
+from optinav.core.results import convergence, gate
 from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -216,7 +217,9 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
+    gate_log: list[dict] = []
     fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
+                           gate_log=gate_log,
                            samples=samples, rng=rng, bias_instability=acc_bias_instability,
                            held_misalignment=held_misalignment, **(method_options or {}))
     used = np.zeros(len(t), bool)
@@ -254,7 +257,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
                                      g_sensitivity_std=gyro_g_sensitivity, gravity=g)
-        _gyro_gates(gc, gyro_unit)
+        gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
                          + "; ".join(gc.unobservable))
@@ -279,20 +282,24 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     return CalibrationResult(accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g,
                              residual_rms=residual_rms, static_intervals=t_int, observability=observability,
                              method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
-                             quality=quality, source=source)
+                             quality=quality, source=source, gates=gate_log,
+                             convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message))
 
 
-def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw) -> accel.AccelFit:
+def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None,
+                     **kw) -> accel.AccelFit:
     """:func:`accel.fit_accel` that passes the gates; with ``model_form="auto"`` a full model that fails one
-    falls back to the diagonal model with a note naming the cause."""
+    falls back to the diagonal model with a note naming the cause. The passed gates are appended to
+    ``gate_log``."""
+    gate_log = [] if gate_log is None else gate_log
     fit = accel.fit_accel(st, g, model_form=model_form, **kw)
     try:
-        _accel_gates(fit, st, acc_unit)
+        gate_log += _accel_gates(fit, st, acc_unit)
     except OptinavError as exc:
         if model_form != "auto" or fit.held:
             raise
         fit = accel.fit_accel(st, g, model_form="diagonal", **kw)
-        _accel_gates(fit, st, acc_unit)
+        gate_log += _accel_gates(fit, st, acc_unit)
         notes.append(f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
                      "held at 0 (scales and biases fitted; --model full insists on the full model)")
         return fit
@@ -301,8 +308,9 @@ def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw
     return fit
 
 
-def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> None:
-    """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`)."""
+def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> list[dict]:
+    """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`);
+    raises on the first that fails, else returns their outcomes (:func:`optinav.core.results.gate`)."""
     if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
         raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
                            f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
@@ -326,6 +334,9 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
         k = int(np.argmax(ang))
         raise OptinavError(f"the calibration turns pose {k + 1} by {ang[k]:.3g}° away from its raw direction "
                            f"(> {gates.MAX_TURN_DEG:g}°): an implausible misalignment", "pass --model diagonal")
+    return [gate("acc optimizer converged", fit.success, None, kind="true"),
+            gate("acc residual rms of |a| - g", rms, gates.MAX_RESIDUAL_G * fit.g, unit="m/s^2"),
+            gate("acc largest turn of a pose", float(np.max(ang)), gates.MAX_TURN_DEG, unit="deg")]
 
 
 def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
@@ -346,8 +357,9 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
     return drop
 
 
-def _gyro_gates(gc, gyro_unit: str) -> None:
-    """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`)."""
+def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
+    """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`); raises on
+    the first that fails, else returns their outcomes."""
     if not gc.success or not (np.all(np.isfinite(gc.K)) and np.all(np.isfinite(gc.b)) and np.isfinite(gc.residual_rms)):
         raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
                            "check the static intervals (--threshold, --sections) and --gyro-unit")
@@ -360,6 +372,9 @@ def _gyro_gates(gc, gyro_unit: str) -> None:
                            "for a gyro bias that drifts during the session pass --gyro-bias local; else check for "
                            "motion inside the static intervals (--threshold, --sections) and the time column "
                            "(--rate, --time-unit)")
+    return [gate("gyr optimizer converged", gc.success, None, kind="true"),
+            gate("gyr residual rms of the carried gravity direction", gc.residual_rms, gates.MAX_GYRO_RESIDUAL_RAD,
+                 unit="rad")]
 
 
 def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
@@ -420,7 +435,8 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
         method="ferraris", elapsed_s=time.perf_counter() - t_start,
         excluded={"nan_rows": n_nan, "saturated_acc": 0},
         quality={"gravity_source": g_source, "sections": names, "pose_residual_rms": pose_rms,
-                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source)
+                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source,
+        convergence=convergence(None, message="closed form"))
 
 
 @dataclasses.dataclass(frozen=True)
