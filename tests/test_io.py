@@ -316,9 +316,12 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     np.savez(tmp_path / "p.npz", t=t, acc=np.array([object()] * 5, dtype=object))
     with pytest.raises(OptinavError, match="array 'acc' is pickled"):
         read_imu(tmp_path / "p.npz")
-    _write(tmp_path / "fake.npz", "not a zip")
-    with pytest.raises(OptinavError, match="never loads pickles"):
+    (tmp_path / "fake.npz").write_bytes(b"not a zip\x00\x01")
+    with pytest.raises(OptinavError, match="not NPZ .*signature"):
         read_table(tmp_path / "fake.npz")
+    _write(tmp_path / "text.npz", "not a table")  # text under .npz is read as text, and says so when it fails
+    with pytest.raises(OptinavError, match="no data rows .*holds text despite its .npz suffix"):
+        read_table(tmp_path / "text.npz")
 
 
 @needs_h5py
@@ -351,7 +354,7 @@ def test_hdf5_datasets_and_tables(tmp_path):
     with h5py.File(tmp_path / "c.h5", "w") as f:
         f["data"] = rec  # a compound dataset is a table with named columns
     assert read_imu(tmp_path / "c.h5").acc[0, 2] == pytest.approx(9.81, rel=1e-7)
-    _write(tmp_path / "bad.h5", "garbage")
+    (tmp_path / "bad.h5").write_bytes(b"garbage\x00")
     with pytest.raises(OptinavError, match="not a readable HDF5 file"):
         read_table(tmp_path / "bad.h5")
 
