@@ -135,6 +135,72 @@ def test_gyro_in_degrees_labelled_radians_is_a_unit_error(sim):
         calibrate_session(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
 
 
+@pytest.mark.parametrize("declared, data, likely", [("rad/s", "counts", "counts"), ("deg/s", "counts", "counts"),
+                                                     ("deg/s", "rad/s", "rad/s"), ("rad/s", "deg/s", "deg/s")])
+def test_gyro_unit_is_checked_against_the_turns_the_accelerometer_sees(sim, declared, data, likely):
+    """Before any gyro fit, the turn angle (perpendicular to gravity) in the declared unit must match the
+    gravity-direction change between poses: counts (16.4 per °/s) or a 57.3 mix-up is named with its flag."""
+    s, acc, gyr = sim
+    raw = {"counts": gyr - OFFSET, "deg/s": (gyr - OFFSET) / 16.4, "rad/s": (gyr - OFFSET) / 16.4 * np.pi / 180}
+    with pytest.raises(OptinavError, match=f"turns .* as far as gravity .*pass --gyro-unit {likely}") as err:
+        calibrate_session(s.t, acc, raw[data], acc_unit="counts", gyro_unit=declared, g=s.gravity)
+    ratio = float(str(err.value).split("turns ")[1].split("×")[0])
+    k = {"counts": 16.4 * 180 / np.pi, "deg/s": 180 / np.pi, "rad/s": 1.0}  # raw per rad/s of each
+    expected = k[data] / k[declared]
+    # perpendicular turn angle / gravity change is 1 for turns about a horizontal axis, up to π/2 otherwise
+    assert expected * 0.95 < ratio < expected * 1.6, (ratio, expected)
+    if likely == "counts":
+        assert "--gyro-range" in str(err.value)
+
+
+def test_check_gyro_turns_numbers():
+    a = np.radians([90.0, 180.0, 90.0, 45.0])
+    noise = np.full(4, 1e-3)
+    gates.check_gyro_turns(a * 1.1, a, noise, np.arange(4), np.arange(4) + 1, "rad/s")  # within ×2.5
+    gates.check_gyro_turns(a * 939, a, noise, np.arange(4), np.arange(4) + 1, "counts")  # counts: no nominal
+    with pytest.raises(OptinavError, match="turns 57.3× .*look like deg/s"):
+        gates.check_gyro_turns(a * 57.3, a, noise, np.arange(4), np.arange(4) + 1, "rad/s")
+    with pytest.raises(OptinavError, match="1 of 4 transitions .*sees no turn .*--method ferraris"):
+        gates.check_gyro_turns(np.r_[a[:3], 4e-3], a, noise, np.arange(4), np.arange(4) + 1, "counts")
+    gates.check_gyro_turns(np.r_[a[:3], 6e-3], a, noise, np.arange(4), np.arange(4) + 1, "rad/s")  # 6σ: a turn
+
+
+def test_a_log_cut_between_the_poses_is_named(sim):
+    """The motion between poses cut out of the log (as a file of annotated sections holds it): gravity jumps
+    while the gyro sees no turn; the error names the cut and --method ferraris / --no-gyro."""
+    s, acc, gyr = sim
+    keep = s.labels >= 0  # the static poses only
+    t = np.arange(np.count_nonzero(keep)) * np.median(np.diff(s.t))
+    with pytest.raises(OptinavError, match="gyroscope sees no turn .*cut between the poses.*--no-gyro"):
+        calibrate_session(t, acc[keep], gyr[keep], acc_unit="counts", gyro_unit="counts", g=s.gravity)
+
+
+@needs_data
+@pytest.mark.parametrize("unit, ratio", [("rad/s", 57.3), (None, None)])
+def test_imucal_example_gyro_unit_from_the_turns(tmp_path, capsys, unit, ratio):
+    """imucal's Ferraris session (gyro in deg/s): read as rad/s (the default), the turn check names deg/s."""
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gravity", "9.81",
+            "--out", str(tmp_path / "r.json")]
+    if unit:
+        err = _cli_error(capsys, argv)
+        assert "pass --gyro-unit deg/s" in err
+        got = float(err.split("turns ")[1].split("×")[0])
+        assert ratio * 0.95 < got < ratio * 1.6
+    else:
+        assert main(argv + ["--gyro-unit", "deg/s"]) == 0
+
+
+@needs_data
+def test_imucal_annotated_sections_by_the_default_route_name_ferraris(tmp_path, capsys):
+    """The annotated session holds only the nine cut sections: the default route (with gyro) cannot integrate
+    the turns between them, and says so with the flags that work (--method ferraris, --no-gyro)."""
+    argv = ["calibrate", "accel", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--acc-unit", "counts",
+            "--gyro-unit", "counts", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    err = _cli_error(capsys, argv)
+    assert "cut between the poses" in err and "--method ferraris" in err and "--no-gyro" in err
+    assert main(argv + ["--no-gyro"]) == 0
+
+
 # ---------------------------------------------------------------------------------------------------- axes
 
 @pytest.mark.parametrize("how", ["swap", "flip"])

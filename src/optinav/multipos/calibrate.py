@@ -250,7 +250,7 @@ def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: 
         step("fit gyroscope and gates")
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
-                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g)
+                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit)
         _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "

@@ -280,6 +280,19 @@ class _Transitions:
         q = self.rotations(K, b)
         return quat_rotate(quat_conjugate(q), self.u0) - self.u1
 
+    def turn_angles(self, b) -> tuple[np.ndarray, np.ndarray]:
+        """Per transition: the raw rotation perpendicular to the first pose's gravity direction
+        ``‖Θ_k − (Θ_k·u_k)u_k‖`` (raw·s, Θ_k = ∫(raw − b)dt; a turn about gravity moves no gravity direction) and
+        the gravity-direction change ``α_k`` (rad) that the accelerometer sees."""
+        w = self.raw - b
+        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
+        dth[self.gap] = 0.0
+        cs = np.vstack([np.zeros((1, 3)), np.cumsum(dth, axis=0)])
+        th = cs[self.ends] - cs[self.starts]
+        perp = th - np.einsum("ij,ij->i", th, self.u0)[:, None] * self.u0
+        alpha = np.arccos(np.clip(np.einsum("ij,ij->i", self.u0, self.u1), -1.0, 1.0))
+        return np.linalg.norm(perp, axis=1), alpha
+
     def raw_rotation(self, b) -> np.ndarray:
         """‖∫(raw − b)dt‖ per transition (raw·s), the rotation angle times the scale for K = k·I."""
         w = self.raw - b
@@ -394,7 +407,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
                    allow_unobservable: bool = False, max_std: float = 0.05,
                    drop_transitions=(), g_sensitivity_std: float | None = None,
-                   gravity: float = 9.80665) -> GyroCalibration:
+                   gravity: float = 9.80665, unit: str | None = None) -> GyroCalibration:
     """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -419,6 +432,8 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         the model leaves out. A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests, ``gravity``
         m/s² along the mean up direction), added to the bias variance; each turn sees G·(f − f̄), at most
         σ·g per axis, propagated into K like a bias error.
+    unit : the declared unit of ``gyro_raw`` ("rad/s", "deg/s", "counts"); when given, the turns are checked
+        against the gravity-direction changes before the fit (:func:`optinav.multipos.gates.check_gyro_turns`).
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)
@@ -490,6 +505,14 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
         b_init = b_fixed
         b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
+
+    if unit is not None:
+        # before any fit: the turns must agree with the gravity-direction changes in the declared unit
+        from . import gates
+
+        theta_perp, alpha = tr.turn_angles(b_init)
+        noise = float(np.median(sems * np.sqrt(counts)[:, None])) * np.sqrt(float(np.median(tr.h)) * tr.durations)
+        gates.check_gyro_turns(theta_perp, alpha, noise, tr.t_rows[tr.starts], tr.t_rows[tr.ends], unit)
 
     # --- initial guess
     if x0 is None:
