@@ -450,7 +450,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
-                           "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
+                           "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)")
     else:
         if rate is None:
             rate, where = _file_rate(main.table)

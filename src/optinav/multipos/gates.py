@@ -157,6 +157,10 @@ def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: st
         if likely:
             raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
                                f"the data look like {likely[0]}", f"pass {option} {likely[0]}")
+        if r * factor("deg/s") > TURN_UNIT_TOL:  # more than TURN_UNIT_TOL raw per deg/s: no SI unit is that coarse
+            raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
+                               f"raw counts? ({r * factor('deg/s'):.3g} per deg/s)",
+                               f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)")
     k = int(np.flatnonzero(bad)[0])
     raise OptinavError(f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
                        f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
