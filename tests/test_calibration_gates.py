@@ -268,7 +268,7 @@ def test_imucal_repeated_poses_fall_back_to_the_diagonal_model(tmp_path, capsys)
 
 
 def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
-    s, acc, _ = sim
+    s, acc, gyr = sim
     path = _write(tmp_path, "a.csv", s.t, acc, None)
     base = ["calibrate", "accel", str(path), "--acc-unit", "counts", "--gravity", str(s.gravity)]
     out = tmp_path / "r.json"
@@ -286,6 +286,16 @@ def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
     with pytest.raises(SystemExit):  # argparse: a one-line usage error
         main(["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
     assert "--held-misalignment" in capsys.readouterr().err
+    gpath = _write(tmp_path, "g.csv", s.t, acc, gyr)
+    gbase = ["calibrate", "accel", str(gpath), "--acc-unit", "counts", "--gyro-unit", "counts", "--gravity",
+             str(s.gravity), "--out", str(out)]
+    assert main(["--quiet", *gbase]) == 0
+    g_plain = CalibrationResult.from_json(out).gyroscope
+    assert main(["--quiet", *gbase, "--gyro-bias-instability", "2.0"]) == 0  # counts, ≈ 0.12 °/s
+    g_drift = CalibrationResult.from_json(out).gyroscope
+    assert g_plain["bias_mode"] == "local" and np.all(g_plain["b_std"] < 2.0)
+    np.testing.assert_allclose(g_drift["b_std"], np.sqrt(g_plain["b_std"] ** 2 + 4.0), rtol=0.2)
+    assert np.all(g_drift["b_std"] >= 2.0)
 
 
 def test_too_few_distinct_poses_is_an_error_however_many_intervals():
