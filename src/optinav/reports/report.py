@@ -35,6 +35,19 @@ def quantity(value: Any, unit: str) -> dict[str, Any]:
 CellFormat = str | Callable[[Any], str] | None
 
 
+@dataclass(frozen=True)
+class Cell:
+    """A table cell with its own format (where one cell of a column is written differently from the rest)."""
+
+    value: Any
+    fmt: CellFormat = None
+
+
+def _cell_values(rows: list[list[Any]]) -> list[list[Any]]:
+    """The rows with every ``Cell`` replaced by its value (for ``summary.json``)."""
+    return [[c.value if isinstance(c, Cell) else c for c in row] for row in rows]
+
+
 @dataclass
 class Table:
     """A table of a study: ``columns`` names (with units in brackets), ``rows`` lists of cells.
@@ -190,6 +203,8 @@ def _fmt(x: Any) -> str:
 def _cell(x: Any, fmt: CellFormat = None) -> str:
     """The text of a table cell under the column format ``fmt``: text as it is; a list, its items formatted and
     joined by spaces; a dict (settings), ``key = value`` pairs."""
+    if isinstance(x, Cell):
+        return _cell(x.value, x.fmt)
     if isinstance(x, str):
         return x
     if x is None:
@@ -323,7 +338,7 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
             "headline": [plain(dataclasses.asdict(hl)) for hl in r.headline],
             "checks": [{"name": c.name, "value": plain(c.value), "limit": plain(c.limit), "unit": c.unit,
                         "kind": c.kind, "passed": c.passed, "note": c.note, "reason": c.reason} for c in r.checks],
-            "tables": [{"title": t.title, "columns": t.columns, "rows": plain(t.rows), "note": t.note}
+            "tables": [{"title": t.title, "columns": t.columns, "rows": plain(_cell_values(t.rows)), "note": t.note}
                        for t in r.tables],
         }
     write_text(out / "index.md", "\n".join(md) + "\n", "--report")
