@@ -71,9 +71,10 @@ class Table:
 @dataclass(frozen=True)
 class Limit:
     """An acceptance limit of a study: a value must be ``<= value`` (or ``>=``, by ``kind``), in ``unit``;
-    ``reason``: why the limit is where it is (the theory, noise level or published value it comes from)."""
+    ``reason``: why the limit is where it is (the theory, noise level or published value it comes from).
+    ``value=None``: the limit is computed by the study from its data (the reason says how)."""
 
-    value: float
+    value: float | None
     kind: str = "<="
     unit: str = ""
     reason: str = ""
@@ -94,9 +95,13 @@ class Check:
     reason: str = ""
 
     @classmethod
-    def against(cls, name: str, value: float, limit: Limit, note: str = "") -> "Check":
-        """``value`` checked against the study's ``limit``."""
-        return cls(name, value, limit.value, limit.unit, limit.kind, note, limit.reason)
+    def against(cls, name: str, value: float, limit: Limit, note: str = "", at: float | None = None) -> "Check":
+        """``value`` checked against the study's ``limit`` (at the computed value ``at`` for a limit whose
+        value the study computes)."""
+        bound = limit.value if at is None else at
+        if bound is None:
+            raise ValueError(f"the limit of check {name!r} is computed by the study: pass at=")
+        return cls(name, value, bound, limit.unit, limit.kind, note, limit.reason)
 
     @property
     def passed(self) -> bool:
