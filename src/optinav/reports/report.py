@@ -37,7 +37,8 @@ CellFormat = str | Callable[[Any], str] | None
 
 @dataclass(frozen=True)
 class Cell:
-    """A table cell with its own format (where one cell of a column is written differently from the rest)."""
+    """A table cell with its own format (where one cell of a column is written differently from the rest); a
+    function as ``fmt`` receives the whole value (a dict or list too)."""
 
     value: Any
     fmt: CellFormat = None
@@ -208,8 +209,8 @@ def _fmt(x: Any) -> str:
 def _cell(x: Any, fmt: CellFormat = None) -> str:
     """The text of a table cell under the column format ``fmt``: text as it is; a list, its items formatted and
     joined by spaces; a dict (settings), ``key = value`` pairs."""
-    if isinstance(x, Cell):
-        return _cell(x.value, x.fmt)
+    if isinstance(x, Cell):  # a function formats the whole value (e.g. a value with its std), a pattern each number
+        return x.fmt(x.value) if callable(x.fmt) else _cell(x.value, x.fmt)
     if isinstance(x, str):
         return x
     if x is None:
