@@ -12,7 +12,8 @@ import numpy as np
 
 from optinav.core.progress import step
 from optinav.core import alignment, allan, earth, imu_model, rotations, simulate, strapdown
-from optinav.reports.report import (Check, Figure, Headline, Limit, StudyResult, Table, quantity, register_study)
+from optinav.reports.report import (Check, Figure, Headline, Limit, StudyResult, Table, quantity, register_study,
+                                    value_at)
 
 MICRO_G = 9.80665e-6  # m/s² per μg
 ARCSEC = 180 / np.pi * 3600  # arcsec per rad
@@ -164,6 +165,7 @@ def summary(n) -> dict:
     """The numbers of ``summary.json``, each with its unit."""
     e, imu, al, c = n["earth"], n["imu_noise"], n["alignment"], n["strapdown"]
     return {"gravity_wgs84": quantity(e["g_wgs84"], "m/s²"), "gravity_psins": quantity(e["g_psins"], "m/s²"),
+            "gravity_equator_minus_tr8350": quantity(abs(e["g_equator"] - TR8350_GAMMA_E), "m/s²"),
             "gravity_latitude": quantity(np.degrees(e["lat"]), "deg"),
             "euler_round_trip_error": {conv: quantity(n["rotation"][conv]["round_trip"], "rad")
                                        for conv in ("ned", "enu")},
@@ -171,6 +173,7 @@ def summary(n) -> dict:
             "bias_instability_rel_error": quantity(imu["bi_est"] / imu["bi_true"] - 1, ""),
             "coning_drift": {alg: quantity(v, "rad/s") for alg, v in c["measured"].items()},
             "coning_drift_theory": {alg: quantity(v, "rad/s") for alg, v in c["theory"].items()},
+            "coning_drift_difference": {alg: quantity(v, "%") for alg, v in _coning_difference_pct(n).items()},
             "alignment_limit": quantity(al["limit"], "rad"), "coarse_error": quantity(al["coarse"], "rad"),
             "fine_error": quantity(al["fine"], "rad"), "fine_std": quantity(al["fine_std"], "rad")}
 
@@ -299,13 +302,12 @@ def figures(n) -> list[Figure]:
                    draw_alignment, size=(10.0, 3.5))]
 
 
-def headline(n) -> list[Headline]:
-    rel = _coning_difference_pct(n)
-    imu = n["imu_noise"]
+def headline(s) -> list[Headline]:
+    """The headline rows, from the summary's quantities."""
+    rel = {alg: q["value"] for alg, q in s["coning_drift_difference"].items()}
     return [Headline("WGS-84 normal gravity at the equator − TR8350.2", "m/s²", None, None,
-                     abs(n["earth"]["g_equator"] - TR8350_GAMMA_E)),
-            Headline("ARW read off the Allan deviation − spec", "%", None, None,
-                     100 * (imu["arw_est"] / imu["arw_true"] - 1)),
+                     value_at(s, "gravity_equator_minus_tr8350")),
+            Headline("ARW read off the Allan deviation − spec", "%", None, None, 100 * value_at(s, "arw_rel_error")),
             Headline("worst coning drift − Ignagni theory (previous-sample and two-sample)", "%", None, None,
                      max(v for alg, v in rel.items() if "previous" in alg or "two-sample" in alg))]
 
@@ -313,9 +315,10 @@ def headline(n) -> list[Headline]:
 @register_study("core")
 def core_study(quick: bool = True, rng=None) -> StudyResult:
     n = compute(quick, np.random.default_rng(rng))
+    s = summary(n)
     return StudyResult("core", "Shared core checks",
                        "Earth model against NIMA TR8350.2 and the PSINS formula; rotation conversions against exact "
                        "identities; Allan deviation of simulated gyro noise against its spec; coning drift of the "
                        "strapdown algorithms against Ignagni's theory; static alignment against its theoretical "
-                       "limits.", tables=tables(n), checks=checks(n), figures=figures(n), summary=summary(n),
-                       headline=headline(n))
+                       "limits.", tables=tables(n), checks=checks(n), figures=figures(n), summary=s,
+                       headline=headline(s))

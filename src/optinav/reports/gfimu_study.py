@@ -24,7 +24,7 @@ from optinav.gfimu.solve import RATE_METHODS, solve_rate
 from optinav.gfimu.turntable import (PAPER, calibrate, closed_form, required_samples, scheme_identifiability,
                                      simulate)
 from optinav.reports.report import (Cell, Check, Figure, Headline, Limit, StudyResult, Table, quantity,
-                                    register_study, rounded)
+                                    register_study, rounded, value_at)
 
 RATE_HZ = 100.0
 N_CASE = 1000  # samples per case of the method comparison
@@ -341,26 +341,29 @@ def figures(n) -> list[Figure]:
             Figure("gfimu_fig6_compensation.png", "Rate error over 200 s before and after compensation", draw6)]
 
 
-def headline(n) -> list[Headline]:
-    same, stats, n_mc, m6 = n["same"], n["stats"], n["n_mc"], n["fig6"]["max"]
-    note = f"median over {n_mc} data sets of {N_CASE} samples per case, both methods on the same samples"
+def headline(s) -> list[Headline]:
+    """The headline rows, from the summary's quantities."""
+    n_mc, n_case = value_at(s, "mc_runs"), value_at(s, "samples_per_case")
+    note = f"median over {n_mc} data sets of {n_case} samples per case, both methods on the same samples"
     out = [Headline(f"worst position error, {PAIRS[k][0]}/{PAIRS[k][1]} rad/s", "%",
-                    PAPER["max_rel_err_position_pct"][k], same[k]["cf_pos"], same[k]["lm_pos"], note)
-           for k in ("high", "low")]
+                    PAPER["max_rel_err_position_pct"][k], value_at(s, f"same_data.{k}.cf_pos"),
+                    value_at(s, f"same_data.{k}.lm_pos"), note) for k in ("high", "low")]
     return out + [Headline("worst direction error, 0.5/1.0 rad/s", "%", PAPER["max_rel_err_direction_pct"]["high"],
-                           same["high"]["cf_dir"], same["high"]["lm_dir"], note),
+                           value_at(s, "same_data.high.cf_dir"), value_at(s, "same_data.high.lm_dir"), note),
                   Headline("worst position error, 0.5/1.0 rad/s, closed form on 1 sample per case (the paper's "
                            "setting)", "%", PAPER["max_rel_err_position_pct"]["high"],
-                           stats["high"]["cf1_pos_median_max"], None, f"median over {n_mc} runs"),
-                  Headline("Fig. 6: max rate error after compensation", "rad/s", 0.1, m6["after_cfn"], m6["after_lm"],
-                           f"one data set of {N_CASE} samples per case; the two differ within their scatter")]
+                           value_at(s, "table_stats.high.cf1_pos_median_max"), None, f"median over {n_mc} runs"),
+                  Headline("Fig. 6: max rate error after compensation", "rad/s", 0.1,
+                           value_at(s, "fig6_max_rate_error.after_cfn"), value_at(s, "fig6_max_rate_error.after_lm"),
+                           f"one data set of {n_case} samples per case; the two differ within their scatter")]
 
 
 @register_study("gfimu")
 def run(quick: bool = False, rng=None) -> StudyResult:
     t_start = time.perf_counter()
     n = compute(quick, as_rng(rng))
+    s = summary(n)
     return StudyResult("gfimu", "Hao & Liu 2011: gyro-free 10-accelerometer array, 50 installation errors",
                        __doc__.split("\n\n", 1)[1].replace("\n", " "), tables=tables(n), checks=checks(n),
-                       figures=figures(n), summary=summary(n), headline=headline(n),
+                       figures=figures(n), summary=s, headline=headline(s),
                        elapsed=time.perf_counter() - t_start)

@@ -23,7 +23,8 @@ import numpy as np
 
 from optinav.core.progress import progress, step
 from optinav.core.validate import as_rng
-from optinav.reports.report import Check, Figure, Headline, Limit, StudyResult, Table, quantity, register_study
+from optinav.reports.report import (Check, Figure, Headline, Limit, StudyResult, Table, quantity, register_study,
+                                    value_at)
 
 METHODS = ("gd", "cg", "qn", "mekf")
 LABELS = {"gd": "GD (Madgwick)", "cg": "CG", "qn": "QN (paper)", "mekf": "MEKF + gyro bias"}
@@ -245,6 +246,9 @@ def summary(n) -> dict:
             "tuned_options": {m: _options(m, o) for m, o in n["tuned"].items()},
             "cg_minus_gd_max": quantity(n["cg_minus_gd"], "deg"), "cg_vs_gd_rms_max": quantity(_cg_vs_gd_rms_pct(n), "%"),
             "dynamic_rms": {s_: {m: quantity(rms[s_][m].mean(0), "deg") for m in METHODS} for s_ in rms},
+            # over the angles and the test flights
+            "dynamic_rms_mean": {s_: {m: quantity(rms[s_][m].mean(), "deg") for m in METHODS} for s_ in rms},
+            "test_flights": quantity(n["n_test"], "flights"),
             "dynamic_max_abs": {s_: {m: quantity(mx[s_][m].mean(0), "deg") for m in METHODS} for s_ in mx},
             "qn_vs_gd_rms_lower": quantity(_improvement(rms["tuned"]["qn"], rms["tuned"]["gd"]), "%"),
             "qn_vs_cg_rms_lower": quantity(_improvement(rms["tuned"]["qn"], rms["tuned"]["cg"]), "%"),
@@ -458,24 +462,25 @@ def figures(n) -> list[Figure]:
             Figure("polarized_mekf_sigma.png", "MEKF error with its ±3σ", draw_mekf, (8, 7))]
 
 
-def headline(n) -> list[Headline]:
-    rms = n["rms"]
-    mean3 = lambda setting, m: float(rms[setting][m].mean())  # noqa: E731
+def headline(s) -> list[Headline]:
+    """The headline rows, from the summary's quantities."""
+    mean3 = lambda setting, m: value_at(s, f"dynamic_rms_mean.{setting}.{m}")  # noqa: E731
     return [Headline("dynamic RMS, mean of roll, pitch, yaw, tuned", "deg", None, mean3("tuned", "qn"),
-                     mean3("tuned", "mekf"), f"rebuild = QN, best = MEKF; {n['n_test']} test flights"),
+                     mean3("tuned", "mekf"), f"rebuild = QN, best = MEKF; {value_at(s, 'test_flights')} test flights"),
             Headline("dynamic RMS, mean of roll, pitch, yaw, tuned: GD (the paper's baseline)", "deg", None,
                      mean3("tuned", "gd"), None, "the same flights"),
             Headline("dynamic RMS, mean of roll, pitch, yaw, defaults", "deg", None, mean3("defaults", "qn"),
                      mean3("defaults", "mekf"), ""),
             Headline("QN RMS lower than GD's, tuned (mean of the angles)", "%", PAPER_QN_VS_GD,
-                     float(np.mean(_improvement(rms["tuned"]["qn"], rms["tuned"]["gd"]))), None, "")]
+                     float(np.mean(value_at(s, "qn_vs_gd_rms_lower"))), None, "")]
 
 
 @register_study("polarized")
 def run(quick: bool = False, rng=None) -> StudyResult:
     t_start = time.perf_counter()
     n = compute(quick, rng)
+    s = summary(n)
     return StudyResult(
         name="polarized", title="Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF",
         description=" ".join(__doc__.split("\n\n", 1)[1].split()), tables=tables(n), checks=checks(n),
-        figures=figures(n), summary=summary(n), elapsed=time.perf_counter() - t_start, headline=headline(n))
+        figures=figures(n), summary=s, elapsed=time.perf_counter() - t_start, headline=headline(s))

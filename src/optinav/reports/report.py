@@ -122,10 +122,20 @@ class Figure:
     size: tuple[float, float] = (7.0, 4.0)
 
 
+def value_at(summary: dict[str, Any], path: str) -> Any:
+    """The value of the quantity at ``path`` ("a.b.c") of a study's summary (headline values are read this way,
+    so the headline shows the numbers ``summary.json`` holds)."""
+    node: Any = summary
+    for key in path.split("."):
+        node = node[key]
+    return node["value"]
+
+
 @dataclass
 class Headline:
     """One headline number of a study: the paper's value, optinav's rebuild of the paper's method and optinav's
-    best method, measured on the same data (None where a column does not apply)."""
+    best method, measured on the same data (None where a column does not apply). Studies build their headline from
+    their summary's quantities (``value_at``)."""
 
     quantity: str
     unit: str
@@ -219,7 +229,7 @@ def _cell(x: Any, fmt: CellFormat = None) -> str:
         return ", ".join(f"{k} = {_cell(v, fmt)}" for k, v in x.items())
     if isinstance(x, (list, tuple)) or getattr(x, "ndim", 0) > 0:
         return " ".join(_cell(v, fmt) for v in x)
-    if fmt is None:
+    if fmt is None or isinstance(x, bool) or getattr(x, "dtype", None) == bool:
         return _fmt(x)
     return fmt.format(x) if isinstance(fmt, str) else fmt(x)
 

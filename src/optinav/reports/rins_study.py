@@ -22,7 +22,7 @@ from optinav.core.progress import progress, step
 from optinav.core.rotations import dcm_from_euler
 from optinav.core.validate import as_rng
 from optinav.reports.report import (Cell, Check, Figure, Headline, Limit, StudyResult, Table, quantity,
-                                    register_study, rounded)
+                                    register_study, rounded, value_at)
 from optinav.rins.calibrate import attitude_errors, calibrate, prepare
 from optinav.rins.model import PARAM_NAMES, residuals, sensor_attitude
 from optinav.rins.simulate import PAPER_TABLE3, simulate_rins
@@ -285,24 +285,27 @@ def figures(n) -> list[Figure]:
             Figure("rins_fig10_montecarlo.png", "Fig. 10: attitude RMSE of the PSO Monte Carlo runs", mcfig)]
 
 
-def headline(n) -> list[Headline]:
-    res, ratio = n["res"], _ratios(n)
+def headline(s) -> list[Headline]:
+    """The headline rows, from the summary's quantities."""
+    norm = lambda m: float(np.linalg.norm(value_at(s, f"rmse.{m}")))  # noqa: E731
     return [Headline("attitude RMSE (norm of pitch, roll, yaw), PSO", "deg", float(np.linalg.norm(PAPER_TABLE4["pso"])),
-                     _norm(res["pso"]), _norm(res["lm"]),
-                     "rebuild = PSO as published, best = LM; same session and residual epochs"),
-            Headline("previous method RMSE / PSO RMSE", "×", ratio["axis_over_pso_paper"], ratio["axis_over_pso"],
-                     None, "not reproduced: the previous method is about as good as PSO here"),
-            Headline("LM RMSE / PSO RMSE", "×", None, None, ratio["lm_over_pso"], ""),
-            Headline("calibration time, PSO vs LM", "s", None, res["pso"].elapsed_s, res["lm"].elapsed_s, "")]
+                     norm("pso"), norm("lm"), "rebuild = PSO as published, best = LM; same session and residual epochs"),
+            Headline("previous method RMSE / PSO RMSE", "×", value_at(s, "ratio_axis_over_pso_paper"),
+                     value_at(s, "ratio_axis_over_pso"), None,
+                     "not reproduced: the previous method is about as good as PSO here"),
+            Headline("LM RMSE / PSO RMSE", "×", None, None, value_at(s, "ratio_lm_over_pso"), ""),
+            Headline("calibration time, PSO vs LM", "s", None, value_at(s, "elapsed.pso"), value_at(s, "elapsed.lm"),
+                     "")]
 
 
 @register_study("rins-pso")
 def run(quick: bool = False, rng=None) -> StudyResult:
     t_start = time.perf_counter()
     n = compute(quick, as_rng(0 if rng is None else rng))
+    s = summary(n)
     return StudyResult(
-        name="rins-pso", headline=headline(n),
+        name="rins-pso", headline=headline(s),
         title="Dual-axis rotational INS gimbal non-orthogonality: PSO vs axis method vs LM",
         description=(__doc__ or "").split("\n\n", 1)[1].replace("\n", " "),
-        tables=tables(n), checks=checks(n), figures=figures(n), summary=summary(n),
+        tables=tables(n), checks=checks(n), figures=figures(n), summary=s,
         elapsed=time.perf_counter() - t_start)
