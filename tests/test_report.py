@@ -149,7 +149,8 @@ def test_quantities_and_headline_from_summary(tmp_path):
     s = {"rmse": {"lm": quantity(np.float64(0.5), "deg"), "nan": quantity(float("nan"), "deg")}}
     assert s["rmse"]["lm"] == {"value": 0.5, "unit": "deg"} and type(s["rmse"]["lm"]["value"]) is float
     assert s["rmse"]["nan"]["value"] is None and value_at(s, "rmse.lm") == 0.5
-    t = Table("t", ["a", "b", "c", "d"], [[1 / 3, [0.25, 0.5], {"gain": 0.033}, Cell(2.0, "{:.1f} s")], [None, True, "x", 4]],
+    t = Table("t", ["a", "b", "c", "d"],
+              [[1 / 3, [0.25, 0.5], {"gain": 0.033}, Cell(2.0, "{:.1f} s")], [None, True, "x", 4]],
               formats=["{:.3f}", "{:.1f}", "{:g}"])
     assert t.text_rows() == [["0.333", "0.2 0.5", "gain = 0.033", "2.0 s"], ["—", "yes", "x", "4"]]
     c = Check.against("err", 0.3, Limit(0.25, unit="deg", reason="4σ"))

@@ -269,7 +269,8 @@ def checks(n) -> list[Check]:
             Check.against("LM levelling error (max |pitch|, |roll|), limit 4σ from the fit's std and the test pose's "
                           "bias instability", float(np.max(np.abs(n["levelling"]["optinav LM"]))), LIMITS["levelling"],
                           at=n["levelling_limit"]),
-            Check.against("max RMSE/√CRLB", float(eff["efficiency"].max()), LIMITS["efficiency_max"], at=max(hi, 1.1)),
+            Check.against("max RMSE/√CRLB", float(eff["efficiency"].max()), LIMITS["efficiency_max"],
+                          at=max(hi, 1.1)),
             Check.against("min RMSE/√CRLB", float(eff["efficiency"].min()), LIMITS["efficiency_min"], at=lo)]
 
 
@@ -318,8 +319,8 @@ def tables(n) -> list[Table]:
     out.append(Table("Table 4: static levelling error after calibration (deg)",
                      ["calibration", "pitch error", "roll error", "paper pitch", "paper roll"],
                      [[name, *e, *paper_lev.get(name, (None, None))] for name, e in n["levelling"].items()],
-                     "A 60 s static test pose (roll 3°, pitch −5°) outside the calibration set; pitch/roll from the "
-                     "mean corrected specific force. The paper's 'traditional' reference: 0.015 / 0.109."))
+                     "A 60 s static test pose (roll 3°, pitch −5°) outside the calibration set; pitch/roll from "
+                     "the mean corrected specific force. The paper's 'traditional' reference: 0.015 / 0.109."))
     out.append(Table("The paper's head-to-head findings, checked on the same session",
                      ["paper's finding", "paper", "optinav (same data)", "reproduced", "reason"],
                      [[f["finding"], f["paper"], f["ours"], f["reproduced"],
@@ -372,7 +373,7 @@ def figures(n) -> list[Figure]:
         ax.grid(True, alpha=0.3)
 
     return [Figure("accel_ga_singular_values.png", "Singular values of the observability matrix vs the number of "
-                                                   "positions: optinav (lines) and the paper's Table 1 (dots)", draw_sv),
+                   "positions: optinav (lines) and the paper's Table 1 (dots)", draw_sv),
             Figure("accel_ga_fitness.png", "Best and mean fitness of the adaptive GA (paper's operators) per "
                                            "generation", draw_fit),
             Figure("accel_ga_convergence.png", "Convergence of the GA's best individual, per parameter (paper's "
@@ -387,7 +388,8 @@ def headline(s) -> list[Headline]:
     lev = lambda m: float(np.max(np.abs(value_at(s, f"levelling_error.{m}"))))  # noqa: E731
     pga = [x for x in PAPER_REL_ERR["ga"] if x is not None]
     return [Headline("worst bias relative error", "%", _worst(pga, slice(0, 3)), _worst(rel("ga"), slice(0, 3)),
-                     _worst(rel("lm"), slice(0, 3)), "rebuild = GA with the paper's operators; best = LM; same session"),
+                     _worst(rel("lm"), slice(0, 3)),
+                     "rebuild = GA with the paper's operators; best = LM; same session"),
             Headline("worst scale-factor relative error", "%", _worst(pga, slice(3, 6)), _worst(rel("ga"), slice(3, 6)),
                      _worst(rel("lm"), slice(3, 6)), ""),
             Headline("calibration time", "s", PAPER_TIME_S["ga"], value_at(s, "time.ga"), value_at(s, "time.lm"),

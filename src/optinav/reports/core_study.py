@@ -84,7 +84,8 @@ def _imu_noise(quick, rng) -> dict:
     arw_true = float(spec.gyro_arw[0])
     return {"hours": hours, "arw_true": arw_true, "bi_true": float(spec.gyro_bias_instability[0]),
             "arw_est": float(np.atleast_1d(par.white)[0]), "bi_est": float(np.atleast_1d(par.bias_instability)[0]),
-            "adev": ad, "model": allan.allan_deviation_model(ad.tau, white=arw_true, gm_sigma=unit.gyro_noise.gm_sigma[0],
+            "adev": ad, "model": allan.allan_deviation_model(ad.tau, white=arw_true,
+                                                             gm_sigma=unit.gyro_noise.gm_sigma[0],
                                                              gm_tau=unit.gyro_noise.gm_tau[0])}
 
 
@@ -233,7 +234,8 @@ def tables(n) -> list[Table]:
                 n["rotation"][conv]["orthogonality"]] for conv in ("ned", "enu")]),
         Table(f"Gyro noise read from the Allan deviation of {imu['hours']:g} h of simulated MTi-1-class data",
               ["term", "spec", "read off", "difference [%]"],
-              [["ARW [deg/√h]", to(imu["arw_true"]), to(imu["arw_est"]), 100 * (imu["arw_est"] / imu["arw_true"] - 1)],
+              [["ARW [deg/√h]", to(imu["arw_true"]), to(imu["arw_est"]),
+                100 * (imu["arw_est"] / imu["arw_true"] - 1)],
                ["bias instability [deg/h]", imu["bi_true"] * DEG_H, imu["bi_est"] * DEG_H,
                 100 * (imu["bi_est"] / imu["bi_true"] - 1)]],
               "IEEE Std 952 Annex C read-off; bias instability simulated as a Gauss–Markov process."),

@@ -54,7 +54,8 @@ LIMITS = {
                                              "position targets at both rate pairs"),
     "fig3_ratio": Limit(100, ">=", reason="the paper's Fig. 3: direction errors of 0.01 rad dominate 1 mm position "
                                           "errors by orders of magnitude"),
-    "fig6_after_before": Limit(0.5, reason="compensation must at least halve the rate error (paper: 0.2 → 0.1 rad/s)"),
+    "fig6_after_before": Limit(0.5, reason="compensation must at least halve the rate error (paper: 0.2 → 0.1 "
+                                           "rad/s)"),
     "fig6_expected": Limit(3.5, reason="the residual after LM compensation must be as small as the reported "
                                        "covariance predicts, within the scatter of a few draws"),
 }
@@ -267,8 +268,8 @@ def tables(n) -> list[Table]:
                      formats=[None, None, r4, r4, rounded(1), "{:.0f}"]))
     for title, cols, paper_key in (("Table 2 — relative error (%) of the position coefficients Δr", slice(0, 3),
                                     "max_rel_err_position_pct"),
-                                   ("Table 3 — relative error (%) of the direction coefficients Δα, Δβ", slice(3, 5),
-                                    "max_rel_err_direction_pct")):
+                                   ("Table 3 — relative error (%) of the direction coefficients Δα, Δβ",
+                                    slice(3, 5), "max_rel_err_direction_pct")):
         names = ["dr_x", "dr_y", "dr_z", "dalpha", "dbeta"][cols]
         rows = [[f"{nm}_{i + 1}"] + [float(per_coef[k][m][i, cols.start + j]) for k in ("low", "high")
                                      for m in range(3)]
@@ -317,7 +318,8 @@ def figures(n) -> list[Figure]:
         ax = fig.add_subplot(111)
         ax.semilogy(f3["t"], np.linalg.norm(f3["direction"], axis=1), label="Δα = Δβ = 0.01 rad")
         ax.semilogy(f3["t"], np.linalg.norm(f3["position_random"], axis=1), label="Δr random, 1 mm std")
-        ax.semilogy(f3["t"], np.maximum(np.linalg.norm(f3["position"], axis=1), 1e-12), label="Δr = 1 mm (all sensors)")
+        ax.semilogy(f3["t"], np.maximum(np.linalg.norm(f3["position"], axis=1), 1e-12),
+                    label="Δr = 1 mm (all sensors)")
         ax.set_xlabel("time (s)")
         ax.set_ylabel("|ω error| (rad/s)")
         ax.set_title("Fig. 3: rate error from installation errors (coning 10°, 0.5 Hz; integration)")

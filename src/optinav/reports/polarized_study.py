@@ -244,7 +244,8 @@ def summary(n) -> dict:
             "static_qn_bias_ratio": quantity(_qn_bias_ratio(n), ""),
             "static_rms": {m: quantity(st[m]["rms"], "deg") for m in METHODS},
             "tuned_options": {m: _options(m, o) for m, o in n["tuned"].items()},
-            "cg_minus_gd_max": quantity(n["cg_minus_gd"], "deg"), "cg_vs_gd_rms_max": quantity(_cg_vs_gd_rms_pct(n), "%"),
+            "cg_minus_gd_max": quantity(n["cg_minus_gd"], "deg"),
+            "cg_vs_gd_rms_max": quantity(_cg_vs_gd_rms_pct(n), "%"),
             "dynamic_rms": {s_: {m: quantity(rms[s_][m].mean(0), "deg") for m in METHODS} for s_ in rms},
             # over the angles and the test flights
             "dynamic_rms_mean": {s_: {m: quantity(rms[s_][m].mean(), "deg") for m in METHODS} for s_ in rms},

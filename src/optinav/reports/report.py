@@ -21,8 +21,15 @@ from pathlib import Path
 from typing import Any
 
 from optinav.core.files import atomic_path, describe, write_text
-from optinav.core.results import plain
 from optinav.errors import OptinavError
+
+
+def plain(value: Any) -> Any:
+    """``value`` as plain JSON types (``optinav.core.results.plain``, imported when needed: listing the studies
+    for ``--help`` loads no numpy)."""
+    from optinav.core.results import plain as to_plain
+
+    return to_plain(value)
 
 
 def quantity(value: Any, unit: str) -> dict[str, Any]:
@@ -147,7 +154,8 @@ class Headline:
 
 @dataclass
 class StudyResult:
-    """What one study reproduced: text, tables, checks, figures and a flat summary of numbers."""
+    """What one study reproduced: text, tables, checks, figures and its summary (nested dicts of quantities from
+    ``quantity``)."""
 
     name: str
     title: str

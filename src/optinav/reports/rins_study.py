@@ -121,7 +121,8 @@ def _norm(r) -> float:
 
 def _ratios(n) -> dict[str, float]:
     res = n["res"]
-    return {"axis_over_pso": _norm(res["axis"]) / _norm(res["pso"]), "lm_over_pso": _norm(res["lm"]) / _norm(res["pso"]),
+    return {"axis_over_pso": _norm(res["axis"]) / _norm(res["pso"]),
+            "lm_over_pso": _norm(res["lm"]) / _norm(res["pso"]),
             "axis_over_pso_paper": float(np.linalg.norm(PAPER_TABLE4["axis"]) / np.linalg.norm(PAPER_TABLE4["pso"]))}
 
 
@@ -138,7 +139,8 @@ def summary(n) -> dict:
             "elapsed": {m: quantity(res[m].elapsed_s, "s") for m in res},
             "rmse_gyro_misalignment_30arcsec": {m: quantity(r.rmse_after_deg, "deg") for m, r in n["res30"].items()},
             "units_rmse": {k: quantity(v, "deg") for k, v in n["units"].items()},
-            "pso_mc_rmse": quantity(n["mc_rmse"], "deg"), "pso_mc_fraction_within_spread": quantity(_mc_fraction(n), ""),
+            "pso_mc_rmse": quantity(n["mc_rmse"], "deg"),
+            "pso_mc_fraction_within_spread": quantity(_mc_fraction(n), ""),
             "pso_raw_spread": {k: quantity(v, "rad") for k, v in n["spread"].items()},
             "speedup_lm_vs_pso": quantity(res["pso"].elapsed_s / max(res["lm"].elapsed_s, 1e-9), ""),
             "ratio_axis_over_pso": quantity(ratio["axis_over_pso"], ""),
@@ -193,7 +195,8 @@ def tables(n) -> list[Table]:
     t4 = Table("Table 4: vehicle attitude RMSE [deg], paper vs this simulation",
                ["method", "paper pitch", "paper roll", "paper yaw", "ours pitch", "ours roll", "ours yaw",
                 "time [s]"], rows,
-               note=f"{n['nav_s']:.0f} s after a {n['align']:.0f} s alignment; residual epochs {n['residual_rate']:g} Hz; "
+               note=f"{n['nav_s']:.0f} s after a {n['align']:.0f} s alignment; residual epochs "
+                    f"{n['residual_rate']:g} Hz; "
                     "true angles = Table 3 read as radians; gyro misalignment 5″ (1σ); lock error "
                     f"{LOCK / ARCSEC:g}″ (1σ) and wobble {WOBBLE / ARCSEC:g}″. All methods on the same session. "
                     f"Here the previous method's RMSE is {ratio['axis_over_pso']:.2f}× PSO's (paper: "
@@ -289,7 +292,8 @@ def headline(s) -> list[Headline]:
     """The headline rows, from the summary's quantities."""
     norm = lambda m: float(np.linalg.norm(value_at(s, f"rmse.{m}")))  # noqa: E731
     return [Headline("attitude RMSE (norm of pitch, roll, yaw), PSO", "deg", float(np.linalg.norm(PAPER_TABLE4["pso"])),
-                     norm("pso"), norm("lm"), "rebuild = PSO as published, best = LM; same session and residual epochs"),
+                     norm("pso"), norm("lm"),
+                     "rebuild = PSO as published, best = LM; same session and residual epochs"),
             Headline("previous method RMSE / PSO RMSE", "×", value_at(s, "ratio_axis_over_pso_paper"),
                      value_at(s, "ratio_axis_over_pso"), None,
                      "not reproduced: the previous method is about as good as PSO here"),
