@@ -312,10 +312,8 @@ def _broad_table(n) -> Table:
     return Table(title, cols, rows, note)
 
 
-def tables(n) -> list[Table]:
-    from optinav.attitude.estimators import DEFAULTS
-
-    tuned, rms, mx, st = n["tuned"], n["rms"], n["max_abs"], n["static_stats"]
+def _conditions_table(n) -> list[Table]:
+    """The simulated test conditions beside the paper's."""
     out = []
     rows = []
     for kind, fl in (("static", n["static"]), ("dynamic", n["test"][0])):
@@ -331,6 +329,15 @@ def tables(n) -> list[Table]:
                      "The paper's quoted sun angles disagree with the SPA at those local times; the simulation "
                      "uses the SPA. Static: 1°, −2°, 30° held; dynamic: random manoeuvres (accelerations up "
                      f"to {ACCEL_LEVEL:g} m/s², tilts ±30°, turns up to 45 °/s)."))
+    return out
+
+
+def _tuning_table(n) -> list[Table]:
+    """The setting each method's grid search chose, its score range and the defaults."""
+    from optinav.attitude.estimators import DEFAULTS
+
+    tuned = n["tuned"]
+    out = []
     rows = []
     for m in METHODS:
         sc = sorted(n["grid_scores"][m], key=lambda x: x[0])
@@ -347,15 +354,27 @@ def tables(n) -> list[Table]:
                      + ". Score: mean over roll, pitch and yaw of the RMS error after the first 5 s. A setting "
                        "at the grid's edge means that method might gain from a wider grid; every method gets "
                        "the same number of settings.", formats=[None, "{:g}", None, None, None, "{:g}"]))
+    return out
+
+
+def _static_table(n) -> list[Table]:
+    """Table 1: static error statistics per method and angle."""
+    st = n["static_stats"]
     rows = [[LABELS[m], a, float(st[m]["mean"][k]), float(st[m]["std"][k]), float(st[m]["max_abs"][k]),
              float(st[m]["rms"][k])] for m in METHODS for k, a in enumerate(ANGLES)]
-    out.append(Table(f"Table 1: static test, attitude error statistics [deg] ({n['dur_s']:g} s at 100 Hz, tuned "
-                     "settings)", ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
-                     "Paper (values not in the source text): the three optimization methods show no obvious "
-                     "difference in the static test. Not reproduced in detail: QN as published has no gyro-bias "
-                     "state and corrects in proportion to the error, so the residual gyro bias b leaves a "
-                     "constant error ≈ b/β₀ (spread of the worst-angle RMS of GD, CG and QN: "
-                     f"{_static_spread(st):.2f}°). The settings are those tuned on the dynamic flights."))
+    return [Table(f"Table 1: static test, attitude error statistics [deg] ({n['dur_s']:g} s at 100 Hz, tuned "
+                  "settings)", ["method", "angle", "mean", "std", "max |e|", "RMS"], rows,
+                  "Paper (values not in the source text): the three optimization methods show no obvious "
+                  "difference in the static test. Not reproduced in detail: QN as published has no gyro-bias "
+                  "state and corrects in proportion to the error, so the residual gyro bias b leaves a "
+                  "constant error ≈ b/β₀ (spread of the worst-angle RMS of GD, CG and QN: "
+                  f"{_static_spread(st):.2f}°). The settings are those tuned on the dynamic flights.")]
+
+
+def _dynamic_tables(n) -> list[Table]:
+    """Tables 2 and 3: dynamic maximum and RMS errors, tuned and at defaults, and QN's improvements."""
+    rms, mx = n["rms"], n["max_abs"]
+    out = []
     note = (f"Mean over {n['n_test']} test flights of {n['dur_d']:g} s (first 5 s excluded), each method at its tuned "
             "setting and at its defaults. QN's proportional correction leaves a heading error of (z gyro bias)/β₀; "
             "the MEKF estimates the bias.")
@@ -369,34 +388,51 @@ def tables(n) -> list[Table]:
             rows.append([f"QN vs CG, {setting}: lower by [%] (paper {PAPER_QN_VS_CG[0]:g}–{PAPER_QN_VS_CG[1]:g})",
                          setting, *_improvement(stat[setting]["qn"], stat[setting]["cg"]).tolist()])
         out.append(Table(tname, ["method", "setting", *ANGLES], rows, note))
-    out.append(Table("Why CG is almost GD", ["quantity", "value"],
-                     [["max |CG − GD| attitude error difference, dynamic test flights, defaults [deg]",
-                       n["cg_minus_gd"]],
-                      ["max relative difference of their RMS per angle and flight, defaults [%]", _cg_vs_gd_rms_pct(n)],
-                      ["max |RMS difference| per angle, static test, tuned [deg]",
-                       float(np.max(np.abs(st["cg"]["rms"] - st["gd"]["rms"])))]],
-                     "Both filters take one normalized step of length β·Δt per sample. CG's conjugate "
-                     "coefficient (Polak–Ribière, bounded by Fletcher–Reeves) is proportional to the change of "
-                     "the gradient from one sample to the next. In manoeuvres the gradient is large and changes "
-                     "little at 100 Hz, so the coefficient is near zero and CG's direction is the gradient's: "
-                     "CG reduces to GD. At rest the gradient is small and noisy, its change relatively large, "
-                     "and the two differ more. This is a property of the method run one iteration per sample, "
-                     "not a fault of the code; in flight CG is not a second baseline."))
-    out.append(Table("MEKF consistency at the tuned setting (mean NEES, 3 degrees of freedom: 3 if consistent)",
-                     ["test", "mean NEES"], [["static", n["static_mekf_nees"]], ["dynamic", n["dynamic_mekf_nees"]]],
-                     "The filter is tuned for accuracy, not told the sensor specification, so its σ need not "
-                     "be consistent: NEES above 3 means the σ is optimistic."))
+    return out
+
+
+def _cg_gd_table(n) -> list[Table]:
+    """How close CG comes to GD, and why."""
+    st = n["static_stats"]
+    return [Table("Why CG is almost GD", ["quantity", "value"],
+                  [["max |CG − GD| attitude error difference, dynamic test flights, defaults [deg]",
+                    n["cg_minus_gd"]],
+                   ["max relative difference of their RMS per angle and flight, defaults [%]", _cg_vs_gd_rms_pct(n)],
+                   ["max |RMS difference| per angle, static test, tuned [deg]",
+                    float(np.max(np.abs(st["cg"]["rms"] - st["gd"]["rms"])))]],
+                  "Both filters take one normalized step of length β·Δt per sample. CG's conjugate "
+                  "coefficient (Polak–Ribière, bounded by Fletcher–Reeves) is proportional to the change of "
+                  "the gradient from one sample to the next. In manoeuvres the gradient is large and changes "
+                  "little at 100 Hz, so the coefficient is near zero and CG's direction is the gradient's: "
+                  "CG reduces to GD. At rest the gradient is small and noisy, its change relatively large, "
+                  "and the two differ more. This is a property of the method run one iteration per sample, "
+                  "not a fault of the code; in flight CG is not a second baseline.")]
+
+
+def _nees_table(n) -> list[Table]:
+    """The MEKF's consistency."""
+    return [Table("MEKF consistency at the tuned setting (mean NEES, 3 degrees of freedom: 3 if consistent)",
+                  ["test", "mean NEES"], [["static", n["static_mekf_nees"]], ["dynamic", n["dynamic_mekf_nees"]]],
+                  "The filter is tuned for accuracy, not told the sensor specification, so its σ need not "
+                  "be consistent: NEES above 3 means the σ is optimistic.")]
+
+
+def _no_bias_table(n) -> list[Table]:
+    """The same comparison on flights without gyro bias."""
     rms_nb = n["rms_no_bias"]
     best_nb = min(METHODS, key=lambda m: rms_nb[m].mean())
-    out.append(Table("Without gyro bias: dynamic RMS error [deg], each method tuned by the same procedure",
-                     ["method", "chosen setting", *ANGLES],
-                     [[LABELS[m], n["tuned_no_bias"][m], *rms_nb[m].mean(0).tolist()] for m in METHODS],
-                     f"{n['n_train']} training and {n['n_test']} test flights of {n['dur_d']:g} s, other seeds than "
-                     "above, gyro bias 0. Lowest mean RMS over the angles: "
-                     f"{LABELS[best_nb]}. The MEKF's advantage above comes from estimating the gyro bias.",
-                     formats=[None, "{:g}"]))
-    out.append(_broad_table(n))
-    return out
+    return [Table("Without gyro bias: dynamic RMS error [deg], each method tuned by the same procedure",
+                  ["method", "chosen setting", *ANGLES],
+                  [[LABELS[m], n["tuned_no_bias"][m], *rms_nb[m].mean(0).tolist()] for m in METHODS],
+                  f"{n['n_train']} training and {n['n_test']} test flights of {n['dur_d']:g} s, other seeds than "
+                  "above, gyro bias 0. Lowest mean RMS over the angles: "
+                  f"{LABELS[best_nb]}. The MEKF's advantage above comes from estimating the gyro bias.",
+                  formats=[None, "{:g}"])]
+
+
+def tables(n) -> list[Table]:
+    return [*_conditions_table(n), *_tuning_table(n), *_static_table(n), *_dynamic_tables(n), *_cg_gd_table(n),
+            *_nees_table(n), *_no_bias_table(n), _broad_table(n)]
 
 
 # --- figures ------------------------------------------------------------------------------------------------
