@@ -229,9 +229,10 @@ def checks(n) -> list[Check]:
 # --- tables -------------------------------------------------------------------------------------------------
 
 
-def tables(n) -> list[Table]:
-    arr, same, stats, per_coef, need, n_mc = n["arr"], n["same"], n["stats"], n["per_coef"], n["need"], n["n_mc"]
-    r3, r4 = rounded(3), rounded(4)
+def _layout_tables(n) -> list[Table]:
+    """The array's geometry and the identifiability of the turntable scheme and its variants."""
+    arr = n["arr"]
+    r3 = rounded(3)
     out = [Table("cylinder10 — positions (mm) and sensing directions (body x = spin axis)",
                  ["#", "x", "y", "z", "θx", "θy", "θz"],
                  [[i + 1, *(arr.positions[i] * 1e3), *arr.directions[i]] for i in range(arr.n)],
@@ -245,6 +246,12 @@ def tables(n) -> list[Table]:
                      "use 5 of them. An unknown offset of the array centre adds 2 unknowns per mounting "
                      "against no new equation: 6 directions are lost, 3 of which are the common shift of "
                      "all positions (harmless: it only moves the reference point of A)."))
+    return out
+
+
+def _comparison_table(n) -> Table:
+    """Closed form against LM on the same samples: median worst relative errors."""
+    same, n_mc, r4 = n["same"], n["n_mc"], rounded(4)
     rows = []
     for key, rates in PAIRS.items():
         m = same[key]
@@ -253,19 +260,25 @@ def tables(n) -> list[Table]:
                          100 * (1 - m[f"lm_{part}"] / m[f"cf_{part}"]), 100 * m[f"lm_better_{part}_fraction"]])
     frac = [same[k]["lm_better_pos_fraction"] for k in same]
     frac_dir = [same[k]["lm_better_dir_fraction"] for k in same]
-    out.append(Table(f"Closed form vs optinav LM on the same data: worst relative error [%] over the 50 "
-                     f"coefficients, median of {n_mc} data sets of {N_CASE} samples per case",
-                     ["rates [rad/s]", "coefficients", "closed form (paper's method)", "optinav LM",
-                      "LM lower by [%]", "data sets where LM is better [%]"], rows,
-                     "Both methods get the same case samples. LM fits all 50 coefficients to the six case "
-                     "means at once, weighting each equation by its noise; the closed form solves them in "
-                     "sequence (directions, then positions from the centripetal terms), so the position "
-                     "errors inherit the direction errors: there LM helps, lowering the worst position error "
-                     f"in {100 * min(frac):.0f} % or more of the "
-                     "data sets. The directions come from the gravity terms alone in both methods, so there "
-                     "LM gains little: it is better in only "
-                     f"{100 * min(frac_dir):.0f}–{100 * max(frac_dir):.0f} % of the data sets.",
-                     formats=[None, None, r4, r4, rounded(1), "{:.0f}"]))
+    return Table(f"Closed form vs optinav LM on the same data: worst relative error [%] over the 50 "
+                 f"coefficients, median of {n_mc} data sets of {N_CASE} samples per case",
+                 ["rates [rad/s]", "coefficients", "closed form (paper's method)", "optinav LM",
+                  "LM lower by [%]", "data sets where LM is better [%]"], rows,
+                 "Both methods get the same case samples. LM fits all 50 coefficients to the six case "
+                 "means at once, weighting each equation by its noise; the closed form solves them in "
+                 "sequence (directions, then positions from the centripetal terms), so the position "
+                 "errors inherit the direction errors: there LM helps, lowering the worst position error "
+                 f"in {100 * min(frac):.0f} % or more of the "
+                 "data sets. The directions come from the gravity terms alone in both methods, so there "
+                 "LM gains little: it is better in only "
+                 f"{100 * min(frac_dir):.0f}–{100 * max(frac_dir):.0f} % of the data sets.",
+                 formats=[None, None, r4, r4, rounded(1), "{:.0f}"])
+
+
+def _coefficient_tables(n) -> list[Table]:
+    """Tables 2 and 3: relative error of every coefficient, per method and rate pair."""
+    arr, stats, per_coef, need, n_mc, r4 = n["arr"], n["stats"], n["per_coef"], n["need"], n["n_mc"], rounded(4)
+    out = []
     for title, cols, paper_key in (("Table 2 — relative error (%) of the position coefficients Δr", slice(0, 3),
                                     "max_rel_err_position_pct"),
                                    ("Table 3 — relative error (%) of the direction coefficients Δα, Δβ",
@@ -286,26 +299,38 @@ def tables(n) -> list[Table]:
                          f"{RATE_HZ:.0f} Hz. Samples per case: 1 (paper setting) and {N_CASE} "
                          f"({N_CASE / RATE_HZ:g} s); the CRLB asks for {need['low']} (≤ 20 % at 0.1/0.2) "
                          f"and {need['high']} (≤ 1 % at 0.5/1.0).", formats=[None] + [r4] * 6))
-    m6 = n["fig6"]["max"]
-    out.append(Table("Fig. 6 — max |angular-rate error| over 200 s (rad/s)", ["case", "ours", "paper"],
-                     [["before compensation", m6["before"], 0.2],
-                      ["after, closed form with 1 sample per case (paper's setting)", m6["after_cf1"], 0.1],
-                      [f"after, closed form with {N_CASE} samples per case", m6["after_cfn"], ""],
-                      [f"after, optinav LM with the same {N_CASE} samples per case", m6["after_lm"], ""],
-                      ["expected from the LM std (RMS of draws)", m6["expected_lm"], ""],
-                      ["no installation error (solver only)", Cell(m6["solver_only"], rounded(6)), ""]],
-                     "Coning 10° at 0.5 Hz, free body (A = 0), 10 ms step, integration method; "
-                     "compensation = solving with the calibrated geometry. Both 1000-sample calibrations use the "
-                     "same data set; on one data set their difference is within the scatter that the LM "
-                     "standard deviations predict (the 'expected' row), so either may come out ahead.",
-                     formats=[None, rounded(5)]))
-    rs = n["rate_solvers"]
-    out.append(Table(f"Rate solvers on cylinder10, coning, noise 1e-4 m/s², {rs['duration']:g} s",
-                     ["method", "RMS error (rad/s)", "final |error| (rad/s)", "time (s)"],
-                     [[m, d["rms"], d["final"], d["elapsed"]] for m, d in rs["methods"].items()],
-                     "integration drifts as a random walk; the quadratic terms bound the error but are "
-                     "noisier at this short lever arm (4 cm).", formats=[None, None, None, rounded(3)]))
     return out
+
+
+def _fig6_table(n) -> Table:
+    """Fig. 6 in numbers: the largest rate error before and after each compensation."""
+    m6 = n["fig6"]["max"]
+    return Table("Fig. 6 — max |angular-rate error| over 200 s (rad/s)", ["case", "ours", "paper"],
+                 [["before compensation", m6["before"], 0.2],
+                  ["after, closed form with 1 sample per case (paper's setting)", m6["after_cf1"], 0.1],
+                  [f"after, closed form with {N_CASE} samples per case", m6["after_cfn"], ""],
+                  [f"after, optinav LM with the same {N_CASE} samples per case", m6["after_lm"], ""],
+                  ["expected from the LM std (RMS of draws)", m6["expected_lm"], ""],
+                  ["no installation error (solver only)", Cell(m6["solver_only"], rounded(6)), ""]],
+                 "Coning 10° at 0.5 Hz, free body (A = 0), 10 ms step, integration method; "
+                 "compensation = solving with the calibrated geometry. Both 1000-sample calibrations use the "
+                 "same data set; on one data set their difference is within the scatter that the LM "
+                 "standard deviations predict (the 'expected' row), so either may come out ahead.",
+                 formats=[None, rounded(5)])
+
+
+def _rate_solver_table(n) -> Table:
+    """Error and run time of each rate solver."""
+    rs = n["rate_solvers"]
+    return Table(f"Rate solvers on cylinder10, coning, noise 1e-4 m/s², {rs['duration']:g} s",
+                 ["method", "RMS error (rad/s)", "final |error| (rad/s)", "time (s)"],
+                 [[m, d["rms"], d["final"], d["elapsed"]] for m, d in rs["methods"].items()],
+                 "integration drifts as a random walk; the quadratic terms bound the error but are "
+                 "noisier at this short lever arm (4 cm).", formats=[None, None, None, rounded(3)])
+
+
+def tables(n) -> list[Table]:
+    return [*_layout_tables(n), _comparison_table(n), *_coefficient_tables(n), _fig6_table(n), _rate_solver_table(n)]
 
 
 # --- figures ------------------------------------------------------------------------------------------------
