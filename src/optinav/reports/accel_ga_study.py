@@ -24,7 +24,7 @@ from optinav.core.imu_model import TriadErrors, preset
 from optinav.core.observability import rmse_ratio_band
 from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
-from optinav.multipos.simulate import PAPER_REFERENCE, simulate_session
+from optinav.multipos.simulate import PAPER_REFERENCE, simulate
 from optinav.reports.report import (Check, Figure, Headline, Limit, StudyResult, Table, quantity,
                                     register_study, value_at)
 
@@ -109,7 +109,7 @@ def _fits(quick, rng) -> dict:
     """One simulated session, calibrated by both GAs, Newton and LM (the fits and their run times), and the
     levelling test of Table 4."""
     dwell = 10.0 if quick else 60.0
-    sess = simulate_session("paper12", spec="mems-mti1", truth="paper", dwell_s=dwell, rng=rng)
+    sess = simulate("paper12", spec="mems-mti1", truth="paper", dwell_s=dwell, rng=rng)
     g = sess.gravity
     idx = np.array([[np.searchsorted(sess.t, a), np.searchsorted(sess.t, b, side="right")]
                     for a, b in sess.static_intervals])
