@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -122,29 +123,29 @@ def _options(m, opts) -> dict:
 # --- computation --------------------------------------------------------------------------------------------
 
 
-def _broad(quick) -> dict:
-    """Inclination and heading RMSE (deg) of every method at its defaults on the real BROAD trials in the shared
-    data folder (``skipped``: why not, when absent)."""
+def _broad(quick, data_dir) -> dict:
+    """Inclination and heading RMSE (deg) of every method at its defaults on the real BROAD trials in
+    ``data_dir``/attitude/broad (``skipped``: why not, when ``data_dir`` is None or holds none)."""
     from optinav.attitude import estimate_q
-    from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
+    from optinav.attitude.data import load_broad, synthesize_polarization
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
-    from optinav.sky import solar_position_deg
+    from optinav.sky import solar_position
 
-    folder = shared_data_dir() / "attitude" / "broad"
-    files = sorted(folder.glob("*.hdf5"))
+    files = [] if data_dir is None else sorted((Path(data_dir) / "attitude" / "broad").glob("*.hdf5"))
     try:
         import h5py  # noqa: F401
     except ImportError:
         files, why = [], "skipped: reading BROAD needs h5py (pip install h5py)"
     else:
-        why = f"skipped: data not found in {folder}"
+        why = ("skipped: no data folder given (optinav reproduce passes ../shared/data of the project)"
+               if data_dir is None else f"skipped: no BROAD trials in {Path(data_dir) / 'attitude' / 'broad'}")
     if not files:
         return {"skipped": why}
     if quick:
         files = [f for f in files if f.name.startswith(("02_", "07_"))] or files[:1]
-    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
     sun = sp.sun_vector("enu")
     out = {}
     for f in files:
@@ -164,9 +165,9 @@ def _broad(quick) -> dict:
     return {"trials": out}
 
 
-def compute(quick: bool, rng) -> dict:
+def compute(quick: bool, rng, data_dir=None) -> dict:
     """Every number of the study: flights, tuning, the tuned and default runs, error statistics (deg) and the
-    BROAD section, in the order the parts draw their seeds."""
+    BROAD section (from ``data_dir``), in the order the parts draw their seeds."""
     from optinav.attitude.metrics import error_statistics
 
     seed0 = int(as_rng(rng).integers(2**31))
@@ -206,7 +207,7 @@ def compute(quick: bool, rng) -> dict:
     n["rms_no_bias"] = {m: np.array([error_statistics(_estimate(fl, m, n["tuned_no_bias"][m])["err"][SKIP:])["rms"]
                                      for fl in nb[n_train:]]) for m in METHODS}
     step("BROAD")
-    n["broad"] = _broad(quick)
+    n["broad"] = _broad(quick, data_dir)
     return n
 
 
@@ -513,9 +514,11 @@ def headline(s) -> list[Headline]:
 
 
 @register_study("polarized")
-def run(quick: bool = False, rng=None) -> StudyResult:
+def run(quick: bool = False, rng=None, data_dir=None) -> StudyResult:
+    """The polarization-attitude study; ``data_dir``: the shared data folder with the BROAD trials (None skips
+    the real-data section; ``optinav reproduce`` passes the project's)."""
     t_start = time.perf_counter()
-    n = compute(quick, rng)
+    n = compute(quick, rng, data_dir)
     s = summary(n)
     return StudyResult(
         name="polarized", title="Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF",
