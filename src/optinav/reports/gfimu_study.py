@@ -98,7 +98,7 @@ def _tables_2_3(arr, err, truth, n_mc, rng) -> dict:
                       "cf1_dir_median_max": float(np.median([r[:, 3:].max() for r in cf1])),
                       "cfn_pos_max": float(rel_cfn[:, :3].max()), "lm_pos_max": float(rel_lm[:, :3].max()),
                       "cfn_dir_max": float(rel_cfn[:, 3:].max()), "lm_dir_max": float(rel_lm[:, 3:].max()),
-                      "lm_max_z": float(z.max()), "lm_time_s": lm.elapsed}
+                      "lm_max_z": float(z.max()), "lm_time_s": lm.elapsed_s}
     return {"stats": stats, "per_coef": per_coef, "same": same, "calib_high": calib_high, "cf_high": cf_high}
 
 
