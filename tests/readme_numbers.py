@@ -1,4 +1,5 @@
-"""The numbers the README's studies table states in bold, and the report headline values they must equal."""
+"""The numbers the README's studies table states in bold, and the headline numbers of the quick report's
+summary.json they must equal."""
 
 import re
 from pathlib import Path
@@ -24,4 +25,7 @@ def matches(shown: str, values) -> bool:
 
 
 def headline_values(study: dict) -> list[float]:
-    return [h[k] for h in study["headline"] for k in ("paper", "rebuild", "best") if h[k] is not None]
+    """The headline numbers of one study of summary.json (numbers, as the studies read them from their summary)."""
+    values = [h[k] for h in study["headline"] for k in ("paper", "rebuild", "best") if h[k] is not None]
+    assert all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values), values
+    return values

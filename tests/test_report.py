@@ -3,7 +3,10 @@
 import json
 import re
 
-from optinav.reports.report import Check, Figure, Headline, StudyResult, Table, write_report
+import numpy as np
+
+from optinav.reports.report import (Cell, Check, Figure, Headline, Limit, StudyResult, Table, quantity, value_at,
+                                    write_report)
 from report_fixture import quick_report  # noqa: F401
 
 MARKUP = re.compile(r":(func|class|data|meth|mod|attr):|\(issue \d+\)|as they are added|``")
@@ -64,3 +67,100 @@ def test_progress_bars_only_when_wanted(capsys, monkeypatch):
         step("x")
         assert list(progress(range(3))) == [0, 1, 2]
     assert capsys.readouterr().err == ""
+
+
+def _number_text(s: str) -> bool:
+    """Whether a string is a formatted number: one or more numbers, a number ± another, or a number and a unit."""
+    toks = s.replace("−", "-").split()
+
+    def num(t):
+        try:
+            float(t)
+        except ValueError:
+            return False
+        return True
+
+    if not toks:
+        return False
+    if "±" in s:
+        return num(s.split("±")[0].strip().replace("−", "-"))
+    return all(map(num, toks)) or (len(toks) == 2 and num(toks[0]) and len(toks[1]) <= 6)
+
+
+def _numeric(v) -> bool:
+    if isinstance(v, list):
+        return all(map(_numeric, v))
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+def summary_problems(node, path="summary") -> list[str]:
+    """Where a study's summary breaks the layout: every number in a {value, unit} quantity (value a number, None
+    or nested lists of them), no formatted numbers in strings, no bare numbers."""
+    if isinstance(node, dict) and set(node) == {"value", "unit"}:
+        ok = _numeric(node["value"]) and isinstance(node["unit"], str)
+        return [] if ok else [f"{path}: malformed quantity {node}"]
+    if isinstance(node, dict):
+        return [p for k, v in node.items() for p in summary_problems(v, f"{path}.{k}")]
+    if isinstance(node, list):
+        return [p for k, v in enumerate(node) for p in summary_problems(v, f"{path}[{k}]")]
+    if isinstance(node, str):
+        return [f"{path}: formatted number {node!r}"] if _number_text(node) else []
+    return [f"{path}: {node!r} without a unit"]
+
+
+def table_problems(table: dict) -> list[str]:
+    """Table cells of summary.json that are formatted numbers (cells hold the numbers; the report formats them)."""
+    def walk(v, where):
+        if isinstance(v, str):
+            return [f"{where}: formatted number {v!r}"] if _number_text(v) else []
+        if isinstance(v, dict):
+            return [p for k, x in v.items() for p in walk(x, f"{where}.{k}")]
+        if isinstance(v, list):
+            return [p for x in v for p in walk(x, where)]
+        return []
+
+    return [p for i, row in enumerate(table["rows"]) for p in walk(row, f"{table['title'][:40]!r} row {i}")]
+
+
+def test_layout_rules_catch_formatted_numbers():
+    assert _number_text("0.262") and _number_text("1.5e-3 2.0") and _number_text("12.2 %")
+    assert _number_text("0.1 ± 0.02") and _number_text("−0.5")
+    assert not _number_text("0.1/0.2") and not _number_text("PSO, 2 Hz epochs") and not _number_text("—")
+    assert summary_problems({"a": quantity(0.262, "%"), "b": {"c": quantity([1.0, None], "deg")},
+                             "why": "skipped: no data"}) == []
+    assert len(summary_problems({"a": "0.262", "b": 3.0, "c": {"value": "1.0", "unit": "%"}})) == 3
+    assert table_problems({"title": "t", "rows": [["x", 1.0, None, {"gain": 0.1}], ["y", "0.25"]]}) == [
+        "'t' row 1: formatted number '0.25'"]
+
+
+def test_summary_json_holds_numbers_with_units(quick_report):
+    """summary.json of the quick report: quantities with units, tables and checks of numbers, headline of numbers
+    that the summary holds."""
+    for name, st in quick_report.summary["studies"].items():
+        problems = summary_problems(st["summary"], f"{name}.summary")
+        problems += [p for t in st["tables"] for p in table_problems(t)]
+        problems += [f"{name}: check {c['name']!r}" for c in st["checks"]
+                     if not (_numeric(c["value"]) and _numeric(c["limit"]) and isinstance(c["unit"], str))]
+        assert not problems, problems[:10]
+        assert st["summary"] and all(c["reason"] for c in st["checks"]), f"{name}: a limit without its reason"
+
+
+def test_quantities_and_headline_from_summary(tmp_path):
+    s = {"rmse": {"lm": quantity(np.float64(0.5), "deg"), "nan": quantity(float("nan"), "deg")}}
+    assert s["rmse"]["lm"] == {"value": 0.5, "unit": "deg"} and type(s["rmse"]["lm"]["value"]) is float
+    assert s["rmse"]["nan"]["value"] is None and value_at(s, "rmse.lm") == 0.5
+    t = Table("t", ["a", "b", "c", "d"],
+              [[1 / 3, [0.25, 0.5], {"gain": 0.033}, Cell(2.0, "{:.1f} s")], [None, True, "x", 4]],
+              formats=["{:.3f}", "{:.1f}", "{:g}"])
+    assert t.text_rows() == [["0.333", "0.2 0.5", "gain = 0.033", "2.0 s"], ["—", "yes", "x", "4"]]
+    c = Check.against("err", 0.3, Limit(0.25, unit="deg", reason="4σ"))
+    assert not c.passed and c.reason == "4σ" and c.limit == 0.25 and c.unit == "deg"
+    assert Check.against("n", 12, Limit(None, ">=", reason="computed"), at=10).passed
+    r = StudyResult("demo", "Demo", "A study.", tables=[t], checks=[c], summary=s,
+                    headline=[Headline("RMSE", "deg", None, value_at(s, "rmse.lm"), None)])
+    out = write_report([r], tmp_path)
+    md = (out / "index.md").read_text(encoding="utf-8")
+    assert "| 0.333 | 0.2 0.5 | gain = 0.033 | 2.0 s |" in md and "| demo | 0/1 | RMSE | — | 0.5 | — | deg |" in md
+    js = json.loads((out / "summary.json").read_text())["studies"]["demo"]
+    assert js["tables"][0]["rows"][0] == [1 / 3, [0.25, 0.5], {"gain": 0.033}, 2.0]
+    assert js["summary"]["rmse"]["lm"] == {"value": 0.5, "unit": "deg"} and js["checks"][0]["reason"] == "4σ"

@@ -15,7 +15,8 @@ def test_polarized_quick_study_checks_pass(quick_report):
     s = st["summary"]
     assert set(s["tuned_options"]) == {"gd", "cg", "qn", "mekf"}
     # the seeds come from --seed, training and test flights differ
-    assert not set(s["seeds"]["train"]) & set(s["seeds"]["test"])
+    assert not set(s["seeds"]["train"]["value"]) & set(s["seeds"]["test"]["value"])
+    assert s["tuned_options"]["qn"]["gain"]["unit"] == "1/s"
     broad = next(t for t in st["tables"] if t["title"].startswith("BROAD"))
     assert broad["rows"] or broad["note"].startswith("skipped")
 

@@ -9,13 +9,13 @@ def test_rins_pso_quick_study_checks_pass(quick_report):
     assert len(st["tables"]) >= 5
     s = st["summary"]
     # Table 3 read as radians reproduces the paper's uncompensated yaw RMSE (0.9263°) within 5 %
-    assert abs(s["units_rmse_deg"]["rad"][2] / 0.9263 - 1) < 0.05
-    assert s["rmse_deg"]["lm"][2] < 0.01 * s["rmse_deg"]["none"][2]
+    assert s["units_rmse"]["rad"]["unit"] == "deg" and abs(s["units_rmse"]["rad"]["value"][2] / 0.9263 - 1) < 0.05
+    assert s["rmse"]["lm"]["value"][2] < 0.01 * s["rmse"]["none"]["value"][2]
 
 
 def test_rins_pso_lock_and_wobble_comparison(quick_report):
     s = quick_report.study("rins-pso")["summary"]
-    assert s["lock_sigma_rad"] > 0 and s["wobble_rad"] > 0
+    assert s["lock_sigma"]["value"] > 0 and s["wobble"]["value"] > 0 and s["wobble"]["unit"] == "rad"
     # the paper's 5.3× of PSO over the previous method is not reproduced: the two are within 30 %
-    assert abs(s["ratio_axis_over_pso_paper"] - 5.3) < 0.1
-    assert 0.7 < s["ratio_axis_over_pso"] < 1.3
+    assert abs(s["ratio_axis_over_pso_paper"]["value"] - 5.3) < 0.1
+    assert 0.7 < s["ratio_axis_over_pso"]["value"] < 1.3

@@ -1,4 +1,10 @@
-"""Study results and the report writer (Markdown, HTML, JSON, PNG)."""
+"""Study results and the report writer (Markdown, HTML, JSON, PNG).
+
+A study keeps four things apart: its computation (numbers, with units in ``summary``), its acceptance limits
+(``Limit`` values with the reason for each, one dict per study), the formatting of those numbers into ``Table``
+cells (per-column formats; the cells stay numbers) and its ``Figure`` drawings. ``write_report`` renders the
+tables and writes ``summary.json``, whose quantities are ``{"value": number | list | None, "unit": str}``.
+"""
 
 from __future__ import annotations
 
@@ -18,14 +24,68 @@ from optinav.core.files import atomic_path, describe, write_text
 from optinav.errors import OptinavError
 
 
+def plain(value: Any) -> Any:
+    """``value`` as plain JSON types (``optinav.core.results.plain``, imported when needed: listing the studies
+    for ``--help`` loads no numpy)."""
+    from optinav.core.results import plain as to_plain
+
+    return to_plain(value)
+
+
+def quantity(value: Any, unit: str) -> dict[str, Any]:
+    """A number (or array of numbers) with its unit, as ``summary.json`` holds it: ``{"value", "unit"}``; NaN and
+    inf become ``None`` (JSON has no NaN)."""
+    return {"value": plain(value), "unit": unit}
+
+
+#: a cell format: a ``str.format`` pattern (``"{:.3f}"``) or a function of the cell value returning its text
+CellFormat = str | Callable[[Any], str] | None
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A table cell with its own format (where one cell of a column is written differently from the rest); a
+    function as ``fmt`` receives the whole value (a dict or list too)."""
+
+    value: Any
+    fmt: CellFormat = None
+
+
+def _cell_values(rows: list[list[Any]]) -> list[list[Any]]:
+    """The rows with every ``Cell`` replaced by its value (for ``summary.json``)."""
+    return [[c.value if isinstance(c, Cell) else c for c in row] for row in rows]
+
+
 @dataclass
 class Table:
-    """A table of a study: ``columns`` names (with units in brackets), ``rows`` lists of cells."""
+    """A table of a study: ``columns`` names (with units in brackets), ``rows`` lists of cells.
+
+    Cells hold numbers (``None`` shows as "—", booleans as yes/no), text, or lists and dicts of numbers; ``formats``
+    gives per column how a number is written (default: 7 significant digits), so ``summary.json`` keeps the
+    numbers themselves."""
 
     title: str
     columns: list[str]
     rows: list[list[Any]]
     note: str = ""
+    formats: list[CellFormat] | None = None
+
+    def text_rows(self) -> list[list[str]]:
+        """The cells as the report writes them."""
+        fmts = self.formats or []
+        return [[_cell(c, fmts[j] if j < len(fmts) else None) for j, c in enumerate(row)] for row in self.rows]
+
+
+@dataclass(frozen=True)
+class Limit:
+    """An acceptance limit of a study: a value must be ``<= value`` (or ``>=``, by ``kind``), in ``unit``;
+    ``reason``: why the limit is where it is (the theory, noise level or published value it comes from).
+    ``value=None``: the limit is computed by the study from its data (the reason says how)."""
+
+    value: float | None
+    kind: str = "<="
+    unit: str = ""
+    reason: str = ""
 
 
 @dataclass
@@ -40,6 +100,16 @@ class Check:
     unit: str = ""
     kind: str = "<="
     note: str = ""
+    reason: str = ""
+
+    @classmethod
+    def against(cls, name: str, value: float, limit: Limit, note: str = "", at: float | None = None) -> "Check":
+        """``value`` checked against the study's ``limit`` (at the computed value ``at`` for a limit whose
+        value the study computes)."""
+        bound = limit.value if at is None else at
+        if bound is None:
+            raise ValueError(f"the limit of check {name!r} is computed by the study: pass at=")
+        return cls(name, value, bound, limit.unit, limit.kind, note, limit.reason)
 
     @property
     def passed(self) -> bool:
@@ -59,10 +129,20 @@ class Figure:
     size: tuple[float, float] = (7.0, 4.0)
 
 
+def value_at(summary: dict[str, Any], path: str) -> Any:
+    """The value of the quantity at ``path`` ("a.b.c") of a study's summary (headline values are read this way,
+    so the headline shows the numbers ``summary.json`` holds)."""
+    node: Any = summary
+    for key in path.split("."):
+        node = node[key]
+    return node["value"]
+
+
 @dataclass
 class Headline:
     """One headline number of a study: the paper's value, optinav's rebuild of the paper's method and optinav's
-    best method, measured on the same data (None where a column does not apply)."""
+    best method, measured on the same data (None where a column does not apply). Studies build their headline from
+    their summary's quantities (``value_at``)."""
 
     quantity: str
     unit: str
@@ -74,7 +154,8 @@ class Headline:
 
 @dataclass
 class StudyResult:
-    """What one study reproduced: text, tables, checks, figures and a flat summary of numbers."""
+    """What one study reproduced: text, tables, checks, figures and its summary (nested dicts of quantities from
+    ``quantity``)."""
 
     name: str
     title: str
@@ -129,6 +210,7 @@ def get_study(name: str) -> Callable[..., StudyResult]:
 
 
 def _fmt(x: Any) -> str:
+    """The default text of a value: 7 significant digits, "—" for ``None``, yes/no for booleans."""
     if x is None:
         return "—"
     if hasattr(x, "dtype") and getattr(x, "ndim", 1) == 0:
@@ -142,21 +224,32 @@ def _fmt(x: Any) -> str:
     return str(x)
 
 
+def _cell(x: Any, fmt: CellFormat = None) -> str:
+    """The text of a table cell under the column format ``fmt``: text as it is; a list, its items formatted and
+    joined by spaces; a dict (settings), ``key = value`` pairs."""
+    if isinstance(x, Cell):  # a function formats the whole value (e.g. a value with its std), a pattern each number
+        return x.fmt(x.value) if callable(x.fmt) else _cell(x.value, x.fmt)
+    if isinstance(x, str):
+        return x
+    if x is None:
+        return "—"
+    if isinstance(x, dict):
+        return ", ".join(f"{k} = {_cell(v, fmt)}" for k, v in x.items())
+    if isinstance(x, (list, tuple)) or getattr(x, "ndim", 0) > 0:
+        return " ".join(_cell(v, fmt) for v in x)
+    if fmt is None or isinstance(x, bool) or getattr(x, "dtype", None) == bool:
+        return _fmt(x)
+    return fmt.format(x) if isinstance(fmt, str) else fmt(x)
+
+
+def rounded(decimals: int) -> Callable[[Any], str]:
+    """A cell format: the value rounded to ``decimals``, then written with the default 7 significant digits."""
+    return lambda x: _fmt(round(float(x), decimals))
+
+
 def _md(x: Any) -> str:
     """A Markdown table cell: formatted, with pipes escaped."""
     return _fmt(x).replace("|", "\\|")
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if hasattr(x, "tolist"):
-        return _jsonable(x.tolist())
-    if isinstance(x, float) and not math.isfinite(x):
-        return str(x)
-    return x
 
 
 def _headline(results: list[StudyResult]) -> tuple[list[str], list[str]]:
@@ -249,13 +342,14 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
         for t in r.tables:
             md += [f"**{t.title}**", "", "| " + " | ".join(_md(c) for c in t.columns) + " |",
                    "|" + "---|" * len(t.columns)]
-            md += ["| " + " | ".join(_md(c) for c in row) + " |" for row in t.rows]
+            cells = t.text_rows()
+            md += ["| " + " | ".join(_md(c) for c in row) + " |" for row in cells]
             if t.note:
                 md += ["", f"_{t.note}_"]
             md.append("")
             h.append(f"<h3>{html.escape(t.title)}</h3><table><tr>"
                      + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
-            h += ["<tr>" + "".join(f"<td>{html.escape(_fmt(c))}</td>" for c in row) + "</tr>" for row in t.rows]
+            h += ["<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in cells]
             h.append("</table>" + (f"<p><i>{html.escape(t.note)}</i></p>" if t.note else ""))
         for fig, fname in _save_figures(r, out):
             if fname is None:
@@ -265,11 +359,11 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
                 h.append(f"<figure><img src='{html.escape(fname)}' width='700'>"
                          f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
         summary["studies"][r.name] = {
-            "title": r.title, "elapsed_s": r.elapsed, "summary": _jsonable(r.summary),
-            "headline": [_jsonable(dataclasses.asdict(hl)) for hl in r.headline],
-            "checks": [{"name": c.name, "value": _jsonable(c.value), "limit": _jsonable(c.limit), "unit": c.unit,
-                        "kind": c.kind, "passed": c.passed, "note": c.note} for c in r.checks],
-            "tables": [{"title": t.title, "columns": t.columns, "rows": _jsonable(t.rows), "note": t.note}
+            "title": r.title, "elapsed_s": r.elapsed, "summary": plain(r.summary),
+            "headline": [plain(dataclasses.asdict(hl)) for hl in r.headline],
+            "checks": [{"name": c.name, "value": plain(c.value), "limit": plain(c.limit), "unit": c.unit,
+                        "kind": c.kind, "passed": c.passed, "note": c.note, "reason": c.reason} for c in r.checks],
+            "tables": [{"title": t.title, "columns": t.columns, "rows": plain(_cell_values(t.rows)), "note": t.note}
                        for t in r.tables],
         }
     write_text(out / "index.md", "\n".join(md) + "\n", "--report")
