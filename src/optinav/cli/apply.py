@@ -45,7 +45,7 @@ def run(args) -> int:
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
                    time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                   delimiter=args.delimiter)
+                   delimiter=args.delimiter, topic=args.topic)
     acc = gyro = None
     if res.accelerometer is not None and log.acc is not None:
         raw, unit = raw_units(log, "acc")

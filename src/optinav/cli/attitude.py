@@ -41,7 +41,7 @@ def register(sub) -> None:
                   --reference --out att.csv   (a BROAD trial, scored against its optical reference)
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
+    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     add_input_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
     p.add_argument("--offline", action="store_true",
@@ -137,7 +137,7 @@ def _read_log(args):
                            "drop --reference or pass a BROAD trial")
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                    time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                   delimiter=args.delimiter)
+                   delimiter=args.delimiter, topic=args.topic)
     if log.acc is None or log.gyro is None:
         raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
                            "name them with --columns t,ax,ay,az,gx,gy,gz")
@@ -153,7 +153,7 @@ def _read_log(args):
         if len(names) != 3:
             raise OptinavError(f"--mag-columns {args.mag_columns!r} needs three names", "write e.g. mx,my,mz")
         tab = read_table(args.data, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)),
-                         delimiter=args.delimiter)
+                         delimiter=args.delimiter, topic=args.topic)
         mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
@@ -196,7 +196,7 @@ def run(args) -> int:
         if len(names) not in (1, 2):
             raise OptinavError(f"--pol-columns {args.pol_columns!r} needs AOP or AOP,DOP", "name one or two columns")
         table = read_table(args.data, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
-                           delimiter=args.delimiter)
+                           delimiter=args.delimiter, topic=args.topic)
         aop = np.asarray(table["aop"], float).reshape(-1)
         if aop.size != t.size:
             raise OptinavError(f"AoP column has {aop.size} rows, the IMU {t.size}", "check --pol-columns")

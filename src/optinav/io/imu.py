@@ -250,12 +250,12 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
+def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
     table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=LABEL_COLUMNS + label_sources)
+                       text_columns=LABEL_COLUMNS + label_sources, topic=topic)
     found: dict[str, tuple[str, np.ndarray]] = {}  # std → (source name, array)
     implied: dict[str, str] = {}
     for key, name in mapping.items():
@@ -404,7 +404,7 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
 
 def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
              gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
-             datasets=None, delimiter: str | None = None) -> ImuLog:
+             datasets=None, delimiter: str | None = None, topic=None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
     ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
@@ -416,6 +416,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
     converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
+    ``topic``: a ROS bag's Imu topic (``"/imu"``; None: its only one), see :mod:`optinav.io.rosbag`.
     """
     notes: list[str] = []
     acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
@@ -425,7 +426,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         rate = check_positive(rate, "rate")
     if gyro_columns is not None and gyro_path is None:
         raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
-    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
+    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
     parts = [main]
     if gyro_path is not None:
         gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns")

@@ -24,7 +24,9 @@ __all__ = ["read_table", "load_table", "parse_columns", "Table", "SUFFIXES", "LA
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
 SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
-                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat"}
+                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat",
+                            ".parquet": "parquet", ".pq": "parquet", ".bag": "rosbag", ".db3": "rosbag",
+                            ".mcap": "rosbag"}
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
 #: positional column names that skip a column
@@ -149,13 +151,15 @@ def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
 
 
 def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
-               text_columns: Sequence[str] = LABEL_COLUMNS) -> dict[str, np.ndarray]:
+               text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> dict[str, np.ndarray]:
     """Read a data file into ``{name: array}``.
 
     Formats by suffix: ``.csv .tsv .txt .dat`` (optionally ``.gz``; header auto-detected, ``#`` comments,
     delimiter ``, \\t ;`` or whitespace auto-detected unless ``delimiter`` is given), ``.npz``/``.npy``
     (no pickles), ``.h5``/``.hdf5`` (h5py), ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to
-    MATLAB's row/column layout).
+    MATLAB's row/column layout), ``.parquet``/``.pq`` (pyarrow; :mod:`optinav.io.parquet`), ROS bags ``.bag``,
+    ``.db3``, ``.mcap`` or a ROS 2 bag folder (rosbags; ``topic`` picks the Imu[,MagneticField] topic,
+    :mod:`optinav.io.rosbag`).
 
     ``columns``: names of the file's columns in order (``"_"``/``"-"`` skips one; a header line is then
     ignored), or ``std=name`` entries returning only those names, taken from header columns, NPZ arrays or
@@ -167,20 +171,29 @@ def read_table(path, *, columns=None, delimiter: str | None = None, datasets=Non
     positional, mapping = parse_columns(columns)
     merge_datasets(mapping, datasets)
     table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=text_columns)
+                       text_columns=text_columns, topic=topic)
     if mapping:
         return {std: table.get(name) for std, name in mapping.items()}
     return dict(table.data)
 
 
 def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
-               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS) -> Table:
+               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
     ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
-    HDF5 reader read just those).
+    HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only).
     """
     path = Path(path)
+    from optinav.io.rosbag import is_bag
+
+    if is_bag(path):
+        from optinav.io.rosbag import load_bag
+
+        _no_option(path, delimiter=delimiter, names=names)
+        return load_bag(path, topic=topic)
+    if topic is not None:
+        raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
     if path.is_dir():
@@ -209,6 +222,10 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     else:
         if delimiter is not None:
             raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
+        if kind == "parquet":
+            from optinav.io.parquet import load_parquet
+
+            return load_parquet(path, names=names, only=only)
         if kind in ("npz", "npy"):
             table = _load_numpy(path)
         elif kind == "hdf5":
@@ -221,8 +238,16 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     return table
 
 
+def _no_option(path: Path, **given) -> None:
+    for name, value in given.items():
+        if value is not None:
+            raise OptinavError(f"{name} applies to text and array files, not to the ROS bag {path.name}",
+                               f"drop the {name} option (a bag's columns are t, ax..az, gx..gz, mx..mz)")
+
+
 _MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
-          (b"\x1f\x8b", "gztext"))
+          (b"\x1f\x8b", "gztext"),
+          (b"PAR1", "parquet"))
 
 
 def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
