@@ -64,9 +64,11 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         for p in prefixes:
             for axis in "xyz":
                 al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
-    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf"):
+    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf",
+              "linear_acceleration", "imu_acc"):
         al[n] = ("acc", None)
-    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate"):
+    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate",
+              "imu_gyro"):
         al[n] = ("gyro", None)
     return al
 

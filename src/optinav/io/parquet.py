@@ -35,8 +35,9 @@ def _pyarrow():
 def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str] | None = None):
     """Read the Parquet file ``path`` into a Table (see the module docs).
 
-    ``names``: the columns' names in order (``_``/``-`` skips one) replacing the file's; ``only``: the names
-    needed, so that only those top-level columns are read when they all exist.
+    ``names``: the columns' names in order (``_``/``-`` skips one) replacing the file's. ``only`` (the names a
+    ``std=name`` mapping needs) does not prune the columns read: as in a text file, the unmapped columns are
+    still recognised by their names.
     """
     from optinav.io.readers import SKIP_NAMES, Table, _add
 
@@ -45,12 +46,7 @@ def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str
     try:
         pf = pq.ParquetFile(path)
         schema = pf.schema_arrow
-        columns = None
-        if only and names is None:
-            top = [n for n in schema.names]
-            want = [next((c for c in top if c == o or c.lower() == o.lower()), None) for o in only]
-            columns = None if None in want else list(dict.fromkeys(want))
-        tab = pf.read(columns=columns, use_threads=True)
+        tab = pf.read(use_threads=True)
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged or non-Parquet files
