@@ -205,55 +205,59 @@ def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray,
     logt = np.empty(count, dtype=np.int64)
     vals = np.empty((count, width))
     ros1 = not getattr(reader, "is2", True)
+    con0 = info["cons"][0]
     layout = None
-    block, rows = bytearray(), []
-    con0 = None
+    done = 0
 
-    def flush():
-        arr = np.frombuffer(bytes(block), dtype=layout[0])
-        idx = np.asarray(rows)
-        good = arr["len"] == layout[2]
-        stamp[idx[good]] = arr["sec"][good] + arr["nsec"][good] * 1e-9
-        vals[idx[good]] = np.concatenate([arr[k][good] for k in layout[1]], axis=1)
-        size = layout[0].itemsize
-        for j in np.flatnonzero(~good):  # same size, other string length: a layout of its own
-            stamp[idx[j]], vals[idx[j]] = _slow(reader, con0, bytes(block[j * size:(j + 1) * size]), msgtype)
-        block.clear()
-        rows.clear()
+    def flush(chunk: list, times: list) -> None:
+        # the loop only collects; everything per message that numpy can do happens here, once per block
+        nonlocal layout, done
+        n = len(chunk)
+        if done + n > count:
+            raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
+                               "reindex the bag (ros2 bag reindex / rosbag reindex)")
+        if layout is None:
+            layout = _layout(chunk[0], ros1, msgtype)
+            if layout is not None and not _layout_agrees(reader, con0, chunk[0], layout, msgtype):
+                layout = None
+            layout = layout or False  # False: every message through rosbags' deserializer
+        rows = np.arange(done, done + n)
+        logt[rows] = times
+        fast = np.zeros(n, dtype=bool)
+        if layout:
+            lens = np.fromiter(map(len, chunk), dtype=np.int64, count=n)
+            fast = lens == layout[0].itemsize
+            arr = np.frombuffer(b"".join(chunk) if fast.all() else b"".join(c for c, f in zip(chunk, fast) if f),
+                                dtype=layout[0])
+            same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
+            fast[np.flatnonzero(fast)[~same]] = False
+            arr = arr[same]
+            stamp[rows[fast]] = arr["sec"] + arr["nsec"] * 1e-9
+            vals[rows[fast]] = np.concatenate([arr[k] for k in layout[1]], axis=1)
+        for j in np.flatnonzero(~fast):
+            stamp[done + j], vals[done + j] = _slow(reader, con0, chunk[j], msgtype)
+        done += n
 
-    i = 0
     try:
-        for con, t_log, raw in reader.messages(connections=info["cons"]):
-            if i >= count:
-                raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
-                                   "reindex the bag (ros2 bag reindex / rosbag reindex)")
-            if layout is None:
-                con0 = con
-                layout = _layout(raw, ros1, msgtype)
-                if layout is not None and not _layout_agrees(reader, con, raw, layout, msgtype):
-                    layout = None
-                layout = layout or False  # False: every message through rosbags' deserializer
-            if layout and len(raw) == layout[0].itemsize:
-                block += raw
-                rows.append(i)
-                if len(rows) >= _BLOCK:
-                    flush()
-            else:
-                stamp[i], vals[i] = _slow(reader, con, raw, msgtype)
-            logt[i] = t_log
-            i += 1
-        if rows:
-            flush()
+        chunk, times = [], []
+        for _, t_log, raw in reader.messages(connections=info["cons"]):
+            chunk.append(raw)
+            times.append(t_log)
+            if len(chunk) == _BLOCK:
+                flush(chunk, times)
+                chunk, times = [], []
+        if chunk:
+            flush(chunk, times)
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - damaged chunks, decompression errors, truncated files
-        raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {i} message(s) "
+        raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {done} message(s) "
                            f"({_why(exc)})", "check that the bag was closed properly (ros2 bag reindex / "
                                              "rosbag reindex)") from None
-    if i == 0:
+    if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
-    if i != count:
-        stamp, logt, vals = stamp[:i], logt[:i], vals[:i]
+    if done != count:
+        stamp, logt, vals = stamp[:done], logt[:done], vals[:done]
     return stamp, logt * 1e-9, vals
 
 
