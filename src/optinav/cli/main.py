@@ -19,7 +19,8 @@ from optinav.errors import OptinavError
 
 #: modules that define ``register(subparsers)``; later systems add theirs here
 COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.attitude",
-                   "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
+                   "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch",
+                   "optinav.cli.design"]
 
 
 class OneLineParser(argparse.ArgumentParser):
