@@ -13,12 +13,16 @@ instability); the plan warns when the dwell exceeds ``--max-dwell``.
 
 Gyroscope: calibrated from the turns between poses (:mod:`optinav.multipos.gyro`): each turn k carries the
 gravity direction ``u_k`` to ``u_{k+1}``; a wrong K tilts the carried direction, ``r_k = C_kᵀu_k − u_{k+1}``.
-To first order at nominal ``K = I`` (raw in rad/s), the error ``δK`` rotates the integrated rotation vector
-``φ_k`` by ``δφ = −δK·φ_k`` and ``r_k ≈ δφ × u_{k+1}`` (two components; the one along ``u_{k+1}`` is of
-second order). White gyro noise N (rad/s/√Hz) over a turn of ``T_k`` s adds ``N²T_k`` per axis to δφ, and a
-bias error δb (known from the static poses to ``N/√(ΣT_dwell)``) adds ``−δb·T_k``. The Fisher information
-of (K, b) from all turns plus the static-bias prior gives the predicted std of K; a turn sequence whose
-rotation axes leave some combination of K undetermined is reported (rank < 9) with the missing turn.
+To first order at nominal ``K = I`` (raw in rad/s) a turn at constant rate by the body rotation vector
+``Φ_k`` over ``T_k`` s sees the rate error ``δω = −δK·Φ_k/T_k − δb``; an error at time t reaches the end of
+the turn rotated by the rest of it, so the end attitude is off by ``e = M_k·δω·T_k`` with
+``M_k = ∫₀¹ exp(−[Φ_k×](1 − s)) ds`` (the SO(3) Jacobian of the turn; ignoring it, ``M = I``, misjudges the
+std by up to 40 % for 90° turns), and ``r_k ≈ [u_{k+1}×]·e`` (two components; the one along ``u_{k+1}`` is
+of second order). White gyro noise N (rad/s/√Hz) gives ``cov e = T_k·mean(R N² Rᵀ)`` over the turn. K follows
+by weighted least squares with b fixed at the mean of the rests (std ``N/√(ΣT_dwell)``, propagated into K),
+as :func:`~optinav.multipos.gyro.calibrate_gyro` does with ``bias="static"``; tests/test_design_plan.py checks
+the prediction against Monte Carlo runs of that calibrator. A turn sequence whose rotation axes leave some
+combination of K undetermined is reported (rank < 9).
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import numpy as np
 
 from optinav.core.observability import analyze
 from optinav.core.results import Result
+from optinav.core.rotations import dcm_from_rotvec, skew
 from optinav.core.simulate import describe_pose
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
@@ -111,36 +116,48 @@ def turn_between(u0, u1) -> tuple[np.ndarray, float, str]:
 
 # --- gyroscope prediction -------------------------------------------------------------------------------------
 
-def _cross(u: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-
-
 def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, static_time_s: float):
     """Predicted 1σ of the gyro calibration (K row-major (9), b (3)) from the turns between poses.
 
     ``up_dirs`` (P, 3) body up vector per pose, turn k from pose k to k+1: body axis ``turn_axes[k]``, angle
     ``turn_angles[k]`` rad, duration ``turn_times[k]`` s; ``noise_density`` (3,) or scalar rad/s/√Hz;
     ``static_time_s``: total rest time giving the bias. Nominal K = I (raw in rad/s); first-order model of
-    the module docstring. Returns (std (12,) with inf where not determined, ObservabilityReport of K).
+    the module docstring; b is the mean of the rests, fixed while K is fitted, and its error propagated into
+    K. Returns (std (12,) with inf where not determined, ObservabilityReport of K).
     """
     u = np.asarray(up_dirs, float)
     n = np.broadcast_to(np.asarray(noise_density, float), (3,))
     rows = []
+    mid = (np.arange(64) + 0.5) / 64.0  # midpoint rule over the turn
     for k in range(u.shape[0] - 1):
-        phi = np.asarray(turn_axes[k], float) * float(turn_angles[k])
+        # the body turns by Φ = −angle·axis (turn_between: the up vector turns by +angle, the body opposite)
+        Phi = -np.asarray(turn_axes[k], float) * float(turn_angles[k])
         T = float(turn_times[k])
-        cu = _cross(u[k + 1])
-        # r = δφ × u = −[u×]δφ, δφ = −δK φ − δb T  →  ∂r/∂vec(δK) = [u×](I ⊗ φᵀ), ∂r/∂δb = [u×]·T
-        Jk = np.hstack([cu @ np.kron(np.eye(3), phi[None, :]), cu * T])
-        # noise of δφ: N²T per axis; r's covariance [u×]diag(N²T)[u×]ᵀ has rank 2: whiten on its range
+        cu = skew(u[k + 1])
+        # a rate error δω at time t reaches the end frame turned by the rest of the turn:
+        # e = ∫ exp(−[Φ×](1 − s)) δω T ds = M·δω·T  (M: the SO(3) Jacobian of the turn)
+        Rs = dcm_from_rotvec(-np.outer(1.0 - mid, Phi))
+        M = Rs.mean(axis=0)
+        # δω = −δK·Φ/T − δb; r = −e × u = [u×]e
+        Jk = np.hstack([cu @ M @ np.kron(np.eye(3), Phi[None, :]), cu @ M * T])
+        # white rate noise: cov e = T·mean(R diag(N²) Rᵀ); r's covariance has rank 2: whiten on its range
+        Ce = T * np.einsum("sij,j,skj->ik", Rs, n ** 2, Rs) / mid.size
         P = np.linalg.svd(cu)[0][:, :2]
-        L = np.linalg.cholesky(P.T @ cu @ np.diag(n ** 2 * T) @ cu.T @ P)
+        L = np.linalg.cholesky(P.T @ cu @ Ce @ cu.T @ P)
         rows.append(np.linalg.solve(L, P.T @ Jk))
-    sb = n / math.sqrt(static_time_s)  # the static bias: a measurement of b with this std
-    rows.append(np.hstack([np.zeros((3, 9)), np.diag(1.0 / sb)]))
-    Jw = np.vstack(rows)
-    rep = analyze(Jw, np.ones(Jw.shape[0]), names=list(GYRO_NAMES), scales=np.r_[np.ones(9), np.full(3, 1e-3)])
-    std = np.asarray(rep.crlb_std, float)
+    J = np.vstack(rows)
+    sb = n / math.sqrt(static_time_s)  # the bias from all rest, fixed during the K fit (bias="static")
+    JK, Jb = J[:, :9], J[:, 9:]
+    rep = analyze(JK, np.ones(J.shape[0]), names=list(GYRO_NAMES[:9]), scales=np.ones(9))
+    std = np.full(12, np.inf)
+    std[9:] = sb
+    if rep.rank == 9:
+        FK = JK.T @ JK
+        G = np.linalg.solve(FK, JK.T @ Jb)  # K̂ moves by −G·δb for a bias error δb
+        cov = np.linalg.inv(FK) + G @ np.diag(sb ** 2) @ G.T
+        std[:9] = np.sqrt(np.diag(cov))
+    else:
+        std[:9] = np.asarray(rep.crlb_std, float)
     return std, rep
 
 
@@ -371,7 +388,7 @@ def plan_poses(n_poses: int = 12, *, criterion: str = "D", acc_noise_density=Non
                                  [t["duration_s"] for t in turns], gyro_n, dwell * up.shape[0])
         gyro_std = [None if not np.isfinite(s) else float(s) for s in std]
         rank = int(rep.rank)
-        if rank < 12:
+        if rank < 9:
             notes.append("the turns leave gyro parameters undetermined (" + "; ".join(rep.statements) + "); add "
                          "turns about the missing axes, e.g. a full turn about each body axis")
     axes = np.abs(np.array([t["axis_body"] for t in turns])).max(axis=0) if turns else np.zeros(3)
