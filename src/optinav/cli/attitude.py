@@ -223,7 +223,7 @@ def run(args) -> int:
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
     step("write")
-    write_csv(out, table, header, "%.9g")
+    write_csv(out, table, header, ["%.17g"] + ["%.9g"] * 7)  # t exactly: bag stamps are s since the epoch
     print(res.summary())
     score = None
     if args.reference:

@@ -143,7 +143,9 @@ class ImuLog(Result):
         for v in (self.acc, self.gyro):
             if v is not None:
                 # one sum, finite only if every cell is (no temporary arrays); else, or if it overflows, per row
-                if not np.isfinite(v.sum()):
+                with np.errstate(over="ignore", invalid="ignore"):
+                    total = v.sum()
+                if not np.isfinite(total):
                     ok &= np.all(np.isfinite(v), axis=1)
         return ok
 
