@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude import AttitudeFilter, estimate
+from optinav.attitude import AttitudeFilter, estimate_q
 from optinav.attitude.data import load_broad, shared_data_dir
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
@@ -36,15 +36,15 @@ def _trials(quick: bool):
 
 def _methods():
     """name → (kind, fn(gyr, acc, mag, dt) -> q (N, 4) body → ENU); kind: 6d, 6d-offline or 9d."""
-    m = {"optinav iframe": ("6d", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU", checks=False)),
-         "optinav iframe offline": ("6d-offline", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU",
+    m = {"optinav iframe": ("6d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", checks=False)),
+         "optinav iframe offline": ("6d-offline", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU",
                                                                                 offline=True, checks=False)),
-         "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate(g, a, dt, frame="ENU", mag=mg, checks=False))}
+         "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", mag=mg, checks=False))}
     for meth in ("gd", "cg", "qn", "mekf"):
-        m[f"optinav {meth} (as published)"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate(
+        m[f"optinav {meth} (as published)"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate_q(
             g, a, dt, frame="ENU", method=meth, checks=False))
     for meth in ("qn", "mekf"):
-        m[f"optinav {meth} + input stage"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate(
+        m[f"optinav {meth} + input stage"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate_q(
             g, a, dt, frame="ENU", method=meth, input_stage=True, checks=False))
     try:
         import vqf
@@ -110,17 +110,17 @@ def _throughput(tr, quick: bool) -> list[dict]:
     k = int(np.ceil((200_000 if quick else 1_000_000) / tr.gyr.shape[0]))
     g, a = np.tile(tr.gyr, (k, 1)), np.tile(tr.acc, (k, 1))
     group = f"attitude batch throughput (BROAD {tr.name} tiled to {g.shape[0]} samples, 6D)"
-    batch = {"optinav iframe": lambda: estimate(g, a, tr.dt, frame="ENU", checks=False),
-             "optinav iframe (with input checks)": lambda: estimate(g, a, tr.dt, frame="ENU")}
+    batch = {"optinav iframe": lambda: estimate_q(g, a, tr.dt, frame="ENU", checks=False),
+             "optinav iframe (with input checks)": lambda: estimate_q(g, a, tr.dt, frame="ENU")}
     for meth in ("gd", "qn", "mekf"):
-        batch[f"optinav {meth}"] = lambda meth=meth: estimate(g, a, tr.dt, frame="ENU", method=meth, checks=False)
+        batch[f"optinav {meth}"] = lambda meth=meth: estimate_q(g, a, tr.dt, frame="ENU", method=meth, checks=False)
     try:
         import vqf
 
         batch["vqf online"] = lambda: vqf.VQF(tr.dt).updateBatch(g, a)
     except ImportError:
         pass
-    estimate(g[:100], a[:100], tr.dt, frame="ENU", checks=False)  # numba cache
+    estimate_q(g[:100], a[:100], tr.dt, frame="ENU", checks=False)  # numba cache
     for name, fn in batch.items():
         rows.append({"group": group, "method": name, "metric": "throughput", "unit": "samples/s",
                      "value": g.shape[0] / _best_time(fn, 1 if quick else 3)})

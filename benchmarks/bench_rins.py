@@ -15,13 +15,13 @@ import time
 import numpy as np
 
 from optinav.rins.calibrate import calibrate, prepare
-from optinav.rins.simulate import PAPER_TABLE3, simulate_rins
+from optinav.rins.simulate import PAPER_TABLE3, simulate
 
 
 def _session(quick, rng):
     dwell, align = (20.0, 300.0) if quick else (50.0, 600.0)
-    return simulate_rins(PAPER_TABLE3, scheme="psins16", dwell_s=dwell, align_s=align, move_s=10.0, rate=200.0,
-                         rng=rng)
+    return simulate(PAPER_TABLE3, scheme="psins16", dwell_s=dwell, align_s=align, move_s=10.0, rate=200.0,
+                    rng=rng)
 
 
 def run(quick: bool) -> list[dict]:

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optinav.attitude import (DEFAULT_C_B_M, DEFAULT_C_B_M_ENU, MEKF, PolarizationMeasurement, QuasiNewton,
-                              estimate, estimate_attitude, initial_attitude, make_filter, measurement_error,
+                              estimate_q, estimate, initial_attitude, make_filter, measurement_error,
                               predicted_aop)
 from optinav.attitude.metrics import heading_error, rmse
 from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, euler_from_quat, quat_angle_between,
@@ -145,7 +145,7 @@ def test_skipped_polarization_is_counted():
     aop = aop_truth(d["q"], sun[0], DEFAULT_C_B_M)
     aop[130:140] = np.nan
     pol = PolarizationMeasurement(aop, sun, dop=dop)
-    res = estimate_attitude(d["gyr"], d["acc"], d["dt"], pol=pol, method="qn", q0=d["q_start"])
+    res = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="qn", q0=d["q_start"])
     sk = res.pol_skipped
     assert sk["sun_below_horizon"] == 50 and sk["low_dop"] == 30 and sk["missing"] == 10
     assert np.max(_tilt_err_deg(d["q"], np.tile([1.0, 0, 0, 0], (n, 1)))) < 5.0  # near level: sun at zenith
@@ -166,7 +166,7 @@ def test_static_tilt_maps_specific_force_to_up(roll, pitch, yaw, method):
     gyr = np.zeros((n, 3))
     # the start is level: tell the MEKF its initial attitude is uncertain by up to ~60°
     opts = {"gd": {"gain": 0.1}, "cg": {"gain": 0.1}, "mekf": {"init_att_std": 1.0}}.get(method, {})
-    q = estimate(gyr, acc, 0.01, method=method, q0=quat_from_euler([0, 0, np.radians(yaw)]), **opts)
+    q = estimate_q(gyr, acc, 0.01, method=method, q0=quat_from_euler([0, 0, np.radians(yaw)]), **opts)
     assert np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
     f_n = dcm_from_quat(q[-1]) @ f_b
     # GD chatters by up to 2·β·dt rad around the minimum (normalized gradient); CG's momentum can carry it on
@@ -185,19 +185,19 @@ def test_enu_and_ned_agree(seed, method):
     """Data rotated to a right-forward-up body and ENU give the same physical attitude."""
     d = synth(600, amp=1.5, seed=seed, gyro_sigma=0.01, acc_sigma=0.05, aop_sigma=0.01)
     pol_ned = PolarizationMeasurement(d["aop"], d["sun"])
-    q_ned = estimate(d["gyr"], d["acc"], d["dt"], pol=pol_ned, method=method, q0=d["q_start"])
+    q_ned = estimate_q(d["gyr"], d["acc"], d["dt"], pol=pol_ned, method=method, q0=d["q_start"])
     # RFU body vectors: v_rfu = C_FRD^RFU v_frd = C_RFU_FRD.T v; sun to ENU; same sensor (default mounting)
     gyr_r, acc_r = d["gyr"] @ C_RFU_FRD, d["acc"] @ C_RFU_FRD
     pol_enu = PolarizationMeasurement(d["aop"], C_ENU_NED @ d["sun"], frame="ENU")
     q0_enu = quat_from_dcm(C_ENU_NED @ dcm_from_quat(d["q_start"]) @ C_RFU_FRD)
-    q_enu = estimate(gyr_r, acc_r, d["dt"], pol=pol_enu, method=method, frame="ENU", q0=q0_enu)
+    q_enu = estimate_q(gyr_r, acc_r, d["dt"], pol=pol_enu, method=method, frame="ENU", q0=q0_enu)
     back = quat_from_dcm(C_ENU_NED.T @ dcm_from_quat(q_enu) @ C_RFU_FRD.T)
     assert np.max(quat_angle_between(back, q_ned)) < 1e-6  # equivariant up to rounding
 
 
 def test_euler_convention_of_enu_and_ned_heading():
     d = synth(300, amp=0.5)
-    q = estimate(d["gyr"], d["acc"], d["dt"], method="qn", q0=d["q_start"])
+    q = estimate_q(d["gyr"], d["acc"], d["dt"], method="qn", q0=d["q_start"])
     yaw = euler_from_quat(q)[:, 2]
     yaw_true = euler_from_quat(d["q"])[:, 2]
     assert np.max(np.abs(np.angle(np.exp(1j * (yaw - yaw_true))))) < 1e-3
@@ -218,12 +218,12 @@ def test_noisy_motion_accuracy_with_and_without_polarization(method):
               bias=(0.004, -0.003, 0.002))
     q_start = quat_multiply(quat_from_rotvec([0.05, -0.04, 0.3]), d["q_start"])  # 17° heading error, 4° tilt
     pol = PolarizationMeasurement(d["aop"], d["sun"])
-    q = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, q0=q_start)
+    q = estimate_q(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, q0=q_start)
     late = slice(3000, None)
     err = np.degrees(quat_angle_between(q[late], d["q"][late]))
     # the bias of 0.004 rad/s over 60 s alone would give > 10° heading error: polarization must correct it
     assert np.sqrt(np.mean(err ** 2)) < 1.5
-    q_nopol = estimate(d["gyr"], d["acc"], d["dt"], method=method, q0=q_start)
+    q_nopol = estimate_q(d["gyr"], d["acc"], d["dt"], method=method, q0=q_start)
     tilt = _tilt_err_deg(q_nopol[late], d["q"][late])
     assert np.sqrt(np.mean(tilt ** 2)) < 1.5
     # without polarization the heading error stays (gyro-only heading): > 10°
@@ -234,7 +234,7 @@ def test_qn_without_polarization_keeps_gyro_heading():
     """Gravity-only QN must not touch the heading: noise-free rates integrate the heading exactly."""
     d = synth(2000, amp=1.0, seed=2)
     q_start = quat_multiply(quat_from_rotvec([0.1, 0.0, 0.0]), d["q_start"])  # tilt error only
-    q = estimate(d["gyr"], d["acc"], d["dt"], method="qn", q0=q_start)
+    q = estimate_q(d["gyr"], d["acc"], d["dt"], method="qn", q0=q_start)
     yaw_err = np.degrees(np.angle(np.exp(1j * (euler_from_quat(q)[-1, 2] - euler_from_quat(d["q"])[-1, 2]))))
     assert np.max(_tilt_err_deg(q[1000:], d["q"][1000:])) < 0.05
     assert abs(yaw_err) < 6.0  # a tilt correction about a rotated vertical moves heading by O(tilt²) only
@@ -244,8 +244,8 @@ def test_mekf_estimates_gyro_bias_and_reports_consistent_sigma():
     bias = np.array([0.01, -0.008, 0.005])
     d = synth(12000, amp=0.8, seed=9, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=np.radians(0.5), bias=bias)
     pol = PolarizationMeasurement(d["aop"], d["sun"])
-    r = estimate_attitude(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
-                          gyro_noise=0.005 * np.sqrt(0.01), acc_noise=0.05 / G, pol_noise=np.radians(0.5))
+    r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
+                 gyro_noise=0.005 * np.sqrt(0.01), acc_noise=0.05 / G, pol_noise=np.radians(0.5))
     assert np.max(np.abs(r.gyro_bias - bias)) < 1.5e-3
     # normalized estimation error squared (3 dof) averaged over the second half: ≈ 3 when consistent
     e = quat_multiply(np.array([1, -1, -1, -1]) * d["q"], r.q)  # q_true* ⊗ q = body-frame error
@@ -272,7 +272,7 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     opts = dict(gyro_noise=sigma * np.sqrt(d["dt"]), acc_noise=0.05 / G)
     t = np.arange(1, n + 1) * d["dt"]
     bound = np.linalg.norm(bias) * t + 4 * sigma * np.sqrt(3 * d["dt"] * t)
-    r = estimate_attitude(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], **opts)
+    r = estimate(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], **opts)
     head = heading_error(r.q, d["q"])
     assert np.all(head <= bound), f"{np.degrees(np.max(head - bound)):.2f} deg above the gyro-only bound"
     # tilt: better than one accelerometer sample (0.05/g rad = 0.29°); a heading leak would show here first
@@ -280,11 +280,11 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     # the rotation makes every bias component observable (the filter's σ of it ≈ 0.03 °/s)
     assert np.max(np.abs(r.gyro_bias - bias)) < np.radians(0.1)
     # the gyro alone is near its bound at the end of the rest (the vertical bias is unobservable at rest)
-    q_gyro = estimate(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
+    q_gyro = estimate_q(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
     assert heading_error(q_gyro[rest - 1], d["q"][rest - 1]) > 0.5 * bound[rest - 1]
     pol = PolarizationMeasurement(d["aop"], d["sun"])
-    rp = estimate_attitude(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
-                           pol_noise=np.radians(0.5), **opts)
+    rp = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
+                  pol_noise=np.radians(0.5), **opts)
     assert np.degrees(np.max(heading_error(rp.q[rest:], d["q"][rest:]))) < 0.5
 
 
@@ -293,9 +293,9 @@ def test_mekf_heading_sigma_is_capped_without_heading_measurement():
     (init_bias_std · t = 0.1 rad/s · 20 s = 2 rad) until max_heading_std; tilt σ is unaffected."""
     n = 2000
     gyr, acc = np.zeros((n, 3)), np.tile([0.0, 0.0, -G], (n, 1))
-    free = estimate_attitude(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1)
-    capped = estimate_attitude(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1,
-                               max_heading_std=0.3)
+    free = estimate(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1)
+    capped = estimate(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1,
+                      max_heading_std=0.3)
     assert free.att_std[-1, 2] > 1.5
     assert np.max(capped.att_std[:, 2]) <= 0.3 * (1 + 1e-9) + np.sqrt(0.002 ** 2 * 0.01)
     assert np.allclose(capped.att_std[:, :2], free.att_std[:, :2], rtol=1e-6)
@@ -308,7 +308,7 @@ def test_streaming_equals_batch(method):
     d = synth(300, amp=1.5, seed=4, gyro_sigma=0.01, acc_sigma=0.1, aop_sigma=0.01)
     dt = np.full(300, d["dt"]) * np.linspace(0.8, 1.2, 300)  # per-sample steps
     pol = PolarizationMeasurement(d["aop"], d["sun"], dop=np.full(300, 0.4))
-    q_b = estimate(d["gyr"], d["acc"], dt, pol=pol, method=method)
+    q_b = estimate_q(d["gyr"], d["acc"], dt, pol=pol, method=method)
     f = make_filter(method)
     q_s = np.array([f.update(d["gyr"][i], d["acc"][i], dt[i], (d["aop"][i], d["sun"], 0.4)) for i in range(300)])
     assert np.max(np.abs(q_s - q_b)) < 1e-13
@@ -346,7 +346,7 @@ def test_bad_input_raises_optinav_error(kwargs, match):
     base.update(kwargs)
     gyr, acc, dt = base.pop("gyr"), base.pop("acc"), base.pop("dt")
     with pytest.raises(OptinavError, match=match):
-        estimate(gyr, acc, dt, **base)
+        estimate_q(gyr, acc, dt, **base)
 
 
 def test_bad_polarization_input():
@@ -355,10 +355,10 @@ def test_bad_polarization_input():
     with pytest.raises(OptinavError, match="rotation"):
         PolarizationMeasurement(np.zeros(3), [1.0, 0, 0], C_b_m=np.ones((3, 3)))
     with pytest.raises(OptinavError, match="samples"):
-        estimate(np.zeros((5, 3)), np.tile([0, 0, -G], (5, 1)), 0.01,
+        estimate_q(np.zeros((5, 3)), np.tile([0, 0, -G], (5, 1)), 0.01,
                  pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0]))
     with pytest.raises(OptinavError, match="frame"):
-        estimate(np.zeros((3, 3)), np.tile([0, 0, -G], (3, 1)), 0.01,
+        estimate_q(np.zeros((3, 3)), np.tile([0, 0, -G], (3, 1)), 0.01,
                  pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0], frame="ENU"))
 
 
@@ -367,7 +367,7 @@ def test_initial_heading_from_polarization():
     q_start = quat_from_euler(np.radians([5.0, -3.0, 40.0]))
     acc = np.tile(dcm_from_quat(q_start).T @ [0, 0, -G], (50, 1))
     aop = aop_truth(np.tile(q_start, (50, 1)), d["sun"], DEFAULT_C_B_M)
-    q = estimate(np.zeros((50, 3)), acc, 0.01, pol=PolarizationMeasurement(aop, d["sun"]), method="qn")
+    q = estimate_q(np.zeros((50, 3)), acc, 0.01, pol=PolarizationMeasurement(aop, d["sun"]), method="qn")
     assert np.degrees(quat_angle_between(q[0], q_start)) < 0.6
 
 
@@ -379,7 +379,7 @@ def test_gd_close_to_ahrs_madgwick():
     q0 = quat_from_dcm(C_ENU_NED @ dcm_from_quat(d["q_start"]) @ C_RFU_FRD)
     theirs = ahrs.filters.Madgwick(gyr=gyr, acc=acc, frequency=100.0, gain=0.033, q0=q0).Q
     # ahrs keeps Q[0] = q0 and processes samples 1..N−1; ours processes every sample from q0
-    ours = estimate(gyr[1:], acc[1:], d["dt"], method="gd", frame="ENU", q0=q0, gain=0.033)
+    ours = estimate_q(gyr[1:], acc[1:], d["dt"], method="gd", frame="ENU", q0=q0, gain=0.033)
     theirs = theirs[1:]
     # same filter, different Jacobian normalization (ours is tangent to the unit sphere): agree to ~0.1°
     assert np.max(np.degrees(quat_angle_between(ours, theirs))) < 0.2

@@ -10,9 +10,9 @@ from optinav.core.rotations import quat_angle_between
 
 @pytest.fixture(scope="module")
 def flight(tmp_path_factory):
-    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES, simulate_flight
+    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES, simulate
 
-    d = simulate_flight("dynamic", duration_s=40, rate_hz=100, rng=4, gyro_bias=np.radians([0.3, -0.2, 0.25]))
+    d = simulate("dynamic", duration_s=40, rate_hz=100, rng=4, gyro_bias=np.radians([0.3, -0.2, 0.25]))
     folder = tmp_path_factory.mktemp("att")
     path = folder / "flight.csv"
     cols = np.column_stack([d.t, d.acc, np.degrees(d.gyr), np.degrees(d.aop), d.dop])

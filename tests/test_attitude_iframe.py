@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
-from optinav.attitude import AttitudeFilter, estimate, estimate_attitude
+from optinav.attitude import AttitudeFilter, estimate_q, estimate
 from optinav.attitude.checks import FrameWarning, _check_clipping
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, quat_angle_between, quat_from_dcm,
@@ -52,9 +52,9 @@ def test_horizontal_acceleration_with_correct_norm_does_not_tilt():
     acc = G * np.column_stack([np.sin(th), np.zeros(n), -np.cos(th)])
     gyr = np.zeros((n, 3))
     q_true = np.tile([1.0, 0, 0, 0], (n, 1))
-    q = estimate(gyr, acc, DT)
+    q = estimate_q(gyr, acc, DT)
     assert tilt_deg(q, q_true, slice(2000, None)) < 0.3
-    q_gd = estimate(gyr, acc, DT, method="gd", gain=0.1)
+    q_gd = estimate_q(gyr, acc, DT, method="gd", gain=0.1)
     assert tilt_deg(q_gd, q_true, slice(1000, None)) > 3.0  # the published gradient descent is pulled along
 
 
@@ -67,7 +67,7 @@ def test_gyro_bias_from_rest_tracks_a_step():
     gyr[n // 2:] = np.radians([-0.5, 0.3, -0.2])
     gyr += np.random.default_rng(1).normal(0, 0.002, gyr.shape)
     acc = np.tile([0.0, 0.0, -G], (n, 1)) + np.random.default_rng(2).normal(0, 0.02, (n, 3))
-    r = estimate_attitude(gyr, acc, DT)
+    r = estimate(gyr, acc, DT)
     assert np.all(r.rest[500:n // 2 - 10])  # rest after rest_time (1.5 s)
     assert np.max(np.abs(np.degrees(r.gyro_bias) - [-0.5, 0.3, -0.2])) < 0.03
     # the heading follows the bias-corrected gyro: the raw z bias would turn it by 0.4·20 − 0.2·20 = 4° in 40 s;
@@ -80,21 +80,21 @@ def test_gyro_bias_in_motion_all_axes():
     n = 30000
     w, acc, q_true = motion(n, seed=3, amp=1.0)
     bias = np.radians([0.4, -0.3, 0.3])
-    r = estimate_attitude(w + bias, acc, DT)
+    r = estimate(w + bias, acc, DT)
     assert not r.rest.any()
     assert np.max(np.abs(np.degrees(r.gyro_bias - bias))) < 0.05
     assert tilt_deg(r.q, q_true, slice(n // 2, None)) < 0.2
-    off = estimate_attitude(w + bias, acc, DT, bias_motion=0.0)  # rest-only bias: the same data drift in tilt
+    off = estimate(w + bias, acc, DT, bias_motion=0.0)  # rest-only bias: the same data drift in tilt
     assert tilt_deg(off.q, q_true, slice(n // 2, None)) > 2 * tilt_deg(r.q, q_true, slice(n // 2, None))
 
 
 def test_rest_detection_in_physical_units():
     n = 3000
     w, acc, _ = motion(n, seed=4, amp=0.5, rest=1000)
-    r = estimate_attitude(w, acc, DT)
+    r = estimate(w, acc, DT)
     assert r.rest[200:990].all() and not r.rest[1100:].any()
     # the same data at 400 Hz: rest is declared after the same time (rest_time 1.5 s), not the same count
-    rr = estimate_attitude(np.repeat(w, 4, axis=0), np.repeat(acc, 4, axis=0), DT / 4)
+    rr = estimate(np.repeat(w, 4, axis=0), np.repeat(acc, 4, axis=0), DT / 4)
     assert abs(np.argmax(rr.rest) * DT / 4 - np.argmax(r.rest) * DT) < 0.05
 
 
@@ -112,15 +112,15 @@ def test_magnetometer_heading_and_disturbance_rejected():
     mag_d = mag.copy()
     mag_d[dist] += np.einsum("nji,j->ni", dcm_from_quat(q_true[dist]), [30.0, 30.0, 0.0])
     bias = np.radians([0.0, 0.0, 0.3])  # vertical bias: the heading drifts without a magnetometer
-    r = estimate_attitude(w + bias, acc, DT, mag=mag_d, q0=q0)
+    r = estimate(w + bias, acc, DT, mag=mag_d, q0=q0)
     h = np.degrees(heading_error(r.q, q_true))
     # the first magnetometer sample removes the 29° at once; until the vertical bias is learned (≈ 40 s) the
     # heading lags the 0.3 °/s drift by ≈ tau_mag·0.3 °/s ≈ 1.5°; later < 0.5°, also through the disturbance
     assert h[100:4000].max() < 2.0 and h[4000:].max() < 0.5
     assert not r.mag_used[dist][100:].any() and r.mag_used[8000:].all()
-    ungated = estimate(w + bias, acc, DT, mag=mag_d, q0=q0, mag_norm_th=10.0, mag_dip_th=np.pi)
+    ungated = estimate_q(w + bias, acc, DT, mag=mag_d, q0=q0, mag_norm_th=10.0, mag_dip_th=np.pi)
     assert np.degrees(heading_error(ungated, q_true))[dist].max() > 10.0
-    no_mag = estimate(w + bias, acc, DT, q0=q0)
+    no_mag = estimate_q(w + bias, acc, DT, q0=q0)
     assert np.degrees(heading_error(no_mag, q_true))[2000:].min() > 20.0
 
 
@@ -129,7 +129,7 @@ def test_streaming_equals_batch_and_online_is_causal():
     w, acc, _ = motion(n, seed=6, amp=1.5, rest=300)
     mag = np.einsum("nji,j->ni", dcm_from_quat(motion(n, seed=6, amp=1.5, rest=300)[2]), _mag_n())
     dts = DT * np.linspace(0.9, 1.1, n)
-    r = estimate_attitude(w, acc, dts, mag=mag)
+    r = estimate(w, acc, dts, mag=mag)
     f = AttitudeFilter(frame="NED")
     qs = np.empty((n, 4))
     rest = np.empty(n, bool)
@@ -143,9 +143,9 @@ def test_streaming_equals_batch_and_online_is_causal():
         f.update(w[0, :2], acc[0], dt=DT)
     g = AttitudeFilter(rate_hz=RATE)
     chunks = [g.update_batch(w[a:a + 500], acc[a:a + 500]).q for a in range(0, n, 500)]
-    assert np.max(np.abs(np.vstack(chunks) - estimate(w, acc, DT))) < 1e-12
+    assert np.max(np.abs(np.vstack(chunks) - estimate_q(w, acc, DT))) < 1e-12
     # online: the first 1000 outputs do not change when the rest of the recording is dropped
-    assert np.array_equal(estimate(w[:1000], acc[:1000], DT), estimate(w, acc, DT)[:1000])
+    assert np.array_equal(estimate_q(w[:1000], acc[:1000], DT), estimate_q(w, acc, DT)[:1000])
 
 
 def test_offline_beats_online_on_translation():
@@ -155,8 +155,8 @@ def test_offline_beats_online_on_translation():
     lin[:, :2] = np.cumsum(rng.normal(0, 0.05, (n, 2)), axis=0)  # wandering horizontal acceleration
     lin[:, :2] -= np.convolve(lin[:, 0], np.ones(500) / 500, "same")[:, None] * 0 + lin[:, :2].mean(axis=0)
     w, acc, q_true = motion(n, seed=7, amp=0.7, lin_acc=np.clip(lin, -3, 3))
-    on = tilt_deg(estimate(w, acc, DT), q_true, slice(1000, None))
-    off = tilt_deg(estimate(w, acc, DT, offline=True), q_true, slice(1000, None))
+    on = tilt_deg(estimate_q(w, acc, DT), q_true, slice(1000, None))
+    off = tilt_deg(estimate_q(w, acc, DT, offline=True), q_true, slice(1000, None))
     assert off < on
 
 
@@ -180,8 +180,8 @@ def test_iframe_enu_and_ned_agree():
     n = 3000
     w, acc, q = motion(n, seed=8, amp=1.5, rest=200)
     mag = np.einsum("nji,j->ni", dcm_from_quat(q), _mag_n())
-    q_ned = estimate(w, acc, DT, mag=mag, offline=True)
-    q_enu = estimate(w @ C_RFU_FRD, acc @ C_RFU_FRD, DT, mag=mag @ C_RFU_FRD, frame="ENU", offline=True)
+    q_ned = estimate_q(w, acc, DT, mag=mag, offline=True)
+    q_enu = estimate_q(w @ C_RFU_FRD, acc @ C_RFU_FRD, DT, mag=mag @ C_RFU_FRD, frame="ENU", offline=True)
     back = quat_from_dcm(C_ENU_NED.T @ dcm_from_quat(q_enu) @ C_RFU_FRD.T)
     assert np.max(quat_angle_between(back, q_ned)) < 1e-8
 
@@ -196,8 +196,8 @@ def test_input_stage_for_published_methods():
     gyr = np.zeros((n, 3)) + np.radians([0.3, -0.3, 0.2])
     q_true = np.tile([1.0, 0, 0, 0], (n, 1))
     for m in ("qn", "gd"):
-        plain = estimate_attitude(gyr, acc, DT, method=m)
-        staged = estimate_attitude(gyr, acc, DT, method=m, input_stage=True)
+        plain = estimate(gyr, acc, DT, method=m)
+        staged = estimate(gyr, acc, DT, method=m, input_stage=True)
         assert staged.input_stage and not plain.input_stage
         assert tilt_deg(staged.q, q_true, slice(1000, None)) < 0.5 * tilt_deg(plain.q, q_true, slice(1000, None))
 
@@ -210,8 +210,8 @@ def test_time_gap_refused_or_split():
     dts = np.full(n, DT)
     dts[1000] = 10.0  # 10 s without samples
     with pytest.raises(OptinavError, match="time gap of 10 s.*--allow-gaps"):
-        estimate(w, acc, dts)
-    r = estimate_attitude(w, acc, dts, allow_gaps=True)
+        estimate_q(w, acc, dts)
+    r = estimate(w, acc, dts, allow_gaps=True)
     assert r.segments == 2 and r.q.shape == (n, 4)
     # restarted from the accelerometer after the gap: the tilt is right at once
     assert tilt_deg(r.q, q_true, slice(1000, 1010)) < 0.5
@@ -237,7 +237,7 @@ def test_mislabelled_or_damaged_imu_refused(case, match):
     else:
         w = np.clip(w, -1.5, 1.5)
     with pytest.raises(OptinavError, match=match):
-        estimate(w, acc, DT)
+        estimate_q(w, acc, DT)
 
 
 def test_gyro_unit_judged_where_the_gyro_turns():
@@ -252,7 +252,7 @@ def test_gyro_unit_judged_where_the_gyro_turns():
     assert _gyro_unit_hint(w, acc, np.array([DT])) == ""
     assert "--gyro-unit deg/s" in _gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
     with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
-        estimate(np.degrees(w), acc, DT)
+        estimate_q(np.degrees(w), acc, DT)
 
 
 def test_quantized_natural_peak_is_not_clipping():
@@ -270,7 +270,7 @@ def test_frame_warning_names_the_remedy():
     n = 500
     acc = np.tile([0.0, 0.0, G], (n, 1))  # +g on body z: an up-pointing z axis
     with pytest.warns(FrameWarning, match="--frame ENU"):
-        estimate(np.zeros((n, 3)), acc, DT)
+        estimate_q(np.zeros((n, 3)), acc, DT)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        estimate(np.zeros((n, 3)), acc, DT, frame="ENU")
+        estimate_q(np.zeros((n, 3)), acc, DT, frame="ENU")

@@ -19,7 +19,7 @@ from optinav.errors import OptinavError
 from optinav.io import ImuLog, write_imu
 from optinav.multipos import model
 from optinav.multipos.calibrate import FileOptions, calibrate_file
-from optinav.multipos.simulate import simulate_session
+from optinav.multipos.simulate import simulate
 
 LAT, HEIGHT = 38.88, 35.0
 OPTIONS = FileOptions(latitude=LAT, height=HEIGHT)
@@ -34,8 +34,8 @@ def units(tmp_path_factory):
     d = tmp_path_factory.mktemp("units")
     truth = {}
     for name, acc_unit, seed in UNITS:
-        s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=LAT,
-                             height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
+        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=LAT,
+                     height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
         write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s
     (d / BAD).write_text("t,ax,ay,az\n0,1,2\n1,2,oops,4\n")

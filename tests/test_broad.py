@@ -6,7 +6,7 @@ static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
 import numpy as np
 import pytest
 
-from optinav.attitude import estimate
+from optinav.attitude import estimate_q
 from optinav.attitude.data import BROAD_TRIAL_02, load_broad, shared_data_dir, synthesize_polarization
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.core.strapdown import attitude_update
@@ -27,7 +27,7 @@ def trial():
 
 @pytest.mark.parametrize("method", ["gd", "cg", "qn", "mekf"])
 def test_broad_inclination_rmse_6d(trial, method):
-    q = estimate(trial.gyr, trial.acc, trial.dt, method=method, frame="ENU")
+    q = estimate_q(trial.gyr, trial.acc, trial.dt, method=method, frame="ENU")
     err = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
     assert err < LIMITS_DEG[method], f"{method}: {err:.3f} deg"
 
@@ -36,7 +36,7 @@ def test_broad_gd_reproduces_ahrs_madgwick(trial):
     ahrs = pytest.importorskip("ahrs")
     q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate, gain=0.033).Q
     ref = np.degrees(rmse(inclination_error(q_ahrs, trial.q_ref), trial.eval_mask))
-    q = estimate(trial.gyr, trial.acc, trial.dt, method="gd", frame="ENU", gain=0.033)
+    q = estimate_q(trial.gyr, trial.acc, trial.dt, method="gd", frame="ENU", gain=0.033)
     ours = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
     assert abs(ref - 0.61) < 0.01  # the README's figure
     assert abs(ours - ref) < 0.05
@@ -55,10 +55,10 @@ def test_broad_heading_with_synthesized_polarization(trial):
     mask = trial.eval_mask[sl]
     res = {}
     for method in ("gd", "qn", "mekf"):
-        q = estimate(trial.gyr[sl], trial.acc[sl], trial.dt, pol=pol.select(sl), method=method, frame="ENU",
+        q = estimate_q(trial.gyr[sl], trial.acc[sl], trial.dt, pol=pol.select(sl), method=method, frame="ENU",
                      q0=trial.q_ref[i0])
         res[method] = np.degrees(rmse(heading_error(q, trial.q_ref[sl]), mask))
-    q6 = estimate(trial.gyr[sl], trial.acc[sl], trial.dt, method="gd", frame="ENU", q0=trial.q_ref[i0])
+    q6 = estimate_q(trial.gyr[sl], trial.acc[sl], trial.dt, method="gd", frame="ENU", q0=trial.q_ref[i0])
     no_pol = np.degrees(rmse(heading_error(q6, trial.q_ref[sl]), mask))
     # the gyro alone drifts by > 5° (z bias ≈ 0.22 °/s over 3 min); polarization holds the heading to < 1°
     assert no_pol > 5.0
@@ -80,7 +80,7 @@ def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
     mask, q_ref = trial.eval_mask[sl], trial.q_ref[sl]
     q_gyro = attitude_update(q_ref[0], trial.gyr[sl] * trial.dt, coning="none")[1:]
     gyro_only = np.degrees(rmse(heading_error(q_gyro, q_ref), mask))
-    q = estimate(trial.gyr[sl], trial.acc[sl], trial.dt, method="mekf", frame="ENU", q0=q_ref[0], **options)
+    q = estimate_q(trial.gyr[sl], trial.acc[sl], trial.dt, method="mekf", frame="ENU", q0=q_ref[0], **options)
     mekf = np.degrees(rmse(heading_error(q, q_ref), mask))
     assert gyro_only > 10.0  # the drift the test is about
     assert mekf <= gyro_only, f"MEKF heading {mekf:.2f} deg vs gyro alone {gyro_only:.2f} deg"
@@ -106,9 +106,9 @@ def nine():
     for p in NINE:
         tr = load_broad(p)
         check_imu(tr.gyr, tr.acc, np.array([tr.dt]))  # real recordings pass the unit / swap / clipping checks
-        on = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", checks=False)
-        off = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=True, checks=False)
-        mag = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, checks=False)
+        on = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", checks=False)
+        off = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=True, checks=False)
+        mag = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, checks=False)
         m = tr.eval_mask
         rows.append([np.degrees(rmse(inclination_error(on, tr.q_ref), m)),
                      np.degrees(rmse(inclination_error(off, tr.q_ref), m)),

@@ -9,9 +9,9 @@ import pytest
 from optinav.cli.main import main
 from optinav.errors import OptinavError
 from optinav.multipos import gates, model
-from optinav.multipos.calibrate import calibrate_session, count_range, saturated_mask
+from optinav.multipos.calibrate import calibrate, count_range, saturated_mask
 from optinav.multipos.result import CalibrationResult
-from optinav.multipos.simulate import simulate_session
+from optinav.multipos.simulate import simulate
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
 needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
@@ -21,7 +21,7 @@ OFFSET = 32768.0
 @pytest.fixture(scope="module")
 def sim():
     """18 poses in raw counts, written as an unsigned 16-bit ADC does (offset binary, centred at 32768)."""
-    s = simulate_session("18", dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=5)
+    s = simulate("18", dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=5)
     return s, np.round(s.acc + OFFSET), np.round(s.gyro + OFFSET)
 
 
@@ -57,7 +57,7 @@ def test_unsigned_counts_are_not_saturated_at_mid_scale():
 
 def test_unsigned_counts_calibrate_against_truth(sim):
     s, acc, gyr = sim
-    r = calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
     assert r.excluded["saturated_acc"] == 0 and r.excluded["saturated_gyro"] == 0
     U, Q = model.upper_triangular_form(s.acc_K)
     a = r.accelerometer
@@ -72,8 +72,8 @@ def test_unsigned_counts_calibrate_against_truth(sim):
 @pytest.mark.parametrize("method", ["newton", "ga", "pso"])
 def test_paper_methods_on_raw_counts_with_big_offsets_agree_with_lm(sim, method):
     s, acc, _ = sim
-    ref = calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity)
-    r = calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, method=method, rng=1)
+    ref = calibrate(s.t, acc, acc_unit="counts", g=s.gravity)
+    r = calibrate(s.t, acc, acc_unit="counts", g=s.gravity, method=method, rng=1)
     np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(ref.accelerometer["K"]), rtol=5e-3)
     # bias within 0.5 % of the g span (K·g) of LM's
     assert np.all(np.abs(r.accelerometer["b"] - ref.accelerometer["b"])
@@ -86,7 +86,7 @@ def test_a_gyro_turn_at_full_scale_is_left_out_with_a_note(sim):
     iv = s.static_intervals
     k = int(np.flatnonzero((s.t > iv[3, 1]) & (s.t < iv[4, 0]))[5])
     gyr[k, 0] = 65535.0
-    r = calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
     assert r.excluded["saturated_turns"] == 1 and r.excluded["saturated_gyro"] == 1
     assert any("saturates during 1 turn" in n for n in r.quality["notes"])
     _, Q = model.upper_triangular_form(s.acc_K)
@@ -123,7 +123,7 @@ def test_data_in_mg_calibrates_with_acc_unit_mg(sim, tmp_path, capsys):
 
 def test_standard_gravity_default_is_announced(sim):
     s, acc, _ = sim
-    r = calibrate_session(s.t, acc, acc_unit="counts")
+    r = calibrate(s.t, acc, acc_unit="counts")
     assert "standard gravity, by default" in r.quality["notes"][0] and "--latitude" in r.quality["notes"][0]
 
 
@@ -132,7 +132,7 @@ def test_gyro_in_degrees_labelled_radians_is_a_unit_error(sim):
     acc = s.acc / (2048 / 9.80665)
     gyr_deg = s.gyro / 16.4  # counts → deg/s
     with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
-        calibrate_session(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
+        calibrate(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
 
 
 # ---------------------------------------------------------------------------------------------------- axes
@@ -146,7 +146,7 @@ def test_swapped_or_flipped_axes_are_named(sim, how):
     else:
         gyr[:, 2] = 2 * OFFSET - gyr[:, 2]
     with pytest.raises(OptinavError, match="swapped or flipped") as exc:
-        calibrate_session(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+        calibrate(s.t, acc, gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
     assert ("gyroscope x reads +y" in str(exc.value)) if how == "swap" else ("gyroscope z reads -z" in str(exc.value))
 
 
@@ -173,14 +173,14 @@ def test_motion_inside_the_static_intervals_fails_the_residual_gate(sim):
     iv = s.static_intervals
     shifted = [(a + 6.0, b + 3.0) for a, b in iv[:-1]]  # each "pose" now holds most of a turn
     with pytest.raises(OptinavError, match="do not fit one accelerometer model|implausible|did not converge"):
-        calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, sections=shifted)
+        calibrate(s.t, acc, acc_unit="counts", g=s.gravity, sections=shifted)
 
 
 def test_optimizer_that_stops_early_is_an_error(sim):
     s, acc, _ = sim
     with pytest.raises(OptinavError, match="did not converge.*--model diagonal"):
-        calibrate_session(s.t, acc, acc_unit="counts", g=s.gravity, method="gn", model_form="full",
-                          method_options={"max_iter": 1})
+        calibrate(s.t, acc, acc_unit="counts", g=s.gravity, method="gn", model_form="full",
+                  method_options={"max_iter": 1})
 
 
 @needs_data
@@ -225,18 +225,18 @@ def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
 def test_too_few_distinct_poses_is_an_error_however_many_intervals():
     """Eight intervals, but only four directions (each pose twice): not even scales and biases are determined."""
     ups = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)] * 2, float)
-    s = simulate_session(ups, dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=2)
+    s = simulate(ups, dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=2)
     with pytest.raises(OptinavError, match="4 distinct pose directions .*at least 6 distinct poses"):
-        calibrate_session(s.t, s.acc, acc_unit="counts", g=s.gravity)
+        calibrate(s.t, s.acc, acc_unit="counts", g=s.gravity)
 
 
 def test_a_drifting_gyro_bias_fails_static_and_calibrates_with_local(sim):
     s, acc, gyr = sim
     ramp = np.outer(s.t / s.t[-1], [60.0, -40.0, 50.0])  # counts: about 3.6 °/s of drift over the session
     with pytest.raises(OptinavError, match="--gyro-bias local"):
-        calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)
-    r = calibrate_session(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity,
-                          gyro_bias="local")
+        calibrate(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                  gyro_bias="local")
     _, Q = model.upper_triangular_form(s.acc_K)
     Kg = s.gyro_K @ Q.T
     assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])

@@ -170,7 +170,7 @@ def test_imucal_session_ferraris_method_matches_reference(tmp_path):
 
 def test_saturated_samples_are_excluded_and_counted(session):
     from optinav.io import read_imu
-    from optinav.multipos.calibrate import calibrate_session, saturated_mask
+    from optinav.multipos.calibrate import calibrate, saturated_mask
 
     d, data, truth = session
     log = read_imu(data)
@@ -178,8 +178,8 @@ def test_saturated_samples_are_excluded_and_counted(session):
     iv = np.array(truth["static_intervals"])
     i0 = int(np.searchsorted(log.t, iv[2, 0] + 2))
     acc[i0:i0 + 50, 0] = 2500.0  # clipped at a ±2500-count range
-    ref = calibrate_session(log.t, log.acc, acc_unit="counts", g=truth["gravity"])
-    res = calibrate_session(log.t, acc, acc_unit="counts", g=truth["gravity"], acc_range=2500.0)
+    ref = calibrate(log.t, log.acc, acc_unit="counts", g=truth["gravity"])
+    res = calibrate(log.t, acc, acc_unit="counts", g=truth["gravity"], acc_range=2500.0)
     assert res.excluded["saturated_acc"] == 50
     np.testing.assert_allclose(res.accelerometer["K"], ref.accelerometer["K"], atol=3 * np.nanmax(
         ref.accelerometer["K_std"]))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from optinav.attitude.simulate import PAPER_SITE, FlightData, simulate_flight
+from optinav.attitude.simulate import PAPER_SITE, FlightData, simulate
 from optinav.core.earth import gravity_vector
 from optinav.core.imu_model import preset
 from optinav.core.units import DEG
@@ -15,12 +15,12 @@ from optinav.sky.polarization import PointSensor, wrap_axial
 
 @pytest.fixture(scope="module")
 def static():
-    return simulate_flight("static", 30.0, 100.0, rng=11)
+    return simulate("static", 30.0, 100.0, rng=11)
 
 
 @pytest.fixture(scope="module")
 def dynamic():
-    return simulate_flight("dynamic", 40.0, 100.0, rng=12)
+    return simulate("dynamic", 40.0, 100.0, rng=12)
 
 
 def _rayleigh_aop(f: FlightData) -> np.ndarray:
@@ -93,26 +93,26 @@ def test_dynamic_flight_has_strong_manoeuvres(dynamic):
 
 
 def test_enu_frame_same_physics_and_options():
-    ned = simulate_flight("static", 2.0, 50.0, rng=3)
-    enu = simulate_flight("static", 2.0, 50.0, rng=3, frame="ENU")
+    ned = simulate("static", 2.0, 50.0, rng=3)
+    enu = simulate("static", 2.0, 50.0, rng=3, frame="ENU")
     np.testing.assert_allclose(enu.aop_true, ned.aop_true, atol=1e-9)  # same mounting, same sky
     np.testing.assert_allclose(enu.sun_n[:, [1, 0]], ned.sun_n[:, :2], atol=1e-12)
     np.testing.assert_allclose(enu.sun_n[:, 2], -ned.sun_n[:, 2], atol=1e-12)
     assert ned.sun_n.shape == (101, 3) and ned.frame == "NED" and enu.frame == "ENU"
-    sub = simulate_flight("static", 2.0, 50.0, rng=3, pol_rate_hz=10.0)
+    sub = simulate("static", 2.0, 50.0, rng=3, pol_rate_hz=10.0)
     assert np.count_nonzero(np.isfinite(sub.aop)) == 21
-    berry = simulate_flight("static", 1.0, 50.0, rng=3, sky_model="berry", neutral_distance=0.0)
+    berry = simulate("static", 1.0, 50.0, rng=3, sky_model="berry", neutral_distance=0.0)
     np.testing.assert_allclose(wrap_axial(berry.aop_true - ned.aop_true[:51]), 0, atol=1e-9)
-    bias = simulate_flight("static", 2.0, 50.0, rng=3, gyro_bias=[0.01, 0, 0])
+    bias = simulate("static", 2.0, 50.0, rng=3, gyro_bias=[0.01, 0, 0])
     assert np.mean(bias.gyr[:, 0] - ned.gyr[:, 0]) == pytest.approx(0.01, abs=1e-12)
     with pytest.raises(OptinavError, match="no UTC offset"):
-        simulate_flight("static", 1.0, 50.0, time="2021-01-17T10:34:00")
+        simulate("static", 1.0, 50.0, time="2021-01-17T10:34:00")
     with pytest.raises(OptinavError):
-        simulate_flight("loop", 1.0, 50.0)
+        simulate("loop", 1.0, 50.0)
 
 
 def test_flight_data_roundtrip(tmp_path):
-    f = simulate_flight("static", 0.5, 20.0, rng=5, lat_deg=PAPER_SITE["lat_deg"])
+    f = simulate("static", 0.5, 20.0, rng=5, lat_deg=PAPER_SITE["lat_deg"])
     path = tmp_path / "flight.json"
     f.to_json(path)
     back = FlightData.from_json(path)

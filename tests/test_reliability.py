@@ -334,13 +334,13 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
 
 def _batch_units(tmp_path):
     from optinav.io import ImuLog, write_imu
-    from optinav.multipos.simulate import simulate_session
+    from optinav.multipos.simulate import simulate
 
     d = tmp_path / "units"
     d.mkdir()
     for k in (1, 2):
-        s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=38.88,
-                             height_m=35.0, rng=k)
+        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=38.88,
+                     height_m=35.0, rng=k)
         write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
     return d
 

@@ -11,7 +11,7 @@ from optinav.rins.calibrate import calibrate, observability, prepare
 from optinav.rins.io import read_rins, write_rins
 from optinav.rins.model import (nonorth_dcm, residual_jacobian, residuals, sensor_attitude,
                                 vehicle_attitude)
-from optinav.rins.simulate import simulate_rins
+from optinav.rins.simulate import simulate
 
 P_TRUE = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
 SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate=100.0)
@@ -23,7 +23,7 @@ def _truth_combo(c):
 
 @pytest.fixture(scope="module")
 def noisy():
-    d = simulate_rins(P_TRUE, rng=3, **SHORT)
+    d = simulate(P_TRUE, rng=3, **SHORT)
     return d, prepare(d)
 
 
@@ -58,7 +58,7 @@ def test_chain_round_trip_and_analytic_jacobian():
 
 
 def test_observability_of_180_degree_dual_axis_scheme():
-    d = simulate_rins(np.zeros(6), noise=False, imu_errors=False, **SHORT)
+    d = simulate(np.zeros(6), noise=False, imu_errors=False, **SHORT)
     rep = observability(d.alpha, d.beta)
     assert rep.rank == 4
     null = np.asarray(rep.null_space)
@@ -69,7 +69,7 @@ def test_observability_of_180_degree_dual_axis_scheme():
 
 
 def test_lm_noise_free_recovers_observable_combinations():
-    d = simulate_rins(P_TRUE, noise=False, imu_errors=False, rng=0, **SHORT)
+    d = simulate(P_TRUE, noise=False, imu_errors=False, rng=0, **SHORT)
     res = calibrate(d, "lm")
     assert res.angles["theta_z"] is None and res.angles["eta_z"] is None and res.angles["eta_y"] is None
     for c in res.combinations:
@@ -105,13 +105,13 @@ def test_pso_as_published_reaches_lm_fitness(noisy):
 
 
 def test_axis_baseline_exact_without_gyro_errors_and_biased_with_misalignment():
-    clean = simulate_rins(P_TRUE, rng=5, noise=False, imu_errors=False, **SHORT)
+    clean = simulate(P_TRUE, rng=5, noise=False, imu_errors=False, **SHORT)
     ax = calibrate(clean, "axis")
     assert ax.options["n_inner_moves"] == 2 and ax.options["n_outer_moves"] == 2
     for c in ax.combinations:
         assert abs(c["value"] - _truth_combo(c)) < 2e-6, c
     arc = np.radians(1 / 3600)
-    d = simulate_rins(P_TRUE, rng=5, gyro_misalignment=60 * arc, noise=False, **SHORT)
+    d = simulate(P_TRUE, rng=5, gyro_misalignment=60 * arc, noise=False, **SHORT)
     prep = prepare(d)
     lm = calibrate(method="lm", prep=prep, gyro_misalignment=60 * arc)
     ax = calibrate(method="axis", prep=prep, gyro_misalignment=60 * arc)
@@ -131,7 +131,7 @@ def test_none_method_reports_nothing_calibrated(noisy):
 @pytest.mark.parametrize("suffix", [".npz", ".csv", ".h5"])
 def test_file_round_trip(tmp_path, suffix):
     pytest.importorskip("h5py") if suffix == ".h5" else None
-    d = simulate_rins(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate=50)
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate=50)
     path = write_rins(tmp_path / f"x{suffix}", d)
     e = read_rins(path)
     for f in ("t", "dtheta", "dv", "alpha", "beta"):
@@ -145,14 +145,14 @@ def _err(data, match):
 
 
 def test_bad_input_errors():
-    base = simulate_rins(P_TRUE, rng=2, **SHORT)
+    base = simulate(P_TRUE, rng=2, **SHORT)
     # no motion at all
     nomo = dataclasses.replace(base, alpha=np.zeros_like(base.alpha), beta=np.zeros_like(base.beta),
                                dtheta=base.dtheta.copy())
     nomo.dtheta[:] = base.dtheta[:100].mean(0)
     _err(nomo, "never move|no gimbal motion")
     # only the inner axis turns
-    inner = simulate_rins(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate=100)
+    inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate=100)
     _err(inner, r"only the inner \(alpha\) axis turns.*eta_x.*cannot be calibrated")
     # frozen outer encoder while the outer gimbal turns
     frozen = dataclasses.replace(base, beta=np.zeros_like(base.beta))

@@ -138,8 +138,10 @@ def test_topic_choice(tmp_path):
         read_imu(bag, topic="/chatter")
     with pytest.raises(OptinavError, match="holds sensor_msgs/msg/Imu, not sensor_msgs/msg/MagneticField"):
         read_imu(bag, topic="/imu/left,/imu/right")
+    csv = tmp_path / "x.csv"
+    csv.write_text("t,ax\n0,1\n1,2\n")
     with pytest.raises(OptinavError, match="applies to ROS bags"):
-        read_table(Path(__file__), topic="/imu")
+        read_table(csv, topic="/imu")
 
 
 def test_no_imu_topic_and_empty_topic(tmp_path):

@@ -1,19 +1,22 @@
 """Attitude from gyroscope + accelerometer + skylight polarization (Jin et al. 2021) and baselines.
 
-Public API: :func:`estimate` (batch, (N, 4) quaternions; default method ``iframe``), :func:`estimate_attitude`
-(with diagnostics), streaming filters :class:`AttitudeFilter` (iframe), :class:`QuasiNewton`,
+Public API: :func:`estimate` (batch, an :class:`AttitudeEstimate`; default method ``iframe``), :func:`estimate_q`
+(its (N, 4) quaternions only), :func:`simulate` (a simulated flight with truth), streaming filters :class:`AttitudeFilter` (iframe), :class:`QuasiNewton`,
 :class:`GradientDescent`, :class:`ConjugateGradient`, :class:`MEKF`, the shared measurement model (:class:`PolarizationMeasurement`, :func:`measurement_error`,
-:data:`DEFAULT_C_B_M`) and error metrics (:mod:`optinav.attitude.metrics`). The flight simulator lives in
-:mod:`optinav.attitude.simulate`.
+:data:`DEFAULT_C_B_M`) and error metrics (:mod:`optinav.attitude.metrics`). The flight simulator and its constants live in the module
+``optinav/attitude/simulate.py`` (import them with ``from optinav.attitude.simulate import PAPER_SITE``; the
+package attribute ``optinav.attitude.simulate`` is the function).
 """
 
 from optinav.attitude.estimators import (DEFAULTS, METHODS, MEKF, AttitudeEstimate, AttitudeFilter,
-                                         ConjugateGradient, GradientDescent, QuasiNewton, estimate, estimate_attitude,
+                                         ConjugateGradient, GradientDescent, QuasiNewton, estimate, estimate_q,
                                          initial_attitude, make_filter)
 from optinav.attitude.measurement import (DEFAULT_C_B_M, DEFAULT_C_B_M_ENU, PolarizationMeasurement, default_c_b_m,
                                           measurement_error, predicted_aop, up_vector, wrap_axial)
+from optinav.attitude.simulate import simulate
 
 __all__ = ["DEFAULTS", "METHODS", "MEKF", "AttitudeEstimate", "AttitudeFilter", "ConjugateGradient",
-           "GradientDescent", "QuasiNewton", "estimate", "estimate_attitude", "initial_attitude", "make_filter", "DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU",
+           "GradientDescent", "QuasiNewton", "estimate", "estimate_q", "initial_attitude", "make_filter", "simulate",
+           "DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU",
            "PolarizationMeasurement", "default_c_b_m", "measurement_error", "predicted_aop", "up_vector",
            "wrap_axial"]

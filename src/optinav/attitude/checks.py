@@ -84,9 +84,12 @@ def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.nd
     length). ``ng``: the gyro's row norms if already computed."""
     ng = _norm(gyr) if ng is None else ng
     sl = _turning_window(ng, dts)
-    g, a, d = gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts
+    return _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
+
+
+def _unit_hint_window(g, a, d, window_max: float) -> str:
     k = g.shape[0]
-    if np.max(ng[sl]) * max(_SCALES) * float(np.median(d)) * k < 0.5:
+    if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
     spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
     best = min(spread, key=spread.get)
@@ -98,7 +101,16 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
     a clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if known."""
     na = _norm(acc)
     ng = _norm(gyr)
-    med_a, med_g = float(np.median(na)), float(np.median(ng))
+    check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)))
+    hint = _gyro_unit_hint(gyr, acc, dts, ng)
+    if hint:
+        raise _unit_error(hint)
+    _check_clipping(gyr, gyro_range, float(np.median(dts)))
+
+
+def check_norms(med_a: float, med_g: float, peak: float) -> None:
+    """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s) and the gyro's
+    peak norm: swapped triads, an accelerometer not in m/s², a gyro in deg/s."""
     if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
         raise OptinavError(f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the "
                            "two triads look swapped", "check the column order of --columns (t,ax,ay,az,gx,gy,gz)")
@@ -106,15 +118,22 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
         unit = "g" if 0.3 < med_a < 3 else "another unit"
         raise OptinavError(f"the accelerometer's median norm is {med_a:.3g} m/s², not about 9.8: it looks like "
                            f"{unit}", "declare the unit with --acc-unit (g, mg, m/s^2)")
-    peak = float(np.max(ng))
     if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
         raise OptinavError(f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
                            "declare the unit with --gyro-unit deg/s")
-    hint = _gyro_unit_hint(gyr, acc, dts, ng)
+
+
+def _unit_error(hint: str) -> OptinavError:
+    return OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
+                        "π/180 does", f"it looks like {hint}")
+
+
+def check_gyro_unit(g: np.ndarray, a: np.ndarray, d: np.ndarray, window_max: float) -> None:
+    """The gyro-unit check of :func:`check_imu` on the samples of its window (gyr g, acc a, steps d, all (k, ·))
+    whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them)."""
+    hint = _unit_hint_window(g, a, d, window_max)
     if hint:
-        raise OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
-                           "π/180 does", f"it looks like {hint}")
-    _check_clipping(gyr, gyro_range, float(np.median(dts)))
+        raise _unit_error(hint)
 
 
 def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> None:
@@ -131,22 +150,33 @@ def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> Non
             at = y >= m - 1e-9 * max(m, 1.0)
             if gyro_range is not None:
                 at |= y >= 0.999 * gyro_range
-            idx = np.flatnonzero(at)  # few samples at the extreme: runs from their indices
-            brk = np.flatnonzero(np.diff(idx) > 1)
-            starts = np.concatenate([idx[:1], idx[brk + 1]])
-            ends = np.concatenate([idx[brk] + 1, idx[-1:] + 1])  # run [s, e)
-            steep = 0
-            for s, e in zip(starts, ends):
-                if e - s < 3:
-                    continue
-                step_in = y[s] - y[s - 1] if s > 0 else 0.0
-                step_out = y[e - 1] - y[e] if e < y.size else 0.0
-                if max(step_in, step_out) > 0.005 * m or (e - s) * dt >= 0.1:
-                    steep += 1
+            steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt)
             if steep:
-                raise OptinavError(f"gyro axis {'xyz'[k]} is clipped at {sgn * m:.4g} rad/s ({steep} flat run(s) "
-                                   f"of ≥ 3 samples at the limit)",
-                                   "record with a larger gyro range; no attitude is reliable through saturation")
+                raise clipped(k, sgn * m, steep)
+
+
+def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float) -> int:
+    """The runs of ≥ 3 consecutive samples at an axis's extreme ``m`` (``idx``: the sorted indices of the
+    samples there, few) that look saturated (see :func:`_check_clipping`); ``y_at(i)`` the (signed) axis value
+    of sample i of ``n``, asked only for ``idx`` and their neighbours."""
+    brk = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.concatenate([idx[:1], idx[brk + 1]])
+    ends = np.concatenate([idx[brk] + 1, idx[-1:] + 1])  # run [s, e)
+    steep = 0
+    for s, e in zip(starts, ends):
+        if e - s < 3:
+            continue
+        step_in = y_at(s) - y_at(s - 1) if s > 0 else 0.0
+        step_out = y_at(e - 1) - y_at(e) if e < n else 0.0
+        if max(step_in, step_out) > 0.005 * m or (e - s) * dt >= 0.1:
+            steep += 1
+    return steep
+
+
+def clipped(k: int, limit: float, steep: int) -> OptinavError:
+    return OptinavError(f"gyro axis {'xyz'[k]} is clipped at {limit:.4g} rad/s ({steep} flat run(s) "
+                        f"of ≥ 3 samples at the limit)",
+                        "record with a larger gyro range; no attitude is reliable through saturation")
 
 
 def check_aop(aop: np.ndarray) -> None:

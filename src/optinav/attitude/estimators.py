@@ -41,7 +41,7 @@ from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_attitude",
+__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_q",
            "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
 
 METHODS = ("iframe", "qn", "gd", "cg", "mekf")
@@ -93,17 +93,29 @@ class AttitudeEstimate(Result):
         return euler_from_quat(self.q, self.frame.lower())
 
     def summary(self) -> str:
-        skipped = sum(self.pol_skipped.values())
-        s = f"{self.method}{' offline' if self.offline else ''}: {self.q.shape[0]} samples ({self.frame})"
-        if self.segments > 1:
-            s += f", {self.segments} segments between time gaps"
-        if self.rest is not None:
-            s += f"; rest {100 * np.mean(self.rest):.0f} %"
-        if self.mag_used is not None:
-            s += f"; magnetometer used {100 * np.mean(self.mag_used):.0f} %"
-        if self.pol_used or skipped:
-            s += f"; polarization used {self.pol_used}, skipped {skipped} " + str(self.pol_skipped)
-        return s
+        return summary_line(self.method, self.frame, self.q.shape[0], offline=self.offline, segments=self.segments,
+                            rest=None if self.rest is None else float(np.mean(self.rest)),
+                            mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
+                            pol_used=self.pol_used, pol_skipped=self.pol_skipped)
+
+
+def summary_line(method: str, frame: str, n: int, *, offline: bool = False, segments: int = 1,
+                 rest: float | None = None, mag_used: float | None = None, pol_used: int = 0,
+                 pol_skipped: dict | None = None) -> str:
+    """One line on an estimate of ``n`` samples; ``rest``/``mag_used`` the fractions of samples at rest and with
+    the magnetometer used."""
+    pol_skipped = pol_skipped or {}
+    skipped = sum(pol_skipped.values())
+    s = f"{method}{' offline' if offline else ''}: {n} samples ({frame})"
+    if segments > 1:
+        s += f", {segments} segments between time gaps"
+    if rest is not None:
+        s += f"; rest {100 * rest:.0f} %"
+    if mag_used is not None:
+        s += f"; magnetometer used {100 * mag_used:.0f} %"
+    if pol_used or skipped:
+        s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
+    return s
 
 
 def _options(method: str, options: dict) -> dict:
@@ -243,10 +255,20 @@ def _method(method, pol) -> str:
     return m
 
 
-def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-                      frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
-                      allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
-    """Like :func:`estimate`, returning an :class:`AttitudeEstimate` (q plus per-sample flags, counts, σ)."""
+def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+             frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
+             allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
+    """Attitude q_b^n from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)) as an :class:`AttitudeEstimate`
+    (``q`` (N, 4) [w, x, y, z] plus per-sample flags, counts and σ); :func:`estimate_q` returns only ``q``.
+
+    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
+    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
+    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
+    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
+    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
+    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
+    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
+    """
     frame = _frame(frame)
     method = _method(method, pol)
     opts = _options(method, options)
@@ -269,7 +291,7 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
     if gaps.size:
         seg_dt = dts.copy()
         seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
-        parts = [estimate_attitude(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
+        parts = [estimate(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
             None if pol is None else pol.select(slice(a, b))), method=method, frame=frame, q0=q0 if a == 0 else None,
             mag=None if mag is None else mag[a:b], offline=offline, input_stage=input_stage, checks=False, **options)
             for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
@@ -312,19 +334,10 @@ def estimate_attitude(gyr, acc, dt, *, pol: PolarizationMeasurement | None = Non
                             rest=None if front is None else front.rest, input_stage=input_stage)
 
 
-def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-             frame: str = "NED", q0=None, **options) -> np.ndarray:
-    """Attitude q_b^n (N, 4) [w, x, y, z] from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)).
-
-    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
-    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
-    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
-    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
-    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
-    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
-    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
-    """
-    return estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
+def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
+               frame: str = "NED", q0=None, **options) -> np.ndarray:
+    """The quaternions q_b^n (N, 4) [w, x, y, z] of :func:`estimate` (same arguments), without the diagnostics."""
+    return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
 
 
 # --- streaming ------------------------------------------------------------------------------------------------

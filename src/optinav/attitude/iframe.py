@@ -189,14 +189,19 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
 def input_stage(gyr, acc, dts, frame: str = "NED", **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
     """The iframe front end for other estimators: bias-corrected gyro (rad/s) and the specific force low-passed
     in the almost-inertial frame, expressed back in body axes (m/s²)."""
-    from optinav.core.rotations import quat_rotate, quat_conjugate
-
     r = run_iframe(gyr, acc, dts, frame=frame, **options)
+    return (*front_outputs(r, gyr, acc, frame), r)
+
+
+def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    """The input stage's (bias-corrected gyro, filtered specific force) of the samples ``r`` ran on."""
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
     # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
     # the measured norm's low-pass so the published methods' norm checks still see the dynamics
     up = _UP[frame]
     acc_f = quat_rotate(quat_conjugate(r.q), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
-    return gyr - r.bias, acc_f, r
+    return gyr - r.bias, acc_f
 
 
 class AttitudeFilter:

@@ -26,7 +26,7 @@ from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 
-__all__ = ["FlightData", "simulate_flight", "PAPER_SITE", "PAPER_TIMES"]
+__all__ = ["FlightData", "simulate", "PAPER_SITE", "PAPER_TIMES"]
 
 #: the paper's site: roof of the mechanical east building, Dalian University of Technology (lat, lon deg, h m)
 PAPER_SITE = {"lat_deg": 38.8814192, "lon_deg": 121.528255, "height": 35.0}
@@ -155,15 +155,15 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, h0=h, bc_type=bc)
 
 
-def simulate_flight(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
-                    lat_deg: float = PAPER_SITE["lat_deg"], lon_deg: float = PAPER_SITE["lon_deg"],
-                    height: float = PAPER_SITE["height"], frame: str = "NED", imu: str | ImuSpec = "mpu6000",
-                    imu_errors: bool = False, gyro_bias=None, attitude_deg=(1.0, -2.0, 30.0),
-                    accel_level: float = 4.0, tilt_deg: float = 30.0, knot_spacing_s: float = 0.1,
-                    sky_model: str = "rayleigh", d_max: float | None = None, neutral_distance: float | None = None,
-                    sensor=None, pol_noise: float | None = None, pol_rate_hz: float | None = None, C_b_m=None,
-                    pressure_mbar: float | None = 1013.25, temperature_c: float = 5.0, delta_t: float | None = None,
-                    rng=None) -> FlightData:
+def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
+             lat_deg: float = PAPER_SITE["lat_deg"], lon_deg: float = PAPER_SITE["lon_deg"],
+             height: float = PAPER_SITE["height"], frame: str = "NED", imu: str | ImuSpec = "mpu6000",
+             imu_errors: bool = False, gyro_bias=None, attitude_deg=(1.0, -2.0, 30.0),
+             accel_level: float = 4.0, tilt_deg: float = 30.0, knot_spacing_s: float = 0.1,
+             sky_model: str = "rayleigh", d_max: float | None = None, neutral_distance: float | None = None,
+             sensor=None, pol_noise: float | None = None, pol_rate_hz: float | None = None, C_b_m=None,
+             pressure_mbar: float | None = 1013.25, temperature_c: float = 5.0, delta_t: float | None = None,
+             rng=None) -> FlightData:
     """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
 
     kind: ``"static"`` (one attitude ``attitude_deg`` = [roll, pitch, yaw] deg held for ``duration_s``) or

@@ -6,7 +6,7 @@ import argparse
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import add_input_options, output_path, require_files
+from optinav.cli.common import add_chunk_option, add_input_options, output_path, require_files
 from optinav.errors import OptinavError
 
 
@@ -27,12 +27,15 @@ def register(sub) -> None:
     p.add_argument("data", help="raw data file")
     p.add_argument("--out", required=True, metavar="FILE", help="corrected data file")
     add_input_options(p)
+    add_chunk_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     require_files((args.result, "result file"), (args.data, "data file"))
-    from optinav.io import ImuLog, raw_units, read_imu, write_imu
+    from optinav.core.progress import progress_blocks
+    from optinav.io import ImuLog
+    from optinav.io.imu import iter_imu, open_imu_writer
     from optinav.multipos.result import CalibrationResult
 
     out = output_path(args.out)
@@ -43,9 +46,25 @@ def run(args) -> int:
             check_plausible_K(sensor, entry, res.units.get(key))
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
-    log = read_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                   delimiter=args.delimiter, topic=args.topic)
+    blocks = iter_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
+                      time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                      delimiter=args.delimiter, chunk_rows=args.chunk_rows, topic=args.topic)
+    source = f"optinav apply {Path(args.result).name} {Path(args.data).name}"
+    # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
+    # grow with the log; a bad row fails when its block is read and leaves no output
+    with open_imu_writer(out) as writer:
+        for log in progress_blocks(blocks, "apply"):
+            acc, gyro = _corrected(res, log, args)
+            writer.write(ImuLog(t=log.t, acc=acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
+                                labels=log.labels))
+    print(f"optinav: wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)")
+    return 0
+
+
+def _corrected(res, log, args):
+    """One block's corrected (acc m/s^2, gyro rad/s), None for a sensor the result or the data lack."""
+    from optinav.io import raw_units
+
     acc = gyro = None
     if res.accelerometer is not None and log.acc is not None:
         raw, unit = raw_units(log, "acc")
@@ -58,11 +77,7 @@ def run(args) -> int:
     if acc is None and gyro is None:
         raise OptinavError(f"{args.data} has no data for the sensors in {args.result}",
                            "check --columns (t,ax,ay,az,gx,gy,gz)")
-    corrected = ImuLog(t=log.t, acc=acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="rad/s",
-                       source=f"optinav apply {Path(args.result).name} {Path(args.data).name}", labels=log.labels)
-    write_imu(out, corrected)
-    print(f"optinav: wrote {len(log.t)} corrected samples to {out} (m/s^2, rad/s)")
-    return 0
+    return acc, gyro
 
 
 #: accepted ratio of a calibrated scale to its nominal value (1 / the SI factor of the raw unit); MEMS scale

@@ -7,9 +7,9 @@ import sys
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import (add_input_options, add_report_option, check_memory, finish_report, output_path,
-                                parse_floats, prepare_report)
-from optinav.core.files import check_sidecar, write_csv
+from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
+                                finish_report, output_path, parse_floats, prepare_report)
+from optinav.core.files import atomic_open, check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
@@ -76,6 +76,7 @@ def register(sub) -> None:
     pol.add_argument("--sun-elevation", type=float, metavar="DEG", help="fixed sun elevation, deg")
     pol.add_argument("--min-dop", type=float, default=0.05, help="skip samples with a lower DoP (default 0.05)")
     p.add_argument("--out", required=True, metavar="ATTITUDE.csv", help="output CSV")
+    add_chunk_option(p)
     add_report_option(p)
     p.set_defaults(func=run, progress_task="attitude")
 
@@ -116,6 +117,10 @@ def _sun(args, t, frame):
     times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
     sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
     return sp.sun_vector(frame.lower())
+
+
+#: the attitude CSV's columns t, q, Euler: t exactly (bag stamps are s since the epoch; %.9g rounded them to 100 s)
+_CSV_FORMAT = ["%.17g"] + ["%.9g"] * 7
 
 
 def _read_log(args):
@@ -165,7 +170,7 @@ def run(args) -> int:
 
     from optinav.core.progress import step
 
-    from optinav.attitude import PolarizationMeasurement, estimate_attitude
+    from optinav.attitude import PolarizationMeasurement, estimate
     from optinav.attitude.checks import check_aop
     from optinav.core.rotations import euler_from_quat, quat_from_euler
 
@@ -181,6 +186,15 @@ def run(args) -> int:
     prepare_report(args)
     if args.reference and args.frame != "ENU":  # before the estimate, not after it
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
+    q0 = None
+    if args.q0_deg:
+        e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
+        q0 = quat_from_euler(np.radians(e), args.frame.lower())
+    if not args.pol_columns and any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth,
+                                                             args.sun_elevation)):
+        raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
+    if _streams(args):
+        return _run_stream(args, method, options, q0, out)
     step("read")
     t, gyr, acc, mag, ref = _read_log(args)
     step("checks")
@@ -207,23 +221,17 @@ def run(args) -> int:
         dop = np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None
         pol = PolarizationMeasurement(aop, _sun(args, t, args.frame), dop=dop, frame=args.frame,
                                       min_dop=args.min_dop)
-    elif any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth, args.sun_elevation)):
-        raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
-    q0 = None
-    if args.q0_deg:
-        e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
-        q0 = quat_from_euler(np.radians(e), args.frame.lower())
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {t.size} samples from {args.data} ({method}) ...", file=sys.stderr)
     step(f"estimate ({method})")
-    res = estimate_attitude(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
-                            offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
-                            **options)
+    res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
+                   offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
+                   **options)
     eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
     step("write")
-    write_csv(out, table, header, ["%.17g"] + ["%.9g"] * 7)  # t exactly: bag stamps are s since the epoch
+    write_csv(out, table, header, _CSV_FORMAT)
     print(res.summary())
     score = None
     if args.reference:
@@ -232,6 +240,94 @@ def run(args) -> int:
               f"({score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
     finish_report(args, lambda d: _report(res, t, eul, args.data, d, score))
+    return 0
+
+
+def _streams(args) -> bool:
+    """Whether the log is estimated block by block: online estimation of an IMU log without what needs the
+    whole recording at once (--offline, polarization, magnetometer, BROAD reference, --report plots)."""
+    from optinav.attitude.data import is_broad
+
+    whole = (args.offline or args.pol_columns or args.mag or args.mag_columns or args.reference or args.report)
+    return not whole and not (is_broad(args.data) and not args.columns and not args.datasets)
+
+
+_HEADER = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+
+
+def _run_stream(args, method, options, q0, out) -> int:
+    """The attitude of a log read twice block by block: pass 1 gathers what the physics checks judge (three
+    floats per sample for exact medians), pass 2 estimates with the filter's state carried from block to block
+    and writes each block's rows; the output is renamed into place only after every check passed, so the file
+    is the in-memory path's, byte for byte."""
+    import numpy as np
+
+    from optinav.attitude.stream import StreamChecks, StreamEstimator
+    from optinav.core.progress import progress_blocks, step
+    from optinav.core.rotations import euler_from_quat
+    from optinav.io.imu import iter_imu
+
+    estimator = StreamEstimator(method, frame=args.frame, q0=q0, input_stage=args.input_stage, **options)
+
+    def blocks(desc):
+        # two rows at least: the first block's first step comes from its first two times
+        chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                          time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
+        prev = None
+        for log in progress_blocks(chunks, desc):
+            if log.acc is None or log.gyro is None:
+                raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
+                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
+            if log.acc_unit == "counts" or log.gyro_unit == "counts":
+                raise OptinavError("the log is in raw counts",
+                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+            t = log.t
+            first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
+            prev = t[-1]
+            yield chunks.rows - len(log), log, np.diff(t, prepend=first)
+
+    step("checks")
+    checks, bad = StreamChecks(), 0
+    for _, log, dts in blocks("attitude: checks"):
+        bad += int(np.count_nonzero(~log.finite))
+        if not bad:
+            checks.add(log.gyro, log.acc, dts)
+    if bad:
+        raise OptinavError(f"{args.data} has {bad} rows with NaN accelerometer/gyro values",
+                           "remove or interpolate them first")
+    checks.finish_first()
+    gaps = checks.gaps
+    if not getattr(args, "quiet", False):
+        print(f"optinav: attitude of {checks.n} samples from {args.data} ({method}) ...", file=sys.stderr)
+    step(f"estimate ({method})")
+    with atomic_open(out, "w", newline="\n") as fh:
+        fh.write(_HEADER + "\n")
+        for row0, log, dts in blocks(f"attitude: {method}"):
+            checks.collect(row0, log.gyro, log.acc, dts)
+            if gaps.size and not args.allow_gaps:
+                continue  # refused below, after the checks that come first
+            # a time gap starts a new segment whose first step is the median one
+            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(log))] - row0
+            dts = dts.copy()
+            dts[cuts] = checks.median_dt
+            qs = []
+            for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(log)])):
+                if k:
+                    estimator.restart()
+                if b > a:
+                    qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
+            q = np.concatenate(qs)
+            eul = np.degrees(euler_from_quat(q, args.frame.lower()))
+            np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
+        checks.finish_second(args.frame)
+        if gaps.size and not args.allow_gaps:
+            i = int(gaps[0])
+            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
+                               "integrating the gyro across it would be wrong",
+                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
+    print(estimator.summary())
+    print(f"optinav: attitude written to {out}")
     return 0
 
 
@@ -311,7 +407,7 @@ def run_simulate_flight(args) -> int:
 
     from optinav.core.progress import step
 
-    from optinav.attitude.simulate import simulate_flight
+    from optinav.attitude.simulate import simulate
 
     out = output_path(args.out, (".csv",), "flight.csv")
     # measured: about 2500 B per sample at the peak, 4000 with margin
@@ -319,7 +415,7 @@ def run_simulate_flight(args) -> int:
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
-    d = simulate_flight(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
+    d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
     step("write")

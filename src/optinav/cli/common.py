@@ -105,6 +105,16 @@ def add_input_options(p, *, gyro: bool = True) -> None:
                                                         "after a comma (default: the bag's only Imu topic)")
 
 
+def add_chunk_option(p) -> None:
+    """--chunk-rows: rows of a text log read, processed and written at a time (memory does not grow with the
+    log's length)."""
+    from optinav.io.readers import CHUNK_ROWS
+
+    p.add_argument("--chunk-rows", type=COUNT, default=CHUNK_ROWS, metavar="N",
+                   help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
+                        "not with the log's length")
+
+
 def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
     """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given), not an input of the
     command, not a folder, in an existing writable folder."""

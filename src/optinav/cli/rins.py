@@ -63,7 +63,7 @@ def run_simulate(args) -> int:
 
     from optinav.rins.io import write_rins
     from optinav.rins.model import PARAM_NAMES
-    from optinav.rins.simulate import simulate_rins
+    from optinav.rins.simulate import simulate
 
     out = output_path(args.out)
     truth_path(out)
@@ -75,12 +75,12 @@ def run_simulate(args) -> int:
     check_memory(args.rate * (args.align + n_moves * (args.move + args.dwell)), 800, "this session",
                  "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
-    d = simulate_rins(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
-                      align_s=args.align, rate=args.rate, lat_deg=args.lat,
-                      gyro_misalignment=None if args.gyro_misalignment_arcsec is None
-                      else args.gyro_misalignment_arcsec * arc,
-                      gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
-                      lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
+    d = simulate(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
+                 align_s=args.align, rate=args.rate, lat_deg=args.lat,
+                 gyro_misalignment=None if args.gyro_misalignment_arcsec is None
+                 else args.gyro_misalignment_arcsec * arc,
+                 gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
+                 lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
     truth = {"schema": "optinav.rins_truth", "version": 1, "unit": "rad",
              "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,

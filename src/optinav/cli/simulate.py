@@ -53,7 +53,7 @@ def run_accel_multipos(args) -> int:
     from optinav.core.progress import step
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
-    from optinav.multipos.simulate import simulate_session
+    from optinav.multipos.simulate import simulate
 
     out = output_path(args.out)
     truth_path(out)
@@ -65,10 +65,10 @@ def run_accel_multipos(args) -> int:
     check_memory(rate * (args.rest + len(SCHEMES[args.scheme]) * (args.dwell + args.transition)), 1500,
                  "this session", "shorten --dwell/--rest/--transition or lower --rate")
     step("simulate")
-    s = simulate_session(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
-                         transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
-                         height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                         jitter=args.jitter, rng=args.seed)
+    s = simulate(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
+                 transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
+                 height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                 jitter=args.jitter, rng=args.seed)
     # the log holds SI or counts; write_imu converts SI back to the requested file unit
     acc = s.acc if args.acc_unit in ("counts", "m/s^2") else s.acc * factor(args.acc_unit)
     gyro = s.gyro if args.gyro_unit in ("counts", "rad/s") else s.gyro * factor(args.gyro_unit)

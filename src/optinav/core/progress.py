@@ -58,6 +58,24 @@ def task(desc: str, total: int | None = None, enabled: bool | None = None):
         bar.close()
 
 
+def progress_blocks(blocks, desc: str = "", enabled: bool | None = None) -> Iterator:
+    """Iterate over the blocks of a streamed file (an iterable with ``size`` and ``position`` in bytes, such as
+    :func:`optinav.io.iter_imu`) behind a bar of the bytes read (``desc  MB/MB  elapsed  eta``) on stderr."""
+    show = progress_enabled() if enabled is None else enabled
+    if not show:
+        yield from blocks
+        return
+    with tqdm(total=blocks.size, desc=desc, file=sys.stderr, unit="B", unit_scale=True, dynamic_ncols=True,
+              leave=not _TASKS, position=len(_TASKS) or None, mininterval=0.2) as bar:
+        _LOOPS.append(bar)
+        try:
+            for block in blocks:
+                bar.update(blocks.position - bar.n)
+                yield block
+        finally:
+            _LOOPS.remove(bar)
+
+
 def in_task() -> bool:
     """Whether a task is open and no loop bar runs inside it: library loops (GA/PSO generations) show a bar
     only then, i.e. from the CLI and not once per run of an outer loop."""

@@ -26,11 +26,12 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
     return a
 
 
-def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None
-                     ) -> np.ndarray:
+def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None,
+                     index0: int = 0) -> np.ndarray:
     """Validate a 1-D timestamp vector in seconds: finite, strictly increasing, optionally without gaps.
 
-    ``max_gap_factor``: a step larger than this multiple of the median step is reported as a gap.
+    ``max_gap_factor``: a step larger than this multiple of the median step is reported as a gap. ``index0``:
+    the index of ``t[0]`` in the whole log (a block of a streamed log), for the indices in messages.
     """
     t = as_float_array(t, name)
     if t.ndim != 1:
@@ -41,11 +42,12 @@ def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_facto
     dt = np.diff(t)
     if np.any(dt == 0):
         i = int(np.flatnonzero(dt == 0)[0])
-        raise OptinavError(f"{name} has a duplicate timestamp at index {i + 1} (t = {t[i + 1]:.6g} s)",
+        raise OptinavError(f"{name} has a duplicate timestamp at index {index0 + i + 1} (t = {t[i + 1]:.6g} s)",
                            "drop duplicated samples")
     if np.any(dt < 0):
         i = int(np.flatnonzero(dt < 0)[0])
-        raise OptinavError(f"{name} is not sorted: t[{i + 1}] = {t[i + 1]:.6g} s < t[{i}] = {t[i]:.6g} s",
+        raise OptinavError(f"{name} is not sorted: t[{index0 + i + 1}] = {t[i + 1]:.6g} s < t[{index0 + i}] = "
+                           f"{t[i]:.6g} s",
                            "sort the samples by time")
     if max_gap_factor is not None and dt.size:
         med = float(np.median(dt))

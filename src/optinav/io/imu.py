@@ -8,6 +8,7 @@ docs/file-formats.md.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -18,10 +19,10 @@ from optinav.core.results import Result
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.readers import (LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, load_table, merge_datasets,
-                                normalize_name, parse_columns)
+from optinav.io.readers import (CHUNK_ROWS, LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, iter_table, load_table,
+                                merge_datasets, normalize_name, parse_columns)
 
-__all__ = ["ImuLog", "read_imu", "write_imu", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
+__all__ = ["ImuLog", "read_imu", "iter_imu", "ImuChunks", "write_imu", "open_imu_writer", "ImuWriter", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
 
 #: accepted accelerometer unit spellings → canonical unit
 ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
@@ -211,6 +212,7 @@ class _Part:
     labels: np.ndarray | None = None
     sample: np.ndarray | None = None
     declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
+    srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
 
 
 def _canonical(kind: str, unit: str, option: str) -> str:
@@ -256,12 +258,23 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
+def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | None, dict, dict]:
+    """(positional names, std=name mapping, keyword arguments of load_table/iter_table) of a column option."""
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
-    table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=LABEL_COLUMNS + label_sources, topic=topic)
+    return positional, mapping, {"names": positional, "only": list(mapping.values()) or None,
+                                 "text_columns": LABEL_COLUMNS + label_sources, "topic": topic}
+
+
+def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
+    _, mapping, kw = _part_spec(columns, datasets, what, topic)
+    return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
+
+
+def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
+    """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
+    the file's check of that is the caller's)."""
     found: dict[str, tuple[str, np.ndarray]] = {}  # std → (source name, array)
     implied: dict[str, str] = {}
     for key, name in mapping.items():
@@ -329,8 +342,9 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, 
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
-        _check_values(part.path, kind, tri, srcs)
+        _check_values(part.path, kind, tri, srcs, row0=table.row0, empty_ok=block)
         setattr(part, kind, tri)
+        part.srcs[kind] = srcs
         for s in srcs:
             unit = table.units.get(s) or normalize_name(s)[1]
             if unit:
@@ -374,22 +388,33 @@ def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
 MAX_VALUE = 1e12
 
 
-def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str]) -> None:
-    """A column without a single number, or a finite cell beyond :data:`MAX_VALUE` (1e308 …), is an error;
-    NaN and inf mark missing samples (rows the calibration drops and counts)."""
+def _value_names(srcs: list[str]) -> list[str]:
+    return srcs if len(srcs) == 3 else [f"{srcs[0]}[:, {j}]" for j in range(3)]
+
+
+def _no_number(path: Path, kind: str, name: str) -> OptinavError:
+    return OptinavError(f"{path.name}: the {kind} column {name!r} holds no number (all cells empty or NaN)",
+                        "check the column names (--columns) or fill the column")
+
+
+def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, row0: int = 0,
+                  empty_ok: bool = False) -> None:
+    """A column without a single number (unless ``empty_ok``: a block of a streamed file), or a finite cell beyond
+    :data:`MAX_VALUE` (1e308 …), is an error; NaN and inf mark missing samples (rows the calibration drops and
+    counts). ``row0``: index of the first row in the file."""
     if tri.size and tri.max() <= MAX_VALUE and tri.min() >= -MAX_VALUE:  # no NaN/inf/huge cell: the usual case
         return
-    names = srcs if len(srcs) == 3 else [f"{srcs[0]}[:, {j}]" for j in range(3)]
+    names = _value_names(srcs)
     for j in range(3):
         col = tri[:, j]
-        if col.size and np.all(np.isnan(col)):
-            raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds no number (all cells empty or NaN)",
-                               "check the column names (--columns) or fill the column")
+        if col.size and not empty_ok and np.all(np.isnan(col)):
+            raise _no_number(path, kind, names[j])
         with np.errstate(invalid="ignore"):
             bad = np.flatnonzero(np.isfinite(col) & (np.abs(col) > MAX_VALUE))
         if bad.size:
+            more = f" ({bad.size} such cell(s))" if not empty_ok else ""
             raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds {col[bad[0]]:g} in data row "
-                               f"{bad[0] + 1} ({bad.size} such cell(s)), not a sensor reading",
+                               f"{row0 + bad[0] + 1}{more}, not a sensor reading",
                                "fix or delete those rows (an empty cell or NaN marks a missing sample)")
 
 
@@ -426,14 +451,7 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     ``topic``: a ROS bag's Imu topic (``"/imu"``; None: its only one), see :mod:`optinav.io.rosbag`.
     """
-    notes: list[str] = []
-    acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
-    gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
-    time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
-    if rate is not None:
-        rate = check_positive(rate, "rate")
-    if gyro_columns is not None and gyro_path is None:
-        raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
+    acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
     parts = [main]
     if gyro_path is not None:
@@ -441,6 +459,26 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
+    return _log_of(parts, acc_u, gyro_u, time_u, rate)
+
+
+def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
+    acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
+    gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
+    time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
+    if rate is not None:
+        rate = check_positive(rate, "rate")
+    if gyro_columns is not None and gyro_path is None:
+        raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
+    return acc_u, gyro_u, time_u, rate
+
+
+def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, prev_t: float | None = None,
+            block: bool = False) -> ImuLog:
+    """The :class:`ImuLog` of the parts read (main file, optional gyro file). A block of a streamed file
+    (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
+    notes: list[str] = []
+    main = parts[0]
     times = []
     for p in parts:
         if p.t is not None:
@@ -456,7 +494,11 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         _check_same_time(*times)
     if times:
         p, t = times[0]
-        t = check_timestamps(t, f"time column {p.t_name!r} of {p.path.name}")
+        what = f"time column {p.t_name!r} of {p.path.name}"
+        if prev_t is None:
+            t = check_timestamps(t, what, min_count=1 if block else 2)
+        else:
+            check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
                            "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
@@ -464,9 +506,11 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
         if rate is None:
             rate, where = _file_rate(main.table)
             rate = check_positive(rate, f"the sample rate in {where} of {main.path.name}")
-            notes.append(f"sample rate {rate:g} Hz from {where} of {main.path.name}")
-        t = np.arange(main.n) / rate
-        check_timestamps(t, f"{main.path.name}")
+            if row0 == 0:
+                notes.append(f"sample rate {rate:g} Hz from {where} of {main.path.name}")
+        t = (np.arange(main.n) + row0) / rate if row0 else np.arange(main.n) / rate
+        if not block:
+            check_timestamps(t, f"{main.path.name}")
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
@@ -486,6 +530,67 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
                          "left out")
     log.nan_rows = int(np.count_nonzero(~log.finite))
     return log
+
+
+def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
+             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
+             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS, topic=None) -> "ImuChunks":
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
+    concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
+    first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
+    not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
+    return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
+                     gyro_unit=gyro_unit, time_unit=time_unit, rate=rate, datasets=datasets, delimiter=delimiter,
+                     chunk_rows=chunk_rows, topic=topic)
+
+
+class ImuChunks:
+    """The blocks of :func:`iter_imu`; ``size``/``position`` (bytes of the file, read so far) tell the progress
+    and ``rows`` the samples yielded so far."""
+
+    def __init__(self, path, *, chunk_rows: int = CHUNK_ROWS, **kw):
+        self.path, self.kw = Path(path), kw
+        self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate"], kw["gyro_path"],
+                                 kw["gyro_columns"])
+        _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
+        self.chunk_rows = int(chunk_rows)
+        self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
+        self.size, self.rows = self.tables.size, 0
+
+    @property
+    def position(self) -> int:
+        return self.tables.position
+
+    def __iter__(self):
+        if self.tables.kind != "text" or self.kw["gyro_path"] is not None:
+            log = read_imu(self.path, **self.kw)
+            self.tables.position = self.size
+            for a in range(0, len(log), self.chunk_rows):
+                part = log.select(slice(a, a + self.chunk_rows))
+                part.notes = list(log.notes) if a == 0 else []
+                self.rows += len(part)
+                yield part
+            return
+        prev_t = None
+        seen: dict[str, np.ndarray] = {}  # kind → which components held a number so far
+        part = None
+        for table in self.tables:
+            part = _part_of(self.path, table, self.mapping, None, "columns", block=True)
+            log = _log_of([part], *self.opts, row0=table.row0, prev_t=prev_t, block=True)
+            for kind in ("acc", "gyro"):
+                v = getattr(part, kind)
+                if v is not None:
+                    seen[kind] = seen.get(kind, np.zeros(3, bool)) | ~np.all(np.isnan(v), axis=0)
+            prev_t = float(log.t[-1])
+            self.rows += len(log)
+            yield log
+        for kind, ok in seen.items():
+            if not ok.all():
+                raise _no_number(self.path, kind, _value_names(part.srcs[kind])[int(np.argmin(ok))])
+        if self.rows < 2:
+            what = (f"time column {part.t_name!r} of {self.path.name}" if part.t is not None else
+                    f"{self.path.name}")
+            raise OptinavError(f"{what} has {self.rows} sample(s), at least 2 are needed", "record a longer log")
 
 
 def _check_same_time(a, b) -> None:
@@ -533,47 +638,57 @@ def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str 
     datasets and root attributes; ``.mat`` (v5): the same as variables. ``acc_unit`` ∈ {m/s^2, g},
     ``gyro_unit`` ∈ {rad/s, deg/s} convert SI logs on output; counts are written as counts. Written atomically.
     """
-    path = Path(path)
     if not isinstance(log, ImuLog):
         raise OptinavError(f"write_imu needs an ImuLog, got {type(log).__name__}", "read or build an ImuLog first")
+    path = _check_out(path)
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
+        _write_whole(tmp, log, acc_unit, gyro_unit)
+    return path
+
+
+def _check_out(path) -> Path:
+    path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _WRITE_FORMATS:
         raise OptinavError(f"cannot write {path.name}: unknown file type {path.suffix or '(none)'}",
                            f"use one of {', '.join(_WRITE_FORMATS)}")
     if not path.parent.is_dir():
         raise OptinavError(f"directory {path.parent} does not exist", "create it first")
+    return path
+
+
+def _write_whole(tmp: Path, log: ImuLog, acc_unit, gyro_unit) -> None:
+    suffix = tmp.suffix.lower()
     acc, acc_u = _out_values(log, "acc", acc_unit)
     gyro, gyro_u = _out_values(log, "gyro", gyro_unit)
-    from optinav.core.files import atomic_path
+    if suffix in _WRITE_TEXT:
+        _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
+    elif suffix == ".npz":
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+    elif suffix == ".mat":
+        import scipy.io
 
-    with atomic_path(path) as tmp:
-        if suffix in _WRITE_TEXT:
-            _write_text(tmp, log, acc, gyro, acc_u, gyro_u, _WRITE_TEXT[suffix])
-        elif suffix == ".npz":
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **arrays)
-        elif suffix == ".mat":
-            import scipy.io
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        # column vectors as MATLAB keeps them; text labels become a char matrix (one padded row per sample)
+        arrays = {k: (v.reshape(-1, 1) if v.ndim == 1 and v.dtype.kind != "U" else v) for k, v in arrays.items()}
+        scipy.io.savemat(tmp, arrays, do_compression=True)
+    else:
+        from optinav.io.readers import _h5py
 
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            # column vectors as MATLAB keeps them; text labels become a char matrix (one padded row per sample)
-            arrays = {k: (v.reshape(-1, 1) if v.ndim == 1 and v.dtype.kind != "U" else v) for k, v in arrays.items()}
-            scipy.io.savemat(tmp, arrays, do_compression=True)
-        else:
-            from optinav.io.readers import _h5py
-
-            h5py = _h5py()
-            arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
-            with h5py.File(tmp, "w") as fh:
-                for k, v in arrays.items():
-                    if v.ndim == 0:
-                        fh.attrs[k] = str(v)
-                    elif v.dtype.kind == "U":
-                        fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
-                    else:
-                        fh.create_dataset(k, data=v)
-    return path
+        h5py = _h5py()
+        arrays = _arrays(log, acc, gyro, acc_u, gyro_u)
+        with h5py.File(tmp, "w") as fh:
+            for k, v in arrays.items():
+                if v.ndim == 0:
+                    fh.attrs[k] = str(v)
+                elif v.dtype.kind == "U":
+                    fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
+                else:
+                    fh.create_dataset(k, data=v)
 
 
 def _arrays(log, acc, gyro, acc_u, gyro_u) -> dict[str, np.ndarray]:
@@ -593,22 +708,41 @@ def _arrays(log, acc, gyro, acc_u, gyro_u) -> dict[str, np.ndarray]:
     return out
 
 
-def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
+def _text_head(log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str, n: int | None) -> str:
     from optinav import __version__
 
-    names, cols = ["t"], [log.t]
+    names = ["t"] + (["sample"] if log.sample is not None else []) + (["ax", "ay", "az"] if acc is not None else [])
+    names += (["gx", "gy", "gz"] if gyro is not None else []) + (["label"] if log.labels is not None else [])
+    units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
+    count = f" ({n} samples)" if n is not None else ""
+    head = [f"# optinav {__version__} IMU log{count}; source: {log.source or '-'}".replace("\n", " "),
+            f"# units: {' '.join(units)}", delim.join(names)]
+    return "\n".join(head) + "\n"
+
+
+def _text_columns(log: ImuLog, acc, gyro) -> list[np.ndarray]:
+    cols = [log.t]
     if log.sample is not None:
-        names.append("sample")
         cols.append(np.asarray(log.sample, dtype=float))
     if acc is not None:
-        names += ["ax", "ay", "az"]
         cols += [acc[:, 0], acc[:, 1], acc[:, 2]]
     if gyro is not None:
-        names += ["gx", "gy", "gz"]
         cols += [gyro[:, 0], gyro[:, 1], gyro[:, 2]]
+    return cols
+
+
+def _integral(cols: list[np.ndarray]) -> list[bool]:
+    """Which columns hold only integers (counts, sample), written without ".0"."""
+    return [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
+
+
+def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str, integral: list[bool] | None = None,
+               rows: slice = slice(None)) -> str:
+    """The lines of ``rows`` of the log (``integral``: per column, default judged on those rows)."""
+    cols = [c[rows] for c in _text_columns(log, acc, gyro)]
     labels = None
     if log.labels is not None:
-        labels = np.asarray(log.labels)
+        labels = np.asarray(log.labels)[rows]
         if labels.dtype.kind in "OSU":
             labels = labels.astype(str)
             forbidden = f'#"\n\r{delim}'
@@ -619,21 +753,84 @@ def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -
             labels = list(labels)
         else:
             labels = [str(int(x)) for x in labels]
-        names.append("label")
-    units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
-    head = [f"# optinav {__version__} IMU log ({len(log)} samples); source: {log.source or '-'}".replace("\n", " "),
-            f"# units: {' '.join(units)}", delim.join(names)]
     # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
-    integral = [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
+    integral = _integral(cols) if integral is None else integral
     fmt = delim.join("%d" if i else "%r" for i in integral)
     rows = np.column_stack(cols).tolist()
     if labels is None:
         body = [fmt % tuple(r) for r in rows]
     else:
         body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels)]
+    return "\n".join(body) + "\n" if body else ""
+
+
+def _write_text(path: Path, log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str) -> None:
+    integral = _integral(_text_columns(log, acc, gyro))
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("\n".join(head + body))
-        fh.write("\n")
+        fh.write(_text_head(log, acc, gyro, acc_u, gyro_u, delim, len(log)))
+        # formatted block by block: the text of a whole long log would take about 1 kB per row
+        for a in range(0, len(log), CHUNK_ROWS):
+            fh.write(_text_rows(path, log, acc, gyro, delim, integral, slice(a, a + CHUNK_ROWS)))
+
+
+class ImuWriter:
+    """Write an IMU log block by block (see :func:`open_imu_writer`): ``write(block)`` appends an
+    :class:`ImuLog` whose fields (acc, gyro, sample, labels) are those of the first block."""
+
+    def __init__(self, path: Path, tmp: Path, acc_unit, gyro_unit):
+        self.path, self.tmp, self.acc_unit, self.gyro_unit = path, tmp, acc_unit, gyro_unit
+        self.suffix = path.suffix.lower()
+        self.rows, self._fh, self._blocks, self._kinds = 0, None, [], None
+
+    def write(self, log: ImuLog) -> None:
+        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyro", "sample", "labels"))
+        if self._kinds is None:
+            self._kinds = kinds
+        elif kinds != self._kinds:
+            raise OptinavError("the blocks of one IMU log differ in their fields", "write blocks of one log")
+        self.rows += len(log)
+        if self.suffix not in _WRITE_TEXT:  # binary formats hold whole arrays: gathered, written at the end
+            self._blocks.append(log)
+            return
+        acc, acc_u = _out_values(log, "acc", self.acc_unit)
+        gyro, gyro_u = _out_values(log, "gyro", self.gyro_unit)
+        delim = _WRITE_TEXT[self.suffix]
+        if self._fh is None:
+            self._fh = open(self.tmp, "w", encoding="utf-8", newline="\n")
+            self._fh.write(_text_head(log, acc, gyro, acc_u, gyro_u, delim, None))
+        self._fh.write(_text_rows(self.path, log, acc, gyro, delim))
+
+    def _close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            return
+        if not self._blocks:
+            raise OptinavError(f"no samples to write to {self.path}", "pass a log with samples")
+        first = self._blocks[0]
+        cat = (lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks]))
+        log = ImuLog(t=cat("t"), acc=cat("acc"), gyro=cat("gyro"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+                     source=first.source, labels=cat("labels"), sample=cat("sample"))
+        self._blocks = []
+        _write_whole(self.tmp, log, self.acc_unit, self.gyro_unit)
+
+
+@contextlib.contextmanager
+def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None = None):
+    """A context giving an :class:`ImuWriter` for ``path``: text formats are written block by block (memory does
+    not grow with the log; the first comment line then holds no sample count), NPZ/HDF5/MAT gathered and
+    written at the end; atomically (nothing under ``path`` unless the block ends without error). Formats and
+    units as :func:`write_imu`."""
+    path = _check_out(path)
+    from optinav.core.files import atomic_path
+
+    with atomic_path(path) as tmp:
+        w = ImuWriter(path, tmp, acc_unit, gyro_unit)
+        try:
+            yield w
+        finally:
+            if w._fh is not None:
+                w._fh.close()
+        w._close()
 
 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:

@@ -11,7 +11,9 @@ from __future__ import annotations
 import csv
 import dataclasses
 import gzip
+import itertools
 import re
+import zlib
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -20,7 +22,8 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["read_table", "load_table", "parse_columns", "Table", "SUFFIXES", "LABEL_COLUMNS", "SKIP_NAMES"]
+__all__ = ["read_table", "load_table", "iter_table", "TableChunks", "parse_columns", "Table", "SUFFIXES",
+           "LABEL_COLUMNS", "SKIP_NAMES", "CHUNK_ROWS"]
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
 SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
@@ -57,6 +60,8 @@ class Table:
     table: str | None = None
     table_array: np.ndarray | None = None
     skipped: dict[str, str] = dataclasses.field(default_factory=dict)
+    #: index of the first row in the file (0 unless the table is one block of a streamed text file)
+    row0: int = 0
 
     def names(self, limit: int = _MAX_LISTED) -> str:
         """The available names as one short comma list (for error messages)."""
@@ -185,37 +190,14 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only).
     """
     path = Path(path)
-    from optinav.io.rosbag import is_bag
-
-    if is_bag(path):
+    kind, gz = _file_kind(path)
+    if kind == "rosbag":
         from optinav.io.rosbag import load_bag
 
         _no_option(path, delimiter=delimiter, names=names)
         return load_bag(path, topic=topic)
     if topic is not None:
         raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
-    if not path.exists():
-        raise OptinavError(f"data file {path} does not exist", "check the path")
-    if path.is_dir():
-        raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
-    suffixes = [s.lower() for s in path.suffixes]
-    gz = bool(suffixes) and suffixes[-1] == ".gz"
-    suffix = (suffixes[-2] if len(suffixes) > 1 else "") if gz else (suffixes[-1] if suffixes else "")
-    try:
-        size = path.stat().st_size
-        with open(path, "rb") as fh:
-            head = fh.read(4096)
-    except OSError as exc:
-        raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
-    if size == 0:
-        raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
-    kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
-    if kind == "gztext":
-        kind, gz = "text", True
-    if kind is None or (gz and kind != "text"):
-        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
-        raise OptinavError(f"{path.name}: unknown data file type {shown}",
-                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
@@ -236,6 +218,143 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
         if names is not None:
             table = _name_table_columns(table, names)
     return table
+
+
+#: lines per block of the streamed text reader (:func:`iter_table`): about 100 B of text and 8 B per parsed
+#: cell each, so a block holds some tens of MB whatever the file's length
+CHUNK_ROWS = 200_000
+
+
+def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
+               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
+               chunk_rows: int = CHUNK_ROWS, topic=None) -> "TableChunks":
+    """:func:`load_table` in blocks: an iterable of :class:`Table` of at most ``chunk_rows`` rows each (``row0``
+    their first row in the file) for text files, read line block by line block (gzip too) so that memory does
+    not grow with the file; other formats (one array read whole by their libraries) come as a single table.
+    The layout (header, units, preamble, delimiter) comes from the first lines; a bad cell fails when its block
+    is parsed, naming its line and column; an incomplete last line is dropped and reported in the last block's
+    ``meta['truncated_line']`` as :func:`load_table` does."""
+    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic)
+
+
+class TableChunks:
+    """The blocks of :func:`iter_table`; ``size`` (bytes of the file) and ``position`` (bytes read so far, of the
+    compressed file for ``.gz``) tell the progress."""
+
+    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int, topic=None):
+        if int(chunk_rows) < 1:
+            raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
+        self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
+        self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
+        self.kind, self.gz = _file_kind(path)
+        self.size = path.stat().st_size
+        self.position = 0
+
+    def __iter__(self):
+        if self.kind != "text":
+            yield load_table(self.path, names=self.names, delimiter=self.delimiter, only=self.only,
+                             text_columns=self.text_columns, topic=self.topic)
+            self.position = self.size
+            return
+        try:
+            yield from self._text()
+        except OSError as exc:  # includes gzip.BadGzipFile
+            raise OptinavError(f"cannot read {self.path} ({exc})",
+                               "check the file (a .gz file must be gzip-compressed)") from None
+        except (EOFError, zlib.error) as exc:  # truncated or corrupt gzip stream
+            raise OptinavError(f"{self.path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
+
+    def _text(self):
+        path, n = self.path, self.chunk_rows
+        labels = {normalize_name(c)[0] for c in self.text_columns}
+        with open(path, "rb") as raw:
+            src = gzip.GzipFile(fileobj=raw, mode="rb") if self.gz else raw
+            state = {"complete": True}
+
+            def block() -> list[str]:
+                got = list(itertools.islice(src, n))
+                self.position = raw.tell()
+                if not got:
+                    return []
+                state["complete"] = got[-1].endswith((b"\n", b"\r"))
+                text = _decode(path, b"".join(got))
+                lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+                if lines and lines[-1] == "" and text.endswith("\n"):
+                    lines.pop()  # the split after the last newline
+                return lines
+
+            # the layout from the first lines (enough blocks for the preamble and ten table lines)
+            head: list[str] = []
+            while True:
+                more = block()
+                head += more
+                content = sum(1 for x in head if _strip_comment(x).strip())
+                if not more or content >= _HEAD_CONTENT:
+                    break
+            lay = _text_layout(path, head, self.names, self.delimiter, labels)
+            pending = head[lay.start:]
+            offset = lay.start  # file line index of pending[0]
+            first = True        # pending[0] is the file's first data line
+            rows = 0
+            held = None  # the last parsed block, yielded once the next one is known (an empty last block
+            nxt = block()  # may still carry the incomplete-line note)
+            while pending or nxt:
+                while len(pending) < n and nxt:
+                    pending += nxt
+                    nxt = block()
+                lines, pending = pending[:n], pending[n:]
+                last = not pending and not nxt
+                data, truncated = _parse_block(path, lay, lines, 0, complete=state["complete"] or not last,
+                                               offset=offset, first=0 if first else None)
+                offset += len(lines)
+                first = False
+                k = len(data[lay.keep[0]])
+                if k == 0:
+                    if truncated is not None and held is not None:
+                        held.meta["truncated_line"] = str(truncated)
+                    continue
+                if held is not None:
+                    yield held
+                meta = dict(lay.meta)
+                if truncated is not None:
+                    meta["truncated_line"] = str(truncated)
+                held = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep},
+                             units=dict(lay.units), meta=meta, row0=rows)
+                rows += k
+            if held is None:
+                raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
+            yield held
+
+def _file_kind(path: Path) -> tuple[str, bool]:
+    """(format, gzip-compressed?) of ``path`` from its first bytes and suffix; one-line errors for a missing,
+    empty or unknown file."""
+    if not path.exists():
+        raise OptinavError(f"data file {path} does not exist", "check the path")
+    from optinav.io.rosbag import is_bag
+
+    if is_bag(path):  # a ROS 2 bag is a folder; rosbags checks the files itself
+        return "rosbag", False
+    if path.is_dir():
+        raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
+    suffixes = [s.lower() for s in path.suffixes]
+    gz = bool(suffixes) and suffixes[-1] == ".gz"
+    suffix = (suffixes[-2] if len(suffixes) > 1 else "") if gz else (suffixes[-1] if suffixes else "")
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
+    if size == 0:
+        raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
+    kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
+    if kind == "gztext":
+        kind, gz = "text", True
+    if kind is None or (gz and kind != "text"):
+        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
+        raise OptinavError(f"{path.name}: unknown data file type {shown}",
+                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
+    return kind, gz
 
 
 def _no_option(path: Path, **given) -> None:
@@ -379,11 +498,25 @@ def _is_header(tokens: list[str], following: list[str] | None) -> bool:
     return any(t and _is_number(f) and f != "" for t, f in zip(text, following))
 
 
-def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
-               labels: set[str]) -> Table:
+@dataclasses.dataclass
+class _Layout:
+    """How a text table is laid out, from its first lines: delimiter, column names, header units, metadata of
+    the comments and preamble, the index of the first data line, the kept and the text columns."""
+
+    delim: str | None
+    colnames: list[str]
+    units: dict[str, str]
+    meta: dict[str, str]
+    start: int
+    keep: list[int]
+    textable: set[int]
+
+
+def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None,
+                 labels: set[str]) -> _Layout:
+    """The :class:`_Layout` of a text file from its first lines (all lines up to the 10th after a preamble of at
+    most :data:`_MAX_PREAMBLE` lines suffice)."""
     given, delim = _delimiter_option(delimiter)
-    text = _decode(path, raw)
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     comments: list[str] = []
     last_comment = -2
     content: list[int] = []  # indices of the first few non-comment, non-blank lines
@@ -399,7 +532,7 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
         if not _strip_comment(s).strip():
             continue
         content.append(i)
-        if len(content) >= 10 + _MAX_PREAMBLE:
+        if len(content) >= _HEAD_CONTENT:
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
@@ -454,16 +587,36 @@ def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: s
     if not keep:
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
-    data = _parse_fast(lines, start, delim, ncol, keep, textable)
-    truncated = None
-    if data is None:
-        data, truncated = _parse_slow(path, lines, start, delim, colnames, keep, textable,
-                                      complete=text.endswith(("\n", "\r")))
     meta = _comment_meta(comments)
     meta.update(preamble)
+    return _Layout(delim, colnames, units, meta, start, keep, textable)
+
+
+def _parse_block(path: Path, lay: _Layout, lines: list[str], start: int, *, complete: bool = True,
+                 offset: int = 0, first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
+    """Columns of ``lines[start:]`` (numpy's C parser; the exact line parser when that fails, which names the
+    line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
+    the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
+    newline (only the block holding it passes False)."""
+    data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
+    if data is not None:
+        return data, None
+    return _parse_slow(path, lines, start, lay.delim, lay.colnames, lay.keep, lay.textable, complete=complete,
+                       offset=offset, first=first)
+
+
+def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
+               labels: set[str]) -> Table:
+    text = _decode(path, raw)
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    lay = _text_layout(path, lines, names, delimiter, labels)
+    data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")),
+                                   first=lay.start)
+    meta = dict(lay.meta)
     if truncated is not None:
         meta["truncated_line"] = str(truncated)
-    table = Table(path=path, kind="text", data={colnames[j]: data[j] for j in keep}, units=units, meta=meta)
+    table = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep}, units=dict(lay.units),
+                  meta=meta)
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
         raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
@@ -527,12 +680,14 @@ def _text_column(cells: np.ndarray) -> np.ndarray:
     return cells
 
 
-def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True
-                ) -> tuple[dict[int, np.ndarray], int | None]:
+def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True, offset: int = 0,
+                first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
     """Line-by-line parser: exact line numbers in errors; empty cells become NaN. Without a final newline
     (``complete`` False: a logger stopped mid-write) a last line with too few fields is dropped and its line
-    number returned with the columns."""
+    number returned with the columns. ``offset``: file line index of ``lines[0]`` (a block of a streamed file);
+    ``first``: index of the file's first data line in ``lines`` (None: not in ``lines``)."""
     ncol = len(colnames)
+    first = -1 if first is None else first
     cols: dict[int, list] = {j: [] for j in keep}
     numeric = [j for j in keep if j not in textable]
     last = max((i for i in range(start, len(lines)) if _strip_comment(lines[i]).strip()), default=-1)
@@ -542,12 +697,12 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
         if not s.strip():
             continue
         toks = _split(s, delim)
-        if i == last and i > start and not complete and len(toks) < ncol:
-            truncated = i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
+        if i == last and i > first and not complete and len(toks) < ncol:
+            truncated = offset + i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
             break
         if len(toks) != ncol:
             how = "truncated" if len(toks) < ncol else "too long"
-            raise OptinavError(f"{path.name} line {i + 1} has {len(toks)} field(s), {ncol} expected "
+            raise OptinavError(f"{path.name} line {offset + i + 1} has {len(toks)} field(s), {ncol} expected "
                                f"({how} or ragged row)",
                                "fix or delete that row, or check the delimiter")
         for j in textable:
@@ -563,7 +718,7 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
                 hint = ("decimal commas are not supported: write decimal points" if _DECIMAL_COMMA.match(tok)
                         else "fix the cell or skip the column ('_' in columns); text is kept only in label "
                         "columns (part, label, section, …)")
-                raise OptinavError(f"{path.name} line {i + 1}, column {j + 1} ({colnames[j]!r}): "
+                raise OptinavError(f"{path.name} line {offset + i + 1}, column {j + 1} ({colnames[j]!r}): "
                                    f"{tok[:40]!r} is not a number", hint) from None
     out = {}
     for j in keep:
@@ -573,6 +728,8 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
 
 #: longest ``key,value`` preamble (lines) looked for before the header
 _MAX_PREAMBLE = 50
+#: non-blank, non-comment lines that :func:`_text_layout` looks at (a preamble, then 10 table lines)
+_HEAD_CONTENT = 10 + _MAX_PREAMBLE
 _KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*[,;:=\t]\s*([^,;\t]*?)\s*[,;\t]*\s*$")
 #: preamble keys (normalized) that give the sample rate in Hz
 RATE_KEYS = ("fs", "rate", "sampling_rate", "sample_rate", "samplerate", "sampling_frequency", "rate_hz", "fs_hz",

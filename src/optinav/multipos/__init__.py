@@ -9,15 +9,15 @@ LM/GN/TRF on pose means — the default —, the adaptive GA of Gao & Zhang 2019
 """
 
 from .accel import PoseStatistics, fit_accel, initial_estimate, pose_statistics
-from .calibrate import calibrate_session
+from .calibrate import calibrate
 from .design import design_scheme, evaluate_scheme, observability_vs_n, predict_std
 from .ferraris import ferraris_calibration, ferraris_from_sections
 from .gyro import calibrate_gyro
 from .result import CalibrationResult
-from .simulate import simulate_session
+from .simulate import simulate
 from .static import detect_static, sections_from_list
 
-__all__ = ["PoseStatistics", "fit_accel", "initial_estimate", "pose_statistics", "calibrate_session",
+__all__ = ["PoseStatistics", "fit_accel", "initial_estimate", "pose_statistics", "calibrate",
            "design_scheme", "evaluate_scheme", "observability_vs_n", "predict_std", "ferraris_calibration",
-           "ferraris_from_sections", "calibrate_gyro", "CalibrationResult", "simulate_session", "detect_static",
+           "ferraris_from_sections", "calibrate_gyro", "CalibrationResult", "simulate", "detect_static",
            "sections_from_list"]

@@ -1,6 +1,6 @@
 """Calibrate a multi-position session from a raw log: static intervals → accelerometer → gyroscope → result.
 
-``calibrate_session`` is what ``optinav calibrate accel`` runs. Steps:
+``calibrate`` is what ``optinav calibrate accel`` runs. Steps:
 
 1. Rows with NaN/inf are dropped and counted; saturated samples (``acc_range``/``gyro_range`` in raw units,
    or, for raw counts, values at a 16/24/32-bit full scale) are excluded from the pose means and counted.
@@ -128,14 +128,14 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
                                     "reduced_chi2": red, "chosen": best}
 
 
-def calibrate_session(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
-                      lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
-                      data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
-                      threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
-                      source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-                      rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
-                      held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None
-                      ) -> CalibrationResult:
+def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
+              lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
+              data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
+              threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
+              source: str = "", method_options: dict | None = None, acc_bias_instability=None,
+              rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
+              held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None
+              ) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -515,7 +515,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
-    """:func:`calibrate_session` of ``data`` with ``options``."""
+    """:func:`calibrate` of ``data`` with ``options``."""
     o = options
     o.check()
     method_options = {} if o.generations is None else {"generations": o.generations}
@@ -524,16 +524,16 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    res = calibrate_session(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
-                             gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
-                             height_m=o.height, method=o.method, model_form=o.model,
-                             data="samples" if o.fit_samples else "means", sections=sections,
-                             window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
-                             acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
-                             source=source, method_options=method_options, rest=o.rest,
-                             allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
-                             acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                             gyro_g_sensitivity=o.gyro_g_sensitivity)
+    res = calibrate(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+                     gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
+                     height_m=o.height, method=o.method, model_form=o.model,
+                     data="samples" if o.fit_samples else "means", sections=sections,
+                     window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
+                     acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
+                     source=source, method_options=method_options, rest=o.rest,
+                     allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
+                     acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
+                     gyro_g_sensitivity=o.gyro_g_sensitivity)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 

@@ -80,11 +80,11 @@ def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     return table[unit]
 
 
-def simulate_session(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", dwell_s: float = 60.0,
-                     rate_hz: float | None = None, transition_s: float = 4.0, rest_s: float = 10.0,
-                     lat_deg: float = 38.88, height_m: float = 35.0, truth: str = "draw",
-                     acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", acc_counts_per_si: float = 2048 / G_STANDARD,
-                     gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
+def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", dwell_s: float = 60.0,
+             rate_hz: float | None = None, transition_s: float = 4.0, rest_s: float = 10.0,
+             lat_deg: float = 38.88, height_m: float = 35.0, truth: str = "draw",
+             acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", acc_counts_per_si: float = 2048 / G_STANDARD,
+             gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
     """Simulate a static multi-position session.
 
     ``scheme``: a name in :data:`SCHEMES` or (P, 3) sensor-frame up vectors. ``spec``: an ImuSpec (a unit is

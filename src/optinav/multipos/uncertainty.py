@@ -78,8 +78,8 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
 
     from optinav.core.imu_model import TriadErrors, preset
 
-    from .calibrate import calibrate_session
-    from .simulate import simulate_session
+    from .calibrate import calibrate
+    from .simulate import simulate
 
     gen = as_rng(rng)
     z = {"gyro, g-sensitivity ignored": ([], []), "gyro, --gyro-g-sensitivity": ([], [])}
@@ -91,12 +91,12 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
         unit = dataclasses.replace(unit, gyro=TriadErrors("gyro", bias=gy.bias, scale=gy.scale,
                                                            misalignment=gy.misalignment,
                                                            g_sensitivity=g2.normal(0, GYRO_G_SENSITIVITY, (3, 3))))
-        s = simulate_session("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
+        s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
         _, Q = model.upper_triangular_form(s.acc_K)
         Kg = s.gyro_K @ Q.T
         for name, opt in zip(z, (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyro_K))))):
-            r = calibrate_session(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
-                                  gyro_g_sensitivity=opt)
+            r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                          gyro_g_sensitivity=opt)
             z[name][0].extend((r.gyroscope["b"] - s.gyro_b) / r.gyroscope["b_std"])
             z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,

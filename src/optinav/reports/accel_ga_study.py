@@ -24,7 +24,7 @@ from optinav.core.imu_model import TriadErrors, preset
 from optinav.core.observability import rmse_ratio_band
 from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
-from optinav.multipos.simulate import PAPER_REFERENCE, simulate_session
+from optinav.multipos.simulate import PAPER_REFERENCE, simulate
 from optinav.reports.report import Check, Figure, Headline, StudyResult, Table, register_study
 
 NAMES = ["B_x", "B_y", "B_z", "S_xx", "S_yy", "S_zz", "M_xy", "M_xz", "M_yz"]
@@ -108,7 +108,7 @@ def _design(sigma, rate, dwell):
 
 def _tables_2_to_4(quick, rng):
     dwell = 10.0 if quick else 60.0
-    sess = simulate_session("paper12", spec="mems-mti1", truth="paper", dwell_s=dwell, rng=rng)
+    sess = simulate("paper12", spec="mems-mti1", truth="paper", dwell_s=dwell, rng=rng)
     g = sess.gravity
     truth = _paper_vector(sess.acc_K, sess.acc_b, g)
     idx = np.array([[np.searchsorted(sess.t, a), np.searchsorted(sess.t, b, side="right")]

@@ -49,23 +49,23 @@ def _settings(m):
 
 
 def _simulate(kind, duration, seed, gyro_bias=GYRO_BIAS_DEG_S):
-    from optinav.attitude.simulate import simulate_flight
+    from optinav.attitude.simulate import simulate
     from optinav.sky.polarization import wrap_axial
 
-    d = simulate_flight(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(gyro_bias),
-                        accel_level=ACCEL_LEVEL)
+    d = simulate(kind, duration_s=duration, rng=seed, gyro_bias=np.radians(gyro_bias),
+                 accel_level=ACCEL_LEVEL)
     ok = np.isfinite(d.aop) & np.isfinite(d.aop_true)
     return {"data": d, "pol": d.polarization(), "pol_sigma": float(np.std(wrap_axial(d.aop[ok] - d.aop_true[ok])))}
 
 
 def _estimate(fl, m, opts):
     """One method on one flight: the estimate, its Euler errors (deg) and run time."""
-    from optinav.attitude import estimate_attitude
+    from optinav.attitude import estimate
     from optinav.attitude.metrics import euler_errors
 
     d = fl["data"]
     t0 = time.perf_counter()
-    r = estimate_attitude(d.gyr, d.acc, d.dt, pol=fl["pol"], method=m, frame=d.frame, q0=d.q_true[0], **opts)
+    r = estimate(d.gyr, d.acc, d.dt, pol=fl["pol"], method=m, frame=d.frame, q0=d.q_true[0], **opts)
     el = time.perf_counter() - t0
     return {"res": r, "err": np.degrees(euler_errors(r.q, d.q_true, d.frame)), "elapsed": el, "options": opts}
 
@@ -101,7 +101,7 @@ def _break_wraps(t, y, jump=90.0):
 
 def _broad_section(quick):
     """The methods at their defaults on the real BROAD trials in the shared data folder (skipped when absent)."""
-    from optinav.attitude import estimate
+    from optinav.attitude import estimate_q
     from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
@@ -132,9 +132,9 @@ def _broad_section(quick):
         mask = tr.eval_mask[sl]
         pol = synthesize_polarization(tr.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
         for m in METHODS:
-            q6 = estimate(tr.gyr, tr.acc, tr.dt, method=m, frame="ENU")
+            q6 = estimate_q(tr.gyr, tr.acc, tr.dt, method=m, frame="ENU")
             inc = float(np.degrees(rmse(inclination_error(q6, tr.q_ref), tr.eval_mask)))
-            qp = estimate(tr.gyr[sl], tr.acc[sl], tr.dt, pol=pol.select(sl), method=m, frame="ENU",
+            qp = estimate_q(tr.gyr[sl], tr.acc[sl], tr.dt, pol=pol.select(sl), method=m, frame="ENU",
                           q0=tr.q_ref[i0])
             hd = float(np.degrees(rmse(heading_error(qp, tr.q_ref[sl]), mask)))
             rows.append([f.stem, LABELS[m], inc, hd])

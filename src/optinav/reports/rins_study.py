@@ -24,7 +24,7 @@ from optinav.core.validate import as_rng
 from optinav.reports.report import Check, Figure, Headline, StudyResult, Table, register_study
 from optinav.rins.calibrate import attitude_errors, calibrate, prepare
 from optinav.rins.model import PARAM_NAMES, residuals, sensor_attitude
-from optinav.rins.simulate import PAPER_TABLE3, simulate_rins
+from optinav.rins.simulate import PAPER_TABLE3, simulate
 
 PAPER_TABLE4 = {"none": [0.2025, 0.0779, 0.9263], "axis": [0.0252, 0.0200, 0.0129], "pso": [0.0027, 0.0054, 0.0024]}
 PAPER_MC_SPREAD_DEG = 0.0013
@@ -37,7 +37,7 @@ LOCK, WOBBLE = 10 * ARCSEC, 10 * ARCSEC
 
 def _units_finding(rate=5.0):
     """Uncompensated RMSE of a noise-free chain with Table 3 read as degrees and as radians."""
-    d = simulate_rins(np.zeros(6), noise=False, imu_errors=False, rate=rate, align_s=600.0)
+    d = simulate(np.zeros(6), noise=False, imu_errors=False, rate=rate, align_s=600.0)
     k = d.t >= 600.0
     a, b = d.alpha[k], d.beta[k]
     cb = dcm_from_euler(np.radians([0.5, -0.3, 30.0]), "enu")
@@ -56,8 +56,8 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     truth = PAPER_TABLE3.copy()  # radians (units finding)
     dwell, align = (20.0, 300.0) if quick else (50.0, 600.0)
     step("simulate the session")
-    data = simulate_rins(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
-                         lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
+    data = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
+                    lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
     rr = 2.0 if quick else 10.0
     prep = prepare(data, residual_rate=rr)
     sys_kw = dict(gyro_misalignment=5 * ARCSEC)
@@ -75,8 +75,8 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     units = _units_finding()
     # sensitivity to the gyro triad's misalignment (30″ 1σ): axis method vs LM
     step("30″ gyro misalignment session")
-    data30 = simulate_rins(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
-                           gyro_misalignment=30 * ARCSEC, lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
+    data30 = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
+                      gyro_misalignment=30 * ARCSEC, lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
     prep30 = prepare(data30, residual_rate=rr)
     res30 = {m: calibrate(method=m, prep=prep30, gyro_misalignment=30 * ARCSEC) for m in ("none", "axis", "lm")}
 

@@ -9,7 +9,7 @@ Modules: :mod:`~optinav.rins.model` (gimbal chain, eqs. 1â€“6, residual eqs. 12â
 from optinav.rins.calibrate import RinsCalibration, calibrate, prepare
 from optinav.rins.io import read_rins, write_rins
 from optinav.rins.model import PARAM_NAMES, residual_jacobian, residuals, vehicle_attitude
-from optinav.rins.simulate import RinsData, simulate_rins
+from optinav.rins.simulate import RinsData, simulate
 
-__all__ = ["PARAM_NAMES", "residuals", "residual_jacobian", "vehicle_attitude", "RinsData", "simulate_rins",
+__all__ = ["PARAM_NAMES", "residuals", "residual_jacobian", "vehicle_attitude", "RinsData", "simulate",
            "read_rins", "write_rins", "RinsCalibration", "calibrate", "prepare"]

@@ -29,7 +29,7 @@ from optinav.core.validate import as_rng, check_positive
 from optinav.errors import OptinavError
 from optinav.rins.model import PARAM_NAMES, nonorth_dcm
 
-__all__ = ["SCHEMES", "RinsData", "scheme_steps", "simulate_rins", "PAPER_TABLE3"]
+__all__ = ["SCHEMES", "RinsData", "scheme_steps", "simulate", "PAPER_TABLE3"]
 
 #: PSINS improved 16-position dual-axis sequence (Z = inner axis α, Y = outer axis β), ±180° each
 _PSINS16 = list(zip("ZYZYYZYZYZYZZYZY", [+1, -1, +1, -1, -1, +1, -1, +1, +1, -1, +1, -1, -1, +1, -1, +1]))
@@ -120,12 +120,12 @@ def _wobbled(schedule, amp, phase):
     return f
 
 
-def simulate_rins(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: float = 10.0,
-                  dwell_s: float = 50.0, align_s: float = 600.0, rate: float = 200.0, lat_deg: float = 28.2,
-                  h: float = 50.0, attitude_deg=(0.5, -0.3, 30.0), imu="rlg-nav", gyro_misalignment=None,
-                  gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
-                  encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
-                  profile: str = "cosine", rng=None) -> RinsData:
+def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: float = 10.0,
+             dwell_s: float = 50.0, align_s: float = 600.0, rate: float = 200.0, lat_deg: float = 28.2,
+             h: float = 50.0, attitude_deg=(0.5, -0.3, 30.0), imu="rlg-nav", gyro_misalignment=None,
+             gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
+             encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
+             profile: str = "cosine", rng=None) -> RinsData:
     """Simulate a static-base session (see the module docstring).
 
     nonorth: true [θx, θy, θz, ηx, ηy, ηz] (rad). scheme: name in :data:`SCHEMES`, a step text

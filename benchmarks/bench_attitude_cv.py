@@ -1,0 +1,113 @@
+"""Leave-one-group-out cross-validation of the ``iframe`` defaults on the BROAD trials in shared/.
+
+The defaults of ``optinav.attitude.estimate`` were developed on the BROAD trials in
+``../shared/data/attitude/broad`` (Laidig et al. 2021, CC BY 4.0); their mean error there is a training score.
+This benchmark scores the choice honestly: for a grid of the two parameters the 6D estimate is sensitive to
+(``tau_acc`` in s, ``bias_motion`` in rad/s·√s; both rate-independent), every BROAD group (BROAD's own
+``trials.json``: motion, speed and disturbance categories) is held out in turn, the grid point with the best mean
+on the other groups is chosen, and the held-out trials are scored with it. Rows: the cross-validated mean
+inclination RMSE (BROAD metric, movement samples) online and offline (offline also with the grid point chosen on
+the online error, the options being the filter's), beside the defaults' training mean, and the chosen grid point
+per fold. ``python benchmarks/bench_attitude_cv.py [--quick] [--json FILE]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from optinav.attitude import estimate
+from optinav.attitude.data import load_broad, shared_data_dir
+from optinav.attitude.iframe import IFRAME_DEFAULTS
+from optinav.attitude.metrics import inclination_error, rmse
+
+_CATEGORIES = ("motion", "speed", "disturbance")   # the trial groups of BROAD's trials.json that define a fold
+_D2R = np.pi / 180.0
+
+
+def _groups(folder: Path, names: list[str]) -> list[str]:
+    """Fold label of every trial: its level-2 BROAD groups of the motion/speed/disturbance categories."""
+    meta = json.loads((folder / "trials.json").read_text())
+    cat = {g["name"]: g["category"] for g in meta["groups"]}
+    return ["+".join(sorted(g for g in meta["trials"][n]["groups"] if cat.get(g) in _CATEGORIES)) for n in names]
+
+
+def _grid(quick: bool) -> list[dict]:
+    tau = (3.0, 4.0, 5.0) if quick else (2.0, 3.0, 4.0, 5.0, 6.0)
+    bm = (0.0, 0.05 * _D2R) if quick else (0.0, 0.02 * _D2R, 0.05 * _D2R, 0.1 * _D2R)
+    return [{"tau_acc": t, "bias_motion": b} for t, b in itertools.product(tau, bm)]
+
+
+def logo_cv(err: np.ndarray, groups: list[str]) -> tuple[np.ndarray, dict]:
+    """``err`` (configs, trials): per-trial held-out errors and the chosen config index per held-out group."""
+    g = np.asarray(groups)
+    out = np.empty(err.shape[1])
+    chosen = {}
+    for grp in dict.fromkeys(groups):
+        test = g == grp
+        k = int(np.argmin(err[:, ~test].mean(axis=1)))
+        out[test] = err[k, test]
+        chosen[grp] = k
+    return out, chosen
+
+
+def run(quick: bool) -> list[dict]:
+    folder = shared_data_dir() / "attitude" / "broad"
+    paths = sorted(p for p in folder.glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
+    if len(paths) < 3 or not (folder / "trials.json").is_file():
+        return []
+    trials = [load_broad(p) for p in paths]
+    groups = _groups(folder, [p.stem for p in paths])
+    grid = _grid(quick)
+    default = {k: IFRAME_DEFAULTS[k] for k in grid[0]}
+    if default not in grid:
+        grid.append(default)
+    err = {mode: np.array([[np.degrees(rmse(inclination_error(
+        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, **cfg), tr.q_ref),
+        tr.eval_mask)) for tr in trials] for cfg in grid]) for mode, offline in (("6D online", False),
+                                                                                 ("6D offline", True))}
+    rows = []
+    for mode, e in err.items():
+        cv, chosen = logo_cv(e, groups)
+        grp = f"attitude iframe {mode}, leave-one-BROAD-group-out CV over {len(trials)} trials"
+        rows.append({"group": grp, "method": f"iframe, grid of {len(grid)} (tau_acc, bias_motion)",
+                     "metric": "cross-validated mean inclination RMSE", "value": float(cv.mean()), "unit": "deg"})
+        if mode == "6D offline":
+            # the options are the filter's, shared by both modes: chosen on the online error of the other groups
+            _, on_chosen = logo_cv(err["6D online"], groups)
+            held = np.array([e[on_chosen[g], i] for i, g in enumerate(groups)])
+            rows.append({"group": grp, "method": "iframe, grid point chosen on the online error",
+                         "metric": "cross-validated mean inclination RMSE", "value": float(held.mean()),
+                         "unit": "deg"})
+        rows.append({"group": grp, "method": "iframe defaults", "metric": "training mean inclination RMSE",
+                     "value": float(e[grid.index(default)].mean()), "unit": "deg"})
+        rows.append({"group": grp, "method": "best grid point on all trials", "metric": "training mean "
+                     "inclination RMSE", "value": float(e.mean(axis=1).min()), "unit": "deg"})
+        for g, k in chosen.items():
+            rows.append({"group": grp, "method": f"fold without {g}", "metric": "chosen tau_acc",
+                         "value": grid[k]["tau_acc"], "unit": "s"})
+            rows.append({"group": grp, "method": f"fold without {g}", "metric": "chosen bias_motion",
+                         "value": grid[k]["bias_motion"], "unit": "rad/s*sqrt(s)"})
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a smaller grid")
+    ap.add_argument("--json", default=None, help="write the rows as JSON")
+    args = ap.parse_args(argv)
+    rows = run(args.quick)
+    for r in rows:
+        print(f"{r['group']} | {r['method']} | {r['metric']}: {r['value']:.4g} {r['unit']}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"rows": rows}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

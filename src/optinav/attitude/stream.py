@@ -1,0 +1,181 @@
+"""Attitude of a log read in blocks, with memory that does not grow with the samples kept.
+
+:class:`StreamChecks` gives the verdicts of :func:`~optinav.attitude.checks.check_imu`,
+:func:`~optinav.attitude.checks.find_gaps` and :func:`~optinav.attitude.checks.check_frame` from two passes
+over the blocks (the first keeps three floats per sample for the exact medians, the second the gyro-unit
+window and the samples at the gyro's extremes); :class:`StreamEstimator` runs the online estimators over
+consecutive blocks with their state carried, so the concatenated output equals
+:func:`~optinav.attitude.estimate_attitude` on the whole log (same kernels, same order of operations).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optinav.attitude import checks as _c
+from optinav.attitude import iframe as _if
+from optinav.attitude.estimators import (_as_q0, _init_state, _options, _pol_arrays, _run, initial_attitude,
+                                         summary_line)
+from optinav.attitude.measurement import _frame, up_vector
+from optinav.errors import OptinavError
+
+__all__ = ["StreamChecks", "StreamEstimator", "STREAM_METHODS"]
+
+#: methods that run online, sample after sample (iframe ``offline`` needs the whole recording)
+STREAM_METHODS = ("iframe", "gd", "cg", "qn", "mekf")
+
+
+class StreamChecks:
+    """The physics checks of the attitude inputs over a log seen block by block: :meth:`add` every block
+    (pass 1), :meth:`finish_first` (swapped triads, accelerometer unit, gyro peak, time gaps), :meth:`collect`
+    every block again (pass 2), :meth:`finish_second` (gyro unit from how gravity turns, clipping, frame)."""
+
+    def __init__(self):
+        self._dts: list[np.ndarray] = []
+        self._na: list[np.ndarray] = []
+        self._ng: list[np.ndarray] = []
+        self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
+        self._head: list[np.ndarray] = []     # the first 200 accelerometer rows (frame check)
+        self._head_n = 0
+        self.n = 0
+
+    def add(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
+        """Pass 1: one block of gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s."""
+        self._dts.append(np.array(dts, dtype=float))
+        self._na.append(_c._norm(acc))
+        self._ng.append(_c._norm(gyr))
+        self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
+        self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
+        if self._head_n < 200:
+            self._head.append(acc[: 200 - self._head_n].copy())
+            self._head_n += self._head[-1].shape[0]
+        self.n += gyr.shape[0]
+
+    def finish_first(self) -> None:
+        """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
+        ``median_dt`` (s) and the windows the second pass gathers."""
+        dts = np.concatenate(self._dts)
+        self._dts = []
+        self.gaps = _c.find_gaps(dts)
+        self.gap_steps = dts[self.gaps]
+        self.median_dt = float(np.median(dts))
+        del dts
+        ng = np.concatenate(self._ng)
+        self._ng = []
+        self.peak = float(np.max(ng))
+        self.window = _c._turning_window(ng, np.array([self.median_dt]))
+        self.window_max = float(np.max(ng[self.window]))
+        med_g = float(np.median(ng, overwrite_input=True))
+        del ng
+        na = np.concatenate(self._na)
+        self._na = []
+        med_a = float(np.median(na, overwrite_input=True))
+        del na
+        _c.check_norms(med_a, med_g, self.peak)
+        # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
+        self._win: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._clip = {(k, j): ([], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
+
+    def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
+        """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
+        n = gyr.shape[0]
+        a, b = max(self.window.start - row0, 0), min(self.window.stop - row0, n)
+        if a < b:
+            self._win.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
+        for (k, j), (idx, keys, vals) in self._clip.items():
+            y = gyr[:, k] if j == 0 else -gyr[:, k]
+            m = self._max[k, j]
+            at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
+            # the values at the extreme and beside it; a block's first and last value serve the runs that cross
+            # from one block to the next
+            near = np.unique(np.concatenate([at - 1, at, at + 1, [0, n - 1]]))
+            near = near[(near >= 0) & (near < n)]
+            idx.append(at + row0)
+            keys.append(near + row0)
+            vals.append(y[near])
+
+    def finish_second(self, frame: str) -> None:
+        """The checks that need the second pass, in the order of check_imu, then the frame warning."""
+        if self._win:
+            g, a, d = (np.concatenate(x) for x in zip(*self._win))
+            _c.check_gyro_unit(g, a, d, self.window_max)
+        for (k, j), (idx, keys, vals) in self._clip.items():
+            keys, first = np.unique(np.concatenate(keys), return_index=True)
+            vals = np.concatenate(vals)[first]
+            m = self._max[k, j]
+            steep = _c.steep_runs(np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m,
+                                  self.median_dt)
+            if steep:
+                raise _c.clipped(k, m if j == 0 else -m, steep)
+        _c.check_frame(np.concatenate(self._head), frame)
+
+
+class StreamEstimator:
+    """An online estimator run over consecutive blocks: :meth:`run` (gyr, acc, dts of one block) returns its
+    q_b^n (n, 4); :meth:`restart` starts a new segment (after a time gap: levelled from its first sample).
+    ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate_attitude`."""
+
+    def __init__(self, method: str, *, frame: str = "NED", q0=None, input_stage: bool = False, **options):
+        if method not in STREAM_METHODS:
+            raise OptinavError(f"method {method!r} does not run on a stream", f"use one of {STREAM_METHODS}")
+        self.method, self.frame, self.q0 = method, _frame(frame), None if q0 is None else _as_q0(q0)
+        self.opts = _options(method, options)
+        self.input_stage = input_stage or method == "iframe"
+        self.front_opts = dict(_if.IFRAME_DEFAULTS)
+        if method == "iframe":
+            self.front_opts.update(self.opts)
+        self.par = _if._params(self.frame, self.front_opts)
+        self.counts = np.zeros(3, dtype=np.int64)
+        self.n = self.rest = self.acc_hits = self.segments = 0
+        self.gyro_bias = None
+        self.restart()
+
+    def restart(self) -> None:
+        self._front = self._state = None
+
+    def run(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> np.ndarray:
+        gyr, acc = np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float)
+        dts = np.ascontiguousarray(dts, dtype=float)
+        n = gyr.shape[0]
+        first_segment = self.segments == 0
+        if self._front is None and self._state is None:
+            self.segments += 1
+        self.n += n
+        front_bias = None
+        if self.input_stage:
+            if self._front is None:
+                q0 = self.q0 if first_segment and self.method == "iframe" else None
+                self._front = _if._new_state(self.front_opts, q0)
+            r = _if._run(self._front, self.par, gyr, acc, np.zeros((0, 3)), dts)
+            self.rest += int(np.count_nonzero(r.rest))
+            front_bias = r.bias[-1].copy()
+            if self.method == "iframe":
+                self.acc_hits += int(np.count_nonzero(~r.acc_used))
+                self.gyro_bias = front_bias
+                return r.q
+            gyr, acc = _if.front_outputs(r, gyr, acc, self.frame)
+        if self._state is None:
+            q = (self.q0 if self.q0 is not None and first_segment else
+                 initial_attitude(acc[0], self.frame, None, 0))
+            self._state = _init_state(self.method, q, self.opts)
+        use, sn, cbm, c2, s2, min_d2, _ = _pol_arrays(None, n, self.frame)
+        out, std = np.empty((n, 4)), np.empty((n, 3))
+        _run(self.method, self.opts, self._state, gyr, acc, dts, up_vector(self.frame), use, sn, cbm, c2, s2,
+             min_d2, out, std, self.counts)
+        bias = self._state[4:7].copy() if self.method == "mekf" else None
+        if front_bias is not None:
+            bias = front_bias + (0.0 if bias is None else bias)
+        self.gyro_bias = bias
+        return out
+
+    @property
+    def acc_threshold_hits(self) -> int:
+        from optinav.attitude import _kernels
+
+        return self.acc_hits if self.method == "iframe" else int(self.counts[_kernels.C_ACC_SHRUNK])
+
+    def summary(self) -> str:
+        """The line :meth:`AttitudeEstimate.summary` prints for the same estimate."""
+        return summary_line(self.method, self.frame, self.n, segments=self.segments,
+                            rest=self.rest / self.n if self.input_stage and self.n else None)
+
