@@ -40,13 +40,15 @@ from optinav.core.simulate import describe_pose
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
 from optinav.multipos import design as _design
+from optinav.multipos.gyro import GYRO_PARAMS
+from optinav.multipos.model import ACCEL_PARAMS
 
 __all__ = ["PosePlan", "plan_poses", "plot_plan", "pose_words", "turn_between", "gyro_turn_std", "noise_from_allan",
            "MIN_DWELL_S", "ACC_NAMES", "GYRO_NAMES"]
 
 MIN_DWELL_S = 5.0
-ACC_NAMES = ("K_xx", "K_yy", "K_zz", "K_xy", "K_xz", "K_yz", "b_x", "b_y", "b_z")
-GYRO_NAMES = tuple(f"K_{r}{c}" for r in "xyz" for c in "xyz") + ("b_x", "b_y", "b_z")
+ACC_NAMES = ACCEL_PARAMS
+GYRO_NAMES = GYRO_PARAMS
 _DEG_H = math.pi / 180.0 / 3600.0  # rad/s per deg/h
 
 
