@@ -367,8 +367,12 @@ def plan_poses(n_poses: int = 12, *, criterion: str = "D", acc_noise_density=Non
             why.append((t, "gyro_bias_deg_h"))
             need = max(need, t)
         dwell = float(math.ceil(need))
-        top = max(why)[1]
-        reason = f"the {top.replace('_', ' ')} target {targets.get(top, gyro_bias_deg_h):g} sets it"
+        t_top, top = max(why)
+        what = {"scale_ppm": "accelerometer scale-factor target {:g} ppm", "misalignment_mrad":
+                "accelerometer misalignment target {:g} mrad", "bias_mg": "accelerometer bias target {:g} mg",
+                "gyro_bias_deg_h": "gyro bias target {:g} deg/h"}[top].format(targets.get(top, gyro_bias_deg_h))
+        reason = (f"the {what} sets it" if t_top >= MIN_DWELL_S else
+                  f"the {MIN_DWELL_S:g} s minimum; the targets need less")
         if dwell > max_dwell_s:
             notes.append(f"the targets need {dwell:g} s per pose, more than {max_dwell_s:g} s: beyond the Allan "
                          "deviation minimum more averaging does not help (bias instability); relax the targets "
