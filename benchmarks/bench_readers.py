@@ -5,7 +5,9 @@ default row groups) and as ROS bags of ``sensor_msgs/msg/Imu`` messages: ROS 2 s
 (rosbags' writers; the message bytes are rosbags' serialization of one message with the stamp and values
 patched in, which keeps writing 3.6 M messages to minutes). Each reading runs in a fresh process: the time
 of the read (best of ``REPEAT`` for Parquet, one read for bags) and the growth of the peak resident set over
-the resident set after the imports (``getrusage`` and ``/proc/self/status``, Linux; pyarrow allocates outside Python, so tracemalloc would miss it).
+the resident set after the imports (``VmHWM`` and ``VmRSS`` of ``/proc/self/status``, Linux; not
+``getrusage``, whose peak survives the exec and so includes the parent's; the peak is reset after the imports
+through ``/proc/self/clear_refs``; pyarrow allocates outside Python, so tracemalloc would miss it).
 
 Methods side by side: ``pyarrow.parquet.read_table`` of the file (the reference: an Arrow table, no conversion);
 ``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check);
@@ -27,7 +29,7 @@ RATE = 1000.0
 REPEAT = 3
 
 _CHILD = r"""
-import json, resource, sys, time
+import json, sys, time
 import numpy as np
 kind, path, repeat = sys.argv[1], sys.argv[2], int(sys.argv[3])
 if kind == "pyarrow":
@@ -51,17 +53,19 @@ else:
     import pyarrow.parquet, rosbags.highlevel  # noqa: F401
     def read():
         return len(read_imu(path))
-def rss_kib():
+def status_kib(key):
     with open("/proc/self/status") as fh:
-        return next(int(x.split()[1]) for x in fh if x.startswith("VmRSS:"))
+        return next(int(x.split()[1]) for x in fh if x.startswith(key + ":"))
 import gc; gc.collect()
-base = rss_kib()
+with open("/proc/self/clear_refs", "w") as fh:  # reset VmHWM: the imports' peak is not the read's
+    fh.write("5")
+base = status_kib("VmRSS")
 best = float("inf")
 for _ in range(repeat):
     t0 = time.perf_counter()
     n = read()
     best = min(best, time.perf_counter() - t0)
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+peak = status_kib("VmHWM")  # not ru_maxrss: it keeps the peak of the forking parent across exec
 print(json.dumps({"n": n, "seconds": best, "peak_growth_mib": (peak - base) / 1024.0}))
 """
 
