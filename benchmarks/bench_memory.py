@@ -1,59 +1,131 @@
-"""Peak memory (resident set) of the commands on one long log: simulate, calibrate accel, apply, attitude.
+"""Peak memory (resident set) and time of the commands on long logs: simulate, calibrate, apply, attitude.
 
-Data: `optinav simulate accel-multipos` (the paper's 12 poses at 100 Hz; dwell 60 s, about 78 000 rows;
-full: 8 300 s, about 10 M rows), written as CSV, then calibrated, corrected with the result and run through the
-attitude filter, each command in its own process (peak RSS from ``getrusage`` of that process). Two log
-lengths (quick: dwell 10 s and 60 s) give the growth per million rows (the imports cancel) and the peak
-extrapolated to 10 M rows. Target (issue 17): under 1 GB for a 10 M-row log; nothing streams yet, so this
-records how far from it each command is.
+Data: `optinav simulate accel-multipos` (the paper's 12 poses at 100 Hz; rest 10 s, turns 4 s, the dwell set
+for 1 M and 3 M rows; quick: 20 000 and 60 000), written as CSV, then calibrated, corrected with the result and
+run through the attitude filter (iframe), each command in its own process (peak RSS from ``getrusage`` of that
+process, wall time around it). Every step runs twice: with this tree's sources ("after") and with the sources of
+commit ``BEFORE`` exported by ``git archive`` ("before", the tree before the commands streamed). The two log
+lengths give the growth per million rows (the imports cancel) and the peak extrapolated to 10 M rows: 10 M
+rows were not run (a 1.3 GB CSV per step, and the "before" commands would need about 11 GB), so the 10 M
+figures are a linear extrapolation from 1 M and 3 M, which holds for the streamed commands only while their
+per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log.
+
+"Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
+``attitude`` end with their one-line error (the streamed commands process the rows before it first).
 """
 
 from __future__ import annotations
 
+import os
+import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
+
+#: the commit before the commands streamed (the "before" column)
+BEFORE = "588414d"
+ROOT = Path(__file__).resolve().parent.parent
 
 _WRAP = ("import resource, sys; from optinav.cli.main import main; rc = main(sys.argv[1:]); "
          "print('peak_kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); sys.exit(rc)")
 
 
-def _peak_mib(argv: list[str]) -> float:
-    proc = subprocess.run([sys.executable, "-c", _WRAP, "--quiet", *argv], capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise RuntimeError(f"optinav {' '.join(argv)} failed: {proc.stderr.strip()[-300:]}")
-    line = [x for x in proc.stderr.splitlines() if x.startswith("peak_kib")][-1]
-    return int(line.split()[1]) / 1024.0
+def _run(src: Path, argv: list[str], expect_error: bool = False) -> tuple[float, float, str]:
+    """(peak MiB, wall s, stderr) of ``optinav argv`` with the sources in ``src``."""
+    env = dict(os.environ, PYTHONPATH=str(src), OPTINAV_QUIET="1")
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", _WRAP, "--quiet", *argv], capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t0
+    if (proc.returncode != 0) != expect_error:
+        raise RuntimeError(f"optinav {' '.join(argv)} exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
+    lines = [x for x in proc.stderr.splitlines() if x.startswith("peak_kib")]
+    peak = int(lines[-1].split()[1]) / 1024.0 if lines else float("nan")
+    return peak, wall, proc.stderr
 
 
-def _measure(d: Path, dwell: float) -> tuple[int, dict]:
-    log, res = d / f"log{dwell:g}.csv", d / f"result{dwell:g}.json"
-    corrected = d / f"corrected{dwell:g}.csv"
-    steps = [("simulate accel-multipos", ["simulate", "accel-multipos", "--out", str(log), "--dwell", str(dwell),
-                                          "--rate", "100", "--seed", "1"]),
-             ("calibrate accel", ["calibrate", "accel", str(log), "--latitude", "38.88", "--height", "35",
-                                  "--out", str(res)]),
-             ("apply", ["apply", str(res), str(log), "--out", str(corrected)]),
-             ("attitude", ["attitude", str(corrected), "--out", str(d / f"att{dwell:g}.csv")])]
-    peaks = {name: _peak_mib(argv) for name, argv in steps}
-    with open(log, encoding="utf-8") as fh:
-        n = sum(1 for _ in fh) - 3  # two comment lines and the header
-    return n, peaks
+def _before_src(tmp: Path) -> Path | None:
+    """The sources of BEFORE, or None outside a git checkout."""
+    if shutil.which("git") is None:
+        return None
+    dest = tmp / "before"
+    dest.mkdir()
+    arch = subprocess.run(["git", "-C", str(ROOT), "archive", BEFORE, "src"], capture_output=True)
+    if arch.returncode != 0:
+        return None
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=arch.stdout, check=True)
+    return dest / "src"
+
+
+def _steps(d: Path, rows: int) -> list[tuple[str, list[str]]]:
+    dwell = (rows / 100.0 - 10.0) / 12.0 - 4.0
+    log, res = d / f"log{rows}.csv", d / f"result{rows}.json"
+    return [("simulate accel-multipos", ["simulate", "accel-multipos", "--out", str(log), "--dwell", f"{dwell:.6f}",
+                                         "--rate", "100", "--seed", "1"]),
+            ("calibrate accel", ["calibrate", "accel", str(log), "--latitude", "38.88", "--height", "35",
+                                 "--out", str(res)]),
+            ("apply", ["apply", str(res), str(log), "--out", str(d / f"corrected{rows}.csv")]),
+            ("attitude", ["attitude", str(d / f"corrected{rows}.csv"), "--out", str(d / f"att{rows}.csv")])]
+
+
+def _rows_of(path: Path) -> int:
+    with open(path, "rb") as fh:
+        return sum(1 for _ in fh) - 3  # two comment lines and the header
+
+
+def _bad_copy(src: Path, dst: Path) -> None:
+    """``src`` with the last row's ``ay`` cell (column 3) replaced by text."""
+    with open(src, "rb") as fh:
+        data = fh.read()
+    head, last = data.rstrip(b"\n").rsplit(b"\n", 1)
+    cells = last.split(b",")
+    cells[2] = b"x1.5"
+    dst.write_bytes(head + b"\n" + b",".join(cells) + b"\n")
 
 
 def run(quick: bool) -> list[dict]:
-    small, large = (10.0, 60.0) if quick else (60.0, 8300.0)
+    sizes = (20_000, 60_000) if quick else (1_000_000, 3_000_000)
+    out = []
     with tempfile.TemporaryDirectory() as tmp:
-        n1, p1 = _measure(Path(tmp), small)
-        n2, p2 = _measure(Path(tmp), large)
-    group = f"peak memory, logs of {n1} and {n2} rows"
-    rows = []
-    for name in p2:
-        slope = (p2[name] - p1[name]) / ((n2 - n1) / 1e6)  # MiB per million rows, the imports cancel
-        rows += [{"group": group, "method": name, "metric": f"peak RSS at {n2} rows", "value": p2[name],
-                  "unit": "MiB"},
-                 {"group": group, "method": name, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
-                 {"group": group, "method": name, "metric": "peak RSS at 10 M rows (extrapolated)",
-                  "value": p1[name] + slope * (10 - n1 / 1e6), "unit": "MiB"}]
-    return rows
+        tmp = Path(tmp)
+        versions = {"after": ROOT / "src"}
+        before = _before_src(tmp)
+        if before is not None:
+            versions["before"] = before
+        peaks: dict[tuple[str, str], list[tuple[int, float, float]]] = {}
+        for version, src in versions.items():
+            for rows in sizes:
+                d = tmp / f"{version}{rows}"
+                d.mkdir()
+                n = None
+                for name, argv in _steps(d, rows):
+                    peak, wall, _ = _run(src, argv)
+                    n = n or _rows_of(d / f"log{rows}.csv")
+                    peaks.setdefault((name, version), []).append((n, peak, wall))
+                if rows == sizes[0]:
+                    bad = d / "bad.csv"
+                    _bad_copy(d / f"log{rows}.csv", bad)
+                    for name, argv in (("apply", ["apply", str(d / f"result{rows}.json"), str(bad), "--out",
+                                                  str(d / "bad_out.csv")]),
+                                       ("attitude", ["attitude", str(bad), "--out", str(d / "bad_att.csv")])):
+                        _, wall, err = _run(src, argv, expect_error=True)
+                        if "not a number" not in err:
+                            raise RuntimeError(f"{name} on the bad cell: {err.strip()[-300:]}")
+                        out.append({"group": f"bad cell in the last of {n} rows", "method": f"{name} ({version})",
+                                    "metric": "time to the one-line error", "value": wall, "unit": "s"})
+                shutil.rmtree(d)
+    for (name, version), pts in peaks.items():
+        (n1, p1, _), (n2, p2, w2) = pts
+        slope = (p2 - p1) / ((n2 - n1) / 1e6)  # MiB per million rows, the imports cancel
+        group = f"peak memory, logs of {n1} and {n2} rows"
+        method = f"{name} ({version})"
+        out += [{"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
+                {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
+                {"group": group, "method": method, "metric": "growth per million rows", "value": slope,
+                 "unit": "MiB"},
+                {"group": group, "method": method, "metric": "peak RSS at 10 M rows (extrapolated)",
+                 "value": p1 + slope * (10 - n1 / 1e6), "unit": "MiB"},
+                {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"}]
+    order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
+    return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))

@@ -34,7 +34,7 @@ def units(tmp_path_factory):
     d = tmp_path_factory.mktemp("units")
     truth = {}
     for name, acc_unit, seed in UNITS:
-        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=LAT,
+        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(LAT),
                      height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
         write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s

@@ -114,7 +114,7 @@ _PIECES = st.sampled_from(["Fs,100\n", "rate: 1e308\n", "ax,ay,az\n", "t,ax,ay,a
 def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, rate):
     path = _w(tmp_path / f"f{suffix}", "".join(pieces))
     try:
-        log = read_imu(path, rate=rate)
+        log = read_imu(path, rate_hz=rate)
     except OptinavError as exc:
         assert "\n" not in str(exc) and str(exc)
         return

@@ -502,7 +502,8 @@ def run_batch(directory, out, options: FileOptions | None = None, *, workers: in
 
     options = FileOptions() if options is None else options
     options.check()
-    local_gravity(options.gravity, options.latitude, options.height)  # bad site options: once, not per unit
+    local_gravity(options.gravity, None if options.latitude is None else np.radians(options.latitude),
+                  options.height)  # bad site options: once, not per unit
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:

@@ -107,7 +107,7 @@ def _sun(args, t, frame):
     if fixed:
         if args.sun_azimuth is None or args.sun_elevation is None:
             raise OptinavError("--sun-azimuth and --sun-elevation go together", "give both")
-        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame.lower())
+        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame)
     if args.lat is None or args.lon is None or args.start_time is None:
         raise OptinavError("polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
                            "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
@@ -116,7 +116,7 @@ def _sun(args, t, frame):
     t0 = float(utc_seconds(args.start_time))
     times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
     sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
-    return sp.sun_vector(frame.lower())
+    return sp.sun_vector(frame)
 
 
 #: the attitude CSV's columns t, q, Euler: t exactly (bag stamps are s since the epoch; %.9g rounded them to 100 s)
@@ -132,7 +132,7 @@ def _read_log(args):
     want_mag = args.mag or bool(args.mag_columns)
     if is_broad(args.data) and not args.columns and not args.datasets:
         tr = load_broad(args.data)
-        t = np.arange(tr.gyr.shape[0]) / tr.rate
+        t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
     from optinav.io.readers import read_table
@@ -141,7 +141,7 @@ def _read_log(args):
         raise OptinavError(f"{args.data} is not a BROAD file with opt_quat and movement",
                            "drop --reference or pass a BROAD trial")
     log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                   time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
                    delimiter=args.delimiter, topic=args.topic)
     if log.acc is None or log.gyro is None:
         raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
@@ -172,7 +172,7 @@ def run(args) -> int:
 
     from optinav.attitude import PolarizationMeasurement, estimate
     from optinav.attitude.checks import check_aop
-    from optinav.core.rotations import euler_from_quat, quat_from_euler
+    from optinav.core.rotations import euler_from_quat, frame_name, quat_from_euler
 
     from optinav.attitude.estimators import _method
     from optinav.attitude.estimators import _options as check_options
@@ -184,12 +184,12 @@ def run(args) -> int:
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
-    if args.reference and args.frame != "ENU":  # before the estimate, not after it
+    if args.reference and frame_name(args.frame) != "enu":  # before the estimate, not after it
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     q0 = None
     if args.q0_deg:
         e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
-        q0 = quat_from_euler(np.radians(e), args.frame.lower())
+        q0 = quat_from_euler(np.radians(e), frame_name(args.frame))
     if not args.pol_columns and any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth,
                                                              args.sun_elevation)):
         raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
@@ -227,7 +227,7 @@ def run(args) -> int:
     res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
                    offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
                    **options)
-    eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
+    eul = np.degrees(euler_from_quat(res.q, frame_name(args.frame)))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
     step("write")
@@ -264,7 +264,7 @@ def _run_stream(args, method, options, q0, out) -> int:
 
     from optinav.attitude.stream import StreamChecks, StreamEstimator
     from optinav.core.progress import progress_blocks, step
-    from optinav.core.rotations import euler_from_quat
+    from optinav.core.rotations import euler_from_quat, frame_name
     from optinav.io.imu import iter_imu
 
     estimator = StreamEstimator(method, frame=args.frame, q0=q0, input_stage=args.input_stage, **options)
@@ -272,7 +272,7 @@ def _run_stream(args, method, options, q0, out) -> int:
     def blocks(desc):
         # two rows at least: the first block's first step comes from its first two times
         chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                          time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                          time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
                           delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
         prev = None
         for log in progress_blocks(chunks, desc):
@@ -300,7 +300,7 @@ def _run_stream(args, method, options, q0, out) -> int:
     gaps = checks.gaps
     if not getattr(args, "quiet", False):
         print(f"optinav: attitude of {checks.n} samples from {args.data} ({method}) ...", file=sys.stderr)
-    step(f"estimate ({method})")
+    step(f"estimate ({method}), write")  # one pass does both
     with atomic_open(out, "w", newline="\n") as fh:
         fh.write(_HEADER + "\n")
         for row0, log, dts in blocks(f"attitude: {method}"):
@@ -318,7 +318,7 @@ def _run_stream(args, method, options, q0, out) -> int:
                 if b > a:
                     qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
             q = np.concatenate(qs)
-            eul = np.degrees(euler_from_quat(q, args.frame.lower()))
+            eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
             np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
         checks.finish_second(args.frame)
         if gaps.size and not args.allow_gaps:

@@ -43,6 +43,9 @@ def register(sub) -> None:
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
+    a.add_argument("--export", action="append", default=[], metavar="FMT:FILE",
+                   help="also write the calibration for another tool: imucal:cal.json, kalibr:imu.yaml or "
+                        "imu_tk:acc.calib,gyro.calib (repeatable; see optinav export --help)")
     add_report_option(a)
     a.set_defaults(func=run_accel, progress_task="calibrate accel")
     register_system_hooks(kinds, "register_calibrate")
@@ -122,6 +125,7 @@ def run_accel(args) -> int:
     from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
     out = output_path(args.out, (".json",), "RESULT.json")
+    exports = [parse_export(spec) for spec in args.export]
     prepare_report(args)
     options = FileOptions.from_args(args)
     options.check()
@@ -136,7 +140,31 @@ def run_accel(args) -> int:
         print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
     print(f"optinav: result written to {out}")
+    if exports:
+        from optinav.multipos.exchange import export_calibration
+
+        for fmt, path, gyro_path in exports:
+            for p in export_calibration(res, fmt, path, gyro_out=gyro_path, option="--export"):
+                print(f"optinav: {fmt} file written to {p}")
     from optinav.reports.calibration_report import write_calibration_report
 
     finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyro, d))
     return 0
+
+
+def parse_export(spec: str):
+    """``FMT:FILE`` of --export (imu_tk takes ``ACC,GYRO``) → (format, path, gyro path or None), the paths checked
+    before any work."""
+    from optinav.cli.common import output_path
+    from optinav.errors import OptinavError
+    from optinav.multipos.exchange import FORMATS
+
+    fmt, sep, rest = spec.partition(":")
+    if not sep or fmt not in FORMATS or not rest:
+        raise OptinavError(f"--export {spec!r} is not FMT:FILE with FMT one of {', '.join(FORMATS)}",
+                           "write e.g. --export imucal:cal.json or --export imu_tk:acc.calib,gyro.calib")
+    paths = rest.split(",") if fmt == "imu_tk" else [rest]
+    if len(paths) > 2 or not all(paths):
+        raise OptinavError(f"--export {spec!r} names {len(paths)} files", "imu_tk takes ACC,GYRO; others one file")
+    checked = [output_path(p, option="--export") for p in paths]
+    return fmt, checked[0], checked[1] if len(checked) > 1 else None

@@ -13,6 +13,19 @@ from optinav.errors import OptinavError
 SYSTEM_MODULES = ["optinav.cli.rins", "optinav.cli.gfimu", "optinav.cli.attitude"]
 
 
+def shared_data_dir() -> Path:
+    """The shared data folder: ``$OPTINAV_SHARED_DATA`` if set, else ``../shared/data`` relative to the project
+    root (the folder holding ``src/optinav``; a source tree or an editable install)."""
+    import os
+
+    env = os.environ.get("OPTINAV_SHARED_DATA")
+    if env:
+        return Path(env)
+    import optinav
+
+    return (Path(optinav.__file__).resolve().parents[2] / ".." / "shared" / "data").resolve()
+
+
 def register_system_hooks(kinds, hook: str) -> None:
     """Call ``hook`` (``register_simulate``/``register_calibrate``) of every system CLI module that has it."""
     import importlib

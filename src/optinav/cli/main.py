@@ -20,6 +20,7 @@ from optinav.errors import OptinavError
 #: modules that define ``register(subparsers)``; later systems add theirs here
 COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.attitude",
                    "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch",
+                   "optinav.cli.allan", "optinav.cli.export",
                    "optinav.cli.design"]
 
 
@@ -101,7 +102,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 #: options that name what a command writes, never what it reads
-_OUTPUT_OPTIONS = {"out", "report", "truth_out"}
+_OUTPUT_OPTIONS = {"out", "report", "truth_out", "kalibr", "gyro_out", "export"}
 
 
 def _input_paths(args) -> list[str]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import textwrap
 
@@ -76,7 +77,7 @@ def run_simulate(args) -> int:
                  "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
     d = simulate(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
-                 align_s=args.align, rate=args.rate, lat_deg=args.lat,
+                 align_s=args.align, rate_hz=args.rate, lat=np.radians(args.lat),
                  gyro_misalignment=None if args.gyro_misalignment_arcsec is None
                  else args.gyro_misalignment_arcsec * arc,
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
@@ -108,7 +109,7 @@ def register_calibrate(kinds) -> None:
               optinav calibrate rins rins.npz --method lm --out result.json --report rep
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", help="data file (.npz, .csv, .h5) with time, dtheta_x..z, dv_x..z, alpha, beta")
+    p.add_argument("data", help="data file (.npz, .csv, .h5) with t (or time), dtheta_x..z, dv_x..z, alpha, beta")
     p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
     p.add_argument("--lat", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from the file)")
     p.add_argument("--align", type=POSITIVE, metavar="S", help="longest alignment window (default: the initial rest)")
@@ -129,7 +130,7 @@ def run_calibrate(args) -> int:
     out = output_path(args.out, (".json",), "RESULT.json")
     prepare_report(args)
     step("read")
-    data = read_rins(args.data, lat_deg=args.lat)
+    data = read_rins(args.data, lat=None if args.lat is None else math.radians(args.lat))
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     step("prepare")
@@ -160,7 +161,7 @@ def write_rins_report(res, prep, out_dir):
 
     def draw(fig):
         axs = fig.subplots(3, 1, sharex=True)
-        for k, nm in enumerate(("pitch", "roll", "yaw")):
+        for k, nm in enumerate(("roll", "pitch", "yaw")):
             axs[k].plot(t, eb[:, k], "r", lw=0.8, label="uncompensated")
             axs[k].plot(t, ea[:, k], "g", lw=0.8, label=res.method)
             axs[k].set_ylabel(f"{nm} [deg]")
@@ -170,7 +171,7 @@ def write_rins_report(res, prep, out_dir):
     study = StudyResult(name="rins-calibration", title=f"Rotational-INS non-orthogonality ({res.method})",
                         description="; ".join(res.observability.get("statements", [])),
                         tables=[Table("Angles [rad] (null = not observable)", ["angle", "value", "std"], rows),
-                                Table("Vehicle attitude RMSE [deg]", ["", "pitch", "roll", "yaw"],
+                                Table("Vehicle attitude RMSE [deg]", ["", "roll", "pitch", "yaw"],
                                       [["before", *res.rmse_before_deg], ["after", *res.rmse_after_deg]])],
                         figures=[Figure("attitude_error.png", "extracted vehicle attitude change (error)", draw,
                                         (7.0, 6.0))])

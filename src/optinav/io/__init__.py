@@ -2,10 +2,13 @@
 
 ``read_table`` returns named numpy arrays; ``read_imu`` interprets them as an :class:`ImuLog` (time in s,
 accelerometer in m/s² or counts, gyroscope in rad/s or counts); ``write_imu`` writes a log back as CSV/TSV/text,
-NPZ, HDF5 or MAT. Formats, column aliases and units: docs/file-formats.md.
+NPZ, HDF5 or MAT. ``iter_imu``/``iter_table`` read text logs in blocks (memory independent of their length) and
+``open_imu_writer`` writes logs block by block. Formats, column aliases and units: docs/file-formats.md.
 """
 
-from optinav.io.imu import ALIASES, STANDARD_NAMES, ImuLog, raw_units, read_imu, write_imu
-from optinav.io.readers import read_table
+from optinav.io.imu import (ALIASES, STANDARD_NAMES, ImuLog, iter_imu, open_imu_writer, raw_units, read_imu,
+                            write_imu)
+from optinav.io.readers import iter_table, read_table
 
-__all__ = ["read_table", "read_imu", "write_imu", "ImuLog", "STANDARD_NAMES", "ALIASES", "raw_units"]
+__all__ = ["read_table", "read_imu", "write_imu", "iter_table", "iter_imu", "open_imu_writer", "ImuLog",
+           "STANDARD_NAMES", "ALIASES", "raw_units"]

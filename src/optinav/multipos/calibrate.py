@@ -78,23 +78,25 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
-def local_gravity(g=None, lat_deg=None, height_m: float = 0.0) -> tuple[float, str]:
-    """Gravity magnitude (m/s²) and how it was obtained: given, normal gravity at lat/height, or standard."""
+def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
+    """Gravity magnitude (m/s²) and how it was obtained: given ``g``, normal gravity at ``lat`` (rad) and
+    ``height_m`` (m), or standard."""
     if g is not None:
         g = check_positive(g, "gravity")
         if not 9.7 < g < 9.9:
             raise OptinavError(f"gravity {g:g} m/s^2 is outside 9.7–9.9", "give the local gravity in m/s^2")
         return g, "given"
-    if lat_deg is not None:
-        lat = float(lat_deg)
-        if not -90 <= lat <= 90:
-            raise OptinavError(f"latitude {lat:g}° is outside ±90°", "give the latitude in degrees")
-        return float(normal_gravity(np.radians(lat), float(height_m))), f"normal gravity at {lat:g}°, {height_m:g} m"
+    if lat is not None:
+        lat = float(lat)
+        if not -np.pi / 2 <= lat <= np.pi / 2:
+            raise OptinavError(f"latitude {lat:g} rad is outside ±π/2", "give the latitude in rad (CLI: degrees)")
+        return (float(normal_gravity(lat, float(height_m))),
+                f"normal gravity at {np.degrees(lat):.10g}°, {height_m:g} m")
     return G_STANDARD, "standard gravity, by default"
 
 
 def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
-    cands = static.threshold_candidates(t, acc, gyro=gyro, window_s=window_s, min_duration_s=min_duration_s,
+    cands = static.threshold_candidates(t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s,
                                         acc_unit=acc_unit, gyro_unit=gyro_unit)
     scores = []
     seen = {}
@@ -128,31 +130,32 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
                                     "reduced_chi2": red, "chosen": best}
 
 
-def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
-              lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
+def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
+              lat=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
               data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
               threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
               source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-              rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
+              rest=None, allow_unobservable: bool = False, rotation_angle: float = -2 * np.pi,
               held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None
               ) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
-    t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
-    come out in raw units per SI unit). ``g`` (m/s²) or ``lat_deg``/``height_m`` set the local gravity.
+    t (N,) s; acc (N, 3) and gyr (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
+    come out in raw units per SI unit). ``g`` (m/s²) or ``lat`` (rad) / ``height_m`` (m) set the local gravity.
     ``sections``: manual static sections (list of (t0, t1) s, or a file — see
     :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
     over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
     ``gyro_bias``: "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
     rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
     ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
-    turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
+    turns do not determine instead of failing. ``rotation_angle`` (rad): the Ferraris turn (imucal's −2π);
     ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
     stds of the scales and biases). ``gyro_g_sensitivity`` (raw gyro per m/s², 1σ): the unmodelled gyro
     g-sensitivity, added to the gyro bias and K std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
     Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
+    gyro = gyr
     t_start = time.perf_counter()
     t = as_float_array(t, "time", finite=False)
     acc = as_float_array(acc, "accelerometer data", last_dims=(3,), finite=False)
@@ -172,7 +175,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
         t, acc = t[finite], acc[finite]
         gyro = gyro[finite] if gyro is not None else None
     t = check_timestamps(t, "time", min_count=10)
-    g, g_source = local_gravity(g, lat_deg, height_m)
+    g, g_source = local_gravity(g, lat, height_m)
     notes = [f"g = {g:.6g} m/s^2 ({g_source})" + (": give --gravity or --latitude for the local value (it "
                                                    "differs from standard gravity by up to 0.3 %)"
                                                    if g_source.startswith("standard") else "")]
@@ -186,7 +189,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
 
     if method == "ferraris":
         return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
-                         notes, np.radians(rotation_angle_deg))
+                         notes, float(rotation_angle))
     selection = {}
     step("detect static intervals")
     if sections is not None:
@@ -195,7 +198,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
         ranges = np.asarray(sl.index_ranges, int)[keep]
         t_int, how = np.asarray(sl.t_intervals, float)[keep], "manual sections"
     elif threshold is not None:
-        det = static.detect_static(t, acc, gyro=gyro, window_s=window_s, threshold=threshold,
+        det = static.detect_static(t, acc, gyr=gyro, window_s=window_s, threshold=threshold,
                                    min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "threshold"
     else:
@@ -485,6 +488,8 @@ class FileOptions:
         if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
             raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
                                "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
+        if self.latitude is not None and not -90 <= self.latitude <= 90:
+            raise OptinavError(f"--latitude {self.latitude:g} is outside ±90°", "give the latitude in degrees")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -505,7 +510,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units."""
     o = options
     log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
-                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate=o.rate, datasets=o.datasets or None,
+                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
                    delimiter=o.delimiter, topic=o.topic)
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
@@ -525,15 +530,16 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
 
         sections = sections_from_labels(data.labels)
     res = calibrate(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
-                     gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
-                     height_m=o.height, method=o.method, model_form=o.model,
-                     data="samples" if o.fit_samples else "means", sections=sections,
-                     window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
-                     acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
-                     source=source, method_options=method_options, rest=o.rest,
-                     allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
-                     acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                     gyro_g_sensitivity=o.gyro_g_sensitivity)
+                    gyro_unit=data.gyro_unit or "rad/s", g=o.gravity,
+                    lat=None if o.latitude is None else np.radians(o.latitude),
+                    height_m=o.height, method=o.method, model_form=o.model,
+                    data="samples" if o.fit_samples else "means", sections=sections,
+                    window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
+                    acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
+                    source=source, method_options=method_options, rest=o.rest,
+                    allow_unobservable=o.allow_unobservable, rotation_angle=np.radians(o.rotation_angle),
+                    acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
+                    gyro_g_sensitivity=o.gyro_g_sensitivity)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 

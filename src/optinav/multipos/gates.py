@@ -45,12 +45,12 @@ _ACC_UNITS = ("m/s^2", "g", "mg")
 _GYRO_UNITS = ("rad/s", "deg/s")
 
 
-def distinct_directions(dirs, tol_deg: float = SAME_POSE_DEG) -> np.ndarray:
+def distinct_directions(dirs, tol: float = float(np.radians(SAME_POSE_DEG))) -> np.ndarray:
     """Cluster label (P,) of each direction (P, 3): greedy, a direction joins the first cluster whose first
-    member is within ``tol_deg``; labels count 0, 1, … in order of first appearance."""
+    member is within ``tol`` (rad); labels count 0, 1, … in order of first appearance."""
     d = np.asarray(dirs, float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    cos_tol = np.cos(np.radians(tol_deg))
+    cos_tol = np.cos(tol)
     reps: list[np.ndarray] = []
     labels = np.empty(len(d), int)
     for k, u in enumerate(d):

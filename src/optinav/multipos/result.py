@@ -100,8 +100,8 @@ class CalibrationResult(Result):
         K, b = self.accelerometer["K"], self.accelerometer["b"]
         return np.linalg.solve(K, (raw - b).T).T
 
-    def correct_gyro(self, raw, accel=None) -> np.ndarray:
-        """ω = K_g⁻¹(raw − G·a − b_g) (rad/s); ``accel`` is the corrected specific force (m/s²) for G."""
+    def correct_gyro(self, raw, acc=None) -> np.ndarray:
+        """ω = K_g⁻¹(raw − G·a − b_g) (rad/s); ``acc`` is the corrected specific force (m/s²) for G."""
         if self.gyroscope is None:
             raise OptinavError("this result has no gyroscope calibration", "calibrate with gyroscope data")
         raw = as_float_array(raw, "gyroscope data", last_dims=(3,), finite=False)
@@ -109,10 +109,10 @@ class CalibrationResult(Result):
         v = raw - b
         G = self.gyroscope.get("G")
         if G is not None and np.any(np.asarray(G) != 0):
-            if accel is None:
+            if acc is None:
                 raise OptinavError("the gyroscope calibration has a g-sensitivity term but no accelerometer data "
                                    "was given", "pass the accelerometer data too")
-            v = v - np.asarray(accel, float) @ np.asarray(G, float).T
+            v = v - np.asarray(acc, float) @ np.asarray(G, float).T
         return np.linalg.solve(K, v.T).T
 
     def summary(self) -> str:

@@ -137,7 +137,7 @@ def _motion_check(alpha, beta) -> None:
 def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
     """Gyros turning by large angles while both encoders report rest → a frozen encoder channel."""
     idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
     rate = np.linalg.norm(dth, axis=1) / np.diff(sa.t)
     moving = (motion_mask(sa.alpha) | motion_mask(sa.beta)).astype(float)
     # the encoders see a move a little later/earlier than the gyros (slow start of a rate profile): widen it
@@ -193,7 +193,7 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
                 continue
             cs = prep._gyro_perturbed.get((i, j, sig))
             if cs is None:
-                dth = np.asarray(data.dtheta, float)[sa.index[1:]]
+                dth = np.asarray(data.dtheta, float)[sa.index[:-1]]
                 dK = np.zeros((3, 3))
                 dK[i, j] = sig
                 q = attitude_update(quat_from_dcm(sa.c_s_n[0]), dth - dth @ dK.T, coning="previous",
@@ -236,7 +236,7 @@ class RinsCalibration(Result):
     ``{name, coefficients (θx…ηz), value (rad), std, crlb_std}``; ``observability``: ``{rank, singular_values,
     null_space (vectors ordered θx, θy, θz, ηx, ηy, ηz), statements}``; ``p_used``: the six angles applied in
     compensation (unobservable directions set to zero, they do not change the attitude change);
-    ``rmse_before_deg``/``rmse_after_deg``: RMS of [pitch, roll, yaw] of the extracted attitude change.
+    ``rmse_before_deg``/``rmse_after_deg``: RMS of [roll, pitch, yaw] of the extracted attitude change.
     """
 
     SCHEMA = "optinav.rins_calibration"
@@ -281,7 +281,7 @@ class RinsCalibration(Result):
         for s in self.observability.get("statements", []):
             lines.append(f"  observability: {s}")
         b, a = self.rmse_before_deg, self.rmse_after_deg
-        lines.append("  attitude RMSE [pitch, roll, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
+        lines.append("  attitude RMSE [roll, pitch, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
                      + "; after " + ", ".join(f"{x:.4g}" for x in a))
         return "\n".join(lines)
 
@@ -289,7 +289,7 @@ class RinsCalibration(Result):
 # --- methods ---------------------------------------------------------------------------------------------------
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
-    """[pitch, roll, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
+    """[roll, pitch, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
     return residuals(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces).reshape(-1, 3)
 
 
@@ -335,7 +335,7 @@ def _measure_axes(prep: Prepared):
     """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα)], outer [(u, Δβ, α)])."""
     data, sa = prep.data, prep.full
     idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
     dt = np.diff(sa.t)
     w_ie = _earth.earth_rate(data.lat, "enu")
     # Earth rate in the IMU frame along the strapdown attitude (start of each interval)
@@ -391,7 +391,7 @@ def _fit_axis(prep: Prepared, V):
 def noise_walk(prep: Prepared) -> float:
     """Attitude random walk (rad) of the gyro white noise over the calibrated span: the per-sample noise of the
     increments at rest (first differences, so the Earth rate drops out) times √(samples)."""
-    k = int(prep.full.index[0]) + 1
+    k = int(prep.full.index[0])  # rows before the strapdown start: the alignment rest
     dth = np.asarray(prep.data.dtheta, float)[:k]
     sd = float(np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2)) if k > 2 else 0.0
     return sd * np.sqrt(prep.full.t.size)

@@ -1,0 +1,210 @@
+"""Streamed reading, correcting and attitude (issue 17): the block-by-block path equals the whole-log path, and
+the block size bounds what the reader hands out. Memory figures are in benchmarks/bench_memory.py."""
+
+from __future__ import annotations
+
+import gzip
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import ImuLog, read_imu, write_imu
+from optinav.io.imu import iter_imu, open_imu_writer
+from optinav.io.readers import iter_table, load_table
+
+FIELDS = ("t", "acc", "gyro", "labels", "sample")
+
+
+def _logger_file(path, rows: np.ndarray, *, truncated: bool = False, blank_at: int | None = None) -> None:
+    """A logger-style CSV: a key,value preamble (rate), a comment, a header with units, blank and comment lines
+    inside, optionally an incomplete last line."""
+    lines = ["Fs,100", "device,test unit", "# exported by a logger", "ax [g],ay [g],az [g],gx [deg/s],gy,gz"]
+    for i, r in enumerate(rows):
+        lines.append(",".join(repr(float(v)) for v in r))
+        if i == blank_at:
+            lines += ["", "# a note in the middle"]
+    text = "\n".join(lines) + "\n"
+    if truncated:
+        text += "0.5,0.25"
+    path.write_bytes(gzip.compress(text.encode()) if str(path).endswith(".gz") else text.encode())
+
+
+def _same(blocks, whole, chunk: int) -> None:
+    assert blocks and all(0 < len(b) <= chunk for b in blocks)
+    for name in FIELDS:
+        w = getattr(whole, name)
+        if w is None:
+            assert all(getattr(b, name) is None for b in blocks)
+        else:
+            np.testing.assert_array_equal(np.concatenate([getattr(b, name) for b in blocks]), w)
+    assert [n for b in blocks for n in b.notes] == whole.notes
+    assert sum(b.nan_rows for b in blocks) == whole.nan_rows
+    assert blocks[0].acc_input_unit == whole.acc_input_unit and blocks[0].gyro_input_unit == whole.gyro_input_unit
+
+
+@pytest.mark.parametrize("name", ["log.csv", "log.csv.gz"])
+@pytest.mark.parametrize("chunk", [1, 7, 64, 10_000])
+def test_blocks_equal_whole_logger_file(tmp_path, name, chunk):
+    rng = np.random.default_rng(3)
+    rows = rng.normal(size=(301, 6))
+    rows[40, 1] = np.nan  # a missing sample stays a NaN row
+    p = tmp_path / name
+    _logger_file(p, rows, truncated=True, blank_at=120)
+    whole = read_imu(p)
+    assert whole.acc_input_unit == "g" and whole.gyro_input_unit == "deg/s"
+    assert any("incomplete" in n for n in whole.notes) and any("100 Hz" in n for n in whole.notes)
+    _same(list(iter_imu(p, chunk_rows=chunk)), whole, chunk)
+    # the raw table blocks: at most `chunk` rows each, numbered from the file's first data row
+    tables = list(iter_table(p, chunk_rows=chunk))
+    assert all(len(t.data["ax [g]"]) <= chunk for t in tables)
+    assert [t.row0 for t in tables] == list(np.cumsum([0] + [len(t.data["ax [g]"]) for t in tables[:-1]]))
+    assert tables[-1].meta == load_table(p).meta
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.integers(2, 60), chunk=st.integers(1, 70), counts=st.booleans(), labels=st.booleans(),
+       seed=st.integers(0, 2**16))
+def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, labels, seed):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.005, 0.02, n))
+    acc = np.round(rng.normal(0, 2000, (n, 3))) if counts else rng.normal(0, 9.8, (n, 3))
+    log = ImuLog(t=t, acc=acc, gyro=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
+                 labels=np.array(["rest", "pose"])[rng.integers(0, 2, n)] if labels else None,
+                 sample=np.arange(n) + 5)
+    p = tmp_path_factory.mktemp("w") / "log.tsv"
+    write_imu(p, log)
+    _same(list(iter_imu(p, chunk_rows=chunk)), read_imu(p), chunk)
+
+
+def test_binary_formats_are_cut_into_blocks(tmp_path):
+    rng = np.random.default_rng(4)
+    log = ImuLog(t=np.arange(50) / 10.0, acc=rng.normal(size=(50, 3)), gyro=rng.normal(size=(50, 3)))
+    p = tmp_path / "log.npz"
+    write_imu(p, log)
+    _same(list(iter_imu(p, chunk_rows=8)), read_imu(p), 8)
+
+
+def test_bad_cell_names_its_line_and_column_in_any_block(tmp_path):
+    rows = np.random.default_rng(5).normal(size=(500, 6))
+    p = tmp_path / "log.csv"
+    _logger_file(p, rows)
+    lines = p.read_text().splitlines()
+    cells = lines[450].split(",")
+    cells[2] = "abc"
+    lines[450] = ",".join(cells)
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(OptinavError, match=r"log.csv line 451, column 3 \('az \[g\]'\): 'abc' is not a number") as e0:
+        read_imu(p)
+    for chunk in (7, 100_000):
+        with pytest.raises(OptinavError) as e:
+            list(iter_imu(p, chunk_rows=chunk))
+        assert str(e.value) == str(e0.value)
+
+
+def test_time_order_and_empty_columns_are_checked_across_blocks(tmp_path):
+    p = tmp_path / "dup.csv"
+    write_imu(p, ImuLog(t=np.arange(30) / 10.0, acc=np.ones((30, 3))))
+    text = p.read_text().replace("\n2.0,", "\n1.9,", 1)  # row 20 repeats row 19: a duplicate at a block boundary
+    p.write_text(text)
+    with pytest.raises(OptinavError, match="duplicate timestamp at index 20") as e0:
+        read_imu(p)
+    with pytest.raises(OptinavError) as e:
+        list(iter_imu(p, chunk_rows=20))
+    assert str(e.value) == str(e0.value)
+    # a column empty in one block is fine, empty in the whole file is the whole reader's error
+    q = tmp_path / "empty.csv"
+    q.write_text("t,ax,ay,az\n" + "".join(f"{i},1,{'' if i < 25 else 2},3\n" for i in range(30)))
+    assert len(sum((list(b.acc[:, 1]) for b in iter_imu(q, chunk_rows=10)), [])) == 30
+    r = tmp_path / "none.csv"
+    r.write_text("t,ax,ay,az\n" + "".join(f"{i},1,,3\n" for i in range(30)))
+    with pytest.raises(OptinavError) as e0:
+        read_imu(r)
+    with pytest.raises(OptinavError) as e:
+        list(iter_imu(r, chunk_rows=10))
+    assert str(e.value) == str(e0.value)
+
+
+def test_writer_blocks_read_back_exactly(tmp_path):
+    rng = np.random.default_rng(6)
+    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyro=rng.normal(size=(100, 3)),
+                 labels=np.arange(100) % 3)
+    for name in ("w.csv", "w.npz"):
+        with open_imu_writer(tmp_path / name, acc_unit="g") as w:
+            for a in range(0, 100, 13):
+                w.write(log.select(slice(a, a + 13)))
+        back = read_imu(tmp_path / name)
+        np.testing.assert_allclose(back.acc, log.acc, rtol=1e-15, atol=0)
+        np.testing.assert_array_equal(back.gyro, log.gyro)
+        np.testing.assert_array_equal(back.labels, log.labels)
+    # an error inside the block leaves nothing under the final name
+    with pytest.raises(OptinavError):
+        with open_imu_writer(tmp_path / "x.csv") as w:
+            w.write(log.select(slice(0, 10)))
+            raise OptinavError("stop", "-")
+    assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    d = tmp_path_factory.mktemp("session")
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(d / "s.csv"), "--dwell", "6", "--rest", "10",
+                 "--seed", "2", "--acc-unit", "g", "--gyro-unit", "deg/s"]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(d / "s.csv"), "--latitude", "38.88", "--height", "35",
+                 "--out", str(d / "r.json")]) == 0
+    return d
+
+
+def test_apply_chunked_equals_whole(session):
+    d = session
+    for chunk in ("37", "1000000"):
+        assert main(["--quiet", "apply", str(d / "r.json"), str(d / "s.csv"), "--out", str(d / f"c{chunk}.csv"),
+                     "--chunk-rows", chunk]) == 0
+    a, b = read_imu(d / "c37.csv"), read_imu(d / "c1000000.csv")
+    assert len(a) == len(read_imu(d / "s.csv")) > 37 * 20
+    for name in ("t", "acc", "gyro"):
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("method, extra", [("iframe", []), ("mekf", []), ("qn", ["--input-stage"]), ("cg", [])])
+def test_attitude_chunked_equals_whole(session, method, extra):
+    """The streamed estimate (state carried across blocks of 53 rows) equals the one-block estimate, and both
+    equal the library's whole-log estimate."""
+    from optinav.attitude import estimate
+
+    d = session
+    corrected = d / "corr.csv"
+    if not corrected.exists():
+        assert main(["--quiet", "apply", str(d / "r.json"), str(d / "s.csv"), "--out", str(corrected)]) == 0
+    out = {}
+    for chunk in ("53", "1000000"):
+        assert main(["--quiet", "attitude", str(corrected), "--method", method, *extra, "--chunk-rows", chunk,
+                     "--out", str(d / f"a{chunk}.csv")]) == 0
+        out[chunk] = np.loadtxt(d / f"a{chunk}.csv", delimiter=",", skiprows=1)
+    log = read_imu(corrected)
+    assert out["53"].shape == (len(log), 8)
+    np.testing.assert_allclose(out["53"], out["1000000"], rtol=1e-12, atol=1e-12)
+    dt = np.diff(log.t, prepend=log.t[0] - (log.t[1] - log.t[0]))
+    q = estimate(log.gyro, log.acc, dt, method=method, input_stage=bool(extra)).q
+    np.testing.assert_allclose(out["53"][:, 1:5], q, rtol=0, atol=1e-8)  # the CSV keeps 9 digits
+
+
+def test_attitude_gaps_across_blocks(tmp_path, session):
+    """A time gap: refused (the same one-line error), or with --allow-gaps restarted at the same samples."""
+    log = read_imu(session / "s.csv")
+    acc, gyro = log.acc * 1.0, log.gyro * 1.0
+    t = log.t.copy()
+    t[300:] += 20.0
+    p = tmp_path / "gap.csv"
+    write_imu(p, ImuLog(t=t, acc=acc, gyro=gyro))
+    out = {}
+    for chunk in ("41", "1000000"):
+        assert main(["--quiet", "attitude", str(p), "--chunk-rows", chunk, "--out", str(tmp_path / "x.csv")]) == 2
+        assert not (tmp_path / "x.csv").exists()
+        assert main(["--quiet", "attitude", str(p), "--allow-gaps", "--method", "gd", "--chunk-rows", chunk,
+                     "--out", str(tmp_path / f"g{chunk}.csv")]) == 0
+        out[chunk] = np.loadtxt(tmp_path / f"g{chunk}.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(out["41"], out["1000000"], rtol=1e-12, atol=1e-12)
