@@ -228,7 +228,7 @@ def test_missing_columns_and_time_errors(tmp_path):
     with pytest.raises(OptinavError, match="no accelerometer or gyroscope data .*found: t, temp"):
         read_imu(_write(tmp_path / "b.csv", "t,temp\n0,1\n1,2\n"))
     nt = _write(tmp_path / "c.csv", "sample,ax,ay,az\n5,1,2,3\n6,1,2,3\n")
-    with pytest.raises(OptinavError, match="has no time column .*pass rate_hz="):
+    with pytest.raises(OptinavError, match="has no time column .*pass --rate HZ"):
         read_imu(nt)
     log = read_imu(nt, rate_hz=50)
     assert log.t.tolist() == [0.0, 0.02] and log.sample.tolist() == [5, 6]
@@ -316,9 +316,12 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     np.savez(tmp_path / "p.npz", t=t, acc=np.array([object()] * 5, dtype=object))
     with pytest.raises(OptinavError, match="array 'acc' is pickled"):
         read_imu(tmp_path / "p.npz")
-    _write(tmp_path / "fake.npz", "not a zip")
-    with pytest.raises(OptinavError, match="never loads pickles"):
+    (tmp_path / "fake.npz").write_bytes(b"not a zip\x00\x01")
+    with pytest.raises(OptinavError, match="not NPZ .*signature"):
         read_table(tmp_path / "fake.npz")
+    _write(tmp_path / "text.npz", "not a table")  # text under .npz is read as text, and says so when it fails
+    with pytest.raises(OptinavError, match="no data rows .*holds text despite its .npz suffix"):
+        read_table(tmp_path / "text.npz")
 
 
 @needs_h5py
@@ -351,7 +354,7 @@ def test_hdf5_datasets_and_tables(tmp_path):
     with h5py.File(tmp_path / "c.h5", "w") as f:
         f["data"] = rec  # a compound dataset is a table with named columns
     assert read_imu(tmp_path / "c.h5").acc[0, 2] == pytest.approx(9.81, rel=1e-7)
-    _write(tmp_path / "bad.h5", "garbage")
+    (tmp_path / "bad.h5").write_bytes(b"garbage\x00")
     with pytest.raises(OptinavError, match="not a readable HDF5 file"):
         read_table(tmp_path / "bad.h5")
 

@@ -92,7 +92,7 @@ def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
     assert main(argv) == 0
     assert main(argv) == 0  # a second run replaces the truth optinav wrote
     truth = json.loads((tmp_path / "tt.truth.json").read_text())
-    assert truth["schema"] == "optinav.gfimu_truth"
+    assert truth["schema"] == "optinav.gfimu.truth"
     (tmp_path / "tt.truth.json").write_text('{"mine": 1}')
     assert main(argv) == 2
     one_line_error(capsys, "was not written by optinav")
@@ -276,7 +276,7 @@ def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
     Kb = np.asarray(K, float) * (np.eye(3) if np.ndim(K) == 0 else 1)
     bad = tmp_path / "bad.json"
     d = good.to_dict()
-    d["accelerometer"]["K"] = Kb.tolist()
+    d["fields"]["accelerometer"]["value"]["K"] = Kb.tolist()
     bad.write_text(json.dumps(d))
     out = tmp_path / "o.csv"
     assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2

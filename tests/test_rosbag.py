@@ -219,10 +219,12 @@ def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
     assert main(["--quiet", "calibrate", "accel", str(csv), "--gravity", "9.80", "--out", str(out_csv)]) == 0
     assert main(["--quiet", "calibrate", "accel", str(bag), "--topic", "/imu", "--gravity", "9.80",
                  "--out", str(out_bag)]) == 0
-    rc, rb = json.loads(out_csv.read_text()), json.loads(out_bag.read_text())
+    from optinav.multipos.result import CalibrationResult
+
+    rc, rb = CalibrationResult.from_json(out_csv), CalibrationResult.from_json(out_bag)
     for sensor in ("accelerometer", "gyroscope"):
-        np.testing.assert_allclose(rb[sensor]["K"], rc[sensor]["K"], rtol=1e-6, atol=1e-9)
-        np.testing.assert_allclose(rb[sensor]["b"], rc[sensor]["b"], rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(getattr(rb, sensor)["K"], getattr(rc, sensor)["K"], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(getattr(rb, sensor)["b"], getattr(rc, sensor)["b"], rtol=1e-6, atol=1e-6)
     capsys.readouterr()
     assert main(["apply", str(out_bag), str(bag), "--out", str(tmp_path / "corr.npz")]) == 0
     z = np.load(tmp_path / "corr.npz")

@@ -24,6 +24,8 @@ forward-right-down; "ENU": body right-forward-up). Without polarization the head
 
 from __future__ import annotations
 
+import functools
+import time
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -35,7 +37,7 @@ from optinav.attitude.iframe import IFRAME_DEFAULTS, AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.measurement import (PolarizationMeasurement, as_c_b_m, pol_inputs, predicted_aop,
                                           up_vector, wrap_axial)
-from optinav.core.results import Result
+from optinav.core.results import Estimate, Parameter, Truth, convergence, nested_kwargs, register_legacy
 from optinav.core.rotations import (DEFAULT_FRAME, euler_from_quat, frame_name, quat_from_euler, quat_from_rotvec,
                                     quat_multiply)
 from optinav.core.units import G_STANDARD
@@ -67,11 +69,17 @@ DEFAULTS: dict[str, dict[str, float]] = {
 
 
 @dataclass
-class AttitudeEstimate(Result):
-    """Estimated attitude q_b^n per sample and how the measurements were used."""
+class AttitudeEstimate(Estimate):
+    """Estimated attitude q_b^n per sample and how the measurements were used (docs/results.md).
+
+    :meth:`parameters`: ``q_b_n`` (N, 4), ``roll``/``pitch``/``yaw`` (N,) rad in the frame's Euler
+    convention (the yaw not observable without a magnetometer or polarization: it follows the gyro from the
+    initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
+    SYSTEM: ClassVar[str] = "attitude"
+    KIND: ClassVar[str] = "estimate"
 
     q: np.ndarray = field(metadata={"unit": ""})
     method: str = "iframe"
@@ -88,6 +96,21 @@ class AttitudeEstimate(Result):
     offline: bool = False
     input_stage: bool = False
     segments: int = 1
+    elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
+    #: a filter does not iterate to convergence: ``converged`` is None
+    convergence: dict = field(default_factory=lambda: convergence(None, message="recursive filter"))
+    gates: list = field(default_factory=list)
+
+    def parameters(self) -> dict[str, Parameter]:
+        e = self.euler()
+        heading = self.pol_used > 0 or (self.mag_used is not None and bool(np.any(self.mag_used)))
+        why = None if heading else ("no magnetometer or polarization used: the heading follows the gyro from its "
+                                   "initial value")
+        out = {"q_b_n": Parameter(self.q, "", observable=heading, reason=why), "roll": Parameter(e[:, 0], "rad"),
+               "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad", observable=heading, reason=why)}
+        if self.gyro_bias is not None:
+            out["gyr_bias"] = Parameter(np.asarray(self.gyro_bias, float), "rad/s")
+        return out
 
     def euler(self) -> np.ndarray:
         """[roll, pitch, yaw] (N, 3) rad in the frame's Euler convention."""
@@ -256,6 +279,18 @@ def _method(method, pol) -> str:
     return m
 
 
+def _timed(fn):
+    """Set ``elapsed_s`` of the returned result to the wall time of the call (s)."""
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        t0 = time.perf_counter()
+        res = fn(*args, **kwargs)
+        res.elapsed_s = time.perf_counter() - t0
+        return res
+    return run
+
+
+@_timed
 def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
              frame: str = DEFAULT_FRAME, q0=None, mag=None, offline: bool = False, input_stage: bool = False,
              allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
@@ -434,3 +469,16 @@ def make_filter(method: str = "iframe", **kwargs):
     if m not in _CLASSES:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
     return _CLASSES[m](**kwargs)
+
+
+register_legacy(AttitudeEstimate, "optinav.attitude.estimate", 2, lambda d: nested_kwargs(AttitudeEstimate, d))
+
+
+def attitude_truth(q_b_n, frame: str = DEFAULT_FRAME, info: dict | None = None) -> Truth:
+    """A simulated attitude ``q_b_n`` (N, 4) as truth with the names of :class:`AttitudeEstimate`
+    (``q_b_n``, ``roll``, ``pitch``, ``yaw`` in ``frame``'s Euler convention)."""
+    q = np.asarray(q_b_n, float)
+    e = euler_from_quat(q, frame_name(frame))
+    return Truth("attitude", {"q_b_n": Parameter(q, ""), "roll": Parameter(e[:, 0], "rad"),
+                              "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad")},
+                 {"frame": frame_name(frame), **(info or {})})

@@ -8,11 +8,16 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report)
+                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
 from optinav.core.files import atomic_open, check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
+
+
+def register_commands(sub) -> None:
+    """The system's top-level command (registry hook)."""
+    register(sub)
 
 
 def register(sub) -> None:
@@ -81,6 +86,33 @@ def register(sub) -> None:
     p.set_defaults(func=run, progress_task="attitude")
 
 
+class _OptionsAction(argparse.Action):
+    """--option KEY=VALUE, repeatable, into a dict of numbers."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        try:
+            new = _options([value])
+        except OptinavError as exc:
+            parser.error(str(exc))
+        setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **new})
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch attitude``: the options of ``optinav attitude`` a folder shares (registry hook;
+    destinations are the fields of :class:`optinav.attitude.unit.AttitudeOptions`)."""
+    add_input_options(p)
+    p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe)")
+    p.add_argument("--offline", action="store_true", help="iframe: use the whole recording (forward-backward)")
+    p.add_argument("--input-stage", action="store_true",
+                   help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method")
+    p.add_argument("--mag", action="store_true", help="iframe: heading from the magnetometer")
+    p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
+    p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
+    p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
+    p.add_argument("--option", dest="options", action=_OptionsAction, default={}, metavar="KEY=VALUE",
+                   help="estimator option in SI units, e.g. gain=0.1 (repeatable)")
+
+
 def _options(items) -> dict:
     out = {}
     for item in items:
@@ -124,45 +156,13 @@ _CSV_FORMAT = ["%.17g"] + ["%.9g"] * 7
 
 
 def _read_log(args):
-    """(t, gyr, acc, mag or None, reference or None) from a BROAD file as published or any IMU log."""
-    import numpy as np
+    """(t, gyr, acc, mag or None, reference or None): :func:`optinav.attitude.unit.read_log`."""
+    from optinav.attitude.unit import AttitudeOptions, read_log
 
-    from optinav.attitude.data import is_broad, load_broad
-
-    want_mag = args.mag or bool(args.mag_columns)
-    if is_broad(args.data) and not args.columns and not args.datasets:
-        tr = load_broad(args.data)
-        t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
-        return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
-    from optinav.io import read_imu
-    from optinav.io.readers import read_table
-
-    if args.reference:
-        raise OptinavError(f"{args.data} is not a BROAD file with opt_quat and movement",
-                           "drop --reference or pass a BROAD trial")
-    log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                   time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                   delimiter=args.delimiter, topic=args.topic)
-    if log.acc is None or log.gyro is None:
-        raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
-                           "name them with --columns t,ax,ay,az,gx,gy,gz")
-    if log.acc_unit == "counts" or log.gyro_unit == "counts":
-        raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
-    ok = log.finite
-    if not np.all(ok):
-        raise OptinavError(f"{args.data} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
-    mag = None
-    if want_mag:
-        names = [s.strip() for s in (args.mag_columns or "mx,my,mz").split(",")]
-        if len(names) != 3:
-            raise OptinavError(f"--mag-columns {args.mag_columns!r} needs three names", "write e.g. mx,my,mz")
-        tab = read_table(args.data, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)),
-                         delimiter=args.delimiter, topic=args.topic)
-        mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
-        if mag.shape[0] != log.t.size:
-            raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
-    return log.t, log.gyro, log.acc, mag, None
+    o = AttitudeOptions(mag=args.mag, mag_columns=args.mag_columns, columns=args.columns, acc_unit=args.acc_unit,
+                        gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
+                        delimiter=args.delimiter, datasets=args.datasets, topic=args.topic)
+    return read_log(args.data, o, reference=args.reference)
 
 
 def run(args) -> int:
@@ -382,7 +382,8 @@ def register_simulate(kinds) -> None:
             MPU-6000-class IMU and a zenith-viewing 3-channel polarization sensor (Rayleigh sky, sun by the
             NREL SPA). Writes a CSV with t [s], ax, ay, az [m/s^2], gx, gy, gz [rad/s] (body forward-right-
             down), aop_deg (angle of polarization, deg, NaN when not measured) and dop, plus STEM.truth.csv
-            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output."""),
+            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output, and STEM.truth.json
+            (the truth in the result layout: q_b_n, roll, pitch, yaw; docs/results.md)."""),
         epilog=textwrap.dedent("""\
             example:
               optinav simulate flight --kind dynamic --duration 30 --seed 1 --out flight.csv
@@ -413,6 +414,7 @@ def run_simulate_flight(args) -> int:
     # measured: about 2500 B per sample at the peak, 4000 with margin
     check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
+    truth_path(out)
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
     d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
@@ -421,6 +423,10 @@ def run_simulate_flight(args) -> int:
     step("write")
     write_csv(out, cols, head, "%.10g")
     write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
+    from optinav.attitude.estimators import attitude_truth
+
+    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+                                                         "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
           f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",

@@ -52,6 +52,11 @@ def register(sub) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate accel``: the options of ``calibrate accel`` (registry hook)."""
+    add_calibration_options(p)
+
+
 def add_calibration_options(a) -> None:
     """The reading and estimation options of ``calibrate accel`` (shared with ``batch calibrate accel``);
     their destinations are the fields of :class:`optinav.multipos.calibrate.FileOptions`."""
@@ -80,9 +85,10 @@ def add_calibration_options(a) -> None:
                         "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
     a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
                    help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
-    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default), per turn from the two rests it joins "
-                        "(local: a bias that drifts), from an initial rest period (--rest), or estimated with K")
+    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="local",
+                   help="gyro bias during each turn from the two rests it joins (local, the default: follows a bias "
+                        "that drifts), one mean over the static intervals (static), an initial rest period (--rest), "
+                        "or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
     a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
@@ -94,6 +100,9 @@ def add_calibration_options(a) -> None:
     a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
                    help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
                         "datasheet value); their model error enters the scale and bias std")
+    a.add_argument("--gyro-bias-instability", type=NON_NEGATIVE, metavar="RAW",
+                   help="1-sigma gyro bias drift over the session in raw units (datasheet in-run bias instability or "
+                        "run-to-run), added to the gyro bias std: a drift common to all rests leaves no trace in them")
     a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
                    help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
                         "model leaves out; added to the gyro bias and K std")

@@ -83,11 +83,12 @@ def run_simulate(args) -> int:
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
                  lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
-    truth = {"schema": "optinav.rins_truth", "version": 1, "unit": "rad",
-             "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
+    from optinav.rins.calibrate import rins_truth
+
+    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
              "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
              "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, rins_truth(p, d.alpha, d.beta, info))
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0
@@ -119,6 +120,19 @@ def register_calibrate(kinds) -> None:
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(p)
     p.set_defaults(func=run_calibrate, progress_task="calibrate rins")
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate rins``: the options of ``calibrate rins`` (registry hook; destinations are the
+    fields of :class:`optinav.rins.unit.RinsOptions`)."""
+    p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
+    p.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
+                   help="latitude in degrees (default: from each file)")
+    p.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
+                   help="longest alignment window (default: the initial rest)")
+    p.add_argument("--residual-rate", dest="residual_rate_hz", type=RATE, default=10.0, metavar="HZ",
+                   help="epochs per second of the attitude residuals (default 10)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
 
 
 def run_calibrate(args) -> int:

@@ -107,7 +107,9 @@ def run_accel_multipos(args) -> int:
     step("write")
     write_imu(out, log, acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
               gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
-    truth = {"schema": "optinav.simulation_truth", "version": 1, "model": "raw = K x + b",
+    from optinav.multipos.result import session_truth
+
+    info = {"model": "raw = K x + b",
              "units": {"accelerometer_raw": args.acc_unit, "accelerometer": "m/s^2",
                        "gyroscope_raw": args.gyro_unit, "gyroscope": "rad/s", "time": "s"},
              "accelerometer": {"K": s.acc_K.tolist(), "b": s.acc_b.tolist(),
@@ -116,7 +118,8 @@ def run_accel_multipos(args) -> int:
              "gravity": s.gravity, "latitude_deg": args.latitude, "height_m": args.height,
              "static_intervals": s.static_intervals.tolist(), "up_dirs": s.up_dirs.tolist(),
              "poses": s.descriptions, "seed": args.seed, "preset": args.preset, "truth": args.truth}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit=args.acc_unit,
+                                        gyro_unit=args.gyro_unit, info=info))
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")

@@ -501,7 +501,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
             check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
-                           "pass rate_hz=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
+                           "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)")
     else:
         if rate is None:
             rate, where = _file_rate(main.table)
