@@ -51,7 +51,7 @@ def test_binary_under_the_wrong_suffix_is_read_by_its_content(tmp_path):
 
 
 @pytest.mark.parametrize("head, what", [(b"SQLite format 3\x00", "SQLite database"), (b"#ROSBAG V2.0\n", "ROS 1 bag"),
-                                        (b"\x89PNG\r\n\x1a\n", "PNG image"), (b"PAR1", "Parquet"),
+                                        (b"\x89PNG\r\n\x1a\n", "PNG image"),
                                         (b"\x89MCAP0\r\n", "MCAP"), (b"%PDF-1.7\n", "PDF")])
 @pytest.mark.parametrize("suffix", [".csv", ".npz", ".h5", ".dat"])
 def test_foreign_binary_is_named_in_one_line(tmp_path, head, what, suffix):
@@ -59,6 +59,13 @@ def test_foreign_binary_is_named_in_one_line(tmp_path, head, what, suffix):
     with pytest.raises(OptinavError, match=f"x{suffix}: the file is an? .*{what}") as err:
         read_imu(path)
     assert "\n" not in str(err.value)
+
+
+def test_parquet_under_another_suffix_is_read_as_parquet(tmp_path):
+    # Parquet is an input format: its signature chooses the reader whatever the suffix, like NPZ's and HDF5's
+    path = _w(tmp_path / "x.csv", b"PAR1" + bytes(range(256)) * 4)
+    with pytest.raises(OptinavError, match="x.csv is not a readable Parquet file"):
+        read_imu(path)
 
 
 def test_excel_workbook_is_named(tmp_path):

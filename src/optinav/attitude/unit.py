@@ -35,6 +35,7 @@ class AttitudeOptions:
     rate: float | None = None
     delimiter: str | None = None
     datasets: str | None = None
+    topic: str | None = None
 
 
 def check(options: AttitudeOptions) -> None:
@@ -61,7 +62,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         raise OptinavError(f"{path} is not a BROAD file with opt_quat and movement",
                            "drop --reference or pass a BROAD trial")
     log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, time_unit=o.time_unit,
-                   rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter)
+                   rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter, topic=o.topic)
     if log.acc is None or log.gyro is None:
         raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
                            "name them with --columns t,ax,ay,az,gx,gy,gz")
@@ -76,7 +77,8 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         names = [s.strip() for s in (o.mag_columns or "mx,my,mz").split(",")]
         if len(names) != 3:
             raise OptinavError(f"--mag-columns {o.mag_columns!r} needs three names", "write e.g. mx,my,mz")
-        tab = read_table(path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter)
+        tab = read_table(path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter,
+                         topic=o.topic)
         mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")

@@ -59,7 +59,7 @@ def run(args) -> int:
     step("read")
     blocks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                       time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                      delimiter=args.delimiter, chunk_rows=args.chunk_rows)
+                      delimiter=args.delimiter, chunk_rows=args.chunk_rows, topic=args.topic)
     res = analyse_blocks(progress_blocks(blocks, "allan: read"), args.sensor, source=str(args.data),
                          rostopic=args.rostopic or "", need_kalibr=kalibr is not None)
     step("write")

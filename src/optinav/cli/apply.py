@@ -53,7 +53,7 @@ def run(args) -> int:
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     blocks = iter_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
                       time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                      delimiter=args.delimiter, chunk_rows=args.chunk_rows)
+                      delimiter=args.delimiter, chunk_rows=args.chunk_rows, topic=args.topic)
     source = f"optinav apply {Path(args.result).name} {Path(args.data).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
     # grow with the log; a bad row fails when its block is read and leaves no output

@@ -46,7 +46,7 @@ def register(sub) -> None:
                   --reference --out att.csv   (a BROAD trial, scored against its optical reference)
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
+    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     add_input_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
     p.add_argument("--offline", action="store_true",
@@ -151,13 +151,17 @@ def _sun(args, t, frame):
     return sp.sun_vector(frame)
 
 
+#: the attitude CSV's columns t, q, Euler: t exactly (bag stamps are s since the epoch; %.9g rounded them to 100 s)
+_CSV_FORMAT = ["%.17g"] + ["%.9g"] * 7
+
+
 def _read_log(args):
     """(t, gyr, acc, mag or None, reference or None): :func:`optinav.attitude.unit.read_log`."""
     from optinav.attitude.unit import AttitudeOptions, read_log
 
     o = AttitudeOptions(mag=args.mag, mag_columns=args.mag_columns, columns=args.columns, acc_unit=args.acc_unit,
                         gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
-                        delimiter=args.delimiter, datasets=args.datasets)
+                        delimiter=args.delimiter, datasets=args.datasets, topic=args.topic)
     return read_log(args.data, o, reference=args.reference)
 
 
@@ -206,7 +210,7 @@ def run(args) -> int:
         if len(names) not in (1, 2):
             raise OptinavError(f"--pol-columns {args.pol_columns!r} needs AOP or AOP,DOP", "name one or two columns")
         table = read_table(args.data, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
-                           delimiter=args.delimiter)
+                           delimiter=args.delimiter, topic=args.topic)
         aop = np.asarray(table["aop"], float).reshape(-1)
         if aop.size != t.size:
             raise OptinavError(f"AoP column has {aop.size} rows, the IMU {t.size}", "check --pol-columns")
@@ -227,7 +231,7 @@ def run(args) -> int:
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
     step("write")
-    write_csv(out, table, header, "%.9g")
+    write_csv(out, table, header, _CSV_FORMAT)
     print(res.summary())
     score = None
     if args.reference:
@@ -269,7 +273,7 @@ def _run_stream(args, method, options, q0, out) -> int:
         # two rows at least: the first block's first step comes from its first two times
         chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                           time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2))
+                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
         prev = None
         for log in progress_blocks(chunks, desc):
             if log.acc is None or log.gyro is None:
@@ -315,7 +319,7 @@ def _run_stream(args, method, options, q0, out) -> int:
                     qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
             q = np.concatenate(qs)
             eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
-            np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt="%.9g")
+            np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
         checks.finish_second(args.frame)
         if gaps.size and not args.allow_gaps:
             i = int(gaps[0])

@@ -38,7 +38,7 @@ def register(sub) -> None:
               optinav apply result.json session.csv --out corrected.csv
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5 or MAT")
+    a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     a.add_argument("--gyro", metavar="GYRODATA", help="gyroscope in a second file sharing the time column")
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)

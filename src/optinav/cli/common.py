@@ -101,7 +101,7 @@ def check_memory(n_rows: float, bytes_per_row: float, what: str, remedy: str) ->
 
 
 def add_input_options(p, *, gyro: bool = True) -> None:
-    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets."""
+    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic."""
     p.add_argument("--columns", help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
                                      "or std=name pairs for named columns/arrays; default: recognised headers")
     p.add_argument("--acc-unit", choices=["counts", "g", "mg", "m/s^2"], help="accelerometer unit in the file "
@@ -113,6 +113,9 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     p.add_argument("--rate", type=RATE, help="sample rate in Hz for files without a time column")
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
+    p.add_argument("--topic", metavar="IMU[,MAG]", help="ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder): the "
+                                                        "sensor_msgs/Imu topic, optionally a MagneticField topic "
+                                                        "after a comma (default: the bag's only Imu topic)")
 
 
 def add_chunk_option(p) -> None:
@@ -140,8 +143,10 @@ def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = ""
 def require_files(*items: tuple[str | None, str]) -> None:
     """``(path, what)`` pairs that must name existing files, checked before a command imports its numerical
     modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped."""
+    from optinav.io.rosbag import is_bag
+
     for path, what in items:
-        if path is not None and not Path(path).is_file():
+        if path is not None and not Path(path).is_file() and not (Path(path).is_dir() and is_bag(path)):
             p = Path(path)
             raise OptinavError(f"{what} {p} {'is a folder' if p.is_dir() else 'does not exist'}", "check the path")
 

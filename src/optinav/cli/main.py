@@ -23,7 +23,8 @@ from optinav.errors import OptinavError
 #: the commands common to every system (modules defining ``register(subparsers)``); systems add theirs through
 #: :mod:`optinav.registry`
 COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
-                   "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan", "optinav.cli.export"]
+                   "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan", "optinav.cli.export",
+                   "optinav.cli.design"]
 
 
 class OneLineParser(argparse.ArgumentParser):

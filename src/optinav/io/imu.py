@@ -65,9 +65,11 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         for p in prefixes:
             for axis in "xyz":
                 al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
-    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf"):
+    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf",
+              "linear_acceleration", "imu_acc"):
         al[n] = ("acc", None)
-    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate"):
+    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate",
+              "imu_gyro"):
         al[n] = ("gyro", None)
     return al
 
@@ -141,7 +143,11 @@ class ImuLog(Result):
         ok = np.ones(self.t.size, dtype=bool)
         for v in (self.acc, self.gyro):
             if v is not None:
-                ok &= np.all(np.isfinite(v), axis=1)
+                # one sum, finite only if every cell is (no temporary arrays); else, or if it overflows, per row
+                with np.errstate(over="ignore", invalid="ignore"):
+                    total = v.sum()
+                if not np.isfinite(total):
+                    ok &= np.all(np.isfinite(v), axis=1)
         return ok
 
     @property
@@ -252,17 +258,17 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _part_spec(columns, datasets, what: str) -> tuple[list[str] | None, dict, dict]:
+def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | None, dict, dict]:
     """(positional names, std=name mapping, keyword arguments of load_table/iter_table) of a column option."""
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
     return positional, mapping, {"names": positional, "only": list(mapping.values()) or None,
-                                 "text_columns": LABEL_COLUMNS + label_sources}
+                                 "text_columns": LABEL_COLUMNS + label_sources, "topic": topic}
 
 
-def _read_part(path, columns, datasets, delimiter, need: str | None, what: str) -> _Part:
-    _, mapping, kw = _part_spec(columns, datasets, what)
+def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
+    _, mapping, kw = _part_spec(columns, datasets, what, topic)
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
 
 
@@ -396,6 +402,8 @@ def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, ro
     """A column without a single number (unless ``empty_ok``: a block of a streamed file), or a finite cell beyond
     :data:`MAX_VALUE` (1e308 …), is an error; NaN and inf mark missing samples (rows the calibration drops and
     counts). ``row0``: index of the first row in the file."""
+    if tri.size and tri.max() <= MAX_VALUE and tri.min() >= -MAX_VALUE:  # no NaN/inf/huge cell: the usual case
+        return
     names = _value_names(srcs)
     for j in range(3):
         col = tri[:, j]
@@ -429,7 +437,7 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
 
 def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
              gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
-             datasets=None, delimiter: str | None = None) -> ImuLog:
+             datasets=None, delimiter: str | None = None, topic=None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
     ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
@@ -441,9 +449,10 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
     converted to SI, counts kept. ``rate_hz`` (Hz) gives ``t = arange(N)/rate_hz`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
+    ``topic``: a ROS bag's Imu topic (``"/imu"``; None: its only one), see :mod:`optinav.io.rosbag`.
     """
     acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns)
-    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
+    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
     parts = [main]
     if gyro_path is not None:
         gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns")
@@ -477,7 +486,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
                 raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate_hz={rate:g} was given too",
                                    "drop the rate, or skip the time column with '_' in columns")
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
-            times.append((p, p.t * TIME_UNITS[unit]))
+            times.append((p, p.t if TIME_UNITS[unit] == 1.0 else p.t * TIME_UNITS[unit]))
     if len(parts) == 2 and parts[0].n != parts[1].n:
         raise OptinavError(f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
                            "the accelerometer and gyroscope files must hold the same samples")
@@ -525,14 +534,15 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
 
 def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
              gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
-             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS) -> "ImuChunks":
+             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS,
+             topic=None) -> "ImuChunks":
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
     concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
     first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
     not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
     return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
                      gyro_unit=gyro_unit, time_unit=time_unit, rate_hz=rate_hz, datasets=datasets, delimiter=delimiter,
-                     chunk_rows=chunk_rows)
+                     chunk_rows=chunk_rows, topic=topic)
 
 
 class ImuChunks:
@@ -543,7 +553,7 @@ class ImuChunks:
         self.path, self.kw = Path(path), kw
         self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"],
                                  kw["gyro_columns"])
-        _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns")
+        _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
         self.chunk_rows = int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0

@@ -27,7 +27,9 @@ __all__ = ["read_table", "load_table", "iter_table", "TableChunks", "parse_colum
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
 SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
-                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat"}
+                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat",
+                            ".parquet": "parquet", ".pq": "parquet", ".bag": "rosbag", ".db3": "rosbag",
+                            ".mcap": "rosbag"}
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
 #: positional column names that skip a column
@@ -154,13 +156,15 @@ def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
 
 
 def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
-               text_columns: Sequence[str] = LABEL_COLUMNS) -> dict[str, np.ndarray]:
+               text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> dict[str, np.ndarray]:
     """Read a data file into ``{name: array}``.
 
     Formats by suffix: ``.csv .tsv .txt .dat`` (optionally ``.gz``; header auto-detected, ``#`` comments,
     delimiter ``, \\t ;`` or whitespace auto-detected unless ``delimiter`` is given), ``.npz``/``.npy``
     (no pickles), ``.h5``/``.hdf5`` (h5py), ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to
-    MATLAB's row/column layout).
+    MATLAB's row/column layout), ``.parquet``/``.pq`` (pyarrow; :mod:`optinav.io.parquet`), ROS bags ``.bag``,
+    ``.db3``, ``.mcap`` or a ROS 2 bag folder (rosbags; ``topic`` picks the Imu[,MagneticField] topic,
+    :mod:`optinav.io.rosbag`).
 
     ``columns``: names of the file's columns in order (``"_"``/``"-"`` skips one; a header line is then
     ignored), or ``std=name`` entries returning only those names, taken from header columns, NPZ arrays or
@@ -172,21 +176,28 @@ def read_table(path, *, columns=None, delimiter: str | None = None, datasets=Non
     positional, mapping = parse_columns(columns)
     merge_datasets(mapping, datasets)
     table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=text_columns)
+                       text_columns=text_columns, topic=topic)
     if mapping:
         return {std: table.get(name) for std, name in mapping.items()}
     return dict(table.data)
 
 
 def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
-               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS) -> Table:
+               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
     ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
-    HDF5 reader read just those).
+    HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only).
     """
     path = Path(path)
     kind, gz = _file_kind(path)
+    if kind == "rosbag":
+        from optinav.io.rosbag import load_bag
+
+        _no_option(path, delimiter=delimiter, names=names)
+        return load_bag(path, topic=topic)
+    if topic is not None:
+        raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         try:
@@ -199,6 +210,10 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     else:
         if delimiter is not None:
             raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
+        if kind == "parquet":
+            from optinav.io.parquet import load_parquet
+
+            return load_parquet(path, names=names, only=only)
         if kind in ("npz", "npy"):
             table = _load_numpy(path)
         elif kind == "hdf5":
@@ -218,25 +233,25 @@ from optinav.core.files import CHUNK_ROWS  # noqa: E402
 
 def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
                only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
-               chunk_rows: int = CHUNK_ROWS) -> "TableChunks":
+               chunk_rows: int = CHUNK_ROWS, topic=None) -> "TableChunks":
     """:func:`load_table` in blocks: an iterable of :class:`Table` of at most ``chunk_rows`` rows each (``row0``
     their first row in the file) for text files, read line block by line block (gzip too) so that memory does
     not grow with the file; other formats (one array read whole by their libraries) come as a single table.
     The layout (header, units, preamble, delimiter) comes from the first lines; a bad cell fails when its block
     is parsed, naming its line and column; an incomplete last line is dropped and reported in the last block's
     ``meta['truncated_line']`` as :func:`load_table` does."""
-    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows)
+    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic)
 
 
 class TableChunks:
     """The blocks of :func:`iter_table`; ``size`` (bytes of the file) and ``position`` (bytes read so far, of the
     compressed file for ``.gz``) tell the progress."""
 
-    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int):
+    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int, topic=None):
         if int(chunk_rows) < 1:
             raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
         self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
-        self.text_columns, self.chunk_rows = text_columns, int(chunk_rows)
+        self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
         self.kind, self.gz = _file_kind(path)
         self.size = path.stat().st_size
         self.position = 0
@@ -244,7 +259,7 @@ class TableChunks:
     def __iter__(self):
         if self.kind != "text":
             yield load_table(self.path, names=self.names, delimiter=self.delimiter, only=self.only,
-                             text_columns=self.text_columns)
+                             text_columns=self.text_columns, topic=self.topic)
             self.position = self.size
             return
         try:
@@ -329,6 +344,10 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     empty or unknown file."""
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
+    from optinav.io.rosbag import is_bag
+
+    if is_bag(path):  # a ROS 2 bag is a folder; rosbags checks the files itself
+        return "rosbag", False
     if path.is_dir():
         raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
     gz = path.suffix.lower() == ".gz"
@@ -354,11 +373,19 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     return kind, gz
 
 
+def _no_option(path: Path, **given) -> None:
+    for name, value in given.items():
+        if value is not None:
+            raise OptinavError(f"{name} applies to text and array files, not to the ROS bag {path.name}",
+                               f"drop the {name} option (a bag's columns are t, ax..az, gx..gz, mx..mz)")
+
+
 _MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
-          (b"\x1f\x8b", "gztext"))
+          (b"\x1f\x8b", "gztext"),
+          (b"PAR1", "parquet"))
 #: signatures of formats optinav does not read, named in the error (checked after :data:`_MAGIC`)
-_FOREIGN = ((b"SQLite format 3\x00", "an SQLite database (a ROS 2 .db3 bag?)"), (b"#ROSBAG", "a ROS 1 bag"),
-            (b"\x89MCAP", "an MCAP log (ROS 2)"), (b"PAR1", "a Parquet file"),
+_FOREIGN = ((b"SQLite format 3\x00", "an SQLite database (a ROS 2 bag is read as .db3)"),
+            (b"#ROSBAG", "a ROS 1 bag (read as .bag)"), (b"\x89MCAP", "an MCAP log (a ROS 2 bag is read as .mcap)"),
             (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an old Excel/Office (.xls) document"),
             (b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"%PDF", "a PDF document"),
             (b"BZh", "a bzip2 archive"), (b"\xfd7zXZ", "an xz archive"), (b"7z\xbc\xaf", "a 7-Zip archive"),

@@ -460,6 +460,7 @@ class FileOptions:
     rate: float | None = None
     delimiter: str | None = None
     datasets: str | None = None
+    topic: str | None = None
     gravity: float | None = None
     latitude: float | None = None
     height: float = 0.0
@@ -532,7 +533,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     o = options
     log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
                    gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                   delimiter=o.delimiter)
+                   delimiter=o.delimiter, topic=o.topic)
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")

@@ -1,0 +1,212 @@
+"""Reading a 1-hour 1 kHz IMU log (3.6 M samples) from Parquet and from ROS bags: time and peak memory.
+
+The same samples (time, accelerometer, gyroscope; float64) are written as a Parquet file (pyarrow, snappy,
+default row groups) and as ROS bags of ``sensor_msgs/msg/Imu`` messages: ROS 2 sqlite3, ROS 2 mcap and ROS 1
+(rosbags' writers; the message bytes are rosbags' serialization of one message with the stamp and values
+patched in, which keeps writing 3.6 M messages to minutes). Each reading runs in a fresh process: the time
+of the read (best of ``REPEAT`` for Parquet, one read for bags) and the growth of the peak resident set over
+the resident set after the imports (``VmHWM`` and ``VmRSS`` of ``/proc/self/status``, Linux; not
+``getrusage``, whose peak survives the exec and so includes the parent's; the peak is reset after the imports
+through ``/proc/self/clear_refs``; pyarrow allocates outside Python, so tracemalloc would miss it).
+
+Methods side by side: ``pyarrow.parquet.read_table`` of the file (the reference: an Arrow table, no conversion);
+``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check);
+for the sqlite3 bag also rosbags' per-message deserializer (``AnyReader.deserialize``), the usual way to read a
+bag in Python. Target (issue 14): the optinav Parquet reader no slower than 2x pyarrow. Quick: 100 000 samples.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+RATE = 1000.0
+REPEAT = 3
+
+_CHILD = r"""
+import json, sys, time
+import numpy as np
+kind, path, repeat = sys.argv[1], sys.argv[2], int(sys.argv[3])
+if kind == "pyarrow":
+    import pyarrow.parquet as pq
+    def read():
+        return pq.read_table(path).num_rows
+elif kind == "rosbags":
+    from pathlib import Path
+    from rosbags.highlevel import AnyReader
+    def read():
+        with AnyReader([Path(path)]) as r:
+            acc = np.empty((r.connections[0].msgcount, 3))
+            for i, (con, _, raw) in enumerate(r.messages()):
+                m = r.deserialize(raw, con.msgtype)
+                a = m.linear_acceleration
+                acc[i] = (a.x, a.y, a.z)
+        return acc.shape[0]
+else:
+    from optinav.io import read_imu
+    import optinav.io.parquet, optinav.io.rosbag  # noqa: F401 - imports outside the timing
+    import pyarrow.parquet, rosbags.highlevel  # noqa: F401
+    def read():
+        return len(read_imu(path))
+def status_kib(key):
+    with open("/proc/self/status") as fh:
+        return next(int(x.split()[1]) for x in fh if x.startswith(key + ":"))
+import gc; gc.collect()
+with open("/proc/self/clear_refs", "w") as fh:  # reset VmHWM: the imports' peak is not the read's
+    fh.write("5")
+base = status_kib("VmRSS")
+best = float("inf")
+for _ in range(repeat):
+    t0 = time.perf_counter()
+    n = read()
+    best = min(best, time.perf_counter() - t0)
+peak = status_kib("VmHWM")  # not ru_maxrss: it keeps the peak of the forking parent across exec
+print(json.dumps({"n": n, "seconds": best, "peak_growth_mib": (peak - base) / 1024.0}))
+"""
+
+
+def _child(kind: str, path: Path, repeat: int) -> dict:
+    proc = subprocess.run([sys.executable, "-c", _CHILD, kind, str(path), str(repeat)], capture_output=True,
+                          text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{kind} {path.name} failed: {proc.stderr.strip()[-400:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _samples(n: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    ns = 1_700_000_000 * 10**9 + np.round(np.arange(n) * (1e9 / RATE)).astype(np.int64)
+    acc = rng.normal(0, 0.02, (n, 3)) + [0.0, 0.0, 9.81]
+    gyr = rng.normal(0, 1e-3, (n, 3))
+    return ns, acc, gyr
+
+
+def _write_parquet(path: Path, ns, acc, gyr) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = (ns // 10**9) + (ns % 10**9) * 1e-9
+    cols = {"t": t, **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
+            **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")}}
+    pq.write_table(pa.table(cols), path)
+
+
+def _messages(kind: str, ns, acc, gyr):
+    """The serialized messages as one (n, L) byte array: rosbags' bytes of one message, stamps and values
+    patched in at the offsets found by serializing a second message with other values."""
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    T = ts.types
+    H = T["std_msgs/msg/Header"]
+
+    def ser(sec, nsec, g, a):
+        stamp = T["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec)
+        hdr = H(seq=0, stamp=stamp, frame_id="imu_link") if kind == "ros1" else H(stamp=stamp, frame_id="imu_link")
+        V, Q = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+        msg = T["sensor_msgs/msg/Imu"](header=hdr, orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
+                                       orientation_covariance=np.zeros(9), angular_velocity=V(*g),
+                                       angular_velocity_covariance=np.zeros(9), linear_acceleration=V(*a),
+                                       linear_acceleration_covariance=np.zeros(9))
+        raw = ts.serialize_ros1(msg, "sensor_msgs/msg/Imu") if kind == "ros1" else \
+            ts.serialize_cdr(msg, "sensor_msgs/msg/Imu")
+        return np.frombuffer(bytes(raw), np.uint8)
+
+    base = ser(0x01020304, 0x05060708, (1.5, 2.5, 3.5), (4.5, 5.5, 6.5))
+
+    def where(value, fmt):
+        pat = np.frombuffer(np.asarray(value, fmt).tobytes(), np.uint8)
+        hits = [i for i in range(base.size - pat.size + 1) if np.array_equal(base[i:i + pat.size], pat)]
+        assert len(hits) == 1, (value, hits)
+        return hits[0]
+
+    out = np.tile(base, (len(ns), 1))
+    for value, fmt, col in ((0x01020304, "<u4", ns // 10**9), (0x05060708, "<u4", ns % 10**9)):
+        out[:, where(value, fmt):where(value, fmt) + 4] = col.astype("<u4").view(np.uint8).reshape(-1, 4)
+    for j, v in enumerate((1.5, 2.5, 3.5)):
+        k = where(v, "<f8")
+        out[:, k:k + 8] = np.ascontiguousarray(gyr[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
+    for j, v in enumerate((4.5, 5.5, 6.5)):
+        k = where(v, "<f8")
+        out[:, k:k + 8] = np.ascontiguousarray(acc[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
+    return out
+
+
+def _write_bag(path: Path, kind: str, ns, acc, gyr) -> Path:
+    msgs = _messages(kind, ns, acc, gyr)
+    if kind == "ros1":
+        from rosbags.rosbag1 import Writer
+        from rosbags.typesys import Stores, get_typestore
+
+        path = path.with_suffix(".bag")
+        with Writer(path) as w:
+            con = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=get_typestore(Stores.ROS1_NOETIC))
+            for t, m in zip(ns.tolist(), msgs):
+                w.write(con, t, m.tobytes())
+        return path
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+    with Writer(path, version=9, storage_plugin=plugin) as w:
+        con = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=get_typestore(Stores.ROS2_HUMBLE))
+        for t, m in zip(ns.tolist(), msgs):
+            w.write(con, t, m.tobytes())
+    return path
+
+
+def _check(path: Path, ns, acc, gyr) -> None:
+    """The reader returns the samples written (else the timing is meaningless)."""
+    from optinav.io import read_imu
+
+    log = read_imu(path)
+    t = (ns // 10**9) + (ns % 10**9) * 1e-9
+    if not (np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyro, gyr)):
+        raise RuntimeError(f"{path.name}: the values read differ from those written")
+
+
+def run(quick: bool) -> list[dict]:
+    n = 100_000 if quick else int(3600 * RATE)
+    ns, acc, gyr = _samples(n)
+    group = f"read {n} IMU samples ({n / RATE / 3600:.3g} h at 1 kHz)"
+    rows = []
+
+    def add(method, res, fmt):
+        rows.append({"group": group, "method": method, "metric": f"{fmt}: time", "value": res["seconds"],
+                     "unit": "s"})
+        rows.append({"group": group, "method": method, "metric": f"{fmt}: peak memory growth",
+                     "value": res["peak_growth_mib"], "unit": "MiB"})
+
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        pqf = d / "imu.parquet"
+        _write_parquet(pqf, ns, acc, gyr)
+        _check(pqf, ns, acc, gyr)
+        ref = _child("pyarrow", pqf, REPEAT)
+        add("pyarrow.parquet.read_table", ref, "Parquet")
+        ours = _child("optinav", pqf, REPEAT)
+        add("optinav read_imu", ours, "Parquet")
+        rows.append({"group": group, "method": "optinav read_imu", "metric": "Parquet: time / pyarrow time",
+                     "value": ours["seconds"] / ref["seconds"], "unit": "x (target <= 2)"})
+        for kind, label in (("sqlite3", "ROS 2 sqlite3 bag"), ("mcap", "ROS 2 mcap bag"), ("ros1", "ROS 1 bag")):
+            bag = _write_bag(d / f"imu_{kind}", kind, ns, acc, gyr)
+            _check(bag, ns, acc, gyr)
+            res = _child("optinav", bag, 1)
+            add("optinav read_imu", res, label)
+            rows.append({"group": group, "method": "optinav read_imu", "metric": f"{label}: time / pyarrow time "
+                         "(Parquet of the same samples)", "value": res["seconds"] / ref["seconds"], "unit": "x"})
+            if kind == "sqlite3":
+                add("rosbags deserialize per message", _child("rosbags", bag, 1), label)
+    return rows
+
+
+if __name__ == "__main__":
+    quick = "--quick" in sys.argv
+    out = run(quick)
+    for r in out:
+        print(f"{r['method']:<32} {r['metric']:<62} {r['value']:>12.4g} {r['unit']}")

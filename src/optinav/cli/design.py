@@ -1,0 +1,130 @@
+"""``optinav design``: a pose plan for a multi-position calibration (poses, dwell, turns, predicted precision)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+
+from optinav.cli.common import POSITIVE, RATE, SEED, number, output_path
+from optinav.errors import OptinavError
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "design", help="a pose plan for a technician: poses, rest time, turns and the precision they give",
+        description=textwrap.dedent("""\
+            Plan a multi-position calibration session: N static poses chosen D-, E- or A-optimally for the
+            accelerometer (norm model), in a short turning order; each pose in words (which face of the unit
+            points up) and in a figure; the rest time per pose from the noise to reach target standard
+            deviations; the predicted 1-sigma of every accelerometer and gyroscope parameter; and the turns
+            between poses, from which the gyroscope is calibrated. Noise: --allan (the JSON of optinav allan,
+            or any JSON with Kalibr's accelerometer_noise_density / gyroscope_noise_density), the densities
+            themselves, or a --preset sensor class. Method and approximations: src/optinav/multipos/plan.py."""),
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav design --poses 12 --preset mems-mti1 --target-bias 0.5 --out plan.md --figure plan.png
+              optinav design --poses 15 --criterion A --acc-noise-density 1e-3 --gyro-noise-density 1e-4 \\
+                  --target-scale 100 --out plan.json
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--poses", type=number(9, 26, integer=True, what="a number of poses (9..26)"), default=12,
+                   help="number of static poses, 9..26 (default 12)")
+    p.add_argument("--criterion", choices=["D", "E", "A"], default="D",
+                   help="D: max log det of the information, E: best worst-determined combination, A: smallest sum "
+                        "of variances (default D)")
+    noise = p.add_argument_group("noise (one of; default --preset mems-mti1)")
+    noise.add_argument("--allan", metavar="ALLAN.json", help="noise densities from optinav allan's JSON")
+    noise.add_argument("--acc-noise-density", type=POSITIVE, metavar="M/S^2/√HZ",
+                       help="accelerometer white-noise density in m/s^2/sqrt(Hz) (= m/s/sqrt(s))")
+    noise.add_argument("--gyro-noise-density", type=POSITIVE, metavar="RAD/S/√HZ",
+                       help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))")
+    # no choices= here: the preset table lives in numerical code that --help must not import
+    noise.add_argument("--preset", metavar="NAME",
+                       help="sensor class of optinav.core.imu_model: rlg-nav (navigation-grade RLG), mems-mti1 "
+                            "(industrial MEMS), mpu6000 (consumer MEMS)")
+    tg = p.add_argument_group("rest time: --dwell, or targets (1-sigma) that set it")
+    tg.add_argument("--dwell", type=POSITIVE, metavar="S", help="rest per pose in s (default 30 without targets)")
+    tg.add_argument("--target-scale", type=POSITIVE, metavar="PPM", help="accelerometer scale factor 1-sigma, ppm")
+    tg.add_argument("--target-misalignment", type=POSITIVE, metavar="MRAD",
+                    help="accelerometer misalignment 1-sigma, mrad")
+    tg.add_argument("--target-bias", type=POSITIVE, metavar="MG", help="accelerometer bias 1-sigma, mg")
+    tg.add_argument("--target-gyro-bias", type=POSITIVE, metavar="DEG/H",
+                    help="gyro bias 1-sigma from all rest, deg/h")
+    p.add_argument("--rate", type=RATE, default=100.0, help="sample rate in Hz (default 100)")
+    p.add_argument("--turn-rate", type=POSITIVE, default=45.0, metavar="DEG/S",
+                   help="how fast the technician turns the unit, deg/s (default 45)")
+    p.add_argument("--max-dwell", type=POSITIVE, default=600.0, metavar="S",
+                   help="warn above this rest per pose (the Allan minimum of the sensor; default 600)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the pose search (default 0)")
+    p.add_argument("--out", metavar="PLAN.md|.json", help="write the plan as Markdown (.md) or JSON (.json)")
+    p.add_argument("--figure", metavar="PLAN.png", help="draw the poses into a PNG")
+    p.set_defaults(func=run, progress_task="design")
+
+
+def _noise(args) -> tuple:
+    """(acc density (3,) m/s²/√Hz, gyro density (3,) rad/s/√Hz or None, text)."""
+    import numpy as np
+
+    given = [n for n, v in (("--allan", args.allan), ("--preset", args.preset)) if v]
+    if len(given) > 1:
+        raise OptinavError("--allan and --preset both give the noise", "pass one of them")
+    acc = gyro = None
+    parts = []
+    if args.allan:
+        from optinav.multipos.plan import noise_from_allan
+
+        got = noise_from_allan(args.allan)
+        acc, gyro = got["acc"], got["gyro"]
+        parts.append(f"from {args.allan}")
+    preset = args.preset or (None if args.allan or args.acc_noise_density else "mems-mti1")
+    if preset:
+        from optinav.core.imu_model import preset as get
+
+        spec = get(preset)
+        acc, gyro = np.asarray(spec.accel_vrw, float), np.asarray(spec.gyro_arw, float)
+        parts.append(f"preset {preset}" + ("" if args.preset else " (assumed; pass --allan or the densities)"))
+    if args.acc_noise_density is not None:
+        acc = np.full(3, args.acc_noise_density)
+        parts.append("accelerometer density given")
+    if args.gyro_noise_density is not None:
+        gyro = np.full(3, args.gyro_noise_density)
+        parts.append("gyro density given")
+    if acc is None:
+        raise OptinavError(f"{args.allan} has no accelerometer noise density", "add --acc-noise-density")
+    mean_acc = float(np.mean(acc))
+    text = f"accelerometer {mean_acc / 9.80665e-6:.3g} µg/√Hz"
+    if gyro is not None:
+        text += f", gyroscope {float(np.mean(gyro)) * 180 / np.pi * 60:.3g} deg/√h"
+    return acc, gyro, text + " (" + "; ".join(parts) + ")"
+
+
+def run(args) -> int:
+    out = output_path(args.out, (".md", ".json"), "PLAN.md") if args.out else None
+    fig = output_path(args.figure, (".png",), "PLAN.png", "--figure") if args.figure else None
+    targets = {"scale_ppm": args.target_scale, "misalignment_mrad": args.target_misalignment,
+               "bias_mg": args.target_bias}
+    if args.dwell is not None and (any(v is not None for v in targets.values()) or args.target_gyro_bias):
+        raise OptinavError("--dwell and a --target-* option both set the rest time", "pass one of them")
+    from optinav.multipos.plan import plan_poses, plot_plan
+
+    acc, gyro, text = _noise(args)
+    plan = plan_poses(args.poses, criterion=args.criterion, acc_noise_density=acc, gyro_noise_density=gyro,
+                      noise_source=text, rate_hz=args.rate, dwell_s=args.dwell, targets=targets,
+                      gyro_bias_deg_h=args.target_gyro_bias, turn_rate_deg_s=args.turn_rate,
+                      max_dwell_s=args.max_dwell, rng=args.seed)
+    for note in plan.notes:
+        print(f"optinav: note: {note}", file=sys.stderr)
+    print(plan.summary())
+    if out is not None:
+        if out.suffix.lower() == ".json":
+            plan.to_json(out)
+        else:
+            from optinav.core.files import write_text
+
+            write_text(out, plan.markdown())
+        print(f"optinav: plan written to {out}")
+    if fig is not None:
+        plot_plan(plan, fig)
+        print(f"optinav: figure written to {fig}")
+    return 0

@@ -1,0 +1,296 @@
+"""ROS bags → a :class:`~optinav.io.readers.Table`: ``sensor_msgs/msg/Imu`` and ``sensor_msgs/msg/MagneticField``.
+
+ROS 1 ``.bag`` files and ROS 2 bags (a folder with ``metadata.yaml``, or a bare ``.db3``/``.mcap`` file) are read
+with the ``rosbags`` library (pure Python, no ROS installation; ``pip install 'optinav[ros]'``). One Imu topic
+gives the columns ``t`` (header stamp, s), ``ax ay az`` (``linear_acceleration``, m/s²) and ``gx gy gz``
+(``angular_velocity``, rad/s); a MagneticField topic adds ``mx my mz`` (tesla) interpolated linearly onto the
+Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
+
+The messages of a topic are decoded in blocks with numpy from their fixed byte layout (checked against
+``rosbags``' own deserializer on the first message); messages of another length are deserialized one by one.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+__all__ = ["BAG_SUFFIXES", "is_bag", "load_bag", "IMU_TYPE", "MAG_TYPE"]
+
+#: file suffixes of bags (ROS 1 .bag, ROS 2 storage files); a ROS 2 bag folder holds a metadata.yaml
+BAG_SUFFIXES = (".bag", ".db3", ".mcap")
+IMU_TYPE = "sensor_msgs/msg/Imu"
+MAG_TYPE = "sensor_msgs/msg/MagneticField"
+_INSTALL = "pip install 'optinav[ros]'"
+#: messages decoded per numpy block (bounds the raw bytes held at once to a few MB)
+_BLOCK = 16384
+
+
+def is_bag(path) -> bool:
+    """True for a path that names a ROS bag: a ``.bag``/``.db3``/``.mcap`` file or a folder with ``metadata.yaml``."""
+    p = Path(path)
+    return p.suffix.lower() in BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").is_file())
+
+
+def _rosbags():
+    try:
+        from rosbags.highlevel import AnyReader
+    except ImportError:
+        raise OptinavError("reading ROS bags needs the rosbags library, which is not installed", _INSTALL) from None
+    return AnyReader
+
+
+def _parse_topics(topic) -> list[str]:
+    if topic is None:
+        return []
+    items = [s.strip() for s in (topic.split(",") if isinstance(topic, str) else topic)]
+    if not items or any(not s for s in items) or len(items) > 2:
+        raise OptinavError(f"--topic {topic!r} is not one Imu topic, optionally followed by one MagneticField topic",
+                           "write --topic /imu or --topic /imu,/mag")
+    return items
+
+
+def load_bag(path, *, topic=None, only=None):
+    """Read the Imu (and MagneticField) topic of the bag ``path`` into a Table (see the module docs).
+
+    ``topic``: ``"/imu"`` or ``"/imu,/mag"`` (a comma list or sequence); None picks the bag's only Imu topic and
+    its only MagneticField topic if it has exactly one. ``only`` is accepted for symmetry with the other readers.
+    """
+    from optinav.io.readers import Table
+
+    path = Path(path)
+    if not path.exists():
+        raise OptinavError(f"data file {path} does not exist", "check the path")
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise OptinavError(f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
+                           "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file")
+    if path.is_file() and path.stat().st_size == 0:
+        raise OptinavError(f"data file {path} is empty", "pass a complete bag")
+    wanted = _parse_topics(topic)
+    AnyReader = _rosbags()
+    try:
+        reader = AnyReader([path])
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - rosbags raises its own errors and OS/struct errors on damaged files
+        raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})",
+                           "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)") from None
+    try:
+        topics = {}
+        for con in reader.connections:
+            topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
+            topics[con.topic]["cons"].append(con)
+            topics[con.topic]["count"] += con.msgcount
+        imu_topic, mag_topic = _choose(path, topics, wanted)
+        table = Table(path=path, kind="rosbag", data={})
+        t, t_log, vals = _read_topic(reader, path, imu_topic, topics[imu_topic])
+        t = _time_base(path, imu_topic, t, t_log)
+        table.data["t"] = t
+        for j, a in enumerate("xyz"):
+            table.data[f"a{a}"] = vals[:, 3 + j]
+        for j, a in enumerate("xyz"):
+            table.data[f"g{a}"] = vals[:, j]
+        table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
+        table.meta.update({"topic": imu_topic, "frame": "sensor_msgs/Imu"})
+        if mag_topic is not None:
+            tm, tm_log, mag = _read_topic(reader, path, mag_topic, topics[mag_topic])
+            tm = _time_base(path, mag_topic, tm, tm_log)
+            for j, a in enumerate("xyz"):
+                table.data[f"m{a}"] = _resample(tm, mag[:, j], t)
+                table.units[f"m{a}"] = "T"
+            table.meta["mag_topic"] = mag_topic
+    finally:
+        try:
+            reader.close()
+        except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
+            pass
+    return table
+
+
+def _why(exc: Exception) -> str:
+    return " ".join(str(exc).split())[:200] or type(exc).__name__
+
+
+def _listing(topics: dict) -> str:
+    return ", ".join(f"{k} ({v['type'].replace('/msg/', '/')}, {v['count']} msgs)" for k, v in topics.items()) or "none"
+
+
+def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | None]:
+    """The Imu topic and the MagneticField topic (or None) to read."""
+    for name in wanted:
+        if name not in topics:
+            raise OptinavError(f"{path.name} has no topic {name!r} (topics: {_listing(topics)})",
+                               "pass one of the listed topics with --topic")
+    imu = [k for k, v in topics.items() if v["type"] == IMU_TYPE]
+    mag = [k for k, v in topics.items() if v["type"] == MAG_TYPE]
+    if wanted:
+        imu_topic = wanted[0]
+        if topics[imu_topic]["type"] != IMU_TYPE:
+            raise OptinavError(f"topic {imu_topic!r} of {path.name} holds {topics[imu_topic]['type']}, not "
+                               f"{IMU_TYPE} (Imu topics: {', '.join(imu) or 'none'})",
+                               "pass an Imu topic first with --topic (a MagneticField topic may follow: /imu,/mag)")
+        mag_topic = wanted[1] if len(wanted) == 2 else (mag[0] if len(mag) == 1 else None)
+        if len(wanted) == 2 and topics[mag_topic]["type"] != MAG_TYPE:
+            raise OptinavError(f"topic {mag_topic!r} of {path.name} holds {topics[mag_topic]['type']}, not {MAG_TYPE}",
+                               "pass a MagneticField topic second in --topic, or only the Imu topic")
+    else:
+        if len(imu) != 1:
+            what = "no" if not imu else f"{len(imu)}"
+            raise OptinavError(f"{path.name} has {what} {IMU_TYPE} topics (topics: {_listing(topics)})",
+                               "pick one with --topic TOPIC" if imu else "record the IMU as sensor_msgs/Imu")
+        imu_topic = imu[0]
+        mag_topic = mag[0] if len(mag) == 1 else None
+    for name in (imu_topic, mag_topic):
+        if name is not None and topics[name]["count"] == 0:
+            raise OptinavError(f"topic {name!r} of {path.name} holds no messages", "pass a topic with messages")
+    return imu_topic, mag_topic
+
+
+# --- decoding -------------------------------------------------------------------------------------------------
+
+def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
+    """(dtype of one message, field names of the values) for messages of ``len(raw)`` bytes; None when the
+    layout is not the plain little-endian one this decoder knows."""
+    n = len(raw)
+    if ros1:
+        if n < 16:
+            return None
+        slen = int.from_bytes(raw[12:16], "little")
+        pos, sec, nsec = 16 + slen, 4, 8
+    else:
+        # CDR: 4-byte encapsulation header (00 01 = little endian), then the payload; float64 aligned to 8 in it
+        if n < 16 or raw[0:2] != b"\x00\x01":
+            return None
+        slen = int.from_bytes(raw[12:16], "little")
+        pos = 16 + slen
+        pos = 4 + -(-(pos - 4) // 8) * 8
+        sec, nsec = 4, 8
+    if msgtype == IMU_TYPE:
+        # orientation (4) + covariance (9) precede angular_velocity; its covariance (9) precedes linear_acceleration
+        fields = {"g": pos + 13 * 8, "a": pos + 13 * 8 + 12 * 8}
+        end = fields["a"] + 12 * 8
+        names = ("g", "a")
+    else:
+        fields = {"m": pos}
+        end = pos + 12 * 8
+        names = ("m",)
+    if end != n:
+        return None
+    spec = {"names": ["sec", "nsec", "len"] + list(names), "offsets": [sec, nsec, 12] + [fields[k] for k in names],
+            "formats": ["<i4" if not ros1 else "<u4", "<u4", "<u4"] + ["(3,)<f8"] * len(names), "itemsize": n}
+    return np.dtype(spec), names, slen
+
+
+def _slow(reader, con, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
+    msg = reader.deserialize(raw, con.msgtype)
+    st = msg.header.stamp
+    if msgtype == IMU_TYPE:
+        w, f = msg.angular_velocity, msg.linear_acceleration
+        v = [w.x, w.y, w.z, f.x, f.y, f.z]
+    else:
+        b = msg.magnetic_field
+        v = [b.x, b.y, b.z]
+    return st.sec + st.nanosec * 1e-9, np.asarray(v, dtype=float)
+
+
+def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(header stamps s, log times s, values) of every message of ``topic``: Imu values are
+    ``[gx gy gz ax ay az]``, MagneticField ``[mx my mz]``."""
+    msgtype, count = info["type"], info["count"]
+    width = 6 if msgtype == IMU_TYPE else 3
+    stamp = np.empty(count)
+    logt = np.empty(count, dtype=np.int64)
+    vals = np.empty((count, width))
+    ros1 = not getattr(reader, "is2", True)
+    con0 = info["cons"][0]
+    layout = None
+    done = 0
+
+    def flush(chunk: list, times: list) -> None:
+        # the loop only collects; everything per message that numpy can do happens here, once per block
+        nonlocal layout, done
+        n = len(chunk)
+        if done + n > count:
+            raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
+                               "reindex the bag (ros2 bag reindex / rosbag reindex)")
+        if layout is None:
+            layout = _layout(chunk[0], ros1, msgtype)
+            if layout is not None and not _layout_agrees(reader, con0, chunk[0], layout, msgtype):
+                layout = None
+            layout = layout or False  # False: every message through rosbags' deserializer
+        rows = np.arange(done, done + n)
+        logt[rows] = times
+        fast = np.zeros(n, dtype=bool)
+        if layout:
+            lens = np.fromiter(map(len, chunk), dtype=np.int64, count=n)
+            fast = lens == layout[0].itemsize
+            arr = np.frombuffer(b"".join(chunk) if fast.all() else b"".join(c for c, f in zip(chunk, fast) if f),
+                                dtype=layout[0])
+            same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
+            fast[np.flatnonzero(fast)[~same]] = False
+            arr = arr[same]
+            stamp[rows[fast]] = arr["sec"] + arr["nsec"] * 1e-9
+            vals[rows[fast]] = np.concatenate([arr[k] for k in layout[1]], axis=1)
+        for j in np.flatnonzero(~fast):
+            stamp[done + j], vals[done + j] = _slow(reader, con0, chunk[j], msgtype)
+        done += n
+
+    try:
+        chunk, times = [], []
+        for _, t_log, raw in reader.messages(connections=info["cons"]):
+            chunk.append(raw)
+            times.append(t_log)
+            if len(chunk) == _BLOCK:
+                flush(chunk, times)
+                chunk, times = [], []
+        if chunk:
+            flush(chunk, times)
+    except OptinavError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - damaged chunks, decompression errors, truncated files
+        raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {done} message(s) "
+                           f"({_why(exc)})", "check that the bag was closed properly (ros2 bag reindex / "
+                                             "rosbag reindex)") from None
+    if done == 0:
+        raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
+    if done != count:
+        stamp, logt, vals = stamp[:done], logt[:done], vals[:done]
+    return stamp, logt * 1e-9, vals
+
+
+def _layout_agrees(reader, con, raw: bytes, layout, msgtype: str) -> bool:
+    """The numpy decoding of ``raw`` equals rosbags' deserializer (guards the byte offsets above)."""
+    try:
+        t_ref, v_ref = _slow(reader, con, raw, msgtype)
+    except Exception:  # noqa: BLE001 - the deserializer itself fails: let the main loop report it
+        return True
+    arr = np.frombuffer(raw, dtype=layout[0])
+    v = np.concatenate([arr[k] for k in layout[1]], axis=1)[0]
+    t = float(arr["sec"][0] + arr["nsec"][0] * 1e-9)
+    return bool(np.array_equal(v, v_ref, equal_nan=True) and t == t_ref)
+
+
+def _time_base(path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray) -> np.ndarray:
+    """Header stamps when they are set and strictly increasing; else the bag's log (receive) times, with a warning."""
+    if stamp.size > 1 and np.all(np.diff(stamp) > 0) and np.all(stamp > 0):
+        return stamp
+    if stamp.size == 1 and stamp[0] > 0:
+        return stamp
+    why = "zero" if np.all(stamp == 0) else "not strictly increasing"
+    warnings.warn(f"{path.name}: the header stamps of {topic!r} are {why}; using the bag's log times instead "
+                  "(receive times, with their jitter)", stacklevel=3)
+    return t_log
+
+
+def _resample(t_src: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``v(t_src)`` linearly interpolated at ``t``; the end values held up to two sample intervals beyond the span
+    of ``t_src`` (the magnetometer starting a moment after the IMU), NaN farther out."""
+    order = np.argsort(t_src, kind="stable")
+    ts, vs = t_src[order], v[order]
+    out = np.interp(t, ts, vs)
+    reach = 2.0 * float(np.median(np.diff(ts))) if ts.size > 1 else 0.0
+    out[(t < ts[0] - reach) | (t > ts[-1] + reach)] = np.nan
+    return out

@@ -1,0 +1,190 @@
+"""``optinav design``: the words name the right face for known poses, the turns bring the next pose up, the
+predicted std of the accelerometer and gyroscope parameters match Monte Carlo runs of the calibrators, and the
+command writes Markdown, JSON and a figure."""
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+from optinav.core.optimize import Problem, minimize
+from optinav.core.simulate import orientation_from_up
+from optinav.errors import OptinavError
+from optinav.multipos import model
+from optinav.multipos.design import default_candidates, pose_orientation
+from optinav.multipos.gyro import calibrate_gyro
+from optinav.multipos.plan import noise_from_allan, plan_poses, pose_words, turn_between
+
+S = math.sqrt(0.5)
+
+
+@pytest.mark.parametrize("c, words", [
+    (np.eye(3), "+z face up; y axis north"),  # body = ENU
+    (orientation_from_up("x"), "+x face up; y axis north"),
+    (orientation_from_up("-y", north="x"), "−y face up; x axis north"),
+    (orientation_from_up("-z", north="-x"), "−z face up; y axis west"),  # x south, y west: y is nearer north
+])
+def test_words_of_axis_poses(c, words):
+    assert pose_words(c) == words
+
+
+def test_words_of_tilted_poses():
+    w = pose_words(pose_orientation([S, -S, 0]))
+    assert w.startswith("edge between the +x and −y faces up (both faces 45° above level); z axis level, pointing ")
+    w = pose_words(pose_orientation(np.ones(3) / math.sqrt(3)))
+    assert w.startswith("corner of the +x, +y and +z faces up (all three faces 35.3° above level)")
+    w = pose_words(pose_orientation([math.cos(0.5), 0, -math.sin(0.5)]))
+    assert w == "+x face 61.4°, −z face 28.6° above level; y axis level, pointing north"
+
+
+def _up_from_words(text: str) -> np.ndarray:
+    """The body up vector a technician realizes from the words: the named faces at the named elevation."""
+    faces = re.findall(r"([+−])([xyz])", text.split(";")[0])
+    elev = [float(x) for x in re.findall(r"([0-9.]+)°", text.split(";")[0])]
+    up = np.zeros(3)
+    for k, (s, a) in enumerate(faces):
+        e = elev[min(k, len(elev) - 1)] if elev else 90.0
+        up["xyz".index(a)] = (1 if s == "+" else -1) * math.sin(math.radians(e))
+    return up
+
+
+def test_words_round_trip_all_candidates():
+    for u in default_candidates():
+        c = pose_orientation(u)
+        np.testing.assert_allclose(_up_from_words(pose_words(c)), u, atol=1e-3)
+        assert pose_words(c).count(";") == 1
+
+
+def test_turns_bring_the_next_face_up():
+    ax, ang, words = turn_between([1, 0, 0], [0, 0, 1])
+    assert words == "tip it 90° about its y axis until the +z face is up"
+    assert abs(ang - math.pi / 2) < 1e-12 and np.allclose(np.abs(ax), [0, 1, 0])
+    ax, ang, words = turn_between([0, 0, 1], [0, 0, -1])
+    assert words.startswith("tip it 180° about its x axis")
+    for u0 in default_candidates():
+        for u1 in default_candidates():
+            ax, ang, _ = turn_between(u0, u1)
+            # a world-fixed vector's body components turn opposite to the body: rotating u0 about ax by +ang
+            # (right hand) gives u1, so the body turns by −ang about ax and u1 ends up pointing up
+            np.testing.assert_allclose(_rotate(u0, ax, ang), u1, atol=1e-9)
+
+
+def _rotate(v, ax, ang):
+    """Rodrigues: v rotated about unit ax by ang (right hand)."""
+    v, ax = np.asarray(v, float), np.asarray(ax, float)
+    return v * math.cos(ang) + np.cross(ax, v) * math.sin(ang) + ax * (ax @ v) * (1 - math.cos(ang))
+
+
+def test_dwell_meets_the_target_and_accelerometer_std_matches_monte_carlo():
+    """9 poses, dwell from a bias target; 300 simulated calibrations (norm fit of the pose means) scatter as
+    predicted (sampling error of a std from 300 runs ≈ 4 %)."""
+    n_acc = 2e-3  # m/s²/√Hz: a noisy MEMS, so a few seconds are enough
+    plan = plan_poses(9, acc_noise_density=n_acc, gyro_noise_density=None, targets={"bias_mg": 0.02}, rng=0)
+    pred = np.array(plan.acc_std)
+    assert plan.dwell_s > 10 and np.max(pred[6:]) <= 0.02e-3 * 9.80665 * (1 + 1e-9)
+    # one second less would miss the target: the dwell is the smallest whole second that meets it
+    shorter = plan_poses(9, acc_noise_density=n_acc, dwell_s=plan.dwell_s - 1.0, rng=0)
+    assert np.max(np.array(shorter.acc_std)[6:]) > 0.02e-3 * 9.80665
+    g = plan.g
+    K = np.array([[1.003, 0.002, -0.001], [0.0, 0.996, 0.0015], [0.0, 0.0, 1.002]])
+    b = np.array([0.04, -0.02, 0.03])
+    truth = model.Kb_to_theta(K, b)
+    clean = (K @ (g * plan.up_dirs).T).T + b
+    sm = n_acc / math.sqrt(plan.dwell_s)
+    rng = np.random.default_rng(11)
+    errs = []
+    for _ in range(300):
+        means = clean + rng.normal(0.0, sm, clean.shape)
+        res = minimize(Problem(residuals=lambda th: model.norm_residuals(th, means, g),
+                               jacobian=lambda th: model.norm_jacobian(th, means),
+                               x0=np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0]), "lm")
+        assert res.success
+        errs.append(res.x - truth)
+    ratio = np.std(errs, axis=0) / pred
+    assert np.all((ratio > 0.82) & (ratio < 1.18)), ratio
+
+
+def _session(plan, K, b, n_gyro, rate, rng):
+    """Gyro samples of the plan: rests of dwell_s and constant-rate turns, white noise n_gyro (rad/s/√Hz)."""
+    dt = 1.0 / rate
+    parts, intervals, i0 = [], [], 0
+    sd = n_gyro * math.sqrt(rate)
+    n_rest = int(round(plan.dwell_s * rate))
+    for k in range(plan.n_poses):
+        parts.append(np.zeros((n_rest, 3)))
+        intervals.append((i0, i0 + n_rest))
+        i0 += n_rest
+        if k < len(plan.turns):
+            tr = plan.turns[k]
+            n = int(round(tr["duration_s"] * rate))
+            # the body turns by −angle about the axis (see turn_between); the samples span n steps exactly
+            w = -np.asarray(tr["axis_body"]) * math.radians(tr["angle_deg"]) / (n * dt)
+            parts.append(np.tile(w, (n, 1)))
+            i0 += n
+    omega = np.vstack(parts)
+    t = np.arange(omega.shape[0]) * dt
+    raw = omega @ K.T + b + rng.normal(0.0, sd, omega.shape)
+    return t, raw, np.array(intervals)
+
+
+def test_gyro_std_matches_monte_carlo_of_the_turn_calibration():
+    """The first-order prediction of the gyro K std against 40 runs of the real turn calibration (imu_tk's
+    method): within the sampling error of 30 runs (≈ 13 % per entry) and the first-order model."""
+    n_gyro = 2e-3  # rad/s/√Hz
+    plan = plan_poses(12, acc_noise_density=1e-3, gyro_noise_density=n_gyro, dwell_s=4.0, turn_rate_deg_s=60.0,
+                      rng=0)
+    pred = np.array(plan.gyro_std[:9], float)
+    K = np.array([[1.01, 0.003, -0.002], [0.001, 0.99, 0.004], [-0.003, 0.002, 1.005]])
+    b = np.array([0.01, -0.02, 0.015])
+    rng = np.random.default_rng(5)
+    errs = []
+    for _ in range(30):
+        t, raw, iv = _session(plan, K, b, n_gyro, 50.0, rng)
+        cal = calibrate_gyro(t, raw, iv, plan.up_dirs, bias="static")
+        errs.append((cal.K - K).ravel())
+    ratio = np.sqrt(np.mean(np.square(errs), axis=0)) / pred
+    assert np.all((ratio > 0.65) & (ratio < 1.4)), ratio
+    assert 0.85 < np.exp(np.mean(np.log(ratio))) < 1.18, ratio
+
+
+def test_noise_from_allan_json(tmp_path):
+    p = tmp_path / "allan.json"
+    p.write_text(json.dumps({"schema": "x", "kalibr": {"accelerometer_noise_density": 0.002,
+                                                       "gyroscope_noise_density": [1e-4, 2e-4, 3e-4]}}))
+    got = noise_from_allan(p)
+    assert np.allclose(got["acc"], 0.002) and np.allclose(got["gyro"], [1e-4, 2e-4, 3e-4])
+    p.write_text(json.dumps({"gyroscope_noise_density": -1}))
+    with pytest.raises(OptinavError, match="not a positive number"):
+        noise_from_allan(p)
+    p.write_text("{}")
+    with pytest.raises(OptinavError, match="holds neither"):
+        noise_from_allan(p)
+
+
+def test_cli_writes_markdown_json_and_figure(tmp_path, capsys):
+    allan = tmp_path / "a.json"
+    allan.write_text(json.dumps({"accelerometer_noise_density": 1e-3, "gyroscope_noise_density": 1e-4}))
+    md, js, png = tmp_path / "plan.md", tmp_path / "plan.json", tmp_path / "plan.png"
+    assert main(["design", "--poses", "10", "--criterion", "A", "--allan", str(allan), "--target-scale", "200",
+                 "--out", str(md), "--figure", str(png)]) == 0
+    text = md.read_text()
+    assert text.startswith("# Calibration pose plan: 10 poses (A-optimal)")
+    assert text.count("\n| ") >= 10 + 21 and "ppm (scale factor)" in text and "deg/h (bias)" in text
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(["--quiet", "design", "--poses", "10", "--allan", str(allan), "--target-scale", "200",
+                 "--out", str(js)]) == 0
+    d = json.loads(js.read_text())
+    assert d["schema"] == "optinav.pose_plan"
+    f = d["fields"]
+    assert len(f["words"]["value"]) == 10 and len(f["turns"]["value"]) == 9
+    assert max(f["acc_std"]["value"][:3]) <= 200e-6
+    capsys.readouterr()
+    assert main(["design", "--dwell", "10", "--target-bias", "1", "--out", str(tmp_path / "x.md")]) == 2
+    assert "--dwell and a --target-* option" in capsys.readouterr().err
+    assert main(["design", "--out", str(tmp_path / "x.txt")]) == 2
+    assert main(["design", "--allan", str(tmp_path / "missing.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and all(e.startswith("optinav: error: ") for e in err)

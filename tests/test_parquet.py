@@ -1,0 +1,163 @@
+"""Parquet files as input: the values written with pyarrow are the values read, whatever the column layout
+(names, order, types, lists, structs, row groups, nulls), with units from the file's metadata."""
+
+import json
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import read_imu, read_table, write_imu
+
+
+def _data(rng, n):
+    t = 1000.0 + np.cumsum(rng.uniform(0.005, 0.015, n))
+    return t, rng.normal(0, 3, (n, 3)), rng.normal(0, 0.5, (n, 3))
+
+
+def test_plain_columns(tmp_path):
+    t, acc, gyr = _data(np.random.default_rng(0), 500)
+    tab = pa.table({"t": t, **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
+                    **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")}, "note": ["x"] * 500})
+    pq.write_table(tab, tmp_path / "d.parquet", row_group_size=77)
+    log = read_imu(tmp_path / "d.parquet")
+    assert np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyro, gyr)
+
+
+def _layouts():
+    """One column layout: how each triad is stored, alias names, float type, column order, row groups, extras."""
+    triad = st.sampled_from(["columns", "list", "fixed_list", "struct"])
+    return st.fixed_dictionaries({
+        "acc": triad, "gyro": triad,
+        "acc_name": st.sampled_from(["acc", "accel", "linear_acceleration", "imu_acc"]),
+        "gyro_name": st.sampled_from(["gyro", "gyr", "angular_velocity", "omega"]),
+        "t_name": st.sampled_from(["t", "time", "timestamp", "Time [s]", "time_ms", "stamp_ts"]),
+        "f32": st.booleans(), "order": st.permutations(range(4)), "group": st.integers(1, 60),
+        "nulls": st.lists(st.integers(0, 39), max_size=3), "n": st.integers(2, 40),
+        "extra": st.sampled_from([None, "string", "varlist", "int"]),
+    })
+
+
+def _triad(layout, name, kind, v, ftype, pa_null):
+    if kind == "columns":
+        sep = "_" if len(name) > 3 else ""
+        return [(f"{name}{sep}{a}", pa.array(v[:, j], type=ftype, mask=pa_null)) for j, a in enumerate("xyz")]
+    if kind == "struct":
+        arrs = [pa.array(v[:, j], type=ftype, mask=pa_null) for j in range(3)]
+        return [(name, pa.StructArray.from_arrays(arrs, names=["x", "y", "z"]))]
+    flat = pa.array(v.reshape(-1), type=ftype)
+    if kind == "fixed_list":
+        return [(name, pa.FixedSizeListArray.from_arrays(flat, 3))]
+    return [(name, pa.ListArray.from_arrays(pa.array(np.arange(0, 3 * len(v) + 1, 3, dtype=np.int32)), flat))]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(layout=_layouts(), seed=st.integers(0, 2**31))
+def test_odd_layouts_read_back(tmp_path, layout, seed):
+    rng = np.random.default_rng(seed)
+    n = layout["n"]
+    t, acc, gyr = _data(rng, n)
+    ftype = pa.float32() if layout["f32"] else pa.float64()
+    if layout["f32"]:
+        acc, gyr = acc.astype(np.float32).astype(float), gyr.astype(np.float32).astype(float)
+    nulls = sorted({i for i in layout["nulls"] if i < n})
+    mask = np.zeros(n, bool)
+    mask[nulls] = True
+    scale = 1e3 if layout["t_name"] == "time_ms" else 1.0
+    if layout["t_name"] == "stamp_ts":
+        t_col = pa.array((t * 1e9).astype(np.int64), type=pa.timestamp("ns"))
+        t = (t * 1e9).astype(np.int64) * 1e-9
+    else:
+        t_col = pa.array(t * scale)
+    acc_mask = mask if layout["acc"] in ("columns", "struct") else None
+    groups = [[(layout["t_name"], t_col)],
+              _triad(layout, layout["acc_name"], layout["acc"], acc, ftype, acc_mask),
+              _triad(layout, layout["gyro_name"], layout["gyro"], gyr, ftype, None)]
+    extra = {"string": pa.array([f"s{i}" for i in range(n)]), "int": pa.array(np.arange(n)),
+             "varlist": pa.array([[1.0] * (i % 3) for i in range(n)])}.get(layout["extra"])
+    groups.append([("comment", extra)] if extra is not None else [])
+    cols = [c for k in layout["order"] for c in groups[k]]
+    path = tmp_path / f"d{seed}.parquet"
+    pq.write_table(pa.table(dict(cols)), path, row_group_size=layout["group"])
+    log = read_imu(path, columns=None if layout["t_name"] != "stamp_ts" else "t=stamp_ts")
+    np.testing.assert_allclose(log.t, t, rtol=1e-15, atol=0)
+    expect = acc.copy()
+    if acc_mask is not None:
+        expect[mask] = np.nan
+    assert np.array_equal(log.acc, expect, equal_nan=True)
+    assert np.array_equal(log.gyro, gyr)
+    assert log.nan_rows == (len(nulls) if acc_mask is not None else 0)
+
+
+def test_units_from_metadata_and_rate(tmp_path):
+    n = 200
+    rng = np.random.default_rng(2)
+    acc_g, gyr_dps = rng.normal(0, 1, (n, 3)), rng.normal(0, 30, (n, 3))
+    fields = [pa.field(f"a{a}", pa.float64(), metadata={"unit": "g"}) for a in "xyz"]
+    fields += [pa.field(f"g{a}", pa.float64(), metadata={"units": "deg/s"}) for a in "xyz"]
+    schema = pa.schema(fields, metadata={"rate": "250"})
+    tab = pa.table([*acc_g.T, *gyr_dps.T], schema=schema)
+    pq.write_table(tab, tmp_path / "u.pq")
+    log = read_imu(tmp_path / "u.pq")
+    np.testing.assert_allclose(log.acc, acc_g * 9.80665, rtol=1e-15)
+    np.testing.assert_allclose(log.gyro, np.deg2rad(gyr_dps), rtol=1e-15)
+    np.testing.assert_allclose(log.t, np.arange(n) / 250.0)
+    assert log.acc_input_unit == "g" and any("250 Hz" in x for x in log.notes)
+    with pytest.raises(OptinavError, match=r"declares g but acc_unit='m/s\^2'"):
+        read_imu(tmp_path / "u.pq", acc_unit="m/s^2")
+
+
+def test_positional_names_and_labels(tmp_path):
+    n = 30
+    rng = np.random.default_rng(3)
+    m = rng.normal(size=(n, 7))
+    m[:, 0] = np.arange(n) * 0.01
+    tab = pa.table({f"c{j}": m[:, j] for j in range(7)} | {"lab": pa.array(["p1"] * 10 + ["p2"] * 20).dictionary_encode()})
+    pq.write_table(tab, tmp_path / "p.parquet")
+    log = read_imu(tmp_path / "p.parquet", columns="t,ax,ay,az,gx,gy,gz,label")
+    assert np.array_equal(log.acc, m[:, 1:4]) and np.array_equal(log.gyro, m[:, 4:7])
+    assert list(log.labels[:11]) == ["p1"] * 10 + ["p2"]
+    with pytest.raises(OptinavError, match="columns names 3 column.* but p.parquet has 8"):
+        read_imu(tmp_path / "p.parquet", columns="t,ax,ay")
+
+
+def test_damaged_and_empty(tmp_path):
+    t, acc, gyr = _data(np.random.default_rng(4), 100)
+    pq.write_table(pa.table({"t": t, "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2]}), tmp_path / "ok.parquet")
+    raw = (tmp_path / "ok.parquet").read_bytes()
+    (tmp_path / "cut.parquet").write_bytes(raw[: len(raw) // 2])
+    with pytest.raises(OptinavError, match="cut.parquet is not a readable Parquet file"):
+        read_imu(tmp_path / "cut.parquet")
+    pq.write_table(pa.table({"name": ["a", "b"]}), tmp_path / "text.parquet")
+    with pytest.raises(OptinavError, match="has no accelerometer or gyroscope data"):
+        read_imu(tmp_path / "text.parquet")
+    pq.write_table(pa.table({"m": pa.array([{"k": 1}, {"k": 2}], type=pa.map_(pa.string(), pa.int64()))}),
+                   tmp_path / "map.parquet")
+    with pytest.raises(OptinavError, match=r"holds no numeric columns \(unreadable: .*map"):
+        read_table(tmp_path / "map.parquet")
+
+
+def test_cli_attitude_reads_parquet(tmp_path, capsys):
+    """The same log as CSV and as Parquet gives the same attitude."""
+    csv = tmp_path / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "six", "--dwell", "2",
+                 "--seed", "1"]) == 0
+    log = read_imu(csv)
+    pq.write_table(pa.table({"time": log.t, "acc": pa.FixedSizeListArray.from_arrays(pa.array(log.acc.ravel()), 3),
+                             "gyro": pa.FixedSizeListArray.from_arrays(pa.array(log.gyro.ravel()), 3)}),
+                   tmp_path / "s.parquet")
+    out = {}
+    for name in ("s.csv", "s.parquet"):
+        o = tmp_path / f"{name}.att.csv"
+        assert main(["--quiet", "attitude", str(tmp_path / name), "--out", str(o)]) == 0
+        out[name] = o.read_text().splitlines()[1:]
+    assert out["s.csv"] == out["s.parquet"] and len(out["s.csv"]) > 100
+    rt = tmp_path / "rt.npz"
+    write_imu(rt, read_imu(tmp_path / "s.parquet"))
+    assert np.array_equal(np.load(rt)["acc"], log.acc)
+    json.dumps(log.notes)

@@ -1,0 +1,235 @@
+"""ROS bags as input: ROS 1 .bag and ROS 2 (sqlite3 and mcap, as a folder or a bare file) written with rosbags'
+own writer and serializer are read back with the values written; topic choice, time base and every refusal."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import read_imu, read_table
+from optinav.io.rosbag import load_bag
+
+TS1 = get_typestore(Stores.ROS1_NOETIC)
+TS2 = get_typestore(Stores.ROS2_HUMBLE)
+IMU, MAG, STR = "sensor_msgs/msg/Imu", "sensor_msgs/msg/MagneticField", "std_msgs/msg/String"
+KINDS = ("ros1", "sqlite3", "mcap", "sqlite3-file", "mcap-file")
+
+
+def _header(ts, sec, nsec, frame, seq):
+    H, T = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
+    stamp = T(sec=int(sec), nanosec=int(nsec))
+    return H(seq=seq, stamp=stamp, frame_id=frame) if "seq" in H.__dataclass_fields__ else H(stamp=stamp,
+                                                                                          frame_id=frame)
+
+
+def imu_msg(ts, sec, nsec, gyr, acc, frame="imu_link", seq=0):
+    V, Q = ts.types["geometry_msgs/msg/Vector3"], ts.types["geometry_msgs/msg/Quaternion"]
+    z9 = np.zeros(9)
+    return ts.types[IMU](header=_header(ts, sec, nsec, frame, seq), orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
+                         orientation_covariance=z9, angular_velocity=V(*map(float, gyr)),
+                         angular_velocity_covariance=z9, linear_acceleration=V(*map(float, acc)),
+                         linear_acceleration_covariance=z9)
+
+
+def mag_msg(ts, sec, nsec, b, frame="mag", seq=0):
+    V = ts.types["geometry_msgs/msg/Vector3"]
+    return ts.types[MAG](header=_header(ts, sec, nsec, frame, seq), magnetic_field=V(*map(float, b)),
+                         magnetic_field_covariance=np.zeros(9))
+
+
+def write_bag(path: Path, kind: str, topics: dict) -> Path:
+    """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav."""
+    if kind == "ros1":
+        path = path.with_suffix(".bag")
+        with Writer1(path) as w:
+            for name, (msgtype, msgs) in topics.items():
+                con = w.add_connection(name, msgtype, typestore=TS1)
+                for t_ns, make in msgs:
+                    w.write(con, t_ns, TS1.serialize_ros1(make(TS1), msgtype))
+        return path
+    plugin = StoragePlugin.MCAP if kind.startswith("mcap") else StoragePlugin.SQLITE3
+    with Writer2(path, version=9, storage_plugin=plugin) as w:
+        for name, (msgtype, msgs) in topics.items():
+            con = w.add_connection(name, msgtype, typestore=TS2)
+            for t_ns, make in msgs:
+                w.write(con, t_ns, TS2.serialize_cdr(make(TS2), msgtype))
+    if kind.endswith("-file"):
+        return next(p for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
+    return path
+
+
+def imu_topic(rng, n=40, rate=100.0, t0=1_700_000_000, frames=("imu_link",), stamps=None):
+    """Messages and the values they hold: (messages, t, gyr, acc)."""
+    gyr = rng.normal(0, 0.5, (n, 3))
+    acc = rng.normal(0, 3, (n, 3)) + [0, 0, 9.81]
+    ns = np.round(np.arange(n) / rate * 1e9).astype(np.int64) + 123 if stamps is None else stamps
+    msgs = [(int(t0 * 10**9 + ns[i] + 5_000_000),
+             lambda ts, i=i: imu_msg(ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i],
+                                     frame=frames[i % len(frames)], seq=i)) for i in range(n)]
+    t = (t0 + ns // 10**9) + (ns % 10**9) * 1e-9
+    return msgs, t, gyr, acc
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_values_read_equal_values_written(tmp_path, kind):
+    rng = np.random.default_rng(1)
+    msgs, t, gyr, acc = imu_topic(rng)
+    tm = np.arange(0, 0.2, 0.04) + 1_700_000_000
+    bm = rng.normal(0, 3e-5, (tm.size, 3))
+    mags = [(int(round(x * 1e9)), lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+            for k, x in enumerate(tm)]
+    chatter = [(1_700_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data="x" * k)) for k in range(3)]
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags), "/chatter": (STR, chatter)})
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t)
+    assert np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+    assert log.acc_input_unit == "m/s^2" and log.gyro_input_unit == "rad/s"
+    tab = read_table(bag)
+    mag_t = (tm.astype(np.int64)) + np.round((tm % 1) * 1e9) * 1e-9
+    for j, a in enumerate("xyz"):
+        expect = np.interp(t, mag_t, bm[:, j])
+        expect[t > mag_t[-1] + 0.08] = np.nan
+        np.testing.assert_allclose(tab[f"m{a}"], expect, rtol=0, atol=1e-18)
+    assert np.isnan(tab["mx"][-1]) and np.all(np.isfinite(tab["mx"][:24]))
+
+
+@pytest.mark.parametrize("kind", ("ros1", "sqlite3"))
+def test_frame_ids_of_different_lengths(tmp_path, kind):
+    # messages of several sizes: one fixed layout per size, the rest through rosbags' deserializer
+    rng = np.random.default_rng(2)
+    msgs, t, gyr, acc = imu_topic(rng, n=30, frames=("a", "imu", "imu_link_long_name", "xyz"))
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs)})
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):
+    import optinav.io.rosbag as rb
+
+    monkeypatch.setattr(rb, "_BLOCK", 7)
+    rng = np.random.default_rng(3)
+    msgs, t, gyr, acc = imu_topic(rng, n=50)
+    bag = write_bag(tmp_path / "b", "mcap", {"/imu": (IMU, msgs)})
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_topic_choice(tmp_path):
+    rng = np.random.default_rng(4)
+    m1, t1, g1, a1 = imu_topic(rng)
+    m2, t2, g2, a2 = imu_topic(rng, n=20)
+    bag = write_bag(tmp_path / "b", "sqlite3", {"/imu/left": (IMU, m1), "/imu/right": (IMU, m2),
+                                                "/chatter": (STR, [(1, lambda ts: ts.types[STR](data="hi"))])})
+    with pytest.raises(OptinavError, match=r"has 2 sensor_msgs/msg/Imu topics .*/imu/left .*/imu/right.*--topic"):
+        read_imu(bag)
+    log = read_imu(bag, topic="/imu/right")
+    assert np.array_equal(log.gyro, g2) and np.array_equal(log.t, t2)
+    with pytest.raises(OptinavError, match=r"no topic '/imu/middle' \(topics: /imu/left \(sensor_msgs/Imu, 40 msgs"):
+        read_imu(bag, topic="/imu/middle")
+    with pytest.raises(OptinavError, match=r"'/chatter' of b holds std_msgs/msg/String, not sensor_msgs/msg/Imu"):
+        read_imu(bag, topic="/chatter")
+    with pytest.raises(OptinavError, match="holds sensor_msgs/msg/Imu, not sensor_msgs/msg/MagneticField"):
+        read_imu(bag, topic="/imu/left,/imu/right")
+    csv = tmp_path / "x.csv"
+    csv.write_text("t,ax\n0,1\n1,2\n")
+    with pytest.raises(OptinavError, match="applies to ROS bags"):
+        read_table(csv, topic="/imu")
+
+
+def test_no_imu_topic_and_empty_topic(tmp_path):
+    bag = write_bag(tmp_path / "s", "ros1", {"/chatter": (STR, [(1, lambda ts: ts.types[STR](data="hi"))])})
+    with pytest.raises(OptinavError, match="has no sensor_msgs/msg/Imu topics.*record the IMU"):
+        read_imu(bag)
+    empty = write_bag(tmp_path / "e", "sqlite3", {"/imu": (IMU, [])})
+    with pytest.raises(OptinavError, match="'/imu' of e holds no messages"):
+        read_imu(empty)
+
+
+def test_zero_stamps_use_log_time(tmp_path):
+    rng = np.random.default_rng(5)
+    msgs, t, gyr, acc = imu_topic(rng, n=10, stamps=np.zeros(10, np.int64), t0=0)
+    logt = 1_700_000_000 * 10**9 + 10_000_000 * np.arange(10)
+    msgs = [(int(logt[i]), make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "z", "mcap", {"/imu": (IMU, msgs)})
+    with pytest.warns(UserWarning, match="header stamps of '/imu' are zero; using the bag's log times"):
+        log = read_imu(bag)
+    np.testing.assert_array_equal(log.t, logt * 1e-9)
+    assert np.array_equal(log.acc, acc)
+
+
+def test_stamps_backwards_use_log_time(tmp_path):
+    rng = np.random.default_rng(6)
+    ns = (np.arange(12) * 10_000_000)[::-1].copy()
+    msgs, t, gyr, acc = imu_topic(rng, n=12, stamps=ns)
+    msgs = [(1_700_000_000 * 10**9 + 10_000_000 * i, make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "r", "ros1", {"/imu": (IMU, msgs)})
+    with pytest.warns(UserWarning, match="not strictly increasing"):
+        log = read_imu(bag)
+    np.testing.assert_array_equal(log.t, (1_700_000_000 * 10**9 + 10_000_000 * np.arange(12)) * 1e-9)
+    assert np.array_equal(log.gyro, gyr)
+
+
+def test_damaged_bags_are_one_line_errors(tmp_path):
+    rng = np.random.default_rng(7)
+    msgs, *_ = imu_topic(rng, n=200)
+    for kind in ("ros1", "mcap-file", "sqlite3-file"):
+        bag = write_bag(tmp_path / kind, kind, {"/imu": (IMU, msgs)})
+        raw = bag.read_bytes()
+        cut = tmp_path / f"cut{bag.suffix}"
+        cut.write_bytes(raw[: len(raw) // 2])
+        with pytest.raises(OptinavError, match=r"not a readable ROS bag"):
+            read_imu(cut)
+    junk = tmp_path / "junk.bag"
+    junk.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
+    with pytest.raises(OptinavError, match="junk.bag is not a readable ROS bag"):
+        read_imu(junk)
+    (tmp_path / "notabag").mkdir()
+    (tmp_path / "notabag" / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 99}\n")
+    with pytest.raises(OptinavError, match="not a readable ROS bag"):
+        read_imu(tmp_path / "notabag")
+
+
+def test_missing_rosbags_names_the_extra(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
+    bag = tmp_path / "x.bag"
+    bag.write_bytes(b"#ROSBAG V2.0\n")
+    with pytest.raises(OptinavError, match=r"needs the rosbags library.*pip install 'optinav\[ros\]'"):
+        load_bag(bag)
+
+
+def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
+    """A simulated multi-position session as a ROS 2 bag calibrates like the same samples as CSV."""
+    csv = tmp_path / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4",
+                 "--seed", "4"]) == 0
+    log = read_imu(csv)
+    ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
+    msgs = [(int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyro[i], log.acc[i]))
+            for i in range(len(log))]
+    bag = write_bag(tmp_path / "bag", "sqlite3", {"/imu": (IMU, msgs)})
+    out_csv, out_bag = tmp_path / "c.json", tmp_path / "b.json"
+    assert main(["--quiet", "calibrate", "accel", str(csv), "--gravity", "9.80", "--out", str(out_csv)]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(bag), "--topic", "/imu", "--gravity", "9.80",
+                 "--out", str(out_bag)]) == 0
+    from optinav.multipos.result import CalibrationResult
+
+    rc, rb = CalibrationResult.from_json(out_csv), CalibrationResult.from_json(out_bag)
+    for sensor in ("accelerometer", "gyroscope"):
+        np.testing.assert_allclose(getattr(rb, sensor)["K"], getattr(rc, sensor)["K"], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(getattr(rb, sensor)["b"], getattr(rc, sensor)["b"], rtol=1e-6, atol=1e-6)
+    capsys.readouterr()
+    assert main(["apply", str(out_bag), str(bag), "--out", str(tmp_path / "corr.npz")]) == 0
+    z = np.load(tmp_path / "corr.npz")
+    assert z["acc"].shape == log.acc.shape
+    assert main(["calibrate", "accel", str(bag), "--topic", "/gps", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["optinav: error: bag has no topic '/gps' (topics: /imu (sensor_msgs/Imu, "
+                   f"{len(log)} msgs)); pass one of the listed topics with --topic"]
