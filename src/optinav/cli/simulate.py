@@ -133,6 +133,7 @@ def run_static(args) -> int:
     from optinav.core.earth import gravity
     from optinav.core.imu_model import flicker_noise, preset, random_walk, white_noise
     from optinav.core.progress import step
+    from optinav.core.results import Parameter, Truth
     from optinav.core.units import to_si
     from optinav.io import ImuLog, write_imu
 
@@ -161,14 +162,19 @@ def run_static(args) -> int:
     log = ImuLog(t=np.arange(n) * dt, acc=acc, gyro=data["gyroscope"], source="optinav simulate static")
     step("write")
     write_imu(out, log, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit)
-    truth = {"schema": "optinav.simulation_truth", "version": 1, "kind": "static",
-             "units": {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2",
-                                         "random_walk": "m/s^2/sqrt(s)"},
-                       "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s",
-                                     "random_walk": "rad/s/sqrt(s)"}},
-             **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
-                for name, (N, B, K) in terms.items()},
-             "rate_hz": rate, "gravity": g, "preset": args.preset, "seed": args.seed}
+    units = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2", "random_walk": "m/s^2/sqrt(s)"},
+             "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s", "random_walk": "rad/s/sqrt(s)"}}
+    short = {"accelerometer": "acc", "gyroscope": "gyr"}
+    # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
+    params = {f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), units[name][term])
+              for name, (N, B, K) in terms.items()
+              for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
+              for i, ax in enumerate("xyz")}
+    truth = Truth("allan", params, {
+        "kind": "static", "units": units,
+        **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
+           for name, (N, B, K) in terms.items()},
+        "rate_hz": rate, "gravity": g, "preset": args.preset, "seed": args.seed})
     tp = write_truth(out, truth)
     print(f"optinav: wrote {n} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
     return 0
