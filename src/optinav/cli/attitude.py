@@ -269,7 +269,8 @@ def _run_stream(args, method, options, q0, out) -> int:
         # two rows at least: the first block's first step comes from its first two times
         chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                           time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2))
+                          delimiter=args.delimiter,
+                          chunk_rows=None if args.chunk_rows is None else max(args.chunk_rows, 2))
         prev = None
         for log in progress_blocks(chunks, desc):
             if log.acc is None or log.gyro is None:

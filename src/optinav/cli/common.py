@@ -104,12 +104,11 @@ def add_input_options(p, *, gyro: bool = True) -> None:
 
 def add_chunk_option(p) -> None:
     """--chunk-rows: rows of a text log read, processed and written at a time (memory does not grow with the
-    log's length)."""
-    from optinav.io.readers import CHUNK_ROWS
-
-    p.add_argument("--chunk-rows", type=COUNT, default=CHUNK_ROWS, metavar="N",
-                   help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
-                        "not with the log's length")
+    log's length); None means the reader's default (optinav.io.readers.CHUNK_ROWS, not imported here: building
+    the parser loads no numpy)."""
+    p.add_argument("--chunk-rows", type=COUNT, default=None, metavar="N",
+                   help="rows of a text log processed at a time (default 200000); memory grows with N, not with "
+                        "the log's length")
 
 
 def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:

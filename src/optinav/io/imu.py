@@ -525,8 +525,8 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
 
 def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
              gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
-             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS) -> "ImuChunks":
-    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
+             datasets=None, delimiter: str | None = None, chunk_rows: int | None = None) -> "ImuChunks":
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples (None: :data:`CHUNK_ROWS`): an iterable of :class:`ImuLog` whose
     concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
     first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
     not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
@@ -539,12 +539,12 @@ class ImuChunks:
     """The blocks of :func:`iter_imu`; ``size``/``position`` (bytes of the file, read so far) tell the progress
     and ``rows`` the samples yielded so far."""
 
-    def __init__(self, path, *, chunk_rows: int = CHUNK_ROWS, **kw):
+    def __init__(self, path, *, chunk_rows: int | None = None, **kw):
         self.path, self.kw = Path(path), kw
         self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate"], kw["gyro_path"],
                                  kw["gyro_columns"])
         _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns")
-        self.chunk_rows = int(chunk_rows)
+        self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0
 
