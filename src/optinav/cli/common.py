@@ -107,7 +107,7 @@ def add_chunk_option(p) -> None:
     log's length); None means the reader's default (optinav.io.readers.CHUNK_ROWS, not imported here: building
     the parser loads no numpy)."""
     p.add_argument("--chunk-rows", type=COUNT, default=None, metavar="N",
-                   help="rows of a text log processed at a time (default 50000); memory grows with N, not with "
+                   help="rows of a text log processed at a time (default 200000); memory grows with N, not with "
                         "the log's length")
 
 
