@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -24,12 +25,15 @@ from pathlib import Path
 import numpy as np
 
 from optinav.attitude import AttitudeFilter, estimate_q
-from optinav.attitude.data import load_broad, shared_data_dir
+from optinav.attitude.data import load_broad
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
+
+#: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 
 
 def _trials(quick: bool):
-    folder = shared_data_dir() / "attitude" / "broad"
+    folder = SHARED / "attitude" / "broad"
     paths = sorted(p for p in folder.glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
     return [load_broad(p) for p in (paths[:3] if quick else paths)]
 
@@ -129,7 +133,7 @@ def _throughput(tr, quick: bool) -> list[dict]:
     group = f"attitude streaming (one Python call per sample, {n} samples)"
 
     def ours():
-        f = AttitudeFilter(tr.rate, frame="ENU")
+        f = AttitudeFilter(tr.rate_hz, frame="ENU")
         for i in range(n):
             f.update(gl[i], al[i])
 

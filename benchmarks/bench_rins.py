@@ -20,7 +20,7 @@ from optinav.rins.simulate import PAPER_TABLE3, simulate
 
 def _session(quick, rng):
     dwell, align = (20.0, 300.0) if quick else (50.0, 600.0)
-    return simulate(PAPER_TABLE3, scheme="psins16", dwell_s=dwell, align_s=align, move_s=10.0, rate=200.0,
+    return simulate(PAPER_TABLE3, scheme="psins16", dwell_s=dwell, align_s=align, move_s=10.0, rate_hz=200.0,
                     rng=rng)
 
 
@@ -40,7 +40,7 @@ def run(quick: bool) -> list[dict]:
             best = min(best, r.elapsed_s)
         res[name] = r
         rows += [{"group": group, "method": name, "metric": "fit time", "value": best, "unit": "s"},
-                 {"group": group, "method": name, "metric": "attitude RMSE (norm of pitch, roll, yaw)",
+                 {"group": group, "method": name, "metric": "attitude RMSE (norm of roll, pitch, yaw)",
                   "value": float(np.linalg.norm(r.rmse_after_deg)), "unit": "deg"}]
         r.elapsed_s = best
     rows.append({"group": group, "method": "optinav lm", "metric": "speed-up vs PSO",

@@ -13,7 +13,7 @@ W_IE = earth.WGS84.omega_ie
 
 
 def _static(c_true, seconds, rate, frame):
-    return simulate.static_positions(c_true[None], seconds, rate, LAT, h=400.0, frame=frame)
+    return simulate.static_positions(c_true[None], seconds, rate, LAT, height_m=400.0, frame=frame)
 
 
 def _unit(eps_b, nab_b, arw=0.0, vrw=0.0):

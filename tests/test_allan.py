@@ -8,8 +8,9 @@ from scipy.optimize import minimize_scalar
 
 from optinav import OptinavError
 from optinav.core.allan import (FLICKER_FLOOR, GM_ADEV_PEAK_RATIO, GM_ADEV_PEAK_TAU_RATIO, AllanDeviation,
-                                allan_deviation, allan_deviation_model, noise_parameters_from_allan)
-from optinav.core.imu_model import gauss_markov, random_walk, white_noise
+                                AllanNoiseFit, allan_deviation, allan_deviation_model, fit_noise_model,
+                                noise_parameters_from_allan)
+from optinav.core.imu_model import flicker_noise, gauss_markov, random_walk, white_noise
 from optinav.core.results import Result
 
 
@@ -126,3 +127,79 @@ def test_bad_input():
     for case in cases:
         with pytest.raises(OptinavError):
             case()
+
+
+def test_matches_allantools_with_chunks(monkeypatch):
+    """The overlapping deviation equals allantools' oadev (the field's reference implementation) on the same
+    rate data to 1e-6 relative (in practice ~1e-14), also when θ is differenced in small chunks."""
+    allantools = pytest.importorskip("allantools")  # in the test extra; skipped only outside it
+    import optinav.core.allan as allan_mod
+
+    rng = np.random.default_rng(11)
+    dt = 0.005
+    x = rng.standard_normal((50_000, 3)) * 0.01 + np.cumsum(rng.standard_normal((50_000, 3)), axis=0) * 1e-5 + 0.3
+    monkeypatch.setattr(allan_mod, "CHUNK_ROWS", 997)
+    ad = allan_deviation(x, dt)
+    for j in range(3):
+        taus, dev, _, _ = allantools.oadev(x[:, j], rate=1 / dt, data_type="freq", taus=ad.tau)
+        assert np.allclose(taus, ad.tau, rtol=1e-12)
+        assert np.max(np.abs(dev / ad.adev[:, j] - 1)) < 1e-6
+
+
+def test_flicker_noise_floor():
+    """Flicker noise of coefficient B has the flat Allan floor 0.664·B (IEEE 952 C.1.3) between short and long τ:
+    inside the 1 − 1e-4 EDF interval of every point with 8 ≤ m ≤ N/64."""
+    B, dt, n = np.array([1e-4, 1e-3, 1e-2]), 0.01, 2**18
+    x = flicker_noise(n, B, dt, rng=12)
+    ad = allan_deviation(x, dt, noise="flicker", confidence=1 - 1e-4)
+    sel = (ad.m >= 8) & (ad.m <= n // 64)
+    floor = FLICKER_FLOOR * B[None, :]
+    assert np.all((ad.lower[sel] < floor) & (floor < ad.upper[sel]))
+
+
+def _three_term_record(seed, n=2**18, dt=0.05):
+    """White N, flicker B and random walk K per axis, the terms crossing at τ = 1 s (N/B) and 300 s (B/K)."""
+    N = np.array([1e-3, 2e-3, 5e-4])
+    B = N / 1.0 / FLICKER_FLOOR
+    K = np.sqrt(3 / 300.0) * FLICKER_FLOOR * B
+    rng = np.random.default_rng(seed)
+    x = white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
+    return x, dt, {"white": N, "bias_instability": B, "random_walk": K}
+
+
+def test_fit_recovers_simulated_noise_within_its_interval():
+    """The four-term fit recovers N, B and K of a simulated 3.6 h record within its reported 68 % interval in at
+    least 2 of the 3 axes each (the target of the allan command). Monte Carlo over 40 records of this design
+    gave per-axis coverage of 100 % (N: the 5 % model floor makes it conservative), 88 % (B) and 77 % (K), and
+    2-of-3 success of 100 %, 95 % and 85 %; a record that ends 3 times past the B/K crossing (2.9 h at 50 Hz,
+    crossings at 0.3 s and 1000 s) gives 100 %, 89 % and 53 % per axis: K, read from the last few octaves,
+    is the weak term (docs: the allan command's help)."""
+    x, dt, truth = _three_term_record(21)
+    fit = fit_noise_model(allan_deviation(x, dt))
+    for name, true in truth.items():
+        iv = getattr(fit, name + "_interval")
+        inside = (iv[0] <= true) & (true <= iv[1])
+        assert inside.sum() >= 2, (name, iv, true)
+        # the intervals are informative, not trivially wide: N to a few %, B and K to tens of %
+        assert np.all(iv[1] / iv[0] < {"white": 1.2, "bias_instability": 2.0, "random_walk": 3.0}[name])
+    assert np.all(fit.quantization_interval[0] == 0.0)  # no quantization simulated: 0 is inside
+    # the white term read off the slope −1/2 agrees with the fit (it is the least contaminated read-off)
+    p = noise_parameters_from_allan(allan_deviation(x, dt))
+    assert np.allclose(p.white, fit.white, rtol=0.05)
+
+
+def test_read_off_intervals_and_fit_results_serialize():
+    x, dt, truth = _three_term_record(22, n=2**15)
+    ad = allan_deviation(x, dt, unit="rad/s")
+    p = noise_parameters_from_allan(ad)
+    assert p.white_interval.shape == (2, 3)
+    assert np.all(p.white_interval[0] < p.white) and np.all(p.white < p.white_interval[1])
+    fit = fit_noise_model(ad)
+    back = Result.from_json(fit.to_json())
+    assert isinstance(back, AllanNoiseFit) and np.allclose(back.white, fit.white) and back.unit == "rad/s"
+    one = fit_noise_model(allan_deviation(x[:, 0], dt))
+    assert isinstance(one.white, float) and one.white_interval.shape == (2,)
+    with pytest.raises(OptinavError):
+        fit_noise_model(ad, terms=("pink",))
+    with pytest.raises(OptinavError):
+        fit_noise_model(allan_deviation(x[:40], dt))

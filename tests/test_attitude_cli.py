@@ -29,8 +29,8 @@ def test_cli_attitude_with_polarization(flight, capsys):
     d, folder, path, site, times = flight
     out, rep = folder / "att.csv", folder / "rep"
     assert main(["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--method", "mekf",
-                 "--pol-columns", "aop_deg,dop", "--aop-unit", "deg", "--lat", str(site["lat_deg"]),
-                 "--lon", str(site["lon_deg"]), "--height", "35", "--start-time", times["dynamic"],
+                 "--pol-columns", "aop_deg,dop", "--aop-unit", "deg", "--lat", str(np.degrees(site["lat"])),
+                 "--lon", str(np.degrees(site["lon"])), "--height", "35", "--start-time", times["dynamic"],
                  "--option", "acc_noise=0.4", "--q0-deg", ",".join(str(v) for v in np.degrees(d.euler[0])),
                  "--out", str(out), "--report", str(rep)]) == 0
     r = _read(out)

@@ -34,7 +34,7 @@ def units(tmp_path_factory):
     d = tmp_path_factory.mktemp("units")
     truth = {}
     for name, acc_unit, seed in UNITS:
-        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=LAT,
+        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(LAT),
                      height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
         write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s
@@ -62,9 +62,14 @@ def _check_rows_against_truth(rows, truth, units_dir):
     for unit, s in truth.items():
         r = by[unit]
         assert r["status"] == "ok" and r["error"] == "", r["error"]
-        assert r["acc_unit"] == s.acc_unit and r["n_poses"] == 18 and r["acc_rank"] == 9
-        K = np.array([[r[f"acc_K_{a}{b}"] for b in "xyz"] for a in "xyz"])
-        Ks = np.array([[r[f"acc_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
+        assert r["acc_unit"] == s.acc_unit and r["n_poses"] == 18 and r["system"] == "multipos"
+        assert r["converged"] is True and r["gates_passed"] is True and r["n_gates"] == 5
+        # the lower triangle of K is the gauge of norm observation: unobservable, null in the table
+        assert set(r["unobservable"].split("; ")) == {"acc_K_yx", "acc_K_zx", "acc_K_zy"}
+        assert r["acc_K_yx"] is None and r["acc_K_yx_std"] is None
+        K = np.array([[r[f"acc_K_{a}{b}"] or 0.0 for b in "xyz"] for a in "xyz"])
+        Ks = np.array([[r[f"acc_K_{a}{b}_std"] or 0.0 for b in "xyz"] for a in "xyz"])
+        assert 0 < r["acc_K_xx_crlb_std"] <= r["acc_K_xx_std"]
         bias = np.array([r[f"acc_b_{a}"] for a in "xyz"])
         bs = np.array([r[f"acc_b_{a}_std"] for a in "xyz"])
         # norm observation sees K only up to a rotation: compare with the upper-triangular form of the truth
@@ -72,10 +77,10 @@ def _check_rows_against_truth(rows, truth, units_dir):
         iu = np.triu_indices(3)
         assert np.all(np.abs(K - U)[iu] < 5 * Ks[iu]), (unit, (K - U)[iu] / Ks[iu])
         assert np.all(np.abs(bias - s.acc_b) < 5 * bs), (unit, (bias - s.acc_b) / bs)
-        Kg = np.array([[r[f"gyro_K_{a}{b}"] for b in "xyz"] for a in "xyz"])
-        Kgs = np.array([[r[f"gyro_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
-        bg = np.array([r[f"gyro_b_{a}"] for a in "xyz"])
-        bgs = np.array([r[f"gyro_b_{a}_std"] for a in "xyz"])
+        Kg = np.array([[r[f"gyr_K_{a}{b}"] for b in "xyz"] for a in "xyz"])
+        Kgs = np.array([[r[f"gyr_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
+        bg = np.array([r[f"gyr_b_{a}"] for a in "xyz"])
+        bgs = np.array([r[f"gyr_b_{a}_std"] for a in "xyz"])
         assert np.all(np.abs(Kg - s.gyro_K @ Q.T) < 5 * Kgs), unit
         assert np.all(np.abs(bg - s.gyro_b) < 5 * bgs), unit
         assert 0 < r["reduced_chi2"] < 5 and r["elapsed_s"] > 0 and r["optinav_version"]
@@ -115,7 +120,8 @@ def test_local_processes_parquet_and_changed_file(units, tmp_path, monkeypatch):
     import pyarrow.parquet as pq
 
     table = pq.read_table(out)
-    assert table.column_names == batch.COLUMN_NAMES and table.num_rows == 4
+    assert table.column_names[:3] == ["unit", "file", "status"] and table.num_rows == 4
+    assert table.column_names[-5:] == batch.COLUMN_NAMES[-5:] and "gyr_b_z_crlb_std" in table.column_names
     assert str(table.schema.field("acc_K_xx").type) == "double"
     rows = read_results(out)
     _check_rows_against_truth(rows, truth, d)

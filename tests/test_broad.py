@@ -3,15 +3,20 @@ reference figures of README_SOURCE.txt (VQF 0.43°, ahrs Madgwick(0.033) 0.61°,
 with polarization synthesized from the optical truth by the Rayleigh model, the sun at the paper's place and
 static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from optinav.attitude import estimate_q
-from optinav.attitude.data import BROAD_TRIAL_02, load_broad, shared_data_dir, synthesize_polarization
+from optinav.attitude.data import BROAD_TRIAL_02, load_broad, synthesize_polarization
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.core.strapdown import attitude_update
 
-PATH = shared_data_dir() / BROAD_TRIAL_02
+#: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+PATH = SHARED / BROAD_TRIAL_02
 pytestmark = pytest.mark.skipif(not PATH.is_file(), reason=f"BROAD data absent ({PATH})")
 
 #: BROAD inclination RMSE limits (deg), defaults of each method. GD/CG are Madgwick's filter with ahrs's gain:
@@ -34,7 +39,7 @@ def test_broad_inclination_rmse_6d(trial, method):
 
 def test_broad_gd_reproduces_ahrs_madgwick(trial):
     ahrs = pytest.importorskip("ahrs")
-    q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate, gain=0.033).Q
+    q_ahrs = ahrs.filters.Madgwick(gyr=trial.gyr, acc=trial.acc, frequency=trial.rate_hz, gain=0.033).Q
     ref = np.degrees(rmse(inclination_error(q_ahrs, trial.q_ref), trial.eval_mask))
     q = estimate_q(trial.gyr, trial.acc, trial.dt, method="gd", frame="ENU", gain=0.033)
     ours = np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask))
@@ -44,10 +49,10 @@ def test_broad_gd_reproduces_ahrs_madgwick(trial):
 
 def test_broad_heading_with_synthesized_polarization(trial):
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
-    from optinav.sky import solar_position_deg
+    from optinav.sky import solar_position
 
-    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
     sun = sp.sun_vector("enu")
     pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
     i0 = int(np.flatnonzero(np.all(np.isfinite(trial.q_ref), axis=1))[0])  # start at the first optical sample
@@ -90,7 +95,7 @@ def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
 
 # --- the nine BROAD trials in shared/ (issue 12): default iframe against the targets and VQF --------------------
 
-NINE = sorted(p for p in (shared_data_dir() / "attitude" / "broad").glob("[0-9][0-9]_*")
+NINE = sorted(p for p in (SHARED / "attitude" / "broad").glob("[0-9][0-9]_*")
               if p.suffix in (".hdf5", ".mat"))
 #: VQF 2.1.2 on the same nine trials, default options (issue 12; benchmarks/bench_attitude.py measures it again)
 VQF_ONLINE_DEG, VQF_OFFLINE_DEG, VQF_HEADING_9D_DEG = 0.608, 0.488, 2.21
@@ -117,18 +122,20 @@ def nine():
 
 
 def test_nine_trials_default_online_beats_vqf_and_no_trial_above_target(nine):
-    """Online 6D inclination: mean below VQF's 0.608° (measured 0.58°; the issue's 0.55° is not reached), every
-    trial below the 1.5° target (worst 1.02°, fast rotation)."""
-    assert nine[:, 0].mean() < VQF_ONLINE_DEG, nine[:, 0]
-    assert nine[:, 0].max() < 1.5
+    """Online 6D inclination: mean 0.569° against VQF's 0.608° (the issue's 0.55° is not reached; 0.582° with the
+    former 2 rad/s limit on the motion bias update, so the 0.575° bound catches its return), every trial below
+    the 1.5° target (worst 1.00°, fast rotation)."""
+    assert nine[:, 0].mean() < 0.575, nine[:, 0]
+    assert nine[:, 0].mean() < VQF_ONLINE_DEG
+    assert nine[:, 0].max() < 1.1
 
 
 def test_nine_trials_offline_better_than_online(nine):
     """Offline (forward–backward fusion + zero-phase tilt refinement) below online on average and below VQF
     offline (measured 0.484° vs 0.488°: the issue's 0.44° target is not reached); worst trial 0.96°."""
-    assert nine[:, 1].mean() < nine[:, 0].mean()
+    assert nine[:, 1].mean() < nine[:, 0].mean() - 0.05
     assert nine[:, 1].mean() < VQF_OFFLINE_DEG, nine[:, 1]
-    assert nine[:, 1].max() < 1.5
+    assert nine[:, 1].max() < 1.05
 
 
 def test_nine_trials_9d_heading_meets_target(nine):

@@ -51,6 +51,11 @@ def test_annotated_session_turns_are_positive_so_imucal_default_angle_is_refused
     names the flag that fixes it, and +360° gives imucal's numbers with the sign of the turns corrected."""
     assert main(["--quiet", *ANNOTATED, "--method", "ferraris", "--out", str(tmp_path / "x.json")]) == 2
     assert "pass --rotation-angle 360" in capsys.readouterr().err
+    counts_as_rad = ANNOTATED[:ANNOTATED.index("--gyro-unit")] + ["--gravity", "9.81"]  # gyro read as rad/s
+    assert main(["--quiet", *counts_as_rad, "--method", "ferraris", "--rotation-angle", "360", "--out",
+                 str(tmp_path / "y.json")]) == 2
+    err = capsys.readouterr().err  # the README: ~16.7 counts per deg/s
+    assert "raw counts? (16." in err and "per deg/s); pass --gyro-unit counts" in err
     r = _run(tmp_path, ANNOTATED + ["--method", "ferraris", "--rotation-angle", "360"])  # sections from the labels
     ref = read_imucal_json(DATA / "reference" / "example_cal_annotated_session.json").to_optinav()
     np.testing.assert_allclose(r.accelerometer["K"], ref["acc_K"], rtol=1e-12)

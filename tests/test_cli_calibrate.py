@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from optinav.cli.main import main
+from optinav.core.results import Truth
 from optinav.multipos import model
 from optinav.multipos.result import CalibrationResult
 
@@ -33,11 +34,21 @@ def test_simulate_calibrate_apply_round_trip(session, capsys):
                  "--report", str(rep)]) == 0
     res = CalibrationResult.from_json(out)
     raw = json.loads(out.read_text())
-    for key in ("accelerometer", "gyroscope", "residual_rms", "static_intervals", "observability", "method",
-                "elapsed_s", "units", "optinav_version"):
+    for key in ("schema", "version", "optinav_version", "parameters", "convergence", "quality_gates", "elapsed_s",
+                "method", "fields"):
         assert key in raw
-    assert raw["units"]["accelerometer_raw"] == "counts" and raw["units"]["gyroscope_raw"] == "deg/s"
-    assert len(raw["static_intervals"]) == 18
+    assert raw["schema"] == "optinav.multipos.calibration" and raw["version"] == 2
+    assert raw["convergence"]["converged"] is True and raw["elapsed_s"] > 0
+    assert raw["quality_gates"] and all(g["passed"] for g in raw["quality_gates"])
+    assert raw["parameters"]["acc_K_xx"]["unit"] == "counts per m/s^2"
+    assert raw["parameters"]["gyr_b_x"]["unit"] == "deg/s"
+    assert raw["parameters"]["acc_K_yx"]["value"] is None and not raw["parameters"]["acc_K_yx"]["observable"]
+    assert res.units["accelerometer_raw"] == "counts" and res.units["gyroscope_raw"] == "deg/s"
+    assert len(res.static_intervals) == 18
+    # the truth file holds the truth in the estimated parameterization: compared field by field
+    cmp = Truth.from_json(d / "s.truth.json").compare(res)
+    assert len(cmp) == 6 + 3 + 9 + 3  # upper-triangular K_a, b_a, K_g, b_g
+    assert max(float(np.max(c["z"])) for c in cmp.values()) < 5, {n: c["z"] for n, c in cmp.items()}
     # accelerometer: compare with the upper-triangular form of the true K (norms cannot see a rotation)
     U, Q = model.upper_triangular_form(np.array(truth["accelerometer"]["K"]))
     acc = res.accelerometer

@@ -22,7 +22,7 @@ from optinav.multipos.convert import (ImucalCalibration, from_imu_tk, from_imuca
 from optinav.multipos.ferraris import (POSES, ROTATIONS, FerrarisCalibration, ferraris_calibration,
                                        ferraris_from_sections)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
 
 
@@ -100,7 +100,7 @@ def test_annotated_session_in_counts_matches_imucal_snapshot():
     pick = {n: (acc[part == n], gyr[part == n]) for n in POSES + ROTATIONS}
     cal = ferraris_calibration({n: pick[n][0] for n in POSES}, {n: pick[n][1] for n in POSES},
                                {n: pick[n][0] for n in ROTATIONS}, {n: pick[n][1] for n in ROTATIONS},
-                               rate=204.8, expected_angle=-2 * np.pi, gravity=9.81,
+                               rate_hz=204.8, expected_angle=-2 * np.pi, gravity=9.81,
                                acc_unit="counts", gyro_unit="counts")
     ref = read_imucal_json(DATA / "reference" / "example_cal_annotated_session.json")
     assert ref.from_acc_unit == "a.u."
@@ -158,7 +158,7 @@ def test_noise_free_session_recovers_the_truth_exactly():
     truth = _truth(rng)
     theta = np.array([-2 * np.pi, 2 * np.pi, -4 * np.pi])
     sess = _session(truth, 9.80, 200.0, 400, theta)
-    cal = ferraris_calibration(*sess, rate=200.0, expected_angle=theta, gravity=9.80)
+    cal = ferraris_calibration(*sess, rate_hz=200.0, expected_angle=theta, gravity=9.80)
     for got, want in zip((cal.acc_K, cal.acc_b, cal.gyro_K, cal.gyro_G, cal.gyro_b), truth):
         assert _rel(got, want) < 1e-12
     np.testing.assert_allclose(cal.acc_static_norm, 9.80, rtol=1e-13)
@@ -183,7 +183,7 @@ def test_noisy_session_errors_match_the_noise():
     truth = _truth(rng)
     g, n, sa, sg = 9.81, 500, 2.0, 0.5  # counts
     sess = _session(truth, g, 100.0, n, np.full(3, -2 * np.pi), rng=rng, sa=sa, sg=sg)
-    cal = ferraris_calibration(*sess, rate=100.0, gravity=g)
+    cal = ferraris_calibration(*sess, rate_hz=100.0, gravity=g)
     # K_a column = (mean_p - mean_a)/(2g): sigma sa*sqrt(2/n)/(2g); b_a: sa*sqrt(2/n)/2; b_g: sg/sqrt(6n)
     assert np.all(np.abs(cal.acc_K - truth[0]) < 5 * sa * np.sqrt(2 / n) / (2 * g))
     assert np.all(np.abs(cal.acc_b - truth[1]) < 5 * sa * np.sqrt(2 / n) / 2)
@@ -233,10 +233,10 @@ def test_irregular_timestamps_integrate_exactly():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"rate": 100.0, "dt": 0.01}, "exactly one"),
+    ({"rate_hz": 100.0, "dt": 0.01}, "exactly one"),
     ({}, "exactly one"),
-    ({"rate": 100.0, "expected_angle": 0.0}, "non-zero"),
-    ({"rate": -1.0}, "rate"),
+    ({"rate_hz": 100.0, "expected_angle": 0.0}, "non-zero"),
+    ({"rate_hz": -1.0}, "rate"),
 ])
 def test_bad_arguments(kwargs, match):
     sess = _session(_truth(np.random.default_rng(1)), 9.81, 100.0, 50, np.full(3, -2 * np.pi))
@@ -248,10 +248,10 @@ def test_bad_sections_and_degenerate_poses():
     acc_s, gyr_s, acc_r, gyr_r = _session(_truth(np.random.default_rng(1)), 9.81, 100.0, 50, np.full(3, -6.28))
     del acc_s["y_a"]
     with pytest.raises(OptinavError, match="y_a"):
-        ferraris_calibration(acc_s, gyr_s, acc_r, gyr_r, rate=100.0)
+        ferraris_calibration(acc_s, gyr_s, acc_r, gyr_r, rate_hz=100.0)
     same = {n: np.ones((10, 3)) for n in POSES}
     with pytest.raises(OptinavError, match="singular"):
-        ferraris_calibration(same, same, acc_r, gyr_r, rate=100.0)
+        ferraris_calibration(same, same, acc_r, gyr_r, rate_hz=100.0)
     N = 100
     with pytest.raises(OptinavError, match="z_rot"):
         ferraris_from_sections(100.0, np.zeros((N, 3)), np.zeros((N, 3)), {n: (0, 5) for n in POSES})
@@ -263,7 +263,7 @@ def test_bad_sections_and_degenerate_poses():
 
 def test_result_json_round_trip(tmp_path):
     sess = _session(_truth(np.random.default_rng(3)), 9.81, 100.0, 50, np.full(3, -2 * np.pi))
-    cal = ferraris_calibration(*sess, rate=100.0, acc_unit="counts", gyro_unit="counts")
+    cal = ferraris_calibration(*sess, rate_hz=100.0, acc_unit="counts", gyro_unit="counts")
     cal.to_json(tmp_path / "c.json")
     back = Result.from_json(tmp_path / "c.json")
     assert isinstance(back, FerrarisCalibration) and back.acc_unit == "counts"

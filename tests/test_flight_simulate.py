@@ -98,7 +98,7 @@ def test_enu_frame_same_physics_and_options():
     np.testing.assert_allclose(enu.aop_true, ned.aop_true, atol=1e-9)  # same mounting, same sky
     np.testing.assert_allclose(enu.sun_n[:, [1, 0]], ned.sun_n[:, :2], atol=1e-12)
     np.testing.assert_allclose(enu.sun_n[:, 2], -ned.sun_n[:, 2], atol=1e-12)
-    assert ned.sun_n.shape == (101, 3) and ned.frame == "NED" and enu.frame == "ENU"
+    assert ned.sun_n.shape == (101, 3) and ned.frame == "ned" and enu.frame == "enu"
     sub = simulate("static", 2.0, 50.0, rng=3, pol_rate_hz=10.0)
     assert np.count_nonzero(np.isfinite(sub.aop)) == 21
     berry = simulate("static", 1.0, 50.0, rng=3, sky_model="berry", neutral_distance=0.0)
@@ -112,7 +112,7 @@ def test_enu_frame_same_physics_and_options():
 
 
 def test_flight_data_roundtrip(tmp_path):
-    f = simulate("static", 0.5, 20.0, rng=5, lat_deg=PAPER_SITE["lat_deg"])
+    f = simulate("static", 0.5, 20.0, rng=5, lat=PAPER_SITE["lat"])
     path = tmp_path / "flight.json"
     f.to_json(path)
     back = FlightData.from_json(path)

@@ -32,7 +32,7 @@ ARW = 1.7e-4                                     # rad/s/√Hz (≈ 0.01 deg/s/�
 RATE = 100.0
 U_NOISE = 1e-4                                   # rad, per component of the measured up directions
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 
 
 def _poses():
@@ -52,7 +52,7 @@ def _session(rng, *, lat=0.0, earth_model="none", jitter=True):
         t = np.clip(t + rng.uniform(-0.3, 0.3, t.size) / RATE, 0.0, T)
         t[0] = 0.0
     kw = {"earth": "wgs84"} if earth_model == "wgs84" else {"earth": "none", "gravity": [0.0, 0.0, -9.80665]}
-    truth = static_positions(P, dwell=dwell, rate=RATE, lat=lat, transition=tr, t=t, **kw)
+    truth = static_positions(P, dwell=dwell, rate_hz=RATE, lat=lat, transition=tr, t=t, **kw)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
     f = np.array([truth.f_b[a:b].mean(0) for a, b in iv])
@@ -139,7 +139,7 @@ def test_earth_rate_stays_within_documented_bound(bias):
 def _single_axis_session(rng):
     ang = np.radians([0, 90, 200, 280, 30, 150, 250, 340])
     P = np.stack([orientation_from_up("z") @ rot_x(a) for a in ang])   # every turn is about body x
-    truth = static_positions(P, dwell=2.0, rate=RATE, lat=0.7, transition=2.0)
+    truth = static_positions(P, dwell=2.0, rate_hz=RATE, lat=0.7, transition=2.0)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
     f = np.array([truth.f_b[a:b].mean(0) for a, b in iv])

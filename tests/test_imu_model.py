@@ -51,10 +51,10 @@ def _tol(*arrays_):
        arrays(float, (5, 3), elements=st.floats(-100, 100)), arrays(float, 5, elements=st.floats(1e-4, 1.0)),
        st.sampled_from(["rate", "increment"]))
 def test_triad_apply_compensate_are_inverses(tri, x, f, dt, kind):
-    y = tri.apply(x, dt=dt, f=f, kind=kind)
-    assert np.allclose(tri.compensate(y, dt=dt, f=f, kind=kind), x, rtol=0, atol=_tol(x, y, tri.bias, f))
-    x2 = tri.compensate(x, dt=dt, f=f, kind=kind)  # and the other way round
-    assert np.allclose(tri.apply(x2, dt=dt, f=f, kind=kind), x, rtol=0, atol=_tol(x, x2, tri.bias, f))
+    y = tri.apply(x, dt=dt, acc=f, kind=kind)
+    assert np.allclose(tri.compensate(y, dt=dt, acc=f, kind=kind), x, rtol=0, atol=_tol(x, y, tri.bias, f))
+    x2 = tri.compensate(x, dt=dt, acc=f, kind=kind)  # and the other way round
+    assert np.allclose(tri.apply(x2, dt=dt, acc=f, kind=kind), x, rtol=0, atol=_tol(x, x2, tri.bias, f))
 
 
 @settings(max_examples=40, deadline=None)

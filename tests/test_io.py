@@ -20,7 +20,7 @@ except ImportError:  # the hdf5 extra is optional
     h5py = None
 needs_h5py = pytest.mark.skipif(h5py is None, reason="h5py not installed")
 
-SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
+SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 IMUCAL = SHARED / "imucal"
 
 
@@ -228,14 +228,14 @@ def test_missing_columns_and_time_errors(tmp_path):
     with pytest.raises(OptinavError, match="no accelerometer or gyroscope data .*found: t, temp"):
         read_imu(_write(tmp_path / "b.csv", "t,temp\n0,1\n1,2\n"))
     nt = _write(tmp_path / "c.csv", "sample,ax,ay,az\n5,1,2,3\n6,1,2,3\n")
-    with pytest.raises(OptinavError, match="has no time column .*pass rate="):
+    with pytest.raises(OptinavError, match="has no time column .*pass --rate HZ"):
         read_imu(nt)
-    log = read_imu(nt, rate=50)
+    log = read_imu(nt, rate_hz=50)
     assert log.t.tolist() == [0.0, 0.02] and log.sample.tolist() == [5, 6]
-    with pytest.raises(OptinavError, match="rate must be a positive"):
-        read_imu(nt, rate=-1)
-    with pytest.raises(OptinavError, match="has a time column \\('t'\\) and rate=50"):
-        read_imu(_write(tmp_path / "r.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n"), rate=50)
+    with pytest.raises(OptinavError, match="rate_hz must be a positive"):
+        read_imu(nt, rate_hz=-1)
+    with pytest.raises(OptinavError, match="has a time column \\('t'\\) and rate_hz=50"):
+        read_imu(_write(tmp_path / "r.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n"), rate_hz=50)
     with pytest.raises(OptinavError, match="not sorted: t\\[2\\]"):
         read_imu(_write(tmp_path / "u.csv", "t,ax,ay,az\n0,1,2,3\n2,1,2,3\n1,1,2,3\n"))
     with pytest.raises(OptinavError, match="duplicate timestamp"):
@@ -304,7 +304,7 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     with pytest.raises(OptinavError, match="columns names 3 column\\(s\\) but 'data' .* has 7"):
         read_imu(tmp_path / "one.npz", columns="t,ax,ay")
     np.save(tmp_path / "acc.npy", np.ones((5, 3)))  # a single triad named like one
-    assert read_imu(tmp_path / "acc.npy", rate=10).acc.shape == (5, 3)
+    assert read_imu(tmp_path / "acc.npy", rate_hz=10).acc.shape == (5, 3)
     np.savez(tmp_path / "named.npz", time=t, accelerometer=np.ones((5, 3)), temp=np.arange(5.0))
     log = read_imu(tmp_path / "named.npz", acc_unit="g")
     assert log.acc[0, 0] == G_STANDARD and log.gyro is None
@@ -316,9 +316,12 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     np.savez(tmp_path / "p.npz", t=t, acc=np.array([object()] * 5, dtype=object))
     with pytest.raises(OptinavError, match="array 'acc' is pickled"):
         read_imu(tmp_path / "p.npz")
-    _write(tmp_path / "fake.npz", "not a zip")
-    with pytest.raises(OptinavError, match="never loads pickles"):
+    (tmp_path / "fake.npz").write_bytes(b"not a zip\x00\x01")
+    with pytest.raises(OptinavError, match="not NPZ .*signature"):
         read_table(tmp_path / "fake.npz")
+    _write(tmp_path / "text.npz", "not a table")  # text under .npz is read as text, and says so when it fails
+    with pytest.raises(OptinavError, match="no data rows .*holds text despite its .npz suffix"):
+        read_table(tmp_path / "text.npz")
 
 
 @needs_h5py
@@ -351,7 +354,7 @@ def test_hdf5_datasets_and_tables(tmp_path):
     with h5py.File(tmp_path / "c.h5", "w") as f:
         f["data"] = rec  # a compound dataset is a table with named columns
     assert read_imu(tmp_path / "c.h5").acc[0, 2] == pytest.approx(9.81, rel=1e-7)
-    _write(tmp_path / "bad.h5", "garbage")
+    (tmp_path / "bad.h5").write_bytes(b"garbage\x00")
     with pytest.raises(OptinavError, match="not a readable HDF5 file"):
         read_table(tmp_path / "bad.h5")
 
@@ -436,7 +439,7 @@ def _shared(name: str) -> Path:
 
 
 def test_real_ferraris_session():
-    log = read_imu(_shared("example_ferraris_session.csv"), rate=102.4, gyro_unit="deg/s")
+    log = read_imu(_shared("example_ferraris_session.csv"), rate_hz=102.4, gyro_unit="deg/s")
     assert log.acc.shape == log.gyro.shape == (10376, 3) and log.nan_rows == 0
     assert log.acc[0, 0] == 10.332114257812501 and log.acc[0, 2] == 0.51732421875
     assert log.gyro[0, 0] == pytest.approx(-0.6103515625 * math.pi / 180, rel=1e-15)
@@ -445,7 +448,7 @@ def test_real_ferraris_session():
 
 
 def test_real_annotated_session_keeps_text_labels():
-    log = read_imu(_shared("annotated_session.csv"), rate=204.8, acc_unit="counts", gyro_unit="counts")
+    log = read_imu(_shared("annotated_session.csv"), rate_hz=204.8, acc_unit="counts", gyro_unit="counts")
     assert log.acc.shape == (9414, 3) and log.acc_unit == "counts"
     assert log.acc[0].tolist() == [-2052.0, -28.0, -73.0] and log.gyro[0].tolist() == [1.0, 0.0, -5.0]
     names, counts = np.unique(log.labels, return_counts=True)
@@ -516,7 +519,7 @@ def test_fuzz_read_imu_returns_a_log_or_an_optinav_error(tmp_path, content, suff
         raw = prefix + raw if suffix not in (".csv", ".txt", ".tsv") else raw
     path.write_bytes(raw)
     try:
-        log = read_imu(path, rate=rate)
+        log = read_imu(path, rate_hz=rate)
     except OptinavError as exc:
         assert "\n" not in str(exc) and str(exc)
         return

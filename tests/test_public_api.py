@@ -30,3 +30,127 @@ def test_module_constants_stay_importable():
     from optinav.rins.simulate import PAPER_TABLE3
 
     assert PAPER_SITE and SCHEMES and len(PAPER_TABLE3) == 6
+
+
+# --- one vocabulary (docs/conventions.md, "Names") -----------------------------------------------------------
+
+#: parameter name → the name the conventions page uses instead
+BANNED = {"rate": "rate_hz", "sample_rate": "rate_hz", "h": "height_m", "height": "height_m", "gyro": "gyr",
+          "omega_ib_b": "gyr", "omega_b": "gyr", "accel": "acc", "f_b": "acc", "f": "acc", "dcm_b_n": "C_b_n",
+          "c_b_n": "C_b_n", "q_true": "q_b_n", "h0": "height0_m"}
+#: in the systems (not in core.rotations, where a quaternion is any quaternion) an attitude is q_b_n
+BANNED_IN_SYSTEMS = {"q": "q_b_n", "dcm": "C_b_n"}
+#: library functions that take degrees on purpose, and why
+DEGREE_BOUNDARY = {
+    "optinav.sky.sun.solar_position_deg": "the NREL SPA report's own units, to check against it (CLI `optinav sun`)",
+}
+#: modules that are the I/O boundary (file formats may name degrees)
+IO_MODULES = ("optinav.io", "optinav.rins.io", "optinav.cli")
+
+
+def _public_modules():
+    import pkgutil
+
+    import optinav.core
+
+    names = [f"optinav.core.{m.name}" for m in pkgutil.walk_packages(optinav.core.__path__, "")
+             if not m.name.split(".")[-1].startswith("_")]
+    for system in ("multipos", "rins", "gfimu", "attitude", "sky"):
+        pkg = importlib.import_module(f"optinav.{system}")
+        names.append(f"optinav.{system}")
+        names += [f"optinav.{system}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__)
+                  if not m.name.startswith("_")]
+    return names
+
+
+def _public_callables():
+    """(qualified name, function) of every public function and public method of every public class, defined in
+    optinav; a dataclass's generated ``__init__`` is left out (its fields are the serialized layout)."""
+    import dataclasses
+
+    seen, out = set(), []
+    for mod_name in _public_modules():
+        mod = importlib.import_module(mod_name)
+        names = getattr(mod, "__all__", None) or [n for n in vars(mod) if not n.startswith("_")]
+        for n in names:
+            obj = getattr(mod, n, None)
+            if id(obj) in seen or not getattr(obj, "__module__", "").startswith("optinav"):
+                continue
+            seen.add(id(obj))
+            if inspect.isfunction(obj):
+                out.append((f"{obj.__module__}.{obj.__qualname__}", obj))
+            elif inspect.isclass(obj):
+                for k, v in vars(obj).items():
+                    if k == "__init__" and dataclasses.is_dataclass(obj):
+                        continue
+                    if inspect.isfunction(v) and (not k.startswith("_") or k == "__init__"):
+                        out.append((f"{obj.__module__}.{obj.__qualname__}.{k}", v))
+    return out
+
+
+def _violations(calls) -> list[str]:
+    bad = []
+    for name, fn in calls:
+        in_system = not name.startswith("optinav.core.")
+        boundary = name.startswith(IO_MODULES) or name in DEGREE_BOUNDARY
+        for p in inspect.signature(fn).parameters:
+            if p in BANNED:
+                bad.append(f"{name}({p}) → {BANNED[p]}")
+            elif in_system and p in BANNED_IN_SYSTEMS:
+                bad.append(f"{name}({p}) → {BANNED_IN_SYSTEMS[p]}")
+            elif p.endswith("_deg") and not boundary:
+                bad.append(f"{name}({p}): radians inside the library, degrees only in CLI and file I/O")
+    return bad
+
+
+def test_public_api_uses_one_vocabulary():
+    calls = _public_callables()
+    assert len(calls) > 300  # the walk found the API, not an empty set
+    bad = _violations(calls)
+    assert not bad, "banned parameter names:\n" + "\n".join(bad)
+
+
+def test_the_vocabulary_check_flags_synonyms_and_degrees():
+    def f(t, gyro, rate, lat_deg, q):  # noqa: ARG001
+        pass
+
+    bad = _violations([("optinav.multipos.x.f", f), ("optinav.core.x.f", f), ("optinav.rins.io.f", f)])
+    assert len(bad) == 4 + 3 + 3  # q is an attitude only in the systems; degrees are fine in file I/O
+
+
+# --- one frame spelling, one validator, documented defaults ------------------------------------------------
+
+def test_frame_name_is_the_one_validator():
+    from optinav.core.rotations import FRAMES, frame_name
+    from optinav.errors import OptinavError
+
+    assert [frame_name(f) for f in ("NED", "ned", " Enu ", "ENU")] == ["ned", "ned", "enu", "enu"]
+    assert set(FRAMES) == {"enu", "ned"}
+    for bad in ("nwu", "", None, "body"):
+        with pytest.raises(OptinavError, match="unknown navigation frame"):
+            frame_name(bad)
+
+
+def test_frame_defaults_are_the_documented_ones():
+    """Core navigation defaults to CORE_FRAME (ENU, as PSINS); Euler angles and the attitude system to
+    DEFAULT_FRAME (NED); every default is spelled as frame_name returns it (docs/conventions.md)."""
+    from optinav.core.rotations import CORE_FRAME, DEFAULT_FRAME
+
+    # BROAD's recordings are ENU: the synthesizer for them defaults to their frame
+    data_frames = {"optinav.attitude.data.synthesize_polarization": "enu"}
+    seen = 0
+    for name, fn in _public_callables():
+        for key in ("frame", "convention"):
+            p = inspect.signature(fn).parameters.get(key)
+            if p is None or p.default is inspect.Parameter.empty or not isinstance(p.default, str):
+                continue
+            seen += 1
+            if name in data_frames:
+                want = data_frames[name]
+            elif name.startswith(("optinav.core.earth", "optinav.core.simulate", "optinav.core.strapdown",
+                                  "optinav.core.alignment")):
+                want = CORE_FRAME
+            else:
+                want = DEFAULT_FRAME
+            assert p.default == want, f"{name}({key}={p.default!r}): expected {want!r}"
+    assert seen > 30

@@ -38,10 +38,44 @@ def test_two_column_table_is_not_a_preamble(tmp_path):
     assert list(d) == ["name", "value"] and d["value"].tolist() == [1.0, 2.0]
 
 
-@pytest.mark.parametrize("suffix", [".mat", ".log", ".dat"])
+@pytest.mark.parametrize("suffix", [".mat", ".log", ".dat", ".npz", ".npy", ".h5", ".hdf5", ".MAT", ".csv.npz"])
 def test_text_under_a_binary_or_logger_suffix_is_text(tmp_path, suffix):
     log = read_imu(_w(tmp_path / f"x{suffix}", "t ax ay az\n0 1 2 3\n0.5 1 2 3\n"))
     assert log.t.tolist() == [0.0, 0.5]
+
+
+def test_binary_under_the_wrong_suffix_is_read_by_its_content(tmp_path):
+    np.savez(tmp_path / "a.npz", t=np.array([0.0, 0.5]), ax=np.ones(2), ay=np.ones(2), az=np.ones(2))
+    (tmp_path / "a.csv").write_bytes((tmp_path / "a.npz").read_bytes())
+    assert read_imu(tmp_path / "a.csv").t.tolist() == [0.0, 0.5]
+
+
+@pytest.mark.parametrize("head, what", [(b"SQLite format 3\x00", "SQLite database"), (b"#ROSBAG V2.0\n", "ROS 1 bag"),
+                                        (b"\x89PNG\r\n\x1a\n", "PNG image"), (b"PAR1", "Parquet"),
+                                        (b"\x89MCAP0\r\n", "MCAP"), (b"%PDF-1.7\n", "PDF")])
+@pytest.mark.parametrize("suffix", [".csv", ".npz", ".h5", ".dat"])
+def test_foreign_binary_is_named_in_one_line(tmp_path, head, what, suffix):
+    path = _w(tmp_path / f"x{suffix}", head + bytes(range(256)) * 4)
+    with pytest.raises(OptinavError, match=f"x{suffix}: the file is an? .*{what}") as err:
+        read_imu(path)
+    assert "\n" not in str(err.value)
+
+
+def test_excel_workbook_is_named(tmp_path):
+    import zipfile
+
+    with zipfile.ZipFile(tmp_path / "book.csv", "w") as z:
+        z.writestr("[Content_Types].xml", "<Types/>")
+        z.writestr("xl/workbook.xml", "<workbook/>")
+    with pytest.raises(OptinavError, match="Office .* save the sheet as CSV"):
+        read_imu(tmp_path / "book.csv")
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".npy"])
+def test_npz_without_signature_nor_text_is_one_line(tmp_path, suffix):
+    path = _w(tmp_path / f"x{suffix}", bytes(np.random.default_rng(0).integers(1, 256, 3000, dtype=np.uint8)))
+    with pytest.raises(OptinavError, match=f"not {suffix[1:].upper()} .*lacks the format's signature"):
+        read_imu(path)
 
 
 def test_latin1_header_reads(tmp_path):
@@ -109,12 +143,12 @@ _PIECES = st.sampled_from(["Fs,100\n", "rate: 1e308\n", "ax,ay,az\n", "t,ax,ay,a
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(pieces=st.lists(_PIECES, max_size=10), suffix=st.sampled_from([".csv", ".mat", ".log", ".dat"]),
+@given(pieces=st.lists(_PIECES, max_size=10), suffix=st.sampled_from([".csv", ".mat", ".log", ".dat", ".npz", ".h5"]),
        rate=st.sampled_from([None, 10.0]))
 def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, rate):
     path = _w(tmp_path / f"f{suffix}", "".join(pieces))
     try:
-        log = read_imu(path, rate=rate)
+        log = read_imu(path, rate_hz=rate)
     except OptinavError as exc:
         assert "\n" not in str(exc) and str(exc)
         return

@@ -92,7 +92,7 @@ def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
     assert main(argv) == 0
     assert main(argv) == 0  # a second run replaces the truth optinav wrote
     truth = json.loads((tmp_path / "tt.truth.json").read_text())
-    assert truth["schema"] == "optinav.gfimu_truth"
+    assert truth["schema"] == "optinav.gfimu.truth"
     (tmp_path / "tt.truth.json").write_text('{"mine": 1}')
     assert main(argv) == 2
     one_line_error(capsys, "was not written by optinav")
@@ -276,7 +276,7 @@ def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
     Kb = np.asarray(K, float) * (np.eye(3) if np.ndim(K) == 0 else 1)
     bad = tmp_path / "bad.json"
     d = good.to_dict()
-    d["accelerometer"]["K"] = Kb.tolist()
+    d["fields"]["accelerometer"]["value"]["K"] = Kb.tolist()
     bad.write_text(json.dumps(d))
     out = tmp_path / "o.csv"
     assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2
@@ -333,13 +333,15 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
 # --- batch: inputs, options once, workers that die ---------------------------------------------------------------
 
 def _batch_units(tmp_path):
+    import numpy as np
+
     from optinav.io import ImuLog, write_imu
     from optinav.multipos.simulate import simulate
 
     d = tmp_path / "units"
     d.mkdir()
     for k in (1, 2):
-        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat_deg=38.88,
+        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
                      height_m=35.0, rng=k)
         write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
     return d

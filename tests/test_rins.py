@@ -14,7 +14,7 @@ from optinav.rins.model import (nonorth_dcm, residual_jacobian, residuals, senso
 from optinav.rins.simulate import simulate
 
 P_TRUE = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
-SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate=100.0)
+SHORT = dict(scheme="dual4", align_s=60.0, dwell_s=10.0, move_s=5.0, rate_hz=100.0)
 
 
 def _truth_combo(c):
@@ -131,12 +131,52 @@ def test_none_method_reports_nothing_calibrated(noisy):
 @pytest.mark.parametrize("suffix", [".npz", ".csv", ".h5"])
 def test_file_round_trip(tmp_path, suffix):
     pytest.importorskip("h5py") if suffix == ".h5" else None
-    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate=50)
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
     path = write_rins(tmp_path / f"x{suffix}", d)
     e = read_rins(path)
     for f in ("t", "dtheta", "dv", "alpha", "beta"):
         np.testing.assert_array_equal(getattr(e, f), getattr(d, f))
     assert e.lat == pytest.approx(d.lat, abs=1e-12) and e.h == pytest.approx(d.h)
+
+
+def test_increments_follow_the_encoders_over_t_k_to_t_k_plus_1():
+    """Row k's increments cover (t[k], t[k+1]]: with no Earth rate in the way that matters (10⁻⁵ rad/s · 10 ms)
+    a pure inner-axis turn gives dtheta_z[k] = alpha[k+1] − alpha[k], not alpha[k] − alpha[k−1]."""
+    d = simulate(np.zeros(6), noise=False, imu_errors=False, scheme="Z+180", align_s=2.0, dwell_s=1.0,
+                 move_s=2.0, rate_hz=100.0, encoder_lsb=0.0)
+    da = np.diff(d.alpha)
+    moving = np.abs(da) > 1e-3
+    assert moving.sum() > 100
+    np.testing.assert_allclose(d.dtheta[:-1, 2][moving], da[moving], rtol=0, atol=2e-6)
+    assert np.abs(d.dtheta[1:, 2][moving] - da[moving]).max() > 1e-4  # row k+1 with alpha[k+1] − alpha[k]: off
+
+
+def test_residual_euler_order_is_roll_pitch_yaw():
+    from optinav.core.rotations import dcm_from_euler, euler_from_dcm
+    from optinav.rins.model import euler_rpy
+
+    eul = np.array([[0.01, -0.02, 0.3], [-0.2, 0.1, -2.0]])
+    c = dcm_from_euler(eul, "enu")
+    np.testing.assert_allclose(euler_rpy(c), eul, atol=1e-15)
+    np.testing.assert_allclose(euler_rpy(c), euler_from_dcm(c, "enu"), atol=1e-15)
+
+
+def test_files_with_interval_end_times_are_read(tmp_path):
+    """The older layout (a 'time' column: the end of each interval, encoders at that end) pairs each end
+    epoch's encoders with the next row's increments."""
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    step = d.t[1] - d.t[0]
+    # the same recording as an IMU outputs it: row j = (end epoch, increments ending there, encoders there)
+    end = d.t[1:]
+    cols = [end, *d.dtheta[:-1].T, *d.dv[:-1].T, d.alpha[1:], d.beta[1:]]
+    path = tmp_path / "old.csv"
+    header = "# optinav rins: lat_deg=28.2 height_m=50\ntime,dtheta_x,dtheta_y,dtheta_z,dv_x,dv_y,dv_z,alpha,beta"
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
+    e = read_rins(path)
+    np.testing.assert_allclose(e.t, d.t[1:-1], rtol=0, atol=1e-9 * step)
+    np.testing.assert_array_equal(e.dtheta, d.dtheta[1:-1])
+    np.testing.assert_array_equal(e.alpha, d.alpha[1:-1])
+    assert e.lat == pytest.approx(np.radians(28.2))
 
 
 def _err(data, match):
@@ -152,7 +192,7 @@ def test_bad_input_errors():
     nomo.dtheta[:] = base.dtheta[:100].mean(0)
     _err(nomo, "never move|no gimbal motion")
     # only the inner axis turns
-    inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate=100)
+    inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate_hz=100)
     _err(inner, r"only the inner \(alpha\) axis turns.*eta_x.*cannot be calibrated")
     # frozen outer encoder while the outer gimbal turns
     frozen = dataclasses.replace(base, beta=np.zeros_like(base.beta))

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from optinav.cli.main import main
+from optinav.core.results import Truth
+from optinav.rins.calibrate import RinsCalibration
 
 ARGS = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "100"]
 
@@ -22,16 +24,21 @@ def test_simulate_calibrate_round_trip(tmp_path, suffix, unit, capsys):
     out = tmp_path / "res.json"
     rep = tmp_path / "rep"
     assert main(["--quiet", "calibrate", "rins", str(data), "--out", str(out), "--report", str(rep)]) == 0
-    res = json.loads(out.read_text())
-    assert res["method"] == "lm" and res["elapsed_s"] > 0
-    assert set(res["angles"]) == {"theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z"}
-    assert res["angles"]["eta_y"] is None and res["angles"]["theta_z"] is None and res["angles"]["eta_z"] is None
-    assert res["observability"]["rank"] == 4 and len(res["observability"]["null_space"]) == 2
-    for nm in ("theta_x", "theta_y", "eta_x"):
-        assert abs(res["angles"][nm] - truth["angles"][nm]) < 4 * res["angles_std"][nm], nm
-    combo = [c for c in res["combinations"] if c["name"] == "theta_z + eta_z"][0]
-    assert abs(combo["value"] - (p[2] + p[5])) < 4 * combo["std"]
-    assert all(a < b for a, b in zip(res["rmse_after_deg"], res["rmse_before_deg"]))
+    raw = json.loads(out.read_text())
+    assert raw["schema"] == "optinav.rins.calibration" and raw["method"] == "lm" and raw["elapsed_s"] > 0
+    assert raw["convergence"]["converged"] is True and all(g["passed"] for g in raw["quality_gates"])
+    par = raw["parameters"]
+    assert set(par) == {"theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z", "theta_z + eta_z"}
+    for nm in ("eta_y", "theta_z", "eta_z"):
+        assert par[nm]["value"] is None and not par[nm]["observable"] and nm in par[nm]["reason"]
+    res = RinsCalibration.from_json(out)
+    assert res.observability["rank"] == 4 and len(res.observability["null_space"]) == 2
+    # truth in the estimated parameterization (the combination included), compared field by field
+    cmp = Truth.from_json(tmp_path / "r.truth.json").compare(res)
+    assert sorted(cmp) == ["eta_x", "theta_x", "theta_y", "theta_z + eta_z"]
+    assert all(float(c["z"]) < 4 for c in cmp.values()), cmp
+    assert abs(par["theta_z + eta_z"]["value"] - (p[2] + p[5])) < 4 * par["theta_z + eta_z"]["std"]
+    assert all(a < b for a, b in zip(res.rmse_after_deg, res.rmse_before_deg))
     assert (rep / "index.md").is_file()
 
 

@@ -31,7 +31,7 @@ def body(v_n, c_b_n):
 @pytest.mark.parametrize("earth_name", ["wgs84", "psins"])
 def test_static_six_positions_truth(frame, earth_name):
     h = 250.0
-    tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, h=h, frame=frame, earth=earth_name,
+    tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, height_m=h, frame=frame, earth=earth_name,
                             transition=2.0)
     c = tr.dcm_b_n
     rest = tr.labels >= 0
@@ -58,7 +58,7 @@ def test_static_six_positions_truth(frame, earth_name):
 
 
 def test_static_frames_describe_the_same_motion():
-    kw = dict(dwell=[3.0, 4.0, 2.0], rate=20.0, lat=LAT, transition=[1.5, 2.5])
+    kw = dict(dwell=[3.0, 4.0, 2.0], rate_hz=20.0, lat=LAT, transition=[1.5, 2.5])
     cs_enu = np.stack([dcm_from_euler([0.1, -0.2, 0.3], "enu"), S.orientation_from_up("-x"),
                        S.orientation_from_up("y", "-x")])
     cs_ned = np.stack([np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ c for c in cs_enu])
@@ -114,7 +114,7 @@ def test_orientation_from_up_and_describe():
 def test_static_gravity_norm_any_pose(roll, pitch, yaw, lat, h):
     # |f| = normal gravity and f·(C_n^b up) = g in any pose at any site (f^b = C_n^b(−g^n), C orthogonal)
     c = dcm_from_euler([roll, pitch, yaw], "ned")
-    tr = S.static_positions(c, 1.0, 4.0, lat, h=h, frame="ned")
+    tr = S.static_positions(c, 1.0, 4.0, lat, height_m=h, frame="ned")
     g = earth.gravity(lat, h)
     np.testing.assert_allclose(np.linalg.norm(tr.f_b, axis=1), g, rtol=2e-16 * 8)
     np.testing.assert_allclose(tr.f_b @ (c.T @ [0, 0, -1.0]), g, rtol=1e-15)
@@ -179,7 +179,7 @@ def test_coning_noncommutativity_closed_form(h_frac):
 
 def test_coning_with_earth_rate_and_gravity():
     c0 = dcm_from_euler([0.2, -0.1, 1.0], "enu")
-    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, h=100.0, initial=c0)
+    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, height_m=100.0, initial=c0)
     ref = S.coning(BETA, FREQ, 1.0, 100.0, initial=c0)
     c = tr.dcm_b_n
     np.testing.assert_allclose(c, ref.dcm_b_n, atol=1e-15)
@@ -272,7 +272,7 @@ def test_turntable_increments_with_earth_rate_against_quadrature():
     # Σ Δθ over the cosine move equals ∫(ω_nb + C_n^b ω_ie) dt evaluated by adaptive quadrature of an
     # independent model: C(t) = C_0 R_z(θ(t)), ω_nb = θ̇ e_z
     sched = [S.Rest(1.0), S.Rotate("z", 90 * DEG, 3.0), S.Rest(1.0)]
-    tr = S.turntable(sched, 10.0, LAT, h=30.0, initial=C0)
+    tr = S.turntable(sched, 10.0, LAT, height_m=30.0, initial=C0)
     w_ie = earth.earth_rate(LAT)
     g = earth.gravity_vector(LAT, 30.0)
 
@@ -444,7 +444,7 @@ def knots(seed=3, n=7):
 
 def test_trajectory_passes_through_knots():
     tk, att, pos = knots()
-    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, h0=50.0)
+    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, height0_m=50.0)
     idx = np.searchsorted(tr.t, tk)
     np.testing.assert_allclose(tr.dcm_b_n[idx], att, atol=1e-15)
     # the geodetic positions map back to the tangent-frame knots (ECEF rounding 6.4e6 m × 2e-16 ≈ 1e-9 m)
@@ -452,7 +452,7 @@ def test_trajectory_passes_through_knots():
     r = earth.geodetic_to_ecef(tr.pos[idx, 0], tr.pos[idx, 1], tr.pos[idx, 2])
     np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0).T, pos, atol=5e-9)
     ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, [1, 0, 2]] * [1, 1, -1],
-                       20.0, frame="ned", lat0=0.7, lon0=2.0, h0=50.0)
+                       20.0, frame="ned", lat0=0.7, lon0=2.0, height0_m=50.0)
     for name in ("omega_ib_b", "f_b", "dtheta", "dv", "pos"):
         np.testing.assert_allclose(getattr(ned, name), getattr(tr, name), atol=1e-12)
     np.testing.assert_allclose(ned.vel_n, tr.vel_n[:, [1, 0, 2]] * [1, 1, -1], atol=1e-12)
@@ -473,7 +473,7 @@ def test_trajectory_velocity_and_position_derivatives():
     tk, att, pos = knots()
     lat0 = 0.7
     t = np.linspace(2.3, 2.5, 201)  # 1 kHz inside one knot interval
-    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, h0=50.0, t=t)
+    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t)
     c = tr.dcm_b_n
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
     w_ie, w_en = earth.earth_rate(lat), earth.transport_rate(lat, h, v)
@@ -492,7 +492,7 @@ def test_trajectory_velocity_and_position_derivatives():
     np.testing.assert_allclose(p_fd[:, :2], rate[:, :2], rtol=0, atol=1e-13)
     np.testing.assert_allclose(p_fd[:, 2], rate[:, 2], rtol=0, atol=1e-6)
     # ω_ib − ω_nb = C_n^b(ω_ie + ω_en)
-    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, h0=50.0, t=t, earth="none")
+    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, earth="none")
     np.testing.assert_allclose(tr.omega_ib_b - tn.omega_ib_b, body(w_ie + w_en, c), atol=1e-17)
 
 

@@ -14,7 +14,7 @@ from optinav.multipos.static import (SectionList, StaticDetection, default_candi
                                      detection_from_sections,
                                      moving_variance, noise_floor, sections_from_list, threshold_candidates)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data")) / "imucal"
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
 
 
 def _brute_variance(t, x, w):
@@ -38,7 +38,7 @@ def test_moving_variance_matches_brute_force_on_irregular_time():
 def _simulated_log(rng, *, jitter=False):
     """12 poses (the six axis poses, twice, with a 2 s turn between), 100 Hz, white noise."""
     C = np.concatenate([six_positions(), six_positions()[[2, 3, 4, 5, 0, 1]]])  # consecutive poses differ
-    truth = static_positions(C, dwell=8.0, rate=100.0, lat=0.8, transition=2.0)
+    truth = static_positions(C, dwell=8.0, rate_hz=100.0, lat=0.8, transition=2.0)
     t = truth.t
     if jitter:  # irregular sampling: keep every sample with probability 0.9
         keep = rng.random(t.size) < 0.9
@@ -55,7 +55,7 @@ def _simulated_log(rng, *, jitter=False):
 def test_auto_detection_finds_every_pose_and_no_motion(jitter):
     rng = np.random.default_rng(11)
     t, acc, gyro, labels, f_true, sa = _simulated_log(rng, jitter=jitter)
-    det = detect_static(t, acc, gyro=gyro)
+    det = detect_static(t, acc, gyr=gyro)
     assert det.n_intervals == 12
     assert det.method == "auto"
     for k, (i0, i1) in enumerate(det.index_ranges):
@@ -73,11 +73,11 @@ def test_auto_detection_finds_every_pose_and_no_motion(jitter):
 def test_given_threshold_and_candidates_are_consistent():
     rng = np.random.default_rng(5)
     t, acc, gyro, labels, _, sa = _simulated_log(rng)
-    cand = threshold_candidates(t, acc, gyro=gyro)
+    cand = threshold_candidates(t, acc, gyr=gyro)
     # the at-rest total variance of white noise is 3 sa^2; the floor (a mode) is within 20% of it
     assert cand.noise_floor == pytest.approx(3 * sa**2, rel=0.2)
     k = cand.default_index
-    det = detect_static(t, acc, gyro=gyro, threshold=cand.thresholds[k], gyro_threshold=cand.gyro_thresholds[k])
+    det = detect_static(t, acc, gyr=gyro, threshold=cand.thresholds[k], gyro_threshold=cand.gyro_thresholds[k])
     np.testing.assert_array_equal(det.index_ranges, cand.default.index_ranges)
     assert det.method == "threshold"
     # larger thresholds never drop static samples
@@ -126,7 +126,7 @@ def test_bad_inputs_are_one_line_errors():
     with pytest.raises(OptinavError, match="window_s"):
         detect_static(t, acc, window_s=8.0)
     with pytest.raises(OptinavError, match="gyro_threshold"):
-        detect_static(t, acc, gyro=acc, gyro_threshold=1.0)
+        detect_static(t, acc, gyr=acc, gyro_threshold=1.0)
     with pytest.raises(OptinavError, match="sorted"):
         detect_static(t[::-1], acc)
 
@@ -134,7 +134,7 @@ def test_bad_inputs_are_one_line_errors():
 def test_detection_result_json_round_trip(tmp_path):
     rng = np.random.default_rng(8)
     t, acc, gyro, *_ = _simulated_log(rng)
-    det = detect_static(t, acc, gyro=gyro)
+    det = detect_static(t, acc, gyr=gyro)
     det.to_json(tmp_path / "det.json")
     back = Result.from_json(tmp_path / "det.json")
     assert isinstance(back, StaticDetection)
@@ -195,7 +195,7 @@ def test_detection_from_manual_sections():
     t = np.arange(1000) * 0.01
     acc = np.zeros((1000, 3))
     acc[:500, 2], acc[500:, 2] = 9.81, -9.81
-    det = detection_from_sections("up 1 4\ndown 6 9.5\n", t, acc, gyro=acc * 0)
+    det = detection_from_sections("up 1 4\ndown 6 9.5\n", t, acc, gyr=acc * 0)
     assert det.method == "manual" and det.names == ["up", "down"]
     np.testing.assert_array_equal(det.counts, [301, 351])
     np.testing.assert_allclose(det.acc_means[:, 2], [9.81, -9.81])
@@ -219,7 +219,7 @@ def test_real_ferraris_session_static_poses_found():
     gyro = np.column_stack([d["gyr_x"], d["gyr_y"], d["gyr_z"]])
     t = np.arange(acc.shape[0]) / 102.4
     sec = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-    det = detect_static(t, acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="deg/s")
+    det = detect_static(t, acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="deg/s")
     # every hand-annotated static pose of imucal's example lies inside one detected interval ...
     for name in ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a"):
         a, b = sec[name]["start"], sec[name]["end"]

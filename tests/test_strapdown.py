@@ -193,7 +193,7 @@ NAB_B = np.array([100.0, -50.0, 200.0]) * 1e-6 * 9.80665  # accelerometer bias, 
 
 @pytest.fixture(scope="module")
 def static_hour():
-    return S.static_positions(C_STATIC[None], 3600.0, 100.0, LAT, h=H)
+    return S.static_positions(C_STATIC[None], 3600.0, 100.0, LAT, height_m=H)
 
 
 def test_static_hour_error_free_stays_at_rounding_level(static_hour):
@@ -324,7 +324,7 @@ def test_free_vertical_channel_diverges_as_cosh(static_hour):
 def test_static_ned_and_psins_error_free(earth_name):
     # NED frame and the PSINS constant set through the same exact static case (bounds as above, N = 6000).
     c = dcm_from_euler(np.radians([3.0, 4.0, -120.0]), "ned")
-    tr = S.static_positions(c[None], 60.0, 100.0, -0.6, h=20.0, lon=1.0, frame="ned", earth=earth_name)
+    tr = S.static_positions(c[None], 60.0, 100.0, -0.6, height_m=20.0, lon=1.0, frame="ned", earth=earth_name)
     nav = SD.mechanize(tr.dtheta, tr.dv, tr.t, dcm_from_quat(tr.q_b_n[0]), tr.vel_n[0], tr.pos[0], frame="ned",
                        earth=earth_name)
     n = tr.dtheta.shape[0]
@@ -352,7 +352,7 @@ def _trajectory(rate=None, t=None, frame="enu"):
     eul = np.radians(np.column_stack([[0, 5, -5, 3, -4, 2, 0], [0, 2, -3, 1, 0, -2, 0], [0, 20, 60, 90, 60, 30, 0]]))
     pk = np.array([[0, 0, 0], [30, 100, 1], [120, 180, 3], [250, 200, 2], [350, 150, 0], [420, 60, -1],
                    [450, 0, 0]], float)
-    return S.trajectory(tk, dcm_from_euler(eul, "enu"), pk, rate, frame, lat0=30 * DEG, h0=50.0, t=t)
+    return S.trajectory(tk, dcm_from_euler(eul, "enu"), pk, rate, frame, lat0=30 * DEG, height0_m=50.0, t=t)
 
 
 def _nav_errors(tr, **kw):

@@ -14,7 +14,7 @@ from optinav.errors import OptinavError
 from optinav.sky import sun as S
 from optinav.sky.sun import delta_t_espenak, solar_position, solar_position_deg, sun_vector, utc_seconds
 
-SPA_EXAMPLE = dict(time="2003-10-17T12:30:30-07:00", lat_deg=39.742476, lon_deg=-105.1786, height=1830.14,
+SPA_EXAMPLE = dict(time="2003-10-17T12:30:30-07:00", lat_deg=39.742476, lon_deg=-105.1786, height_m=1830.14,
                    pressure_mbar=820.0, temperature_c=11.0, delta_t=67.0)
 
 

@@ -1,4 +1,5 @@
-"""Batch calibration: every unit's log in a folder, in parallel, one table row per unit, resumable.
+"""Batch runs for every system: every unit's recording in a folder, in parallel, one table row per unit,
+resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch attitude DIR``).
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: .csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat, text also as .gz), in
@@ -6,10 +7,11 @@ sorted file-name order; hidden files (leading ".") and the batch's own output/jo
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
-Each unit runs :mod:`optinav.multipos.calibrate`'s ``read_session_file`` + ``calibrate_data`` (what ``optinav
-calibrate accel`` runs) in a worker: local processes (:class:`concurrent.futures.ProcessPoolExecutor`, stdlib,
-so no extra is needed), in this process (``workers=0``), or a dask.distributed cluster
-(``scheduler="tcp://host:8786"``; the optional extra ``optinav[dask]``, imported only then). A unit's failure
+Each unit runs its system's ``run_unit`` (:mod:`optinav.registry`; for ``multipos`` that is
+``read_session_file`` + ``calibrate_data``, what ``optinav calibrate accel`` runs) in a worker: local processes
+(:class:`concurrent.futures.ProcessPoolExecutor`, stdlib, so no extra is needed), in this process
+(``workers=0``), or a dask.distributed cluster (``scheduler="tcp://host:8786"``; the optional extra
+``optinav[dask]``, imported only then). A unit's failure
 (an :class:`OptinavError` or any other exception) becomes a ``failed`` row with the one-line message; the
 other units continue.
 
@@ -19,6 +21,12 @@ fsynced) before it counts as done; the output table is rebuilt from the journal 
 whose journal entry matches its file name, size, modification time (ns) and the options' hash; a killed run
 therefore loses at most the units in flight. The journal is kept (it is the resume record; delete it, or pass
 ``fresh=True``, to recompute everything). See docs/batch.md for the columns.
+
+Rows are read from the result through the common layout (:class:`optinav.core.results.Estimate`): one
+column per parameter (``NAME``, ``NAME_std``, ``NAME_crlb_std``; a triad as ``NAME_x`` … ``NAME_z``, another
+vector of up to four elements as ``NAME_0`` …; time series are left out), the convergence, the quality gates
+and the names of the unobservable parameters, plus the system's own columns. With ``reference=True`` a unit's
+simulated truth beside it (``STEM.truth.json``) is compared field by field (``NAME_error`` and ``truth_max_z``).
 """
 
 from __future__ import annotations
@@ -37,35 +45,39 @@ import numpy as np
 
 from optinav.core.files import atomic_open, atomic_path, check_output
 from optinav.errors import OptinavError
-from optinav.multipos.calibrate import FileOptions
 
 JOURNAL_SCHEMA = "optinav.batch_journal"
 JOURNAL_VERSION = 1
+#: the row layout: part of the options hash, so rows journaled by another layout are recomputed
+LAYOUT = 2
 OUTPUT_SUFFIXES = (".csv", ".parquet")
 _AX = "xyz"
 
+#: (column, type) every table starts with
+HEAD: list[tuple[str, str]] = [
+    ("unit", "str"), ("file", "str"), ("status", "str"), ("error", "str"), ("elapsed_s", "float"), ("system", "str"),
+    ("schema", "str"), ("method", "str"), ("converged", "bool"), ("gates_passed", "bool"), ("n_gates", "int"),
+    ("unobservable", "str"), ("n_samples", "int")]
+#: (column, type) every table ends with (the resume record of the row)
+TAIL: list[tuple[str, str]] = [
+    ("file_size", "int"), ("file_mtime_ns", "int"), ("options_hash", "str"), ("optinav_version", "str"),
+    ("finished_utc", "str")]
+#: the columns of every table, in order; a table adds the system's and the parameters' columns between them
+COLUMN_NAMES = [c for c, _ in HEAD + TAIL]
+_TYPES = dict(HEAD + TAIL)
+#: types of system columns (the rest are numbers)
+_EXTRA_TYPES = {"acc_unit": "str", "gyr_unit": "str", "dof": "int", "n_poses": "int", "rank": "int",
+                "n_params": "int", "n_reference": "int"}
 
-def _matrix_columns(prefix: str) -> list[str]:
-    k = [f"{prefix}_K_{_AX[i]}{_AX[j]}" for i in range(3) for j in range(3)]
-    b = [f"{prefix}_b_{_AX[i]}" for i in range(3)]
-    return k + b + [f"{c}_std" for c in k + b]
 
+@dataclasses.dataclass(frozen=True)
+class BatchJob:
+    """What each unit runs: the registered ``system`` name, its options dataclass, and whether to score it
+    against the truth or reference found beside it. Picklable: workers receive it as is."""
 
-#: (column, type) of the results table, in order; units: K in raw per SI unit (raw = ``acc_unit`` /
-#: ``gyro_unit``, SI = m/s² / rad/s), b and its std in raw units, the rest as the column name says
-COLUMNS: list[tuple[str, str]] = (
-    [("unit", "str"), ("file", "str"), ("status", "str"), ("error", "str"), ("elapsed_s", "float"),
-     ("method", "str"), ("acc_form", "str"), ("acc_unit", "str"), ("gyro_unit", "str"), ("gravity_m_s2", "float"),
-     ("n_samples", "int"), ("n_poses", "int"), ("reduced_chi2", "float"), ("chi2", "float"), ("dof", "int"),
-     ("residual_rms_m_s2", "float"), ("pose_residual_rms_m_s2", "float"), ("acc_rank", "int"),
-     ("acc_n_params", "int"), ("acc_unobservable", "str"), ("acc_held", "str")]
-    + [(c, "float") for c in _matrix_columns("acc")]
-    + [(c, "float") for c in _matrix_columns("gyro")]
-    + [("gyro_residual_rms_rad", "float"), ("gyro_rank", "int"), ("gyro_n_params", "int"),
-       ("gyro_unobservable", "str"), ("file_size", "int"), ("file_mtime_ns", "int"), ("options_hash", "str"),
-       ("optinav_version", "str"), ("finished_utc", "str")])
-COLUMN_NAMES = [c for c, _ in COLUMNS]
-_TYPES = dict(COLUMNS)
+    system: str
+    options: object
+    reference: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,17 +134,20 @@ def find_units(directory, *, exclude=()) -> list[Unit]:
         if p.name.startswith(".") or not p.is_file() or p.resolve() in skip:
             continue
         suffix = _data_suffix(p.name)
-        if suffix is None:
-            continue
+        if suffix is None or p.name[: -len(suffix)].endswith(".truth"):
+            continue  # not data, or a simulation's truth (STEM.truth.csv) beside its data
         st = p.stat()
         found.append((p.name[: -len(suffix)], p, st))
     stems = [s for s, _, _ in found]
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
 
 
-def options_hash(options: FileOptions) -> str:
-    """A short hash of the calibration options (a journal row is reused only under the same options)."""
-    text = json.dumps(dataclasses.asdict(options), sort_keys=True, default=str)
+def options_hash(job) -> str:
+    """A short hash of the job (system, options, reference) and the row layout: a journal row is reused only
+    under the same ones."""
+    if not isinstance(job, BatchJob):
+        job = BatchJob("multipos", job)
+    text = json.dumps({"layout": LAYOUT, **dataclasses.asdict(job)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -143,59 +158,89 @@ def _num(v):
     return v if math.isfinite(v) else None
 
 
-def _triad_columns(row: dict, prefix: str, d: dict | None) -> None:
-    if d is None:
-        return
-    K, b = np.asarray(d["K"], float), np.asarray(d["b"], float)
-    Ks = np.asarray(d.get("K_std", np.full((3, 3), np.nan)), float)
-    bs = np.asarray(d.get("b_std", np.full(3, np.nan)), float)
-    for i in range(3):
-        for j in range(3):
-            row[f"{prefix}_K_{_AX[i]}{_AX[j]}"] = _num(K[i, j])
-            row[f"{prefix}_K_{_AX[i]}{_AX[j]}_std"] = _num(Ks[i, j])
-        row[f"{prefix}_b_{_AX[i]}"] = _num(b[i])
-        row[f"{prefix}_b_{_AX[i]}_std"] = _num(bs[i])
+def _cell(v):
+    """A system column's value as a table cell: text, bool and integers as they are, numbers as finite floats."""
+    if v is None or isinstance(v, (str, bool)):
+        return v
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    return _num(v)
 
 
-def result_row(res, n_samples: int | None = None) -> dict:
-    """The table columns a :class:`~optinav.multipos.result.CalibrationResult` fills (see :data:`COLUMNS`)."""
-    q, obs = res.quality or {}, res.observability or {}
-    acc_obs, gyro_obs = obs.get("accelerometer", {}), obs.get("gyroscope", {})
-    chi2, dof = q.get("chi2"), q.get("dof")
-    row = {"method": res.method, "acc_unit": res.units.get("accelerometer_raw"),
-           "gyro_unit": res.units.get("gyroscope_raw"), "gravity_m_s2": _num(res.gravity), "n_samples": n_samples,
-           "n_poses": int(q.get("n_poses", len(res.static_intervals))), "chi2": _num(chi2),
-           "dof": None if dof is None else int(dof),
-           "reduced_chi2": _num(chi2 / dof) if chi2 is not None and dof else None,
-           "residual_rms_m_s2": _num(res.residual_rms), "pose_residual_rms_m_s2": _num(q.get("pose_residual_rms")),
-           "acc_rank": acc_obs.get("rank"), "acc_n_params": acc_obs.get("n_params"),
-           "acc_unobservable": "; ".join(acc_obs.get("unobservable", []) or obs.get("unobservable", []) or []),
-           "gyro_rank": gyro_obs.get("rank"), "gyro_n_params": gyro_obs.get("n_params"),
-           "gyro_unobservable": "; ".join(gyro_obs.get("unobservable", []) or [])}
-    if res.accelerometer is not None:
-        row["acc_form"] = res.accelerometer.get("form")
-        row["acc_held"] = "; ".join(res.accelerometer.get("held", []) or [])
-    _triad_columns(row, "acc", res.accelerometer)
-    _triad_columns(row, "gyro", res.gyroscope)
-    if res.gyroscope is not None:
-        row["gyro_residual_rms_rad"] = _num(res.gyroscope.get("residual_rms_rad"))
+def _flat(name: str, value, out: dict, suffix: str = "") -> bool:
+    """``out[name + suffix] = value`` for a scalar, ``out[name_x + suffix] …`` for a 3-vector (``name_0`` … for
+    another vector of ≤ 4 elements);
+    False (nothing written) for a larger array (a time series)."""
+    if value is None:
+        out[name + suffix] = None
+        return True
+    v = np.asarray(value, float)
+    if v.ndim == 0:
+        out[name + suffix] = _num(v)
+    elif v.ndim == 1 and v.size <= 4:
+        for i, x in enumerate(v):  # a triad's axes by name, other vectors by index
+            out[f"{name}_{_AX[i] if v.size == 3 else i}{suffix}"] = _num(x)
+    else:
+        return False
+    return True
+
+
+def result_columns(res) -> dict:
+    """The columns of one result, read through the common layout (:class:`~optinav.core.results.Estimate`):
+    schema, method, convergence, gates, unobservable names and every parameter's value, std and CRLB std."""
+    gates = list(res.gates)
+    row = {"schema": res.SCHEMA, "method": str(res.method), "converged": res.convergence.get("converged"),
+           "gates_passed": all(bool(g["passed"]) for g in gates), "n_gates": len(gates),
+           "unobservable": "; ".join(res.unobservable())}
+    for name, p in res.parameters().items():
+        if _flat(name, p.value, row):
+            scalar = p.value is None or np.ndim(p.value) == 0
+            for v, suffix in ((p.std, "_std"), (p.crlb_std, "_crlb_std")):
+                if v is not None or scalar:  # a vector without std gets no columns for it
+                    _flat(name, v, row, suffix)
     return row
 
 
-def calibrate_unit(path: str, options: FileOptions, name: str = "") -> dict:
-    """Calibrate one unit's file and return its table row; never raises for a bad unit (status "failed" and the
-    one-line error instead). Runs in a worker process, so it takes and returns plain picklable values."""
-    from optinav import __version__
-    from optinav.multipos.calibrate import calibrate_data, read_session_file
+def truth_columns(res, path: Path) -> dict:
+    """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share,
+    and ``truth_max_z`` (the largest |error|/std); nothing when there is no truth file beside the unit."""
+    from optinav.core.results import Truth
 
+    tp = path.with_name(path.stem + ".truth.json")  # where optinav simulate writes it
+    if not tp.is_file():
+        return {}
+    cmp = Truth.from_json(tp).compare(res)
+    row, zs = {}, []
+    for name, c in cmp.items():
+        err = np.asarray(c["error"], float)
+        if err.ndim == 0 or (err.ndim == 1 and err.size <= 4):
+            _flat(name, err, row, "_error")
+        else:  # a series: its RMS
+            row[f"{name}_rmse"] = _num(np.sqrt(np.mean(err ** 2)))
+        z = np.asarray(c["z"], float)
+        zs += [float(x) for x in np.atleast_1d(z) if np.isfinite(x)]
+    row["truth_max_z"] = max(zs) if zs else None
+    return row
+
+
+def calibrate_unit(path: str, job, name: str = "") -> dict:
+    """Run one unit's file through its system (``job``: a :class:`BatchJob`, or multipos options) and return its
+    table row; never raises for a bad unit (status "failed" and the one-line error instead). Runs in a worker
+    process, so it takes and returns plain picklable values."""
+    from optinav import __version__
+    from optinav.registry import SYSTEMS
+
+    job = job if isinstance(job, BatchJob) else BatchJob("multipos", job)
     p = Path(path)
-    row = {"unit": name or p.name, "file": p.name, "optinav_version": __version__,
-           "options_hash": options_hash(options), "method": options.method}
+    row = {"unit": name or p.name, "file": p.name, "optinav_version": __version__, "system": job.system,
+           "options_hash": options_hash(job), "method": getattr(job.options, "method", None)}
     start = time.perf_counter()
     try:
-        data = read_session_file(p, options)
-        res = calibrate_data(data, options, source=str(p))
-        row.update(result_row(res, len(data.t)))
+        res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
+        row.update({k: _cell(v) for k, v in extra.items()})
+        row.update(result_columns(res))
+        if job.reference:
+            row.update(truth_columns(res, p))
         row.update(status="ok", error="")
     except OptinavError as exc:
         row.update(status="failed", error=str(exc))
@@ -207,8 +252,20 @@ def calibrate_unit(path: str, options: FileOptions, name: str = "") -> dict:
     return row
 
 
-def _complete(row: dict) -> dict:
-    return {c: row.get(c) for c in COLUMN_NAMES}
+def columns_of(rows: list[dict]) -> list[str]:
+    """The table's columns: :data:`HEAD`, then the system's and the parameters' columns in the order they first
+    appear, then :data:`TAIL`."""
+    fixed = set(COLUMN_NAMES)
+    middle = list(dict.fromkeys(k for r in rows for k in r if k not in fixed))
+    return [c for c, _ in HEAD] + middle + [c for c, _ in TAIL]
+
+
+def _type(column: str) -> str:
+    return _TYPES.get(column) or _EXTRA_TYPES.get(column, "float")
+
+
+def _complete(row: dict, columns: list[str] | None = None) -> dict:
+    return {c: row.get(c) for c in (columns or columns_of([row]))}
 
 
 # --------------------------------------------------------------------------------------------------- journal
@@ -314,37 +371,41 @@ def _is_results_table(path: Path, kind: str) -> bool:
 def _csv_cell(v) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
 def write_table(rows: list[dict], out) -> Path:
-    """Write ``rows`` (complete :data:`COLUMNS`) to ``out`` (.csv or .parquet) atomically: a temporary file in
+    """Write ``rows`` to ``out`` (.csv or .parquet; columns :func:`columns_of`) atomically: a temporary file in
     the same folder, fsynced, then :func:`os.replace` — a reader sees the old table or the new, never half."""
     import csv
 
     out = Path(out)
     kind = _check_output(out)
+    columns = columns_of(rows)
     if kind == ".csv":
         with atomic_open(out, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(COLUMN_NAMES)
+            w.writerow(columns)
             for r in rows:
-                w.writerow([_csv_cell(r.get(c)) for c in COLUMN_NAMES])
+                w.writerow([_csv_cell(r.get(c)) for c in columns])
     else:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64()}
-        schema = pa.schema([(c, types[t]) for c, t in COLUMNS],
-                           metadata={"schema": "optinav.batch_results", "version": "1"})
-        table = pa.Table.from_pylist([_complete(r) for r in rows], schema=schema)
+        types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64(), "bool": pa.bool_()}
+        schema = pa.schema([(c, types[_type(c)]) for c in columns],
+                           metadata={"schema": "optinav.batch_results", "version": str(LAYOUT)})
+        table = pa.Table.from_pylist([_complete(r, columns) for r in rows], schema=schema)
         with atomic_path(out) as tmp:
             pq.write_table(table, tmp)
     return out
 
 
 def read_results(path) -> list[dict]:
-    """The rows of a results table written by :func:`write_table` (.csv or .parquet), typed as :data:`COLUMNS`
+    """The rows of a results table written by :func:`write_table` (.csv or .parquet), typed (:data:`HEAD`,
+    :data:`TAIL`, the system's text and integer columns; the rest numbers)
     (empty CSV cells → None)."""
     import csv
 
@@ -356,9 +417,9 @@ def read_results(path) -> list[dict]:
         import pyarrow.parquet as pq
 
         return pq.read_table(path).to_pylist()
-    conv = {"str": str, "float": float, "int": int}
+    conv = {"str": str, "float": float, "int": lambda v: int(float(v)), "bool": lambda v: v == "true"}
     with open(path, newline="", encoding="utf-8") as fh:
-        return [{k: (None if v == "" and _TYPES.get(k) != "str" else conv[_TYPES.get(k, "str")](v))
+        return [{k: (None if v == "" and _type(k) != "str" else conv[_type(k)](v))
                  for k, v in r.items()} for r in csv.DictReader(fh)]
 
 
@@ -487,22 +548,36 @@ def _outcome(unit, fut):
         return unit, None, f"worker lost: {type(exc).__name__}: {msg}"
 
 
-def run_batch(directory, out, options: FileOptions | None = None, *, workers: int | None = None,
-              scheduler: str | None = None, fresh: bool = False, retry_failed: bool = False,
-              show_progress: bool | None = None) -> BatchSummary:
-    """Calibrate every unit of ``directory`` and write the table ``out`` (.csv/.parquet); see the module docs.
+def run_batch(directory, out, options=None, *, system: str | None = None, reference: bool = False,
+              workers: int | None = None, scheduler: str | None = None, fresh: bool = False,
+              retry_failed: bool = False, show_progress: bool | None = None) -> BatchSummary:
+    """Run every unit of ``directory`` through a system and write the table ``out`` (.csv/.parquet); see the
+    module docs.
 
-    ``workers``: local processes (default: the usable cores; 0 = in this process); ``scheduler``: a
-    dask.distributed scheduler address instead (the workers must see ``directory`` at the same path and have
-    optinav installed). ``fresh``: ignore the journal and recompute every unit; ``retry_failed``: recompute units
-    whose journal row failed (otherwise a failed unit is retried only once its file changes).
+    ``system``: a registered system name (:mod:`optinav.registry`: "multipos", "rins", "gfimu", "attitude"; also
+    its command word, e.g. "accel"); default: the system whose options class ``options`` is, else "multipos".
+    ``options``: that system's options dataclass (default: its defaults). ``reference``: score each unit
+    against the truth (``STEM.truth.json``; attitude also ``STEM.truth.csv`` or a BROAD trial's reference)
+    found beside it. ``workers``: local processes (default: the usable cores; 0 = in this process);
+    ``scheduler``: a dask.distributed scheduler address instead (the workers must see ``directory`` at the same
+    path and have optinav installed). ``fresh``: ignore the journal and recompute every unit; ``retry_failed``:
+    recompute units whose journal row failed (otherwise a failed unit is retried only once its file changes).
     ``show_progress``: None follows :func:`optinav.core.progress.progress_enabled`.
     """
-    from optinav.multipos.calibrate import local_gravity
+    from optinav import registry
 
-    options = FileOptions() if options is None else options
-    options.check()
-    local_gravity(options.gravity, options.latitude, options.height)  # bad site options: once, not per unit
+    if system is None:
+        match = [s for s in registry.systems() if s.options and options is not None
+                 and type(options) is s.load("options")]
+        sysd = match[0] if match else registry.SYSTEMS["multipos"]
+    else:
+        sysd = registry.by_command(system)
+    options = sysd.load("options")() if options is None else options
+    if not isinstance(options, sysd.load("options")):
+        raise OptinavError(f"the options are a {type(options).__name__}, not the {sysd.name} system's "
+                           f"{sysd.load('options').__name__}", f"pass {sysd.load('options').__name__}(...)")
+    sysd.load("check")(options)  # bad options: once, not per unit
+    job = BatchJob(sysd.name, options, bool(reference))
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:
@@ -521,7 +596,7 @@ def run_batch(directory, out, options: FileOptions | None = None, *, workers: in
         _require_distributed()
         client = _dask_client(scheduler)  # unreachable: one-line error before any file is written
     try:
-        return _run_batch(units, out, journal_path, options, workers, client, fresh, retry_failed, show_progress)
+        return _run_batch(units, out, journal_path, job, workers, client, fresh, retry_failed, show_progress)
     finally:
         if client is not None:
             client.close()
@@ -539,10 +614,11 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
         jobs = [u for u in units if u.name not in resumed]
         if jobs:
             it = _run_jobs(jobs, options, workers, client)
-            for unit, row, lost_msg in progress(it, total=len(jobs), desc="batch calibrate", enabled=show_progress):
+            desc = f"batch {_command(options)}"
+            for unit, row, lost_msg in progress(it, total=len(jobs), desc=desc, enabled=show_progress):
                 if row is None:
                     lost[unit.path.name] = {"unit": unit.name, "file": unit.path.name, "status": "failed",
-                                            "error": lost_msg, "options_hash": ohash}
+                                            "error": lost_msg, "system": options.system, "options_hash": ohash}
                     continue
                 row.update(unit=unit.name, file=unit.path.name, file_size=unit.size, file_mtime_ns=unit.mtime_ns)
                 journal.append(_complete(row))
@@ -563,3 +639,11 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
     n_ok = sum(r["status"] == "ok" for r in rows)
     return BatchSummary(out=out, journal=journal_path, rows=rows, n_units=len(units), n_ok=n_ok,
                         n_failed=len(rows) - n_ok, n_resumed=len(resumed), n_computed=n_computed, n_lost=len(lost))
+
+
+def _command(job: BatchJob) -> str:
+    """The CLI words of the job's system (``calibrate accel``, ``attitude``), for the progress bar."""
+    from optinav.registry import SYSTEMS
+
+    s = SYSTEMS[job.system]
+    return f"calibrate {s.command}" if s.kind == "calibration" else s.command

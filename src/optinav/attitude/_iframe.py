@@ -17,8 +17,8 @@ import math
 import numba
 import numpy as np
 
-from optinav.attitude._kernels import qmul as _qmul
-from optinav.attitude._kernels import rotvec_q as _rotvec_q
+from optinav.core._quat import qmul as _qmul
+from optinav.core._quat import rv2q as _rotvec_q
 
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
@@ -248,7 +248,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 # in motion: the correction rate is the horizontal projection of −C_b^n δb, as seen through
                 # the low-pass (rows of C(q_c)·LP(C_b^I))
                 gn = math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
-                if (not rest and par[P_BIAS_MOTION] > 0.0 and gn < par[P_MOTION_MAX_GYR]
+                if (not rest and par[P_BIAS_MOTION] > 0.0
+                        and (par[P_MOTION_MAX_GYR] <= 0.0 or gn < par[P_MOTION_MAX_GYR])
                         and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]):
                     st[S_BIAS_MOTION] = 1.0
                     r = par[P_BIAS_MOTION] ** 2 / h

@@ -1,7 +1,8 @@
 """numba kernels of the attitude estimators (private; the numpy API is in :mod:`optinav.attitude.estimators`).
 
-One measurement model (:func:`_model`) is shared by every estimator and by the public numpy functions of
-:mod:`optinav.attitude.measurement`. Per-sample loops allocate their small work arrays once, so the batch
+Quaternion products, rotation-vector exponentials and normalization are the kernels of :mod:`optinav.core._quat`,
+shared with the strapdown. One measurement model (:func:`_model`) is shared by every estimator and by the public
+numpy functions of :mod:`optinav.attitude.measurement`. Per-sample loops allocate their small work arrays once, so the batch
 kernels run at ~1 µs per sample or less. Every loop kernel takes a ``state`` array that it reads at the
 start and writes back at the end: the streaming classes call the same kernel with one sample.
 
@@ -16,6 +17,8 @@ import math
 
 import numba
 import numpy as np
+
+from optinav.core._quat import qmul, qnormalize, rv2q
 
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
@@ -40,35 +43,13 @@ def _dcm(q, C):
 
 @numba.njit(**_NJ)
 def _normalize(q):
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    q[0] /= n
-    q[1] /= n
-    q[2] /= n
-    q[3] /= n
-
-
-@numba.njit(**_NJ)
-def rotvec_q(vx, vy, vz):
-    """Exact quaternion (w, x, y, z) of the rotation vector v (rad), as four scalars."""
-    a = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if a < 1e-8:
-        s = 0.5 - a * a / 48.0
-        return 1.0 - a * a / 8.0, s * vx, s * vy, s * vz
-    s = math.sin(0.5 * a) / a
-    return math.cos(0.5 * a), s * vx, s * vy, s * vz
-
-
-@numba.njit(**_NJ)
-def qmul(p0, p1, p2, p3, r0, r1, r2, r3):
-    """p ⊗ r on scalar components, as four scalars."""
-    return (p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3, p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2,
-            p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1, p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0)
+    q[0], q[1], q[2], q[3] = qnormalize(q[0], q[1], q[2], q[3])
 
 
 @numba.njit(**_NJ)
 def _rotvec_quat(vx, vy, vz, out):
     """Exact quaternion of the rotation vector v (rad), into ``out``."""
-    out[0], out[1], out[2], out[3] = rotvec_q(vx, vy, vz)
+    out[0], out[1], out[2], out[3] = rv2q(vx, vy, vz)
 
 
 @numba.njit(**_NJ)

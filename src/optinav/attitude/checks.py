@@ -10,6 +10,7 @@ import warnings
 
 import numpy as np
 
+from optinav.core.rotations import frame_name
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
 
@@ -190,16 +191,17 @@ def check_aop(aop: np.ndarray) -> None:
 def check_frame(acc: np.ndarray, frame: str) -> None:
     """Warn once when the first second's specific force (a body at rest reads +g along body up) contradicts the
     frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g)."""
+    frame = frame_name(frame)
     a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
     na = float(np.linalg.norm(a))
     if na == 0 or not np.isfinite(na):
         return
     z = a[2] / na
-    if frame == "NED" and z > 0.9:
+    if frame == "ned" and z > 0.9:
         warnings.warn("the accelerometer reads +g along body z at the start: that is an up-pointing z "
                       "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')",
                       FrameWarning, stacklevel=3)
-    elif frame == "ENU" and z < -0.9:
+    elif frame == "enu" and z < -0.9:
         warnings.warn("the accelerometer reads −g along body z at the start: that is a down-pointing z "
                       "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')",
                       FrameWarning, stacklevel=3)

@@ -9,7 +9,6 @@ attribute ``sampling_rate`` Hz.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,15 +19,11 @@ from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["BroadTrial", "is_broad", "load_broad", "shared_data_dir", "BROAD_TRIAL_02", "synthesize_polarization"]
+__all__ = ["BroadTrial", "is_broad", "load_broad", "BROAD_TRIAL_02", "synthesize_polarization"]
 
-#: relative path of the BROAD trial shipped in the shared data folder
+#: path of BROAD trial 02 inside a data folder laid out as the project's shared data (``attitude/broad/``);
+#: the library reads only the paths it is given, the CLI, tests and benchmarks resolve the folder
 BROAD_TRIAL_02 = Path("attitude") / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
-
-
-def shared_data_dir() -> Path:
-    """The shared data folder: $OPTINAV_SHARED_DATA if set, else /work/shared/data."""
-    return Path(os.environ.get("OPTINAV_SHARED_DATA", "/work/shared/data"))
 
 
 @dataclass
@@ -40,12 +35,12 @@ class BroadTrial:
     mag: np.ndarray
     q_ref: np.ndarray
     movement: np.ndarray
-    rate: float
+    rate_hz: float
     name: str
 
     @property
     def dt(self) -> float:
-        return 1.0 / self.rate
+        return 1.0 / self.rate_hz
 
     @property
     def eval_mask(self) -> np.ndarray:
@@ -93,10 +88,10 @@ def load_broad(path) -> BroadTrial:
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
     return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,
                       q_ref=np.asarray(tab.get("opt_quat"), float),
-                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate=rate, name=p.stem)
+                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate_hz=rate, name=p.stem)
 
 
-def synthesize_polarization(q_ref, sun_n, *, frame: str = "ENU", C_b_m=None, aop_noise: float = 0.0,
+def synthesize_polarization(q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop_noise: float = 0.0,
                             rng=None, **options) -> PolarizationMeasurement:
     """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
 

@@ -24,6 +24,8 @@ forward-right-down; "ENU": body right-forward-up). Without polarization the head
 
 from __future__ import annotations
 
+import functools
+import time
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -33,10 +35,11 @@ from optinav.attitude import _kernels
 from optinav.attitude.checks import check_frame, check_imu, find_gaps
 from optinav.attitude.iframe import IFRAME_DEFAULTS, AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
-from optinav.attitude.measurement import (PolarizationMeasurement, _frame, as_c_b_m, pol_inputs, predicted_aop,
+from optinav.attitude.measurement import (PolarizationMeasurement, as_c_b_m, pol_inputs, predicted_aop,
                                           up_vector, wrap_axial)
-from optinav.core.results import Result
-from optinav.core.rotations import euler_from_quat, quat_from_euler, quat_from_rotvec, quat_multiply
+from optinav.core.results import Estimate, Parameter, Truth, convergence, nested_kwargs, register_legacy
+from optinav.core.rotations import (DEFAULT_FRAME, euler_from_quat, frame_name, quat_from_euler, quat_from_rotvec,
+                                    quat_multiply)
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
@@ -66,15 +69,21 @@ DEFAULTS: dict[str, dict[str, float]] = {
 
 
 @dataclass
-class AttitudeEstimate(Result):
-    """Estimated attitude q_b^n per sample and how the measurements were used."""
+class AttitudeEstimate(Estimate):
+    """Estimated attitude q_b^n per sample and how the measurements were used (docs/results.md).
+
+    :meth:`parameters`: ``q_b_n`` (N, 4), ``roll``/``pitch``/``yaw`` (N,) rad in the frame's Euler
+    convention (the yaw not observable without a magnetometer or polarization: it follows the gyro from the
+    initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
+    SYSTEM: ClassVar[str] = "attitude"
+    KIND: ClassVar[str] = "estimate"
 
     q: np.ndarray = field(metadata={"unit": ""})
     method: str = "iframe"
-    frame: str = "NED"
+    frame: str = DEFAULT_FRAME
     options: dict = field(default_factory=dict)
     pol_used: int = 0
     pol_skipped: dict = field(default_factory=dict)
@@ -87,10 +96,25 @@ class AttitudeEstimate(Result):
     offline: bool = False
     input_stage: bool = False
     segments: int = 1
+    elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
+    #: a filter does not iterate to convergence: ``converged`` is None
+    convergence: dict = field(default_factory=lambda: convergence(None, message="recursive filter"))
+    gates: list = field(default_factory=list)
+
+    def parameters(self) -> dict[str, Parameter]:
+        e = self.euler()
+        heading = self.pol_used > 0 or (self.mag_used is not None and bool(np.any(self.mag_used)))
+        why = None if heading else ("no magnetometer or polarization used: the heading follows the gyro from its "
+                                   "initial value")
+        out = {"q_b_n": Parameter(self.q, "", observable=heading, reason=why), "roll": Parameter(e[:, 0], "rad"),
+               "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad", observable=heading, reason=why)}
+        if self.gyro_bias is not None:
+            out["gyr_bias"] = Parameter(np.asarray(self.gyro_bias, float), "rad/s")
+        return out
 
     def euler(self) -> np.ndarray:
         """[roll, pitch, yaw] (N, 3) rad in the frame's Euler convention."""
-        return euler_from_quat(self.q, self.frame.lower())
+        return euler_from_quat(self.q, frame_name(self.frame))
 
     def summary(self) -> str:
         return summary_line(self.method, self.frame, self.q.shape[0], offline=self.offline, segments=self.segments,
@@ -163,22 +187,22 @@ def _as_q0(q0) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def initial_attitude(acc0, frame: str = "NED", pol: PolarizationMeasurement | None = None,
+def initial_attitude(acc0, frame: str = DEFAULT_FRAME, pol: PolarizationMeasurement | None = None,
                      index: int = 0) -> np.ndarray:
     """q_b^n from one accelerometer sample (roll, pitch; yaw 0) and, if ``pol`` is usable at ``index``, the
     heading that best explains its AoP. A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π;
     the branch with |ψ| ≤ 90° is taken (pass q0 when the heading may be outside)."""
-    frame = _frame(frame)
+    frame = frame_name(frame)
     a = np.asarray(acc0, dtype=float)
     na = np.linalg.norm(a)
     if not np.isfinite(na) or na == 0:
         raise OptinavError("the first accelerometer sample is zero or not finite", "pass q0 or drop the sample")
     u = a / na
-    if frame == "NED":  # FRD body: a = g·[sin θ, −sin φ cos θ, −cos φ cos θ]
+    if frame == "ned":  # FRD body: a = g·[sin θ, −sin φ cos θ, −cos φ cos θ]
         roll, pitch = np.arctan2(-u[1], -u[2]), np.arctan2(u[0], np.hypot(u[1], u[2]))
     else:  # RFU body, ENU convention C = Rz(ψ)Rx(θ)Ry(φ): a = g·[−sin φ cos θ, sin θ, cos φ cos θ]
         roll, pitch = np.arctan2(-u[0], u[2]), np.arctan2(u[1], np.hypot(u[0], u[2]))
-    q = quat_from_euler([roll, pitch, 0.0], frame.lower())
+    q = quat_from_euler([roll, pitch, 0.0], frame)
     if pol is not None and pol.select(slice(index, index + 1)).usable()[0][0]:
         up = up_vector(frame)
         yaws = np.radians(np.arange(-180.0, 180.0, 0.5))
@@ -255,8 +279,20 @@ def _method(method, pol) -> str:
     return m
 
 
+def _timed(fn):
+    """Set ``elapsed_s`` of the returned result to the wall time of the call (s)."""
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        t0 = time.perf_counter()
+        res = fn(*args, **kwargs)
+        res.elapsed_s = time.perf_counter() - t0
+        return res
+    return run
+
+
+@_timed
 def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-             frame: str = "NED", q0=None, mag=None, offline: bool = False, input_stage: bool = False,
+             frame: str = DEFAULT_FRAME, q0=None, mag=None, offline: bool = False, input_stage: bool = False,
              allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
     """Attitude q_b^n from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)) as an :class:`AttitudeEstimate`
     (``q`` (N, 4) [w, x, y, z] plus per-sample flags, counts and σ); :func:`estimate_q` returns only ``q``.
@@ -269,7 +305,7 @@ def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method
     time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
     override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
     """
-    frame = _frame(frame)
+    frame = frame_name(frame)
     method = _method(method, pol)
     opts = _options(method, options)
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
@@ -335,7 +371,7 @@ def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method
 
 
 def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-               frame: str = "NED", q0=None, **options) -> np.ndarray:
+               frame: str = DEFAULT_FRAME, q0=None, **options) -> np.ndarray:
     """The quaternions q_b^n (N, 4) [w, x, y, z] of :func:`estimate` (same arguments), without the diagnostics."""
     return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
 
@@ -347,9 +383,9 @@ class _Filter:
 
     METHOD = "qn"
 
-    def __init__(self, frame: str = "NED", q0=None, C_b_m=None, *, min_sun_elevation: float = 0.0,
+    def __init__(self, frame: str = DEFAULT_FRAME, q0=None, C_b_m=None, *, min_sun_elevation: float = 0.0,
                  min_dop: float = 0.05, min_sun_separation: float = np.radians(10.0), **options):
-        self.frame = _frame(frame)
+        self.frame = frame_name(frame)
         self.options = _options(self.METHOD, options)
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop,
@@ -433,3 +469,16 @@ def make_filter(method: str = "iframe", **kwargs):
     if m not in _CLASSES:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
     return _CLASSES[m](**kwargs)
+
+
+register_legacy(AttitudeEstimate, "optinav.attitude.estimate", 2, lambda d: nested_kwargs(AttitudeEstimate, d))
+
+
+def attitude_truth(q_b_n, frame: str = DEFAULT_FRAME, info: dict | None = None) -> Truth:
+    """A simulated attitude ``q_b_n`` (N, 4) as truth with the names of :class:`AttitudeEstimate`
+    (``q_b_n``, ``roll``, ``pitch``, ``yaw`` in ``frame``'s Euler convention)."""
+    q = np.asarray(q_b_n, float)
+    e = euler_from_quat(q, frame_name(frame))
+    return Truth("attitude", {"q_b_n": Parameter(q, ""), "roll": Parameter(e[:, 0], "rad"),
+                              "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad")},
+                 {"frame": frame_name(frame), **(info or {})})

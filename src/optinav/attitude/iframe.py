@@ -11,7 +11,7 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
 * rest is detected from the deviation of gyro and accelerometer from their low-passes (thresholds in rad/s and
   m/s² over ``rest_time`` s); a 3-state Kalman filter estimates the gyro bias from rest (all three axes) and,
   in motion, from the tilt-correction rate (its horizontal part is −C_b^n δb, so rotations reveal every
-  axis); the bias is clipped at ``bias_clip``;
+  axis; at any rotation rate unless ``motion_max_gyr`` > 0 sets a limit); the bias is clipped at ``bias_clip``;
 * the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optinav.attitude import _iframe as _k
+from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 __all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "IframeRun", "run_iframe", "input_stage"]
@@ -51,7 +52,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
     "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
     "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
-    "motion_max_gyr": 2.0,           # rad/s, no motion bias update above this rate
+    "motion_max_gyr": 0.0,           # rad/s, no motion bias update above this rate; 0 = no limit
     "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
     "gravity": 9.81,                 # m/s²
     "tau_mag": 10.0,                 # s, heading correction time constant
@@ -65,8 +66,8 @@ _ORDER = ("tau_acc", "rest_tau", "rest_gyr", "rest_acc", "rest_time", "bias_sigm
           "mag_dip_th", "mag_new_time", "tau_mag_ref")
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
-_NORTH = {"NED": np.array([1.0, 0.0, 0.0]), "ENU": np.array([0.0, 1.0, 0.0])}
-_UP = {"NED": np.array([0.0, 0.0, -1.0]), "ENU": np.array([0.0, 0.0, 1.0])}
+_NORTH = {"ned": np.array([1.0, 0.0, 0.0]), "enu": np.array([0.0, 1.0, 0.0])}
+_UP = {"ned": np.array([0.0, 0.0, -1.0]), "enu": np.array([0.0, 0.0, 1.0])}
 
 
 def _params(frame: str, opts: dict) -> np.ndarray:
@@ -75,6 +76,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
             raise OptinavError(f"option {k}={opts[k]!r} must be > 0", f"pass a positive {k}")
     p = np.zeros(_k.PAR_SIZE)
     p[:len(_ORDER)] = [opts[k] for k in _ORDER]
+    frame = frame_name(frame)
     p[_k.P_UP:_k.P_UP + 3] = _UP[frame]
     p[_k.P_NORTH:_k.P_NORTH + 3] = _NORTH[frame]
     return p
@@ -129,7 +131,7 @@ def _fuse(qf, qb):
     return quat_multiply(quat_from_rotvec(0.5 * r), qf)
 
 
-def run_iframe(gyr, acc, dts, *, mag=None, frame: str = "NED", q0=None, offline: bool = False,
+def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False,
                **options) -> IframeRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
     None. Options override :data:`IFRAME_DEFAULTS`."""
@@ -178,7 +180,7 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
     if not ok.all():
         return q
     cur = quat_rotate(q, up_b / nrm[:, None])       # the zero-phase up, in n with the current estimate
-    up = _UP[frame]
+    up = _UP[frame_name(frame)]
     ax = np.cross(cur, up)
     sn = np.linalg.norm(ax, axis=1)
     ang = np.arctan2(sn, cur @ up)
@@ -186,7 +188,7 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
     return quat_multiply(quat_from_rotvec(rv), q)
 
 
-def input_stage(gyr, acc, dts, frame: str = "NED", **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
+def input_stage(gyr, acc, dts, frame: str = DEFAULT_FRAME, **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
     """The iframe front end for other estimators: bias-corrected gyro (rad/s) and the specific force low-passed
     in the almost-inertial frame, expressed back in body axes (m/s²)."""
     r = run_iframe(gyr, acc, dts, frame=frame, **options)
@@ -199,7 +201,7 @@ def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.nd
 
     # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
     # the measured norm's low-pass so the published methods' norm checks still see the dynamics
-    up = _UP[frame]
+    up = _UP[frame_name(frame)]
     acc_f = quat_rotate(quat_conjugate(r.q), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
     return gyr - r.bias, acc_f
 
@@ -212,11 +214,11 @@ class AttitudeFilter:
     arithmetic as :func:`optinav.attitude.estimate`.
     """
 
-    def __init__(self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = "NED", q0=None,
+    def __init__(self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None,
                  **options):
-        from optinav.attitude.estimators import _as_q0, _frame, _options
+        from optinav.attitude.estimators import _as_q0, _options
 
-        self.frame = _frame(frame)
+        self.frame = frame_name(frame)
         self.options = _options("iframe", options)
         if dt is None and rate_hz is not None:
             dt = 1.0 / float(rate_hz)

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.attitude import _kernels
+from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
@@ -46,28 +47,20 @@ __all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "FRAMES", "PolarizationMeasurem
 DEFAULT_C_B_M = np.diag([1.0, -1.0, -1.0])
 #: the same mounting for a right-forward-up body (frame="ENU" users): X_m = y_b (forward), Z_m = z_b (up)
 DEFAULT_C_B_M_ENU = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-FRAMES = ("NED", "ENU")
 _JAC_MODES = {"body": 0, "nav": 1, "quat": 2}
 
 
-def _frame(frame: str) -> str:
-    f = str(frame).upper()
-    if f not in FRAMES:
-        raise OptinavError(f"unknown navigation frame {frame!r}", "use frame='NED' or frame='ENU'")
-    return f
-
-
-def up_vector(frame: str = "NED") -> np.ndarray:
+def up_vector(frame: str = DEFAULT_FRAME) -> np.ndarray:
     """Unit vector opposite to gravity in the navigation frame (what a resting accelerometer measures)."""
-    return np.array([0.0, 0.0, -1.0]) if _frame(frame) == "NED" else np.array([0.0, 0.0, 1.0])
+    return np.array([0.0, 0.0, -1.0]) if frame_name(frame) == "ned" else np.array([0.0, 0.0, 1.0])
 
 
-def default_c_b_m(frame: str = "NED") -> np.ndarray:
+def default_c_b_m(frame: str = DEFAULT_FRAME) -> np.ndarray:
     """Zenith-viewing mounting: :data:`DEFAULT_C_B_M` (NED, FRD body) or :data:`DEFAULT_C_B_M_ENU`."""
-    return (DEFAULT_C_B_M if _frame(frame) == "NED" else DEFAULT_C_B_M_ENU).copy()
+    return (DEFAULT_C_B_M if frame_name(frame) == "ned" else DEFAULT_C_B_M_ENU).copy()
 
 
-def as_c_b_m(C_b_m, frame: str = "NED") -> np.ndarray:
+def as_c_b_m(C_b_m, frame: str = DEFAULT_FRAME) -> np.ndarray:
     """The sensor mounting C_b^m checked as a rotation matrix; ``None`` → :func:`default_c_b_m`."""
     if C_b_m is None:
         return default_c_b_m(frame)
@@ -77,7 +70,7 @@ def as_c_b_m(C_b_m, frame: str = "NED") -> np.ndarray:
     return c
 
 
-def sun_elevation(sun_n, frame: str = "NED") -> np.ndarray:
+def sun_elevation(sun_n, frame: str = DEFAULT_FRAME) -> np.ndarray:
     """Elevation (rad) of unit sun vector(s) in the navigation frame."""
     s = np.asarray(sun_n, dtype=float)
     return np.arcsin(np.clip(s[..., 2] * up_vector(frame)[2], -1.0, 1.0))
@@ -100,14 +93,14 @@ class PolarizationMeasurement:
     sun_n: np.ndarray = field(metadata={"unit": ""})
     dop: np.ndarray | None = field(default=None, metadata={"unit": ""})
     C_b_m: np.ndarray | None = field(default=None, metadata={"unit": ""})
-    frame: str = "NED"
+    frame: str = DEFAULT_FRAME
     valid: np.ndarray | None = None
     min_sun_elevation: float = field(default=0.0, metadata={"unit": "rad"})
     min_dop: float = 0.05
     min_sun_separation: float = field(default=np.radians(10.0), metadata={"unit": "rad"})
 
     def __post_init__(self):
-        self.frame = _frame(self.frame)
+        self.frame = frame_name(self.frame)
         aop = as_float_array(self.aop, "aop", finite=False)
         if aop.ndim != 1 or aop.size == 0:
             raise OptinavError(f"aop has shape {aop.shape}, expected (N,)", "pass one angle (rad) per IMU sample")
@@ -173,15 +166,16 @@ class PolarizationMeasurement:
             self.min_sun_separation)
 
 
-def predicted_aop(q, sun_n, C_b_m=None, frame: str = "NED") -> np.ndarray:
-    """Rayleigh AoP (rad, [−π/2, π/2)) seen by the sensor at attitude(s) q for sun vector(s) sun_n (nav frame).
+def predicted_aop(q_b_n, sun_n, C_b_m=None, frame: str = DEFAULT_FRAME) -> np.ndarray:
+    """Rayleigh AoP (rad, [−π/2, π/2)) seen by the sensor at attitude(s) q_b_n for sun vector(s) sun_n (nav
+    frame).
 
     The forward model of the shared measurement model, also used to synthesize measurements.
     """
     from optinav.core.rotations import dcm_from_quat
 
     c_b_m = as_c_b_m(C_b_m, frame)
-    q = as_float_array(q, "q", last_dims=(4,))
+    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,))
     s = as_float_array(sun_n, "sun_n", last_dims=(3,))
     s_b = np.einsum("...ji,...j->...i", dcm_from_quat(q), s)
     s_m = s_b @ c_b_m.T
@@ -197,7 +191,7 @@ def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
     if not isinstance(pol, PolarizationMeasurement):
         raise OptinavError(f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
                            "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)")
-    if pol.frame != frame:
+    if pol.frame != frame_name(frame):
         raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
     if len(pol) != n:
         raise OptinavError(f"pol has {len(pol)} samples but {what} has {n}", "align the polarization samples with it")
@@ -206,19 +200,19 @@ def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
             float(np.sin(pol.min_sun_separation) ** 2), skipped)
 
 
-def measurement_error(q, acc, *, pol: PolarizationMeasurement | None = None, frame: str = "NED",
+def measurement_error(q_b_n, acc, *, pol: PolarizationMeasurement | None = None, frame: str = DEFAULT_FRAME,
                       jacobian: str = "quat", pol_weight: float = 1.0):
     """F(q) = [ε_b; ε_m] and its Jacobian at each sample (numpy face of the estimators' kernel).
 
-    q (N, 4) q_b^n; acc (N, 3) specific force (any unit, only its direction is used). Returns
+    q_b_n (N, 4) attitude q_b^n; acc (N, 3) specific force (any unit, only its direction is used). Returns
     ``F`` (N, 5), ``J`` (N, 5, 3 or 4) and ``rows`` (N,) = 3 (gravity only), 5 (with polarization) or −3
     (polarization requested but the sun within ``min_sun_separation`` of the viewing axis); unused rows are NaN.
     ``jacobian``: "quat" (tangent, 4 columns), "body" or "nav" error angle (3 columns).
     """
-    frame = _frame(frame)
+    frame = frame_name(frame)
     if jacobian not in _JAC_MODES:
         raise OptinavError(f"unknown jacobian {jacobian!r}", "use 'quat', 'body' or 'nav'")
-    q = as_float_array(q, "q", last_dims=(4,)).reshape(-1, 4)
+    q = as_float_array(q_b_n, "q_b_n", last_dims=(4,)).reshape(-1, 4)
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     acc = as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3)
     n = q.shape[0]

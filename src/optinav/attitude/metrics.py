@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optinav.core.rotations import euler_from_quat, quat_conjugate, quat_multiply
+from optinav.core.rotations import DEFAULT_FRAME, euler_from_quat, frame_name, quat_conjugate, quat_multiply
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
@@ -50,12 +50,12 @@ def total_error(q_est, q_ref) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(np.abs(e[..., 0]), 0.0, 1.0))
 
 
-def euler_errors(q_est, q_ref, frame: str = "NED") -> np.ndarray:
+def euler_errors(q_est, q_ref, frame: str = DEFAULT_FRAME) -> np.ndarray:
     """[roll, pitch, yaw] of the estimate minus the reference (rad, wrapped to (−π, π]), shape (N, 3).
 
     Rows where either quaternion is NaN (a reference that lost tracking) stay NaN, as in the other metrics."""
     a, b = _pair(q_est, q_ref)
-    conv = str(frame).lower()
+    conv = frame_name(frame)
     ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
     d = np.full(a.shape[:-1] + (3,), np.nan)
     d[ok] = euler_from_quat(a[ok], conv) - euler_from_quat(b[ok], conv)

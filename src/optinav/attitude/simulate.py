@@ -18,18 +18,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.attitude.measurement import _frame, default_c_b_m, up_vector
+from optinav.attitude.measurement import default_c_b_m, up_vector
 from optinav.core.imu_model import ImuSpec, preset
 from optinav.core.results import Result
-from optinav.core.rotations import dcm_from_euler, dcm_from_quat, ned_to_enu
+from optinav.core.rotations import DEFAULT_FRAME, dcm_from_euler, dcm_from_quat, frame_name, ned_to_enu
 from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 
 __all__ = ["FlightData", "simulate", "PAPER_SITE", "PAPER_TIMES"]
 
-#: the paper's site: roof of the mechanical east building, Dalian University of Technology (lat, lon deg, h m)
-PAPER_SITE = {"lat_deg": 38.8814192, "lon_deg": 121.528255, "height": 35.0}
+#: the paper's site: roof of the mechanical east building, Dalian University of Technology (38.8814192° N,
+#: 121.528255° E, 35 m): ``lat``, ``lon`` in rad, ``height_m`` in m
+PAPER_SITE = {"lat": float(np.radians(38.8814192)), "lon": float(np.radians(121.528255)), "height_m": 35.0}
 #: the paper's experiment times (local China time, UTC+08:00)
 PAPER_TIMES = {"static": "2021-01-17T10:34:00+08:00", "dynamic": "2021-01-16T16:33:00+08:00"}
 
@@ -89,7 +90,7 @@ class FlightData(Result):
         """True [roll, pitch, yaw] (N, 3) rad in the convention of ``frame``."""
         from optinav.core.rotations import euler_from_quat
 
-        return euler_from_quat(self.q_true, self.frame.lower())
+        return euler_from_quat(self.q_true, frame_name(self.frame))
 
     def polarization(self, **options):
         """The polarization samples as :class:`optinav.attitude.measurement.PolarizationMeasurement`
@@ -146,32 +147,34 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
             (tk.size,) + x.shape[1:])
 
     eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
-    if frame == "ENU":
+    if frame == "enu":
         eul[:, 2] = -eul[:, 2]  # the same heading in the ENU (counter-clockwise yaw) convention
         pos, vel = ned_to_enu(pos), ned_to_enu(vel)
-    conv = frame.lower()
+    conv = frame
     c = dcm_from_euler(eul, conv)
     bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
-    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, h0=h, bc_type=bc)
+    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, height0_m=h, bc_type=bc)
 
 
 def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
-             lat_deg: float = PAPER_SITE["lat_deg"], lon_deg: float = PAPER_SITE["lon_deg"],
-             height: float = PAPER_SITE["height"], frame: str = "NED", imu: str | ImuSpec = "mpu6000",
-             imu_errors: bool = False, gyro_bias=None, attitude_deg=(1.0, -2.0, 30.0),
-             accel_level: float = 4.0, tilt_deg: float = 30.0, knot_spacing_s: float = 0.1,
+             lat: float = PAPER_SITE["lat"], lon: float = PAPER_SITE["lon"],
+             height_m: float = PAPER_SITE["height_m"], frame: str = DEFAULT_FRAME, imu: str | ImuSpec = "mpu6000",
+             imu_errors: bool = False, gyro_bias=None,
+             attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
+             accel_level: float = 4.0, tilt: float = float(np.radians(30.0)), knot_spacing_s: float = 0.1,
              sky_model: str = "rayleigh", d_max: float | None = None, neutral_distance: float | None = None,
              sensor=None, pol_noise: float | None = None, pol_rate_hz: float | None = None, C_b_m=None,
              pressure_mbar: float | None = 1013.25, temperature_c: float = 5.0, delta_t: float | None = None,
              rng=None) -> FlightData:
     """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
 
-    kind: ``"static"`` (one attitude ``attitude_deg`` = [roll, pitch, yaw] deg held for ``duration_s``) or
+    kind: ``"static"`` (one attitude ``attitude`` = [roll, pitch, yaw] rad (NED convention) held for
+    ``duration_s``) or
     ``"dynamic"`` (smooth random manoeuvres: horizontal accelerations up to ``accel_level`` m/s² (vertical a fifth),
-    roll/pitch within ±``tilt_deg`` at 0.1–0.4 Hz, heading turning at up to 45 °/s; still for the first
+    roll/pitch within ±``tilt`` (rad) at 0.1–0.4 Hz, heading turning at up to 45 °/s; still for the first
     min(5 s, 10 %), smooth ramps in and out; attitude/position splined through knots every ``knot_spacing_s``).
-    time: ISO-8601 start with UTC offset (default: the paper's time for ``kind``). Site in
-    degrees/m (default: the paper's). frame ``"NED"`` (body FRD) or ``"ENU"`` (body RFU).
+    time: ISO-8601 start with UTC offset (default: the paper's time for ``kind``). Site ``lat``, ``lon`` (rad),
+    ``height_m`` (m) (default: the paper's, :data:`PAPER_SITE`). frame ``"NED"`` (body FRD) or ``"ENU"`` (body RFU).
 
     IMU: preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB);
     ``imu_errors=True`` also draws the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000);
@@ -183,19 +186,19 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     """
     from optinav.core.simulate import static_positions
     from optinav.sky import polarization as P
-    from optinav.sky.sun import solar_position_deg, utc_seconds
+    from optinav.sky.sun import solar_position, utc_seconds
 
     kind = str(kind).lower()
     if kind not in ("static", "dynamic"):
         raise OptinavError(f"unknown flight kind {kind!r}", "use 'static' or 'dynamic'")
-    frame = _frame(frame)
+    frame = frame_name(frame)
     duration = check_positive(duration_s, "duration_s")
     rate = check_positive(rate_hz, "rate_hz")
     if duration * rate < 2:
         raise OptinavError("the flight has fewer than 2 samples", "increase duration_s or rate_hz")
-    if not -90 <= float(lat_deg) <= 90:
-        raise OptinavError(f"lat_deg = {lat_deg} is outside [-90, 90]", "pass the latitude in degrees")
-    lat, lon = float(lat_deg) * DEG, float(lon_deg) * DEG
+    lat, lon, height = float(lat), float(lon), float(height_m)
+    if not -np.pi / 2 <= lat <= np.pi / 2:
+        raise OptinavError(f"lat = {lat:g} rad is outside [-π/2, π/2]", "pass the latitude in rad")
     rng = as_rng(rng)
     start = PAPER_TIMES[kind] if time is None else time
     t0 = float(utc_seconds(start))  # raises for a time without UTC offset
@@ -203,19 +206,19 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     if not isinstance(spec, ImuSpec):
         raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
     spec = spec.replace(sample_rate=rate)
-    conv = frame.lower()
+    conv = frame
 
     if kind == "static":
-        att = as_float_array(attitude_deg, "attitude_deg", last_dims=(3,))
-        c = dcm_from_euler(att * DEG, "ned")
-        if frame == "ENU":
+        att = as_float_array(attitude, "attitude", last_dims=(3,))
+        c = dcm_from_euler(att, "ned")
+        if frame == "enu":
             from optinav.core.rotations import attitude_ned_to_enu
 
             c = attitude_ned_to_enu(c)
         truth = static_positions(c[None], duration, rate, lat, height, lon, frame=conv)
     else:
         truth = _dynamic_truth(duration, rate, frame, lat, lon, float(height), rng, float(accel_level),
-                               float(tilt_deg) * DEG, check_positive(knot_spacing_s, "knot_spacing_s"))
+                               float(tilt), check_positive(knot_spacing_s, "knot_spacing_s"))
 
     t = truth.t
     w_true, f_true = truth.omega_ib_b, truth.f_b
@@ -227,8 +230,8 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
 
     # the sun at every sample (the vehicle moves < 1 km: the site's position is used)
     times = (np.round((t0 + t) * 1e9)).astype("datetime64[ns]")
-    sp = solar_position_deg(times, lat_deg, lon_deg, height, pressure_mbar=pressure_mbar,
-                            temperature_c=temperature_c, delta_t=delta_t)
+    sp = solar_position(times, lat, lon, height, pressure=None if pressure_mbar is None else 100.0 * pressure_mbar,
+                        temperature=temperature_c + 273.15, delta_t=delta_t)
     sun_n = sp.sun_vector(conv)
 
     c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))

@@ -16,7 +16,8 @@ from optinav.attitude import checks as _c
 from optinav.attitude import iframe as _if
 from optinav.attitude.estimators import (_as_q0, _init_state, _options, _pol_arrays, _run, initial_attitude,
                                          summary_line)
-from optinav.attitude.measurement import _frame, up_vector
+from optinav.attitude.measurement import up_vector
+from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 __all__ = ["StreamChecks", "StreamEstimator", "STREAM_METHODS"]
@@ -115,10 +116,10 @@ class StreamEstimator:
     q_b^n (n, 4); :meth:`restart` starts a new segment (after a time gap: levelled from its first sample).
     ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate`."""
 
-    def __init__(self, method: str, *, frame: str = "NED", q0=None, input_stage: bool = False, **options):
+    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = False, **options):
         if method not in STREAM_METHODS:
             raise OptinavError(f"method {method!r} does not run on a stream", f"use one of {STREAM_METHODS}")
-        self.method, self.frame, self.q0 = method, _frame(frame), None if q0 is None else _as_q0(q0)
+        self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
         self.opts = _options(method, options)
         self.input_stage = input_stage or method == "iframe"
         self.front_opts = dict(_if.IFRAME_DEFAULTS)

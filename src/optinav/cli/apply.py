@@ -15,31 +15,36 @@ def register(sub) -> None:
         "apply", help="apply a calibration result to raw data",
         description=textwrap.dedent("""\
             Correct raw data with RESULT.json: a = K⁻¹(raw − b) (m/s^2) and ω = K_g⁻¹(raw − G·a − b_g) (rad/s).
-            The data are read in the raw units the calibration was made in (as recorded in RESULT.json)
-            unless --acc-unit/--gyro-unit say otherwise. The output holds t and the corrected triads in SI
-            units (format by extension: .csv, .tsv, .txt, .npz, .h5, .mat)."""),
+            The calibration may also be an imucal JSON export or an imu_tk parameter file of the accelerometer
+            (with --gyro-cal for imu_tk's gyroscope file); the format is recognised from the content.
+            The data are read in the raw units the calibration was made in (as recorded in RESULT.json or
+            imucal's from_*_unit; imu_tk records none) unless --acc-unit/--gyro-unit say otherwise. The output
+            holds t and the corrected triads in SI units (format by extension: .csv, .tsv, .txt, .npz, .h5, .mat)."""),
         epilog=textwrap.dedent("""\
             example:
               optinav apply result.json session.csv --out corrected.csv
+              optinav apply acc.calib session.csv --gyro-cal gyro.calib --out corrected.csv
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("result", help="RESULT.json written by optinav calibrate")
+    p.add_argument("result", help="RESULT.json of optinav calibrate, an imucal JSON or an imu_tk accelerometer file")
     p.add_argument("data", help="raw data file")
     p.add_argument("--out", required=True, metavar="FILE", help="corrected data file")
+    p.add_argument("--gyro-cal", metavar="FILE", help="imu_tk's gyroscope parameter file (RESULT is then its "
+                                                      "accelerometer file)")
     add_input_options(p)
     add_chunk_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    require_files((args.result, "result file"), (args.data, "data file"))
+    require_files((args.result, "result file"), (args.data, "data file"), (args.gyro_cal, "--gyro-cal file"))
     from optinav.core.progress import progress_blocks
     from optinav.io import ImuLog
     from optinav.io.imu import iter_imu, open_imu_writer
-    from optinav.multipos.result import CalibrationResult
+    from optinav.multipos.exchange import load_calibration
 
     out = output_path(args.out)
-    res = CalibrationResult.from_json(args.result)
+    res = load_calibration(args.result, args.gyro_cal)
     for sensor, entry, key in (("accelerometer", res.accelerometer, "accelerometer_raw"),
                                ("gyroscope", res.gyroscope, "gyroscope_raw")):
         if entry is not None:
@@ -47,7 +52,7 @@ def run(args) -> int:
     acc_unit = args.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = args.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
     blocks = iter_imu(args.data, columns=args.columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
-                      time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
+                      time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
                       delimiter=args.delimiter, chunk_rows=args.chunk_rows)
     source = f"optinav apply {Path(args.result).name} {Path(args.data).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not

@@ -8,11 +8,16 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report)
+                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
 from optinav.core.files import atomic_open, check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
+
+
+def register_commands(sub) -> None:
+    """The system's top-level command (registry hook)."""
+    register(sub)
 
 
 def register(sub) -> None:
@@ -81,6 +86,33 @@ def register(sub) -> None:
     p.set_defaults(func=run, progress_task="attitude")
 
 
+class _OptionsAction(argparse.Action):
+    """--option KEY=VALUE, repeatable, into a dict of numbers."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        try:
+            new = _options([value])
+        except OptinavError as exc:
+            parser.error(str(exc))
+        setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **new})
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch attitude``: the options of ``optinav attitude`` a folder shares (registry hook;
+    destinations are the fields of :class:`optinav.attitude.unit.AttitudeOptions`)."""
+    add_input_options(p)
+    p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe)")
+    p.add_argument("--offline", action="store_true", help="iframe: use the whole recording (forward-backward)")
+    p.add_argument("--input-stage", action="store_true",
+                   help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method")
+    p.add_argument("--mag", action="store_true", help="iframe: heading from the magnetometer")
+    p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
+    p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
+    p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
+    p.add_argument("--option", dest="options", action=_OptionsAction, default={}, metavar="KEY=VALUE",
+                   help="estimator option in SI units, e.g. gain=0.1 (repeatable)")
+
+
 def _options(items) -> dict:
     out = {}
     for item in items:
@@ -107,7 +139,7 @@ def _sun(args, t, frame):
     if fixed:
         if args.sun_azimuth is None or args.sun_elevation is None:
             raise OptinavError("--sun-azimuth and --sun-elevation go together", "give both")
-        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame.lower())
+        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame)
     if args.lat is None or args.lon is None or args.start_time is None:
         raise OptinavError("polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
                            "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
@@ -116,49 +148,17 @@ def _sun(args, t, frame):
     t0 = float(utc_seconds(args.start_time))
     times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
     sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
-    return sp.sun_vector(frame.lower())
+    return sp.sun_vector(frame)
 
 
 def _read_log(args):
-    """(t, gyr, acc, mag or None, reference or None) from a BROAD file as published or any IMU log."""
-    import numpy as np
+    """(t, gyr, acc, mag or None, reference or None): :func:`optinav.attitude.unit.read_log`."""
+    from optinav.attitude.unit import AttitudeOptions, read_log
 
-    from optinav.attitude.data import is_broad, load_broad
-
-    want_mag = args.mag or bool(args.mag_columns)
-    if is_broad(args.data) and not args.columns and not args.datasets:
-        tr = load_broad(args.data)
-        t = np.arange(tr.gyr.shape[0]) / tr.rate
-        return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
-    from optinav.io import read_imu
-    from optinav.io.readers import read_table
-
-    if args.reference:
-        raise OptinavError(f"{args.data} is not a BROAD file with opt_quat and movement",
-                           "drop --reference or pass a BROAD trial")
-    log = read_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                   time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                   delimiter=args.delimiter)
-    if log.acc is None or log.gyro is None:
-        raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
-                           "name them with --columns t,ax,ay,az,gx,gy,gz")
-    if log.acc_unit == "counts" or log.gyro_unit == "counts":
-        raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
-    ok = log.finite
-    if not np.all(ok):
-        raise OptinavError(f"{args.data} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
-    mag = None
-    if want_mag:
-        names = [s.strip() for s in (args.mag_columns or "mx,my,mz").split(",")]
-        if len(names) != 3:
-            raise OptinavError(f"--mag-columns {args.mag_columns!r} needs three names", "write e.g. mx,my,mz")
-        tab = read_table(args.data, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)),
-                         delimiter=args.delimiter)
-        mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
-        if mag.shape[0] != log.t.size:
-            raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
-    return log.t, log.gyro, log.acc, mag, None
+    o = AttitudeOptions(mag=args.mag, mag_columns=args.mag_columns, columns=args.columns, acc_unit=args.acc_unit,
+                        gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
+                        delimiter=args.delimiter, datasets=args.datasets)
+    return read_log(args.data, o, reference=args.reference)
 
 
 def run(args) -> int:
@@ -168,7 +168,7 @@ def run(args) -> int:
 
     from optinav.attitude import PolarizationMeasurement, estimate
     from optinav.attitude.checks import check_aop
-    from optinav.core.rotations import euler_from_quat, quat_from_euler
+    from optinav.core.rotations import euler_from_quat, frame_name, quat_from_euler
 
     from optinav.attitude.estimators import _method
     from optinav.attitude.estimators import _options as check_options
@@ -180,12 +180,12 @@ def run(args) -> int:
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
-    if args.reference and args.frame != "ENU":  # before the estimate, not after it
+    if args.reference and frame_name(args.frame) != "enu":  # before the estimate, not after it
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     q0 = None
     if args.q0_deg:
         e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
-        q0 = quat_from_euler(np.radians(e), args.frame.lower())
+        q0 = quat_from_euler(np.radians(e), frame_name(args.frame))
     if not args.pol_columns and any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth,
                                                              args.sun_elevation)):
         raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
@@ -223,7 +223,7 @@ def run(args) -> int:
     res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
                    offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
                    **options)
-    eul = np.degrees(euler_from_quat(res.q, args.frame.lower()))
+    eul = np.degrees(euler_from_quat(res.q, frame_name(args.frame)))
     table = np.column_stack([t, res.q, eul])
     header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
     step("write")
@@ -260,7 +260,7 @@ def _run_stream(args, method, options, q0, out) -> int:
 
     from optinav.attitude.stream import StreamChecks, StreamEstimator
     from optinav.core.progress import progress_blocks, step
-    from optinav.core.rotations import euler_from_quat
+    from optinav.core.rotations import euler_from_quat, frame_name
     from optinav.io.imu import iter_imu
 
     estimator = StreamEstimator(method, frame=args.frame, q0=q0, input_stage=args.input_stage, **options)
@@ -268,9 +268,8 @@ def _run_stream(args, method, options, q0, out) -> int:
     def blocks(desc):
         # two rows at least: the first block's first step comes from its first two times
         chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                          time_unit=args.time_unit, rate=args.rate, datasets=args.datasets or None,
-                          delimiter=args.delimiter,
-                          chunk_rows=None if args.chunk_rows is None else max(args.chunk_rows, 2))
+                          time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
+                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2))
         prev = None
         for log in progress_blocks(chunks, desc):
             if log.acc is None or log.gyro is None:
@@ -315,7 +314,7 @@ def _run_stream(args, method, options, q0, out) -> int:
                 if b > a:
                     qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
             q = np.concatenate(qs)
-            eul = np.degrees(euler_from_quat(q, args.frame.lower()))
+            eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
             np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt="%.9g")
         checks.finish_second(args.frame)
         if gaps.size and not args.allow_gaps:
@@ -379,7 +378,8 @@ def register_simulate(kinds) -> None:
             MPU-6000-class IMU and a zenith-viewing 3-channel polarization sensor (Rayleigh sky, sun by the
             NREL SPA). Writes a CSV with t [s], ax, ay, az [m/s^2], gx, gy, gz [rad/s] (body forward-right-
             down), aop_deg (angle of polarization, deg, NaN when not measured) and dop, plus STEM.truth.csv
-            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output."""),
+            (t, qw, qx, qy, qz: the true q_b^n, NED) for comparing `optinav attitude`'s output, and STEM.truth.json
+            (the truth in the result layout: q_b_n, roll, pitch, yaw; docs/results.md)."""),
         epilog=textwrap.dedent("""\
             example:
               optinav simulate flight --kind dynamic --duration 30 --seed 1 --out flight.csv
@@ -410,6 +410,7 @@ def run_simulate_flight(args) -> int:
     # measured: about 2500 B per sample at the peak, 4000 with margin
     check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
+    truth_path(out)
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
     d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
@@ -418,6 +419,10 @@ def run_simulate_flight(args) -> int:
     step("write")
     write_csv(out, cols, head, "%.10g")
     write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
+    from optinav.attitude.estimators import attitude_truth
+
+    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+                                                         "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
           f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",

@@ -43,10 +43,18 @@ def register(sub) -> None:
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
+    a.add_argument("--export", action="append", default=[], metavar="FMT:FILE",
+                   help="also write the calibration for another tool: imucal:cal.json, kalibr:imu.yaml or "
+                        "imu_tk:acc.calib,gyro.calib (repeatable; see optinav export --help)")
     add_report_option(a)
     a.set_defaults(func=run_accel, progress_task="calibrate accel")
     register_system_hooks(kinds, "register_calibrate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate accel``: the options of ``calibrate accel`` (registry hook)."""
+    add_calibration_options(p)
 
 
 def add_calibration_options(a) -> None:
@@ -77,9 +85,10 @@ def add_calibration_options(a) -> None:
                         "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
     a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
                    help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
-    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="static",
-                   help="gyro bias from the static intervals (default), per turn from the two rests it joins "
-                        "(local: a bias that drifts), from an initial rest period (--rest), or estimated with K")
+    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="local",
+                   help="gyro bias during each turn from the two rests it joins (local, the default: follows a bias "
+                        "that drifts), one mean over the static intervals (static), an initial rest period (--rest), "
+                        "or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
                    help="rest period in s for --gyro-bias rest")
     a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
@@ -91,6 +100,9 @@ def add_calibration_options(a) -> None:
     a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
                    help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
                         "datasheet value); their model error enters the scale and bias std")
+    a.add_argument("--gyro-bias-instability", type=NON_NEGATIVE, metavar="RAW",
+                   help="1-sigma gyro bias drift over the session in raw units (datasheet in-run bias instability or "
+                        "run-to-run), added to the gyro bias std: a drift common to all rests leaves no trace in them")
     a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
                    help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
                         "model leaves out; added to the gyro bias and K std")
@@ -122,6 +134,7 @@ def run_accel(args) -> int:
     from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
     out = output_path(args.out, (".json",), "RESULT.json")
+    exports = [parse_export(spec) for spec in args.export]
     prepare_report(args)
     options = FileOptions.from_args(args)
     options.check()
@@ -136,7 +149,31 @@ def run_accel(args) -> int:
         print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
     print(f"optinav: result written to {out}")
+    if exports:
+        from optinav.multipos.exchange import export_calibration
+
+        for fmt, path, gyro_path in exports:
+            for p in export_calibration(res, fmt, path, gyro_out=gyro_path, option="--export"):
+                print(f"optinav: {fmt} file written to {p}")
     from optinav.reports.calibration_report import write_calibration_report
 
     finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyro, d))
     return 0
+
+
+def parse_export(spec: str):
+    """``FMT:FILE`` of --export (imu_tk takes ``ACC,GYRO``) → (format, path, gyro path or None), the paths checked
+    before any work."""
+    from optinav.cli.common import output_path
+    from optinav.errors import OptinavError
+    from optinav.multipos.exchange import FORMATS
+
+    fmt, sep, rest = spec.partition(":")
+    if not sep or fmt not in FORMATS or not rest:
+        raise OptinavError(f"--export {spec!r} is not FMT:FILE with FMT one of {', '.join(FORMATS)}",
+                           "write e.g. --export imucal:cal.json or --export imu_tk:acc.calib,gyro.calib")
+    paths = rest.split(",") if fmt == "imu_tk" else [rest]
+    if len(paths) > 2 or not all(paths):
+        raise OptinavError(f"--export {spec!r} names {len(paths)} files", "imu_tk takes ACC,GYRO; others one file")
+    checked = [output_path(p, option="--export") for p in paths]
+    return fmt, checked[0], checked[1] if len(checked) > 1 else None

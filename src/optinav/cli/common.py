@@ -7,20 +7,33 @@ from pathlib import Path
 
 from optinav.errors import OptinavError
 
-#: per-system CLI modules; each may define ``register_simulate(kinds)`` (a kind under ``optinav simulate``) and
-#: ``register_calibrate(kinds)`` (a sensor/system under ``optinav calibrate``). Top-level commands of a system
-#: (``gfimu``, ``sun``, ``attitude``) are listed in ``main.COMMAND_MODULES`` instead.
-SYSTEM_MODULES = ["optinav.cli.rins", "optinav.cli.gfimu", "optinav.cli.attitude"]
+def shared_data_dir() -> Path:
+    """The shared data folder: ``$OPTINAV_SHARED_DATA`` if set, else ``../shared/data`` relative to the project
+    root (the folder holding ``src/optinav``; a source tree or an editable install)."""
+    import os
+
+    env = os.environ.get("OPTINAV_SHARED_DATA")
+    if env:
+        return Path(env)
+    import optinav
+
+    return (Path(optinav.__file__).resolve().parents[2] / ".." / "shared" / "data").resolve()
 
 
 def register_system_hooks(kinds, hook: str) -> None:
-    """Call ``hook`` (``register_simulate``/``register_calibrate``) of every system CLI module that has it."""
+    """Call ``hook`` (``register_simulate``/``register_calibrate``/``register_commands``) of the CLI module of
+    every system in :mod:`optinav.registry` that defines it."""
     import importlib
 
-    for name in SYSTEM_MODULES:
-        fn = getattr(importlib.import_module(name), hook, None)
-        if fn is not None:
-            fn(kinds)
+    from optinav import registry
+
+    seen = set()
+    for system in registry.systems():
+        if system.cli and system.cli not in seen:
+            seen.add(system.cli)
+            fn = getattr(importlib.import_module(system.cli), hook, None)
+            if fn is not None:
+                fn(kinds)
 
 
 def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
@@ -104,11 +117,12 @@ def add_input_options(p, *, gyro: bool = True) -> None:
 
 def add_chunk_option(p) -> None:
     """--chunk-rows: rows of a text log read, processed and written at a time (memory does not grow with the
-    log's length); None means the reader's default (optinav.io.readers.CHUNK_ROWS, not imported here: building
-    the parser loads no numpy)."""
-    p.add_argument("--chunk-rows", type=COUNT, default=None, metavar="N",
-                   help="rows of a text log processed at a time (default 200000); memory grows with N, not with "
-                        "the log's length")
+    log's length)."""
+    from optinav.core.files import CHUNK_ROWS
+
+    p.add_argument("--chunk-rows", type=COUNT, default=CHUNK_ROWS, metavar="N",
+                   help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
+                        "not with the log's length")
 
 
 def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
@@ -161,13 +175,11 @@ def truth_path(data_path) -> Path:
     return check_sidecar(p.with_name(p.stem + ".truth.json"), TRUTH_SIGNATURE)
 
 
-def write_truth(data_path, truth: dict) -> Path:
-    """Write a simulation's truth beside its data as ``STEM.truth.json`` (atomically) and return that path; the
-    ``schema`` key comes first (default ``optinav.simulation_truth``)."""
-    from optinav.core.files import write_json
-
+def write_truth(data_path, truth) -> Path:
+    """Write a simulation's :class:`~optinav.core.results.Truth` beside its data as ``STEM.truth.json``
+    (atomically) and return that path."""
     tp = truth_path(data_path)
-    write_json(tp, {"schema": truth.get("schema", "optinav.simulation_truth"), **truth})
+    truth.to_json(tp)
     return tp
 
 

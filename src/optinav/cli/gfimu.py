@@ -22,20 +22,19 @@ MAX_TABLE_RATE = 50.0
 
 
 def _load_array(config: str | None, builtin_name: str | None):
-    from optinav.gfimu.array import AccelerometerArray, builtin
+    from optinav.gfimu.unit import GfimuOptions
 
-    if config and builtin_name:
-        raise OptinavError("both CONFIG.json and --builtin were given", "pass one of them")
-    if builtin_name:
-        return builtin(builtin_name)
-    if not config:
-        raise OptinavError("no configuration given", "pass CONFIG.json or --builtin cylinder10")
-    return AccelerometerArray.load(config)
+    return GfimuOptions(config=config, builtin=builtin_name).array()
 
 
 # ------------------------------------------------------------------------------------------------------------
 # optinav gfimu analyze
 # ------------------------------------------------------------------------------------------------------------
+
+def register_commands(sub) -> None:
+    """The system's top-level command (registry hook)."""
+    register(sub)
+
 
 def register(sub) -> None:
     p = sub.add_parser("gfimu", help="gyro-free IMU: identifiability of an accelerometer array",
@@ -143,12 +142,13 @@ def run_simulate(args) -> int:
     data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
                     duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
     data.save(out)
-    truth = {"schema": "optinav.gfimu_truth", "version": 1,
-             "dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
+    from optinav.gfimu.turntable import turntable_truth
+
+    info = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
              "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
              "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
              "samples_per_case": int(round(args.duration * args.sample_rate))}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, turntable_truth(e, info))
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 
@@ -184,6 +184,30 @@ def register_calibrate(kinds) -> None:
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
     c.set_defaults(func=run_calibrate, progress_task="calibrate gfimu")
+
+
+def _offset(text: str):
+    """--offset of the batch: 'zero', 'estimate' or X,Y,Z in m (argparse type)."""
+    t = text.strip()
+    if t in ("zero", "estimate"):
+        return t
+    try:
+        return tuple(parse_floats(t, 3, "--offset", "X,Y,Z"))
+    except OptinavError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate gfimu``: the options of ``calibrate gfimu`` (registry hook; destinations are
+    the fields of :class:`optinav.gfimu.unit.GfimuOptions`)."""
+    p.add_argument("--config", metavar="CONFIG.json", help="nominal array configuration")
+    p.add_argument("--builtin", choices=["cylinder10"], help="built-in nominal configuration")
+    p.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
+    p.add_argument("--offset", type=_offset, default="zero", metavar="X,Y,Z",
+                   help="measured array centre from the table axis, body m (default zero; 'estimate' to estimate it)")
+    p.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
+                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
+    p.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
 
 
 def run_calibrate(args) -> int:

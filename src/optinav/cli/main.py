@@ -1,8 +1,11 @@
 """The ``optinav`` command: one argparse parser, subcommands registered by their modules.
 
 Each command module defines ``register(subparsers)`` that adds its parser and sets ``func`` to a callable
-``func(args) -> int``. Errors: an :class:`OptinavError` prints ``optinav: error: <cause; remedy>`` and exits 2;
-any other exception prints a one-line internal error and exits 1; ``--debug`` shows the traceback instead.
+``func(args) -> int``; a system's own top-level commands (``attitude``, ``gfimu analyze``) come from the
+``register_commands(subparsers)`` hook of its CLI module in :mod:`optinav.registry`, and its ``simulate``,
+``calibrate`` and ``batch`` entries from the other hooks there. Errors: an :class:`OptinavError` prints
+``optinav: error: <cause; remedy>`` and exits 2; any other exception prints a one-line internal error and exits
+1; ``--debug`` shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -17,9 +20,10 @@ import warnings
 from optinav import __version__
 from optinav.errors import OptinavError
 
-#: modules that define ``register(subparsers)``; later systems add theirs here
-COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.attitude",
-                   "optinav.cli.sun", "optinav.cli.gfimu", "optinav.cli.reproduce", "optinav.cli.batch"]
+#: the commands common to every system (modules defining ``register(subparsers)``); systems add theirs through
+#: :mod:`optinav.registry`
+COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
+                   "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan", "optinav.cli.export"]
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -48,7 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     import importlib
 
-    for name in COMMAND_MODULES:
+    from optinav.cli.common import register_system_hooks
+
+    for name in COMMAND_MODULES[:3]:
+        importlib.import_module(name).register(sub)
+    register_system_hooks(sub, "register_commands")
+    for name in COMMAND_MODULES[3:]:
         importlib.import_module(name).register(sub)
     return parser
 
@@ -60,8 +69,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    # --quiet reaches worker processes through the environment; restored so that one call does not silence the next
+    previous = os.environ.get("OPTINAV_QUIET")
     if args.quiet:
         os.environ["OPTINAV_QUIET"] = "1"
+    try:
+        return _dispatch(args)
+    finally:
+        if previous is None:
+            os.environ.pop("OPTINAV_QUIET", None)
+        else:
+            os.environ["OPTINAV_QUIET"] = previous
+
+
+def _dispatch(args) -> int:
     from optinav.core.files import protect_inputs
     from optinav.core.progress import task
 
@@ -100,7 +121,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 #: options that name what a command writes, never what it reads
-_OUTPUT_OPTIONS = {"out", "report", "truth_out"}
+_OUTPUT_OPTIONS = {"out", "report", "truth_out", "kalibr", "gyro_out", "export"}
 
 
 def _input_paths(args) -> list[str]:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import inspect
 import os
 import sys
 import textwrap
 import time
 
+from optinav.cli.common import shared_data_dir
 from optinav.reports import available_studies, get_study, prepare_report_dir, write_report
 
 
@@ -49,8 +51,10 @@ def run(args) -> int:
         if not progress_enabled() and not os.environ.get("OPTINAV_QUIET"):
             print(f"optinav: study {name} ...", file=sys.stderr, flush=True)  # a log, when no bar is shown
         t0 = time.perf_counter()
+        # studies that read real data take the shared data folder, resolved here (the library takes paths)
+        extra = {"data_dir": shared_data_dir()} if "data_dir" in inspect.signature(fn).parameters else {}
         with task(f"study {k}/{len(fns)} {name}"):
-            r = fn(quick=args.quick, rng=np.random.default_rng(rng.integers(2**63)))
+            r = fn(quick=args.quick, rng=np.random.default_rng(rng.integers(2**63)), **extra)
         r.elapsed = time.perf_counter() - t0
         results.append(r)
     out = write_report(results, args.out, title="optinav reproduce" + (" (quick)" if args.quick else ""))

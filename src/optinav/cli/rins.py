@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import textwrap
 
@@ -76,17 +77,18 @@ def run_simulate(args) -> int:
                  "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
     arc = np.radians(1 / 3600)
     d = simulate(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
-                 align_s=args.align, rate=args.rate, lat_deg=args.lat,
+                 align_s=args.align, rate_hz=args.rate, lat=np.radians(args.lat),
                  gyro_misalignment=None if args.gyro_misalignment_arcsec is None
                  else args.gyro_misalignment_arcsec * arc,
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
                  lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
-    truth = {"schema": "optinav.rins_truth", "version": 1, "unit": "rad",
-             "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
+    from optinav.rins.calibrate import rins_truth
+
+    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
              "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
              "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, rins_truth(p, d.alpha, d.beta, info))
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0
@@ -108,7 +110,7 @@ def register_calibrate(kinds) -> None:
               optinav calibrate rins rins.npz --method lm --out result.json --report rep
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", help="data file (.npz, .csv, .h5) with time, dtheta_x..z, dv_x..z, alpha, beta")
+    p.add_argument("data", help="data file (.npz, .csv, .h5) with t (or time), dtheta_x..z, dv_x..z, alpha, beta")
     p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
     p.add_argument("--lat", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from the file)")
     p.add_argument("--align", type=POSITIVE, metavar="S", help="longest alignment window (default: the initial rest)")
@@ -120,6 +122,19 @@ def register_calibrate(kinds) -> None:
     p.set_defaults(func=run_calibrate, progress_task="calibrate rins")
 
 
+def add_batch_options(p) -> None:
+    """``optinav batch calibrate rins``: the options of ``calibrate rins`` (registry hook; destinations are the
+    fields of :class:`optinav.rins.unit.RinsOptions`)."""
+    p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
+    p.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
+                   help="latitude in degrees (default: from each file)")
+    p.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
+                   help="longest alignment window (default: the initial rest)")
+    p.add_argument("--residual-rate", dest="residual_rate_hz", type=RATE, default=10.0, metavar="HZ",
+                   help="epochs per second of the attitude residuals (default 10)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"))
     from optinav.core.progress import step
@@ -129,7 +144,7 @@ def run_calibrate(args) -> int:
     out = output_path(args.out, (".json",), "RESULT.json")
     prepare_report(args)
     step("read")
-    data = read_rins(args.data, lat_deg=args.lat)
+    data = read_rins(args.data, lat=None if args.lat is None else math.radians(args.lat))
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     step("prepare")
@@ -160,7 +175,7 @@ def write_rins_report(res, prep, out_dir):
 
     def draw(fig):
         axs = fig.subplots(3, 1, sharex=True)
-        for k, nm in enumerate(("pitch", "roll", "yaw")):
+        for k, nm in enumerate(("roll", "pitch", "yaw")):
             axs[k].plot(t, eb[:, k], "r", lw=0.8, label="uncompensated")
             axs[k].plot(t, ea[:, k], "g", lw=0.8, label=res.method)
             axs[k].set_ylabel(f"{nm} [deg]")
@@ -170,7 +185,7 @@ def write_rins_report(res, prep, out_dir):
     study = StudyResult(name="rins-calibration", title=f"Rotational-INS non-orthogonality ({res.method})",
                         description="; ".join(res.observability.get("statements", [])),
                         tables=[Table("Angles [rad] (null = not observable)", ["angle", "value", "std"], rows),
-                                Table("Vehicle attitude RMSE [deg]", ["", "pitch", "roll", "yaw"],
+                                Table("Vehicle attitude RMSE [deg]", ["", "roll", "pitch", "yaw"],
                                       [["before", *res.rmse_before_deg], ["after", *res.rmse_after_deg]])],
                         figures=[Figure("attitude_error.png", "extracted vehicle attitude change (error)", draw,
                                         (7.0, 6.0))])

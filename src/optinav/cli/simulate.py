@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import (HEIGHT, LATITUDE, POSITIVE, RATE, SEED, check_memory, number, output_path,
+from optinav.errors import OptinavError
+from optinav.cli.common import (HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, check_memory, number,
+                                output_path,
                                 register_system_hooks, truth_path, write_truth)
 
 
@@ -45,11 +47,39 @@ def register(sub) -> None:
     a.add_argument("--height", type=HEIGHT, default=35.0, metavar="M")
     a.add_argument("--seed", type=SEED, default=0)
     a.set_defaults(func=run_accel_multipos, progress_task="simulate accel-multipos")
+    st = kinds.add_parser(
+        "static", help="a static log for noise characterisation (optinav allan), with the true noise terms",
+        description=textwrap.dedent("""\
+            An IMU at rest (z up, gravity along +z, no rotation) with the noise of a preset: white noise
+            (ARW/VRW), bias instability as flicker (1/f) noise of the datasheet coefficient B (the IEEE 952
+            term, whose Allan floor is 0.664·B) and an optional rate/acceleration random walk. Writes DATA and
+            DATA's stem + '.truth.json' with the true N, B and K of each triad in SI units."""),
+        epilog=textwrap.dedent("""\
+            example:
+              optinav simulate static --out rest.csv --hours 2 --gyro-rrw 20
+              optinav allan rest.csv --out allan.json --kalibr imu.yaml
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    st.add_argument("--out", required=True, metavar="DATA", help="output data file")
+    st.add_argument("--hours", type=POSITIVE, default=1.0, help="duration in h (default 1)")
+    st.add_argument("--preset", default="mems-mti1", help="IMU preset of the white noise and bias instability "
+                                                          "(default mems-mti1)")
+    st.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
+    st.add_argument("--gyro-rrw", type=NON_NEGATIVE, default=0.0, metavar="DEG/H/SQRT(H)",
+                    help="gyro rate random walk in deg/h/sqrt(h) (default 0)")
+    st.add_argument("--accel-rrw", type=NON_NEGATIVE, default=0.0, metavar="UG/SQRT(S)",
+                    help="accelerometer random walk in ug/sqrt(s) (default 0)")
+    st.add_argument("--acc-unit", choices=["g", "m/s^2"], default="m/s^2")
+    st.add_argument("--gyro-unit", choices=["deg/s", "rad/s"], default="rad/s")
+    st.add_argument("--seed", type=SEED, default=0)
+    st.set_defaults(func=run_static, progress_task="simulate static")
     register_system_hooks(kinds, "register_simulate")
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
 def run_accel_multipos(args) -> int:
+    import numpy as np
+
     from optinav.core.progress import step
     from optinav.core.units import factor
     from optinav.io import ImuLog, write_imu
@@ -67,7 +97,7 @@ def run_accel_multipos(args) -> int:
                  "this session", "shorten --dwell/--rest/--transition or lower --rate")
     step("simulate")
     s = simulate(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
-                 transition_s=args.transition, rest_s=args.rest, lat_deg=args.latitude,
+                 transition_s=args.transition, rest_s=args.rest, lat=np.radians(args.latitude),
                  height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                  jitter=args.jitter, rng=args.seed)
     # the log holds SI or counts; write_imu converts SI back to the requested file unit
@@ -78,7 +108,9 @@ def run_accel_multipos(args) -> int:
     step("write")
     write_imu(out, log, acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
               gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
-    truth = {"schema": "optinav.simulation_truth", "version": 1, "model": "raw = K x + b",
+    from optinav.multipos.result import session_truth
+
+    info = {"model": "raw = K x + b",
              "units": {"accelerometer_raw": args.acc_unit, "accelerometer": "m/s^2",
                        "gyroscope_raw": args.gyro_unit, "gyroscope": "rad/s", "time": "s"},
              "accelerometer": {"K": s.acc_K.tolist(), "b": s.acc_b.tolist(),
@@ -87,8 +119,57 @@ def run_accel_multipos(args) -> int:
              "gravity": s.gravity, "latitude_deg": args.latitude, "height_m": args.height,
              "static_intervals": s.static_intervals.tolist(), "up_dirs": s.up_dirs.tolist(),
              "poses": s.descriptions, "seed": args.seed, "preset": args.preset, "truth": args.truth}
-    tp = write_truth(out, truth)
+    tp = write_truth(out, session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit=args.acc_unit,
+                                        gyro_unit=args.gyro_unit, info=info))
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")
+    return 0
+
+
+def run_static(args) -> int:
+    """``optinav simulate static``: white + flicker + random-walk noise at rest, SI truth beside the data."""
+    import numpy as np
+
+    from optinav.core.earth import gravity
+    from optinav.core.imu_model import flicker_noise, preset, random_walk, white_noise
+    from optinav.core.progress import step
+    from optinav.core.units import to_si
+    from optinav.io import ImuLog, write_imu
+
+    out = output_path(args.out)
+    truth_path(out)
+    spec = preset(args.preset)
+    rate = args.rate or spec.sample_rate
+    n = int(round(args.hours * 3600 * rate))
+    # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
+    check_memory(n, 600, "this log", "shorten --hours or lower --rate")
+    if n < 1000:
+        raise OptinavError(f"{args.hours:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands",
+                           "raise --hours")
+    dt = 1.0 / rate
+    rng = np.random.default_rng(args.seed)
+    terms = {"accelerometer": (spec.accel_vrw, spec.accel_bias_instability,
+                               np.full(3, to_si(args.accel_rrw, "ug/sqrt(s)"))),
+             "gyroscope": (spec.gyro_arw, spec.gyro_bias_instability,
+                           np.full(3, to_si(args.gyro_rrw, "deg/h/sqrt(h)")))}
+    data = {}
+    step("simulate")
+    for name, (N, B, K) in terms.items():
+        data[name] = white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
+    g = float(gravity(np.radians(45.0), 0.0))
+    acc = data["accelerometer"] + np.array([0.0, 0.0, g])
+    log = ImuLog(t=np.arange(n) * dt, acc=acc, gyro=data["gyroscope"], source="optinav simulate static")
+    step("write")
+    write_imu(out, log, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit)
+    truth = {"schema": "optinav.simulation_truth", "version": 1, "kind": "static",
+             "units": {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2",
+                                         "random_walk": "m/s^2/sqrt(s)"},
+                       "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s",
+                                     "random_walk": "rad/s/sqrt(s)"}},
+             **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
+                for name, (N, B, K) in terms.items()},
+             "rate_hz": rate, "gravity": g, "preset": args.preset, "seed": args.seed}
+    tp = write_truth(out, truth)
+    print(f"optinav: wrote {n} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
     return 0

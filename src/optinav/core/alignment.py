@@ -24,7 +24,7 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import (dcm_from_quat, euler_from_dcm, quat_from_dcm, quat_from_rotvec, quat_multiply,
+from optinav.core.rotations import (CORE_FRAME, frame_name, dcm_from_quat, euler_from_dcm, quat_from_dcm, quat_from_rotvec, quat_multiply,
                                     rotvec_from_dcm, skew)
 from optinav.core.strapdown import attitude_update
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
@@ -67,13 +67,14 @@ def _axes(up, rate):
     return np.column_stack([e, np.cross(u, e), u])
 
 
-def coarse_alignment(f_b, omega_b, lat, h=0.0, frame="enu", earth="wgs84") -> AlignmentResult:
-    """Analytic static alignment from mean specific force ``f_b`` (m/s²) and angular rate ``omega_b`` (rad/s).
+def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> AlignmentResult:
+    """Analytic static alignment from mean specific force ``acc`` (m/s²) and angular rate ``gyr`` (rad/s).
 
-    ``f_b``, ``omega_b``: (3,) window means, or (N, 3) samples (averaged here). ``lat`` in rad.
+    ``acc``, ``gyr``: (3,) window means, or (N, 3) samples (averaged here). ``lat`` in rad, ``height_m`` in m.
     """
-    f = as_float_array(f_b, "f_b", last_dims=(3,)).reshape(-1, 3).mean(axis=0)
-    w = as_float_array(omega_b, "omega_b", last_dims=(3,)).reshape(-1, 3).mean(axis=0)
+    h, frame = height_m, frame_name(frame)
+    f = as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3).mean(axis=0)
+    w = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(-1, 3).mean(axis=0)
     g = float(_earth.gravity(lat, h, earth))
     nf = np.linalg.norm(f)
     if not 0.5 * g < nf < 1.5 * g:
@@ -88,14 +89,15 @@ def coarse_alignment(f_b, omega_b, lat, h=0.0, frame="enu", earth="wgs84") -> Al
     return AlignmentResult("coarse", frame, q, euler_from_dcm(c_b_n, frame), np.full(3, np.nan))
 
 
-def alignment_limits(gyro_bias_n, accel_bias_n, lat, h=0.0, frame="enu", earth="wgs84") -> np.ndarray:
+def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Theoretical static-alignment errors φ (rad, navigation axes) caused by biases given in the n frame.
 
     First order: in ENU, φ_E = −∇_N/g, φ_N = ∇_E/g, φ_U = −ε_E/(ω_ie cos L) + ∇_E tan L / g, with
     ``C_b^n(computed) = (I − [φ×]) C_b^n(true)``. NED inputs/outputs are converted.
     """
+    frame = frame_name(frame)
     e = _earth.constants(earth)
-    g = float(_earth.gravity(lat, h, earth))
+    g = float(_earth.gravity(lat, height_m, earth))
     eps = np.asarray(gyro_bias_n, dtype=float)
     nab = np.asarray(accel_bias_n, dtype=float)
     if frame == "ned":  # to ENU
@@ -131,14 +133,14 @@ def _error_model(c_b_n, lat, h, frame, earth):
     return F, G
 
 
-def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=None,
+def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth="wgs84", q0=None,
                    gyro_white=1e-6, accel_white=1e-4, gyro_bias_std=1e-6, accel_bias_std=1e-3,
                    initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1,
                    gyro_bias_instability=0.0, gyro_bias_tau=np.inf, accel_bias_instability=0.0,
                    accel_bias_tau=np.inf) -> AlignmentResult:
     """Kalman-filter fine alignment on a static base from increments ``dtheta`` (rad), ``dv`` (m/s).
 
-    ``t``: (N+1,) epochs (s); increments over (t[k], t[k+1]]. ``q0``: initial attitude (default: coarse
+    ``t``: (N+1,) epochs (s); increments over (t[k], t[k+1]]; ``lat`` (rad), ``height_m`` (m). ``q0``: initial attitude (default: coarse
     alignment on the data). Noise: ``gyro_white`` ARW (rad/√s), ``accel_white`` VRW (m/s/√s); prior 1σ of the
     biases (rad/s, m/s²) and of the initial attitude error (rad, navigation axes). ``velocity_noise`` (m/s,
     1σ of the zero-velocity measurement; default from the VRW over one filter step). The filter steps every
@@ -148,6 +150,7 @@ def fine_alignment(t, dtheta, dv, lat, h=0.0, *, frame="enu", earth="wgs84", q0=
     drifts: gyrocompassing reads heading from the tilt rate, and an accelerometer bias drifting by ∇/τ looks
     like a heading error of (∇/τ)/(g ω_ie cos L) to a filter that believes the bias constant.
     """
+    h, frame = height_m, frame_name(frame)
     t = check_timestamps(t, "t")
     dth = as_float_array(dtheta, "dtheta", last_dims=(3,))
     dvv = as_float_array(dv, "dv", last_dims=(3,))

@@ -3,8 +3,12 @@
 ``allan_deviation`` computes the overlapping Allan deviation of rate samples (ω rad/s, f m/s²) or of
 increments (Δθ, Δv) at cluster times τ = m·dt, with an approximate confidence interval from the
 equivalent degrees of freedom (EDF) of the estimate. ``noise_parameters_from_allan`` reads the noise
-coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −1, −1/2, 0, +1/2), and
-``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations).
+coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −1, −1/2, 0, +1/2),
+``fit_noise_model`` fits the four-term model to the whole curve (generalized least squares with the χ² variance
+and the octave-to-octave correlation of the estimates; not biased by neighbouring terms as the read-off is), and
+``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations). A long log read
+in blocks is folded into an :class:`AngleAccumulator` and passed to ``allan_deviation_from_angle``;
+:class:`AllanAnalysis` is the result of ``optinav allan`` (and :func:`kalibr_noise` its Kalibr keys).
 
 Frequency-stability names of the noise terms (rate ↔ fractional frequency, angle ↔ phase):
 quantization = white PM (α = 2), white rate noise (ARW / VRW) = white FM (α = 0), bias instability =
@@ -71,7 +75,10 @@ class AllanNoiseParameters(Result):
     ``bias_instability`` B in [u], ``random_walk`` K in [u]/√s, ``quantization`` Q in [u]·s (rad or m/s).
     Each ``*_tau`` is the τ range midpoint the value was read at, each ``*_rel_sigma`` its approximate
     relative 1σ uncertainty, 1/√(2·EDF) of the best point used (points at neighbouring τ are correlated,
-    so pooling them would overstate the precision).
+    so pooling them would overstate the precision), and each ``*_interval`` [lower, upper] (shape (2,) or
+    (2, k)) the ``confidence`` interval of the coefficient from the χ² law with that EDF. The intervals
+    cover sampling error only: the read-off is also biased by the neighbouring noise terms (up to 7 % at
+    the slope tolerance 0.125); :func:`fit_noise_model` is not.
     """
 
     SCHEMA = "optinav.allan_noise_parameters"
@@ -90,6 +97,12 @@ class AllanNoiseParameters(Result):
     random_walk_rel_sigma: np.ndarray = field(metadata={"unit": "1"})
     quantization_rel_sigma: np.ndarray = field(metadata={"unit": "1"})
     unit: str = field(default="", metadata={"unit": "-"})
+    #: two-sided ``confidence`` interval of each coefficient from the χ² law of the point it was read at
+    white_interval: np.ndarray = field(default=None, metadata={"unit": "[unit]*sqrt(s)"})
+    bias_instability_interval: np.ndarray = field(default=None, metadata={"unit": "[unit]"})
+    random_walk_interval: np.ndarray = field(default=None, metadata={"unit": "[unit]/sqrt(s)"})
+    quantization_interval: np.ndarray = field(default=None, metadata={"unit": "[unit]*s"})
+    confidence: float = field(default=0.683, metadata={"unit": "1"})
 
 
 def _edf(n_phase: int, m: np.ndarray, alpha: np.ndarray) -> np.ndarray:
@@ -141,8 +154,86 @@ def _alpha_from_slopes(tau: np.ndarray, adev: np.ndarray) -> np.ndarray:
     return np.select([mu == -2, mu == -1, mu == 0], [2, 0, -1], -2)
 
 
+#: rows of θ differenced at a time: bounds the temporary memory of long records (≈ 8 MB per column)
+CHUNK_ROWS = 1 << 20
+
+
+class AngleAccumulator:
+    """θ_k = Σ_{i<k} (x_i − offset)·dt (rates) or Σ (x_i − offset) (increments), built block by block, so a long
+    log can be read in chunks and forgotten (only θ, one float per sample and column, is kept).
+
+    ``offset`` (k,): subtracted from every sample; it leaves the second differences of θ unchanged but keeps θ
+    small, avoiding cancellation (default: the first block's mean). ``add(block)`` appends (n_i, k) samples;
+    :func:`allan_deviation_from_angle` computes the deviation.
+    """
+
+    def __init__(self, dt: float, *, kind: str = "rate", offset=None):
+        if kind not in _KINDS:
+            raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
+        if np.ndim(dt) != 0:
+            raise OptinavError("the Allan deviation needs one regular sample interval dt",
+                               "resample an irregular log to a constant rate first")
+        self.dt = check_positive(dt, "dt")
+        self.kind = kind
+        self.offset = None if offset is None else np.asarray(offset, float).ravel()
+        self._blocks: list[np.ndarray] = []
+        self._carry: np.ndarray | None = None
+        self.n = 0
+
+    def add(self, block) -> None:
+        X = as_float_array(block, "x")
+        X = X[:, None] if X.ndim == 1 else X
+        if X.ndim != 2 or X.shape[0] == 0:
+            raise OptinavError(f"a block has shape {X.shape}; expected (n, k) samples", "pass one column per axis")
+        if self.offset is None:
+            self.offset = X.mean(axis=0)
+        if self._carry is None:
+            self._carry = np.zeros(X.shape[1])
+        if X.shape[1] != self._carry.size or self.offset.size != X.shape[1]:
+            raise OptinavError(f"a block has {X.shape[1]} columns, the first had {self._carry.size}",
+                               "pass blocks of the same columns")
+        scale = self.dt if self.kind == "rate" else 1.0
+        for a in range(0, X.shape[0], CHUNK_ROWS):
+            th = np.cumsum((X[a:a + CHUNK_ROWS] - self.offset) * scale, axis=0)
+            th += self._carry
+            self._carry = th[-1].copy()
+            self._blocks.append(th)
+        self.n += X.shape[0]
+
+    def set_dt(self, dt: float) -> None:
+        """Replace the sample interval once the whole log is known (θ of rates is rescaled to match)."""
+        dt = check_positive(dt, "dt")
+        if self.kind == "rate" and self._carry is not None:
+            for th in self._blocks:
+                th *= dt / self.dt
+            self._carry = self._carry * (dt / self.dt)
+        self.dt = dt
+
+    def theta(self) -> np.ndarray:
+        """(n + 1, k) θ with θ_0 = 0 (the blocks joined once; later calls reuse the joined array)."""
+        if self._carry is None:
+            raise OptinavError("no samples were added", "add the log's blocks first")
+        if len(self._blocks) != 1 or self._blocks[0].shape[0] != self.n + 1:
+            self._blocks = [np.concatenate([np.zeros((1, self._carry.size))] + self._blocks)]
+        return self._blocks[0]
+
+
+def _overlapping_avar(theta: np.ndarray, dt: float, m: np.ndarray, progress_desc: str | None) -> np.ndarray:
+    """Overlapping Allan variance (n_tau, k) at cluster sizes m from θ (n+1, k), chunk by chunk."""
+    from optinav.core.progress import progress
+
+    n, k = theta.shape[0] - 1, theta.shape[1]
+    jobs = [(i, int(mi), a) for i, mi in enumerate(m) for a in range(0, n + 1 - 2 * int(mi), CHUNK_ROWS)]
+    sums = np.zeros((m.size, k))
+    for i, mi, a in progress(jobs, total=len(jobs), desc=progress_desc or "", enabled=None if progress_desc else False):
+        b = min(a + CHUNK_ROWS, n + 1 - 2 * mi)
+        d = theta[a + 2 * mi:b + 2 * mi] - 2.0 * theta[a + mi:b + mi] + theta[a:b]
+        sums[i] += np.einsum("ij,ij->j", d, d)
+    return sums / (2.0 * ((m * dt) ** 2 * (n + 1 - 2 * m)))[:, None]
+
+
 def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto", confidence: float = 0.683,
-                    unit: str = "") -> AllanDeviation:
+                    unit: str = "", progress_desc: str | None = None) -> AllanDeviation:
     """Overlapping Allan deviation of regularly sampled rate or increment data.
 
     x: (N,) or (N, k) samples — rates (``kind="rate"``, e.g. rad/s) or increments over dt
@@ -157,13 +248,11 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
 
     The angle θ_k = Σ x·dt (or Σ Δ) is formed with cumulative sums and
     σ²(τ) = Σ_k (θ_{k+2m} − 2θ_{k+m} + θ_k)² / (2τ²(N + 1 − 2m)) (NIST SP 1065 eq. 11).
+    Long records (hours at 1 kHz) are summed in chunks of :data:`CHUNK_ROWS` rows, so the memory beyond θ
+    (one (N+1, k) array) stays bounded; ``progress_desc`` shows a progress bar over the chunks.
     """
     if kind not in _KINDS:
         raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
-    if noise != "auto" and noise not in NOISE_ALPHA:
-        raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
-    if not 0.0 < float(confidence) < 1.0:
-        raise OptinavError(f"confidence must lie in (0, 1), got {confidence!r}", "pass e.g. 0.683 for 1σ")
     if np.ndim(dt) != 0:
         raise OptinavError("allan_deviation needs one regular sample interval dt",
                            "resample an irregular log to a constant rate first")
@@ -173,10 +262,30 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
         raise OptinavError(f"x must be (N,) or (N, k), got shape {x.shape}", "pass one column per axis")
     one_d = x.ndim == 1
     X = x[:, None] if one_d else x
-    n = X.shape[0]
-    if n < 4:
-        raise OptinavError(f"x has {n} samples; the Allan deviation needs at least 4", "record a longer log")
+    if X.shape[0] < 4:
+        raise OptinavError(f"x has {X.shape[0]} samples; the Allan deviation needs at least 4", "record a longer log")
+    acc = AngleAccumulator(dt, kind=kind, offset=X.mean(axis=0))
+    acc.add(X)
+    res = allan_deviation_from_angle(acc, taus, noise=noise, confidence=confidence, unit=unit,
+                                     progress_desc=progress_desc)
+    if one_d:
+        for name in ("adev", "lower", "upper", "edf", "alpha"):
+            setattr(res, name, getattr(res, name)[:, 0])
+    return res
 
+
+def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str = "auto",
+                               confidence: float = 0.683, unit: str = "", progress_desc: str | None = None
+                               ) -> AllanDeviation:
+    """:func:`allan_deviation` of the samples gathered in an :class:`AngleAccumulator` (a streamed log);
+    arrays are (n_tau, k)."""
+    if noise != "auto" and noise not in NOISE_ALPHA:
+        raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
+    if not 0.0 < float(confidence) < 1.0:
+        raise OptinavError(f"confidence must lie in (0, 1), got {confidence!r}", "pass e.g. 0.683 for 1σ")
+    n, dt, kind = angle.n, angle.dt, angle.kind
+    if n < 4:
+        raise OptinavError(f"the record has {n} samples; the Allan deviation needs at least 4", "record a longer log")
     if taus is None:
         m = 2 ** np.arange(int(np.floor(np.log2(max(n // 4, 1)))) + 1)
     else:
@@ -187,14 +296,7 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
         if m[0] < 1 or m[-1] > n // 2:
             raise OptinavError(f"taus must lie between dt = {dt:.6g} s and N·dt/2 = {n // 2 * dt:.6g} s",
                                "choose cluster times the record can resolve")
-    # removing the mean leaves the second differences unchanged but keeps θ small, avoiding cancellation
-    inc = (X - X.mean(axis=0)) * (dt if kind == "rate" else 1.0)
-    theta = np.zeros((n + 1, X.shape[1]))
-    np.cumsum(inc, axis=0, out=theta[1:])
-    avar = np.empty((m.size, X.shape[1]))
-    for i, mi in enumerate(m):
-        d = theta[2 * mi:] - 2.0 * theta[mi:n + 1 - mi] + theta[:n + 1 - 2 * mi]
-        avar[i] = np.einsum("ij,ij->j", d, d) / (2.0 * (mi * dt) ** 2 * (n + 1 - 2 * mi))
+    avar = _overlapping_avar(angle.theta(), dt, m, progress_desc)
     tau = m * dt
     adev = np.sqrt(avar)
     if noise == "auto":
@@ -205,8 +307,6 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
     c = float(confidence)
     lower = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 + c), edf))
     upper = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 - c), edf))
-    if one_d:
-        adev, lower, upper, edf, alpha = adev[:, 0], lower[:, 0], upper[:, 0], edf[:, 0], alpha[:, 0]
     return AllanDeviation(tau=tau, adev=adev, lower=lower, upper=upper, edf=edf, alpha=alpha, m=m, dt=dt,
                           n_samples=int(n), confidence=c, kind=kind, unit=unit)
 
@@ -306,6 +406,207 @@ def noise_parameters_from_allan(result: AllanDeviation, *, tol: float = 0.125, m
             out["bias_instability"][j] = A[i, j] / FLICKER_FLOOR
             out["bias_instability_tau"][j] = tau[i]
             out["bias_instability_rel_sigma"][j] = 1.0 / math.sqrt(2.0 * e[i])
+    c = float(result.confidence)
+    for name in ("white", "bias_instability", "random_walk", "quantization"):
+        out[name + "_interval"] = _chi2_interval(out[name], out[name + "_rel_sigma"], c)
     if one_d:
-        out = {key: float(val[0]) for key, val in out.items()}
-    return AllanNoiseParameters(**out, unit=result.unit)
+        out = {key: (val[:, 0] if key.endswith("_interval") else float(val[0])) for key, val in out.items()}
+    return AllanNoiseParameters(**out, unit=result.unit, confidence=c)
+
+
+def _chi2_interval(value: np.ndarray, rel_sigma: np.ndarray, confidence: float) -> np.ndarray:
+    """(2, k) interval of a deviation-like value read at a point of EDF 1/(2·rel_sigma²)."""
+    value, rel = np.asarray(value, float), np.asarray(rel_sigma, float)
+    out = np.full((2, value.size), np.nan)
+    ok = np.isfinite(value) & np.isfinite(rel) & (rel > 0)
+    if np.any(ok):
+        edf = 1.0 / (2.0 * rel[ok] ** 2)
+        out[0, ok] = value[ok] * np.sqrt(edf / stats.chi2.ppf(0.5 * (1 + confidence), edf))
+        out[1, ok] = value[ok] * np.sqrt(edf / stats.chi2.ppf(0.5 * (1 - confidence), edf))
+    return out
+
+
+@dataclass(eq=False)
+class AllanNoiseFit(Result):
+    """Noise coefficients fitted to the whole Allan variance curve (see :func:`fit_noise_model`).
+
+    Units as :class:`AllanNoiseParameters` (data in rate unit ``[u]``: N [u]·√s, B [u], K [u]/√s, Q [u]·s);
+    arrays (k,) per column, or floats for one series. ``*_std`` is the 1σ of the coefficient (delta method
+    from the variance coefficient), ``*_interval`` [lower, upper] the ``confidence`` interval (the variance
+    coefficient as a scaled χ² with ν = 2(c/σ_c)² degrees of freedom, square-rooted); a term fitted to zero is
+    0 with the upper bound √(z·σ_c) (as is one with ν < 1, up to √(ĉ + z·σ_c)). ``chi2_dof`` is the weighted residual per degree of freedom (≈ 1 when the four-term model fits).
+    """
+
+    SCHEMA = "optinav.allan_noise_fit"
+    VERSION = 1
+
+    white: np.ndarray = field(metadata={"unit": "[unit]*sqrt(s)"})
+    bias_instability: np.ndarray = field(metadata={"unit": "[unit]"})
+    random_walk: np.ndarray = field(metadata={"unit": "[unit]/sqrt(s)"})
+    quantization: np.ndarray = field(metadata={"unit": "[unit]*s"})
+    white_std: np.ndarray = field(metadata={"unit": "[unit]*sqrt(s)"})
+    bias_instability_std: np.ndarray = field(metadata={"unit": "[unit]"})
+    random_walk_std: np.ndarray = field(metadata={"unit": "[unit]/sqrt(s)"})
+    quantization_std: np.ndarray = field(metadata={"unit": "[unit]*s"})
+    white_interval: np.ndarray = field(metadata={"unit": "[unit]*sqrt(s)"})
+    bias_instability_interval: np.ndarray = field(metadata={"unit": "[unit]"})
+    random_walk_interval: np.ndarray = field(metadata={"unit": "[unit]/sqrt(s)"})
+    quantization_interval: np.ndarray = field(metadata={"unit": "[unit]*s"})
+    chi2_dof: np.ndarray = field(metadata={"unit": "1"})
+    confidence: float = field(default=0.683, metadata={"unit": "1"})
+    unit: str = field(default="", metadata={"unit": "-"})
+
+
+#: terms of the Allan-variance model, in the order of the fit's columns: σ²(τ) = Σ c_i·basis_i(τ)
+FIT_TERMS = ("quantization", "white", "bias_instability", "random_walk")
+
+#: relative 1σ of the four-term model itself on the Allan variance (a 5 % floor on the deviation): sampled
+#: flicker noise, anti-alias filters and Gauss–Markov bumps depart from the model by several percent at some τ,
+#: while the EDF of the short-τ points claims a precision of 0.1 %; without the floor those points dictate the fit
+FIT_MODEL_FLOOR = 0.05
+
+
+#: correlation of overlapping Allan-variance estimates one octave apart, by noise type α (measured on simulated
+#: white, flicker and random-walk rate noise, 400 records each; two octaves apart it is about the square)
+OCTAVE_CORRELATION = {2: 0.5, 1: 0.5, 0: 0.5, -1: 0.68, -2: 0.87}
+
+
+def _octave_correlation(tau: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Correlation matrix of the Allan-variance estimates at ``tau``: ρ^(octaves apart), ρ from the noise type
+    of the points in between (a chain: the product of the neighbouring correlations)."""
+    rho = np.array([OCTAVE_CORRELATION.get(int(a), 0.5) for a in alpha])
+    step = np.sqrt(rho[:-1] * rho[1:]) ** np.log2(tau[1:] / tau[:-1])
+    cum = np.concatenate(([0.0], np.cumsum(np.log(step))))
+    return np.exp(-np.abs(cum[:, None] - cum[None, :]))
+
+
+def _whitener(model: np.ndarray, edf: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """L⁻¹ of the Cholesky factor of the estimates' covariance D·R·D, D = model·√(2/EDF + floor²)."""
+    d = np.maximum(model, np.finfo(float).tiny) * np.sqrt(2.0 / edf + FIT_MODEL_FLOOR**2)
+    C = np.linalg.cholesky(R * np.outer(d, d) + np.diag((1e-12 * d) ** 2))
+    return np.linalg.inv(C)
+
+
+def _fit_basis(tau: np.ndarray) -> np.ndarray:
+    return np.column_stack([3.0 / tau**2, 1.0 / tau, np.full(tau.shape, FLICKER_FLOOR**2), tau / 3.0])
+
+
+def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int = 4) -> AllanNoiseFit:
+    """Fit σ²(τ) = 3Q²/τ² + N²/τ + (2 ln2/π)·B² + K²τ/3 (IEEE Std 952-1997 Annex C) to an Allan deviation.
+
+    The model is linear in (Q², N², B², K²): non-negative weighted least squares (scipy ``nnls``) with each
+    covariance of the Allan variances built from σ²_model²·(2/EDF + :data:`FIT_MODEL_FLOOR`²) (the χ² variance of
+    the estimate plus the model's own error) and the correlation of neighbouring octaves
+    (:data:`OCTAVE_CORRELATION`), iterated so the weights come from the model rather than the noisy estimate.
+    Unlike the slope read-off it is not biased by the neighbouring terms. ``terms``: the terms to fit (others
+    held at 0). The standard deviations are the least-squares ones scaled by √(χ²/dof) when that exceeds 1.
+    """
+    from scipy.optimize import nnls
+
+    if not isinstance(result, AllanDeviation):
+        raise OptinavError("fit_noise_model needs the result of allan_deviation", "call allan_deviation(x, dt) first")
+    unknown = set(terms) - set(FIT_TERMS)
+    if unknown or not terms:
+        raise OptinavError(f"unknown noise term(s) {sorted(unknown)}", f"choose from {', '.join(FIT_TERMS)}")
+    use = np.array([t in terms for t in FIT_TERMS])
+    tau = np.asarray(result.tau, float)
+    if tau.size <= int(use.sum()):
+        raise OptinavError(f"the Allan deviation has {tau.size} cluster times, too few to fit {int(use.sum())} terms",
+                           "compute it at more cluster times (a longer record)")
+    adev = np.asarray(result.adev, float)
+    edf = np.asarray(result.edf, float)
+    one_d = adev.ndim == 1
+    A2, E = (adev[:, None] ** 2, edf[:, None]) if one_d else (adev**2, edf)
+    k = A2.shape[1]
+    basis = _fit_basis(tau)[:, use]
+    z = float(stats.norm.ppf(0.5 * (1 + float(result.confidence))))
+    coef = np.zeros((4, k))
+    cstd = np.full((4, k), np.nan)
+    chi2 = np.full(k, np.nan)
+    alphas = np.asarray(result.alpha).reshape(tau.size, -1)
+    for j in range(k):
+        y, e = A2[:, j], E[:, j]
+        if not np.all(np.isfinite(y)) or np.all(y <= 0):
+            continue
+        R = _octave_correlation(tau, alphas[:, j])
+        model = y.copy()
+        for _ in range(iterations):
+            L = _whitener(model, e, R)
+            c, _ = nnls(L @ basis, L @ y)
+            new = basis @ c
+            if np.all(new > 0):
+                model = new
+        L = _whitener(model, e, R)
+        Aw = L @ basis
+        cov = np.linalg.pinv(Aw.T @ Aw)
+        coef[use, j] = c
+        r = L @ (y - model)
+        chi2[j] = float(r @ r) / max(tau.size - int(use.sum()), 1)
+        cstd[use, j] = np.sqrt(np.maximum(np.diag(cov), 0.0) * max(chi2[j], 1.0))
+    value = np.sqrt(coef)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        std = np.where(value > 0, cstd / (2.0 * value), np.sqrt(cstd))
+    # ĉ is a weighted sum of χ²-distributed variances: treat it as c·χ²_ν/ν with ν = 2(ĉ/σ_c)² (Satterthwaite), the
+    # skewed interval the single-point estimates have
+    conf = float(result.confidence)
+    lo, hi = np.zeros_like(coef), np.sqrt(coef + z * np.nan_to_num(cstd))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pos = (coef > 0) & (cstd > 0) & (coef >= cstd / np.sqrt(2.0))  # ν ≥ 1; below it, [0, √(ĉ + z·σ_c)]
+    nu = 2.0 * (coef[pos] / cstd[pos]) ** 2
+    lo[pos] = np.sqrt(coef[pos] * nu / stats.chi2.ppf(0.5 * (1 + conf), nu))
+    hi[pos] = np.sqrt(coef[pos] * nu / stats.chi2.ppf(0.5 * (1 - conf), nu))
+    out = {}
+    for i, name in enumerate(FIT_TERMS):
+        if not use[i]:
+            out[name], out[name + "_std"] = np.zeros(k), np.zeros(k)
+            out[name + "_interval"] = np.zeros((2, k))
+        else:
+            out[name], out[name + "_std"] = value[i], std[i]
+            out[name + "_interval"] = np.vstack([lo[i], hi[i]])
+    out["chi2_dof"] = chi2
+    if one_d:
+        out = {key: (val[:, 0] if key.endswith("_interval") else float(val[0])) for key, val in out.items()}
+    return AllanNoiseFit(**out, confidence=float(result.confidence), unit=result.unit)
+
+
+@dataclass(eq=False)
+class AllanAnalysis(Result):
+    """The noise characterisation of an IMU log (``optinav allan``), per sensor.
+
+    ``accelerometer`` / ``gyroscope``: None or ``{"deviation": AllanDeviation, "read_off":
+    AllanNoiseParameters, "fit": AllanNoiseFit}`` of the three axes, in the data's rate unit (``unit`` of each;
+    m/s² and rad/s for SI data). ``kalibr``: the continuous-time noise in Kalibr's convention from the fit —
+    ``*_noise_density`` = N (m/s²/√Hz, rad/s/√Hz), ``*_random_walk`` = K (m/s³/√Hz, rad/s²/√Hz), the largest
+    axis (a filter tuned with it is not over-confident on any axis), and ``update_rate`` (Hz).
+    """
+
+    SCHEMA = "optinav.allan"
+    VERSION = 1
+
+    accelerometer: dict | None = field(default=None, metadata={"unit": "m/s^2 | counts"})
+    gyroscope: dict | None = field(default=None, metadata={"unit": "rad/s | counts"})
+    rate_hz: float = field(default=float("nan"), metadata={"unit": "Hz"})
+    n_samples: int = field(default=0, metadata={"unit": "1"})
+    duration_s: float = field(default=float("nan"), metadata={"unit": "s"})
+    kalibr: dict = field(default_factory=dict, metadata={"unit": "Kalibr's (see the docstring)"})
+    source: str = field(default="", metadata={"unit": "-"})
+    rostopic: str = field(default="", metadata={"unit": "-"})
+
+    def sensor(self, name: str) -> dict | None:
+        return self.accelerometer if name == "accelerometer" else self.gyroscope
+
+
+#: Kalibr's key prefix and continuous-time units of each sensor (noise density, random walk)
+KALIBR_UNITS = {"accelerometer": ("m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
+                "gyroscope": ("rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)")}
+
+
+def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
+    """Kalibr's ``{sensor}_noise_density`` (N) and ``{sensor}_random_walk`` (K) of a fit in SI units, the largest
+    axis of each; a random walk fitted to 0 (not seen in the record) becomes the upper end of its interval."""
+    N = np.atleast_1d(np.asarray(fit.white, float))
+    K = np.atleast_1d(np.asarray(fit.random_walk, float))
+    K_hi = np.asarray(fit.random_walk_interval, float).reshape(2, -1)[1]
+    K_used = np.where(K > 0, K, K_hi)
+    return {f"{sensor}_noise_density": float(np.nanmax(N)), f"{sensor}_random_walk": float(np.nanmax(K_used)),
+            f"{sensor}_random_walk_detected": bool(np.all(K > 0))}

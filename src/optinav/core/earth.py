@@ -1,6 +1,6 @@
 """Earth model: constant sets, normal gravity, Earth and transport rates, radii of curvature.
 
-Navigation frame vectors are returned in ``frame="enu"`` (east, north, up; default) or ``"ned"``.
+Navigation frame vectors are returned in ``frame=CORE_FRAME`` (east, north, up; default) or ``"ned"``.
 Latitude ``lat`` in rad, height ``h`` in m above the ellipsoid, velocities in m/s in the navigation frame.
 
 Two constant sets:
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from optinav.core.rotations import CORE_FRAME, frame_name
 from optinav.errors import OptinavError
 
 
@@ -64,16 +65,9 @@ def constants(name: str | EarthConstants = "wgs84") -> EarthConstants:
         raise OptinavError(f"unknown Earth constant set {name!r}", "use 'wgs84' or 'psins'") from None
 
 
-def check_frame(frame: str) -> str:
-    """Validated navigation-frame name, lower case: "enu" or "ned"."""
-    f = str(frame).lower()
-    if f not in ("enu", "ned"):
-        raise OptinavError(f"unknown navigation frame {frame!r}", "use 'enu' or 'ned'")
-    return f
-
-
-def radii(lat, h=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
-    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``h`` (m)."""
+def radii(lat, height_m=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
+    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``height_m`` (m)."""
+    h = height_m
     e = constants(earth)
     s2 = np.sin(np.asarray(lat, dtype=float)) ** 2
     w = np.sqrt(1.0 - e.e2 * s2)
@@ -82,11 +76,11 @@ def radii(lat, h=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
     return rm + h, rn + h
 
 
-def gravity(lat, h=0.0, earth="wgs84") -> np.ndarray:
-    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``h`` (m)."""
+def gravity(lat, height_m=0.0, earth="wgs84") -> np.ndarray:
+    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``height_m`` (m)."""
     e = constants(earth)
     lat = np.asarray(lat, dtype=float)
-    h = np.asarray(h, dtype=float)
+    h = np.asarray(height_m, dtype=float)
     s2 = np.sin(lat) ** 2
     if e.gravity_model == "psins":
         return e.g_e * (1.0 + 5.27094e-3 * s2 + 2.32718e-5 * s2**2) - 3.086e-6 * h
@@ -95,48 +89,48 @@ def gravity(lat, h=0.0, earth="wgs84") -> np.ndarray:
     return g0 * (1.0 - 2.0 / e.a * (1.0 + e.f + m - 2.0 * e.f * s2) * h + 3.0 / e.a**2 * h**2)
 
 
-def gravity_vector(lat, h=0.0, frame="enu", earth="wgs84") -> np.ndarray:
+def gravity_vector(lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Gravity vector g^n (m/s²): ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED; shape (..., 3)."""
-    g = gravity(lat, h, earth)
+    g = gravity(lat, height_m, earth)
     z = np.zeros_like(g)
-    sign = -1.0 if check_frame(frame) == "enu" else 1.0
+    sign = -1.0 if frame_name(frame) == "enu" else 1.0
     return np.stack([z, z, sign * g], -1)
 
 
-def earth_rate(lat, frame="enu", earth="wgs84") -> np.ndarray:
+def earth_rate(lat, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Earth rate ω_ie^n (rad/s): ENU ``[0, ω cos L, ω sin L]``; NED ``[ω cos L, 0, −ω sin L]``."""
     w = constants(earth).omega_ie
     lat = np.asarray(lat, dtype=float)
     c, s, z = w * np.cos(lat), w * np.sin(lat), np.zeros_like(lat)
-    if check_frame(frame) == "enu":
+    if frame_name(frame) == "enu":
         return np.stack([z, c, s], -1)
     return np.stack([c, z, -s], -1)
 
 
-def transport_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
+def transport_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Transport rate ω_en^n (rad/s) for navigation-frame velocity ``v_n`` (..., 3) in m/s."""
     v = np.asarray(v_n, dtype=float)
-    rm, rn = radii(lat, h, earth)
+    rm, rn = radii(lat, height_m, earth)
     t = np.tan(np.asarray(lat, dtype=float))
-    if check_frame(frame) == "enu":
+    if frame_name(frame) == "enu":
         ve, vn = v[..., 0], v[..., 1]
         return np.stack([-vn / rm, ve / rn, ve * t / rn], -1)
     vn, ve = v[..., 0], v[..., 1]
     return np.stack([ve / rn, -vn / rm, -ve * t / rn], -1)
 
 
-def position_rate(lat, h, v_n, frame="enu", earth="wgs84") -> np.ndarray:
-    """Time derivative of ``[lat, lon, h]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
+def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+    """Time derivative of ``[lat, lon, height_m]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
     v = np.asarray(v_n, dtype=float)
-    rm, rn = radii(lat, h, earth)
-    if check_frame(frame) == "enu":
+    rm, rn = radii(lat, height_m, earth)
+    if frame_name(frame) == "enu":
         ve, vn, vu = v[..., 0], v[..., 1], v[..., 2]
     else:
         vn, ve, vu = v[..., 0], v[..., 1], -v[..., 2]
     return np.stack([vn / rm, ve / (rn * np.cos(lat)), vu], -1)
 
 
-def dcm_e_to_n(lat, lon, frame="enu") -> np.ndarray:
+def dcm_e_to_n(lat, lon, frame=CORE_FRAME) -> np.ndarray:
     """``C_e^n`` from ECEF to the local navigation frame at geodetic ``lat``, ``lon`` (rad)."""
     lat = np.asarray(lat, dtype=float)
     lon = np.asarray(lon, dtype=float)
@@ -145,14 +139,15 @@ def dcm_e_to_n(lat, lon, frame="enu") -> np.ndarray:
     east = np.stack([-so, co, z], -1)
     north = np.stack([-sl * co, -sl * so, cl], -1)
     up = np.stack([cl * co, cl * so, sl], -1)
-    if check_frame(frame) == "enu":
+    if frame_name(frame) == "enu":
         return np.stack([east, north, up], -2)
     return np.stack([north, east, -up], -2)
 
 
-def geodetic_to_ecef(lat, lon, h, earth="wgs84") -> np.ndarray:
-    """Geodetic ``lat``, ``lon`` (rad), ``h`` (m) → ECEF position (m)."""
+def geodetic_to_ecef(lat, lon, height_m, earth="wgs84") -> np.ndarray:
+    """Geodetic ``lat``, ``lon`` (rad), ``height_m`` (m) → ECEF position (m)."""
     e = constants(earth)
+    h = height_m
     lat = np.asarray(lat, dtype=float)
     _, rn = radii(lat, 0.0, e)
     cl = np.cos(lat)

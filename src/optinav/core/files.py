@@ -40,6 +40,10 @@ _CAUSES = {
 }
 
 
+#: lines per block of the streamed text reader (:func:`optinav.io.iter_table`): about 100 B of text and 8 B per
+#: parsed cell each, so a block holds some tens of MB whatever the file's length
+CHUNK_ROWS = 200_000
+
 def describe(exc: OSError) -> str:
     """The cause of an OS error in words ("the file system is read-only", ...)."""
     return _CAUSES.get(exc.errno or -1) or (exc.strerror or type(exc).__name__)

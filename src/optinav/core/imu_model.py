@@ -243,23 +243,23 @@ class TriadErrors(Result):
             off = off + f @ self.g_sensitivity.T
         return off
 
-    def apply(self, x, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+    def apply(self, x, *, dt=None, acc=None, kind: str = "rate") -> np.ndarray:
         """Truth → measured: ``K x + b (+ G f)`` for rates, ``K Δx + b·dt (+ G Δv)`` for increments.
 
-        x: (..., 3) true rates or increments; dt (s): needed for increments; f: true specific force
+        x: (..., 3) true rates or increments; dt (s): needed for increments; acc: true specific force
         (m/s², or Δv in m/s for increments), needed when the gyro has g-sensitivity.
         """
         x = as_float_array(x, "x", last_dims=(3,))
-        return x @ self.K.T + self._offset(x.shape, dt, f, kind, "f")
+        return x @ self.K.T + self._offset(x.shape, dt, acc, kind, "acc")
 
-    def compensate(self, y, *, dt=None, f=None, kind: str = "rate") -> np.ndarray:
+    def compensate(self, y, *, dt=None, acc=None, kind: str = "rate") -> np.ndarray:
         """Measured → corrected: ``K⁻¹ (y − b − G f)`` (exact inverse of :meth:`apply`).
 
-        For a gyro with g-sensitivity pass the compensated accelerometer output as ``f``;
+        For a gyro with g-sensitivity pass the compensated accelerometer output as ``acc``;
         :meth:`ImuModel.compensate` does so, which makes the inversion exact without noise.
         """
         y = as_float_array(y, "y", last_dims=(3,))
-        r = y - self._offset(y.shape, dt, f, kind, "f")
+        r = y - self._offset(y.shape, dt, acc, kind, "acc")
         return np.linalg.solve(self.K, r.reshape(-1, 3).T).T.reshape(y.shape)
 
 
@@ -329,6 +329,28 @@ def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
     K = _vec3(density, "random-walk density", nonneg=True)
     d = _dt(dt, (n,))
     return np.cumsum(as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
+
+
+def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
+    """(n, 3) flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis (rad/s, m/s²).
+
+    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from 1/(n·dt) to the
+    Nyquist frequency, made by shaping the spectrum of white noise (Kasdin, Proc. IEEE 83(5), 1995): its Allan
+    variance is 2·ln2·B²/π, the flat 0.664·B, between a few dt and a fraction of the record (NIST SP 1065
+    Table 3: σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling (scalar dt) only.
+    """
+    B = _vec3(bias_instability, "bias instability", nonneg=True)
+    dt = check_positive(dt, "dt")
+    n = int(n)
+    if n < 2:
+        raise OptinavError(f"flicker noise needs at least 2 samples, got {n}", "pass n >= 2")
+    w = as_rng(rng).standard_normal((n, 3))
+    spec = np.fft.rfft(w, axis=0)
+    f = np.fft.rfftfreq(n, dt)
+    # unit white noise has one-sided PSD 2·dt; scale each bin to the target PSD, no DC
+    gain = np.zeros_like(f)
+    gain[1:] = np.sqrt(1.0 / (np.pi * f[1:]) / (2.0 * dt))
+    return np.fft.irfft(spec * gain[:, None], n=n, axis=0) * B[None, :]
 
 
 def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
@@ -494,24 +516,24 @@ class ImuModel(Result):
     def _dt(self, dt, n: int) -> np.ndarray:
         return np.array(_dt(1.0 / self.sample_rate if dt is None else dt, (n,)), dtype=float)
 
-    def apply(self, gyro, accel, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
+    def apply(self, gyr, acc, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
         """Truth → measured outputs.
 
-        gyro, accel: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
+        gyr, acc: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
         epochs, or, with ``kind="increment"``, the true Δθ (rad) and Δv (m/s) over each interval.
         dt: scalar or (N,) intervals in s (default 1/sample_rate). The g-sensitivity acts on the true
         specific force. ``noise=False`` leaves out the random terms (saturation and quantization stay).
         Order: deterministic errors, noise, saturation, quantization.
         """
         kind = _check_kind(kind)
-        w, f = _samples(gyro, "gyro"), _samples(accel, "accel")
+        w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
         if w.shape != f.shape:
-            raise OptinavError(f"gyro {w.shape} and accel {f.shape} have different shapes",
+            raise OptinavError(f"gyr {w.shape} and acc {f.shape} have different shapes",
                                "pass the same number of gyro and accel samples")
         n = w.shape[0]
         d = self._dt(dt, n)
         ya = self.accel.apply(f, dt=d, kind=kind)
-        yg = self.gyro.apply(w, dt=d, f=f, kind=kind)
+        yg = self.gyro.apply(w, dt=d, acc=f, kind=kind)
         if noise:
             rng = as_rng(rng)
             scale = 1.0 if kind == "rate" else d[:, None]
@@ -521,7 +543,7 @@ class ImuModel(Result):
         ya, sa = self.accel_noise.digitize(ya, d, kind=kind)
         return ImuMeasurement(gyro=yg, accel=ya, gyro_saturated=sg, accel_saturated=sa, dt=d, kind=kind)
 
-    def compensate(self, gyro, accel, dt=None, *, kind: str = "rate") -> ImuCompensated:
+    def compensate(self, gyr, acc, dt=None, *, kind: str = "rate") -> ImuCompensated:
         """Measured → corrected (inverse of the deterministic part of :meth:`apply`).
 
         The accelerometers are compensated first; the gyro g-sensitivity is then removed with the
@@ -529,13 +551,13 @@ class ImuModel(Result):
         dt (s) matters only for increments (bias·dt); default 1/sample_rate.
         """
         kind = _check_kind(kind)
-        yg, ya = _samples(gyro, "gyro"), _samples(accel, "accel")
+        yg, ya = _samples(gyr, "gyr"), _samples(acc, "acc")
         if yg.shape != ya.shape:
-            raise OptinavError(f"gyro {yg.shape} and accel {ya.shape} have different shapes",
+            raise OptinavError(f"gyr {yg.shape} and acc {ya.shape} have different shapes",
                                "pass the same number of gyro and accel samples")
         d = self._dt(dt, yg.shape[0])
         fa = self.accel.compensate(ya, dt=d, kind=kind)
-        wg = self.gyro.compensate(yg, dt=d, f=fa, kind=kind)
+        wg = self.gyro.compensate(yg, dt=d, acc=fa, kind=kind)
         return ImuCompensated(gyro=wg, accel=fa, kind=kind)
 
 

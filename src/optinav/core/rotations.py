@@ -27,6 +27,24 @@ from optinav.errors import OptinavError
 
 _EULER_SEQ = {"ned": "ZYX", "enu": "ZXY"}
 
+#: navigation-frame names, as :func:`frame_name` returns them (docs/conventions.md, "Frames")
+FRAMES = ("enu", "ned")
+#: the default frame of Euler angles and of the attitude system (aerospace: body FRD, navigation NED)
+DEFAULT_FRAME = "ned"
+#: the default of the navigation core (Earth model, simulators, strapdown, alignment) and of rins: ENU as
+#: PSINS, whose results the core reproduces (docs/conventions.md says why it differs)
+CORE_FRAME = "enu"
+
+
+def frame_name(frame, what: str = "navigation frame") -> str:
+    """The navigation frame ``frame`` ("enu"/"ned" in any case) as its one spelling, ``"enu"`` or ``"ned"``;
+    :class:`OptinavError` naming ``what`` for anything else. Every function taking ``frame`` (or an Euler
+    ``convention``) checks it here."""
+    f = str(frame).strip().lower()
+    if f not in FRAMES:
+        raise OptinavError(f"unknown {what} {frame!r}", "use 'enu' or 'ned' (either case)")
+    return f
+
 #: C_ENU^NED: maps ENU vectors to NED (and, being symmetric and involutory, NED to ENU).
 C_ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 #: C_RFU^FRD: maps right-forward-up body vectors to forward-right-down (same matrix as C_ENU_NED).
@@ -191,10 +209,7 @@ def _rot_from_euler(angles, convention) -> tuple[Rotation, tuple[int, ...]]:
 
 
 def _seq(convention: str) -> str:
-    try:
-        return _EULER_SEQ[convention]
-    except KeyError:
-        raise OptinavError(f"unknown Euler convention {convention!r}", "use 'ned' or 'enu'") from None
+    return _EULER_SEQ[frame_name(convention, "Euler convention")]
 
 
 def _out_quat(r: Rotation, lead) -> np.ndarray:

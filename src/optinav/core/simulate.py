@@ -38,8 +38,8 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result
-from optinav.core.rotations import (C_ENU_NED, unit_axis, dcm_from_quat, dcm_orthonormalize, quat_canonical, quat_from_dcm,
-                                    quat_multiply, rot_axis, rotvec_from_dcm)
+from optinav.core.rotations import (C_ENU_NED, CORE_FRAME, dcm_from_quat, dcm_orthonormalize, frame_name,
+                                    quat_canonical, quat_from_dcm, quat_multiply, rot_axis, rotvec_from_dcm, unit_axis)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
@@ -681,8 +681,8 @@ def _epochs(duration, rate, t):
                                "give epochs within the schedule's duration")
         return np.clip(t, 0.0, duration)
     if rate is None:
-        raise OptinavError("neither a sample rate nor epochs were given", "pass rate (Hz) or t (s)")
-    rate = check_positive(rate, "rate")
+        raise OptinavError("neither a sample rate nor epochs were given", "pass rate_hz (Hz) or t (s)")
+    rate = check_positive(rate, "rate_hz")
     n = int(math.floor(duration * rate + 1e-9))
     if n < 1:
         raise OptinavError(f"duration {duration:.6g} s at {rate:.6g} Hz gives fewer than two epochs",
@@ -701,7 +701,7 @@ def _lever(lever_arm):
 
 def _site(lat, lon, h, earth):
     lat = _check_lat(lat)
-    lon, h = _scalar(lon, "lon"), _scalar(h, "h")
+    lon, h = _scalar(lon, "lon"), _scalar(h, "height_m")
     return _FixedPosition(lat, lon, h)
 
 
@@ -724,13 +724,13 @@ _NORTH = {"enu": np.array([0.0, 1.0, 0.0]), "ned": np.array([1.0, 0.0, 0.0])}
 _DEFAULT_NORTH = {0: "y", 1: "z", 2: "y"}
 
 
-def orientation_from_up(up, north=None, frame="enu") -> np.ndarray:
+def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
     """``C_b^n`` of a level pose: body axis ``up`` points up, body axis ``north`` points north.
 
     Axes as names (``"x"``, ``"-z"``, …) or body vectors. Default ``north``: ``y`` when x or z is up, ``z`` when
     y is up. The two axes must be perpendicular.
     """
-    frame = _earth.check_frame(frame)
+    frame = frame_name(frame)
     u = unit_axis(up, "up")
     if north is None:
         north = _DEFAULT_NORTH[int(np.argmax(np.abs(u)))]
@@ -744,7 +744,7 @@ def orientation_from_up(up, north=None, frame="enu") -> np.ndarray:
     return C_ENU_NED @ c_b_enu if frame == "ned" else c_b_enu
 
 
-def six_positions(frame="enu") -> np.ndarray:
+def six_positions(frame=CORE_FRAME) -> np.ndarray:
     """The standard six-position set: +x, −x, +y, −y, +z, −z up (default north axes), shape (6, 3, 3)."""
     return np.stack([orientation_from_up(a, frame=frame) for a in ("x", "-x", "y", "-y", "z", "-z")])
 
@@ -754,13 +754,13 @@ def _fmt_deg(x):
     return f"{d:.0f}" if abs(d - round(d)) < 1e-6 else f"{d:.2f}"
 
 
-def describe_pose(c_b_n, frame="enu") -> str:
+def describe_pose(C_b_n, frame=CORE_FRAME) -> str:
     """Words a technician can follow: the body axis up/down, any tilt, and which axis faces north.
 
     E.g. ``"x up, y north"``, ``"z down, tilted 45° about y, x east"``.
     """
-    frame = _earth.check_frame(frame)
-    c = _to_enu(np.asarray(c_b_n, float), frame)
+    frame = frame_name(frame)
+    c = _to_enu(np.asarray(C_b_n, float), frame)
     up_b = c.T @ _UP["enu"]
     k = int(np.argmax(np.abs(up_b)))
     s = 1.0 if up_b[k] > 0 else -1.0
@@ -795,20 +795,21 @@ def describe_pose(c_b_n, frame="enu") -> str:
 
 # --- generators ----------------------------------------------------------------------------------------------
 
-def static_positions(orientations, dwell, rate, lat, h=0.0, lon=0.0, frame="enu", earth="wgs84",
+def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, frame=CORE_FRAME, earth="wgs84",
                      transition=None, *, transition_profile="cosine", names=None, t=None, lever_arm=None,
                      gravity=None) -> ImuTruth:
     """Static multi-position test: dwell at each pose, optionally turning smoothly between poses.
 
     ``orientations``: (P, 3, 3) attitudes ``C_b^n`` in ``frame`` (build them with :func:`orientation_from_up`,
-    :func:`six_positions` or ``rotations.dcm_from_euler``). ``dwell``: s, scalar or (P,). ``rate``: Hz.
-    ``lat``, ``lon`` rad, ``h`` m. ``transition``: None (pose changes instantly between two epochs — the
+    :func:`six_positions` or ``rotations.dcm_from_euler``). ``dwell``: s, scalar or (P,). ``rate_hz``: Hz.
+    ``lat``, ``lon`` rad, ``height_m`` m. ``transition``: None (pose changes instantly between two epochs — the
     increments across a jump are those of the piecewise-constant attitude, so prefer a transition), or a duration
     in s (scalar or (P−1,)) of a shortest-arc rotation about a fixed body axis with a zero-rate-at-both-ends
-    ``transition_profile`` (see :func:`rate_profile`). Epochs ``t`` (s from the start) override ``rate``.
+    ``transition_profile`` (see :func:`rate_profile`). Epochs ``t`` (s from the start) override ``rate_hz``.
     Labels are the position index, -1 in transitions; ``segment_names`` describe each pose in words.
     """
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    rate, h = rate_hz, height_m
+    frame, earth = frame_name(frame), _check_earth(earth)
     cs = _as_dcms(orientations, "orientations")
     if cs.ndim == 2:
         cs = cs[None]
@@ -890,7 +891,7 @@ def _axis_words(axis, frame):
     return f"[{v[0]:.3f}, {v[1]:.3f}, {v[2]:.3f}]_{sub}"
 
 
-def turntable(schedule, rate, lat, h=0.0, initial=None, frame="enu", earth="wgs84", *, lon=0.0, t=None,
+def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRAME, earth="wgs84", *, lon=0.0, t=None,
               lever_arm=None, gravity=None) -> ImuTruth:
     """A turntable / gimbal schedule of :class:`Rest` and :class:`Rotate` segments on a static base.
 
@@ -898,7 +899,8 @@ def turntable(schedule, rate, lat, h=0.0, initial=None, frame="enu", earth="wgs8
     Labels are the segment index; ``segment_names`` give each segment in words (the pose at rest, the rotation
     otherwise). For two axes turning at once use :func:`gimbal`.
     """
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    rate, h = rate_hz, height_m
+    frame, earth = frame_name(frame), _check_earth(earth)
     if not schedule:
         raise OptinavError("the turntable schedule is empty", "give a list of Rest and Rotate segments")
     c = np.eye(3) if initial is None else _as_dcms(initial, "initial")
@@ -941,20 +943,21 @@ def turntable(schedule, rate, lat, h=0.0, initial=None, frame="enu", earth="wgs8
     return motion.simulate(_epochs(t0, rate, t), _lever(lever_arm))
 
 
-def gimbal(fixed, axes, angles, duration, rate, lat, h=0.0, frame="enu", earth="wgs84", *, lon=0.0, t=None,
-           breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
+def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84", *, lon=0.0,
+           t=None, breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Exact truth of a gimbal chain ``C_b^n(t) = C_0 R_1(θ_1(t)) C_1 … R_k(θ_k(t)) C_k`` on a static base.
 
     ``fixed``: k+1 constant DCMs (``C_0`` maps into the navigation frame ``frame``); ``axes``: k joint axes
     (names or vectors, in the frame after the preceding fixed DCM); ``angles``: k angle functions — an
     :class:`AxisSchedule`, a constant (rad), or a callable ``t → (θ, θ̇, θ̈)`` (rad, rad/s, rad/s²; θ̈ only for
-    lever arms). ``duration`` s; ``rate`` Hz or epochs ``t``. For plain callables give ``breakpoints`` (times
+    lever arms). ``duration`` s; ``rate_hz`` Hz or epochs ``t``. For plain callables give ``breakpoints`` (times
     where θ̈ jumps) and ``max_step`` (s), the longest quadrature panel: short enough that every angle function is
     smooth on it and the chain turns by < 1 rad (default: the median epoch spacing, shortened to 1/(1.5 max Σ|θ̇|)
     with the rates sampled at the epochs). Labels: rest intervals (all schedules at rest) are numbered 0, 1, …; motion
     is -1 (with plain callables the whole run is segment 0).
     """
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    rate, h = rate_hz, height_m
+    frame, earth = frame_name(frame), _check_earth(earth)
     duration = check_positive(duration, "duration")
     k = len(axes)
     if len(angles) != k:
@@ -1074,7 +1077,7 @@ def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndar
     return 0.5 * np.stack([x, y, z], -1)
 
 
-def coning(half_angle, frequency, duration, rate, earth="none", *, frame="enu", lat=0.0, h=0.0, lon=0.0,
+def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame=CORE_FRAME, lat=0.0, height_m=0.0, lon=0.0,
            initial=None, phase=0.0, gravity=None, t=None, lever_arm=None) -> ImuTruth:
     """Classic coning motion with closed-form attitude, rate and increments (Savage, Strapdown Analytics §7.1.1).
 
@@ -1084,7 +1087,8 @@ def coning(half_angle, frequency, duration, rate, earth="none", *, frame="enu", 
     inertial and, unless ``gravity`` g^n is given, the specific force is zero; with an Earth model the base is
     static at (lat, lon, h) and the Earth-rate part of ``dtheta`` and ``dv`` come from quadrature.
     """
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    rate, h = rate_hz, height_m
+    frame, earth = frame_name(frame), _check_earth(earth)
     beta = _scalar(half_angle, "half_angle")
     if not (0 <= beta < np.pi):
         raise OptinavError(f"cone half-angle {beta:.6g} rad is outside [0, π)", "give the half-angle in radians")
@@ -1119,10 +1123,10 @@ def _bc_to_enu(bc_type, frame):
     return tuple(out)
 
 
-def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth="wgs84", *, lat0, lon0=0.0,
-               h0=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
+def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAME, earth="wgs84", *, lat0,
+               lon0=0.0, height0_m=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
-    cubic spline in the tangent frame at (lat0, lon0, h0).
+    cubic spline in the tangent frame at (lat0, lon0, height0_m).
 
     ``t_knots`` (K,) s from 0; ``attitude_knots`` (K, 3, 3) ``C_b^n`` or (K, 4) quaternions ``q_b^n`` in
     ``frame``; ``position_knots`` (K, 3) m in the local tangent frame (axes of ``frame``) at the origin.
@@ -1132,10 +1136,11 @@ def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth
     lat/lon/h through ECEF; ``v^n`` and ``a^n`` are analytic (see ``_TangentSpline``), and ω_ib^b, f^b follow from
     the mechanization equations. Increments: Gauss–Legendre quadrature between knots.
     """
+    rate = rate_hz
     from scipy.interpolate import CubicSpline
     from scipy.spatial.transform import Rotation, RotationSpline
 
-    frame, earth = _earth.check_frame(frame), _check_earth(earth)
+    frame, earth = frame_name(frame), _check_earth(earth)
     tk = check_timestamps(t_knots, "t_knots")
     K = tk.size
     if abs(tk[0]) > 1e-12:
@@ -1155,7 +1160,7 @@ def trajectory(t_knots, attitude_knots, position_knots, rate, frame="enu", earth
     if pk.shape != (K, 3):
         raise OptinavError(f"position_knots has shape {pk.shape}, expected ({K}, 3)", "give one position per knot")
     lat0 = _check_lat(lat0, "lat0")
-    lon0, h0 = _scalar(lon0, "lon0"), _scalar(h0, "h0")
+    lon0, h0 = _scalar(lon0, "lon0"), _scalar(height0_m, "height0_m")
     g = _gravity_arg(gravity, earth)
     cs = np.stack([_to_enu(c, frame) for c in cs])
     pk = _vec_to_enu(pk, frame)

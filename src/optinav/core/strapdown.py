@@ -45,8 +45,10 @@ import numba
 import numpy as np
 
 from optinav.core import earth as _earth
+from optinav.core._quat import qrotate, qupdate
 from optinav.core.results import Result
-from optinav.core.rotations import C_ENU_NED, quat_conjugate, quat_from_dcm, quat_multiply
+from optinav.core.rotations import (CORE_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm,
+                                    quat_multiply)
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 
@@ -67,47 +69,6 @@ _Q_NED_TO_ENU = quat_from_dcm(C_ENU_NED)
 
 
 # --- numba kernels ------------------------------------------------------------------------------------
-
-@numba.njit(cache=True, inline="always")
-def _rv2q(x, y, z):
-    """Exact quaternion of the rotation vector (x, y, z); series below 0.1 rad (error < 1e-19)."""
-    n2 = x * x + y * y + z * z
-    if n2 < 1e-2:
-        u = 0.25 * n2  # (|φ|/2)²
-        c = 1.0 - u * (1.0 / 2.0 - u * (1.0 / 24.0 - u * (1.0 / 720.0 - u * (1.0 / 40320.0))))
-        s = 0.5 * (1.0 - u * (1.0 / 6.0 - u * (1.0 / 120.0 - u * (1.0 / 5040.0 - u * (1.0 / 362880.0)))))
-    else:
-        n = np.sqrt(n2)
-        c = np.cos(0.5 * n)
-        s = np.sin(0.5 * n) / n
-    return c, s * x, s * y, s * z
-
-
-@numba.njit(cache=True, inline="always")
-def _qmul(aw, ax, ay, az, bw, bx, by, bz):
-    return (aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw)
-
-
-@numba.njit(cache=True, inline="always")
-def _renorm(w, x, y, z):
-    # first-order renormalization: |q| stays 1 to rounding, so k = 1.5 − ½|q|² is exact to O(δ²)
-    k = 1.5 - 0.5 * (w * w + x * x + y * y + z * z)
-    return w * k, x * k, y * k, z * k
-
-
-@numba.njit(cache=True, inline="always")
-def _rotate(w, x, y, z, fx, fy, fz, nav, zx, zy, zz):
-    """q ← q(−ζ) ⊗ q ⊗ q(φ), renormalized: body rotation φ, then (if ``nav``) the frame rotation ζ."""
-    bw, bx, by, bz = _rv2q(fx, fy, fz)
-    w, x, y, z = _qmul(w, x, y, z, bw, bx, by, bz)
-    if nav:
-        nw, nx, ny, nz = _rv2q(-zx, -zy, -zz)
-        w, x, y, z = _qmul(nw, nx, ny, nz, w, x, y, z)
-    return _renorm(w, x, y, z)
-
 
 @numba.njit(cache=True, inline="always")
 def _prev_coef(cprev, hp, h):
@@ -142,7 +103,7 @@ def _attitude_single(q0, dth, zeta, zstep, cprev, hs, out, store):
         fz = az + c * (px * ay - py * ax)
         px, py, pz = ax, ay, az
         i = k * zstep if zstep > 0 else 0  # zstep: 1 per sample, 0 constant, -1 none (value unused)
-        w, x, y, z = _rotate(w, x, y, z, fx, fy, fz, zstep >= 0, zeta[i, 0], zeta[i, 1], zeta[i, 2])
+        w, x, y, z = qupdate(w, x, y, z, fx, fy, fz, zstep >= 0, zeta[i, 0], zeta[i, 1], zeta[i, 2])
         if store:
             out[k + 1, 0] = w
             out[k + 1, 1] = x
@@ -189,7 +150,7 @@ def _attitude_multi(q0, dth, zeta, zstep, idx, cs, out, store):
         fx = sx + cy * lz - cz * ly
         fy = sy + cz * lx - cx * lz
         fz = sz + cx * ly - cy * lx
-        w, x, y, z = _rotate(w, x, y, z, fx, fy, fz, zstep >= 0, zx, zy, zz)
+        w, x, y, z = qupdate(w, x, y, z, fx, fy, fz, zstep >= 0, zx, zy, zz)
         if store:
             out[j + 1, 0] = w
             out[j + 1, 1] = x
@@ -289,12 +250,7 @@ def _mechanize_enu(dth, dv, t, idx, q0, v0, p0, cs, cprev, scul, ep, hold, out_q
         wenx, weny, wenz = -vmn / rm, vme / rn, vme * sl / (cl * rn)
         zx, zy, zz = (wiex + wenx) * T, (wiey + weny) * T, (wiez + wenz) * T
         # --- velocity: C_b^n(k−1) Δv_sf^b, then the half navigation-frame rotation −½ ζ×(·)
-        tx = 2.0 * (y * bz - z * by)
-        ty = 2.0 * (z * bx - x * bz)
-        tz = 2.0 * (x * by - y * bx)
-        nx = bx + w * tx + y * tz - z * ty
-        ny = by + w * ty + z * tx - x * tz
-        nz = bz + w * tz + x * ty - y * tx
+        nx, ny, nz = qrotate(w, x, y, z, bx, by, bz)
         nx, ny, nz = (nx - 0.5 * (zy * nz - zz * ny), ny - 0.5 * (zz * nx - zx * nz),
                       nz - 0.5 * (zx * ny - zy * nx))
         # gravity and Coriolis: g^n − (2ω_ie + ω_en)×v
@@ -317,11 +273,7 @@ def _mechanize_enu(dth, dv, t, idx, q0, v0, p0, cs, cprev, scul, ep, hold, out_q
             h += 0.5 * (vu + vu1) * T
         ve, vn, vu = ve1, vn1, vu1
         # --- attitude: q(−ζ) ⊗ q ⊗ q(φ)
-        qw, qx, qy, qz = _rv2q(fx, fy, fz)
-        w, x, y, z = _qmul(w, x, y, z, qw, qx, qy, qz)
-        qw, qx, qy, qz = _rv2q(-zx, -zy, -zz)
-        w, x, y, z = _qmul(qw, qx, qy, qz, w, x, y, z)
-        w, x, y, z = _renorm(w, x, y, z)
+        w, x, y, z = qupdate(w, x, y, z, fx, fy, fz, True, zx, zy, zz)
         out_q[j + 1, 0], out_q[j + 1, 1], out_q[j + 1, 2], out_q[j + 1, 3] = w, x, y, z
         out_v[j + 1, 0], out_v[j + 1, 1], out_v[j + 1, 2] = ve, vn, vu
         out_p[j + 1, 0], out_p[j + 1, 1], out_p[j + 1, 2] = lat, lon, h
@@ -510,7 +462,7 @@ def _earth_params(e: _earth.EarthConstants) -> np.ndarray:
     return np.array([e.a, e.e2, e.omega_ie, e.f, gmodel, e.g_e, e.k_somigliana, m])
 
 
-def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = "enu", earth="wgs84", coning: str = "previous",
+def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs84", coning: str = "previous",
               sculling: bool = True, vertical: str = "free") -> NavSolution:
     """Strapdown attitude/velocity/position integration in a local-level frame (Savage 1998; T&W ch. 11).
 
@@ -538,7 +490,7 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = "enu", earth="wgs84", 
     if tt.size != dth.shape[0] + 1:
         raise OptinavError(f"t has {tt.size} samples for {dth.shape[0]} increments",
                            "pass N+1 times for N increments (t[k] to t[k+1] bounds increment k)")
-    fr = _earth.check_frame(frame)
+    fr = frame_name(frame)
     e = _earth.constants(earth)
     q = _as_quat0(q0)
     v = as_float_array(vel0, "vel0", last_dims=(3,))

@@ -68,8 +68,9 @@ def _outputs(array: AccelerometerArray, f) -> np.ndarray:
     return f
 
 
-def solve_linear(array: AccelerometerArray, f) -> LinearSolution:
-    """Weighted least squares of the array outputs ``f`` (T, N) for every epoch; see the module docstring."""
+def solve_linear(array: AccelerometerArray, acc) -> LinearSolution:
+    """Weighted least squares of the array outputs ``acc`` (T, N) for every epoch; see the module docstring."""
+    f = acc
     f = _outputs(array, f)
     ident = identifiability(array)
     ident.require(("linear",))
@@ -102,7 +103,7 @@ def _omega0(omega0) -> np.ndarray:
     return w
 
 
-def rate_integration(array: AccelerometerArray, f, t, omega0=None) -> np.ndarray:
+def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarray:
     """Angular rate (T, 3) rad/s by trapezoidal integration of the least-squares ω̇ (paper, §4).
 
     When ω̇ is separable from the quadratic terms (nominal cylinder10) this is one vectorized solve. Otherwise
@@ -111,6 +112,7 @@ def rate_integration(array: AccelerometerArray, f, t, omega0=None) -> np.ndarray
     ("compute the installation-error part of the outputs, subtract it, solve with the nominal formulas")
     written for the calibrated geometry.
     """
+    f = acc
     f = _outputs(array, f)
     t = _time(t, f.shape[0])
     ident = identifiability(array)
@@ -143,7 +145,7 @@ def _dq(w) -> np.ndarray:
     return np.array([[2 * x, 0, 0], [0, 2 * y, 0], [0, 0, 2 * z], [y, x, 0], [z, 0, x], [0, z, y]])
 
 
-def rate_quadratic(array: AccelerometerArray, f, t, omega0=None, *, prior_std: float = 0.05,
+def rate_quadratic(array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05,
                    iterations: int = 3, sigma=None) -> np.ndarray:
     """Angular rate (T, 3) rad/s from the observable quadratic combinations, branch from the predicted rate.
 
@@ -152,6 +154,7 @@ def rate_quadratic(array: AccelerometerArray, f, t, omega0=None, *, prior_std: f
     sign of ω, which q cannot see) and bridges epochs where the magnitudes are degenerate (e.g. ωx → 0).
     Needs ≥ 3 observable quadratic combinations.
     """
+    f = acc
     f = _outputs(array, f)
     t = _time(t, f.shape[0])
     sol = solve_linear(array, f)
@@ -181,7 +184,7 @@ def rate_quadratic(array: AccelerometerArray, f, t, omega0=None, *, prior_std: f
     return out
 
 
-def rate_gauss_newton(array: AccelerometerArray, f, t, omega0=None, *, prior_std: float = 0.05,
+def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05,
                       iterations: int = 3, sigma=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-epoch Gauss–Newton for [A, ω̇, ω] on the raw outputs with the predicted rate as prior.
 
@@ -189,6 +192,7 @@ def rate_gauss_newton(array: AccelerometerArray, f, t, omega0=None, *, prior_std
     ``(ω − ω⁻)/prior_std`` with ω⁻ = ω̂_{k−1} + ω̇̂_{k−1} Δt. Returns ω, A, ω̇ (each (T, 3)). Works for any
     configuration with rank [A, ω̇] = 6 (also when ω̇ needs the rate).
     """
+    f = acc
     f = _outputs(array, f)
     t = _time(t, f.shape[0])
     identifiability(array).require(("linear",))
@@ -220,8 +224,9 @@ def rate_gauss_newton(array: AccelerometerArray, f, t, omega0=None, *, prior_std
     return om, A, wd
 
 
-def solve_rate(array: AccelerometerArray, f, t, omega0=None, method: str = "integration", **options) -> np.ndarray:
+def solve_rate(array: AccelerometerArray, acc, t, omega0=None, method: str = "integration", **options) -> np.ndarray:
     """Angular rate (T, 3) rad/s by ``method`` in RATE_METHODS."""
+    f = acc
     if method == "integration":
         return rate_integration(array, f, t, omega0, **options)
     if method == "quadratic":

@@ -30,6 +30,7 @@ it only moves the reference point of A (f_i depends on A + ω̇×c + ω×(ω×c)
 from __future__ import annotations
 
 import time
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,7 +38,8 @@ import numpy as np
 from optinav.core.files import atomic_open, atomic_path, write_csv
 from optinav.core.observability import analyze
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import Result
+from optinav.core.results import (Estimate, Parameter, Truth, convergence, gate, nested_kwargs, register_legacy,
+                                 register_truth_legacy)
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -322,11 +324,14 @@ def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, ga
 
 
 @dataclass
-class TurntableCalibration(Result):
-    """Installation errors from a turntable calibration (RESULT.json of ``optinav calibrate gfimu``)."""
+class TurntableCalibration(Estimate):
+    """Installation errors from a turntable calibration (RESULT.json of ``optinav calibrate gfimu``;
+    docs/results.md). :meth:`parameters`: ``dr_x_1`` … ``dbeta_N`` (m, rad) and the estimated offsets."""
 
     SCHEMA = "optinav.gfimu.calibration"
-    VERSION = 1
+    VERSION = 2
+    SYSTEM = "gfimu"
+    KIND = "calibration"
 
     method: str = field(metadata={"unit": "-"})
     names: list = field(metadata={"unit": "-"})
@@ -347,8 +352,16 @@ class TurntableCalibration(Result):
     sigma: np.ndarray = field(metadata={"unit": "m/s^2"})
     residual_rms: float = field(metadata={"unit": "sigma"})
     gamma: float = field(metadata={"unit": "rad"})
-    elapsed: float = field(default=0.0, metadata={"unit": "s"})
+    elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
     gauge: str = field(default="", metadata={"unit": "-"})
+    convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
+    gates: list = field(default_factory=list, metadata={"unit": "-"})
+
+    def parameters(self) -> dict[str, Parameter]:
+        units = _unit_names(len(self.dalpha), len(self.names) - 5 * len(self.dalpha))
+        est, std, crlb = (np.asarray(a, float) for a in (self.estimate, self.std, self.crlb_std))
+        return {nm: Parameter(float(est[k]), units[k], std=float(std[k]), crlb_std=float(crlb[k]))
+                for k, nm in enumerate(self.names)}
 
     def errors(self) -> InstallationErrors:
         return InstallationErrors(self.dr, self.dalpha, self.dbeta)
@@ -546,7 +559,9 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
     J = model.jacobian(x)
     r = model.residuals(x)
     rep = analyze(J, 1.0, names=names, units=units)
-    _quality_gates(method, out if method == "lm" else None, x[:5 * nominal.n], r, int(rep.rank), sigma is None)
+    gates = _quality_gates(method, out if method == "lm" else None, x[:5 * nominal.n], r, int(rep.rank), sigma is None)
+    conv = (convergence(out.success, iterations=getattr(out, "nit", None), evaluations=out.nfev, message=out.message)
+            if method == "lm" else convergence(None, message="closed form"))
     std, crlb, cov = np.array(rep.std), np.array(rep.crlb_std), np.array(rep.covariance)
     if offset == "estimate":
         # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
@@ -573,11 +588,12 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
         positions=actual.positions, directions=actual.directions, offsets=offs, rank=int(rep.rank),
         n_params=model.n_params, statements=statements, samples_per_case=cm.count, sigma=sig,
         residual_rms=float(np.sqrt(np.mean(r ** 2))), gamma=float(data.gamma),
-        elapsed=time.perf_counter() - t0, gauge=gauge)
+        elapsed_s=time.perf_counter() - t0, gauge=gauge, convergence=conv, gates=gates)
 
 
-def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> None:
-    """After the fit: converged, plausible installation errors, residual consistent with the noise."""
+def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[dict]:
+    """After the fit: converged, plausible installation errors, residual consistent with the noise; raises on
+    the first that fails, else returns their outcomes."""
     if out is not None and not out.success:
         raise OptinavError(f"the LM fit did not converge ({out.message})",
                            "check the data against the configuration, or try --method closed-form")
@@ -595,6 +611,12 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> None:
         raise OptinavError(f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
                            f"{why}: the model does not explain the data",
                            "check --noise (accelerometer noise std in m/s^2), the configuration and --offset")
+    gates = [gate("optimizer converged", out.success, None, kind="true")] if out is not None else []
+    gates += [gate("largest |dr|", dr, MAX_DR_M, unit="m"), gate("largest |direction error|", da, MAX_DANGLE_RAD,
+                                                                  unit="rad")]
+    if dof > 0:
+        gates.append(gate("reduced chi-square", chi2, MAX_REDUCED_CHI2))
+    return gates
 
 
 def scheme_identifiability(nominal: AccelerometerArray, *, rates=(0.5, 1.0), gamma: float = np.radians(30.0),
@@ -619,3 +641,25 @@ def required_samples(nominal: AccelerometerArray, errors: InstallationErrors, *,
     truth = np.abs(errors.dr)
     need = (k * std1 / (target_pct / 100.0 * truth)) ** 2
     return int(np.ceil(need.max()))
+
+
+def _legacy_v1(data: dict) -> dict:
+    """RESULT.json of an older optinav (version 1: the nested layout, timing as ``elapsed``)."""
+    return nested_kwargs(TurntableCalibration, data, {"elapsed": "elapsed_s"})
+
+
+register_legacy(TurntableCalibration, "optinav.gfimu.calibration", 1, _legacy_v1)
+
+
+def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Truth:
+    """Simulated installation errors in the parameterization :func:`calibrate` estimates (names
+    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default."""
+    n = errors.n
+    units = _unit_names(n, 0)
+    return Truth("gfimu", {nm: Parameter(float(v), u) for nm, v, u in
+                           zip(InstallationErrors.names(n), errors.vector(), units)}, dict(info or {}))
+
+
+register_truth_legacy("gfimu", "optinav.gfimu_truth",
+                      lambda d: {nm: Parameter(float(v), "rad" if nm.startswith(("dalpha", "dbeta")) else "m")
+                                 for nm, v in d["coefficients"].items()})

@@ -428,7 +428,7 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
 
 
 def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
-             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
+             gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
              datasets=None, delimiter: str | None = None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
@@ -439,10 +439,10 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
     declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
     unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
-    converted to SI, counts kept. ``rate`` (Hz) gives ``t = arange(N)/rate`` for files without a time
+    converted to SI, counts kept. ``rate_hz`` (Hz) gives ``t = arange(N)/rate_hz`` for files without a time
     column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
     """
-    acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns)
+    acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns")
     parts = [main]
     if gyro_path is not None:
@@ -458,7 +458,7 @@ def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
     gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
     time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
     if rate is not None:
-        rate = check_positive(rate, "rate")
+        rate = check_positive(rate, "rate_hz")
     if gyro_columns is not None and gyro_path is None:
         raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
     return acc_u, gyro_u, time_u, rate
@@ -474,7 +474,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
     for p in parts:
         if p.t is not None:
             if rate is not None:
-                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate={rate:g} was given too",
+                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate_hz={rate:g} was given too",
                                    "drop the rate, or skip the time column with '_' in columns")
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t * TIME_UNITS[unit]))
@@ -492,7 +492,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
             check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
-                           "pass rate=... (Hz; CLI --rate) or name the time column (t, time, timestamp, …)")
+                           "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)")
     else:
         if rate is None:
             rate, where = _file_rate(main.table)
@@ -524,14 +524,14 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
 
 
 def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
-             gyro_unit: str | None = None, time_unit: str | None = None, rate: float | None = None,
-             datasets=None, delimiter: str | None = None, chunk_rows: int | None = None) -> "ImuChunks":
-    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples (None: :data:`CHUNK_ROWS`): an iterable of :class:`ImuLog` whose
+             gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
+             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS) -> "ImuChunks":
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
     concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
     first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
     not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
     return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
-                     gyro_unit=gyro_unit, time_unit=time_unit, rate=rate, datasets=datasets, delimiter=delimiter,
+                     gyro_unit=gyro_unit, time_unit=time_unit, rate_hz=rate_hz, datasets=datasets, delimiter=delimiter,
                      chunk_rows=chunk_rows)
 
 
@@ -541,7 +541,7 @@ class ImuChunks:
 
     def __init__(self, path, *, chunk_rows: int | None = None, **kw):
         self.path, self.kw = Path(path), kw
-        self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate"], kw["gyro_path"],
+        self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"],
                                  kw["gyro_columns"])
         _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns")
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)

@@ -189,7 +189,13 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     kind, gz = _file_kind(path)
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
-        table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
+        try:
+            table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
+        except OptinavError as exc:
+            if SUFFIXES.get(_suffix(path), "text") == "text":
+                raise
+            raise OptinavError(f"{exc.cause} (the file holds text despite its {_suffix(path)} suffix)",
+                               exc.remedy) from None
     else:
         if delimiter is not None:
             raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
@@ -205,9 +211,9 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
     return table
 
 
-#: lines per block of the streamed text reader (:func:`iter_table`): about 100 B of text and 8 B per parsed
-#: cell each, so a block holds some tens of MB whatever the file's length
-CHUNK_ROWS = 200_000
+#: lines per block of the streamed text reader (:func:`iter_table`), defined beside the atomic writers so that the
+#: CLI's parser can show it without loading numpy
+from optinav.core.files import CHUNK_ROWS  # noqa: E402
 
 
 def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
@@ -311,6 +317,14 @@ class TableChunks:
                 raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
             yield held
 
+def _suffix(path: Path) -> str:
+    """The format suffix of ``path``, lower case: the one before a final ``.gz``."""
+    suffixes = [s.lower() for s in path.suffixes]
+    if suffixes and suffixes[-1] == ".gz":
+        return suffixes[-2] if len(suffixes) > 1 else ""
+    return suffixes[-1] if suffixes else ""
+
+
 def _file_kind(path: Path) -> tuple[str, bool]:
     """(format, gzip-compressed?) of ``path`` from its first bytes and suffix; one-line errors for a missing,
     empty or unknown file."""
@@ -318,9 +332,8 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         raise OptinavError(f"data file {path} does not exist", "check the path")
     if path.is_dir():
         raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
-    suffixes = [s.lower() for s in path.suffixes]
-    gz = bool(suffixes) and suffixes[-1] == ".gz"
-    suffix = (suffixes[-2] if len(suffixes) > 1 else "") if gz else (suffixes[-1] if suffixes else "")
+    gz = path.suffix.lower() == ".gz"
+    suffix = _suffix(path)
     try:
         size = path.stat().st_size
         with open(path, "rb") as fh:
@@ -329,7 +342,10 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
     if size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
-    kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
+    try:
+        kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
+    except OptinavError as exc:
+        raise OptinavError(f"{path.name}: {exc.cause}", exc.remedy) from None
     if kind == "gztext":
         kind, gz = "text", True
     if kind is None or (gz and kind != "text"):
@@ -341,24 +357,42 @@ def _file_kind(path: Path) -> tuple[str, bool]:
 
 _MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
           (b"\x1f\x8b", "gztext"))
+#: signatures of formats optinav does not read, named in the error (checked after :data:`_MAGIC`)
+_FOREIGN = ((b"SQLite format 3\x00", "an SQLite database (a ROS 2 .db3 bag?)"), (b"#ROSBAG", "a ROS 1 bag"),
+            (b"\x89MCAP", "an MCAP log (ROS 2)"), (b"PAR1", "a Parquet file"),
+            (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an old Excel/Office (.xls) document"),
+            (b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"%PDF", "a PDF document"),
+            (b"BZh", "a bzip2 archive"), (b"\xfd7zXZ", "an xz archive"), (b"7z\xbc\xaf", "a 7-Zip archive"),
+            (b"\x28\xb5\x2f\xfd", "a zstd archive"), (b"\x7fELF", "a program (ELF executable)"))
 
 
 def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     """The format from the first bytes before the suffix: binary formats by their magic numbers (MATLAB v7.3
-    files start with "MATLAB" too), and a ``.mat`` that is text (MATLAB's ``save -ascii``) as text; else what
-    the suffix says (.npz/.npy/.h5 files holding text are damaged files and get their format's error)."""
+    files start with "MATLAB" too), and a file under a binary suffix (.mat, .npz, .npy, .h5) that is text
+    (MATLAB's ``save -ascii``, a CSV renamed) as text; a known foreign format (:data:`_FOREIGN`) or an
+    .npz/.npy without its signature is a one-line error naming what it is; else what the suffix says."""
     if gz:
         return by_suffix
+    if head.startswith(b"PK\x03\x04") and b"[Content_Types].xml" in head:  # a zip, like NPZ, but OOXML
+        raise OptinavError("the file is an Office (.xlsx) document, not a data table optinav reads",
+                           "save the sheet as CSV")
     for magic, kind in _MAGIC:
         if head.startswith(magic):
             return kind
-    if by_suffix == "mat" and b"\x00" not in head:
+    for magic, what in _FOREIGN:
+        if head.startswith(magic):
+            raise OptinavError(f"the file is {what}, not a data table optinav reads",
+                               "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)")
+    if by_suffix in ("npz", "npy", "hdf5", "mat") and b"\x00" not in head:
         try:
             head.decode("utf-8")
             return "text"
         except UnicodeDecodeError as exc:
             if exc.start >= len(head) - 3:  # a multi-byte character cut at the end of the sample
                 return "text"
+    if by_suffix in ("npz", "npy"):  # MAT v4 has no signature, and HDF5 names a missing one itself
+        raise OptinavError(f"the file is not {by_suffix.upper()} (it lacks the format's signature) and not text",
+                           "check that the file is complete, or give it its real extension")
     return by_suffix
 
 

@@ -30,6 +30,7 @@ from scipy import stats as _stats
 from optinav.core.earth import WGS84
 from optinav.core.earth import gravity as normal_gravity
 from optinav.core.progress import step
+from optinav.core.results import convergence, gate
 from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -78,23 +79,25 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
-def local_gravity(g=None, lat_deg=None, height_m: float = 0.0) -> tuple[float, str]:
-    """Gravity magnitude (m/s²) and how it was obtained: given, normal gravity at lat/height, or standard."""
+def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
+    """Gravity magnitude (m/s²) and how it was obtained: given ``g``, normal gravity at ``lat`` (rad) and
+    ``height_m`` (m), or standard."""
     if g is not None:
         g = check_positive(g, "gravity")
         if not 9.7 < g < 9.9:
             raise OptinavError(f"gravity {g:g} m/s^2 is outside 9.7–9.9", "give the local gravity in m/s^2")
         return g, "given"
-    if lat_deg is not None:
-        lat = float(lat_deg)
-        if not -90 <= lat <= 90:
-            raise OptinavError(f"latitude {lat:g}° is outside ±90°", "give the latitude in degrees")
-        return float(normal_gravity(np.radians(lat), float(height_m))), f"normal gravity at {lat:g}°, {height_m:g} m"
+    if lat is not None:
+        lat = float(lat)
+        if not -np.pi / 2 <= lat <= np.pi / 2:
+            raise OptinavError(f"latitude {lat:g} rad is outside ±π/2", "give the latitude in rad (CLI: degrees)")
+        return (float(normal_gravity(lat, float(height_m))),
+                f"normal gravity at {np.degrees(lat):.10g}°, {height_m:g} m")
     return G_STANDARD, "standard gravity, by default"
 
 
 def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
-    cands = static.threshold_candidates(t, acc, gyro=gyro, window_s=window_s, min_duration_s=min_duration_s,
+    cands = static.threshold_candidates(t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s,
                                         acc_unit=acc_unit, gyro_unit=gyro_unit)
     scores = []
     seen = {}
@@ -128,31 +131,34 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
                                     "reduced_chi2": red, "chosen": best}
 
 
-def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
-              lat_deg=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
+def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
+              lat=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
               data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
-              threshold=None, acc_range=None, gyro_range=None, gyro_bias="static", rng=None,
+              threshold=None, acc_range=None, gyro_range=None, gyro_bias="local", rng=None,
               source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-              rest=None, allow_unobservable: bool = False, rotation_angle_deg: float = -360.0,
-              held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None
-              ) -> CalibrationResult:
+              rest=None, allow_unobservable: bool = False, rotation_angle: float = -2 * np.pi,
+              held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None,
+              gyro_bias_instability=None) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
-    t (N,) s; acc (N, 3) and gyro (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
-    come out in raw units per SI unit). ``g`` (m/s²) or ``lat_deg``/``height_m`` set the local gravity.
+    t (N,) s; acc (N, 3) and gyr (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
+    come out in raw units per SI unit). ``g`` (m/s²) or ``lat`` (rad) / ``height_m`` (m) set the local gravity.
     ``sections``: manual static sections (list of (t0, t1) s, or a file — see
     :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
     over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
-    ``gyro_bias``: "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
+    ``gyro_bias``: "local" (default: during each turn the bias interpolated between the two rests it joins, the
+    session mean reported with the drift the rests show in its std), "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
     rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
     ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
-    turns do not determine instead of failing. ``rotation_angle_deg``: the Ferraris turn (imucal's −360°);
+    turns do not determine instead of failing. ``rotation_angle`` (rad): the Ferraris turn (imucal's −2π);
     ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
     stds of the scales and biases). ``gyro_g_sensitivity`` (raw gyro per m/s², 1σ): the unmodelled gyro
-    g-sensitivity, added to the gyro bias and K std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    g-sensitivity, added to the gyro bias and K std. ``gyro_bias_instability`` (raw, 1σ): a gyro bias drift over the
+    session, added to the bias std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
     Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
+    gyro = gyr
     t_start = time.perf_counter()
     t = as_float_array(t, "time", finite=False)
     acc = as_float_array(acc, "accelerometer data", last_dims=(3,), finite=False)
@@ -172,7 +178,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
         t, acc = t[finite], acc[finite]
         gyro = gyro[finite] if gyro is not None else None
     t = check_timestamps(t, "time", min_count=10)
-    g, g_source = local_gravity(g, lat_deg, height_m)
+    g, g_source = local_gravity(g, lat, height_m)
     notes = [f"g = {g:.6g} m/s^2 ({g_source})" + (": give --gravity or --latitude for the local value (it "
                                                    "differs from standard gravity by up to 0.3 %)"
                                                    if g_source.startswith("standard") else "")]
@@ -186,7 +192,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
 
     if method == "ferraris":
         return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
-                         notes, np.radians(rotation_angle_deg))
+                         notes, float(rotation_angle))
     selection = {}
     step("detect static intervals")
     if sections is not None:
@@ -195,7 +201,7 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
         ranges = np.asarray(sl.index_ranges, int)[keep]
         t_int, how = np.asarray(sl.t_intervals, float)[keep], "manual sections"
     elif threshold is not None:
-        det = static.detect_static(t, acc, gyro=gyro, window_s=window_s, threshold=threshold,
+        det = static.detect_static(t, acc, gyr=gyro, window_s=window_s, threshold=threshold,
                                    min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "threshold"
     else:
@@ -213,7 +219,9 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
+    gate_log: list[dict] = []
     fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
+                           gate_log=gate_log,
                            samples=samples, rng=rng, bias_instability=acc_bias_instability,
                            held_misalignment=held_misalignment, **(method_options or {}))
     used = np.zeros(len(t), bool)
@@ -250,12 +258,14 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
         step("fit gyroscope and gates")
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
-                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g)
-        _gyro_gates(gc, gyro_unit)
+                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit,
+                                     bias_instability=gyro_bias_instability)
+        gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
                          + "; ".join(gc.unobservable))
-        b_std = np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))  # Earth rate is neglected (module docs)
+        # Earth rate is neglected (module docs); "local" takes its share from the scatter of the rests
+        b_std = gc.b_std if gc.bias_mode == "local" else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
                       "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
                       "bias_mode": gc.bias_mode, "unobservable": list(gc.unobservable)}
@@ -276,20 +286,24 @@ def calibrate(t, acc, gyro=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "r
     return CalibrationResult(accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g,
                              residual_rms=residual_rms, static_intervals=t_int, observability=observability,
                              method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
-                             quality=quality, source=source)
+                             quality=quality, source=source, gates=gate_log,
+                             convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message))
 
 
-def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw) -> accel.AccelFit:
+def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None,
+                     **kw) -> accel.AccelFit:
     """:func:`accel.fit_accel` that passes the gates; with ``model_form="auto"`` a full model that fails one
-    falls back to the diagonal model with a note naming the cause."""
+    falls back to the diagonal model with a note naming the cause. The passed gates are appended to
+    ``gate_log``."""
+    gate_log = [] if gate_log is None else gate_log
     fit = accel.fit_accel(st, g, model_form=model_form, **kw)
     try:
-        _accel_gates(fit, st, acc_unit)
+        gate_log += _accel_gates(fit, st, acc_unit)
     except OptinavError as exc:
         if model_form != "auto" or fit.held:
             raise
         fit = accel.fit_accel(st, g, model_form="diagonal", **kw)
-        _accel_gates(fit, st, acc_unit)
+        gate_log += _accel_gates(fit, st, acc_unit)
         notes.append(f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
                      "held at 0 (scales and biases fitted; --model full insists on the full model)")
         return fit
@@ -298,8 +312,9 @@ def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, **kw
     return fit
 
 
-def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> None:
-    """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`)."""
+def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -> list[dict]:
+    """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`);
+    raises on the first that fails, else returns their outcomes (:func:`optinav.core.results.gate`)."""
     if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
         raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
                            f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
@@ -323,6 +338,9 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
         k = int(np.argmax(ang))
         raise OptinavError(f"the calibration turns pose {k + 1} by {ang[k]:.3g}° away from its raw direction "
                            f"(> {gates.MAX_TURN_DEG:g}°): an implausible misalignment", "pass --model diagonal")
+    return [gate("acc optimizer converged", fit.success, None, kind="true"),
+            gate("acc residual rms of |a| - g", rms, gates.MAX_RESIDUAL_G * fit.g, unit="m/s^2"),
+            gate("acc largest turn of a pose", float(np.max(ang)), gates.MAX_TURN_DEG, unit="deg")]
 
 
 def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
@@ -343,8 +361,9 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
     return drop
 
 
-def _gyro_gates(gc, gyro_unit: str) -> None:
-    """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`)."""
+def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
+    """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`); raises on
+    the first that fails, else returns their outcomes."""
     if not gc.success or not (np.all(np.isfinite(gc.K)) and np.all(np.isfinite(gc.b)) and np.isfinite(gc.residual_rms)):
         raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
                            "check the static intervals (--threshold, --sections) and --gyro-unit")
@@ -354,9 +373,12 @@ def _gyro_gates(gc, gyro_unit: str) -> None:
     if gc.residual_rms > gates.MAX_GYRO_RESIDUAL_RAD:
         raise OptinavError(f"the turns do not carry gravity onto the next pose: residual RMS "
                            f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
-                           "for a gyro bias that drifts during the session pass --gyro-bias local; else check for "
-                           "motion inside the static intervals (--threshold, --sections) and the time column "
-                           "(--rate, --time-unit)")
+                           ("" if gc.bias_mode == "local" else "for a gyro bias that drifts during the session pass "
+                            "--gyro-bias local; else ") + "check for motion inside the static intervals (--threshold, "
+                           "--sections) and the time column (--rate, --time-unit)")
+    return [gate("gyr optimizer converged", gc.success, None, kind="true"),
+            gate("gyr residual rms of the carried gravity direction", gc.residual_rms, gates.MAX_GYRO_RESIDUAL_RAD,
+                 unit="rad")]
 
 
 def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
@@ -417,7 +439,8 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
         method="ferraris", elapsed_s=time.perf_counter() - t_start,
         excluded={"nan_rows": n_nan, "saturated_acc": 0},
         quality={"gravity_source": g_source, "sections": names, "pose_residual_rms": pose_rms,
-                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source)
+                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source,
+        convergence=convergence(None, message="closed form"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -449,13 +472,14 @@ class FileOptions:
     threshold: float | None = None
     acc_range: float | None = None
     gyro_range: float | None = None
-    gyro_bias: str = "static"
+    gyro_bias: str = "local"
     rest: tuple | None = None
     allow_unobservable: bool = False
     rotation_angle: float = -360.0
     acc_bias_instability: float | None = None
     held_misalignment: float = accel.HELD_MISALIGNMENT
     gyro_g_sensitivity: float | None = None
+    gyro_bias_instability: float | None = None
     generations: int | None = None
     seed: int = 0
 
@@ -477,13 +501,16 @@ class FileOptions:
         if (self.gyro_bias == "rest") != (self.rest is not None):
             raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
         for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
-                           ("held_misalignment", "--held-misalignment"), ("gyro_g_sensitivity", "--gyro-g-sensitivity")):
+                           ("held_misalignment", "--held-misalignment"), ("gyro_g_sensitivity", "--gyro-g-sensitivity"),
+                           ("gyro_bias_instability", "--gyro-bias-instability")):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
                 raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
         if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
             raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
                                "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
+        if self.latitude is not None and not -90 <= self.latitude <= 90:
+            raise OptinavError(f"--latitude {self.latitude:g} is outside ±90°", "give the latitude in degrees")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -504,7 +531,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units."""
     o = options
     log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
-                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate=o.rate, datasets=o.datasets or None,
+                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
                    delimiter=o.delimiter)
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
@@ -524,15 +551,16 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
 
         sections = sections_from_labels(data.labels)
     res = calibrate(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
-                     gyro_unit=data.gyro_unit or "rad/s", g=o.gravity, lat_deg=o.latitude,
-                     height_m=o.height, method=o.method, model_form=o.model,
-                     data="samples" if o.fit_samples else "means", sections=sections,
-                     window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
-                     acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
-                     source=source, method_options=method_options, rest=o.rest,
-                     allow_unobservable=o.allow_unobservable, rotation_angle_deg=o.rotation_angle,
-                     acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                     gyro_g_sensitivity=o.gyro_g_sensitivity)
+                    gyro_unit=data.gyro_unit or "rad/s", g=o.gravity,
+                    lat=None if o.latitude is None else np.radians(o.latitude),
+                    height_m=o.height, method=o.method, model_form=o.model,
+                    data="samples" if o.fit_samples else "means", sections=sections,
+                    window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
+                    acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
+                    source=source, method_options=method_options, rest=o.rest,
+                    allow_unobservable=o.allow_unobservable, rotation_angle=np.radians(o.rotation_angle),
+                    acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
+                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 

@@ -152,20 +152,21 @@ def _pose_means(x, what: str) -> tuple[np.ndarray, np.ndarray | None]:
 # calibration
 # --------------------------------------------------------------------------------------------------------
 
-def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate: float | None = None, dt=None,
+def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz: float | None = None, dt=None,
                          expected_angle=-2.0 * np.pi, gravity: float = IMUCAL_GRAVITY, static_counts=None,
                          acc_unit: str = "raw", gyro_unit: str = "raw") -> FerrarisCalibration:
     """Ferraris closed form (module docstring) from the six poses and the three rotations.
 
     acc_static, gyro_static: the poses ``x_p, x_a, y_p, y_a, z_p, z_a`` as a dict by name or a sequence in
     that order, each (N_i, 3) samples or a (3,) mean (input units). acc_rot, gyro_rot: the rotations
-    ``x_rot, y_rot, z_rot`` as (M_j, 3) samples (dict or sequence). Time step: ``rate`` (Hz; the integral is
+    ``x_rot, y_rot, z_rot`` as (M_j, 3) samples (dict or sequence). Time step: ``rate_hz`` (Hz; the integral is
     Σ samples / rate, as imucal) or ``dt`` (s; a scalar or a sequence of 3 arrays (M_j,) of per-sample steps).
     expected_angle: rad, scalar or (3,) per axis; imucal's default −360° (a clockwise turn seen from the
     axis tip, which makes the gyro read negative). gravity: m/s² (imucal default 9.81; pass the local
     value). static_counts: samples per pose when means are given, to weight the gyro bias as imucal does
     (with samples given the counts are taken from them). acc_unit/gyro_unit: names of the raw units.
     """
+    rate = rate_hz
     g = check_positive(gravity, "gravity")
     th = np.broadcast_to(as_float_array(expected_angle, "expected_angle"), (3,)).astype(float).copy() \
         if np.ndim(expected_angle) == 0 else as_float_array(expected_angle, "expected_angle")
@@ -276,7 +277,7 @@ def sections_from_labels(labels) -> dict | None:
     return out
 
 
-def ferraris_from_sections(t_or_rate, acc, gyro, sections, **kwargs) -> FerrarisCalibration:
+def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisCalibration:
     """Ferraris calibration of a continuous log with annotated sections.
 
     t_or_rate: timestamps (N,) s, or the sample rate in Hz for a uniformly sampled log without timestamps.
@@ -286,6 +287,7 @@ def ferraris_from_sections(t_or_rate, acc, gyro, sections, **kwargs) -> Ferraris
     section list. With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate,
     Σ samples / rate (imucal). Other keywords go to :func:`ferraris_calibration`.
     """
+    gyro = gyr
     from optinav.multipos.static import SectionList, sections_from_list
 
     acc = as_float_array(acc, "acc", last_dims=(3,))
@@ -330,7 +332,7 @@ def ferraris_from_sections(t_or_rate, acc, gyro, sections, **kwargs) -> Ferraris
     acc_rot = {n: acc[slice(*idx[n])] for n in ROTATIONS}
     gyro_rot = {n: gyro[slice(*idx[n])] for n in ROTATIONS}
     if rate is not None:
-        return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, rate=rate, **kwargs)
+        return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz=rate, **kwargs)
     step = np.diff(t)
     step = np.append(step, step[-1])
     dts = [step[slice(*idx[n])] for n in ROTATIONS]

@@ -23,7 +23,7 @@ import itertools
 
 import numpy as np
 
-from optinav.core.units import factor
+from optinav.core.units import DEG, factor
 from optinav.errors import OptinavError
 
 #: poses closer than this (degrees) count as one direction in the rank test
@@ -40,17 +40,24 @@ MAX_TURN_DEG = 20.0
 MAX_GYRO_RESIDUAL_RAD = 0.05
 #: accelerometer rest norm / g outside 1/UNIT_TOL … UNIT_TOL is a unit error
 UNIT_TOL = 1.3
+#: gyro turn angle (perpendicular to gravity, declared unit) / gravity-direction change outside
+#: 1/TURN_UNIT_TOL … TURN_UNIT_TOL is a unit error (geometry alone gives 1 … π/2 for turns up to 180°)
+TURN_UNIT_TOL = 2.5
+#: transitions whose gravity direction changes by less than this (degrees) are not used in the turn check
+MIN_TURN_DEG = 20.0
+#: a transition whose gyro rotation is within this many noise σ of zero saw no turn
+NO_TURN_SIGMA = 5.0
 
 _ACC_UNITS = ("m/s^2", "g", "mg")
 _GYRO_UNITS = ("rad/s", "deg/s")
 
 
-def distinct_directions(dirs, tol_deg: float = SAME_POSE_DEG) -> np.ndarray:
+def distinct_directions(dirs, tol: float = float(np.radians(SAME_POSE_DEG))) -> np.ndarray:
     """Cluster label (P,) of each direction (P, 3): greedy, a direction joins the first cluster whose first
-    member is within ``tol_deg``; labels count 0, 1, … in order of first appearance."""
+    member is within ``tol`` (rad); labels count 0, 1, … in order of first appearance."""
     d = np.asarray(dirs, float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    cos_tol = np.cos(np.radians(tol_deg))
+    cos_tol = np.cos(tol)
     reps: list[np.ndarray] = []
     labels = np.empty(len(d), int)
     for k, u in enumerate(d):
@@ -150,8 +157,50 @@ def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: st
         if likely:
             raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
                                f"the data look like {likely[0]}", f"pass {option} {likely[0]}")
+        if r * factor("deg/s") > TURN_UNIT_TOL:  # more than TURN_UNIT_TOL raw per deg/s: no SI unit is that coarse
+            raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
+                               f"raw counts? ({r * factor('deg/s'):.3g} per deg/s)",
+                               f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)")
     k = int(np.flatnonzero(bad)[0])
     raise OptinavError(f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
                        f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
                        f"check {option} and the static intervals (--threshold, --sections)"
                        + (", or use --model diagonal" if sensor == "accelerometer" else ""))
+
+
+def check_gyro_turns(theta_perp, alpha, noise, t0, t1, unit: str, option: str = "--gyro-unit") -> None:
+    """The gyro's view of each turn against the accelerometer's, before any gyro fit.
+
+    ``theta_perp`` (T,): raw rotation of each transition perpendicular to gravity (raw·s, bias removed),
+    ``alpha`` (T,): the gravity-direction change between the two poses (rad), ``noise`` (T,): 1σ of
+    ``theta_perp`` from the gyro's rest noise, ``t0``/``t1``: transition start/end times (s). A transition that
+    moves gravity by ≥ :data:`MIN_TURN_DEG` while the gyro sees no turn (within :data:`NO_TURN_SIGMA` σ) means a
+    log cut between poses or rows out of time order. In a physical ``unit`` the median ratio of turn angle to
+    gravity change must lie within ×:data:`TURN_UNIT_TOL` of 1; a factor 57.3 names deg/s vs rad/s, others raw
+    counts (a unit in counts has no nominal scale, so only the first test applies)."""
+    theta_perp, alpha = np.asarray(theta_perp, float), np.asarray(alpha, float)
+    big = alpha >= np.radians(MIN_TURN_DEG)
+    still = big & (theta_perp < NO_TURN_SIGMA * np.asarray(noise, float))
+    if np.any(still):
+        k = np.flatnonzero(still)
+        when = ", ".join(f"{t0[i]:.4g}–{t1[i]:.4g} s ({np.degrees(alpha[i]):.0f}°)" for i in k[:3])
+        raise OptinavError(f"in {k.size} of {alpha.size} transitions gravity moves between the poses but the "
+                           f"gyroscope sees no turn ({when}{', …' if k.size > 3 else ''}): the log is cut between "
+                           "the poses, or its rows are not in time order",
+                           "for a file of cut Ferraris sections use --method ferraris (sections from a label column "
+                           "or --sections), or --no-gyro; else check the time column (--rate, --time-unit) and the "
+                           "row order")
+    use = big & ~still
+    if unit == "counts" or np.count_nonzero(use) < 2:
+        return
+    k_raw = float(np.median(theta_perp[use] / alpha[use]))  # raw units per rad/s of turn rate
+    ratio = k_raw * factor(unit)
+    if 1 / TURN_UNIT_TOL <= ratio <= TURN_UNIT_TOL:
+        return
+    likely = [u for u in _GYRO_UNITS if u != unit and 1 / TURN_UNIT_TOL <= k_raw * factor(u) <= TURN_UNIT_TOL]
+    what = (f"the data look like {likely[0]}" if likely else
+            f"raw counts? ({k_raw * DEG:.3g} per deg/s)")
+    cause = (f"the gyroscope turns {ratio:.3g}× as far as gravity does between the poses in {unit} (median of "
+             f"{np.count_nonzero(use)} turns, perpendicular to gravity): {what}")
+    raise OptinavError(cause, f"pass {option} {likely[0]}" if likely else
+                       f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)")

@@ -39,7 +39,8 @@ problem is then refit without it (the reported K and b carry no prior).
 
 Bias modes: ``"static"`` — mean raw gyro over all static intervals (fixed); ``"local"`` — during each turn the
 bias interpolated linearly in time between the means of the two static intervals it joins (a bias that drifts
-during the session; the session mean is reported, its std the spread of the interval means); ``"rest"`` — mean over a
+during the session; the default of ``calibrate accel``; the session mean is reported, its std from the rests:
+:func:`_local_bias_var`); ``"rest"`` — mean over a
 rest window ``(t0, t1)`` s (fixed); ``"estimate"`` — b fitted with K, with each static interval's mean
 added as three residuals ``(m_k − b)/s_k`` (``s_k`` the standard error of the mean from the interval's
 sample scatter, white noise assumed) and the angle residuals weighted by ``1/σ̂`` from a first fit with
@@ -280,6 +281,19 @@ class _Transitions:
         q = self.rotations(K, b)
         return quat_rotate(quat_conjugate(q), self.u0) - self.u1
 
+    def turn_angles(self, b) -> tuple[np.ndarray, np.ndarray]:
+        """Per transition: the raw rotation perpendicular to the first pose's gravity direction
+        ``‖Θ_k − (Θ_k·u_k)u_k‖`` (raw·s, Θ_k = ∫(raw − b)dt; a turn about gravity moves no gravity direction) and
+        the gravity-direction change ``α_k`` (rad) that the accelerometer sees."""
+        w = self.raw - b
+        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
+        dth[self.gap] = 0.0
+        cs = np.vstack([np.zeros((1, 3)), np.cumsum(dth, axis=0)])
+        th = cs[self.ends] - cs[self.starts]
+        perp = th - np.einsum("ij,ij->i", th, self.u0)[:, None] * self.u0
+        alpha = np.arccos(np.clip(np.einsum("ij,ij->i", self.u0, self.u1), -1.0, 1.0))
+        return np.linalg.norm(perp, axis=1), alpha
+
     def raw_rotation(self, b) -> np.ndarray:
         """‖∫(raw − b)dt‖ per transition (raw·s), the rotation angle times the scale for K = k·I."""
         w = self.raw - b
@@ -394,7 +408,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
                    allow_unobservable: bool = False, max_std: float = 0.05,
                    drop_transitions=(), g_sensitivity_std: float | None = None,
-                   gravity: float = 9.80665) -> GyroCalibration:
+                   gravity: float = 9.80665, unit: str | None = None, bias_instability=None) -> GyroCalibration:
     """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -419,6 +433,11 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         the model leaves out. A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests, ``gravity``
         m/s² along the mean up direction), added to the bias variance; each turn sees G·(f − f̄), at most
         σ·g per axis, propagated into K like a bias error.
+    bias_instability : 1σ (raw, scalar or per axis) of a bias drift over the session (datasheet in-run bias
+        instability, or run-to-run), added to the bias variance; with ``bias="local"`` it takes the place of the
+        drift seen in the rests when it is the larger.
+    unit : the declared unit of ``gyro_raw`` ("rad/s", "deg/s", "counts"); when given, the turns are checked
+        against the gravity-direction changes before the fit (:func:`optinav.multipos.gates.check_gyro_turns`).
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)
@@ -490,6 +509,14 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
         b_init = b_fixed
         b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
+
+    if unit is not None:
+        # before any fit: the turns must agree with the gravity-direction changes in the declared unit
+        from . import gates
+
+        theta_perp, alpha = tr.turn_angles(b_init)
+        noise = float(np.median(sems * np.sqrt(counts)[:, None])) * np.sqrt(float(np.median(tr.h)) * tr.durations)
+        gates.check_gyro_turns(theta_perp, alpha, noise, tr.t_rows[tr.starts], tr.t_rows[tr.ends], unit)
 
     # --- initial guess
     if x0 is None:
@@ -621,13 +648,20 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
                       np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
             G = -A @ Jb
-            b_prop = b_cov + (np.eye(3) * (abs(float(g_sensitivity_std)) * gravity) ** 2 if g_sensitivity_std else 0)
+            # a static bias holds G·f̄ and each turn sees G·(f − f̄), up to σ·g per axis; "local" interpolates G·f
+            # between the two rests, and f leaves that chord by at most 0.29 g in a 90° turn (1 − cos 45°)
+            sg_turn = abs(float(g_sensitivity_std or 0.0)) * gravity * (0.3 if mode == "local" else 1.0)
+            b_prop = b_cov + np.eye(3) * sg_turn ** 2
             cov[:9, :9] += G @ b_prop @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
     if mode == "local":
         # K saw the local (noise-limited) biases; the reported session mean carries the drift
-        cov[9:, 9:] = np.diag(np.maximum(np.diag(b_cov), means.var(axis=0, ddof=1)))
+        scatter = abs(float(g_sensitivity_std)) * gravity if g_sensitivity_std else 0.0
+        cov[9:, 9:] = np.diag(_local_bias_var(means, sems, counts, tc, K_hat, bias_instability, scatter))
+    elif bias_instability is not None and mode != "given":
+        # a drift common to the whole session leaves no trace in the rests: only a noise model can bound it
+        cov[9:, 9:] += np.diag(np.broadcast_to(np.square(np.asarray(bias_instability, float)), (3,)))
     if g_sensitivity_std:
         sg = abs(float(g_sensitivity_std)) * float(gravity)
         fbar = (counts[:, None] * u).sum(0) / counts.sum() if mode != "rest" else np.ones(1)
@@ -664,6 +698,31 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         unobservable=unobservable, earth_rate_bound=beta, earth_rate_param_bound=bound, method=method,
         bias_mode=mode, coning=coning, success=bool(res.success), message=str(res.message), nfev=int(nfev),
         elapsed_s=time.perf_counter() - t_start)
+
+
+def _local_bias_var(means, sems, counts, tc, K, bias_instability=None, g_scatter: float = 0.0) -> np.ndarray:
+    """Variance (3,) of the session-mean bias of ``bias="local"`` (raw²), from the rests themselves.
+
+    The rest means ``m_k`` scatter about a smooth drift by the white noise and by the Earth rate, which each pose
+    projects differently; their scatter about a quadratic trend in time (``s²``) over the number of rests bounds
+    what averaging leaves of both. The drift itself is the scatter of the rest means beyond what the Earth rate
+    alone can put there (a rate of norm ``Ω_E·K_ii`` in unknown directions: ``(Ω_E·K_ii)²/3`` per axis); it is
+    added whole, since the session-mean offset of a drift is about as large as its spread within the session.
+    A given ``bias_instability`` (1σ, raw) replaces that drift term when it is the larger; ``g_scatter`` (raw, the
+    given g-sensitivity 1σ times g) is scatter the poses explain, not drift. Monte Carlo check: :mod:`optinav.multipos.uncertainty`."""
+    n = means.shape[0]
+    sem2 = (counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2
+    if n < 4:
+        return np.maximum(sem2, means.var(axis=0, ddof=1) if n > 1 else sem2)
+    x = (tc - tc.mean()) / max(float(np.ptp(tc)), 1e-12)
+    A = np.column_stack([np.ones(n), x, x * x])
+    coef, *_ = np.linalg.lstsq(A, means, rcond=None)
+    s2 = np.maximum(((means - A @ coef) ** 2).sum(0) / (n - 3) - g_scatter ** 2, 0.0)
+    earth2 = (_earth.constants("wgs84").omega_ie * np.abs(np.diag(K))) ** 2 / 3.0 + g_scatter ** 2
+    drift2 = np.maximum(0.0, means.var(axis=0, ddof=1) - earth2)
+    if bias_instability is not None:
+        drift2 = np.maximum(drift2, np.square(np.asarray(bias_instability, float)))
+    return sem2 + s2 / n + drift2
 
 
 def _sigma_hat(r, dof: int) -> float:

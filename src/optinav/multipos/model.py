@@ -104,13 +104,13 @@ def norm_hessian(theta, means, g: float) -> np.ndarray:
     return 0.5 * (H + H.T)
 
 
-def gravity_excitation(f) -> np.ndarray:
+def gravity_excitation(acc) -> np.ndarray:
     """The linear observation block H_k = [I₃, G_k] (3, 9) of one pose (Gao & Zhang eq. 13).
 
-    ``f``: specific force in the sensor frame (m/s²). Columns in the order [B_x, B_y, B_z, S_xx, S_yy, S_zz,
+    ``acc``: specific force in the sensor frame (m/s²). Columns in the order [B_x, B_y, B_z, S_xx, S_yy, S_zz,
     E_xy, E_xz, E_yz] of the paper's linear output model N = K·f + B with K upper triangular.
     """
-    fx, fy, fz = as_float_array(f, "f", last_dims=(3,))
+    fx, fy, fz = as_float_array(acc, "acc", last_dims=(3,))
     G = np.array([[fx, 0, 0, fy, fz, 0], [0, fy, 0, 0, 0, fz], [0, 0, fz, 0, 0, 0]], dtype=float)
     return np.hstack([np.eye(3), G])
 

@@ -26,7 +26,7 @@ from dataclasses import field
 
 import numpy as np
 
-from optinav.core.results import Result
+from optinav.core.results import Estimate, Parameter, Truth, flat_kwargs, register_legacy, register_truth_legacy
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
@@ -61,15 +61,16 @@ def _triad(d: dict | None, name: str) -> dict | None:
 
 
 @dataclasses.dataclass
-class CalibrationResult(Result):
-    """A triad calibration as written to RESULT.json (see the module docstring)."""
+class CalibrationResult(Estimate):
+    """A triad calibration as written to RESULT.json (see the module docstring and docs/results.md).
 
-    SCHEMA = "optinav.calibration"
-    VERSION = 1
-    _FLAT = True
-    _FLAT_WHAT = "calibration result"
-    _FLAT_REMEDY = "pass the RESULT.json written by `optinav calibrate`"
-    _FLAT_EXTRA = {"model": MODEL}
+    :meth:`parameters` names the elements ``acc_K_xx`` … ``acc_K_zz``, ``acc_b_x`` … (and ``gyr_K_*``,
+    ``gyr_b_*``, ``gyr_G_*`` with a gyroscope): K in raw units per SI unit, b in raw units."""
+
+    SCHEMA = "optinav.multipos.calibration"
+    VERSION = 2
+    SYSTEM = "multipos"
+    KIND = "calibration"
 
     accelerometer: dict | None = field(default=None, metadata={"unit": "raw per m/s^2 | raw"})
     gyroscope: dict | None = field(default=None, metadata={"unit": "raw per rad/s | raw"})
@@ -83,6 +84,18 @@ class CalibrationResult(Result):
     excluded: dict = field(default_factory=dict, metadata={"unit": "-"})
     quality: dict = field(default_factory=dict, metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
+    convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
+    gates: list = field(default_factory=list, metadata={"unit": "-"})
+
+    def parameters(self) -> dict[str, Parameter]:
+        out: dict[str, Parameter] = {}
+        if self.accelerometer is not None:
+            out.update(_triad_parameters("acc", self.accelerometer, self.units.get("accelerometer_raw") or "raw",
+                                         "m/s^2"))
+        if self.gyroscope is not None:
+            out.update(_triad_parameters("gyr", self.gyroscope, self.units.get("gyroscope_raw") or "raw", "rad/s",
+                                         acc_unit="m/s^2"))
+        return out
 
     def __post_init__(self):
         self.accelerometer = _triad(self.accelerometer, "accelerometer")
@@ -100,8 +113,8 @@ class CalibrationResult(Result):
         K, b = self.accelerometer["K"], self.accelerometer["b"]
         return np.linalg.solve(K, (raw - b).T).T
 
-    def correct_gyro(self, raw, accel=None) -> np.ndarray:
-        """ω = K_g⁻¹(raw − G·a − b_g) (rad/s); ``accel`` is the corrected specific force (m/s²) for G."""
+    def correct_gyro(self, raw, acc=None) -> np.ndarray:
+        """ω = K_g⁻¹(raw − G·a − b_g) (rad/s); ``acc`` is the corrected specific force (m/s²) for G."""
         if self.gyroscope is None:
             raise OptinavError("this result has no gyroscope calibration", "calibrate with gyroscope data")
         raw = as_float_array(raw, "gyroscope data", last_dims=(3,), finite=False)
@@ -109,10 +122,10 @@ class CalibrationResult(Result):
         v = raw - b
         G = self.gyroscope.get("G")
         if G is not None and np.any(np.asarray(G) != 0):
-            if accel is None:
+            if acc is None:
                 raise OptinavError("the gyroscope calibration has a g-sensitivity term but no accelerometer data "
                                    "was given", "pass the accelerometer data too")
-            v = v - np.asarray(accel, float) @ np.asarray(G, float).T
+            v = v - np.asarray(acc, float) @ np.asarray(G, float).T
         return np.linalg.solve(K, v.T).T
 
     def summary(self) -> str:
@@ -140,3 +153,104 @@ class CalibrationResult(Result):
         for s in self.observability.get("unobservable", []) or []:
             lines.append(f"unobservable: {s}")
         return "\n".join(lines)
+
+
+_AX = "xyz"
+#: the accelerometer's ``crlb_std`` order (:data:`optinav.multipos.model.ACCEL_PARAMS`)
+_ACC_CRLB = ("K_xx", "K_yy", "K_zz", "K_xy", "K_xz", "K_yz", "b_x", "b_y", "b_z")
+_GAUGE = ("fixed at 0 by the upper-triangular form: norm observations cannot see a rotation of the triad "
+          "(the sensor z axis and y-z plane are the reference)")
+
+
+def _std(a, i, j=None):
+    if a is None:
+        return None
+    v = float(np.asarray(a, float)[i] if j is None else np.asarray(a, float)[i, j])
+    return v if math.isfinite(v) else None
+
+
+def _triad_parameters(prefix: str, d: dict, raw: str, si: str, acc_unit: str | None = None) -> dict:
+    """The K, b (and G) elements of one triad entry as :class:`Parameter` (names ``{prefix}_K_xy`` …)."""
+    form = d.get("form", "full")
+    held = set(d.get("held") or [])
+    crlb = d.get("crlb_std")
+    crlb = dict(zip(_ACC_CRLB, np.asarray(crlb, float))) if crlb is not None and len(crlb) == 9 else {}
+    unobs = [str(u) for u in d.get("unobservable") or []]
+    out = {}
+
+    def entry(short, value, std, unit):
+        name = f"{prefix}_{short}"
+        c = crlb.get(short)
+        c = float(c) if c is not None and math.isfinite(c) else None
+        if short in held:
+            return name, Parameter(None, unit, reason="held at 0: the poses cannot determine it (diagonal model; "
+                                                      "its 1σ model error enters the scale and bias std)",
+                                   observable=False)
+        which = [u for u in unobs if short in u.replace("(", " ").replace(")", " ").split()]
+        if which:
+            return name, Parameter(None, unit, observable=False,
+                                   reason="held at the initial guess, not determined by the turns: " + "; ".join(which))
+        return name, Parameter(float(value), unit, std=std, crlb_std=c)
+
+    K, Ks = np.asarray(d["K"], float), d.get("K_std")
+    for i in range(3):
+        for j in range(3):
+            short = f"K_{_AX[i]}{_AX[j]}"
+            if form == "upper-triangular" and i > j:
+                out[f"{prefix}_{short}"] = Parameter(None, f"{raw} per {si}", observable=False, reason=_GAUGE)
+                continue
+            n, p = entry(short, K[i, j], _std(Ks, i, j), f"{raw} per {si}")
+            out[n] = p
+    b, bs = np.asarray(d["b"], float), d.get("b_std")
+    for i in range(3):
+        n, p = entry(f"b_{_AX[i]}", b[i], _std(bs, i), raw)
+        out[n] = p
+    if d.get("G") is not None:
+        G = np.asarray(d["G"], float)
+        for i in range(3):
+            for j in range(3):
+                out[f"{prefix}_G_{_AX[i]}{_AX[j]}"] = Parameter(float(G[i, j]), f"{raw} per {acc_unit}")
+    return out
+
+
+def _legacy_v1(data: dict) -> dict:
+    """RESULT.json of optinav ≤ 0.x (schema "optinav.calibration" version 1, flat)."""
+    kw = flat_kwargs(CalibrationResult, data)
+    q = data.get("quality") or {}
+    if "optimizer_success" in q:
+        from optinav.core.results import convergence
+
+        kw["convergence"] = convergence(q.get("optimizer_success"), evaluations=q.get("nfev"),
+                                        message=q.get("optimizer_message") or "")
+    return kw
+
+
+register_legacy(CalibrationResult, "optinav.calibration", 1, _legacy_v1)
+
+
+def session_truth(acc_K, acc_b, gyro_K=None, gyro_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s",
+                  info: dict | None = None) -> Truth:
+    """A simulated unit's truth in the parameterization :func:`~optinav.multipos.calibrate.calibrate`
+    estimates: the accelerometer K in the upper-triangular form U (K = U·Q with Q a rotation: norm observations
+    fix the sensor z axis and y-z plane) and the gyroscope K expressed in that frame (K_g·Qᵀ); raw units as
+    written (``acc_unit``/``gyro_unit``)."""
+    from optinav.multipos import model
+
+    U, Q = model.upper_triangular_form(np.asarray(acc_K, float))
+    acc = {"K": U, "b": np.asarray(acc_b, float), "form": "upper-triangular"}
+    params = _triad_parameters("acc", acc, acc_unit, "m/s^2")
+    if gyro_K is not None:
+        gyr = {"K": np.asarray(gyro_K, float) @ Q.T, "b": np.asarray(gyro_b, float), "form": "full"}
+        params.update(_triad_parameters("gyr", gyr, gyro_unit, "rad/s"))
+    return Truth("multipos", params, dict(info or {}))
+
+
+def _truth_v1(data: dict) -> dict:
+    units = data.get("units") or {}
+    a, g = data["accelerometer"], data.get("gyroscope")
+    return session_truth(a["K"], a["b"], None if g is None else g["K"], None if g is None else g["b"],
+                         acc_unit=units.get("accelerometer_raw", "m/s^2"),
+                         gyro_unit=units.get("gyroscope_raw", "rad/s")).parameters
+
+
+register_truth_legacy("multipos", "optinav.simulation_truth", _truth_v1)

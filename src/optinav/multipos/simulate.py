@@ -82,7 +82,7 @@ def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
 
 def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", dwell_s: float = 60.0,
              rate_hz: float | None = None, transition_s: float = 4.0, rest_s: float = 10.0,
-             lat_deg: float = 38.88, height_m: float = 35.0, truth: str = "draw",
+             lat: float = float(np.radians(38.88)), height_m: float = 35.0, truth: str = "draw",
              acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", acc_counts_per_si: float = 2048 / G_STANDARD,
              gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
     """Simulate a static multi-position session.
@@ -91,7 +91,8 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     drawn with ``rng``), an ImuModel, or a preset name. ``truth="paper"`` replaces the accelerometer errors by
     Gao & Zhang's Table 2 reference (S per local g, three misalignments, biases). Poses alternate yaw so that
     consecutive transitions turn about varied axes. ``jitter``: timestamp jitter as a fraction of the step
-    (irregular sampling). Units: raw outputs are written in ``acc_unit`` / ``gyro_unit``.
+    (irregular sampling). Site: ``lat`` (rad), ``height_m`` (m). Units: raw outputs are written in ``acc_unit`` /
+    ``gyro_unit``.
     """
     gen = as_rng(rng)
     ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
@@ -102,7 +103,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     if not isinstance(unit_model, ImuModel):
         raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
     rate = unit_model.sample_rate if rate_hz is None else check_positive(rate_hz, "rate_hz")
-    lat = np.radians(lat_deg)
+    lat = float(lat)
     g = float(normal_gravity(lat, height_m))
     if truth == "paper":
         K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
@@ -118,7 +119,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     if jitter:
         t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
         t[0] = 0.0
-    tr = static_positions(poses, dwell, rate, lat, h=height_m, transition=transition_s, t=t)
+    tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t)
     meas = unit_model.apply(tr.omega_ib_b, tr.f_b, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
     fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
     fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)

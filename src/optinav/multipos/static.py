@@ -290,7 +290,7 @@ def _prepare(t, acc, gyro, window_s, min_duration_s, trim_s):
     return t, acc, gyro, window_s, min_duration_s, trim_s
 
 
-def threshold_candidates(t, acc, *, gyro=None, window_s: float = 1.0, min_duration_s: float = 2.0,
+def threshold_candidates(t, acc, *, gyr=None, window_s: float = 1.0, min_duration_s: float = 2.0,
                          trim_s: float | None = None, multipliers=None, init_rest_s: float | None = None,
                          acc_unit: str = "input units", gyro_unit: str = "input units") -> ThresholdCandidates:
     """Candidate thresholds ``m × noise floor`` (``multipliers``, default :data:`DEFAULT_MULTIPLIERS`) with
@@ -299,6 +299,7 @@ def threshold_candidates(t, acc, *, gyro=None, window_s: float = 1.0, min_durati
     ``init_rest_s``: if given, the floor is the total variance of the first ``init_rest_s`` seconds (the log
     must start at rest, as imu_tk assumes). Other arguments as in :func:`detect_static`.
     """
+    gyro = gyr
     t, acc, gyro, window_s, min_duration_s, trim_s = _prepare(t, acc, gyro, window_s, min_duration_s, trim_s)
     va, ra = _moving_variance(t, acc, window_s)
     vg, rg = _moving_variance(t, gyro, window_s) if gyro is not None else (None, 0.0)
@@ -359,24 +360,25 @@ def default_candidate(n_intervals, stable: int = STABLE_RUN) -> int:
     return int(start + (length - 1) // 2)
 
 
-def detect_static(t, acc, *, gyro=None, window_s: float = 1.0, threshold: float | None = None,
+def detect_static(t, acc, *, gyr=None, window_s: float = 1.0, threshold: float | None = None,
                   gyro_threshold: float | None = None, min_duration_s: float = 2.0, trim_s: float | None = None,
                   multipliers=None, init_rest_s: float | None = None, acc_unit: str = "input units",
                   gyro_unit: str = "input units") -> StaticDetection:
-    """Static intervals of a log from the moving variance of ``acc`` (and ``gyro``).
+    """Static intervals of a log from the moving variance of ``acc`` (and ``gyr``).
 
     t (N,) s; acc, gyro (N, 3) in any input units. A sample is static when the acc moving variance over a
-    centred ``window_s`` window is ≤ ``threshold`` (input units²) and, with ``gyro``, the gyro variance is ≤
+    centred ``window_s`` window is ≤ ``threshold`` (input units²) and, with ``gyr``, the gyro variance is ≤
     ``gyro_threshold``. ``threshold=None``: automatic (module docstring; the gyro uses the same multiple of
-    its own floor). A given ``threshold`` with ``gyro`` but no ``gyro_threshold`` uses the acc alone.
+    its own floor). A given ``threshold`` with ``gyr`` but no ``gyro_threshold`` uses the acc alone.
     Intervals are trimmed by ``trim_s`` (default ``window_s/2``) at both ends, then those shorter than
     ``min_duration_s`` are dropped. ``acc_unit``/``gyro_unit`` only label error messages.
     """
+    gyro = gyr
     if threshold is None:
         if gyro_threshold is not None:
             raise OptinavError("gyro_threshold was given without threshold",
                                "give both thresholds, or neither for the automatic choice")
-        return threshold_candidates(t, acc, gyro=gyro, window_s=window_s, min_duration_s=min_duration_s,
+        return threshold_candidates(t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s,
                                     trim_s=trim_s, multipliers=multipliers, init_rest_s=init_rest_s,
                                     acc_unit=acc_unit, gyro_unit=gyro_unit).default
     thr = check_positive(threshold, "threshold")
@@ -532,10 +534,11 @@ def sections_from_list(sections, t) -> SectionList:
     return SectionList(t_intervals=ti, index_ranges=ranges, names=names)
 
 
-def detection_from_sections(sections, t, acc, *, gyro=None) -> StaticDetection:
+def detection_from_sections(sections, t, acc, *, gyr=None) -> StaticDetection:
     """A :class:`StaticDetection` (method "manual", no variances) of hand-given static sections, so a
     calibrator treats detected and manual intervals alike. ``sections`` as in :func:`sections_from_list`
     (or a :class:`SectionList`); t (N,) s; acc, gyro (N, 3) input units."""
+    gyro = gyr
     t, acc, gyro = _check_t_acc_gyro(t, acc, gyro)
     sl = sections if isinstance(sections, SectionList) else sections_from_list(sections, t)
     r = np.asarray(sl.index_ranges, dtype=np.int64).reshape(-1, 2)

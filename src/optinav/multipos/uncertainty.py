@@ -103,6 +103,49 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
                    "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items()}
 
 
+#: in-run gyro bias instability (°/h, datasheet B; Gauss–Markov, τ 100 s) of the drifting unit of
+#: :func:`gyro_drift_study` — ten times the MTi-1's, a consumer-grade MEMS gyro
+DRIFTING_GYRO_DEG_H = 100.0
+
+
+def gyro_drift_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, float]]:
+    """RMS(error/std) of the gyro bias and K under a bias that drifts in the run (first-order Gauss–Markov of the
+    MTi-1 preset: its own 10 °/h, and :data:`DRIFTING_GYRO_DEG_H`), against the unit's long-term bias: the
+    default ``--gyro-bias local``, the former default ``static``, and ``local`` with ``--gyro-bias-instability``
+    (the process's stationary 1σ). Full simulated sessions (18 poses, 8 s dwell, counts), as
+    :func:`gyro_g_sensitivity_study`."""
+    from optinav.core.imu_model import GM_SIGMA_PER_BIAS_INSTABILITY, preset
+    from optinav.core.units import DEG
+
+    from .calibrate import calibrate
+    from .simulate import simulate
+
+    gen = as_rng(rng)
+    hi = f"{DRIFTING_GYRO_DEG_H:g} °/h"
+    cases = [("gyro, bias 10 °/h (MTi-1), local (default)", 10.0, "local", False),
+             (f"gyro, bias {hi}, static (the former default)", DRIFTING_GYRO_DEG_H, "static", False),
+             (f"gyro, bias {hi}, local (default)", DRIFTING_GYRO_DEG_H, "local", False),
+             (f"gyro, bias {hi}, local + --gyro-bias-instability", DRIFTING_GYRO_DEG_H, "local", True)]
+    z = {name: ([], []) for name, *_ in cases}
+    for _ in range(int(n_runs)):
+        seed = int(gen.integers(2 ** 31))
+        for B in sorted({c[1] for c in cases}):
+            s = simulate("18", spec=preset("mems-mti1", gyro_bias_instability=(B, "deg/h")), dwell_s=8,
+                                 rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
+            _, Q = model.upper_triangular_form(s.acc_K)
+            Kg = s.gyro_K @ Q.T
+            for name, b_case, mode, given in cases:
+                if b_case != B:
+                    continue
+                inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
+                r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                                      gyro_bias=mode, gyro_bias_instability=inst if given else None)
+                z[name][0].extend((r.gyroscope["b"] - s.gyro_b) / r.gyroscope["b_std"])
+                z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
+    return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
+                   "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items()}
+
+
 def table(results: dict[str, dict[str, float]]) -> str:
     """A markdown table of :func:`run_all` results."""
     lines = ["| configuration | " + " | ".join(GROUPS) + " |", "|---|" + "---|" * len(GROUPS)]

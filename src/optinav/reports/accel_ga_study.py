@@ -164,7 +164,7 @@ def _tables_2_to_4(quick, rng):
     unit = preset("mems-mti1").draw(rng)
     unit = dataclasses.replace(unit, accel=TriadErrors.from_matrix("accel", sess.acc_K, sess.acc_b))
     c = rotations.dcm_from_euler(np.radians([3.0, -5.0, 30.0]), convention="enu")
-    tr = static_positions(c[None], 60.0, 100.0, np.radians(38.88), h=35.0)
+    tr = static_positions(c[None], 60.0, 100.0, np.radians(38.88), height_m=35.0)
     meas = unit.apply(tr.omega_ib_b, tr.f_b, rng=rng)
     f_true = tr.f_b.mean(axis=0)
     p0, r0 = _level(f_true)

@@ -105,7 +105,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                       "cf1_dir_median_max": float(np.median([r[:, 3:].max() for r in cf1])),
                       "cfn_pos_max": float(rel_cfn[:, :3].max()), "lm_pos_max": float(rel_lm[:, :3].max()),
                       "cfn_dir_max": float(rel_cfn[:, 3:].max()), "lm_dir_max": float(rel_lm[:, 3:].max()),
-                      "lm_max_z": float(z.max()), "lm_time_s": lm.elapsed}
+                      "lm_max_z": float(z.max()), "lm_time_s": lm.elapsed_s}
     rows = []
     for key, rates in pairs.items():
         m = same[key]

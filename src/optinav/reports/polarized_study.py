@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -99,16 +100,16 @@ def _break_wraps(t, y, jump=90.0):
     return t, y
 
 
-def _broad_section(quick):
-    """The methods at their defaults on the real BROAD trials in the shared data folder (skipped when absent)."""
+def _broad_section(quick, data_dir):
+    """The methods at their defaults on the real BROAD trials in ``data_dir``/attitude/broad (skipped when
+    ``data_dir`` is None or holds none)."""
     from optinav.attitude import estimate_q
-    from optinav.attitude.data import load_broad, shared_data_dir, synthesize_polarization
+    from optinav.attitude.data import load_broad, synthesize_polarization
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
-    from optinav.sky import solar_position_deg
+    from optinav.sky import solar_position
 
-    folder = shared_data_dir() / "attitude" / "broad"
-    files = sorted(folder.glob("*.hdf5"))
+    files = [] if data_dir is None else sorted((Path(data_dir) / "attitude" / "broad").glob("*.hdf5"))
     title = "BROAD: real recordings with optical truth (Laidig et al. 2021)"
     cols = ["trial", "method", "inclination RMSE, gyro + acc [deg]", "heading RMSE, + polarization [deg]"]
     try:
@@ -116,13 +117,14 @@ def _broad_section(quick):
     except ImportError:
         files, why = [], "skipped: reading BROAD needs h5py (pip install h5py)"
     else:
-        why = f"skipped: data not found in {folder}"
+        why = ("skipped: no data folder given (optinav reproduce passes ../shared/data of the project)"
+               if data_dir is None else f"skipped: no BROAD trials in {Path(data_dir) / 'attitude' / 'broad'}")
     if not files:
         return Table(title, cols, [], why), {"broad": why}
     if quick:
         files = [f for f in files if f.name.startswith(("02_", "07_"))] or files[:1]
-    sp = solar_position_deg(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                            PAPER_SITE["lat_deg"], PAPER_SITE["lon_deg"], PAPER_SITE["height"])
+    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
     sun = sp.sun_vector("enu")
     rows, out = [], {}
     for f in files:
@@ -153,7 +155,9 @@ def _broad_section(quick):
 
 
 @register_study("polarized")
-def run(quick: bool = False, rng=None) -> StudyResult:
+def run(quick: bool = False, rng=None, data_dir=None) -> StudyResult:
+    """The polarization-attitude study; ``data_dir``: the shared data folder with the BROAD trials (None skips
+    the real-data section; ``optinav reproduce`` passes the project's)."""
     from optinav.attitude.metrics import error_statistics
     from optinav.attitude.estimators import DEFAULTS
 
@@ -326,7 +330,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     summary["no_bias_tuned_options"] = tuned_nb
 
     step("BROAD")
-    tb, sb = _broad_section(quick)
+    tb, sb = _broad_section(quick, data_dir)
     tables.append(tb)
     summary.update(sb)
 

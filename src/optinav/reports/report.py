@@ -226,9 +226,10 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
          "td,th{border:1px solid #999;padding:2px 6px;text-align:right}th{background:#eee}"
          ".fail{color:#b00}.pass{color:#070}</style>", f"<h1>{html.escape(title)}</h1>"]
     summary: dict[str, Any] = {"title": title, "studies": {}}
-    hmd, hh = _headline(results)
-    md += hmd
-    h += hh
+    if any(r.headline or r.checks for r in results):  # a one-log report (calibrate, allan) has nothing to compare
+        hmd, hh = _headline(results)
+        md += hmd
+        h += hh
     for r in results:
         md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`, {r.elapsed:.1f} s._", ""]
         h += [f"<h2>{html.escape(r.title)}</h2>", f"<p>{html.escape(r.description)}</p>"]

@@ -26,7 +26,8 @@ from optinav.rins.calibrate import attitude_errors, calibrate, prepare
 from optinav.rins.model import PARAM_NAMES, residuals, sensor_attitude
 from optinav.rins.simulate import PAPER_TABLE3, simulate
 
-PAPER_TABLE4 = {"none": [0.2025, 0.0779, 0.9263], "axis": [0.0252, 0.0200, 0.0129], "pso": [0.0027, 0.0054, 0.0024]}
+#: Table 4 of the paper, RMSE [deg] as [roll, pitch, yaw] (the paper lists pitch, roll, yaw)
+PAPER_TABLE4 = {"none": [0.0779, 0.2025, 0.9263], "axis": [0.0200, 0.0252, 0.0129], "pso": [0.0054, 0.0027, 0.0024]}
 PAPER_MC_SPREAD_DEG = 0.0013
 LABEL = {"none": "uncompensated", "axis": "previous method (axis vectors)", "pso": "PSO (paper)",
          "lm": "LM, observable subspace (optinav)"}
@@ -37,7 +38,7 @@ LOCK, WOBBLE = 10 * ARCSEC, 10 * ARCSEC
 
 def _units_finding(rate=5.0):
     """Uncompensated RMSE of a noise-free chain with Table 3 read as degrees and as radians."""
-    d = simulate(np.zeros(6), noise=False, imu_errors=False, rate=rate, align_s=600.0)
+    d = simulate(np.zeros(6), noise=False, imu_errors=False, rate_hz=rate, align_s=600.0)
     k = d.t >= 600.0
     a, b = d.alpha[k], d.beta[k]
     cb = dcm_from_euler(np.radians([0.5, -0.3, 30.0]), "enu")
@@ -56,7 +57,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     truth = PAPER_TABLE3.copy()  # radians (units finding)
     dwell, align = (20.0, 300.0) if quick else (50.0, 600.0)
     step("simulate the session")
-    data = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
+    data = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate_hz=200.0,
                     lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
     rr = 2.0 if quick else 10.0
     prep = prepare(data, residual_rate=rr)
@@ -75,7 +76,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     units = _units_finding()
     # sensitivity to the gyro triad's misalignment (30″ 1σ): axis method vs LM
     step("30″ gyro misalignment session")
-    data30 = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate=200.0,
+    data30 = simulate(truth, scheme="psins16", move_s=10.0, dwell_s=dwell, align_s=align, rate_hz=200.0,
                       gyro_misalignment=30 * ARCSEC, lock_sigma=LOCK, wobble=WOBBLE, rng=gen)
     prep30 = prepare(data30, residual_rate=rr)
     res30 = {m: calibrate(method=m, prep=prep30, gyro_misalignment=30 * ARCSEC) for m in ("none", "axis", "lm")}
@@ -92,7 +93,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     rows.append(["PSO, small-angle particles (eqs. 10–11), 2 Hz epochs", "—", "—", "—",
                  *[round(x, 5) for x in pso_small.rmse_after_deg], round(pso_small.elapsed_s, 3)])
     t4 = Table("Table 4: vehicle attitude RMSE [deg], paper vs this simulation",
-               ["method", "paper pitch", "paper roll", "paper yaw", "ours pitch", "ours roll", "ours yaw",
+               ["method", "paper roll", "paper pitch", "paper yaw", "ours roll", "ours pitch", "ours yaw",
                 "time [s]"], rows,
                note=f"{data.t[-1] - align:.0f} s after a {align:.0f} s alignment; residual epochs {rr:g} Hz; "
                     "true angles = Table 3 read as radians; gyro misalignment 5″ (1σ); lock error "
@@ -101,7 +102,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                     f"{ratio_paper:.1f}×) and LM's {ratio_lm:.2f}× PSO's: the paper's advantage of PSO over the "
                     "previous method is not reproduced; with the lock error and wobble all three methods end near "
                     "the paper's PSO level, which these unmodelled effects set.")
-    t30 = Table("Gyro misalignment 30″ (1σ): vehicle attitude RMSE [deg]", ["method", "pitch", "roll", "yaw"],
+    t30 = Table("Gyro misalignment 30″ (1σ): vehicle attitude RMSE [deg]", ["method", "roll", "pitch", "yaw"],
                 [[LABEL[m], *[round(x, 5) for x in res30[m].rmse_after_deg]] for m in ("none", "axis", "lm")],
                 note="The gyros' misalignment turns the measured rotations, so it biases the axis vectors and the "
                      "strapdown attitude alike; the residual attitude error it leaves cannot be removed by the six "
@@ -125,13 +126,13 @@ def run(quick: bool = False, rng=None) -> StudyResult:
     mc_rmse = np.array([r.rmse_after_deg for r in mc])
     tmc = Table(f"Monte Carlo of PSO ({n_mc} random initial swarms, Fig. 10)",
                 ["quantity", "value"],
-                [*[[f"RMSE {a}, mean over runs [deg]", float(x)] for a, x in zip(("pitch", "roll", "yaw"),
+                [*[[f"RMSE {a}, mean over runs [deg]", float(x)] for a, x in zip(("roll", "pitch", "yaw"),
                                                                                     mc_rmse.mean(0))],
                  ["RMSE spread max−min (norm) [deg]", float(np.ptp(np.linalg.norm(mc_rmse, axis=1)))],
                  ["paper: spread within [deg] (one run of 50 fluctuating)", PAPER_MC_SPREAD_DEG],
                  *[[f"std of PSO's raw {k} over runs [rad]", v] for k, v in spread.items()]])
     tu = Table("Units finding: uncompensated RMSE [deg] of the noise-free chain with Table 3's angles",
-               ["reading of Table 3", "pitch", "roll", "yaw"],
+               ["reading of Table 3", "roll", "pitch", "yaw"],
                [["degrees (as labelled)", *np.round(units["deg"], 5)], ["radians", *np.round(units["rad"], 5)],
                 ["paper Table 4, uncompensated", *PAPER_TABLE4["none"]]],
                note="Read as radians, Table 3 reproduces Table 4's uncompensated roll and yaw within 1 % and pitch "
@@ -192,7 +193,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
                 ax.semilogy(t, np.maximum(np.abs(curves[m][:, k]), 1e-6), colors[m], ls=styles[m], lw=0.9,
                             label=LABEL[m])
             ax.set_xlabel("time since navigation start [s]")
-            ax.set_ylabel(f"|{('pitch', 'roll', 'yaw')[k]} error| [deg]")
+            ax.set_ylabel(f"|{('roll', 'pitch', 'yaw')[k]} error| [deg]")
             ax.grid(True, which="major", alpha=0.3)
             ax.legend(fontsize=7)
         return draw
@@ -201,7 +202,7 @@ def run(quick: bool = False, rng=None) -> StudyResult:
         ax = fig.add_subplot(111)
         from matplotlib.ticker import MaxNLocator
 
-        for k, nm in enumerate(("pitch", "roll", "yaw")):
+        for k, nm in enumerate(("roll", "pitch", "yaw")):
             line, = ax.plot(np.arange(1, n_mc + 1), mc_rmse[:, k], "o-", ms=3, label=f"PSO, {nm}")
             ax.axhline(lm_mc.rmse_after_deg[k], color=line.get_color(), ls="--", lw=0.8, label=f"LM, {nm}")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -211,12 +212,12 @@ def run(quick: bool = False, rng=None) -> StudyResult:
 
     figs = [Figure("rins_fig5_convergence.png", "Fig. 5: PSO fitness over generations (each MC run)", conv),
             *[Figure(f"rins_fig{6 + k}_{nm}.png", f"Fig. {6 + k}: vehicle {nm} error by method", att(k))
-              for k, nm in enumerate(("pitch", "roll", "yaw"))],
+              for k, nm in enumerate(("roll", "pitch", "yaw"))],
             Figure("rins_fig10_montecarlo.png", "Fig. 10: attitude RMSE of the PSO Monte Carlo runs", mcfig)]
     summary = {"rmse_deg": {m: res[m].rmse_after_deg for m in res}, "elapsed_s": {m: res[m].elapsed_s for m in res},
                "units_rmse_deg": {k: v.tolist() for k, v in units.items()}, "pso_mc_rmse_deg": mc_rmse.tolist(),
                "pso_raw_spread_rad": spread, "speedup_lm_vs_pso": res["pso"].elapsed_s / max(res["lm"].elapsed_s, 1e-9)}
-    headline = [Headline("attitude RMSE (norm of pitch, roll, yaw), PSO", "deg",
+    headline = [Headline("attitude RMSE (norm of roll, pitch, yaw), PSO", "deg",
                          float(np.linalg.norm(PAPER_TABLE4["pso"])), nrm(res["pso"]), nrm(res["lm"]),
                          "rebuild = PSO as published, best = LM; same session and residual epochs"),
                 Headline("previous method RMSE / PSO RMSE", "×", ratio_paper, ratio_axis, None,

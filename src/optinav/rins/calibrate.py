@@ -39,7 +39,8 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core.observability import analyze, format_combination, rref
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import Result
+from optinav.core.results import (Estimate, Parameter, Truth, convergence, flat_kwargs, gate, register_legacy,
+                                 register_truth_legacy)
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.rins.model import (PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals,
@@ -84,11 +85,7 @@ class Prepared:
         V: orthonormal basis (6, k) of the observable subspace; C, names: its RREF rows and their names."""
         _frozen_encoder_check(self.data, self.full)
         _motion_check(self.alpha, self.beta)
-        rep = observability(self.alpha, self.beta)
-        null = np.asarray(rep.null_space, float)
-        V = np.linalg.svd(null.T)[2][null.shape[1]:].T if null.shape[1] else np.eye(6)
-        C = rref(V.T, 1e-8)
-        return rep, V, C, [format_combination(c, PARAM_NAMES) for c in C]
+        return observable_combinations(self.alpha, self.beta)
 
     @functools.cached_property
     def _gyro_perturbed(self) -> dict:
@@ -137,7 +134,7 @@ def _motion_check(alpha, beta) -> None:
 def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
     """Gyros turning by large angles while both encoders report rest → a frozen encoder channel."""
     idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
     rate = np.linalg.norm(dth, axis=1) / np.diff(sa.t)
     moving = (motion_mask(sa.alpha) | motion_mask(sa.beta)).astype(float)
     # the encoders see a move a little later/earlier than the gyros (slow start of a rate profile): widen it
@@ -169,6 +166,16 @@ def observability(alpha, beta, p=None, sigma=1.0):
     return analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
 
 
+def observable_combinations(alpha, beta):
+    """(observability report, V, C, names) for gimbal angles ``alpha``, ``beta`` (rad): V an orthonormal basis
+    (6, k) of the observable subspace, C its RREF rows (the combinations reported) and their names."""
+    rep = observability(alpha, beta)
+    null = np.asarray(rep.null_space, float)
+    V = np.linalg.svd(null.T)[2][null.shape[1]:].T if null.shape[1] else np.eye(6)
+    C = rref(V.T, 1e-8)
+    return rep, V, C, [format_combination(c, PARAM_NAMES) for c in C]
+
+
 def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro_scale: float) -> np.ndarray:
     """Covariance (rad²) of p̂ caused by unknown gyro scale/misalignment errors of the given 1σ.
 
@@ -193,7 +200,7 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
                 continue
             cs = prep._gyro_perturbed.get((i, j, sig))
             if cs is None:
-                dth = np.asarray(data.dtheta, float)[sa.index[1:]]
+                dth = np.asarray(data.dtheta, float)[sa.index[:-1]]
                 dK = np.zeros((3, 3))
                 dK[i, j] = sig
                 q = attitude_update(quat_from_dcm(sa.c_s_n[0]), dth - dth @ dK.T, coning="previous",
@@ -228,22 +235,25 @@ def _autocorr_time(r: np.ndarray) -> float:
 # --- the result ---------------------------------------------------------------------------------------------
 
 @dataclasses.dataclass
-class RinsCalibration(Result):
-    """RESULT.json of ``optinav calibrate rins`` (flat layout; docs/methods/rins.md).
+class RinsCalibration(Estimate):
+    """RESULT.json of ``optinav calibrate rins`` (docs/results.md, docs/methods/rins.md).
+
+    :meth:`parameters`: every estimable combination under its name (a single angle such as ``theta_x``, or
+    e.g. ``theta_z + eta_z``) with std and CRLB std, and each angle that is not individually observable
+    with value null and the reason.
 
     ``angles``: name → rad, or None when the angle is not individually observable (never calibrated);
     ``angles_std``: 1σ (rad, autocorrelation-inflated) or None; ``combinations``: every estimable combination
     ``{name, coefficients (θx…ηz), value (rad), std, crlb_std}``; ``observability``: ``{rank, singular_values,
     null_space (vectors ordered θx, θy, θz, ηx, ηy, ηz), statements}``; ``p_used``: the six angles applied in
     compensation (unobservable directions set to zero, they do not change the attitude change);
-    ``rmse_before_deg``/``rmse_after_deg``: RMS of [pitch, roll, yaw] of the extracted attitude change.
+    ``rmse_before_deg``/``rmse_after_deg``: RMS of [roll, pitch, yaw] of the extracted attitude change.
     """
 
-    SCHEMA = "optinav.rins_calibration"
-    VERSION = 1
-    _FLAT = True
-    _FLAT_WHAT = "rotational-INS calibration result"
-    _FLAT_REMEDY = "pass the RESULT.json written by `optinav calibrate rins`"
+    SCHEMA = "optinav.rins.calibration"
+    VERSION = 2
+    SYSTEM = "rins"
+    KIND = "calibration"
 
     angles: dict = field(default_factory=dict, metadata={"unit": "rad"})
     angles_std: dict = field(default_factory=dict, metadata={"unit": "rad"})
@@ -260,6 +270,21 @@ class RinsCalibration(Result):
     residual_rate_hz: float = field(default=float("nan"), metadata={"unit": "Hz"})
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
+    convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
+    gates: list = field(default_factory=list, metadata={"unit": "-"})
+
+    def parameters(self) -> dict[str, Parameter]:
+        if self.method == "none":
+            return {nm: Parameter(None, "rad", observable=False, reason="not estimated (method 'none')")
+                    for nm in PARAM_NAMES}
+        out = {c["name"]: Parameter(float(c["value"]), "rad", std=c.get("std"), crlb_std=c.get("crlb_std"))
+               for c in self.combinations}
+        statements = self.observability.get("statements", [])
+        for nm in PARAM_NAMES:
+            if nm not in out:
+                why = "; ".join(s for s in statements if nm in s) or "not individually observable"
+                out[nm] = Parameter(None, "rad", observable=False, reason=why)
+        return out
 
     @property
     def p(self) -> np.ndarray:
@@ -281,7 +306,7 @@ class RinsCalibration(Result):
         for s in self.observability.get("statements", []):
             lines.append(f"  observability: {s}")
         b, a = self.rmse_before_deg, self.rmse_after_deg
-        lines.append("  attitude RMSE [pitch, roll, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
+        lines.append("  attitude RMSE [roll, pitch, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
                      + "; after " + ", ".join(f"{x:.4g}" for x in a))
         return "\n".join(lines)
 
@@ -289,7 +314,7 @@ class RinsCalibration(Result):
 # --- methods ---------------------------------------------------------------------------------------------------
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
-    """[pitch, roll, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
+    """[roll, pitch, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
     return residuals(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces).reshape(-1, 3)
 
 
@@ -335,7 +360,7 @@ def _measure_axes(prep: Prepared):
     """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα)], outer [(u, Δβ, α)])."""
     data, sa = prep.data, prep.full
     idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[1:]]
+    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
     dt = np.diff(sa.t)
     w_ie = _earth.earth_rate(data.lat, "enu")
     # Earth rate in the IMU frame along the strapdown attitude (start of each interval)
@@ -391,15 +416,15 @@ def _fit_axis(prep: Prepared, V):
 def noise_walk(prep: Prepared) -> float:
     """Attitude random walk (rad) of the gyro white noise over the calibrated span: the per-sample noise of the
     increments at rest (first differences, so the Earth rate drops out) times √(samples)."""
-    k = int(prep.full.index[0]) + 1
+    k = int(prep.full.index[0])  # rows before the strapdown start: the alignment rest
     dth = np.asarray(prep.data.dtheta, float)[:k]
     sd = float(np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2)) if k > 2 else 0.0
     return sd * np.sqrt(prep.full.t.size)
 
 
-def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> None:
+def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     """A fit that did not converge, an implausible angle or a residual far above the gyro noise ends in a
-    one-line error instead of a result (issue 13: no wrong answer with exit 0)."""
+    one-line error instead of a result (issue 13: no wrong answer with exit 0); else their outcomes."""
     if method == "lm" and res is not None and not res.success:
         raise OptinavError(f"the LM fit did not converge ({res.message})",
                            "check the data (encoder columns, --lat) or try --method pso")
@@ -417,6 +442,11 @@ def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> None:
                            f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains: the gimbal "
                            "model does not fit this recording",
                            "check the encoder columns (alpha = inner, beta = outer, rad) and --lat")
+    out = [gate("optimizer converged", res.success, None, kind="true")] if method == "lm" and res is not None else []
+    out.append(gate("largest |combination|", max((abs(v) for _, v in values), default=0.0), MAX_ANGLE, unit="rad"))
+    if walk > 0:
+        out.append(gate("attitude residual / gyro-noise random walk", rms / walk, MAX_RESIDUAL_RATIO))
+    return out
 
 
 def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, residual_rate: float = 10.0,
@@ -462,8 +492,14 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     elapsed = time.perf_counter() - t_fit
     e_before = attitude_errors(prep, np.zeros(6))
     e_after = attitude_errors(prep, p)
+    gates = []
     if method != "none":
-        _quality_gates(method, p, V, C, cnames, res if method in ("lm", "pso") else None, e_after, prep)
+        gates = _quality_gates(method, p, V, C, cnames, res if method in ("lm", "pso") else None, e_after, prep)
+    if method in ("lm", "pso"):
+        conv = convergence(res.success if method == "lm" else None, iterations=getattr(res, "nit", None),
+                           evaluations=res.nfev, message=res.message)
+    else:
+        conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
     J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces)
     r = e_after.ravel()
@@ -493,4 +529,31 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
                            elapsed_s=elapsed if method != "none" else time.perf_counter() - t_start,
                            p_used=p.tolist(), fitness_history_deg=history, correlation_time=tau,
                            n_epochs=int(prep.alpha.size), residual_rate_hz=float(residual_rate or np.nan),
-                           options=info, source=source)
+                           options=info, source=source, convergence=conv, gates=gates)
+
+
+def _legacy_v1(data: dict) -> dict:
+    """RESULT.json of an older optinav (schema "optinav.rins_calibration" version 1, flat)."""
+    kw = flat_kwargs(RinsCalibration, data)
+    if kw.get("method") == "lm" and "message" in (data.get("options") or {}):
+        kw["convergence"] = convergence(None, evaluations=data["options"].get("nfev"),
+                                        message=data["options"]["message"])
+    return kw
+
+
+register_legacy(RinsCalibration, "optinav.rins_calibration", 1, _legacy_v1)
+
+
+def rins_truth(angles, alpha, beta, info: dict | None = None) -> Truth:
+    """A simulated recording's truth in the parameterization :func:`calibrate` estimates: the six angles
+    ``angles`` (rad, θx θy θz ηx ηy ηz) and every combination observable with the encoder angles ``alpha``,
+    ``beta`` (rad) under the name the result gives it."""
+    p = np.asarray(angles, float)
+    _, _, C, names = observable_combinations(np.asarray(alpha, float), np.asarray(beta, float))
+    params = {nm: Parameter(float(v), "rad") for nm, v in zip(PARAM_NAMES, p)}
+    params.update({nm: Parameter(float(c @ p), "rad") for c, nm in zip(C, names)})
+    return Truth("rins", params, dict(info or {}))
+
+
+register_truth_legacy("rins", "optinav.rins_truth",
+                      lambda d: {nm: Parameter(float(d["angles"][nm]), "rad") for nm in PARAM_NAMES})

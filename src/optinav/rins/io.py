@@ -1,8 +1,11 @@
 """Rotational-INS data files: NPZ, CSV and HDF5 with the columns of docs/methods/rins.md.
 
-Columns (all SI): ``time`` (s, end of each increment interval), ``dtheta_x, dtheta_y, dtheta_z`` (rad, gyro
-increments over (t[k−1], t[k]]), ``dv_x, dv_y, dv_z`` (m/s), ``alpha`` (rad, inner encoder at t[k]),
-``beta`` (rad, outer encoder). Site: ``lat_deg`` and ``height_m`` — NPZ scalar arrays, HDF5 file attributes,
+Columns (all SI): ``t`` (s, the start of each row's increment interval), ``dtheta_x, dtheta_y, dtheta_z`` (rad,
+gyro increments over (t[k], t[k+1]]), ``dv_x, dv_y, dv_z`` (m/s), ``alpha`` (rad, inner encoder at t[k]),
+``beta`` (rad, outer encoder at t[k]). Files with a ``time`` column instead of ``t`` (written before the
+conventions were unified, or by other tools as an IMU outputs them) hold the *end* of each interval with the
+encoders at that end; they are read by pairing each end epoch's encoders with the next row's increments
+(one row fewer). Site: ``lat_deg`` and ``height_m`` — NPZ scalar arrays, HDF5 file attributes,
 or a CSV comment line ``# optinav rins: lat_deg=28.2 height_m=50``.
 """
 
@@ -18,7 +21,7 @@ from optinav.errors import OptinavError
 from optinav.io.readers import load_table
 from optinav.rins.simulate import RinsData
 
-COLUMNS = ("time", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
+COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
 _FORMATS = {".npz": "npz", ".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5"}
 
 __all__ = ["COLUMNS", "write_rins", "read_rins"]
@@ -37,7 +40,7 @@ def write_rins(path, data: RinsData) -> Path:
     """Write ``data`` to ``path`` (format by suffix: .npz, .csv, .h5/.hdf5)."""
     path = Path(path)
     kind = _fmt(path)
-    cols = {"time": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
+    cols = {"t": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
             "dtheta_z": data.dtheta[:, 2], "dv_x": data.dv[:, 0], "dv_y": data.dv[:, 1], "dv_z": data.dv[:, 2],
             "alpha": data.alpha, "beta": data.beta}
     site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.h)}
@@ -52,13 +55,13 @@ def write_rins(path, data: RinsData) -> Path:
         with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
             for k, v in cols.items():
                 ds = fh.create_dataset(k, data=np.asarray(v, float))
-                ds.attrs["unit"] = {"time": "s", "dv_x": "m/s", "dv_y": "m/s", "dv_z": "m/s"}.get(k, "rad")
+                ds.attrs["unit"] = {"t": "s", "dv_x": "m/s", "dv_y": "m/s", "dv_z": "m/s"}.get(k, "rad")
             for k, v in site.items():
                 fh.attrs[k] = v
     else:
         table = np.column_stack([cols[c] for c in COLUMNS])
         header = (f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
-                  "units: time=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS))
+                  "units: t=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS))
         write_csv(path, table, header, comments="# ")
     return path
 
@@ -75,17 +78,21 @@ def _site_from_csv(path: Path) -> dict:
     return out
 
 
-def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = None) -> RinsData:
-    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat_deg``/``height_m`` override the file's."""
+def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
+    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat`` (rad) / ``height_m`` (m) override the
+    file's site (stored there as ``lat_deg``, ``height_m``)."""
     path = Path(path)
     kind = _fmt(path)
     tab = load_table(path)
-    missing = [c for c in COLUMNS if tab.find(c) is None]
+    # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
+    ends = tab.find("t") is None and tab.find("time") is not None
+    names = ("time",) + COLUMNS[1:] if ends else COLUMNS
+    missing = [c for c in names if tab.find(c) is None]
     if missing:
         found = ", ".join(list(tab.data)[:12])
         raise OptinavError(f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
                            f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)")
-    col = {c: np.asarray(tab.get(c), dtype=float).ravel() for c in COLUMNS}
+    col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
     site = {}
     if kind == "csv":
         site = _site_from_csv(path)
@@ -96,15 +103,18 @@ def read_rins(path, *, lat_deg: float | None = None, height_m: float | None = No
 
         with h5py.File(path, "r") as fh:
             site = {k: float(fh.attrs[k]) for k in ("lat_deg", "height_m") if k in fh.attrs}
-    lat = lat_deg if lat_deg is not None else site.get("lat_deg")
+    if lat is None and "lat_deg" in site:
+        lat = np.radians(site["lat_deg"])
     if lat is None:
         raise OptinavError(f"{path.name} does not state the latitude", "pass --lat DEG (the alignment needs it)")
     h = height_m if height_m is not None else site.get("height_m", 0.0)
-    n = col["time"].size
-    for c in COLUMNS:
+    n = col["t"].size
+    for c, name in zip(COLUMNS, names):
         if col[c].size != n:
-            raise OptinavError(f"column {c} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
+            raise OptinavError(f"column {name} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
                                "resample the encoder angles to the IMU epochs first")
-    return RinsData(t=col["time"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
+    if ends:  # row k: the encoders at end epoch t[k] and the increments over (t[k], t[k+1]] of the next row
+        col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
+    return RinsData(t=col["t"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
                     dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
-                    beta=col["beta"], lat=float(np.radians(lat)), h=float(h))
+                    beta=col["beta"], lat=float(lat), h=float(h))

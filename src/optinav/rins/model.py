@@ -19,7 +19,8 @@ whose first-order forms are ``I + [θ×]`` and ``I + [η×]`` (eqs. 4, 5: ``C_s^
 ``small_angle=True`` uses those linear forms instead (as the paper's particles, eqs. 10–11).
 
 Residual (eqs. 12–14): the attitude change of the extracted vehicle attitude relative to the first epoch,
-``E_t = C̃_{b,0}^nᵀ C̃_{b,t}^n``, as Euler angles ``[pitch, roll, yaw]`` (PSINS ``m2att`` order) per epoch.
+``E_t = C̃_{b,0}^nᵀ C̃_{b,t}^n``, as Euler angles ``[roll, pitch, yaw]`` (ENU convention; the paper and PSINS's
+``m2att`` list them as [pitch, roll, yaw]) per epoch.
 On a static base the true ``E_t`` is the identity, so the paper's fitness is ``F = sqrt(Σ_t |e_t|² / T)``.
 
 Parameter vector ``p = [θx, θy, θz, ηx, ηy, ηz]`` (rad); every function takes ``p`` as (6,) or a batch (P, 6).
@@ -33,7 +34,7 @@ from optinav.core.rotations import rot_x, rot_y, rot_z, small_angle_dcm
 from optinav.errors import OptinavError
 
 __all__ = ["PARAM_NAMES", "nonorth_dcm", "chain_pieces", "vehicle_attitude", "attitude_change",
-           "euler_pr_y", "residuals", "residual_jacobian", "sensor_attitude"]
+           "euler_rpy", "residuals", "residual_jacobian", "sensor_attitude"]
 
 #: parameter names in the order of ``p``
 PARAM_NAMES = ("theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z")
@@ -84,35 +85,36 @@ def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=No
     return out[0] if single else out
 
 
-def sensor_attitude(c_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
+def sensor_attitude(C_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
     """Inverse of eq. 6: ``C_s^n = C_b^n C_h2^b(β) C_h0^h2 C_h1^h0(α) C_s^h1`` (T, 3, 3) for one ``p`` (6,)."""
     p = np.asarray(p, float)
     Z, Y = chain_pieces(alpha, beta)
     A = nonorth_dcm(p[0:3], small_angle)
     B = nonorth_dcm(p[3:6], small_angle)
     tr = lambda m: np.swapaxes(m, -1, -2)  # noqa: E731
-    return np.asarray(c_b_n, float) @ tr(Y) @ B.T @ tr(Z) @ A.T
+    return np.asarray(C_b_n, float) @ tr(Y) @ B.T @ tr(Z) @ A.T
 
 
-def euler_pr_y(c) -> np.ndarray:
-    """``[pitch, roll, yaw]`` (rad) of ``C = R_z(yaw) R_x(pitch) R_y(roll)`` (ENU convention, PSINS m2att order)."""
+def euler_rpy(c) -> np.ndarray:
+    """``[roll, pitch, yaw]`` (rad) of ``C = R_z(yaw) R_x(pitch) R_y(roll)`` (ENU convention): the closed form of
+    ``rotations.euler_from_dcm(c, "enu")``, kept here because the fits evaluate it for every particle and epoch."""
     c = np.asarray(c, float)
     pitch = np.arcsin(np.clip(c[..., 2, 1], -1.0, 1.0))
     roll = np.arctan2(-c[..., 2, 0], c[..., 2, 2])
     yaw = np.arctan2(-c[..., 0, 1], c[..., 1, 1])
-    return np.stack([pitch, roll, yaw], axis=-1)
+    return np.stack([roll, pitch, yaw], axis=-1)
 
 
-def attitude_change(c_b_n) -> np.ndarray:
+def attitude_change(C_b_n) -> np.ndarray:
     """``E_t = C_{b,0}^nᵀ C_{b,t}^n`` for (..., T, 3, 3) attitudes (eqs. 12–14, relative to the first epoch)."""
-    c = np.asarray(c_b_n, float)
+    c = np.asarray(C_b_n, float)
     return np.swapaxes(c[..., :1, :, :], -1, -2) @ c
 
 
 def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> np.ndarray:
-    """Eqs. 12–14: Euler angles [pitch, roll, yaw] of ``E_t`` for t ≥ 1, flattened (3(T−1),) or (P, 3(T−1))."""
+    """Eqs. 12–14: Euler angles [roll, pitch, yaw] of ``E_t`` for t ≥ 1, flattened (3(T−1),) or (P, 3(T−1))."""
     p2, single = _params(p)
-    e = euler_pr_y(attitude_change(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)))[:, 1:]
+    e = euler_rpy(attitude_change(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)))[:, 1:]
     e = e.reshape(p2.shape[0], -1)
     return e[0] if single else e
 
@@ -143,12 +145,12 @@ def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
     U = _param_axes(p[3:6])
     v = np.concatenate([W @ ZBY, U @ Y], axis=1)  # rows (ZBY)ᵀw_k, Yᵀu_k: (T,6,3)
     d = v - v[0] @ E  # rows E_tᵀ v_0
-    eul = euler_pr_y(E)
-    pitch, roll = eul[:, 0], eul[:, 1]
+    eul = euler_rpy(E)
+    roll, pitch = eul[:, 0], eul[:, 1]
     cr, sr, cp, sp = (x[:, None] for x in (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)))
     wx, wy, wz = d[..., 0], d[..., 1], d[..., 2]
     pitch_rate = cr * wx + sr * wz
     yaw_rate = (cr * wz - sr * wx) / cp
     roll_rate = wy - yaw_rate * sp
-    J = np.stack([pitch_rate, roll_rate, yaw_rate], axis=-1)  # (T, 6, [pitch, roll, yaw])
+    J = np.stack([roll_rate, pitch_rate, yaw_rate], axis=-1)  # (T, 6, [roll, pitch, yaw])
     return np.transpose(J[1:], (0, 2, 1)).reshape(-1, 6)

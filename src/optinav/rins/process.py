@@ -139,11 +139,14 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     if k_a >= t.size - 2:
         raise OptinavError("the gimbals never move after the alignment (no gimbal motion)",
                            "nothing can be calibrated: record a rotation scheme turning both axes")
-    ep = np.concatenate([[t[0] - step], t[:k_a]])
-    dth, dv = data.dtheta[:k_a], data.dv[:k_a]
+    # row k integrates over (t[k], t[k+1]]; t[m] is the last epoch with both encoders still, so the alignment
+    # uses rows 0..m−1 (epochs t[0..m]) and the strapdown starts at t[m]
+    m = k_a - 1
+    ep = t[:m + 1]
+    dth, dv = data.dtheta[:m], data.dv[:m]
     span = ep[-1] - ep[0]
     # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
-    k_lat = max(2, k_a - int(round(2.0 / step)))
+    k_lat = max(2, m - int(round(2.0 / step)))
     latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, data.lat)
     coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.h, "enu")
     if fine:
@@ -152,8 +155,9 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     else:
         al = coarse
     w_ie = _earth.earth_rate(data.lat, "enu")
-    q = attitude_update(al.q_b_n, data.dtheta[k_a:], coning=coning, omega_in_n=w_ie, dt=dt[k_a - 1:])
-    idx = np.arange(k_a - 1, t.size)
+    # rows m..N−2 carry the attitude from t[m] to t[N−1] (the last row ends after the last encoder epoch)
+    q = attitude_update(al.q_b_n, data.dtheta[m:-1], coning=coning, omega_in_n=w_ie, dt=dt[m:])
+    idx = np.arange(m, t.size)
     return SensorAttitude(t=t[idx], c_s_n=dcm_from_quat(q), alpha=np.asarray(data.alpha, float)[idx],
-                          beta=np.asarray(data.beta, float)[idx], index=idx, align_end=float(t[k_a - 1]),
+                          beta=np.asarray(data.beta, float)[idx], index=idx, align_end=float(t[m]),
                           align_std=np.asarray(al.attitude_std, float))

@@ -69,8 +69,9 @@ def scheme_steps(scheme) -> list[tuple[str, float]]:
 class RinsData(Result):
     """A rotational-INS recording: IMU increments and encoder angles at common epochs (+ truth if simulated).
 
-    Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k−1], t[k]]`` (``t[−1] = t[0] − dt``);
-    ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer encoder angles at ``t[k]``. ``truth`` (simulations):
+    Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k], t[k+1]]`` (the last row ends one
+    step after ``t[-1]``), as docs/conventions.md says; ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer
+    encoder angles at ``t[k]``, the start of row k's increments. ``truth`` (simulations):
     the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None.
     """
 
@@ -121,8 +122,9 @@ def _wobbled(schedule, amp, phase):
 
 
 def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: float = 10.0,
-             dwell_s: float = 50.0, align_s: float = 600.0, rate: float = 200.0, lat_deg: float = 28.2,
-             h: float = 50.0, attitude_deg=(0.5, -0.3, 30.0), imu="rlg-nav", gyro_misalignment=None,
+             dwell_s: float = 50.0, align_s: float = 600.0, rate_hz: float = 200.0,
+             lat: float = float(np.radians(28.2)), height_m: float = 50.0,
+             attitude=tuple(np.radians((0.5, -0.3, 30.0)).tolist()), imu="rlg-nav", gyro_misalignment=None,
              gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
              encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
              profile: str = "cosine", rng=None) -> RinsData:
@@ -130,7 +132,8 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
 
     nonorth: true [θx, θy, θz, ηx, ηy, ηz] (rad). scheme: name in :data:`SCHEMES`, a step text
     ``"Z+180,Y-180"`` or pairs; repeated ``cycles`` times, each move ``move_s`` s then ``dwell_s`` s at rest,
-    after ``align_s`` s of alignment. rate: Hz. attitude_deg: vehicle [roll, pitch, yaw] (ENU convention, deg).
+    after ``align_s`` s of alignment. rate_hz: Hz. Site: ``lat`` (rad), ``height_m`` (m). attitude: vehicle
+    [roll, pitch, yaw] (ENU convention, rad).
     imu: preset name or an :class:`~optinav.core.imu_model.ImuSpec`; gyro_misalignment (rad, 1σ of each of the
     six terms) and gyro_scale (1σ, fraction) override it. encoder_noise (rad, 1σ), encoder_lsb (rad, 0 = none),
     lock_sigma (rad, 1σ stop error unseen by the encoders), wobble (rad amplitude). rng: seed or Generator.
@@ -143,23 +146,26 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
     if np.any(np.abs(p) > 0.1):
         raise OptinavError(f"non-orthogonality angles up to {np.max(np.abs(p)):.3g} rad are not small",
                            "pass radians (e.g. 1e-4), or --unit deg for degrees")
-    rate = check_positive(rate, "rate")
+    rate = check_positive(rate_hz, "rate_hz")
+    lat, h = float(lat), float(height_m)
+    if not -np.pi / 2 <= lat <= np.pi / 2:
+        raise OptinavError(f"latitude {lat:g} rad is outside ±π/2", "pass lat in rad (the CLI's --lat is in degrees)")
     move_s, align_s = check_positive(move_s, "move_s"), check_positive(align_s, "align_s")
     if dwell_s < 0:
         raise OptinavError("dwell_s is negative", "pass a dwell time >= 0 s")
     steps = scheme_steps(scheme) * int(cycles)
     cz, cy, tz, ty, end = _schedules(steps, align_s, move_s, dwell_s, profile, lock_sigma, gen)
-    c_b_n = dcm_from_euler(np.radians(attitude_deg), "enu")
+    c_b_n = dcm_from_euler(np.asarray(attitude, float), "enu")
     A, B = nonorth_dcm(p[0:3]), nonorth_dcm(p[3:6])
     if wobble > 0:
         ph = gen.uniform(0, 2 * np.pi, 2)
         fixed = [c_b_n, np.eye(3), B.T, np.eye(3), A.T]
         axes = ["y", "x", "z", "x"]
         angles = [ty, _wobbled(ty, wobble, ph[0]), tz, _wobbled(tz, wobble, ph[1])]
-        truth = gimbal(fixed, axes, angles, end, rate, np.radians(lat_deg), h, "enu",
+        truth = gimbal(fixed, axes, angles, end, rate, lat, h, "enu",
                        breakpoints=ty.breakpoints + tz.breakpoints, max_step=min(1.0 / rate, 0.05))
     else:
-        truth = gimbal([c_b_n, B.T, A.T], ["y", "z"], [ty, tz], end, rate, np.radians(lat_deg), h, "enu")
+        truth = gimbal([c_b_n, B.T, A.T], ["y", "z"], [ty, tz], end, rate, lat, h, "enu")
     spec = preset(imu) if isinstance(imu, str) else imu
     over = {}
     if gyro_misalignment is not None:
@@ -172,10 +178,10 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
         spec = spec.replace(sample_rate=rate)
     unit = spec.draw(gen, errors=imu_errors)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, gen, kind="increment", noise=noise)
-    te = truth.t[1:]
+    ts = truth.t[:-1]  # row k: the increments over (t[k], t[k+1]] and the encoders at t[k]
     enc = []
     for s in (cz, cy):
-        a = s(te)[0]
+        a = s(ts)[0]
         if noise and encoder_noise > 0:
             a = a + gen.normal(0.0, encoder_noise, a.shape)
         if encoder_lsb > 0:
@@ -185,5 +191,5 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
             "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyro.K.tolist(),
             "gyro_bias": unit.gyro.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
             "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
-    return RinsData(t=te, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=float(np.radians(lat_deg)),
+    return RinsData(t=ts, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
                     h=float(h), truth=p.copy(), c_b_n=c_b_n, align_s=float(align_s), info=info)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.core.earth import check_frame
+from optinav.core.rotations import frame_name
 from optinav.core.results import Result
 from optinav.core.units import DEG
 from optinav.errors import OptinavError
@@ -363,7 +363,7 @@ def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
     navigation frame ``"ned"`` (north, east, down) or ``"enu"`` (east, north, up); shape (..., 3)."""
     az, el = np.broadcast_arrays(np.asarray(azimuth, dtype=float), np.asarray(elevation, dtype=float))
     n, e, u = np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)
-    if check_frame(frame) == "ned":
+    if frame_name(frame) == "ned":
         return np.stack([n, e, -u], axis=-1)
     return np.stack([e, n, u], axis=-1)
 
@@ -378,10 +378,10 @@ def _scalar(x, name, lo=-np.inf, hi=np.inf) -> float:
     return v
 
 
-def solar_position(time, lat, lon, height=0.0, *, pressure=None, temperature=285.15, delta_t=None,
+def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=285.15, delta_t=None,
                    atmos_refract=ATMOS_REFRACT_DEG * DEG) -> SolarPosition:
     """Topocentric sun position (NREL SPA) for an observer at geodetic ``lat``, ``lon`` (rad, east positive)
-    and ``height`` (m; the SPA uses it for parallax only).
+    and ``height_m`` (m; the SPA uses it for parallax only).
 
     time: see :func:`utc_seconds` (any shape; outputs have that shape). pressure (Pa) and temperature (K):
     when ``pressure`` is given the elevation is corrected for refraction by SPA Eq. 42 while the geometric
@@ -390,7 +390,7 @@ def solar_position(time, lat, lon, height=0.0, *, pressure=None, temperature=285
     """
     lat = _scalar(lat, "lat", -np.pi / 2, np.pi / 2)
     lon = _scalar(lon, "lon", -2 * np.pi, 2 * np.pi)
-    height = _scalar(height, "height", -1e4, 1e7)
+    height = _scalar(height_m, "height_m", -1e4, 1e7)
     refract = pressure is not None
     p_mbar, t_c = np.nan, np.nan
     if refract:
@@ -439,13 +439,14 @@ def solar_position(time, lat, lon, height=0.0, *, pressure=None, temperature=285
         temperature=t_c + 273.15 if refract else float("nan"))
 
 
-def solar_position_deg(time, lat_deg, lon_deg, height=0.0, *, pressure_mbar=None, temperature_c=12.0,
+def solar_position_deg(time, lat_deg, lon_deg, height_m=0.0, *, pressure_mbar=None, temperature_c=12.0,
                        delta_t=None, atmos_refract_deg=ATMOS_REFRACT_DEG) -> SolarPosition:
     """:func:`solar_position` with latitude/longitude in degrees, pressure in mbar (hPa) and temperature in
-    °C (the SPA report's units). The result is in SI (rad) like :func:`solar_position`."""
+    °C: the NREL SPA report's own units, for checking against it and for I/O (the CLI's ``optinav sun``).
+    Library code calls :func:`solar_position` (SI). The result is in SI (rad) like :func:`solar_position`."""
     p = None if pressure_mbar is None else _scalar(pressure_mbar, "pressure_mbar", 0.0, 2000.0) * 100.0
     t = _scalar(temperature_c, "temperature_c", -120.0, 120.0) + 273.15
     lat = _scalar(lat_deg, "lat_deg", -90, 90) * DEG
     return solar_position(time, lat, _scalar(lon_deg, "lon_deg", -360, 360) * DEG,
-                          height, pressure=p, temperature=t, delta_t=delta_t,
+                          height_m, pressure=p, temperature=t, delta_t=delta_t,
                           atmos_refract=_scalar(atmos_refract_deg, "atmos_refract_deg", 0, 5) * DEG)

@@ -49,13 +49,14 @@ from .problem import Evaluator, Problem, finite_mean
 _FMIN_COST = 1e-300  # E below this counts as 1e-300 so that 1/E and sums of it stay finite
 
 
-def adaptive_probability(f, fmax: float, favg: float, k_high: float, k_low: float) -> np.ndarray:
-    """Srinivas–Patnaik rate: ``k_high (fmax − f)/(fmax − favg)`` if ``f ≥ favg`` else ``k_low``, in [0, 1].
+def adaptive_probability(fit, fmax: float, favg: float, k_high: float, k_low: float) -> np.ndarray:
+    """Srinivas–Patnaik rate: ``k_high (fmax − f)/(fmax − favg)`` if ``f ≥ favg`` else ``k_low``, in [0, 1],
+    for fitness values ``f`` = ``fit``.
 
     ``(k_high, k_low) = (k1, k3)`` with ``f = f′`` gives Pc; ``(k2, k4)`` with the individual's fitness
     gives Pm. ``fmax == favg`` → ``k_low`` (see the module docstring).
     """
-    f = np.asarray(f, dtype=float)
+    f = np.asarray(fit, dtype=float)
     spread = fmax - favg
     if not spread > 0:
         return np.clip(np.full(f.shape, float(k_low)), 0.0, 1.0)

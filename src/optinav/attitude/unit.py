@@ -1,0 +1,132 @@
+"""One attitude recording, as :mod:`optinav.batch` (and ``optinav attitude``) reads and estimates it
+(registry: ``attitude``)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from optinav.attitude.estimators import AttitudeEstimate, _method, _options, estimate
+from optinav.errors import OptinavError
+
+
+@dataclasses.dataclass
+class AttitudeOptions:
+    """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
+    ``frame`` ("NED"/"ENU"), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's imu_mag or
+    ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``options`` (estimator options, SI), and the reading
+    options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate`` Hz, ``delimiter``,
+    ``datasets``)."""
+
+    method: str | None = None
+    frame: str = "NED"
+    offline: bool = False
+    input_stage: bool = False
+    mag: bool = False
+    mag_columns: str | None = None
+    allow_gaps: bool = False
+    options: dict = dataclasses.field(default_factory=dict)
+    columns: str | None = None
+    acc_unit: str | None = None
+    gyro_unit: str | None = None
+    time_unit: str | None = None
+    rate: float | None = None
+    delimiter: str | None = None
+    datasets: str | None = None
+
+
+def check(options: AttitudeOptions) -> None:
+    _options(_method(options.method, None), dict(options.options))
+    if options.frame.upper() not in ("NED", "ENU"):
+        raise OptinavError(f"unknown frame {options.frame!r}", "use NED or ENU")
+
+
+def read_log(path, options: AttitudeOptions, *, reference: bool = False):
+    """(t s, gyr rad/s, acc m/s², mag or None, (q_ref, movement) or None) from a BROAD trial as published
+    (its optical reference when ``reference``) or any IMU log in SI units."""
+    from optinav.attitude.data import is_broad, load_broad
+
+    o = options
+    want_mag = o.mag or bool(o.mag_columns)
+    if is_broad(path) and not o.columns and not o.datasets:
+        tr = load_broad(path)
+        t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
+        return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
+    from optinav.io import read_imu
+    from optinav.io.readers import read_table
+
+    if reference:
+        raise OptinavError(f"{path} is not a BROAD file with opt_quat and movement",
+                           "drop --reference or pass a BROAD trial")
+    log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, time_unit=o.time_unit,
+                   rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter)
+    if log.acc is None or log.gyro is None:
+        raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
+                           "name them with --columns t,ax,ay,az,gx,gy,gz")
+    if log.acc_unit == "counts" or log.gyro_unit == "counts":
+        raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+    ok = log.finite
+    if not np.all(ok):
+        raise OptinavError(f"{path} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
+                           "remove or interpolate them first")
+    mag = None
+    if want_mag:
+        names = [s.strip() for s in (o.mag_columns or "mx,my,mz").split(",")]
+        if len(names) != 3:
+            raise OptinavError(f"--mag-columns {o.mag_columns!r} needs three names", "write e.g. mx,my,mz")
+        tab = read_table(path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter)
+        mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
+        if mag.shape[0] != log.t.size:
+            raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
+    return log.t, log.gyro, log.acc, mag, None
+
+
+def steps(t, path="") -> np.ndarray:
+    """The step before each sample (s), the first one repeated: what :func:`estimate` takes as dt."""
+    t = np.asarray(t, float)
+    if t.size > 1 and not np.all(np.diff(t) > 0):
+        raise OptinavError(f"the time column of {path} is not strictly increasing",
+                           "sort the log or fix its time column")
+    return np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
+
+
+def _reference(path: Path, t: np.ndarray, embedded):
+    """(q_ref (N, 4), mask) for ``path``: a BROAD trial's own reference over its movement phases, else the
+    simulator's ``STEM.truth.csv`` (t, qw, qx, qy, qz) beside it; None when there is none."""
+    if embedded is not None:
+        q_ref, movement = embedded
+        return q_ref, movement & np.all(np.isfinite(q_ref), axis=1)
+    truth = path.with_name(path.stem + ".truth.csv")
+    if not truth.is_file():
+        return None
+    tab = np.loadtxt(truth, delimiter=",", skiprows=1, ndmin=2)
+    if tab.shape[1] != 5 or tab.shape[0] != t.size:
+        raise OptinavError(f"{truth.name} does not hold t,qw,qx,qy,qz for each of the {t.size} samples",
+                           "write it with optinav simulate flight, or remove it")
+    return tab[:, 1:], np.all(np.isfinite(tab[:, 1:]), axis=1)
+
+
+def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[AttitudeEstimate, dict]:
+    """Read ``path`` and estimate its attitude; extra columns: samples, duration (s), and with ``reference``
+    the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its simulated truth
+    (``STEM.truth.csv``), over the samples where it is valid."""
+    from optinav.attitude.metrics import heading_error, inclination_error, rmse
+
+    p, o = Path(path), options
+    t, gyr, acc, mag, embedded = read_log(p, options)
+    if reference and embedded is not None and o.frame.upper() != "ENU":
+        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
+    dt = steps(t, p)
+    res = estimate(gyr, acc, dt, method=_method(o.method, None), frame=o.frame, mag=mag, offline=o.offline,
+                            input_stage=o.input_stage, allow_gaps=o.allow_gaps, **dict(o.options))
+    extra = {"n_samples": int(t.size), "duration_s": float(t[-1] - t[0]) if t.size else 0.0}
+    if reference:
+        ref = _reference(p, t, embedded)
+        if ref is not None:
+            q_ref, mask = ref
+            extra.update(inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q, q_ref), mask))),
+                         heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q, q_ref), mask))),
+                         n_reference=int(mask.sum()))
+    return res, extra

@@ -1,0 +1,71 @@
+"""``optinav export RESULT.json --to imu_tk|imucal|kalibr --out FILE``: a calibration in another tool's format."""
+
+from __future__ import annotations
+
+import argparse
+import textwrap
+
+from optinav.cli.common import RATE, output_path, require_files
+from optinav.errors import OptinavError
+
+FORMATS = ("imu_tk", "imucal", "kalibr")
+_SUFFIXES = {"imucal": (".json",), "kalibr": (".yaml", ".yml")}
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "export", help="write a calibration for imu_tk, imucal or Kalibr",
+        description=textwrap.dedent("""\
+            Write RESULT.json of optinav calibrate in the format another tool reads:
+              imu_tk  two text files (T, S, B of CalibratedTriad): --out for the accelerometer, --gyro-out for
+                      the gyroscope; no g-sensitivity, outputs in m/s^2 and rad/s
+              imucal  FerrarisCalibrationInfo JSON (both triads and K_ga; outputs m/s^2 and deg/s)
+              kalibr  imu.yaml with Kalibr's scale-misalignment model (M, A, C_gyro_i; Kalibr's frame is the
+                      accelerometer's lower-triangular frame, its rotation from optinav's is kept as C_i_s) and
+                      the noise keys of an optinav allan result (--noise). Kalibr stores no biases.
+            optinav apply reads the imu_tk and imucal files back."""),
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav export result.json --to imucal --out cal.json
+              optinav export result.json --to imu_tk --out acc.calib --gyro-out gyro.calib
+              optinav export result.json --to kalibr --noise allan.json --rostopic /imu0 --out imu.yaml
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("result", help="RESULT.json written by optinav calibrate")
+    p.add_argument("--to", required=True, choices=FORMATS, help="target format")
+    p.add_argument("--out", required=True, metavar="FILE", help="output file (imu_tk: the accelerometer's)")
+    p.add_argument("--gyro-out", metavar="FILE", help="imu_tk: the gyroscope's parameter file")
+    p.add_argument("--noise", metavar="ALLAN.json", help="kalibr: noise parameters from optinav allan")
+    p.add_argument("--rostopic", metavar="TOPIC", help="kalibr: the IMU topic (default: the allan result's)")
+    p.add_argument("--rate", type=RATE, metavar="HZ", help="kalibr: update_rate (default: the allan result's)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    require_files((args.result, "result file"), (args.noise, "allan result"))
+    if args.to != "kalibr":
+        for flag, value in (("--noise", args.noise), ("--rostopic", args.rostopic), ("--rate", args.rate)):
+            if value is not None:
+                raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
+    if args.to != "imu_tk" and args.gyro_out:
+        raise OptinavError("--gyro-out is for --to imu_tk (its second file)", "drop --gyro-out")
+    out = output_path(args.out, _SUFFIXES.get(args.to), {"imucal": "cal.json", "kalibr": "imu.yaml"}.get(args.to, ""))
+    gyro_out = output_path(args.gyro_out, option="--gyro-out") if args.gyro_out else None
+    if gyro_out is not None and gyro_out.resolve() == out.resolve():
+        raise OptinavError("--gyro-out and --out name the same file", "give the gyroscope file another name")
+    from optinav.multipos.exchange import export_calibration
+    from optinav.multipos.result import CalibrationResult
+
+    res = CalibrationResult.from_json(args.result)
+    noise = None
+    if args.noise:
+        from optinav.core.allan import AllanAnalysis
+
+        noise = AllanAnalysis.from_json(args.noise)
+    for path in export_calibration(res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic,
+                                   update_rate=args.rate):
+        print(f"optinav: {args.to} file written to {path}")
+    if args.to == "kalibr" and noise is None:
+        print("optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "
+              "static log and pass its result)")
+    return 0

@@ -1,0 +1,128 @@
+"""A calibration result to and from the files other tools read: imu_tk, imucal and Kalibr.
+
+:func:`export_calibration` writes a :class:`~optinav.multipos.result.CalibrationResult` as imu_tk's two parameter
+files (accelerometer, gyroscope), imucal's Ferraris JSON or Kalibr's ``scale-misalignment`` imu.yaml (with the
+noise of an ``optinav allan`` result); :func:`load_calibration` reads optinav's RESULT.json, an imucal JSON or
+an imu_tk accelerometer file (with the gyroscope file beside it) back into a ``CalibrationResult``, which is what
+``optinav apply`` applies. The parameter conversions are in :mod:`optinav.multipos.convert` and
+:mod:`optinav.multipos.kalibr`; what each format can hold:
+
+- imu_tk: K and b per triad, no g-sensitivity and no units (the raw unit is the data's); calibrated outputs in
+  m/s² and rad/s. An accelerometer K that is upper triangular is written in imu_tk's body form.
+- imucal: both triads, the g-sensitivity K_ga, calibrated outputs in m/s² and deg/s, raw units as
+  ``from_acc_unit``/``from_gyr_unit``.
+- Kalibr: M, A and C_gyro_i (no biases: Kalibr estimates them along its trajectory), so it is written, not
+  applied.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+FORMATS = ("imu_tk", "imucal", "kalibr")
+#: raw units optinav names (imucal's free-text from_*_unit outside these is not used)
+_RAW_UNITS = {"accelerometer": ("counts", "g", "mg", "m/s^2"), "gyroscope": ("counts", "deg/s", "rad/s")}
+
+
+def export_calibration(res, fmt: str, out, *, gyro_out=None, noise=None, rostopic: str | None = None,
+                       update_rate: float | None = None, option: str = "--out") -> list[Path]:
+    """Write ``res`` in format ``fmt`` (one of :data:`FORMATS`) to ``out`` (and ``gyro_out`` for imu_tk's gyro
+    file); returns the paths written. ``noise``: an AllanAnalysis for Kalibr's noise keys."""
+    from optinav.multipos.convert import ImucalCalibration, to_imu_tk, write_imu_tk, write_imucal_json
+
+    if fmt not in FORMATS:
+        raise OptinavError(f"unknown export format {fmt!r}", f"use one of {', '.join(FORMATS)}")
+    acc, gyro = res.accelerometer, res.gyroscope
+    G = None if gyro is None else gyro.get("G")
+    has_G = G is not None and np.any(np.asarray(G) != 0)
+    if fmt == "imu_tk":
+        if has_G:
+            raise OptinavError("imu_tk's model has no gyro g-sensitivity, which this calibration estimated",
+                               "export with --to imucal or --to kalibr (both keep it)")
+        written = []
+        if acc is not None and gyro is not None and gyro_out is None:
+            raise OptinavError("imu_tk keeps the gyroscope calibration in a second file",
+                               "name it with --gyro-out (e.g. gyro.calib)")
+        if acc is not None:
+            K = np.asarray(acc["K"], float)
+            body = np.allclose(np.tril(np.linalg.inv(K), -1), 0.0, atol=1e-12 * np.abs(np.linalg.inv(K)).max())
+            write_imu_tk(out, to_imu_tk(K, acc["b"], form="body" if body else "general"))
+            written.append(Path(out))
+        elif gyro_out is None:
+            gyro_out, out = out, None
+        if gyro is not None:
+            write_imu_tk(gyro_out, to_imu_tk(gyro["K"], gyro["b"], form="general"))
+            written.append(Path(gyro_out))
+        return written
+    if fmt == "imucal":
+        if acc is None or gyro is None:
+            raise OptinavError("imucal's Ferraris calibration holds both the accelerometer and the gyroscope",
+                               "calibrate with gyroscope data, or export with --to imu_tk")
+        units = res.units or {}
+        cal = ImucalCalibration.from_optinav(acc["K"], acc["b"], gyro["K"], G if G is not None else np.zeros((3, 3)),
+                                             gyro["b"], from_acc_unit=units.get("accelerometer_raw"),
+                                             from_gyr_unit=units.get("gyroscope_raw"),
+                                             comment=f"exported by optinav from {res.source or 'a calibration'}")
+        write_imucal_json(out, cal)
+        return [Path(out)]
+    from optinav.multipos.kalibr import write_kalibr_imu_yaml
+
+    write_kalibr_imu_yaml(out, noise=noise, calibration=res, rostopic=rostopic, update_rate=update_rate,
+                          option=option)
+    return [Path(out)]
+
+
+def _raw_unit(sensor: str, unit) -> str | None:
+    return unit if unit in _RAW_UNITS[sensor] else None
+
+
+def load_calibration(path, gyro_path=None):
+    """A :class:`~optinav.multipos.result.CalibrationResult` from optinav's RESULT.json, an imucal JSON export
+    or an imu_tk accelerometer parameter file (``gyro_path``: imu_tk's gyroscope file). The format is recognised
+    from the content. Raw units are those the file records (imucal's ``from_*_unit``; none for imu_tk)."""
+    from optinav.core.files import parse_json, read_text
+    from optinav.multipos.convert import from_imu_tk, read_imu_tk, read_imucal_json
+    from optinav.multipos.result import CalibrationResult
+
+    text = read_text(path, "calibration file")
+    head = text.lstrip()
+    if head.startswith(("{", "[")):
+        data = parse_json(text, f"calibration file {path}", "pass an optinav, imucal or imu_tk calibration file")
+        if gyro_path is not None:
+            raise OptinavError("--gyro-cal is for imu_tk's separate gyroscope file; this JSON holds both triads",
+                               "drop --gyro-cal")
+        if isinstance(data, dict) and "schema" in data:
+            return CalibrationResult.from_json(path)
+        if isinstance(data, dict) and "K_a" in data:
+            cal = read_imucal_json(path)
+            p = cal.to_optinav()
+            units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
+            for sensor, key in (("accelerometer", "from_acc_unit"), ("gyroscope", "from_gyr_unit")):
+                u = _raw_unit(sensor, getattr(cal, key))
+                if u:
+                    units[f"{sensor}_raw"] = u
+            return CalibrationResult(accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
+                                     gyroscope={"K": p["gyro_K"], "b": p["gyro_b"], "G": p["gyro_G"]},
+                                     units=units, method="imucal", source=str(path))
+        raise OptinavError(f"{path} is JSON but neither an optinav result nor an imucal export",
+                           "pass RESULT.json of optinav calibrate or imucal's to_json_file output")
+    if head.startswith(("%YAML", "accelerometer_", "gyroscope_", "imu0:", "rostopic")) or "scale-misalignment" in head:
+        raise OptinavError(f"{path} is a Kalibr file, which holds no biases (Kalibr estimates them along its "
+                           "trajectory), so it cannot correct raw data",
+                           "apply the optinav, imucal or imu_tk calibration it was exported from")
+    acc_K, acc_b = from_imu_tk(_imu_tk_params(read_imu_tk(path)))
+    entry = {"accelerometer": {"K": acc_K, "b": acc_b}}
+    if gyro_path is not None:
+        g_K, g_b = from_imu_tk(_imu_tk_params(read_imu_tk(gyro_path)))
+        entry["gyroscope"] = {"K": g_K, "b": g_b}
+    units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
+    return CalibrationResult(**entry, units=units, method="imu_tk",
+                             source=" + ".join(str(p) for p in (path, gyro_path) if p is not None))
+
+
+def _imu_tk_params(p: dict) -> dict:
+    return {k: v for k, v in p.items() if k != "form"}

@@ -1,0 +1,173 @@
+"""Kalibr's IMU YAML: the noise keys of ``imu.yaml`` and the intrinsics of its ``scale-misalignment`` model.
+
+Kalibr (Rehder et al., ICRA 2016, "Extending kalibr") models the IMU in its own frame i::
+
+    a_meas = M_a · a_i + b_a                                  M_a lower triangular
+    ω_meas = M_g · C_gyro_i · ω_i + A · C_gyro_i · a_i + b_g     M_g lower triangular, C_gyro_i a rotation
+
+with measurements in SI (sensor_msgs/Imu: m/s², rad/s) and biases estimated along the trajectory (not stored).
+optinav's ``raw = K x + b`` (x in the sensor frame s, raw in the file's unit of SI factor f) maps to it by the
+LQ factorization f·K_a = M_a·C_i_s: Kalibr's frame i is the accelerometer's lower-triangular frame, rotated by
+C_i_s from optinav's; then f_g·K_g·C_i_sᵀ = M_g·C_gyro_i and A = f_g·G·C_i_sᵀ·C_gyro_iᵀ. C_i_s is written as a
+comment-free extra key ``C_i_s`` (Kalibr ignores unknown keys) so that reading the file back recovers optinav's
+frame. Raw counts have f = 1 (M in counts per SI unit: the data Kalibr reads must then be counts too).
+
+Noise (Kalibr's continuous-time convention): ``*_noise_density`` = white-noise coefficient N (m/s²/√Hz,
+rad/s/√Hz), ``*_random_walk`` = random-walk coefficient K (m/s³/√Hz, rad/s²/√Hz), ``update_rate`` in Hz.
+The YAML is written as plain text and read with PyYAML's ``safe_load`` only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optinav.core.files import read_text, write_text
+from optinav.errors import OptinavError
+
+NOISE_KEYS = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
+              "gyroscope_random_walk")
+
+
+def lq(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """K = L·Q with L lower triangular of positive diagonal and Q a rotation (det K > 0 needed)."""
+    K = np.asarray(K, float)
+    if not np.all(np.isfinite(K)) or np.linalg.det(K) <= 0:
+        raise OptinavError("the calibration matrix has det(K) <= 0 (a mirrored or singular axis set)",
+                           "Kalibr's model needs a right-handed sensor: check the axis signs of the calibration")
+    Qt, Rt = np.linalg.qr(K.T)
+    s = np.sign(np.diag(Rt))
+    L, Q = (Rt * s[:, None]).T, (Qt * s[None, :]).T
+    return L, Q
+
+
+def _matrix(name: str, M, indent: str = "  ") -> list[str]:
+    return [f"{indent}{name}:"] + [f"{indent}  - [{', '.join(f'{v:.17g}' for v in row)}]" for row in np.asarray(M)]
+
+
+def _num(v: float) -> str:
+    if not math.isfinite(v):
+        raise OptinavError(f"a Kalibr value is not finite ({v!r})", "check the noise or calibration input")
+    return f"{v:.17g}"
+
+
+def kalibr_intrinsics(cal) -> dict:
+    """Kalibr's scale-misalignment matrices of a :class:`~optinav.multipos.result.CalibrationResult` (both
+    triads needed): ``{"M_accel", "M_gyro", "A", "C_gyro_i", "C_i_s"}``."""
+    from optinav.core.units import factor
+
+    if cal.accelerometer is None or cal.gyroscope is None:
+        raise OptinavError("Kalibr's scale-misalignment model needs both the accelerometer and the gyroscope "
+                           "calibration", "calibrate with gyroscope data (turns between the poses)")
+    f_a = _factor(cal.units.get("accelerometer_raw"), factor)
+    f_g = _factor(cal.units.get("gyroscope_raw"), factor)
+    M_a, C_i_s = lq(f_a * cal.accelerometer["K"])
+    M_g, C_gyro_i = lq(f_g * cal.gyroscope["K"] @ C_i_s.T)
+    G = cal.gyroscope.get("G")
+    G = np.zeros((3, 3)) if G is None else np.asarray(G, float)
+    A = f_g * G @ C_i_s.T @ C_gyro_i.T
+    return {"M_accel": M_a, "M_gyro": M_g, "A": A, "C_gyro_i": C_gyro_i, "C_i_s": C_i_s}
+
+
+def _factor(unit, factor) -> float:
+    return 1.0 if unit in (None, "counts") else float(factor(unit))
+
+
+def write_kalibr_imu_yaml(path, *, noise=None, calibration=None, rostopic: str | None = None,
+                          update_rate: float | None = None, option: str = "--out") -> None:
+    """Write Kalibr's IMU YAML: the noise keys from ``noise`` (an :class:`~optinav.core.allan.AllanAnalysis` of SI
+    data with both triads), ``rostopic``/``update_rate`` (from ``noise`` unless given) and, with ``calibration``,
+    ``model: scale-misalignment`` and its matrices. Refuses a file with neither."""
+    if noise is None and calibration is None:
+        raise OptinavError("nothing to write into the Kalibr file", "give an allan result or a calibration")
+    head = ["%YAML:1.0", "# Kalibr IMU configuration written by optinav"]
+    body = []
+    rate = update_rate
+    if noise is not None:
+        kal = dict(noise.kalibr or {})
+        missing = [k for k in NOISE_KEYS if k not in kal]
+        if missing:
+            raise OptinavError(f"the allan result lacks {', '.join(missing)} (Kalibr needs both triads in SI units)",
+                               "run optinav allan on a log with accelerometer and gyroscope in SI units "
+                               "(calibrate and apply raw counts first)")
+        units = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
+                 "gyroscope_noise_density": "rad/s/sqrt(Hz)", "gyroscope_random_walk": "rad/s^2/sqrt(Hz)"}
+        head.append("# noise: continuous-time white-noise density N and random walk K of the four-term Allan fit, "
+                    "largest axis")
+        for k in NOISE_KEYS:
+            body.append(f"{k}: {_num(kal[k])}  # [{units[k]}]")
+        if rate is None:
+            rate = kal.get("update_rate")
+        rostopic = rostopic or noise.rostopic or None
+    if rostopic:
+        if any(c in rostopic for c in "\n\r#:'\"{}[],&*!|>%@`") or not rostopic.strip():
+            raise OptinavError(f"the topic {rostopic!r} is not a plain ROS name", "use a name like /imu0")
+        body.append(f"rostopic: {rostopic}")
+    if rate is not None:
+        body.append(f"update_rate: {_num(float(rate))}  # [Hz]")
+    if calibration is not None:
+        m = kalibr_intrinsics(calibration)
+        body.append("model: scale-misalignment")
+        body.append("accelerometers:")
+        body += _matrix("M", m["M_accel"])
+        body.append("gyroscopes:")
+        body += _matrix("M", m["M_gyro"])
+        body += _matrix("A", m["A"])
+        body += _matrix("C_gyro_i", m["C_gyro_i"])
+        body.append("# optinav: rotation from optinav's sensor frame s to Kalibr's frame i (a_i = C_i_s a_s)")
+        body += _matrix("C_i_s", m["C_i_s"], indent="")
+        body.append("# optinav: raw units of the calibration (M in raw per SI unit for counts)")
+        body.append(f"optinav_units: {{accelerometer_raw: {calibration.units.get('accelerometer_raw', 'm/s^2')}, "
+                    f"gyroscope_raw: {calibration.units.get('gyroscope_raw', 'rad/s')}}}")
+    write_text(path, "\n".join(head + body) + "\n", option)
+
+
+def read_kalibr_imu_yaml(path) -> dict:
+    """Kalibr's IMU YAML as a dict (PyYAML ``safe_load``; a leading ``%YAML:1.0`` line is OpenCV's and skipped).
+    A Kalibr results file with ``imu0:`` … at the top is unwrapped to its first IMU."""
+    try:
+        import yaml
+    except ImportError:
+        raise OptinavError("reading Kalibr YAML needs PyYAML", "pip install 'optinav[kalibr]'") from None
+    text = read_text(path, "Kalibr file")
+    lines = text.splitlines()
+    if lines and lines[0].startswith("%YAML:"):
+        lines = lines[1:]
+    try:
+        data = yaml.safe_load("\n".join(lines))
+    except yaml.YAMLError as exc:
+        raise OptinavError(f"{path} is not valid YAML ({' '.join(str(exc).split())[:80]})",
+                           "pass a Kalibr imu.yaml") from None
+    if isinstance(data, dict) and len(data) >= 1 and all(str(k).startswith("imu") for k in data) and \
+            isinstance(next(iter(data.values())), dict):
+        data = next(iter(data.values()))
+    if not isinstance(data, dict):
+        raise OptinavError(f"{path} is not a Kalibr IMU file (no key: value mapping)", "pass a Kalibr imu.yaml")
+    return data
+
+
+def calibration_from_kalibr(data: dict) -> dict:
+    """optinav's ``{"acc_K", "gyro_K", "gyro_G"}`` (raw per SI in ``optinav_units``, or SI for Kalibr's own files)
+    from a scale-misalignment file; biases are not part of Kalibr's file (it estimates them along the
+    trajectory). Uses ``C_i_s`` when present (files optinav wrote), else Kalibr's frame i."""
+    from optinav.core.units import factor
+
+    if data.get("model") != "scale-misalignment":
+        raise OptinavError(f"the Kalibr file's model is {data.get('model')!r}, not 'scale-misalignment'",
+                           "pass the imu yaml of a kalibr --imu-models scale-misalignment run")
+    try:
+        M_a = np.asarray(data["accelerometers"]["M"], float).reshape(3, 3)
+        M_g = np.asarray(data["gyroscopes"]["M"], float).reshape(3, 3)
+        A = np.asarray(data["gyroscopes"]["A"], float).reshape(3, 3)
+        C = np.asarray(data["gyroscopes"]["C_gyro_i"], float).reshape(3, 3)
+        C_i_s = np.asarray(data.get("C_i_s", np.eye(3)), float).reshape(3, 3)
+    except (KeyError, TypeError, ValueError):
+        raise OptinavError("the Kalibr file lacks accelerometers.M or gyroscopes.M/A/C_gyro_i as 3×3 matrices",
+                           "pass a complete scale-misalignment imu yaml") from None
+    units = data.get("optinav_units") or {}
+    f_a = _factor(units.get("accelerometer_raw", "m/s^2"), factor)
+    f_g = _factor(units.get("gyroscope_raw", "rad/s"), factor)
+    return {"acc_K": M_a @ C_i_s / f_a, "gyro_K": M_g @ C @ C_i_s / f_g, "gyro_G": A @ C @ C_i_s / f_g,
+            "units": {"accelerometer_raw": units.get("accelerometer_raw", "m/s^2"),
+                      "gyroscope_raw": units.get("gyroscope_raw", "rad/s")}}

@@ -1,0 +1,131 @@
+"""The systems optinav knows, each declared once: its result type, how one recording is read and processed, its
+batch options, truth and report, and the CLI module that adds its options.
+
+A system is a package (``optinav.multipos``, ``optinav.rins``, ``optinav.gfimu``, ``optinav.attitude``) plus one
+:func:`register` call here. References are ``"module:attribute"`` strings imported on first use, so that
+``optinav --help`` does not import numerical code. What reads the registry:
+
+* :mod:`optinav.batch` — ``run_unit`` and ``options`` of the system named by ``optinav batch calibrate SYSTEM`` /
+  ``optinav batch attitude``;
+* :mod:`optinav.cli.main` — every system's ``cli`` module may define ``register_simulate(kinds)``,
+  ``register_calibrate(kinds)`` (or ``register_estimate(sub)`` for a top-level estimate command) and
+  ``add_batch_options(parser)``; the ``simulate``, ``calibrate`` and ``batch`` commands are built from them.
+
+Adding a fifth system: write its package (result class deriving :class:`optinav.core.results.Estimate`, a
+``unit`` module with an options dataclass and ``run_unit(path, options, reference) -> (result, extra columns)``,
+a CLI module with the register hooks) and register it here or from a plugin (``register(System(...))``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from typing import Any
+
+from optinav.errors import OptinavError
+
+
+@dataclasses.dataclass(frozen=True)
+class System:
+    """One system. ``name``: package and schema name (``optinav.<name>.<kind>``); ``command``: the word after
+    ``optinav calibrate`` / ``optinav batch calibrate`` (or the top-level command of an estimate); ``kind``:
+    "calibration" or "estimate". The other fields are ``"module:attribute"`` references (None: not offered):
+    ``result`` the :class:`~optinav.core.results.Estimate` subclass; ``simulate`` the simulator; ``fit`` the
+    calibrator or estimator returning ``result``; ``options`` the batch options dataclass and ``check(options)``
+    its checks, run once before a batch; ``run_unit(path, options, reference)`` reads one recording and returns
+    ``(result, extra table columns)``; ``truth`` builds a :class:`~optinav.core.results.Truth`; ``report`` writes
+    its report section (the result plus what the system plots, then the folder); ``read``/``write`` its data
+    files; ``cli`` the module with its command-line hooks."""
+
+    name: str
+    command: str
+    kind: str
+    result: str
+    simulate: str | None = None
+    fit: str | None = None
+    options: str | None = None
+    check: str | None = None
+    run_unit: str | None = None
+    truth: str | None = None
+    report: str | None = None
+    read: str | None = None
+    write: str | None = None
+    cli: str | None = None
+    help: str = ""
+
+    def load(self, what: str) -> Any:
+        """The object a reference field names (``self.load("run_unit")``)."""
+        ref = getattr(self, what)
+        if ref is None:
+            raise OptinavError(f"the {self.name} system has no {what}", "see `optinav --help` for what it offers")
+        module, _, attr = ref.partition(":")
+        obj = importlib.import_module(module)
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+        return obj
+
+
+SYSTEMS: dict[str, System] = {}
+
+
+def register(system: System) -> System:
+    """Add (or replace) a system; its ``name`` and ``command`` must not collide with another system's."""
+    for other in SYSTEMS.values():
+        if other.name != system.name and other.command == system.command:
+            raise OptinavError(f"system {system.name!r} uses the command {system.command!r} of {other.name!r}",
+                               "choose another command word")
+    SYSTEMS[system.name] = system
+    return system
+
+
+def unregister(name: str) -> None:
+    SYSTEMS.pop(name, None)
+
+
+def by_command(command: str, kind: str | None = None) -> System:
+    """The system whose CLI word is ``command`` (or whose name is), optionally of ``kind``."""
+    for s in SYSTEMS.values():
+        if (s.command == command or s.name == command) and (kind is None or s.kind == kind):
+            return s
+    known = ", ".join(s.command for s in SYSTEMS.values() if kind is None or s.kind == kind)
+    raise OptinavError(f"unknown system {command!r}", f"use one of {known}")
+
+
+def systems(kind: str | None = None) -> list[System]:
+    """The registered systems (of ``kind``), in registration order."""
+    return [s for s in SYSTEMS.values() if kind is None or s.kind == kind]
+
+
+register(System(
+    name="multipos", command="accel", kind="calibration",
+    result="optinav.multipos.result:CalibrationResult", simulate="optinav.multipos.simulate:simulate",
+    fit="optinav.multipos.calibrate:calibrate", options="optinav.multipos.calibrate:FileOptions",
+    run_unit="optinav.multipos.unit:run_unit", check="optinav.multipos.unit:check",
+    truth="optinav.multipos.result:session_truth",
+    report="optinav.reports.calibration_report:write_calibration_report",
+    read="optinav.multipos.calibrate:read_session_file", write="optinav.io:write_imu",
+    cli="optinav.cli.calibrate", help="multi-position accelerometer (and gyroscope) calibration"))
+register(System(
+    name="rins", command="rins", kind="calibration",
+    result="optinav.rins.calibrate:RinsCalibration", simulate="optinav.rins.simulate:simulate",
+    fit="optinav.rins.calibrate:calibrate", options="optinav.rins.unit:RinsOptions",
+    run_unit="optinav.rins.unit:run_unit", check="optinav.rins.unit:check",
+    truth="optinav.rins.calibrate:rins_truth",
+    report="optinav.cli.rins:write_rins_report", read="optinav.rins.io:read_rins", write="optinav.rins.io:write_rins",
+    cli="optinav.cli.rins", help="gimbal non-orthogonality of a dual-axis rotational INS"))
+register(System(
+    name="gfimu", command="gfimu", kind="calibration",
+    result="optinav.gfimu.turntable:TurntableCalibration", simulate="optinav.gfimu.turntable:simulate",
+    fit="optinav.gfimu.turntable:calibrate", options="optinav.gfimu.unit:GfimuOptions",
+    run_unit="optinav.gfimu.unit:run_unit", check="optinav.gfimu.unit:check",
+    truth="optinav.gfimu.turntable:turntable_truth",
+    report="optinav.cli.gfimu:write_gfimu_report", read="optinav.gfimu.turntable:TurntableData.load",
+    cli="optinav.cli.gfimu", help="installation errors of a gyro-free accelerometer array"))
+register(System(
+    name="attitude", command="attitude", kind="estimate",
+    result="optinav.attitude.estimators:AttitudeEstimate", simulate="optinav.attitude.simulate:simulate",
+    fit="optinav.attitude.estimators:estimate", options="optinav.attitude.unit:AttitudeOptions",
+    run_unit="optinav.attitude.unit:run_unit", check="optinav.attitude.unit:check",
+    truth="optinav.attitude.estimators:attitude_truth",
+    report="optinav.cli.attitude:_report", read="optinav.attitude.unit:read_log",
+    cli="optinav.cli.attitude", help="attitude from gyroscope + accelerometer (+ magnetometer, polarization)"))

@@ -1,0 +1,102 @@
+"""`optinav simulate static` → `optinav allan` end to end: JSON result, report, Kalibr imu.yaml read back."""
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from optinav.cli.main import main
+from optinav.core.allan import AllanAnalysis
+from optinav.core.results import Result
+
+
+@pytest.fixture(scope="module")
+def rest(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rest")
+    data = d / "rest.csv"
+    # 40 min at 50 Hz with a strong gyro rate random walk, so all three terms show within the record
+    assert main(["--quiet", "simulate", "static", "--out", str(data), "--hours", "0.67", "--rate", "50",
+                 "--gyro-rrw", "200", "--accel-rrw", "20", "--gyro-unit", "deg/s", "--seed", "4"]) == 0
+    return d, data, json.loads((d / "rest.truth.json").read_text())
+
+
+def test_allan_end_to_end_with_kalibr(rest, capsys):
+    d, data, truth = rest
+    out, yml, rep = d / "allan.json", d / "imu.yaml", d / "rep"
+    assert main(["--quiet", "allan", str(data), "--out", str(out), "--kalibr", str(yml), "--rostopic", "/imu0",
+                 "--report", str(rep)]) == 0
+    text = capsys.readouterr().out
+    assert "white noise N" in text and "Kalibr imu.yaml written" in text
+    res = Result.from_json(out)
+    assert isinstance(res, AllanAnalysis) and res.rate_hz == pytest.approx(50.0, rel=1e-9)
+    assert res.gyroscope["deviation"].unit == "rad/s"  # the file's deg/s converted to SI
+    for sensor in ("accelerometer", "gyroscope"):
+        fit = res.sensor(sensor)["fit"]
+        N_true = np.array(truth[sensor]["white"])
+        # white noise is measured to a few percent in 40 min: its interval holds the truth on every axis
+        assert np.all((fit.white_interval[0] <= N_true) & (N_true <= fit.white_interval[1]))
+        assert np.all(np.abs(fit.white / N_true - 1) < 0.05)
+    # Kalibr's file: plain YAML with the fit's largest-axis N and K in Kalibr's units
+    head, *rest_lines = yml.read_text().splitlines()
+    assert head == "%YAML:1.0"
+    k = yaml.safe_load("\n".join(rest_lines))
+    assert set(k) == {"accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
+                      "gyroscope_random_walk", "rostopic", "update_rate"}
+    assert k["rostopic"] == "/imu0" and k["update_rate"] == pytest.approx(50.0, rel=1e-9)
+    for sensor in ("accelerometer", "gyroscope"):
+        fit = res.sensor(sensor)["fit"]
+        assert k[f"{sensor}_noise_density"] == pytest.approx(float(np.max(fit.white)), rel=1e-15)
+        assert k[f"{sensor}_noise_density"] == pytest.approx(max(truth[sensor]["white"]), rel=0.05)
+    K_true = max(truth["gyroscope"]["random_walk"])
+    assert 0.5 * K_true < k["gyroscope_random_walk"] < 2.0 * K_true
+    # the report: markdown and one log-log figure per sensor
+    md = (rep / "index.md").read_text()
+    assert "IEEE 952 read-off" in md and "allan_gyroscope.png" in md
+    assert (rep / "allan_accelerometer.png").stat().st_size > 10_000
+
+
+def test_allan_refusals(rest, tmp_path, capsys):
+    d, data, _ = rest
+    lines = data.read_text().splitlines()
+    header = [ln for ln in lines if not ln[:1].isdigit() and not ln[:1] == "-"]
+    body = [ln for ln in lines if ln[:1].isdigit() or ln[:1] == "-"]
+    # a gap: drop a block of rows
+    gap = tmp_path / "gap.csv"
+    gap.write_text("\n".join(header + body[:5000] + body[5100:20000]) + "\n")
+    assert main(["allan", str(gap), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert "not regularly sampled" in err and len(err.strip().splitlines()) == 1
+    # raw counts: no Kalibr file (Kalibr reads SI), one line naming what helps
+    counts = tmp_path / "counts.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(counts), "--scheme", "six", "--dwell", "5",
+                 "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
+    capsys.readouterr()
+    assert main(["allan", str(counts), "--out", str(tmp_path / "c.json"), "--kalibr", str(tmp_path / "k.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "Kalibr needs both triads in SI units" in err and "apply" in err
+    assert not (tmp_path / "k.yaml").exists()
+    # too short a record
+    short = tmp_path / "short.csv"
+    short.write_text("\n".join(header + body[:40]) + "\n")
+    assert main(["allan", str(short), "--out", str(tmp_path / "s.json")]) == 2
+    assert "record a longer static log" in capsys.readouterr().err
+
+
+def test_streamed_log_matches_in_memory(rest, tmp_path):
+    """Read in blocks of 997 rows and folded into the angle sums block by block, the deviation equals the
+    in-memory computation on the whole log (to rounding)."""
+    from optinav.core.allan import allan_deviation
+    from optinav.io import read_imu
+
+    _, data, _ = rest
+    out = tmp_path / "a.json"
+    assert main(["--quiet", "allan", str(data), "--out", str(out), "--sensor", "gyro", "--chunk-rows", "997"]) == 0
+    res = Result.from_json(out)
+    assert res.accelerometer is None
+    log = read_imu(data)
+    dt = (log.t[-1] - log.t[0]) / (len(log.t) - 1)
+    ref = allan_deviation(log.gyro, dt, unit="rad/s")
+    dev = res.gyroscope["deviation"]
+    assert np.allclose(dev.tau, ref.tau, rtol=1e-12)
+    assert np.max(np.abs(dev.adev / ref.adev - 1)) < 1e-9

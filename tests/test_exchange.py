@@ -1,0 +1,244 @@
+"""Calibrations through imu_tk, imucal and Kalibr files: export → import gives the same numbers (1e-12), and
+`optinav apply` corrects data identically from each format."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optinav import OptinavError
+from optinav.cli.main import main
+from optinav.multipos.exchange import export_calibration, load_calibration
+from optinav.multipos.kalibr import calibration_from_kalibr, lq, read_kalibr_imu_yaml
+from optinav.multipos.result import CalibrationResult
+
+
+def _calibration(seed: int, *, G: bool, acc_unit="counts", gyro_unit="deg/s", upper=True) -> CalibrationResult:
+    """A plausible calibration: scales of the raw unit, percent-level misalignments, biases."""
+    rng = np.random.default_rng(seed)
+    acc_scale = 1000.0 if acc_unit == "counts" else 1.0 / {"g": 9.80665, "m/s^2": 1.0}[acc_unit]
+    gyro_scale = 180 / np.pi if gyro_unit == "deg/s" else (2000.0 if gyro_unit == "counts" else 1.0)
+    Ka = acc_scale * (np.eye(3) + 0.01 * rng.standard_normal((3, 3)))
+    if upper:
+        Ka = np.triu(Ka)
+    Kg = gyro_scale * (np.eye(3) + 0.01 * rng.standard_normal((3, 3)))
+    gyro = {"K": Kg, "b": rng.normal(0, 0.5, 3)}
+    if G:
+        gyro["G"] = gyro_scale * 1e-3 * rng.standard_normal((3, 3))
+    return CalibrationResult(accelerometer={"K": Ka, "b": rng.normal(0, 50, 3)}, gyroscope=gyro,
+                             units={"accelerometer_raw": acc_unit, "gyroscope_raw": gyro_unit}, method="lm")
+
+
+def _close(a, b, rtol=1e-12):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.max(np.abs(a - b)) <= rtol * max(np.abs(b).max(), 1e-300)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), upper=st.booleans())
+def test_imu_tk_round_trip(tmp_path_factory, seed, upper):
+    d = tmp_path_factory.mktemp("tk")
+    res = _calibration(seed, G=False, upper=upper)
+    export_calibration(res, "imu_tk", d / "acc.calib", gyro_out=d / "gyro.calib")
+    back = load_calibration(d / "acc.calib", d / "gyro.calib")
+    for s in ("accelerometer", "gyroscope"):
+        assert _close(getattr(back, s)["K"], getattr(res, s)["K"])
+        assert _close(getattr(back, s)["b"], getattr(res, s)["b"])
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), with_G=st.booleans())
+def test_imucal_round_trip(tmp_path_factory, seed, with_G):
+    d = tmp_path_factory.mktemp("imucal")
+    res = _calibration(seed, G=with_G, upper=False)
+    export_calibration(res, "imucal", d / "cal.json")
+    raw = json.loads((d / "cal.json").read_text())
+    assert raw["cal_type"] == "Ferraris" and raw["from_acc_unit"] == "counts" and raw["gyr_unit"] == "deg/s"
+    back = load_calibration(d / "cal.json")
+    assert back.units["accelerometer_raw"] == "counts" and back.units["gyroscope_raw"] == "deg/s"
+    for s in ("accelerometer", "gyroscope"):
+        assert _close(getattr(back, s)["K"], getattr(res, s)["K"])
+        assert _close(getattr(back, s)["b"], getattr(res, s)["b"])
+    G = res.gyroscope.get("G", np.zeros((3, 3)))
+    assert np.max(np.abs(back.gyroscope["G"] - G)) <= 1e-12 * np.abs(res.gyroscope["K"]).max()
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), with_G=st.booleans(), units=st.sampled_from([("counts", "counts"),
+                                                                                      ("g", "deg/s"),
+                                                                                      ("m/s^2", "rad/s")]))
+def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
+    """Kalibr's M are lower triangular, C_gyro_i and C_i_s rotations, and the file's matrices reproduce optinav's
+    K and G (biases are not part of Kalibr's file) to 1e-12; Kalibr's own model equation holds in its frame i."""
+    from optinav.core.units import factor
+
+    d = tmp_path_factory.mktemp("kalibr")
+    res = _calibration(seed, G=with_G, acc_unit=units[0], gyro_unit=units[1])
+    export_calibration(res, "kalibr", d / "imu.yaml", rostopic="/imu0", update_rate=200.0)
+    data = read_kalibr_imu_yaml(d / "imu.yaml")
+    assert data["model"] == "scale-misalignment" and data["rostopic"] == "/imu0" and data["update_rate"] == 200.0
+    M_a, M_g = np.array(data["accelerometers"]["M"]), np.array(data["gyroscopes"]["M"])
+    C, C_i_s = np.array(data["gyroscopes"]["C_gyro_i"]), np.array(data["C_i_s"])
+    assert np.allclose(np.triu(M_a, 1), 0, atol=1e-15) and np.allclose(np.triu(M_g, 1), 0, atol=1e-15)
+    for R in (C, C_i_s):
+        assert np.allclose(R @ R.T, np.eye(3), atol=1e-14) and np.linalg.det(R) == pytest.approx(1.0)
+    back = calibration_from_kalibr(data)
+    G = res.gyroscope.get("G", np.zeros((3, 3)))
+    assert _close(back["acc_K"], res.accelerometer["K"]) and _close(back["gyro_K"], res.gyroscope["K"])
+    assert np.max(np.abs(back["gyro_G"] - G)) <= 1e-12 * np.abs(res.gyroscope["K"]).max()
+    # Kalibr's equation in its frame: f·(raw − b) = M_a·a_i and M_g·C·ω_i + A·C·a_i for a, ω in optinav's frame
+    rng = np.random.default_rng(seed)
+    a_s, w_s = rng.normal(0, 9.8, 3), rng.normal(0, 1.0, 3)
+    fa = 1.0 if units[0] == "counts" else factor(units[0])
+    fg = 1.0 if units[1] == "counts" else factor(units[1])
+    raw_a = res.accelerometer["K"] @ a_s
+    raw_g = res.gyroscope["K"] @ w_s + G @ a_s
+    a_i, w_i = C_i_s @ a_s, C_i_s @ w_s
+    assert np.allclose(fa * raw_a, M_a @ a_i, rtol=1e-12, atol=1e-12 * np.abs(fa * raw_a).max())
+    A = np.array(data["gyroscopes"]["A"])
+    assert np.allclose(fg * raw_g, M_g @ C @ w_i + A @ C @ a_i, rtol=1e-12, atol=1e-12 * np.abs(fg * raw_g).max())
+
+
+def test_lq_factorization():
+    rng = np.random.default_rng(5)
+    K = np.eye(3) + 0.1 * rng.standard_normal((3, 3))
+    L, Q = lq(K)
+    assert np.allclose(L @ Q, K, atol=1e-15) and np.all(np.diag(L) > 0) and np.allclose(np.triu(L, 1), 0)
+    with pytest.raises(OptinavError):
+        lq(np.diag([1.0, 1.0, -1.0]))
+
+
+def test_export_refusals(tmp_path):
+    res = _calibration(1, G=True)
+    with pytest.raises(OptinavError, match="g-sensitivity"):
+        export_calibration(res, "imu_tk", tmp_path / "a.calib", gyro_out=tmp_path / "g.calib")
+    with pytest.raises(OptinavError, match="--gyro-out"):
+        export_calibration(_calibration(1, G=False), "imu_tk", tmp_path / "a.calib")
+    acc_only = CalibrationResult(accelerometer=res.accelerometer, units={"accelerometer_raw": "counts"})
+    with pytest.raises(OptinavError, match="both"):
+        export_calibration(acc_only, "imucal", tmp_path / "c.json")
+    with pytest.raises(OptinavError, match="both"):
+        export_calibration(acc_only, "kalibr", tmp_path / "k.yaml")
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    d = tmp_path_factory.mktemp("exch")
+    data = d / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "15",
+                 "--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "5"]) == 0
+    return d, data
+
+
+def test_calibrate_export_then_apply_each_format(session, capsys):
+    """`calibrate --export` writes all three formats; `apply` on the imucal file and on the imu_tk pair corrects
+    the data exactly as RESULT.json does; `export` writes the same files as `calibrate --export`."""
+    d, data = session
+    out = d / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out),
+                 "--export", f"imucal:{d / 'cal.json'}", "--export", f"imu_tk:{d / 'acc.calib'},{d / 'gyro.calib'}",
+                 "--export", f"kalibr:{d / 'imu.yaml'}"]) == 0
+    assert "imu_tk file written" in capsys.readouterr().out
+    ref = d / "ref.npz"
+    assert main(["--quiet", "apply", str(out), str(data), "--out", str(ref)]) == 0
+    z_ref = np.load(ref)
+    for name, argv in (("imucal", [str(d / "cal.json")]),
+                       ("imu_tk", [str(d / "acc.calib"), "--gyro-cal", str(d / "gyro.calib")])):
+        o = d / f"{name}.npz"
+        cal, *extra = argv
+        # imu_tk records no raw unit: the file's declared units (counts, deg/s) are used as they are
+        assert main(["--quiet", "apply", cal, str(data), "--out", str(o), *extra]) == 0, name
+        z = np.load(o)
+        for k in ("acc", "gyro"):
+            assert np.allclose(z[k], z_ref[k], rtol=1e-9, atol=1e-12), (name, k)
+    # optinav export gives the same bytes as calibrate --export
+    for fmt, fname in (("imucal", "cal.json"), ("kalibr", "imu.yaml")):
+        o = d / f"again_{fname}"
+        assert main(["--quiet", "export", str(out), "--to", fmt, "--out", str(o)]) == 0
+        assert o.read_text().replace(str(o), "") == (d / fname).read_text().replace(str(d / fname), "")
+
+
+def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
+    d, data = session
+    out = d / "r2.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out)]) == 0
+    rest = tmp_path / "rest.npz"
+    assert main(["--quiet", "simulate", "static", "--out", str(rest), "--hours", "0.2", "--seed", "2"]) == 0
+    allan = tmp_path / "allan.json"
+    assert main(["--quiet", "allan", str(rest), "--out", str(allan), "--rostopic", "/imu0"]) == 0
+    capsys.readouterr()
+    yml = tmp_path / "imu.yaml"
+    assert main(["export", str(out), "--to", "kalibr", "--noise", str(allan), "--out", str(yml)]) == 0
+    k = yaml.safe_load("\n".join(yml.read_text().splitlines()[1:]))
+    a = json.loads(allan.read_text())["fields"]["kalibr"]["value"]
+    for key in ("accelerometer_noise_density", "gyroscope_random_walk", "update_rate"):
+        assert k[key] == a[key]
+    assert k["rostopic"] == "/imu0" and k["model"] == "scale-misalignment"
+    # one-line refusals naming the flag
+    assert main(["export", str(out), "--to", "imucal", "--noise", str(allan), "--out", str(tmp_path / "c.json")]) == 2
+    assert "--noise is for --to kalibr" in capsys.readouterr().err
+    assert main(["export", str(out), "--to", "imu_tk", "--out", str(tmp_path / "a.calib")]) == 2
+    assert "--gyro-out" in capsys.readouterr().err
+    assert main(["apply", str(yml), str(data), "--out", str(tmp_path / "x.csv")]) == 2
+    assert "holds no biases" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, why", [
+    ("model: scale-misalignment\naccelerometers: {M: [[1, 0]]}\n", "3×3"),
+    ("!!python/object/apply:os.system ['echo hi']\n", "not valid YAML"),
+    ("model: [unclosed\n", "not valid YAML"),
+    ("model: calibrated\n", "not 'scale-misalignment'"),
+])
+def test_kalibr_reader_refuses_in_one_line(tmp_path, text, why):
+    p = tmp_path / "imu.yaml"
+    p.write_text(text)
+    with pytest.raises(OptinavError, match=why):
+        calibration_from_kalibr(read_kalibr_imu_yaml(p))
+
+
+@pytest.mark.parametrize("text, why", [("hello world\n", "non-numeric"), ("1 2 3\n", "21"),
+                                       ('{"K_a": [[1]], "cal_type": "Ferraris"}', "lacks"), ('{"foo": 1}', "neither")])
+def test_apply_refuses_unreadable_calibrations(tmp_path, capsys, text, why):
+    cal = tmp_path / "cal.txt"
+    cal.write_text(text)
+    data = tmp_path / "d.csv"
+    data.write_text("t,ax,ay,az\n0,0,0,9.8\n0.01,0,0,9.8\n")
+    assert main(["apply", str(cal), str(data), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and why in err, err
+    assert not (tmp_path / "o.csv").exists()
+
+
+SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"  # ../shared relative to the project root
+DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", SHARED)) / "imucal"
+
+
+@pytest.mark.skipif(not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(),
+                    reason="imucal data absent")
+def test_apply_reads_imucal_own_export_and_matches_its_output(tmp_path):
+    """imucal 2.6's own export of the example session's Ferraris calibration, applied by `optinav apply`,
+    reproduces imucal's calibrated samples (its head-50 snapshot) to 1e-9; exported again by optinav it
+    reads back to the same matrices to 1e-12."""
+    from optinav.io import read_imu
+    from optinav.multipos.convert import read_imucal_json
+
+    ref = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    out = tmp_path / "c.csv"
+    assert main(["--quiet", "apply", str(ref), str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
+                 "--out", str(out)]) == 0
+    got = read_imu(out)
+    snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
+    for j, ax in enumerate("xyz"):
+        np.testing.assert_allclose(got.acc[:50, j], snap[f"acc_{ax}"], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(np.degrees(got.gyro[:50, j]), snap[f"gyr_{ax}"], rtol=1e-8, atol=1e-8)
+    res = load_calibration(ref)
+    export_calibration(res, "imucal", tmp_path / "again.json")
+    a, b = read_imucal_json(ref), read_imucal_json(tmp_path / "again.json")
+    for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
+        assert _close(getattr(b, k), getattr(a, k)) or np.max(np.abs(getattr(b, k) - getattr(a, k))) < 1e-12, k
