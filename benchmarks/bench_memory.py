@@ -8,10 +8,15 @@ commit ``BEFORE`` exported by ``git archive`` ("before", the tree before the com
 lengths give the growth per million rows (the imports cancel) and the peak extrapolated to 10 M rows: 10 M
 rows were not run (a 1.3 GB CSV per step, and the "before" commands would need about 11 GB), so the 10 M
 figures are a linear extrapolation from 1 M and 3 M, which holds for the streamed commands only while their
-per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log.
+per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log. Streamed: apply (blocks of
+200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks).
+Not streamed yet: calibrate (holds the log) and the simulators (their noise processes are drawn for the whole
+log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
+``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
-``attitude`` end with their one-line error (the streamed commands process the rows before it first).
+``attitude`` end with their one-line error (the streamed commands process the rows before it first: apply
+corrects and writes them, attitude's first pass only reads them).
 """
 
 from __future__ import annotations
@@ -129,3 +134,41 @@ def run(quick: bool) -> list[dict]:
                 {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"}]
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+
+
+def markdown(results: dict) -> str:
+    """The before/after table of a results JSON written by ``run.py --only memory`` (results_memory.md)."""
+    rows, meta = results["rows"], results["meta"]
+
+    def val(cmd, ver, metric):
+        return next(r["value"] for r in rows if r["method"] == f"{cmd} ({ver})" and r["metric"].startswith(metric))
+
+    big = [r["metric"] for r in rows if r["metric"].startswith("wall time at ")][0].split()[-2]
+    small = [r["metric"] for r in rows if r["metric"].startswith("peak RSS at ") and "10 M" not in r["metric"]]
+    small = min(int(m.split()[-2]) for m in small)
+    out = ["# Peak memory of the commands on long logs (benchmarks/bench_memory.py)", "",
+           f"Generated from results_memory.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine: "
+           "wall times vary with the load — the calibrate rows run the same code before and after). \"before\": "
+           f"commit {BEFORE}; \"after\": this tree. 10 M rows were not run: the 10 M column is the linear "
+           f"extrapolation from {small} and {big} rows.", "",
+           f"| command | version | peak RSS {small} rows [MiB] | peak RSS {big} rows [MiB] | growth [MiB per M rows] "
+           f"| 10 M rows, extrapolated [MiB] | wall time {big} rows [s] |",
+           "|---|---|---:|---:|---:|---:|---:|"]
+    for c in ("simulate accel-multipos", "calibrate accel", "apply", "attitude"):
+        for v in ("before", "after"):
+            out.append(f"| {c} | {v} | {val(c, v, f'peak RSS at {small}'):.0f} | {val(c, v, f'peak RSS at {big}'):.0f} "
+                       f"| {val(c, v, 'growth'):.0f} | {val(c, v, 'peak RSS at 10 M'):.0f} "
+                       f"| {val(c, v, 'wall time'):.0f} |")
+    out += ["", f"Bad cell (text in `ay` of the last of {small} rows): time until the one-line error naming line "
+            "and column.", "", "| command | before [s] | after [s] |", "|---|---:|---:|"]
+    for c in ("apply", "attitude"):
+        t = {v: next(r["value"] for r in rows if r["method"] == f"{c} ({v})" and r["group"].startswith("bad"))
+             for v in ("before", "after")}
+        out.append(f"| {c} | {t['before']:.1f} | {t['after']:.1f} |")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":  # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
+    import json
+
+    print(markdown(json.loads(Path(sys.argv[1]).read_text())), end="")

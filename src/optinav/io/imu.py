@@ -549,12 +549,12 @@ class ImuChunks:
     """The blocks of :func:`iter_imu`; ``size``/``position`` (bytes of the file, read so far) tell the progress
     and ``rows`` the samples yielded so far."""
 
-    def __init__(self, path, *, chunk_rows: int = CHUNK_ROWS, **kw):
+    def __init__(self, path, *, chunk_rows: int | None = None, **kw):
         self.path, self.kw = Path(path), kw
         self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"],
                                  kw["gyro_columns"])
         _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
-        self.chunk_rows = int(chunk_rows)
+        self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0
 

@@ -233,9 +233,9 @@ from optinav.core.files import CHUNK_ROWS  # noqa: E402
 
 def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
                only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
-               chunk_rows: int = CHUNK_ROWS, topic=None) -> "TableChunks":
-    """:func:`load_table` in blocks: an iterable of :class:`Table` of at most ``chunk_rows`` rows each (``row0``
-    their first row in the file) for text files, read line block by line block (gzip too) so that memory does
+               chunk_rows: int | None = None, topic=None) -> "TableChunks":
+    """:func:`load_table` in blocks: :class:`Table` of at most ``chunk_rows`` (None: :data:`CHUNK_ROWS`) rows
+    each (``row0`` their first row in the file) for text files, read line block by line block (gzip too) so that memory does
     not grow with the file; other formats (one array read whole by their libraries) come as a single table.
     The layout (header, units, preamble, delimiter) comes from the first lines; a bad cell fails when its block
     is parsed, naming its line and column; an incomplete last line is dropped and reported in the last block's
@@ -247,7 +247,8 @@ class TableChunks:
     """The blocks of :func:`iter_table`; ``size`` (bytes of the file) and ``position`` (bytes read so far, of the
     compressed file for ``.gz``) tell the progress."""
 
-    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int, topic=None):
+    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int | None, topic=None):
+        chunk_rows = CHUNK_ROWS if chunk_rows is None else chunk_rows
         if int(chunk_rows) < 1:
             raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
         self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
