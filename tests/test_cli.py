@@ -1,8 +1,6 @@
 """The command line: help, errors as one line, and the README's main job end to end."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 

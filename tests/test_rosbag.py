@@ -1,7 +1,6 @@
 """ROS bags as input: ROS 1 .bag and ROS 2 (sqlite3 and mcap, as a folder or a bare file) written with rosbags'
 own writer and serializer are read back with the values written; topic choice, time base and every refusal."""
 
-import json
 import sys
 from pathlib import Path
 

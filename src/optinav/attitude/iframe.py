@@ -115,7 +115,6 @@ def _run(st, par, gyr, acc, mag, dts) -> IframeRun:
 
 def _reverse(gyr, acc, mag, dts):
     """Time-reversed inputs: reversed step k goes from sample N−k to N−1−k with −ω_{N−k} over dt_{N−k}."""
-    n = gyr.shape[0]
     g = np.empty_like(gyr)
     g[0] = 0.0
     g[1:] = -gyr[:0:-1]

@@ -40,7 +40,7 @@ from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "FRAMES", "PolarizationMeasurement", "up_vector",
+__all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "PolarizationMeasurement", "up_vector",
            "default_c_b_m", "as_c_b_m", "measurement_error", "predicted_aop", "sun_elevation", "wrap_axial"]
 
 #: C_b^m for a zenith-viewing sensor on a forward-right-down body: X_m = x_b (forward), Z_m = −z_b (up)

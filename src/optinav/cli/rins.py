@@ -52,7 +52,7 @@ def register_simulate(kinds) -> None:
     p.set_defaults(func=run_simulate)
 
 
-def _parse_nonorth(text: str, unit: str) -> np.ndarray:
+def _parse_nonorth(text: str, unit: str) -> "np.ndarray":  # noqa: F821 - numpy is imported inside (a fast --help)
     import numpy as np
 
     v = np.array(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))

@@ -207,7 +207,7 @@ def _as_rows(x, name) -> np.ndarray:
     except (TypeError, ValueError):
         raise OptinavError(f"{name} is not numeric", f"give {name} as an (N, 3) array") from None
     if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] < 1:
-        raise OptinavError(f"{name} has shape {a.shape}, expected (N, 3)", f"give one 3-vector per accelerometer")
+        raise OptinavError(f"{name} has shape {a.shape}, expected (N, 3)", "give one 3-vector per accelerometer")
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
         raise OptinavError(f"accelerometer {int(np.flatnonzero(bad)[0]) + 1}: {name[:-1]} is not finite",

@@ -30,8 +30,8 @@ it only moves the reference point of A (f_i depends on A + ω̇×c + ω×(ω×c)
 from __future__ import annotations
 
 import time
-import dataclasses
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -101,7 +101,7 @@ class TurntableData:
             order.setdefault(k, len(order) + 1)
         return np.array([order[k] for k in keys])
 
-    def save(self, path) -> "Path":
+    def save(self, path) -> Path:
         """NPZ (arrays t, f, case, mounting, table_rate, wedge, gravity) or CSV (t, f1..fN, case, mounting,
         table_rate, wedge, gravity), by suffix."""
         from pathlib import Path

@@ -62,14 +62,14 @@ def _face(i: int, s: float) -> str:
     return f"{'+' if s > 0 else '−'}{'xyz'[i]}"
 
 
-def pose_words(c_b_n) -> str:
+def pose_words(C_b_n) -> str:
     """Which face of the unit points up, and where a level axis points: ``"+x face up; y axis north"``,
     ``"edge between the +x and −y faces up (both faces 45° above level); z axis level, pointing east"``.
 
-    ``c_b_n``: C_b^n (ENU) of the pose. A face is named by its outward normal (the +x face is the one the
+    ``C_b_n``: C_b^n (ENU) of the pose. A face is named by its outward normal (the +x face is the one the
     body +x axis leaves through); "above level" is the elevation of that normal.
     """
-    c = np.asarray(c_b_n, float)
+    c = np.asarray(C_b_n, float)
     up = c[2]  # C_b^nᵀ·e_U: the body direction pointing up
     order = sorted((i for i in range(3) if abs(up[i]) > 1e-6), key=lambda i: (-round(abs(float(up[i])), 6), i))
     faces = [_face(i, up[i]) for i in order]
