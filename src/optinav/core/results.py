@@ -28,6 +28,16 @@ _REGISTRY: dict[str, type["Result"]] = {}
 _LEGACY: dict[tuple[str, int], tuple[type["Result"], Any]] = {}
 
 
+def dump_json(data: dict, path: str | Path | None = None, *, indent: int = 2) -> str:
+    """``data`` as strict JSON text (no NaN); also written to ``path`` atomically when given."""
+    text = json.dumps(data, indent=indent, allow_nan=False)
+    if path is not None:
+        from optinav.core.files import write_text
+
+        write_text(path, text + "\n")
+    return text
+
+
 def plain(value: Any) -> Any:
     """``value`` as plain JSON types, for results with their own flat layout: arrays → lists, numpy scalars →
     Python numbers, NaN/inf → ``None`` (JSON has no NaN), nested results → their ``to_dict()``."""
@@ -109,12 +119,7 @@ class Result:
 
     def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
         """Serialize; also write to ``path`` when given (atomically)."""
-        text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
-        if path is not None:
-            from optinav.core.files import write_text
-
-            write_text(path, text + "\n")
-        return text
+        return dump_json(self.to_dict(), path, indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
@@ -345,13 +350,9 @@ class Truth:
                 "system": self.system, "parameters": {n: p.to_dict() for n, p in self.parameters.items()},
                 **plain(self.info)}
 
-    def to_json(self, path=None, *, indent: int = 2) -> str:
-        text = json.dumps(self.to_dict(), indent=indent, allow_nan=False)
-        if path is not None:
-            from optinav.core.files import write_text
-
-            write_text(path, text + "\n")
-        return text
+    def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
+        """Serialize; also write to ``path`` when given (atomically)."""
+        return dump_json(self.to_dict(), path, indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict) -> "Truth":
