@@ -28,7 +28,7 @@ def test_howto_runs_as_written(tmp_path, monkeypatch, capsys):
 
     steps = _steps()
     kinds = [s[1].split()[1] for s in steps if s[0] == "bash"]
-    for command in ("simulate", "calibrate", "apply", "allan", "export"):
+    for command in ("design", "simulate", "calibrate", "apply", "allan", "export"):
         assert command in kinds
     monkeypatch.chdir(tmp_path)
     for kind, text in steps:
