@@ -9,19 +9,20 @@ from pathlib import Path
 import numpy as np
 
 from optinav.attitude.estimators import AttitudeEstimate, _method, _options, estimate
+from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 
 @dataclasses.dataclass
 class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
-    ``frame`` ("NED"/"ENU"), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's imu_mag or
-    ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``options`` (estimator options, SI), and the reading
-    options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate`` Hz, ``delimiter``,
+    ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
+    imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``options`` (estimator options, SI), and the
+    reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate`` Hz, ``delimiter``,
     ``datasets``)."""
 
     method: str | None = None
-    frame: str = "NED"
+    frame: str = DEFAULT_FRAME
     offline: bool = False
     input_stage: bool = False
     mag: bool = False
@@ -37,11 +38,13 @@ class AttitudeOptions:
     datasets: str | None = None
     topic: str | None = None
 
+    def __post_init__(self):
+        # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
+        self.frame = frame_name(self.frame)
+
 
 def check(options: AttitudeOptions) -> None:
     _options(_method(options.method, None), dict(options.options))
-    if options.frame.upper() not in ("NED", "ENU"):
-        raise OptinavError(f"unknown frame {options.frame!r}", "use NED or ENU")
 
 
 def read_log(path, options: AttitudeOptions, *, reference: bool = False):
@@ -118,7 +121,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
 
     p, o = Path(path), options
     t, gyr, acc, mag, embedded = read_log(p, options)
-    if reference and embedded is not None and o.frame.upper() != "ENU":
+    if reference and embedded is not None and o.frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     dt = steps(t, p)
     res = estimate(gyr, acc, dt, method=_method(o.method, None), frame=o.frame, mag=mag, offline=o.offline,
