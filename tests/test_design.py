@@ -5,8 +5,8 @@ import re
 
 import numpy as np
 import pytest
+from norm_fit_mc import norm_fit_errors
 
-from optinav.core.optimize import Problem, minimize
 from optinav.core.rotations import rot_axis, unit_axis
 from optinav.core.simulate import six_positions
 from optinav.errors import OptinavError
@@ -95,16 +95,7 @@ def test_predicted_std_matches_monte_carlo_of_the_norm_fit():
     b = np.array([0.05, -0.03, 0.02])
     truth = model.Kb_to_theta(K, b)
     clean = (K @ (g * d.up_dirs).T).T + b
-    sm = sigma / math.sqrt(10 * 100)
-    rng = np.random.default_rng(7)
-    errs = []
-    for _ in range(200):
-        means = clean + rng.normal(0.0, sm, clean.shape)
-        res = minimize(Problem(residuals=lambda th: model.norm_residuals(th, means, g),
-                               jacobian=lambda th: model.norm_jacobian(th, means),
-                               x0=np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0]), "lm")
-        assert res.success
-        errs.append(res.x - truth)
+    errs = norm_fit_errors(clean, sigma / math.sqrt(10 * 100), truth, g, 200, seed=7)
     rmse = np.sqrt(np.mean(np.square(errs), axis=0))
     ratio = rmse / d.predicted_std
     assert np.all((ratio > 0.85) & (ratio < 1.15)), ratio

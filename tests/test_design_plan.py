@@ -8,9 +8,9 @@ import re
 
 import numpy as np
 import pytest
+from norm_fit_mc import norm_fit_errors
 
 from optinav.cli.main import main
-from optinav.core.optimize import Problem, minimize
 from optinav.core.simulate import orientation_from_up
 from optinav.errors import OptinavError
 from optinav.multipos import model
@@ -93,16 +93,7 @@ def test_dwell_meets_the_target_and_accelerometer_std_matches_monte_carlo():
     b = np.array([0.04, -0.02, 0.03])
     truth = model.Kb_to_theta(K, b)
     clean = (K @ (g * plan.up_dirs).T).T + b
-    sm = n_acc / math.sqrt(plan.dwell_s)
-    rng = np.random.default_rng(11)
-    errs = []
-    for _ in range(300):
-        means = clean + rng.normal(0.0, sm, clean.shape)
-        res = minimize(Problem(residuals=lambda th: model.norm_residuals(th, means, g),
-                               jacobian=lambda th: model.norm_jacobian(th, means),
-                               x0=np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0]), "lm")
-        assert res.success
-        errs.append(res.x - truth)
+    errs = norm_fit_errors(clean, n_acc / math.sqrt(plan.dwell_s), truth, g, 300, seed=11)
     ratio = np.std(errs, axis=0) / pred
     assert np.all((ratio > 0.82) & (ratio < 1.18)), ratio
 
