@@ -15,7 +15,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -85,18 +85,19 @@ class ImuLog(Result):
     """IMU samples read from a file.
 
     ``t`` (N,) in s, strictly increasing (irregular spacing allowed); ``acc`` (N, 3) in m/s² or raw counts and
-    ``gyro`` (N, 3) in rad/s or raw counts, as ``acc_unit``/``gyro_unit`` say (None when the file had no such
+    ``gyr`` (N, 3) in rad/s or raw counts, as ``acc_unit``/``gyro_unit`` say (None when the file had no such
     triad); ``acc_input_unit``/``gyro_input_unit`` are the units of the file (``g``, ``deg/s``, … before the
-    conversion to SI). Rows with NaN/inf in ``acc``/``gyro`` are kept; ``nan_rows`` counts them.
+    conversion to SI). Rows with NaN/inf in ``acc``/``gyr`` are kept; ``nan_rows`` counts them.
     ``labels`` (N,) str or int section labels, ``sample`` (N,) the file's sample counter (never used as time).
+    Version 2 renamed the version-1 field ``gyro`` to ``gyr`` (version-1 files still load).
     """
 
     SCHEMA: ClassVar[str] = "optinav.imu_log"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     acc: np.ndarray | None = field(default=None, metadata={"unit": "acc_unit"})
-    gyro: np.ndarray | None = field(default=None, metadata={"unit": "gyro_unit"})
+    gyr: np.ndarray | None = field(default=None, metadata={"unit": "gyro_unit"})
     acc_unit: str = field(default="m/s^2", metadata={"unit": "-"})
     gyro_unit: str = field(default="rad/s", metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
@@ -115,7 +116,7 @@ class ImuLog(Result):
             raise OptinavError(f"ImuLog.t must be one-dimensional, got shape {self.t.shape}",
                                "pass one time per sample")
         n = self.t.size
-        for name in ("acc", "gyro"):
+        for name in ("acc", "gyr"):
             v = getattr(self, name)
             if v is not None:
                 v = np.asarray(v, dtype=float)
@@ -141,7 +142,7 @@ class ImuLog(Result):
     def finite(self) -> np.ndarray:
         """(N,) True where every used acc/gyro value is finite (the rows the calibrator can use)."""
         ok = np.ones(self.t.size, dtype=bool)
-        for v in (self.acc, self.gyro):
+        for v in (self.acc, self.gyr):
             if v is not None:
                 # one sum, finite only if every cell is (no temporary arrays); else, or if it overflows, per row
                 with np.errstate(over="ignore", invalid="ignore"):
@@ -175,7 +176,7 @@ class ImuLog(Result):
         if idx.size > 1 and np.any(np.diff(np.where(idx < 0, idx + self.t.size, idx)) <= 0):
             raise OptinavError("selected rows are not increasing", "select rows in time order, each once")
         take = lambda v: None if v is None else v[idx]  # noqa: E731
-        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyro=take(self.gyro), acc_unit=self.acc_unit,
+        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyr=take(self.gyr), acc_unit=self.acc_unit,
                      gyro_unit=self.gyro_unit, source=self.source, n_rows_read=self.n_rows_read, nan_rows=0,
                      labels=take(self.labels), sample=take(self.sample), acc_input_unit=self.acc_input_unit,
                      gyro_input_unit=self.gyro_input_unit)
@@ -189,11 +190,14 @@ class ImuLog(Result):
         if self.acc is not None:
             parts.append(f"acc in {self.acc_unit}" + (f" (file: {self.acc_input_unit})"
                                                        if self.acc_input_unit not in (None, self.acc_unit) else ""))
-        if self.gyro is not None:
+        if self.gyr is not None:
             parts.append(f"gyro in {self.gyro_unit}" + (f" (file: {self.gyro_input_unit})"
                                                          if self.gyro_input_unit not in (None, self.gyro_unit) else ""))
         parts.append(f"{self.nan_rows} row(s) with NaN")
         return ", ".join(parts) + (f"; from {self.source}" if self.source else "")
+
+
+register_legacy(ImuLog, ImuLog.SCHEMA, 1, lambda d: nested_kwargs(ImuLog, d, {"gyro": "gyr"}))
 
 
 # --- reading ------------------------------------------------------------------------------------------------
@@ -520,7 +524,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
         gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
-    log = ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
+    log = ImuLog(t=t, acc=acc, gyr=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
                  gyro_unit="counts" if gyro_in == "counts" else "rad/s",
                  source=" + ".join(str(p.path) for p in parts), n_rows_read=main.n, labels=main.labels,
                  sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in, notes=notes)
@@ -616,7 +620,7 @@ _WRITE_FORMATS = (*_WRITE_TEXT, ".npz", ".h5", ".hdf5", ".mat")
 
 
 def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | None, str]:
-    v = getattr(log, kind)
+    v = log.acc if kind == "acc" else log.gyr
     have = getattr(log, f"{kind}_unit")
     if unit is None:
         return v, have
@@ -784,7 +788,7 @@ class ImuWriter:
         self.rows, self._fh, self._blocks, self._kinds = 0, None, [], None
 
     def write(self, log: ImuLog) -> None:
-        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyro", "sample", "labels"))
+        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyr", "sample", "labels"))
         if self._kinds is None:
             self._kinds = kinds
         elif kinds != self._kinds:
@@ -809,7 +813,7 @@ class ImuWriter:
             raise OptinavError(f"no samples to write to {self.path}", "pass a log with samples")
         first = self._blocks[0]
         cat = (lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks]))
-        log = ImuLog(t=cat("t"), acc=cat("acc"), gyro=cat("gyro"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+        log = ImuLog(t=cat("t"), acc=cat("acc"), gyr=cat("gyr"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
                      source=first.source, labels=cat("labels"), sample=cat("sample"))
         self._blocks = []
         _write_whole(self.tmp, log, self.acc_unit, self.gyro_unit)
@@ -838,7 +842,7 @@ def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
     """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
 
     Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back."""
-    values = log.acc if kind == "acc" else log.gyro
+    values = log.acc if kind == "acc" else log.gyr
     unit = log.acc_unit if kind == "acc" else log.gyro_unit
     file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit
     if file_unit == unit or values is None:

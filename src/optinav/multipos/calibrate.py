@@ -537,7 +537,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
-    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
+    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
     return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
 
 

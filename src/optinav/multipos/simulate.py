@@ -120,7 +120,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
         t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
         t[0] = 0.0
     tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t)
-    meas = unit_model.apply(tr.omega_ib_b, tr.f_b, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
+    meas = unit_model.apply(tr.gyr, tr.acc, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
     fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
     fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
     labels = tr.labels.copy()
@@ -131,8 +131,8 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     from optinav.core.simulate import describe_pose
     return SimulatedSession(
         t=tr.t, acc=meas.accel * fa, gyro=meas.gyro * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
-        acc_K=unit_model.accel.K * fa, acc_b=unit_model.accel.bias * fa,
-        gyro_K=unit_model.gyro.K * fg, gyro_b=unit_model.gyro.bias * fg, gravity=g, up_dirs=ups,
+        acc_K=unit_model.acc.K * fa, acc_b=unit_model.acc.bias * fa,
+        gyro_K=unit_model.gyr.K * fg, gyro_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
         static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
         acc_bias_instability=float(np.max(unit_model.accel_noise.gm_sigma) * fa),
         descriptions=[describe_pose(c) for c in poses[1:]])

@@ -43,7 +43,7 @@ def write_rins(path, data: RinsData) -> Path:
     cols = {"t": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
             "dtheta_z": data.dtheta[:, 2], "dv_x": data.dv[:, 0], "dv_y": data.dv[:, 1], "dv_z": data.dv[:, 2],
             "alpha": data.alpha, "beta": data.beta}
-    site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.h)}
+    site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.height_m)}
     if kind == "npz":
         with atomic_open(path, "wb") as fh:
             np.savez(fh, **cols, **{k: np.array(v) for k, v in site.items()})
@@ -117,4 +117,4 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
         col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
     return RinsData(t=col["t"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
                     dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
-                    beta=col["beta"], lat=float(lat), h=float(h))
+                    beta=col["beta"], lat=float(lat), height_m=float(h))

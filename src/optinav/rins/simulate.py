@@ -22,7 +22,7 @@ from dataclasses import field
 import numpy as np
 
 from optinav.core.imu_model import preset
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import dcm_from_euler
 from optinav.core.simulate import AxisSchedule, Move, gimbal
 from optinav.core.validate import as_rng, check_positive
@@ -72,11 +72,12 @@ class RinsData(Result):
     Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k], t[k+1]]`` (the last row ends one
     step after ``t[-1]``), as docs/conventions.md says; ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer
     encoder angles at ``t[k]``, the start of row k's increments. ``truth`` (simulations):
-    the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None.
+    the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None. Version 2 renamed the
+    version-1 fields ``h``/``c_b_n`` to ``height_m``/``C_b_n`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.rins_data"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     dtheta: np.ndarray = field(metadata={"unit": "rad"})
@@ -84,15 +85,19 @@ class RinsData(Result):
     alpha: np.ndarray = field(metadata={"unit": "rad"})
     beta: np.ndarray = field(metadata={"unit": "rad"})
     lat: float = field(default=float(np.radians(28.2)), metadata={"unit": "rad"})
-    h: float = field(default=0.0, metadata={"unit": "m"})
+    height_m: float = field(default=0.0, metadata={"unit": "m"})
     truth: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
-    c_b_n: np.ndarray | None = field(default=None, metadata={"unit": ""})  #: true vehicle attitude (3, 3)
+    C_b_n: np.ndarray | None = field(default=None, metadata={"unit": ""})  #: true vehicle attitude (3, 3)
     align_s: float = field(default=float("nan"), metadata={"unit": "s"})  #: alignment phase length
     info: dict = field(default_factory=dict, metadata={"unit": "-"})
 
     @property
     def rate(self) -> float:
         return float(1.0 / np.median(np.diff(self.t)))
+
+
+register_legacy(RinsData, RinsData.SCHEMA, 1,
+                lambda d: nested_kwargs(RinsData, d, {"h": "height_m", "c_b_n": "C_b_n"}))
 
 
 def _schedules(steps, t_start, move_s, dwell_s, profile, lock_sigma, rng):
@@ -188,8 +193,8 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
             a = np.round(a / encoder_lsb) * encoder_lsb
         enc.append(a)
     info = {"scheme": scheme if isinstance(scheme, str) else "custom", "steps": [f"{a}{d:+g}" for a, d in steps],
-            "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyro.K.tolist(),
-            "gyro_bias": unit.gyro.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
+            "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyr.K.tolist(),
+            "gyro_bias": unit.gyr.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
             "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
     return RinsData(t=ts, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
-                    h=float(h), truth=p.copy(), c_b_n=c_b_n, align_s=float(align_s), info=info)
+                    height_m=float(h), truth=p.copy(), C_b_n=c_b_n, align_s=float(align_s), info=info)
