@@ -157,7 +157,18 @@ class ImuLog(Result):
         return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
 
     def select(self, rows) -> "ImuLog":
-        """The samples picked by a boolean mask, an index array or a slice (``nan_rows`` recounted)."""
+        """The samples picked by ``rows`` (``nan_rows`` recounted).
+
+        Parameters
+        ----------
+        rows : bool array, int array or slice
+            A mask of N booleans, increasing indices or a slice.
+
+        Returns
+        -------
+        ImuLog
+            The selected samples, same units.
+        """
         if isinstance(rows, slice):
             idx = np.arange(self.t.size)[rows]
         else:
@@ -184,7 +195,13 @@ class ImuLog(Result):
         return out
 
     def summary(self) -> str:
-        """One line: samples, duration, rate, units, NaN rows, source."""
+        """One line: samples, duration, rate, units, NaN rows, source.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         span = float(self.t[-1] - self.t[0]) if self.t.size else 0.0
         parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate:.6g} Hz)"]
         if self.acc is not None:
@@ -444,16 +461,42 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
              datasets=None, delimiter: str | None = None, topic=None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
-    ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
-    aliases, ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3
-    array); without it the names are recognised by alias (docs/file-formats.md). ``gyro_path``/``gyro_columns``:
-    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g, mg,
-    m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
-    declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
-    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
-    converted to SI, counts kept. ``rate_hz`` (Hz) gives ``t = arange(N)/rate_hz`` for files without a time
-    column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
-    ``topic``: a ROS bag's Imu topic (``"/imu"``; None: its only one), see :mod:`optinav.io.rosbag`.
+    Units: None means what the file declares (header ``acc_x [g]``, a units row, the ``# units:`` line of
+    :func:`write_imu`, NPZ/MAT/HDF5 unit records) or else m/s^2, rad/s, s; an option contradicting the file is an
+    error. ``g``, ``mg`` and ``deg/s`` are converted to SI, counts kept. Names and aliases: docs/file-formats.md.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data file (formats of :func:`optinav.io.read_table`).
+    columns : str, sequence of str or None
+        The file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or aliases,
+        ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3 array);
+        None: recognised by alias.
+    gyro_path : str, Path or None
+        A second file with the gyroscope, same samples (time columns must agree).
+    gyro_columns : str, sequence of str or None
+        ``columns`` of ``gyro_path``.
+    acc_unit : str or None
+        Accelerometer unit of the file: counts, g, mg or m/s^2.
+    gyro_unit : str or None
+        Gyroscope unit of the file: counts, deg/s or rad/s.
+    time_unit : str or None
+        Time unit of the file: s, ms, us or ns.
+    rate_hz : float or None
+        Sample rate [Hz] giving ``t = arange(N)/rate_hz`` for files without a time column (a sample counter is
+        not a time).
+    datasets : dict or None
+        ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
+    delimiter : str or None
+        Text delimiter; None: auto-detected.
+    topic : str or None
+        A ROS bag's Imu topic (``"/imu"``); None: its only one (:mod:`optinav.io.rosbag`).
+
+    Returns
+    -------
+    ImuLog
+        ``t`` [s], ``acc`` [m/s^2 or counts], ``gyr`` [rad/s or counts].
     """
     acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
@@ -540,10 +583,27 @@ def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
              gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
              datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS,
              topic=None) -> "ImuChunks":
-    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
-    concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
-    first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
-    not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
+
+    The blocks' concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate
+    note on the first block, the incomplete-last-line note on the last). Text files are read block by block, so
+    memory does not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then
+    cut.
+
+    Parameters
+    ----------
+    path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic
+        As :func:`read_imu`.
+    rate_hz : float or None
+        Sample rate [Hz] for files without a time column, as :func:`read_imu`.
+    chunk_rows : int
+        Samples per block.
+
+    Returns
+    -------
+    ImuChunks
+        An iterable of :class:`ImuLog`.
+    """
     return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
                      gyro_unit=gyro_unit, time_unit=time_unit, rate_hz=rate_hz, datasets=datasets, delimiter=delimiter,
                      chunk_rows=chunk_rows, topic=topic)
@@ -634,14 +694,29 @@ def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | 
 
 
 def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str | None = None) -> Path:
-    """Write ``log`` to ``path`` so that :func:`read_imu` reads it back with the same values.
+    """Write ``log`` to ``path`` atomically, so that :func:`read_imu` reads it back with the same values.
 
     ``.csv`` / ``.tsv`` / ``.txt`` (comma, tab, space): a comment line with the units (``# units: t=s
-    acc=m/s^2 gyro=rad/s``), a header of standard names ``t,[sample,]ax,ay,az,gx,gy,gz[,label]`` and rows
-    in the shortest exact form (exact round trip); ``.npz``: arrays ``t``, ``acc``, ``gyro``, ``sample``,
-    ``labels`` and the strings ``acc_unit``, ``gyro_unit``, ``time_unit``; ``.h5``/``.hdf5`` (h5py): the same as
-    datasets and root attributes; ``.mat`` (v5): the same as variables. ``acc_unit`` ∈ {m/s^2, g},
-    ``gyro_unit`` ∈ {rad/s, deg/s} convert SI logs on output; counts are written as counts. Written atomically.
+    acc=m/s^2 gyro=rad/s``), a header of standard names ``t,[sample,]ax,ay,az,gx,gy,gz[,label]`` and rows in the
+    shortest exact form (exact round trip); ``.npz``: arrays ``t``, ``acc``, ``gyro``, ``sample``, ``labels`` and
+    the strings ``acc_unit``, ``gyro_unit``, ``time_unit``; ``.h5``/``.hdf5`` (h5py): the same as datasets and
+    root attributes; ``.mat`` (v5): the same as variables.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; never an existing input.
+    log : ImuLog
+        The samples.
+    acc_unit : str or None
+        Accelerometer unit to write (m/s^2 or g) for an SI log; counts are written as counts.
+    gyro_unit : str or None
+        Gyroscope unit to write (rad/s or deg/s) for an SI log.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     if not isinstance(log, ImuLog):
         raise OptinavError(f"write_imu needs an ImuLog, got {type(log).__name__}", "read or build an ImuLog first")
@@ -821,10 +896,22 @@ class ImuWriter:
 
 @contextlib.contextmanager
 def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None = None):
-    """A context giving an :class:`ImuWriter` for ``path``: text formats are written block by block (memory does
-    not grow with the log; the first comment line then holds no sample count), NPZ/HDF5/MAT gathered and
-    written at the end; atomically (nothing under ``path`` unless the block ends without error). Formats and
-    units as :func:`write_imu`."""
+    """A context giving an :class:`ImuWriter` for ``path``, written atomically (nothing under ``path`` unless the
+    block ends without error).
+
+    Text formats are written block by block (memory does not grow with the log; the first comment line then holds
+    no sample count), NPZ/HDF5/MAT gathered and written at the end.
+
+    Parameters
+    ----------
+    path, acc_unit, gyro_unit
+        As :func:`write_imu`.
+
+    Yields
+    ------
+    ImuWriter
+        ``write(log)`` appends an :class:`ImuLog` block.
+    """
     path = _check_out(path)
     from optinav.core.files import atomic_path
 
@@ -841,7 +928,22 @@ def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
     """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
 
-    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back."""
+    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back.
+
+    Parameters
+    ----------
+    log : ImuLog
+        Samples as read.
+    kind : str
+        ``"acc"`` or ``"gyro"``.
+
+    Returns
+    -------
+    values : (N, 3) ndarray or None
+        The triad [the file's unit].
+    unit : str
+        That unit.
+    """
     values = log.acc if kind == "acc" else log.gyr
     unit = log.acc_unit if kind == "acc" else log.gyro_unit
     file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit

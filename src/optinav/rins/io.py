@@ -37,7 +37,21 @@ def _fmt(path) -> str:
 
 
 def write_rins(path, data: RinsData) -> Path:
-    """Write ``data`` to ``path`` (format by suffix: .npz, .csv, .h5/.hdf5)."""
+    """Write ``data`` to ``path`` atomically (format by suffix: .npz, .csv, .h5/.hdf5; site as ``lat_deg``,
+    ``height_m``).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+    data : RinsData
+        The recording.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(path)
     kind = _fmt(path)
     cols = {"t": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
@@ -79,8 +93,22 @@ def _site_from_csv(path: Path) -> dict:
 
 
 def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
-    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat`` (rad) / ``height_m`` (m) override the
-    file's site (stored there as ``lat_deg``, ``height_m``)."""
+    """Read a rotational-INS file (columns in :data:`COLUMNS`).
+
+    Parameters
+    ----------
+    path : str or Path
+        .npz, .csv or .h5/.hdf5 file.
+    lat : float or None
+        Latitude [rad], overriding the file's ``lat_deg``.
+    height_m : float or None
+        Height [m], overriding the file's ``height_m``.
+
+    Returns
+    -------
+    RinsData
+        Increments ``dtheta`` [rad], ``dv`` [m/s] and encoder angles [rad].
+    """
     path = Path(path)
     kind = _fmt(path)
     tab = load_table(path)

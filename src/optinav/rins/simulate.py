@@ -133,15 +133,57 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
              gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
              encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
              profile: str = "cosine", rng=None) -> RinsData:
-    """Simulate a static-base session (see the module docstring).
+    """Simulate a static-base dual-axis rotational-INS session (see the module docstring).
 
-    nonorth: true [θx, θy, θz, ηx, ηy, ηz] (rad). scheme: name in :data:`SCHEMES`, a step text
-    ``"Z+180,Y-180"`` or pairs; repeated ``cycles`` times, each move ``move_s`` s then ``dwell_s`` s at rest,
-    after ``align_s`` s of alignment. rate_hz: Hz. Site: ``lat`` (rad), ``height_m`` (m). attitude: vehicle
-    [roll, pitch, yaw] (ENU convention, rad).
-    imu: preset name or an :class:`~optinav.core.imu_model.ImuSpec`; gyro_misalignment (rad, 1σ of each of the
-    six terms) and gyro_scale (1σ, fraction) override it. encoder_noise (rad, 1σ), encoder_lsb (rad, 0 = none),
-    lock_sigma (rad, 1σ stop error unseen by the encoders), wobble (rad amplitude). rng: seed or Generator.
+    Parameters
+    ----------
+    nonorth : (6,) array_like
+        True non-orthogonality ``[θx, θy, θz, ηx, ηy, ηz]`` [rad].
+    scheme : str or sequence
+        A name in :data:`SCHEMES`, a step text ``"Z+180,Y-180"`` or (axis, degrees) pairs.
+    cycles : int
+        Repetitions of the scheme.
+    move_s : float
+        Duration of each move [s].
+    dwell_s : float
+        Rest after each move [s].
+    align_s : float
+        Alignment phase before the first move [s].
+    rate_hz : float
+        Sample rate [Hz].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    attitude : (3,) array_like
+        Vehicle [roll, pitch, yaw] [rad] (ENU convention).
+    imu : str or ImuSpec
+        Preset name or an :class:`~optinav.core.imu_model.ImuSpec`.
+    gyro_misalignment : float or None
+        Overrides the spec: 1σ of each of the six misalignment terms [rad].
+    gyro_scale : float or None
+        Overrides the spec: 1σ scale-factor error [-] (fraction).
+    imu_errors : bool
+        Draw the unit's deterministic errors (False: an ideal triad).
+    noise : bool
+        Add sensor and encoder noise.
+    encoder_noise : float
+        Encoder noise 1σ [rad].
+    encoder_lsb : float
+        Encoder quantum [rad] (0: none).
+    lock_sigma : float
+        1σ stop error unseen by the encoders [rad].
+    wobble : float
+        Axis wobble amplitude w (tilt ``w·sin β`` of the outer, ``w·sin α`` of the inner axis) [rad].
+    profile : str
+        Rate profile of a move, as :class:`optinav.core.simulate.Move`.
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    RinsData
+        Increments ``dtheta`` [rad] and ``dv`` [m/s], encoder angles [rad] and the truth.
     """
     gen = as_rng(rng)
     p = np.asarray(nonorth, dtype=float)
