@@ -108,7 +108,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     if truth == "paper":
         K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
                                 PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
-        unit_model = dataclasses.replace(unit_model, accel=TriadErrors.from_matrix("accel", K, b))
+        unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
     elif truth != "draw":
         raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
     poses = np.stack([orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2)
