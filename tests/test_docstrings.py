@@ -9,13 +9,13 @@ import re
 import textwrap
 
 #: packages whose ``__all__`` is walked; ``optinav.core`` has no ``__all__``: its modules' are walked
-PACKAGES = ("optinav.io", "optinav.rins")
+PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
 QUANTITY = re.compile(r"\b(float|array|ndarray|array_like)\b|\(N\b|\(\w+, 3\)")
 #: … unless its elements are flags, text or integers (labels, indices, counts)
-NOT_QUANTITY = re.compile(r"\b(bool|str)\b|\bint (array|ndarray)\b")
+NOT_QUANTITY = re.compile(r"\b(bool|str)\b|\bint (array|ndarray|array_like)\b")
 UNIT = re.compile(r"\[[^\]]+\]")
 
 

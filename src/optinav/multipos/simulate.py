@@ -87,12 +87,44 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
              gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
     """Simulate a static multi-position session.
 
-    ``scheme``: a name in :data:`SCHEMES` or (P, 3) sensor-frame up vectors. ``spec``: an ImuSpec (a unit is
-    drawn with ``rng``), an ImuModel, or a preset name. ``truth="paper"`` replaces the accelerometer errors by
-    Gao & Zhang's Table 2 reference (S per local g, three misalignments, biases). Poses alternate yaw so that
-    consecutive transitions turn about varied axes. ``jitter``: timestamp jitter as a fraction of the step
-    (irregular sampling). Site: ``lat`` (rad), ``height_m`` (m). Units: raw outputs are written in ``acc_unit`` /
-    ``gyro_unit``.
+    Poses alternate yaw so that consecutive transitions turn about varied axes.
+
+    Parameters
+    ----------
+    scheme : str or (P, 3) array
+        A name in :data:`SCHEMES` or sensor-frame up vectors [-].
+    spec : ImuSpec, ImuModel or str
+        An ImuSpec (a unit is drawn with ``rng``), an ImuModel, or a preset name.
+    dwell_s : float
+        Dwell per pose [s].
+    rate_hz : float or None
+        Sample rate [Hz]; None: the unit's.
+    transition_s : float
+        Duration of each turn between poses [s].
+    rest_s : float
+        Initial rest in the first pose [s].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    truth : str
+        ``"draw"`` (the unit's errors) or ``"paper"``: the accelerometer errors of Gao & Zhang's Table 2 (S per
+        local g, three misalignments, biases).
+    acc_unit, gyro_unit : str
+        Units of the raw outputs (``"counts"`` or an SI / named unit).
+    acc_counts_per_si : float
+        Nominal counts per m/s² of ``acc_unit="counts"`` [1/(m/s^2)].
+    gyro_counts_per_si : float
+        Nominal counts per rad/s of ``gyro_unit="counts"`` [1/(rad/s)].
+    jitter : float
+        Timestamp jitter as a fraction of the step [-] (irregular sampling).
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    SimulatedSession
+        Raw log ``t`` [s], ``acc`` [acc_unit], ``gyro`` [gyro_unit] with the true K, b and up vectors.
     """
     gen = as_rng(rng)
     ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
