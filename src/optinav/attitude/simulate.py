@@ -173,21 +173,67 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
              rng=None) -> FlightData:
     """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
 
-    kind: ``"static"`` (one attitude ``attitude`` = [roll, pitch, yaw] rad (NED convention) held for
-    ``duration_s``) or
-    ``"dynamic"`` (smooth random manoeuvres: horizontal accelerations up to ``accel_level`` m/s² (vertical a fifth),
-    roll/pitch within ±``tilt`` (rad) at 0.1–0.4 Hz, heading turning at up to 45 °/s; still for the first
-    min(5 s, 10 %), smooth ramps in and out; attitude/position splined through knots every ``knot_spacing_s``).
-    time: ISO-8601 start with UTC offset (default: the paper's time for ``kind``). Site ``lat``, ``lon`` (rad),
-    ``height_m`` (m) (default: the paper's, :data:`PAPER_SITE`). frame ``"NED"`` (body FRD) or ``"ENU"`` (body RFU).
+    The sun: SPA at every sample with refraction. Defaults reproduce the paper's site and times
+    (:data:`PAPER_SITE`).
 
-    IMU: preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB);
-    ``imu_errors=True`` also draws the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000);
-    ``gyro_bias`` (3,) rad/s adds a constant residual bias. Sky: ``sky_model`` "rayleigh"/"berry" with
-    ``d_max`` and ``neutral_distance`` (rad). Sensor: a :class:`PointSensor` (default 3 channels, ER 100,
-    relative noise ``pol_noise`` = 0.002), sampled at ``pol_rate_hz`` (default every IMU sample; NaN between).
-    The sun: SPA at every sample with refraction (``pressure_mbar``/``temperature_c``; None = geometric).
-    rng: seed or Generator (trajectory, IMU and sensor noise).
+    Parameters
+    ----------
+    kind : str
+        ``"static"`` (``attitude`` held for ``duration_s``) or ``"dynamic"`` (smooth random manoeuvres: still for
+        the first min(5 s, 10 %), smooth ramps in and out, heading turning at up to 45 °/s).
+    duration_s : float
+        Length [s].
+    rate_hz : float
+        IMU sample rate [Hz].
+    time : str or None
+        ISO-8601 start with UTC offset; None: the paper's time for ``kind``.
+    lat, lon : float
+        Site [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"ned"`` (body FRD) or ``"enu"`` (body RFU).
+    imu : str or ImuSpec
+        Preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB).
+    imu_errors : bool
+        Also draw the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000).
+    gyro_bias : (3,) array or None
+        A constant residual gyro bias [rad/s].
+    attitude : (3,) array_like
+        Static attitude [roll, pitch, yaw] [rad] (Euler convention of ``frame``).
+    accel_level : float
+        Dynamic: largest horizontal acceleration [m/s^2] (vertical a fifth).
+    tilt : float
+        Dynamic: roll/pitch within ±tilt [rad], at 0.1–0.4 Hz.
+    knot_spacing_s : float
+        Dynamic: attitude/position splined through knots this far apart [s].
+    sky_model : str
+        ``"rayleigh"`` or ``"berry"``.
+    d_max : float or None
+        Largest degree of polarization of the sky model [-].
+    neutral_distance : float or None
+        Berry model: separation δ of the neutral points around the sun [rad].
+    sensor : PointSensor or None
+        The polarization sensor (default 3 channels, extinction ratio 100).
+    pol_noise : float or None
+        Relative intensity noise of the sensor [-] (default 0.002).
+    pol_rate_hz : float or None
+        Polarization sample rate [Hz] (default every IMU sample; NaN between).
+    C_b_m : (3, 3) array or None
+        Sensor mounting C_b^m [-]; None: zenith-viewing :func:`default_c_b_m`.
+    pressure_mbar : float or None
+        Air pressure for refraction [mbar]; None: geometric sun.
+    temperature_c : float
+        Air temperature for refraction [°C].
+    delta_t : float or None
+        TT − UT1 [s]; None: :func:`optinav.sky.sun.delta_t_espenak`.
+    rng : int, Generator or None
+        Seed or generator (trajectory, IMU and sensor noise).
+
+    Returns
+    -------
+    FlightData
+        IMU samples ``gyr`` [rad/s], ``acc`` [m/s^2], true ``q_b_n``, AoP [rad], DoP and the sun.
     """
     from optinav.core.simulate import static_positions
     from optinav.sky import polarization as P
