@@ -9,7 +9,7 @@ import re
 import textwrap
 
 #: packages whose ``__all__`` is walked; ``optinav.core`` has no ``__all__``: its modules' are walked
-PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude")
+PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
