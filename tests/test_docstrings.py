@@ -8,8 +8,10 @@ import inspect
 import re
 import textwrap
 
-#: packages whose ``__all__`` is walked; ``optinav.core`` has no ``__all__``: its modules' are walked
-PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu")
+#: packages whose ``__all__`` is walked; ``optinav.core`` has no ``__all__``: its modules' are walked (their
+#: ``__all__``, or the public functions and classes they define)
+PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu",
+            "optinav.core.rotations")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
@@ -100,7 +102,10 @@ def public_callables(packages=PACKAGES):
     seen, out = set(), []
     for pkg in packages:
         mod = importlib.import_module(pkg)
-        for n in mod.__all__:
+        names = getattr(mod, "__all__", None) or [
+            n for n, o in vars(mod).items() if not n.startswith("_") and getattr(o, "__module__", "") == pkg
+            and (inspect.isfunction(o) or inspect.isclass(o))]
+        for n in names:
             obj = getattr(mod, n)
             if id(obj) in seen:
                 continue
