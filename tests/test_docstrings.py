@@ -11,7 +11,7 @@ import textwrap
 #: packages whose ``__all__`` is walked; ``optinav.core`` has no ``__all__``: its modules' are walked (their
 #: ``__all__``, or the public functions and classes they define)
 PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu",
-            "optinav.core.rotations")
+            "optinav.core.rotations", "optinav.core.earth", "optinav.core.units")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
@@ -123,7 +123,7 @@ def public_callables(packages=PACKAGES):
 
 def test_public_api_docstrings_have_parameters_returns_and_units():
     calls = public_callables()
-    assert all(sum(n.startswith(f"{pkg}.") for n, _ in calls) >= 5 for pkg in PACKAGES)  # the walk found the API
+    assert all(sum(n.startswith(f"{pkg}.") for n, _ in calls) >= 3 for pkg in PACKAGES)  # the walk found the API
     bad = [line for name, fn in calls for line in check(name, fn)]
     assert not bad, f"{len(bad)} docstring gaps:\n" + "\n".join(bad)
 
