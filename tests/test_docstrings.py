@@ -12,7 +12,8 @@ import textwrap
 #: ``__all__``, or the public functions and classes they define)
 PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu",
             "optinav.core.rotations", "optinav.core.earth", "optinav.core.units", "optinav.core.strapdown",
-            "optinav.core.alignment", "optinav.core.simulate", "optinav.core.optimize", "optinav.core.observability")
+            "optinav.core.alignment", "optinav.core.simulate", "optinav.core.optimize", "optinav.core.observability",
+            "optinav.core.imu_model")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
