@@ -13,7 +13,7 @@ import textwrap
 PACKAGES = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu",
             "optinav.core.rotations", "optinav.core.earth", "optinav.core.units", "optinav.core.strapdown",
             "optinav.core.alignment", "optinav.core.simulate", "optinav.core.optimize", "optinav.core.observability",
-            "optinav.core.imu_model")
+            "optinav.core.imu_model", "optinav.core.allan")
 PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                inspect.Parameter.KEYWORD_ONLY)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
