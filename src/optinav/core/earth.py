@@ -216,16 +216,8 @@ def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.nda
 
     Parameters
     ----------
-    lat : float or array
-        Geodetic latitude [rad].
-    height_m : float or array
-        Height above the ellipsoid [m].
-    v_n : (..., 3) array
-        Velocity in the navigation frame [m/s].
-    frame : str
-        ``"enu"`` or ``"ned"``.
-    earth : str or EarthConstants
-        Constant set.
+    lat, height_m, v_n, frame, earth
+        As :func:`transport_rate` [rad, m, m/s].
 
     Returns
     -------

@@ -248,16 +248,10 @@ class TriadErrors(Result):
 
         Parameters
         ----------
-        sensor : str
-            ``"gyro"`` or ``"accel"``.
-        bias : float or (3,) array
-            Bias [rad/s or m/s^2].
-        scale : float or (3,) array
-            Scale-factor errors [-].
+        sensor, bias, scale, g_sensitivity
+            As :meth:`from_six` [-, rad/s or m/s^2, -, rad/s per m/s^2].
         misalignment : (3,) array
             Misalignment terms [rad].
-        g_sensitivity : (3, 3) array or None
-            Gyro g-sensitivity G [rad/s per m/s^2].
 
         Returns
         -------

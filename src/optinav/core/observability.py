@@ -788,10 +788,8 @@ def nees_test(errors, covariance, confidence: float = 0.99) -> NeesResult:
 
     Parameters
     ----------
-    errors : (N, n) array
-        Estimation errors [parameter units].
-    covariance : (n, n) or (N, n, n) array
-        Their covariance [parameter units²].
+    errors, covariance
+        As :func:`nees` [parameter units, parameter units²].
     confidence : float
         Two-sided confidence of the band [-].
 

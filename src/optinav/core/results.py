@@ -551,10 +551,8 @@ class Truth:
 
         Parameters
         ----------
-        path : str, Path or None
-            Output file.
-        indent : int
-            Indentation.
+        path, indent
+            As :meth:`Result.to_json`.
 
         Returns
         -------

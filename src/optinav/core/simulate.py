@@ -1238,14 +1238,8 @@ def coning_rate(half_angle, frequency, t, phase=0.0) -> np.ndarray:
 
     Parameters
     ----------
-    half_angle : float
-        Cone half-angle β [rad].
-    frequency : float
-        Coning frequency Ω/2π [Hz].
-    t : float or array
-        Times [s].
-    phase : float
-        Phase [rad].
+    half_angle, frequency, t, phase
+        As :func:`coning_attitude` [rad, Hz, s, rad].
 
     Returns
     -------
@@ -1264,14 +1258,10 @@ def coning_increment(half_angle, frequency, t0, t1, phase=0.0) -> np.ndarray:
 
     Parameters
     ----------
-    half_angle : float
-        Cone half-angle β [rad].
-    frequency : float
-        Coning frequency Ω/2π [Hz].
+    half_angle, frequency, phase
+        As :func:`coning_attitude` [rad, Hz, rad].
     t0, t1 : float or array
         Interval ends [s].
-    phase : float
-        Phase [rad].
 
     Returns
     -------
@@ -1297,14 +1287,10 @@ def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndar
 
     Parameters
     ----------
-    half_angle : float
-        Cone half-angle β [rad].
-    frequency : float
-        Coning frequency Ω/2π [Hz].
+    half_angle, frequency, phase
+        As :func:`coning_attitude` [rad, Hz, rad].
     t0, t1 : float or array
         Interval ends [s].
-    phase : float
-        Phase [rad].
 
     Returns
     -------
