@@ -68,9 +68,27 @@ def _axes(up, rate):
 
 
 def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> AlignmentResult:
-    """Analytic static alignment from mean specific force ``acc`` (m/s²) and angular rate ``gyr`` (rad/s).
+    """Analytic static alignment from mean specific force and angular rate.
 
-    ``acc``, ``gyr``: (3,) window means, or (N, 3) samples (averaged here). ``lat`` in rad, ``height_m`` in m.
+    Parameters
+    ----------
+    acc : (3,) or (N, 3) array
+        Specific force [m/s^2], window mean or samples (averaged here).
+    gyr : (3,) or (N, 3) array
+        Angular rate ω_ib^b [rad/s], window mean or samples.
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    AlignmentResult
+        ``q_b^n``, Euler angles [rad].
     """
     h, frame = height_m, frame_name(frame)
     f = as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3).mean(axis=0)
@@ -90,10 +108,30 @@ def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84
 
 
 def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
-    """Theoretical static-alignment errors φ (rad, navigation axes) caused by biases given in the n frame.
+    """Theoretical static-alignment errors φ caused by biases given in the n frame.
 
     First order: in ENU, φ_E = −∇_N/g, φ_N = ∇_E/g, φ_U = −ε_E/(ω_ie cos L) + ∇_E tan L / g, with
     ``C_b^n(computed) = (I − [φ×]) C_b^n(true)``. NED inputs/outputs are converted.
+
+    Parameters
+    ----------
+    gyro_bias_n : (3,) array
+        Gyro bias ε in navigation axes [rad/s].
+    accel_bias_n : (3,) array
+        Accelerometer bias ∇ in navigation axes [m/s^2].
+    lat : float
+        Latitude L [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (3,) ndarray
+        φ in navigation axes [rad].
     """
     frame = frame_name(frame)
     e = _earth.constants(earth)
@@ -138,17 +176,59 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
                    initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1,
                    gyro_bias_instability=0.0, gyro_bias_tau=np.inf, accel_bias_instability=0.0,
                    accel_bias_tau=np.inf) -> AlignmentResult:
-    """Kalman-filter fine alignment on a static base from increments ``dtheta`` (rad), ``dv`` (m/s).
+    """Kalman-filter fine alignment on a static base from increments.
 
-    ``t``: (N+1,) epochs (s); increments over (t[k], t[k+1]]; ``lat`` (rad), ``height_m`` (m). ``q0``: initial attitude (default: coarse
-    alignment on the data). Noise: ``gyro_white`` ARW (rad/√s), ``accel_white`` VRW (m/s/√s); prior 1σ of the
-    biases (rad/s, m/s²) and of the initial attitude error (rad, navigation axes). ``velocity_noise`` (m/s,
-    1σ of the zero-velocity measurement; default from the VRW over one filter step). The filter steps every
-    ``kf_interval`` seconds on summed increments (the base is static, so sums over 0.1 s lose nothing).
-    In-run bias drift: with ``*_bias_instability`` (σ, rad/s or m/s²) and ``*_bias_tau`` (s) the bias states are
-    first-order Gauss–Markov (ḃ = −b/τ + w, PSD 2σ²/τ) instead of random constants. Model it when the unit
-    drifts: gyrocompassing reads heading from the tilt rate, and an accelerometer bias drifting by ∇/τ looks
-    like a heading error of (∇/τ)/(g ω_ie cos L) to a filter that believes the bias constant.
+    The filter steps every ``kf_interval`` on summed increments (the base is static, so sums over 0.1 s lose
+    nothing). With ``*_bias_instability`` and ``*_bias_tau`` the bias states are first-order Gauss–Markov
+    (ḃ = −b/τ + w, PSD 2σ²/τ) instead of random constants. Model it when the unit drifts: gyrocompassing reads
+    heading from the tilt rate, and an accelerometer bias drifting by ∇/τ looks like a heading error of
+    (∇/τ)/(g ω_ie cos L) to a filter that believes the bias constant.
+
+    Parameters
+    ----------
+    t : (N+1,) array
+        Epochs [s]; increments over (t[k], t[k+1]].
+    dtheta : (N, 3) array
+        Body angular increments [rad].
+    dv : (N, 3) array
+        Body velocity increments [m/s].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+    q0 : (4,) array or None
+        Initial ``q_b^n`` [-]; None: coarse alignment on the data.
+    gyro_white : float
+        Gyro ARW [rad/√s].
+    accel_white : float
+        Accelerometer VRW [m/s/√s].
+    gyro_bias_std : float
+        Prior 1σ of the gyro bias [rad/s].
+    accel_bias_std : float
+        Prior 1σ of the accelerometer bias [m/s^2].
+    initial_attitude_std : (3,) array_like
+        Prior 1σ of the initial attitude error, navigation axes [rad].
+    velocity_noise : float or None
+        1σ of the zero-velocity measurement [m/s]; None: from the VRW over one filter step.
+    kf_interval : float
+        Filter step [s].
+    gyro_bias_instability : float
+        Gauss–Markov σ of the gyro bias [rad/s].
+    gyro_bias_tau : float
+        Its correlation time [s].
+    accel_bias_instability : float
+        Gauss–Markov σ of the accelerometer bias [m/s^2].
+    accel_bias_tau : float
+        Its correlation time [s].
+
+    Returns
+    -------
+    AlignmentResult
+        ``q_b^n``, Euler angles [rad], attitude 1σ [rad] and the estimated biases [rad/s, m/s^2].
     """
     h, frame = height_m, frame_name(frame)
     t = check_timestamps(t, "t")
@@ -226,7 +306,18 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
 
 
 def attitude_error(c_est, c_true) -> np.ndarray:
-    """φ (rad, navigation axes) with ``C_est = (I − [φ×]) C_true`` to first order (exact rotation vector)."""
+    """φ with ``C_est = (I − [φ×]) C_true`` to first order (exact rotation vector).
+
+    Parameters
+    ----------
+    c_est, c_true : (..., 3, 3) array
+        Estimated and true ``C_b^n`` [-].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        φ in navigation axes [rad].
+    """
     return -rotvec_from_dcm(np.asarray(c_est) @ np.swapaxes(np.asarray(c_true), -1, -2))
 
 

@@ -126,7 +126,20 @@ def local_slope(tau, adev, *, span: float = 2.0) -> np.ndarray:
     """Log-log slope d ln σ / d ln τ at each τ, fitted over the points within a factor ``span`` in τ.
 
     A fixed span in τ (rather than neighbouring points) makes the slope independent of the τ spacing.
-    adev: (n_tau,) or (n_tau, k); non-positive values give NaN.
+
+    Parameters
+    ----------
+    tau : (n_tau,) array
+        Cluster times [s].
+    adev : (n_tau,) or (n_tau, k) array
+        Allan deviation [any unit]; non-positive values give NaN.
+    span : float
+        Factor in τ of the fitting window [-].
+
+    Returns
+    -------
+    ndarray
+        Slopes, shaped like ``adev`` [-].
     """
     lt = np.log(np.asarray(tau, dtype=float))
     a = np.asarray(adev, dtype=float)
@@ -181,6 +194,13 @@ class AngleAccumulator:
         self.n = 0
 
     def add(self, block) -> None:
+        """Append a block of samples.
+
+        Parameters
+        ----------
+        block : (n_i,) or (n_i, k) array
+            Rates [rate unit] or increments [angle unit], as the accumulator's ``kind``.
+        """
         X = as_float_array(block, "x")
         X = X[:, None] if X.ndim == 1 else X
         if X.ndim != 2 or X.shape[0] == 0:
@@ -201,7 +221,13 @@ class AngleAccumulator:
         self.n += X.shape[0]
 
     def set_dt(self, dt: float) -> None:
-        """Replace the sample interval once the whole log is known (θ of rates is rescaled to match)."""
+        """Replace the sample interval once the whole log is known (θ of rates is rescaled to match).
+
+        Parameters
+        ----------
+        dt : float
+            Sample interval [s].
+        """
         dt = check_positive(dt, "dt")
         if self.kind == "rate" and self._carry is not None:
             for th in self._blocks:
@@ -210,7 +236,13 @@ class AngleAccumulator:
         self.dt = dt
 
     def theta(self) -> np.ndarray:
-        """(n + 1, k) θ with θ_0 = 0 (the blocks joined once; later calls reuse the joined array)."""
+        """θ with θ_0 = 0 (the blocks joined once; later calls reuse the joined array).
+
+        Returns
+        -------
+        (n + 1, k) ndarray
+            θ [rate unit × s].
+        """
         if self._carry is None:
             raise OptinavError("no samples were added", "add the log's blocks first")
         if len(self._blocks) != 1 or self._blocks[0].shape[0] != self.n + 1:
@@ -236,20 +268,36 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
                     unit: str = "", progress_desc: str | None = None) -> AllanDeviation:
     """Overlapping Allan deviation of regularly sampled rate or increment data.
 
-    x: (N,) or (N, k) samples — rates (``kind="rate"``, e.g. rad/s) or increments over dt
-    (``kind="increment"``, e.g. rad); the deviation is in the rate unit either way.
-    dt: sample interval in s (regular sampling; resample irregular logs first).
-    taus: cluster times in s (rounded to multiples m of dt, 1 ≤ m ≤ N/2); default octave-spaced
-    m = 1, 2, 4, … ≤ N/4.
-    noise: noise type assumed for the EDF — "auto" (per point from the local slope), "white",
-    "flicker", "random_walk" or "quantization".
-    confidence: two-sided probability of [lower, upper] (0.683 ≈ 1σ), from the χ² distribution with the
-    EDF: σ² ∈ [edf·s²/χ²_{(1+c)/2}, edf·s²/χ²_{(1−c)/2}] (NIST SP 1065 §5.3).
-
     The angle θ_k = Σ x·dt (or Σ Δ) is formed with cumulative sums and
-    σ²(τ) = Σ_k (θ_{k+2m} − 2θ_{k+m} + θ_k)² / (2τ²(N + 1 − 2m)) (NIST SP 1065 eq. 11).
-    Long records (hours at 1 kHz) are summed in chunks of :data:`CHUNK_ROWS` rows, so the memory beyond θ
-    (one (N+1, k) array) stays bounded; ``progress_desc`` shows a progress bar over the chunks.
+    σ²(τ) = Σ_k (θ_{k+2m} − 2θ_{k+m} + θ_k)² / (2τ²(N + 1 − 2m)) (NIST SP 1065 eq. 11). Long records (hours at
+    1 kHz) are summed in chunks of :data:`CHUNK_ROWS` rows, so the memory beyond θ (one (N+1, k) array) stays
+    bounded.
+
+    Parameters
+    ----------
+    x : (N,) or (N, k) array
+        Rates (``kind="rate"``, e.g. [rad/s]) or increments over dt (``kind="increment"``, e.g. [rad]).
+    dt : float
+        Sample interval [s] (regular sampling; resample irregular logs first).
+    taus : array or None
+        Cluster times [s] (rounded to multiples m of dt, 1 ≤ m ≤ N/2); None: octave-spaced m = 1, 2, 4, … ≤ N/4.
+    kind : str
+        ``"rate"`` or ``"increment"``.
+    noise : str
+        Noise type assumed for the EDF: "auto" (per point from the local slope), "white", "flicker",
+        "random_walk" or "quantization".
+    confidence : float
+        Two-sided probability of [lower, upper] [-] (0.683 ≈ 1σ), from the χ² distribution with the EDF:
+        σ² ∈ [edf·s²/χ²_{(1+c)/2}, edf·s²/χ²_{(1−c)/2}] (NIST SP 1065 §5.3).
+    unit : str
+        Name of the rate unit, recorded in the result.
+    progress_desc : str or None
+        Show a progress bar over the chunks with this label.
+
+    Returns
+    -------
+    AllanDeviation
+        τ [s], deviation and its interval [rate unit of x], EDF.
     """
     if kind not in _KINDS:
         raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
@@ -277,8 +325,20 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
 def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str = "auto",
                                confidence: float = 0.683, unit: str = "", progress_desc: str | None = None
                                ) -> AllanDeviation:
-    """:func:`allan_deviation` of the samples gathered in an :class:`AngleAccumulator` (a streamed log);
-    arrays are (n_tau, k)."""
+    """:func:`allan_deviation` of the samples gathered in an :class:`AngleAccumulator` (a streamed log).
+
+    Parameters
+    ----------
+    angle : AngleAccumulator
+        The gathered θ.
+    taus, noise, confidence, unit, progress_desc
+        As :func:`allan_deviation` (taus [s]).
+
+    Returns
+    -------
+    AllanDeviation
+        Arrays (n_tau, k): τ [s], deviation [rate unit].
+    """
     if noise != "auto" and noise not in NOISE_ALPHA:
         raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
     if not 0.0 < float(confidence) < 1.0:
@@ -315,11 +375,32 @@ def allan_deviation_model(tau, *, white=0.0, bias_instability=0.0, random_walk=0
                           gm_sigma=0.0, gm_tau=1.0) -> np.ndarray:
     """Theoretical Allan deviation of independent noise terms (root of the sum of their variances).
 
-    IEEE Std 952-1997 Annex C: white N → N²/τ; bias instability B → (2 ln 2/π)·B² (the flat asymptote
-    for τ ≫ the flicker cut-off time); rate random walk K → K²τ/3; quantization Q → 3Q²/τ².
-    First-order Gauss–Markov with stationary σ and correlation time T_c:
-    2σ²T_c/τ · [1 − T_c/(2τ)(3 − 4e^{−τ/T_c} + e^{−2τ/T_c})] (N. El-Sheimy et al., IEEE Trans. Instrum.
-    Meas. 57(1), 2008, eq. 20 with q_c² = 2σ²/T_c).
+    IEEE Std 952-1997 Annex C: white N → N²/τ; bias instability B → (2 ln 2/π)·B² (the flat asymptote for τ ≫ the
+    flicker cut-off time); rate random walk K → K²τ/3; quantization Q → 3Q²/τ². First-order Gauss–Markov with
+    stationary σ and correlation time T_c: 2σ²T_c/τ · [1 − T_c/(2τ)(3 − 4e^{−τ/T_c} + e^{−2τ/T_c})]
+    (N. El-Sheimy et al., IEEE Trans. Instrum. Meas. 57(1), 2008, eq. 20 with q_c² = 2σ²/T_c).
+
+    Parameters
+    ----------
+    tau : float or array
+        Cluster times [s].
+    white : float
+        N [u·√s] (u the rate unit: rad/s or m/s²).
+    bias_instability : float
+        B [u].
+    random_walk : float
+        K [u/√s].
+    quantization : float
+        Q [u·s].
+    gm_sigma : float
+        Gauss–Markov stationary σ [u].
+    gm_tau : float
+        Gauss–Markov correlation time T_c [s].
+
+    Returns
+    -------
+    ndarray
+        σ(τ) [u].
     """
     tau = as_float_array(tau, "tau")
     if np.any(tau <= 0):
@@ -362,13 +443,26 @@ def noise_parameters_from_allan(result: AllanDeviation, *, tol: float = 0.125, m
     """Read N, B, K and Q off an Allan deviation (IEEE Std 952-1997 Annex C, Fig. C.2).
 
     The local slope is fitted over a factor 2 in τ either side (:func:`local_slope`); only points with
-    EDF ≥ ``min_edf`` (relative 1σ ≤ 1/√(2·min_edf) ≈ 22 %) are read, because a slope from the last few
-    clusters is too noisy to name a noise type. Of the runs of consecutive points within ``tol`` of a
-    slope, the one with the largest total EDF is used.
-    White noise N: the slope −1/2 line fitted on that run, evaluated at τ = 1 s. Bias instability B:
-    the lowest deviation of the flat (slope 0) run divided by √(2 ln 2/π) = 0.664. Rate random walk K:
-    the slope +1/2 line at τ = 3 s. Quantization Q: the slope −1 line at τ = √3 s. A term whose slope
-    does not appear is NaN.
+    EDF ≥ ``min_edf`` (relative 1σ ≤ 1/√(2·min_edf) ≈ 22 %) are read, because a slope from the last few clusters
+    is too noisy to name a noise type. Of the runs of consecutive points within ``tol`` of a slope, the one with
+    the largest total EDF is used. White noise N: the slope −1/2 line fitted on that run, evaluated at τ = 1 s.
+    Bias instability B: the lowest deviation of the flat (slope 0) run divided by √(2 ln 2/π) = 0.664. Rate random
+    walk K: the slope +1/2 line at τ = 3 s. Quantization Q: the slope −1 line at τ = √3 s. A term whose slope does
+    not appear is NaN.
+
+    Parameters
+    ----------
+    result : AllanDeviation
+        The deviation.
+    tol : float
+        Slope tolerance [-].
+    min_edf : float
+        Smallest equivalent degrees of freedom of a point read [-].
+
+    Returns
+    -------
+    AllanNoiseParameters
+        N [u·√s], B [u], K [u/√s], Q [u·s] with u the rate unit.
     """
     if not isinstance(result, AllanDeviation):
         raise OptinavError("noise_parameters_from_allan needs the result of allan_deviation",
@@ -498,8 +592,22 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     covariance of the Allan variances built from σ²_model²·(2/EDF + :data:`FIT_MODEL_FLOOR`²) (the χ² variance of
     the estimate plus the model's own error) and the correlation of neighbouring octaves
     (:data:`OCTAVE_CORRELATION`), iterated so the weights come from the model rather than the noisy estimate.
-    Unlike the slope read-off it is not biased by the neighbouring terms. ``terms``: the terms to fit (others
-    held at 0). The standard deviations are the least-squares ones scaled by √(χ²/dof) when that exceeds 1.
+    Unlike the slope read-off it is not biased by the neighbouring terms. The standard deviations are the
+    least-squares ones scaled by √(χ²/dof) when that exceeds 1.
+
+    Parameters
+    ----------
+    result : AllanDeviation
+        The deviation.
+    terms : sequence of str
+        The terms to fit (others held at 0).
+    iterations : int
+        Reweighting iterations.
+
+    Returns
+    -------
+    AllanNoiseFit
+        N [u·√s], B [u], K [u/√s], Q [u·s] with their std (u the rate unit).
     """
     from scipy.optimize import nnls
 
@@ -593,6 +701,18 @@ class AllanAnalysis(Result):
     rostopic: str = field(default="", metadata={"unit": "-"})
 
     def sensor(self, name: str) -> dict | None:
+        """The analysis of one sensor.
+
+        Parameters
+        ----------
+        name : str
+            ``"accelerometer"`` or ``"gyroscope"``.
+
+        Returns
+        -------
+        dict or None
+            Its deviation and noise parameters, or None when the log had no such sensor.
+        """
         return self.accelerometer if name == "accelerometer" else self.gyroscope
 
 
@@ -602,8 +722,22 @@ KALIBR_UNITS = {"accelerometer": ("m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
 
 
 def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
-    """Kalibr's ``{sensor}_noise_density`` (N) and ``{sensor}_random_walk`` (K) of a fit in SI units, the largest
-    axis of each; a random walk fitted to 0 (not seen in the record) becomes the upper end of its interval."""
+    """Kalibr's noise entries of a fit in SI units, the largest axis of each.
+
+    A random walk fitted to 0 (not seen in the record) becomes the upper end of its interval.
+
+    Parameters
+    ----------
+    fit : AllanNoiseFit
+        Fit of the sensor's Allan deviation (SI data).
+    sensor : str
+        ``"accelerometer"`` or ``"gyroscope"``.
+
+    Returns
+    -------
+    dict
+        ``{sensor}_noise_density`` (N) and ``{sensor}_random_walk`` (K) [:data:`KALIBR_UNITS`].
+    """
     N = np.atleast_1d(np.asarray(fit.white, float))
     K = np.atleast_1d(np.asarray(fit.random_walk, float))
     K_hi = np.asarray(fit.random_walk_interval, float).reshape(2, -1)[1]

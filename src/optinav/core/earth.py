@@ -56,7 +56,18 @@ CONSTANT_SETS = {"wgs84": WGS84, "psins": PSINS}
 
 
 def constants(name: str | EarthConstants = "wgs84") -> EarthConstants:
-    """Look up a constant set by name ("wgs84", "psins") or pass one through."""
+    """Look up an Earth constant set by name, or pass one through.
+
+    Parameters
+    ----------
+    name : str or EarthConstants
+        ``"wgs84"`` or ``"psins"``, or a set.
+
+    Returns
+    -------
+    EarthConstants
+        The set (SI).
+    """
     if isinstance(name, EarthConstants):
         return name
     try:
@@ -66,7 +77,22 @@ def constants(name: str | EarthConstants = "wgs84") -> EarthConstants:
 
 
 def radii(lat, height_m=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
-    """Meridian (R_M) and prime-vertical (R_N) radii of curvature at ``lat`` (rad), plus ``height_m`` (m)."""
+    """Meridian (R_M) and prime-vertical (R_N) radii of curvature, plus the height.
+
+    Parameters
+    ----------
+    lat : float or array
+        Geodetic latitude [rad].
+    height_m : float or array
+        Height above the ellipsoid [m].
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    R_M, R_N : ndarray
+        R_M + h and R_N + h [m].
+    """
     h = height_m
     e = constants(earth)
     s2 = np.sin(np.asarray(lat, dtype=float)) ** 2
@@ -77,7 +103,22 @@ def radii(lat, height_m=0.0, earth="wgs84") -> tuple[np.ndarray, np.ndarray]:
 
 
 def gravity(lat, height_m=0.0, earth="wgs84") -> np.ndarray:
-    """Magnitude of normal gravity (m/s², includes the centrifugal term) at ``lat`` (rad), height ``height_m`` (m)."""
+    """Magnitude of normal gravity (includes the centrifugal term).
+
+    Parameters
+    ----------
+    lat : float or array
+        Geodetic latitude [rad].
+    height_m : float or array
+        Height above the ellipsoid [m].
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    ndarray
+        g [m/s^2].
+    """
     e = constants(earth)
     lat = np.asarray(lat, dtype=float)
     h = np.asarray(height_m, dtype=float)
@@ -90,7 +131,24 @@ def gravity(lat, height_m=0.0, earth="wgs84") -> np.ndarray:
 
 
 def gravity_vector(lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
-    """Gravity vector g^n (m/s²): ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED; shape (..., 3)."""
+    """Gravity vector g^n: ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED.
+
+    Parameters
+    ----------
+    lat : float or array
+        Geodetic latitude [rad].
+    height_m : float or array
+        Height above the ellipsoid [m].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        g^n [m/s^2].
+    """
     g = gravity(lat, height_m, earth)
     z = np.zeros_like(g)
     sign = -1.0 if frame_name(frame) == "enu" else 1.0
@@ -98,7 +156,22 @@ def gravity_vector(lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.nda
 
 
 def earth_rate(lat, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
-    """Earth rate ω_ie^n (rad/s): ENU ``[0, ω cos L, ω sin L]``; NED ``[ω cos L, 0, −ω sin L]``."""
+    """Earth rate ω_ie^n: ENU ``[0, ω cos L, ω sin L]``; NED ``[ω cos L, 0, −ω sin L]``.
+
+    Parameters
+    ----------
+    lat : float or array
+        Geodetic latitude L [rad].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ω_ie^n [rad/s].
+    """
     w = constants(earth).omega_ie
     lat = np.asarray(lat, dtype=float)
     c, s, z = w * np.cos(lat), w * np.sin(lat), np.zeros_like(lat)
@@ -108,7 +181,26 @@ def earth_rate(lat, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
 
 
 def transport_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
-    """Transport rate ω_en^n (rad/s) for navigation-frame velocity ``v_n`` (..., 3) in m/s."""
+    """Transport rate ω_en^n for a navigation-frame velocity.
+
+    Parameters
+    ----------
+    lat : float or array
+        Geodetic latitude [rad].
+    height_m : float or array
+        Height above the ellipsoid [m].
+    v_n : (..., 3) array
+        Velocity in the navigation frame [m/s].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ω_en^n [rad/s].
+    """
     v = np.asarray(v_n, dtype=float)
     rm, rn = radii(lat, height_m, earth)
     t = np.tan(np.asarray(lat, dtype=float))
@@ -120,7 +212,18 @@ def transport_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.nd
 
 
 def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
-    """Time derivative of ``[lat, lon, height_m]`` (rad/s, rad/s, m/s) for velocity ``v_n``."""
+    """Time derivative of ``[lat, lon, height_m]`` for a navigation-frame velocity.
+
+    Parameters
+    ----------
+    lat, height_m, v_n, frame, earth
+        As :func:`transport_rate` [rad, m, m/s].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        [rad/s, rad/s, m/s].
+    """
     v = np.asarray(v_n, dtype=float)
     rm, rn = radii(lat, height_m, earth)
     if frame_name(frame) == "enu":
@@ -131,7 +234,20 @@ def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.nda
 
 
 def dcm_e_to_n(lat, lon, frame=CORE_FRAME) -> np.ndarray:
-    """``C_e^n`` from ECEF to the local navigation frame at geodetic ``lat``, ``lon`` (rad)."""
+    """``C_e^n`` from ECEF to the local navigation frame.
+
+    Parameters
+    ----------
+    lat, lon : float or array
+        Geodetic latitude and longitude [rad].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        ``C_e^n`` [-].
+    """
     lat = np.asarray(lat, dtype=float)
     lon = np.asarray(lon, dtype=float)
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
@@ -145,7 +261,22 @@ def dcm_e_to_n(lat, lon, frame=CORE_FRAME) -> np.ndarray:
 
 
 def geodetic_to_ecef(lat, lon, height_m, earth="wgs84") -> np.ndarray:
-    """Geodetic ``lat``, ``lon`` (rad), ``height_m`` (m) → ECEF position (m)."""
+    """Geodetic position → ECEF position.
+
+    Parameters
+    ----------
+    lat, lon : float or array
+        Geodetic latitude and longitude [rad].
+    height_m : float or array
+        Height above the ellipsoid [m].
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ECEF position [m].
+    """
     e = constants(earth)
     h = height_m
     lat = np.asarray(lat, dtype=float)
@@ -155,7 +286,20 @@ def geodetic_to_ecef(lat, lon, height_m, earth="wgs84") -> np.ndarray:
 
 
 def ecef_to_geodetic(r, earth="wgs84") -> np.ndarray:
-    """ECEF position (..., 3) in m → geodetic ``[lat, lon, h]`` (rad, rad, m); fixed-point iteration on latitude."""
+    """ECEF position → geodetic ``[lat, lon, height]``; fixed-point iteration on latitude.
+
+    Parameters
+    ----------
+    r : (..., 3) array
+        ECEF position [m].
+    earth : str or EarthConstants
+        Constant set.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        [lat, lon, height] [rad, rad, m].
+    """
     r = np.asarray(r, dtype=float)
     e = constants(earth)
     x, y, z = r[..., 0], r[..., 1], r[..., 2]

@@ -45,12 +45,38 @@ _CAUSES = {
 CHUNK_ROWS = 200_000
 
 def describe(exc: OSError) -> str:
-    """The cause of an OS error in words ("the file system is read-only", ...)."""
+    """The cause of an OS error in words ("the file system is read-only", ...).
+
+    Parameters
+    ----------
+    exc : OSError
+        The error.
+
+    Returns
+    -------
+    str
+        The cause.
+    """
     return _CAUSES.get(exc.errno or -1) or (exc.strerror or type(exc).__name__)
 
 
 def os_error(path, exc: OSError, option: str = "--out") -> OptinavError:
-    """The one-line error for an OS failure while writing ``path``."""
+    """The one-line error for an OS failure while writing ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file being written.
+    exc : OSError
+        The failure.
+    option : str
+        The CLI option that names the output (for the remedy).
+
+    Returns
+    -------
+    OptinavError
+        The error to raise.
+    """
     return OptinavError(f"cannot write {path}: {describe(exc)}", f"choose a writable {option} with free space")
 
 
@@ -64,7 +90,18 @@ def _key(path) -> tuple[int, int] | None:
 
 @contextlib.contextmanager
 def protect_inputs(paths: Iterable) -> Iterator[None]:
-    """While active, refuse every write onto one of ``paths`` (existing regular files; others are ignored)."""
+    """While active, refuse every write onto one of ``paths`` (existing regular files; others are ignored).
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        The input files.
+
+    Yields
+    ------
+    None
+        Inside the block the inputs are protected.
+    """
     added = []
     for p in paths:
         k = _key(p)
@@ -79,14 +116,38 @@ def protect_inputs(paths: Iterable) -> Iterator[None]:
 
 
 def input_at(path) -> str | None:
-    """The protected input that ``path`` would overwrite (same file, symlink or hard link), else None."""
+    """The protected input that ``path`` would overwrite (same file, symlink or hard link).
+
+    Parameters
+    ----------
+    path : str or Path
+        A prospective output.
+
+    Returns
+    -------
+    str or None
+        The input, or None.
+    """
     k = _key(path)
     return _PROTECTED.get(k) if k is not None else None
 
 
 def check_output(path, option: str = "--out") -> Path:
-    """Check before any work that ``path`` can be written: not an input, not a folder, its folder exists,
-    is a folder and is writable. Returns ``path`` as a :class:`Path`."""
+    """Check before any work that ``path`` can be written: not an input, not a folder, its folder exists, is a folder
+    and is writable.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    option : str
+        The CLI option that names it (for the remedy).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     out = Path(path)
     src = input_at(out)
     if src is not None:
@@ -113,9 +174,23 @@ def check_output(path, option: str = "--out") -> Path:
 
 @contextlib.contextmanager
 def atomic_path(path, option: str = "--out") -> Iterator[Path]:
-    """Yield a unique temporary path beside ``path`` (same suffix, so format-by-suffix writers work); when the
-    block ends without error the file is fsynced and renamed to ``path``, otherwise removed. OS errors become
-    a one-line :class:`OptinavError`; a protected input at ``path`` is refused."""
+    """A unique temporary path beside ``path`` (same suffix, so format-by-suffix writers work).
+
+    When the block ends without error the file is fsynced and renamed to ``path``, otherwise removed. OS errors
+    become a one-line :class:`OptinavError`; a protected input at ``path`` is refused.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    option : str
+        The CLI option that names it (for the remedy).
+
+    Yields
+    ------
+    Path
+        The temporary path to write.
+    """
     path = Path(path)
     src = input_at(path)
     if src is not None:
@@ -149,7 +224,24 @@ def atomic_path(path, option: str = "--out") -> Iterator[Path]:
 
 @contextlib.contextmanager
 def atomic_open(path, mode: str = "w", option: str = "--out", **kwargs) -> Iterator:
-    """:func:`atomic_path` opened as a file (``mode`` "w" or "wb"; text defaults to UTF-8)."""
+    """:func:`atomic_path` opened as a file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    mode : str
+        ``"w"`` or ``"wb"`` (text defaults to UTF-8).
+    option : str
+        The CLI option that names it.
+    **kwargs
+        Passed to ``open``.
+
+    Yields
+    ------
+    file object
+        The open temporary file.
+    """
     if "b" not in mode:
         kwargs.setdefault("encoding", "utf-8")
     with atomic_path(path, option) as tmp:
@@ -161,21 +253,75 @@ def atomic_open(path, mode: str = "w", option: str = "--out", **kwargs) -> Itera
 
 
 def write_text(path, text: str, option: str = "--out") -> Path:
-    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    """Write ``text`` to ``path`` atomically (UTF-8).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    text : str
+        The content.
+    option : str
+        The CLI option that names it.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     with atomic_open(path, "w", option, newline="\n") as fh:
         fh.write(text)
     return Path(path)
 
 
 def write_json(path, data, option: str = "--out", **kwargs) -> Path:
-    """Write ``data`` as indented JSON (strict: no NaN) to ``path`` atomically."""
+    """Write ``data`` as indented JSON (strict: no NaN) to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    data : dict or list
+        Plain JSON types.
+    option : str
+        The CLI option that names it.
+    **kwargs
+        Passed to ``json.dumps``.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return write_text(path, json.dumps(data, indent=2, allow_nan=False, **kwargs) + "\n", option)
 
 
 def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "", delimiter: str = ",",
               option: str = "--out") -> Path:
-    """Write a 2-D numeric ``table`` as delimited text with ``header`` (lines prefixed by ``comments``)
-    atomically."""
+    """Write a 2-D numeric ``table`` as delimited text with ``header`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    table : (N, k) array
+        The values [as the header's columns state].
+    header : str
+        The header line(s).
+    fmt : str
+        Number format.
+    comments : str
+        Prefix of the header lines.
+    delimiter : str
+        Column delimiter.
+    option : str
+        The CLI option that names it.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     import numpy as np
 
     with atomic_open(path, "w", option, newline="\n") as fh:
@@ -184,8 +330,25 @@ def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "
 
 
 def check_sidecar(path, signature: str, option: str = "--out") -> Path:
-    """A file written beside the main output (e.g. ``x.truth.json``): refuse to replace an existing file that
-    does not start with ``signature`` (i.e. one optinav did not write), and any protected input."""
+    """Check a file written beside the main output (e.g. ``x.truth.json``).
+
+    Refuse to replace an existing file that does not start with ``signature`` (i.e. one optinav did not write),
+    and any protected input.
+
+    Parameters
+    ----------
+    path : str or Path
+        The sidecar file.
+    signature : str
+        The start of a file optinav wrote.
+    option : str
+        The CLI option that names the main output.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     p = Path(path)
     src = input_at(p)
     if src is not None:
@@ -211,8 +374,23 @@ MAX_JSON_DEPTH = 64
 
 
 def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
-    """The UTF-8 text of ``path``; a missing file, a folder, an OS error or bytes that are not UTF-8 become a
-    one-line :class:`OptinavError` naming ``what``."""
+    """The UTF-8 text of ``path``; a missing file, a folder, an OS error or bytes that are not UTF-8 become a one-line
+    :class:`OptinavError` naming ``what``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file is, for the message.
+    remedy : str
+        What to do, for the message.
+
+    Returns
+    -------
+    str
+        The text.
+    """
     p = Path(path)
     if p.is_dir():
         raise OptinavError(f"{what} {p} is a folder", "pass a file")
@@ -230,8 +408,24 @@ def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
 
 
 def parse_json(text: str, src: str, remedy: str):
-    """``json.loads(text)`` with every parser failure (syntax, nesting deeper than :data:`MAX_JSON_DEPTH`,
-    numbers too long to convert) as a one-line :class:`OptinavError` naming ``src``."""
+    """``json.loads(text)`` with every parser failure as a one-line :class:`OptinavError` naming ``src``.
+
+    Failures: syntax, nesting deeper than :data:`MAX_JSON_DEPTH`, numbers too long to convert.
+
+    Parameters
+    ----------
+    text : str
+        The JSON text.
+    src : str
+        Where it came from, for the message.
+    remedy : str
+        What to do, for the message.
+
+    Returns
+    -------
+    Any
+        The parsed value.
+    """
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

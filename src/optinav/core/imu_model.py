@@ -113,7 +113,18 @@ _M3_INDEX = ((0, 1), (0, 2), (1, 2))
 
 
 def misalignment_matrix(m6) -> np.ndarray:
-    """3×3 zero-diagonal misalignment from the 6 terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy] (rad)."""
+    """3×3 zero-diagonal misalignment from the 6 terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy].
+
+    Parameters
+    ----------
+    m6 : (6,) array
+        Misalignment terms [rad].
+
+    Returns
+    -------
+    (3, 3) ndarray
+        M [rad].
+    """
     m6 = as_float_array(m6, "misalignment", last_dims=(6,))
     if m6.ndim != 1:
         raise OptinavError(f"misalignment has shape {m6.shape}, expected (6,)", "pass 6 misalignment terms")
@@ -124,7 +135,18 @@ def misalignment_matrix(m6) -> np.ndarray:
 
 
 def upper_misalignment_matrix(m3) -> np.ndarray:
-    """3×3 strictly upper-triangular misalignment from [M_xy, M_xz, M_yz] (rad)."""
+    """3×3 strictly upper-triangular misalignment from [M_xy, M_xz, M_yz].
+
+    Parameters
+    ----------
+    m3 : (3,) array
+        Misalignment terms [rad].
+
+    Returns
+    -------
+    (3, 3) ndarray
+        M [rad].
+    """
     m3 = as_float_array(m3, "misalignment", last_dims=(3,))
     if m3.ndim != 1:
         raise OptinavError(f"misalignment has shape {m3.shape}, expected (3,)", "pass M_xy, M_xz, M_yz")
@@ -179,26 +201,86 @@ class TriadErrors(Result):
     # -- constructors -------------------------------------------------------------------------------------
     @classmethod
     def ideal(cls, sensor: str) -> "TriadErrors":
-        """An error-free triad."""
+        """An error-free triad.
+
+        Parameters
+        ----------
+        sensor : str
+            ``"gyro"`` or ``"accel"``.
+
+        Returns
+        -------
+        TriadErrors
+            K = I, b = 0.
+        """
         return cls(sensor=sensor)
 
     @classmethod
     def from_six(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0, 0, 0, 0), g_sensitivity=None
                  ) -> "TriadErrors":
-        """From bias, scale errors and the 6 misalignment terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy] (rad)."""
+        """From bias, scale errors and the 6 misalignment terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy].
+
+        Parameters
+        ----------
+        sensor : str
+            ``"gyro"`` or ``"accel"``.
+        bias : float or (3,) array
+            Bias [rad/s or m/s^2].
+        scale : float or (3,) array
+            Scale-factor errors [-].
+        misalignment : (6,) array
+            Misalignment terms [rad].
+        g_sensitivity : (3, 3) array or None
+            Gyro g-sensitivity G [rad/s per m/s^2].
+
+        Returns
+        -------
+        TriadErrors
+            The triad.
+        """
         return cls(sensor=sensor, bias=bias, scale=scale, misalignment=misalignment_matrix(misalignment),
                    g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
 
     @classmethod
     def from_upper_triangular(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0), g_sensitivity=None
                               ) -> "TriadErrors":
-        """Upper-triangular form: bias, scale errors and [M_xy, M_xz, M_yz] (rad); K is upper triangular."""
+        """Upper-triangular form: bias, scale errors and [M_xy, M_xz, M_yz]; K is upper triangular.
+
+        Parameters
+        ----------
+        sensor, bias, scale, g_sensitivity
+            As :meth:`from_six` [-, rad/s or m/s^2, -, rad/s per m/s^2].
+        misalignment : (3,) array
+            Misalignment terms [rad].
+
+        Returns
+        -------
+        TriadErrors
+            The triad.
+        """
         return cls(sensor=sensor, bias=bias, scale=scale, misalignment=upper_misalignment_matrix(misalignment),
                    g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
 
     @classmethod
     def from_matrix(cls, sensor: str, K, bias=0.0, g_sensitivity=None) -> "TriadErrors":
-        """From a raw 3×3 K (factored exactly: s_i = K_ii − 1, M_ij = K_ij / K_ii) and a bias."""
+        """From a 3×3 K (factored exactly: s_i = K_ii − 1, M_ij = K_ij / K_ii) and a bias.
+
+        Parameters
+        ----------
+        sensor : str
+            ``"gyro"`` or ``"accel"``.
+        K : (3, 3) array
+            Scale and misalignment matrix [-].
+        bias : float or (3,) array
+            Bias [rad/s or m/s^2].
+        g_sensitivity : (3, 3) array or None
+            Gyro g-sensitivity G [rad/s per m/s^2].
+
+        Returns
+        -------
+        TriadErrors
+            The triad.
+        """
         K = as_float_array(K, "K", last_dims=(3, 3))
         if K.ndim != 2:
             raise OptinavError(f"K has shape {K.shape}, expected (3, 3)", "pass one 3×3 matrix")
@@ -246,8 +328,21 @@ class TriadErrors(Result):
     def apply(self, x, *, dt=None, acc=None, kind: str = "rate") -> np.ndarray:
         """Truth → measured: ``K x + b (+ G f)`` for rates, ``K Δx + b·dt (+ G Δv)`` for increments.
 
-        x: (..., 3) true rates or increments; dt (s): needed for increments; acc: true specific force
-        (m/s², or Δv in m/s for increments), needed when the gyro has g-sensitivity.
+        Parameters
+        ----------
+        x : (..., 3) array
+            True rates [rad/s or m/s^2] or increments [rad or m/s].
+        dt : float, array or None
+            Intervals [s]; needed for increments.
+        acc : (..., 3) array or None
+            True specific force [m/s^2] (Δv [m/s] for increments), needed when the gyro has g-sensitivity.
+        kind : str
+            ``"rate"`` or ``"increment"``.
+
+        Returns
+        -------
+        (..., 3) ndarray
+            Measured outputs [units of x].
         """
         x = as_float_array(x, "x", last_dims=(3,))
         return x @ self.K.T + self._offset(x.shape, dt, acc, kind, "acc")
@@ -257,6 +352,22 @@ class TriadErrors(Result):
 
         For a gyro with g-sensitivity pass the compensated accelerometer output as ``acc``;
         :meth:`ImuModel.compensate` does so, which makes the inversion exact without noise.
+
+        Parameters
+        ----------
+        y : (..., 3) array
+            Measured rates [rad/s or m/s^2] or increments [rad or m/s].
+        dt : float, array or None
+            Intervals [s]; needed for increments.
+        acc : (..., 3) array or None
+            Compensated specific force [m/s^2] (Δv [m/s] for increments).
+        kind : str
+            ``"rate"`` or ``"increment"``.
+
+        Returns
+        -------
+        (..., 3) ndarray
+            Corrected outputs [units of y].
         """
         y = as_float_array(y, "y", last_dims=(3,))
         r = y - self._offset(y.shape, dt, acc, kind, "acc")
@@ -300,7 +411,26 @@ def _quantize_carry_kernel(v, h):  # pragma: no cover - compiled
 
 
 def white_noise(n: int, density, dt, rng=None, *, kind: str = "rate") -> np.ndarray:
-    """(n, 3) white noise of density N per axis (rad/√s or m/s/√s): σ = N/√dt (rates), N·√dt (increments)."""
+    """White noise of density N per axis: σ = N/√dt (rates), N·√dt (increments).
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    density : float or (3,) array
+        N [rad/√s or m/s/√s].
+    dt : float or (n,) array
+        Intervals [s].
+    rng : int, Generator or None
+        Seed or generator.
+    kind : str
+        ``"rate"`` or ``"increment"``.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        Noise [rad/s, m/s^2, or rad, m/s for increments].
+    """
     kind = _check_kind(kind)
     N = _vec3(density, "noise density", nonneg=True)
     d = _dt(dt, (n,))
@@ -309,11 +439,28 @@ def white_noise(n: int, density, dt, rng=None, *, kind: str = "rate") -> np.ndar
 
 
 def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
-    """(n, 3) first-order Gauss–Markov process at the sample epochs, started stationary.
+    """First-order Gauss–Markov process at the sample epochs, started stationary.
 
-    x_k = φ_k x_{k−1} + σ√(1 − φ_k²) w_k with φ_k = exp(−dt_k/τ) — the exact discretization, so the
-    stationary σ and the autocorrelation exp(−|Δt|/τ) hold for any (irregular) dt_k, the interval ending
-    at sample k. sigma: stationary 1σ per axis; tau: correlation time(s) in s.
+    x_k = φ_k x_{k−1} + σ√(1 − φ_k²) w_k with φ_k = exp(−dt_k/τ) — the exact discretization, so the stationary σ
+    and the autocorrelation exp(−|Δt|/τ) hold for any (irregular) dt_k, the interval ending at sample k.
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    sigma : float or (3,) array
+        Stationary 1σ per axis [rad/s or m/s^2].
+    tau : float or (3,) array
+        Correlation time(s) [s].
+    dt : float or (n,) array
+        Intervals [s].
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        The process [units of sigma].
     """
     s = _vec3(sigma, "Gauss-Markov sigma", nonneg=True)
     t = _vec3(tau, "Gauss-Markov tau", allow_inf=True)
@@ -325,19 +472,52 @@ def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
 
 
 def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
-    """(n, 3) random walk b_k = b_{k−1} + K√dt_k w_k from b_{−1} = 0; K in rad/s/√s or m/s²/√s."""
+    """Random walk b_k = b_{k−1} + K√dt_k w_k from b_{−1} = 0.
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    density : float or (3,) array
+        K [rad/s/√s or m/s²/√s].
+    dt : float or (n,) array
+        Intervals [s].
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        The walk [rad/s or m/s^2].
+    """
     K = _vec3(density, "random-walk density", nonneg=True)
     d = _dt(dt, (n,))
     return np.cumsum(as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
 
 
 def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
-    """(n, 3) flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis (rad/s, m/s²).
+    """Flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis.
 
-    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from 1/(n·dt) to the
-    Nyquist frequency, made by shaping the spectrum of white noise (Kasdin, Proc. IEEE 83(5), 1995): its Allan
-    variance is 2·ln2·B²/π, the flat 0.664·B, between a few dt and a fraction of the record (NIST SP 1065
-    Table 3: σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling (scalar dt) only.
+    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from 1/(n·dt) to the Nyquist
+    frequency, made by shaping the spectrum of white noise (Kasdin, Proc. IEEE 83(5), 1995): its Allan variance is
+    2·ln2·B²/π, the flat 0.664·B, between a few dt and a fraction of the record (NIST SP 1065 Table 3:
+    σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling only.
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    bias_instability : float or (3,) array
+        B [rad/s or m/s^2].
+    dt : float
+        Sample interval [s].
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        Noise [units of B].
     """
     B = _vec3(bias_instability, "bias instability", nonneg=True)
     dt = check_positive(dt, "dt")
@@ -354,10 +534,25 @@ def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
 
 
 def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
-    """Clip (N, 3) outputs at the measurement range ``limit`` (a rate, per axis; inf = none).
+    """Clip outputs at the measurement range; increments saturate where their mean rate Δ/dt exceeds it.
 
-    Increments saturate where their mean rate Δ/dt exceeds the range. Returns (clipped, flags) with
-    flags (N, 3) True exactly where |rate| > limit.
+    Parameters
+    ----------
+    y : (N, 3) array
+        Outputs [rad/s, m/s^2, or rad, m/s for increments].
+    limit : float or (3,) array
+        Range as a rate [rad/s or m/s^2] (inf: none).
+    dt : float, (N,) array or None
+        Intervals [s], for increments.
+    kind : str
+        ``"rate"`` or ``"increment"``.
+
+    Returns
+    -------
+    clipped : (N, 3) ndarray
+        Outputs [units of y].
+    flags : (N, 3) bool ndarray
+        True exactly where |rate| > limit.
     """
     kind = _check_kind(kind)
     y = _samples(y, "y")
@@ -370,13 +565,32 @@ def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.n
 
 
 def quantize(y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", carry: bool = True) -> np.ndarray:
-    """Quantize (N, 3) outputs to the LSB per axis (0 = off).
+    """Quantize outputs to the LSB per axis (0: off).
 
-    lsb_kind says whether the LSB is a rate (rad/s, m/s²) or an increment (rad, m/s); the output keeps
-    ``kind``. With ``carry`` the rounding residual of each sample is added to the next one, as the
-    increment outputs of integrating sensors do, so the running sum of the outputs never departs from
-    the running sum of the inputs by more than half an LSB (half of LSB·dt for a rate LSB). Without it
-    each sample is rounded on its own (register outputs of MEMS rate sensors).
+    With ``carry`` the rounding residual of each sample is added to the next one, as the increment outputs of
+    integrating sensors do, so the running sum of the outputs never departs from the running sum of the inputs by
+    more than half an LSB (half of LSB·dt for a rate LSB). Without it each sample is rounded on its own (register
+    outputs of MEMS rate sensors).
+
+    Parameters
+    ----------
+    y : (N, 3) array
+        Outputs [rad/s, m/s^2, or rad, m/s for increments].
+    lsb : float or (3,) array
+        LSB [rate or increment units, per ``lsb_kind``].
+    dt : float, (N,) array or None
+        Intervals [s], used when ``kind`` or ``lsb_kind`` is a rate.
+    kind : str
+        ``"rate"`` or ``"increment"``: what ``y`` is (kept in the output).
+    lsb_kind : str
+        ``"rate"`` or ``"increment"``: what the LSB is.
+    carry : bool
+        Carry the rounding residual to the next sample.
+
+    Returns
+    -------
+    (N, 3) ndarray
+        Quantized outputs [units of y].
     """
     kind = _check_kind(kind)
     _check_kind(lsb_kind, "lsb_kind")
@@ -439,7 +653,22 @@ class TriadNoise(Result):
             raise OptinavError(f"range must be positive, got {self.range.tolist()}", "pass inf for no saturation")
 
     def sample(self, n: int, dt, rng=None) -> np.ndarray:
-        """(n, 3) rate-equivalent noise: white + Gauss–Markov + random walk (multiply by dt for increments)."""
+        """Rate-equivalent noise: white + Gauss–Markov + random walk (multiply by dt for increments).
+
+        Parameters
+        ----------
+        n : int
+            Samples.
+        dt : float or (n,) array
+            Intervals [s].
+        rng : int, Generator or None
+            Seed or generator.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Noise [rad/s or m/s^2].
+        """
         rng = as_rng(rng)
         d = _dt(dt, (n,))
         e = np.zeros((n, 3))
@@ -452,7 +681,24 @@ class TriadNoise(Result):
         return e
 
     def digitize(self, y, dt, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
-        """Saturate then quantize (N, 3) outputs; returns (outputs, saturation flags)."""
+        """Saturate then quantize outputs.
+
+        Parameters
+        ----------
+        y : (N, 3) array
+            Outputs [rad/s, m/s^2, or rad, m/s for increments].
+        dt : float or (N,) array
+            Intervals [s].
+        kind : str
+            ``"rate"`` or ``"increment"``.
+
+        Returns
+        -------
+        outputs : (N, 3) ndarray
+            Digitized outputs [units of y].
+        flags : (N, 3) bool ndarray
+            Saturation flags.
+        """
         y, flags = saturate(y, self.range, dt, kind=kind)
         return quantize(y, self.lsb, dt, kind=kind, lsb_kind=self.lsb_kind, carry=self.carry), flags
 
@@ -520,13 +766,29 @@ class ImuModel(Result):
         return np.array(_dt(1.0 / self.sample_rate if dt is None else dt, (n,)), dtype=float)
 
     def apply(self, gyr, acc, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
-        """Truth → measured outputs.
+        """Truth → measured outputs. Order: deterministic errors, noise, saturation, quantization.
 
-        gyr, acc: (N, 3) true angular rate (rad/s) and specific force (m/s²) of the body at the sample
-        epochs, or, with ``kind="increment"``, the true Δθ (rad) and Δv (m/s) over each interval.
-        dt: scalar or (N,) intervals in s (default 1/sample_rate). The g-sensitivity acts on the true
-        specific force. ``noise=False`` leaves out the random terms (saturation and quantization stay).
-        Order: deterministic errors, noise, saturation, quantization.
+        The g-sensitivity acts on the true specific force.
+
+        Parameters
+        ----------
+        gyr : (N, 3) array
+            True angular rate [rad/s] at the sample epochs, or with ``kind="increment"`` Δθ [rad] over each interval.
+        acc : (N, 3) array
+            True specific force [m/s^2], or with ``kind="increment"`` Δv [m/s].
+        dt : float, (N,) array or None
+            Intervals [s]; None: 1/sample_rate.
+        rng : int, Generator or None
+            Seed or generator.
+        kind : str
+            ``"rate"`` or ``"increment"``.
+        noise : bool
+            Include the random terms (saturation and quantization stay either way).
+
+        Returns
+        -------
+        ImuMeasurement
+            Outputs in the units of the input and per-axis saturation flags.
         """
         kind = _check_kind(kind)
         w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
@@ -549,9 +811,24 @@ class ImuModel(Result):
     def compensate(self, gyr, acc, dt=None, *, kind: str = "rate") -> ImuCompensated:
         """Measured → corrected (inverse of the deterministic part of :meth:`apply`).
 
-        The accelerometers are compensated first; the gyro g-sensitivity is then removed with the
-        compensated specific force, so without noise the result equals the truth to rounding.
-        dt (s) matters only for increments (bias·dt); default 1/sample_rate.
+        The accelerometers are compensated first; the gyro g-sensitivity is then removed with the compensated specific
+        force, so without noise the result equals the truth to rounding.
+
+        Parameters
+        ----------
+        gyr : (N, 3) array
+            Measured rate [rad/s] or Δθ [rad].
+        acc : (N, 3) array
+            Measured specific force [m/s^2] or Δv [m/s].
+        dt : float, (N,) array or None
+            Intervals [s], used for increments (bias·dt); None: 1/sample_rate.
+        kind : str
+            ``"rate"`` or ``"increment"``.
+
+        Returns
+        -------
+        ImuCompensated
+            Corrected outputs in the units of the input.
         """
         kind = _check_kind(kind)
         yg, ya = _samples(gyr, "gyr"), _samples(acc, "acc")
@@ -645,15 +922,50 @@ class ImuSpec(Result):
     @classmethod
     def from_units(cls, **fields) -> "ImuSpec":
         """Build from field values given as SI numbers or ``(value, unit)`` pairs in any unit of
-        :data:`optinav.core.units.UNITS`, e.g. ``gyro_arw=(0.0005, "deg/sqrt(h)")``."""
+        :data:`optinav.core.units.UNITS`, e.g. ``gyro_arw=(0.0005, "deg/sqrt(h)")``.
+
+        Parameters
+        ----------
+        **fields
+            ImuSpec fields [SI or (value, unit)].
+
+        Returns
+        -------
+        ImuSpec
+            The spec (SI).
+        """
         return cls(**_convert_fields(fields))
 
     def replace(self, **fields) -> "ImuSpec":
-        """A copy with some fields replaced (SI or ``(value, unit)`` pairs)."""
+        """A copy with some fields replaced.
+
+        Parameters
+        ----------
+        **fields
+            ImuSpec fields [SI or (value, unit)].
+
+        Returns
+        -------
+        ImuSpec
+            The new spec (SI).
+        """
         return dataclasses.replace(self, **_convert_fields(fields))
 
     def draw(self, rng=None, *, errors: bool = True) -> ImuModel:
-        """Draw one unit: deterministic errors ~ N(0, 1σ spec) (zero if ``errors=False``) and its noise."""
+        """Draw one unit: deterministic errors ~ N(0, 1σ spec) and its noise.
+
+        Parameters
+        ----------
+        rng : int, Generator or None
+            Seed or generator.
+        errors : bool
+            Draw the deterministic errors (False: zero).
+
+        Returns
+        -------
+        ImuModel
+            The unit (SI).
+        """
         rng = as_rng(rng)
 
         def triad(s: str) -> TriadErrors:
@@ -768,10 +1080,21 @@ PRESETS = tuple(_PRESETS)
 def preset(name: str, **overrides) -> ImuSpec:
     """The :class:`ImuSpec` of a named sensor class, with optional field overrides.
 
-    Names: "rlg-nav" (navigation-grade RLG IMU of the rotational-INS paper), "mems-mti1" (Xsens MTi-1),
-    "mpu6000" (InvenSense MPU-6000); the sources are in the docstrings of ``_rlg_nav``, ``_mems_mti1``
-    and ``_mpu6000`` and in the spec's ``source`` field. Overrides are ImuSpec fields in SI or as
-    ``(value, unit)`` pairs, e.g. ``preset("mpu6000", sample_rate=500, gyro_range=(2000, "deg/s"))``.
+    Names: "rlg-nav" (navigation-grade RLG IMU of the rotational-INS paper), "mems-mti1" (Xsens MTi-1), "mpu6000"
+    (InvenSense MPU-6000); the sources are in the docstrings of ``_rlg_nav``, ``_mems_mti1`` and ``_mpu6000`` and
+    in the spec's ``source`` field.
+
+    Parameters
+    ----------
+    name : str
+        Preset name.
+    **overrides
+        ImuSpec fields [SI or (value, unit)], e.g. ``preset("mpu6000", sample_rate=500, gyro_range=(2000, "deg/s"))``.
+
+    Returns
+    -------
+    ImuSpec
+        The spec (SI).
     """
     try:
         build = _PRESETS[name]

@@ -318,10 +318,21 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
 # ----------------------------------------------------------------------------------------------------------
 
 def fisher_information(J, sigma=None, *, R=None) -> np.ndarray:
-    """Fisher information ``Jᵀ R⁻¹ J`` (n × n, units 1/param²) of residuals with Jacobian ``J`` (m × n).
+    """Fisher information ``Jᵀ R⁻¹ J`` of residuals with Jacobian ``J``; Gaussian noise (Kay 1993, Thm 3.2).
 
-    ``sigma``: noise standard deviation, a scalar or one per residual (default 1); ``R``: full noise
-    covariance (m × m) instead. Gaussian noise assumed (Kay 1993, Thm 3.2).
+    Parameters
+    ----------
+    J : (m, n) array
+        Residual Jacobian ∂r/∂p [residual units per parameter unit].
+    sigma : float, (m,) array or None
+        Noise standard deviation [residual units], scalar or per residual; None: 1.
+    R : (m, m) array or None
+        Full noise covariance [residual units²] instead of ``sigma``.
+
+    Returns
+    -------
+    (n, n) ndarray
+        Fisher information [1/parameter units²].
     """
     J = _as_matrix(J)
     Jw, _ = _whiten(J, sigma, R)
@@ -380,7 +391,20 @@ class ObservabilityReport(Result):
         return c
 
     def is_estimable(self, c, tol: float = DEFAULT_COEF_TOL) -> bool:
-        """Whether ``cᵀp`` is observable (``c`` orthogonal to the null space, judged in scaled units)."""
+        """Whether ``cᵀp`` is observable (``c`` orthogonal to the null space, judged in scaled units).
+
+        Parameters
+        ----------
+        c : (n,) array
+            Combination coefficients [1/parameter units].
+        tol : float
+            Tolerance [-].
+
+        Returns
+        -------
+        bool
+            True when observable.
+        """
         c = self._coef(c)
         if self.null_space.shape[1] == 0:
             return True
@@ -390,7 +414,20 @@ class ObservabilityReport(Result):
         return bool(norm == 0 or np.linalg.norm(nu.T @ cu) <= tol * norm)
 
     def combination_std(self, c, *, crlb: bool = False) -> float:
-        """Standard deviation of ``cᵀp̂`` (``inf`` if the combination is not observable)."""
+        """Standard deviation of ``cᵀp̂`` (``inf`` if the combination is not observable).
+
+        Parameters
+        ----------
+        c : (n,) array
+            Combination coefficients [1/parameter units].
+        crlb : bool
+            From the CRLB instead of the covariance.
+
+        Returns
+        -------
+        float
+            The std [units of cᵀp].
+        """
         c = self._coef(c)
         if not self.is_estimable(c):
             return float("inf")
@@ -398,7 +435,13 @@ class ObservabilityReport(Result):
         return float(np.sqrt(max(c @ P @ c, 0.0)))
 
     def summary(self) -> str:
-        """Readable text: rank line, the words, a per-parameter table, singular values, strong correlations."""
+        """Readable text: rank line, the words, a per-parameter table, singular values, strong correlations.
+
+        Returns
+        -------
+        str
+            The text.
+        """
         n = self.n_params
         cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.3g}"
         lines = [f"Observability: {n} parameters, {self.n_residuals} residuals, rank {self.rank}/{n} "
@@ -437,19 +480,36 @@ def _fmt(x: float) -> str:
 def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units: Sequence[str] | None = None,
             rel_tol: float = DEFAULT_REL_TOL, scales=None, residuals=None, estimate_sigma: bool = False,
             coef_tol: float = DEFAULT_COEF_TOL) -> ObservabilityReport:
-    """Observability and uncertainty of parameters ``p`` from the residual Jacobian ``J = ∂r/∂p`` (m × n).
+    """Observability and uncertainty of parameters ``p`` from the residual Jacobian ``J = ∂r/∂p``.
 
     Parameters
     ----------
-    sigma, R : measurement noise — std (scalar or per residual, default 1) or full covariance ``R`` (m × m).
-    names, units : parameter names and unit strings (for the words and ``summary()``).
-    rel_tol : rank tolerance relative to the largest singular value of the column-scaled, whitened Jacobian.
-    scales : expected magnitude of each parameter (its units); ``None`` normalizes each column (unit-invariant).
-        A column that is zero only up to rounding is then scaled up and looks observable: pass ``scales``
-        when a parameter may be structurally unobservable.
-    residuals : residual vector at the solution (m,), for the a-posteriori variance factor
-        ``s² = rᵀR⁻¹r / (m − rank)``; with ``estimate_sigma=True`` the covariance is multiplied by it.
-    coef_tol : coupling coefficients below this (in scaled units) count as zero when naming combinations.
+    J : (m, n) array
+        Residual Jacobian [residual units per parameter unit].
+    sigma : float, (m,) array or None
+        Measurement noise std [residual units], scalar or per residual; None: 1.
+    R : (m, m) array or None
+        Full noise covariance [residual units²] instead of ``sigma``.
+    names, units : sequence of str or None
+        Parameter names and unit strings (for the words and ``summary()``).
+    rel_tol : float
+        Rank tolerance relative to the largest singular value of the column-scaled, whitened Jacobian [-].
+    scales : float, (n,) array or None
+        Expected magnitude of each parameter [parameter units]; None normalizes each column (unit-invariant). A
+        column that is zero only up to rounding is then scaled up and looks observable: pass ``scales`` when a
+        parameter may be structurally unobservable.
+    residuals : (m,) array or None
+        Residual vector at the solution [residual units], for the a-posteriori variance factor
+        ``s² = rᵀR⁻¹r / (m − rank)``.
+    estimate_sigma : bool
+        Multiply the covariance by s².
+    coef_tol : float
+        Coupling coefficients below this (in scaled units) count as zero when naming combinations [-].
+
+    Returns
+    -------
+    ObservabilityReport
+        Rank, null space, unobservable combinations in words, covariance and CRLB std [parameter units].
     """
     J = _as_matrix(J)
     m, n = J.shape
@@ -518,11 +578,23 @@ def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units:
 def observability_matrix(H_blocks, A=None, order: int | None = None) -> np.ndarray:
     """Stripped observability matrix ``Q = [H₁; H₁A₁; …; H₁A₁^{order-1}; H₂; H₂A₂; …]``.
 
-    ``H_blocks``: one measurement matrix (p × n) or a sequence of them, one per segment/position;
-    ``A``: None (static: only the H blocks are stacked), one system matrix (n × n, continuous ``F`` or
-    discrete ``Φ``) shared by all segments, or one per segment; ``order``: powers per segment, default n
-    (enough by Cayley–Hamilton). For a piecewise-constant system the rank of this stripped matrix equals
-    that of the total one when null(Q_j) ⊆ null(A_j) (Goshen-Meskin & Bar-Itzhack 1992).
+    For a piecewise-constant system the rank of this stripped matrix equals that of the total one when
+    null(Q_j) ⊆ null(A_j) (Goshen-Meskin & Bar-Itzhack 1992).
+
+    Parameters
+    ----------
+    H_blocks : (p, n) array or sequence of them
+        Measurement matrices, one per segment/position [measurement per state units].
+    A : (n, n) array, sequence of them or None
+        None (static: only the H blocks are stacked), one system matrix (continuous ``F`` or discrete ``Φ``)
+        shared by all segments, or one per segment [1/s for F, - for Φ].
+    order : int or None
+        Powers per segment; None: n (enough by Cayley–Hamilton).
+
+    Returns
+    -------
+    (rows, n) ndarray
+        Q [measurement per state units].
     """
     try:
         arr = np.asarray(H_blocks, dtype=float)
@@ -594,6 +666,13 @@ class ObservabilitySVD(Result):
         return self.rank == len(self.names)
 
     def summary(self) -> str:
+        """Readable text: rank, singular values, unobservable combinations.
+
+        Returns
+        -------
+        str
+            The text.
+        """
         sv = " ".join(f"{x:.4g}" for x in np.asarray(self.singular_values))
         cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.4g}"
         return "\n".join([f"Observability matrix: {len(self.names)} states, rank {self.rank}, "
@@ -603,10 +682,26 @@ class ObservabilitySVD(Result):
 
 def observability_svd(Q, *, names: Sequence[str] | None = None, rel_tol: float = DEFAULT_REL_TOL,
                       scales=None, coef_tol: float = DEFAULT_COEF_TOL) -> ObservabilitySVD:
-    """Numerical rank, singular values and null space of an observability matrix ``Q`` (rows × n states).
+    """Numerical rank, singular values and null space of an observability matrix ``Q``.
 
-    ``scales`` as in :func:`analyze` (None: unit-length columns); pass ``scales=1.0`` for the raw singular
-    values of ``Q`` as usually tabulated in papers.
+    Parameters
+    ----------
+    Q : (rows, n) array
+        Observability matrix [measurement per state units].
+    names : sequence of str or None
+        State names.
+    rel_tol : float
+        Rank tolerance relative to the largest singular value [-].
+    scales : float, (n,) array or None
+        As in :func:`analyze` (None: unit-length columns); ``scales=1.0`` gives the raw singular values of ``Q``
+        as usually tabulated in papers [state units].
+    coef_tol : float
+        Coupling coefficients below this count as zero when naming combinations [-].
+
+    Returns
+    -------
+    ObservabilitySVD
+        Rank, singular values and the unobservable combinations in words.
     """
     Q = _as_matrix(Q, "Q")
     n = Q.shape[1]
@@ -625,7 +720,20 @@ def observability_svd(Q, *, names: Sequence[str] | None = None, rel_tol: float =
 # ----------------------------------------------------------------------------------------------------------
 
 def nees(errors, covariance) -> np.ndarray:
-    """Normalized estimation error squared ``eₖᵀ Pₖ⁻¹ eₖ`` for errors (N, n) and P (n, n) or (N, n, n)."""
+    """Normalized estimation error squared ``eₖᵀ Pₖ⁻¹ eₖ``.
+
+    Parameters
+    ----------
+    errors : (N, n) array
+        Estimation errors [parameter units].
+    covariance : (n, n) or (N, n, n) array
+        Their covariance [parameter units²].
+
+    Returns
+    -------
+    (N,) ndarray
+        NEES [-].
+    """
     e = as_float_array(errors, "errors")
     if e.ndim == 1:
         e = e[None, :]
@@ -662,6 +770,13 @@ class NeesResult(Result):
     consistent: bool = field(metadata={"unit": "-"})
 
     def summary(self) -> str:
+        """One line: ANEES, its band and the verdict.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         verdict = "consistent" if self.consistent else (
             "covariance too optimistic" if self.anees > self.upper else "covariance too pessimistic")
         return (f"ANEES {self.anees:.4g} over {self.n_samples} samples of dimension {self.dim}; "
@@ -669,7 +784,20 @@ class NeesResult(Result):
 
 
 def nees_test(errors, covariance, confidence: float = 0.99) -> NeesResult:
-    """Consistency test: N·ANEES ~ χ²(N·n) for independent Gaussian errors with the right covariance."""
+    """Consistency test: N·ANEES ~ χ²(N·n) for independent Gaussian errors with the right covariance.
+
+    Parameters
+    ----------
+    errors, covariance
+        As :func:`nees` [parameter units, parameter units²].
+    confidence : float
+        Two-sided confidence of the band [-].
+
+    Returns
+    -------
+    NeesResult
+        ANEES [-] and its acceptance band.
+    """
     q = nees(errors, covariance)
     dim = np.asarray(errors, dtype=float).shape[-1]
     N = q.size
@@ -684,6 +812,18 @@ def rmse_ratio_band(n_runs: int, confidence: float = 0.99) -> tuple[float, float
 
     N·RMSE²/CRLB ~ χ²(N) (a sum of N squared standard normals), so the ratio lies in
     [√(χ²_{α/2}(N)/N), √(χ²_{1-α/2}(N)/N)] with probability ``confidence``.
+
+    Parameters
+    ----------
+    n_runs : int
+        N.
+    confidence : float
+        Probability of the band [-].
+
+    Returns
+    -------
+    lo, hi : float
+        The band [-].
     """
     if n_runs < 1:
         return float("nan"), float("nan")
@@ -726,9 +866,33 @@ class MonteCarloResult(Result):
     nees: dict = field(default_factory=dict, metadata={"unit": "-"})  # name → NeesResult (if covariances)
 
     def n_success(self, name: str) -> int:
+        """Runs in which estimator ``name`` gave a valid estimate.
+
+        Parameters
+        ----------
+        name : str
+            Estimator name.
+
+        Returns
+        -------
+        int
+            The count.
+        """
         return self.n_runs - int(self.n_failures[name])
 
     def summary(self, confidence: float = 0.99) -> str:
+        """Readable table: bias, RMSE and RMSE/√CRLB per estimator and parameter.
+
+        Parameters
+        ----------
+        confidence : float
+            Confidence of the RMSE/√CRLB band shown [-].
+
+        Returns
+        -------
+        str
+            The table.
+        """
         w = max(9, *(len(s) for s in self.names))
         lines = [f"Monte Carlo: {self.n_runs} runs, seed {self.seed}"]
         for est in self.estimators:
@@ -826,14 +990,35 @@ def monte_carlo(make_data: Callable[[np.random.Generator], Any], estimators: Map
                 names: Sequence[str] | None = None, nees_confidence: float = 0.99) -> MonteCarloResult:
     """Seeded Monte Carlo comparison of estimators against the truth.
 
-    ``make_data(rng) -> data``; ``estimators``: name → ``f(data)`` returning the estimate (n,) or
-    ``(estimate, covariance)`` (then NEES is reported). An exception, a wrong shape or a non-finite
-    estimate counts as a failure (message kept), never aborts the study. ``truth``: true parameters (n,),
-    or None if ``make_data`` returns ``(data, truth)``. Run ``k`` uses the ``k``-th child generator spawned
-    from ``rng`` (same seed → identical results; independent streams per run; every estimator of a run
-    sees the same data). ``crlb``: CRLB covariance (n, n), its diagonal (n,) of variances, or an
-    :class:`ObservabilityReport` (its ``crlb_std``). ``progress``: True shows the core progress meter when
-    stderr is a terminal. Errors are estimate − truth; RMSE per parameter includes the bias.
+    An exception, a wrong shape or a non-finite estimate counts as a failure (message kept), never aborts the
+    study. Run ``k`` uses the ``k``-th child generator spawned from ``rng`` (same seed → identical results;
+    independent streams per run; every estimator of a run sees the same data).
+
+    Parameters
+    ----------
+    make_data : callable
+        ``make_data(rng) -> data``, or ``(data, truth)`` when ``truth`` is None.
+    estimators : mapping of str to callable
+        Name → ``f(data)`` returning the estimate (n,) or ``(estimate, covariance)`` (then NEES is reported).
+    truth : (n,) array or None
+        True parameters [parameter units].
+    n_runs : int
+        Number of runs.
+    rng : int, Generator or None
+        Seed or generator.
+    progress : bool
+        Show the core progress meter when stderr is a terminal.
+    crlb : (n, n) array, (n,) array, ObservabilityReport or None
+        CRLB covariance [parameter units²], its diagonal of variances, or a report (its ``crlb_std``).
+    names : sequence of str or None
+        Parameter names.
+    nees_confidence : float
+        Confidence of the NEES band [-].
+
+    Returns
+    -------
+    MonteCarloResult
+        Per estimator: errors (estimate − truth), bias, RMSE (includes the bias) [parameter units], failures.
     """
     if not isinstance(n_runs, (int, np.integer)) or n_runs < 1:
         raise OptinavError(f"n_runs must be a positive integer, got {n_runs!r}", "pass e.g. n_runs=500")

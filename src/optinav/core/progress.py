@@ -23,13 +23,38 @@ _LOOPS: list = []  # open loop bars of progress()
 
 
 def progress_enabled() -> bool:
-    """Whether progress output is wanted by default."""
+    """Whether progress output is wanted by default (stderr is a terminal and ``OPTINAV_QUIET`` is unset).
+
+    Returns
+    -------
+    bool
+        True to show bars.
+    """
     return not os.environ.get("OPTINAV_QUIET") and sys.stderr.isatty()
 
 
 def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
              enabled: bool | None = None, min_interval: float = 0.2) -> Iterator[T]:
-    """Iterate over ``iterable`` behind a progress bar (``desc  k/total  elapsed  eta``) on stderr."""
+    """Iterate over ``iterable`` behind a progress bar (``desc  k/total  elapsed  eta``) on stderr.
+
+    Parameters
+    ----------
+    iterable : iterable
+        The items.
+    total : int or None
+        Their number, when ``len`` does not tell.
+    desc : str
+        Label.
+    enabled : bool or None
+        Show the bar; None: :func:`progress_enabled`.
+    min_interval : float
+        Shortest time between redraws [s].
+
+    Yields
+    ------
+    object
+        The items of ``iterable``.
+    """
     show = progress_enabled() if enabled is None else enabled
     if not show:
         yield from iterable
@@ -46,7 +71,22 @@ def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
 
 @contextlib.contextmanager
 def task(desc: str, total: int | None = None, enabled: bool | None = None):
-    """A bar for one job of named steps; ``step(label)`` inside advances it (see the module docstring)."""
+    """A bar for one job of named steps; ``step(label)`` inside advances it (see the module docstring).
+
+    Parameters
+    ----------
+    desc : str
+        Label.
+    total : int or None
+        Number of steps, if known.
+    enabled : bool or None
+        Show the bar; None: :func:`progress_enabled`.
+
+    Yields
+    ------
+    tqdm
+        The bar.
+    """
     show = progress_enabled() if enabled is None else enabled
     bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=not show, dynamic_ncols=True,
                bar_format="{desc}: {n_fmt} steps, {elapsed}{postfix}" if total is None else None)
@@ -59,8 +99,22 @@ def task(desc: str, total: int | None = None, enabled: bool | None = None):
 
 
 def progress_blocks(blocks, desc: str = "", enabled: bool | None = None) -> Iterator:
-    """Iterate over the blocks of a streamed file (an iterable with ``size`` and ``position`` in bytes, such as
-    :func:`optinav.io.iter_imu`) behind a bar of the bytes read (``desc  MB/MB  elapsed  eta``) on stderr."""
+    """Iterate over the blocks of a streamed file behind a bar of the bytes read (``desc  MB/MB  elapsed  eta``).
+
+    Parameters
+    ----------
+    blocks : iterable
+        With ``size`` and ``position`` in bytes, such as :func:`optinav.io.iter_imu`.
+    desc : str
+        Label.
+    enabled : bool or None
+        Show the bar; None: :func:`progress_enabled`.
+
+    Yields
+    ------
+    object
+        The blocks.
+    """
     show = progress_enabled() if enabled is None else enabled
     if not show:
         yield from blocks
@@ -77,13 +131,25 @@ def progress_blocks(blocks, desc: str = "", enabled: bool | None = None) -> Iter
 
 
 def in_task() -> bool:
-    """Whether a task is open and no loop bar runs inside it: library loops (GA/PSO generations) show a bar
-    only then, i.e. from the CLI and not once per run of an outer loop."""
+    """Whether a task is open and no loop bar runs inside it: library loops (GA/PSO generations) show a bar only then,
+    i.e. from the CLI and not once per run of an outer loop.
+
+    Returns
+    -------
+    bool
+        True inside a task without a loop bar.
+    """
     return bool(_TASKS) and not _LOOPS
 
 
 def step(label: str) -> None:
-    """Mark the start of step ``label`` of the innermost open task (no-op outside a task)."""
+    """Mark the start of step ``label`` of the innermost open task (no-op outside a task).
+
+    Parameters
+    ----------
+    label : str
+        The step's name.
+    """
     if _TASKS:
         bar = _TASKS[-1]
         bar.set_postfix_str(label, refresh=False)

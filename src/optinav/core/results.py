@@ -29,7 +29,22 @@ _LEGACY: dict[tuple[str, int], tuple[type["Result"], Any]] = {}
 
 
 def dump_json(data: dict, path: str | Path | None = None, *, indent: int = 2) -> str:
-    """``data`` as strict JSON text (no NaN); also written to ``path`` atomically when given."""
+    """``data`` as strict JSON text (no NaN); also written to ``path`` atomically when given.
+
+    Parameters
+    ----------
+    data : dict
+        Plain JSON types.
+    path : str, Path or None
+        Output file.
+    indent : int
+        Indentation.
+
+    Returns
+    -------
+    str
+        The JSON text.
+    """
     text = json.dumps(data, indent=indent, allow_nan=False)
     if path is not None:
         from optinav.core.files import write_text
@@ -39,8 +54,21 @@ def dump_json(data: dict, path: str | Path | None = None, *, indent: int = 2) ->
 
 
 def plain(value: Any) -> Any:
-    """``value`` as plain JSON types, for results with their own flat layout: arrays → lists, numpy scalars →
-    Python numbers, NaN/inf → ``None`` (JSON has no NaN), nested results → their ``to_dict()``."""
+    """``value`` as plain JSON types, for results with their own flat layout.
+
+    Arrays → lists, numpy scalars → Python numbers, NaN/inf → ``None`` (JSON has no NaN), nested results →
+    their ``to_dict()``.
+
+    Parameters
+    ----------
+    value : Any
+        A value of a result field.
+
+    Returns
+    -------
+    Any
+        The same value in plain JSON types (units unchanged).
+    """
     if isinstance(value, np.ndarray):
         return plain(value.tolist())
     if isinstance(value, (np.floating, float)):
@@ -105,10 +133,23 @@ class Result:
             _REGISTRY[cls.SCHEMA] = cls
 
     def units(self) -> dict[str, str]:
-        """Field name → unit string ('' for dimensionless, '-' for non-numeric)."""
+        """Field name → unit string ('' for dimensionless, '-' for non-numeric).
+
+        Returns
+        -------
+        dict of str to str
+            The units.
+        """
         return {f.name: f.metadata.get("unit", "-") for f in dataclasses.fields(self)}
 
     def to_dict(self) -> dict:
+        """The versioned layout ``{"schema", "version", "optinav_version", "fields": {name: {"value", "unit"}}}``.
+
+        Returns
+        -------
+        dict
+            Plain JSON types; every field with its unit.
+        """
         from optinav import __version__
 
         fields = {}
@@ -118,11 +159,37 @@ class Result:
                 "fields": fields}
 
     def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
-        """Serialize; also write to ``path`` when given (atomically)."""
+        """Serialize; also write to ``path`` when given (atomically).
+
+        Parameters
+        ----------
+        path : str, Path or None
+            Output file.
+        indent : int
+            Indentation.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return dump_json(self.to_dict(), path, indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict) -> "Result":
+        """Rebuild a result from :meth:`to_dict`'s layout, or from an older layout registered with
+        :func:`register_legacy`; the schema picks the class.
+
+        Parameters
+        ----------
+        data : dict
+            The parsed JSON.
+
+        Returns
+        -------
+        Result
+            The result (a subclass of ``cls``).
+        """
         if isinstance(data, dict) and isinstance(data.get("schema"), str):
             if data["schema"] not in _REGISTRY and (data["schema"], data.get("version")) not in _LEGACY:
                 _import_systems()
@@ -168,7 +235,18 @@ class Result:
 
     @classmethod
     def from_json(cls, source: str | Path) -> "Result":
-        """Load from a path or a JSON string."""
+        """Load from a path or a JSON string (see :meth:`from_dict`).
+
+        Parameters
+        ----------
+        source : str or Path
+            A file or the JSON text.
+
+        Returns
+        -------
+        Result
+            The result.
+        """
         from optinav.core.files import parse_json, read_text
 
         text, src = str(source), "result file"
@@ -226,11 +304,30 @@ class Parameter:
     reason: str | None = None
 
     def to_dict(self) -> dict:
+        """The parameter as plain JSON types.
+
+        Returns
+        -------
+        dict
+            ``{value, std, crlb_std, unit, observable, reason}`` (values in ``unit``).
+        """
         return {"value": plain(self.value), "std": plain(self.std), "crlb_std": plain(self.crlb_std),
                 "unit": self.unit, "observable": bool(self.observable), "reason": self.reason}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Parameter":
+        """A parameter from :meth:`to_dict`'s layout.
+
+        Parameters
+        ----------
+        d : dict
+            ``{value, unit, std?, crlb_std?, observable?, reason?}``.
+
+        Returns
+        -------
+        Parameter
+            The parameter.
+        """
         if not isinstance(d, dict) or "value" not in d or "unit" not in d:
             raise OptinavError("a parameter entry has no value/unit", "pass an unmodified optinav file")
         return cls(value=_array_or_none(d["value"]), unit=str(d["unit"]), std=_array_or_none(d.get("std")),
@@ -239,8 +336,25 @@ class Parameter:
 
 
 def gate(name: str, value: float, limit: float, *, unit: str = "", kind: str = "max") -> dict:
-    """A quality gate's outcome ``{name, value, limit, unit, kind, passed}``: passed when ``value <= limit``
-    (``kind="max"``), ``value >= limit`` (``"min"``) or, for ``kind="true"``, when ``value`` is true."""
+    """A quality gate's outcome: passed when ``value <= limit`` (``kind="max"``), ``value >= limit`` (``"min"``) or,
+    for ``kind="true"``, when ``value`` is true.
+
+    Parameters
+    ----------
+    name : str
+        What is checked.
+    value, limit : float
+        The measured value and its limit [unit].
+    unit : str
+        Their unit.
+    kind : str
+        ``"max"``, ``"min"`` or ``"true"``.
+
+    Returns
+    -------
+    dict
+        ``{name, value, limit, unit, kind, passed}``.
+    """
     v = float(value)
     if kind == "true":
         passed = bool(value)
@@ -252,8 +366,22 @@ def gate(name: str, value: float, limit: float, *, unit: str = "", kind: str = "
 
 def convergence(converged: bool | None, *, iterations: int | None = None, evaluations: int | None = None,
                 message: str = "") -> dict:
-    """How an iterative fit ended: ``converged`` (None for a closed form or a filter, which do not iterate),
-    iterations and function evaluations where counted, the optimizer's message."""
+    """How an iterative fit ended.
+
+    Parameters
+    ----------
+    converged : bool or None
+        None for a closed form or a filter, which do not iterate.
+    iterations, evaluations : int or None
+        Counts where known.
+    message : str
+        The optimizer's message.
+
+    Returns
+    -------
+    dict
+        ``{converged, iterations, evaluations, message}``.
+    """
     return {"converged": None if converged is None else bool(converged),
             "iterations": None if iterations is None else int(iterations),
             "evaluations": None if evaluations is None else int(evaluations), "message": str(message)}
@@ -284,6 +412,14 @@ class Estimate(Result):
         raise NotImplementedError
 
     def to_dict(self) -> dict:
+        """The common result layout: schema, system, kind, method, timing, convergence, quality gates, parameters
+        (:meth:`parameters`) and the class's fields.
+
+        Returns
+        -------
+        dict
+            Plain JSON types.
+        """
         d = super().to_dict()
         return {"schema": d["schema"], "version": d["version"], "optinav_version": d["optinav_version"],
                 "system": self.SYSTEM, "kind": self.KIND, "method": plain(getattr(self, "method", "")),
@@ -292,18 +428,50 @@ class Estimate(Result):
                 "parameters": {n: p.to_dict() for n, p in self.parameters().items()}, "fields": d["fields"]}
 
     def unobservable(self) -> dict[str, str]:
-        """Name → reason of every parameter the data cannot determine."""
+        """Parameters the data cannot determine.
+
+        Returns
+        -------
+        dict of str to str
+            Name → reason.
+        """
         return {n: p.reason or "" for n, p in self.parameters().items() if not p.observable}
 
 
 def register_legacy(cls: type[Result], schema: str, version: int, convert) -> None:
-    """Let ``cls.from_json`` read files of an older ``schema``/``version``: ``convert(dict) -> kwargs``."""
+    """Let ``cls.from_json`` read files of an older ``schema``/``version``.
+
+    Parameters
+    ----------
+    cls : type
+        The result class.
+    schema : str
+        The old schema name.
+    version : int
+        The old version.
+    convert : callable
+        ``convert(dict) -> kwargs`` of ``cls``.
+    """
     _LEGACY[(schema, version)] = (cls, convert)
 
 
 def flat_kwargs(cls: type[Result], data: dict, rename: dict | None = None) -> dict:
-    """Constructor kwargs of ``cls`` from an old flat layout ``{schema, version, field: value, …}`` (JSON null
-    of a float field → NaN); ``rename``: old key → field name."""
+    """Constructor kwargs of ``cls`` from an old flat layout ``{schema, version, field: value, …}``.
+
+    Parameters
+    ----------
+    cls : type
+        The result class.
+    data : dict
+        The old file (JSON null of a float field → NaN).
+    rename : dict or None
+        Old key → field name.
+
+    Returns
+    -------
+    dict
+        The kwargs.
+    """
     rename = rename or {}
     names = {f.name: f for f in dataclasses.fields(cls)}
     kwargs = {}
@@ -316,8 +484,23 @@ def flat_kwargs(cls: type[Result], data: dict, rename: dict | None = None) -> di
 
 
 def nested_kwargs(cls: type[Result], data: dict, rename: dict | None = None) -> dict:
-    """Constructor kwargs of ``cls`` from an older version of the nested layout ``{schema, version, fields:
-    {name: {value, unit}}}``; ``rename``: old field name → new. Fields ``cls`` no longer has are dropped."""
+    """Constructor kwargs of ``cls`` from an older version of the nested layout ``{schema, version, fields: {name:
+    {value, unit}}}``; fields ``cls`` no longer has are dropped.
+
+    Parameters
+    ----------
+    cls : type
+        The result class.
+    data : dict
+        The old file.
+    rename : dict or None
+        Old field name → new.
+
+    Returns
+    -------
+    dict
+        The kwargs.
+    """
     rename = rename or {}
     names = {f.name for f in dataclasses.fields(cls)}
     out = {}
@@ -350,6 +533,13 @@ class Truth:
         return f"optinav.{self.system}.truth"
 
     def to_dict(self) -> dict:
+        """The truth layout ``{schema, version, optinav_version, system, parameters, **info}``.
+
+        Returns
+        -------
+        dict
+            Plain JSON types (parameter values in their units).
+        """
         from optinav import __version__
 
         return {"schema": self.schema, "version": self.VERSION, "optinav_version": __version__,
@@ -357,11 +547,35 @@ class Truth:
                 **plain(self.info)}
 
     def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
-        """Serialize; also write to ``path`` when given (atomically)."""
+        """Serialize; also write to ``path`` when given (atomically).
+
+        Parameters
+        ----------
+        path, indent
+            As :meth:`Result.to_json`.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return dump_json(self.to_dict(), path, indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict) -> "Truth":
+        """A truth from :meth:`to_dict`'s layout, or from an older system truth registered with
+        :func:`register_truth_legacy`.
+
+        Parameters
+        ----------
+        data : dict
+            The parsed JSON.
+
+        Returns
+        -------
+        Truth
+            The truth.
+        """
         schema = data.get("schema") if isinstance(data, dict) else None
         if not isinstance(schema, str):
             raise OptinavError("not an optinav truth file (no schema)", "pass a STEM.truth.json optinav wrote")
@@ -382,14 +596,37 @@ class Truth:
 
     @classmethod
     def from_json(cls, source) -> "Truth":
+        """Load a truth file (see :meth:`from_dict`).
+
+        Parameters
+        ----------
+        source : str or Path
+            The file.
+
+        Returns
+        -------
+        Truth
+            The truth.
+        """
         from optinav.core.files import parse_json, read_text
 
         text = read_text(source, "truth file")
         return cls.from_dict(parse_json(text, f"truth file {source}", "pass an unmodified truth file"))
 
     def compare(self, result: Estimate) -> dict[str, dict]:
-        """Field by field: for every truth parameter the result estimates (observable, finite value),
-        ``{error: estimate − truth, std, crlb_std, z: |error| / std (NaN without std)}``; arrays element-wise."""
+        """Field by field: every truth parameter the result estimates (observable, finite value).
+
+        Parameters
+        ----------
+        result : Estimate
+            The estimate of the same system.
+
+        Returns
+        -------
+        dict of str to dict
+            Name → ``{error: estimate − truth, std, crlb_std [parameter unit], z: |error| / std (NaN without std)}``;
+            arrays element-wise.
+        """
         out = {}
         est = result.parameters()
         for name, tp in self.parameters.items():
@@ -411,5 +648,15 @@ class Truth:
 
 
 def register_truth_legacy(system: str, schema: str, convert) -> None:
-    """Read truth files of an older optinav (``schema``) as ``system`` truth: ``convert(dict) -> parameters``."""
+    """Read truth files of an older optinav (``schema``) as ``system`` truth.
+
+    Parameters
+    ----------
+    system : str
+        The system.
+    schema : str
+        The old schema name.
+    convert : callable
+        ``convert(dict) -> {name: Parameter}``.
+    """
     _TRUTH_LEGACY[system] = (schema, convert)

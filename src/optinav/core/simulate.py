@@ -103,7 +103,18 @@ class ImuTruth(Result):
         return float(1.0 / np.median(np.diff(self.t)))
 
     def segment(self, label: int) -> np.ndarray:
-        """Indices of the epochs labelled ``label``."""
+        """Indices of the epochs labelled ``label``.
+
+        Parameters
+        ----------
+        label : int
+            Segment label (index into ``segment_names``).
+
+        Returns
+        -------
+        int ndarray
+            Epoch indices.
+        """
         return np.flatnonzero(self.labels == label)
 
 
@@ -171,17 +182,32 @@ _PROFILES = ("cosine", "trapezoid", "quintic")
 
 
 def rate_profile(profile: str, tau, duration: float, angle: float, accel_time: float | None = None):
-    """Angle, rate and angular acceleration of a smooth move by ``angle`` (rad) in ``duration`` (s).
+    """Angle, rate and angular acceleration of a smooth move by ``angle`` in ``duration``.
 
-    ``tau`` (s) is the time since the move started (clipped to [0, duration]). Profiles, all starting and
-    ending at zero rate and integrating to exactly ``angle``:
+    Profiles, all starting and ending at zero rate and integrating to exactly ``angle``:
 
     * ``"cosine"``: raised-cosine rate ``θ̇ = (A/T)(1 − cos 2πτ/T)``, peak ``2A/T``;
-    * ``"trapezoid"``: constant angular acceleration for ``accel_time`` (default T/4), constant rate
-      ``A/(T − T_a)``, constant deceleration;
+    * ``"trapezoid"``: constant angular acceleration for ``accel_time``, constant rate ``A/(T − T_a)``,
+      constant deceleration;
     * ``"quintic"``: minimum-jerk ``θ = A(10u³ − 15u⁴ + 6u⁵)``, u = τ/T (zero rate and acceleration at both ends).
 
-    Returns ``(θ, θ̇, θ̈)`` arrays shaped like ``tau``.
+    Parameters
+    ----------
+    profile : str
+        ``"cosine"``, ``"trapezoid"`` or ``"quintic"``.
+    tau : float or array
+        Time since the move started [s] (clipped to [0, duration]).
+    duration : float
+        Length T [s].
+    angle : float
+        Total angle A [rad].
+    accel_time : float or None
+        Trapezoid acceleration time T_a [s]; None: T/4.
+
+    Returns
+    -------
+    theta, theta_dot, theta_ddot : ndarray
+        Shaped like ``tau`` [rad, rad/s, rad/s^2].
     """
     T, A = float(duration), float(angle)
     tau = np.clip(np.asarray(tau, dtype=float), 0.0, T)
@@ -340,15 +366,32 @@ class _SegmentAngle:
 def chain_attitude(fixed, axes, theta, theta_dot, theta_ddot=None):
     """Attitude and body rate of a gimbal chain ``C = C_0 R_1(θ_1) C_1 R_2(θ_2) C_2 … R_k(θ_k) C_k``.
 
-    ``fixed``: k+1 constant DCMs (3,3) (exact rotations: build small misalignments with ``rot_axis`` or
-    ``dcm_from_rotvec``, not ``I − [θ×]``); ``axes``: k unit axes, ``R_i(θ) =
-    rot_axis(axes[i], θ)``; ``theta``, ``theta_dot``, ``theta_ddot``: (k, M) joint angles (rad), rates (rad/s)
-    and accelerations (rad/s²) at M times. Returns ``(C, ω, ω̇)``: C (M,3,3), the body rate ω (M,3) of the
-    chain's last frame relative to the frame ``C`` maps into, and its derivative ω̇ (M,3).
-
     With ``B_i = C_i R_{i+1} C_{i+1} … C_k`` (everything after joint i), ``Ċ = C [ω×]`` gives
     ``ω = Σ_i θ̇_i B_iᵀ a_i``; differentiating, ``ω̇ = Σ_i (θ̈_i B_iᵀ a_i − θ̇_i ω_{B_i} × B_iᵀ a_i)`` where
     ``ω_{B_i} = Σ_{j>i} θ̇_j B_jᵀ a_j`` is the rate of ``B_i`` (so ``d(B_iᵀ a)/dt = −ω_{B_i} × B_iᵀ a``).
+
+    Parameters
+    ----------
+    fixed : sequence of k+1 (3, 3) array
+        Constant DCMs [-] (exact rotations: build small misalignments with ``rot_axis`` or ``dcm_from_rotvec``,
+        not ``I − [θ×]``).
+    axes : sequence of k (3,) array
+        Unit joint axes [-], ``R_i(θ) = rot_axis(axes[i], θ)``.
+    theta : (k, M) array
+        Joint angles [rad].
+    theta_dot : (k, M) array
+        Joint rates [rad/s].
+    theta_ddot : (k, M) array or None
+        Joint accelerations [rad/s^2].
+
+    Returns
+    -------
+    C : (M, 3, 3) ndarray
+        Chain attitude [-].
+    omega : (M, 3) ndarray
+        Body rate of the chain's last frame relative to the frame ``C`` maps into [rad/s].
+    omega_dot : (M, 3) ndarray
+        Its derivative [rad/s^2].
     """
     k = len(axes)
     if len(fixed) != k + 1:
@@ -733,8 +776,19 @@ _DEFAULT_NORTH = {0: "y", 1: "z", 2: "y"}
 def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
     """``C_b^n`` of a level pose: body axis ``up`` points up, body axis ``north`` points north.
 
-    Axes as names (``"x"``, ``"-z"``, …) or body vectors. Default ``north``: ``y`` when x or z is up, ``z`` when
-    y is up. The two axes must be perpendicular.
+    Parameters
+    ----------
+    up : str or (3,) array
+        Body axis name (``"x"``, ``"-z"``, …) or body vector [-].
+    north : str, (3,) array or None
+        Body axis pointing north, perpendicular to ``up``; None: ``y`` when x or z is up, ``z`` when y is up.
+    frame : str
+        ``"enu"`` or ``"ned"``.
+
+    Returns
+    -------
+    (3, 3) ndarray
+        ``C_b^n`` [-].
     """
     frame = frame_name(frame)
     u = unit_axis(up, "up")
@@ -751,7 +805,18 @@ def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
 
 
 def six_positions(frame=CORE_FRAME) -> np.ndarray:
-    """The standard six-position set: +x, −x, +y, −y, +z, −z up (default north axes), shape (6, 3, 3)."""
+    """The standard six-position set: +x, −x, +y, −y, +z, −z up (default north axes).
+
+    Parameters
+    ----------
+    frame : str
+        ``"enu"`` or ``"ned"``.
+
+    Returns
+    -------
+    (6, 3, 3) ndarray
+        ``C_b^n`` [-].
+    """
     return np.stack([orientation_from_up(a, frame=frame) for a in ("x", "-x", "y", "-y", "z", "-z")])
 
 
@@ -764,6 +829,18 @@ def describe_pose(C_b_n, frame=CORE_FRAME) -> str:
     """Words a technician can follow: the body axis up/down, any tilt, and which axis faces north.
 
     E.g. ``"x up, y north"``, ``"z down, tilted 45° about y, x east"``.
+
+    Parameters
+    ----------
+    C_b_n : (3, 3) array
+        Attitude [-].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+
+    Returns
+    -------
+    str
+        The description.
     """
     frame = frame_name(frame)
     c = _to_enu(np.asarray(C_b_n, float), frame)
@@ -806,13 +883,46 @@ def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, f
                      gravity=None) -> ImuTruth:
     """Static multi-position test: dwell at each pose, optionally turning smoothly between poses.
 
-    ``orientations``: (P, 3, 3) attitudes ``C_b^n`` in ``frame`` (build them with :func:`orientation_from_up`,
-    :func:`six_positions` or ``rotations.dcm_from_euler``). ``dwell``: s, scalar or (P,). ``rate_hz``: Hz.
-    ``lat``, ``lon`` rad, ``height_m`` m. ``transition``: None (pose changes instantly between two epochs — the
-    increments across a jump are those of the piecewise-constant attitude, so prefer a transition), or a duration
-    in s (scalar or (P−1,)) of a shortest-arc rotation about a fixed body axis with a zero-rate-at-both-ends
-    ``transition_profile`` (see :func:`rate_profile`). Epochs ``t`` (s from the start) override ``rate_hz``.
     Labels are the position index, -1 in transitions; ``segment_names`` describe each pose in words.
+
+    Parameters
+    ----------
+    orientations : (P, 3, 3) array
+        Attitudes ``C_b^n`` [-] in ``frame`` (:func:`orientation_from_up`, :func:`six_positions` or
+        ``rotations.dcm_from_euler``).
+    dwell : float or (P,) array
+        Dwell per pose [s].
+    rate_hz : float
+        Sample rate [Hz].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    lon : float
+        Longitude [rad].
+    frame : str
+        ``"enu"`` or ``"ned"`` (module docstring).
+    earth : str or EarthConstants
+        Constant set, or ``"none"`` for an inertial navigation frame.
+    transition : float, (P−1,) array or None
+        Duration of a shortest-arc rotation about a fixed body axis between poses [s]; None: the pose changes
+        instantly between two epochs (the increments across a jump are those of the piecewise-constant attitude,
+        so prefer a transition).
+    transition_profile : str
+        Zero-rate-at-both-ends profile (:func:`rate_profile`).
+    names : sequence of str or None
+        Pose names; None: :func:`describe_pose`.
+    t : (N+1,) array or None
+        Epochs [s from the start], overriding ``rate_hz``.
+    lever_arm : (3,) array or None
+        Body position of the sensor relative to the reference point [m] (f adds ω̇×r + ω×(ω×r)).
+    gravity : (3,) array or None
+        Gravity g^n [m/s^2] in ``frame`` for ``earth="none"``; None: no gravity there.
+
+    Returns
+    -------
+    ImuTruth
+        Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
     rate, h = rate_hz, height_m
     frame, earth = frame_name(frame), _check_earth(earth)
@@ -901,9 +1011,38 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRA
               lever_arm=None, gravity=None) -> ImuTruth:
     """A turntable / gimbal schedule of :class:`Rest` and :class:`Rotate` segments on a static base.
 
-    ``initial``: ``C_b^n`` at t = 0 (default identity) in ``frame``. Nav-frame rotation axes are in ``frame``.
     Labels are the segment index; ``segment_names`` give each segment in words (the pose at rest, the rotation
     otherwise). For two axes turning at once use :func:`gimbal`.
+
+    Parameters
+    ----------
+    schedule : sequence of Rest and Rotate
+        The segments (nav-frame rotation axes in ``frame``).
+    rate_hz : float
+        Sample rate [Hz].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    initial : (3, 3) array or None
+        ``C_b^n`` at t = 0 [-] in ``frame``; None: identity.
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set, or ``"none"``.
+    lon : float
+        Longitude [rad].
+    t : (N+1,) array or None
+        Epochs [s], overriding ``rate_hz``.
+    lever_arm : (3,) array or None
+        Body position of the sensor relative to the reference point [m] (f adds ω̇×r + ω×(ω×r)).
+    gravity : (3,) array or None
+        Gravity g^n [m/s^2] in ``frame`` for ``earth="none"``; None: no gravity there.
+
+    Returns
+    -------
+    ImuTruth
+        Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
     rate, h = rate_hz, height_m
     frame, earth = frame_name(frame), _check_earth(earth)
@@ -953,14 +1092,49 @@ def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE
            t=None, breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
     """Exact truth of a gimbal chain ``C_b^n(t) = C_0 R_1(θ_1(t)) C_1 … R_k(θ_k(t)) C_k`` on a static base.
 
-    ``fixed``: k+1 constant DCMs (``C_0`` maps into the navigation frame ``frame``); ``axes``: k joint axes
-    (names or vectors, in the frame after the preceding fixed DCM); ``angles``: k angle functions — an
-    :class:`AxisSchedule`, a constant (rad), or a callable ``t → (θ, θ̇, θ̈)`` (rad, rad/s, rad/s²; θ̈ only for
-    lever arms). ``duration`` s; ``rate_hz`` Hz or epochs ``t``. For plain callables give ``breakpoints`` (times
-    where θ̈ jumps) and ``max_step`` (s), the longest quadrature panel: short enough that every angle function is
-    smooth on it and the chain turns by < 1 rad (default: the median epoch spacing, shortened to 1/(1.5 max Σ|θ̇|)
-    with the rates sampled at the epochs). Labels: rest intervals (all schedules at rest) are numbered 0, 1, …; motion
-    is -1 (with plain callables the whole run is segment 0).
+    Labels: rest intervals (all schedules at rest) are numbered 0, 1, …; motion is -1 (with plain callables the
+    whole run is segment 0).
+
+    Parameters
+    ----------
+    fixed : sequence of k+1 (3, 3) array
+        Constant DCMs [-] (``C_0`` maps into the navigation frame ``frame``).
+    axes : sequence of k str or (3,) array
+        Joint axes (names or vectors [-], in the frame after the preceding fixed DCM).
+    angles : sequence of k
+        An :class:`AxisSchedule`, a constant [rad], or a callable ``t → (θ, θ̇, θ̈)`` [rad, rad/s, rad/s^2]
+        (θ̈ only for lever arms).
+    duration : float
+        Length [s].
+    rate_hz : float
+        Sample rate [Hz] (or epochs ``t``).
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set, or ``"none"``.
+    lon : float
+        Longitude [rad].
+    t : (N+1,) array or None
+        Epochs [s].
+    breakpoints : sequence of float
+        For plain callables: times where θ̈ jumps [s].
+    max_step : float or None
+        Longest quadrature panel [s]: short enough that every angle function is smooth on it and the chain turns
+        by < 1 rad (default: the median epoch spacing, shortened to 1/(1.5 max Σ|θ̇|) with the rates sampled at
+        the epochs).
+    lever_arm : (3,) array or None
+        Body position of the sensor relative to the reference point [m] (f adds ω̇×r + ω×(ω×r)).
+    gravity : (3,) array or None
+        Gravity g^n [m/s^2] in ``frame`` for ``earth="none"``; None: no gravity there.
+
+    Returns
+    -------
+    ImuTruth
+        Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
     rate, h = rate_hz, height_m
     frame, earth = frame_name(frame), _check_earth(earth)
@@ -1032,8 +1206,24 @@ def coning_attitude(half_angle, frequency, t, phase=0.0) -> np.ndarray:
     """Classic coning attitude ``q(t)`` of the body relative to the reference frame (Savage §7.1.1).
 
     The body turns by the cone half-angle β about the reference-frame axis ``u(t) = [cos p, sin p, 0]``,
-    ``p = Ωt + phase``, Ω = 2π·frequency: ``q = [cos(β/2), sin(β/2) cos p, sin(β/2) sin p, 0]``, so the body
-    z axis sweeps a cone of half-angle β about the reference z axis.
+    ``p = Ωt + phase``, Ω = 2π·frequency: ``q = [cos(β/2), sin(β/2) cos p, sin(β/2) sin p, 0]``, so the body z
+    axis sweeps a cone of half-angle β about the reference z axis.
+
+    Parameters
+    ----------
+    half_angle : float
+        Cone half-angle β [rad].
+    frequency : float
+        Coning frequency Ω/2π [Hz].
+    t : float or array
+        Times [s].
+    phase : float
+        Phase [rad].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        q [w, x, y, z] [-].
     """
     p = 2 * np.pi * frequency * np.asarray(t, float) + phase
     c, s = math.cos(half_angle / 2), math.sin(half_angle / 2)
@@ -1041,10 +1231,20 @@ def coning_attitude(half_angle, frequency, t, phase=0.0) -> np.ndarray:
 
 
 def coning_rate(half_angle, frequency, t, phase=0.0) -> np.ndarray:
-    """Body rate of classic coning, ``ω = 2 q* ⊗ q̇`` = ``Ω[−sin β sin p, sin β cos p, −(1 − cos β)]`` (rad/s).
+    """Body rate of classic coning, ``ω = 2 q* ⊗ q̇`` = ``Ω[−sin β sin p, sin β cos p, −(1 − cos β)]``.
 
     Derivation: ``q̇ = [0, sin(β/2) u̇]`` with ``u·u̇ = 0``, ``u × u̇ = Ω e_z``, hence
     ``ω = 2 (cos(β/2) sin(β/2) u̇ − sin²(β/2) Ω e_z)``.
+
+    Parameters
+    ----------
+    half_angle, frequency, t, phase
+        As :func:`coning_attitude` [rad, Hz, s, rad].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ω [rad/s].
     """
     om = 2 * np.pi * frequency
     p = om * np.asarray(t, float) + phase
@@ -1054,7 +1254,20 @@ def coning_rate(half_angle, frequency, t, phase=0.0) -> np.ndarray:
 
 def coning_increment(half_angle, frequency, t0, t1, phase=0.0) -> np.ndarray:
     """Closed-form ``Δθ = ∫_{t0}^{t1} ω dt`` of classic coning:
-    ``[sin β (cos p1 − cos p0), sin β (sin p1 − sin p0), −Ω (1 − cos β)(t1 − t0)]``."""
+    ``[sin β (cos p1 − cos p0), sin β (sin p1 − sin p0), −Ω (1 − cos β)(t1 − t0)]``.
+
+    Parameters
+    ----------
+    half_angle, frequency, phase
+        As :func:`coning_attitude` [rad, Hz, rad].
+    t0, t1 : float or array
+        Interval ends [s].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        Δθ [rad].
+    """
     om = 2 * np.pi * frequency
     t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
     p0, p1 = om * t0 + phase, om * t1 + phase
@@ -1063,7 +1276,7 @@ def coning_increment(half_angle, frequency, t0, t1, phase=0.0) -> np.ndarray:
 
 
 def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndarray:
-    """Closed form of ``½ ∫_{t0}^{t1} α(t) × ω(t) dt``, ``α(t) = ∫_{t0}^{t} ω``, for classic coning (rad).
+    """Closed form of ``½ ∫_{t0}^{t1} α(t) × ω(t) dt``, ``α(t) = ∫_{t0}^{t} ω``, for classic coning.
 
     This is the second term of the Bortz rotation-vector series that summing Δθ omits (Savage §7.1.1,
     Ignagni 1990). With h = t1 − t0, p_i = Ω t_i + phase, s = sin β, v = 1 − cos β:
@@ -1071,6 +1284,18 @@ def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndar
     * z: ``½ s² (Ωh − sin Ωh)`` — the classic coning drift, constant for every interval of equal length;
     * x: ``½ Ω v s [2 (cos p1 − cos p0)/Ω + h (sin p0 + sin p1)]``;
     * y: ``½ Ω v s [2 (sin p1 − sin p0)/Ω − h (cos p0 + cos p1)]``.
+
+    Parameters
+    ----------
+    half_angle, frequency, phase
+        As :func:`coning_attitude` [rad, Hz, rad].
+    t0, t1 : float or array
+        Interval ends [s].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        The term [rad].
     """
     om = 2 * np.pi * frequency
     t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
@@ -1087,11 +1312,46 @@ def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame=CORE
            initial=None, phase=0.0, gravity=None, t=None, lever_arm=None) -> ImuTruth:
     """Classic coning motion with closed-form attitude, rate and increments (Savage, Strapdown Analytics §7.1.1).
 
-    ``C_b^n(t) = C_0 · C(q_cone(t))`` with :func:`coning_attitude` (half-angle β = ``half_angle`` rad,
-    ``frequency`` Hz, ``phase`` rad) and ``C_0 = initial`` (default identity). ``ω_nb^b`` is :func:`coning_rate`
-    and its increments :func:`coning_increment` (exact). With ``earth="none"`` (default) the navigation frame is
-    inertial and, unless ``gravity`` g^n is given, the specific force is zero; with an Earth model the base is
-    static at (lat, lon, h) and the Earth-rate part of ``dtheta`` and ``dv`` come from quadrature.
+    ``C_b^n(t) = C_0 · C(q_cone(t))`` with :func:`coning_attitude`; ``ω_nb^b`` is :func:`coning_rate` and its
+    increments :func:`coning_increment` (exact). With ``earth="none"`` the navigation frame is inertial and,
+    unless ``gravity`` is given, the specific force is zero; with an Earth model the base is static at
+    (lat, lon, h) and the Earth-rate part of ``dtheta`` and ``dv`` come from quadrature.
+
+    Parameters
+    ----------
+    half_angle : float
+        Cone half-angle β [rad].
+    frequency : float
+        Coning frequency [Hz].
+    duration : float
+        Length [s].
+    rate_hz : float
+        Sample rate [Hz].
+    earth : str or EarthConstants
+        ``"none"`` (default) or a constant set.
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    lon : float
+        Longitude [rad].
+    initial : (3, 3) array or None
+        ``C_0`` [-]; None: identity.
+    phase : float
+        Phase of the cone axis at t = 0 [rad].
+    gravity : (3,) array or None
+        Gravity g^n [m/s^2] for ``earth="none"``.
+    t : (N+1,) array or None
+        Epochs [s], overriding ``rate_hz``.
+    lever_arm : (3,) array or None
+        Body position of the sensor relative to the reference point [m].
+
+    Returns
+    -------
+    ImuTruth
+        Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
     rate, h = rate_hz, height_m
     frame, earth = frame_name(frame), _check_earth(earth)
@@ -1134,13 +1394,42 @@ def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAM
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
     cubic spline in the tangent frame at (lat0, lon0, height0_m).
 
-    ``t_knots`` (K,) s from 0; ``attitude_knots`` (K, 3, 3) ``C_b^n`` or (K, 4) quaternions ``q_b^n`` in
-    ``frame``; ``position_knots`` (K, 3) m in the local tangent frame (axes of ``frame``) at the origin.
-    ``bc_type`` is passed to ``scipy.interpolate.CubicSpline`` (``"clamped"`` starts and stops at rest); the
-    derivative values of an explicit ``((order, value), (order, value))`` pair are in the axes of ``frame`` too.
-    The spline's rate and angular acceleration are analytic (body frame); the position maps exactly to
-    lat/lon/h through ECEF; ``v^n`` and ``a^n`` are analytic (see ``_TangentSpline``), and ω_ib^b, f^b follow from
-    the mechanization equations. Increments: Gauss–Legendre quadrature between knots.
+    The spline's rate and angular acceleration are analytic (body frame); the position maps exactly to lat/lon/h
+    through ECEF; ``v^n`` and ``a^n`` are analytic (see ``_TangentSpline``), and ω_ib^b, f^b follow from the
+    mechanization equations. Increments: Gauss–Legendre quadrature between knots.
+
+    Parameters
+    ----------
+    t_knots : (K,) array
+        Knot times from 0 [s].
+    attitude_knots : (K, 3, 3) or (K, 4) array
+        ``C_b^n`` or ``q_b^n`` [-] in ``frame``.
+    position_knots : (K, 3) array
+        Positions in the local tangent frame at the origin (axes of ``frame``) [m].
+    rate_hz : float
+        Sample rate [Hz].
+    frame : str
+        ``"enu"`` or ``"ned"``.
+    earth : str or EarthConstants
+        Constant set.
+    lat0, lon0 : float
+        Origin [rad].
+    height0_m : float
+        Origin height [m].
+    bc_type : str or tuple
+        Passed to ``scipy.interpolate.CubicSpline`` (``"clamped"`` starts and stops at rest); derivative values of
+        an explicit ``((order, value), (order, value))`` pair are in the axes of ``frame``.
+    t : (N+1,) array or None
+        Epochs [s], overriding ``rate_hz``.
+    lever_arm : (3,) array or None
+        Body position of the sensor relative to the reference point [m] (f adds ω̇×r + ω×(ω×r)).
+    gravity : (3,) array or None
+        Gravity g^n [m/s^2] in ``frame`` for ``earth="none"``; None: no gravity there.
+
+    Returns
+    -------
+    ImuTruth
+        Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
     rate = rate_hz
     from scipy.interpolate import CubicSpline

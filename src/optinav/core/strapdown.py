@@ -290,7 +290,20 @@ def _coning(coning: str) -> tuple[str, int]:
 
 
 def output_indices(n_increments: int, coning: str = "previous") -> np.ndarray:
-    """Sample indices k (into ``t``) at which :func:`attitude_update`/:func:`mechanize` give outputs."""
+    """Sample indices k (into ``t``) at which :func:`attitude_update`/:func:`mechanize` give outputs.
+
+    Parameters
+    ----------
+    n_increments : int
+        Number of increments N.
+    coning : str
+        Algorithm (multi-sample algorithms output once per group).
+
+    Returns
+    -------
+    (M + 1,) int ndarray
+        The indices.
+    """
     coning, n = _coning(coning)
     n_increments = int(n_increments)
     if n_increments < 1:
@@ -326,10 +339,23 @@ def _as_increments(x, name: str) -> np.ndarray:
 
 
 def rotation_increments(dtheta, coning: str = "previous", dt=None) -> np.ndarray:
-    """Coning-compensated body rotation vectors φ (M, 3), rad, one per update (see module docstring).
+    """Coning-compensated body rotation vectors φ, one per update (see module docstring).
 
-    Vectorized numpy; the updates are at the sample indices :func:`output_indices`. ``dt`` (N,) s adapts
-    the "previous" coefficient to unequal steps.
+    Vectorized numpy; the updates are at the sample indices :func:`output_indices`.
+
+    Parameters
+    ----------
+    dtheta : (N, 3) array
+        Body angular increments [rad].
+    coning : str
+        Algorithm (module docstring).
+    dt : (N,) array or None
+        Sample intervals [s], adapting the "previous" coefficient to unequal steps.
+
+    Returns
+    -------
+    (M, 3) ndarray
+        φ [rad].
     """
     dth = _as_increments(dtheta, "dtheta")
     coning, n = _coning(coning)
@@ -361,11 +387,27 @@ def rotation_increments(dtheta, coning: str = "previous", dt=None) -> np.ndarray
 
 
 def coning_drift_rate(coning: str, half_angle: float, frequency: float, dt: float) -> float:
-    """Coning drift (rad/s) of an algorithm under classical coning, to first order in sin²α.
+    """Coning drift of an algorithm under classical coning, to first order in sin²α.
 
-    Exact in λ = Ω·dt: ``sin²α [2(1 − cos λ) Σ_m a_m sin(mλ) − ½(nλ − sin nλ)] / (n·dt)`` with a_m the
-    sum of the coefficients of the cross products m samples apart (Ignagni 1990). Negative: the
-    algorithm under-estimates the coning rotation about the cone axis.
+    Exact in λ = Ω·dt: ``sin²α [2(1 − cos λ) Σ_m a_m sin(mλ) − ½(nλ − sin nλ)] / (n·dt)`` with a_m the sum of
+    the coefficients of the cross products m samples apart (Ignagni 1990). Negative: the algorithm
+    under-estimates the coning rotation about the cone axis.
+
+    Parameters
+    ----------
+    coning : str
+        Algorithm (module docstring).
+    half_angle : float
+        Cone half-angle α [rad].
+    frequency : float
+        Coning frequency Ω/2π [Hz].
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    float
+        Drift rate [rad/s].
     """
     coning, n = _coning(coning)
     lam = 2.0 * np.pi * frequency * dt
@@ -383,21 +425,27 @@ def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt
 
     Parameters
     ----------
-    q0 : (4,) unit quaternion ``q_b^n`` [w, x, y, z] at ``t[0]`` (or a (3, 3) ``C_b^n``).
-    dtheta : (N, 3) body angular increments ∫ω_ib^b dt over each sample interval, rad.
-    coning : algorithm name (module docstring): "none", "previous", "two-sample", "three-sample",
-        "four-sample".
-    omega_in_n : rate of the navigation frame w.r.t. inertial space in the navigation frame, rad/s:
-        (3,) constant or (N, 3) per sample; None = the navigation frame is inertial.
-    dt : sample intervals, s — scalar or (N,); required with ``omega_in_n``. Per-sample intervals also
-        adapt the "previous" coefficient to unequal steps (``_prev_coef``); the multi-sample
-        algorithms assume equal steps within a group.
-    final_only : return only the last attitude (4,) without storing the history (fastest).
+    q0 : (4,) or (3, 3) array
+        Unit quaternion ``q_b^n`` [w, x, y, z] [-] at ``t[0]``, or a ``C_b^n`` [-].
+    dtheta : (N, 3) array
+        Body angular increments ∫ω_ib^b dt over each sample interval [rad].
+    coning : str
+        Algorithm (module docstring): "none", "previous", "two-sample", "three-sample", "four-sample".
+    omega_in_n : (3,) or (N, 3) array or None
+        Rate of the navigation frame w.r.t. inertial space, navigation axes [rad/s], constant or per sample;
+        None: the navigation frame is inertial.
+    dt : float or (N,) array or None
+        Sample intervals [s]; required with ``omega_in_n``. Per-sample intervals also adapt the "previous"
+        coefficient to unequal steps (``_prev_coef``); the multi-sample algorithms assume equal steps within a
+        group.
+    final_only : bool
+        Return only the last attitude without storing the history (fastest).
 
     Returns
     -------
-    (M + 1, 4) ``q_b^n`` at the sample indices :func:`output_indices` (``M = N`` for "none"/"previous"),
-    or (4,) with ``final_only``.
+    (M + 1, 4) or (4,) ndarray
+        ``q_b^n`` [-] at the sample indices :func:`output_indices` (``M = N`` for "none"/"previous"), or the last
+        one with ``final_only``.
     """
     q = _as_quat0(q0)
     dth = _as_increments(dtheta, "dtheta")
@@ -466,21 +514,41 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs
               sculling: bool = True, vertical: str = "free") -> NavSolution:
     """Strapdown attitude/velocity/position integration in a local-level frame (Savage 1998; T&W ch. 11).
 
+    Each update: φ and Δv_sf^b with coning/sculling; Earth rate, transport rate, gravity and Coriolis at the
+    mid-interval state extrapolated from the previous acceleration; ``Δv^n = (I − ½[ζ×]) C_b^n Δv_sf^b +
+    (g^n − (2ω_ie^n + ω_en^n)×v^n) T``; trapezoidal position; ``q ← q(−ζ) ⊗ q ⊗ q(φ)``. Second-order accurate in
+    T for slowly moving bases (no high-rate velocity/position algorithms).
+
     Parameters
     ----------
-    dtheta, dv : (N, 3) body increments ∫ω_ib^b dt (rad) and ∫f^b dt (m/s) over ``(t[k], t[k+1]]``.
-    t : (N+1,) sample times, s, strictly increasing (irregular steps are fine).
-    q0 : initial ``q_b^n`` (4,) or ``C_b^n`` (3, 3) at ``t[0]``; vel0 (3,) m/s in ``frame``;
-        pos0 ``[lat, lon, h]`` (rad, rad, m).
-    frame : "enu" or "ned" navigation frame; earth : "wgs84", "psins" or an EarthConstants.
-    coning : attitude algorithm (module docstring); sculling : add the sculling term of the same
-        algorithm to the velocity increment (the ½Δθ×Δv rotation compensation is always applied).
-    vertical : "free" integrates the (unstable) vertical channel; "hold" keeps h = h0 and v_up = 0.
+    dtheta : (N, 3) array
+        Body increments ∫ω_ib^b dt over ``(t[k], t[k+1]]`` [rad].
+    dv : (N, 3) array
+        Body increments ∫f^b dt over ``(t[k], t[k+1]]`` [m/s].
+    t : (N+1,) array
+        Sample times [s], strictly increasing (irregular steps are fine).
+    q0 : (4,) or (3, 3) array
+        Initial ``q_b^n`` or ``C_b^n`` at ``t[0]`` [-].
+    vel0 : (3,) array
+        Initial velocity in ``frame`` [m/s].
+    pos0 : (3,) array
+        Initial ``[lat, lon, height]`` [rad, rad, m].
+    frame : str
+        ``"enu"`` or ``"ned"`` navigation frame.
+    earth : str or EarthConstants
+        ``"wgs84"``, ``"psins"`` or a constant set.
+    coning : str
+        Attitude algorithm (module docstring).
+    sculling : bool
+        Add the sculling term of the same algorithm to the velocity increment (the ½Δθ×Δv rotation
+        compensation is always applied).
+    vertical : str
+        ``"free"`` integrates the (unstable) vertical channel; ``"hold"`` keeps h = h0 and v_up = 0.
 
-    Each update: φ and Δv_sf^b with coning/sculling; Earth rate, transport rate, gravity and Coriolis at
-    the mid-interval state extrapolated from the previous acceleration; ``Δv^n = (I − ½[ζ×]) C_b^n Δv_sf^b
-    + (g^n − (2ω_ie^n + ω_en^n)×v^n) T``; trapezoidal position; ``q ← q(−ζ) ⊗ q ⊗ q(φ)``.
-    Second-order accurate in T for slowly moving bases (no high-rate velocity/position algorithms).
+    Returns
+    -------
+    NavSolution
+        Attitude ``q_b^n``, velocity [m/s] and position [rad, rad, m] at the output epochs.
     """
     dth = _as_increments(dtheta, "dtheta")
     dvb = _as_increments(dv, "dv")

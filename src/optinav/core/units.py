@@ -51,7 +51,18 @@ _ALIASES = {"μg": "ug", "µg": "ug", "°": "deg", "°/h": "deg/h", "°/s": "deg
 
 
 def factor(unit: str) -> float:
-    """SI factor of ``unit`` (see :data:`UNITS`)."""
+    """SI factor of a unit (see :data:`UNITS`).
+
+    Parameters
+    ----------
+    unit : str
+        Unit name or alias.
+
+    Returns
+    -------
+    float
+        SI value of one ``unit`` [SI unit per unit].
+    """
     key = _ALIASES.get(unit, unit)
     try:
         return UNITS[key]
@@ -60,10 +71,36 @@ def factor(unit: str) -> float:
 
 
 def to_si(value, unit: str):
-    """Convert ``value`` given in ``unit`` to SI."""
+    """Convert a value given in ``unit`` to SI.
+
+    Parameters
+    ----------
+    value : float or array
+        Value [unit].
+    unit : str
+        Its unit (see :data:`UNITS`).
+
+    Returns
+    -------
+    float or ndarray
+        The value [SI].
+    """
     return np.asarray(value, dtype=float) * factor(unit) if not np.isscalar(value) else float(value) * factor(unit)
 
 
 def from_si(value, unit: str):
-    """Convert an SI ``value`` to ``unit``."""
+    """Convert an SI value to ``unit``.
+
+    Parameters
+    ----------
+    value : float or array
+        Value [SI].
+    unit : str
+        Target unit (see :data:`UNITS`).
+
+    Returns
+    -------
+    float or ndarray
+        The value [unit].
+    """
     return np.asarray(value, dtype=float) / factor(unit) if not np.isscalar(value) else float(value) / factor(unit)

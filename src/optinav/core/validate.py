@@ -8,9 +8,25 @@ from optinav.errors import OptinavError
 
 
 def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: bool = True) -> np.ndarray:
-    """Return ``x`` as a float64 array whose trailing dimensions equal ``last_dims``.
+    """``x`` as a float64 array whose trailing dimensions equal ``last_dims``.
 
     ``last_dims=(3,)`` accepts a single 3-vector or an (N, 3) array; ``(3, 3)`` a matrix or a stack.
+
+    Parameters
+    ----------
+    x : array_like
+        The input [any unit, unchanged].
+    name : str
+        Named in error messages.
+    last_dims : tuple of int
+        Required trailing shape.
+    finite : bool
+        Refuse NaN/inf.
+
+    Returns
+    -------
+    ndarray
+        The array [unit of x].
     """
     try:
         a = np.asarray(x, dtype=float)
@@ -28,10 +44,25 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
 
 def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None,
                      index0: int = 0) -> np.ndarray:
-    """Validate a 1-D timestamp vector in seconds: finite, strictly increasing, optionally without gaps.
+    """Validate a 1-D timestamp vector: finite, strictly increasing, optionally without gaps.
 
-    ``max_gap_factor``: a step larger than this multiple of the median step is reported as a gap. ``index0``:
-    the index of ``t[0]`` in the whole log (a block of a streamed log), for the indices in messages.
+    Parameters
+    ----------
+    t : (N,) array
+        Timestamps [s].
+    name : str
+        Named in error messages.
+    min_count : int
+        Fewest samples.
+    max_gap_factor : float or None
+        A step larger than this multiple of the median step is reported as a gap [-].
+    index0 : int
+        Index of ``t[0]`` in the whole log (a block of a streamed log), for the indices in messages.
+
+    Returns
+    -------
+    (N,) ndarray
+        ``t`` as float64 [s].
     """
     t = as_float_array(t, name)
     if t.ndim != 1:
@@ -60,7 +91,18 @@ def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_facto
 
 
 def as_rng(rng) -> np.random.Generator:
-    """A ``numpy.random.Generator`` from a Generator, an int seed, a SeedSequence or None (fresh entropy)."""
+    """A ``numpy.random.Generator`` from a Generator, an int seed, a SeedSequence or None (fresh entropy).
+
+    Parameters
+    ----------
+    rng : Generator, int, SeedSequence or None
+        The source.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The generator.
+    """
     if isinstance(rng, np.random.Generator):
         return rng
     try:
@@ -71,7 +113,20 @@ def as_rng(rng) -> np.random.Generator:
 
 
 def check_positive(value, name: str) -> float:
-    """A finite, strictly positive scalar."""
+    """A finite, strictly positive scalar.
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit, unchanged].
+    name : str
+        Named in the error message.
+
+    Returns
+    -------
+    float
+        ``value`` [unit of value].
+    """
     try:
         v = float(value)
     except (TypeError, ValueError):

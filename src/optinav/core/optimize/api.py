@@ -28,7 +28,18 @@ _RUNNERS = {
 
 
 def method_options(method: str) -> dict:
-    """The options ``method`` takes and their defaults."""
+    """The options ``method`` takes and their defaults.
+
+    Parameters
+    ----------
+    method : str
+        A method of :func:`minimize`.
+
+    Returns
+    -------
+    dict
+        Option name → default.
+    """
     if method not in _RUNNERS:
         raise OptinavError(f"unknown optimization method {method!r}", f"use one of {', '.join(METHODS)}")
     sig = inspect.signature(_RUNNERS[method])
@@ -50,10 +61,25 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
     * ``"ga"`` — adaptive real-coded GA (population, generations, k1..k4, selection_fraction, mutation,
       mutation_shape, pm_min, ftol, stall_generations, operators "optinav" or "paper").
 
-    ``jac`` selects the finite-difference scheme ('2-point' or '3-point') used when the problem has no
-    analytic Jacobian. ``rng`` (Generator or seed) drives PSO/GA: the same seed gives the same result.
-    ``final_jacobian``: for least-squares problems, make sure ``result.jacobian`` holds ∂r/∂x at the
-    solution (one more Jacobian evaluation for methods that do not produce it).
+    Parameters
+    ----------
+    problem : Problem
+        Cost or residuals, start, bounds, optional Jacobian.
+    method : str
+        One of the methods above.
+    rng : int, Generator or None
+        Drives PSO/GA: the same seed gives the same result.
+    final_jacobian : bool
+        For least-squares problems, make sure ``result.jacobian`` holds ∂r/∂x at the solution (one more Jacobian
+        evaluation for methods that do not produce it).
+    **options
+        The method's options; ``jac`` selects the finite-difference scheme ('2-point' or '3-point') used when
+        the problem has no analytic Jacobian.
+
+    Returns
+    -------
+    OptimizeResult
+        Solution x [parameter units], cost, convergence and trace.
     """
     if not isinstance(problem, Problem):
         raise OptinavError(f"minimize needs a Problem, got {type(problem).__name__}",

@@ -50,11 +50,24 @@ _FMIN_COST = 1e-300  # E below this counts as 1e-300 so that 1/E and sums of it 
 
 
 def adaptive_probability(fit, fmax: float, favg: float, k_high: float, k_low: float) -> np.ndarray:
-    """Srinivas–Patnaik rate: ``k_high (fmax − f)/(fmax − favg)`` if ``f ≥ favg`` else ``k_low``, in [0, 1],
-    for fitness values ``f`` = ``fit``.
+    """Srinivas–Patnaik rate: ``k_high (fmax − f)/(fmax − favg)`` if ``f ≥ favg`` else ``k_low``, in [0, 1].
 
-    ``(k_high, k_low) = (k1, k3)`` with ``f = f′`` gives Pc; ``(k2, k4)`` with the individual's fitness
-    gives Pm. ``fmax == favg`` → ``k_low`` (see the module docstring).
+    ``(k_high, k_low) = (k1, k3)`` with ``f = f′`` gives Pc; ``(k2, k4)`` with the individual's fitness gives Pm.
+    ``fmax == favg`` → ``k_low`` (see the module docstring).
+
+    Parameters
+    ----------
+    fit : float or array
+        Fitness values f [1/cost].
+    fmax, favg : float
+        Largest and mean fitness of the population [1/cost].
+    k_high, k_low : float
+        Rates [-].
+
+    Returns
+    -------
+    ndarray
+        Probabilities [-].
     """
     f = np.asarray(fit, dtype=float)
     spread = fmax - favg
@@ -65,7 +78,18 @@ def adaptive_probability(fit, fmax: float, favg: float, k_high: float, k_low: fl
 
 
 def fitness(E) -> np.ndarray:
-    """GA fitness ``1/E``; non-finite costs get 0."""
+    """GA fitness ``1/E``; non-finite costs get 0.
+
+    Parameters
+    ----------
+    E : array
+        Costs [cost units].
+
+    Returns
+    -------
+    ndarray
+        Fitness [1/cost].
+    """
     E = np.asarray(E, dtype=float)
     return np.where(np.isfinite(E), 1.0 / np.maximum(E, _FMIN_COST), 0.0)
 

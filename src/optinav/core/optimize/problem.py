@@ -133,10 +133,23 @@ class Problem:
         return self.names[i] if self.names is not None and len(self.names) > i else f"x[{i}]"
 
     def has_bounds(self) -> bool:
+        """Whether the problem has finite bounds.
+
+        Returns
+        -------
+        bool
+            True when any bound is finite.
+        """
         return bool(np.any(np.isfinite(self.lower)) or np.any(np.isfinite(self.upper)))
 
     def population_interval(self) -> tuple[np.ndarray, np.ndarray]:
-        """Finite box for PSO/GA: the search interval clipped to the bounds (or the bounds themselves)."""
+        """Finite box for PSO/GA: the search interval clipped to the bounds (or the bounds themselves).
+
+        Returns
+        -------
+        lo, hi : (n,) ndarray
+            Box corners [parameter units].
+        """
         lb, ub = self.lower, self.upper
         if self.search_interval is None:
             if not (np.all(np.isfinite(lb)) and np.all(np.isfinite(ub))):

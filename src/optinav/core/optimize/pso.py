@@ -24,7 +24,30 @@ from .problem import Evaluator, Problem, finite_mean
 
 
 def pso_velocity(V, X, pbest, gbest, r1, r2, *, w: float, c1: float, c2: float, v_min, v_max) -> np.ndarray:
-    """One velocity update ``clip(ωV + c1 r1 (pbest − X) + c2 r2 (gbest − X), Vmin, Vmax)``; arrays (N, n)."""
+    """One velocity update ``clip(ωV + c1 r1 (pbest − X) + c2 r2 (gbest − X), Vmin, Vmax)``.
+
+    Parameters
+    ----------
+    V, X : (N, n) array
+        Velocities and positions of the particles [parameter units].
+    pbest : (N, n) array
+        Personal bests [parameter units].
+    gbest : (n,) array
+        Global best [parameter units].
+    r1, r2 : (N, n) array
+        Uniform random numbers in [0, 1) [-].
+    w : float
+        Inertia weight ω [-].
+    c1, c2 : float
+        Acceleration coefficients [-].
+    v_min, v_max : float or (n,) array
+        Velocity clamp [parameter units].
+
+    Returns
+    -------
+    (N, n) ndarray
+        New velocities [parameter units].
+    """
     V = w * V + c1 * r1 * (pbest - X) + c2 * r2 * (gbest - X)
     return np.clip(V, v_min, v_max)
 
