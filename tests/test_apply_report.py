@@ -2,7 +2,6 @@
 system; the applied output is compared with the simulated truth, the report's numbers with the result."""
 
 import json
-import math
 
 import numpy as np
 import pytest
