@@ -116,6 +116,10 @@ def test_apply_gfimu_solves_with_the_calibrated_geometry(gfimu, capsys):
         uncompensated = rms(getattr(raw, name) - truth)
         assert applied < best + 5 * left * uncompensated, (name, applied, best, left, uncompensated)
         assert applied < uncompensated / 100, (name, applied, uncompensated)
+    capsys.readouterr()
+    assert main(["--quiet", "apply", str(result), str(log), "--rate-method", "bogus", "--out", str(d / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--rate-method one of integration" in err and not (d / "x.csv").exists()
 
 
 @pytest.fixture(scope="module")

@@ -204,12 +204,13 @@ def add_batch_options(p) -> None:
 def add_apply_options(g) -> None:
     """``optinav apply`` of a gfimu result: how the motion is solved (registry hook; destinations are the
     fields of :class:`optinav.gfimu.unit.GfimuApplyOptions`)."""
-    from optinav.gfimu.solve import RATE_METHODS
-
     g.add_argument("--omega0", type=_vector, metavar="X,Y,Z", help="angular rate at the first sample in rad/s "
                                                                    "(default 0: the array starts at rest)")
-    g.add_argument("--rate-method", choices=RATE_METHODS, default="integration",
-                   help="how the angular rate is solved (default integration, the paper's)")
+    # the methods are checked by the library (optinav.gfimu.solve.RATE_METHODS; importing it here would load
+    # numpy for every --help)
+    g.add_argument("--rate-method", default="integration", metavar="METHOD",
+                   help="how the angular rate is solved: integration (default, the paper's), quadratic or "
+                        "gauss-newton")
 
 
 def _vector(text: str):

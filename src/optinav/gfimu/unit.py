@@ -82,11 +82,13 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     force A at the array's reference point ax, ay, az (m/s²), angular rate gx, gy, gz (rad/s) and angular
     acceleration wdot_x..z (rad/s²); returns the one-line account."""
     from optinav.core.files import write_csv
-    from optinav.gfimu.solve import solve_motion
+    from optinav.gfimu.solve import RATE_METHODS, solve_motion
     from optinav.gfimu.turntable import array_outputs
     from optinav.io.readers import load_table
 
     o = options or GfimuApplyOptions()
+    if o.rate_method not in RATE_METHODS:
+        raise OptinavError(f"unknown rate method {o.rate_method!r}", f"--rate-method one of {', '.join(RATE_METHODS)}")
     res = TurntableCalibration.from_json(result_path)
     tab = load_table(data_path)
     if tab.find("t") is None:
