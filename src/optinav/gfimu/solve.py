@@ -334,10 +334,30 @@ def solve_rate(array: AccelerometerArray, acc, t, omega0=None, method: str = "in
 
 
 def solve_motion(array: AccelerometerArray, acc, t, omega0=None, method: str = "integration"):
-    """A (m/s²), ω̇ (rad/s²) and ω (rad/s) of every epoch as a :class:`~optinav.gfimu.errors.Motion`: ω by
-    :func:`solve_rate`, then [A; ω̇] by weighted least squares of ``f − H_quad q(ω) = H_lin [A; ω̇]``. With the
-    calibrated array (:meth:`~optinav.gfimu.turntable.TurntableCalibration.calibrated_array`) this is the
-    paper's compensation of the installation errors (Hao & Liu 2011, §4)."""
+    """The motion of every epoch: ω by :func:`solve_rate`, then [A; ω̇] by weighted least squares of
+    ``f − H_quad q(ω) = H_lin [A; ω̇]``. With the calibrated array
+    (:meth:`~optinav.gfimu.turntable.TurntableCalibration.calibrated_array`) this is the paper's compensation of
+    the installation errors (Hao & Liu 2011, §4).
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The geometry the outputs are solved with.
+    acc : (T, N) array_like
+        Accelerometer outputs [m/s²].
+    t : (T,) array_like
+        Time stamps [s], strictly increasing.
+    omega0 : (3,) array_like, optional
+        Angular rate at ``t[0]`` [rad/s]; default at rest.
+    method : str
+        Rate solver, one of :data:`RATE_METHODS`.
+
+    Returns
+    -------
+    Motion
+        ``A`` (T, 3) specific force at the array's reference point [m/s²], ``wdot`` (T, 3) [rad/s²], ``omega``
+        (T, 3) [rad/s].
+    """
     from optinav.gfimu.errors import Motion
 
     f = _outputs(array, acc)

@@ -467,8 +467,14 @@ class TurntableCalibration(Estimate):
         return AccelerometerArray(self.positions, self.directions, nominal.noise, nominal.name + "-calibrated")
 
     def calibrated_array(self) -> AccelerometerArray:
-        """The calibrated array from this result alone: its positions and directions, weighted by the noise
-        the calibration used (``sigma``)."""
+        """The calibrated array from this result alone (no nominal array needed).
+
+        Returns
+        -------
+        AccelerometerArray
+            Calibrated positions [m] and directions, weighted by the noise the calibration used (``sigma``
+            [m/s²]).
+        """
         return AccelerometerArray(self.positions, self.directions, np.asarray(self.sigma, float), "calibrated")
 
     def summary(self) -> str:

@@ -68,7 +68,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
             acc, gyro = corrected(res, log, data_path, result_path)
-            writer.write(ImuLog(t=log.t, acc=acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
+            writer.write(ImuLog(t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
                                 labels=log.labels))
     return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
 
@@ -82,7 +82,7 @@ def corrected(res, log, data_path, result_path):
         raw, unit = raw_units(log, "acc")
         _check_unit("accelerometer", unit, res.units.get("accelerometer_raw"))
         acc = res.correct_accel(raw)
-    if res.gyroscope is not None and log.gyro is not None:
+    if res.gyroscope is not None and log.gyr is not None:
         raw, unit = raw_units(log, "gyro")
         _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
         gyro = res.correct_gyro(raw, acc)

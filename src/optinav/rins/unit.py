@@ -57,12 +57,27 @@ def run_unit(path, options: RinsOptions, reference: bool = False) -> tuple[RinsC
 
 
 def compensated_attitude(angles, path, options: RinsOptions | None = None):
-    """The vehicle attitude of the recording at ``path`` with the gimbal non-orthogonality ``angles`` (6,) rad
-    compensated (eq. 6; a result's :attr:`~optinav.rins.calibrate.RinsCalibration.p`, the unobservable angles
-    at the values it used; zeros: uncompensated): ``(t s,
-    C_b_n (T, 3, 3))`` from the navigation start (the end of the alignment, ``options.align_s``) on, C_b^n with
-    n = ENU. On a static base the true vehicle attitude is constant, so what it still changes is the residual
-    error (Li et al. 2023, eqs. 12-14)."""
+    """The vehicle attitude of a recording with the gimbal non-orthogonality compensated (Li et al. 2023,
+    eq. 6). On a static base the true vehicle attitude is constant, so what it still changes is the residual
+    error (eqs. 12-14).
+
+    Parameters
+    ----------
+    angles : (6,) array_like
+        theta_x..z, eta_x..z [rad]: a result's :attr:`~optinav.rins.calibrate.RinsCalibration.p` (the
+        unobservable angles at the values it used), or zeros for the uncompensated attitude.
+    path : str or Path
+        The recording (as :func:`optinav.rins.io.read_rins` reads it).
+    options : RinsOptions, optional
+        Latitude ``lat_deg`` [deg] and alignment window ``align_s`` [s]; default the file's and the initial rest.
+
+    Returns
+    -------
+    t : (T,) ndarray
+        Epochs from the navigation start (the end of the alignment) [s].
+    C_b_n : (T, 3, 3) ndarray
+        Vehicle attitude, n = ENU.
+    """
     o = options or RinsOptions()
     sa = sensor_attitude_from_imu(read(path, o), align_s=o.align_s)
     return sa.t, vehicle_attitude(sa.c_s_n, sa.alpha, sa.beta, angles)
