@@ -142,11 +142,9 @@ def run_simulate(args) -> int:
     data.save(out)
     from optinav.gfimu.turntable import turntable_truth
 
-    info = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
-             "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
-             "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
-             "samples_per_case": int(round(args.duration * args.sample_rate))}
-    tp = write_truth(out, turntable_truth(e, info))
+    tp = write_truth(out, turntable_truth(e, {"noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates,
+                                              "wedge_deg": args.wedge_deg,
+                                              "samples_per_case": int(round(args.duration * args.sample_rate))}))
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 

@@ -53,7 +53,7 @@ def register_simulate(kinds) -> None:
 def _parse_nonorth(text: str, unit: str) -> "np.ndarray":  # noqa: F821 - numpy is imported inside (a fast --help)
     import numpy as np
 
-    v = np.array(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
+    v = np.asarray(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
     return np.radians(v) if unit == "deg" else v
 
 
@@ -61,7 +61,6 @@ def run_simulate(args) -> int:
     import numpy as np
 
     from optinav.rins.io import write_rins
-    from optinav.rins.model import PARAM_NAMES
     from optinav.rins.simulate import simulate
 
     out = output_path(args.out)
@@ -81,12 +80,9 @@ def run_simulate(args) -> int:
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
                  lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
-    from optinav.rins.calibrate import rins_truth
+    from optinav.rins.calibrate import simulation_truth
 
-    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
-             "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
-             "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = write_truth(out, rins_truth(p, d.alpha, d.beta, info))
+    tp = write_truth(out, simulation_truth(d, seed=args.seed, lat_deg=args.lat))
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0

@@ -803,11 +803,27 @@ register_legacy(TurntableCalibration, "optinav.gfimu.calibration", 1, _legacy_v1
 
 def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Truth:
     """Simulated installation errors in the parameterization :func:`calibrate` estimates (names
-    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default."""
+    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default.
+
+    Parameters
+    ----------
+    errors : InstallationErrors
+        The simulated errors; also written per kind (``dr_m``, ``dalpha_rad``, ``dbeta_rad``) and by name
+        (``coefficients``) beside the parameters.
+    info : dict, optional
+        The simulation's settings to record with them (units in the key names).
+
+    Returns
+    -------
+    Truth
+        The ``optinav.gfimu.truth`` record.
+    """
     n = errors.n
     units = _unit_names(n, 0)
+    own = {"dr_m": errors.dr.tolist(), "dalpha_rad": errors.dalpha.tolist(), "dbeta_rad": errors.dbeta.tolist(),
+           "coefficients": dict(zip(InstallationErrors.names(n), errors.vector().tolist()))}
     return Truth("gfimu", {nm: Parameter(float(v), u) for nm, v, u in
-                           zip(InstallationErrors.names(n), errors.vector(), units)}, dict(info or {}))
+                           zip(InstallationErrors.names(n), errors.vector(), units)}, {**own, **(info or {})})
 
 
 register_truth_legacy("gfimu", "optinav.gfimu_truth",
