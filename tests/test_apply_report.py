@@ -86,6 +86,14 @@ def test_apply_rins_compensates_the_vehicle_attitude(rins, capsys):
     noise = np.asarray(res.rmse_after_deg)
     assert np.all(applied < 1.5 * noise + 1e-5), (applied, noise)
     assert max(raw) > 10 * max(applied), (raw, applied)
+    # an option of another system's results, or an output format this one does not write: one line, no output
+    for extra, why in ((["--omega0", "1,2,3"], "--omega0 is for gfimu results"),
+                       (["--columns", "t,ax,ay,az"], "--columns is for accel results")):
+        assert main(["--quiet", "apply", str(result), str(data), *extra, "--out", str(d / "x.csv")]) == 2
+        assert why in capsys.readouterr().err
+    assert main(["--quiet", "apply", str(result), str(data), "--out", str(d / "x.npz")]) == 2
+    assert "output is a CSV table" in capsys.readouterr().err
+    assert not (d / "x.csv").exists() and not (d / "x.npz").exists()
 
 
 def test_apply_gfimu_solves_with_the_calibrated_geometry(gfimu, capsys):

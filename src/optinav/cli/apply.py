@@ -40,11 +40,14 @@ def register(sub) -> None:
     p.add_argument("result", help="RESULT.json of optinav calibrate (or an imucal JSON / imu_tk accelerometer file)")
     p.add_argument("data", help="data file")
     p.add_argument("--out", required=True, metavar="FILE", help="output file")
+    owned = {}  # system name -> [(dest, flag, default)] of the options its hook added
     for system in registry.systems():
         hook = getattr(importlib.import_module(system.cli), "add_apply_options", None) if system.cli else None
         if hook is not None:
+            before = len(p._actions)
             hook(p.add_argument_group(f"{system.command} results"))
-    p.set_defaults(func=run)
+            owned[system.name] = [(a.dest, a.option_strings[0], a.default) for a in p._actions[before:]]
+    p.set_defaults(func=run, apply_owned=owned)
 
 
 def run(args) -> int:
@@ -57,7 +60,17 @@ def run(args) -> int:
         raise OptinavError(f"{args.result} is {'an' if system.kind[0] in 'aeiou' else 'a'} {system.name} "
                            f"{system.kind} ({system.help}): there is nothing to apply to data",
                            f"use it as it is, e.g. optinav report {args.result}")
+    _refuse_foreign_options(args, system)
     out = output_path(args.out)
     options = options_from_args(system.load("apply_options"), args) if system.apply_options else None
     print("optinav: " + system.load("apply")(args.result, args.data, out, options))
     return 0
+
+
+def _refuse_foreign_options(args, system) -> None:
+    """An option of another system's results given for this one would be silently ignored: refuse it."""
+    for name, options in args.apply_owned.items():
+        for dest, flag, default in options if name != system.name else ():
+            if getattr(args, dest) != default:
+                raise OptinavError(f"{flag} is for {registry.SYSTEMS[name].command} results, {args.result} is a "
+                                   f"{system.name} {system.kind}", f"drop {flag}")

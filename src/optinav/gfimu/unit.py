@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 
@@ -89,6 +90,8 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     o = options or GfimuApplyOptions()
     if o.rate_method not in RATE_METHODS:
         raise OptinavError(f"unknown rate method {o.rate_method!r}", f"--rate-method one of {', '.join(RATE_METHODS)}")
+    if Path(out).suffix.lower() not in (".csv", ".txt"):
+        raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
     res = TurntableCalibration.from_json(result_path)
     tab = load_table(data_path)
     if tab.find("t") is None:

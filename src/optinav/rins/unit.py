@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 import math
 
 import numpy as np
@@ -89,6 +90,8 @@ def apply_file(result_path, data_path, out, options: RinsOptions | None = None) 
     from optinav.core.files import write_csv
     from optinav.core.rotations import euler_from_dcm, quat_from_dcm
 
+    if Path(out).suffix.lower() not in (".csv", ".txt"):
+        raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
     res = RinsCalibration.from_json(result_path)
     t, C_b_n = compensated_attitude(res.p, data_path, options)
     write_csv(out, np.column_stack([t, quat_from_dcm(C_b_n), np.degrees(euler_from_dcm(C_b_n, "enu"))]),
