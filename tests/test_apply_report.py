@@ -153,6 +153,9 @@ def test_apply_says_an_attitude_estimate_has_nothing_to_apply(attitude, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "attitude estimate" in err and "nothing to apply" in err
     assert not (d / "x.csv").exists()
+    # its report needs the log's time stamps
+    assert main(["--quiet", "report", str(result), "--out", str(d / "rep")]) == 2
+    assert "pass the log it came from with --data" in capsys.readouterr().err
 
 
 def _table(summary: dict, title_start: str) -> list:
