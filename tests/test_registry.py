@@ -59,6 +59,31 @@ def add_batch_options(p):
     p.add_argument("--scale", type=float, default=1.0)
 
 
+@dataclasses.dataclass
+class ToyApplyOptions:
+    shift: float = 0.0
+
+
+def apply_file(result_path, data_path, out, options):
+    """The column minus the calibrated mean (plus ``shift``)."""
+    res = ToyResult.from_json(result_path)
+    x = np.loadtxt(data_path, ndmin=1) - res.mean + options.shift
+    np.savetxt(out, x)
+    return f"wrote {x.size} centred numbers to {out}"
+
+
+def add_apply_options(g):
+    g.add_argument("--shift", type=float, default=0.0)
+
+
+def report(res, out_dir, data=None, options=None):
+    from optinav.reports.report import StudyResult, Table, write_report
+
+    return write_report([StudyResult("toy", "Toy", tables=[Table("Mean", ["mean [m]", "sem [m]"],
+                                                                 [[res.mean, res.sem]], formats=["{:.5f}"] * 2)])],
+                        out_dir)
+
+
 def register_calibrate(kinds):
     p = kinds.add_parser("toy", help="the mean of a column of numbers")
     p.add_argument("data")
@@ -73,7 +98,8 @@ def register_simulate(kinds):
 def toy():
     registry.register(registry.System(
         name="toy", command="toy", kind="calibration", result=f"{THIS}:ToyResult", options=f"{THIS}:ToyOptions",
-        run_unit=f"{THIS}:run_unit", check=f"{THIS}:check", cli=THIS, help="the mean of a column of numbers"))
+        run_unit=f"{THIS}:run_unit", check=f"{THIS}:check", cli=THIS, help="the mean of a column of numbers",
+        apply=f"{THIS}:apply_file", apply_options=f"{THIS}:ToyApplyOptions", report=f"{THIS}:report"))
     yield
     registry.unregister("toy")
 
@@ -91,6 +117,9 @@ def test_the_four_systems_are_declared_once():
         assert dataclasses.is_dataclass(s.load("options")) and callable(s.load("run_unit"))
         assert callable(s.load("truth")) and callable(s.load("report")) and callable(s.load("read"))
         assert callable(s.load("simulate")) and callable(s.load("fit"))
+        # a calibration is applied to data; an attitude estimate is not
+        assert (s.apply is not None) == (s.kind == "calibration")
+        assert s.apply is None or (callable(s.load("apply")) and dataclasses.is_dataclass(s.load("apply_options")))
     parser = build_parser()
     assert _choices(parser, "batch", "calibrate") == {"accel", "rins", "gfimu"}
     assert {"attitude", "calibrate"} <= _choices(parser, "batch")
@@ -132,3 +161,18 @@ def test_a_command_word_is_owned_by_one_system():
     with pytest.raises(OptinavError, match="uses the command"):
         registry.register(registry.System(name="other", command="rins", kind="calibration", result="x:y"))
     assert "other" not in registry.SYSTEMS
+
+
+def test_a_registered_fifth_system_is_applied_and_reported(toy, tmp_path, capsys):
+    """`optinav apply` and `optinav report` pick the toy system by its result's schema and run its references."""
+    data = tmp_path / "x.txt"
+    x = np.random.default_rng(1).normal(3.0, 1.0, 40)
+    np.savetxt(data, x)
+    res, _ = run_unit(data, ToyOptions())
+    result = tmp_path / "r.json"
+    res.to_json(result)
+    out = tmp_path / "c.txt"
+    assert main(["--quiet", "apply", str(result), str(data), "--shift", "0.5", "--out", str(out)]) == 0
+    np.testing.assert_allclose(np.loadtxt(out), x - x.mean() + 0.5, rtol=0, atol=1e-12)
+    assert main(["--quiet", "report", str(result), "--out", str(tmp_path / "rep")]) == 0
+    assert f"| {x.mean():.5f} | {x.std(ddof=1) / np.sqrt(x.size):.5f} |" in (tmp_path / "rep" / "index.md").read_text()

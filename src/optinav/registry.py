@@ -8,8 +8,10 @@ A system is a package (``optinav.multipos``, ``optinav.rins``, ``optinav.gfimu``
 * :mod:`optinav.batch` — ``run_unit`` and ``options`` of the system named by ``optinav batch calibrate SYSTEM`` /
   ``optinav batch attitude``;
 * :mod:`optinav.cli.main` — every system's ``cli`` module may define ``register_simulate(kinds)``,
-  ``register_calibrate(kinds)`` (or ``register_estimate(sub)`` for a top-level estimate command) and
-  ``add_batch_options(parser)``; the ``simulate``, ``calibrate`` and ``batch`` commands are built from them.
+  ``register_calibrate(kinds)`` (or ``register_estimate(sub)`` for a top-level estimate command),
+  ``add_batch_options(parser)`` and ``add_apply_options(group)``; the ``simulate``, ``calibrate``, ``apply`` and
+  ``batch`` commands are built from them, ``optinav calibrate SYSTEM`` runs the system's ``run_unit`` and
+  ``optinav apply`` / ``optinav report`` pick the system by the result file's schema (:func:`for_result`).
 
 Adding a fifth system: write its package (result class deriving :class:`optinav.core.results.Estimate`, a
 ``unit`` module with an options dataclass and ``run_unit(path, options, reference) -> (result, extra columns)``,
@@ -48,6 +50,8 @@ class System:
     run_unit: str | None = None
     truth: str | None = None
     report: str | None = None
+    apply: str | None = None
+    apply_options: str | None = None
     read: str | None = None
     write: str | None = None
     cli: str | None = None
@@ -96,13 +100,37 @@ def systems(kind: str | None = None) -> list[System]:
     return [s for s in SYSTEMS.values() if kind is None or s.kind == kind]
 
 
+#: the system whose results have no schema: imucal JSON exports and imu_tk parameter files are multi-position
+#: calibrations (:func:`optinav.multipos.exchange.load_calibration` reads them)
+EXCHANGE_SYSTEM = "multipos"
+
+
+def for_result(path) -> tuple[System, Any]:
+    """The system of the result file at ``path``, selected by its schema ``optinav.<system>.<kind>`` (or an
+    older layout a system reads), and the loaded result; a file without a schema (imucal, imu_tk) is a
+    calibration of :data:`EXCHANGE_SYSTEM`, returned with ``None`` (its system's loader reads it)."""
+    from optinav.core.files import read_text
+    from optinav.core.results import Result
+
+    text = read_text(path, "result file")
+    if not text.lstrip().startswith("{") or '"schema"' not in text:
+        return SYSTEMS[EXCHANGE_SYSTEM], None
+    res = Result.from_json(path)
+    name = getattr(res, "SYSTEM", None)
+    if name not in SYSTEMS:
+        raise OptinavError(f"{path} ({res.SCHEMA}) is not the result of a registered system",
+                           f"pass a result of {', '.join(SYSTEMS)}")
+    return SYSTEMS[name], res
+
+
 register(System(
     name="multipos", command="accel", kind="calibration",
     result="optinav.multipos.result:CalibrationResult", simulate="optinav.multipos.simulate:simulate",
     fit="optinav.multipos.calibrate:calibrate", options="optinav.multipos.calibrate:FileOptions",
     run_unit="optinav.multipos.unit:run_unit", check="optinav.multipos.unit:check",
     truth="optinav.multipos.result:session_truth",
-    report="optinav.reports.calibration_report:write_calibration_report",
+    report="optinav.reports.result_report:multipos_report", apply="optinav.multipos.apply:apply_file",
+    apply_options="optinav.multipos.apply:ApplyOptions",
     read="optinav.multipos.calibrate:read_session_file", write="optinav.io:write_imu",
     cli="optinav.cli.calibrate", help="multi-position accelerometer (and gyroscope) calibration"))
 register(System(
@@ -111,7 +139,8 @@ register(System(
     fit="optinav.rins.calibrate:calibrate", options="optinav.rins.unit:RinsOptions",
     run_unit="optinav.rins.unit:run_unit", check="optinav.rins.unit:check",
     truth="optinav.rins.calibrate:rins_truth",
-    report="optinav.cli.rins:write_rins_report", read="optinav.rins.io:read_rins", write="optinav.rins.io:write_rins",
+    report="optinav.rins.report:rins_report", apply="optinav.rins.unit:apply_file",
+    apply_options="optinav.rins.unit:RinsOptions", read="optinav.rins.io:read_rins", write="optinav.rins.io:write_rins",
     cli="optinav.cli.rins", help="gimbal non-orthogonality of a dual-axis rotational INS"))
 register(System(
     name="gfimu", command="gfimu", kind="calibration",
@@ -119,7 +148,8 @@ register(System(
     fit="optinav.gfimu.turntable:calibrate", options="optinav.gfimu.unit:GfimuOptions",
     run_unit="optinav.gfimu.unit:run_unit", check="optinav.gfimu.unit:check",
     truth="optinav.gfimu.turntable:turntable_truth",
-    report="optinav.cli.gfimu:write_gfimu_report", read="optinav.gfimu.turntable:TurntableData.load",
+    report="optinav.gfimu.report:gfimu_report", apply="optinav.gfimu.unit:apply_file",
+    apply_options="optinav.gfimu.unit:GfimuApplyOptions", read="optinav.gfimu.turntable:TurntableData.load",
     cli="optinav.cli.gfimu", help="installation errors of a gyro-free accelerometer array"))
 register(System(
     name="attitude", command="attitude", kind="estimate",
@@ -127,5 +157,5 @@ register(System(
     fit="optinav.attitude.estimators:estimate", options="optinav.attitude.unit:AttitudeOptions",
     run_unit="optinav.attitude.unit:run_unit", check="optinav.attitude.unit:check",
     truth="optinav.attitude.estimators:attitude_truth",
-    report="optinav.cli.attitude:_report", read="optinav.attitude.unit:read_log",
+    report="optinav.reports.result_report:attitude_report", read="optinav.attitude.unit:read_log",
     cli="optinav.cli.attitude", help="attitude from gyroscope + accelerometer (+ magnetometer, polarization)"))

@@ -7,8 +7,9 @@ import sys
 import math
 import textwrap
 
-from optinav.cli.common import (COUNT, HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, SEED, add_input_options,
-                                add_report_option, finish_report, output_path, prepare_report, register_system_hooks)
+from optinav.cli.common import (COUNT, HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, SEED, add_chunk_option,
+                                add_input_options, add_report_option, finish_report, output_path, prepare_report,
+                                register_system_hooks)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -55,6 +56,38 @@ def register(sub) -> None:
 def add_batch_options(p) -> None:
     """``optinav batch calibrate accel``: the options of ``calibrate accel`` (registry hook)."""
     add_calibration_options(p)
+
+
+def add_apply_options(g) -> None:
+    """``optinav apply`` of a multi-position calibration: how the raw log is read (registry hook; destinations
+    are the fields of :class:`optinav.multipos.apply.ApplyOptions`)."""
+    g.add_argument("--gyro-cal", metavar="FILE", help="imu_tk's gyroscope parameter file (RESULT is then its "
+                                                      "accelerometer file)")
+    add_input_options(g)
+    add_chunk_option(g)
+
+
+def calibrate_unit(args, name: str) -> int:
+    """``optinav calibrate SYSTEM``: the system's options from ``args``, checked, then its ``run_unit`` on
+    ``args.data`` (what ``optinav batch calibrate`` runs per unit); writes the result and ``--report``."""
+    from optinav import registry
+    from optinav.cli.batch import options_from_args
+    from optinav.core.progress import step
+
+    system = registry.SYSTEMS[name]
+    out = output_path(args.out, (".json",), "RESULT.json")
+    prepare_report(args)
+    options = options_from_args(system.load("options"), args)
+    system.load("check")(options)
+    if not getattr(args, "quiet", False):
+        print(f"optinav: calibrating {args.data} ({options.method}) ...", file=sys.stderr)
+    res, _ = system.load("run_unit")(args.data, options)
+    step("write")
+    res.to_json(out)
+    print(res.summary())
+    print(f"optinav: result written to {out}")
+    finish_report(args, lambda d: system.load("report")(res, d, args.data, options))
+    return 0
 
 
 def add_calibration_options(a) -> None:

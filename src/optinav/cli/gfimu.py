@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import textwrap
 
-from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, finish_report,
-                                number, output_path, parse_floats, prepare_report, require_files, truth_path,
+from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, number, output_path, parse_floats, require_files, truth_path,
                                 write_truth)
 from optinav.errors import OptinavError
 
@@ -144,11 +142,9 @@ def run_simulate(args) -> int:
     data.save(out)
     from optinav.gfimu.turntable import turntable_truth
 
-    info = {"dr_m": e.dr.tolist(), "dalpha_rad": e.dalpha.tolist(), "dbeta_rad": e.dbeta.tolist(),
-             "coefficients": dict(zip(InstallationErrors.names(arr.n), e.vector().tolist())),
-             "noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates, "wedge_deg": args.wedge_deg,
-             "samples_per_case": int(round(args.duration * args.sample_rate))}
-    tp = write_truth(out, turntable_truth(e, info))
+    tp = write_truth(out, turntable_truth(e, {"noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates,
+                                              "wedge_deg": args.wedge_deg,
+                                              "samples_per_case": int(round(args.duration * args.sample_rate))}))
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 
@@ -173,14 +169,7 @@ def register_calibrate(kinds) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     c.add_argument("data", metavar="DATA", help="turntable data (.npz, .csv, .h5)")
-    c.add_argument("--config", metavar="CONFIG.json", help="nominal array configuration")
-    c.add_argument("--builtin", choices=["cylinder10"], help="built-in nominal configuration")
-    c.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
-    c.add_argument("--offset", metavar="X,Y,Z", help="measured array centre from the table axis, body m "
-                                                     "(default 0; 'estimate' to try estimating it)")
-    c.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
-                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
-    c.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+    add_batch_options(c)
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(c)
     c.set_defaults(func=run_calibrate, progress_task="calibrate gfimu")
@@ -210,79 +199,28 @@ def add_batch_options(p) -> None:
     p.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
 
 
+def add_apply_options(g) -> None:
+    """``optinav apply`` of a gfimu result: how the motion is solved (registry hook; destinations are the
+    fields of :class:`optinav.gfimu.unit.GfimuApplyOptions`)."""
+    g.add_argument("--omega0", type=_vector, metavar="X,Y,Z", help="angular rate at the first sample in rad/s "
+                                                                   "(default 0: the array starts at rest)")
+    # the methods are checked by the library (optinav.gfimu.solve.RATE_METHODS; importing it here would load
+    # numpy for every --help)
+    g.add_argument("--rate-method", default="integration", metavar="METHOD",
+                   help="how the angular rate is solved: integration (default, the paper's), quadratic or "
+                        "gauss-newton")
+
+
+def _vector(text: str):
+    """X,Y,Z (argparse type)."""
+    try:
+        return tuple(parse_floats(text, 3, "--omega0", "X,Y,Z"))
+    except OptinavError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"), (args.config, "configuration file"))
-    from optinav.core.progress import step
-    import numpy as np
+    from optinav.cli.calibrate import calibrate_unit
 
-    from optinav.gfimu.array import identifiability
-    from optinav.gfimu.turntable import TurntableData, calibrate
-
-    arr = _load_array(args.config, args.builtin)
-    out = output_path(args.out, (".json",), "RESULT.json")
-    identifiability(arr).require(("linear",))
-    step("read")
-    data = TurntableData.load(args.data, arr.n)
-    if args.rate_unit == "deg/s":
-        data.table_rate = np.radians(data.table_rate)
-    if args.offset is None:
-        offset = "zero"
-    elif args.offset.strip() == "estimate":
-        offset = "estimate"
-    else:
-        offset = parse_floats(args.offset, 3, "--offset", "X,Y,Z")
-    if not getattr(args, "quiet", False):
-        print(f"optinav: calibrating {arr.n} accelerometers from {len(data.t)} samples ({args.method}) ...",
-              file=sys.stderr)
-    prepare_report(args)
-    step(f"fit ({args.method})")
-    res = calibrate(arr, data, method=args.method, offset=offset, sigma=args.noise)
-    step("write")
-    res.to_json(out)
-    print(res.summary())
-    print(f"optinav: result written to {out}")
-    finish_report(args, lambda d: write_gfimu_report(res, args.data, d))
-    return 0
-
-
-def write_gfimu_report(res, source, out_dir):
-    """index.md/html + PNG: the 50 installation errors with their std and CRLB, and the scheme's observability."""
-    import numpy as np
-
-    from optinav.reports.report import Figure, StudyResult, Table, write_report
-
-    n = len(res.dalpha)
-    est, std = np.asarray(res.estimate, float), np.asarray(res.std, float)
-    crlb = np.asarray(res.crlb_std, float)
-    idx = {nm: k for k, nm in enumerate(res.names)}
-
-    def cell(name, scale):
-        k = idx.get(name)
-        if k is None:
-            return "held"
-        return f"{est[k] * scale:+.4f} ± {std[k] * scale:.2g} (CRLB {crlb[k] * scale:.2g})"
-
-    rows = [[i + 1, *(cell(f"{c}_{i + 1}", 1e3) for c in ("dr_x", "dr_y", "dr_z")),
-             *(cell(f"{c}_{i + 1}", 1e3) for c in ("dalpha", "dbeta"))] for i in range(n)]
-
-    def draw(fig):
-        axs = fig.subplots(2, 1)
-        for ax, group, unit in ((axs[0], ("dr_x", "dr_y", "dr_z"), "mm"), (axs[1], ("dalpha", "dbeta"), "mrad")):
-            for j, c in enumerate(group):
-                ks = [idx[f"{c}_{i + 1}"] for i in range(n) if f"{c}_{i + 1}" in idx]
-                x = np.arange(len(ks)) + 1 + (j - (len(group) - 1) / 2) * 0.2
-                ax.errorbar(x, est[ks] * 1e3, yerr=2 * std[ks] * 1e3, fmt="o", ms=3, capsize=2, label=c)
-            ax.set_ylabel(f"estimate ± 2σ [{unit}]")
-            ax.legend(fontsize=7, ncol=3)
-        axs[1].set_xlabel("accelerometer")
-
-    study = StudyResult(
-        name="gfimu-calibration", title=f"Gyro-free array installation errors ({res.method}) from {source}",
-        description="; ".join(res.statements),
-        tables=[Table("Installation errors: estimate ± std (CRLB); positions in mm, directions in mrad",
-                      ["sensor", "dr_x", "dr_y", "dr_z", "dalpha", "dbeta"], rows,
-                      note=f"rank {res.rank}/{res.n_params}; residual RMS {res.residual_rms:.3g} σ; "
-                           f"samples per case {list(np.asarray(res.samples_per_case).tolist())}"),
-                ],
-        figures=[Figure("installation_errors.png", "installation errors with ±2σ", draw, (7.5, 6.0))])
-    return write_report([study], out_dir, title="optinav calibrate gfimu")
+    return calibrate_unit(args, "gfimu")

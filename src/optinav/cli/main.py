@@ -24,7 +24,7 @@ from optinav.errors import OptinavError
 #: :mod:`optinav.registry`
 COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
                    "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan", "optinav.cli.export",
-                   "optinav.cli.design"]
+                   "optinav.cli.design", "optinav.cli.report"]
 
 
 class OneLineParser(argparse.ArgumentParser):

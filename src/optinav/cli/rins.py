@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import math
-import sys
 import textwrap
 
 from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report, require_files, truth_path,
+                                output_path, parse_floats, require_files, truth_path,
                                 write_truth)
 
 
@@ -55,7 +53,7 @@ def register_simulate(kinds) -> None:
 def _parse_nonorth(text: str, unit: str) -> "np.ndarray":  # noqa: F821 - numpy is imported inside (a fast --help)
     import numpy as np
 
-    v = np.array(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
+    v = np.asarray(parse_floats(text, 6, "--nonorth", "THETA_X,THETA_Y,THETA_Z,ETA_X,ETA_Y,ETA_Z"))
     return np.radians(v) if unit == "deg" else v
 
 
@@ -63,7 +61,6 @@ def run_simulate(args) -> int:
     import numpy as np
 
     from optinav.rins.io import write_rins
-    from optinav.rins.model import PARAM_NAMES
     from optinav.rins.simulate import simulate
 
     out = output_path(args.out)
@@ -83,12 +80,9 @@ def run_simulate(args) -> int:
                  gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
                  lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
     write_rins(out, d)
-    from optinav.rins.calibrate import rins_truth
+    from optinav.rins.calibrate import simulation_truth
 
-    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": args.lat, "seed": args.seed,
-             "scheme": d.info["scheme"], "steps": d.info["steps"], "align_s": args.align,
-             "gyro_K": d.info["gyro_K"], "gyro_bias_rad_s": d.info["gyro_bias"]}
-    tp = write_truth(out, rins_truth(p, d.alpha, d.beta, info))
+    tp = write_truth(out, simulation_truth(d, seed=args.seed, lat_deg=args.lat))
     print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
           f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
     return 0
@@ -111,12 +105,7 @@ def register_calibrate(kinds) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="data file (.npz, .csv, .h5) with t (or time), dtheta_x..z, dv_x..z, alpha, beta")
-    p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
-    p.add_argument("--lat", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from the file)")
-    p.add_argument("--align", type=POSITIVE, metavar="S", help="longest alignment window (default: the initial rest)")
-    p.add_argument("--residual-rate", type=RATE, default=10.0, metavar="HZ",
-                   help="epochs per second of the attitude residuals (default 10)")
-    p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
+    add_batch_options(p)
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(p)
     p.set_defaults(func=run_calibrate, progress_task="calibrate rins")
@@ -135,58 +124,17 @@ def add_batch_options(p) -> None:
     p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
 
 
+def add_apply_options(g) -> None:
+    """``optinav apply`` of a rins result: how the recording is aligned (registry hook; destinations are fields
+    of :class:`optinav.rins.unit.RinsOptions`)."""
+    g.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
+                   help="latitude in degrees (default: from the file)")
+    g.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
+                   help="longest alignment window (default: the initial rest)")
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"))
-    from optinav.core.progress import step
-    from optinav.rins.calibrate import calibrate, prepare
-    from optinav.rins.io import read_rins
+    from optinav.cli.calibrate import calibrate_unit
 
-    out = output_path(args.out, (".json",), "RESULT.json")
-    prepare_report(args)
-    step("read")
-    data = read_rins(args.data, lat=None if args.lat is None else math.radians(args.lat))
-    if not getattr(args, "quiet", False):
-        print(f"optinav: calibrating {data.t.size} samples from {args.data} ({args.method}) ...", file=sys.stderr)
-    step("prepare")
-    prep = prepare(data, residual_rate=args.residual_rate, align_s=args.align)
-    step(f"fit ({args.method})")
-    res = calibrate(method=args.method, prep=prep, rng=args.seed, source=str(args.data))
-    step("write")
-    res.to_json(out)
-    print(res.summary())
-    print(f"optinav: result written to {out}")
-    finish_report(args, lambda d: write_rins_report(res, prep, d))
-    return 0
-
-
-def write_rins_report(res, prep, out_dir):
-    """index.md/html + PNGs: angle table and the attitude-change curves before/after compensation."""
-    import numpy as np
-
-    from optinav.reports.report import Figure, StudyResult, Table, write_report
-    from optinav.rins.calibrate import attitude_errors
-
-    rows = [[nm, "null" if v is None else f"{v:.6e}", "" if res.angles_std.get(nm) is None
-             else f"{res.angles_std[nm]:.2e}"] for nm, v in res.angles.items()]
-    rows += [[c["name"], f"{c['value']:.6e}", f"{c['std']:.2e}"] for c in res.combinations if " " in c["name"]]
-    t = prep.t[1:] - prep.t[0]
-    eb = np.degrees(attitude_errors(prep, np.zeros(6)))
-    ea = np.degrees(attitude_errors(prep, res.p))
-
-    def draw(fig):
-        axs = fig.subplots(3, 1, sharex=True)
-        for k, nm in enumerate(("roll", "pitch", "yaw")):
-            axs[k].plot(t, eb[:, k], "r", lw=0.8, label="uncompensated")
-            axs[k].plot(t, ea[:, k], "g", lw=0.8, label=res.method)
-            axs[k].set_ylabel(f"{nm} [deg]")
-        axs[0].legend(fontsize=7)
-        axs[-1].set_xlabel("time since navigation start [s]")
-
-    study = StudyResult(name="rins-calibration", title=f"Rotational-INS non-orthogonality ({res.method})",
-                        description="; ".join(res.observability.get("statements", [])),
-                        tables=[Table("Angles [rad] (null = not observable)", ["angle", "value", "std"], rows),
-                                Table("Vehicle attitude RMSE [deg]", ["", "roll", "pitch", "yaw"],
-                                      [["before", *res.rmse_before_deg], ["after", *res.rmse_after_deg]])],
-                        figures=[Figure("attitude_error.png", "extracted vehicle attitude change (error)", draw,
-                                        (7.0, 6.0))])
-    return write_report([study], out_dir, title="optinav calibrate rins")
+    return calibrate_unit(args, "rins")

@@ -24,7 +24,7 @@ from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray, LINEAR_NAMES, identifiability, quadratic_products
 
 __all__ = ["LinearSolution", "solve_linear", "rate_integration", "rate_quadratic", "rate_gauss_newton",
-           "solve_rate", "RATE_METHODS"]
+           "solve_rate", "solve_motion", "RATE_METHODS"]
 
 RATE_METHODS = ("integration", "quadratic", "gauss-newton")
 #: accelerometer noise (m/s², 1σ) assumed for weighting when the configuration gives none (≈ 10 µg)
@@ -331,3 +331,39 @@ def solve_rate(array: AccelerometerArray, acc, t, omega0=None, method: str = "in
     if method == "gauss-newton":
         return rate_gauss_newton(array, f, t, omega0, **options)[0]
     raise OptinavError(f"unknown rate method {method!r}", f"use one of {', '.join(RATE_METHODS)}")
+
+
+def solve_motion(array: AccelerometerArray, acc, t, omega0=None, method: str = "integration"):
+    """The motion of every epoch: ω by :func:`solve_rate`, then [A; ω̇] by weighted least squares of
+    ``f − H_quad q(ω) = H_lin [A; ω̇]``. With the calibrated array
+    (:meth:`~optinav.gfimu.turntable.TurntableCalibration.calibrated_array`) this is the paper's compensation of
+    the installation errors (Hao & Liu 2011, §4).
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The geometry the outputs are solved with.
+    acc : (T, N) array_like
+        Accelerometer outputs [m/s²].
+    t : (T,) array_like
+        Time stamps [s], strictly increasing.
+    omega0 : (3,) array_like, optional
+        Angular rate at ``t[0]`` [rad/s]; default at rest.
+    method : str
+        Rate solver, one of :data:`RATE_METHODS`.
+
+    Returns
+    -------
+    Motion
+        ``A`` (T, 3) specific force at the array's reference point [m/s²], ``wdot`` (T, 3) [rad/s²], ``omega``
+        (T, 3) [rad/s].
+    """
+    from optinav.gfimu.errors import Motion
+
+    f = _outputs(array, acc)
+    t = _time(t, f.shape[0])
+    w = solve_rate(array, f, t, omega0, method)
+    wts = array.weights()
+    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]         # (6, N)
+    x = (f - quadratic_products(w) @ array.H_quad.T) @ P.T
+    return Motion(t, x[:, :3], x[:, 3:], w, f"{array.name or 'array'} ({method})")

@@ -170,29 +170,36 @@ class TurntableData:
         if missing:
             raise OptinavError(f"{path} has no {', '.join(missing)} (found: {tab.names()})",
                                "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md")
-        if tab.find("f") is not None:
-            f = np.asarray(tab.get("f"), float)
-            if f.ndim == 1:
-                f = f[:, None]
-        else:
-            k = 1
-            cols = []
-            while tab.find(f"f{k}") is not None:
-                cols.append(np.asarray(tab.get(f"f{k}"), float))
-                k += 1
-            if not cols:
-                raise OptinavError(f"{path} has no accelerometer outputs f1..fN (or an array f)",
-                                   "name the output columns f1, f2, ...")
-            f = np.column_stack(cols)
-        if n_accelerometers is not None and f.shape[1] != n_accelerometers:
-            raise OptinavError(f"{path} has {f.shape[1]} accelerometer columns, the configuration {n_accelerometers}",
-                               "pass the configuration the data was recorded with")
+        f = array_outputs(tab, path, n_accelerometers)
         g = float(np.asarray(tab.get("gravity"), float).ravel()[0]) if tab.find("gravity") is not None else G_STANDARD
         t = np.asarray(tab.get("t"), float)
-        if not np.all(np.isfinite(f)):
-            raise OptinavError(f"{path}: accelerometer outputs contain NaN/inf", "remove or repair those rows")
         return cls(t, f, np.asarray(tab.get("mounting"), float).astype(int), np.asarray(tab.get("table_rate"), float),
                    float(np.asarray(tab.get("wedge"), float).ravel()[0]), g)
+
+
+def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
+    """The accelerometer outputs (T, N) m/s² of a table read by :func:`optinav.io.readers.load_table`: its array
+    ``f`` or its columns ``f1..fN``; checked finite and, when given, ``n_accelerometers`` wide."""
+    if tab.find("f") is not None:
+        f = np.asarray(tab.get("f"), float)
+        if f.ndim == 1:
+            f = f[:, None]
+    else:
+        k = 1
+        cols = []
+        while tab.find(f"f{k}") is not None:
+            cols.append(np.asarray(tab.get(f"f{k}"), float))
+            k += 1
+        if not cols:
+            raise OptinavError(f"{path} has no accelerometer outputs f1..fN (or an array f)",
+                               "name the output columns f1, f2, ...")
+        f = np.column_stack(cols)
+    if n_accelerometers is not None and f.shape[1] != n_accelerometers:
+        raise OptinavError(f"{path} has {f.shape[1]} accelerometer columns, the configuration {n_accelerometers}",
+                           "pass the configuration the data was recorded with")
+    if not np.all(np.isfinite(f)):
+        raise OptinavError(f"{path}: accelerometer outputs contain NaN/inf", "remove or repair those rows")
+    return f
 
 
 def model_outputs(positions, directions, u, w, g, offset=None) -> np.ndarray:
@@ -458,6 +465,17 @@ class TurntableCalibration(Estimate):
             Calibrated positions [m] and directions.
         """
         return AccelerometerArray(self.positions, self.directions, nominal.noise, nominal.name + "-calibrated")
+
+    def calibrated_array(self) -> AccelerometerArray:
+        """The calibrated array from this result alone (no nominal array needed).
+
+        Returns
+        -------
+        AccelerometerArray
+            Calibrated positions [m] and directions, weighted by the noise the calibration used (``sigma``
+            [m/s²]).
+        """
+        return AccelerometerArray(self.positions, self.directions, np.asarray(self.sigma, float), "calibrated")
 
     def summary(self) -> str:
         """A human-readable report: rank, residual, and the errors of each sensor.
@@ -785,11 +803,27 @@ register_legacy(TurntableCalibration, "optinav.gfimu.calibration", 1, _legacy_v1
 
 def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Truth:
     """Simulated installation errors in the parameterization :func:`calibrate` estimates (names
-    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default."""
+    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default.
+
+    Parameters
+    ----------
+    errors : InstallationErrors
+        The simulated errors; also written per kind (``dr_m``, ``dalpha_rad``, ``dbeta_rad``) and by name
+        (``coefficients``) beside the parameters.
+    info : dict, optional
+        The simulation's settings to record with them (units in the key names).
+
+    Returns
+    -------
+    Truth
+        The ``optinav.gfimu.truth`` record.
+    """
     n = errors.n
     units = _unit_names(n, 0)
+    own = {"dr_m": errors.dr.tolist(), "dalpha_rad": errors.dalpha.tolist(), "dbeta_rad": errors.dbeta.tolist(),
+           "coefficients": dict(zip(InstallationErrors.names(n), errors.vector().tolist()))}
     return Truth("gfimu", {nm: Parameter(float(v), u) for nm, v, u in
-                           zip(InstallationErrors.names(n), errors.vector(), units)}, dict(info or {}))
+                           zip(InstallationErrors.names(n), errors.vector(), units)}, {**own, **(info or {})})
 
 
 register_truth_legacy("gfimu", "optinav.gfimu_truth",

@@ -4,9 +4,11 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 
+from optinav.core.progress import step
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray, builtin, identifiability
 from optinav.gfimu.turntable import TurntableCalibration, TurntableData, calibrate
@@ -46,14 +48,57 @@ def check(options: GfimuOptions) -> None:
     identifiability(options.array()).require(("linear",))
 
 
+def read(path, options: GfimuOptions) -> TurntableData:
+    """The turntable recording at ``path`` for the array of ``options``, its table rate in rad/s."""
+    data = TurntableData.load(path, options.array().n)
+    if options.rate_unit == "deg/s":
+        data.table_rate = np.radians(data.table_rate)
+    return data
+
+
 def run_unit(path, options: GfimuOptions, reference: bool = False) -> tuple[TurntableCalibration, dict]:
     """Read and calibrate ``path`` (what ``optinav calibrate gfimu`` does); extra columns: samples, rank,
     residual RMS (in σ)."""
-    arr = options.array()
-    data = TurntableData.load(path, arr.n)
-    if options.rate_unit == "deg/s":
-        data.table_rate = np.radians(data.table_rate)
+    step("read")
+    data = read(path, options)
     offset = options.offset if isinstance(options.offset, str) else np.asarray(options.offset, float)
-    res = calibrate(arr, data, method=options.method, offset=offset, sigma=options.noise)
+    step(f"fit ({options.method})")
+    res = calibrate(options.array(), data, method=options.method, offset=offset, sigma=options.noise)
     return res, {"n_samples": int(len(data.t)), "rank": int(res.rank), "n_params": int(res.n_params),
                  "residual_rms_sigma": float(res.residual_rms)}
+
+
+@dataclasses.dataclass
+class GfimuApplyOptions:
+    """How ``optinav apply`` solves an array recording: ``omega0`` the angular rate at the first sample (rad/s,
+    (x, y, z); None: at rest) and ``rate_method`` one of :data:`optinav.gfimu.solve.RATE_METHODS`."""
+
+    omega0: tuple | None = None
+    rate_method: str = "integration"
+
+
+def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = None) -> str:
+    """``optinav apply`` for a gfimu result: solve the array outputs of ``data_path`` (t and f1..fN, or an array
+    f, m/s²) with the calibrated geometry (the paper's compensation) and write ``out`` (CSV): t (s), specific
+    force A at the array's reference point ax, ay, az (m/s²), angular rate gx, gy, gz (rad/s) and angular
+    acceleration wdot_x..z (rad/s²); returns the one-line account."""
+    from optinav.core.files import write_csv
+    from optinav.gfimu.solve import RATE_METHODS, solve_motion
+    from optinav.gfimu.turntable import array_outputs
+    from optinav.io.readers import load_table
+
+    o = options or GfimuApplyOptions()
+    if o.rate_method not in RATE_METHODS:
+        raise OptinavError(f"unknown rate method {o.rate_method!r}", f"--rate-method one of {', '.join(RATE_METHODS)}")
+    if Path(out).suffix.lower() not in (".csv", ".txt"):
+        raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
+    res = TurntableCalibration.from_json(result_path)
+    tab = load_table(data_path)
+    if tab.find("t") is None:
+        raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
+    f = array_outputs(tab, data_path, len(res.dalpha))
+    m = solve_motion(res.calibrated_array(), f, np.asarray(tab.get("t"), float), o.omega0, o.rate_method)
+    write_csv(out, np.column_stack([m.t, m.A, m.omega, m.wdot]),
+              "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g")
+    return (f"wrote the motion of {m.t.size} samples to {out}, solved with the calibrated geometry of "
+            f"{len(res.dalpha)} accelerometers ({o.rate_method}; m/s^2, rad/s, rad/s^2)")

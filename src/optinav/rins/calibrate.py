@@ -606,5 +606,30 @@ def rins_truth(angles, alpha, beta, info: dict | None = None) -> Truth:
     return Truth("rins", params, dict(info or {}))
 
 
+def simulation_truth(data, *, seed: int, lat_deg: float) -> Truth:
+    """The truth of a recording :func:`optinav.rins.simulate.simulate` made, as ``optinav simulate rins``
+    writes it beside the data.
+
+    Parameters
+    ----------
+    data : RinsData
+        The simulated recording (its ``truth`` angles [rad], encoder angles, ``align_s`` [s] and ``info``).
+    seed : int
+        The seed it was simulated with.
+    lat_deg : float
+        Its latitude as given [deg] (recorded as given, not converted back from radians).
+
+    Returns
+    -------
+    Truth
+        :func:`rins_truth` of the angles, with the scheme, site, seed and the drawn gyro errors.
+    """
+    p = np.asarray(data.truth, float)
+    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": lat_deg, "seed": seed,
+            "scheme": data.info["scheme"], "steps": data.info["steps"], "align_s": data.align_s,
+            "gyro_K": data.info["gyro_K"], "gyro_bias_rad_s": data.info["gyro_bias"]}
+    return rins_truth(p, data.alpha, data.beta, info)
+
+
 register_truth_legacy("rins", "optinav.rins_truth",
                       lambda d: {nm: Parameter(float(d["angles"][nm]), "rad") for nm in PARAM_NAMES})

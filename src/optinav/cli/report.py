@@ -1,0 +1,40 @@
+"""``optinav report RESULT.json [...] --out DIR|FILE.md``: the report of any system's result file, built by the
+system's ``report`` reference in :mod:`optinav.registry` (the file's schema selects the system)."""
+
+from __future__ import annotations
+
+import argparse
+import textwrap
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "report", help="report of result files of any system (tables and figures)",
+        description=textwrap.dedent("""\
+            Write the report of each RESULT.json (any system; its schema selects the report): the result's
+            parameters with their std, observability and quality, and the system's figures. --data gives the
+            recording a result came from (one per result, in order) for the figures that need it (the corrected
+            norm of a multi-position log, the attitude change of a rotational INS, the angles of an attitude
+            estimate). --out DIR writes DIR/index.md, index.html, summary.json and PNGs (several results: one
+            sub-folder each and DIR/index.md linking them); --out FILE.md writes one Markdown file with the rest in
+            FILE_files/."""),
+        epilog=textwrap.dedent("""\
+            examples:
+              optinav report result.json --data session.csv --out rep
+              optinav report rins_result.json gfimu_result.json --out calibrations.md
+            """),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results", nargs="+", metavar="RESULT.json", help="result files of optinav")
+    p.add_argument("--data", action="append", default=[], metavar="DATA",
+                   help="the recording of a result (repeatable, one per result in order)")
+    p.add_argument("--out", required=True, metavar="DIR|FILE.md", help="report folder or Markdown file")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from optinav.cli.common import require_files
+    from optinav.reports.result_report import write_result_reports
+
+    require_files(*((r, "result file") for r in args.results), *((d, "--data file") for d in args.data))
+    print(f"optinav: report written to {write_result_reports(args.results, args.out, args.data)}")
+    return 0

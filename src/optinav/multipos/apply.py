@@ -1,0 +1,124 @@
+"""``optinav apply`` for a multi-position calibration: raw logs corrected block by block,
+a = K⁻¹(raw − b) (m/s²) and ω = K_g⁻¹(raw − G·a − b_g) (rad/s).
+
+The calibration is optinav's RESULT.json, an imucal JSON export or imu_tk parameter files
+(:func:`optinav.multipos.exchange.load_calibration`); it is refused when its K/b cannot be a sensor's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+#: accepted ratio of a calibrated scale to its nominal value (1 / the SI factor of the raw unit); MEMS scale
+#: errors are percent, so a factor 2 only lets through what cannot be a calibration of that unit
+SCALE_FACTOR = 2.0
+#: raw counts per SI unit that any real ADC and range give (16 to 32 bits, ranges 0.5 g to 400 g, 10 to 5000 °/s)
+COUNTS_PER_SI = (1e-2, 1e9)
+#: largest condition number of K: misalignments are degrees at most, so K is close to a scaled identity
+MAX_COND = 10.0
+
+
+@dataclasses.dataclass
+class ApplyOptions:
+    """How the raw log is read (the reading options of :func:`optinav.io.imu.iter_imu`: ``columns``, units
+    (None: those the calibration was made in), ``time_unit``, ``rate`` Hz, ``datasets``, ``delimiter``,
+    ``topic``), ``chunk_rows`` rows per block, and ``gyro_cal``: imu_tk's gyroscope parameter file when the
+    result is imu_tk's accelerometer file."""
+
+    columns: str | None = None
+    acc_unit: str | None = None
+    gyro_unit: str | None = None
+    time_unit: str | None = None
+    rate: float | None = None
+    datasets: str | None = None
+    delimiter: str | None = None
+    topic: str | None = None
+    chunk_rows: int | None = None
+    gyro_cal: str | None = None
+
+
+def apply_file(result_path, data_path, out, options: ApplyOptions | None = None) -> str:
+    """Correct the raw log ``data_path`` with the calibration ``result_path`` into ``out`` (format by extension),
+    block by block so that memory does not grow with the log; returns the one-line account."""
+    from optinav.core.files import CHUNK_ROWS
+    from optinav.core.progress import progress_blocks
+    from optinav.io import ImuLog
+    from optinav.io.imu import iter_imu, open_imu_writer
+    from optinav.multipos.exchange import load_calibration
+
+    o = options or ApplyOptions()
+    res = load_calibration(result_path, o.gyro_cal)
+    for sensor, entry, key in (("accelerometer", res.accelerometer, "accelerometer_raw"),
+                               ("gyroscope", res.gyroscope, "gyroscope_raw")):
+        if entry is not None:
+            check_plausible_K(sensor, entry, res.units.get(key))
+    acc_unit = o.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
+    gyro_unit = o.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
+    blocks = iter_imu(data_path, columns=o.columns, acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=o.time_unit,
+                      rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter,
+                      chunk_rows=o.chunk_rows or CHUNK_ROWS, topic=o.topic)
+    source = f"optinav apply {Path(result_path).name} {Path(data_path).name}"
+    # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
+    # grow with the log; a bad row fails when its block is read and leaves no output
+    with open_imu_writer(out) as writer:
+        for log in progress_blocks(blocks, "apply"):
+            acc, gyro = corrected(res, log, data_path, result_path)
+            writer.write(ImuLog(t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
+                                labels=log.labels))
+    return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
+
+
+def corrected(res, log, data_path, result_path):
+    """One block's corrected (acc m/s², gyro rad/s), None for a sensor the result or the data lack."""
+    from optinav.io import raw_units
+
+    acc = gyro = None
+    if res.accelerometer is not None and log.acc is not None:
+        raw, unit = raw_units(log, "acc")
+        _check_unit("accelerometer", unit, res.units.get("accelerometer_raw"))
+        acc = res.correct_accel(raw)
+    if res.gyroscope is not None and log.gyr is not None:
+        raw, unit = raw_units(log, "gyro")
+        _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
+        gyro = res.correct_gyro(raw, acc)
+    if acc is None and gyro is None:
+        raise OptinavError(f"{data_path} has no data for the sensors in {result_path}",
+                           "check --columns (t,ax,ay,az,gx,gy,gz)")
+    return acc, gyro
+
+
+def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
+    """Refuse a calibration whose K/b cannot be a sensor's (non-finite, ill-conditioned, scale far from the raw
+    unit's nominal, e.g. K = 1e300 of a damaged file): applied, it would write plausible-looking garbage."""
+    from optinav.core.units import factor
+
+    K, b = np.asarray(entry["K"], float), np.asarray(entry["b"], float)
+    cause = None
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(b))):
+        cause = "K or b is not finite"
+    elif np.linalg.cond(K) > MAX_COND:
+        cause = f"K has condition number {np.linalg.cond(K):.3g} (> {MAX_COND:g}: axes nearly parallel)"
+    else:
+        scale = np.abs(np.diag(K))
+        if raw_unit in (None, "counts"):
+            lo, hi = COUNTS_PER_SI
+        else:
+            nominal = 1.0 / factor(raw_unit)
+            lo, hi = nominal / SCALE_FACTOR, nominal * SCALE_FACTOR
+        if np.any(scale < lo) or np.any(scale > hi):
+            cause = (f"the scales diag(K) = {', '.join(f'{v:.4g}' for v in scale)} {raw_unit or 'raw'} per SI unit "
+                     f"are outside {lo:.3g}..{hi:.3g}")
+    if cause:
+        raise OptinavError(f"the {sensor} calibration is implausible: {cause}",
+                           "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)")
+
+
+def _check_unit(sensor: str, unit: str, expected: str | None) -> None:
+    if expected and unit != expected:
+        raise OptinavError(f"the {sensor} data are in {unit} but the calibration was made in {expected}",
+                           f"pass data in {expected} (or --{'acc' if sensor[0] == 'a' else 'gyro'}-unit {expected})")

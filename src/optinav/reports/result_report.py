@@ -1,0 +1,101 @@
+"""``optinav report``: the report of any system's result file, built by the system's ``report`` reference in
+:mod:`optinav.registry` (the schema of the file selects the system), into a folder or one Markdown file; and the
+report references of the multipos and attitude systems."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from optinav.errors import OptinavError
+
+
+def multipos_report(res, out_dir, data=None, options=None) -> Path:
+    """The report of a multi-position calibration: its tables and, with the recording ``data`` (read with
+    ``options``, a :class:`~optinav.multipos.calibrate.FileOptions`), the corrected norm over the log and the
+    pose residuals (:mod:`optinav.reports.calibration_report`)."""
+    from optinav.reports import calibration_report as cr
+
+    if data is not None:
+        from optinav.multipos.calibrate import FileOptions, read_session_file
+
+        d = read_session_file(data, options or FileOptions())
+        return cr.write_calibration_report(res, d.t, d.acc, d.gyro, out_dir)
+    from optinav.reports.report import StudyResult, write_report
+
+    study = StudyResult(name="calibration", title=f"Calibration of {res.source or 'a log'} ({res.method})",
+                        description=res.summary().replace("\n", "  \n"), tables=cr.tables(res, []))
+    return write_report([study], out_dir, title="optinav calibration")
+
+
+def attitude_report(res, out_dir, data=None, options=None) -> Path:
+    """The report of an attitude estimate: its summary and the roll, pitch, yaw over the log ``data`` it was
+    estimated from (read with ``options``, an :class:`~optinav.attitude.unit.AttitudeOptions`), which gives the
+    time stamps the estimate does not hold."""
+    import numpy as np
+
+    from optinav.attitude.unit import AttitudeOptions, read_log
+    from optinav.cli.attitude import _report
+    from optinav.core.rotations import euler_from_quat, frame_name
+
+    if data is None:
+        raise OptinavError("an attitude estimate holds no time stamps", "pass the log it came from with --data")
+    t = read_log(data, options or AttitudeOptions())[0]
+    if t.size != len(res.q):
+        raise OptinavError(f"{data} has {t.size} samples, the estimate {len(res.q)}",
+                           "pass the log the estimate came from with --data")
+    eul = np.degrees(euler_from_quat(res.q, frame_name(res.frame)))
+    return _report(res, t, eul, str(data), out_dir)
+
+
+def _stems(paths) -> list[str]:
+    """One distinct folder name per result file (its stem, numbered when two are the same)."""
+    out: list[str] = []
+    for p in paths:
+        stem, k = Path(p).stem, 2
+        name = stem
+        while name in out:
+            name, k = f"{stem}-{k}", k + 1
+        out.append(name)
+    return out
+
+
+def write_result_reports(results, out, data=None) -> Path:
+    """Report every result file of ``results`` (paths; ``data``: None or the recording of each, in order) into
+    ``out``: a folder (one result: its report there; several: one sub-folder each and an index.md linking
+    them) or a Markdown file ``FILE.md`` (the reports one after the other, their figures, HTML and summaries in
+    ``FILE_files/``). Returns the Markdown file written."""
+    from optinav import registry
+    from optinav.core.files import check_output, write_text
+    from optinav.reports.report import prepare_report_dir
+
+    data = list(data or [])
+    if data and len(data) != len(results):
+        raise OptinavError(f"{len(data)} --data files for {len(results)} results",
+                           "give one --data per result, in the same order, or none")
+    out = Path(out)
+    single_file = out.suffix.lower() == ".md"
+    if single_file:
+        check_output(out)
+    root = prepare_report_dir(out.with_name(out.stem + "_files") if single_file else out, "--out")
+    loaded = [registry.for_result(p) for p in results]
+    if any(res is None for _, res in loaded):  # an imucal/imu_tk file: the report is of optinav results
+        raise OptinavError("only optinav result files (with a schema) have a report",
+                           "pass RESULT.json written by optinav calibrate")
+    stems = _stems(results)
+    folders = [root if len(results) == 1 and not single_file else root / s for s in stems]
+    for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
+        system.load("report")(res, folder, d)
+    if single_file:
+        parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
+        return write_text(out, "\n".join(parts), "--out")
+    if len(results) > 1:
+        lines = ["# optinav report", ""] + [f"- [{Path(p).name}]({s}/index.md) ({sys_.name})"
+                                             for p, s, (sys_, _) in zip(results, stems, loaded)]
+        write_text(root / "index.md", "\n".join(lines) + "\n", "--out")
+    return root / "index.md"
+
+
+def _relinked(markdown: str, prefix: str) -> str:
+    """``markdown`` with its relative figure links ``![caption](name.png)`` pointing into ``prefix``."""
+    return re.sub(r"(!\[[^\]]*\]\()([^)/:]+\))", lambda m: f"{m.group(1)}{prefix}/{m.group(2)}", markdown)
