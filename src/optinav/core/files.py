@@ -176,11 +176,23 @@ def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "
               option: str = "--out") -> Path:
     """Write a 2-D numeric ``table`` as delimited text with ``header`` (lines prefixed by ``comments``)
     atomically."""
+    head = comments + header.replace("\n", "\n" + comments) if header else ""
+    with csv_writer(path, head, fmt, delimiter=delimiter, option=option) as write:
+        write(table)
+    return Path(path)
+
+
+@contextlib.contextmanager
+def csv_writer(path, header: str, fmt="%.17g", *, delimiter: str = ",", option: str = "--out") -> Iterator:
+    """A delimited text file written block by block: yields ``write(table)`` that appends a 2-D numeric block's
+    rows (``fmt``: one format, or one per column); ``header`` (if any) is the first line. The file appears at
+    ``path`` only when the ``with`` block ends without an error (:func:`atomic_open`)."""
     import numpy as np
 
     with atomic_open(path, "w", option, newline="\n") as fh:
-        np.savetxt(fh, table, delimiter=delimiter, header=header, comments=comments, fmt=fmt)
-    return Path(path)
+        if header:
+            fh.write(header + "\n")
+        yield lambda table: np.savetxt(fh, table, delimiter=delimiter, fmt=fmt)
 
 
 def check_sidecar(path, signature: str, option: str = "--out") -> Path:

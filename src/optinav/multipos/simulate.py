@@ -69,6 +69,36 @@ class SimulatedSession(Result):
     acc_bias_instability: float = field(default=0.0, metadata={"unit": "acc_unit"})
     descriptions: list = field(default_factory=list, metadata={"unit": "-"})
 
+    def log(self):
+        """The session as an :class:`~optinav.io.ImuLog` in SI units (raw counts stay counts), which
+        :func:`optinav.io.write_imu` converts back to the file's ``acc_unit``/``gyro_unit``."""
+        from optinav.core.units import factor
+        from optinav.io import ImuLog
+
+        acc = self.acc if self.acc_unit in ("counts", "m/s^2") else self.acc * factor(self.acc_unit)
+        gyro = self.gyro if self.gyro_unit in ("counts", "rad/s") else self.gyro * factor(self.gyro_unit)
+        return ImuLog(t=self.t, acc=acc, gyro=gyro, acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
+                      gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
+
+    def truth(self, provenance: dict | None = None):
+        """The session's :class:`~optinav.core.results.Truth` (:func:`~optinav.multipos.result.session_truth`)
+        with the model, both triads' K and b, the gravity, static intervals and poses, then ``provenance`` (how
+        the session was made: site, seed, preset, ...)."""
+        from optinav.multipos.result import session_truth
+
+        info = {"model": "raw = K x + b",
+                "units": {"accelerometer_raw": self.acc_unit, "accelerometer": "m/s^2",
+                          "gyroscope_raw": self.gyro_unit, "gyroscope": "rad/s", "time": "s"},
+                "accelerometer": {"K": self.acc_K.tolist(), "b": self.acc_b.tolist(),
+                                  "noise_sigma": self.acc_noise_sigma,
+                                  "bias_instability": self.acc_bias_instability},
+                "gyroscope": {"K": self.gyro_K.tolist(), "b": self.gyro_b.tolist()}, "gravity": self.gravity,
+                **(provenance or {}),
+                "static_intervals": self.static_intervals.tolist(), "up_dirs": self.up_dirs.tolist(),
+                "poses": self.descriptions}
+        return session_truth(self.acc_K, self.acc_b, self.gyro_K, self.gyro_b, acc_unit=self.acc_unit,
+                             gyro_unit=self.gyro_unit, info=info)
+
 
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     if kind == "acc":
