@@ -9,7 +9,8 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
+                                finish_report, options_from_args, output_path, parse_floats, parse_key_values,
+                                prepare_report, truth_path, write_truth)
 from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
@@ -92,7 +93,7 @@ class _OptionsAction(argparse.Action):
 
     def __call__(self, parser, namespace, value, option_string=None):
         try:
-            new = _options([value])
+            new = parse_key_values([value])
         except OptinavError as exc:
             parser.error(str(exc))
         setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **new})
@@ -114,30 +115,6 @@ def add_batch_options(p) -> None:
                    help="estimator option in SI units, e.g. gain=0.1 (repeatable)")
 
 
-def _options(items) -> dict:
-    out = {}
-    for item in items:
-        k, _, v = item.partition("=")
-        if not v:
-            raise OptinavError(f"--option {item!r} is not KEY=VALUE", "write e.g. --option gain=0.1")
-        try:
-            out[k.strip()] = float(v)
-        except ValueError:
-            raise OptinavError(f"--option {item!r}: {v!r} is not a number", "give options as numbers") from None
-    return out
-
-
-def _attitude_options(args, options: dict):
-    """The library's :class:`~optinav.attitude.unit.AttitudeOptions` from the parsed arguments."""
-    from optinav.attitude.unit import AttitudeOptions
-
-    return AttitudeOptions(method=args.method, frame=args.frame, offline=args.offline, input_stage=args.input_stage,
-                           mag=args.mag, mag_columns=args.mag_columns, allow_gaps=args.allow_gaps, options=options,
-                           columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                           time_unit=args.time_unit, rate=args.rate, delimiter=args.delimiter,
-                           datasets=args.datasets, topic=args.topic)
-
-
 def _checked(args):
     """(method, estimator options, q0 or None, output path): the arguments checked before any data is read."""
     import numpy as np
@@ -146,7 +123,7 @@ def _checked(args):
     from optinav.attitude.estimators import _options as check_options
     from optinav.core.rotations import frame_name, quat_from_euler
 
-    options = _options(args.option)
+    options = parse_key_values(args.option)
     method = _method(args.method, True if args.pol_columns else None)
     check_options(method, options)
     out = output_path(args.out, (".csv",), "ATTITUDE.csv")
@@ -190,12 +167,12 @@ def _announce(args, method):
 def run(args) -> int:
     from optinav.attitude import estimate
     from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse
-    from optinav.attitude.unit import read_log, steps
+    from optinav.attitude.unit import AttitudeOptions, read_log, steps
     from optinav.core.progress import step
     from optinav.reports.attitude_report import write_attitude_report
 
     method, options, q0, out = _checked(args)
-    o = _attitude_options(args, options)
+    o = options_from_args(AttitudeOptions, args, options=options)
     if _streams(args):
         return _run_stream(args, o, q0, out, _announce(args, method))
     step("read")

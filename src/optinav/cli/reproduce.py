@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import os
 import sys
 import textwrap
 import time
@@ -40,7 +39,7 @@ def register(sub) -> None:
 def run(args) -> int:
     import numpy as np
 
-    from optinav.core.progress import progress_enabled, task
+    from optinav.core.progress import is_quiet, progress_enabled, task
 
     names = list(available_studies()) if args.study == "all" else [args.study]
     fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
@@ -48,7 +47,7 @@ def run(args) -> int:
     results = []
     rng = np.random.default_rng(args.seed)
     for k, (name, fn) in enumerate(fns, 1):
-        if not progress_enabled() and not os.environ.get("OPTINAV_QUIET"):
+        if not progress_enabled() and not is_quiet():
             print(f"optinav: study {name} ...", file=sys.stderr, flush=True)  # a log, when no bar is shown
         t0 = time.perf_counter()
         # studies that read real data take the shared data folder, resolved here (the library takes paths)
