@@ -209,6 +209,32 @@ def get_study(name: str) -> Callable[..., StudyResult]:
     return _REGISTERED[name]
 
 
+def run_studies(names, *, quick: bool = False, seed: int = 2026, data_dir: str | Path | None = None,
+                announce: Callable[[str], None] | None = None) -> list[StudyResult]:
+    """Run the studies ``names`` (all unknown names fail before any work), each with its own generator drawn
+    from ``seed``, under a progress task per study; ``data_dir``: the real-data folder of the studies that read
+    one; ``announce(name)`` is called as each starts. Each result's ``elapsed`` is its wall time in s."""
+    import inspect
+
+    import numpy as np
+
+    from optinav.core.progress import task
+
+    fns = [(n, get_study(n)) for n in names]
+    rng = np.random.default_rng(seed)
+    results = []
+    for k, (name, fn) in enumerate(fns, 1):
+        if announce is not None:
+            announce(name)
+        t0 = time.perf_counter()
+        extra = {"data_dir": Path(data_dir)} if data_dir is not None and "data_dir" in inspect.signature(
+            fn).parameters else {}
+        with task(f"study {k}/{len(fns)} {name}"):
+            r = fn(quick=quick, rng=np.random.default_rng(rng.integers(2**63)), **extra)
+        r.elapsed = time.perf_counter() - t0
+        results.append(r)
+    return results
+
 def _fmt(x: Any) -> str:
     """The default text of a value: 7 significant digits, "—" for ``None``, yes/no for booleans."""
     if x is None:
