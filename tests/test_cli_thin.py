@@ -125,26 +125,30 @@ def test_no_argparse_outside_the_cli(path):
         assert not any(n.split(".")[0] == "argparse" for n in names), f"{path.name} imports argparse"
 
 
-#: library classes that still build themselves from an argparse namespace, and who removes them
-ALLOWED_FROM_ARGS = {
+#: library functions that still take an argparse namespace, and who removes them
+ALLOWED_ARGS_PARAMETER = {
     # registry-cmds: cli/calibrate.py (run_accel) and cli/batch.py (options_from_args) switch to
     # optinav.cli.common.file_options / options_from_args, then FileOptions.from_args is deleted
-    "multipos/calibrate.py:FileOptions",
+    "multipos/calibrate.py:FileOptions.from_args",
 }
 
 
-def test_no_argparse_shaped_constructors_in_the_library():
-    """Mapping parsed arguments to library options is the CLI's job (optinav.cli.common.options_from_args)."""
+def test_the_library_takes_no_argparse_namespace():
+    """Mapping parsed arguments to library options is the CLI's job (optinav.cli.common.options_from_args): no
+    function outside cli/ has a parameter ``args`` (a namespace) or is a ``from_args`` constructor."""
     found = set()
     for path in SRC.rglob("*.py"):
         if CLI in path.parents:
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ClassDef) and any(isinstance(f, ast.FunctionDef) and f.name == "from_args"
-                                                      for f in node.body):
-                found.add(f"{path.relative_to(SRC).as_posix()}:{node.name}")
-    assert found <= ALLOWED_FROM_ARGS, f"argparse-shaped constructors in the library: {found - ALLOWED_FROM_ARGS}"
-    assert ALLOWED_FROM_ARGS <= found, f"remove from ALLOWED_FROM_ARGS: {ALLOWED_FROM_ARGS - found}"
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        owners = {id(f): f"{cls.name}." for cls in ast.walk(tree) if isinstance(cls, ast.ClassDef)
+                  for f in cls.body}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and (node.name == "from_args" or "args" in {
+                    a.arg for a in node.args.args + node.args.kwonlyargs + node.args.posonlyargs}):
+                found.add(f"{path.relative_to(SRC).as_posix()}:{owners.get(id(node), '')}{node.name}")
+    assert found <= ALLOWED_ARGS_PARAMETER, f"the library takes argparse namespaces: {found - ALLOWED_ARGS_PARAMETER}"
+    assert ALLOWED_ARGS_PARAMETER <= found, f"remove from ALLOWED_ARGS_PARAMETER: {ALLOWED_ARGS_PARAMETER - found}"
 
 
 #: what the CLI may use of NumPy: unit conversion at the boundary (degrees ↔ radians), arrays of parsed numbers,
