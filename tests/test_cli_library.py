@@ -154,8 +154,9 @@ def test_simulated_session_log_and_truth():
     log = s.log()
     assert log.acc_unit == "m/s^2" and log.gyro_unit == "rad/s"
     assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyro, np.radians(s.gyro))
-    truth = s.truth({"seed": 2})
+    truth = s.truth({"latitude_deg": 38.88}, {"seed": 2})
     want = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="g", gyro_unit="deg/s")
     assert truth.parameters.keys() == want.parameters.keys()
     assert all(truth.parameters[k].value == want.parameters[k].value for k in want.parameters)
     assert truth.info["seed"] == 2 and truth.info["accelerometer"]["K"] == s.acc_K.tolist()
+    assert list(truth.info)[5:7] == ["latitude_deg", "static_intervals"]  # the site after the gravity it sets

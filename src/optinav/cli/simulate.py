@@ -99,8 +99,8 @@ def run_accel_multipos(args) -> int:
     step("write")
     write_imu(out, s.log(), acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
               gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
-    tp = write_truth(out, s.truth({"latitude_deg": args.latitude, "height_m": args.height, "seed": args.seed,
-                                   "preset": args.preset, "truth": args.truth}))
+    tp = write_truth(out, s.truth({"latitude_deg": args.latitude, "height_m": args.height},
+                                  {"seed": args.seed, "preset": args.preset, "truth": args.truth}))
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")

@@ -80,10 +80,11 @@ class SimulatedSession(Result):
         return ImuLog(t=self.t, acc=acc, gyro=gyro, acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
                       gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
 
-    def truth(self, provenance: dict | None = None):
+    def truth(self, site: dict | None = None, provenance: dict | None = None):
         """The session's :class:`~optinav.core.results.Truth` (:func:`~optinav.multipos.result.session_truth`)
-        with the model, both triads' K and b, the gravity, static intervals and poses, then ``provenance`` (how
-        the session was made: site, seed, preset, ...)."""
+        with the model, both triads' K and b, the gravity and the ``site`` it holds for (as the caller states it,
+        e.g. ``{"latitude_deg": …, "height_m": …}``), the static intervals and poses, then ``provenance`` (how the
+        session was made: seed, preset, ...)."""
         from optinav.multipos.result import session_truth
 
         info = {"model": "raw = K x + b",
@@ -93,9 +94,9 @@ class SimulatedSession(Result):
                                   "noise_sigma": self.acc_noise_sigma,
                                   "bias_instability": self.acc_bias_instability},
                 "gyroscope": {"K": self.gyro_K.tolist(), "b": self.gyro_b.tolist()}, "gravity": self.gravity,
-                **(provenance or {}),
+                **(site or {}),
                 "static_intervals": self.static_intervals.tolist(), "up_dirs": self.up_dirs.tolist(),
-                "poses": self.descriptions}
+                "poses": self.descriptions, **(provenance or {})}
         return session_truth(self.acc_K, self.acc_b, self.gyro_K, self.gyro_b, acc_unit=self.acc_unit,
                              gyro_unit=self.gyro_unit, info=info)
 
