@@ -40,7 +40,7 @@ def _blocks(log, cuts):
     from optinav.io import ImuLog
 
     edges = [0, *sorted(set(cuts)), log.t.size]
-    return [ImuLog(t=log.t[a:b], acc=log.acc[a:b], gyro=log.gyr[a:b], acc_unit="m/s^2", gyro_unit="rad/s")
+    return [ImuLog(t=log.t[a:b], acc=log.acc[a:b], gyr=log.gyr[a:b], acc_unit="m/s^2", gyro_unit="rad/s")
             for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
@@ -82,7 +82,7 @@ def test_allan_analysis_summary_and_refusals(rest):
     t[5000:] += 1.0  # a one-second gap
     from optinav.io import ImuLog
 
-    gap = ImuLog(t=t, acc=rest.acc, gyro=rest.gyr, acc_unit="m/s^2", gyro_unit="rad/s")
+    gap = ImuLog(t=t, acc=rest.acc, gyr=rest.gyr, acc_unit="m/s^2", gyro_unit="rad/s")
     with pytest.raises(OptinavError, match="not regularly sampled"):
         analyse_blocks([gap])
     with pytest.raises(OptinavError, match="Kalibr needs both triads"):
@@ -153,7 +153,7 @@ def test_simulated_session_log_and_truth():
                  rng=2)
     log = s.log()
     assert log.acc_unit == "m/s^2" and log.gyro_unit == "rad/s"
-    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyro, np.radians(s.gyro))
+    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyro))
     truth = s.truth({"latitude_deg": 38.88}, {"seed": 2})
     want = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="g", gyro_unit="deg/s")
     assert truth.parameters.keys() == want.parameters.keys()

@@ -39,7 +39,7 @@ def write_flight(path, flight, truth_csv) -> None:
 
     write_csv(path, np.column_stack([flight.t, flight.acc, flight.gyr, np.degrees(flight.aop), flight.dop]),
               FLIGHT_HEADER, "%.10g")
-    write_csv(truth_csv, np.column_stack([flight.t, flight.q_true]), TRUTH_CSV_HEADER, "%.12g")
+    write_csv(truth_csv, np.column_stack([flight.t, flight.q_b_n]), TRUTH_CSV_HEADER, "%.12g")
 
 
 def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None = None, height_m: float = 0.0,
@@ -125,7 +125,7 @@ def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS
                           delimiter=o.delimiter, chunk_rows=max(chunk_rows, 2), topic=o.topic)
         prev = None
         for log in progress_blocks(chunks, desc):
-            if log.acc is None or log.gyro is None:
+            if log.acc is None or log.gyr is None:
                 raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
                                    "name them with --columns t,ax,ay,az,gx,gy,gz")
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
@@ -141,7 +141,7 @@ def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS
     for _, log, dts in blocks("attitude: checks"):
         bad += int(np.count_nonzero(~log.finite))
         if not bad:
-            checks.add(log.gyro, log.acc, dts)
+            checks.add(log.gyr, log.acc, dts)
     if bad:
         raise OptinavError(f"{path} has {bad} rows with NaN accelerometer/gyro values",
                            "remove or interpolate them first")
@@ -152,7 +152,7 @@ def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS
     step(f"estimate ({method}), write")  # one pass does both
     with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
         for row0, log, dts in blocks(f"attitude: {method}"):
-            checks.collect(row0, log.gyro, log.acc, dts)
+            checks.collect(row0, log.gyr, log.acc, dts)
             if gaps.size and not o.allow_gaps:
                 continue  # refused below, after the checks that come first
             # a time gap starts a new segment whose first step is the median one
@@ -164,7 +164,7 @@ def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS
                 if k:
                     estimator.restart()
                 if b > a:
-                    qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
+                    qs.append(estimator.run(log.gyr[a:b], log.acc[a:b], dts[a:b]))
             write(attitude_rows(log.t, np.concatenate(qs), o.frame))
         checks.finish_second(o.frame)
         if gaps.size and not o.allow_gaps:

@@ -272,7 +272,7 @@ def run_simulate_flight(args) -> int:
     d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     step("write")
     write_flight(out, d, truth)
-    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+    write_truth(out, attitude_truth(d.q_b_n, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
                                                          "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "

@@ -124,7 +124,7 @@ def run_static(args) -> int:
                         acc_random_walk=to_si(args.accel_rrw, "ug/sqrt(s)"),
                         gyr_random_walk=to_si(args.gyro_rrw, "deg/h/sqrt(h)"), seed=args.seed)
     step("write")
-    write_imu(out, ImuLog(t=s.t, acc=s.acc, gyro=s.gyr, source="optinav simulate static"), acc_unit=args.acc_unit,
+    write_imu(out, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, source="optinav simulate static"), acc_unit=args.acc_unit,
               gyro_unit=args.gyro_unit)
     tp = write_truth(out, s.truth)
     print(f"optinav: wrote {s.t.size} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
