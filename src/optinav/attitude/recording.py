@@ -26,15 +26,39 @@ FLIGHT_HEADER = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,
 
 
 def attitude_rows(t, q_b_n, frame: str) -> np.ndarray:
-    """The attitude CSV's rows (N, 8): t [s], q_b_n, roll, pitch, yaw [deg] (Euler angles of ``frame``)."""
+    """The attitude CSV's rows.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times [s].
+    q_b_n : (N, 4) array
+        Attitude quaternions [w, x, y, z] [-].
+    frame : str
+        Navigation frame of the Euler angles (``"ned"``/``"enu"``, either case).
+
+    Returns
+    -------
+    (N, 8) ndarray
+        t [s], q_b_n [-], roll, pitch, yaw [deg] (degrees: file I/O).
+    """
     from optinav.core.rotations import euler_from_quat, frame_name
 
     return np.column_stack([t, q_b_n, np.degrees(euler_from_quat(q_b_n, frame_name(frame)))])
 
 
 def write_flight(path, flight, truth_csv) -> None:
-    """Write a simulated flight (:func:`optinav.attitude.simulate`) as the CSV ``optinav attitude`` reads
-    (:data:`FLIGHT_HEADER`) to ``path`` and its true attitude (:data:`TRUTH_CSV_HEADER`) to ``truth_csv``."""
+    """Write a simulated flight as the CSV ``optinav attitude`` reads and its true attitude beside it, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The flight's CSV (:data:`FLIGHT_HEADER`: IMU in SI, angle of polarization in degrees).
+    flight : FlightData
+        What :func:`optinav.attitude.simulate` returns.
+    truth_csv : str or Path
+        The true attitude's CSV (:data:`TRUTH_CSV_HEADER`: t [s], q_b_n).
+    """
     from optinav.core.files import write_csv
 
     write_csv(path, np.column_stack([flight.t, flight.acc, flight.gyr, np.degrees(flight.aop), flight.dop]),
@@ -44,10 +68,28 @@ def write_flight(path, flight, truth_csv) -> None:
 
 def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None = None, height_m: float = 0.0,
                   start_time=None, azimuth: float | None = None, elevation: float | None = None) -> np.ndarray:
-    """Unit vector(s) to the sun in ``frame`` for a log of times ``t`` (s): a fixed sun (``azimuth`` from north
-    to east and ``elevation``, rad; one vector) or the NREL SPA position at every sample of a log that started at
-    ``start_time`` (ISO 8601 with UTC offset, or what :func:`optinav.sky.utc_seconds` takes) at geodetic ``lat``,
-    ``lon`` (rad) and ``height_m``, refracted for standard pressure (N, 3)."""
+    """Unit vector(s) to the sun along a log: a fixed sun, or the NREL SPA position at every sample.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times [s]; the first one is ``start_time``.
+    frame : str
+        Navigation frame of the vectors (``"ned"``/``"enu"``, either case).
+    lat, lon : float or None
+        Geodetic latitude and longitude (east positive) of the place [rad].
+    height_m : float
+        Height above the ellipsoid [m] (parallax only).
+    start_time : str, datetime64 or None
+        Time of the first sample: ISO 8601 with UTC offset, or what :func:`optinav.sky.utc_seconds` takes.
+    azimuth, elevation : float or None
+        A fixed sun instead of the place and time: azimuth from north towards east, elevation [rad].
+
+    Returns
+    -------
+    (N, 3) or (3,) ndarray
+        Unit vector(s) to the sun [-] (one for a fixed sun); the SPA elevation is refracted at 1013.25 mbar, 12 °C.
+    """
     from optinav.sky import solar_position, sun_vector, utc_seconds
 
     fixed = azimuth is not None or elevation is not None
@@ -69,8 +111,28 @@ def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None 
 
 def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", delimiter: str | None = None,
                       topic: str | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """(aop rad, dop or None) of the ``columns`` "AOP[,DOP]" of ``path`` (one row per IMU sample, ``n`` of them);
-    ``aop_unit`` "rad" or "deg" (the file's); NaN marks a sample without polarization."""
+    """The polarization columns of a log.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log (any table :func:`optinav.io.readers.read_table` reads).
+    columns : str
+        ``"AOP"`` or ``"AOP,DOP"``: the names of the angle (and degree) of polarization columns.
+    n : int
+        Rows expected (the IMU's samples).
+    aop_unit : str
+        Unit of the angle column in the file, ``"rad"`` or ``"deg"``.
+    delimiter, topic : str or None
+        As for :func:`optinav.io.read_imu`.
+
+    Returns
+    -------
+    aop : (n,) ndarray
+        Angle of polarization [rad]; NaN marks a sample without polarization.
+    dop : (n,) ndarray or None
+        Degree of polarization [-], None without a DOP column.
+    """
     from optinav.attitude.checks import check_aop
     from optinav.io.readers import read_table
 
@@ -90,8 +152,24 @@ def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", deli
 
 
 def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
-    """(inclination RMSE rad, heading RMSE rad, samples used) of ``q_b_n`` against ``q_ref`` over the
-    ``movement`` samples with a finite reference (BROAD's scoring, :mod:`optinav.attitude.metrics`)."""
+    """BROAD's scoring of an estimate against a reference orientation (:mod:`optinav.attitude.metrics`).
+
+    Parameters
+    ----------
+    q_b_n, q_ref : (N, 4) array
+        Estimated and reference quaternions [w, x, y, z] [-].
+    movement : (N,) bool array
+        The samples to score (those with a non-finite reference are left out too).
+
+    Returns
+    -------
+    inclination_rmse : float
+        [rad]
+    heading_rmse : float
+        [rad]
+    n : int
+        Samples scored.
+    """
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
     mask = movement & np.all(np.isfinite(q_ref), axis=1)
@@ -100,10 +178,30 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
 
 
 def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS, announce=None) -> str:
-    """Estimate the attitude of the log ``path`` block by block and write the attitude CSV to ``out``; returns
-    the estimator's summary line. ``options``: :class:`optinav.attitude.unit.AttitudeOptions` (online methods,
-    no magnetometer); ``announce(n)`` is called with the number of samples once the first pass checked them.
+    """Estimate the attitude of a log block by block and write the attitude CSV, memory not growing with the log.
 
+    Parameters
+    ----------
+    path : str or Path
+        The IMU log (what :func:`optinav.io.iter_imu` reads, SI units).
+    out : str or Path
+        The attitude CSV (:data:`CSV_HEADER`), written atomically.
+    options : AttitudeOptions
+        :class:`optinav.attitude.unit.AttitudeOptions` (an online method; no magnetometer).
+    q0 : (4,) array or None
+        Initial attitude [-]; None: levelled from the first samples.
+    chunk_rows : int
+        Rows read at a time.
+    announce : callable or None
+        ``announce(n)`` is called with the number of samples once the first pass has checked them.
+
+    Returns
+    -------
+    str
+        The estimator's summary line.
+
+    Notes
+    -----
     The log is read twice: pass 1 gathers what the physics checks judge (three floats per sample for exact
     medians), pass 2 estimates with the filter's state carried from block to block and writes each block's rows;
     the output is renamed into place only after every check passed, so the file is the in-memory path's

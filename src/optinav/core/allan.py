@@ -687,9 +687,26 @@ class _RegularTiming:
 
 
 def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: str = "", need_kalibr: bool = False):
-    """:class:`~optinav.core.allan.AllanAnalysis` of a log given as :class:`~optinav.io.ImuLog` blocks (e.g.
-    :func:`optinav.io.iter_imu`): each block is folded into the angle sums and dropped, so memory holds one float
-    per sample and axis. ``need_kalibr``: refuse at the first block unless both triads are in SI units."""
+    """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
+
+    Each block is folded into the angle sums and dropped, so memory holds one float per sample and axis.
+
+    Parameters
+    ----------
+    blocks : iterable of ImuLog
+        The log's blocks in order, e.g. :func:`optinav.io.iter_imu` (regular sampling, no NaN).
+    sensor : str
+        ``"both"``, ``"acc"`` or ``"gyro"``: the triads analysed.
+    source, rostopic : str
+        Recorded in the result (``rostopic`` for the Kalibr file).
+    need_kalibr : bool
+        Refuse at the first block unless both triads are there in SI units.
+
+    Returns
+    -------
+    AllanAnalysis
+        Per sensor the Allan deviation, the IEEE 952 read-off and the four-term fit; Kalibr's noise keys.
+    """
     timing = _RegularTiming()
     angles: dict = {}
     units: dict[str, str] = {}

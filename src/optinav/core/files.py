@@ -184,9 +184,26 @@ def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "
 
 @contextlib.contextmanager
 def csv_writer(path, header: str, fmt="%.17g", *, delimiter: str = ",", option: str = "--out") -> Iterator:
-    """A delimited text file written block by block: yields ``write(table)`` that appends a 2-D numeric block's
-    rows (``fmt``: one format, or one per column); ``header`` (if any) is the first line. The file appears at
-    ``path`` only when the ``with`` block ends without an error (:func:`atomic_open`)."""
+    """A delimited text file written block by block, atomically (:func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; it appears only when the ``with`` block ends without an error.
+    header : str
+        The first line(s), written as given; empty: none.
+    fmt : str or list of str
+        ``numpy.savetxt`` format: one, or one per column.
+    delimiter : str
+        Column delimiter.
+    option : str
+        The CLI option named in errors.
+
+    Yields
+    ------
+    callable
+        ``write(table)`` appends the rows of a 2-D numeric block.
+    """
     import numpy as np
 
     with atomic_open(path, "w", option, newline="\n") as fh:

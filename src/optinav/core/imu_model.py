@@ -800,11 +800,32 @@ _STATIC_UNITS = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "
 
 def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: float | None = None,
                     acc_random_walk: float = 0.0, gyr_random_walk: float = 0.0, seed: int = 0) -> StaticLog:
-    """An IMU at rest (z up, gravity along +z for latitude 45°, no rotation) with the noise of the preset
-    ``spec``: white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE
-    Std 952; Allan floor 0.664·B) and a random walk of density ``acc_random_walk`` (m/s²/√s) and
-    ``gyr_random_walk`` (rad/s/√s) on every axis. ``rate_hz`` defaults to the preset's; ``seed`` seeds the draws
-    (recorded in the truth). The truth holds each term per sensor and axis in SI units."""
+    """An IMU at rest with known noise terms, for noise characterisation (``optinav simulate static``).
+
+    z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
+    white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE Std 952;
+    Allan floor 0.664·B), and a random walk.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the log [s] (at least 1000 samples).
+    spec : str
+        Preset name (:func:`preset`).
+    rate_hz : float or None
+        Sample rate [Hz]; None: the preset's.
+    acc_random_walk : float
+        Accelerometer random walk on every axis [m/s^2/sqrt(s)].
+    gyr_random_walk : float
+        Gyroscope rate random walk on every axis [rad/s/sqrt(s)].
+    seed : int
+        Seed of the draws (recorded in the truth).
+
+    Returns
+    -------
+    StaticLog
+        t [s], acc [m/s^2], gyr [rad/s] and the truth: each term per sensor and axis in SI units.
+    """
     from optinav.core.earth import gravity
 
     s = preset(spec)

@@ -209,10 +209,29 @@ def noise_from_allan(path) -> dict:
 
 def plan_noise(allan=None, preset: str | None = None, acc_noise_density: float | None = None,
                gyro_noise_density: float | None = None) -> tuple[np.ndarray, np.ndarray | None, str]:
-    """The white-noise densities a plan is made for, and where they come from: (acc (3,) m/s²/√Hz, gyro (3,)
-    rad/s/√Hz or None, text). Sources: the JSON ``allan`` (:func:`noise_from_allan`) or a ``preset`` of
-    :mod:`optinav.core.imu_model` (at most one; the preset mems-mti1 is assumed when neither nor
-    ``acc_noise_density`` is given), then ``acc_noise_density``/``gyro_noise_density`` (every axis) override."""
+    """The white-noise densities a plan is made for, and where they come from.
+
+    Parameters
+    ----------
+    allan : str, Path or None
+        A JSON with Kalibr's noise densities (:func:`noise_from_allan`), e.g. ``optinav allan``'s result.
+    preset : str or None
+        A sensor class of :mod:`optinav.core.imu_model` (at most one of ``allan`` and ``preset``; mems-mti1 is
+        assumed when neither nor ``acc_noise_density`` is given).
+    acc_noise_density : float or None
+        Accelerometer white-noise density on every axis [m/s^2/sqrt(Hz)]; overrides the source's.
+    gyro_noise_density : float or None
+        Gyroscope white-noise density on every axis [rad/s/sqrt(Hz)]; overrides the source's.
+
+    Returns
+    -------
+    acc : (3,) ndarray
+        Accelerometer density [m/s^2/sqrt(Hz)].
+    gyro : (3,) ndarray or None
+        Gyroscope density [rad/s/sqrt(Hz)].
+    text : str
+        The densities and their source, for the plan.
+    """
     given = [n for n, v in (("--allan", allan), ("--preset", preset)) if v]
     if len(given) > 1:
         raise OptinavError("--allan and --preset both give the noise", "pass one of them")

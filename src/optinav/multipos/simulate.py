@@ -70,8 +70,14 @@ class SimulatedSession(Result):
     descriptions: list = field(default_factory=list, metadata={"unit": "-"})
 
     def log(self):
-        """The session as an :class:`~optinav.io.ImuLog` in SI units (raw counts stay counts), which
-        :func:`optinav.io.write_imu` converts back to the file's ``acc_unit``/``gyro_unit``."""
+        """The session as a log to write.
+
+        Returns
+        -------
+        ImuLog
+            acc [m/s^2] and gyr [rad/s] (raw counts stay counts), which :func:`optinav.io.write_imu` converts
+            back to the file's ``acc_unit``/``gyro_unit``.
+        """
         from optinav.core.units import factor
         from optinav.io import ImuLog
 
@@ -81,10 +87,22 @@ class SimulatedSession(Result):
                       gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
 
     def truth(self, site: dict | None = None, provenance: dict | None = None):
-        """The session's :class:`~optinav.core.results.Truth` (:func:`~optinav.multipos.result.session_truth`)
-        with the model, both triads' K and b, the gravity and the ``site`` it holds for (as the caller states it,
-        e.g. ``{"latitude_deg": …, "height_m": …}``), the static intervals and poses, then ``provenance`` (how the
-        session was made: seed, preset, ...)."""
+        """The session's truth file content (:func:`~optinav.multipos.result.session_truth`).
+
+        Parameters
+        ----------
+        site : dict or None
+            Where the gravity holds, as the caller states it (e.g. ``{"latitude_deg": …, "height_m": …}``);
+            written after the gravity.
+        provenance : dict or None
+            How the session was made (seed, preset, ...); written last.
+
+        Returns
+        -------
+        Truth
+            The parameters in the calibrated parameterization; info: model, units, both triads' K and b,
+            gravity, site, static intervals, poses, provenance.
+        """
         from optinav.multipos.result import session_truth
 
         info = {"model": "raw = K x + b",

@@ -211,9 +211,26 @@ def get_study(name: str) -> Callable[..., StudyResult]:
 
 def run_studies(names, *, quick: bool = False, seed: int = 2026, data_dir: str | Path | None = None,
                 announce: Callable[[str], None] | None = None) -> list[StudyResult]:
-    """Run the studies ``names`` (all unknown names fail before any work), each with its own generator drawn
-    from ``seed``, under a progress task per study; ``data_dir``: the real-data folder of the studies that read
-    one; ``announce(name)`` is called as each starts. Each result's ``elapsed`` is its wall time in s."""
+    """Run registered studies (what ``optinav reproduce`` does before writing the report).
+
+    Parameters
+    ----------
+    names : list of str
+        Study names (an unknown one fails before any work).
+    quick : bool
+        The smaller version of each study.
+    seed : int
+        Seed of the generator each study's own generator is drawn from.
+    data_dir : str, Path or None
+        The real-data folder, for the studies that read one.
+    announce : callable or None
+        ``announce(name)`` is called as each study starts.
+
+    Returns
+    -------
+    list of StudyResult
+        In the order of ``names``; each ``elapsed`` is its wall time [s].
+    """
     import inspect
 
     import numpy as np
