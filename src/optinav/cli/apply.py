@@ -51,7 +51,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from optinav.cli.batch import options_from_args
+    from optinav.cli.common import system_options
 
     require_files((args.result, "result file"), (args.data, "data file"),
                   (getattr(args, "gyro_cal", None), "--gyro-cal file"))
@@ -62,7 +62,7 @@ def run(args) -> int:
                            f"use it as it is, e.g. optinav report {args.result}")
     _refuse_foreign_options(args, system)
     out = output_path(args.out)
-    options = options_from_args(system.load("apply_options"), args) if system.apply_options else None
+    options = system_options(system, args, "apply_options") if system.apply_options else None
     print("optinav: " + system.load("apply")(args.result, args.data, out, options))
     return 0
 

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
-                                finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
-from optinav.core.files import atomic_open, check_sidecar, write_csv
+                                finish_report, options_from_args, output_path, parse_floats, parse_key_values,
+                                prepare_report, truth_path, write_truth)
+from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
@@ -91,7 +93,7 @@ class _OptionsAction(argparse.Action):
 
     def __call__(self, parser, namespace, value, option_string=None):
         try:
-            new = _options([value])
+            new = parse_key_values([value])
         except OptinavError as exc:
             parser.error(str(exc))
         setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **new})
@@ -113,73 +115,17 @@ def add_batch_options(p) -> None:
                    help="estimator option in SI units, e.g. gain=0.1 (repeatable)")
 
 
-def _options(items) -> dict:
-    out = {}
-    for item in items:
-        k, _, v = item.partition("=")
-        if not v:
-            raise OptinavError(f"--option {item!r} is not KEY=VALUE", "write e.g. --option gain=0.1")
-        try:
-            out[k.strip()] = float(v)
-        except ValueError:
-            raise OptinavError(f"--option {item!r}: {v!r} is not a number", "give options as numbers") from None
-    return out
-
-
-def _sun(args, t, frame):
+def _checked(args):
+    """(method, estimator options, q0 or None, output path): the arguments checked before any data is read."""
     import numpy as np
-
-    fixed = args.sun_azimuth is not None or args.sun_elevation is not None
-    place = any(v is not None for v in (args.lat, args.lon, args.start_time))
-    if fixed and place:
-        raise OptinavError("both a fixed sun (--sun-azimuth/--sun-elevation) and a place/time were given",
-                           "give one of them")
-    from optinav.sky import solar_position_deg, sun_vector
-
-    if fixed:
-        if args.sun_azimuth is None or args.sun_elevation is None:
-            raise OptinavError("--sun-azimuth and --sun-elevation go together", "give both")
-        return sun_vector(np.radians(args.sun_azimuth), np.radians(args.sun_elevation), frame)
-    if args.lat is None or args.lon is None or args.start_time is None:
-        raise OptinavError("polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
-                           "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
-    from optinav.sky.sun import utc_seconds
-
-    t0 = float(utc_seconds(args.start_time))
-    times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
-    sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
-    return sp.sun_vector(frame)
-
-
-#: the attitude CSV's columns t, q, Euler: t exactly (bag stamps are s since the epoch; %.9g rounded them to 100 s)
-_CSV_FORMAT = ["%.17g"] + ["%.9g"] * 7
-
-
-def _read_log(args):
-    """(t, gyr, acc, mag or None, reference or None): :func:`optinav.attitude.unit.read_log`."""
-    from optinav.attitude.unit import AttitudeOptions, read_log
-
-    o = AttitudeOptions(mag=args.mag, mag_columns=args.mag_columns, columns=args.columns, acc_unit=args.acc_unit,
-                        gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
-                        delimiter=args.delimiter, datasets=args.datasets, topic=args.topic)
-    return read_log(args.data, o, reference=args.reference)
-
-
-def run(args) -> int:
-    import numpy as np
-
-    from optinav.core.progress import step
-
-    from optinav.attitude import PolarizationMeasurement, estimate
-    from optinav.attitude.checks import check_aop
-    from optinav.core.rotations import euler_from_quat, frame_name, quat_from_euler
 
     from optinav.attitude.estimators import _method
     from optinav.attitude.estimators import _options as check_options
+    from optinav.core.rotations import frame_name, quat_from_euler
 
-    options = _options(args.option)
+    options = parse_key_values(args.option)
     method = _method(args.method, True if args.pol_columns else None)
-    check_options(method, options)  # fail before reading the data
+    check_options(method, options)
     out = output_path(args.out, (".csv",), "ATTITUDE.csv")
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
@@ -193,53 +139,61 @@ def run(args) -> int:
     if not args.pol_columns and any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth,
                                                              args.sun_elevation)):
         raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
-    if _streams(args):
-        return _run_stream(args, method, options, q0, out)
-    step("read")
-    t, gyr, acc, mag, ref = _read_log(args)
-    step("checks")
-    if t.size > 1 and not np.all(np.diff(t) > 0):
-        raise OptinavError(f"the time column of {args.data} is not strictly increasing",
-                           "sort the log or fix its time column")
-    dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
-    pol = None
-    if args.pol_columns:
-        from optinav.io.readers import read_table
+    return method, options, q0, out
 
-        names = [s.strip() for s in args.pol_columns.split(",")]
-        if len(names) not in (1, 2):
-            raise OptinavError(f"--pol-columns {args.pol_columns!r} needs AOP or AOP,DOP", "name one or two columns")
-        table = read_table(args.data, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
-                           delimiter=args.delimiter, topic=args.topic)
-        aop = np.asarray(table["aop"], float).reshape(-1)
-        if aop.size != t.size:
-            raise OptinavError(f"AoP column has {aop.size} rows, the IMU {t.size}", "check --pol-columns")
-        if args.aop_unit == "deg":
-            aop = np.radians(aop)
-        else:
-            check_aop(aop)
-        dop = np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None
-        pol = PolarizationMeasurement(aop, _sun(args, t, args.frame), dop=dop, frame=args.frame,
-                                      min_dop=args.min_dop)
+
+def _polarization(args, t):
+    """The polarization measurement of ``--pol-columns`` with the sun of the place/time or fixed-sun options."""
+    import numpy as np
+
+    from optinav.attitude import PolarizationMeasurement
+    from optinav.attitude.recording import read_polarization, sun_along_log
+
+    aop, dop = read_polarization(args.data, args.pol_columns, t.size, aop_unit=args.aop_unit,
+                                 delimiter=args.delimiter, topic=args.topic)
+    rad = [None if v is None else np.radians(v) for v in (args.lat, args.lon, args.sun_azimuth, args.sun_elevation)]
+    sun = sun_along_log(t, args.frame, lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time,
+                        azimuth=rad[2], elevation=rad[3])
+    return PolarizationMeasurement(aop, sun, dop=dop, frame=args.frame, min_dop=args.min_dop)
+
+
+def _announce(args, method):
+    """What the command says on stderr before the estimate (nothing with --quiet)."""
     if not getattr(args, "quiet", False):
-        print(f"optinav: attitude of {t.size} samples from {args.data} ({method}) ...", file=sys.stderr)
+        return lambda n: print(f"optinav: attitude of {n} samples from {args.data} ({method}) ...", file=sys.stderr)
+    return lambda n: None
+
+
+def run(args) -> int:
+    from optinav.attitude import estimate
+    from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse
+    from optinav.attitude.unit import AttitudeOptions, read_log, steps
+    from optinav.core.progress import step
+    from optinav.reports.attitude_report import write_attitude_report
+
+    method, options, q0, out = _checked(args)
+    o = options_from_args(AttitudeOptions, args, options=options)
+    if _streams(args):
+        return _run_stream(args, o, q0, out, _announce(args, method))
+    step("read")
+    t, gyr, acc, mag, ref = read_log(args.data, o, reference=args.reference)
+    step("checks")
+    dt = steps(t, args.data)
+    pol = _polarization(args, t) if args.pol_columns else None
+    _announce(args, method)(t.size)
     step(f"estimate ({method})")
-    res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag,
-                   offline=args.offline, input_stage=args.input_stage, allow_gaps=args.allow_gaps,
-                   **options)
-    eul = np.degrees(euler_from_quat(res.q, frame_name(args.frame)))
-    table = np.column_stack([t, res.q, eul])
-    header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+    res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag, offline=args.offline,
+                   input_stage=args.input_stage, allow_gaps=args.allow_gaps, **options)
+    table = attitude_rows(t, res.q, args.frame)
     step("write")
-    write_csv(out, table, header, _CSV_FORMAT)
+    write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
-    score = None
-    if args.reference:
-        score = _score(res.q, *ref)
-        print(f"reference: inclination RMSE {score[0]:.3f} deg, heading RMSE {score[1]:.3f} deg "
-              f"({score[2]} movement samples with a valid reference)")
+    score = reference_rmse(res.q, *ref) if args.reference else None
+    if score is not None:
+        print(f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
+              f"{math.degrees(score[1]):.3f} deg ({score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
-    finish_report(args, lambda d: _report(res, t, eul, args.data, d, score))
+    finish_report(args, lambda d: write_attitude_report(res, t, table[:, 5:], args.data, d, score))
     return 0
 
 
@@ -252,124 +206,13 @@ def _streams(args) -> bool:
     return not whole and not (is_broad(args.data) and not args.columns and not args.datasets)
 
 
-_HEADER = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+def _run_stream(args, options, q0, out, announce) -> int:
+    """The attitude of a log read block by block (:func:`optinav.attitude.recording.estimate_stream`)."""
+    from optinav.attitude.recording import estimate_stream
 
-
-def _run_stream(args, method, options, q0, out) -> int:
-    """The attitude of a log read twice block by block: pass 1 gathers what the physics checks judge (three
-    floats per sample for exact medians), pass 2 estimates with the filter's state carried from block to block
-    and writes each block's rows; the output is renamed into place only after every check passed, so the file
-    is the in-memory path's, byte for byte."""
-    import numpy as np
-
-    from optinav.attitude.stream import StreamChecks, StreamEstimator
-    from optinav.core.progress import progress_blocks, step
-    from optinav.core.rotations import euler_from_quat, frame_name
-    from optinav.io.imu import iter_imu
-
-    estimator = StreamEstimator(method, frame=args.frame, q0=q0, input_stage=args.input_stage, **options)
-
-    def blocks(desc):
-        # two rows at least: the first block's first step comes from its first two times
-        chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                          time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
-        prev = None
-        for log in progress_blocks(chunks, desc):
-            if log.acc is None or log.gyr is None:
-                raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
-                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
-            if log.acc_unit == "counts" or log.gyro_unit == "counts":
-                raise OptinavError("the log is in raw counts",
-                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
-            t = log.t
-            first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
-            prev = t[-1]
-            yield chunks.rows - len(log), log, np.diff(t, prepend=first)
-
-    step("checks")
-    checks, bad = StreamChecks(), 0
-    for _, log, dts in blocks("attitude: checks"):
-        bad += int(np.count_nonzero(~log.finite))
-        if not bad:
-            checks.add(log.gyr, log.acc, dts)
-    if bad:
-        raise OptinavError(f"{args.data} has {bad} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
-    checks.finish_first()
-    gaps = checks.gaps
-    if not getattr(args, "quiet", False):
-        print(f"optinav: attitude of {checks.n} samples from {args.data} ({method}) ...", file=sys.stderr)
-    step(f"estimate ({method}), write")  # one pass does both
-    with atomic_open(out, "w", newline="\n") as fh:
-        fh.write(_HEADER + "\n")
-        for row0, log, dts in blocks(f"attitude: {method}"):
-            checks.collect(row0, log.gyr, log.acc, dts)
-            if gaps.size and not args.allow_gaps:
-                continue  # refused below, after the checks that come first
-            # a time gap starts a new segment whose first step is the median one
-            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(log))] - row0
-            dts = dts.copy()
-            dts[cuts] = checks.median_dt
-            qs = []
-            for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(log)])):
-                if k:
-                    estimator.restart()
-                if b > a:
-                    qs.append(estimator.run(log.gyr[a:b], log.acc[a:b], dts[a:b]))
-            q = np.concatenate(qs)
-            eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
-            np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
-        checks.finish_second(args.frame)
-        if gaps.size and not args.allow_gaps:
-            i = int(gaps[0])
-            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                               "integrating the gyro across it would be wrong",
-                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
-    print(estimator.summary())
+    print(estimate_stream(args.data, out, options, q0=q0, chunk_rows=args.chunk_rows, announce=announce))
     print(f"optinav: attitude written to {out}")
     return 0
-
-
-def _score(q, q_ref, movement):
-    """BROAD inclination and heading RMSE (deg) over movement samples with a finite reference."""
-    import numpy as np
-
-    from optinav.attitude.metrics import heading_error, inclination_error, rmse
-
-    mask = movement & np.all(np.isfinite(q_ref), axis=1)
-    return (float(np.degrees(rmse(inclination_error(q, q_ref), mask))),
-            float(np.degrees(rmse(heading_error(q, q_ref), mask))), int(mask.sum()))
-
-
-def _report(res, t, eul, source, out_dir, score=None):
-    import numpy as np
-
-    from optinav.reports.report import Figure, StudyResult, Table, write_report
-
-    rows = [["method", res.method], ["frame", res.frame], ["samples", int(t.size)],
-            ["polarization used", res.pol_used]]
-    rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
-    rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
-    if score is not None:
-        rows += [["inclination RMSE vs reference [deg]", f"{score[0]:.3f}"],
-                 ["heading RMSE vs reference [deg]", f"{score[1]:.3f}"]]
-    if res.gyro_bias is not None:
-        rows.append(["final gyro bias [deg/s]", " ".join(f"{v:.4f}" for v in np.degrees(res.gyro_bias))])
-
-    def draw(fig):
-        axs = fig.subplots(3, 1, sharex=True)
-        for k, name in enumerate(("roll", "pitch", "yaw")):
-            axs[k].plot(t, eul[:, k], lw=0.8)
-            axs[k].set_ylabel(f"{name} [deg]")
-            axs[k].grid(alpha=0.3)
-        axs[-1].set_xlabel("t [s]")
-
-    study = StudyResult(name="attitude", title=f"Attitude of {Path(source).name} ({res.method})",
-                        description=res.summary(),
-                        tables=[Table("Estimation summary", ["item", "value"], rows)],
-                        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))])
-    return write_report([study], out_dir, title="optinav attitude")
 
 
 def register_simulate(kinds) -> None:
@@ -406,25 +249,21 @@ def register_simulate(kinds) -> None:
 def run_simulate_flight(args) -> int:
     import numpy as np
 
-    from optinav.core.progress import step
-
+    from optinav.attitude.estimators import attitude_truth
+    from optinav.attitude.recording import TRUTH_CSV_HEADER, write_flight
     from optinav.attitude.simulate import simulate
+    from optinav.core.progress import step
 
     out = output_path(args.out, (".csv",), "flight.csv")
     # measured: about 2500 B per sample at the peak, 4000 with margin
     check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
-    truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), "t,qw,qx,qy,qz\n")
+    truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), TRUTH_CSV_HEADER + "\n")
     truth_path(out)
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
     d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
-    cols = np.column_stack([d.t, d.acc, d.gyr, np.degrees(d.aop), d.dop])
-    head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
     step("write")
-    write_csv(out, cols, head, "%.10g")
-    write_csv(truth, np.column_stack([d.t, d.q_b_n]), "t,qw,qx,qy,qz", "%.12g")
-    from optinav.attitude.estimators import attitude_truth
-
+    write_flight(out, d, truth)
     write_truth(out, attitude_truth(d.q_b_n, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
                                                          "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])

@@ -5,7 +5,6 @@ module adds its options with ``add_batch_options(parser)``."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib
 import textwrap
 
@@ -103,19 +102,12 @@ def register(sub) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
-def options_from_args(cls, args):
-    """``cls``'s options from the parsed arguments: its ``from_args`` when it has one, else the fields whose
-    names the arguments carry."""
-    if hasattr(cls, "from_args"):
-        return cls.from_args(args)
-    return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if hasattr(args, f.name)})
-
-
 def run_batch_command(args) -> int:
     from optinav.batch import run_batch
+    from optinav.cli.common import system_options
 
     system = registry.SYSTEMS[args.batch_system]
-    options = options_from_args(system.load("options"), args)
+    options = system_options(system, args)
     s = run_batch(args.dir, args.out, options, system=system.name, reference=args.reference, workers=args.workers,
                   scheduler=args.scheduler, fresh=args.fresh, retry_failed=args.retry_failed)
     print(s.summary())

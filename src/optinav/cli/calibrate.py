@@ -71,13 +71,13 @@ def calibrate_unit(args, name: str) -> int:
     """``optinav calibrate SYSTEM``: the system's options from ``args``, checked, then its ``run_unit`` on
     ``args.data`` (what ``optinav batch calibrate`` runs per unit); writes the result and ``--report``."""
     from optinav import registry
-    from optinav.cli.batch import options_from_args
+    from optinav.cli.common import system_options
     from optinav.core.progress import step
 
     system = registry.SYSTEMS[name]
     out = output_path(args.out, (".json",), "RESULT.json")
     prepare_report(args)
-    options = options_from_args(system.load("options"), args)
+    options = system_options(system, args)
     system.load("check")(options)
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {args.data} ({options.method}) ...", file=sys.stderr)
@@ -164,12 +164,13 @@ def full_scale(text: str):
 
 def run_accel(args) -> int:
     from optinav.core.progress import step
-    from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
+    from optinav.cli.common import file_options
+    from optinav.multipos.calibrate import calibrate_data, read_session_file
 
     out = output_path(args.out, (".json",), "RESULT.json")
     exports = [parse_export(spec) for spec in args.export]
     prepare_report(args)
-    options = FileOptions.from_args(args)
+    options = file_options(args)
     options.check()
     step("read")
     data = read_session_file(args.data, options)

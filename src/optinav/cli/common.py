@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -167,6 +168,20 @@ def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list
     return vals
 
 
+def parse_key_values(items, option: str = "--option") -> dict:
+    """Repeated ``KEY=VALUE`` options (e.g. ``--option gain=0.1``) → ``{key: float}``."""
+    out = {}
+    for item in items:
+        k, _, v = item.partition("=")
+        if not v:
+            raise OptinavError(f"{option} {item!r} is not KEY=VALUE", f"write e.g. {option} gain=0.1")
+        try:
+            out[k.strip()] = float(v)
+        except ValueError:
+            raise OptinavError(f"{option} {item!r}: {v!r} is not a number", "give options as numbers") from None
+    return out
+
+
 #: how every truth file written by :func:`write_truth` starts (so an existing one may be replaced)
 TRUTH_SIGNATURE = '{\n  "schema": "optinav.'
 
@@ -186,6 +201,35 @@ def write_truth(data_path, truth) -> Path:
     tp = truth_path(data_path)
     truth.to_json(tp)
     return tp
+
+
+def options_from_args(cls, args, **given):
+    """The library's options dataclass ``cls`` from parsed arguments: every field the namespace carries under the
+    same name, ``given`` taking precedence (the library never sees the argparse namespace)."""
+    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if hasattr(args, f.name)}
+    return cls(**{**kw, **given})
+
+
+def file_options(args):
+    """:class:`optinav.multipos.calibrate.FileOptions` of ``optinav calibrate accel`` / ``batch calibrate accel``:
+    ``--rest T0 T1`` as a tuple, and ``--height`` (None when not given) only with ``--latitude``."""
+    from optinav.multipos.calibrate import FileOptions
+
+    height, rest = getattr(args, "height", None), getattr(args, "rest", None)
+    if height is not None and getattr(args, "latitude", None) is None:
+        raise OptinavError("--height without --latitude has no effect (it sets the normal gravity's height)",
+                           "add --latitude DEG, or drop --height")
+    return options_from_args(FileOptions, args, height=0.0 if height is None else height,
+                             rest=None if rest is None else tuple(float(v) for v in rest))
+
+
+def system_options(system, args, key: str = "options"):
+    """The options object a registered system's ``key`` entry (``options`` or ``apply_options``) names, from
+    parsed arguments; the multi-position calibration's :func:`file_options` adapts its ``--rest``/``--height``."""
+    cls = system.load(key)
+    from optinav.multipos.calibrate import FileOptions
+
+    return file_options(args) if cls is FileOptions else options_from_args(cls, args)
 
 
 def add_report_option(p) -> None:

@@ -62,43 +62,6 @@ def register(sub) -> None:
     p.set_defaults(func=run, progress_task="design")
 
 
-def _noise(args) -> tuple:
-    """(acc density (3,) m/s²/√Hz, gyro density (3,) rad/s/√Hz or None, text)."""
-    import numpy as np
-
-    given = [n for n, v in (("--allan", args.allan), ("--preset", args.preset)) if v]
-    if len(given) > 1:
-        raise OptinavError("--allan and --preset both give the noise", "pass one of them")
-    acc = gyro = None
-    parts = []
-    if args.allan:
-        from optinav.multipos.plan import noise_from_allan
-
-        got = noise_from_allan(args.allan)
-        acc, gyro = got["acc"], got["gyro"]
-        parts.append(f"from {args.allan}")
-    preset = args.preset or (None if args.allan or args.acc_noise_density else "mems-mti1")
-    if preset:
-        from optinav.core.imu_model import preset as get
-
-        spec = get(preset)
-        acc, gyro = np.asarray(spec.accel_vrw, float), np.asarray(spec.gyro_arw, float)
-        parts.append(f"preset {preset}" + ("" if args.preset else " (assumed; pass --allan or the densities)"))
-    if args.acc_noise_density is not None:
-        acc = np.full(3, args.acc_noise_density)
-        parts.append("accelerometer density given")
-    if args.gyro_noise_density is not None:
-        gyro = np.full(3, args.gyro_noise_density)
-        parts.append("gyro density given")
-    if acc is None:
-        raise OptinavError(f"{args.allan} has no accelerometer noise density", "add --acc-noise-density")
-    mean_acc = float(np.mean(acc))
-    text = f"accelerometer {mean_acc / 9.80665e-6:.3g} µg/√Hz"
-    if gyro is not None:
-        text += f", gyroscope {float(np.mean(gyro)) * 180 / np.pi * 60:.3g} deg/√h"
-    return acc, gyro, text + " (" + "; ".join(parts) + ")"
-
-
 def run(args) -> int:
     out = output_path(args.out, (".md", ".json"), "PLAN.md") if args.out else None
     fig = output_path(args.figure, (".png",), "PLAN.png", "--figure") if args.figure else None
@@ -106,9 +69,9 @@ def run(args) -> int:
                "bias_mg": args.target_bias}
     if args.dwell is not None and (any(v is not None for v in targets.values()) or args.target_gyro_bias):
         raise OptinavError("--dwell and a --target-* option both set the rest time", "pass one of them")
-    from optinav.multipos.plan import plan_poses, plot_plan
+    from optinav.multipos.plan import plan_noise, plan_poses, plot_plan
 
-    acc, gyro, text = _noise(args)
+    acc, gyro, text = plan_noise(args.allan, args.preset, args.acc_noise_density, args.gyro_noise_density)
     plan = plan_poses(args.poses, criterion=args.criterion, acc_noise_density=acc, gyro_noise_density=gyro,
                       noise_source=text, rate_hz=args.rate, dwell_s=args.dwell, targets=targets,
                       gyro_bias_deg_h=args.target_gyro_bias, turn_rate_deg_s=args.turn_rate,

@@ -20,11 +20,16 @@ import warnings
 from optinav import __version__
 from optinav.errors import OptinavError
 
-#: the commands common to every system (modules defining ``register(subparsers)``); systems add theirs through
-#: :mod:`optinav.registry`
-COMMAND_MODULES = ["optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", "optinav.cli.sun",
-                   "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan", "optinav.cli.export",
-                   "optinav.cli.design", "optinav.cli.report"]
+#: stands in :data:`COMMANDS` for the systems' own top-level commands (``attitude``, ``gfimu``): the
+#: ``register_commands(subparsers)`` hook of each system's CLI module in :mod:`optinav.registry`
+SYSTEM_COMMANDS = "(the systems' own commands)"
+
+#: every command of ``optinav`` in the order ``--help`` lists them, declared once: a module defining
+#: ``register(subparsers)``, or :data:`SYSTEM_COMMANDS`. The ``simulate``, ``calibrate`` and ``batch`` commands
+#: take their per-system entries from the registry themselves.
+COMMANDS = ("optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", SYSTEM_COMMANDS,
+            "optinav.cli.sun", "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan",
+            "optinav.cli.export", "optinav.cli.design", "optinav.cli.report")
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -55,11 +60,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     from optinav.cli.common import register_system_hooks
 
-    for name in COMMAND_MODULES[:3]:
-        importlib.import_module(name).register(sub)
-    register_system_hooks(sub, "register_commands")
-    for name in COMMAND_MODULES[3:]:
-        importlib.import_module(name).register(sub)
+    for name in COMMANDS:
+        if name == SYSTEM_COMMANDS:
+            register_system_hooks(sub, "register_commands")
+        else:
+            importlib.import_module(name).register(sub)
     return parser
 
 
@@ -70,17 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    # --quiet reaches worker processes through the environment; restored so that one call does not silence the next
-    previous = os.environ.get("OPTINAV_QUIET")
-    if args.quiet:
-        os.environ["OPTINAV_QUIET"] = "1"
-    try:
+    from optinav.core.progress import quiet
+
+    with quiet(args.quiet):
         return _dispatch(args)
-    finally:
-        if previous is None:
-            os.environ.pop("OPTINAV_QUIET", None)
-        else:
-            os.environ["OPTINAV_QUIET"] = previous
 
 
 def _dispatch(args) -> int:

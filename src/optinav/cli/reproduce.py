@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import inspect
-import os
 import sys
 import textwrap
-import time
 
 from optinav.cli.common import shared_data_dir
-from optinav.reports import available_studies, get_study, prepare_report_dir, write_report
+from optinav.reports import available_studies, get_study, prepare_report_dir, run_studies, write_report
 
 
 def register(sub) -> None:
@@ -38,25 +35,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import numpy as np
-
-    from optinav.core.progress import progress_enabled, task
+    from optinav.core.progress import is_quiet, progress_enabled
 
     names = list(available_studies()) if args.study == "all" else [args.study]
-    fns = [(n, get_study(n)) for n in names]  # unknown names fail before any work
+    for name in names:
+        get_study(name)  # unknown names fail before any work
     prepare_report_dir(args.out, "--out")
-    results = []
-    rng = np.random.default_rng(args.seed)
-    for k, (name, fn) in enumerate(fns, 1):
-        if not progress_enabled() and not os.environ.get("OPTINAV_QUIET"):
+
+    def announce(name):
+        if not progress_enabled() and not is_quiet():
             print(f"optinav: study {name} ...", file=sys.stderr, flush=True)  # a log, when no bar is shown
-        t0 = time.perf_counter()
-        # studies that read real data take the shared data folder, resolved here (the library takes paths)
-        extra = {"data_dir": shared_data_dir()} if "data_dir" in inspect.signature(fn).parameters else {}
-        with task(f"study {k}/{len(fns)} {name}"):
-            r = fn(quick=args.quick, rng=np.random.default_rng(rng.integers(2**63)), **extra)
-        r.elapsed = time.perf_counter() - t0
-        results.append(r)
+
+    # studies that read real data take the shared data folder, resolved here (the library takes paths)
+    results = run_studies(names, quick=args.quick, seed=args.seed, data_dir=shared_data_dir(), announce=announce)
     out = write_report(results, args.out, title="optinav reproduce" + (" (quick)" if args.quick else ""))
     failed = [f"{r.name}: {c.name}" for r in results for c in r.checks if not c.passed]
     n = sum(len(r.checks) for r in results)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.errors import OptinavError
 from optinav.cli.common import (HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, check_memory, number,
                                 output_path,
                                 register_system_hooks, truth_path, write_truth)
@@ -80,16 +79,13 @@ def register(sub) -> None:
 def run_accel_multipos(args) -> int:
     import numpy as np
 
+    from optinav.core.imu_model import preset
     from optinav.core.progress import step
-    from optinav.core.units import factor
-    from optinav.io import ImuLog, write_imu
-    from optinav.multipos.simulate import simulate
+    from optinav.io import write_imu
+    from optinav.multipos.simulate import SCHEMES, simulate
 
     out = output_path(args.out)
     truth_path(out)
-    from optinav.core.imu_model import preset
-    from optinav.multipos.simulate import SCHEMES
-
     rate = args.rate or preset(args.preset).sample_rate
     # measured (benchmarks/bench_memory.py, 1 M and 3 M rows): about 615 B per sample at the peak now that the
     # log is written block by block, 900 with margin
@@ -100,27 +96,11 @@ def run_accel_multipos(args) -> int:
                  transition_s=args.transition, rest_s=args.rest, lat=np.radians(args.latitude),
                  height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                  jitter=args.jitter, rng=args.seed)
-    # the log holds SI or counts; write_imu converts SI back to the requested file unit
-    acc = s.acc if args.acc_unit in ("counts", "m/s^2") else s.acc * factor(args.acc_unit)
-    gyro = s.gyro if args.gyro_unit in ("counts", "rad/s") else s.gyro * factor(args.gyro_unit)
-    log = ImuLog(t=s.t, acc=acc, gyr=gyro, acc_unit="counts" if args.acc_unit == "counts" else "m/s^2",
-                 gyro_unit="counts" if args.gyro_unit == "counts" else "rad/s", source="optinav simulate")
     step("write")
-    write_imu(out, log, acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
+    write_imu(out, s.log(), acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
               gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
-    from optinav.multipos.result import session_truth
-
-    info = {"model": "raw = K x + b",
-             "units": {"accelerometer_raw": args.acc_unit, "accelerometer": "m/s^2",
-                       "gyroscope_raw": args.gyro_unit, "gyroscope": "rad/s", "time": "s"},
-             "accelerometer": {"K": s.acc_K.tolist(), "b": s.acc_b.tolist(),
-                               "noise_sigma": s.acc_noise_sigma, "bias_instability": s.acc_bias_instability},
-             "gyroscope": {"K": s.gyro_K.tolist(), "b": s.gyro_b.tolist()},
-             "gravity": s.gravity, "latitude_deg": args.latitude, "height_m": args.height,
-             "static_intervals": s.static_intervals.tolist(), "up_dirs": s.up_dirs.tolist(),
-             "poses": s.descriptions, "seed": args.seed, "preset": args.preset, "truth": args.truth}
-    tp = write_truth(out, session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit=args.acc_unit,
-                                        gyro_unit=args.gyro_unit, info=info))
+    tp = write_truth(out, s.truth({"latitude_deg": args.latitude, "height_m": args.height},
+                                  {"seed": args.seed, "preset": args.preset, "truth": args.truth}))
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")
@@ -129,53 +109,23 @@ def run_accel_multipos(args) -> int:
 
 def run_static(args) -> int:
     """``optinav simulate static``: white + flicker + random-walk noise at rest, SI truth beside the data."""
-    import numpy as np
-
-    from optinav.core.earth import gravity
-    from optinav.core.imu_model import flicker_noise, preset, random_walk, white_noise
+    from optinav.core.imu_model import preset, simulate_static
     from optinav.core.progress import step
-    from optinav.core.results import Parameter, Truth
     from optinav.core.units import to_si
     from optinav.io import ImuLog, write_imu
 
     out = output_path(args.out)
     truth_path(out)
-    spec = preset(args.preset)
-    rate = args.rate or spec.sample_rate
-    n = int(round(args.hours * 3600 * rate))
+    rate = args.rate or preset(args.preset).sample_rate
     # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
-    check_memory(n, 600, "this log", "shorten --hours or lower --rate")
-    if n < 1000:
-        raise OptinavError(f"{args.hours:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands",
-                           "raise --hours")
-    dt = 1.0 / rate
-    rng = np.random.default_rng(args.seed)
-    terms = {"accelerometer": (spec.accel_vrw, spec.accel_bias_instability,
-                               np.full(3, to_si(args.accel_rrw, "ug/sqrt(s)"))),
-             "gyroscope": (spec.gyro_arw, spec.gyro_bias_instability,
-                           np.full(3, to_si(args.gyro_rrw, "deg/h/sqrt(h)")))}
-    data = {}
+    check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
     step("simulate")
-    for name, (N, B, K) in terms.items():
-        data[name] = white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
-    g = float(gravity(np.radians(45.0), 0.0))
-    acc = data["accelerometer"] + np.array([0.0, 0.0, g])
-    log = ImuLog(t=np.arange(n) * dt, acc=acc, gyr=data["gyroscope"], source="optinav simulate static")
+    s = simulate_static(args.hours * 3600, args.preset, rate_hz=rate,
+                        acc_random_walk=to_si(args.accel_rrw, "ug/sqrt(s)"),
+                        gyr_random_walk=to_si(args.gyro_rrw, "deg/h/sqrt(h)"), seed=args.seed)
     step("write")
-    write_imu(out, log, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit)
-    units = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2", "random_walk": "m/s^2/sqrt(s)"},
-             "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s", "random_walk": "rad/s/sqrt(s)"}}
-    short = {"accelerometer": "acc", "gyroscope": "gyr"}
-    # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
-    params = {f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), units[name][term])
-              for name, (N, B, K) in terms.items()
-              for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
-              for i, ax in enumerate("xyz")}
-    truth = Truth("allan", params, {
-        "kind": "static", "units": units,
-        **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
-           for name, (N, B, K) in terms.items()},
-        "rate_hz": rate, "gravity": g, "preset": args.preset, "seed": args.seed})
-    tp = write_truth(out, truth)
-    print(f"optinav: wrote {n} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
+    write_imu(out, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, source="optinav simulate static"), acc_unit=args.acc_unit,
+              gyro_unit=args.gyro_unit)
+    tp = write_truth(out, s.truth)
+    print(f"optinav: wrote {s.t.size} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
     return 0

@@ -8,7 +8,8 @@ coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −
 and the octave-to-octave correlation of the estimates; not biased by neighbouring terms as the read-off is), and
 ``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations). A long log read
 in blocks is folded into an :class:`AngleAccumulator` and passed to ``allan_deviation_from_angle``;
-:class:`AllanAnalysis` is the result of ``optinav allan`` (and :func:`kalibr_noise` its Kalibr keys).
+:class:`AllanAnalysis` is the result of ``optinav allan``, computed from a log's blocks by :func:`analyse_blocks`
+(and :func:`kalibr_noise` its Kalibr keys).
 
 Frequency-stability names of the noise terms (rate ↔ fractional frequency, angle ↔ phase):
 quantization = white PM (α = 2), white rate noise (ARW / VRW) = white FM (α = 0), bias instability =
@@ -677,6 +678,11 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     return AllanNoiseFit(**out, confidence=float(result.confidence), unit=result.unit)
 
 
+#: the noise terms of :meth:`AllanAnalysis.summary`: (field, label, unit suffix appended to the data's rate unit)
+NOISE_TERMS = (("white", "white noise N (ARW/VRW)", "*sqrt(s)"), ("bias_instability", "bias instability B", ""),
+         ("random_walk", "random walk K (RRW/AcRW)", "/sqrt(s)"), ("quantization", "quantization Q", "*s"))
+
+
 @dataclass(eq=False)
 class AllanAnalysis(Result):
     """The noise characterisation of an IMU log (``optinav allan``), per sensor.
@@ -715,6 +721,26 @@ class AllanAnalysis(Result):
         """
         return self.accelerometer if name == "accelerometer" else self.gyroscope
 
+    def summary(self) -> str:
+        """Plain-text table of the fitted noise terms per axis with their 68 % intervals."""
+        lines = [f"optinav allan: {self.n_samples} samples at {self.rate_hz:.6g} Hz over "
+                 f"{self.duration_s / 3600:.3g} h"]
+        for name in ("accelerometer", "gyroscope"):
+            d = self.sensor(name)
+            if d is None:
+                continue
+            fit, ro = d["fit"], d["read_off"]
+            unit = fit.unit or "unit"
+            lines.append(f"{name} (fit of the four-term model; IEEE 952 read-off in brackets):")
+            for key, label, suffix in NOISE_TERMS:
+                v = np.atleast_1d(getattr(fit, key))
+                iv = np.asarray(getattr(fit, key + "_interval")).reshape(2, -1)
+                r = np.atleast_1d(getattr(ro, key))
+                cells = [f"{'xyz'[j]} {v[j]:.4g} [{iv[0, j]:.3g}, {iv[1, j]:.3g}] ({r[j]:.3g})"
+                         for j in range(v.size)]
+                lines.append(f"  {label} [{unit}{suffix}]: " + "; ".join(cells))
+        return "\n".join(lines)
+
 
 #: Kalibr's key prefix and continuous-time units of each sensor (noise density, random walk)
 KALIBR_UNITS = {"accelerometer": ("m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
@@ -744,3 +770,129 @@ def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     K_used = np.where(K > 0, K, K_hi)
     return {f"{sensor}_noise_density": float(np.nanmax(N)), f"{sensor}_random_walk": float(np.nanmax(K_used)),
             f"{sensor}_random_walk_detected": bool(np.all(K > 0))}
+
+
+#: largest departure of one sample interval from the median before the log counts as having gaps
+MAX_JITTER = 0.5
+
+
+class _RegularTiming:
+    """Regular-sampling check of a streamed time column: every interval within :data:`MAX_JITTER` of the first
+    block's median; the interval used is the mean over the whole log."""
+
+    def __init__(self):
+        self.t0 = self.t_last = self.dt0 = None
+        self.n = 0
+        self.bad = 0
+        self.first_bad = None
+
+    def add(self, t) -> None:
+        t = np.asarray(t, float)
+        if t.size == 0:
+            return
+        joined = t if self.t_last is None else np.concatenate(([self.t_last], t))
+        d = np.diff(joined)
+        if self.dt0 is None and d.size:
+            self.dt0 = float(np.median(d))
+        if self.dt0 is not None and d.size:
+            bad = np.abs(d - self.dt0) > MAX_JITTER * self.dt0
+            if np.any(bad):
+                i = int(np.flatnonzero(bad)[0])
+                if self.first_bad is None:
+                    self.first_bad = (float(joined[i + 1]), float(d[i]))
+                self.bad += int(bad.sum())
+        if self.t0 is None:
+            self.t0 = float(t[0])
+        self.t_last = float(t[-1])
+        self.n += t.size
+
+    def check(self) -> float:
+        if self.n < 64:
+            raise OptinavError(f"the log has {self.n} samples; an Allan deviation needs thousands (hours at rest)",
+                               "record a longer static log")
+        if self.bad:
+            t, d = self.first_bad
+            raise OptinavError(f"the log is not regularly sampled: {self.bad} interval(s) differ from the median "
+                               f"{self.dt0:.6g} s by more than {MAX_JITTER:.0%}, first at t = {t:.6g} s ({d:.6g} s)",
+                               "cut the log at the gap and analyse the longest regular part (or pass --rate to "
+                               "ignore a file's bad time stamps)")
+        # the mean interval of a regular log: the median of rounded time stamps would be off in the 12th digit
+        return (self.t_last - self.t0) / (self.n - 1)
+
+
+def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: str = "", need_kalibr: bool = False):
+    """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
+
+    Each block is folded into the angle sums and dropped, so memory holds one float per sample and axis.
+
+    Parameters
+    ----------
+    blocks : iterable of ImuLog
+        The log's blocks in order, e.g. :func:`optinav.io.iter_imu` (regular sampling, no NaN).
+    sensor : str
+        ``"both"``, ``"acc"`` or ``"gyro"``: the triads analysed.
+    source, rostopic : str
+        Recorded in the result (``rostopic`` for the Kalibr file).
+    need_kalibr : bool
+        Refuse at the first block unless both triads are there in SI units.
+
+    Returns
+    -------
+    AllanAnalysis
+        Per sensor the Allan deviation, the IEEE 952 read-off and the four-term fit; Kalibr's noise keys.
+    """
+    timing = _RegularTiming()
+    angles: dict = {}
+    units: dict[str, str] = {}
+    for log in blocks:
+        if not angles:
+            present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyr, log.gyro_unit)}
+            wanted = {"both": ("accelerometer", "gyroscope"), "acc": ("accelerometer",), "gyro": ("gyroscope",)}[sensor]
+            if need_kalibr:
+                missing = [n for n in ("accelerometer", "gyroscope") if present[n][0] is None or n not in wanted]
+                counts = [n for n in ("accelerometer", "gyroscope") if present[n][1] == "counts"]
+                if missing or counts:
+                    raise OptinavError("--kalibr: Kalibr needs both triads in SI units, and the log has "
+                                       + (f"no {missing[0]} selected" if missing else f"the {counts[0]} in raw counts"),
+                                       "calibrate the unit and analyse the output of optinav apply (m/s^2, rad/s), "
+                                       "with --sensor both")
+            for name in wanted:
+                if present[name][0] is not None:
+                    angles[name] = AngleAccumulator(1.0)
+                    units[name] = present[name][1]
+            if not angles:
+                raise OptinavError(f"{source or 'the log'} has no {'data' if sensor == 'both' else sensor + ' data'} "
+                                   "to analyse", "check --columns (t,ax,ay,az,gx,gy,gz) or --sensor")
+        timing.add(log.t)
+        for name, acc in angles.items():
+            x = log.acc if name == "accelerometer" else log.gyr
+            if x is None:
+                raise OptinavError(f"a block of {source or 'the log'} lacks the {name}", "check --columns")
+            if not np.all(np.isfinite(x)):
+                n_bad = int(np.count_nonzero(~np.all(np.isfinite(x), axis=1)))
+                raise OptinavError(f"the {name} data have {n_bad} row(s) with NaN or inf near t = {log.t[0]:.6g} s",
+                                   "cut the bad rows out of the log (the Allan deviation needs a gap-free record)")
+            if len(x):
+                acc.add(x)
+    if not angles:
+        raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")
+    dt = timing.check()
+    out = {}
+    kal = {}
+    for name in list(angles):
+        acc = angles.pop(name)  # θ is dropped once its deviation is computed
+        acc.set_dt(dt)
+        ad = allan_deviation_from_angle(acc, unit=units[name], progress_desc=f"Allan deviation ({name})")
+        del acc
+        if ad.tau.size < 5:
+            raise OptinavError(f"the log spans {timing.t_last - timing.t0:.3g} s, too short for the noise terms "
+                               f"({ad.tau.size} cluster times)", "record at least a few minutes at rest (hours for "
+                                                                 "the bias instability and random walk)")
+        fit = fit_noise_model(ad)
+        out[name] = {"deviation": ad, "read_off": noise_parameters_from_allan(ad), "fit": fit}
+        if units[name] in ("m/s^2", "rad/s"):
+            kal.update(kalibr_noise(fit, name))
+    kal["update_rate"] = 1.0 / dt
+    return AllanAnalysis(accelerometer=out.get("accelerometer"), gyroscope=out.get("gyroscope"), rate_hz=1.0 / dt,
+                         n_samples=int(timing.n), duration_s=float(timing.t_last - timing.t0), kalibr=kal,
+                         source=source, rostopic=rostopic)

@@ -298,7 +298,7 @@ def write_json(path, data, option: str = "--out", **kwargs) -> Path:
 
 def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "", delimiter: str = ",",
               option: str = "--out") -> Path:
-    """Write a 2-D numeric ``table`` as delimited text with ``header`` atomically.
+    """Write a 2-D numeric ``table`` as delimited text with ``header`` (lines prefixed by ``comments``) atomically.
 
     Parameters
     ----------
@@ -322,11 +322,40 @@ def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "
     Path
         The file written.
     """
+    head = comments + header.replace("\n", "\n" + comments) if header else ""
+    with csv_writer(path, head, fmt, delimiter=delimiter, option=option) as write:
+        write(table)
+    return Path(path)
+
+
+@contextlib.contextmanager
+def csv_writer(path, header: str, fmt="%.17g", *, delimiter: str = ",", option: str = "--out") -> Iterator:
+    """A delimited text file written block by block, atomically (:func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; it appears only when the ``with`` block ends without an error.
+    header : str
+        The first line(s), written as given; empty: none.
+    fmt : str or list of str
+        ``numpy.savetxt`` format: one, or one per column.
+    delimiter : str
+        Column delimiter.
+    option : str
+        The CLI option named in errors.
+
+    Yields
+    ------
+    callable
+        ``write(table)`` appends the rows of a 2-D numeric block.
+    """
     import numpy as np
 
     with atomic_open(path, "w", option, newline="\n") as fh:
-        np.savetxt(fh, table, delimiter=delimiter, header=header, comments=comments, fmt=fmt)
-    return Path(path)
+        if header:
+            fh.write(header + "\n")
+        yield lambda table: np.savetxt(fh, table, delimiter=delimiter, fmt=fmt)
 
 
 def check_sidecar(path, signature: str, option: str = "--out") -> Path:

@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO
-from optinav.core.results import Result, nested_kwargs, register_legacy
+from optinav.core.results import Parameter, Result, Truth, nested_kwargs, register_legacy
 from optinav.core.units import to_si
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -1102,3 +1103,76 @@ def preset(name: str, **overrides) -> ImuSpec:
         raise OptinavError(f"unknown IMU preset {name!r}", f"use one of: {', '.join(PRESETS)}") from None
     spec = build()
     return spec.replace(**overrides) if overrides else spec
+
+
+class StaticLog(NamedTuple):
+    """A simulated IMU at rest: ``t`` (s), ``acc`` (N, 3) m/s², ``gyr`` (N, 3) rad/s and the noise terms as a
+    :class:`~optinav.core.results.Truth` (system "allan")."""
+
+    t: np.ndarray
+    acc: np.ndarray
+    gyr: np.ndarray
+    truth: Truth
+
+
+#: SI units of the noise terms of a static log, per sensor
+_STATIC_UNITS = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2",
+                                   "random_walk": "m/s^2/sqrt(s)"},
+                 "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s", "random_walk": "rad/s/sqrt(s)"}}
+
+
+def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: float | None = None,
+                    acc_random_walk: float = 0.0, gyr_random_walk: float = 0.0, seed: int = 0) -> StaticLog:
+    """An IMU at rest with known noise terms, for noise characterisation (``optinav simulate static``).
+
+    z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
+    white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE Std 952;
+    Allan floor 0.664·B), and a random walk.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the log [s] (at least 1000 samples).
+    spec : str
+        Preset name (:func:`preset`).
+    rate_hz : float or None
+        Sample rate [Hz]; None: the preset's.
+    acc_random_walk : float
+        Accelerometer random walk on every axis [m/s^2/sqrt(s)].
+    gyr_random_walk : float
+        Gyroscope rate random walk on every axis [rad/s/sqrt(s)].
+    seed : int
+        Seed of the draws (recorded in the truth).
+
+    Returns
+    -------
+    StaticLog
+        t [s], acc [m/s^2], gyr [rad/s] and the truth: each term per sensor and axis in SI units.
+    """
+    from optinav.core.earth import gravity
+
+    s = preset(spec)
+    rate = rate_hz or s.sample_rate
+    n = int(round(duration_s * rate))
+    if n < 1000:
+        raise OptinavError(f"{duration_s / 3600:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands",
+                           "raise --hours")
+    dt = 1.0 / rate
+    rng = np.random.default_rng(seed)
+    terms = {"accelerometer": (s.accel_vrw, s.accel_bias_instability, np.full(3, float(acc_random_walk))),
+             "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk)))}
+    data = {name: white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
+            for name, (N, B, K) in terms.items()}
+    g = float(gravity(np.radians(45.0), 0.0))
+    short = {"accelerometer": "acc", "gyroscope": "gyr"}
+    # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
+    params = {f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), _STATIC_UNITS[name][term])
+              for name, (N, B, K) in terms.items()
+              for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
+              for i, ax in enumerate("xyz")}
+    truth = Truth("allan", params, {
+        "kind": "static", "units": _STATIC_UNITS,
+        **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
+           for name, (N, B, K) in terms.items()},
+        "rate_hz": rate, "gravity": g, "preset": spec, "seed": seed})
+    return StaticLog(np.arange(n) * dt, data["accelerometer"] + np.array([0.0, 0.0, g]), data["gyroscope"], truth)

@@ -1,7 +1,8 @@
 """Progress display for long work (tqdm bars on stderr), silent when not wanted.
 
 ``progress(iterable, total=None, desc="", enabled=None)`` yields the items behind a bar; ``enabled=None``
-shows it only when stderr is a terminal and ``OPTINAV_QUIET`` is unset (the CLI's ``--quiet`` sets it).
+shows it only when stderr is a terminal and output is not silenced: inside ``with quiet():`` (the CLI's
+``--quiet``) or with the environment variable ``OPTINAV_QUIET`` set (e.g. for a whole benchmark run).
 ``task(desc)`` opens a bar for a job made of named steps (``optinav reproduce`` opens one per study) and
 ``step(label)`` advances the innermost open task, so a study reports its steps without knowing who shows them.
 """
@@ -22,15 +23,34 @@ _TASKS: list = []  # open task bars, innermost last
 _LOOPS: list = []  # open loop bars of progress()
 
 
+_QUIET: list[bool] = [False]  # the innermost quiet() setting, last
+
+
+@contextlib.contextmanager
+def quiet(enabled: bool = True):
+    """No progress output (and no log lines of :func:`is_quiet` callers) inside the block when ``enabled``; the
+    previous setting is restored after it, so one CLI call does not silence the next."""
+    _QUIET.append(bool(enabled))
+    try:
+        yield
+    finally:
+        _QUIET.pop()
+
+
+def is_quiet() -> bool:
+    """Whether progress and log output is silenced: :func:`quiet` or the ``OPTINAV_QUIET`` environment variable."""
+    return _QUIET[-1] or bool(os.environ.get("OPTINAV_QUIET"))
+
+
 def progress_enabled() -> bool:
-    """Whether progress output is wanted by default (stderr is a terminal and ``OPTINAV_QUIET`` is unset).
+    """Whether progress output is wanted by default (stderr is a terminal and output is not silenced).
 
     Returns
     -------
     bool
         True to show bars.
     """
-    return not os.environ.get("OPTINAV_QUIET") and sys.stderr.isatty()
+    return not is_quiet() and sys.stderr.isatty()
 
 
 def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",

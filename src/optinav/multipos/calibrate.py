@@ -535,19 +535,6 @@ class FileOptions:
     generations: int | None = None
     seed: int = 0
 
-    @classmethod
-    def from_args(cls, args) -> "FileOptions":
-        """The options from an argparse namespace (attributes of the same names; missing ones keep defaults)."""
-        kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if hasattr(args, f.name)}
-        if kw.get("rest") is not None:
-            kw["rest"] = tuple(float(v) for v in kw["rest"])
-        if "height" in kw and kw["height"] is None:  # the CLI's --height defaults to None to see it was given
-            kw["height"] = 0.0
-        elif kw.get("height") is not None and kw.get("latitude") is None:
-            raise OptinavError("--height without --latitude has no effect (it sets the normal gravity's height)",
-                               "add --latitude DEG, or drop --height")
-        return cls(**kw)
-
     def check(self) -> None:
         """Reject contradictory options before any file is read."""
         if (self.gyro_bias == "rest") != (self.rest is not None):

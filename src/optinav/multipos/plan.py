@@ -44,7 +44,7 @@ from optinav.multipos.gyro import GYRO_PARAMS
 from optinav.multipos.model import ACCEL_PARAMS
 
 __all__ = ["PosePlan", "plan_poses", "plot_plan", "pose_words", "turn_between", "gyro_turn_std", "noise_from_allan",
-           "MIN_DWELL_S", "ACC_NAMES", "GYRO_NAMES"]
+           "plan_noise", "MIN_DWELL_S", "ACC_NAMES", "GYRO_NAMES"]
 
 MIN_DWELL_S = 5.0
 ACC_NAMES = ACCEL_PARAMS
@@ -205,6 +205,61 @@ def noise_from_allan(path) -> dict:
         raise OptinavError(f"{path} holds neither accelerometer_noise_density nor gyroscope_noise_density",
                            "pass the JSON written by optinav allan, or --acc-noise-density/--gyro-noise-density")
     return out
+
+
+def plan_noise(allan=None, preset: str | None = None, acc_noise_density: float | None = None,
+               gyro_noise_density: float | None = None) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """The white-noise densities a plan is made for, and where they come from.
+
+    Parameters
+    ----------
+    allan : str, Path or None
+        A JSON with Kalibr's noise densities (:func:`noise_from_allan`), e.g. ``optinav allan``'s result.
+    preset : str or None
+        A sensor class of :mod:`optinav.core.imu_model` (at most one of ``allan`` and ``preset``; mems-mti1 is
+        assumed when neither nor ``acc_noise_density`` is given).
+    acc_noise_density : float or None
+        Accelerometer white-noise density on every axis [m/s^2/sqrt(Hz)]; overrides the source's.
+    gyro_noise_density : float or None
+        Gyroscope white-noise density on every axis [rad/s/sqrt(Hz)]; overrides the source's.
+
+    Returns
+    -------
+    acc : (3,) ndarray
+        Accelerometer density [m/s^2/sqrt(Hz)].
+    gyro : (3,) ndarray or None
+        Gyroscope density [rad/s/sqrt(Hz)].
+    text : str
+        The densities and their source, for the plan.
+    """
+    given = [n for n, v in (("--allan", allan), ("--preset", preset)) if v]
+    if len(given) > 1:
+        raise OptinavError("--allan and --preset both give the noise", "pass one of them")
+    acc = gyro = None
+    parts = []
+    if allan:
+        got = noise_from_allan(allan)
+        acc, gyro = got["acc"], got["gyro"]
+        parts.append(f"from {allan}")
+    name = preset or (None if allan or acc_noise_density else "mems-mti1")
+    if name:
+        from optinav.core.imu_model import preset as get
+
+        spec = get(name)
+        acc, gyro = np.asarray(spec.accel_vrw, float), np.asarray(spec.gyro_arw, float)
+        parts.append(f"preset {name}" + ("" if preset else " (assumed; pass --allan or the densities)"))
+    if acc_noise_density is not None:
+        acc = np.full(3, acc_noise_density)
+        parts.append("accelerometer density given")
+    if gyro_noise_density is not None:
+        gyro = np.full(3, gyro_noise_density)
+        parts.append("gyro density given")
+    if acc is None:
+        raise OptinavError(f"{allan} has no accelerometer noise density", "add --acc-noise-density")
+    text = f"accelerometer {float(np.mean(acc)) / 9.80665e-6:.3g} µg/√Hz"
+    if gyro is not None:
+        text += f", gyroscope {float(np.mean(gyro)) * 180 / np.pi * 60:.3g} deg/√h"
+    return acc, gyro, text + " (" + "; ".join(parts) + ")"
 
 
 # --- the plan ---------------------------------------------------------------------------------------------------

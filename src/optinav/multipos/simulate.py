@@ -69,6 +69,55 @@ class SimulatedSession(Result):
     acc_bias_instability: float = field(default=0.0, metadata={"unit": "acc_unit"})
     descriptions: list = field(default_factory=list, metadata={"unit": "-"})
 
+    def log(self):
+        """The session as a log to write.
+
+        Returns
+        -------
+        ImuLog
+            acc [m/s^2] and gyr [rad/s] (raw counts stay counts), which :func:`optinav.io.write_imu` converts
+            back to the file's ``acc_unit``/``gyro_unit``.
+        """
+        from optinav.core.units import factor
+        from optinav.io import ImuLog
+
+        acc = self.acc if self.acc_unit in ("counts", "m/s^2") else self.acc * factor(self.acc_unit)
+        gyro = self.gyro if self.gyro_unit in ("counts", "rad/s") else self.gyro * factor(self.gyro_unit)
+        return ImuLog(t=self.t, acc=acc, gyr=gyro, acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
+                      gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
+
+    def truth(self, site: dict | None = None, provenance: dict | None = None):
+        """The session's truth file content (:func:`~optinav.multipos.result.session_truth`).
+
+        Parameters
+        ----------
+        site : dict or None
+            Where the gravity holds, as the caller states it (e.g. ``{"latitude_deg": …, "height_m": …}``);
+            written after the gravity.
+        provenance : dict or None
+            How the session was made (seed, preset, ...); written last.
+
+        Returns
+        -------
+        Truth
+            The parameters in the calibrated parameterization; info: model, units, both triads' K and b,
+            gravity, site, static intervals, poses, provenance.
+        """
+        from optinav.multipos.result import session_truth
+
+        info = {"model": "raw = K x + b",
+                "units": {"accelerometer_raw": self.acc_unit, "accelerometer": "m/s^2",
+                          "gyroscope_raw": self.gyro_unit, "gyroscope": "rad/s", "time": "s"},
+                "accelerometer": {"K": self.acc_K.tolist(), "b": self.acc_b.tolist(),
+                                  "noise_sigma": self.acc_noise_sigma,
+                                  "bias_instability": self.acc_bias_instability},
+                "gyroscope": {"K": self.gyro_K.tolist(), "b": self.gyro_b.tolist()}, "gravity": self.gravity,
+                **(site or {}),
+                "static_intervals": self.static_intervals.tolist(), "up_dirs": self.up_dirs.tolist(),
+                "poses": self.descriptions, **(provenance or {})}
+        return session_truth(self.acc_K, self.acc_b, self.gyro_K, self.gyro_b, acc_unit=self.acc_unit,
+                             gyro_unit=self.gyro_unit, info=info)
+
 
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     if kind == "acc":

@@ -11,7 +11,8 @@ and check as numbers) and the PNG figures.
 
 from optinav.reports.report import (STUDIES, Cell, Check, Figure, Headline, Limit, StudyResult, Table,
                                     available_studies, get_study, prepare_report_dir, quantity, register_study,
-                                    rounded, value_at, write_report)
+                                    rounded, run_studies, value_at, write_report)
 
 __all__ = ["STUDIES", "Cell", "Check", "Figure", "Headline", "Limit", "StudyResult", "Table", "available_studies",
-           "get_study", "prepare_report_dir", "quantity", "register_study", "rounded", "value_at", "write_report"]
+           "get_study", "prepare_report_dir", "quantity", "register_study", "rounded", "run_studies", "value_at",
+           "write_report"]

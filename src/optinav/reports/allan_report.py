@@ -8,16 +8,22 @@ from pathlib import Path
 import numpy as np
 
 from optinav.core.allan import FLICKER_FLOOR, allan_deviation_model
-from optinav.reports.report import Figure, StudyResult, Table, write_report
+from optinav.reports.report import Cell, Figure, StudyResult, Table, write_report
 
 _TERMS = (("white", "white noise N", "·√s", -0.5, 1.0), ("bias_instability", "bias instability B", "", 0.0, None),
           ("random_walk", "random walk K", "/√s", 0.5, 3.0), ("quantization", "quantization Q", "·s", -1.0, math.sqrt(3)))
 
 
-def _cell(v, iv) -> str:
-    if not np.isfinite(v):
-        return "not seen"
-    return f"{v:.4g} [{iv[0]:.3g}, {iv[1]:.3g}]"
+def _text(cell: dict) -> str:
+    """A value with its 68 % interval as the report writes it (``summary.json`` keeps the numbers)."""
+    v, (lo, hi) = cell["value"], cell["interval"]
+    return "not seen" if v is None else f"{v:.4g} [{lo:.3g}, {hi:.3g}]"
+
+
+def _cell(v, iv) -> Cell:
+    """A noise term of one axis: value and 68 % interval as numbers (None: the term was not seen)."""
+    value = {"value": float(v) if np.isfinite(v) else None, "interval": [float(iv[0]), float(iv[1])]}
+    return Cell(value, _text)
 
 
 def _tables(name: str, d: dict) -> list[Table]:

@@ -209,6 +209,49 @@ def get_study(name: str) -> Callable[..., StudyResult]:
     return _REGISTERED[name]
 
 
+def run_studies(names, *, quick: bool = False, seed: int = 2026, data_dir: str | Path | None = None,
+                announce: Callable[[str], None] | None = None) -> list[StudyResult]:
+    """Run registered studies (what ``optinav reproduce`` does before writing the report).
+
+    Parameters
+    ----------
+    names : list of str
+        Study names (an unknown one fails before any work).
+    quick : bool
+        The smaller version of each study.
+    seed : int
+        Seed of the generator each study's own generator is drawn from.
+    data_dir : str, Path or None
+        The real-data folder, for the studies that read one.
+    announce : callable or None
+        ``announce(name)`` is called as each study starts.
+
+    Returns
+    -------
+    list of StudyResult
+        In the order of ``names``; each ``elapsed`` is its wall time [s].
+    """
+    import inspect
+
+    import numpy as np
+
+    from optinav.core.progress import task
+
+    fns = [(n, get_study(n)) for n in names]
+    rng = np.random.default_rng(seed)
+    results = []
+    for k, (name, fn) in enumerate(fns, 1):
+        if announce is not None:
+            announce(name)
+        t0 = time.perf_counter()
+        extra = {"data_dir": Path(data_dir)} if data_dir is not None and "data_dir" in inspect.signature(
+            fn).parameters else {}
+        with task(f"study {k}/{len(fns)} {name}"):
+            r = fn(quick=quick, rng=np.random.default_rng(rng.integers(2**63)), **extra)
+        r.elapsed = time.perf_counter() - t0
+        results.append(r)
+    return results
+
 def _fmt(x: Any) -> str:
     """The default text of a value: 7 significant digits, "—" for ``None``, yes/no for booleans."""
     if x is None:

@@ -35,8 +35,8 @@ def attitude_report(res, out_dir, data=None, options=None) -> Path:
     import numpy as np
 
     from optinav.attitude.unit import AttitudeOptions, read_log
-    from optinav.cli.attitude import _report
     from optinav.core.rotations import euler_from_quat, frame_name
+    from optinav.reports.attitude_report import write_attitude_report
 
     if data is None:
         raise OptinavError("an attitude estimate holds no time stamps", "pass the log it came from with --data")
@@ -45,7 +45,7 @@ def attitude_report(res, out_dir, data=None, options=None) -> Path:
         raise OptinavError(f"{data} has {t.size} samples, the estimate {len(res.q)}",
                            "pass the log the estimate came from with --data")
     eul = np.degrees(euler_from_quat(res.q, frame_name(res.frame)))
-    return _report(res, t, eul, str(data), out_dir)
+    return write_attitude_report(res, t, eul, str(data), out_dir)
 
 
 def _stems(paths) -> list[str]:

@@ -1,0 +1,50 @@
+"""The ``--report DIR`` of ``optinav attitude``: the estimation summary (numbers, formatted when written) and
+the roll, pitch, yaw of the estimate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from optinav.reports.report import Cell, Figure, StudyResult, Table, write_report
+
+
+def _fixed(decimals: int):
+    """A cell format: every number with ``decimals`` decimals, space-separated."""
+    return lambda v: " ".join(f"{x:.{decimals}f}" for x in np.atleast_1d(v))
+
+
+def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
+    """The estimation summary of an :class:`~optinav.attitude.AttitudeEstimate` of ``n_samples`` samples;
+    ``score``: (inclination RMSE rad, heading RMSE rad, samples) against a reference, or None. Cells hold
+    numbers (degrees, as the report shows them); the text is written at render time."""
+    rows = [["method", res.method], ["frame", res.frame], ["samples", int(n_samples)],
+            ["polarization used", res.pol_used]]
+    rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
+    rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
+    if score is not None:
+        rows += [["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
+                 ["heading RMSE vs reference [deg]", Cell(float(np.degrees(score[1])), _fixed(3))]]
+    if res.gyro_bias is not None:
+        rows.append(["final gyro bias [deg/s]", Cell(np.degrees(res.gyro_bias).tolist(), _fixed(4))])
+    return [Table("Estimation summary", ["item", "value"], rows)]
+
+
+def write_attitude_report(res, t, eul_deg, source, out_dir, score=None) -> Path:
+    """Write index.md/index.html, summary.json and the Euler-angle figure of an attitude estimate into
+    ``out_dir``: ``t`` (s) and ``eul_deg`` (N, 3) roll, pitch, yaw in degrees; ``score`` as in
+    :func:`attitude_tables`."""
+
+    def draw(fig):
+        axs = fig.subplots(3, 1, sharex=True)
+        for k, name in enumerate(("roll", "pitch", "yaw")):
+            axs[k].plot(t, eul_deg[:, k], lw=0.8)
+            axs[k].set_ylabel(f"{name} [deg]")
+            axs[k].grid(alpha=0.3)
+        axs[-1].set_xlabel("t [s]")
+
+    study = StudyResult(name="attitude", title=f"Attitude of {Path(source).name} ({res.method})",
+                        description=res.summary(), tables=attitude_tables(res, len(t), score),
+                        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))])
+    return write_report([study], out_dir, title="optinav attitude")
