@@ -9,7 +9,7 @@ from pathlib import Path
 
 from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
                                 finish_report, output_path, parse_floats, prepare_report, truth_path, write_truth)
-from optinav.core.files import atomic_open, check_sidecar, write_csv
+from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
@@ -126,7 +126,7 @@ def _options(items) -> dict:
     return out
 
 
-def _sun(args, t, frame):
+def _sun(args, t, frame, t_first=None):
     import numpy as np
 
     fixed = args.sun_azimuth is not None or args.sun_elevation is not None
@@ -146,13 +146,10 @@ def _sun(args, t, frame):
     from optinav.sky.sun import utc_seconds
 
     t0 = float(utc_seconds(args.start_time))
-    times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
+    times = np.round((t0 + (t - (t[0] if t_first is None else t_first))) * 1e9).astype("datetime64[ns]")
     sp = solar_position_deg(times, args.lat, args.lon, args.height, pressure_mbar=1013.25)
     return sp.sun_vector(frame)
 
-
-#: the attitude CSV's columns t, q, Euler: t exactly (bag stamps are s since the epoch; %.9g rounded them to 100 s)
-_CSV_FORMAT = ["%.17g"] + ["%.9g"] * 7
 
 
 def _read_log(args):
@@ -229,9 +226,10 @@ def run(args) -> int:
                    **options)
     eul = np.degrees(euler_from_quat(res.q, frame_name(args.frame)))
     table = np.column_stack([t, res.q, eul])
-    header = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+    from optinav.attitude.filestream import ATTITUDE_FORMAT, ATTITUDE_HEADER
+
     step("write")
-    write_csv(out, table, header, _CSV_FORMAT)
+    write_csv(out, table, ATTITUDE_HEADER, ATTITUDE_FORMAT)
     print(res.summary())
     score = None
     if args.reference:
@@ -244,89 +242,39 @@ def run(args) -> int:
 
 
 def _streams(args) -> bool:
-    """Whether the log is estimated block by block: online estimation of an IMU log without what needs the
-    whole recording at once (--offline, polarization, magnetometer, BROAD reference, --report plots)."""
-    from optinav.attitude.data import is_broad
-
-    whole = (args.offline or args.pol_columns or args.mag or args.mag_columns or args.reference or args.report)
-    return not whole and not (is_broad(args.data) and not args.columns and not args.datasets)
-
-
-_HEADER = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+    """Whether the log is estimated block by block: online estimation without what needs the whole recording at
+    once (--offline, --report plots)."""
+    return not (args.offline or args.report)
 
 
 def _run_stream(args, method, options, q0, out) -> int:
-    """The attitude of a log read twice block by block: pass 1 gathers what the physics checks judge (three
-    floats per sample for exact medians), pass 2 estimates with the filter's state carried from block to block
-    and writes each block's rows; the output is renamed into place only after every check passed, so the file
-    is the in-memory path's, byte for byte."""
-    import numpy as np
+    """The attitude of a log read block by block: :func:`optinav.attitude.filestream.stream_attitude`."""
+    from optinav.attitude.filestream import PolColumns, stream_attitude
+    from optinav.attitude.unit import AttitudeOptions
 
-    from optinav.attitude.stream import StreamChecks, StreamEstimator
-    from optinav.core.progress import progress_blocks, step
-    from optinav.core.rotations import euler_from_quat, frame_name
-    from optinav.io.imu import iter_imu
+    o = AttitudeOptions(method=method, frame=args.frame, input_stage=args.input_stage, mag=args.mag,
+                        mag_columns=args.mag_columns, allow_gaps=args.allow_gaps, options=options,
+                        columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                        time_unit=args.time_unit, rate=args.rate, delimiter=args.delimiter, datasets=args.datasets,
+                        topic=args.topic)
+    pol = None
+    if args.pol_columns:
+        names = [s.strip() for s in args.pol_columns.split(",")]
+        if len(names) not in (1, 2):
+            raise OptinavError(f"--pol-columns {args.pol_columns!r} needs AOP or AOP,DOP", "name one or two columns")
+        pol = PolColumns(names[0], names[1] if len(names) == 2 else None,
+                         lambda t, t_first: _sun(args, t, args.frame, t_first), args.aop_unit, args.min_dop)
 
-    estimator = StreamEstimator(method, frame=args.frame, q0=q0, input_stage=args.input_stage, **options)
+    def announce(n, m):
+        if not getattr(args, "quiet", False):
+            print(f"optinav: attitude of {n} samples from {args.data} ({m}) ...", file=sys.stderr)
 
-    def blocks(desc):
-        # two rows at least: the first block's first step comes from its first two times
-        chunks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                          time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                          delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
-        prev = None
-        for log in progress_blocks(chunks, desc):
-            if log.acc is None or log.gyro is None:
-                raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
-                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
-            if log.acc_unit == "counts" or log.gyro_unit == "counts":
-                raise OptinavError("the log is in raw counts",
-                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
-            t = log.t
-            first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
-            prev = t[-1]
-            yield chunks.rows - len(log), log, np.diff(t, prepend=first)
-
-    step("checks")
-    checks, bad = StreamChecks(), 0
-    for _, log, dts in blocks("attitude: checks"):
-        bad += int(np.count_nonzero(~log.finite))
-        if not bad:
-            checks.add(log.gyro, log.acc, dts)
-    if bad:
-        raise OptinavError(f"{args.data} has {bad} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
-    checks.finish_first()
-    gaps = checks.gaps
-    if not getattr(args, "quiet", False):
-        print(f"optinav: attitude of {checks.n} samples from {args.data} ({method}) ...", file=sys.stderr)
-    step(f"estimate ({method}), write")  # one pass does both
-    with atomic_open(out, "w", newline="\n") as fh:
-        fh.write(_HEADER + "\n")
-        for row0, log, dts in blocks(f"attitude: {method}"):
-            checks.collect(row0, log.gyro, log.acc, dts)
-            if gaps.size and not args.allow_gaps:
-                continue  # refused below, after the checks that come first
-            # a time gap starts a new segment whose first step is the median one
-            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(log))] - row0
-            dts = dts.copy()
-            dts[cuts] = checks.median_dt
-            qs = []
-            for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(log)])):
-                if k:
-                    estimator.restart()
-                if b > a:
-                    qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
-            q = np.concatenate(qs)
-            eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
-            np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
-        checks.finish_second(args.frame)
-        if gaps.size and not args.allow_gaps:
-            i = int(gaps[0])
-            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                               "integrating the gyro across it would be wrong",
-                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
-    print(estimator.summary())
+    run = stream_attitude(args.data, out, o, q0=q0, pol=pol, reference=args.reference,
+                          chunk_rows=args.chunk_rows, announce=announce)
+    print(run.summary)
+    if run.score is not None:
+        print(f"reference: inclination RMSE {run.score[0]:.3f} deg, heading RMSE {run.score[1]:.3f} deg "
+              f"({run.score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
     return 0
 
