@@ -185,7 +185,7 @@ def _broad_layout(src: Path, dst: Path) -> None:
             n = len(log)
             q = np.zeros((n, 4))
             q[:, 0] = 1.0
-            for k, v in (("imu_acc", log.acc), ("imu_gyr", log.gyro), ("imu_mag", log.acc), ("opt_quat", q),
+            for k, v in (("imu_acc", log.acc), ("imu_gyr", log.gyr), ("imu_mag", log.acc), ("opt_quat", q),
                          ("movement", np.ones((n, 1)))):
                 ds = sets[k]
                 ds.resize(ds.shape[0] + n, axis=0)

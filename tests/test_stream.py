@@ -18,7 +18,7 @@ from optinav.io import ImuLog, read_imu, write_imu
 from optinav.io.imu import iter_imu, open_imu_writer
 from optinav.io.readers import iter_table, load_table
 
-FIELDS = ("t", "acc", "gyro", "labels", "sample")
+FIELDS = ("t", "acc", "gyr", "labels", "sample")
 
 
 def _logger_file(path, rows: np.ndarray, *, truncated: bool = False, blank_at: int | None = None) -> None:
@@ -74,7 +74,7 @@ def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, lab
     rng = np.random.default_rng(seed)
     t = np.cumsum(rng.uniform(0.005, 0.02, n))
     acc = np.round(rng.normal(0, 2000, (n, 3))) if counts else rng.normal(0, 9.8, (n, 3))
-    log = ImuLog(t=t, acc=acc, gyro=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
+    log = ImuLog(t=t, acc=acc, gyr=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
                  labels=np.array(["rest", "pose"])[rng.integers(0, 2, n)] if labels else None,
                  sample=np.arange(n) + 5)
     p = tmp_path_factory.mktemp("w") / "log.tsv"
@@ -84,7 +84,7 @@ def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, lab
 
 def test_binary_formats_are_cut_into_blocks(tmp_path):
     rng = np.random.default_rng(4)
-    log = ImuLog(t=np.arange(50) / 10.0, acc=rng.normal(size=(50, 3)), gyro=rng.normal(size=(50, 3)))
+    log = ImuLog(t=np.arange(50) / 10.0, acc=rng.normal(size=(50, 3)), gyr=rng.normal(size=(50, 3)))
     p = tmp_path / "log.npz"
     write_imu(p, log)
     _same(list(iter_imu(p, chunk_rows=8)), read_imu(p), 8)
@@ -132,7 +132,7 @@ def test_time_order_and_empty_columns_are_checked_across_blocks(tmp_path):
 
 def test_writer_blocks_read_back_exactly(tmp_path):
     rng = np.random.default_rng(6)
-    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyro=rng.normal(size=(100, 3)),
+    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyr=rng.normal(size=(100, 3)),
                  labels=np.arange(100) % 3)
     for name in ("w.csv", "w.npz"):
         with open_imu_writer(tmp_path / name, acc_unit="g") as w:
@@ -140,7 +140,7 @@ def test_writer_blocks_read_back_exactly(tmp_path):
                 w.write(log.select(slice(a, a + 13)))
         back = read_imu(tmp_path / name)
         np.testing.assert_allclose(back.acc, log.acc, rtol=1e-15, atol=0)
-        np.testing.assert_array_equal(back.gyro, log.gyro)
+        np.testing.assert_array_equal(back.gyr, log.gyr)
         np.testing.assert_array_equal(back.labels, log.labels)
     # an error inside the block leaves nothing under the final name
     with pytest.raises(OptinavError):
@@ -167,7 +167,7 @@ def test_apply_chunked_equals_whole(session):
                      "--chunk-rows", chunk]) == 0
     a, b = read_imu(d / "c37.csv"), read_imu(d / "c1000000.csv")
     assert len(a) == len(read_imu(d / "s.csv")) > 37 * 20
-    for name in ("t", "acc", "gyro"):
+    for name in ("t", "acc", "gyr"):
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
 
 
@@ -190,18 +190,18 @@ def test_attitude_chunked_equals_whole(session, method, extra):
     assert out["53"].shape == (len(log), 8)
     np.testing.assert_allclose(out["53"], out["1000000"], rtol=1e-12, atol=1e-12)
     dt = np.diff(log.t, prepend=log.t[0] - (log.t[1] - log.t[0]))
-    q = estimate(log.gyro, log.acc, dt, method=method, input_stage=bool(extra)).q
+    q = estimate(log.gyr, log.acc, dt, method=method, input_stage=bool(extra)).q
     np.testing.assert_allclose(out["53"][:, 1:5], q, rtol=0, atol=1e-8)  # the CSV keeps 9 digits
 
 
 def test_attitude_gaps_across_blocks(tmp_path, session):
     """A time gap: refused (the same one-line error), or with --allow-gaps restarted at the same samples."""
     log = read_imu(session / "s.csv")
-    acc, gyro = log.acc * 1.0, log.gyro * 1.0
+    acc, gyro = log.acc * 1.0, log.gyr * 1.0
     t = log.t.copy()
     t[300:] += 20.0
     p = tmp_path / "gap.csv"
-    write_imu(p, ImuLog(t=t, acc=acc, gyro=gyro))
+    write_imu(p, ImuLog(t=t, acc=acc, gyr=gyro))
     out = {}
     for chunk in ("41", "1000000"):
         assert main(["--quiet", "attitude", str(p), "--chunk-rows", chunk, "--out", str(tmp_path / "x.csv")]) == 2
@@ -227,7 +227,7 @@ def flight_log(tmp_path_factory):
 
     d = simulate("dynamic", duration_s=40.0, rate_hz=100.0, rng=4)
     rng = np.random.default_rng(5)
-    mag = quat_rotate(quat_conjugate(d.q_true), np.broadcast_to(_M_NED, d.acc.shape)) + rng.normal(0, 0.3, d.acc.shape)
+    mag = quat_rotate(quat_conjugate(d.q_b_n), np.broadcast_to(_M_NED, d.acc.shape)) + rng.normal(0, 0.3, d.acc.shape)
     p = tmp_path_factory.mktemp("flight") / "flight.csv"
     np.savetxt(p, np.column_stack([d.t, d.acc, d.gyr, mag, np.degrees(d.aop), d.dop]), delimiter=",", fmt="%.10g",
                header="# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,mx,my,mz,aop_deg,dop", comments="")
@@ -262,7 +262,7 @@ def test_attitude_mag_streamed_equals_whole(monkeypatch, tmp_path, flight_log, c
     q = np.loadtxt(tmp_path / "s37.csv", delimiter=",", skiprows=1)[:, 1:5]
     from optinav.attitude.metrics import heading_error
 
-    assert np.degrees(np.sqrt(np.mean(heading_error(q[1000:], d.q_true[1000:]) ** 2))) < 5.0
+    assert np.degrees(np.sqrt(np.mean(heading_error(q[1000:], d.q_b_n[1000:]) ** 2))) < 5.0
 
 
 def test_attitude_pol_streamed_equals_whole(monkeypatch, tmp_path, flight_log, capsys):
@@ -292,8 +292,8 @@ def _broad_like(path, d, rng):
 
     n = d.t.size
     m_enu = np.array([0.0, 30.0, -40.0])
-    mag = quat_rotate(quat_conjugate(d.q_true), np.broadcast_to(m_enu, d.acc.shape)) + rng.normal(0, 0.3, (n, 3))
-    q_ref = d.q_true.copy()
+    mag = quat_rotate(quat_conjugate(d.q_b_n), np.broadcast_to(m_enu, d.acc.shape)) + rng.normal(0, 0.3, (n, 3))
+    q_ref = d.q_b_n.copy()
     q_ref[rng.choice(n, n // 20, replace=False)] = np.nan  # the optical system lost the markers
     with h5py.File(path, "w") as f:
         f.attrs["sampling_rate"] = 100.0

@@ -117,7 +117,7 @@ class _Blocks:
         prev = None
         for log in chunks:
             self.position = chunks.position
-            if log.acc is None or log.gyro is None:
+            if log.acc is None or log.gyr is None:
                 raise OptinavError(f"{self.path} needs accelerometer and gyroscope columns",
                                    "name them with --columns t,ax,ay,az,gx,gy,gz")
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
@@ -128,7 +128,7 @@ class _Blocks:
             # two rows at least in the first block: its first step comes from its first two times
             first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
             prev = t[-1]
-            yield row0, t, log.gyro, log.acc, np.diff(t, prepend=first), log.finite, \
+            yield row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, \
                 self._extra(chunks.table, row0, len(log))
 
     def _extra(self, table, row0: int, n: int) -> dict:

@@ -370,10 +370,10 @@ def run_simulate_flight(args) -> int:
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
     step("write")
     write_csv(out, cols, head, "%.10g")
-    write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
+    write_csv(truth, np.column_stack([d.t, d.q_b_n]), "t,qw,qx,qy,qz", "%.12g")
     from optinav.attitude.estimators import attitude_truth
 
-    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+    write_truth(out, attitude_truth(d.q_b_n, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
                                                          "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
