@@ -59,6 +59,17 @@ def is_broad(path) -> bool:
     return "imu_gyr" in data and "imu_acc" in data
 
 
+def _broad_rate(rate, path) -> float:
+    """A BROAD trial's ``sampling_rate`` (Hz) as read from its file (attribute, variable or None), checked."""
+    try:
+        rate = float(np.asarray(rate, float).ravel()[0])
+    except (TypeError, ValueError, IndexError):
+        rate = float("nan")
+    if not np.isfinite(rate) or rate <= 0:
+        raise OptinavError(f"{Path(path).name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+    return rate
+
+
 def load_broad(path) -> BroadTrial:
     """Read a BROAD trial as published: HDF5 (``sampling_rate`` attribute) or MAT (``sampling_rate`` variable)."""
     from optinav.io.readers import load_table
@@ -78,12 +89,7 @@ def load_broad(path) -> BroadTrial:
 
         with h5py.File(p, "r") as f:
             rate = f.attrs.get("sampling_rate")
-    try:
-        rate = float(np.asarray(rate, float).ravel()[0])
-    except (TypeError, ValueError, IndexError):
-        rate = float("nan")
-    if not np.isfinite(rate) or rate <= 0:
-        raise OptinavError(f"{p.name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+    rate = _broad_rate(rate, p)
     gyr = np.asarray(tab.get("imu_gyr"), float)
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
     return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,

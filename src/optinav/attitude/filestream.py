@@ -193,6 +193,8 @@ class _Hdf5Trial:
     def __init__(self, stack, path: Path):
         import h5py
 
+        from optinav.attitude.data import _broad_rate
+
         try:
             f = stack.enter_context(h5py.File(path, "r"))
         except OSError as exc:
@@ -203,13 +205,7 @@ class _Hdf5Trial:
         rate = f.attrs.get("sampling_rate")
         if rate is None and "sampling_rate" in f:
             rate = f["sampling_rate"][()]
-        try:
-            rate = float(np.asarray(rate, float).ravel()[0])
-        except (TypeError, ValueError, IndexError):
-            rate = float("nan")
-        if not np.isfinite(rate) or rate <= 0:
-            raise OptinavError(f"{path.name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
-        self.rate_hz = rate
+        self.rate_hz = _broad_rate(rate, path)
         self.gyr, self.acc, self.q_ref, self.movement = (f[k] for k in ("imu_gyr", "imu_acc", "opt_quat", "movement"))
         self.mag = f["imu_mag"] if "imu_mag" in f else None
 
@@ -248,6 +244,8 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
     src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows)
+    if pol is not None:
+        pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
 
     step("checks")
     checks, bad, aop_max, t_first = StreamChecks(), 0, 0.0, None
