@@ -168,7 +168,90 @@ def markdown(results: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-if __name__ == "__main__":  # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
+def _broad_layout(src: Path, dst: Path) -> None:
+    """The IMU log ``src`` (t, acc, gyro in SI) as a BROAD-layout HDF5 trial at 100 Hz: imu_acc, imu_gyr,
+    imu_mag (the accelerometer standing in), opt_quat (the identity: only the scoring's memory is measured) and
+    movement (all samples), written in blocks."""
+    import h5py
+    import numpy as np
+
+    from optinav.io.imu import iter_imu
+
+    with h5py.File(dst, "w") as f:
+        f.attrs["sampling_rate"] = 100.0
+        sets = {k: f.create_dataset(k, shape=(0, w), maxshape=(None, w), dtype=float, chunks=(65536, w))
+                for k, w in (("imu_acc", 3), ("imu_gyr", 3), ("imu_mag", 3), ("opt_quat", 4), ("movement", 1))}
+        for log in iter_imu(src):
+            n = len(log)
+            q = np.zeros((n, 4))
+            q[:, 0] = 1.0
+            for k, v in (("imu_acc", log.acc), ("imu_gyr", log.gyr), ("imu_mag", log.acc), ("opt_quat", q),
+                         ("movement", np.ones((n, 1)))):
+                ds = sets[k]
+                ds.resize(ds.shape[0] + n, axis=0)
+                ds[-n:] = v
+
+
+#: the attitude modes measured by :func:`run_attitude_modes` (argv after the input file)
+ATTITUDE_MODES = {"attitude (online)": [], "attitude --mag": ["--mag-columns", "ax,ay,az"],
+                  "attitude --offline": ["--offline"], "attitude --reference (BROAD layout, --mag)": None}
+
+
+def run_attitude_modes(quick: bool) -> list[dict]:
+    """Peak RSS of ``optinav attitude`` per mode (this tree only) on the simulated accel-multipos log of 1 M and
+    3 M rows (quick: 20 000 and 60 000), written as CSV (the BROAD-layout run: an HDF5 copy of it); growth per
+    million rows and the 10 M extrapolation as in :func:`run`. The magnetometer runs take the accelerometer
+    columns as the field: the data path and its memory are those of a real magnetometer."""
+    sizes = (20_000, 60_000) if quick else (1_000_000, 3_000_000)
+    src = ROOT / "src"
+    peaks: dict[str, list[tuple[int, float, float]]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            name, argv = _steps(d, rows)[0]
+            log = d / f"log{rows}.csv"
+            peak, wall, _ = _run(src, argv)
+            n = _rows_of(log)
+            peaks.setdefault(name, []).append((n, peak, wall))
+            h5 = d / "trial.hdf5"
+            _broad_layout(log, h5)
+            for mode, extra in ATTITUDE_MODES.items():
+                args = ([str(h5), "--frame", "ENU", "--mag", "--reference"] if extra is None else [str(log), *extra])
+                peak, wall, _ = _run(src, ["attitude", *args, "--out", str(d / "att.csv")])
+                peaks.setdefault(mode, []).append((n, peak, wall))
+            shutil.rmtree(d)
+    out = []
+    for name, ((n1, p1, _), (n2, p2, w2)) in peaks.items():
+        slope = (p2 - p1) / ((n2 - n1) / 1e6)
+        out.append({"group": f"attitude modes, logs of {n1} and {n2} rows", "method": name, "rows": [n1, n2],
+                    "peak_mib": [p1, p2], "growth_mib_per_m_rows": slope, "peak_10m_mib": p1 + slope * (10 - n1 / 1e6),
+                    "wall_s": w2})
+    return out
+
+
+def markdown_modes(rows: list[dict]) -> str:
+    """The table of :func:`run_attitude_modes` (appended to results_memory.md)."""
+    n1, n2 = rows[0]["rows"]
+    out = [f"## Attitude modes (`run_attitude_modes`, this tree; logs of {n1} and {n2} rows, 10 M extrapolated)", "",
+           f"| command | peak RSS {n1} rows [MiB] | peak RSS {n2} rows [MiB] | growth [MiB per M rows] "
+           f"| 10 M rows, extrapolated [MiB] | wall time {n2} rows [s] |", "|---|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        out.append(f"| {r['method']} | {r['peak_mib'][0]:.0f} | {r['peak_mib'][1]:.0f} | "
+                   f"{r['growth_mib_per_m_rows']:.0f} | {r['peak_10m_mib']:.0f} | {r['wall_s']:.0f} |")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
+    # python benchmarks/bench_memory.py --attitude-modes [--quick] MODES.json: run the attitude modes, write
+    # MODES.json and print their table
     import json
 
-    print(markdown(json.loads(Path(sys.argv[1]).read_text())), end="")
+    if sys.argv[1] == "--attitude-modes":
+        quick = "--quick" in sys.argv
+        res = run_attitude_modes(quick)
+        Path(sys.argv[-1]).write_text(json.dumps(res, indent=1) + "\n")
+        print(markdown_modes(res), end="")
+    else:
+        print(markdown(json.loads(Path(sys.argv[1]).read_text())), end="")

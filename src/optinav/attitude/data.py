@@ -53,10 +53,29 @@ def is_broad(path) -> bool:
     p = Path(path)
     if p.suffix.lower() not in (".h5", ".hdf5", ".mat") or not p.is_file():
         return False
+    if p.suffix.lower() != ".mat":  # the names only: a long trial is not read whole to answer
+        import h5py
+
+        try:
+            with h5py.File(p, "r") as f:
+                return "imu_gyr" in f and "imu_acc" in f
+        except OSError:
+            pass  # not HDF5 after all: the reader below names the problem
     from optinav.io.readers import load_table
 
     data = load_table(p).data
     return "imu_gyr" in data and "imu_acc" in data
+
+
+def _broad_rate(rate, path) -> float:
+    """A BROAD trial's ``sampling_rate`` (Hz) as read from its file (attribute, variable or None), checked."""
+    try:
+        rate = float(np.asarray(rate, float).ravel()[0])
+    except (TypeError, ValueError, IndexError):
+        rate = float("nan")
+    if not np.isfinite(rate) or rate <= 0:
+        raise OptinavError(f"{Path(path).name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+    return rate
 
 
 def load_broad(path) -> BroadTrial:
@@ -78,12 +97,7 @@ def load_broad(path) -> BroadTrial:
 
         with h5py.File(p, "r") as f:
             rate = f.attrs.get("sampling_rate")
-    try:
-        rate = float(np.asarray(rate, float).ravel()[0])
-    except (TypeError, ValueError, IndexError):
-        rate = float("nan")
-    if not np.isfinite(rate) or rate <= 0:
-        raise OptinavError(f"{p.name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+    rate = _broad_rate(rate, p)
     gyr = np.asarray(tab.get("imu_gyr"), float)
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
     return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,

@@ -1,6 +1,6 @@
 """One attitude recording from file to file, as ``optinav attitude`` does it and a Python user can: the sun along
-the log, the polarization columns, the attitude CSV (t, q_b_n, Euler angles), a file estimated block by block,
-and the score against a reference orientation.
+the log, the polarization columns, the attitude CSV (t, q_b_n, Euler angles) and the score against a reference
+orientation (a file estimated block by block: :mod:`optinav.attitude.filestream`).
 
 The attitude CSV has the columns :data:`CSV_HEADER`: t [s] exactly (``%.17g``: bag stamps are seconds since the
 epoch), q_b_n [w, x, y, z] and roll, pitch, yaw in degrees (file I/O) of the frame's Euler convention.
@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from optinav.core.files import CHUNK_ROWS
 from optinav.errors import OptinavError
 
 __all__ = ["CSV_HEADER", "CSV_FORMAT", "TRUTH_CSV_HEADER", "attitude_rows", "write_flight", "sun_along_log",
-           "read_polarization", "reference_rmse", "estimate_stream"]
+           "read_polarization", "pol_column_names", "reference_rmse"]
 
 #: the attitude CSV's header and its column formats (t exactly; %.9g rounded bag stamps to 100 s)
 CSV_HEADER = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
@@ -67,13 +66,14 @@ def write_flight(path, flight, truth_csv) -> None:
 
 
 def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None = None, height_m: float = 0.0,
-                  start_time=None, azimuth: float | None = None, elevation: float | None = None) -> np.ndarray:
+                  start_time=None, azimuth: float | None = None, elevation: float | None = None,
+                  t_first: float | None = None) -> np.ndarray:
     """Unit vector(s) to the sun along a log: a fixed sun, or the NREL SPA position at every sample.
 
     Parameters
     ----------
     t : (N,) array
-        Sample times [s]; the first one is ``start_time``.
+        Sample times [s] (of the whole log, or of one block of it with ``t_first``).
     frame : str
         Navigation frame of the vectors (``"ned"``/``"enu"``, either case).
     lat, lon : float or None
@@ -84,6 +84,8 @@ def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None 
         Time of the first sample: ISO 8601 with UTC offset, or what :func:`optinav.sky.utc_seconds` takes.
     azimuth, elevation : float or None
         A fixed sun instead of the place and time: azimuth from north towards east, elevation [rad].
+    t_first : float or None
+        Time of the log's first sample [s], which is ``start_time``; None: ``t[0]``.
 
     Returns
     -------
@@ -105,8 +107,29 @@ def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None 
                            "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
     t = np.asarray(t, float)
     t0 = float(utc_seconds(start_time))
-    times = np.round((t0 + (t - t[0])) * 1e9).astype("datetime64[ns]")
+    times = np.round((t0 + (t - (t[0] if t_first is None else t_first))) * 1e9).astype("datetime64[ns]")
     return solar_position(times, lat, lon, height_m, pressure=101325.0).sun_vector(frame)
+
+
+def pol_column_names(columns: str) -> tuple[str, str | None]:
+    """The angle and degree of polarization column names of ``--pol-columns`` (``"AOP"`` or ``"AOP,DOP"``).
+
+    Parameters
+    ----------
+    columns : str
+        One or two comma-separated column names.
+
+    Returns
+    -------
+    aop : str
+        Name of the angle of polarization column.
+    dop : str or None
+        Name of the degree of polarization column, None when not given.
+    """
+    names = [s.strip() for s in columns.split(",")]
+    if len(names) not in (1, 2) or not all(names):
+        raise OptinavError(f"--pol-columns {columns!r} needs AOP or AOP,DOP", "name one or two columns")
+    return names[0], (names[1] if len(names) == 2 else None)
 
 
 def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", delimiter: str | None = None,
@@ -136,9 +159,7 @@ def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", deli
     from optinav.attitude.checks import check_aop
     from optinav.io.readers import read_table
 
-    names = [s.strip() for s in columns.split(",")]
-    if len(names) not in (1, 2):
-        raise OptinavError(f"--pol-columns {columns!r} needs AOP or AOP,DOP", "name one or two columns")
+    names = [v for v in pol_column_names(columns) if v is not None]
     table = read_table(path, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
                        delimiter=delimiter, topic=topic)
     aop = np.asarray(table["aop"], float).reshape(-1)
@@ -175,99 +196,3 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
     mask = movement & np.all(np.isfinite(q_ref), axis=1)
     return (float(rmse(inclination_error(q_b_n, q_ref), mask)), float(rmse(heading_error(q_b_n, q_ref), mask)),
             int(mask.sum()))
-
-
-def estimate_stream(path, out, options, *, q0=None, chunk_rows: int = CHUNK_ROWS, announce=None) -> str:
-    """Estimate the attitude of a log block by block and write the attitude CSV, memory not growing with the log.
-
-    Parameters
-    ----------
-    path : str or Path
-        The IMU log (what :func:`optinav.io.iter_imu` reads, SI units).
-    out : str or Path
-        The attitude CSV (:data:`CSV_HEADER`), written atomically.
-    options : AttitudeOptions
-        :class:`optinav.attitude.unit.AttitudeOptions` (an online method; no magnetometer).
-    q0 : (4,) array or None
-        Initial attitude [-]; None: levelled from the first samples.
-    chunk_rows : int
-        Rows read at a time.
-    announce : callable or None
-        ``announce(n)`` is called with the number of samples once the first pass has checked them.
-
-    Returns
-    -------
-    str
-        The estimator's summary line.
-
-    Notes
-    -----
-    The log is read twice: pass 1 gathers what the physics checks judge (three floats per sample for exact
-    medians), pass 2 estimates with the filter's state carried from block to block and writes each block's rows;
-    the output is renamed into place only after every check passed, so the file is the in-memory path's
-    (:func:`optinav.attitude.estimate` + :func:`attitude_rows`), byte for byte."""
-    from optinav.attitude.estimators import _method
-    from optinav.attitude.stream import StreamChecks, StreamEstimator
-    from optinav.core.files import csv_writer
-    from optinav.core.progress import progress_blocks, step
-    from optinav.io.imu import iter_imu
-
-    o = options
-    method = _method(o.method, None)
-    estimator = StreamEstimator(method, frame=o.frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
-
-    def blocks(desc):
-        # two rows at least: the first block's first step comes from its first two times
-        chunks = iter_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit,
-                          time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                          delimiter=o.delimiter, chunk_rows=max(chunk_rows, 2), topic=o.topic)
-        prev = None
-        for log in progress_blocks(chunks, desc):
-            if log.acc is None or log.gyr is None:
-                raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
-                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
-            if log.acc_unit == "counts" or log.gyro_unit == "counts":
-                raise OptinavError("the log is in raw counts",
-                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
-            t = log.t
-            first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
-            prev = t[-1]
-            yield chunks.rows - len(log), log, np.diff(t, prepend=first)
-
-    step("checks")
-    checks, bad = StreamChecks(), 0
-    for _, log, dts in blocks("attitude: checks"):
-        bad += int(np.count_nonzero(~log.finite))
-        if not bad:
-            checks.add(log.gyr, log.acc, dts)
-    if bad:
-        raise OptinavError(f"{path} has {bad} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
-    checks.finish_first()
-    gaps = checks.gaps
-    if announce is not None:
-        announce(checks.n)
-    step(f"estimate ({method}), write")  # one pass does both
-    with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
-        for row0, log, dts in blocks(f"attitude: {method}"):
-            checks.collect(row0, log.gyr, log.acc, dts)
-            if gaps.size and not o.allow_gaps:
-                continue  # refused below, after the checks that come first
-            # a time gap starts a new segment whose first step is the median one
-            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(log))] - row0
-            dts = dts.copy()
-            dts[cuts] = checks.median_dt
-            qs = []
-            for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(log)])):
-                if k:
-                    estimator.restart()
-                if b > a:
-                    qs.append(estimator.run(log.gyr[a:b], log.acc[a:b], dts[a:b]))
-            write(attitude_rows(log.t, np.concatenate(qs), o.frame))
-        checks.finish_second(o.frame)
-        if gaps.size and not o.allow_gaps:
-            i = int(gaps[0])
-            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                               "integrating the gyro across it would be wrong",
-                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
-    return estimator.summary()

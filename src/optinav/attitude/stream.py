@@ -128,14 +128,21 @@ class StreamEstimator:
         self.par = _if._params(self.frame, self.front_opts)
         self.counts = np.zeros(3, dtype=np.int64)
         self.n = self.rest = self.acc_hits = self.segments = 0
+        self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
+        self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
         self.gyro_bias = None
         self.restart()
 
     def restart(self) -> None:
         self._front = self._state = None
 
-    def run(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> np.ndarray:
+    def run(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None,
+            pol=None) -> np.ndarray:
+        """q_b^n (n, 4) of the next block: gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s, ``mag`` (n, 3) any unit
+        (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe)."""
         gyr, acc = np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float)
+        if mag is not None and self.method != "iframe":
+            raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
         dts = np.ascontiguousarray(dts, dtype=float)
         n = gyr.shape[0]
         first_segment = self.segments == 0
@@ -147,19 +154,26 @@ class StreamEstimator:
             if self._front is None:
                 q0 = self.q0 if first_segment and self.method == "iframe" else None
                 self._front = _if._new_state(self.front_opts, q0)
-            r = _if._run(self._front, self.par, gyr, acc, np.zeros((0, 3)), dts)
+            m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
+            r = _if._run(self._front, self.par, gyr, acc, m, dts)
             self.rest += int(np.count_nonzero(r.rest))
             front_bias = r.bias[-1].copy()
             if self.method == "iframe":
+                if mag is not None:
+                    self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
                 self.acc_hits += int(np.count_nonzero(~r.acc_used))
                 self.gyro_bias = front_bias
                 return r.q
             gyr, acc = _if.front_outputs(r, gyr, acc, self.frame)
         if self._state is None:
             q = (self.q0 if self.q0 is not None and first_segment else
-                 initial_attitude(acc[0], self.frame, None, 0))
+                 initial_attitude(acc[0], self.frame, pol, 0))
             self._state = _init_state(self.method, q, self.opts)
-        use, sn, cbm, c2, s2, min_d2, _ = _pol_arrays(None, n, self.frame)
+        use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
+        if pol is not None:
+            self.pol_skipped = self.pol_skipped or {}
+            for k, v in skipped.items():
+                self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
         out, std = np.empty((n, 4)), np.empty((n, 3))
         _run(self.method, self.opts, self._state, gyr, acc, dts, up_vector(self.frame), use, sn, cbm, c2, s2,
              min_d2, out, std, self.counts)
@@ -177,6 +191,13 @@ class StreamEstimator:
 
     def summary(self) -> str:
         """The line :meth:`AttitudeEstimate.summary` prints for the same estimate."""
+        skipped = None
+        if self.pol_skipped is not None:
+            from optinav.attitude import _kernels
+
+            skipped = {**self.pol_skipped, "sun_near_sensor_zenith": int(self.counts[_kernels.C_POL_NEAR_ZENITH])}
         return summary_line(self.method, self.frame, self.n, segments=self.segments,
-                            rest=self.rest / self.n if self.input_stage and self.n else None)
+                            rest=self.rest / self.n if self.input_stage and self.n else None,
+                            mag_used=None if self.mag_used is None else self.mag_used / self.n,
+                            pol_used=int(self.counts[0]) if skipped is not None else 0, pol_skipped=skipped)
 

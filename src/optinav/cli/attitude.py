@@ -144,17 +144,21 @@ def _checked(args):
 
 def _polarization(args, t):
     """The polarization measurement of ``--pol-columns`` with the sun of the place/time or fixed-sun options."""
-    import numpy as np
-
     from optinav.attitude import PolarizationMeasurement
     from optinav.attitude.recording import read_polarization, sun_along_log
 
     aop, dop = read_polarization(args.data, args.pol_columns, t.size, aop_unit=args.aop_unit,
                                  delimiter=args.delimiter, topic=args.topic)
-    rad = [None if v is None else np.radians(v) for v in (args.lat, args.lon, args.sun_azimuth, args.sun_elevation)]
-    sun = sun_along_log(t, args.frame, lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time,
-                        azimuth=rad[2], elevation=rad[3])
+    sun = sun_along_log(t, args.frame, **_sun(args))
     return PolarizationMeasurement(aop, sun, dop=dop, frame=args.frame, min_dop=args.min_dop)
+
+
+def _sun(args) -> dict:
+    """The sun options of :func:`optinav.attitude.recording.sun_along_log`, in radians."""
+    rad = [None if v is None else math.radians(v) for v in (args.lat, args.lon, args.sun_azimuth,
+                                                                  args.sun_elevation)]
+    return dict(lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time, azimuth=rad[2],
+                elevation=rad[3])
 
 
 def _announce(args, method):
@@ -198,19 +202,23 @@ def run(args) -> int:
 
 
 def _streams(args) -> bool:
-    """Whether the log is estimated block by block: online estimation of an IMU log without what needs the
-    whole recording at once (--offline, polarization, magnetometer, BROAD reference, --report plots)."""
-    from optinav.attitude.data import is_broad
-
-    whole = (args.offline or args.pol_columns or args.mag or args.mag_columns or args.reference or args.report)
-    return not whole and not (is_broad(args.data) and not args.columns and not args.datasets)
+    """Whether the log is estimated block by block: everything but what needs the whole recording at once
+    (--offline smoothing, --report plots)."""
+    return not (args.offline or args.report)
 
 
 def _run_stream(args, options, q0, out, announce) -> int:
-    """The attitude of a log read block by block (:func:`optinav.attitude.recording.estimate_stream`)."""
-    from optinav.attitude.recording import estimate_stream
+    """The attitude of a log read block by block (:func:`optinav.attitude.filestream.stream_attitude`)."""
+    from optinav.attitude.filestream import pol_columns, stream_attitude
 
-    print(estimate_stream(args.data, out, options, q0=q0, chunk_rows=args.chunk_rows, announce=announce))
+    pol = pol_columns(args.pol_columns, args.frame, aop_unit=args.aop_unit, min_dop=args.min_dop,
+                      **_sun(args)) if args.pol_columns else None
+    run = stream_attitude(args.data, out, options, q0=q0, pol=pol, reference=args.reference,
+                          chunk_rows=args.chunk_rows, announce=lambda n, m: announce(n))
+    print(run.summary)
+    if run.score is not None:
+        print(f"reference: inclination RMSE {math.degrees(run.score[0]):.3f} deg, heading RMSE "
+              f"{math.degrees(run.score[1]):.3f} deg ({run.score[2]} movement samples with a valid reference)")
     print(f"optinav: attitude written to {out}")
     return 0
 

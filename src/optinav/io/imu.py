@@ -621,6 +621,8 @@ class ImuChunks:
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0
+        #: the raw table of the block last yielded (text files; None for formats read whole): its other columns
+        self.table = None
 
     @property
     def position(self) -> int:
@@ -648,6 +650,7 @@ class ImuChunks:
                     seen[kind] = seen.get(kind, np.zeros(3, bool)) | ~np.all(np.isnan(v), axis=0)
             prev_t = float(log.t[-1])
             self.rows += len(log)
+            self.table = table
             yield log
         for kind, ok in seen.items():
             if not ok.all():

@@ -1,0 +1,333 @@
+"""The attitude of a log file estimated block by block, so that memory does not grow with its length
+(``optinav attitude`` without ``--report``; issue 17).
+
+Two passes over the blocks: the first gathers what the physics checks judge (:class:`StreamChecks`), the second
+runs the filter with its state carried from block to block (:class:`StreamEstimator`, the magnetometer and
+polarization columns of the block included), writes each block's rows and adds the block's squared errors to
+the score against a reference (BROAD: ``opt_quat`` over ``movement``). The output is renamed into place only
+after every check passed, so the file is the in-memory path's byte for byte, and the score its RMSE to rounding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from optinav.attitude.stream import StreamChecks, StreamEstimator
+from optinav.attitude.unit import AttitudeOptions
+from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows
+from optinav.core.files import CHUNK_ROWS, csv_writer
+from optinav.errors import OptinavError
+
+__all__ = ["PolColumns", "pol_columns", "StreamRun", "stream_attitude"]
+
+
+@dataclass
+class PolColumns:
+    """The polarization columns of a log: ``aop`` (and ``dop``) column names, ``aop_unit`` "rad"/"deg",
+    ``min_dop``, and ``sun(t, t_first)``: the unit sun vector in the navigation frame, (n, 3) or (3,), for the
+    times ``t`` (s) of a block of a log that starts at ``t_first``."""
+
+    aop: str
+    dop: str | None
+    sun: Callable[[np.ndarray, float], np.ndarray]
+    aop_unit: str = "rad"
+    min_dop: float = 0.05
+
+
+def pol_columns(columns: str, frame: str, *, aop_unit: str = "rad", min_dop: float = 0.05, **sun) -> PolColumns:
+    """The polarization columns of ``--pol-columns`` with the sun along the log.
+
+    Parameters
+    ----------
+    columns : str
+        ``"AOP"`` or ``"AOP,DOP"``: the column names.
+    frame : str
+        Navigation frame of the sun vectors (``"ned"``/``"enu"``, either case).
+    aop_unit : str
+        Unit of the angle column in the file, ``"rad"`` or ``"deg"``.
+    min_dop : float
+        Degree of polarization below which a sample is not used [-].
+    **sun
+        The place and time or the fixed sun, as :func:`optinav.attitude.recording.sun_along_log` takes them
+        (``lat``, ``lon``, ``height_m``, ``start_time``, ``azimuth``, ``elevation``; angles in radians).
+
+    Returns
+    -------
+    PolColumns
+        The columns and the sun of a block, ``sun(t, t_first)``.
+    """
+    from optinav.attitude.recording import pol_column_names, sun_along_log
+
+    aop, dop = pol_column_names(columns)
+    return PolColumns(aop, dop, lambda t, t_first: sun_along_log(t, frame, t_first=t_first, **sun), aop_unit,
+                      min_dop)
+
+
+@dataclass
+class StreamRun:
+    """What :func:`stream_attitude` did: ``summary`` (the line of :meth:`AttitudeEstimate.summary`), ``n`` samples
+    and ``score`` (inclination RMSE [rad], heading RMSE [rad], samples with a valid reference) or None, as
+    :func:`optinav.attitude.recording.reference_rmse`."""
+
+    summary: str
+    n: int
+    score: tuple[float, float, int] | None = None
+
+
+class _Score:
+    """BROAD's inclination and heading RMSE (:mod:`optinav.attitude.metrics`) from per-block sums of squares."""
+
+    def __init__(self):
+        self.ss = np.zeros(2)
+        self.k = np.zeros(2, dtype=np.int64)
+        self.n = 0
+
+    def add(self, q, q_ref, movement) -> None:
+        from optinav.attitude.metrics import heading_error, inclination_error
+
+        mask = movement & np.all(np.isfinite(q_ref), axis=1)
+        self.n += int(mask.sum())
+        for j, err in enumerate((inclination_error, heading_error)):
+            e = err(q, q_ref)
+            ok = np.isfinite(e) & mask
+            self.ss[j] += float(np.sum(e[ok] ** 2))
+            self.k[j] += int(np.count_nonzero(ok))
+
+    def result(self) -> tuple[float, float, int]:
+        if not np.all(self.k):
+            raise OptinavError("no finite samples to average", "check the reference data and the mask")
+        r = np.sqrt(self.ss / self.k)
+        return float(r[0]), float(r[1]), self.n
+
+
+class _Blocks:
+    """The blocks of a log: (first row, t, gyr, acc, dts, {"mag", "aop", "dop", "q_ref", "movement"}) with
+    ``size``/``position`` for the progress bar. A BROAD trial is read whole (its HDF5/MAT library reads it so)
+    and cut; text files are read block by block (:func:`optinav.io.iter_imu`)."""
+
+    def __init__(self, path, o: AttitudeOptions, *, mag: bool, pol: PolColumns | None, reference: bool,
+                 chunk_rows: int):
+        from optinav.attitude.data import is_broad
+
+        self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
+        self.broad = is_broad(path) and not o.columns and not o.datasets
+        if reference and not self.broad:
+            raise OptinavError(f"{path} is not a BROAD file with opt_quat and movement",
+                               "drop --reference or pass a BROAD trial")
+        self.size = max(self.path.stat().st_size, 1) if self.path.is_file() else 1
+        self.position = 0
+        self._whole: dict | None = None
+        names = {}
+        if mag:
+            names = {f"m{k}": v for k, v in zip("xyz", _mag_names(o.mag_columns))}
+        if pol is not None:
+            names["aop"] = pol.aop
+            if pol.dop:
+                names["dop"] = pol.dop
+        self.names = names
+
+    def __iter__(self):
+        if self.broad:
+            yield from self._broad()
+            return
+        from optinav.io.imu import iter_imu
+
+        o = self.o
+        chunks = iter_imu(self.path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit,
+                          time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
+                          delimiter=o.delimiter, chunk_rows=self.chunk_rows, topic=o.topic)
+        self.size = chunks.size
+        prev = None
+        for log in chunks:
+            self.position = chunks.position
+            if log.acc is None or log.gyr is None:
+                raise OptinavError(f"{self.path} needs accelerometer and gyroscope columns",
+                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
+            if log.acc_unit == "counts" or log.gyro_unit == "counts":
+                raise OptinavError("the log is in raw counts",
+                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+            row0 = chunks.rows - len(log)
+            t = log.t
+            # two rows at least in the first block: its first step comes from its first two times
+            first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
+            prev = t[-1]
+            yield row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, \
+                self._extra(chunks.table, row0, len(log))
+
+    def _extra(self, table, row0: int, n: int) -> dict:
+        if not self.names:
+            return {}
+        if table is None:  # a format read whole by its library: its columns once, then cut
+            if self._whole is None:
+                from optinav.io.readers import read_table
+
+                tab = read_table(self.path, columns=",".join(f"{k}={v}" for k, v in self.names.items()),
+                                 delimiter=self.o.delimiter, topic=self.o.topic)
+                self._whole = {k: np.asarray(v, float).reshape(-1) for k, v in tab.items()}
+            cols = {k: v[row0:row0 + n] for k, v in self._whole.items()}
+        else:
+            cols = {k: np.asarray(table.get(v), float).reshape(-1) for k, v in self.names.items()}
+        for k, v in cols.items():
+            if v.size != n:
+                what = "the magnetometer" if k.startswith("m") else f"{k.upper()} column"
+                raise OptinavError(f"{what} has {v.size} rows, the IMU {n} (block at row {row0})",
+                                   "check --mag-columns" if k.startswith("m") else "check --pol-columns")
+        out = {}
+        if self.mag:
+            out["mag"] = np.column_stack([cols["mx"], cols["my"], cols["mz"]])
+        for k in ("aop", "dop"):
+            if k in cols:
+                out[k] = cols[k]
+        return out
+
+    def _broad(self):
+        import contextlib
+
+        from optinav.attitude.data import load_broad
+
+        with contextlib.ExitStack() as stack:
+            if self.path.suffix.lower() in (".h5", ".hdf5"):
+                # HDF5: the datasets are read block by block (the file is validated as load_broad does)
+                tr = _Hdf5Trial(stack, self.path)
+            else:  # MAT: scipy reads it whole
+                tr = load_broad(self.path)
+            n = tr.gyr.shape[0]
+            h = 1.0 / tr.rate_hz
+            prev = None
+            for a in range(0, n, self.chunk_rows):
+                s = slice(a, a + self.chunk_rows)
+                self.position = int(self.size * min(a + self.chunk_rows, n) / max(n, 1))
+                t = np.arange(a, min(a + self.chunk_rows, n)) / tr.rate_hz
+                first = (t[0] - (t[1] - t[0] if t.size > 1 else h)) if prev is None else prev
+                prev = t[-1]
+                gyr, acc = np.asarray(tr.gyr[s], float), np.asarray(tr.acc[s], float)
+                extra = {"q_ref": np.asarray(tr.q_ref[s], float),
+                         "movement": np.asarray(tr.movement[s]).ravel().astype(bool)}
+                if self.mag:
+                    extra["mag"] = np.asarray(tr.mag[s], float) if tr.mag is not None else np.full(gyr.shape, np.nan)
+                finite = np.isfinite(gyr).all(axis=1) & np.isfinite(acc).all(axis=1)
+                yield a, t, gyr, acc, np.diff(t, prepend=first), finite, extra
+
+
+class _Hdf5Trial:
+    """The datasets of a BROAD HDF5 trial, sliced on demand (``gyr``, ``acc``, ``mag`` or None, ``q_ref``,
+    ``movement``, ``rate_hz``); the checks of :func:`optinav.attitude.data.load_broad`."""
+
+    def __init__(self, stack, path: Path):
+        import h5py
+
+        from optinav.attitude.data import _broad_rate
+
+        try:
+            f = stack.enter_context(h5py.File(path, "r"))
+        except OSError as exc:
+            raise OptinavError(f"cannot read {path} ({exc})", "pass a BROAD trial HDF5 file") from None
+        missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in f]
+        if missing:
+            raise OptinavError(f"{path.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 or MAT file")
+        rate = f.attrs.get("sampling_rate")
+        if rate is None and "sampling_rate" in f:
+            rate = f["sampling_rate"][()]
+        self.rate_hz = _broad_rate(rate, path)
+        self.gyr, self.acc, self.q_ref, self.movement = (f[k] for k in ("imu_gyr", "imu_acc", "opt_quat", "movement"))
+        self.mag = f["imu_mag"] if "imu_mag" in f else None
+
+
+def _mag_names(mag_columns: str | None) -> list[str]:
+    names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
+    if len(names) != 3:
+        raise OptinavError(f"--mag-columns {mag_columns!r} needs three names", "write e.g. mx,my,mz")
+    return names
+
+
+def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolColumns | None = None,
+                    reference: bool = False, chunk_rows: int = CHUNK_ROWS,
+                    announce: Callable[[int, str], None] | None = None, progress: bool | None = None) -> StreamRun:
+    """Estimate the attitude of the log ``path`` block by block (at most ``chunk_rows`` samples held) and write
+    the attitude CSV (:data:`optinav.attitude.recording.CSV_HEADER`) to ``out`` atomically. ``options`` as :func:`optinav.attitude.unit.
+    read_log` / :func:`~optinav.attitude.estimate` (``offline`` is not streamed: pass it to the in-memory path);
+    ``pol`` the polarization columns; ``reference`` scores against a BROAD trial's optical reference (frame ENU).
+    ``announce(n, method)`` is called between the two passes. Bad input raises :class:`OptinavError` before
+    anything is written under ``out``."""
+    from optinav.attitude.checks import check_aop
+    from optinav.attitude.estimators import _method
+    from optinav.attitude.measurement import PolarizationMeasurement
+    from optinav.core.progress import progress_blocks, step
+    from optinav.core.rotations import frame_name
+
+    o = options
+    if o.offline:
+        raise OptinavError("offline smoothing does not run block by block here", "use the in-memory path")
+    frame = frame_name(o.frame)
+    method = _method(o.method, True if pol is not None else None)
+    want_mag = o.mag or bool(o.mag_columns)
+    if want_mag and method != "iframe":
+        raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
+    if reference and frame != "enu":
+        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
+    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
+    src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows)
+    if pol is not None:
+        pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
+
+    step("checks")
+    checks, bad, aop_max, t_first = StreamChecks(), 0, 0.0, None
+    for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
+        if t_first is None:
+            t_first = float(t[0])
+        bad += int(np.count_nonzero(~finite))
+        if not bad:
+            checks.add(gyr, acc, dts)
+        if pol is not None and pol.aop_unit != "deg":
+            a = np.abs(extra["aop"][np.isfinite(extra["aop"])])
+            aop_max = max(aop_max, float(a.max()) if a.size else 0.0)
+    if bad:
+        raise OptinavError(f"{path} has {bad} rows with NaN accelerometer/gyro values",
+                           "remove or interpolate them first")
+    if pol is not None:
+        check_aop(np.array([aop_max]))
+    checks.finish_first()
+    gaps = checks.gaps
+    if announce is not None:
+        announce(checks.n, method)
+    score = _Score() if reference else None
+    step(f"estimate ({method}), write")  # one pass does both
+    with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
+        for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
+            checks.collect(row0, gyr, acc, dts)
+            if gaps.size and not o.allow_gaps:
+                continue  # refused below, after the checks that come first
+            pm = None
+            if pol is not None:
+                aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
+                pm = PolarizationMeasurement(aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame,
+                                             min_dop=pol.min_dop)
+            mag = extra.get("mag")
+            # a time gap starts a new segment whose first step is the median one
+            cuts = gaps[(gaps >= row0) & (gaps < row0 + len(t))] - row0
+            dts = dts.copy()
+            dts[cuts] = checks.median_dt
+            qs = []
+            for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, len(t)])):
+                if k:
+                    estimator.restart()
+                if b > a:
+                    qs.append(estimator.run(gyr[a:b], acc[a:b], dts[a:b],
+                                            mag=None if mag is None else mag[a:b],
+                                            pol=None if pm is None else pm.select(slice(a, b))))
+            q = np.concatenate(qs)
+            write(attitude_rows(t, q, frame))
+            if score is not None:
+                score.add(q, extra["q_ref"], extra["movement"])
+        checks.finish_second(frame)
+        if gaps.size and not o.allow_gaps:
+            i = int(gaps[0])
+            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
+                               "integrating the gyro across it would be wrong",
+                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
+        result = None if score is None else score.result()
+    return StreamRun(estimator.summary(), checks.n, result)
