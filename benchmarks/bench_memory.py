@@ -50,13 +50,13 @@ def _run(src: Path, argv: list[str], expect_error: bool = False) -> tuple[float,
     return peak, wall, proc.stderr
 
 
-def _before_src(tmp: Path) -> Path | None:
-    """The sources of BEFORE, or None outside a git checkout."""
+def _before_src(tmp: Path, commit: str = BEFORE) -> Path | None:
+    """The sources of ``commit``, or None outside a git checkout."""
     if shutil.which("git") is None:
         return None
     dest = tmp / "before"
     dest.mkdir()
-    arch = subprocess.run(["git", "-C", str(ROOT), "archive", BEFORE, "src"], capture_output=True)
+    arch = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src"], capture_output=True)
     if arch.returncode != 0:
         return None
     subprocess.run(["tar", "-x", "-C", str(dest)], input=arch.stdout, check=True)

@@ -14,12 +14,19 @@ import sys
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
-from tqdm.auto import tqdm
 
 T = TypeVar("T")
 
 _TASKS: list = []  # open task bars, innermost last
 _LOOPS: list = []  # open loop bars of progress()
+
+
+def tqdm(*args, **kwargs):
+    """tqdm's bar, imported on first use (tqdm.auto costs a fifth of a second at start-up, before a command can
+    report a bad input file)."""
+    from tqdm.auto import tqdm as bar
+
+    return bar(*args, **kwargs)
 
 
 def progress_enabled() -> bool:

@@ -25,7 +25,6 @@ import time
 from typing import NamedTuple
 
 import numpy as np
-from scipy import stats as _stats
 
 from optinav.core.earth import WGS84
 from optinav.core.earth import gravity as normal_gravity
@@ -122,6 +121,8 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
     if not np.any(ok):
         return cands.default, {"rule": "default (no candidate had >= 7 intervals to score)",
                                "thresholds": cands.thresholds, "n_intervals": cands.n_intervals}
+    from scipy import stats as _stats  # deferred: a bad input file is reported before scipy loads
+
     limit = np.where(dof > 0, _stats.chi2.ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
     good = ok & ((red <= limit) | (red <= 1.5 * np.nanmin(red)))
     order = sorted(np.flatnonzero(good), key=lambda k: (cands.n_intervals[k], cands.static_time_s[k]))
