@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optinav.core.earth import WGS84
+from optinav.core.files import CHUNK_ROWS
 from optinav.core.earth import gravity as normal_gravity
 from optinav.core.progress import progress_blocks, step
 from optinav.core.results import convergence, gate
@@ -531,16 +532,16 @@ class SessionData(NamedTuple):
     notes: tuple = ()
 
 
-def read_session_file(path, options: FileOptions) -> SessionData:
+def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) -> SessionData:
     """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units.
 
     Text logs are read in blocks (:func:`optinav.io.iter_imu`, the same values as :func:`optinav.io.read_imu`)
     and only time, accelerometer, gyroscope and labels are kept, so the peak while reading is those arrays plus
-    one block, not the parsed table (about 530 B per row before)."""
+    one block of ``chunk_rows`` rows, not the parsed table (about 530 B per row before)."""
     o = options
     blocks = iter_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
                       gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                      delimiter=o.delimiter, topic=o.topic)
+                      delimiter=o.delimiter, topic=o.topic, chunk_rows=chunk_rows)
     parts: dict[str, list] = {"t": [], "acc": [], "gyro": [], "labels": []}
     acc_unit = gyro_unit = None
     notes: list = []
