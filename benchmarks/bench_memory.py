@@ -10,8 +10,9 @@ rows were not run (a 1.3 GB CSV per step, and the "before" commands would need a
 figures are a linear extrapolation from 1 M and 3 M, which holds for the streamed commands only while their
 per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log. Streamed: apply (blocks of
 200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks).
-Not streamed yet: calibrate (holds the log) and the simulators (their noise processes are drawn for the whole
-log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
+Calibrate reads in blocks (iter_imu) and keeps time, accelerometer and gyroscope (56 B per row) plus its
+moving-variance sums; it still holds the log, so it grows. Not streamed yet: the simulators (their noise processes
+are drawn for the whole log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
@@ -50,13 +51,13 @@ def _run(src: Path, argv: list[str], expect_error: bool = False) -> tuple[float,
     return peak, wall, proc.stderr
 
 
-def _before_src(tmp: Path) -> Path | None:
-    """The sources of BEFORE, or None outside a git checkout."""
+def _before_src(tmp: Path, commit: str = BEFORE) -> Path | None:
+    """The sources of ``commit``, or None outside a git checkout."""
     if shutil.which("git") is None:
         return None
     dest = tmp / "before"
     dest.mkdir()
-    arch = subprocess.run(["git", "-C", str(ROOT), "archive", BEFORE, "src"], capture_output=True)
+    arch = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src"], capture_output=True)
     if arch.returncode != 0:
         return None
     subprocess.run(["tar", "-x", "-C", str(dest)], input=arch.stdout, check=True)
@@ -148,12 +149,14 @@ def markdown(results: dict) -> str:
     small = min(int(m.split()[-2]) for m in small)
     out = ["# Peak memory of the commands on long logs (benchmarks/bench_memory.py)", "",
            f"Generated from results_memory.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine: "
-           "wall times vary with the load — the calibrate rows run the same code before and after). \"before\": "
+           "wall times vary with the load). \"before\": "
            f"commit {BEFORE}; \"after\": this tree. 10 M rows were not run: the 10 M column is the linear "
            f"extrapolation from {small} and {big} rows.", "",
            f"| command | version | peak RSS {small} rows [MiB] | peak RSS {big} rows [MiB] | growth [MiB per M rows] "
            f"| 10 M rows, extrapolated [MiB] | wall time {big} rows [s] |",
            "|---|---|---:|---:|---:|---:|---:|"]
+    if meta.get("notes"):
+        out[3:3] = ["", "Notes: " + "; ".join(meta["notes"]) + "."]
     for c in ("simulate accel-multipos", "calibrate accel", "apply", "attitude"):
         for v in ("before", "after"):
             out.append(f"| {c} | {v} | {val(c, v, f'peak RSS at {small}'):.0f} | {val(c, v, f'peak RSS at {big}'):.0f} "

@@ -35,6 +35,29 @@ def test_moving_variance_matches_brute_force_on_irregular_time():
     np.testing.assert_allclose(v, ref, rtol=1e-9, atol=1e-9)
 
 
+def test_blocked_moving_variance_is_bit_identical_to_whole_array_sums(monkeypatch):
+    """Blocks (here of 257 rows, so windows straddle many block edges) give exactly the whole-array result: the
+    running sums continue sequentially from block to block."""
+    from optinav.multipos import static as st
+
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.005, 0.015, 3001))
+    x = rng.normal(size=(3001, 3)) * [1.0, 2.0, 0.5] + [9.8, -300.0, 2048.0]
+    half, slack = 0.5 * 0.37, 1e-9 * 0.37
+    lo = np.searchsorted(t, t - half - slack, side="left")
+    hi = np.searchsorted(t, t + half + slack, side="right")
+    xc = x - x.mean(axis=0)
+    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(xc, axis=0)])
+    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(xc * xc, axis=0)])
+    n = (hi - lo).astype(float)[:, None]
+    mean = (c1[hi] - c1[lo]) / n
+    ref = np.maximum(((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1), 0.0)
+    monkeypatch.setattr(st, "_BLOCK", 257)
+    v, resolution = st._moving_variance(t, x, 0.37)
+    assert np.array_equal(v, ref)
+    assert resolution == 8 * np.finfo(float).eps * c2[-1].sum() / n.min()
+
+
 def _simulated_log(rng, *, jitter=False):
     """12 poses (the six axis poses, twice, with a 2 s turn between), 100 Hz, white noise."""
     C = np.concatenate([six_positions(), six_positions()[[2, 3, 4, 5, 0, 1]]])  # consecutive poses differ

@@ -351,3 +351,60 @@ def test_reference_score_streamed_broad(tmp_path):
     np.testing.assert_allclose(streamed[:2], whole[:2], rtol=1e-12, atol=0)
     assert streamed[2] == whole[2] > 1000
     assert streamed[0] < 1.0
+
+
+# --- calibrate accel reads in blocks (issue 17, item 6) -----------------------------------------------------------
+
+def _whole_session(path, o):
+    """The session as the whole-file reader gives it (what calibrate read before it streamed)."""
+    from optinav.io import raw_units
+    from optinav.multipos.calibrate import SessionData
+
+    log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, rate_hz=o.rate)
+    acc, acc_unit = raw_units(log, "acc")
+    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
+    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
+
+
+def _imucal(name):
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal" / name
+    if not path.is_file():
+        pytest.skip("imucal data absent")
+    return path
+
+
+@pytest.mark.parametrize("case", ["simulated", "annotated", "ferraris"])
+def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
+    """Blocks of 997 rows give the same arrays, labels and notes as the whole-file reader, hence the same
+    calibration (compared as written, field by field; only the run time differs)."""
+    import json
+
+    from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
+
+    if case == "simulated":
+        path, o = session / "s.csv", FileOptions(latitude=38.88, height=35)
+    elif case == "annotated":
+        path = _imucal("annotated_session.csv")
+        o = FileOptions(rate=204.8, acc_unit="counts", gyro_unit="counts", gravity=9.81, no_gyro=True)
+    else:
+        path = _imucal("example_ferraris_session.csv")
+        o = FileOptions(rate=102.4, gyro_unit="deg/s", gravity=9.81, method="ferraris",
+                        sections=str(path.with_name("example_ferraris_session_list.json")))
+    whole = _whole_session(path, o)
+    blocks = read_session_file(path, o, chunk_rows=997)
+    assert len(whole.t) > 3 * 997
+    for name in ("t", "acc", "gyro", "labels"):
+        w, b = getattr(whole, name), getattr(blocks, name)
+        assert (w is None) == (b is None), name
+        if w is not None:
+            assert w.dtype == b.dtype and np.array_equal(w, b), name
+    assert (whole.acc_unit, whole.gyro_unit, whole.notes) == (blocks.acc_unit, blocks.gyro_unit, blocks.notes)
+    results = []
+    for data in (whole, blocks):
+        r = json.loads(calibrate_data(data, o).to_json())
+        r.pop("elapsed_s")
+        r["fields"].pop("elapsed_s")
+        results.append(r)
+    assert results[0] == results[1]

@@ -45,9 +45,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import linalg as sla
-from scipy import stats
-
 from optinav.core.progress import progress as _progress
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array
@@ -93,6 +90,8 @@ def _whiten(J: np.ndarray, sigma, R, *, name: str = "J") -> tuple[np.ndarray, Ca
             L = np.linalg.cholesky(R)
         except np.linalg.LinAlgError:
             raise OptinavError("R is not positive definite", "pass a positive definite noise covariance") from None
+
+        from scipy import linalg as sla  # deferred: scipy costs a second at start-up (a bad-file error comes first)
 
         def w(x):
             return sla.solve_triangular(L, x, lower=True)
@@ -835,6 +834,8 @@ def _chi2_band(dof: int, n: int, confidence: float) -> tuple[float, float]:
     """Two-sided ``confidence`` band of χ²(dof)/n: the mean of n squared-normal sums over dof/n dimensions."""
     if not (0.0 < confidence < 1.0):
         raise OptinavError(f"confidence must be in (0, 1), got {confidence!r}", "pass e.g. 0.99")
+    from scipy import stats  # deferred, see above
+
     return (float(stats.chi2.ppf((1 - confidence) / 2, dof) / n),
             float(stats.chi2.ppf((1 + confidence) / 2, dof) / n))
 

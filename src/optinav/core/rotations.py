@@ -18,12 +18,15 @@ Euler conventions (angles always returned and accepted as ``[roll, pitch, yaw]``
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 _EULER_SEQ = {"ned": "ZYX", "enu": "ZXY"}
 
@@ -341,31 +344,39 @@ def quat_rotate(q, v) -> np.ndarray:
 
 # --- conversions (thin layer over scipy) ------------------------------------------------------------
 
+def _rotation():
+    """scipy's Rotation class, imported on first use: scipy.spatial costs a second at start-up, and a command
+    reports a bad input file before that (issue 17)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
+
+
 def _rot_from_quat(q) -> tuple[Rotation, tuple[int, ...]]:
     q = as_float_array(q, "quaternion", last_dims=(4,))
     flat, lead = _flat(q, 1)
     if np.any(np.linalg.norm(flat, axis=-1) == 0):
         raise OptinavError("quaternion of zero norm", "check the attitude input")
-    return Rotation.from_quat(flat, scalar_first=True), lead
+    return _rotation().from_quat(flat, scalar_first=True), lead
 
 
 def _rot_from_dcm(c) -> tuple[Rotation, tuple[int, ...]]:
     c = as_float_array(c, "direction-cosine matrix", last_dims=(3, 3))
     flat, lead = _flat(c, 2)
-    return Rotation.from_matrix(flat), lead
+    return _rotation().from_matrix(flat), lead
 
 
 def _rot_from_rotvec(r) -> tuple[Rotation, tuple[int, ...]]:
     r = as_float_array(r, "rotation vector", last_dims=(3,))
     flat, lead = _flat(r, 1)
-    return Rotation.from_rotvec(flat), lead
+    return _rotation().from_rotvec(flat), lead
 
 
 def _rot_from_euler(angles, convention) -> tuple[Rotation, tuple[int, ...]]:
     seq = _seq(convention)
     a = as_float_array(angles, "Euler angles", last_dims=(3,))
     flat, lead = _flat(a, 1)
-    return Rotation.from_euler(seq, flat[:, [2, 1, 0]]), lead
+    return _rotation().from_euler(seq, flat[:, [2, 1, 0]]), lead
 
 
 def _seq(convention: str) -> str:

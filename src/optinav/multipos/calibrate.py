@@ -25,16 +25,16 @@ import time
 from typing import NamedTuple
 
 import numpy as np
-from scipy import stats as _stats
 
 from optinav.core.earth import WGS84
+from optinav.core.files import CHUNK_ROWS
 from optinav.core.earth import gravity as normal_gravity
-from optinav.core.progress import step
+from optinav.core.progress import progress_blocks, step
 from optinav.core.results import convergence, gate
 from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io import raw_units, read_imu
+from optinav.io import iter_imu, raw_units
 
 from . import accel, gates, model, static
 from .result import CalibrationResult
@@ -122,6 +122,8 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
     if not np.any(ok):
         return cands.default, {"rule": "default (no candidate had >= 7 intervals to score)",
                                "thresholds": cands.thresholds, "n_intervals": cands.n_intervals}
+    from scipy import stats as _stats  # deferred: a bad input file is reported before scipy loads
+
     limit = np.where(dof > 0, _stats.chi2.ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
     good = ok & ((red <= limit) | (red <= 1.5 * np.nanmin(red)))
     order = sorted(np.flatnonzero(good), key=lambda k: (cands.n_intervals[k], cands.static_time_s[k]))
@@ -260,6 +262,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
                                            min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
         selection["threshold"] = det.threshold
+    det = None  # its moving variances (16 B per row) are not needed further
     if len(ranges) < 6 and sections is None:
         levels = static._levels(static.moving_variance(t, acc, window_s), f"({acc_unit})^2")
         raise OptinavError(
@@ -281,6 +284,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     used &= valid
     a_used = model.corrected(fit.theta, acc[used])
     residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a_used, axis=1) - g) ** 2)))
+    a_used = used = None  # freed before the gyroscope fit, the peak of a long log
 
     K_std = np.zeros((3, 3))
     for j, (r, c) in enumerate(model.K_INDEX):
@@ -566,17 +570,35 @@ class SessionData(NamedTuple):
     notes: tuple = ()
 
 
-def read_session_file(path, options: FileOptions) -> SessionData:
-    """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units."""
+def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) -> SessionData:
+    """Read a log for calibration: accelerometer (required) and gyroscope (unless ``no_gyro``) in raw units.
+
+    Text logs are read in blocks (:func:`optinav.io.iter_imu`, the same values as :func:`optinav.io.read_imu`)
+    and only time, accelerometer, gyroscope and labels are kept, so the peak while reading is those arrays plus
+    one block of ``chunk_rows`` rows, not the parsed table (about 530 B per row before)."""
     o = options
-    log = read_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
-                   gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                   delimiter=o.delimiter, topic=o.topic)
-    if log.acc is None:
-        raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
-    acc, acc_unit = raw_units(log, "acc")
-    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
-    return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
+    blocks = iter_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
+                      gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
+                      delimiter=o.delimiter, topic=o.topic, chunk_rows=chunk_rows)
+    parts: dict[str, list] = {"t": [], "acc": [], "gyro": [], "labels": []}
+    acc_unit = gyro_unit = None
+    notes: list = []
+    for log in progress_blocks(blocks, "read"):
+        if log.acc is None:
+            raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
+        acc, acc_unit = raw_units(log, "acc")
+        gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
+        for key, value in (("t", log.t), ("acc", acc), ("gyro", gyro), ("labels", log.labels)):
+            if value is not None:
+                parts[key].append(value)
+        notes += log.notes
+    # one field at a time, its blocks freed before the next: the peak is the arrays plus one field's copy
+    joined = {}
+    for key in parts:
+        joined[key] = np.concatenate(parts[key]) if parts[key] else None
+        parts[key] = None
+    return SessionData(joined["t"], joined["acc"], acc_unit, joined["gyro"], gyro_unit, joined["labels"],
+                       tuple(notes))
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:

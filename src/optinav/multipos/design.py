@@ -72,7 +72,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.core.imu_model import preset
 from optinav.core.observability import (ObservabilityReport, ObservabilitySVD, analyze, observability_matrix,
                                         observability_svd)
 from optinav.core.results import Result
@@ -329,6 +328,8 @@ def _setup(sigma, noise_density, rate_hz, scale, g) -> _Setup:
         s1 = vec(noise_density, "noise_density")
         text = f"white noise {_fmt_vec(s1)} raw/√Hz"
     else:
+        from optinav.core.imu_model import preset  # deferred: it compiles with numba, slow to import
+
         spec = preset("mems-mti1")
         s1 = np.asarray(spec.accel_vrw, float) * scale  # (m/s²)/√Hz → raw/√Hz
         text = (f"white noise {_fmt_vec(s1)} raw/√Hz (assumed: Xsens MTi-1 class, "

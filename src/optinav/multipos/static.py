@@ -157,28 +157,40 @@ def _check_t_x(t, x, name: str) -> tuple[np.ndarray, np.ndarray]:
     return t, x
 
 
-def _window_bounds(t: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
-    half = 0.5 * window_s
-    # a tiny relative slack keeps samples exactly half a window away inside despite rounding of t
-    slack = 1e-9 * max(window_s, 1e-300)
-    lo = np.searchsorted(t, t - half - slack, side="left")
-    hi = np.searchsorted(t, t + half + slack, side="right")
-    return lo, hi
+#: rows per block of :func:`_moving_variance` (its temporaries are a few blocks, not a few copies of the log)
+_BLOCK = 1 << 16
 
 
 def _moving_variance(t: np.ndarray, x: np.ndarray, window_s: float) -> tuple[np.ndarray, float]:
-    """Variance (N,) and its rounding resolution (input units²)."""
-    lo, hi = _window_bounds(t, window_s)
-    xc = x - x.mean(axis=0)  # centring limits the cancellation in the cumulative sums of squares
-    c1 = np.zeros((xc.shape[0] + 1, 3))
-    c2 = np.zeros((xc.shape[0] + 1, 3))
-    np.cumsum(xc, axis=0, out=c1[1:])
-    np.cumsum(xc * xc, axis=0, out=c2[1:])
-    n = (hi - lo).astype(float)[:, None]
-    mean = (c1[hi] - c1[lo]) / n
-    var = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
+    """Variance (N,) and its rounding resolution (input units²).
+
+    Computed in blocks of :data:`_BLOCK` rows; each running sum continues from the previous block's last value
+    (``cumsum`` adds sequentially), so the result is bit-identical to the whole-array computation while the
+    memory beyond the two running sums (48 B per row) is a few blocks."""
+    n_rows = t.size
+    half = 0.5 * window_s
+    # a tiny relative slack keeps samples exactly half a window away inside despite rounding of t
+    slack = 1e-9 * max(window_s, 1e-300)
+    centre = x.mean(axis=0)  # centring limits the cancellation in the cumulative sums of squares
+    c1 = np.zeros((n_rows + 1, 3))
+    c2 = np.zeros((n_rows + 1, 3))
+    for a in range(0, n_rows, _BLOCK):
+        b = min(a + _BLOCK, n_rows)
+        xc = x[a:b] - centre
+        np.cumsum(np.concatenate([c1[a:a + 1], xc]), axis=0, out=c1[a:b + 1])
+        np.cumsum(np.concatenate([c2[a:a + 1], xc * xc]), axis=0, out=c2[a:b + 1])
+    var = np.empty(n_rows)
+    n_min = np.inf
+    for a in range(0, n_rows, _BLOCK):
+        ta = t[a:a + _BLOCK]
+        lo = np.searchsorted(t, ta - half - slack, side="left")
+        hi = np.searchsorted(t, ta + half + slack, side="right")
+        n = (hi - lo).astype(float)[:, None]
+        n_min = min(n_min, float(n.min()))
+        mean = (c1[hi] - c1[lo]) / n
+        var[a:a + ta.size] = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
     # rounding error of a difference of two cumulative sums ≈ eps × (running sum) / (window count)
-    resolution = float(8 * _EPS * c2[-1].sum() / max(float(n.min()), 1.0))
+    resolution = float(8 * _EPS * c2[-1].sum() / max(n_min, 1.0))
     return np.maximum(var, 0.0), resolution
 
 

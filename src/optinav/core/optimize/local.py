@@ -8,7 +8,6 @@ of :class:`OptimizeResult` fields (``x, cost, success, message, nit, history`` â
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize as _sp
 
 from optinav.errors import OptinavError
 
@@ -73,6 +72,8 @@ def run_least_squares(ev: Evaluator, problem: Problem, x0, r0, method: str, *, f
     if method == "trf":
         kw["bounds"] = (problem.lower, problem.upper)
     try:
+        from scipy import optimize as _sp  # deferred: scipy costs a second at start-up
+
         res = _sp.least_squares(fun, x0, jac=jacobian, **kw)
     except ValueError as exc:  # scipy's own argument checks (e.g. tolerances)
         raise OptinavError(f"least_squares rejected the options ({exc})", "check the tolerances") from None
@@ -274,6 +275,8 @@ def run_bfgs(ev: Evaluator, problem: Problem, x0, r0, E0, *, gtol: float = 1e-10
     opts = {"gtol": gtol, "xrtol": xrtol}
     if max_iter is not None:
         opts["maxiter"] = max_iter
+    from scipy import optimize as _sp  # deferred, see above
+
     res = _sp.minimize(fg, x0, jac=True, method="BFGS", callback=callback, options=opts)
     x = res.x
     r, E = _eval(ev, x)
