@@ -103,6 +103,10 @@ def add_calibration_options(a) -> None:
     a.add_argument("--gyro-bias-instability", type=NON_NEGATIVE, metavar="RAW",
                    help="1-sigma gyro bias drift over the session in raw units (datasheet in-run bias instability or "
                         "run-to-run), added to the gyro bias std: a drift common to all rests leaves no trace in them")
+    a.add_argument("--gyro-bias-corr-time", type=POSITIVE, default=float("inf"), metavar="S",
+                   help="correlation time in s of the Gauss-Markov bias that --gyro-bias-instability gives the "
+                        "stationary 1-sigma of (default inf: a constant offset per run); with --gyro-bias local the "
+                        "std adds what the session's mean keeps of it")
     a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
                    help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
                         "model leaves out; added to the gyro bias and K std")

@@ -138,7 +138,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
               source: str = "", method_options: dict | None = None, acc_bias_instability=None,
               rest=None, allow_unobservable: bool = False, rotation_angle: float = -2 * np.pi,
               held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None,
-              gyro_bias_instability=None) -> CalibrationResult:
+              gyro_bias_instability=None, gyro_bias_corr_time: float = float("inf")) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     t (N,) s; acc (N, 3) and gyr (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
@@ -153,8 +153,11 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     turns do not determine instead of failing. ``rotation_angle`` (rad): the Ferraris turn (imucal's −2π);
     ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
     stds of the scales and biases). ``gyro_g_sensitivity`` (raw gyro per m/s², 1σ): the unmodelled gyro
-    g-sensitivity, added to the gyro bias and K std. ``gyro_bias_instability`` (raw, 1σ): a gyro bias drift over the
-    session, added to the bias std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
+    g-sensitivity, added to the gyro bias and K std (with the default "local" bias, when the rest biases follow
+    the specific force and none is given, the g-sensitivity they reveal enters instead, with a note).
+    ``gyro_bias_instability`` (raw, 1σ): a gyro bias drift over the session, added to the bias std; with "local"
+    the stationary σ of a Gauss–Markov bias of correlation time ``gyro_bias_corr_time`` (s, default ∞: a constant
+    offset per run), and the bias std is then against the long-term bias instead of this session's. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
     Every fit passes the gates of :mod:`optinav.multipos.gates`
     or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
     """
@@ -259,11 +262,15 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
                                      g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit,
-                                     bias_instability=gyro_bias_instability)
+                                     bias_instability=gyro_bias_instability, bias_corr_time=gyro_bias_corr_time)
         gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
                          + "; ".join(gc.unobservable))
+        if gc.g_sensitivity_source == "rests":
+            notes.append(f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
+                         "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
+                         "--gyro-g-sensitivity to state the datasheet value")
         # Earth rate is neglected (module docs); "local" takes its share from the scatter of the rests
         b_std = gc.b_std if gc.bias_mode == "local" else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
@@ -481,6 +488,7 @@ class FileOptions:
     held_misalignment: float = accel.HELD_MISALIGNMENT
     gyro_g_sensitivity: float | None = None
     gyro_bias_instability: float | None = None
+    gyro_bias_corr_time: float = float("inf")
     generations: int | None = None
     seed: int = 0
 
@@ -561,7 +569,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                     source=source, method_options=method_options, rest=o.rest,
                     allow_unobservable=o.allow_unobservable, rotation_angle=np.radians(o.rotation_angle),
                     acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability)
+                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability,
+                    gyro_bias_corr_time=o.gyro_bias_corr_time)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 
