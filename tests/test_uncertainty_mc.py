@@ -60,8 +60,8 @@ def test_rests_reveal_an_unmodelled_g_sensitivity():
 
     gen = np.random.default_rng(3)
     unit = preset("mems-mti1").draw(gen)
-    gy = unit.gyro
-    unit = dataclasses.replace(unit, gyro=TriadErrors(
+    gy = unit.gyr
+    unit = dataclasses.replace(unit, gyr=TriadErrors(
         "gyro", bias=gy.bias, scale=gy.scale, misalignment=gy.misalignment,
         g_sensitivity=gen.normal(0, uncertainty.GYRO_G_SENSITIVITY, (3, 3))))
     s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=3)

@@ -83,7 +83,7 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool) -> np.ndarray:
         white_noise(n, nz.white, d, gen, kind="rate")
     drift = gauss_markov(n, nz.gm_sigma, nz.gm_tau, d, gen) if np.any(nz.gm_sigma > 0) else np.zeros((n, 3))
     rest = s.labels >= 0
-    fg = float(np.mean(np.diag(s.gyro_K))) / float(np.mean(np.diag(unit.gyro.K)))
+    fg = float(np.mean(np.diag(s.gyro_K))) / float(np.mean(np.diag(unit.gyr.K)))
     return s.gyro_b + drift[rest].mean(0) * fg
 
 
