@@ -722,6 +722,12 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                     J_G[:, 3 * i + j] = (tr.residuals(K_hat, bb).reshape(-1) - r0) / hg
             L = np.zeros((12, 9))
             L[:9] = A @ J_G
+            # the part of G's turn errors that K cannot absorb is already in σ̂ (the residuals): count it once
+            P = J_G - J @ L[:9]
+            sig2 = sig_hat ** 2
+            if sig2 > 0:
+                keep = max(sig2 - float(g_sens) ** 2 * float(np.sum(P * P)) / max(dof, 1), 0.0) / sig2
+                cov[:9, :9] -= (1.0 - keep) * cov_fit
             for i in range(3):
                 L[9 + i, 3 * i: 3 * i + 3] = gravity * ubar
             cov += float(g_sens) ** 2 * (L @ L.T)

@@ -67,9 +67,10 @@ def run_all(n_runs: int = 100, rng=0) -> dict[str, dict[str, float]]:
     return {name: run_config(cfg, n_runs, rng) for name, cfg in CONFIGS.items()}
 
 
-def _session_gyro_bias(s, unit, seed: int, drawn: bool) -> np.ndarray:
+def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.ndarray:
     """The unit's mean gyro bias over the static samples of simulated session ``s`` (raw): its constant bias plus
-    the mean of its Gauss–Markov drift there. The drift is redrawn from ``seed`` in the order :func:`simulate`
+    the mean of its Gauss–Markov drift there — over the static intervals the calibration used (``intervals``,
+    (t0, t1) s; what ``local`` reports the bias of), else over the simulated poses. The drift is redrawn from ``seed`` in the order :func:`simulate`
     draws it (the unit first when ``drawn``, then the gyro white noise and the Gauss–Markov bias)."""
     from optinav.core.imu_model import gauss_markov, white_noise
 
@@ -83,6 +84,10 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool) -> np.ndarray:
         white_noise(n, nz.white, d, gen, kind="rate")
     drift = gauss_markov(n, nz.gm_sigma, nz.gm_tau, d, gen) if np.any(nz.gm_sigma > 0) else np.zeros((n, 3))
     rest = s.labels >= 0
+    if intervals is not None:
+        rest = np.zeros(n, bool)
+        for t0, t1 in np.asarray(intervals, float):
+            rest |= (s.t >= t0) & (s.t <= t1)
     fg = float(np.mean(np.diag(s.gyro_K))) / float(np.mean(np.diag(unit.gyr.K)))
     return s.gyro_b + drift[rest].mean(0) * fg
 
@@ -122,7 +127,7 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0, only=None) -> dict[str, di
                 continue
             r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                           gyro_g_sensitivity=opt)
-            b_true = _session_gyro_bias(s, unit, seed, drawn=False)
+            b_true = _session_gyro_bias(s, unit, seed, drawn=False, intervals=r.static_intervals)
             z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
             z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
@@ -161,7 +166,6 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
         for B in sorted({c[1] for c in cases}):
             spec = preset("mems-mti1", gyro_bias_instability=(B, "deg/h"))
             s = simulate("18", spec=spec, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
-            b_session = _session_gyro_bias(s, spec, seed, drawn=True)
             _, Q = model.upper_triangular_form(s.acc_K)
             Kg = s.gyro_K @ Q.T
             for name, b_case, mode, given in cases:
@@ -171,7 +175,8 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
                 r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                               gyro_bias=mode, gyro_bias_instability=inst if given else None,
                               gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)))
-                b_true = s.gyro_b if given else b_session
+                b_true = s.gyro_b if given else _session_gyro_bias(s, spec, seed, drawn=True,
+                                                                   intervals=r.static_intervals)
                 z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
                 z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
