@@ -315,27 +315,32 @@ def test_a_drifting_gyro_bias_fails_static_and_calibrates_by_default(sim):
     _, Q = model.upper_triangular_form(s.acc_K)
     Kg = s.gyro_K @ Q.T
     assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])
-    # the reported bias is the session mean; its std spans the drift
-    assert np.all(np.abs(r.gyroscope["b"] - (s.gyro_b + OFFSET + ramp.mean(axis=0))) < 3 * r.gyroscope["b_std"])
-    assert np.all(r.gyroscope["b_std"] > 0.2 * np.abs(ramp[-1]))
+    # the reported bias is the session's (the mean of the bias over the rests used), and its std is that of it:
+    # the interpolation tracks the drift, which is no error of the session's bias and not in its std
+    rest = np.zeros(s.t.size, bool)
+    for t0, t1 in np.asarray(r.static_intervals):
+        rest |= (s.t >= t0) & (s.t <= t1)
+    b_session = s.gyro_b + OFFSET + ramp[rest].mean(axis=0)
+    assert np.all(np.abs(r.gyroscope["b"] - b_session) < 3 * r.gyroscope["b_std"])
+    assert np.all(r.gyroscope["b_std"] < 0.01 * np.abs(ramp[-1]))
 
 
 def test_gyro_g_sensitivity_enters_the_std():
-    """A gyro g-sensitivity of 0.1 °/s/g (1σ per element) the model leaves out: K is under-covered as reported,
-    and within its std with --gyro-g-sensitivity (RMS(error/std) over a few seeded sessions); the bias std of the
-    default (local) grows with the scatter the g-sensitivity puts between the rests, so it covers either way."""
+    """A gyro g-sensitivity of 0.1 °/s/g (1σ per element) the model leaves out, given as --gyro-g-sensitivity:
+    K and the bias within their std (RMS(error/std) over 4 seeded sessions, within the 99 % band of 12 values,
+    0.55 … 1.5; tests/test_uncertainty_mc.py checks the row without the option)."""
     from optinav.multipos.uncertainty import gyro_g_sensitivity_study
 
-    res = gyro_g_sensitivity_study(4, rng=0)
-    ignored, given = res["gyro, g-sensitivity ignored"], res["gyro, --gyro-g-sensitivity"]
-    assert ignored["scale"] > 1.2 and 0.5 < given["scale"] < 1.2, res
-    assert ignored["bias"] < 1.0 and 0.3 < given["bias"] < 1.5, res
+    name = "gyro, --gyro-g-sensitivity"
+    given = gyro_g_sensitivity_study(4, rng=0, only=[name])[name]
+    assert 0.55 < given["scale"] < 1.5 and 0.55 < given["bias"] < 1.5, given
 
 
 def test_default_gyro_bias_follows_a_drift_and_its_std_covers_it():
     """A unit whose gyro bias drifts (Gauss–Markov, 100 °/h, τ 100 s): the former default (static) reports a
     bias std that the error exceeds several times, and fits K worse; the default (local) interpolates the bias
-    through each turn and its std covers the long-term bias; --gyro-bias-instability raises the std to it."""
+    through each turn and its std covers the session's bias; --gyro-bias-instability with the process's τ raises
+    the std to cover the long-term bias, by what a 220 s session's mean keeps of the drift (less than σ)."""
     from optinav.core.imu_model import GM_SIGMA_PER_BIAS_INSTABILITY, preset
     from optinav.core.units import DEG
 
@@ -348,10 +353,14 @@ def test_default_gyro_bias_follows_a_drift_and_its_std_covers_it():
     lo = calibrate(s.t, s.acc, s.gyro, **kw).gyroscope
     assert lo["bias_mode"] == "local"
     z_static = np.abs(st["b"] - s.gyro_b) / st["b_std"]
-    z_local = np.abs(lo["b"] - s.gyro_b) / lo["b_std"]
-    assert np.max(z_static) > 2 and np.all(z_local < 2), (z_static, z_local)
+    from optinav.multipos.uncertainty import _session_gyro_bias
+
+    b_session = _session_gyro_bias(s, preset("mems-mti1", gyro_bias_instability=(100, "deg/h")), 11, drawn=True)
+    z_local = np.abs(lo["b"] - b_session) / lo["b_std"]
+    assert np.max(z_static) > 2 and np.all(z_local < 3), (z_static, z_local)
     assert np.sum(np.abs(lo["K"] - Kg)) < np.sum(np.abs(st["K"] - Kg))
     sigma = GM_SIGMA_PER_BIAS_INSTABILITY * 100 * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
-    given = calibrate(s.t, s.acc, s.gyro, gyro_bias_instability=sigma, **kw).gyroscope
-    assert np.all(given["b_std"] >= sigma) and np.all(given["b_std"] >= lo["b_std"])
+    given = calibrate(s.t, s.acc, s.gyro, gyro_bias_instability=sigma, gyro_bias_corr_time=100.0, **kw).gyroscope
+    assert np.all(given["b_std"] < sigma) and np.all(given["b_std"] > 0.5 * sigma)
+    assert np.all(np.abs(given["b"] - s.gyro_b) < 3 * given["b_std"])
     np.testing.assert_allclose(given["K"], lo["K"])

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
 from optinav.io import ImuLog, read_imu, read_table, write_imu
-from optinav.io.readers import load_table
+from optinav.io.readers import iter_table, load_table
 
 try:
     import h5py
@@ -322,6 +322,23 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     _write(tmp_path / "text.npz", "not a table")  # text under .npz is read as text, and says so when it fails
     with pytest.raises(OptinavError, match="no data rows .*holds text despite its .npz suffix"):
         read_table(tmp_path / "text.npz")
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".npy", ".h5"])
+def test_streamed_text_under_a_binary_suffix_says_so(tmp_path, suffix):
+    """The block reader (apply/attitude stream through it) gives the whole-file reader's one-line hint."""
+    p = tmp_path / f"log{suffix}"
+    _write(p, "not a table")
+    with pytest.raises(OptinavError, match=f"no data rows .*holds text despite its \\{suffix} suffix") as e:
+        list(iter_table(p))
+    assert str(e.value).count("despite its") == 1 and "\n" not in str(e.value)
+    _write(p, "t,ax\n0,1\n0.1,x\n")  # a bad cell in a later line: the block parser's error carries the hint too
+    with pytest.raises(OptinavError, match="holds text despite its"):
+        list(iter_table(p, chunk_rows=1))
+    _write(tmp_path / "ok.csv", "not a table")  # a text suffix: no hint
+    with pytest.raises(OptinavError) as e:
+        list(iter_table(tmp_path / "ok.csv"))
+    assert "despite" not in str(e.value)
 
 
 @needs_h5py

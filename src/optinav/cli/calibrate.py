@@ -134,8 +134,13 @@ def add_calibration_options(a) -> None:
                    help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
                         "datasheet value); their model error enters the scale and bias std")
     a.add_argument("--gyro-bias-instability", type=NON_NEGATIVE, metavar="RAW",
-                   help="1-sigma gyro bias drift over the session in raw units (datasheet in-run bias instability or "
-                        "run-to-run), added to the gyro bias std: a drift common to all rests leaves no trace in them")
+                   help="1-sigma gyro bias drift in raw units (stationary sigma of a Gauss-Markov bias, see "
+                        "--gyro-bias-corr-time; or run-to-run), added to the gyro bias std, which is then against the "
+                        "long-term bias: a drift common to all rests leaves no trace in them")
+    a.add_argument("--gyro-bias-corr-time", type=POSITIVE, default=float("inf"), metavar="S",
+                   help="correlation time in s of the Gauss-Markov bias that --gyro-bias-instability gives the "
+                        "stationary 1-sigma of (default inf: a constant offset per run); with --gyro-bias local the "
+                        "std adds what the session's mean keeps of it")
     a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
                    help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
                         "model leaves out; added to the gyro bias and K std")

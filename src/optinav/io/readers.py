@@ -196,6 +196,14 @@ def read_table(path, *, columns=None, delimiter: str | None = None, datasets=Non
     return dict(table.data)
 
 
+def _text_despite_suffix(path: Path, exc: OptinavError) -> OptinavError:
+    """``exc`` from reading ``path`` as text, with the hint that it holds text when its suffix names a binary
+    format (.npz, .mat, .h5, …); unchanged for a text suffix."""
+    if SUFFIXES.get(_suffix(path), "text") == "text" or "despite its" in exc.cause:
+        return exc
+    return OptinavError(f"{exc.cause} (the file holds text despite its {_suffix(path)} suffix)", exc.remedy)
+
+
 def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
                only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
@@ -217,10 +225,7 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
         try:
             table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
         except OptinavError as exc:
-            if SUFFIXES.get(_suffix(path), "text") == "text":
-                raise
-            raise OptinavError(f"{exc.cause} (the file holds text despite its {_suffix(path)} suffix)",
-                               exc.remedy) from None
+            raise _text_despite_suffix(path, exc) from None
     else:
         if delimiter is not None:
             raise OptinavError(f"delimiter applies to text files, not to {path.name}", "drop the delimiter option")
@@ -302,6 +307,8 @@ class TableChunks:
             return
         try:
             yield from self._text()
+        except OptinavError as exc:
+            raise _text_despite_suffix(self.path, exc) from None
         except OSError as exc:  # includes gzip.BadGzipFile
             raise OptinavError(f"cannot read {self.path} ({exc})",
                                "check the file (a .gz file must be gzip-compressed)") from None

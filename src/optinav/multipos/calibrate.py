@@ -140,7 +140,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
               source: str = "", method_options: dict | None = None, acc_bias_instability=None,
               rest=None, allow_unobservable: bool = False, rotation_angle: float = -2 * np.pi,
               held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None,
-              gyro_bias_instability=None) -> CalibrationResult:
+              gyro_bias_instability=None, gyro_bias_corr_time: float = float("inf")) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     K and b come out in raw units per SI unit. Every fit passes the gates of :mod:`optinav.multipos.gates` or
@@ -181,7 +181,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         Saturation limits ±R or (lo, hi) [raw units] (:func:`saturated_mask`).
     gyro_bias : str or (3,) array
         "local" (default: during each turn the bias interpolated between the two rests it joins, the session
-        mean reported with the drift the rests show in its std), "static" (mean over the static poses), "rest"
+        mean reported, its std that of the session's bias), "static" (mean over the static poses), "rest"
         (mean over ``rest``), "estimate" (jointly with K_g) or a 3-vector [gyro_unit].
     rng : int, Generator or None
         Seed or generator of a stochastic optimizer.
@@ -201,10 +201,15 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         1σ of misalignments a reduced model holds at 0 [rad] (their model error enters the stds of the scales
         and biases).
     gyro_g_sensitivity : float or None
-        1σ of the unmodelled gyro g-sensitivity [gyro_unit per m/s^2], added to the gyro bias and K std.
+        1σ of the unmodelled gyro g-sensitivity [gyro_unit per m/s^2], added to the gyro bias and K std. With the
+        default "local" bias and none given, a g-sensitivity the rest biases reveal (they follow the specific
+        force) enters instead, with a note.
     gyro_bias_instability : float, (3,) array or None
-        1σ gyro bias drift over the session [gyro_unit], added to the bias std. The gyro bias std also holds
-        the neglected Earth rate (Ω_E·K_ii).
+        1σ gyro bias drift over the session [gyro_unit], added to the bias std; with "local" the stationary σ of
+        a Gauss–Markov bias of correlation time ``gyro_bias_corr_time``, and the bias std is then against the
+        long-term bias instead of this session's. The gyro bias std also holds the neglected Earth rate.
+    gyro_bias_corr_time : float
+        Correlation time of that Gauss–Markov bias [s] (default ∞: a constant offset per run).
 
     Returns
     -------
@@ -314,11 +319,15 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
                                      g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit,
-                                     bias_instability=gyro_bias_instability)
+                                     bias_instability=gyro_bias_instability, bias_corr_time=gyro_bias_corr_time)
         gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
             notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
                          + "; ".join(gc.unobservable))
+        if gc.g_sensitivity_source == "rests":
+            notes.append(f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
+                         "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
+                         "--gyro-g-sensitivity to state the datasheet value")
         # Earth rate is neglected (module docs); "local" takes its share from the scatter of the rests
         b_std = gc.b_std if gc.bias_mode == "local" else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
@@ -536,6 +545,7 @@ class FileOptions:
     held_misalignment: float = accel.HELD_MISALIGNMENT
     gyro_g_sensitivity: float | None = None
     gyro_bias_instability: float | None = None
+    gyro_bias_corr_time: float = float("inf")
     generations: int | None = None
     seed: int = 0
 
@@ -621,7 +631,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                     source=source, method_options=method_options, rest=o.rest,
                     allow_unobservable=o.allow_unobservable, rotation_angle=np.radians(o.rotation_angle),
                     acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability)
+                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability,
+                    gyro_bias_corr_time=o.gyro_bias_corr_time)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res
 

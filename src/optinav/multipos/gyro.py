@@ -149,6 +149,9 @@ class GyroCalibration(Result):
     message: str = field(metadata={"unit": "-"})
     nfev: int = field(metadata={"unit": ""})
     elapsed_s: float = field(metadata={"unit": "s"})
+    #: 1σ per element of the gyro g-sensitivity in the std (given, or revealed by the rests in "local" mode)
+    g_sensitivity: float | None = field(default=None, metadata={"unit": "raw/(m/s^2)"})
+    g_sensitivity_source: str = field(default="none", metadata={"unit": "-"})
 
     def correct(self, gyro_raw) -> np.ndarray:
         """Calibrated rate ω = K⁻¹(raw − b), rad/s, for raw (..., 3)."""
@@ -281,6 +284,15 @@ class _Transitions:
         q = self.rotations(K, b)
         return quat_rotate(quat_conjugate(q), self.u0) - self.u1
 
+    def gravity_path(self, K, b) -> np.ndarray:
+        """Unit specific-force direction per row (body frame, (rows, 3)): u_k carried along the turn."""
+        w = (self.raw - b) @ np.linalg.inv(K).T
+        dth = 0.5 * (w[:-1] + w[1:]) * self.h[:, None]
+        dth[self.gap] = 0.0
+        q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), dth, coning=self.coning, dt=self.h)
+        q_rel = quat_multiply(quat_conjugate(q[self.starts][self.seg]), q)
+        return quat_rotate(quat_conjugate(q_rel), self.u0[self.seg])
+
     def turn_angles(self, b) -> tuple[np.ndarray, np.ndarray]:
         """Per transition: the raw rotation perpendicular to the first pose's gravity direction
         ``‖Θ_k − (Θ_k·u_k)u_k‖`` (raw·s, Θ_k = ∫(raw − b)dt; a turn about gravity moves no gravity direction) and
@@ -408,7 +420,8 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                    x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
                    allow_unobservable: bool = False, max_std: float = 0.05,
                    drop_transitions=(), g_sensitivity_std: float | None = None,
-                   gravity: float = 9.80665, unit: str | None = None, bias_instability=None) -> GyroCalibration:
+                   gravity: float = 9.80665, unit: str | None = None, bias_instability=None,
+                   bias_corr_time: float = float("inf")) -> GyroCalibration:
     """Gyro K and b of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -446,7 +459,9 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     g_sensitivity_std : float or None
         1σ of each element of the gyro g-sensitivity [raw per m/s^2] (datasheet), which the model leaves out.
         A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests), added to the bias variance; each
-        turn sees G·(f − f̄), at most σ·g per axis, propagated into K like a bias error.
+        turn sees G·(f − f̄), at most σ·g per axis, propagated into K like a bias error ("local": G·g·(u(t) − the
+        interpolation chord) along the integrated turn, to first order; when not given, the σ the rest biases
+        reveal if they follow the specific force, :func:`_rest_regression`).
     gravity : float
         Magnitude of f̄ along the mean up direction [m/s^2].
     unit : str or None
@@ -454,8 +469,12 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         the gravity-direction changes before the fit (:func:`optinav.multipos.gates.check_gyro_turns`).
     bias_instability : float, (3,) array or None
         1σ of a bias drift over the session [raw units] (datasheet in-run bias instability, or run-to-run),
-        added to the bias variance; with ``bias="local"`` it takes the place of the drift seen in the rests
-        when it is the larger.
+        added to the bias variance. With ``bias="local"`` it is the stationary σ of a first-order Gauss–Markov
+        bias of correlation time ``bias_corr_time``, and the variance added is what the session's mean over its
+        rests keeps of it (:func:`_local_bias_var`): the std is then against the unit's long-term bias, without it
+        against the bias of this session (the mean of the bias over the static intervals).
+    bias_corr_time : float
+        Correlation time of that Gauss–Markov bias [s] (default ∞: a constant offset per run).
 
     Returns
     -------
@@ -530,6 +549,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         k0_, k1_ = keep[tr.seg], keep[tr.seg] + 1
         f = ((tr.t_rows - tc[k0_]) / (tc[k1_] - tc[k0_]))[:, None]
         b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
+        chord = u[k0_] + f * (u[k1_] - u[k0_])  # the specific force the interpolated bias assumes (units of g)
         b_init = b_fixed
         b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
 
@@ -671,21 +691,50 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
                       np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
             G = -A @ Jb
-            # a static bias holds G·f̄ and each turn sees G·(f − f̄), up to σ·g per axis; "local" interpolates G·f
-            # between the two rests, and f leaves that chord by at most 0.29 g in a 90° turn (1 − cos 45°)
-            sg_turn = abs(float(g_sensitivity_std or 0.0)) * gravity * (0.3 if mode == "local" else 1.0)
+            # a static bias holds G·f̄ and each turn sees G·(f − f̄), up to σ·g per axis ("local": below)
+            sg_turn = abs(float(g_sensitivity_std or 0.0)) * gravity if mode != "local" else 0.0
             b_prop = b_cov + np.eye(3) * sg_turn ** 2
             cov[:9, :9] += G @ b_prop @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
+    g_sens = g_sensitivity_std
+    g_sens_source = "given" if g_sensitivity_std else "none"
     if mode == "local":
-        # K saw the local (noise-limited) biases; the reported session mean carries the drift
-        scatter = abs(float(g_sensitivity_std)) * gravity if g_sensitivity_std else 0.0
-        cov[9:, 9:] = np.diag(_local_bias_var(means, sems, counts, tc, K_hat, bias_instability, scatter))
+        # the session-mean bias: rest-mean noise and the rests' own scatter (Earth rate), plus a stated drift model
+        w_rest = counts / counts.sum()
+        reg = _rest_regression(means, tc, u, gravity)
+        cov[9:, 9:] = np.diag(_local_bias_var(sems, w_rest, u, tc, K_hat, bias_instability, bias_corr_time))
+        if not g_sensitivity_std and reg is not None and reg["g_significant"]:
+            # the rest biases follow the specific force: the data reveal a g-sensitivity the model leaves out
+            g_sens, g_sens_source = reg["g_sigma"], "rests"
+        if g_sens:
+            # a g-sensitivity G enters linearly: b̂ holds G·g·ū (ū the rests' mean up direction), and each turn's
+            # interpolated bias misses G·g·(u(t) − chord(t)); first-order propagation of the 9 elements of G
+            ubar = w_rest @ u
+            dev = (tr.gravity_path(K_hat, b_fixed) - chord) * gravity
+            r0 = r_ang.reshape(-1)
+            hg = k0 * _B_SCALE * 1e-3 / gravity
+            J_G = np.empty((r0.size, 9))
+            for i in range(3):
+                for j in range(3):
+                    bb = b_fixed.copy()
+                    bb[:, i] += hg * dev[:, j]
+                    J_G[:, 3 * i + j] = (tr.residuals(K_hat, bb).reshape(-1) - r0) / hg
+            L = np.zeros((12, 9))
+            L[:9] = A @ J_G
+            # the part of G's turn errors that K cannot absorb is already in σ̂ (the residuals): count it once
+            P = J_G - J @ L[:9]
+            sig2 = sig_hat ** 2
+            if sig2 > 0:
+                keep = max(sig2 - float(g_sens) ** 2 * float(np.sum(P * P)) / max(dof, 1), 0.0) / sig2
+                cov[:9, :9] -= (1.0 - keep) * cov_fit
+            for i in range(3):
+                L[9 + i, 3 * i: 3 * i + 3] = gravity * ubar
+            cov += float(g_sens) ** 2 * (L @ L.T)
     elif bias_instability is not None and mode != "given":
         # a drift common to the whole session leaves no trace in the rests: only a noise model can bound it
         cov[9:, 9:] += np.diag(np.broadcast_to(np.square(np.asarray(bias_instability, float)), (3,)))
-    if g_sensitivity_std:
+    if g_sensitivity_std and mode != "local":
         sg = abs(float(g_sensitivity_std)) * float(gravity)
         fbar = (counts[:, None] * u).sum(0) / counts.sum() if mode != "rest" else np.ones(1)
         cov[9:, 9:] += np.eye(3) * sg ** 2 * float(fbar @ fbar)
@@ -720,32 +769,58 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         n_transitions=int(n_tr), sigma=float(sigma_ang), dof=int(dof), k0=float(k0), observability=rep,
         unobservable=unobservable, earth_rate_bound=beta, earth_rate_param_bound=bound, method=method,
         bias_mode=mode, coning=coning, success=bool(res.success), message=str(res.message), nfev=int(nfev),
-        elapsed_s=time.perf_counter() - t_start)
+        elapsed_s=time.perf_counter() - t_start, g_sensitivity=float(g_sens) if g_sens else None,
+        g_sensitivity_source=g_sens_source)
 
 
-def _local_bias_var(means, sems, counts, tc, K, bias_instability=None, g_scatter: float = 0.0) -> np.ndarray:
-    """Variance (3,) of the session-mean bias of ``bias="local"`` (raw²), from the rests themselves.
+def _rest_regression(means, tc, u, gravity: float) -> dict | None:
+    """Per axis, the rest means regressed on a quadratic in time (the drift the interpolation tracks) and on the
+    specific force ``g·u_k`` (a g-sensitivity, and the vertical Earth rate, which each pose projects as ``u_k``):
+    ``m_k = c₀ + c₁x + c₂x² + G·g·u_k + e_k``. Returns the residual variance ``s2`` (3,) of ``e_k`` (white noise,
+    the horizontal Earth rate, drift the quadratic misses), ``G`` (3, 3, raw per m/s²), the pooled 1σ per element of G beyond its
+    estimation noise (``g_sigma``) and whether G differs from zero (χ², 9 dof, p < 0.001); None below 8 rests."""
+    from scipy.stats import chi2
 
-    The rest means ``m_k`` scatter about a smooth drift by the white noise and by the Earth rate, which each pose
-    projects differently; their scatter about a quadratic trend in time (``s²``) over the number of rests bounds
-    what averaging leaves of both. The drift itself is the scatter of the rest means beyond what the Earth rate
-    alone can put there (a rate of norm ``Ω_E·K_ii`` in unknown directions: ``(Ω_E·K_ii)²/3`` per axis); it is
-    added whole, since the session-mean offset of a drift is about as large as its spread within the session.
-    A given ``bias_instability`` (1σ, raw) replaces that drift term when it is the larger; ``g_scatter`` (raw, the
-    given g-sensitivity 1σ times g) is scatter the poses explain, not drift. Monte Carlo check: :mod:`optinav.multipos.uncertainty`."""
     n = means.shape[0]
-    sem2 = (counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2
-    if n < 4:
-        return np.maximum(sem2, means.var(axis=0, ddof=1) if n > 1 else sem2)
+    if n < 8:
+        return None
     x = (tc - tc.mean()) / max(float(np.ptp(tc)), 1e-12)
-    A = np.column_stack([np.ones(n), x, x * x])
-    coef, *_ = np.linalg.lstsq(A, means, rcond=None)
-    s2 = np.maximum(((means - A @ coef) ** 2).sum(0) / (n - 3) - g_scatter ** 2, 0.0)
-    earth2 = (_earth.constants("wgs84").omega_ie * np.abs(np.diag(K))) ** 2 / 3.0 + g_scatter ** 2
-    drift2 = np.maximum(0.0, means.var(axis=0, ddof=1) - earth2)
+    X = np.column_stack([np.ones(n), x, x * x, gravity * u])
+    XtX_inv = np.linalg.pinv(X.T @ X)
+    coef = XtX_inv @ X.T @ means
+    dof = n - np.linalg.matrix_rank(X)
+    if dof < 2:
+        return None
+    s2 = ((means - X @ coef) ** 2).sum(0) / dof
+    G = coef[3:].T                                    # row i: axis i's sensitivity to f_x, f_y, f_z
+    var_G = s2[:, None] * np.diag(XtX_inv)[None, 3:]  # (3, 3)
+    stat = float(np.sum(G ** 2 / np.maximum(var_G, 1e-300)))
+    g_sigma = float(np.sqrt(max(np.mean(G ** 2 - var_G), 0.0)))
+    return {"s2": s2, "G": G, "g_sigma": g_sigma, "g_significant": bool(stat > chi2.ppf(0.999, 9)) and g_sigma > 0}
+
+
+def _local_bias_var(sems, w, u, tc, K, bias_instability=None, corr_time: float = float("inf")) -> np.ndarray:
+    """Variance (3,) of the session-mean bias of ``bias="local"`` (raw²): ``b̂ = Σ w_k m_k`` (w_k the rests' sample
+    shares) against the mean of the bias over the rests (the session's bias).
+
+    The interpolation tracks a drift and the reported mean is the session's, so neither a drift nor the spread of
+    the rest means (which a drift or a g-sensitivity puts there) is an error of it. What is: the white noise of the
+    rest means, ``Σ w_k² s_k²``, and the Earth rate each rest holds (Ω_E·K_ii at most per axis): its horizontal
+    part points a different way in each pose (heading unknown: a random direction, ``Σ w_k²·(Ω_E K_ii)²/3``), its
+    vertical part along ``u_k`` in every pose (``|ū|²·(Ω_E K_ii)²/3``, ū = Σ w_k u_k). A given
+    ``bias_instability`` σ (raw) is the stationary 1σ of a first-order Gauss–Markov bias of correlation time
+    ``corr_time`` (s): the session mean then differs from the long-term bias by
+    ``σ²·Σ_kl w_k w_l exp(−|t_k − t_l|/τ)`` (σ² for τ = ∞, a run-to-run offset), which is added (the std is then
+    against the long-term bias). Monte Carlo check: :mod:`optinav.multipos.uncertainty`."""
+    w = np.asarray(w, float)
+    ubar = w @ u
+    earth2 = (_earth.constants("wgs84").omega_ie * np.abs(np.diag(K))) ** 2 / 3.0
+    var = (w[:, None] ** 2 * sems ** 2).sum(0) + earth2 * (float(w @ w) + float(ubar @ ubar))
     if bias_instability is not None:
-        drift2 = np.maximum(drift2, np.square(np.asarray(bias_instability, float)))
-    return sem2 + s2 / n + drift2
+        tau = float(corr_time)
+        E = np.exp(-np.abs(tc[:, None] - tc[None, :]) / tau) if np.isfinite(tau) else np.ones((tc.size, tc.size))
+        var = var + np.square(np.asarray(bias_instability, float)) * float(w @ E @ w)
+    return var
 
 
 def _sigma_hat(r, dof: int) -> float:

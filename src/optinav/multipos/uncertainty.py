@@ -67,13 +67,41 @@ def run_all(n_runs: int = 100, rng=0) -> dict[str, dict[str, float]]:
     return {name: run_config(cfg, n_runs, rng) for name, cfg in CONFIGS.items()}
 
 
+def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.ndarray:
+    """The unit's mean gyro bias over the static samples of simulated session ``s`` (raw): its constant bias plus
+    the mean of its Gauss–Markov drift there — over the static intervals the calibration used (``intervals``,
+    (t0, t1) s; what ``local`` reports the bias of), else over the simulated poses. The drift is redrawn from ``seed`` in the order :func:`simulate`
+    draws it (the unit first when ``drawn``, then the gyro white noise and the Gauss–Markov bias)."""
+    from optinav.core.imu_model import gauss_markov, white_noise
+
+    gen = np.random.default_rng(seed)
+    if drawn:
+        unit = unit.draw(gen)
+    n = s.t.size
+    d = np.r_[np.diff(s.t), 1.0 / unit.sample_rate]
+    nz = unit.gyro_noise
+    if np.any(nz.white > 0):
+        white_noise(n, nz.white, d, gen, kind="rate")
+    drift = gauss_markov(n, nz.gm_sigma, nz.gm_tau, d, gen) if np.any(nz.gm_sigma > 0) else np.zeros((n, 3))
+    rest = s.labels >= 0
+    if intervals is not None:
+        rest = np.zeros(n, bool)
+        for t0, t1 in np.asarray(intervals, float):
+            rest |= (s.t >= t0) & (s.t <= t1)
+    fg = float(np.mean(np.diag(s.gyro_K))) / float(np.mean(np.diag(unit.gyr.K)))
+    return s.gyro_b + drift[rest].mean(0) * fg
+
+
 #: gyro g-sensitivity 1σ per element (rad/s per m/s², ≈ 0.1 °/s/g) of :func:`gyro_g_sensitivity_study`
 GYRO_G_SENSITIVITY = 1.8e-4
 
 
-def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, float]]:
+def gyro_g_sensitivity_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, float]]:
     """RMS(error/std) of the gyro bias and K when the unit has a g-sensitivity the model leaves out, without
-    and with ``--gyro-g-sensitivity`` (the true 1σ): full simulated sessions (18 poses, 8 s dwell, counts)."""
+    and with ``--gyro-g-sensitivity`` (the true 1σ): full simulated sessions (18 poses, 8 s dwell, counts). The
+    bias error is against the session's bias at zero specific force (:func:`_session_gyro_bias`: the unit's bias
+    plus the mean of its 10 °/h drift over the rests), the quantity ``local`` reports without
+    ``--gyro-bias-instability``. ``only``: the names of the rows to run (default both)."""
     import dataclasses
 
     from optinav.core.imu_model import TriadErrors, preset
@@ -94,13 +122,16 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
         s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
         _, Q = model.upper_triangular_form(s.acc_K)
         Kg = s.gyro_K @ Q.T
-        for name, opt in zip(z, (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyro_K))))):
+        for name, opt in zip(list(z), (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyro_K))))):
+            if only is not None and name not in set(only):
+                continue
             r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                           gyro_g_sensitivity=opt)
-            z[name][0].extend((r.gyroscope["b"] - s.gyro_b) / r.gyroscope["b_std"])
+            b_true = _session_gyro_bias(s, unit, seed, drawn=False, intervals=r.static_intervals)
+            z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
             z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
-                   "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items()}
+                   "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items() if b}
 
 
 #: in-run gyro bias instability (°/h, datasheet B; Gauss–Markov, τ 100 s) of the drifting unit of
@@ -108,12 +139,13 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
 DRIFTING_GYRO_DEG_H = 100.0
 
 
-def gyro_drift_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, float]]:
+def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, float]]:
     """RMS(error/std) of the gyro bias and K under a bias that drifts in the run (first-order Gauss–Markov of the
-    MTi-1 preset: its own 10 °/h, and :data:`DRIFTING_GYRO_DEG_H`), against the unit's long-term bias: the
-    default ``--gyro-bias local``, the former default ``static``, and ``local`` with ``--gyro-bias-instability``
-    (the process's stationary 1σ). Full simulated sessions (18 poses, 8 s dwell, counts), as
-    :func:`gyro_g_sensitivity_study`."""
+    MTi-1 preset: its own 10 °/h, and :data:`DRIFTING_GYRO_DEG_H`): the default ``--gyro-bias local``, the
+    former default ``static``, and ``local`` with ``--gyro-bias-instability`` (the process's stationary 1σ) and
+    ``--gyro-bias-corr-time`` (its τ). Without the instability option the bias error is against the session's bias
+    (:func:`_session_gyro_bias`), with it against the unit's long-term bias. Full simulated sessions (18 poses,
+    8 s dwell, counts), as :func:`gyro_g_sensitivity_study`."""
     from optinav.core.imu_model import GM_SIGMA_PER_BIAS_INSTABILITY, preset
     from optinav.core.units import DEG
 
@@ -126,12 +158,14 @@ def gyro_drift_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, float]]:
              (f"gyro, bias {hi}, static (the former default)", DRIFTING_GYRO_DEG_H, "static", False),
              (f"gyro, bias {hi}, local (default)", DRIFTING_GYRO_DEG_H, "local", False),
              (f"gyro, bias {hi}, local + --gyro-bias-instability", DRIFTING_GYRO_DEG_H, "local", True)]
+    if only is not None:  # a subset of the rows (by name)
+        cases = [c for c in cases if c[0] in set(only)]
     z = {name: ([], []) for name, *_ in cases}
     for _ in range(int(n_runs)):
         seed = int(gen.integers(2 ** 31))
         for B in sorted({c[1] for c in cases}):
-            s = simulate("18", spec=preset("mems-mti1", gyro_bias_instability=(B, "deg/h")), dwell_s=8,
-                                 rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
+            spec = preset("mems-mti1", gyro_bias_instability=(B, "deg/h"))
+            s = simulate("18", spec=spec, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
             _, Q = model.upper_triangular_form(s.acc_K)
             Kg = s.gyro_K @ Q.T
             for name, b_case, mode, given in cases:
@@ -139,8 +173,11 @@ def gyro_drift_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, float]]:
                     continue
                 inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
                 r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
-                                      gyro_bias=mode, gyro_bias_instability=inst if given else None)
-                z[name][0].extend((r.gyroscope["b"] - s.gyro_b) / r.gyroscope["b_std"])
+                              gyro_bias=mode, gyro_bias_instability=inst if given else None,
+                              gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)))
+                b_true = s.gyro_b if given else _session_gyro_bias(s, spec, seed, drawn=True,
+                                                                   intervals=r.static_intervals)
+                z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
                 z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
                    "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items()}
