@@ -291,7 +291,12 @@ def test_presets_convert_published_numbers():
     assert mpu.accel_bias == pytest.approx([0.05 * G0, 0.05 * G0, 0.08 * G0])  # ±50/50/80 mg
     assert mpu.gyro_bias[0] == pytest.approx(20 * DEG)
     assert mpu.gyro_g_sensitivity == pytest.approx(0.1 * DEG / G0)
-    assert set(PRESETS) == {"rlg-nav", "mems-mti1", "mpu6000"}
+    tac = preset("tactical-mems")  # ADIS16495 class: 0.8 °/h, 0.09 °/√h; 3.2 μg, 0.008 m/s/√h
+    assert tac.gyro_bias_instability[0] == pytest.approx(0.8 * DEG / 3600)
+    assert tac.gyro_arw[0] == pytest.approx(0.09 * DEG / 60)
+    assert tac.accel_bias_instability[0] == pytest.approx(3.2e-6 * G0)
+    assert tac.accel_vrw[0] == pytest.approx(0.008 / 60)
+    assert set(PRESETS) == {"rlg-nav", "tactical-mems", "mems-mti1", "mpu6000"}
 
 
 def test_preset_overrides_and_round_trip():

@@ -28,7 +28,17 @@ _QUIET: list[bool] = [False]  # the innermost quiet() setting, last
 @contextlib.contextmanager
 def quiet(enabled: bool = True):
     """No progress output (and no log lines of :func:`is_quiet` callers) inside the block when ``enabled``; the
-    previous setting is restored after it, so one CLI call does not silence the next."""
+    previous setting is restored after it, so one CLI call does not silence the next.
+
+    Parameters
+    ----------
+    enabled : bool
+        Silence output inside the block.
+
+    Yields
+    ------
+    None
+    """
     _QUIET.append(bool(enabled))
     try:
         yield
@@ -37,13 +47,30 @@ def quiet(enabled: bool = True):
 
 
 def is_quiet() -> bool:
-    """Whether progress and log output is silenced: :func:`quiet` or the ``OPTINAV_QUIET`` environment variable."""
+    """Whether progress and log output is silenced: :func:`quiet` or the ``OPTINAV_QUIET`` environment variable.
+
+    Returns
+    -------
+    bool
+        True when silenced.
+    """
     return _QUIET[-1] or bool(os.environ.get("OPTINAV_QUIET"))
 
 
 def tqdm(*args, **kwargs):
     """tqdm's bar, imported on first use (tqdm.auto costs a fifth of a second at start-up, before a command can
-    report a bad input file)."""
+    report a bad input file).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        What ``tqdm.auto.tqdm`` takes.
+
+    Returns
+    -------
+    tqdm.auto.tqdm
+        The bar.
+    """
     from tqdm.auto import tqdm as bar
 
     return bar(*args, **kwargs)

@@ -487,7 +487,9 @@ def plot_plan(plan: PosePlan, path) -> None:
     rows = math.ceil(P / cols)
     fig = plt.figure(figsize=(3.2 * cols, 3.4 * rows))
     half = np.array([0.5, 0.35, 0.2])  # a box, not a cube: the faces are told apart by size too
-    elev, azim = 25.0, -60.0
+    # from 60° above: a face whose normal is ≥ 30° above level (every "up" face of a pose, edge poses 45°, corner
+    # poses 54.7°) faces the camera from any azimuth; at 25° an up face on the far side was hidden
+    elev, azim = 60.0, -60.0
     e, a = math.radians(elev), math.radians(azim)
     view = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])  # towards the camera
     for k in range(P):
@@ -511,8 +513,9 @@ def plot_plan(plan: PosePlan, path) -> None:
                 centre = C @ (n * half)
                 ax.text(*(centre + 0.12 * (C @ n)), name, fontsize=9, ha="center", va="center", weight="bold",
                         zorder=10)
-        ax.quiver(0, 0, 0.55, 0, 0, 0.35, color="k", arrow_length_ratio=0.3)
-        ax.text(0, 0, 0.98, "up", fontsize=7, ha="center")
+        # beside the box, not above it: seen from 60° an arrow over the box lies across its top faces
+        ax.quiver(-0.65, 0.65, 0.0, 0, 0, 0.45, color="k", arrow_length_ratio=0.3)
+        ax.text(-0.65, 0.65, 0.55, "up", fontsize=7, ha="center")
         ax.quiver(0, -0.7, -0.7, 0, 0.4, 0, color="gray", arrow_length_ratio=0.3)
         ax.text(0, -0.2, -0.7, "N", fontsize=7, color="gray")
         ax.set_xlim(-0.7, 0.7)
