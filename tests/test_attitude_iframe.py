@@ -102,6 +102,21 @@ def test_gyro_bias_in_fast_motion():
     assert 3 * tilt_deg(r.q, q_true, slice(n // 2, None)) < tilt_deg(lim.q, q_true, slice(n // 2, None))
 
 
+def test_output_timing_convention_on_instantaneous_samples():
+    """gyr[k] is integrated over (t[k−1], t[k]] and q[k] is the output (docs/methods/attitude.md, "Timing"): for
+    instantaneous samples of a yaw rate α·t that puts the output at t[k] + h/2, exactly to the constant −α h²/8
+    of the rectangle rule, and not at t[k] (off by α h t[k]/2, growing)."""
+    n, alpha = 2000, 0.3  # 20 s, up to 6 rad/s about the vertical; level, so gravity alone reads the same
+    t = np.arange(n) * DT
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), alpha * t])
+    acc = np.tile([0.0, 0.0, -G], (n, 1))
+    q = estimate_q(gyr, acc, DT, frame="NED", checks=False)
+    yaw = np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0]))
+    lead = yaw - 0.5 * alpha * (t + 0.5 * DT) ** 2
+    assert np.max(np.abs(lead + alpha * DT ** 2 / 8)) < 1e-9
+    assert np.abs(yaw[-1] - 0.5 * alpha * t[-1] ** 2) > 0.9 * alpha * DT * t[-1] / 2
+
+
 def test_rest_detection_in_physical_units():
     n = 3000
     w, acc, _ = motion(n, seed=4, amp=0.5, rest=1000)
