@@ -166,7 +166,7 @@ def _check(path: Path, ns, acc, gyr) -> None:
 
     log = read_imu(path)
     t = (ns // 10**9) + (ns % 10**9) * 1e-9
-    if not (np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyro, gyr)):
+    if not (np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)):
         raise RuntimeError(f"{path.name}: the values read differ from those written")
 
 

@@ -17,8 +17,8 @@ def _static(c_true, seconds, rate, frame):
 
 
 def _unit(eps_b, nab_b, arw=0.0, vrw=0.0):
-    return imu_model.ImuModel(gyro=imu_model.TriadErrors.from_six("gyro", bias=eps_b),
-                              accel=imu_model.TriadErrors.from_six("accel", bias=nab_b),
+    return imu_model.ImuModel(gyr=imu_model.TriadErrors.from_six("gyro", bias=eps_b),
+                              acc=imu_model.TriadErrors.from_six("accel", bias=nab_b),
                               gyro_noise=imu_model.TriadNoise(white=arw), accel_noise=imu_model.TriadNoise(white=vrw))
 
 
@@ -113,7 +113,7 @@ def test_fine_alignment_with_navigation_grade_noise():
     # Level: the unit's constant biases give the limit ∇/g; its white noise over T adds σ = VRW/(g√T), and the
     # in-run Gauss–Markov drift (σ_GM) moves the limit by up to a few σ_GM/g: allow 4σ + 3σ_GM/g.
     T, g = 300.0, earth.gravity(LAT, 400.0)
-    pred = A.alignment_limits(c_true @ unit.gyro.bias, c_true @ unit.accel.bias, LAT, 400.0, frame)
+    pred = A.alignment_limits(c_true @ unit.gyr.bias, c_true @ unit.acc.bias, LAT, 400.0, frame)
     sig_lvl = unit.accel_noise.white[0] / g / np.sqrt(T)
     drift_lvl = unit.accel_noise.gm_sigma[0] / g
     assert np.all(np.abs(phi[:2] - pred[:2]) < 4 * sig_lvl + 3 * drift_lvl), (phi, pred)

@@ -96,7 +96,7 @@ def test_streamed_log_matches_in_memory(rest, tmp_path):
     assert res.accelerometer is None
     log = read_imu(data)
     dt = (log.t[-1] - log.t[0]) / (len(log.t) - 1)
-    ref = allan_deviation(log.gyro, dt, unit="rad/s")
+    ref = allan_deviation(log.gyr, dt, unit="rad/s")
     dev = res.gyroscope["deviation"]
     assert np.allclose(dev.tau, ref.tau, rtol=1e-12)
     assert np.max(np.abs(dev.adev / ref.adev - 1)) < 1e-9

@@ -36,10 +36,10 @@ def test_cli_attitude_with_polarization(flight, capsys):
     r = _read(out)
     assert r.dtype.names == ("t", "qw", "qx", "qy", "qz", "roll_deg", "pitch_deg", "yaw_deg")
     q = np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]])
-    err = np.degrees(quat_angle_between(q, d.q_true))
+    err = np.degrees(quat_angle_between(q, d.q_b_n))
     assert np.sqrt(np.mean(err[500:] ** 2)) < 3.0
     # the Euler columns are the quaternion's, in degrees
-    e = np.degrees(euler_errors(q, d.q_true))
+    e = np.degrees(euler_errors(q, d.q_b_n))
     assert np.allclose(np.degrees(d.euler[:, :2]) + e[:, :2], np.column_stack([r["roll_deg"], r["pitch_deg"]]),
                        atol=1e-5)
     assert (rep / "index.md").is_file()
@@ -52,7 +52,7 @@ def test_cli_attitude_gyro_acc_only(flight):
     assert main(["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--method", "qn", "--out", str(out)]) == 0
     r = _read(out)
     assert r.shape == (len(d),)
-    tilt = np.degrees(euler_errors(np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]]), d.q_true))[:, :2]
+    tilt = np.degrees(euler_errors(np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]]), d.q_b_n))[:, :2]
     assert np.sqrt(np.mean(tilt[500:] ** 2)) < 5.0
 
 

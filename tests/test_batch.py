@@ -36,7 +36,7 @@ def units(tmp_path_factory):
     for name, acc_unit, seed in UNITS:
         s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(LAT),
                      height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
-        write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyro=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
+        write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s
     (d / BAD).write_text("t,ax,ay,az\n0,1,2\n1,2,oops,4\n")
     (d / "u1.truth.json").write_text("{}")  # not a unit

@@ -93,7 +93,7 @@ def test_two_files_sharing_the_time_column(session, tmp_path):
     log = read_imu(data)
     acc_f, gyro_f = tmp_path / "acc.csv", tmp_path / "gyro.csv"
     np.savetxt(acc_f, np.column_stack([log.t, log.acc]), delimiter=",", header="t,ax,ay,az", comments="")
-    np.savetxt(gyro_f, np.column_stack([log.t, log.gyro / (np.pi / 180)]), delimiter=" ")
+    np.savetxt(gyro_f, np.column_stack([log.t, log.gyr / (np.pi / 180)]), delimiter=" ")
     out = tmp_path / "r.json"
     assert main(["--quiet", "calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(gyro_f),
                  "--gyro-columns", "t,gx,gy,gz", "--gyro-unit", "deg/s", "--latitude", "38.88", "--height", "35",
@@ -102,7 +102,7 @@ def test_two_files_sharing_the_time_column(session, tmp_path):
     assert res.gyroscope is not None and res.units["gyroscope_raw"] == "deg/s"
     # mismatched time columns → one-line error, exit 2
     g2 = tmp_path / "gyro2.csv"
-    np.savetxt(g2, np.column_stack([log.t + 0.001, log.gyro]), delimiter=",")
+    np.savetxt(g2, np.column_stack([log.t + 0.001, log.gyr]), delimiter=",")
     assert main(["calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(g2), "--gyro-columns",
                  "t,gx,gy,gz", "--out", str(tmp_path / "x.json")]) == 2
 
@@ -176,7 +176,7 @@ def test_imucal_session_ferraris_method_matches_reference(tmp_path):
     got = read_imu(corrected)
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     np.testing.assert_allclose(got.acc[:50, 0], snap["acc_x"], rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(got.gyro[:50, 2] * 180 / np.pi, snap["gyr_z"], rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(got.gyr[:50, 2] * 180 / np.pi, snap["gyr_z"], rtol=1e-8, atol=1e-8)
 
 
 def test_saturated_samples_are_excluded_and_counted(session):

@@ -236,7 +236,7 @@ def test_apply_reads_imucal_own_export_and_matches_its_output(tmp_path):
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     for j, ax in enumerate("xyz"):
         np.testing.assert_allclose(got.acc[:50, j], snap[f"acc_{ax}"], rtol=1e-9, atol=1e-9)
-        np.testing.assert_allclose(np.degrees(got.gyro[:50, j]), snap[f"gyr_{ax}"], rtol=1e-8, atol=1e-8)
+        np.testing.assert_allclose(np.degrees(got.gyr[:50, j]), snap[f"gyr_{ax}"], rtol=1e-8, atol=1e-8)
     res = load_calibration(ref)
     export_calibration(res, "imucal", tmp_path / "again.json")
     a, b = read_imucal_json(ref), read_imucal_json(tmp_path / "again.json")

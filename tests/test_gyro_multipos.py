@@ -55,14 +55,14 @@ def _session(rng, *, lat=0.0, earth_model="none", jitter=True):
     truth = static_positions(P, dwell=dwell, rate_hz=RATE, lat=lat, transition=tr, t=t, **kw)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
-    f = np.array([truth.f_b[a:b].mean(0) for a, b in iv])
+    f = np.array([truth.acc[a:b].mean(0) for a, b in iv])
     return truth, iv, f / np.linalg.norm(f, axis=1)[:, None]
 
 
 def _measure(truth, u0, rng, arw=ARW, u_noise=None, quantize=True):
     u_noise = U_NOISE if u_noise is None else u_noise
     dt = np.median(np.diff(truth.t))
-    w = truth.omega_ib_b
+    w = truth.gyr
     raw = w @ K_TRUE.T + B_TRUE + rng.normal(0.0, arw / np.sqrt(dt), w.shape) * COUNTS
     if quantize:
         raw = np.round(raw)
@@ -142,7 +142,7 @@ def _single_axis_session(rng):
     truth = static_positions(P, dwell=2.0, rate_hz=RATE, lat=0.7, transition=2.0)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
-    f = np.array([truth.f_b[a:b].mean(0) for a, b in iv])
+    f = np.array([truth.acc[a:b].mean(0) for a, b in iv])
     raw, u = _measure(truth, f / np.linalg.norm(f, axis=1)[:, None], rng)
     return truth, raw, iv, u
 

@@ -44,4 +44,4 @@ def test_howto_runs_as_written(tmp_path, monkeypatch, capsys):
     from optinav.io import read_imu
 
     ref, tk = read_imu("corrected-imucal.csv"), read_imu("corrected-imu_tk.csv")
-    assert np.allclose(ref.acc, tk.acc, rtol=1e-9, atol=1e-9) and np.allclose(ref.gyro, tk.gyro, rtol=1e-9, atol=1e-9)
+    assert np.allclose(ref.acc, tk.acc, rtol=1e-9, atol=1e-9) and np.allclose(ref.gyr, tk.gyr, rtol=1e-9, atol=1e-9)

@@ -63,7 +63,7 @@ def test_triad_apply_compensate_are_inverses(tri, x, f, dt, kind):
        st.floats(1e-3, 0.1))
 def test_imu_model_apply_compensate_identity(gyro, accel, w, f, kind, dt):
     """Noise-free, no saturation/quantization: compensate∘apply = id (g-sensitivity uses compensated f)."""
-    model = ImuModel(gyro=gyro, accel=accel)
+    model = ImuModel(gyr=gyro, acc=accel)
     meas = model.apply(w, f, dt, kind=kind, noise=False)
     comp = model.compensate(meas.gyro, meas.accel, dt, kind=kind)
     assert np.allclose(comp.accel, f, rtol=0, atol=_tol(f, meas.accel, accel.bias))
@@ -99,7 +99,7 @@ def test_upper_triangular_form():
     spec = preset("mems-mti1", misalignment_form="upper")
     for seed in range(5):
         unit = spec.draw(seed)
-        assert unit.accel.is_upper_triangular and unit.gyro.is_upper_triangular
+        assert unit.acc.is_upper_triangular and unit.gyr.is_upper_triangular
 
 
 def test_increment_bias_scales_with_dt():
@@ -217,7 +217,7 @@ def test_saturation_flags_exactly_samples_beyond_range(kind):
     gyro = TriadErrors.from_six("gyro", bias=[0.1, -0.2, 0.05], scale=[0.01, 0.0, -0.02],
                                 misalignment=[1e-3, 0, 0, 2e-3, 0, -1e-3])
     rng_lim = np.array([1.0, 1.5, 2.0])
-    model = ImuModel(gyro=gyro, gyro_noise=TriadNoise(range=rng_lim))
+    model = ImuModel(gyr=gyro, gyro_noise=TriadNoise(range=rng_lim))
     meas = model.apply(w, np.zeros((n, 3)), dt, kind=kind, noise=False)
     ideal = gyro.apply(w, dt=dt, kind=kind)
     ideal_rate = ideal / dt[:, None] if kind == "increment" else ideal
@@ -302,7 +302,7 @@ def test_preset_overrides_and_round_trip():
     assert isinstance(back, ImuSpec) and np.array_equal(back.gyro_range, spec.gyro_range)
     unit = spec.draw(3)
     again = ImuModel.from_json(unit.to_json())
-    assert np.array_equal(again.gyro.K, unit.gyro.K) and np.array_equal(again.accel_noise.range, unit.accel_noise.range)
+    assert np.array_equal(again.gyr.K, unit.gyr.K) and np.array_equal(again.accel_noise.range, unit.accel_noise.range)
     n = 10
     meas = unit.apply(np.zeros((n, 3)), np.tile([0, 0, G0], (n, 1)), rng=1)
     assert isinstance(Result.from_json(meas.to_json()), ImuMeasurement)
@@ -314,13 +314,13 @@ def test_draw_statistics_match_spec():
     n = 1500
     rng = np.random.default_rng(12)
     units = [spec.draw(rng) for _ in range(n)]
-    b = np.array([u.gyro.bias for u in units])
-    s = np.array([u.accel.scale for u in units])
-    m = np.array([u.gyro.misalignment6 for u in units])
+    b = np.array([u.gyr.bias for u in units])
+    s = np.array([u.acc.scale for u in units])
+    m = np.array([u.gyr.misalignment6 for u in units])
     lo, hi = _chi2_bounds(n)
     for r in ((b**2).mean(0) / 1e-6, (s**2).mean(0) / spec.accel_scale**2, (m**2).mean(0) / 1e-6):
         assert np.all((lo < r) & (r < hi)), r
-    assert np.all([np.all(u.accel.bias == 0) for u in units[:5]])
+    assert np.all([np.all(u.acc.bias == 0) for u in units[:5]])
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -32,7 +32,7 @@ def _log(n=50, seed=0, counts=False, labels=False):
     if counts:
         acc, gyro = np.round(acc * 400), np.round(gyro * 900)
     lab = np.repeat(np.array(["x_p", "x_a", "z_rot"]), -(-n // 3))[:n] if labels else None
-    return ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if counts else "m/s^2",
+    return ImuLog(t=t, acc=acc, gyr=gyro, acc_unit="counts" if counts else "m/s^2",
                   gyro_unit="counts" if counts else "rad/s", labels=lab, sample=np.arange(n) + 7)
 
 
@@ -43,7 +43,7 @@ def _write(path: Path, text: str) -> Path:
 
 def _same(a: ImuLog, b: ImuLog):
     assert np.array_equal(a.t, b.t)
-    for name in ("acc", "gyro"):
+    for name in ("acc", "gyr"):
         x, y = getattr(a, name), getattr(b, name)
         assert (x is None) == (y is None)
         if x is not None:
@@ -73,14 +73,14 @@ def test_round_trip_every_format(tmp_path, suffix, counts):
 def test_round_trip_keeps_nan_rows_and_units_on_output(tmp_path):
     log = _log()
     log.acc[3, 1] = np.nan
-    log.gyro[10, 2] = np.inf
-    log.gyro[3, 0] = np.nan  # same row as the acc NaN: counted once
+    log.gyr[10, 2] = np.inf
+    log.gyr[3, 0] = np.nan  # same row as the acc NaN: counted once
     log.nan_rows = 2
     back = read_imu(write_imu(tmp_path / "x.csv", log, acc_unit="g", gyro_unit="deg/s"))
     assert back.nan_rows == 2 and back.acc_input_unit == "g" and back.gyro_input_unit == "deg/s"
     np.testing.assert_allclose(back.acc, log.acc, rtol=1e-15)
-    np.testing.assert_allclose(back.gyro, log.gyro, rtol=1e-15)
-    assert np.isnan(back.acc[3, 1]) and np.isinf(back.gyro[10, 2])
+    np.testing.assert_allclose(back.gyr, log.gyr, rtol=1e-15)
+    assert np.isnan(back.acc[3, 1]) and np.isinf(back.gyr[10, 2])
     text = (tmp_path / "x.csv").read_text().splitlines()
     assert text[1] == "# units: t=s acc=g gyro=deg/s" and text[2] == "t,sample,ax,ay,az,gx,gy,gz"
     with pytest.raises(OptinavError, match="declares g but acc_unit='m/s\\^2'"):
@@ -136,7 +136,7 @@ def test_text_delimiters_and_header_detection(tmp_path, delim, header):
     log = read_imu(path, columns=None if header else "t,ax,ay,az")
     np.testing.assert_array_equal(log.acc, np.asarray(ROWS)[:, 1:])
     np.testing.assert_array_equal(log.t, np.asarray(ROWS)[:, 0])
-    assert log.gyro is None
+    assert log.gyr is None
 
 
 def test_explicit_delimiter_and_positional_columns(tmp_path):
@@ -154,13 +154,13 @@ def test_aliases_are_recognised(tmp_path):
     log = read_imu(_write(tmp_path / "a.csv", "\n".join([header, *rows])))
     np.testing.assert_allclose(log.t, [0, 0.02, 0.04], rtol=0, atol=1e-17)  # ms from the header
     np.testing.assert_array_equal(log.acc, [[4, 5, 6]] * 3)
-    np.testing.assert_array_equal(log.gyro, [[1, 2, 3]] * 3)
+    np.testing.assert_array_equal(log.gyr, [[1, 2, 3]] * 3)
     assert log.sample.tolist() == [10, 11, 12] and log.labels.tolist() == ["a", "a", "b"]
     # a name implying its unit and a mapping entry
     log = read_imu(_write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,6\n"),
                    columns="t=zeit", gyro_unit="deg/s")
     assert log.t.tolist() == [5.0, 6.0] and log.acc is None
-    np.testing.assert_allclose(log.gyro[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
+    np.testing.assert_allclose(log.gyr[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
     log = read_imu(tmp_path / "b.csv")
     assert log.t.tolist() == [0.0, 500e-6]
 
@@ -169,12 +169,12 @@ def test_units_convert_to_si_and_counts_are_kept(tmp_path):
     path = _write(tmp_path / "u.csv", "t,ax,ay,az,gx,gy,gz\n0,1,0,-1,180,0,-90\n1,0.5,2,0,360,1,0\n")
     log = read_imu(path, acc_unit="g", gyro_unit="deg/s")
     assert log.acc[0, 0] == G_STANDARD == 9.80665 and log.acc[0, 2] == -9.80665
-    assert log.gyro[0, 0] == pytest.approx(math.pi, rel=1e-15) and log.gyro[1, 0] == pytest.approx(2 * math.pi)
+    assert log.gyr[0, 0] == pytest.approx(math.pi, rel=1e-15) and log.gyr[1, 0] == pytest.approx(2 * math.pi)
     assert (log.acc_unit, log.gyro_unit, log.acc_input_unit, log.gyro_input_unit) == ("m/s^2", "rad/s", "g", "deg/s")
     raw = read_imu(path, acc_unit="counts", gyro_unit="counts")
-    assert raw.acc_unit == raw.gyro_unit == "counts" and raw.gyro[0, 0] == 180.0 and raw.acc[1, 0] == 0.5
+    assert raw.acc_unit == raw.gyro_unit == "counts" and raw.gyr[0, 0] == 180.0 and raw.acc[1, 0] == 0.5
     si = read_imu(path)
-    assert si.acc[0, 0] == 1.0 and si.gyro[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
+    assert si.acc[0, 0] == 1.0 and si.gyr[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
     assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-3]
     assert read_imu(path, acc_unit="mg").acc[1, 0] == pytest.approx(0.5e-3 * 9.80665, rel=1e-15)
     for kw, accepted in (({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"), ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
@@ -273,11 +273,11 @@ def test_two_files_share_the_time_column(tmp_path):
     acc = _write(tmp_path / "acc.csv", "t,ax,ay,az\n0,1,2,3\n0.01,1,2,3\n0.02,1,2,3\n")
     gyr = _write(tmp_path / "gyr.csv", "time,gx,gy,gz\n0,4,5,6\n0.01,4,5,6\n0.02,4,5,7\n")
     log = read_imu(acc, gyro_path=gyr, gyro_unit="deg/s")
-    np.testing.assert_allclose(log.gyro[2], np.deg2rad([4, 5, 7]), rtol=1e-15)
+    np.testing.assert_allclose(log.gyr[2], np.deg2rad([4, 5, 7]), rtol=1e-15)
     assert log.acc[0].tolist() == [1, 2, 3] and " + " in log.source
     # positional names for the gyro file without a header
     gyr2 = _write(tmp_path / "g2.txt", "0 4 5 6\n0.01 4 5 6\n0.02 4 5 7\n")
-    assert read_imu(acc, gyro_path=gyr2, gyro_columns="t,gx,gy,gz").gyro[2, 2] == 7
+    assert read_imu(acc, gyro_path=gyr2, gyro_columns="t,gx,gy,gz").gyr[2, 2] == 7
     bad = _write(tmp_path / "bad.csv", "t,gx,gy,gz\n0,4,5,6\n0.011,4,5,6\n0.02,4,5,7\n")
     with pytest.raises(OptinavError, match="differ: 1 sample\\(s\\), first at row 2: 0.01 s vs 0.011 s"):
         read_imu(acc, gyro_path=bad)
@@ -307,7 +307,7 @@ def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     assert read_imu(tmp_path / "acc.npy", rate_hz=10).acc.shape == (5, 3)
     np.savez(tmp_path / "named.npz", time=t, accelerometer=np.ones((5, 3)), temp=np.arange(5.0))
     log = read_imu(tmp_path / "named.npz", acc_unit="g")
-    assert log.acc[0, 0] == G_STANDARD and log.gyro is None
+    assert log.acc[0, 0] == G_STANDARD and log.gyr is None
     with pytest.raises(OptinavError, match="positional column names do not apply"):
         read_imu(tmp_path / "named.npz", columns="t,ax,ay,az")
     np.savez(tmp_path / "t3.npz", t=t[:3], acc=np.ones((3, 5)))
@@ -335,10 +335,10 @@ def test_hdf5_datasets_and_tables(tmp_path):
         g["gyro_raw"] = np.full((6, 3), 5.0)
         f["camera"] = np.zeros((6, 2, 2))
     log = read_imu(tmp_path / "a.h5")
-    assert log.acc[0, 0] == 2 * G_STANDARD and log.acc_input_unit == "g" and log.gyro is None
+    assert log.acc[0, 0] == 2 * G_STANDARD and log.acc_input_unit == "g" and log.gyr is None
     log = read_imu(tmp_path / "a.h5", datasets={"t": "/imu/time", "acc": "imu/acc", "gyro": "imu/gyro_raw"},
                    gyro_unit="counts")
-    assert log.gyro_unit == "counts" and log.gyro[0, 0] == 5
+    assert log.gyro_unit == "counts" and log.gyr[0, 0] == 5
     with pytest.raises(OptinavError, match="no dataset 'imu/gyro' \\(datasets: camera, imu/acc, imu/gyro_raw, imu/t"):
         read_imu(tmp_path / "a.h5", datasets="t=imu/time,gyro=imu/gyro")
     # read_imu and read_table share the datasets rules: names must be mapped, each once
@@ -348,7 +348,7 @@ def test_hdf5_datasets_and_tables(tmp_path):
         read_imu(tmp_path / "a.h5", datasets="t=imu/time,t=imu/acc")
     with h5py.File(tmp_path / "b.hdf5", "w") as f:
         f["log"] = np.column_stack([t, np.ones((6, 6))])
-    assert read_imu(tmp_path / "b.hdf5", columns="t,gx,gy,gz,ax,ay,az").gyro.shape == (6, 3)
+    assert read_imu(tmp_path / "b.hdf5", columns="t,gx,gy,gz,ax,ay,az").gyr.shape == (6, 3)
     rec = np.zeros(6, dtype=[("t", "f8"), ("ax", "f4"), ("ay", "f4"), ("az", "f4")])
     rec["t"], rec["az"] = t, 9.81
     with h5py.File(tmp_path / "c.h5", "w") as f:
@@ -376,9 +376,9 @@ def test_mat_v5_variables_structs_and_single_matrix(tmp_path):
                                           "gyro_unit": "deg/s", "part": np.array(["a", "a", "b", "b"], dtype=object)})
     log = read_imu(tmp_path / "a.mat")
     np.testing.assert_array_equal(log.t, t)
-    assert log.gyro_input_unit == "deg/s" and log.gyro[0, 0] == pytest.approx(math.pi / 180)
+    assert log.gyro_input_unit == "deg/s" and log.gyr[0, 0] == pytest.approx(math.pi / 180)
     assert log.labels.tolist() == ["a", "a", "b", "b"]
-    assert read_imu(tmp_path / "a.mat", columns="t=imu.t,gyro=imu/gyr", gyro_unit="deg/s").gyro.shape == (4, 3)
+    assert read_imu(tmp_path / "a.mat", columns="t=imu.t,gyro=imu/gyr", gyro_unit="deg/s").gyr.shape == (4, 3)
     scipy.io.savemat(tmp_path / "m.mat", {"M": np.column_stack([t, np.zeros((4, 3))])})
     log = read_imu(tmp_path / "m.mat", columns="t,ax,ay,az")
     np.testing.assert_array_equal(log.t, t)
@@ -440,9 +440,9 @@ def _shared(name: str) -> Path:
 
 def test_real_ferraris_session():
     log = read_imu(_shared("example_ferraris_session.csv"), rate_hz=102.4, gyro_unit="deg/s")
-    assert log.acc.shape == log.gyro.shape == (10376, 3) and log.nan_rows == 0
+    assert log.acc.shape == log.gyr.shape == (10376, 3) and log.nan_rows == 0
     assert log.acc[0, 0] == 10.332114257812501 and log.acc[0, 2] == 0.51732421875
-    assert log.gyro[0, 0] == pytest.approx(-0.6103515625 * math.pi / 180, rel=1e-15)
+    assert log.gyr[0, 0] == pytest.approx(-0.6103515625 * math.pi / 180, rel=1e-15)
     assert log.t[-1] == pytest.approx(10375 / 102.4) and log.sample[-1] == 10375
     assert log.acc_unit == "m/s^2" and log.gyro_input_unit == "deg/s"
 
@@ -450,7 +450,7 @@ def test_real_ferraris_session():
 def test_real_annotated_session_keeps_text_labels():
     log = read_imu(_shared("annotated_session.csv"), rate_hz=204.8, acc_unit="counts", gyro_unit="counts")
     assert log.acc.shape == (9414, 3) and log.acc_unit == "counts"
-    assert log.acc[0].tolist() == [-2052.0, -28.0, -73.0] and log.gyro[0].tolist() == [1.0, 0.0, -5.0]
+    assert log.acc[0].tolist() == [-2052.0, -28.0, -73.0] and log.gyr[0].tolist() == [1.0, 0.0, -5.0]
     names, counts = np.unique(log.labels, return_counts=True)
     assert dict(zip(names, counts))["x_a"] == 1061 and len(names) == 9
     assert log.sample[0] == 1028  # the non-monotonic sample counter is kept, never used as time
@@ -465,8 +465,8 @@ _ALPHABET = st.sampled_from(list("0123456789.,;\t -+eE#\"\nnaif_xyzt") + ["\r\n"
 def _valid(log: ImuLog) -> None:
     assert isinstance(log, ImuLog) and log.t.ndim == 1 and len(log) >= 2
     assert np.all(np.isfinite(log.t)) and np.all(np.diff(log.t) > 0)
-    assert log.acc is not None or log.gyro is not None
-    for v in (log.acc, log.gyro):
+    assert log.acc is not None or log.gyr is not None
+    for v in (log.acc, log.gyr):
         assert v is None or v.shape == (len(log), 3)
     assert log.nan_rows == int(np.count_nonzero(~log.finite))
 
@@ -551,7 +551,7 @@ def test_million_row_csv_reads_in_seconds(tmp_path):
 
     n = 1_000_000
     rng = np.random.default_rng(3)
-    log = ImuLog(t=np.arange(n) / 100.0, acc=rng.normal(0, 9, (n, 3)), gyro=rng.normal(0, 1, (n, 3)))
+    log = ImuLog(t=np.arange(n) / 100.0, acc=rng.normal(0, 9, (n, 3)), gyr=rng.normal(0, 1, (n, 3)))
     path = write_imu(tmp_path / "big.csv", log)
     start = time.perf_counter()
     back = read_imu(path)

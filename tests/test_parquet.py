@@ -26,7 +26,7 @@ def test_plain_columns(tmp_path):
                     **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")}, "note": ["x"] * 500})
     pq.write_table(tab, tmp_path / "d.parquet", row_group_size=77)
     log = read_imu(tmp_path / "d.parquet")
-    assert np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyro, gyr)
+    assert np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)
 
 
 def _layouts():
@@ -90,7 +90,7 @@ def test_odd_layouts_read_back(tmp_path, layout, seed):
     if acc_mask is not None:
         expect[mask] = np.nan
     assert np.array_equal(log.acc, expect, equal_nan=True)
-    assert np.array_equal(log.gyro, gyr)
+    assert np.array_equal(log.gyr, gyr)
     assert log.nan_rows == (len(nulls) if acc_mask is not None else 0)
 
 
@@ -105,7 +105,7 @@ def test_units_from_metadata_and_rate(tmp_path):
     pq.write_table(tab, tmp_path / "u.pq")
     log = read_imu(tmp_path / "u.pq")
     np.testing.assert_allclose(log.acc, acc_g * 9.80665, rtol=1e-15)
-    np.testing.assert_allclose(log.gyro, np.deg2rad(gyr_dps), rtol=1e-15)
+    np.testing.assert_allclose(log.gyr, np.deg2rad(gyr_dps), rtol=1e-15)
     np.testing.assert_allclose(log.t, np.arange(n) / 250.0)
     assert log.acc_input_unit == "g" and any("250 Hz" in x for x in log.notes)
     with pytest.raises(OptinavError, match=r"declares g but acc_unit='m/s\^2'"):
@@ -120,7 +120,7 @@ def test_positional_names_and_labels(tmp_path):
     tab = pa.table({f"c{j}": m[:, j] for j in range(7)} | {"lab": pa.array(["p1"] * 10 + ["p2"] * 20).dictionary_encode()})
     pq.write_table(tab, tmp_path / "p.parquet")
     log = read_imu(tmp_path / "p.parquet", columns="t,ax,ay,az,gx,gy,gz,label")
-    assert np.array_equal(log.acc, m[:, 1:4]) and np.array_equal(log.gyro, m[:, 4:7])
+    assert np.array_equal(log.acc, m[:, 1:4]) and np.array_equal(log.gyr, m[:, 4:7])
     assert list(log.labels[:11]) == ["p1"] * 10 + ["p2"]
     with pytest.raises(OptinavError, match="columns names 3 column.* but p.parquet has 8"):
         read_imu(tmp_path / "p.parquet", columns="t,ax,ay")
@@ -149,7 +149,7 @@ def test_cli_attitude_reads_parquet(tmp_path, capsys):
                  "--seed", "1"]) == 0
     log = read_imu(csv)
     pq.write_table(pa.table({"time": log.t, "acc": pa.FixedSizeListArray.from_arrays(pa.array(log.acc.ravel()), 3),
-                             "gyro": pa.FixedSizeListArray.from_arrays(pa.array(log.gyro.ravel()), 3)}),
+                             "gyro": pa.FixedSizeListArray.from_arrays(pa.array(log.gyr.ravel()), 3)}),
                    tmp_path / "s.parquet")
     out = {}
     for name in ("s.csv", "s.parquet"):

@@ -160,6 +160,6 @@ def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, r
         assert "\n" not in str(exc) and str(exc)
         return
     assert np.all(np.diff(log.t) > 0)
-    for v in (log.acc, log.gyro):
+    for v in (log.acc, log.gyr):
         if v is not None:
             assert v.shape == (len(log), 3) and not np.any(np.isfinite(v) & (np.abs(v) > 1e12))

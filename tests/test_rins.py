@@ -136,7 +136,7 @@ def test_file_round_trip(tmp_path, suffix):
     e = read_rins(path)
     for f in ("t", "dtheta", "dv", "alpha", "beta"):
         np.testing.assert_array_equal(getattr(e, f), getattr(d, f))
-    assert e.lat == pytest.approx(d.lat, abs=1e-12) and e.h == pytest.approx(d.h)
+    assert e.lat == pytest.approx(d.lat, abs=1e-12) and e.height_m == pytest.approx(d.height_m)
 
 
 def test_increments_follow_the_encoders_over_t_k_to_t_k_plus_1():

@@ -89,7 +89,7 @@ def test_values_read_equal_values_written(tmp_path, kind):
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags), "/chatter": (STR, chatter)})
     log = read_imu(bag)
     assert np.array_equal(log.t, t)
-    assert np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+    assert np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     assert log.acc_input_unit == "m/s^2" and log.gyro_input_unit == "rad/s"
     tab = read_table(bag)
     mag_t = (tm.astype(np.int64)) + np.round((tm % 1) * 1e9) * 1e-9
@@ -107,7 +107,7 @@ def test_frame_ids_of_different_lengths(tmp_path, kind):
     msgs, t, gyr, acc = imu_topic(rng, n=30, frames=("a", "imu", "imu_link_long_name", "xyz"))
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs)})
     log = read_imu(bag)
-    assert np.array_equal(log.t, t) and np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
 def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):
@@ -118,7 +118,7 @@ def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):
     msgs, t, gyr, acc = imu_topic(rng, n=50)
     bag = write_bag(tmp_path / "b", "mcap", {"/imu": (IMU, msgs)})
     log = read_imu(bag)
-    assert np.array_equal(log.t, t) and np.array_equal(log.gyro, gyr) and np.array_equal(log.acc, acc)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
 def test_topic_choice(tmp_path):
@@ -130,7 +130,7 @@ def test_topic_choice(tmp_path):
     with pytest.raises(OptinavError, match=r"has 2 sensor_msgs/msg/Imu topics .*/imu/left .*/imu/right.*--topic"):
         read_imu(bag)
     log = read_imu(bag, topic="/imu/right")
-    assert np.array_equal(log.gyro, g2) and np.array_equal(log.t, t2)
+    assert np.array_equal(log.gyr, g2) and np.array_equal(log.t, t2)
     with pytest.raises(OptinavError, match=r"no topic '/imu/middle' \(topics: /imu/left \(sensor_msgs/Imu, 40 msgs"):
         read_imu(bag, topic="/imu/middle")
     with pytest.raises(OptinavError, match=r"'/chatter' of b holds std_msgs/msg/String, not sensor_msgs/msg/Imu"):
@@ -173,7 +173,7 @@ def test_stamps_backwards_use_log_time(tmp_path):
     with pytest.warns(UserWarning, match="not strictly increasing"):
         log = read_imu(bag)
     np.testing.assert_array_equal(log.t, (1_700_000_000 * 10**9 + 10_000_000 * np.arange(12)) * 1e-9)
-    assert np.array_equal(log.gyro, gyr)
+    assert np.array_equal(log.gyr, gyr)
 
 
 def test_damaged_bags_are_one_line_errors(tmp_path):
@@ -211,7 +211,7 @@ def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
                  "--seed", "4"]) == 0
     log = read_imu(csv)
     ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
-    msgs = [(int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyro[i], log.acc[i]))
+    msgs = [(int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
             for i in range(len(log))]
     bag = write_bag(tmp_path / "bag", "sqlite3", {"/imu": (IMU, msgs)})
     out_csv, out_bag = tmp_path / "c.json", tmp_path / "b.json"

@@ -38,22 +38,22 @@ def test_static_six_positions_truth(frame, earth_name):
     g_n = earth.gravity_vector(LAT, h, frame, earth_name)
     w_ie = earth.earth_rate(LAT, frame, earth_name)
     # at rest v = a = 0, so f^b = C_n^b(−g^n) and ω_ib^b = C_n^b ω_ie^n (mechanization with v = 0)
-    np.testing.assert_allclose(tr.f_b[rest], body(-g_n, c)[rest], rtol=0, atol=1e-13)
-    np.testing.assert_allclose(np.linalg.norm(tr.f_b, axis=1), earth.gravity(LAT, h, earth_name), rtol=1e-15,
+    np.testing.assert_allclose(tr.acc[rest], body(-g_n, c)[rest], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(np.linalg.norm(tr.acc, axis=1), earth.gravity(LAT, h, earth_name), rtol=1e-15,
                                atol=4e-15)
-    np.testing.assert_allclose(tr.omega_ib_b[rest], body(w_ie, c)[rest], rtol=0, atol=1e-19)
+    np.testing.assert_allclose(tr.gyr[rest], body(w_ie, c)[rest], rtol=0, atol=1e-19)
     # intervals with both ends in one rest: constant integrand, so the increment is value × dt
     both = (tr.labels[:-1] == tr.labels[1:]) & rest[:-1]
-    np.testing.assert_allclose(tr.dtheta[both], tr.omega_ib_b[:-1][both] * tr.dt[both, None], rtol=0,
+    np.testing.assert_allclose(tr.dtheta[both], tr.gyr[:-1][both] * tr.dt[both, None], rtol=0,
                                atol=1e-21)
-    np.testing.assert_allclose(tr.dv[both], tr.f_b[:-1][both] * tr.dt[both, None], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(tr.dv[both], tr.acc[:-1][both] * tr.dt[both, None], rtol=0, atol=1e-15)
     # each pose is held exactly, and names read as a technician expects
     for p in range(6):
         np.testing.assert_allclose(c[tr.segment(p)] - S.six_positions(frame)[p], 0, atol=1e-15)
     assert tr.segment_names == ["x up, y north", "x down, y north", "y up, z north", "y down, z north",
                                 "z up, y north", "z down, y north"]
     # the accelerometer reads +g along the body axis that points up
-    up = tr.f_b[tr.segment(0)]
+    up = tr.acc[tr.segment(0)]
     assert np.all(up[:, 0] > 9.79)
 
 
@@ -65,7 +65,7 @@ def test_static_frames_describe_the_same_motion():
     a = S.static_positions(cs_enu, frame="enu", **kw)
     b = S.static_positions(cs_ned, frame="ned", **kw)
     # body quantities do not depend on the navigation frame the attitude is written in
-    for name in ("omega_ib_b", "f_b", "dtheta", "dv"):
+    for name in ("gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-14)
     np.testing.assert_array_equal(a.labels, b.labels)
     assert a.segment_names == b.segment_names
@@ -76,7 +76,7 @@ def test_static_transition_is_smooth_and_lands_exactly():
     c1 = S.orientation_from_up("x") @ rot_x(0.3)
     tr = S.static_positions([c0, c1], [2.0, 2.0], 200.0, LAT, earth="none", transition=3.0)
     moving = np.flatnonzero(tr.labels == -1)
-    w = tr.omega_ib_b
+    w = tr.gyr
     # rate profile starts and ends at zero: the epochs around the transition have a small rate
     assert np.linalg.norm(w[moving[0]]) < 1e-3 and np.linalg.norm(w[moving[-1]]) < 1e-3
     assert np.max(np.linalg.norm(w, axis=1)) > 0.5
@@ -116,8 +116,8 @@ def test_static_gravity_norm_any_pose(roll, pitch, yaw, lat, h):
     c = dcm_from_euler([roll, pitch, yaw], "ned")
     tr = S.static_positions(c, 1.0, 4.0, lat, height_m=h, frame="ned")
     g = earth.gravity(lat, h)
-    np.testing.assert_allclose(np.linalg.norm(tr.f_b, axis=1), g, rtol=2e-16 * 8)
-    np.testing.assert_allclose(tr.f_b @ (c.T @ [0, 0, -1.0]), g, rtol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(tr.acc, axis=1), g, rtol=2e-16 * 8)
+    np.testing.assert_allclose(tr.acc @ (c.T @ [0, 0, -1.0]), g, rtol=1e-15)
 
 
 # --- coning -------------------------------------------------------------------------------------------------
@@ -139,7 +139,7 @@ def test_coning_attitude_integrates_the_rate():
     err = quat_angle_between(sol.y.T, tr.q_b_n)
     assert np.max(err) < 1e-11  # ODE tolerance level; the closed form itself is exact
     # the rate stored in the truth is the rate of the closed-form attitude
-    np.testing.assert_allclose(tr.omega_ib_b, S.coning_rate(BETA, FREQ, tr.t, 0.4), atol=1e-15)
+    np.testing.assert_allclose(tr.gyr, S.coning_rate(BETA, FREQ, tr.t, 0.4), atol=1e-15)
 
 
 def test_coning_increments_equal_quadrature_of_rate():
@@ -151,7 +151,7 @@ def test_coning_increments_equal_quadrature_of_rate():
                           epsrel=1e-14)
             assert abs(tr.dtheta[k, i] - val) < 1e-14
     # inertial case without gravity: zero specific force
-    assert np.all(tr.f_b == 0) and np.all(tr.dv == 0)
+    assert np.all(tr.acc == 0) and np.all(tr.dv == 0)
     # the body z axis sweeps a cone of half-angle β about the reference z axis
     z_n = tr.dcm_b_n[:, :, 2]
     np.testing.assert_allclose(np.arccos(np.clip(z_n[:, 2], -1, 1)), BETA, atol=1e-7)  # arccos ~ 1e-8 precision
@@ -185,8 +185,8 @@ def test_coning_with_earth_rate_and_gravity():
     np.testing.assert_allclose(c, ref.dcm_b_n, atol=1e-15)
     # static base: ω_ib = ω_cone + C_n^b ω_ie, f = C_n^b(−g)
     w_ie = earth.earth_rate(LAT)
-    np.testing.assert_allclose(tr.omega_ib_b - ref.omega_ib_b, body(w_ie, c), atol=1e-19)
-    np.testing.assert_allclose(tr.f_b, body(-earth.gravity_vector(LAT, 100.0), c), atol=1e-14)
+    np.testing.assert_allclose(tr.gyr - ref.gyr, body(w_ie, c), atol=1e-19)
+    np.testing.assert_allclose(tr.acc, body(-earth.gravity_vector(LAT, 100.0), c), atol=1e-14)
     # increments of the Earth-rate and gravity parts against adaptive quadrature on a few intervals
     for k in [0, 42, 99]:
         def integrand(t, i, vec):
@@ -230,10 +230,10 @@ def test_turntable_attitudes_and_earth_free_angles():
     assert tr.segment_names[1] == "rotate +90° about z_b" and tr.segment_names[3] == "rotate -180° about x_n"
     assert tr.segment_names[5] == "rotate +30° about [0.707, 0.707, 0.000]_b"
     # rates: zero at rest, peak 2A/T for the cosine, A/(T − T_a) for the trapezoid plateau
-    assert np.all(tr.omega_ib_b[tr.segment(0)] == 0)
-    assert np.max(np.abs(tr.omega_ib_b[tr.segment(1), 2])) == pytest.approx(2 * 90 * DEG / 3.0, rel=1e-12)
+    assert np.all(tr.gyr[tr.segment(0)] == 0)
+    assert np.max(np.abs(tr.gyr[tr.segment(1), 2])) == pytest.approx(2 * 90 * DEG / 3.0, rel=1e-12)
     plateau = tr.segment(3)[(tr.t[tr.segment(3)] > 2 + 3 + 1 + 1.0) & (tr.t[tr.segment(3)] < 2 + 3 + 1 + 3.0)]
-    np.testing.assert_allclose(np.linalg.norm(tr.omega_ib_b[plateau], axis=1), np.pi / 3.0, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(tr.gyr[plateau], axis=1), np.pi / 3.0, rtol=1e-14)
 
 
 @settings(max_examples=25, deadline=None)
@@ -260,7 +260,7 @@ def test_turntable_ned_equals_enu():
                  if isinstance(r, S.Rotate) and r.frame == "nav" else r for r in SCHEDULE]
     a = S.turntable(SCHEDULE, 10.0, LAT, initial=C0)
     b = S.turntable(sched_ned, 10.0, LAT, initial=m @ C0, frame="ned")
-    for name in ("omega_ib_b", "f_b", "dtheta", "dv"):
+    for name in ("gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(b, name), getattr(a, name), atol=1e-14)
     np.testing.assert_allclose(b.dcm_b_n, m @ a.dcm_b_n, atol=1e-15)
     # poses are described in body words (frame-independent); nav axes in the user's frame (east = x_n = y_n)
@@ -328,7 +328,7 @@ def test_irregular_epochs():
     np.testing.assert_allclose(co.dtheta, S.coning_increment(BETA, FREQ, tt[:-1], tt[1:]), atol=1e-17)
     st_ = S.static_positions(S.six_positions(), 2.0, None, LAT, t=t[t <= 12.0])
     both = (st_.labels[:-1] == st_.labels[1:])
-    np.testing.assert_allclose(st_.dv[both], st_.f_b[:-1][both] * st_.dt[both, None], atol=1e-14)
+    np.testing.assert_allclose(st_.dv[both], st_.acc[:-1][both] * st_.dt[both, None], atol=1e-14)
 
 
 # --- gimbal chain ----------------------------------------------------------------------------------------
@@ -375,7 +375,7 @@ def test_gimbal_dual_axis_truth():
     np.testing.assert_allclose(c[tr.segment(2)] - rot_z(np.pi / 2) @ C_MIS @ rot_y(0.3 + 1.5 * np.pi) @ C_IMU, 0,
                                atol=1e-14)
     rest = tr.labels >= 0
-    np.testing.assert_allclose(tr.f_b[rest], body(-earth.gravity_vector(LAT), c)[rest], atol=1e-13)
+    np.testing.assert_allclose(tr.acc[rest], body(-earth.gravity_vector(LAT), c)[rest], atol=1e-13)
     assert tr.segment_names[1].startswith("θ1 = 180°, θ2 = 107.19°: ")
     # increments against adaptive quadrature of the chain's rate (verified above) plus the Earth rate
     w_ie = earth.earth_rate(LAT)
@@ -395,7 +395,7 @@ def test_gimbal_single_axis_equals_turntable_and_callable_angles():
     tt = S.turntable(sched, 25.0, LAT, initial=C0)
     ax = S.AxisSchedule([S.Move(1.0, 2.0, 1.0)])
     gm = S.gimbal([C0, np.eye(3)], ["y"], [ax], 4.0, 25.0, LAT)
-    for name in ("q_b_n", "omega_ib_b", "f_b", "dtheta", "dv"):
+    for name in ("q_b_n", "gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(gm, name), getattr(tt, name), atol=1e-15)
 
     # a plain callable: sinusoidal oscillation about two axes; increments against adaptive quadrature
@@ -426,7 +426,7 @@ def test_lever_arm_centripetal_and_tangential():
     A, T = 2 * np.pi, 2.0
     thd = A / T * (1 - np.cos(2 * np.pi * tau / T))
     thdd = 2 * np.pi * A / T**2 * np.sin(2 * np.pi * tau / T)
-    np.testing.assert_allclose(tr.f_b, np.stack([-thd**2 * L, thdd * L, 0 * tau], 1), atol=1e-14)
+    np.testing.assert_allclose(tr.acc, np.stack([-thd**2 * L, thdd * L, 0 * tau], 1), atol=1e-14)
     # ∫ θ̈ L dt over the move is the change in tangential speed: zero; ∫ −θ̇² L dt = −L ∫θ̇² = −L (3/2) A²/T
     np.testing.assert_allclose(tr.dv.sum(0), [-L * 1.5 * A**2 / T, 0, 0], atol=1e-14)
 
@@ -453,7 +453,7 @@ def test_trajectory_passes_through_knots():
     np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0).T, pos, atol=5e-9)
     ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, [1, 0, 2]] * [1, 1, -1],
                        20.0, frame="ned", lat0=0.7, lon0=2.0, height0_m=50.0)
-    for name in ("omega_ib_b", "f_b", "dtheta", "dv", "pos"):
+    for name in ("gyr", "acc", "dtheta", "dv", "pos"):
         np.testing.assert_allclose(getattr(ned, name), getattr(tr, name), atol=1e-12)
     np.testing.assert_allclose(ned.vel_n, tr.vel_n[:, [1, 0, 2]] * [1, 1, -1], atol=1e-12)
 
@@ -465,7 +465,7 @@ def test_trajectory_end_velocities_are_in_the_frame_axes():
     swap = [1, 0, 2], np.array([1, 1, -1])
     ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, swap[0]] * swap[1], 20.0,
                        frame="ned", lat0=0.7, bc_type=((1, v0[swap[0]] * swap[1]), (1, v1[swap[0]] * swap[1])))
-    np.testing.assert_allclose(ned.f_b, enu.f_b, atol=1e-12)
+    np.testing.assert_allclose(ned.acc, enu.acc, atol=1e-12)
     np.testing.assert_allclose(ned.vel_n[0], v0[swap[0]] * swap[1], atol=1e-6)
 
 
@@ -478,7 +478,7 @@ def test_trajectory_velocity_and_position_derivatives():
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
     w_ie, w_en = earth.earth_rate(lat), earth.transport_rate(lat, h, v)
     # invert the mechanization: a^n = C_b^n f^b − (2ω_ie + ω_en) × v + g
-    a = np.einsum("mij,mj->mi", c, tr.f_b) - np.cross(2 * w_ie + w_en, v) + earth.gravity_vector(lat, h)
+    a = np.einsum("mij,mj->mi", c, tr.acc) - np.cross(2 * w_ie + w_en, v) + earth.gravity_vector(lat, h)
     # central difference of v^n: v is (nearly) quadratic inside a knot interval (cubic position spline; the
     # frame turns at ~1e-5 rad/s), so the truncation error is negligible and rounding is ~1e-11 m/s²
     dv_fd = (v[2:] - v[:-2]) / (t[2:] - t[:-2])[:, None]
@@ -493,7 +493,7 @@ def test_trajectory_velocity_and_position_derivatives():
     np.testing.assert_allclose(p_fd[:, 2], rate[:, 2], rtol=0, atol=1e-6)
     # ω_ib − ω_nb = C_n^b(ω_ie + ω_en)
     tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, earth="none")
-    np.testing.assert_allclose(tr.omega_ib_b - tn.omega_ib_b, body(w_ie + w_en, c), atol=1e-17)
+    np.testing.assert_allclose(tr.gyr - tn.gyr, body(w_ie + w_en, c), atol=1e-17)
 
 
 def test_trajectory_increments_integrate_back_to_attitude():
@@ -525,10 +525,10 @@ def test_trajectory_lever_arm():
     r = np.array([0.3, -0.2, 0.1])
     a = S.trajectory(tk, att, pos, None, lat0=0.7, t=t)
     b = S.trajectory(tk, att, pos, None, lat0=0.7, t=t, lever_arm=r)
-    w = a.omega_ib_b
+    w = a.gyr
     wd = (w[2:] - w[:-2]) / (t[2:] - t[:-2])[:, None]  # error h²/6 |ω'''| ≈ 1e-7 · 10
-    expect = a.f_b[1:-1] + np.cross(wd, r) + np.cross(w[1:-1], np.cross(w[1:-1], r))
-    np.testing.assert_allclose(b.f_b[1:-1], expect, atol=1e-6)
+    expect = a.acc[1:-1] + np.cross(wd, r) + np.cross(w[1:-1], np.cross(w[1:-1], r))
+    np.testing.assert_allclose(b.acc[1:-1], expect, atol=1e-6)
 
 
 def test_rate_of_the_navigation_frame_derivative():
@@ -541,7 +541,7 @@ def test_rate_of_the_navigation_frame_derivative():
     t = np.linspace(3.0, 3.4, 41)
     tr = S.trajectory(tk, att, pos, None, lat0=1.2, t=t)
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
-    a = np.einsum("mij,mj->mi", tr.dcm_b_n, tr.f_b) - np.cross(2 * earth.earth_rate(lat) +
+    a = np.einsum("mij,mj->mi", tr.dcm_b_n, tr.acc) - np.cross(2 * earth.earth_rate(lat) +
                                                                 earth.transport_rate(lat, h, v), v) \
         + earth.gravity_vector(lat, h)
     w = earth.earth_rate(lat) + earth.transport_rate(lat, h, v)
@@ -556,11 +556,11 @@ def test_json_round_trip(tmp_path):
     tr = S.turntable(SCHEDULE[:3], 5.0, LAT, initial=C0)
     back = Result.from_json(tr.to_json(tmp_path / "truth.json"))
     assert isinstance(back, S.ImuTruth)
-    for name in ("t", "q_b_n", "pos", "vel_n", "omega_ib_b", "f_b", "dtheta", "dv", "labels"):
+    for name in ("t", "q_b_n", "pos", "vel_n", "gyr", "acc", "dtheta", "dv", "labels"):
         np.testing.assert_array_equal(getattr(back, name), getattr(tr, name))
     assert back.segment_names == tr.segment_names and back.frame == "enu" and back.earth == "wgs84"
     assert back.sample_rate == pytest.approx(5.0) and back.dcm_b_n.shape == (len(tr.t), 3, 3)
-    assert tr.units()["dv"] == "m/s" and tr.units()["omega_ib_b"] == "rad/s"
+    assert tr.units()["dv"] == "m/s" and tr.units()["gyr"] == "rad/s"
 
 
 @pytest.mark.parametrize("call", [

@@ -46,9 +46,9 @@ def _simulated_log(rng, *, jitter=False):
     else:
         keep = np.ones(t.size, bool)
     sa, sg = 0.02, 0.003  # m/s^2, rad/s per axis
-    acc = truth.f_b + rng.normal(scale=sa, size=truth.f_b.shape)
-    gyro = truth.omega_ib_b + rng.normal(scale=sg, size=truth.f_b.shape)
-    return t[keep], acc[keep], gyro[keep], truth.labels[keep], truth.f_b[keep], sa
+    acc = truth.acc + rng.normal(scale=sa, size=truth.acc.shape)
+    gyro = truth.gyr + rng.normal(scale=sg, size=truth.acc.shape)
+    return t[keep], acc[keep], gyro[keep], truth.labels[keep], truth.acc[keep], sa
 
 
 @pytest.mark.parametrize("jitter", [False, True])

@@ -389,7 +389,7 @@ def _truncation_caps(tr, n=1, coning="previous"):
     dt = tr.dt[:, None]
     a = np.diff(tr.vel_n, axis=0) / dt
     jerk = np.linalg.norm(np.diff(a, axis=0) / dt[1:], axis=1).max()
-    w = tr.omega_ib_b
+    w = tr.gyr
     wd = np.diff(w, axis=0) / dt
     wn, an, wdn = (np.linalg.norm(x, axis=1).max() for x in (w, a, wd))
     att = 1.5 * T**2 * t * np.linalg.norm(np.cross(w[:-1], wd), axis=1).max() / 12

@@ -16,7 +16,7 @@ from optinav.io import ImuLog, read_imu, write_imu
 from optinav.io.imu import iter_imu, open_imu_writer
 from optinav.io.readers import iter_table, load_table
 
-FIELDS = ("t", "acc", "gyro", "labels", "sample")
+FIELDS = ("t", "acc", "gyr", "labels", "sample")
 
 
 def _logger_file(path, rows: np.ndarray, *, truncated: bool = False, blank_at: int | None = None) -> None:
@@ -72,7 +72,7 @@ def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, lab
     rng = np.random.default_rng(seed)
     t = np.cumsum(rng.uniform(0.005, 0.02, n))
     acc = np.round(rng.normal(0, 2000, (n, 3))) if counts else rng.normal(0, 9.8, (n, 3))
-    log = ImuLog(t=t, acc=acc, gyro=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
+    log = ImuLog(t=t, acc=acc, gyr=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
                  labels=np.array(["rest", "pose"])[rng.integers(0, 2, n)] if labels else None,
                  sample=np.arange(n) + 5)
     p = tmp_path_factory.mktemp("w") / "log.tsv"
@@ -82,7 +82,7 @@ def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, lab
 
 def test_binary_formats_are_cut_into_blocks(tmp_path):
     rng = np.random.default_rng(4)
-    log = ImuLog(t=np.arange(50) / 10.0, acc=rng.normal(size=(50, 3)), gyro=rng.normal(size=(50, 3)))
+    log = ImuLog(t=np.arange(50) / 10.0, acc=rng.normal(size=(50, 3)), gyr=rng.normal(size=(50, 3)))
     p = tmp_path / "log.npz"
     write_imu(p, log)
     _same(list(iter_imu(p, chunk_rows=8)), read_imu(p), 8)
@@ -130,7 +130,7 @@ def test_time_order_and_empty_columns_are_checked_across_blocks(tmp_path):
 
 def test_writer_blocks_read_back_exactly(tmp_path):
     rng = np.random.default_rng(6)
-    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyro=rng.normal(size=(100, 3)),
+    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyr=rng.normal(size=(100, 3)),
                  labels=np.arange(100) % 3)
     for name in ("w.csv", "w.npz"):
         with open_imu_writer(tmp_path / name, acc_unit="g") as w:
@@ -138,7 +138,7 @@ def test_writer_blocks_read_back_exactly(tmp_path):
                 w.write(log.select(slice(a, a + 13)))
         back = read_imu(tmp_path / name)
         np.testing.assert_allclose(back.acc, log.acc, rtol=1e-15, atol=0)
-        np.testing.assert_array_equal(back.gyro, log.gyro)
+        np.testing.assert_array_equal(back.gyr, log.gyr)
         np.testing.assert_array_equal(back.labels, log.labels)
     # an error inside the block leaves nothing under the final name
     with pytest.raises(OptinavError):
@@ -165,7 +165,7 @@ def test_apply_chunked_equals_whole(session):
                      "--chunk-rows", chunk]) == 0
     a, b = read_imu(d / "c37.csv"), read_imu(d / "c1000000.csv")
     assert len(a) == len(read_imu(d / "s.csv")) > 37 * 20
-    for name in ("t", "acc", "gyro"):
+    for name in ("t", "acc", "gyr"):
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
 
 
@@ -188,18 +188,18 @@ def test_attitude_chunked_equals_whole(session, method, extra):
     assert out["53"].shape == (len(log), 8)
     np.testing.assert_allclose(out["53"], out["1000000"], rtol=1e-12, atol=1e-12)
     dt = np.diff(log.t, prepend=log.t[0] - (log.t[1] - log.t[0]))
-    q = estimate(log.gyro, log.acc, dt, method=method, input_stage=bool(extra)).q
+    q = estimate(log.gyr, log.acc, dt, method=method, input_stage=bool(extra)).q
     np.testing.assert_allclose(out["53"][:, 1:5], q, rtol=0, atol=1e-8)  # the CSV keeps 9 digits
 
 
 def test_attitude_gaps_across_blocks(tmp_path, session):
     """A time gap: refused (the same one-line error), or with --allow-gaps restarted at the same samples."""
     log = read_imu(session / "s.csv")
-    acc, gyro = log.acc * 1.0, log.gyro * 1.0
+    acc, gyro = log.acc * 1.0, log.gyr * 1.0
     t = log.t.copy()
     t[300:] += 20.0
     p = tmp_path / "gap.csv"
-    write_imu(p, ImuLog(t=t, acc=acc, gyro=gyro))
+    write_imu(p, ImuLog(t=t, acc=acc, gyr=gyro))
     out = {}
     for chunk in ("41", "1000000"):
         assert main(["--quiet", "attitude", str(p), "--chunk-rows", chunk, "--out", str(tmp_path / "x.csv")]) == 2

@@ -113,10 +113,23 @@ class AttitudeEstimate(Estimate):
         return out
 
     def euler(self) -> np.ndarray:
-        """[roll, pitch, yaw] (N, 3) rad in the frame's Euler convention."""
+        """The estimated attitude as Euler angles in the frame's convention.
+
+        Returns
+        -------
+        (N, 3) ndarray
+            [roll, pitch, yaw] [rad].
+        """
         return euler_from_quat(self.q, frame_name(self.frame))
 
     def summary(self) -> str:
+        """One line: method, frame, samples, rest / magnetometer / polarization use.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         return summary_line(self.method, self.frame, self.q.shape[0], offline=self.offline, segments=self.segments,
                             rest=None if self.rest is None else float(np.mean(self.rest)),
                             mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
@@ -190,8 +203,27 @@ def _as_q0(q0) -> np.ndarray:
 def initial_attitude(acc0, frame: str = DEFAULT_FRAME, pol: PolarizationMeasurement | None = None,
                      index: int = 0) -> np.ndarray:
     """q_b^n from one accelerometer sample (roll, pitch; yaw 0) and, if ``pol`` is usable at ``index``, the
-    heading that best explains its AoP. A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π;
-    the branch with |ψ| ≤ 90° is taken (pass q0 when the heading may be outside)."""
+    heading that best explains its AoP.
+
+    A zenith-viewing sensor sees the same AoP at heading ψ and ψ + π; the branch with |ψ| ≤ 90° is taken (pass q0
+    to :func:`estimate` when the heading may be outside).
+
+    Parameters
+    ----------
+    acc0 : (3,) array
+        Specific force [m/s^2] (only its direction is used).
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+    pol : PolarizationMeasurement or None
+        Polarization samples.
+    index : int
+        The sample of ``pol`` to use.
+
+    Returns
+    -------
+    (4,) ndarray
+        q_b^n [-] as [w, x, y, z].
+    """
     frame = frame_name(frame)
     a = np.asarray(acc0, dtype=float)
     na = np.linalg.norm(a)
@@ -294,16 +326,45 @@ def _timed(fn):
 def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
              frame: str = DEFAULT_FRAME, q0=None, mag=None, offline: bool = False, input_stage: bool = False,
              allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
-    """Attitude q_b^n from gyr (N, 3) rad/s, acc (N, 3) m/s², dt (s, scalar or (N,)) as an :class:`AttitudeEstimate`
-    (``q`` (N, 4) [w, x, y, z] plus per-sample flags, counts and σ); :func:`estimate_q` returns only ``q``.
+    """Attitude q_b^n of a recording as an :class:`AttitudeEstimate`; :func:`estimate_q` returns only ``q``.
 
-    ``method`` "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg";
-    ``pol`` optional :class:`PolarizationMeasurement` (without it roll and pitch are observed and the heading
-    follows the gyro, or the magnetometer: ``mag=`` (N, 3), iframe); ``offline=True`` (iframe) uses the whole
-    recording; ``input_stage=True`` puts the iframe front end before gd/cg/qn/mekf; ``q0`` the initial attitude
-    (default: levelled from acc[0], heading from pol[0] if usable, else 0); ``allow_gaps`` restarts after a
-    time gap instead of refusing it; ``checks=False`` skips the unit / swap / clipping checks. ``options``
-    override :data:`DEFAULTS` of the method. Bad input raises :class:`OptinavError`.
+    Without ``pol`` roll and pitch are observed and the heading follows the gyro, or the magnetometer (iframe).
+    Bad input raises :class:`OptinavError`.
+
+    Parameters
+    ----------
+    gyr : (N, 3) array
+        Angular rate ω_ib^b [rad/s].
+    acc : (N, 3) array
+        Specific force [m/s^2], body axes.
+    dt : float or (N,) array
+        Sample step [s].
+    pol : PolarizationMeasurement or None
+        Skylight-polarization samples.
+    method : str or None
+        "iframe" (default without ``pol``), "mekf" (default with ``pol``), "qn", "gd" or "cg".
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+    q0 : (4,) array or None
+        Initial attitude q_b^n [-] ([w, x, y, z]); None: levelled from acc[0], heading from pol[0] if usable,
+        else 0.
+    mag : (N, 3) array or None
+        Magnetometer [any unit] (iframe).
+    offline : bool
+        Use the whole recording (iframe).
+    input_stage : bool
+        Put the iframe front end before gd/cg/qn/mekf.
+    allow_gaps : bool
+        Restart after a time gap instead of refusing it.
+    checks : bool
+        Run the unit / swap / clipping checks.
+    **options
+        Override :data:`DEFAULTS` of the method.
+
+    Returns
+    -------
+    AttitudeEstimate
+        ``q`` (N, 4) q_b^n [w, x, y, z] plus per-sample flags, counts and σ [rad].
     """
     frame = frame_name(frame)
     method = _method(method, pol)
@@ -372,7 +433,18 @@ def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method
 
 def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
                frame: str = DEFAULT_FRAME, q0=None, **options) -> np.ndarray:
-    """The quaternions q_b^n (N, 4) [w, x, y, z] of :func:`estimate` (same arguments), without the diagnostics."""
+    """The quaternions of :func:`estimate`, without the diagnostics.
+
+    Parameters
+    ----------
+    gyr, acc, dt, pol, method, frame, q0, **options
+        As :func:`estimate` (rad/s, m/s², s).
+
+    Returns
+    -------
+    (N, 4) ndarray
+        q_b^n [-] as [w, x, y, z].
+    """
     return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
 
 
@@ -464,7 +536,20 @@ _CLASSES = {"iframe": AttitudeFilter, "gd": GradientDescent, "cg": ConjugateGrad
 
 
 def make_filter(method: str = "iframe", **kwargs):
-    """Streaming filter for ``method`` (same options as :func:`estimate`)."""
+    """Streaming filter for ``method``.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`METHODS`.
+    **kwargs
+        Options as :func:`estimate`.
+
+    Returns
+    -------
+    AttitudeFilter or a filter of the method
+        Feed it with ``update`` / ``update_batch``.
+    """
     m = str(method).lower()
     if m not in _CLASSES:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")

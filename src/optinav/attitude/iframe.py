@@ -245,8 +245,19 @@ class AttitudeFilter:
         self._step6 = _k.step6
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
-        """One sample: gyr (3,) rad/s, acc (3,) m/s², mag (3,) or None, dt s (default: the filter's); then read
-        :attr:`q`, :attr:`rest`, ... Only the lengths are checked (speed): pass finite floats."""
+        """One sample; then read :attr:`q`, :attr:`rest`, … Only the lengths are checked (speed): pass finite floats.
+
+        Parameters
+        ----------
+        gyr : (3,) array
+            Angular rate ω_ib^b [rad/s].
+        acc : (3,) array
+            Specific force [m/s^2].
+        mag : (3,) array or None
+            Magnetometer [any unit].
+        dt : float or None
+            Step [s]; None: the filter's.
+        """
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
@@ -259,7 +270,24 @@ class AttitudeFilter:
                        mag[2], h)
 
     def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
-        """A chunk (N, 3) of samples; dt scalar, (N,) or None (the filter's). Per-sample outputs."""
+        """A chunk of samples, with per-sample outputs.
+
+        Parameters
+        ----------
+        gyr : (N, 3) array
+            Angular rate ω_ib^b [rad/s].
+        acc : (N, 3) array
+            Specific force [m/s^2].
+        mag : (N, 3) array or None
+            Magnetometer [any unit].
+        dt : float, (N,) array or None
+            Steps [s]; None: the filter's.
+
+        Returns
+        -------
+        IframeRun
+            ``q`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` flags, gyro ``bias`` (N, 3) [rad/s].
+        """
         from optinav.attitude.estimators import _as_dt, _checked_imu
 
         g, a, m = _checked_imu(gyr, acc, mag)

@@ -51,12 +51,34 @@ _JAC_MODES = {"body": 0, "nav": 1, "quat": 2}
 
 
 def up_vector(frame: str = DEFAULT_FRAME) -> np.ndarray:
-    """Unit vector opposite to gravity in the navigation frame (what a resting accelerometer measures)."""
+    """Unit vector opposite to gravity in the navigation frame (what a resting accelerometer measures).
+
+    Parameters
+    ----------
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (3,) ndarray
+        The up direction [-].
+    """
     return np.array([0.0, 0.0, -1.0]) if frame_name(frame) == "ned" else np.array([0.0, 0.0, 1.0])
 
 
 def default_c_b_m(frame: str = DEFAULT_FRAME) -> np.ndarray:
-    """Zenith-viewing mounting: :data:`DEFAULT_C_B_M` (NED, FRD body) or :data:`DEFAULT_C_B_M_ENU`."""
+    """Zenith-viewing sensor mounting: :data:`DEFAULT_C_B_M` (NED, FRD body) or :data:`DEFAULT_C_B_M_ENU`.
+
+    Parameters
+    ----------
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (3, 3) ndarray
+        C_b^m [-].
+    """
     return (DEFAULT_C_B_M if frame_name(frame) == "ned" else DEFAULT_C_B_M_ENU).copy()
 
 
@@ -138,7 +160,15 @@ class PolarizationMeasurement:
         return self.aop.size
 
     def usable(self) -> tuple[np.ndarray, dict[str, int]]:
-        """Mask of samples the estimators may use and counts of the skipped ones by reason."""
+        """Samples the estimators may use, and the skipped ones counted by reason.
+
+        Returns
+        -------
+        ok : (N,) bool ndarray
+            Usable samples.
+        counts : dict of str to int
+            ``missing``, ``invalid``, ``sun_below_horizon``, ``low_dop`` → number skipped.
+        """
         n = self.aop.size
         ok = np.isfinite(self.aop)
         counts = {"missing": int(np.count_nonzero(~ok))}
@@ -158,7 +188,18 @@ class PolarizationMeasurement:
         return ok, counts
 
     def select(self, rows) -> "PolarizationMeasurement":
-        """The measurement restricted to ``rows`` (slice, index array or mask)."""
+        """The measurement restricted to ``rows``.
+
+        Parameters
+        ----------
+        rows : slice, int array or bool array
+            The samples to keep.
+
+        Returns
+        -------
+        PolarizationMeasurement
+            The same sensor and thresholds on those samples.
+        """
         return PolarizationMeasurement(
             self.aop[rows], self.sun_n if self.sun_n.shape[0] == 1 else self.sun_n[rows],
             None if self.dop is None else self.dop[rows], self.C_b_m, self.frame,
@@ -167,10 +208,25 @@ class PolarizationMeasurement:
 
 
 def predicted_aop(q_b_n, sun_n, C_b_m=None, frame: str = DEFAULT_FRAME) -> np.ndarray:
-    """Rayleigh AoP (rad, [−π/2, π/2)) seen by the sensor at attitude(s) q_b_n for sun vector(s) sun_n (nav
-    frame).
+    """Rayleigh AoP seen by the sensor at attitude(s) ``q_b_n`` for sun vector(s) ``sun_n``.
 
     The forward model of the shared measurement model, also used to synthesize measurements.
+
+    Parameters
+    ----------
+    q_b_n : (4,) or (N, 4) array
+        Attitude q_b^n [-] as [w, x, y, z].
+    sun_n : (3,) or (N, 3) array
+        Unit sun vector in the navigation frame [-].
+    C_b_m : (3, 3) array or None
+        Sensor mounting C_b^m [-]; None: :func:`default_c_b_m`.
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (N,) ndarray
+        AoP in [−π/2, π/2) [rad].
     """
     from optinav.core.rotations import dcm_from_quat
 
@@ -204,10 +260,30 @@ def measurement_error(q_b_n, acc, *, pol: PolarizationMeasurement | None = None,
                       jacobian: str = "quat", pol_weight: float = 1.0):
     """F(q) = [ε_b; ε_m] and its Jacobian at each sample (numpy face of the estimators' kernel).
 
-    q_b_n (N, 4) attitude q_b^n; acc (N, 3) specific force (any unit, only its direction is used). Returns
-    ``F`` (N, 5), ``J`` (N, 5, 3 or 4) and ``rows`` (N,) = 3 (gravity only), 5 (with polarization) or −3
-    (polarization requested but the sun within ``min_sun_separation`` of the viewing axis); unused rows are NaN.
-    ``jacobian``: "quat" (tangent, 4 columns), "body" or "nav" error angle (3 columns).
+    Parameters
+    ----------
+    q_b_n : (N, 4) array
+        Attitude q_b^n [-] as [w, x, y, z].
+    acc : (N, 3) array
+        Specific force [any unit] (only its direction is used).
+    pol : PolarizationMeasurement or None
+        Polarization samples.
+    frame : str
+        Navigation frame, ``"ned"`` or ``"enu"``.
+    jacobian : str
+        "quat" (tangent, 4 columns), "body" or "nav" error angle (3 columns).
+    pol_weight : float
+        Weight w of the polarization rows (module docstring) [-].
+
+    Returns
+    -------
+    F : (N, 5) ndarray
+        Residuals ε_b (unit-vector difference) and ε_m (doubled-angle form) [-]; unused rows NaN.
+    J : (N, 5, 3 or 4) ndarray
+        Jacobian [1/rad].
+    rows : (N,) int ndarray
+        3 (gravity only), 5 (with polarization) or −3 (polarization requested but the sun within
+        ``min_sun_separation`` of the viewing axis).
     """
     frame = frame_name(frame)
     if jacobian not in _JAC_MODES:

@@ -20,7 +20,7 @@ import numpy as np
 
 from optinav.attitude.measurement import default_c_b_m, up_vector
 from optinav.core.imu_model import ImuSpec, preset
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import DEFAULT_FRAME, dcm_from_euler, dcm_from_quat, frame_name, ned_to_enu
 from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
@@ -44,21 +44,22 @@ class FlightData(Result):
     """A simulated flight: IMU samples, true attitude, the polarization sensor's output and the sun.
 
     Samples k = 0..N−1 at ``t`` (s from ``start_time``). ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s² (specific
-    force) in the body frame; ``q_true`` (N, 4) [w, x, y, z] body → navigation (``frame``); ``aop`` (N,) rad
+    force) in the body frame; ``q_b_n`` (N, 4) [w, x, y, z] body → navigation (``frame``); ``aop`` (N,) rad
     measured angle of polarization in frame m (NaN between polarization samples), ``dop`` (N,) measured degree;
     ``aop_true``/``dop_true`` the sky model's values; ``sun_n`` (N, 3) unit sun vector in the navigation frame;
     ``sun_elevation``/``sun_azimuth`` (N,) rad (apparent; azimuth from north towards east); ``C_b_m`` mounting.
-    Feed the estimators with ``gyr, acc, dt`` and :meth:`polarization`.
+    Feed the estimators with ``gyr, acc, dt`` and :meth:`polarization`. Version 2 renamed the version-1 fields
+    ``q_true``/``height`` to ``q_b_n``/``height_m`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.flight_data"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = _f("s")
     dt: float = _f("s")
     gyr: np.ndarray = _f("rad/s")
     acc: np.ndarray = _f("m/s^2")
-    q_true: np.ndarray = _f("")
+    q_b_n: np.ndarray = _f("")
     aop: np.ndarray = _f("rad")
     dop: np.ndarray = _f("")
     aop_true: np.ndarray = _f("rad")
@@ -72,7 +73,7 @@ class FlightData(Result):
     start_time: str = _f("-")
     lat: float = _f("rad")
     lon: float = _f("rad")
-    height: float = _f("m")
+    height_m: float = _f("m")
     gyr_true: np.ndarray = _f("rad/s")
     acc_true: np.ndarray = _f("m/s^2")
     metadata: dict = field(default_factory=dict, metadata={"unit": "-"})
@@ -83,14 +84,14 @@ class FlightData(Result):
     @property
     def C_b_n(self) -> np.ndarray:
         """True attitude C_b^n (N, 3, 3)."""
-        return dcm_from_quat(self.q_true)
+        return dcm_from_quat(self.q_b_n)
 
     @property
     def euler(self) -> np.ndarray:
         """True [roll, pitch, yaw] (N, 3) rad in the convention of ``frame``."""
         from optinav.core.rotations import euler_from_quat
 
-        return euler_from_quat(self.q_true, frame_name(self.frame))
+        return euler_from_quat(self.q_b_n, frame_name(self.frame))
 
     def polarization(self, **options):
         """The polarization samples as :class:`optinav.attitude.measurement.PolarizationMeasurement`
@@ -99,6 +100,10 @@ class FlightData(Result):
 
         return PolarizationMeasurement(aop=self.aop, sun_n=self.sun_n, dop=self.dop, C_b_m=self.C_b_m,
                                        frame=self.frame, **options)
+
+
+register_legacy(FlightData, FlightData.SCHEMA, 1,
+                lambda d: nested_kwargs(FlightData, d, {"q_true": "q_b_n", "height": "height_m"}))
 
 
 def _smooth_signal(rng, t, f_lo, f_hi, n_terms=3):
@@ -168,21 +173,67 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
              rng=None) -> FlightData:
     """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
 
-    kind: ``"static"`` (one attitude ``attitude`` = [roll, pitch, yaw] rad (NED convention) held for
-    ``duration_s``) or
-    ``"dynamic"`` (smooth random manoeuvres: horizontal accelerations up to ``accel_level`` m/s² (vertical a fifth),
-    roll/pitch within ±``tilt`` (rad) at 0.1–0.4 Hz, heading turning at up to 45 °/s; still for the first
-    min(5 s, 10 %), smooth ramps in and out; attitude/position splined through knots every ``knot_spacing_s``).
-    time: ISO-8601 start with UTC offset (default: the paper's time for ``kind``). Site ``lat``, ``lon`` (rad),
-    ``height_m`` (m) (default: the paper's, :data:`PAPER_SITE`). frame ``"NED"`` (body FRD) or ``"ENU"`` (body RFU).
+    The sun: SPA at every sample with refraction. Defaults reproduce the paper's site and times
+    (:data:`PAPER_SITE`).
 
-    IMU: preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB);
-    ``imu_errors=True`` also draws the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000);
-    ``gyro_bias`` (3,) rad/s adds a constant residual bias. Sky: ``sky_model`` "rayleigh"/"berry" with
-    ``d_max`` and ``neutral_distance`` (rad). Sensor: a :class:`PointSensor` (default 3 channels, ER 100,
-    relative noise ``pol_noise`` = 0.002), sampled at ``pol_rate_hz`` (default every IMU sample; NaN between).
-    The sun: SPA at every sample with refraction (``pressure_mbar``/``temperature_c``; None = geometric).
-    rng: seed or Generator (trajectory, IMU and sensor noise).
+    Parameters
+    ----------
+    kind : str
+        ``"static"`` (``attitude`` held for ``duration_s``) or ``"dynamic"`` (smooth random manoeuvres: still for
+        the first min(5 s, 10 %), smooth ramps in and out, heading turning at up to 45 °/s).
+    duration_s : float
+        Length [s].
+    rate_hz : float
+        IMU sample rate [Hz].
+    time : str or None
+        ISO-8601 start with UTC offset; None: the paper's time for ``kind``.
+    lat, lon : float
+        Site [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"ned"`` (body FRD) or ``"enu"`` (body RFU).
+    imu : str or ImuSpec
+        Preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB).
+    imu_errors : bool
+        Also draw the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000).
+    gyro_bias : (3,) array or None
+        A constant residual gyro bias [rad/s].
+    attitude : (3,) array_like
+        Static attitude [roll, pitch, yaw] [rad] (Euler convention of ``frame``).
+    accel_level : float
+        Dynamic: largest horizontal acceleration [m/s^2] (vertical a fifth).
+    tilt : float
+        Dynamic: roll/pitch within ±tilt [rad], at 0.1–0.4 Hz.
+    knot_spacing_s : float
+        Dynamic: attitude/position splined through knots this far apart [s].
+    sky_model : str
+        ``"rayleigh"`` or ``"berry"``.
+    d_max : float or None
+        Largest degree of polarization of the sky model [-].
+    neutral_distance : float or None
+        Berry model: separation δ of the neutral points around the sun [rad].
+    sensor : PointSensor or None
+        The polarization sensor (default 3 channels, extinction ratio 100).
+    pol_noise : float or None
+        Relative intensity noise of the sensor [-] (default 0.002).
+    pol_rate_hz : float or None
+        Polarization sample rate [Hz] (default every IMU sample; NaN between).
+    C_b_m : (3, 3) array or None
+        Sensor mounting C_b^m [-]; None: zenith-viewing :func:`default_c_b_m`.
+    pressure_mbar : float or None
+        Air pressure for refraction [mbar]; None: geometric sun.
+    temperature_c : float
+        Air temperature for refraction [°C].
+    delta_t : float or None
+        TT − UT1 [s]; None: :func:`optinav.sky.sun.delta_t_espenak`.
+    rng : int, Generator or None
+        Seed or generator (trajectory, IMU and sensor noise).
+
+    Returns
+    -------
+    FlightData
+        IMU samples ``gyr`` [rad/s], ``acc`` [m/s^2], true ``q_b_n``, AoP [rad], DoP and the sun.
     """
     from optinav.core.simulate import static_positions
     from optinav.sky import polarization as P
@@ -221,7 +272,7 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
                                float(tilt), check_positive(knot_spacing_s, "knot_spacing_s"))
 
     t = truth.t
-    w_true, f_true = truth.omega_ib_b, truth.f_b
+    w_true, f_true = truth.gyr, truth.acc
     model = spec.draw(rng, errors=bool(imu_errors))
     meas = model.apply(w_true, f_true, dt=1.0 / rate, rng=rng)
     gyr = meas.gyro
@@ -274,7 +325,7 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
             "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
             "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
             "refraction": sp.refraction}
-    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.accel, q_true=truth.q_b_n, aop=aop, dop=dop,
+    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.accel, q_b_n=truth.q_b_n, aop=aop, dop=dop,
                       aop_true=aop_true, dop_true=dop_true, sun_n=sun_n, sun_elevation=sp.elevation,
                       sun_azimuth=sp.azimuth, C_b_m=c_b_m, frame=frame, kind=kind, start_time=str(start),
-                      lat=lat, lon=lon, height=float(height), gyr_true=w_true, acc_true=f_true, metadata=meta)
+                      lat=lat, lon=lon, height_m=float(height), gyr_true=w_true, acc_true=f_true, metadata=meta)

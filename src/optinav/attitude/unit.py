@@ -66,7 +66,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
                            "drop --reference or pass a BROAD trial")
     log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, time_unit=o.time_unit,
                    rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter, topic=o.topic)
-    if log.acc is None or log.gyro is None:
+    if log.acc is None or log.gyr is None:
         raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
                            "name them with --columns t,ax,ay,az,gx,gy,gz")
     if log.acc_unit == "counts" or log.gyro_unit == "counts":
@@ -85,7 +85,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
-    return log.t, log.gyro, log.acc, mag, None
+    return log.t, log.gyr, log.acc, mag, None
 
 
 def steps(t, path="") -> np.ndarray:

@@ -143,7 +143,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     units: dict[str, str] = {}
     for log in blocks:
         if not angles:
-            present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyro, log.gyro_unit)}
+            present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyr, log.gyro_unit)}
             wanted = {"both": ("accelerometer", "gyroscope"), "acc": ("accelerometer",), "gyro": ("gyroscope",)}[sensor]
             if need_kalibr:
                 missing = [n for n in ("accelerometer", "gyroscope") if present[n][0] is None or n not in wanted]
@@ -162,7 +162,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                                    "to analyse", "check --columns (t,ax,ay,az,gx,gy,gz) or --sensor")
         timing.add(log.t)
         for name, acc in angles.items():
-            x = log.acc if name == "accelerometer" else log.gyro
+            x = log.acc if name == "accelerometer" else log.gyr
             if x is None:
                 raise OptinavError(f"a block of {source or 'the log'} lacks the {name}", "check --columns")
             if not np.all(np.isfinite(x)):

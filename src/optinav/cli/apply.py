@@ -60,7 +60,7 @@ def run(args) -> int:
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
             acc, gyro = _corrected(res, log, args)
-            writer.write(ImuLog(t=log.t, acc=acc, gyro=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
+            writer.write(ImuLog(t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
                                 labels=log.labels))
     print(f"optinav: wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)")
     return 0
@@ -75,7 +75,7 @@ def _corrected(res, log, args):
         raw, unit = raw_units(log, "acc")
         _check_unit("accelerometer", unit, res.units.get("accelerometer_raw"))
         acc = res.correct_accel(raw)
-    if res.gyroscope is not None and log.gyro is not None:
+    if res.gyroscope is not None and log.gyr is not None:
         raw, unit = raw_units(log, "gyro")
         _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
         gyro = res.correct_gyro(raw, acc)

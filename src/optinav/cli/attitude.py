@@ -276,7 +276,7 @@ def _run_stream(args, method, options, q0, out) -> int:
                           delimiter=args.delimiter, chunk_rows=max(args.chunk_rows, 2), topic=args.topic)
         prev = None
         for log in progress_blocks(chunks, desc):
-            if log.acc is None or log.gyro is None:
+            if log.acc is None or log.gyr is None:
                 raise OptinavError(f"{args.data} needs accelerometer and gyroscope columns",
                                    "name them with --columns t,ax,ay,az,gx,gy,gz")
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
@@ -292,7 +292,7 @@ def _run_stream(args, method, options, q0, out) -> int:
     for _, log, dts in blocks("attitude: checks"):
         bad += int(np.count_nonzero(~log.finite))
         if not bad:
-            checks.add(log.gyro, log.acc, dts)
+            checks.add(log.gyr, log.acc, dts)
     if bad:
         raise OptinavError(f"{args.data} has {bad} rows with NaN accelerometer/gyro values",
                            "remove or interpolate them first")
@@ -304,7 +304,7 @@ def _run_stream(args, method, options, q0, out) -> int:
     with atomic_open(out, "w", newline="\n") as fh:
         fh.write(_HEADER + "\n")
         for row0, log, dts in blocks(f"attitude: {method}"):
-            checks.collect(row0, log.gyro, log.acc, dts)
+            checks.collect(row0, log.gyr, log.acc, dts)
             if gaps.size and not args.allow_gaps:
                 continue  # refused below, after the checks that come first
             # a time gap starts a new segment whose first step is the median one
@@ -316,7 +316,7 @@ def _run_stream(args, method, options, q0, out) -> int:
                 if k:
                     estimator.restart()
                 if b > a:
-                    qs.append(estimator.run(log.gyro[a:b], log.acc[a:b], dts[a:b]))
+                    qs.append(estimator.run(log.gyr[a:b], log.acc[a:b], dts[a:b]))
             q = np.concatenate(qs)
             eul = np.degrees(euler_from_quat(q, frame_name(args.frame)))
             np.savetxt(fh, np.column_stack([log.t, q, eul]), delimiter=",", fmt=_CSV_FORMAT)
@@ -422,10 +422,10 @@ def run_simulate_flight(args) -> int:
     head = "# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,aop_deg,dop"
     step("write")
     write_csv(out, cols, head, "%.10g")
-    write_csv(truth, np.column_stack([d.t, d.q_true]), "t,qw,qx,qy,qz", "%.12g")
+    write_csv(truth, np.column_stack([d.t, d.q_b_n]), "t,qw,qx,qy,qz", "%.12g")
     from optinav.attitude.estimators import attitude_truth
 
-    write_truth(out, attitude_truth(d.q_true, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
+    write_truth(out, attitude_truth(d.q_b_n, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
                                                          "start_time": str(d.start_time)}))
     e0 = np.degrees(d.euler[0])
     print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "

@@ -103,7 +103,7 @@ def run_accel_multipos(args) -> int:
     # the log holds SI or counts; write_imu converts SI back to the requested file unit
     acc = s.acc if args.acc_unit in ("counts", "m/s^2") else s.acc * factor(args.acc_unit)
     gyro = s.gyro if args.gyro_unit in ("counts", "rad/s") else s.gyro * factor(args.gyro_unit)
-    log = ImuLog(t=s.t, acc=acc, gyro=gyro, acc_unit="counts" if args.acc_unit == "counts" else "m/s^2",
+    log = ImuLog(t=s.t, acc=acc, gyr=gyro, acc_unit="counts" if args.acc_unit == "counts" else "m/s^2",
                  gyro_unit="counts" if args.gyro_unit == "counts" else "rad/s", source="optinav simulate")
     step("write")
     write_imu(out, log, acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
@@ -160,7 +160,7 @@ def run_static(args) -> int:
         data[name] = white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
     g = float(gravity(np.radians(45.0), 0.0))
     acc = data["accelerometer"] + np.array([0.0, 0.0, g])
-    log = ImuLog(t=np.arange(n) * dt, acc=acc, gyro=data["gyroscope"], source="optinav simulate static")
+    log = ImuLog(t=np.arange(n) * dt, acc=acc, gyr=data["gyroscope"], source="optinav simulate static")
     step("write")
     write_imu(out, log, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit)
     units = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2", "random_walk": "m/s^2/sqrt(s)"},

@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import to_si
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -490,20 +490,23 @@ class ImuCompensated(Result):
 
 @dataclass(eq=False)
 class ImuModel(Result):
-    """One IMU unit: deterministic errors of both triads and their noise parameters (SI)."""
+    """One IMU unit: deterministic errors of both triads (``gyr``, ``acc``) and their noise parameters (SI).
+
+    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc`` (version-1 files still load).
+    """
 
     SCHEMA = "optinav.imu_model"
-    VERSION = 1
+    VERSION = 2
 
-    gyro: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("gyro"), metadata={"unit": "-"})
-    accel: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("accel"), metadata={"unit": "-"})
+    gyr: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("gyro"), metadata={"unit": "-"})
+    acc: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("accel"), metadata={"unit": "-"})
     gyro_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
     accel_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
     sample_rate: float = field(default=100.0, metadata={"unit": "Hz"})
     name: str = field(default="custom", metadata={"unit": "-"})
 
     def __post_init__(self):
-        for attr, sensor, cls in (("gyro", "gyro", TriadErrors), ("accel", "accel", TriadErrors),
+        for attr, sensor, cls in (("gyr", "gyro", TriadErrors), ("acc", "accel", TriadErrors),
                                   ("gyro_noise", None, TriadNoise), ("accel_noise", None, TriadNoise)):
             v = getattr(self, attr)
             if not isinstance(v, cls):
@@ -532,8 +535,8 @@ class ImuModel(Result):
                                "pass the same number of gyro and accel samples")
         n = w.shape[0]
         d = self._dt(dt, n)
-        ya = self.accel.apply(f, dt=d, kind=kind)
-        yg = self.gyro.apply(w, dt=d, acc=f, kind=kind)
+        ya = self.acc.apply(f, dt=d, kind=kind)
+        yg = self.gyr.apply(w, dt=d, acc=f, kind=kind)
         if noise:
             rng = as_rng(rng)
             scale = 1.0 if kind == "rate" else d[:, None]
@@ -556,9 +559,13 @@ class ImuModel(Result):
             raise OptinavError(f"gyr {yg.shape} and acc {ya.shape} have different shapes",
                                "pass the same number of gyro and accel samples")
         d = self._dt(dt, yg.shape[0])
-        fa = self.accel.compensate(ya, dt=d, kind=kind)
-        wg = self.gyro.compensate(yg, dt=d, acc=fa, kind=kind)
+        fa = self.acc.compensate(ya, dt=d, kind=kind)
+        wg = self.gyr.compensate(yg, dt=d, acc=fa, kind=kind)
         return ImuCompensated(gyro=wg, accel=fa, kind=kind)
+
+
+register_legacy(ImuModel, ImuModel.SCHEMA, 1,
+                lambda d: nested_kwargs(ImuModel, d, {"gyro": "gyr", "accel": "acc"}))
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -667,7 +674,7 @@ class ImuSpec(Result):
                               range=getattr(self, f"{s}_range"), lsb=getattr(self, f"{s}_lsb"),
                               lsb_kind=self.lsb_kind, carry=self.quantization_carry)
 
-        return ImuModel(gyro=triad("gyro"), accel=triad("accel"), gyro_noise=noise("gyro", "arw"),
+        return ImuModel(gyr=triad("gyro"), acc=triad("accel"), gyro_noise=noise("gyro", "arw"),
                         accel_noise=noise("accel", "vrw"), sample_rate=self.sample_rate, name=self.name)
 
 

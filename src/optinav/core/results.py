@@ -274,7 +274,13 @@ class Estimate(Result):
     KIND: ClassVar[str] = ""
 
     def parameters(self) -> dict[str, Parameter]:
-        """Name → :class:`Parameter` of everything estimated, in the names the simulated truth uses."""
+        """Everything estimated, in the names the simulated truth uses.
+
+        Returns
+        -------
+        dict of str to Parameter
+            Name → :class:`Parameter` (value, std and CRLB std in the parameter's ``unit``; observability).
+        """
         raise NotImplementedError
 
     def to_dict(self) -> dict:

@@ -37,9 +37,21 @@ CORE_FRAME = "enu"
 
 
 def frame_name(frame, what: str = "navigation frame") -> str:
-    """The navigation frame ``frame`` ("enu"/"ned" in any case) as its one spelling, ``"enu"`` or ``"ned"``;
-    :class:`OptinavError` naming ``what`` for anything else. Every function taking ``frame`` (or an Euler
-    ``convention``) checks it here."""
+    """The navigation frame as its one spelling; every function taking ``frame`` (or an Euler ``convention``)
+    checks it here.
+
+    Parameters
+    ----------
+    frame : str
+        ``"enu"`` or ``"ned"`` in any case; anything else raises :class:`OptinavError`.
+    what : str
+        Named in the error message.
+
+    Returns
+    -------
+    str
+        ``"enu"`` or ``"ned"``.
+    """
     f = str(frame).strip().lower()
     if f not in FRAMES:
         raise OptinavError(f"unknown {what} {frame!r}", "use 'enu' or 'ned' (either case)")
@@ -57,7 +69,18 @@ def _flat(x: np.ndarray, tail: int) -> tuple[np.ndarray, tuple[int, ...]]:
 
 
 def skew(v) -> np.ndarray:
-    """Skew-symmetric cross-product matrix ``[v×]`` with ``[v×] u = v × u``; (..., 3) → (..., 3, 3)."""
+    """Skew-symmetric cross-product matrix ``[v×]`` with ``[v×] u = v × u``.
+
+    Parameters
+    ----------
+    v : (..., 3) array
+        Vector(s) [any unit].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        ``[v×]`` [unit of v].
+    """
     v = np.asarray(v, dtype=float)
     z = np.zeros(v.shape[:-1])
     x, y, w = v[..., 0], v[..., 1], v[..., 2]
@@ -65,43 +88,110 @@ def skew(v) -> np.ndarray:
 
 
 def vee(m) -> np.ndarray:
-    """Inverse of :func:`skew` (uses the antisymmetric part); (..., 3, 3) → (..., 3)."""
+    """Inverse of :func:`skew` (uses the antisymmetric part).
+
+    Parameters
+    ----------
+    m : (..., 3, 3) array
+        Matrix [any unit].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        The vector [unit of m].
+    """
     m = np.asarray(m, dtype=float)
     return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1)
 
 
 def small_angle_dcm(phi) -> np.ndarray:
-    """First-order rotation matrix ``I + [φ×]`` of a small rotation vector φ (rad).
+    """First-order rotation matrix ``I + [φ×]`` of a small rotation vector φ.
 
-    The matrices of the form ``I − [θ×]`` used for non-orthogonality angles (e.g. the rotational-INS
-    paper, eqs. 4–5) are ``small_angle_dcm(-θ)``.
+    The matrices of the form ``I − [θ×]`` used for non-orthogonality angles (e.g. the rotational-INS paper,
+    eqs. 4–5) are ``small_angle_dcm(-θ)``.
+
+    Parameters
+    ----------
+    phi : (..., 3) array
+        Rotation vector [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        ``I + [φ×]`` [-].
     """
     return np.eye(3) + skew(phi)
 
 
 def rot_x(angle) -> np.ndarray:
-    """Active rotation by ``angle`` (rad) about x: [[1,0,0],[0,c,−s],[0,s,c]]; vectorized."""
+    """Active rotation about x: [[1,0,0],[0,c,−s],[0,s,c]].
+
+    Parameters
+    ----------
+    angle : float or array
+        Angle(s) [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Rotation matrices [-].
+    """
     a = np.asarray(angle, dtype=float)
     c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
 
 
 def rot_y(angle) -> np.ndarray:
-    """Active rotation by ``angle`` (rad) about y: [[c,0,s],[0,1,0],[−s,0,c]]; vectorized."""
+    """Active rotation about y: [[c,0,s],[0,1,0],[−s,0,c]].
+
+    Parameters
+    ----------
+    angle : float or array
+        Angle(s) [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Rotation matrices [-].
+    """
     a = np.asarray(angle, dtype=float)
     c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
 
 
 def rot_z(angle) -> np.ndarray:
-    """Active rotation by ``angle`` (rad) about z: [[c,−s,0],[s,c,0],[0,0,1]]; vectorized."""
+    """Active rotation about z: [[c,−s,0],[s,c,0],[0,0,1]].
+
+    Parameters
+    ----------
+    angle : float or array
+        Angle(s) [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Rotation matrices [-].
+    """
     a = np.asarray(angle, dtype=float)
     c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
 
 
 def unit_axis(axis, name: str = "axis") -> np.ndarray:
-    """Unit 3-vector from a vector or an axis name: "x", "-y", "+z" (suffixes "_b"/"_n" ignored)."""
+    """Unit 3-vector from a vector or an axis name.
+
+    Parameters
+    ----------
+    axis : str or (3,) array
+        A vector [any unit] or a name: "x", "-y", "+z" (suffixes "_b"/"_n" ignored).
+    name : str
+        Named in error messages.
+
+    Returns
+    -------
+    (3,) ndarray
+        Unit vector [-].
+    """
     if isinstance(axis, str):
         return _axis_from_name(axis)
     a = as_float_array(axis, name, last_dims=(3,))
@@ -128,14 +218,38 @@ def _axis_from_name(s: str) -> np.ndarray:
 
 
 def rot_axis(axis, angle) -> np.ndarray:
-    """Active rotation by ``angle`` (rad) about ``axis`` (a 3-vector or a name like "-z"), vectorized over ``angle``."""
+    """Active rotation about ``axis``, vectorized over ``angle``.
+
+    Parameters
+    ----------
+    axis : str or (3,) array
+        A vector [any unit] or a name like "-z".
+    angle : float or array
+        Angle(s) [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Rotation matrices [-].
+    """
     return dcm_from_rotvec(unit_axis(axis) * np.asarray(angle, dtype=float)[..., None])
 
 
 # --- quaternion algebra -------------------------------------------------------------------------------
 
 def quat_multiply(p, q) -> np.ndarray:
-    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, broadcasting over leading dims."""
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, broadcasting over leading dims.
+
+    Parameters
+    ----------
+    p, q : (..., 4) array
+        Quaternions [w, x, y, z] [-].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        ``p ⊗ q`` [-].
+    """
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
@@ -149,13 +263,35 @@ def quat_multiply(p, q) -> np.ndarray:
 
 
 def quat_conjugate(q) -> np.ndarray:
-    """Conjugate ``[w, −x, −y, −z]`` (the inverse of a unit quaternion)."""
+    """Conjugate ``[w, −x, −y, −z]`` (the inverse of a unit quaternion).
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Quaternion(s) [-].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        The conjugate [-].
+    """
     q = np.asarray(q, dtype=float)
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def quat_normalize(q) -> np.ndarray:
-    """Unit quaternion with the same direction; a zero quaternion is an error."""
+    """Unit quaternion with the same direction; a zero quaternion is an error.
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Quaternion(s) [-].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        Unit quaternion(s) [-].
+    """
     q = np.asarray(q, dtype=float)
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if np.any(n == 0):
@@ -164,13 +300,37 @@ def quat_normalize(q) -> np.ndarray:
 
 
 def quat_canonical(q) -> np.ndarray:
-    """The same rotation with ``w ≥ 0`` (q and −q are one rotation)."""
+    """The same rotation with ``w ≥ 0`` (q and −q are one rotation).
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Quaternion(s) [-].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        Quaternion(s) with w ≥ 0 [-].
+    """
     q = np.asarray(q, dtype=float)
     return np.where(q[..., :1] < 0, -q, q)
 
 
 def quat_rotate(q, v) -> np.ndarray:
-    """Rotate vectors: ``C(q) v`` for unit ``q``; broadcasts (..., 4) with (..., 3)."""
+    """Rotate vectors: ``C(q) v`` for unit ``q``; broadcasts (..., 4) with (..., 3).
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Unit quaternion(s) [-].
+    v : (..., 3) array
+        Vector(s) [any unit].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        ``C(q) v`` [unit of v].
+    """
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     w = q[..., :1]
@@ -232,57 +392,186 @@ def _out_euler(r: Rotation, lead, convention) -> np.ndarray:
 
 
 def dcm_from_quat(q) -> np.ndarray:
-    """Quaternion ``q_b^n`` (normalized first) → ``C_b^n``."""
+    """Quaternion ``q_b^n`` (normalized first) → ``C_b^n``.
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Quaternion(s) [w, x, y, z] [-].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        DCM(s) [-].
+    """
     return _out_dcm(*_rot_from_quat(q))
 
 
 def quat_from_dcm(c) -> np.ndarray:
-    """``C_b^n`` → unit quaternion with ``w ≥ 0`` (a non-orthogonal input is projected to the nearest rotation)."""
+    """``C_b^n`` → unit quaternion with ``w ≥ 0`` (a non-orthogonal input is projected to the nearest rotation).
+
+    Parameters
+    ----------
+    c : (..., 3, 3) array
+        DCM(s) [-].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        Quaternion(s) [w, x, y, z] [-].
+    """
     return _out_quat(*_rot_from_dcm(c))
 
 
 def dcm_from_rotvec(r) -> np.ndarray:
-    """Rotation vector (axis × angle, rad) → DCM, exact (Rodrigues)."""
+    """Rotation vector (axis × angle) → DCM, exact (Rodrigues).
+
+    Parameters
+    ----------
+    r : (..., 3) array
+        Rotation vector(s) [rad].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        DCM(s) [-].
+    """
     return _out_dcm(*_rot_from_rotvec(r))
 
 
 def rotvec_from_dcm(c) -> np.ndarray:
-    """DCM → rotation vector with angle in [0, π]."""
+    """DCM → rotation vector with angle in [0, π].
+
+    Parameters
+    ----------
+    c : (..., 3, 3) array
+        DCM(s) [-].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        Rotation vector(s) [rad].
+    """
     return _out_rotvec(*_rot_from_dcm(c))
 
 
 def quat_from_rotvec(r) -> np.ndarray:
-    """Rotation vector → unit quaternion (``w ≥ 0``)."""
+    """Rotation vector → unit quaternion (``w ≥ 0``).
+
+    Parameters
+    ----------
+    r : (..., 3) array
+        Rotation vector(s) [rad].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        Quaternion(s) [w, x, y, z] [-].
+    """
     return _out_quat(*_rot_from_rotvec(r))
 
 
 def rotvec_from_quat(q) -> np.ndarray:
-    """Unit quaternion → rotation vector with angle in [0, π]."""
+    """Unit quaternion → rotation vector with angle in [0, π].
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Quaternion(s) [w, x, y, z] [-].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        Rotation vector(s) [rad].
+    """
     return _out_rotvec(*_rot_from_quat(q))
 
 
 def dcm_from_euler(angles, convention: str = "ned") -> np.ndarray:
-    """``[roll, pitch, yaw]`` (rad) → ``C_b^n`` in the given convention (module docstring)."""
+    """``[roll, pitch, yaw]`` → ``C_b^n`` in the given convention (module docstring).
+
+    Parameters
+    ----------
+    angles : (..., 3) array
+        [roll, pitch, yaw] [rad].
+    convention : str
+        ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        ``C_b^n`` [-].
+    """
     return _out_dcm(*_rot_from_euler(angles, convention))
 
 
 def euler_from_dcm(c, convention: str = "ned") -> np.ndarray:
-    """``C_b^n`` → ``[roll, pitch, yaw]`` (rad); the middle angle is in [−π/2, π/2]."""
+    """``C_b^n`` → ``[roll, pitch, yaw]``; the middle angle is in [−π/2, π/2].
+
+    Parameters
+    ----------
+    c : (..., 3, 3) array
+        ``C_b^n`` [-].
+    convention : str
+        ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        [roll, pitch, yaw] [rad].
+    """
     return _out_euler(*_rot_from_dcm(c), convention)
 
 
 def quat_from_euler(angles, convention: str = "ned") -> np.ndarray:
-    """``[roll, pitch, yaw]`` (rad) → unit quaternion ``q_b^n`` (``w ≥ 0``)."""
+    """``[roll, pitch, yaw]`` → unit quaternion ``q_b^n`` (``w ≥ 0``).
+
+    Parameters
+    ----------
+    angles : (..., 3) array
+        [roll, pitch, yaw] [rad].
+    convention : str
+        ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (..., 4) ndarray
+        ``q_b^n`` [w, x, y, z] [-].
+    """
     return _out_quat(*_rot_from_euler(angles, convention))
 
 
 def euler_from_quat(q, convention: str = "ned") -> np.ndarray:
-    """Unit quaternion ``q_b^n`` → ``[roll, pitch, yaw]`` (rad)."""
+    """Unit quaternion ``q_b^n`` → ``[roll, pitch, yaw]``.
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        ``q_b^n`` [w, x, y, z] [-].
+    convention : str
+        ``"ned"`` or ``"enu"``.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        [roll, pitch, yaw] [rad].
+    """
     return _out_euler(*_rot_from_quat(q), convention)
 
 
 def dcm_orthonormalize(c) -> np.ndarray:
-    """Nearest rotation matrix in the Frobenius norm (polar decomposition by SVD)."""
+    """Nearest rotation matrix in the Frobenius norm (polar decomposition by SVD).
+
+    Parameters
+    ----------
+    c : (..., 3, 3) array
+        Matrix [-].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Rotation matrix [-].
+    """
     c = as_float_array(c, "direction-cosine matrix", last_dims=(3, 3))
     u, _, vt = np.linalg.svd(c)
     d = np.sign(np.linalg.det(u @ vt))
@@ -291,7 +580,18 @@ def dcm_orthonormalize(c) -> np.ndarray:
 
 
 def rotation_angle(c) -> np.ndarray:
-    """Angle (rad, in [0, π]) of the rotation ``C``; for an error ``C_1ᵀ C_2`` it is the attitude error."""
+    """Angle of the rotation ``C``; for an error ``C_1ᵀ C_2`` it is the attitude error.
+
+    Parameters
+    ----------
+    c : (..., 3, 3) array
+        Rotation matrix [-].
+
+    Returns
+    -------
+    ndarray
+        Angle in [0, π] [rad].
+    """
     c = np.asarray(c, dtype=float)
     tr = np.trace(c, axis1=-2, axis2=-1)
     # arctan2 form keeps precision for small angles where arccos((tr-1)/2) loses it
@@ -300,7 +600,18 @@ def rotation_angle(c) -> np.ndarray:
 
 
 def quat_angle_between(q1, q2) -> np.ndarray:
-    """Angle (rad) of the rotation taking ``q1`` to ``q2``, sign-invariant."""
+    """Angle of the rotation taking ``q1`` to ``q2``, sign-invariant.
+
+    Parameters
+    ----------
+    q1, q2 : (..., 4) array
+        Unit quaternions [-].
+
+    Returns
+    -------
+    ndarray
+        Angle in [0, π] [rad].
+    """
     e = quat_multiply(quat_conjugate(quat_normalize(q1)), quat_normalize(q2))
     # atan2 of the vector part keeps precision for tiny angles where arccos(w) loses it below ~1e-8 rad
     return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), np.abs(e[..., 0]))
@@ -309,20 +620,64 @@ def quat_angle_between(q1, q2) -> np.ndarray:
 # --- ENU / NED -----------------------------------------------------------------------------------------
 
 def enu_to_ned(v) -> np.ndarray:
-    """Vector(s) in ENU → NED: ``[e, n, u] → [n, e, −u]``."""
+    """Vector(s) in ENU → NED: ``[e, n, u] → [n, e, −u]``.
+
+    Parameters
+    ----------
+    v : (..., 3) array
+        Vector(s) [any unit].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        The same vector(s) in NED [unit of v].
+    """
     return np.asarray(v, dtype=float) @ C_ENU_NED.T
 
 
 def ned_to_enu(v) -> np.ndarray:
-    """Vector(s) in NED → ENU: ``[n, e, d] → [e, n, −d]``."""
+    """Vector(s) in NED → ENU: ``[n, e, d] → [e, n, −d]``.
+
+    Parameters
+    ----------
+    v : (..., 3) array
+        Vector(s) [any unit].
+
+    Returns
+    -------
+    (..., 3) ndarray
+        The same vector(s) in ENU [unit of v].
+    """
     return np.asarray(v, dtype=float) @ C_ENU_NED.T
 
 
 def attitude_enu_to_ned(c_b_n_enu) -> np.ndarray:
-    """``C_b^n`` with b = right-forward-up, n = ENU → ``C_b'^n'`` with b' = forward-right-down, n' = NED."""
+    """``C_b^n`` with b = right-forward-up, n = ENU → ``C_b'^n'`` with b' = forward-right-down, n' = NED.
+
+    Parameters
+    ----------
+    c_b_n_enu : (..., 3, 3) array
+        Attitude in the ENU convention [-].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Attitude in the NED convention [-].
+    """
     return C_ENU_NED @ np.asarray(c_b_n_enu, dtype=float) @ C_RFU_FRD.T
 
 
 def attitude_ned_to_enu(c_b_n_ned) -> np.ndarray:
-    """Inverse of :func:`attitude_enu_to_ned`."""
+    """Inverse of :func:`attitude_enu_to_ned`.
+
+    Parameters
+    ----------
+    c_b_n_ned : (..., 3, 3) array
+        Attitude in the NED convention [-].
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+        Attitude in the ENU convention [-].
+    """
     return C_ENU_NED.T @ np.asarray(c_b_n_ned, dtype=float) @ C_RFU_FRD

@@ -37,7 +37,7 @@ from typing import Sequence
 import numpy as np
 
 from optinav.core import earth as _earth
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import (C_ENU_NED, CORE_FRAME, dcm_from_quat, dcm_orthonormalize, frame_name,
                                     quat_canonical, quat_from_dcm, quat_multiply, rot_axis, rotvec_from_dcm, unit_axis)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
@@ -66,11 +66,13 @@ class ImuTruth(Result):
     """Simulated truth of an IMU's motion and its ideal (error-free) outputs.
 
     Epochs ``t[0..N]``; ``dtheta[k]``, ``dv[k]`` integrate the body-frame rate and specific force over
-    ``(t[k], t[k+1]]``. ``labels[k]`` indexes ``segment_names`` (-1 in transitions).
+    ``(t[k], t[k+1]]``. ``gyr`` (rad/s) is ω_ib^b and ``acc`` (m/s²) the specific force f^b at the epochs, both
+    in body axes. ``labels[k]`` indexes ``segment_names`` (-1 in transitions). Version 2 renamed the version-1
+    fields ``omega_ib_b``/``f_b`` to ``gyr``/``acc`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.imu_truth"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     frame: str = field(metadata={"unit": "-"})
@@ -78,8 +80,8 @@ class ImuTruth(Result):
     q_b_n: np.ndarray = field(metadata={"unit": ""})
     pos: np.ndarray = field(metadata={"unit": "rad, rad, m"})
     vel_n: np.ndarray = field(metadata={"unit": "m/s"})
-    omega_ib_b: np.ndarray = field(metadata={"unit": "rad/s"})
-    f_b: np.ndarray = field(metadata={"unit": "m/s^2"})
+    gyr: np.ndarray = field(metadata={"unit": "rad/s"})
+    acc: np.ndarray = field(metadata={"unit": "m/s^2"})
     dtheta: np.ndarray = field(metadata={"unit": "rad"})
     dv: np.ndarray = field(metadata={"unit": "m/s"})
     labels: np.ndarray = field(metadata={"unit": ""})
@@ -103,6 +105,10 @@ class ImuTruth(Result):
     def segment(self, label: int) -> np.ndarray:
         """Indices of the epochs labelled ``label``."""
         return np.flatnonzero(self.labels == label)
+
+
+register_legacy(ImuTruth, ImuTruth.SCHEMA, 1,
+                lambda d: nested_kwargs(ImuTruth, d, {"omega_ib_b": "gyr", "f_b": "acc"}))
 
 
 # --- small validated inputs --------------------------------------------------------------------------------
@@ -664,8 +670,8 @@ class _Motion:
             v = v @ C_ENU_NED.T
         q = quat_from_dcm(c) if quat is None else quat_canonical(quat if self.frame == "enu"
                                                                   else quat_multiply(_Q_ENU_NED, quat))
-        return ImuTruth(t=t, frame=self.frame, earth=self.earth, q_b_n=q, pos=pos, vel_n=v, omega_ib_b=w_ib,
-                        f_b=f_b, dtheta=dtheta, dv=dv, labels=self.labels(t), segment_names=list(self.names))
+        return ImuTruth(t=t, frame=self.frame, earth=self.earth, q_b_n=q, pos=pos, vel_n=v, gyr=w_ib,
+                        acc=f_b, dtheta=dtheta, dv=dv, labels=self.labels(t), segment_names=list(self.names))
 
 
 _Q_ENU_NED = np.array([0.0, np.sqrt(0.5), np.sqrt(0.5), 0.0])  # quaternion of C_ENU_NED (π about [1,1,0]/√2)

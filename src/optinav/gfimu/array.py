@@ -39,7 +39,18 @@ _DUP_TOL = 1e-9       # m and rad: two sensors this close in position and direct
 
 
 def quadratic_products(omega) -> np.ndarray:
-    """q(ω) = (ωx², ωy², ωz², ωxωy, ωxωz, ωyωz) for ω (..., 3) rad/s → (..., 6) rad²/s²."""
+    """Quadratic rate products q(ω) = (ωx², ωy², ωz², ωxωy, ωxωz, ωyωz).
+
+    Parameters
+    ----------
+    omega : (..., 3) array
+        Angular rate [rad/s].
+
+    Returns
+    -------
+    (..., 6) ndarray
+        q(ω) [rad^2/s^2].
+    """
     w = np.asarray(omega, float)
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
     return np.stack([x * x, y * y, z * z, x * y, x * z, y * z], -1)
@@ -126,19 +137,61 @@ class AccelerometerArray:
         return np.hstack([self.H_lin, self.H_quad])
 
     def weights(self) -> np.ndarray:
-        """1/σ_i (equal weights when no noise is given)."""
+        """Least-squares weights of the sensors.
+
+        Returns
+        -------
+        (N,) ndarray
+            1/σ_i [1/(m/s^2)] (ones when no noise is given).
+        """
         return np.ones(self.n) if self.noise is None else 1.0 / self.noise
 
     def outputs(self, A, wdot, omega) -> np.ndarray:
-        """Noise-free outputs (T, N) m/s² for A, ω̇, ω (T, 3) — the exact model (eq. 1)."""
+        """Noise-free outputs of the exact model (eq. 1).
+
+        Parameters
+        ----------
+        A : (T, 3) array
+            Specific force at the reference point [m/s^2], body axes.
+        wdot : (T, 3) array
+            Angular acceleration [rad/s^2].
+        omega : (T, 3) array
+            Angular rate [rad/s].
+
+        Returns
+        -------
+        (T, N) ndarray
+            Sensor outputs [m/s^2].
+        """
         return (np.asarray(A, float) @ self.directions.T + np.asarray(wdot, float) @ np.cross(
             self.positions, self.directions).T + quadratic_products(omega) @ self.H_quad.T)
 
     def with_geometry(self, positions, directions) -> "AccelerometerArray":
+        """The same sensors (noise, name) at another geometry.
+
+        Parameters
+        ----------
+        positions : (N, 3) array
+            Sensor positions [m], body axes.
+        directions : (N, 3) array
+            Sensitive directions [-] (unit vectors).
+
+        Returns
+        -------
+        AccelerometerArray
+            The new array.
+        """
         return AccelerometerArray(positions, directions, self.noise, self.name)
 
     # --- configuration files ------------------------------------------------------------------------------
     def to_config(self) -> dict:
+        """The configuration layout read by :meth:`from_config`.
+
+        Returns
+        -------
+        dict
+            ``{"accelerometers": [{"position" [m], "direction", "noise" [m/s^2]}, ...], "name"}``.
+        """
         acc = []
         for i in range(self.n):
             e = {"position": [float(v) for v in self.positions[i]],
@@ -152,13 +205,38 @@ class AccelerometerArray:
         return out
 
     def save(self, path) -> Path:
+        """Write :meth:`to_config` as JSON, atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         from optinav.core.files import write_json
 
         return write_json(path, self.to_config())
 
     @classmethod
     def from_config(cls, cfg, source: str = "configuration") -> "AccelerometerArray":
-        """From ``{"accelerometers": [{"position": [x,y,z], "direction": [x,y,z], "noise": σ?}, ...]}`` (SI)."""
+        """An array from its configuration (SI units).
+
+        Parameters
+        ----------
+        cfg : dict
+            ``{"accelerometers": [{"position": [x,y,z] (m), "direction": [x,y,z], "noise": σ (m/s², optional)}, ...]}``.
+        source : str
+            Named in error messages.
+
+        Returns
+        -------
+        AccelerometerArray
+            The validated array.
+        """
         if not isinstance(cfg, dict) or "accelerometers" not in cfg:
             raise OptinavError(f"{source} has no 'accelerometers' list",
                                'write {"accelerometers": [{"position": [x, y, z], "direction": [x, y, z]}, ...]}')
@@ -195,6 +273,18 @@ class AccelerometerArray:
 
     @classmethod
     def load(cls, path) -> "AccelerometerArray":
+        """An array from a JSON configuration file (layout of :meth:`from_config`).
+
+        Parameters
+        ----------
+        path : str or Path
+            The file.
+
+        Returns
+        -------
+        AccelerometerArray
+            The validated array.
+        """
         from optinav.core.files import parse_json, read_text
 
         cfg = parse_json(read_text(path, "configuration file"), str(path), "fix the configuration file")
@@ -250,7 +340,13 @@ class Identifiability(Result):
     name: str = field(default="", metadata={"unit": "-"})
 
     def to_summary(self) -> dict:
-        """Plain-JSON dictionary (what ``optinav gfimu analyze`` writes)."""
+        """Plain-JSON dictionary (what ``optinav gfimu analyze`` writes).
+
+        Returns
+        -------
+        dict
+            Ranks, solvable components and unobservable combinations.
+        """
         return {"name": self.name, "n_accelerometers": self.n_accelerometers, "rank_linear": self.rank_linear,
                 "rank_quadratic": self.rank_quadratic, "rank_full": self.rank_full,
                 "n_quadratic_observable": self.n_quadratic_observable,
@@ -262,7 +358,13 @@ class Identifiability(Result):
                 "condition_linear": self.condition_linear}
 
     def require(self, needed=("linear",)) -> None:
-        """Raise a one-line :class:`OptinavError` naming what cannot be solved when [A, ω̇] is not identifiable."""
+        """Raise a one-line :class:`OptinavError` naming what cannot be solved when [A, ω̇] is not identifiable.
+
+        Parameters
+        ----------
+        needed : sequence of str
+            ``"linear"`` ([A, ω̇] with the rate known) and/or ``"without_rate"``.
+        """
         if self.rank_linear < 6:
             missing = [n for n in LINEAR_NAMES if n not in self.solvable_with_rate]
             raise OptinavError(
@@ -278,6 +380,13 @@ class Identifiability(Result):
                 "use method 'gauss-newton' (rate as a prior) or a configuration that separates them")
 
     def summary(self) -> str:
+        """A human-readable report of the ranks and solvable components.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         return "\n".join([f"{self.n_accelerometers} accelerometers: rank [A, wdot] {self.rank_linear}/6, "
                           f"rank with the 6 quadratic terms {self.rank_full}/12, "
                           f"{self.n_quadratic_observable} quadratic combination(s) observable"]
@@ -293,6 +402,16 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
       (the rows of ``quadratic_basis``, orthonormal, coordinates in QUAD_NAMES);
     * ``solvable_without_rate``: components of [A, ω̇] whose estimate does not depend on q (unit vector in the
       row space of the full design, i.e. identifiable after projecting out the quadratic columns).
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration.
+
+    Returns
+    -------
+    Identifiability
+        The report.
     """
     if not isinstance(array, AccelerometerArray):
         raise OptinavError("identifiability needs an AccelerometerArray", "load one with AccelerometerArray.load")
@@ -377,7 +496,20 @@ BUILTINS = {"cylinder10": _cylinder10}
 
 
 def builtin(name: str = "cylinder10", **kwargs) -> AccelerometerArray:
-    """A built-in configuration by name (``cylinder10``: l = L = 0.04 m; pass l=, L= to scale it)."""
+    """A built-in configuration by name.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`BUILTINS` (``cylinder10``: l = L = 0.04 m).
+    **kwargs
+        Geometry of the configuration, e.g. ``l=``, ``L=`` [m] to scale ``cylinder10``.
+
+    Returns
+    -------
+    AccelerometerArray
+        The array.
+    """
     if name not in BUILTINS:
         raise OptinavError(f"unknown built-in configuration {name!r}", f"use one of {', '.join(BUILTINS)}")
     return BUILTINS[name](**kwargs)

@@ -81,33 +81,124 @@ class InstallationErrors:
 
     @classmethod
     def uniform(cls, n: int, dr: float = 0.001, dangle: float = 0.01) -> "InstallationErrors":
-        """The paper's case: Δr = dr on every axis, Δα = Δβ = dangle for all n sensors."""
+        """The paper's case: the same error on every sensor.
+
+        Parameters
+        ----------
+        n : int
+            Number of sensors.
+        dr : float
+            Position error Δr on every axis [m].
+        dangle : float
+            Direction errors Δα = Δβ [rad].
+
+        Returns
+        -------
+        InstallationErrors
+            The errors.
+        """
         return cls(np.full((n, 3), dr), np.full(n, dangle), np.full(n, dangle))
 
     @classmethod
     def random(cls, n: int, dr_std: float = 0.001, angle_std: float = 0.01, rng=None) -> "InstallationErrors":
+        """Errors drawn from zero-mean normal distributions.
+
+        Parameters
+        ----------
+        n : int
+            Number of sensors.
+        dr_std : float
+            1σ of each position error [m].
+        angle_std : float
+            1σ of Δα and Δβ [rad].
+        rng : int, Generator or None
+            Seed or generator.
+
+        Returns
+        -------
+        InstallationErrors
+            The errors.
+        """
         g = as_rng(rng)
         return cls(g.normal(0, dr_std, (n, 3)), g.normal(0, angle_std, n), g.normal(0, angle_std, n))
 
     @classmethod
     def zeros(cls, n: int) -> "InstallationErrors":
+        """No installation error.
+
+        Parameters
+        ----------
+        n : int
+            Number of sensors.
+
+        Returns
+        -------
+        InstallationErrors
+            Zero errors.
+        """
         return cls(np.zeros((n, 3)), np.zeros(n), np.zeros(n))
 
     @classmethod
     def from_vector(cls, v) -> "InstallationErrors":
+        """Errors from the stacked vector of :meth:`vector`.
+
+        Parameters
+        ----------
+        v : (5n,) array
+            Per sensor (Δr_x, Δr_y, Δr_z [m], Δα, Δβ [rad]).
+
+        Returns
+        -------
+        InstallationErrors
+            The errors.
+        """
         v = np.asarray(v, float).reshape(-1, 5)
         return cls(v[:, :3], v[:, 3], v[:, 4])
 
     def vector(self) -> np.ndarray:
+        """The errors stacked per sensor, in the order of :meth:`names`.
+
+        Returns
+        -------
+        (5n,) ndarray
+            (Δr_x, Δr_y, Δr_z [m], Δα, Δβ [rad]) per sensor.
+        """
         return np.column_stack([self.dr, self.dalpha, self.dbeta]).ravel()
 
     @staticmethod
     def names(n: int) -> list[str]:
+        """Names of the entries of :meth:`vector`.
+
+        Parameters
+        ----------
+        n : int
+            Number of sensors.
+
+        Returns
+        -------
+        list of str
+            ``"<coefficient>_<sensor>"``, sensors numbered from 1.
+        """
         return [f"{c}_{i + 1}" for i in range(n) for c in COEFFICIENT_NAMES]
 
 
 def perturb(nominal: AccelerometerArray, errors: InstallationErrors, small_angle: bool = False) -> AccelerometerArray:
-    """The actual array: positions r + Δr, directions rotated by Δα, Δβ in each local frame."""
+    """The actual array: positions r + Δr, directions rotated by Δα, Δβ in each local frame.
+
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design geometry.
+    errors : InstallationErrors
+        One set per sensor.
+    small_angle : bool
+        First-order rotation of the directions.
+
+    Returns
+    -------
+    AccelerometerArray
+        The perturbed array.
+    """
     if errors.n != nominal.n:
         raise OptinavError(f"{errors.n} sets of installation errors for {nominal.n} accelerometers",
                            "give one set per accelerometer")
@@ -150,8 +241,26 @@ def coning_motion(duration: float = 100.0, dt: float = 0.01, half_angle: float =
                   frequency: float = 0.5, gravity: float | None = None) -> Motion:
     """Classic coning (``optinav.core.simulate.coning_rate``; Savage §7.1.1) and its exact ω̇.
 
-    A = 0 (a free body, as for a projectile where only drag acts) unless ``gravity`` (m/s²) is given: then the
-    specific force of a body whose centre rests, ``A = C_n^b [0, 0, g]``.
+    A = 0 (a free body, as for a projectile where only drag acts) unless ``gravity`` is given: then the specific
+    force of a body whose centre rests, ``A = C_n^b [0, 0, g]``.
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample step [s].
+    half_angle : float
+        Cone half-angle [rad].
+    frequency : float
+        Coning frequency [Hz].
+    gravity : float or None
+        g [m/s^2] of a resting centre; None: A = 0.
+
+    Returns
+    -------
+    Motion
+        ``t`` [s], ``A`` [m/s^2], ``wdot`` [rad/s^2], ``omega`` [rad/s].
     """
     t = np.arange(0.0, duration + 0.5 * dt, dt)
     w = coning_rate(half_angle, frequency, t)
@@ -169,8 +278,28 @@ def coning_motion(duration: float = 100.0, dt: float = 0.01, half_angle: float =
 
 def spinning_motion(duration: float = 200.0, dt: float = 0.01, spin: float = 2.0, nutation: float = 0.2,
                     frequency: float = 0.2, drag: float = 0.5) -> Motion:
-    """Spinning projectile: spin ``spin`` rad/s about body x plus a nutation of amplitude ``nutation`` rad/s at
-    ``frequency`` Hz on y/z (ω = [spin, n cos Ωt, n sin Ωt]); drag ``drag`` m/s² along −x."""
+    """Spinning projectile: ω = [spin, n cos Ωt, n sin Ωt] with drag along −x.
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample step [s].
+    spin : float
+        Spin rate about body x [rad/s].
+    nutation : float
+        Nutation amplitude n on y/z [rad/s].
+    frequency : float
+        Nutation frequency Ω/2π [Hz].
+    drag : float
+        Drag deceleration along −x [m/s^2].
+
+    Returns
+    -------
+    Motion
+        ``t`` [s], ``A`` [m/s^2], ``wdot`` [rad/s^2], ``omega`` [rad/s].
+    """
     t = np.arange(0.0, duration + 0.5 * dt, dt)
     om = 2 * np.pi * frequency
     w = np.stack([np.full_like(t, spin), nutation * np.cos(om * t), nutation * np.sin(om * t)], -1)
@@ -182,8 +311,30 @@ def spinning_motion(duration: float = 200.0, dt: float = 0.01, spin: float = 2.0
 
 def error_effect(nominal: AccelerometerArray, actual: AccelerometerArray, motion: Motion, method: str = "integration",
                  noise: float = 0.0, rng=None, solver_array: AccelerometerArray | None = None) -> np.ndarray:
-    """Rate error (T, 3) rad/s when ``actual`` measures ``motion`` and the solver assumes ``solver_array``
-    (default ``nominal``, i.e. uncompensated; pass the calibrated array to compensate)."""
+    """Rate error when ``actual`` measures ``motion`` and the solver assumes ``solver_array``.
+
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design geometry (the solver's array by default, i.e. uncompensated).
+    actual : AccelerometerArray
+        The array that measures.
+    motion : Motion
+        The true motion.
+    method : str
+        Rate solver, one of :data:`optinav.gfimu.solve.RATE_METHODS`.
+    noise : float
+        White output noise std [m/s^2].
+    rng : int, Generator or None
+        Seed or generator of the noise.
+    solver_array : AccelerometerArray or None
+        The array the solver assumes (pass the calibrated array to compensate); None: ``nominal``.
+
+    Returns
+    -------
+    (T, 3) ndarray
+        Estimated minus true rate [rad/s].
+    """
     from optinav.gfimu.solve import solve_rate
 
     f = actual.outputs(motion.A, motion.wdot, motion.omega)

@@ -69,7 +69,20 @@ def _outputs(array: AccelerometerArray, f) -> np.ndarray:
 
 
 def solve_linear(array: AccelerometerArray, acc) -> LinearSolution:
-    """Weighted least squares of the array outputs ``acc`` (T, N) for every epoch; see the module docstring."""
+    """Weighted least squares of the array outputs for every epoch; see the module docstring.
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration ([A, ω̇] must be identifiable with the rate known).
+    acc : (T, N) array
+        Array outputs [m/s^2].
+
+    Returns
+    -------
+    LinearSolution
+        ``A`` [m/s^2], ``wdot`` [rad/s^2] and the observable quadratic combinations ``z`` [rad^2/s^2].
+    """
     f = acc
     f = _outputs(array, f)
     ident = identifiability(array)
@@ -104,13 +117,29 @@ def _omega0(omega0) -> np.ndarray:
 
 
 def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarray:
-    """Angular rate (T, 3) rad/s by trapezoidal integration of the least-squares ω̇ (paper, §4).
+    """Angular rate by trapezoidal integration of the least-squares ω̇ (paper, §4).
 
     When ω̇ is separable from the quadratic terms (nominal cylinder10) this is one vectorized solve. Otherwise
     (e.g. a calibrated, slightly irregular geometry) each epoch first subtracts ``H_quad q(ω⁻)`` with the
     predicted rate ω⁻ = ω̂_{k−1} + ω̇̂_{k−1}Δt and solves [A; ω̇] from H_lin — the paper's compensation
     ("compute the installation-error part of the outputs, subtract it, solve with the nominal formulas")
     written for the calibrated geometry.
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration.
+    acc : (T, N) array
+        Array outputs [m/s^2].
+    t : (T,) array
+        Epochs [s].
+    omega0 : (3,) array or None
+        Initial rate [rad/s]; None: zero.
+
+    Returns
+    -------
+    (T, 3) ndarray
+        ω [rad/s].
     """
     f = acc
     f = _outputs(array, f)
@@ -147,12 +176,34 @@ def _dq(w) -> np.ndarray:
 
 def rate_quadratic(array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05,
                    iterations: int = 3, sigma=None) -> np.ndarray:
-    """Angular rate (T, 3) rad/s from the observable quadratic combinations, branch from the predicted rate.
+    """Angular rate from the observable quadratic combinations, branch from the predicted rate.
 
     Each epoch: predict ω⁻ = ω̂_{k−1} + ½(ω̇_{k−1} + ω̇_k)Δt, then Gauss–Newton on
     ``‖L (B q(ω) − z_k)‖² + ‖(ω − ω⁻)/prior_std‖²`` (L whitens z). The prior only picks the branch (the
     sign of ω, which q cannot see) and bridges epochs where the magnitudes are degenerate (e.g. ωx → 0).
     Needs ≥ 3 observable quadratic combinations.
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration.
+    acc : (T, N) array
+        Array outputs [m/s^2].
+    t : (T,) array
+        Epochs [s].
+    omega0 : (3,) array or None
+        Initial rate [rad/s]; None: zero.
+    prior_std : float
+        1σ of the predicted-rate prior [rad/s].
+    iterations : int
+        Gauss–Newton iterations per epoch.
+    sigma : float, (N,) array or None
+        Output noise std [m/s^2]; None: the array's noise, else :data:`DEFAULT_SIGMA`.
+
+    Returns
+    -------
+    (T, 3) ndarray
+        ω [rad/s].
     """
     f = acc
     f = _outputs(array, f)
@@ -188,9 +239,34 @@ def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_s
                       iterations: int = 3, sigma=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-epoch Gauss–Newton for [A, ω̇, ω] on the raw outputs with the predicted rate as prior.
 
-    Residuals ``W (f_k − H_lin [A; ω̇] − H_quad q(ω))`` (W = 1/σ_i, or 1 without noise figures) and
-    ``(ω − ω⁻)/prior_std`` with ω⁻ = ω̂_{k−1} + ω̇̂_{k−1} Δt. Returns ω, A, ω̇ (each (T, 3)). Works for any
-    configuration with rank [A, ω̇] = 6 (also when ω̇ needs the rate).
+    Residuals ``W (f_k − H_lin [A; ω̇] − H_quad q(ω))`` (W = 1/σ_i) and ``(ω − ω⁻)/prior_std`` with
+    ω⁻ = ω̂_{k−1} + ω̇̂_{k−1} Δt. Works for any configuration with rank [A, ω̇] = 6 (also when ω̇ needs the rate).
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration.
+    acc : (T, N) array
+        Array outputs [m/s^2].
+    t : (T,) array
+        Epochs [s].
+    omega0 : (3,) array or None
+        Initial rate [rad/s]; None: zero.
+    prior_std : float
+        1σ of the predicted-rate prior [rad/s].
+    iterations : int
+        Gauss–Newton iterations per epoch.
+    sigma : float, (N,) array or None
+        Output noise std [m/s^2]; None: the array's noise, else :data:`DEFAULT_SIGMA`.
+
+    Returns
+    -------
+    omega : (T, 3) ndarray
+        ω [rad/s].
+    A : (T, 3) ndarray
+        Specific force at the reference point [m/s^2].
+    wdot : (T, 3) ndarray
+        ω̇ [rad/s^2].
     """
     f = acc
     f = _outputs(array, f)
@@ -225,7 +301,28 @@ def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_s
 
 
 def solve_rate(array: AccelerometerArray, acc, t, omega0=None, method: str = "integration", **options) -> np.ndarray:
-    """Angular rate (T, 3) rad/s by ``method`` in RATE_METHODS."""
+    """Angular rate by ``method``.
+
+    Parameters
+    ----------
+    array : AccelerometerArray
+        The configuration.
+    acc : (T, N) array
+        Array outputs [m/s^2].
+    t : (T,) array
+        Epochs [s].
+    omega0 : (3,) array or None
+        Initial rate [rad/s]; None: zero.
+    method : str
+        One of :data:`RATE_METHODS`: ``"integration"``, ``"quadratic"``, ``"gauss-newton"``.
+    **options
+        Passed to the method's function.
+
+    Returns
+    -------
+    (T, 3) ndarray
+        ω [rad/s].
+    """
     f = acc
     if method == "integration":
         return rate_integration(array, f, t, omega0, **options)

@@ -102,8 +102,21 @@ class TurntableData:
         return np.array([order[k] for k in keys])
 
     def save(self, path) -> Path:
-        """NPZ (arrays t, f, case, mounting, table_rate, wedge, gravity) or CSV (t, f1..fN, case, mounting,
-        table_rate, wedge, gravity), by suffix."""
+        """Write the log atomically, by suffix.
+
+        NPZ (arrays t, f, case, mounting, table_rate, wedge, gravity), CSV (t, f1..fN, case, mounting, table_rate,
+        wedge, gravity) or HDF5.
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file (.npz, .csv, .h5).
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         from pathlib import Path
 
         path = Path(path)
@@ -135,6 +148,20 @@ class TurntableData:
 
     @classmethod
     def load(cls, path, n_accelerometers: int | None = None) -> "TurntableData":
+        """Read a log written by :meth:`save` (or in its columns).
+
+        Parameters
+        ----------
+        path : str or Path
+            .npz, .csv or .h5 file.
+        n_accelerometers : int or None
+            Expected number of sensors (checked when given).
+
+        Returns
+        -------
+        TurntableData
+            ``t`` [s], ``f`` [m/s^2], mounting, ``table_rate`` [rad/s], wedge γ [rad], gravity [m/s^2].
+        """
         from optinav.io.readers import load_table
 
         tab = load_table(path)
@@ -178,10 +205,37 @@ def model_outputs(positions, directions, u, w, g, offset=None) -> np.ndarray:
 def simulate(nominal: AccelerometerArray, errors: InstallationErrors | None = None, *, rates=(0.5, 1.0),
              gamma: float = np.radians(30.0), mountings=(1, 2, 3), rate_hz: float = 100.0, duration: float = 10.0,
              noise=MICRO_G, offset=None, gravity: float = G_STANDARD, rng=None) -> TurntableData:
-    """Simulate the turntable cases (mountings × rates), ``duration`` s each at ``rate_hz``.
+    """Simulate the turntable cases (mountings × rates), ``duration`` each at ``rate_hz``.
 
-    ``noise``: white accelerometer noise std (m/s², scalar or per sensor; default 1 µg as in the paper);
-    ``offset``: array reference point from the table axis, body m, (3,) for all mountings or (M, 3).
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design array.
+    errors : InstallationErrors or None
+        True installation errors; None: zero.
+    rates : sequence of float
+        Table rates [rad/s].
+    gamma : float
+        Wedge angle γ [rad].
+    mountings : sequence of int
+        Mountings in 1..3.
+    rate_hz : float
+        Sample rate [Hz].
+    duration : float
+        Length of each case [s].
+    noise : float or (N,) array
+        White accelerometer noise std [m/s^2] (default 1 µg, as in the paper).
+    offset : (3,) or (M, 3) array or None
+        Array reference point from the table axis [m], body axes, for all mountings or per mounting.
+    gravity : float
+        Gravity [m/s^2].
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    TurntableData
+        ``t`` [s], ``f`` [m/s^2], mounting, ``table_rate`` [rad/s].
     """
     rng = as_rng(rng)
     errors = InstallationErrors.zeros(nominal.n) if errors is None else errors
@@ -295,7 +349,24 @@ def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
 
 def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, gamma: float | None = None,
                 gravity: float | None = None) -> InstallationErrors:
-    """The paper's closed-form solution (two rates per mounting, three mountings, offset 0)."""
+    """The paper's closed-form solution (two rates per mounting, three mountings, offset 0).
+
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design array.
+    data : TurntableData or CaseMeans
+        The log or its case means.
+    gamma : float or None
+        Wedge angle γ [rad]; None: the log's.
+    gravity : float or None
+        Gravity [m/s^2]; None: the log's (standard gravity for case means).
+
+    Returns
+    -------
+    InstallationErrors
+        Δr [m], Δα, Δβ [rad] per sensor.
+    """
     cm = data if isinstance(data, CaseMeans) else case_means(data)
     gamma = data.gamma if gamma is None else gamma
     g = (data.gravity if isinstance(data, TurntableData) else G_STANDARD) if gravity is None else gravity
@@ -364,13 +435,38 @@ class TurntableCalibration(Estimate):
                 for k, nm in enumerate(self.names)}
 
     def errors(self) -> InstallationErrors:
+        """The estimated installation errors.
+
+        Returns
+        -------
+        InstallationErrors
+            Δr [m], Δα, Δβ [rad] per sensor.
+        """
         return InstallationErrors(self.dr, self.dalpha, self.dbeta)
 
     def array(self, nominal: AccelerometerArray) -> AccelerometerArray:
-        """The calibrated array (for compensation: pass it to the rate solvers)."""
+        """The calibrated array (for compensation: pass it to the rate solvers).
+
+        Parameters
+        ----------
+        nominal : AccelerometerArray
+            The design array (its noise and name are kept).
+
+        Returns
+        -------
+        AccelerometerArray
+            Calibrated positions [m] and directions.
+        """
         return AccelerometerArray(self.positions, self.directions, nominal.noise, nominal.name + "-calibrated")
 
     def summary(self) -> str:
+        """A human-readable report: rank, residual, and the errors of each sensor.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         lines = [f"gfimu turntable calibration ({self.method}): {len(self.dalpha)} accelerometers, "
                  f"rank {self.rank}/{self.n_params}, residual rms {self.residual_rms:.3g} σ, "
                  f"samples per case {', '.join(str(int(x)) for x in self.samples_per_case)}"]
@@ -479,12 +575,27 @@ class _Model:
 
 def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str = "lm", offset: str = "zero",
               sigma=None) -> TurntableCalibration:
-    """Estimate the 50 installation errors from turntable data (module docstring).
+    """Estimate the installation errors (5 per sensor) from turntable data (module docstring).
 
-    method: ``"lm"`` (default, nonlinear least squares) or ``"closed-form"`` (the paper's baseline; its
-    covariance is reported from the least-squares Jacobian at its solution). offset: ``"zero"`` (the array
-    reference point on the table axis, the paper's assumption) or ``"estimate"`` (per-mounting offsets,
-    gauge mean Δr = 0). sigma: accelerometer noise m/s² (default: the within-case scatter).
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design array.
+    data : TurntableData
+        The log.
+    method : str
+        ``"lm"`` (default, nonlinear least squares) or ``"closed-form"`` (the paper's baseline; its covariance is
+        reported from the least-squares Jacobian at its solution).
+    offset : str
+        ``"zero"`` (the array reference point on the table axis, the paper's assumption) or ``"estimate"``
+        (per-mounting offsets, gauge mean Δr = 0).
+    sigma : float, (N,) array or None
+        Accelerometer noise std [m/s^2]; None: the within-case scatter.
+
+    Returns
+    -------
+    TurntableCalibration
+        Δr [m], Δα, Δβ [rad] with std and CRLB std, rank, residual and gates.
     """
     t0 = time.perf_counter()
     if method not in ("lm", "closed-form"):
@@ -621,7 +732,28 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[
 
 def scheme_identifiability(nominal: AccelerometerArray, *, rates=(0.5, 1.0), gamma: float = np.radians(30.0),
                            mountings=(1, 2, 3), offset: bool = False, bias_scale: bool = False):
-    """Observability report (core ``analyze``) of a turntable scheme at the nominal geometry, σ = 1 per mean."""
+    """Observability report (core ``analyze``) of a turntable scheme at the nominal geometry, σ = 1 per mean.
+
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design array.
+    rates : sequence of float
+        Table rates [rad/s].
+    gamma : float
+        Wedge angle γ [rad].
+    mountings : sequence of int
+        Mountings in 1..3.
+    offset : bool
+        Also estimate per-mounting offsets.
+    bias_scale : bool
+        Also estimate a bias and a scale factor per sensor.
+
+    Returns
+    -------
+    ObservabilityReport
+        Rank, unobservable combinations and CRLB std per unit output σ [parameter units].
+    """
     U = table_axes(gamma, mountings)
     K = len(U) * len(rates)
     cm = CaseMeans(np.repeat(np.asarray(mountings, int), len(rates)), np.tile(np.asarray(rates, float), len(U)),

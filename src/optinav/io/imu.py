@@ -15,7 +15,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -85,18 +85,19 @@ class ImuLog(Result):
     """IMU samples read from a file.
 
     ``t`` (N,) in s, strictly increasing (irregular spacing allowed); ``acc`` (N, 3) in m/s² or raw counts and
-    ``gyro`` (N, 3) in rad/s or raw counts, as ``acc_unit``/``gyro_unit`` say (None when the file had no such
+    ``gyr`` (N, 3) in rad/s or raw counts, as ``acc_unit``/``gyro_unit`` say (None when the file had no such
     triad); ``acc_input_unit``/``gyro_input_unit`` are the units of the file (``g``, ``deg/s``, … before the
-    conversion to SI). Rows with NaN/inf in ``acc``/``gyro`` are kept; ``nan_rows`` counts them.
+    conversion to SI). Rows with NaN/inf in ``acc``/``gyr`` are kept; ``nan_rows`` counts them.
     ``labels`` (N,) str or int section labels, ``sample`` (N,) the file's sample counter (never used as time).
+    Version 2 renamed the version-1 field ``gyro`` to ``gyr`` (version-1 files still load).
     """
 
     SCHEMA: ClassVar[str] = "optinav.imu_log"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     acc: np.ndarray | None = field(default=None, metadata={"unit": "acc_unit"})
-    gyro: np.ndarray | None = field(default=None, metadata={"unit": "gyro_unit"})
+    gyr: np.ndarray | None = field(default=None, metadata={"unit": "gyro_unit"})
     acc_unit: str = field(default="m/s^2", metadata={"unit": "-"})
     gyro_unit: str = field(default="rad/s", metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
@@ -115,7 +116,7 @@ class ImuLog(Result):
             raise OptinavError(f"ImuLog.t must be one-dimensional, got shape {self.t.shape}",
                                "pass one time per sample")
         n = self.t.size
-        for name in ("acc", "gyro"):
+        for name in ("acc", "gyr"):
             v = getattr(self, name)
             if v is not None:
                 v = np.asarray(v, dtype=float)
@@ -141,7 +142,7 @@ class ImuLog(Result):
     def finite(self) -> np.ndarray:
         """(N,) True where every used acc/gyro value is finite (the rows the calibrator can use)."""
         ok = np.ones(self.t.size, dtype=bool)
-        for v in (self.acc, self.gyro):
+        for v in (self.acc, self.gyr):
             if v is not None:
                 # one sum, finite only if every cell is (no temporary arrays); else, or if it overflows, per row
                 with np.errstate(over="ignore", invalid="ignore"):
@@ -156,7 +157,18 @@ class ImuLog(Result):
         return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
 
     def select(self, rows) -> "ImuLog":
-        """The samples picked by a boolean mask, an index array or a slice (``nan_rows`` recounted)."""
+        """The samples picked by ``rows`` (``nan_rows`` recounted).
+
+        Parameters
+        ----------
+        rows : bool array, int array or slice
+            A mask of N booleans, increasing indices or a slice.
+
+        Returns
+        -------
+        ImuLog
+            The selected samples, same units.
+        """
         if isinstance(rows, slice):
             idx = np.arange(self.t.size)[rows]
         else:
@@ -175,7 +187,7 @@ class ImuLog(Result):
         if idx.size > 1 and np.any(np.diff(np.where(idx < 0, idx + self.t.size, idx)) <= 0):
             raise OptinavError("selected rows are not increasing", "select rows in time order, each once")
         take = lambda v: None if v is None else v[idx]  # noqa: E731
-        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyro=take(self.gyro), acc_unit=self.acc_unit,
+        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyr=take(self.gyr), acc_unit=self.acc_unit,
                      gyro_unit=self.gyro_unit, source=self.source, n_rows_read=self.n_rows_read, nan_rows=0,
                      labels=take(self.labels), sample=take(self.sample), acc_input_unit=self.acc_input_unit,
                      gyro_input_unit=self.gyro_input_unit)
@@ -183,17 +195,26 @@ class ImuLog(Result):
         return out
 
     def summary(self) -> str:
-        """One line: samples, duration, rate, units, NaN rows, source."""
+        """One line: samples, duration, rate, units, NaN rows, source.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         span = float(self.t[-1] - self.t[0]) if self.t.size else 0.0
         parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate:.6g} Hz)"]
         if self.acc is not None:
             parts.append(f"acc in {self.acc_unit}" + (f" (file: {self.acc_input_unit})"
                                                        if self.acc_input_unit not in (None, self.acc_unit) else ""))
-        if self.gyro is not None:
+        if self.gyr is not None:
             parts.append(f"gyro in {self.gyro_unit}" + (f" (file: {self.gyro_input_unit})"
                                                          if self.gyro_input_unit not in (None, self.gyro_unit) else ""))
         parts.append(f"{self.nan_rows} row(s) with NaN")
         return ", ".join(parts) + (f"; from {self.source}" if self.source else "")
+
+
+register_legacy(ImuLog, ImuLog.SCHEMA, 1, lambda d: nested_kwargs(ImuLog, d, {"gyro": "gyr"}))
 
 
 # --- reading ------------------------------------------------------------------------------------------------
@@ -440,16 +461,42 @@ def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
              datasets=None, delimiter: str | None = None, topic=None) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
-    ``columns``: the file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or
-    aliases, ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3
-    array); without it the names are recognised by alias (docs/file-formats.md). ``gyro_path``/``gyro_columns``:
-    a second file with the gyroscope, same samples (time columns must agree). ``acc_unit`` ∈ {counts, g, mg,
-    m/s^2}, ``gyro_unit`` ∈ {counts, deg/s, rad/s}, ``time_unit`` ∈ {s, ms, us, ns}; None means what the file
-    declares (header ``acc_x [g]``, a units row, the ``# units:`` line of :func:`write_imu`, NPZ/MAT/HDF5
-    unit records) or else m/s^2, rad/s, s; an option contradicting the file is an error. ``g``, ``mg`` and ``deg/s`` are
-    converted to SI, counts kept. ``rate_hz`` (Hz) gives ``t = arange(N)/rate_hz`` for files without a time
-    column (a sample counter is not a time). ``datasets``: ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
-    ``topic``: a ROS bag's Imu topic (``"/imu"``; None: its only one), see :mod:`optinav.io.rosbag`.
+    Units: None means what the file declares (header ``acc_x [g]``, a units row, the ``# units:`` line of
+    :func:`write_imu`, NPZ/MAT/HDF5 unit records) or else m/s^2, rad/s, s; an option contradicting the file is an
+    error. ``g``, ``mg`` and ``deg/s`` are converted to SI, counts kept. Names and aliases: docs/file-formats.md.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data file (formats of :func:`optinav.io.read_table`).
+    columns : str, sequence of str or None
+        The file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or aliases,
+        ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3 array);
+        None: recognised by alias.
+    gyro_path : str, Path or None
+        A second file with the gyroscope, same samples (time columns must agree).
+    gyro_columns : str, sequence of str or None
+        ``columns`` of ``gyro_path``.
+    acc_unit : str or None
+        Accelerometer unit of the file: counts, g, mg or m/s^2.
+    gyro_unit : str or None
+        Gyroscope unit of the file: counts, deg/s or rad/s.
+    time_unit : str or None
+        Time unit of the file: s, ms, us or ns.
+    rate_hz : float or None
+        Sample rate [Hz] giving ``t = arange(N)/rate_hz`` for files without a time column (a sample counter is
+        not a time).
+    datasets : dict or None
+        ``{std: path}`` for HDF5/MAT/NPZ (like ``std=name``).
+    delimiter : str or None
+        Text delimiter; None: auto-detected.
+    topic : str or None
+        A ROS bag's Imu topic (``"/imu"``); None: its only one (:mod:`optinav.io.rosbag`).
+
+    Returns
+    -------
+    ImuLog
+        ``t`` [s], ``acc`` [m/s^2 or counts], ``gyr`` [rad/s or counts].
     """
     acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
@@ -520,7 +567,7 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
         gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
-    log = ImuLog(t=t, acc=acc, gyro=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
+    log = ImuLog(t=t, acc=acc, gyr=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
                  gyro_unit="counts" if gyro_in == "counts" else "rad/s",
                  source=" + ".join(str(p.path) for p in parts), n_rows_read=main.n, labels=main.labels,
                  sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in, notes=notes)
@@ -536,10 +583,27 @@ def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
              gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
              datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS,
              topic=None) -> "ImuChunks":
-    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples: an iterable of :class:`ImuLog` whose
-    concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate note on the
-    first block, the incomplete-last-line note on the last). Text files are read block by block, so memory does
-    not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then cut."""
+    """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
+
+    The blocks' concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate
+    note on the first block, the incomplete-last-line note on the last). Text files are read block by block, so
+    memory does not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then
+    cut.
+
+    Parameters
+    ----------
+    path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic
+        As :func:`read_imu`.
+    rate_hz : float or None
+        Sample rate [Hz] for files without a time column, as :func:`read_imu`.
+    chunk_rows : int
+        Samples per block.
+
+    Returns
+    -------
+    ImuChunks
+        An iterable of :class:`ImuLog`.
+    """
     return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
                      gyro_unit=gyro_unit, time_unit=time_unit, rate_hz=rate_hz, datasets=datasets, delimiter=delimiter,
                      chunk_rows=chunk_rows, topic=topic)
@@ -616,7 +680,7 @@ _WRITE_FORMATS = (*_WRITE_TEXT, ".npz", ".h5", ".hdf5", ".mat")
 
 
 def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | None, str]:
-    v = getattr(log, kind)
+    v = log.acc if kind == "acc" else log.gyr
     have = getattr(log, f"{kind}_unit")
     if unit is None:
         return v, have
@@ -630,14 +694,29 @@ def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | 
 
 
 def write_imu(path, log: ImuLog, *, acc_unit: str | None = None, gyro_unit: str | None = None) -> Path:
-    """Write ``log`` to ``path`` so that :func:`read_imu` reads it back with the same values.
+    """Write ``log`` to ``path`` atomically, so that :func:`read_imu` reads it back with the same values.
 
     ``.csv`` / ``.tsv`` / ``.txt`` (comma, tab, space): a comment line with the units (``# units: t=s
-    acc=m/s^2 gyro=rad/s``), a header of standard names ``t,[sample,]ax,ay,az,gx,gy,gz[,label]`` and rows
-    in the shortest exact form (exact round trip); ``.npz``: arrays ``t``, ``acc``, ``gyro``, ``sample``,
-    ``labels`` and the strings ``acc_unit``, ``gyro_unit``, ``time_unit``; ``.h5``/``.hdf5`` (h5py): the same as
-    datasets and root attributes; ``.mat`` (v5): the same as variables. ``acc_unit`` ∈ {m/s^2, g},
-    ``gyro_unit`` ∈ {rad/s, deg/s} convert SI logs on output; counts are written as counts. Written atomically.
+    acc=m/s^2 gyro=rad/s``), a header of standard names ``t,[sample,]ax,ay,az,gx,gy,gz[,label]`` and rows in the
+    shortest exact form (exact round trip); ``.npz``: arrays ``t``, ``acc``, ``gyro``, ``sample``, ``labels`` and
+    the strings ``acc_unit``, ``gyro_unit``, ``time_unit``; ``.h5``/``.hdf5`` (h5py): the same as datasets and
+    root attributes; ``.mat`` (v5): the same as variables.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; never an existing input.
+    log : ImuLog
+        The samples.
+    acc_unit : str or None
+        Accelerometer unit to write (m/s^2 or g) for an SI log; counts are written as counts.
+    gyro_unit : str or None
+        Gyroscope unit to write (rad/s or deg/s) for an SI log.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     if not isinstance(log, ImuLog):
         raise OptinavError(f"write_imu needs an ImuLog, got {type(log).__name__}", "read or build an ImuLog first")
@@ -784,7 +863,7 @@ class ImuWriter:
         self.rows, self._fh, self._blocks, self._kinds = 0, None, [], None
 
     def write(self, log: ImuLog) -> None:
-        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyro", "sample", "labels"))
+        kinds = tuple(getattr(log, k) is not None for k in ("acc", "gyr", "sample", "labels"))
         if self._kinds is None:
             self._kinds = kinds
         elif kinds != self._kinds:
@@ -809,7 +888,7 @@ class ImuWriter:
             raise OptinavError(f"no samples to write to {self.path}", "pass a log with samples")
         first = self._blocks[0]
         cat = (lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks]))
-        log = ImuLog(t=cat("t"), acc=cat("acc"), gyro=cat("gyro"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+        log = ImuLog(t=cat("t"), acc=cat("acc"), gyr=cat("gyr"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
                      source=first.source, labels=cat("labels"), sample=cat("sample"))
         self._blocks = []
         _write_whole(self.tmp, log, self.acc_unit, self.gyro_unit)
@@ -817,10 +896,22 @@ class ImuWriter:
 
 @contextlib.contextmanager
 def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None = None):
-    """A context giving an :class:`ImuWriter` for ``path``: text formats are written block by block (memory does
-    not grow with the log; the first comment line then holds no sample count), NPZ/HDF5/MAT gathered and
-    written at the end; atomically (nothing under ``path`` unless the block ends without error). Formats and
-    units as :func:`write_imu`."""
+    """A context giving an :class:`ImuWriter` for ``path``, written atomically (nothing under ``path`` unless the
+    block ends without error).
+
+    Text formats are written block by block (memory does not grow with the log; the first comment line then holds
+    no sample count), NPZ/HDF5/MAT gathered and written at the end.
+
+    Parameters
+    ----------
+    path, acc_unit, gyro_unit
+        As :func:`write_imu`.
+
+    Yields
+    ------
+    ImuWriter
+        ``write(log)`` appends an :class:`ImuLog` block.
+    """
     path = _check_out(path)
     from optinav.core.files import atomic_path
 
@@ -837,8 +928,23 @@ def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None 
 def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
     """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
 
-    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back."""
-    values = log.acc if kind == "acc" else log.gyro
+    Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back.
+
+    Parameters
+    ----------
+    log : ImuLog
+        Samples as read.
+    kind : str
+        ``"acc"`` or ``"gyro"``.
+
+    Returns
+    -------
+    values : (N, 3) ndarray or None
+        The triad [the file's unit].
+    unit : str
+        That unit.
+    """
+    values = log.acc if kind == "acc" else log.gyr
     unit = log.acc_unit if kind == "acc" else log.gyro_unit
     file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit
     if file_unit == unit or values is None:

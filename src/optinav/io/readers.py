@@ -157,21 +157,35 @@ def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
 
 def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
                text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> dict[str, np.ndarray]:
-    """Read a data file into ``{name: array}``.
+    r"""Read a data file into ``{name: array}``.
 
     Formats by suffix: ``.csv .tsv .txt .dat`` (optionally ``.gz``; header auto-detected, ``#`` comments,
-    delimiter ``, \\t ;`` or whitespace auto-detected unless ``delimiter`` is given), ``.npz``/``.npy``
-    (no pickles), ``.h5``/``.hdf5`` (h5py), ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to
-    MATLAB's row/column layout), ``.parquet``/``.pq`` (pyarrow; :mod:`optinav.io.parquet`), ROS bags ``.bag``,
-    ``.db3``, ``.mcap`` or a ROS 2 bag folder (rosbags; ``topic`` picks the Imu[,MagneticField] topic,
-    :mod:`optinav.io.rosbag`).
+    delimiter ``, \t ;`` or whitespace auto-detected), ``.npz``/``.npy`` (no pickles), ``.h5``/``.hdf5`` (h5py),
+    ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to MATLAB's row/column layout), ``.parquet``/``.pq``
+    (pyarrow; :mod:`optinav.io.parquet`), ROS bags ``.bag``, ``.db3``, ``.mcap`` or a ROS 2 bag folder
+    (rosbags; :mod:`optinav.io.rosbag`).
 
-    ``columns``: names of the file's columns in order (``"_"``/``"-"`` skips one; a header line is then
-    ignored), or ``std=name`` entries returning only those names, taken from header columns, NPZ arrays or
-    datasets. ``datasets``: ``{std: dataset path}`` (same as ``std=name`` entries; reads only those datasets
-    of an HDF5 file). Without either, every column/array is returned under its own name (``col1..colN`` for a
-    text file without a header or a file holding a single 2-D array). Text cells are allowed only in columns
-    named in ``text_columns`` (label columns, returned as str arrays); elsewhere they are an error.
+    Parameters
+    ----------
+    path : str or Path
+        The data file (or ROS 2 bag folder).
+    columns : str, sequence of str or None
+        Names of the file's columns in order (``"_"``/``"-"`` skips one; a header line is then ignored), or
+        ``std=name`` entries returning only those names, taken from header columns, NPZ arrays or datasets.
+    delimiter : str or None
+        Text delimiter; None: auto-detected.
+    datasets : dict or None
+        ``{std: dataset path}`` (as ``std=name`` entries; reads only those datasets of an HDF5 file).
+    text_columns : sequence of str
+        The only columns allowed to hold text cells (labels, returned as str arrays); elsewhere text is an error.
+    topic : str or None
+        A ROS bag's Imu[,MagneticField] topic; None: its only one.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Every column/array under its own name (``col1..colN`` for a text file without a header or a file holding
+        a single 2-D array) unless ``columns``/``datasets`` select [the file's units].
     """
     positional, mapping = parse_columns(columns)
     merge_datasets(mapping, datasets)
@@ -234,12 +248,35 @@ from optinav.core.files import CHUNK_ROWS  # noqa: E402
 def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
                only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
                chunk_rows: int | None = None, topic=None) -> "TableChunks":
-    """:func:`load_table` in blocks: :class:`Table` of at most ``chunk_rows`` (None: :data:`CHUNK_ROWS`) rows
-    each (``row0`` their first row in the file) for text files, read line block by line block (gzip too) so that memory does
-    not grow with the file; other formats (one array read whole by their libraries) come as a single table.
-    The layout (header, units, preamble, delimiter) comes from the first lines; a bad cell fails when its block
-    is parsed, naming its line and column; an incomplete last line is dropped and reported in the last block's
-    ``meta['truncated_line']`` as :func:`load_table` does."""
+    """:func:`load_table` in blocks, so that memory does not grow with the file.
+
+    Text files (gzip too) are read line block by line block; other formats (one array read whole by their
+    libraries) come as a single table. The layout (header, units, preamble, delimiter) comes from the first lines;
+    a bad cell fails when its block is parsed, naming its line and column; an incomplete last line is dropped and
+    reported in the last block's ``meta['truncated_line']`` as :func:`load_table` does.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data file.
+    names : sequence of str or None
+        Names of the file's columns in order (as ``columns`` of :func:`read_table`); None: from the header.
+    delimiter : str or None
+        Text delimiter; None: auto-detected.
+    only : sequence of str or None
+        Return only these columns.
+    text_columns : sequence of str
+        The only columns allowed to hold text cells.
+    chunk_rows : int or None
+        Rows per block; None: :data:`CHUNK_ROWS`.
+    topic : str or None
+        A ROS bag's Imu topic; None: its only one.
+
+    Returns
+    -------
+    TableChunks
+        An iterable of :class:`Table` (``row0``: the block's first row in the file).
+    """
     return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic)
 
 

@@ -52,7 +52,22 @@ class PoseStatistics:
 
 
 def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
-    """Means and sample covariances of ``raw`` (N, 3) over index ranges [[i0, i1), …], skipping invalid rows."""
+    """Per-pose means and sample covariances of the raw accelerometer output, skipping invalid rows.
+
+    Parameters
+    ----------
+    raw : (N, 3) array
+        Accelerometer samples [raw units].
+    index_ranges : (P, 2) int array_like
+        Half-open sample ranges ``[i0, i1)`` of the poses.
+    valid : (N,) bool array or None
+        Rows to use (non-finite rows are always skipped).
+
+    Returns
+    -------
+    PoseStatistics
+        ``means`` (P, 3) [raw], ``covariances`` (P, 3, 3) of one sample [raw²], ``counts`` (P,).
+    """
     raw = as_float_array(raw, "accelerometer samples", last_dims=(3,), finite=False)
     ok = np.all(np.isfinite(raw), axis=1) if valid is None else (np.asarray(valid, bool) &
                                                                   np.all(np.isfinite(raw), axis=1))
@@ -80,6 +95,20 @@ def initial_estimate(means, g: float, *, general: bool = True) -> np.ndarray:
     A general ellipsoid (9 degrees of freedom) with ≥ 9 poses, an axis-aligned one (6) with ≥ 6, a sphere (4)
     with ≥ 4; fewer poses, ``general=False`` or a fit that is not an ellipsoid fall back to the next simpler
     form. Raw units need no guess: the means are normalized by their median norm first.
+
+    Parameters
+    ----------
+    means : (P, 3) array
+        Pose means [raw units].
+    g : float
+        Local gravity [m/s^2].
+    general : bool
+        Allow the general (misaligned) ellipsoid.
+
+    Returns
+    -------
+    (9,) ndarray
+        θ in the order of :data:`optinav.multipos.model.ACCEL_PARAMS`: K [raw/(m/s^2)], then b [raw].
     """
     m = as_float_array(means, "pose means", last_dims=(3,))
     P = m.shape[0]
@@ -243,15 +272,42 @@ def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.n
 def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
               samples=None, x0=None, rng=None, interval=None, bias_instability=None,
               held_misalignment: float = HELD_MISALIGNMENT, **options) -> AccelFit:
-    """Fit θ to static-pose data (see the module docstring).
+    """Fit θ = (K, b) of ``raw = K·a + b`` to static-pose data (see the module docstring).
 
-    ``stats``: per-pose raw statistics. ``g``: local gravity (m/s²). ``model_form``: "auto" (all 9 when
-    observable, else scales and biases with the misalignments held at 0 and reported), "full" (error if not
-    observable), "diagonal". ``data="samples"`` needs ``samples`` (list of (n_k, 3) raw arrays per pose).
-    ``bias_instability`` (raw units, scalar or per axis): 1σ of the bias drift over the session, added in
-    quadrature to the bias std (the data cannot reveal a drift common to all poses). ``held_misalignment``
-    (rad): 1σ of the misalignments a reduced model holds at 0; their effect on the fitted scales and biases
-    (first order, through the Jacobian) is added to those stds — the model error of what was held. ``options`` go to the optimizer (e.g. ``generations`` for the GA).
+    Parameters
+    ----------
+    stats : PoseStatistics
+        Per-pose raw statistics.
+    g : float
+        Local gravity [m/s^2].
+    method : str
+        One of :data:`METHODS` (``"lm"``, ``"gn"``, ``"trf"``, ``"newton"``, ``"ga"``, ``"pso"``; module docstring).
+    model_form : str
+        ``"auto"`` (all 9 when observable, else scales and biases with the misalignments held at 0 and
+        reported), ``"full"`` (error if not observable) or ``"diagonal"``.
+    data : str
+        ``"means"`` or ``"samples"`` (needs ``samples``).
+    samples : list of (n_k, 3) array or None
+        Raw samples per pose [raw units].
+    x0 : (9,) array or None
+        Start θ [raw/(m/s^2), raw]; None: :func:`initial_estimate`.
+    rng : int, Generator or None
+        Seed or generator of a stochastic optimizer.
+    interval : tuple of two (9,) arrays or None
+        GA/PSO search bounds (lo, hi) of θ [raw/(m/s^2), raw]; None: :func:`search_interval`.
+    bias_instability : float, (3,) array or None
+        1σ of the bias drift over the session [raw units], added in quadrature to the bias std (the data
+        cannot reveal a drift common to all poses).
+    held_misalignment : float
+        1σ of the misalignments a reduced model holds at 0 [rad]; their first-order effect on the fitted scales
+        and biases is added to those stds.
+    **options
+        Passed to the optimizer (e.g. ``generations`` for the GA).
+
+    Returns
+    -------
+    AccelFit
+        K [raw/(m/s^2)] and b [raw] with std, CRLB std, observability and the optimizer's trace.
     """
     g = check_positive(g, "gravity")
     if method not in METHODS:

@@ -141,22 +141,73 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
               gyro_bias_instability=None) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
-    t (N,) s; acc (N, 3) and gyr (N, 3) raw in ``acc_unit`` / ``gyro_unit`` ("counts" or any unit: K and b
-    come out in raw units per SI unit). ``g`` (m/s²) or ``lat`` (rad) / ``height_m`` (m) set the local gravity.
-    ``sections``: manual static sections (list of (t0, t1) s, or a file — see
-    :func:`optinav.multipos.static.sections_from_list`). ``acc_bias_instability`` (raw units): 1σ bias drift
-    over the session, added to the bias std. The gyro bias std includes the neglected Earth rate (Ω_E·K_ii).
-    ``gyro_bias``: "local" (default: during each turn the bias interpolated between the two rests it joins, the
-    session mean reported with the drift the rests show in its std), "static" (mean over the static poses), "rest" (mean over ``rest`` = (t0, t1) s, an initial
-    rest period), "estimate" (jointly with K_g) or a 3-vector in raw units. ``acc_range``/``gyro_range``:
-    ±R or (lo, hi) in raw units (:func:`saturated_mask`). ``allow_unobservable``: hold gyro directions the
-    turns do not determine instead of failing. ``rotation_angle`` (rad): the Ferraris turn (imucal's −2π);
-    ``held_misalignment`` (rad): 1σ of misalignments a reduced model holds at 0 (their model error enters the
-    stds of the scales and biases). ``gyro_g_sensitivity`` (raw gyro per m/s², 1σ): the unmodelled gyro
-    g-sensitivity, added to the gyro bias and K std. ``gyro_bias_instability`` (raw, 1σ): a gyro bias drift over the
-    session, added to the bias std. ``sections`` may then also be the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`.
-    Every fit passes the gates of :mod:`optinav.multipos.gates`
-    or raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
+    K and b come out in raw units per SI unit. Every fit passes the gates of :mod:`optinav.multipos.gates` or
+    raises; notes (gravity source, held parameters, dropped turns) are in ``quality["notes"]``.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times [s].
+    acc : (N, 3) array
+        Accelerometer output [acc_unit].
+    gyr : (N, 3) array or None
+        Gyroscope output [gyro_unit].
+    acc_unit, gyro_unit : str
+        Names of the raw units ("counts" or any unit).
+    g : float or None
+        Local gravity [m/s^2]; None: from ``lat``/``height_m`` (or standard gravity, noted).
+    lat : float or None
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    method : str
+        Accelerometer optimizer (:func:`optinav.multipos.accel.fit_accel`).
+    model_form : str
+        ``"auto"``, ``"full"`` or ``"diagonal"`` (:func:`optinav.multipos.accel.fit_accel`).
+    data : str
+        ``"means"`` or ``"samples"``.
+    sections : list, dict, str or None
+        Manual static sections: (t0, t1) pairs [s] or a file (:func:`optinav.multipos.static.sections_from_list`),
+        or the {name: (i0, i1)} dict of :func:`optinav.multipos.ferraris.sections_from_labels`; None: detected.
+    window_s : float
+        Moving-variance window of the static detection [s].
+    min_duration_s : float
+        Shortest static interval kept [s].
+    threshold : float or None
+        Static-detection variance threshold [acc_unit²]; None: automatic.
+    acc_range, gyro_range : float, (2,) array or None
+        Saturation limits ±R or (lo, hi) [raw units] (:func:`saturated_mask`).
+    gyro_bias : str or (3,) array
+        "local" (default: during each turn the bias interpolated between the two rests it joins, the session
+        mean reported with the drift the rests show in its std), "static" (mean over the static poses), "rest"
+        (mean over ``rest``), "estimate" (jointly with K_g) or a 3-vector [gyro_unit].
+    rng : int, Generator or None
+        Seed or generator of a stochastic optimizer.
+    source : str
+        Recorded in the result.
+    method_options : dict or None
+        Options of the accelerometer optimizer (e.g. ``generations``).
+    acc_bias_instability : float, (3,) array or None
+        1σ accelerometer bias drift over the session [acc_unit], added to the bias std.
+    rest : (2,) tuple or None
+        Initial rest window (t0, t1) [s] of ``gyro_bias="rest"``.
+    allow_unobservable : bool
+        Hold gyro directions the turns do not determine instead of failing.
+    rotation_angle : float
+        The Ferraris turn [rad] (imucal's −2π).
+    held_misalignment : float
+        1σ of misalignments a reduced model holds at 0 [rad] (their model error enters the stds of the scales
+        and biases).
+    gyro_g_sensitivity : float or None
+        1σ of the unmodelled gyro g-sensitivity [gyro_unit per m/s^2], added to the gyro bias and K std.
+    gyro_bias_instability : float, (3,) array or None
+        1σ gyro bias drift over the session [gyro_unit], added to the bias std. The gyro bias std also holds
+        the neglected Earth rate (Ω_E·K_ii).
+
+    Returns
+    -------
+    CalibrationResult
+        K [raw/SI] and b [raw] of each triad with std, CRLB std and observability, gates and notes.
     """
     gyro = gyr
     t_start = time.perf_counter()
@@ -537,7 +588,7 @@ def read_session_file(path, options: FileOptions) -> SessionData:
     if log.acc is None:
         raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
     acc, acc_unit = raw_units(log, "acc")
-    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyro is None else raw_units(log, "gyro")
+    gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
     return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
 
 

@@ -183,7 +183,22 @@ class ObservabilityTable(Result):
 
 
 def observability_vs_n(up_dirs=PAPER_SCHEME_UP, g: float = PAPER_G, n_min: int = 3) -> ObservabilityTable:
-    """:func:`linear_observability` of the first N positions for N = n_min … len(up_dirs) (Table 1)."""
+    """:func:`linear_observability` of the first N positions for N = n_min … len(up_dirs) (Table 1).
+
+    Parameters
+    ----------
+    up_dirs : (P, 3) array
+        Body up vectors [-] (default the paper's 15 positions).
+    g : float
+        Gravity [m/s^2].
+    n_min : int
+        Smallest N.
+
+    Returns
+    -------
+    ObservabilityTable
+        Rank and singular values of the linear model's Q per N.
+    """
     d = _unit_dirs(up_dirs)
     if not isinstance(n_min, (int, np.integer)) or not 1 <= n_min <= d.shape[0]:
         raise OptinavError(f"n_min = {n_min!r} is not between 1 and the {d.shape[0]} positions given",
@@ -626,14 +641,38 @@ def design_scheme(n_poses: int, *, criterion: str = "D", candidates=None, sigma=
                   allow_repeats: bool = False, chains: int = 6, rng=0) -> SchemeDesign:
     """Choose ``n_poses`` static poses for the accelerometer norm-model calibration (module docstring).
 
-    ``candidates``: None (the 26 of :func:`default_candidates`), body up vectors (M, 3), or C_b^n ENU
-    matrices (M, 3, 3). ``criterion``: "D", "E" or "A". Noise of the raw output: ``sigma`` (per-sample σ,
-    raw) or ``noise_density`` (raw/√Hz), scalar or per axis; default the Xsens MTi-1 class accelerometer
-    white noise (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``. ``rate_hz`` (Hz) and
-    ``dwell_s`` (s per pose) give σ of a pose mean. ``scale``: nominal k of K = k·I (raw per m/s²; 1 when the
-    raw output is in m/s²). ``g``: local gravity (m/s²). ``allow_repeats``: a candidate may be used twice.
-    ``chains``: simulated-annealing runs after the greedy/exchange starts (0: none); ``rng``: their seed or
-    Generator (default 0: the same call gives the same scheme). Poses are listed in candidate order.
+    Parameters
+    ----------
+    n_poses : int
+        Number of poses.
+    criterion : str
+        ``"D"``, ``"E"`` or ``"A"``.
+    candidates : (M, 3) or (M, 3, 3) array or None
+        Body up vectors [-] or C_b^n ENU matrices [-]; None: the 26 of :func:`default_candidates`.
+    sigma : float, (3,) array or None
+        Per-sample noise σ of the raw output [raw units].
+    noise_density : float, (3,) array or None
+        Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
+        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+    rate_hz : float
+        Sample rate [Hz].
+    dwell_s : float
+        Dwell per pose [s] (with ``rate_hz`` gives σ of a pose mean).
+    scale : float
+        Nominal k of K = k·I [raw/(m/s^2)] (1 when the raw output is in m/s²).
+    g : float
+        Local gravity [m/s^2].
+    allow_repeats : bool
+        A candidate may be used twice.
+    chains : int
+        Simulated-annealing runs after the greedy/exchange starts (0: none).
+    rng : int or Generator
+        Their seed or generator (default 0: the same call gives the same scheme).
+
+    Returns
+    -------
+    SchemeDesign
+        The poses in candidate order with the predicted CRLB std [raw/(m/s^2) for K, raw for b].
     """
     crit = _check_criterion(criterion)
     if isinstance(n_poses, bool) or not isinstance(n_poses, (int, np.integer)):
@@ -665,10 +704,33 @@ def evaluate_scheme(up_dirs, *, criterion: str = "D", sigma=None, noise_density=
                     dwell_s=60.0, scale: float = 1.0, g: float = G_STANDARD) -> SchemeDesign:
     """The :class:`SchemeDesign` report of a given scheme (no selection); any number of poses.
 
-    ``up_dirs``: body up vectors (P, 3) or C_b^n ENU matrices (P, 3, 3). ``dwell_s``: scalar or one per pose
-    (s). Other arguments as in :func:`design_scheme`. A rank-deficient scheme gets ``inf`` standard
-    deviations for the parameters it cannot determine and its observability report names the unobservable
-    combinations.
+    A rank-deficient scheme gets ``inf`` standard deviations for the parameters it cannot determine and its
+    observability report names the unobservable combinations.
+
+    Parameters
+    ----------
+    up_dirs : (P, 3) or (P, 3, 3) array
+        Body up vectors [-] or C_b^n ENU matrices [-].
+    criterion : str
+        ``"D"``, ``"E"`` or ``"A"``.
+    sigma : float, (3,) array or None
+        Per-sample noise σ of the raw output [raw units].
+    noise_density : float, (3,) array or None
+        Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
+        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+    rate_hz : float
+        Sample rate [Hz].
+    dwell_s : float or (P,) array
+        Dwell per pose [s].
+    scale : float
+        Nominal k of K = k·I [raw/(m/s^2)] (1 when the raw output is in m/s²).
+    g : float
+        Local gravity [m/s^2].
+
+    Returns
+    -------
+    SchemeDesign
+        The scheme with the predicted CRLB std [raw/(m/s^2) for K, raw for b].
     """
     crit = _check_criterion(criterion)
     up, orient = _poses(up_dirs)
@@ -678,7 +740,30 @@ def evaluate_scheme(up_dirs, *, criterion: str = "D", sigma=None, noise_density=
 
 def predict_std(up_dirs, *, sigma=None, noise_density=None, rate_hz: float = 100.0, dwell_s=60.0,
                 scale: float = 1.0, g: float = G_STANDARD) -> np.ndarray:
-    """CRLB 1σ (9,) of θ = :data:`model.ACCEL_PARAMS` for a given scheme (raw/(m/s²) for K, raw for b;
-    ``inf`` where not observable). Arguments as in :func:`evaluate_scheme`."""
+    """CRLB 1σ of θ = :data:`model.ACCEL_PARAMS` for a given scheme.
+
+    Parameters
+    ----------
+    up_dirs : (P, 3) or (P, 3, 3) array
+        Body up vectors [-] or C_b^n ENU matrices [-].
+    sigma : float, (3,) array or None
+        Per-sample noise σ of the raw output [raw units].
+    noise_density : float, (3,) array or None
+        Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
+        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+    rate_hz : float
+        Sample rate [Hz].
+    dwell_s : float or (P,) array
+        Dwell per pose [s].
+    scale : float
+        Nominal k of K = k·I [raw/(m/s^2)] (1 when the raw output is in m/s²).
+    g : float
+        Local gravity [m/s^2].
+
+    Returns
+    -------
+    (9,) ndarray
+        The std [raw/(m/s^2) for K, raw for b]; ``inf`` where not observable.
+    """
     return evaluate_scheme(up_dirs, sigma=sigma, noise_density=noise_density, rate_hz=rate_hz,
                            dwell_s=dwell_s, scale=scale, g=g).predicted_std

@@ -157,14 +157,31 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
                          acc_unit: str = "raw", gyro_unit: str = "raw") -> FerrarisCalibration:
     """Ferraris closed form (module docstring) from the six poses and the three rotations.
 
-    acc_static, gyro_static: the poses ``x_p, x_a, y_p, y_a, z_p, z_a`` as a dict by name or a sequence in
-    that order, each (N_i, 3) samples or a (3,) mean (input units). acc_rot, gyro_rot: the rotations
-    ``x_rot, y_rot, z_rot`` as (M_j, 3) samples (dict or sequence). Time step: ``rate_hz`` (Hz; the integral is
-    Σ samples / rate, as imucal) or ``dt`` (s; a scalar or a sequence of 3 arrays (M_j,) of per-sample steps).
-    expected_angle: rad, scalar or (3,) per axis; imucal's default −360° (a clockwise turn seen from the
-    axis tip, which makes the gyro read negative). gravity: m/s² (imucal default 9.81; pass the local
-    value). static_counts: samples per pose when means are given, to weight the gyro bias as imucal does
-    (with samples given the counts are taken from them). acc_unit/gyro_unit: names of the raw units.
+    Parameters
+    ----------
+    acc_static, gyro_static : dict or sequence of arrays
+        The poses ``x_p, x_a, y_p, y_a, z_p, z_a`` by name or in that order, each (N_i, 3) samples or a (3,) mean
+        [input units].
+    acc_rot, gyro_rot : dict or sequence of arrays
+        The rotations ``x_rot, y_rot, z_rot`` as (M_j, 3) samples [input units].
+    rate_hz : float or None
+        Sample rate [Hz]; the rotation integral is Σ samples / rate, as imucal.
+    dt : float, sequence of 3 (M_j,) arrays or None
+        Sample steps [s] instead of ``rate_hz``.
+    expected_angle : float or (3,) array
+        Turn angle per axis [rad]; imucal's default −360° (a clockwise turn seen from the axis tip, which makes
+        the gyro read negative).
+    gravity : float
+        Gravity [m/s^2] (imucal default 9.81; pass the local value).
+    static_counts : (6,) int array or None
+        Samples per pose when means are given, to weight the gyro bias as imucal does.
+    acc_unit, gyro_unit : str
+        Names of the raw units.
+
+    Returns
+    -------
+    FerrarisCalibration
+        ``acc_K`` [raw/(m/s^2)], ``acc_b`` [raw], ``gyro_K`` [raw/(rad/s)], ``gyro_G`` [raw/(m/s^2)], ``gyro_b`` [raw].
     """
     rate = rate_hz
     g = check_positive(gravity, "gravity")
@@ -280,12 +297,26 @@ def sections_from_labels(labels) -> dict | None:
 def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisCalibration:
     """Ferraris calibration of a continuous log with annotated sections.
 
-    t_or_rate: timestamps (N,) s, or the sample rate in Hz for a uniformly sampled log without timestamps.
-    acc, gyro: (N, 3) raw samples (input units). sections: the nine sections ``x_p … z_rot`` (imucal's
-    names) as a dict name → (i0, i1) half-open sample ranges, a dict name → {"start": i0, "end": i1}
-    (imucal's section list), a :class:`optinav.multipos.static.SectionList`, or a path to imucal's JSON
-    section list. With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate,
-    Σ samples / rate (imucal). Other keywords go to :func:`ferraris_calibration`.
+    With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate, Σ samples / rate
+    (imucal).
+
+    Parameters
+    ----------
+    t_or_rate : (N,) array or float
+        Timestamps [s], or the sample rate [Hz] of a uniformly sampled log without timestamps.
+    acc, gyr : (N, 3) array
+        Raw samples [input units].
+    sections : dict, SectionList or str
+        The nine sections ``x_p … z_rot`` (imucal's names): name → (i0, i1) half-open sample ranges, name →
+        {"start": i0, "end": i1} (imucal's section list), a :class:`optinav.multipos.static.SectionList`, or the
+        path of imucal's JSON section list.
+    **kwargs
+        Passed to :func:`ferraris_calibration`.
+
+    Returns
+    -------
+    FerrarisCalibration
+        As :func:`ferraris_calibration`.
     """
     gyro = gyr
     from optinav.multipos.static import SectionList, sections_from_list

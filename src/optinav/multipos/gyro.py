@@ -409,35 +409,58 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
                    allow_unobservable: bool = False, max_std: float = 0.05,
                    drop_transitions=(), g_sensitivity_std: float | None = None,
                    gravity: float = 9.80665, unit: str | None = None, bias_instability=None) -> GyroCalibration:
-    """Gyro K (raw per rad/s) and b (raw) of ``raw = K·ω + b`` from static intervals and the turns between them.
+    """Gyro K and b of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
     ----------
-    t : (N,) s, strictly increasing (irregular steps are fine).
-    gyro_raw : (N, 3) gyro output in raw units (counts, deg/s, …: K and b come out in those units).
-    static_intervals : (K, 2) static intervals in time order, disjoint: sample index pairs ``[i0, i1)``
-        (``interval_units="samples"``, default) or times ``[t0, t1]`` in s (``interval_units="s"``).
-    up_dirs : (K, 3) unit specific-force direction of each interval in the body frame (normalized mean of
-        the calibrated accelerometer); defines the frame of ω.
-    bias : "static", "rest", "estimate" or a 3-vector in raw units (module docstring).
-    rest : (t0, t1) s, the rest window of ``bias="rest"``.
-    method : "lm" (default), "gauss-newton" or "trf" (:func:`optinav.core.optimize.minimize`).
-    x0 : initial K (3, 3) raw per rad/s, or θ (12,) = (K row-major, b); None = the 1-D scale step.
-    rng : seed or Generator, passed to the optimizer (the local methods are deterministic).
-    coning : "previous" (default, adapts to irregular steps) or "none".
-    allow_unobservable : hold unobservable directions at the initial guess instead of raising.
-    max_std : combinations with a larger standard deviation (units of k₀ for K, 0.01·k₀ for b) are
-        treated as unobservable.
-    drop_transitions : indices k of transitions (interval k → k+1) left out, e.g. where the gyro saturates.
-    g_sensitivity_std : 1σ of each element of the gyro g-sensitivity (raw per m/s², datasheet value), which
-        the model leaves out. A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests, ``gravity``
-        m/s² along the mean up direction), added to the bias variance; each turn sees G·(f − f̄), at most
-        σ·g per axis, propagated into K like a bias error.
-    bias_instability : 1σ (raw, scalar or per axis) of a bias drift over the session (datasheet in-run bias
-        instability, or run-to-run), added to the bias variance; with ``bias="local"`` it takes the place of the
-        drift seen in the rests when it is the larger.
-    unit : the declared unit of ``gyro_raw`` ("rad/s", "deg/s", "counts"); when given, the turns are checked
-        against the gravity-direction changes before the fit (:func:`optinav.multipos.gates.check_gyro_turns`).
+    t : (N,) array
+        Sample times [s], strictly increasing (irregular steps are fine).
+    gyro_raw : (N, 3) array
+        Gyro output [raw units] (counts, deg/s, …: K and b come out in those units).
+    static_intervals : (K, 2) array
+        Static intervals in time order, disjoint: sample index pairs ``[i0, i1)`` (``interval_units="samples"``)
+        or times ``[t0, t1]`` [s] (``interval_units="s"``).
+    up_dirs : (K, 3) array
+        Unit specific-force direction of each interval in the body frame [-] (normalized mean of the calibrated
+        accelerometer); defines the frame of ω.
+    bias : str or (3,) array
+        "static", "local", "rest", "estimate" (:data:`BIAS_MODES`) or a 3-vector [raw units] (module docstring).
+    rest : (2,) tuple or None
+        The rest window (t0, t1) [s] of ``bias="rest"``.
+    method : str
+        "lm" (default), "gauss-newton" or "trf" (:func:`optinav.core.optimize.minimize`).
+    x0 : (3, 3) or (12,) array or None
+        Initial K [raw/(rad/s)], or θ = (K row-major, b) [raw/(rad/s), raw]; None: the 1-D scale step.
+    rng : int, Generator or None
+        Passed to the optimizer (the local methods are deterministic).
+    interval_units : str
+        ``"samples"`` or ``"s"``: the units of ``static_intervals``.
+    coning : str
+        "previous" (default, adapts to irregular steps) or "none".
+    allow_unobservable : bool
+        Hold unobservable directions at the initial guess instead of raising.
+    max_std : float
+        Combinations with a larger standard deviation [k₀ for K, 0.01·k₀ for b] are treated as unobservable.
+    drop_transitions : sequence of int
+        Indices k of transitions (interval k → k+1) left out, e.g. where the gyro saturates.
+    g_sensitivity_std : float or None
+        1σ of each element of the gyro g-sensitivity [raw per m/s^2] (datasheet), which the model leaves out.
+        A fixed bias then holds G·f̄ (f̄ the mean specific force of the rests), added to the bias variance; each
+        turn sees G·(f − f̄), at most σ·g per axis, propagated into K like a bias error.
+    gravity : float
+        Magnitude of f̄ along the mean up direction [m/s^2].
+    unit : str or None
+        The declared unit of ``gyro_raw`` ("rad/s", "deg/s", "counts"); when given, the turns are checked against
+        the gravity-direction changes before the fit (:func:`optinav.multipos.gates.check_gyro_turns`).
+    bias_instability : float, (3,) array or None
+        1σ of a bias drift over the session [raw units] (datasheet in-run bias instability, or run-to-run),
+        added to the bias variance; with ``bias="local"`` it takes the place of the drift seen in the rests
+        when it is the larger.
+
+    Returns
+    -------
+    GyroCalibration
+        K [raw/(rad/s)] and b [raw] with covariance, std and observability.
     """
     t_start = time.perf_counter()
     t = check_timestamps(t, "t", min_count=4)

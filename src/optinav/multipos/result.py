@@ -106,7 +106,18 @@ class CalibrationResult(Estimate):
                                "pass a result file written by `optinav calibrate`")
 
     def correct_accel(self, raw) -> np.ndarray:
-        """a = K⁻¹(raw − b) (m/s²) for raw (N, 3) in the calibrated input units."""
+        """Corrected specific force a = K⁻¹(raw − b).
+
+        Parameters
+        ----------
+        raw : (N, 3) array
+            Accelerometer output [the calibrated input unit].
+
+        Returns
+        -------
+        (N, 3) ndarray
+            Specific force [m/s^2], body axes.
+        """
         if self.accelerometer is None:
             raise OptinavError("this result has no accelerometer calibration", "calibrate the accelerometer first")
         raw = as_float_array(raw, "accelerometer data", last_dims=(3,), finite=False)
@@ -114,7 +125,20 @@ class CalibrationResult(Estimate):
         return np.linalg.solve(K, (raw - b).T).T
 
     def correct_gyro(self, raw, acc=None) -> np.ndarray:
-        """ω = K_g⁻¹(raw − G·a − b_g) (rad/s); ``acc`` is the corrected specific force (m/s²) for G."""
+        """Corrected angular rate ω = K_g⁻¹(raw − G·a − b_g).
+
+        Parameters
+        ----------
+        raw : (N, 3) array
+            Gyroscope output [the calibrated input unit].
+        acc : (N, 3) array or None
+            Corrected specific force [m/s^2] for the g-sensitivity G (required when G ≠ 0).
+
+        Returns
+        -------
+        (N, 3) ndarray
+            Angular rate [rad/s], body axes.
+        """
         if self.gyroscope is None:
             raise OptinavError("this result has no gyroscope calibration", "calibrate with gyroscope data")
         raw = as_float_array(raw, "gyroscope data", last_dims=(3,), finite=False)
@@ -129,6 +153,13 @@ class CalibrationResult(Estimate):
         return np.linalg.solve(K, v.T).T
 
     def summary(self) -> str:
+        """A human-readable report of the calibration.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         lines = [f"optinav calibration ({self.method})"]
         for name, d, unit in (("accelerometer", self.accelerometer, "m/s^2"), ("gyroscope", self.gyroscope, "rad/s")):
             if d is None:

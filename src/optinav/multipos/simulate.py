@@ -87,12 +87,44 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
              gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
     """Simulate a static multi-position session.
 
-    ``scheme``: a name in :data:`SCHEMES` or (P, 3) sensor-frame up vectors. ``spec``: an ImuSpec (a unit is
-    drawn with ``rng``), an ImuModel, or a preset name. ``truth="paper"`` replaces the accelerometer errors by
-    Gao & Zhang's Table 2 reference (S per local g, three misalignments, biases). Poses alternate yaw so that
-    consecutive transitions turn about varied axes. ``jitter``: timestamp jitter as a fraction of the step
-    (irregular sampling). Site: ``lat`` (rad), ``height_m`` (m). Units: raw outputs are written in ``acc_unit`` /
-    ``gyro_unit``.
+    Poses alternate yaw so that consecutive transitions turn about varied axes.
+
+    Parameters
+    ----------
+    scheme : str or (P, 3) array
+        A name in :data:`SCHEMES` or sensor-frame up vectors [-].
+    spec : ImuSpec, ImuModel or str
+        An ImuSpec (a unit is drawn with ``rng``), an ImuModel, or a preset name.
+    dwell_s : float
+        Dwell per pose [s].
+    rate_hz : float or None
+        Sample rate [Hz]; None: the unit's.
+    transition_s : float
+        Duration of each turn between poses [s].
+    rest_s : float
+        Initial rest in the first pose [s].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    truth : str
+        ``"draw"`` (the unit's errors) or ``"paper"``: the accelerometer errors of Gao & Zhang's Table 2 (S per
+        local g, three misalignments, biases).
+    acc_unit, gyro_unit : str
+        Units of the raw outputs (``"counts"`` or an SI / named unit).
+    acc_counts_per_si : float
+        Nominal counts per m/s² of ``acc_unit="counts"`` [1/(m/s^2)].
+    gyro_counts_per_si : float
+        Nominal counts per rad/s of ``gyro_unit="counts"`` [1/(rad/s)].
+    jitter : float
+        Timestamp jitter as a fraction of the step [-] (irregular sampling).
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    SimulatedSession
+        Raw log ``t`` [s], ``acc`` [acc_unit], ``gyro`` [gyro_unit] with the true K, b and up vectors.
     """
     gen = as_rng(rng)
     ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
@@ -108,7 +140,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     if truth == "paper":
         K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
                                 PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
-        unit_model = dataclasses.replace(unit_model, accel=TriadErrors.from_matrix("accel", K, b))
+        unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
     elif truth != "draw":
         raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
     poses = np.stack([orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2)
@@ -120,7 +152,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
         t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
         t[0] = 0.0
     tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t)
-    meas = unit_model.apply(tr.omega_ib_b, tr.f_b, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
+    meas = unit_model.apply(tr.gyr, tr.acc, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
     fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
     fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
     labels = tr.labels.copy()
@@ -131,8 +163,8 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     from optinav.core.simulate import describe_pose
     return SimulatedSession(
         t=tr.t, acc=meas.accel * fa, gyro=meas.gyro * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
-        acc_K=unit_model.accel.K * fa, acc_b=unit_model.accel.bias * fa,
-        gyro_K=unit_model.gyro.K * fg, gyro_b=unit_model.gyro.bias * fg, gravity=g, up_dirs=ups,
+        acc_K=unit_model.acc.K * fa, acc_b=unit_model.acc.bias * fa,
+        gyro_K=unit_model.gyr.K * fg, gyro_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
         static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
         acc_bias_instability=float(np.max(unit_model.accel_noise.gm_sigma) * fa),
         descriptions=[describe_pose(c) for c in poses[1:]])

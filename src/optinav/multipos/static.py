@@ -366,12 +366,40 @@ def detect_static(t, acc, *, gyr=None, window_s: float = 1.0, threshold: float |
                   gyro_unit: str = "input units") -> StaticDetection:
     """Static intervals of a log from the moving variance of ``acc`` (and ``gyr``).
 
-    t (N,) s; acc, gyro (N, 3) in any input units. A sample is static when the acc moving variance over a
-    centred ``window_s`` window is ≤ ``threshold`` (input units²) and, with ``gyr``, the gyro variance is ≤
-    ``gyro_threshold``. ``threshold=None``: automatic (module docstring; the gyro uses the same multiple of
-    its own floor). A given ``threshold`` with ``gyr`` but no ``gyro_threshold`` uses the acc alone.
-    Intervals are trimmed by ``trim_s`` (default ``window_s/2``) at both ends, then those shorter than
-    ``min_duration_s`` are dropped. ``acc_unit``/``gyro_unit`` only label error messages.
+    A sample is static when the acc moving variance over a centred ``window_s`` window is ≤ ``threshold`` and,
+    with ``gyr``, the gyro variance is ≤ ``gyro_threshold``. Intervals are trimmed by ``trim_s`` at both ends,
+    then those shorter than ``min_duration_s`` are dropped.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times [s].
+    acc : (N, 3) array
+        Accelerometer output [input units].
+    gyr : (N, 3) array or None
+        Gyroscope output [input units].
+    window_s : float
+        Moving-variance window [s].
+    threshold : float or None
+        Acc variance threshold [input units²]; None: automatic (module docstring; the gyro uses the same multiple
+        of its own floor).
+    gyro_threshold : float or None
+        Gyro variance threshold [input units²]; a given ``threshold`` without it uses the acc alone.
+    min_duration_s : float
+        Shortest interval kept [s].
+    trim_s : float or None
+        Trim at both ends of an interval [s]; None: ``window_s/2``.
+    multipliers : (M,) array or None
+        Candidate threshold multiples of the noise floor [-]; None: :data:`DEFAULT_MULTIPLIERS`.
+    init_rest_s : float or None
+        Take the noise floor from the first ``init_rest_s`` [s] (an initial rest, as imu_tk).
+    acc_unit, gyro_unit : str
+        Unit names, only for error messages.
+
+    Returns
+    -------
+    StaticDetection
+        ``t_intervals`` [s], ``index_ranges`` and per-interval means [input units].
     """
     gyro = gyr
     if threshold is None:
@@ -475,18 +503,27 @@ def _load_sections(sections):
 
 
 def sections_from_list(sections, t) -> SectionList:
-    """Validated manual sections of the log with timestamps ``t`` (N,) s.
-
-    ``sections``: a list of (start, end) times in s; a dict name → (start, end) in s; the path of a text
-    file with one ``start end`` or ``name start end`` line per section (s; '#' comments, commas allowed; a
-    string containing a newline is taken as such text) or of a JSON file holding any layout here; or
-    imucal's section-list layout
-    ``{"name": {"start": i0, "end": i1}}`` whose values are **sample indices** into ``t`` (half-open
-    [i0, i1), as imucal slices with ``iloc``); for a log without timestamps pass ``t = arange(N) / rate``.
-    A section in seconds keeps the samples with start ≤ t ≤ end.
+    """Validated manual sections of the log with timestamps ``t``.
 
     Checks: start < end, inside the log, at least one sample, no overlap. Unnamed sections must be in time
-    order (an unsorted list is usually a typo); named ones are sorted by start.
+    order (an unsorted list is usually a typo); named ones are sorted by start. A section in seconds keeps the
+    samples with start ≤ t ≤ end.
+
+    Parameters
+    ----------
+    sections : list, dict or str
+        A list of (start, end) times [s]; a dict name → (start, end) [s]; the path of a text file with one
+        ``start end`` or ``name start end`` line per section [s] ('#' comments, commas allowed; a string
+        containing a newline is taken as such text) or of a JSON file holding any layout here; or imucal's
+        section-list layout ``{"name": {"start": i0, "end": i1}}`` whose values are **sample indices** into ``t``
+        (half-open [i0, i1), as imucal slices with ``iloc``).
+    t : (N,) array
+        Sample times [s]; for a log without timestamps pass ``t = arange(N) / rate``.
+
+    Returns
+    -------
+    SectionList
+        ``t_intervals`` [s], ``index_ranges`` and ``names``.
     """
     t = check_timestamps(t, "t", min_count=2)
     rows, kind, named = _load_sections(sections)

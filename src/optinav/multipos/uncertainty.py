@@ -87,8 +87,8 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0) -> dict[str, dict[str, flo
         seed = int(gen.integers(2 ** 31))
         g2 = np.random.default_rng(seed)
         unit = preset("mems-mti1").draw(g2)
-        gy = unit.gyro
-        unit = dataclasses.replace(unit, gyro=TriadErrors("gyro", bias=gy.bias, scale=gy.scale,
+        gy = unit.gyr
+        unit = dataclasses.replace(unit, gyr=TriadErrors("gyro", bias=gy.bias, scale=gy.scale,
                                                            misalignment=gy.misalignment,
                                                            g_sensitivity=g2.normal(0, GYRO_G_SENSITIVITY, (3, 3))))
         s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)

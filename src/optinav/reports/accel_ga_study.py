@@ -140,11 +140,11 @@ def _fits(quick, rng) -> dict:
     lm = fits["lm"]
     # Table 4: levelling with each calibration on a static test pose outside the calibration set
     unit = preset("mems-mti1").draw(rng)
-    unit = dataclasses.replace(unit, accel=TriadErrors.from_matrix("accel", sess.acc_K, sess.acc_b))
+    unit = dataclasses.replace(unit, acc=TriadErrors.from_matrix("accel", sess.acc_K, sess.acc_b))
     c = rotations.dcm_from_euler(np.radians([3.0, -5.0, 30.0]), convention="enu")
     tr = static_positions(c[None], 60.0, 100.0, np.radians(38.88), height_m=35.0)
-    meas = unit.apply(tr.omega_ib_b, tr.f_b, rng=rng)
-    p0, r0 = _level(tr.f_b.mean(axis=0))
+    meas = unit.apply(tr.gyr, tr.acc, rng=rng)
+    p0, r0 = _level(tr.acc.mean(axis=0))
     lev = {}
     for name, key in LEVELLING.items():
         K, b = (np.eye(3), np.zeros(3)) if key is None else (fits[key].K, fits[key].b)

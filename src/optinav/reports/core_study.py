@@ -109,7 +109,7 @@ def _alignment(quick, rng) -> dict:
                                     gyro_bias_tau=unit.gyro_noise.gm_tau[0],
                                     accel_bias_instability=unit.accel_noise.gm_sigma[0],
                                     accel_bias_tau=unit.accel_noise.gm_tau[0])
-    limit = alignment.alignment_limits(c_true @ unit.gyro.bias, c_true @ unit.accel.bias, lat, h, frame)
+    limit = alignment.alignment_limits(c_true @ unit.gyr.bias, c_true @ unit.acc.bias, lat, h, frame)
     g = float(earth.gravity(lat, h))
     sig = np.array([unit.accel_noise.white[0] / g, unit.accel_noise.white[0] / g,
                     unit.gyro_noise.white[0] / (earth.WGS84.omega_ie * np.cos(lat))]) / np.sqrt(span)

@@ -95,9 +95,25 @@ class Prepared:
 
 def prepare(data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None,
             sa: SensorAttitude | None = None) -> Prepared:
-    """Align, integrate ``C_s^n`` once, and pick the residual epochs (``residual_rate`` Hz, epoch 0 kept).
+    """Align, integrate ``C_s^n`` once, and pick the residual epochs (epoch 0 kept).
 
-    window: optional ``(t0, t1)`` in s restricting the calibration epochs (e.g. one 16-position cycle).
+    Parameters
+    ----------
+    data : RinsData
+        The recording.
+    residual_rate : float
+        Rate of the residual epochs [Hz].
+    align_s : float or None
+        Longest alignment window [s]; None: the whole initial rest.
+    window : (2,) tuple or None
+        ``(t0, t1)`` [s] restricting the calibration epochs.
+    sa : SensorAttitude or None
+        A full-rate attitude already integrated (reused).
+
+    Returns
+    -------
+    Prepared
+        The residual epochs ``t`` [s], ``c_s_n`` [-], encoder angles [rad] and the full-rate attitude.
     """
     if sa is None:
         sa = sensor_attitude_from_imu(data, align_s=align_s)
@@ -292,6 +308,13 @@ class RinsCalibration(Estimate):
         return np.asarray(self.p_used, float)
 
     def summary(self) -> str:
+        """A human-readable report of the calibration, one parameter per line.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         lines = [f"optinav rotational-INS non-orthogonality calibration ({self.method}, {self.elapsed_s:.3g} s)"]
         for nm in PARAM_NAMES:
             v, s = self.angles.get(nm), self.angles_std.get(nm)
@@ -455,12 +478,40 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
               gyro_misalignment: float = np.radians(5 / 3600), gyro_scale: float = 2e-6) -> RinsCalibration:
     """Calibrate the six non-orthogonality angles from a :class:`~optinav.rins.simulate.RinsData` recording.
 
-    method: "lm" (default), "pso", "axis" or "none" (module docstring). residual_rate: Hz of the residual
-    epochs (the strapdown attitude is integrated at the full rate). search: PSO search half-width (rad),
-    also its velocity clamp. small_angle: PSO particles as the paper's linear matrices (eqs. 10–11).
-    prep: a :func:`prepare` result to reuse (C_s^n computed once for several methods).
-    gyro_misalignment (rad), gyro_scale (fraction): 1σ of the uncalibrated gyro triad errors, propagated into
-    the reported std (default the "rlg-nav" preset: 5″, 2 ppm); 0 leaves them out.
+    Parameters
+    ----------
+    data : RinsData or None
+        The recording (None when ``prep`` is given).
+    method : str
+        ``"lm"`` (default), ``"pso"``, ``"axis"`` or ``"none"`` (module docstring).
+    prep : Prepared or None
+        A :func:`prepare` result to reuse (C_s^n computed once for several methods).
+    residual_rate : float
+        Rate of the residual epochs [Hz]; the strapdown attitude is integrated at the full rate.
+    align_s : float or None
+        Longest alignment window [s]; None: the whole initial rest.
+    window : (2,) tuple or None
+        ``(t0, t1)`` [s] restricting the calibration epochs (e.g. one 16-position cycle).
+    rng : int, Generator or None
+        Seed or generator (PSO).
+    search : float
+        PSO search half-width, also its velocity clamp [rad].
+    small_angle : bool
+        PSO particles as the paper's linear matrices (eqs. 10–11).
+    pso_options : dict or None
+        Options of the particle swarm.
+    source : str
+        Recorded in the result.
+    gyro_misalignment : float
+        1σ of the uncalibrated gyro misalignment propagated into the reported std [rad] (default the
+        "rlg-nav" preset: 5″; 0 leaves it out).
+    gyro_scale : float
+        1σ of the uncalibrated gyro scale factor [-] (fraction; default 2 ppm).
+
+    Returns
+    -------
+    RinsCalibration
+        The angles [rad] with std and CRLB std, observability, convergence and quality gates.
     """
     if method not in METHODS:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")

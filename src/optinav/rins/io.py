@@ -37,13 +37,27 @@ def _fmt(path) -> str:
 
 
 def write_rins(path, data: RinsData) -> Path:
-    """Write ``data`` to ``path`` (format by suffix: .npz, .csv, .h5/.hdf5)."""
+    """Write ``data`` to ``path`` atomically (format by suffix: .npz, .csv, .h5/.hdf5; site as ``lat_deg``,
+    ``height_m``).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+    data : RinsData
+        The recording.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(path)
     kind = _fmt(path)
     cols = {"t": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
             "dtheta_z": data.dtheta[:, 2], "dv_x": data.dv[:, 0], "dv_y": data.dv[:, 1], "dv_z": data.dv[:, 2],
             "alpha": data.alpha, "beta": data.beta}
-    site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.h)}
+    site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.height_m)}
     if kind == "npz":
         with atomic_open(path, "wb") as fh:
             np.savez(fh, **cols, **{k: np.array(v) for k, v in site.items()})
@@ -79,8 +93,22 @@ def _site_from_csv(path: Path) -> dict:
 
 
 def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
-    """Read a rotational-INS file (columns in :data:`COLUMNS`); ``lat`` (rad) / ``height_m`` (m) override the
-    file's site (stored there as ``lat_deg``, ``height_m``)."""
+    """Read a rotational-INS file (columns in :data:`COLUMNS`).
+
+    Parameters
+    ----------
+    path : str or Path
+        .npz, .csv or .h5/.hdf5 file.
+    lat : float or None
+        Latitude [rad], overriding the file's ``lat_deg``.
+    height_m : float or None
+        Height [m], overriding the file's ``height_m``.
+
+    Returns
+    -------
+    RinsData
+        Increments ``dtheta`` [rad], ``dv`` [m/s] and encoder angles [rad].
+    """
     path = Path(path)
     kind = _fmt(path)
     tab = load_table(path)
@@ -117,4 +145,4 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
         col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
     return RinsData(t=col["t"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
                     dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
-                    beta=col["beta"], lat=float(lat), h=float(h))
+                    beta=col["beta"], lat=float(lat), height_m=float(h))

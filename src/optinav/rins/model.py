@@ -67,10 +67,25 @@ def chain_pieces(alpha, beta):
 
 
 def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> np.ndarray:
-    """Eq. 6: ``C_b^n`` (T, 3, 3), or (P, T, 3, 3) for a batch of parameter vectors.
+    """Eq. 6: the vehicle attitude ``C_b^n`` through the gimbal chain (Li et al. 2023).
 
-    c_s_n: (T, 3, 3) IMU attitude; alpha, beta: (T,) encoder angles (rad); p: (6,) or (P, 6) rad.
-    pieces: optional precomputed :func:`chain_pieces` (Z, Y) of these angles (saves their cost per call).
+    Parameters
+    ----------
+    c_s_n : (T, 3, 3) array
+        IMU attitude ``C_s^n`` at the epochs [-].
+    alpha, beta : (T,) array
+        Inner / outer encoder angles [rad].
+    p : (6,) or (P, 6) array
+        Non-orthogonality angles ``[θx, θy, θz, ηx, ηy, ηz]`` [rad], one vector or a batch.
+    small_angle : bool
+        The first-order matrices ``I + [θ×]`` (eqs. 4, 5) instead of exact rotations.
+    pieces : tuple or None
+        Precomputed :func:`chain_pieces` (Z, Y) of these angles (saves their cost per call).
+
+    Returns
+    -------
+    (T, 3, 3) or (P, T, 3, 3) ndarray
+        ``C_b^n`` [-] (ENU navigation frame, right-front-up body).
     """
     p2, single = _params(p)
     Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
@@ -112,7 +127,26 @@ def attitude_change(C_b_n) -> np.ndarray:
 
 
 def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> np.ndarray:
-    """Eqs. 12–14: Euler angles [roll, pitch, yaw] of ``E_t`` for t ≥ 1, flattened (3(T−1),) or (P, 3(T−1))."""
+    """Eqs. 12–14: Euler angles [roll, pitch, yaw] of ``E_t = C_{b,0}^nᵀ C_{b,t}^n`` for t ≥ 1.
+
+    Parameters
+    ----------
+    c_s_n : (T, 3, 3) array
+        IMU attitude ``C_s^n`` at the epochs [-].
+    alpha, beta : (T,) array
+        Inner / outer encoder angles [rad].
+    p : (6,) or (P, 6) array
+        Non-orthogonality angles ``[θx, θy, θz, ηx, ηy, ηz]`` [rad], one vector or a batch.
+    small_angle : bool
+        The first-order matrices of eqs. 4, 5 (the paper's particles) instead of exact rotations.
+    pieces : tuple or None
+        Precomputed :func:`chain_pieces` (Z, Y).
+
+    Returns
+    -------
+    (3(T−1),) or (P, 3(T−1)) ndarray
+        The residuals, epoch-major [rad] (ENU Euler convention).
+    """
     p2, single = _params(p)
     e = euler_rpy(attitude_change(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)))[:, 1:]
     e = e.reshape(p2.shape[0], -1)
@@ -128,11 +162,27 @@ def _param_axes(a: np.ndarray) -> np.ndarray:
 
 
 def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
-    """Analytic ∂r/∂p (3(T−1), 6) of :func:`residuals` for the exact chain.
+    """Analytic ∂r/∂p of :func:`residuals` for the exact chain.
 
     A change of θ_k turns ``C̃_t`` on the right by ``v_t = (Z_t B Y_t)ᵀ w_k`` (η_k: ``v_t = Y_tᵀ u_k``), so
     ``E_t`` turns on the right by ``d_t = v_t − E_tᵀ v_0``; the Euler rates follow from the body rate by
     ``ω = [e_y, R_y(γ)ᵀe_x, R_y(γ)ᵀR_x(θ)ᵀe_z]·[γ̇, θ̇, ψ̇]`` (ENU Euler kinematics).
+
+    Parameters
+    ----------
+    c_s_n : (T, 3, 3) array
+        IMU attitude ``C_s^n`` at the epochs [-].
+    alpha, beta : (T,) array
+        Inner / outer encoder angles [rad].
+    p : (6,) array
+        Non-orthogonality angles ``[θx, θy, θz, ηx, ηy, ηz]`` [rad].
+    pieces : tuple or None
+        Precomputed :func:`chain_pieces` (Z, Y).
+
+    Returns
+    -------
+    (3(T−1), 6) ndarray
+        The Jacobian [rad/rad].
     """
     p = np.asarray(p, float)
     Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces

@@ -148,9 +148,9 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
     k_lat = max(2, m - int(round(2.0 / step)))
     latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, data.lat)
-    coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.h, "enu")
+    coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.height_m, "enu")
     if fine:
-        al = fine_alignment(ep, dth, dv, data.lat, data.h, frame="enu", q0=coarse.q_b_n, gyro_white=5e-7,
+        al = fine_alignment(ep, dth, dv, data.lat, data.height_m, frame="enu", q0=coarse.q_b_n, gyro_white=5e-7,
                             accel_white=5e-5, gyro_bias_std=1e-7, accel_bias_std=3e-4)
     else:
         al = coarse

@@ -22,7 +22,7 @@ from dataclasses import field
 import numpy as np
 
 from optinav.core.imu_model import preset
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import dcm_from_euler
 from optinav.core.simulate import AxisSchedule, Move, gimbal
 from optinav.core.validate import as_rng, check_positive
@@ -72,11 +72,12 @@ class RinsData(Result):
     Row k: ``dtheta[k]`` (rad) and ``dv[k]`` (m/s) integrate over ``(t[k], t[k+1]]`` (the last row ends one
     step after ``t[-1]``), as docs/conventions.md says; ``alpha[k]``, ``beta[k]`` (rad) are the inner/outer
     encoder angles at ``t[k]``, the start of row k's increments. ``truth`` (simulations):
-    the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None.
+    the six angles (rad) in :data:`optinav.rins.model.PARAM_NAMES` order, or None. Version 2 renamed the
+    version-1 fields ``h``/``c_b_n`` to ``height_m``/``C_b_n`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.rins_data"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     dtheta: np.ndarray = field(metadata={"unit": "rad"})
@@ -84,15 +85,19 @@ class RinsData(Result):
     alpha: np.ndarray = field(metadata={"unit": "rad"})
     beta: np.ndarray = field(metadata={"unit": "rad"})
     lat: float = field(default=float(np.radians(28.2)), metadata={"unit": "rad"})
-    h: float = field(default=0.0, metadata={"unit": "m"})
+    height_m: float = field(default=0.0, metadata={"unit": "m"})
     truth: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
-    c_b_n: np.ndarray | None = field(default=None, metadata={"unit": ""})  #: true vehicle attitude (3, 3)
+    C_b_n: np.ndarray | None = field(default=None, metadata={"unit": ""})  #: true vehicle attitude (3, 3)
     align_s: float = field(default=float("nan"), metadata={"unit": "s"})  #: alignment phase length
     info: dict = field(default_factory=dict, metadata={"unit": "-"})
 
     @property
     def rate(self) -> float:
         return float(1.0 / np.median(np.diff(self.t)))
+
+
+register_legacy(RinsData, RinsData.SCHEMA, 1,
+                lambda d: nested_kwargs(RinsData, d, {"h": "height_m", "c_b_n": "C_b_n"}))
 
 
 def _schedules(steps, t_start, move_s, dwell_s, profile, lock_sigma, rng):
@@ -128,15 +133,57 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
              gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
              encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
              profile: str = "cosine", rng=None) -> RinsData:
-    """Simulate a static-base session (see the module docstring).
+    """Simulate a static-base dual-axis rotational-INS session (see the module docstring).
 
-    nonorth: true [θx, θy, θz, ηx, ηy, ηz] (rad). scheme: name in :data:`SCHEMES`, a step text
-    ``"Z+180,Y-180"`` or pairs; repeated ``cycles`` times, each move ``move_s`` s then ``dwell_s`` s at rest,
-    after ``align_s`` s of alignment. rate_hz: Hz. Site: ``lat`` (rad), ``height_m`` (m). attitude: vehicle
-    [roll, pitch, yaw] (ENU convention, rad).
-    imu: preset name or an :class:`~optinav.core.imu_model.ImuSpec`; gyro_misalignment (rad, 1σ of each of the
-    six terms) and gyro_scale (1σ, fraction) override it. encoder_noise (rad, 1σ), encoder_lsb (rad, 0 = none),
-    lock_sigma (rad, 1σ stop error unseen by the encoders), wobble (rad amplitude). rng: seed or Generator.
+    Parameters
+    ----------
+    nonorth : (6,) array_like
+        True non-orthogonality ``[θx, θy, θz, ηx, ηy, ηz]`` [rad].
+    scheme : str or sequence
+        A name in :data:`SCHEMES`, a step text ``"Z+180,Y-180"`` or (axis, degrees) pairs.
+    cycles : int
+        Repetitions of the scheme.
+    move_s : float
+        Duration of each move [s].
+    dwell_s : float
+        Rest after each move [s].
+    align_s : float
+        Alignment phase before the first move [s].
+    rate_hz : float
+        Sample rate [Hz].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    attitude : (3,) array_like
+        Vehicle [roll, pitch, yaw] [rad] (ENU convention).
+    imu : str or ImuSpec
+        Preset name or an :class:`~optinav.core.imu_model.ImuSpec`.
+    gyro_misalignment : float or None
+        Overrides the spec: 1σ of each of the six misalignment terms [rad].
+    gyro_scale : float or None
+        Overrides the spec: 1σ scale-factor error [-] (fraction).
+    imu_errors : bool
+        Draw the unit's deterministic errors (False: an ideal triad).
+    noise : bool
+        Add sensor and encoder noise.
+    encoder_noise : float
+        Encoder noise 1σ [rad].
+    encoder_lsb : float
+        Encoder quantum [rad] (0: none).
+    lock_sigma : float
+        1σ stop error unseen by the encoders [rad].
+    wobble : float
+        Axis wobble amplitude w (tilt ``w·sin β`` of the outer, ``w·sin α`` of the inner axis) [rad].
+    profile : str
+        Rate profile of a move, as :class:`optinav.core.simulate.Move`.
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    RinsData
+        Increments ``dtheta`` [rad] and ``dv`` [m/s], encoder angles [rad] and the truth.
     """
     gen = as_rng(rng)
     p = np.asarray(nonorth, dtype=float)
@@ -188,8 +235,8 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
             a = np.round(a / encoder_lsb) * encoder_lsb
         enc.append(a)
     info = {"scheme": scheme if isinstance(scheme, str) else "custom", "steps": [f"{a}{d:+g}" for a, d in steps],
-            "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyro.K.tolist(),
-            "gyro_bias": unit.gyro.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
+            "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyr.K.tolist(),
+            "gyro_bias": unit.gyr.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
             "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
     return RinsData(t=ts, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
-                    h=float(h), truth=p.copy(), c_b_n=c_b_n, align_s=float(align_s), info=info)
+                    height_m=float(h), truth=p.copy(), C_b_n=c_b_n, align_s=float(align_s), info=info)

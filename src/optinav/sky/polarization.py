@@ -41,7 +41,18 @@ _DEGENERATE = 1e-9
 
 
 def wrap_axial(angle) -> np.ndarray:
-    """Wrap an axial angle (rad) to [−π/2, π/2)."""
+    """Wrap an axial angle to [−π/2, π/2).
+
+    Parameters
+    ----------
+    angle : float or array
+        Angle [rad].
+
+    Returns
+    -------
+    ndarray
+        The wrapped angle [rad].
+    """
     a = np.asarray(angle, dtype=float)
     return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
 
