@@ -11,6 +11,13 @@ side by side in one run: batch on trial 02 tiled to ≥ 1 M samples, and streami
 20 000 samples) for optinav's AttitudeFilter, VQF and imufusion. Targets (issue 12): online ≤ 0.55°, offline
 ≤ 0.44°, 9D heading ≤ 2.0°, no trial > 1.5°; ≥ 2 M samples/s batch, ≥ 300 k updates/s streaming.
 ``python benchmarks/bench_attitude.py [--quick] [--json FILE] [--md FILE]`` writes JSON and a Markdown table.
+
+Timing: every method here integrates the sample gyr[k] over the interval (t[k−1], t[k]] and outputs the attitude
+at t[k] (VQF and optinav with the exact exponential, the others to first order); none shifts its output. On
+BROAD that output lags the optical reference by about half a sample (1.75 ms at 286 Hz; measured, see
+docs/attitude.md), a property of the recording's timing, not of any method. Separate rows ("timing-aligned,
+oracle") score every 6D method's output predicted forward by the same h/2 with the raw gyro,
+q[k] ⊗ exp(gyr[k]·h/2); they show what the timing costs and are not a method's result.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import numpy as np
 from optinav.attitude import AttitudeFilter, estimate_q
 from optinav.attitude.data import load_broad
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
+from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
 #: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
 SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
@@ -181,7 +189,7 @@ def run(quick: bool) -> list[dict]:
              "9d": ("9D", "heading RMSE", heading_error)}
     for name, (kind, fn) in _methods().items():
         label, metric, err = kinds[kind]
-        vals = []
+        vals, aligned = [], []
         for tr in trials:
             if quick and name.startswith(("ahrs", "imufusion")):
                 continue
@@ -190,11 +198,18 @@ def run(quick: bool) -> list[dict]:
             vals.append(v)
             rows.append({"group": f"attitude {label}, BROAD {tr.name}", "method": name, "metric": metric,
                          "value": v, "unit": "deg"})
+            if kind != "9d":
+                qa = quat_multiply(q, quat_from_rotvec(tr.gyr * (0.5 * tr.dt)))
+                aligned.append(float(np.degrees(rmse(err(qa, tr.q_ref), tr.eval_mask))))
         if vals:
             rows.append({"group": f"attitude {label}, mean of {len(vals)} BROAD trials", "method": name,
                          "metric": metric, "value": float(np.mean(vals)), "unit": "deg"})
             rows.append({"group": f"attitude {label}, worst of {len(vals)} BROAD trials", "method": name,
                          "metric": metric, "value": float(np.max(vals)), "unit": "deg"})
+        if aligned:
+            rows.append({"group": f"attitude {label}, timing-aligned (output + h/2, oracle), mean of "
+                         f"{len(aligned)} BROAD trials", "method": name, "metric": metric,
+                         "value": float(np.mean(aligned)), "unit": "deg"})
     rows += _throughput(trials[0], quick)
     return rows
 

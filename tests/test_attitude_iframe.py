@@ -102,6 +102,51 @@ def test_gyro_bias_in_fast_motion():
     assert 3 * tilt_deg(r.q, q_true, slice(n // 2, None)) < tilt_deg(lim.q, q_true, slice(n // 2, None))
 
 
+def test_output_timing_convention_on_instantaneous_samples():
+    """gyr[k] is integrated over (t[k−1], t[k]] and q[k] is the output (docs/methods/attitude.md, "Timing"): for
+    instantaneous samples of a yaw rate α·t that puts the output at t[k] + h/2, exactly to the constant −α h²/8
+    of the rectangle rule, and not at t[k] (off by α h t[k]/2, growing)."""
+    n, alpha = 2000, 0.3  # 20 s, up to 6 rad/s about the vertical; level, so gravity alone reads the same
+    t = np.arange(n) * DT
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), alpha * t])
+    acc = np.tile([0.0, 0.0, -G], (n, 1))
+    q = estimate_q(gyr, acc, DT, frame="NED", checks=False)
+    yaw = np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0]))
+    lead = yaw - 0.5 * alpha * (t + 0.5 * DT) ** 2
+    assert np.max(np.abs(lead + alpha * DT ** 2 / 8)) < 1e-9
+    assert np.abs(yaw[-1] - 0.5 * alpha * t[-1] ** 2) > 0.9 * alpha * DT * t[-1] / 2
+
+
+def test_latency_predicts_late_samples_forward():
+    """A gyro whose samples are late by d (gyr[k] = ω(t[k] − d), ω = α t about the vertical): without the
+    ``latency`` option the output lags the true yaw α t²/2 at t[k] + h/2 by α d t[k] (growing); with latency=d
+    the offset is a constant (−α h²/8 − α d h − α d², rectangle rule and first-order prediction), online and
+    offline alike; streaming gives the batch output. A negative latency is refused."""
+    n, alpha, d = 2000, 0.3, 0.025
+    t = np.arange(n) * DT
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), alpha * (t - d)])
+    acc = np.tile([0.0, 0.0, -G], (n, 1))
+    on_time = 0.5 * alpha * (t + 0.5 * DT) ** 2
+
+    def offset(**kw):
+        q = estimate_q(gyr, acc, DT, frame="NED", checks=False, **kw)
+        return np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0])) - on_time
+
+    late, on, off = offset(), offset(latency=d), offset(latency=d, offline=True)
+    assert np.ptp(late) > 0.9 * alpha * d * t[-1]
+    assert np.max(np.abs(on + alpha * (DT ** 2 / 8 + d * DT + d * d))) < 1e-9
+    assert np.max(np.abs(off + alpha * (DT ** 2 / 8 + d * DT + d * d))) < 1e-6
+    f = AttitudeFilter(RATE, frame="NED", latency=d)
+    q_stream = np.empty((200, 4))
+    for i in range(200):
+        f.update(gyr[i], acc[i])
+        q_stream[i] = f.q
+    assert np.allclose(q_stream, estimate_q(gyr[:200], acc[:200], DT, frame="NED", checks=False, latency=d),
+                       atol=1e-12)
+    with pytest.raises(OptinavError, match="latency"):
+        estimate_q(gyr, acc, DT, frame="NED", latency=-0.01)
+
+
 def test_rest_detection_in_physical_units():
     n = 3000
     w, acc, _ = motion(n, seed=4, amp=0.5, rest=1000)

@@ -45,7 +45,8 @@ P_BIAS_SIGMA0, P_BIAS_RW, P_BIAS_REST, P_BIAS_MOTION, P_BIAS_CLIP = 5, 6, 7, 8, 
 P_MOTION_MAX_GYR, P_MOTION_MAX_ACC, P_GRAVITY = 10, 11, 12
 P_TAU_MAG, P_MAG_NORM_TH, P_MAG_DIP_TH, P_MAG_NEW_TIME, P_TAU_MAG_REF = 13, 14, 15, 16, 17
 P_UP, P_NORTH = 18, 21                               # unit up and north of the navigation frame
-PAR_SIZE = 24
+P_LATENCY = 24                                       # s, output predicted forward by the sensor latency
+PAR_SIZE = 25
 
 
 @numba.njit(**_NJ)
@@ -311,6 +312,11 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 st[S_M_DIST_T] = 0.0
     h0, h1, h2, h3 = _rotvec_q(st[S_DELTA] * ux, st[S_DELTA] * uy, st[S_DELTA] * uz)
     o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, t0, t1, t2, t3)
+    lat = par[P_LATENCY]
+    if lat != 0.0:
+        # the samples are late by ``latency``: the output is the attitude then, predicted with the current rate
+        p0, p1, p2, p3 = _rotvec_q((gx - bx) * lat, (gy - by) * lat, (gz - bz) * lat)
+        o0, o1, o2, o3 = _qmul(o0, o1, o2, o3, p0, p1, p2, p3)
     _store_q(st, S_Q, o0, o1, o2, o3)
 
 

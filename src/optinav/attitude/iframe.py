@@ -21,6 +21,10 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   the low-pass, the backward pass leads. Then a zero-phase refinement: the specific force in the almost-inertial
   frame of the smoothed bias, low-passed forward and backward (Butterworth, same ``tau_acc``), gives a lag-free
   up direction; the fused estimate is turned halfway towards it (tilt only).
+* timing: gyr[k] is integrated over (t[k−1], t[k]] and the output is the attitude at t[k] (as VQF); an IMU
+  whose samples are late by a known ``latency`` (s, e.g. its low-pass group delay; default 0) gets the output
+  predicted that far ahead with the bias-corrected rate, q ⊗ exp((ω − b)·latency) (offline: once, after the
+  smoothing).
 
 Frames: ``q`` = q_b^n [w, x, y, z]; ``frame`` NED or ENU (the up and north vectors are the only frame input,
 so the estimator is frame-equivariant).
@@ -60,10 +64,11 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "mag_dip_th": 5.0 * _D2R,        # rad, deviation of the dip angle from the reference
     "mag_new_time": 20.0,            # s, a steady new field becomes the reference after this time
     "tau_mag_ref": 30.0,             # s, averaging time of the learned reference
+    "latency": 0.0,                  # s, how late the IMU's samples are: the output is predicted that far ahead
 }
 _ORDER = ("tau_acc", "rest_tau", "rest_gyr", "rest_acc", "rest_time", "bias_sigma0", "bias_rw", "bias_rest",
           "bias_motion", "bias_clip", "motion_max_gyr", "motion_max_acc", "gravity", "tau_mag", "mag_norm_th",
-          "mag_dip_th", "mag_new_time", "tau_mag_ref")
+          "mag_dip_th", "mag_new_time", "tau_mag_ref")  # then latency at P_LATENCY
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
 _NORTH = {"ned": np.array([1.0, 0.0, 0.0]), "enu": np.array([0.0, 1.0, 0.0])}
@@ -79,6 +84,9 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     frame = frame_name(frame)
     p[_k.P_UP:_k.P_UP + 3] = _UP[frame]
     p[_k.P_NORTH:_k.P_NORTH + 3] = _NORTH[frame]
+    if not (np.isfinite(opts["latency"]) and opts["latency"] >= 0.0):
+        raise OptinavError(f"option latency={opts['latency']!r} must be ≥ 0 s", "pass the IMU's delay in s, or 0")
+    p[_k.P_LATENCY] = opts["latency"]
     return p
 
 
@@ -138,9 +146,12 @@ def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, 
     opts.update(options)
     par = _params(frame, opts)
     m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
-    fwd = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
     if not offline:
-        return fwd
+        return _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+    # the passes estimate the attitude at the sample times; the latency is applied once, to the smoothed result
+    lat = par[_k.P_LATENCY]
+    par[_k.P_LATENCY] = 0.0
+    fwd = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
     # the reversed recording sees the gyro negated, so its bias is −b: start the backward pass from the forward
     # end state with the bias negated, and negate it back; the backward bias at t has seen the whole recording
     # (the forward pass's end state and the samples from t on), the forward one only the samples before t
@@ -150,6 +161,10 @@ def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, 
     bias = -bwd.bias[::-1]
     q = _fuse(fwd.q, bwd.q[::-1])
     q = _zero_phase_tilt(q, gyr, acc, dts, bias, frame, opts["tau_acc"])
+    if lat != 0.0:
+        from optinav.core.rotations import quat_from_rotvec, quat_multiply
+
+        q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
     return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias,
                      fwd.state)
 
