@@ -20,9 +20,9 @@ def register(sub) -> None:
             -1) and a least-squares fit of the four-term model to the whole curve, with 68 % intervals.
             Kalibr's continuous-time noise density is N (unit/sqrt(Hz)) and its random walk K
             (unit/s/sqrt(Hz)), taken from the fit. Record hours at rest; long logs are summed in chunks.
-            The random walk comes from the last octaves of the record: its interval is reliable when the log
-            runs 10 times longer than the cluster time where the curve turns upwards (at 3 times, the 68 %
-            interval held the truth about half the time in simulations)."""),
+            The random walk comes from the last octaves of the record: in simulations its 68 % interval held
+            the truth 74-80 % of the time when the log ran 44 times longer than the cluster time where the curve
+            turns upwards, 53-55 % at 10 times (benchmarks/results_allan_coverage.md): record long."""),
         epilog=textwrap.dedent("""\
             example (a simulated 2-hour static log in SI units):
               optinav simulate static --out rest.csv --hours 2

@@ -41,8 +41,8 @@ def register(sub) -> None:
                        help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))")
     # no choices= here: the preset table lives in numerical code that --help must not import
     noise.add_argument("--preset", metavar="NAME",
-                       help="sensor class of optinav.core.imu_model: rlg-nav (navigation-grade RLG), mems-mti1 "
-                            "(industrial MEMS), mpu6000 (consumer MEMS)")
+                       help="sensor class of optinav.core.imu_model: rlg-nav (navigation-grade RLG), "
+                            "tactical-mems (ADIS16495 class), mems-mti1 (industrial MEMS), mpu6000 (consumer MEMS)")
     tg = p.add_argument_group("rest time: --dwell, or targets (1-sigma) that set it")
     tg.add_argument("--dwell", type=POSITIVE, metavar="S", help="rest per pose in s (default 30 without targets)")
     tg.add_argument("--target-scale", type=POSITIVE, metavar="PPM", help="accelerometer scale factor 1-sigma, ppm")

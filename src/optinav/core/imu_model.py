@@ -1199,7 +1199,7 @@ def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: floa
 
     z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
     white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE Std 952;
-    Allan floor 0.664·B), and a random walk.
+    Allan floor 0.664·B, up to the last cluster time: :func:`static_noise`), and a random walk.
 
     Parameters
     ----------
@@ -1233,7 +1233,7 @@ def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: floa
     rng = np.random.default_rng(seed)
     terms = {"accelerometer": (s.accel_vrw, s.accel_bias_instability, np.full(3, float(acc_random_walk))),
              "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk)))}
-    data = {name: white_noise(n, N, dt, rng) + flicker_noise(n, B, dt, rng) + random_walk(n, K, dt, rng)
+    data = {name: static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=rng)
             for name, (N, B, K) in terms.items()}
     g = float(gravity(np.radians(45.0), 0.0))
     short = {"accelerometer": "acc", "gyroscope": "gyr"}
