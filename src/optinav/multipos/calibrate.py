@@ -328,8 +328,10 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
             notes.append(f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
                          "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
                          "--gyro-g-sensitivity to state the datasheet value")
-        # Earth rate is neglected (module docs); "local" takes its share from the scatter of the rests
-        b_std = gc.b_std if gc.bias_mode == "local" else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)))
+        # Earth rate is neglected (module docs); "local" and "static" include what the rests hold of it, a bias
+        # from one rest window or fitted holds it whole
+        b_std = (gc.b_std if gc.bias_mode in ("local", "static")
+                 else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K))))
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
                       "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
                       "bias_mode": gc.bias_mode, "unobservable": list(gc.unobservable)}
