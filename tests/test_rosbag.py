@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
@@ -44,22 +45,30 @@ def mag_msg(ts, sec, nsec, b, frame="mag", seq=0):
                          magnetic_field_covariance=np.zeros(9))
 
 
-def write_bag(path: Path, kind: str, topics: dict) -> Path:
-    """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav."""
+def write_bag(path: Path, kind: str, topics: dict, compression: str | None = None, big_endian=()) -> Path:
+    """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav.
+    ``compression``: ROS 1 chunks ``"bz2"``/``"lz4"``; ROS 2 ``"storage"`` (zstd chunks) or ``"message"`` (zstd
+    per message); ``big_endian``: indices of the messages (of every topic) serialized as big-endian CDR."""
     if kind == "ros1":
         path = path.with_suffix(".bag")
-        with Writer1(path) as w:
+        w = Writer1(path)
+        if compression:
+            w.set_compression(Writer1.CompressionFormat[compression.upper()])
+        with w:
             for name, (msgtype, msgs) in topics.items():
                 con = w.add_connection(name, msgtype, typestore=TS1)
                 for t_ns, make in msgs:
                     w.write(con, t_ns, TS1.serialize_ros1(make(TS1), msgtype))
         return path
     plugin = StoragePlugin.MCAP if kind.startswith("mcap") else StoragePlugin.SQLITE3
-    with Writer2(path, version=9, storage_plugin=plugin) as w:
+    w = Writer2(path, version=9, storage_plugin=plugin)
+    if compression:
+        w.set_compression(CompressionMode[compression.upper()], CompressionFormat.ZSTD)
+    with w:
         for name, (msgtype, msgs) in topics.items():
             con = w.add_connection(name, msgtype, typestore=TS2)
-            for t_ns, make in msgs:
-                w.write(con, t_ns, TS2.serialize_cdr(make(TS2), msgtype))
+            for i, (t_ns, make) in enumerate(msgs):
+                w.write(con, t_ns, TS2.serialize_cdr(make(TS2), msgtype, little_endian=i not in big_endian))
     if kind.endswith("-file"):
         return next(p for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
     return path
@@ -108,6 +117,89 @@ def test_frame_ids_of_different_lengths(tmp_path, kind):
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs)})
     log = read_imu(bag)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def rosbags_reference(bag, topic):
+    """Every message of ``topic`` through rosbags' reader and deserializer, in its order: rows of header stamp (s)
+    and values (Imu: gyr, acc; MagneticField: mag)."""
+    rows = []
+    with AnyReader([bag]) as r:
+        for con, _, raw in r.messages(connections=[c for c in r.connections if c.topic == topic]):
+            m = r.deserialize(raw, con.msgtype)
+            vecs = (m.angular_velocity, m.linear_acceleration) if con.msgtype == IMU else (m.magnetic_field,)
+            rows.append([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9] + [x for v in vecs for x in (v.x, v.y,
+                                                                                                          v.z)])
+    return np.array(rows)
+
+
+SCANNED = [("ros1", None), ("ros1", "bz2"), ("ros1", "lz4"), ("mcap", None), ("mcap", "storage"), ("mcap-file", None)]
+
+
+@pytest.mark.parametrize(("kind", "compression"), SCANNED + [("mcap", "message"), ("sqlite3", None)])
+def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
+    """The values equal rosbags' deserializer message for message: Imu with frame ids of several lengths (some
+    messages through the deserializer), a MagneticField topic interleaved, chunks compressed or not. Bags the
+    scanners read never touch rosbags' iteration (nor, ROS 1, its reader)."""
+    import optinav.io.rosbag as rb
+
+    rng = np.random.default_rng(11)
+    msgs, *_ = imu_topic(rng, n=300, rate=1000.0, frames=("imu",) * 40 + ("imu_link_long",) + ("imu",) * 20 + ("",))
+    tm = 1_700_000_000 + np.arange(0, 0.3, 0.01)
+    bm = rng.normal(0, 3e-5, (tm.size, 3))
+    mags = [(int(round(x * 1e9)) + 7, lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+            for k, x in enumerate(tm)]
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)}, compression=compression)
+    ref, ref_mag = rosbags_reference(bag, "/imu"), rosbags_reference(bag, "/mag")
+    if (kind, compression) in SCANNED:
+        monkeypatch.setattr(rb, "_rosbags_blocks", None)
+        if kind == "ros1":
+            import rosbags.highlevel
+
+            monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
+    tab = read_table(bag)
+    assert np.array_equal(tab["t"], ref[:, 0])
+    got = np.column_stack([tab[c] for c in ("gx", "gy", "gz", "ax", "ay", "az")])
+    assert np.array_equal(got, ref[:, 1:])
+    for j, a in enumerate("xyz"):
+        expect = np.interp(ref[:, 0], ref_mag[:, 0], ref_mag[:, 1 + j])
+        assert np.array_equal(tab[f"m{a}"], expect)
+
+
+@pytest.mark.parametrize("kind", ("ros1", "mcap"))
+def test_log_times_out_of_order_read_in_rosbags_order(tmp_path, kind):
+    # log times written out of order (within and across chunks): rosbags yields log-time order, so does the scan
+    rng = np.random.default_rng(12)
+    msgs, *_ = imu_topic(rng, n=60)
+    perm = rng.permutation(60)
+    msgs = [(1_700_000_000 * 10**9 + 1_000_000 * int(perm[i]), make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "o", kind, {"/imu": (IMU, msgs)})
+    ref = rosbags_reference(bag, "/imu")
+    with pytest.warns(UserWarning, match="not strictly increasing"):
+        log = read_imu(bag)
+    assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
+
+
+def test_big_endian_cdr_goes_through_the_deserializer(tmp_path):
+    rng = np.random.default_rng(13)
+    msgs, t, gyr, acc = imu_topic(rng, n=30)
+    for big in ({0, 1, 2}, {5, 17}):  # the first message big-endian: no numpy layout at all; or a few of them
+        bag = write_bag(tmp_path / f"be{len(big)}", "mcap", {"/imu": (IMU, msgs)}, big_endian=big)
+        log = read_imu(bag)
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_scanner_failure_falls_back_to_rosbags(tmp_path, monkeypatch):
+    from optinav.io import bagscan
+
+    def refuse(kind, data):
+        raise bagscan.NotFast("test")
+
+    monkeypatch.setattr(bagscan, "_decompress", refuse)
+    rng = np.random.default_rng(14)
+    msgs, t, gyr, acc = imu_topic(rng, n=30)
+    for kind in ("ros1", "mcap"):
+        log = read_imu(write_bag(tmp_path / kind, kind, {"/imu": (IMU, msgs)}))
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
 def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):
