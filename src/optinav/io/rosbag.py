@@ -18,7 +18,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
 from optinav.errors import OptinavError
 
@@ -344,17 +343,20 @@ class _Decoder:
                 if layout is not None and not _layout_agrees(self.reader, first, layout, self.msgtype):
                     layout = None
                 layout = layout or False  # False: every message through rosbags' deserializer
-            rows = np.arange(self.done, self.done + n)
+            rows = slice(self.done, self.done + n)
             self.logt[rows] = logt
             fast = np.zeros(n, dtype=bool)
             if layout:
                 fast = size == layout[0].itemsize
                 arr = _gather(u8, off[fast], layout[0])
                 same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
-                fast[np.flatnonzero(fast)[~same]] = False
-                arr = arr[same]
-                self.stamp[rows[fast]] = arr["sec"] + arr["nsec"] * 1e-9
-                self.vals[rows[fast]] = np.concatenate([arr[k] for k in layout[1]], axis=1)
+                if not same.all():
+                    fast[np.flatnonzero(fast)[~same]] = False
+                    arr = arr[same]
+                at = rows if fast.all() else np.flatnonzero(fast) + self.done
+                self.stamp[at] = arr["sec"] + arr["nsec"] * 1e-9
+                for j, k in enumerate(layout[1]):
+                    self.vals[at, 3 * j:3 * j + 3] = arr[k]
             for j in np.flatnonzero(~fast):
                 raw = bytes(u8[off[j]:off[j] + size[j]])
                 self.stamp[self.done + j], self.vals[self.done + j] = _slow(self.reader, raw, self.msgtype)
@@ -363,17 +365,16 @@ class _Decoder:
 
 
 def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """The records of ``dtype`` starting at the byte offsets ``off`` of ``u8``, as a contiguous array."""
+    """The records of ``dtype`` starting at the byte offsets ``off`` of ``u8``: a strided view of ``u8`` when the
+    offsets are evenly spaced (a run of like records), else a gathered copy."""
     size = dtype.itemsize
     if off.size == 0:
         return np.empty(0, dtype=dtype)
     step = np.diff(off)
-    if off.size == 1 or np.all(step == step[0]) and step[0] >= size:
-        stride = size if off.size == 1 else int(step[0])
-        rows = as_strided(u8[off[0]:], shape=(off.size, size), strides=(stride, 1))
-    else:
-        rows = u8[off[:, None] + np.arange(size)]
-    return np.ascontiguousarray(rows).view(dtype)[:, 0]
+    if off.size == 1 or (np.all(step == step[0]) and step[0] >= size):
+        return np.ndarray((off.size,), dtype=dtype, buffer=u8, offset=int(off[0]),
+                          strides=(size if off.size == 1 else int(step[0]),))
+    return np.ascontiguousarray(u8[off[:, None] + np.arange(size)]).view(dtype)[:, 0]
 
 
 def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
