@@ -165,6 +165,20 @@ def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
         assert np.array_equal(tab[f"m{a}"], expect)
 
 
+def test_ros1_chunks_without_the_topic_are_skipped(tmp_path, monkeypatch):
+    """A ROS 1 bag whose first chunks hold only another topic (1.5 MB of strings, rosbags' chunks are 1 MB): the
+    Imu values come from the chunks the index lists for it, read without opening rosbags' reader."""
+    import rosbags.highlevel
+
+    rng = np.random.default_rng(15)
+    msgs, t, gyr, acc = imu_topic(rng, n=80)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data=str(k % 10) * 5000)) for k in range(300)]
+    bag = write_bag(tmp_path / "c", "ros1", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 @pytest.mark.parametrize("kind", ("ros1", "mcap"))
 def test_log_times_out_of_order_read_in_rosbags_order(tmp_path, kind):
     # log times written out of order (within and across chunks): rosbags yields log-time order, so does the scan

@@ -12,8 +12,9 @@ steady rate) is found with numpy strides, not a Python step per record:
   records u64 + bytes; none, lz4 frame or zstd), Data End ``0x0F``.
 - ROS 1 bag 2.0 (wiki.ros.org/Bags/Format/2.0): records ``header_len u32, fields (len u32, name=value)…,
   data_len u32, data``; op ``0x03`` bag header (``index_pos``), ``0x05`` chunk (``compression`` none/bz2/lz4,
-  ``size``), ``0x07`` connection (``conn``, ``topic``), ``0x02`` message data (``conn``, ``time`` = sec u32,
-  nsec u32).
+  ``size``), ``0x07`` connection (``conn``, ``topic``; data: ``type``, ``md5sum``, …), ``0x06`` chunk info
+  (``chunk_pos``; data: conn u32, count u32 pairs), ``0x02`` message data (``conn``, ``time`` = sec u32, nsec
+  u32). Only the chunks that hold the topic are read.
 
 ``rosbags`` stays the reader of record: :func:`blocks` returns None — or a scanner raises :class:`NotFast` part
 way — for anything else (compressed ROS 2 bags, unchunked MCAP, unknown chunk compression, a layout that does not
@@ -250,7 +251,8 @@ def _op(buf: bytes, f: dict) -> int:
 def ros1_index(path: Path) -> dict:
     """The index of the ROS 1 bag ``path`` from its connection and chunk info records (after ``index_pos``):
     ``{"first": offset of the first record after the bag header, "index_pos": …, "conns": {conn id: (topic,
-    type, md5sum)}, "counts": {conn id: messages}}``. Raises :class:`NotFast` when the bag is not one this reads."""
+    type, md5sum)}, "counts": {conn id: messages}, "chunks": [(chunk offset, {conn ids in it}), …]}``. Raises
+    :class:`NotFast` when the bag is not one this reads."""
     with open(path, "rb") as fh:
         data = fh.read(len(_ROS1_MAGIC) + 4096 + 64)
         if not data.startswith(_ROS1_MAGIC):
@@ -264,7 +266,7 @@ def ros1_index(path: Path) -> dict:
             raise NotFast("unindexed bag")
         fh.seek(index_pos)
         tail = fh.read()
-    conns, counts = {}, {}
+    conns, counts, chunks = {}, {}, []
     pos = 0
     while pos < len(tail):
         f, ds, de = _record(tail, pos, len(tail))
@@ -275,20 +277,28 @@ def ros1_index(path: Path) -> dict:
                 bytes(tail[slice(*g[k])]).decode("utf-8", "replace") for g, k in ((f, b"topic"), (d, b"type"),
                                                                                   (d, b"md5sum")))
         elif op == 0x06:
+            held = set()
             for conn, n in struct.iter_unpack("<II", tail[ds:de]):
                 counts[conn] = counts.get(conn, 0) + n
+                held.add(conn)
+            chunks.append((_U64.unpack_from(tail, f[b"chunk_pos"][0])[0], held))
         pos = de
     if not conns:
         raise NotFast("no connection records")
-    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts}
+    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": sorted(chunks)}
 
 
 def _ros1(path: Path, topic: str):
+    """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read."""
     idx = ros1_index(path)
     conns = {c for c, v in idx["conns"].items() if v[0] == topic}
     with open(path, "rb") as fh:
-        fh.seek(idx["first"])
-        while fh.tell() < idx["index_pos"]:
+        for pos, held in idx["chunks"]:
+            if not held & conns:
+                continue
+            if not idx["first"] <= pos < idx["index_pos"]:
+                raise NotFast("chunk offset outside the data")
+            fh.seek(pos)
             head = fh.read(4)
             hl = _U32.unpack_from(head, 0)[0] if len(head) == 4 else -1
             header = fh.read(hl) if hl >= 0 else b""
@@ -298,8 +308,7 @@ def _ros1(path: Path, topic: str):
             f = _fields(header, 0, hl)
             n = _U32.unpack_from(dlen, 0)[0]
             if _op(header, f) != 0x05:
-                fh.seek(n, 1)
-                continue
+                raise NotFast("no chunk at a chunk info's offset")
             raw = fh.read(n)
             if len(raw) != n:
                 raise NotFast("truncated chunk")
