@@ -179,6 +179,32 @@ def test_ros1_chunks_without_the_topic_are_skipped(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_mcap_summary_picks_chunks_and_its_absence_scans_them(tmp_path, monkeypatch):
+    """MCAP: the summary's chunk index picks the chunks of the Imu topic (a first chunk of strings only is not
+    read); with the footer's summary offset zeroed (no summary) every chunk is scanned. Same values either way."""
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(16)
+    msgs, t, gyr, acc = imu_topic(rng, n=80)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data=str(k % 10) * 5000)) for k in range(300)]
+    bag = write_bag(tmp_path / "m", "mcap-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    with open(bag, "rb") as fh:
+        chans, offsets = bagscan._mcap_index(fh, "/imu")
+    assert len(chans) == 1 and 1 <= len(offsets) and offsets[0] > 1_000_000  # the chatter chunk is skipped
+    monkeypatch.setattr(rb, "_rosbags_blocks", None)
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    raw = bytearray(bag.read_bytes())
+    raw[-37 + 9:-37 + 17] = bytes(8)  # Footer: summary_start = 0
+    flat = tmp_path / "flat.mcap"
+    flat.write_bytes(bytes(raw))
+    with open(flat, "rb") as fh:
+        assert bagscan._mcap_index(fh, "/imu") is None
+    log = read_imu(flat)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 @pytest.mark.parametrize("kind", ("ros1", "mcap"))
 def test_log_times_out_of_order_read_in_rosbags_order(tmp_path, kind):
     # log times written out of order (within and across chunks): rosbags yields log-time order, so does the scan

@@ -9,7 +9,8 @@ steady rate) is found with numpy strides, not a Python step per record:
 - MCAP (mcap.dev/spec, major version 0): records ``opcode u8, length u64, content``; Channel ``0x04``
   (id u16, schema id u16, topic, message encoding, …), Message ``0x05`` (channel id u16, sequence u32, log time
   u64, publish time u64, data), Chunk ``0x06`` (start, end, uncompressed size u64, CRC-32 u32, compression,
-  records u64 + bytes; none, lz4 frame or zstd), Data End ``0x0F``.
+  records u64 + bytes; none, lz4 frame or zstd), Data End ``0x0F``; the summary's Chunk Index ``0x08`` records
+  (after the Footer ``0x02``'s summary offset) say which chunks hold the topic, and only those are read.
 - ROS 1 bag 2.0 (wiki.ros.org/Bags/Format/2.0): records ``header_len u32, fields (len u32, name=value)…,
   data_len u32, data``; op ``0x03`` bag header (``index_pos``), ``0x05`` chunk (``compression`` none/bz2/lz4,
   ``size``), ``0x07`` connection (``conn``, ``topic``; data: ``type``, ``md5sum``, …), ``0x06`` chunk info
@@ -151,11 +152,60 @@ def _mcap_channel(buf: bytes, pos: int, topic: str, chans: set) -> None:
         chans.add(cid)
 
 
+def _mcap_index(fh, topic: str):
+    """(ids of the CDR channels of ``topic``, offsets of the chunks that hold one of them) from the summary
+    section (Channel and Chunk Index ``0x08`` records: start, end, chunk offset u64, length u64, message index
+    offsets map<u16, u64>, …); None without a summary or without the topic's channels in it."""
+    fh.seek(0, 2)
+    size = fh.tell()
+    if size < 2 * len(_MCAP_MAGIC) + 29:
+        return None
+    fh.seek(size - len(_MCAP_MAGIC) - 29)
+    tail = fh.read(29 + len(_MCAP_MAGIC))
+    if tail[-8:] != _MCAP_MAGIC or tail[0] != 0x02:
+        return None
+    start, offsets_start = _U64.unpack_from(tail, 9)[0], _U64.unpack_from(tail, 17)[0]
+    end = offsets_start or size - len(_MCAP_MAGIC) - 29
+    if not len(_MCAP_MAGIC) < start < end:
+        return None
+    fh.seek(start)
+    buf = fh.read(end - start)
+    chans, chunks = set(), []
+    pos = 0
+    while pos + 9 <= len(buf):
+        op, n = buf[pos], _U64.unpack_from(buf, pos + 1)[0]
+        if op == 0x04:
+            _mcap_channel(buf, pos + 9, topic, chans)
+        elif op == 0x08:
+            m = _U32.unpack_from(buf, pos + 41)[0]
+            held = {c for c, _ in struct.iter_unpack("<HQ", buf[pos + 45:pos + 45 + m])}
+            chunks.append((_U64.unpack_from(buf, pos + 25)[0], held))
+        pos += 9 + n
+    if not chans:
+        return None
+    return chans, sorted(off for off, held in chunks if held & chans)
+
+
 def _mcap(path: Path, topic: str):
-    chans: set = set()
+    """The blocks of ``topic``: the chunks the summary's chunk index lists for its channels, or, without a
+    summary, every chunk of the data section in turn."""
     with open(path, "rb") as fh:
         if fh.read(8) != _MCAP_MAGIC:
             raise NotFast("no MCAP magic")
+        idx = _mcap_index(fh, topic)
+        if idx is not None:
+            chans, offsets = idx
+            for off in offsets:
+                fh.seek(off)
+                head = fh.read(9)
+                if len(head) < 9 or head[0] != 0x06:
+                    raise NotFast("no chunk at a chunk index's offset")
+                out = _mcap_chunk(fh.read(_U64.unpack_from(head, 1)[0]), topic, chans)
+                if out is not None:
+                    yield out
+            return
+        fh.seek(8)
+        chans: set = set()
         while True:
             head = fh.read(9)
             if len(head) < 9:
@@ -174,17 +224,24 @@ def _mcap(path: Path, topic: str):
             if op == 0x04:
                 _mcap_channel(body, 0, topic, chans)
                 continue
-            usize, crc = _U64.unpack_from(body, 16)[0], _U32.unpack_from(body, 24)[0]
-            clen = _U32.unpack_from(body, 28)[0]
-            kind = body[32:32 + clen].decode("ascii", "replace")
-            p = 32 + clen
-            rlen = _U64.unpack_from(body, p)[0]
-            buf = _decompress(kind, body[p + 8:p + 8 + rlen])
-            if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
-                raise NotFast("chunk size or CRC mismatch")
-            out = _mcap_records(buf, topic, chans)
+            out = _mcap_chunk(body, topic, chans)
             if out is not None:
                 yield out
+
+
+def _mcap_chunk(body: bytes, topic: str, chans: set):
+    """The block of a Chunk record's content (None when it holds none of ``chans``' messages)."""
+    if len(body) < 40:
+        raise NotFast("truncated chunk")
+    usize, crc = _U64.unpack_from(body, 16)[0], _U32.unpack_from(body, 24)[0]
+    clen = _U32.unpack_from(body, 28)[0]
+    kind = body[32:32 + clen].decode("ascii", "replace")
+    p = 32 + clen
+    rlen = _U64.unpack_from(body, p)[0]
+    buf = _decompress(kind, body[p + 8:p + 8 + rlen])
+    if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
+        raise NotFast("chunk size or CRC mismatch")
+    return _mcap_records(buf, topic, chans)
 
 
 def _mcap_records(buf: bytes, topic: str, chans: set):
