@@ -183,7 +183,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
     if not isinstance(unit_model, ImuModel):
         raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
-    rate = unit_model.sample_rate if rate_hz is None else check_positive(rate_hz, "rate_hz")
+    rate = unit_model.rate_hz if rate_hz is None else check_positive(rate_hz, "rate_hz")
     lat = float(lat)
     g = float(normal_gravity(lat, height_m))
     if truth == "paper":
@@ -208,12 +208,12 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     labels[labels == 0] = -2  # the rest period is not a calibration pose
     labels[labels > 0] -= 1
     intervals = np.array([[tr.t[labels == k][0], tr.t[labels == k][-1]] for k in range(len(ups))])
-    vrw = np.asarray(unit_model.accel_noise.white, float)
+    vrw = np.asarray(unit_model.acc_noise.white, float)
     from optinav.core.simulate import describe_pose
     return SimulatedSession(
-        t=tr.t, acc=meas.accel * fa, gyro=meas.gyro * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
+        t=tr.t, acc=meas.acc * fa, gyro=meas.gyr * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
         acc_K=unit_model.acc.K * fa, acc_b=unit_model.acc.bias * fa,
         gyro_K=unit_model.gyr.K * fg, gyro_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
         static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
-        acc_bias_instability=float(np.max(unit_model.accel_noise.gm_sigma) * fa),
+        acc_bias_instability=float(np.max(unit_model.acc_noise.gm_sigma) * fa),
         descriptions=[describe_pose(c) for c in poses[1:]])

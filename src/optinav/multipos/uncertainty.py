@@ -78,7 +78,7 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
     if drawn:
         unit = unit.draw(gen)
     n = s.t.size
-    d = np.r_[np.diff(s.t), 1.0 / unit.sample_rate]
+    d = np.r_[np.diff(s.t), 1.0 / unit.rate_hz]
     nz = unit.gyro_noise
     if np.any(nz.white > 0):
         white_noise(n, nz.white, d, gen, kind="rate")
