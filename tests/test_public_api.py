@@ -125,7 +125,7 @@ DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "opti
                 "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
                 "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData")
 #: fields not yet renamed, and why
-FIELD_EXCEPTIONS: dict[str, str] = {"RinsData.rate": "renamed in the next commit"}
+FIELD_EXCEPTIONS: dict[str, str] = {}
 
 
 def _field_violations(classes) -> list[str]:

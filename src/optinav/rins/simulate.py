@@ -92,7 +92,8 @@ class RinsData(Result):
     info: dict = field(default_factory=dict, metadata={"unit": "-"})
 
     @property
-    def rate(self) -> float:
+    def rate_hz(self) -> float:
+        """Sample rate [Hz]: the inverse of the median epoch spacing."""
         return float(1.0 / np.median(np.diff(self.t)))
 
 
