@@ -153,9 +153,9 @@ def test_simulated_session_log_and_truth():
                  rng=2)
     log = s.log()
     assert log.acc_unit == "m/s^2" and log.gyro_unit == "rad/s"
-    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyro))
+    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyr))
     truth = s.truth({"latitude_deg": 38.88}, {"seed": 2})
-    want = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="g", gyro_unit="deg/s")
+    want = session_truth(s.acc_K, s.acc_b, s.gyr_K, s.gyr_b, acc_unit="g", gyro_unit="deg/s")
     assert truth.parameters.keys() == want.parameters.keys()
     assert all(truth.parameters[k].value == want.parameters[k].value for k in want.parameters)
     assert truth.info["seed"] == 2 and truth.info["accelerometer"]["K"] == s.acc_K.tolist()

@@ -123,7 +123,8 @@ def test_the_vocabulary_check_flags_synonyms_and_degrees():
 DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "optinav.core.imu_model.ImuModel",
                 "optinav.core.imu_model.ImuMeasurement", "optinav.core.imu_model.ImuCompensated",
                 "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
-                "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData")
+                "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData",
+                "optinav.multipos.simulate.SimulatedSession")
 #: fields not yet renamed, and why
 FIELD_EXCEPTIONS: dict[str, str] = {}
 

@@ -343,7 +343,7 @@ def _batch_units(tmp_path):
     for k in (1, 2):
         s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
                      height_m=35.0, rng=k)
-        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit="m/s^2", gyro_unit="rad/s"))
     return d
 
 

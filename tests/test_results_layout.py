@@ -50,14 +50,14 @@ def _check_layout(res: Estimate, schema: str) -> dict:
 def test_multipos_layout_and_truth_field_by_field():
     s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
                          height_m=35.0, acc_unit="counts", rng=5)
-    res = calibrate_session(s.t, s.acc, s.gyro, acc_unit="counts", lat=np.radians(38.88), height_m=35.0)
+    res = calibrate_session(s.t, s.acc, s.gyr, acc_unit="counts", lat=np.radians(38.88), height_m=35.0)
     raw = _check_layout(res, "optinav.multipos.calibration")
     assert raw["convergence"]["converged"] is True
     assert {g["name"] for g in raw["quality_gates"]} >= {"acc residual rms of |a| - g", "gyr optimizer converged"}
     p = res.parameters()
     assert p["acc_K_xx"].crlb_std > 0 and p["acc_K_xx"].std >= p["acc_K_xx"].crlb_std * (1 - 1e-12)
     assert not p["acc_K_zy"].observable and "upper-triangular" in p["acc_K_zy"].reason
-    cmp = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="counts").compare(res)
+    cmp = session_truth(s.acc_K, s.acc_b, s.gyr_K, s.gyr_b, acc_unit="counts").compare(res)
     assert len(cmp) == 21 and max(float(c["z"]) for c in cmp.values()) < 5
 
 
@@ -195,7 +195,7 @@ def test_apply_reads_old_and_new_multipos_results(tmp_path):
     assert json.loads(new.read_text())["schema"] == "optinav.multipos.calibration"
     s = simulate_session("six", dwell_s=2.0, rate_hz=20.0, transition_s=1.0, rest_s=1.0, acc_unit="counts", rng=2)
     data = tmp_path / "d.csv"
-    write_imu(data, ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit="counts", gyro_unit="rad/s"), gyro_unit="deg/s")
+    write_imu(data, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit="counts", gyro_unit="rad/s"), gyro_unit="deg/s")
     outs = []
     for k, res in enumerate((LEGACY / "multipos_v1.json", new)):
         out = tmp_path / f"c{k}.npz"
@@ -219,6 +219,8 @@ RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib
                                        {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"}),
            "imu_spec_v1.json": ("optinav.core.imu_model", "ImuSpec", {"sample_rate": "rate_hz", "accel_vrw": "acc_vrw",
                                                                        "accel_bias": "acc_bias", "accel_lsb": "acc_lsb"}),
+           "multipos_session_v1.json": ("optinav.multipos.simulate", "SimulatedSession",
+                                        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),
            "alignment_v1.json": ("optinav.core.alignment", "AlignmentResult",
                                  {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),
            "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),
