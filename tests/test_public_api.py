@@ -124,7 +124,7 @@ DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "opti
                 "optinav.core.imu_model.ImuMeasurement", "optinav.core.imu_model.ImuCompensated",
                 "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
                 "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData",
-                "optinav.multipos.simulate.SimulatedSession")
+                "optinav.multipos.simulate.SimulatedSession", "optinav.multipos.ferraris.FerrarisCalibration")
 #: fields not yet renamed, and why
 FIELD_EXCEPTIONS: dict[str, str] = {}
 

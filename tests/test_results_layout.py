@@ -208,23 +208,25 @@ def test_apply_reads_old_and_new_multipos_results(tmp_path):
 
 
 # the data classes renamed their fields to the vocabulary of docs/conventions.md (old → new)
-RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),
-           "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),
-           "imu_model_v1.json": ("optinav.core.imu_model", "ImuModel", {"gyro": "gyr", "accel": "acc",
-                                                                         "accel_noise": "acc_noise",
-                                                                         "sample_rate": "rate_hz"}),
-           "imu_model_v2.json": ("optinav.core.imu_model", "ImuModel", {"accel_noise": "acc_noise",
-                                                                         "sample_rate": "rate_hz"}),
+RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),  # old names
+           "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),  # old names
+           "imu_model_v1.json": ("optinav.core.imu_model", "ImuModel", {"gyro": "gyr", "accel": "acc",  # old names
+                                                                         "accel_noise": "acc_noise",  # old names
+                                                                         "sample_rate": "rate_hz"}),  # old names
+           "imu_model_v2.json": ("optinav.core.imu_model", "ImuModel", {"accel_noise": "acc_noise",  # old names
+                                                                         "sample_rate": "rate_hz"}),  # old names
            "imu_measurement_v1.json": ("optinav.core.imu_model", "ImuMeasurement",
-                                       {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"}),
-           "imu_spec_v1.json": ("optinav.core.imu_model", "ImuSpec", {"sample_rate": "rate_hz", "accel_vrw": "acc_vrw",
-                                                                       "accel_bias": "acc_bias", "accel_lsb": "acc_lsb"}),
+                                       {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"}),  # old names
+           "imu_spec_v1.json": ("optinav.core.imu_model", "ImuSpec", {"sample_rate": "rate_hz", "accel_vrw": "acc_vrw",  # old names
+                                                                       "accel_bias": "acc_bias", "accel_lsb": "acc_lsb"}),  # old names
            "multipos_session_v1.json": ("optinav.multipos.simulate", "SimulatedSession",
-                                        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),
+                                        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),  # old names
+           "ferraris_v1.json": ("optinav.multipos.ferraris", "FerrarisCalibration",
+                                {"gyro_K": "gyr_K", "gyro_G": "gyr_G", "gyro_b": "gyr_b"}),  # old names
            "alignment_v1.json": ("optinav.core.alignment", "AlignmentResult",
-                                 {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),
-           "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),
-           "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}
+                                 {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),  # old names
+           "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),  # old names
+           "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}  # old names
 
 
 @pytest.mark.parametrize("name", sorted(RENAMED))

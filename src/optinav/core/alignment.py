@@ -60,7 +60,7 @@ class AlignmentResult(Result):
 
 
 register_legacy(AlignmentResult, AlignmentResult.SCHEMA, 1, lambda d: nested_kwargs(
-    AlignmentResult, d, {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}))
+    AlignmentResult, d, {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}))  # old names
 
 
 def _axes(up, rate):

@@ -795,8 +795,8 @@ class ImuCompensated(Result):
 class ImuModel(Result):
     """One IMU unit: deterministic errors of both triads (``gyr``, ``acc``) and their noise parameters (SI).
 
-    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc``, version 3 ``accel_noise`` to
-    ``acc_noise`` and ``sample_rate`` to ``rate_hz`` (files of earlier versions still load).
+    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc``;
+    version 3 renamed ``accel_noise``/``sample_rate`` to ``acc_noise``/``rate_hz``; earlier versions still load.
     """
 
     SCHEMA = "optinav.imu_model"
@@ -900,10 +900,10 @@ class ImuModel(Result):
 
 
 #: field renames of earlier versions of the layouts above (old name → new), per (schema, version)
-_RENAMED = {(ImuMeasurement, 1): {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},
-            (ImuCompensated, 1): {"gyro": "gyr", "accel": "acc"},
-            (ImuModel, 2): {"accel_noise": "acc_noise", "sample_rate": "rate_hz"},
-            (ImuModel, 1): {"gyro": "gyr", "accel": "acc", "accel_noise": "acc_noise", "sample_rate": "rate_hz"}}
+_RENAMED = {(ImuMeasurement, 1): {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},  # old names
+            (ImuCompensated, 1): {"gyro": "gyr", "accel": "acc"},  # old names
+            (ImuModel, 2): {"accel_noise": "acc_noise", "sample_rate": "rate_hz"},  # old names
+            (ImuModel, 1): {"gyro": "gyr", "accel": "acc", "accel_noise": "acc_noise", "sample_rate": "rate_hz"}}  # old names
 for (_cls, _version), _rename in _RENAMED.items():
     register_legacy(_cls, _cls.SCHEMA, _version, lambda d, c=_cls, r=_rename: nested_kwargs(c, d, r))
 
@@ -1056,7 +1056,7 @@ class ImuSpec(Result):
 
 
 register_legacy(ImuSpec, ImuSpec.SCHEMA, 1, lambda d: nested_kwargs(
-    ImuSpec, d, {"sample_rate": "rate_hz", **{k: "acc_" + k[len("accel_"):] for k in d["fields"] if k.startswith("accel_")}}))
+    ImuSpec, d, {"sample_rate": "rate_hz", **{k: "acc_" + k[len("accel_"):] for k in d["fields"] if k.startswith("accel_")}}))  # old names
 
 
 def _convert_fields(fields: dict) -> dict:

@@ -124,7 +124,7 @@ class SimulatedSession(Result):
 
 
 register_legacy(SimulatedSession, SimulatedSession.SCHEMA, 1, lambda d: nested_kwargs(
-    SimulatedSession, d, {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}))
+    SimulatedSession, d, {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}))  # old names
 
 
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
