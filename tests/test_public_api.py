@@ -44,6 +44,8 @@ BANNED_IN_SYSTEMS = {"q": "q_b_n", "dcm": "C_b_n"}
 DEGREE_BOUNDARY = {
     "optinav.sky.sun.solar_position_deg": "the NREL SPA report's own units, to check against it (CLI `optinav sun`)",
 }
+#: parameters named after the motion's acceleration, not the accelerometer (whose compound stem is acc_)
+MOTION_ACCELERATION = {"accel_time", "accel_level"}
 #: modules that are the I/O boundary (file formats may name degrees)
 IO_MODULES = ("optinav.io", "optinav.rins.io", "optinav.cli")
 
@@ -96,6 +98,8 @@ def _violations(calls) -> list[str]:
         for p in inspect.signature(fn).parameters:
             if p in BANNED:
                 bad.append(f"{name}({p}) → {BANNED[p]}")
+            elif p.startswith("accel_") and p not in MOTION_ACCELERATION:
+                bad.append(f"{name}({p}) → acc_{p[len('accel_'):]}")
             elif in_system and p in BANNED_IN_SYSTEMS:
                 bad.append(f"{name}({p}) → {BANNED_IN_SYSTEMS[p]}")
             elif p.endswith("_deg") and not boundary:
@@ -111,11 +115,11 @@ def test_public_api_uses_one_vocabulary():
 
 
 def test_the_vocabulary_check_flags_synonyms_and_degrees():
-    def f(t, gyro, rate, lat_deg, q):  # noqa: ARG001
+    def f(t, gyro, rate, lat_deg, q, accel_bias, accel_time):  # noqa: ARG001
         pass
 
     bad = _violations([("optinav.multipos.x.f", f), ("optinav.core.x.f", f), ("optinav.rins.io.f", f)])
-    assert len(bad) == 4 + 3 + 3  # q is an attitude only in the systems; degrees are fine in file I/O
+    assert len(bad) == 5 + 4 + 4  # q is an attitude only in the systems; degrees are fine in file I/O
 
 
 #: the data classes whose serialized fields and public properties follow the vocabulary (older field names load

@@ -115,7 +115,7 @@ def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84
     return AlignmentResult("coarse", frame, q, euler_from_dcm(c_b_n, frame), np.full(3, np.nan))
 
 
-def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Theoretical static-alignment errors φ caused by biases given in the n frame.
 
     First order: in ENU, φ_E = −∇_N/g, φ_N = ∇_E/g, φ_U = −ε_E/(ω_ie cos L) + ∇_E tan L / g, with
@@ -125,7 +125,7 @@ def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FR
     ----------
     gyro_bias_n : (3,) array
         Gyro bias ε in navigation axes [rad/s].
-    accel_bias_n : (3,) array
+    acc_bias_n : (3,) array
         Accelerometer bias ∇ in navigation axes [m/s^2].
     lat : float
         Latitude L [rad].
@@ -145,7 +145,7 @@ def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FR
     e = _earth.constants(earth)
     g = float(_earth.gravity(lat, height_m, earth))
     eps = np.asarray(gyro_bias_n, dtype=float)
-    nab = np.asarray(accel_bias_n, dtype=float)
+    nab = np.asarray(acc_bias_n, dtype=float)
     if frame == "ned":  # to ENU
         eps, nab = eps[[1, 0, 2]] * [1, 1, -1], nab[[1, 0, 2]] * [1, 1, -1]
     phi = np.array([-nab[1] / g, nab[0] / g,
