@@ -144,6 +144,24 @@ def test_legacy_rins_result_and_truth_load():
     assert all(float(c["z"]) < 4 for c in cmp.values())
 
 
+def test_legacy_rins_rmse_read_as_roll_pitch_yaw():
+    """Version 1 wrote the attitude RMSE as [pitch, roll, yaw]: read back, they are [roll, pitch, yaw], as the
+    same simulation (tests/data/legacy/README.md) gives them now."""
+    from optinav.rins.calibrate import attitude_errors, prepare
+    from optinav.rins.simulate import simulate as simulate_rins
+
+    old = _old("rins_v1.json")
+    res = RinsCalibration.from_json(LEGACY / "rins_v1.json")
+    d = simulate_rins([1e-4, -2e-4, 3e-4, -1e-4, 2e-4, 4e-4], scheme="dual4", align_s=60, dwell_s=10, move_s=5,
+                      rate_hz=100, rng=4)
+    now = np.degrees(np.sqrt(np.mean(attitude_errors(prepare(d), np.zeros(6)) ** 2, axis=0)))
+    # roll and pitch differ by a factor of 2 here, so a swap would be far outside 2 %
+    np.testing.assert_allclose(res.rmse_before_deg, now, rtol=0.02)
+    assert res.rmse_before_deg == [old["rmse_before_deg"][i] for i in (1, 0, 2)]
+    assert res.rmse_after_deg == [old["rmse_after_deg"][i] for i in (1, 0, 2)]
+    assert "[roll, pitch, yaw] deg: before " + f"{res.rmse_before_deg[0]:.4g}" in res.summary()
+
+
 def test_legacy_gfimu_result_and_truth_load():
     old = _old("gfimu_v1.json")
     res = TurntableCalibration.from_json(LEGACY / "gfimu_v1.json")
