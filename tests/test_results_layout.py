@@ -2,6 +2,7 @@
 std, unit and observability, convergence, quality gates and timing under ``optinav.<system>.<kind>``; simulated
 truth in the estimated parameterization compares field by field; the layouts of older versions still load."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -247,6 +248,93 @@ RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib
            "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}  # old names
 
 
+def _same(got, want):
+    """``got`` (read back) equals ``want`` (a value in the layout of versions before plain arrays)."""
+    if isinstance(want, dict) and "__ndarray__" in want:
+        np.testing.assert_array_equal(got, np.asarray(want["__ndarray__"], dtype=want["dtype"]))
+        assert got.dtype == np.dtype(want["dtype"])
+    elif isinstance(want, dict) and "fields" in want:  # a nested result (ImuModel's triads)
+        for k, e in want["fields"].items():
+            _same(getattr(got, k), e["value"])
+    elif isinstance(want, dict) and "__float__" in want:
+        assert repr(got) == want["__float__"]
+    elif isinstance(want, dict):
+        assert set(got) == set(want)
+        for k in want:
+            _same(got[k], want[k])
+    elif isinstance(want, list):
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            _same(g, w)
+    else:
+        assert got == want
+
+
+# --- arrays as plain lists (docs/results.md) ------------------------------------------------------------------
+
+#: RESULT.json of each system in the version before arrays became plain lists (``{"__ndarray__"}``)
+PREVIOUS = {"multipos_v2.json": CalibrationResult, "rins_v2.json": RinsCalibration,
+            "gfimu_v2.json": TurntableCalibration, "attitude_v3.json": AttitudeEstimate}
+
+
+@pytest.mark.parametrize("name", sorted(PREVIOUS))
+def test_results_of_the_version_before_plain_arrays_load(name):
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+
+    old, cls = _old(name), PREVIOUS[name]
+    assert old["version"] == PLAIN_ARRAYS_SINCE[old["schema"]] - 1 == cls.VERSION - 1
+    res = Result.from_json(LEGACY / name)
+    assert type(res) is cls
+    for k, e in old["fields"].items():
+        _same(getattr(res, k), e["value"])
+    new = json.loads(res.to_json())
+    assert new["version"] == cls.VERSION and "__ndarray__" not in res.to_json()
+    assert new["parameters"] == old["parameters"] and new["quality_gates"] == old["quality_gates"]
+
+
+@dataclasses.dataclass(eq=False)
+class _Arrays(Result):
+    SCHEMA = "optinav.test_arrays"
+    VERSION = 1
+
+    x: np.ndarray = dataclasses.field(metadata={"unit": "m"})
+    nested: dict = dataclasses.field(metadata={"unit": "-"})
+    items: list = dataclasses.field(metadata={"unit": "-"})
+
+
+def test_arrays_are_plain_lists_read_back_exactly():
+    """Arrays are nested lists of numbers (NaN null, ±inf "inf"/"-inf"); the field's ``arrays`` names each one's
+    path and dtype; a plain JSON reader gets the numbers, ``from_json`` the same arrays back."""
+    x = np.array([[1.5, np.nan], [np.inf, -np.inf]])
+    nested = {"K": np.eye(3), "labels": np.arange(4, dtype=np.int32), "a/b": {"ok": np.array([True, False])},
+              "c": np.array([1 + 2j]), "names": np.array(["roll", "yaw"]), "empty": np.zeros(0), "plain": [1, 2.5]}
+    items = [np.array([0.25]), {"q": np.array([1.0, 0.0, 0.0, 0.0])}, 3]
+    text = _Arrays(x=x, nested=nested, items=items).to_json()
+    raw = json.loads(text)["fields"]
+    assert "__ndarray__" not in text
+    assert raw["x"] == {"value": [[1.5, None], ["inf", "-inf"]], "unit": "m", "arrays": {"": "float64"}}
+    assert raw["nested"]["value"]["K"] == np.eye(3).tolist() and raw["nested"]["value"]["plain"] == [1, 2.5]
+    assert raw["nested"]["arrays"] == {"K": "float64", "labels": "int32", "a~1b/ok": "bool", "c": "complex128",
+                                       "names": "<U4", "empty": "float64"}
+    assert raw["items"]["arrays"] == {"0": "float64", "1/q": "float64"}
+    back = Result.from_json(text)
+    np.testing.assert_array_equal(back.x, x)
+    for k in ("K", "labels", "c", "names", "empty"):
+        assert back.nested[k].dtype == nested[k].dtype
+        np.testing.assert_array_equal(back.nested[k], nested[k])
+    np.testing.assert_array_equal(back.nested["a/b"]["ok"], [True, False])
+    assert back.nested["plain"] == [1, 2.5] and back.items[2] == 3 and back.items[1]["q"].dtype == float
+    assert back.to_json() == text
+    # a damaged or hostile "arrays" is a one-line error, never a traceback or an object array
+    for arrays in ({"nope/1": "float64"}, {"": "object"}, {"": "V8"}, ["x"], {"": "no such dtype"}):
+        bad = json.loads(text)
+        bad["fields"]["x"]["arrays"] = arrays
+        with pytest.raises(OptinavError):
+            Result.from_json(json.dumps(bad))
+    with pytest.raises(OptinavError, match="JSON cannot carry"):
+        _Arrays(x=np.array([object()]), nested={}, items=[]).to_json()
+
+
 @pytest.mark.parametrize("name", sorted(RENAMED))
 def test_legacy_data_classes_load_under_their_new_field_names(name):
     import importlib
@@ -258,13 +346,7 @@ def test_legacy_data_classes_load_under_their_new_field_names(name):
     res = Result.from_json(LEGACY / name)  # through the base class: the schema finds the class
     assert type(res) is cls
     for o, n in rename.items():
-        got, want = getattr(res, n), old["fields"][o]["value"]
-        if isinstance(want, dict) and "__ndarray__" in want:
-            np.testing.assert_array_equal(got, want["__ndarray__"])
-        elif isinstance(want, dict) and "fields" in want:  # a nested result (ImuModel's triads)
-            assert got.to_dict()["fields"] == want["fields"]
-        else:
-            assert got == want
+        _same(getattr(res, n), old["fields"][o]["value"])
     # re-written, it is the current version under the new names and reads back the same
     again = json.loads(res.to_json())
     assert again["version"] == cls.VERSION and set(rename.values()) <= set(again["fields"])

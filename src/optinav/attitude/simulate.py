@@ -53,7 +53,7 @@ class FlightData(Result):
     """
 
     SCHEMA = "optinav.flight_data"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = _f("s")
     dt: float = _f("s")

@@ -167,7 +167,7 @@ class TriadErrors(Result):
     """
 
     SCHEMA = "optinav.triad_errors"
-    VERSION = 1
+    VERSION = 2
 
     sensor: str = field(metadata={"unit": "-"})
     bias: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s (gyro) | m/s^2 (accel)"})
@@ -677,7 +677,7 @@ class TriadNoise(Result):
     """
 
     SCHEMA = "optinav.triad_noise"
-    VERSION = 1
+    VERSION = 2
 
     white: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/sqrt(s) | m/s/sqrt(s)"})
     gm_sigma: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2"})

@@ -72,7 +72,7 @@ class ImuTruth(Result):
     """
 
     SCHEMA = "optinav.imu_truth"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     frame: str = field(metadata={"unit": "-"})

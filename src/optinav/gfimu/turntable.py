@@ -407,7 +407,7 @@ class TurntableCalibration(Estimate):
     docs/results.md). :meth:`parameters`: ``dr_x_1`` … ``dbeta_N`` (m, rad) and the estimated offsets."""
 
     SCHEMA = "optinav.gfimu.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "gfimu"
     KIND = "calibration"
 

@@ -93,7 +93,7 @@ class ImuLog(Result):
     """
 
     SCHEMA: ClassVar[str] = "optinav.imu_log"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     acc: np.ndarray | None = field(default=None, metadata={"unit": "acc_unit"})

@@ -165,7 +165,7 @@ class ObservabilityTable(Result):
     """Rank and singular values of the linear model's Q for the first N positions, N = n_min … P."""
 
     SCHEMA = "optinav.observability_table"
-    VERSION = 1
+    VERSION = 2
 
     n_positions: np.ndarray = field(metadata={"unit": ""})
     rank: np.ndarray = field(metadata={"unit": ""})
@@ -414,7 +414,7 @@ class SchemeDesign(Result):
     """
 
     SCHEMA = "optinav.scheme_design"
-    VERSION = 1
+    VERSION = 2
 
     up_dirs: np.ndarray = field(metadata={"unit": ""})
     orientations: np.ndarray = field(metadata={"unit": ""})

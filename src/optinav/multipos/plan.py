@@ -275,7 +275,7 @@ class PosePlan(Result):
     """
 
     SCHEMA = "optinav.pose_plan"
-    VERSION = 1
+    VERSION = 2
 
     criterion: str = field(metadata={"unit": "-"})
     up_dirs: np.ndarray = field(metadata={"unit": ""})

@@ -68,7 +68,7 @@ class CalibrationResult(Estimate):
     ``gyr_b_*``, ``gyr_G_*`` with a gyroscope): K in raw units per SI unit, b in raw units."""
 
     SCHEMA = "optinav.multipos.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "multipos"
     KIND = "calibration"
 

@@ -267,7 +267,7 @@ class RinsCalibration(Estimate):
     """
 
     SCHEMA = "optinav.rins.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "rins"
     KIND = "calibration"
 

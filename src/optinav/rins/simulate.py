@@ -77,7 +77,7 @@ class RinsData(Result):
     """
 
     SCHEMA = "optinav.rins_data"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     dtheta: np.ndarray = field(metadata={"unit": "rad"})

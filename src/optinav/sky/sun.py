@@ -326,7 +326,7 @@ class SolarPosition(Result):
     """
 
     SCHEMA = "optinav.solar_position"
-    VERSION = 1
+    VERSION = 2
 
     unix_time: np.ndarray = _rad("s")
     lat: float = _rad()
