@@ -128,7 +128,9 @@ DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "opti
                 "optinav.core.imu_model.ImuMeasurement", "optinav.core.imu_model.ImuCompensated",
                 "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
                 "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData",
-                "optinav.multipos.simulate.SimulatedSession", "optinav.multipos.ferraris.FerrarisCalibration")
+                "optinav.multipos.simulate.SimulatedSession", "optinav.multipos.ferraris.FerrarisCalibration",
+                "optinav.sky.sun.SolarPosition", "optinav.gfimu.turntable.TurntableData",
+                "optinav.multipos.calibrate.SessionData")
 #: fields not yet renamed, and why
 FIELD_EXCEPTIONS: dict[str, str] = {}
 
@@ -138,7 +140,7 @@ def _field_violations(classes) -> list[str]:
 
     bad = []
     for cls in classes:
-        names = [f.name for f in dataclasses.fields(cls)]
+        names = list(cls._fields) if hasattr(cls, "_fields") else [f.name for f in dataclasses.fields(cls)]
         names += [k for k, v in vars(cls).items() if isinstance(v, property) and not k.startswith("_")]
         for name in names:
             if f"{cls.__name__}.{name}" in FIELD_EXCEPTIONS:

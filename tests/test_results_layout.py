@@ -242,6 +242,7 @@ RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib
                                         {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),  # old names
            "ferraris_v1.json": ("optinav.multipos.ferraris", "FerrarisCalibration",
                                 {"gyro_K": "gyr_K", "gyro_G": "gyr_G", "gyro_b": "gyr_b"}),  # old names
+           "solar_position_v1.json": ("optinav.sky.sun", "SolarPosition", {"height": "height_m"}),  # old names
            "alignment_v1.json": ("optinav.core.alignment", "AlignmentResult",
                                  {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),  # old names
            "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),  # old names

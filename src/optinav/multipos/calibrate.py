@@ -582,7 +582,7 @@ class SessionData(NamedTuple):
     t: np.ndarray
     acc: np.ndarray
     acc_unit: str
-    gyro: np.ndarray | None
+    gyr: np.ndarray | None
     gyro_unit: str | None
     labels: np.ndarray | None = None
     notes: tuple = ()
@@ -629,7 +629,7 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    res = calibrate(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+    res = calibrate(data.t, data.acc, data.gyr, acc_unit=data.acc_unit,
                     gyro_unit=data.gyro_unit or "rad/s", g=o.gravity,
                     lat=None if o.latitude is None else np.radians(o.latitude),
                     height_m=o.height, method=o.method, model_form=o.model,

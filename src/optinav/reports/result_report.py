@@ -21,7 +21,7 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         from optinav.multipos.calibrate import FileOptions, read_session_file
 
         d = read_session_file(data, options or FileOptions())
-        return cr.write_calibration_report(res, d.t, d.acc, d.gyro, out_dir)
+        return cr.write_calibration_report(res, d.t, d.acc, d.gyr, out_dir)
     from optinav.reports.report import StudyResult, write_report
 
     study = StudyResult(name="calibration", title=f"Calibration of {res.source or 'a log'} ({res.method})",
