@@ -344,14 +344,14 @@ def check_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
     Parameters
     ----------
     out_dir : str or Path
-        The report folder.
+        The report folder; :func:`prepare_report_dir` makes it when the report is written.
     option : str
-        The CLI option that names it (for the remedy).
+        The CLI option that names it, for the remedy of an error.
 
     Returns
     -------
     Path
-        ``out_dir``.
+        ``out_dir``, unchanged.
     """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
