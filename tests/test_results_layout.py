@@ -293,6 +293,46 @@ def test_results_of_the_version_before_plain_arrays_load(name):
     assert new["parameters"] == old["parameters"] and new["quality_gates"] == old["quality_gates"]
 
 
+def _ndarray_layout(d: dict, versions: dict) -> dict:
+    """``d`` (a ``to_dict``) as the version before plain arrays wrote it: each array as ``{"__ndarray__", "dtype"}``
+    (NaN as ``{"__float__"}`` inside, as that writer did), nested results likewise."""
+    from optinav.core.results import _entry_value
+
+    def old(v):
+        if isinstance(v, np.ndarray):
+            return {"__ndarray__": old(v.tolist()), "dtype": str(v.dtype)}
+        if isinstance(v, float) and not np.isfinite(v):
+            return {"__float__": repr(v)}
+        if isinstance(v, Result):
+            return _ndarray_layout(v.to_dict(), versions)
+        if isinstance(v, dict):
+            return {k: old(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [old(x) for x in v]
+        return v
+
+    fields = {k: {"value": old(_entry_value(e)), "unit": e["unit"]} for k, e in d["fields"].items()}
+    return {"schema": d["schema"], "version": versions[d["schema"]] - 1, "fields": fields}
+
+
+def test_every_data_class_reads_its_version_before_plain_arrays():
+    """The data classes of the four systems, written as the version before plain arrays did, read back equal."""
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+    from optinav.core.simulate import six_positions, static_positions
+    from optinav.rins.simulate import simulate as simulate_rins
+
+    s = simulate_session("six", dwell_s=0.3, rate_hz=10.0, transition_s=0.3, rest_s=0.2, acc_unit="counts", rng=1)
+    objs = [static_positions(six_positions()[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2),
+            s.log(), simulate_flight("static", 0.3, 10, rng=1),
+            simulate_rins(scheme="dual4", align_s=0.2, dwell_s=0.2, move_s=0.2, rate_hz=10, rng=1)]
+    for obj in objs:
+        d = obj.to_dict()
+        old = _ndarray_layout(d, PLAIN_ARRAYS_SINCE)
+        assert "__ndarray__" in json.dumps(old) and old["version"] == type(obj).VERSION - 1
+        back = Result.from_dict(json.loads(json.dumps(old)))
+        assert type(back) is type(obj) and back.to_json() == obj.to_json(), type(obj).__name__
+
+
 @dataclasses.dataclass(eq=False)
 class _Arrays(Result):
     SCHEMA = "optinav.test_arrays"
