@@ -175,8 +175,9 @@ def _array_of(value: Any, dtype: str) -> np.ndarray:
         def fix(x):
             if isinstance(x, list):
                 return [fix(y) for y in x]
-            return {None: np.nan, "inf": np.inf, "-inf": -np.inf, "nan": np.nan}.get(x, x) if not isinstance(
-                x, (int, float)) else x
+            if x is None:
+                return np.nan
+            return float(x) if isinstance(x, str) else x  # "inf", "-inf"
         return np.asarray(fix(value), dtype=dt)
     if dt.kind == "c":
         pairs = np.asarray(value, dtype=float)
