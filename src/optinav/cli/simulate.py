@@ -90,7 +90,7 @@ def run_accel_multipos(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).sample_rate
+    rate = args.rate or preset(args.preset).rate_hz
     scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
     if args.plan:
         from optinav.multipos.plan import PosePlan
@@ -127,7 +127,7 @@ def run_static(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).sample_rate
+    rate = args.rate or preset(args.preset).rate_hz
     # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
     check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
     step("simulate")
