@@ -2,10 +2,13 @@
 own writer and serializer are read back with the values written; topic choice, time base and every refusal."""
 
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
@@ -240,6 +243,63 @@ def test_scanner_failure_falls_back_to_rosbags(tmp_path, monkeypatch):
     for kind in ("ros1", "mcap"):
         log = read_imu(write_bag(tmp_path / kind, kind, {"/imu": (IMU, msgs)}))
         assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+_DAMAGE = {}
+
+
+def _damage_bags(tmp_path_factory):
+    """One small ROS 1 bag and one MCAP file (Imu with two frame ids, MagneticField), written once."""
+    if not _DAMAGE:
+        d = tmp_path_factory.mktemp("damage")
+        rng = np.random.default_rng(17)
+        msgs, *_ = imu_topic(rng, n=40, frames=("imu",) * 5 + ("imu_x",))
+        mags = [(1_700_000_000 * 10**9 + 10**7 * k, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k,
+                                                                              [1e-5, 2e-5, k * 1e-6]))
+                for k in range(8)]
+        for kind in ("ros1", "mcap-file"):
+            bag = write_bag(d / kind, kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)})
+            _DAMAGE[kind] = (bag.suffix, bag.read_bytes())
+    return _DAMAGE
+
+
+def _read_both(path):
+    """(read_table through the storage scanners, read_table through rosbags alone): each a dict or the error."""
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    out = []
+    for scan in (True, False):
+        saved = bagscan.blocks, rb._ros1_quick
+        if not scan:
+            bagscan.blocks, rb._ros1_quick = (lambda *a: None), (lambda *a: None)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                tab = read_table(path)
+            out.append({k: np.asarray(tab[k]) for k in ("t", "ax", "gy", "mz")})
+        except OptinavError as exc:
+            out.append(exc)
+        finally:
+            bagscan.blocks, rb._ros1_quick = saved
+    return out
+
+
+@settings(max_examples=40)
+@given(kind=st.sampled_from(("ros1", "mcap-file")), where=st.floats(0, 1, exclude_max=True),
+       flip=st.integers(1, 255))
+def test_damaged_byte_never_gives_other_values_than_rosbags(tmp_path_factory, kind, where, flip):
+    """One byte of a bag changed anywhere: reading through the scanners gives a one-line error or the values
+    rosbags gives; never another table, never a traceback."""
+    suffix, raw = _damage_bags(tmp_path_factory)[kind]
+    raw = bytearray(raw)
+    raw[int(where * len(raw))] ^= flip
+    path = tmp_path_factory.mktemp("d") / f"b{suffix}"
+    path.write_bytes(bytes(raw))
+    ours, ref = _read_both(path)
+    if isinstance(ours, dict) and isinstance(ref, dict):
+        for k in ours:
+            assert np.array_equal(ours[k], ref[k], equal_nan=True), k
 
 
 def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):

@@ -30,6 +30,8 @@ MAG_TYPE = "sensor_msgs/msg/MagneticField"
 _INSTALL = "pip install 'optinav[ros]'"
 #: messages decoded per numpy block (bounds the raw bytes held at once to a few MB)
 _BLOCK = 16384
+#: fewer bytes than the smallest serialized Imu / MagneticField message with its record header
+_MIN_MSG_BYTES = 64
 
 
 def is_bag(path) -> bool:
@@ -261,6 +263,12 @@ def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray,
     from optinav.io import bagscan
 
     msgtype, count = info["type"], info["count"]
+    size = sum(f.stat().st_size for f in path.iterdir() if f.is_file()) if path.is_dir() else path.stat().st_size
+    if count * _MIN_MSG_BYTES > size:  # a damaged index: do not allocate for it
+        if not hasattr(reader, "messages"):
+            raise bagscan.NotFast("count beyond the file size")
+        raise OptinavError(f"{path.name} is not a readable ROS bag: its index counts {count} messages of {topic!r}, "
+                           "more than the file can hold", "reindex the bag (ros2 bag reindex / rosbag reindex)")
     dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count)
     fast = bagscan.blocks(reader, path, topic)
     done = None
