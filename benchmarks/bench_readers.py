@@ -11,8 +11,11 @@ through ``/proc/self/clear_refs``; pyarrow allocates outside Python, so tracemal
 
 Methods side by side: ``pyarrow.parquet.read_table`` of the file (the reference: an Arrow table, no conversion);
 ``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check);
-for the sqlite3 bag also rosbags' per-message deserializer (``AnyReader.deserialize``), the usual way to read a
-bag in Python. Target (issue 14): the optinav Parquet reader no slower than 2x pyarrow. Quick: 100 000 samples.
+for each bag rosbags' own iteration over the raw messages (``AnyReader.messages``, no decoding: what reading
+through rosbags costs at least), and for the sqlite3 bag rosbags' per-message deserializer
+(``AnyReader.deserialize``), the usual way to read a bag in Python. Target (issue 14): the reader no slower than
+2x pyarrow. Quick: 100 000 samples. ``python benchmarks/bench_readers.py RESULTS.json`` prints the Markdown
+table of a results file (results_readers.md).
 """
 
 from __future__ import annotations
@@ -36,6 +39,15 @@ if kind == "pyarrow":
     import pyarrow.parquet as pq
     def read():
         return pq.read_table(path).num_rows
+elif kind == "rosbags-raw":
+    from pathlib import Path
+    from rosbags.highlevel import AnyReader
+    def read():
+        n = 0
+        with AnyReader([Path(path)]) as r:
+            for _ in r.messages():
+                n += 1
+        return n
 elif kind == "rosbags":
     from pathlib import Path
     from rosbags.highlevel import AnyReader
@@ -200,13 +212,37 @@ def run(quick: bool) -> list[dict]:
             add("optinav read_imu", res, label)
             rows.append({"group": group, "method": "optinav read_imu", "metric": f"{label}: time / pyarrow time "
                          "(Parquet of the same samples)", "value": res["seconds"] / ref["seconds"], "unit": "x"})
+            add("rosbags raw iteration (no decoding)", _child("rosbags-raw", bag, 1), label)
             if kind == "sqlite3":
                 add("rosbags deserialize per message", _child("rosbags", bag, 1), label)
     return rows
 
 
+def table(results: dict) -> str:
+    """The Markdown table of a results JSON written by ``run.py --only readers`` (results_readers.md)."""
+    rows, meta = results["rows"], results["meta"]
+    ref = next(r["value"] for r in rows if r["method"].startswith("pyarrow") and r["metric"] == "Parquet: time")
+    cells: dict = {}
+    for r in rows:
+        fmt, _, what = r["metric"].partition(": ")
+        if what in ("time", "peak memory growth"):
+            cells.setdefault((fmt, r["method"]), {})[what] = r["value"]
+    out = ["# Reading a 1-hour 1 kHz IMU log (benchmarks/bench_readers.py)\n",
+           f"{rows[0]['group']}; {meta['date']}, Python {meta['python']}, a shared 2-core machine (wall times vary "
+           "with the load). One run per bag, best of 3 for Parquet; peak memory is the growth of the resident set "
+           "over the one after the imports.\n",
+           "| file | method | time [s] | time / pyarrow | peak memory growth [MiB] |", "|---|---|---:|---:|---:|"]
+    for (fmt, method), v in cells.items():
+        out.append(f"| {fmt} | {method} | {v['time']:.2f} | {v['time'] / ref:.1f} | "
+                   f"{v.get('peak memory growth', float('nan')):.0f} |")
+    return "\n".join(out) + "\n"
+
+
 if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1].endswith(".json"):
+        print(table(json.loads(Path(sys.argv[1]).read_text())), end="")
+        sys.exit(0)
     quick = "--quick" in sys.argv
     out = run(quick)
     for r in out:
-        print(f"{r['method']:<32} {r['metric']:<62} {r['value']:>12.4g} {r['unit']}")
+        print(f"{r['method']:<36} {r['metric']:<62} {r['value']:>12.4g} {r['unit']}")

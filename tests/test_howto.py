@@ -1,5 +1,6 @@
-"""docs/howto/calibrate-your-imu.md runs as written: its bash `optinav` lines and Python blocks, in order, in an empty
-folder (later steps read the files earlier ones wrote), as tests/test_readme.py does for the README."""
+"""docs/howto/calibrate-your-imu.md runs as written: its `optinav` command lines, in order, in an empty folder (later
+steps read the files earlier ones wrote), as tests/test_readme.py does for the README. Every step is a command the
+engineer types: the page has no Python block."""
 
 import re
 import shlex
@@ -28,8 +29,9 @@ def test_howto_runs_as_written(tmp_path, monkeypatch, capsys):
 
     steps = _steps()
     kinds = [s[1].split()[1] for s in steps if s[0] == "bash"]
-    for command in ("design", "simulate", "calibrate", "apply", "allan", "export"):
+    for command in ("design", "simulate", "calibrate", "report", "apply", "allan", "export"):
         assert command in kinds
+    assert all(kind == "bash" for kind, _ in steps), "the how-to's steps are CLI commands"
     monkeypatch.chdir(tmp_path)
     for kind, text in steps:
         if kind == "bash":
@@ -37,11 +39,50 @@ def test_howto_runs_as_written(tmp_path, monkeypatch, capsys):
         else:
             exec(compile(text, str(HOWTO), "exec"), {"__name__": "howto"})
     out = capsys.readouterr().out
-    assert "held-out pose" in out and "Kalibr imu.yaml written" in out
+    assert "held-out pose 9" in out and "Kalibr imu.yaml written" in out
     assert (tmp_path / "kalibr-imu.yaml").is_file() and (tmp_path / "allan-report" / "index.md").is_file()
+    import json
+
     import numpy as np
 
     from optinav.io import read_imu
+    from optinav.multipos.plan import PosePlan
+    from optinav.multipos.result import CalibrationResult
+
+    # the session followed the designed plan, and the calibration found its poses and determined all 9 parameters
+    plan = PosePlan.from_json("plan.json")
+    truth = json.loads((tmp_path / "session.truth.json").read_text())
+    res = CalibrationResult.from_json("result.json")
+    assert plan.n_poses == 18 and len(res.static_intervals) == 18
+    assert res.observability["accelerometer"]["rank"] == 9 and "Observability" in Path("result-report.md").read_text()
+    # against the simulated unit: K·Kᵀ (free of the choice of body axes) and b within 6σ of the fit
+    K, K_true = res.accelerometer["K"], np.asarray(truth["accelerometer"]["K"])
+    tol = 2 * np.abs(K).max() * 6 * np.max(res.accelerometer["K_std"])
+    np.testing.assert_allclose(K @ K.T, K_true @ K_true.T, rtol=0, atol=tol)
+    np.testing.assert_array_less(np.abs(res.accelerometer["b"] - truth["accelerometer"]["b"]),
+                                 6 * res.accelerometer["b_std"])
+    # the held-out pose: its error is of the size of the poses used (out-of-sample check of step 5)
+    held = CalibrationResult.from_json("result-17.json").quality["held_out"]
+    assert held["pose"] == 9 and held["n_used"] == 17
+    assert abs(held["norm_error_m_s2"]) < 5 * held["rms_used_m_s2"] + 1e-3
 
     ref, tk = read_imu("corrected-imucal.csv"), read_imu("corrected-imu_tk.csv")
     assert np.allclose(ref.acc, tk.acc, rtol=1e-9, atol=1e-9) and np.allclose(ref.gyr, tk.gyr, rtol=1e-9, atol=1e-9)
+
+
+def test_hold_out_and_plan_refusals(tmp_path, capsys):
+    """--hold-out names a pose the log has; --plan and --scheme exclude each other: one-line errors, exit 2."""
+    from optinav.cli.main import main
+
+    csv = tmp_path / "s.csv"
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4",
+                 "--seed", "4"]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", "accel", str(csv), "--gravity", "9.80", "--hold-out", "13",
+                 "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == "optinav: error: --hold-out 13: the log has 12 static poses; pass K from 1 to 12"
+    assert not (tmp_path / "r.json").exists()
+    with __import__("pytest").raises(SystemExit) as exc:
+        main(["simulate", "accel-multipos", "--out", str(tmp_path / "x.csv"), "--scheme", "six", "--plan", "p.json"])
+    assert exc.value.code == 2 and "not allowed with argument" in capsys.readouterr().err

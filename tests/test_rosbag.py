@@ -2,12 +2,16 @@
 own writer and serializer are read back with the values written; topic choice, time base and every refusal."""
 
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
@@ -44,22 +48,30 @@ def mag_msg(ts, sec, nsec, b, frame="mag", seq=0):
                          magnetic_field_covariance=np.zeros(9))
 
 
-def write_bag(path: Path, kind: str, topics: dict) -> Path:
-    """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav."""
+def write_bag(path: Path, kind: str, topics: dict, compression: str | None = None, big_endian=()) -> Path:
+    """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav.
+    ``compression``: ROS 1 chunks ``"bz2"``/``"lz4"``; ROS 2 ``"storage"`` (zstd chunks) or ``"message"`` (zstd
+    per message); ``big_endian``: indices of the messages (of every topic) serialized as big-endian CDR."""
     if kind == "ros1":
         path = path.with_suffix(".bag")
-        with Writer1(path) as w:
+        w = Writer1(path)
+        if compression:
+            w.set_compression(Writer1.CompressionFormat[compression.upper()])
+        with w:
             for name, (msgtype, msgs) in topics.items():
                 con = w.add_connection(name, msgtype, typestore=TS1)
                 for t_ns, make in msgs:
                     w.write(con, t_ns, TS1.serialize_ros1(make(TS1), msgtype))
         return path
     plugin = StoragePlugin.MCAP if kind.startswith("mcap") else StoragePlugin.SQLITE3
-    with Writer2(path, version=9, storage_plugin=plugin) as w:
+    w = Writer2(path, version=9, storage_plugin=plugin)
+    if compression:
+        w.set_compression(CompressionMode[compression.upper()], CompressionFormat.ZSTD)
+    with w:
         for name, (msgtype, msgs) in topics.items():
             con = w.add_connection(name, msgtype, typestore=TS2)
-            for t_ns, make in msgs:
-                w.write(con, t_ns, TS2.serialize_cdr(make(TS2), msgtype))
+            for i, (t_ns, make) in enumerate(msgs):
+                w.write(con, t_ns, TS2.serialize_cdr(make(TS2), msgtype, little_endian=i not in big_endian))
     if kind.endswith("-file"):
         return next(p for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
     return path
@@ -108,6 +120,186 @@ def test_frame_ids_of_different_lengths(tmp_path, kind):
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs)})
     log = read_imu(bag)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def rosbags_reference(bag, topic):
+    """Every message of ``topic`` through rosbags' reader and deserializer, in its order: rows of header stamp (s)
+    and values (Imu: gyr, acc; MagneticField: mag)."""
+    rows = []
+    with AnyReader([bag]) as r:
+        for con, _, raw in r.messages(connections=[c for c in r.connections if c.topic == topic]):
+            m = r.deserialize(raw, con.msgtype)
+            vecs = (m.angular_velocity, m.linear_acceleration) if con.msgtype == IMU else (m.magnetic_field,)
+            rows.append([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9] + [x for v in vecs for x in (v.x, v.y,
+                                                                                                          v.z)])
+    return np.array(rows)
+
+
+SCANNED = [("ros1", None), ("ros1", "bz2"), ("ros1", "lz4"), ("mcap", None), ("mcap", "storage"), ("mcap-file", None)]
+
+
+@pytest.mark.parametrize(("kind", "compression"), SCANNED + [("mcap", "message"), ("sqlite3", None)])
+def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
+    """The values equal rosbags' deserializer message for message: Imu with frame ids of several lengths (some
+    messages through the deserializer), a MagneticField topic interleaved, chunks compressed or not. Bags the
+    scanners read never touch rosbags' iteration (nor, ROS 1, its reader)."""
+    import optinav.io.rosbag as rb
+
+    rng = np.random.default_rng(11)
+    msgs, *_ = imu_topic(rng, n=300, rate=1000.0, frames=("imu",) * 40 + ("imu_link_long",) + ("imu",) * 20 + ("",))
+    tm = 1_700_000_000 + np.arange(0, 0.3, 0.01)
+    bm = rng.normal(0, 3e-5, (tm.size, 3))
+    mags = [(int(round(x * 1e9)) + 7, lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+            for k, x in enumerate(tm)]
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)}, compression=compression)
+    ref, ref_mag = rosbags_reference(bag, "/imu"), rosbags_reference(bag, "/mag")
+    if (kind, compression) in SCANNED:
+        monkeypatch.setattr(rb, "_rosbags_blocks", None)
+        if kind == "ros1":
+            import rosbags.highlevel
+
+            monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
+    tab = read_table(bag)
+    assert np.array_equal(tab["t"], ref[:, 0])
+    got = np.column_stack([tab[c] for c in ("gx", "gy", "gz", "ax", "ay", "az")])
+    assert np.array_equal(got, ref[:, 1:])
+    for j, a in enumerate("xyz"):
+        expect = np.interp(ref[:, 0], ref_mag[:, 0], ref_mag[:, 1 + j])
+        assert np.array_equal(tab[f"m{a}"], expect)
+
+
+def test_ros1_chunks_without_the_topic_are_skipped(tmp_path, monkeypatch):
+    """A ROS 1 bag whose first chunks hold only another topic (1.5 MB of strings, rosbags' chunks are 1 MB): the
+    Imu values come from the chunks the index lists for it, read without opening rosbags' reader."""
+    import rosbags.highlevel
+
+    rng = np.random.default_rng(15)
+    msgs, t, gyr, acc = imu_topic(rng, n=80)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data=str(k % 10) * 5000)) for k in range(300)]
+    bag = write_bag(tmp_path / "c", "ros1", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_mcap_summary_picks_chunks_and_its_absence_scans_them(tmp_path, monkeypatch):
+    """MCAP: the summary's chunk index picks the chunks of the Imu topic (a first chunk of strings only is not
+    read); with the footer's summary offset zeroed (no summary) every chunk is scanned. Same values either way."""
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(16)
+    msgs, t, gyr, acc = imu_topic(rng, n=80)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data=str(k % 10) * 5000)) for k in range(300)]
+    bag = write_bag(tmp_path / "m", "mcap-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    with open(bag, "rb") as fh:
+        chans, offsets = bagscan._mcap_index(fh, "/imu")
+    assert len(chans) == 1 and 1 <= len(offsets) and offsets[0] > 1_000_000  # the chatter chunk is skipped
+    monkeypatch.setattr(rb, "_rosbags_blocks", None)
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    raw = bytearray(bag.read_bytes())
+    raw[-37 + 9:-37 + 17] = bytes(8)  # Footer: summary_start = 0
+    flat = tmp_path / "flat.mcap"
+    flat.write_bytes(bytes(raw))
+    with open(flat, "rb") as fh:
+        assert bagscan._mcap_index(fh, "/imu") is None
+    log = read_imu(flat)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+@pytest.mark.parametrize("kind", ("ros1", "mcap"))
+def test_log_times_out_of_order_read_in_rosbags_order(tmp_path, kind):
+    # log times written out of order (within and across chunks): rosbags yields log-time order, so does the scan
+    rng = np.random.default_rng(12)
+    msgs, *_ = imu_topic(rng, n=60)
+    perm = rng.permutation(60)
+    msgs = [(1_700_000_000 * 10**9 + 1_000_000 * int(perm[i]), make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "o", kind, {"/imu": (IMU, msgs)})
+    ref = rosbags_reference(bag, "/imu")
+    with pytest.warns(UserWarning, match="not strictly increasing"):
+        log = read_imu(bag)
+    assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
+
+
+def test_big_endian_cdr_goes_through_the_deserializer(tmp_path):
+    rng = np.random.default_rng(13)
+    msgs, t, gyr, acc = imu_topic(rng, n=30)
+    for big in ({0, 1, 2}, {5, 17}):  # the first message big-endian: no numpy layout at all; or a few of them
+        bag = write_bag(tmp_path / f"be{len(big)}", "mcap", {"/imu": (IMU, msgs)}, big_endian=big)
+        log = read_imu(bag)
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_scanner_failure_falls_back_to_rosbags(tmp_path, monkeypatch):
+    from optinav.io import bagscan
+
+    def refuse(kind, data):
+        raise bagscan.NotFast("test")
+
+    monkeypatch.setattr(bagscan, "_decompress", refuse)
+    rng = np.random.default_rng(14)
+    msgs, t, gyr, acc = imu_topic(rng, n=30)
+    for kind in ("ros1", "mcap"):
+        log = read_imu(write_bag(tmp_path / kind, kind, {"/imu": (IMU, msgs)}))
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+_DAMAGE = {}
+
+
+def _damage_bags(tmp_path_factory):
+    """One small ROS 1 bag and one MCAP file (Imu with two frame ids, MagneticField), written once."""
+    if not _DAMAGE:
+        d = tmp_path_factory.mktemp("damage")
+        rng = np.random.default_rng(17)
+        msgs, *_ = imu_topic(rng, n=40, frames=("imu",) * 5 + ("imu_x",))
+        mags = [(1_700_000_000 * 10**9 + 10**7 * k, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k,
+                                                                              [1e-5, 2e-5, k * 1e-6]))
+                for k in range(8)]
+        for kind in ("ros1", "mcap-file"):
+            bag = write_bag(d / kind, kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)})
+            _DAMAGE[kind] = (bag.suffix, bag.read_bytes())
+    return _DAMAGE
+
+
+def _read_both(path):
+    """(read_table through the storage scanners, read_table through rosbags alone): each a dict or the error."""
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    out = []
+    for scan in (True, False):
+        saved = bagscan.blocks, rb._ros1_quick
+        if not scan:
+            bagscan.blocks, rb._ros1_quick = (lambda *a: None), (lambda *a: None)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                tab = read_table(path)
+            out.append({k: np.asarray(tab[k]) for k in ("t", "ax", "gy", "mz")})
+        except OptinavError as exc:
+            out.append(exc)
+        finally:
+            bagscan.blocks, rb._ros1_quick = saved
+    return out
+
+
+@settings(max_examples=40)
+@given(kind=st.sampled_from(("ros1", "mcap-file")), where=st.floats(0, 1, exclude_max=True),
+       flip=st.integers(1, 255))
+def test_damaged_byte_never_gives_other_values_than_rosbags(tmp_path_factory, kind, where, flip):
+    """One byte of a bag changed anywhere: reading through the scanners gives a one-line error or the values
+    rosbags gives; never another table, never a traceback."""
+    suffix, raw = _damage_bags(tmp_path_factory)[kind]
+    raw = bytearray(raw)
+    raw[int(where * len(raw))] ^= flip
+    path = tmp_path_factory.mktemp("d") / f"b{suffix}"
+    path.write_bytes(bytes(raw))
+    ours, ref = _read_both(path)
+    if isinstance(ours, dict) and isinstance(ref, dict):
+        for k in ours:
+            assert np.array_equal(ours[k], ref[k], equal_nan=True), k
 
 
 def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):

@@ -29,12 +29,16 @@ def register(sub) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     a.add_argument("--out", required=True, metavar="DATA", help="output data file")
-    a.add_argument("--scheme", default="paper12", choices=["paper12", "six", "18"],
-                   help="pose scheme: the paper's 12 positions (default), the six axis poses, or 18 poses")
+    poses = a.add_mutually_exclusive_group()
+    poses.add_argument("--scheme", choices=["paper12", "six", "18"],
+                       help="pose scheme: the paper's 12 positions (default), the six axis poses, or 18 poses")
+    poses.add_argument("--plan", metavar="PLAN.json",
+                       help="follow a pose plan of optinav design (--out plan.json): its poses in its order and "
+                            "its rest time per pose (--dwell overrides it)")
     a.add_argument("--preset", default="mems-mti1", help="IMU preset (default mems-mti1)")
     a.add_argument("--truth", default="draw", choices=["draw", "paper"],
                    help="draw the unit's errors from the preset, or use the paper's Table 2 accelerometer")
-    a.add_argument("--dwell", type=POSITIVE, default=60.0, metavar="S", help="dwell per pose in s (default 60)")
+    a.add_argument("--dwell", type=POSITIVE, metavar="S", help="dwell per pose in s (default 60, or the plan's)")
     a.add_argument("--transition", type=POSITIVE, default=4.0, metavar="S", help="turn duration in s (default 4)")
     a.add_argument("--rest", type=POSITIVE, default=10.0, metavar="S", help="initial rest in s (default 10)")
     a.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
@@ -87,12 +91,19 @@ def run_accel_multipos(args) -> int:
     out = output_path(args.out)
     truth_path(out)
     rate = args.rate or preset(args.preset).rate_hz
+    scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
+    if args.plan:
+        from optinav.multipos.plan import PosePlan
+
+        plan = PosePlan.from_json(args.plan)
+        scheme, dwell = np.asarray(plan.up_dirs, float), args.dwell or float(plan.dwell_s)
+    n_poses = len(SCHEMES[scheme]) if isinstance(scheme, str) else len(scheme)
     # measured (benchmarks/bench_memory.py, 1 M and 3 M rows): about 615 B per sample at the peak now that the
     # log is written block by block, 900 with margin
-    check_memory(rate * (args.rest + len(SCHEMES[args.scheme]) * (args.dwell + args.transition)), 900,
+    check_memory(rate * (args.rest + n_poses * (dwell + args.transition)), 900,
                  "this session", "shorten --dwell/--rest/--transition or lower --rate")
     step("simulate")
-    s = simulate(args.scheme, spec=args.preset, dwell_s=args.dwell, rate_hz=args.rate,
+    s = simulate(scheme, spec=args.preset, dwell_s=dwell, rate_hz=args.rate,
                  transition_s=args.transition, rest_s=args.rest, lat=np.radians(args.latitude),
                  height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
                  jitter=args.jitter, rng=args.seed)

@@ -6,8 +6,10 @@ gives the columns ``t`` (header stamp, s), ``ax ay az`` (``linear_acceleration``
 (``angular_velocity``, rad/s); a MagneticField topic adds ``mx my mz`` (tesla) interpolated linearly onto the
 Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
 
-The messages of a topic are decoded in blocks with numpy from their fixed byte layout (checked against
-``rosbags``' own deserializer on the first message); messages of another length are deserialized one by one.
+The raw messages of a topic come in blocks straight from the storage (:mod:`optinav.io.bagscan`; rosbags'
+iteration when the scanners do not read the bag) and are decoded with numpy from their fixed byte layout (checked
+against ``rosbags``' own deserializer on the first message); messages of another length are deserialized one by
+one.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ MAG_TYPE = "sensor_msgs/msg/MagneticField"
 _INSTALL = "pip install 'optinav[ros]'"
 #: messages decoded per numpy block (bounds the raw bytes held at once to a few MB)
 _BLOCK = 16384
+#: fewer bytes than the smallest serialized Imu / MagneticField message with its record header
+_MIN_MSG_BYTES = 64
 
 
 def is_bag(path) -> bool:
@@ -72,42 +76,98 @@ def load_bag(path, *, topic=None, only=None):
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
-    try:
-        reader = AnyReader([path])
-        reader.open()
-    except Exception as exc:  # noqa: BLE001 - rosbags raises its own errors and OS/struct errors on damaged files
-        raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})",
-                           "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)") from None
-    try:
-        topics = {}
-        for con in reader.connections:
-            topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
-            topics[con.topic]["cons"].append(con)
-            topics[con.topic]["count"] += con.msgcount
-        imu_topic, mag_topic = _choose(path, topics, wanted)
-        table = Table(path=path, kind="rosbag", data={})
-        t, t_log, vals = _read_topic(reader, path, imu_topic, topics[imu_topic])
-        t = _time_base(path, imu_topic, t, t_log)
-        table.data["t"] = t
-        for j, a in enumerate("xyz"):
-            table.data[f"a{a}"] = vals[:, 3 + j]
-        for j, a in enumerate("xyz"):
-            table.data[f"g{a}"] = vals[:, j]
-        table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
-        table.meta.update({"topic": imu_topic, "frame": "sensor_msgs/Imu"})
-        if mag_topic is not None:
-            tm, tm_log, mag = _read_topic(reader, path, mag_topic, topics[mag_topic])
-            tm = _time_base(path, mag_topic, tm, tm_log)
-            for j, a in enumerate("xyz"):
-                table.data[f"m{a}"] = _resample(tm, mag[:, j], t)
-                table.units[f"m{a}"] = "T"
-            table.meta["mag_topic"] = mag_topic
-    finally:
+    got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else None
+    if got is None:
         try:
-            reader.close()
-        except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
-            pass
+            reader = AnyReader([path])
+            reader.open()
+        except Exception as exc:  # noqa: BLE001 - rosbags raises its own errors and OS/struct errors on damaged files
+            raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})",
+                               "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)") from None
+        try:
+            topics = {}
+            for con in reader.connections:
+                topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
+                topics[con.topic]["cons"].append(con)
+                topics[con.topic]["count"] += con.msgcount
+            got = _read(reader, path, topics, *_choose(path, topics, wanted))
+        finally:
+            try:
+                reader.close()
+            except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
+                pass
+    (imu_topic, (t, t_log, vals)), mag = got
+    table = Table(path=path, kind="rosbag", data={})
+    table.data["t"] = _time_base(path, imu_topic, t, t_log)
+    for j, a in enumerate("xyz"):
+        table.data[f"a{a}"] = vals[:, 3 + j]
+    for j, a in enumerate("xyz"):
+        table.data[f"g{a}"] = vals[:, j]
+    table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
+    table.meta.update({"topic": imu_topic, "frame": "sensor_msgs/Imu"})
+    if mag is not None:
+        mag_topic, (tm, tm_log, b) = mag
+        tm = _time_base(path, mag_topic, tm, tm_log)
+        for j, a in enumerate("xyz"):
+            table.data[f"m{a}"] = _resample(tm, b[:, j], table.data["t"])
+            table.units[f"m{a}"] = "T"
+        table.meta["mag_topic"] = mag_topic
     return table
+
+
+def _read(reader, path: Path, topics: dict, imu_topic: str, mag_topic: str | None) -> tuple:
+    """((imu topic, its (stamps, log times, values)), (mag topic, its …) or None)."""
+    imu = (imu_topic, _read_topic(reader, path, imu_topic, topics[imu_topic]))
+    mag = None if mag_topic is None else (mag_topic, _read_topic(reader, path, mag_topic, topics[mag_topic]))
+    return imu, mag
+
+
+class _Ros1Types:
+    """``rosbags``' ROS 1 (Noetic) type store as the deserializer of a ROS 1 bag read without opening rosbags'
+    reader (whose opening reads every index entry in Python, ~7 µs a message)."""
+
+    is2 = False
+
+    def __init__(self):
+        from rosbags.typesys import Stores, get_typestore
+
+        self.store = get_typestore(Stores.ROS1_NOETIC)
+        self.readers = (self,)
+
+    def md5(self, msgtype: str) -> str | None:
+        try:
+            return self.store.generate_msgdef(msgtype)[1]
+        except Exception:  # noqa: BLE001 - a type the store does not hold
+            return None
+
+    def deserialize(self, raw: bytes, msgtype: str):
+        return self.store.deserialize_ros1(raw, msgtype)
+
+
+def _ros1_quick(path: Path, wanted: list[str]):
+    """The topics of the ROS 1 bag ``path`` read from its own index and chunks (:mod:`optinav.io.bagscan`), the
+    messages checked against Noetic's definitions by md5sum; None when that does not apply (rosbags reads)."""
+    from optinav.io import bagscan
+
+    try:
+        idx = bagscan.ros1_index(path)
+        types = _Ros1Types()
+    except Exception:  # noqa: BLE001 - anything the index scanner does not read: rosbags' reader decides
+        return None
+    topics = {}
+    for conn, (name, msgtype, md5) in idx["conns"].items():
+        msgtype = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
+        d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": 0, "md5": set()})
+        d["cons"].append(conn)
+        d["count"] += idx["counts"].get(conn, 0)
+        d["md5"].add(md5)
+    chosen = _choose(path, topics, wanted)
+    if any(name is not None and topics[name]["md5"] != {types.md5(topics[name]["type"])} for name in chosen):
+        return None
+    try:
+        return _read(types, path, topics, *chosen)
+    except bagscan.NotFast:
+        return None
 
 
 def _why(exc: Exception) -> str:
@@ -184,8 +244,8 @@ def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
     return np.dtype(spec), names, slen
 
 
-def _slow(reader, con, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
-    msg = reader.deserialize(raw, con.msgtype)
+def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
+    msg = reader.deserialize(raw, msgtype)
     st = msg.header.stamp
     if msgtype == IMU_TYPE:
         w, f = msg.angular_velocity, msg.linear_acceleration
@@ -197,74 +257,138 @@ def _slow(reader, con, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
 
 
 def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(header stamps s, log times s, values) of every message of ``topic``: Imu values are
-    ``[gx gy gz ax ay az]``, MagneticField ``[mx my mz]``."""
+    """(header stamps s, log times s, values) of every message of ``topic``, in log-time order: Imu values are
+    ``[gx gy gz ax ay az]``, MagneticField ``[mx my mz]``. The raw bytes come in blocks from the storage itself
+    (:mod:`optinav.io.bagscan`) or, when it does not read this bag, from ``rosbags``' iteration."""
+    from optinav.io import bagscan
+
     msgtype, count = info["type"], info["count"]
-    width = 6 if msgtype == IMU_TYPE else 3
-    stamp = np.empty(count)
-    logt = np.empty(count, dtype=np.int64)
-    vals = np.empty((count, width))
-    ros1 = not getattr(reader, "is2", True)
-    con0 = info["cons"][0]
-    layout = None
-    done = 0
-
-    def flush(chunk: list, times: list) -> None:
-        # the loop only collects; everything per message that numpy can do happens here, once per block
-        nonlocal layout, done
-        n = len(chunk)
-        if done + n > count:
-            raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
-                               "reindex the bag (ros2 bag reindex / rosbag reindex)")
-        if layout is None:
-            layout = _layout(chunk[0], ros1, msgtype)
-            if layout is not None and not _layout_agrees(reader, con0, chunk[0], layout, msgtype):
-                layout = None
-            layout = layout or False  # False: every message through rosbags' deserializer
-        rows = np.arange(done, done + n)
-        logt[rows] = times
-        fast = np.zeros(n, dtype=bool)
-        if layout:
-            lens = np.fromiter(map(len, chunk), dtype=np.int64, count=n)
-            fast = lens == layout[0].itemsize
-            arr = np.frombuffer(b"".join(chunk) if fast.all() else b"".join(c for c, f in zip(chunk, fast) if f),
-                                dtype=layout[0])
-            same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
-            fast[np.flatnonzero(fast)[~same]] = False
-            arr = arr[same]
-            stamp[rows[fast]] = arr["sec"] + arr["nsec"] * 1e-9
-            vals[rows[fast]] = np.concatenate([arr[k] for k in layout[1]], axis=1)
-        for j in np.flatnonzero(~fast):
-            stamp[done + j], vals[done + j] = _slow(reader, con0, chunk[j], msgtype)
-        done += n
-
-    try:
-        chunk, times = [], []
-        for _, t_log, raw in reader.messages(connections=info["cons"]):
-            chunk.append(raw)
-            times.append(t_log)
-            if len(chunk) == _BLOCK:
-                flush(chunk, times)
-                chunk, times = [], []
-        if chunk:
-            flush(chunk, times)
-    except OptinavError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - damaged chunks, decompression errors, truncated files
-        raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {done} message(s) "
-                           f"({_why(exc)})", "check that the bag was closed properly (ros2 bag reindex / "
-                                             "rosbag reindex)") from None
+    size = sum(f.stat().st_size for f in path.iterdir() if f.is_file()) if path.is_dir() else path.stat().st_size
+    if count * _MIN_MSG_BYTES > size:  # a damaged index: do not allocate for it
+        if not hasattr(reader, "messages"):
+            raise bagscan.NotFast("count beyond the file size")
+        raise OptinavError(f"{path.name} is not a readable ROS bag: its index counts {count} messages of {topic!r}, "
+                           "more than the file can hold", "reindex the bag (ros2 bag reindex / rosbag reindex)")
+    dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count)
+    fast = bagscan.blocks(reader, path, topic)
+    done = None
+    if fast is not None:
+        try:
+            done = dec.run(fast, strict=True)
+        except Exception:  # noqa: BLE001 - anything the scanners do not read: rosbags reads it (and names damage)
+            done = None
+        if done is not None and done != count:
+            done = None
+    if done is None and not hasattr(reader, "messages"):
+        raise bagscan.NotFast(f"topic {topic!r}")  # no rosbags reader open: the caller opens one
+    if done is None:
+        try:
+            done = dec.run(_rosbags_blocks(reader, info), strict=False)
+        except OptinavError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - damaged chunks, decompression errors, truncated files
+            raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {dec.done} "
+                               f"message(s) ({_why(exc)})", "check that the bag was closed properly (ros2 bag "
+                                                            "reindex / rosbag reindex)") from None
+    if dec.done > count:
+        raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
+                           "reindex the bag (ros2 bag reindex / rosbag reindex)")
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
-    if done != count:
-        stamp, logt, vals = stamp[:done], logt[:done], vals[:done]
+    stamp, logt, vals = dec.stamp[:done], dec.logt[:done], dec.vals[:done]
+    if np.any(np.diff(logt) < 0):  # the storage's record order; rosbags yields log-time order (ties: as stored)
+        order = np.argsort(logt, kind="stable")
+        stamp, logt, vals = stamp[order], logt[order], vals[order]
     return stamp, logt * 1e-9, vals
 
 
-def _layout_agrees(reader, con, raw: bytes, layout, msgtype: str) -> bool:
+def _rosbags_blocks(reader, info: dict):
+    """``rosbags``' iteration in blocks of ``_BLOCK`` messages (the loop only collects)."""
+    chunk, times = [], []
+    for _, t_log, raw in reader.messages(connections=info["cons"]):
+        chunk.append(raw)
+        times.append(t_log)
+        if len(chunk) == _BLOCK:
+            yield _joined(chunk, times)
+            chunk, times = [], []
+    if chunk:
+        yield _joined(chunk, times)
+
+
+def _joined(chunk: list, times: list):
+    size = np.fromiter(map(len, chunk), dtype=np.int64, count=len(chunk))
+    off = np.zeros_like(size)
+    np.cumsum(size[:-1], out=off[1:])
+    return b"".join(chunk), off, size, np.asarray(times, dtype=np.int64)
+
+
+class _Decoder:
+    """Decodes blocks ``(buf, off, size, logt)`` into preallocated stamp, log-time and value arrays: messages of
+    the fixed layout with numpy, the others with ``rosbags``' deserializer."""
+
+    def __init__(self, reader, ros1: bool, msgtype: str, count: int):
+        self.reader, self.ros1, self.msgtype, self.count = reader, ros1, msgtype, count
+        self.stamp = np.empty(count)
+        self.logt = np.empty(count, dtype=np.int64)
+        self.vals = np.empty((count, 6 if msgtype == IMU_TYPE else 3))
+        self.done = 0
+
+    def run(self, blocks, *, strict: bool) -> int:
+        """Decode every block from row 0; the number of messages. ``strict``: more messages than the index
+        counts raise at once (the caller then reads through rosbags), instead of being counted and reported."""
+        self.done, layout = 0, None
+        for buf, off, size, logt in blocks:
+            n = size.size
+            if self.done + n > self.count:
+                if strict:
+                    raise ValueError("more messages than the index counts")
+                self.done += n
+                continue
+            u8 = np.frombuffer(buf, dtype=np.uint8)
+            if layout is None:
+                first = bytes(u8[off[0]:off[0] + size[0]])
+                layout = _layout(first, self.ros1, self.msgtype)
+                if layout is not None and not _layout_agrees(self.reader, first, layout, self.msgtype):
+                    layout = None
+                layout = layout or False  # False: every message through rosbags' deserializer
+            rows = slice(self.done, self.done + n)
+            self.logt[rows] = logt
+            fast = np.zeros(n, dtype=bool)
+            if layout:
+                fast = size == layout[0].itemsize
+                arr = _gather(u8, off[fast], layout[0])
+                same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
+                if not same.all():
+                    fast[np.flatnonzero(fast)[~same]] = False
+                    arr = arr[same]
+                at = rows if fast.all() else np.flatnonzero(fast) + self.done
+                self.stamp[at] = arr["sec"] + arr["nsec"] * 1e-9
+                for j, k in enumerate(layout[1]):
+                    self.vals[at, 3 * j:3 * j + 3] = arr[k]
+            for j in np.flatnonzero(~fast):
+                raw = bytes(u8[off[j]:off[j] + size[j]])
+                self.stamp[self.done + j], self.vals[self.done + j] = _slow(self.reader, raw, self.msgtype)
+            self.done += n
+        return self.done
+
+
+def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The records of ``dtype`` starting at the byte offsets ``off`` of ``u8``: a strided view of ``u8`` when the
+    offsets are evenly spaced (a run of like records), else a gathered copy."""
+    size = dtype.itemsize
+    if off.size == 0:
+        return np.empty(0, dtype=dtype)
+    step = np.diff(off)
+    if off.size == 1 or (np.all(step == step[0]) and step[0] >= size):
+        return np.ndarray((off.size,), dtype=dtype, buffer=u8, offset=int(off[0]),
+                          strides=(size if off.size == 1 else int(step[0]),))
+    return np.ascontiguousarray(u8[off[:, None] + np.arange(size)]).view(dtype)[:, 0]
+
+
+def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
     """The numpy decoding of ``raw`` equals rosbags' deserializer (guards the byte offsets above)."""
     try:
-        t_ref, v_ref = _slow(reader, con, raw, msgtype)
+        t_ref, v_ref = _slow(reader, raw, msgtype)
     except Exception:  # noqa: BLE001 - the deserializer itself fails: let the main loop report it
         return True
     arr = np.frombuffer(raw, dtype=layout[0])

@@ -1,0 +1,394 @@
+"""The raw bytes of one topic's messages read from the bag's storage in blocks, beside ``rosbags``' iteration.
+
+``rosbags`` yields one Python tuple per message; at 1 kHz over an hour (3.6 M messages) that iteration, not the
+decoding, is what reading a bag costs. These scanners read the storage by its published layout and hand
+:mod:`optinav.io.rosbag` blocks ``(buf, off, size, logt)`` — message ``i`` is ``buf[off[i]:off[i] + size[i]]``,
+logged at ``logt[i]`` ns — in which a run of same-length records with the same fixed header (one topic at a
+steady rate) is found with numpy strides, not a Python step per record:
+
+- MCAP (mcap.dev/spec, major version 0): records ``opcode u8, length u64, content``; Channel ``0x04``
+  (id u16, schema id u16, topic, message encoding, …), Message ``0x05`` (channel id u16, sequence u32, log time
+  u64, publish time u64, data), Chunk ``0x06`` (start, end, uncompressed size u64, CRC-32 u32, compression,
+  records u64 + bytes; none, lz4 frame or zstd), Data End ``0x0F``; the summary's Chunk Index ``0x08`` records
+  (after the Footer ``0x02``'s summary offset) say which chunks hold the topic, and only those are read.
+- ROS 1 bag 2.0 (wiki.ros.org/Bags/Format/2.0): records ``header_len u32, fields (len u32, name=value)…,
+  data_len u32, data``; op ``0x03`` bag header (``index_pos``), ``0x05`` chunk (``compression`` none/bz2/lz4,
+  ``size``), ``0x07`` connection (``conn``, ``topic``; data: ``type``, ``md5sum``, …), ``0x06`` chunk info
+  (``chunk_pos``; data: conn u32, count u32 pairs), ``0x02`` message data (``conn``, ``time`` = sec u32, nsec
+  u32). Only the chunks that hold the topic are read.
+
+``rosbags`` stays the reader of record: :func:`blocks` returns None — or a scanner raises :class:`NotFast` part
+way — for anything else (compressed ROS 2 bags, unchunked MCAP, unknown chunk compression, a layout that does not
+parse); the caller then reads the topic through ``rosbags``, which also reports damage. ROS 2 sqlite3 bags are
+always read through ``rosbags``: there the cost is SQLite's row-by-row fetch, which a direct query on rosbag2's
+tables does not lower (measured: 1.5 s against rosbags' 1.4 s for 200 000 messages).
+"""
+
+from __future__ import annotations
+
+import itertools
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+__all__ = ["NotFast", "blocks", "ros1_index"]
+
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_ROS1_MAGIC = b"#ROSBAG V2.0\n"
+_U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
+
+
+class NotFast(Exception):
+    """The storage holds something these scanners do not read: read the topic through rosbags instead."""
+
+
+def blocks(reader, path: Path, topic: str):
+    """An iterator over the blocks of ``topic`` (see the module docs), or None when the bag is not one these
+    scanners read. ``reader``: the open ``rosbags`` AnyReader of ``path`` (or a stand-in with ``readers`` and
+    ``is2``)."""
+    readers = getattr(reader, "readers", None)
+    if not readers or len(readers) != 1:
+        return None
+    if not getattr(reader, "is2", True):
+        return _ros1(Path(path), topic) if Path(path).is_file() else None
+    sub = readers[0]
+    try:
+        if sub.compression_mode:  # message- or file-compressed storage: rosbags decompresses
+            return None
+    except Exception:  # noqa: BLE001 - an attribute rosbags may rename: fall back to its iteration
+        return None
+    storage = getattr(sub, "storage", None)
+    files = [getattr(s, "path", None) for s in getattr(storage, "storages", [storage])]
+    if not files or not all(isinstance(f, Path) and f.is_file() for f in files):
+        return None
+    suffixes = {f.suffix for f in files}
+    if suffixes == {".mcap"}:
+        return itertools.chain.from_iterable(_mcap(f, topic) for f in files)
+    return None
+
+
+# --- runs of like records -------------------------------------------------------------------------------------
+
+def _run(u8: np.ndarray, pos: int, stride: int, same: tuple) -> int:
+    """How many records of ``stride`` bytes follow one another from ``pos`` (at least 1) whose bytes in the
+    ranges ``same`` ((start, stop) relative to the record) equal those of the record at ``pos``."""
+    avail = (u8.size - pos) // stride
+    k, w = 1, 16
+    while k < avail:
+        m = min(w, avail - k)
+        ok = np.ones(m, dtype=bool)
+        for a, b in same:
+            rows = as_strided(u8[pos + k * stride + a:], shape=(m, b - a), strides=(stride, 1))
+            ok &= (rows == u8[pos + a:pos + b]).all(axis=1)
+        if not ok.all():
+            return k + int(np.argmin(ok))
+        k += m
+        w *= 4
+    return k
+
+
+def _column(u8: np.ndarray, start: int, k: int, stride: int, fmt: str) -> np.ndarray:
+    """The values of ``fmt`` at ``start`` in ``k`` records of ``stride`` bytes."""
+    size = np.dtype(fmt).itemsize
+    return np.ascontiguousarray(as_strided(u8[start:], shape=(k, size), strides=(stride, 1))).view(fmt)[:, 0]
+
+
+class _Collect:
+    """Offsets, sizes and log times of the wanted messages of one decompressed chunk, run by run."""
+
+    def __init__(self):
+        self.off, self.size, self.logt = [], [], []
+
+    def run(self, start: int, k: int, stride: int, size: int, logt: np.ndarray) -> None:
+        self.off.append(start + stride * np.arange(k, dtype=np.int64))
+        self.size.append(np.full(k, size, dtype=np.int64))
+        self.logt.append(logt.astype(np.int64))
+
+    def block(self, buf: bytes):
+        if self.off:
+            return buf, np.concatenate(self.off), np.concatenate(self.size), np.concatenate(self.logt)
+        return None
+
+
+def _decompress(kind: str, data: bytes) -> bytes:
+    if kind in ("", "none"):
+        return data
+    if kind == "bz2":
+        import bz2
+
+        return bz2.decompress(data)
+    if kind == "lz4":
+        from lz4.frame import decompress  # rosbags' own dependency
+
+        return decompress(data)
+    if kind == "zstd":
+        try:
+            from compression import zstd  # Python >= 3.14
+        except ImportError:
+            from backports import zstd  # rosbags' own dependency before 3.14
+        return zstd.decompress(data)
+    raise NotFast(f"chunk compression {kind!r}")
+
+
+# --- MCAP -----------------------------------------------------------------------------------------------------
+
+def _mcap_channel(buf: bytes, pos: int, topic: str, chans: set) -> None:
+    """A Channel record's content at ``pos``: its id joins ``chans`` when it carries ``topic`` in CDR."""
+    cid = _U16.unpack_from(buf, pos)[0]
+    p = pos + 4
+    n = _U32.unpack_from(buf, p)[0]
+    name = bytes(buf[p + 4:p + 4 + n]).decode("utf-8", "replace")
+    p += 4 + n
+    n = _U32.unpack_from(buf, p)[0]
+    enc = bytes(buf[p + 4:p + 4 + n]).decode("utf-8", "replace")
+    if name == topic and enc == "cdr":
+        chans.add(cid)
+
+
+def _mcap_index(fh, topic: str):
+    """(ids of the CDR channels of ``topic``, offsets of the chunks that hold one of them) from the summary
+    section (Channel and Chunk Index ``0x08`` records: start, end, chunk offset u64, length u64, message index
+    offsets map<u16, u64>, …); None without a summary or without the topic's channels in it."""
+    fh.seek(0, 2)
+    size = fh.tell()
+    if size < 2 * len(_MCAP_MAGIC) + 29:
+        return None
+    fh.seek(size - len(_MCAP_MAGIC) - 29)
+    tail = fh.read(29 + len(_MCAP_MAGIC))
+    if tail[-8:] != _MCAP_MAGIC or tail[0] != 0x02:
+        return None
+    start, offsets_start = _U64.unpack_from(tail, 9)[0], _U64.unpack_from(tail, 17)[0]
+    end = offsets_start or size - len(_MCAP_MAGIC) - 29
+    if not len(_MCAP_MAGIC) < start < end:
+        return None
+    fh.seek(start)
+    buf = fh.read(end - start)
+    chans, chunks = set(), []
+    pos = 0
+    while pos + 9 <= len(buf):
+        op, n = buf[pos], _U64.unpack_from(buf, pos + 1)[0]
+        if op == 0x04:
+            _mcap_channel(buf, pos + 9, topic, chans)
+        elif op == 0x08:
+            m = _U32.unpack_from(buf, pos + 41)[0]
+            held = {c for c, _ in struct.iter_unpack("<HQ", buf[pos + 45:pos + 45 + m])}
+            chunks.append((_U64.unpack_from(buf, pos + 25)[0], held))
+        pos += 9 + n
+    if not chans:
+        return None
+    return chans, sorted(off for off, held in chunks if held & chans)
+
+
+def _mcap(path: Path, topic: str):
+    """The blocks of ``topic``: the chunks the summary's chunk index lists for its channels, or, without a
+    summary, every chunk of the data section in turn."""
+    with open(path, "rb") as fh:
+        if fh.read(8) != _MCAP_MAGIC:
+            raise NotFast("no MCAP magic")
+        idx = _mcap_index(fh, topic)
+        if idx is not None:
+            chans, offsets = idx
+            for off in offsets:
+                fh.seek(off)
+                head = fh.read(9)
+                if len(head) < 9 or head[0] != 0x06:
+                    raise NotFast("no chunk at a chunk index's offset")
+                out = _mcap_chunk(fh.read(_U64.unpack_from(head, 1)[0]), topic, chans)
+                if out is not None:
+                    yield out
+            return
+        fh.seek(8)
+        chans: set = set()
+        while True:
+            head = fh.read(9)
+            if len(head) < 9:
+                raise NotFast("no Data End record")
+            op, n = head[0], _U64.unpack_from(head, 1)[0]
+            if op in (0x0F, 0x02):  # Data End, or a Footer straight after the data
+                return
+            if op == 0x05:
+                raise NotFast("messages outside chunks")
+            if op not in (0x04, 0x06):
+                fh.seek(n, 1)
+                continue
+            body = fh.read(n)
+            if len(body) != n:
+                raise NotFast("truncated record")
+            if op == 0x04:
+                _mcap_channel(body, 0, topic, chans)
+                continue
+            out = _mcap_chunk(body, topic, chans)
+            if out is not None:
+                yield out
+
+
+def _mcap_chunk(body: bytes, topic: str, chans: set):
+    """The block of a Chunk record's content (None when it holds none of ``chans``' messages)."""
+    if len(body) < 40:
+        raise NotFast("truncated chunk")
+    usize, crc = _U64.unpack_from(body, 16)[0], _U32.unpack_from(body, 24)[0]
+    clen = _U32.unpack_from(body, 28)[0]
+    kind = body[32:32 + clen].decode("ascii", "replace")
+    p = 32 + clen
+    rlen = _U64.unpack_from(body, p)[0]
+    buf = _decompress(kind, body[p + 8:p + 8 + rlen])
+    if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
+        raise NotFast("chunk size or CRC mismatch")
+    return _mcap_records(buf, topic, chans)
+
+
+def _mcap_records(buf: bytes, topic: str, chans: set):
+    u8 = np.frombuffer(buf, dtype=np.uint8)
+    got = _Collect()
+    pos, end = 0, len(buf)
+    while pos < end:
+        if pos + 9 > end:
+            raise NotFast("truncated chunk record")
+        op, n = buf[pos], _U64.unpack_from(buf, pos + 1)[0]
+        stride = 9 + n
+        if pos + stride > end:
+            raise NotFast("chunk record beyond its chunk")
+        if op == 0x05 and n >= 22 and _U16.unpack_from(buf, pos + 9)[0] in chans:
+            k = _run(u8, pos, stride, ((0, 11),))  # opcode, length and channel id alike
+            got.run(pos + 31, k, stride, n - 22, _column(u8, pos + 15, k, stride, "<u8"))
+            pos += k * stride
+            continue
+        if op == 0x04:
+            _mcap_channel(buf, pos + 9, topic, chans)
+        pos += stride
+    return got.block(buf)
+
+
+# --- ROS 1 ----------------------------------------------------------------------------------------------------
+
+def _fields(buf: bytes, start: int, end: int) -> dict:
+    """A ROS 1 record header ``buf[start:end]``: field name → (start, stop) of its value in ``buf``."""
+    out = {}
+    p = start
+    while p < end:
+        if p + 4 > end:
+            raise NotFast("truncated header field")
+        q = p + 4 + _U32.unpack_from(buf, p)[0]
+        eq = buf.find(b"=", p + 4, q)
+        if q > end or eq < 0:
+            raise NotFast("malformed header field")
+        out[bytes(buf[p + 4:eq])] = (eq + 1, q)
+        p = q
+    return out
+
+
+def _record(buf: bytes, pos: int, end: int) -> tuple[dict, int, int]:
+    """(header fields, data start, data stop) of the ROS 1 record at ``pos``."""
+    if pos + 4 > end:
+        raise NotFast("truncated record")
+    he = pos + 4 + _U32.unpack_from(buf, pos)[0]
+    if he + 4 > end:
+        raise NotFast("truncated record")
+    ds = he + 4
+    de = ds + _U32.unpack_from(buf, he)[0]
+    if de > end:
+        raise NotFast("truncated record")
+    return _fields(buf, pos + 4, he), ds, de
+
+
+def _op(buf: bytes, f: dict) -> int:
+    a, b = f.get(b"op", (0, 0))
+    if b - a != 1:
+        raise NotFast("record without op")
+    return buf[a]
+
+
+def ros1_index(path: Path) -> dict:
+    """The index of the ROS 1 bag ``path`` from its connection and chunk info records (after ``index_pos``):
+    ``{"first": offset of the first record after the bag header, "index_pos": …, "conns": {conn id: (topic,
+    type, md5sum)}, "counts": {conn id: messages}, "chunks": [(chunk offset, {conn ids in it}), …]}``. Raises
+    :class:`NotFast` when the bag is not one this reads."""
+    with open(path, "rb") as fh:
+        data = fh.read(len(_ROS1_MAGIC) + 4096 + 64)
+        if not data.startswith(_ROS1_MAGIC):
+            raise NotFast("not a ROS 1 bag 2.0")
+        f, _, first = _record(data, len(_ROS1_MAGIC), len(data))
+        if _op(data, f) != 0x03 or b"index_pos" not in f:
+            raise NotFast("no bag header")
+        index_pos = _U64.unpack_from(data, f[b"index_pos"][0])[0]
+        fh.seek(0, 2)
+        if not first <= index_pos < fh.tell():
+            raise NotFast("unindexed bag")
+        fh.seek(index_pos)
+        tail = fh.read()
+    conns, counts, chunks = {}, {}, []
+    pos = 0
+    while pos < len(tail):
+        f, ds, de = _record(tail, pos, len(tail))
+        op = _op(tail, f)
+        if op == 0x07:
+            d = _fields(tail, ds, de)
+            conns[_U32.unpack_from(tail, f[b"conn"][0])[0]] = tuple(
+                bytes(tail[slice(*g[k])]).decode("utf-8", "replace") for g, k in ((f, b"topic"), (d, b"type"),
+                                                                                  (d, b"md5sum")))
+        elif op == 0x06:
+            held = set()
+            for conn, n in struct.iter_unpack("<II", tail[ds:de]):
+                counts[conn] = counts.get(conn, 0) + n
+                held.add(conn)
+            chunks.append((_U64.unpack_from(tail, f[b"chunk_pos"][0])[0], held))
+        pos = de
+    if not conns:
+        raise NotFast("no connection records")
+    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": sorted(chunks)}
+
+
+def _ros1(path: Path, topic: str):
+    """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read."""
+    idx = ros1_index(path)
+    conns = {c for c, v in idx["conns"].items() if v[0] == topic}
+    with open(path, "rb") as fh:
+        for pos, held in idx["chunks"]:
+            if not held & conns:
+                continue
+            if not idx["first"] <= pos < idx["index_pos"]:
+                raise NotFast("chunk offset outside the data")
+            fh.seek(pos)
+            head = fh.read(4)
+            hl = _U32.unpack_from(head, 0)[0] if len(head) == 4 else -1
+            header = fh.read(hl) if hl >= 0 else b""
+            dlen = fh.read(4)
+            if len(header) != hl or len(dlen) != 4:
+                raise NotFast("truncated record")
+            f = _fields(header, 0, hl)
+            n = _U32.unpack_from(dlen, 0)[0]
+            if _op(header, f) != 0x05:
+                raise NotFast("no chunk at a chunk info's offset")
+            raw = fh.read(n)
+            if len(raw) != n:
+                raise NotFast("truncated chunk")
+            buf = _decompress(bytes(header[slice(*f.get(b"compression", (0, 0)))]).decode("ascii", "replace"), raw)
+            if b"size" in f and len(buf) != _U32.unpack_from(header, f[b"size"][0])[0]:
+                raise NotFast("chunk size mismatch")
+            out = _ros1_records(buf, conns)
+            if out is not None:
+                yield out
+
+
+def _ros1_records(buf: bytes, conns: set):
+    u8 = np.frombuffer(buf, dtype=np.uint8)
+    got = _Collect()
+    pos, end = 0, len(buf)
+    while pos < end:
+        f, ds, de = _record(buf, pos, end)
+        if _op(buf, f) == 0x02 and _U32.unpack_from(buf, f[b"conn"][0])[0] in conns:
+            t = f[b"time"][0] - pos
+            if f[b"time"][1] - f[b"time"][0] != 8:
+                raise NotFast("message time field of another size")
+            stride = de - pos
+            k = _run(u8, pos, stride, ((0, t), (t + 8, ds - pos)))  # every header byte but the time
+            ns = _column(u8, pos + t, k, stride, "<u4").astype(np.int64) * 1_000_000_000 \
+                + _column(u8, pos + t + 4, k, stride, "<u4")
+            got.run(ds, k, stride, de - ds, ns)
+            pos += k * stride
+            continue
+        pos = de
+    return got.block(buf)
