@@ -187,18 +187,11 @@ def run_accel(args) -> int:
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     res = calibrate_data(data, options, source=str(args.data))
-    held = None
-    if args.hold_out is not None:
-        res, held = _hold_out(data, options, res, args.hold_out, str(args.data))
     step("write")
     res.to_json(out)
     for note in res.quality.get("notes", []):
         print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
-    if held is not None:
-        print(f"held-out pose {held['pose']} ({held['t0_s']:g}-{held['t1_s']:g} s): |a| - g = "
-              f"{held['norm_error_m_s2']:+.2e} m/s^2; the {held['n_used']} poses used: rms "
-              f"{held['rms_used_m_s2']:.2e} m/s^2")
     print(f"optinav: result written to {out}")
     if exports:
         from optinav.multipos.exchange import export_calibration
@@ -210,39 +203,6 @@ def run_accel(args) -> int:
 
     finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyr, d))
     return 0
-
-
-def _hold_out(data, options, res, k: int, source: str):
-    """Refit without static pose ``k`` of ``res`` (1-based) → (the refit, the out-of-sample check): the norm of
-    the corrected mean specific force minus g at the held-out pose and, for comparison, its rms over the poses
-    used (m/s²)."""
-    import dataclasses
-
-    import numpy as np
-
-    from optinav.errors import OptinavError
-    from optinav.multipos.calibrate import calibrate_data
-
-    poses = np.asarray(res.static_intervals, float)
-    if options.method == "ferraris":
-        raise OptinavError("--hold-out needs a norm-model fit; the ferraris method uses its 9 named sections",
-                           "drop --hold-out or use another --method")
-    if not 1 <= k <= len(poses):
-        raise OptinavError(f"--hold-out {k}: the log has {len(poses)} static poses", f"pass K from 1 to {len(poses)}")
-    fit = calibrate_data(data, dataclasses.replace(options, sections=[tuple(p) for i, p in enumerate(poses)
-                                                                      if i != k - 1]), source=source)
-
-    def error(t0: float, t1: float) -> float:
-        inside = (data.t >= t0) & (data.t <= t1)
-        return float(np.linalg.norm(fit.correct_accel(data.acc[inside].mean(axis=0, keepdims=True))[0])
-                     - fit.gravity)
-
-    used = np.array([error(*p) for p in fit.static_intervals])
-    held = {"pose": k, "t0_s": float(poses[k - 1, 0]), "t1_s": float(poses[k - 1, 1]),
-            "norm_error_m_s2": error(*poses[k - 1]), "n_used": int(used.size),
-            "rms_used_m_s2": float(np.sqrt(np.mean(used ** 2)))}
-    fit.quality["held_out"] = held
-    return fit, held
 
 
 def parse_export(spec: str):

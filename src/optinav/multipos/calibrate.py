@@ -556,6 +556,7 @@ class FileOptions:
     gyro_bias_corr_time: float = float("inf")
     generations: int | None = None
     seed: int = 0
+    hold_out: int | None = None
 
     def check(self) -> None:
         """Reject contradictory options before any file is read."""
@@ -642,7 +643,52 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                     gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability,
                     gyro_bias_corr_time=o.gyro_bias_corr_time)
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
-    return res
+    return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
+
+
+def hold_out(data: SessionData, options: FileOptions, res: CalibrationResult, k: int,
+             source: str = "") -> CalibrationResult:
+    """Refit without static pose ``k`` of ``res`` and check the calibration on it (an out-of-sample check).
+
+    Parameters
+    ----------
+    data : SessionData
+        The session ``res`` was fitted to.
+    options : FileOptions
+        Its options.
+    res : CalibrationResult
+        The fit on every pose.
+    k : int
+        The pose left out, 1-based in time order.
+    source : str
+        The data's name, for the result.
+
+    Returns
+    -------
+    CalibrationResult
+        The refit, with ``quality["held_out"]``: ``pose``, ``t0_s``/``t1_s`` [s], ``norm_error_m_s2`` (|corrected
+        mean specific force| − g at the held-out pose [m/s^2]), ``n_used`` and ``rms_used_m_s2`` (the same over the
+        poses used [m/s^2]).
+    """
+    poses = np.asarray(res.static_intervals, float)
+    if options.method == "ferraris":
+        raise OptinavError("--hold-out needs a norm-model fit; the ferraris method uses its 9 named sections",
+                           "drop --hold-out or use another --method")
+    if not 1 <= k <= len(poses):
+        raise OptinavError(f"--hold-out {k}: the log has {len(poses)} static poses", f"pass K from 1 to {len(poses)}")
+    fit = calibrate_data(data, dataclasses.replace(options, hold_out=None, sections=[
+        tuple(p) for i, p in enumerate(poses) if i != k - 1]), source=source)
+
+    def error(t0: float, t1: float) -> float:
+        inside = (data.t >= t0) & (data.t <= t1)
+        return float(np.linalg.norm(fit.correct_accel(data.acc[inside].mean(axis=0, keepdims=True))[0])
+                     - fit.gravity)
+
+    used = np.array([error(*p) for p in fit.static_intervals])
+    fit.quality["held_out"] = {"pose": k, "t0_s": float(poses[k - 1, 0]), "t1_s": float(poses[k - 1, 1]),
+                               "norm_error_m_s2": error(*poses[k - 1]), "n_used": int(used.size),
+                               "rms_used_m_s2": float(np.sqrt(np.mean(used ** 2)))}
+    return fit
 
 
 def calibrate_file(path, options: FileOptions | None = None) -> CalibrationResult:

@@ -181,6 +181,11 @@ class CalibrationResult(Estimate):
             lines.append(f"residual rms of |a| - g over static samples: {self.residual_rms:.4g} m/s^2")
         if len(self.static_intervals):
             lines.append(f"static intervals used: {len(self.static_intervals)}")
+        held = self.quality.get("held_out")
+        if held:
+            lines.append(f"held-out pose {held['pose']} ({held['t0_s']:g}-{held['t1_s']:g} s): |a| - g = "
+                         f"{held['norm_error_m_s2']:+.2e} m/s^2; the {held['n_used']} poses used: rms "
+                         f"{held['rms_used_m_s2']:.2e} m/s^2")
         for s in self.observability.get("unobservable", []) or []:
             lines.append(f"unobservable: {s}")
         return "\n".join(lines)
