@@ -90,15 +90,16 @@ def _bad_copy(src: Path, dst: Path) -> None:
     dst.write_bytes(head + b"\n" + b",".join(cells) + b"\n")
 
 
-def run(quick: bool) -> list[dict]:
+def run(quick: bool, before: bool = True) -> list[dict]:
+    """The rows of results_memory.json; ``before=False`` measures this tree only (:func:`remeasure`)."""
     sizes = (20_000, 60_000) if quick else (1_000_000, 3_000_000)
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         versions = {"after": ROOT / "src"}
-        before = _before_src(tmp)
-        if before is not None:
-            versions["before"] = before
+        old = _before_src(tmp) if before else None
+        if old is not None:
+            versions["before"] = old
         peaks: dict[tuple[str, str], list[tuple[int, float, float]]] = {}
         for version, src in versions.items():
             for rows in sizes:
@@ -135,6 +136,20 @@ def run(quick: bool) -> list[dict]:
                 {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"}]
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+
+
+def remeasure(path: Path, note: str) -> None:
+    """Re-run this tree's steps ("after") into the results JSON ``path``, keeping its "before" rows (the commit
+    before the commands streamed does not change), with ``note`` and the date added to its notes."""
+    import json
+
+    results = json.loads(path.read_text())
+    keep = [r for r in results["rows"] if not r["method"].endswith("(after)")]
+    rows = keep + run(quick=bool(results["meta"].get("quick")), before=False)
+    order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
+    results["rows"] = sorted(rows, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+    results["meta"]["notes"] = [f"every \"after\" row re-measured {time.strftime('%Y-%m-%dT%H:%M%z')} ({note})"]
+    path.write_text(json.dumps(results, indent=2) + "\n")
 
 
 def markdown(results: dict) -> str:
@@ -247,11 +262,15 @@ def markdown_modes(rows: list[dict]) -> str:
 
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
+    # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
     # python benchmarks/bench_memory.py --attitude-modes [--quick] MODES.json: run the attitude modes, write
     # MODES.json and print their table
     import json
 
-    if sys.argv[1] == "--attitude-modes":
+    if sys.argv[1] == "--after":
+        # python benchmarks/bench_memory.py --after RESULTS.json NOTE: this tree's rows re-measured in place
+        remeasure(Path(sys.argv[2]), sys.argv[3])
+    elif sys.argv[1] == "--attitude-modes":
         quick = "--quick" in sys.argv
         res = run_attitude_modes(quick)
         Path(sys.argv[-1]).write_text(json.dumps(res, indent=1) + "\n")

@@ -254,8 +254,7 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
     ``announce(n, method)`` is called between the two passes. Bad input raises :class:`OptinavError` before
     anything is written under ``out``."""
     from optinav.attitude.checks import check_aop
-    from optinav.attitude.estimators import _method
-    from optinav.attitude.measurement import PolarizationMeasurement
+    from optinav.attitude.methods import _method
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
@@ -269,7 +268,7 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if reference and frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
-    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
+    StreamEstimator.check(method, o.options)
     src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows)
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
@@ -295,6 +294,10 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
     if announce is not None:
         announce(checks.n, method)
     score = _Score() if reference else None
+    # the estimators (numba kernels) load only now, so that a bad file is reported within a second of start
+    from optinav.attitude.measurement import PolarizationMeasurement
+
+    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
     step(f"estimate ({method}), write")  # one pass does both
     with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
