@@ -151,25 +151,41 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
     with a zero-phase (forward–backward) Butterworth filter of the same time constant gives the up direction
     without lag; ``q`` is turned halfway towards it (a tilt-only rotation, the heading is kept). Skipped when
     the recording is too short or the accelerometer has non-finite samples."""
-    from scipy.signal import butter, filtfilt
+    from scipy.signal import filtfilt
 
-    from optinav.core.rotations import quat_conjugate, quat_from_rotvec, quat_multiply, quat_rotate
+    from optinav.core.rotations import quat_conjugate, quat_rotate
 
     n = gyr.shape[0]
-    h = float(np.mean(dts))
-    pad = int(min(n - 1, np.ceil(3.0 * tau / h)))
     if n < 16 or not np.isfinite(acc).all():
         return q
+    b, a, pad = zero_phase_filter(dts, tau, n)
     qg = np.empty((n, 4))
-    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg)
-    fc = np.sqrt(2.0) / (2.0 * np.pi * tau)  # the cutoff of the causal low-pass (rate-independent)
-    b, a = butter(2, min(2.0 * fc * h, 0.98))
+    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, np.array([1.0, 0.0, 0.0, 0.0]))
     lp = filtfilt(b, a, quat_rotate(qg, acc), axis=0, padlen=pad)
     up_b = quat_rotate(quat_conjugate(qg), lp)
-    nrm = np.linalg.norm(up_b, axis=1)
-    ok = nrm > 0.0
-    if not ok.all():
+    if not np.all(np.linalg.norm(up_b, axis=1) > 0.0):
         return q
+    return tilt_halfway(q, up_b, frame)
+
+
+def zero_phase_filter(dts, tau: float, n: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """(b, a, padlen) of the offline refinement's Butterworth low-pass for a recording of ``n`` samples with the
+    steps ``dts`` (s, 1 or n) and the time constant ``tau`` (s): the cutoff of the causal low-pass
+    (rate-independent), at the mean step."""
+    from scipy.signal import butter
+
+    h = float(np.mean(dts))
+    pad = int(min(n - 1, np.ceil(3.0 * tau / h)))
+    fc = np.sqrt(2.0) / (2.0 * np.pi * tau)
+    b, a = butter(2, min(2.0 * fc * h, 0.98))
+    return b, a, pad
+
+
+def tilt_halfway(q, up_b, frame):
+    """``q`` (N, 4) turned halfway (tilt only) towards the up direction ``up_b`` (N, 3, body axes, non-zero)."""
+    from optinav.core.rotations import quat_from_rotvec, quat_multiply, quat_rotate
+
+    nrm = np.linalg.norm(up_b, axis=1)
     cur = quat_rotate(q, up_b / nrm[:, None])       # the zero-phase up, in n with the current estimate
     up = _UP[frame_name(frame)]
     ax = np.cross(cur, up)

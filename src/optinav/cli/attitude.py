@@ -203,9 +203,9 @@ def run(args) -> int:
 
 
 def _streams(args) -> bool:
-    """Whether the log is estimated block by block: everything but what needs the whole recording at once
-    (--offline smoothing, --report plots)."""
-    return not (args.offline or args.report)
+    """Whether the log is estimated block by block: everything but the --report plots (which need the whole
+    recording at once; --offline smoothing streams through a scratch file beside --out)."""
+    return not args.report
 
 
 def _run_stream(args, options, q0, out, announce) -> int:
