@@ -3,8 +3,8 @@
 Every configuration of :data:`optinav.multipos.uncertainty.CONFIGS` (the models the CLI offers: full, diagonal
 with held misalignments, six axis poses, a common bias offset given as --acc-bias-instability) with the same
 seeds, and the gyro (100 full simulated sessions each; "scale" there is all of K) with an unmodelled
-g-sensitivity and with a bias that drifts in the run (the bias error against the session's bias, or the long-term
-bias when --gyro-bias-instability is given); target 0.8 … 1.25 (the 99 % band of a 100-run RMS ratio).
+g-sensitivity, with a bias that drifts in the run (the bias error against the session's bias, or the long-term
+bias when --gyro-bias-instability is given) and with every --gyro-bias mode; target 0.8 … 1.25 (the 99 % band of a 100-run RMS ratio).
 The table is in docs/methods/multipos.md. Run alone: ``python benchmarks/bench_multipos_uncertainty.py [JSON]``
 (prints the markdown table; writes the figures to JSON, benchmarks/multipos_uncertainty.json is the committed run).
 """

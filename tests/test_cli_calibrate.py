@@ -207,4 +207,16 @@ def test_gyro_bias_from_an_initial_rest_period(session, tmp_path):
     gy = CalibrationResult.from_json(out).gyroscope
     assert gy["bias_mode"] == "rest"
     assert np.all(np.abs(gy["b"] - truth["gyroscope"]["b"]) < 5 * gy["b_std"])
-    assert main(["--quiet", "calibrate", "accel", str(data), "--gyro-bias", "rest", "--out", str(out)]) == 2
+    # without --rest: the first static interval is the window (the 10 s initial rest and the first pose's dwell,
+    # with no turn between them), and the notes say so
+    auto = tmp_path / "auto.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35",
+                 "--gyro-bias", "rest", "--out", str(auto)]) == 0
+    res = CalibrationResult.from_json(auto)
+    note = [n for n in res.quality["notes"] if "initial rest" in n]
+    assert len(note) == 1 and "--rest T0 T1" in note[0]
+    t0, t1 = (float(v) for v in note[0].split("interval ")[1].split(" s")[0].split("-"))
+    assert t0 < 1.0 and t1 > 9.5, note
+    np.testing.assert_allclose(res.gyroscope["b"], gy["b"], atol=3 * np.max(gy["b_std"]))
+    # a window without the rest mode is a contradiction
+    assert main(["--quiet", "calibrate", "accel", str(data), "--rest", "0.5", "9.5", "--out", str(out)]) == 2

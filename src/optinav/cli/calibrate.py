@@ -120,10 +120,11 @@ def add_calibration_options(a) -> None:
                    help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
     a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="local",
                    help="gyro bias during each turn from the two rests it joins (local, the default: follows a bias "
-                        "that drifts), one mean over the static intervals (static), an initial rest period (--rest), "
+                        "that drifts), one mean over the static intervals (static), the initial rest (rest: the first "
+                        "static interval, or --rest T0 T1), "
                         "or estimated with K")
     a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
-                   help="rest period in s for --gyro-bias rest")
+                   help="rest window in s for --gyro-bias rest (default the first static interval)")
     a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
                    help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
                         "clockwise full turn seen from the axis tip)")

@@ -149,6 +149,21 @@ def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FR
 
 def _error_model(c_b_n, lat, h, frame, earth):
     """Continuous-time F (12×12) and noise input G (12×6) of the static φ-angle error model."""
+    F, G = _error_model_static(lat, h, frame, earth)
+    _error_model_attitude(F, G, c_b_n)
+    return F, G
+
+
+def _error_model_attitude(F, G, c_b_n) -> None:
+    """The attitude-dependent blocks of :func:`_error_model`, written into ``F`` and ``G`` in place."""
+    F[0:3, 6:9] = -c_b_n
+    F[3:6, 9:12] = c_b_n
+    G[0:3, 0:3] = -c_b_n
+    G[3:6, 3:6] = c_b_n
+
+
+def _error_model_static(lat, h, frame, earth):
+    """The blocks of :func:`_error_model` that do not depend on the attitude (the rest zero)."""
     w_ie = _earth.earth_rate(lat, frame, earth)
     f_n = -_earth.gravity_vector(lat, h, frame, earth)
     rm, rn = _earth.radii(lat, h, earth)
@@ -161,14 +176,9 @@ def _error_model(c_b_n, lat, h, frame, earth):
     F = np.zeros((12, 12))
     F[0:3, 0:3] = -skew(w_ie)
     F[0:3, 3:6] = m_av
-    F[0:3, 6:9] = -c_b_n
     F[3:6, 0:3] = skew(f_n)
     F[3:6, 3:6] = -2 * skew(w_ie)
-    F[3:6, 9:12] = c_b_n
-    G = np.zeros((12, 6))
-    G[0:3, 0:3] = -c_b_n
-    G[3:6, 3:6] = c_b_n
-    return F, G
+    return F, np.zeros((12, 6))
 
 
 def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth="wgs84", q0=None,
@@ -266,7 +276,10 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     qn = np.diag(np.concatenate([np.full(3, gyro_white**2), np.full(3, accel_white**2)]))
     H = np.zeros((3, 12))
     H[:, 3:6] = np.eye(3)
-    hist_t, hist_e, hist_s = [], [], []
+    hist_t, hist_q, hist_s = [], [], []
+    # the Earth terms of the error model are constant on a static base: built once, the attitude blocks per step
+    F, G = _error_model_static(lat, h, frame, earth)
+    F[6:12, 6:12] -= np.diag(gm_decay)
     for a, b in zip(starts, ends):
         T = float(t[b] - t[a])
         d_th = dth[a:b] - x_bias[:3] * dt[a:b, None]
@@ -276,9 +289,7 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         # velocity: rotate each increment at its start attitude (rotation/sculling terms vanish on a static base)
         v = v + np.einsum("kij,kj->i", c_all, d_v) + g_n * T - 2 * np.cross(w_ie, v) * T
         q = qs[-1]
-        c = dcm_from_quat(q)
-        F, G = _error_model(c, lat, h, frame, earth)
-        F[6:12, 6:12] -= np.diag(gm_decay)
+        _error_model_attitude(F, G, dcm_from_quat(q))
         Phi = np.eye(12) + F * T + F @ F * (T * T / 2)
         Qd = G @ qn @ G.T * T
         Qd[6:12, 6:12] += np.diag(gm_psd) * T
@@ -294,14 +305,15 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         v = v - x[3:6]
         x_bias = x_bias + x[6:12]
         hist_t.append(t[b])
-        hist_e.append(euler_from_dcm(dcm_from_quat(q), frame))
+        hist_q.append(q)
         hist_s.append(np.sqrt(np.diag(P)[0:3]))
     c = dcm_from_quat(q)
     sd = np.sqrt(np.diag(P))
     # biases were estimated in the body frame through C_b^n: ε, ∇ states are body-frame
     return AlignmentResult("kalman", frame, q, euler_from_dcm(c, frame), sd[0:3], gyro_bias=x_bias[:3],
                            gyro_bias_std=sd[6:9], accel_bias=x_bias[3:], accel_bias_std=sd[9:12],
-                           history_t=np.asarray(hist_t), history_euler=np.asarray(hist_e),
+                           history_t=np.asarray(hist_t),
+                           history_euler=euler_from_dcm(dcm_from_quat(np.reshape(hist_q, (-1, 4))), frame),
                            history_attitude_std=np.asarray(hist_s))
 
 

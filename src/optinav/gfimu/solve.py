@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from optinav.core.validate import as_float_array, check_timestamps
@@ -154,18 +155,34 @@ def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarr
         return w0 + np.vstack([np.zeros((1, 3)), np.cumsum(inc, axis=0)])
     wts = array.weights()
     P = np.linalg.pinv(array.H_lin * wts[:, None])[3:] * wts[None, :]       # ω̇ rows (3, N)
-    Hq = array.H_quad
-    out = np.empty((f.shape[0], 3))
+    return _integrate_compensated(np.ascontiguousarray(P), np.ascontiguousarray(array.H_quad, dtype=float),
+                                  np.ascontiguousarray(f, dtype=float), dt, w0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _integrate_compensated(P, Hq, f, dt, w0):
+    """The epoch loop of :func:`rate_integration` for a geometry whose ω̇ needs the quadratic terms removed:
+    ω̇_k = P (f_k − H_quad q(ω⁻)) with ω⁻ = ω_{k−1} + ω̇_{k−1}Δt, then the trapezoid (T, 3)."""
+    T = f.shape[0]
+    out = np.empty((T, 3))
     w = w0.copy()
-    wd = P @ (f[0] - Hq @ quadratic_products(w))
+    wd = _wdot(P, Hq, f[0], w)
     out[0] = w
-    for k in range(1, f.shape[0]):
-        pred = w + wd * dt[k - 1]
-        wd_new = P @ (f[k] - Hq @ quadratic_products(pred))
-        w = w + 0.5 * (wd + wd_new) * dt[k - 1]
+    for k in range(1, T):
+        h = dt[k - 1]
+        wd_new = _wdot(P, Hq, f[k], w + wd * h)
+        w = w + 0.5 * (wd + wd_new) * h
         wd = wd_new
         out[k] = w
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _wdot(P, Hq, fk, w):
+    """``P (f_k − H_quad q(w))`` with q the quadratic rate products (:func:`quadratic_products`)."""
+    x, y, z = w[0], w[1], w[2]
+    q = np.array([x * x, y * y, z * z, x * y, x * z, y * z])
+    return P @ (fk - Hq @ q)
 
 
 def _dq(w) -> np.ndarray:

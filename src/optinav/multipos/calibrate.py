@@ -196,7 +196,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     acc_bias_instability : float, (3,) array or None
         1σ accelerometer bias drift over the session [acc_unit], added to the bias std.
     rest : (2,) tuple or None
-        Initial rest window (t0, t1) [s] of ``gyro_bias="rest"``.
+        Initial rest window (t0, t1) [s] of ``gyro_bias="rest"``; None: the first static interval.
     allow_unobservable : bool
         Hold gyro directions the turns do not determine instead of failing.
     rotation_angle : float
@@ -319,6 +319,11 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
         step("fit gyroscope and gates")
+        if isinstance(gyro_bias, str) and gyro_bias == "rest" and rest is None:
+            # the initial rest: the first static interval, before any turn
+            rest = (float(t[ranges[0, 0]]), float(t[ranges[0, 1] - 1]))
+            notes.append(f"gyro bias from the initial rest, the first static interval {rest[0]:.6g}-{rest[1]:.6g} s "
+                         "(--rest T0 T1 to choose another window)")
         gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
                                      allow_unobservable=allow_unobservable, drop_transitions=drop,
                                      g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit,
@@ -331,10 +336,11 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
             notes.append(f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
                          "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
                          "--gyro-g-sensitivity to state the datasheet value")
-        # Earth rate is neglected (module docs); "local" and "static" include what the rests hold of it, a bias
-        # from one rest window or fitted holds it whole
-        b_std = (gc.b_std if gc.bias_mode in ("local", "static")
-                 else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K))))
+        # Earth rate is neglected (module docs): "local" and "static" include what the rests hold of it, "estimate"
+        # has it in the scatter of the rest means it fits; one rest window holds the projection of Ω_E in one
+        # pose, of unknown heading: Ω_E·K_ii/√3 per axis (a random direction)
+        b_std = (gc.b_std if gc.bias_mode in ("local", "static", "estimate")
+                 else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)) / np.sqrt(3.0)))
         gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
                       "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
                       "bias_mode": gc.bias_mode, "unobservable": list(gc.unobservable)}
@@ -571,8 +577,8 @@ class FileOptions:
 
     def check(self) -> None:
         """Reject contradictory options before any file is read."""
-        if (self.gyro_bias == "rest") != (self.rest is not None):
-            raise OptinavError("--gyro-bias rest and --rest T0 T1 go together", "give both, or neither")
+        if self.rest is not None and self.gyro_bias != "rest":
+            raise OptinavError("--rest T0 T1 sets the window of --gyro-bias rest", "add --gyro-bias rest, or drop --rest")
         for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
                            ("held_misalignment", "--held-misalignment"), ("gyro_g_sensitivity", "--gyro-g-sensitivity"),
                            ("gyro_bias_instability", "--gyro-bias-instability")):

@@ -703,6 +703,10 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         # the mean of the rests holds each rest's Earth rate, which points a different way in each pose: the
         # session-mean model of "local" without its drift terms (a full Ω_E·K_ii bound overstated it 4-5×)
         cov[9:, 9:] = np.diag(_local_bias_var(sems, counts / counts.sum(), u, None, K_hat))
+    elif mode == "estimate":
+        # the fitted b is close to the mean of the rests and holds their Earth rate as that does; the fit's std
+        # alone was 25 % small in Monte Carlo runs (RMS error/std 1.33)
+        cov[9:, 9:] += np.diag(_local_bias_var(np.zeros_like(sems), counts / counts.sum(), u, None, K_hat))
     if mode == "local":
         # the session-mean bias: rest-mean noise and the rests' own scatter (Earth rate), plus a stated drift model
         w_rest = counts / counts.sum()

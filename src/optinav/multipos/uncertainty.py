@@ -134,6 +134,9 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0, only=None) -> dict[str, di
                    "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items() if b}
 
 
+#: the initial rest (s) of the simulated sessions (rest_s = 5 s) that ``--gyro-bias rest`` is given
+REST_WINDOW = (0.5, 4.5)
+
 #: in-run gyro bias instability (°/h, datasheet B; Gauss–Markov, τ 100 s) of the drifting unit of
 #: :func:`gyro_drift_study` — ten times the MTi-1's, a consumer-grade MEMS gyro
 DRIFTING_GYRO_DEG_H = 100.0
@@ -142,7 +145,8 @@ DRIFTING_GYRO_DEG_H = 100.0
 def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, float]]:
     """RMS(error/std) of the gyro bias and K under a bias that drifts in the run (first-order Gauss–Markov of the
     MTi-1 preset: its own 10 °/h, and :data:`DRIFTING_GYRO_DEG_H`): the default ``--gyro-bias local``, the
-    former default ``static``, and ``local`` with ``--gyro-bias-instability`` (the process's stationary 1σ) and
+    former default ``static``, ``rest`` (the initial rest, :data:`REST_WINDOW`; its error against the bias over that
+    window), ``estimate``, and ``local`` with ``--gyro-bias-instability`` (the process's stationary 1σ) and
     ``--gyro-bias-corr-time`` (its τ). Without the instability option the bias error is against the session's bias
     (:func:`_session_gyro_bias`), with it against the unit's long-term bias. Full simulated sessions (18 poses,
     8 s dwell, counts), as :func:`gyro_g_sensitivity_study`."""
@@ -155,6 +159,8 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
     gen = as_rng(rng)
     hi = f"{DRIFTING_GYRO_DEG_H:g} °/h"
     cases = [("gyro, bias 10 °/h (MTi-1), local (default)", 10.0, "local", False),
+             ("gyro, bias 10 °/h (MTi-1), rest (initial rest)", 10.0, "rest", False),
+             ("gyro, bias 10 °/h (MTi-1), estimate", 10.0, "estimate", False),
              (f"gyro, bias {hi}, static (the former default)", DRIFTING_GYRO_DEG_H, "static", False),
              (f"gyro, bias {hi}, local (default)", DRIFTING_GYRO_DEG_H, "local", False),
              (f"gyro, bias {hi}, local + --gyro-bias-instability", DRIFTING_GYRO_DEG_H, "local", True)]
@@ -172,11 +178,12 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
                 if b_case != B:
                     continue
                 inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
+                rest = REST_WINDOW if mode == "rest" else None
                 r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                               gyro_bias=mode, gyro_bias_instability=inst if given else None,
-                              gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)))
-                b_true = s.gyro_b if given else _session_gyro_bias(s, spec, seed, drawn=True,
-                                                                   intervals=r.static_intervals)
+                              gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)), rest=rest)
+                b_true = s.gyro_b if given else _session_gyro_bias(
+                    s, spec, seed, drawn=True, intervals=[rest] if rest else r.static_intervals)
                 z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
                 z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
     return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,

@@ -99,7 +99,7 @@ def write_allan_report(res, out_dir) -> Path:
             figures.append(_figure(name, d))
     if res.kalibr:
         tables.append(Table("Kalibr continuous-time noise (largest axis)", ["key", "value"],
-                            [[k, f"{v:.6g}" if isinstance(v, float) else str(v)] for k, v in res.kalibr.items()]))
+                            [[k, Cell(v, "{:.6g}") if isinstance(v, float) else v] for k, v in res.kalibr.items()]))
     study = StudyResult(name="allan", title=f"Allan deviation of {res.source or 'the log'}",
                         description=f"{res.n_samples} samples at {res.rate_hz:.6g} Hz over {res.duration_s / 3600:.3g} h.",
                         tables=tables, figures=figures, summary={"kalibr": res.kalibr})

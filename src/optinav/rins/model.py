@@ -28,6 +28,7 @@ Parameter vector ``p = [θx, θy, θz, ηx, ηy, ηz]`` (rad); every function ta
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from optinav.core.rotations import rot_x, rot_y, rot_z, small_angle_dcm
@@ -91,13 +92,58 @@ def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=No
     Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
     A = nonorth_dcm(p2[:, 0:3], small_angle)  # (P,3,3)
     B = nonorth_dcm(p2[:, 3:6], small_angle)
-    c = np.asarray(c_s_n, float)
-    # stacked matmul is several times faster than einsum for 3×3 blocks
-    out = c[None] @ A[:, None]
-    out = out @ Z[None]
-    out = out @ B[:, None]
-    out = out @ Y[None]
+    c = np.ascontiguousarray(c_s_n, dtype=float)
+    out = _chain(c, np.ascontiguousarray(A), np.ascontiguousarray(Z, dtype=float), np.ascontiguousarray(B),
+                 np.ascontiguousarray(Y, dtype=float))
     return out[0] if single else out
+
+
+@numba.njit(cache=True, nogil=True)
+def _chain(c, A, Z, B, Y):
+    """``c_t A_p Z_t B_p Y_t`` for every particle p and epoch t, (P, T, 3, 3): the products of NumPy's stacked
+    matmul (left to right, each element summed over k in order) in one pass, without the (P, T) temporaries
+    that made the fits' cost."""
+    P, T = A.shape[0], c.shape[0]
+    out = np.empty((P, T, 3, 3))
+    m1 = np.empty((3, 3))
+    m2 = np.empty((3, 3))
+    for p in range(P):
+        for t in range(T):
+            _mm(c[t], A[p], m1)
+            _mm(m1, Z[t], m2)
+            _mm(m2, B[p], m1)
+            _mm(m1, Y[t], out[p, t])
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _change_euler(C):
+    """:func:`euler_rpy` of :func:`attitude_change` for t ≥ 1, (P, T−1, 3), from the five elements of
+    ``E_t = C_0ᵀ C_t`` it needs."""
+    P, T = C.shape[0], C.shape[1]
+    out = np.empty((P, max(T - 1, 0), 3))
+    for p in range(P):
+        c0 = C[p, 0]
+        for t in range(1, T):
+            ct = C[p, t]
+            e = np.empty((3, 3))
+            for i in (0, 1, 2):
+                for j in (0, 1, 2):
+                    e[i, j] = c0[0, i] * ct[0, j] + c0[1, i] * ct[1, j] + c0[2, i] * ct[2, j]
+            out[p, t - 1, 0] = np.arctan2(-e[2, 0], e[2, 2])
+            out[p, t - 1, 1] = np.arcsin(min(max(e[2, 1], -1.0), 1.0))
+            out[p, t - 1, 2] = np.arctan2(-e[0, 1], e[1, 1])
+    return out
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mm(a, b, out):
+    for i in range(3):
+        for j in range(3):
+            s = a[i, 0] * b[0, j]
+            s += a[i, 1] * b[1, j]
+            s += a[i, 2] * b[2, j]
+            out[i, j] = s
 
 
 def sensor_attitude(C_b_n, alpha, beta, p, small_angle: bool = False) -> np.ndarray:
@@ -148,8 +194,7 @@ def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> 
         The residuals, epoch-major [rad] (ENU Euler convention).
     """
     p2, single = _params(p)
-    e = euler_rpy(attitude_change(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)))[:, 1:]
-    e = e.reshape(p2.shape[0], -1)
+    e = _change_euler(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)).reshape(p2.shape[0], -1)
     return e[0] if single else e
 
 
