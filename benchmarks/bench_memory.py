@@ -9,9 +9,10 @@ lengths give the growth per million rows (the imports cancel) and the peak extra
 rows were not run (a 1.3 GB CSV per step, and the "before" commands would need about 11 GB), so the 10 M
 figures are a linear extrapolation from 1 M and 3 M, which holds for the streamed commands only while their
 per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log. Streamed: apply (blocks of
-200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks).
-Calibrate reads in blocks (iter_imu) and keeps time, accelerometer and gyroscope (56 B per row) plus its
-moving-variance sums; it still holds the log, so it grows. Not streamed yet: the simulators (their noise processes
+200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks;
+``--offline`` runs its passes over a scratch file beside the output). Calibrate reads in blocks (iter_imu) into one
+array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
+static detection (16 B per row); it holds the log, so it grows. Not streamed yet: the simulators (their noise processes
 are drawn for the whole log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 

@@ -226,7 +226,20 @@ def atomic_path(path, option: str = "--out") -> Iterator[Path]:
 def scratch_file(path, option: str = "--out") -> Iterator:
     """A unique temporary binary file beside the output ``path`` (the same folder, so the same disk), open for
     reading and writing, and removed when the block ends, with or without error; OS errors become a one-line
-    :class:`OptinavError` naming ``path``."""
+    :class:`OptinavError` naming ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output the scratch data serve (its folder holds the file).
+    option : str
+        The CLI option that names it.
+
+    Yields
+    ------
+    file object
+        The open scratch file (binary, read and write).
+    """
     path = Path(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".scratch", dir=path.parent or ".")
