@@ -303,6 +303,19 @@ def test_attitude_offline_streamed_equals_whole(monkeypatch, tmp_path, flight_lo
     assert rms[0] <= rms[1] and rms[0] < 2.0, rms
 
 
+def test_attitude_offline_refuses_a_full_disk_up_front(monkeypatch, tmp_path, flight_log, capsys):
+    """Too little free space for the scratch file: a one-line error with the estimate, before any estimate, and no
+    file left."""
+    import optinav.attitude.filestream as fs
+
+    monkeypatch.setattr(fs, "_free_bytes", lambda path: 1000.0)
+    p, _ = flight_log
+    assert main(["--quiet", "attitude", str(p), "--offline", "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "--offline needs" in err and "GiB" in err and "drop --offline" in err
+    assert not any(tmp_path.iterdir())
+
+
 def test_attitude_offline_gaps_streamed_equals_whole(monkeypatch, tmp_path, session, capsys):
     """--offline over time gaps: refused without --allow-gaps (no output, no scratch file); with it each segment
     is smoothed on its own, streamed (blocks of 37 rows, gaps inside blocks) byte for byte as in memory."""

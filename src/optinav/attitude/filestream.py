@@ -296,6 +296,11 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
         fields["mag"] = 3
     if score is not None:
         fields.update(q_ref=4, movement=1)
+    need, free = checks.n * sum(fields.values()) * 8, _free_bytes(out)
+    if need > free:
+        raise OptinavError(f"--offline needs {need / 2**30:.2f} GiB of scratch space beside {out} for {checks.n} "
+                           f"samples; {free / 2**30:.2f} GiB are free there",
+                           "write --out to a disk with more free space, or drop --offline")
     with scratch_file(out) as fh:
         store = _Scratch(fh, fields)
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
@@ -339,6 +344,16 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
     line = summary_line("iframe", frame, n, offline=True, segments=len(bounds), rest=rest / n,
                         mag_used=mag_used / n if src.mag else None)
     return StreamRun(line, n, result)
+
+
+def _free_bytes(path) -> float:
+    """Free bytes on the disk of ``path``'s folder (inf when the OS cannot tell)."""
+    import shutil
+
+    try:
+        return float(shutil.disk_usage(Path(path).parent or ".").free)
+    except OSError:
+        return float("inf")
 
 
 def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int) -> float:
