@@ -19,7 +19,7 @@ def _static(c_true, seconds, rate, frame):
 def _unit(eps_b, nab_b, arw=0.0, vrw=0.0):
     return imu_model.ImuModel(gyr=imu_model.TriadErrors.from_six("gyro", bias=eps_b),
                               acc=imu_model.TriadErrors.from_six("accel", bias=nab_b),
-                              gyro_noise=imu_model.TriadNoise(white=arw), accel_noise=imu_model.TriadNoise(white=vrw))
+                              gyro_noise=imu_model.TriadNoise(white=arw), acc_noise=imu_model.TriadNoise(white=vrw))
 
 
 @pytest.mark.parametrize("frame", ["enu", "ned"])
@@ -30,8 +30,8 @@ def test_coarse_alignment_meets_first_order_theory(frame):
     truth = _static(c_true, 60.0, 100.0, frame)
     meas = _unit(eps_b, nab_b).apply(truth.dtheta, truth.dv, truth.dt, rng=0, kind="increment")
     T = truth.t[-1] - truth.t[0]
-    res = A.coarse_alignment(meas.accel.sum(0) / T, meas.gyro.sum(0) / T, LAT, 400.0, frame)
-    phi = A.attitude_error(res.dcm_b_n, c_true)
+    res = A.coarse_alignment(meas.acc.sum(0) / T, meas.gyr.sum(0) / T, LAT, 400.0, frame)
+    phi = A.attitude_error(res.C_b_n, c_true)
     pred = A.alignment_limits(c_true @ eps_b, c_true @ nab_b, LAT, 400.0, frame)
     # the prediction is first order: the neglected terms are ~|φ|² relative, here < 1e-2 of |φ_U|
     np.testing.assert_allclose(phi, pred, atol=1e-2 * np.abs(pred).max())
@@ -54,8 +54,8 @@ def test_coarse_alignment_with_noise_within_derived_band():
     errs = []
     for seed in range(5):
         meas = _unit(eps_b, nab_b, arw, vrw).apply(truth.dtheta, truth.dv, truth.dt, rng=seed, kind="increment")
-        res = A.coarse_alignment(meas.accel.sum(0) / T, meas.gyro.sum(0) / T, LAT, 400.0, frame)
-        errs.append(A.attitude_error(res.dcm_b_n, c_true) - pred)
+        res = A.coarse_alignment(meas.acc.sum(0) / T, meas.gyr.sum(0) / T, LAT, 400.0, frame)
+        errs.append(A.attitude_error(res.C_b_n, c_true) - pred)
     z = np.abs(np.array(errs)) / sig
     # 15 Gaussian draws: P(any |z| > 4.5) ≈ 15·6.8e-6 ≈ 1e-4; first-order residual ≪ σ here
     assert z.max() < 4.5, z
@@ -72,10 +72,10 @@ def test_fine_alignment_converges_to_limits_from_a_poor_start(frame):
     phi0 = np.radians([0.05, -0.05, 0.5])
     c0 = dcm_from_rotvec(phi0) @ c_true
     sig_h, sig_eps = np.radians(1.0), 3e-7  # heading prior (rad); gyro-bias prior ≈ the unit's spec (rad/s)
-    res = A.fine_alignment(truth.t, meas.gyro, meas.accel, LAT, 400.0, frame=frame, q0=quat_from_dcm(c0),
-                           gyro_white=1e-7, accel_white=1e-4, gyro_bias_std=sig_eps, accel_bias_std=1e-3,
+    res = A.fine_alignment(truth.t, meas.gyr, meas.acc, LAT, 400.0, frame=frame, q0=quat_from_dcm(c0),
+                           gyro_white=1e-7, acc_white=1e-4, gyro_bias_std=sig_eps, acc_bias_std=1e-3,
                            initial_attitude_std=[np.radians(0.1), np.radians(0.1), sig_h])
-    phi = A.attitude_error(res.dcm_b_n, c_true)
+    phi = A.attitude_error(res.C_b_n, c_true)
     pred = A.alignment_limits(c_true @ eps_b, c_true @ nab_b, LAT, 400.0, frame)
     # On a static base only ω_ie cos L·φ_U + ε_E is observable; the filter splits it by the priors, putting the
     # fraction k = s_h²/(s_h² + s_ε²) (s_h = ω_ie cos L σ_heading) on the heading. Its final heading error is
@@ -103,26 +103,26 @@ def test_fine_alignment_with_navigation_grade_noise():
     c_true = dcm_from_euler([0.003, -0.004, 1.3], frame)
     truth = _static(c_true, 300.0, 100.0, frame)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, rng=8, kind="increment")
-    res = A.fine_alignment(truth.t, meas.gyro, meas.accel, LAT, 400.0, frame=frame,
-                           gyro_white=unit.gyro_noise.white[0], accel_white=unit.accel_noise.white[0],
-                           gyro_bias_std=float(spec.gyro_bias[0]), accel_bias_std=float(spec.accel_bias[0]),
+    res = A.fine_alignment(truth.t, meas.gyr, meas.acc, LAT, 400.0, frame=frame,
+                           gyro_white=unit.gyro_noise.white[0], acc_white=unit.acc_noise.white[0],
+                           gyro_bias_std=float(spec.gyro_bias[0]), acc_bias_std=float(spec.acc_bias[0]),
                            gyro_bias_instability=unit.gyro_noise.gm_sigma[0], gyro_bias_tau=unit.gyro_noise.gm_tau[0],
-                           accel_bias_instability=unit.accel_noise.gm_sigma[0],
-                           accel_bias_tau=unit.accel_noise.gm_tau[0])
-    phi = A.attitude_error(res.dcm_b_n, c_true)
+                           acc_bias_instability=unit.acc_noise.gm_sigma[0],
+                           acc_bias_tau=unit.acc_noise.gm_tau[0])
+    phi = A.attitude_error(res.C_b_n, c_true)
     # Level: the unit's constant biases give the limit ∇/g; its white noise over T adds σ = VRW/(g√T), and the
     # in-run Gauss–Markov drift (σ_GM) moves the limit by up to a few σ_GM/g: allow 4σ + 3σ_GM/g.
     T, g = 300.0, earth.gravity(LAT, 400.0)
     pred = A.alignment_limits(c_true @ unit.gyr.bias, c_true @ unit.acc.bias, LAT, 400.0, frame)
-    sig_lvl = unit.accel_noise.white[0] / g / np.sqrt(T)
-    drift_lvl = unit.accel_noise.gm_sigma[0] / g
+    sig_lvl = unit.acc_noise.white[0] / g / np.sqrt(T)
+    drift_lvl = unit.acc_noise.gm_sigma[0] / g
     assert np.all(np.abs(phi[:2] - pred[:2]) < 4 * sig_lvl + 3 * drift_lvl), (phi, pred)
     # Heading by gyrocompassing is limited by the accelerometer drift ((∇/τ)/(g ω_ie cos L), hundreds of
     # arcsec here), not by the constant-bias limit; the filter models that drift, so its own σ must cover the
     # error (3σ) and must itself be no larger than that drift bound says (else the check could not fail).
     sig_up = res.attitude_std[2]
-    drift_up = 3 * unit.accel_noise.gm_sigma[0] / unit.accel_noise.gm_tau[0] / (g * W_IE * np.cos(LAT)) * np.sqrt(
-        unit.accel_noise.gm_tau[0] / T) + abs(pred[2])
+    drift_up = 3 * unit.acc_noise.gm_sigma[0] / unit.acc_noise.gm_tau[0] / (g * W_IE * np.cos(LAT)) * np.sqrt(
+        unit.acc_noise.gm_tau[0] / T) + abs(pred[2])
     assert abs(phi[2]) < 3 * sig_up, (phi, sig_up)
     assert sig_up < drift_up, (sig_up, drift_up)
 
@@ -144,7 +144,7 @@ def test_fine_alignment_rejects_bad_bias_model():
     with pytest.raises(OptinavError, match="correlation times"):
         A.fine_alignment(t, z, z + [0, 0, 0.098], LAT, gyro_bias_tau=0.0)
     with pytest.raises(OptinavError, match="instability"):
-        A.fine_alignment(t, z, z + [0, 0, 0.098], LAT, accel_bias_instability=-1.0)
+        A.fine_alignment(t, z, z + [0, 0, 0.098], LAT, acc_bias_instability=-1.0)
 
 
 def test_coarse_alignment_without_rotation_signal():

@@ -153,9 +153,43 @@ def test_apply_says_an_attitude_estimate_has_nothing_to_apply(attitude, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "attitude estimate" in err and "nothing to apply" in err
     assert not (d / "x.csv").exists()
-    # its report needs the log's time stamps
-    assert main(["--quiet", "report", str(result), "--out", str(d / "rep")]) == 2
-    assert "pass the log it came from with --data" in capsys.readouterr().err
+    # its report needs the log's time stamps: a one-line error, and no folder left behind (nor its parents)
+    for rep in (d / "rep", d / "new" / "deeper" / "rep", d / "rep.md"):
+        assert main(["--quiet", "report", str(result), "--out", str(rep)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "pass the log it came from with --data" in err
+        assert not rep.exists() and not (d / "new").exists() and not (d / "rep_files").exists()
+
+
+def test_a_failed_report_leaves_nothing_behind(gfimu, attitude, capsys):
+    """Two results, the second's --data a log of another length: the first report was written, then the second
+    failed; neither sub-folder, nor the Markdown file, stays. A --report folder is made only when the report
+    is written, so a command that fails after checking it leaves none."""
+    d, _, result = gfimu
+    da, data, est = attitude
+    short = da / "short.csv"
+    short.write_text("\n".join(data.read_text().splitlines()[:200]) + "\n")
+    for out, made in ((d / "two", d / "two"), (d / "two.md", d / "two_files")):
+        assert main(["--quiet", "report", str(result), str(est), "--data", str(d / "t.npz"), "--data", str(short),
+                     "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "samples, the estimate" in err
+        assert not out.exists() and not made.exists()
+    # an existing --out folder stays, without the sub-folders this run made
+    (d / "kept").mkdir()
+    assert main(["--quiet", "report", str(result), str(est), "--data", str(d / "t.npz"), "--data", str(short),
+                 "--out", str(d / "kept")]) == 2
+    capsys.readouterr()
+    assert (d / "kept").is_dir() and not any((d / "kept").iterdir())
+    # calibrate/attitude --report: checked first, made only with the report
+    rep = da / "att_rep"
+    assert main(["--quiet", "attitude", str(data), "--reference", "--frame", "NED", "--out",
+                 str(da / "att.csv"), "--report", str(rep)]) == 2
+    assert "--frame ENU" in capsys.readouterr().err and not rep.exists() and not (da / "att.csv").exists()
+    (da / "a_file").write_text("x")
+    assert main(["--quiet", "attitude", str(data), "--out", str(da / "att.csv"), "--report",
+                 str(da / "a_file" / "rep")]) == 2
+    assert "is a file" in capsys.readouterr().err
 
 
 def _table(summary: dict, title_start: str) -> list:

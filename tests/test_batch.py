@@ -39,7 +39,7 @@ def units(tmp_path_factory):
     for name, acc_unit, seed in UNITS:
         s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(LAT),
                      height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
-        write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit=acc_unit, gyro_unit="rad/s"))
+        write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s
     (d / BAD).write_text("t,ax,ay,az\n0,1,2\n1,2,oops,4\n")
     (d / "u1.truth.json").write_text("{}")  # not a unit
@@ -84,7 +84,7 @@ def _check_rows_against_truth(rows, truth, units_dir):
         Kgs = np.array([[r[f"gyr_K_{a}{b}_std"] for b in "xyz"] for a in "xyz"])
         bg = np.array([r[f"gyr_b_{a}"] for a in "xyz"])
         bgs = np.array([r[f"gyr_b_{a}_std"] for a in "xyz"])
-        assert np.all(np.abs(Kg - s.gyro_K @ Q.T) < 5 * Kgs), unit
+        assert np.all(np.abs(Kg - s.gyr_K @ Q.T) < 5 * Kgs), unit
         # the reported bias is the session's (the unit's bias plus the mean of its drift over the rests)
         b_session = _session_gyro_bias(s, preset("mems-mti1"), SEEDS[unit], drawn=True)
         assert np.all(np.abs(bg - b_session) < 5 * bgs), (unit, (bg - b_session) / bgs)

@@ -22,7 +22,7 @@ OFFSET = 32768.0
 def sim():
     """18 poses in raw counts, written as an unsigned 16-bit ADC does (offset binary, centred at 32768)."""
     s = simulate("18", dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=5)
-    return s, np.round(s.acc + OFFSET), np.round(s.gyro + OFFSET)
+    return s, np.round(s.acc + OFFSET), np.round(s.gyr + OFFSET)
 
 
 def _cli_error(capsys, argv) -> str:
@@ -65,7 +65,7 @@ def test_unsigned_counts_calibrate_against_truth(sim):
     # rounding to counts adds 1/√12 count of noise: tolerance from the reported std
     assert np.all(np.abs(a["K"] - U)[iu] < 5 * a["K_std"][iu] + 1e-9)
     assert np.all(np.abs(a["b"] - (s.acc_b + OFFSET)) < 5 * a["b_std"])
-    Kg = s.gyro_K @ Q.T
+    Kg = s.gyr_K @ Q.T
     assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"] + 1e-3 * np.abs(Kg).max())
 
 
@@ -90,7 +90,7 @@ def test_a_gyro_turn_at_full_scale_is_left_out_with_a_note(sim):
     assert r.excluded["saturated_turns"] == 1 and r.excluded["saturated_gyro"] == 1
     assert any("saturates during 1 turn" in n for n in r.quality["notes"])
     _, Q = model.upper_triangular_form(s.acc_K)
-    Kg = s.gyro_K @ Q.T
+    Kg = s.gyr_K @ Q.T
     assert r.gyroscope["n_transitions"] == len(iv) - 2
     assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"] + 1e-3 * np.abs(Kg).max())
 
@@ -130,7 +130,7 @@ def test_standard_gravity_default_is_announced(sim):
 def test_gyro_in_degrees_labelled_radians_is_a_unit_error(sim):
     s, _, _ = sim
     acc = s.acc / (2048 / 9.80665)
-    gyr_deg = s.gyro / 16.4  # counts → deg/s
+    gyr_deg = s.gyr / 16.4  # counts → deg/s
     with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
         calibrate(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
 
@@ -313,14 +313,14 @@ def test_a_drifting_gyro_bias_fails_static_and_calibrates_by_default(sim):
         calibrate(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity, gyro_bias="static")
     r = calibrate(s.t, acc, gyr + ramp, acc_unit="counts", gyro_unit="counts", g=s.gravity)  # local
     _, Q = model.upper_triangular_form(s.acc_K)
-    Kg = s.gyro_K @ Q.T
+    Kg = s.gyr_K @ Q.T
     assert np.all(np.abs(r.gyroscope["K"] - Kg) < 5 * r.gyroscope["K_std"])
     # the reported bias is the session's (the mean of the bias over the rests used), and its std is that of it:
     # the interpolation tracks the drift, which is no error of the session's bias and not in its std
     rest = np.zeros(s.t.size, bool)
     for t0, t1 in np.asarray(r.static_intervals):
         rest |= (s.t >= t0) & (s.t <= t1)
-    b_session = s.gyro_b + OFFSET + ramp[rest].mean(axis=0)
+    b_session = s.gyr_b + OFFSET + ramp[rest].mean(axis=0)
     assert np.all(np.abs(r.gyroscope["b"] - b_session) < 3 * r.gyroscope["b_std"])
     assert np.all(r.gyroscope["b_std"] < 0.01 * np.abs(ramp[-1]))
 
@@ -347,20 +347,20 @@ def test_default_gyro_bias_follows_a_drift_and_its_std_covers_it():
     s = simulate("18", spec=preset("mems-mti1", gyro_bias_instability=(100, "deg/h")), dwell_s=8, rest_s=5,
                          acc_unit="counts", gyro_unit="counts", rng=11)
     _, Q = model.upper_triangular_form(s.acc_K)
-    Kg = s.gyro_K @ Q.T
+    Kg = s.gyr_K @ Q.T
     kw = dict(acc_unit="counts", gyro_unit="counts", g=s.gravity)
-    st = calibrate(s.t, s.acc, s.gyro, gyro_bias="static", **kw).gyroscope
-    lo = calibrate(s.t, s.acc, s.gyro, **kw).gyroscope
+    st = calibrate(s.t, s.acc, s.gyr, gyro_bias="static", **kw).gyroscope
+    lo = calibrate(s.t, s.acc, s.gyr, **kw).gyroscope
     assert lo["bias_mode"] == "local"
-    z_static = np.abs(st["b"] - s.gyro_b) / st["b_std"]
+    z_static = np.abs(st["b"] - s.gyr_b) / st["b_std"]
     from optinav.multipos.uncertainty import _session_gyro_bias
 
     b_session = _session_gyro_bias(s, preset("mems-mti1", gyro_bias_instability=(100, "deg/h")), 11, drawn=True)
     z_local = np.abs(lo["b"] - b_session) / lo["b_std"]
     assert np.max(z_static) > 2 and np.all(z_local < 3), (z_static, z_local)
     assert np.sum(np.abs(lo["K"] - Kg)) < np.sum(np.abs(st["K"] - Kg))
-    sigma = GM_SIGMA_PER_BIAS_INSTABILITY * 100 * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
-    given = calibrate(s.t, s.acc, s.gyro, gyro_bias_instability=sigma, gyro_bias_corr_time=100.0, **kw).gyroscope
+    sigma = GM_SIGMA_PER_BIAS_INSTABILITY * 100 * DEG / 3600 * float(np.mean(np.diag(s.gyr_K)))
+    given = calibrate(s.t, s.acc, s.gyr, gyro_bias_instability=sigma, gyro_bias_corr_time=100.0, **kw).gyroscope
     assert np.all(given["b_std"] < sigma) and np.all(given["b_std"] > 0.5 * sigma)
-    assert np.all(np.abs(given["b"] - s.gyro_b) < 3 * given["b_std"])
+    assert np.all(np.abs(given["b"] - s.gyr_b) < 3 * given["b_std"])
     np.testing.assert_allclose(given["K"], lo["K"])

@@ -37,7 +37,7 @@ def test_simulate_calibrate_apply_round_trip(session, capsys):
     for key in ("schema", "version", "optinav_version", "parameters", "convergence", "quality_gates", "elapsed_s",
                 "method", "fields"):
         assert key in raw
-    assert raw["schema"] == "optinav.multipos.calibration" and raw["version"] == 2
+    assert raw["schema"] == "optinav.multipos.calibration" and raw["version"] == 3
     assert raw["convergence"]["converged"] is True and raw["elapsed_s"] > 0
     assert raw["quality_gates"] and all(g["passed"] for g in raw["quality_gates"])
     assert raw["parameters"]["acc_K_xx"]["unit"] == "counts per m/s^2"

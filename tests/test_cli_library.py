@@ -24,11 +24,11 @@ def test_simulate_static_is_the_preset_at_rest(rest):
     spec = preset("mems-mti1")
     assert rest.t.size == 90_000 and rest.t[1] == pytest.approx(0.02)
     # the mean of white + flicker noise over the log is gravity (z) and zero (rate) within a few white-noise sigmas
-    sigma_mean = np.max(spec.accel_vrw) / np.sqrt(rest.t[-1])
+    sigma_mean = np.max(spec.acc_vrw) / np.sqrt(rest.t[-1])
     g = float(gravity(np.radians(45.0), 0.0))
-    assert np.allclose(rest.acc.mean(axis=0), [0, 0, g], atol=10 * sigma_mean + 3 * np.max(spec.accel_bias_instability))
+    assert np.allclose(rest.acc.mean(axis=0), [0, 0, g], atol=10 * sigma_mean + 3 * np.max(spec.acc_bias_instability))
     p = rest.truth.parameters
-    assert p["acc_white_x"].value == pytest.approx(spec.accel_vrw[0]) and p["gyr_random_walk_z"].value == 0.0
+    assert p["acc_white_x"].value == pytest.approx(spec.acc_vrw[0]) and p["gyr_random_walk_z"].value == 0.0
     assert rest.truth.info["seed"] == 3 and rest.truth.info["rate_hz"] == 50.0
     again = simulate_static(1800.0, "mems-mti1", rate_hz=50.0, seed=3)
     assert np.array_equal(again.gyr, rest.gyr)  # the seed fixes the draws
@@ -137,7 +137,7 @@ def test_plan_noise_sources(tmp_path):
 
     acc, gyro, text = plan_noise()
     spec = preset("mems-mti1")
-    assert np.array_equal(acc, spec.accel_vrw) and np.array_equal(gyro, spec.gyro_arw) and "assumed" in text
+    assert np.array_equal(acc, spec.acc_vrw) and np.array_equal(gyro, spec.gyro_arw) and "assumed" in text
     acc, gyro, text = plan_noise(acc_noise_density=1e-3)
     assert np.array_equal(acc, np.full(3, 1e-3)) and gyro is None
     assert f"accelerometer {1e-3 / 9.80665e-6:.3g} µg/√Hz" in text
@@ -153,9 +153,9 @@ def test_simulated_session_log_and_truth():
                  rng=2)
     log = s.log()
     assert log.acc_unit == "m/s^2" and log.gyro_unit == "rad/s"
-    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyro))
+    assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyr))
     truth = s.truth({"latitude_deg": 38.88}, {"seed": 2})
-    want = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="g", gyro_unit="deg/s")
+    want = session_truth(s.acc_K, s.acc_b, s.gyr_K, s.gyr_b, acc_unit="g", gyro_unit="deg/s")
     assert truth.parameters.keys() == want.parameters.keys()
     assert all(truth.parameters[k].value == want.parameters[k].value for k in want.parameters)
     assert truth.info["seed"] == 2 and truth.info["accelerometer"]["K"] == s.acc_K.tolist()

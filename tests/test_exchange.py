@@ -89,8 +89,8 @@ def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
         assert np.allclose(R @ R.T, np.eye(3), atol=1e-14) and np.linalg.det(R) == pytest.approx(1.0)
     back = calibration_from_kalibr(data)
     G = res.gyroscope.get("G", np.zeros((3, 3)))
-    assert _close(back["acc_K"], res.accelerometer["K"]) and _close(back["gyro_K"], res.gyroscope["K"])
-    assert np.max(np.abs(back["gyro_G"] - G)) <= 1e-12 * np.abs(res.gyroscope["K"]).max()
+    assert _close(back["acc_K"], res.accelerometer["K"]) and _close(back["gyr_K"], res.gyroscope["K"])
+    assert np.max(np.abs(back["gyr_G"] - G)) <= 1e-12 * np.abs(res.gyroscope["K"]).max()
     # Kalibr's equation in its frame: f·(raw − b) = M_a·a_i and M_g·C·ω_i + A·C·a_i for a, ω in optinav's frame
     rng = np.random.default_rng(seed)
     a_s, w_s = rng.normal(0, 9.8, 3), rng.normal(0, 1.0, 3)

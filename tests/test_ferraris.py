@@ -55,9 +55,9 @@ def test_example_session_matches_imucal_calibration(example):
     # imucal convention -> ours by hand: K = K_a R_a (m/s^2 raw per m/s^2); gyro deg/s raw per rad/s
     assert _rel(cal.acc_K, ref.K_a @ ref.R_a) < 1e-12
     assert _rel(cal.acc_b, ref.b_a) < 1e-12
-    assert _rel(cal.gyro_K, ref.K_g @ ref.R_g / DEG) < 1e-12
-    assert _rel(cal.gyro_G, ref.K_ga) < 1e-12
-    assert _rel(cal.gyro_b, ref.b_g) < 1e-12
+    assert _rel(cal.gyr_K, ref.K_g @ ref.R_g / DEG) < 1e-12
+    assert _rel(cal.gyr_G, ref.K_ga) < 1e-12
+    assert _rel(cal.gyr_b, ref.b_g) < 1e-12
     back = cal.to_imucal()
     assert isinstance(back, ImucalCalibration) and back.from_acc_unit == "m/s^2"
     for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
@@ -84,7 +84,7 @@ def test_example_session_reproduces_imucal_calibrated_rows(example):
 def test_timestamps_give_the_rate_result(example):
     acc, gyro, sections, cal = example
     cal_t = ferraris_from_sections(np.arange(acc.shape[0]) / 102.4, acc, gyro, sections)
-    assert _rel(cal_t.gyro_K, cal.gyro_K) < 1e-12
+    assert _rel(cal_t.gyr_K, cal.gyr_K) < 1e-12
     assert _rel(cal_t.acc_K, cal.acc_K) == 0.0
 
 
@@ -109,7 +109,7 @@ def test_annotated_session_in_counts_matches_imucal_snapshot():
         assert _rel(getattr(got, k), getattr(ref, k)) < 1e-12, k
     # ~2048 counts/g and ~16.4 counts/(deg/s): sanity of the units
     assert np.diag(cal.acc_K) * 9.81 == pytest.approx([2048] * 3, rel=0.05)
-    assert np.abs(np.diag(cal.gyro_K)) * DEG == pytest.approx([16.4] * 3, rel=0.05)
+    assert np.abs(np.diag(cal.gyr_K)) * DEG == pytest.approx([16.4] * 3, rel=0.05)
 
 
 @needs_data
@@ -118,7 +118,7 @@ def test_legacy_imucal_file_is_the_example_in_counts():
     legacy = read_imucal_json(DATA / "legacy_calibration_pre_2.0.json").to_optinav()
     ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
     sa, sg = 2048 / 9.81, 16.384
-    for k, s in (("acc_K", sa), ("acc_b", sa), ("gyro_K", sg), ("gyro_G", sg), ("gyro_b", sg)):
+    for k, s in (("acc_K", sa), ("acc_b", sa), ("gyr_K", sg), ("gyr_G", sg), ("gyr_b", sg)):
         assert _rel(legacy[k], s * ref[k]) < 1e-9, k
 
 
@@ -159,7 +159,7 @@ def test_noise_free_session_recovers_the_truth_exactly():
     theta = np.array([-2 * np.pi, 2 * np.pi, -4 * np.pi])
     sess = _session(truth, 9.80, 200.0, 400, theta)
     cal = ferraris_calibration(*sess, rate_hz=200.0, expected_angle=theta, gravity=9.80)
-    for got, want in zip((cal.acc_K, cal.acc_b, cal.gyro_K, cal.gyro_G, cal.gyro_b), truth):
+    for got, want in zip((cal.acc_K, cal.acc_b, cal.gyr_K, cal.gyr_G, cal.gyr_b), truth):
         assert _rel(got, want) < 1e-12
     np.testing.assert_allclose(cal.acc_static_norm, 9.80, rtol=1e-13)
     # corrected outputs are the true inputs
@@ -175,7 +175,7 @@ def test_noise_free_session_recovers_the_truth_exactly():
     cal2 = ferraris_calibration({k: v.mean(axis=0) for k, v in acc_s.items()},
                                 [gyr_s[n].mean(axis=0) for n in POSES], acc_r, gyr_r, dt=1 / 200.0,
                                 expected_angle=theta, gravity=9.80)
-    assert _rel(cal2.gyro_K, cal.gyro_K) < 1e-12 and _rel(cal2.gyro_b, cal.gyro_b) < 1e-12
+    assert _rel(cal2.gyr_K, cal.gyr_K) < 1e-12 and _rel(cal2.gyr_b, cal.gyr_b) < 1e-12
 
 
 def test_noisy_session_errors_match_the_noise():
@@ -187,8 +187,8 @@ def test_noisy_session_errors_match_the_noise():
     # K_a column = (mean_p - mean_a)/(2g): sigma sa*sqrt(2/n)/(2g); b_a: sa*sqrt(2/n)/2; b_g: sg/sqrt(6n)
     assert np.all(np.abs(cal.acc_K - truth[0]) < 5 * sa * np.sqrt(2 / n) / (2 * g))
     assert np.all(np.abs(cal.acc_b - truth[1]) < 5 * sa * np.sqrt(2 / n) / 2)
-    assert np.all(np.abs(cal.gyro_G - truth[3]) < 5 * sg * np.sqrt(2 / n) / (2 * g))
-    assert np.all(np.abs(cal.gyro_b - truth[4]) < 5 * sg / np.sqrt(6 * n))
+    assert np.all(np.abs(cal.gyr_G - truth[3]) < 5 * sg * np.sqrt(2 / n) / (2 * g))
+    assert np.all(np.abs(cal.gyr_b - truth[4]) < 5 * sg / np.sqrt(6 * n))
     assert np.any(np.abs(cal.acc_K - truth[0]) > 0.1 * sa * np.sqrt(2 / n) / (2 * g))  # noise did enter
 
 
@@ -229,7 +229,7 @@ def test_irregular_timestamps_integrate_exactly():
     acc, gyr = np.concatenate(acc), np.concatenate(gyr)
     t = t[: acc.shape[0]]
     cal = ferraris_from_sections(t, acc, gyr, sections)
-    assert _rel(cal.gyro_K, K_g) < 1e-12
+    assert _rel(cal.gyr_K, K_g) < 1e-12
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -267,7 +267,7 @@ def test_result_json_round_trip(tmp_path):
     cal.to_json(tmp_path / "c.json")
     back = Result.from_json(tmp_path / "c.json")
     assert isinstance(back, FerrarisCalibration) and back.acc_unit == "counts"
-    np.testing.assert_array_equal(back.gyro_K, cal.gyro_K)
+    np.testing.assert_array_equal(back.gyr_K, cal.gyr_K)
     assert json.loads((tmp_path / "c.json").read_text())["schema"] == "optinav.ferraris_calibration"
 
 

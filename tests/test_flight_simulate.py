@@ -37,10 +37,10 @@ def test_static_accelerometer_is_gravity(static):
     np.testing.assert_allclose(f.acc_true, expect, atol=1e-6)
     spec = preset("mpu6000")
     n = len(f)
-    sigma = spec.accel_vrw * np.sqrt(100.0)  # white noise per sample (m/s²)
-    lsb = spec.accel_lsb
+    sigma = spec.acc_vrw * np.sqrt(100.0)  # white noise per sample (m/s²)
+    lsb = spec.acc_lsb
     # mean: white noise 5σ/√N, plus the in-run Gauss–Markov bias (σ = 1.076·B, 5σ) and half an LSB
-    tol = 5 * sigma / np.sqrt(n) + 5 * 1.076 * spec.accel_bias_instability + lsb / 2
+    tol = 5 * sigma / np.sqrt(n) + 5 * 1.076 * spec.acc_bias_instability + lsb / 2
     assert np.all(np.abs(f.acc.mean(axis=0) - expect.mean(axis=0)) < tol)
     std = (f.acc - expect).std(axis=0)
     assert np.all(np.abs(std - np.sqrt(sigma ** 2 + lsb ** 2 / 12)) < 0.1 * sigma)
@@ -82,7 +82,7 @@ def test_dynamic_flight_has_strong_manoeuvres(dynamic):
     a_n = np.einsum("nij,nj->ni", f.C_b_n, f.acc_true) + gravity_vector(f.lat, f.height_m, "ned")  # kinematic
     a = np.linalg.norm(a_n, axis=1)
     assert a.max() > 3.0  # strong accelerations (m/s²)
-    assert f.metadata["gyro_saturated"] == 0 and f.metadata["accel_saturated"] == 0
+    assert f.metadata["gyro_saturated"] == 0 and f.metadata["acc_saturated"] == 0
     assert np.max(np.abs(f.euler[:, :2])) > 15 * DEG  # real tilts
     # still on the ground for the first 10 % of the flight, 4 s here (the estimators initialize from gravity)
     still = f.t < 3.0  # the position spline rings ~1e-3 m/s² within a few knots of the ramp

@@ -54,8 +54,8 @@ def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
     out = tmp_path / "r.json"
     assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out)]) == 0
     r = json.loads(out.read_text())["fields"]
-    est = np.array(r["estimate"]["value"]["__ndarray__"])
-    std = np.array(r["std"]["value"]["__ndarray__"])
+    est = np.array(r["estimate"]["value"])
+    std = np.array(r["std"]["value"])
     tv = np.array(list(truth["coefficients"].values()))
     assert est.shape == (50,)
     assert np.abs((est - tv) / std).max() < 4.5

@@ -99,7 +99,7 @@ def test_result_json_and_data_files(tmp_path):
     for suf in (".npz", ".csv"):
         d.save(tmp_path / f"d{suf}")
         d2 = TurntableData.load(tmp_path / f"d{suf}", 10)
-        np.testing.assert_allclose(d2.f, d.f, rtol=1e-11)
+        np.testing.assert_allclose(d2.acc, d.acc, rtol=1e-11)
         assert list(d2.case) == list(d.case) and d2.gamma == pytest.approx(d.gamma)
     with pytest.raises(OptinavError, match="6 accelerometer|configuration"):
         calibrate(builtin().with_geometry(arr.positions[:6], arr.directions[:6]), d)

@@ -65,11 +65,11 @@ def test_imu_model_apply_compensate_identity(gyro, accel, w, f, kind, dt):
     """Noise-free, no saturation/quantization: compensate∘apply = id (g-sensitivity uses compensated f)."""
     model = ImuModel(gyr=gyro, acc=accel)
     meas = model.apply(w, f, dt, kind=kind, noise=False)
-    comp = model.compensate(meas.gyro, meas.accel, dt, kind=kind)
-    assert np.allclose(comp.accel, f, rtol=0, atol=_tol(f, meas.accel, accel.bias))
-    assert np.allclose(comp.gyro, w, rtol=0, atol=_tol(w, meas.gyro, gyro.bias, f))
-    back = model.apply(comp.gyro, comp.accel, dt, kind=kind, noise=False)  # apply∘compensate = id
-    assert np.allclose(back.gyro, meas.gyro, rtol=0, atol=_tol(w, meas.gyro, gyro.bias, f))
+    comp = model.compensate(meas.gyr, meas.acc, dt, kind=kind)
+    assert np.allclose(comp.acc, f, rtol=0, atol=_tol(f, meas.acc, accel.bias))
+    assert np.allclose(comp.gyr, w, rtol=0, atol=_tol(w, meas.gyr, gyro.bias, f))
+    back = model.apply(comp.gyr, comp.acc, dt, kind=kind, noise=False)  # apply∘compensate = id
+    assert np.allclose(back.gyr, meas.gyr, rtol=0, atol=_tol(w, meas.gyr, gyro.bias, f))
 
 
 def test_six_term_form_reproduces_paper_products():
@@ -128,9 +128,9 @@ def test_white_noise_std_matches_density(kind):
     meas = model.apply(np.zeros((n, 3)), np.zeros((n, 3)), dt, rng=1, kind=kind)
     sigma = N * (math.sqrt(dt) if kind == "increment" else 1 / math.sqrt(dt))
     lo, hi = _chi2_bounds(n)
-    ratio = np.mean(meas.gyro**2, axis=0) / sigma**2
+    ratio = np.mean(meas.gyr**2, axis=0) / sigma**2
     assert np.all((lo < ratio) & (ratio < hi)), ratio
-    assert np.all(meas.accel == 0)
+    assert np.all(meas.acc == 0)
 
 
 def test_white_noise_irregular_dt():
@@ -178,7 +178,7 @@ def test_rate_random_walk_allan_slope_and_level():
     τ = 3 s lies within 4× its relative 1σ."""
     K, dt, n = 1e-4, 0.1, 2**16
     model = ImuModel(gyro_noise=TriadNoise(random_walk=K))
-    y = model.apply(np.zeros((n, 3)), np.zeros((n, 3)), dt, rng=7).gyro
+    y = model.apply(np.zeros((n, 3)), np.zeros((n, 3)), dt, rng=7).gyr
     ad = allan_deviation(y, dt, taus=dt * 2 ** np.arange(4, 15), noise="random_walk", confidence=1 - 1e-4)
     truth = K * np.sqrt(ad.tau / 3)[:, None]
     assert np.all((ad.lower < truth) & (truth < ad.upper))
@@ -192,13 +192,13 @@ def test_bias_instability_mapping_reads_back_from_allan():
     IEEE 952 read-off returns B: within the flat region (|slope| ≤ 0.125) the model curve lies within
     2.6 % below the peak, plus 4× the read-off's relative 1σ of sampling error."""
     B = 1e-4
-    spec = ImuSpec(gyro_bias_instability=B, gyro_bias_corr_time=1.0, sample_rate=20.0)
+    spec = ImuSpec(gyro_bias_instability=B, gyro_bias_corr_time=1.0, rate_hz=20.0)
     unit = spec.draw(0)
     assert unit.gyro_noise.gm_sigma == pytest.approx(np.full(3, B * GM_SIGMA_PER_BIAS_INSTABILITY))
     assert GM_SIGMA_PER_BIAS_INSTABILITY == pytest.approx(FLICKER_FLOOR / 0.6173642831)
     n = 100_000
-    y = unit.apply(np.zeros((n, 3)), np.zeros((n, 3)), rng=8).gyro
-    ad = allan_deviation(y, 1 / spec.sample_rate, taus=0.05 * 2 ** np.arange(0, 14, 0.25))
+    y = unit.apply(np.zeros((n, 3)), np.zeros((n, 3)), rng=8).gyr
+    ad = allan_deviation(y, 1 / spec.rate_hz, taus=0.05 * 2 ** np.arange(0, 14, 0.25))
     p = noise_parameters_from_allan(ad)
     rel = p.bias_instability / B
     assert np.all((rel > 0.974 - 4 * p.bias_instability_rel_sigma) & (rel < 1 + 4 * p.bias_instability_rel_sigma))
@@ -225,9 +225,9 @@ def test_saturation_flags_exactly_samples_beyond_range(kind):
     assert expected.any() and (~expected).any()
     assert np.array_equal(meas.gyro_saturated, expected)
     bound = rng_lim * (dt[:, None] if kind == "increment" else 1.0)
-    assert np.allclose(meas.gyro[expected], (np.sign(ideal) * bound)[expected], rtol=1e-15, atol=0)
-    assert np.array_equal(meas.gyro[~expected], ideal[~expected])
-    assert not meas.accel_saturated.any()
+    assert np.allclose(meas.gyr[expected], (np.sign(ideal) * bound)[expected], rtol=1e-15, atol=0)
+    assert np.array_equal(meas.gyr[~expected], ideal[~expected])
+    assert not meas.acc_saturated.any()
 
 
 def test_quantized_increment_sum_stays_within_one_lsb():
@@ -252,14 +252,14 @@ def test_quantized_increment_sum_stays_within_one_lsb():
 
 
 def test_quantization_through_model():
-    spec = ImuSpec(gyro_lsb=(1e-4), accel_lsb=1e-3, lsb_kind="increment", sample_rate=200.0)
+    spec = ImuSpec(gyro_lsb=(1e-4), acc_lsb=1e-3, lsb_kind="increment", rate_hz=200.0)
     unit = spec.draw(errors=False)
     rng = np.random.default_rng(11)
     n = 5000
     w, f = rng.normal(0, 0.3, (n, 3)) / 200, rng.normal(0, 2.0, (n, 3)) / 200
     meas = unit.apply(w, f, kind="increment", noise=False)
-    assert np.all(np.abs(np.cumsum(meas.gyro - w, 0)) <= 1e-4 * (0.5 + 1e-6))
-    assert np.all(np.abs(np.cumsum(meas.accel - f, 0)) <= 1e-3 * (0.5 + 1e-6))
+    assert np.all(np.abs(np.cumsum(meas.gyr - w, 0)) <= 1e-4 * (0.5 + 1e-6))
+    assert np.all(np.abs(np.cumsum(meas.acc - f, 0)) <= 1e-3 * (0.5 + 1e-6))
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -272,42 +272,42 @@ def test_presets_convert_published_numbers():
     assert rlg.gyro_arw == pytest.approx(np.full(3, 0.0005 * DEG / 60))  # 0.0005 °/√h = 1.4544e-7 rad/√s
     assert rlg.gyro_arw[0] == pytest.approx(1.4544410e-7, rel=1e-7)
     assert rlg.gyro_scale == pytest.approx(np.full(3, 2e-6))
-    assert rlg.accel_bias == pytest.approx(np.full(3, 1.96133e-4))  # 20 μg
-    assert rlg.sample_rate == 200.0
+    assert rlg.acc_bias == pytest.approx(np.full(3, 1.96133e-4))  # 20 μg
+    assert rlg.rate_hz == 200.0
 
     mti = preset("mems-mti1")
     assert mti.gyro_arw[0] == pytest.approx(0.007 * DEG)  # 1.2217e-4 rad/s/√Hz
     assert mti.gyro_bias_instability[0] == pytest.approx(4.8481368e-5, rel=1e-7)  # 10 °/h
-    assert mti.accel_vrw[0] == pytest.approx(120e-6 * G0)  # 1.1768e-3 m/s²/√Hz
-    assert mti.accel_bias_instability[0] == pytest.approx(2.941995e-4, rel=1e-6)  # 0.03 mg
-    assert mti.gyro_range[0] == pytest.approx(2000 * DEG) and mti.accel_range[0] == pytest.approx(16 * G0)
+    assert mti.acc_vrw[0] == pytest.approx(120e-6 * G0)  # 1.1768e-3 m/s²/√Hz
+    assert mti.acc_bias_instability[0] == pytest.approx(2.941995e-4, rel=1e-6)  # 0.03 mg
+    assert mti.gyro_range[0] == pytest.approx(2000 * DEG) and mti.acc_range[0] == pytest.approx(16 * G0)
 
     mpu = preset("mpu6000")
     assert mpu.gyro_arw[0] == pytest.approx(8.7266463e-5, rel=1e-7)  # 0.005 °/s/√Hz
-    assert mpu.accel_vrw[0] == pytest.approx(3.92266e-3)  # 400 μg/√Hz
+    assert mpu.acc_vrw[0] == pytest.approx(3.92266e-3)  # 400 μg/√Hz
     assert mpu.gyro_lsb[0] == pytest.approx(DEG / 131)  # 131 LSB/(°/s)
-    assert mpu.accel_lsb[0] == pytest.approx(G0 / 16384)  # 16384 LSB/g
-    assert mpu.gyro_range[0] == pytest.approx(250 * DEG) and mpu.accel_range[0] == pytest.approx(2 * G0)
-    assert mpu.accel_bias == pytest.approx([0.05 * G0, 0.05 * G0, 0.08 * G0])  # ±50/50/80 mg
+    assert mpu.acc_lsb[0] == pytest.approx(G0 / 16384)  # 16384 LSB/g
+    assert mpu.gyro_range[0] == pytest.approx(250 * DEG) and mpu.acc_range[0] == pytest.approx(2 * G0)
+    assert mpu.acc_bias == pytest.approx([0.05 * G0, 0.05 * G0, 0.08 * G0])  # ±50/50/80 mg
     assert mpu.gyro_bias[0] == pytest.approx(20 * DEG)
     assert mpu.gyro_g_sensitivity == pytest.approx(0.1 * DEG / G0)
     tac = preset("tactical-mems")  # ADIS16495 class: 0.8 °/h, 0.09 °/√h; 3.2 μg, 0.008 m/s/√h
     assert tac.gyro_bias_instability[0] == pytest.approx(0.8 * DEG / 3600)
     assert tac.gyro_arw[0] == pytest.approx(0.09 * DEG / 60)
-    assert tac.accel_bias_instability[0] == pytest.approx(3.2e-6 * G0)
-    assert tac.accel_vrw[0] == pytest.approx(0.008 / 60)
+    assert tac.acc_bias_instability[0] == pytest.approx(3.2e-6 * G0)
+    assert tac.acc_vrw[0] == pytest.approx(0.008 / 60)
     assert set(PRESETS) == {"rlg-nav", "tactical-mems", "mems-mti1", "mpu6000"}
 
 
 def test_preset_overrides_and_round_trip():
-    spec = preset("mpu6000", sample_rate=500, gyro_range=(2000, "deg/s"), accel_lsb=(1 / 2048, "g"))
-    assert spec.sample_rate == 500 and spec.gyro_range[2] == pytest.approx(2000 * DEG)
-    assert spec.accel_lsb[0] == pytest.approx(G0 / 2048)
+    spec = preset("mpu6000", rate_hz=500, gyro_range=(2000, "deg/s"), acc_lsb=(1 / 2048, "g"))
+    assert spec.rate_hz == 500 and spec.gyro_range[2] == pytest.approx(2000 * DEG)
+    assert spec.acc_lsb[0] == pytest.approx(G0 / 2048)
     back = Result.from_json(spec.to_json())
     assert isinstance(back, ImuSpec) and np.array_equal(back.gyro_range, spec.gyro_range)
     unit = spec.draw(3)
     again = ImuModel.from_json(unit.to_json())
-    assert np.array_equal(again.gyr.K, unit.gyr.K) and np.array_equal(again.accel_noise.range, unit.accel_noise.range)
+    assert np.array_equal(again.gyr.K, unit.gyr.K) and np.array_equal(again.acc_noise.range, unit.acc_noise.range)
     n = 10
     meas = unit.apply(np.zeros((n, 3)), np.tile([0, 0, G0], (n, 1)), rng=1)
     assert isinstance(Result.from_json(meas.to_json()), ImuMeasurement)
@@ -315,7 +315,7 @@ def test_preset_overrides_and_round_trip():
 
 def test_draw_statistics_match_spec():
     """Over n = 1500 drawn units, Σb²/(nσ²) and Σs²/(nσ²) follow χ²(n)/n (bounds at p = 1e-6)."""
-    spec = ImuSpec(gyro_bias=1e-3, accel_scale=[1e-3, 2e-3, 3e-3], gyro_misalignment=1e-3)
+    spec = ImuSpec(gyro_bias=1e-3, acc_scale=[1e-3, 2e-3, 3e-3], gyro_misalignment=1e-3)
     n = 1500
     rng = np.random.default_rng(12)
     units = [spec.draw(rng) for _ in range(n)]
@@ -323,7 +323,7 @@ def test_draw_statistics_match_spec():
     s = np.array([u.acc.scale for u in units])
     m = np.array([u.gyr.misalignment6 for u in units])
     lo, hi = _chi2_bounds(n)
-    for r in ((b**2).mean(0) / 1e-6, (s**2).mean(0) / spec.accel_scale**2, (m**2).mean(0) / 1e-6):
+    for r in ((b**2).mean(0) / 1e-6, (s**2).mean(0) / spec.acc_scale**2, (m**2).mean(0) / 1e-6):
         assert np.all((lo < r) & (r < hi)), r
     assert np.all([np.all(u.acc.bias == 0) for u in units[:5]])
 
@@ -348,7 +348,7 @@ def test_bad_input_raises_optinav_error():
         lambda: TriadNoise(white=-1e-3),
         lambda: TriadNoise(gm_sigma=1e-3),  # no correlation time
         lambda: ImuSpec(gyro_arw=-1.0),
-        lambda: ImuSpec(accel_vrw=[1.0, np.nan, 1.0]),
+        lambda: ImuSpec(acc_vrw=[1.0, np.nan, 1.0]),
         lambda: ImuSpec(lsb_kind="bits"),
         lambda: preset("adxl345"),
         lambda: preset("mpu6000", gyro_noise_density=1.0),

@@ -44,6 +44,8 @@ BANNED_IN_SYSTEMS = {"q": "q_b_n", "dcm": "C_b_n"}
 DEGREE_BOUNDARY = {
     "optinav.sky.sun.solar_position_deg": "the NREL SPA report's own units, to check against it (CLI `optinav sun`)",
 }
+#: parameters named after the motion's acceleration, not the accelerometer (whose compound stem is acc_)
+MOTION_ACCELERATION = {"accel_time", "accel_level"}
 #: modules that are the I/O boundary (file formats may name degrees)
 IO_MODULES = ("optinav.io", "optinav.rins.io", "optinav.cli")
 
@@ -96,6 +98,8 @@ def _violations(calls) -> list[str]:
         for p in inspect.signature(fn).parameters:
             if p in BANNED:
                 bad.append(f"{name}({p}) → {BANNED[p]}")
+            elif p.startswith("accel_") and p not in MOTION_ACCELERATION:
+                bad.append(f"{name}({p}) → acc_{p[len('accel_'):]}")
             elif in_system and p in BANNED_IN_SYSTEMS:
                 bad.append(f"{name}({p}) → {BANNED_IN_SYSTEMS[p]}")
             elif p.endswith("_deg") and not boundary:
@@ -111,18 +115,24 @@ def test_public_api_uses_one_vocabulary():
 
 
 def test_the_vocabulary_check_flags_synonyms_and_degrees():
-    def f(t, gyro, rate, lat_deg, q):  # noqa: ARG001
+    def f(t, gyro, rate, lat_deg, q, accel_bias, accel_time):  # noqa: ARG001
         pass
 
     bad = _violations([("optinav.multipos.x.f", f), ("optinav.core.x.f", f), ("optinav.rins.io.f", f)])
-    assert len(bad) == 4 + 3 + 3  # q is an attitude only in the systems; degrees are fine in file I/O
+    assert len(bad) == 5 + 4 + 4  # q is an attitude only in the systems; degrees are fine in file I/O
 
 
-#: the data classes whose serialized fields follow the vocabulary (older field names load as schema version 1)
+#: the data classes whose serialized fields and public properties follow the vocabulary (older field names load
+#: through their schema's earlier versions)
 DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "optinav.core.imu_model.ImuModel",
-                "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData")
+                "optinav.core.imu_model.ImuMeasurement", "optinav.core.imu_model.ImuCompensated",
+                "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
+                "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData",
+                "optinav.multipos.simulate.SimulatedSession", "optinav.multipos.ferraris.FerrarisCalibration",
+                "optinav.sky.sun.SolarPosition", "optinav.gfimu.turntable.TurntableData",
+                "optinav.multipos.calibrate.SessionData")
 #: fields not yet renamed, and why
-FIELD_EXCEPTIONS = {"ImuModel.sample_rate": "shared with ImuSpec and its presets; moves with the rate_hz rename"}
+FIELD_EXCEPTIONS: dict[str, str] = {}
 
 
 def _field_violations(classes) -> list[str]:
@@ -130,9 +140,15 @@ def _field_violations(classes) -> list[str]:
 
     bad = []
     for cls in classes:
-        for f in dataclasses.fields(cls):
-            if f.name in BANNED and f"{cls.__name__}.{f.name}" not in FIELD_EXCEPTIONS:
-                bad.append(f"{cls.__name__}.{f.name} → {BANNED[f.name]}")
+        names = list(cls._fields) if hasattr(cls, "_fields") else [f.name for f in dataclasses.fields(cls)]
+        names += [k for k, v in vars(cls).items() if isinstance(v, property) and not k.startswith("_")]
+        for name in names:
+            if f"{cls.__name__}.{name}" in FIELD_EXCEPTIONS:
+                continue
+            if name in BANNED:
+                bad.append(f"{cls.__name__}.{name} → {BANNED[name]}")
+            elif name.startswith("accel_"):  # the accelerometer's stem is acc, in compound names too
+                bad.append(f"{cls.__name__}.{name} → acc_{name[len('accel_'):]}")
     return bad
 
 
@@ -144,8 +160,12 @@ def test_data_class_fields_use_the_vocabulary():
     import dataclasses
 
     old = dataclasses.make_dataclass("Old", [("omega_ib_b", float), ("f_b", float), ("q_true", float),
-                                             ("h", float), ("c_b_n", float), ("gyro", float), ("acc", float)])
-    assert len(_field_violations([old])) == 6
+                                             ("h", float), ("c_b_n", float), ("gyro", float), ("acc", float),
+                                             ("accel_noise", float), ("acc_noise", float)],
+                                     namespace={"dcm_b_n": property(lambda self: None),
+                                                "sample_rate": property(lambda self: None),
+                                                "rate_hz": property(lambda self: None)})
+    assert len(_field_violations([old])) == 9
 
 
 # --- one frame spelling, one validator, documented defaults ------------------------------------------------

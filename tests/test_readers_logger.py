@@ -128,7 +128,7 @@ def test_damaged_gzip_is_a_one_line_error(tmp_path):
 def test_a_raw_logger_file_calibrates_with_the_unit_options_alone(tmp_path, capsys):
     """Unsigned 16-bit counts, text saved under .mat, a preamble with the rate, a last line cut short."""
     s = simulate("18", dwell_s=6, rest_s=3, acc_unit="counts", gyro_unit="counts", rng=11)
-    raw = np.round(np.column_stack([s.acc, s.gyro]) + 32768).astype(int)
+    raw = np.round(np.column_stack([s.acc, s.gyr]) + 32768).astype(int)
     rows = "\n".join(",".join(map(str, r)) for r in raw)
     path = _w(tmp_path / "log.mat", f"Fs,{1 / np.median(np.diff(s.t)):g}\nax,ay,az,gx,gy,gz\n{rows}\n12,13")
     out = tmp_path / "r.json"

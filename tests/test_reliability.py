@@ -325,8 +325,8 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
                      "--out", str(out)]) == 0
         res = json.loads(out.read_text())["fields"]
         truth = json.loads(path.with_name("tt.truth.json").read_text())
-        dr = np.asarray(res["dr"]["value"]["__ndarray__"])
-        std = np.asarray(res["std"]["value"]["__ndarray__"]).reshape(-1, 5)[:, :3]
+        dr = np.asarray(res["dr"]["value"])
+        std = np.asarray(res["std"]["value"]).reshape(-1, 5)[:, :3]
         assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
 
 
@@ -343,7 +343,7 @@ def _batch_units(tmp_path):
     for k in (1, 2):
         s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
                      height_m=35.0, rng=k)
-        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+        write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit="m/s^2", gyro_unit="rad/s"))
     return d
 
 
@@ -474,8 +474,9 @@ _json = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | s
                      max_leaves=20)
 _keys = st.sampled_from(["schema", "version", "fields", "accelerometer", "gyroscope", "K", "b", "units",
                          "accelerometers", "position", "direction", "noise", "start", "end", "x_p", "value",
-                         "__ndarray__", "__float__", "dtype", "angles"])
-_shaped = st.recursive(st.none() | st.floats() | st.integers() | st.sampled_from(["optinav.calibration", "float64"]),
+                         "__ndarray__", "__float__", "dtype", "angles", "arrays", ""])
+_shaped = st.recursive(st.none() | st.floats() | st.integers() | st.sampled_from(["optinav.calibration", "float64",
+                                                                                    "optinav.triad_noise", "inf"]),
                        lambda kids: st.lists(kids, max_size=4) | st.dictionaries(_keys, kids, max_size=5),
                        max_leaves=25)
 

@@ -2,6 +2,7 @@
 std, unit and observability, convergence, quality gates and timing under ``optinav.<system>.<kind>``; simulated
 truth in the estimated parameterization compares field by field; the layouts of older versions still load."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -50,14 +51,14 @@ def _check_layout(res: Estimate, schema: str) -> dict:
 def test_multipos_layout_and_truth_field_by_field():
     s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
                          height_m=35.0, acc_unit="counts", rng=5)
-    res = calibrate_session(s.t, s.acc, s.gyro, acc_unit="counts", lat=np.radians(38.88), height_m=35.0)
+    res = calibrate_session(s.t, s.acc, s.gyr, acc_unit="counts", lat=np.radians(38.88), height_m=35.0)
     raw = _check_layout(res, "optinav.multipos.calibration")
     assert raw["convergence"]["converged"] is True
     assert {g["name"] for g in raw["quality_gates"]} >= {"acc residual rms of |a| - g", "gyr optimizer converged"}
     p = res.parameters()
     assert p["acc_K_xx"].crlb_std > 0 and p["acc_K_xx"].std >= p["acc_K_xx"].crlb_std * (1 - 1e-12)
     assert not p["acc_K_zy"].observable and "upper-triangular" in p["acc_K_zy"].reason
-    cmp = session_truth(s.acc_K, s.acc_b, s.gyro_K, s.gyro_b, acc_unit="counts").compare(res)
+    cmp = session_truth(s.acc_K, s.acc_b, s.gyr_K, s.gyr_b, acc_unit="counts").compare(res)
     assert len(cmp) == 21 and max(float(c["z"]) for c in cmp.values()) < 5
 
 
@@ -144,6 +145,24 @@ def test_legacy_rins_result_and_truth_load():
     assert all(float(c["z"]) < 4 for c in cmp.values())
 
 
+def test_legacy_rins_rmse_read_as_roll_pitch_yaw():
+    """Version 1 wrote the attitude RMSE as [pitch, roll, yaw]: read back, they are [roll, pitch, yaw], as the
+    same simulation (tests/data/legacy/README.md) gives them now."""
+    from optinav.rins.calibrate import attitude_errors, prepare
+    from optinav.rins.simulate import simulate as simulate_rins
+
+    old = _old("rins_v1.json")
+    res = RinsCalibration.from_json(LEGACY / "rins_v1.json")
+    d = simulate_rins([1e-4, -2e-4, 3e-4, -1e-4, 2e-4, 4e-4], scheme="dual4", align_s=60, dwell_s=10, move_s=5,
+                      rate_hz=100, rng=4)
+    now = np.degrees(np.sqrt(np.mean(attitude_errors(prepare(d), np.zeros(6)) ** 2, axis=0)))
+    # roll and pitch differ by a factor of 2 here, so a swap would be far outside 2 %
+    np.testing.assert_allclose(res.rmse_before_deg, now, rtol=0.02)
+    assert res.rmse_before_deg == [old["rmse_before_deg"][i] for i in (1, 0, 2)]
+    assert res.rmse_after_deg == [old["rmse_after_deg"][i] for i in (1, 0, 2)]
+    assert "[roll, pitch, yaw] deg: before " + f"{res.rmse_before_deg[0]:.4g}" in res.summary()
+
+
 def test_legacy_gfimu_result_and_truth_load():
     old = _old("gfimu_v1.json")
     res = TurntableCalibration.from_json(LEGACY / "gfimu_v1.json")
@@ -195,7 +214,7 @@ def test_apply_reads_old_and_new_multipos_results(tmp_path):
     assert json.loads(new.read_text())["schema"] == "optinav.multipos.calibration"
     s = simulate_session("six", dwell_s=2.0, rate_hz=20.0, transition_s=1.0, rest_s=1.0, acc_unit="counts", rng=2)
     data = tmp_path / "d.csv"
-    write_imu(data, ImuLog(t=s.t, acc=s.acc, gyr=s.gyro, acc_unit="counts", gyro_unit="rad/s"), gyro_unit="deg/s")
+    write_imu(data, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit="counts", gyro_unit="rad/s"), gyro_unit="deg/s")
     outs = []
     for k, res in enumerate((LEGACY / "multipos_v1.json", new)):
         out = tmp_path / f"c{k}.npz"
@@ -207,12 +226,154 @@ def test_apply_reads_old_and_new_multipos_results(tmp_path):
     np.testing.assert_allclose(outs[0]["acc"], np.linalg.solve(K, (s.acc - b).T).T, rtol=1e-9, atol=1e-9)
 
 
-# the data classes renamed their fields to the vocabulary of docs/conventions.md in version 2 (old → new)
-RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),
-           "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),
-           "imu_model_v1.json": ("optinav.core.imu_model", "ImuModel", {"gyro": "gyr", "accel": "acc"}),
-           "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),
-           "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}
+# the data classes renamed their fields to the vocabulary of docs/conventions.md (old → new)
+RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),  # old names
+           "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),  # old names
+           "imu_model_v1.json": ("optinav.core.imu_model", "ImuModel", {"gyro": "gyr", "accel": "acc",  # old names
+                                                                         "accel_noise": "acc_noise",  # old names
+                                                                         "sample_rate": "rate_hz"}),  # old names
+           "imu_model_v2.json": ("optinav.core.imu_model", "ImuModel", {"accel_noise": "acc_noise",  # old names
+                                                                         "sample_rate": "rate_hz"}),  # old names
+           "imu_measurement_v1.json": ("optinav.core.imu_model", "ImuMeasurement",
+                                       {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"}),  # old names
+           "imu_spec_v1.json": ("optinav.core.imu_model", "ImuSpec", {"sample_rate": "rate_hz", "accel_vrw": "acc_vrw",  # old names
+                                                                       "accel_bias": "acc_bias", "accel_lsb": "acc_lsb"}),  # old names
+           "multipos_session_v1.json": ("optinav.multipos.simulate", "SimulatedSession",
+                                        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),  # old names
+           "ferraris_v1.json": ("optinav.multipos.ferraris", "FerrarisCalibration",
+                                {"gyro_K": "gyr_K", "gyro_G": "gyr_G", "gyro_b": "gyr_b"}),  # old names
+           "solar_position_v1.json": ("optinav.sky.sun", "SolarPosition", {"height": "height_m"}),  # old names
+           "alignment_v1.json": ("optinav.core.alignment", "AlignmentResult",
+                                 {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),  # old names
+           "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),  # old names
+           "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}  # old names
+
+
+def _same(got, want):
+    """``got`` (read back) equals ``want`` (a value in the layout of versions before plain arrays)."""
+    if isinstance(want, dict) and "__ndarray__" in want:
+        np.testing.assert_array_equal(got, np.asarray(want["__ndarray__"], dtype=want["dtype"]))
+        assert got.dtype == np.dtype(want["dtype"])
+    elif isinstance(want, dict) and "fields" in want:  # a nested result (ImuModel's triads)
+        for k, e in want["fields"].items():
+            _same(getattr(got, k), e["value"])
+    elif isinstance(want, dict) and "__float__" in want:
+        assert repr(got) == want["__float__"]
+    elif isinstance(want, dict):
+        assert set(got) == set(want)
+        for k in want:
+            _same(got[k], want[k])
+    elif isinstance(want, list):
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            _same(g, w)
+    else:
+        assert got == want
+
+
+# --- arrays as plain lists (docs/results.md) ------------------------------------------------------------------
+
+#: RESULT.json of each system in the version before arrays became plain lists (``{"__ndarray__"}``)
+PREVIOUS = {"multipos_v2.json": CalibrationResult, "rins_v2.json": RinsCalibration,
+            "gfimu_v2.json": TurntableCalibration, "attitude_v3.json": AttitudeEstimate}
+
+
+@pytest.mark.parametrize("name", sorted(PREVIOUS))
+def test_results_of_the_version_before_plain_arrays_load(name):
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+
+    old, cls = _old(name), PREVIOUS[name]
+    assert old["version"] == PLAIN_ARRAYS_SINCE[old["schema"]] - 1 == cls.VERSION - 1
+    res = Result.from_json(LEGACY / name)
+    assert type(res) is cls
+    for k, e in old["fields"].items():
+        _same(getattr(res, k), e["value"])
+    new = json.loads(res.to_json())
+    assert new["version"] == cls.VERSION and "__ndarray__" not in res.to_json()
+    assert new["parameters"] == old["parameters"] and new["quality_gates"] == old["quality_gates"]
+
+
+def _ndarray_layout(d: dict, versions: dict) -> dict:
+    """``d`` (a ``to_dict``) as the version before plain arrays wrote it: each array as ``{"__ndarray__", "dtype"}``
+    (NaN as ``{"__float__"}`` inside, as that writer did), nested results likewise."""
+    from optinav.core.results import _entry_value
+
+    def old(v):
+        if isinstance(v, np.ndarray):
+            return {"__ndarray__": old(v.tolist()), "dtype": str(v.dtype)}
+        if isinstance(v, float) and not np.isfinite(v):
+            return {"__float__": repr(v)}
+        if isinstance(v, Result):
+            return _ndarray_layout(v.to_dict(), versions)
+        if isinstance(v, dict):
+            return {k: old(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [old(x) for x in v]
+        return v
+
+    fields = {k: {"value": old(_entry_value(e)), "unit": e["unit"]} for k, e in d["fields"].items()}
+    return {"schema": d["schema"], "version": versions[d["schema"]] - 1, "fields": fields}
+
+
+def test_every_data_class_reads_its_version_before_plain_arrays():
+    """The data classes of the four systems, written as the version before plain arrays did, read back equal."""
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+    from optinav.core.simulate import six_positions, static_positions
+    from optinav.rins.simulate import simulate as simulate_rins
+
+    s = simulate_session("six", dwell_s=0.3, rate_hz=10.0, transition_s=0.3, rest_s=0.2, acc_unit="counts", rng=1)
+    objs = [static_positions(six_positions()[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2),
+            s.log(), simulate_flight("static", 0.3, 10, rng=1),
+            simulate_rins(scheme="dual4", align_s=0.2, dwell_s=0.2, move_s=0.2, rate_hz=10, rng=1)]
+    for obj in objs:
+        d = obj.to_dict()
+        old = _ndarray_layout(d, PLAIN_ARRAYS_SINCE)
+        assert "__ndarray__" in json.dumps(old) and old["version"] == type(obj).VERSION - 1
+        back = Result.from_dict(json.loads(json.dumps(old)))
+        assert type(back) is type(obj) and back.to_json() == obj.to_json(), type(obj).__name__
+
+
+@dataclasses.dataclass(eq=False)
+class _Arrays(Result):
+    SCHEMA = "optinav.test_arrays"
+    VERSION = 1
+
+    x: np.ndarray = dataclasses.field(metadata={"unit": "m"})
+    nested: dict = dataclasses.field(metadata={"unit": "-"})
+    items: list = dataclasses.field(metadata={"unit": "-"})
+
+
+def test_arrays_are_plain_lists_read_back_exactly():
+    """Arrays are nested lists of numbers (NaN null, ±inf "inf"/"-inf"); the field's ``arrays`` names each one's
+    path and dtype; a plain JSON reader gets the numbers, ``from_json`` the same arrays back."""
+    x = np.array([[1.5, np.nan], [np.inf, -np.inf]])
+    nested = {"K": np.eye(3), "labels": np.arange(4, dtype=np.int32), "a/b": {"ok": np.array([True, False])},
+              "c": np.array([1 + 2j]), "names": np.array(["roll", "yaw"]), "empty": np.zeros(0), "plain": [1, 2.5]}
+    items = [np.array([0.25]), {"q": np.array([1.0, 0.0, 0.0, 0.0])}, 3]
+    text = _Arrays(x=x, nested=nested, items=items).to_json()
+    raw = json.loads(text)["fields"]
+    assert "__ndarray__" not in text
+    assert raw["x"] == {"value": [[1.5, None], ["inf", "-inf"]], "unit": "m", "arrays": {"": "float64"}}
+    assert raw["nested"]["value"]["K"] == np.eye(3).tolist() and raw["nested"]["value"]["plain"] == [1, 2.5]
+    assert raw["nested"]["arrays"] == {"K": "float64", "labels": "int32", "a~1b/ok": "bool", "c": "complex128",
+                                       "names": "<U4", "empty": "float64"}
+    assert raw["items"]["arrays"] == {"0": "float64", "1/q": "float64"}
+    back = Result.from_json(text)
+    np.testing.assert_array_equal(back.x, x)
+    for k in ("K", "labels", "c", "names", "empty"):
+        assert back.nested[k].dtype == nested[k].dtype
+        np.testing.assert_array_equal(back.nested[k], nested[k])
+    np.testing.assert_array_equal(back.nested["a/b"]["ok"], [True, False])
+    assert back.nested["plain"] == [1, 2.5] and back.items[2] == 3 and back.items[1]["q"].dtype == float
+    assert back.to_json() == text
+    # a damaged or hostile "arrays" is a one-line error, never a traceback or an object array
+    for arrays in ({"nope/1": "float64"}, {"": "object"}, {"": "V8"}, ["x"], {"": "no such dtype"}):
+        bad = json.loads(text)
+        bad["fields"]["x"]["arrays"] = arrays
+        with pytest.raises(OptinavError):
+            Result.from_json(json.dumps(bad))
+    with pytest.raises(OptinavError, match="JSON cannot carry"):
+        _Arrays(x=np.array([object()]), nested={}, items=[]).to_json()
 
 
 @pytest.mark.parametrize("name", sorted(RENAMED))
@@ -222,19 +383,13 @@ def test_legacy_data_classes_load_under_their_new_field_names(name):
     mod, cls_name, rename = RENAMED[name]
     cls = getattr(importlib.import_module(mod), cls_name)
     old = _old(name)
-    assert old["version"] == 1 and cls.VERSION == 2 and set(rename) <= set(old["fields"])
+    assert old["version"] < cls.VERSION and set(rename) <= set(old["fields"])
     res = Result.from_json(LEGACY / name)  # through the base class: the schema finds the class
     assert type(res) is cls
     for o, n in rename.items():
-        got, want = getattr(res, n), old["fields"][o]["value"]
-        if isinstance(want, dict) and "__ndarray__" in want:
-            np.testing.assert_array_equal(got, want["__ndarray__"])
-        elif isinstance(want, dict) and "fields" in want:  # a nested result (ImuModel's triads)
-            assert got.to_dict()["fields"] == want["fields"]
-        else:
-            assert got == want
-    # re-written, it is version 2 under the new names and reads back the same
+        _same(getattr(res, n), old["fields"][o]["value"])
+    # re-written, it is the current version under the new names and reads back the same
     again = json.loads(res.to_json())
-    assert again["version"] == 2 and set(rename.values()) <= set(again["fields"])
+    assert again["version"] == cls.VERSION and set(rename.values()) <= set(again["fields"])
     assert not set(rename) & set(again["fields"])
     assert cls.from_json(res.to_json()).to_json() == res.to_json()

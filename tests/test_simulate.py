@@ -33,7 +33,7 @@ def test_static_six_positions_truth(frame, earth_name):
     h = 250.0
     tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, height_m=h, frame=frame, earth=earth_name,
                             transition=2.0)
-    c = tr.dcm_b_n
+    c = tr.C_b_n
     rest = tr.labels >= 0
     g_n = earth.gravity_vector(LAT, h, frame, earth_name)
     w_ie = earth.earth_rate(LAT, frame, earth_name)
@@ -86,7 +86,7 @@ def test_static_transition_is_smooth_and_lands_exactly():
     np.testing.assert_allclose(np.cross(w[moving], axis), 0, atol=1e-14)
     # Earth-free: the increments over the transition sum to the rotation vector (closed form)
     np.testing.assert_allclose(tr.dtheta.sum(0), rv, atol=1e-14)
-    np.testing.assert_allclose(tr.dcm_b_n[tr.segment(1)] - c1, 0, atol=2e-15)
+    np.testing.assert_allclose(tr.C_b_n[tr.segment(1)] - c1, 0, atol=2e-15)
 
 
 def test_orientation_from_up_and_describe():
@@ -153,7 +153,7 @@ def test_coning_increments_equal_quadrature_of_rate():
     # inertial case without gravity: zero specific force
     assert np.all(tr.acc == 0) and np.all(tr.dv == 0)
     # the body z axis sweeps a cone of half-angle β about the reference z axis
-    z_n = tr.dcm_b_n[:, :, 2]
+    z_n = tr.C_b_n[:, :, 2]
     np.testing.assert_allclose(np.arccos(np.clip(z_n[:, 2], -1, 1)), BETA, atol=1e-7)  # arccos ~ 1e-8 precision
     np.testing.assert_allclose(np.linalg.norm(z_n[:, :2], axis=1), np.sin(BETA), atol=1e-15)
 
@@ -181,8 +181,8 @@ def test_coning_with_earth_rate_and_gravity():
     c0 = dcm_from_euler([0.2, -0.1, 1.0], "enu")
     tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, height_m=100.0, initial=c0)
     ref = S.coning(BETA, FREQ, 1.0, 100.0, initial=c0)
-    c = tr.dcm_b_n
-    np.testing.assert_allclose(c, ref.dcm_b_n, atol=1e-15)
+    c = tr.C_b_n
+    np.testing.assert_allclose(c, ref.C_b_n, atol=1e-15)
     # static base: ω_ib = ω_cone + C_n^b ω_ie, f = C_n^b(−g)
     w_ie = earth.earth_rate(LAT)
     np.testing.assert_allclose(tr.gyr - ref.gyr, body(w_ie, c), atol=1e-19)
@@ -216,7 +216,7 @@ SCHEDULE = [S.Rest(2.0), S.Rotate("z", 90 * DEG, 3.0), S.Rest(1.0),
 
 def test_turntable_attitudes_and_earth_free_angles():
     tr = S.turntable(SCHEDULE, 50.0, LAT, initial=C0, earth="none")
-    c = tr.dcm_b_n
+    c = tr.C_b_n
     c2 = C0 @ rot_z(90 * DEG)  # body-axis rotation: C = C_0 R(θ)
     c4 = rot_x(-180 * DEG) @ c2  # nav-axis rotation: C = R(θ) C_0
     c6 = c4 @ rot_axis(np.array([1, 1, 0]) / np.sqrt(2), 30 * DEG)
@@ -249,7 +249,7 @@ def test_turntable_any_rotation(axis, angle, duration, profile, frame, rate):
     tr = S.turntable(sched, None, 0.0, initial=C0, earth="none", t=t)
     u = np.asarray(axis) / np.linalg.norm(axis)
     end = C0 @ rot_axis(u, angle) if frame == "body" else rot_axis(u, angle) @ C0
-    np.testing.assert_allclose(tr.dcm_b_n[-1] - end, 0, atol=1e-14)
+    np.testing.assert_allclose(tr.C_b_n[-1] - end, 0, atol=1e-14)
     u_b = u if frame == "body" else C0.T @ u
     np.testing.assert_allclose(tr.dtheta.sum(0), angle * u_b, atol=1e-14)
 
@@ -262,7 +262,7 @@ def test_turntable_ned_equals_enu():
     b = S.turntable(sched_ned, 10.0, LAT, initial=m @ C0, frame="ned")
     for name in ("gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(b, name), getattr(a, name), atol=1e-14)
-    np.testing.assert_allclose(b.dcm_b_n, m @ a.dcm_b_n, atol=1e-15)
+    np.testing.assert_allclose(b.C_b_n, m @ a.C_b_n, atol=1e-15)
     # poses are described in body words (frame-independent); nav axes in the user's frame (east = x_n = y_n)
     assert a.segment_names[::2] == b.segment_names[::2]
     assert a.segment_names[3] == "rotate -180° about x_n" and b.segment_names[3] == "rotate -180° about y_n"
@@ -368,7 +368,7 @@ def skew_inv(m):
 
 def test_gimbal_dual_axis_truth():
     tr = S.gimbal([np.eye(3), C_MIS, C_IMU], ["z", "y"], [OUTER, INNER], 10.0, 20.0, LAT, earth="wgs84")
-    c = tr.dcm_b_n
+    c = tr.C_b_n
     # rest segments: 0–1 s, 4–5 s, 9–10 s (moves overlap between 1 and 4 s, and 5–9 s is one motion)
     assert np.unique(tr.labels).tolist() == [-1, 0, 1, 2]
     np.testing.assert_allclose(tr.t[tr.segment(1)][[0, -1]], [4.0, 5.0])
@@ -446,7 +446,7 @@ def test_trajectory_passes_through_knots():
     tk, att, pos = knots()
     tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, height0_m=50.0)
     idx = np.searchsorted(tr.t, tk)
-    np.testing.assert_allclose(tr.dcm_b_n[idx], att, atol=1e-15)
+    np.testing.assert_allclose(tr.C_b_n[idx], att, atol=1e-15)
     # the geodetic positions map back to the tangent-frame knots (ECEF rounding 6.4e6 m × 2e-16 ≈ 1e-9 m)
     r0 = earth.geodetic_to_ecef(0.7, 2.0, 50.0)
     r = earth.geodetic_to_ecef(tr.pos[idx, 0], tr.pos[idx, 1], tr.pos[idx, 2])
@@ -474,7 +474,7 @@ def test_trajectory_velocity_and_position_derivatives():
     lat0 = 0.7
     t = np.linspace(2.3, 2.5, 201)  # 1 kHz inside one knot interval
     tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t)
-    c = tr.dcm_b_n
+    c = tr.C_b_n
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
     w_ie, w_en = earth.earth_rate(lat), earth.transport_rate(lat, h, v)
     # invert the mechanization: a^n = C_b^n f^b − (2ω_ie + ω_en) × v + g
@@ -508,13 +508,13 @@ def test_trajectory_increments_integrate_back_to_attitude():
     d = fine.dtheta
     phi = d.copy()
     phi[1:] += np.cross(d[:-1], d[1:]) / 12
-    c = fine.dcm_b_n[0]
+    c = fine.C_b_n[0]
     out = [c]
     steps = dcm_from_rotvec(phi)
     for k in range(len(d)):
         c = c @ steps[k]
         out.append(c)
-    err = rotation_angle(np.swapaxes(np.array(out), -1, -2) @ fine.dcm_b_n)
+    err = rotation_angle(np.swapaxes(np.array(out), -1, -2) @ fine.C_b_n)
     assert np.max(err) < 1e-8
 
 
@@ -541,7 +541,7 @@ def test_rate_of_the_navigation_frame_derivative():
     t = np.linspace(3.0, 3.4, 41)
     tr = S.trajectory(tk, att, pos, None, lat0=1.2, t=t)
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
-    a = np.einsum("mij,mj->mi", tr.dcm_b_n, tr.acc) - np.cross(2 * earth.earth_rate(lat) +
+    a = np.einsum("mij,mj->mi", tr.C_b_n, tr.acc) - np.cross(2 * earth.earth_rate(lat) +
                                                                 earth.transport_rate(lat, h, v), v) \
         + earth.gravity_vector(lat, h)
     w = earth.earth_rate(lat) + earth.transport_rate(lat, h, v)
@@ -559,7 +559,7 @@ def test_json_round_trip(tmp_path):
     for name in ("t", "q_b_n", "pos", "vel_n", "gyr", "acc", "dtheta", "dv", "labels"):
         np.testing.assert_array_equal(getattr(back, name), getattr(tr, name))
     assert back.segment_names == tr.segment_names and back.frame == "enu" and back.earth == "wgs84"
-    assert back.sample_rate == pytest.approx(5.0) and back.dcm_b_n.shape == (len(tr.t), 3, 3)
+    assert back.rate_hz == pytest.approx(5.0) and back.C_b_n.shape == (len(tr.t), 3, 3)
     assert tr.units()["dv"] == "m/s" and tr.units()["gyr"] == "rad/s"
 
 

@@ -460,7 +460,7 @@ def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
     whole = _whole_session(path, o)
     blocks = read_session_file(path, o, chunk_rows=997)
     assert len(whole.t) > 3 * 997
-    for name in ("t", "acc", "gyro", "labels"):
+    for name in ("t", "acc", "gyr", "labels"):
         w, b = getattr(whole, name), getattr(blocks, name)
         assert (w is None) == (b is None), name
         if w is not None:

@@ -67,8 +67,8 @@ def test_rests_reveal_an_unmodelled_g_sensitivity():
         "gyro", bias=gy.bias, scale=gy.scale, misalignment=gy.misalignment,
         g_sensitivity=gen.normal(0, uncertainty.GYRO_G_SENSITIVITY, (3, 3))))
     s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=3)
-    r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity)
+    r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity)
     note = [n for n in r.quality["notes"] if "follow the specific force" in n]
     assert len(note) == 1 and "--gyro-g-sensitivity" in note[0]
-    est = float(note[0].split("≈ ")[1].split()[0]) / float(np.mean(np.diag(s.gyro_K)))
+    est = float(note[0].split("≈ ")[1].split()[0]) / float(np.mean(np.diag(s.gyr_K)))
     assert 0.4 <= est / uncertainty.GYRO_G_SENSITIVITY <= 1.7, est

@@ -56,7 +56,7 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
 

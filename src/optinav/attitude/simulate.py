@@ -53,7 +53,7 @@ class FlightData(Result):
     """
 
     SCHEMA = "optinav.flight_data"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = _f("s")
     dt: float = _f("s")
@@ -256,7 +256,7 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     spec = preset(imu) if isinstance(imu, str) else imu
     if not isinstance(spec, ImuSpec):
         raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
-    spec = spec.replace(sample_rate=rate)
+    spec = spec.replace(rate_hz=rate)
     conv = frame
 
     if kind == "static":
@@ -275,7 +275,7 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     w_true, f_true = truth.gyr, truth.acc
     model = spec.draw(rng, errors=bool(imu_errors))
     meas = model.apply(w_true, f_true, dt=1.0 / rate, rng=rng)
-    gyr = meas.gyro
+    gyr = meas.gyr
     if gyro_bias is not None:
         gyr = gyr + as_float_array(gyro_bias, "gyro_bias", last_dims=(3,))
 
@@ -319,13 +319,13 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
             "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
             "sensor_noise": float(sensor.noise), "extinction_ratio": float(sensor.extinction_ratio),
             "gyro_saturated": int(np.count_nonzero(meas.gyro_saturated)),
-            "accel_saturated": int(np.count_nonzero(meas.accel_saturated)),
+            "acc_saturated": int(np.count_nonzero(meas.acc_saturated)),
             "max_rate_deg_s": float(np.degrees(np.max(np.linalg.norm(w_true, axis=1)))),
             "max_specific_force_m_s2": float(np.max(np.linalg.norm(f_true, axis=1))),
             "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
             "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
             "refraction": sp.refraction}
-    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.accel, q_b_n=truth.q_b_n, aop=aop, dop=dop,
+    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.acc, q_b_n=truth.q_b_n, aop=aop, dop=dop,
                       aop_true=aop_true, dop_true=dop_true, sun_n=sun_n, sun_elevation=sp.elevation,
                       sun_azimuth=sp.azimuth, C_b_m=c_b_m, frame=frame, kind=kind, start_time=str(start),
                       lat=lat, lon=lon, height_m=float(height), gyr_true=w_true, acc_true=f_true, metadata=meta)

@@ -197,7 +197,7 @@ def run_accel(args) -> int:
                 print(f"optinav: {fmt} file written to {p}")
     from optinav.reports.calibration_report import write_calibration_report
 
-    finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyro, d))
+    finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyr, d))
     return 0
 
 

@@ -238,11 +238,12 @@ def add_report_option(p) -> None:
 
 
 def prepare_report(args) -> None:
-    """Check (and create) the ``--report`` folder before any work, so a bad folder fails fast."""
+    """Check the ``--report`` folder before any work, so a bad folder fails fast; it is created only when the
+    report is written, so a run that fails leaves no folder behind."""
     if args.report:
-        from optinav.reports import prepare_report_dir
+        from optinav.reports import check_report_dir
 
-        prepare_report_dir(args.report)
+        check_report_dir(args.report)
 
 
 def finish_report(args, write) -> None:

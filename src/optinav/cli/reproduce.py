@@ -7,7 +7,7 @@ import sys
 import textwrap
 
 from optinav.cli.common import shared_data_dir
-from optinav.reports import available_studies, get_study, prepare_report_dir, run_studies, write_report
+from optinav.reports import available_studies, check_report_dir, get_study, run_studies, write_report
 
 
 def register(sub) -> None:
@@ -40,7 +40,7 @@ def run(args) -> int:
     names = list(available_studies()) if args.study == "all" else [args.study]
     for name in names:
         get_study(name)  # unknown names fail before any work
-    prepare_report_dir(args.out, "--out")
+    check_report_dir(args.out, "--out")
 
     def announce(name):
         if not progress_enabled() and not is_quiet():

@@ -86,7 +86,7 @@ def run_accel_multipos(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).sample_rate
+    rate = args.rate or preset(args.preset).rate_hz
     # measured (benchmarks/bench_memory.py, 1 M and 3 M rows): about 615 B per sample at the peak now that the
     # log is written block by block, 900 with margin
     check_memory(rate * (args.rest + len(SCHEMES[args.scheme]) * (args.dwell + args.transition)), 900,
@@ -116,7 +116,7 @@ def run_static(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).sample_rate
+    rate = args.rate or preset(args.preset).rate_hz
     # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
     check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
     step("simulate")

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.core import earth as _earth
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import (CORE_FRAME, frame_name, dcm_from_quat, euler_from_dcm, quat_from_dcm, quat_from_rotvec, quat_multiply,
                                     rotvec_from_dcm, skew)
 from optinav.core.strapdown import attitude_update
@@ -33,10 +33,13 @@ from optinav.errors import OptinavError
 
 @dataclass
 class AlignmentResult(Result):
-    """Attitude from a static alignment, with its predicted accuracy."""
+    """Attitude from a static alignment, with its predicted accuracy.
+
+    Version 2 renamed ``accel_bias``/``accel_bias_std`` to ``acc_bias``/``acc_bias_std`` (version-1 files still load).
+    """
 
     SCHEMA = "optinav.alignment"
-    VERSION = 1
+    VERSION = 2
     method: str = field(metadata={"unit": "-"})
     frame: str = field(metadata={"unit": "-"})
     q_b_n: np.ndarray = field(metadata={"unit": "1"})
@@ -44,15 +47,20 @@ class AlignmentResult(Result):
     attitude_std: np.ndarray = field(metadata={"unit": "rad"})  #: 1σ of φ (navigation axes), NaN if unknown
     gyro_bias: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "rad/s"})
     gyro_bias_std: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "rad/s"})
-    accel_bias: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "m/s^2"})
-    accel_bias_std: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "m/s^2"})
+    acc_bias: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "m/s^2"})
+    acc_bias_std: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), metadata={"unit": "m/s^2"})
     history_t: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata={"unit": "s"})
     history_euler: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), metadata={"unit": "rad"})
     history_attitude_std: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), metadata={"unit": "rad"})
 
     @property
-    def dcm_b_n(self) -> np.ndarray:
+    def C_b_n(self) -> np.ndarray:
+        """Attitude ``C_b^n`` from ``q_b_n``."""
         return dcm_from_quat(self.q_b_n)
+
+
+register_legacy(AlignmentResult, AlignmentResult.SCHEMA, 1, lambda d: nested_kwargs(
+    AlignmentResult, d, {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}))  # old names
 
 
 def _axes(up, rate):
@@ -107,7 +115,7 @@ def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84
     return AlignmentResult("coarse", frame, q, euler_from_dcm(c_b_n, frame), np.full(3, np.nan))
 
 
-def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     """Theoretical static-alignment errors φ caused by biases given in the n frame.
 
     First order: in ENU, φ_E = −∇_N/g, φ_N = ∇_E/g, φ_U = −ε_E/(ω_ie cos L) + ∇_E tan L / g, with
@@ -117,7 +125,7 @@ def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FR
     ----------
     gyro_bias_n : (3,) array
         Gyro bias ε in navigation axes [rad/s].
-    accel_bias_n : (3,) array
+    acc_bias_n : (3,) array
         Accelerometer bias ∇ in navigation axes [m/s^2].
     lat : float
         Latitude L [rad].
@@ -137,7 +145,7 @@ def alignment_limits(gyro_bias_n, accel_bias_n, lat, height_m=0.0, frame=CORE_FR
     e = _earth.constants(earth)
     g = float(_earth.gravity(lat, height_m, earth))
     eps = np.asarray(gyro_bias_n, dtype=float)
-    nab = np.asarray(accel_bias_n, dtype=float)
+    nab = np.asarray(acc_bias_n, dtype=float)
     if frame == "ned":  # to ENU
         eps, nab = eps[[1, 0, 2]] * [1, 1, -1], nab[[1, 0, 2]] * [1, 1, -1]
     phi = np.array([-nab[1] / g, nab[0] / g,
@@ -182,10 +190,10 @@ def _error_model_static(lat, h, frame, earth):
 
 
 def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth="wgs84", q0=None,
-                   gyro_white=1e-6, accel_white=1e-4, gyro_bias_std=1e-6, accel_bias_std=1e-3,
+                   gyro_white=1e-6, acc_white=1e-4, gyro_bias_std=1e-6, acc_bias_std=1e-3,
                    initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1,
-                   gyro_bias_instability=0.0, gyro_bias_tau=np.inf, accel_bias_instability=0.0,
-                   accel_bias_tau=np.inf) -> AlignmentResult:
+                   gyro_bias_instability=0.0, gyro_bias_tau=np.inf, acc_bias_instability=0.0,
+                   acc_bias_tau=np.inf) -> AlignmentResult:
     """Kalman-filter fine alignment on a static base from increments.
 
     The filter steps every ``kf_interval`` on summed increments (the base is static, so sums over 0.1 s lose
@@ -214,11 +222,11 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         Initial ``q_b^n`` [-]; None: coarse alignment on the data.
     gyro_white : float
         Gyro ARW [rad/√s].
-    accel_white : float
+    acc_white : float
         Accelerometer VRW [m/s/√s].
     gyro_bias_std : float
         Prior 1σ of the gyro bias [rad/s].
-    accel_bias_std : float
+    acc_bias_std : float
         Prior 1σ of the accelerometer bias [m/s^2].
     initial_attitude_std : (3,) array_like
         Prior 1σ of the initial attitude error, navigation axes [rad].
@@ -230,9 +238,9 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         Gauss–Markov σ of the gyro bias [rad/s].
     gyro_bias_tau : float
         Its correlation time [s].
-    accel_bias_instability : float
+    acc_bias_instability : float
         Gauss–Markov σ of the accelerometer bias [m/s^2].
-    accel_bias_tau : float
+    acc_bias_tau : float
         Its correlation time [s].
 
     Returns
@@ -248,8 +256,8 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         raise OptinavError(f"dtheta {dth.shape} and dv {dvv.shape} must be ({t.size - 1}, 3) for {t.size} epochs",
                            "pass one increment per interval between epochs")
     check_positive(kf_interval, "kf_interval")
-    taus = np.array([gyro_bias_tau, accel_bias_tau], dtype=float)
-    inst = np.array([gyro_bias_instability, accel_bias_instability], dtype=float)
+    taus = np.array([gyro_bias_tau, acc_bias_tau], dtype=float)
+    inst = np.array([gyro_bias_instability, acc_bias_instability], dtype=float)
     if np.any(np.isnan(taus)) or np.any(taus <= 0):
         raise OptinavError(f"bias correlation times {taus.tolist()} must be > 0 s", "pass τ in s (inf = constant)")
     if np.any(inst < 0) or not np.all(np.isfinite(inst)):
@@ -270,10 +278,10 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     starts = np.concatenate([[0], bounds])
     ends = np.concatenate([bounds, [dth.shape[0]]])
     P = np.diag(np.concatenate([np.square(initial_attitude_std), np.full(3, 0.1**2),
-                                np.full(3, gyro_bias_std**2), np.full(3, accel_bias_std**2)]))
+                                np.full(3, gyro_bias_std**2), np.full(3, acc_bias_std**2)]))
     x_bias = np.zeros(6)  # fed-back bias estimates [ε (rad/s), ∇ (m/s²)]
     v = np.zeros(3)
-    qn = np.diag(np.concatenate([np.full(3, gyro_white**2), np.full(3, accel_white**2)]))
+    qn = np.diag(np.concatenate([np.full(3, gyro_white**2), np.full(3, acc_white**2)]))
     H = np.zeros((3, 12))
     H[:, 3:6] = np.eye(3)
     hist_t, hist_q, hist_s = [], [], []
@@ -294,7 +302,7 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
         Qd = G @ qn @ G.T * T
         Qd[6:12, 6:12] += np.diag(gm_psd) * T
         P = Phi @ P @ Phi.T + Qd
-        r_std = velocity_noise if velocity_noise is not None else max(accel_white * np.sqrt(T), 1e-6)
+        r_std = velocity_noise if velocity_noise is not None else max(acc_white * np.sqrt(T), 1e-6)
         S = H @ P @ H.T + np.eye(3) * r_std**2
         K = P @ H.T @ np.linalg.inv(S)
         x = K @ v  # measurement: computed velocity minus zero
@@ -311,7 +319,7 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     sd = np.sqrt(np.diag(P))
     # biases were estimated in the body frame through C_b^n: ε, ∇ states are body-frame
     return AlignmentResult("kalman", frame, q, euler_from_dcm(c, frame), sd[0:3], gyro_bias=x_bias[:3],
-                           gyro_bias_std=sd[6:9], accel_bias=x_bias[3:], accel_bias_std=sd[9:12],
+                           gyro_bias_std=sd[6:9], acc_bias=x_bias[3:], acc_bias_std=sd[9:12],
                            history_t=np.asarray(hist_t),
                            history_euler=euler_from_dcm(dcm_from_quat(np.reshape(hist_q, (-1, 4))), frame),
                            history_attitude_std=np.asarray(hist_s))

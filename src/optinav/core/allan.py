@@ -52,7 +52,7 @@ class AllanDeviation(Result):
     """
 
     SCHEMA = "optinav.allan_deviation"
-    VERSION = 1
+    VERSION = 2
 
     tau: np.ndarray = field(metadata={"unit": "s"})
     adev: np.ndarray = field(metadata={"unit": "[unit]"})
@@ -83,7 +83,7 @@ class AllanNoiseParameters(Result):
     """
 
     SCHEMA = "optinav.allan_noise_parameters"
-    VERSION = 1
+    VERSION = 2
 
     white: np.ndarray = field(metadata={"unit": "[unit]*sqrt(s)"})
     bias_instability: np.ndarray = field(metadata={"unit": "[unit]"})
@@ -533,7 +533,7 @@ class AllanNoiseFit(Result):
     """
 
     SCHEMA = "optinav.allan_noise_fit"
-    VERSION = 1
+    VERSION = 2
 
     white: np.ndarray = field(metadata={"unit": "[unit]*sqrt(s)"})
     bias_instability: np.ndarray = field(metadata={"unit": "[unit]"})
@@ -752,7 +752,7 @@ class AllanAnalysis(Result):
     """
 
     SCHEMA = "optinav.allan"
-    VERSION = 1
+    VERSION = 2
 
     accelerometer: dict | None = field(default=None, metadata={"unit": "m/s^2 | counts"})
     gyroscope: dict | None = field(default=None, metadata={"unit": "rad/s | counts"})

@@ -167,7 +167,7 @@ class TriadErrors(Result):
     """
 
     SCHEMA = "optinav.triad_errors"
-    VERSION = 1
+    VERSION = 2
 
     sensor: str = field(metadata={"unit": "-"})
     bias: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s (gyro) | m/s^2 (accel)"})
@@ -677,7 +677,7 @@ class TriadNoise(Result):
     """
 
     SCHEMA = "optinav.triad_noise"
-    VERSION = 1
+    VERSION = 2
 
     white: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/sqrt(s) | m/s/sqrt(s)"})
     gm_sigma: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2"})
@@ -761,28 +761,33 @@ class TriadNoise(Result):
 
 @dataclass(eq=False)
 class ImuMeasurement(Result):
-    """Simulated IMU outputs: rates (rad/s, m/s²) or increments (rad, m/s) per ``kind``; per-axis saturation flags."""
+    """Simulated IMU outputs: rates (rad/s, m/s²) or increments (rad, m/s) per ``kind``; per-axis saturation flags.
+
+    Version 2 renamed the version-1 fields ``gyro``/``accel``/``accel_saturated`` to ``gyr``/``acc``/``acc_saturated``
+    (version-1 files still load)."""
 
     SCHEMA = "optinav.imu_measurement"
-    VERSION = 1
+    VERSION = 2
 
-    gyro: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
-    accel: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
+    gyr: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
+    acc: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
     gyro_saturated: np.ndarray = field(metadata={"unit": "1"})
-    accel_saturated: np.ndarray = field(metadata={"unit": "1"})
+    acc_saturated: np.ndarray = field(metadata={"unit": "1"})
     dt: np.ndarray = field(metadata={"unit": "s"})
     kind: str = field(default="rate", metadata={"unit": "-"})
 
 
 @dataclass(eq=False)
 class ImuCompensated(Result):
-    """IMU outputs corrected for the deterministic errors (same ``kind`` and units as the input)."""
+    """IMU outputs corrected for the deterministic errors (same ``kind`` and units as the input).
+
+    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc`` (version-1 files still load)."""
 
     SCHEMA = "optinav.imu_compensated"
-    VERSION = 1
+    VERSION = 2
 
-    gyro: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
-    accel: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
+    gyr: np.ndarray = field(metadata={"unit": "rad/s (rate) | rad (increment)"})
+    acc: np.ndarray = field(metadata={"unit": "m/s^2 (rate) | m/s (increment)"})
     kind: str = field(default="rate", metadata={"unit": "-"})
 
 
@@ -790,32 +795,33 @@ class ImuCompensated(Result):
 class ImuModel(Result):
     """One IMU unit: deterministic errors of both triads (``gyr``, ``acc``) and their noise parameters (SI).
 
-    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc`` (version-1 files still load).
+    Version 2 renamed the version-1 fields ``gyro``/``accel`` to ``gyr``/``acc``;
+    version 3 renamed ``accel_noise``/``sample_rate`` to ``acc_noise``/``rate_hz``; earlier versions still load.
     """
 
     SCHEMA = "optinav.imu_model"
-    VERSION = 2
+    VERSION = 3
 
     gyr: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("gyro"), metadata={"unit": "-"})
     acc: TriadErrors = field(default_factory=lambda: TriadErrors.ideal("accel"), metadata={"unit": "-"})
     gyro_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
-    accel_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
-    sample_rate: float = field(default=100.0, metadata={"unit": "Hz"})
+    acc_noise: TriadNoise = field(default_factory=TriadNoise, metadata={"unit": "-"})
+    rate_hz: float = field(default=100.0, metadata={"unit": "Hz"})
     name: str = field(default="custom", metadata={"unit": "-"})
 
     def __post_init__(self):
         for attr, sensor, cls in (("gyr", "gyro", TriadErrors), ("acc", "accel", TriadErrors),
-                                  ("gyro_noise", None, TriadNoise), ("accel_noise", None, TriadNoise)):
+                                  ("gyro_noise", None, TriadNoise), ("acc_noise", None, TriadNoise)):
             v = getattr(self, attr)
             if not isinstance(v, cls):
                 raise OptinavError(f"ImuModel.{attr} must be a {cls.__name__}", f"build it with {cls.__name__}(...)")
             if sensor and v.sensor != sensor:
                 raise OptinavError(f"ImuModel.{attr} describes a {v.sensor}",
                                    f"pass TriadErrors(sensor='{sensor}', ...)")
-        self.sample_rate = check_positive(self.sample_rate, "sample_rate")
+        self.rate_hz = check_positive(self.rate_hz, "rate_hz")
 
     def _dt(self, dt, n: int) -> np.ndarray:
-        return np.array(_dt(1.0 / self.sample_rate if dt is None else dt, (n,)), dtype=float)
+        return np.array(_dt(1.0 / self.rate_hz if dt is None else dt, (n,)), dtype=float)
 
     def apply(self, gyr, acc, dt=None, rng=None, *, kind: str = "rate", noise: bool = True) -> ImuMeasurement:
         """Truth → measured outputs. Order: deterministic errors, noise, saturation, quantization.
@@ -829,7 +835,7 @@ class ImuModel(Result):
         acc : (N, 3) array
             True specific force [m/s^2], or with ``kind="increment"`` Δv [m/s].
         dt : float, (N,) array or None
-            Intervals [s]; None: 1/sample_rate.
+            Intervals [s]; None: 1/rate_hz.
         rng : int, Generator or None
             Seed or generator.
         kind : str
@@ -855,10 +861,10 @@ class ImuModel(Result):
             rng = as_rng(rng)
             scale = 1.0 if kind == "rate" else d[:, None]
             yg = yg + self.gyro_noise.sample(n, d, rng) * scale
-            ya = ya + self.accel_noise.sample(n, d, rng) * scale
+            ya = ya + self.acc_noise.sample(n, d, rng) * scale
         yg, sg = self.gyro_noise.digitize(yg, d, kind=kind)
-        ya, sa = self.accel_noise.digitize(ya, d, kind=kind)
-        return ImuMeasurement(gyro=yg, accel=ya, gyro_saturated=sg, accel_saturated=sa, dt=d, kind=kind)
+        ya, sa = self.acc_noise.digitize(ya, d, kind=kind)
+        return ImuMeasurement(gyr=yg, acc=ya, gyro_saturated=sg, acc_saturated=sa, dt=d, kind=kind)
 
     def compensate(self, gyr, acc, dt=None, *, kind: str = "rate") -> ImuCompensated:
         """Measured → corrected (inverse of the deterministic part of :meth:`apply`).
@@ -873,7 +879,7 @@ class ImuModel(Result):
         acc : (N, 3) array
             Measured specific force [m/s^2] or Δv [m/s].
         dt : float, (N,) array or None
-            Intervals [s], used for increments (bias·dt); None: 1/sample_rate.
+            Intervals [s], used for increments (bias·dt); None: 1/rate_hz.
         kind : str
             ``"rate"`` or ``"increment"``.
 
@@ -890,11 +896,16 @@ class ImuModel(Result):
         d = self._dt(dt, yg.shape[0])
         fa = self.acc.compensate(ya, dt=d, kind=kind)
         wg = self.gyr.compensate(yg, dt=d, acc=fa, kind=kind)
-        return ImuCompensated(gyro=wg, accel=fa, kind=kind)
+        return ImuCompensated(gyr=wg, acc=fa, kind=kind)
 
 
-register_legacy(ImuModel, ImuModel.SCHEMA, 1,
-                lambda d: nested_kwargs(ImuModel, d, {"gyro": "gyr", "accel": "acc"}))
+#: field renames of earlier versions of the layouts above (old name → new), per (schema, version)
+_RENAMED = {(ImuMeasurement, 1): {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},  # old names
+            (ImuCompensated, 1): {"gyro": "gyr", "accel": "acc"},  # old names
+            (ImuModel, 2): {"accel_noise": "acc_noise", "sample_rate": "rate_hz"},  # old names
+            (ImuModel, 1): {"gyro": "gyr", "accel": "acc", "accel_noise": "acc_noise", "sample_rate": "rate_hz"}}  # old names
+for (_cls, _version), _rename in _RENAMED.items():
+    register_legacy(_cls, _cls.SCHEMA, _version, lambda d, c=_cls, r=_rename: nested_kwargs(c, d, r))
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -914,16 +925,17 @@ class ImuSpec(Result):
     M_xy, M_xz, M_yz), ``gyro_g_sensitivity`` (each of the 9 terms). In-run terms: ``*_bias_instability``
     B (datasheet in-run bias stability, the IEEE 952 flicker coefficient) simulated as Gauss–Markov with
     correlation time ``*_bias_corr_time`` and σ = 1.076·B so that its Allan-deviation peak is the
-    flicker floor 0.664·B; ``gyro_arw`` / ``accel_vrw`` white-noise densities; ``gyro_rrw`` /
-    ``accel_rrw`` random walks; ``*_range`` (inf = none); ``*_lsb`` resolution (a rate or an increment
-    per ``lsb_kind``; 0 = none); ``sample_rate``.
+    flicker floor 0.664·B; ``gyro_arw`` / ``acc_vrw`` white-noise densities; ``gyro_rrw`` /
+    ``acc_rrw`` random walks; ``*_range`` (inf = none); ``*_lsb`` resolution (a rate or an increment
+    per ``lsb_kind``; 0 = none); ``rate_hz``. Version 2 renamed ``sample_rate`` to ``rate_hz`` and ``accel_*`` to
+    ``acc_*`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.imu_spec"
-    VERSION = 1
+    VERSION = 2
 
     name: str = field(default="custom", metadata={"unit": "-"})
-    sample_rate: float = field(default=100.0, metadata={"unit": "Hz"})
+    rate_hz: float = field(default=100.0, metadata={"unit": "Hz"})
     gyro_bias: np.ndarray = _vfield("rad/s")
     gyro_bias_instability: np.ndarray = _vfield("rad/s")
     gyro_bias_corr_time: np.ndarray = _vfield("s", 100.0)
@@ -934,23 +946,23 @@ class ImuSpec(Result):
     gyro_rrw: np.ndarray = _vfield("rad/s/sqrt(s)")
     gyro_range: np.ndarray = _vfield("rad/s", np.inf)
     gyro_lsb: np.ndarray = _vfield("rad/s | rad")
-    accel_bias: np.ndarray = _vfield("m/s^2")
-    accel_bias_instability: np.ndarray = _vfield("m/s^2")
-    accel_bias_corr_time: np.ndarray = _vfield("s", 100.0)
-    accel_scale: np.ndarray = _vfield("1")
-    accel_misalignment: float = field(default=0.0, metadata={"unit": "rad"})
-    accel_vrw: np.ndarray = _vfield("m/s/sqrt(s)")
-    accel_rrw: np.ndarray = _vfield("m/s^2/sqrt(s)")
-    accel_range: np.ndarray = _vfield("m/s^2", np.inf)
-    accel_lsb: np.ndarray = _vfield("m/s^2 | m/s")
+    acc_bias: np.ndarray = _vfield("m/s^2")
+    acc_bias_instability: np.ndarray = _vfield("m/s^2")
+    acc_bias_corr_time: np.ndarray = _vfield("s", 100.0)
+    acc_scale: np.ndarray = _vfield("1")
+    acc_misalignment: float = field(default=0.0, metadata={"unit": "rad"})
+    acc_vrw: np.ndarray = _vfield("m/s/sqrt(s)")
+    acc_rrw: np.ndarray = _vfield("m/s^2/sqrt(s)")
+    acc_range: np.ndarray = _vfield("m/s^2", np.inf)
+    acc_lsb: np.ndarray = _vfield("m/s^2 | m/s")
     lsb_kind: str = field(default="rate", metadata={"unit": "-"})
     quantization_carry: bool = field(default=True, metadata={"unit": "-"})
     misalignment_form: str = field(default="full", metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
 
     def __post_init__(self):
-        self.sample_rate = check_positive(self.sample_rate, "sample_rate")
-        for s in ("gyro", "accel"):
+        self.rate_hz = check_positive(self.rate_hz, "rate_hz")
+        for s in ("gyro", "acc"):
             for name in ("bias", "bias_instability", "scale", "lsb", "rrw", "arw" if s == "gyro" else "vrw"):
                 key = f"{s}_{name}"
                 setattr(self, key, _vec3(getattr(self, key), key, nonneg=True))
@@ -1020,16 +1032,17 @@ class ImuSpec(Result):
         """
         rng = as_rng(rng)
 
-        def triad(s: str) -> TriadErrors:
+        def triad(sensor: str) -> TriadErrors:
             if not errors:
-                return TriadErrors.ideal(s)
+                return TriadErrors.ideal(sensor)
+            s = "gyro" if sensor == "gyro" else "acc"  # the field stem of the sensor
             bias = rng.normal(0.0, 1.0, 3) * getattr(self, f"{s}_bias")
             scale = rng.normal(0.0, 1.0, 3) * getattr(self, f"{s}_scale")
             sig = getattr(self, f"{s}_misalignment")
             G = rng.normal(0.0, self.gyro_g_sensitivity, (3, 3)) if s == "gyro" else None
             if self.misalignment_form == "upper":
-                return TriadErrors.from_upper_triangular(s, bias, scale, rng.normal(0.0, sig, 3), G)
-            return TriadErrors.from_six(s, bias, scale, rng.normal(0.0, sig, 6), G)
+                return TriadErrors.from_upper_triangular(sensor, bias, scale, rng.normal(0.0, sig, 3), G)
+            return TriadErrors.from_six(sensor, bias, scale, rng.normal(0.0, sig, 6), G)
 
         def noise(s: str, white: str) -> TriadNoise:
             return TriadNoise(white=getattr(self, f"{s}_{white}"),
@@ -1039,7 +1052,11 @@ class ImuSpec(Result):
                               lsb_kind=self.lsb_kind, carry=self.quantization_carry)
 
         return ImuModel(gyr=triad("gyro"), acc=triad("accel"), gyro_noise=noise("gyro", "arw"),
-                        accel_noise=noise("accel", "vrw"), sample_rate=self.sample_rate, name=self.name)
+                        acc_noise=noise("acc", "vrw"), rate_hz=self.rate_hz, name=self.name)
+
+
+register_legacy(ImuSpec, ImuSpec.SCHEMA, 1, lambda d: nested_kwargs(
+    ImuSpec, d, {"sample_rate": "rate_hz", **{k: "acc_" + k[len("accel_"):] for k in d["fields"] if k.startswith("accel_")}}))  # old names
 
 
 def _convert_fields(fields: dict) -> dict:
@@ -1063,16 +1080,16 @@ def _rlg_nav() -> ImuSpec:
     Chosen here (not in the paper; typical of navigation-grade RLG / quartz-accelerometer IMUs):
     accelerometer VRW 10 μg/√Hz, accelerometer scale factor 20 ppm, residual misalignment 5″ on both
     triads, no g-sensitivity (RLGs are g-insensitive), bias correlation times 300 s, ranges ±400 °/s and
-    ±20 g, no quantization (set ``gyro_lsb``/``accel_lsb`` with ``lsb_kind="increment"`` for pulse outputs).
+    ±20 g, no quantization (set ``gyro_lsb``/``acc_lsb`` with ``lsb_kind="increment"`` for pulse outputs).
     """
     return ImuSpec.from_units(
-        name="rlg-nav", sample_rate=200.0,
+        name="rlg-nav", rate_hz=200.0,
         gyro_bias=(0.005, "deg/h"), gyro_bias_instability=(0.005, "deg/h"), gyro_bias_corr_time=300.0,
         gyro_scale=(2, "ppm"), gyro_misalignment=(5, "arcsec"), gyro_arw=(0.0005, "deg/sqrt(h)"),
         gyro_range=(400, "deg/s"),
-        accel_bias=(20, "ug"), accel_bias_instability=(20, "ug"), accel_bias_corr_time=300.0,
-        accel_scale=(20, "ppm"), accel_misalignment=(5, "arcsec"), accel_vrw=(10, "ug/sqrt(Hz)"),
-        accel_range=(20, "g"), lsb_kind="increment",
+        acc_bias=(20, "ug"), acc_bias_instability=(20, "ug"), acc_bias_corr_time=300.0,
+        acc_scale=(20, "ppm"), acc_misalignment=(5, "arcsec"), acc_vrw=(10, "ug/sqrt(Hz)"),
+        acc_range=(20, "g"), lsb_kind="increment",
         source="dual-axis rotational laser INS paper, Table 1 (gyro 0.005 deg/h, 0.0005 deg/sqrt(h), 2 ppm; "
                "accel 20 ug; 200 Hz); other values chosen, see optinav.core.imu_model._rlg_nav")
 
@@ -1091,13 +1108,13 @@ def _mems_mti1() -> ImuSpec:
     (no quantization), no g-sensitivity.
     """
     return ImuSpec.from_units(
-        name="mems-mti1", sample_rate=100.0,
+        name="mems-mti1", rate_hz=100.0,
         gyro_bias=(0.1, "deg/s"), gyro_bias_instability=(10, "deg/h"), gyro_bias_corr_time=100.0,
         gyro_scale=(0.2, "%"), gyro_misalignment=0.005, gyro_arw=(0.007, "deg/s/sqrt(Hz)"),
         gyro_range=(2000, "deg/s"),
-        accel_bias=0.1, accel_bias_instability=(0.03, "mg"), accel_bias_corr_time=100.0,
-        accel_scale=(0.2, "%"), accel_misalignment=0.005, accel_vrw=(120, "ug/sqrt(Hz)"),
-        accel_range=(16, "g"),
+        acc_bias=0.1, acc_bias_instability=(0.03, "mg"), acc_bias_corr_time=100.0,
+        acc_scale=(0.2, "%"), acc_misalignment=0.005, acc_vrw=(120, "ug/sqrt(Hz)"),
+        acc_range=(16, "g"),
         source="Xsens MTi 1-series datasheet (gyro 2000 deg/s, 10 deg/h, 0.007 deg/s/sqrt(Hz); accel 16 g, "
                "0.03 mg, 120 ug/sqrt(Hz)); deterministic errors after the MEMS calibration paper, Table 2")
 
@@ -1115,13 +1132,13 @@ def _mpu6000() -> ImuSpec:
     100 Hz (chosen). Outputs are 16-bit registers rounded independently (rate LSB, no carry).
     """
     return ImuSpec.from_units(
-        name="mpu6000", sample_rate=100.0,
+        name="mpu6000", rate_hz=100.0,
         gyro_bias=(20, "deg/s"), gyro_bias_instability=(4.6, "deg/h"), gyro_bias_corr_time=500.0,
         gyro_scale=(3, "%"), gyro_misalignment=(2, "%"), gyro_g_sensitivity=(0.1, "deg/s/g"),
         gyro_arw=(0.005, "deg/s/sqrt(Hz)"), gyro_range=(250, "deg/s"), gyro_lsb=(1 / 131, "deg/s"),
-        accel_bias=([50, 50, 80], "mg"), accel_bias_instability=(36, "ug"), accel_bias_corr_time=800.0,
-        accel_scale=(3, "%"), accel_misalignment=(2, "%"), accel_vrw=(400, "ug/sqrt(Hz)"),
-        accel_range=(2, "g"), accel_lsb=(1 / 16384, "g"), lsb_kind="rate", quantization_carry=False,
+        acc_bias=([50, 50, 80], "mg"), acc_bias_instability=(36, "ug"), acc_bias_corr_time=800.0,
+        acc_scale=(3, "%"), acc_misalignment=(2, "%"), acc_vrw=(400, "ug/sqrt(Hz)"),
+        acc_range=(2, "g"), acc_lsb=(1 / 16384, "g"), lsb_kind="rate", quantization_carry=False,
         source="InvenSense PS-MPU-6000A-00 rev 3.4 (FS_SEL=0, AFS_SEL=0); bias instability: Greenheck 2009")
 
 
@@ -1137,11 +1154,11 @@ def _tactical_mems() -> ImuSpec:
     bias correlation times 300 s, 200 Hz, floating-point outputs, no g-sensitivity.
     """
     return ImuSpec.from_units(
-        name="tactical-mems", sample_rate=200.0,
+        name="tactical-mems", rate_hz=200.0,
         gyro_bias=(0.2, "deg/s"), gyro_bias_instability=(0.8, "deg/h"), gyro_bias_corr_time=300.0,
         gyro_scale=(0.05, "%"), gyro_misalignment=5e-4, gyro_arw=(0.09, "deg/sqrt(h)"), gyro_range=(450, "deg/s"),
-        accel_bias=(2, "mg"), accel_bias_instability=(3.2, "ug"), accel_bias_corr_time=300.0,
-        accel_scale=(0.05, "%"), accel_misalignment=5e-4, accel_vrw=(0.008, "m/s/sqrt(h)"), accel_range=(8, "g"),
+        acc_bias=(2, "mg"), acc_bias_instability=(3.2, "ug"), acc_bias_corr_time=300.0,
+        acc_scale=(0.05, "%"), acc_misalignment=5e-4, acc_vrw=(0.008, "m/s/sqrt(h)"), acc_range=(8, "g"),
         source="ADIS16495-2 class (gyro 0.8 deg/h, 0.09 deg/sqrt(h); accel 3.2 ug, 0.008 m/s/sqrt(h)); "
                "deterministic errors chosen, see optinav.core.imu_model._tactical_mems")
 
@@ -1162,7 +1179,7 @@ def preset(name: str, **overrides) -> ImuSpec:
     name : str
         Preset name.
     **overrides
-        ImuSpec fields [SI or (value, unit)], e.g. ``preset("mpu6000", sample_rate=500, gyro_range=(2000, "deg/s"))``.
+        ImuSpec fields [SI or (value, unit)], e.g. ``preset("mpu6000", rate_hz=500, gyro_range=(2000, "deg/s"))``.
 
     Returns
     -------
@@ -1224,14 +1241,14 @@ def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: floa
     from optinav.core.earth import gravity
 
     s = preset(spec)
-    rate = rate_hz or s.sample_rate
+    rate = rate_hz or s.rate_hz
     n = int(round(duration_s * rate))
     if n < 1000:
         raise OptinavError(f"{duration_s / 3600:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands",
                            "raise --hours")
     dt = 1.0 / rate
     rng = np.random.default_rng(seed)
-    terms = {"accelerometer": (s.accel_vrw, s.accel_bias_instability, np.full(3, float(acc_random_walk))),
+    terms = {"accelerometer": (s.acc_vrw, s.acc_bias_instability, np.full(3, float(acc_random_walk))),
              "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk)))}
     data = {name: static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=rng)
             for name, (N, B, K) in terms.items()}

@@ -349,7 +349,7 @@ class ObservabilityReport(Result):
     """
 
     SCHEMA = "optinav.observability"
-    VERSION = 1
+    VERSION = 2
 
     names: list = field(metadata={"unit": "-"})
     param_units: list = field(metadata={"unit": "-"})
@@ -648,7 +648,7 @@ class ObservabilitySVD(Result):
     """Rank and singular values of an observability matrix; words as in :class:`ObservabilityReport`."""
 
     SCHEMA = "optinav.observability_svd"
-    VERSION = 1
+    VERSION = 2
 
     names: list = field(metadata={"unit": "-"})
     rank: int = field(metadata={"unit": ""})
@@ -758,7 +758,7 @@ class NeesResult(Result):
     """Average NEES and its two-sided χ² acceptance band (Bar-Shalom et al. 2001, §5.4.2)."""
 
     SCHEMA = "optinav.nees"
-    VERSION = 1
+    VERSION = 2
 
     anees: float = field(metadata={"unit": ""})
     lower: float = field(metadata={"unit": ""})
@@ -849,7 +849,7 @@ class MonteCarloResult(Result):
     """Per-estimator statistics of a Monte Carlo study; errors are estimate − truth in parameter units."""
 
     SCHEMA = "optinav.monte_carlo"
-    VERSION = 1
+    VERSION = 2
 
     names: list = field(metadata={"unit": "-"})
     estimators: list = field(metadata={"unit": "-"})

@@ -24,6 +24,27 @@ import numpy as np
 from optinav.errors import OptinavError
 
 _REGISTRY: dict[str, type["Result"]] = {}
+#: schema → the first version that writes arrays as plain nested lists (with the field's ``arrays``); the version
+#: before it wrote ``{"__ndarray__": [...], "dtype"}`` and is read by :func:`nested_kwargs` unless a converter of
+#: its own is registered (a layout that also renamed fields). Classes added later start with plain arrays.
+PLAIN_ARRAYS_SINCE: dict[str, int] = {"optinav.accel_fit": 2, "optinav.alignment": 2, "optinav.allan": 2,
+                                      "optinav.allan_deviation": 2, "optinav.allan_noise_fit": 2,
+                                      "optinav.allan_noise_parameters": 2, "optinav.attitude.estimate": 4,
+                                      "optinav.ferraris_calibration": 2, "optinav.flight_data": 3,
+                                      "optinav.gfimu.calibration": 3, "optinav.gfimu.identifiability": 2,
+                                      "optinav.gyro_calibration": 2, "optinav.imu_compensated": 2,
+                                      "optinav.imu_log": 3, "optinav.imu_measurement": 2, "optinav.imu_model": 3,
+                                      "optinav.imu_spec": 2, "optinav.imu_truth": 3, "optinav.monte_carlo": 2,
+                                      "optinav.multipos.calibration": 3, "optinav.nav_solution": 2,
+                                      "optinav.nees": 2, "optinav.observability": 2,
+                                      "optinav.observability_svd": 2, "optinav.observability_table": 2,
+                                      "optinav.optimize_result": 2, "optinav.pose_plan": 2,
+                                      "optinav.rins.calibration": 3, "optinav.rins_data": 3,
+                                      "optinav.scheme_design": 2, "optinav.section_list": 2,
+                                      "optinav.simulated_session": 2, "optinav.solar_position": 2,
+                                      "optinav.static_detection": 2, "optinav.triad_errors": 2,
+                                      "optinav.triad_noise": 2}
+
 #: (schema, version) of a layout written by an older optinav → (class, converter of its dict to constructor kwargs)
 _LEGACY: dict[tuple[str, int], tuple[type["Result"], Any]] = {}
 
@@ -87,11 +108,16 @@ def plain(value: Any) -> Any:
     return value
 
 
-def _encode(value: Any) -> Any:
+def _encode(value: Any, path: str = "", arrays: dict | None = None) -> Any:
+    """``value`` in plain JSON types; every numpy array becomes nested lists (:func:`_array_list`) and its
+    path within ``value`` (keys and indices joined by ``/``, ``""`` for ``value`` itself) goes into ``arrays``
+    with its dtype. Nested results are their own layout."""
     if isinstance(value, Result):
         return value.to_dict()
     if isinstance(value, np.ndarray):
-        return {"__ndarray__": _encode(value.tolist()), "dtype": str(value.dtype)}
+        if arrays is not None:
+            arrays[path] = _dtype_name(value.dtype)
+        return _array_list(value)
     if isinstance(value, (np.floating, float)):
         v = float(value)
         return v if math.isfinite(v) else {"__float__": repr(v)}
@@ -100,13 +126,68 @@ def _encode(value: Any) -> Any:
     if isinstance(value, (np.bool_,)):
         return bool(value)
     if isinstance(value, dict):
-        return {str(k): _encode(v) for k, v in value.items()}
+        return {str(k): _encode(v, _join(path, str(k)), arrays) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_encode(v) for v in value]
+        return [_encode(v, _join(path, str(i)), arrays) for i, v in enumerate(value)]
     return value
 
 
+def _join(path: str, key: str) -> str:
+    # JSON-pointer escaping, so that a key holding "/" stays one step
+    key = key.replace("~", "~0").replace("/", "~1")
+    return key if path == "" else f"{path}/{key}"
+
+
+def _steps(path: str) -> list[str]:
+    return [] if path == "" else [k.replace("~1", "/").replace("~0", "~") for k in path.split("/")]
+
+
+#: array kinds a file may state (bool, signed/unsigned int, float, complex, text); anything else is refused
+_ARRAY_KINDS = "biufcU"
+
+
+def _dtype_name(dtype: np.dtype) -> str:
+    if dtype.kind not in _ARRAY_KINDS:
+        raise OptinavError(f"a result holds a {dtype} array, which JSON cannot carry",
+                           "store numbers, booleans or text in result arrays")
+    return str(dtype)
+
+
+def _array_list(a: np.ndarray) -> list:
+    """Nested lists of plain numbers; in float arrays NaN → null, ±inf → "inf"/"-inf" (JSON has neither)."""
+    if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+        def fix(x):
+            if isinstance(x, list):
+                return [fix(y) for y in x]
+            return x if math.isfinite(x) else (None if math.isnan(x) else ("inf" if x > 0 else "-inf"))
+        return fix(a.tolist())
+    if a.dtype.kind == "c":
+        return np.stack([a.real, a.imag], axis=-1).tolist()  # [re, im] pairs
+    return a.tolist()
+
+
+def _array_of(value: Any, dtype: str) -> np.ndarray:
+    """Inverse of :func:`_array_list`."""
+    dt = np.dtype(dtype)
+    if dt.kind not in _ARRAY_KINDS:
+        raise ValueError(f"array dtype {dtype!r} is not one a result writes")
+    if dt.kind == "f":
+        def fix(x):
+            if isinstance(x, list):
+                return [fix(y) for y in x]
+            if x is None:
+                return np.nan
+            return float(x) if isinstance(x, str) else x  # "inf", "-inf"
+        return np.asarray(fix(value), dtype=dt)
+    if dt.kind == "c":
+        pairs = np.asarray(value, dtype=float)
+        return (pairs[..., 0] + 1j * pairs[..., 1]).astype(dt) if pairs.size else np.zeros(0, dt)
+    return np.asarray(value, dtype=dt)
+
+
 def _decode(value: Any) -> Any:
+    """Nested results back to their classes; the array and float markers of older versions
+    (``{"__ndarray__": [...], "dtype"}``, ``{"__float__": "nan"}``) back to numpy arrays and floats."""
     if isinstance(value, dict):
         if "__ndarray__" in value:
             return np.asarray(_decode(value["__ndarray__"]), dtype=value.get("dtype", "float64"))
@@ -117,6 +198,29 @@ def _decode(value: Any) -> Any:
         return {k: _decode(v) for k, v in value.items()}
     if isinstance(value, list):
         return [_decode(v) for v in value]
+    return value
+
+
+def _entry_value(entry: Any) -> Any:
+    """A field entry ``{"value", "unit"[, "arrays"]}`` (or a bare value of an older layout) back to Python: the
+    arrays its ``arrays`` names become numpy arrays of their dtype; nested results and the markers of older
+    versions (``{"__ndarray__"}``, ``{"__float__"}``) are decoded."""
+    if not (isinstance(entry, dict) and "value" in entry):
+        return _decode(entry)
+    value = _decode(entry["value"])
+    arrays = entry.get("arrays") or {}
+    if not isinstance(arrays, dict):
+        raise ValueError("'arrays' of a field is not an object")
+    for path, dtype in arrays.items():
+        steps = _steps(str(path))
+        if not steps:
+            value = _array_of(value, dtype)
+            continue
+        parent = value
+        for k in steps[:-1]:
+            parent = parent[int(k) if isinstance(parent, list) else k]
+        last = int(steps[-1]) if isinstance(parent, list) else steps[-1]
+        parent[last] = _array_of(parent[last], dtype)
     return value
 
 
@@ -154,7 +258,10 @@ class Result:
 
         fields = {}
         for f in dataclasses.fields(self):
-            fields[f.name] = {"value": _encode(getattr(self, f.name)), "unit": f.metadata.get("unit", "-")}
+            arrays: dict[str, str] = {}
+            fields[f.name] = {"value": _encode(getattr(self, f.name), "", arrays), "unit": f.metadata.get("unit", "-")}
+            if arrays:
+                fields[f.name]["arrays"] = arrays
         return {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__,
                 "fields": fields}
 
@@ -194,6 +301,9 @@ class Result:
             if data["schema"] not in _REGISTRY and (data["schema"], data.get("version")) not in _LEGACY:
                 _import_systems()
             legacy = _LEGACY.get((data["schema"], data.get("version")))
+            if legacy is None and data.get("version") == PLAIN_ARRAYS_SINCE.get(data["schema"], 0) - 1:
+                target = _REGISTRY.get(data["schema"])
+                legacy = None if target is None else (target, lambda d, c=target: nested_kwargs(c, d))
             if legacy is not None:
                 target, convert = legacy
                 if cls is not Result and not issubclass(target, cls):
@@ -216,7 +326,7 @@ class Result:
         names = {f.name for f in dataclasses.fields(target)}
         for name, entry in data["fields"].items():
             if name in names:
-                kwargs[name] = _decode(entry["value"] if isinstance(entry, dict) and "value" in entry else entry)
+                kwargs[name] = _entry_value(entry)
         try:
             return target(**kwargs)
         except TypeError as exc:
@@ -507,7 +617,7 @@ def nested_kwargs(cls: type[Result], data: dict, rename: dict | None = None) -> 
     for k, v in data["fields"].items():
         k = rename.get(k, k)
         if k in names:
-            out[k] = _decode(v["value"] if isinstance(v, dict) and "value" in v else v)
+            out[k] = _entry_value(v)
     return out
 
 

@@ -72,7 +72,7 @@ class ImuTruth(Result):
     """
 
     SCHEMA = "optinav.imu_truth"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     frame: str = field(metadata={"unit": "-"})
@@ -93,12 +93,12 @@ class ImuTruth(Result):
         return np.diff(self.t)
 
     @property
-    def dcm_b_n(self) -> np.ndarray:
+    def C_b_n(self) -> np.ndarray:
         """Attitude ``C_b^n`` at the epochs, shape (N+1, 3, 3)."""
         return dcm_from_quat(self.q_b_n)
 
     @property
-    def sample_rate(self) -> float:
+    def rate_hz(self) -> float:
         """Nominal sample rate (Hz): the inverse of the median epoch spacing."""
         return float(1.0 / np.median(np.diff(self.t)))
 

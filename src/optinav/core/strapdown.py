@@ -492,7 +492,7 @@ class NavSolution(Result):
     """Strapdown navigation solution at the output epochs (:func:`output_indices`)."""
 
     SCHEMA = "optinav.nav_solution"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     q_b_n: np.ndarray = field(metadata={"unit": ""})  #: (M+1, 4) scalar-first quaternion q_b^n

@@ -322,7 +322,7 @@ class Identifiability(Result):
     """What an accelerometer array can solve, from its design matrix (see :func:`identifiability`)."""
 
     SCHEMA = "optinav.gfimu.identifiability"
-    VERSION = 1
+    VERSION = 2
 
     n_accelerometers: int = field(metadata={"unit": ""})
     rank_linear: int = field(metadata={"unit": ""})

@@ -81,11 +81,11 @@ def _perp_basis(u) -> np.ndarray:
 
 @dataclass
 class TurntableData:
-    """Turntable log: t (T,) s, f (T, N) m/s², mounting (T,) in 1..3, table_rate (T,) rad/s, wedge γ rad,
+    """Turntable log: t (T,) s, acc (T, N) m/s², mounting (T,) in 1..3, table_rate (T,) rad/s, wedge γ rad,
     gravity m/s², sigma (N,) m/s² if known (simulation)."""
 
     t: np.ndarray
-    f: np.ndarray
+    acc: np.ndarray
     mounting: np.ndarray
     table_rate: np.ndarray
     gamma: float
@@ -126,11 +126,11 @@ class TurntableData:
         suf = path.suffix.lower()
         if suf == ".npz":
             with atomic_open(path, "wb") as fh:
-                np.savez(fh, f=self.f, **cols)
+                np.savez(fh, f=self.acc, **cols)
         elif suf in (".csv", ".txt"):
-            header = ["t"] + [f"f{i + 1}" for i in range(self.f.shape[1])] + ["case", "mounting", "table_rate",
+            header = ["t"] + [f"f{i + 1}" for i in range(self.acc.shape[1])] + ["case", "mounting", "table_rate",
                                                                                 "wedge", "gravity"]
-            data = np.column_stack([self.t, self.f, cols["case"], cols["mounting"], self.table_rate, cols["wedge"],
+            data = np.column_stack([self.t, self.acc, cols["case"], cols["mounting"], self.table_rate, cols["wedge"],
                                     cols["gravity"]])
             write_csv(path, data, ",".join(header), "%.12g")
         elif suf in (".h5", ".hdf5"):
@@ -139,7 +139,7 @@ class TurntableData:
             except ImportError:
                 raise OptinavError("writing HDF5 needs h5py", "pip install h5py, or use .npz/.csv") from None
             with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
-                fh["f"] = self.f
+                fh["f"] = self.acc
                 for k, v in cols.items():
                     fh[k] = v
         else:
@@ -282,16 +282,16 @@ class CaseMeans:
 def case_means(data: TurntableData) -> CaseMeans:
     case = data.case
     labels = np.unique(case)
-    mean = np.array([data.f[case == c].mean(axis=0) for c in labels])
+    mean = np.array([data.acc[case == c].mean(axis=0) for c in labels])
     cnt = np.array([np.count_nonzero(case == c) for c in labels])
     mnt = np.array([data.mounting[case == c][0] for c in labels])
     rate = np.array([data.table_rate[case == c][0] for c in labels])
     dof = int(np.sum(cnt - 1))
     if dof > 0:
-        ss = sum(((data.f[case == c] - mean[k]) ** 2).sum(axis=0) for k, c in enumerate(labels))
+        ss = sum(((data.acc[case == c] - mean[k]) ** 2).sum(axis=0) for k, c in enumerate(labels))
         sigma = np.sqrt(ss / dof)
     else:
-        sigma = np.full(data.f.shape[1], np.nan)
+        sigma = np.full(data.acc.shape[1], np.nan)
     return CaseMeans(mnt, rate, mean, cnt, sigma)
 
 
@@ -407,7 +407,7 @@ class TurntableCalibration(Estimate):
     docs/results.md). :meth:`parameters`: ``dr_x_1`` … ``dbeta_N`` (m, rad) and the estimated offsets."""
 
     SCHEMA = "optinav.gfimu.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "gfimu"
     KIND = "calibration"
 
@@ -627,8 +627,8 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
         if fixed.shape not in ((3,), (3, 3)):
             raise OptinavError(f"offset has shape {fixed.shape}", "give the measured offset (3,) m, or one per mounting")
         offset = "known"
-    if data.f.shape[1] != nominal.n:
-        raise OptinavError(f"the data has {data.f.shape[1]} accelerometer outputs, the configuration {nominal.n}",
+    if data.acc.shape[1] != nominal.n:
+        raise OptinavError(f"the data has {data.acc.shape[1]} accelerometer outputs, the configuration {nominal.n}",
                            "pass the configuration the data was recorded with")
     cm = case_means(data)
     check_data(nominal, cm, data.gamma, data.gravity)

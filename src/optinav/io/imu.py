@@ -93,7 +93,7 @@ class ImuLog(Result):
     """
 
     SCHEMA: ClassVar[str] = "optinav.imu_log"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     acc: np.ndarray | None = field(default=None, metadata={"unit": "acc_unit"})
@@ -152,7 +152,7 @@ class ImuLog(Result):
         return ok
 
     @property
-    def rate(self) -> float:
+    def rate_hz(self) -> float:
         """Median sample rate (Hz) from the timestamps."""
         return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
 
@@ -203,7 +203,7 @@ class ImuLog(Result):
             The line.
         """
         span = float(self.t[-1] - self.t[0]) if self.t.size else 0.0
-        parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate:.6g} Hz)"]
+        parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate_hz:.6g} Hz)"]
         if self.acc is not None:
             parts.append(f"acc in {self.acc_unit}" + (f" (file: {self.acc_input_unit})"
                                                        if self.acc_input_unit not in (None, self.acc_unit) else ""))

@@ -188,7 +188,7 @@ class AccelFit(Result):
     """One accelerometer fit: parameters, uncertainty, observability and the optimizer's trace."""
 
     SCHEMA = "optinav.accel_fit"
-    VERSION = 1
+    VERSION = 2
 
     K: np.ndarray = field(metadata={"unit": "raw/(m/s^2)"})
     b: np.ndarray = field(metadata={"unit": "raw"})

@@ -506,17 +506,17 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
     acc_nominal = float(np.median(np.abs(np.diag(fc.acc_K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
     gates.check_matrix(fc.acc_K, acc_nominal, "accelerometer", acc_unit, option="--acc-unit",
                        columns_flag="--columns, or the section names")
-    if np.all(np.diag(fc.gyro_K) < 0):
+    if np.all(np.diag(fc.gyr_K) < 0):
         raise OptinavError(f"the three rotations turn the other way than --rotation-angle "
                            f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
                            f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}")
-    gyro_nominal = float(np.median(np.abs(np.diag(fc.gyro_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
-    gates.check_matrix(fc.gyro_K, gyro_nominal, "gyroscope", gyro_unit, option="--gyro-unit",
+    gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
+    gates.check_matrix(fc.gyr_K, gyro_nominal, "gyroscope", gyro_unit, option="--gyro-unit",
                        columns_flag="--columns or --gyro-columns, or --rotation-angle")
     nan3 = np.full((3, 3), np.nan)
     acc_entry = {"K": fc.acc_K, "b": fc.acc_b, "K_std": nan3, "b_std": np.full(3, np.nan), "form": "full",
                  "estimated": ["K (9)", "b (3)"], "held": []}
-    gyro_entry = {"K": fc.gyro_K, "b": fc.gyro_b, "G": fc.gyro_G, "K_std": nan3, "b_std": np.full(3, np.nan),
+    gyro_entry = {"K": fc.gyr_K, "b": fc.gyr_b, "G": fc.gyr_G, "K_std": nan3, "b_std": np.full(3, np.nan),
                   "form": "full"}
     units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "gyroscope_raw": gyro_unit,
              "gyroscope": "rad/s", "time": "s", "residual_rms": "m/s^2", "gravity": "m/s^2",
@@ -600,7 +600,7 @@ class SessionData(NamedTuple):
     t: np.ndarray
     acc: np.ndarray
     acc_unit: str
-    gyro: np.ndarray | None
+    gyr: np.ndarray | None
     gyro_unit: str | None
     labels: np.ndarray | None = None
     notes: tuple = ()
@@ -678,7 +678,7 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    res = calibrate(data.t, data.acc, data.gyro, acc_unit=data.acc_unit,
+    res = calibrate(data.t, data.acc, data.gyr, acc_unit=data.acc_unit,
                     gyro_unit=data.gyro_unit or "rad/s", g=o.gravity,
                     lat=None if o.latitude is None else np.radians(o.latitude),
                     height_m=o.height, method=o.method, model_form=o.model,

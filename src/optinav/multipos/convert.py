@@ -268,19 +268,19 @@ class ImucalCalibration:
         return a, w
 
     def to_optinav(self) -> dict:
-        """``{"acc_K", "acc_b", "gyro_K", "gyro_G", "gyro_b"}`` in optinav's convention (x in SI)."""
+        """``{"acc_K", "acc_b", "gyr_K", "gyr_G", "gyr_b"}`` in optinav's convention (x in SI)."""
         au, gu = self._units
         aK, ab = from_imucal(self.K_a, self.R_a, self.b_a, sensor="accel", acc_unit=au)
         gK, gb, G = from_imucal(self.K_g, self.R_g, self.b_g, K_ga=self.K_ga, sensor="gyro", acc_unit=au,
                                 gyr_unit=gu)
-        return {"acc_K": aK, "acc_b": ab, "gyro_K": gK, "gyro_G": G, "gyro_b": gb}
+        return {"acc_K": aK, "acc_b": ab, "gyr_K": gK, "gyr_G": G, "gyr_b": gb}
 
     @classmethod
-    def from_optinav(cls, acc_K, acc_b, gyro_K, gyro_G, gyro_b, *, from_acc_unit=None, from_gyr_unit=None,
+    def from_optinav(cls, acc_K, acc_b, gyr_K, gyr_G, gyr_b, *, from_acc_unit=None, from_gyr_unit=None,
                      comment=None, acc_unit: str = "m/s^2", gyr_unit: str = "deg/s") -> "ImucalCalibration":
         """From optinav's (K, b) of both triads and the gyro g-sensitivity G (raw gyro per m/s²)."""
         a = to_imucal(acc_K, acc_b, sensor="accel", acc_unit=acc_unit)
-        g = to_imucal(gyro_K, gyro_b, G=gyro_G, sensor="gyro", acc_unit=acc_unit, gyr_unit=gyr_unit)
+        g = to_imucal(gyr_K, gyr_b, G=gyr_G, sensor="gyro", acc_unit=acc_unit, gyr_unit=gyr_unit)
         return cls(K_a=a["K"], R_a=a["R"], b_a=a["b"], K_g=g["K"], R_g=g["R"], K_ga=g["K_ga"], b_g=g["b"],
                    acc_unit=acc_unit, gyr_unit=gyr_unit, from_acc_unit=from_acc_unit,
                    from_gyr_unit=from_gyr_unit, comment=comment)

@@ -165,7 +165,7 @@ class ObservabilityTable(Result):
     """Rank and singular values of the linear model's Q for the first N positions, N = n_min … P."""
 
     SCHEMA = "optinav.observability_table"
-    VERSION = 1
+    VERSION = 2
 
     n_positions: np.ndarray = field(metadata={"unit": ""})
     rank: np.ndarray = field(metadata={"unit": ""})
@@ -331,9 +331,9 @@ def _setup(sigma, noise_density, rate_hz, scale, g) -> _Setup:
         from optinav.core.imu_model import preset  # deferred: it compiles with numba, slow to import
 
         spec = preset("mems-mti1")
-        s1 = np.asarray(spec.accel_vrw, float) * scale  # (m/s²)/√Hz → raw/√Hz
+        s1 = np.asarray(spec.acc_vrw, float) * scale  # (m/s²)/√Hz → raw/√Hz
         text = (f"white noise {_fmt_vec(s1)} raw/√Hz (assumed: Xsens MTi-1 class, "
-                f"{spec.accel_vrw[0] / (1e-6 * G_STANDARD):.0f} µg/√Hz; pass sigma or noise_density)")
+                f"{spec.acc_vrw[0] / (1e-6 * G_STANDARD):.0f} µg/√Hz; pass sigma or noise_density)")
     return _Setup(scale, g, s1, text, rate_hz)
 
 
@@ -414,7 +414,7 @@ class SchemeDesign(Result):
     """
 
     SCHEMA = "optinav.scheme_design"
-    VERSION = 1
+    VERSION = 2
 
     up_dirs: np.ndarray = field(metadata={"unit": ""})
     orientations: np.ndarray = field(metadata={"unit": ""})
@@ -654,7 +654,7 @@ def design_scheme(n_poses: int, *, criterion: str = "D", candidates=None, sigma=
         Per-sample noise σ of the raw output [raw units].
     noise_density : float, (3,) array or None
         Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
-        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+        (``imu_model.preset("mems-mti1").acc_vrw``) times ``scale``.
     rate_hz : float
         Sample rate [Hz].
     dwell_s : float
@@ -718,7 +718,7 @@ def evaluate_scheme(up_dirs, *, criterion: str = "D", sigma=None, noise_density=
         Per-sample noise σ of the raw output [raw units].
     noise_density : float, (3,) array or None
         Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
-        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+        (``imu_model.preset("mems-mti1").acc_vrw``) times ``scale``.
     rate_hz : float
         Sample rate [Hz].
     dwell_s : float or (P,) array
@@ -751,7 +751,7 @@ def predict_std(up_dirs, *, sigma=None, noise_density=None, rate_hz: float = 100
         Per-sample noise σ of the raw output [raw units].
     noise_density : float, (3,) array or None
         Noise density [raw/√Hz]; with neither, the Xsens MTi-1 class accelerometer white noise
-        (``imu_model.preset("mems-mti1").accel_vrw``) times ``scale``.
+        (``imu_model.preset("mems-mti1").acc_vrw``) times ``scale``.
     rate_hz : float
         Sample rate [Hz].
     dwell_s : float or (P,) array

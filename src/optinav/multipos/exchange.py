@@ -106,7 +106,7 @@ def load_calibration(path, gyro_path=None):
                 if u:
                     units[f"{sensor}_raw"] = u
             return CalibrationResult(accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
-                                     gyroscope={"K": p["gyro_K"], "b": p["gyro_b"], "G": p["gyro_G"]},
+                                     gyroscope={"K": p["gyr_K"], "b": p["gyr_b"], "G": p["gyr_G"]},
                                      units=units, method="imucal", source=str(path))
         raise OptinavError(f"{path} is JSON but neither an optinav result nor an imucal export",
                            "pass RESULT.json of optinav calibrate or imucal's to_json_file output")

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
@@ -55,20 +55,21 @@ IMUCAL_GRAVITY = 9.81
 class FerrarisCalibration(Result):
     """Result of :func:`ferraris_calibration` in the convention ``raw = K x + b`` (module docstring).
 
-    ``acc_K`` (raw acc per m/s²), ``acc_b`` (raw acc), ``gyro_K`` (raw gyro per rad/s), ``gyro_G`` (raw
-    gyro per m/s²), ``gyro_b`` (raw gyro). Diagnostics: ``acc_static_norm`` (6,) the norms of the corrected
+    ``acc_K`` (raw acc per m/s²), ``acc_b`` (raw acc), ``gyr_K`` (raw gyro per rad/s), ``gyr_G`` (raw
+    gyro per m/s²), ``gyr_b`` (raw gyro). Diagnostics: ``acc_static_norm`` (6,) the norms of the corrected
     pose means (m/s², equal to ``gravity`` up to the inconsistency of the six poses), the pose means,
-    the samples per pose and the rotation durations.
+    the samples per pose and the rotation durations. Version 2 renamed the version-1 fields ``gyro_`` K, G, b
+    to ``gyr_K``/``gyr_G``/``gyr_b`` (the result's parameter names; version-1 files still load).
     """
 
     SCHEMA = "optinav.ferraris_calibration"
-    VERSION = 1
+    VERSION = 2
 
     acc_K: np.ndarray = field(metadata={"unit": "acc raw unit / (m/s^2)"})
     acc_b: np.ndarray = field(metadata={"unit": "acc raw unit"})
-    gyro_K: np.ndarray = field(metadata={"unit": "gyro raw unit / (rad/s)"})
-    gyro_G: np.ndarray = field(metadata={"unit": "gyro raw unit / (m/s^2)"})
-    gyro_b: np.ndarray = field(metadata={"unit": "gyro raw unit"})
+    gyr_K: np.ndarray = field(metadata={"unit": "gyro raw unit / (rad/s)"})
+    gyr_G: np.ndarray = field(metadata={"unit": "gyro raw unit / (m/s^2)"})
+    gyr_b: np.ndarray = field(metadata={"unit": "gyro raw unit"})
     gravity: float = field(metadata={"unit": "m/s^2"})
     expected_angle: np.ndarray = field(metadata={"unit": "rad"})
     acc_unit: str = field(default="raw", metadata={"unit": "-"})
@@ -91,8 +92,8 @@ class FerrarisCalibration(Result):
         if f.shape != w.shape:
             raise OptinavError(f"acc_si has shape {f.shape} but gyro_raw has {w.shape}",
                                "pass one corrected acc sample per gyro sample")
-        r = w - f @ self.gyro_G.T - self.gyro_b
-        return np.linalg.solve(self.gyro_K, r.reshape(-1, 3).T).T.reshape(w.shape)
+        r = w - f @ self.gyr_G.T - self.gyr_b
+        return np.linalg.solve(self.gyr_K, r.reshape(-1, 3).T).T.reshape(w.shape)
 
     def correct(self, acc_raw, gyro_raw) -> tuple[np.ndarray, np.ndarray]:
         """(specific force m/s², angular rate rad/s) from raw samples (imucal's ``calibrate`` in SI)."""
@@ -103,9 +104,13 @@ class FerrarisCalibration(Result):
         """The same calibration as an :class:`optinav.multipos.convert.ImucalCalibration` (outputs m/s², deg/s)."""
         from optinav.multipos.convert import ImucalCalibration
 
-        return ImucalCalibration.from_optinav(self.acc_K, self.acc_b, self.gyro_K, self.gyro_G, self.gyro_b,
+        return ImucalCalibration.from_optinav(self.acc_K, self.acc_b, self.gyr_K, self.gyr_G, self.gyr_b,
                                               from_acc_unit=self.acc_unit, from_gyr_unit=self.gyro_unit,
                                               comment=comment)
+
+
+register_legacy(FerrarisCalibration, FerrarisCalibration.SCHEMA, 1, lambda d: nested_kwargs(
+    FerrarisCalibration, d, {"gyro_" + k: "gyr_" + k for k in "KGb"}))
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -181,7 +186,7 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
     Returns
     -------
     FerrarisCalibration
-        ``acc_K`` [raw/(m/s^2)], ``acc_b`` [raw], ``gyro_K`` [raw/(rad/s)], ``gyro_G`` [raw/(m/s^2)], ``gyro_b`` [raw].
+        ``acc_K`` [raw/(m/s^2)], ``acc_b`` [raw], ``gyr_K`` [raw/(rad/s)], ``gyr_G`` [raw/(m/s^2)], ``gyr_b`` [raw].
     """
     rate = rate_hz
     g = check_positive(gravity, "gravity")
@@ -232,20 +237,20 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
     # gyroscope g-sensitivity (eq. 9) and bias (all static samples)
     Vp, Vn = Ug[0::2].T, Ug[1::2].T
     G = (Vp - Vn) / (2.0 * g)
-    gyro_b = Ug.mean(axis=0) if cg is None else (cg[:, None] * Ug).sum(axis=0) / cg.sum()
+    gyr_b = Ug.mean(axis=0) if cg is None else (cg[:, None] * Ug).sum(axis=0) / cg.sum()
     # rotations (eqs. 12-15): integrate the offset-free gyro output
     W = np.zeros((3, 3))
     Kinv = np.linalg.inv(acc_K)
     for j, (a, w) in enumerate(zip(ar, gr)):
         f = (a - acc_b) @ Kinv.T
-        c = w - f @ G.T - gyro_b
+        c = w - f @ G.T - gyr_b
         W[:, j] = c.sum(axis=0) / r if steps[j] is None else (c * steps[j][:, None]).sum(axis=0)
-    gyro_K = W / th[None, :]
-    if _singular(gyro_K):
+    gyr_K = W / th[None, :]
+    if _singular(gyr_K):
         raise OptinavError("the three rotations give a singular gyro scale matrix",
                            "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle")
     norms = np.linalg.norm((Ua - acc_b) @ Kinv.T, axis=1)
-    return FerrarisCalibration(acc_K=acc_K, acc_b=acc_b, gyro_K=gyro_K, gyro_G=G, gyro_b=gyro_b, gravity=g,
+    return FerrarisCalibration(acc_K=acc_K, acc_b=acc_b, gyr_K=gyr_K, gyr_G=G, gyr_b=gyr_b, gravity=g,
                                expected_angle=th, acc_unit=str(acc_unit), gyro_unit=str(gyro_unit),
                                acc_static_means=Ua, gyro_static_means=Ug,
                                static_counts=None if ca is None else ca, rotation_duration=durations,

@@ -123,7 +123,7 @@ class GyroCalibration(Result):
     """
 
     SCHEMA = "optinav.gyro_calibration"
-    VERSION = 1
+    VERSION = 2
 
     K: np.ndarray = field(metadata={"unit": "raw/(rad/s)"})
     b: np.ndarray = field(metadata={"unit": "raw"})

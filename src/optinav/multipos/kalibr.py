@@ -148,7 +148,7 @@ def read_kalibr_imu_yaml(path) -> dict:
 
 
 def calibration_from_kalibr(data: dict) -> dict:
-    """optinav's ``{"acc_K", "gyro_K", "gyro_G"}`` (raw per SI in ``optinav_units``, or SI for Kalibr's own files)
+    """optinav's ``{"acc_K", "gyr_K", "gyr_G"}`` (raw per SI in ``optinav_units``, or SI for Kalibr's own files)
     from a scale-misalignment file; biases are not part of Kalibr's file (it estimates them along the
     trajectory). Uses ``C_i_s`` when present (files optinav wrote), else Kalibr's frame i."""
     from optinav.core.units import factor
@@ -168,6 +168,6 @@ def calibration_from_kalibr(data: dict) -> dict:
     units = data.get("optinav_units") or {}
     f_a = _factor(units.get("accelerometer_raw", "m/s^2"), factor)
     f_g = _factor(units.get("gyroscope_raw", "rad/s"), factor)
-    return {"acc_K": M_a @ C_i_s / f_a, "gyro_K": M_g @ C @ C_i_s / f_g, "gyro_G": A @ C @ C_i_s / f_g,
+    return {"acc_K": M_a @ C_i_s / f_a, "gyr_K": M_g @ C @ C_i_s / f_g, "gyr_G": A @ C @ C_i_s / f_g,
             "units": {"accelerometer_raw": units.get("accelerometer_raw", "m/s^2"),
                       "gyroscope_raw": units.get("gyroscope_raw", "rad/s")}}

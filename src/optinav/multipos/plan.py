@@ -246,7 +246,7 @@ def plan_noise(allan=None, preset: str | None = None, acc_noise_density: float |
         from optinav.core.imu_model import preset as get
 
         spec = get(name)
-        acc, gyro = np.asarray(spec.accel_vrw, float), np.asarray(spec.gyro_arw, float)
+        acc, gyro = np.asarray(spec.acc_vrw, float), np.asarray(spec.gyro_arw, float)
         parts.append(f"preset {name}" + ("" if preset else " (assumed; pass --allan or the densities)"))
     if acc_noise_density is not None:
         acc = np.full(3, acc_noise_density)
@@ -275,7 +275,7 @@ class PosePlan(Result):
     """
 
     SCHEMA = "optinav.pose_plan"
-    VERSION = 1
+    VERSION = 2
 
     criterion: str = field(metadata={"unit": "-"})
     up_dirs: np.ndarray = field(metadata={"unit": ""})

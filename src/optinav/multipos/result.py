@@ -68,7 +68,7 @@ class CalibrationResult(Estimate):
     ``gyr_b_*``, ``gyr_G_*`` with a gyroscope): K in raw units per SI unit, b in raw units."""
 
     SCHEMA = "optinav.multipos.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "multipos"
     KIND = "calibration"
 
@@ -259,7 +259,7 @@ def _legacy_v1(data: dict) -> dict:
 register_legacy(CalibrationResult, "optinav.calibration", 1, _legacy_v1)
 
 
-def session_truth(acc_K, acc_b, gyro_K=None, gyro_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s",
+def session_truth(acc_K, acc_b, gyr_K=None, gyr_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s",
                   info: dict | None = None) -> Truth:
     """A simulated unit's truth in the parameterization :func:`~optinav.multipos.calibrate.calibrate`
     estimates: the accelerometer K in the upper-triangular form U (K = U·Q with Q a rotation: norm observations
@@ -270,8 +270,8 @@ def session_truth(acc_K, acc_b, gyro_K=None, gyro_b=None, *, acc_unit: str = "m/
     U, Q = model.upper_triangular_form(np.asarray(acc_K, float))
     acc = {"K": U, "b": np.asarray(acc_b, float), "form": "upper-triangular"}
     params = _triad_parameters("acc", acc, acc_unit, "m/s^2")
-    if gyro_K is not None:
-        gyr = {"K": np.asarray(gyro_K, float) @ Q.T, "b": np.asarray(gyro_b, float), "form": "full"}
+    if gyr_K is not None:
+        gyr = {"K": np.asarray(gyr_K, float) @ Q.T, "b": np.asarray(gyr_b, float), "form": "full"}
         params.update(_triad_parameters("gyr", gyr, gyro_unit, "rad/s"))
     return Truth("multipos", params, dict(info or {}))
 

@@ -15,7 +15,7 @@ import numpy as np
 from optinav.core import rotations
 from optinav.core.earth import gravity as normal_gravity
 from optinav.core.imu_model import ImuModel, ImuSpec, TriadErrors, preset
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.simulate import static_positions
 from optinav.core.units import DEG, G_STANDARD
 from optinav.core.validate import as_float_array, as_rng, check_positive
@@ -47,20 +47,24 @@ def orientation_for_up(up, yaw: float = 0.0) -> np.ndarray:
 
 @dataclasses.dataclass
 class SimulatedSession(Result):
-    """A simulated raw log with truth (raw = K·x + b per triad, raw in ``acc_unit`` / ``gyro_unit``)."""
+    """A simulated raw log with truth (raw = K·x + b per triad, raw in ``acc_unit`` / ``gyro_unit``).
+
+    ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_b`` carry the names of the result's parameters (``acc_K_xx``,
+    ``gyr_b_x`` …, docs/results.md). Version 2 renamed the version-1 fields ``gyro``/``gyro_K``/``gyro_b`` to
+    ``gyr``/``gyr_K``/``gyr_b`` (version-1 files still load)."""
 
     SCHEMA = "optinav.simulated_session"
-    VERSION = 1
+    VERSION = 2
 
     t: np.ndarray = field(metadata={"unit": "s"})
     acc: np.ndarray = field(metadata={"unit": "acc_unit"})
-    gyro: np.ndarray = field(metadata={"unit": "gyro_unit"})
+    gyr: np.ndarray = field(metadata={"unit": "gyro_unit"})
     acc_unit: str = field(metadata={"unit": "-"})
     gyro_unit: str = field(metadata={"unit": "-"})
     acc_K: np.ndarray = field(metadata={"unit": "acc_unit/(m/s^2)"})
     acc_b: np.ndarray = field(metadata={"unit": "acc_unit"})
-    gyro_K: np.ndarray = field(metadata={"unit": "gyro_unit/(rad/s)"})
-    gyro_b: np.ndarray = field(metadata={"unit": "gyro_unit"})
+    gyr_K: np.ndarray = field(metadata={"unit": "gyro_unit/(rad/s)"})
+    gyr_b: np.ndarray = field(metadata={"unit": "gyro_unit"})
     gravity: float = field(metadata={"unit": "m/s^2"})
     up_dirs: np.ndarray = field(metadata={"unit": ""})
     static_intervals: np.ndarray = field(metadata={"unit": "s"})
@@ -82,7 +86,7 @@ class SimulatedSession(Result):
         from optinav.io import ImuLog
 
         acc = self.acc if self.acc_unit in ("counts", "m/s^2") else self.acc * factor(self.acc_unit)
-        gyro = self.gyro if self.gyro_unit in ("counts", "rad/s") else self.gyro * factor(self.gyro_unit)
+        gyro = self.gyr if self.gyro_unit in ("counts", "rad/s") else self.gyr * factor(self.gyro_unit)
         return ImuLog(t=self.t, acc=acc, gyr=gyro, acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
                       gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
 
@@ -111,12 +115,16 @@ class SimulatedSession(Result):
                 "accelerometer": {"K": self.acc_K.tolist(), "b": self.acc_b.tolist(),
                                   "noise_sigma": self.acc_noise_sigma,
                                   "bias_instability": self.acc_bias_instability},
-                "gyroscope": {"K": self.gyro_K.tolist(), "b": self.gyro_b.tolist()}, "gravity": self.gravity,
+                "gyroscope": {"K": self.gyr_K.tolist(), "b": self.gyr_b.tolist()}, "gravity": self.gravity,
                 **(site or {}),
                 "static_intervals": self.static_intervals.tolist(), "up_dirs": self.up_dirs.tolist(),
                 "poses": self.descriptions, **(provenance or {})}
-        return session_truth(self.acc_K, self.acc_b, self.gyro_K, self.gyro_b, acc_unit=self.acc_unit,
+        return session_truth(self.acc_K, self.acc_b, self.gyr_K, self.gyr_b, acc_unit=self.acc_unit,
                              gyro_unit=self.gyro_unit, info=info)
+
+
+register_legacy(SimulatedSession, SimulatedSession.SCHEMA, 1, lambda d: nested_kwargs(
+    SimulatedSession, d, {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}))  # old names
 
 
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
@@ -183,7 +191,7 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
     if not isinstance(unit_model, ImuModel):
         raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
-    rate = unit_model.sample_rate if rate_hz is None else check_positive(rate_hz, "rate_hz")
+    rate = unit_model.rate_hz if rate_hz is None else check_positive(rate_hz, "rate_hz")
     lat = float(lat)
     g = float(normal_gravity(lat, height_m))
     if truth == "paper":
@@ -208,12 +216,12 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     labels[labels == 0] = -2  # the rest period is not a calibration pose
     labels[labels > 0] -= 1
     intervals = np.array([[tr.t[labels == k][0], tr.t[labels == k][-1]] for k in range(len(ups))])
-    vrw = np.asarray(unit_model.accel_noise.white, float)
+    vrw = np.asarray(unit_model.acc_noise.white, float)
     from optinav.core.simulate import describe_pose
     return SimulatedSession(
-        t=tr.t, acc=meas.accel * fa, gyro=meas.gyro * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
+        t=tr.t, acc=meas.acc * fa, gyr=meas.gyr * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
         acc_K=unit_model.acc.K * fa, acc_b=unit_model.acc.bias * fa,
-        gyro_K=unit_model.gyr.K * fg, gyro_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
+        gyr_K=unit_model.gyr.K * fg, gyr_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
         static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
-        acc_bias_instability=float(np.max(unit_model.accel_noise.gm_sigma) * fa),
+        acc_bias_instability=float(np.max(unit_model.acc_noise.gm_sigma) * fa),
         descriptions=[describe_pose(c) for c in poses[1:]])

@@ -66,7 +66,7 @@ class StaticDetection(Result):
     """
 
     SCHEMA = "optinav.static_detection"
-    VERSION = 1
+    VERSION = 2
 
     t_intervals: np.ndarray = field(metadata={"unit": "s"})
     index_ranges: np.ndarray = field(metadata={"unit": ""})
@@ -131,7 +131,7 @@ class SectionList(Result):
     time), ``index_ranges`` (K, 2) half-open sample ranges [i0, i1), ``names`` (K,) ('' when unnamed)."""
 
     SCHEMA = "optinav.section_list"
-    VERSION = 1
+    VERSION = 2
 
     t_intervals: np.ndarray = field(metadata={"unit": "s"})
     index_ranges: np.ndarray = field(metadata={"unit": ""})

@@ -78,7 +78,7 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
     if drawn:
         unit = unit.draw(gen)
     n = s.t.size
-    d = np.r_[np.diff(s.t), 1.0 / unit.sample_rate]
+    d = np.r_[np.diff(s.t), 1.0 / unit.rate_hz]
     nz = unit.gyro_noise
     if np.any(nz.white > 0):
         white_noise(n, nz.white, d, gen, kind="rate")
@@ -88,8 +88,8 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
         rest = np.zeros(n, bool)
         for t0, t1 in np.asarray(intervals, float):
             rest |= (s.t >= t0) & (s.t <= t1)
-    fg = float(np.mean(np.diag(s.gyro_K))) / float(np.mean(np.diag(unit.gyr.K)))
-    return s.gyro_b + drift[rest].mean(0) * fg
+    fg = float(np.mean(np.diag(s.gyr_K))) / float(np.mean(np.diag(unit.gyr.K)))
+    return s.gyr_b + drift[rest].mean(0) * fg
 
 
 #: gyro g-sensitivity 1σ per element (rad/s per m/s², ≈ 0.1 °/s/g) of :func:`gyro_g_sensitivity_study`
@@ -121,11 +121,11 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0, only=None) -> dict[str, di
                                                            g_sensitivity=g2.normal(0, GYRO_G_SENSITIVITY, (3, 3))))
         s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
         _, Q = model.upper_triangular_form(s.acc_K)
-        Kg = s.gyro_K @ Q.T
-        for name, opt in zip(list(z), (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyro_K))))):
+        Kg = s.gyr_K @ Q.T
+        for name, opt in zip(list(z), (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyr_K))))):
             if only is not None and name not in set(only):
                 continue
-            r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+            r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                           gyro_g_sensitivity=opt)
             b_true = _session_gyro_bias(s, unit, seed, drawn=False, intervals=r.static_intervals)
             z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
@@ -173,16 +173,16 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
             spec = preset("mems-mti1", gyro_bias_instability=(B, "deg/h"))
             s = simulate("18", spec=spec, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
             _, Q = model.upper_triangular_form(s.acc_K)
-            Kg = s.gyro_K @ Q.T
+            Kg = s.gyr_K @ Q.T
             for name, b_case, mode, given in cases:
                 if b_case != B:
                     continue
-                inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyro_K)))
+                inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyr_K)))
                 rest = REST_WINDOW if mode == "rest" else None
-                r = calibrate(s.t, s.acc, s.gyro, acc_unit="counts", gyro_unit="counts", g=s.gravity,
+                r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity,
                               gyro_bias=mode, gyro_bias_instability=inst if given else None,
                               gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)), rest=rest)
-                b_true = s.gyro_b if given else _session_gyro_bias(
+                b_true = s.gyr_b if given else _session_gyro_bias(
                     s, spec, seed, drawn=True, intervals=[rest] if rest else r.static_intervals)
                 z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
                 z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())

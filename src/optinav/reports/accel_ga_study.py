@@ -148,11 +148,11 @@ def _fits(quick, rng) -> dict:
     lev = {}
     for name, key in LEVELLING.items():
         K, b = (np.eye(3), np.zeros(3)) if key is None else (fits[key].K, fits[key].b)
-        p, r = _level(np.linalg.solve(K, meas.accel.mean(axis=0) - b))
+        p, r = _level(np.linalg.solve(K, meas.acc.mean(axis=0) - b))
         lev[name] = (p - p0, r - r0)
     # tilt error ≈ bias error / g ⊕ misalignment error ⊕ the test pose's own bias drift / g (rad)
     sig_tilt = np.sqrt((np.max(lm.std[6:9]) / (g * lm.K[0, 0])) ** 2 + np.max(lm.std[3:6] / lm.K[0, 0]) ** 2
-                       + (np.max(unit.accel_noise.gm_sigma) / g) ** 2)
+                       + (np.max(unit.acc_noise.gm_sigma) / g) ** 2)
     ga = fits["ga"]
     lo, hi = accel.search_interval(st.means, g)
     return {"dwell": dwell, "generations": gens, "fits": fits, "truth": truth, "vec": vec,
@@ -202,7 +202,7 @@ def _efficiency(quick, rng) -> dict:
     K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
                             PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
     ups = design.design_scheme(12, criterion="D").up_dirs
-    sigma = float(np.max(spec.accel_vrw) * np.sqrt(rate))
+    sigma = float(np.max(spec.acc_vrw) * np.sqrt(rate))
     eff, _ = accel.efficiency(K, b, ups, g, sigma, int(dwell * rate), n_runs, rng)
     # where an efficient estimator's ratio falls 99 % of the time for all 9 parameters together (Bonferroni)
     lo, hi = rmse_ratio_band(n_runs, 1 - 0.01 / 9)
@@ -212,7 +212,7 @@ def _efficiency(quick, rng) -> dict:
 def compute(quick: bool, rng) -> dict:
     """Every number of the study, in the order the parts draw from ``rng``."""
     spec = preset("mems-mti1")
-    sigma = float(np.max(spec.accel_vrw) * np.sqrt(RATE_HZ))  # per sample at 100 Hz
+    sigma = float(np.max(spec.acc_vrw) * np.sqrt(RATE_HZ))  # per sample at 100 Hz
     n = {"quick": quick}
     step("Table 1")
     n["table1"] = _table1()

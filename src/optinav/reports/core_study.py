@@ -78,7 +78,7 @@ def _imu_noise(quick, rng) -> dict:
     spec = imu_model.preset("mems-mti1")
     unit = spec.draw(rng, errors=False)
     hours = 2.0 if quick else 6.0
-    n, dt = int(hours * 3600 * spec.sample_rate), 1.0 / spec.sample_rate
+    n, dt = int(hours * 3600 * spec.rate_hz), 1.0 / spec.rate_hz
     w = unit.gyro_noise.sample(n, dt, rng)[:, 0]  # rad/s, x axis
     ad = allan.allan_deviation(w, dt, kind="rate")
     par = allan.noise_parameters_from_allan(ad)
@@ -101,24 +101,24 @@ def _alignment(quick, rng) -> dict:
     truth = simulate.static_positions(c_true[None], T, 100.0, lat, h, frame=frame)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, rng=rng, kind="increment")
     span = truth.t[-1] - truth.t[0]
-    coarse = alignment.coarse_alignment(meas.accel.sum(0) / span, meas.gyro.sum(0) / span, lat, h, frame)
-    fine = alignment.fine_alignment(truth.t, meas.gyro, meas.accel, lat, h, frame=frame,
-                                    gyro_white=unit.gyro_noise.white[0], accel_white=unit.accel_noise.white[0],
-                                    gyro_bias_std=float(spec.gyro_bias[0]), accel_bias_std=float(spec.accel_bias[0]),
+    coarse = alignment.coarse_alignment(meas.acc.sum(0) / span, meas.gyr.sum(0) / span, lat, h, frame)
+    fine = alignment.fine_alignment(truth.t, meas.gyr, meas.acc, lat, h, frame=frame,
+                                    gyro_white=unit.gyro_noise.white[0], acc_white=unit.acc_noise.white[0],
+                                    gyro_bias_std=float(spec.gyro_bias[0]), acc_bias_std=float(spec.acc_bias[0]),
                                     gyro_bias_instability=unit.gyro_noise.gm_sigma[0],
                                     gyro_bias_tau=unit.gyro_noise.gm_tau[0],
-                                    accel_bias_instability=unit.accel_noise.gm_sigma[0],
-                                    accel_bias_tau=unit.accel_noise.gm_tau[0])
+                                    acc_bias_instability=unit.acc_noise.gm_sigma[0],
+                                    acc_bias_tau=unit.acc_noise.gm_tau[0])
     limit = alignment.alignment_limits(c_true @ unit.gyr.bias, c_true @ unit.acc.bias, lat, h, frame)
     g = float(earth.gravity(lat, h))
-    sig = np.array([unit.accel_noise.white[0] / g, unit.accel_noise.white[0] / g,
+    sig = np.array([unit.acc_noise.white[0] / g, unit.acc_noise.white[0] / g,
                     unit.gyro_noise.white[0] / (earth.WGS84.omega_ie * np.cos(lat))]) / np.sqrt(span)
     instab = np.abs(alignment.alignment_limits(np.full(3, unit.gyro_noise.gm_sigma[0]),
-                                               np.full(3, unit.accel_noise.gm_sigma[0]), lat, h, frame))
+                                               np.full(3, unit.acc_noise.gm_sigma[0]), lat, h, frame))
     e_hist = np.array([alignment.attitude_error(rotations.dcm_from_euler(e, frame), c_true)
                        for e in fine.history_euler])
-    return {"span": span, "limit": limit, "coarse": alignment.attitude_error(coarse.dcm_b_n, c_true),
-            "fine": alignment.attitude_error(fine.dcm_b_n, c_true), "fine_std": fine.attitude_std,
+    return {"span": span, "limit": limit, "coarse": alignment.attitude_error(coarse.C_b_n, c_true),
+            "fine": alignment.attitude_error(fine.C_b_n, c_true), "fine_std": fine.attitude_std,
             "noise_std": sig, "tolerance": 4 * sig + 3 * instab,
             "history_t": fine.history_t, "history_error": e_hist, "history_std": fine.history_attitude_std}
 

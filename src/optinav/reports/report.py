@@ -337,11 +337,40 @@ def _save_figures(study: StudyResult, out: Path) -> list[tuple[Figure, str | Non
     return saved
 
 
-def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
-    """Create the report folder and check it is writable (before any long work, so a bad path fails at once)."""
+def check_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
+    """Check, without creating anything, that the report folder can be made and written: it is a writable folder,
+    or the nearest folder above it that exists is (so a bad path fails before any work and leaves nothing behind).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The report folder; :func:`prepare_report_dir` makes it when the report is written.
+    option : str
+        The CLI option that names it, for the remedy of an error.
+
+    Returns
+    -------
+    Path
+        ``out_dir``, unchanged.
+    """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise OptinavError(f"the report folder {out} is a file", f"choose another {option}")
+    up = out
+    while not up.exists() and up != up.parent:
+        up = up.parent
+    if not up.is_dir():
+        raise OptinavError(f"cannot create report folder {out}: {up} is a file", f"choose another {option}")
+    if not os.access(up, os.W_OK | os.X_OK):
+        where = f"the report folder {out}" if up == out else f"{up} (to make the report folder {out})"
+        raise OptinavError(f"cannot write into {where}: permission denied", f"choose a writable {option}")
+    return out
+
+
+def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
+    """Create the report folder and check it is writable (when the report is written; :func:`check_report_dir`
+    checks the path before the work)."""
+    out = check_report_dir(out_dir, option)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -5,6 +5,7 @@ report references of the multipos and attitude systems."""
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 
 from optinav.errors import OptinavError
@@ -20,7 +21,7 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         from optinav.multipos.calibrate import FileOptions, read_session_file
 
         d = read_session_file(data, options or FileOptions())
-        return cr.write_calibration_report(res, d.t, d.acc, d.gyro, out_dir)
+        return cr.write_calibration_report(res, d.t, d.acc, d.gyr, out_dir)
     from optinav.reports.report import StudyResult, write_report
 
     study = StudyResult(name="calibration", title=f"Calibration of {res.source or 'a log'} ({res.method})",
@@ -67,7 +68,7 @@ def write_result_reports(results, out, data=None) -> Path:
     ``FILE_files/``). Returns the Markdown file written."""
     from optinav import registry
     from optinav.core.files import check_output, write_text
-    from optinav.reports.report import prepare_report_dir
+    from optinav.reports.report import check_report_dir
 
     data = list(data or [])
     if data and len(data) != len(results):
@@ -77,23 +78,41 @@ def write_result_reports(results, out, data=None) -> Path:
     single_file = out.suffix.lower() == ".md"
     if single_file:
         check_output(out)
-    root = prepare_report_dir(out.with_name(out.stem + "_files") if single_file else out, "--out")
+    root = check_report_dir(out.with_name(out.stem + "_files") if single_file else out, "--out")
     loaded = [registry.for_result(p) for p in results]
     if any(res is None for _, res in loaded):  # an imucal/imu_tk file: the report is of optinav results
         raise OptinavError("only optinav result files (with a schema) have a report",
                            "pass RESULT.json written by optinav calibrate")
     stems = _stems(results)
     folders = [root if len(results) == 1 and not single_file else root / s for s in stems]
-    for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
-        system.load("report")(res, folder, d)
-    if single_file:
-        parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
-        return write_text(out, "\n".join(parts), "--out")
-    if len(results) > 1:
-        lines = ["# optinav report", ""] + [f"- [{Path(p).name}]({s}/index.md) ({sys_.name})"
-                                             for p, s, (sys_, _) in zip(results, stems, loaded)]
-        write_text(root / "index.md", "\n".join(lines) + "\n", "--out")
+    # a report that fails (a check of its system, a bad --data) leaves none of the folders it made behind
+    made = _outermost_missing(root)
+    new = [made] if made is not None else [f for f in folders if not f.exists()]
+    try:
+        for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
+            system.load("report")(res, folder, d)
+        if single_file:
+            parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}")
+                     for f in folders]
+            return write_text(out, "\n".join(parts), "--out")
+        if len(results) > 1:
+            lines = ["# optinav report", ""] + [f"- [{Path(p).name}]({s}/index.md) ({sys_.name})"
+                                                 for p, s, (sys_, _) in zip(results, stems, loaded)]
+            write_text(root / "index.md", "\n".join(lines) + "\n", "--out")
+    except BaseException:
+        for folder in new:
+            shutil.rmtree(folder, ignore_errors=True)
+        raise
     return root / "index.md"
+
+
+def _outermost_missing(path: Path) -> Path | None:
+    """The outermost folder of ``path`` that does not exist yet (what creating ``path`` makes), or None."""
+    if path.exists():
+        return None
+    while not path.parent.exists() and path.parent != path:
+        path = path.parent
+    return path
 
 
 def _relinked(markdown: str, prefix: str) -> str:

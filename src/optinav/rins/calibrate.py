@@ -267,7 +267,7 @@ class RinsCalibration(Estimate):
     """
 
     SCHEMA = "optinav.rins.calibration"
-    VERSION = 2
+    VERSION = 3
     SYSTEM = "rins"
     KIND = "calibration"
 
@@ -584,8 +584,17 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
 
 
 def _legacy_v1(data: dict) -> dict:
-    """RESULT.json of an older optinav (schema "optinav.rins_calibration" version 1, flat)."""
+    """RESULT.json of an older optinav (schema "optinav.rins_calibration" version 1, flat).
+
+    Version 1 wrote ``rmse_before_deg``/``rmse_after_deg`` as [pitch, roll, yaw] (commit 5c3e5ad turned them to
+    [roll, pitch, yaw] without a version bump; version-1 files from the 25 minutes until version 2 replaced the
+    layout, 370cc2a, are swapped by this reader); they are read as [roll, pitch, yaw]. Version 2 was always
+    [roll, pitch, yaw]."""
     kw = flat_kwargs(RinsCalibration, data)
+    for key in ("rmse_before_deg", "rmse_after_deg"):
+        v = kw.get(key)
+        if isinstance(v, list) and len(v) == 3:
+            kw[key] = [v[1], v[0], v[2]]
     if kw.get("method") == "lm" and "message" in (data.get("options") or {}):
         kw["convergence"] = convergence(None, evaluations=data["options"].get("nfev"),
                                         message=data["options"]["message"])

@@ -151,7 +151,7 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.height_m, "enu")
     if fine:
         al = fine_alignment(ep, dth, dv, data.lat, data.height_m, frame="enu", q0=coarse.q_b_n, gyro_white=5e-7,
-                            accel_white=5e-5, gyro_bias_std=1e-7, accel_bias_std=3e-4)
+                            acc_white=5e-5, gyro_bias_std=1e-7, acc_bias_std=3e-4)
     else:
         al = coarse
     w_ie = _earth.earth_rate(data.lat, "enu")

@@ -77,7 +77,7 @@ class RinsData(Result):
     """
 
     SCHEMA = "optinav.rins_data"
-    VERSION = 2
+    VERSION = 3
 
     t: np.ndarray = field(metadata={"unit": "s"})
     dtheta: np.ndarray = field(metadata={"unit": "rad"})
@@ -92,7 +92,8 @@ class RinsData(Result):
     info: dict = field(default_factory=dict, metadata={"unit": "-"})
 
     @property
-    def rate(self) -> float:
+    def rate_hz(self) -> float:
+        """Sample rate [Hz]: the inverse of the median epoch spacing."""
         return float(1.0 / np.median(np.diff(self.t)))
 
 
@@ -221,8 +222,8 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
         over["gyro_scale"] = float(gyro_scale)
     if over:
         spec = spec.replace(**over)
-    if spec.sample_rate != rate:
-        spec = spec.replace(sample_rate=rate)
+    if spec.rate_hz != rate:
+        spec = spec.replace(rate_hz=rate)
     unit = spec.draw(gen, errors=imu_errors)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, gen, kind="increment", noise=noise)
     ts = truth.t[:-1]  # row k: the increments over (t[k], t[k+1]] and the encoders at t[k]
@@ -238,5 +239,5 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
             "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyr.K.tolist(),
             "gyro_bias": unit.gyr.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
             "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
-    return RinsData(t=ts, dtheta=meas.gyro, dv=meas.accel, alpha=enc[0], beta=enc[1], lat=lat,
+    return RinsData(t=ts, dtheta=meas.gyr, dv=meas.acc, alpha=enc[0], beta=enc[1], lat=lat,
                     height_m=float(h), truth=p.copy(), C_b_n=c_b_n, align_s=float(align_s), info=info)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.core.rotations import frame_name
-from optinav.core.results import Result
+from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import DEG
 from optinav.errors import OptinavError
 from optinav.sky import _spa_tables as T
@@ -323,15 +323,16 @@ class SolarPosition(Result):
     ``declination``, ``right_ascension`` and ``hour_angle`` are geocentric apparent values (what an almanac
     lists); the ``*_topocentric`` ones include parallax. Hour angles in (−π, π], positive west of the
     meridian (afternoon). ``equation_of_time`` = apparent − mean solar time (s). ``delta_t`` = TT − UT1 (s).
+    Version 2 renamed ``height`` to ``height_m`` (version-1 files still load).
     """
 
     SCHEMA = "optinav.solar_position"
-    VERSION = 1
+    VERSION = 2
 
     unix_time: np.ndarray = _rad("s")
     lat: float = _rad()
     lon: float = _rad()
-    height: float = _rad("m")
+    height_m: float = _rad("m")
     zenith: np.ndarray = _rad()
     azimuth: np.ndarray = _rad()
     elevation: np.ndarray = _rad()
@@ -356,6 +357,10 @@ class SolarPosition(Result):
     def time(self) -> np.ndarray:
         """The times as datetime64[us] (UTC; µs, not ns, so that years -2000..6000 fit)."""
         return np.round(np.asarray(self.unix_time) * 1e6).astype(np.int64).astype("datetime64[us]")
+
+
+register_legacy(SolarPosition, SolarPosition.SCHEMA, 1,
+                lambda d: nested_kwargs(SolarPosition, d, {"height": "height_m"}))  # old names
 
 
 def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
@@ -429,7 +434,7 @@ def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=2
     deg = {k: out[k] * DEG for k in keys if k not in ("equation_of_time", "earth_sun_distance")}
     el = deg["elevation"]
     return SolarPosition(
-        unix_time=secs, lat=lat, lon=lon, height=height, zenith=np.pi / 2 - el, azimuth=deg["azimuth"],
+        unix_time=secs, lat=lat, lon=lon, height_m=height, zenith=np.pi / 2 - el, azimuth=deg["azimuth"],
         elevation=el, elevation_geometric=deg["elevation_geometric"], declination=deg["declination"],
         declination_topocentric=deg["declination_topocentric"], right_ascension=deg["right_ascension"],
         hour_angle=deg["hour_angle"], hour_angle_topocentric=deg["hour_angle_topocentric"],

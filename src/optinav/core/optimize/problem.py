@@ -218,7 +218,7 @@ class OptimizeResult(Result):
     """
 
     SCHEMA = "optinav.optimize_result"
-    VERSION = 1
+    VERSION = 2
     x: np.ndarray = field(metadata={"unit": "parameter units"})
     cost: float = field(metadata={"unit": "residual units^2"})
     success: bool = field(metadata={"unit": "-"})
