@@ -9,9 +9,10 @@ lengths give the growth per million rows (the imports cancel) and the peak extra
 rows were not run (a 1.3 GB CSV per step, and the "before" commands would need about 11 GB), so the 10 M
 figures are a linear extrapolation from 1 M and 3 M, which holds for the streamed commands only while their
 per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log. Streamed: apply (blocks of
-200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks).
-Calibrate reads in blocks (iter_imu) and keeps time, accelerometer and gyroscope (56 B per row) plus its
-moving-variance sums; it still holds the log, so it grows. Not streamed yet: the simulators (their noise processes
+200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks;
+``--offline`` runs its passes over a scratch file beside the output). Calibrate reads in blocks (iter_imu) into one
+array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
+static detection (16 B per row); it holds the log, so it grows. Not streamed yet: the simulators (their noise processes
 are drawn for the whole log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -34,8 +35,19 @@ from pathlib import Path
 BEFORE = "588414d"
 ROOT = Path(__file__).resolve().parent.parent
 
-_WRAP = ("import resource, sys; from optinav.cli.main import main; rc = main(sys.argv[1:]); "
-         "print('peak_kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); sys.exit(rc)")
+#: runs the CLI and prints the process's peak resident memory: VmHWM, the high-water mark of its own address
+#: space (ru_maxrss is not: after a vfork + exec it also holds the parent's peak, so every run measured after
+#: this runner had read a 1 M-row log into memory once showed at least the runner's ~520 MiB)
+_WRAP = """import resource, sys
+from optinav.cli.main import main
+rc = main(sys.argv[1:])
+try:
+    kib = next(int(x.split()[1]) for x in open('/proc/self/status') if x.startswith('VmHWM:'))
+except (OSError, StopIteration):
+    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print('peak_kib', kib, file=sys.stderr)
+sys.exit(rc)
+"""
 
 
 def _run(src: Path, argv: list[str], expect_error: bool = False) -> tuple[float, float, str]:
@@ -90,15 +102,16 @@ def _bad_copy(src: Path, dst: Path) -> None:
     dst.write_bytes(head + b"\n" + b",".join(cells) + b"\n")
 
 
-def run(quick: bool) -> list[dict]:
+def run(quick: bool, before: bool = True) -> list[dict]:
+    """The rows of results_memory.json; ``before=False`` measures this tree only (:func:`remeasure`)."""
     sizes = (20_000, 60_000) if quick else (1_000_000, 3_000_000)
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         versions = {"after": ROOT / "src"}
-        before = _before_src(tmp)
-        if before is not None:
-            versions["before"] = before
+        old = _before_src(tmp) if before else None
+        if old is not None:
+            versions["before"] = old
         peaks: dict[tuple[str, str], list[tuple[int, float, float]]] = {}
         for version, src in versions.items():
             for rows in sizes:
@@ -135,6 +148,23 @@ def run(quick: bool) -> list[dict]:
                 {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"}]
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+
+
+def remeasure(path: Path, note: str) -> None:
+    """Re-run this tree's steps ("after") into the results JSON ``path``, keeping its "before" rows (the commit
+    before the commands streamed does not change), with ``note`` and the date added to its notes."""
+    import json
+
+    results = json.loads(path.read_text())
+    keep = [r for r in results["rows"] if not r["method"].endswith("(after)")]
+    rows = keep + run(quick=bool(results["meta"].get("quick")), before=False)
+    order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
+    results["rows"] = sorted(rows, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+    results["meta"]["notes"] = [f"every \"after\" row re-measured {time.strftime('%Y-%m-%dT%H:%M%z')} ({note}); "
+                                "the peak is now the process's own high-water mark (VmHWM): ru_maxrss, used before, "
+                                "held the runner's ~520 MiB after it had read a 1 M-row log, which floored the "
+                                "streamed commands' figures (the \"before\" rows are all above it)"]
+    path.write_text(json.dumps(results, indent=2) + "\n")
 
 
 def markdown(results: dict) -> str:
@@ -247,11 +277,15 @@ def markdown_modes(rows: list[dict]) -> str:
 
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
+    # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
     # python benchmarks/bench_memory.py --attitude-modes [--quick] MODES.json: run the attitude modes, write
     # MODES.json and print their table
     import json
 
-    if sys.argv[1] == "--attitude-modes":
+    if sys.argv[1] == "--after":
+        # python benchmarks/bench_memory.py --after RESULTS.json NOTE: this tree's rows re-measured in place
+        remeasure(Path(sys.argv[2]), sys.argv[3])
+    elif sys.argv[1] == "--attitude-modes":
         quick = "--quick" in sys.argv
         res = run_attitude_modes(quick)
         Path(sys.argv[-1]).write_text(json.dumps(res, indent=1) + "\n")

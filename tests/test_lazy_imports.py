@@ -56,6 +56,28 @@ def test_calibrate_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra
     assert not (tmp_path / "o.json").exists()
 
 
+@pytest.mark.parametrize("extra", [[], ["--offline"], ["--method", "mekf"], ["--report", "REP"]],
+                         ids=["streamed", "offline", "mekf", "report"])
+@pytest.mark.parametrize("kind", ["text_cell", "ragged_row"])  # two rows are a log attitude accepts
+def test_attitude_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(BAD_FILES[kind])
+    extra = [str(tmp_path / "rep") if x == "REP" else x for x in extra]
+    r = _probe(["attitude", str(bad), "--out", str(tmp_path / "o.csv"), *extra])
+    assert r["rc"] == 2
+    assert r["err"] and r["err"][0].startswith("optinav: error:") and "Traceback" not in r["err"][0]
+    assert r["loaded"] == [], f"imported before the read error: {r['loaded']}"
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_attitude_checks_its_options_before_reading(tmp_path):
+    """A bad estimator option is still refused before the file is read (here a file that does not exist)."""
+    r = _probe(["attitude", str(tmp_path / "missing.csv"), "--out", str(tmp_path / "o.csv"), "--option", "gain=-1",
+                "--method", "gd"])
+    assert r["rc"] == 2 and "gain" in r["err"][0], r
+    assert r["loaded"] == []
+
+
 def test_the_probe_sees_heavy_imports(tmp_path):
     """The check can fail: a command that goes on to real work (here a simulation) loads numba."""
     r = _probe(["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--scheme", "six", "--dwell", "3",

@@ -8,12 +8,16 @@ Public API: :func:`estimate` (batch, an :class:`AttitudeEstimate`; default metho
 package attribute ``optinav.attitude.simulate`` is the function).
 """
 
-from optinav.attitude.estimators import (DEFAULTS, METHODS, MEKF, AttitudeEstimate, AttitudeFilter,
-                                         ConjugateGradient, GradientDescent, QuasiNewton, estimate, estimate_q,
-                                         initial_attitude, make_filter)
-from optinav.attitude.measurement import (DEFAULT_C_B_M, DEFAULT_C_B_M_ENU, PolarizationMeasurement, default_c_b_m,
-                                          measurement_error, predicted_aop, up_vector, wrap_axial)
-from optinav.attitude.simulate import simulate
+from optinav._lazy import lazy_package
+
+# loaded on first use: `optinav attitude` reads and checks its file before the numba kernels load
+_EXPORTS = {**dict.fromkeys(("DEFAULTS", "METHODS"), ".methods"),
+            **dict.fromkeys(("MEKF", "AttitudeEstimate", "AttitudeFilter", "ConjugateGradient", "GradientDescent",
+                             "QuasiNewton", "estimate", "estimate_q", "initial_attitude", "make_filter"), ".estimators"),
+            **dict.fromkeys(("DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "PolarizationMeasurement", "default_c_b_m",
+                             "measurement_error", "predicted_aop", "up_vector", "wrap_axial"), ".measurement"),
+            "simulate": ".simulate"}
+lazy_package(__name__, _EXPORTS)
 
 __all__ = ["DEFAULTS", "METHODS", "MEKF", "AttitudeEstimate", "AttitudeFilter", "ConjugateGradient",
            "GradientDescent", "QuasiNewton", "estimate", "estimate_q", "initial_attitude", "make_filter", "simulate",

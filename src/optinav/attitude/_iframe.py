@@ -351,10 +351,11 @@ def step6(st, par, g, a, h):
 
 
 @numba.njit(**_NJ)
-def strapdown(gyr, bias, dt, out):
-    """q_g = q_b^I of the bias-corrected gyro for every sample, the arithmetic of :func:`step` (identity before
-    the first sample); ``bias`` (N, 3) rad/s, ``dt`` 1 or N entries."""
-    q0, q1, q2, q3 = 1.0, 0.0, 0.0, 0.0
+def strapdown(gyr, bias, dt, out, q):
+    """q_g = q_b^I of the bias-corrected gyro for every sample, the arithmetic of :func:`step`, from ``q`` (4,),
+    the attitude before the first sample (the identity for a whole log), which is left at the last sample's (a
+    log strapped down in blocks); ``bias`` (N, 3) rad/s, ``dt`` 1 or N entries."""
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
     for i in range(gyr.shape[0]):
         h = dt[i] if dt.shape[0] > 1 else dt[0]
         d0, d1, d2, d3 = _rotvec_q((gyr[i, 0] - bias[i, 0]) * h, (gyr[i, 1] - bias[i, 1]) * h,
@@ -366,3 +367,4 @@ def strapdown(gyr, bias, dt, out):
         out[i, 1] = q1
         out[i, 2] = q2
         out[i, 3] = q3
+    q[0], q[1], q[2], q[3] = q0, q1, q2, q3

@@ -11,12 +11,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from optinav.attitude.measurement import PolarizationMeasurement, as_c_b_m, predicted_aop
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
+
+if TYPE_CHECKING:
+    from optinav.attitude.measurement import PolarizationMeasurement
 from optinav.sky.polarization import wrap_axial
 
 __all__ = ["BroadTrial", "is_broad", "load_broad", "BROAD_TRIAL_02", "synthesize_polarization"]
@@ -112,6 +115,8 @@ def synthesize_polarization(q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop
     q_ref (N, 4) body → ``frame`` (NaN rows give missing samples); sun_n (3,) or (N, 3) unit sun vector in the
     frame; ``aop_noise`` rad (white, Gaussian). ``options`` go to :class:`PolarizationMeasurement`.
     """
+    from optinav.attitude.measurement import PolarizationMeasurement, as_c_b_m, predicted_aop
+
     q = np.asarray(q_ref, dtype=float)
     ok = np.all(np.isfinite(q), axis=1)
     c_b_m = as_c_b_m(C_b_m, frame)

@@ -33,40 +33,19 @@ import numpy as np
 
 from optinav.attitude import _kernels
 from optinav.attitude.checks import check_frame, check_imu, find_gaps
-from optinav.attitude.iframe import IFRAME_DEFAULTS, AttitudeFilter, run_iframe
+from optinav.attitude.iframe import AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
+from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options
 from optinav.attitude.measurement import (PolarizationMeasurement, as_c_b_m, pol_inputs, predicted_aop,
                                           up_vector, wrap_axial)
 from optinav.core.results import Estimate, Parameter, Truth, convergence, nested_kwargs, register_legacy
 from optinav.core.rotations import (DEFAULT_FRAME, euler_from_quat, frame_name, quat_from_euler, quat_from_rotvec,
                                     quat_multiply)
-from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
 __all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_q",
            "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
-
-METHODS = ("iframe", "qn", "gd", "cg", "mekf")
-
-#: default options per method (units in the comments; see the class docstrings)
-DEFAULTS: dict[str, dict[str, float]] = {
-    "iframe": IFRAME_DEFAULTS,
-    # β (rad/s): Madgwick's gain; 0.033 is ahrs's default for gyro+acc
-    "gd": {"gain": 0.033, "pol_weight": 1.0},
-    "cg": {"gain": 0.033, "restart": 10, "pol_weight": 1.0},
-    # β₀ (1/s) base rate of the correction, κ (1/rad) its growth with ‖q̇‖ (rad/s), max step (fraction), g (m/s²),
-    # ε (m/s²) accelerometer state threshold, step factor beyond it, BFGS reset bound on trace(H)
-    "qn": {"gain": 0.5, "rate_gain": 0.3, "max_step": 0.5, "gravity": G_STANDARD, "acc_threshold": 0.8,
-           "acc_shrink": 0.1, "h_reset": 100.0, "pol_weight": 1.0},
-    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s),
-    # bound on the heading σ (rad) while no heading measurement is used (a heading error is at most π), and
-    # couple_heading 0/1: 1 lets the gravity update correct the heading through its correlation with the bias
-    "mekf": {"gyro_noise": 0.002, "bias_noise": 5e-5, "acc_noise": 0.1, "pol_noise": np.radians(1.0),
-             "gravity": G_STANDARD, "acc_threshold": 0.8, "acc_inflate": 5.0, "init_att_std": 0.05,
-             "init_bias_std": 0.01, "max_heading_std": np.pi, "couple_heading": 0.0},
-}
-
 
 @dataclass
 class AttitudeEstimate(Estimate):
@@ -153,31 +132,6 @@ def summary_line(method: str, frame: str, n: int, *, offline: bool = False, segm
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
     return s
-
-
-def _options(method: str, options: dict) -> dict:
-    if method not in METHODS:
-        raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
-    opts = dict(DEFAULTS[method])
-    for k, v in options.items():
-        if k not in opts:
-            raise OptinavError(f"option {k!r} does not apply to method {method!r}",
-                               f"valid options: {', '.join(sorted(opts))}")
-        try:
-            fv = float(v)
-        except (TypeError, ValueError):
-            fv = float("nan")
-        if not np.isfinite(fv) or fv < 0:
-            raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
-        opts[k] = fv
-    if method == "mekf" and opts["max_heading_std"] <= 0:
-        raise OptinavError("max_heading_std must be > 0", "pass a bound in rad, e.g. max_heading_std=3.14")
-    if method == "mekf" and opts["couple_heading"] not in (0.0, 1.0):
-        raise OptinavError(f"couple_heading={opts['couple_heading']:g} must be 0 or 1",
-                           "pass couple_heading=0 (heading from the gyro alone) or 1")
-    if method == "cg" and opts["restart"] < 1:
-        raise OptinavError("restart must be >= 1", "pass restart=1 (plain gradient) or more")
-    return opts
 
 
 def _as_dt(dt, n: int) -> np.ndarray:
@@ -299,16 +253,6 @@ def _checked_imu(gyr, acc, mag=None):
             raise OptinavError(f"mag has shape {mag.shape}, expected {gyr.shape}", "align the magnetometer")
         mag = np.ascontiguousarray(mag)
     return np.ascontiguousarray(gyr), np.ascontiguousarray(acc), mag
-
-
-def _method(method, pol) -> str:
-    if method is None:
-        return "iframe" if pol is None else "mekf"
-    m = str(method).lower()
-    if m == "iframe" and pol is not None:
-        raise OptinavError("method iframe takes no polarization input",
-                           "use --method mekf (or gd, cg, qn) with --pol-columns")
-    return m
 
 
 def _timed(fn):

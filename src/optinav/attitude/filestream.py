@@ -6,10 +6,13 @@ runs the filter with its state carried from block to block (:class:`StreamEstima
 polarization columns of the block included), writes each block's rows and adds the block's squared errors to
 the score against a reference (BROAD: ``opt_quat`` over ``movement``). The output is renamed into place only
 after every check passed, so the file is the in-memory path's byte for byte, and the score its RMSE to rounding.
+``--offline`` (iframe's forward–backward smoother) keeps the second pass's inputs in a scratch file beside the
+output and runs its passes over that file in blocks (:func:`_offline_segment`), again byte for byte.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -237,6 +240,215 @@ class _Hdf5Trial:
         self.mag = f["imu_mag"] if "imu_mag" in f else None
 
 
+class _Scratch:
+    """Per-sample fields of a log in a scratch file (float64 rows; ``fields`` name → width), read and written by
+    row ranges (pread/pwrite: the process holds one block; a memory map would count its pages as resident)."""
+
+    def __init__(self, fh, fields: dict[str, int]):
+        self.fd, self.cols, w = fh.fileno(), {}, 0
+        for name, k in fields.items():
+            self.cols[name] = slice(w, w + k)
+            w += k
+        self.width, self.n = w, 0
+
+    def append(self, **values) -> None:
+        k = len(values["t"])
+        rows = np.zeros((k, self.width))
+        for name, v in values.items():
+            rows[:, self.cols[name]] = np.asarray(v, float).reshape(k, -1)
+        self.write(self.n, rows)
+        self.n += k
+
+    def read(self, a: int, b: int) -> np.ndarray:
+        size, at = (b - a) * self.width * 8, a * self.width * 8
+        buf = bytearray()
+        while len(buf) < size:
+            got = os.pread(self.fd, size - len(buf), at + len(buf))
+            if not got:
+                raise OSError(f"scratch file ends at row {a + len(buf) // (self.width * 8)}")
+            buf += got
+        return np.frombuffer(buf, float).reshape(b - a, self.width)
+
+    def write(self, a: int, rows: np.ndarray) -> None:
+        data = memoryview(np.ascontiguousarray(rows, float)).cast("B")
+        done = 0
+        while done < len(data):
+            done += os.pwrite(self.fd, data[done:], a * self.width * 8 + done)
+
+    def col(self, rows: np.ndarray, name: str) -> np.ndarray:
+        return np.ascontiguousarray(rows[:, self.cols[name]])
+
+
+def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress) -> StreamRun:
+    """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
+    file beside ``out``; each segment (between time gaps) then runs :func:`_offline_segment` over it, and a last
+    forward pass writes the CSV. The output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
+    from optinav.attitude.estimators import summary_line
+    from optinav.attitude.methods import IFRAME_DEFAULTS, _options
+    from optinav.core.files import scratch_file
+    from optinav.core.progress import progress_blocks
+
+    opts = dict(IFRAME_DEFAULTS)
+    opts.update(_options("iframe", dict(o.options)))
+    blk = max(int(chunk_rows), 2)
+    fields = {"t": 1, "gyr": 3, "acc": 3, "dts": 1, "q": 4, "bias": 3, "flags": 3, "qg": 4, "v": 3}
+    if src.mag:
+        fields["mag"] = 3
+    if score is not None:
+        fields.update(q_ref=4, movement=1)
+    need, free = checks.n * sum(fields.values()) * 8, _free_bytes(out)
+    if need > free:
+        raise OptinavError(f"--offline needs {need / 2**30:.2f} GiB of scratch space beside {out} for {checks.n} "
+                           f"samples; {free / 2**30:.2f} GiB are free there",
+                           "write --out to a disk with more free space, or drop --offline")
+    with scratch_file(out) as fh:
+        store = _Scratch(fh, fields)
+        for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
+            checks.collect(row0, gyr, acc, dts)
+            if not (checks.gaps.size and not o.allow_gaps):
+                more = {k: extra[k] for k in ("mag", "q_ref", "movement") if k in store.cols}
+                store.append(t=t, gyr=gyr, acc=acc, dts=dts, **more)
+        checks.finish_second(frame)
+        gaps = checks.gaps
+        if gaps.size and not o.allow_gaps:
+            i = int(gaps[0])
+            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
+                               "integrating the gyro across it would be wrong",
+                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
+        if gaps.size:  # each segment starts afresh: its first step is a normal one (as estimate)
+            for i in gaps:
+                row = store.read(int(i), int(i) + 1).copy()
+                row[0, store.cols["dts"]] = checks.median_dt
+                store.write(int(i), row)
+        bounds = list(zip(np.r_[0, gaps], np.r_[gaps, store.n]))
+        lat = 0.0
+        for k, (a, b) in enumerate(bounds):
+            lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk)
+        rest = mag_used = 0
+        with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
+            for a in range(0, store.n, blk):
+                r = store.read(a, min(a + blk, store.n))
+                q = store.col(r, "q")
+                if lat != 0.0:
+                    from optinav.core.rotations import quat_from_rotvec, quat_multiply
+
+                    q = quat_multiply(q, quat_from_rotvec((store.col(r, "gyr") - store.col(r, "bias")) * lat))
+                write(attitude_rows(store.col(r, "t")[:, 0], q, frame))
+                flags = store.col(r, "flags")
+                rest += int(np.count_nonzero(flags[:, 0]))
+                mag_used += int(np.count_nonzero(flags[:, 2]))
+                if score is not None:
+                    score.add(q, store.col(r, "q_ref"), store.col(r, "movement")[:, 0].astype(bool))
+            result = None if score is None else score.result()
+        n = store.n
+    line = summary_line("iframe", frame, n, offline=True, segments=len(bounds), rest=rest / n,
+                        mag_used=mag_used / n if src.mag else None)
+    return StreamRun(line, n, result)
+
+
+def _free_bytes(path) -> float:
+    """Free bytes on the disk of ``path``'s folder (inf when the OS cannot tell)."""
+    import shutil
+
+    try:
+        return float(shutil.disk_usage(Path(path).parent or ".").free)
+    except OSError:
+        return float("inf")
+
+
+def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0, blk: int) -> float:
+    """:func:`optinav.attitude.iframe.run_iframe` with ``offline=True`` on the rows [a, b) of ``store``, in
+    blocks of ``blk`` rows with the states carried: the forward pass, the backward pass over the reversed rows
+    (fused with the forward one), and the zero-phase tilt refinement (strapdown, then the forward–backward
+    Butterworth filter as ``scipy.signal.filtfilt`` computes it, from the padded ends). Leaves the smoothed q,
+    the bias and the flags (rest, acc used, mag used) in ``store``; returns the latency still to apply (s)."""
+    from scipy.signal import lfilter, lfilter_zi
+
+    from optinav.attitude import _iframe as _k
+    from optinav.attitude import iframe as _if
+    from optinav.attitude.estimators import _as_q0
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    c, col = store.cols, store.col
+    par = _if._params(frame, opts)
+    lat = float(par[_k.P_LATENCY])
+    par[_k.P_LATENCY] = 0.0  # applied once, to the smoothed result
+    no_mag = np.zeros((0, 3))
+    mag = (lambda r: col(r, "mag")) if "mag" in c else (lambda r: no_mag)
+    st = _if._new_state(opts, None if q0 is None else _as_q0(q0))
+    finite = True
+    for s in range(a, b, blk):
+        r = store.read(s, min(s + blk, b)).copy()
+        acc = col(r, "acc")
+        finite &= bool(np.isfinite(acc).all())
+        f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
+        r[:, c["q"]] = f.q
+        r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
+        store.write(s, r)
+    # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
+    st = st.copy()
+    st[_k.S_BIAS:_k.S_BIAS + 3] *= -1.0
+    for e in range(b, a, -blk):
+        s = max(e - blk, a)
+        r = store.read(s, min(e + 1, b)).copy()
+        k = e - s
+        g, d = np.zeros((k, 3)), np.empty(k)
+        g[:r.shape[0] - 1] = -col(r, "gyr")[1:]
+        d[:r.shape[0] - 1] = col(r, "dts")[1:, 0]
+        if r.shape[0] == k:
+            d[k - 1] = r[k - 1, c["dts"]][0]
+        r = r[:k]
+        w = _if._run(st, par, g[::-1].copy(), col(r, "acc")[::-1].copy(), mag(r)[::-1].copy(), d[::-1].copy())
+        flags = col(r, "flags").astype(bool)
+        r[:, c["q"]] = _if._fuse(col(r, "q"), w.q[::-1])
+        r[:, c["bias"]] = -w.bias[::-1]
+        r[:, c["flags"]] = np.column_stack([flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | w.mag_used[::-1]])
+        store.write(s, r)
+    n = b - a
+    if n < 16 or not finite:
+        return lat
+    # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
+    dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
+    bf, af, pad = _if.zero_phase_filter(dts, opts["tau_acc"], n)
+    del dts
+    q = np.array([1.0, 0.0, 0.0, 0.0])
+    for s in range(a, b, blk):
+        r = store.read(s, min(s + blk, b)).copy()
+        qg = np.empty((r.shape[0], 4))
+        _k.strapdown(col(r, "gyr"), col(r, "bias"), col(r, "dts")[:, 0], qg, q)
+        r[:, c["qg"]] = qg
+        r[:, c["v"]] = quat_rotate(qg, col(r, "acc"))
+        store.write(s, r)
+    # filtfilt(bf, af, v, axis=0, padlen=pad): odd extensions at both ends, forward then backward with the
+    # steady-state initial conditions, in blocks with the filter state carried (the same arithmetic)
+    head = col(store.read(a, a + pad + 1), "v")
+    tail = col(store.read(b - pad - 1, b), "v")
+    left = 2 * head[0:1] - head[pad:0:-1]
+    right = 2 * tail[-1:] - tail[-2::-1]
+    zi = lfilter_zi(bf, af).reshape(-1, 1)
+    _, z = lfilter(bf, af, left, axis=0, zi=zi * left[0:1])
+    for s in range(a, b, blk):
+        r = store.read(s, min(s + blk, b)).copy()
+        r[:, c["v"]], z = lfilter(bf, af, col(r, "v"), axis=0, zi=z)
+        store.write(s, r)
+    yr, z = lfilter(bf, af, right, axis=0, zi=z)
+    _, z = lfilter(bf, af, yr[::-1], axis=0, zi=zi * yr[-1:])
+    ok = True
+    for e in range(b, a, -blk):
+        s = max(e - blk, a)
+        r = store.read(s, e).copy()
+        lp, z = lfilter(bf, af, col(r, "v")[::-1], axis=0, zi=z)
+        r[:, c["v"]] = up = quat_rotate(quat_conjugate(col(r, "qg")), lp[::-1])
+        ok &= bool(np.all(np.linalg.norm(up, axis=1) > 0.0))
+        store.write(s, r)
+    if ok:
+        for s in range(a, b, blk):
+            r = store.read(s, min(s + blk, b)).copy()
+            r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
+            store.write(s, r)
+    return lat
+
+
 def _mag_names(mag_columns: str | None) -> list[str]:
     names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
     if len(names) != 3:
@@ -249,27 +461,27 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
                     announce: Callable[[int, str], None] | None = None, progress: bool | None = None) -> StreamRun:
     """Estimate the attitude of the log ``path`` block by block (at most ``chunk_rows`` samples held) and write
     the attitude CSV (:data:`optinav.attitude.recording.CSV_HEADER`) to ``out`` atomically. ``options`` as :func:`optinav.attitude.unit.
-    read_log` / :func:`~optinav.attitude.estimate` (``offline`` is not streamed: pass it to the in-memory path);
+    read_log` / :func:`~optinav.attitude.estimate` (``offline``: the inputs go to a scratch file beside ``out``,
+    removed at the end, for the backward and zero-phase passes; about 200 B per sample on disk);
     ``pol`` the polarization columns; ``reference`` scores against a BROAD trial's optical reference (frame ENU).
     ``announce(n, method)`` is called between the two passes. Bad input raises :class:`OptinavError` before
     anything is written under ``out``."""
     from optinav.attitude.checks import check_aop
-    from optinav.attitude.estimators import _method
-    from optinav.attitude.measurement import PolarizationMeasurement
+    from optinav.attitude.methods import _method
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
     o = options
-    if o.offline:
-        raise OptinavError("offline smoothing does not run block by block here", "use the in-memory path")
     frame = frame_name(o.frame)
     method = _method(o.method, True if pol is not None else None)
+    if o.offline and method != "iframe":
+        raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     want_mag = o.mag or bool(o.mag_columns)
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if reference and frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
-    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
+    StreamEstimator.check(method, o.options)
     src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows)
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
@@ -295,6 +507,13 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
     if announce is not None:
         announce(checks.n, method)
     score = _Score() if reference else None
+    # the estimators (numba kernels) load only now, so that a bad file is reported within a second of start
+    from optinav.attitude.measurement import PolarizationMeasurement
+
+    if o.offline:
+        step("estimate (iframe offline), write")
+        return _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
+    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
     step(f"estimate ({method}), write")  # one pass does both
     with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):

@@ -37,35 +37,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from optinav.attitude import _iframe as _k
+from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 __all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "IframeRun", "run_iframe", "input_stage"]
 
-_D2R = np.pi / 180.0
-
-#: options of ``method="iframe"`` (SI units: s, rad, rad/s, m/s²; ``mag_norm_th`` relative)
-IFRAME_DEFAULTS: dict[str, float] = {
-    "tau_acc": 4.0,                  # s, accelerometer low-pass time constant in the almost-inertial frame
-    "rest_tau": 0.5,                 # s, low-pass of the rest detector
-    "rest_gyr": 2.0 * _D2R,          # rad/s, max gyro deviation at rest
-    "rest_acc": 0.5,                 # m/s², max accelerometer deviation at rest
-    "rest_time": 1.5,                # s, minimum still time before rest is declared
-    "bias_sigma0": 0.5 * _D2R,       # rad/s, initial bias σ
-    "bias_rw": 0.003 * _D2R,         # rad/s/√s, bias random walk
-    "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
-    "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
-    "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
-    "motion_max_gyr": 0.0,           # rad/s, no motion bias update above this rate; 0 = no limit
-    "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
-    "gravity": 9.81,                 # m/s²
-    "tau_mag": 10.0,                 # s, heading correction time constant
-    "mag_norm_th": 0.05,             # relative deviation of |m| from the reference
-    "mag_dip_th": 5.0 * _D2R,        # rad, deviation of the dip angle from the reference
-    "mag_new_time": 20.0,            # s, a steady new field becomes the reference after this time
-    "tau_mag_ref": 30.0,             # s, averaging time of the learned reference
-    "latency": 0.0,                  # s, how late the IMU's samples are: the output is predicted that far ahead
-}
 _ORDER = ("tau_acc", "rest_tau", "rest_gyr", "rest_acc", "rest_time", "bias_sigma0", "bias_rw", "bias_rest",
           "bias_motion", "bias_clip", "motion_max_gyr", "motion_max_acc", "gravity", "tau_mag", "mag_norm_th",
           "mag_dip_th", "mag_new_time", "tau_mag_ref")  # then latency at P_LATENCY
@@ -174,25 +151,41 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
     with a zero-phase (forward–backward) Butterworth filter of the same time constant gives the up direction
     without lag; ``q`` is turned halfway towards it (a tilt-only rotation, the heading is kept). Skipped when
     the recording is too short or the accelerometer has non-finite samples."""
-    from scipy.signal import butter, filtfilt
+    from scipy.signal import filtfilt
 
-    from optinav.core.rotations import quat_conjugate, quat_from_rotvec, quat_multiply, quat_rotate
+    from optinav.core.rotations import quat_conjugate, quat_rotate
 
     n = gyr.shape[0]
-    h = float(np.mean(dts))
-    pad = int(min(n - 1, np.ceil(3.0 * tau / h)))
     if n < 16 or not np.isfinite(acc).all():
         return q
+    b, a, pad = zero_phase_filter(dts, tau, n)
     qg = np.empty((n, 4))
-    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg)
-    fc = np.sqrt(2.0) / (2.0 * np.pi * tau)  # the cutoff of the causal low-pass (rate-independent)
-    b, a = butter(2, min(2.0 * fc * h, 0.98))
+    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, np.array([1.0, 0.0, 0.0, 0.0]))
     lp = filtfilt(b, a, quat_rotate(qg, acc), axis=0, padlen=pad)
     up_b = quat_rotate(quat_conjugate(qg), lp)
-    nrm = np.linalg.norm(up_b, axis=1)
-    ok = nrm > 0.0
-    if not ok.all():
+    if not np.all(np.linalg.norm(up_b, axis=1) > 0.0):
         return q
+    return tilt_halfway(q, up_b, frame)
+
+
+def zero_phase_filter(dts, tau: float, n: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """(b, a, padlen) of the offline refinement's Butterworth low-pass for a recording of ``n`` samples with the
+    steps ``dts`` (s, 1 or n) and the time constant ``tau`` (s): the cutoff of the causal low-pass
+    (rate-independent), at the mean step."""
+    from scipy.signal import butter
+
+    h = float(np.mean(dts))
+    pad = int(min(n - 1, np.ceil(3.0 * tau / h)))
+    fc = np.sqrt(2.0) / (2.0 * np.pi * tau)
+    b, a = butter(2, min(2.0 * fc * h, 0.98))
+    return b, a, pad
+
+
+def tilt_halfway(q, up_b, frame):
+    """``q`` (N, 4) turned halfway (tilt only) towards the up direction ``up_b`` (N, 3, body axes, non-zero)."""
+    from optinav.core.rotations import quat_from_rotvec, quat_multiply, quat_rotate
+
+    nrm = np.linalg.norm(up_b, axis=1)
     cur = quat_rotate(q, up_b / nrm[:, None])       # the zero-phase up, in n with the current estimate
     up = _UP[frame_name(frame)]
     ax = np.cross(cur, up)

@@ -13,10 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from optinav.attitude import checks as _c
-from optinav.attitude import iframe as _if
-from optinav.attitude.estimators import (_as_q0, _init_state, _options, _pol_arrays, _run, initial_attitude,
-                                         summary_line)
-from optinav.attitude.measurement import up_vector
+from optinav.attitude.methods import _options
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
@@ -116,11 +113,19 @@ class StreamEstimator:
     q_b^n (n, 4); :meth:`restart` starts a new segment (after a time gap: levelled from its first sample).
     ``method``/``options``/``frame``/``q0``/``input_stage`` as :func:`~optinav.attitude.estimate`."""
 
-    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = False, **options):
+    @staticmethod
+    def check(method: str, options: dict) -> dict:
+        """The options of ``method`` checked (and completed with the defaults) without loading the kernels."""
         if method not in STREAM_METHODS:
             raise OptinavError(f"method {method!r} does not run on a stream", f"use one of {STREAM_METHODS}")
+        return _options(method, dict(options))
+
+    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = False, **options):
+        from optinav.attitude import iframe as _if  # the kernels load on the first estimator
+        from optinav.attitude.estimators import _as_q0
+
+        self.opts = self.check(method, options)
         self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
-        self.opts = _options(method, options)
         self.input_stage = input_stage or method == "iframe"
         self.front_opts = dict(_if.IFRAME_DEFAULTS)
         if method == "iframe":
@@ -140,6 +145,10 @@ class StreamEstimator:
             pol=None) -> np.ndarray:
         """q_b^n (n, 4) of the next block: gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s, ``mag`` (n, 3) any unit
         (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe)."""
+        from optinav.attitude import iframe as _if
+        from optinav.attitude.estimators import _init_state, _pol_arrays, _run, initial_attitude
+        from optinav.attitude.measurement import up_vector
+
         gyr, acc = np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float)
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
@@ -191,6 +200,8 @@ class StreamEstimator:
 
     def summary(self) -> str:
         """The line :meth:`AttitudeEstimate.summary` prints for the same estimate."""
+        from optinav.attitude.estimators import summary_line
+
         skipped = None
         if self.pol_skipped is not None:
             from optinav.attitude import _kernels

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from optinav.attitude.estimators import AttitudeEstimate, _method, _options, estimate
+from optinav.attitude.methods import _method, _options
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
+
+if TYPE_CHECKING:
+    from optinav.attitude.estimators import AttitudeEstimate
 
 
 @dataclasses.dataclass
@@ -117,6 +121,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
     """Read ``path`` and estimate its attitude; extra columns: samples, duration (s), and with ``reference``
     the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its simulated truth
     (``STEM.truth.csv``), over the samples where it is valid."""
+    from optinav.attitude.estimators import estimate
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
     p, o = Path(path), options

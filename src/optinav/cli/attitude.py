@@ -119,8 +119,8 @@ def _checked(args):
     """(method, estimator options, q0 or None, output path): the arguments checked before any data is read."""
     import numpy as np
 
-    from optinav.attitude.estimators import _method
-    from optinav.attitude.estimators import _options as check_options
+    from optinav.attitude.methods import _method
+    from optinav.attitude.methods import _options as check_options
     from optinav.core.rotations import frame_name, quat_from_euler
 
     options = parse_key_values(args.option)
@@ -169,11 +169,9 @@ def _announce(args, method):
 
 
 def run(args) -> int:
-    from optinav.attitude import estimate
     from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse
     from optinav.attitude.unit import AttitudeOptions, read_log, steps
     from optinav.core.progress import step
-    from optinav.reports.attitude_report import write_attitude_report
 
     method, options, q0, out = _checked(args)
     o = options_from_args(AttitudeOptions, args, options=options)
@@ -185,6 +183,9 @@ def run(args) -> int:
     dt = steps(t, args.data)
     pol = _polarization(args, t) if args.pol_columns else None
     _announce(args, method)(t.size)
+    from optinav.attitude import estimate  # the kernels load once the log is read and checked
+    from optinav.reports.attitude_report import write_attitude_report
+
     step(f"estimate ({method})")
     res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag, offline=args.offline,
                    input_stage=args.input_stage, allow_gaps=args.allow_gaps, **options)
@@ -202,9 +203,9 @@ def run(args) -> int:
 
 
 def _streams(args) -> bool:
-    """Whether the log is estimated block by block: everything but what needs the whole recording at once
-    (--offline smoothing, --report plots)."""
-    return not (args.offline or args.report)
+    """Whether the log is estimated block by block: everything but the --report plots (which need the whole
+    recording at once; --offline smoothing streams through a scratch file beside --out)."""
+    return not args.report
 
 
 def _run_stream(args, options, q0, out, announce) -> int:

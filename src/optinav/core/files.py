@@ -223,6 +223,39 @@ def atomic_path(path, option: str = "--out") -> Iterator[Path]:
 
 
 @contextlib.contextmanager
+def scratch_file(path, option: str = "--out") -> Iterator:
+    """A unique temporary binary file beside the output ``path`` (the same folder, so the same disk), open for
+    reading and writing, and removed when the block ends, with or without error; OS errors become a one-line
+    :class:`OptinavError` naming ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output the scratch data serve (its folder holds the file).
+    option : str
+        The CLI option that names it.
+
+    Yields
+    ------
+    file object
+        The open scratch file (binary, read and write).
+    """
+    path = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".scratch", dir=path.parent or ".")
+    except OSError as exc:
+        raise os_error(path, exc, option) from None
+    try:
+        with os.fdopen(fd, "w+b") as fh:
+            yield fh
+    except OSError as exc:
+        raise os_error(path, exc, option) from None
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+
+@contextlib.contextmanager
 def atomic_open(path, mode: str = "w", option: str = "--out", **kwargs) -> Iterator:
     """:func:`atomic_path` opened as a file.
 

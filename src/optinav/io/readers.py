@@ -322,8 +322,8 @@ class TableChunks:
             src = gzip.GzipFile(fileobj=raw, mode="rb") if self.gz else raw
             state = {"complete": True}
 
-            def block() -> list[str]:
-                got = list(itertools.islice(src, n))
+            def block(k: int = n) -> list[str]:
+                got = list(itertools.islice(src, k))
                 self.position = raw.tell()
                 if not got:
                     return []
@@ -352,7 +352,9 @@ class TableChunks:
             while pending or nxt:
                 while len(pending) < n and nxt:
                     pending += nxt
-                    nxt = block()
+                    # only the lines this block lacks (at least one: is there more?), so that what is read ahead
+                    # stays under one block, not two or three blocks of text lines
+                    nxt = block(max(n - len(pending), 1))
                 lines, pending = pending[:n], pending[n:]
                 last = not pending and not nxt
                 data, truncated = _parse_block(path, lay, lines, 0, complete=state["complete"] or not last,

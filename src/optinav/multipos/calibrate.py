@@ -47,11 +47,15 @@ def count_range(raw) -> tuple[float, float]:
     """Full scale (lo, hi) of the integer type that raw counts (N, 3) were written in, inferred from their
     range: unsigned (offset binary) 0 … 2^k − 1 when no sample is negative, else signed −2^(k−1) … 2^(k−1) − 1,
     with k the smallest of 16, 24, 32 bits that holds every sample."""
-    x = np.asarray(raw, float)
-    x = x[np.isfinite(x)]
-    if x.size == 0:
+    x = np.asarray(raw, float).reshape(-1)
+    lo, hi = np.inf, -np.inf
+    for a in range(0, x.size, static._BLOCK):  # in blocks: no copy of the log
+        xb = x[a:a + static._BLOCK]
+        xb = xb[np.isfinite(xb)]
+        if xb.size:
+            lo, hi = min(lo, float(xb.min())), max(hi, float(xb.max()))
+    if lo > hi:
         return -np.inf, np.inf
-    lo, hi = float(x.min()), float(x.max())
     for k in _INT_BITS:
         if lo >= 0 and hi <= 2.0 ** k - 1:
             return 0.0, 2.0 ** k - 1
@@ -245,7 +249,7 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     valid = ~sat_a
     if not np.any(valid):
         raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
-    rest_norm = float(np.median(np.linalg.norm(acc[valid], axis=1)))
+    rest_norm = float(np.median(_row_norms(acc, valid), overwrite_input=True))
     gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
@@ -287,9 +291,8 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     for i0, i1 in ranges:
         used[i0:i1] = True
     used &= valid
-    a_used = model.corrected(fit.theta, acc[used])
-    residual_rms = float(np.sqrt(np.mean((np.linalg.norm(a_used, axis=1) - g) ** 2)))
-    a_used = used = None  # freed before the gyroscope fit, the peak of a long log
+    residual_rms = float(np.sqrt(np.mean((_row_norms(acc, used, fit.theta) - g) ** 2)))
+    used = None
 
     K_std = np.zeros((3, 3))
     for j, (r, c) in enumerate(model.K_INDEX):
@@ -360,6 +363,21 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
                              method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
                              quality=quality, source=source, gates=gate_log,
                              convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message))
+
+
+def _row_norms(raw, rows, theta=None) -> np.ndarray:
+    """‖x‖ of the selected ``rows`` (N,) bool of ``raw`` (N, 3), x = raw or, with ``theta``, the corrected
+    K⁻¹(raw − b); computed in blocks (each row on its own: the same numbers as on the whole array), so the
+    memory is the result (8 B per selected row), not copies of the log."""
+    out = np.empty(int(np.count_nonzero(rows)))
+    k = 0
+    for a in range(0, raw.shape[0], static._BLOCK):
+        x = raw[a:a + static._BLOCK][rows[a:a + static._BLOCK]]
+        if theta is not None:
+            x = model.corrected(theta, x)
+        out[k:k + x.shape[0]] = np.linalg.norm(x, axis=1)
+        k += x.shape[0]
+    return out
 
 
 def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None,
@@ -599,7 +617,9 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     blocks = iter_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
                       gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
                       delimiter=o.delimiter, topic=o.topic, chunk_rows=chunk_rows)
-    parts: dict[str, list] = {"t": [], "acc": [], "gyro": [], "labels": []}
+    parts = {key: _Gather() for key in ("t", "acc", "gyro")}
+    labels: list = []
+    start = None
     acc_unit = gyro_unit = None
     notes: list = []
     for log in progress_blocks(blocks, "read"):
@@ -607,17 +627,46 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
             raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
         acc, acc_unit = raw_units(log, "acc")
         gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
-        for key, value in (("t", log.t), ("acc", acc), ("gyro", gyro), ("labels", log.labels)):
+        # the rows of the whole file from the bytes per row since the first block (text files: the reader reads
+        # ahead, so the position is not that of the rows yielded; other formats are read whole at once)
+        rows = 0
+        if start is None:
+            start = (blocks.rows, blocks.position)
+        elif blocks.position > start[1]:
+            rows = blocks.size * (blocks.rows - start[0]) / (blocks.position - start[1])
+        for key, value in (("t", log.t), ("acc", acc), ("gyro", gyro)):
             if value is not None:
-                parts[key].append(value)
+                parts[key].add(value, int(rows * 1.02) + len(value))
+        if log.labels is not None:
+            labels.append(log.labels)
         notes += log.notes
-    # one field at a time, its blocks freed before the next: the peak is the arrays plus one field's copy
-    joined = {}
-    for key in parts:
-        joined[key] = np.concatenate(parts[key]) if parts[key] else None
-        parts[key] = None
-    return SessionData(joined["t"], joined["acc"], acc_unit, joined["gyro"], gyro_unit, joined["labels"],
-                       tuple(notes))
+    return SessionData(parts["t"].array(), parts["acc"].array(), acc_unit, parts["gyro"].array(), gyro_unit,
+                       np.concatenate(labels) if labels else None, tuple(notes))
+
+
+class _Gather:
+    """The blocks of one field copied into one array as they come. Its size is the caller's estimate of the whole
+    log's rows (grown ×1.5 when too small), and only the rows written are touched, so the resident memory is
+    the rows read: no list of blocks to concatenate (two copies), and the block arrays, left on the heap between
+    the parser's temporaries, do not fragment it (about 35 B per row of resident memory that was never given
+    back)."""
+
+    def __init__(self):
+        self.buf, self.n = None, 0
+
+    def add(self, block: np.ndarray, rows: int) -> None:
+        need = self.n + len(block)
+        if self.buf is None:
+            self.buf = np.empty((max(rows, need),) + block.shape[1:], block.dtype)
+        elif need > len(self.buf):
+            grown = np.empty((max(need, int(1.5 * len(self.buf)), rows),) + self.buf.shape[1:], self.buf.dtype)
+            grown[:self.n] = self.buf[:self.n]
+            self.buf = grown
+        self.buf[self.n:need] = block
+        self.n = need
+
+    def array(self) -> np.ndarray | None:
+        return None if self.buf is None else self.buf[:self.n]
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:

@@ -164,34 +164,41 @@ _BLOCK = 1 << 16
 def _moving_variance(t: np.ndarray, x: np.ndarray, window_s: float) -> tuple[np.ndarray, float]:
     """Variance (N,) and its rounding resolution (input units²).
 
-    Computed in blocks of :data:`_BLOCK` rows; each running sum continues from the previous block's last value
-    (``cumsum`` adds sequentially), so the result is bit-identical to the whole-array computation while the
-    memory beyond the two running sums (48 B per row) is a few blocks."""
+    Computed in blocks of :data:`_BLOCK` rows from running sums that are held only over the rows the block's
+    windows reach: each continues from its last value (``cumsum`` adds sequentially), so the result is
+    bit-identical to the whole-array computation while the memory beyond the result (8 B per row) is a few
+    blocks and a window."""
     n_rows = t.size
     half = 0.5 * window_s
     # a tiny relative slack keeps samples exactly half a window away inside despite rounding of t
     slack = 1e-9 * max(window_s, 1e-300)
     centre = x.mean(axis=0)  # centring limits the cancellation in the cumulative sums of squares
-    c1 = np.zeros((n_rows + 1, 3))
-    c2 = np.zeros((n_rows + 1, 3))
-    for a in range(0, n_rows, _BLOCK):
-        b = min(a + _BLOCK, n_rows)
-        xc = x[a:b] - centre
-        np.cumsum(np.concatenate([c1[a:a + 1], xc]), axis=0, out=c1[a:b + 1])
-        np.cumsum(np.concatenate([c2[a:a + 1], xc * xc]), axis=0, out=c2[a:b + 1])
+    # c1, c2: the sums of xc and xc² over the rows before row held0 + j, for j = 0 … len − 1
+    held0, c1, c2 = 0, np.zeros((1, 3)), np.zeros((1, 3))
     var = np.empty(n_rows)
     n_min = np.inf
     for a in range(0, n_rows, _BLOCK):
         ta = t[a:a + _BLOCK]
         lo = np.searchsorted(t, ta - half - slack, side="left")
         hi = np.searchsorted(t, ta + half + slack, side="right")
+        end = held0 + c1.shape[0] - 1
+        first = int(lo[0])
+        if hi[-1] > end:
+            xc = x[end:hi[-1]] - centre
+            c1 = np.concatenate([c1[first - held0:-1], np.cumsum(np.concatenate([c1[-1:], xc]), axis=0)])
+            c2 = np.concatenate([c2[first - held0:-1], np.cumsum(np.concatenate([c2[-1:], xc * xc]), axis=0)])
+        else:
+            c1, c2 = c1[first - held0:], c2[first - held0:]
+        held0 = first
+        lo -= held0
+        hi -= held0
         n = (hi - lo).astype(float)[:, None]
         n_min = min(n_min, float(n.min()))
         mean = (c1[hi] - c1[lo]) / n
         var[a:a + ta.size] = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
     # rounding error of a difference of two cumulative sums ≈ eps × (running sum) / (window count)
     resolution = float(8 * _EPS * c2[-1].sum() / max(n_min, 1.0))
-    return np.maximum(var, 0.0), resolution
+    return np.maximum(var, 0.0, out=var), resolution
 
 
 def moving_variance(t, x, window_s: float) -> np.ndarray:
@@ -211,18 +218,29 @@ def noise_floor(variance, *, resolution: float = 0.0) -> float:
     Histogram of log10 v in 0.05-decade bins smoothed over 5 bins; the densest bin's centre. ``resolution``
     (the rounding level of v) is a lower bound, so noise-free data give a finite floor.
     """
-    v = np.asarray(variance, dtype=float)
-    v = v[np.isfinite(v)]
+    v = np.asarray(variance, dtype=float).reshape(-1)
     lowest = max(float(resolution), np.finfo(float).tiny)
-    if v.size == 0:
+
+    def logs(a: int) -> np.ndarray:
+        # values at the rounding level count as that level (noise-free or quantized data at rest)
+        x = v[a:a + _BLOCK]
+        return np.log10(np.maximum(x[np.isfinite(x)], lowest))
+
+    # in blocks (the same numbers as on the whole series): the memory stays a few blocks, not copies of v
+    lo, hi = np.inf, -np.inf
+    for a in range(0, v.size, _BLOCK):
+        lv = logs(a)
+        if lv.size:
+            lo, hi = min(lo, float(lv.min())), max(hi, float(lv.max()))
+    if not np.isfinite(lo):
         return lowest
-    # values at the rounding level count as that level (noise-free or quantized data at rest)
-    lv = np.log10(np.maximum(v, lowest))
-    lo, hi = float(lv.min()), float(lv.max())
     if hi - lo < 0.1:
-        return float(10.0 ** np.median(lv))
+        return float(10.0 ** np.median(np.concatenate([logs(a) for a in range(0, v.size, _BLOCK)])))
     nb = int(np.ceil((hi - lo) / 0.05))
-    h, e = np.histogram(lv, bins=nb, range=(lo, hi))
+    h = np.zeros(nb, dtype=np.int64)
+    for a in range(0, v.size, _BLOCK):
+        hb, e = np.histogram(logs(a), bins=nb, range=(lo, hi))
+        h += hb
     hs = np.convolve(h, np.ones(5) / 5.0, mode="same")
     k = int(np.argmax(hs))
     return float(max(10.0 ** (0.5 * (e[k] + e[k + 1])), lowest))
