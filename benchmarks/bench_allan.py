@@ -15,9 +15,11 @@ import tempfile
 import time
 from pathlib import Path
 
-_WRAP = ("import resource, sys, time; from optinav.cli.main import main; t0 = time.perf_counter(); "
-         "rc = main(sys.argv[1:]); print('wall_s', time.perf_counter() - t0, file=sys.stderr); "
-         "print('peak_kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); sys.exit(rc)")
+_WRAP = (
+    "import resource, sys, time; from optinav.cli.main import main; t0 = time.perf_counter(); "
+    "rc = main(sys.argv[1:]); print('wall_s', time.perf_counter() - t0, file=sys.stderr); "
+    "print('peak_kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); sys.exit(rc)"
+)
 
 
 def _command(argv: list[str]) -> dict:
@@ -39,17 +41,36 @@ def run(quick: bool) -> list[dict]:
         x = np.load(log)["gyro"][:, 0].copy()
     n = x.size
     group = f"Allan deviation, {n} samples at 1 kHz"
-    rows = [{"group": group, "method": "optinav allan (6 axes, streamed)", "metric": "wall time", "value": cmd["wall_s"],
-             "unit": "s"},
-            {"group": group, "method": "optinav allan (6 axes, streamed)", "metric": "peak RSS",
-             "value": cmd["peak_mib"], "unit": "MiB"}]
+    rows = [
+        {
+            "group": group,
+            "method": "optinav allan (6 axes, streamed)",
+            "metric": "wall time",
+            "value": cmd["wall_s"],
+            "unit": "s",
+        },
+        {
+            "group": group,
+            "method": "optinav allan (6 axes, streamed)",
+            "metric": "peak RSS",
+            "value": cmd["peak_mib"],
+            "unit": "MiB",
+        },
+    ]
     from optinav.core.allan import allan_deviation
 
     t0 = time.perf_counter()
     ad = allan_deviation(x, 1e-3)
     t_ours = time.perf_counter() - t0
-    rows.append({"group": group, "method": "optinav allan_deviation (1 axis)", "metric": "wall time",
-                 "value": t_ours, "unit": "s"})
+    rows.append(
+        {
+            "group": group,
+            "method": "optinav allan_deviation (1 axis)",
+            "metric": "wall time",
+            "value": t_ours,
+            "unit": "s",
+        }
+    )
     try:
         import allantools
     except ImportError:
@@ -57,7 +78,14 @@ def run(quick: bool) -> list[dict]:
     t0 = time.perf_counter()
     _, dev, _, _ = allantools.oadev(x, rate=1000.0, data_type="freq", taus=ad.tau)
     t_at = time.perf_counter() - t0
-    rows += [{"group": group, "method": "allantools oadev (1 axis)", "metric": "wall time", "value": t_at, "unit": "s"},
-             {"group": group, "method": "optinav vs allantools", "metric": "max relative difference",
-              "value": float(np.max(np.abs(dev / ad.adev - 1))), "unit": "1"}]
+    rows += [
+        {"group": group, "method": "allantools oadev (1 axis)", "metric": "wall time", "value": t_at, "unit": "s"},
+        {
+            "group": group,
+            "method": "optinav vs allantools",
+            "metric": "max relative difference",
+            "value": float(np.max(np.abs(dev / ad.adev - 1))),
+            "unit": "1",
+        },
+    ]
     return rows

@@ -24,12 +24,20 @@ def run(quick: bool) -> list[dict]:
                 axes = hits.mean(axis=0).reshape(-1)
                 labels = ["x", "y", "z"] if axes.size == 3 else ["largest axis"]
                 for lab, v in zip(labels, axes):
-                    rows.append({"group": f"Allan 68 % coverage, {d.name}, {n} records", "method": method,
-                                 "metric": f"{term} {lab}", "value": float(v), "unit": "1"})
+                    rows.append(
+                        {
+                            "group": f"Allan 68 % coverage, {d.name}, {n} records",
+                            "method": method,
+                            "metric": f"{term} {lab}",
+                            "value": float(v),
+                            "unit": "1",
+                        }
+                    )
     if not quick:
         (HERE / "results_allan_coverage.json").write_text(json.dumps({"records": n, "rows": rows}, indent=2) + "\n")
         lines = ["| design | method | term / axis | coverage |", "| --- | --- | --- | --- |"]
         lines += [f"| {r['group'].split(', ')[1]} | {r['method']} | {r['metric']} | {r['value']:.0%} |" for r in rows]
         (HERE / "results_allan_coverage.md").write_text(
-            f"# Coverage of the 68 % Allan intervals ({n} simulated records per design)\n\n" + "\n".join(lines) + "\n")
+            f"# Coverage of the 68 % Allan intervals ({n} simulated records per design)\n\n" + "\n".join(lines) + "\n"
+        )
     return rows

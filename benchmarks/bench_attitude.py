@@ -48,16 +48,26 @@ def _trials(quick: bool):
 
 def _methods():
     """name → (kind, fn(gyr, acc, mag, dt) -> q (N, 4) body → ENU); kind: 6d, 6d-offline or 9d."""
-    m = {"optinav iframe": ("6d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", checks=False)),
-         "optinav iframe offline": ("6d-offline", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU",
-                                                                                offline=True, checks=False)),
-         "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", mag=mg, checks=False))}
+    m = {
+        "optinav iframe": ("6d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", checks=False)),
+        "optinav iframe offline": (
+            "6d-offline",
+            lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", offline=True, checks=False),
+        ),
+        "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", mag=mg, checks=False)),
+    }
     for meth in ("gd", "cg", "qn", "mekf"):
-        m[f"optinav {meth} (as published)"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate_q(
-            g, a, dt, frame="ENU", method=meth, checks=False))
+        m[f"optinav {meth} (as published)"] = (
+            "6d",
+            lambda g, a, mg, dt, meth=meth: estimate_q(g, a, dt, frame="ENU", method=meth, checks=False),
+        )
     for meth in ("qn", "mekf"):
-        m[f"optinav {meth} + input stage"] = ("6d", lambda g, a, mg, dt, meth=meth: estimate_q(
-            g, a, dt, frame="ENU", method=meth, input_stage=True, checks=False))
+        m[f"optinav {meth} + input stage"] = (
+            "6d",
+            lambda g, a, mg, dt, meth=meth: estimate_q(
+                g, a, dt, frame="ENU", method=meth, input_stage=True, checks=False
+            ),
+        )
     try:
         import vqf
 
@@ -100,8 +110,10 @@ def _methods():
     try:
         import ahrs
 
-        m["ahrs Madgwick (0.033)"] = ("6d", lambda g, a, mg, dt: ahrs.filters.Madgwick(
-            gyr=g, acc=a, frequency=1 / dt, gain=0.033).Q)
+        m["ahrs Madgwick (0.033)"] = (
+            "6d",
+            lambda g, a, mg, dt: ahrs.filters.Madgwick(gyr=g, acc=a, frequency=1 / dt, gain=0.033).Q,
+        )
         m["ahrs Mahony"] = ("6d", lambda g, a, mg, dt: ahrs.filters.Mahony(gyr=g, acc=a, frequency=1 / dt).Q)
     except ImportError:
         pass
@@ -122,8 +134,10 @@ def _throughput(tr, quick: bool) -> list[dict]:
     k = int(np.ceil((200_000 if quick else 1_000_000) / tr.gyr.shape[0]))
     g, a = np.tile(tr.gyr, (k, 1)), np.tile(tr.acc, (k, 1))
     group = f"attitude batch throughput (BROAD {tr.name} tiled to {g.shape[0]} samples, 6D)"
-    batch = {"optinav iframe": lambda: estimate_q(g, a, tr.dt, frame="ENU", checks=False),
-             "optinav iframe (with input checks)": lambda: estimate_q(g, a, tr.dt, frame="ENU")}
+    batch = {
+        "optinav iframe": lambda: estimate_q(g, a, tr.dt, frame="ENU", checks=False),
+        "optinav iframe (with input checks)": lambda: estimate_q(g, a, tr.dt, frame="ENU"),
+    }
     for meth in ("gd", "qn", "mekf"):
         batch[f"optinav {meth}"] = lambda meth=meth: estimate_q(g, a, tr.dt, frame="ENU", method=meth, checks=False)
     try:
@@ -134,8 +148,15 @@ def _throughput(tr, quick: bool) -> list[dict]:
         pass
     estimate_q(g[:100], a[:100], tr.dt, frame="ENU", checks=False)  # numba cache
     for name, fn in batch.items():
-        rows.append({"group": group, "method": name, "metric": "throughput", "unit": "samples/s",
-                     "value": g.shape[0] / _best_time(fn, 1 if quick else 3)})
+        rows.append(
+            {
+                "group": group,
+                "method": name,
+                "metric": "throughput",
+                "unit": "samples/s",
+                "value": g.shape[0] / _best_time(fn, 1 if quick else 3),
+            }
+        )
     n = 20_000
     gl, al = [tuple(x) for x in tr.gyr[:n]], [tuple(x) for x in tr.acc[:n]]
     group = f"attitude streaming (one Python call per sample, {n} samples)"
@@ -174,8 +195,15 @@ def _throughput(tr, quick: bool) -> list[dict]:
         pass
     ours()
     for name, fn in stream.items():
-        rows.append({"group": group, "method": name, "metric": "throughput", "unit": "updates/s",
-                     "value": n / _best_time(fn, 1 if quick else 3)})
+        rows.append(
+            {
+                "group": group,
+                "method": name,
+                "metric": "throughput",
+                "unit": "updates/s",
+                "value": n / _best_time(fn, 1 if quick else 3),
+            }
+        )
     return rows
 
 
@@ -184,9 +212,11 @@ def run(quick: bool) -> list[dict]:
     if not trials:
         return []
     rows = []
-    kinds = {"6d": ("6D online", "inclination RMSE", inclination_error),
-             "6d-offline": ("6D offline", "inclination RMSE", inclination_error),
-             "9d": ("9D", "heading RMSE", heading_error)}
+    kinds = {
+        "6d": ("6D online", "inclination RMSE", inclination_error),
+        "6d-offline": ("6D offline", "inclination RMSE", inclination_error),
+        "9d": ("9D", "heading RMSE", heading_error),
+    }
     for name, (kind, fn) in _methods().items():
         label, metric, err = kinds[kind]
         vals, aligned = [], []
@@ -196,20 +226,48 @@ def run(quick: bool) -> list[dict]:
             q = fn(tr.gyr, tr.acc, tr.mag, tr.dt)
             v = float(np.degrees(rmse(err(q, tr.q_ref), tr.eval_mask)))
             vals.append(v)
-            rows.append({"group": f"attitude {label}, BROAD {tr.name}", "method": name, "metric": metric,
-                         "value": v, "unit": "deg"})
+            rows.append(
+                {
+                    "group": f"attitude {label}, BROAD {tr.name}",
+                    "method": name,
+                    "metric": metric,
+                    "value": v,
+                    "unit": "deg",
+                }
+            )
             if kind != "9d":
                 qa = quat_multiply(q, quat_from_rotvec(tr.gyr * (0.5 * tr.dt)))
                 aligned.append(float(np.degrees(rmse(err(qa, tr.q_ref), tr.eval_mask))))
         if vals:
-            rows.append({"group": f"attitude {label}, mean of {len(vals)} BROAD trials", "method": name,
-                         "metric": metric, "value": float(np.mean(vals)), "unit": "deg"})
-            rows.append({"group": f"attitude {label}, worst of {len(vals)} BROAD trials", "method": name,
-                         "metric": metric, "value": float(np.max(vals)), "unit": "deg"})
+            rows.append(
+                {
+                    "group": f"attitude {label}, mean of {len(vals)} BROAD trials",
+                    "method": name,
+                    "metric": metric,
+                    "value": float(np.mean(vals)),
+                    "unit": "deg",
+                }
+            )
+            rows.append(
+                {
+                    "group": f"attitude {label}, worst of {len(vals)} BROAD trials",
+                    "method": name,
+                    "metric": metric,
+                    "value": float(np.max(vals)),
+                    "unit": "deg",
+                }
+            )
         if aligned:
-            rows.append({"group": f"attitude {label}, timing-aligned (output + h/2, oracle), mean of "
-                         f"{len(aligned)} BROAD trials", "method": name, "metric": metric,
-                         "value": float(np.mean(aligned)), "unit": "deg"})
+            rows.append(
+                {
+                    "group": f"attitude {label}, timing-aligned (output + h/2, oracle), mean of "
+                    f"{len(aligned)} BROAD trials",
+                    "method": name,
+                    "metric": metric,
+                    "value": float(np.mean(aligned)),
+                    "unit": "deg",
+                }
+            )
     rows += _throughput(trials[0], quick)
     return rows
 
@@ -218,6 +276,7 @@ def markdown(rows: list[dict]) -> str:
     """Means, worst trials and throughput as one Markdown table per group (methods side by side)."""
     out = []
     groups = [g for i, g in enumerate(r["group"] for r in rows) if g not in [r["group"] for r in rows][:i]]
+
     def per_trial(g):
         return g.startswith(("attitude 6D", "attitude 9D")) and "mean of" not in g and "worst of" not in g
 
@@ -236,8 +295,7 @@ def markdown(rows: list[dict]) -> str:
         if not sel:
             continue
         meths = [n for n in names if any(r["method"] == n for r in sel)]
-        out.append(f"**{label} per trial [deg]**\n\n| trial | " + " | ".join(meths) + " |\n|---|"
-                   + "---|" * len(meths))
+        out.append(f"**{label} per trial [deg]**\n\n| trial | " + " | ".join(meths) + " |\n|---|" + "---|" * len(meths))
         for t in trials:
             vals = {r["method"]: r["value"] for r in sel if r["group"].endswith(t)}
             out.append(f"| {t} | " + " | ".join(f"{vals[m]:.3f}" if m in vals else "" for m in meths) + " |")

@@ -32,7 +32,7 @@ from optinav.attitude.metrics import inclination_error, rmse
 SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 
 
-_CATEGORIES = ("motion", "speed", "disturbance")   # the trial groups of BROAD's trials.json that define a fold
+_CATEGORIES = ("motion", "speed", "disturbance")  # the trial groups of BROAD's trials.json that define a fold
 _D2R = np.pi / 180.0
 
 
@@ -74,48 +74,142 @@ def run(quick: bool) -> list[dict]:
     default = {k: IFRAME_DEFAULTS[k] for k in grid[0]}
     if default not in grid:
         grid.append(default)
-    err = {mode: np.array([[np.degrees(rmse(inclination_error(
-        estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, **cfg), tr.q_ref),
-        tr.eval_mask)) for tr in trials] for cfg in grid]) for mode, offline in (("6D online", False),
-                                                                                 ("6D offline", True))}
+    err = {
+        mode: np.array(
+            [
+                [
+                    np.degrees(
+                        rmse(
+                            inclination_error(
+                                estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, **cfg),
+                                tr.q_ref,
+                            ),
+                            tr.eval_mask,
+                        )
+                    )
+                    for tr in trials
+                ]
+                for cfg in grid
+            ]
+        )
+        for mode, offline in (("6D online", False), ("6D offline", True))
+    }
     rows = []
     for mode, e in err.items():
         cv, chosen = logo_cv(e, groups)
         grp = f"attitude iframe {mode}, leave-one-BROAD-group-out CV over {len(trials)} trials"
-        rows.append({"group": grp, "method": f"iframe, grid of {len(grid)} (tau_acc, bias_motion, motion_max_gyr)",
-                     "metric": "cross-validated mean inclination RMSE", "value": float(cv.mean()), "unit": "deg"})
+        rows.append(
+            {
+                "group": grp,
+                "method": f"iframe, grid of {len(grid)} (tau_acc, bias_motion, motion_max_gyr)",
+                "metric": "cross-validated mean inclination RMSE",
+                "value": float(cv.mean()),
+                "unit": "deg",
+            }
+        )
         if mode == "6D offline":
             # the options are the filter's, shared by both modes: chosen on the online error of the other groups
             _, on_chosen = logo_cv(err["6D online"], groups)
             held = np.array([e[on_chosen[g], i] for i, g in enumerate(groups)])
-            rows.append({"group": grp, "method": "iframe, grid point chosen on the online error",
-                         "metric": "cross-validated mean inclination RMSE", "value": float(held.mean()),
-                         "unit": "deg"})
-        rows.append({"group": grp, "method": "iframe defaults", "metric": "training mean inclination RMSE",
-                     "value": float(e[grid.index(default)].mean()), "unit": "deg"})
-        rows.append({"group": grp, "method": "best grid point on all trials", "metric": "training mean "
-                     "inclination RMSE", "value": float(e.mean(axis=1).min()), "unit": "deg"})
+            rows.append(
+                {
+                    "group": grp,
+                    "method": "iframe, grid point chosen on the online error",
+                    "metric": "cross-validated mean inclination RMSE",
+                    "value": float(held.mean()),
+                    "unit": "deg",
+                }
+            )
+        rows.append(
+            {
+                "group": grp,
+                "method": "iframe defaults",
+                "metric": "training mean inclination RMSE",
+                "value": float(e[grid.index(default)].mean()),
+                "unit": "deg",
+            }
+        )
+        rows.append(
+            {
+                "group": grp,
+                "method": "best grid point on all trials",
+                "metric": "training mean inclination RMSE",
+                "value": float(e.mean(axis=1).min()),
+                "unit": "deg",
+            }
+        )
         for g, k in chosen.items():
-            rows.append({"group": grp, "method": f"fold without {g}", "metric": "chosen tau_acc",
-                         "value": grid[k]["tau_acc"], "unit": "s"})
-            rows.append({"group": grp, "method": f"fold without {g}", "metric": "chosen bias_motion",
-                         "value": grid[k]["bias_motion"], "unit": "rad/s*sqrt(s)"})
-            rows.append({"group": grp, "method": f"fold without {g}", "metric": "chosen motion_max_gyr",
-                         "value": grid[k]["motion_max_gyr"], "unit": "rad/s"})
+            rows.append(
+                {
+                    "group": grp,
+                    "method": f"fold without {g}",
+                    "metric": "chosen tau_acc",
+                    "value": grid[k]["tau_acc"],
+                    "unit": "s",
+                }
+            )
+            rows.append(
+                {
+                    "group": grp,
+                    "method": f"fold without {g}",
+                    "metric": "chosen bias_motion",
+                    "value": grid[k]["bias_motion"],
+                    "unit": "rad/s*sqrt(s)",
+                }
+            )
+            rows.append(
+                {
+                    "group": grp,
+                    "method": f"fold without {g}",
+                    "metric": "chosen motion_max_gyr",
+                    "value": grid[k]["motion_max_gyr"],
+                    "unit": "rad/s",
+                }
+            )
     # the option ``latency`` (not a default): how late the IMU's samples are, chosen among 0, h/2, h the same way.
     # Every BROAD group shares one IMU and one synchronization, so this CV cannot show that it transfers.
     lat = (0.0, 0.5, 1.0)
     for mode, offline in (("6D online", False), ("6D offline", True)):
-        e = np.array([[np.degrees(rmse(inclination_error(estimate_q(
-            tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, latency=s * tr.dt), tr.q_ref),
-            tr.eval_mask)) for tr in trials] for s in lat])
+        e = np.array(
+            [
+                [
+                    np.degrees(
+                        rmse(
+                            inclination_error(
+                                estimate_q(
+                                    tr.gyr, tr.acc, tr.dt, frame="ENU", offline=offline, checks=False, latency=s * tr.dt
+                                ),
+                                tr.q_ref,
+                            ),
+                            tr.eval_mask,
+                        )
+                    )
+                    for tr in trials
+                ]
+                for s in lat
+            ]
+        )
         cv, chosen = logo_cv(e, groups)
         grp = f"attitude iframe {mode}, option latency in (0, h/2, h), leave-one-BROAD-group-out CV"
-        rows.append({"group": grp, "method": "iframe defaults + latency chosen per fold",
-                     "metric": "cross-validated mean inclination RMSE", "value": float(cv.mean()), "unit": "deg"})
+        rows.append(
+            {
+                "group": grp,
+                "method": "iframe defaults + latency chosen per fold",
+                "metric": "cross-validated mean inclination RMSE",
+                "value": float(cv.mean()),
+                "unit": "deg",
+            }
+        )
         for name, f in (("smallest", min), ("largest", max)):
-            rows.append({"group": grp, "method": f"{name} over the folds", "metric": "chosen latency",
-                         "value": f(lat[k] for k in chosen.values()), "unit": "samples"})
+            rows.append(
+                {
+                    "group": grp,
+                    "method": f"{name} over the folds",
+                    "metric": "chosen latency",
+                    "value": f(lat[k] for k in chosen.values()),
+                    "unit": "samples",
+                }
+            )
     return rows
 
 

@@ -12,8 +12,16 @@ import time
 
 import numpy as np
 
-from optinav.gfimu import (RATE_METHODS, InstallationErrors, builtin, calibrate, closed_form, coning_motion,
-                           simulate, solve_rate)
+from optinav.gfimu import (
+    RATE_METHODS,
+    InstallationErrors,
+    builtin,
+    calibrate,
+    closed_form,
+    coning_motion,
+    simulate,
+    solve_rate,
+)
 from optinav.gfimu.turntable import PAPER
 
 
@@ -45,21 +53,50 @@ def run(quick: bool) -> list[dict]:
             crlb = lm.crlb_std
         eff = np.sqrt(np.mean((np.array(est) - truth) ** 2, axis=0)) / crlb
         rows += [
-            {"group": group, "method": "paper closed form, 1 sample/case", "metric": "max rel. error position "
-             "(median of runs)", "value": float(np.median(res_cf1)) * 100,
-             "unit": f"% (paper {PAPER['max_rel_err_position_pct'][key]})"},
-            {"group": group, "method": f"closed form, {n} samples/case", "metric": "max rel. error position "
-             "(median of runs)", "value": float(np.median(res_cf)) * 100, "unit": "%"},
-            {"group": group, "method": f"optinav lm, {n} samples/case", "metric": "max rel. error position "
-             "(median of runs)", "value": float(np.median(res_lm)) * 100, "unit": f"% (target <= {target})"},
-            {"group": group, "method": f"optinav lm, {n} samples/case", "metric": "max rel. error position "
-             "(worst run)", "value": float(np.max(res_lm)) * 100, "unit": "%"},
+            {
+                "group": group,
+                "method": "paper closed form, 1 sample/case",
+                "metric": "max rel. error position (median of runs)",
+                "value": float(np.median(res_cf1)) * 100,
+                "unit": f"% (paper {PAPER['max_rel_err_position_pct'][key]})",
+            },
+            {
+                "group": group,
+                "method": f"closed form, {n} samples/case",
+                "metric": "max rel. error position (median of runs)",
+                "value": float(np.median(res_cf)) * 100,
+                "unit": "%",
+            },
+            {
+                "group": group,
+                "method": f"optinav lm, {n} samples/case",
+                "metric": "max rel. error position (median of runs)",
+                "value": float(np.median(res_lm)) * 100,
+                "unit": f"% (target <= {target})",
+            },
+            {
+                "group": group,
+                "method": f"optinav lm, {n} samples/case",
+                "metric": "max rel. error position (worst run)",
+                "value": float(np.max(res_lm)) * 100,
+                "unit": "%",
+            },
             {"group": group, "method": "closed form", "metric": "time", "value": float(np.median(t_cf)), "unit": "s"},
             {"group": group, "method": "optinav lm", "metric": "time", "value": float(np.median(t_lm)), "unit": "s"},
-            {"group": group, "method": "optinav lm", "metric": f"max RMSE/sqrt(CRLB), {n_mc} runs",
-             "value": float(eff.max()), "unit": ""},
-            {"group": group, "method": "optinav lm", "metric": f"min RMSE/sqrt(CRLB), {n_mc} runs",
-             "value": float(eff.min()), "unit": ""},
+            {
+                "group": group,
+                "method": "optinav lm",
+                "metric": f"max RMSE/sqrt(CRLB), {n_mc} runs",
+                "value": float(eff.max()),
+                "unit": "",
+            },
+            {
+                "group": group,
+                "method": "optinav lm",
+                "metric": f"min RMSE/sqrt(CRLB), {n_mc} runs",
+                "value": float(eff.min()),
+                "unit": "",
+            },
         ]
     # rate solvers: time per 10⁴ epochs and accuracy on coning with 1e-4 m/s² noise (is numba needed?)
     mot = coning_motion(100.0, 0.01)
@@ -69,8 +106,14 @@ def run(quick: bool) -> list[dict]:
         w = solve_rate(arr, f, mot.t, mot.omega[0], meth)
         el = time.perf_counter() - t0
         g = "gfimu rate solvers, cylinder10, coning 100 s at 100 Hz, 1e-4 m/s²"
-        rows += [{"group": g, "method": meth, "metric": "time per 1e4 epochs", "value": el / len(mot.t) * 1e4,
-                  "unit": "s"},
-                 {"group": g, "method": meth, "metric": "RMS rate error",
-                  "value": float(np.sqrt(np.mean((w - mot.omega) ** 2))), "unit": "rad/s"}]
+        rows += [
+            {"group": g, "method": meth, "metric": "time per 1e4 epochs", "value": el / len(mot.t) * 1e4, "unit": "s"},
+            {
+                "group": g,
+                "method": meth,
+                "metric": "RMS rate error",
+                "value": float(np.sqrt(np.mean((w - mot.omega) ** 2))),
+                "unit": "rad/s",
+            },
+        ]
     return rows

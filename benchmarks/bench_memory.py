@@ -79,12 +79,29 @@ def _before_src(tmp: Path, commit: str = BEFORE) -> Path | None:
 def _steps(d: Path, rows: int) -> list[tuple[str, list[str]]]:
     dwell = (rows / 100.0 - 10.0) / 12.0 - 4.0
     log, res = d / f"log{rows}.csv", d / f"result{rows}.json"
-    return [("simulate accel-multipos", ["simulate", "accel-multipos", "--out", str(log), "--dwell", f"{dwell:.6f}",
-                                         "--rate", "100", "--seed", "1"]),
-            ("calibrate accel", ["calibrate", "accel", str(log), "--latitude", "38.88", "--height", "35",
-                                 "--out", str(res)]),
-            ("apply", ["apply", str(res), str(log), "--out", str(d / f"corrected{rows}.csv")]),
-            ("attitude", ["attitude", str(d / f"corrected{rows}.csv"), "--out", str(d / f"att{rows}.csv")])]
+    return [
+        (
+            "simulate accel-multipos",
+            [
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(log),
+                "--dwell",
+                f"{dwell:.6f}",
+                "--rate",
+                "100",
+                "--seed",
+                "1",
+            ],
+        ),
+        (
+            "calibrate accel",
+            ["calibrate", "accel", str(log), "--latitude", "38.88", "--height", "35", "--out", str(res)],
+        ),
+        ("apply", ["apply", str(res), str(log), "--out", str(d / f"corrected{rows}.csv")]),
+        ("attitude", ["attitude", str(d / f"corrected{rows}.csv"), "--out", str(d / f"att{rows}.csv")]),
+    ]
 
 
 def _rows_of(path: Path) -> int:
@@ -125,27 +142,41 @@ def run(quick: bool, before: bool = True) -> list[dict]:
                 if rows == sizes[0]:
                     bad = d / "bad.csv"
                     _bad_copy(d / f"log{rows}.csv", bad)
-                    for name, argv in (("apply", ["apply", str(d / f"result{rows}.json"), str(bad), "--out",
-                                                  str(d / "bad_out.csv")]),
-                                       ("attitude", ["attitude", str(bad), "--out", str(d / "bad_att.csv")])):
+                    for name, argv in (
+                        ("apply", ["apply", str(d / f"result{rows}.json"), str(bad), "--out", str(d / "bad_out.csv")]),
+                        ("attitude", ["attitude", str(bad), "--out", str(d / "bad_att.csv")]),
+                    ):
                         _, wall, err = _run(src, argv, expect_error=True)
                         if "not a number" not in err:
                             raise RuntimeError(f"{name} on the bad cell: {err.strip()[-300:]}")
-                        out.append({"group": f"bad cell in the last of {n} rows", "method": f"{name} ({version})",
-                                    "metric": "time to the one-line error", "value": wall, "unit": "s"})
+                        out.append(
+                            {
+                                "group": f"bad cell in the last of {n} rows",
+                                "method": f"{name} ({version})",
+                                "metric": "time to the one-line error",
+                                "value": wall,
+                                "unit": "s",
+                            }
+                        )
                 shutil.rmtree(d)
     for (name, version), pts in peaks.items():
         (n1, p1, _), (n2, p2, w2) = pts
         slope = (p2 - p1) / ((n2 - n1) / 1e6)  # MiB per million rows, the imports cancel
         group = f"peak memory, logs of {n1} and {n2} rows"
         method = f"{name} ({version})"
-        out += [{"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
-                {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
-                {"group": group, "method": method, "metric": "growth per million rows", "value": slope,
-                 "unit": "MiB"},
-                {"group": group, "method": method, "metric": "peak RSS at 10 M rows (extrapolated)",
-                 "value": p1 + slope * (10 - n1 / 1e6), "unit": "MiB"},
-                {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"}]
+        out += [
+            {"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
+            {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
+            {"group": group, "method": method, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
+            {
+                "group": group,
+                "method": method,
+                "metric": "peak RSS at 10 M rows (extrapolated)",
+                "value": p1 + slope * (10 - n1 / 1e6),
+                "unit": "MiB",
+            },
+            {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
+        ]
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
 
@@ -160,10 +191,12 @@ def remeasure(path: Path, note: str) -> None:
     rows = keep + run(quick=bool(results["meta"].get("quick")), before=False)
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     results["rows"] = sorted(rows, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
-    results["meta"]["notes"] = [f"every \"after\" row re-measured {time.strftime('%Y-%m-%dT%H:%M%z')} ({note}); "
-                                "the peak is now the process's own high-water mark (VmHWM): ru_maxrss, used before, "
-                                "held the runner's ~520 MiB after it had read a 1 M-row log, which floored the "
-                                "streamed commands' figures (the \"before\" rows are all above it)"]
+    results["meta"]["notes"] = [
+        f'every "after" row re-measured {time.strftime("%Y-%m-%dT%H:%M%z")} ({note}); '
+        "the peak is now the process's own high-water mark (VmHWM): ru_maxrss, used before, "
+        "held the runner's ~520 MiB after it had read a 1 M-row log, which floored the "
+        'streamed commands\' figures (the "before" rows are all above it)'
+    ]
     path.write_text(json.dumps(results, indent=2) + "\n")
 
 
@@ -177,26 +210,39 @@ def markdown(results: dict) -> str:
     big = [r["metric"] for r in rows if r["metric"].startswith("wall time at ")][0].split()[-2]
     small = [r["metric"] for r in rows if r["metric"].startswith("peak RSS at ") and "10 M" not in r["metric"]]
     small = min(int(m.split()[-2]) for m in small)
-    out = ["# Peak memory of the commands on long logs (benchmarks/bench_memory.py)", "",
-           f"Generated from results_memory.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine: "
-           "wall times vary with the load). \"before\": "
-           f"commit {BEFORE}; \"after\": this tree. 10 M rows were not run: the 10 M column is the linear "
-           f"extrapolation from {small} and {big} rows.", "",
-           f"| command | version | peak RSS {small} rows [MiB] | peak RSS {big} rows [MiB] | growth [MiB per M rows] "
-           f"| 10 M rows, extrapolated [MiB] | wall time {big} rows [s] |",
-           "|---|---|---:|---:|---:|---:|---:|"]
+    out = [
+        "# Peak memory of the commands on long logs (benchmarks/bench_memory.py)",
+        "",
+        f"Generated from results_memory.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine: "
+        'wall times vary with the load). "before": '
+        f'commit {BEFORE}; "after": this tree. 10 M rows were not run: the 10 M column is the linear '
+        f"extrapolation from {small} and {big} rows.",
+        "",
+        f"| command | version | peak RSS {small} rows [MiB] | peak RSS {big} rows [MiB] | growth [MiB per M rows] "
+        f"| 10 M rows, extrapolated [MiB] | wall time {big} rows [s] |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
     if meta.get("notes"):
         out[3:3] = ["", "Notes: " + "; ".join(meta["notes"]) + "."]
     for c in ("simulate accel-multipos", "calibrate accel", "apply", "attitude"):
         for v in ("before", "after"):
-            out.append(f"| {c} | {v} | {val(c, v, f'peak RSS at {small}'):.0f} | {val(c, v, f'peak RSS at {big}'):.0f} "
-                       f"| {val(c, v, 'growth'):.0f} | {val(c, v, 'peak RSS at 10 M'):.0f} "
-                       f"| {val(c, v, 'wall time'):.0f} |")
-    out += ["", f"Bad cell (text in `ay` of the last of {small} rows): time until the one-line error naming line "
-            "and column.", "", "| command | before [s] | after [s] |", "|---|---:|---:|"]
+            out.append(
+                f"| {c} | {v} | {val(c, v, f'peak RSS at {small}'):.0f} | {val(c, v, f'peak RSS at {big}'):.0f} "
+                f"| {val(c, v, 'growth'):.0f} | {val(c, v, 'peak RSS at 10 M'):.0f} "
+                f"| {val(c, v, 'wall time'):.0f} |"
+            )
+    out += [
+        "",
+        f"Bad cell (text in `ay` of the last of {small} rows): time until the one-line error naming line and column.",
+        "",
+        "| command | before [s] | after [s] |",
+        "|---|---:|---:|",
+    ]
     for c in ("apply", "attitude"):
-        t = {v: next(r["value"] for r in rows if r["method"] == f"{c} ({v})" and r["group"].startswith("bad"))
-             for v in ("before", "after")}
+        t = {
+            v: next(r["value"] for r in rows if r["method"] == f"{c} ({v})" and r["group"].startswith("bad"))
+            for v in ("before", "after")
+        }
         out.append(f"| {c} | {t['before']:.1f} | {t['after']:.1f} |")
     return "\n".join(out) + "\n"
 
@@ -212,22 +258,33 @@ def _broad_layout(src: Path, dst: Path) -> None:
 
     with h5py.File(dst, "w") as f:
         f.attrs["sampling_rate"] = 100.0
-        sets = {k: f.create_dataset(k, shape=(0, w), maxshape=(None, w), dtype=float, chunks=(65536, w))
-                for k, w in (("imu_acc", 3), ("imu_gyr", 3), ("imu_mag", 3), ("opt_quat", 4), ("movement", 1))}
+        sets = {
+            k: f.create_dataset(k, shape=(0, w), maxshape=(None, w), dtype=float, chunks=(65536, w))
+            for k, w in (("imu_acc", 3), ("imu_gyr", 3), ("imu_mag", 3), ("opt_quat", 4), ("movement", 1))
+        }
         for log in iter_imu(src):
             n = len(log)
             q = np.zeros((n, 4))
             q[:, 0] = 1.0
-            for k, v in (("imu_acc", log.acc), ("imu_gyr", log.gyr), ("imu_mag", log.acc), ("opt_quat", q),
-                         ("movement", np.ones((n, 1)))):
+            for k, v in (
+                ("imu_acc", log.acc),
+                ("imu_gyr", log.gyr),
+                ("imu_mag", log.acc),
+                ("opt_quat", q),
+                ("movement", np.ones((n, 1))),
+            ):
                 ds = sets[k]
                 ds.resize(ds.shape[0] + n, axis=0)
                 ds[-n:] = v
 
 
 #: the attitude modes measured by :func:`run_attitude_modes` (argv after the input file)
-ATTITUDE_MODES = {"attitude (online)": [], "attitude --mag": ["--mag-columns", "ax,ay,az"],
-                  "attitude --offline": ["--offline"], "attitude --reference (BROAD layout, --mag)": None}
+ATTITUDE_MODES = {
+    "attitude (online)": [],
+    "attitude --mag": ["--mag-columns", "ax,ay,az"],
+    "attitude --offline": ["--offline"],
+    "attitude --reference (BROAD layout, --mag)": None,
+}
 
 
 def run_attitude_modes(quick: bool) -> list[dict]:
@@ -250,28 +307,42 @@ def run_attitude_modes(quick: bool) -> list[dict]:
             h5 = d / "trial.hdf5"
             _broad_layout(log, h5)
             for mode, extra in ATTITUDE_MODES.items():
-                args = ([str(h5), "--frame", "ENU", "--mag", "--reference"] if extra is None else [str(log), *extra])
+                args = [str(h5), "--frame", "ENU", "--mag", "--reference"] if extra is None else [str(log), *extra]
                 peak, wall, _ = _run(src, ["attitude", *args, "--out", str(d / "att.csv")])
                 peaks.setdefault(mode, []).append((n, peak, wall))
             shutil.rmtree(d)
     out = []
     for name, ((n1, p1, _), (n2, p2, w2)) in peaks.items():
         slope = (p2 - p1) / ((n2 - n1) / 1e6)
-        out.append({"group": f"attitude modes, logs of {n1} and {n2} rows", "method": name, "rows": [n1, n2],
-                    "peak_mib": [p1, p2], "growth_mib_per_m_rows": slope, "peak_10m_mib": p1 + slope * (10 - n1 / 1e6),
-                    "wall_s": w2})
+        out.append(
+            {
+                "group": f"attitude modes, logs of {n1} and {n2} rows",
+                "method": name,
+                "rows": [n1, n2],
+                "peak_mib": [p1, p2],
+                "growth_mib_per_m_rows": slope,
+                "peak_10m_mib": p1 + slope * (10 - n1 / 1e6),
+                "wall_s": w2,
+            }
+        )
     return out
 
 
 def markdown_modes(rows: list[dict]) -> str:
     """The table of :func:`run_attitude_modes` (appended to results_memory.md)."""
     n1, n2 = rows[0]["rows"]
-    out = [f"## Attitude modes (`run_attitude_modes`, this tree; logs of {n1} and {n2} rows, 10 M extrapolated)", "",
-           f"| command | peak RSS {n1} rows [MiB] | peak RSS {n2} rows [MiB] | growth [MiB per M rows] "
-           f"| 10 M rows, extrapolated [MiB] | wall time {n2} rows [s] |", "|---|---:|---:|---:|---:|---:|"]
+    out = [
+        f"## Attitude modes (`run_attitude_modes`, this tree; logs of {n1} and {n2} rows, 10 M extrapolated)",
+        "",
+        f"| command | peak RSS {n1} rows [MiB] | peak RSS {n2} rows [MiB] | growth [MiB per M rows] "
+        f"| 10 M rows, extrapolated [MiB] | wall time {n2} rows [s] |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for r in rows:
-        out.append(f"| {r['method']} | {r['peak_mib'][0]:.0f} | {r['peak_mib'][1]:.0f} | "
-                   f"{r['growth_mib_per_m_rows']:.0f} | {r['peak_10m_mib']:.0f} | {r['wall_s']:.0f} |")
+        out.append(
+            f"| {r['method']} | {r['peak_mib'][0]:.0f} | {r['peak_mib'][1]:.0f} | "
+            f"{r['growth_mib_per_m_rows']:.0f} | {r['peak_10m_mib']:.0f} | {r['wall_s']:.0f} |"
+        )
     return "\n".join(out) + "\n"
 
 

@@ -22,8 +22,14 @@ SIGMA = 120e-6 * 9.80665 * 10.0  # m/s² per sample at 100 Hz
 
 
 def _truth():
-    return model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
-                            PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], G)
+    return model.from_paper(
+        PAPER_REFERENCE["S"],
+        PAPER_REFERENCE["M_xy"],
+        PAPER_REFERENCE["M_xz"],
+        PAPER_REFERENCE["M_yz"],
+        PAPER_REFERENCE["B"],
+        G,
+    )
 
 
 def _session(n, rng):
@@ -42,10 +48,11 @@ def run(quick: bool) -> list[dict]:
     rows = []
     group = f"accel calibration, 12 poses x {n} samples"
     times = {}
-    for name, kw in (("optinav lm (means)", {}),
-                     ("paper GA (samples)", {"method": "ga", "data": "samples", "generations": 200,
-                                             "population": 50}),
-                     ("Newton (samples)", {"method": "newton", "data": "samples"})):
+    for name, kw in (
+        ("optinav lm (means)", {}),
+        ("paper GA (samples)", {"method": "ga", "data": "samples", "generations": 200, "population": 50}),
+        ("Newton (samples)", {"method": "newton", "data": "samples"}),
+    ):
         reps = 20 if name.startswith("optinav") else 1
         best = np.inf
         for _ in range(reps):
@@ -56,18 +63,46 @@ def run(quick: bool) -> list[dict]:
             best = min(best, time.perf_counter() - t0)
         times[name] = best
         err = (fit.theta - th_true) / np.where(fit.crlb_std > 0, fit.crlb_std, 1)
-        rows += [{"group": group, "method": name, "metric": "time", "value": best, "unit": "s"},
-                 {"group": group, "method": name, "metric": "max |error|/sigma", "value": float(np.max(np.abs(err))),
-                  "unit": ""}]
-    rows.append({"group": group, "method": "optinav lm (means)", "metric": "speed-up vs GA",
-                 "value": times["paper GA (samples)"] / times["optinav lm (means)"], "unit": "x (target >= 1000)"})
+        rows += [
+            {"group": group, "method": name, "metric": "time", "value": best, "unit": "s"},
+            {
+                "group": group,
+                "method": name,
+                "metric": "max |error|/sigma",
+                "value": float(np.max(np.abs(err))),
+                "unit": "",
+            },
+        ]
+    rows.append(
+        {
+            "group": group,
+            "method": "optinav lm (means)",
+            "metric": "speed-up vs GA",
+            "value": times["paper GA (samples)"] / times["optinav lm (means)"],
+            "unit": "x (target >= 1000)",
+        }
+    )
 
     n_runs = 200 if quick else 1000
     K, b = _truth()
     ups = design.design_scheme(12, criterion="D").up_dirs
     eff, _ = accel.efficiency(K, b, ups, G, SIGMA, n, n_runs, rng)
-    rows.append({"group": f"efficiency, {n_runs} Monte Carlo runs", "method": "optinav lm (means)",
-                 "metric": "max RMSE/sqrt(CRLB)", "value": float(eff.max()), "unit": "(target <= 1.1)"})
-    rows.append({"group": f"efficiency, {n_runs} Monte Carlo runs", "method": "optinav lm (means)",
-                 "metric": "min RMSE/sqrt(CRLB)", "value": float(eff.min()), "unit": ""})
+    rows.append(
+        {
+            "group": f"efficiency, {n_runs} Monte Carlo runs",
+            "method": "optinav lm (means)",
+            "metric": "max RMSE/sqrt(CRLB)",
+            "value": float(eff.max()),
+            "unit": "(target <= 1.1)",
+        }
+    )
+    rows.append(
+        {
+            "group": f"efficiency, {n_runs} Monte Carlo runs",
+            "method": "optinav lm (means)",
+            "metric": "min RMSE/sqrt(CRLB)",
+            "value": float(eff.min()),
+            "unit": "",
+        }
+    )
     return rows

@@ -26,9 +26,15 @@ def run(quick: bool) -> list[dict]:
             if value is None:
                 continue
             n = n_gyro if name.startswith("gyro") else n_runs
-            rows.append({"group": f"{'gyro' if name.startswith('gyro') else 'accel'} std honesty, {n} runs",
-                         "method": name, "metric": f"RMS(error/std) {group}", "value": value,
-                         "unit": "(target 0.8-1.25)"})
+            rows.append(
+                {
+                    "group": f"{'gyro' if name.startswith('gyro') else 'accel'} std honesty, {n} runs",
+                    "method": name,
+                    "metric": f"RMS(error/std) {group}",
+                    "value": value,
+                    "unit": "(target 0.8-1.25)",
+                }
+            )
     return rows
 
 
@@ -42,11 +48,17 @@ if __name__ == "__main__":
     rows = run(quick=False)
     res: dict = {}
     for r in rows:
-        res.setdefault(r["method"], {"scale": None, "misalignment": None, "bias": None})[
-            r["metric"].split()[-1]] = r["value"]
+        res.setdefault(r["method"], {"scale": None, "misalignment": None, "bias": None})[r["metric"].split()[-1]] = r[
+            "value"
+        ]
     print(uncertainty.table(res))
     if len(sys.argv) > 1:
-        meta = {"python": platform.python_version(), "machine": platform.machine(), "quick": False,
-                "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "elapsed_s": round(time.perf_counter() - t0, 1)}
+        meta = {
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "quick": False,
+            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "elapsed_s": round(time.perf_counter() - t0, 1),
+        }
         with open(sys.argv[1], "w") as fh:
             fh.write(json.dumps({"meta": meta, "rows": rows}, indent=2) + "\n")

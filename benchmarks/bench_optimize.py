@@ -64,8 +64,14 @@ def make_problem(n_orient: int = 18, seed: int = 0):
     lo = np.array([0.95] * 3 + [-0.01] * 3 + [-0.2] * 3)
     hi = np.array([1.05] * 3 + [0.01] * 3 + [0.2] * 3)
     names = ["kxx", "kyy", "kzz", "kyx", "kzx", "kzy", "bx", "by", "bz"]
-    pr = Problem(res, np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0], jacobian=jac, residuals_batch=res_batch,
-                 search_interval=(lo, hi), names=names)
+    pr = Problem(
+        res,
+        np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0],
+        jacobian=jac,
+        residuals_batch=res_batch,
+        search_interval=(lo, hi),
+        names=names,
+    )
     return pr, truth, hi - lo
 
 
@@ -74,8 +80,15 @@ def run(quick: bool) -> list[dict]:
     group = "optimize accel-norm 9 params, 18 orientations"
     repeats = 3 if quick else 7
     seeds = 3 if quick else 10
-    configs = [("lm", {}), ("trf", {}), ("gauss-newton", {}), ("newton", {}), ("bfgs", {}),
-               ("pso", dict(v_max=0.2 * width)), ("ga", {})]
+    configs = [
+        ("lm", {}),
+        ("trf", {}),
+        ("gauss-newton", {}),
+        ("newton", {}),
+        ("bfgs", {}),
+        ("pso", dict(v_max=0.2 * width)),
+        ("ga", {}),
+    ]
     rows = []
 
     def row(method, metric, value, unit):

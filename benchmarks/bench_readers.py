@@ -83,8 +83,7 @@ print(json.dumps({"n": n, "seconds": best, "peak_growth_mib": (peak - base) / 10
 
 
 def _child(kind: str, path: Path, repeat: int) -> dict:
-    proc = subprocess.run([sys.executable, "-c", _CHILD, kind, str(path), str(repeat)], capture_output=True,
-                          text=True)
+    proc = subprocess.run([sys.executable, "-c", _CHILD, kind, str(path), str(repeat)], capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"{kind} {path.name} failed: {proc.stderr.strip()[-400:]}")
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -103,8 +102,11 @@ def _write_parquet(path: Path, ns, acc, gyr) -> None:
     import pyarrow.parquet as pq
 
     t = (ns // 10**9) + (ns % 10**9) * 1e-9
-    cols = {"t": t, **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
-            **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")}}
+    cols = {
+        "t": t,
+        **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
+        **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")},
+    }
     pq.write_table(pa.table(cols), path)
 
 
@@ -121,31 +123,39 @@ def _messages(kind: str, ns, acc, gyr):
         stamp = T["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec)
         hdr = H(seq=0, stamp=stamp, frame_id="imu_link") if kind == "ros1" else H(stamp=stamp, frame_id="imu_link")
         V, Q = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
-        msg = T["sensor_msgs/msg/Imu"](header=hdr, orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
-                                       orientation_covariance=np.zeros(9), angular_velocity=V(*g),
-                                       angular_velocity_covariance=np.zeros(9), linear_acceleration=V(*a),
-                                       linear_acceleration_covariance=np.zeros(9))
-        raw = ts.serialize_ros1(msg, "sensor_msgs/msg/Imu") if kind == "ros1" else \
-            ts.serialize_cdr(msg, "sensor_msgs/msg/Imu")
+        msg = T["sensor_msgs/msg/Imu"](
+            header=hdr,
+            orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
+            orientation_covariance=np.zeros(9),
+            angular_velocity=V(*g),
+            angular_velocity_covariance=np.zeros(9),
+            linear_acceleration=V(*a),
+            linear_acceleration_covariance=np.zeros(9),
+        )
+        raw = (
+            ts.serialize_ros1(msg, "sensor_msgs/msg/Imu")
+            if kind == "ros1"
+            else ts.serialize_cdr(msg, "sensor_msgs/msg/Imu")
+        )
         return np.frombuffer(bytes(raw), np.uint8)
 
     base = ser(0x01020304, 0x05060708, (1.5, 2.5, 3.5), (4.5, 5.5, 6.5))
 
     def where(value, fmt):
         pat = np.frombuffer(np.asarray(value, fmt).tobytes(), np.uint8)
-        hits = [i for i in range(base.size - pat.size + 1) if np.array_equal(base[i:i + pat.size], pat)]
+        hits = [i for i in range(base.size - pat.size + 1) if np.array_equal(base[i : i + pat.size], pat)]
         assert len(hits) == 1, (value, hits)
         return hits[0]
 
     out = np.tile(base, (len(ns), 1))
     for value, fmt, col in ((0x01020304, "<u4", ns // 10**9), (0x05060708, "<u4", ns % 10**9)):
-        out[:, where(value, fmt):where(value, fmt) + 4] = col.astype("<u4").view(np.uint8).reshape(-1, 4)
+        out[:, where(value, fmt) : where(value, fmt) + 4] = col.astype("<u4").view(np.uint8).reshape(-1, 4)
     for j, v in enumerate((1.5, 2.5, 3.5)):
         k = where(v, "<f8")
-        out[:, k:k + 8] = np.ascontiguousarray(gyr[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
+        out[:, k : k + 8] = np.ascontiguousarray(gyr[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
     for j, v in enumerate((4.5, 5.5, 6.5)):
         k = where(v, "<f8")
-        out[:, k:k + 8] = np.ascontiguousarray(acc[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
+        out[:, k : k + 8] = np.ascontiguousarray(acc[:, j]).astype("<f8").view(np.uint8).reshape(-1, 8)
     return out
 
 
@@ -189,10 +199,16 @@ def run(quick: bool) -> list[dict]:
     rows = []
 
     def add(method, res, fmt):
-        rows.append({"group": group, "method": method, "metric": f"{fmt}: time", "value": res["seconds"],
-                     "unit": "s"})
-        rows.append({"group": group, "method": method, "metric": f"{fmt}: peak memory growth",
-                     "value": res["peak_growth_mib"], "unit": "MiB"})
+        rows.append({"group": group, "method": method, "metric": f"{fmt}: time", "value": res["seconds"], "unit": "s"})
+        rows.append(
+            {
+                "group": group,
+                "method": method,
+                "metric": f"{fmt}: peak memory growth",
+                "value": res["peak_growth_mib"],
+                "unit": "MiB",
+            }
+        )
 
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -203,15 +219,29 @@ def run(quick: bool) -> list[dict]:
         add("pyarrow.parquet.read_table", ref, "Parquet")
         ours = _child("optinav", pqf, REPEAT)
         add("optinav read_imu", ours, "Parquet")
-        rows.append({"group": group, "method": "optinav read_imu", "metric": "Parquet: time / pyarrow time",
-                     "value": ours["seconds"] / ref["seconds"], "unit": "x (target <= 2)"})
+        rows.append(
+            {
+                "group": group,
+                "method": "optinav read_imu",
+                "metric": "Parquet: time / pyarrow time",
+                "value": ours["seconds"] / ref["seconds"],
+                "unit": "x (target <= 2)",
+            }
+        )
         for kind, label in (("sqlite3", "ROS 2 sqlite3 bag"), ("mcap", "ROS 2 mcap bag"), ("ros1", "ROS 1 bag")):
             bag = _write_bag(d / f"imu_{kind}", kind, ns, acc, gyr)
             _check(bag, ns, acc, gyr)
             res = _child("optinav", bag, 1)
             add("optinav read_imu", res, label)
-            rows.append({"group": group, "method": "optinav read_imu", "metric": f"{label}: time / pyarrow time "
-                         "(Parquet of the same samples)", "value": res["seconds"] / ref["seconds"], "unit": "x"})
+            rows.append(
+                {
+                    "group": group,
+                    "method": "optinav read_imu",
+                    "metric": f"{label}: time / pyarrow time (Parquet of the same samples)",
+                    "value": res["seconds"] / ref["seconds"],
+                    "unit": "x",
+                }
+            )
             add("rosbags raw iteration (no decoding)", _child("rosbags-raw", bag, 1), label)
             if kind == "sqlite3":
                 add("rosbags deserialize per message", _child("rosbags", bag, 1), label)
@@ -227,14 +257,19 @@ def table(results: dict) -> str:
         fmt, _, what = r["metric"].partition(": ")
         if what in ("time", "peak memory growth"):
             cells.setdefault((fmt, r["method"]), {})[what] = r["value"]
-    out = ["# Reading a 1-hour 1 kHz IMU log (benchmarks/bench_readers.py)\n",
-           f"{rows[0]['group']}; {meta['date']}, Python {meta['python']}, a shared 2-core machine (wall times vary "
-           "with the load). One run per bag, best of 3 for Parquet; peak memory is the growth of the resident set "
-           "over the one after the imports.\n",
-           "| file | method | time [s] | time / pyarrow | peak memory growth [MiB] |", "|---|---|---:|---:|---:|"]
+    out = [
+        "# Reading a 1-hour 1 kHz IMU log (benchmarks/bench_readers.py)\n",
+        f"{rows[0]['group']}; {meta['date']}, Python {meta['python']}, a shared 2-core machine (wall times vary "
+        "with the load). One run per bag, best of 3 for Parquet; peak memory is the growth of the resident set "
+        "over the one after the imports.\n",
+        "| file | method | time [s] | time / pyarrow | peak memory growth [MiB] |",
+        "|---|---|---:|---:|---:|",
+    ]
     for (fmt, method), v in cells.items():
-        out.append(f"| {fmt} | {method} | {v['time']:.2f} | {v['time'] / ref:.1f} | "
-                   f"{v.get('peak memory growth', float('nan')):.0f} |")
+        out.append(
+            f"| {fmt} | {method} | {v['time']:.2f} | {v['time'] / ref:.1f} | "
+            f"{v.get('peak memory growth', float('nan')):.0f} |"
+        )
     return "\n".join(out) + "\n"
 
 

@@ -37,17 +37,28 @@ BAD_FILES = {
     "missing file": None,
 }
 
-_WRAP = ("import sys; from optinav.cli.main import main\n"
-         "try:\n    rc = main(sys.argv[1:])\nexcept SystemExit as exc:\n    rc = exc.code\n"
-         "print('heavy', ','.join(sorted({m.split('.')[0] for m in sys.modules} & set(%r))), file=sys.stderr)\n"
-         "sys.exit(rc)\n" % (HEAVY,))
+_WRAP = (
+    "import sys; from optinav.cli.main import main\n"
+    "try:\n    rc = main(sys.argv[1:])\nexcept SystemExit as exc:\n    rc = exc.code\n"
+    "print('heavy', ','.join(sorted({m.split('.')[0] for m in sys.modules} & set(%r))), file=sys.stderr)\n"
+    "sys.exit(rc)\n" % (HEAVY,)
+)
 
 
 def _commands(bad: Path, d: Path) -> dict[str, list[str]]:
-    return {"calibrate accel": ["calibrate", "accel", str(bad), "--out", str(d / "o.json")],
-            "calibrate accel --method ferraris": ["calibrate", "accel", str(bad), "--method", "ferraris",
-                                                  "--out", str(d / "o.json")],
-            "attitude": ["attitude", str(bad), "--out", str(d / "o.csv"), "--rate", "100"]}
+    return {
+        "calibrate accel": ["calibrate", "accel", str(bad), "--out", str(d / "o.json")],
+        "calibrate accel --method ferraris": [
+            "calibrate",
+            "accel",
+            str(bad),
+            "--method",
+            "ferraris",
+            "--out",
+            str(d / "o.json"),
+        ],
+        "attitude": ["attitude", str(bad), "--out", str(d / "o.csv"), "--rate", "100"],
+    }
 
 
 def _time(src: Path, argv: list[str]) -> tuple[float, float, str]:
@@ -82,12 +93,29 @@ def run(quick: bool) -> list[dict]:
                     runs = [_time(src, argv) for _ in range(repeats)]
                     method = f"{name} ({version})"
                     group = f"bad file: {kind}"
-                    out += [{"group": group, "method": method, "metric": "wall time to the error",
-                             "value": statistics.median(r[0] for r in runs), "unit": "s"},
-                            {"group": group, "method": method, "metric": "CPU time to the error",
-                             "value": statistics.median(r[1] for r in runs), "unit": "s"},
-                            {"group": group, "method": method, "metric": "heavy modules loaded",
-                             "value": float(len([m for m in runs[0][2].split(",") if m])), "unit": runs[0][2] or "-"}]
+                    out += [
+                        {
+                            "group": group,
+                            "method": method,
+                            "metric": "wall time to the error",
+                            "value": statistics.median(r[0] for r in runs),
+                            "unit": "s",
+                        },
+                        {
+                            "group": group,
+                            "method": method,
+                            "metric": "CPU time to the error",
+                            "value": statistics.median(r[1] for r in runs),
+                            "unit": "s",
+                        },
+                        {
+                            "group": group,
+                            "method": method,
+                            "metric": "heavy modules loaded",
+                            "value": float(len([m for m in runs[0][2].split(",") if m])),
+                            "unit": runs[0][2] or "-",
+                        },
+                    ]
     return out
 
 
@@ -98,21 +126,28 @@ def markdown(results: dict) -> str:
     def get(group, method, metric):
         return next(r for r in rows if r["group"] == group and r["method"] == method and r["metric"] == metric)
 
-    out = ["# Time to the one-line error on a bad input file (benchmarks/bench_startup.py)", "",
-           f"Generated from results_startup.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine "
-           "under load: the wall time includes waiting for a core, the CPU time (user + system of the process) is "
-           f"what an idle machine takes). Medians of repeated runs. \"before\": commit {BEFORE}; \"after\": this "
-           "tree. Target (issue 17): under 1 s.", "",
-           "| bad file | command | CPU before [s] | CPU after [s] | wall before [s] | wall after [s] "
-           "| loaded at the error, before | after |", "|---|---|---:|---:|---:|---:|---|---|"]
+    out = [
+        "# Time to the one-line error on a bad input file (benchmarks/bench_startup.py)",
+        "",
+        f"Generated from results_startup.json ({meta['date']}, Python {meta['python']}, a shared 2-core machine "
+        "under load: the wall time includes waiting for a core, the CPU time (user + system of the process) is "
+        f'what an idle machine takes). Medians of repeated runs. "before": commit {BEFORE}; "after": this '
+        "tree. Target (issue 17): under 1 s.",
+        "",
+        "| bad file | command | CPU before [s] | CPU after [s] | wall before [s] | wall after [s] "
+        "| loaded at the error, before | after |",
+        "|---|---|---:|---:|---:|---:|---|---|",
+    ]
     groups = list(dict.fromkeys(r["group"] for r in rows))
     for g in groups:
         for cmd in dict.fromkeys(r["method"].rsplit(" (", 1)[0] for r in rows if r["group"] == g):
             cpu = {v: get(g, f"{cmd} ({v})", "CPU time to the error")["value"] for v in ("before", "after")}
             wall = {v: get(g, f"{cmd} ({v})", "wall time to the error")["value"] for v in ("before", "after")}
             heavy = {v: get(g, f"{cmd} ({v})", "heavy modules loaded")["unit"] for v in ("before", "after")}
-            out.append(f"| {g.split(': ', 1)[1]} | {cmd} | {cpu['before']:.2f} | {cpu['after']:.2f} "
-                       f"| {wall['before']:.2f} | {wall['after']:.2f} | {heavy['before']} | {heavy['after']} |")
+            out.append(
+                f"| {g.split(': ', 1)[1]} | {cmd} | {cpu['before']:.2f} | {cpu['after']:.2f} "
+                f"| {wall['before']:.2f} | {wall['after']:.2f} | {heavy['before']} | {heavy['after']} |"
+            )
     return "\n".join(out) + "\n"
 
 

@@ -60,10 +60,16 @@ def run(quick: bool) -> list[dict]:
         strapdown.attitude_update(q0, dth[:16], coning=coning, final_only=True)
         strapdown.attitude_update(q0, dth[:16], coning=coning, omega_in_n=w_in, dt=0.01)
         row(group, "numba, history", n / _best(lambda: strapdown.attitude_update(q0, dth, coning=coning)))
-        row(group, "numba, final only",
-            n / _best(lambda: strapdown.attitude_update(q0, dth, coning=coning, final_only=True)))
-        row(group, "numba, history + nav-frame rate",
-            n / _best(lambda: strapdown.attitude_update(q0, dth, coning=coning, omega_in_n=w_in, dt=0.01)))
+        row(
+            group,
+            "numba, final only",
+            n / _best(lambda: strapdown.attitude_update(q0, dth, coning=coning, final_only=True)),
+        )
+        row(
+            group,
+            "numba, history + nav-frame rate",
+            n / _best(lambda: strapdown.attitude_update(q0, dth, coning=coning, omega_in_n=w_in, dt=0.01)),
+        )
         if coning == "previous":
             row(group, f"python/numpy loop (N={n_ref})", ref_rate)
     n_mech = n // 10 if quick else n
@@ -71,8 +77,9 @@ def run(quick: bool) -> list[dict]:
         group = f"strapdown mechanize {coning}"
         args = (q0, np.zeros(3), np.array([np.radians(45.0), 0.0, 0.0]))
         strapdown.mechanize(dth[:16], dv[:16], t[:17], *args, coning=coning)
-        rate = n_mech / _best(lambda: strapdown.mechanize(dth[:n_mech], dv[:n_mech], t[: n_mech + 1], *args,
-                                                          coning=coning))
+        rate = n_mech / _best(
+            lambda: strapdown.mechanize(dth[:n_mech], dv[:n_mech], t[: n_mech + 1], *args, coning=coning)
+        )
         row(group, f"numba mechanize (N={n_mech})", rate)
     return rows
 

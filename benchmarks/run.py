@@ -44,10 +44,16 @@ def main(argv=None) -> int:
     print(head)
     print("-" * len(head))
     for r in rows:
-        print(f"{r['group']:<{widths[0]}}  {r['method']:<{widths[1]}}  {r['metric']:<{widths[2]}}  "
-              f"{r['value']:>14.6g}  {r['unit']}")
-    meta = {"python": platform.python_version(), "machine": platform.machine(), "quick": args.quick,
-            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        print(
+            f"{r['group']:<{widths[0]}}  {r['method']:<{widths[1]}}  {r['metric']:<{widths[2]}}  "
+            f"{r['value']:>14.6g}  {r['unit']}"
+        )
+    meta = {
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "quick": args.quick,
+        "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
     Path(args.json).write_text(json.dumps({"meta": meta, "rows": rows}, indent=2) + "\n")
     print(f"figures written to {args.json}", file=sys.stderr)
     return 0

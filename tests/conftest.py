@@ -28,10 +28,16 @@ def pytest_collection_modifyitems(config, items):
 @pytest.fixture
 def cube(tmp_path):
     """A valid gyro-free configuration file (six tangential accelerometers)."""
-    cfg = {"accelerometers": [
-        {"position": [0.1, 0, 0], "direction": [0, 1, 0]}, {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0.1, 0], "direction": [1, 0, 0]}, {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
-        {"position": [0, 0, 0.1], "direction": [1, 0, 0]}, {"position": [0, 0, 0.1], "direction": [0, 1, 0]}]}
+    cfg = {
+        "accelerometers": [
+            {"position": [0.1, 0, 0], "direction": [0, 1, 0]},
+            {"position": [0.1, 0, 0], "direction": [0, 0, 1]},
+            {"position": [0, 0.1, 0], "direction": [1, 0, 0]},
+            {"position": [0, 0.1, 0], "direction": [0, 0, 1]},
+            {"position": [0, 0, 0.1], "direction": [1, 0, 0]},
+            {"position": [0, 0, 0.1], "direction": [0, 1, 0]},
+        ]
+    }
     p = tmp_path / "cube.json"
     p.write_text(json.dumps(cfg))
     return p

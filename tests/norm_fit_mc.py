@@ -13,9 +13,14 @@ def norm_fit_errors(clean, sigma_mean, truth, g, n_runs, seed) -> np.ndarray:
     errs = []
     for _ in range(n_runs):
         means = clean + rng.normal(0.0, sigma_mean, clean.shape)
-        res = minimize(Problem(residuals=lambda th: model.norm_residuals(th, means, g),
-                               jacobian=lambda th: model.norm_jacobian(th, means),
-                               x0=np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0]), "lm")
+        res = minimize(
+            Problem(
+                residuals=lambda th: model.norm_residuals(th, means, g),
+                jacobian=lambda th: model.norm_jacobian(th, means),
+                x0=np.r_[1.0, 1.0, 1.0, 0, 0, 0, 0, 0, 0],
+            ),
+            "lm",
+        )
         assert res.success
         errs.append(res.x - truth)
     return np.array(errs)

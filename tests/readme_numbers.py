@@ -21,7 +21,7 @@ def matches(shown: str, values) -> bool:
     """Whether ``shown`` is one of ``values`` rounded to the decimals it is written with."""
     s = shown.replace(" ", "")
     decimals = len(s.split(".")[1]) if "." in s else 0
-    return any(v is not None and abs(float(v) - float(s)) <= 0.5 * 10 ** -decimals + 1e-12 for v in values)
+    return any(v is not None and abs(float(v) - float(s)) <= 0.5 * 10**-decimals + 1e-12 for v in values)
 
 
 def headline_values(study: dict) -> list[float]:

@@ -39,8 +39,12 @@ def quick_report(tmp_path_factory) -> QuickReport:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
             # as a user runs it: the console entry point in a fresh process
-            proc = subprocess.run([sys.executable, "-m", "optinav.cli.main", "--quiet", "reproduce", "--quick",
-                                   "--out", str(out)], capture_output=True, text=True, timeout=900)
+            proc = subprocess.run(
+                [sys.executable, "-m", "optinav.cli.main", "--quiet", "reproduce", "--quick", "--out", str(out)],
+                capture_output=True,
+                text=True,
+                timeout=900,
+            )
             done.write_text(json.dumps({"returncode": proc.returncode, "stderr": proc.stderr}))
     rec = json.loads(done.read_text())
     return QuickReport(out, rec["returncode"], rec["stderr"])

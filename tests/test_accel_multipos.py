@@ -9,8 +9,22 @@ from optinav.multipos import accel, model
 G = 9.80167
 S45 = np.sqrt(0.5)
 #: the 12 positions recovered from Gao & Zhang's Table 1 (specific-force direction in the sensor frame)
-PAPER12 = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (1, 0, 0), (S45, -S45, 0),
-                    (S45, 0, S45), (0, -S45, S45), (-S45, S45, 0), (-S45, 0, -S45), (0, S45, -S45)])
+PAPER12 = np.array(
+    [
+        (1, 0, 0),
+        (0, 1, 0),
+        (0, 0, 1),
+        (0, 0, -1),
+        (0, -1, 0),
+        (1, 0, 0),
+        (S45, -S45, 0),
+        (S45, 0, S45),
+        (0, -S45, S45),
+        (-S45, S45, 0),
+        (-S45, 0, -S45),
+        (0, S45, -S45),
+    ]
+)
 SIX = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
 CORNERS = np.array([(sx, sy, sz) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)]) / np.sqrt(3)
 SCHEME18 = np.vstack([SIX, CORNERS, [(S45, S45, 0), (-S45, 0, S45), (0, S45, -S45), (S45, 0, -S45)]])
@@ -92,7 +106,7 @@ def test_lm_recovers_truth_within_reported_sigma_and_std_is_honest():
         z.append((fit.theta - th_true) / fit.crlb_std)
     z = np.array(z)
     assert np.all(np.abs(z) < 5.5)
-    rms = np.sqrt(np.mean(z ** 2, axis=0))
+    rms = np.sqrt(np.mean(z**2, axis=0))
     # 60 runs: the RMS of a unit normal lies in [0.75, 1.25] with > 99 % probability per parameter
     assert np.all((rms > 0.7) & (rms < 1.3)), rms
 
@@ -139,8 +153,8 @@ def test_fitting_samples_biases_the_scale_by_2sigma2_over_g2():
     means_fit = accel.fit_accel(st, G)
     sample_fit = accel.fit_accel(st, G, data="samples", samples=raws)
     bias = np.mean(sample_fit.theta[:3]) - 1.0
-    assert bias == pytest.approx(2 * sigma ** 2 / G ** 2, rel=0.15)
-    assert abs(np.mean(means_fit.theta[:3]) - 1.0) < 0.2 * sigma ** 2 / G ** 2
+    assert bias == pytest.approx(2 * sigma**2 / G**2, rel=0.15)
+    assert abs(np.mean(means_fit.theta[:3]) - 1.0) < 0.2 * sigma**2 / G**2
 
 
 def test_six_axis_poses_hold_misalignments_and_say_so():

@@ -17,9 +17,12 @@ def _static(c_true, seconds, rate, frame):
 
 
 def _unit(eps_b, nab_b, arw=0.0, vrw=0.0):
-    return imu_model.ImuModel(gyr=imu_model.TriadErrors.from_six("gyro", bias=eps_b),
-                              acc=imu_model.TriadErrors.from_six("accel", bias=nab_b),
-                              gyro_noise=imu_model.TriadNoise(white=arw), acc_noise=imu_model.TriadNoise(white=vrw))
+    return imu_model.ImuModel(
+        gyr=imu_model.TriadErrors.from_six("gyro", bias=eps_b),
+        acc=imu_model.TriadErrors.from_six("accel", bias=nab_b),
+        gyro_noise=imu_model.TriadNoise(white=arw),
+        acc_noise=imu_model.TriadNoise(white=vrw),
+    )
 
 
 @pytest.mark.parametrize("frame", ["enu", "ned"])
@@ -72,9 +75,20 @@ def test_fine_alignment_converges_to_limits_from_a_poor_start(frame):
     phi0 = np.radians([0.05, -0.05, 0.5])
     c0 = dcm_from_rotvec(phi0) @ c_true
     sig_h, sig_eps = np.radians(1.0), 3e-7  # heading prior (rad); gyro-bias prior ≈ the unit's spec (rad/s)
-    res = A.fine_alignment(truth.t, meas.gyr, meas.acc, LAT, 400.0, frame=frame, q0=quat_from_dcm(c0),
-                           gyro_white=1e-7, acc_white=1e-4, gyro_bias_std=sig_eps, acc_bias_std=1e-3,
-                           initial_attitude_std=[np.radians(0.1), np.radians(0.1), sig_h])
+    res = A.fine_alignment(
+        truth.t,
+        meas.gyr,
+        meas.acc,
+        LAT,
+        400.0,
+        frame=frame,
+        q0=quat_from_dcm(c0),
+        gyro_white=1e-7,
+        acc_white=1e-4,
+        gyro_bias_std=sig_eps,
+        acc_bias_std=1e-3,
+        initial_attitude_std=[np.radians(0.1), np.radians(0.1), sig_h],
+    )
     phi = A.attitude_error(res.C_b_n, c_true)
     pred = A.alignment_limits(c_true @ eps_b, c_true @ nab_b, LAT, 400.0, frame)
     # On a static base only ω_ie cos L·φ_U + ε_E is observable; the filter splits it by the priors, putting the
@@ -103,12 +117,22 @@ def test_fine_alignment_with_navigation_grade_noise():
     c_true = dcm_from_euler([0.003, -0.004, 1.3], frame)
     truth = _static(c_true, 300.0, 100.0, frame)
     meas = unit.apply(truth.dtheta, truth.dv, truth.dt, rng=8, kind="increment")
-    res = A.fine_alignment(truth.t, meas.gyr, meas.acc, LAT, 400.0, frame=frame,
-                           gyro_white=unit.gyro_noise.white[0], acc_white=unit.acc_noise.white[0],
-                           gyro_bias_std=float(spec.gyro_bias[0]), acc_bias_std=float(spec.acc_bias[0]),
-                           gyro_bias_instability=unit.gyro_noise.gm_sigma[0], gyro_bias_tau=unit.gyro_noise.gm_tau[0],
-                           acc_bias_instability=unit.acc_noise.gm_sigma[0],
-                           acc_bias_tau=unit.acc_noise.gm_tau[0])
+    res = A.fine_alignment(
+        truth.t,
+        meas.gyr,
+        meas.acc,
+        LAT,
+        400.0,
+        frame=frame,
+        gyro_white=unit.gyro_noise.white[0],
+        acc_white=unit.acc_noise.white[0],
+        gyro_bias_std=float(spec.gyro_bias[0]),
+        acc_bias_std=float(spec.acc_bias[0]),
+        gyro_bias_instability=unit.gyro_noise.gm_sigma[0],
+        gyro_bias_tau=unit.gyro_noise.gm_tau[0],
+        acc_bias_instability=unit.acc_noise.gm_sigma[0],
+        acc_bias_tau=unit.acc_noise.gm_tau[0],
+    )
     phi = A.attitude_error(res.C_b_n, c_true)
     # Level: the unit's constant biases give the limit ∇/g; its white noise over T adds σ = VRW/(g√T), and the
     # in-run Gauss–Markov drift (σ_GM) moves the limit by up to a few σ_GM/g: allow 4σ + 3σ_GM/g.
@@ -122,7 +146,8 @@ def test_fine_alignment_with_navigation_grade_noise():
     # error (3σ) and must itself be no larger than that drift bound says (else the check could not fail).
     sig_up = res.attitude_std[2]
     drift_up = 3 * unit.acc_noise.gm_sigma[0] / unit.acc_noise.gm_tau[0] / (g * W_IE * np.cos(LAT)) * np.sqrt(
-        unit.acc_noise.gm_tau[0] / T) + abs(pred[2])
+        unit.acc_noise.gm_tau[0] / T
+    ) + abs(pred[2])
     assert abs(phi[2]) < 3 * sig_up, (phi, sig_up)
     assert sig_up < drift_up, (sig_up, drift_up)
 

@@ -7,9 +7,17 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from optinav import OptinavError
-from optinav.core.allan import (FLICKER_FLOOR, GM_ADEV_PEAK_RATIO, GM_ADEV_PEAK_TAU_RATIO, AllanDeviation,
-                                AllanNoiseFit, allan_deviation, allan_deviation_model, fit_noise_model,
-                                noise_parameters_from_allan)
+from optinav.core.allan import (
+    FLICKER_FLOOR,
+    GM_ADEV_PEAK_RATIO,
+    GM_ADEV_PEAK_TAU_RATIO,
+    AllanDeviation,
+    AllanNoiseFit,
+    allan_deviation,
+    allan_deviation_model,
+    fit_noise_model,
+    noise_parameters_from_allan,
+)
 from optinav.core.imu_model import flicker_noise, gauss_markov, random_walk, static_noise, white_noise
 from optinav.core.results import Result
 
@@ -67,17 +75,21 @@ def test_model_constants_and_limits():
     # IEEE 952 C.1.3: flicker floor factor √(2 ln 2/π) = 0.664
     assert FLICKER_FLOOR == pytest.approx(0.6643, abs=5e-5)
     # the Gauss–Markov peak constants are the maximum of the model curve
-    res = minimize_scalar(lambda t: -float(allan_deviation_model(t, gm_sigma=1.0, gm_tau=1.0)), bounds=(0.5, 5),
-                          method="bounded", options={"xatol": 1e-9})
+    res = minimize_scalar(
+        lambda t: -float(allan_deviation_model(t, gm_sigma=1.0, gm_tau=1.0)),
+        bounds=(0.5, 5),
+        method="bounded",
+        options={"xatol": 1e-9},
+    )
     assert -res.fun == pytest.approx(GM_ADEV_PEAK_RATIO, rel=1e-8)
     assert res.x == pytest.approx(GM_ADEV_PEAK_TAU_RATIO, rel=1e-5)
     # GM limits: random walk K² = 2σ²/T_c at τ ≪ T_c, white N² = 2σ²T_c at τ ≫ T_c
     s, tc = 0.3, 20.0
     for t in (1e-6, 1e-4, 1e-2):
         assert allan_deviation_model(t, gm_sigma=s, gm_tau=tc) == pytest.approx(
-            math.sqrt(2 * s**2 / tc * t / 3), rel=t / tc)
-    assert allan_deviation_model(1e6, gm_sigma=s, gm_tau=tc) == pytest.approx(math.sqrt(2 * s**2 * tc / 1e6),
-                                                                               rel=1e-4)
+            math.sqrt(2 * s**2 / tc * t / 3), rel=t / tc
+        )
+    assert allan_deviation_model(1e6, gm_sigma=s, gm_tau=tc) == pytest.approx(math.sqrt(2 * s**2 * tc / 1e6), rel=1e-4)
     # the IEEE 952 terms
     assert allan_deviation_model(4.0, white=2.0) == pytest.approx(1.0)
     assert allan_deviation_model(3.0, random_walk=2.0) == pytest.approx(2.0)
@@ -221,15 +233,23 @@ def test_fit_interval_coverage():
     _check_coverage(DESIGNS[0], range(16))
 
 
-_MISSED = "benchmarks/results_allan_coverage.md: N covers 84-89 % (too wide), K in the short record 53-55 % (too narrow)"
+_MISSED = (
+    "benchmarks/results_allan_coverage.md: N covers 84-89 % (too wide), K in the short record 53-55 % (too narrow)"
+)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("design, term", [
-    (0, "bias_instability"), (0, "random_walk"), (1, "bias_instability"),
-    pytest.param(0, "white", marks=pytest.mark.xfail(strict=True, reason=_MISSED)),
-    pytest.param(1, "white", marks=pytest.mark.xfail(strict=True, reason=_MISSED)),
-    pytest.param(1, "random_walk", marks=pytest.mark.xfail(strict=True, reason=_MISSED))])
+@pytest.mark.parametrize(
+    "design, term",
+    [
+        (0, "bias_instability"),
+        (0, "random_walk"),
+        (1, "bias_instability"),
+        pytest.param(0, "white", marks=pytest.mark.xfail(strict=True, reason=_MISSED)),
+        pytest.param(1, "white", marks=pytest.mark.xfail(strict=True, reason=_MISSED)),
+        pytest.param(1, "random_walk", marks=pytest.mark.xfail(strict=True, reason=_MISSED)),
+    ],
+)
 def test_fit_interval_coverage_full(design, term):
     """The benchmark's 200 records per design (seeds 10000–10199): coverage within 60–76 % up to the binomial spread (99 % each side)."""
     from optinav.core.allan_coverage import DESIGNS

@@ -16,16 +16,54 @@ def rest(tmp_path_factory):
     d = tmp_path_factory.mktemp("rest")
     data = d / "rest.csv"
     # 40 min at 50 Hz with a strong gyro rate random walk, so all three terms show within the record
-    assert main(["--quiet", "simulate", "static", "--out", str(data), "--hours", "0.67", "--rate", "50",
-                 "--gyro-rrw", "200", "--accel-rrw", "20", "--gyro-unit", "deg/s", "--seed", "4"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "static",
+                "--out",
+                str(data),
+                "--hours",
+                "0.67",
+                "--rate",
+                "50",
+                "--gyro-rrw",
+                "200",
+                "--accel-rrw",
+                "20",
+                "--gyro-unit",
+                "deg/s",
+                "--seed",
+                "4",
+            ]
+        )
+        == 0
+    )
     return d, data, json.loads((d / "rest.truth.json").read_text())
 
 
 def test_allan_end_to_end_with_kalibr(rest, capsys):
     d, data, truth = rest
     out, yml, rep = d / "allan.json", d / "imu.yaml", d / "rep"
-    assert main(["--quiet", "allan", str(data), "--out", str(out), "--kalibr", str(yml), "--rostopic", "/imu0",
-                 "--report", str(rep)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "allan",
+                str(data),
+                "--out",
+                str(out),
+                "--kalibr",
+                str(yml),
+                "--rostopic",
+                "/imu0",
+                "--report",
+                str(rep),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "white noise N" in text and "Kalibr imu.yaml written" in text
     res = Result.from_json(out)
@@ -42,8 +80,14 @@ def test_allan_end_to_end_with_kalibr(rest, capsys):
     head, *rest_lines = yml.read_text().splitlines()
     assert head == "%YAML:1.0"
     k = yaml.safe_load("\n".join(rest_lines))
-    assert set(k) == {"accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
-                      "gyroscope_random_walk", "rostopic", "update_rate"}
+    assert set(k) == {
+        "accelerometer_noise_density",
+        "accelerometer_random_walk",
+        "gyroscope_noise_density",
+        "gyroscope_random_walk",
+        "rostopic",
+        "update_rate",
+    }
     assert k["rostopic"] == "/imu0" and k["update_rate"] == pytest.approx(50.0, rel=1e-9)
     for sensor in ("accelerometer", "gyroscope"):
         fit = res.sensor(sensor)["fit"]
@@ -70,8 +114,26 @@ def test_allan_refusals(rest, tmp_path, capsys):
     assert "not regularly sampled" in err and len(err.strip().splitlines()) == 1
     # raw counts: no Kalibr file (Kalibr reads SI), one line naming what helps
     counts = tmp_path / "counts.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(counts), "--scheme", "six", "--dwell", "5",
-                 "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(counts),
+                "--scheme",
+                "six",
+                "--dwell",
+                "5",
+                "--acc-unit",
+                "counts",
+                "--gyro-unit",
+                "counts",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["allan", str(counts), "--out", str(tmp_path / "c.json"), "--kalibr", str(tmp_path / "k.yaml")]) == 2
     err = capsys.readouterr().err

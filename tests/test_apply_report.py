@@ -25,8 +25,22 @@ SIGMA = 1e-6 * 9.80665
 def rins(tmp_path_factory):
     d = tmp_path_factory.mktemp("rins")
     data, res = d / "r.npz", d / "r.json"
-    assert main(["--quiet", "simulate", "rins", "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4", "--seed", "4",
-                 "--out", str(data), *RINS_ARGS]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "rins",
+                "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4",
+                "--seed",
+                "4",
+                "--out",
+                str(data),
+                *RINS_ARGS,
+            ]
+        )
+        == 0
+    )
     assert main(["--quiet", "calibrate", "rins", str(data), "--out", str(res)]) == 0
     return d, data, res
 
@@ -35,8 +49,10 @@ def rins(tmp_path_factory):
 def gfimu(tmp_path_factory):
     d = tmp_path_factory.mktemp("gfimu")
     data, res = d / "t.npz", d / "t.json"
-    assert main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--seed", "1",
-                 "--out", str(data)]) == 0
+    assert (
+        main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--seed", "1", "--out", str(data)])
+        == 0
+    )
     assert main(["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(res)]) == 0
     return d, data, res
 
@@ -87,8 +103,10 @@ def test_apply_rins_compensates_the_vehicle_attitude(rins, capsys):
     assert np.all(applied < 1.5 * noise + 1e-5), (applied, noise)
     assert max(raw) > 10 * max(applied), (raw, applied)
     # an option of another system's results, or an output format this one does not write: one line, no output
-    for extra, why in ((["--omega0", "1,2,3"], "--omega0 is for gfimu results"),
-                       (["--columns", "t,ax,ay,az"], "--columns is for accel results")):
+    for extra, why in (
+        (["--omega0", "1,2,3"], "--omega0 is for gfimu results"),
+        (["--columns", "t,ax,ay,az"], "--columns is for accel results"),
+    ):
         assert main(["--quiet", "apply", str(result), str(data), *extra, "--out", str(d / "x.csv")]) == 2
         assert why in capsys.readouterr().err
     assert main(["--quiet", "apply", str(result), str(data), "--out", str(d / "x.npz")]) == 2
@@ -106,8 +124,13 @@ def test_apply_gfimu_solves_with_the_calibrated_geometry(gfimu, capsys):
     m = spinning_motion(duration=20.0, dt=0.01)
     f = actual.outputs(m.A, m.wdot, m.omega) + np.random.default_rng(0).normal(0.0, SIGMA, (m.t.size, nominal.n))
     log = d / "motion.csv"
-    np.savetxt(log, np.column_stack([m.t, f]), delimiter=",", comments="",
-               header="t," + ",".join(f"f{i + 1}" for i in range(nominal.n)))
+    np.savetxt(
+        log,
+        np.column_stack([m.t, f]),
+        delimiter=",",
+        comments="",
+        header="t," + ",".join(f"f{i + 1}" for i in range(nominal.n)),
+    )
     out = d / "motion_out.csv"
     w0 = ",".join(f"{v:.17g}" for v in m.omega[0])
     assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(out)]) == 0
@@ -115,11 +138,11 @@ def test_apply_gfimu_solves_with_the_calibrated_geometry(gfimu, capsys):
     res = TurntableCalibration.from_json(result)
     # the relative calibration error left: the installation-error part of the motion error shrinks by it
     left = float(np.max(np.asarray(res.std) / np.abs(np.asarray(res.estimate))))
-    rms = lambda e: float(np.sqrt(np.mean(e ** 2)))  # noqa: E731
+    rms = lambda e: float(np.sqrt(np.mean(e**2)))  # noqa: E731
     floor = solve_motion(actual.with_geometry(actual.positions, actual.directions), f, m.t, m.omega[0])
     raw = solve_motion(nominal, f, m.t, m.omega[0])
     for k, (name, truth) in enumerate((("A", m.A), ("omega", m.omega), ("wdot", m.wdot))):
-        applied = rms(tab[:, 1 + 3 * k:4 + 3 * k] - truth)
+        applied = rms(tab[:, 1 + 3 * k : 4 + 3 * k] - truth)
         best = rms(getattr(floor, name) - truth)
         uncompensated = rms(getattr(raw, name) - truth)
         assert applied < best + 5 * left * uncompensated, (name, applied, best, left, uncompensated)
@@ -138,8 +161,12 @@ def attitude(tmp_path_factory):
 
     d = tmp_path_factory.mktemp("att")
     data = d / "f.csv"
-    assert main(["--quiet", "simulate", "flight", "--kind", "static", "--duration", "10", "--seed", "1",
-                 "--out", str(data)]) == 0
+    assert (
+        main(
+            ["--quiet", "simulate", "flight", "--kind", "static", "--duration", "10", "--seed", "1", "--out", str(data)]
+        )
+        == 0
+    )
     t, gyr, acc, _, _ = read_log(data, AttitudeOptions())
     res = estimate(gyr, acc, np.diff(t, prepend=t[0] - (t[1] - t[0])))
     out = d / "est.json"
@@ -170,25 +197,72 @@ def test_a_failed_report_leaves_nothing_behind(gfimu, attitude, capsys):
     short = da / "short.csv"
     short.write_text("\n".join(data.read_text().splitlines()[:200]) + "\n")
     for out, made in ((d / "two", d / "two"), (d / "two.md", d / "two_files")):
-        assert main(["--quiet", "report", str(result), str(est), "--data", str(d / "t.npz"), "--data", str(short),
-                     "--out", str(out)]) == 2
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "report",
+                    str(result),
+                    str(est),
+                    "--data",
+                    str(d / "t.npz"),
+                    "--data",
+                    str(short),
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 2
+        )
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "samples, the estimate" in err
         assert not out.exists() and not made.exists()
     # an existing --out folder stays, without the sub-folders this run made
     (d / "kept").mkdir()
-    assert main(["--quiet", "report", str(result), str(est), "--data", str(d / "t.npz"), "--data", str(short),
-                 "--out", str(d / "kept")]) == 2
+    assert (
+        main(
+            [
+                "--quiet",
+                "report",
+                str(result),
+                str(est),
+                "--data",
+                str(d / "t.npz"),
+                "--data",
+                str(short),
+                "--out",
+                str(d / "kept"),
+            ]
+        )
+        == 2
+    )
     capsys.readouterr()
     assert (d / "kept").is_dir() and not any((d / "kept").iterdir())
     # calibrate/attitude --report: checked first, made only with the report
     rep = da / "att_rep"
-    assert main(["--quiet", "attitude", str(data), "--reference", "--frame", "NED", "--out",
-                 str(da / "att.csv"), "--report", str(rep)]) == 2
+    assert (
+        main(
+            [
+                "--quiet",
+                "attitude",
+                str(data),
+                "--reference",
+                "--frame",
+                "NED",
+                "--out",
+                str(da / "att.csv"),
+                "--report",
+                str(rep),
+            ]
+        )
+        == 2
+    )
     assert "--frame ENU" in capsys.readouterr().err and not rep.exists() and not (da / "att.csv").exists()
     (da / "a_file").write_text("x")
-    assert main(["--quiet", "attitude", str(data), "--out", str(da / "att.csv"), "--report",
-                 str(da / "a_file" / "rep")]) == 2
+    assert (
+        main(["--quiet", "attitude", str(data), "--out", str(da / "att.csv"), "--report", str(da / "a_file" / "rep")])
+        == 2
+    )
     assert "is a file" in capsys.readouterr().err
 
 
@@ -214,8 +288,23 @@ def test_report_gfimu_and_attitude_into_one_markdown_file(gfimu, attitude, capsy
     d, _, result = gfimu
     da, data, est = attitude
     out = d / "both.md"
-    assert main(["--quiet", "report", str(result), str(est), "--data", str(d / "t.npz"), "--data", str(data),
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "report",
+                str(result),
+                str(est),
+                "--data",
+                str(d / "t.npz"),
+                "--data",
+                str(data),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     md = out.read_text()
     res = TurntableCalibration.from_json(result)
     k = res.names.index("dr_x_1")
@@ -233,9 +322,17 @@ def test_report_multipos_without_data_and_errors(tmp_path, capsys):
     """A multipos result alone (no recording): its parameter tables; a wrong number of --data is one line."""
     from optinav.multipos.result import CalibrationResult
 
-    res = CalibrationResult(accelerometer={"K": np.diag([1.01, 0.99, 1.0]), "b": np.array([0.1, -0.2, 0.05]),
-                                           "K_std": np.full((3, 3), 1e-4), "b_std": np.full(3, 1e-3)},
-                            units={"accelerometer_raw": "m/s^2"}, method="lm", source="x.csv")
+    res = CalibrationResult(
+        accelerometer={
+            "K": np.diag([1.01, 0.99, 1.0]),
+            "b": np.array([0.1, -0.2, 0.05]),
+            "K_std": np.full((3, 3), 1e-4),
+            "b_std": np.full(3, 1e-3),
+        },
+        units={"accelerometer_raw": "m/s^2"},
+        method="lm",
+        source="x.csv",
+    )
     path = tmp_path / "r.json"
     res.to_json(path)
     assert main(["--quiet", "report", str(path), "--out", str(tmp_path / "rep")]) == 0

@@ -9,12 +9,31 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optinav.attitude import (DEFAULT_C_B_M, DEFAULT_C_B_M_ENU, MEKF, PolarizationMeasurement, QuasiNewton,
-                              estimate_q, estimate, initial_attitude, make_filter, measurement_error,
-                              predicted_aop)
+from optinav.attitude import (
+    DEFAULT_C_B_M,
+    DEFAULT_C_B_M_ENU,
+    MEKF,
+    PolarizationMeasurement,
+    QuasiNewton,
+    estimate_q,
+    estimate,
+    initial_attitude,
+    make_filter,
+    measurement_error,
+    predicted_aop,
+)
 from optinav.attitude.metrics import heading_error, rmse
-from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, euler_from_quat, quat_angle_between,
-                                    quat_from_dcm, quat_from_euler, quat_from_rotvec, quat_multiply)
+from optinav.core.rotations import (
+    C_ENU_NED,
+    C_RFU_FRD,
+    dcm_from_quat,
+    euler_from_quat,
+    quat_angle_between,
+    quat_from_dcm,
+    quat_from_euler,
+    quat_from_rotvec,
+    quat_multiply,
+)
 from optinav.errors import OptinavError
 
 G = 9.80665
@@ -34,8 +53,18 @@ def aop_truth(q, s_n, c_b_m):
     return (np.arctan2(e[:, 1], e[:, 0]) + np.pi / 2) % np.pi - np.pi / 2
 
 
-def synth(n=3000, rate=100.0, seed=0, amp=1.0, q_start=None, gyro_sigma=0.0, acc_sigma=0.0, aop_sigma=0.0,
-          bias=(0.0, 0.0, 0.0), rest=0):
+def synth(
+    n=3000,
+    rate=100.0,
+    seed=0,
+    amp=1.0,
+    q_start=None,
+    gyro_sigma=0.0,
+    acc_sigma=0.0,
+    aop_sigma=0.0,
+    bias=(0.0, 0.0, 0.0),
+    rest=0,
+):
     """NED / FRD rotation-only motion (at rest for the first ``rest`` samples): gyr (N,3), acc (N,3), dt,
     q_true (N,4), aop (N,), sun."""
     rng = np.random.default_rng(seed)
@@ -63,6 +92,7 @@ def synth(n=3000, rate=100.0, seed=0, amp=1.0, q_start=None, gyro_sigma=0.0, acc
 
 
 # --- measurement model -----------------------------------------------------------------------------------
+
 
 def _fd_jac(q, acc, pol, mode, h=1e-6):
     F0, _, _ = measurement_error(q, acc, pol=pol, jacobian=mode)
@@ -155,6 +185,7 @@ def test_skipped_polarization_is_counted():
 
 # --- conventions (property tests) ------------------------------------------------------------------------
 
+
 @settings(max_examples=12, deadline=None)
 @given(roll=st.floats(-60, 60), pitch=st.floats(-60, 60), yaw=st.floats(-180, 180), method=st.sampled_from(METHODS))
 def test_static_tilt_maps_specific_force_to_up(roll, pitch, yaw, method):
@@ -205,6 +236,7 @@ def test_euler_convention_of_enu_and_ned_heading():
 
 # --- accuracy on synthetic motion ----------------------------------------------------------------------
 
+
 def _tilt_err_deg(q, q_true):
     """Inclination error: angle between the estimated and true vertical in the body frame (deg)."""
     u = np.einsum("nji,j->ni", dcm_from_quat(q), [0, 0, 1.0])
@@ -214,18 +246,19 @@ def _tilt_err_deg(q, q_true):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_noisy_motion_accuracy_with_and_without_polarization(method):
-    d = synth(6000, amp=1.0, seed=5, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=np.radians(0.5),
-              bias=(0.004, -0.003, 0.002))
+    d = synth(
+        6000, amp=1.0, seed=5, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=np.radians(0.5), bias=(0.004, -0.003, 0.002)
+    )
     q_start = quat_multiply(quat_from_rotvec([0.05, -0.04, 0.3]), d["q_start"])  # 17° heading error, 4° tilt
     pol = PolarizationMeasurement(d["aop"], d["sun"])
     q = estimate_q(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, q0=q_start)
     late = slice(3000, None)
     err = np.degrees(quat_angle_between(q[late], d["q"][late]))
     # the bias of 0.004 rad/s over 60 s alone would give > 10° heading error: polarization must correct it
-    assert np.sqrt(np.mean(err ** 2)) < 1.5
+    assert np.sqrt(np.mean(err**2)) < 1.5
     q_nopol = estimate_q(d["gyr"], d["acc"], d["dt"], method=method, q0=q_start)
     tilt = _tilt_err_deg(q_nopol[late], d["q"][late])
-    assert np.sqrt(np.mean(tilt ** 2)) < 1.5
+    assert np.sqrt(np.mean(tilt**2)) < 1.5
     # without polarization the heading error stays (gyro-only heading): > 10°
     assert np.degrees(quat_angle_between(q_nopol[-1], d["q"][-1])) > 10
 
@@ -244,8 +277,17 @@ def test_mekf_estimates_gyro_bias_and_reports_consistent_sigma():
     bias = np.array([0.01, -0.008, 0.005])
     d = synth(12000, amp=0.8, seed=9, gyro_sigma=0.005, acc_sigma=0.05, aop_sigma=np.radians(0.5), bias=bias)
     pol = PolarizationMeasurement(d["aop"], d["sun"])
-    r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
-                 gyro_noise=0.005 * np.sqrt(0.01), acc_noise=0.05 / G, pol_noise=np.radians(0.5))
+    r = estimate(
+        d["gyr"],
+        d["acc"],
+        d["dt"],
+        pol=pol,
+        method="mekf",
+        q0=d["q_start"],
+        gyro_noise=0.005 * np.sqrt(0.01),
+        acc_noise=0.05 / G,
+        pol_noise=np.radians(0.5),
+    )
     assert np.max(np.abs(r.gyro_bias - bias)) < 1.5e-3
     # normalized estimation error squared (3 dof) averaged over the second half: ≈ 3 when consistent
     e = quat_multiply(np.array([1, -1, -1, -1]) * d["q"], r.q)  # q_true* ⊗ q = body-frame error
@@ -267,8 +309,7 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     """
     n, rest, sigma = 12000, 3000, 0.005
     bias = np.array([0.004, 0.002, -0.004])
-    d = synth(n, amp=2.0, seed=0, rest=rest, gyro_sigma=sigma, acc_sigma=0.05, aop_sigma=np.radians(0.5),
-              bias=bias)
+    d = synth(n, amp=2.0, seed=0, rest=rest, gyro_sigma=sigma, acc_sigma=0.05, aop_sigma=np.radians(0.5), bias=bias)
     opts = dict(gyro_noise=sigma * np.sqrt(d["dt"]), acc_noise=0.05 / G)
     t = np.arange(1, n + 1) * d["dt"]
     bound = np.linalg.norm(bias) * t + 4 * sigma * np.sqrt(3 * d["dt"] * t)
@@ -283,8 +324,9 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     q_gyro = estimate_q(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
     assert heading_error(q_gyro[rest - 1], d["q"][rest - 1]) > 0.5 * bound[rest - 1]
     pol = PolarizationMeasurement(d["aop"], d["sun"])
-    rp = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"],
-                  pol_noise=np.radians(0.5), **opts)
+    rp = estimate(
+        d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"], pol_noise=np.radians(0.5), **opts
+    )
     assert np.degrees(np.max(heading_error(rp.q[rest:], d["q"][rest:]))) < 0.5
 
 
@@ -294,14 +336,14 @@ def test_mekf_heading_sigma_is_capped_without_heading_measurement():
     n = 2000
     gyr, acc = np.zeros((n, 3)), np.tile([0.0, 0.0, -G], (n, 1))
     free = estimate(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1)
-    capped = estimate(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1,
-                      max_heading_std=0.3)
+    capped = estimate(gyr, acc, 0.01, method="mekf", q0=[1, 0, 0, 0], init_bias_std=0.1, max_heading_std=0.3)
     assert free.att_std[-1, 2] > 1.5
-    assert np.max(capped.att_std[:, 2]) <= 0.3 * (1 + 1e-9) + np.sqrt(0.002 ** 2 * 0.01)
+    assert np.max(capped.att_std[:, 2]) <= 0.3 * (1 + 1e-9) + np.sqrt(0.002**2 * 0.01)
     assert np.allclose(capped.att_std[:, :2], free.att_std[:, :2], rtol=1e-6)
 
 
 # --- batch vs streaming, input checks ------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("method", METHODS)
 def test_streaming_equals_batch(method):
@@ -326,21 +368,24 @@ def test_streaming_classes_and_state():
     assert m.att_std.shape == (3,) and m.gyro_bias.shape == (3,)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(gyr=np.full((5, 3), np.nan)), "NaN"),
-    (dict(gyr=np.zeros((5, 2))), "shape"),
-    (dict(acc=np.zeros((4, 3))), "samples"),
-    (dict(dt=0.0), "non-positive"),
-    (dict(dt=np.full(4, 0.01)), "dt has shape"),
-    (dict(method="ukf"), "unknown method"),
-    (dict(frame="ECEF"), "navigation frame"),
-    (dict(q0=[0, 0, 0, 0]), "q0"),
-    (dict(gain=-1, method="qn"), "non-negative"),
-    (dict(tau_acc=-1), "non-negative"),
-    (dict(method="mekf", gain=0.1), "does not apply"),
-    (dict(method="mekf", couple_heading=0.5), "0 or 1"),
-    (dict(method="mekf", max_heading_std=0.0), "max_heading_std"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(gyr=np.full((5, 3), np.nan)), "NaN"),
+        (dict(gyr=np.zeros((5, 2))), "shape"),
+        (dict(acc=np.zeros((4, 3))), "samples"),
+        (dict(dt=0.0), "non-positive"),
+        (dict(dt=np.full(4, 0.01)), "dt has shape"),
+        (dict(method="ukf"), "unknown method"),
+        (dict(frame="ECEF"), "navigation frame"),
+        (dict(q0=[0, 0, 0, 0]), "q0"),
+        (dict(gain=-1, method="qn"), "non-negative"),
+        (dict(tau_acc=-1), "non-negative"),
+        (dict(method="mekf", gain=0.1), "does not apply"),
+        (dict(method="mekf", couple_heading=0.5), "0 or 1"),
+        (dict(method="mekf", max_heading_std=0.0), "max_heading_std"),
+    ],
+)
 def test_bad_input_raises_optinav_error(kwargs, match):
     base = dict(gyr=np.zeros((5, 3)), acc=np.tile([0, 0, -G], (5, 1)), dt=0.01)
     base.update(kwargs)
@@ -355,11 +400,16 @@ def test_bad_polarization_input():
     with pytest.raises(OptinavError, match="rotation"):
         PolarizationMeasurement(np.zeros(3), [1.0, 0, 0], C_b_m=np.ones((3, 3)))
     with pytest.raises(OptinavError, match="samples"):
-        estimate_q(np.zeros((5, 3)), np.tile([0, 0, -G], (5, 1)), 0.01,
-                 pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0]))
+        estimate_q(
+            np.zeros((5, 3)), np.tile([0, 0, -G], (5, 1)), 0.01, pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0])
+        )
     with pytest.raises(OptinavError, match="frame"):
-        estimate_q(np.zeros((3, 3)), np.tile([0, 0, -G], (3, 1)), 0.01,
-                 pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0], frame="ENU"))
+        estimate_q(
+            np.zeros((3, 3)),
+            np.tile([0, 0, -G], (3, 1)),
+            0.01,
+            pol=PolarizationMeasurement(np.zeros(3), [1.0, 0, 0], frame="ENU"),
+        )
 
 
 def test_initial_heading_from_polarization():

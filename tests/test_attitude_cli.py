@@ -28,11 +28,40 @@ def _read(path):
 def test_cli_attitude_with_polarization(flight, capsys):
     d, folder, path, site, times = flight
     out, rep = folder / "att.csv", folder / "rep"
-    assert main(["--quiet", "attitude", str(path), "--gyro-unit", "deg/s", "--method", "mekf",
-                 "--pol-columns", "aop_deg,dop", "--aop-unit", "deg", "--lat", str(np.degrees(site["lat"])),
-                 "--lon", str(np.degrees(site["lon"])), "--height", "35", "--start-time", times["dynamic"],
-                 "--option", "acc_noise=0.4", "--q0-deg", ",".join(str(v) for v in np.degrees(d.euler[0])),
-                 "--out", str(out), "--report", str(rep)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "attitude",
+                str(path),
+                "--gyro-unit",
+                "deg/s",
+                "--method",
+                "mekf",
+                "--pol-columns",
+                "aop_deg,dop",
+                "--aop-unit",
+                "deg",
+                "--lat",
+                str(np.degrees(site["lat"])),
+                "--lon",
+                str(np.degrees(site["lon"])),
+                "--height",
+                "35",
+                "--start-time",
+                times["dynamic"],
+                "--option",
+                "acc_noise=0.4",
+                "--q0-deg",
+                ",".join(str(v) for v in np.degrees(d.euler[0])),
+                "--out",
+                str(out),
+                "--report",
+                str(rep),
+            ]
+        )
+        == 0
+    )
     r = _read(out)
     assert r.dtype.names == ("t", "qw", "qx", "qy", "qz", "roll_deg", "pitch_deg", "yaw_deg")
     q = np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]])
@@ -40,8 +69,9 @@ def test_cli_attitude_with_polarization(flight, capsys):
     assert np.sqrt(np.mean(err[500:] ** 2)) < 3.0
     # the Euler columns are the quaternion's, in degrees
     e = np.degrees(euler_errors(q, d.q_b_n))
-    assert np.allclose(np.degrees(d.euler[:, :2]) + e[:, :2], np.column_stack([r["roll_deg"], r["pitch_deg"]]),
-                       atol=1e-5)
+    assert np.allclose(
+        np.degrees(d.euler[:, :2]) + e[:, :2], np.column_stack([r["roll_deg"], r["pitch_deg"]]), atol=1e-5
+    )
     assert (rep / "index.md").is_file()
     assert "polarization used" in (rep / "index.md").read_text()
 
@@ -56,15 +86,18 @@ def test_cli_attitude_gyro_acc_only(flight):
     assert np.sqrt(np.mean(tilt[500:] ** 2)) < 5.0
 
 
-@pytest.mark.parametrize("extra, msg", [
-    (["--option", "gain"], "KEY=VALUE"),
-    (["--option", "bogus=1"], "does not apply"),
-    (["--lat", "38"], "without --pol-columns"),
-    (["--pol-columns", "aop_deg", "--aop-unit", "deg"], "needs the sun"),
-    (["--pol-columns", "aop_deg", "--sun-azimuth", "10", "--sun-elevation", "20"], "--aop-unit deg"),
-    (["--pol-columns", "nope", "--sun-azimuth", "10", "--sun-elevation", "20"], "no column"),
-    (["--q0-deg", "1,2"], "ROLL,PITCH,YAW"),
-])
+@pytest.mark.parametrize(
+    "extra, msg",
+    [
+        (["--option", "gain"], "KEY=VALUE"),
+        (["--option", "bogus=1"], "does not apply"),
+        (["--lat", "38"], "without --pol-columns"),
+        (["--pol-columns", "aop_deg", "--aop-unit", "deg"], "needs the sun"),
+        (["--pol-columns", "aop_deg", "--sun-azimuth", "10", "--sun-elevation", "20"], "--aop-unit deg"),
+        (["--pol-columns", "nope", "--sun-azimuth", "10", "--sun-elevation", "20"], "no column"),
+        (["--q0-deg", "1,2"], "ROLL,PITCH,YAW"),
+    ],
+)
 def test_cli_attitude_errors(flight, capsys, extra, msg):
     _, folder, path, *_ = flight
     assert main(["attitude", str(path), "--gyro-unit", "deg/s", "--out", str(folder / "x.csv")] + extra) == 2
@@ -75,16 +108,38 @@ def test_cli_attitude_errors(flight, capsys, extra, msg):
 def test_cli_simulate_flight_then_attitude(tmp_path, capsys):
     """`optinav simulate flight` writes what `optinav attitude` reads; the heading follows the truth."""
     data, out = tmp_path / "flight.csv", tmp_path / "att.csv"
-    assert main(["simulate", "flight", "--kind", "dynamic", "--duration", "20", "--seed", "3",
-                 "--out", str(data)]) == 0
+    assert main(["simulate", "flight", "--kind", "dynamic", "--duration", "20", "--seed", "3", "--out", str(data)]) == 0
     msg = capsys.readouterr().err
     e0 = msg.rsplit(":", 1)[1].strip()
     truth = np.loadtxt(tmp_path / "flight.truth.csv", delimiter=",", skiprows=1)
-    assert main(["--quiet", "attitude", str(data), "--method", "mekf", "--pol-columns", "aop_deg,dop",
-                 "--aop-unit", "deg", "--lat", "38.8814192", "--lon", "121.528255", "--start-time",
-                 "2021-01-16T16:33:00+08:00", "--q0-deg", e0.replace(" ", ""), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "attitude",
+                str(data),
+                "--method",
+                "mekf",
+                "--pol-columns",
+                "aop_deg,dop",
+                "--aop-unit",
+                "deg",
+                "--lat",
+                "38.8814192",
+                "--lon",
+                "121.528255",
+                "--start-time",
+                "2021-01-16T16:33:00+08:00",
+                "--q0-deg",
+                e0.replace(" ", ""),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     r = _read(out)
     q = np.column_stack([r["qw"], r["qx"], r["qy"], r["qz"]])
     yaw = np.degrees(euler_errors(q, truth[:, 1:]))[:, 2]
-    assert np.sqrt(np.mean(yaw ** 2)) < 2.0
+    assert np.sqrt(np.mean(yaw**2)) < 2.0
     assert main(["simulate", "flight", "--out", str(tmp_path / "f.npz")]) == 2

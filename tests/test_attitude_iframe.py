@@ -9,8 +9,15 @@ import pytest
 from optinav.attitude import AttitudeFilter, estimate_q, estimate
 from optinav.attitude.checks import FrameWarning, _check_clipping
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
-from optinav.core.rotations import (C_ENU_NED, C_RFU_FRD, dcm_from_quat, quat_angle_between, quat_from_dcm,
-                                    quat_from_rotvec, quat_multiply)
+from optinav.core.rotations import (
+    C_ENU_NED,
+    C_RFU_FRD,
+    dcm_from_quat,
+    quat_angle_between,
+    quat_from_dcm,
+    quat_from_rotvec,
+    quat_multiply,
+)
 from optinav.errors import OptinavError
 
 G = 9.81
@@ -64,11 +71,11 @@ def test_gyro_bias_from_rest_tracks_a_step():
     (the weight of the rest low-pass's ramp in a 20-s average) plus noise."""
     n = 4000
     gyr = np.zeros((n, 3)) + np.radians([0.3, -0.2, 0.4])
-    gyr[n // 2:] = np.radians([-0.5, 0.3, -0.2])
+    gyr[n // 2 :] = np.radians([-0.5, 0.3, -0.2])
     gyr += np.random.default_rng(1).normal(0, 0.002, gyr.shape)
     acc = np.tile([0.0, 0.0, -G], (n, 1)) + np.random.default_rng(2).normal(0, 0.02, (n, 3))
     r = estimate(gyr, acc, DT)
-    assert np.all(r.rest[500:n // 2 - 10])  # rest after rest_time (1.5 s)
+    assert np.all(r.rest[500 : n // 2 - 10])  # rest after rest_time (1.5 s)
     assert np.max(np.abs(np.degrees(r.gyro_bias) - [-0.5, 0.3, -0.2])) < 0.03
     # the heading follows the bias-corrected gyro: the raw z bias would turn it by 0.4·20 − 0.2·20 = 4° in 40 s;
     # what remains is the step integrated until the rest low-pass (0.5 s) has seen it, ≈ 0.6 °/s · 0.5 s
@@ -96,8 +103,8 @@ def test_gyro_bias_in_fast_motion():
     bias = np.radians([0.4, -0.3, 0.3])
     r = estimate(w + bias, acc, DT)
     lim = estimate(w + bias, acc, DT, motion_max_gyr=2.0)
-    assert np.max(np.abs(np.degrees(r.gyro_bias - bias))) < 0.05        # measured 0.007 °/s
-    assert np.max(np.abs(np.degrees(lim.gyro_bias - bias))) > 0.05      # measured 0.15 °/s
+    assert np.max(np.abs(np.degrees(r.gyro_bias - bias))) < 0.05  # measured 0.007 °/s
+    assert np.max(np.abs(np.degrees(lim.gyro_bias - bias))) > 0.05  # measured 0.15 °/s
     # measured 0.03° against 0.30° tilt RMS over the second half
     assert 3 * tilt_deg(r.q, q_true, slice(n // 2, None)) < tilt_deg(lim.q, q_true, slice(n // 2, None))
 
@@ -113,7 +120,7 @@ def test_output_timing_convention_on_instantaneous_samples():
     q = estimate_q(gyr, acc, DT, frame="NED", checks=False)
     yaw = np.unwrap(2.0 * np.arctan2(q[:, 3], q[:, 0]))
     lead = yaw - 0.5 * alpha * (t + 0.5 * DT) ** 2
-    assert np.max(np.abs(lead + alpha * DT ** 2 / 8)) < 1e-9
+    assert np.max(np.abs(lead + alpha * DT**2 / 8)) < 1e-9
     assert np.abs(yaw[-1] - 0.5 * alpha * t[-1] ** 2) > 0.9 * alpha * DT * t[-1] / 2
 
 
@@ -134,15 +141,14 @@ def test_latency_predicts_late_samples_forward():
 
     late, on, off = offset(), offset(latency=d), offset(latency=d, offline=True)
     assert np.ptp(late) > 0.9 * alpha * d * t[-1]
-    assert np.max(np.abs(on + alpha * (DT ** 2 / 8 + d * DT + d * d))) < 1e-9
-    assert np.max(np.abs(off + alpha * (DT ** 2 / 8 + d * DT + d * d))) < 1e-6
+    assert np.max(np.abs(on + alpha * (DT**2 / 8 + d * DT + d * d))) < 1e-9
+    assert np.max(np.abs(off + alpha * (DT**2 / 8 + d * DT + d * d))) < 1e-6
     f = AttitudeFilter(RATE, frame="NED", latency=d)
     q_stream = np.empty((200, 4))
     for i in range(200):
         f.update(gyr[i], acc[i])
         q_stream[i] = f.q
-    assert np.allclose(q_stream, estimate_q(gyr[:200], acc[:200], DT, frame="NED", checks=False, latency=d),
-                       atol=1e-12)
+    assert np.allclose(q_stream, estimate_q(gyr[:200], acc[:200], DT, frame="NED", checks=False, latency=d), atol=1e-12)
     with pytest.raises(OptinavError, match="latency"):
         estimate_q(gyr, acc, DT, frame="NED", latency=-0.01)
 
@@ -201,7 +207,7 @@ def test_streaming_equals_batch_and_online_is_causal():
     with pytest.raises(OptinavError, match="3 components"):
         f.update(w[0, :2], acc[0], dt=DT)
     g = AttitudeFilter(rate_hz=RATE)
-    chunks = [g.update_batch(w[a:a + 500], acc[a:a + 500]).q for a in range(0, n, 500)]
+    chunks = [g.update_batch(w[a : a + 500], acc[a : a + 500]).q for a in range(0, n, 500)]
     assert np.max(np.abs(np.vstack(chunks) - estimate_q(w, acc, DT))) < 1e-12
     # online: the first 1000 outputs do not change when the rest of the recording is dropped
     assert np.array_equal(estimate_q(w[:1000], acc[:1000], DT), estimate_q(w, acc, DT)[:1000])
@@ -229,7 +235,7 @@ def test_offline_bias_is_the_gyro_bias_over_the_whole_recording():
     bias = np.radians([0.4, -0.3, 0.3])
     g = np.ascontiguousarray(w + bias)
     r = run_iframe(g, np.ascontiguousarray(acc), np.array([DT]), offline=True)
-    assert np.max(np.abs(np.degrees(r.bias[n // 10:] - bias))) < 0.05
+    assert np.max(np.abs(np.degrees(r.bias[n // 10 :] - bias))) < 0.05
     assert np.max(np.abs(np.degrees(r.bias[:100] - bias))) < 0.1
     on = run_iframe(g, np.ascontiguousarray(acc), np.array([DT]))
     assert tilt_deg(r.q, q_true, slice(1000, None)) < tilt_deg(on.q, q_true, slice(1000, None))
@@ -263,6 +269,7 @@ def test_input_stage_for_published_methods():
 
 # --- physics checks of the inputs (issue 17) ---------------------------------------------------------------
 
+
 def test_time_gap_refused_or_split():
     n = 2000
     w, acc, q_true = motion(n, seed=9, amp=1.0)
@@ -276,13 +283,16 @@ def test_time_gap_refused_or_split():
     assert tilt_deg(r.q, q_true, slice(1000, 1010)) < 0.5
 
 
-@pytest.mark.parametrize("case, match", [
-    ("deg_as_rad", "--gyro-unit deg/s"),
-    ("rad_as_deg", "--gyro-unit rad/s"),
-    ("swapped", "swapped"),
-    ("acc_in_g", "--acc-unit"),
-    ("clipped", "clipped"),
-])
+@pytest.mark.parametrize(
+    "case, match",
+    [
+        ("deg_as_rad", "--gyro-unit deg/s"),
+        ("rad_as_deg", "--gyro-unit rad/s"),
+        ("swapped", "swapped"),
+        ("acc_in_g", "--acc-unit"),
+        ("clipped", "clipped"),
+    ],
+)
 def test_mislabelled_or_damaged_imu_refused(case, match):
     w, acc, _ = motion(3000, seed=10, amp=2.0)
     if case == "deg_as_rad":

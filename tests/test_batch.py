@@ -37,8 +37,17 @@ def units(tmp_path_factory):
     d = tmp_path_factory.mktemp("units")
     truth = {}
     for name, acc_unit, seed in UNITS:
-        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(LAT),
-                     height_m=HEIGHT, acc_unit=acc_unit, rng=seed)
+        s = simulate(
+            "18",
+            dwell_s=5.0,
+            rate_hz=20.0,
+            transition_s=2.0,
+            rest_s=3.0,
+            lat=np.radians(LAT),
+            height_m=HEIGHT,
+            acc_unit=acc_unit,
+            rng=seed,
+        )
         write_imu(d / name, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit=acc_unit, gyro_unit="rad/s"))
         truth[Path(name).stem] = s
     (d / BAD).write_text("t,ax,ay,az\n0,1,2\n1,2,oops,4\n")
@@ -94,8 +103,23 @@ def _check_rows_against_truth(rows, truth, units_dir):
 def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path, capsys):
     d, truth = units
     out = tmp_path / "results.csv"
-    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(out),
-                 "--scheduler", cluster.scheduler_address, *CAL_ARGS]) == 1  # the corrupt unit failed
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                "calibrate",
+                "accel",
+                str(d),
+                "--out",
+                str(out),
+                "--scheduler",
+                cluster.scheduler_address,
+                *CAL_ARGS,
+            ]
+        )
+        == 1
+    )  # the corrupt unit failed
     assert "4 units: 3 ok, 1 failed" in capsys.readouterr().out
     rows = read_results(out)
     _check_rows_against_truth(rows, truth, d)
@@ -109,8 +133,13 @@ def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path,
     assert journal.read_bytes() == before
     assert read_results(out) == rows  # same elapsed_s and finish times: the rows were kept, not recomputed
     # other options are another calibration: nothing is reused
-    s = run_batch(d, out, FileOptions(latitude=LAT, height=HEIGHT, method="gn"),
-                  scheduler=cluster.scheduler_address, show_progress=False)
+    s = run_batch(
+        d,
+        out,
+        FileOptions(latitude=LAT, height=HEIGHT, method="gn"),
+        scheduler=cluster.scheduler_address,
+        show_progress=False,
+    )
     assert (s.n_resumed, s.n_computed) == (0, 4) and {r["method"] for r in s.rows} == {"gn"}
 
 
@@ -132,7 +161,7 @@ def test_local_processes_parquet_and_changed_file(units, tmp_path, monkeypatch):
     _check_rows_against_truth(rows, truth, d)
     # a unit whose file changed (new mtime) is recomputed, the others are kept
     st = (d / "u2.csv").stat()
-    os.utime(d / "u2.csv", ns=(st.st_atime_ns, st.st_mtime_ns + 10 ** 9))
+    os.utime(d / "u2.csv", ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
     try:
         s2 = run_batch(d, out, OPTIONS, workers=2, show_progress=False)
     finally:
@@ -172,8 +201,21 @@ def test_killed_process_loses_nothing_finished(units, tmp_path):
     d, _ = units
     out = tmp_path / "r.csv"
     journal = tmp_path / "r.csv.journal.jsonl"
-    cmd = [sys.executable, "-m", "optinav.cli.main", "--quiet", "batch", "calibrate", "accel", str(d), "--out",
-           str(out), "--workers", "1", *CAL_ARGS]
+    cmd = [
+        sys.executable,
+        "-m",
+        "optinav.cli.main",
+        "--quiet",
+        "batch",
+        "calibrate",
+        "accel",
+        str(d),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        *CAL_ARGS,
+    ]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 60
@@ -187,8 +229,9 @@ def test_killed_process_loses_nothing_finished(units, tmp_path):
             os.killpg(proc.pid, signal.SIGKILL)  # the batch and its worker processes: its own session
         proc.wait(timeout=30)
         proc.stderr.close()
-    finished = {json.loads(x)["row"]["unit"]: json.loads(x)["row"]
-                for x in journal.read_text().splitlines() if x.strip()}
+    finished = {
+        json.loads(x)["row"]["unit"]: json.loads(x)["row"] for x in journal.read_text().splitlines() if x.strip()
+    }
     assert 1 <= len(finished) <= 4
     s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
     assert s.n_resumed == len(finished) and s.n_computed == 4 - len(finished) and s.n_ok == 3
@@ -222,23 +265,31 @@ def test_unit_rule(tmp_path):
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "d.csv").write_bytes(b"1")
     units = find_units(tmp_path, exclude=[tmp_path / "results.csv"])
-    assert [(u.name, u.path.name) for u in units] == [("a.npz", "a.npz"), ("a.txt.gz", "a.txt.gz"), ("b", "b.csv"),
-                                                      ("c", "c.tsv")]
+    assert [(u.name, u.path.name) for u in units] == [
+        ("a.npz", "a.npz"),
+        ("a.txt.gz", "a.txt.gz"),
+        ("b", "b.csv"),
+        ("c", "c.tsv"),
+    ]
 
 
 def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):
     d, _ = units
-    for argv in (["--out", str(tmp_path / "r.json")],
-                 ["--out", str(tmp_path / "missing" / "r.csv")],
-                 ["--out", str(tmp_path / "r.csv"), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"],
-                 ["--out", str(tmp_path / "r.csv"), "--workers", "-1"],
-                 ["--out", str(tmp_path / "r.csv"), "--generations", "3"]):
+    for argv in (
+        ["--out", str(tmp_path / "r.json")],
+        ["--out", str(tmp_path / "missing" / "r.csv")],
+        ["--out", str(tmp_path / "r.csv"), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"],
+        ["--out", str(tmp_path / "r.csv"), "--workers", "-1"],
+        ["--out", str(tmp_path / "r.csv"), "--generations", "3"],
+    ):
         assert main(["--quiet", "batch", "calibrate", "accel", str(d), *argv]) == 2
-    assert main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "nope"), "--out",
-                 str(tmp_path / "r.csv")]) == 2
+    assert (
+        main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "nope"), "--out", str(tmp_path / "r.csv")]) == 2
+    )
     (tmp_path / "empty").mkdir()
-    assert main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "empty"), "--out",
-                 str(tmp_path / "r.csv")]) == 2
+    assert (
+        main(["--quiet", "batch", "calibrate", "accel", str(tmp_path / "empty"), "--out", str(tmp_path / "r.csv")]) == 2
+    )
     err = capsys.readouterr().err
     assert err.count("optinav: error:") == 7 and "Traceback" not in err
     # the optional extras missing: the error names them

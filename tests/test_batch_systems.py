@@ -23,16 +23,69 @@ NONORTH = [np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4, np.array([-2.0, 1.
 
 #: system → (batch CLI words, options, CLI options, simulate argv per unit (seed k), unit file names)
 SYSTEMS = {
-    "rins": (["calibrate", "rins"], RinsOptions(), [],
-             lambda k, out: ["simulate", "rins", "--nonorth=" + ",".join(f"{x:.6g}" for x in NONORTH[k]),
-                             "--scheme", "dual4", "--align", "40", "--dwell", "5", "--move", "5", "--rate", "25",
-                             "--seed", str(k + 1), "--out", out], ["r1.npz", "r2.npz"]),
-    "gfimu": (["calibrate", "gfimu"], GfimuOptions(builtin="cylinder10"), ["--builtin", "cylinder10"],
-              lambda k, out: ["simulate", "gfimu-turntable", "--builtin", "cylinder10", "--errors", "random",
-                              "--duration", "0.5", "--seed", str(k + 1), "--out", out], ["t1.npz", "t2.npz"]),
-    "attitude": (["attitude"], AttitudeOptions(method="mekf"), ["--method", "mekf"],
-                 lambda k, out: ["simulate", "flight", "--kind", "static", "--duration", "5", "--seed", str(k + 1),
-                                 "--out", out], ["f1.csv", "f2.csv"]),
+    "rins": (
+        ["calibrate", "rins"],
+        RinsOptions(),
+        [],
+        lambda k, out: [
+            "simulate",
+            "rins",
+            "--nonorth=" + ",".join(f"{x:.6g}" for x in NONORTH[k]),
+            "--scheme",
+            "dual4",
+            "--align",
+            "40",
+            "--dwell",
+            "5",
+            "--move",
+            "5",
+            "--rate",
+            "25",
+            "--seed",
+            str(k + 1),
+            "--out",
+            out,
+        ],
+        ["r1.npz", "r2.npz"],
+    ),
+    "gfimu": (
+        ["calibrate", "gfimu"],
+        GfimuOptions(builtin="cylinder10"),
+        ["--builtin", "cylinder10"],
+        lambda k, out: [
+            "simulate",
+            "gfimu-turntable",
+            "--builtin",
+            "cylinder10",
+            "--errors",
+            "random",
+            "--duration",
+            "0.5",
+            "--seed",
+            str(k + 1),
+            "--out",
+            out,
+        ],
+        ["t1.npz", "t2.npz"],
+    ),
+    "attitude": (
+        ["attitude"],
+        AttitudeOptions(method="mekf"),
+        ["--method", "mekf"],
+        lambda k, out: [
+            "simulate",
+            "flight",
+            "--kind",
+            "static",
+            "--duration",
+            "5",
+            "--seed",
+            str(k + 1),
+            "--out",
+            out,
+        ],
+        ["f1.csv", "f2.csv"],
+    ),
 }
 BAD = "a0_corrupt.csv"
 
@@ -84,8 +137,23 @@ def _check_rows(system, rows):
 def test_dask_cluster_batch_against_truth_then_resumes(system, folders, cluster, tmp_path, capsys):
     words, options, cli_opts, _, names = SYSTEMS[system]
     d, out = folders[system], tmp_path / "results.csv"
-    assert main(["--quiet", "batch", *words, str(d), "--out", str(out), "--reference",
-                 "--scheduler", cluster.scheduler_address, *cli_opts]) == 1  # the corrupt unit failed
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                *words,
+                str(d),
+                "--out",
+                str(out),
+                "--reference",
+                "--scheduler",
+                cluster.scheduler_address,
+                *cli_opts,
+            ]
+        )
+        == 1
+    )  # the corrupt unit failed
     assert f"{len(names) + 1} units: {len(names)} ok, 1 failed" in capsys.readouterr().out
     rows = read_results(out)
     _check_rows(system, rows)
@@ -101,8 +169,20 @@ def test_killed_batch_loses_nothing_finished(system, folders, tmp_path):
     words, options, cli_opts, _, names = SYSTEMS[system]
     d, out = folders[system], tmp_path / "r.csv"
     journal = tmp_path / "r.csv.journal.jsonl"
-    cmd = [sys.executable, "-m", "optinav.cli.main", "--quiet", "batch", *words, str(d), "--out", str(out),
-           "--workers", "1", *cli_opts]
+    cmd = [
+        sys.executable,
+        "-m",
+        "optinav.cli.main",
+        "--quiet",
+        "batch",
+        *words,
+        str(d),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        *cli_opts,
+    ]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 120
@@ -116,8 +196,9 @@ def test_killed_batch_loses_nothing_finished(system, folders, tmp_path):
             os.killpg(proc.pid, signal.SIGKILL)  # the batch and its worker processes: its own session
         proc.wait(timeout=30)
         proc.stderr.close()
-    finished = {json.loads(x)["row"]["unit"]: json.loads(x)["row"]
-                for x in journal.read_text().splitlines() if x.strip()}
+    finished = {
+        json.loads(x)["row"]["unit"]: json.loads(x)["row"] for x in journal.read_text().splitlines() if x.strip()
+    }
     n = len(names) + 1
     assert 1 <= len(finished) <= n
     s = run_batch(d, out, options, workers=0, show_progress=False)

@@ -51,8 +51,12 @@ def test_broad_heading_with_synthesized_polarization(trial):
     from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES
     from optinav.sky import solar_position
 
-    sp = solar_position(np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
-                        PAPER_SITE["lat"], PAPER_SITE["lon"], PAPER_SITE["height_m"])
+    sp = solar_position(
+        np.datetime64(PAPER_TIMES["static"][:19]) - np.timedelta64(8, "h"),
+        PAPER_SITE["lat"],
+        PAPER_SITE["lon"],
+        PAPER_SITE["height_m"],
+    )
     sun = sp.sun_vector("enu")
     pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
     i0 = int(np.flatnonzero(np.all(np.isfinite(trial.q_ref), axis=1))[0])  # start at the first optical sample
@@ -60,8 +64,9 @@ def test_broad_heading_with_synthesized_polarization(trial):
     mask = trial.eval_mask[sl]
     res = {}
     for method in ("gd", "qn", "mekf"):
-        q = estimate_q(trial.gyr[sl], trial.acc[sl], trial.dt, pol=pol.select(sl), method=method, frame="ENU",
-                     q0=trial.q_ref[i0])
+        q = estimate_q(
+            trial.gyr[sl], trial.acc[sl], trial.dt, pol=pol.select(sl), method=method, frame="ENU", q0=trial.q_ref[i0]
+        )
         res[method] = np.degrees(rmse(heading_error(q, trial.q_ref[sl]), mask))
     q6 = estimate_q(trial.gyr[sl], trial.acc[sl], trial.dt, method="gd", frame="ENU", q0=trial.q_ref[i0])
     no_pol = np.degrees(rmse(heading_error(q6, trial.q_ref[sl]), mask))
@@ -70,8 +75,11 @@ def test_broad_heading_with_synthesized_polarization(trial):
     assert res["gd"] < 1.0 and res["qn"] < 1.0 and res["mekf"] < 0.5, res
 
 
-@pytest.mark.parametrize("options", [{}, {"acc_noise": 0.02}, {"bias_noise": 2e-3}, {"couple_heading": 1}],
-                         ids=["defaults", "acc_noise=0.02", "bias_noise=2e-3", "couple_heading=1"])
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"acc_noise": 0.02}, {"bias_noise": 2e-3}, {"couple_heading": 1}],
+    ids=["defaults", "acc_noise=0.02", "bias_noise=2e-3", "couple_heading=1"],
+)
 def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
     """Gyro + accelerometer only: heading is unobservable from gravity, so the MEKF must not do worse than
     integrating the gyro alone (z bias ≈ 0.22 °/s: ≈ 13.6° RMS). Both start from the optical truth at the first
@@ -95,8 +103,7 @@ def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
 
 # --- the nine BROAD trials in shared/ (issue 12): default iframe against the targets and VQF --------------------
 
-NINE = sorted(p for p in (SHARED / "attitude" / "broad").glob("[0-9][0-9]_*")
-              if p.suffix in (".hdf5", ".mat"))
+NINE = sorted(p for p in (SHARED / "attitude" / "broad").glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
 #: VQF 2.1.2 on the same nine trials, default options (issue 12; benchmarks/bench_attitude.py measures it again)
 VQF_ONLINE_DEG, VQF_OFFLINE_DEG, VQF_HEADING_9D_DEG = 0.608, 0.488, 2.21
 
@@ -115,9 +122,13 @@ def nine():
         off = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", offline=True, checks=False)
         mag = estimate_q(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, checks=False)
         m = tr.eval_mask
-        rows.append([np.degrees(rmse(inclination_error(on, tr.q_ref), m)),
-                     np.degrees(rmse(inclination_error(off, tr.q_ref), m)),
-                     np.degrees(rmse(heading_error(mag, tr.q_ref), m))])
+        rows.append(
+            [
+                np.degrees(rmse(inclination_error(on, tr.q_ref), m)),
+                np.degrees(rmse(inclination_error(off, tr.q_ref), m)),
+                np.degrees(rmse(heading_error(mag, tr.q_ref), m)),
+            ]
+        )
     return np.array(rows)
 
 

@@ -43,13 +43,17 @@ def _write(tmp_path, name, t, acc, gyro, acc_unit="m/s^2", gyro_unit="rad/s"):
 
 # ---------------------------------------------------------------------------------------------------- counts
 
+
 def test_unsigned_counts_are_not_saturated_at_mid_scale():
     raw = np.array([[32767.0, 32768, 40000], [30000, 32767, 32768]])
     assert count_range(raw) == (0.0, 65535.0)
     assert not saturated_mask(raw, counts=True).any()
     assert count_range(raw - OFFSET) == (-32768.0, 32767.0)
-    assert saturated_mask(np.array([[0.0, 1, 2], [65535, 3, 4], [5, 6, 7]]), counts=True).tolist() == [True, True,
-                                                                                                         False]
+    assert saturated_mask(np.array([[0.0, 1, 2], [65535, 3, 4], [5, 6, 7]]), counts=True).tolist() == [
+        True,
+        True,
+        False,
+    ]
     assert saturated_mask(np.array([[-8388608.0, 0, 0], [40000, 0, 0]]), counts=True).tolist() == [True, False]
     assert saturated_mask(np.array([[99.0, 0, 0], [-101, 0, 0]]), 100.0).tolist() == [False, True]
     assert saturated_mask(np.array([[99.0, 0, 5], [-101, 0, 5]]), (0.0, 100.0)).tolist() == [True, True]
@@ -76,8 +80,9 @@ def test_paper_methods_on_raw_counts_with_big_offsets_agree_with_lm(sim, method)
     r = calibrate(s.t, acc, acc_unit="counts", g=s.gravity, method=method, rng=1)
     np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(ref.accelerometer["K"]), rtol=5e-3)
     # bias within 0.5 % of the g span (K·g) of LM's
-    assert np.all(np.abs(r.accelerometer["b"] - ref.accelerometer["b"])
-                  < 5e-3 * s.gravity * np.diag(ref.accelerometer["K"]))
+    assert np.all(
+        np.abs(r.accelerometer["b"] - ref.accelerometer["b"]) < 5e-3 * s.gravity * np.diag(ref.accelerometer["K"])
+    )
 
 
 def test_a_gyro_turn_at_full_scale_is_left_out_with_a_note(sim):
@@ -97,11 +102,14 @@ def test_a_gyro_turn_at_full_scale_is_left_out_with_a_note(sim):
 
 # ---------------------------------------------------------------------------------------------------- units
 
+
 @pytest.mark.parametrize("true_unit, fac", [("g", 1 / 9.80665), ("mg", 1000 / 9.80665), ("counts", 208.8)])
 def test_mislabelled_accelerometer_unit_names_the_likely_one(sim, tmp_path, capsys, true_unit, fac):
     s, _, _ = sim
     path = _write(tmp_path, "a.csv", s.t, s.acc / (2048 / 9.80665) * fac, None)
-    msg = _cli_error(capsys, ["calibrate", "accel", str(path), "--acc-unit", "m/s^2", "--out", str(tmp_path / "r.json")])
+    msg = _cli_error(
+        capsys, ["calibrate", "accel", str(path), "--acc-unit", "m/s^2", "--out", str(tmp_path / "r.json")]
+    )
     assert f"--acc-unit {true_unit}" in msg and "at rest" in msg
     assert not (tmp_path / "r.json").exists()
 
@@ -111,8 +119,9 @@ def test_data_in_mg_calibrates_with_acc_unit_mg(sim, tmp_path, capsys):
     acc_mg = s.acc / (2048 / 9.80665) * (1000 / 9.80665)
     path = _write(tmp_path, "a.csv", s.t, acc_mg, None)
     out = tmp_path / "r.json"
-    assert main(["calibrate", "accel", str(path), "--acc-unit", "mg", "--gravity", str(s.gravity), "--out",
-                 str(out)]) == 0
+    assert (
+        main(["calibrate", "accel", str(path), "--acc-unit", "mg", "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    )
     r = CalibrationResult.from_json(out)
     assert r.units["accelerometer_raw"] == "mg"
     U, _ = model.upper_triangular_form(s.acc_K / (2048 / 9.80665) * (1000 / 9.80665))
@@ -135,8 +144,15 @@ def test_gyro_in_degrees_labelled_radians_is_a_unit_error(sim):
         calibrate(s.t, acc, gyr_deg, acc_unit="m/s^2", gyro_unit="rad/s", g=s.gravity)
 
 
-@pytest.mark.parametrize("declared, data, likely", [("rad/s", "counts", "counts"), ("deg/s", "counts", "counts"),
-                                                     ("deg/s", "rad/s", "rad/s"), ("rad/s", "deg/s", "deg/s")])
+@pytest.mark.parametrize(
+    "declared, data, likely",
+    [
+        ("rad/s", "counts", "counts"),
+        ("deg/s", "counts", "counts"),
+        ("deg/s", "rad/s", "rad/s"),
+        ("rad/s", "deg/s", "deg/s"),
+    ],
+)
 def test_gyro_unit_is_checked_against_the_turns_the_accelerometer_sees(sim, declared, data, likely):
     """Before any gyro fit, the turn angle (perpendicular to gravity) in the declared unit must match the
     gravity-direction change between poses: counts (16.4 per °/s) or a 57.3 mix-up is named with its flag."""
@@ -179,8 +195,17 @@ def test_a_log_cut_between_the_poses_is_named(sim):
 @pytest.mark.parametrize("unit, ratio", [("rad/s", 57.3), (None, None)])
 def test_imucal_example_gyro_unit_from_the_turns(tmp_path, capsys, unit, ratio):
     """imucal's Ferraris session (gyro in deg/s): read as rad/s (the default), the turn check names deg/s."""
-    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gravity", "9.81",
-            "--out", str(tmp_path / "r.json")]
+    argv = [
+        "calibrate",
+        "accel",
+        str(DATA / "example_ferraris_session.csv"),
+        "--rate",
+        "102.4",
+        "--gravity",
+        "9.81",
+        "--out",
+        str(tmp_path / "r.json"),
+    ]
     if unit:
         err = _cli_error(capsys, argv)
         assert "pass --gyro-unit deg/s" in err
@@ -194,14 +219,28 @@ def test_imucal_example_gyro_unit_from_the_turns(tmp_path, capsys, unit, ratio):
 def test_imucal_annotated_sections_by_the_default_route_name_ferraris(tmp_path, capsys):
     """The annotated session holds only the nine cut sections: the default route (with gyro) cannot integrate
     the turns between them, and says so with the flags that work (--method ferraris, --no-gyro)."""
-    argv = ["calibrate", "accel", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--acc-unit", "counts",
-            "--gyro-unit", "counts", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    argv = [
+        "calibrate",
+        "accel",
+        str(DATA / "annotated_session.csv"),
+        "--rate",
+        "204.8",
+        "--acc-unit",
+        "counts",
+        "--gyro-unit",
+        "counts",
+        "--gravity",
+        "9.81",
+        "--out",
+        str(tmp_path / "r.json"),
+    ]
     err = _cli_error(capsys, argv)
     assert "cut between the poses" in err and "--method ferraris" in err and "--no-gyro" in err
     assert main(argv + ["--no-gyro"]) == 0
 
 
 # ---------------------------------------------------------------------------------------------------- axes
+
 
 @pytest.mark.parametrize("how", ["swap", "flip"])
 def test_swapped_or_flipped_axes_are_named(sim, how):
@@ -234,6 +273,7 @@ def test_axis_permutation_diagnosis_covers_the_48_signed_permutations():
 
 # ---------------------------------------------------------------------------------------------------- fits
 
+
 def test_motion_inside_the_static_intervals_fails_the_residual_gate(sim):
     s, acc, _ = sim
     iv = s.static_intervals
@@ -245,16 +285,29 @@ def test_motion_inside_the_static_intervals_fails_the_residual_gate(sim):
 def test_optimizer_that_stops_early_is_an_error(sim):
     s, acc, _ = sim
     with pytest.raises(OptinavError, match="did not converge.*--model diagonal"):
-        calibrate(s.t, acc, acc_unit="counts", g=s.gravity, method="gn", model_form="full",
-                  method_options={"max_iter": 1})
+        calibrate(
+            s.t, acc, acc_unit="counts", g=s.gravity, method="gn", model_form="full", method_options={"max_iter": 1}
+        )
 
 
 @needs_data
 def test_imucal_repeated_poses_fall_back_to_the_diagonal_model(tmp_path, capsys):
     """The issue's case: 11 intervals but 6 distinct poses gave K_zz = 468 with exit 0."""
     out = tmp_path / "r.json"
-    args = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit",
-            "deg/s", "--no-gyro", "--gravity", "9.81", "--out", str(out)]
+    args = [
+        "calibrate",
+        "accel",
+        str(DATA / "example_ferraris_session.csv"),
+        "--rate",
+        "102.4",
+        "--gyro-unit",
+        "deg/s",
+        "--no-gyro",
+        "--gravity",
+        "9.81",
+        "--out",
+        str(out),
+    ]
     assert main(args) == 0
     err = capsys.readouterr().err
     assert "6 distinct pose directions" in err and "held at 0" in err
@@ -287,8 +340,19 @@ def test_uncertainty_options_from_the_cli(sim, tmp_path, capsys):
         main(["--quiet", *base, "--held-misalignment", "-1", "--out", str(out)])
     assert "--held-misalignment" in capsys.readouterr().err
     gpath = _write(tmp_path, "g.csv", s.t, acc, gyr)
-    gbase = ["calibrate", "accel", str(gpath), "--acc-unit", "counts", "--gyro-unit", "counts", "--gravity",
-             str(s.gravity), "--out", str(out)]
+    gbase = [
+        "calibrate",
+        "accel",
+        str(gpath),
+        "--acc-unit",
+        "counts",
+        "--gyro-unit",
+        "counts",
+        "--gravity",
+        str(s.gravity),
+        "--out",
+        str(out),
+    ]
     assert main(["--quiet", *gbase]) == 0
     g_plain = CalibrationResult.from_json(out).gyroscope
     assert main(["--quiet", *gbase, "--gyro-bias-instability", "2.0"]) == 0  # counts, ≈ 0.12 °/s
@@ -344,8 +408,15 @@ def test_default_gyro_bias_follows_a_drift_and_its_std_covers_it():
     from optinav.core.imu_model import GM_SIGMA_PER_BIAS_INSTABILITY, preset
     from optinav.core.units import DEG
 
-    s = simulate("18", spec=preset("mems-mti1", gyro_bias_instability=(100, "deg/h")), dwell_s=8, rest_s=5,
-                         acc_unit="counts", gyro_unit="counts", rng=11)
+    s = simulate(
+        "18",
+        spec=preset("mems-mti1", gyro_bias_instability=(100, "deg/h")),
+        dwell_s=8,
+        rest_s=5,
+        acc_unit="counts",
+        gyro_unit="counts",
+        rng=11,
+    )
     _, Q = model.upper_triangular_form(s.acc_K)
     Kg = s.gyr_K @ Q.T
     kw = dict(acc_unit="counts", gyro_unit="counts", g=s.gravity)

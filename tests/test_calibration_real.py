@@ -13,10 +13,30 @@ from optinav.multipos.result import CalibrationResult
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
 pytestmark = pytest.mark.skipif(not (DATA / "annotated_session.csv").is_file(), reason="imucal data absent")
-EXAMPLE = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit",
-           "deg/s", "--gravity", "9.81"]
-ANNOTATED = ["calibrate", "accel", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--acc-unit", "counts",
-             "--gyro-unit", "counts", "--gravity", "9.81"]
+EXAMPLE = [
+    "calibrate",
+    "accel",
+    str(DATA / "example_ferraris_session.csv"),
+    "--rate",
+    "102.4",
+    "--gyro-unit",
+    "deg/s",
+    "--gravity",
+    "9.81",
+]
+ANNOTATED = [
+    "calibrate",
+    "accel",
+    str(DATA / "annotated_session.csv"),
+    "--rate",
+    "204.8",
+    "--acc-unit",
+    "counts",
+    "--gyro-unit",
+    "counts",
+    "--gravity",
+    "9.81",
+]
 
 
 def _run(tmp_path, args, code=0, capsys=None):
@@ -26,8 +46,9 @@ def _run(tmp_path, args, code=0, capsys=None):
 
 
 def test_example_session_ferraris_from_the_section_list_is_imucal(tmp_path):
-    r = _run(tmp_path, EXAMPLE + ["--method", "ferraris", "--sections",
-                                  str(DATA / "example_ferraris_session_list.json")])
+    r = _run(
+        tmp_path, EXAMPLE + ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    )
     ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
     np.testing.assert_allclose(r.accelerometer["K"], ref["acc_K"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.gyroscope["K"], ref["gyr_K"], rtol=1e-12)
@@ -51,9 +72,22 @@ def test_annotated_session_turns_are_positive_so_imucal_default_angle_is_refused
     names the flag that fixes it, and +360° gives imucal's numbers with the sign of the turns corrected."""
     assert main(["--quiet", *ANNOTATED, "--method", "ferraris", "--out", str(tmp_path / "x.json")]) == 2
     assert "pass --rotation-angle 360" in capsys.readouterr().err
-    counts_as_rad = ANNOTATED[:ANNOTATED.index("--gyro-unit")] + ["--gravity", "9.81"]  # gyro read as rad/s
-    assert main(["--quiet", *counts_as_rad, "--method", "ferraris", "--rotation-angle", "360", "--out",
-                 str(tmp_path / "y.json")]) == 2
+    counts_as_rad = ANNOTATED[: ANNOTATED.index("--gyro-unit")] + ["--gravity", "9.81"]  # gyro read as rad/s
+    assert (
+        main(
+            [
+                "--quiet",
+                *counts_as_rad,
+                "--method",
+                "ferraris",
+                "--rotation-angle",
+                "360",
+                "--out",
+                str(tmp_path / "y.json"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err  # the README: ~16.7 counts per deg/s
     assert "raw counts? (16." in err and "per deg/s); pass --gyro-unit counts" in err
     r = _run(tmp_path, ANNOTATED + ["--method", "ferraris", "--rotation-angle", "360"])  # sections from the labels

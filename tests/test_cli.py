@@ -50,8 +50,11 @@ def test_closed_stdout_is_not_an_error():
     import sys
 
     times = [f"--time=2021-01-17T{h:02d}:{m:02d}:00+08:00" for h in range(24) for m in range(0, 60, 2)]
-    proc = subprocess.Popen([sys.executable, "-m", "optinav.cli.main", "sun", "--lat", "38.9", "--lon", "121.5",
-                             *times], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "optinav.cli.main", "sun", "--lat", "38.9", "--lon", "121.5", *times],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     assert proc.stdout.readline().strip() == b"["
     proc.stdout.close()
     err = proc.stderr.read().decode()

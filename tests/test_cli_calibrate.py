@@ -21,8 +21,30 @@ needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_f
 def session(tmp_path_factory):
     d = tmp_path_factory.mktemp("sess")
     data = d / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "15",
-                 "--acc-unit", "counts", "--gyro-unit", "deg/s", "--jitter", "0.2", "--seed", "3"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(data),
+                "--scheme",
+                "18",
+                "--dwell",
+                "15",
+                "--acc-unit",
+                "counts",
+                "--gyro-unit",
+                "deg/s",
+                "--jitter",
+                "0.2",
+                "--seed",
+                "3",
+            ]
+        )
+        == 0
+    )
     return d, data, json.loads((d / "s.truth.json").read_text())
 
 
@@ -30,12 +52,37 @@ def test_simulate_calibrate_apply_round_trip(session, capsys):
     d, data, truth = session
     out = d / "r.json"
     rep = d / "rep"
-    assert main(["calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35", "--out", str(out),
-                 "--report", str(rep)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "accel",
+                str(data),
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--out",
+                str(out),
+                "--report",
+                str(rep),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(out)
     raw = json.loads(out.read_text())
-    for key in ("schema", "version", "optinav_version", "parameters", "convergence", "quality_gates", "elapsed_s",
-                "method", "fields"):
+    for key in (
+        "schema",
+        "version",
+        "optinav_version",
+        "parameters",
+        "convergence",
+        "quality_gates",
+        "elapsed_s",
+        "method",
+        "fields",
+    ):
         assert key in raw
     assert raw["schema"] == "optinav.multipos.calibration" and raw["version"] == 3
     assert raw["convergence"]["converged"] is True and raw["elapsed_s"] > 0
@@ -79,8 +126,24 @@ def test_simulate_calibrate_apply_round_trip(session, capsys):
 def test_other_methods_from_the_cli(session, method):
     d, data, truth = session
     out = d / f"r_{method}.json"
-    assert main(["--quiet", "calibrate", "accel", str(data), "--no-gyro", "--gravity", str(truth["gravity"]),
-                 "--method", method, "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(data),
+                "--no-gyro",
+                "--gravity",
+                str(truth["gravity"]),
+                "--method",
+                method,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(out)
     U, _ = model.upper_triangular_form(np.array(truth["accelerometer"]["K"]))
     np.testing.assert_allclose(np.diag(res.accelerometer["K"]), np.diag(U), rtol=2e-4)
@@ -90,21 +153,60 @@ def test_other_methods_from_the_cli(session, method):
 def test_two_files_sharing_the_time_column(session, tmp_path):
     d, data, truth = session
     from optinav.io import read_imu
+
     log = read_imu(data)
     acc_f, gyro_f = tmp_path / "acc.csv", tmp_path / "gyro.csv"
     np.savetxt(acc_f, np.column_stack([log.t, log.acc]), delimiter=",", header="t,ax,ay,az", comments="")
     np.savetxt(gyro_f, np.column_stack([log.t, log.gyr / (np.pi / 180)]), delimiter=" ")
     out = tmp_path / "r.json"
-    assert main(["--quiet", "calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(gyro_f),
-                 "--gyro-columns", "t,gx,gy,gz", "--gyro-unit", "deg/s", "--latitude", "38.88", "--height", "35",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(acc_f),
+                "--acc-unit",
+                "counts",
+                "--gyro",
+                str(gyro_f),
+                "--gyro-columns",
+                "t,gx,gy,gz",
+                "--gyro-unit",
+                "deg/s",
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(out)
     assert res.gyroscope is not None and res.units["gyroscope_raw"] == "deg/s"
     # mismatched time columns → one-line error, exit 2
     g2 = tmp_path / "gyro2.csv"
     np.savetxt(g2, np.column_stack([log.t + 0.001, log.gyr]), delimiter=",")
-    assert main(["calibrate", "accel", str(acc_f), "--acc-unit", "counts", "--gyro", str(g2), "--gyro-columns",
-                 "t,gx,gy,gz", "--out", str(tmp_path / "x.json")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                "accel",
+                str(acc_f),
+                "--acc-unit",
+                "counts",
+                "--gyro",
+                str(g2),
+                "--gyro-columns",
+                "t,gx,gy,gz",
+                "--out",
+                str(tmp_path / "x.json"),
+            ]
+        )
+        == 2
+    )
 
 
 def test_bad_inputs_give_one_line_errors(tmp_path, capsys):
@@ -127,6 +229,7 @@ def test_bad_inputs_give_one_line_errors(tmp_path, capsys):
 def test_nan_rows_are_excluded_and_counted(session, tmp_path):
     d, data, truth = session
     from optinav.io import read_imu
+
     log = read_imu(data)
     acc = log.acc.copy()
     acc[[100, 5000, 9000]] = np.nan
@@ -140,9 +243,27 @@ def test_nan_rows_are_excluded_and_counted(session, tmp_path):
 @needs_data
 def test_imucal_session_norm_observation_reports_unobservable_misalignments(tmp_path, capsys):
     out = tmp_path / "r.json"
-    assert main(["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
-                 "--gyro-unit", "deg/s", "--no-gyro", "--gravity", "9.81",
-                 "--sections", str(DATA / "example_ferraris_session_list.json"), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "accel",
+                str(DATA / "example_ferraris_session.csv"),
+                "--rate",
+                "102.4",
+                "--gyro-unit",
+                "deg/s",
+                "--no-gyro",
+                "--gravity",
+                "9.81",
+                "--sections",
+                str(DATA / "example_ferraris_session_list.json"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(out)
     acc = res.accelerometer
     assert acc["held"] == ["K_xy", "K_xz", "K_yz"]
@@ -160,19 +281,54 @@ def test_imucal_session_norm_observation_reports_unobservable_misalignments(tmp_
 @needs_data
 def test_imucal_session_ferraris_method_matches_reference(tmp_path):
     out = tmp_path / "r.json"
-    assert main(["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
-                 "--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris",
-                 "--sections", str(DATA / "example_ferraris_session_list.json"), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(DATA / "example_ferraris_session.csv"),
+                "--rate",
+                "102.4",
+                "--gyro-unit",
+                "deg/s",
+                "--gravity",
+                "9.81",
+                "--method",
+                "ferraris",
+                "--sections",
+                str(DATA / "example_ferraris_session_list.json"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(out)
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     np.testing.assert_allclose(res.accelerometer["K"], np.array(ref["K_a"]) @ np.array(ref["R_a"]), rtol=1e-10)
-    np.testing.assert_allclose(res.gyroscope["K"] * np.pi / 180, np.array(ref["K_g"]) @ np.array(ref["R_g"]),
-                               rtol=1e-10)
+    np.testing.assert_allclose(
+        res.gyroscope["K"] * np.pi / 180, np.array(ref["K_g"]) @ np.array(ref["R_g"]), rtol=1e-10
+    )
     # apply reproduces imucal's calibrated head-50 snapshot
     corrected = tmp_path / "c.csv"
-    assert main(["--quiet", "apply", str(out), str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
-                 "--out", str(corrected)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "apply",
+                str(out),
+                str(DATA / "example_ferraris_session.csv"),
+                "--rate",
+                "102.4",
+                "--out",
+                str(corrected),
+            ]
+        )
+        == 0
+    )
     from optinav.io import read_imu
+
     got = read_imu(corrected)
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     np.testing.assert_allclose(got.acc[:50, 0], snap["acc_x"], rtol=1e-9, atol=1e-9)
@@ -188,30 +344,71 @@ def test_saturated_samples_are_excluded_and_counted(session):
     acc = log.acc.copy()
     iv = np.array(truth["static_intervals"])
     i0 = int(np.searchsorted(log.t, iv[2, 0] + 2))
-    acc[i0:i0 + 50, 0] = 2500.0  # clipped at a ±2500-count range
+    acc[i0 : i0 + 50, 0] = 2500.0  # clipped at a ±2500-count range
     ref = calibrate(log.t, log.acc, acc_unit="counts", g=truth["gravity"])
     res = calibrate(log.t, acc, acc_unit="counts", g=truth["gravity"], acc_range=2500.0)
     assert res.excluded["saturated_acc"] == 50
-    np.testing.assert_allclose(res.accelerometer["K"], ref.accelerometer["K"], atol=3 * np.nanmax(
-        ref.accelerometer["K_std"]))
+    np.testing.assert_allclose(
+        res.accelerometer["K"], ref.accelerometer["K"], atol=3 * np.nanmax(ref.accelerometer["K_std"])
+    )
     # raw counts at a 16-bit full scale are flagged without a range
-    assert saturated_mask(np.array([[32767.0, 0, 0], [100.0, 0, 0], [0, -32768.0, 0]]), counts=True).tolist() == \
-        [True, False, True]
+    assert saturated_mask(np.array([[32767.0, 0, 0], [100.0, 0, 0], [0, -32768.0, 0]]), counts=True).tolist() == [
+        True,
+        False,
+        True,
+    ]
 
 
 def test_gyro_bias_from_an_initial_rest_period(session, tmp_path):
     d, data, truth = session
     out = tmp_path / "r.json"
-    assert main(["--quiet", "calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35",
-                 "--gyro-bias", "rest", "--rest", "0.5", "9.5", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(data),
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--gyro-bias",
+                "rest",
+                "--rest",
+                "0.5",
+                "9.5",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     gy = CalibrationResult.from_json(out).gyroscope
     assert gy["bias_mode"] == "rest"
     assert np.all(np.abs(gy["b"] - truth["gyroscope"]["b"]) < 5 * gy["b_std"])
     # without --rest: the first static interval is the window (the 10 s initial rest and the first pose's dwell,
     # with no turn between them), and the notes say so
     auto = tmp_path / "auto.json"
-    assert main(["--quiet", "calibrate", "accel", str(data), "--latitude", "38.88", "--height", "35",
-                 "--gyro-bias", "rest", "--out", str(auto)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(data),
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--gyro-bias",
+                "rest",
+                "--out",
+                str(auto),
+            ]
+        )
+        == 0
+    )
     res = CalibrationResult.from_json(auto)
     note = [n for n in res.quality["notes"] if "initial rest" in n]
     assert len(note) == 1 and "--rest T0 T1" in note[0]

@@ -40,8 +40,11 @@ def _blocks(log, cuts):
     from optinav.io import ImuLog
 
     edges = [0, *sorted(set(cuts)), log.t.size]
-    return [ImuLog(t=log.t[a:b], acc=log.acc[a:b], gyr=log.gyr[a:b], acc_unit="m/s^2", gyro_unit="rad/s")
-            for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    return [
+        ImuLog(t=log.t[a:b], acc=log.acc[a:b], gyr=log.gyr[a:b], acc_unit="m/s^2", gyro_unit="rad/s")
+        for a, b in zip(edges[:-1], edges[1:])
+        if b > a
+    ]
 
 
 @settings(max_examples=5)
@@ -116,8 +119,13 @@ def test_sun_along_log():
     lat, lon = np.radians(38.8814192), np.radians(121.528255)
     s = sun_along_log(t, "ned", lat=lat, lon=lon, height_m=35.0, start_time="2021-01-16T16:33:00+08:00")
     # t is relative to the log's first sample, which is the start time
-    ref = solar_position(np.array(["2021-01-16T08:33:00", "2021-01-16T08:34:00", "2021-01-16T09:33:00"],
-                                  dtype="datetime64[ns]"), lat, lon, 35.0, pressure=101325.0)
+    ref = solar_position(
+        np.array(["2021-01-16T08:33:00", "2021-01-16T08:34:00", "2021-01-16T09:33:00"], dtype="datetime64[ns]"),
+        lat,
+        lon,
+        35.0,
+        pressure=101325.0,
+    )
     assert np.allclose(s, ref.sun_vector("ned"), atol=1e-12)
     # a low winter sun (up is -z) that has set an hour later
     assert np.allclose(np.linalg.norm(s, axis=1), 1.0) and np.all(s[:2, 2] < 0) and s[2, 2] > 0
@@ -149,8 +157,7 @@ def test_simulated_session_log_and_truth():
     from optinav.multipos.result import session_truth
     from optinav.multipos.simulate import simulate
 
-    s = simulate("six", dwell_s=5.0, rest_s=2.0, transition_s=2.0, rate_hz=50.0, acc_unit="g", gyro_unit="deg/s",
-                 rng=2)
+    s = simulate("six", dwell_s=5.0, rest_s=2.0, transition_s=2.0, rate_hz=50.0, acc_unit="g", gyro_unit="deg/s", rng=2)
     log = s.log()
     assert log.acc_unit == "m/s^2" and log.gyro_unit == "rad/s"
     assert np.allclose(log.acc, s.acc * 9.80665) and np.allclose(log.gyr, np.radians(s.gyr))

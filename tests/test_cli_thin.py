@@ -35,8 +35,12 @@ def _code_lines(fn: ast.FunctionDef) -> int:
     """Logical lines of ``fn``'s body: its statements, nested ones included (a compound statement counts once
     for its header), the docstring not; the count does not change when a formatter wraps a long call."""
     body = fn.body
-    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
-            and isinstance(body[0].value.value, str):
+    if (
+        body
+        and isinstance(body[0], ast.Expr)
+        and isinstance(body[0].value, ast.Constant)
+        and isinstance(body[0].value.value, str)
+    ):
         body = body[1:]
     return sum(1 for stmt in body for node in ast.walk(stmt) if isinstance(node, ast.stmt))
 
@@ -72,8 +76,7 @@ def measure() -> dict[tuple[str, str, str], int]:
         for name in sorted(_dispatched(tree)):
             assert name in functions, f"{path.name}: the parser dispatches to {name}, not a function of the module"
             out[(path.name, name, "body")] = _code_lines(functions[name])
-            out[(path.name, name, "reach")] = sum(_code_lines(functions[n])
-                                                 for n in _reach(name, functions))
+            out[(path.name, name, "reach")] = sum(_code_lines(functions[n]) for n in _reach(name, functions))
     return out
 
 
@@ -88,42 +91,55 @@ def test_the_review_sees_every_command():
 
 def test_command_bodies_are_thin():
     found = measure()
-    too_long = {k: v for k, v in found.items()
-                if v > (MAX_BODY if k[2] == "body" else MAX_REACH) and v > ALLOWED.get(k, -1)}
-    assert not too_long, ("CLI commands doing library work (statements above the limit "
-                          f"{MAX_BODY} per body, {MAX_REACH} with their module's helpers): {too_long}")
+    too_long = {
+        k: v for k, v in found.items() if v > (MAX_BODY if k[2] == "body" else MAX_REACH) and v > ALLOWED.get(k, -1)
+    }
+    assert not too_long, (
+        "CLI commands doing library work (statements above the limit "
+        f"{MAX_BODY} per body, {MAX_REACH} with their module's helpers): {too_long}"
+    )
 
 
 def test_the_allow_list_only_shrinks():
     found = measure()
-    stale = {k: (v, found.get(k)) for k, v in ALLOWED.items()
-             if found.get(k) is None or found[k] <= (MAX_BODY if k[2] == "body" else MAX_REACH)}
+    stale = {
+        k: (v, found.get(k))
+        for k, v in ALLOWED.items()
+        if found.get(k) is None or found[k] <= (MAX_BODY if k[2] == "body" else MAX_REACH)
+    }
     assert not stale, f"ALLOWED entries no longer needed (remove them): {stale}"
 
 
 def test_the_measure_counts_code_not_docstrings_or_comments():
-    src = ('def f(args):\n    """Doc\n    string."""\n    # why\n\n    a = 1\n    b = (a,\n         2)\n'
-           '    return b\n')
+    src = 'def f(args):\n    """Doc\n    string."""\n    # why\n\n    a = 1\n    b = (a,\n         2)\n    return b\n'
     fn = ast.parse(src).body[0]
     assert _code_lines(fn) == 3  # a wrapped statement counts once
     # a compound statement counts its header and its body; a formatter's wrapping changes nothing
     loop = "def f():\n    for i in range(3):\n        if i:\n            g(i,\n              2)\n    return 1\n"
     assert _code_lines(ast.parse(loop).body[0]) == 4
     assert _code_lines(ast.parse(loop.replace("g(i,\n              2)", "g(i, 2)")).body[0]) == 4
-    tree = ast.parse("def g():\n    h()\ndef h():\n    x = 1\n    return x\ndef k():\n    pass\n"
-                     "p.set_defaults(func=g, progress_task='g')\n")
+    tree = ast.parse(
+        "def g():\n    h()\ndef h():\n    x = 1\n    return x\ndef k():\n    pass\n"
+        "p.set_defaults(func=g, progress_task='g')\n"
+    )
     functions = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
     assert _dispatched(tree) == {"g"}
     assert _reach("g", functions) == {"g", "h"}
 
 
-@pytest.mark.parametrize("path", sorted(p for p in SRC.rglob("*.py") if CLI not in p.parents),
-                         ids=lambda p: str(p.relative_to(SRC)))
+@pytest.mark.parametrize(
+    "path", sorted(p for p in SRC.rglob("*.py") if CLI not in p.parents), ids=lambda p: str(p.relative_to(SRC))
+)
 def test_no_argparse_outside_the_cli(path):
     tree = ast.parse(path.read_text(encoding="utf-8"))
     for node in ast.walk(tree):
-        names = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                 else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+        names = (
+            [a.name for a in node.names]
+            if isinstance(node, ast.Import)
+            else [node.module or ""]
+            if isinstance(node, ast.ImportFrom)
+            else []
+        )
         assert not any(n.split(".")[0] == "argparse" for n in names), f"{path.name} imports argparse"
 
 
@@ -139,11 +155,12 @@ def test_the_library_takes_no_argparse_namespace():
         if CLI in path.parents:
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
-        owners = {id(f): f"{cls.name}." for cls in ast.walk(tree) if isinstance(cls, ast.ClassDef)
-                  for f in cls.body}
+        owners = {id(f): f"{cls.name}." for cls in ast.walk(tree) if isinstance(cls, ast.ClassDef) for f in cls.body}
         for node in ast.walk(tree):
-            if isinstance(node, ast.FunctionDef) and (node.name == "from_args" or "args" in {
-                    a.arg for a in node.args.args + node.args.kwonlyargs + node.args.posonlyargs}):
+            if isinstance(node, ast.FunctionDef) and (
+                node.name == "from_args"
+                or "args" in {a.arg for a in node.args.args + node.args.kwonlyargs + node.args.posonlyargs}
+            ):
                 found.add(f"{path.relative_to(SRC).as_posix()}:{owners.get(id(node), '')}{node.name}")
     assert found <= ALLOWED_ARGS_PARAMETER, f"the library takes argparse namespaces: {found - ALLOWED_ARGS_PARAMETER}"
     assert ALLOWED_ARGS_PARAMETER <= found, f"remove from ALLOWED_ARGS_PARAMETER: {ALLOWED_ARGS_PARAMETER - found}"
@@ -173,11 +190,13 @@ def _numpy_names(tree: ast.Module) -> set[str]:
 
 def test_the_cli_does_no_array_math():
     used = {p.name: _numpy_names(ast.parse(p.read_text(encoding="utf-8"))) - CLI_NUMPY for p in CLI.glob("*.py")}
-    extra = {m: sorted(names - ALLOWED_NUMPY.get(m, set())) for m, names in used.items()
-             if names - ALLOWED_NUMPY.get(m, set())}
+    extra = {
+        m: sorted(names - ALLOWED_NUMPY.get(m, set()))
+        for m, names in used.items()
+        if names - ALLOWED_NUMPY.get(m, set())
+    }
     assert not extra, f"NumPy work in the CLI (move it into the library): {extra}"
-    stale = {m: sorted(names - used.get(m, set())) for m, names in ALLOWED_NUMPY.items()
-             if names - used.get(m, set())}
+    stale = {m: sorted(names - used.get(m, set())) for m, names in ALLOWED_NUMPY.items() if names - used.get(m, set())}
     assert not stale, f"ALLOWED_NUMPY entries no longer needed (remove them): {stale}"
 
 

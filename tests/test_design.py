@@ -39,7 +39,7 @@ def test_table1_reproduced():
 
 def test_norm_model_needs_nine_poses_where_the_linear_one_needs_four():
     first4 = design.PAPER_SCHEME_UP[:4]
-    assert design.linear_observability(first4).rank == 9          # 3 outputs per pose: 12 equations
+    assert design.linear_observability(first4).rank == 9  # 3 outputs per pose: 12 equations
     assert design.evaluate_scheme(first4).observability.rank == 4  # 1 norm per pose
     assert design.evaluate_scheme(design.PAPER_SCHEME_UP[:12]).observability.rank == 9
     with pytest.raises(OptinavError, match="too few.*one scalar per pose"):
@@ -169,15 +169,18 @@ def test_json_round_trip(tmp_path):
     assert e.descriptions == d.descriptions and e.summary() == d.summary()
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(n_poses=12, criterion="G"), "unknown design criterion"),
-    (dict(n_poses=12.0), "must be an integer"),
-    (dict(n_poses=12, sigma=0.01, noise_density=0.001), "both sigma and noise_density"),
-    (dict(n_poses=12, sigma=-1.0), "sigma must be positive"),
-    (dict(n_poses=12, dwell_s=0.0), "dwell_s"),
-    (dict(n_poses=12, candidates=[[0, 0, 0], [1, 0, 0]]), "zero vector"),
-    (dict(n_poses=12, candidates=np.full((2, 3, 3), 0.5)), "not a rotation matrix"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(n_poses=12, criterion="G"), "unknown design criterion"),
+        (dict(n_poses=12.0), "must be an integer"),
+        (dict(n_poses=12, sigma=0.01, noise_density=0.001), "both sigma and noise_density"),
+        (dict(n_poses=12, sigma=-1.0), "sigma must be positive"),
+        (dict(n_poses=12, dwell_s=0.0), "dwell_s"),
+        (dict(n_poses=12, candidates=[[0, 0, 0], [1, 0, 0]]), "zero vector"),
+        (dict(n_poses=12, candidates=np.full((2, 3, 3), 0.5)), "not a rotation matrix"),
+    ],
+)
 def test_bad_input_is_one_line_error(kwargs, match):
     n = kwargs.pop("n_poses")
     with pytest.raises(OptinavError, match=match) as exc:

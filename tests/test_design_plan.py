@@ -21,12 +21,15 @@ from optinav.multipos.plan import noise_from_allan, plan_poses, pose_words, turn
 S = math.sqrt(0.5)
 
 
-@pytest.mark.parametrize("c, words", [
-    (np.eye(3), "+z face up; y axis north"),  # body = ENU
-    (orientation_from_up("x"), "+x face up; y axis north"),
-    (orientation_from_up("-y", north="x"), "−y face up; x axis north"),
-    (orientation_from_up("-z", north="-x"), "−z face up; y axis west"),  # x south, y west: y is nearer north
-])
+@pytest.mark.parametrize(
+    "c, words",
+    [
+        (np.eye(3), "+z face up; y axis north"),  # body = ENU
+        (orientation_from_up("x"), "+x face up; y axis north"),
+        (orientation_from_up("-y", north="x"), "−y face up; x axis north"),
+        (orientation_from_up("-z", north="-x"), "−z face up; y axis west"),  # x south, y west: y is nearer north
+    ],
+)
 def test_words_of_axis_poses(c, words):
     assert pose_words(c) == words
 
@@ -125,8 +128,7 @@ def test_gyro_std_matches_monte_carlo_of_the_turn_calibration():
     """The first-order prediction of the gyro K std against 40 runs of the real turn calibration (imu_tk's
     method): within the sampling error of 30 runs (≈ 13 % per entry) and the first-order model."""
     n_gyro = 2e-3  # rad/s/√Hz
-    plan = plan_poses(12, acc_noise_density=1e-3, gyro_noise_density=n_gyro, dwell_s=4.0, turn_rate_deg_s=60.0,
-                      rng=0)
+    plan = plan_poses(12, acc_noise_density=1e-3, gyro_noise_density=n_gyro, dwell_s=4.0, turn_rate_deg_s=60.0, rng=0)
     pred = np.array(plan.gyro_std[:9], float)
     K = np.array([[1.01, 0.003, -0.002], [0.001, 0.99, 0.004], [-0.003, 0.002, 1.005]])
     b = np.array([0.01, -0.02, 0.015])
@@ -143,8 +145,14 @@ def test_gyro_std_matches_monte_carlo_of_the_turn_calibration():
 
 def test_noise_from_allan_json(tmp_path):
     p = tmp_path / "allan.json"
-    p.write_text(json.dumps({"schema": "x", "kalibr": {"accelerometer_noise_density": 0.002,
-                                                       "gyroscope_noise_density": [1e-4, 2e-4, 3e-4]}}))
+    p.write_text(
+        json.dumps(
+            {
+                "schema": "x",
+                "kalibr": {"accelerometer_noise_density": 0.002, "gyroscope_noise_density": [1e-4, 2e-4, 3e-4]},
+            }
+        )
+    )
     got = noise_from_allan(p)
     assert np.allclose(got["acc"], 0.002) and np.allclose(got["gyro"], [1e-4, 2e-4, 3e-4])
     p.write_text(json.dumps({"gyroscope_noise_density": -1}))
@@ -159,14 +167,34 @@ def test_cli_writes_markdown_json_and_figure(tmp_path, capsys):
     allan = tmp_path / "a.json"
     allan.write_text(json.dumps({"accelerometer_noise_density": 1e-3, "gyroscope_noise_density": 1e-4}))
     md, js, png = tmp_path / "plan.md", tmp_path / "plan.json", tmp_path / "plan.png"
-    assert main(["design", "--poses", "10", "--criterion", "A", "--allan", str(allan), "--target-scale", "200",
-                 "--out", str(md), "--figure", str(png)]) == 0
+    assert (
+        main(
+            [
+                "design",
+                "--poses",
+                "10",
+                "--criterion",
+                "A",
+                "--allan",
+                str(allan),
+                "--target-scale",
+                "200",
+                "--out",
+                str(md),
+                "--figure",
+                str(png),
+            ]
+        )
+        == 0
+    )
     text = md.read_text()
     assert text.startswith("# Calibration pose plan: 10 poses (A-optimal)")
     assert text.count("\n| ") >= 10 + 21 and "ppm (scale factor)" in text and "deg/h (bias)" in text
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert main(["--quiet", "design", "--poses", "10", "--allan", str(allan), "--target-scale", "200",
-                 "--out", str(js)]) == 0
+    assert (
+        main(["--quiet", "design", "--poses", "10", "--allan", str(allan), "--target-scale", "200", "--out", str(js)])
+        == 0
+    )
     d = json.loads(js.read_text())
     assert d["schema"] == "optinav.pose_plan"
     f = d["fields"]

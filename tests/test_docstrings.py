@@ -14,12 +14,16 @@ import optinav.core
 SYSTEMS = ("optinav.io", "optinav.rins", "optinav.multipos", "optinav.attitude", "optinav.gfimu")
 #: ``optinav.core`` has no ``__all__``: each of its public modules is walked (their ``__all__``, or the public
 #: functions and classes they define)
-CORE = tuple(f"optinav.core.{m.name}" for m in pkgutil.iter_modules(optinav.core.__path__)
-             if not m.name.startswith("_"))
+CORE = tuple(
+    f"optinav.core.{m.name}" for m in pkgutil.iter_modules(optinav.core.__path__) if not m.name.startswith("_")
+)
 #: packages walked
 PACKAGES = SYSTEMS + CORE
-PARAM_KINDS = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
-               inspect.Parameter.KEYWORD_ONLY)
+PARAM_KINDS = (
+    inspect.Parameter.POSITIONAL_ONLY,
+    inspect.Parameter.POSITIONAL_OR_KEYWORD,
+    inspect.Parameter.KEYWORD_ONLY,
+)
 #: a type that names a physical quantity (a number or an array of numbers) must carry a unit
 QUANTITY = re.compile(r"\b(float|array|ndarray|array_like)\b|\(N\b|\(\w+, 3\)")
 #: … unless its elements are flags, text or integers (labels, indices, counts)
@@ -85,8 +89,11 @@ def check(name: str, fn) -> list[str]:
     if not doc:
         return [f"{name}: no docstring"]
     secs, bad = _sections(doc), []
-    params = [p for p, v in inspect.signature(fn).parameters.items()
-              if p not in ("self", "cls") and (v.kind in PARAM_KINDS or v.kind == inspect.Parameter.VAR_KEYWORD)]
+    params = [
+        p
+        for p, v in inspect.signature(fn).parameters.items()
+        if p not in ("self", "cls") and (v.kind in PARAM_KINDS or v.kind == inspect.Parameter.VAR_KEYWORD)
+    ]
     entries = _entries(secs.get("Parameters", []))
     documented = {n for names, _, _ in entries for n in names}
     if params and "Parameters" not in secs:
@@ -109,8 +116,12 @@ def public_callables(packages=PACKAGES):
     for pkg in packages:
         mod = importlib.import_module(pkg)
         names = getattr(mod, "__all__", None) or [
-            n for n, o in vars(mod).items() if not n.startswith("_") and getattr(o, "__module__", "") == pkg
-            and (inspect.isfunction(o) or inspect.isclass(o))]
+            n
+            for n, o in vars(mod).items()
+            if not n.startswith("_")
+            and getattr(o, "__module__", "") == pkg
+            and (inspect.isfunction(o) or inspect.isclass(o))
+        ]
         for n in names:
             obj = getattr(mod, n)
             if id(obj) in seen:
@@ -178,8 +189,10 @@ def test_the_docstring_check_flags_what_is_missing():
         yield from range(n)
 
     assert check("ok", ok) == []
-    assert check("bad", bad) == ["bad: parameter 'rate_hz' not documented", "bad: no Returns section",
-                                 "bad: Parameters t ((N,) array) states no unit in brackets"]
+    assert check("bad", bad) == [
+        "bad: parameter 'rate_hz' not documented",
+        "bad: no Returns section",
+        "bad: Parameters t ((N,) array) states no unit in brackets",
+    ]
     assert check("gen", gen) == ["gen: no Yields section"]
     assert check("none", lambda x: x) == ["none: no docstring"]
-

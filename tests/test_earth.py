@@ -54,8 +54,9 @@ def test_frames_consistent():
     t_enu = earth.transport_rate(lat, 100.0, v_enu, "enu")
     t_ned = earth.transport_rate(lat, 100.0, v_ned, "ned")
     np.testing.assert_allclose(t_ned, [t_enu[1], t_enu[0], -t_enu[2]])
-    np.testing.assert_allclose(earth.position_rate(lat, 100.0, v_enu, "enu"),
-                               earth.position_rate(lat, 100.0, v_ned, "ned"))
+    np.testing.assert_allclose(
+        earth.position_rate(lat, 100.0, v_enu, "enu"), earth.position_rate(lat, 100.0, v_ned, "ned")
+    )
     np.testing.assert_allclose(earth.gravity_vector(lat, 0, "enu")[2], -earth.gravity(lat))
 
 

@@ -30,8 +30,12 @@ def _calibration(seed: int, *, G: bool, acc_unit="counts", gyro_unit="deg/s", up
     gyro = {"K": Kg, "b": rng.normal(0, 0.5, 3)}
     if G:
         gyro["G"] = gyro_scale * 1e-3 * rng.standard_normal((3, 3))
-    return CalibrationResult(accelerometer={"K": Ka, "b": rng.normal(0, 50, 3)}, gyroscope=gyro,
-                             units={"accelerometer_raw": acc_unit, "gyroscope_raw": gyro_unit}, method="lm")
+    return CalibrationResult(
+        accelerometer={"K": Ka, "b": rng.normal(0, 50, 3)},
+        gyroscope=gyro,
+        units={"accelerometer_raw": acc_unit, "gyroscope_raw": gyro_unit},
+        method="lm",
+    )
 
 
 def _close(a, b, rtol=1e-12):
@@ -69,9 +73,11 @@ def test_imucal_round_trip(tmp_path_factory, seed, with_G):
 
 
 @settings(max_examples=25, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), with_G=st.booleans(), units=st.sampled_from([("counts", "counts"),
-                                                                                      ("g", "deg/s"),
-                                                                                      ("m/s^2", "rad/s")]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    with_G=st.booleans(),
+    units=st.sampled_from([("counts", "counts"), ("g", "deg/s"), ("m/s^2", "rad/s")]),
+)
 def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
     """Kalibr's M are lower triangular, C_gyro_i and C_i_s rotations, and the file's matrices reproduce optinav's
     K and G (biases are not part of Kalibr's file) to 1e-12; Kalibr's own model equation holds in its frame i."""
@@ -131,8 +137,28 @@ def test_export_refusals(tmp_path):
 def session(tmp_path_factory):
     d = tmp_path_factory.mktemp("exch")
     data = d / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "15",
-                 "--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "5"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(data),
+                "--scheme",
+                "18",
+                "--dwell",
+                "15",
+                "--acc-unit",
+                "counts",
+                "--gyro-unit",
+                "deg/s",
+                "--seed",
+                "5",
+            ]
+        )
+        == 0
+    )
     return d, data
 
 
@@ -141,15 +167,33 @@ def test_calibrate_export_then_apply_each_format(session, capsys):
     the data exactly as RESULT.json does; `export` writes the same files as `calibrate --export`."""
     d, data = session
     out = d / "r.json"
-    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out),
-                 "--export", f"imucal:{d / 'cal.json'}", "--export", f"imu_tk:{d / 'acc.calib'},{d / 'gyro.calib'}",
-                 "--export", f"kalibr:{d / 'imu.yaml'}"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(data),
+                "--out",
+                str(out),
+                "--export",
+                f"imucal:{d / 'cal.json'}",
+                "--export",
+                f"imu_tk:{d / 'acc.calib'},{d / 'gyro.calib'}",
+                "--export",
+                f"kalibr:{d / 'imu.yaml'}",
+            ]
+        )
+        == 0
+    )
     assert "imu_tk file written" in capsys.readouterr().out
     ref = d / "ref.npz"
     assert main(["--quiet", "apply", str(out), str(data), "--out", str(ref)]) == 0
     z_ref = np.load(ref)
-    for name, argv in (("imucal", [str(d / "cal.json")]),
-                       ("imu_tk", [str(d / "acc.calib"), "--gyro-cal", str(d / "gyro.calib")])):
+    for name, argv in (
+        ("imucal", [str(d / "cal.json")]),
+        ("imu_tk", [str(d / "acc.calib"), "--gyro-cal", str(d / "gyro.calib")]),
+    ):
         o = d / f"{name}.npz"
         cal, *extra = argv
         # imu_tk records no raw unit: the file's declared units (counts, deg/s) are used as they are
@@ -189,12 +233,15 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     assert "holds no biases" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("text, why", [
-    ("model: scale-misalignment\naccelerometers: {M: [[1, 0]]}\n", "3×3"),
-    ("!!python/object/apply:os.system ['echo hi']\n", "not valid YAML"),
-    ("model: [unclosed\n", "not valid YAML"),
-    ("model: calibrated\n", "not 'scale-misalignment'"),
-])
+@pytest.mark.parametrize(
+    "text, why",
+    [
+        ("model: scale-misalignment\naccelerometers: {M: [[1, 0]]}\n", "3×3"),
+        ("!!python/object/apply:os.system ['echo hi']\n", "not valid YAML"),
+        ("model: [unclosed\n", "not valid YAML"),
+        ("model: calibrated\n", "not 'scale-misalignment'"),
+    ],
+)
 def test_kalibr_reader_refuses_in_one_line(tmp_path, text, why):
     p = tmp_path / "imu.yaml"
     p.write_text(text)
@@ -202,8 +249,15 @@ def test_kalibr_reader_refuses_in_one_line(tmp_path, text, why):
         calibration_from_kalibr(read_kalibr_imu_yaml(p))
 
 
-@pytest.mark.parametrize("text, why", [("hello world\n", "non-numeric"), ("1 2 3\n", "21"),
-                                       ('{"K_a": [[1]], "cal_type": "Ferraris"}', "lacks"), ('{"foo": 1}', "neither")])
+@pytest.mark.parametrize(
+    "text, why",
+    [
+        ("hello world\n", "non-numeric"),
+        ("1 2 3\n", "21"),
+        ('{"K_a": [[1]], "cal_type": "Ferraris"}', "lacks"),
+        ('{"foo": 1}', "neither"),
+    ],
+)
 def test_apply_refuses_unreadable_calibrations(tmp_path, capsys, text, why):
     cal = tmp_path / "cal.txt"
     cal.write_text(text)
@@ -219,8 +273,9 @@ SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"  # ../sh
 DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", SHARED)) / "imucal"
 
 
-@pytest.mark.skipif(not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(),
-                    reason="imucal data absent")
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
+)
 def test_apply_reads_imucal_own_export_and_matches_its_output(tmp_path):
     """imucal 2.6's own export of the example session's Ferraris calibration, applied by `optinav apply`,
     reproduces imucal's calibrated samples (its head-50 snapshot) to 1e-9; exported again by optinav it
@@ -230,8 +285,21 @@ def test_apply_reads_imucal_own_export_and_matches_its_output(tmp_path):
 
     ref = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
     out = tmp_path / "c.csv"
-    assert main(["--quiet", "apply", str(ref), str(DATA / "example_ferraris_session.csv"), "--rate", "102.4",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "apply",
+                str(ref),
+                str(DATA / "example_ferraris_session.csv"),
+                "--rate",
+                "102.4",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     got = read_imu(out)
     snap = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
     for j, ax in enumerate("xyz"):

@@ -17,12 +17,29 @@ from hypothesis import strategies as st
 from optinav.core.results import Result
 from optinav.core.units import DEG, G_STANDARD
 from optinav.errors import OptinavError
-from optinav.multipos.convert import (ImucalCalibration, from_imu_tk, from_imucal, read_imu_tk, read_imucal_json,
-                                      to_imu_tk, to_imucal, write_imu_tk, write_imucal_json)
-from optinav.multipos.ferraris import (POSES, ROTATIONS, FerrarisCalibration, ferraris_calibration,
-                                       ferraris_from_sections)
+from optinav.multipos.convert import (
+    ImucalCalibration,
+    from_imu_tk,
+    from_imucal,
+    read_imu_tk,
+    read_imucal_json,
+    to_imu_tk,
+    to_imucal,
+    write_imu_tk,
+    write_imucal_json,
+)
+from optinav.multipos.ferraris import (
+    POSES,
+    ROTATIONS,
+    FerrarisCalibration,
+    ferraris_calibration,
+    ferraris_from_sections,
+)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
+DATA = (
+    Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    / "imucal"
+)
 needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
 
 
@@ -47,6 +64,7 @@ def _rel(a, b):
 
 
 # --- against imucal's results on real data ----------------------------------------------------------------
+
 
 @needs_data
 def test_example_session_matches_imucal_calibration(example):
@@ -98,10 +116,17 @@ def test_annotated_session_in_counts_matches_imucal_snapshot():
     acc = x[:, [head.index(c) - 2 for c in ("acc_x", "acc_y", "acc_z")]]
     gyr = x[:, [head.index(c) - 2 for c in ("gyr_x", "gyr_y", "gyr_z")]]
     pick = {n: (acc[part == n], gyr[part == n]) for n in POSES + ROTATIONS}
-    cal = ferraris_calibration({n: pick[n][0] for n in POSES}, {n: pick[n][1] for n in POSES},
-                               {n: pick[n][0] for n in ROTATIONS}, {n: pick[n][1] for n in ROTATIONS},
-                               rate_hz=204.8, expected_angle=-2 * np.pi, gravity=9.81,
-                               acc_unit="counts", gyro_unit="counts")
+    cal = ferraris_calibration(
+        {n: pick[n][0] for n in POSES},
+        {n: pick[n][1] for n in POSES},
+        {n: pick[n][0] for n in ROTATIONS},
+        {n: pick[n][1] for n in ROTATIONS},
+        rate_hz=204.8,
+        expected_angle=-2 * np.pi,
+        gravity=9.81,
+        acc_unit="counts",
+        gyro_unit="counts",
+    )
     ref = read_imucal_json(DATA / "reference" / "example_cal_annotated_session.json")
     assert ref.from_acc_unit == "a.u."
     got = cal.to_imucal()
@@ -123,6 +148,7 @@ def test_legacy_imucal_file_is_the_example_in_counts():
 
 
 # --- simulated truth -----------------------------------------------------------------------------------------
+
 
 def _truth(rng):
     K_a = np.diag([208.0, 210.0, 205.0]) @ (np.eye(3) + rng.uniform(-0.02, 0.02, (3, 3)))
@@ -172,9 +198,15 @@ def test_noise_free_session_recovers_the_truth_exactly():
     np.testing.assert_allclose(w, w_true, atol=1e-12)
     # means instead of samples give the same result (equal counts)
     acc_s, gyr_s, acc_r, gyr_r = sess
-    cal2 = ferraris_calibration({k: v.mean(axis=0) for k, v in acc_s.items()},
-                                [gyr_s[n].mean(axis=0) for n in POSES], acc_r, gyr_r, dt=1 / 200.0,
-                                expected_angle=theta, gravity=9.80)
+    cal2 = ferraris_calibration(
+        {k: v.mean(axis=0) for k, v in acc_s.items()},
+        [gyr_s[n].mean(axis=0) for n in POSES],
+        acc_r,
+        gyr_r,
+        dt=1 / 200.0,
+        expected_angle=theta,
+        gravity=9.80,
+    )
     assert _rel(cal2.gyr_K, cal.gyr_K) < 1e-12 and _rel(cal2.gyr_b, cal.gyr_b) < 1e-12
 
 
@@ -232,12 +264,15 @@ def test_irregular_timestamps_integrate_exactly():
     assert _rel(cal.gyr_K, K_g) < 1e-12
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"rate_hz": 100.0, "dt": 0.01}, "exactly one"),
-    ({}, "exactly one"),
-    ({"rate_hz": 100.0, "expected_angle": 0.0}, "non-zero"),
-    ({"rate_hz": -1.0}, "rate"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"rate_hz": 100.0, "dt": 0.01}, "exactly one"),
+        ({}, "exactly one"),
+        ({"rate_hz": 100.0, "expected_angle": 0.0}, "non-zero"),
+        ({"rate_hz": -1.0}, "rate"),
+    ],
+)
 def test_bad_arguments(kwargs, match):
     sess = _session(_truth(np.random.default_rng(1)), 9.81, 100.0, 50, np.full(3, -2 * np.pi))
     with pytest.raises(OptinavError, match=match):
@@ -353,9 +388,11 @@ def test_imu_tk_file_round_trip(tmp_path):
     K2, b2 = from_imu_tk({k: v for k, v in q.items() if k != "form"})
     assert _rel(K2, K) < 1e-15 and np.array_equal(b2, b)
     # a file as imu_tk's C++ stream writes it (6 significant digits, aligned columns)
-    (tmp_path / "acc.calib").write_text("       1 -0.00120  0.00340\n       0        1 -0.00560\n       0        0"
-                                        "        1\n\n 0.0481    0    0\n    0 0.0479    0\n    0    0 0.0482\n\n"
-                                        "  33.1\n -12.5\n  40.2\n\n")
+    (tmp_path / "acc.calib").write_text(
+        "       1 -0.00120  0.00340\n       0        1 -0.00560\n       0        0"
+        "        1\n\n 0.0481    0    0\n    0 0.0479    0\n    0    0 0.0482\n\n"
+        "  33.1\n -12.5\n  40.2\n\n"
+    )
     r = read_imu_tk(tmp_path / "acc.calib")
     assert r["form"] == "body" and r["mis_yz"] == pytest.approx(0.0012) and r["mis_zx"] == pytest.approx(0.0056)
     K3, b3 = from_imu_tk({k: v for k, v in r.items() if k != "form"})

@@ -43,10 +43,12 @@ def test_static_accelerometer_is_gravity(static):
     tol = 5 * sigma / np.sqrt(n) + 5 * 1.076 * spec.acc_bias_instability + lsb / 2
     assert np.all(np.abs(f.acc.mean(axis=0) - expect.mean(axis=0)) < tol)
     std = (f.acc - expect).std(axis=0)
-    assert np.all(np.abs(std - np.sqrt(sigma ** 2 + lsb ** 2 / 12)) < 0.1 * sigma)
+    assert np.all(np.abs(std - np.sqrt(sigma**2 + lsb**2 / 12)) < 0.1 * sigma)
     # static gyro: Earth rate only, plus noise
-    assert np.all(np.abs((f.gyr - f.gyr_true).mean(axis=0)) < 5 * spec.gyro_arw * 10 / np.sqrt(n)
-                  + 5 * 1.076 * spec.gyro_bias_instability + spec.gyro_lsb / 2)
+    assert np.all(
+        np.abs((f.gyr - f.gyr_true).mean(axis=0))
+        < 5 * spec.gyro_arw * 10 / np.sqrt(n) + 5 * 1.076 * spec.gyro_bias_instability + spec.gyro_lsb / 2
+    )
     assert np.linalg.norm(f.gyr_true[0]) == pytest.approx(7.292115e-5, rel=1e-3)
 
 
@@ -65,7 +67,7 @@ def test_aop_matches_rayleigh_within_noise(which, static, dynamic):
     c_b_n = f.C_b_n
     view_n = np.einsum("nij,j->ni", c_b_n, f.C_b_m.T @ [0, 0, 1.0])
     cg = np.sum(view_n * f.sun_n, axis=1)
-    np.testing.assert_allclose(f.dop_true, 0.75 * (1 - cg ** 2) / (1 + cg ** 2), atol=1e-12)
+    np.testing.assert_allclose(f.dop_true, 0.75 * (1 - cg**2) / (1 + cg**2), atol=1e-12)
 
 
 def test_shared_convention_with_measurement_model(dynamic):

@@ -6,8 +6,19 @@ import numpy as np
 import pytest
 
 from optinav.errors import OptinavError
-from optinav.gfimu import (AccelerometerArray, InstallationErrors, builtin, coning_motion, error_effect,
-                           identifiability, perturb, quadratic_products, solve_linear, solve_rate, spinning_motion)
+from optinav.gfimu import (
+    AccelerometerArray,
+    InstallationErrors,
+    builtin,
+    coning_motion,
+    error_effect,
+    identifiability,
+    perturb,
+    quadratic_products,
+    solve_linear,
+    solve_rate,
+    spinning_motion,
+)
 from optinav.gfimu.errors import errors_from_geometry, local_frames
 
 
@@ -28,8 +39,8 @@ def test_model_matches_cross_products():
 def test_cylinder10_identifiability():
     arr = builtin("cylinder10")
     assert arr.n == 10
-    assert np.allclose(np.linalg.norm(arr.positions[:, 1:], axis=1), 0.04)      # all on the rim, l = 0.04
-    assert np.all(np.abs(arr.positions[:, 0]) <= 0.02 + 1e-12)                  # within L = 0.04
+    assert np.allclose(np.linalg.norm(arr.positions[:, 1:], axis=1), 0.04)  # all on the rim, l = 0.04
+    assert np.all(np.abs(arr.positions[:, 0]) <= 0.02 + 1e-12)  # within L = 0.04
     idf = identifiability(arr)
     assert (idf.rank_linear, idf.rank_full, idf.n_quadratic_observable, idf.rank_quadratic) == (6, 10, 4, 4)
     assert idf.solvable_without_rate == ["A_x", "A_y", "A_z", "wdot_x", "wdot_y", "wdot_z"]
@@ -66,8 +77,15 @@ def test_config_roundtrip_and_bad_configs(tmp_path):
         "shape": ({"accelerometers": [{"position": [0, 0], "direction": [1, 0, 0]}]}, "accelerometer 1 position"),
         "zero": ({"accelerometers": [{"position": [0, 0, 0], "direction": [0, 0, 0]}]}, "direction is zero"),
         "nonunit": ({"accelerometers": [{"position": [0, 0, 0], "direction": [1, 1, 0]}]}, "norm 1.414"),
-        "dup": ({"accelerometers": [{"position": [0, 0, 1], "direction": [1, 0, 0]},
-                                    {"position": [0, 0, 1], "direction": [1, 0, 0]}]}, "accelerometer 2 duplicates"),
+        "dup": (
+            {
+                "accelerometers": [
+                    {"position": [0, 0, 1], "direction": [1, 0, 0]},
+                    {"position": [0, 0, 1], "direction": [1, 0, 0]},
+                ]
+            },
+            "accelerometer 2 duplicates",
+        ),
         "nolist": ({"sensors": []}, "no 'accelerometers'"),
         "key": ({"accelerometers": [{"position": [0, 0, 0], "direction": [1, 0, 0], "pos": 1}]}, "unknown key"),
     }
@@ -102,7 +120,7 @@ def test_rate_methods_exact_and_noisy():
 
 def test_installation_error_frames_and_inverse():
     fr = local_frames(np.eye(3))
-    np.testing.assert_allclose(fr[0], np.eye(3))             # sensor along x: (x, y, z)
+    np.testing.assert_allclose(fr[0], np.eye(3))  # sensor along x: (x, y, z)
     rng = np.random.default_rng(2)
     arr = builtin()
     e = InstallationErrors.random(10, rng=rng)

@@ -25,16 +25,29 @@ def test_analyze_builtin_and_config(tmp_path, capsys, cube):
 
 def test_rank_deficient_and_malformed(tmp_path, capsys):
     p = tmp_path / "radial.json"
-    p.write_text(json.dumps({"accelerometers": [{"position": [0.05 * s * (k == j) for j in range(3)],
-                                                 "direction": [1.0 * (k == j) for j in range(3)]}
-                                                for s in (1, -1) for k in range(3)]}))
+    p.write_text(
+        json.dumps(
+            {
+                "accelerometers": [
+                    {
+                        "position": [0.05 * s * (k == j) for j in range(3)],
+                        "direction": [1.0 * (k == j) for j in range(3)],
+                    }
+                    for s in (1, -1)
+                    for k in range(3)
+                ]
+            }
+        )
+    )
     assert main(["gfimu", "analyze", str(p)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "rank deficient" in err and "wdot_x, wdot_y, wdot_z" in err
     assert main(["gfimu", "analyze", str(p), "--allow-deficient", "--out", str(tmp_path / "x.json")]) == 0
-    for cfg, msg in (({"accelerometers": [{"position": [0, 0, 0], "direction": [0, 0, 0]}]}, "direction is zero"),
-                     ({"accelerometers": [{"position": [0, 0, 0, 1], "direction": [1, 0, 0]}]}, "not 3 numbers"),
-                     ({"accelerometers": [{"position": [0, 0, 0], "direction": [2, 0, 0]}]}, "not 1")):
+    for cfg, msg in (
+        ({"accelerometers": [{"position": [0, 0, 0], "direction": [0, 0, 0]}]}, "direction is zero"),
+        ({"accelerometers": [{"position": [0, 0, 0, 1], "direction": [1, 0, 0]}]}, "not 3 numbers"),
+        ({"accelerometers": [{"position": [0, 0, 0], "direction": [2, 0, 0]}]}, "not 1"),
+    ):
         p.write_text(json.dumps(cfg))
         assert main(["gfimu", "analyze", str(p)]) == 2
         err = capsys.readouterr().err.strip()
@@ -48,8 +61,26 @@ def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
     cfg = tmp_path / "c.json"
     builtin().save(cfg)
     data = tmp_path / f"tt{suffix}"
-    assert main(["--quiet", "simulate", "gfimu-turntable", "--config", str(cfg), "--errors", "random",
-                 "--duration", "2", "--out", str(data), "--seed", "4"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "gfimu-turntable",
+                "--config",
+                str(cfg),
+                "--errors",
+                "random",
+                "--duration",
+                "2",
+                "--out",
+                str(data),
+                "--seed",
+                "4",
+            ]
+        )
+        == 0
+    )
     truth = json.loads((tmp_path / "tt.truth.json").read_text())
     out = tmp_path / "r.json"
     assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out)]) == 0
@@ -61,8 +92,23 @@ def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
     assert np.abs((est - tv) / std).max() < 4.5
     if suffix == ".npz":  # the report: every coefficient with its std, and the figure
         rep = tmp_path / "rep"
-        assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out),
-                     "--report", str(rep)]) == 0
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "calibrate",
+                    "gfimu",
+                    str(data),
+                    "--config",
+                    str(cfg),
+                    "--out",
+                    str(out),
+                    "--report",
+                    str(rep),
+                ]
+            )
+            == 0
+        )
         md = (rep / "index.md").read_text()
         assert md.count("CRLB") >= 50 and "installation_errors.png" in md
 
@@ -75,7 +121,21 @@ def test_calibrate_errors(tmp_path, capsys):
     a.with_geometry(a.positions[:6], a.directions[:6]).save(cfg)
     assert main(["calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(tmp_path / "r.json")]) == 2
     assert "10 accelerometer columns, the configuration 6" in capsys.readouterr().err
-    assert main(["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--offset", "estimate",
-                 "--out", str(tmp_path / "r.json")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                "gfimu",
+                str(data),
+                "--builtin",
+                "cylinder10",
+                "--offset",
+                "estimate",
+                "--out",
+                str(tmp_path / "r.json"),
+            ]
+        )
+        == 2
+    )
     assert "cannot be separated" in capsys.readouterr().err
     assert main(["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(tmp_path / "r.txt")]) == 2

@@ -26,31 +26,43 @@ def test_noise_free_both_methods_exact():
 
 def test_paper_setup_errors_and_crlb():
     arr = builtin()
-    e = InstallationErrors.uniform(10)             # Δr = 1 mm, Δα = Δβ = 0.01 rad
+    e = InstallationErrors.uniform(10)  # Δr = 1 mm, Δα = Δβ = 0.01 rad
     v = e.vector()
-    d = simulate(arr, e, rates=(0.5, 1.0), duration=10.0, rng=4)          # 1000 samples per case
+    d = simulate(arr, e, rates=(0.5, 1.0), duration=10.0, rng=4)  # 1000 samples per case
     res = calibrate(arr, d)
     assert res.rank == 50 and list(res.samples_per_case) == [1000] * 6
     z = (res.estimate - v) / res.std
-    assert np.abs(z).max() < 4.5                  # consistent with the reported std (50 coefficients)
-    assert _rel(res.estimate, v)[:, :3].max() < 1.0   # issue item 9 target at 0.5/1.0 rad/s
+    assert np.abs(z).max() < 4.5  # consistent with the reported std (50 coefficients)
+    assert _rel(res.estimate, v)[:, :3].max() < 1.0  # issue item 9 target at 0.5/1.0 rad/s
     # std from the data-estimated noise matches the CRLB at the true noise within the σ̂ scatter
     np.testing.assert_allclose(res.std, res.crlb_std, rtol=0.1)
     assert abs(np.mean(res.sigma) / MICRO_G - 1) < 0.05
     cf = closed_form(arr, d)
-    assert _rel(cf.vector(), v)[:, 3:].max() < 0.02    # directions: tiny (paper 0.04 % with one sample)
+    assert _rel(cf.vector(), v)[:, 3:].max() < 0.02  # directions: tiny (paper 0.04 % with one sample)
 
 
 def test_single_sample_closed_form_matches_paper_scale():
     """One sample per case (the paper's setting): position errors of order the paper's 12 % / 244 %."""
     arr = builtin()
     e = InstallationErrors.uniform(10)
-    hi = np.mean([_rel(closed_form(arr, simulate(arr, e, rates=(0.5, 1.0), duration=0.01, rng=k)).vector(),
-                       e.vector())[:, :3].max() for k in range(20)])
-    lo = np.mean([_rel(closed_form(arr, simulate(arr, e, rates=(0.1, 0.2), duration=0.01, rng=k)).vector(),
-                       e.vector())[:, :3].max() for k in range(20)])
+    hi = np.mean(
+        [
+            _rel(closed_form(arr, simulate(arr, e, rates=(0.5, 1.0), duration=0.01, rng=k)).vector(), e.vector())[
+                :, :3
+            ].max()
+            for k in range(20)
+        ]
+    )
+    lo = np.mean(
+        [
+            _rel(closed_form(arr, simulate(arr, e, rates=(0.1, 0.2), duration=0.01, rng=k)).vector(), e.vector())[
+                :, :3
+            ].max()
+            for k in range(20)
+        ]
+    )
     assert 4 < hi < 40 and 100 < lo < 1000
-    assert 15 < lo / hi < 35                      # ∝ 1/(w2² − w1²): 0.75/0.03 = 25
+    assert 15 < lo / hi < 35  # ∝ 1/(w2² − w1²): 0.75/0.03 = 25
 
 
 def test_required_samples_from_crlb():
@@ -58,16 +70,16 @@ def test_required_samples_from_crlb():
     e = InstallationErrors.uniform(10)
     n_hi = required_samples(arr, e, rates=(0.5, 1.0), target_pct=1.0)
     n_lo = required_samples(arr, e, rates=(0.1, 0.2), target_pct=20.0)
-    assert 50 < n_hi < 1000 and 50 < n_lo < 1000      # so 1000 samples per case meet both targets
+    assert 50 < n_hi < 1000 and 50 < n_lo < 1000  # so 1000 samples per case meet both targets
 
 
 def test_scheme_identifiability():
     arr = builtin()
     assert scheme_identifiability(arr).rank == 50
-    assert scheme_identifiability(arr, gamma=0.0).rank < 50             # no wedge
-    assert scheme_identifiability(arr, mountings=(1,)).rank == 20       # one mounting: 2 per sensor
-    assert scheme_identifiability(arr, rates=(1.0,)).rank == 30         # one rate: 3 per sensor
-    rep = scheme_identifiability(arr, bias_scale=True)                  # 7 unknowns, 6 cases per sensor
+    assert scheme_identifiability(arr, gamma=0.0).rank < 50  # no wedge
+    assert scheme_identifiability(arr, mountings=(1,)).rank == 20  # one mounting: 2 per sensor
+    assert scheme_identifiability(arr, rates=(1.0,)).rank == 30  # one rate: 3 per sensor
+    rep = scheme_identifiability(arr, bias_scale=True)  # 7 unknowns, 6 cases per sensor
     assert rep.rank == 60 and rep.n_params == 70
     rep = scheme_identifiability(arr, offset=True)
     assert rep.n_params - rep.rank == 6

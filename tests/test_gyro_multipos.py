@@ -22,23 +22,24 @@ from optinav.core.simulate import orientation_from_up, static_positions
 from optinav.errors import OptinavError
 from optinav.multipos.gyro import GYRO_PARAMS, GyroCalibration, calibrate_gyro, transition_residuals
 
-COUNTS = 16.4 * 180.0 / np.pi                    # counts per rad/s (a ±2000 deg/s MEMS range)
-K_REL = np.array([[1.020, 0.012, -0.008],
-                  [-0.011, 0.985, 0.009],
-                  [0.007, -0.013, 1.015]])
+COUNTS = 16.4 * 180.0 / np.pi  # counts per rad/s (a ±2000 deg/s MEMS range)
+K_REL = np.array([[1.020, 0.012, -0.008], [-0.011, 0.985, 0.009], [0.007, -0.013, 1.015]])
 K_TRUE = K_REL * COUNTS
-B_TRUE = np.array([12.0, -7.5, 3.2])            # counts
-ARW = 1.7e-4                                     # rad/s/√Hz (≈ 0.01 deg/s/√Hz)
+B_TRUE = np.array([12.0, -7.5, 3.2])  # counts
+ARW = 1.7e-4  # rad/s/√Hz (≈ 0.01 deg/s/√Hz)
 RATE = 100.0
-U_NOISE = 1e-4                                   # rad, per component of the measured up directions
+U_NOISE = 1e-4  # rad, per component of the measured up directions
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
+DATA = (
+    Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    / "imucal"
+)
 
 
 def _poses():
     ups = ["z", "x", "y", "-z", "-x", "-y", "z", "y", "x", "-y", "-z", "x", "-x", "z"]
     P = [orientation_from_up(u) for u in ups]
-    P.insert(3, orientation_from_up("z") @ rot_x(0.6) @ rot_y(0.4))   # tilted poses
+    P.insert(3, orientation_from_up("z") @ rot_x(0.6) @ rot_y(0.4))  # tilted poses
     P.insert(9, orientation_from_up("y") @ rot_z(0.5))
     return np.stack(P)
 
@@ -87,22 +88,23 @@ def test_recovers_K_and_b_in_counts_with_irregular_timestamps(sim, bias):
     raw, u = _measure(truth, u0, np.random.default_rng(2))
     cal = calibrate_gyro(truth.t, raw, iv, u, bias=bias)
     assert cal.n_transitions == len(iv) - 1 == 15
-    assert cal.observability.full_rank and cal.observability.names == list(GYRO_PARAMS[:12 if bias == "estimate"
-                                                                                          else 9])
+    assert cal.observability.full_rank and cal.observability.names == list(
+        GYRO_PARAMS[: 12 if bias == "estimate" else 9]
+    )
     assert cal.success and not cal.unobservable
     # K to 5σ and, absolutely, to 1e-3 of the scale (0.1 % scale / 1 mrad); b to 5σ and 0.2 counts
     assert np.all(np.abs(_z(cal)) < 5.0), _z(cal)
     assert np.max(np.abs(cal.K - K_TRUE)) < 1e-3 * COUNTS
     assert np.max(np.abs(cal.b - B_TRUE)) < 0.2
     # residuals at the noise level: white rate noise over a 2 s turn (ARW·√2 per axis) and both up directions
-    expected = np.sqrt(2.0 * ARW ** 2 + 2.0 * U_NOISE ** 2)
+    expected = np.sqrt(2.0 * ARW**2 + 2.0 * U_NOISE**2)
     assert 0.5 * expected < cal.sigma < 2.0 * expected
     assert np.all(np.isfinite(cal.K_std)) and np.all(cal.K_std > 0)
-    assert cal.k0 == pytest.approx(COUNTS, rel=0.05)   # the 1-D scale step found the unit on its own
+    assert cal.k0 == pytest.approx(COUNTS, rel=0.05)  # the 1-D scale step found the unit on its own
     P = _poses()
-    true_angles = rotation_angle(np.einsum("kji,kjl->kil", P[:-1], P[1:]))   # C_{b(k+1)}^{b(k)} = C_kᵀ C_{k+1}
+    true_angles = rotation_angle(np.einsum("kji,kjl->kil", P[:-1], P[1:]))  # C_{b(k+1)}^{b(k)} = C_kᵀ C_{k+1}
     np.testing.assert_allclose(cal.transition_angles, true_angles, atol=1e-3)
-    om = cal.correct(raw[iv[0, 0]:iv[0, 1]])            # at rest: zero to 5σ of the mean of the white noise
+    om = cal.correct(raw[iv[0, 0] : iv[0, 1]])  # at rest: zero to 5σ of the mean of the white noise
     assert np.max(np.abs(om.mean(0))) < 5 * ARW * np.sqrt(RATE / (iv[0, 1] - iv[0, 0]))
 
 
@@ -132,13 +134,13 @@ def test_earth_rate_stays_within_documented_bound(bias):
     err = np.abs(np.r_[(cal.K - K_TRUE).ravel(), cal.b - B_TRUE])
     ratio = err / cal.earth_rate_param_bound
     assert np.all(ratio <= 1.0), ratio
-    assert ratio.max() > 0.05          # the Earth rate does show: the bound is not vacuous
-    assert np.max(cal.earth_rate_param_bound[:9]) < 1e-3 * COUNTS   # and it is small: < 0.1 % of the scale
+    assert ratio.max() > 0.05  # the Earth rate does show: the bound is not vacuous
+    assert np.max(cal.earth_rate_param_bound[:9]) < 1e-3 * COUNTS  # and it is small: < 0.1 % of the scale
 
 
 def _single_axis_session(rng):
     ang = np.radians([0, 90, 200, 280, 30, 150, 250, 340])
-    P = np.stack([orientation_from_up("z") @ rot_x(a) for a in ang])   # every turn is about body x
+    P = np.stack([orientation_from_up("z") @ rot_x(a) for a in ang])  # every turn is about body x
     truth = static_positions(P, dwell=2.0, rate_hz=RATE, lat=0.7, transition=2.0)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
@@ -173,7 +175,7 @@ def test_bias_modes_methods_and_time_intervals(sim):
     assert np.all(np.abs(given.K - K_TRUE) < 5 * given.K_std)
     t0, t1 = truth.t[iv[0, 0]], truth.t[iv[0, 1] - 1]
     rest = calibrate_gyro(truth.t, raw, iv, u, bias="rest", rest=(t0, t1))
-    np.testing.assert_allclose(rest.b, raw[iv[0, 0]:iv[0, 1]].mean(0))
+    np.testing.assert_allclose(rest.b, raw[iv[0, 0] : iv[0, 1]].mean(0))
     assert np.all(np.abs(rest.b - B_TRUE) < 5 * rest.b_std)
     # the same intervals given as times [t0, t1] in s
     tiv = np.stack([truth.t[iv[:, 0]], truth.t[iv[:, 1] - 1]], 1)
@@ -228,9 +230,26 @@ def _bad(sim):
     return cases
 
 
-@pytest.mark.parametrize("case", ["few transitions", "gyro rows", "nan", "time order", "out of range", "overlap",
-                                  "unsorted", "not unit", "up count", "bias word", "rest alone", "rest missing",
-                                  "method", "fraction index", "no tilt change"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "few transitions",
+        "gyro rows",
+        "nan",
+        "time order",
+        "out of range",
+        "overlap",
+        "unsorted",
+        "not unit",
+        "up count",
+        "bias word",
+        "rest alone",
+        "rest missing",
+        "method",
+        "fraction index",
+        "no tilt change",
+    ],
+)
 def test_bad_input_is_one_line_error(sim, case):
     args, kw, match = _bad(sim)[case]
     with pytest.raises(OptinavError, match=match) as exc:
@@ -240,6 +259,7 @@ def test_bad_input_is_one_line_error(sim, case):
 
 # --- real data ------------------------------------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def ferraris():
     if not (DATA / "example_ferraris_session.csv").is_file():
@@ -248,7 +268,7 @@ def ferraris():
     sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     t = np.arange(d.shape[0]) / 102.4
-    gyr, acc = d[:, 1:4], d[:, 4:7]                  # deg/s, m/s²
+    gyr, acc = d[:, 1:4], d[:, 4:7]  # deg/s, m/s²
     Ka, Ra, ba = (np.array(ref[k]) for k in ("K_a", "R_a", "b_a"))
     # gravity directions in imucal's calibrated accelerometer frame (box axes): the frame both gyro models use
     acc_cal = np.linalg.solve(Ka @ Ra, (acc - ba).T).T
@@ -268,26 +288,27 @@ def _ups(acc, iv):
 
 def test_real_ferraris_session_against_imucal(ferraris):
     t, gyr, acc_cal, six, extra, ref = ferraris
-    b0 = gyr[six[0, 0]:six[0, 1]].mean(0)
-    for a, b in extra:   # the added windows really are at rest (rates ≤ 0.3 deg/s from the bias)
+    b0 = gyr[six[0, 0] : six[0, 1]].mean(0)
+    for a, b in extra:  # the added windows really are at rest (rates ≤ 0.3 deg/s from the bias)
         assert np.max(np.linalg.norm(gyr[a:b] - b0, axis=1)) < 0.3
     iv = np.vstack([six, extra])
-    cal = calibrate_gyro(t, gyr, iv, _ups(acc_cal, iv))           # raw = deg/s, so K is deg/s per rad/s
+    cal = calibrate_gyro(t, gyr, iv, _ups(acc_cal, iv))  # raw = deg/s, so K is deg/s per rad/s
     assert cal.n_transitions == 11 and cal.observability.full_rank
     # hand flips at up to 900 deg/s leave ~0.5° per transition (imucal's own K/b leave 0.7° RMS here)
     assert cal.residual_rms < np.radians(1.0)
-    r_ref = transition_residuals(t, gyr, iv, _ups(acc_cal, iv), np.array(ref["K_g"]) @ np.array(ref["R_g"])
-                                 * 180 / np.pi, np.array(ref["b_g"]))
-    assert cal.residual_rms < np.sqrt(np.mean(np.sum(r_ref ** 2, 1)))
+    r_ref = transition_residuals(
+        t, gyr, iv, _ups(acc_cal, iv), np.array(ref["K_g"]) @ np.array(ref["R_g"]) * 180 / np.pi, np.array(ref["b_g"])
+    )
+    assert cal.residual_rms < np.sqrt(np.mean(np.sum(r_ref**2, 1)))
     # imucal: gyr = K_g R_g ω_deg + K_ga a + b_g  ⇒  K·π/180 ↔ K_g R_g
     M = cal.K * np.pi / 180
     S = cal.K_std * np.pi / 180
     M_ref = np.array(ref["K_g"]) @ np.array(ref["R_g"])
     d = M - M_ref
-    assert np.max(np.abs(np.diag(d) / np.diag(M_ref))) < 0.02       # diagonal within 2 % (found 0.3, 1.4, 0.2 %)
-    assert np.max(np.abs(d - np.diag(np.diag(d)))) < 0.02            # misalignments within 20 mrad
-    assert np.all(np.abs(d) < 3.5 * S), d / S                         # and within 3.5σ of ours (max 2.0σ found)
-    np.testing.assert_allclose(cal.b, ref["b_g"], atol=0.01)         # deg/s
+    assert np.max(np.abs(np.diag(d) / np.diag(M_ref))) < 0.02  # diagonal within 2 % (found 0.3, 1.4, 0.2 %)
+    assert np.max(np.abs(d - np.diag(np.diag(d)))) < 0.02  # misalignments within 20 mrad
+    assert np.all(np.abs(d) < 3.5 * S), d / S  # and within 3.5σ of ours (max 2.0σ found)
+    np.testing.assert_allclose(cal.b, ref["b_g"], atol=0.01)  # deg/s
 
 
 def test_real_six_flips_alone_are_not_enough(ferraris):

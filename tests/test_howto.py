@@ -59,8 +59,9 @@ def test_howto_runs_as_written(tmp_path, monkeypatch, capsys):
     K, K_true = res.accelerometer["K"], np.asarray(truth["accelerometer"]["K"])
     tol = 2 * np.abs(K).max() * 6 * np.max(res.accelerometer["K_std"])
     np.testing.assert_allclose(K @ K.T, K_true @ K_true.T, rtol=0, atol=tol)
-    np.testing.assert_array_less(np.abs(res.accelerometer["b"] - truth["accelerometer"]["b"]),
-                                 6 * res.accelerometer["b_std"])
+    np.testing.assert_array_less(
+        np.abs(res.accelerometer["b"] - truth["accelerometer"]["b"]), 6 * res.accelerometer["b_std"]
+    )
     # the held-out pose: its error is of the size of the poses used (out-of-sample check of step 5)
     held = CalibrationResult.from_json("result-17.json").quality["held_out"]
     assert held["pose"] == 9 and held["n_used"] == 17
@@ -75,11 +76,31 @@ def test_hold_out_and_plan_refusals(tmp_path, capsys):
     from optinav.cli.main import main
 
     csv = tmp_path / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4",
-                 "--seed", "4"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(csv),
+                "--scheme",
+                "paper12",
+                "--dwell",
+                "4",
+                "--seed",
+                "4",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
-    assert main(["calibrate", "accel", str(csv), "--gravity", "9.80", "--hold-out", "13",
-                 "--out", str(tmp_path / "r.json")]) == 2
+    assert (
+        main(
+            ["calibrate", "accel", str(csv), "--gravity", "9.80", "--hold-out", "13", "--out", str(tmp_path / "r.json")]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == "optinav: error: --hold-out 13: the log has 12 static poses; pass K from 1 to 12"
     assert not (tmp_path / "r.json").exists()

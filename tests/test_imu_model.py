@@ -15,9 +15,22 @@ from scipy import stats
 
 from optinav import OptinavError
 from optinav.core.allan import FLICKER_FLOOR, allan_deviation, noise_parameters_from_allan
-from optinav.core.imu_model import (PRESETS, GM_SIGMA_PER_BIAS_INSTABILITY, ImuMeasurement, ImuModel, ImuSpec,
-                                    TriadErrors, TriadNoise, gauss_markov, misalignment_matrix, preset, quantize,
-                                    saturate, upper_misalignment_matrix, white_noise)
+from optinav.core.imu_model import (
+    PRESETS,
+    GM_SIGMA_PER_BIAS_INSTABILITY,
+    ImuMeasurement,
+    ImuModel,
+    ImuSpec,
+    TriadErrors,
+    TriadNoise,
+    gauss_markov,
+    misalignment_matrix,
+    preset,
+    quantize,
+    saturate,
+    upper_misalignment_matrix,
+    white_noise,
+)
 from optinav.core.results import Result
 
 DEG = math.pi / 180
@@ -47,9 +60,13 @@ def _tol(*arrays_):
 
 
 @settings(max_examples=60, deadline=None)
-@given(triads("gyro"), arrays(float, (5, 3), elements=st.floats(-100, 100)),
-       arrays(float, (5, 3), elements=st.floats(-100, 100)), arrays(float, 5, elements=st.floats(1e-4, 1.0)),
-       st.sampled_from(["rate", "increment"]))
+@given(
+    triads("gyro"),
+    arrays(float, (5, 3), elements=st.floats(-100, 100)),
+    arrays(float, (5, 3), elements=st.floats(-100, 100)),
+    arrays(float, 5, elements=st.floats(1e-4, 1.0)),
+    st.sampled_from(["rate", "increment"]),
+)
 def test_triad_apply_compensate_are_inverses(tri, x, f, dt, kind):
     y = tri.apply(x, dt=dt, acc=f, kind=kind)
     assert np.allclose(tri.compensate(y, dt=dt, acc=f, kind=kind), x, rtol=0, atol=_tol(x, y, tri.bias, f))
@@ -58,9 +75,14 @@ def test_triad_apply_compensate_are_inverses(tri, x, f, dt, kind):
 
 
 @settings(max_examples=40, deadline=None)
-@given(triads("gyro"), triads("accel"), arrays(float, (4, 3), elements=st.floats(-10, 10)),
-       arrays(float, (4, 3), elements=st.floats(-50, 50)), st.sampled_from(["rate", "increment"]),
-       st.floats(1e-3, 0.1))
+@given(
+    triads("gyro"),
+    triads("accel"),
+    arrays(float, (4, 3), elements=st.floats(-10, 10)),
+    arrays(float, (4, 3), elements=st.floats(-50, 50)),
+    st.sampled_from(["rate", "increment"]),
+    st.floats(1e-3, 0.1),
+)
 def test_imu_model_apply_compensate_identity(gyro, accel, w, f, kind, dt):
     """Noise-free, no saturation/quantization: compensate∘apply = id (g-sensitivity uses compensated f)."""
     model = ImuModel(gyr=gyro, acc=accel)
@@ -112,6 +134,7 @@ def test_increment_bias_scales_with_dt():
 # ------------------------------------------------------------------------------------------------------------
 # noise
 # ------------------------------------------------------------------------------------------------------------
+
 
 def _chi2_bounds(dof, p=1e-6):
     """Two-sided bounds of (Σ z²)/dof for dof standard normals z, each side with probability p/2."""
@@ -208,14 +231,16 @@ def test_bias_instability_mapping_reads_back_from_allan():
 # saturation and quantization
 # ------------------------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("kind", ["rate", "increment"])
 def test_saturation_flags_exactly_samples_beyond_range(kind):
     rng = np.random.default_rng(9)
     n = 2000
     dt = rng.uniform(0.005, 0.02, n)
     w = rng.uniform(-2.5, 2.5, (n, 3)) * (dt[:, None] if kind == "increment" else 1.0)
-    gyro = TriadErrors.from_six("gyro", bias=[0.1, -0.2, 0.05], scale=[0.01, 0.0, -0.02],
-                                misalignment=[1e-3, 0, 0, 2e-3, 0, -1e-3])
+    gyro = TriadErrors.from_six(
+        "gyro", bias=[0.1, -0.2, 0.05], scale=[0.01, 0.0, -0.02], misalignment=[1e-3, 0, 0, 2e-3, 0, -1e-3]
+    )
     rng_lim = np.array([1.0, 1.5, 2.0])
     model = ImuModel(gyr=gyro, gyro_noise=TriadNoise(range=rng_lim))
     meas = model.apply(w, np.zeros((n, 3)), dt, kind=kind, noise=False)
@@ -265,6 +290,7 @@ def test_quantization_through_model():
 # ------------------------------------------------------------------------------------------------------------
 # specification level
 # ------------------------------------------------------------------------------------------------------------
+
 
 def test_presets_convert_published_numbers():
     rlg = preset("rlg-nav")
@@ -331,6 +357,7 @@ def test_draw_statistics_match_spec():
 # ------------------------------------------------------------------------------------------------------------
 # bad input
 # ------------------------------------------------------------------------------------------------------------
+
 
 def test_bad_input_raises_optinav_error():
     model = ImuModel()

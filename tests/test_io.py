@@ -32,8 +32,15 @@ def _log(n=50, seed=0, counts=False, labels=False):
     if counts:
         acc, gyro = np.round(acc * 400), np.round(gyro * 900)
     lab = np.repeat(np.array(["x_p", "x_a", "z_rot"]), -(-n // 3))[:n] if labels else None
-    return ImuLog(t=t, acc=acc, gyr=gyro, acc_unit="counts" if counts else "m/s^2",
-                  gyro_unit="counts" if counts else "rad/s", labels=lab, sample=np.arange(n) + 7)
+    return ImuLog(
+        t=t,
+        acc=acc,
+        gyr=gyro,
+        acc_unit="counts" if counts else "m/s^2",
+        gyro_unit="counts" if counts else "rad/s",
+        labels=lab,
+        sample=np.arange(n) + 7,
+    )
 
 
 def _write(path: Path, text: str) -> Path:
@@ -57,8 +64,8 @@ def _same(a: ImuLog, b: ImuLog):
 
 # --- write/read round trips -----------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("suffix", [".csv", ".tsv", ".txt", ".npz", ".mat",
-                                    pytest.param(".h5", marks=needs_h5py)])
+
+@pytest.mark.parametrize("suffix", [".csv", ".tsv", ".txt", ".npz", ".mat", pytest.param(".h5", marks=needs_h5py)])
 @pytest.mark.parametrize("counts", [False, True])
 def test_round_trip_every_format(tmp_path, suffix, counts):
     log = _log(counts=counts, labels=True)
@@ -157,8 +164,11 @@ def test_aliases_are_recognised(tmp_path):
     np.testing.assert_array_equal(log.gyr, [[1, 2, 3]] * 3)
     assert log.sample.tolist() == [10, 11, 12] and log.labels.tolist() == ["a", "a", "b"]
     # a name implying its unit and a mapping entry
-    log = read_imu(_write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,6\n"),
-                   columns="t=zeit", gyro_unit="deg/s")
+    log = read_imu(
+        _write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,6\n"),
+        columns="t=zeit",
+        gyro_unit="deg/s",
+    )
     assert log.t.tolist() == [5.0, 6.0] and log.acc is None
     np.testing.assert_allclose(log.gyr[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
     log = read_imu(tmp_path / "b.csv")
@@ -177,8 +187,11 @@ def test_units_convert_to_si_and_counts_are_kept(tmp_path):
     assert si.acc[0, 0] == 1.0 and si.gyr[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
     assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-3]
     assert read_imu(path, acc_unit="mg").acc[1, 0] == pytest.approx(0.5e-3 * 9.80665, rel=1e-15)
-    for kw, accepted in (({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"), ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
-                         ({"time_unit": "min"}, "s, ms, us, ns")):
+    for kw, accepted in (
+        ({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"),
+        ({"gyro_unit": "deg/h"}, "counts, deg/s, rad/s"),
+        ({"time_unit": "min"}, "s, ms, us, ns"),
+    ):
         with pytest.raises(OptinavError, match=f"unknown {next(iter(kw))} .*use one of: {accepted}"):
             read_imu(path, **kw)
 
@@ -215,8 +228,9 @@ def test_text_errors_name_the_line_and_column(tmp_path):
 
 
 def test_empty_cells_are_nan_and_counted(tmp_path):
-    path = _write(tmp_path / "n.csv", "t,ax,ay,az,gx,gy,gz\n0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n"
-                                      "3,inf,2,3,1,1,nan\n")
+    path = _write(
+        tmp_path / "n.csv", "t,ax,ay,az,gx,gy,gz\n0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n3,inf,2,3,1,1,nan\n"
+    )
     log = read_imu(path)
     assert log.nan_rows == 3 and len(log) == 4 and log.finite.tolist() == [False, False, True, False]
     assert np.isnan(log.acc[0, 1])
@@ -292,6 +306,7 @@ def test_two_files_share_the_time_column(tmp_path):
 
 # --- NPZ, HDF5, MATLAB ----------------------------------------------------------------------------------------
 
+
 def test_npz_named_arrays_single_table_and_pickles(tmp_path):
     t = np.arange(5) * 0.1
     data = np.column_stack([t, np.ones((5, 3)), np.zeros((5, 3))])
@@ -353,8 +368,9 @@ def test_hdf5_datasets_and_tables(tmp_path):
         f["camera"] = np.zeros((6, 2, 2))
     log = read_imu(tmp_path / "a.h5")
     assert log.acc[0, 0] == 2 * G_STANDARD and log.acc_input_unit == "g" and log.gyr is None
-    log = read_imu(tmp_path / "a.h5", datasets={"t": "/imu/time", "acc": "imu/acc", "gyro": "imu/gyro_raw"},
-                   gyro_unit="counts")
+    log = read_imu(
+        tmp_path / "a.h5", datasets={"t": "/imu/time", "acc": "imu/acc", "gyro": "imu/gyro_raw"}, gyro_unit="counts"
+    )
     assert log.gyro_unit == "counts" and log.gyr[0, 0] == 5
     with pytest.raises(OptinavError, match="no dataset 'imu/gyro' \\(datasets: camera, imu/acc, imu/gyro_raw, imu/t"):
         read_imu(tmp_path / "a.h5", datasets="t=imu/time,gyro=imu/gyro")
@@ -389,8 +405,14 @@ def test_mat_v5_variables_structs_and_single_matrix(tmp_path):
     import scipy.io
 
     t = np.arange(4) * 0.5
-    scipy.io.savemat(tmp_path / "a.mat", {"imu": {"t": t.reshape(-1, 1), "gyr": np.ones((4, 3))},
-                                          "gyro_unit": "deg/s", "part": np.array(["a", "a", "b", "b"], dtype=object)})
+    scipy.io.savemat(
+        tmp_path / "a.mat",
+        {
+            "imu": {"t": t.reshape(-1, 1), "gyr": np.ones((4, 3))},
+            "gyro_unit": "deg/s",
+            "part": np.array(["a", "a", "b", "b"], dtype=object),
+        },
+    )
     log = read_imu(tmp_path / "a.mat")
     np.testing.assert_array_equal(log.t, t)
     assert log.gyro_input_unit == "deg/s" and log.gyr[0, 0] == pytest.approx(math.pi / 180)
@@ -448,6 +470,7 @@ def test_mat_v73_is_read_transposed_back(tmp_path):
 
 # --- real data ------------------------------------------------------------------------------------------------
 
+
 def _shared(name: str) -> Path:
     path = IMUCAL / name
     if not path.is_file():
@@ -475,8 +498,10 @@ def test_real_annotated_session_keeps_text_labels():
 
 # --- fuzz -----------------------------------------------------------------------------------------------------
 
-_ALPHABET = st.sampled_from(list("0123456789.,;\t -+eE#\"\nnaif_xyzt") + ["\r\n", "nan", "inf", "acc_x", "gyr_y", "t",
-                                                                        "time", "part", "1e400", "\x00", "é"])
+_ALPHABET = st.sampled_from(
+    list('0123456789.,;\t -+eE#"\nnaif_xyzt')
+    + ["\r\n", "nan", "inf", "acc_x", "gyr_y", "t", "time", "part", "1e400", "\x00", "é"]
+)
 
 
 def _valid(log: ImuLog) -> None:
@@ -488,8 +513,9 @@ def _valid(log: ImuLog) -> None:
     assert log.nan_rows == int(np.count_nonzero(~log.finite))
 
 
-_MUTATION = st.tuples(st.sampled_from(["truncate", "replace", "insert", "delete"]), st.floats(0, 1),
-                      st.binary(min_size=1, max_size=8))
+_MUTATION = st.tuples(
+    st.sampled_from(["truncate", "replace", "insert", "delete"]), st.floats(0, 1), st.binary(min_size=1, max_size=8)
+)
 _SEED_FILES: dict[str, bytes] = {}
 
 
@@ -508,11 +534,11 @@ def _mutate(raw: bytes, mutations) -> bytes:
         if op == "truncate":
             raw = raw[:i]
         elif op == "replace":
-            raw = raw[:i] + chunk + raw[i + len(chunk):]
+            raw = raw[:i] + chunk + raw[i + len(chunk) :]
         elif op == "insert":
             raw = raw[:i] + chunk + raw[i:]
         else:
-            raw = raw[:i] + raw[i + len(chunk):]
+            raw = raw[:i] + raw[i + len(chunk) :]
     return raw
 
 
@@ -520,12 +546,17 @@ _SUFFIXES = [".csv", ".txt", ".tsv", ".npz", ".mat", ".npy"] + ([".h5"] if h5py 
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(content=st.one_of(st.binary(max_size=300), st.text(max_size=300),
-                         st.lists(_ALPHABET, max_size=120).map("".join),
-                         st.lists(_MUTATION, max_size=3)),
-       suffix=st.sampled_from(_SUFFIXES),
-       rate=st.sampled_from([None, 100.0]),
-       prefix=st.sampled_from([b"", b"PK\x03\x04", b"\x93NUMPY", b"MATLAB 5.0 MAT-file", b"\x89HDF\r\n\x1a\n"]))
+@given(
+    content=st.one_of(
+        st.binary(max_size=300),
+        st.text(max_size=300),
+        st.lists(_ALPHABET, max_size=120).map("".join),
+        st.lists(_MUTATION, max_size=3),
+    ),
+    suffix=st.sampled_from(_SUFFIXES),
+    rate=st.sampled_from([None, 100.0]),
+    prefix=st.sampled_from([b"", b"PK\x03\x04", b"\x93NUMPY", b"MATLAB 5.0 MAT-file", b"\x89HDF\r\n\x1a\n"]),
+)
 def test_fuzz_read_imu_returns_a_log_or_an_optinav_error(tmp_path, content, suffix, rate, prefix):
     """Arbitrary bytes, text, or a valid file with bytes truncated/replaced/inserted/deleted."""
     path = tmp_path / f"fuzz{suffix}"
@@ -544,18 +575,25 @@ def test_fuzz_read_imu_returns_a_log_or_an_optinav_error(tmp_path, content, suff
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(rows=st.lists(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.just("")),
-                              min_size=1, max_size=8), min_size=1, max_size=8),
-       header=st.booleans(), delim=st.sampled_from([",", "\t", ";", " "]))
+@given(
+    rows=st.lists(
+        st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.just("")), min_size=1, max_size=8),
+        min_size=1,
+        max_size=8,
+    ),
+    header=st.booleans(),
+    delim=st.sampled_from([",", "\t", ";", " "]),
+)
 def test_fuzz_numeric_tables(tmp_path, rows, header, delim):
     """Near-valid tables: ragged rows, empty cells, NaN/inf; a log (with consistent counts) or a clear error."""
-    lines = ([delim.join(["t", "ax", "ay", "az", "gx", "gy", "gz", "x"][: len(rows[0])])] if header else [])
+    lines = [delim.join(["t", "ax", "ay", "az", "gx", "gy", "gz", "x"][: len(rows[0])])] if header else []
     lines += [delim.join(repr(v) if v != "" else "" for v in r) for r in rows]
     path = _write(tmp_path / "f.csv", "\n".join(lines) + "\n")
     try:
         table = load_table(path)
-        log = read_imu(path, columns=None if header else ",".join(["t", "ax", "ay", "az", "gx", "gy", "gz", "_"]
-                                                                  [: len(rows[0])]))
+        log = read_imu(
+            path, columns=None if header else ",".join(["t", "ax", "ay", "az", "gx", "gy", "gz", "_"][: len(rows[0])])
+        )
     except OptinavError:
         return
     assert all(v.shape == (len(log),) for v in table.data.values())

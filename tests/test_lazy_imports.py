@@ -37,14 +37,14 @@ BAD_FILES = {
 
 def _probe(args):
     env = {**os.environ, "PYTHONPATH": str(Path(optinav.__file__).parents[1]), "OPTINAV_QUIET": "1"}
-    proc = subprocess.run([sys.executable, "-c", _PROBE, *args], capture_output=True, text=True, timeout=120,
-                          env=env)
+    proc = subprocess.run([sys.executable, "-c", _PROBE, *args], capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-@pytest.mark.parametrize("extra", [[], ["--method", "ferraris"], ["--no-gyro"]], ids=["multipos", "ferraris",
-                                                                                      "acc-only"])
+@pytest.mark.parametrize(
+    "extra", [[], ["--method", "ferraris"], ["--no-gyro"]], ids=["multipos", "ferraris", "acc-only"]
+)
 @pytest.mark.parametrize("kind", sorted(BAD_FILES))
 def test_calibrate_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra):
     bad = tmp_path / "bad.csv"
@@ -56,8 +56,11 @@ def test_calibrate_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra
     assert not (tmp_path / "o.json").exists()
 
 
-@pytest.mark.parametrize("extra", [[], ["--offline"], ["--method", "mekf"], ["--report", "REP"]],
-                         ids=["streamed", "offline", "mekf", "report"])
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--offline"], ["--method", "mekf"], ["--report", "REP"]],
+    ids=["streamed", "offline", "mekf", "report"],
+)
 @pytest.mark.parametrize("kind", ["text_cell", "ragged_row"])  # two rows are a log attitude accepts
 def test_attitude_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra):
     bad = tmp_path / "bad.csv"
@@ -72,14 +75,36 @@ def test_attitude_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra)
 
 def test_attitude_checks_its_options_before_reading(tmp_path):
     """A bad estimator option is still refused before the file is read (here a file that does not exist)."""
-    r = _probe(["attitude", str(tmp_path / "missing.csv"), "--out", str(tmp_path / "o.csv"), "--option", "gain=-1",
-                "--method", "gd"])
+    r = _probe(
+        [
+            "attitude",
+            str(tmp_path / "missing.csv"),
+            "--out",
+            str(tmp_path / "o.csv"),
+            "--option",
+            "gain=-1",
+            "--method",
+            "gd",
+        ]
+    )
     assert r["rc"] == 2 and "gain" in r["err"][0], r
     assert r["loaded"] == []
 
 
 def test_the_probe_sees_heavy_imports(tmp_path):
     """The check can fail: a command that goes on to real work (here a simulation) loads numba."""
-    r = _probe(["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--scheme", "six", "--dwell", "3",
-                "--seed", "1"])
+    r = _probe(
+        [
+            "simulate",
+            "accel-multipos",
+            "--out",
+            str(tmp_path / "s.csv"),
+            "--scheme",
+            "six",
+            "--dwell",
+            "3",
+            "--seed",
+            "1",
+        ]
+    )
     assert r["rc"] == 0 and "numba" in r["loaded"]

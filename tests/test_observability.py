@@ -50,6 +50,7 @@ def _same_direction(a, b, tol=1e-10):
 # Fisher information and CRLB of the linear Gaussian model: exactly σ²(XᵀX)⁻¹ (Kay 1993, Thm 3.5)
 # ---------------------------------------------------------------------------------------------------
 
+
 def test_crlb_linear_regression_scalar_vector_and_full_noise():
     X, _ = _regression()
     m, n = X.shape
@@ -99,6 +100,7 @@ def test_a_posteriori_variance_factor():
 # ---------------------------------------------------------------------------------------------------
 # Monte Carlo against the CRLB
 # ---------------------------------------------------------------------------------------------------
+
 
 def _mc_setup(sigma=0.5, lam=20.0):
     X, theta = _regression(m=30)
@@ -182,8 +184,7 @@ def test_monte_carlo_failures_are_counted_not_fatal():
     def crashy(d):
         return 1 / 0
 
-    ests = {"ok": lambda d: d, "flaky": flaky, "crashy": crashy,
-            "short": lambda d: d[:2], "nan": lambda d: d * np.nan}
+    ests = {"ok": lambda d: d, "flaky": flaky, "crashy": crashy, "short": lambda d: d[:2], "nan": lambda d: d * np.nan}
     N = 50
     mc = monte_carlo(make_data, ests, np.zeros(3), N, rng=1, progress=True)
     d0 = mc.errors["ok"][:, 0]  # truth is zero, so the errors are the data
@@ -215,6 +216,7 @@ def test_monte_carlo_truth_from_make_data():
 # ---------------------------------------------------------------------------------------------------
 # rank deficiency: null space, words, covariance on the observable subspace
 # ---------------------------------------------------------------------------------------------------
+
 
 def test_equal_columns():
     rng = np.random.default_rng(5)
@@ -251,8 +253,11 @@ def test_bias_misalignment_coupling_words_and_reparametrized_covariance():
     assert _same_direction(rep.null_space[:, 0], [1, -0.71, 0, 0])
     assert rep.unobservable_directions == ["b_x − 0.71·M_xy"]
     assert rep.observable_combinations == ["b_x + 1.41·M_xy"]
-    assert rep.statements == ["unobservable: b_x − 0.71·M_xy", "individually observable: s_x, s_y",
-                              "observable only as the combination: b_x + 1.41·M_xy"]
+    assert rep.statements == [
+        "unobservable: b_x − 0.71·M_xy",
+        "individually observable: s_x, s_y",
+        "observable only as the combination: b_x + 1.41·M_xy",
+    ]
     # explicit reparametrization: q = (b + α·M, s_x, s_y), J_red = [jb, O] has full rank
     Jr = np.column_stack([jb, O]) / sig[:, None]
     Cr = np.linalg.inv(Jr.T @ Jr)
@@ -312,18 +317,20 @@ def test_zero_column_is_not_observable_at_all():
 # column scaling: the rank decision does not depend on parameter units
 # ---------------------------------------------------------------------------------------------------
 
+
 def test_rank_independent_of_units():
     rng = np.random.default_rng(6)
     J = rng.normal(size=(20, 3))
-    k = np.array([1e3, 1e6, 1.0])          # parameters now in mm, μrad, and unchanged
-    Jk = J / k                             # ∂r/∂(k·p) = (∂r/∂p)/k
+    k = np.array([1e3, 1e6, 1.0])  # parameters now in mm, μrad, and unchanged
+    Jk = J / k  # ∂r/∂(k·p) = (∂r/∂p)/k
     assert analyze(J).rank == 3 and analyze(Jk).rank == 3
-    assert analyze(Jk, scales=1.0).rank == 2   # unscaled, the μrad column looks negligible
+    assert analyze(Jk, scales=1.0).rank == 2  # unscaled, the μrad column looks negligible
     np.testing.assert_allclose(analyze(Jk).std, k * analyze(J).std, rtol=1e-9)
     # user scales (expected magnitudes) converted with the units give identical singular values
     mag = np.array([0.1, 1e-4, 2.0])
-    np.testing.assert_allclose(analyze(Jk, scales=k * mag).singular_values,
-                               analyze(J, scales=mag).singular_values, rtol=1e-10)
+    np.testing.assert_allclose(
+        analyze(Jk, scales=k * mag).singular_values, analyze(J, scales=mag).singular_values, rtol=1e-10
+    )
     # a deficient Jacobian stays deficient in any units, with the null direction converted
     Jd = J.copy()
     Jd[:, 1] = Jd[:, 0]
@@ -333,8 +340,7 @@ def test_rank_independent_of_units():
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31), logk=st.lists(st.floats(-8, 8), min_size=4, max_size=4),
-       deficient=st.booleans())
+@given(seed=st.integers(0, 2**31), logk=st.lists(st.floats(-8, 8), min_size=4, max_size=4), deficient=st.booleans())
 def test_rank_and_std_invariant_under_units(seed, logk, deficient):
     rng = np.random.default_rng(seed)
     J = rng.normal(size=(12, 4))
@@ -352,6 +358,7 @@ def test_rank_and_std_invariant_under_units(seed, logk, deficient):
 # state-space observability matrix
 # ---------------------------------------------------------------------------------------------------
 
+
 def test_double_integrator():
     A = np.array([[0.0, 1.0], [0.0, 0.0]])
     Q = observability_matrix(np.array([[1.0, 0.0]]), A)
@@ -367,8 +374,9 @@ def test_double_integrator():
     assert rv.statements == ["unobservable: p", "individually observable: v"]
     assert "rank 1" in rv.summary()
     # a scaled measurement gives proportional raw singular values
-    np.testing.assert_allclose(observability_svd(observability_matrix([[2.0, 0.0]], A), scales=1.0)
-                               .singular_values, [2, 2])
+    np.testing.assert_allclose(
+        observability_svd(observability_matrix([[2.0, 0.0]], A), scales=1.0).singular_values, [2, 2]
+    )
 
 
 def test_positions_separate_bias_from_scale_factor():
@@ -390,19 +398,19 @@ def test_positions_separate_bias_from_scale_factor():
 # NEES
 # ---------------------------------------------------------------------------------------------------
 
+
 def test_nees_values_and_consistency_band():
     np.testing.assert_allclose(nees([[1.0, 2.0]], np.diag([1.0, 4.0])), [2.0])
     rng = np.random.default_rng(12)
     n, N = 3, 500
     B = rng.normal(size=(n, n))
     P = B @ B.T + np.eye(n)
-    e = rng.normal(size=(N, n)) @ np.linalg.cholesky(P).T     # e ~ N(0, P)
+    e = rng.normal(size=(N, n)) @ np.linalg.cholesky(P).T  # e ~ N(0, P)
     # N·ANEES ~ χ²(N·n) with the true P (Bar-Shalom et al. 2001, §5.4.2)
     ok = nees_test(e, P, confidence=1 - ALPHA)
     assert ok.consistent and ok.lower < n < ok.upper
-    np.testing.assert_allclose([ok.lower, ok.upper],
-                               stats.chi2.ppf([ALPHA / 2, 1 - ALPHA / 2], N * n) / N, rtol=1e-12)
-    optimistic = nees_test(e, P / 4)                           # ANEES ≈ 4n
+    np.testing.assert_allclose([ok.lower, ok.upper], stats.chi2.ppf([ALPHA / 2, 1 - ALPHA / 2], N * n) / N, rtol=1e-12)
+    optimistic = nees_test(e, P / 4)  # ANEES ≈ 4n
     assert not optimistic.consistent and optimistic.anees > optimistic.upper
     assert "optimistic" in optimistic.summary()
     pessimistic = nees_test(e, 4 * P)
@@ -424,42 +432,46 @@ def test_monte_carlo_nees_of_honest_and_overconfident_covariance():
 # bad input
 # ---------------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("call", [
-    lambda J: analyze(np.where(np.eye(5, 3) > 0, np.nan, J)),
-    lambda J: analyze(J, sigma=0.0),
-    lambda J: analyze(J, sigma=-1.0),
-    lambda J: analyze(J, sigma=np.r_[np.ones(4), 0.0]),
-    lambda J: analyze(J, sigma=np.ones(3)),
-    lambda J: analyze(J, sigma=np.eye(5)),
-    lambda J: analyze(J, R=-np.eye(5)),
-    lambda J: analyze(J, R=np.eye(4)),
-    lambda J: analyze(J, sigma=1.0, R=np.eye(5)),
-    lambda J: analyze(J, names=["a", "b"]),
-    lambda J: analyze(J, names=["a", "a", "b"]),
-    lambda J: analyze(J, units=["m"]),
-    lambda J: analyze(J, rel_tol=0.0),
-    lambda J: analyze(J, scales=[1.0, -1.0, 1.0]),
-    lambda J: analyze(J, scales=[1.0, 1.0]),
-    lambda J: analyze(J, estimate_sigma=True),
-    lambda J: analyze(J, residuals=np.ones(4)),
-    lambda J: analyze(J[:3], residuals=np.ones(3), estimate_sigma=True),
-    lambda J: analyze(J[:, 0]),
-    lambda J: analyze("abc"),
-    lambda J: fisher_information(J, sigma=0),
-    lambda J: observability_matrix([J, J[:, :2]]),
-    lambda J: observability_matrix(J, A=np.eye(2)),
-    lambda J: observability_matrix(J, A=np.eye(3), order=0),
-    lambda J: observability_matrix([]),
-    lambda J: nees(J, np.eye(2)),
-    lambda J: nees(J, -np.eye(3)),
-    lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 0),
-    lambda J: monte_carlo(lambda r: 0, {}, np.zeros(3), 5),
-    lambda J: monte_carlo(lambda r: 0, {"x": 3}, np.zeros(3), 5),
-    lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, rng="seed"),
-    lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, crlb=np.ones(2)),
-    lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, names=["a"]),
-    lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, None, 5),
-])
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda J: analyze(np.where(np.eye(5, 3) > 0, np.nan, J)),
+        lambda J: analyze(J, sigma=0.0),
+        lambda J: analyze(J, sigma=-1.0),
+        lambda J: analyze(J, sigma=np.r_[np.ones(4), 0.0]),
+        lambda J: analyze(J, sigma=np.ones(3)),
+        lambda J: analyze(J, sigma=np.eye(5)),
+        lambda J: analyze(J, R=-np.eye(5)),
+        lambda J: analyze(J, R=np.eye(4)),
+        lambda J: analyze(J, sigma=1.0, R=np.eye(5)),
+        lambda J: analyze(J, names=["a", "b"]),
+        lambda J: analyze(J, names=["a", "a", "b"]),
+        lambda J: analyze(J, units=["m"]),
+        lambda J: analyze(J, rel_tol=0.0),
+        lambda J: analyze(J, scales=[1.0, -1.0, 1.0]),
+        lambda J: analyze(J, scales=[1.0, 1.0]),
+        lambda J: analyze(J, estimate_sigma=True),
+        lambda J: analyze(J, residuals=np.ones(4)),
+        lambda J: analyze(J[:3], residuals=np.ones(3), estimate_sigma=True),
+        lambda J: analyze(J[:, 0]),
+        lambda J: analyze("abc"),
+        lambda J: fisher_information(J, sigma=0),
+        lambda J: observability_matrix([J, J[:, :2]]),
+        lambda J: observability_matrix(J, A=np.eye(2)),
+        lambda J: observability_matrix(J, A=np.eye(3), order=0),
+        lambda J: observability_matrix([]),
+        lambda J: nees(J, np.eye(2)),
+        lambda J: nees(J, -np.eye(3)),
+        lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 0),
+        lambda J: monte_carlo(lambda r: 0, {}, np.zeros(3), 5),
+        lambda J: monte_carlo(lambda r: 0, {"x": 3}, np.zeros(3), 5),
+        lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, rng="seed"),
+        lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, crlb=np.ones(2)),
+        lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, np.zeros(3), 5, names=["a"]),
+        lambda J: monte_carlo(lambda r: 0, {"x": lambda d: d}, None, 5),
+    ],
+)
 def test_bad_input(call):
     J = np.random.default_rng(0).normal(size=(5, 3))
     with pytest.raises(OptinavError):

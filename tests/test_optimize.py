@@ -8,8 +8,16 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from optinav import OptinavError
-from optinav.core.optimize import (METHODS, OptimizeResult, Problem, adaptive_probability, fitness,
-                                   method_options, minimize, pso_velocity)
+from optinav.core.optimize import (
+    METHODS,
+    OptimizeResult,
+    Problem,
+    adaptive_probability,
+    fitness,
+    method_options,
+    minimize,
+    pso_velocity,
+)
 from optinav.core.results import Result
 from optinav.core.rotations import dcm_from_rotvec
 
@@ -113,18 +121,27 @@ _Y6 = _six_model(TRUTH6)[0]
 
 
 def _six_problem(**kw):
-    return Problem(lambda x: _six_model(x)[0] - _Y6, np.zeros(6), residuals_batch=lambda X: _six_model(X) - _Y6,
-                   search_interval=(np.full(6, -0.01), np.full(6, 0.01)), bounds=(-0.01, 0.01), **kw)
+    return Problem(
+        lambda x: _six_model(x)[0] - _Y6,
+        np.zeros(6),
+        residuals_batch=lambda X: _six_model(X) - _Y6,
+        search_interval=(np.full(6, -0.01), np.full(6, 0.01)),
+        bounds=(-0.01, 0.01),
+        **kw,
+    )
 
 
-@pytest.mark.parametrize("method,opts,tol", [
-    # Tolerances MEASURED over 40 seeds (max error): PSO 2.4e-4 rad, GA 1.1e-5 rad; asserted with 2-3x margin.
-    # PSO keeps the paper's ω = 0.8, c1 = c2 = 2, N = 20, G = 150 but V is clamped to 0.2× the interval
-    # width (V ∈ [−1, 1] would move by whole intervals): with c1 + c2 = 4 > 2(1 + ω) the swarm does not
-    # contract by itself, so its precision is set by the clamp, ~1e-2 of the width.
-    ("pso", dict(v_max=0.004), 5e-4),
-    ("ga", {}, 3e-5),
-])
+@pytest.mark.parametrize(
+    "method,opts,tol",
+    [
+        # Tolerances MEASURED over 40 seeds (max error): PSO 2.4e-4 rad, GA 1.1e-5 rad; asserted with 2-3x margin.
+        # PSO keeps the paper's ω = 0.8, c1 = c2 = 2, N = 20, G = 150 but V is clamped to 0.2× the interval
+        # width (V ∈ [−1, 1] would move by whole intervals): with c1 + c2 = 4 > 2(1 + ω) the swarm does not
+        # contract by itself, so its precision is set by the clamp, ~1e-2 of the width.
+        ("pso", dict(v_max=0.004), 5e-4),
+        ("ga", {}, 3e-5),
+    ],
+)
 def test_pso_ga_reach_six_small_angles(method, opts, tol):
     pr = _six_problem()
     for seed in range(10):
@@ -196,19 +213,24 @@ def test_evaluation_count_pso_is_exact():
 def test_adaptive_probabilities_hand_computed():
     fmax, favg = 10.0, 6.0
     # Pc = k1 (fmax − f')/(fmax − favg) for f' >= favg, else k3 (k1 = k3 = 1)
-    np.testing.assert_allclose(adaptive_probability([8.0, 6.0, 10.0, 5.0], fmax, favg, 1.0, 1.0),
-                               [0.5, 1.0, 0.0, 1.0])
+    np.testing.assert_allclose(adaptive_probability([8.0, 6.0, 10.0, 5.0], fmax, favg, 1.0, 1.0), [0.5, 1.0, 0.0, 1.0])
     # Pm = k2 (fmax − f)/(fmax − favg) for f >= favg, else k4 (k2 = k4 = 0.5)
-    np.testing.assert_allclose(adaptive_probability([9.0, 7.0, 3.0, 12.0], fmax, favg, 0.5, 0.5),
-                               [0.125, 0.375, 0.5, 0.0])
+    np.testing.assert_allclose(
+        adaptive_probability([9.0, 7.0, 3.0, 12.0], fmax, favg, 0.5, 0.5), [0.125, 0.375, 0.5, 0.0]
+    )
     # fmax == favg: 0/0 guarded, the below-average rate is used
     np.testing.assert_allclose(adaptive_probability([4.0, 4.0], 4.0, 4.0, 1.0, 0.7), [0.7, 0.7])
     np.testing.assert_allclose(fitness([0.5, 4.0, np.inf, np.nan]), [2.0, 0.25, 0.0, 0.0])
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.floats(0.01, 100), st.floats(0.0, 1.0), st.lists(st.floats(0, 200), min_size=1, max_size=10),
-       st.floats(0, 1), st.floats(0, 1))
+@given(
+    st.floats(0.01, 100),
+    st.floats(0.0, 1.0),
+    st.lists(st.floats(0, 200), min_size=1, max_size=10),
+    st.floats(0, 1),
+    st.floats(0, 1),
+)
 def test_adaptive_probability_invariants(fmax, frac, f, kh, kl):
     favg = frac * fmax
     p = adaptive_probability(f, fmax, favg, kh, kl)
@@ -231,8 +253,9 @@ def test_pso_velocity_hand_computed():
 
 
 # ---------------------------------------------------------------- bounds
-@pytest.mark.parametrize("method,tol", [("trf", 1e-9), ("gauss-newton", 1e-12), ("newton", 1e-12),
-                                        ("pso", 5e-5), ("ga", 1e-4)])
+@pytest.mark.parametrize(
+    "method,tol", [("trf", 1e-9), ("gauss-newton", 1e-12), ("newton", 1e-12), ("pso", 5e-5), ("ga", 1e-4)]
+)
 def test_bounds_respected_and_constrained_optimum_found(method, tol):
     # min Σ (x − c)² over [−1, 1]³ is clip(c) = (1, −1, 0.5); every evaluated point must lie in the box.
     # PSO/GA tolerances measured over 30 seeds (max error 1.7e-5 and 3.4e-5), asserted with ~3x margin.
@@ -259,8 +282,11 @@ def test_methods_without_bounds_refuse_them(method):
 # ---------------------------------------------------------------- honest failure reports
 def test_gauss_newton_reports_rank_deficiency():
     # r depends on a + b only: the direction (1, −1)/√2 is unobservable
-    pr = Problem(lambda x: np.array([x[0] + x[1] - 1.0, 2 * (x[0] + x[1]) - 2.5, x[2] - 3.0]), [0.0, 0.0, 0.0],
-                 names=["a", "b", "c"])
+    pr = Problem(
+        lambda x: np.array([x[0] + x[1] - 1.0, 2 * (x[0] + x[1]) - 2.5, x[2] - 3.0]),
+        [0.0, 0.0, 0.0],
+        names=["a", "b", "c"],
+    )
     r = minimize(pr, "gauss-newton")
     assert not r.success
     assert "rank-deficient (rank 2 < 3" in r.message and "a" in r.message and "b" in r.message
@@ -269,8 +295,12 @@ def test_gauss_newton_reports_rank_deficiency():
 def test_plain_newton_converges_to_a_maximum_and_says_so():
     # E = x⁴ − x²: E'' < 0 at x0 = 0.1, so the plain Newton step jumps towards the stationary point x = 0,
     # a maximum. It must not be silently regularized into a descent method.
-    pr = Problem(cost=lambda x: x[0] ** 4 - x[0] ** 2, gradient=lambda x: np.array([4 * x[0] ** 3 - 2 * x[0]]),
-                 hessian=lambda x: np.array([[12 * x[0] ** 2 - 2]]), x0=[0.1])
+    pr = Problem(
+        cost=lambda x: x[0] ** 4 - x[0] ** 2,
+        gradient=lambda x: np.array([4 * x[0] ** 3 - 2 * x[0]]),
+        hessian=lambda x: np.array([[12 * x[0] ** 2 - 2]]),
+        x0=[0.1],
+    )
     r = minimize(pr, "newton", xtol=1e-12)
     assert not r.success and "not a minimum" in r.message
     d = minimize(pr, "newton", damping=True)
@@ -282,8 +312,12 @@ def test_plain_newton_converges_to_a_maximum_and_says_so():
 
 # ---------------------------------------------------------------- linear least squares, covariance, JSON
 @settings(max_examples=15, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.integers(4, 12), st.integers(1, 4),
-       st.sampled_from(["lm", "trf", "gauss-newton", "newton"]))
+@given(
+    st.integers(0, 2**31 - 1),
+    st.integers(4, 12),
+    st.integers(1, 4),
+    st.sampled_from(["lm", "trf", "gauss-newton", "newton"]),
+)
 def test_linear_least_squares_matches_lstsq(seed, m, n, method):
     rng = np.random.default_rng(seed)
     A = rng.normal(size=(m, n)) + 3 * np.eye(m, n)
@@ -321,33 +355,40 @@ def _quad(x):
     return np.asarray(x) - 1.0
 
 
-@pytest.mark.parametrize("make,match", [
-    (lambda: minimize(Problem(lambda x: x[:3] - 1.0, [0.0, 0.0, 0.0], bounds=([0, 0], [1, 1])), "trf"),
-     "bounds lb has shape"),
-    (lambda: minimize(Problem(lambda x: np.array([x[0], x[1], x[2]]), [0.0, 0.0]), "lm"), "x0 failed"),
-    (lambda: minimize(Problem(lambda x: np.array([np.nan, x[0]]), [0.0]), "lm"), "NaN"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0]), "pso"), "search_interval"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0]), "ga"), "search_interval"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0]), "simplex"), "unknown optimization method"),
-    (lambda: Problem(_quad, [0.0, 0.0], bounds=([0, 1], [1, 0.5])), "lb = 1 >= ub = 0.5"),
-    (lambda: Problem(_quad, [0.0, 2.0], bounds=(-1, 1)), "outside the bounds"),
-    (lambda: Problem(_quad, [[0.0, 2.0]]), "1-D"),
-    (lambda: Problem(_quad, [0.0, np.inf]), "NaN or infinite"),
-    (lambda: Problem(None, [0.0]), "neither residuals nor cost"),
-    (lambda: Problem(_quad, [0.0], cost=lambda x: 0.0), "both residuals and cost"),
-    (lambda: Problem(_quad, [0.0, 0.0], names=["a"]), "names has 1"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0]), "trf", maxiter=3), "no option"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0], jacobian=lambda x: np.eye(3)), "trf"), "jacobian returned shape"),
-    (lambda: minimize(Problem(cost=lambda x: float(x @ x), x0=[1.0]), "lm"), "least-squares"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0], bounds=(-1, 2)), "pso", v_max=[1, 2, 3]), "v_max"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0]), "gauss-newton", jac="5-point"), "finite-difference scheme"),
-    (lambda: minimize("not a problem", "trf"), "needs a Problem"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0], residuals_batch=lambda X: X[:, :1], bounds=(-1, 1)), "pso"),
-     "residuals_batch returned shape"),
-    (lambda: Problem(_quad, search_interval=(-1, 1)), "no x0"),
-    (lambda: minimize(Problem(_quad, [0.0], search_interval=(-np.inf, 1)), "pso"), "search_interval is infinite"),
-    (lambda: minimize(Problem(_quad, [0.0, 0.0], bounds=(-1, 1)), "ga", population=2), "population >= 4"),
-])
+@pytest.mark.parametrize(
+    "make,match",
+    [
+        (
+            lambda: minimize(Problem(lambda x: x[:3] - 1.0, [0.0, 0.0, 0.0], bounds=([0, 0], [1, 1])), "trf"),
+            "bounds lb has shape",
+        ),
+        (lambda: minimize(Problem(lambda x: np.array([x[0], x[1], x[2]]), [0.0, 0.0]), "lm"), "x0 failed"),
+        (lambda: minimize(Problem(lambda x: np.array([np.nan, x[0]]), [0.0]), "lm"), "NaN"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0]), "pso"), "search_interval"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0]), "ga"), "search_interval"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0]), "simplex"), "unknown optimization method"),
+        (lambda: Problem(_quad, [0.0, 0.0], bounds=([0, 1], [1, 0.5])), "lb = 1 >= ub = 0.5"),
+        (lambda: Problem(_quad, [0.0, 2.0], bounds=(-1, 1)), "outside the bounds"),
+        (lambda: Problem(_quad, [[0.0, 2.0]]), "1-D"),
+        (lambda: Problem(_quad, [0.0, np.inf]), "NaN or infinite"),
+        (lambda: Problem(None, [0.0]), "neither residuals nor cost"),
+        (lambda: Problem(_quad, [0.0], cost=lambda x: 0.0), "both residuals and cost"),
+        (lambda: Problem(_quad, [0.0, 0.0], names=["a"]), "names has 1"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0]), "trf", maxiter=3), "no option"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0], jacobian=lambda x: np.eye(3)), "trf"), "jacobian returned shape"),
+        (lambda: minimize(Problem(cost=lambda x: float(x @ x), x0=[1.0]), "lm"), "least-squares"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0], bounds=(-1, 2)), "pso", v_max=[1, 2, 3]), "v_max"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0]), "gauss-newton", jac="5-point"), "finite-difference scheme"),
+        (lambda: minimize("not a problem", "trf"), "needs a Problem"),
+        (
+            lambda: minimize(Problem(_quad, [0.0, 0.0], residuals_batch=lambda X: X[:, :1], bounds=(-1, 1)), "pso"),
+            "residuals_batch returned shape",
+        ),
+        (lambda: Problem(_quad, search_interval=(-1, 1)), "no x0"),
+        (lambda: minimize(Problem(_quad, [0.0], search_interval=(-np.inf, 1)), "pso"), "search_interval is infinite"),
+        (lambda: minimize(Problem(_quad, [0.0, 0.0], bounds=(-1, 1)), "ga", population=2), "population >= 4"),
+    ],
+)
 def test_bad_input_raises_optinav_error(make, match):
     with pytest.raises(OptinavError, match=match):
         make()

@@ -22,8 +22,14 @@ def _data(rng, n):
 
 def test_plain_columns(tmp_path):
     t, acc, gyr = _data(np.random.default_rng(0), 500)
-    tab = pa.table({"t": t, **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
-                    **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")}, "note": ["x"] * 500})
+    tab = pa.table(
+        {
+            "t": t,
+            **{f"a{a}": acc[:, j] for j, a in enumerate("xyz")},
+            **{f"g{a}": gyr[:, j] for j, a in enumerate("xyz")},
+            "note": ["x"] * 500,
+        }
+    )
     pq.write_table(tab, tmp_path / "d.parquet", row_group_size=77)
     log = read_imu(tmp_path / "d.parquet")
     assert np.array_equal(log.t, t) and np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)
@@ -32,15 +38,21 @@ def test_plain_columns(tmp_path):
 def _layouts():
     """One column layout: how each triad is stored, alias names, float type, column order, row groups, extras."""
     triad = st.sampled_from(["columns", "list", "fixed_list", "struct"])
-    return st.fixed_dictionaries({
-        "acc": triad, "gyro": triad,
-        "acc_name": st.sampled_from(["acc", "accel", "linear_acceleration", "imu_acc"]),
-        "gyro_name": st.sampled_from(["gyro", "gyr", "angular_velocity", "omega"]),
-        "t_name": st.sampled_from(["t", "time", "timestamp", "Time [s]", "time_ms", "stamp_ts"]),
-        "f32": st.booleans(), "order": st.permutations(range(4)), "group": st.integers(1, 60),
-        "nulls": st.lists(st.integers(0, 39), max_size=3), "n": st.integers(2, 40),
-        "extra": st.sampled_from([None, "string", "varlist", "int"]),
-    })
+    return st.fixed_dictionaries(
+        {
+            "acc": triad,
+            "gyro": triad,
+            "acc_name": st.sampled_from(["acc", "accel", "linear_acceleration", "imu_acc"]),
+            "gyro_name": st.sampled_from(["gyro", "gyr", "angular_velocity", "omega"]),
+            "t_name": st.sampled_from(["t", "time", "timestamp", "Time [s]", "time_ms", "stamp_ts"]),
+            "f32": st.booleans(),
+            "order": st.permutations(range(4)),
+            "group": st.integers(1, 60),
+            "nulls": st.lists(st.integers(0, 39), max_size=3),
+            "n": st.integers(2, 40),
+            "extra": st.sampled_from([None, "string", "varlist", "int"]),
+        }
+    )
 
 
 def _triad(layout, name, kind, v, ftype, pa_null):
@@ -75,11 +87,16 @@ def test_odd_layouts_read_back(tmp_path, layout, seed):
     else:
         t_col = pa.array(t * scale)
     acc_mask = mask if layout["acc"] in ("columns", "struct") else None
-    groups = [[(layout["t_name"], t_col)],
-              _triad(layout, layout["acc_name"], layout["acc"], acc, ftype, acc_mask),
-              _triad(layout, layout["gyro_name"], layout["gyro"], gyr, ftype, None)]
-    extra = {"string": pa.array([f"s{i}" for i in range(n)]), "int": pa.array(np.arange(n)),
-             "varlist": pa.array([[1.0] * (i % 3) for i in range(n)])}.get(layout["extra"])
+    groups = [
+        [(layout["t_name"], t_col)],
+        _triad(layout, layout["acc_name"], layout["acc"], acc, ftype, acc_mask),
+        _triad(layout, layout["gyro_name"], layout["gyro"], gyr, ftype, None),
+    ]
+    extra = {
+        "string": pa.array([f"s{i}" for i in range(n)]),
+        "int": pa.array(np.arange(n)),
+        "varlist": pa.array([[1.0] * (i % 3) for i in range(n)]),
+    }.get(layout["extra"])
     groups.append([("comment", extra)] if extra is not None else [])
     cols = [c for k in layout["order"] for c in groups[k]]
     path = tmp_path / f"d{seed}.parquet"
@@ -117,7 +134,9 @@ def test_positional_names_and_labels(tmp_path):
     rng = np.random.default_rng(3)
     m = rng.normal(size=(n, 7))
     m[:, 0] = np.arange(n) * 0.01
-    tab = pa.table({f"c{j}": m[:, j] for j in range(7)} | {"lab": pa.array(["p1"] * 10 + ["p2"] * 20).dictionary_encode()})
+    tab = pa.table(
+        {f"c{j}": m[:, j] for j in range(7)} | {"lab": pa.array(["p1"] * 10 + ["p2"] * 20).dictionary_encode()}
+    )
     pq.write_table(tab, tmp_path / "p.parquet")
     log = read_imu(tmp_path / "p.parquet", columns="t,ax,ay,az,gx,gy,gz,label")
     assert np.array_equal(log.acc, m[:, 1:4]) and np.array_equal(log.gyr, m[:, 4:7])
@@ -136,8 +155,9 @@ def test_damaged_and_empty(tmp_path):
     pq.write_table(pa.table({"name": ["a", "b"]}), tmp_path / "text.parquet")
     with pytest.raises(OptinavError, match="has no accelerometer or gyroscope data"):
         read_imu(tmp_path / "text.parquet")
-    pq.write_table(pa.table({"m": pa.array([{"k": 1}, {"k": 2}], type=pa.map_(pa.string(), pa.int64()))}),
-                   tmp_path / "map.parquet")
+    pq.write_table(
+        pa.table({"m": pa.array([{"k": 1}, {"k": 2}], type=pa.map_(pa.string(), pa.int64()))}), tmp_path / "map.parquet"
+    )
     with pytest.raises(OptinavError, match=r"holds no numeric columns \(unreadable: .*map"):
         read_table(tmp_path / "map.parquet")
 
@@ -145,12 +165,35 @@ def test_damaged_and_empty(tmp_path):
 def test_cli_attitude_reads_parquet(tmp_path, capsys):
     """The same log as CSV and as Parquet gives the same attitude."""
     csv = tmp_path / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "six", "--dwell", "2",
-                 "--seed", "1"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(csv),
+                "--scheme",
+                "six",
+                "--dwell",
+                "2",
+                "--seed",
+                "1",
+            ]
+        )
+        == 0
+    )
     log = read_imu(csv)
-    pq.write_table(pa.table({"time": log.t, "acc": pa.FixedSizeListArray.from_arrays(pa.array(log.acc.ravel()), 3),
-                             "gyro": pa.FixedSizeListArray.from_arrays(pa.array(log.gyr.ravel()), 3)}),
-                   tmp_path / "s.parquet")
+    pq.write_table(
+        pa.table(
+            {
+                "time": log.t,
+                "acc": pa.FixedSizeListArray.from_arrays(pa.array(log.acc.ravel()), 3),
+                "gyro": pa.FixedSizeListArray.from_arrays(pa.array(log.gyr.ravel()), 3),
+            }
+        ),
+        tmp_path / "s.parquet",
+    )
     out = {}
     for name in ("s.csv", "s.parquet"):
         o = tmp_path / f"{name}.att.csv"

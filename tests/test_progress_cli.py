@@ -11,14 +11,44 @@ from optinav.cli.main import main
 def session(tmp_path_factory):
     d = tmp_path_factory.mktemp("progress")
     data = d / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(data), "--acc-unit", "counts",
-                 "--gyro-unit", "deg/s", "--seed", "1"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(data),
+                "--acc-unit",
+                "counts",
+                "--gyro-unit",
+                "deg/s",
+                "--seed",
+                "1",
+            ]
+        )
+        == 0
+    )
     return d, data
 
 
 def _calibrate(d, data, *extra):
-    return main([*extra, "calibrate", "accel", str(data), "--latitude", "38.88", "--out", str(d / "r.json"),
-                 "--method", "ga", "--generations", "5"])
+    return main(
+        [
+            *extra,
+            "calibrate",
+            "accel",
+            str(data),
+            "--latitude",
+            "38.88",
+            "--out",
+            str(d / "r.json"),
+            "--method",
+            "ga",
+            "--generations",
+            "5",
+        ]
+    )
 
 
 def test_calibrate_shows_steps_on_a_terminal(session, capsys, monkeypatch):

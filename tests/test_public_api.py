@@ -35,9 +35,22 @@ def test_module_constants_stay_importable():
 # --- one vocabulary (docs/conventions.md, "Names") -----------------------------------------------------------
 
 #: parameter name → the name the conventions page uses instead
-BANNED = {"rate": "rate_hz", "sample_rate": "rate_hz", "h": "height_m", "height": "height_m", "gyro": "gyr",
-          "omega_ib_b": "gyr", "omega_b": "gyr", "accel": "acc", "f_b": "acc", "f": "acc", "dcm_b_n": "C_b_n",
-          "c_b_n": "C_b_n", "q_true": "q_b_n", "h0": "height0_m"}
+BANNED = {
+    "rate": "rate_hz",
+    "sample_rate": "rate_hz",
+    "h": "height_m",
+    "height": "height_m",
+    "gyro": "gyr",
+    "omega_ib_b": "gyr",
+    "omega_b": "gyr",
+    "accel": "acc",
+    "f_b": "acc",
+    "f": "acc",
+    "dcm_b_n": "C_b_n",
+    "c_b_n": "C_b_n",
+    "q_true": "q_b_n",
+    "h0": "height0_m",
+}
 #: in the systems (not in core.rotations, where a quaternion is any quaternion) an attitude is q_b_n
 BANNED_IN_SYSTEMS = {"q": "q_b_n", "dcm": "C_b_n"}
 #: library functions that take degrees on purpose, and why
@@ -55,13 +68,17 @@ def _public_modules():
 
     import optinav.core
 
-    names = [f"optinav.core.{m.name}" for m in pkgutil.walk_packages(optinav.core.__path__, "")
-             if not m.name.split(".")[-1].startswith("_")]
+    names = [
+        f"optinav.core.{m.name}"
+        for m in pkgutil.walk_packages(optinav.core.__path__, "")
+        if not m.name.split(".")[-1].startswith("_")
+    ]
     for system in ("multipos", "rins", "gfimu", "attitude", "sky"):
         pkg = importlib.import_module(f"optinav.{system}")
         names.append(f"optinav.{system}")
-        names += [f"optinav.{system}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__)
-                  if not m.name.startswith("_")]
+        names += [
+            f"optinav.{system}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if not m.name.startswith("_")
+        ]
     return names
 
 
@@ -99,7 +116,7 @@ def _violations(calls) -> list[str]:
             if p in BANNED:
                 bad.append(f"{name}({p}) → {BANNED[p]}")
             elif p.startswith("accel_") and p not in MOTION_ACCELERATION:
-                bad.append(f"{name}({p}) → acc_{p[len('accel_'):]}")
+                bad.append(f"{name}({p}) → acc_{p[len('accel_') :]}")
             elif in_system and p in BANNED_IN_SYSTEMS:
                 bad.append(f"{name}({p}) → {BANNED_IN_SYSTEMS[p]}")
             elif p.endswith("_deg") and not boundary:
@@ -124,13 +141,22 @@ def test_the_vocabulary_check_flags_synonyms_and_degrees():
 
 #: the data classes whose serialized fields and public properties follow the vocabulary (older field names load
 #: through their schema's earlier versions)
-DATA_CLASSES = ("optinav.core.simulate.ImuTruth", "optinav.io.imu.ImuLog", "optinav.core.imu_model.ImuModel",
-                "optinav.core.imu_model.ImuMeasurement", "optinav.core.imu_model.ImuCompensated",
-                "optinav.core.imu_model.ImuSpec", "optinav.core.alignment.AlignmentResult",
-                "optinav.attitude.simulate.FlightData", "optinav.rins.simulate.RinsData",
-                "optinav.multipos.simulate.SimulatedSession", "optinav.multipos.ferraris.FerrarisCalibration",
-                "optinav.sky.sun.SolarPosition", "optinav.gfimu.turntable.TurntableData",
-                "optinav.multipos.calibrate.SessionData")
+DATA_CLASSES = (
+    "optinav.core.simulate.ImuTruth",
+    "optinav.io.imu.ImuLog",
+    "optinav.core.imu_model.ImuModel",
+    "optinav.core.imu_model.ImuMeasurement",
+    "optinav.core.imu_model.ImuCompensated",
+    "optinav.core.imu_model.ImuSpec",
+    "optinav.core.alignment.AlignmentResult",
+    "optinav.attitude.simulate.FlightData",
+    "optinav.rins.simulate.RinsData",
+    "optinav.multipos.simulate.SimulatedSession",
+    "optinav.multipos.ferraris.FerrarisCalibration",
+    "optinav.sky.sun.SolarPosition",
+    "optinav.gfimu.turntable.TurntableData",
+    "optinav.multipos.calibrate.SessionData",
+)
 #: fields not yet renamed, and why
 FIELD_EXCEPTIONS: dict[str, str] = {}
 
@@ -148,7 +174,7 @@ def _field_violations(classes) -> list[str]:
             if name in BANNED:
                 bad.append(f"{cls.__name__}.{name} → {BANNED[name]}")
             elif name.startswith("accel_"):  # the accelerometer's stem is acc, in compound names too
-                bad.append(f"{cls.__name__}.{name} → acc_{name[len('accel_'):]}")
+                bad.append(f"{cls.__name__}.{name} → acc_{name[len('accel_') :]}")
     return bad
 
 
@@ -159,16 +185,30 @@ def test_data_class_fields_use_the_vocabulary():
     # the check flags a field named by a synonym
     import dataclasses
 
-    old = dataclasses.make_dataclass("Old", [("omega_ib_b", float), ("f_b", float), ("q_true", float),
-                                             ("h", float), ("c_b_n", float), ("gyro", float), ("acc", float),
-                                             ("accel_noise", float), ("acc_noise", float)],
-                                     namespace={"dcm_b_n": property(lambda self: None),
-                                                "sample_rate": property(lambda self: None),
-                                                "rate_hz": property(lambda self: None)})
+    old = dataclasses.make_dataclass(
+        "Old",
+        [
+            ("omega_ib_b", float),
+            ("f_b", float),
+            ("q_true", float),
+            ("h", float),
+            ("c_b_n", float),
+            ("gyro", float),
+            ("acc", float),
+            ("accel_noise", float),
+            ("acc_noise", float),
+        ],
+        namespace={
+            "dcm_b_n": property(lambda self: None),
+            "sample_rate": property(lambda self: None),
+            "rate_hz": property(lambda self: None),
+        },
+    )
     assert len(_field_violations([old])) == 9
 
 
 # --- one frame spelling, one validator, documented defaults ------------------------------------------------
+
 
 def test_frame_name_is_the_one_validator():
     from optinav.core.rotations import FRAMES, frame_name
@@ -197,8 +237,9 @@ def test_frame_defaults_are_the_documented_ones():
             seen += 1
             if name in data_frames:
                 want = data_frames[name]
-            elif name.startswith(("optinav.core.earth", "optinav.core.simulate", "optinav.core.strapdown",
-                                  "optinav.core.alignment")):
+            elif name.startswith(
+                ("optinav.core.earth", "optinav.core.simulate", "optinav.core.strapdown", "optinav.core.alignment")
+            ):
                 want = CORE_FRAME
             else:
                 want = DEFAULT_FRAME

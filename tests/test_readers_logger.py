@@ -22,8 +22,9 @@ def _w(path, text):
     return path
 
 
-@pytest.mark.parametrize("key, value", [("Fs", "100"), ("rate", "100 Hz"), ("sampling_rate", "100"),
-                                        ("Sample Rate", "100")])
+@pytest.mark.parametrize(
+    "key, value", [("Fs", "100"), ("rate", "100 Hz"), ("sampling_rate", "100"), ("Sample Rate", "100")]
+)
 def test_preamble_before_the_header_gives_the_rate(tmp_path, key, value):
     log = read_imu(_w(tmp_path / "a.csv", f"device,MTi-1\n{key},{value}\nserial: 0x12\nax,ay,az,gx,gy,gz\n" + ROWS))
     np.testing.assert_allclose(log.t, [0.0, 0.01, 0.02])
@@ -50,9 +51,16 @@ def test_binary_under_the_wrong_suffix_is_read_by_its_content(tmp_path):
     assert read_imu(tmp_path / "a.csv").t.tolist() == [0.0, 0.5]
 
 
-@pytest.mark.parametrize("head, what", [(b"SQLite format 3\x00", "SQLite database"), (b"#ROSBAG V2.0\n", "ROS 1 bag"),
-                                        (b"\x89PNG\r\n\x1a\n", "PNG image"),
-                                        (b"\x89MCAP0\r\n", "MCAP"), (b"%PDF-1.7\n", "PDF")])
+@pytest.mark.parametrize(
+    "head, what",
+    [
+        (b"SQLite format 3\x00", "SQLite database"),
+        (b"#ROSBAG V2.0\n", "ROS 1 bag"),
+        (b"\x89PNG\r\n\x1a\n", "PNG image"),
+        (b"\x89MCAP0\r\n", "MCAP"),
+        (b"%PDF-1.7\n", "PDF"),
+    ],
+)
 @pytest.mark.parametrize("suffix", [".csv", ".npz", ".h5", ".dat"])
 def test_foreign_binary_is_named_in_one_line(tmp_path, head, what, suffix):
     path = _w(tmp_path / f"x{suffix}", head + bytes(range(256)) * 4)
@@ -109,10 +117,13 @@ def test_rate_attribute_and_variable(tmp_path):
     assert read_imu(tmp_path / "b.mat").t[1] == pytest.approx(0.04)
 
 
-@pytest.mark.parametrize("body, match", [
-    ("0,1,,3\n1,1,,3\n", "column 'ay' holds no number"),
-    ("0,1,2,3\n1,1e308,2,3\n", "column 'ax' holds 1e\\+308 in data row 2"),
-])
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        ("0,1,,3\n1,1,,3\n", "column 'ay' holds no number"),
+        ("0,1,2,3\n1,1e308,2,3\n", "column 'ax' holds 1e\\+308 in data row 2"),
+    ],
+)
 def test_bad_columns_and_cells_are_one_line_errors(tmp_path, body, match):
     with pytest.raises(OptinavError, match=match) as exc:
         read_imu(_w(tmp_path / "e.csv", "t,ax,ay,az\n" + body))
@@ -132,8 +143,24 @@ def test_a_raw_logger_file_calibrates_with_the_unit_options_alone(tmp_path, caps
     rows = "\n".join(",".join(map(str, r)) for r in raw)
     path = _w(tmp_path / "log.mat", f"Fs,{1 / np.median(np.diff(s.t)):g}\nax,ay,az,gx,gy,gz\n{rows}\n12,13")
     out = tmp_path / "r.json"
-    assert main(["calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts", "--gravity",
-                 str(s.gravity), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "accel",
+                str(path),
+                "--acc-unit",
+                "counts",
+                "--gyro-unit",
+                "counts",
+                "--gravity",
+                str(s.gravity),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "sample rate 100 Hz from the preamble line 'Fs'" in err and "is incomplete" in err
     r = CalibrationResult.from_json(out)
@@ -145,13 +172,31 @@ def test_a_raw_logger_file_calibrates_with_the_unit_options_alone(tmp_path, caps
     assert r.excluded["saturated_acc"] == 0 and r.excluded["saturated_gyro"] == 0
 
 
-_PIECES = st.sampled_from(["Fs,100\n", "rate: 1e308\n", "ax,ay,az\n", "t,ax,ay,az\n", "1,2,3\n", "1,2,3,4\n",
-                           "1e308,inf,-inf\n", "nan,,\n", ",,,\n", "\xe9\xb0,1\n", "1;2;3\n", "\"a\",b\n", "1,2"])
+_PIECES = st.sampled_from(
+    [
+        "Fs,100\n",
+        "rate: 1e308\n",
+        "ax,ay,az\n",
+        "t,ax,ay,az\n",
+        "1,2,3\n",
+        "1,2,3,4\n",
+        "1e308,inf,-inf\n",
+        "nan,,\n",
+        ",,,\n",
+        "\xe9\xb0,1\n",
+        "1;2;3\n",
+        '"a",b\n',
+        "1,2",
+    ]
+)
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(pieces=st.lists(_PIECES, max_size=10), suffix=st.sampled_from([".csv", ".mat", ".log", ".dat", ".npz", ".h5"]),
-       rate=st.sampled_from([None, 10.0]))
+@given(
+    pieces=st.lists(_PIECES, max_size=10),
+    suffix=st.sampled_from([".csv", ".mat", ".log", ".dat", ".npz", ".h5"]),
+    rate=st.sampled_from([None, 10.0]),
+)
 def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, rate):
     path = _w(tmp_path / f"f{suffix}", "".join(pieces))
     try:

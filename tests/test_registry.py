@@ -32,8 +32,10 @@ class ToyResult(Estimate):
     gates: list = dataclasses.field(default_factory=list)
 
     def parameters(self):
-        return {"mean": Parameter(self.mean, "m", std=self.sem, crlb_std=self.sem),
-                "spin": Parameter(None, "rad", observable=False, reason="a column of numbers has no spin")}
+        return {
+            "mean": Parameter(self.mean, "m", std=self.sem, crlb_std=self.sem),
+            "spin": Parameter(None, "rad", observable=False, reason="a column of numbers has no spin"),
+        }
 
 
 @dataclasses.dataclass
@@ -50,8 +52,12 @@ def check(options):
 
 def run_unit(path, options, reference=False):
     x = np.loadtxt(path, ndmin=1) * options.scale
-    res = ToyResult(mean=float(x.mean()), sem=float(x.std(ddof=1) / np.sqrt(x.size)), elapsed_s=1e-6,
-                    gates=[gate("samples", x.size, 2, kind="min")])
+    res = ToyResult(
+        mean=float(x.mean()),
+        sem=float(x.std(ddof=1) / np.sqrt(x.size)),
+        elapsed_s=1e-6,
+        gates=[gate("samples", x.size, 2, kind="min")],
+    )
     return res, {"n_samples": int(x.size)}
 
 
@@ -79,9 +85,16 @@ def add_apply_options(g):
 def report(res, out_dir, data=None, options=None):
     from optinav.reports.report import StudyResult, Table, write_report
 
-    return write_report([StudyResult("toy", "Toy", tables=[Table("Mean", ["mean [m]", "sem [m]"],
-                                                                 [[res.mean, res.sem]], formats=["{:.5f}"] * 2)])],
-                        out_dir)
+    return write_report(
+        [
+            StudyResult(
+                "toy",
+                "Toy",
+                tables=[Table("Mean", ["mean [m]", "sem [m]"], [[res.mean, res.sem]], formats=["{:.5f}"] * 2)],
+            )
+        ],
+        out_dir,
+    )
 
 
 def register_calibrate(kinds):
@@ -96,10 +109,22 @@ def register_simulate(kinds):
 
 @pytest.fixture
 def toy():
-    registry.register(registry.System(
-        name="toy", command="toy", kind="calibration", result=f"{THIS}:ToyResult", options=f"{THIS}:ToyOptions",
-        run_unit=f"{THIS}:run_unit", check=f"{THIS}:check", cli=THIS, help="the mean of a column of numbers",
-        apply=f"{THIS}:apply_file", apply_options=f"{THIS}:ToyApplyOptions", report=f"{THIS}:report"))
+    registry.register(
+        registry.System(
+            name="toy",
+            command="toy",
+            kind="calibration",
+            result=f"{THIS}:ToyResult",
+            options=f"{THIS}:ToyOptions",
+            run_unit=f"{THIS}:run_unit",
+            check=f"{THIS}:check",
+            cli=THIS,
+            help="the mean of a column of numbers",
+            apply=f"{THIS}:apply_file",
+            apply_options=f"{THIS}:ToyApplyOptions",
+            report=f"{THIS}:report",
+        )
+    )
     yield
     registry.unregister("toy")
 
@@ -138,8 +163,9 @@ def test_a_registered_fifth_system_appears_in_the_cli_and_runs_a_batch(toy, tmp_
     for name, x in data.items():
         np.savetxt(d / f"{name}.txt", x)
     out = tmp_path / "r.csv"
-    assert main(["--quiet", "batch", "calibrate", "toy", str(d), "--out", str(out), "--workers", "0",
-                 "--scale", "2"]) == 0
+    assert (
+        main(["--quiet", "batch", "calibrate", "toy", str(d), "--out", str(out), "--workers", "0", "--scale", "2"]) == 0
+    )
     rows = {r["unit"]: r for r in read_results(out)}
     for name, x in data.items():
         r = rows[name]

@@ -36,6 +36,7 @@ def _data(tmp_path) -> Path:
 
 # --- inputs are never overwritten -----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("link", ["same", "symlink", "hardlink"])
 def test_out_onto_an_input_is_refused(tmp_path, capsys, cube, link):
     target = cube
@@ -58,10 +59,11 @@ def test_apply_and_calibrate_refuse_out_onto_inputs(tmp_path, capsys):
     sections = tmp_path / "sections.json"
     sections.write_text('{"x_p": [0, 1]}')
     before = {p: digest(p) for p in (data, result, sections)}
-    for argv in (["apply", str(result), str(data), "--out", str(data)],
-                 ["apply", str(result), str(data), "--out", str(result)],
-                 ["calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(sections),
-                  "--out", str(sections)]):
+    for argv in (
+        ["apply", str(result), str(data), "--out", str(data)],
+        ["apply", str(result), str(data), "--out", str(result)],
+        ["calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(sections), "--out", str(sections)],
+    ):
         assert main(argv) == 2, argv
         one_line_error(capsys, "is the input")
     assert {p: digest(p) for p in before} == before
@@ -100,12 +102,17 @@ def test_own_truth_sidecar_is_replaced(tmp_path, capsys):
 
 # --- output checks before any work -----------------------------------------------------------------------------
 
+
 def test_bad_output_locations(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     (tmp_path / "dir.json").mkdir()
-    cases = [(tmp_path / "dir.json", "is a folder"), (blocker / "a.json", "is a file"), (blocker / "s" / "a.json", "lies below the file"),
-             (tmp_path / "nope" / "a.json", "does not exist")]
+    cases = [
+        (tmp_path / "dir.json", "is a folder"),
+        (blocker / "a.json", "is a file"),
+        (blocker / "s" / "a.json", "lies below the file"),
+        (tmp_path / "nope" / "a.json", "does not exist"),
+    ]
     for out, why in cases:
         assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)]) == 2
         one_line_error(capsys, why)
@@ -113,6 +120,7 @@ def test_bad_output_locations(tmp_path, capsys):
 
 
 # --- the atomic writer ------------------------------------------------------------------------------------------
+
 
 def test_atomic_writer_keeps_the_old_file_on_failure(tmp_path, monkeypatch):
     out = tmp_path / "r.json"
@@ -151,8 +159,12 @@ def test_file_size_limit_is_a_one_line_error(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
     proc = subprocess.run(
         [sys.executable, "-m", "optinav.cli.main", "gfimu", "analyze", "--builtin", "cylinder10", "--out", str(out)],
-        capture_output=True, text=True, timeout=120, env=env,
-        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200)))
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200)),
+    )
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().count("\n") == 0 and "file-size limit" in proc.stderr
     assert list(tmp_path.iterdir()) == []
@@ -160,22 +172,38 @@ def test_file_size_limit_is_a_one_line_error(tmp_path):
 
 # --- JSON inputs: every parser failure is one line --------------------------------------------------------------
 
-@pytest.mark.parametrize("content, why", [
-    (b"[" * 100_000 + b"]" * 100_000, "nested"),
-    (b'{"a":' * 200 + b"1" + b"}" * 200, "nested more than"),
-    (b'{"schema": "optinav.calibration", "x": "\xff\xfe"}', "not UTF-8"),
-    (b'{"version": ' + b"9" * 5000 + b"}", "not readable JSON"),
-    (b'{"schema": ', "not valid JSON"),
-])
+
+@pytest.mark.parametrize(
+    "content, why",
+    [
+        (b"[" * 100_000 + b"]" * 100_000, "nested"),
+        (b'{"a":' * 200 + b"1" + b"}" * 200, "nested more than"),
+        (b'{"schema": "optinav.calibration", "x": "\xff\xfe"}', "not UTF-8"),
+        (b'{"version": ' + b"9" * 5000 + b"}", "not readable JSON"),
+        (b'{"schema": ', "not valid JSON"),
+    ],
+)
 def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
     bad = tmp_path / "bad.json"
     bad.write_bytes(content)
     data = _data(tmp_path)
     before = digest(data)
-    for argv in (["apply", str(bad), str(data), "--out", str(tmp_path / "o.csv")],
-                 ["gfimu", "analyze", str(bad)],
-                 ["--quiet", "calibrate", "accel", str(data), "--method", "ferraris", "--sections", str(bad),
-                  "--out", str(tmp_path / "r.json")]):
+    for argv in (
+        ["apply", str(bad), str(data), "--out", str(tmp_path / "o.csv")],
+        ["gfimu", "analyze", str(bad)],
+        [
+            "--quiet",
+            "calibrate",
+            "accel",
+            str(data),
+            "--method",
+            "ferraris",
+            "--sections",
+            str(bad),
+            "--out",
+            str(tmp_path / "r.json"),
+        ],
+    ):
         assert main(argv) == 2, argv
         one_line_error(capsys, why)
     assert digest(data) == before and not (tmp_path / "o.csv").exists()
@@ -183,15 +211,19 @@ def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
 
 # --- option ranges at parsing: one line, exit 2 ----------------------------------------------------------------
 
-@pytest.mark.parametrize("argv, why", [
-    (["sun", "--lat", "95", "--lon", "0", "--time", "2021-01-01T00:00:00Z"], "--lat: 95 is out of range"),
-    (["sun", "--lat", "10", "--lon", "0", "--height", "1e7", "--time", "2021-01-01T00:00:00Z"], "--height"),
-    (["simulate", "gfimu-turntable", "--out", "x.npz", "--noise", "-1"], "--noise: -1 is out of range"),
-    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--cycles", "0", "--out", "x.npz"], "--cycles"),
-    (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--lat", "95", "--out", "x.npz"], "--lat"),
-    (["simulate", "accel-multipos", "--out", "x.csv", "--dwell", "nan"], "not finite"),
-    (["calibrate", "rins", "x.npz", "--lat", "-91", "--out", "r.json"], "--lat"),
-])
+
+@pytest.mark.parametrize(
+    "argv, why",
+    [
+        (["sun", "--lat", "95", "--lon", "0", "--time", "2021-01-01T00:00:00Z"], "--lat: 95 is out of range"),
+        (["sun", "--lat", "10", "--lon", "0", "--height", "1e7", "--time", "2021-01-01T00:00:00Z"], "--height"),
+        (["simulate", "gfimu-turntable", "--out", "x.npz", "--noise", "-1"], "--noise: -1 is out of range"),
+        (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--cycles", "0", "--out", "x.npz"], "--cycles"),
+        (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--lat", "95", "--out", "x.npz"], "--lat"),
+        (["simulate", "accel-multipos", "--out", "x.csv", "--dwell", "nan"], "not finite"),
+        (["calibrate", "rins", "x.npz", "--lat", "-91", "--out", "r.json"], "--lat"),
+    ],
+)
 def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)
@@ -209,8 +241,22 @@ RINS = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "-
 def rins_file(tmp_path_factory):
     d = tmp_path_factory.mktemp("rins")
     data = d / "r.npz"
-    assert main(["--quiet", "simulate", "rins", "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3", "--seed", "3",
-                 "--out", str(data), *RINS]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "rins",
+                "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3",
+                "--seed",
+                "3",
+                "--out",
+                str(data),
+                *RINS,
+            ]
+        )
+        == 0
+    )
     return data
 
 
@@ -239,6 +285,7 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
 
 # --- sun: the SPA's whole valid range, refused outside --------------------------------------------------------
 
+
 def test_sun_beyond_datetime64_ns_range(capsys):
     import numpy as np
 
@@ -261,8 +308,16 @@ def test_sun_beyond_datetime64_ns_range(capsys):
 
 # --- apply refuses a calibration no sensor can have -------------------------------------------------------------
 
-@pytest.mark.parametrize("K, why", [(1e300, "outside"), (3.0, "outside"), (0.1, "outside"),
-                                    ([[1, 1, 0], [1, 1.01, 0], [0, 0, 1]], "condition number")])
+
+@pytest.mark.parametrize(
+    "K, why",
+    [
+        (1e300, "outside"),
+        (3.0, "outside"),
+        (0.1, "outside"),
+        ([[1, 1, 0], [1, 1.01, 0], [0, 0, 1]], "condition number"),
+    ],
+)
 def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
     import numpy as np
 
@@ -286,23 +341,43 @@ def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
 
 # --- gfimu quality gates: stuck outputs, table-rate unit, residual against --noise -------------------------------
 
+
 @pytest.fixture(scope="module")
 def turntable(tmp_path_factory):
     d = tmp_path_factory.mktemp("gfimu")
     data = d / "tt.npz"
-    assert main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--duration", "1",
-                 "--seed", "2", "--out", str(data)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "gfimu-turntable",
+                "--builtin",
+                "cylinder10",
+                "--duration",
+                "1",
+                "--seed",
+                "2",
+                "--out",
+                str(data),
+            ]
+        )
+        == 0
+    )
     import numpy as np
 
     return data, dict(np.load(data))
 
 
-@pytest.mark.parametrize("case, extra, why", [
-    ("constant", [], "barely change between the turntable cases"),
-    ("stuck4", [], "accelerometer(s) 4 barely change"),
-    ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
-    ("good", ["--noise", "1e-9"], "against --noise"),
-])
+@pytest.mark.parametrize(
+    "case, extra, why",
+    [
+        ("constant", [], "barely change between the turntable cases"),
+        ("stuck4", [], "accelerometer(s) 4 barely change"),
+        ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
+        ("good", ["--noise", "1e-9"], "against --noise"),
+    ],
+)
 def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
     import numpy as np
 
@@ -321,8 +396,23 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
     one_line_error(capsys, why)
     assert not out.exists()
     if case == "deg":  # the flag the error names makes it right: the truth's 1 mm errors within 4σ
-        assert main(["--quiet", "calibrate", "gfimu", str(bad), "--builtin", "cylinder10", "--rate-unit", "deg/s",
-                     "--out", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "calibrate",
+                    "gfimu",
+                    str(bad),
+                    "--builtin",
+                    "cylinder10",
+                    "--rate-unit",
+                    "deg/s",
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         res = json.loads(out.read_text())["fields"]
         truth = json.loads(path.with_name("tt.truth.json").read_text())
         dr = np.asarray(res["dr"]["value"])
@@ -331,6 +421,7 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
 
 
 # --- batch: inputs, options once, workers that die ---------------------------------------------------------------
+
 
 def _batch_units(tmp_path):
     import numpy as np
@@ -341,8 +432,9 @@ def _batch_units(tmp_path):
     d = tmp_path / "units"
     d.mkdir()
     for k in (1, 2):
-        s = simulate("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
-                     height_m=35.0, rng=k)
+        s = simulate(
+            "18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88), height_m=35.0, rng=k
+        )
         write_imu(d / f"u{k}.csv", ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, acc_unit="m/s^2", gyro_unit="rad/s"))
     return d
 
@@ -350,13 +442,45 @@ def _batch_units(tmp_path):
 def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsys):
     d = _batch_units(tmp_path)
     before = digest(d / "u2.csv")
-    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "u2.csv"), "--workers", "0",
-                 "--latitude", "38.88"]) == 2
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                "calibrate",
+                "accel",
+                str(d),
+                "--out",
+                str(d / "u2.csv"),
+                "--workers",
+                "0",
+                "--latitude",
+                "38.88",
+            ]
+        )
+        == 2
+    )
     one_line_error(capsys, "is not an optinav results table")
     assert digest(d / "u2.csv") == before
     # bad site options fail once, before any unit (they used to fail every unit and exit 0)
-    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"),
-                 "--workers", "0", "--gravity", "5"]) == 2
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                "calibrate",
+                "accel",
+                str(d),
+                "--out",
+                str(tmp_path / "r.csv"),
+                "--workers",
+                "0",
+                "--gravity",
+                "5",
+            ]
+        )
+        == 2
+    )
     one_line_error(capsys, "gravity 5 m/s^2 is outside")
     from optinav.batch import run_batch
     from optinav.multipos.calibrate import FileOptions
@@ -368,11 +492,48 @@ def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsy
     assert not (tmp_path / "r.csv").exists() and not (tmp_path / "r.csv.journal.jsonl").exists()
     # a batch with a failed unit exits 1; its table is written, and a re-run may replace it
     (d / "u3.csv").write_text("t,ax,ay,az\n0,1,2\n")
-    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
-                 "--latitude", "38.88", "--height", "35"]) == 1
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                "calibrate",
+                "accel",
+                str(d),
+                "--out",
+                str(d / "r.csv"),
+                "--workers",
+                "0",
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+            ]
+        )
+        == 1
+    )
     assert "3 units: 2 ok, 1 failed" in capsys.readouterr().out
-    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(d / "r.csv"), "--workers", "0",
-                 "--latitude", "38.88", "--height", "35", "--fresh"]) == 1
+    assert (
+        main(
+            [
+                "--quiet",
+                "batch",
+                "calibrate",
+                "accel",
+                str(d),
+                "--out",
+                str(d / "r.csv"),
+                "--workers",
+                "0",
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--fresh",
+            ]
+        )
+        == 1
+    )
 
 
 def dies_on_u2(path, options, name):
@@ -409,10 +570,12 @@ def test_workers_die_with_the_batch(tmp_path):
     import signal
     import time
 
-    code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); from pathlib import Path\n"
-            "from optinav import batch; import test_reliability as t\n"
-            f"units = [batch.Unit(f'u{{k}}', Path({str(tmp_path)!r}) / f'pid{{k}}', 1, 1) for k in (1, 2)]\n"
-            "list(batch._run_local(units, None, 2, fn=t.sleeps))\n")
+    code = (
+        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); from pathlib import Path\n"
+        "from optinav import batch; import test_reliability as t\n"
+        f"units = [batch.Unit(f'u{{k}}', Path({str(tmp_path)!r}) / f'pid{{k}}', 1, 1) for k in (1, 2)]\n"
+        "list(batch._run_local(units, None, 2, fn=t.sleeps))\n"
+    )
     env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
     proc = subprocess.Popen([sys.executable, "-c", code], env=env, stderr=subprocess.DEVNULL)
     try:
@@ -443,12 +606,16 @@ def test_workers_die_with_the_batch(tmp_path):
 
 # --- sizes that cannot fit are refused up front with the estimate ------------------------------------------------
 
-@pytest.mark.parametrize("argv", [
-    ["simulate", "flight", "--out", "{d}/f.csv", "--duration", "1e7"],
-    ["simulate", "accel-multipos", "--out", "{d}/m.csv", "--dwell", "1e7"],
-    ["simulate", "rins", "--nonorth=0,0,0,0,0,0", "--dwell", "1e7", "--out", "{d}/r.npz"],
-    ["simulate", "gfimu-turntable", "--duration", "1e9", "--out", "{d}/g.npz"],
-])
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "flight", "--out", "{d}/f.csv", "--duration", "1e7"],
+        ["simulate", "accel-multipos", "--out", "{d}/m.csv", "--dwell", "1e7"],
+        ["simulate", "rins", "--nonorth=0,0,0,0,0,0", "--dwell", "1e7", "--out", "{d}/r.npz"],
+        ["simulate", "gfimu-turntable", "--duration", "1e9", "--out", "{d}/g.npz"],
+    ],
+)
 def test_simulations_that_cannot_fit_are_refused(tmp_path, capsys, argv):
     assert main([a.format(d=tmp_path) for a in argv]) == 2
     one_line_error(capsys, "GiB of memory", "available")
@@ -469,16 +636,45 @@ def test_height_without_latitude_is_an_error(tmp_path, capsys):
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-_json = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=5),
-                     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4),
-                     max_leaves=20)
-_keys = st.sampled_from(["schema", "version", "fields", "accelerometer", "gyroscope", "K", "b", "units",
-                         "accelerometers", "position", "direction", "noise", "start", "end", "x_p", "value",
-                         "__ndarray__", "__float__", "dtype", "angles", "arrays", ""])
-_shaped = st.recursive(st.none() | st.floats() | st.integers() | st.sampled_from(["optinav.calibration", "float64",
-                                                                                    "optinav.triad_noise", "inf"]),
-                       lambda kids: st.lists(kids, max_size=4) | st.dictionaries(_keys, kids, max_size=5),
-                       max_leaves=25)
+_json = st.recursive(
+    st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=5),
+    lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4),
+    max_leaves=20,
+)
+_keys = st.sampled_from(
+    [
+        "schema",
+        "version",
+        "fields",
+        "accelerometer",
+        "gyroscope",
+        "K",
+        "b",
+        "units",
+        "accelerometers",
+        "position",
+        "direction",
+        "noise",
+        "start",
+        "end",
+        "x_p",
+        "value",
+        "__ndarray__",
+        "__float__",
+        "dtype",
+        "angles",
+        "arrays",
+        "",
+    ]
+)
+_shaped = st.recursive(
+    st.none()
+    | st.floats()
+    | st.integers()
+    | st.sampled_from(["optinav.calibration", "float64", "optinav.triad_noise", "inf"]),
+    lambda kids: st.lists(kids, max_size=4) | st.dictionaries(_keys, kids, max_size=5),
+    max_leaves=25,
+)
 
 
 def _readers():
@@ -488,13 +684,23 @@ def _readers():
     from optinav.multipos.static import _load_sections
     from optinav.rins.calibrate import RinsCalibration
 
-    return [Result.from_json, CalibrationResult.from_json, RinsCalibration.from_json, AccelerometerArray.load,
-            _load_sections]
+    return [
+        Result.from_json,
+        CalibrationResult.from_json,
+        RinsCalibration.from_json,
+        AccelerometerArray.load,
+        _load_sections,
+    ]
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(content=st.one_of(st.binary(max_size=200), _json.map(lambda v: json.dumps(v).encode()),
-                         _shaped.map(lambda v: json.dumps(v).encode())))
+@given(
+    content=st.one_of(
+        st.binary(max_size=200),
+        _json.map(lambda v: json.dumps(v).encode()),
+        _shaped.map(lambda v: json.dumps(v).encode()),
+    )
+)
 def test_json_readers_never_crash(tmp_path, content):
     p = tmp_path / "in.json"
     p.write_bytes(content)

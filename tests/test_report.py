@@ -5,8 +5,18 @@ import re
 
 import numpy as np
 
-from optinav.reports.report import (Cell, Check, Figure, Headline, Limit, StudyResult, Table, quantity, value_at,
-                                    write_report)
+from optinav.reports.report import (
+    Cell,
+    Check,
+    Figure,
+    Headline,
+    Limit,
+    StudyResult,
+    Table,
+    quantity,
+    value_at,
+    write_report,
+)
 from report_fixture import quick_report  # noqa: F401
 
 MARKUP = re.compile(r":(func|class|data|meth|mod|attr):|\(issue \d+\)|as they are added|``")
@@ -37,18 +47,22 @@ def test_write_report_headline_and_check_notes(tmp_path):
     def draw(fig):
         fig.add_subplot(111).plot([0, 1], [1, 0])
 
-    r = StudyResult("demo", "Demo study", "A study.", tables=[Table("t", ["a [m]"], [[1.5]])],
-                    checks=[Check("heading error", -676.0, 110.0, "arcsec", note="within 3σ of the filter")],
-                    figures=[Figure("demo.png", "a line", draw)],
-                    headline=[Headline("RMSE", "deg", 0.5, 0.4, 0.1)])
+    r = StudyResult(
+        "demo",
+        "Demo study",
+        "A study.",
+        tables=[Table("t", ["a [m]"], [[1.5]])],
+        checks=[Check("heading error", -676.0, 110.0, "arcsec", note="within 3σ of the filter")],
+        figures=[Figure("demo.png", "a line", draw)],
+        headline=[Headline("RMSE", "deg", 0.5, 0.4, 0.1)],
+    )
     out = write_report([r], tmp_path)
     md = (out / "index.md").read_text(encoding="utf-8")
     assert md.index("## Headline") < md.index("## Demo study")
     assert "| demo | 1/1 | RMSE | 0.5 | 0.4 | 0.1 | deg |" in md
     assert "within 3σ of the filter" in md
     s = json.loads((out / "summary.json").read_text())["studies"]["demo"]
-    assert s["headline"] == [{"quantity": "RMSE", "unit": "deg", "paper": 0.5, "rebuild": 0.4, "best": 0.1,
-                              "note": ""}]
+    assert s["headline"] == [{"quantity": "RMSE", "unit": "deg", "paper": 0.5, "rebuild": 0.4, "best": 0.1, "note": ""}]
     assert s["checks"][0]["note"] == "within 3σ of the filter"
     assert (out / "demo.png").stat().st_size > 1000
 
@@ -110,6 +124,7 @@ def summary_problems(node, path="summary") -> list[str]:
 
 def table_problems(table: dict) -> list[str]:
     """Table cells of summary.json that are formatted numbers (cells hold the numbers; the report formats them)."""
+
     def walk(v, where):
         if isinstance(v, str):
             return [f"{where}: formatted number {v!r}"] if _number_text(v) else []
@@ -126,11 +141,16 @@ def test_layout_rules_catch_formatted_numbers():
     assert _number_text("0.262") and _number_text("1.5e-3 2.0") and _number_text("12.2 %")
     assert _number_text("0.1 ± 0.02") and _number_text("−0.5")
     assert not _number_text("0.1/0.2") and not _number_text("PSO, 2 Hz epochs") and not _number_text("—")
-    assert summary_problems({"a": quantity(0.262, "%"), "b": {"c": quantity([1.0, None], "deg")},
-                             "why": "skipped: no data"}) == []
+    assert (
+        summary_problems(
+            {"a": quantity(0.262, "%"), "b": {"c": quantity([1.0, None], "deg")}, "why": "skipped: no data"}
+        )
+        == []
+    )
     assert len(summary_problems({"a": "0.262", "b": 3.0, "c": {"value": "1.0", "unit": "%"}})) == 3
     assert table_problems({"title": "t", "rows": [["x", 1.0, None, {"gain": 0.1}], ["y", "0.25"]]}) == [
-        "'t' row 1: formatted number '0.25'"]
+        "'t' row 1: formatted number '0.25'"
+    ]
 
 
 def test_summary_json_holds_numbers_with_units(quick_report):
@@ -139,8 +159,11 @@ def test_summary_json_holds_numbers_with_units(quick_report):
     for name, st in quick_report.summary["studies"].items():
         problems = summary_problems(st["summary"], f"{name}.summary")
         problems += [p for t in st["tables"] for p in table_problems(t)]
-        problems += [f"{name}: check {c['name']!r}" for c in st["checks"]
-                     if not (_numeric(c["value"]) and _numeric(c["limit"]) and isinstance(c["unit"], str))]
+        problems += [
+            f"{name}: check {c['name']!r}"
+            for c in st["checks"]
+            if not (_numeric(c["value"]) and _numeric(c["limit"]) and isinstance(c["unit"], str))
+        ]
         assert not problems, problems[:10]
         assert st["summary"] and all(c["reason"] for c in st["checks"]), f"{name}: a limit without its reason"
 
@@ -149,15 +172,25 @@ def test_quantities_and_headline_from_summary(tmp_path):
     s = {"rmse": {"lm": quantity(np.float64(0.5), "deg"), "nan": quantity(float("nan"), "deg")}}
     assert s["rmse"]["lm"] == {"value": 0.5, "unit": "deg"} and type(s["rmse"]["lm"]["value"]) is float
     assert s["rmse"]["nan"]["value"] is None and value_at(s, "rmse.lm") == 0.5
-    t = Table("t", ["a", "b", "c", "d"],
-              [[1 / 3, [0.25, 0.5], {"gain": 0.033}, Cell(2.0, "{:.1f} s")], [None, True, "x", 4]],
-              formats=["{:.3f}", "{:.1f}", "{:g}"])
+    t = Table(
+        "t",
+        ["a", "b", "c", "d"],
+        [[1 / 3, [0.25, 0.5], {"gain": 0.033}, Cell(2.0, "{:.1f} s")], [None, True, "x", 4]],
+        formats=["{:.3f}", "{:.1f}", "{:g}"],
+    )
     assert t.text_rows() == [["0.333", "0.2 0.5", "gain = 0.033", "2.0 s"], ["—", "yes", "x", "4"]]
     c = Check.against("err", 0.3, Limit(0.25, unit="deg", reason="4σ"))
     assert not c.passed and c.reason == "4σ" and c.limit == 0.25 and c.unit == "deg"
     assert Check.against("n", 12, Limit(None, ">=", reason="computed"), at=10).passed
-    r = StudyResult("demo", "Demo", "A study.", tables=[t], checks=[c], summary=s,
-                    headline=[Headline("RMSE", "deg", None, value_at(s, "rmse.lm"), None)])
+    r = StudyResult(
+        "demo",
+        "Demo",
+        "A study.",
+        tables=[t],
+        checks=[c],
+        summary=s,
+        headline=[Headline("RMSE", "deg", None, value_at(s, "rmse.lm"), None)],
+    )
     out = write_report([r], tmp_path)
     md = (out / "index.md").read_text(encoding="utf-8")
     assert "| 0.333 | 0.2 0.5 | gain = 0.033 | 2.0 s |" in md and "| demo | 0/1 | RMSE | — | 0.5 | — | deg |" in md

@@ -24,8 +24,19 @@ from optinav.multipos.simulate import simulate as simulate_session
 from optinav.rins.calibrate import RinsCalibration
 
 LEGACY = Path(__file__).parent / "data" / "legacy"
-COMMON = ("schema", "version", "optinav_version", "system", "kind", "method", "elapsed_s", "convergence",
-          "quality_gates", "parameters", "fields")
+COMMON = (
+    "schema",
+    "version",
+    "optinav_version",
+    "system",
+    "kind",
+    "method",
+    "elapsed_s",
+    "convergence",
+    "quality_gates",
+    "parameters",
+    "fields",
+)
 
 
 def _check_layout(res: Estimate, schema: str) -> dict:
@@ -49,8 +60,17 @@ def _check_layout(res: Estimate, schema: str) -> dict:
 
 
 def test_multipos_layout_and_truth_field_by_field():
-    s = simulate_session("18", dwell_s=5.0, rate_hz=20.0, transition_s=2.0, rest_s=3.0, lat=np.radians(38.88),
-                         height_m=35.0, acc_unit="counts", rng=5)
+    s = simulate_session(
+        "18",
+        dwell_s=5.0,
+        rate_hz=20.0,
+        transition_s=2.0,
+        rest_s=3.0,
+        lat=np.radians(38.88),
+        height_m=35.0,
+        acc_unit="counts",
+        rng=5,
+    )
     res = calibrate_session(s.t, s.acc, s.gyr, acc_unit="counts", lat=np.radians(38.88), height_m=35.0)
     raw = _check_layout(res, "optinav.multipos.calibration")
     assert raw["convergence"]["converged"] is True
@@ -87,21 +107,32 @@ def test_attitude_layout_and_truth_field_by_field():
     # levelled sample is off by up to 3σ ≈ 0.5°, the filtered estimate well below one sample's σ on average
     for name in ("roll", "pitch"):
         err = np.degrees(np.abs(cmp[name]["error"]))
-        assert err.max() < 0.5 and np.sqrt(np.mean(err ** 2)) < 0.16, (name, err.max())
+        assert err.max() < 0.5 and np.sqrt(np.mean(err**2)) < 0.16, (name, err.max())
 
 
 def test_truth_round_trip_and_compare_rules():
     q = np.array([[0.6, 0.8, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]])
-    t = Truth("toy", {"a": Parameter(np.pi - 0.01, "rad"), "b": Parameter(2.0, "m"), "q_b_n": Parameter(q, ""),
-                      "hidden": Parameter(5.0, "m")})
+    t = Truth(
+        "toy",
+        {
+            "a": Parameter(np.pi - 0.01, "rad"),
+            "b": Parameter(2.0, "m"),
+            "q_b_n": Parameter(q, ""),
+            "hidden": Parameter(5.0, "m"),
+        },
+    )
     back = Truth.from_dict(json.loads(t.to_json()))
     assert back.system == "toy" and back.parameters["a"].value == np.pi - 0.01
     np.testing.assert_array_equal(back.parameters["q_b_n"].value, q)
 
     class Toy(Estimate):
         def parameters(self):
-            return {"a": Parameter(-np.pi + 0.02, "rad", std=0.01), "b": Parameter(2.5, "m", std=0.25),
-                    "q_b_n": Parameter(-q, ""), "hidden": Parameter(None, "m", observable=False, reason="toy")}
+            return {
+                "a": Parameter(-np.pi + 0.02, "rad", std=0.01),
+                "b": Parameter(2.5, "m", std=0.25),
+                "q_b_n": Parameter(-q, ""),
+                "hidden": Parameter(None, "m", observable=False, reason="toy"),
+            }
 
     cmp = back.compare(Toy())
     assert sorted(cmp) == ["a", "b", "q_b_n"]  # an unobservable parameter is not compared
@@ -113,6 +144,7 @@ def test_truth_round_trip_and_compare_rules():
 
 
 # --- older layouts still load ----------------------------------------------------------------------------------
+
 
 def _old(name):
     return json.loads((LEGACY / name).read_text())
@@ -153,8 +185,9 @@ def test_legacy_rins_rmse_read_as_roll_pitch_yaw():
 
     old = _old("rins_v1.json")
     res = RinsCalibration.from_json(LEGACY / "rins_v1.json")
-    d = simulate_rins([1e-4, -2e-4, 3e-4, -1e-4, 2e-4, 4e-4], scheme="dual4", align_s=60, dwell_s=10, move_s=5,
-                      rate_hz=100, rng=4)
+    d = simulate_rins(
+        [1e-4, -2e-4, 3e-4, -1e-4, 2e-4, 4e-4], scheme="dual4", align_s=60, dwell_s=10, move_s=5, rate_hz=100, rng=4
+    )
     now = np.degrees(np.sqrt(np.mean(attitude_errors(prepare(d), np.zeros(6)) ** 2, axis=0)))
     # roll and pitch differ by a factor of 2 here, so a swap would be far outside 2 %
     np.testing.assert_allclose(res.rmse_before_deg, now, rtol=0.02)
@@ -186,14 +219,28 @@ def test_a_fresh_interpreter_reads_every_file_through_the_base_class():
     import subprocess
     import sys
 
-    code = ("import sys; from optinav.core.results import Result, Truth; "
-            "print([type(Result.from_json(p)).__name__ for p in sys.argv[1:5]], "
-            "[Truth.from_json(p).system for p in sys.argv[5:]])")
-    files = [LEGACY / f for f in ("multipos_v1.json", "rins_v1.json", "gfimu_v1.json", "attitude_v2.json",
-                                  "multipos_truth_v1.json", "rins_truth_v1.json", "gfimu_truth_v1.json")]
+    code = (
+        "import sys; from optinav.core.results import Result, Truth; "
+        "print([type(Result.from_json(p)).__name__ for p in sys.argv[1:5]], "
+        "[Truth.from_json(p).system for p in sys.argv[5:]])"
+    )
+    files = [
+        LEGACY / f
+        for f in (
+            "multipos_v1.json",
+            "rins_v1.json",
+            "gfimu_v1.json",
+            "attitude_v2.json",
+            "multipos_truth_v1.json",
+            "rins_truth_v1.json",
+            "gfimu_truth_v1.json",
+        )
+    ]
     out = subprocess.run([sys.executable, "-c", code, *map(str, files)], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == ("['CalibrationResult', 'RinsCalibration', 'TurntableCalibration', "
-                                  "'AttitudeEstimate'] ['multipos', 'rins', 'gfimu']")
+    assert out.stdout.strip() == (
+        "['CalibrationResult', 'RinsCalibration', 'TurntableCalibration', "
+        "'AttitudeEstimate'] ['multipos', 'rins', 'gfimu']"
+    )
 
 
 def test_wrong_class_and_damaged_legacy_files_are_one_line_errors(tmp_path):
@@ -227,26 +274,65 @@ def test_apply_reads_old_and_new_multipos_results(tmp_path):
 
 
 # the data classes renamed their fields to the vocabulary of docs/conventions.md (old → new)
-RENAMED = {"imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),  # old names
-           "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),  # old names
-           "imu_model_v1.json": ("optinav.core.imu_model", "ImuModel", {"gyro": "gyr", "accel": "acc",  # old names
-                                                                         "accel_noise": "acc_noise",  # old names
-                                                                         "sample_rate": "rate_hz"}),  # old names
-           "imu_model_v2.json": ("optinav.core.imu_model", "ImuModel", {"accel_noise": "acc_noise",  # old names
-                                                                         "sample_rate": "rate_hz"}),  # old names
-           "imu_measurement_v1.json": ("optinav.core.imu_model", "ImuMeasurement",
-                                       {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"}),  # old names
-           "imu_spec_v1.json": ("optinav.core.imu_model", "ImuSpec", {"sample_rate": "rate_hz", "accel_vrw": "acc_vrw",  # old names
-                                                                       "accel_bias": "acc_bias", "accel_lsb": "acc_lsb"}),  # old names
-           "multipos_session_v1.json": ("optinav.multipos.simulate", "SimulatedSession",
-                                        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),  # old names
-           "ferraris_v1.json": ("optinav.multipos.ferraris", "FerrarisCalibration",
-                                {"gyro_K": "gyr_K", "gyro_G": "gyr_G", "gyro_b": "gyr_b"}),  # old names
-           "solar_position_v1.json": ("optinav.sky.sun", "SolarPosition", {"height": "height_m"}),  # old names
-           "alignment_v1.json": ("optinav.core.alignment", "AlignmentResult",
-                                 {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),  # old names
-           "flight_data_v1.json": ("optinav.attitude.simulate", "FlightData", {"q_true": "q_b_n", "height": "height_m"}),  # old names
-           "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"})}  # old names
+RENAMED = {
+    "imu_truth_v1.json": ("optinav.core.simulate", "ImuTruth", {"omega_ib_b": "gyr", "f_b": "acc"}),  # old names
+    "imu_log_v1.json": ("optinav.io.imu", "ImuLog", {"gyro": "gyr"}),  # old names
+    "imu_model_v1.json": (
+        "optinav.core.imu_model",
+        "ImuModel",
+        {
+            "gyro": "gyr",
+            "accel": "acc",  # old names
+            "accel_noise": "acc_noise",  # old names
+            "sample_rate": "rate_hz",
+        },
+    ),  # old names
+    "imu_model_v2.json": (
+        "optinav.core.imu_model",
+        "ImuModel",
+        {
+            "accel_noise": "acc_noise",  # old names
+            "sample_rate": "rate_hz",
+        },
+    ),  # old names
+    "imu_measurement_v1.json": (
+        "optinav.core.imu_model",
+        "ImuMeasurement",
+        {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},
+    ),  # old names
+    "imu_spec_v1.json": (
+        "optinav.core.imu_model",
+        "ImuSpec",
+        {
+            "sample_rate": "rate_hz",
+            "accel_vrw": "acc_vrw",  # old names
+            "accel_bias": "acc_bias",
+            "accel_lsb": "acc_lsb",
+        },
+    ),  # old names
+    "multipos_session_v1.json": (
+        "optinav.multipos.simulate",
+        "SimulatedSession",
+        {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"},
+    ),  # old names
+    "ferraris_v1.json": (
+        "optinav.multipos.ferraris",
+        "FerrarisCalibration",
+        {"gyro_K": "gyr_K", "gyro_G": "gyr_G", "gyro_b": "gyr_b"},
+    ),  # old names
+    "solar_position_v1.json": ("optinav.sky.sun", "SolarPosition", {"height": "height_m"}),  # old names
+    "alignment_v1.json": (
+        "optinav.core.alignment",
+        "AlignmentResult",
+        {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"},
+    ),  # old names
+    "flight_data_v1.json": (
+        "optinav.attitude.simulate",
+        "FlightData",
+        {"q_true": "q_b_n", "height": "height_m"},
+    ),  # old names
+    "rins_data_v1.json": ("optinav.rins.simulate", "RinsData", {"h": "height_m", "c_b_n": "C_b_n"}),
+}  # old names
 
 
 def _same(got, want):
@@ -274,8 +360,12 @@ def _same(got, want):
 # --- arrays as plain lists (docs/results.md) ------------------------------------------------------------------
 
 #: RESULT.json of each system in the version before arrays became plain lists (``{"__ndarray__"}``)
-PREVIOUS = {"multipos_v2.json": CalibrationResult, "rins_v2.json": RinsCalibration,
-            "gfimu_v2.json": TurntableCalibration, "attitude_v3.json": AttitudeEstimate}
+PREVIOUS = {
+    "multipos_v2.json": CalibrationResult,
+    "rins_v2.json": RinsCalibration,
+    "gfimu_v2.json": TurntableCalibration,
+    "attitude_v3.json": AttitudeEstimate,
+}
 
 
 @pytest.mark.parametrize("name", sorted(PREVIOUS))
@@ -322,9 +412,12 @@ def test_every_data_class_reads_its_version_before_plain_arrays():
     from optinav.rins.simulate import simulate as simulate_rins
 
     s = simulate_session("six", dwell_s=0.3, rate_hz=10.0, transition_s=0.3, rest_s=0.2, acc_unit="counts", rng=1)
-    objs = [static_positions(six_positions()[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2),
-            s.log(), simulate_flight("static", 0.3, 10, rng=1),
-            simulate_rins(scheme="dual4", align_s=0.2, dwell_s=0.2, move_s=0.2, rate_hz=10, rng=1)]
+    objs = [
+        static_positions(six_positions()[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2),
+        s.log(),
+        simulate_flight("static", 0.3, 10, rng=1),
+        simulate_rins(scheme="dual4", align_s=0.2, dwell_s=0.2, move_s=0.2, rate_hz=10, rng=1),
+    ]
     for obj in objs:
         d = obj.to_dict()
         old = _ndarray_layout(d, PLAIN_ARRAYS_SINCE)
@@ -347,16 +440,29 @@ def test_arrays_are_plain_lists_read_back_exactly():
     """Arrays are nested lists of numbers (NaN null, ±inf "inf"/"-inf"); the field's ``arrays`` names each one's
     path and dtype; a plain JSON reader gets the numbers, ``from_json`` the same arrays back."""
     x = np.array([[1.5, np.nan], [np.inf, -np.inf]])
-    nested = {"K": np.eye(3), "labels": np.arange(4, dtype=np.int32), "a/b": {"ok": np.array([True, False])},
-              "c": np.array([1 + 2j]), "names": np.array(["roll", "yaw"]), "empty": np.zeros(0), "plain": [1, 2.5]}
+    nested = {
+        "K": np.eye(3),
+        "labels": np.arange(4, dtype=np.int32),
+        "a/b": {"ok": np.array([True, False])},
+        "c": np.array([1 + 2j]),
+        "names": np.array(["roll", "yaw"]),
+        "empty": np.zeros(0),
+        "plain": [1, 2.5],
+    }
     items = [np.array([0.25]), {"q": np.array([1.0, 0.0, 0.0, 0.0])}, 3]
     text = _Arrays(x=x, nested=nested, items=items).to_json()
     raw = json.loads(text)["fields"]
     assert "__ndarray__" not in text
     assert raw["x"] == {"value": [[1.5, None], ["inf", "-inf"]], "unit": "m", "arrays": {"": "float64"}}
     assert raw["nested"]["value"]["K"] == np.eye(3).tolist() and raw["nested"]["value"]["plain"] == [1, 2.5]
-    assert raw["nested"]["arrays"] == {"K": "float64", "labels": "int32", "a~1b/ok": "bool", "c": "complex128",
-                                       "names": "<U4", "empty": "float64"}
+    assert raw["nested"]["arrays"] == {
+        "K": "float64",
+        "labels": "int32",
+        "a~1b/ok": "bool",
+        "c": "complex128",
+        "names": "<U4",
+        "empty": "float64",
+    }
     assert raw["items"]["arrays"] == {"0": "float64", "1/q": "float64"}
     back = Result.from_json(text)
     np.testing.assert_array_equal(back.x, x)

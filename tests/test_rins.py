@@ -9,8 +9,7 @@ from optinav.core.rotations import dcm_from_rotvec
 from optinav.errors import OptinavError
 from optinav.rins.calibrate import calibrate, observability, prepare
 from optinav.rins.io import read_rins, write_rins
-from optinav.rins.model import (nonorth_dcm, residual_jacobian, residuals, sensor_attitude,
-                                vehicle_attitude)
+from optinav.rins.model import nonorth_dcm, residual_jacobian, residuals, sensor_attitude, vehicle_attitude
 from optinav.rins.simulate import simulate
 
 P_TRUE = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
@@ -31,8 +30,13 @@ def test_exact_nonorth_matches_paper_eq3_and_small_angle_eq4():
     th = np.array([0.1, 0.2, 0.3])
     x, y, z = th
     cx, sx, cy, sy, cz, sz = np.cos(x), np.sin(x), np.cos(y), np.sin(y), np.cos(z), np.sin(z)
-    c_s_h1 = np.array([[cy * cz - sy * sz * sx, cy * sz + sy * cz * sx, -sy * cx], [-sz * cx, cz * cx, sx],
-                       [sy * cz + cy * sz * sx, sy * sz - cy * cz * sx, cy * cx]])  # eq. 3 (typo-corrected (1,2))
+    c_s_h1 = np.array(
+        [
+            [cy * cz - sy * sz * sx, cy * sz + sy * cz * sx, -sy * cx],
+            [-sz * cx, cz * cx, sx],
+            [sy * cz + cy * sz * sx, sy * sz - cy * cz * sx, cy * cx],
+        ]
+    )  # eq. 3 (typo-corrected (1,2))
     np.testing.assert_allclose(nonorth_dcm(th).T, c_s_h1, atol=1e-15)
     small = np.array([1e-4, -2e-4, 3e-4])
     eq4 = np.array([[1, small[2], -small[1]], [-small[2], 1, small[0]], [small[1], -small[0], 1]])
@@ -142,8 +146,17 @@ def test_file_round_trip(tmp_path, suffix):
 def test_increments_follow_the_encoders_over_t_k_to_t_k_plus_1():
     """Row k's increments cover (t[k], t[k+1]]: with no Earth rate in the way that matters (10⁻⁵ rad/s · 10 ms)
     a pure inner-axis turn gives dtheta_z[k] = alpha[k+1] − alpha[k], not alpha[k] − alpha[k−1]."""
-    d = simulate(np.zeros(6), noise=False, imu_errors=False, scheme="Z+180", align_s=2.0, dwell_s=1.0,
-                 move_s=2.0, rate_hz=100.0, encoder_lsb=0.0)
+    d = simulate(
+        np.zeros(6),
+        noise=False,
+        imu_errors=False,
+        scheme="Z+180",
+        align_s=2.0,
+        dwell_s=1.0,
+        move_s=2.0,
+        rate_hz=100.0,
+        encoder_lsb=0.0,
+    )
     da = np.diff(d.alpha)
     moving = np.abs(da) > 1e-3
     assert moving.sum() > 100
@@ -187,8 +200,9 @@ def _err(data, match):
 def test_bad_input_errors():
     base = simulate(P_TRUE, rng=2, **SHORT)
     # no motion at all
-    nomo = dataclasses.replace(base, alpha=np.zeros_like(base.alpha), beta=np.zeros_like(base.beta),
-                               dtheta=base.dtheta.copy())
+    nomo = dataclasses.replace(
+        base, alpha=np.zeros_like(base.alpha), beta=np.zeros_like(base.beta), dtheta=base.dtheta.copy()
+    )
     nomo.dtheta[:] = base.dtheta[:100].mean(0)
     _err(nomo, "never move|no gimbal motion")
     # only the inner axis turns

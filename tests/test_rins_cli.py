@@ -17,8 +17,12 @@ def test_simulate_calibrate_round_trip(tmp_path, suffix, unit, capsys):
     p = np.array([1.0, -2.0, 3.0, -1.0, 2.0, 4.0]) * 1e-4
     text = ",".join(f"{x:.10g}" for x in (np.degrees(p) if unit == "deg" else p))
     data = tmp_path / f"r{suffix}"
-    assert main(["--quiet", "simulate", "rins", "--nonorth", text, "--unit", unit, "--seed", "4", "--out", str(data),
-                 *ARGS]) == 0
+    assert (
+        main(
+            ["--quiet", "simulate", "rins", "--nonorth", text, "--unit", unit, "--seed", "4", "--out", str(data), *ARGS]
+        )
+        == 0
+    )
     truth = json.loads((tmp_path / "r.truth.json").read_text())
     np.testing.assert_allclose(list(truth["angles"].values()), p, rtol=1e-9)
     out = tmp_path / "res.json"
@@ -44,8 +48,30 @@ def test_simulate_calibrate_round_trip(tmp_path, suffix, unit, capsys):
 
 def test_cli_errors_are_one_line(tmp_path, capsys):
     data = tmp_path / "s.npz"
-    assert main(["--quiet", "simulate", "rins", "--nonorth", "1e-4,0,0,0,0,0", "--scheme", "single4", "--align", "30",
-                 "--dwell", "5", "--move", "4", "--rate", "50", "--out", str(data)]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "rins",
+                "--nonorth",
+                "1e-4,0,0,0,0,0",
+                "--scheme",
+                "single4",
+                "--align",
+                "30",
+                "--dwell",
+                "5",
+                "--move",
+                "4",
+                "--rate",
+                "50",
+                "--out",
+                str(data),
+            ]
+        )
+        == 0
+    )
     assert main(["--quiet", "calibrate", "rins", str(data), "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
     assert "only the inner (alpha) axis turns" in err and "Traceback" not in err

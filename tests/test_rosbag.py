@@ -29,23 +29,32 @@ KINDS = ("ros1", "sqlite3", "mcap", "sqlite3-file", "mcap-file")
 def _header(ts, sec, nsec, frame, seq):
     H, T = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
     stamp = T(sec=int(sec), nanosec=int(nsec))
-    return H(seq=seq, stamp=stamp, frame_id=frame) if "seq" in H.__dataclass_fields__ else H(stamp=stamp,
-                                                                                          frame_id=frame)
+    return (
+        H(seq=seq, stamp=stamp, frame_id=frame) if "seq" in H.__dataclass_fields__ else H(stamp=stamp, frame_id=frame)
+    )
 
 
 def imu_msg(ts, sec, nsec, gyr, acc, frame="imu_link", seq=0):
     V, Q = ts.types["geometry_msgs/msg/Vector3"], ts.types["geometry_msgs/msg/Quaternion"]
     z9 = np.zeros(9)
-    return ts.types[IMU](header=_header(ts, sec, nsec, frame, seq), orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
-                         orientation_covariance=z9, angular_velocity=V(*map(float, gyr)),
-                         angular_velocity_covariance=z9, linear_acceleration=V(*map(float, acc)),
-                         linear_acceleration_covariance=z9)
+    return ts.types[IMU](
+        header=_header(ts, sec, nsec, frame, seq),
+        orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
+        orientation_covariance=z9,
+        angular_velocity=V(*map(float, gyr)),
+        angular_velocity_covariance=z9,
+        linear_acceleration=V(*map(float, acc)),
+        linear_acceleration_covariance=z9,
+    )
 
 
 def mag_msg(ts, sec, nsec, b, frame="mag", seq=0):
     V = ts.types["geometry_msgs/msg/Vector3"]
-    return ts.types[MAG](header=_header(ts, sec, nsec, frame, seq), magnetic_field=V(*map(float, b)),
-                         magnetic_field_covariance=np.zeros(9))
+    return ts.types[MAG](
+        header=_header(ts, sec, nsec, frame, seq),
+        magnetic_field=V(*map(float, b)),
+        magnetic_field_covariance=np.zeros(9),
+    )
 
 
 def write_bag(path: Path, kind: str, topics: dict, compression: str | None = None, big_endian=()) -> Path:
@@ -82,9 +91,15 @@ def imu_topic(rng, n=40, rate=100.0, t0=1_700_000_000, frames=("imu_link",), sta
     gyr = rng.normal(0, 0.5, (n, 3))
     acc = rng.normal(0, 3, (n, 3)) + [0, 0, 9.81]
     ns = np.round(np.arange(n) / rate * 1e9).astype(np.int64) + 123 if stamps is None else stamps
-    msgs = [(int(t0 * 10**9 + ns[i] + 5_000_000),
-             lambda ts, i=i: imu_msg(ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i],
-                                     frame=frames[i % len(frames)], seq=i)) for i in range(n)]
+    msgs = [
+        (
+            int(t0 * 10**9 + ns[i] + 5_000_000),
+            lambda ts, i=i: imu_msg(
+                ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i], frame=frames[i % len(frames)], seq=i
+            ),
+        )
+        for i in range(n)
+    ]
     t = (t0 + ns // 10**9) + (ns % 10**9) * 1e-9
     return msgs, t, gyr, acc
 
@@ -95,8 +110,10 @@ def test_values_read_equal_values_written(tmp_path, kind):
     msgs, t, gyr, acc = imu_topic(rng)
     tm = np.arange(0, 0.2, 0.04) + 1_700_000_000
     bm = rng.normal(0, 3e-5, (tm.size, 3))
-    mags = [(int(round(x * 1e9)), lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
-            for k, x in enumerate(tm)]
+    mags = [
+        (int(round(x * 1e9)), lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+        for k, x in enumerate(tm)
+    ]
     chatter = [(1_700_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data="x" * k)) for k in range(3)]
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags), "/chatter": (STR, chatter)})
     log = read_imu(bag)
@@ -130,8 +147,9 @@ def rosbags_reference(bag, topic):
         for con, _, raw in r.messages(connections=[c for c in r.connections if c.topic == topic]):
             m = r.deserialize(raw, con.msgtype)
             vecs = (m.angular_velocity, m.linear_acceleration) if con.msgtype == IMU else (m.magnetic_field,)
-            rows.append([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9] + [x for v in vecs for x in (v.x, v.y,
-                                                                                                          v.z)])
+            rows.append(
+                [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9] + [x for v in vecs for x in (v.x, v.y, v.z)]
+            )
     return np.array(rows)
 
 
@@ -149,8 +167,10 @@ def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
     msgs, *_ = imu_topic(rng, n=300, rate=1000.0, frames=("imu",) * 40 + ("imu_link_long",) + ("imu",) * 20 + ("",))
     tm = 1_700_000_000 + np.arange(0, 0.3, 0.01)
     bm = rng.normal(0, 3e-5, (tm.size, 3))
-    mags = [(int(round(x * 1e9)) + 7, lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
-            for k, x in enumerate(tm)]
+    mags = [
+        (int(round(x * 1e9)) + 7, lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+        for k, x in enumerate(tm)
+    ]
     bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)}, compression=compression)
     ref, ref_mag = rosbags_reference(bag, "/imu"), rosbags_reference(bag, "/mag")
     if (kind, compression) in SCANNED:
@@ -199,7 +219,7 @@ def test_mcap_summary_picks_chunks_and_its_absence_scans_them(tmp_path, monkeypa
     log = read_imu(bag)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     raw = bytearray(bag.read_bytes())
-    raw[-37 + 9:-37 + 17] = bytes(8)  # Footer: summary_start = 0
+    raw[-37 + 9 : -37 + 17] = bytes(8)  # Footer: summary_start = 0
     flat = tmp_path / "flat.mcap"
     flat.write_bytes(bytes(raw))
     with open(flat, "rb") as fh:
@@ -254,9 +274,13 @@ def _damage_bags(tmp_path_factory):
         d = tmp_path_factory.mktemp("damage")
         rng = np.random.default_rng(17)
         msgs, *_ = imu_topic(rng, n=40, frames=("imu",) * 5 + ("imu_x",))
-        mags = [(1_700_000_000 * 10**9 + 10**7 * k, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k,
-                                                                              [1e-5, 2e-5, k * 1e-6]))
-                for k in range(8)]
+        mags = [
+            (
+                1_700_000_000 * 10**9 + 10**7 * k,
+                lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, [1e-5, 2e-5, k * 1e-6]),
+            )
+            for k in range(8)
+        ]
         for kind in ("ros1", "mcap-file"):
             bag = write_bag(d / kind, kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)})
             _DAMAGE[kind] = (bag.suffix, bag.read_bytes())
@@ -286,8 +310,7 @@ def _read_both(path):
 
 
 @settings(max_examples=40)
-@given(kind=st.sampled_from(("ros1", "mcap-file")), where=st.floats(0, 1, exclude_max=True),
-       flip=st.integers(1, 255))
+@given(kind=st.sampled_from(("ros1", "mcap-file")), where=st.floats(0, 1, exclude_max=True), flip=st.integers(1, 255))
 def test_damaged_byte_never_gives_other_values_than_rosbags(tmp_path_factory, kind, where, flip):
     """One byte of a bag changed anywhere: reading through the scanners gives a one-line error or the values
     rosbags gives; never another table, never a traceback."""
@@ -317,8 +340,15 @@ def test_topic_choice(tmp_path):
     rng = np.random.default_rng(4)
     m1, t1, g1, a1 = imu_topic(rng)
     m2, t2, g2, a2 = imu_topic(rng, n=20)
-    bag = write_bag(tmp_path / "b", "sqlite3", {"/imu/left": (IMU, m1), "/imu/right": (IMU, m2),
-                                                "/chatter": (STR, [(1, lambda ts: ts.types[STR](data="hi"))])})
+    bag = write_bag(
+        tmp_path / "b",
+        "sqlite3",
+        {
+            "/imu/left": (IMU, m1),
+            "/imu/right": (IMU, m2),
+            "/chatter": (STR, [(1, lambda ts: ts.types[STR](data="hi"))]),
+        },
+    )
     with pytest.raises(OptinavError, match=r"has 2 sensor_msgs/msg/Imu topics .*/imu/left .*/imu/right.*--topic"):
         read_imu(bag)
     log = read_imu(bag, topic="/imu/right")
@@ -399,17 +429,37 @@ def test_missing_rosbags_names_the_extra(tmp_path, monkeypatch):
 def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
     """A simulated multi-position session as a ROS 2 bag calibrates like the same samples as CSV."""
     csv = tmp_path / "s.csv"
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(csv), "--scheme", "paper12", "--dwell", "4",
-                 "--seed", "4"]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(csv),
+                "--scheme",
+                "paper12",
+                "--dwell",
+                "4",
+                "--seed",
+                "4",
+            ]
+        )
+        == 0
+    )
     log = read_imu(csv)
     ns = np.round(log.t * 1e9).astype(np.int64) + 1_700_000_000 * 10**9
-    msgs = [(int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
-            for i in range(len(log))]
+    msgs = [
+        (int(ns[i]), lambda ts, i=i: imu_msg(ts, ns[i] // 10**9, ns[i] % 10**9, log.gyr[i], log.acc[i]))
+        for i in range(len(log))
+    ]
     bag = write_bag(tmp_path / "bag", "sqlite3", {"/imu": (IMU, msgs)})
     out_csv, out_bag = tmp_path / "c.json", tmp_path / "b.json"
     assert main(["--quiet", "calibrate", "accel", str(csv), "--gravity", "9.80", "--out", str(out_csv)]) == 0
-    assert main(["--quiet", "calibrate", "accel", str(bag), "--topic", "/imu", "--gravity", "9.80",
-                 "--out", str(out_bag)]) == 0
+    assert (
+        main(["--quiet", "calibrate", "accel", str(bag), "--topic", "/imu", "--gravity", "9.80", "--out", str(out_bag)])
+        == 0
+    )
     from optinav.multipos.result import CalibrationResult
 
     rc, rb = CalibrationResult.from_json(out_csv), CalibrationResult.from_json(out_bag)
@@ -422,5 +472,7 @@ def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
     assert z["acc"].shape == log.acc.shape
     assert main(["calibrate", "accel", str(bag), "--topic", "/gps", "--out", str(tmp_path / "x.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["optinav: error: bag has no topic '/gps' (topics: /imu (sensor_msgs/Imu, "
-                   f"{len(log)} msgs)); pass one of the listed topics with --topic"]
+    assert err == [
+        "optinav: error: bag has no topic '/gps' (topics: /imu (sensor_msgs/Imu, "
+        f"{len(log)} msgs)); pass one of the listed topics with --topic"
+    ]

@@ -41,8 +41,9 @@ def test_rotvec_round_trip(r):
 @given(quat, quat, vec3)
 def test_quat_product_composes_dcms(p, q, v):
     p, q = R.quat_normalize(p), R.quat_normalize(q)
-    np.testing.assert_allclose(R.dcm_from_quat(R.quat_multiply(p, q)),
-                               R.dcm_from_quat(p) @ R.dcm_from_quat(q), atol=1e-12)
+    np.testing.assert_allclose(
+        R.dcm_from_quat(R.quat_multiply(p, q)), R.dcm_from_quat(p) @ R.dcm_from_quat(q), atol=1e-12
+    )
     np.testing.assert_allclose(R.quat_rotate(p, v), R.dcm_from_quat(p) @ v, atol=1e-11)
     np.testing.assert_allclose(R.quat_multiply(p, R.quat_conjugate(p)), [1, 0, 0, 0], atol=1e-12)
 
@@ -67,9 +68,13 @@ def test_enu_convention_matches_psins_a2mat():
     # PSINS a2mat with att = [pitch θ; roll γ; yaw ψ] (Yan Gongmin, PSINS toolbox), written out by hand:
     roll, pitch, yaw = 0.1, -0.2, 0.3
     si, ci, sj, cj, sk, ck = np.sin(pitch), np.cos(pitch), np.sin(roll), np.cos(roll), np.sin(yaw), np.cos(yaw)
-    cnb = np.array([[cj * ck - si * sj * sk, -ci * sk, sj * ck + si * cj * sk],
-                    [cj * sk + si * sj * ck, ci * ck, sj * sk - si * cj * ck],
-                    [-ci * sj, si, ci * cj]])
+    cnb = np.array(
+        [
+            [cj * ck - si * sj * sk, -ci * sk, sj * ck + si * cj * sk],
+            [cj * sk + si * sj * ck, ci * ck, sj * sk - si * cj * ck],
+            [-ci * sj, si, ci * cj],
+        ]
+    )
     np.testing.assert_allclose(R.dcm_from_euler([roll, pitch, yaw], "enu"), cnb, atol=1e-15)
 
 

@@ -10,8 +10,20 @@ from scipy.integrate import quad, solve_ivp
 from optinav import OptinavError
 from optinav.core import earth, simulate as S
 from optinav.core.results import Result
-from optinav.core.rotations import (unit_axis, dcm_from_euler, dcm_from_quat, dcm_from_rotvec, quat_angle_between,
-                                    quat_multiply, rot_axis, rot_x, rot_y, rot_z, rotation_angle, rotvec_from_dcm)
+from optinav.core.rotations import (
+    unit_axis,
+    dcm_from_euler,
+    dcm_from_quat,
+    dcm_from_rotvec,
+    quat_angle_between,
+    quat_multiply,
+    rot_axis,
+    rot_x,
+    rot_y,
+    rot_z,
+    rotation_angle,
+    rotvec_from_dcm,
+)
 
 # the reference quadratures ask for tolerances at the rounding level; QUADPACK warns when it reaches it
 pytestmark = pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
@@ -27,31 +39,39 @@ def body(v_n, c_b_n):
 
 # --- static -------------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("frame", ["enu", "ned"])
 @pytest.mark.parametrize("earth_name", ["wgs84", "psins"])
 def test_static_six_positions_truth(frame, earth_name):
     h = 250.0
-    tr = S.static_positions(S.six_positions(frame), 5.0, 50.0, LAT, height_m=h, frame=frame, earth=earth_name,
-                            transition=2.0)
+    tr = S.static_positions(
+        S.six_positions(frame), 5.0, 50.0, LAT, height_m=h, frame=frame, earth=earth_name, transition=2.0
+    )
     c = tr.C_b_n
     rest = tr.labels >= 0
     g_n = earth.gravity_vector(LAT, h, frame, earth_name)
     w_ie = earth.earth_rate(LAT, frame, earth_name)
     # at rest v = a = 0, so f^b = C_n^b(−g^n) and ω_ib^b = C_n^b ω_ie^n (mechanization with v = 0)
     np.testing.assert_allclose(tr.acc[rest], body(-g_n, c)[rest], rtol=0, atol=1e-13)
-    np.testing.assert_allclose(np.linalg.norm(tr.acc, axis=1), earth.gravity(LAT, h, earth_name), rtol=1e-15,
-                               atol=4e-15)
+    np.testing.assert_allclose(
+        np.linalg.norm(tr.acc, axis=1), earth.gravity(LAT, h, earth_name), rtol=1e-15, atol=4e-15
+    )
     np.testing.assert_allclose(tr.gyr[rest], body(w_ie, c)[rest], rtol=0, atol=1e-19)
     # intervals with both ends in one rest: constant integrand, so the increment is value × dt
     both = (tr.labels[:-1] == tr.labels[1:]) & rest[:-1]
-    np.testing.assert_allclose(tr.dtheta[both], tr.gyr[:-1][both] * tr.dt[both, None], rtol=0,
-                               atol=1e-21)
+    np.testing.assert_allclose(tr.dtheta[both], tr.gyr[:-1][both] * tr.dt[both, None], rtol=0, atol=1e-21)
     np.testing.assert_allclose(tr.dv[both], tr.acc[:-1][both] * tr.dt[both, None], rtol=0, atol=1e-15)
     # each pose is held exactly, and names read as a technician expects
     for p in range(6):
         np.testing.assert_allclose(c[tr.segment(p)] - S.six_positions(frame)[p], 0, atol=1e-15)
-    assert tr.segment_names == ["x up, y north", "x down, y north", "y up, z north", "y down, z north",
-                                "z up, y north", "z down, y north"]
+    assert tr.segment_names == [
+        "x up, y north",
+        "x down, y north",
+        "y up, z north",
+        "y down, z north",
+        "z up, y north",
+        "z down, y north",
+    ]
     # the accelerometer reads +g along the body axis that points up
     up = tr.acc[tr.segment(0)]
     assert np.all(up[:, 0] > 9.79)
@@ -59,8 +79,9 @@ def test_static_six_positions_truth(frame, earth_name):
 
 def test_static_frames_describe_the_same_motion():
     kw = dict(dwell=[3.0, 4.0, 2.0], rate_hz=20.0, lat=LAT, transition=[1.5, 2.5])
-    cs_enu = np.stack([dcm_from_euler([0.1, -0.2, 0.3], "enu"), S.orientation_from_up("-x"),
-                       S.orientation_from_up("y", "-x")])
+    cs_enu = np.stack(
+        [dcm_from_euler([0.1, -0.2, 0.3], "enu"), S.orientation_from_up("-x"), S.orientation_from_up("y", "-x")]
+    )
     cs_ned = np.stack([np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ c for c in cs_enu])
     a = S.static_positions(cs_enu, frame="enu", **kw)
     b = S.static_positions(cs_ned, frame="ned", **kw)
@@ -147,8 +168,7 @@ def test_coning_increments_equal_quadrature_of_rate():
     # closed-form Δθ against adaptive quadrature of ω(t), component by component
     for k in [0, 7, 33, 49]:
         for i in range(3):
-            val, _ = quad(lambda t: S.coning_rate(BETA, FREQ, t)[i], tr.t[k], tr.t[k + 1], epsabs=1e-16,
-                          epsrel=1e-14)
+            val, _ = quad(lambda t: S.coning_rate(BETA, FREQ, t)[i], tr.t[k], tr.t[k + 1], epsabs=1e-16, epsrel=1e-14)
             assert abs(tr.dtheta[k, i] - val) < 1e-14
     # inertial case without gravity: zero specific force
     assert np.all(tr.acc == 0) and np.all(tr.dv == 0)
@@ -189,13 +209,16 @@ def test_coning_with_earth_rate_and_gravity():
     np.testing.assert_allclose(tr.acc, body(-earth.gravity_vector(LAT, 100.0), c), atol=1e-14)
     # increments of the Earth-rate and gravity parts against adaptive quadrature on a few intervals
     for k in [0, 42, 99]:
+
         def integrand(t, i, vec):
             c_t = c0 @ dcm_from_quat(S.coning_attitude(BETA, FREQ, t))  # C_b^n = C_0 C_cone(t)
             return (c_t.T @ vec)[i]
+
         for i in range(3):
             e_w, _ = quad(integrand, tr.t[k], tr.t[k + 1], args=(i, w_ie), epsabs=1e-22, epsrel=1e-13)
-            e_f, _ = quad(integrand, tr.t[k], tr.t[k + 1], args=(i, -earth.gravity_vector(LAT, 100.0)),
-                          epsabs=1e-16, epsrel=1e-14)
+            e_f, _ = quad(
+                integrand, tr.t[k], tr.t[k + 1], args=(i, -earth.gravity_vector(LAT, 100.0)), epsabs=1e-16, epsrel=1e-14
+            )
             # the difference of two ~6e-4 rad increments carries ~1e-19 rad of rounding
             assert abs(tr.dtheta[k, i] - ref.dtheta[k, i] - e_w) < 5e-19
             assert abs(tr.dv[k, i] - e_f) < 1e-14
@@ -203,15 +226,22 @@ def test_coning_with_earth_rate_and_gravity():
 
 # --- turntable ------------------------------------------------------------------------------------------
 
+
 def cosine_theta(tau, T, A):
     """Independent copy of the raised-cosine profile: θ̇ = (A/T)(1 − cos 2πτ/T) integrated from 0."""
     return A * (tau / T - np.sin(2 * np.pi * tau / T) / (2 * np.pi))
 
 
 C0 = dcm_from_euler([0.1, 0.2, 0.3], "enu")
-SCHEDULE = [S.Rest(2.0), S.Rotate("z", 90 * DEG, 3.0), S.Rest(1.0),
-            S.Rotate("x", -180 * DEG, 4.0, frame="nav", profile="trapezoid", accel_time=1.0), S.Rest(1.0),
-            S.Rotate([1, 1, 0], 30 * DEG, 2.0, profile="quintic"), S.Rest(0.5)]
+SCHEDULE = [
+    S.Rest(2.0),
+    S.Rotate("z", 90 * DEG, 3.0),
+    S.Rest(1.0),
+    S.Rotate("x", -180 * DEG, 4.0, frame="nav", profile="trapezoid", accel_time=1.0),
+    S.Rest(1.0),
+    S.Rotate([1, 1, 0], 30 * DEG, 2.0, profile="quintic"),
+    S.Rest(0.5),
+]
 
 
 def test_turntable_attitudes_and_earth_free_angles():
@@ -223,10 +253,13 @@ def test_turntable_attitudes_and_earth_free_angles():
     for lab, ref in [(0, C0), (2, c2), (4, c4), (6, c6)]:
         np.testing.assert_allclose(c[tr.segment(lab)] - ref, 0, atol=1e-12)
     # with ω_ie = 0 the body rate is θ̇ about a body-fixed axis, so Σ Δθ over the move is angle × axis
-    for lab, axis in [(1, [0, 0, 90 * DEG]), (3, c2.T @ [-180 * DEG, 0, 0]),
-                      (5, np.array([1, 1, 0]) / np.sqrt(2) * 30 * DEG)]:
+    for lab, axis in [
+        (1, [0, 0, 90 * DEG]),
+        (3, c2.T @ [-180 * DEG, 0, 0]),
+        (5, np.array([1, 1, 0]) / np.sqrt(2) * 30 * DEG),
+    ]:
         k0, k1 = tr.segment(lab)[[0, -1]]
-        np.testing.assert_allclose(tr.dtheta[k0 - 1:k1 + 1].sum(0), axis, atol=1e-14)
+        np.testing.assert_allclose(tr.dtheta[k0 - 1 : k1 + 1].sum(0), axis, atol=1e-14)
     assert tr.segment_names[1] == "rotate +90° about z_b" and tr.segment_names[3] == "rotate -180° about x_n"
     assert tr.segment_names[5] == "rotate +30° about [0.707, 0.707, 0.000]_b"
     # rates: zero at rest, peak 2A/T for the cosine, A/(T − T_a) for the trapezoid plateau
@@ -237,9 +270,14 @@ def test_turntable_attitudes_and_earth_free_angles():
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.lists(st.floats(-1, 1), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 0.1),
-       st.floats(-7, 7).filter(lambda a: abs(a) > 1e-3), st.floats(0.2, 5.0), st.sampled_from(S._PROFILES),
-       st.sampled_from(["body", "nav"]), st.floats(3.0, 60.0))
+@given(
+    st.lists(st.floats(-1, 1), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 0.1),
+    st.floats(-7, 7).filter(lambda a: abs(a) > 1e-3),
+    st.floats(0.2, 5.0),
+    st.sampled_from(S._PROFILES),
+    st.sampled_from(["body", "nav"]),
+    st.floats(3.0, 60.0),
+)
 def test_turntable_any_rotation(axis, angle, duration, profile, frame, rate):
     # Earth-free rotation about a fixed axis: the end attitude is C_0 R(angle) (body) or R(angle) C_0 (nav) and the
     # increments over the move sum to angle × (body axis), whatever the profile and the sampling
@@ -256,8 +294,12 @@ def test_turntable_any_rotation(axis, angle, duration, profile, frame, rate):
 
 def test_turntable_ned_equals_enu():
     m = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]])  # C_ENU^NED
-    sched_ned = [S.Rotate(m @ unit_axis(r.axis), r.angle, r.duration, r.frame, r.profile, r.accel_time)
-                 if isinstance(r, S.Rotate) and r.frame == "nav" else r for r in SCHEDULE]
+    sched_ned = [
+        S.Rotate(m @ unit_axis(r.axis), r.angle, r.duration, r.frame, r.profile, r.accel_time)
+        if isinstance(r, S.Rotate) and r.frame == "nav"
+        else r
+        for r in SCHEDULE
+    ]
     a = S.turntable(SCHEDULE, 10.0, LAT, initial=C0)
     b = S.turntable(sched_ned, 10.0, LAT, initial=m @ C0, frame="ned")
     for name in ("gyr", "acc", "dtheta", "dv"):
@@ -291,7 +333,7 @@ def test_turntable_increments_with_earth_rate_against_quadrature():
             assert abs(tr.dv[k, i] - f_q) < 1e-13
     k0, k1 = tr.segment(1)[[0, -1]]
     total, _ = quad(lambda t: model(t)[0][2], tr.t[k0 - 1], tr.t[k1 + 1], epsabs=1e-16, epsrel=1e-14, limit=200)
-    assert tr.dtheta[k0 - 1:k1 + 1, 2].sum() == pytest.approx(total, abs=1e-14)
+    assert tr.dtheta[k0 - 1 : k1 + 1, 2].sum() == pytest.approx(total, abs=1e-14)
 
 
 def test_quadrature_error_against_16_node_rule(monkeypatch):
@@ -327,7 +369,7 @@ def test_irregular_epochs():
     tt = co.t
     np.testing.assert_allclose(co.dtheta, S.coning_increment(BETA, FREQ, tt[:-1], tt[1:]), atol=1e-17)
     st_ = S.static_positions(S.six_positions(), 2.0, None, LAT, t=t[t <= 12.0])
-    both = (st_.labels[:-1] == st_.labels[1:])
+    both = st_.labels[:-1] == st_.labels[1:]
     np.testing.assert_allclose(st_.dv[both], st_.acc[:-1][both] * st_.dt[both, None], atol=1e-14)
 
 
@@ -341,8 +383,9 @@ INNER = S.AxisSchedule([S.Move(2.0, 2.0, np.pi / 2, "quintic"), S.Move(8.0, 1.0,
 
 def chain(t):
     a, b = OUTER(t), INNER(t)
-    return S.chain_attitude([np.eye(3), C_MIS, C_IMU], ["z", "y"], np.stack([a[0], b[0]]),
-                            np.stack([a[1], b[1]]), np.stack([a[2], b[2]]))
+    return S.chain_attitude(
+        [np.eye(3), C_MIS, C_IMU], ["z", "y"], np.stack([a[0], b[0]]), np.stack([a[1], b[1]]), np.stack([a[2], b[2]])
+    )
 
 
 def test_chain_rate_is_the_derivative_of_the_attitude():
@@ -372,8 +415,9 @@ def test_gimbal_dual_axis_truth():
     # rest segments: 0–1 s, 4–5 s, 9–10 s (moves overlap between 1 and 4 s, and 5–9 s is one motion)
     assert np.unique(tr.labels).tolist() == [-1, 0, 1, 2]
     np.testing.assert_allclose(tr.t[tr.segment(1)][[0, -1]], [4.0, 5.0])
-    np.testing.assert_allclose(c[tr.segment(2)] - rot_z(np.pi / 2) @ C_MIS @ rot_y(0.3 + 1.5 * np.pi) @ C_IMU, 0,
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        c[tr.segment(2)] - rot_z(np.pi / 2) @ C_MIS @ rot_y(0.3 + 1.5 * np.pi) @ C_IMU, 0, atol=1e-14
+    )
     rest = tr.labels >= 0
     np.testing.assert_allclose(tr.acc[rest], body(-earth.gravity_vector(LAT), c)[rest], atol=1e-13)
     assert tr.segment_names[1].startswith("θ1 = 180°, θ2 = 107.19°: ")
@@ -381,12 +425,20 @@ def test_gimbal_dual_axis_truth():
     w_ie = earth.earth_rate(LAT)
     for k in [22, 30, 41, 79, 130, 165]:
         for i in range(3):
+
             def wib(t):
                 cc, ww, _ = chain(np.array([t]))
                 return ww[0, i] + (cc[0].T @ w_ie)[i]
-            val, _ = quad(wib, tr.t[k], tr.t[k + 1], epsabs=1e-16, epsrel=1e-14, limit=200,
-                          points=[x for x in OUTER.breakpoints + INNER.breakpoints if tr.t[k] < x < tr.t[k + 1]]
-                          or None)
+
+            val, _ = quad(
+                wib,
+                tr.t[k],
+                tr.t[k + 1],
+                epsabs=1e-16,
+                epsrel=1e-14,
+                limit=200,
+                points=[x for x in OUTER.breakpoints + INNER.breakpoints if tr.t[k] < x < tr.t[k + 1]] or None,
+            )
             assert abs(tr.dtheta[k, i] - val) < 1e-14
 
 
@@ -403,8 +455,9 @@ def test_gimbal_single_axis_equals_turntable_and_callable_angles():
         p = 2 * np.pi * f * np.asarray(t, float)
         return amp * np.sin(p), amp * 2 * np.pi * f * np.cos(p), -amp * (2 * np.pi * f) ** 2 * np.sin(p)
 
-    gm = S.gimbal([np.eye(3), np.eye(3), C_IMU], ["z", "x"], [osc, lambda t: osc(t, 0.1, 0.7)], 3.0, 10.0,
-                  LAT, earth="none")
+    gm = S.gimbal(
+        [np.eye(3), np.eye(3), C_IMU], ["z", "x"], [osc, lambda t: osc(t, 0.1, 0.7)], 3.0, 10.0, LAT, earth="none"
+    )
     assert gm.segment_names == ["gimbal motion"] and np.all(gm.labels == 0)
 
     def w_model(t):
@@ -426,12 +479,13 @@ def test_lever_arm_centripetal_and_tangential():
     A, T = 2 * np.pi, 2.0
     thd = A / T * (1 - np.cos(2 * np.pi * tau / T))
     thdd = 2 * np.pi * A / T**2 * np.sin(2 * np.pi * tau / T)
-    np.testing.assert_allclose(tr.acc, np.stack([-thd**2 * L, thdd * L, 0 * tau], 1), atol=1e-14)
+    np.testing.assert_allclose(tr.acc, np.stack([-(thd**2) * L, thdd * L, 0 * tau], 1), atol=1e-14)
     # ∫ θ̈ L dt over the move is the change in tangential speed: zero; ∫ −θ̇² L dt = −L ∫θ̇² = −L (3/2) A²/T
     np.testing.assert_allclose(tr.dv.sum(0), [-L * 1.5 * A**2 / T, 0, 0], atol=1e-14)
 
 
 # --- trajectory ------------------------------------------------------------------------------------------
+
 
 def knots(seed=3, n=7):
     rng = np.random.default_rng(seed)
@@ -451,8 +505,16 @@ def test_trajectory_passes_through_knots():
     r0 = earth.geodetic_to_ecef(0.7, 2.0, 50.0)
     r = earth.geodetic_to_ecef(tr.pos[idx, 0], tr.pos[idx, 1], tr.pos[idx, 2])
     np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0).T, pos, atol=5e-9)
-    ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, [1, 0, 2]] * [1, 1, -1],
-                       20.0, frame="ned", lat0=0.7, lon0=2.0, height0_m=50.0)
+    ned = S.trajectory(
+        tk,
+        np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att,
+        pos[:, [1, 0, 2]] * [1, 1, -1],
+        20.0,
+        frame="ned",
+        lat0=0.7,
+        lon0=2.0,
+        height0_m=50.0,
+    )
     for name in ("gyr", "acc", "dtheta", "dv", "pos"):
         np.testing.assert_allclose(getattr(ned, name), getattr(tr, name), atol=1e-12)
     np.testing.assert_allclose(ned.vel_n, tr.vel_n[:, [1, 0, 2]] * [1, 1, -1], atol=1e-12)
@@ -463,8 +525,15 @@ def test_trajectory_end_velocities_are_in_the_frame_axes():
     v0, v1 = np.array([3.0, -1.0, 0.5]), np.array([-2.0, 4.0, -1.5])  # ENU
     enu = S.trajectory(tk, att, pos, 20.0, lat0=0.7, bc_type=((1, v0), (1, v1)))
     swap = [1, 0, 2], np.array([1, 1, -1])
-    ned = S.trajectory(tk, np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att, pos[:, swap[0]] * swap[1], 20.0,
-                       frame="ned", lat0=0.7, bc_type=((1, v0[swap[0]] * swap[1]), (1, v1[swap[0]] * swap[1])))
+    ned = S.trajectory(
+        tk,
+        np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att,
+        pos[:, swap[0]] * swap[1],
+        20.0,
+        frame="ned",
+        lat0=0.7,
+        bc_type=((1, v0[swap[0]] * swap[1]), (1, v1[swap[0]] * swap[1])),
+    )
     np.testing.assert_allclose(ned.acc, enu.acc, atol=1e-12)
     np.testing.assert_allclose(ned.vel_n[0], v0[swap[0]] * swap[1], atol=1e-6)
 
@@ -541,9 +610,11 @@ def test_rate_of_the_navigation_frame_derivative():
     t = np.linspace(3.0, 3.4, 41)
     tr = S.trajectory(tk, att, pos, None, lat0=1.2, t=t)
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
-    a = np.einsum("mij,mj->mi", tr.C_b_n, tr.acc) - np.cross(2 * earth.earth_rate(lat) +
-                                                                earth.transport_rate(lat, h, v), v) \
+    a = (
+        np.einsum("mij,mj->mi", tr.C_b_n, tr.acc)
+        - np.cross(2 * earth.earth_rate(lat) + earth.transport_rate(lat, h, v), v)
         + earth.gravity_vector(lat, h)
+    )
     w = earth.earth_rate(lat) + earth.transport_rate(lat, h, v)
     w_fd = (-w[4:] + 8 * w[3:-1] - 8 * w[1:-3] + w[:-4]) / (12 * (t[1] - t[0]))
     np.testing.assert_allclose(S._omega_in_dot(tr.pos, v, a, "wgs84")[2:-2], w_fd, rtol=1e-6, atol=1e-15)
@@ -551,6 +622,7 @@ def test_rate_of_the_navigation_frame_derivative():
 
 
 # --- results and bad input --------------------------------------------------------------------------------
+
 
 def test_json_round_trip(tmp_path):
     tr = S.turntable(SCHEDULE[:3], 5.0, LAT, initial=C0)
@@ -563,35 +635,38 @@ def test_json_round_trip(tmp_path):
     assert tr.units()["dv"] == "m/s" and tr.units()["gyr"] == "rad/s"
 
 
-@pytest.mark.parametrize("call", [
-    lambda: S.static_positions(S.six_positions(), 0.0, 10, LAT),  # zero dwell
-    lambda: S.static_positions(S.six_positions(), [1.0, np.nan, 1, 1, 1, 1], 10, LAT),  # NaN
-    lambda: S.static_positions(S.six_positions() * 1.01, 1.0, 10, LAT),  # not orthonormal
-    lambda: S.static_positions(-S.six_positions(), 1.0, 10, LAT),  # reflections
-    lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, frame="nwu"),  # unknown frame
-    lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, earth="grs67"),  # unknown Earth set
-    lambda: S.static_positions(S.six_positions(), 1.0, 10, 39.9),  # latitude in degrees
-    lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, transition=-1.0),
-    lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, gravity=[0, 0, -9.8]),  # gravity with Earth
-    lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 0.2, 0.1]),  # unsorted
-    lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 0.1, 0.1]),  # duplicate
-    lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 7.0]),  # beyond the schedule
-    lambda: S.static_positions(S.six_positions(), 1.0, 0.0, LAT),  # zero rate
-    lambda: S.static_positions(S.six_positions(), 1.0, None, LAT),  # neither rate nor epochs
-    lambda: S.turntable([S.Rotate("w", 1.0, 1.0)], 10, LAT),  # unknown axis
-    lambda: S.turntable([S.Rotate("z", 1.0, 1.0, profile="step")], 10, LAT),
-    lambda: S.turntable([S.Rotate("z", 1.0, 1.0, profile="trapezoid", accel_time=0.6)], 10, LAT),
-    lambda: S.turntable([S.Rotate("z", 1.0, 1.0, frame="lab")], 10, LAT),
-    lambda: S.turntable([S.Rotate([0, 0, 0], 1.0, 1.0)], 10, LAT),
-    lambda: S.turntable([S.Rest(np.nan)], 10, LAT),
-    lambda: S.turntable([], 10, LAT),
-    lambda: S.AxisSchedule([S.Move(0.0, 2.0, 1.0), S.Move(1.0, 1.0, 1.0)]),  # overlapping moves
-    lambda: S.gimbal([np.eye(3)], ["z"], [0.0], 1.0, 10, LAT),  # missing fixed DCM
-    lambda: S.coning(np.radians(200), 1.0, 1.0, 100),
-    lambda: S.coning(0.01, -1.0, 1.0, 100),
-    lambda: S.trajectory([0, 1, 1], np.stack([np.eye(3)] * 3), np.zeros((3, 3)), 10, lat0=0.1),
-    lambda: S.trajectory([0, 1, 2], np.stack([np.eye(3)] * 2), np.zeros((3, 3)), 10, lat0=0.1),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: S.static_positions(S.six_positions(), 0.0, 10, LAT),  # zero dwell
+        lambda: S.static_positions(S.six_positions(), [1.0, np.nan, 1, 1, 1, 1], 10, LAT),  # NaN
+        lambda: S.static_positions(S.six_positions() * 1.01, 1.0, 10, LAT),  # not orthonormal
+        lambda: S.static_positions(-S.six_positions(), 1.0, 10, LAT),  # reflections
+        lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, frame="nwu"),  # unknown frame
+        lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, earth="grs67"),  # unknown Earth set
+        lambda: S.static_positions(S.six_positions(), 1.0, 10, 39.9),  # latitude in degrees
+        lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, transition=-1.0),
+        lambda: S.static_positions(S.six_positions(), 1.0, 10, LAT, gravity=[0, 0, -9.8]),  # gravity with Earth
+        lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 0.2, 0.1]),  # unsorted
+        lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 0.1, 0.1]),  # duplicate
+        lambda: S.static_positions(S.six_positions(), 1.0, None, LAT, t=[0.0, 7.0]),  # beyond the schedule
+        lambda: S.static_positions(S.six_positions(), 1.0, 0.0, LAT),  # zero rate
+        lambda: S.static_positions(S.six_positions(), 1.0, None, LAT),  # neither rate nor epochs
+        lambda: S.turntable([S.Rotate("w", 1.0, 1.0)], 10, LAT),  # unknown axis
+        lambda: S.turntable([S.Rotate("z", 1.0, 1.0, profile="step")], 10, LAT),
+        lambda: S.turntable([S.Rotate("z", 1.0, 1.0, profile="trapezoid", accel_time=0.6)], 10, LAT),
+        lambda: S.turntable([S.Rotate("z", 1.0, 1.0, frame="lab")], 10, LAT),
+        lambda: S.turntable([S.Rotate([0, 0, 0], 1.0, 1.0)], 10, LAT),
+        lambda: S.turntable([S.Rest(np.nan)], 10, LAT),
+        lambda: S.turntable([], 10, LAT),
+        lambda: S.AxisSchedule([S.Move(0.0, 2.0, 1.0), S.Move(1.0, 1.0, 1.0)]),  # overlapping moves
+        lambda: S.gimbal([np.eye(3)], ["z"], [0.0], 1.0, 10, LAT),  # missing fixed DCM
+        lambda: S.coning(np.radians(200), 1.0, 1.0, 100),
+        lambda: S.coning(0.01, -1.0, 1.0, 100),
+        lambda: S.trajectory([0, 1, 1], np.stack([np.eye(3)] * 3), np.zeros((3, 3)), 10, lat0=0.1),
+        lambda: S.trajectory([0, 1, 2], np.stack([np.eye(3)] * 2), np.zeros((3, 3)), 10, lat0=0.1),
+    ],
+)
 def test_bad_input_raises_optinav_error(call):
     with pytest.raises(OptinavError):
         call()

@@ -7,8 +7,16 @@ import pytest
 
 from optinav.core.units import DEG
 from optinav.errors import OptinavError
-from optinav.sky.polarization import (DEFAULT_D_MAX, PointSensor, aop_in_sensor, rayleigh_dop, scattering_angle,
-                                      sky_polarization, wrap_axial, zenith_aop)
+from optinav.sky.polarization import (
+    DEFAULT_D_MAX,
+    PointSensor,
+    aop_in_sensor,
+    rayleigh_dop,
+    scattering_angle,
+    sky_polarization,
+    wrap_axial,
+    zenith_aop,
+)
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -45,8 +53,9 @@ def test_degenerate_sun_on_axis_and_antisun():
     d = 0.4
     b = sky_polarization(z, z, model="berry", up=UP, neutral_distance=d)
     assert np.isfinite(b.dop) and 0 < b.dop < 0.1  # the sun itself is not a neutral point in Berry's model
-    ring = np.array([[np.sin(d / 2) * np.cos(a), np.sin(d / 2) * np.sin(a), np.cos(d / 2)]
-                     for a in np.arange(4) * np.pi / 2])
+    ring = np.array(
+        [[np.sin(d / 2) * np.cos(a), np.sin(d / 2) * np.sin(a), np.cos(d / 2)] for a in np.arange(4) * np.pi / 2]
+    )
     bz = sky_polarization(z, ring, model="berry", up=UP, neutral_distance=d)
     assert np.min(bz.dop) < 1e-12  # one of the two is on the chosen meridian
     with pytest.raises(OptinavError):
@@ -93,8 +102,9 @@ def test_berry_reduces_to_rayleigh_and_has_neutral_points():
     assert abs(bb.dop - rr.dop) < 0.05 and abs(np.sum(bb.e * rr.e)) > np.cos(5 * DEG)
 
 
-@pytest.mark.parametrize("sensor", [PointSensor(), PointSensor.four_channel(extinction_ratio=30.0),
-                                    PointSensor(extinction_ratio=np.inf)])
+@pytest.mark.parametrize(
+    "sensor", [PointSensor(), PointSensor.four_channel(extinction_ratio=30.0), PointSensor(extinction_ratio=np.inf)]
+)
 def test_stokes_inversion_exact_without_noise(sensor):
     rng = np.random.default_rng(3)
     aop = rng.uniform(-np.pi / 2, np.pi / 2, 500)
@@ -104,8 +114,9 @@ def test_stokes_inversion_exact_without_noise(sensor):
     np.testing.assert_allclose(m.dop, dop, atol=1e-12)
     np.testing.assert_allclose(m.intensity, sensor.intensity, atol=1e-12)
     # the angle is axial: α and α + π give the same channels
-    np.testing.assert_allclose(sensor.channels(aop + np.pi, dop, noise=False), sensor.channels(aop, dop, noise=False),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        sensor.channels(aop + np.pi, dop, noise=False), sensor.channels(aop, dop, noise=False), atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("psi_deg", [(0, 60, 120), (0, 45, 90, 135)])

@@ -10,11 +10,22 @@ import pytest
 from optinav.core.results import Result
 from optinav.core.simulate import six_positions, static_positions
 from optinav.errors import OptinavError
-from optinav.multipos.static import (SectionList, StaticDetection, default_candidate, detect_static,
-                                     detection_from_sections,
-                                     moving_variance, noise_floor, sections_from_list, threshold_candidates)
+from optinav.multipos.static import (
+    SectionList,
+    StaticDetection,
+    default_candidate,
+    detect_static,
+    detection_from_sections,
+    moving_variance,
+    noise_floor,
+    sections_from_list,
+    threshold_candidates,
+)
 
-DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")) / "imucal"
+DATA = (
+    Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    / "imucal"
+)
 
 
 def _brute_variance(t, x, w):
@@ -168,6 +179,7 @@ def test_detection_result_json_round_trip(tmp_path):
 
 # --- manual sections -----------------------------------------------------------------------------------
 
+
 def test_sections_from_times_text_and_json(tmp_path):
     t = np.arange(1000) * 0.01  # 0 .. 9.99 s
     s = sections_from_list([(1.0, 2.0), (3.005, 4.5)], t)
@@ -196,17 +208,20 @@ def test_sections_from_imucal_section_list():
         assert (i0, i1) == (sec[n]["start"], sec[n]["end"])  # half-open, as imucal's iloc
 
 
-@pytest.mark.parametrize("sections, match", [
-    ([(2.0, 1.0)], "start"),
-    ([(1.0, 2.0), (1.5, 3.0)], "overlap"),
-    ([(3.0, 4.0), (1.0, 2.0)], "time order"),
-    ([(1.0, 20.0)], "outside"),
-    ([(1.001, 1.009)], "no sample"),
-    ([], "empty"),
-    ({"a": {"start": 5, "end": 5}}, "empty or outside|not inside"),
-    ({"a": {"start": 1.5, "end": 5}}, "sample indices"),
-    ("9 10 11 12\n", "line 1"),
-])
+@pytest.mark.parametrize(
+    "sections, match",
+    [
+        ([(2.0, 1.0)], "start"),
+        ([(1.0, 2.0), (1.5, 3.0)], "overlap"),
+        ([(3.0, 4.0), (1.0, 2.0)], "time order"),
+        ([(1.0, 20.0)], "outside"),
+        ([(1.001, 1.009)], "no sample"),
+        ([], "empty"),
+        ({"a": {"start": 5, "end": 5}}, "empty or outside|not inside"),
+        ({"a": {"start": 1.5, "end": 5}}, "sample indices"),
+        ("9 10 11 12\n", "line 1"),
+    ],
+)
 def test_section_validation_errors(sections, match):
     t = np.arange(1000) * 0.01
     with pytest.raises(OptinavError, match=match) as e:
@@ -234,6 +249,7 @@ def test_section_list_result_round_trip(tmp_path):
 
 
 # --- real data -------------------------------------------------------------------------------------------
+
 
 @pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
 def test_real_ferraris_session_static_poses_found():

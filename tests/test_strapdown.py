@@ -10,8 +10,16 @@ from scipy.linalg import expm
 
 from optinav import OptinavError
 from optinav.core import earth, simulate as S, strapdown as SD
-from optinav.core.rotations import (C_ENU_NED, dcm_from_euler, dcm_from_quat, quat_conjugate,
-                                    quat_from_rotvec, quat_multiply, rotvec_from_quat, skew)
+from optinav.core.rotations import (
+    C_ENU_NED,
+    dcm_from_euler,
+    dcm_from_quat,
+    quat_conjugate,
+    quat_from_rotvec,
+    quat_multiply,
+    rotvec_from_quat,
+    skew,
+)
 
 EPS = np.finfo(float).eps
 DEG = np.pi / 180
@@ -33,6 +41,7 @@ def psi(q, q_true):
 
 # --- exact cases and invariants -----------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("coning", ALGS)
 def test_fixed_axis_rotation_integrates_exactly(coning):
     # Rotation about a fixed body axis commutes with itself, so every cross product vanishes and the
@@ -49,8 +58,9 @@ def test_fixed_axis_rotation_integrates_exactly(coning):
     q0 = quat_from_rotvec([0.4, -0.3, 1.2])
     q = SD.attitude_update(q0, ax_b * w_b * dt[:, None], coning=coning, omega_in_n=ax_n * w_n, dt=dt)
     ti = t[SD.output_indices(dt.size, coning)]
-    truth = quat_multiply(quat_multiply(quat_from_rotvec(-ax_n * w_n * ti[:, None]), q0),
-                          quat_from_rotvec(ax_b * w_b * ti[:, None]))
+    truth = quat_multiply(
+        quat_multiply(quat_from_rotvec(-ax_n * w_n * ti[:, None]), q0), quat_from_rotvec(ax_b * w_b * ti[:, None])
+    )
     assert q.shape == (ti.size, 4)
     assert np.max(qerr(q, truth)) < 1e-12
     assert np.max(np.abs(np.linalg.norm(q, axis=1) - 1)) < 1e-14
@@ -118,6 +128,7 @@ def test_output_indices_map_epochs():
 
 # --- coning ---------------------------------------------------------------------------------------------
 
+
 def test_coning_drift_formula_leading_terms():
     # Leading-order coning drift of each algorithm, in units of Ω sin²α (λ = Ωh):
     # none λ²/12; one-sample+previous λ⁴/60; two-sample λ⁴/60 (Ignagni 1990: Ωα²(ΩT)⁴/960 with T = 2h);
@@ -125,8 +136,13 @@ def test_coning_drift_formula_leading_terms():
     # reproduce these coefficients with relative error O(λ²).
     f, h, a = 1.0, 1e-3, 0.01
     lam, base = 2 * np.pi * f * h, 2 * np.pi * f * np.sin(a) ** 2
-    lead = {"none": lam**2 / 12, "previous": lam**4 / 60, "two-sample": lam**4 / 60,
-            "three-sample": lam**6 / 280, "four-sample": lam**8 / 1260}
+    lead = {
+        "none": lam**2 / 12,
+        "previous": lam**4 / 60,
+        "two-sample": lam**4 / 60,
+        "three-sample": lam**6 / 280,
+        "four-sample": lam**8 / 1260,
+    }
     for c, v in lead.items():
         assert SD.coning_drift_rate(c, a, f, h) / base == pytest.approx(-v, rel=20 * lam**2)
 
@@ -156,8 +172,9 @@ def test_coning_drift_against_analytic_coning(coning):
     drift = SD.coning_drift_rate(coning, alpha, f, 1 / rate)
     csum = {"none": 0.0, "previous": 1 / 12}.get(coning, float(np.sum(SD._CS[n])))
     lam = om / rate
-    bound = (om * v * np.sin(alpha) ** 2 * (omH**2 / 18 + omH**3 / 96 + 2 * csum * lam / n + omH**2 / 12)
-             + v * abs(drift))
+    bound = om * v * np.sin(alpha) ** 2 * (omH**2 / 18 + omH**3 / 96 + 2 * csum * lam / n + omH**2 / 12) + v * abs(
+        drift
+    )
     assert bound < 0.2 * abs(drift)
     # the least-squares slope of rounding noise (≈ 1e-15 rad per update) over 20 s is < 1e-15 rad/s
     assert abs(slope[2] - drift) <= bound + 1e-14
@@ -247,8 +264,9 @@ def _error_model(lat, h, c_b_n, eps_b, nab_b):
 def test_static_hour_with_biases_follows_error_model(static_hour):
     tr = static_hour
     dt = tr.dt[:, None]
-    nav = SD.mechanize(tr.dtheta + EPS_B * dt, tr.dv + NAB_B * dt, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0],
-                       vertical="hold")
+    nav = SD.mechanize(
+        tr.dtheta + EPS_B * dt, tr.dv + NAB_B * dt, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0], vertical="hold"
+    )
     # The vertical channel is unstable (δḧ = 2g/R δh + ∇_U); it is held here (h = h0, v_U = 0) so the
     # horizontal Schuler/Foucault dynamics over the full hour can be compared with the linear model.
     A, u = _error_model(LAT, H, C_STATIC, EPS_B, NAB_B)
@@ -256,8 +274,9 @@ def test_static_hour_with_biases_follows_error_model(static_hour):
     M[:7, :7], M[:7, 7] = A, u
     idx = np.arange(0, tr.t.size, 6000)  # every minute
     pred = np.array([expm(M * tk)[:7, 7] for tk in tr.t[idx]])
-    meas = np.column_stack([psi(nav.q_b_n[idx], tr.q_b_n[idx]), (nav.vel_n - tr.vel_n)[idx, :2],
-                            (nav.pos - tr.pos)[idx, :2]])
+    meas = np.column_stack(
+        [psi(nav.q_b_n[idx], tr.q_b_n[idx]), (nav.vel_n - tr.vel_n)[idx, :2], (nav.pos - tr.pos)[idx, :2]]
+    )
     # The model drops products of error states (φ×Cε, (1 − cos φ) terms of the attitude error, δL² in
     # δω_ie), each relative to its linear term of order max|φ| + max|δL|; with a constant of order one
     # (3 for margin) the tolerance on every state is 3 (max|φ| + max|δL|) · its peak. Discretization
@@ -281,15 +300,26 @@ def test_static_short_time_growth_law(static_hour):
     k = 6000
     sl = slice(0, k + 1)
     dt = tr.dt[:k, None]
-    nav = SD.mechanize(tr.dtheta[:k] + EPS_B * dt, tr.dv[:k] + NAB_B * dt, tr.t[sl], tr.q_b_n[0], tr.vel_n[0],
-                       tr.pos[0], vertical="hold")
+    nav = SD.mechanize(
+        tr.dtheta[:k] + EPS_B * dt,
+        tr.dv[:k] + NAB_B * dt,
+        tr.t[sl],
+        tr.q_b_n[0],
+        tr.vel_n[0],
+        tr.pos[0],
+        vertical="hold",
+    )
     t = tr.t[k]
     g = float(earth.gravity(LAT, H))
     rm, rn = earth.radii(LAT, H)
     e, a = C_STATIC @ EPS_B, C_STATIC @ NAB_B
     phi = -e * t + np.array([-a[1] / rm, a[0] / rn, a[0] * np.tan(LAT) / rn]) * t**2 / 2
-    dv = np.array([a[0] * t + g * e[1] * t**2 / 2 - g * a[0] * t**3 / (6 * rn),
-                   a[1] * t - g * e[0] * t**2 / 2 - g * a[1] * t**3 / (6 * rm)])
+    dv = np.array(
+        [
+            a[0] * t + g * e[1] * t**2 / 2 - g * a[0] * t**3 / (6 * rn),
+            a[1] * t - g * e[0] * t**2 / 2 - g * a[1] * t**3 / (6 * rm),
+        ]
+    )
     dlat = (a[1] * t**2 / 2 - g * e[0] * t**3 / 6) / rm
     ws2 = g / rn
     rel = 2 * earth.WGS84.omega_ie * t + ws2 * t**2 / 12
@@ -307,8 +337,15 @@ def test_free_vertical_channel_diverges_as_cosh(static_hour):
     k = 60000  # 600 s
     b = 1e-3
     nab = C_STATIC.T @ np.array([0.0, 0.0, b])
-    nav = SD.mechanize(tr.dtheta[:k], tr.dv[:k] + nab * tr.dt[:k, None], tr.t[: k + 1], tr.q_b_n[0],
-                       tr.vel_n[0], tr.pos[0], vertical="free")
+    nav = SD.mechanize(
+        tr.dtheta[:k],
+        tr.dv[:k] + nab * tr.dt[:k, None],
+        tr.t[: k + 1],
+        tr.q_b_n[0],
+        tr.vel_n[0],
+        tr.pos[0],
+        vertical="free",
+    )
     kg = -(earth.gravity(LAT, H + 1.0) - earth.gravity(LAT, H - 1.0)) / 2.0
     t = tr.t[: k + 1]
     dh = b / kg * (np.cosh(np.sqrt(kg) * t) - 1)
@@ -325,8 +362,9 @@ def test_static_ned_and_psins_error_free(earth_name):
     # NED frame and the PSINS constant set through the same exact static case (bounds as above, N = 6000).
     c = dcm_from_euler(np.radians([3.0, 4.0, -120.0]), "ned")
     tr = S.static_positions(c[None], 60.0, 100.0, -0.6, height_m=20.0, lon=1.0, frame="ned", earth=earth_name)
-    nav = SD.mechanize(tr.dtheta, tr.dv, tr.t, dcm_from_quat(tr.q_b_n[0]), tr.vel_n[0], tr.pos[0], frame="ned",
-                       earth=earth_name)
+    nav = SD.mechanize(
+        tr.dtheta, tr.dv, tr.t, dcm_from_quat(tr.q_b_n[0]), tr.vel_n[0], tr.pos[0], frame="ned", earth=earth_name
+    )
     n = tr.dtheta.shape[0]
     assert np.max(qerr(nav.q_b_n, tr.q_b_n)) < 2 * n * EPS
     # free vertical over 60 s: velocity rounding ≤ N eps g T-ish ≈ 1e-9 m/s, height ≤ that × 60 s
@@ -347,11 +385,13 @@ def test_gravity_kernel_equals_earth_module():
 
 # --- moving base, irregular timestamps, frames ------------------------------------------------------
 
+
 def _trajectory(rate=None, t=None, frame="enu"):
     tk = np.arange(0, 61, 10.0)
     eul = np.radians(np.column_stack([[0, 5, -5, 3, -4, 2, 0], [0, 2, -3, 1, 0, -2, 0], [0, 20, 60, 90, 60, 30, 0]]))
-    pk = np.array([[0, 0, 0], [30, 100, 1], [120, 180, 3], [250, 200, 2], [350, 150, 0], [420, 60, -1],
-                   [450, 0, 0]], float)
+    pk = np.array(
+        [[0, 0, 0], [30, 100, 1], [120, 180, 3], [250, 200, 2], [350, 150, 0], [420, 60, -1], [450, 0, 0]], float
+    )
     return S.trajectory(tk, dcm_from_euler(eul, "enu"), pk, rate, frame, lat0=30 * DEG, height0_m=50.0, t=t)
 
 
@@ -360,8 +400,7 @@ def _nav_errors(tr, **kw):
     i = nav.index
     rm, rn = earth.radii(tr.pos[0, 0], tr.pos[0, 2])
     dp = (nav.pos - tr.pos[i]) * [rm, rn * np.cos(tr.pos[0, 0]), 1]
-    return (np.max(qerr(nav.q_b_n, tr.q_b_n[i])), np.max(np.abs(nav.vel_n - tr.vel_n[i])),
-            np.max(np.abs(dp)))
+    return (np.max(qerr(nav.q_b_n, tr.q_b_n[i])), np.max(np.abs(nav.vel_n - tr.vel_n[i])), np.max(np.abs(dp)))
 
 
 @pytest.fixture(scope="module")
@@ -432,6 +471,7 @@ def test_irregular_timestamps_match_regular(traj100):
     assert e_irr[0] <= 3.4 * e_reg[0]
     assert e_irr[1] <= 2.25 * e_reg[1]
     assert e_irr[2] <= 2.25 * e_reg[2]
+
     # attitude_update alone with per-sample dt and ω_in^n per sample (ω_ie + ω_en from core.earth at the
     # truth states, averaged over each step: trapezoid error ~ T³ ω̈_in N ≈ 1e-13 rad): same error laws.
     def att_only(trj):
@@ -459,8 +499,7 @@ def test_ned_equals_enu_on_the_same_motion(traj100):
 
 def test_nav_solution_json_round_trip(traj50):
     tr = traj50
-    nav = SD.mechanize(tr.dtheta[:20], tr.dv[:20], tr.t[:21], tr.q_b_n[0], tr.vel_n[0], tr.pos[0],
-                       coning="two-sample")
+    nav = SD.mechanize(tr.dtheta[:20], tr.dv[:20], tr.t[:21], tr.q_b_n[0], tr.vel_n[0], tr.pos[0], coning="two-sample")
     back = SD.NavSolution.from_json(nav.to_json())
     np.testing.assert_array_equal(back.q_b_n, nav.q_b_n)
     np.testing.assert_array_equal(back.index, [0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20])
@@ -474,33 +513,36 @@ _T = np.arange(11) * 0.01
 _P = [0.5, 0.1, 0.0]
 
 
-@pytest.mark.parametrize("call", [
-    lambda: SD.attitude_update([1, 0, 0], _D),
-    lambda: SD.attitude_update([2, 0, 0, 0], _D),
-    lambda: SD.attitude_update(np.ones((3, 3)), _D),
-    lambda: SD.attitude_update([1, 0, 0, 0], np.zeros((10, 2))),
-    lambda: SD.attitude_update([1, 0, 0, 0], np.zeros((0, 3))),
-    lambda: SD.attitude_update([1, 0, 0, 0], np.full((4, 3), np.nan)),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, coning="five-sample"),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5]),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5], dt=np.ones(9)),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5], dt=-0.01),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=np.zeros((9, 3)), dt=0.01),
-    lambda: SD.attitude_update([1, 0, 0, 0], _D, dt="fast"),
-    lambda: SD.mechanize(_D, np.zeros((9, 3)), _T, [1, 0, 0, 0], [0, 0, 0], _P),
-    lambda: SD.mechanize(_D, _D, _T[:-1], [1, 0, 0, 0], [0, 0, 0], _P),
-    lambda: SD.mechanize(_D, _D, _T[::-1], [1, 0, 0, 0], [0, 0, 0], _P),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0], _P),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], [np.pi / 2, 0, 0]),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, frame="ecef"),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, earth="mars"),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, vertical="damped"),
-    lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, coning="cubic"),
-    lambda: SD.output_indices(0),
-    lambda: SD.rotation_increments(np.zeros(3)),
-    lambda: SD.rotation_increments(_D, dt=np.ones(3)),
-    lambda: SD.coning_drift_rate("bad", 0.1, 1.0, 0.01),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: SD.attitude_update([1, 0, 0], _D),
+        lambda: SD.attitude_update([2, 0, 0, 0], _D),
+        lambda: SD.attitude_update(np.ones((3, 3)), _D),
+        lambda: SD.attitude_update([1, 0, 0, 0], np.zeros((10, 2))),
+        lambda: SD.attitude_update([1, 0, 0, 0], np.zeros((0, 3))),
+        lambda: SD.attitude_update([1, 0, 0, 0], np.full((4, 3), np.nan)),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, coning="five-sample"),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5]),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5], dt=np.ones(9)),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=[0, 0, 1e-5], dt=-0.01),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, omega_in_n=np.zeros((9, 3)), dt=0.01),
+        lambda: SD.attitude_update([1, 0, 0, 0], _D, dt="fast"),
+        lambda: SD.mechanize(_D, np.zeros((9, 3)), _T, [1, 0, 0, 0], [0, 0, 0], _P),
+        lambda: SD.mechanize(_D, _D, _T[:-1], [1, 0, 0, 0], [0, 0, 0], _P),
+        lambda: SD.mechanize(_D, _D, _T[::-1], [1, 0, 0, 0], [0, 0, 0], _P),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0], _P),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], [np.pi / 2, 0, 0]),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, frame="ecef"),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, earth="mars"),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, vertical="damped"),
+        lambda: SD.mechanize(_D, _D, _T, [1, 0, 0, 0], [0, 0, 0], _P, coning="cubic"),
+        lambda: SD.output_indices(0),
+        lambda: SD.rotation_increments(np.zeros(3)),
+        lambda: SD.rotation_increments(_D, dt=np.ones(3)),
+        lambda: SD.coning_drift_rate("bad", 0.1, 1.0, 0.01),
+    ],
+)
 def test_bad_input_raises_optinav_error(call):
     with pytest.raises(OptinavError):
         call()

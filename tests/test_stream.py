@@ -68,15 +68,25 @@ def test_blocks_equal_whole_logger_file(tmp_path, name, chunk):
 
 
 @settings(max_examples=25, deadline=None)
-@given(n=st.integers(2, 60), chunk=st.integers(1, 70), counts=st.booleans(), labels=st.booleans(),
-       seed=st.integers(0, 2**16))
+@given(
+    n=st.integers(2, 60),
+    chunk=st.integers(1, 70),
+    counts=st.booleans(),
+    labels=st.booleans(),
+    seed=st.integers(0, 2**16),
+)
 def test_blocks_equal_whole_written_logs(tmp_path_factory, n, chunk, counts, labels, seed):
     rng = np.random.default_rng(seed)
     t = np.cumsum(rng.uniform(0.005, 0.02, n))
     acc = np.round(rng.normal(0, 2000, (n, 3))) if counts else rng.normal(0, 9.8, (n, 3))
-    log = ImuLog(t=t, acc=acc, gyr=rng.normal(size=(n, 3)), acc_unit="counts" if counts else "m/s^2",
-                 labels=np.array(["rest", "pose"])[rng.integers(0, 2, n)] if labels else None,
-                 sample=np.arange(n) + 5)
+    log = ImuLog(
+        t=t,
+        acc=acc,
+        gyr=rng.normal(size=(n, 3)),
+        acc_unit="counts" if counts else "m/s^2",
+        labels=np.array(["rest", "pose"])[rng.integers(0, 2, n)] if labels else None,
+        sample=np.arange(n) + 5,
+    )
     p = tmp_path_factory.mktemp("w") / "log.tsv"
     write_imu(p, log)
     _same(list(iter_imu(p, chunk_rows=chunk)), read_imu(p), chunk)
@@ -132,8 +142,9 @@ def test_time_order_and_empty_columns_are_checked_across_blocks(tmp_path):
 
 def test_writer_blocks_read_back_exactly(tmp_path):
     rng = np.random.default_rng(6)
-    log = ImuLog(t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyr=rng.normal(size=(100, 3)),
-                 labels=np.arange(100) % 3)
+    log = ImuLog(
+        t=np.arange(100) / 50.0, acc=rng.normal(size=(100, 3)), gyr=rng.normal(size=(100, 3)), labels=np.arange(100) % 3
+    )
     for name in ("w.csv", "w.npz"):
         with open_imu_writer(tmp_path / name, acc_unit="g") as w:
             for a in range(0, 100, 13):
@@ -153,18 +164,66 @@ def test_writer_blocks_read_back_exactly(tmp_path):
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     d = tmp_path_factory.mktemp("session")
-    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(d / "s.csv"), "--dwell", "6", "--rest", "10",
-                 "--seed", "2", "--acc-unit", "g", "--gyro-unit", "deg/s"]) == 0
-    assert main(["--quiet", "calibrate", "accel", str(d / "s.csv"), "--latitude", "38.88", "--height", "35",
-                 "--out", str(d / "r.json")]) == 0
+    assert (
+        main(
+            [
+                "--quiet",
+                "simulate",
+                "accel-multipos",
+                "--out",
+                str(d / "s.csv"),
+                "--dwell",
+                "6",
+                "--rest",
+                "10",
+                "--seed",
+                "2",
+                "--acc-unit",
+                "g",
+                "--gyro-unit",
+                "deg/s",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "--quiet",
+                "calibrate",
+                "accel",
+                str(d / "s.csv"),
+                "--latitude",
+                "38.88",
+                "--height",
+                "35",
+                "--out",
+                str(d / "r.json"),
+            ]
+        )
+        == 0
+    )
     return d
 
 
 def test_apply_chunked_equals_whole(session):
     d = session
     for chunk in ("37", "1000000"):
-        assert main(["--quiet", "apply", str(d / "r.json"), str(d / "s.csv"), "--out", str(d / f"c{chunk}.csv"),
-                     "--chunk-rows", chunk]) == 0
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "apply",
+                    str(d / "r.json"),
+                    str(d / "s.csv"),
+                    "--out",
+                    str(d / f"c{chunk}.csv"),
+                    "--chunk-rows",
+                    chunk,
+                ]
+            )
+            == 0
+        )
     a, b = read_imu(d / "c37.csv"), read_imu(d / "c1000000.csv")
     assert len(a) == len(read_imu(d / "s.csv")) > 37 * 20
     for name in ("t", "acc", "gyr"):
@@ -183,8 +242,23 @@ def test_attitude_chunked_equals_whole(session, method, extra):
         assert main(["--quiet", "apply", str(d / "r.json"), str(d / "s.csv"), "--out", str(corrected)]) == 0
     out = {}
     for chunk in ("53", "1000000"):
-        assert main(["--quiet", "attitude", str(corrected), "--method", method, *extra, "--chunk-rows", chunk,
-                     "--out", str(d / f"a{chunk}.csv")]) == 0
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "attitude",
+                    str(corrected),
+                    "--method",
+                    method,
+                    *extra,
+                    "--chunk-rows",
+                    chunk,
+                    "--out",
+                    str(d / f"a{chunk}.csv"),
+                ]
+            )
+            == 0
+        )
         out[chunk] = np.loadtxt(d / f"a{chunk}.csv", delimiter=",", skiprows=1)
     log = read_imu(corrected)
     assert out["53"].shape == (len(log), 8)
@@ -206,8 +280,23 @@ def test_attitude_gaps_across_blocks(tmp_path, session):
     for chunk in ("41", "1000000"):
         assert main(["--quiet", "attitude", str(p), "--chunk-rows", chunk, "--out", str(tmp_path / "x.csv")]) == 2
         assert not (tmp_path / "x.csv").exists()
-        assert main(["--quiet", "attitude", str(p), "--allow-gaps", "--method", "gd", "--chunk-rows", chunk,
-                     "--out", str(tmp_path / f"g{chunk}.csv")]) == 0
+        assert (
+            main(
+                [
+                    "--quiet",
+                    "attitude",
+                    str(p),
+                    "--allow-gaps",
+                    "--method",
+                    "gd",
+                    "--chunk-rows",
+                    chunk,
+                    "--out",
+                    str(tmp_path / f"g{chunk}.csv"),
+                ]
+            )
+            == 0
+        )
         out[chunk] = np.loadtxt(tmp_path / f"g{chunk}.csv", delimiter=",", skiprows=1)
     np.testing.assert_allclose(out["41"], out["1000000"], rtol=1e-12, atol=1e-12)
 
@@ -229,8 +318,14 @@ def flight_log(tmp_path_factory):
     rng = np.random.default_rng(5)
     mag = quat_rotate(quat_conjugate(d.q_b_n), np.broadcast_to(_M_NED, d.acc.shape)) + rng.normal(0, 0.3, d.acc.shape)
     p = tmp_path_factory.mktemp("flight") / "flight.csv"
-    np.savetxt(p, np.column_stack([d.t, d.acc, d.gyr, mag, np.degrees(d.aop), d.dop]), delimiter=",", fmt="%.10g",
-               header="# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,mx,my,mz,aop_deg,dop", comments="")
+    np.savetxt(
+        p,
+        np.column_stack([d.t, d.acc, d.gyr, mag, np.degrees(d.aop), d.dop]),
+        delimiter=",",
+        fmt="%.10g",
+        header="# units: t=s acc=m/s^2 gyro=rad/s\nt,ax,ay,az,gx,gy,gz,mx,my,mz,aop_deg,dop",
+        comments="",
+    )
     return p, d
 
 
@@ -272,8 +367,23 @@ def test_attitude_pol_streamed_equals_whole(monkeypatch, tmp_path, flight_log, c
     vector differs from the whole log's by ~1e-13, which flips the 9th digit of a few rows."""
     p, d = flight_log
     e0 = np.degrees(d.euler[0])
-    argv = [str(p), "--method", "mekf", "--pol-columns", "aop_deg,dop", "--aop-unit", "deg", "--lat", "38.8814192",
-            "--lon", "121.528255", "--start-time", str(d.start_time), "--q0-deg", ",".join(f"{v:.6f}" for v in e0)]
+    argv = [
+        str(p),
+        "--method",
+        "mekf",
+        "--pol-columns",
+        "aop_deg,dop",
+        "--aop-unit",
+        "deg",
+        "--lat",
+        "38.8814192",
+        "--lon",
+        "121.528255",
+        "--start-time",
+        str(d.start_time),
+        "--q0-deg",
+        ",".join(f"{v:.6f}" for v in e0),
+    ]
     got = _streamed_and_whole(monkeypatch, tmp_path, argv, capsys)
     assert got["37"][1] == got["1000000"][1] == got["whole"][1]
     a, b = (np.loadtxt(tmp_path / f, delimiter=",", skiprows=1) for f in ("s37.csv", "whole.csv"))
@@ -284,8 +394,9 @@ def test_attitude_pol_streamed_equals_whole(monkeypatch, tmp_path, flight_log, c
     assert used > 0.5 * np.count_nonzero(np.isfinite(d.aop))
 
 
-@pytest.mark.parametrize("extra", [[], ["--mag"], ["--option", "latency=0.004", "--q0-deg", "1,-2,30"]],
-                         ids=["plain", "mag", "latency-q0"])
+@pytest.mark.parametrize(
+    "extra", [[], ["--mag"], ["--option", "latency=0.004", "--q0-deg", "1,-2,30"]], ids=["plain", "mag", "latency-q0"]
+)
 def test_attitude_offline_streamed_equals_whole(monkeypatch, tmp_path, flight_log, capsys, extra):
     """iframe --offline through the scratch file (forward, backward and zero-phase passes in blocks of 37 rows,
     states carried): the CSV is the in-memory smoother's byte for byte, the summary line the same, no scratch file
@@ -347,8 +458,13 @@ def _broad_like(path, d, rng):
     q_ref[rng.choice(n, n // 20, replace=False)] = np.nan  # the optical system lost the markers
     with h5py.File(path, "w") as f:
         f.attrs["sampling_rate"] = 100.0
-        for k, v in (("imu_gyr", d.gyr), ("imu_acc", d.acc), ("imu_mag", mag), ("opt_quat", q_ref),
-                     ("movement", (d.t > 5.0).astype(np.uint8))):
+        for k, v in (
+            ("imu_gyr", d.gyr),
+            ("imu_acc", d.acc),
+            ("imu_mag", mag),
+            ("opt_quat", q_ref),
+            ("movement", (d.t > 5.0).astype(np.uint8)),
+        ):
             f.create_dataset(k, data=v)
 
 
@@ -357,12 +473,14 @@ def _reference_scores(path, chunk, mag=True, offline=False):
     from optinav.attitude.unit import AttitudeOptions, run_unit
 
     o = AttitudeOptions(frame="ENU", mag=mag, offline=offline)
-    run = stream_attitude(path, path.with_name(f"ref{chunk}.csv"), o, reference=True, chunk_rows=chunk,
-                          progress=False)
+    run = stream_attitude(path, path.with_name(f"ref{chunk}.csv"), o, reference=True, chunk_rows=chunk, progress=False)
     _, extra = run_unit(path, o, reference=True)
     # the library's score is in radians, the result's extras in degrees (file I/O)
-    return (*np.degrees(run.score[:2]), run.score[2]), (extra["inclination_rmse_deg"], extra["heading_rmse_deg"],
-                                                         extra["n_reference"])
+    return (*np.degrees(run.score[:2]), run.score[2]), (
+        extra["inclination_rmse_deg"],
+        extra["heading_rmse_deg"],
+        extra["n_reference"],
+    )
 
 
 @pytest.mark.parametrize("chunk", [97, 10_000_000])
@@ -400,8 +518,15 @@ def test_reference_score_streamed_offline(tmp_path):
     assert streamed[0] < online[0]
 
 
-_BROAD = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "attitude" / "broad" / \
-    "02_undisturbed_slow_rotation_B.hdf5"
+_BROAD = (
+    Path(__file__).resolve().parents[1]
+    / ".."
+    / "shared"
+    / "data"
+    / "attitude"
+    / "broad"
+    / "02_undisturbed_slow_rotation_B.hdf5"
+)
 
 
 @pytest.mark.skipif(not _BROAD.is_file(), reason=f"BROAD data absent ({_BROAD})")
@@ -419,6 +544,7 @@ def test_reference_score_streamed_broad(tmp_path):
 
 
 # --- calibrate accel reads in blocks (issue 17, item 6) -----------------------------------------------------------
+
 
 def _whole_session(path, o):
     """The session as the whole-file reader gives it (what calibrate read before it streamed)."""
@@ -455,8 +581,13 @@ def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
         o = FileOptions(rate=204.8, acc_unit="counts", gyro_unit="counts", gravity=9.81, no_gyro=True)
     else:
         path = _imucal("example_ferraris_session.csv")
-        o = FileOptions(rate=102.4, gyro_unit="deg/s", gravity=9.81, method="ferraris",
-                        sections=str(path.with_name("example_ferraris_session_list.json")))
+        o = FileOptions(
+            rate=102.4,
+            gyro_unit="deg/s",
+            gravity=9.81,
+            method="ferraris",
+            sections=str(path.with_name("example_ferraris_session_list.json")),
+        )
     whole = _whole_session(path, o)
     blocks = read_session_file(path, o, chunk_rows=997)
     assert len(whole.t) > 3 * 997

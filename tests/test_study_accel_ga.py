@@ -24,7 +24,8 @@ def test_paper_ga_operators_converge():
 
     t = np.linspace(0, 1, 50)
     y = 2.0 * np.exp(-3.0 * t)
-    problem = Problem(residuals=lambda x: x[0] * np.exp(-x[1] * t) - y, x0=[1.0, 1.0],
-                      search_interval=([0.0, 0.0], [5.0, 10.0]))
+    problem = Problem(
+        residuals=lambda x: x[0] * np.exp(-x[1] * t) - y, x0=[1.0, 1.0], search_interval=([0.0, 0.0], [5.0, 10.0])
+    )
     r = minimize(problem, method="ga", rng=0, operators="paper", generations=300)
     assert np.allclose(r.x, [2.0, 3.0], atol=0.05)

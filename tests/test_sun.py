@@ -14,8 +14,15 @@ from optinav.errors import OptinavError
 from optinav.sky import sun as S
 from optinav.sky.sun import delta_t_espenak, solar_position, solar_position_deg, sun_vector, utc_seconds
 
-SPA_EXAMPLE = dict(time="2003-10-17T12:30:30-07:00", lat_deg=39.742476, lon_deg=-105.1786, height_m=1830.14,
-                   pressure_mbar=820.0, temperature_c=11.0, delta_t=67.0)
+SPA_EXAMPLE = dict(
+    time="2003-10-17T12:30:30-07:00",
+    lat_deg=39.742476,
+    lon_deg=-105.1786,
+    height_m=1830.14,
+    pressure_mbar=820.0,
+    temperature_c=11.0,
+    delta_t=67.0,
+)
 
 
 def test_spa_report_example():
@@ -55,8 +62,9 @@ def test_pvlib_oracle_grid():
     for lat in (-80.0, -45.0, -10.0, 0.0, 25.0, 38.8814192, 60.0, 80.0):
         for lon in (-170.0, -60.0, 0.0, 121.528255):
             ours = solar_position_deg(times, lat, lon, 35.0, pressure_mbar=1000.0, temperature_c=5.0)
-            ref = pvlib.solarposition.spa_python(index, lat, lon, altitude=35.0, pressure=100000.0,
-                                                 temperature=5.0, delta_t=ours.delta_t, how="numpy")
+            ref = pvlib.solarposition.spa_python(
+                index, lat, lon, altitude=35.0, pressure=100000.0, temperature=5.0, delta_t=ours.delta_t, how="numpy"
+            )
             z = np.degrees(ours.zenith)
             worst_z = max(worst_z, np.max(np.abs(z - ref["apparent_zenith"].to_numpy())))
             dz = np.degrees(np.pi / 2 - ours.elevation_geometric) - ref["zenith"].to_numpy()
@@ -100,10 +108,10 @@ def test_time_inputs_agree_and_naive_is_error():
 
 def test_si_core_equals_degree_wrapper_and_vectors():
     t = np.datetime64("2021-06-21T04:00:00")
-    r1 = solar_position(t, 38.8814192 * DEG, 121.528255 * DEG, 35.0, pressure=101325.0, temperature=288.15,
-                        delta_t=69.0)
-    r2 = solar_position_deg(t, 38.8814192, 121.528255, 35.0, pressure_mbar=1013.25, temperature_c=15.0,
-                            delta_t=69.0)
+    r1 = solar_position(
+        t, 38.8814192 * DEG, 121.528255 * DEG, 35.0, pressure=101325.0, temperature=288.15, delta_t=69.0
+    )
+    r2 = solar_position_deg(t, 38.8814192, 121.528255, 35.0, pressure_mbar=1013.25, temperature_c=15.0, delta_t=69.0)
     assert float(r1.zenith) == float(r2.zenith) and float(r1.azimuth) == float(r2.azimuth)
     ned, enu = r1.sun_vector("ned"), r1.sun_vector("enu")
     np.testing.assert_allclose(np.linalg.norm(ned), 1.0, atol=1e-15)
@@ -145,9 +153,27 @@ def test_vectorized_quarter_year_matches_direct():
 
 # --- CLI ---------------------------------------------------------------------------------------------------
 
+
 def test_cli_sun_spa_example(capsys):
-    rc = main(["sun", "--lat", "39.742476", "--lon", "-105.1786", "--height", "1830.14", "--time",
-               "2003-10-17T12:30:30-07:00", "--pressure", "820", "--temperature", "11", "--delta-t", "67"])
+    rc = main(
+        [
+            "sun",
+            "--lat",
+            "39.742476",
+            "--lon",
+            "-105.1786",
+            "--height",
+            "1830.14",
+            "--time",
+            "2003-10-17T12:30:30-07:00",
+            "--pressure",
+            "820",
+            "--temperature",
+            "11",
+            "--delta-t",
+            "67",
+        ]
+    )
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     assert out["zenith_deg"] == pytest.approx(50.11162, abs=5e-6)
@@ -158,8 +184,21 @@ def test_cli_sun_spa_example(capsys):
 
 
 def test_cli_sun_paper_site_and_errors(capsys):
-    rc = main(["sun", "--lat", "38.8814192", "--lon", "121.528255", "--height", "35",
-               "--time", "2021-01-17T10:34:00+08:00", "--time", "2021-01-16T16:33:00+08:00"])
+    rc = main(
+        [
+            "sun",
+            "--lat",
+            "38.8814192",
+            "--lon",
+            "121.528255",
+            "--height",
+            "35",
+            "--time",
+            "2021-01-17T10:34:00+08:00",
+            "--time",
+            "2021-01-16T16:33:00+08:00",
+        ]
+    )
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     assert isinstance(out, list) and len(out) == 2

@@ -42,8 +42,12 @@ class _Demo(Result):
 
 
 def test_result_json_round_trip(tmp_path):
-    r = _Demo(bias=np.array([1.0, -2.5, 3e-9]), cost=float("inf"), name="unit 7",
-              extra={"hist": np.arange(3.0), "n": np.int64(4)})
+    r = _Demo(
+        bias=np.array([1.0, -2.5, 3e-9]),
+        cost=float("inf"),
+        name="unit 7",
+        extra={"hist": np.arange(3.0), "n": np.int64(4)},
+    )
     path = tmp_path / "r.json"
     r.to_json(path)
     data = json.loads(path.read_text())

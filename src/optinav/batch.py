@@ -55,19 +55,41 @@ _AX = "xyz"
 
 #: (column, type) every table starts with
 HEAD: list[tuple[str, str]] = [
-    ("unit", "str"), ("file", "str"), ("status", "str"), ("error", "str"), ("elapsed_s", "float"), ("system", "str"),
-    ("schema", "str"), ("method", "str"), ("converged", "bool"), ("gates_passed", "bool"), ("n_gates", "int"),
-    ("unobservable", "str"), ("n_samples", "int")]
+    ("unit", "str"),
+    ("file", "str"),
+    ("status", "str"),
+    ("error", "str"),
+    ("elapsed_s", "float"),
+    ("system", "str"),
+    ("schema", "str"),
+    ("method", "str"),
+    ("converged", "bool"),
+    ("gates_passed", "bool"),
+    ("n_gates", "int"),
+    ("unobservable", "str"),
+    ("n_samples", "int"),
+]
 #: (column, type) every table ends with (the resume record of the row)
 TAIL: list[tuple[str, str]] = [
-    ("file_size", "int"), ("file_mtime_ns", "int"), ("options_hash", "str"), ("optinav_version", "str"),
-    ("finished_utc", "str")]
+    ("file_size", "int"),
+    ("file_mtime_ns", "int"),
+    ("options_hash", "str"),
+    ("optinav_version", "str"),
+    ("finished_utc", "str"),
+]
 #: the columns of every table, in order; a table adds the system's and the parameters' columns between them
 COLUMN_NAMES = [c for c, _ in HEAD + TAIL]
 _TYPES = dict(HEAD + TAIL)
 #: types of system columns (the rest are numbers)
-_EXTRA_TYPES = {"acc_unit": "str", "gyr_unit": "str", "dof": "int", "n_poses": "int", "rank": "int",
-                "n_params": "int", "n_reference": "int"}
+_EXTRA_TYPES = {
+    "acc_unit": "str",
+    "gyr_unit": "str",
+    "dof": "int",
+    "n_poses": "int",
+    "rank": "int",
+    "n_params": "int",
+    "n_reference": "int",
+}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,8 +127,10 @@ class BatchSummary:
     n_lost: int = 0  # units whose worker died: reported failed, not journaled, retried by the next run
 
     def summary(self) -> str:
-        lines = [f"optinav batch: {self.n_units} units: {self.n_ok} ok, {self.n_failed} failed "
-                 f"({self.n_resumed} resumed from the journal, {self.n_computed} computed now)"]
+        lines = [
+            f"optinav batch: {self.n_units} units: {self.n_ok} ok, {self.n_failed} failed "
+            f"({self.n_resumed} resumed from the journal, {self.n_computed} computed now)"
+        ]
         lines += [f"  failed: {r['unit']}: {r['error']}" for r in self.rows if r["status"] != "ok"]
         return "\n".join(lines)
 
@@ -189,9 +213,14 @@ def result_columns(res) -> dict:
     """The columns of one result, read through the common layout (:class:`~optinav.core.results.Estimate`):
     schema, method, convergence, gates, unobservable names and every parameter's value, std and CRLB std."""
     gates = list(res.gates)
-    row = {"schema": res.SCHEMA, "method": str(res.method), "converged": res.convergence.get("converged"),
-           "gates_passed": all(bool(g["passed"]) for g in gates), "n_gates": len(gates),
-           "unobservable": "; ".join(res.unobservable())}
+    row = {
+        "schema": res.SCHEMA,
+        "method": str(res.method),
+        "converged": res.convergence.get("converged"),
+        "gates_passed": all(bool(g["passed"]) for g in gates),
+        "n_gates": len(gates),
+        "unobservable": "; ".join(res.unobservable()),
+    }
     for name, p in res.parameters().items():
         if _flat(name, p.value, row):
             scalar = p.value is None or np.ndim(p.value) == 0
@@ -216,7 +245,7 @@ def truth_columns(res, path: Path) -> dict:
         if err.ndim == 0 or (err.ndim == 1 and err.size <= 4):
             _flat(name, err, row, "_error")
         else:  # a series: its RMS
-            row[f"{name}_rmse"] = _num(np.sqrt(np.mean(err ** 2)))
+            row[f"{name}_rmse"] = _num(np.sqrt(np.mean(err**2)))
         z = np.asarray(c["z"], float)
         zs += [float(x) for x in np.atleast_1d(z) if np.isfinite(x)]
     row["truth_max_z"] = max(zs) if zs else None
@@ -232,8 +261,14 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
 
     job = job if isinstance(job, BatchJob) else BatchJob("multipos", job)
     p = Path(path)
-    row = {"unit": name or p.name, "file": p.name, "optinav_version": __version__, "system": job.system,
-           "options_hash": options_hash(job), "method": getattr(job.options, "method", None)}
+    row = {
+        "unit": name or p.name,
+        "file": p.name,
+        "optinav_version": __version__,
+        "system": job.system,
+        "options_hash": options_hash(job),
+        "method": getattr(job.options, "method", None),
+    }
     start = time.perf_counter()
     try:
         res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
@@ -279,8 +314,9 @@ class Journal:
         try:
             self._fh = open(self.path, "a+", encoding="utf-8", errors="replace")
         except OSError as exc:
-            raise OptinavError(f"cannot open the journal {self.path} ({exc.strerror})",
-                               "choose a writable --out folder") from None
+            raise OptinavError(
+                f"cannot open the journal {self.path} ({exc.strerror})", "choose a writable --out folder"
+            ) from None
         try:
             import fcntl
 
@@ -289,8 +325,9 @@ class Journal:
             pass
         except OSError:
             self._fh.close()
-            raise OptinavError(f"another optinav batch is writing {self.path}",
-                               "wait for it to finish, or use another --out") from None
+            raise OptinavError(
+                f"another optinav batch is writing {self.path}", "wait for it to finish, or use another --out"
+            ) from None
         if fresh:
             self._fh.truncate(0)
         self.rows = self._read()
@@ -326,8 +363,13 @@ class Journal:
 
 
 def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool) -> bool:
-    return (row is not None and row.get("file_size") == unit.size and row.get("file_mtime_ns") == unit.mtime_ns
-            and row.get("options_hash") == ohash and not (retry_failed and row.get("status") != "ok"))
+    return (
+        row is not None
+        and row.get("file_size") == unit.size
+        and row.get("file_mtime_ns") == unit.mtime_ns
+        and row.get("options_hash") == ohash
+        and not (retry_failed and row.get("status") != "ok")
+    )
 
 
 # ---------------------------------------------------------------------------------------------------- output
@@ -340,14 +382,18 @@ def _check_output(out: Path) -> str:
     check_output(out)
     if out.is_file() and not _is_results_table(out, kind):
         # e.g. --out DIR/unit002.csv: the unit's raw log would be dropped from the batch and overwritten
-        raise OptinavError(f"--out {out} exists and is not an optinav results table (a unit's data file?)",
-                           "choose another --out; it is never overwritten")
+        raise OptinavError(
+            f"--out {out} exists and is not an optinav results table (a unit's data file?)",
+            "choose another --out; it is never overwritten",
+        )
     if kind == ".parquet":
         try:
             import pyarrow  # noqa: F401
         except ImportError:
-            raise OptinavError("parquet output needs pyarrow, which is not installed",
-                               "pip install 'optinav[parquet]', or write --out RESULTS.csv") from None
+            raise OptinavError(
+                "parquet output needs pyarrow, which is not installed",
+                "pip install 'optinav[parquet]', or write --out RESULTS.csv",
+            ) from None
     return kind
 
 
@@ -395,8 +441,10 @@ def write_table(rows: list[dict], out) -> Path:
         import pyarrow.parquet as pq
 
         types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64(), "bool": pa.bool_()}
-        schema = pa.schema([(c, types[_type(c)]) for c in columns],
-                           metadata={"schema": "optinav.batch_results", "version": str(LAYOUT)})
+        schema = pa.schema(
+            [(c, types[_type(c)]) for c in columns],
+            metadata={"schema": "optinav.batch_results", "version": str(LAYOUT)},
+        )
         table = pa.Table.from_pylist([_complete(r, columns) for r in rows], schema=schema)
         with atomic_path(out) as tmp:
             pq.write_table(table, tmp)
@@ -419,8 +467,10 @@ def read_results(path) -> list[dict]:
         return pq.read_table(path).to_pylist()
     conv = {"str": str, "float": float, "int": lambda v: int(float(v)), "bool": lambda v: v == "true"}
     with open(path, newline="", encoding="utf-8") as fh:
-        return [{k: (None if v == "" and _type(k) != "str" else conv[_type(k)](v))
-                 for k, v in r.items()} for r in csv.DictReader(fh)]
+        return [
+            {k: (None if v == "" and _type(k) != "str" else conv[_type(k)](v)) for k, v in r.items()}
+            for r in csv.DictReader(fh)
+        ]
 
 
 # ------------------------------------------------------------------------------------------------- executors
@@ -446,8 +496,10 @@ def _require_distributed():
     try:
         import distributed
     except ImportError:
-        raise OptinavError("--scheduler needs dask.distributed, which is not installed",
-                           "pip install 'optinav[dask]', or drop --scheduler to use local processes") from None
+        raise OptinavError(
+            "--scheduler needs dask.distributed, which is not installed",
+            "pip install 'optinav[dask]', or drop --scheduler to use local processes",
+        ) from None
     return distributed
 
 
@@ -457,8 +509,10 @@ def _dask_client(address: str):
         return Client(address, timeout="10s")
     except (OSError, TimeoutError, ValueError) as exc:
         msg = " ".join(str(exc).split()) or type(exc).__name__
-        raise OptinavError(f"cannot reach the dask scheduler at {address} ({msg})",
-                           "start it (`dask scheduler`, workers with optinav installed) or check the address") from None
+        raise OptinavError(
+            f"cannot reach the dask scheduler at {address} ({msg})",
+            "start it (`dask scheduler`, workers with optinav installed) or check the address",
+        ) from None
 
 
 def _run_jobs(jobs, options, workers, scheduler):
@@ -470,8 +524,17 @@ def _run_jobs(jobs, options, workers, scheduler):
 
         client = _dask_client(scheduler) if isinstance(scheduler, str) else scheduler
         try:
-            futures = {client.submit(calibrate_unit, str(u.path), options, u.name, pure=False,
-                                     key=f"optinav-batch-{u.name}-{os.getpid()}-{time.time_ns()}"): u for u in jobs}
+            futures = {
+                client.submit(
+                    calibrate_unit,
+                    str(u.path),
+                    options,
+                    u.name,
+                    pure=False,
+                    key=f"optinav-batch-{u.name}-{os.getpid()}-{time.time_ns()}",
+                ): u
+                for u in jobs
+            }
             for fut in as_completed(list(futures)):
                 yield _outcome(futures[fut], fut)
         finally:
@@ -497,8 +560,12 @@ def _run_local(jobs, options, workers, fn=None):
         groups = [pending] if stage < 2 else [[u] for u in pending]
         broken = []
         for group in groups:
-            pool = ProcessPoolExecutor(max_workers=min(workers, len(group)), mp_context=_mp_context(),
-                                       initializer=_worker_init, initargs=(os.getpid(),))
+            pool = ProcessPoolExecutor(
+                max_workers=min(workers, len(group)),
+                mp_context=_mp_context(),
+                initializer=_worker_init,
+                initargs=(os.getpid(),),
+            )
             try:
                 futures = {pool.submit(fn, str(u.path), options, u.name): u for u in group}
                 for fut in _local_as_completed(futures):
@@ -548,9 +615,19 @@ def _outcome(unit, fut):
         return unit, None, f"worker lost: {type(exc).__name__}: {msg}"
 
 
-def run_batch(directory, out, options=None, *, system: str | None = None, reference: bool = False,
-              workers: int | None = None, scheduler: str | None = None, fresh: bool = False,
-              retry_failed: bool = False, show_progress: bool | None = None) -> BatchSummary:
+def run_batch(
+    directory,
+    out,
+    options=None,
+    *,
+    system: str | None = None,
+    reference: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    fresh: bool = False,
+    retry_failed: bool = False,
+    show_progress: bool | None = None,
+) -> BatchSummary:
     """Run every unit of ``directory`` through a system and write the table ``out`` (.csv/.parquet); see the
     module docs.
 
@@ -567,30 +644,37 @@ def run_batch(directory, out, options=None, *, system: str | None = None, refere
     from optinav import registry
 
     if system is None:
-        match = [s for s in registry.systems() if s.options and options is not None
-                 and type(options) is s.load("options")]
+        match = [
+            s for s in registry.systems() if s.options and options is not None and type(options) is s.load("options")
+        ]
         sysd = match[0] if match else registry.SYSTEMS["multipos"]
     else:
         sysd = registry.by_command(system)
     options = sysd.load("options")() if options is None else options
     if not isinstance(options, sysd.load("options")):
-        raise OptinavError(f"the options are a {type(options).__name__}, not the {sysd.name} system's "
-                           f"{sysd.load('options').__name__}", f"pass {sysd.load('options').__name__}(...)")
+        raise OptinavError(
+            f"the options are a {type(options).__name__}, not the {sysd.name} system's {sysd.load('options').__name__}",
+            f"pass {sysd.load('options').__name__}(...)",
+        )
     sysd.load("check")(options)  # bad options: once, not per unit
     job = BatchJob(sysd.name, options, bool(reference))
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:
-        raise OptinavError("--workers applies to local processes; a dask cluster has its own workers",
-                           "drop --workers with --scheduler")
+        raise OptinavError(
+            "--workers applies to local processes; a dask cluster has its own workers",
+            "drop --workers with --scheduler",
+        )
     if workers is not None and workers < 0:
         raise OptinavError(f"--workers {workers} is negative", "give a number of processes (0 = in this process)")
     workers = _default_workers() if workers is None else int(workers)
     journal_path = out.with_name(out.name + ".journal.jsonl")
     units = find_units(directory, exclude=(out, journal_path))
     if not units:
-        raise OptinavError(f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
-                           "pass the folder with one data file per unit")
+        raise OptinavError(
+            f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
+            "pass the folder with one data file per unit",
+        )
     client = None
     if scheduler is not None:
         _require_distributed()
@@ -617,8 +701,14 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
             desc = f"batch {_command(options)}"
             for unit, row, lost_msg in progress(it, total=len(jobs), desc=desc, enabled=show_progress):
                 if row is None:
-                    lost[unit.path.name] = {"unit": unit.name, "file": unit.path.name, "status": "failed",
-                                            "error": lost_msg, "system": options.system, "options_hash": ohash}
+                    lost[unit.path.name] = {
+                        "unit": unit.name,
+                        "file": unit.path.name,
+                        "status": "failed",
+                        "error": lost_msg,
+                        "system": options.system,
+                        "options_hash": ohash,
+                    }
                     continue
                 row.update(unit=unit.name, file=unit.path.name, file_size=unit.size, file_mtime_ns=unit.mtime_ns)
                 journal.append(_complete(row))
@@ -637,8 +727,17 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
         journal.close()
         write_table(rows, out)
     n_ok = sum(r["status"] == "ok" for r in rows)
-    return BatchSummary(out=out, journal=journal_path, rows=rows, n_units=len(units), n_ok=n_ok,
-                        n_failed=len(rows) - n_ok, n_resumed=len(resumed), n_computed=n_computed, n_lost=len(lost))
+    return BatchSummary(
+        out=out,
+        journal=journal_path,
+        rows=rows,
+        n_units=len(units),
+        n_ok=n_ok,
+        n_failed=len(rows) - n_ok,
+        n_resumed=len(resumed),
+        n_computed=n_computed,
+        n_lost=len(lost),
+    )
 
 
 def _command(job: BatchJob) -> str:

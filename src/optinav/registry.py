@@ -76,8 +76,10 @@ def register(system: System) -> System:
     """Add (or replace) a system; its ``name`` and ``command`` must not collide with another system's."""
     for other in SYSTEMS.values():
         if other.name != system.name and other.command == system.command:
-            raise OptinavError(f"system {system.name!r} uses the command {system.command!r} of {other.name!r}",
-                               "choose another command word")
+            raise OptinavError(
+                f"system {system.name!r} uses the command {system.command!r} of {other.name!r}",
+                "choose another command word",
+            )
     SYSTEMS[system.name] = system
     return system
 
@@ -118,44 +120,89 @@ def for_result(path) -> tuple[System, Any]:
     res = Result.from_json(path)
     name = getattr(res, "SYSTEM", None)
     if name not in SYSTEMS:
-        raise OptinavError(f"{path} ({res.SCHEMA}) is not the result of a registered system",
-                           f"pass a result of {', '.join(SYSTEMS)}")
+        raise OptinavError(
+            f"{path} ({res.SCHEMA}) is not the result of a registered system", f"pass a result of {', '.join(SYSTEMS)}"
+        )
     return SYSTEMS[name], res
 
 
-register(System(
-    name="multipos", command="accel", kind="calibration",
-    result="optinav.multipos.result:CalibrationResult", simulate="optinav.multipos.simulate:simulate",
-    fit="optinav.multipos.calibrate:calibrate", options="optinav.multipos.calibrate:FileOptions",
-    run_unit="optinav.multipos.unit:run_unit", check="optinav.multipos.unit:check",
-    truth="optinav.multipos.result:session_truth",
-    report="optinav.reports.result_report:multipos_report", apply="optinav.multipos.apply:apply_file",
-    apply_options="optinav.multipos.apply:ApplyOptions",
-    read="optinav.multipos.calibrate:read_session_file", write="optinav.io:write_imu",
-    cli="optinav.cli.calibrate", help="multi-position accelerometer (and gyroscope) calibration"))
-register(System(
-    name="rins", command="rins", kind="calibration",
-    result="optinav.rins.calibrate:RinsCalibration", simulate="optinav.rins.simulate:simulate",
-    fit="optinav.rins.calibrate:calibrate", options="optinav.rins.unit:RinsOptions",
-    run_unit="optinav.rins.unit:run_unit", check="optinav.rins.unit:check",
-    truth="optinav.rins.calibrate:rins_truth",
-    report="optinav.rins.report:rins_report", apply="optinav.rins.unit:apply_file",
-    apply_options="optinav.rins.unit:RinsOptions", read="optinav.rins.io:read_rins", write="optinav.rins.io:write_rins",
-    cli="optinav.cli.rins", help="gimbal non-orthogonality of a dual-axis rotational INS"))
-register(System(
-    name="gfimu", command="gfimu", kind="calibration",
-    result="optinav.gfimu.turntable:TurntableCalibration", simulate="optinav.gfimu.turntable:simulate",
-    fit="optinav.gfimu.turntable:calibrate", options="optinav.gfimu.unit:GfimuOptions",
-    run_unit="optinav.gfimu.unit:run_unit", check="optinav.gfimu.unit:check",
-    truth="optinav.gfimu.turntable:turntable_truth",
-    report="optinav.gfimu.report:gfimu_report", apply="optinav.gfimu.unit:apply_file",
-    apply_options="optinav.gfimu.unit:GfimuApplyOptions", read="optinav.gfimu.turntable:TurntableData.load",
-    cli="optinav.cli.gfimu", help="installation errors of a gyro-free accelerometer array"))
-register(System(
-    name="attitude", command="attitude", kind="estimate",
-    result="optinav.attitude.estimators:AttitudeEstimate", simulate="optinav.attitude.simulate:simulate",
-    fit="optinav.attitude.estimators:estimate", options="optinav.attitude.unit:AttitudeOptions",
-    run_unit="optinav.attitude.unit:run_unit", check="optinav.attitude.unit:check",
-    truth="optinav.attitude.estimators:attitude_truth",
-    report="optinav.reports.result_report:attitude_report", read="optinav.attitude.unit:read_log",
-    cli="optinav.cli.attitude", help="attitude from gyroscope + accelerometer (+ magnetometer, polarization)"))
+register(
+    System(
+        name="multipos",
+        command="accel",
+        kind="calibration",
+        result="optinav.multipos.result:CalibrationResult",
+        simulate="optinav.multipos.simulate:simulate",
+        fit="optinav.multipos.calibrate:calibrate",
+        options="optinav.multipos.calibrate:FileOptions",
+        run_unit="optinav.multipos.unit:run_unit",
+        check="optinav.multipos.unit:check",
+        truth="optinav.multipos.result:session_truth",
+        report="optinav.reports.result_report:multipos_report",
+        apply="optinav.multipos.apply:apply_file",
+        apply_options="optinav.multipos.apply:ApplyOptions",
+        read="optinav.multipos.calibrate:read_session_file",
+        write="optinav.io:write_imu",
+        cli="optinav.cli.calibrate",
+        help="multi-position accelerometer (and gyroscope) calibration",
+    )
+)
+register(
+    System(
+        name="rins",
+        command="rins",
+        kind="calibration",
+        result="optinav.rins.calibrate:RinsCalibration",
+        simulate="optinav.rins.simulate:simulate",
+        fit="optinav.rins.calibrate:calibrate",
+        options="optinav.rins.unit:RinsOptions",
+        run_unit="optinav.rins.unit:run_unit",
+        check="optinav.rins.unit:check",
+        truth="optinav.rins.calibrate:rins_truth",
+        report="optinav.rins.report:rins_report",
+        apply="optinav.rins.unit:apply_file",
+        apply_options="optinav.rins.unit:RinsOptions",
+        read="optinav.rins.io:read_rins",
+        write="optinav.rins.io:write_rins",
+        cli="optinav.cli.rins",
+        help="gimbal non-orthogonality of a dual-axis rotational INS",
+    )
+)
+register(
+    System(
+        name="gfimu",
+        command="gfimu",
+        kind="calibration",
+        result="optinav.gfimu.turntable:TurntableCalibration",
+        simulate="optinav.gfimu.turntable:simulate",
+        fit="optinav.gfimu.turntable:calibrate",
+        options="optinav.gfimu.unit:GfimuOptions",
+        run_unit="optinav.gfimu.unit:run_unit",
+        check="optinav.gfimu.unit:check",
+        truth="optinav.gfimu.turntable:turntable_truth",
+        report="optinav.gfimu.report:gfimu_report",
+        apply="optinav.gfimu.unit:apply_file",
+        apply_options="optinav.gfimu.unit:GfimuApplyOptions",
+        read="optinav.gfimu.turntable:TurntableData.load",
+        cli="optinav.cli.gfimu",
+        help="installation errors of a gyro-free accelerometer array",
+    )
+)
+register(
+    System(
+        name="attitude",
+        command="attitude",
+        kind="estimate",
+        result="optinav.attitude.estimators:AttitudeEstimate",
+        simulate="optinav.attitude.simulate:simulate",
+        fit="optinav.attitude.estimators:estimate",
+        options="optinav.attitude.unit:AttitudeOptions",
+        run_unit="optinav.attitude.unit:run_unit",
+        check="optinav.attitude.unit:check",
+        truth="optinav.attitude.estimators:attitude_truth",
+        report="optinav.reports.result_report:attitude_report",
+        read="optinav.attitude.unit:read_log",
+        cli="optinav.cli.attitude",
+        help="attitude from gyroscope + accelerometer (+ magnetometer, polarization)",
+    )
+)

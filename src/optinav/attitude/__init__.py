@@ -11,16 +11,60 @@ package attribute ``optinav.attitude.simulate`` is the function).
 from optinav._lazy import lazy_package
 
 # loaded on first use: `optinav attitude` reads and checks its file before the numba kernels load
-_EXPORTS = {**dict.fromkeys(("DEFAULTS", "METHODS"), ".methods"),
-            **dict.fromkeys(("MEKF", "AttitudeEstimate", "AttitudeFilter", "ConjugateGradient", "GradientDescent",
-                             "QuasiNewton", "estimate", "estimate_q", "initial_attitude", "make_filter"), ".estimators"),
-            **dict.fromkeys(("DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "PolarizationMeasurement", "default_c_b_m",
-                             "measurement_error", "predicted_aop", "up_vector", "wrap_axial"), ".measurement"),
-            "simulate": ".simulate"}
+_EXPORTS = {
+    **dict.fromkeys(("DEFAULTS", "METHODS"), ".methods"),
+    **dict.fromkeys(
+        (
+            "MEKF",
+            "AttitudeEstimate",
+            "AttitudeFilter",
+            "ConjugateGradient",
+            "GradientDescent",
+            "QuasiNewton",
+            "estimate",
+            "estimate_q",
+            "initial_attitude",
+            "make_filter",
+        ),
+        ".estimators",
+    ),
+    **dict.fromkeys(
+        (
+            "DEFAULT_C_B_M",
+            "DEFAULT_C_B_M_ENU",
+            "PolarizationMeasurement",
+            "default_c_b_m",
+            "measurement_error",
+            "predicted_aop",
+            "up_vector",
+            "wrap_axial",
+        ),
+        ".measurement",
+    ),
+    "simulate": ".simulate",
+}
 lazy_package(__name__, _EXPORTS)
 
-__all__ = ["DEFAULTS", "METHODS", "MEKF", "AttitudeEstimate", "AttitudeFilter", "ConjugateGradient",
-           "GradientDescent", "QuasiNewton", "estimate", "estimate_q", "initial_attitude", "make_filter", "simulate",
-           "DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU",
-           "PolarizationMeasurement", "default_c_b_m", "measurement_error", "predicted_aop", "up_vector",
-           "wrap_axial"]
+__all__ = [
+    "DEFAULTS",
+    "METHODS",
+    "MEKF",
+    "AttitudeEstimate",
+    "AttitudeFilter",
+    "ConjugateGradient",
+    "GradientDescent",
+    "QuasiNewton",
+    "estimate",
+    "estimate_q",
+    "initial_attitude",
+    "make_filter",
+    "simulate",
+    "DEFAULT_C_B_M",
+    "DEFAULT_C_B_M_ENU",
+    "PolarizationMeasurement",
+    "default_c_b_m",
+    "measurement_error",
+    "predicted_aop",
+    "up_vector",
+    "wrap_axial",
+]

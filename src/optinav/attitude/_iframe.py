@@ -23,20 +23,20 @@ from optinav.core._quat import rv2q as _rotvec_q
 _NJ = dict(cache=True, nogil=True, fastmath=False)
 
 # --- state layout ---------------------------------------------------------------------------------------------
-S_QG, S_QC, S_DELTA, S_BIAS, S_P = 0, 4, 8, 9, 12   # q_g (4), q_c (4), δ (1), bias (3), P bias (9)
-S_LP = 21                                            # Butterworth memory: x1, x2, y1, y2 per axis (12)
-S_DT = 33                                            # dt of the cached coefficients, then b0, b1, a1, a2 (4)
-S_RG, S_RA = 38, 41                                  # rest low-pass of gyr (3) and acc (3)
-S_REST_T, S_REST = 44, 45                            # time at rest so far (s), rest flag
-S_M_NORM, S_M_DIP, S_M_REF_T = 46, 47, 48            # magnetic reference: norm (µT or any), dip (rad), time
-S_M_DIST_T, S_M_C_NORM, S_M_C_DIP = 49, 50, 51       # time disturbed, candidate norm, candidate dip
-S_M_INIT = 52                                        # 1 once δ was set from the first usable mag sample
-S_INIT = 53                                          # 1 once the first sample initialized the state
-S_ACC_USED, S_MAG_USED, S_BIAS_MOTION = 54, 55, 56   # last sample's flags (1/0)
-S_Q = 57                                             # output q_b^n (4)
-S_TIME = 61                                          # time since start (s)
-S_RDT = 62                                           # dt of the cached rest coefficients, then α (1)
-S_LPC = 64                                           # Butterworth memory of C_b^I (9 entries × 4)
+S_QG, S_QC, S_DELTA, S_BIAS, S_P = 0, 4, 8, 9, 12  # q_g (4), q_c (4), δ (1), bias (3), P bias (9)
+S_LP = 21  # Butterworth memory: x1, x2, y1, y2 per axis (12)
+S_DT = 33  # dt of the cached coefficients, then b0, b1, a1, a2 (4)
+S_RG, S_RA = 38, 41  # rest low-pass of gyr (3) and acc (3)
+S_REST_T, S_REST = 44, 45  # time at rest so far (s), rest flag
+S_M_NORM, S_M_DIP, S_M_REF_T = 46, 47, 48  # magnetic reference: norm (µT or any), dip (rad), time
+S_M_DIST_T, S_M_C_NORM, S_M_C_DIP = 49, 50, 51  # time disturbed, candidate norm, candidate dip
+S_M_INIT = 52  # 1 once δ was set from the first usable mag sample
+S_INIT = 53  # 1 once the first sample initialized the state
+S_ACC_USED, S_MAG_USED, S_BIAS_MOTION = 54, 55, 56  # last sample's flags (1/0)
+S_Q = 57  # output q_b^n (4)
+S_TIME = 61  # time since start (s)
+S_RDT = 62  # dt of the cached rest coefficients, then α (1)
+S_LPC = 64  # Butterworth memory of C_b^I (9 entries × 4)
 STATE_SIZE = 100
 
 # --- parameter layout (all SI: s, rad, rad/s, m/s², relative) ------------------------------------------------
@@ -44,8 +44,8 @@ P_TAU_ACC, P_REST_TAU, P_REST_GYR, P_REST_ACC, P_REST_TIME = 0, 1, 2, 3, 4
 P_BIAS_SIGMA0, P_BIAS_RW, P_BIAS_REST, P_BIAS_MOTION, P_BIAS_CLIP = 5, 6, 7, 8, 9
 P_MOTION_MAX_GYR, P_MOTION_MAX_ACC, P_GRAVITY = 10, 11, 12
 P_TAU_MAG, P_MAG_NORM_TH, P_MAG_DIP_TH, P_MAG_NEW_TIME, P_TAU_MAG_REF = 13, 14, 15, 16, 17
-P_UP, P_NORTH = 18, 21                               # unit up and north of the navigation frame
-P_LATENCY = 24                                       # s, output predicted forward by the sensor latency
+P_UP, P_NORTH = 18, 21  # unit up and north of the navigation frame
+P_LATENCY = 24  # s, output predicted forward by the sensor latency
 PAR_SIZE = 25
 
 
@@ -99,13 +99,13 @@ def _lp(st, j, x, base=S_LP):
 @numba.njit(**_NJ)
 def _bias_update(st, h0, h1, h2, z, r, clip):
     """Scalar Kalman update of the gyro bias with row h, residual z (rad/s), variance r; bias clipped."""
-    P = st[S_P:S_P + 9]
+    P = st[S_P : S_P + 9]
     ph0 = P[0] * h0 + P[1] * h1 + P[2] * h2
     ph1 = P[3] * h0 + P[4] * h1 + P[5] * h2
     ph2 = P[6] * h0 + P[7] * h1 + P[8] * h2
     s = r + h0 * ph0 + h1 * ph1 + h2 * ph2
     k0, k1, k2 = ph0 / s, ph1 / s, ph2 / s
-    b = st[S_BIAS:S_BIAS + 3]
+    b = st[S_BIAS : S_BIAS + 3]
     b[0] = min(max(b[0] + k0 * z, -clip), clip)
     b[1] = min(max(b[1] + k1 * z, -clip), clip)
     b[2] = min(max(b[2] + k2 * z, -clip), clip)
@@ -249,13 +249,16 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 # in motion: the correction rate is the horizontal projection of −C_b^n δb, as seen through
                 # the low-pass (rows of C(q_c)·LP(C_b^I))
                 gn = math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
-                if (not rest and par[P_BIAS_MOTION] > 0.0
-                        and (par[P_MOTION_MAX_GYR] <= 0.0 or gn < par[P_MOTION_MAX_GYR])
-                        and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]):
+                if (
+                    not rest
+                    and par[P_BIAS_MOTION] > 0.0
+                    and (par[P_MOTION_MAX_GYR] <= 0.0 or gn < par[P_MOTION_MAX_GYR])
+                    and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]
+                ):
                     st[S_BIAS_MOTION] = 1.0
                     r = par[P_BIAS_MOTION] ** 2 / h
                     L = S_LPC
-                    for (px, py, pz) in ((nx, ny, nz), (wx, wy, wz)):
+                    for px, py, pz in ((nx, ny, nz), (wx, wy, wz)):
                         jx, jy, jz = _rot(c0, -c1, -c2, -c3, px, py, pz)  # p into I
                         hx = jx * st[L + 4 * 0 + 2] + jy * st[L + 4 * 3 + 2] + jz * st[L + 4 * 6 + 2]
                         hy = jx * st[L + 4 * 1 + 2] + jy * st[L + 4 * 4 + 2] + jz * st[L + 4 * 7 + 2]
@@ -275,8 +278,7 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         if st[S_M_REF_T] == 0.0:
             st[S_M_NORM] = nm
             st[S_M_DIP] = dip
-        ok = (abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM]
-              and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH])
+        ok = abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM] and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH]
         if ok:
             st[S_M_DIST_T] = 0.0
             kr = h / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + h)
@@ -300,8 +302,10 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
             kc = h / max(1.0, st[S_M_DIST_T] + h)
             st[S_M_C_NORM] += kc * (nm - st[S_M_C_NORM])
             st[S_M_C_DIP] += kc * (dip - st[S_M_C_DIP])
-            if (abs(nm - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
-                    and abs(dip - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]):
+            if (
+                abs(nm - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
+                and abs(dip - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]
+            ):
                 st[S_M_DIST_T] += h
             else:
                 st[S_M_DIST_T] = 0.0
@@ -330,8 +334,20 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias):
     for i in range(n):
         h = dt[i] if dt.shape[0] > 1 else dt[0]
         if has_mag:
-            step(st, par, gyr[i, 0], gyr[i, 1], gyr[i, 2], acc[i, 0], acc[i, 1], acc[i, 2],
-                 mag[i, 0], mag[i, 1], mag[i, 2], h)
+            step(
+                st,
+                par,
+                gyr[i, 0],
+                gyr[i, 1],
+                gyr[i, 2],
+                acc[i, 0],
+                acc[i, 1],
+                acc[i, 2],
+                mag[i, 0],
+                mag[i, 1],
+                mag[i, 2],
+                h,
+            )
         else:
             step(st, par, gyr[i, 0], gyr[i, 1], gyr[i, 2], acc[i, 0], acc[i, 1], acc[i, 2], nan, nan, nan, h)
         for k in range(4):
@@ -358,8 +374,9 @@ def strapdown(gyr, bias, dt, out, q):
     q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
     for i in range(gyr.shape[0]):
         h = dt[i] if dt.shape[0] > 1 else dt[0]
-        d0, d1, d2, d3 = _rotvec_q((gyr[i, 0] - bias[i, 0]) * h, (gyr[i, 1] - bias[i, 1]) * h,
-                                   (gyr[i, 2] - bias[i, 2]) * h)
+        d0, d1, d2, d3 = _rotvec_q(
+            (gyr[i, 0] - bias[i, 0]) * h, (gyr[i, 1] - bias[i, 1]) * h, (gyr[i, 2] - bias[i, 2]) * h
+        )
         q0, q1, q2, q3 = _qmul(q0, q1, q2, q3, d0, d1, d2, d3)
         n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
         q0, q1, q2, q3 = q0 / n, q1 / n, q2 / n, q3 / n

@@ -167,8 +167,24 @@ def model_batch(q, acc, un, use_pol, sn, Cbm, aop, wpol, min_d2, mode, F, J, row
         for k in range(3):
             ah[k] = acc[i, k] / na
         j = i if sn.shape[0] > 1 else 0
-        r = _model(q[i], ah, un, use_pol[i], sn[j], Cbm, math.cos(2 * aop[i]), math.sin(2 * aop[i]), wpol, min_d2,
-                   mode, Fw, Jw, C, vb, sb)
+        r = _model(
+            q[i],
+            ah,
+            un,
+            use_pol[i],
+            sn[j],
+            Cbm,
+            math.cos(2 * aop[i]),
+            math.sin(2 * aop[i]),
+            wpol,
+            min_d2,
+            mode,
+            Fw,
+            Jw,
+            C,
+            vb,
+            sb,
+        )
         rows[i] = r
         nr = r if r > 0 else 3
         for a in range(nr):
@@ -190,6 +206,7 @@ def _prepare(i, acc, dt, ah):
 
 
 # --- gradient descent (Madgwick) and conjugate gradient: quaternion-space update ---------------------------
+
 
 @numba.njit(**_NJ)
 def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, conj, restart, state, out, counts):
@@ -274,6 +291,7 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
 
 # --- quasi-Newton (BFGS) with the dynamic step factor and the accelerometer state threshold ----------------
 
+
 @numba.njit(**_NJ)
 def _grad3(J, F, nr, g):
     for k in range(3):
@@ -284,8 +302,29 @@ def _grad3(J, F, nr, g):
 
 
 @numba.njit(**_NJ)
-def run_qn(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, rate_gain, max_step, g_ref,
-           acc_threshold, acc_shrink, h_reset, state, out, counts):
+def run_qn(
+    gyr,
+    acc,
+    dt,
+    un,
+    use_pol,
+    sn,
+    Cbm,
+    c2,
+    s2,
+    wpol,
+    min_d2,
+    gain,
+    rate_gain,
+    max_step,
+    g_ref,
+    acc_threshold,
+    acc_shrink,
+    h_reset,
+    state,
+    out,
+    counts,
+):
     """One quasi-Newton iteration per sample after gyro propagation (Jin et al. 2021, §2.3).
 
     q⁻ = q ⊗ exp(ω·dt/2); g = J_nᵀ F at q⁻ (navigation-frame error angle); D = −H g with H = B⁻¹ the BFGS
@@ -378,6 +417,7 @@ def run_qn(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, rate_
 
 
 # --- multiplicative EKF with gyro bias ---------------------------------------------------------------------
+
 
 @numba.njit(**_NJ)
 def _scalar_update(P, hrow, z, r, dx, Ph):
@@ -472,8 +512,32 @@ def _transfer_heading(P, v, R, w, d):
 
 
 @numba.njit(**_NJ)
-def run_mekf(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gyro_noise, bias_noise, acc_noise, pol_noise,
-             g_ref, acc_threshold, acc_inflate, max_heading_std, consider_heading, state, out, std_out, counts):
+def run_mekf(
+    gyr,
+    acc,
+    dt,
+    un,
+    use_pol,
+    sn,
+    Cbm,
+    c2,
+    s2,
+    wpol,
+    min_d2,
+    gyro_noise,
+    bias_noise,
+    acc_noise,
+    pol_noise,
+    g_ref,
+    acc_threshold,
+    acc_inflate,
+    max_heading_std,
+    consider_heading,
+    state,
+    out,
+    std_out,
+    counts,
+):
     """Multiplicative EKF: error state [δθ_b (body-frame attitude error), δb (gyro bias)].
 
     Predict q ← q ⊗ exp((ω − b)dt/2) = q ⊗ Δq, Φ = [[C(Δq)ᵀ, −I dt], [0, I]], Q = diag(σ_g² dt I, σ_b² dt I)

@@ -34,8 +34,11 @@ def find_gaps(dts: np.ndarray) -> np.ndarray:
 
 
 #: gyro unit factors tried against the declared rad/s: deg/s declared rad/s, rad/s declared deg/s
-_SCALES = {1.0: "", np.pi / 180: "deg/s declared rad/s: --gyro-unit deg/s",
-           180 / np.pi: "rad/s declared deg/s: --gyro-unit rad/s"}
+_SCALES = {
+    1.0: "",
+    np.pi / 180: "deg/s declared rad/s: --gyro-unit deg/s",
+    180 / np.pi: "rad/s declared deg/s: --gyro-unit rad/s",
+}
 
 
 def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float) -> float:
@@ -52,7 +55,7 @@ def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: fl
         w = max(2, a_i.shape[0] // 2)
     c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
     m = (c[w:] - c[:-w]) / w
-    x = a_i[w // 2: w // 2 + m.shape[0]]
+    x = a_i[w // 2 : w // 2 + m.shape[0]]
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
     return float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
 
@@ -113,20 +116,28 @@ def check_norms(med_a: float, med_g: float, peak: float) -> None:
     """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s) and the gyro's
     peak norm: swapped triads, an accelerometer not in m/s², a gyro in deg/s."""
     if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
-        raise OptinavError(f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the "
-                           "two triads look swapped", "check the column order of --columns (t,ax,ay,az,gx,gy,gz)")
+        raise OptinavError(
+            f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the two triads look swapped",
+            "check the column order of --columns (t,ax,ay,az,gx,gy,gz)",
+        )
     if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
         unit = "g" if 0.3 < med_a < 3 else "another unit"
-        raise OptinavError(f"the accelerometer's median norm is {med_a:.3g} m/s², not about 9.8: it looks like "
-                           f"{unit}", "declare the unit with --acc-unit (g, mg, m/s^2)")
+        raise OptinavError(
+            f"the accelerometer's median norm is {med_a:.3g} m/s², not about 9.8: it looks like {unit}",
+            "declare the unit with --acc-unit (g, mg, m/s^2)",
+        )
     if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
-        raise OptinavError(f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
-                           "declare the unit with --gyro-unit deg/s")
+        raise OptinavError(
+            f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
+            "declare the unit with --gyro-unit deg/s",
+        )
 
 
 def _unit_error(hint: str) -> OptinavError:
-    return OptinavError("the gyro in rad/s does not explain how gravity turns in the body, a unit factor of "
-                        "π/180 does", f"it looks like {hint}")
+    return OptinavError(
+        "the gyro in rad/s does not explain how gravity turns in the body, a unit factor of π/180 does",
+        f"it looks like {hint}",
+    )
 
 
 def check_gyro_unit(g: np.ndarray, a: np.ndarray, d: np.ndarray, window_max: float) -> None:
@@ -175,17 +186,21 @@ def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float) -> int:
 
 
 def clipped(k: int, limit: float, steep: int) -> OptinavError:
-    return OptinavError(f"gyro axis {'xyz'[k]} is clipped at {limit:.4g} rad/s ({steep} flat run(s) "
-                        f"of ≥ 3 samples at the limit)",
-                        "record with a larger gyro range; no attitude is reliable through saturation")
+    return OptinavError(
+        f"gyro axis {'xyz'[k]} is clipped at {limit:.4g} rad/s ({steep} flat run(s) of ≥ 3 samples at the limit)",
+        "record with a larger gyro range; no attitude is reliable through saturation",
+    )
 
 
 def check_aop(aop: np.ndarray) -> None:
     """AoP in rad lies in [−π, π]; values beyond 2π are degrees declared rad."""
     a = aop[np.isfinite(aop)]
     if a.size and float(np.max(np.abs(a))) > 2 * np.pi:
-        raise OptinavError(f"the angle of polarization reaches {float(np.max(np.abs(a))):.1f}, beyond 2π rad: it "
-                           "looks like degrees declared rad", "declare the unit with --aop-unit deg")
+        raise OptinavError(
+            f"the angle of polarization reaches {float(np.max(np.abs(a))):.1f}, beyond 2π rad: it "
+            "looks like degrees declared rad",
+            "declare the unit with --aop-unit deg",
+        )
 
 
 def check_frame(acc: np.ndarray, frame: str) -> None:
@@ -198,10 +213,16 @@ def check_frame(acc: np.ndarray, frame: str) -> None:
         return
     z = a[2] / na
     if frame == "ned" and z > 0.9:
-        warnings.warn("the accelerometer reads +g along body z at the start: that is an up-pointing z "
-                      "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')",
-                      FrameWarning, stacklevel=3)
+        warnings.warn(
+            "the accelerometer reads +g along body z at the start: that is an up-pointing z "
+            "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')",
+            FrameWarning,
+            stacklevel=3,
+        )
     elif frame == "enu" and z < -0.9:
-        warnings.warn("the accelerometer reads −g along body z at the start: that is a down-pointing z "
-                      "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')",
-                      FrameWarning, stacklevel=3)
+        warnings.warn(
+            "the accelerometer reads −g along body z at the start: that is a down-pointing z "
+            "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')",
+            FrameWarning,
+            stacklevel=3,
+        )

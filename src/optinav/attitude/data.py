@@ -103,13 +103,20 @@ def load_broad(path) -> BroadTrial:
     rate = _broad_rate(rate, p)
     gyr = np.asarray(tab.get("imu_gyr"), float)
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
-    return BroadTrial(gyr=gyr, acc=np.asarray(tab.get("imu_acc"), float), mag=mag,
-                      q_ref=np.asarray(tab.get("opt_quat"), float),
-                      movement=np.asarray(tab.get("movement")).ravel().astype(bool), rate_hz=rate, name=p.stem)
+    return BroadTrial(
+        gyr=gyr,
+        acc=np.asarray(tab.get("imu_acc"), float),
+        mag=mag,
+        q_ref=np.asarray(tab.get("opt_quat"), float),
+        movement=np.asarray(tab.get("movement")).ravel().astype(bool),
+        rate_hz=rate,
+        name=p.stem,
+    )
 
 
-def synthesize_polarization(q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop_noise: float = 0.0,
-                            rng=None, **options) -> PolarizationMeasurement:
+def synthesize_polarization(
+    q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop_noise: float = 0.0, rng=None, **options
+) -> PolarizationMeasurement:
     """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
 
     q_ref (N, 4) body → ``frame`` (NaN rows give missing samples); sun_n (3,) or (N, 3) unit sun vector in the

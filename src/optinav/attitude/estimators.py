@@ -36,16 +36,41 @@ from optinav.attitude.checks import check_frame, check_imu, find_gaps
 from optinav.attitude.iframe import AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options
-from optinav.attitude.measurement import (PolarizationMeasurement, as_c_b_m, pol_inputs, predicted_aop,
-                                          up_vector, wrap_axial)
+from optinav.attitude.measurement import (
+    PolarizationMeasurement,
+    as_c_b_m,
+    pol_inputs,
+    predicted_aop,
+    up_vector,
+    wrap_axial,
+)
 from optinav.core.results import Estimate, Parameter, Truth, convergence, nested_kwargs, register_legacy
-from optinav.core.rotations import (DEFAULT_FRAME, euler_from_quat, frame_name, quat_from_euler, quat_from_rotvec,
-                                    quat_multiply)
+from optinav.core.rotations import (
+    DEFAULT_FRAME,
+    euler_from_quat,
+    frame_name,
+    quat_from_euler,
+    quat_from_rotvec,
+    quat_multiply,
+)
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["METHODS", "DEFAULTS", "AttitudeFilter", "AttitudeEstimate", "estimate", "estimate_q",
-           "initial_attitude", "GradientDescent", "ConjugateGradient", "QuasiNewton", "MEKF", "make_filter"]
+__all__ = [
+    "METHODS",
+    "DEFAULTS",
+    "AttitudeFilter",
+    "AttitudeEstimate",
+    "estimate",
+    "estimate_q",
+    "initial_attitude",
+    "GradientDescent",
+    "ConjugateGradient",
+    "QuasiNewton",
+    "MEKF",
+    "make_filter",
+]
+
 
 @dataclass
 class AttitudeEstimate(Estimate):
@@ -83,10 +108,17 @@ class AttitudeEstimate(Estimate):
     def parameters(self) -> dict[str, Parameter]:
         e = self.euler()
         heading = self.pol_used > 0 or (self.mag_used is not None and bool(np.any(self.mag_used)))
-        why = None if heading else ("no magnetometer or polarization used: the heading follows the gyro from its "
-                                   "initial value")
-        out = {"q_b_n": Parameter(self.q, "", observable=heading, reason=why), "roll": Parameter(e[:, 0], "rad"),
-               "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad", observable=heading, reason=why)}
+        why = (
+            None
+            if heading
+            else ("no magnetometer or polarization used: the heading follows the gyro from its initial value")
+        )
+        out = {
+            "q_b_n": Parameter(self.q, "", observable=heading, reason=why),
+            "roll": Parameter(e[:, 0], "rad"),
+            "pitch": Parameter(e[:, 1], "rad"),
+            "yaw": Parameter(e[:, 2], "rad", observable=heading, reason=why),
+        }
         if self.gyro_bias is not None:
             out["gyr_bias"] = Parameter(np.asarray(self.gyro_bias, float), "rad/s")
         return out
@@ -109,15 +141,31 @@ class AttitudeEstimate(Estimate):
         str
             The line.
         """
-        return summary_line(self.method, self.frame, self.q.shape[0], offline=self.offline, segments=self.segments,
-                            rest=None if self.rest is None else float(np.mean(self.rest)),
-                            mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
-                            pol_used=self.pol_used, pol_skipped=self.pol_skipped)
+        return summary_line(
+            self.method,
+            self.frame,
+            self.q.shape[0],
+            offline=self.offline,
+            segments=self.segments,
+            rest=None if self.rest is None else float(np.mean(self.rest)),
+            mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
+            pol_used=self.pol_used,
+            pol_skipped=self.pol_skipped,
+        )
 
 
-def summary_line(method: str, frame: str, n: int, *, offline: bool = False, segments: int = 1,
-                 rest: float | None = None, mag_used: float | None = None, pol_used: int = 0,
-                 pol_skipped: dict | None = None) -> str:
+def summary_line(
+    method: str,
+    frame: str,
+    n: int,
+    *,
+    offline: bool = False,
+    segments: int = 1,
+    rest: float | None = None,
+    mag_used: float | None = None,
+    pol_used: int = 0,
+    pol_skipped: dict | None = None,
+) -> str:
     """One line on an estimate of ``n`` samples; ``rest``/``mag_used`` the fractions of samples at rest and with
     the magnetometer used."""
     pol_skipped = pol_skipped or {}
@@ -141,21 +189,25 @@ def _as_dt(dt, n: int) -> np.ndarray:
     elif d.shape != (n,):
         raise OptinavError(f"dt has shape {d.shape}, expected a scalar or ({n},)", "pass one step per sample")
     if np.any(d <= 0):
-        raise OptinavError(f"dt has {int(np.count_nonzero(d <= 0))} non-positive step(s)",
-                           "pass strictly positive time steps in s (check the time column)")
+        raise OptinavError(
+            f"dt has {int(np.count_nonzero(d <= 0))} non-positive step(s)",
+            "pass strictly positive time steps in s (check the time column)",
+        )
     return np.ascontiguousarray(d)
 
 
 def _as_q0(q0) -> np.ndarray:
     q = as_float_array(q0, "q0", last_dims=(4,))
     if q.shape != (4,) or np.linalg.norm(q) == 0:
-        raise OptinavError(f"q0 must be one non-zero quaternion [w, x, y, z], got shape {q.shape}",
-                           "pass e.g. q0=[1, 0, 0, 0]")
+        raise OptinavError(
+            f"q0 must be one non-zero quaternion [w, x, y, z], got shape {q.shape}", "pass e.g. q0=[1, 0, 0, 0]"
+        )
     return q / np.linalg.norm(q)
 
 
-def initial_attitude(acc0, frame: str = DEFAULT_FRAME, pol: PolarizationMeasurement | None = None,
-                     index: int = 0) -> np.ndarray:
+def initial_attitude(
+    acc0, frame: str = DEFAULT_FRAME, pol: PolarizationMeasurement | None = None, index: int = 0
+) -> np.ndarray:
     """q_b^n from one accelerometer sample (roll, pitch; yaw 0) and, if ``pol`` is usable at ``index``, the
     heading that best explains its AoP.
 
@@ -225,17 +277,76 @@ def _init_state(method: str, q: np.ndarray, opts: dict) -> np.ndarray:
 
 def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts):
     if method in ("gd", "cg"):
-        _kernels.run_gd_cg(gyr, acc, dt, un, use, sn, cbm, c2, s2, opts["pol_weight"], min_d2, opts["gain"],
-                           method == "cg", int(opts.get("restart", 1)), state, out, counts)
+        _kernels.run_gd_cg(
+            gyr,
+            acc,
+            dt,
+            un,
+            use,
+            sn,
+            cbm,
+            c2,
+            s2,
+            opts["pol_weight"],
+            min_d2,
+            opts["gain"],
+            method == "cg",
+            int(opts.get("restart", 1)),
+            state,
+            out,
+            counts,
+        )
     elif method == "qn":
-        _kernels.run_qn(gyr, acc, dt, un, use, sn, cbm, c2, s2, opts["pol_weight"], min_d2, opts["gain"],
-                        opts["rate_gain"], opts["max_step"], opts["gravity"], opts["acc_threshold"],
-                        opts["acc_shrink"], opts["h_reset"], state, out, counts)
+        _kernels.run_qn(
+            gyr,
+            acc,
+            dt,
+            un,
+            use,
+            sn,
+            cbm,
+            c2,
+            s2,
+            opts["pol_weight"],
+            min_d2,
+            opts["gain"],
+            opts["rate_gain"],
+            opts["max_step"],
+            opts["gravity"],
+            opts["acc_threshold"],
+            opts["acc_shrink"],
+            opts["h_reset"],
+            state,
+            out,
+            counts,
+        )
     else:
-        _kernels.run_mekf(gyr, acc, dt, un, use, sn, cbm, c2, s2, 1.0, min_d2, opts["gyro_noise"],
-                          opts["bias_noise"], opts["acc_noise"], opts["pol_noise"], opts["gravity"],
-                          opts["acc_threshold"], opts["acc_inflate"], opts["max_heading_std"],
-                          opts["couple_heading"] == 0.0, state, out, std, counts)
+        _kernels.run_mekf(
+            gyr,
+            acc,
+            dt,
+            un,
+            use,
+            sn,
+            cbm,
+            c2,
+            s2,
+            1.0,
+            min_d2,
+            opts["gyro_noise"],
+            opts["bias_noise"],
+            opts["acc_noise"],
+            opts["pol_noise"],
+            opts["gravity"],
+            opts["acc_threshold"],
+            opts["acc_inflate"],
+            opts["max_heading_std"],
+            opts["couple_heading"] == 0.0,
+            state,
+            out,
+            std,
+            counts,
+        )
 
 
 def _checked_imu(gyr, acc, mag=None):
@@ -243,8 +354,7 @@ def _checked_imu(gyr, acc, mag=None):
     gyr = as_float_array(gyr, "gyr", last_dims=(3,))
     acc = as_float_array(acc, "acc", last_dims=(3,))
     if gyr.ndim != 2 or acc.ndim != 2 or gyr.shape[0] == 0:
-        raise OptinavError(f"gyr {gyr.shape} and acc {acc.shape} must be (N, 3) with N >= 1",
-                           "pass one row per sample")
+        raise OptinavError(f"gyr {gyr.shape} and acc {acc.shape} must be (N, 3) with N >= 1", "pass one row per sample")
     if acc.shape != gyr.shape:
         raise OptinavError(f"gyr has {gyr.shape[0]} samples but acc has {acc.shape[0]}", "align the two triads")
     if mag is not None:
@@ -257,19 +367,34 @@ def _checked_imu(gyr, acc, mag=None):
 
 def _timed(fn):
     """Set ``elapsed_s`` of the returned result to the wall time of the call (s)."""
+
     @functools.wraps(fn)
     def run(*args, **kwargs):
         t0 = time.perf_counter()
         res = fn(*args, **kwargs)
         res.elapsed_s = time.perf_counter() - t0
         return res
+
     return run
 
 
 @_timed
-def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-             frame: str = DEFAULT_FRAME, q0=None, mag=None, offline: bool = False, input_stage: bool = False,
-             allow_gaps: bool = False, checks: bool = True, **options) -> AttitudeEstimate:
+def estimate(
+    gyr,
+    acc,
+    dt,
+    *,
+    pol: PolarizationMeasurement | None = None,
+    method: str | None = None,
+    frame: str = DEFAULT_FRAME,
+    q0=None,
+    mag=None,
+    offline: bool = False,
+    input_stage: bool = False,
+    allow_gaps: bool = False,
+    checks: bool = True,
+    **options,
+) -> AttitudeEstimate:
     """Attitude q_b^n of a recording as an :class:`AttitudeEstimate`; :func:`estimate_q` returns only ``q``.
 
     Without ``pol`` roll and pitch are observed and the heading follows the gyro, or the magnetometer (iframe).
@@ -326,33 +451,67 @@ def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])
-        raise OptinavError(f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
-                           "gyro across it would be wrong", "pass --allow-gaps (allow_gaps=True) to restart the "
-                           "estimate after each gap")
+        raise OptinavError(
+            f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
+            "gyro across it would be wrong",
+            "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
+        )
     if gaps.size:
         seg_dt = dts.copy()
         seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
-        parts = [estimate(gyr[a:b], acc[a:b], seg_dt[a:b], pol=(
-            None if pol is None else pol.select(slice(a, b))), method=method, frame=frame, q0=q0 if a == 0 else None,
-            mag=None if mag is None else mag[a:b], offline=offline, input_stage=input_stage, checks=False, **options)
-            for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
+        parts = [
+            estimate(
+                gyr[a:b],
+                acc[a:b],
+                seg_dt[a:b],
+                pol=(None if pol is None else pol.select(slice(a, b))),
+                method=method,
+                frame=frame,
+                q0=q0 if a == 0 else None,
+                mag=None if mag is None else mag[a:b],
+                offline=offline,
+                input_stage=input_stage,
+                checks=False,
+                **options,
+            )
+            for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])
+        ]
         first = parts[0]
-        cat = (lambda name: None if getattr(first, name) is None else
-               np.concatenate([getattr(p, name) for p in parts]))
-        return AttitudeEstimate(q=cat("q"), method=method, frame=frame, options=first.options,
-                                pol_used=sum(p.pol_used for p in parts),
-                                pol_skipped={k: sum(p.pol_skipped.get(k, 0) for p in parts) for k in first.pol_skipped},
-                                acc_threshold_hits=sum(p.acc_threshold_hits for p in parts), att_std=cat("att_std"),
-                                gyro_bias=parts[-1].gyro_bias, rest=cat("rest"), acc_used=cat("acc_used"),
-                                mag_used=cat("mag_used"), offline=offline, input_stage=first.input_stage,
-                                segments=len(parts))
+        cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
+        return AttitudeEstimate(
+            q=cat("q"),
+            method=method,
+            frame=frame,
+            options=first.options,
+            pol_used=sum(p.pol_used for p in parts),
+            pol_skipped={k: sum(p.pol_skipped.get(k, 0) for p in parts) for k in first.pol_skipped},
+            acc_threshold_hits=sum(p.acc_threshold_hits for p in parts),
+            att_std=cat("att_std"),
+            gyro_bias=parts[-1].gyro_bias,
+            rest=cat("rest"),
+            acc_used=cat("acc_used"),
+            mag_used=cat("mag_used"),
+            offline=offline,
+            input_stage=first.input_stage,
+            segments=len(parts),
+        )
     if method == "iframe":
-        r = run_iframe(gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline,
-                       **opts)
-        return AttitudeEstimate(q=r.q, method=method, frame=frame, options=opts, gyro_bias=r.bias[-1].copy(),
-                                rest=r.rest, acc_used=r.acc_used, mag_used=r.mag_used if mag is not None else None,
-                                offline=offline, input_stage=True,
-                                acc_threshold_hits=int(np.count_nonzero(~r.acc_used)))
+        r = run_iframe(
+            gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
+        )
+        return AttitudeEstimate(
+            q=r.q,
+            method=method,
+            frame=frame,
+            options=opts,
+            gyro_bias=r.bias[-1].copy(),
+            rest=r.rest,
+            acc_used=r.acc_used,
+            mag_used=r.mag_used if mag is not None else None,
+            offline=offline,
+            input_stage=True,
+            acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
+        )
     front = None
     if input_stage:
         gyr, acc, front = _input_stage(gyr, acc, dts, frame=frame)
@@ -369,14 +528,32 @@ def estimate(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method
     bias = state[4:7].copy() if method == "mekf" else None
     if front is not None:
         bias = front.bias[-1] + (0.0 if bias is None else bias)
-    return AttitudeEstimate(q=out, method=method, frame=frame, options=opts, pol_used=int(counts[0]),
-                            pol_skipped=skipped, acc_threshold_hits=int(counts[_kernels.C_ACC_SHRUNK]),
-                            att_std=std if method == "mekf" else None, gyro_bias=bias,
-                            rest=None if front is None else front.rest, input_stage=input_stage)
+    return AttitudeEstimate(
+        q=out,
+        method=method,
+        frame=frame,
+        options=opts,
+        pol_used=int(counts[0]),
+        pol_skipped=skipped,
+        acc_threshold_hits=int(counts[_kernels.C_ACC_SHRUNK]),
+        att_std=std if method == "mekf" else None,
+        gyro_bias=bias,
+        rest=None if front is None else front.rest,
+        input_stage=input_stage,
+    )
 
 
-def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, method: str | None = None,
-               frame: str = DEFAULT_FRAME, q0=None, **options) -> np.ndarray:
+def estimate_q(
+    gyr,
+    acc,
+    dt,
+    *,
+    pol: PolarizationMeasurement | None = None,
+    method: str | None = None,
+    frame: str = DEFAULT_FRAME,
+    q0=None,
+    **options,
+) -> np.ndarray:
     """The quaternions of :func:`estimate`, without the diagnostics.
 
     Parameters
@@ -394,18 +571,27 @@ def estimate_q(gyr, acc, dt, *, pol: PolarizationMeasurement | None = None, meth
 
 # --- streaming ------------------------------------------------------------------------------------------------
 
+
 class _Filter:
     """Per-sample attitude filter running the same kernel as :func:`estimate` (one sample at a time)."""
 
     METHOD = "qn"
 
-    def __init__(self, frame: str = DEFAULT_FRAME, q0=None, C_b_m=None, *, min_sun_elevation: float = 0.0,
-                 min_dop: float = 0.05, min_sun_separation: float = np.radians(10.0), **options):
+    def __init__(
+        self,
+        frame: str = DEFAULT_FRAME,
+        q0=None,
+        C_b_m=None,
+        *,
+        min_sun_elevation: float = 0.0,
+        min_dop: float = 0.05,
+        min_sun_separation: float = np.radians(10.0),
+        **options,
+    ):
         self.frame = frame_name(frame)
         self.options = _options(self.METHOD, options)
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
-        self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop,
-                            min_sun_separation=min_sun_separation)
+        self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)
         self.state = None
         self.counts = np.zeros(3, dtype=np.int64)
@@ -430,16 +616,33 @@ class _Filter:
             if len(pol_sample) not in (2, 3):
                 raise OptinavError("pol_sample must be (aop, sun_n) or (aop, sun_n, dop)", "pass a tuple")
             dop = None if len(pol_sample) == 2 or pol_sample[2] is None else [pol_sample[2]]
-            pol = PolarizationMeasurement(np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m,
-                                          self.frame, **self._pol_kw)
+            pol = PolarizationMeasurement(
+                np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m, self.frame, **self._pol_kw
+            )
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
         for k, v in skipped.items():
             self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
         if self.state is None:
             q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
             self.state = _init_state(self.METHOD, q, self.options)
-        _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
-             self._std, self.counts)
+        _run(
+            self.METHOD,
+            self.options,
+            self.state,
+            g,
+            a,
+            dts,
+            self._un,
+            use,
+            sn,
+            cbm,
+            c2,
+            s2,
+            min_d2,
+            self._out,
+            self._std,
+            self.counts,
+        )
         return self._out[0].copy()
 
 
@@ -508,6 +711,13 @@ def attitude_truth(q_b_n, frame: str = DEFAULT_FRAME, info: dict | None = None) 
     (``q_b_n``, ``roll``, ``pitch``, ``yaw`` in ``frame``'s Euler convention)."""
     q = np.asarray(q_b_n, float)
     e = euler_from_quat(q, frame_name(frame))
-    return Truth("attitude", {"q_b_n": Parameter(q, ""), "roll": Parameter(e[:, 0], "rad"),
-                              "pitch": Parameter(e[:, 1], "rad"), "yaw": Parameter(e[:, 2], "rad")},
-                 {"frame": frame_name(frame), **(info or {})})
+    return Truth(
+        "attitude",
+        {
+            "q_b_n": Parameter(q, ""),
+            "roll": Parameter(e[:, 0], "rad"),
+            "pitch": Parameter(e[:, 1], "rad"),
+            "yaw": Parameter(e[:, 2], "rad"),
+        },
+        {"frame": frame_name(frame), **(info or {})},
+    )

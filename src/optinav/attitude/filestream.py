@@ -66,8 +66,7 @@ def pol_columns(columns: str, frame: str, *, aop_unit: str = "rad", min_dop: flo
     from optinav.attitude.recording import pol_column_names, sun_along_log
 
     aop, dop = pol_column_names(columns)
-    return PolColumns(aop, dop, lambda t, t_first: sun_along_log(t, frame, t_first=t_first, **sun), aop_unit,
-                      min_dop)
+    return PolColumns(aop, dop, lambda t, t_first: sun_along_log(t, frame, t_first=t_first, **sun), aop_unit, min_dop)
 
 
 @dataclass
@@ -112,15 +111,17 @@ class _Blocks:
     ``size``/``position`` for the progress bar. A BROAD trial is read whole (its HDF5/MAT library reads it so)
     and cut; text files are read block by block (:func:`optinav.io.iter_imu`)."""
 
-    def __init__(self, path, o: AttitudeOptions, *, mag: bool, pol: PolColumns | None, reference: bool,
-                 chunk_rows: int):
+    def __init__(
+        self, path, o: AttitudeOptions, *, mag: bool, pol: PolColumns | None, reference: bool, chunk_rows: int
+    ):
         from optinav.attitude.data import is_broad
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
         self.broad = is_broad(path) and not o.columns and not o.datasets
         if reference and not self.broad:
-            raise OptinavError(f"{path} is not a BROAD file with opt_quat and movement",
-                               "drop --reference or pass a BROAD trial")
+            raise OptinavError(
+                f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
+            )
         self.size = max(self.path.stat().st_size, 1) if self.path.is_file() else 1
         self.position = 0
         self._whole: dict | None = None
@@ -140,26 +141,45 @@ class _Blocks:
         from optinav.io.imu import iter_imu
 
         o = self.o
-        chunks = iter_imu(self.path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit,
-                          time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                          delimiter=o.delimiter, chunk_rows=self.chunk_rows, topic=o.topic)
+        chunks = iter_imu(
+            self.path,
+            columns=o.columns,
+            acc_unit=o.acc_unit,
+            gyro_unit=o.gyro_unit,
+            time_unit=o.time_unit,
+            rate_hz=o.rate,
+            datasets=o.datasets or None,
+            delimiter=o.delimiter,
+            chunk_rows=self.chunk_rows,
+            topic=o.topic,
+        )
         self.size = chunks.size
         prev = None
         for log in chunks:
             self.position = chunks.position
             if log.acc is None or log.gyr is None:
-                raise OptinavError(f"{self.path} needs accelerometer and gyroscope columns",
-                                   "name them with --columns t,ax,ay,az,gx,gy,gz")
+                raise OptinavError(
+                    f"{self.path} needs accelerometer and gyroscope columns",
+                    "name them with --columns t,ax,ay,az,gx,gy,gz",
+                )
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
-                raise OptinavError("the log is in raw counts",
-                                   "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
+                raise OptinavError(
+                    "the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit"
+                )
             row0 = chunks.rows - len(log)
             t = log.t
             # two rows at least in the first block: its first step comes from its first two times
             first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
             prev = t[-1]
-            yield row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, \
-                self._extra(chunks.table, row0, len(log))
+            yield (
+                row0,
+                t,
+                log.gyr,
+                log.acc,
+                np.diff(t, prepend=first),
+                log.finite,
+                self._extra(chunks.table, row0, len(log)),
+            )
 
     def _extra(self, table, row0: int, n: int) -> dict:
         if not self.names:
@@ -168,17 +188,23 @@ class _Blocks:
             if self._whole is None:
                 from optinav.io.readers import read_table
 
-                tab = read_table(self.path, columns=",".join(f"{k}={v}" for k, v in self.names.items()),
-                                 delimiter=self.o.delimiter, topic=self.o.topic)
+                tab = read_table(
+                    self.path,
+                    columns=",".join(f"{k}={v}" for k, v in self.names.items()),
+                    delimiter=self.o.delimiter,
+                    topic=self.o.topic,
+                )
                 self._whole = {k: np.asarray(v, float).reshape(-1) for k, v in tab.items()}
-            cols = {k: v[row0:row0 + n] for k, v in self._whole.items()}
+            cols = {k: v[row0 : row0 + n] for k, v in self._whole.items()}
         else:
             cols = {k: np.asarray(table.get(v), float).reshape(-1) for k, v in self.names.items()}
         for k, v in cols.items():
             if v.size != n:
                 what = "the magnetometer" if k.startswith("m") else f"{k.upper()} column"
-                raise OptinavError(f"{what} has {v.size} rows, the IMU {n} (block at row {row0})",
-                                   "check --mag-columns" if k.startswith("m") else "check --pol-columns")
+                raise OptinavError(
+                    f"{what} has {v.size} rows, the IMU {n} (block at row {row0})",
+                    "check --mag-columns" if k.startswith("m") else "check --pol-columns",
+                )
         out = {}
         if self.mag:
             out["mag"] = np.column_stack([cols["mx"], cols["my"], cols["mz"]])
@@ -208,8 +234,10 @@ class _Blocks:
                 first = (t[0] - (t[1] - t[0] if t.size > 1 else h)) if prev is None else prev
                 prev = t[-1]
                 gyr, acc = np.asarray(tr.gyr[s], float), np.asarray(tr.acc[s], float)
-                extra = {"q_ref": np.asarray(tr.q_ref[s], float),
-                         "movement": np.asarray(tr.movement[s]).ravel().astype(bool)}
+                extra = {
+                    "q_ref": np.asarray(tr.q_ref[s], float),
+                    "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
+                }
                 if self.mag:
                     extra["mag"] = np.asarray(tr.mag[s], float) if tr.mag is not None else np.full(gyr.shape, np.nan)
                 finite = np.isfinite(gyr).all(axis=1) & np.isfinite(acc).all(axis=1)
@@ -298,9 +326,11 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
         fields.update(q_ref=4, movement=1)
     need, free = checks.n * sum(fields.values()) * 8, _free_bytes(out)
     if need > free:
-        raise OptinavError(f"--offline needs {need / 2**30:.2f} GiB of scratch space beside {out} for {checks.n} "
-                           f"samples; {free / 2**30:.2f} GiB are free there",
-                           "write --out to a disk with more free space, or drop --offline")
+        raise OptinavError(
+            f"--offline needs {need / 2**30:.2f} GiB of scratch space beside {out} for {checks.n} "
+            f"samples; {free / 2**30:.2f} GiB are free there",
+            "write --out to a disk with more free space, or drop --offline",
+        )
     with scratch_file(out) as fh:
         store = _Scratch(fh, fields)
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
@@ -312,9 +342,11 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
         gaps = checks.gaps
         if gaps.size and not o.allow_gaps:
             i = int(gaps[0])
-            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                               "integrating the gyro across it would be wrong",
-                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
+            raise OptinavError(
+                f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
+                "integrating the gyro across it would be wrong",
+                "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
+            )
         if gaps.size:  # each segment starts afresh: its first step is a normal one (as estimate)
             for i in gaps:
                 row = store.read(int(i), int(i) + 1).copy()
@@ -341,8 +373,15 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
                     score.add(q, store.col(r, "q_ref"), store.col(r, "movement")[:, 0].astype(bool))
             result = None if score is None else score.result()
         n = store.n
-    line = summary_line("iframe", frame, n, offline=True, segments=len(bounds), rest=rest / n,
-                        mag_used=mag_used / n if src.mag else None)
+    line = summary_line(
+        "iframe",
+        frame,
+        n,
+        offline=True,
+        segments=len(bounds),
+        rest=rest / n,
+        mag_used=mag_used / n if src.mag else None,
+    )
     return StreamRun(line, n, result)
 
 
@@ -387,14 +426,14 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
     st = st.copy()
-    st[_k.S_BIAS:_k.S_BIAS + 3] *= -1.0
+    st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
     for e in range(b, a, -blk):
         s = max(e - blk, a)
         r = store.read(s, min(e + 1, b)).copy()
         k = e - s
         g, d = np.zeros((k, 3)), np.empty(k)
-        g[:r.shape[0] - 1] = -col(r, "gyr")[1:]
-        d[:r.shape[0] - 1] = col(r, "dts")[1:, 0]
+        g[: r.shape[0] - 1] = -col(r, "gyr")[1:]
+        d[: r.shape[0] - 1] = col(r, "dts")[1:, 0]
         if r.shape[0] == k:
             d[k - 1] = r[k - 1, c["dts"]][0]
         r = r[:k]
@@ -456,9 +495,18 @@ def _mag_names(mag_columns: str | None) -> list[str]:
     return names
 
 
-def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolColumns | None = None,
-                    reference: bool = False, chunk_rows: int = CHUNK_ROWS,
-                    announce: Callable[[int, str], None] | None = None, progress: bool | None = None) -> StreamRun:
+def stream_attitude(
+    path,
+    out,
+    options: AttitudeOptions,
+    *,
+    q0=None,
+    pol: PolColumns | None = None,
+    reference: bool = False,
+    chunk_rows: int = CHUNK_ROWS,
+    announce: Callable[[int, str], None] | None = None,
+    progress: bool | None = None,
+) -> StreamRun:
     """Estimate the attitude of the log ``path`` block by block (at most ``chunk_rows`` samples held) and write
     the attitude CSV (:data:`optinav.attitude.recording.CSV_HEADER`) to ``out`` atomically. ``options`` as :func:`optinav.attitude.unit.
     read_log` / :func:`~optinav.attitude.estimate` (``offline``: the inputs go to a scratch file beside ``out``,
@@ -498,8 +546,9 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
             a = np.abs(extra["aop"][np.isfinite(extra["aop"])])
             aop_max = max(aop_max, float(a.max()) if a.size else 0.0)
     if bad:
-        raise OptinavError(f"{path} has {bad} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
+        raise OptinavError(
+            f"{path} has {bad} rows with NaN accelerometer/gyro values", "remove or interpolate them first"
+        )
     if pol is not None:
         check_aop(np.array([aop_max]))
     checks.finish_first()
@@ -523,8 +572,9 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
             pm = None
             if pol is not None:
                 aop = np.radians(extra["aop"]) if pol.aop_unit == "deg" else extra["aop"]
-                pm = PolarizationMeasurement(aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame,
-                                             min_dop=pol.min_dop)
+                pm = PolarizationMeasurement(
+                    aop, pol.sun(t, t_first), dop=extra.get("dop"), frame=frame, min_dop=pol.min_dop
+                )
             mag = extra.get("mag")
             # a time gap starts a new segment whose first step is the median one
             cuts = gaps[(gaps >= row0) & (gaps < row0 + len(t))] - row0
@@ -535,9 +585,15 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
                 if k:
                     estimator.restart()
                 if b > a:
-                    qs.append(estimator.run(gyr[a:b], acc[a:b], dts[a:b],
-                                            mag=None if mag is None else mag[a:b],
-                                            pol=None if pm is None else pm.select(slice(a, b))))
+                    qs.append(
+                        estimator.run(
+                            gyr[a:b],
+                            acc[a:b],
+                            dts[a:b],
+                            mag=None if mag is None else mag[a:b],
+                            pol=None if pm is None else pm.select(slice(a, b)),
+                        )
+                    )
             q = np.concatenate(qs)
             write(attitude_rows(t, q, frame))
             if score is not None:
@@ -545,8 +601,10 @@ def stream_attitude(path, out, options: AttitudeOptions, *, q0=None, pol: PolCol
         checks.finish_second(frame)
         if gaps.size and not o.allow_gaps:
             i = int(gaps[0])
-            raise OptinavError(f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
-                               "integrating the gyro across it would be wrong",
-                               "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap")
+            raise OptinavError(
+                f"time gap of {checks.gap_steps[0]:.3g} s before sample {i} ({gaps.size} gap(s)): "
+                "integrating the gyro across it would be wrong",
+                "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
+            )
         result = None if score is None else score.result()
     return StreamRun(estimator.summary(), checks.n, result)

@@ -43,9 +43,26 @@ from optinav.errors import OptinavError
 
 __all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "IframeRun", "run_iframe", "input_stage"]
 
-_ORDER = ("tau_acc", "rest_tau", "rest_gyr", "rest_acc", "rest_time", "bias_sigma0", "bias_rw", "bias_rest",
-          "bias_motion", "bias_clip", "motion_max_gyr", "motion_max_acc", "gravity", "tau_mag", "mag_norm_th",
-          "mag_dip_th", "mag_new_time", "tau_mag_ref")  # then latency at P_LATENCY
+_ORDER = (
+    "tau_acc",
+    "rest_tau",
+    "rest_gyr",
+    "rest_acc",
+    "rest_time",
+    "bias_sigma0",
+    "bias_rw",
+    "bias_rest",
+    "bias_motion",
+    "bias_clip",
+    "motion_max_gyr",
+    "motion_max_acc",
+    "gravity",
+    "tau_mag",
+    "mag_norm_th",
+    "mag_dip_th",
+    "mag_new_time",
+    "tau_mag_ref",
+)  # then latency at P_LATENCY
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
 _NORTH = {"ned": np.array([1.0, 0.0, 0.0]), "enu": np.array([0.0, 1.0, 0.0])}
@@ -57,10 +74,10 @@ def _params(frame: str, opts: dict) -> np.ndarray:
         if not opts[k] > 0:
             raise OptinavError(f"option {k}={opts[k]!r} must be > 0", f"pass a positive {k}")
     p = np.zeros(_k.PAR_SIZE)
-    p[:len(_ORDER)] = [opts[k] for k in _ORDER]
+    p[: len(_ORDER)] = [opts[k] for k in _ORDER]
     frame = frame_name(frame)
-    p[_k.P_UP:_k.P_UP + 3] = _UP[frame]
-    p[_k.P_NORTH:_k.P_NORTH + 3] = _NORTH[frame]
+    p[_k.P_UP : _k.P_UP + 3] = _UP[frame]
+    p[_k.P_NORTH : _k.P_NORTH + 3] = _NORTH[frame]
     if not (np.isfinite(opts["latency"]) and opts["latency"] >= 0.0):
         raise OptinavError(f"option latency={opts['latency']!r} must be ≥ 0 s", "pass the IMU's delay in s, or 0")
     p[_k.P_LATENCY] = opts["latency"]
@@ -69,10 +86,10 @@ def _params(frame: str, opts: dict) -> np.ndarray:
 
 def _new_state(opts: dict, q0=None) -> np.ndarray:
     st = np.zeros(_k.STATE_SIZE)
-    st[_k.S_P:_k.S_P + 9] = (np.eye(3) * opts["bias_sigma0"] ** 2).ravel()
+    st[_k.S_P : _k.S_P + 9] = (np.eye(3) * opts["bias_sigma0"] ** 2).ravel()
     if q0 is not None:
         # start from q0: q_g = identity, q_c = q0 without heading (δ carries it); filter memories from acc[0]
-        st[_k.S_QC:_k.S_QC + 4] = q0
+        st[_k.S_QC : _k.S_QC + 4] = q0
     return st
 
 
@@ -80,12 +97,12 @@ def _new_state(opts: dict, q0=None) -> np.ndarray:
 class IframeRun:
     """Per-sample outputs of the ``iframe`` estimator."""
 
-    q: np.ndarray          # (N, 4) q_b^n
-    rest: np.ndarray       # (N,) bool
-    acc_used: np.ndarray   # (N,) bool
-    mag_used: np.ndarray   # (N,) bool
-    bias: np.ndarray       # (N, 3) rad/s
-    state: np.ndarray      # final state
+    q: np.ndarray  # (N, 4) q_b^n
+    rest: np.ndarray  # (N,) bool
+    acc_used: np.ndarray  # (N,) bool
+    mag_used: np.ndarray  # (N,) bool
+    bias: np.ndarray  # (N, 3) rad/s
+    state: np.ndarray  # final state
 
 
 def _run(st, par, gyr, acc, mag, dts) -> IframeRun:
@@ -115,8 +132,9 @@ def _fuse(qf, qb):
     return quat_multiply(quat_from_rotvec(0.5 * r), qf)
 
 
-def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False,
-               **options) -> IframeRun:
+def run_iframe(
+    gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
+) -> IframeRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
     None. Options override :data:`IFRAME_DEFAULTS`."""
     opts = dict(IFRAME_DEFAULTS)
@@ -133,7 +151,7 @@ def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, 
     # end state with the bias negated, and negate it back; the backward bias at t has seen the whole recording
     # (the forward pass's end state and the samples from t on), the forward one only the samples before t
     st = fwd.state.copy()
-    st[_k.S_BIAS:_k.S_BIAS + 3] *= -1.0
+    st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
     bwd = _run(st, par, *_reverse(gyr, acc, m, dts))
     bias = -bwd.bias[::-1]
     q = _fuse(fwd.q, bwd.q[::-1])
@@ -142,8 +160,7 @@ def run_iframe(gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, 
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
-    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias,
-                     fwd.state)
+    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias, fwd.state)
 
 
 def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
@@ -186,7 +203,7 @@ def tilt_halfway(q, up_b, frame):
     from optinav.core.rotations import quat_from_rotvec, quat_multiply, quat_rotate
 
     nrm = np.linalg.norm(up_b, axis=1)
-    cur = quat_rotate(q, up_b / nrm[:, None])       # the zero-phase up, in n with the current estimate
+    cur = quat_rotate(q, up_b / nrm[:, None])  # the zero-phase up, in n with the current estimate
     up = _UP[frame_name(frame)]
     ax = np.cross(cur, up)
     sn = np.linalg.norm(ax, axis=1)
@@ -221,8 +238,9 @@ class AttitudeFilter:
     arithmetic as :func:`optinav.attitude.estimate`.
     """
 
-    def __init__(self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None,
-                 **options):
+    def __init__(
+        self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None, **options
+    ):
         from optinav.attitude.estimators import _as_q0, _options
 
         self.frame = frame_name(frame)
@@ -259,8 +277,9 @@ class AttitudeFilter:
         if mag is None:
             self._step6(self._state, self._par, gyr, acc, h)
         else:
-            self._step(self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1],
-                       mag[2], h)
+            self._step(
+                self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1], mag[2], h
+            )
 
     def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
         """A chunk of samples, with per-sample outputs.
@@ -291,7 +310,7 @@ class AttitudeFilter:
 
     @property
     def q(self) -> np.ndarray:
-        return self._state[_k.S_Q:_k.S_Q + 4].copy()
+        return self._state[_k.S_Q : _k.S_Q + 4].copy()
 
     @property
     def rest(self) -> bool:
@@ -299,7 +318,7 @@ class AttitudeFilter:
 
     @property
     def bias(self) -> np.ndarray:
-        return self._state[_k.S_BIAS:_k.S_BIAS + 3].copy()
+        return self._state[_k.S_BIAS : _k.S_BIAS + 3].copy()
 
     @property
     def acc_used(self) -> bool:

@@ -40,8 +40,18 @@ from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["DEFAULT_C_B_M", "DEFAULT_C_B_M_ENU", "PolarizationMeasurement", "up_vector",
-           "default_c_b_m", "as_c_b_m", "measurement_error", "predicted_aop", "sun_elevation", "wrap_axial"]
+__all__ = [
+    "DEFAULT_C_B_M",
+    "DEFAULT_C_B_M_ENU",
+    "PolarizationMeasurement",
+    "up_vector",
+    "default_c_b_m",
+    "as_c_b_m",
+    "measurement_error",
+    "predicted_aop",
+    "sun_elevation",
+    "wrap_axial",
+]
 
 #: C_b^m for a zenith-viewing sensor on a forward-right-down body: X_m = x_b (forward), Z_m = −z_b (up)
 DEFAULT_C_B_M = np.diag([1.0, -1.0, -1.0])
@@ -134,12 +144,16 @@ class PolarizationMeasurement:
         if s.ndim == 1:
             s = s[None, :]
         if s.ndim != 2 or s.shape[0] not in (1, n):
-            raise OptinavError(f"sun_n has shape {np.shape(self.sun_n)}, expected (3,) or ({n}, 3)",
-                               "pass one unit sun vector or one per sample")
+            raise OptinavError(
+                f"sun_n has shape {np.shape(self.sun_n)}, expected (3,) or ({n}, 3)",
+                "pass one unit sun vector or one per sample",
+            )
         norm = np.linalg.norm(s, axis=1)
         if np.any(np.abs(norm - 1.0) > 1e-3):
-            raise OptinavError(f"sun_n is not a unit vector (norm {norm.min():.4g}..{norm.max():.4g})",
-                               "pass the unit sun direction in the navigation frame")
+            raise OptinavError(
+                f"sun_n is not a unit vector (norm {norm.min():.4g}..{norm.max():.4g})",
+                "pass the unit sun direction in the navigation frame",
+            )
         self.sun_n = s / norm[:, None]
         if self.dop is not None:
             d = as_float_array(self.dop, "dop", finite=False)
@@ -201,10 +215,16 @@ class PolarizationMeasurement:
             The same sensor and thresholds on those samples.
         """
         return PolarizationMeasurement(
-            self.aop[rows], self.sun_n if self.sun_n.shape[0] == 1 else self.sun_n[rows],
-            None if self.dop is None else self.dop[rows], self.C_b_m, self.frame,
-            None if self.valid is None else self.valid[rows], self.min_sun_elevation, self.min_dop,
-            self.min_sun_separation)
+            self.aop[rows],
+            self.sun_n if self.sun_n.shape[0] == 1 else self.sun_n[rows],
+            None if self.dop is None else self.dop[rows],
+            self.C_b_m,
+            self.frame,
+            None if self.valid is None else self.valid[rows],
+            self.min_sun_elevation,
+            self.min_dop,
+            self.min_sun_separation,
+        )
 
 
 def predicted_aop(q_b_n, sun_n, C_b_m=None, frame: str = DEFAULT_FRAME) -> np.ndarray:
@@ -245,19 +265,34 @@ def pol_inputs(pol, n: int, frame: str, what: str = "the IMU"):
     if pol is None:
         return np.zeros(n, bool), np.array([[1.0, 0.0, 0.0]]), default_c_b_m(frame), np.zeros(n), 0.0, {}
     if not isinstance(pol, PolarizationMeasurement):
-        raise OptinavError(f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
-                           "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)")
+        raise OptinavError(
+            f"pol must be a PolarizationMeasurement, got {type(pol).__name__}",
+            "wrap the angles with optinav.attitude.PolarizationMeasurement(aop, sun_n, ...)",
+        )
     if pol.frame != frame_name(frame):
         raise OptinavError(f"pol.frame is {pol.frame} but frame is {frame}", "use one navigation frame")
     if len(pol) != n:
         raise OptinavError(f"pol has {len(pol)} samples but {what} has {n}", "align the polarization samples with it")
     use, skipped = pol.usable()
-    return (use, np.ascontiguousarray(pol.sun_n), np.ascontiguousarray(pol.C_b_m), np.where(use, pol.aop, 0.0),
-            float(np.sin(pol.min_sun_separation) ** 2), skipped)
+    return (
+        use,
+        np.ascontiguousarray(pol.sun_n),
+        np.ascontiguousarray(pol.C_b_m),
+        np.where(use, pol.aop, 0.0),
+        float(np.sin(pol.min_sun_separation) ** 2),
+        skipped,
+    )
 
 
-def measurement_error(q_b_n, acc, *, pol: PolarizationMeasurement | None = None, frame: str = DEFAULT_FRAME,
-                      jacobian: str = "quat", pol_weight: float = 1.0):
+def measurement_error(
+    q_b_n,
+    acc,
+    *,
+    pol: PolarizationMeasurement | None = None,
+    frame: str = DEFAULT_FRAME,
+    jacobian: str = "quat",
+    pol_weight: float = 1.0,
+):
     """F(q) = [ε_b; ε_m] and its Jacobian at each sample (numpy face of the estimators' kernel).
 
     Parameters
@@ -301,6 +336,7 @@ def measurement_error(q_b_n, acc, *, pol: PolarizationMeasurement | None = None,
     F = np.full((n, 5), np.nan)
     J = np.full((n, 5, ncol), np.nan)
     rows = np.zeros(n, dtype=np.int64)
-    _kernels.model_batch(q, acc, up_vector(frame), use, sn, cbm, aop,
-                         float(pol_weight), float(min_d2), _JAC_MODES[jacobian], F, J, rows)
+    _kernels.model_batch(
+        q, acc, up_vector(frame), use, sn, cbm, aop, float(pol_weight), float(min_d2), _JAC_MODES[jacobian], F, J, rows
+    )
     return F, J, rows

@@ -15,25 +15,25 @@ _D2R = np.pi / 180.0
 
 #: options of ``method="iframe"`` (SI units: s, rad, rad/s, m/s²; ``mag_norm_th`` relative)
 IFRAME_DEFAULTS: dict[str, float] = {
-    "tau_acc": 4.0,                  # s, accelerometer low-pass time constant in the almost-inertial frame
-    "rest_tau": 0.5,                 # s, low-pass of the rest detector
-    "rest_gyr": 2.0 * _D2R,          # rad/s, max gyro deviation at rest
-    "rest_acc": 0.5,                 # m/s², max accelerometer deviation at rest
-    "rest_time": 1.5,                # s, minimum still time before rest is declared
-    "bias_sigma0": 0.5 * _D2R,       # rad/s, initial bias σ
-    "bias_rw": 0.003 * _D2R,         # rad/s/√s, bias random walk
-    "bias_rest": 0.05 * _D2R,        # rad/s·√s, rest measurement noise density
-    "bias_motion": 0.05 * _D2R,      # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
-    "bias_clip": 2.0 * _D2R,         # rad/s, bias estimate bound
-    "motion_max_gyr": 0.0,           # rad/s, no motion bias update above this rate; 0 = no limit
-    "motion_max_acc": 1.0,           # m/s², ... or when the low-passed |acc| is this far from g
-    "gravity": 9.81,                 # m/s²
-    "tau_mag": 10.0,                 # s, heading correction time constant
-    "mag_norm_th": 0.05,             # relative deviation of |m| from the reference
-    "mag_dip_th": 5.0 * _D2R,        # rad, deviation of the dip angle from the reference
-    "mag_new_time": 20.0,            # s, a steady new field becomes the reference after this time
-    "tau_mag_ref": 30.0,             # s, averaging time of the learned reference
-    "latency": 0.0,                  # s, how late the IMU's samples are: the output is predicted that far ahead
+    "tau_acc": 4.0,  # s, accelerometer low-pass time constant in the almost-inertial frame
+    "rest_tau": 0.5,  # s, low-pass of the rest detector
+    "rest_gyr": 2.0 * _D2R,  # rad/s, max gyro deviation at rest
+    "rest_acc": 0.5,  # m/s², max accelerometer deviation at rest
+    "rest_time": 1.5,  # s, minimum still time before rest is declared
+    "bias_sigma0": 0.5 * _D2R,  # rad/s, initial bias σ
+    "bias_rw": 0.003 * _D2R,  # rad/s/√s, bias random walk
+    "bias_rest": 0.05 * _D2R,  # rad/s·√s, rest measurement noise density
+    "bias_motion": 0.05 * _D2R,  # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
+    "bias_clip": 2.0 * _D2R,  # rad/s, bias estimate bound
+    "motion_max_gyr": 0.0,  # rad/s, no motion bias update above this rate; 0 = no limit
+    "motion_max_acc": 1.0,  # m/s², ... or when the low-passed |acc| is this far from g
+    "gravity": 9.81,  # m/s²
+    "tau_mag": 10.0,  # s, heading correction time constant
+    "mag_norm_th": 0.05,  # relative deviation of |m| from the reference
+    "mag_dip_th": 5.0 * _D2R,  # rad, deviation of the dip angle from the reference
+    "mag_new_time": 20.0,  # s, a steady new field becomes the reference after this time
+    "tau_mag_ref": 30.0,  # s, averaging time of the learned reference
+    "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
 }
 
 #: the estimators of :func:`optinav.attitude.estimate`
@@ -47,14 +47,32 @@ DEFAULTS: dict[str, dict[str, float]] = {
     "cg": {"gain": 0.033, "restart": 10, "pol_weight": 1.0},
     # β₀ (1/s) base rate of the correction, κ (1/rad) its growth with ‖q̇‖ (rad/s), max step (fraction), g (m/s²),
     # ε (m/s²) accelerometer state threshold, step factor beyond it, BFGS reset bound on trace(H)
-    "qn": {"gain": 0.5, "rate_gain": 0.3, "max_step": 0.5, "gravity": G_STANDARD, "acc_threshold": 0.8,
-           "acc_shrink": 0.1, "h_reset": 100.0, "pol_weight": 1.0},
+    "qn": {
+        "gain": 0.5,
+        "rate_gain": 0.3,
+        "max_step": 0.5,
+        "gravity": G_STANDARD,
+        "acc_threshold": 0.8,
+        "acc_shrink": 0.1,
+        "h_reset": 100.0,
+        "pol_weight": 1.0,
+    },
     # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s),
     # bound on the heading σ (rad) while no heading measurement is used (a heading error is at most π), and
     # couple_heading 0/1: 1 lets the gravity update correct the heading through its correlation with the bias
-    "mekf": {"gyro_noise": 0.002, "bias_noise": 5e-5, "acc_noise": 0.1, "pol_noise": np.radians(1.0),
-             "gravity": G_STANDARD, "acc_threshold": 0.8, "acc_inflate": 5.0, "init_att_std": 0.05,
-             "init_bias_std": 0.01, "max_heading_std": np.pi, "couple_heading": 0.0},
+    "mekf": {
+        "gyro_noise": 0.002,
+        "bias_noise": 5e-5,
+        "acc_noise": 0.1,
+        "pol_noise": np.radians(1.0),
+        "gravity": G_STANDARD,
+        "acc_threshold": 0.8,
+        "acc_inflate": 5.0,
+        "init_att_std": 0.05,
+        "init_bias_std": 0.01,
+        "max_heading_std": np.pi,
+        "couple_heading": 0.0,
+    },
 }
 
 
@@ -64,8 +82,9 @@ def _options(method: str, options: dict) -> dict:
     opts = dict(DEFAULTS[method])
     for k, v in options.items():
         if k not in opts:
-            raise OptinavError(f"option {k!r} does not apply to method {method!r}",
-                               f"valid options: {', '.join(sorted(opts))}")
+            raise OptinavError(
+                f"option {k!r} does not apply to method {method!r}", f"valid options: {', '.join(sorted(opts))}"
+            )
         try:
             fv = float(v)
         except (TypeError, ValueError):
@@ -76,8 +95,10 @@ def _options(method: str, options: dict) -> dict:
     if method == "mekf" and opts["max_heading_std"] <= 0:
         raise OptinavError("max_heading_std must be > 0", "pass a bound in rad, e.g. max_heading_std=3.14")
     if method == "mekf" and opts["couple_heading"] not in (0.0, 1.0):
-        raise OptinavError(f"couple_heading={opts['couple_heading']:g} must be 0 or 1",
-                           "pass couple_heading=0 (heading from the gyro alone) or 1")
+        raise OptinavError(
+            f"couple_heading={opts['couple_heading']:g} must be 0 or 1",
+            "pass couple_heading=0 (heading from the gyro alone) or 1",
+        )
     if method == "cg" and opts["restart"] < 1:
         raise OptinavError("restart must be >= 1", "pass restart=1 (plain gradient) or more")
     return opts
@@ -88,6 +109,7 @@ def _method(method, pol) -> str:
         return "iframe" if pol is None else "mekf"
     m = str(method).lower()
     if m == "iframe" and pol is not None:
-        raise OptinavError("method iframe takes no polarization input",
-                           "use --method mekf (or gd, cg, qn) with --pol-columns")
+        raise OptinavError(
+            "method iframe takes no polarization input", "use --method mekf (or gd, cg, qn) with --pol-columns"
+        )
     return m

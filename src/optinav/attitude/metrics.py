@@ -14,8 +14,15 @@ from optinav.core.rotations import DEFAULT_FRAME, euler_from_quat, frame_name, q
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["earth_error_quaternion", "inclination_error", "heading_error", "total_error", "euler_errors",
-           "error_statistics", "rmse"]
+__all__ = [
+    "earth_error_quaternion",
+    "inclination_error",
+    "heading_error",
+    "total_error",
+    "euler_errors",
+    "error_statistics",
+    "rmse",
+]
 
 
 def _pair(q_est, q_ref) -> tuple[np.ndarray, np.ndarray]:
@@ -74,5 +81,9 @@ def rmse(x, mask=None) -> float:
 def error_statistics(err) -> dict[str, np.ndarray]:
     """Per-column mean, std, max |·| and RMS of errors (N, k) — the quantities of the paper's Tables 1–3."""
     e = np.asarray(err, dtype=float)
-    return {"mean": np.nanmean(e, axis=0), "std": np.nanstd(e, axis=0), "max_abs": np.nanmax(np.abs(e), axis=0),
-            "rms": np.sqrt(np.nanmean(e ** 2, axis=0))}
+    return {
+        "mean": np.nanmean(e, axis=0),
+        "std": np.nanstd(e, axis=0),
+        "max_abs": np.nanmax(np.abs(e), axis=0),
+        "rms": np.sqrt(np.nanmean(e**2, axis=0)),
+    }

@@ -12,8 +12,17 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["CSV_HEADER", "CSV_FORMAT", "TRUTH_CSV_HEADER", "attitude_rows", "write_flight", "sun_along_log",
-           "read_polarization", "pol_column_names", "reference_rmse"]
+__all__ = [
+    "CSV_HEADER",
+    "CSV_FORMAT",
+    "TRUTH_CSV_HEADER",
+    "attitude_rows",
+    "write_flight",
+    "sun_along_log",
+    "read_polarization",
+    "pol_column_names",
+    "reference_rmse",
+]
 
 #: the attitude CSV's header and its column formats (t exactly; %.9g rounded bag stamps to 100 s)
 CSV_HEADER = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
@@ -60,14 +69,27 @@ def write_flight(path, flight, truth_csv) -> None:
     """
     from optinav.core.files import write_csv
 
-    write_csv(path, np.column_stack([flight.t, flight.acc, flight.gyr, np.degrees(flight.aop), flight.dop]),
-              FLIGHT_HEADER, "%.10g")
+    write_csv(
+        path,
+        np.column_stack([flight.t, flight.acc, flight.gyr, np.degrees(flight.aop), flight.dop]),
+        FLIGHT_HEADER,
+        "%.10g",
+    )
     write_csv(truth_csv, np.column_stack([flight.t, flight.q_b_n]), TRUTH_CSV_HEADER, "%.12g")
 
 
-def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None = None, height_m: float = 0.0,
-                  start_time=None, azimuth: float | None = None, elevation: float | None = None,
-                  t_first: float | None = None) -> np.ndarray:
+def sun_along_log(
+    t,
+    frame: str,
+    *,
+    lat: float | None = None,
+    lon: float | None = None,
+    height_m: float = 0.0,
+    start_time=None,
+    azimuth: float | None = None,
+    elevation: float | None = None,
+    t_first: float | None = None,
+) -> np.ndarray:
     """Unit vector(s) to the sun along a log: a fixed sun, or the NREL SPA position at every sample.
 
     Parameters
@@ -96,15 +118,18 @@ def sun_along_log(t, frame: str, *, lat: float | None = None, lon: float | None 
 
     fixed = azimuth is not None or elevation is not None
     if fixed and any(v is not None for v in (lat, lon, start_time)):
-        raise OptinavError("both a fixed sun (--sun-azimuth/--sun-elevation) and a place/time were given",
-                           "give one of them")
+        raise OptinavError(
+            "both a fixed sun (--sun-azimuth/--sun-elevation) and a place/time were given", "give one of them"
+        )
     if fixed:
         if azimuth is None or elevation is None:
             raise OptinavError("--sun-azimuth and --sun-elevation go together", "give both")
         return sun_vector(azimuth, elevation, frame)
     if lat is None or lon is None or start_time is None:
-        raise OptinavError("polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
-                           "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00")
+        raise OptinavError(
+            "polarization needs the sun: --lat, --lon and --start-time (or a fixed sun)",
+            "add --lat DEG --lon DEG --start-time 2021-01-16T16:33:00+08:00",
+        )
     t = np.asarray(t, float)
     t0 = float(utc_seconds(start_time))
     times = np.round((t0 + (t - (t[0] if t_first is None else t_first))) * 1e9).astype("datetime64[ns]")
@@ -132,8 +157,9 @@ def pol_column_names(columns: str) -> tuple[str, str | None]:
     return names[0], (names[1] if len(names) == 2 else None)
 
 
-def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", delimiter: str | None = None,
-                      topic: str | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+def read_polarization(
+    path, columns: str, n: int, *, aop_unit: str = "rad", delimiter: str | None = None, topic: str | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
     """The polarization columns of a log.
 
     Parameters
@@ -160,8 +186,9 @@ def read_polarization(path, columns: str, n: int, *, aop_unit: str = "rad", deli
     from optinav.io.readers import read_table
 
     names = [v for v in pol_column_names(columns) if v is not None]
-    table = read_table(path, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)),
-                       delimiter=delimiter, topic=topic)
+    table = read_table(
+        path, columns=",".join(f"{k}={v}" for k, v in zip(("aop", "dop"), names)), delimiter=delimiter, topic=topic
+    )
     aop = np.asarray(table["aop"], float).reshape(-1)
     if aop.size != n:
         raise OptinavError(f"AoP column has {aop.size} rows, the IMU {n}", "check --pol-columns")
@@ -194,5 +221,8 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
     mask = movement & np.all(np.isfinite(q_ref), axis=1)
-    return (float(rmse(inclination_error(q_b_n, q_ref), mask)), float(rmse(heading_error(q_b_n, q_ref), mask)),
-            int(mask.sum()))
+    return (
+        float(rmse(inclination_error(q_b_n, q_ref), mask)),
+        float(rmse(heading_error(q_b_n, q_ref), mask)),
+        int(mask.sum()),
+    )

@@ -98,12 +98,14 @@ class FlightData(Result):
         (``options``: its skip thresholds, e.g. ``min_dop``)."""
         from optinav.attitude.measurement import PolarizationMeasurement
 
-        return PolarizationMeasurement(aop=self.aop, sun_n=self.sun_n, dop=self.dop, C_b_m=self.C_b_m,
-                                       frame=self.frame, **options)
+        return PolarizationMeasurement(
+            aop=self.aop, sun_n=self.sun_n, dop=self.dop, C_b_m=self.C_b_m, frame=self.frame, **options
+        )
 
 
-register_legacy(FlightData, FlightData.SCHEMA, 1,
-                lambda d: nested_kwargs(FlightData, d, {"q_true": "q_b_n", "height": "height_m"}))
+register_legacy(
+    FlightData, FlightData.SCHEMA, 1, lambda d: nested_kwargs(FlightData, d, {"q_true": "q_b_n", "height": "height_m"})
+)
 
 
 def _smooth_signal(rng, t, f_lo, f_hi, n_terms=3):
@@ -134,8 +136,18 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     fine = np.linspace(0.0, duration, int(np.ceil(duration / 0.01)) + 1)
     env = _envelope(fine, duration, rest, ramp)
     # horizontal accelerations up to ~accel_level (m/s²), vertical a fifth of it; 0.05–0.3 Hz manoeuvres
-    acc = accel_level * np.stack([_smooth_signal(rng, fine, 0.05, 0.3), _smooth_signal(rng, fine, 0.05, 0.3),
-                                  0.2 * _smooth_signal(rng, fine, 0.05, 0.3)], axis=1) * env[:, None]
+    acc = (
+        accel_level
+        * np.stack(
+            [
+                _smooth_signal(rng, fine, 0.05, 0.3),
+                _smooth_signal(rng, fine, 0.05, 0.3),
+                0.2 * _smooth_signal(rng, fine, 0.05, 0.3),
+            ],
+            axis=1,
+        )
+        * env[:, None]
+    )
     vel = cumulative_trapezoid(acc, fine, axis=0, initial=0.0)
     pos = cumulative_trapezoid(vel, fine, axis=0, initial=0.0)
     # attitude: roll/pitch within ±tilt (0.1–0.4 Hz), heading turning at up to 45 °/s
@@ -149,7 +161,8 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     def at(x):  # the fine-grid signal at the knots
         x2 = x.reshape(fine.size, -1)
         return np.stack([np.interp(tk, fine, x2[:, j]) for j in range(x2.shape[1])], axis=1).reshape(
-            (tk.size,) + x.shape[1:])
+            (tk.size,) + x.shape[1:]
+        )
 
     eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
     if frame == "enu":
@@ -161,16 +174,35 @@ def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, k
     return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, height0_m=h, bc_type=bc)
 
 
-def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, *, time=None,
-             lat: float = PAPER_SITE["lat"], lon: float = PAPER_SITE["lon"],
-             height_m: float = PAPER_SITE["height_m"], frame: str = DEFAULT_FRAME, imu: str | ImuSpec = "mpu6000",
-             imu_errors: bool = False, gyro_bias=None,
-             attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
-             accel_level: float = 4.0, tilt: float = float(np.radians(30.0)), knot_spacing_s: float = 0.1,
-             sky_model: str = "rayleigh", d_max: float | None = None, neutral_distance: float | None = None,
-             sensor=None, pol_noise: float | None = None, pol_rate_hz: float | None = None, C_b_m=None,
-             pressure_mbar: float | None = 1013.25, temperature_c: float = 5.0, delta_t: float | None = None,
-             rng=None) -> FlightData:
+def simulate(
+    kind: str = "static",
+    duration_s: float = 60.0,
+    rate_hz: float = 100.0,
+    *,
+    time=None,
+    lat: float = PAPER_SITE["lat"],
+    lon: float = PAPER_SITE["lon"],
+    height_m: float = PAPER_SITE["height_m"],
+    frame: str = DEFAULT_FRAME,
+    imu: str | ImuSpec = "mpu6000",
+    imu_errors: bool = False,
+    gyro_bias=None,
+    attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
+    accel_level: float = 4.0,
+    tilt: float = float(np.radians(30.0)),
+    knot_spacing_s: float = 0.1,
+    sky_model: str = "rayleigh",
+    d_max: float | None = None,
+    neutral_distance: float | None = None,
+    sensor=None,
+    pol_noise: float | None = None,
+    pol_rate_hz: float | None = None,
+    C_b_m=None,
+    pressure_mbar: float | None = 1013.25,
+    temperature_c: float = 5.0,
+    delta_t: float | None = None,
+    rng=None,
+) -> FlightData:
     """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
 
     The sun: SPA at every sample with refraction. Defaults reproduce the paper's site and times
@@ -268,8 +300,18 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
             c = attitude_ned_to_enu(c)
         truth = static_positions(c[None], duration, rate, lat, height, lon, frame=conv)
     else:
-        truth = _dynamic_truth(duration, rate, frame, lat, lon, float(height), rng, float(accel_level),
-                               float(tilt), check_positive(knot_spacing_s, "knot_spacing_s"))
+        truth = _dynamic_truth(
+            duration,
+            rate,
+            frame,
+            lat,
+            lon,
+            float(height),
+            rng,
+            float(accel_level),
+            float(tilt),
+            check_positive(knot_spacing_s, "knot_spacing_s"),
+        )
 
     t = truth.t
     w_true, f_true = truth.gyr, truth.acc
@@ -281,8 +323,15 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
 
     # the sun at every sample (the vehicle moves < 1 km: the site's position is used)
     times = (np.round((t0 + t) * 1e9)).astype("datetime64[ns]")
-    sp = solar_position(times, lat, lon, height, pressure=None if pressure_mbar is None else 100.0 * pressure_mbar,
-                        temperature=temperature_c + 273.15, delta_t=delta_t)
+    sp = solar_position(
+        times,
+        lat,
+        lon,
+        height,
+        pressure=None if pressure_mbar is None else 100.0 * pressure_mbar,
+        temperature=temperature_c + 273.15,
+        delta_t=delta_t,
+    )
     sun_n = sp.sun_vector(conv)
 
     c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
@@ -315,17 +364,42 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
         keep = np.zeros(t.size, bool)
         keep[::step] = True
         aop[~keep], dop[~keep] = np.nan, np.nan
-    meta = {"imu": spec.name, "imu_errors": bool(imu_errors), "sky_model": sky_model,
-            "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
-            "sensor_noise": float(sensor.noise), "extinction_ratio": float(sensor.extinction_ratio),
-            "gyro_saturated": int(np.count_nonzero(meas.gyro_saturated)),
-            "acc_saturated": int(np.count_nonzero(meas.acc_saturated)),
-            "max_rate_deg_s": float(np.degrees(np.max(np.linalg.norm(w_true, axis=1)))),
-            "max_specific_force_m_s2": float(np.max(np.linalg.norm(f_true, axis=1))),
-            "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
-            "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
-            "refraction": sp.refraction}
-    return FlightData(t=t, dt=1.0 / rate, gyr=gyr, acc=meas.acc, q_b_n=truth.q_b_n, aop=aop, dop=dop,
-                      aop_true=aop_true, dop_true=dop_true, sun_n=sun_n, sun_elevation=sp.elevation,
-                      sun_azimuth=sp.azimuth, C_b_m=c_b_m, frame=frame, kind=kind, start_time=str(start),
-                      lat=lat, lon=lon, height_m=float(height), gyr_true=w_true, acc_true=f_true, metadata=meta)
+    meta = {
+        "imu": spec.name,
+        "imu_errors": bool(imu_errors),
+        "sky_model": sky_model,
+        "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
+        "sensor_noise": float(sensor.noise),
+        "extinction_ratio": float(sensor.extinction_ratio),
+        "gyro_saturated": int(np.count_nonzero(meas.gyro_saturated)),
+        "acc_saturated": int(np.count_nonzero(meas.acc_saturated)),
+        "max_rate_deg_s": float(np.degrees(np.max(np.linalg.norm(w_true, axis=1)))),
+        "max_specific_force_m_s2": float(np.max(np.linalg.norm(f_true, axis=1))),
+        "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
+        "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
+        "refraction": sp.refraction,
+    }
+    return FlightData(
+        t=t,
+        dt=1.0 / rate,
+        gyr=gyr,
+        acc=meas.acc,
+        q_b_n=truth.q_b_n,
+        aop=aop,
+        dop=dop,
+        aop_true=aop_true,
+        dop_true=dop_true,
+        sun_n=sun_n,
+        sun_elevation=sp.elevation,
+        sun_azimuth=sp.azimuth,
+        C_b_m=c_b_m,
+        frame=frame,
+        kind=kind,
+        start_time=str(start),
+        lat=lat,
+        lon=lon,
+        height_m=float(height),
+        gyr_true=w_true,
+        acc_true=f_true,
+        metadata=meta,
+    )

@@ -33,7 +33,7 @@ class StreamChecks:
         self._na: list[np.ndarray] = []
         self._ng: list[np.ndarray] = []
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
-        self._head: list[np.ndarray] = []     # the first 200 accelerometer rows (frame check)
+        self._head: list[np.ndarray] = []  # the first 200 accelerometer rows (frame check)
         self._head_n = 0
         self.n = 0
 
@@ -101,8 +101,9 @@ class StreamChecks:
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
             m = self._max[k, j]
-            steep = _c.steep_runs(np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m,
-                                  self.median_dt)
+            steep = _c.steep_runs(
+                np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt
+            )
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame)
@@ -141,8 +142,9 @@ class StreamEstimator:
     def restart(self) -> None:
         self._front = self._state = None
 
-    def run(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None,
-            pol=None) -> np.ndarray:
+    def run(
+        self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None, pol=None
+    ) -> np.ndarray:
         """q_b^n (n, 4) of the next block: gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s, ``mag`` (n, 3) any unit
         (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe)."""
         from optinav.attitude import iframe as _if
@@ -175,8 +177,7 @@ class StreamEstimator:
                 return r.q
             gyr, acc = _if.front_outputs(r, gyr, acc, self.frame)
         if self._state is None:
-            q = (self.q0 if self.q0 is not None and first_segment else
-                 initial_attitude(acc[0], self.frame, pol, 0))
+            q = self.q0 if self.q0 is not None and first_segment else initial_attitude(acc[0], self.frame, pol, 0)
             self._state = _init_state(self.method, q, self.opts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
         if pol is not None:
@@ -184,8 +185,24 @@ class StreamEstimator:
             for k, v in skipped.items():
                 self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
         out, std = np.empty((n, 4)), np.empty((n, 3))
-        _run(self.method, self.opts, self._state, gyr, acc, dts, up_vector(self.frame), use, sn, cbm, c2, s2,
-             min_d2, out, std, self.counts)
+        _run(
+            self.method,
+            self.opts,
+            self._state,
+            gyr,
+            acc,
+            dts,
+            up_vector(self.frame),
+            use,
+            sn,
+            cbm,
+            c2,
+            s2,
+            min_d2,
+            out,
+            std,
+            self.counts,
+        )
         bias = self._state[4:7].copy() if self.method == "mekf" else None
         if front_bias is not None:
             bias = front_bias + (0.0 if bias is None else bias)
@@ -207,8 +224,13 @@ class StreamEstimator:
             from optinav.attitude import _kernels
 
             skipped = {**self.pol_skipped, "sun_near_sensor_zenith": int(self.counts[_kernels.C_POL_NEAR_ZENITH])}
-        return summary_line(self.method, self.frame, self.n, segments=self.segments,
-                            rest=self.rest / self.n if self.input_stage and self.n else None,
-                            mag_used=None if self.mag_used is None else self.mag_used / self.n,
-                            pol_used=int(self.counts[0]) if skipped is not None else 0, pol_skipped=skipped)
-
+        return summary_line(
+            self.method,
+            self.frame,
+            self.n,
+            segments=self.segments,
+            rest=self.rest / self.n if self.input_stage and self.n else None,
+            mag_used=None if self.mag_used is None else self.mag_used / self.n,
+            pol_used=int(self.counts[0]) if skipped is not None else 0,
+            pol_skipped=skipped,
+        )

@@ -66,26 +66,40 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     from optinav.io.readers import read_table
 
     if reference:
-        raise OptinavError(f"{path} is not a BROAD file with opt_quat and movement",
-                           "drop --reference or pass a BROAD trial")
-    log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, time_unit=o.time_unit,
-                   rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter, topic=o.topic)
+        raise OptinavError(
+            f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
+        )
+    log = read_imu(
+        path,
+        columns=o.columns,
+        acc_unit=o.acc_unit,
+        gyro_unit=o.gyro_unit,
+        time_unit=o.time_unit,
+        rate_hz=o.rate,
+        datasets=o.datasets or None,
+        delimiter=o.delimiter,
+        topic=o.topic,
+    )
     if log.acc is None or log.gyr is None:
-        raise OptinavError(f"{path} needs accelerometer and gyroscope columns",
-                           "name them with --columns t,ax,ay,az,gx,gy,gz")
+        raise OptinavError(
+            f"{path} needs accelerometer and gyroscope columns", "name them with --columns t,ax,ay,az,gx,gy,gz"
+        )
     if log.acc_unit == "counts" or log.gyro_unit == "counts":
         raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
     ok = log.finite
     if not np.all(ok):
-        raise OptinavError(f"{path} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
-                           "remove or interpolate them first")
+        raise OptinavError(
+            f"{path} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
+            "remove or interpolate them first",
+        )
     mag = None
     if want_mag:
         names = [s.strip() for s in (o.mag_columns or "mx,my,mz").split(",")]
         if len(names) != 3:
             raise OptinavError(f"--mag-columns {o.mag_columns!r} needs three names", "write e.g. mx,my,mz")
-        tab = read_table(path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter,
-                         topic=o.topic)
+        tab = read_table(
+            path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter, topic=o.topic
+        )
         mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
@@ -96,8 +110,9 @@ def steps(t, path="") -> np.ndarray:
     """The step before each sample (s), the first one repeated: what :func:`estimate` takes as dt."""
     t = np.asarray(t, float)
     if t.size > 1 and not np.all(np.diff(t) > 0):
-        raise OptinavError(f"the time column of {path} is not strictly increasing",
-                           "sort the log or fix its time column")
+        raise OptinavError(
+            f"the time column of {path} is not strictly increasing", "sort the log or fix its time column"
+        )
     return np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
 
 
@@ -112,8 +127,10 @@ def _reference(path: Path, t: np.ndarray, embedded):
         return None
     tab = np.loadtxt(truth, delimiter=",", skiprows=1, ndmin=2)
     if tab.shape[1] != 5 or tab.shape[0] != t.size:
-        raise OptinavError(f"{truth.name} does not hold t,qw,qx,qy,qz for each of the {t.size} samples",
-                           "write it with optinav simulate flight, or remove it")
+        raise OptinavError(
+            f"{truth.name} does not hold t,qw,qx,qy,qz for each of the {t.size} samples",
+            "write it with optinav simulate flight, or remove it",
+        )
     return tab[:, 1:], np.all(np.isfinite(tab[:, 1:]), axis=1)
 
 
@@ -129,14 +146,26 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
     if reference and embedded is not None and o.frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     dt = steps(t, p)
-    res = estimate(gyr, acc, dt, method=_method(o.method, None), frame=o.frame, mag=mag, offline=o.offline,
-                            input_stage=o.input_stage, allow_gaps=o.allow_gaps, **dict(o.options))
+    res = estimate(
+        gyr,
+        acc,
+        dt,
+        method=_method(o.method, None),
+        frame=o.frame,
+        mag=mag,
+        offline=o.offline,
+        input_stage=o.input_stage,
+        allow_gaps=o.allow_gaps,
+        **dict(o.options),
+    )
     extra = {"n_samples": int(t.size), "duration_s": float(t[-1] - t[0]) if t.size else 0.0}
     if reference:
         ref = _reference(p, t, embedded)
         if ref is not None:
             q_ref, mask = ref
-            extra.update(inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q, q_ref), mask))),
-                         heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q, q_ref), mask))),
-                         n_reference=int(mask.sum()))
+            extra.update(
+                inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q, q_ref), mask))),
+                heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q, q_ref), mask))),
+                n_reference=int(mask.sum()),
+            )
     return res, extra

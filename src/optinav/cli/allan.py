@@ -5,13 +5,21 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, output_path, prepare_report,
-                                require_files)
+from optinav.cli.common import (
+    add_chunk_option,
+    add_input_options,
+    add_report_option,
+    output_path,
+    prepare_report,
+    require_files,
+)
 from optinav.errors import OptinavError
+
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "allan", help="noise of a static log: Allan deviation, IEEE 952 read-off, Kalibr noise parameters",
+        "allan",
+        help="noise of a static log: Allan deviation, IEEE 952 read-off, Kalibr noise parameters",
         description=textwrap.dedent("""\
             Overlapping Allan deviation of each accelerometer and gyroscope axis of a static log with its
             68 % confidence band (chi-squared with the equivalent degrees of freedom), the IEEE Std 952
@@ -28,13 +36,21 @@ def register(sub) -> None:
               optinav simulate static --out rest.csv --hours 2
               optinav allan rest.csv --out allan.json --report allan-report --kalibr imu.yaml
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("data", help="static log: CSV/TSV/text, NPZ, HDF5 or MAT (columns and units as in calibrate)")
     p.add_argument("--out", required=True, metavar="ALLAN.json", help="result file (JSON)")
-    p.add_argument("--sensor", choices=["both", "acc", "gyro"], default="both",
-                   help="which triads to analyse (default both that the file holds)")
-    p.add_argument("--kalibr", metavar="IMU.yaml", help="also write Kalibr's imu.yaml noise parameters (needs SI data "
-                                                        "with both triads)")
+    p.add_argument(
+        "--sensor",
+        choices=["both", "acc", "gyro"],
+        default="both",
+        help="which triads to analyse (default both that the file holds)",
+    )
+    p.add_argument(
+        "--kalibr",
+        metavar="IMU.yaml",
+        help="also write Kalibr's imu.yaml noise parameters (needs SI data with both triads)",
+    )
     p.add_argument("--rostopic", metavar="TOPIC", help="the IMU topic written into --kalibr (e.g. /imu0)")
     add_input_options(p)
     add_chunk_option(p)
@@ -54,11 +70,25 @@ def run(args) -> int:
     from optinav.io.imu import iter_imu
 
     step("read")
-    blocks = iter_imu(args.data, columns=args.columns, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                      time_unit=args.time_unit, rate_hz=args.rate, datasets=args.datasets or None,
-                      delimiter=args.delimiter, chunk_rows=args.chunk_rows, topic=args.topic)
-    res = analyse_blocks(progress_blocks(blocks, "allan: read"), args.sensor, source=str(args.data),
-                         rostopic=args.rostopic or "", need_kalibr=kalibr is not None)
+    blocks = iter_imu(
+        args.data,
+        columns=args.columns,
+        acc_unit=args.acc_unit,
+        gyro_unit=args.gyro_unit,
+        time_unit=args.time_unit,
+        rate_hz=args.rate,
+        datasets=args.datasets or None,
+        delimiter=args.delimiter,
+        chunk_rows=args.chunk_rows,
+        topic=args.topic,
+    )
+    res = analyse_blocks(
+        progress_blocks(blocks, "allan: read"),
+        args.sensor,
+        source=str(args.data),
+        rostopic=args.rostopic or "",
+        need_kalibr=kalibr is not None,
+    )
     step("write")
     res.to_json(out)
     print(res.summary())

@@ -16,7 +16,8 @@ from optinav.errors import OptinavError
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "apply", help="apply a calibration result to data (the result file selects the system)",
+        "apply",
+        help="apply a calibration result to data (the result file selects the system)",
         description=textwrap.dedent("""\
             Apply RESULT.json to DATA; the result's schema (optinav.<system>.calibration) selects what is done:
               accel (multipos): raw triads corrected, a = K⁻¹(raw − b) (m/s^2), ω = K_g⁻¹(raw − G·a − b_g)
@@ -36,7 +37,8 @@ def register(sub) -> None:
               optinav apply rins_result.json rins.npz --out attitude.csv
               optinav apply gfimu_result.json flight.csv --omega0 2,0.2,0 --out motion.csv
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("result", help="RESULT.json of optinav calibrate (or an imucal JSON / imu_tk accelerometer file)")
     p.add_argument("data", help="data file")
     p.add_argument("--out", required=True, metavar="FILE", help="output file")
@@ -53,13 +55,16 @@ def register(sub) -> None:
 def run(args) -> int:
     from optinav.cli.common import system_options
 
-    require_files((args.result, "result file"), (args.data, "data file"),
-                  (getattr(args, "gyro_cal", None), "--gyro-cal file"))
+    require_files(
+        (args.result, "result file"), (args.data, "data file"), (getattr(args, "gyro_cal", None), "--gyro-cal file")
+    )
     system, res = registry.for_result(args.result)
     if system.apply is None:
-        raise OptinavError(f"{args.result} is {'an' if system.kind[0] in 'aeiou' else 'a'} {system.name} "
-                           f"{system.kind} ({system.help}): there is nothing to apply to data",
-                           f"use it as it is, e.g. optinav report {args.result}")
+        raise OptinavError(
+            f"{args.result} is {'an' if system.kind[0] in 'aeiou' else 'a'} {system.name} "
+            f"{system.kind} ({system.help}): there is nothing to apply to data",
+            f"use it as it is, e.g. optinav report {args.result}",
+        )
     _refuse_foreign_options(args, system)
     out = output_path(args.out)
     options = system_options(system, args, "apply_options") if system.apply_options else None
@@ -72,5 +77,8 @@ def _refuse_foreign_options(args, system) -> None:
     for name, options in args.apply_owned.items():
         for dest, flag, default in options if name != system.name else ():
             if getattr(args, dest) != default:
-                raise OptinavError(f"{flag} is for {registry.SYSTEMS[name].command} results, {args.result} is a "
-                                   f"{system.name} {system.kind}", f"drop {flag}")
+                raise OptinavError(
+                    f"{flag} is for {registry.SYSTEMS[name].command} results, {args.result} is a "
+                    f"{system.name} {system.kind}",
+                    f"drop {flag}",
+                )

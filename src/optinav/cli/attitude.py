@@ -8,9 +8,20 @@ import sys
 import textwrap
 from pathlib import Path
 
-from optinav.cli.common import (add_chunk_option, add_input_options, add_report_option, check_memory,
-                                finish_report, options_from_args, output_path, parse_floats, parse_key_values,
-                                prepare_report, truth_path, write_truth)
+from optinav.cli.common import (
+    add_chunk_option,
+    add_input_options,
+    add_report_option,
+    check_memory,
+    finish_report,
+    options_from_args,
+    output_path,
+    parse_floats,
+    parse_key_values,
+    prepare_report,
+    truth_path,
+    write_truth,
+)
 from optinav.core.files import check_sidecar, write_csv
 from optinav.errors import OptinavError
 
@@ -24,7 +35,8 @@ def register_commands(sub) -> None:
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "attitude", help="attitude (quaternion, roll/pitch/yaw) from gyro + accelerometer (+ polarization)",
+        "attitude",
+        help="attitude (quaternion, roll/pitch/yaw) from gyro + accelerometer (+ polarization)",
         description=textwrap.dedent("""\
             Estimate the attitude q_b^n of every sample from a gyroscope + accelerometer log with iframe
             (default: accelerometer filtered in an almost-inertial frame, rest detection, gyro bias, optional
@@ -47,33 +59,57 @@ def register(sub) -> None:
               optinav attitude 02_undisturbed_slow_rotation_B.hdf5 --frame ENU --mag --offline \\
                   --reference --out att.csv   (a BROAD trial, scored against its optical reference)
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     add_input_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
-    p.add_argument("--offline", action="store_true",
-                   help="iframe: use the whole recording (forward-backward); default online (no future sample)")
-    p.add_argument("--input-stage", action="store_true",
-                   help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method")
-    p.add_argument("--mag", action="store_true",
-                   help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz)")
+    p.add_argument(
+        "--offline",
+        action="store_true",
+        help="iframe: use the whole recording (forward-backward); default online (no future sample)",
+    )
+    p.add_argument(
+        "--input-stage",
+        action="store_true",
+        help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method",
+    )
+    p.add_argument(
+        "--mag",
+        action="store_true",
+        help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz)",
+    )
     p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
-    p.add_argument("--allow-gaps", action="store_true",
-                   help="restart the estimate after a time gap instead of refusing the file")
-    p.add_argument("--reference", action="store_true",
-                   help="score against the file's reference orientation (BROAD: opt_quat, movement): "
-                        "inclination and heading RMSE")
-    p.add_argument("--frame", choices=["NED", "ENU"], default="NED",
-                   help="navigation frame (default NED; body forward-right-down)")
-    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help="estimator option in SI units, e.g. gain=0.1 (repeatable; see docs/methods/attitude.md)")
-    p.add_argument("--q0-deg", metavar="ROLL,PITCH,YAW",
-                   help="initial roll, pitch, yaw in deg (default: levelled from the first sample, heading "
-                        "from polarization if available, else 0)")
+    p.add_argument(
+        "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
+    )
+    p.add_argument(
+        "--reference",
+        action="store_true",
+        help="score against the file's reference orientation (BROAD: opt_quat, movement): inclination and heading RMSE",
+    )
+    p.add_argument(
+        "--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED; body forward-right-down)"
+    )
+    p.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="estimator option in SI units, e.g. gain=0.1 (repeatable; see docs/methods/attitude.md)",
+    )
+    p.add_argument(
+        "--q0-deg",
+        metavar="ROLL,PITCH,YAW",
+        help="initial roll, pitch, yaw in deg (default: levelled from the first sample, heading "
+        "from polarization if available, else 0)",
+    )
     pol = p.add_argument_group("polarization (optional)")
-    pol.add_argument("--pol-columns", metavar="AOP[,DOP]",
-                     help="names of the angle-of-polarization column (and degree of polarization) in DATA; "
-                          "NaN = no sample")
+    pol.add_argument(
+        "--pol-columns",
+        metavar="AOP[,DOP]",
+        help="names of the angle-of-polarization column (and degree of polarization) in DATA; NaN = no sample",
+    )
     pol.add_argument("--aop-unit", choices=["rad", "deg"], default="rad", help="unit of the AoP column")
     pol.add_argument("--lat", type=float, metavar="DEG", help="latitude, deg (sun position)")
     pol.add_argument("--lon", type=float, metavar="DEG", help="longitude, deg east (sun position)")
@@ -105,14 +141,23 @@ def add_batch_options(p) -> None:
     add_input_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe)")
     p.add_argument("--offline", action="store_true", help="iframe: use the whole recording (forward-backward)")
-    p.add_argument("--input-stage", action="store_true",
-                   help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method")
+    p.add_argument(
+        "--input-stage",
+        action="store_true",
+        help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method",
+    )
     p.add_argument("--mag", action="store_true", help="iframe: heading from the magnetometer")
     p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
-    p.add_argument("--option", dest="options", action=_OptionsAction, default={}, metavar="KEY=VALUE",
-                   help="estimator option in SI units, e.g. gain=0.1 (repeatable)")
+    p.add_argument(
+        "--option",
+        dest="options",
+        action=_OptionsAction,
+        default={},
+        metavar="KEY=VALUE",
+        help="estimator option in SI units, e.g. gain=0.1 (repeatable)",
+    )
 
 
 def _checked(args):
@@ -136,8 +181,9 @@ def _checked(args):
     if args.q0_deg:
         e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
         q0 = quat_from_euler(np.radians(e), frame_name(args.frame))
-    if not args.pol_columns and any(v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth,
-                                                             args.sun_elevation)):
+    if not args.pol_columns and any(
+        v is not None for v in (args.lat, args.lon, args.start_time, args.sun_azimuth, args.sun_elevation)
+    ):
         raise OptinavError("sun options were given without --pol-columns", "add --pol-columns AOP[,DOP] or drop them")
     return method, options, q0, out
 
@@ -147,18 +193,19 @@ def _polarization(args, t):
     from optinav.attitude import PolarizationMeasurement
     from optinav.attitude.recording import read_polarization, sun_along_log
 
-    aop, dop = read_polarization(args.data, args.pol_columns, t.size, aop_unit=args.aop_unit,
-                                 delimiter=args.delimiter, topic=args.topic)
+    aop, dop = read_polarization(
+        args.data, args.pol_columns, t.size, aop_unit=args.aop_unit, delimiter=args.delimiter, topic=args.topic
+    )
     sun = sun_along_log(t, args.frame, **_sun(args))
     return PolarizationMeasurement(aop, sun, dop=dop, frame=args.frame, min_dop=args.min_dop)
 
 
 def _sun(args) -> dict:
     """The sun options of :func:`optinav.attitude.recording.sun_along_log`, in radians."""
-    rad = [None if v is None else math.radians(v) for v in (args.lat, args.lon, args.sun_azimuth,
-                                                                  args.sun_elevation)]
-    return dict(lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time, azimuth=rad[2],
-                elevation=rad[3])
+    rad = [None if v is None else math.radians(v) for v in (args.lat, args.lon, args.sun_azimuth, args.sun_elevation)]
+    return dict(
+        lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time, azimuth=rad[2], elevation=rad[3]
+    )
 
 
 def _announce(args, method):
@@ -187,16 +234,30 @@ def run(args) -> int:
     from optinav.reports.attitude_report import write_attitude_report
 
     step(f"estimate ({method})")
-    res = estimate(gyr, acc, dt, pol=pol, method=method, frame=args.frame, q0=q0, mag=mag, offline=args.offline,
-                   input_stage=args.input_stage, allow_gaps=args.allow_gaps, **options)
+    res = estimate(
+        gyr,
+        acc,
+        dt,
+        pol=pol,
+        method=method,
+        frame=args.frame,
+        q0=q0,
+        mag=mag,
+        offline=args.offline,
+        input_stage=args.input_stage,
+        allow_gaps=args.allow_gaps,
+        **options,
+    )
     table = attitude_rows(t, res.q, args.frame)
     step("write")
     write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
     score = reference_rmse(res.q, *ref) if args.reference else None
     if score is not None:
-        print(f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
-              f"{math.degrees(score[1]):.3f} deg ({score[2]} movement samples with a valid reference)")
+        print(
+            f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
+            f"{math.degrees(score[1]):.3f} deg ({score[2]} movement samples with a valid reference)"
+        )
     print(f"optinav: attitude written to {out}")
     finish_report(args, lambda d: write_attitude_report(res, t, table[:, 5:], args.data, d, score))
     return 0
@@ -212,14 +273,27 @@ def _run_stream(args, options, q0, out, announce) -> int:
     """The attitude of a log read block by block (:func:`optinav.attitude.filestream.stream_attitude`)."""
     from optinav.attitude.filestream import pol_columns, stream_attitude
 
-    pol = pol_columns(args.pol_columns, args.frame, aop_unit=args.aop_unit, min_dop=args.min_dop,
-                      **_sun(args)) if args.pol_columns else None
-    run = stream_attitude(args.data, out, options, q0=q0, pol=pol, reference=args.reference,
-                          chunk_rows=args.chunk_rows, announce=lambda n, m: announce(n))
+    pol = (
+        pol_columns(args.pol_columns, args.frame, aop_unit=args.aop_unit, min_dop=args.min_dop, **_sun(args))
+        if args.pol_columns
+        else None
+    )
+    run = stream_attitude(
+        args.data,
+        out,
+        options,
+        q0=q0,
+        pol=pol,
+        reference=args.reference,
+        chunk_rows=args.chunk_rows,
+        announce=lambda n, m: announce(n),
+    )
     print(run.summary)
     if run.score is not None:
-        print(f"reference: inclination RMSE {math.degrees(run.score[0]):.3f} deg, heading RMSE "
-              f"{math.degrees(run.score[1]):.3f} deg ({run.score[2]} movement samples with a valid reference)")
+        print(
+            f"reference: inclination RMSE {math.degrees(run.score[0]):.3f} deg, heading RMSE "
+            f"{math.degrees(run.score[1]):.3f} deg ({run.score[2]} movement samples with a valid reference)"
+        )
     print(f"optinav: attitude written to {out}")
     return 0
 
@@ -227,7 +301,8 @@ def _run_stream(args, options, q0, out, announce) -> int:
 def register_simulate(kinds) -> None:
     """``optinav simulate flight``: a UAV flight with a skylight-polarization sensor (Jin et al. 2021 setup)."""
     p = kinds.add_parser(
-        "flight", help="a UAV flight (MPU-6000 IMU + zenith polarization sensor) at the paper's place and time",
+        "flight",
+        help="a UAV flight (MPU-6000 IMU + zenith polarization sensor) at the paper's place and time",
         description=textwrap.dedent("""\
             A static or manoeuvring flight at Dalian (121.528255° E, 38.8814192° N, 35 m) at the paper's
             local times (static 2021-01-17 10:34, dynamic 2021-01-16 16:33, +08:00), recorded by an
@@ -245,7 +320,8 @@ def register_simulate(kinds) -> None:
               (a zenith polarization angle fixes the heading only up to 180°: --q0-deg gives the
               initial attitude the simulator printed)
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--out", required=True, metavar="DATA.csv", help="output CSV")
     p.add_argument("--kind", choices=["static", "dynamic"], default="dynamic", help="flight (default dynamic)")
     p.add_argument("--duration", type=float, default=60.0, metavar="S", help="duration in s (default 60)")
@@ -273,10 +349,18 @@ def run_simulate_flight(args) -> int:
     d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
     step("write")
     write_flight(out, d, truth)
-    write_truth(out, attitude_truth(d.q_b_n, d.frame, {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate,
-                                                         "start_time": str(d.start_time)}))
+    write_truth(
+        out,
+        attitude_truth(
+            d.q_b_n,
+            d.frame,
+            {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate, "start_time": str(d.start_time)},
+        ),
+    )
     e0 = np.degrees(d.euler[0])
-    print(f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
-          f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",
-          file=sys.stderr)
+    print(
+        f"optinav: wrote {len(d.t)} samples ({args.kind}, start {d.start_time}) to {out} and the true "
+        f"attitude to {truth}; initial roll, pitch, yaw [deg]: {e0[0]:.1f}, {e0[1]:.1f}, {e0[2]:.1f}",
+        file=sys.stderr,
+    )
     return 0

@@ -51,30 +51,51 @@ _EXAMPLES = {
 
 def _add_common(p) -> None:
     p.add_argument("dir", metavar="DIR", help="folder with one data file per unit")
-    p.add_argument("--out", required=True, metavar="RESULTS.csv|.parquet",
-                   help="results table (.parquet needs pip install 'optinav[parquet]')")
-    p.add_argument("--workers", type=int, metavar="N",
-                   help="local worker processes (default: the number of cores; 0 = in this process)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="dask.distributed scheduler, e.g. tcp://10.0.0.5:8786 (instead of local processes)")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="RESULTS.csv|.parquet",
+        help="results table (.parquet needs pip install 'optinav[parquet]')",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="local worker processes (default: the number of cores; 0 = in this process)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask.distributed scheduler, e.g. tcp://10.0.0.5:8786 (instead of local processes)",
+    )
     p.add_argument("--fresh", action="store_true", help="ignore the journal of --out and recompute every unit")
-    p.add_argument("--retry-failed", action="store_true",
-                   help="recompute units that failed before (by default only a changed file is retried)")
-    p.add_argument("--reference", action="store_true",
-                   help="score each unit against the truth beside it (STEM.truth.json; attitude also "
-                        "STEM.truth.csv or a BROAD trial's reference), where there is one")
+    p.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="recompute units that failed before (by default only a changed file is retried)",
+    )
+    p.add_argument(
+        "--reference",
+        action="store_true",
+        help="score each unit against the truth beside it (STEM.truth.json; attitude also "
+        "STEM.truth.csv or a BROAD trial's reference), where there is one",
+    )
 
 
 def _system_parser(sub, system: registry.System):
     p = sub.add_parser(
-        system.command, help=system.help,
+        system.command,
+        help=system.help,
         description=textwrap.fill(
             f"Run `optinav {'calibrate ' if system.kind == 'calibration' else ''}{system.command}` (same options) "
             "on every unit's recording in DIR in parallel and write one row per unit to RESULTS.csv or .parquet: "
             "status, error text, every parameter with its std and CRLB std, convergence, quality gates. "
-            + " ".join(_COMMON.split()), 110),
+            + " ".join(_COMMON.split()),
+            110,
+        ),
         epilog=textwrap.dedent(_EXAMPLES.get(system.command, "")),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _add_common(p)
     if system.cli:
         hook = getattr(importlib.import_module(system.cli), "add_batch_options", None)
@@ -86,13 +107,18 @@ def _system_parser(sub, system: registry.System):
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "batch", help="run every recording of a folder through a system, in parallel (local processes or dask)",
+        "batch",
+        help="run every recording of a folder through a system, in parallel (local processes or dask)",
         description="Run a calibration or an estimate on every data file of a folder; one table row per unit.",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     what = p.add_subparsers(dest="batch_command", metavar="COMMAND", title="commands")
-    c = what.add_parser("calibrate", help="calibrate a folder of recordings",
-                        description="Calibrate a folder of recordings, one unit per file.",
-                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    c = what.add_parser(
+        "calibrate",
+        help="calibrate a folder of recordings",
+        description="Calibrate a folder of recordings, one unit per file.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     kinds = c.add_subparsers(dest="sensor", metavar="SYSTEM", title="systems")
     for system in registry.systems("calibration"):
         _system_parser(kinds, system)
@@ -108,8 +134,17 @@ def run_batch_command(args) -> int:
 
     system = registry.SYSTEMS[args.batch_system]
     options = system_options(system, args)
-    s = run_batch(args.dir, args.out, options, system=system.name, reference=args.reference, workers=args.workers,
-                  scheduler=args.scheduler, fresh=args.fresh, retry_failed=args.retry_failed)
+    s = run_batch(
+        args.dir,
+        args.out,
+        options,
+        system=system.name,
+        reference=args.reference,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        fresh=args.fresh,
+        retry_failed=args.retry_failed,
+    )
     print(s.summary())
     print(f"optinav: results written to {s.out} (journal {s.journal.name})")
     return 1 if s.n_failed else 0  # a failed or lost unit is not a successful batch

@@ -7,23 +7,38 @@ import math
 import sys
 import textwrap
 
-from optinav.cli.common import (COUNT, HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, SEED, add_chunk_option,
-                                add_input_options, add_report_option, finish_report, output_path, prepare_report,
-                                register_system_hooks)
+from optinav.cli.common import (
+    COUNT,
+    HEIGHT,
+    LATITUDE,
+    NON_NEGATIVE,
+    POSITIVE,
+    SEED,
+    add_chunk_option,
+    add_input_options,
+    add_report_option,
+    finish_report,
+    output_path,
+    prepare_report,
+    register_system_hooks,
+)
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "calibrate", help="calibrate sensors or a system from a log (multi-position IMU, rotational INS, gyro-free array)",
+        "calibrate",
+        help="calibrate sensors or a system from a log (multi-position IMU, rotational INS, gyro-free array)",
         description="Calibrate an accelerometer and gyroscope from static poses (accel), the gimbal "
-                    "non-orthogonality of a dual-axis rotational INS (rins), or the installation errors of a "
-                    "gyro-free accelerometer array on a turntable (gfimu).",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        "non-orthogonality of a dual-axis rotational INS (rins), or the installation errors of a "
+        "gyro-free accelerometer array on a turntable (gfimu).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     kinds = p.add_subparsers(dest="sensor", metavar="SENSOR", title="sensors")
     a = kinds.add_parser(
-        "accel", help="accelerometer by norm observation; gyroscope from the turns between poses",
+        "accel",
+        help="accelerometer by norm observation; gyroscope from the turns between poses",
         description=textwrap.dedent("""\
             Accelerometer calibration by norm observation on static poses (Gao & Zhang 2019), default method
             Levenberg–Marquardt on the per-pose means with analytic Jacobian; GA/Newton/PSO for comparison;
@@ -38,15 +53,21 @@ def register(sub) -> None:
               optinav calibrate accel session.csv --latitude 38.88 --height 35 --out result.json --report rep
               optinav apply result.json session.csv --out corrected.csv
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     a.add_argument("--gyro", metavar="GYRODATA", help="gyroscope in a second file sharing the time column")
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
-    a.add_argument("--export", action="append", default=[], metavar="FMT:FILE",
-                   help="also write the calibration for another tool: imucal:cal.json, kalibr:imu.yaml or "
-                        "imu_tk:acc.calib,gyro.calib (repeatable; see optinav export --help)")
+    a.add_argument(
+        "--export",
+        action="append",
+        default=[],
+        metavar="FMT:FILE",
+        help="also write the calibration for another tool: imucal:cal.json, kalibr:imu.yaml or "
+        "imu_tk:acc.calib,gyro.calib (repeatable; see optinav export --help)",
+    )
     add_report_option(a)
     a.set_defaults(func=run_accel, progress_task="calibrate accel")
     register_system_hooks(kinds, "register_calibrate")
@@ -61,8 +82,9 @@ def add_batch_options(p) -> None:
 def add_apply_options(g) -> None:
     """``optinav apply`` of a multi-position calibration: how the raw log is read (registry hook; destinations
     are the fields of :class:`optinav.multipos.apply.ApplyOptions`)."""
-    g.add_argument("--gyro-cal", metavar="FILE", help="imu_tk's gyroscope parameter file (RESULT is then its "
-                                                      "accelerometer file)")
+    g.add_argument(
+        "--gyro-cal", metavar="FILE", help="imu_tk's gyroscope parameter file (RESULT is then its accelerometer file)"
+    )
     add_input_options(g)
     add_chunk_option(g)
 
@@ -100,58 +122,127 @@ def add_calibration_options(a) -> None:
     grav.add_argument("--latitude", type=LATITUDE, metavar="DEG", help="latitude in degrees (normal gravity)")
     a.add_argument("--height", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)")
     a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
-    a.add_argument("--model", choices=["auto", "full", "diagonal"], default="auto",
-                   help="accelerometer model: auto (9 parameters when observable, else scales and biases), "
-                        "full (9, error if not observable), diagonal (6)")
-    a.add_argument("--fit-samples", action="store_true",
-                   help="fit every sample instead of the pose means (as the paper does; biased by sigma^2/g)")
-    a.add_argument("--sections", metavar="FILE", help="static sections by hand: 'start end' lines in s, JSON, "
-                                                      "or imucal's section list (sample indices)")
-    a.add_argument("--hold-out", type=int, metavar="K",
-                   help="leave static pose K (1-based, in time order) out of the fit and print how the calibration "
-                        "does on it: |a| - g of the held-out pose beside the rms over the poses used (an "
-                        "out-of-sample check; kept in the result's quality.held_out)")
+    a.add_argument(
+        "--model",
+        choices=["auto", "full", "diagonal"],
+        default="auto",
+        help="accelerometer model: auto (9 parameters when observable, else scales and biases), "
+        "full (9, error if not observable), diagonal (6)",
+    )
+    a.add_argument(
+        "--fit-samples",
+        action="store_true",
+        help="fit every sample instead of the pose means (as the paper does; biased by sigma^2/g)",
+    )
+    a.add_argument(
+        "--sections",
+        metavar="FILE",
+        help="static sections by hand: 'start end' lines in s, JSON, or imucal's section list (sample indices)",
+    )
+    a.add_argument(
+        "--hold-out",
+        type=int,
+        metavar="K",
+        help="leave static pose K (1-based, in time order) out of the fit and print how the calibration "
+        "does on it: |a| - g of the held-out pose beside the rms over the poses used (an "
+        "out-of-sample check; kept in the result's quality.held_out)",
+    )
     a.add_argument("--window", type=POSITIVE, default=1.0, metavar="S", help="moving-variance window (default 1 s)")
-    a.add_argument("--min-duration", type=NON_NEGATIVE, default=2.0, metavar="S",
-                   help="shortest static interval kept (default 2 s)")
-    a.add_argument("--threshold", type=POSITIVE, help="static threshold on the acc moving variance (raw units^2); "
-                                                    "default automatic")
-    a.add_argument("--acc-range", type=full_scale, metavar="R|LO:HI",
-                   help="accelerometer full scale in raw units: R for ±R (e.g. 32768 for signed 16-bit counts) or "
-                        "a span LO:HI (e.g. 0:65535 for unsigned 16-bit); samples at or beyond it count as saturated "
-                        "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)")
-    a.add_argument("--gyro-range", type=full_scale, metavar="R|LO:HI",
-                   help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out")
-    a.add_argument("--gyro-bias", choices=["static", "local", "rest", "estimate"], default="local",
-                   help="gyro bias during each turn from the two rests it joins (local, the default: follows a bias "
-                        "that drifts), one mean over the static intervals (static), the initial rest (rest: the first "
-                        "static interval, or --rest T0 T1), "
-                        "or estimated with K")
-    a.add_argument("--rest", nargs=2, type=float, metavar=("T0", "T1"),
-                   help="rest window in s for --gyro-bias rest (default the first static interval)")
-    a.add_argument("--rotation-angle", type=float, default=-360.0, metavar="DEG",
-                   help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
-                        "clockwise full turn seen from the axis tip)")
-    a.add_argument("--acc-bias-instability", type=NON_NEGATIVE, metavar="RAW",
-                   help="1-sigma accelerometer bias drift over the session in raw units (datasheet bias "
-                        "instability or run-to-run), added to the bias std: the poses cannot reveal a common drift")
-    a.add_argument("--held-misalignment", type=NON_NEGATIVE, default=0.005, metavar="RAD",
-                   help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
-                        "datasheet value); their model error enters the scale and bias std")
-    a.add_argument("--gyro-bias-instability", type=NON_NEGATIVE, metavar="RAW",
-                   help="1-sigma gyro bias drift in raw units (stationary sigma of a Gauss-Markov bias, see "
-                        "--gyro-bias-corr-time; or run-to-run), added to the gyro bias std, which is then against the "
-                        "long-term bias: a drift common to all rests leaves no trace in them")
-    a.add_argument("--gyro-bias-corr-time", type=POSITIVE, default=float("inf"), metavar="S",
-                   help="correlation time in s of the Gauss-Markov bias that --gyro-bias-instability gives the "
-                        "stationary 1-sigma of (default inf: a constant offset per run); with --gyro-bias local the "
-                        "std adds what the session's mean keeps of it")
-    a.add_argument("--gyro-g-sensitivity", type=NON_NEGATIVE, metavar="RAW",
-                   help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
-                        "model leaves out; added to the gyro bias and K std")
-    a.add_argument("--allow-unobservable", action="store_true",
-                   help="hold the gyro parameters the turns do not determine at their initial guess instead of "
-                        "stopping (they are listed in the result)")
+    a.add_argument(
+        "--min-duration",
+        type=NON_NEGATIVE,
+        default=2.0,
+        metavar="S",
+        help="shortest static interval kept (default 2 s)",
+    )
+    a.add_argument(
+        "--threshold",
+        type=POSITIVE,
+        help="static threshold on the acc moving variance (raw units^2); default automatic",
+    )
+    a.add_argument(
+        "--acc-range",
+        type=full_scale,
+        metavar="R|LO:HI",
+        help="accelerometer full scale in raw units: R for ±R (e.g. 32768 for signed 16-bit counts) or "
+        "a span LO:HI (e.g. 0:65535 for unsigned 16-bit); samples at or beyond it count as saturated "
+        "(default for counts: the ends of the 16/24/32-bit signed or unsigned type the data fit)",
+    )
+    a.add_argument(
+        "--gyro-range",
+        type=full_scale,
+        metavar="R|LO:HI",
+        help="gyroscope full scale in raw units, like --acc-range; turns that saturate are left out",
+    )
+    a.add_argument(
+        "--gyro-bias",
+        choices=["static", "local", "rest", "estimate"],
+        default="local",
+        help="gyro bias during each turn from the two rests it joins (local, the default: follows a bias "
+        "that drifts), one mean over the static intervals (static), the initial rest (rest: the first "
+        "static interval, or --rest T0 T1), "
+        "or estimated with K",
+    )
+    a.add_argument(
+        "--rest",
+        nargs=2,
+        type=float,
+        metavar=("T0", "T1"),
+        help="rest window in s for --gyro-bias rest (default the first static interval)",
+    )
+    a.add_argument(
+        "--rotation-angle",
+        type=float,
+        default=-360.0,
+        metavar="DEG",
+        help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "
+        "clockwise full turn seen from the axis tip)",
+    )
+    a.add_argument(
+        "--acc-bias-instability",
+        type=NON_NEGATIVE,
+        metavar="RAW",
+        help="1-sigma accelerometer bias drift over the session in raw units (datasheet bias "
+        "instability or run-to-run), added to the bias std: the poses cannot reveal a common drift",
+    )
+    a.add_argument(
+        "--held-misalignment",
+        type=NON_NEGATIVE,
+        default=0.005,
+        metavar="RAD",
+        help="1-sigma of the misalignments the diagonal model holds at 0 (default 0.005 rad, a MEMS "
+        "datasheet value); their model error enters the scale and bias std",
+    )
+    a.add_argument(
+        "--gyro-bias-instability",
+        type=NON_NEGATIVE,
+        metavar="RAW",
+        help="1-sigma gyro bias drift in raw units (stationary sigma of a Gauss-Markov bias, see "
+        "--gyro-bias-corr-time; or run-to-run), added to the gyro bias std, which is then against the "
+        "long-term bias: a drift common to all rests leaves no trace in them",
+    )
+    a.add_argument(
+        "--gyro-bias-corr-time",
+        type=POSITIVE,
+        default=float("inf"),
+        metavar="S",
+        help="correlation time in s of the Gauss-Markov bias that --gyro-bias-instability gives the "
+        "stationary 1-sigma of (default inf: a constant offset per run); with --gyro-bias local the "
+        "std adds what the session's mean keeps of it",
+    )
+    a.add_argument(
+        "--gyro-g-sensitivity",
+        type=NON_NEGATIVE,
+        metavar="RAW",
+        help="1-sigma gyro g-sensitivity per element in raw gyro units per m/s^2 (datasheet), which the "
+        "model leaves out; added to the gyro bias and K std",
+    )
+    a.add_argument(
+        "--allow-unobservable",
+        action="store_true",
+        help="hold the gyro parameters the turns do not determine at their initial guess instead of "
+        "stopping (they are listed in the result)",
+    )
     a.add_argument("--generations", type=COUNT, help="GA/PSO generations (default: the optimizer's)")
     a.add_argument("--seed", type=SEED, default=0, help="random seed for GA/PSO (default 0)")
 
@@ -214,8 +305,10 @@ def parse_export(spec: str):
 
     fmt, sep, rest = spec.partition(":")
     if not sep or fmt not in FORMATS or not rest:
-        raise OptinavError(f"--export {spec!r} is not FMT:FILE with FMT one of {', '.join(FORMATS)}",
-                           "write e.g. --export imucal:cal.json or --export imu_tk:acc.calib,gyro.calib")
+        raise OptinavError(
+            f"--export {spec!r} is not FMT:FILE with FMT one of {', '.join(FORMATS)}",
+            "write e.g. --export imucal:cal.json or --export imu_tk:acc.calib,gyro.calib",
+        )
     paths = rest.split(",") if fmt == "imu_tk" else [rest]
     if len(paths) > 2 or not all(paths):
         raise OptinavError(f"--export {spec!r} names {len(paths)} files", "imu_tk takes ACC,GYRO; others one file")

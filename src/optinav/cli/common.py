@@ -8,6 +8,7 @@ from pathlib import Path
 
 from optinav.errors import OptinavError
 
+
 def shared_data_dir() -> Path:
     """The shared data folder: ``$OPTINAV_SHARED_DATA`` if set, else ``../shared/data`` relative to the project
     root (the folder holding ``src/optinav``; a source tree or an editable install)."""
@@ -37,8 +38,14 @@ def register_system_hooks(kinds, hook: str) -> None:
                 fn(kinds)
 
 
-def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
-           what: str = "a number"):
+def number(
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    integer: bool = False,
+    what: str = "a number",
+):
     """An argparse ``type=`` that accepts a finite number in [lo, hi] (lo excluded when ``lo_open``); anything
     else is a one-line argparse error naming the valid range."""
     import argparse
@@ -97,26 +104,42 @@ def check_memory(n_rows: float, bytes_per_row: float, what: str, remedy: str) ->
     measured for that simulator) does not fit in half the available memory, with the estimate in the message."""
     need, have = float(n_rows) * bytes_per_row, available_memory()
     if not math.isfinite(need) or need > 0.5 * have:
-        raise OptinavError(f"{what} would need {n_rows:.3g} samples, about {need / 2**30:.3g} GiB of memory "
-                           f"({have / 2**30:.3g} GiB available)", remedy)
+        raise OptinavError(
+            f"{what} would need {n_rows:.3g} samples, about {need / 2**30:.3g} GiB of memory "
+            f"({have / 2**30:.3g} GiB available)",
+            remedy,
+        )
 
 
 def add_input_options(p, *, gyro: bool = True) -> None:
     """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic."""
-    p.add_argument("--columns", help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
-                                     "or std=name pairs for named columns/arrays; default: recognised headers")
-    p.add_argument("--acc-unit", choices=["counts", "g", "mg", "m/s^2"], help="accelerometer unit in the file "
-                                                                          "(default: as declared, else m/s^2)")
+    p.add_argument(
+        "--columns",
+        help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
+        "or std=name pairs for named columns/arrays; default: recognised headers",
+    )
+    p.add_argument(
+        "--acc-unit",
+        choices=["counts", "g", "mg", "m/s^2"],
+        help="accelerometer unit in the file (default: as declared, else m/s^2)",
+    )
     if gyro:
-        p.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"],
-                       help="gyroscope unit in the file (default: as declared, else rad/s)")
+        p.add_argument(
+            "--gyro-unit",
+            choices=["counts", "deg/s", "rad/s"],
+            help="gyroscope unit in the file (default: as declared, else rad/s)",
+        )
     p.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column (default s)")
     p.add_argument("--rate", type=RATE, help="sample rate in Hz for files without a time column")
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
-    p.add_argument("--topic", metavar="IMU[,MAG]", help="ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder): the "
-                                                        "sensor_msgs/Imu topic, optionally a MagneticField topic "
-                                                        "after a comma (default: the bag's only Imu topic)")
+    p.add_argument(
+        "--topic",
+        metavar="IMU[,MAG]",
+        help="ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder): the "
+        "sensor_msgs/Imu topic, optionally a MagneticField topic "
+        "after a comma (default: the bag's only Imu topic)",
+    )
 
 
 def add_chunk_option(p) -> None:
@@ -124,9 +147,14 @@ def add_chunk_option(p) -> None:
     log's length)."""
     from optinav.core.files import CHUNK_ROWS
 
-    p.add_argument("--chunk-rows", type=COUNT, default=CHUNK_ROWS, metavar="N",
-                   help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
-                        "not with the log's length")
+    p.add_argument(
+        "--chunk-rows",
+        type=COUNT,
+        default=CHUNK_ROWS,
+        metavar="N",
+        help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
+        "not with the log's length",
+    )
 
 
 def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
@@ -136,8 +164,9 @@ def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = ""
 
     out = Path(path)
     if suffixes and out.suffix.lower() not in suffixes:
-        raise OptinavError(f"{option} {out} is not a {'/'.join(suffixes)} file",
-                           f"name it like {example or 'out' + suffixes[0]}")
+        raise OptinavError(
+            f"{option} {out} is not a {'/'.join(suffixes)} file", f"name it like {example or 'out' + suffixes[0]}"
+        )
     return check_output(out, option)
 
 
@@ -217,10 +246,16 @@ def file_options(args):
 
     height, rest = getattr(args, "height", None), getattr(args, "rest", None)
     if height is not None and getattr(args, "latitude", None) is None:
-        raise OptinavError("--height without --latitude has no effect (it sets the normal gravity's height)",
-                           "add --latitude DEG, or drop --height")
-    return options_from_args(FileOptions, args, height=0.0 if height is None else height,
-                             rest=None if rest is None else tuple(float(v) for v in rest))
+        raise OptinavError(
+            "--height without --latitude has no effect (it sets the normal gravity's height)",
+            "add --latitude DEG, or drop --height",
+        )
+    return options_from_args(
+        FileOptions,
+        args,
+        height=0.0 if height is None else height,
+        rest=None if rest is None else tuple(float(v) for v in rest),
+    )
 
 
 def system_options(system, args, key: str = "options"):

@@ -12,7 +12,8 @@ from optinav.errors import OptinavError
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "design", help="a pose plan for a technician: poses, rest time, turns and the precision they give",
+        "design",
+        help="a pose plan for a technician: poses, rest time, turns and the precision they give",
         description=textwrap.dedent("""\
             Plan a multi-position calibration session: N static poses chosen D-, E- or A-optimally for the
             accelerometer (norm model), in a short turning order; each pose in words (which face of the unit
@@ -27,35 +28,65 @@ def register(sub) -> None:
               optinav design --poses 15 --criterion A --acc-noise-density 1e-3 --gyro-noise-density 1e-4 \\
                   --target-scale 100 --out plan.json
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--poses", type=number(9, 26, integer=True, what="a number of poses (9..26)"), default=12,
-                   help="number of static poses, 9..26 (default 12)")
-    p.add_argument("--criterion", choices=["D", "E", "A"], default="D",
-                   help="D: max log det of the information, E: best worst-determined combination, A: smallest sum "
-                        "of variances (default D)")
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--poses",
+        type=number(9, 26, integer=True, what="a number of poses (9..26)"),
+        default=12,
+        help="number of static poses, 9..26 (default 12)",
+    )
+    p.add_argument(
+        "--criterion",
+        choices=["D", "E", "A"],
+        default="D",
+        help="D: max log det of the information, E: best worst-determined combination, A: smallest sum "
+        "of variances (default D)",
+    )
     noise = p.add_argument_group("noise (one of; default --preset mems-mti1)")
     noise.add_argument("--allan", metavar="ALLAN.json", help="noise densities from optinav allan's JSON")
-    noise.add_argument("--acc-noise-density", type=POSITIVE, metavar="M/S^2/√HZ",
-                       help="accelerometer white-noise density in m/s^2/sqrt(Hz) (= m/s/sqrt(s))")
-    noise.add_argument("--gyro-noise-density", type=POSITIVE, metavar="RAD/S/√HZ",
-                       help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))")
+    noise.add_argument(
+        "--acc-noise-density",
+        type=POSITIVE,
+        metavar="M/S^2/√HZ",
+        help="accelerometer white-noise density in m/s^2/sqrt(Hz) (= m/s/sqrt(s))",
+    )
+    noise.add_argument(
+        "--gyro-noise-density",
+        type=POSITIVE,
+        metavar="RAD/S/√HZ",
+        help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))",
+    )
     # no choices= here: the preset table lives in numerical code that --help must not import
-    noise.add_argument("--preset", metavar="NAME",
-                       help="sensor class of optinav.core.imu_model: rlg-nav (navigation-grade RLG), "
-                            "tactical-mems (ADIS16495 class), mems-mti1 (industrial MEMS), mpu6000 (consumer MEMS)")
+    noise.add_argument(
+        "--preset",
+        metavar="NAME",
+        help="sensor class of optinav.core.imu_model: rlg-nav (navigation-grade RLG), "
+        "tactical-mems (ADIS16495 class), mems-mti1 (industrial MEMS), mpu6000 (consumer MEMS)",
+    )
     tg = p.add_argument_group("rest time: --dwell, or targets (1-sigma) that set it")
     tg.add_argument("--dwell", type=POSITIVE, metavar="S", help="rest per pose in s (default 30 without targets)")
     tg.add_argument("--target-scale", type=POSITIVE, metavar="PPM", help="accelerometer scale factor 1-sigma, ppm")
-    tg.add_argument("--target-misalignment", type=POSITIVE, metavar="MRAD",
-                    help="accelerometer misalignment 1-sigma, mrad")
+    tg.add_argument(
+        "--target-misalignment", type=POSITIVE, metavar="MRAD", help="accelerometer misalignment 1-sigma, mrad"
+    )
     tg.add_argument("--target-bias", type=POSITIVE, metavar="MG", help="accelerometer bias 1-sigma, mg")
-    tg.add_argument("--target-gyro-bias", type=POSITIVE, metavar="DEG/H",
-                    help="gyro bias 1-sigma from all rest, deg/h")
+    tg.add_argument("--target-gyro-bias", type=POSITIVE, metavar="DEG/H", help="gyro bias 1-sigma from all rest, deg/h")
     p.add_argument("--rate", type=RATE, default=100.0, help="sample rate in Hz (default 100)")
-    p.add_argument("--turn-rate", type=POSITIVE, default=45.0, metavar="DEG/S",
-                   help="how fast the technician turns the unit, deg/s (default 45)")
-    p.add_argument("--max-dwell", type=POSITIVE, default=600.0, metavar="S",
-                   help="warn above this rest per pose (the Allan minimum of the sensor; default 600)")
+    p.add_argument(
+        "--turn-rate",
+        type=POSITIVE,
+        default=45.0,
+        metavar="DEG/S",
+        help="how fast the technician turns the unit, deg/s (default 45)",
+    )
+    p.add_argument(
+        "--max-dwell",
+        type=POSITIVE,
+        default=600.0,
+        metavar="S",
+        help="warn above this rest per pose (the Allan minimum of the sensor; default 600)",
+    )
     p.add_argument("--seed", type=SEED, default=0, help="seed of the pose search (default 0)")
     p.add_argument("--out", metavar="PLAN.md|.json", help="write the plan as Markdown (.md) or JSON (.json)")
     p.add_argument("--figure", metavar="PLAN.png", help="draw the poses into a PNG")
@@ -65,17 +96,30 @@ def register(sub) -> None:
 def run(args) -> int:
     out = output_path(args.out, (".md", ".json"), "PLAN.md") if args.out else None
     fig = output_path(args.figure, (".png",), "PLAN.png", "--figure") if args.figure else None
-    targets = {"scale_ppm": args.target_scale, "misalignment_mrad": args.target_misalignment,
-               "bias_mg": args.target_bias}
+    targets = {
+        "scale_ppm": args.target_scale,
+        "misalignment_mrad": args.target_misalignment,
+        "bias_mg": args.target_bias,
+    }
     if args.dwell is not None and (any(v is not None for v in targets.values()) or args.target_gyro_bias):
         raise OptinavError("--dwell and a --target-* option both set the rest time", "pass one of them")
     from optinav.multipos.plan import plan_noise, plan_poses, plot_plan
 
     acc, gyro, text = plan_noise(args.allan, args.preset, args.acc_noise_density, args.gyro_noise_density)
-    plan = plan_poses(args.poses, criterion=args.criterion, acc_noise_density=acc, gyro_noise_density=gyro,
-                      noise_source=text, rate_hz=args.rate, dwell_s=args.dwell, targets=targets,
-                      gyro_bias_deg_h=args.target_gyro_bias, turn_rate_deg_s=args.turn_rate,
-                      max_dwell_s=args.max_dwell, rng=args.seed)
+    plan = plan_poses(
+        args.poses,
+        criterion=args.criterion,
+        acc_noise_density=acc,
+        gyro_noise_density=gyro,
+        noise_source=text,
+        rate_hz=args.rate,
+        dwell_s=args.dwell,
+        targets=targets,
+        gyro_bias_deg_h=args.target_gyro_bias,
+        turn_rate_deg_s=args.turn_rate,
+        max_dwell_s=args.max_dwell,
+        rng=args.seed,
+    )
     for note in plan.notes:
         print(f"optinav: note: {note}", file=sys.stderr)
     print(plan.summary())

@@ -14,7 +14,8 @@ _SUFFIXES = {"imucal": (".json",), "kalibr": (".yaml", ".yml")}
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "export", help="write a calibration for imu_tk, imucal or Kalibr",
+        "export",
+        help="write a calibration for imu_tk, imucal or Kalibr",
         description=textwrap.dedent("""\
             Write RESULT.json of optinav calibrate in the format another tool reads:
               imu_tk  two text files (T, S, B of CalibratedTriad): --out for the accelerometer, --gyro-out for
@@ -30,7 +31,8 @@ def register(sub) -> None:
               optinav export result.json --to imu_tk --out acc.calib --gyro-out gyro.calib
               optinav export result.json --to kalibr --noise allan.json --rostopic /imu0 --out imu.yaml
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("result", help="RESULT.json written by optinav calibrate")
     p.add_argument("--to", required=True, choices=FORMATS, help="target format")
     p.add_argument("--out", required=True, metavar="FILE", help="output file (imu_tk: the accelerometer's)")
@@ -62,10 +64,13 @@ def run(args) -> int:
         from optinav.core.allan import AllanAnalysis
 
         noise = AllanAnalysis.from_json(args.noise)
-    for path in export_calibration(res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic,
-                                   update_rate=args.rate):
+    for path in export_calibration(
+        res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic, update_rate=args.rate
+    ):
         print(f"optinav: {args.to} file written to {path}")
     if args.to == "kalibr" and noise is None:
-        print("optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "
-              "static log and pass its result)")
+        print(
+            "optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "
+            "static log and pass its result)"
+        )
     return 0

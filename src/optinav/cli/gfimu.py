@@ -10,8 +10,20 @@ import argparse
 import math
 import textwrap
 
-from optinav.cli.common import (NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory, number, output_path, parse_floats, require_files, truth_path,
-                                write_truth)
+from optinav.cli.common import (
+    NON_NEGATIVE,
+    POSITIVE,
+    RATE,
+    SEED,
+    add_report_option,
+    check_memory,
+    number,
+    output_path,
+    parse_floats,
+    require_files,
+    truth_path,
+    write_truth,
+)
 from optinav.errors import OptinavError
 
 
@@ -29,18 +41,23 @@ def _load_array(config: str | None, builtin_name: str | None):
 # optinav gfimu analyze
 # ------------------------------------------------------------------------------------------------------------
 
+
 def register_commands(sub) -> None:
     """The system's top-level command (registry hook)."""
     register(sub)
 
 
 def register(sub) -> None:
-    p = sub.add_parser("gfimu", help="gyro-free IMU: identifiability of an accelerometer array",
-                       description="Gyro-free IMU (accelerometer array) tools.",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "gfimu",
+        help="gyro-free IMU: identifiability of an accelerometer array",
+        description="Gyro-free IMU (accelerometer array) tools.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     cmds = p.add_subparsers(dest="gfimu_command", metavar="COMMAND", title="commands")
     a = cmds.add_parser(
-        "analyze", help="what an accelerometer configuration can solve",
+        "analyze",
+        help="what an accelerometer configuration can solve",
         description=textwrap.dedent("""\
             Identifiability of an N-accelerometer array, f_i = θ_iᵀ(A + ω̇×r_i + ω×(ω×r_i)): the rank of the
             part linear in [A, ω̇], the rank with the six quadratic rate terms, how many quadratic combinations
@@ -53,12 +70,14 @@ def register(sub) -> None:
               optinav gfimu analyze --builtin cylinder10 --out cyl.json
               optinav gfimu analyze my_array.json
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     a.add_argument("config", nargs="?", metavar="CONFIG.json", help="configuration file")
     a.add_argument("--builtin", choices=["cylinder10"], help="a built-in configuration instead of CONFIG.json")
     a.add_argument("--out", metavar="FILE", help="write the analysis as JSON")
-    a.add_argument("--allow-deficient", action="store_true", help="report a rank-deficient configuration "
-                                                                  "instead of failing")
+    a.add_argument(
+        "--allow-deficient", action="store_true", help="report a rank-deficient configuration instead of failing"
+    )
     a.set_defaults(func=run_analyze)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
@@ -89,9 +108,11 @@ def run_analyze(args) -> int:
 # optinav simulate gfimu-turntable
 # ------------------------------------------------------------------------------------------------------------
 
+
 def register_simulate(kinds) -> None:
     s = kinds.add_parser(
-        "gfimu-turntable", help="turntable calibration data of a gyro-free accelerometer array",
+        "gfimu-turntable",
+        help="turntable calibration data of a gyro-free accelerometer array",
         description=textwrap.dedent("""\
             The six calibration cases of Hao & Liu (2011): the array on a wedge of angle γ on a horizontal
             turntable at constant rate, table axis in the body x–z, y–z and x–y planes (mountings 1, 2, 3), two
@@ -103,17 +124,32 @@ def register_simulate(kinds) -> None:
               optinav simulate gfimu-turntable --builtin cylinder10 --rates 0.5,1.0 --out tt.npz --seed 1
               optinav calibrate gfimu tt.npz --builtin cylinder10 --out result.json --report rep
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     s.add_argument("--config", metavar="CONFIG.json", help="array configuration (default --builtin cylinder10)")
     s.add_argument("--builtin", choices=["cylinder10"], help="built-in configuration")
     s.add_argument("--out", required=True, metavar="DATA", help="output data file (.npz, .csv, .h5)")
     s.add_argument("--rates", default="0.5,1.0", metavar="W1,W2", help="table rates in rad/s (default 0.5,1.0)")
-    s.add_argument("--wedge-deg", type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"),
-                   default=30.0, metavar="DEG", help="wedge angle γ (default 30)")
-    s.add_argument("--errors", choices=["paper", "random"], default="paper",
-                   help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)")
-    s.add_argument("--noise", type=NON_NEGATIVE, default=1e-6 * 9.80665, metavar="M/S2",
-                   help="accelerometer white noise std per sample (default 1 µg)")
+    s.add_argument(
+        "--wedge-deg",
+        type=number(0.0, 90.0, lo_open=True, what="a wedge angle in degrees"),
+        default=30.0,
+        metavar="DEG",
+        help="wedge angle γ (default 30)",
+    )
+    s.add_argument(
+        "--errors",
+        choices=["paper", "random"],
+        default="paper",
+        help="installation errors: the paper's uniform ones (default) or random (1 mm, 0.01 rad std)",
+    )
+    s.add_argument(
+        "--noise",
+        type=NON_NEGATIVE,
+        default=1e-6 * 9.80665,
+        metavar="M/S2",
+        help="accelerometer white noise std per sample (default 1 µg)",
+    )
     s.add_argument("--sample-rate", type=RATE, default=100.0, metavar="HZ", help="sample rate (default 100)")
     s.add_argument("--duration", type=POSITIVE, default=10.0, metavar="S", help="seconds per case (default 10)")
     s.add_argument("--offset", metavar="X,Y,Z", help="array centre from the table axis, body m (default 0)")
@@ -130,21 +166,49 @@ def run_simulate(args) -> int:
     truth_path(out)
     rates = parse_floats(args.rates, None, "--rates", "W1,W2")
     if not all(0 < w <= MAX_TABLE_RATE for w in rates):
-        raise OptinavError(f"--rates {args.rates}: table rates must be in (0, {MAX_TABLE_RATE:g}] rad/s",
-                           "give turntable rates in rad/s, e.g. --rates 0.5,1.0")
-    check_memory(3 * len(rates) * args.duration * args.sample_rate, 100 * (arr.n + 6), "this data set",
-                 "shorten --duration or lower --sample-rate")
-    e = (InstallationErrors.uniform(arr.n) if args.errors == "paper"
-         else InstallationErrors.random(arr.n, rng=args.seed + 1))
+        raise OptinavError(
+            f"--rates {args.rates}: table rates must be in (0, {MAX_TABLE_RATE:g}] rad/s",
+            "give turntable rates in rad/s, e.g. --rates 0.5,1.0",
+        )
+    check_memory(
+        3 * len(rates) * args.duration * args.sample_rate,
+        100 * (arr.n + 6),
+        "this data set",
+        "shorten --duration or lower --sample-rate",
+    )
+    e = (
+        InstallationErrors.uniform(arr.n)
+        if args.errors == "paper"
+        else InstallationErrors.random(arr.n, rng=args.seed + 1)
+    )
     off = parse_floats(args.offset, 3, "--offset", "X,Y,Z") if args.offset else None
-    data = simulate(arr, e, rates=rates, gamma=math.radians(args.wedge_deg), rate_hz=args.sample_rate,
-                    duration=args.duration, noise=args.noise, offset=off, rng=args.seed)
+    data = simulate(
+        arr,
+        e,
+        rates=rates,
+        gamma=math.radians(args.wedge_deg),
+        rate_hz=args.sample_rate,
+        duration=args.duration,
+        noise=args.noise,
+        offset=off,
+        rng=args.seed,
+    )
     data.save(out)
     from optinav.gfimu.turntable import turntable_truth
 
-    tp = write_truth(out, turntable_truth(e, {"noise_m_s2": args.noise, "offset_m": off, "rates_rad_s": rates,
-                                              "wedge_deg": args.wedge_deg,
-                                              "samples_per_case": int(round(args.duration * args.sample_rate))}))
+    tp = write_truth(
+        out,
+        turntable_truth(
+            e,
+            {
+                "noise_m_s2": args.noise,
+                "offset_m": off,
+                "rates_rad_s": rates,
+                "wedge_deg": args.wedge_deg,
+                "samples_per_case": int(round(args.duration * args.sample_rate)),
+            },
+        ),
+    )
     print(f"optinav: {len(data.t)} samples ({len(set(data.case))} cases) written to {out}, truth to {tp}")
     return 0
 
@@ -153,9 +217,11 @@ def run_simulate(args) -> int:
 # optinav calibrate gfimu
 # ------------------------------------------------------------------------------------------------------------
 
+
 def register_calibrate(kinds) -> None:
     c = kinds.add_parser(
-        "gfimu", help="installation errors of a gyro-free accelerometer array from turntable data",
+        "gfimu",
+        help="installation errors of a gyro-free accelerometer array from turntable data",
         description=textwrap.dedent("""\
             Estimate the position (Δr, m) and direction (Δα, Δβ, rad) installation errors of every
             accelerometer of an array from the six turntable cases of Hao & Liu (2011). Default: nonlinear
@@ -167,7 +233,8 @@ def register_calibrate(kinds) -> None:
               optinav simulate gfimu-turntable --builtin cylinder10 --out tt.npz
               optinav calibrate gfimu tt.npz --builtin cylinder10 --out result.json
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     c.add_argument("data", metavar="DATA", help="turntable data (.npz, .csv, .h5)")
     add_batch_options(c)
     c.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
@@ -192,23 +259,39 @@ def add_batch_options(p) -> None:
     p.add_argument("--config", metavar="CONFIG.json", help="nominal array configuration")
     p.add_argument("--builtin", choices=["cylinder10"], help="built-in nominal configuration")
     p.add_argument("--method", choices=["lm", "closed-form"], default="lm", help="estimator (default lm)")
-    p.add_argument("--offset", type=_offset, default="zero", metavar="X,Y,Z",
-                   help="measured array centre from the table axis, body m (default zero; 'estimate' to estimate it)")
-    p.add_argument("--rate-unit", choices=["rad/s", "deg/s"], default="rad/s",
-                   help="unit of the table_rate column (default rad/s, as optinav writes it)")
+    p.add_argument(
+        "--offset",
+        type=_offset,
+        default="zero",
+        metavar="X,Y,Z",
+        help="measured array centre from the table axis, body m (default zero; 'estimate' to estimate it)",
+    )
+    p.add_argument(
+        "--rate-unit",
+        choices=["rad/s", "deg/s"],
+        default="rad/s",
+        help="unit of the table_rate column (default rad/s, as optinav writes it)",
+    )
     p.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
 
 
 def add_apply_options(g) -> None:
     """``optinav apply`` of a gfimu result: how the motion is solved (registry hook; destinations are the
     fields of :class:`optinav.gfimu.unit.GfimuApplyOptions`)."""
-    g.add_argument("--omega0", type=_vector, metavar="X,Y,Z", help="angular rate at the first sample in rad/s "
-                                                                   "(default 0: the array starts at rest)")
+    g.add_argument(
+        "--omega0",
+        type=_vector,
+        metavar="X,Y,Z",
+        help="angular rate at the first sample in rad/s (default 0: the array starts at rest)",
+    )
     # the methods are checked by the library (optinav.gfimu.solve.RATE_METHODS; importing it here would load
     # numpy for every --help)
-    g.add_argument("--rate-method", default="integration", metavar="METHOD",
-                   help="how the angular rate is solved: integration (default, the paper's), quadratic or "
-                        "gauss-newton")
+    g.add_argument(
+        "--rate-method",
+        default="integration",
+        metavar="METHOD",
+        help="how the angular rate is solved: integration (default, the paper's), quadratic or gauss-newton",
+    )
 
 
 def _vector(text: str):

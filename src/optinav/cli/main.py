@@ -27,9 +27,19 @@ SYSTEM_COMMANDS = "(the systems' own commands)"
 #: every command of ``optinav`` in the order ``--help`` lists them, declared once: a module defining
 #: ``register(subparsers)``, or :data:`SYSTEM_COMMANDS`. The ``simulate``, ``calibrate`` and ``batch`` commands
 #: take their per-system entries from the registry themselves.
-COMMANDS = ("optinav.cli.simulate", "optinav.cli.calibrate", "optinav.cli.apply", SYSTEM_COMMANDS,
-            "optinav.cli.sun", "optinav.cli.reproduce", "optinav.cli.batch", "optinav.cli.allan",
-            "optinav.cli.export", "optinav.cli.design", "optinav.cli.report")
+COMMANDS = (
+    "optinav.cli.simulate",
+    "optinav.cli.calibrate",
+    "optinav.cli.apply",
+    SYSTEM_COMMANDS,
+    "optinav.cli.sun",
+    "optinav.cli.reproduce",
+    "optinav.cli.batch",
+    "optinav.cli.allan",
+    "optinav.cli.export",
+    "optinav.cli.design",
+    "optinav.cli.report",
+)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -88,8 +98,11 @@ def _dispatch(args) -> int:
     # commands that take seconds name a task; their steps (core.progress.step) advance its bar on a terminal
     label = getattr(args, "progress_task", None)
     try:
-        with protect_inputs(_input_paths(args)), warnings.catch_warnings(), \
-                (task(label) if label else contextlib.nullcontext()):
+        with (
+            protect_inputs(_input_paths(args)),
+            warnings.catch_warnings(),
+            task(label) if label else contextlib.nullcontext(),
+        ):
             warnings.showwarning = _one_line_warning
             return int(args.func(args) or 0)
     except OptinavError as exc:
@@ -109,8 +122,11 @@ def _dispatch(args) -> int:
         if args.debug:
             raise
         msg = " ".join(str(exc).split()) or type(exc).__name__
-        print(f"optinav: internal error: {type(exc).__name__}: {msg} (run with --debug for the traceback "
-              "and please report it)", file=sys.stderr)
+        print(
+            f"optinav: internal error: {type(exc).__name__}: {msg} (run with --debug for the traceback "
+            "and please report it)",
+            file=sys.stderr,
+        )
         return 1
 
 

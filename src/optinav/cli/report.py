@@ -9,7 +9,8 @@ import textwrap
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "report", help="report of result files of any system (tables and figures)",
+        "report",
+        help="report of result files of any system (tables and figures)",
         description=textwrap.dedent("""\
             Write the report of each RESULT.json (any system; its schema selects the report): the result's
             parameters with their std, observability and quality, and the system's figures. --data gives the
@@ -23,10 +24,16 @@ def register(sub) -> None:
               optinav report result.json --data session.csv --out rep
               optinav report rins_result.json gfimu_result.json --out calibrations.md
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("results", nargs="+", metavar="RESULT.json", help="result files of optinav")
-    p.add_argument("--data", action="append", default=[], metavar="DATA",
-                   help="the recording of a result (repeatable, one per result in order)")
+    p.add_argument(
+        "--data",
+        action="append",
+        default=[],
+        metavar="DATA",
+        help="the recording of a result (repeatable, one per result in order)",
+    )
     p.add_argument("--out", required=True, metavar="DIR|FILE.md", help="report folder or Markdown file")
     p.set_defaults(func=run)
 

@@ -14,9 +14,10 @@ def register(sub) -> None:
     studies = available_studies()
     listing = "\n".join(f"  {k:<12} {v}" for k, v in studies.items())
     p = sub.add_parser(
-        "reproduce", help="reproduce the papers' tables and figures and the core checks into a report folder",
+        "reproduce",
+        help="reproduce the papers' tables and figures and the core checks into a report folder",
         description="Run studies on built-in simulated data and write DIR/index.md, index.html, "
-                    "summary.json and PNG figures.",
+        "summary.json and PNG figures.",
         epilog=textwrap.dedent(f"""\
             studies:
             {listing}
@@ -26,7 +27,8 @@ def register(sub) -> None:
               optinav reproduce --quick --out optinav-report
               (then open optinav-report/index.html)
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("study", nargs="?", default="all", help="study name or 'all' (default)")
     p.add_argument("--quick", action="store_true", help="smaller versions of each study (minutes, not tens)")
     p.add_argument("--out", default="optinav-report", help="report folder (default: optinav-report)")

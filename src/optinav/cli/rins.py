@@ -5,14 +5,27 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import (COUNT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, add_report_option, check_memory,
-                                output_path, parse_floats, require_files, truth_path,
-                                write_truth)
+from optinav.cli.common import (
+    COUNT,
+    LATITUDE,
+    NON_NEGATIVE,
+    POSITIVE,
+    RATE,
+    SEED,
+    add_report_option,
+    check_memory,
+    output_path,
+    parse_floats,
+    require_files,
+    truth_path,
+    write_truth,
+)
 
 
 def register_simulate(kinds) -> None:
     p = kinds.add_parser(
-        "rins", help="a dual-axis rotational INS session with gimbal non-orthogonality (static base)",
+        "rins",
+        help="a dual-axis rotational INS session with gimbal non-orthogonality (static base)",
         description=textwrap.dedent("""\
             A static alignment phase, then a gimbal rotation scheme (default the PSINS improved 16-position
             sequence), recorded by a navigation-grade RLG IMU (paper Table 1) at 200 Hz with inner/outer encoder
@@ -25,25 +38,39 @@ def register_simulate(kinds) -> None:
               optinav calibrate rins rins.npz --out result.json
             schemes: psins16 (default), dual4, single4 (inner axis only), or steps such as 'Z+180,Y-180,Z-180,Y+180'
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--nonorth", required=True, metavar="TX,TY,TZ,EX,EY,EZ",
-                   help="true theta_x,theta_y,theta_z,eta_x,eta_y,eta_z (in --unit); write --nonorth=-1e-4,... "
-                        "when the first value is negative")
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--nonorth",
+        required=True,
+        metavar="TX,TY,TZ,EX,EY,EZ",
+        help="true theta_x,theta_y,theta_z,eta_x,eta_y,eta_z (in --unit); write --nonorth=-1e-4,... "
+        "when the first value is negative",
+    )
     p.add_argument("--unit", choices=["rad", "deg"], default="rad", help="unit of --nonorth (default rad)")
     p.add_argument("--scheme", default="psins16", help="rotation scheme (default psins16)")
     p.add_argument("--cycles", type=COUNT, default=1, help="repetitions of the scheme (default 1)")
-    p.add_argument("--move", type=POSITIVE, default=10.0, metavar="S",
-                   help="duration of each 180° move (default 10 s)")
+    p.add_argument("--move", type=POSITIVE, default=10.0, metavar="S", help="duration of each 180° move (default 10 s)")
     p.add_argument("--dwell", type=POSITIVE, default=50.0, metavar="S", help="rest after each move (default 50 s)")
-    p.add_argument("--align", type=POSITIVE, default=600.0, metavar="S",
-                   help="initial static alignment (default 600 s)")
+    p.add_argument(
+        "--align", type=POSITIVE, default=600.0, metavar="S", help="initial static alignment (default 600 s)"
+    )
     p.add_argument("--rate", type=RATE, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)")
     p.add_argument("--lat", type=LATITUDE, default=28.2, metavar="DEG", help="latitude in degrees (default 28.2)")
-    p.add_argument("--gyro-misalignment-arcsec", type=NON_NEGATIVE, metavar="ARCSEC",
-                   help="1σ of each gyro misalignment term (default the preset's 5)")
+    p.add_argument(
+        "--gyro-misalignment-arcsec",
+        type=NON_NEGATIVE,
+        metavar="ARCSEC",
+        help="1σ of each gyro misalignment term (default the preset's 5)",
+    )
     p.add_argument("--gyro-scale-ppm", type=NON_NEGATIVE, metavar="PPM", help="1σ gyro scale error (default 2)")
-    p.add_argument("--lock-error-arcsec", type=NON_NEGATIVE, default=0.0, metavar="ARCSEC",
-                   help="1σ gimbal stop error not seen by the encoders (default 0)")
+    p.add_argument(
+        "--lock-error-arcsec",
+        type=NON_NEGATIVE,
+        default=0.0,
+        metavar="ARCSEC",
+        help="1σ gimbal stop error not seen by the encoders (default 0)",
+    )
     p.add_argument("--wobble-arcsec", type=NON_NEGATIVE, default=0.0, metavar="ARCSEC", help="axis wobble amplitude")
     p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("--out", required=True, metavar="DATA", help="output file (.npz, .csv, .h5)")
@@ -70,27 +97,43 @@ def run_simulate(args) -> int:
 
     # measured: about 470 B per sample at the peak, 800 with margin
     n_moves = args.cycles * len(scheme_steps(args.scheme))
-    check_memory(args.rate * (args.align + n_moves * (args.move + args.dwell)), 800, "this session",
-                 "shorten --align/--dwell/--move, fewer --cycles or a lower --rate")
+    check_memory(
+        args.rate * (args.align + n_moves * (args.move + args.dwell)),
+        800,
+        "this session",
+        "shorten --align/--dwell/--move, fewer --cycles or a lower --rate",
+    )
     arc = np.radians(1 / 3600)
-    d = simulate(p, scheme=args.scheme, cycles=args.cycles, move_s=args.move, dwell_s=args.dwell,
-                 align_s=args.align, rate_hz=args.rate, lat=np.radians(args.lat),
-                 gyro_misalignment=None if args.gyro_misalignment_arcsec is None
-                 else args.gyro_misalignment_arcsec * arc,
-                 gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
-                 lock_sigma=args.lock_error_arcsec * arc, wobble=args.wobble_arcsec * arc, rng=args.seed)
+    d = simulate(
+        p,
+        scheme=args.scheme,
+        cycles=args.cycles,
+        move_s=args.move,
+        dwell_s=args.dwell,
+        align_s=args.align,
+        rate_hz=args.rate,
+        lat=np.radians(args.lat),
+        gyro_misalignment=None if args.gyro_misalignment_arcsec is None else args.gyro_misalignment_arcsec * arc,
+        gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
+        lock_sigma=args.lock_error_arcsec * arc,
+        wobble=args.wobble_arcsec * arc,
+        rng=args.seed,
+    )
     write_rins(out, d)
     from optinav.rins.calibrate import simulation_truth
 
     tp = write_truth(out, simulation_truth(d, seed=args.seed, lat_deg=args.lat))
-    print(f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
-          f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}")
+    print(
+        f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
+        f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}"
+    )
     return 0
 
 
 def register_calibrate(kinds) -> None:
     p = kinds.add_parser(
-        "rins", help="gimbal non-orthogonality of a dual-axis rotational INS (static base)",
+        "rins",
+        help="gimbal non-orthogonality of a dual-axis rotational INS (static base)",
         description=textwrap.dedent("""\
             Calibrate the six non-orthogonality angles of Li et al. (2023) from a static-base recording: alignment
             on the initial rest, strapdown C_s^n, then the vehicle-attitude change of eqs. 12-14 minimized by
@@ -103,7 +146,8 @@ def register_calibrate(kinds) -> None:
               optinav simulate rins --nonorth=-0.000279,-0.000963,-0.002212,0.000721,-0.000806,-0.009205 --out rins.npz
               optinav calibrate rins rins.npz --method lm --out result.json --report rep
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("data", help="data file (.npz, .csv, .h5) with t (or time), dtheta_x..z, dv_x..z, alpha, beta")
     add_batch_options(p)
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
@@ -115,22 +159,40 @@ def add_batch_options(p) -> None:
     """``optinav batch calibrate rins``: the options of ``calibrate rins`` (registry hook; destinations are the
     fields of :class:`optinav.rins.unit.RinsOptions`)."""
     p.add_argument("--method", choices=["lm", "pso", "axis", "none"], default="lm", help="method (default lm)")
-    p.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
-                   help="latitude in degrees (default: from each file)")
-    p.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
-                   help="longest alignment window (default: the initial rest)")
-    p.add_argument("--residual-rate", dest="residual_rate_hz", type=RATE, default=10.0, metavar="HZ",
-                   help="epochs per second of the attitude residuals (default 10)")
+    p.add_argument(
+        "--lat", dest="lat_deg", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from each file)"
+    )
+    p.add_argument(
+        "--align",
+        dest="align_s",
+        type=POSITIVE,
+        metavar="S",
+        help="longest alignment window (default: the initial rest)",
+    )
+    p.add_argument(
+        "--residual-rate",
+        dest="residual_rate_hz",
+        type=RATE,
+        default=10.0,
+        metavar="HZ",
+        help="epochs per second of the attitude residuals (default 10)",
+    )
     p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
 
 
 def add_apply_options(g) -> None:
     """``optinav apply`` of a rins result: how the recording is aligned (registry hook; destinations are fields
     of :class:`optinav.rins.unit.RinsOptions`)."""
-    g.add_argument("--lat", dest="lat_deg", type=LATITUDE, metavar="DEG",
-                   help="latitude in degrees (default: from the file)")
-    g.add_argument("--align", dest="align_s", type=POSITIVE, metavar="S",
-                   help="longest alignment window (default: the initial rest)")
+    g.add_argument(
+        "--lat", dest="lat_deg", type=LATITUDE, metavar="DEG", help="latitude in degrees (default: from the file)"
+    )
+    g.add_argument(
+        "--align",
+        dest="align_s",
+        type=POSITIVE,
+        metavar="S",
+        help="longest alignment window (default: the initial rest)",
+    )
 
 
 def run_calibrate(args) -> int:

@@ -5,18 +5,33 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import (HEIGHT, LATITUDE, NON_NEGATIVE, POSITIVE, RATE, SEED, check_memory, number,
-                                output_path,
-                                register_system_hooks, truth_path, write_truth)
+from optinav.cli.common import (
+    HEIGHT,
+    LATITUDE,
+    NON_NEGATIVE,
+    POSITIVE,
+    RATE,
+    SEED,
+    check_memory,
+    number,
+    output_path,
+    register_system_hooks,
+    truth_path,
+    write_truth,
+)
 
 
 def register(sub) -> None:
-    p = sub.add_parser("simulate", help="write a simulated dataset with its truth",
-                       description="Simulate sessions and write them as data files plus a truth JSON.",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "simulate",
+        help="write a simulated dataset with its truth",
+        description="Simulate sessions and write them as data files plus a truth JSON.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     kinds = p.add_subparsers(dest="kind", metavar="KIND", title="datasets")
     a = kinds.add_parser(
-        "accel-multipos", help="a static multi-position calibration session (accelerometer + gyroscope)",
+        "accel-multipos",
+        help="a static multi-position calibration session (accelerometer + gyroscope)",
         description=textwrap.dedent("""\
             A rest period, then static poses joined by smooth turns, recorded by a unit drawn from an IMU
             preset (default the MTi-1 class of Gao & Zhang 2019). Writes DATA (format by extension: .csv,
@@ -27,23 +42,38 @@ def register(sub) -> None:
               optinav simulate accel-multipos --out session.csv --acc-unit counts --gyro-unit deg/s --seed 1
               optinav calibrate accel session.csv --latitude 38.88 --height 35 --out result.json
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     a.add_argument("--out", required=True, metavar="DATA", help="output data file")
     poses = a.add_mutually_exclusive_group()
-    poses.add_argument("--scheme", choices=["paper12", "six", "18"],
-                       help="pose scheme: the paper's 12 positions (default), the six axis poses, or 18 poses")
-    poses.add_argument("--plan", metavar="PLAN.json",
-                       help="follow a pose plan of optinav design (--out plan.json): its poses in its order and "
-                            "its rest time per pose (--dwell overrides it)")
+    poses.add_argument(
+        "--scheme",
+        choices=["paper12", "six", "18"],
+        help="pose scheme: the paper's 12 positions (default), the six axis poses, or 18 poses",
+    )
+    poses.add_argument(
+        "--plan",
+        metavar="PLAN.json",
+        help="follow a pose plan of optinav design (--out plan.json): its poses in its order and "
+        "its rest time per pose (--dwell overrides it)",
+    )
     a.add_argument("--preset", default="mems-mti1", help="IMU preset (default mems-mti1)")
-    a.add_argument("--truth", default="draw", choices=["draw", "paper"],
-                   help="draw the unit's errors from the preset, or use the paper's Table 2 accelerometer")
+    a.add_argument(
+        "--truth",
+        default="draw",
+        choices=["draw", "paper"],
+        help="draw the unit's errors from the preset, or use the paper's Table 2 accelerometer",
+    )
     a.add_argument("--dwell", type=POSITIVE, metavar="S", help="dwell per pose in s (default 60, or the plan's)")
     a.add_argument("--transition", type=POSITIVE, default=4.0, metavar="S", help="turn duration in s (default 4)")
     a.add_argument("--rest", type=POSITIVE, default=10.0, metavar="S", help="initial rest in s (default 10)")
     a.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
-    a.add_argument("--jitter", type=number(0.0, 0.5, what="a fraction of the step"), default=0.0,
-                   help="timestamp jitter as a fraction of the step")
+    a.add_argument(
+        "--jitter",
+        type=number(0.0, 0.5, what="a fraction of the step"),
+        default=0.0,
+        help="timestamp jitter as a fraction of the step",
+    )
     a.add_argument("--acc-unit", choices=["counts", "g", "m/s^2"], default="m/s^2")
     a.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"], default="rad/s")
     a.add_argument("--latitude", type=LATITUDE, default=38.88, metavar="DEG")
@@ -51,7 +81,8 @@ def register(sub) -> None:
     a.add_argument("--seed", type=SEED, default=0)
     a.set_defaults(func=run_accel_multipos, progress_task="simulate accel-multipos")
     st = kinds.add_parser(
-        "static", help="a static log for noise characterisation (optinav allan), with the true noise terms",
+        "static",
+        help="a static log for noise characterisation (optinav allan), with the true noise terms",
         description=textwrap.dedent("""\
             An IMU at rest (z up, gravity along +z, no rotation) with the noise of a preset: white noise
             (ARW/VRW), bias instability as flicker (1/f) noise of the datasheet coefficient B (the IEEE 952
@@ -62,16 +93,28 @@ def register(sub) -> None:
               optinav simulate static --out rest.csv --hours 2 --gyro-rrw 20
               optinav allan rest.csv --out allan.json --kalibr imu.yaml
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     st.add_argument("--out", required=True, metavar="DATA", help="output data file")
     st.add_argument("--hours", type=POSITIVE, default=1.0, help="duration in h (default 1)")
-    st.add_argument("--preset", default="mems-mti1", help="IMU preset of the white noise and bias instability "
-                                                          "(default mems-mti1)")
+    st.add_argument(
+        "--preset", default="mems-mti1", help="IMU preset of the white noise and bias instability (default mems-mti1)"
+    )
     st.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
-    st.add_argument("--gyro-rrw", type=NON_NEGATIVE, default=0.0, metavar="DEG/H/SQRT(H)",
-                    help="gyro rate random walk in deg/h/sqrt(h) (default 0)")
-    st.add_argument("--accel-rrw", type=NON_NEGATIVE, default=0.0, metavar="UG/SQRT(S)",
-                    help="accelerometer random walk in ug/sqrt(s) (default 0)")
+    st.add_argument(
+        "--gyro-rrw",
+        type=NON_NEGATIVE,
+        default=0.0,
+        metavar="DEG/H/SQRT(H)",
+        help="gyro rate random walk in deg/h/sqrt(h) (default 0)",
+    )
+    st.add_argument(
+        "--accel-rrw",
+        type=NON_NEGATIVE,
+        default=0.0,
+        metavar="UG/SQRT(S)",
+        help="accelerometer random walk in ug/sqrt(s) (default 0)",
+    )
     st.add_argument("--acc-unit", choices=["g", "m/s^2"], default="m/s^2")
     st.add_argument("--gyro-unit", choices=["deg/s", "rad/s"], default="rad/s")
     st.add_argument("--seed", type=SEED, default=0)
@@ -100,18 +143,42 @@ def run_accel_multipos(args) -> int:
     n_poses = len(SCHEMES[scheme]) if isinstance(scheme, str) else len(scheme)
     # measured (benchmarks/bench_memory.py, 1 M and 3 M rows): about 615 B per sample at the peak now that the
     # log is written block by block, 900 with margin
-    check_memory(rate * (args.rest + n_poses * (dwell + args.transition)), 900,
-                 "this session", "shorten --dwell/--rest/--transition or lower --rate")
+    check_memory(
+        rate * (args.rest + n_poses * (dwell + args.transition)),
+        900,
+        "this session",
+        "shorten --dwell/--rest/--transition or lower --rate",
+    )
     step("simulate")
-    s = simulate(scheme, spec=args.preset, dwell_s=dwell, rate_hz=args.rate,
-                 transition_s=args.transition, rest_s=args.rest, lat=np.radians(args.latitude),
-                 height_m=args.height, truth=args.truth, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                 jitter=args.jitter, rng=args.seed)
+    s = simulate(
+        scheme,
+        spec=args.preset,
+        dwell_s=dwell,
+        rate_hz=args.rate,
+        transition_s=args.transition,
+        rest_s=args.rest,
+        lat=np.radians(args.latitude),
+        height_m=args.height,
+        truth=args.truth,
+        acc_unit=args.acc_unit,
+        gyro_unit=args.gyro_unit,
+        jitter=args.jitter,
+        rng=args.seed,
+    )
     step("write")
-    write_imu(out, s.log(), acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
-              gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit)
-    tp = write_truth(out, s.truth({"latitude_deg": args.latitude, "height_m": args.height},
-                                  {"seed": args.seed, "preset": args.preset, "truth": args.truth}))
+    write_imu(
+        out,
+        s.log(),
+        acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
+        gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit,
+    )
+    tp = write_truth(
+        out,
+        s.truth(
+            {"latitude_deg": args.latitude, "height_m": args.height},
+            {"seed": args.seed, "preset": args.preset, "truth": args.truth},
+        ),
+    )
     print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")
@@ -131,12 +198,21 @@ def run_static(args) -> int:
     # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
     check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
     step("simulate")
-    s = simulate_static(args.hours * 3600, args.preset, rate_hz=rate,
-                        acc_random_walk=to_si(args.accel_rrw, "ug/sqrt(s)"),
-                        gyr_random_walk=to_si(args.gyro_rrw, "deg/h/sqrt(h)"), seed=args.seed)
+    s = simulate_static(
+        args.hours * 3600,
+        args.preset,
+        rate_hz=rate,
+        acc_random_walk=to_si(args.accel_rrw, "ug/sqrt(s)"),
+        gyr_random_walk=to_si(args.gyro_rrw, "deg/h/sqrt(h)"),
+        seed=args.seed,
+    )
     step("write")
-    write_imu(out, ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, source="optinav simulate static"), acc_unit=args.acc_unit,
-              gyro_unit=args.gyro_unit)
+    write_imu(
+        out,
+        ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, source="optinav simulate static"),
+        acc_unit=args.acc_unit,
+        gyro_unit=args.gyro_unit,
+    )
     tp = write_truth(out, s.truth)
     print(f"optinav: wrote {s.t.size} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
     return 0

@@ -13,7 +13,8 @@ from optinav.errors import OptinavError
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "sun", help="sun position (NREL SPA) at a place and time, as JSON",
+        "sun",
+        help="sun position (NREL SPA) at a place and time, as JSON",
         description=textwrap.dedent("""\
             Topocentric sun position by the NREL Solar Position Algorithm (Reda & Andreas 2004/2008).
             Prints JSON with zenith_deg, azimuth_deg (from north towards east, 0..360), elevation_deg,
@@ -29,19 +30,38 @@ def register(sub) -> None:
                   --time 2003-10-17T12:30:30-07:00 --pressure 820 --temperature 11 --delta-t 67
                   (the SPA report's example: zenith 50.11162, azimuth 194.34024)
             """),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--lat", type=LATITUDE, required=True, metavar="DEG", help="geodetic latitude, deg (north +)")
     p.add_argument("--lon", type=LONGITUDE, required=True, metavar="DEG", help="longitude, deg (east +)")
     p.add_argument("--height", type=HEIGHT, default=0.0, metavar="M", help="height, m (parallax; default 0)")
-    p.add_argument("--time", action="append", required=True, metavar="ISO8601",
-                   help="time with UTC offset, e.g. 2021-01-17T10:34:00+08:00 (repeatable)")
-    p.add_argument("--pressure", type=number(0.0, 2000.0, lo_open=True, what="a pressure in mbar"), metavar="MBAR",
-                   help="air pressure, mbar (hPa); enables the refraction correction")
-    p.add_argument("--temperature", type=number(-100.0, 100.0, what="a temperature in deg C"), default=12.0,
-                   metavar="C",
-                   help="air temperature, deg C, for refraction (default 12)")
-    p.add_argument("--delta-t", type=number(-1e6, 1e6, what="TT - UT1 in s"), default=None, metavar="S",
-                   help="TT - UT1 in s (default: Espenak-Meeus polynomial)")
+    p.add_argument(
+        "--time",
+        action="append",
+        required=True,
+        metavar="ISO8601",
+        help="time with UTC offset, e.g. 2021-01-17T10:34:00+08:00 (repeatable)",
+    )
+    p.add_argument(
+        "--pressure",
+        type=number(0.0, 2000.0, lo_open=True, what="a pressure in mbar"),
+        metavar="MBAR",
+        help="air pressure, mbar (hPa); enables the refraction correction",
+    )
+    p.add_argument(
+        "--temperature",
+        type=number(-100.0, 100.0, what="a temperature in deg C"),
+        default=12.0,
+        metavar="C",
+        help="air temperature, deg C, for refraction (default 12)",
+    )
+    p.add_argument(
+        "--delta-t",
+        type=number(-1e6, 1e6, what="TT - UT1 in s"),
+        default=None,
+        metavar="S",
+        help="TT - UT1 in s (default: Espenak-Meeus polynomial)",
+    )
     p.set_defaults(func=run)
 
 
@@ -51,12 +71,17 @@ def _row(r, i, times, ned, enu) -> dict:
 
     return {
         "time_utc": str(times[i].astype("datetime64[ms]")) + "Z",
-        "zenith_deg": deg(r.zenith), "azimuth_deg": deg(r.azimuth), "elevation_deg": deg(r.elevation),
-        "elevation_geometric_deg": deg(r.elevation_geometric), "declination_deg": deg(r.declination),
-        "hour_angle_deg": deg(r.hour_angle), "right_ascension_deg": deg(r.right_ascension),
+        "zenith_deg": deg(r.zenith),
+        "azimuth_deg": deg(r.azimuth),
+        "elevation_deg": deg(r.elevation),
+        "elevation_geometric_deg": deg(r.elevation_geometric),
+        "declination_deg": deg(r.declination),
+        "hour_angle_deg": deg(r.hour_angle),
+        "right_ascension_deg": deg(r.right_ascension),
         "equation_of_time_min": round(float(r.equation_of_time[i]) / 60.0, 6),
         "earth_sun_distance_au": round(float(r.earth_sun_distance[i]), 10),
-        "delta_t_s": round(float(r.delta_t[i]), 3), "refraction": bool(r.refraction),
+        "delta_t_s": round(float(r.delta_t[i]), 3),
+        "refraction": bool(r.refraction),
         "sun_ned": [round(float(v), 9) for v in ned[i]],
         "sun_enu": [round(float(v), 9) for v in enu[i]],
     }
@@ -69,8 +94,15 @@ def run(args) -> int:
 
     if args.pressure is None and args.temperature != 12.0:
         raise OptinavError("--temperature without --pressure has no effect", "add --pressure MBAR for refraction")
-    r = solar_position_deg(np.asarray(args.time, dtype=object), args.lat, args.lon, args.height,
-                           pressure_mbar=args.pressure, temperature_c=args.temperature, delta_t=args.delta_t)
+    r = solar_position_deg(
+        np.asarray(args.time, dtype=object),
+        args.lat,
+        args.lon,
+        args.height,
+        pressure_mbar=args.pressure,
+        temperature_c=args.temperature,
+        delta_t=args.delta_t,
+    )
     times, ned, enu = r.time, r.sun_vector("ned"), r.sun_vector("enu")  # whole arrays: once, not per row
     rows = [_row(r, i, times, ned, enu) for i in range(len(args.time))]
     out = {"lat_deg": args.lat, "lon_deg": args.lon, "height_m": args.height}

@@ -24,8 +24,17 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.rotations import (CORE_FRAME, frame_name, dcm_from_quat, euler_from_dcm, quat_from_dcm, quat_from_rotvec, quat_multiply,
-                                    rotvec_from_dcm, skew)
+from optinav.core.rotations import (
+    CORE_FRAME,
+    frame_name,
+    dcm_from_quat,
+    euler_from_dcm,
+    quat_from_dcm,
+    quat_from_rotvec,
+    quat_multiply,
+    rotvec_from_dcm,
+    skew,
+)
 from optinav.core.strapdown import attitude_update
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
@@ -59,8 +68,12 @@ class AlignmentResult(Result):
         return dcm_from_quat(self.q_b_n)
 
 
-register_legacy(AlignmentResult, AlignmentResult.SCHEMA, 1, lambda d: nested_kwargs(
-    AlignmentResult, d, {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}))  # old names
+register_legacy(
+    AlignmentResult,
+    AlignmentResult.SCHEMA,
+    1,
+    lambda d: nested_kwargs(AlignmentResult, d, {"accel_bias": "acc_bias", "accel_bias_std": "acc_bias_std"}),
+)  # old names
 
 
 def _axes(up, rate):
@@ -69,8 +82,10 @@ def _axes(up, rate):
     e = np.cross(rate, u)
     ne = np.linalg.norm(e)
     if not ne > 1e-3 * np.linalg.norm(rate) or not ne > 0:
-        raise OptinavError("Earth rate is parallel to gravity (latitude ±90° or no rotation seen)",
-                           "coarse heading is undefined here; give the heading from another source")
+        raise OptinavError(
+            "Earth rate is parallel to gravity (latitude ±90° or no rotation seen)",
+            "coarse heading is undefined here; give the heading from another source",
+        )
     e = e / ne
     return np.column_stack([e, np.cross(u, e), u])
 
@@ -104,8 +119,10 @@ def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84
     g = float(_earth.gravity(lat, h, earth))
     nf = np.linalg.norm(f)
     if not 0.5 * g < nf < 1.5 * g:
-        raise OptinavError(f"mean specific force {nf:.3f} m/s² is far from gravity {g:.3f} m/s²",
-                           "check the accelerometer units (m/s² expected) and that the base was static")
+        raise OptinavError(
+            f"mean specific force {nf:.3f} m/s² is far from gravity {g:.3f} m/s²",
+            "check the accelerometer units (m/s² expected) and that the base was static",
+        )
     w_n = _earth.earth_rate(lat, frame, earth)
     up_n = -_earth.gravity_vector(lat, h, frame, earth)
     a_b = _axes(f, w)  # columns: east, north, up in body coordinates
@@ -148,8 +165,7 @@ def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=CORE_FRAM
     nab = np.asarray(acc_bias_n, dtype=float)
     if frame == "ned":  # to ENU
         eps, nab = eps[[1, 0, 2]] * [1, 1, -1], nab[[1, 0, 2]] * [1, 1, -1]
-    phi = np.array([-nab[1] / g, nab[0] / g,
-                    -eps[0] / (e.omega_ie * np.cos(lat)) + nab[0] * np.tan(lat) / g])
+    phi = np.array([-nab[1] / g, nab[0] / g, -eps[0] / (e.omega_ie * np.cos(lat)) + nab[0] * np.tan(lat) / g])
     if frame == "ned":
         phi = phi[[1, 0, 2]] * [1, 1, -1]
     return phi
@@ -189,11 +205,28 @@ def _error_model_static(lat, h, frame, earth):
     return F, np.zeros((12, 6))
 
 
-def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth="wgs84", q0=None,
-                   gyro_white=1e-6, acc_white=1e-4, gyro_bias_std=1e-6, acc_bias_std=1e-3,
-                   initial_attitude_std=(1e-3, 1e-3, 1e-2), velocity_noise=None, kf_interval=0.1,
-                   gyro_bias_instability=0.0, gyro_bias_tau=np.inf, acc_bias_instability=0.0,
-                   acc_bias_tau=np.inf) -> AlignmentResult:
+def fine_alignment(
+    t,
+    dtheta,
+    dv,
+    lat,
+    height_m=0.0,
+    *,
+    frame=CORE_FRAME,
+    earth="wgs84",
+    q0=None,
+    gyro_white=1e-6,
+    acc_white=1e-4,
+    gyro_bias_std=1e-6,
+    acc_bias_std=1e-3,
+    initial_attitude_std=(1e-3, 1e-3, 1e-2),
+    velocity_noise=None,
+    kf_interval=0.1,
+    gyro_bias_instability=0.0,
+    gyro_bias_tau=np.inf,
+    acc_bias_instability=0.0,
+    acc_bias_tau=np.inf,
+) -> AlignmentResult:
     """Kalman-filter fine alignment on a static base from increments.
 
     The filter steps every ``kf_interval`` on summed increments (the base is static, so sums over 0.1 s lose
@@ -253,8 +286,10 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     dth = as_float_array(dtheta, "dtheta", last_dims=(3,))
     dvv = as_float_array(dv, "dv", last_dims=(3,))
     if dth.shape != (t.size - 1, 3) or dvv.shape != dth.shape:
-        raise OptinavError(f"dtheta {dth.shape} and dv {dvv.shape} must be ({t.size - 1}, 3) for {t.size} epochs",
-                           "pass one increment per interval between epochs")
+        raise OptinavError(
+            f"dtheta {dth.shape} and dv {dvv.shape} must be ({t.size - 1}, 3) for {t.size} epochs",
+            "pass one increment per interval between epochs",
+        )
     check_positive(kf_interval, "kf_interval")
     taus = np.array([gyro_bias_tau, acc_bias_tau], dtype=float)
     inst = np.array([gyro_bias_instability, acc_bias_instability], dtype=float)
@@ -277,8 +312,16 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     bounds = np.flatnonzero(np.diff(step_of)) + 1
     starts = np.concatenate([[0], bounds])
     ends = np.concatenate([bounds, [dth.shape[0]]])
-    P = np.diag(np.concatenate([np.square(initial_attitude_std), np.full(3, 0.1**2),
-                                np.full(3, gyro_bias_std**2), np.full(3, acc_bias_std**2)]))
+    P = np.diag(
+        np.concatenate(
+            [
+                np.square(initial_attitude_std),
+                np.full(3, 0.1**2),
+                np.full(3, gyro_bias_std**2),
+                np.full(3, acc_bias_std**2),
+            ]
+        )
+    )
     x_bias = np.zeros(6)  # fed-back bias estimates [ε (rad/s), ∇ (m/s²)]
     v = np.zeros(3)
     qn = np.diag(np.concatenate([np.full(3, gyro_white**2), np.full(3, acc_white**2)]))
@@ -318,11 +361,20 @@ def fine_alignment(t, dtheta, dv, lat, height_m=0.0, *, frame=CORE_FRAME, earth=
     c = dcm_from_quat(q)
     sd = np.sqrt(np.diag(P))
     # biases were estimated in the body frame through C_b^n: ε, ∇ states are body-frame
-    return AlignmentResult("kalman", frame, q, euler_from_dcm(c, frame), sd[0:3], gyro_bias=x_bias[:3],
-                           gyro_bias_std=sd[6:9], acc_bias=x_bias[3:], acc_bias_std=sd[9:12],
-                           history_t=np.asarray(hist_t),
-                           history_euler=euler_from_dcm(dcm_from_quat(np.reshape(hist_q, (-1, 4))), frame),
-                           history_attitude_std=np.asarray(hist_s))
+    return AlignmentResult(
+        "kalman",
+        frame,
+        q,
+        euler_from_dcm(c, frame),
+        sd[0:3],
+        gyro_bias=x_bias[:3],
+        gyro_bias_std=sd[6:9],
+        acc_bias=x_bias[3:],
+        acc_bias_std=sd[9:12],
+        history_t=np.asarray(hist_t),
+        history_euler=euler_from_dcm(dcm_from_quat(np.reshape(hist_q, (-1, 4))), frame),
+        history_attitude_std=np.asarray(hist_s),
+    )
 
 
 def attitude_error(c_est, c_true) -> np.ndarray:

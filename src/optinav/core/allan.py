@@ -117,8 +117,9 @@ def _edf(n_phase: int, m: np.ndarray, alpha: np.ndarray) -> np.ndarray:
         white_fm = (3 * (n - 1) / (2 * m) - 2 * (n - 2) / n) * 4 * m**2 / (4 * m**2 + 5)
         flicker_fm = np.where(m == 1, 2 * (n - 2) / (2.3 * n - 4.9), 5 * n**2 / (4 * m * (n + 3 * m)))
         rw_fm = (n - 2) / (m * (n - 3) ** 2) * ((n - 1) ** 2 - 3 * m * (n - 1) + 4 * m**2)
-    edf = np.select([alpha == 2, alpha == 1, alpha == 0, alpha == -1], [white_pm, flicker_pm, white_fm, flicker_fm],
-                    rw_fm)
+    edf = np.select(
+        [alpha == 2, alpha == 1, alpha == 0, alpha == -1], [white_pm, flicker_pm, white_fm, flicker_fm], rw_fm
+    )
     # the formulas are asymptotic; near m = N/2 a few of them reach zero or become undefined
     return np.where(np.isfinite(edf), np.maximum(edf, 1.0), 1.0)
 
@@ -152,7 +153,7 @@ def local_slope(tau, adev, *, span: float = 2.0) -> np.ndarray:
         w = np.abs(lt - lt[i]) <= half
         if np.count_nonzero(w) < 2:
             w = np.zeros_like(w)
-            w[max(i - 1, 0):i + 2] = True
+            w[max(i - 1, 0) : i + 2] = True
         x = lt[w] - lt[w].mean()
         y = la[w]
         out[i] = (x @ (y - y.mean(axis=0))) / (x @ x) if x @ x > 0 else np.nan
@@ -185,8 +186,10 @@ class AngleAccumulator:
         if kind not in _KINDS:
             raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
         if np.ndim(dt) != 0:
-            raise OptinavError("the Allan deviation needs one regular sample interval dt",
-                               "resample an irregular log to a constant rate first")
+            raise OptinavError(
+                "the Allan deviation needs one regular sample interval dt",
+                "resample an irregular log to a constant rate first",
+            )
         self.dt = check_positive(dt, "dt")
         self.kind = kind
         self.offset = None if offset is None else np.asarray(offset, float).ravel()
@@ -211,11 +214,12 @@ class AngleAccumulator:
         if self._carry is None:
             self._carry = np.zeros(X.shape[1])
         if X.shape[1] != self._carry.size or self.offset.size != X.shape[1]:
-            raise OptinavError(f"a block has {X.shape[1]} columns, the first had {self._carry.size}",
-                               "pass blocks of the same columns")
+            raise OptinavError(
+                f"a block has {X.shape[1]} columns, the first had {self._carry.size}", "pass blocks of the same columns"
+            )
         scale = self.dt if self.kind == "rate" else 1.0
         for a in range(0, X.shape[0], CHUNK_ROWS):
-            th = np.cumsum((X[a:a + CHUNK_ROWS] - self.offset) * scale, axis=0)
+            th = np.cumsum((X[a : a + CHUNK_ROWS] - self.offset) * scale, axis=0)
             th += self._carry
             self._carry = th[-1].copy()
             self._blocks.append(th)
@@ -260,13 +264,22 @@ def _overlapping_avar(theta: np.ndarray, dt: float, m: np.ndarray, progress_desc
     sums = np.zeros((m.size, k))
     for i, mi, a in progress(jobs, total=len(jobs), desc=progress_desc or "", enabled=None if progress_desc else False):
         b = min(a + CHUNK_ROWS, n + 1 - 2 * mi)
-        d = theta[a + 2 * mi:b + 2 * mi] - 2.0 * theta[a + mi:b + mi] + theta[a:b]
+        d = theta[a + 2 * mi : b + 2 * mi] - 2.0 * theta[a + mi : b + mi] + theta[a:b]
         sums[i] += np.einsum("ij,ij->j", d, d)
     return sums / (2.0 * ((m * dt) ** 2 * (n + 1 - 2 * m)))[:, None]
 
 
-def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto", confidence: float = 0.683,
-                    unit: str = "", progress_desc: str | None = None) -> AllanDeviation:
+def allan_deviation(
+    x,
+    dt,
+    taus=None,
+    *,
+    kind: str = "rate",
+    noise: str = "auto",
+    confidence: float = 0.683,
+    unit: str = "",
+    progress_desc: str | None = None,
+) -> AllanDeviation:
     """Overlapping Allan deviation of regularly sampled rate or increment data.
 
     The angle θ_k = Σ x·dt (or Σ Δ) is formed with cumulative sums and
@@ -303,8 +316,9 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
     if kind not in _KINDS:
         raise OptinavError(f"kind must be 'rate' or 'increment', got {kind!r}", "pass kind='rate' or 'increment'")
     if np.ndim(dt) != 0:
-        raise OptinavError("allan_deviation needs one regular sample interval dt",
-                           "resample an irregular log to a constant rate first")
+        raise OptinavError(
+            "allan_deviation needs one regular sample interval dt", "resample an irregular log to a constant rate first"
+        )
     dt = check_positive(dt, "dt")
     x = as_float_array(x, "x")
     if x.ndim not in (1, 2):
@@ -315,17 +329,24 @@ def allan_deviation(x, dt, taus=None, *, kind: str = "rate", noise: str = "auto"
         raise OptinavError(f"x has {X.shape[0]} samples; the Allan deviation needs at least 4", "record a longer log")
     acc = AngleAccumulator(dt, kind=kind, offset=X.mean(axis=0))
     acc.add(X)
-    res = allan_deviation_from_angle(acc, taus, noise=noise, confidence=confidence, unit=unit,
-                                     progress_desc=progress_desc)
+    res = allan_deviation_from_angle(
+        acc, taus, noise=noise, confidence=confidence, unit=unit, progress_desc=progress_desc
+    )
     if one_d:
         for name in ("adev", "lower", "upper", "edf", "alpha"):
             setattr(res, name, getattr(res, name)[:, 0])
     return res
 
 
-def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str = "auto",
-                               confidence: float = 0.683, unit: str = "", progress_desc: str | None = None
-                               ) -> AllanDeviation:
+def allan_deviation_from_angle(
+    angle: AngleAccumulator,
+    taus=None,
+    *,
+    noise: str = "auto",
+    confidence: float = 0.683,
+    unit: str = "",
+    progress_desc: str | None = None,
+) -> AllanDeviation:
     """:func:`allan_deviation` of the samples gathered in an :class:`AngleAccumulator` (a streamed log).
 
     Parameters
@@ -355,8 +376,10 @@ def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str
             raise OptinavError("taus must be positive cluster times in s", "pass e.g. taus=[0.1, 1, 10]")
         m = np.unique(np.rint(t / dt).astype(np.int64))
         if m[0] < 1 or m[-1] > n // 2:
-            raise OptinavError(f"taus must lie between dt = {dt:.6g} s and N·dt/2 = {n // 2 * dt:.6g} s",
-                               "choose cluster times the record can resolve")
+            raise OptinavError(
+                f"taus must lie between dt = {dt:.6g} s and N·dt/2 = {n // 2 * dt:.6g} s",
+                "choose cluster times the record can resolve",
+            )
     avar = _overlapping_avar(angle.theta(), dt, m, progress_desc)
     tau = m * dt
     adev = np.sqrt(avar)
@@ -368,12 +391,25 @@ def allan_deviation_from_angle(angle: AngleAccumulator, taus=None, *, noise: str
     c = float(confidence)
     lower = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 + c), edf))
     upper = np.sqrt(edf * avar / stats.chi2.ppf(0.5 * (1 - c), edf))
-    return AllanDeviation(tau=tau, adev=adev, lower=lower, upper=upper, edf=edf, alpha=alpha, m=m, dt=dt,
-                          n_samples=int(n), confidence=c, kind=kind, unit=unit)
+    return AllanDeviation(
+        tau=tau,
+        adev=adev,
+        lower=lower,
+        upper=upper,
+        edf=edf,
+        alpha=alpha,
+        m=m,
+        dt=dt,
+        n_samples=int(n),
+        confidence=c,
+        kind=kind,
+        unit=unit,
+    )
 
 
-def allan_deviation_model(tau, *, white=0.0, bias_instability=0.0, random_walk=0.0, quantization=0.0,
-                          gm_sigma=0.0, gm_tau=1.0) -> np.ndarray:
+def allan_deviation_model(
+    tau, *, white=0.0, bias_instability=0.0, random_walk=0.0, quantization=0.0, gm_sigma=0.0, gm_tau=1.0
+) -> np.ndarray:
     """Theoretical Allan deviation of independent noise terms (root of the sum of their variances).
 
     IEEE Std 952-1997 Annex C: white N → N²/τ; bias instability B → (2 ln 2/π)·B² (the flat asymptote for τ ≫ the
@@ -406,15 +442,22 @@ def allan_deviation_model(tau, *, white=0.0, bias_instability=0.0, random_walk=0
     tau = as_float_array(tau, "tau")
     if np.any(tau <= 0):
         raise OptinavError("tau must be positive", "pass cluster times in s")
-    avar = white**2 / tau + FLICKER_FLOOR**2 * bias_instability**2 + random_walk**2 * tau / 3.0 \
+    avar = (
+        white**2 / tau
+        + FLICKER_FLOOR**2 * bias_instability**2
+        + random_walk**2 * tau / 3.0
         + 3.0 * quantization**2 / tau**2
+    )
     if gm_sigma:
         gm_tau = check_positive(gm_tau, "gm_tau")
         x = tau / gm_tau
         with np.errstate(over="ignore"):
             # series near x → 0 avoids cancellation: 1 − (3 − 4e^{−x} + e^{−2x})/(2x) = x²/3 − x³/4 + …
-            bracket = np.where(x < 1e-3, x**2 / 3.0 - x**3 / 4.0 + 7.0 * x**4 / 60.0,
-                               1.0 - (3.0 - 4.0 * np.exp(-x) + np.exp(-2.0 * x)) / (2.0 * x))
+            bracket = np.where(
+                x < 1e-3,
+                x**2 / 3.0 - x**3 / 4.0 + 7.0 * x**4 / 60.0,
+                1.0 - (3.0 - 4.0 * np.exp(-x) + np.exp(-2.0 * x)) / (2.0 * x),
+            )
         avar = avar + 2.0 * gm_sigma**2 / x * bracket
     return np.sqrt(avar)
 
@@ -439,8 +482,9 @@ def _line_read(log_tau, log_adev, slope, edf, target, tol, at_tau, eligible):
     return value, tau_mid, 1.0 / math.sqrt(2.0 * float(np.max(edf[sl])))
 
 
-def noise_parameters_from_allan(result: AllanDeviation, *, tol: float = 0.125, min_edf: float = 10.0
-                                ) -> AllanNoiseParameters:
+def noise_parameters_from_allan(
+    result: AllanDeviation, *, tol: float = 0.125, min_edf: float = 10.0
+) -> AllanNoiseParameters:
     """Read N, B, K and Q off an Allan deviation (IEEE Std 952-1997 Annex C, Fig. C.2).
 
     The local slope is fitted over a factor 2 in τ either side (:func:`local_slope`); only points with
@@ -466,22 +510,38 @@ def noise_parameters_from_allan(result: AllanDeviation, *, tol: float = 0.125, m
         N [u·√s], B [u], K [u/√s], Q [u·s] with u the rate unit.
     """
     if not isinstance(result, AllanDeviation):
-        raise OptinavError("noise_parameters_from_allan needs the result of allan_deviation",
-                           "call allan_deviation(x, dt) first")
+        raise OptinavError(
+            "noise_parameters_from_allan needs the result of allan_deviation", "call allan_deviation(x, dt) first"
+        )
     tol = check_positive(tol, "tol")
     tau = np.asarray(result.tau, dtype=float)
     if tau.size < 3:
-        raise OptinavError(f"the Allan deviation has {tau.size} cluster time(s); at least 3 are needed",
-                           "compute it at more cluster times")
+        raise OptinavError(
+            f"the Allan deviation has {tau.size} cluster time(s); at least 3 are needed",
+            "compute it at more cluster times",
+        )
     adev = np.asarray(result.adev, dtype=float)
     edf = np.asarray(result.edf, dtype=float)
     one_d = adev.ndim == 1
     A, E = (adev[:, None], edf[:, None]) if one_d else (adev, edf)
     k = A.shape[1]
-    out = {name: np.full(k, np.nan) for name in
-           ("white", "bias_instability", "random_walk", "quantization", "white_tau", "bias_instability_tau",
-            "random_walk_tau", "quantization_tau", "white_rel_sigma", "bias_instability_rel_sigma",
-            "random_walk_rel_sigma", "quantization_rel_sigma")}
+    out = {
+        name: np.full(k, np.nan)
+        for name in (
+            "white",
+            "bias_instability",
+            "random_walk",
+            "quantization",
+            "white_tau",
+            "bias_instability_tau",
+            "random_walk_tau",
+            "quantization_tau",
+            "white_rel_sigma",
+            "bias_instability_rel_sigma",
+            "random_walk_rel_sigma",
+            "quantization_rel_sigma",
+        )
+    }
     log_tau = np.log(tau)
     slopes = local_slope(tau, A)
     for j in range(k):
@@ -490,8 +550,7 @@ def noise_parameters_from_allan(result: AllanDeviation, *, tol: float = 0.125, m
         log_adev = np.log(A[:, j])
         slope, e = slopes[:, j], E[:, j]
         eligible = e >= min_edf
-        for name, target, at in (("white", -0.5, 1.0), ("random_walk", 0.5, 3.0),
-                                 ("quantization", -1.0, math.sqrt(3))):
+        for name, target, at in (("white", -0.5, 1.0), ("random_walk", 0.5, 3.0), ("quantization", -1.0, math.sqrt(3))):
             v, t, r = _line_read(log_tau, log_adev, slope, e, target, tol, at, eligible)
             out[name][j], out[name + "_tau"][j], out[name + "_rel_sigma"][j] = v, t, r
         runs = _runs(eligible & (np.abs(slope) <= tol))
@@ -672,8 +731,10 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     use = np.array([t in terms for t in FIT_TERMS])
     tau = np.asarray(result.tau, float)
     if tau.size <= int(use.sum()):
-        raise OptinavError(f"the Allan deviation has {tau.size} cluster times, too few to fit {int(use.sum())} terms",
-                           "compute it at more cluster times (a longer record)")
+        raise OptinavError(
+            f"the Allan deviation has {tau.size} cluster times, too few to fit {int(use.sum())} terms",
+            "compute it at more cluster times (a longer record)",
+        )
     adev = np.asarray(result.adev, float)
     edf = np.asarray(result.edf, float)
     one_d = adev.ndim == 1
@@ -736,8 +797,12 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
 
 
 #: the noise terms of :meth:`AllanAnalysis.summary`: (field, label, unit suffix appended to the data's rate unit)
-NOISE_TERMS = (("white", "white noise N (ARW/VRW)", "*sqrt(s)"), ("bias_instability", "bias instability B", ""),
-         ("random_walk", "random walk K (RRW/AcRW)", "/sqrt(s)"), ("quantization", "quantization Q", "*s"))
+NOISE_TERMS = (
+    ("white", "white noise N (ARW/VRW)", "*sqrt(s)"),
+    ("bias_instability", "bias instability B", ""),
+    ("random_walk", "random walk K (RRW/AcRW)", "/sqrt(s)"),
+    ("quantization", "quantization Q", "*s"),
+)
 
 
 @dataclass(eq=False)
@@ -786,8 +851,9 @@ class AllanAnalysis(Result):
         str
             The table, units in brackets.
         """
-        lines = [f"optinav allan: {self.n_samples} samples at {self.rate_hz:.6g} Hz over "
-                 f"{self.duration_s / 3600:.3g} h"]
+        lines = [
+            f"optinav allan: {self.n_samples} samples at {self.rate_hz:.6g} Hz over {self.duration_s / 3600:.3g} h"
+        ]
         for name in ("accelerometer", "gyroscope"):
             d = self.sensor(name)
             if d is None:
@@ -799,15 +865,16 @@ class AllanAnalysis(Result):
                 v = np.atleast_1d(getattr(fit, key))
                 iv = np.asarray(getattr(fit, key + "_interval")).reshape(2, -1)
                 r = np.atleast_1d(getattr(ro, key))
-                cells = [f"{'xyz'[j]} {v[j]:.4g} [{iv[0, j]:.3g}, {iv[1, j]:.3g}] ({r[j]:.3g})"
-                         for j in range(v.size)]
+                cells = [f"{'xyz'[j]} {v[j]:.4g} [{iv[0, j]:.3g}, {iv[1, j]:.3g}] ({r[j]:.3g})" for j in range(v.size)]
                 lines.append(f"  {label} [{unit}{suffix}]: " + "; ".join(cells))
         return "\n".join(lines)
 
 
 #: Kalibr's key prefix and continuous-time units of each sensor (noise density, random walk)
-KALIBR_UNITS = {"accelerometer": ("m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
-                "gyroscope": ("rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)")}
+KALIBR_UNITS = {
+    "accelerometer": ("m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
+    "gyroscope": ("rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)"),
+}
 
 
 def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
@@ -831,8 +898,11 @@ def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     K = np.atleast_1d(np.asarray(fit.random_walk, float))
     K_hi = np.asarray(fit.random_walk_interval, float).reshape(2, -1)[1]
     K_used = np.where(K > 0, K, K_hi)
-    return {f"{sensor}_noise_density": float(np.nanmax(N)), f"{sensor}_random_walk": float(np.nanmax(K_used)),
-            f"{sensor}_random_walk_detected": bool(np.all(K > 0))}
+    return {
+        f"{sensor}_noise_density": float(np.nanmax(N)),
+        f"{sensor}_random_walk": float(np.nanmax(K_used)),
+        f"{sensor}_random_walk_detected": bool(np.all(K > 0)),
+    }
 
 
 #: largest departure of one sample interval from the median before the log counts as having gaps
@@ -871,14 +941,18 @@ class _RegularTiming:
 
     def check(self) -> float:
         if self.n < 64:
-            raise OptinavError(f"the log has {self.n} samples; an Allan deviation needs thousands (hours at rest)",
-                               "record a longer static log")
+            raise OptinavError(
+                f"the log has {self.n} samples; an Allan deviation needs thousands (hours at rest)",
+                "record a longer static log",
+            )
         if self.bad:
             t, d = self.first_bad
-            raise OptinavError(f"the log is not regularly sampled: {self.bad} interval(s) differ from the median "
-                               f"{self.dt0:.6g} s by more than {MAX_JITTER:.0%}, first at t = {t:.6g} s ({d:.6g} s)",
-                               "cut the log at the gap and analyse the longest regular part (or pass --rate to "
-                               "ignore a file's bad time stamps)")
+            raise OptinavError(
+                f"the log is not regularly sampled: {self.bad} interval(s) differ from the median "
+                f"{self.dt0:.6g} s by more than {MAX_JITTER:.0%}, first at t = {t:.6g} s ({d:.6g} s)",
+                "cut the log at the gap and analyse the longest regular part (or pass --rate to "
+                "ignore a file's bad time stamps)",
+            )
         # the mean interval of a regular log: the median of rounded time stamps would be off in the 12th digit
         return (self.t_last - self.t0) / (self.n - 1)
 
@@ -915,17 +989,20 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 missing = [n for n in ("accelerometer", "gyroscope") if present[n][0] is None or n not in wanted]
                 counts = [n for n in ("accelerometer", "gyroscope") if present[n][1] == "counts"]
                 if missing or counts:
-                    raise OptinavError("--kalibr: Kalibr needs both triads in SI units, and the log has "
-                                       + (f"no {missing[0]} selected" if missing else f"the {counts[0]} in raw counts"),
-                                       "calibrate the unit and analyse the output of optinav apply (m/s^2, rad/s), "
-                                       "with --sensor both")
+                    raise OptinavError(
+                        "--kalibr: Kalibr needs both triads in SI units, and the log has "
+                        + (f"no {missing[0]} selected" if missing else f"the {counts[0]} in raw counts"),
+                        "calibrate the unit and analyse the output of optinav apply (m/s^2, rad/s), with --sensor both",
+                    )
             for name in wanted:
                 if present[name][0] is not None:
                     angles[name] = AngleAccumulator(1.0)
                     units[name] = present[name][1]
             if not angles:
-                raise OptinavError(f"{source or 'the log'} has no {'data' if sensor == 'both' else sensor + ' data'} "
-                                   "to analyse", "check --columns (t,ax,ay,az,gx,gy,gz) or --sensor")
+                raise OptinavError(
+                    f"{source or 'the log'} has no {'data' if sensor == 'both' else sensor + ' data'} to analyse",
+                    "check --columns (t,ax,ay,az,gx,gy,gz) or --sensor",
+                )
         timing.add(log.t)
         for name, acc in angles.items():
             x = log.acc if name == "accelerometer" else log.gyr
@@ -933,8 +1010,10 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 raise OptinavError(f"a block of {source or 'the log'} lacks the {name}", "check --columns")
             if not np.all(np.isfinite(x)):
                 n_bad = int(np.count_nonzero(~np.all(np.isfinite(x), axis=1)))
-                raise OptinavError(f"the {name} data have {n_bad} row(s) with NaN or inf near t = {log.t[0]:.6g} s",
-                                   "cut the bad rows out of the log (the Allan deviation needs a gap-free record)")
+                raise OptinavError(
+                    f"the {name} data have {n_bad} row(s) with NaN or inf near t = {log.t[0]:.6g} s",
+                    "cut the bad rows out of the log (the Allan deviation needs a gap-free record)",
+                )
             if len(x):
                 acc.add(x)
     if not angles:
@@ -948,14 +1027,23 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
         ad = allan_deviation_from_angle(acc, unit=units[name], progress_desc=f"Allan deviation ({name})")
         del acc
         if ad.tau.size < 5:
-            raise OptinavError(f"the log spans {timing.t_last - timing.t0:.3g} s, too short for the noise terms "
-                               f"({ad.tau.size} cluster times)", "record at least a few minutes at rest (hours for "
-                                                                 "the bias instability and random walk)")
+            raise OptinavError(
+                f"the log spans {timing.t_last - timing.t0:.3g} s, too short for the noise terms "
+                f"({ad.tau.size} cluster times)",
+                "record at least a few minutes at rest (hours for the bias instability and random walk)",
+            )
         fit = fit_noise_model(ad)
         out[name] = {"deviation": ad, "read_off": noise_parameters_from_allan(ad), "fit": fit}
         if units[name] in ("m/s^2", "rad/s"):
             kal.update(kalibr_noise(fit, name))
     kal["update_rate"] = 1.0 / dt
-    return AllanAnalysis(accelerometer=out.get("accelerometer"), gyroscope=out.get("gyroscope"), rate_hz=1.0 / dt,
-                         n_samples=int(timing.n), duration_s=float(timing.t_last - timing.t0), kalibr=kal,
-                         source=source, rostopic=rostopic)
+    return AllanAnalysis(
+        accelerometer=out.get("accelerometer"),
+        gyroscope=out.get("gyroscope"),
+        rate_hz=1.0 / dt,
+        n_samples=int(timing.n),
+        duration_s=float(timing.t_last - timing.t0),
+        kalibr=kal,
+        source=source,
+        rostopic=rostopic,
+    )

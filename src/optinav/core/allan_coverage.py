@@ -13,8 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optinav.core.allan import (FLICKER_FLOOR, allan_deviation, fit_noise_model, kalibr_noise,
-                                noise_parameters_from_allan)
+from optinav.core.allan import (
+    FLICKER_FLOOR,
+    allan_deviation,
+    fit_noise_model,
+    kalibr_noise,
+    noise_parameters_from_allan,
+)
 from optinav.core.imu_model import static_noise
 
 TERMS = ("white", "bias_instability", "random_walk")
@@ -45,8 +50,10 @@ class Design:
 
 #: 3.6 h at 20 Hz, upturn at 300 s (the log is 44 times longer); 2.9 h at 50 Hz, upturn at 1000 s (10 times:
 #: the last octave-spaced cluster time, 1311 s, is just past the upturn)
-DESIGNS = (Design("long record (44x the upturn)", 2**18, 0.05, 1.0, 300.0),
-           Design("short record (10x the upturn)", int(2.9 * 3600 * 50), 0.02, 0.3, 1000.0))
+DESIGNS = (
+    Design("long record (44x the upturn)", 2**18, 0.05, 1.0, 300.0),
+    Design("short record (10x the upturn)", int(2.9 * 3600 * 50), 0.02, 0.3, 1000.0),
+)
 
 
 def coverage(design: Design, seeds) -> dict:
@@ -82,8 +89,7 @@ def coverage(design: Design, seeds) -> dict:
             # Kalibr's value is the largest axis of the fit: its interval is that axis' one, its truth the largest
             j = int(np.argmax(np.asarray(getattr(fit, term))))
             iv = np.asarray(getattr(fit, term + "_interval"))[:, j]
-            out["kalibr"][key].append(bool(iv[0] <= truth[term].max() <= iv[1])
-                                      and kal[f"gyroscope_{key}"] >= iv[0])
+            out["kalibr"][key].append(bool(iv[0] <= truth[term].max() <= iv[1]) and kal[f"gyroscope_{key}"] >= iv[0])
     return {m: {t: np.array(v) for t, v in d.items()} for m, d in out.items()}
 
 

@@ -47,11 +47,25 @@ class EarthConstants:
         return self.a * (1.0 - self.f)
 
 
-WGS84 = EarthConstants("WGS84", a=6378137.0, f=1.0 / 298.257223563, omega_ie=7.292115e-5,
-                       gm=3.986004418e14, gravity_model="somigliana", g_e=9.7803253359,
-                       k_somigliana=0.00193185265241)
-PSINS = EarthConstants("PSINS", a=6378137.0, f=1.0 / 298.257, omega_ie=7.2921151467e-5,
-                       gm=3.986004418e14, gravity_model="psins", g_e=9.7803267715)
+WGS84 = EarthConstants(
+    "WGS84",
+    a=6378137.0,
+    f=1.0 / 298.257223563,
+    omega_ie=7.292115e-5,
+    gm=3.986004418e14,
+    gravity_model="somigliana",
+    g_e=9.7803253359,
+    k_somigliana=0.00193185265241,
+)
+PSINS = EarthConstants(
+    "PSINS",
+    a=6378137.0,
+    f=1.0 / 298.257,
+    omega_ie=7.2921151467e-5,
+    gm=3.986004418e14,
+    gravity_model="psins",
+    g_e=9.7803267715,
+)
 CONSTANT_SETS = {"wgs84": WGS84, "psins": PSINS}
 
 

@@ -44,6 +44,7 @@ _CAUSES = {
 #: parsed cell each, so a block holds some tens of MB whatever the file's length
 CHUNK_ROWS = 200_000
 
+
 def describe(exc: OSError) -> str:
     """The cause of an OS error in words ("the file system is read-only", ...).
 
@@ -151,8 +152,9 @@ def check_output(path, option: str = "--out") -> Path:
     out = Path(path)
     src = input_at(out)
     if src is not None:
-        raise OptinavError(f"{option} {out} is the input {src}: writing it would destroy the input",
-                           f"choose another {option}")
+        raise OptinavError(
+            f"{option} {out} is the input {src}: writing it would destroy the input", f"choose another {option}"
+        )
     if out.is_dir():
         raise OptinavError(f"{option} {out} is a folder", f"give a file name for {option}")
     parent = out.parent
@@ -161,8 +163,9 @@ def check_output(path, option: str = "--out") -> Path:
         for up in parent.parents:
             if up.exists():
                 if not up.is_dir():
-                    raise OptinavError(f"the folder of {option} ({parent}) lies below the file {up}",
-                                       f"choose another {option}")
+                    raise OptinavError(
+                        f"the folder of {option} ({parent}) lies below the file {up}", f"choose another {option}"
+                    )
                 break
         raise OptinavError(f"the folder of {option} ({parent}) does not exist", "create it first")
     if not parent.is_dir():
@@ -194,8 +197,9 @@ def atomic_path(path, option: str = "--out") -> Iterator[Path]:
     path = Path(path)
     src = input_at(path)
     if src is not None:
-        raise OptinavError(f"{option} {path} is the input {src}: writing it would destroy the input",
-                           f"choose another {option}")
+        raise OptinavError(
+            f"{option} {path} is the input {src}: writing it would destroy the input", f"choose another {option}"
+        )
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
         os.close(fd)
@@ -329,8 +333,9 @@ def write_json(path, data, option: str = "--out", **kwargs) -> Path:
     return write_text(path, json.dumps(data, indent=2, allow_nan=False, **kwargs) + "\n", option)
 
 
-def write_csv(path, table, header: str, fmt: str = "%.17g", *, comments: str = "", delimiter: str = ",",
-              option: str = "--out") -> Path:
+def write_csv(
+    path, table, header: str, fmt: str = "%.17g", *, comments: str = "", delimiter: str = ",", option: str = "--out"
+) -> Path:
     """Write a 2-D numeric ``table`` as delimited text with ``header`` (lines prefixed by ``comments``) atomically.
 
     Parameters
@@ -424,8 +429,10 @@ def check_sidecar(path, signature: str, option: str = "--out") -> Path:
         except OSError:
             head = b""
         if not head.lstrip().startswith(signature.encode()):
-            raise OptinavError(f"{p} exists and was not written by optinav; writing beside {option} would replace it",
-                               f"move it away or choose another {option}")
+            raise OptinavError(
+                f"{p} exists and was not written by optinav; writing beside {option} would replace it",
+                f"move it away or choose another {option}",
+            )
     return p
 
 
@@ -465,8 +472,10 @@ def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise OptinavError(f"{what} {p} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
-                           "pass the text file optinav or your tool wrote, saved as UTF-8") from None
+        raise OptinavError(
+            f"{what} {p} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+            "pass the text file optinav or your tool wrote, saved as UTF-8",
+        ) from None
 
 
 def parse_json(text: str, src: str, remedy: str):

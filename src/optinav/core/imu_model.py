@@ -54,6 +54,7 @@ _RATE_UNIT = {"gyro": "rad/s", "accel": "m/s^2"}
 # small private helpers (general; candidates for core.validate)
 # ----------------------------------------------------------------------------------------------------------
 
+
 def _check_kind(kind: str, name: str = "kind") -> str:
     if kind not in KINDS:
         raise OptinavError(f"{name} must be 'rate' or 'increment', got {kind!r}", f"pass {name}='rate' or 'increment'")
@@ -66,13 +67,15 @@ def _dt(dt, shape: tuple[int, ...], name: str = "dt") -> np.ndarray:
         raise OptinavError(f"{name} is required here", f"pass {name} in s (a scalar or one value per sample)")
     d = as_float_array(dt, name)
     if np.any(d <= 0):
-        raise OptinavError(f"{name} must be positive, got a minimum of {float(np.min(d)):.6g} s",
-                           "pass the sample intervals in s")
+        raise OptinavError(
+            f"{name} must be positive, got a minimum of {float(np.min(d)):.6g} s", "pass the sample intervals in s"
+        )
     try:
         return np.broadcast_to(d, shape)
     except ValueError:
-        raise OptinavError(f"{name} has shape {d.shape}, expected a scalar or {shape}",
-                           "pass one interval per sample") from None
+        raise OptinavError(
+            f"{name} has shape {d.shape}, expected a scalar or {shape}", "pass one interval per sample"
+        ) from None
 
 
 def _vec3(x, name: str, *, nonneg: bool = False, allow_inf: bool = False) -> np.ndarray:
@@ -81,13 +84,13 @@ def _vec3(x, name: str, *, nonneg: bool = False, allow_inf: bool = False) -> np.
     if a.ndim == 0:
         a = np.full(3, float(a))
     if a.shape != (3,):
-        raise OptinavError(f"{name} has shape {a.shape}, expected a scalar or 3 values (x, y, z)",
-                           "pass one value or one per axis")
+        raise OptinavError(
+            f"{name} has shape {a.shape}, expected a scalar or 3 values (x, y, z)", "pass one value or one per axis"
+        )
     if np.any(np.isnan(a)):
         raise OptinavError(f"{name} contains NaN", f"pass a valid {name}")
     if nonneg and np.any(a < 0):
-        raise OptinavError(f"{name} must not be negative, got {a.tolist()}",
-                           f"pass |{name}| (a 1σ value or a density)")
+        raise OptinavError(f"{name} must not be negative, got {a.tolist()}", f"pass |{name}| (a 1σ value or a density)")
     return a.copy()
 
 
@@ -177,8 +180,9 @@ class TriadErrors(Result):
 
     def __post_init__(self):
         if self.sensor not in _RATE_UNIT:
-            raise OptinavError(f"sensor must be 'gyro' or 'accel', got {self.sensor!r}",
-                               "pass sensor='gyro' or 'accel'")
+            raise OptinavError(
+                f"sensor must be 'gyro' or 'accel', got {self.sensor!r}", "pass sensor='gyro' or 'accel'"
+            )
         self.bias = _vec3(self.bias, "bias")
         self.scale = _vec3(self.scale, "scale")
         M = as_float_array(self.misalignment, "misalignment", last_dims=(3, 3))
@@ -186,18 +190,26 @@ class TriadErrors(Result):
         if M.ndim != 2 or G.ndim != 2:
             raise OptinavError("misalignment and g_sensitivity must be single 3×3 matrices", "pass 3×3 arrays")
         if np.any(np.diag(M) != 0):
-            raise OptinavError(f"misalignment has a non-zero diagonal {np.diag(M).tolist()}",
-                               "put scale-factor errors in scale and keep M's diagonal zero")
+            raise OptinavError(
+                f"misalignment has a non-zero diagonal {np.diag(M).tolist()}",
+                "put scale-factor errors in scale and keep M's diagonal zero",
+            )
         if self.sensor == "accel" and np.any(G != 0):
-            raise OptinavError("g_sensitivity is a gyroscope error but was given for an accelerometer",
-                               "leave g_sensitivity zero for sensor='accel'")
+            raise OptinavError(
+                "g_sensitivity is a gyroscope error but was given for an accelerometer",
+                "leave g_sensitivity zero for sensor='accel'",
+            )
         self.misalignment, self.g_sensitivity = M.copy(), G.copy()
         if np.any(1.0 + self.scale <= 0):
-            raise OptinavError(f"scale-factor errors {self.scale.tolist()} make a gain 1 + s ≤ 0",
-                               "pass scale errors as small fractions (e.g. 2e-6 for 2 ppm)")
+            raise OptinavError(
+                f"scale-factor errors {self.scale.tolist()} make a gain 1 + s ≤ 0",
+                "pass scale errors as small fractions (e.g. 2e-6 for 2 ppm)",
+            )
         if np.linalg.cond(self.K) > 1e8:
-            raise OptinavError("the triad matrix K = diag(1+s)(I+M) is singular or ill-conditioned",
-                               "check the misalignment: its terms are small angles in rad")
+            raise OptinavError(
+                "the triad matrix K = diag(1+s)(I+M) is singular or ill-conditioned",
+                "check the misalignment: its terms are small angles in rad",
+            )
 
     # -- constructors -------------------------------------------------------------------------------------
     @classmethod
@@ -217,8 +229,9 @@ class TriadErrors(Result):
         return cls(sensor=sensor)
 
     @classmethod
-    def from_six(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0, 0, 0, 0), g_sensitivity=None
-                 ) -> "TriadErrors":
+    def from_six(
+        cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0, 0, 0, 0), g_sensitivity=None
+    ) -> "TriadErrors":
         """From bias, scale errors and the 6 misalignment terms [M_xy, M_xz, M_yx, M_yz, M_zx, M_zy].
 
         Parameters
@@ -239,12 +252,18 @@ class TriadErrors(Result):
         TriadErrors
             The triad.
         """
-        return cls(sensor=sensor, bias=bias, scale=scale, misalignment=misalignment_matrix(misalignment),
-                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+        return cls(
+            sensor=sensor,
+            bias=bias,
+            scale=scale,
+            misalignment=misalignment_matrix(misalignment),
+            g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity,
+        )
 
     @classmethod
-    def from_upper_triangular(cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0), g_sensitivity=None
-                              ) -> "TriadErrors":
+    def from_upper_triangular(
+        cls, sensor: str, bias=0.0, scale=0.0, misalignment=(0, 0, 0), g_sensitivity=None
+    ) -> "TriadErrors":
         """Upper-triangular form: bias, scale errors and [M_xy, M_xz, M_yz]; K is upper triangular.
 
         Parameters
@@ -259,8 +278,13 @@ class TriadErrors(Result):
         TriadErrors
             The triad.
         """
-        return cls(sensor=sensor, bias=bias, scale=scale, misalignment=upper_misalignment_matrix(misalignment),
-                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+        return cls(
+            sensor=sensor,
+            bias=bias,
+            scale=scale,
+            misalignment=upper_misalignment_matrix(misalignment),
+            g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity,
+        )
 
     @classmethod
     def from_matrix(cls, sensor: str, K, bias=0.0, g_sensitivity=None) -> "TriadErrors":
@@ -290,8 +314,13 @@ class TriadErrors(Result):
             raise OptinavError(f"K has a non-positive diagonal {d.tolist()}", "pass a gain matrix close to identity")
         M = K / d[:, None]
         np.fill_diagonal(M, 0.0)
-        return cls(sensor=sensor, bias=bias, scale=d - 1.0, misalignment=M,
-                   g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity)
+        return cls(
+            sensor=sensor,
+            bias=bias,
+            scale=d - 1.0,
+            misalignment=M,
+            g_sensitivity=np.zeros((3, 3)) if g_sensitivity is None else g_sensitivity,
+        )
 
     # -- derived ------------------------------------------------------------------------------------------
     @property
@@ -317,12 +346,16 @@ class TriadErrors(Result):
             off = off * _dt(dt, shape[:-1])[..., None]
         if np.any(self.g_sensitivity != 0):
             if f is None:
-                raise OptinavError("this gyro has g-sensitivity, so the specific force is needed",
-                                   f"pass {name_f} (m/s² for rates, m/s for increments)")
+                raise OptinavError(
+                    "this gyro has g-sensitivity, so the specific force is needed",
+                    f"pass {name_f} (m/s² for rates, m/s for increments)",
+                )
             f = as_float_array(f, name_f, last_dims=(3,))
             if f.shape != tuple(shape):
-                raise OptinavError(f"{name_f} has shape {f.shape}, expected {tuple(shape)} like the gyro samples",
-                                   "pass one specific-force sample per gyro sample")
+                raise OptinavError(
+                    f"{name_f} has shape {f.shape}, expected {tuple(shape)} like the gyro samples",
+                    "pass one specific-force sample per gyro sample",
+                )
             off = off + f @ self.g_sensitivity.T
         return off
 
@@ -378,6 +411,7 @@ class TriadErrors(Result):
 # ----------------------------------------------------------------------------------------------------------
 # stochastic processes (rate-equivalent values per sample; multiply by dt for increments)
 # ----------------------------------------------------------------------------------------------------------
+
 
 @njit(cache=True)
 def _gauss_markov_kernel(w, phi, sigma):  # pragma: no cover - compiled
@@ -550,8 +584,9 @@ def _unit_flicker(n: int, k: int, dt: float, rng) -> np.ndarray:
     return np.fft.irfft(spec, n=n, axis=0)
 
 
-def static_noise(n: int, dt: float, *, white=0.0, bias_instability=0.0, random_walk=0.0, rng=None,
-                 low_octaves: int = 3) -> np.ndarray:
+def static_noise(
+    n: int, dt: float, *, white=0.0, bias_instability=0.0, random_walk=0.0, rng=None, low_octaves: int = 3
+) -> np.ndarray:
     """(n, 3) rate noise of a unit at rest: white N + flicker B + random walk K per axis (IEEE Std 952 terms,
     SI: N in [u]·√s, B in [u], K in [u]/√s for rate unit [u]), as ``optinav simulate static`` records it.
 
@@ -682,8 +717,9 @@ class TriadNoise(Result):
     white: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/sqrt(s) | m/s/sqrt(s)"})
     gm_sigma: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2"})
     gm_tau: np.ndarray = field(default_factory=lambda: np.full(3, np.inf), metadata={"unit": "s"})
-    random_walk: np.ndarray = field(default_factory=lambda: np.zeros(3),
-                                    metadata={"unit": "rad/s/sqrt(s) | m/s^2/sqrt(s)"})
+    random_walk: np.ndarray = field(
+        default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s/sqrt(s) | m/s^2/sqrt(s)"}
+    )
     range: np.ndarray = field(default_factory=lambda: np.full(3, np.inf), metadata={"unit": "rad/s | m/s^2"})
     lsb: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"unit": "rad/s | m/s^2 | rad | m/s"})
     lsb_kind: str = field(default="rate", metadata={"unit": "-"})
@@ -699,8 +735,10 @@ class TriadNoise(Result):
         _check_kind(self.lsb_kind, "lsb_kind")
         self.carry = bool(self.carry)
         if np.any(self.gm_tau <= 0) or np.any((self.gm_sigma > 0) & ~np.isfinite(self.gm_tau)):
-            raise OptinavError(f"gm_tau must be a positive finite correlation time, got {self.gm_tau.tolist()}",
-                               "pass the bias-instability correlation time in s")
+            raise OptinavError(
+                f"gm_tau must be a positive finite correlation time, got {self.gm_tau.tolist()}",
+                "pass the bias-instability correlation time in s",
+            )
         if np.any(self.range <= 0):
             raise OptinavError(f"range must be positive, got {self.range.tolist()}", "pass inf for no saturation")
 
@@ -759,6 +797,7 @@ class TriadNoise(Result):
 # one unit: ImuModel
 # ----------------------------------------------------------------------------------------------------------
 
+
 @dataclass(eq=False)
 class ImuMeasurement(Result):
     """Simulated IMU outputs: rates (rad/s, m/s²) or increments (rad, m/s) per ``kind``; per-axis saturation flags.
@@ -810,14 +849,19 @@ class ImuModel(Result):
     name: str = field(default="custom", metadata={"unit": "-"})
 
     def __post_init__(self):
-        for attr, sensor, cls in (("gyr", "gyro", TriadErrors), ("acc", "accel", TriadErrors),
-                                  ("gyro_noise", None, TriadNoise), ("acc_noise", None, TriadNoise)):
+        for attr, sensor, cls in (
+            ("gyr", "gyro", TriadErrors),
+            ("acc", "accel", TriadErrors),
+            ("gyro_noise", None, TriadNoise),
+            ("acc_noise", None, TriadNoise),
+        ):
             v = getattr(self, attr)
             if not isinstance(v, cls):
                 raise OptinavError(f"ImuModel.{attr} must be a {cls.__name__}", f"build it with {cls.__name__}(...)")
             if sensor and v.sensor != sensor:
-                raise OptinavError(f"ImuModel.{attr} describes a {v.sensor}",
-                                   f"pass TriadErrors(sensor='{sensor}', ...)")
+                raise OptinavError(
+                    f"ImuModel.{attr} describes a {v.sensor}", f"pass TriadErrors(sensor='{sensor}', ...)"
+                )
         self.rate_hz = check_positive(self.rate_hz, "rate_hz")
 
     def _dt(self, dt, n: int) -> np.ndarray:
@@ -851,8 +895,10 @@ class ImuModel(Result):
         kind = _check_kind(kind)
         w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
         if w.shape != f.shape:
-            raise OptinavError(f"gyr {w.shape} and acc {f.shape} have different shapes",
-                               "pass the same number of gyro and accel samples")
+            raise OptinavError(
+                f"gyr {w.shape} and acc {f.shape} have different shapes",
+                "pass the same number of gyro and accel samples",
+            )
         n = w.shape[0]
         d = self._dt(dt, n)
         ya = self.acc.apply(f, dt=d, kind=kind)
@@ -891,8 +937,10 @@ class ImuModel(Result):
         kind = _check_kind(kind)
         yg, ya = _samples(gyr, "gyr"), _samples(acc, "acc")
         if yg.shape != ya.shape:
-            raise OptinavError(f"gyr {yg.shape} and acc {ya.shape} have different shapes",
-                               "pass the same number of gyro and accel samples")
+            raise OptinavError(
+                f"gyr {yg.shape} and acc {ya.shape} have different shapes",
+                "pass the same number of gyro and accel samples",
+            )
         d = self._dt(dt, yg.shape[0])
         fa = self.acc.compensate(ya, dt=d, kind=kind)
         wg = self.gyr.compensate(yg, dt=d, acc=fa, kind=kind)
@@ -900,10 +948,12 @@ class ImuModel(Result):
 
 
 #: field renames of earlier versions of the layouts above (old name → new), per (schema, version)
-_RENAMED = {(ImuMeasurement, 1): {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},  # old names
-            (ImuCompensated, 1): {"gyro": "gyr", "accel": "acc"},  # old names
-            (ImuModel, 2): {"accel_noise": "acc_noise", "sample_rate": "rate_hz"},  # old names
-            (ImuModel, 1): {"gyro": "gyr", "accel": "acc", "accel_noise": "acc_noise", "sample_rate": "rate_hz"}}  # old names
+_RENAMED = {
+    (ImuMeasurement, 1): {"gyro": "gyr", "accel": "acc", "accel_saturated": "acc_saturated"},  # old names
+    (ImuCompensated, 1): {"gyro": "gyr", "accel": "acc"},  # old names
+    (ImuModel, 2): {"accel_noise": "acc_noise", "sample_rate": "rate_hz"},  # old names
+    (ImuModel, 1): {"gyro": "gyr", "accel": "acc", "accel_noise": "acc_noise", "sample_rate": "rate_hz"},
+}  # old names
 for (_cls, _version), _rename in _RENAMED.items():
     register_legacy(_cls, _cls.SCHEMA, _version, lambda d, c=_cls, r=_rename: nested_kwargs(c, d, r))
 
@@ -911,6 +961,7 @@ for (_cls, _version), _rename in _RENAMED.items():
 # ----------------------------------------------------------------------------------------------------------
 # specification level: ImuSpec, presets
 # ----------------------------------------------------------------------------------------------------------
+
 
 def _vfield(unit: str, default=0.0):
     return field(default_factory=lambda: np.full(3, float(default)), metadata={"unit": unit})
@@ -973,15 +1024,19 @@ class ImuSpec(Result):
                 setattr(self, key, v)
             unbounded = ~np.isfinite(getattr(self, f"{s}_bias_corr_time"))
             if np.any(unbounded & (getattr(self, f"{s}_bias_instability") > 0)):
-                raise OptinavError(f"{s}_bias_corr_time must be finite when {s}_bias_instability is set",
-                                   "pass a correlation time in s")
+                raise OptinavError(
+                    f"{s}_bias_corr_time must be finite when {s}_bias_instability is set",
+                    "pass a correlation time in s",
+                )
             setattr(self, f"{s}_misalignment", _nonneg_scalar(getattr(self, f"{s}_misalignment"), f"{s}_misalignment"))
         self.gyro_g_sensitivity = _nonneg_scalar(self.gyro_g_sensitivity, "gyro_g_sensitivity")
         _check_kind(self.lsb_kind, "lsb_kind")
         self.quantization_carry = bool(self.quantization_carry)
         if self.misalignment_form not in ("full", "upper"):
-            raise OptinavError(f"misalignment_form must be 'full' or 'upper', got {self.misalignment_form!r}",
-                               "pass 'full' (6 terms) or 'upper' (M_xy, M_xz, M_yz)")
+            raise OptinavError(
+                f"misalignment_form must be 'full' or 'upper', got {self.misalignment_form!r}",
+                "pass 'full' (6 terms) or 'upper' (M_xy, M_xz, M_yz)",
+            )
 
     @classmethod
     def from_units(cls, **fields) -> "ImuSpec":
@@ -1045,18 +1100,37 @@ class ImuSpec(Result):
             return TriadErrors.from_six(sensor, bias, scale, rng.normal(0.0, sig, 6), G)
 
         def noise(s: str, white: str) -> TriadNoise:
-            return TriadNoise(white=getattr(self, f"{s}_{white}"),
-                              gm_sigma=GM_SIGMA_PER_BIAS_INSTABILITY * getattr(self, f"{s}_bias_instability"),
-                              gm_tau=getattr(self, f"{s}_bias_corr_time"), random_walk=getattr(self, f"{s}_rrw"),
-                              range=getattr(self, f"{s}_range"), lsb=getattr(self, f"{s}_lsb"),
-                              lsb_kind=self.lsb_kind, carry=self.quantization_carry)
+            return TriadNoise(
+                white=getattr(self, f"{s}_{white}"),
+                gm_sigma=GM_SIGMA_PER_BIAS_INSTABILITY * getattr(self, f"{s}_bias_instability"),
+                gm_tau=getattr(self, f"{s}_bias_corr_time"),
+                random_walk=getattr(self, f"{s}_rrw"),
+                range=getattr(self, f"{s}_range"),
+                lsb=getattr(self, f"{s}_lsb"),
+                lsb_kind=self.lsb_kind,
+                carry=self.quantization_carry,
+            )
 
-        return ImuModel(gyr=triad("gyro"), acc=triad("accel"), gyro_noise=noise("gyro", "arw"),
-                        acc_noise=noise("acc", "vrw"), rate_hz=self.rate_hz, name=self.name)
+        return ImuModel(
+            gyr=triad("gyro"),
+            acc=triad("accel"),
+            gyro_noise=noise("gyro", "arw"),
+            acc_noise=noise("acc", "vrw"),
+            rate_hz=self.rate_hz,
+            name=self.name,
+        )
 
 
-register_legacy(ImuSpec, ImuSpec.SCHEMA, 1, lambda d: nested_kwargs(
-    ImuSpec, d, {"sample_rate": "rate_hz", **{k: "acc_" + k[len("accel_"):] for k in d["fields"] if k.startswith("accel_")}}))  # old names
+register_legacy(
+    ImuSpec,
+    ImuSpec.SCHEMA,
+    1,
+    lambda d: nested_kwargs(
+        ImuSpec,
+        d,
+        {"sample_rate": "rate_hz", **{k: "acc_" + k[len("accel_") :] for k in d["fields"] if k.startswith("accel_")}},
+    ),
+)  # old names
 
 
 def _convert_fields(fields: dict) -> dict:
@@ -1083,15 +1157,26 @@ def _rlg_nav() -> ImuSpec:
     ±20 g, no quantization (set ``gyro_lsb``/``acc_lsb`` with ``lsb_kind="increment"`` for pulse outputs).
     """
     return ImuSpec.from_units(
-        name="rlg-nav", rate_hz=200.0,
-        gyro_bias=(0.005, "deg/h"), gyro_bias_instability=(0.005, "deg/h"), gyro_bias_corr_time=300.0,
-        gyro_scale=(2, "ppm"), gyro_misalignment=(5, "arcsec"), gyro_arw=(0.0005, "deg/sqrt(h)"),
+        name="rlg-nav",
+        rate_hz=200.0,
+        gyro_bias=(0.005, "deg/h"),
+        gyro_bias_instability=(0.005, "deg/h"),
+        gyro_bias_corr_time=300.0,
+        gyro_scale=(2, "ppm"),
+        gyro_misalignment=(5, "arcsec"),
+        gyro_arw=(0.0005, "deg/sqrt(h)"),
         gyro_range=(400, "deg/s"),
-        acc_bias=(20, "ug"), acc_bias_instability=(20, "ug"), acc_bias_corr_time=300.0,
-        acc_scale=(20, "ppm"), acc_misalignment=(5, "arcsec"), acc_vrw=(10, "ug/sqrt(Hz)"),
-        acc_range=(20, "g"), lsb_kind="increment",
+        acc_bias=(20, "ug"),
+        acc_bias_instability=(20, "ug"),
+        acc_bias_corr_time=300.0,
+        acc_scale=(20, "ppm"),
+        acc_misalignment=(5, "arcsec"),
+        acc_vrw=(10, "ug/sqrt(Hz)"),
+        acc_range=(20, "g"),
+        lsb_kind="increment",
         source="dual-axis rotational laser INS paper, Table 1 (gyro 0.005 deg/h, 0.0005 deg/sqrt(h), 2 ppm; "
-               "accel 20 ug; 200 Hz); other values chosen, see optinav.core.imu_model._rlg_nav")
+        "accel 20 ug; 200 Hz); other values chosen, see optinav.core.imu_model._rlg_nav",
+    )
 
 
 def _mems_mti1() -> ImuSpec:
@@ -1108,15 +1193,25 @@ def _mems_mti1() -> ImuSpec:
     (no quantization), no g-sensitivity.
     """
     return ImuSpec.from_units(
-        name="mems-mti1", rate_hz=100.0,
-        gyro_bias=(0.1, "deg/s"), gyro_bias_instability=(10, "deg/h"), gyro_bias_corr_time=100.0,
-        gyro_scale=(0.2, "%"), gyro_misalignment=0.005, gyro_arw=(0.007, "deg/s/sqrt(Hz)"),
+        name="mems-mti1",
+        rate_hz=100.0,
+        gyro_bias=(0.1, "deg/s"),
+        gyro_bias_instability=(10, "deg/h"),
+        gyro_bias_corr_time=100.0,
+        gyro_scale=(0.2, "%"),
+        gyro_misalignment=0.005,
+        gyro_arw=(0.007, "deg/s/sqrt(Hz)"),
         gyro_range=(2000, "deg/s"),
-        acc_bias=0.1, acc_bias_instability=(0.03, "mg"), acc_bias_corr_time=100.0,
-        acc_scale=(0.2, "%"), acc_misalignment=0.005, acc_vrw=(120, "ug/sqrt(Hz)"),
+        acc_bias=0.1,
+        acc_bias_instability=(0.03, "mg"),
+        acc_bias_corr_time=100.0,
+        acc_scale=(0.2, "%"),
+        acc_misalignment=0.005,
+        acc_vrw=(120, "ug/sqrt(Hz)"),
         acc_range=(16, "g"),
         source="Xsens MTi 1-series datasheet (gyro 2000 deg/s, 10 deg/h, 0.007 deg/s/sqrt(Hz); accel 16 g, "
-               "0.03 mg, 120 ug/sqrt(Hz)); deterministic errors after the MEMS calibration paper, Table 2")
+        "0.03 mg, 120 ug/sqrt(Hz)); deterministic errors after the MEMS calibration paper, Table 2",
+    )
 
 
 def _mpu6000() -> ImuSpec:
@@ -1132,14 +1227,29 @@ def _mpu6000() -> ImuSpec:
     100 Hz (chosen). Outputs are 16-bit registers rounded independently (rate LSB, no carry).
     """
     return ImuSpec.from_units(
-        name="mpu6000", rate_hz=100.0,
-        gyro_bias=(20, "deg/s"), gyro_bias_instability=(4.6, "deg/h"), gyro_bias_corr_time=500.0,
-        gyro_scale=(3, "%"), gyro_misalignment=(2, "%"), gyro_g_sensitivity=(0.1, "deg/s/g"),
-        gyro_arw=(0.005, "deg/s/sqrt(Hz)"), gyro_range=(250, "deg/s"), gyro_lsb=(1 / 131, "deg/s"),
-        acc_bias=([50, 50, 80], "mg"), acc_bias_instability=(36, "ug"), acc_bias_corr_time=800.0,
-        acc_scale=(3, "%"), acc_misalignment=(2, "%"), acc_vrw=(400, "ug/sqrt(Hz)"),
-        acc_range=(2, "g"), acc_lsb=(1 / 16384, "g"), lsb_kind="rate", quantization_carry=False,
-        source="InvenSense PS-MPU-6000A-00 rev 3.4 (FS_SEL=0, AFS_SEL=0); bias instability: Greenheck 2009")
+        name="mpu6000",
+        rate_hz=100.0,
+        gyro_bias=(20, "deg/s"),
+        gyro_bias_instability=(4.6, "deg/h"),
+        gyro_bias_corr_time=500.0,
+        gyro_scale=(3, "%"),
+        gyro_misalignment=(2, "%"),
+        gyro_g_sensitivity=(0.1, "deg/s/g"),
+        gyro_arw=(0.005, "deg/s/sqrt(Hz)"),
+        gyro_range=(250, "deg/s"),
+        gyro_lsb=(1 / 131, "deg/s"),
+        acc_bias=([50, 50, 80], "mg"),
+        acc_bias_instability=(36, "ug"),
+        acc_bias_corr_time=800.0,
+        acc_scale=(3, "%"),
+        acc_misalignment=(2, "%"),
+        acc_vrw=(400, "ug/sqrt(Hz)"),
+        acc_range=(2, "g"),
+        acc_lsb=(1 / 16384, "g"),
+        lsb_kind="rate",
+        quantization_carry=False,
+        source="InvenSense PS-MPU-6000A-00 rev 3.4 (FS_SEL=0, AFS_SEL=0); bias instability: Greenheck 2009",
+    )
 
 
 def _tactical_mems() -> ImuSpec:
@@ -1154,13 +1264,25 @@ def _tactical_mems() -> ImuSpec:
     bias correlation times 300 s, 200 Hz, floating-point outputs, no g-sensitivity.
     """
     return ImuSpec.from_units(
-        name="tactical-mems", rate_hz=200.0,
-        gyro_bias=(0.2, "deg/s"), gyro_bias_instability=(0.8, "deg/h"), gyro_bias_corr_time=300.0,
-        gyro_scale=(0.05, "%"), gyro_misalignment=5e-4, gyro_arw=(0.09, "deg/sqrt(h)"), gyro_range=(450, "deg/s"),
-        acc_bias=(2, "mg"), acc_bias_instability=(3.2, "ug"), acc_bias_corr_time=300.0,
-        acc_scale=(0.05, "%"), acc_misalignment=5e-4, acc_vrw=(0.008, "m/s/sqrt(h)"), acc_range=(8, "g"),
+        name="tactical-mems",
+        rate_hz=200.0,
+        gyro_bias=(0.2, "deg/s"),
+        gyro_bias_instability=(0.8, "deg/h"),
+        gyro_bias_corr_time=300.0,
+        gyro_scale=(0.05, "%"),
+        gyro_misalignment=5e-4,
+        gyro_arw=(0.09, "deg/sqrt(h)"),
+        gyro_range=(450, "deg/s"),
+        acc_bias=(2, "mg"),
+        acc_bias_instability=(3.2, "ug"),
+        acc_bias_corr_time=300.0,
+        acc_scale=(0.05, "%"),
+        acc_misalignment=5e-4,
+        acc_vrw=(0.008, "m/s/sqrt(h)"),
+        acc_range=(8, "g"),
         source="ADIS16495-2 class (gyro 0.8 deg/h, 0.09 deg/sqrt(h); accel 3.2 ug, 0.008 m/s/sqrt(h)); "
-               "deterministic errors chosen, see optinav.core.imu_model._tactical_mems")
+        "deterministic errors chosen, see optinav.core.imu_model._tactical_mems",
+    )
 
 
 _PRESETS = {"rlg-nav": _rlg_nav, "tactical-mems": _tactical_mems, "mems-mti1": _mems_mti1, "mpu6000": _mpu6000}
@@ -1205,13 +1327,21 @@ class StaticLog(NamedTuple):
 
 
 #: SI units of the noise terms of a static log, per sensor
-_STATIC_UNITS = {"accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2",
-                                   "random_walk": "m/s^2/sqrt(s)"},
-                 "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s", "random_walk": "rad/s/sqrt(s)"}}
+_STATIC_UNITS = {
+    "accelerometer": {"white": "m/s/sqrt(s)", "bias_instability": "m/s^2", "random_walk": "m/s^2/sqrt(s)"},
+    "gyroscope": {"white": "rad/sqrt(s)", "bias_instability": "rad/s", "random_walk": "rad/s/sqrt(s)"},
+}
 
 
-def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: float | None = None,
-                    acc_random_walk: float = 0.0, gyr_random_walk: float = 0.0, seed: int = 0) -> StaticLog:
+def simulate_static(
+    duration_s: float,
+    spec: str = "mems-mti1",
+    *,
+    rate_hz: float | None = None,
+    acc_random_walk: float = 0.0,
+    gyr_random_walk: float = 0.0,
+    seed: int = 0,
+) -> StaticLog:
     """An IMU at rest with known noise terms, for noise characterisation (``optinav simulate static``).
 
     z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
@@ -1244,24 +1374,42 @@ def simulate_static(duration_s: float, spec: str = "mems-mti1", *, rate_hz: floa
     rate = rate_hz or s.rate_hz
     n = int(round(duration_s * rate))
     if n < 1000:
-        raise OptinavError(f"{duration_s / 3600:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands",
-                           "raise --hours")
+        raise OptinavError(
+            f"{duration_s / 3600:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands", "raise --hours"
+        )
     dt = 1.0 / rate
     rng = np.random.default_rng(seed)
-    terms = {"accelerometer": (s.acc_vrw, s.acc_bias_instability, np.full(3, float(acc_random_walk))),
-             "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk)))}
-    data = {name: static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=rng)
-            for name, (N, B, K) in terms.items()}
+    terms = {
+        "accelerometer": (s.acc_vrw, s.acc_bias_instability, np.full(3, float(acc_random_walk))),
+        "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk))),
+    }
+    data = {
+        name: static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=rng)
+        for name, (N, B, K) in terms.items()
+    }
     g = float(gravity(np.radians(45.0), 0.0))
     short = {"accelerometer": "acc", "gyroscope": "gyr"}
     # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
-    params = {f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), _STATIC_UNITS[name][term])
-              for name, (N, B, K) in terms.items()
-              for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
-              for i, ax in enumerate("xyz")}
-    truth = Truth("allan", params, {
-        "kind": "static", "units": _STATIC_UNITS,
-        **{name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
-           for name, (N, B, K) in terms.items()},
-        "rate_hz": rate, "gravity": g, "preset": spec, "seed": seed})
+    params = {
+        f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), _STATIC_UNITS[name][term])
+        for name, (N, B, K) in terms.items()
+        for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
+        for i, ax in enumerate("xyz")
+    }
+    truth = Truth(
+        "allan",
+        params,
+        {
+            "kind": "static",
+            "units": _STATIC_UNITS,
+            **{
+                name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
+                for name, (N, B, K) in terms.items()
+            },
+            "rate_hz": rate,
+            "gravity": g,
+            "preset": spec,
+            "seed": seed,
+        },
+    )
     return StaticLog(np.arange(n) * dt, data["accelerometer"] + np.array([0.0, 0.0, g]), data["gyroscope"], truth)

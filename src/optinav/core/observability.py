@@ -51,11 +51,20 @@ from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
 __all__ = [
-    "DEFAULT_REL_TOL", "DEFAULT_COEF_TOL",
-    "fisher_information", "analyze", "ObservabilityReport",
-    "observability_matrix", "observability_svd", "ObservabilitySVD",
-    "monte_carlo", "MonteCarloResult",
-    "nees", "nees_test", "NeesResult", "rmse_ratio_band",
+    "DEFAULT_REL_TOL",
+    "DEFAULT_COEF_TOL",
+    "fisher_information",
+    "analyze",
+    "ObservabilityReport",
+    "observability_matrix",
+    "observability_svd",
+    "ObservabilitySVD",
+    "monte_carlo",
+    "MonteCarloResult",
+    "nees",
+    "nees_test",
+    "NeesResult",
+    "rmse_ratio_band",
 ]
 
 DEFAULT_REL_TOL = 1e-6  #: singular values ≤ rel_tol·s_max of the column-scaled matrix are treated as zero
@@ -66,11 +75,14 @@ DEFAULT_COEF_TOL = 1e-6  #: coupling coefficients (scaled units) below this are 
 # input handling
 # ----------------------------------------------------------------------------------------------------------
 
+
 def _as_matrix(J, name: str = "J") -> np.ndarray:
     J = as_float_array(J, name)
     if J.ndim != 2 or J.shape[0] < 1 or J.shape[1] < 1:
-        raise OptinavError(f"{name} must be a non-empty 2-D matrix (residuals × parameters), got shape {J.shape}",
-                           "pass the Jacobian of the residual vector")
+        raise OptinavError(
+            f"{name} must be a non-empty 2-D matrix (residuals × parameters), got shape {J.shape}",
+            "pass the Jacobian of the residual vector",
+        )
     return J
 
 
@@ -82,8 +94,10 @@ def _whiten(J: np.ndarray, sigma, R, *, name: str = "J") -> tuple[np.ndarray, Ca
             raise OptinavError("both sigma and R were given", "pass either the noise std sigma or the covariance R")
         R = as_float_array(R, "R")
         if R.shape != (m, m):
-            raise OptinavError(f"R has shape {R.shape}, expected ({m}, {m}) for {m} residuals",
-                               "pass one covariance entry per pair of residuals")
+            raise OptinavError(
+                f"R has shape {R.shape}, expected ({m}, {m}) for {m} residuals",
+                "pass one covariance entry per pair of residuals",
+            )
         if not np.allclose(R, R.T, rtol=1e-10, atol=0.0):
             raise OptinavError("R is not symmetric", "pass a symmetric covariance matrix")
         try:
@@ -101,8 +115,10 @@ def _whiten(J: np.ndarray, sigma, R, *, name: str = "J") -> tuple[np.ndarray, Ca
     if s.ndim == 2:
         raise OptinavError("sigma is a matrix", "pass a full noise covariance as R=..., sigma is a standard deviation")
     if s.ndim > 1 or (s.ndim == 1 and s.shape[0] != m):
-        raise OptinavError(f"sigma has shape {s.shape}, expected a scalar or ({m},)",
-                           "pass one noise standard deviation, or one per residual")
+        raise OptinavError(
+            f"sigma has shape {s.shape}, expected a scalar or ({m},)",
+            "pass one noise standard deviation, or one per residual",
+        )
     if np.any(s <= 0):
         raise OptinavError("sigma must be positive", "pass the measurement noise standard deviation (> 0)")
     if s.ndim == 0:
@@ -152,8 +168,10 @@ def _scales(scales, Jw: np.ndarray) -> np.ndarray:
     if d.ndim == 0:
         d = np.full(n, float(d))
     if d.shape != (n,):
-        raise OptinavError(f"scales has shape {d.shape}, expected ({n},)",
-                           "pass one expected magnitude per parameter, or None for automatic scaling")
+        raise OptinavError(
+            f"scales has shape {d.shape}, expected ({n},)",
+            "pass one expected magnitude per parameter, or None for automatic scaling",
+        )
     if np.any(d <= 0):
         raise OptinavError("scales must be positive", "pass each parameter's expected magnitude (> 0)")
     return d
@@ -162,6 +180,7 @@ def _scales(scales, Jw: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------------------
 # linear algebra
 # ----------------------------------------------------------------------------------------------------------
+
 
 def _svd_right(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Singular values (length n, zero-padded) and full right singular vectors Vᵀ (n × n) of A (m × n)."""
@@ -247,14 +266,14 @@ def _pivot_normalize(rows: np.ndarray) -> np.ndarray:
 @dataclass
 class _Structure:
     rank: int
-    s: np.ndarray            # scaled singular values, length n
-    vt: np.ndarray           # right singular vectors of the scaled matrix (u coordinates)
-    null_u: np.ndarray       # n × (n - rank), orthonormal, u coordinates
-    null_p: np.ndarray       # n × (n - rank), orthonormal, parameter coordinates
-    observable: np.ndarray   # bool (n,), individually observable
+    s: np.ndarray  # scaled singular values, length n
+    vt: np.ndarray  # right singular vectors of the scaled matrix (u coordinates)
+    null_u: np.ndarray  # n × (n - rank), orthonormal, u coordinates
+    null_p: np.ndarray  # n × (n - rank), orthonormal, parameter coordinates
+    observable: np.ndarray  # bool (n,), individually observable
     unobservable: list[str]  # each unobservable direction in words
     combinations: list[str]  # observable combinations of coupled parameters in words
-    statements: list[str]    # everything, one sentence per line
+    statements: list[str]  # everything, one sentence per line
 
 
 def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, coef_tol: float) -> _Structure:
@@ -269,7 +288,7 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
     observable = np.ones(n, dtype=bool)
     statements: list[str] = []
     if r < n:
-        N = rref(null_u.T, coef_tol)                         # canonical null basis, u coordinates
+        N = rref(null_u.T, coef_tol)  # canonical null basis, u coordinates
         support = N != 0.0
         observable = ~support.any(axis=0)
         for row in N:
@@ -294,11 +313,11 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
             B = N[:, g][support[:, g].any(axis=1)]
             sb, vtb = _svd_right(B)
             rb = _rank(sb, 1e-10)
-            est = vtb[rb:]                                      # estimable functionals on g, u coordinates
+            est = vtb[rb:]  # estimable functionals on g, u coordinates
             if est.shape[0] == 0:
                 continue  # every parameter of g is then a single-parameter unobservable direction itself
             est = rref(est, coef_tol)
-            est_p = _pivot_normalize(est / d[g][None, :])      # cᵀu = (c/d)ᵀp
+            est_p = _pivot_normalize(est / d[g][None, :])  # cᵀu = (c/d)ᵀp
             words = [format_combination(row, [names[i] for i in g]) for row in est_p]
             comb_words.extend(words)
         statements = [f"unobservable: {w}" for w in unobs_words]
@@ -315,6 +334,7 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
 # ----------------------------------------------------------------------------------------------------------
 # Fisher information, analyze
 # ----------------------------------------------------------------------------------------------------------
+
 
 def fisher_information(J, sigma=None, *, R=None) -> np.ndarray:
     """Fisher information ``Jᵀ R⁻¹ J`` of residuals with Jacobian ``J``; Gaussian noise (Kay 1993, Thm 3.2).
@@ -385,8 +405,9 @@ class ObservabilityReport(Result):
     def _coef(self, c) -> np.ndarray:
         c = as_float_array(c, "combination")
         if c.shape != (self.n_params,):
-            raise OptinavError(f"combination has shape {c.shape}, expected ({self.n_params},)",
-                               "pass one coefficient per parameter")
+            raise OptinavError(
+                f"combination has shape {c.shape}, expected ({self.n_params},)", "pass one coefficient per parameter"
+            )
         return c
 
     def is_estimable(self, c, tol: float = DEFAULT_COEF_TOL) -> bool:
@@ -443,28 +464,40 @@ class ObservabilityReport(Result):
         """
         n = self.n_params
         cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.3g}"
-        lines = [f"Observability: {n} parameters, {self.n_residuals} residuals, rank {self.rank}/{n} "
-                 f"(singular values of the column-scaled Jacobian > {self.rel_tol:.0e}·max), "
-                 f"condition number {cond}"]
+        lines = [
+            f"Observability: {n} parameters, {self.n_residuals} residuals, rank {self.rank}/{n} "
+            f"(singular values of the column-scaled Jacobian > {self.rel_tol:.0e}·max), "
+            f"condition number {cond}"
+        ]
         lines += ["  " + s for s in self.statements]
         if self.unobservable_directions:
-            lines.append("  (changing the parameters in proportion to the coefficients of an unobservable "
-                         "direction leaves the residuals unchanged)")
+            lines.append(
+                "  (changing the parameters in proportion to the coefficients of an unobservable "
+                "direction leaves the residuals unchanged)"
+            )
         if self.variance_factor is not None:
             how = "applied to the covariance" if self.sigma_estimated else "not applied"
-            lines.append(f"  a-posteriori variance factor {self.variance_factor:.4g} "
-                         f"(σ̂/σ = {np.sqrt(self.variance_factor):.4g}, {self.dof} dof; {how})")
+            lines.append(
+                f"  a-posteriori variance factor {self.variance_factor:.4g} "
+                f"(σ̂/σ = {np.sqrt(self.variance_factor):.4g}, {self.dof} dof; {how})"
+            )
         w = max(9, *(len(s) for s in self.names))
         lines.append(f"  {'parameter':<{w}}  {'std':>11}  {'CRLB std':>11}  {'unit':<10} status")
         for i, nm in enumerate(self.names):
             status = "observable" if self.observable[i] else "coupled/unobservable"
-            lines.append(f"  {nm:<{w}}  {_fmt(self.std[i]):>11}  {_fmt(self.crlb_std[i]):>11}  "
-                         f"{self.param_units[i]:<10} {status}")
+            lines.append(
+                f"  {nm:<{w}}  {_fmt(self.std[i]):>11}  {_fmt(self.crlb_std[i]):>11}  "
+                f"{self.param_units[i]:<10} {status}"
+            )
         sv = " ".join(f"{x:.3g}" for x in np.asarray(self.singular_values))
         lines.append(f"  scaled singular values: {sv}")
         C = np.asarray(self.correlation)
-        pairs = [(abs(C[i, j]), i, j) for i in range(n) for j in range(i + 1, n)
-                 if np.isfinite(C[i, j]) and abs(C[i, j]) >= 0.9]
+        pairs = [
+            (abs(C[i, j]), i, j)
+            for i in range(n)
+            for j in range(i + 1, n)
+            if np.isfinite(C[i, j]) and abs(C[i, j]) >= 0.9
+        ]
         if pairs:
             pairs.sort(reverse=True)
             txt = ", ".join(f"{self.names[i]}/{self.names[j]} {C[i, j]:+.3f}" for _, i, j in pairs[:8])
@@ -476,9 +509,19 @@ def _fmt(x: float) -> str:
     return "inf" if not np.isfinite(x) else f"{x:.4g}"
 
 
-def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units: Sequence[str] | None = None,
-            rel_tol: float = DEFAULT_REL_TOL, scales=None, residuals=None, estimate_sigma: bool = False,
-            coef_tol: float = DEFAULT_COEF_TOL) -> ObservabilityReport:
+def analyze(
+    J,
+    sigma=None,
+    *,
+    R=None,
+    names: Sequence[str] | None = None,
+    units: Sequence[str] | None = None,
+    rel_tol: float = DEFAULT_REL_TOL,
+    scales=None,
+    residuals=None,
+    estimate_sigma: bool = False,
+    coef_tol: float = DEFAULT_COEF_TOL,
+) -> ObservabilityReport:
     """Observability and uncertainty of parameters ``p`` from the residual Jacobian ``J = ∂r/∂p``.
 
     Parameters
@@ -541,8 +584,10 @@ def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units:
         if residuals is None:
             raise OptinavError("estimate_sigma=True needs the residuals", "pass residuals=... at the solution")
         if vf is None:
-            raise OptinavError(f"no redundancy to estimate sigma ({m} residuals, rank {r})",
-                               "collect more measurements or pass the known sigma")
+            raise OptinavError(
+                f"no redundancy to estimate sigma ({m} residuals, rank {r})",
+                "collect more measurements or pass the known sigma",
+            )
     cov = crlb * vf if (estimate_sigma and vf is not None) else crlb.copy()
 
     obs = st.observable
@@ -562,17 +607,35 @@ def analyze(J, sigma=None, *, R=None, names: Sequence[str] | None = None, units:
     s_full = st.s
     cond = float(s_full[0] / s_full[-1]) if s_full[-1] > 0 and r == n else float("inf")
     return ObservabilityReport(
-        names=names_, param_units=units_, n_residuals=m, rank=r, rel_tol=tol, scales=d,
-        singular_values=s_full, condition_number=cond, null_space=st.null_p, observable=obs,
-        unobservable_directions=st.unobservable, observable_combinations=st.combinations,
-        statements=st.statements, fisher=0.5 * (Jw.T @ Jw + (Jw.T @ Jw).T),
-        covariance=cov, std=std, crlb=crlb, crlb_std=crlb_std, correlation=corr,
-        variance_factor=vf, dof=dof, sigma_estimated=bool(estimate_sigma))
+        names=names_,
+        param_units=units_,
+        n_residuals=m,
+        rank=r,
+        rel_tol=tol,
+        scales=d,
+        singular_values=s_full,
+        condition_number=cond,
+        null_space=st.null_p,
+        observable=obs,
+        unobservable_directions=st.unobservable,
+        observable_combinations=st.combinations,
+        statements=st.statements,
+        fisher=0.5 * (Jw.T @ Jw + (Jw.T @ Jw).T),
+        covariance=cov,
+        std=std,
+        crlb=crlb,
+        crlb_std=crlb_std,
+        correlation=corr,
+        variance_factor=vf,
+        dof=dof,
+        sigma_estimated=bool(estimate_sigma),
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------
 # state-space observability
 # ----------------------------------------------------------------------------------------------------------
+
 
 def observability_matrix(H_blocks, A=None, order: int | None = None) -> np.ndarray:
     """Stripped observability matrix ``Q = [H₁; H₁A₁; …; H₁A₁^{order-1}; H₂; H₂A₂; …]``.
@@ -602,21 +665,26 @@ def observability_matrix(H_blocks, A=None, order: int | None = None) -> np.ndarr
     if arr is not None and arr.ndim == 2:
         H_list = [_as_matrix(arr, "H")]
     elif arr is not None and arr.ndim != 3:
-        raise OptinavError(f"H_blocks has shape {arr.shape}, expected a matrix (p, n) or a list of them",
-                           "pass H (p × n) or a list of measurement matrices")
+        raise OptinavError(
+            f"H_blocks has shape {arr.shape}, expected a matrix (p, n) or a list of them",
+            "pass H (p × n) or a list of measurement matrices",
+        )
     else:
         try:
             H_list = [_as_matrix(H, f"H_blocks[{k}]") for k, H in enumerate(H_blocks)]
         except TypeError:
-            raise OptinavError("H_blocks is not a matrix or a sequence of matrices",
-                               "pass H (p × n) or a list of them") from None
+            raise OptinavError(
+                "H_blocks is not a matrix or a sequence of matrices", "pass H (p × n) or a list of them"
+            ) from None
         if not H_list:
             raise OptinavError("H_blocks is empty", "pass at least one measurement matrix")
     n = H_list[0].shape[1]
     for k, H in enumerate(H_list):
         if H.shape[1] != n:
-            raise OptinavError(f"H_blocks[{k}] has {H.shape[1]} columns, the first has {n}",
-                               "all measurement matrices act on the same state vector")
+            raise OptinavError(
+                f"H_blocks[{k}] has {H.shape[1]} columns, the first has {n}",
+                "all measurement matrices act on the same state vector",
+            )
     if A is None:
         return np.vstack(H_list)
     A_arr = as_float_array(A, "A")
@@ -625,8 +693,10 @@ def observability_matrix(H_blocks, A=None, order: int | None = None) -> np.ndarr
     elif A_arr.ndim == 3 and A_arr.shape[0] == len(H_list):
         A_list = list(A_arr)
     else:
-        raise OptinavError(f"A has shape {A_arr.shape}, expected ({n}, {n}) or ({len(H_list)}, {n}, {n})",
-                           "pass one system matrix, or one per H block")
+        raise OptinavError(
+            f"A has shape {A_arr.shape}, expected ({n}, {n}) or ({len(H_list)}, {n}, {n})",
+            "pass one system matrix, or one per H block",
+        )
     for k, Ak in enumerate(A_list):
         if Ak.shape != (n, n):
             raise OptinavError(f"A has shape {Ak.shape}, expected ({n}, {n})", "A must be square in the states")
@@ -674,13 +744,23 @@ class ObservabilitySVD(Result):
         """
         sv = " ".join(f"{x:.4g}" for x in np.asarray(self.singular_values))
         cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.4g}"
-        return "\n".join([f"Observability matrix: {len(self.names)} states, rank {self.rank}, "
-                          f"condition number {cond}", f"  singular values: {sv}"]
-                         + ["  " + s for s in self.statements])
+        return "\n".join(
+            [
+                f"Observability matrix: {len(self.names)} states, rank {self.rank}, condition number {cond}",
+                f"  singular values: {sv}",
+            ]
+            + ["  " + s for s in self.statements]
+        )
 
 
-def observability_svd(Q, *, names: Sequence[str] | None = None, rel_tol: float = DEFAULT_REL_TOL,
-                      scales=None, coef_tol: float = DEFAULT_COEF_TOL) -> ObservabilitySVD:
+def observability_svd(
+    Q,
+    *,
+    names: Sequence[str] | None = None,
+    rel_tol: float = DEFAULT_REL_TOL,
+    scales=None,
+    coef_tol: float = DEFAULT_COEF_TOL,
+) -> ObservabilitySVD:
     """Numerical rank, singular values and null space of an observability matrix ``Q``.
 
     Parameters
@@ -709,14 +789,23 @@ def observability_svd(Q, *, names: Sequence[str] | None = None, rel_tol: float =
     st = _structure(Q * d[None, :], d, names_, _rel_tol(rel_tol), _rel_tol(coef_tol, "coef_tol"))
     s = st.s
     cond = float(s[0] / s[-1]) if st.rank == n and s[-1] > 0 else float("inf")
-    return ObservabilitySVD(names=names_, rank=st.rank, rel_tol=float(rel_tol), scales=d, singular_values=s,
-                            condition_number=cond, null_space=st.null_p, observable=st.observable,
-                            statements=st.statements)
+    return ObservabilitySVD(
+        names=names_,
+        rank=st.rank,
+        rel_tol=float(rel_tol),
+        scales=d,
+        singular_values=s,
+        condition_number=cond,
+        null_space=st.null_p,
+        observable=st.observable,
+        statements=st.statements,
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------
 # NEES
 # ----------------------------------------------------------------------------------------------------------
+
 
 def nees(errors, covariance) -> np.ndarray:
     """Normalized estimation error squared ``eₖᵀ Pₖ⁻¹ eₖ``.
@@ -743,8 +832,10 @@ def nees(errors, covariance) -> np.ndarray:
     if P.shape == (n, n):
         P = np.broadcast_to(P, (N, n, n))
     elif P.shape != (N, n, n):
-        raise OptinavError(f"covariance has shape {P.shape}, expected ({n}, {n}) or ({N}, {n}, {n})",
-                           "pass one covariance, or one per error vector")
+        raise OptinavError(
+            f"covariance has shape {P.shape}, expected ({n}, {n}) or ({N}, {n}, {n})",
+            "pass one covariance, or one per error vector",
+        )
     try:
         L = np.linalg.cholesky(P)
     except np.linalg.LinAlgError:
@@ -776,10 +867,15 @@ class NeesResult(Result):
         str
             The line.
         """
-        verdict = "consistent" if self.consistent else (
-            "covariance too optimistic" if self.anees > self.upper else "covariance too pessimistic")
-        return (f"ANEES {self.anees:.4g} over {self.n_samples} samples of dimension {self.dim}; "
-                f"{100 * self.confidence:g}% band [{self.lower:.4g}, {self.upper:.4g}]: {verdict}")
+        verdict = (
+            "consistent"
+            if self.consistent
+            else ("covariance too optimistic" if self.anees > self.upper else "covariance too pessimistic")
+        )
+        return (
+            f"ANEES {self.anees:.4g} over {self.n_samples} samples of dimension {self.dim}; "
+            f"{100 * self.confidence:g}% band [{self.lower:.4g}, {self.upper:.4g}]: {verdict}"
+        )
 
 
 def nees_test(errors, covariance, confidence: float = 0.99) -> NeesResult:
@@ -802,8 +898,15 @@ def nees_test(errors, covariance, confidence: float = 0.99) -> NeesResult:
     N = q.size
     lo, hi = _chi2_band(N * dim, N, confidence)
     a = float(np.mean(q))
-    return NeesResult(anees=a, lower=float(lo), upper=float(hi), n_samples=N, dim=dim,
-                      confidence=float(confidence), consistent=bool(lo <= a <= hi))
+    return NeesResult(
+        anees=a,
+        lower=float(lo),
+        upper=float(hi),
+        n_samples=N,
+        dim=dim,
+        confidence=float(confidence),
+        consistent=bool(lo <= a <= hi),
+    )
 
 
 def rmse_ratio_band(n_runs: int, confidence: float = 0.99) -> tuple[float, float]:
@@ -836,13 +939,13 @@ def _chi2_band(dof: int, n: int, confidence: float) -> tuple[float, float]:
         raise OptinavError(f"confidence must be in (0, 1), got {confidence!r}", "pass e.g. 0.99")
     from scipy import stats  # deferred, see above
 
-    return (float(stats.chi2.ppf((1 - confidence) / 2, dof) / n),
-            float(stats.chi2.ppf((1 + confidence) / 2, dof) / n))
+    return (float(stats.chi2.ppf((1 - confidence) / 2, dof) / n), float(stats.chi2.ppf((1 + confidence) / 2, dof) / n))
 
 
 # ----------------------------------------------------------------------------------------------------------
 # Monte Carlo
 # ----------------------------------------------------------------------------------------------------------
+
 
 @dataclass
 class MonteCarloResult(Result):
@@ -855,7 +958,7 @@ class MonteCarloResult(Result):
     estimators: list = field(metadata={"unit": "-"})
     n_runs: int = field(metadata={"unit": ""})
     seed: Any = field(metadata={"unit": "-"})
-    errors: dict = field(metadata={"unit": "param"})          # name → (n_runs, n), NaN rows for failures
+    errors: dict = field(metadata={"unit": "param"})  # name → (n_runs, n), NaN rows for failures
     bias: dict = field(metadata={"unit": "param"})
     rmse: dict = field(metadata={"unit": "param"})
     std: dict = field(metadata={"unit": "param"})
@@ -898,8 +1001,7 @@ class MonteCarloResult(Result):
         lines = [f"Monte Carlo: {self.n_runs} runs, seed {self.seed}"]
         for est in self.estimators:
             ok = self.n_success(est)
-            lines.append(f"{est}: {ok}/{self.n_runs} succeeded, mean runtime "
-                         f"{1e3 * self.mean_runtime[est]:.3g} ms")
+            lines.append(f"{est}: {ok}/{self.n_runs} succeeded, mean runtime {1e3 * self.mean_runtime[est]:.3g} ms")
             for msg in self.failure_messages.get(est, [])[:3]:
                 lines.append(f"    failure: {msg}")
             ratio = self.rmse_over_crlb.get(est)
@@ -914,8 +1016,9 @@ class MonteCarloResult(Result):
                 lines.append(row)
             if ratio is not None and ok > 0:
                 lo, hi = rmse_ratio_band(ok, confidence)
-                lines.append(f"  ({100 * confidence:g}% band of RMSE/√CRLB for an efficient estimator: "
-                             f"[{lo:.3f}, {hi:.3f}])")
+                lines.append(
+                    f"  ({100 * confidence:g}% band of RMSE/√CRLB for an efficient estimator: [{lo:.3f}, {hi:.3f}])"
+                )
             if est in self.nees and self.nees[est] is not None:
                 lines.append("  " + self.nees[est].summary())
         return "\n".join(lines)
@@ -932,8 +1035,10 @@ def _child_generators(rng, n_runs: int) -> tuple[list[np.random.Generator], Any]
     elif isinstance(rng, np.random.Generator):
         base = rng
     else:
-        raise OptinavError(f"rng must be a numpy Generator, SeedSequence or int seed, got {type(rng).__name__}",
-                           "pass e.g. rng=np.random.default_rng(1)")
+        raise OptinavError(
+            f"rng must be a numpy Generator, SeedSequence or int seed, got {type(rng).__name__}",
+            "pass e.g. rng=np.random.default_rng(1)",
+        )
     try:
         children = base.spawn(n_runs)
     except (TypeError, AttributeError, ValueError):
@@ -975,8 +1080,10 @@ def _mc_run(make_data, estimators: Mapping[str, Callable], truth, n: int | None,
     data = make_data(gen)
     if truth is None:
         if not (isinstance(data, tuple) and len(data) == 2):
-            raise OptinavError("truth is None but make_data did not return (data, truth)",
-                               "pass truth=..., or return (data, truth) from make_data")
+            raise OptinavError(
+                "truth is None but make_data did not return (data, truth)",
+                "pass truth=..., or return (data, truth) from make_data",
+            )
         data, t = data
         t = as_float_array(t, "truth from make_data").reshape(-1)
     else:
@@ -986,9 +1093,17 @@ def _mc_run(make_data, estimators: Mapping[str, Callable], truth, n: int | None,
     return t, {name: _call_estimator(fn, data, t.size) for name, fn in estimators.items()}
 
 
-def monte_carlo(make_data: Callable[[np.random.Generator], Any], estimators: Mapping[str, Callable],
-                truth, n_runs: int, rng=None, progress: bool = True, crlb=None,
-                names: Sequence[str] | None = None, nees_confidence: float = 0.99) -> MonteCarloResult:
+def monte_carlo(
+    make_data: Callable[[np.random.Generator], Any],
+    estimators: Mapping[str, Callable],
+    truth,
+    n_runs: int,
+    rng=None,
+    progress: bool = True,
+    crlb=None,
+    names: Sequence[str] | None = None,
+    nees_confidence: float = 0.99,
+) -> MonteCarloResult:
     """Seeded Monte Carlo comparison of estimators against the truth.
 
     An exception, a wrong shape or a non-finite estimate counts as a failure (message kept), never aborts the
@@ -1046,8 +1161,10 @@ def monte_carlo(make_data: Callable[[np.random.Generator], Any], estimators: Map
             if c.ndim == 2 and c.shape[0] == c.shape[1]:
                 c = np.diag(c)
             if c.ndim != 1 or np.any(np.isnan(c)) or np.any(c <= 0):
-                raise OptinavError("crlb must be an (n, n) covariance or (n,) positive variances",
-                                   "pass the CRLB covariance, e.g. ObservabilityReport.crlb")
+                raise OptinavError(
+                    "crlb must be an (n, n) covariance or (n,) positive variances",
+                    "pass the CRLB covariance, e.g. ObservabilityReport.crlb",
+                )
             crlb_std = np.sqrt(c)
         if n is not None and crlb_std.shape != (n,):
             raise OptinavError(f"crlb is for {crlb_std.size} parameters, truth has {n}", "pass matching sizes")
@@ -1061,8 +1178,10 @@ def monte_carlo(make_data: Callable[[np.random.Generator], Any], estimators: Map
         if n is None:
             n = t.size
         elif t.size != n:
-            raise OptinavError(f"truth of run {k} has {t.size} parameters, earlier runs had {n}",
-                               "return the same parameter vector every run")
+            raise OptinavError(
+                f"truth of run {k} has {t.size} parameters, earlier runs had {n}",
+                "return the same parameter vector every run",
+            )
         rows.append((t, out))
 
     assert n is not None
@@ -1104,7 +1223,19 @@ def monte_carlo(make_data: Callable[[np.random.Generator], Any], estimators: Map
                 nees_res[name] = nees_test(good, np.stack(covs), nees_confidence)
             except OptinavError:
                 nees_res[name] = None
-    return MonteCarloResult(names=names_, estimators=est_names, n_runs=int(n_runs), seed=seed, errors=errors,
-                            bias=bias, rmse=rmse, std=std, rmse_over_crlb=ratio if crlb_std is not None else {},
-                            n_failures=fails, failure_messages=msgs, mean_runtime=runtime, crlb_std=crlb_std,
-                            nees=nees_res)
+    return MonteCarloResult(
+        names=names_,
+        estimators=est_names,
+        n_runs=int(n_runs),
+        seed=seed,
+        errors=errors,
+        bias=bias,
+        rmse=rmse,
+        std=std,
+        rmse_over_crlb=ratio if crlb_std is not None else {},
+        n_failures=fails,
+        failure_messages=msgs,
+        mean_runtime=runtime,
+        crlb_std=crlb_std,
+        nees=nees_res,
+    )

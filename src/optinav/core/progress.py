@@ -87,8 +87,13 @@ def progress_enabled() -> bool:
     return not is_quiet() and sys.stderr.isatty()
 
 
-def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
-             enabled: bool | None = None, min_interval: float = 0.2) -> Iterator[T]:
+def progress(
+    iterable: Iterable[T],
+    total: int | None = None,
+    desc: str = "",
+    enabled: bool | None = None,
+    min_interval: float = 0.2,
+) -> Iterator[T]:
     """Iterate over ``iterable`` behind a progress bar (``desc  k/total  elapsed  eta``) on stderr.
 
     Parameters
@@ -114,8 +119,16 @@ def progress(iterable: Iterable[T], total: int | None = None, desc: str = "",
         yield from iterable
         return
     # nested under an open task: the bar goes below it and disappears when done
-    with tqdm(iterable, total=total, desc=desc, file=sys.stderr, mininterval=min_interval, dynamic_ncols=True,
-              leave=not _TASKS, position=len(_TASKS) or None) as bar:
+    with tqdm(
+        iterable,
+        total=total,
+        desc=desc,
+        file=sys.stderr,
+        mininterval=min_interval,
+        dynamic_ncols=True,
+        leave=not _TASKS,
+        position=len(_TASKS) or None,
+    ) as bar:
         _LOOPS.append(bar)
         try:
             yield from bar
@@ -142,8 +155,14 @@ def task(desc: str, total: int | None = None, enabled: bool | None = None):
         The bar.
     """
     show = progress_enabled() if enabled is None else enabled
-    bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=not show, dynamic_ncols=True,
-               bar_format="{desc}: {n_fmt} steps, {elapsed}{postfix}" if total is None else None)
+    bar = tqdm(
+        total=total,
+        desc=desc,
+        file=sys.stderr,
+        disable=not show,
+        dynamic_ncols=True,
+        bar_format="{desc}: {n_fmt} steps, {elapsed}{postfix}" if total is None else None,
+    )
     _TASKS.append(bar)
     try:
         yield bar
@@ -173,8 +192,17 @@ def progress_blocks(blocks, desc: str = "", enabled: bool | None = None) -> Iter
     if not show:
         yield from blocks
         return
-    with tqdm(total=blocks.size, desc=desc, file=sys.stderr, unit="B", unit_scale=True, dynamic_ncols=True,
-              leave=not _TASKS, position=len(_TASKS) or None, mininterval=0.2) as bar:
+    with tqdm(
+        total=blocks.size,
+        desc=desc,
+        file=sys.stderr,
+        unit="B",
+        unit_scale=True,
+        dynamic_ncols=True,
+        leave=not _TASKS,
+        position=len(_TASKS) or None,
+        mininterval=0.2,
+    ) as bar:
         _LOOPS.append(bar)
         try:
             for block in blocks:

@@ -27,23 +27,44 @@ _REGISTRY: dict[str, type["Result"]] = {}
 #: schema → the first version that writes arrays as plain nested lists (with the field's ``arrays``); the version
 #: before it wrote ``{"__ndarray__": [...], "dtype"}`` and is read by :func:`nested_kwargs` unless a converter of
 #: its own is registered (a layout that also renamed fields). Classes added later start with plain arrays.
-PLAIN_ARRAYS_SINCE: dict[str, int] = {"optinav.accel_fit": 2, "optinav.alignment": 2, "optinav.allan": 2,
-                                      "optinav.allan_deviation": 2, "optinav.allan_noise_fit": 2,
-                                      "optinav.allan_noise_parameters": 2, "optinav.attitude.estimate": 4,
-                                      "optinav.ferraris_calibration": 2, "optinav.flight_data": 3,
-                                      "optinav.gfimu.calibration": 3, "optinav.gfimu.identifiability": 2,
-                                      "optinav.gyro_calibration": 2, "optinav.imu_compensated": 2,
-                                      "optinav.imu_log": 3, "optinav.imu_measurement": 2, "optinav.imu_model": 3,
-                                      "optinav.imu_spec": 2, "optinav.imu_truth": 3, "optinav.monte_carlo": 2,
-                                      "optinav.multipos.calibration": 3, "optinav.nav_solution": 2,
-                                      "optinav.nees": 2, "optinav.observability": 2,
-                                      "optinav.observability_svd": 2, "optinav.observability_table": 2,
-                                      "optinav.optimize_result": 2, "optinav.pose_plan": 2,
-                                      "optinav.rins.calibration": 3, "optinav.rins_data": 3,
-                                      "optinav.scheme_design": 2, "optinav.section_list": 2,
-                                      "optinav.simulated_session": 2, "optinav.solar_position": 2,
-                                      "optinav.static_detection": 2, "optinav.triad_errors": 2,
-                                      "optinav.triad_noise": 2}
+PLAIN_ARRAYS_SINCE: dict[str, int] = {
+    "optinav.accel_fit": 2,
+    "optinav.alignment": 2,
+    "optinav.allan": 2,
+    "optinav.allan_deviation": 2,
+    "optinav.allan_noise_fit": 2,
+    "optinav.allan_noise_parameters": 2,
+    "optinav.attitude.estimate": 4,
+    "optinav.ferraris_calibration": 2,
+    "optinav.flight_data": 3,
+    "optinav.gfimu.calibration": 3,
+    "optinav.gfimu.identifiability": 2,
+    "optinav.gyro_calibration": 2,
+    "optinav.imu_compensated": 2,
+    "optinav.imu_log": 3,
+    "optinav.imu_measurement": 2,
+    "optinav.imu_model": 3,
+    "optinav.imu_spec": 2,
+    "optinav.imu_truth": 3,
+    "optinav.monte_carlo": 2,
+    "optinav.multipos.calibration": 3,
+    "optinav.nav_solution": 2,
+    "optinav.nees": 2,
+    "optinav.observability": 2,
+    "optinav.observability_svd": 2,
+    "optinav.observability_table": 2,
+    "optinav.optimize_result": 2,
+    "optinav.pose_plan": 2,
+    "optinav.rins.calibration": 3,
+    "optinav.rins_data": 3,
+    "optinav.scheme_design": 2,
+    "optinav.section_list": 2,
+    "optinav.simulated_session": 2,
+    "optinav.solar_position": 2,
+    "optinav.static_detection": 2,
+    "optinav.triad_errors": 2,
+    "optinav.triad_noise": 2,
+}
 
 #: (schema, version) of a layout written by an older optinav → (class, converter of its dict to constructor kwargs)
 _LEGACY: dict[tuple[str, int], tuple[type["Result"], Any]] = {}
@@ -148,18 +169,22 @@ _ARRAY_KINDS = "biufcU"
 
 def _dtype_name(dtype: np.dtype) -> str:
     if dtype.kind not in _ARRAY_KINDS:
-        raise OptinavError(f"a result holds a {dtype} array, which JSON cannot carry",
-                           "store numbers, booleans or text in result arrays")
+        raise OptinavError(
+            f"a result holds a {dtype} array, which JSON cannot carry",
+            "store numbers, booleans or text in result arrays",
+        )
     return str(dtype)
 
 
 def _array_list(a: np.ndarray) -> list:
     """Nested lists of plain numbers; in float arrays NaN → null, ±inf → "inf"/"-inf" (JSON has neither)."""
     if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+
         def fix(x):
             if isinstance(x, list):
                 return [fix(y) for y in x]
             return x if math.isfinite(x) else (None if math.isnan(x) else ("inf" if x > 0 else "-inf"))
+
         return fix(a.tolist())
     if a.dtype.kind == "c":
         return np.stack([a.real, a.imag], axis=-1).tolist()  # [re, im] pairs
@@ -172,12 +197,14 @@ def _array_of(value: Any, dtype: str) -> np.ndarray:
     if dt.kind not in _ARRAY_KINDS:
         raise ValueError(f"array dtype {dtype!r} is not one a result writes")
     if dt.kind == "f":
+
         def fix(x):
             if isinstance(x, list):
                 return [fix(y) for y in x]
             if x is None:
                 return np.nan
             return float(x) if isinstance(x, str) else x  # "inf", "-inf"
+
         return np.asarray(fix(value), dtype=dt)
     if dt.kind == "c":
         pairs = np.asarray(value, dtype=float)
@@ -262,8 +289,7 @@ class Result:
             fields[f.name] = {"value": _encode(getattr(self, f.name), "", arrays), "unit": f.metadata.get("unit", "-")}
             if arrays:
                 fields[f.name]["arrays"] = arrays
-        return {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__,
-                "fields": fields}
+        return {"schema": self.SCHEMA, "version": self.VERSION, "optinav_version": __version__, "fields": fields}
 
     def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
         """Serialize; also write to ``path`` when given (atomically).
@@ -307,12 +333,14 @@ class Result:
             if legacy is not None:
                 target, convert = legacy
                 if cls is not Result and not issubclass(target, cls):
-                    raise OptinavError(f"result schema {data['schema']!r} is not a {cls.SCHEMA}",
-                                       "pass the right result file")
+                    raise OptinavError(
+                        f"result schema {data['schema']!r} is not a {cls.SCHEMA}", "pass the right result file"
+                    )
                 return target._from_legacy(convert, data)
         if not isinstance(data, dict) or "schema" not in data or "fields" not in data:
-            raise OptinavError("not an optinav result (no 'schema'/'fields' keys)",
-                               "pass a JSON file written by optinav")
+            raise OptinavError(
+                "not an optinav result (no 'schema'/'fields' keys)", "pass a JSON file written by optinav"
+            )
         schema = data["schema"]
         target = _REGISTRY.get(schema)
         if target is None:
@@ -320,8 +348,11 @@ class Result:
         if cls is not Result and not issubclass(target, cls):
             raise OptinavError(f"result schema {schema!r} is not a {cls.SCHEMA}", "pass the right result file")
         if data.get("version") != target.VERSION:
-            raise OptinavError(f"{schema} version {data.get('version')} is not supported "
-                               f"(this optinav reads version {target.VERSION})", "re-run with this optinav")
+            raise OptinavError(
+                f"{schema} version {data.get('version')} is not supported "
+                f"(this optinav reads version {target.VERSION})",
+                "re-run with this optinav",
+            )
         kwargs = {}
         names = {f.name for f in dataclasses.fields(target)}
         for name, entry in data["fields"].items():
@@ -340,8 +371,10 @@ class Result:
         except OptinavError:
             raise
         except (TypeError, KeyError) as exc:
-            raise OptinavError(f"{data['schema']} version {data.get('version')} file is incomplete "
-                               f"({type(exc).__name__}: {exc})", "pass an unmodified optinav result file") from None
+            raise OptinavError(
+                f"{data['schema']} version {data.get('version')} file is incomplete ({type(exc).__name__}: {exc})",
+                "pass an unmodified optinav result file",
+            ) from None
 
     @classmethod
     def from_json(cls, source: str | Path) -> "Result":
@@ -369,8 +402,10 @@ class Result:
             raise
         except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
             # a value of the wrong type deep inside (a list where a name belongs, a string as an array ...)
-            raise OptinavError(f"{src} is not a valid optinav result ({type(exc).__name__}: "
-                               f"{' '.join(str(exc).split())[:80]})", "pass an unmodified optinav result file") from None
+            raise OptinavError(
+                f"{src} is not a valid optinav result ({type(exc).__name__}: {' '.join(str(exc).split())[:80]})",
+                "pass an unmodified optinav result file",
+            ) from None
 
 
 def _import_systems() -> None:
@@ -391,8 +426,10 @@ def _array_or_none(v: Any) -> Any:
     if v is None or isinstance(v, (bool, str)):
         return v
     if isinstance(v, list):
+
         def nan(x):
             return [nan(y) for y in x] if isinstance(x, list) else (np.nan if x is None else x)
+
         return np.asarray(nan(v), dtype=float)
     return float(v)
 
@@ -421,8 +458,14 @@ class Parameter:
         dict
             ``{value, std, crlb_std, unit, observable, reason}`` (values in ``unit``).
         """
-        return {"value": plain(self.value), "std": plain(self.std), "crlb_std": plain(self.crlb_std),
-                "unit": self.unit, "observable": bool(self.observable), "reason": self.reason}
+        return {
+            "value": plain(self.value),
+            "std": plain(self.std),
+            "crlb_std": plain(self.crlb_std),
+            "unit": self.unit,
+            "observable": bool(self.observable),
+            "reason": self.reason,
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> "Parameter":
@@ -440,9 +483,14 @@ class Parameter:
         """
         if not isinstance(d, dict) or "value" not in d or "unit" not in d:
             raise OptinavError("a parameter entry has no value/unit", "pass an unmodified optinav file")
-        return cls(value=_array_or_none(d["value"]), unit=str(d["unit"]), std=_array_or_none(d.get("std")),
-                   crlb_std=_array_or_none(d.get("crlb_std")), observable=bool(d.get("observable", True)),
-                   reason=d.get("reason"))
+        return cls(
+            value=_array_or_none(d["value"]),
+            unit=str(d["unit"]),
+            std=_array_or_none(d.get("std")),
+            crlb_std=_array_or_none(d.get("crlb_std")),
+            observable=bool(d.get("observable", True)),
+            reason=d.get("reason"),
+        )
 
 
 def gate(name: str, value: float, limit: float, *, unit: str = "", kind: str = "max") -> dict:
@@ -470,12 +518,19 @@ def gate(name: str, value: float, limit: float, *, unit: str = "", kind: str = "
         passed = bool(value)
     else:
         passed = bool(v <= limit) if kind == "max" else bool(v >= limit)
-    return {"name": name, "value": v, "limit": None if limit is None else float(limit), "unit": unit, "kind": kind,
-            "passed": passed}
+    return {
+        "name": name,
+        "value": v,
+        "limit": None if limit is None else float(limit),
+        "unit": unit,
+        "kind": kind,
+        "passed": passed,
+    }
 
 
-def convergence(converged: bool | None, *, iterations: int | None = None, evaluations: int | None = None,
-                message: str = "") -> dict:
+def convergence(
+    converged: bool | None, *, iterations: int | None = None, evaluations: int | None = None, message: str = ""
+) -> dict:
     """How an iterative fit ended.
 
     Parameters
@@ -492,9 +547,12 @@ def convergence(converged: bool | None, *, iterations: int | None = None, evalua
     dict
         ``{converged, iterations, evaluations, message}``.
     """
-    return {"converged": None if converged is None else bool(converged),
-            "iterations": None if iterations is None else int(iterations),
-            "evaluations": None if evaluations is None else int(evaluations), "message": str(message)}
+    return {
+        "converged": None if converged is None else bool(converged),
+        "iterations": None if iterations is None else int(iterations),
+        "evaluations": None if evaluations is None else int(evaluations),
+        "message": str(message),
+    }
 
 
 class Estimate(Result):
@@ -531,11 +589,19 @@ class Estimate(Result):
             Plain JSON types.
         """
         d = super().to_dict()
-        return {"schema": d["schema"], "version": d["version"], "optinav_version": d["optinav_version"],
-                "system": self.SYSTEM, "kind": self.KIND, "method": plain(getattr(self, "method", "")),
-                "elapsed_s": plain(self.elapsed_s), "convergence": plain(self.convergence),
-                "quality_gates": plain(self.gates),
-                "parameters": {n: p.to_dict() for n, p in self.parameters().items()}, "fields": d["fields"]}
+        return {
+            "schema": d["schema"],
+            "version": d["version"],
+            "optinav_version": d["optinav_version"],
+            "system": self.SYSTEM,
+            "kind": self.KIND,
+            "method": plain(getattr(self, "method", "")),
+            "elapsed_s": plain(self.elapsed_s),
+            "convergence": plain(self.convergence),
+            "quality_gates": plain(self.gates),
+            "parameters": {n: p.to_dict() for n, p in self.parameters().items()},
+            "fields": d["fields"],
+        }
 
     def unobservable(self) -> dict[str, str]:
         """Parameters the data cannot determine.
@@ -652,9 +718,14 @@ class Truth:
         """
         from optinav import __version__
 
-        return {"schema": self.schema, "version": self.VERSION, "optinav_version": __version__,
-                "system": self.system, "parameters": {n: p.to_dict() for n, p in self.parameters.items()},
-                **plain(self.info)}
+        return {
+            "schema": self.schema,
+            "version": self.VERSION,
+            "optinav_version": __version__,
+            "system": self.system,
+            "parameters": {n: p.to_dict() for n, p in self.parameters.items()},
+            **plain(self.info),
+        }
 
     def to_json(self, path: str | Path | None = None, *, indent: int = 2) -> str:
         """Serialize; also write to ``path`` when given (atomically).
@@ -689,20 +760,24 @@ class Truth:
         schema = data.get("schema") if isinstance(data, dict) else None
         if not isinstance(schema, str):
             raise OptinavError("not an optinav truth file (no schema)", "pass a STEM.truth.json optinav wrote")
-        info = {k: v for k, v in data.items() if k not in ("schema", "version", "optinav_version", "system",
-                                                           "parameters")}
+        info = {
+            k: v for k, v in data.items() if k not in ("schema", "version", "optinav_version", "system", "parameters")
+        }
         if schema.endswith(".truth") and data.get("version") == cls.VERSION:
             params = data.get("parameters")
             if not isinstance(params, dict):
                 raise OptinavError(f"{schema} file has no parameters", "pass an unmodified truth file")
-            return cls(schema[len("optinav."):-len(".truth")],
-                       {n: Parameter.from_dict(p) for n, p in params.items()}, info)
+            return cls(
+                schema[len("optinav.") : -len(".truth")], {n: Parameter.from_dict(p) for n, p in params.items()}, info
+            )
         _import_systems()
         for system, (old_schema, convert) in _TRUTH_LEGACY.items():
             if schema == old_schema:
                 return cls(system, convert(data), info)
-        raise OptinavError(f"{schema!r} version {data.get('version')} is not a truth file this optinav reads",
-                           "pass a STEM.truth.json written by optinav simulate")
+        raise OptinavError(
+            f"{schema!r} version {data.get('version')} is not a truth file this optinav reads",
+            "pass a STEM.truth.json written by optinav simulate",
+        )
 
     @classmethod
     def from_json(cls, source) -> "Truth":

@@ -60,6 +60,7 @@ def frame_name(frame, what: str = "navigation frame") -> str:
         raise OptinavError(f"unknown {what} {frame!r}", "use 'enu' or 'ned' (either case)")
     return f
 
+
 #: C_ENU^NED: maps ENU vectors to NED (and, being symmetric and involutory, NED to ENU).
 C_ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 #: C_RFU^FRD: maps right-forward-up body vectors to forward-right-down (same matrix as C_ENU_NED).
@@ -68,7 +69,7 @@ C_RFU_FRD = C_ENU_NED.copy()
 
 def _flat(x: np.ndarray, tail: int) -> tuple[np.ndarray, tuple[int, ...]]:
     lead = x.shape[: x.ndim - tail]
-    return x.reshape((-1,) + x.shape[x.ndim - tail:]), lead
+    return x.reshape((-1,) + x.shape[x.ndim - tail :]), lead
 
 
 def skew(v) -> np.ndarray:
@@ -240,6 +241,7 @@ def rot_axis(axis, angle) -> np.ndarray:
 
 # --- quaternion algebra -------------------------------------------------------------------------------
 
+
 def quat_multiply(p, q) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` of scalar-first quaternions, broadcasting over leading dims.
 
@@ -257,12 +259,15 @@ def quat_multiply(p, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    ], -1)
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        -1,
+    )
 
 
 def quat_conjugate(q) -> np.ndarray:
@@ -343,6 +348,7 @@ def quat_rotate(q, v) -> np.ndarray:
 
 
 # --- conversions (thin layer over scipy) ------------------------------------------------------------
+
 
 def _rotation():
     """scipy's Rotation class, imported on first use: scipy.spatial costs a second at start-up, and a command
@@ -629,6 +635,7 @@ def quat_angle_between(q1, q2) -> np.ndarray:
 
 
 # --- ENU / NED -----------------------------------------------------------------------------------------
+
 
 def enu_to_ned(v) -> np.ndarray:
     """Vector(s) in ENU → NED: ``[e, n, u] → [n, e, −u]``.

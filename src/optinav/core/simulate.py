@@ -38,18 +38,43 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.rotations import (C_ENU_NED, CORE_FRAME, dcm_from_quat, dcm_orthonormalize, frame_name,
-                                    quat_canonical, quat_from_dcm, quat_multiply, rot_axis, rotvec_from_dcm, unit_axis)
+from optinav.core.rotations import (
+    C_ENU_NED,
+    CORE_FRAME,
+    dcm_from_quat,
+    dcm_orthonormalize,
+    frame_name,
+    quat_canonical,
+    quat_from_dcm,
+    quat_multiply,
+    rot_axis,
+    rotvec_from_dcm,
+    unit_axis,
+)
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
 __all__ = [
-    "ImuTruth", "GL_ORDER",
-    "static_positions", "orientation_from_up", "six_positions", "describe_pose",
-    "Rest", "Rotate", "turntable",
-    "Move", "AxisSchedule", "chain_attitude", "gimbal",
-    "coning", "coning_attitude", "coning_rate", "coning_increment", "coning_noncommutativity",
-    "trajectory", "rate_profile",
+    "ImuTruth",
+    "GL_ORDER",
+    "static_positions",
+    "orientation_from_up",
+    "six_positions",
+    "describe_pose",
+    "Rest",
+    "Rotate",
+    "turntable",
+    "Move",
+    "AxisSchedule",
+    "chain_attitude",
+    "gimbal",
+    "coning",
+    "coning_attitude",
+    "coning_rate",
+    "coning_increment",
+    "coning_noncommutativity",
+    "trajectory",
+    "rate_profile",
 ]
 
 #: Number of Gauss–Legendre nodes per quadrature panel.
@@ -60,6 +85,7 @@ _ORTHO_TOL = 1e-6
 
 
 # --- result ---------------------------------------------------------------------------------------------
+
 
 @dataclass
 class ImuTruth(Result):
@@ -118,11 +144,11 @@ class ImuTruth(Result):
         return np.flatnonzero(self.labels == label)
 
 
-register_legacy(ImuTruth, ImuTruth.SCHEMA, 1,
-                lambda d: nested_kwargs(ImuTruth, d, {"omega_ib_b": "gyr", "f_b": "acc"}))
+register_legacy(ImuTruth, ImuTruth.SCHEMA, 1, lambda d: nested_kwargs(ImuTruth, d, {"omega_ib_b": "gyr", "f_b": "acc"}))
 
 
 # --- small validated inputs --------------------------------------------------------------------------------
+
 
 def _check_earth(earth) -> str:
     if isinstance(earth, _earth.EarthConstants):
@@ -158,7 +184,8 @@ def _as_dcms(c, name: str) -> np.ndarray:
         raise OptinavError(
             f"{name}{f'[{i}]' if c.ndim > 2 else ''} is not a rotation matrix "
             f"(|CᵀC − I| = {float(np.max(err)):.2g}, det = {float(np.min(det)):.6g})",
-            "build it with rotations.dcm_from_euler, rot_axis or orientation_from_up")
+            "build it with rotations.dcm_from_euler, rot_axis or orientation_from_up",
+        )
     return dcm_orthonormalize(c)
 
 
@@ -217,8 +244,11 @@ def rate_profile(profile: str, tau, duration: float, angle: float, accel_time: f
         return A * (u - s / (2 * np.pi)), A / T * (1.0 - c), 2 * np.pi * A / T**2 * s
     if profile == "quintic":
         u = tau / T
-        return (A * u**3 * (10 - 15 * u + 6 * u**2), A / T * 30 * u**2 * (1 - u) ** 2,
-                A / T**2 * 60 * u * (1 - u) * (1 - 2 * u))
+        return (
+            A * u**3 * (10 - 15 * u + 6 * u**2),
+            A / T * 30 * u**2 * (1 - u) ** 2,
+            A / T**2 * 60 * u * (1 - u) * (1 - 2 * u),
+        )
     if profile == "trapezoid":
         ta = T / 4 if accel_time is None else float(accel_time)
         w = A / (T - ta)
@@ -237,8 +267,10 @@ def _check_profile(profile, duration, accel_time):
     if profile == "trapezoid" and accel_time is not None:
         ta = float(accel_time)
         if not (0 < ta <= duration / 2):
-            raise OptinavError(f"trapezoid accel_time {ta:.6g} s is outside (0, duration/2 = {duration / 2:.6g} s]",
-                               "shorten the acceleration phase or lengthen the move")
+            raise OptinavError(
+                f"trapezoid accel_time {ta:.6g} s is outside (0, duration/2 = {duration / 2:.6g} s]",
+                "shorten the acceleration phase or lengthen the move",
+            )
 
 
 def _profile_breaks(profile, duration, accel_time) -> list[float]:
@@ -259,6 +291,7 @@ def _profile_peak_rate(profile, duration, angle, accel_time) -> float:
 
 
 # --- joint angle functions --------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class Move:
@@ -288,8 +321,10 @@ class AxisSchedule:
             _scalar(m.angle, "move angle")
             _check_profile(m.profile, d, m.accel_time)
             if start < end - 1e-12:
-                raise OptinavError(f"move starting at {start:.6g} s overlaps the previous one (ends {end:.6g} s)",
-                                   "schedule the moves of one axis one after another")
+                raise OptinavError(
+                    f"move starting at {start:.6g} s overlaps the previous one (ends {end:.6g} s)",
+                    "schedule the moves of one axis one after another",
+                )
             end = start + d
         self._starts = np.array([m.start for m in self.moves], dtype=float)
         self._cum = np.concatenate([[0.0], np.cumsum([m.angle for m in self.moves])])
@@ -302,14 +337,14 @@ class AxisSchedule:
     def breakpoints(self) -> list[float]:
         out = []
         for m in self.moves:
-            out += [m.start, m.start + m.duration] + [m.start + b for b in
-                                                       _profile_breaks(m.profile, m.duration, m.accel_time)]
+            out += [m.start, m.start + m.duration] + [
+                m.start + b for b in _profile_breaks(m.profile, m.duration, m.accel_time)
+            ]
         return out
 
     @property
     def max_rate(self) -> float:
-        return max([_profile_peak_rate(m.profile, m.duration, m.angle, m.accel_time) for m in self.moves],
-                   default=0.0)
+        return max([_profile_peak_rate(m.profile, m.duration, m.angle, m.accel_time) for m in self.moves], default=0.0)
 
     @property
     def min_duration(self) -> float:
@@ -395,8 +430,10 @@ def chain_attitude(fixed, axes, theta, theta_dot, theta_ddot=None):
     """
     k = len(axes)
     if len(fixed) != k + 1:
-        raise OptinavError(f"a chain with {k} joint(s) needs {k + 1} fixed DCMs, got {len(fixed)}",
-                           "give C_0 … C_k (use np.eye(3) where frames coincide)")
+        raise OptinavError(
+            f"a chain with {k} joint(s) needs {k + 1} fixed DCMs, got {len(fixed)}",
+            "give C_0 … C_k (use np.eye(3) where frames coincide)",
+        )
     theta = np.atleast_2d(np.asarray(theta, float))
     theta_dot = np.atleast_2d(np.asarray(theta_dot, float))
     theta_ddot = np.zeros_like(theta) if theta_ddot is None else np.atleast_2d(np.asarray(theta_ddot, float))
@@ -414,6 +451,7 @@ def chain_attitude(fixed, axes, theta, theta_dot, theta_ddot=None):
 
 
 # --- attitude pieces ----------------------------------------------------------------------------------------
+
 
 class _Piece:
     """Attitude on [t0, t1] in ENU: ``attitude(t) → (C_b^n, ω_nb^b, ω̇_nb^b)``."""
@@ -458,8 +496,7 @@ class _Chain(_Piece):
             return np.broadcast_to(c, (t.size, 3, 3)).copy(), np.zeros((t.size, 3)), np.zeros((t.size, 3))
         vals = [f(t) for f in self.angles]
         th = np.array([v[0] for v in vals])
-        return chain_attitude(self.fixed, self.axes, th, np.array([v[1] for v in vals]),
-                              np.array([v[2] for v in vals]))
+        return chain_attitude(self.fixed, self.axes, th, np.array([v[1] for v in vals]), np.array([v[2] for v in vals]))
 
     def omega_nb_integral(self, ta, tb):
         if len(self.axes) != 1:
@@ -505,6 +542,7 @@ class _Spline(_Piece):
 
 
 # --- translation ---------------------------------------------------------------------------------------
+
 
 class _FixedPosition:
     """A static base: position constant, velocity and acceleration zero."""
@@ -569,14 +607,20 @@ def _omega_in_dot(pos, v, a, earth):
     rm_dot = 3 * e.a * (1 - e.e2) * e.e2 * s * c / w**5 * ldot + vu
     rn_dot = e.a * e.e2 * s * c / w**3 * ldot + vu
     tan = s / c
-    d_en = np.stack([-(an * rm - vn * rm_dot) / rm**2,
-                     (ae * rn - ve * rn_dot) / rn**2,
-                     (ae * tan + ve * ldot / c**2) / rn - ve * tan * rn_dot / rn**2], -1)
+    d_en = np.stack(
+        [
+            -(an * rm - vn * rm_dot) / rm**2,
+            (ae * rn - ve * rn_dot) / rn**2,
+            (ae * tan + ve * ldot / c**2) / rn - ve * tan * rn_dot / rn**2,
+        ],
+        -1,
+    )
     d_ie = e.omega_ie * np.stack([np.zeros_like(lat), -s * ldot, c * ldot], -1)
     return d_ie + d_en
 
 
 # --- the motion and its IMU outputs -------------------------------------------------------------------------
+
 
 class _Motion:
     """Consecutive attitude pieces plus a translation, in ENU; knows how to produce exact IMU truth."""
@@ -711,10 +755,25 @@ class _Motion:
         if self.frame == "ned":
             c = C_ENU_NED @ c
             v = v @ C_ENU_NED.T
-        q = quat_from_dcm(c) if quat is None else quat_canonical(quat if self.frame == "enu"
-                                                                  else quat_multiply(_Q_ENU_NED, quat))
-        return ImuTruth(t=t, frame=self.frame, earth=self.earth, q_b_n=q, pos=pos, vel_n=v, gyr=w_ib,
-                        acc=f_b, dtheta=dtheta, dv=dv, labels=self.labels(t), segment_names=list(self.names))
+        q = (
+            quat_from_dcm(c)
+            if quat is None
+            else quat_canonical(quat if self.frame == "enu" else quat_multiply(_Q_ENU_NED, quat))
+        )
+        return ImuTruth(
+            t=t,
+            frame=self.frame,
+            earth=self.earth,
+            q_b_n=q,
+            pos=pos,
+            vel_n=v,
+            gyr=w_ib,
+            acc=f_b,
+            dtheta=dtheta,
+            dv=dv,
+            labels=self.labels(t),
+            segment_names=list(self.names),
+        )
 
 
 _Q_ENU_NED = np.array([0.0, np.sqrt(0.5), np.sqrt(0.5), 0.0])  # quaternion of C_ENU_NED (π about [1,1,0]/√2)
@@ -726,16 +785,20 @@ def _epochs(duration, rate, t):
         t = check_timestamps(t, "t")
         tol = 1e-9 * max(1.0, duration)
         if t[0] < -tol or t[-1] > duration + tol:
-            raise OptinavError(f"epochs span [{t[0]:.6g}, {t[-1]:.6g}] s, outside the motion's [0, {duration:.6g}] s",
-                               "give epochs within the schedule's duration")
+            raise OptinavError(
+                f"epochs span [{t[0]:.6g}, {t[-1]:.6g}] s, outside the motion's [0, {duration:.6g}] s",
+                "give epochs within the schedule's duration",
+            )
         return np.clip(t, 0.0, duration)
     if rate is None:
         raise OptinavError("neither a sample rate nor epochs were given", "pass rate_hz (Hz) or t (s)")
     rate = check_positive(rate, "rate_hz")
     n = int(math.floor(duration * rate + 1e-9))
     if n < 1:
-        raise OptinavError(f"duration {duration:.6g} s at {rate:.6g} Hz gives fewer than two epochs",
-                           "raise the sample rate or lengthen the motion")
+        raise OptinavError(
+            f"duration {duration:.6g} s at {rate:.6g} Hz gives fewer than two epochs",
+            "raise the sample rate or lengthen the motion",
+        )
     return np.arange(n + 1) / rate
 
 
@@ -758,8 +821,10 @@ def _gravity_arg(gravity, earth):
     if gravity is None:
         return None
     if earth != "none":
-        raise OptinavError("gravity can only be given with earth='none'",
-                           "drop gravity (the Earth model supplies it) or set earth='none'")
+        raise OptinavError(
+            "gravity can only be given with earth='none'",
+            "drop gravity (the Earth model supplies it) or set earth='none'",
+        )
     g = as_float_array(gravity, "gravity", last_dims=(3,))
     if g.ndim != 1:
         raise OptinavError(f"gravity must be one 3-vector g^n (m/s²), got shape {g.shape}", "pass [gx, gy, gz]")
@@ -796,8 +861,10 @@ def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
         north = _DEFAULT_NORTH[int(np.argmax(np.abs(u)))]
     nb = unit_axis(north, "north")
     if abs(u @ nb) > 1e-9:
-        raise OptinavError(f"up axis {up!r} and north axis {north!r} are not perpendicular",
-                           "choose a north axis at right angles to the up axis")
+        raise OptinavError(
+            f"up axis {up!r} and north axis {north!r} are not perpendicular",
+            "choose a north axis at right angles to the up axis",
+        )
     e_b = np.cross(nb, u)  # body vector pointing east (ENU: east = north × up)
     body = np.stack([e_b, nb, u], 1)  # body coordinates of the E, N, U directions
     c_b_enu = body.T  # C_b^n maps body coordinates to ENU: rows are the E, N, U directions in body coordinates
@@ -878,9 +945,24 @@ def describe_pose(C_b_n, frame=CORE_FRAME) -> str:
 
 # --- generators ----------------------------------------------------------------------------------------------
 
-def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, frame=CORE_FRAME, earth="wgs84",
-                     transition=None, *, transition_profile="cosine", names=None, t=None, lever_arm=None,
-                     gravity=None) -> ImuTruth:
+
+def static_positions(
+    orientations,
+    dwell,
+    rate_hz,
+    lat,
+    height_m=0.0,
+    lon=0.0,
+    frame=CORE_FRAME,
+    earth="wgs84",
+    transition=None,
+    *,
+    transition_profile="cosine",
+    names=None,
+    t=None,
+    lever_arm=None,
+    gravity=None,
+) -> ImuTruth:
     """Static multi-position test: dwell at each pose, optionally turning smoothly between poses.
 
     Labels are the position index, -1 in transitions; ``segment_names`` describe each pose in words.
@@ -930,8 +1012,9 @@ def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, f
     if cs.ndim == 2:
         cs = cs[None]
     P = cs.shape[0]
-    dw = np.broadcast_to(as_float_array(dwell, "dwell"), (P,)) if np.ndim(dwell) == 0 else \
-        as_float_array(dwell, "dwell")
+    dw = (
+        np.broadcast_to(as_float_array(dwell, "dwell"), (P,)) if np.ndim(dwell) == 0 else as_float_array(dwell, "dwell")
+    )
     if dw.shape != (P,):
         raise OptinavError(f"dwell has {dw.size} values for {P} positions", "give one dwell or one per position")
     if np.any(dw <= 0):
@@ -939,11 +1022,15 @@ def static_positions(orientations, dwell, rate_hz, lat, height_m=0.0, lon=0.0, f
     if transition is None:
         tr = None
     else:
-        tr = np.broadcast_to(as_float_array(transition, "transition"), (max(P - 1, 0),)) \
-            if np.ndim(transition) == 0 else as_float_array(transition, "transition")
+        tr = (
+            np.broadcast_to(as_float_array(transition, "transition"), (max(P - 1, 0),))
+            if np.ndim(transition) == 0
+            else as_float_array(transition, "transition")
+        )
         if tr.shape != (max(P - 1, 0),):
-            raise OptinavError(f"transition has {tr.size} values for {P - 1} transitions",
-                               "give one duration or one per transition")
+            raise OptinavError(
+                f"transition has {tr.size} values for {P - 1} transitions", "give one duration or one per transition"
+            )
         if np.any(tr <= 0):
             raise OptinavError("transition durations must be positive", "give durations > 0 or transition=None")
         _check_profile(transition_profile, 1.0, None)
@@ -1007,8 +1094,20 @@ def _axis_words(axis, frame):
     return f"[{v[0]:.3f}, {v[1]:.3f}, {v[2]:.3f}]_{sub}"
 
 
-def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRAME, earth="wgs84", *, lon=0.0, t=None,
-              lever_arm=None, gravity=None) -> ImuTruth:
+def turntable(
+    schedule,
+    rate_hz,
+    lat,
+    height_m=0.0,
+    initial=None,
+    frame=CORE_FRAME,
+    earth="wgs84",
+    *,
+    lon=0.0,
+    t=None,
+    lever_arm=None,
+    gravity=None,
+) -> ImuTruth:
     """A turntable / gimbal schedule of :class:`Rest` and :class:`Rotate` segments on a static base.
 
     Labels are the segment index; ``segment_names`` give each segment in words (the pose at rest, the rotation
@@ -1078,8 +1177,9 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRA
                 fixed = [np.eye(3), c]
                 c_end = rot_axis(ax, ang) @ c
             pieces.append(_Chain(t0, t0 + d, i, fixed, [ax], [f], breakpoints=brk, max_step=step))
-            names.append(seg.name or f"rotate {'+' if ang >= 0 else ''}{_fmt_deg(ang)}° about "
-                                     f"{_axis_words(seg.axis, seg.frame)}")
+            names.append(
+                seg.name or f"rotate {'+' if ang >= 0 else ''}{_fmt_deg(ang)}° about {_axis_words(seg.axis, seg.frame)}"
+            )
             c = dcm_orthonormalize(c_end)
         else:
             raise OptinavError(f"schedule[{i}] is a {type(seg).__name__}", "use Rest(...) and Rotate(...) segments")
@@ -1088,8 +1188,24 @@ def turntable(schedule, rate_hz, lat, height_m=0.0, initial=None, frame=CORE_FRA
     return motion.simulate(_epochs(t0, rate, t), _lever(lever_arm))
 
 
-def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84", *, lon=0.0,
-           t=None, breakpoints=(), max_step=None, lever_arm=None, gravity=None) -> ImuTruth:
+def gimbal(
+    fixed,
+    axes,
+    angles,
+    duration,
+    rate_hz,
+    lat,
+    height_m=0.0,
+    frame=CORE_FRAME,
+    earth="wgs84",
+    *,
+    lon=0.0,
+    t=None,
+    breakpoints=(),
+    max_step=None,
+    lever_arm=None,
+    gravity=None,
+) -> ImuTruth:
     """Exact truth of a gimbal chain ``C_b^n(t) = C_0 R_1(θ_1(t)) C_1 … R_k(θ_k(t)) C_k`` on a static base.
 
     Labels: rest intervals (all schedules at rest) are numbered 0, 1, …; motion is -1 (with plain callables the
@@ -1144,8 +1260,10 @@ def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE
         raise OptinavError(f"{len(angles)} angle functions for {k} axes", "give one angle function per axis")
     fx = [_as_dcms(c, f"fixed[{i}]") for i, c in enumerate(fixed)]
     if len(fx) != k + 1:
-        raise OptinavError(f"a chain with {k} joint(s) needs {k + 1} fixed DCMs, got {len(fx)}",
-                           "give C_0 … C_k (use np.eye(3) where frames coincide)")
+        raise OptinavError(
+            f"a chain with {k} joint(s) needs {k + 1} fixed DCMs, got {len(fx)}",
+            "give C_0 … C_k (use np.eye(3) where frames coincide)",
+        )
     fx[0] = _to_enu(fx[0], frame)
     funcs, brk, peak, schedules_only = [], list(breakpoints), 0.0, True
     for i, a in enumerate(angles):
@@ -1201,6 +1319,7 @@ def gimbal(fixed, axes, angles, duration, rate_hz, lat, height_m=0.0, frame=CORE
 
 
 # --- coning ---------------------------------------------------------------------------------------------
+
 
 def coning_attitude(half_angle, frequency, t, phase=0.0) -> np.ndarray:
     """Classic coning attitude ``q(t)`` of the body relative to the reference frame (Savage §7.1.1).
@@ -1308,8 +1427,23 @@ def coning_noncommutativity(half_angle, frequency, t0, t1, phase=0.0) -> np.ndar
     return 0.5 * np.stack([x, y, z], -1)
 
 
-def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame=CORE_FRAME, lat=0.0, height_m=0.0, lon=0.0,
-           initial=None, phase=0.0, gravity=None, t=None, lever_arm=None) -> ImuTruth:
+def coning(
+    half_angle,
+    frequency,
+    duration,
+    rate_hz,
+    earth="none",
+    *,
+    frame=CORE_FRAME,
+    lat=0.0,
+    height_m=0.0,
+    lon=0.0,
+    initial=None,
+    phase=0.0,
+    gravity=None,
+    t=None,
+    lever_arm=None,
+) -> ImuTruth:
     """Classic coning motion with closed-form attitude, rate and increments (Savage, Strapdown Analytics §7.1.1).
 
     ``C_b^n(t) = C_0 · C(q_cone(t))`` with :func:`coning_attitude`; ``ω_nb^b`` is :func:`coning_rate` and its
@@ -1374,6 +1508,7 @@ def coning(half_angle, frequency, duration, rate_hz, earth="none", *, frame=CORE
 
 # --- trajectory -----------------------------------------------------------------------------------------
 
+
 def _bc_to_enu(bc_type, frame):
     """Derivative end conditions given in ``frame`` axes, in the ENU axes the spline is built in."""
     if isinstance(bc_type, str):
@@ -1389,8 +1524,22 @@ def _bc_to_enu(bc_type, frame):
     return tuple(out)
 
 
-def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAME, earth="wgs84", *, lat0,
-               lon0=0.0, height0_m=0.0, bc_type="not-a-knot", t=None, lever_arm=None, gravity=None) -> ImuTruth:
+def trajectory(
+    t_knots,
+    attitude_knots,
+    position_knots,
+    rate_hz,
+    frame=CORE_FRAME,
+    earth="wgs84",
+    *,
+    lat0,
+    lon0=0.0,
+    height0_m=0.0,
+    bc_type="not-a-knot",
+    t=None,
+    lever_arm=None,
+    gravity=None,
+) -> ImuTruth:
     """Smooth vehicle motion through knots: attitude by ``scipy.spatial.transform.RotationSpline``, position by a
     cubic spline in the tangent frame at (lat0, lon0, height0_m).
 
@@ -1449,8 +1598,9 @@ def trajectory(t_knots, attitude_knots, position_knots, rate_hz, frame=CORE_FRAM
     elif att.shape == (K, 3, 3):
         cs = _as_dcms(att, "attitude_knots")
     else:
-        raise OptinavError(f"attitude_knots has shape {att.shape}, expected ({K}, 3, 3) or ({K}, 4)",
-                           "give one attitude per knot")
+        raise OptinavError(
+            f"attitude_knots has shape {att.shape}, expected ({K}, 3, 3) or ({K}, 4)", "give one attitude per knot"
+        )
     pk = as_float_array(position_knots, "position_knots", last_dims=(3,))
     if pk.shape != (K, 3):
         raise OptinavError(f"position_knots has shape {pk.shape}, expected ({K}, 3)", "give one position per knot")

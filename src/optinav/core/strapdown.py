@@ -47,13 +47,19 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core._quat import qrotate, qupdate
 from optinav.core.results import Result
-from optinav.core.rotations import (CORE_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm,
-                                    quat_multiply)
+from optinav.core.rotations import CORE_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm, quat_multiply
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 
-__all__ = ["CONING_ALGORITHMS", "NavSolution", "attitude_update", "mechanize", "output_indices",
-           "rotation_increments", "coning_drift_rate"]
+__all__ = [
+    "CONING_ALGORITHMS",
+    "NavSolution",
+    "attitude_update",
+    "mechanize",
+    "output_indices",
+    "rotation_increments",
+    "coning_drift_rate",
+]
 
 #: coning algorithm name → samples per attitude update
 CONING_ALGORITHMS = {"none": 1, "previous": 1, "two-sample": 2, "three-sample": 3, "four-sample": 4}
@@ -69,6 +75,7 @@ _Q_NED_TO_ENU = quat_from_dcm(C_ENU_NED)
 
 
 # --- numba kernels ------------------------------------------------------------------------------------
+
 
 @numba.njit(cache=True, inline="always")
 def _prev_coef(cprev, hp, h):
@@ -251,8 +258,7 @@ def _mechanize_enu(dth, dv, t, idx, q0, v0, p0, cs, cprev, scul, ep, hold, out_q
         zx, zy, zz = (wiex + wenx) * T, (wiey + weny) * T, (wiez + wenz) * T
         # --- velocity: C_b^n(k−1) Δv_sf^b, then the half navigation-frame rotation −½ ζ×(·)
         nx, ny, nz = qrotate(w, x, y, z, bx, by, bz)
-        nx, ny, nz = (nx - 0.5 * (zy * nz - zz * ny), ny - 0.5 * (zz * nx - zx * nz),
-                      nz - 0.5 * (zx * ny - zy * nx))
+        nx, ny, nz = (nx - 0.5 * (zy * nz - zz * ny), ny - 0.5 * (zz * nx - zx * nz), nz - 0.5 * (zx * ny - zy * nx))
         # gravity and Coriolis: g^n − (2ω_ie + ω_en)×v
         ox, oy, oz = 2.0 * wiex + wenx, 2.0 * wiey + weny, 2.0 * wiez + wenz
         gx = -(oy * vmu - oz * vmn)
@@ -281,11 +287,13 @@ def _mechanize_enu(dth, dv, t, idx, q0, v0, p0, cs, cprev, scul, ep, hold, out_q
 
 # --- helpers ------------------------------------------------------------------------------------------
 
+
 def _coning(coning: str) -> tuple[str, int]:
     key = str(coning).lower()
     if key not in CONING_ALGORITHMS:
-        raise OptinavError(f"unknown coning algorithm {coning!r}",
-                           f"use one of {', '.join(repr(k) for k in CONING_ALGORITHMS)}")
+        raise OptinavError(
+            f"unknown coning algorithm {coning!r}", f"use one of {', '.join(repr(k) for k in CONING_ALGORITHMS)}"
+        )
     return key, CONING_ALGORITHMS[key]
 
 
@@ -318,12 +326,16 @@ def _as_quat0(q0) -> np.ndarray:
     a = as_float_array(q0, "q0")
     if a.shape == (3, 3):
         if abs(np.linalg.det(a) - 1.0) > 1e-6 or not np.allclose(a @ a.T, np.eye(3), atol=1e-6):
-            raise OptinavError("q0 is a 3×3 matrix but not a rotation matrix (C_b^n)",
-                               "pass an orthonormal C_b^n with determinant +1 or a unit quaternion")
+            raise OptinavError(
+                "q0 is a 3×3 matrix but not a rotation matrix (C_b^n)",
+                "pass an orthonormal C_b^n with determinant +1 or a unit quaternion",
+            )
         return quat_from_dcm(a)
     if a.shape != (4,):
-        raise OptinavError(f"q0 has shape {a.shape}, expected a quaternion (4,) or C_b^n (3, 3)",
-                           "pass the initial attitude q_b^n as [w, x, y, z]")
+        raise OptinavError(
+            f"q0 has shape {a.shape}, expected a quaternion (4,) or C_b^n (3, 3)",
+            "pass the initial attitude q_b^n as [w, x, y, z]",
+        )
     n = np.linalg.norm(a)
     if abs(n - 1.0) > 1e-6:
         raise OptinavError(f"q0 is not a unit quaternion (norm {n:.6g})", "normalize the initial attitude")
@@ -333,8 +345,9 @@ def _as_quat0(q0) -> np.ndarray:
 def _as_increments(x, name: str) -> np.ndarray:
     a = as_float_array(x, name, last_dims=(3,))
     if a.ndim != 2 or a.shape[0] < 1:
-        raise OptinavError(f"{name} has shape {a.shape}, expected (N, 3) with N ≥ 1",
-                           "pass one increment per sample interval")
+        raise OptinavError(
+            f"{name} has shape {a.shape}, expected (N, 3) with N ≥ 1", "pass one increment per sample interval"
+        )
     return np.ascontiguousarray(a)
 
 
@@ -366,8 +379,10 @@ def rotation_increments(dtheta, coning: str = "previous", dt=None) -> np.ndarray
         if dt is not None:
             h = as_float_array(dt, "dt")
             if h.shape != (dth.shape[0],) or np.any(h <= 0):
-                raise OptinavError(f"dt has shape {h.shape} or non-positive steps, expected ({dth.shape[0]},) > 0",
-                                   "give one positive interval per increment")
+                raise OptinavError(
+                    f"dt has shape {h.shape} or non-positive steps, expected ({dth.shape[0]},) > 0",
+                    "give one positive interval per increment",
+                )
             c[1:] = h[1:] ** 2 / (6.0 * h[:-1] * (h[:-1] + h[1:]))
         prev = np.vstack([np.zeros((1, 3)), dth[:-1]])
         return dth + c[:, None] * np.cross(prev, dth)
@@ -419,8 +434,9 @@ def coning_drift_rate(coning: str, half_angle: float, frequency: float, dt: floa
     return float(s2 * (alg - 0.5 * (n * lam - np.sin(n * lam))) / (n * dt))
 
 
-def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt=None,
-                    final_only: bool = False) -> np.ndarray:
+def attitude_update(
+    q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt=None, final_only: bool = False
+) -> np.ndarray:
     """Integrate body angular increments into the attitude ``q_b^n``.
 
     Parameters
@@ -455,8 +471,9 @@ def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt
     if dt is not None:
         d = as_float_array(dt, "dt")
         if d.ndim > 1 or (d.ndim == 1 and d.shape[0] != n_samp):
-            raise OptinavError(f"dt has shape {d.shape}, expected a scalar or ({n_samp},)",
-                               "give one interval or one per increment")
+            raise OptinavError(
+                f"dt has shape {d.shape}, expected a scalar or ({n_samp},)", "give one interval or one per increment"
+            )
         if np.any(d <= 0):
             raise OptinavError("dt has non-positive intervals", "pass positive sample intervals in s")
     if omega_in_n is None:
@@ -466,8 +483,9 @@ def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt
             raise OptinavError("omega_in_n needs the sample intervals dt", "pass dt (scalar or (N,) in s)")
         w = as_float_array(omega_in_n, "omega_in_n", last_dims=(3,))
         if w.ndim not in (1, 2) or (w.ndim == 2 and w.shape[0] != n_samp):
-            raise OptinavError(f"omega_in_n has shape {w.shape}, expected (3,) or ({n_samp}, 3)",
-                               "give one rate or one per increment")
+            raise OptinavError(
+                f"omega_in_n has shape {w.shape}, expected (3,) or ({n_samp}, 3)", "give one rate or one per increment"
+            )
         if w.ndim == 1 and d.ndim == 0:
             zeta, zstep = (w * d)[None, :], 0
         else:
@@ -476,8 +494,7 @@ def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt
     hs = np.ascontiguousarray(d) if d is not None and d.ndim == 1 else np.empty(0)
     if n == 1:
         out = np.empty((1 if final_only else n_samp + 1, 4))
-        _attitude_single(q, dth, zeta, zstep, 1.0 / 12.0 if coning == "previous" else 0.0, hs, out,
-                         not final_only)
+        _attitude_single(q, dth, zeta, zstep, 1.0 / 12.0 if coning == "previous" else 0.0, hs, out, not final_only)
     else:
         idx = output_indices(n_samp, coning)
         out = np.empty((1 if final_only else idx.size, 4))
@@ -486,6 +503,7 @@ def attitude_update(q0, dtheta, *, coning: str = "previous", omega_in_n=None, dt
 
 
 # --- full mechanization -------------------------------------------------------------------------------
+
 
 @dataclass
 class NavSolution(Result):
@@ -510,8 +528,19 @@ def _earth_params(e: _earth.EarthConstants) -> np.ndarray:
     return np.array([e.a, e.e2, e.omega_ie, e.f, gmodel, e.g_e, e.k_somigliana, m])
 
 
-def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs84", coning: str = "previous",
-              sculling: bool = True, vertical: str = "free") -> NavSolution:
+def mechanize(
+    dtheta,
+    dv,
+    t,
+    q0,
+    vel0,
+    pos0,
+    frame: str = CORE_FRAME,
+    earth="wgs84",
+    coning: str = "previous",
+    sculling: bool = True,
+    vertical: str = "free",
+) -> NavSolution:
     """Strapdown attitude/velocity/position integration in a local-level frame (Savage 1998; T&W ch. 11).
 
     Each update: φ and Δv_sf^b with coning/sculling; Earth rate, transport rate, gravity and Coriolis at the
@@ -556,8 +585,10 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs
         raise OptinavError(f"dv has shape {dvb.shape} but dtheta has {dth.shape}", "pass matching increments")
     tt = check_timestamps(t, "t")
     if tt.size != dth.shape[0] + 1:
-        raise OptinavError(f"t has {tt.size} samples for {dth.shape[0]} increments",
-                           "pass N+1 times for N increments (t[k] to t[k+1] bounds increment k)")
+        raise OptinavError(
+            f"t has {tt.size} samples for {dth.shape[0]} increments",
+            "pass N+1 times for N increments (t[k] to t[k+1] bounds increment k)",
+        )
     fr = frame_name(frame)
     e = _earth.constants(earth)
     q = _as_quat0(q0)
@@ -566,8 +597,10 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs
     if v.shape != (3,) or p.shape != (3,):
         raise OptinavError("vel0 and pos0 must be single 3-vectors", "pass the state at t[0]")
     if abs(p[0]) >= np.pi / 2 - 1e-6:
-        raise OptinavError(f"latitude {np.degrees(p[0]):.6g}° is at or beyond a pole",
-                           "pass pos0 = [lat, lon, h] in rad with |lat| < 90°")
+        raise OptinavError(
+            f"latitude {np.degrees(p[0]):.6g}° is at or beyond a pole",
+            "pass pos0 = [lat, lon, h] in rad with |lat| < 90°",
+        )
     if vertical not in ("free", "hold"):
         raise OptinavError(f"unknown vertical mode {vertical!r}", "use 'free' or 'hold'")
     coning, n = _coning(coning)
@@ -577,11 +610,26 @@ def mechanize(dtheta, dv, t, q0, vel0, pos0, frame: str = CORE_FRAME, earth="wgs
         v = C_ENU_NED @ v
     m = idx.size
     out_q, out_v, out_p = np.empty((m, 4)), np.empty((m, 3)), np.empty((m, 3))
-    _mechanize_enu(dth, dvb, tt, idx, q, v.copy(), p.copy(), _CS, 1.0 / 12.0 if coning == "previous" else 0.0,
-                   bool(sculling) and coning != "none", _earth_params(e), vertical == "hold",
-                   out_q, out_v, out_p)
+    _mechanize_enu(
+        dth,
+        dvb,
+        tt,
+        idx,
+        q,
+        v.copy(),
+        p.copy(),
+        _CS,
+        1.0 / 12.0 if coning == "previous" else 0.0,
+        bool(sculling) and coning != "none",
+        _earth_params(e),
+        vertical == "hold",
+        out_q,
+        out_v,
+        out_p,
+    )
     if fr == "ned":
         out_q = quat_multiply(quat_conjugate(_Q_NED_TO_ENU), out_q)
         out_v = out_v @ C_ENU_NED.T
-    return NavSolution(t=tt[idx], q_b_n=out_q, vel_n=out_v, pos=out_p, frame=fr, earth=e.name.lower(),
-                       coning=str(coning), index=idx)
+    return NavSolution(
+        t=tt[idx], q_b_n=out_q, vel_n=out_v, pos=out_p, frame=fr, earth=e.name.lower(), coning=str(coning), index=idx
+    )

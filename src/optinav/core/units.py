@@ -22,32 +22,76 @@ HOUR = 3600.0
 #: unit name → factor such that value_SI = value × factor; the SI unit of each quantity is in the comment.
 UNITS: dict[str, float] = {
     # angle → rad
-    "rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "deg": DEG, "arcmin": ARCMIN, "arcsec": ARCSEC,
+    "rad": 1.0,
+    "mrad": 1e-3,
+    "urad": 1e-6,
+    "deg": DEG,
+    "arcmin": ARCMIN,
+    "arcsec": ARCSEC,
     # angular rate → rad/s
-    "rad/s": 1.0, "deg/s": DEG, "deg/h": DEG / HOUR, "deg/hr": DEG / HOUR, "rpm": 2 * math.pi / 60.0,
+    "rad/s": 1.0,
+    "deg/s": DEG,
+    "deg/h": DEG / HOUR,
+    "deg/hr": DEG / HOUR,
+    "rpm": 2 * math.pi / 60.0,
     # angular random walk → rad/√s
-    "rad/sqrt(s)": 1.0, "deg/sqrt(h)": DEG / 60.0, "deg/sqrt(hr)": DEG / 60.0,
-    "deg/s/sqrt(Hz)": DEG, "deg/h/sqrt(Hz)": DEG / HOUR, "rad/s/sqrt(Hz)": 1.0,
+    "rad/sqrt(s)": 1.0,
+    "deg/sqrt(h)": DEG / 60.0,
+    "deg/sqrt(hr)": DEG / 60.0,
+    "deg/s/sqrt(Hz)": DEG,
+    "deg/h/sqrt(Hz)": DEG / HOUR,
+    "rad/s/sqrt(Hz)": 1.0,
     # rate random walk → rad/s/√s
-    "deg/h/sqrt(h)": DEG / HOUR / 60.0, "deg/h^1.5": DEG / HOUR / 60.0, "rad/s/sqrt(s)": 1.0,
+    "deg/h/sqrt(h)": DEG / HOUR / 60.0,
+    "deg/h^1.5": DEG / HOUR / 60.0,
+    "rad/s/sqrt(s)": 1.0,
     # acceleration → m/s²
-    "m/s^2": 1.0, "g": G_STANDARD, "mg": 1e-3 * G_STANDARD, "ug": 1e-6 * G_STANDARD,
+    "m/s^2": 1.0,
+    "g": G_STANDARD,
+    "mg": 1e-3 * G_STANDARD,
+    "ug": 1e-6 * G_STANDARD,
     # velocity random walk → m/s/√s
-    "m/s/sqrt(s)": 1.0, "m/s^2/sqrt(Hz)": 1.0, "ug/sqrt(Hz)": 1e-6 * G_STANDARD,
-    "mg/sqrt(Hz)": 1e-3 * G_STANDARD, "m/s/sqrt(h)": 1.0 / 60.0,
+    "m/s/sqrt(s)": 1.0,
+    "m/s^2/sqrt(Hz)": 1.0,
+    "ug/sqrt(Hz)": 1e-6 * G_STANDARD,
+    "mg/sqrt(Hz)": 1e-3 * G_STANDARD,
+    "m/s/sqrt(h)": 1.0 / 60.0,
     # acceleration random walk → m/s²/√s
-    "m/s^2/sqrt(s)": 1.0, "ug/sqrt(s)": 1e-6 * G_STANDARD,
+    "m/s^2/sqrt(s)": 1.0,
+    "ug/sqrt(s)": 1e-6 * G_STANDARD,
     # dimensionless
-    "1": 1.0, "ppm": 1e-6, "%": 1e-2,
+    "1": 1.0,
+    "ppm": 1e-6,
+    "%": 1e-2,
     # time, frequency, length
-    "s": 1.0, "ms": 1e-3, "min": 60.0, "h": HOUR, "Hz": 1.0, "m": 1.0, "mm": 1e-3,
+    "s": 1.0,
+    "ms": 1e-3,
+    "min": 60.0,
+    "h": HOUR,
+    "Hz": 1.0,
+    "m": 1.0,
+    "mm": 1e-3,
     # gyro g-sensitivity → rad/s per m/s²
-    "rad/s/(m/s^2)": 1.0, "deg/h/g": DEG / HOUR / G_STANDARD, "deg/s/g": DEG / G_STANDARD,
+    "rad/s/(m/s^2)": 1.0,
+    "deg/h/g": DEG / HOUR / G_STANDARD,
+    "deg/s/g": DEG / G_STANDARD,
 }
 
-_ALIASES = {"μg": "ug", "µg": "ug", "°": "deg", "°/h": "deg/h", "°/s": "deg/s", "°/√h": "deg/sqrt(h)",
-            "μg/√Hz": "ug/sqrt(Hz)", "µg/√Hz": "ug/sqrt(Hz)", "m/s2": "m/s^2", "m/s²": "m/s^2",
-            "dph": "deg/h", "dpsh": "deg/sqrt(h)", "ugpsHz": "ug/sqrt(Hz)"}
+_ALIASES = {
+    "μg": "ug",
+    "µg": "ug",
+    "°": "deg",
+    "°/h": "deg/h",
+    "°/s": "deg/s",
+    "°/√h": "deg/sqrt(h)",
+    "μg/√Hz": "ug/sqrt(Hz)",
+    "µg/√Hz": "ug/sqrt(Hz)",
+    "m/s2": "m/s^2",
+    "m/s²": "m/s^2",
+    "dph": "deg/h",
+    "dpsh": "deg/sqrt(h)",
+    "ugpsHz": "ug/sqrt(Hz)",
+}
 
 
 def factor(unit: str) -> float:

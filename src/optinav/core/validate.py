@@ -32,18 +32,20 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
         a = np.asarray(x, dtype=float)
     except (TypeError, ValueError) as exc:
         raise OptinavError(f"{name} is not numeric ({exc})", "pass an array of numbers") from None
-    if last_dims and (a.ndim < len(last_dims) or a.shape[a.ndim - len(last_dims):] != tuple(last_dims)):
+    if last_dims and (a.ndim < len(last_dims) or a.shape[a.ndim - len(last_dims) :] != tuple(last_dims)):
         want = "(..., " + ", ".join(map(str, last_dims)) + ")"
         raise OptinavError(f"{name} has shape {a.shape}, expected {want}", "check the array's layout")
     if finite and a.size and not np.all(np.isfinite(a)):
         bad = int(np.count_nonzero(~np.isfinite(a)))
-        raise OptinavError(f"{name} contains {bad} NaN or infinite value(s)",
-                           "remove or interpolate the bad samples before calling")
+        raise OptinavError(
+            f"{name} contains {bad} NaN or infinite value(s)", "remove or interpolate the bad samples before calling"
+        )
     return a
 
 
-def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None,
-                     index0: int = 0) -> np.ndarray:
+def check_timestamps(
+    t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None, index0: int = 0
+) -> np.ndarray:
     """Validate a 1-D timestamp vector: finite, strictly increasing, optionally without gaps.
 
     Parameters
@@ -68,25 +70,29 @@ def check_timestamps(t, name: str = "time", *, min_count: int = 2, max_gap_facto
     if t.ndim != 1:
         raise OptinavError(f"{name} must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
     if t.size < min_count:
-        raise OptinavError(f"{name} has {t.size} sample(s), at least {min_count} are needed",
-                           "record a longer log")
+        raise OptinavError(f"{name} has {t.size} sample(s), at least {min_count} are needed", "record a longer log")
     dt = np.diff(t)
     if np.any(dt == 0):
         i = int(np.flatnonzero(dt == 0)[0])
-        raise OptinavError(f"{name} has a duplicate timestamp at index {index0 + i + 1} (t = {t[i + 1]:.6g} s)",
-                           "drop duplicated samples")
+        raise OptinavError(
+            f"{name} has a duplicate timestamp at index {index0 + i + 1} (t = {t[i + 1]:.6g} s)",
+            "drop duplicated samples",
+        )
     if np.any(dt < 0):
         i = int(np.flatnonzero(dt < 0)[0])
-        raise OptinavError(f"{name} is not sorted: t[{index0 + i + 1}] = {t[i + 1]:.6g} s < t[{index0 + i}] = "
-                           f"{t[i]:.6g} s",
-                           "sort the samples by time")
+        raise OptinavError(
+            f"{name} is not sorted: t[{index0 + i + 1}] = {t[i + 1]:.6g} s < t[{index0 + i}] = {t[i]:.6g} s",
+            "sort the samples by time",
+        )
     if max_gap_factor is not None and dt.size:
         med = float(np.median(dt))
         big = dt > max_gap_factor * med
         if np.any(big):
             i = int(np.flatnonzero(big)[0])
-            raise OptinavError(f"{name} has a gap of {dt[i]:.6g} s after t = {t[i]:.6g} s "
-                               f"(median step {med:.6g} s)", "split the log at the gap or fill it")
+            raise OptinavError(
+                f"{name} has a gap of {dt[i]:.6g} s after t = {t[i]:.6g} s (median step {med:.6g} s)",
+                "split the log at the gap or fill it",
+            )
     return t
 
 
@@ -108,8 +114,10 @@ def as_rng(rng) -> np.random.Generator:
     try:
         return np.random.default_rng(rng)
     except (TypeError, ValueError):
-        raise OptinavError(f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}",
-                           "pass e.g. rng=np.random.default_rng(1)") from None
+        raise OptinavError(
+            f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}",
+            "pass e.g. rng=np.random.default_rng(1)",
+        ) from None
 
 
 def check_positive(value, name: str) -> float:

@@ -27,15 +27,26 @@ from optinav.core.results import Result
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["AccelerometerArray", "Identifiability", "identifiability", "builtin", "BUILTINS",
-           "LINEAR_NAMES", "QUAD_NAMES", "quadratic_products", "h_lin", "h_quad", "RANK_TOL"]
+__all__ = [
+    "AccelerometerArray",
+    "Identifiability",
+    "identifiability",
+    "builtin",
+    "BUILTINS",
+    "LINEAR_NAMES",
+    "QUAD_NAMES",
+    "quadratic_products",
+    "h_lin",
+    "h_quad",
+    "RANK_TOL",
+]
 
 LINEAR_NAMES = ["A_x", "A_y", "A_z", "wdot_x", "wdot_y", "wdot_z"]
 QUAD_NAMES = ["wx^2", "wy^2", "wz^2", "wx*wy", "wx*wz", "wy*wz"]
 #: singular values below RANK_TOL · s_max of the column-normalized design count as zero
 RANK_TOL = 1e-9
-_UNIT_TOL = 1e-3      # |‖θ‖ − 1| allowed in a configuration file (then normalized)
-_DUP_TOL = 1e-9       # m and rad: two sensors this close in position and direction are duplicates
+_UNIT_TOL = 1e-3  # |‖θ‖ − 1| allowed in a configuration file (then normalized)
+_DUP_TOL = 1e-9  # m and rad: two sensors this close in position and direction are duplicates
 
 
 def quadratic_products(omega) -> np.ndarray:
@@ -66,10 +77,17 @@ def h_quad(positions, directions) -> np.ndarray:
     """Rows (..., N, 6) multiplying q(ω): ``[M_xx, M_yy, M_zz, 2M_xy, 2M_xz, 2M_yz]``, M = sym(θrᵀ) − (θ·r)I."""
     r, th = np.asarray(positions, float), np.asarray(directions, float)
     d = np.sum(r * th, -1)
-    return np.stack([th[..., 0] * r[..., 0] - d, th[..., 1] * r[..., 1] - d, th[..., 2] * r[..., 2] - d,
-                     th[..., 0] * r[..., 1] + th[..., 1] * r[..., 0],
-                     th[..., 0] * r[..., 2] + th[..., 2] * r[..., 0],
-                     th[..., 1] * r[..., 2] + th[..., 2] * r[..., 1]], -1)
+    return np.stack(
+        [
+            th[..., 0] * r[..., 0] - d,
+            th[..., 1] * r[..., 1] - d,
+            th[..., 2] * r[..., 2] - d,
+            th[..., 0] * r[..., 1] + th[..., 1] * r[..., 0],
+            th[..., 0] * r[..., 2] + th[..., 2] * r[..., 0],
+            th[..., 1] * r[..., 2] + th[..., 2] * r[..., 1],
+        ],
+        -1,
+    )
 
 
 @dataclass
@@ -89,34 +107,45 @@ class AccelerometerArray:
         p = _as_rows(self.positions, "positions")
         d = _as_rows(self.directions, "directions")
         if p.shape != d.shape:
-            raise OptinavError(f"{p.shape[0]} positions but {d.shape[0]} directions",
-                               "give one position and one direction per accelerometer")
+            raise OptinavError(
+                f"{p.shape[0]} positions but {d.shape[0]} directions",
+                "give one position and one direction per accelerometer",
+            )
         n = np.linalg.norm(d, axis=1)
         for i, ni in enumerate(n):
             if ni == 0:
-                raise OptinavError(f"accelerometer {i + 1}: sensing direction is zero",
-                                   "give a unit vector along the sensing axis")
+                raise OptinavError(
+                    f"accelerometer {i + 1}: sensing direction is zero", "give a unit vector along the sensing axis"
+                )
             if abs(ni - 1) > _UNIT_TOL:
-                raise OptinavError(f"accelerometer {i + 1}: sensing direction has norm {ni:.6g}, not 1",
-                                   "give a unit vector (divide by its norm)")
+                raise OptinavError(
+                    f"accelerometer {i + 1}: sensing direction has norm {ni:.6g}, not 1",
+                    "give a unit vector (divide by its norm)",
+                )
         d = d / n[:, None]
         for i in range(len(p)):
             for j in range(i):
                 if np.all(np.abs(p[i] - p[j]) <= _DUP_TOL) and np.all(np.abs(d[i] - d[j]) <= _DUP_TOL):
-                    raise OptinavError(f"accelerometer {i + 1} duplicates accelerometer {j + 1} "
-                                       "(same position and direction)", "remove one of them")
+                    raise OptinavError(
+                        f"accelerometer {i + 1} duplicates accelerometer {j + 1} (same position and direction)",
+                        "remove one of them",
+                    )
         self.positions, self.directions = p, d
         if self.noise is not None:
             s = as_float_array(self.noise, "noise")
             if s.ndim == 0:
                 s = np.full(len(p), float(s))
             if s.shape != (len(p),):
-                raise OptinavError(f"noise has {s.size} entries for {len(p)} accelerometers",
-                                   "give one noise std (m/s^2) per accelerometer, or none")
+                raise OptinavError(
+                    f"noise has {s.size} entries for {len(p)} accelerometers",
+                    "give one noise std (m/s^2) per accelerometer, or none",
+                )
             if np.any(s <= 0):
                 i = int(np.flatnonzero(s <= 0)[0])
-                raise OptinavError(f"accelerometer {i + 1}: noise std {s[i]:.6g} is not positive",
-                                   "give the noise standard deviation in m/s^2 (> 0)")
+                raise OptinavError(
+                    f"accelerometer {i + 1}: noise std {s[i]:.6g} is not positive",
+                    "give the noise standard deviation in m/s^2 (> 0)",
+                )
             self.noise = s
 
     @property
@@ -163,8 +192,11 @@ class AccelerometerArray:
         (T, N) ndarray
             Sensor outputs [m/s^2].
         """
-        return (np.asarray(A, float) @ self.directions.T + np.asarray(wdot, float) @ np.cross(
-            self.positions, self.directions).T + quadratic_products(omega) @ self.H_quad.T)
+        return (
+            np.asarray(A, float) @ self.directions.T
+            + np.asarray(wdot, float) @ np.cross(self.positions, self.directions).T
+            + quadratic_products(omega) @ self.H_quad.T
+        )
 
     def with_geometry(self, positions, directions) -> "AccelerometerArray":
         """The same sensors (noise, name) at another geometry.
@@ -194,8 +226,7 @@ class AccelerometerArray:
         """
         acc = []
         for i in range(self.n):
-            e = {"position": [float(v) for v in self.positions[i]],
-                 "direction": [float(v) for v in self.directions[i]]}
+            e = {"position": [float(v) for v in self.positions[i]], "direction": [float(v) for v in self.directions[i]]}
             if self.noise is not None:
                 e["noise"] = float(self.noise[i])
             acc.append(e)
@@ -238,38 +269,56 @@ class AccelerometerArray:
             The validated array.
         """
         if not isinstance(cfg, dict) or "accelerometers" not in cfg:
-            raise OptinavError(f"{source} has no 'accelerometers' list",
-                               'write {"accelerometers": [{"position": [x, y, z], "direction": [x, y, z]}, ...]}')
+            raise OptinavError(
+                f"{source} has no 'accelerometers' list",
+                'write {"accelerometers": [{"position": [x, y, z], "direction": [x, y, z]}, ...]}',
+            )
         acc = cfg["accelerometers"]
         if not isinstance(acc, list) or not acc:
             raise OptinavError(f"{source}: 'accelerometers' is not a non-empty list", "list one entry per sensor")
         pos, dirs, noise = [], [], []
         for i, e in enumerate(acc):
             if not isinstance(e, dict):
-                raise OptinavError(f"{source}: accelerometer {i + 1} is not an object",
-                                   'write {"position": [x, y, z], "direction": [x, y, z]}')
+                raise OptinavError(
+                    f"{source}: accelerometer {i + 1} is not an object",
+                    'write {"position": [x, y, z], "direction": [x, y, z]}',
+                )
             unknown = sorted(set(e) - {"position", "direction", "noise", "name"})
             if unknown:
-                raise OptinavError(f"{source}: accelerometer {i + 1} has unknown key(s) {', '.join(unknown)}",
-                                   "use position (m), direction (unit vector) and optionally noise (m/s^2)")
+                raise OptinavError(
+                    f"{source}: accelerometer {i + 1} has unknown key(s) {', '.join(unknown)}",
+                    "use position (m), direction (unit vector) and optionally noise (m/s^2)",
+                )
             for key in ("position", "direction"):
                 v = e.get(key)
-                if not (isinstance(v, list) and len(v) == 3 and all(
-                        isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)):
-                    raise OptinavError(f"{source}: accelerometer {i + 1} {key} is {v!r}, not 3 numbers",
-                                       f"give {key} as [x, y, z]" + (" in m" if key == "position" else ""))
+                if not (
+                    isinstance(v, list)
+                    and len(v) == 3
+                    and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+                ):
+                    raise OptinavError(
+                        f"{source}: accelerometer {i + 1} {key} is {v!r}, not 3 numbers",
+                        f"give {key} as [x, y, z]" + (" in m" if key == "position" else ""),
+                    )
             pos.append(e["position"])
             dirs.append(e["direction"])
             noise.append(e.get("noise"))
         if any(s is not None for s in noise) and any(s is None for s in noise):
-            raise OptinavError(f"{source}: noise is given for some accelerometers only",
-                               "give noise (m/s^2) for every accelerometer or for none")
+            raise OptinavError(
+                f"{source}: noise is given for some accelerometers only",
+                "give noise (m/s^2) for every accelerometer or for none",
+            )
         for i, s in enumerate(noise):
             if s is not None and (not isinstance(s, (int, float)) or isinstance(s, bool)):
-                raise OptinavError(f"{source}: accelerometer {i + 1} noise is {s!r}, not a number",
-                                   "give the noise std in m/s^2")
-        return cls(np.array(pos, float), np.array(dirs, float),
-                   None if noise[0] is None else np.array(noise, float), str(cfg.get("name", "")))
+                raise OptinavError(
+                    f"{source}: accelerometer {i + 1} noise is {s!r}, not a number", "give the noise std in m/s^2"
+                )
+        return cls(
+            np.array(pos, float),
+            np.array(dirs, float),
+            None if noise[0] is None else np.array(noise, float),
+            str(cfg.get("name", "")),
+        )
 
     @classmethod
     def load(cls, path) -> "AccelerometerArray":
@@ -300,14 +349,16 @@ def _as_rows(x, name) -> np.ndarray:
         raise OptinavError(f"{name} has shape {a.shape}, expected (N, 3)", "give one 3-vector per accelerometer")
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
-        raise OptinavError(f"accelerometer {int(np.flatnonzero(bad)[0]) + 1}: {name[:-1]} is not finite",
-                           "give finite numbers")
+        raise OptinavError(
+            f"accelerometer {int(np.flatnonzero(bad)[0]) + 1}: {name[:-1]} is not finite", "give finite numbers"
+        )
     return a
 
 
 # ------------------------------------------------------------------------------------------------------------
 # identifiability
 # ------------------------------------------------------------------------------------------------------------
+
 
 def _rowspace(H: np.ndarray, tol: float = RANK_TOL) -> tuple[int, np.ndarray]:
     """Rank r and the right singular vectors (n × n) of the column-normalized H (scale-invariant): rows
@@ -347,15 +398,21 @@ class Identifiability(Result):
         dict
             Ranks, solvable components and unobservable combinations.
         """
-        return {"name": self.name, "n_accelerometers": self.n_accelerometers, "rank_linear": self.rank_linear,
-                "rank_quadratic": self.rank_quadratic, "rank_full": self.rank_full,
-                "n_quadratic_observable": self.n_quadratic_observable,
-                "solvable_without_rate": list(self.solvable_without_rate),
-                "solvable_with_rate": list(self.solvable_with_rate),
-                "quadratic_observable": list(self.quadratic_observable),
-                "unobservable": list(self.unobservable),
-                "unobservable_linear": list(self.unobservable_linear), "statements": list(self.statements),
-                "condition_linear": self.condition_linear}
+        return {
+            "name": self.name,
+            "n_accelerometers": self.n_accelerometers,
+            "rank_linear": self.rank_linear,
+            "rank_quadratic": self.rank_quadratic,
+            "rank_full": self.rank_full,
+            "n_quadratic_observable": self.n_quadratic_observable,
+            "solvable_without_rate": list(self.solvable_without_rate),
+            "solvable_with_rate": list(self.solvable_with_rate),
+            "quadratic_observable": list(self.quadratic_observable),
+            "unobservable": list(self.unobservable),
+            "unobservable_linear": list(self.unobservable_linear),
+            "statements": list(self.statements),
+            "condition_linear": self.condition_linear,
+        }
 
     def require(self, needed=("linear",)) -> None:
         """Raise a one-line :class:`OptinavError` naming what cannot be solved when [A, ω̇] is not identifiable.
@@ -371,13 +428,15 @@ class Identifiability(Result):
                 f"configuration{' ' + self.name if self.name else ''} is rank deficient: rank {self.rank_linear} "
                 f"of 6 for [A, wdot] even with the rate known; cannot solve "
                 f"{', '.join(missing) or 'the combination'} (unobservable: {'; '.join(self.unobservable)})",
-                "add or re-orient accelerometers (see optinav gfimu analyze)")
+                "add or re-orient accelerometers (see optinav gfimu analyze)",
+            )
         if "without_rate" in needed and len(self.solvable_without_rate) < 6:
             missing = [n for n in LINEAR_NAMES if n not in self.solvable_without_rate]
             raise OptinavError(
                 f"configuration{' ' + self.name if self.name else ''} cannot solve {', '.join(missing)} without "
                 "knowing the angular rate (they mix with the quadratic rate terms)",
-                "use method 'gauss-newton' (rate as a prior) or a configuration that separates them")
+                "use method 'gauss-newton' (rate as a prior) or a configuration that separates them",
+            )
 
     def summary(self) -> str:
         """A human-readable report of the ranks and solvable components.
@@ -387,10 +446,14 @@ class Identifiability(Result):
         str
             The report.
         """
-        return "\n".join([f"{self.n_accelerometers} accelerometers: rank [A, wdot] {self.rank_linear}/6, "
-                          f"rank with the 6 quadratic terms {self.rank_full}/12, "
-                          f"{self.n_quadratic_observable} quadratic combination(s) observable"]
-                         + ["  " + s for s in self.statements])
+        return "\n".join(
+            [
+                f"{self.n_accelerometers} accelerometers: rank [A, wdot] {self.rank_linear}/6, "
+                f"rank with the 6 quadratic terms {self.rank_full}/12, "
+                f"{self.n_quadratic_observable} quadratic combination(s) observable"
+            ]
+            + ["  " + s for s in self.statements]
+        )
 
 
 def identifiability(array: AccelerometerArray) -> Identifiability:
@@ -437,7 +500,7 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
         B = a @ V[:, 6:]
     else:
         B = np.zeros((0, 6))
-    B = B * D[6:][None, :]             # functionals: cᵀu = (D c)ᵀq with u = D q
+    B = B * D[6:][None, :]  # functionals: cᵀu = (D c)ᵀq with u = D q
     nq = B.shape[0]
     Bq = np.linalg.qr(B.T)[0].T if nq else B
     words_q = [format_combination(row, QUAD_NAMES, normalize=True) for row in rref(B)] if nq else []
@@ -449,26 +512,43 @@ def identifiability(array: AccelerometerArray) -> Identifiability:
         unobs = [format_combination(row / D, LINEAR_NAMES + QUAD_NAMES, normalize=True) for row in N]
     # words for the linear part only (with the rate known)
     null_l = vt_l[rl:]
-    unobs_lin = ([format_combination(row / D[:6], LINEAR_NAMES, normalize=True) for row in rref(null_l)]
-                 if null_l.shape[0] else [])
+    unobs_lin = (
+        [format_combination(row / D[:6], LINEAR_NAMES, normalize=True) for row in rref(null_l)]
+        if null_l.shape[0]
+        else []
+    )
     s_lin = np.linalg.svd(array.H_lin * array.weights()[:, None], compute_uv=False)
     cond = float(s_lin[0] / s_lin[5]) if s_lin.size >= 6 and s_lin[5] > 1e-12 * s_lin[0] else float("inf")
-    st = [f"[A, wdot] with the rate known: rank {rl}/6"
-          + ("" if rl == 6 else " — unobservable: " + "; ".join(unobs_lin)),
-          "solvable without the rate: " + (", ".join(solv_free) if solv_free else "none"),
-          f"quadratic rate terms: rank {rq}/6 in the design, {nq} combination(s) observable"
-          + (": " + "; ".join(words_q) if words_q else "")]
+    st = [
+        f"[A, wdot] with the rate known: rank {rl}/6" + ("" if rl == 6 else " — unobservable: " + "; ".join(unobs_lin)),
+        "solvable without the rate: " + (", ".join(solv_free) if solv_free else "none"),
+        f"quadratic rate terms: rank {rq}/6 in the design, {nq} combination(s) observable"
+        + (": " + "; ".join(words_q) if words_q else ""),
+    ]
     if unobs:
         st.append(f"{len(unobs)} direction(s) of [A, wdot, q] unobservable (with ω unknown): " + "; ".join(unobs))
-    return Identifiability(n_accelerometers=array.n, rank_linear=rl, rank_quadratic=rq, rank_full=rf,
-                           n_quadratic_observable=nq, solvable_without_rate=solv_free, solvable_with_rate=solv_rate,
-                           quadratic_observable=words_q, unobservable=unobs, unobservable_linear=unobs_lin, statements=st,
-                           quadratic_basis=Bq, condition_linear=cond, name=array.name)
+    return Identifiability(
+        n_accelerometers=array.n,
+        rank_linear=rl,
+        rank_quadratic=rq,
+        rank_full=rf,
+        n_quadratic_observable=nq,
+        solvable_without_rate=solv_free,
+        solvable_with_rate=solv_rate,
+        quadratic_observable=words_q,
+        unobservable=unobs,
+        unobservable_linear=unobs_lin,
+        statements=st,
+        quadratic_basis=Bq,
+        condition_linear=cond,
+        name=array.name,
+    )
 
 
 # ------------------------------------------------------------------------------------------------------------
 # built-in configurations
 # ------------------------------------------------------------------------------------------------------------
+
 
 def _cylinder10(l: float = 0.04, L: float = 0.04) -> AccelerometerArray:
     """Ten accelerometers on a cylinder of radius ``l`` and length ``L`` (axis = body x, the spin axis).
@@ -480,9 +560,18 @@ def _cylinder10(l: float = 0.04, L: float = 0.04) -> AccelerometerArray:
     face-centre points maximizing the information on [A, ω̇] with the quadratic terms as nuisance, subject to
     rank [A, ω̇] = 6 without the rate (the paper's layout was lost in the text extraction).
     """
-    spec = [(-L / 2, 0, "t"), (-L / 2, 90, "a"), (-L / 2, 270, "a"), (-L / 2, 270, "t"),
-            (0.0, 90, "t"), (0.0, 180, "t"),
-            (L / 2, 0, "a"), (L / 2, 0, "t"), (L / 2, 180, "a"), (L / 2, 270, "t")]
+    spec = [
+        (-L / 2, 0, "t"),
+        (-L / 2, 90, "a"),
+        (-L / 2, 270, "a"),
+        (-L / 2, 270, "t"),
+        (0.0, 90, "t"),
+        (0.0, 180, "t"),
+        (L / 2, 0, "a"),
+        (L / 2, 0, "t"),
+        (L / 2, 180, "a"),
+        (L / 2, 270, "t"),
+    ]
     pos, dirs = [], []
     for x, phi, kind in spec:
         c, s = np.cos(np.radians(phi)), np.sin(np.radians(phi))

@@ -24,9 +24,19 @@ from optinav.core.validate import as_float_array, as_rng
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray
 
-__all__ = ["local_frames", "InstallationErrors", "direction", "direction_derivatives", "perturb",
-           "errors_from_geometry", "Motion", "coning_motion", "spinning_motion", "error_effect",
-           "COEFFICIENT_NAMES"]
+__all__ = [
+    "local_frames",
+    "InstallationErrors",
+    "direction",
+    "direction_derivatives",
+    "perturb",
+    "errors_from_geometry",
+    "Motion",
+    "coning_motion",
+    "spinning_motion",
+    "error_effect",
+    "COEFFICIENT_NAMES",
+]
 
 COEFFICIENT_NAMES = ("dr_x", "dr_y", "dr_z", "dalpha", "dbeta")
 
@@ -200,13 +210,15 @@ def perturb(nominal: AccelerometerArray, errors: InstallationErrors, small_angle
         The perturbed array.
     """
     if errors.n != nominal.n:
-        raise OptinavError(f"{errors.n} sets of installation errors for {nominal.n} accelerometers",
-                           "give one set per accelerometer")
+        raise OptinavError(
+            f"{errors.n} sets of installation errors for {nominal.n} accelerometers", "give one set per accelerometer"
+        )
     th = direction(local_frames(nominal.directions), errors.dalpha, errors.dbeta, small_angle)
     if small_angle:
         # keep the paper's unnormalized small-angle direction; AccelerometerArray would reject |θ| ≠ 1
-        arr = AccelerometerArray(nominal.positions + errors.dr, th / np.linalg.norm(th, axis=1)[:, None],
-                                 nominal.noise, nominal.name)
+        arr = AccelerometerArray(
+            nominal.positions + errors.dr, th / np.linalg.norm(th, axis=1)[:, None], nominal.noise, nominal.name
+        )
         arr.directions = th
         return arr
     return AccelerometerArray(nominal.positions + errors.dr, th, nominal.noise, nominal.name)
@@ -218,13 +230,17 @@ def errors_from_geometry(nominal: AccelerometerArray, positions, directions) -> 
     th = np.asarray(directions, float)
     th = th / np.linalg.norm(th, axis=1, keepdims=True)
     c = np.einsum("nkj,nj->nk", fr, th)
-    return InstallationErrors(np.asarray(positions, float) - nominal.positions,
-                              np.arcsin(np.clip(c[:, 2], -1, 1)), np.arctan2(c[:, 1], c[:, 0]))
+    return InstallationErrors(
+        np.asarray(positions, float) - nominal.positions,
+        np.arcsin(np.clip(c[:, 2], -1, 1)),
+        np.arctan2(c[:, 1], c[:, 0]),
+    )
 
 
 # ------------------------------------------------------------------------------------------------------------
 # motions and the effect of the errors
 # ------------------------------------------------------------------------------------------------------------
+
 
 @dataclass
 class Motion:
@@ -237,8 +253,13 @@ class Motion:
     name: str = ""
 
 
-def coning_motion(duration: float = 100.0, dt: float = 0.01, half_angle: float = np.radians(10.0),
-                  frequency: float = 0.5, gravity: float | None = None) -> Motion:
+def coning_motion(
+    duration: float = 100.0,
+    dt: float = 0.01,
+    half_angle: float = np.radians(10.0),
+    frequency: float = 0.5,
+    gravity: float | None = None,
+) -> Motion:
     """Classic coning (``optinav.core.simulate.coning_rate``; Savage §7.1.1) and its exact ω̇.
 
     A = 0 (a free body, as for a projectile where only drag acts) unless ``gravity`` is given: then the specific
@@ -271,13 +292,19 @@ def coning_motion(duration: float = 100.0, dt: float = 0.01, half_angle: float =
     if gravity is None:
         A = np.zeros_like(w)
     else:
-        C = dcm_from_quat(coning_attitude(half_angle, frequency, t))       # C_b^n
+        C = dcm_from_quat(coning_attitude(half_angle, frequency, t))  # C_b^n
         A = np.einsum("tji,j->ti", C, np.array([0.0, 0.0, gravity]))
     return Motion(t, A, wdot, w, f"coning {np.degrees(half_angle):.3g}°, {frequency:.3g} Hz")
 
 
-def spinning_motion(duration: float = 200.0, dt: float = 0.01, spin: float = 2.0, nutation: float = 0.2,
-                    frequency: float = 0.2, drag: float = 0.5) -> Motion:
+def spinning_motion(
+    duration: float = 200.0,
+    dt: float = 0.01,
+    spin: float = 2.0,
+    nutation: float = 0.2,
+    frequency: float = 0.2,
+    drag: float = 0.5,
+) -> Motion:
     """Spinning projectile: ω = [spin, n cos Ωt, n sin Ωt] with drag along −x.
 
     Parameters
@@ -309,8 +336,15 @@ def spinning_motion(duration: float = 200.0, dt: float = 0.01, spin: float = 2.0
     return Motion(t, A, wdot, w, f"spinning projectile {spin:.3g} rad/s")
 
 
-def error_effect(nominal: AccelerometerArray, actual: AccelerometerArray, motion: Motion, method: str = "integration",
-                 noise: float = 0.0, rng=None, solver_array: AccelerometerArray | None = None) -> np.ndarray:
+def error_effect(
+    nominal: AccelerometerArray,
+    actual: AccelerometerArray,
+    motion: Motion,
+    method: str = "integration",
+    noise: float = 0.0,
+    rng=None,
+    solver_array: AccelerometerArray | None = None,
+) -> np.ndarray:
     """Rate error when ``actual`` measures ``motion`` and the solver assumes ``solver_array``.
 
     Parameters

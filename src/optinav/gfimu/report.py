@@ -31,10 +31,15 @@ def gfimu_tables(res: TurntableCalibration) -> list[Table]:
         return Cell({"value": est[k] * 1e3, "std": std[k] * 1e3, "crlb": crlb[k] * 1e3}, _estimate_text)
 
     rows = [[i + 1, *(cell(f"{c}_{i + 1}") for c in COEFFICIENTS)] for i in range(len(res.dalpha))]
-    return [Table("Installation errors: estimate ± std (CRLB); positions in mm, directions in mrad",
-                  ["sensor", *COEFFICIENTS], rows,
-                  note=f"rank {res.rank}/{res.n_params}; residual RMS {res.residual_rms:.3g} σ; "
-                       f"samples per case {np.asarray(res.samples_per_case).astype(int).tolist()}")]
+    return [
+        Table(
+            "Installation errors: estimate ± std (CRLB); positions in mm, directions in mrad",
+            ["sensor", *COEFFICIENTS],
+            rows,
+            note=f"rank {res.rank}/{res.n_params}; residual RMS {res.residual_rms:.3g} σ; "
+            f"samples per case {np.asarray(res.samples_per_case).astype(int).tolist()}",
+        )
+    ]
 
 
 def _figure(res: TurntableCalibration) -> Figure:
@@ -62,6 +67,11 @@ def gfimu_report(res: TurntableCalibration, out_dir, data=None, options=None) ->
     """Write the report of ``res`` into ``out_dir`` (``data``: the recording's name for the title; everything
     plotted is in the result)."""
     source = f" from {Path(data).name}" if data is not None else ""
-    study = StudyResult(name="gfimu-calibration", title=f"Gyro-free array installation errors ({res.method}){source}",
-                        description="; ".join(res.statements), tables=gfimu_tables(res), figures=[_figure(res)])
+    study = StudyResult(
+        name="gfimu-calibration",
+        title=f"Gyro-free array installation errors ({res.method}){source}",
+        description="; ".join(res.statements),
+        tables=gfimu_tables(res),
+        figures=[_figure(res)],
+    )
     return write_report([study], out_dir, title="optinav calibrate gfimu")

@@ -24,8 +24,16 @@ from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray, LINEAR_NAMES, identifiability, quadratic_products
 
-__all__ = ["LinearSolution", "solve_linear", "rate_integration", "rate_quadratic", "rate_gauss_newton",
-           "solve_rate", "solve_motion", "RATE_METHODS"]
+__all__ = [
+    "LinearSolution",
+    "solve_linear",
+    "rate_integration",
+    "rate_quadratic",
+    "rate_gauss_newton",
+    "solve_rate",
+    "solve_motion",
+    "RATE_METHODS",
+]
 
 RATE_METHODS = ("integration", "quadratic", "gauss-newton")
 #: accelerometer noise (m/s², 1σ) assumed for weighting when the configuration gives none (≈ 10 µg)
@@ -64,8 +72,10 @@ def _outputs(array: AccelerometerArray, f) -> np.ndarray:
     if f.ndim == 1:
         f = f[None, :]
     if f.ndim != 2 or f.shape[1] != array.n:
-        raise OptinavError(f"outputs have shape {f.shape}, expected (T, {array.n}) for {array.n} accelerometers",
-                           "pass one column per accelerometer of the configuration")
+        raise OptinavError(
+            f"outputs have shape {f.shape}, expected (T, {array.n}) for {array.n} accelerometers",
+            "pass one column per accelerometer of the configuration",
+        )
     return f
 
 
@@ -92,13 +102,13 @@ def solve_linear(array: AccelerometerArray, acc) -> LinearSolution:
     H = array.H * w[:, None]
     D = np.linalg.norm(H, axis=0)
     D = np.where(D > 0, D, 1.0)
-    Pinv = np.linalg.pinv(H / D, rcond=1e-9) / D[:, None]      # (12, N): minimum-norm in scaled units
-    theta = (f * w) @ Pinv.T                                    # (T, 12); estimable parts are unique
+    Pinv = np.linalg.pinv(H / D, rcond=1e-9) / D[:, None]  # (12, N): minimum-norm in scaled units
+    theta = (f * w) @ Pinv.T  # (T, 12); estimable parts are unique
     solvable = np.array([n in ident.solvable_without_rate for n in LINEAR_NAMES])
     x = np.where(solvable, theta[:, :6], np.nan)
     B = ident.quadratic_basis
     z = theta[:, 6:] @ B.T
-    Pq = Pinv[6:]                                               # z noise covariance (σ given → m/s² units)
+    Pq = Pinv[6:]  # z noise covariance (σ given → m/s² units)
     z_cov = B @ Pq @ Pq.T @ B.T
     return LinearSolution(A=x[:, :3], wdot=x[:, 3:], z=z, basis=B, solvable=solvable, z_cov=z_cov)
 
@@ -154,9 +164,14 @@ def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarr
         inc = 0.5 * (sol.wdot[1:] + sol.wdot[:-1]) * dt[:, None]
         return w0 + np.vstack([np.zeros((1, 3)), np.cumsum(inc, axis=0)])
     wts = array.weights()
-    P = np.linalg.pinv(array.H_lin * wts[:, None])[3:] * wts[None, :]       # ω̇ rows (3, N)
-    return _integrate_compensated(np.ascontiguousarray(P), np.ascontiguousarray(array.H_quad, dtype=float),
-                                  np.ascontiguousarray(f, dtype=float), dt, w0)
+    P = np.linalg.pinv(array.H_lin * wts[:, None])[3:] * wts[None, :]  # ω̇ rows (3, N)
+    return _integrate_compensated(
+        np.ascontiguousarray(P),
+        np.ascontiguousarray(array.H_quad, dtype=float),
+        np.ascontiguousarray(f, dtype=float),
+        dt,
+        w0,
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -191,8 +206,9 @@ def _dq(w) -> np.ndarray:
     return np.array([[2 * x, 0, 0], [0, 2 * y, 0], [0, 0, 2 * z], [y, x, 0], [z, 0, x], [0, z, y]])
 
 
-def rate_quadratic(array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05,
-                   iterations: int = 3, sigma=None) -> np.ndarray:
+def rate_quadratic(
+    array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05, iterations: int = 3, sigma=None
+) -> np.ndarray:
     """Angular rate from the observable quadratic combinations, branch from the predicted rate.
 
     Each epoch: predict ω⁻ = ω̂_{k−1} + ½(ω̇_{k−1} + ω̇_k)Δt, then Gauss–Newton on
@@ -227,8 +243,11 @@ def rate_quadratic(array: AccelerometerArray, acc, t, omega0=None, *, prior_std:
     t = _time(t, f.shape[0])
     sol = solve_linear(array, f)
     if sol.basis.shape[0] < 3:
-        raise OptinavError(f"configuration has {sol.basis.shape[0]} observable quadratic rate combination(s), "
-                           "the quadratic method needs 3", "use method 'integration' or 'gauss-newton'")
+        raise OptinavError(
+            f"configuration has {sol.basis.shape[0]} observable quadratic rate combination(s), "
+            "the quadratic method needs 3",
+            "use method 'integration' or 'gauss-newton'",
+        )
     if not sol.solvable[3:].all():
         identifiability(array).require(("linear", "without_rate"))
     s2 = float(np.mean(_sigma(array, sigma) ** 2)) if array.noise is None else 1.0
@@ -240,20 +259,21 @@ def rate_quadratic(array: AccelerometerArray, acc, t, omega0=None, *, prior_std:
     ip = 1.0 / prior_std
     LB, Lzk = Lz @ B, sol.z @ Lz.T  # the whitened design and observations, once for all epochs
     J = np.zeros((LB.shape[0] + 3, 3))
-    J[LB.shape[0]:] = ip * np.eye(3)
+    J[LB.shape[0] :] = ip * np.eye(3)
     for k in range(1, f.shape[0]):
         pred = w + 0.5 * (sol.wdot[k] + sol.wdot[k - 1]) * (t[k] - t[k - 1])
         w = pred.copy()
         for _ in range(iterations):
             r = np.concatenate([LB @ quadratic_products(w) - Lzk[k], ip * (w - pred)])
-            J[:LB.shape[0]] = LB @ _dq(w)
+            J[: LB.shape[0]] = LB @ _dq(w)
             w = w - np.linalg.lstsq(J, r, rcond=None)[0]
         out[k] = w
     return out
 
 
-def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05,
-                      iterations: int = 3, sigma=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def rate_gauss_newton(
+    array: AccelerometerArray, acc, t, omega0=None, *, prior_std: float = 0.05, iterations: int = 3, sigma=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-epoch Gauss–Newton for [A, ω̇, ω] on the raw outputs with the predicted rate as prior.
 
     Residuals ``W (f_k − H_lin [A; ω̇] − H_quad q(ω))`` (W = 1/σ_i) and ``(ω − ω⁻)/prior_std`` with
@@ -300,8 +320,8 @@ def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_s
     ip = 1.0 / prior_std
     Hl_pinv = np.linalg.pinv(Hl)  # rank [A, ω̇] = 6 (required above): the LS solve is this fixed matrix
     J = np.zeros((array.n + 3, 9))  # constant blocks filled once; only ∂/∂ω of the quadratic terms changes
-    J[:array.n, :6] = Hl
-    J[array.n:, 6:] = ip * np.eye(3)
+    J[: array.n, :6] = Hl
+    J[array.n :, 6:] = ip * np.eye(3)
     for k in range(1, T):
         pred = w + x[3:] * (t[k] - t[k - 1])
         w = pred.copy()
@@ -309,7 +329,7 @@ def rate_gauss_newton(array: AccelerometerArray, acc, t, omega0=None, *, prior_s
             fq = fw[k] - Hq @ quadratic_products(w)
             x = Hl_pinv @ fq
             r = np.concatenate([fq - Hl @ x, ip * (pred - w)])
-            J[:array.n, 6:] = Hq @ _dq(w)
+            J[: array.n, 6:] = Hq @ _dq(w)
             step = np.linalg.lstsq(J, r, rcond=None)[0]
             x = x + step[:6]
             w = w + step[6:]
@@ -381,6 +401,6 @@ def solve_motion(array: AccelerometerArray, acc, t, omega0=None, method: str = "
     t = _time(t, f.shape[0])
     w = solve_rate(array, f, t, omega0, method)
     wts = array.weights()
-    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]         # (6, N)
+    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]  # (6, N)
     x = (f - quadratic_products(w) @ array.H_quad.T) @ P.T
     return Motion(t, x[:, :3], x[:, 3:], w, f"{array.name or 'array'} ({method})")

@@ -38,25 +38,55 @@ import numpy as np
 from optinav.core.files import atomic_open, atomic_path, write_csv
 from optinav.core.observability import analyze
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import (Estimate, Parameter, Truth, convergence, gate, nested_kwargs, register_legacy,
-                                 register_truth_legacy)
+from optinav.core.results import (
+    Estimate,
+    Parameter,
+    Truth,
+    convergence,
+    gate,
+    nested_kwargs,
+    register_legacy,
+    register_truth_legacy,
+)
 from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray
 from optinav.gfimu.solve import noise_sigma
-from optinav.gfimu.errors import (InstallationErrors, direction, direction_derivatives,
-                                  errors_from_geometry, local_frames, perturb)
+from optinav.gfimu.errors import (
+    InstallationErrors,
+    direction,
+    direction_derivatives,
+    errors_from_geometry,
+    local_frames,
+    perturb,
+)
 
-__all__ = ["table_axes", "TurntableData", "simulate", "case_means", "closed_form", "calibrate",
-           "TurntableCalibration", "scheme_identifiability", "PAPER", "MICRO_G", "required_samples"]
+__all__ = [
+    "table_axes",
+    "TurntableData",
+    "simulate",
+    "case_means",
+    "closed_form",
+    "calibrate",
+    "TurntableCalibration",
+    "scheme_identifiability",
+    "PAPER",
+    "MICRO_G",
+    "required_samples",
+]
 
 MICRO_G = 1e-6 * G_STANDARD
 #: the paper's simulation (Hao & Liu 2011, §3) and its published results
-PAPER = {"gamma_deg": 30.0, "dr": 0.001, "dangle": 0.01, "noise": MICRO_G,
-         "rates": {"low": (0.1, 0.2), "high": (0.5, 1.0)},
-         "max_rel_err_position_pct": {"low": 243.9, "high": 12.2},
-         "max_rel_err_direction_pct": {"low": 0.042, "high": 0.041}}
+PAPER = {
+    "gamma_deg": 30.0,
+    "dr": 0.001,
+    "dangle": 0.01,
+    "noise": MICRO_G,
+    "rates": {"low": (0.1, 0.2), "high": (0.5, 1.0)},
+    "max_rel_err_position_pct": {"low": 243.9, "high": 12.2},
+    "max_rel_err_direction_pct": {"low": 0.042, "high": 0.041},
+}
 MOUNTING_NAMES = ("x-z", "y-z", "x-y")
 
 
@@ -67,8 +97,9 @@ def table_axes(gamma: float, mountings=(1, 2, 3)) -> np.ndarray:
     try:
         return np.array([u[int(m)] for m in mountings], float)
     except KeyError:
-        raise OptinavError(f"mountings {list(mountings)} are not among 1, 2, 3",
-                           "use 1 (axis in x-z), 2 (y-z), 3 (x-y)") from None
+        raise OptinavError(
+            f"mountings {list(mountings)} are not among 1, 2, 3", "use 1 (axis in x-z), 2 (y-z), 3 (x-y)"
+        ) from None
 
 
 def _perp_basis(u) -> np.ndarray:
@@ -121,17 +152,27 @@ class TurntableData:
 
         path = Path(path)
         n = len(self.t)
-        cols = {"t": self.t, "case": self.case.astype(float), "mounting": self.mounting.astype(float),
-                "table_rate": self.table_rate, "wedge": np.full(n, self.gamma), "gravity": np.full(n, self.gravity)}
+        cols = {
+            "t": self.t,
+            "case": self.case.astype(float),
+            "mounting": self.mounting.astype(float),
+            "table_rate": self.table_rate,
+            "wedge": np.full(n, self.gamma),
+            "gravity": np.full(n, self.gravity),
+        }
         suf = path.suffix.lower()
         if suf == ".npz":
             with atomic_open(path, "wb") as fh:
                 np.savez(fh, f=self.acc, **cols)
         elif suf in (".csv", ".txt"):
-            header = ["t"] + [f"f{i + 1}" for i in range(self.acc.shape[1])] + ["case", "mounting", "table_rate",
-                                                                                "wedge", "gravity"]
-            data = np.column_stack([self.t, self.acc, cols["case"], cols["mounting"], self.table_rate, cols["wedge"],
-                                    cols["gravity"]])
+            header = (
+                ["t"]
+                + [f"f{i + 1}" for i in range(self.acc.shape[1])]
+                + ["case", "mounting", "table_rate", "wedge", "gravity"]
+            )
+            data = np.column_stack(
+                [self.t, self.acc, cols["case"], cols["mounting"], self.table_rate, cols["wedge"], cols["gravity"]]
+            )
             write_csv(path, data, ",".join(header), "%.12g")
         elif suf in (".h5", ".hdf5"):
             try:
@@ -168,13 +209,21 @@ class TurntableData:
         need = ["t", "mounting", "table_rate", "wedge"]
         missing = [k for k in need if tab.find(k) is None]
         if missing:
-            raise OptinavError(f"{path} has no {', '.join(missing)} (found: {tab.names()})",
-                               "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md")
+            raise OptinavError(
+                f"{path} has no {', '.join(missing)} (found: {tab.names()})",
+                "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md",
+            )
         f = array_outputs(tab, path, n_accelerometers)
         g = float(np.asarray(tab.get("gravity"), float).ravel()[0]) if tab.find("gravity") is not None else G_STANDARD
         t = np.asarray(tab.get("t"), float)
-        return cls(t, f, np.asarray(tab.get("mounting"), float).astype(int), np.asarray(tab.get("table_rate"), float),
-                   float(np.asarray(tab.get("wedge"), float).ravel()[0]), g)
+        return cls(
+            t,
+            f,
+            np.asarray(tab.get("mounting"), float).astype(int),
+            np.asarray(tab.get("table_rate"), float),
+            float(np.asarray(tab.get("wedge"), float).ravel()[0]),
+            g,
+        )
 
 
 def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
@@ -191,12 +240,15 @@ def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
             cols.append(np.asarray(tab.get(f"f{k}"), float))
             k += 1
         if not cols:
-            raise OptinavError(f"{path} has no accelerometer outputs f1..fN (or an array f)",
-                               "name the output columns f1, f2, ...")
+            raise OptinavError(
+                f"{path} has no accelerometer outputs f1..fN (or an array f)", "name the output columns f1, f2, ..."
+            )
         f = np.column_stack(cols)
     if n_accelerometers is not None and f.shape[1] != n_accelerometers:
-        raise OptinavError(f"{path} has {f.shape[1]} accelerometer columns, the configuration {n_accelerometers}",
-                           "pass the configuration the data was recorded with")
+        raise OptinavError(
+            f"{path} has {f.shape[1]} accelerometer columns, the configuration {n_accelerometers}",
+            "pass the configuration the data was recorded with",
+        )
     if not np.all(np.isfinite(f)):
         raise OptinavError(f"{path}: accelerometer outputs contain NaN/inf", "remove or repair those rows")
     return f
@@ -209,9 +261,20 @@ def model_outputs(positions, directions, u, w, g, offset=None) -> np.ndarray:
     return np.asarray(directions, float) @ (g * u) + w * w * np.einsum("ni,ij,nj->n", directions, P, r)
 
 
-def simulate(nominal: AccelerometerArray, errors: InstallationErrors | None = None, *, rates=(0.5, 1.0),
-             gamma: float = np.radians(30.0), mountings=(1, 2, 3), rate_hz: float = 100.0, duration: float = 10.0,
-             noise=MICRO_G, offset=None, gravity: float = G_STANDARD, rng=None) -> TurntableData:
+def simulate(
+    nominal: AccelerometerArray,
+    errors: InstallationErrors | None = None,
+    *,
+    rates=(0.5, 1.0),
+    gamma: float = np.radians(30.0),
+    mountings=(1, 2, 3),
+    rate_hz: float = 100.0,
+    duration: float = 10.0,
+    noise=MICRO_G,
+    offset=None,
+    gravity: float = G_STANDARD,
+    rng=None,
+) -> TurntableData:
     """Simulate the turntable cases (mountings × rates), ``duration`` each at ``rate_hz``.
 
     Parameters
@@ -266,17 +329,18 @@ def simulate(nominal: AccelerometerArray, errors: InstallationErrors | None = No
             t0 += n / rate_hz
             ms.append(np.full(n, int(m)))
             ws.append(np.full(n, float(w)))
-    return TurntableData(np.concatenate(ts), np.vstack(fs), np.concatenate(ms), np.concatenate(ws), float(gamma),
-                         float(gravity), sig)
+    return TurntableData(
+        np.concatenate(ts), np.vstack(fs), np.concatenate(ms), np.concatenate(ws), float(gamma), float(gravity), sig
+    )
 
 
 @dataclass
 class CaseMeans:
-    mounting: np.ndarray      # (K,)
-    rate: np.ndarray          # (K,) rad/s
-    mean: np.ndarray          # (K, N) m/s²
-    count: np.ndarray         # (K,)
-    sigma: np.ndarray         # (N,) pooled within-case std, m/s²
+    mounting: np.ndarray  # (K,)
+    rate: np.ndarray  # (K,) rad/s
+    mean: np.ndarray  # (K, N) m/s²
+    count: np.ndarray  # (K,)
+    sigma: np.ndarray  # (N,) pooled within-case std, m/s²
 
 
 def case_means(data: TurntableData) -> CaseMeans:
@@ -320,21 +384,27 @@ def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: floa
     s = _rate_scale(cm, pred)
     deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
     if deg:
-        raise OptinavError(f"the table_rate column looks like deg/s labelled rad/s (the rate-dependent change of the "
-                           f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
-                           "pass --rate-unit deg/s")
+        raise OptinavError(
+            f"the table_rate column looks like deg/s labelled rad/s (the rate-dependent change of the "
+            f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
+            "pass --rate-unit deg/s",
+        )
     span_m, span_p = np.ptp(cm.mean, axis=0), np.ptp(pred, axis=0)
     stuck = np.flatnonzero(span_m < 0.1 * span_p)
     if stuck.size:
         i = int(stuck[0])
-        raise OptinavError(f"accelerometer(s) {', '.join(str(k + 1) for k in stuck)} barely change between the "
-                           f"turntable cases (accelerometer {i + 1}: {span_m[i]:.3g} m/s² where the nominal array "
-                           f"changes by {span_p[i]:.3g}): stuck or constant outputs",
-                           "check those channels (or pass the configuration the data was recorded with)")
+        raise OptinavError(
+            f"accelerometer(s) {', '.join(str(k + 1) for k in stuck)} barely change between the "
+            f"turntable cases (accelerometer {i + 1}: {span_m[i]:.3g} m/s² where the nominal array "
+            f"changes by {span_p[i]:.3g}): stuck or constant outputs",
+            "check those channels (or pass the configuration the data was recorded with)",
+        )
     if s is not None and not 0.5 < s < 2.0:
-        raise OptinavError(f"the table rates disagree with the centripetal terms the accelerometers measure (the "
-                           f"rate-dependent change of the outputs is {s:.3g}× the predicted)",
-                           "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s)")
+        raise OptinavError(
+            f"the table rates disagree with the centripetal terms the accelerometers measure (the "
+            f"rate-dependent change of the outputs is {s:.3g}× the predicted)",
+            "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s)",
+        )
 
 
 def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
@@ -354,8 +424,12 @@ def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
     return None
 
 
-def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, gamma: float | None = None,
-                gravity: float | None = None) -> InstallationErrors:
+def closed_form(
+    nominal: AccelerometerArray,
+    data: TurntableData | CaseMeans,
+    gamma: float | None = None,
+    gravity: float | None = None,
+) -> InstallationErrors:
     """The paper's closed-form solution (two rates per mounting, three mountings, offset 0).
 
     Parameters
@@ -381,19 +455,23 @@ def closed_form(nominal: AccelerometerArray, data: TurntableData | CaseMeans, ga
     for m in (1, 2, 3):
         idx = np.flatnonzero(cm.mounting == m)
         if idx.size < 2:
-            raise OptinavError(f"the closed form needs two rates in mounting {m} ({MOUNTING_NAMES[m - 1]}), "
-                               f"the data has {idx.size}", "record all six cases, or use the least-squares default")
+            raise OptinavError(
+                f"the closed form needs two rates in mounting {m} ({MOUNTING_NAMES[m - 1]}), the data has {idx.size}",
+                "record all six cases, or use the least-squares default",
+            )
         i1, i2 = idx[np.argsort(cm.rate[idx])[[0, -1]]]
         w1, w2 = cm.rate[i1], cm.rate[i2]
-        den = w2 ** 2 - w1 ** 2
+        den = w2**2 - w1**2
         C.append((cm.mean[i2] - cm.mean[i1]) / den)
-        G.append((w2 ** 2 * cm.mean[i1] - w1 ** 2 * cm.mean[i2]) / den / g)
+        G.append((w2**2 * cm.mean[i1] - w1**2 * cm.mean[i2]) / den / g)
         U.append(table_axes(gamma, (m,))[0])
-    U, G, C = np.array(U), np.array(G), np.array(C)               # (3,3), (3,N), (3,N)
+    U, G, C = np.array(U), np.array(G), np.array(C)  # (3,3), (3,N), (3,N)
     if abs(np.linalg.det(U)) < 1e-6:
-        raise OptinavError(f"the table axes of the three mountings are dependent for wedge {np.degrees(gamma):.3g}°",
-                           "use a wedge angle such as 30°")
-    th = np.linalg.solve(U, G).T                                  # (N, 3), unnormalized as in the paper
+        raise OptinavError(
+            f"the table axes of the three mountings are dependent for wedge {np.degrees(gamma):.3g}°",
+            "use a wedge angle such as 30°",
+        )
+    th = np.linalg.solve(U, G).T  # (N, 3), unnormalized as in the paper
     pos = np.empty_like(th)
     for i in range(nominal.n):
         M = np.array([th[i] @ (np.outer(u, u) - np.eye(3)) for u in U])
@@ -438,8 +516,10 @@ class TurntableCalibration(Estimate):
     def parameters(self) -> dict[str, Parameter]:
         units = _unit_names(len(self.dalpha), len(self.names) - 5 * len(self.dalpha))
         est, std, crlb = (np.asarray(a, float) for a in (self.estimate, self.std, self.crlb_std))
-        return {nm: Parameter(float(est[k]), units[k], std=float(std[k]), crlb_std=float(crlb[k]))
-                for k, nm in enumerate(self.names)}
+        return {
+            nm: Parameter(float(est[k]), units[k], std=float(std[k]), crlb_std=float(crlb[k]))
+            for k, nm in enumerate(self.names)
+        }
 
     def errors(self) -> InstallationErrors:
         """The estimated installation errors.
@@ -485,16 +565,20 @@ class TurntableCalibration(Estimate):
         str
             The report.
         """
-        lines = [f"gfimu turntable calibration ({self.method}): {len(self.dalpha)} accelerometers, "
-                 f"rank {self.rank}/{self.n_params}, residual rms {self.residual_rms:.3g} σ, "
-                 f"samples per case {', '.join(str(int(x)) for x in self.samples_per_case)}"]
+        lines = [
+            f"gfimu turntable calibration ({self.method}): {len(self.dalpha)} accelerometers, "
+            f"rank {self.rank}/{self.n_params}, residual rms {self.residual_rms:.3g} σ, "
+            f"samples per case {', '.join(str(int(x)) for x in self.samples_per_case)}"
+        ]
         lines += ["  " + s for s in self.statements]
         for i in range(len(self.dalpha)):
-            s = self.std[5 * i:5 * i + 5]
-            lines.append(f"  #{i + 1:<2} dr = [{self.dr[i, 0] * 1e3:+.4f} {self.dr[i, 1] * 1e3:+.4f} "
-                         f"{self.dr[i, 2] * 1e3:+.4f}] ± [{s[0] * 1e3:.2g} {s[1] * 1e3:.2g} {s[2] * 1e3:.2g}] mm, "
-                         f"dalpha = {self.dalpha[i] * 1e3:+.4f} ± {s[3] * 1e3:.2g} mrad, "
-                         f"dbeta = {self.dbeta[i] * 1e3:+.4f} ± {s[4] * 1e3:.2g} mrad")
+            s = self.std[5 * i : 5 * i + 5]
+            lines.append(
+                f"  #{i + 1:<2} dr = [{self.dr[i, 0] * 1e3:+.4f} {self.dr[i, 1] * 1e3:+.4f} "
+                f"{self.dr[i, 2] * 1e3:+.4f}] ± [{s[0] * 1e3:.2g} {s[1] * 1e3:.2g} {s[2] * 1e3:.2g}] mm, "
+                f"dalpha = {self.dalpha[i] * 1e3:+.4f} ± {s[3] * 1e3:.2g} mrad, "
+                f"dbeta = {self.dbeta[i] * 1e3:+.4f} ± {s[4] * 1e3:.2g} mrad"
+            )
         return "\n".join(lines)
 
 
@@ -513,7 +597,7 @@ class _Model:
         self.cm = cm
         self.U = table_axes(gamma, cm.mounting)
         self.P = np.einsum("ki,kj->kij", self.U, self.U) - np.eye(3)
-        self.w2 = cm.rate ** 2
+        self.w2 = cm.rate**2
         self.g = g
         self.mounts = sorted(set(int(m) for m in cm.mounting))
         self.perp = {m: _perp_basis(table_axes(gamma, (m,))[0]) for m in self.mounts}
@@ -522,17 +606,17 @@ class _Model:
         self.n = nominal.n
         self.n_off = 2 * len(self.mounts) if estimate_offset else 0
         self.n_bs = 2 * self.n if bias_scale else 0
-        self.W = np.sqrt(cm.count)[:, None] / sigma[None, :]      # (K, N)
+        self.W = np.sqrt(cm.count)[:, None] / sigma[None, :]  # (K, N)
 
     @property
     def n_params(self):
         return 5 * self.n + self.n_off + self.n_bs
 
     def unpack(self, x):
-        e = x[:5 * self.n].reshape(self.n, 5)
+        e = x[: 5 * self.n].reshape(self.n, 5)
         d = self.fixed.copy()
         if self.off:
-            o = x[5 * self.n:5 * self.n + self.n_off].reshape(-1, 2)
+            o = x[5 * self.n : 5 * self.n + self.n_off].reshape(-1, 2)
             for k, m in enumerate(self.cm.mounting):
                 j = self.mounts.index(int(m))
                 d[k] = o[j] @ self.perp[int(m)]
@@ -542,11 +626,11 @@ class _Model:
         e, d = self.unpack(x)
         th = direction(self.fr, e[:, 3], e[:, 4])
         r = self.nom.positions + e[:, :3]
-        rr = r[None, :, :] + d[:, None, :]                                   # (K, N, 3)
+        rr = r[None, :, :] + d[:, None, :]  # (K, N, 3)
         v = self.g * self.U[:, None, :] + self.w2[:, None, None] * np.einsum("kij,knj->kni", self.P, rr)
         f = np.einsum("ni,kni->kn", th, v)
         if self.bs:
-            bs = x[5 * self.n + self.n_off:].reshape(self.n, 2)
+            bs = x[5 * self.n + self.n_off :].reshape(self.n, 2)
             f = f * (1 + bs[:, 1]) + bs[:, 0]
         return f, th, v
 
@@ -560,10 +644,10 @@ class _Model:
         da, db = direction_derivatives(self.fr, e[:, 3], e[:, 4])
         K, N = self.cm.mean.shape
         J = np.zeros((K, N, self.n_params))
-        Pth = self.w2[:, None, None] * np.einsum("kij,nj->kni", self.P, th)    # ∂f/∂r (K, N, 3)
+        Pth = self.w2[:, None, None] * np.einsum("kij,nj->kni", self.P, th)  # ∂f/∂r (K, N, 3)
         scale = 1.0
         if self.bs:
-            bs = x[5 * self.n + self.n_off:].reshape(self.n, 2)
+            bs = x[5 * self.n + self.n_off :].reshape(self.n, 2)
             scale = (1 + bs[:, 1])[None, :]
         idx = np.arange(N)
         for c in range(3):
@@ -573,8 +657,9 @@ class _Model:
         if self.off:
             for k, m in enumerate(self.cm.mounting):
                 j = self.mounts.index(int(m))
-                J[k, :, 5 * N + 2 * j:5 * N + 2 * j + 2] = (Pth[k] @ self.perp[int(m)].T) * (
-                    scale[0][:, None] if self.bs else 1.0)
+                J[k, :, 5 * N + 2 * j : 5 * N + 2 * j + 2] = (Pth[k] @ self.perp[int(m)].T) * (
+                    scale[0][:, None] if self.bs else 1.0
+                )
         if self.bs:
             f0 = np.einsum("ni,kni->kn", th, v)
             o = 5 * N + self.n_off
@@ -591,8 +676,9 @@ class _Model:
         return nm
 
 
-def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str = "lm", offset: str = "zero",
-              sigma=None) -> TurntableCalibration:
+def calibrate(
+    nominal: AccelerometerArray, data: TurntableData, *, method: str = "lm", offset: str = "zero", sigma=None
+) -> TurntableCalibration:
     """Estimate the installation errors (5 per sensor) from turntable data (module docstring).
 
     Parameters
@@ -625,18 +711,24 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
     else:
         fixed = as_float_array(offset, "offset")
         if fixed.shape not in ((3,), (3, 3)):
-            raise OptinavError(f"offset has shape {fixed.shape}", "give the measured offset (3,) m, or one per mounting")
+            raise OptinavError(
+                f"offset has shape {fixed.shape}", "give the measured offset (3,) m, or one per mounting"
+            )
         offset = "known"
     if data.acc.shape[1] != nominal.n:
-        raise OptinavError(f"the data has {data.acc.shape[1]} accelerometer outputs, the configuration {nominal.n}",
-                           "pass the configuration the data was recorded with")
+        raise OptinavError(
+            f"the data has {data.acc.shape[1]} accelerometer outputs, the configuration {nominal.n}",
+            "pass the configuration the data was recorded with",
+        )
     cm = case_means(data)
     check_data(nominal, cm, data.gamma, data.gravity)
     if sigma is None:
         sig = cm.sigma
         if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
-            raise OptinavError("cannot estimate the accelerometer noise (one sample per case or constant outputs)",
-                               "give the noise std (sigma / --noise)")
+            raise OptinavError(
+                "cannot estimate the accelerometer noise (one sample per case or constant outputs)",
+                "give the noise std (sigma / --noise)",
+            )
     else:
         sig = noise_sigma(sigma, nominal.n)  # a wrong σ would give a plausible result with a wrong std
     if fixed is not None:
@@ -653,11 +745,15 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
             f"the centre offset cannot be separated from the positions in this scheme (rank {rep0.rank} of "
             f"{model.n_params}: {model.n_params - rep0.rank} unobservable directions, only 3 of them the harmless "
             "common shift; each mounting gives one centripetal equation per sensor, exactly what its 3 position "
-            "errors need)", "centre the array on the table axis, or measure the offset and pass it (--offset X,Y,Z)")
+            "errors need)",
+            "centre the array on the table axis, or measure the offset and pass it (--offset X,Y,Z)",
+        )
     if rep0.rank < model.n_params - (3 if offset == "estimate" else 0):
-        raise OptinavError(f"the turntable data cannot determine the installation errors (rank {rep0.rank} of "
-                           f"{model.n_params}; unobservable: {'; '.join(rep0.unobservable_directions[:4])})",
-                           "record three mountings with a wedge (e.g. 30°) at two rates each")
+        raise OptinavError(
+            f"the turntable data cannot determine the installation errors (rank {rep0.rank} of "
+            f"{model.n_params}; unobservable: {'; '.join(rep0.unobservable_directions[:4])})",
+            "record three mountings with a wedge (e.g. 30°) at two rates each",
+        )
     gauge = ""
     if method == "closed-form":
         if offset != "zero":
@@ -665,91 +761,138 @@ def calibrate(nominal: AccelerometerArray, data: TurntableData, *, method: str =
         x = closed_form(nominal, cm, data.gamma, data.gravity).vector()
     else:
         try:
-            x0 = closed_form(nominal, cm, data.gamma, data.gravity).vector() if offset == "zero" else \
-                np.zeros(5 * nominal.n)
+            x0 = (
+                closed_form(nominal, cm, data.gamma, data.gravity).vector()
+                if offset == "zero"
+                else np.zeros(5 * nominal.n)
+            )
         except OptinavError:
             x0 = np.zeros(5 * nominal.n)
         if offset == "estimate":
             x0 = np.r_[x0, np.zeros(model.n_off)]
             G = np.zeros((3, model.n_params))
             for i in range(nominal.n):
-                G[:, 5 * i:5 * i + 3] = np.eye(3)
+                G[:, 5 * i : 5 * i + 3] = np.eye(3)
             wg = 1e3 * np.sqrt(np.mean(np.sum(model.jacobian(x0) ** 2, axis=0)))
-            res = lambda x: np.r_[model.residuals(x), wg * (G @ x)]      # noqa: E731 - gauge rows
-            jac = lambda x: np.vstack([model.jacobian(x), wg * G])      # noqa: E731
-            gauge = "mean(dr) = 0: positions relative to the mean installation displacement (common shift " \
-                    "not observable with unknown offsets)"
+            res = lambda x: np.r_[model.residuals(x), wg * (G @ x)]  # noqa: E731 - gauge rows
+            jac = lambda x: np.vstack([model.jacobian(x), wg * G])  # noqa: E731
+            gauge = (
+                "mean(dr) = 0: positions relative to the mean installation displacement (common shift "
+                "not observable with unknown offsets)"
+            )
         else:
             res, jac = model.residuals, model.jacobian
         scale = np.r_[np.tile([1e-3, 1e-3, 1e-3, 1e-2, 1e-2], nominal.n), np.full(model.n_off, 1e-3)]
-        out = minimize(Problem(residuals=res, jacobian=jac, x0=x0, names=names, x_scale=scale), "lm",
-                       xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        out = minimize(
+            Problem(residuals=res, jacobian=jac, x0=x0, names=names, x_scale=scale),
+            "lm",
+            xtol=1e-14,
+            ftol=1e-14,
+            gtol=1e-14,
+        )
         x = out.x
     J = model.jacobian(x)
     r = model.residuals(x)
     rep = analyze(J, 1.0, names=names, units=units)
-    gates = _quality_gates(method, out if method == "lm" else None, x[:5 * nominal.n], r, int(rep.rank), sigma is None)
-    conv = (convergence(out.success, iterations=getattr(out, "nit", None), evaluations=out.nfev, message=out.message)
-            if method == "lm" else convergence(None, message="closed form"))
+    gates = _quality_gates(method, out if method == "lm" else None, x[: 5 * nominal.n], r, int(rep.rank), sigma is None)
+    conv = (
+        convergence(out.success, iterations=getattr(out, "nit", None), evaluations=out.nfev, message=out.message)
+        if method == "lm"
+        else convergence(None, message="closed form")
+    )
     std, crlb, cov = np.array(rep.std), np.array(rep.crlb_std), np.array(rep.covariance)
     if offset == "estimate":
         # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
         M = np.zeros((model.n_params, model.n_params))
         for i in range(nominal.n):
             for j in range(nominal.n):
-                M[5 * i:5 * i + 3, 5 * j:5 * j + 3] = np.eye(3) / nominal.n
+                M[5 * i : 5 * i + 3, 5 * j : 5 * j + 3] = np.eye(3) / nominal.n
         T = np.eye(model.n_params) - M
         cov = T @ cov @ T.T
         std = np.sqrt(np.clip(np.diag(cov), 0, None))
         crlb = std.copy()
-    e = InstallationErrors.from_vector(x[:5 * nominal.n])
+    e = InstallationErrors.from_vector(x[: 5 * nominal.n])
     actual = perturb(nominal, e)
     offs = np.zeros((len(model.mounts), 3))
     if offset == "estimate":
-        o = x[5 * nominal.n:].reshape(-1, 2)
+        o = x[5 * nominal.n :].reshape(-1, 2)
         offs = np.array([o[j] @ model.perp[m] for j, m in enumerate(model.mounts)])
     statements = list(rep.statements) + ([gauge] if gauge else [])
     if fixed is not None:
         statements.append("offset of the array centre from the table axis fixed at the given value")
         offs = fixed[[list(cm.mounting).index(m) for m in model.mounts]]
     return TurntableCalibration(
-        method=method, names=names, estimate=x, std=std, crlb_std=crlb, covariance=cov, dr=e.dr, dalpha=e.dalpha, dbeta=e.dbeta,
-        positions=actual.positions, directions=actual.directions, offsets=offs, rank=int(rep.rank),
-        n_params=model.n_params, statements=statements, samples_per_case=cm.count, sigma=sig,
-        residual_rms=float(np.sqrt(np.mean(r ** 2))), gamma=float(data.gamma),
-        elapsed_s=time.perf_counter() - t0, gauge=gauge, convergence=conv, gates=gates)
+        method=method,
+        names=names,
+        estimate=x,
+        std=std,
+        crlb_std=crlb,
+        covariance=cov,
+        dr=e.dr,
+        dalpha=e.dalpha,
+        dbeta=e.dbeta,
+        positions=actual.positions,
+        directions=actual.directions,
+        offsets=offs,
+        rank=int(rep.rank),
+        n_params=model.n_params,
+        statements=statements,
+        samples_per_case=cm.count,
+        sigma=sig,
+        residual_rms=float(np.sqrt(np.mean(r**2))),
+        gamma=float(data.gamma),
+        elapsed_s=time.perf_counter() - t0,
+        gauge=gauge,
+        convergence=conv,
+        gates=gates,
+    )
 
 
 def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[dict]:
     """After the fit: converged, plausible installation errors, residual consistent with the noise; raises on
     the first that fails, else returns their outcomes."""
     if out is not None and not out.success:
-        raise OptinavError(f"the LM fit did not converge ({out.message})",
-                           "check the data against the configuration, or try --method closed-form")
+        raise OptinavError(
+            f"the LM fit did not converge ({out.message})",
+            "check the data against the configuration, or try --method closed-form",
+        )
     e = InstallationErrors.from_vector(x)
     dr, da = float(np.max(np.abs(e.dr))), float(np.max(np.abs(np.r_[e.dalpha, e.dbeta])))
     if dr > MAX_DR_M or da > MAX_DANGLE_RAD:
-        raise OptinavError(f"the fitted installation errors are implausible (|dr| up to {dr:.3g} m, direction errors "
-                           f"up to {da:.3g} rad; limits {MAX_DR_M} m, {MAX_DANGLE_RAD} rad): the data do not "
-                           "belong to this configuration, or a column is in the wrong unit",
-                           "pass the configuration the data was recorded with and check the units")
+        raise OptinavError(
+            f"the fitted installation errors are implausible (|dr| up to {dr:.3g} m, direction errors "
+            f"up to {da:.3g} rad; limits {MAX_DR_M} m, {MAX_DANGLE_RAD} rad): the data do not "
+            "belong to this configuration, or a column is in the wrong unit",
+            "pass the configuration the data was recorded with and check the units",
+        )
     dof = r.size - rank
     chi2 = float(r @ r) / dof if dof > 0 else float("nan")
     if dof > 0 and chi2 > MAX_REDUCED_CHI2:
         why = "the noise measured within the cases" if sigma_from_data else "--noise"
-        raise OptinavError(f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
-                           f"{why}: the model does not explain the data",
-                           "check --noise (accelerometer noise std in m/s^2), the configuration and --offset")
+        raise OptinavError(
+            f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
+            f"{why}: the model does not explain the data",
+            "check --noise (accelerometer noise std in m/s^2), the configuration and --offset",
+        )
     gates = [gate("optimizer converged", out.success, None, kind="true")] if out is not None else []
-    gates += [gate("largest |dr|", dr, MAX_DR_M, unit="m"), gate("largest |direction error|", da, MAX_DANGLE_RAD,
-                                                                  unit="rad")]
+    gates += [
+        gate("largest |dr|", dr, MAX_DR_M, unit="m"),
+        gate("largest |direction error|", da, MAX_DANGLE_RAD, unit="rad"),
+    ]
     if dof > 0:
         gates.append(gate("reduced chi-square", chi2, MAX_REDUCED_CHI2))
     return gates
 
 
-def scheme_identifiability(nominal: AccelerometerArray, *, rates=(0.5, 1.0), gamma: float = np.radians(30.0),
-                           mountings=(1, 2, 3), offset: bool = False, bias_scale: bool = False):
+def scheme_identifiability(
+    nominal: AccelerometerArray,
+    *,
+    rates=(0.5, 1.0),
+    gamma: float = np.radians(30.0),
+    mountings=(1, 2, 3),
+    offset: bool = False,
+    bias_scale: bool = False,
+):
     """Observability report (core ``analyze``) of a turntable scheme at the nominal geometry, σ = 1 per mean.
 
     Parameters
@@ -774,20 +917,33 @@ def scheme_identifiability(nominal: AccelerometerArray, *, rates=(0.5, 1.0), gam
     """
     U = table_axes(gamma, mountings)
     K = len(U) * len(rates)
-    cm = CaseMeans(np.repeat(np.asarray(mountings, int), len(rates)), np.tile(np.asarray(rates, float), len(U)),
-                   np.zeros((K, nominal.n)), np.ones(K), np.ones(nominal.n))
+    cm = CaseMeans(
+        np.repeat(np.asarray(mountings, int), len(rates)),
+        np.tile(np.asarray(rates, float), len(U)),
+        np.zeros((K, nominal.n)),
+        np.ones(K),
+        np.ones(nominal.n),
+    )
     model = _Model(nominal, cm, gamma, G_STANDARD, np.ones(nominal.n), offset, bias_scale)
     x = np.zeros(model.n_params)
     units = _unit_names(nominal.n, model.n_off) + ["m/s^2", ""] * (nominal.n if bias_scale else 0)
     return analyze(model.jacobian(x), 1.0, names=model.names(), units=units)
 
 
-def required_samples(nominal: AccelerometerArray, errors: InstallationErrors, *, rates, target_pct: float,
-                     gamma: float = np.radians(30.0), noise: float = MICRO_G, k: float = 3.5) -> int:
+def required_samples(
+    nominal: AccelerometerArray,
+    errors: InstallationErrors,
+    *,
+    rates,
+    target_pct: float,
+    gamma: float = np.radians(30.0),
+    noise: float = MICRO_G,
+    k: float = 3.5,
+) -> int:
     """Samples per case for which k·CRLB std of every position coefficient is ≤ target_pct % of its true value
     (k = 3.5: the largest of 30 Gaussian errors stays below ~3.5σ in most runs)."""
     rep = scheme_identifiability(perturb(nominal, errors), rates=rates, gamma=gamma)
-    std1 = np.asarray(rep.crlb_std).reshape(-1, 5)[:, :3] * noise           # one sample per case
+    std1 = np.asarray(rep.crlb_std).reshape(-1, 5)[:, :3] * noise  # one sample per case
     truth = np.abs(errors.dr)
     need = (k * std1 / (target_pct / 100.0 * truth)) ** 2
     return int(np.ceil(need.max()))
@@ -820,12 +976,24 @@ def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Tru
     """
     n = errors.n
     units = _unit_names(n, 0)
-    own = {"dr_m": errors.dr.tolist(), "dalpha_rad": errors.dalpha.tolist(), "dbeta_rad": errors.dbeta.tolist(),
-           "coefficients": dict(zip(InstallationErrors.names(n), errors.vector().tolist()))}
-    return Truth("gfimu", {nm: Parameter(float(v), u) for nm, v, u in
-                           zip(InstallationErrors.names(n), errors.vector(), units)}, {**own, **(info or {})})
+    own = {
+        "dr_m": errors.dr.tolist(),
+        "dalpha_rad": errors.dalpha.tolist(),
+        "dbeta_rad": errors.dbeta.tolist(),
+        "coefficients": dict(zip(InstallationErrors.names(n), errors.vector().tolist())),
+    }
+    return Truth(
+        "gfimu",
+        {nm: Parameter(float(v), u) for nm, v, u in zip(InstallationErrors.names(n), errors.vector(), units)},
+        {**own, **(info or {})},
+    )
 
 
-register_truth_legacy("gfimu", "optinav.gfimu_truth",
-                      lambda d: {nm: Parameter(float(v), "rad" if nm.startswith(("dalpha", "dbeta")) else "m")
-                                 for nm, v in d["coefficients"].items()})
+register_truth_legacy(
+    "gfimu",
+    "optinav.gfimu_truth",
+    lambda d: {
+        nm: Parameter(float(v), "rad" if nm.startswith(("dalpha", "dbeta")) else "m")
+        for nm, v in d["coefficients"].items()
+    },
+)

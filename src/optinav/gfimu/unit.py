@@ -35,8 +35,9 @@ class GfimuOptions:
         if self.builtin:
             return builtin(self.builtin)
         if not self.config:
-            raise OptinavError("no configuration given",
-                               "pass CONFIG.json (--config in a batch) or --builtin cylinder10")
+            raise OptinavError(
+                "no configuration given", "pass CONFIG.json (--config in a batch) or --builtin cylinder10"
+            )
         return AccelerometerArray.load(self.config)
 
 
@@ -64,8 +65,12 @@ def run_unit(path, options: GfimuOptions, reference: bool = False) -> tuple[Turn
     offset = options.offset if isinstance(options.offset, str) else np.asarray(options.offset, float)
     step(f"fit ({options.method})")
     res = calibrate(options.array(), data, method=options.method, offset=offset, sigma=options.noise)
-    return res, {"n_samples": int(len(data.t)), "rank": int(res.rank), "n_params": int(res.n_params),
-                 "residual_rms_sigma": float(res.residual_rms)}
+    return res, {
+        "n_samples": int(len(data.t)),
+        "rank": int(res.rank),
+        "n_params": int(res.n_params),
+        "residual_rms_sigma": float(res.residual_rms),
+    }
 
 
 @dataclasses.dataclass
@@ -98,7 +103,8 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
         raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
     f = array_outputs(tab, data_path, len(res.dalpha))
     m = solve_motion(res.calibrated_array(), f, np.asarray(tab.get("t"), float), o.omega0, o.rate_method)
-    write_csv(out, np.column_stack([m.t, m.A, m.omega, m.wdot]),
-              "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g")
-    return (f"wrote the motion of {m.t.size} samples to {out}, solved with the calibrated geometry of "
-            f"{len(res.dalpha)} accelerometers ({o.rate_method}; m/s^2, rad/s, rad/s^2)")
+    write_csv(out, np.column_stack([m.t, m.A, m.omega, m.wdot]), "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g")
+    return (
+        f"wrote the motion of {m.t.size} samples to {out}, solved with the calibrated geometry of "
+        f"{len(res.dalpha)} accelerometers ({o.rate_method}; m/s^2, rad/s, rad/s^2)"
+    )

@@ -6,9 +6,18 @@ NPZ, HDF5 or MAT. ``iter_imu``/``iter_table`` read text logs in blocks (memory i
 ``open_imu_writer`` writes logs block by block. Formats, column aliases and units: docs/file-formats.md.
 """
 
-from optinav.io.imu import (ALIASES, STANDARD_NAMES, ImuLog, iter_imu, open_imu_writer, raw_units, read_imu,
-                            write_imu)
+from optinav.io.imu import ALIASES, STANDARD_NAMES, ImuLog, iter_imu, open_imu_writer, raw_units, read_imu, write_imu
 from optinav.io.readers import iter_table, read_table
 
-__all__ = ["read_table", "read_imu", "write_imu", "iter_table", "iter_imu", "open_imu_writer", "ImuLog",
-           "STANDARD_NAMES", "ALIASES", "raw_units"]
+__all__ = [
+    "read_table",
+    "read_imu",
+    "write_imu",
+    "iter_table",
+    "iter_imu",
+    "open_imu_writer",
+    "ImuLog",
+    "STANDARD_NAMES",
+    "ALIASES",
+    "raw_units",
+]

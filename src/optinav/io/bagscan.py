@@ -72,6 +72,7 @@ def blocks(reader, path: Path, topic: str):
 
 # --- runs of like records -------------------------------------------------------------------------------------
 
+
 def _run(u8: np.ndarray, pos: int, stride: int, same: tuple) -> int:
     """How many records of ``stride`` bytes follow one another from ``pos`` (at least 1) whose bytes in the
     ranges ``same`` ((start, stop) relative to the record) equal those of the record at ``pos``."""
@@ -81,8 +82,8 @@ def _run(u8: np.ndarray, pos: int, stride: int, same: tuple) -> int:
         m = min(w, avail - k)
         ok = np.ones(m, dtype=bool)
         for a, b in same:
-            rows = as_strided(u8[pos + k * stride + a:], shape=(m, b - a), strides=(stride, 1))
-            ok &= (rows == u8[pos + a:pos + b]).all(axis=1)
+            rows = as_strided(u8[pos + k * stride + a :], shape=(m, b - a), strides=(stride, 1))
+            ok &= (rows == u8[pos + a : pos + b]).all(axis=1)
         if not ok.all():
             return k + int(np.argmin(ok))
         k += m
@@ -135,15 +136,16 @@ def _decompress(kind: str, data: bytes) -> bytes:
 
 # --- MCAP -----------------------------------------------------------------------------------------------------
 
+
 def _mcap_channel(buf: bytes, pos: int, topic: str, chans: set) -> None:
     """A Channel record's content at ``pos``: its id joins ``chans`` when it carries ``topic`` in CDR."""
     cid = _U16.unpack_from(buf, pos)[0]
     p = pos + 4
     n = _U32.unpack_from(buf, p)[0]
-    name = bytes(buf[p + 4:p + 4 + n]).decode("utf-8", "replace")
+    name = bytes(buf[p + 4 : p + 4 + n]).decode("utf-8", "replace")
     p += 4 + n
     n = _U32.unpack_from(buf, p)[0]
-    enc = bytes(buf[p + 4:p + 4 + n]).decode("utf-8", "replace")
+    enc = bytes(buf[p + 4 : p + 4 + n]).decode("utf-8", "replace")
     if name == topic and enc == "cdr":
         chans.add(cid)
 
@@ -174,7 +176,7 @@ def _mcap_index(fh, topic: str):
             _mcap_channel(buf, pos + 9, topic, chans)
         elif op == 0x08:
             m = _U32.unpack_from(buf, pos + 41)[0]
-            held = {c for c, _ in struct.iter_unpack("<HQ", buf[pos + 45:pos + 45 + m])}
+            held = {c for c, _ in struct.iter_unpack("<HQ", buf[pos + 45 : pos + 45 + m])}
             chunks.append((_U64.unpack_from(buf, pos + 25)[0], held))
         pos += 9 + n
     if not chans:
@@ -231,10 +233,10 @@ def _mcap_chunk(body: bytes, topic: str, chans: set):
         raise NotFast("truncated chunk")
     usize, crc = _U64.unpack_from(body, 16)[0], _U32.unpack_from(body, 24)[0]
     clen = _U32.unpack_from(body, 28)[0]
-    kind = body[32:32 + clen].decode("ascii", "replace")
+    kind = body[32 : 32 + clen].decode("ascii", "replace")
     p = 32 + clen
     rlen = _U64.unpack_from(body, p)[0]
-    buf = _decompress(kind, body[p + 8:p + 8 + rlen])
+    buf = _decompress(kind, body[p + 8 : p + 8 + rlen])
     if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
         raise NotFast("chunk size or CRC mismatch")
     return _mcap_records(buf, topic, chans)
@@ -264,6 +266,7 @@ def _mcap_records(buf: bytes, topic: str, chans: set):
 
 # --- ROS 1 ----------------------------------------------------------------------------------------------------
 
+
 def _fields(buf: bytes, start: int, end: int) -> dict:
     """A ROS 1 record header ``buf[start:end]``: field name → (start, stop) of its value in ``buf``."""
     out = {}
@@ -275,7 +278,7 @@ def _fields(buf: bytes, start: int, end: int) -> dict:
         eq = buf.find(b"=", p + 4, q)
         if q > end or eq < 0:
             raise NotFast("malformed header field")
-        out[bytes(buf[p + 4:eq])] = (eq + 1, q)
+        out[bytes(buf[p + 4 : eq])] = (eq + 1, q)
         p = q
     return out
 
@@ -327,8 +330,9 @@ def ros1_index(path: Path) -> dict:
         if op == 0x07:
             d = _fields(tail, ds, de)
             conns[_U32.unpack_from(tail, f[b"conn"][0])[0]] = tuple(
-                bytes(tail[slice(*g[k])]).decode("utf-8", "replace") for g, k in ((f, b"topic"), (d, b"type"),
-                                                                                  (d, b"md5sum")))
+                bytes(tail[slice(*g[k])]).decode("utf-8", "replace")
+                for g, k in ((f, b"topic"), (d, b"type"), (d, b"md5sum"))
+            )
         elif op == 0x06:
             held = set()
             for conn, n in struct.iter_unpack("<II", tail[ds:de]):
@@ -385,8 +389,9 @@ def _ros1_records(buf: bytes, conns: set):
                 raise NotFast("message time field of another size")
             stride = de - pos
             k = _run(u8, pos, stride, ((0, t), (t + 8, ds - pos)))  # every header byte but the time
-            ns = _column(u8, pos + t, k, stride, "<u4").astype(np.int64) * 1_000_000_000 \
-                + _column(u8, pos + t + 4, k, stride, "<u4")
+            ns = _column(u8, pos + t, k, stride, "<u4").astype(np.int64) * 1_000_000_000 + _column(
+                u8, pos + t + 4, k, stride, "<u4"
+            )
             got.run(ds, k, stride, de - ds, ns)
             pos += k * stride
             continue

@@ -19,24 +19,73 @@ from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.readers import (CHUNK_ROWS, LABEL_COLUMNS, RATE_KEYS, SKIP_NAMES, Table, iter_table, load_table,
-                                merge_datasets, normalize_name, parse_columns)
+from optinav.io.readers import (
+    CHUNK_ROWS,
+    LABEL_COLUMNS,
+    RATE_KEYS,
+    SKIP_NAMES,
+    Table,
+    iter_table,
+    load_table,
+    merge_datasets,
+    normalize_name,
+    parse_columns,
+)
 
-__all__ = ["ImuLog", "read_imu", "iter_imu", "ImuChunks", "write_imu", "open_imu_writer", "ImuWriter", "ACC_UNITS", "GYRO_UNITS", "TIME_UNITS", "STANDARD_NAMES", "ALIASES"]
+__all__ = [
+    "ImuLog",
+    "read_imu",
+    "iter_imu",
+    "ImuChunks",
+    "write_imu",
+    "open_imu_writer",
+    "ImuWriter",
+    "ACC_UNITS",
+    "GYRO_UNITS",
+    "TIME_UNITS",
+    "STANDARD_NAMES",
+    "ALIASES",
+]
 
 #: accepted accelerometer unit spellings → canonical unit
-ACC_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
-             "g": "g", "mg": "mg", "milli-g": "mg",
-             "m/s^2": "m/s^2", "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2"}
+ACC_UNITS = {
+    "counts": "counts",
+    "count": "counts",
+    "raw": "counts",
+    "lsb": "counts",
+    "a.u.": "counts",
+    "g": "g",
+    "mg": "mg",
+    "milli-g": "mg",
+    "m/s^2": "m/s^2",
+    "m/s2": "m/s^2",
+    "m/s²": "m/s^2",
+    "m/s/s": "m/s^2",
+    "m s^-2": "m/s^2",
+}
 #: accepted gyroscope unit spellings → canonical unit
-GYRO_UNITS = {"counts": "counts", "count": "counts", "raw": "counts", "lsb": "counts", "a.u.": "counts",
-              "deg/s": "deg/s", "dps": "deg/s", "°/s": "deg/s", "deg/sec": "deg/s", "degrees/s": "deg/s",
-              "rad/s": "rad/s", "rad/sec": "rad/s"}
+GYRO_UNITS = {
+    "counts": "counts",
+    "count": "counts",
+    "raw": "counts",
+    "lsb": "counts",
+    "a.u.": "counts",
+    "deg/s": "deg/s",
+    "dps": "deg/s",
+    "°/s": "deg/s",
+    "deg/sec": "deg/s",
+    "degrees/s": "deg/s",
+    "rad/s": "rad/s",
+    "rad/sec": "rad/s",
+}
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 _TIME_SPELLINGS = {"s": "s", "sec": "s", "ms": "ms", "us": "us", "µs": "us", "μs": "us", "ns": "ns"}
-_CANONICAL = {"acc": ("counts", "g", "mg", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"),
-              "time": ("s", "ms", "us", "ns")}
+_CANONICAL = {
+    "acc": ("counts", "g", "mg", "m/s^2"),
+    "gyro": ("counts", "deg/s", "rad/s"),
+    "time": ("s", "ms", "us", "ns"),
+}
 
 #: the names read_imu understands: time, accelerometer and gyroscope components, N×3 triads, counter, labels
 STANDARD_NAMES = ("t", "ax", "ay", "az", "gx", "gy", "gz", "acc", "gyro", "sample", "label")
@@ -46,30 +95,102 @@ _COMPONENTS = {"acc": ("ax", "ay", "az"), "gyro": ("gx", "gy", "gz")}
 def _build_aliases() -> dict[str, tuple[str, str | None]]:
     """Normalized column name → (standard name, time unit the name implies)."""
     al: dict[str, tuple[str, str | None]] = {n: (n, None) for n in STANDARD_NAMES}
-    for n in ("time", "times", "timestamp", "timestamps", "time_stamp", "time_s", "t_s", "timestamp_s", "sec", "secs",
-              "seconds", "elapsed", "elapsed_time"):
+    for n in (
+        "time",
+        "times",
+        "timestamp",
+        "timestamps",
+        "time_stamp",
+        "time_s",
+        "t_s",
+        "timestamp_s",
+        "sec",
+        "secs",
+        "seconds",
+        "elapsed",
+        "elapsed_time",
+    ):
         al[n] = ("t", None)
     for unit in ("ms", "us", "ns"):
         for n in (f"time_{unit}", f"t_{unit}", f"timestamp_{unit}", unit):
             al[n] = ("t", unit)
-    for n in ("n_samples", "n_sample", "sample", "samples", "sample_index", "sample_idx", "sample_number",
-              "sample_nr", "samplenumber", "packet_counter", "packetcounter", "counter", "index", "idx"):
+    for n in (
+        "n_samples",
+        "n_sample",
+        "sample",
+        "samples",
+        "sample_index",
+        "sample_idx",
+        "sample_number",
+        "sample_nr",
+        "samplenumber",
+        "packet_counter",
+        "packetcounter",
+        "counter",
+        "index",
+        "idx",
+    ):
         al[n] = ("sample", None)
     for n in ("part", "label", "labels", "section", "segment", "pose", "phase"):
         al[n] = ("label", None)
-    acc_prefix = ("a", "acc", "accel", "accl", "accelerometer", "acceleration", "f", "sf", "specific_force",
-                  "lin_acc", "linear_acceleration", "imu_acc")
-    gyro_prefix = ("g", "gyr", "gyro", "gyros", "gyroscope", "w", "omega", "rate", "angular_velocity",
-                   "angular_rate", "ang_vel", "angvel", "imu_gyro")
+    acc_prefix = (
+        "a",
+        "acc",
+        "accel",
+        "accl",
+        "accelerometer",
+        "acceleration",
+        "f",
+        "sf",
+        "specific_force",
+        "lin_acc",
+        "linear_acceleration",
+        "imu_acc",
+    )
+    gyro_prefix = (
+        "g",
+        "gyr",
+        "gyro",
+        "gyros",
+        "gyroscope",
+        "w",
+        "omega",
+        "rate",
+        "angular_velocity",
+        "angular_rate",
+        "ang_vel",
+        "angvel",
+        "imu_gyro",
+    )
     for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
         for p in prefixes:
             for axis in "xyz":
                 al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
-    for n in ("acc", "accel", "accelerometer", "acceleration", "f", "f_b", "specific_force", "sf",
-              "linear_acceleration", "imu_acc"):
+    for n in (
+        "acc",
+        "accel",
+        "accelerometer",
+        "acceleration",
+        "f",
+        "f_b",
+        "specific_force",
+        "sf",
+        "linear_acceleration",
+        "imu_acc",
+    ):
         al[n] = ("acc", None)
-    for n in ("gyro", "gyr", "gyros", "gyroscope", "omega", "w", "omega_ib_b", "angular_velocity", "angular_rate",
-              "imu_gyro"):
+    for n in (
+        "gyro",
+        "gyr",
+        "gyros",
+        "gyroscope",
+        "omega",
+        "w",
+        "omega_ib_b",
+        "angular_velocity",
+        "angular_rate",
+        "imu_gyro",
+    ):
         al[n] = ("gyro", None)
     return al
 
@@ -79,6 +200,7 @@ ALIASES = _build_aliases()
 
 
 # --- result -------------------------------------------------------------------------------------------------
+
 
 @dataclass
 class ImuLog(Result):
@@ -113,16 +235,18 @@ class ImuLog(Result):
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float)
         if self.t.ndim != 1:
-            raise OptinavError(f"ImuLog.t must be one-dimensional, got shape {self.t.shape}",
-                               "pass one time per sample")
+            raise OptinavError(
+                f"ImuLog.t must be one-dimensional, got shape {self.t.shape}", "pass one time per sample"
+            )
         n = self.t.size
         for name in ("acc", "gyr"):
             v = getattr(self, name)
             if v is not None:
                 v = np.asarray(v, dtype=float)
                 if v.shape != (n, 3):
-                    raise OptinavError(f"ImuLog.{name} has shape {v.shape}, expected ({n}, 3)",
-                                       "pass one triad per sample")
+                    raise OptinavError(
+                        f"ImuLog.{name} has shape {v.shape}, expected ({n}, 3)", "pass one triad per sample"
+                    )
                 setattr(self, name, v)
         for name in ("labels", "sample"):
             v = getattr(self, name)
@@ -175,8 +299,9 @@ class ImuLog(Result):
             rows = np.asarray(rows)
             if rows.dtype == bool:
                 if rows.shape != self.t.shape:
-                    raise OptinavError(f"mask has shape {rows.shape}, the log has {self.t.size} samples",
-                                       "pass one boolean per sample")
+                    raise OptinavError(
+                        f"mask has shape {rows.shape}, the log has {self.t.size} samples", "pass one boolean per sample"
+                    )
                 idx = np.flatnonzero(rows)
             elif rows.dtype.kind in "iu":
                 idx = rows.reshape(-1)
@@ -187,10 +312,20 @@ class ImuLog(Result):
         if idx.size > 1 and np.any(np.diff(np.where(idx < 0, idx + self.t.size, idx)) <= 0):
             raise OptinavError("selected rows are not increasing", "select rows in time order, each once")
         take = lambda v: None if v is None else v[idx]  # noqa: E731
-        out = ImuLog(t=self.t[idx], acc=take(self.acc), gyr=take(self.gyr), acc_unit=self.acc_unit,
-                     gyro_unit=self.gyro_unit, source=self.source, n_rows_read=self.n_rows_read, nan_rows=0,
-                     labels=take(self.labels), sample=take(self.sample), acc_input_unit=self.acc_input_unit,
-                     gyro_input_unit=self.gyro_input_unit)
+        out = ImuLog(
+            t=self.t[idx],
+            acc=take(self.acc),
+            gyr=take(self.gyr),
+            acc_unit=self.acc_unit,
+            gyro_unit=self.gyro_unit,
+            source=self.source,
+            n_rows_read=self.n_rows_read,
+            nan_rows=0,
+            labels=take(self.labels),
+            sample=take(self.sample),
+            acc_input_unit=self.acc_input_unit,
+            gyro_input_unit=self.gyro_input_unit,
+        )
         out.nan_rows = int(np.count_nonzero(~out.finite))
         return out
 
@@ -205,11 +340,15 @@ class ImuLog(Result):
         span = float(self.t[-1] - self.t[0]) if self.t.size else 0.0
         parts = [f"{self.t.size} samples over {span:.6g} s (median {self.rate_hz:.6g} Hz)"]
         if self.acc is not None:
-            parts.append(f"acc in {self.acc_unit}" + (f" (file: {self.acc_input_unit})"
-                                                       if self.acc_input_unit not in (None, self.acc_unit) else ""))
+            parts.append(
+                f"acc in {self.acc_unit}"
+                + (f" (file: {self.acc_input_unit})" if self.acc_input_unit not in (None, self.acc_unit) else "")
+            )
         if self.gyr is not None:
-            parts.append(f"gyro in {self.gyro_unit}" + (f" (file: {self.gyro_input_unit})"
-                                                         if self.gyro_input_unit not in (None, self.gyro_unit) else ""))
+            parts.append(
+                f"gyro in {self.gyro_unit}"
+                + (f" (file: {self.gyro_input_unit})" if self.gyro_input_unit not in (None, self.gyro_unit) else "")
+            )
         parts.append(f"{self.nan_rows} row(s) with NaN")
         return ", ".join(parts) + (f"; from {self.source}" if self.source else "")
 
@@ -218,6 +357,7 @@ register_legacy(ImuLog, ImuLog.SCHEMA, 1, lambda d: nested_kwargs(ImuLog, d, {"g
 
 
 # --- reading ------------------------------------------------------------------------------------------------
+
 
 @dataclass
 class _Part:
@@ -254,28 +394,36 @@ def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, defaul
             declared[src] = _canonical(kind, unit, option)
         except OptinavError:
             if given is None:
-                raise OptinavError(f"{part.path.name}: {src} declares the unit {unit!r}, which optinav does not "
-                                   f"convert (accepted: {', '.join(_CANONICAL[kind])})",
-                                   f"convert the file, or pass {option}=... to state the unit") from None
+                raise OptinavError(
+                    f"{part.path.name}: {src} declares the unit {unit!r}, which optinav does not "
+                    f"convert (accepted: {', '.join(_CANONICAL[kind])})",
+                    f"convert the file, or pass {option}=... to state the unit",
+                ) from None
     if given is not None:
         for src, unit in declared.items():
             if unit != given:
-                raise OptinavError(f"{part.path.name}: {src} declares {unit} but {option}={given!r} was passed",
-                                   f"drop {option} or correct the file")
+                raise OptinavError(
+                    f"{part.path.name}: {src} declares {unit} but {option}={given!r} was passed",
+                    f"drop {option} or correct the file",
+                )
         return given
     units = set(declared.values())
     if len(units) > 1:
         shown = ", ".join(f"{s}: {u}" for s, u in declared.items())
-        raise OptinavError(f"{part.path.name} declares different {kind} units ({shown})",
-                           f"convert the file to one unit, or pass {option}=... to override")
+        raise OptinavError(
+            f"{part.path.name} declares different {kind} units ({shown})",
+            f"convert the file to one unit, or pass {option}=... to override",
+        )
     return units.pop() if units else default
 
 
 def _std(name: str, what: str) -> str:
     hit = ALIASES.get(normalize_name(name)[0])
     if hit is None:
-        raise OptinavError(f"{what}: {name!r} is not a standard name",
-                           f"use {', '.join(STANDARD_NAMES)} (or an alias) on the left of '='")
+        raise OptinavError(
+            f"{what}: {name!r} is not a standard name",
+            f"use {', '.join(STANDARD_NAMES)} (or an alias) on the left of '='",
+        )
     return hit[0]
 
 
@@ -284,8 +432,16 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
-    return positional, mapping, {"names": positional, "only": list(mapping.values()) or None,
-                                 "text_columns": LABEL_COLUMNS + label_sources, "topic": topic}
+    return (
+        positional,
+        mapping,
+        {
+            "names": positional,
+            "only": list(mapping.values()) or None,
+            "text_columns": LABEL_COLUMNS + label_sources,
+            "topic": topic,
+        },
+    )
 
 
 def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
@@ -313,8 +469,10 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             continue
         std = hit[0]
         if std in candidates:
-            raise OptinavError(f"{table.path.name}: columns {candidates[std]!r} and {key!r} both look like {std!r}",
-                               f"say which one with columns='{std}={candidates[std]}' (or skip one with '_')")
+            raise OptinavError(
+                f"{table.path.name}: columns {candidates[std]!r} and {key!r} both look like {std!r}",
+                f"say which one with columns='{std}={candidates[std]}' (or skip one with '_')",
+            )
         candidates[std] = key
         if hit[1]:
             implied[key] = hit[1]
@@ -329,33 +487,45 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     lengths: dict[str, int] = {}
     for std, (name, arr) in found.items():
         if std not in ("acc", "gyro") and arr.ndim != 1:
-            raise OptinavError(f"{part.path.name}: {std!r} must be one column but {name!r} has shape {arr.shape}",
-                               f"map {std} to a single column/vector")
+            raise OptinavError(
+                f"{part.path.name}: {std!r} must be one column but {name!r} has shape {arr.shape}",
+                f"map {std} to a single column/vector",
+            )
         if std not in ("label",) and arr.dtype.kind != "f":
-            raise OptinavError(f"{part.path.name}: {name!r} ({std}) holds text, not numbers",
-                               "map the standard name to a numeric column")
+            raise OptinavError(
+                f"{part.path.name}: {name!r} ({std}) holds text, not numbers",
+                "map the standard name to a numeric column",
+            )
         lengths[name] = arr.shape[0]
     if len(set(lengths.values())) > 1:
         shown = ", ".join(f"{k}: {v}" for k, v in lengths.items())
-        raise OptinavError(f"{part.path.name}: the columns have different lengths ({shown})",
-                           "pass columns/arrays with one value per sample")
+        raise OptinavError(
+            f"{part.path.name}: the columns have different lengths ({shown})",
+            "pass columns/arrays with one value per sample",
+        )
     for kind in ("acc", "gyro"):
         comps = [c for c in _COMPONENTS[kind] if c in found]
         if comps and kind in found:
-            raise OptinavError(f"{part.path.name}: both {found[kind][0]!r} and component columns "
-                               f"({', '.join(found[c][0] for c in comps)}) look like {kind}",
-                               f"say which with columns='{comps[0]}=...' or skip one")
+            raise OptinavError(
+                f"{part.path.name}: both {found[kind][0]!r} and component columns "
+                f"({', '.join(found[c][0] for c in comps)}) look like {kind}",
+                f"say which with columns='{comps[0]}=...' or skip one",
+            )
         if comps and len(comps) < 3:
             missing = [c for c in _COMPONENTS[kind] if c not in found]
-            raise OptinavError(f"{part.path.name}: found {', '.join(f'{c} ({found[c][0]!r})' for c in comps)} but no "
-                               f"{', '.join(missing)} column (found: {table.names()})",
-                               f"name the missing column(s), e.g. columns='{missing[0]}=...'")
+            raise OptinavError(
+                f"{part.path.name}: found {', '.join(f'{c} ({found[c][0]!r})' for c in comps)} but no "
+                f"{', '.join(missing)} column (found: {table.names()})",
+                f"name the missing column(s), e.g. columns='{missing[0]}=...'",
+            )
         if kind in found:
             name, arr = found[kind]
             if arr.ndim != 2 or arr.shape[1] != 3:
                 hint = " (transpose it)" if arr.ndim == 2 and arr.shape[0] == 3 else ""
-                raise OptinavError(f"{part.path.name}: {name!r} has shape {arr.shape}, expected (N, 3){hint}",
-                                   f"store {kind} as one row per sample, or map ax/ay/az-style columns")
+                raise OptinavError(
+                    f"{part.path.name}: {name!r} has shape {arr.shape}, expected (N, 3){hint}",
+                    f"store {kind} as one row per sample, or map ax/ay/az-style columns",
+                )
             tri = arr
             srcs = [name]
         elif comps:
@@ -388,9 +558,11 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
         names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
-        raise OptinavError(f"{part.path.name} has no {kind} data ({names}; found: {table.names()})",
-                           "use standard names or aliases in the header, or pass columns='t,ax,ay,az,gx,gy,gz' "
-                           "(one name per column, '_' to skip) or std=name entries")
+        raise OptinavError(
+            f"{part.path.name} has no {kind} data ({names}; found: {table.names()})",
+            "use standard names or aliases in the header, or pass columns='t,ax,ay,az,gx,gy,gz' "
+            "(one name per column, '_' to skip) or std=name entries",
+        )
     return part
 
 
@@ -399,8 +571,10 @@ def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
         raise OptinavError(f"{path.name}: label {name!r} has shape {arr.shape}", "store one label per sample")
     if arr.dtype.kind == "f":
         if not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
-            raise OptinavError(f"{path.name}: label column {name!r} holds non-integer numbers",
-                               "use text or integer labels, or skip the column with '_'")
+            raise OptinavError(
+                f"{path.name}: label column {name!r} holds non-integer numbers",
+                "use text or integer labels, or skip the column with '_'",
+            )
         return arr.astype(np.int64)
     return arr.astype(str)
 
@@ -414,12 +588,15 @@ def _value_names(srcs: list[str]) -> list[str]:
 
 
 def _no_number(path: Path, kind: str, name: str) -> OptinavError:
-    return OptinavError(f"{path.name}: the {kind} column {name!r} holds no number (all cells empty or NaN)",
-                        "check the column names (--columns) or fill the column")
+    return OptinavError(
+        f"{path.name}: the {kind} column {name!r} holds no number (all cells empty or NaN)",
+        "check the column names (--columns) or fill the column",
+    )
 
 
-def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, row0: int = 0,
-                  empty_ok: bool = False) -> None:
+def _check_values(
+    path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, row0: int = 0, empty_ok: bool = False
+) -> None:
     """A column without a single number (unless ``empty_ok``: a block of a streamed file), or a finite cell beyond
     :data:`MAX_VALUE` (1e308 …), is an error; NaN and inf mark missing samples (rows the calibration drops and
     counts). ``row0``: index of the first row in the file."""
@@ -434,9 +611,11 @@ def _check_values(path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, ro
             bad = np.flatnonzero(np.isfinite(col) & (np.abs(col) > MAX_VALUE))
         if bad.size:
             more = f" ({bad.size} such cell(s))" if not empty_ok else ""
-            raise OptinavError(f"{path.name}: the {kind} column {names[j]!r} holds {col[bad[0]]:g} in data row "
-                               f"{row0 + bad[0] + 1}{more}, not a sensor reading",
-                               "fix or delete those rows (an empty cell or NaN marks a missing sample)")
+            raise OptinavError(
+                f"{path.name}: the {kind} column {names[j]!r} holds {col[bad[0]]:g} in data row "
+                f"{row0 + bad[0] + 1}{more}, not a sensor reading",
+                "fix or delete those rows (an empty cell or NaN marks a missing sample)",
+            )
 
 
 def _file_rate(table: Table) -> tuple[float, str] | None:
@@ -456,9 +635,20 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
     return None
 
 
-def read_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
-             gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
-             datasets=None, delimiter: str | None = None, topic=None) -> ImuLog:
+def read_imu(
+    path,
+    *,
+    columns=None,
+    gyro_path=None,
+    gyro_columns=None,
+    acc_unit: str | None = None,
+    gyro_unit: str | None = None,
+    time_unit: str | None = None,
+    rate_hz: float | None = None,
+    datasets=None,
+    delimiter: str | None = None,
+    topic=None,
+) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
     Units: None means what the file declares (header ``acc_x [g]``, a units row, the ``# units:`` line of
@@ -520,8 +710,9 @@ def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
     return acc_u, gyro_u, time_u, rate
 
 
-def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, prev_t: float | None = None,
-            block: bool = False) -> ImuLog:
+def _log_of(
+    parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, prev_t: float | None = None, block: bool = False
+) -> ImuLog:
     """The :class:`ImuLog` of the parts read (main file, optional gyro file). A block of a streamed file
     (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
     notes: list[str] = []
@@ -530,13 +721,17 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
     for p in parts:
         if p.t is not None:
             if rate is not None:
-                raise OptinavError(f"{p.path.name} has a time column ({p.t_name!r}) and rate_hz={rate:g} was given too",
-                                   "drop the rate, or skip the time column with '_' in columns")
+                raise OptinavError(
+                    f"{p.path.name} has a time column ({p.t_name!r}) and rate_hz={rate:g} was given too",
+                    "drop the rate, or skip the time column with '_' in columns",
+                )
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t if TIME_UNITS[unit] == 1.0 else p.t * TIME_UNITS[unit]))
     if len(parts) == 2 and parts[0].n != parts[1].n:
-        raise OptinavError(f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
-                           "the accelerometer and gyroscope files must hold the same samples")
+        raise OptinavError(
+            f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
+            "the accelerometer and gyroscope files must hold the same samples",
+        )
     if len(times) == 2:
         _check_same_time(*times)
     if times:
@@ -547,8 +742,10 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
         else:
             check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
-        raise OptinavError(f"{main.path.name} has no time column (found: {main.table.names()})",
-                           "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)")
+        raise OptinavError(
+            f"{main.path.name} has no time column (found: {main.table.names()})",
+            "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)",
+        )
     else:
         if rate is None:
             rate, where = _file_rate(main.table)
@@ -567,22 +764,44 @@ def _log_of(parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, p
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
         gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
-    log = ImuLog(t=t, acc=acc, gyr=gyro, acc_unit="counts" if acc_in == "counts" else "m/s^2",
-                 gyro_unit="counts" if gyro_in == "counts" else "rad/s",
-                 source=" + ".join(str(p.path) for p in parts), n_rows_read=main.n, labels=main.labels,
-                 sample=main.sample, acc_input_unit=acc_in, gyro_input_unit=gyro_in, notes=notes)
+    log = ImuLog(
+        t=t,
+        acc=acc,
+        gyr=gyro,
+        acc_unit="counts" if acc_in == "counts" else "m/s^2",
+        gyro_unit="counts" if gyro_in == "counts" else "rad/s",
+        source=" + ".join(str(p.path) for p in parts),
+        n_rows_read=main.n,
+        labels=main.labels,
+        sample=main.sample,
+        acc_input_unit=acc_in,
+        gyro_input_unit=gyro_in,
+        notes=notes,
+    )
     for p in parts:
         if "truncated_line" in p.table.meta:
-            notes.append(f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was "
-                         "left out")
+            notes.append(
+                f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was left out"
+            )
     log.nan_rows = int(np.count_nonzero(~log.finite))
     return log
 
 
-def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit: str | None = None,
-             gyro_unit: str | None = None, time_unit: str | None = None, rate_hz: float | None = None,
-             datasets=None, delimiter: str | None = None, chunk_rows: int = CHUNK_ROWS,
-             topic=None) -> "ImuChunks":
+def iter_imu(
+    path,
+    *,
+    columns=None,
+    gyro_path=None,
+    gyro_columns=None,
+    acc_unit: str | None = None,
+    gyro_unit: str | None = None,
+    time_unit: str | None = None,
+    rate_hz: float | None = None,
+    datasets=None,
+    delimiter: str | None = None,
+    chunk_rows: int = CHUNK_ROWS,
+    topic=None,
+) -> "ImuChunks":
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
 
     The blocks' concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate
@@ -604,9 +823,20 @@ def iter_imu(path, *, columns=None, gyro_path=None, gyro_columns=None, acc_unit:
     ImuChunks
         An iterable of :class:`ImuLog`.
     """
-    return ImuChunks(path, columns=columns, gyro_path=gyro_path, gyro_columns=gyro_columns, acc_unit=acc_unit,
-                     gyro_unit=gyro_unit, time_unit=time_unit, rate_hz=rate_hz, datasets=datasets, delimiter=delimiter,
-                     chunk_rows=chunk_rows, topic=topic)
+    return ImuChunks(
+        path,
+        columns=columns,
+        gyro_path=gyro_path,
+        gyro_columns=gyro_columns,
+        acc_unit=acc_unit,
+        gyro_unit=gyro_unit,
+        time_unit=time_unit,
+        rate_hz=rate_hz,
+        datasets=datasets,
+        delimiter=delimiter,
+        chunk_rows=chunk_rows,
+        topic=topic,
+    )
 
 
 class ImuChunks:
@@ -615,8 +845,9 @@ class ImuChunks:
 
     def __init__(self, path, *, chunk_rows: int | None = None, **kw):
         self.path, self.kw = Path(path), kw
-        self.opts = _imu_options(kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"],
-                                 kw["gyro_columns"])
+        self.opts = _imu_options(
+            kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"], kw["gyro_columns"]
+        )
         _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
@@ -656,8 +887,7 @@ class ImuChunks:
             if not ok.all():
                 raise _no_number(self.path, kind, _value_names(part.srcs[kind])[int(np.argmin(ok))])
         if self.rows < 2:
-            what = (f"time column {part.t_name!r} of {self.path.name}" if part.t is not None else
-                    f"{self.path.name}")
+            what = f"time column {part.t_name!r} of {self.path.name}" if part.t is not None else f"{self.path.name}"
             raise OptinavError(f"{what} has {self.rows} sample(s), at least 2 are needed", "record a longer log")
 
 
@@ -665,15 +895,19 @@ def _check_same_time(a, b) -> None:
     (pa, ta), (pb, tb) = a, b
     where = f"time columns of {pa.path.name} ({pa.t_name!r}) and {pb.path.name} ({pb.t_name!r})"
     if ta.shape != tb.shape:
-        raise OptinavError(f"{where} differ in length: {ta.size} vs {tb.size} samples",
-                           "pass files holding the same samples")
+        raise OptinavError(
+            f"{where} differ in length: {ta.size} vs {tb.size} samples", "pass files holding the same samples"
+        )
     tol = 1e-12 * np.maximum(1.0, np.abs(ta))
     with np.errstate(invalid="ignore"):
         bad = ~(np.abs(ta - tb) <= tol) & ~((ta == tb) | (np.isnan(ta) & np.isnan(tb)))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
-        raise OptinavError(f"{where} differ: {int(np.count_nonzero(bad))} sample(s), first at row {i + 1}: "
-                           f"{float(ta[i])!r} s vs {float(tb[i])!r} s", "resample both files onto the same time stamps")
+        raise OptinavError(
+            f"{where} differ: {int(np.count_nonzero(bad))} sample(s), first at row {i + 1}: "
+            f"{float(ta[i])!r} s vs {float(tb[i])!r} s",
+            "resample both files onto the same time stamps",
+        )
 
 
 # --- writing ------------------------------------------------------------------------------------------------
@@ -691,8 +925,10 @@ def _out_values(log: ImuLog, kind: str, unit: str | None) -> tuple[np.ndarray | 
     if v is None:
         return None, unit
     if (have == "counts") != (unit == "counts"):
-        raise OptinavError(f"the log's {kind} is in {have} and cannot be written in {unit}",
-                           f"write it in {have}" + (" (calibrate it first)" if have == "counts" else ""))
+        raise OptinavError(
+            f"the log's {kind} is in {have} and cannot be written in {unit}",
+            f"write it in {have}" + (" (calibrate it first)" if have == "counts" else ""),
+        )
     return (v if unit in ("counts", have) else from_si(v, unit)), unit
 
 
@@ -735,8 +971,10 @@ def _check_out(path) -> Path:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _WRITE_FORMATS:
-        raise OptinavError(f"cannot write {path.name}: unknown file type {path.suffix or '(none)'}",
-                           f"use one of {', '.join(_WRITE_FORMATS)}")
+        raise OptinavError(
+            f"cannot write {path.name}: unknown file type {path.suffix or '(none)'}",
+            f"use one of {', '.join(_WRITE_FORMATS)}",
+        )
     if not path.parent.is_dir():
         raise OptinavError(f"directory {path.parent} does not exist", "create it first")
     return path
@@ -798,8 +1036,11 @@ def _text_head(log: ImuLog, acc, gyro, acc_u, gyro_u, delim: str, n: int | None)
     names += (["gx", "gy", "gz"] if gyro is not None else []) + (["label"] if log.labels is not None else [])
     units = ["t=s"] + ([f"acc={acc_u}"] if acc is not None else []) + ([f"gyro={gyro_u}"] if gyro is not None else [])
     count = f" ({n} samples)" if n is not None else ""
-    head = [f"# optinav {__version__} IMU log{count}; source: {log.source or '-'}".replace("\n", " "),
-            f"# units: {' '.join(units)}", delim.join(names)]
+    head = [
+        f"# optinav {__version__} IMU log{count}; source: {log.source or '-'}".replace("\n", " "),
+        f"# units: {' '.join(units)}",
+        delim.join(names),
+    ]
     return "\n".join(head) + "\n"
 
 
@@ -819,8 +1060,9 @@ def _integral(cols: list[np.ndarray]) -> list[bool]:
     return [bool(np.all(np.isfinite(c)) and np.all(c == np.round(c)) and np.all(np.abs(c) < 2**53)) for c in cols]
 
 
-def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str, integral: list[bool] | None = None,
-               rows: slice = slice(None)) -> str:
+def _text_rows(
+    path: Path, log: ImuLog, acc, gyro, delim: str, integral: list[bool] | None = None, rows: slice = slice(None)
+) -> str:
     """The lines of ``rows`` of the log (``integral``: per column, default judged on those rows)."""
     cols = [c[rows] for c in _text_columns(log, acc, gyro)]
     labels = None
@@ -831,8 +1073,11 @@ def _text_rows(path: Path, log: ImuLog, acc, gyro, delim: str, integral: list[bo
             forbidden = f'#"\n\r{delim}'
             bad = [str(x) for x in np.unique(labels) if x != x.strip() or not x or any(c in x for c in forbidden)]
             if bad:
-                raise OptinavError(f"label {bad[0]!r} cannot be written to a {path.suffix} file (empty, or holds the "
-                                   "delimiter, '#', a quote or surrounding spaces)", "rename the labels or write .npz")
+                raise OptinavError(
+                    f"label {bad[0]!r} cannot be written to a {path.suffix} file (empty, or holds the "
+                    "delimiter, '#', a quote or surrounding spaces)",
+                    "rename the labels or write .npz",
+                )
             labels = list(labels)
         else:
             labels = [str(int(x)) for x in labels]
@@ -890,9 +1135,17 @@ class ImuWriter:
         if not self._blocks:
             raise OptinavError(f"no samples to write to {self.path}", "pass a log with samples")
         first = self._blocks[0]
-        cat = (lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks]))
-        log = ImuLog(t=cat("t"), acc=cat("acc"), gyr=cat("gyr"), acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
-                     source=first.source, labels=cat("labels"), sample=cat("sample"))
+        cat = lambda k: None if getattr(first, k) is None else np.concatenate([getattr(b, k) for b in self._blocks])
+        log = ImuLog(
+            t=cat("t"),
+            acc=cat("acc"),
+            gyr=cat("gyr"),
+            acc_unit=first.acc_unit,
+            gyro_unit=first.gyro_unit,
+            source=first.source,
+            labels=cat("labels"),
+            sample=cat("sample"),
+        )
         self._blocks = []
         _write_whole(self.tmp, log, self.acc_unit, self.gyro_unit)
 

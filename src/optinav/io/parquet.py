@@ -27,8 +27,9 @@ def _pyarrow():
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        raise OptinavError("reading Parquet files needs pyarrow, which is not installed",
-                           "pip install 'optinav[parquet]'") from None
+        raise OptinavError(
+            "reading Parquet files needs pyarrow, which is not installed", "pip install 'optinav[parquet]'"
+        ) from None
     return pa, pq
 
 
@@ -50,8 +51,10 @@ def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged or non-Parquet files
-        raise OptinavError(f"{path.name} is not a readable Parquet file ({' '.join(str(exc).split())[:200]})",
-                           "check that the file is complete") from None
+        raise OptinavError(
+            f"{path.name} is not a readable Parquet file ({' '.join(str(exc).split())[:200]})",
+            "check that the file is complete",
+        ) from None
     table = Table(path=path, kind="parquet", data={})
     for k, v in (schema.metadata or {}).items():
         key = k.decode("utf-8", "replace")
@@ -60,9 +63,11 @@ def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str
     fields = list(tab.schema)
     if names is not None:
         if len(names) != len(fields):
-            raise OptinavError(f"columns names {len(names)} column(s) but {path.name} has {len(fields)} "
-                               f"({', '.join(f.name for f in fields)})",
-                               "give one name per column in order, '_' to skip one, or std=name entries")
+            raise OptinavError(
+                f"columns names {len(names)} column(s) but {path.name} has {len(fields)} "
+                f"({', '.join(f.name for f in fields)})",
+                "give one name per column in order, '_' to skip one, or std=name entries",
+            )
         pairs = [(n, f, tab.column(j)) for j, (n, f) in enumerate(zip(names, fields)) if n not in SKIP_NAMES]
     else:
         pairs = [(f.name, f, tab.column(j)) for j, f in enumerate(fields)]

@@ -22,14 +22,37 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["read_table", "load_table", "iter_table", "TableChunks", "parse_columns", "Table", "SUFFIXES",
-           "LABEL_COLUMNS", "SKIP_NAMES", "CHUNK_ROWS"]
+__all__ = [
+    "read_table",
+    "load_table",
+    "iter_table",
+    "TableChunks",
+    "parse_columns",
+    "Table",
+    "SUFFIXES",
+    "LABEL_COLUMNS",
+    "SKIP_NAMES",
+    "CHUNK_ROWS",
+]
 
 #: file suffix → format (``.gz`` after a text suffix is decompressed first)
-SUFFIXES: dict[str, str] = {".csv": "text", ".tsv": "text", ".txt": "text", ".dat": "text", ".log": "text",
-                            ".npz": "npz", ".npy": "npy", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat",
-                            ".parquet": "parquet", ".pq": "parquet", ".bag": "rosbag", ".db3": "rosbag",
-                            ".mcap": "rosbag"}
+SUFFIXES: dict[str, str] = {
+    ".csv": "text",
+    ".tsv": "text",
+    ".txt": "text",
+    ".dat": "text",
+    ".log": "text",
+    ".npz": "npz",
+    ".npy": "npy",
+    ".h5": "hdf5",
+    ".hdf5": "hdf5",
+    ".mat": "mat",
+    ".parquet": "parquet",
+    ".pq": "parquet",
+    ".bag": "rosbag",
+    ".db3": "rosbag",
+    ".mcap": "rosbag",
+}
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
 #: positional column names that skip a column
@@ -89,12 +112,14 @@ class Table:
             return self.table_array
         if key is None:
             what = "column" if self.kind == "text" else "array/dataset"
-            raise OptinavError(f"{self.path} has no {what} named {name!r} (found: {self.names()})",
-                               "use one of the names found")
+            raise OptinavError(
+                f"{self.path} has no {what} named {name!r} (found: {self.names()})", "use one of the names found"
+            )
         return self.data[key]
 
 
 # --- column specifications ----------------------------------------------------------------------------------
+
 
 def parse_columns(columns, what: str = "columns") -> tuple[list[str] | None, dict[str, str]]:
     """Split a column specification into positional names and ``std=name`` mappings.
@@ -111,21 +136,26 @@ def parse_columns(columns, what: str = "columns") -> tuple[list[str] | None, dic
     elif isinstance(columns, Sequence):
         items = [str(c) for c in columns]
     else:
-        raise OptinavError(f"{what} must be a comma list, a list of names or a mapping, got {type(columns).__name__}",
-                           f"pass e.g. {what}='t,ax,ay,az'")
+        raise OptinavError(
+            f"{what} must be a comma list, a list of names or a mapping, got {type(columns).__name__}",
+            f"pass e.g. {what}='t,ax,ay,az'",
+        )
     items = [c.strip() for c in items]
     if not items or any(not c for c in items):
         raise OptinavError(f"{what} {columns!r} has an empty entry", "give one name per column, '_' to skip one")
     mapped = [c for c in items if "=" in c]
     if mapped and len(mapped) != len(items):
-        raise OptinavError(f"{what} {columns!r} mixes positional names and std=name entries",
-                           "use either one name per column in order, or only std=name entries")
+        raise OptinavError(
+            f"{what} {columns!r} mixes positional names and std=name entries",
+            "use either one name per column in order, or only std=name entries",
+        )
     if not mapped:
         seen = [c for c in items if c not in SKIP_NAMES]
         dup = sorted({c for c in seen if seen.count(c) > 1})
         if dup:
-            raise OptinavError(f"{what} names {', '.join(map(repr, dup))} more than once",
-                               "give each column its own name")
+            raise OptinavError(
+                f"{what} names {', '.join(map(repr, dup))} more than once", "give each column its own name"
+            )
         return items, {}
     mapping: dict[str, str] = {}
     for entry in items:
@@ -140,6 +170,7 @@ def parse_columns(columns, what: str = "columns") -> tuple[list[str] | None, dic
 
 # --- public entry points ------------------------------------------------------------------------------------
 
+
 def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
     """Add ``datasets`` (``{std: name}`` or ``"std=name,..."``) to the ``std=name`` ``mapping`` of ``what``."""
     if datasets is None:
@@ -149,14 +180,20 @@ def merge_datasets(mapping: dict, datasets, what: str = "columns") -> dict:
         raise OptinavError("datasets must map names to dataset paths", "pass e.g. datasets={'t': '/imu/time'}")
     for k, v in extra.items():
         if k in mapping and mapping[k] != v:
-            raise OptinavError(f"{k!r} is mapped by both {what} ({mapping[k]!r}) and datasets ({v!r})",
-                               "map it once")
+            raise OptinavError(f"{k!r} is mapped by both {what} ({mapping[k]!r}) and datasets ({v!r})", "map it once")
         mapping[k] = v
     return mapping
 
 
-def read_table(path, *, columns=None, delimiter: str | None = None, datasets=None,
-               text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> dict[str, np.ndarray]:
+def read_table(
+    path,
+    *,
+    columns=None,
+    delimiter: str | None = None,
+    datasets=None,
+    text_columns: Sequence[str] = LABEL_COLUMNS,
+    topic=None,
+) -> dict[str, np.ndarray]:
     r"""Read a data file into ``{name: array}``.
 
     Formats by suffix: ``.csv .tsv .txt .dat`` (optionally ``.gz``; header auto-detected, ``#`` comments,
@@ -189,8 +226,14 @@ def read_table(path, *, columns=None, delimiter: str | None = None, datasets=Non
     """
     positional, mapping = parse_columns(columns)
     merge_datasets(mapping, datasets)
-    table = load_table(path, names=positional, delimiter=delimiter, only=list(mapping.values()) or None,
-                       text_columns=text_columns, topic=topic)
+    table = load_table(
+        path,
+        names=positional,
+        delimiter=delimiter,
+        only=list(mapping.values()) or None,
+        text_columns=text_columns,
+        topic=topic,
+    )
     if mapping:
         return {std: table.get(name) for std, name in mapping.items()}
     return dict(table.data)
@@ -204,8 +247,15 @@ def _text_despite_suffix(path: Path, exc: OptinavError) -> OptinavError:
     return OptinavError(f"{exc.cause} (the file holds text despite its {_suffix(path)} suffix)", exc.remedy)
 
 
-def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
-               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS, topic=None) -> Table:
+def load_table(
+    path,
+    *,
+    names: Sequence[str] | None = None,
+    delimiter: str | None = None,
+    only: Sequence[str] | None = None,
+    text_columns: Sequence[str] = LABEL_COLUMNS,
+    topic=None,
+) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
     ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
@@ -250,9 +300,16 @@ def load_table(path, *, names: Sequence[str] | None = None, delimiter: str | Non
 from optinav.core.files import CHUNK_ROWS  # noqa: E402
 
 
-def iter_table(path, *, names: Sequence[str] | None = None, delimiter: str | None = None,
-               only: Sequence[str] | None = None, text_columns: Sequence[str] = LABEL_COLUMNS,
-               chunk_rows: int | None = None, topic=None) -> "TableChunks":
+def iter_table(
+    path,
+    *,
+    names: Sequence[str] | None = None,
+    delimiter: str | None = None,
+    only: Sequence[str] | None = None,
+    text_columns: Sequence[str] = LABEL_COLUMNS,
+    chunk_rows: int | None = None,
+    topic=None,
+) -> "TableChunks":
     """:func:`load_table` in blocks, so that memory does not grow with the file.
 
     Text files (gzip too) are read line block by line block; other formats (one array read whole by their
@@ -301,8 +358,14 @@ class TableChunks:
 
     def __iter__(self):
         if self.kind != "text":
-            yield load_table(self.path, names=self.names, delimiter=self.delimiter, only=self.only,
-                             text_columns=self.text_columns, topic=self.topic)
+            yield load_table(
+                self.path,
+                names=self.names,
+                delimiter=self.delimiter,
+                only=self.only,
+                text_columns=self.text_columns,
+                topic=self.topic,
+            )
             self.position = self.size
             return
         try:
@@ -310,8 +373,9 @@ class TableChunks:
         except OptinavError as exc:
             raise _text_despite_suffix(self.path, exc) from None
         except OSError as exc:  # includes gzip.BadGzipFile
-            raise OptinavError(f"cannot read {self.path} ({exc})",
-                               "check the file (a .gz file must be gzip-compressed)") from None
+            raise OptinavError(
+                f"cannot read {self.path} ({exc})", "check the file (a .gz file must be gzip-compressed)"
+            ) from None
         except (EOFError, zlib.error) as exc:  # truncated or corrupt gzip stream
             raise OptinavError(f"{self.path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
 
@@ -343,9 +407,9 @@ class TableChunks:
                 if not more or content >= _HEAD_CONTENT:
                     break
             lay = _text_layout(path, head, self.names, self.delimiter, labels)
-            pending = head[lay.start:]
+            pending = head[lay.start :]
             offset = lay.start  # file line index of pending[0]
-            first = True        # pending[0] is the file's first data line
+            first = True  # pending[0] is the file's first data line
             rows = 0
             held = None  # the last parsed block, yielded once the next one is known (an empty last block
             nxt = block()  # may still carry the incomplete-line note)
@@ -357,8 +421,15 @@ class TableChunks:
                     nxt = block(max(n - len(pending), 1))
                 lines, pending = pending[:n], pending[n:]
                 last = not pending and not nxt
-                data, truncated = _parse_block(path, lay, lines, 0, complete=state["complete"] or not last,
-                                               offset=offset, first=0 if first else None)
+                data, truncated = _parse_block(
+                    path,
+                    lay,
+                    lines,
+                    0,
+                    complete=state["complete"] or not last,
+                    offset=offset,
+                    first=0 if first else None,
+                )
                 offset += len(lines)
                 first = False
                 k = len(data[lay.keep[0]])
@@ -371,12 +442,19 @@ class TableChunks:
                 meta = dict(lay.meta)
                 if truncated is not None:
                     meta["truncated_line"] = str(truncated)
-                held = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep},
-                             units=dict(lay.units), meta=meta, row0=rows)
+                held = Table(
+                    path=path,
+                    kind="text",
+                    data={lay.colnames[j]: data[j] for j in lay.keep},
+                    units=dict(lay.units),
+                    meta=meta,
+                    row0=rows,
+                )
                 rows += k
             if held is None:
                 raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
             yield held
+
 
 def _suffix(path: Path) -> str:
     """The format suffix of ``path``, lower case: the one before a final ``.gz``."""
@@ -414,29 +492,46 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     if kind == "gztext":
         kind, gz = "text", True
     if kind is None or (gz and kind != "text"):
-        shown = "".join(path.suffixes[-2 if gz else -1:]) or "(none)"
-        raise OptinavError(f"{path.name}: unknown data file type {shown}",
-                           f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)")
+        shown = "".join(path.suffixes[-2 if gz else -1 :]) or "(none)"
+        raise OptinavError(
+            f"{path.name}: unknown data file type {shown}",
+            f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)",
+        )
     return kind, gz
 
 
 def _no_option(path: Path, **given) -> None:
     for name, value in given.items():
         if value is not None:
-            raise OptinavError(f"{name} applies to text and array files, not to the ROS bag {path.name}",
-                               f"drop the {name} option (a bag's columns are t, ax..az, gx..gz, mx..mz)")
+            raise OptinavError(
+                f"{name} applies to text and array files, not to the ROS bag {path.name}",
+                f"drop the {name} option (a bag's columns are t, ax..az, gx..gz, mx..mz)",
+            )
 
 
-_MAGIC = ((_HDF5_MAGIC, "hdf5"), (b"MATLAB ", "mat"), (b"PK\x03\x04", "npz"), (b"\x93NUMPY", "npy"),
-          (b"\x1f\x8b", "gztext"),
-          (b"PAR1", "parquet"))
+_MAGIC = (
+    (_HDF5_MAGIC, "hdf5"),
+    (b"MATLAB ", "mat"),
+    (b"PK\x03\x04", "npz"),
+    (b"\x93NUMPY", "npy"),
+    (b"\x1f\x8b", "gztext"),
+    (b"PAR1", "parquet"),
+)
 #: signatures of formats optinav does not read, named in the error (checked after :data:`_MAGIC`)
-_FOREIGN = ((b"SQLite format 3\x00", "an SQLite database (a ROS 2 bag is read as .db3)"),
-            (b"#ROSBAG", "a ROS 1 bag (read as .bag)"), (b"\x89MCAP", "an MCAP log (a ROS 2 bag is read as .mcap)"),
-            (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an old Excel/Office (.xls) document"),
-            (b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"%PDF", "a PDF document"),
-            (b"BZh", "a bzip2 archive"), (b"\xfd7zXZ", "an xz archive"), (b"7z\xbc\xaf", "a 7-Zip archive"),
-            (b"\x28\xb5\x2f\xfd", "a zstd archive"), (b"\x7fELF", "a program (ELF executable)"))
+_FOREIGN = (
+    (b"SQLite format 3\x00", "an SQLite database (a ROS 2 bag is read as .db3)"),
+    (b"#ROSBAG", "a ROS 1 bag (read as .bag)"),
+    (b"\x89MCAP", "an MCAP log (a ROS 2 bag is read as .mcap)"),
+    (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an old Excel/Office (.xls) document"),
+    (b"\x89PNG", "a PNG image"),
+    (b"\xff\xd8\xff", "a JPEG image"),
+    (b"%PDF", "a PDF document"),
+    (b"BZh", "a bzip2 archive"),
+    (b"\xfd7zXZ", "an xz archive"),
+    (b"7z\xbc\xaf", "a 7-Zip archive"),
+    (b"\x28\xb5\x2f\xfd", "a zstd archive"),
+    (b"\x7fELF", "a program (ELF executable)"),
+)
 
 
 def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
@@ -447,15 +542,18 @@ def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     if gz:
         return by_suffix
     if head.startswith(b"PK\x03\x04") and b"[Content_Types].xml" in head:  # a zip, like NPZ, but OOXML
-        raise OptinavError("the file is an Office (.xlsx) document, not a data table optinav reads",
-                           "save the sheet as CSV")
+        raise OptinavError(
+            "the file is an Office (.xlsx) document, not a data table optinav reads", "save the sheet as CSV"
+        )
     for magic, kind in _MAGIC:
         if head.startswith(magic):
             return kind
     for magic, what in _FOREIGN:
         if head.startswith(magic):
-            raise OptinavError(f"the file is {what}, not a data table optinav reads",
-                               "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)")
+            raise OptinavError(
+                f"the file is {what}, not a data table optinav reads",
+                "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)",
+            )
     if by_suffix in ("npz", "npy", "hdf5", "mat") and b"\x00" not in head:
         try:
             head.decode("utf-8")
@@ -464,8 +562,10 @@ def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
             if exc.start >= len(head) - 3:  # a multi-byte character cut at the end of the sample
                 return "text"
     if by_suffix in ("npz", "npy"):  # MAT v4 has no signature, and HDF5 names a missing one itself
-        raise OptinavError(f"the file is not {by_suffix.upper()} (it lacks the format's signature) and not text",
-                           "check that the file is complete, or give it its real extension")
+        raise OptinavError(
+            f"the file is not {by_suffix.upper()} (it lacks the format's signature) and not text",
+            "check that the file is complete, or give it its real extension",
+        )
     return by_suffix
 
 
@@ -487,6 +587,7 @@ def normalize_name(name: str) -> tuple[str, str | None]:
 
 # --- text -----------------------------------------------------------------------------------------------------
 
+
 def _read_bytes(path: Path, gz: bool) -> bytes:
     try:
         if gz:
@@ -494,16 +595,19 @@ def _read_bytes(path: Path, gz: bool) -> bytes:
                 return fh.read()
         return path.read_bytes()
     except OSError as exc:  # includes gzip.BadGzipFile
-        raise OptinavError(f"cannot read {path} ({exc})",
-                           "check the file (a .gz file must be gzip-compressed)") from None
+        raise OptinavError(
+            f"cannot read {path} ({exc})", "check the file (a .gz file must be gzip-compressed)"
+        ) from None
     except (EOFError, ValueError) as exc:  # truncated or corrupt gzip stream
         raise OptinavError(f"{path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
 
 
 def _decode(path: Path, raw: bytes) -> str:
     if b"\x00" in raw:
-        raise OptinavError(f"{path} looks binary (it contains NUL bytes), not a text table",
-                           "pass a CSV/TSV/text file, or give the file its real extension (.npz, .h5, .mat)")
+        raise OptinavError(
+            f"{path} looks binary (it contains NUL bytes), not a text table",
+            "pass a CSV/TSV/text file, or give the file its real extension (.npz, .h5, .mat)",
+        )
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -517,10 +621,11 @@ def _delimiter_option(delimiter: str | None) -> tuple[bool, str | None]:
     named = {"comma": ",", "tab": "\t", "\\t": "\t", "semicolon": ";", "whitespace": None, "space": None, " ": None}
     if delimiter in named:
         return True, named[delimiter]
-    if len(delimiter) == 1 and delimiter not in "#\"\n\r" and not delimiter.isalnum() and delimiter not in ".+-":
+    if len(delimiter) == 1 and delimiter not in '#"\n\r' and not delimiter.isalnum() and delimiter not in ".+-":
         return True, delimiter
-    raise OptinavError(f"delimiter {delimiter!r} is not usable",
-                       "use ',', ';', 'tab' or 'whitespace' (or leave it out to auto-detect)")
+    raise OptinavError(
+        f"delimiter {delimiter!r} is not usable", "use ',', ';', 'tab' or 'whitespace' (or leave it out to auto-detect)"
+    )
 
 
 def _sniff(sample: list[str]) -> str | None:
@@ -593,8 +698,9 @@ class _Layout:
     textable: set[int]
 
 
-def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None,
-                 labels: set[str]) -> _Layout:
+def _text_layout(
+    path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None, labels: set[str]
+) -> _Layout:
     """The :class:`_Layout` of a text file from its first lines (all lines up to the 10th after a preamble of at
     most :data:`_MAX_PREAMBLE` lines suffice)."""
     given, delim = _delimiter_option(delimiter)
@@ -618,7 +724,7 @@ def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, deli
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
     preamble = _preamble(lines, content)
-    content = content[int(preamble.pop("_preamble_lines", 0)):][:10]
+    content = content[int(preamble.pop("_preamble_lines", 0)) :][:10]
     sample = [_strip_comment(lines[i]) for i in content]
     if not given:
         delim = _sniff(sample)
@@ -644,17 +750,20 @@ def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, deli
     if names is not None:
         if len(names) != ncol:
             shown = f"header: {','.join(header)}" if header is not None else f"first row: {','.join(toks0)}"
-            raise OptinavError(f"columns names {len(names)} column(s) but {path.name} has {ncol} ({shown[:120]})",
-                               "give one name per column in order, '_' to skip one")
+            raise OptinavError(
+                f"columns names {len(names)} column(s) but {path.name} has {ncol} ({shown[:120]})",
+                "give one name per column in order, '_' to skip one",
+            )
         colnames = list(names)
     elif header is not None:
         colnames = [h if h else f"col{j + 1}" for j, h in enumerate(header)]
         seen: dict[str, int] = {}
         for j, h in enumerate(colnames):
             if h in seen:
-                raise OptinavError(f"{path.name}: the header names column {h!r} twice "
-                                   f"(columns {seen[h] + 1} and {j + 1})",
-                                   "rename one, or name the columns with columns='...'")
+                raise OptinavError(
+                    f"{path.name}: the header names column {h!r} twice (columns {seen[h] + 1} and {j + 1})",
+                    "rename one, or name the columns with columns='...'",
+                )
             seen[h] = j
     else:
         colnames = [f"col{j + 1}" for j in range(ncol)]
@@ -673,8 +782,16 @@ def _text_layout(path: Path, lines: list[str], names: Sequence[str] | None, deli
     return _Layout(delim, colnames, units, meta, start, keep, textable)
 
 
-def _parse_block(path: Path, lay: _Layout, lines: list[str], start: int, *, complete: bool = True,
-                 offset: int = 0, first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
+def _parse_block(
+    path: Path,
+    lay: _Layout,
+    lines: list[str],
+    start: int,
+    *,
+    complete: bool = True,
+    offset: int = 0,
+    first: int | None = None,
+) -> tuple[dict[int, np.ndarray], int | None]:
     """Columns of ``lines[start:]`` (numpy's C parser; the exact line parser when that fails, which names the
     line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
     the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
@@ -682,22 +799,31 @@ def _parse_block(path: Path, lay: _Layout, lines: list[str], start: int, *, comp
     data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
     if data is not None:
         return data, None
-    return _parse_slow(path, lines, start, lay.delim, lay.colnames, lay.keep, lay.textable, complete=complete,
-                       offset=offset, first=first)
+    return _parse_slow(
+        path,
+        lines,
+        start,
+        lay.delim,
+        lay.colnames,
+        lay.keep,
+        lay.textable,
+        complete=complete,
+        offset=offset,
+        first=first,
+    )
 
 
-def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None,
-               labels: set[str]) -> Table:
+def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None, labels: set[str]) -> Table:
     text = _decode(path, raw)
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     lay = _text_layout(path, lines, names, delimiter, labels)
-    data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")),
-                                   first=lay.start)
+    data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start)
     meta = dict(lay.meta)
     if truncated is not None:
         meta["truncated_line"] = str(truncated)
-    table = Table(path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep}, units=dict(lay.units),
-                  meta=meta)
+    table = Table(
+        path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep}, units=dict(lay.units), meta=meta
+    )
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
         raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
@@ -761,8 +887,19 @@ def _text_column(cells: np.ndarray) -> np.ndarray:
     return cells
 
 
-def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete: bool = True, offset: int = 0,
-                first: int | None = None) -> tuple[dict[int, np.ndarray], int | None]:
+def _parse_slow(
+    path,
+    lines,
+    start,
+    delim,
+    colnames,
+    keep,
+    textable,
+    *,
+    complete: bool = True,
+    offset: int = 0,
+    first: int | None = None,
+) -> tuple[dict[int, np.ndarray], int | None]:
     """Line-by-line parser: exact line numbers in errors; empty cells become NaN. Without a final newline
     (``complete`` False: a logger stopped mid-write) a last line with too few fields is dropped and its line
     number returned with the columns. ``offset``: file line index of ``lines[0]`` (a block of a streamed file);
@@ -783,9 +920,10 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
             break
         if len(toks) != ncol:
             how = "truncated" if len(toks) < ncol else "too long"
-            raise OptinavError(f"{path.name} line {offset + i + 1} has {len(toks)} field(s), {ncol} expected "
-                               f"({how} or ragged row)",
-                               "fix or delete that row, or check the delimiter")
+            raise OptinavError(
+                f"{path.name} line {offset + i + 1} has {len(toks)} field(s), {ncol} expected ({how} or ragged row)",
+                "fix or delete that row, or check the delimiter",
+            )
         for j in textable:
             cols[j].append(toks[j])
         for j in numeric:
@@ -796,11 +934,17 @@ def _parse_slow(path, lines, start, delim, colnames, keep, textable, *, complete
             try:
                 cols[j].append(float(tok))
             except ValueError:
-                hint = ("decimal commas are not supported: write decimal points" if _DECIMAL_COMMA.match(tok)
-                        else "fix the cell or skip the column ('_' in columns); text is kept only in label "
-                        "columns (part, label, section, …)")
-                raise OptinavError(f"{path.name} line {offset + i + 1}, column {j + 1} ({colnames[j]!r}): "
-                                   f"{tok[:40]!r} is not a number", hint) from None
+                hint = (
+                    "decimal commas are not supported: write decimal points"
+                    if _DECIMAL_COMMA.match(tok)
+                    else "fix the cell or skip the column ('_' in columns); text is kept only in label "
+                    "columns (part, label, section, …)"
+                )
+                raise OptinavError(
+                    f"{path.name} line {offset + i + 1}, column {j + 1} ({colnames[j]!r}): "
+                    f"{tok[:40]!r} is not a number",
+                    hint,
+                ) from None
     out = {}
     for j in keep:
         out[j] = _text_column(np.asarray(cols[j], dtype=str)) if j in textable else np.asarray(cols[j], dtype=float)
@@ -813,8 +957,18 @@ _MAX_PREAMBLE = 50
 _HEAD_CONTENT = 10 + _MAX_PREAMBLE
 _KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*[,;:=\t]\s*([^,;\t]*?)\s*[,;\t]*\s*$")
 #: preamble keys (normalized) that give the sample rate in Hz
-RATE_KEYS = ("fs", "rate", "sampling_rate", "sample_rate", "samplerate", "sampling_frequency", "rate_hz", "fs_hz",
-             "frequency", "odr")
+RATE_KEYS = (
+    "fs",
+    "rate",
+    "sampling_rate",
+    "sample_rate",
+    "samplerate",
+    "sampling_frequency",
+    "rate_hz",
+    "fs_hz",
+    "frequency",
+    "odr",
+)
 
 
 def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
@@ -861,6 +1015,7 @@ def _comment_meta(comments: list[str]) -> dict[str, str]:
 
 
 # --- numpy, HDF5, MATLAB ------------------------------------------------------------------------------------
+
 
 def _convert(arr) -> tuple[str, object]:
     """Classify a loaded array: ("array", ndarray) | ("meta", str) | ("fields", {name: ndarray}) | ("skip", why)."""
@@ -926,12 +1081,16 @@ def _load_numpy(path: Path) -> Table:
         obj = np.load(path, allow_pickle=False)
     except ValueError as exc:
         if "pickle" in str(exc).lower():
-            raise OptinavError(f"{path} holds pickled data (or is not an NPZ/NPY file); optinav never loads pickles",
-                               "save plain numeric arrays with numpy.savez / numpy.save") from None
+            raise OptinavError(
+                f"{path} holds pickled data (or is not an NPZ/NPY file); optinav never loads pickles",
+                "save plain numeric arrays with numpy.savez / numpy.save",
+            ) from None
         raise OptinavError(f"{path} is not a readable {kind.upper()} file ({exc})", "re-save it with numpy") from None
     except Exception as exc:  # noqa: BLE001 - zipfile/format errors of a damaged file
-        raise OptinavError(f"{path} is not a readable {kind.upper()} file ({type(exc).__name__}: {exc})",
-                           "re-save it with numpy.savez / numpy.save") from None
+        raise OptinavError(
+            f"{path} is not a readable {kind.upper()} file ({type(exc).__name__}: {exc})",
+            "re-save it with numpy.savez / numpy.save",
+        ) from None
     if isinstance(obj, np.ndarray):
         _add(table, path.stem, obj)
         # a structured .npy is a table whose fields are the columns
@@ -943,12 +1102,15 @@ def _load_numpy(path: Path) -> Table:
                 arr = obj[name]
             except ValueError as exc:
                 if "pickle" in str(exc).lower():
-                    raise OptinavError(f"{path}: array {name!r} is pickled (object dtype); optinav never loads pickles",
-                                       "save it as a numeric or string array") from None
+                    raise OptinavError(
+                        f"{path}: array {name!r} is pickled (object dtype); optinav never loads pickles",
+                        "save it as a numeric or string array",
+                    ) from None
                 raise OptinavError(f"{path}: array {name!r} is unreadable ({exc})", "re-save the file") from None
             except Exception as exc:  # noqa: BLE001
-                raise OptinavError(f"{path}: array {name!r} is unreadable ({type(exc).__name__}: {exc})",
-                                   "re-save the file") from None
+                raise OptinavError(
+                    f"{path}: array {name!r} is unreadable ({type(exc).__name__}: {exc})", "re-save the file"
+                ) from None
             _add(table, name, arr)
     _check_nonempty(table)
     return table
@@ -958,8 +1120,9 @@ def _h5py():
     try:
         import h5py
     except ImportError:
-        raise OptinavError("reading HDF5 and MATLAB v7.3 files needs h5py, which is not installed",
-                           "pip install 'optinav[hdf5]'") from None
+        raise OptinavError(
+            "reading HDF5 and MATLAB v7.3 files needs h5py, which is not installed", "pip install 'optinav[hdf5]'"
+        ) from None
     return h5py
 
 
@@ -991,8 +1154,10 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
                     key = _h5_find(fh, found, name, h5py)
                     if key is None:
                         listed = ", ".join(found[:_MAX_LISTED]) + (" …" if len(found) > _MAX_LISTED else "")
-                        raise OptinavError(f"{path} has no dataset {name!r} (datasets: {listed or 'none'})",
-                                           "use one of the dataset paths listed")
+                        raise OptinavError(
+                            f"{path} has no dataset {name!r} (datasets: {listed or 'none'})",
+                            "use one of the dataset paths listed",
+                        )
                     wanted.append(key)
             for name in wanted:
                 ds = fh[name]
@@ -1009,8 +1174,9 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
-        raise OptinavError(f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})",
-                           "check that the file is complete") from None
+        raise OptinavError(
+            f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})", "check that the file is complete"
+        ) from None
     _check_nonempty(table)
     return table
 
@@ -1072,8 +1238,10 @@ def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
             warnings.simplefilter("ignore")
             mat = scipy.io.loadmat(path, simplify_cells=True)
     except Exception as exc:  # noqa: BLE001 - scipy raises many types for damaged or foreign files
-        raise OptinavError(f"{path} is not a readable MATLAB file ({type(exc).__name__}: {str(exc)[:120]})",
-                           "save it from MATLAB with save(..., '-v7') or '-v7.3'") from None
+        raise OptinavError(
+            f"{path} is not a readable MATLAB file ({type(exc).__name__}: {str(exc)[:120]})",
+            "save it from MATLAB with save(..., '-v7') or '-v7.3'",
+        ) from None
     table = Table(path=path, kind="mat", data={})
 
     def walk(prefix: str, value) -> None:
@@ -1102,8 +1270,10 @@ def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
 def _check_nonempty(table: Table) -> None:
     if not table.data:
         extra = f" (unreadable: {table.names()})" if table.skipped else ""
-        raise OptinavError(f"{table.path} holds no numeric arrays{extra}",
-                           "save the data as numeric arrays (one per quantity, or one samples × columns matrix)")
+        raise OptinavError(
+            f"{table.path} holds no numeric arrays{extra}",
+            "save the data as numeric arrays (one per quantity, or one samples × columns matrix)",
+        )
 
 
 def _split_single_table(table: Table) -> Table:
@@ -1120,13 +1290,18 @@ def _split_single_table(table: Table) -> Table:
 
 def _name_table_columns(table: Table, names: Sequence[str]) -> Table:
     if table.table is None:
-        raise OptinavError(f"{table.path.name} holds named arrays ({table.names()}), not one samples × columns table, "
-                           "so positional column names do not apply", "use std=name entries, e.g. columns='t=time'")
+        raise OptinavError(
+            f"{table.path.name} holds named arrays ({table.names()}), not one samples × columns table, "
+            "so positional column names do not apply",
+            "use std=name entries, e.g. columns='t=time'",
+        )
     cols = [k for k in table.data if re.fullmatch(r"col\d+", k)]
     if len(cols) != len(names):
-        raise OptinavError(f"columns names {len(names)} column(s) but {table.table!r} in {table.path.name} has "
-                           f"{len(cols)} (is it stored transposed?)",
-                           "give one name per column in order, '_' to skip one")
+        raise OptinavError(
+            f"columns names {len(names)} column(s) but {table.table!r} in {table.path.name} has "
+            f"{len(cols)} (is it stored transposed?)",
+            "give one name per column in order, '_' to skip one",
+        )
     data = {n: table.data[c] for n, c in zip(names, cols) if n not in SKIP_NAMES}
     data.update({k: v for k, v in table.data.items() if k not in cols})
     table.data = data

@@ -53,8 +53,10 @@ def _parse_topics(topic) -> list[str]:
         return []
     items = [s.strip() for s in (topic.split(",") if isinstance(topic, str) else topic)]
     if not items or any(not s for s in items) or len(items) > 2:
-        raise OptinavError(f"--topic {topic!r} is not one Imu topic, optionally followed by one MagneticField topic",
-                           "write --topic /imu or --topic /imu,/mag")
+        raise OptinavError(
+            f"--topic {topic!r} is not one Imu topic, optionally followed by one MagneticField topic",
+            "write --topic /imu or --topic /imu,/mag",
+        )
     return items
 
 
@@ -70,8 +72,10 @@ def load_bag(path, *, topic=None, only=None):
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
     if path.is_dir() and not (path / "metadata.yaml").is_file():
-        raise OptinavError(f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
-                           "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file")
+        raise OptinavError(
+            f"{path} is a folder without metadata.yaml, not a ROS 2 bag",
+            "pass the bag folder, its .db3/.mcap file, or a ROS 1 .bag file",
+        )
     if path.is_file() and path.stat().st_size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     wanted = _parse_topics(topic)
@@ -82,8 +86,10 @@ def load_bag(path, *, topic=None, only=None):
             reader = AnyReader([path])
             reader.open()
         except Exception as exc:  # noqa: BLE001 - rosbags raises its own errors and OS/struct errors on damaged files
-            raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})",
-                               "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)") from None
+            raise OptinavError(
+                f"{path.name} is not a readable ROS bag ({_why(exc)})",
+                "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)",
+            ) from None
         try:
             topics = {}
             for con in reader.connections:
@@ -182,25 +188,33 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
     """The Imu topic and the MagneticField topic (or None) to read."""
     for name in wanted:
         if name not in topics:
-            raise OptinavError(f"{path.name} has no topic {name!r} (topics: {_listing(topics)})",
-                               "pass one of the listed topics with --topic")
+            raise OptinavError(
+                f"{path.name} has no topic {name!r} (topics: {_listing(topics)})",
+                "pass one of the listed topics with --topic",
+            )
     imu = [k for k, v in topics.items() if v["type"] == IMU_TYPE]
     mag = [k for k, v in topics.items() if v["type"] == MAG_TYPE]
     if wanted:
         imu_topic = wanted[0]
         if topics[imu_topic]["type"] != IMU_TYPE:
-            raise OptinavError(f"topic {imu_topic!r} of {path.name} holds {topics[imu_topic]['type']}, not "
-                               f"{IMU_TYPE} (Imu topics: {', '.join(imu) or 'none'})",
-                               "pass an Imu topic first with --topic (a MagneticField topic may follow: /imu,/mag)")
+            raise OptinavError(
+                f"topic {imu_topic!r} of {path.name} holds {topics[imu_topic]['type']}, not "
+                f"{IMU_TYPE} (Imu topics: {', '.join(imu) or 'none'})",
+                "pass an Imu topic first with --topic (a MagneticField topic may follow: /imu,/mag)",
+            )
         mag_topic = wanted[1] if len(wanted) == 2 else (mag[0] if len(mag) == 1 else None)
         if len(wanted) == 2 and topics[mag_topic]["type"] != MAG_TYPE:
-            raise OptinavError(f"topic {mag_topic!r} of {path.name} holds {topics[mag_topic]['type']}, not {MAG_TYPE}",
-                               "pass a MagneticField topic second in --topic, or only the Imu topic")
+            raise OptinavError(
+                f"topic {mag_topic!r} of {path.name} holds {topics[mag_topic]['type']}, not {MAG_TYPE}",
+                "pass a MagneticField topic second in --topic, or only the Imu topic",
+            )
     else:
         if len(imu) != 1:
             what = "no" if not imu else f"{len(imu)}"
-            raise OptinavError(f"{path.name} has {what} {IMU_TYPE} topics (topics: {_listing(topics)})",
-                               "pick one with --topic TOPIC" if imu else "record the IMU as sensor_msgs/Imu")
+            raise OptinavError(
+                f"{path.name} has {what} {IMU_TYPE} topics (topics: {_listing(topics)})",
+                "pick one with --topic TOPIC" if imu else "record the IMU as sensor_msgs/Imu",
+            )
         imu_topic = imu[0]
         mag_topic = mag[0] if len(mag) == 1 else None
     for name in (imu_topic, mag_topic):
@@ -210,6 +224,7 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
 
 
 # --- decoding -------------------------------------------------------------------------------------------------
+
 
 def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
     """(dtype of one message, field names of the values) for messages of ``len(raw)`` bytes; None when the
@@ -239,8 +254,12 @@ def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
         names = ("m",)
     if end != n:
         return None
-    spec = {"names": ["sec", "nsec", "len"] + list(names), "offsets": [sec, nsec, 12] + [fields[k] for k in names],
-            "formats": ["<i4" if not ros1 else "<u4", "<u4", "<u4"] + ["(3,)<f8"] * len(names), "itemsize": n}
+    spec = {
+        "names": ["sec", "nsec", "len"] + list(names),
+        "offsets": [sec, nsec, 12] + [fields[k] for k in names],
+        "formats": ["<i4" if not ros1 else "<u4", "<u4", "<u4"] + ["(3,)<f8"] * len(names),
+        "itemsize": n,
+    }
     return np.dtype(spec), names, slen
 
 
@@ -267,8 +286,11 @@ def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray,
     if count * _MIN_MSG_BYTES > size:  # a damaged index: do not allocate for it
         if not hasattr(reader, "messages"):
             raise bagscan.NotFast("count beyond the file size")
-        raise OptinavError(f"{path.name} is not a readable ROS bag: its index counts {count} messages of {topic!r}, "
-                           "more than the file can hold", "reindex the bag (ros2 bag reindex / rosbag reindex)")
+        raise OptinavError(
+            f"{path.name} is not a readable ROS bag: its index counts {count} messages of {topic!r}, "
+            "more than the file can hold",
+            "reindex the bag (ros2 bag reindex / rosbag reindex)",
+        )
     dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count)
     fast = bagscan.blocks(reader, path, topic)
     done = None
@@ -287,12 +309,16 @@ def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray,
         except OptinavError:
             raise
         except Exception as exc:  # noqa: BLE001 - damaged chunks, decompression errors, truncated files
-            raise OptinavError(f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {dec.done} "
-                               f"message(s) ({_why(exc)})", "check that the bag was closed properly (ros2 bag "
-                                                            "reindex / rosbag reindex)") from None
+            raise OptinavError(
+                f"{path.name} is not a readable ROS bag: topic {topic!r} fails after {dec.done} "
+                f"message(s) ({_why(exc)})",
+                "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)",
+            ) from None
     if dec.done > count:
-        raise OptinavError(f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
-                           "reindex the bag (ros2 bag reindex / rosbag reindex)")
+        raise OptinavError(
+            f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
+            "reindex the bag (ros2 bag reindex / rosbag reindex)",
+        )
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
     stamp, logt, vals = dec.stamp[:done], dec.logt[:done], dec.vals[:done]
@@ -346,7 +372,7 @@ class _Decoder:
                 continue
             u8 = np.frombuffer(buf, dtype=np.uint8)
             if layout is None:
-                first = bytes(u8[off[0]:off[0] + size[0]])
+                first = bytes(u8[off[0] : off[0] + size[0]])
                 layout = _layout(first, self.ros1, self.msgtype)
                 if layout is not None and not _layout_agrees(self.reader, first, layout, self.msgtype):
                     layout = None
@@ -364,9 +390,9 @@ class _Decoder:
                 at = rows if fast.all() else np.flatnonzero(fast) + self.done
                 self.stamp[at] = arr["sec"] + arr["nsec"] * 1e-9
                 for j, k in enumerate(layout[1]):
-                    self.vals[at, 3 * j:3 * j + 3] = arr[k]
+                    self.vals[at, 3 * j : 3 * j + 3] = arr[k]
             for j in np.flatnonzero(~fast):
-                raw = bytes(u8[off[j]:off[j] + size[j]])
+                raw = bytes(u8[off[j] : off[j] + size[j]])
                 self.stamp[self.done + j], self.vals[self.done + j] = _slow(self.reader, raw, self.msgtype)
             self.done += n
         return self.done
@@ -380,8 +406,9 @@ def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return np.empty(0, dtype=dtype)
     step = np.diff(off)
     if off.size == 1 or (np.all(step == step[0]) and step[0] >= size):
-        return np.ndarray((off.size,), dtype=dtype, buffer=u8, offset=int(off[0]),
-                          strides=(size if off.size == 1 else int(step[0]),))
+        return np.ndarray(
+            (off.size,), dtype=dtype, buffer=u8, offset=int(off[0]), strides=(size if off.size == 1 else int(step[0]),)
+        )
     return np.ascontiguousarray(u8[off[:, None] + np.arange(size)]).view(dtype)[:, 0]
 
 
@@ -404,8 +431,11 @@ def _time_base(path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray) -> 
     if stamp.size == 1 and stamp[0] > 0:
         return stamp
     why = "zero" if np.all(stamp == 0) else "not strictly increasing"
-    warnings.warn(f"{path.name}: the header stamps of {topic!r} are {why}; using the bag's log times instead "
-                  "(receive times, with their jitter)", stacklevel=3)
+    warnings.warn(
+        f"{path.name}: the header stamps of {topic!r} are {why}; using the bag's log times instead "
+        "(receive times, with their jitter)",
+        stacklevel=3,
+    )
     return t_log
 
 

@@ -11,15 +11,41 @@ LM/GN/TRF on pose means — the default —, the adaptive GA of Gao & Zhang 2019
 from optinav._lazy import lazy_package
 
 # loaded on first use: `optinav calibrate accel` reads and checks its file before numba and scipy load
-_EXPORTS = {"PoseStatistics": ".accel", "fit_accel": ".accel", "initial_estimate": ".accel",
-            "pose_statistics": ".accel", "calibrate": ".calibrate", "design_scheme": ".design",
-            "evaluate_scheme": ".design", "observability_vs_n": ".design", "predict_std": ".design",
-            "ferraris_calibration": ".ferraris", "ferraris_from_sections": ".ferraris", "calibrate_gyro": ".gyro",
-            "CalibrationResult": ".result", "simulate": ".simulate", "detect_static": ".static",
-            "sections_from_list": ".static"}
+_EXPORTS = {
+    "PoseStatistics": ".accel",
+    "fit_accel": ".accel",
+    "initial_estimate": ".accel",
+    "pose_statistics": ".accel",
+    "calibrate": ".calibrate",
+    "design_scheme": ".design",
+    "evaluate_scheme": ".design",
+    "observability_vs_n": ".design",
+    "predict_std": ".design",
+    "ferraris_calibration": ".ferraris",
+    "ferraris_from_sections": ".ferraris",
+    "calibrate_gyro": ".gyro",
+    "CalibrationResult": ".result",
+    "simulate": ".simulate",
+    "detect_static": ".static",
+    "sections_from_list": ".static",
+}
 lazy_package(__name__, _EXPORTS)
 
-__all__ = ["PoseStatistics", "fit_accel", "initial_estimate", "pose_statistics", "calibrate",
-           "design_scheme", "evaluate_scheme", "observability_vs_n", "predict_std", "ferraris_calibration",
-           "ferraris_from_sections", "calibrate_gyro", "CalibrationResult", "simulate", "detect_static",
-           "sections_from_list"]
+__all__ = [
+    "PoseStatistics",
+    "fit_accel",
+    "initial_estimate",
+    "pose_statistics",
+    "calibrate",
+    "design_scheme",
+    "evaluate_scheme",
+    "observability_vs_n",
+    "predict_std",
+    "ferraris_calibration",
+    "ferraris_from_sections",
+    "calibrate_gyro",
+    "CalibrationResult",
+    "simulate",
+    "detect_static",
+    "sections_from_list",
+]

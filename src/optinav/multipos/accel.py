@@ -46,9 +46,9 @@ HELD_MISALIGNMENT = 0.005
 class PoseStatistics:
     """Per-pose statistics of the raw accelerometer output (raw units)."""
 
-    means: np.ndarray        # (P, 3)
+    means: np.ndarray  # (P, 3)
     covariances: np.ndarray  # (P, 3, 3) sample covariance of one sample
-    counts: np.ndarray       # (P,)
+    counts: np.ndarray  # (P,)
 
 
 def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
@@ -69,14 +69,19 @@ def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
         ``means`` (P, 3) [raw], ``covariances`` (P, 3, 3) of one sample [raw²], ``counts`` (P,).
     """
     raw = as_float_array(raw, "accelerometer samples", last_dims=(3,), finite=False)
-    ok = np.all(np.isfinite(raw), axis=1) if valid is None else (np.asarray(valid, bool) &
-                                                                  np.all(np.isfinite(raw), axis=1))
+    ok = (
+        np.all(np.isfinite(raw), axis=1)
+        if valid is None
+        else (np.asarray(valid, bool) & np.all(np.isfinite(raw), axis=1))
+    )
     means, covs, counts = [], [], []
     for k, (i0, i1) in enumerate(np.asarray(index_ranges, dtype=int)):
         x = raw[i0:i1][ok[i0:i1]]
         if x.shape[0] < 2:
-            raise OptinavError(f"static pose {k} has {x.shape[0]} valid sample(s)",
-                               "lengthen the static interval or drop it from the section list")
+            raise OptinavError(
+                f"static pose {k} has {x.shape[0]} valid sample(s)",
+                "lengthen the static interval or drop it from the section list",
+            )
         means.append(x.mean(axis=0))
         covs.append(np.cov(x.T, ddof=1))
         counts.append(x.shape[0])
@@ -121,8 +126,12 @@ def initial_estimate(means, g: float, *, general: bool = True) -> np.ndarray:
     one = np.ones(P)
     forms = []
     if P >= 9 and general:
-        forms.append(("general", np.column_stack([X * X, Y * Y, Z * Z, 2 * X * Y, 2 * X * Z, 2 * Y * Z,
-                                                  2 * X, 2 * Y, 2 * Z, one])))
+        forms.append(
+            (
+                "general",
+                np.column_stack([X * X, Y * Y, Z * Z, 2 * X * Y, 2 * X * Z, 2 * Y * Z, 2 * X, 2 * Y, 2 * Z, one]),
+            )
+        )
     if P >= 6:
         forms.append(("axis", np.column_stack([X * X, Y * Y, Z * Z, 2 * X, 2 * Y, 2 * Z, one])))
     if P >= 4:
@@ -150,7 +159,7 @@ def initial_estimate(means, g: float, *, general: bool = True) -> np.ndarray:
         ev = np.linalg.eigvalsh(A)
         if not np.all(ev > 0):
             continue
-        U = np.linalg.cholesky(A * g ** 2).T  # ‖K⁻¹(m − b)‖ = g ⇔ (x − c)ᵀ(s²K⁻ᵀK⁻¹/g²)(x − c) = 1, x = m/s
+        U = np.linalg.cholesky(A * g**2).T  # ‖K⁻¹(m − b)‖ = g ⇔ (x − c)ᵀ(s²K⁻ᵀK⁻¹/g²)(x − c) = 1, x = m/s
         K = np.linalg.inv(U) * s
         b = center * s + c0
         return model.Kb_to_theta(np.triu(K), b)
@@ -158,8 +167,9 @@ def initial_estimate(means, g: float, *, general: bool = True) -> np.ndarray:
     return np.array([k, k, k, 0, 0, 0, *(c0 if P < 4 else np.zeros(3))])
 
 
-def search_interval(means, g: float, *, scale_tol: float = 0.05, bias_tol: float = 0.05,
-                    misalignment: float = 0.05, center=None) -> tuple[np.ndarray, np.ndarray]:
+def search_interval(
+    means, g: float, *, scale_tol: float = 0.05, bias_tol: float = 0.05, misalignment: float = 0.05, center=None
+) -> tuple[np.ndarray, np.ndarray]:
     """GA/PSO search interval around the closed-form estimate, in raw units (Gao & Zhang 2019, sec. 2.2,
     invert the output model N = K·f + B for the interval; the centre here is :func:`initial_estimate`, which
     unlike the paper's per-axis extremes holds for raw counts with offsets far above the g span).
@@ -240,8 +250,9 @@ def _distinct_report(J: np.ndarray, sigma: np.ndarray, labels: np.ndarray, free)
     return _observability(Jd, sd, free)
 
 
-def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.ndarray
-                  ) -> tuple[list[int], list[int], str]:
+def _choose_model(
+    requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.ndarray
+) -> tuple[list[int], list[int], str]:
     """(estimated, held) parameter indices for model ``requested`` ("auto", "full", "diagonal") and a note
     saying why the misalignments were held (empty when they were not, or were held on request)."""
     full, diag = list(range(9)), [0, 1, 2, 6, 7, 8]
@@ -250,28 +261,49 @@ def _choose_model(requested: str, J: np.ndarray, sigma: np.ndarray, labels: np.n
         rep = _distinct_report(J, sigma, labels, full)
         if rep.full_rank and _observability(J, sigma, full).full_rank:
             return full, [], ""
-        why = (f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within {gates.SAME_POSE_DEG:g}° "
-               f"count once) cannot determine all 9 accelerometer parameters: "
-               + "; ".join(rep.unobservable_directions or ["rank deficient"]))
+        why = (
+            f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within {gates.SAME_POSE_DEG:g}° "
+            f"count once) cannot determine all 9 accelerometer parameters: "
+            + "; ".join(rep.unobservable_directions or ["rank deficient"])
+        )
         if requested == "full":
-            raise OptinavError(why, "add poses (>= 9 distinct directions, including ones tilted about 45° "
-                                    "between axes), or pass --model auto or --model diagonal")
-        note = (f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within "
-                f"{gates.SAME_POSE_DEG:g}° count once) cannot determine the misalignments (>= 9 distinct, some "
-                "tilted, are needed): K_xy, K_xz, K_yz are held at 0, scales and biases fitted")
+            raise OptinavError(
+                why,
+                "add poses (>= 9 distinct directions, including ones tilted about 45° "
+                "between axes), or pass --model auto or --model diagonal",
+            )
+        note = (
+            f"{n_distinct} distinct pose directions ({len(labels)} poses; poses within "
+            f"{gates.SAME_POSE_DEG:g}° count once) cannot determine the misalignments (>= 9 distinct, some "
+            "tilted, are needed): K_xy, K_xz, K_yz are held at 0, scales and biases fitted"
+        )
     else:
         note = ""
     rep6 = _distinct_report(J, sigma, labels, diag)
     if not rep6.full_rank:
-        raise OptinavError(f"{n_distinct} distinct pose directions ({len(labels)} poses) cannot determine the "
-                           "accelerometer scale factors and biases: " + "; ".join(rep6.unobservable_directions),
-                           "record at least 6 distinct poses with each axis both up and down (e.g. ±x, ±y, ±z up)")
+        raise OptinavError(
+            f"{n_distinct} distinct pose directions ({len(labels)} poses) cannot determine the "
+            "accelerometer scale factors and biases: " + "; ".join(rep6.unobservable_directions),
+            "record at least 6 distinct poses with each axis both up and down (e.g. ±x, ±y, ±z up)",
+        )
     return diag, list(MISALIGNMENT), note
 
 
-def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form: str = "auto", data: str = "means",
-              samples=None, x0=None, rng=None, interval=None, bias_instability=None,
-              held_misalignment: float = HELD_MISALIGNMENT, **options) -> AccelFit:
+def fit_accel(
+    stats: PoseStatistics,
+    g: float,
+    *,
+    method: str = "lm",
+    model_form: str = "auto",
+    data: str = "means",
+    samples=None,
+    x0=None,
+    rng=None,
+    interval=None,
+    bias_instability=None,
+    held_misalignment: float = HELD_MISALIGNMENT,
+    **options,
+) -> AccelFit:
     """Fit θ = (K, b) of ``raw = K·a + b`` to static-pose data (see the module docstring).
 
     Parameters
@@ -318,8 +350,10 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
         raise OptinavError(f"data={data!r} is not understood", "use 'means' or 'samples'")
     P = stats.means.shape[0]
     if P < 6:
-        raise OptinavError(f"{P} static pose(s) found; norm observation needs at least 6 (9 for misalignments)",
-                           "record more poses: each axis up and down, plus tilted poses")
+        raise OptinavError(
+            f"{P} static pose(s) found; norm observation needs at least 6 (9 for misalignments)",
+            "record more poses: each axis up and down, plus tilted poses",
+        )
     t0 = time.perf_counter()
     start = initial_estimate(stats.means, g)
     sig0 = residual_sigma(start, stats)
@@ -337,8 +371,11 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
         if samples is None or len(samples) != P:
             raise OptinavError("data='samples' needs the raw samples of every pose", "pass samples=[...] per pose")
         pts = np.concatenate([np.asarray(s, float) for s in samples])
-        w = np.concatenate([np.full(len(s), 1.0 / (sig0[k] * np.sqrt(stats.counts[k])))
-                            for k, s in enumerate(samples)]) if weighted else np.ones(len(pts))
+        w = (
+            np.concatenate([np.full(len(s), 1.0 / (sig0[k] * np.sqrt(stats.counts[k]))) for k, s in enumerate(samples)])
+            if weighted
+            else np.ones(len(pts))
+        )
     else:
         pts = stats.means
         w = 1.0 / sig0 if weighted else np.ones(P)
@@ -376,8 +413,8 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
         Jw = J / sig[:, None]
         G = -np.linalg.lstsq(Jw[:, free], Jw[:, held], rcond=None)[0]
         s_h = abs(float(held_misalignment)) * np.abs(theta[[0, 0, 1]])  # K_xy, K_xz ∝ K_xx; K_yz ∝ K_yy
-        add_var = (G ** 2) @ s_h ** 2
-        extra_chi2 = float(np.sum(((Jw[:, held] + Jw[:, free] @ G) ** 2) @ s_h ** 2))
+        add_var = (G**2) @ s_h**2
+        extra_chi2 = float(np.sum(((Jw[:, held] + Jw[:, free] @ G) ** 2) @ s_h**2))
     # Correlated noise shifts whole pose means, which the within-pose scatter cannot show; the a-posteriori
     # variance factor χ²/dof (never below 1; the χ² the held terms explain is not counted twice) carries it.
     std = crlb * np.sqrt(max(1.0, chi2 / (dof + extra_chi2))) if dof > 0 else crlb.copy()
@@ -387,17 +424,37 @@ def fit_accel(stats: PoseStatistics, g: float, *, method: str = "lm", model_form
         std[6:9] = np.hypot(std[6:9], np.broadcast_to(np.abs(as_float_array(bias_instability, "bias_instability")), 3))
     std[held] = np.nan
     K, b = model.theta_to_Kb(theta)
-    return AccelFit(K=K, b=b, theta=theta, std=std, estimated=[model.ACCEL_PARAMS[i] for i in free],
-                    held=[model.ACCEL_PARAMS[i] for i in held], method=method, data=data, g=g, residuals=r,
-                    residual_sigma=sig, chi2=chi2, dof=dof, crlb_std=crlb,
-                    observability=rep, success=bool(res.success), message=str(res.message), nfev=int(res.nfev),
-                    nit=int(res.nit), history=np.asarray(res.history, float),
-                    elapsed_s=time.perf_counter() - t0, trace=dict(res.trace), n_distinct=int(labels.max() + 1),
-                    note=note)
+    return AccelFit(
+        K=K,
+        b=b,
+        theta=theta,
+        std=std,
+        estimated=[model.ACCEL_PARAMS[i] for i in free],
+        held=[model.ACCEL_PARAMS[i] for i in held],
+        method=method,
+        data=data,
+        g=g,
+        residuals=r,
+        residual_sigma=sig,
+        chi2=chi2,
+        dof=dof,
+        crlb_std=crlb,
+        observability=rep,
+        success=bool(res.success),
+        message=str(res.message),
+        nfev=int(res.nfev),
+        nit=int(res.nit),
+        history=np.asarray(res.history, float),
+        elapsed_s=time.perf_counter() - t0,
+        trace=dict(res.trace),
+        n_distinct=int(labels.max() + 1),
+        note=note,
+    )
 
 
-def efficiency(K, b, up_dirs, g: float, sigma: float, n_per_pose: int, n_runs: int, rng=None
-               ) -> tuple[np.ndarray, np.ndarray]:
+def efficiency(
+    K, b, up_dirs, g: float, sigma: float, n_per_pose: int, n_runs: int, rng=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Monte Carlo RMSE/√CRLB of the default estimator (white noise σ per sample and axis, raw units).
 
     Pose means are drawn directly (mean of n white samples ~ N(K·g·u + b, σ²/n)), so ``n_runs`` fits take
@@ -411,7 +468,7 @@ def efficiency(K, b, up_dirs, g: float, sigma: float, n_per_pose: int, n_runs: i
     K, b = as_float_array(K, "K", last_dims=(3, 3)), as_float_array(b, "b", last_dims=(3,))
     th_true = model.Kb_to_theta(K, b)
     clean = np.array([K @ (g * u) + b for u in ups])
-    cov = np.tile(np.eye(3) * sigma ** 2, (len(ups), 1, 1))
+    cov = np.tile(np.eye(3) * sigma**2, (len(ups), 1, 1))
     errs, crlb = [], None
     for _ in range(int(n_runs)):
         means = clean + gen.normal(0, sigma / np.sqrt(n_per_pose), clean.shape)

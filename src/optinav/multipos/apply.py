@@ -53,23 +53,37 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
 
     o = options or ApplyOptions()
     res = load_calibration(result_path, o.gyro_cal)
-    for sensor, entry, key in (("accelerometer", res.accelerometer, "accelerometer_raw"),
-                               ("gyroscope", res.gyroscope, "gyroscope_raw")):
+    for sensor, entry, key in (
+        ("accelerometer", res.accelerometer, "accelerometer_raw"),
+        ("gyroscope", res.gyroscope, "gyroscope_raw"),
+    ):
         if entry is not None:
             check_plausible_K(sensor, entry, res.units.get(key))
     acc_unit = o.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
     gyro_unit = o.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
-    blocks = iter_imu(data_path, columns=o.columns, acc_unit=acc_unit, gyro_unit=gyro_unit, time_unit=o.time_unit,
-                      rate_hz=o.rate, datasets=o.datasets or None, delimiter=o.delimiter,
-                      chunk_rows=o.chunk_rows or CHUNK_ROWS, topic=o.topic)
+    blocks = iter_imu(
+        data_path,
+        columns=o.columns,
+        acc_unit=acc_unit,
+        gyro_unit=gyro_unit,
+        time_unit=o.time_unit,
+        rate_hz=o.rate,
+        datasets=o.datasets or None,
+        delimiter=o.delimiter,
+        chunk_rows=o.chunk_rows or CHUNK_ROWS,
+        topic=o.topic,
+    )
     source = f"optinav apply {Path(result_path).name} {Path(data_path).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
     # grow with the log; a bad row fails when its block is read and leaves no output
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
             acc, gyro = corrected(res, log, data_path, result_path)
-            writer.write(ImuLog(t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source,
-                                labels=log.labels))
+            writer.write(
+                ImuLog(
+                    t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
+                )
+            )
     return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
 
 
@@ -87,8 +101,9 @@ def corrected(res, log, data_path, result_path):
         _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
         gyro = res.correct_gyro(raw, acc)
     if acc is None and gyro is None:
-        raise OptinavError(f"{data_path} has no data for the sensors in {result_path}",
-                           "check --columns (t,ax,ay,az,gx,gy,gz)")
+        raise OptinavError(
+            f"{data_path} has no data for the sensors in {result_path}", "check --columns (t,ax,ay,az,gx,gy,gz)"
+        )
     return acc, gyro
 
 
@@ -111,14 +126,20 @@ def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
             nominal = 1.0 / factor(raw_unit)
             lo, hi = nominal / SCALE_FACTOR, nominal * SCALE_FACTOR
         if np.any(scale < lo) or np.any(scale > hi):
-            cause = (f"the scales diag(K) = {', '.join(f'{v:.4g}' for v in scale)} {raw_unit or 'raw'} per SI unit "
-                     f"are outside {lo:.3g}..{hi:.3g}")
+            cause = (
+                f"the scales diag(K) = {', '.join(f'{v:.4g}' for v in scale)} {raw_unit or 'raw'} per SI unit "
+                f"are outside {lo:.3g}..{hi:.3g}"
+            )
     if cause:
-        raise OptinavError(f"the {sensor} calibration is implausible: {cause}",
-                           "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)")
+        raise OptinavError(
+            f"the {sensor} calibration is implausible: {cause}",
+            "re-run optinav calibrate on this unit (the result file may be damaged or of another unit)",
+        )
 
 
 def _check_unit(sensor: str, unit: str, expected: str | None) -> None:
     if expected and unit != expected:
-        raise OptinavError(f"the {sensor} data are in {unit} but the calibration was made in {expected}",
-                           f"pass data in {expected} (or --{'acc' if sensor[0] == 'a' else 'gyro'}-unit {expected})")
+        raise OptinavError(
+            f"the {sensor} data are in {unit} but the calibration was made in {expected}",
+            f"pass data in {expected} (or --{'acc' if sensor[0] == 'a' else 'gyro'}-unit {expected})",
+        )

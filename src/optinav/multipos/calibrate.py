@@ -50,15 +50,15 @@ def count_range(raw) -> tuple[float, float]:
     x = np.asarray(raw, float).reshape(-1)
     lo, hi = np.inf, -np.inf
     for a in range(0, x.size, static._BLOCK):  # in blocks: no copy of the log
-        xb = x[a:a + static._BLOCK]
+        xb = x[a : a + static._BLOCK]
         xb = xb[np.isfinite(xb)]
         if xb.size:
             lo, hi = min(lo, float(xb.min())), max(hi, float(xb.max()))
     if lo > hi:
         return -np.inf, np.inf
     for k in _INT_BITS:
-        if lo >= 0 and hi <= 2.0 ** k - 1:
-            return 0.0, 2.0 ** k - 1
+        if lo >= 0 and hi <= 2.0**k - 1:
+            return 0.0, 2.0**k - 1
         if lo >= -(2.0 ** (k - 1)) and hi <= 2.0 ** (k - 1) - 1:
             return -(2.0 ** (k - 1)), 2.0 ** (k - 1) - 1
     return -np.inf, np.inf
@@ -95,14 +95,17 @@ def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
         lat = float(lat)
         if not -np.pi / 2 <= lat <= np.pi / 2:
             raise OptinavError(f"latitude {lat:g} rad is outside ±π/2", "give the latitude in rad (CLI: degrees)")
-        return (float(normal_gravity(lat, float(height_m))),
-                f"normal gravity at {np.degrees(lat):.10g}°, {height_m:g} m")
+        return (
+            float(normal_gravity(lat, float(height_m))),
+            f"normal gravity at {np.degrees(lat):.10g}°, {height_m:g} m",
+        )
     return G_STANDARD, "standard gravity, by default"
 
 
 def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
-    cands = static.threshold_candidates(t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s,
-                                        acc_unit=acc_unit, gyro_unit=gyro_unit)
+    cands = static.threshold_candidates(
+        t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit
+    )
     scores = []
     seen = {}
     for k, det in enumerate(cands.detections):
@@ -124,27 +127,58 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
     dof = np.array([s[1] for s in scores])
     ok = np.isfinite(red)
     if not np.any(ok):
-        return cands.default, {"rule": "default (no candidate had >= 7 intervals to score)",
-                               "thresholds": cands.thresholds, "n_intervals": cands.n_intervals}
+        return cands.default, {
+            "rule": "default (no candidate had >= 7 intervals to score)",
+            "thresholds": cands.thresholds,
+            "n_intervals": cands.n_intervals,
+        }
     from scipy import stats as _stats  # deferred: a bad input file is reported before scipy loads
 
     limit = np.where(dof > 0, _stats.chi2.ppf(0.99, np.maximum(dof, 1)) / np.maximum(dof, 1), np.inf)
     good = ok & ((red <= limit) | (red <= 1.5 * np.nanmin(red)))
     order = sorted(np.flatnonzero(good), key=lambda k: (cands.n_intervals[k], cands.static_time_s[k]))
     best = int(order[-1])
-    return cands.detections[best], {"rule": "most intervals with an acceptable reduced chi-square",
-                                    "thresholds": cands.thresholds, "n_intervals": cands.n_intervals,
-                                    "reduced_chi2": red, "chosen": best}
+    return cands.detections[best], {
+        "rule": "most intervals with an acceptable reduced chi-square",
+        "thresholds": cands.thresholds,
+        "n_intervals": cands.n_intervals,
+        "reduced_chi2": red,
+        "chosen": best,
+    }
 
 
-def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", g=None,
-              lat=None, height_m: float = 0.0, method: str = "lm", model_form: str = "auto",
-              data: str = "means", sections=None, window_s: float = 1.0, min_duration_s: float = 2.0,
-              threshold=None, acc_range=None, gyro_range=None, gyro_bias="local", rng=None,
-              source: str = "", method_options: dict | None = None, acc_bias_instability=None,
-              rest=None, allow_unobservable: bool = False, rotation_angle: float = -2 * np.pi,
-              held_misalignment: float = accel.HELD_MISALIGNMENT, gyro_g_sensitivity=None,
-              gyro_bias_instability=None, gyro_bias_corr_time: float = float("inf")) -> CalibrationResult:
+def calibrate(
+    t,
+    acc,
+    gyr=None,
+    *,
+    acc_unit: str = "m/s^2",
+    gyro_unit: str = "rad/s",
+    g=None,
+    lat=None,
+    height_m: float = 0.0,
+    method: str = "lm",
+    model_form: str = "auto",
+    data: str = "means",
+    sections=None,
+    window_s: float = 1.0,
+    min_duration_s: float = 2.0,
+    threshold=None,
+    acc_range=None,
+    gyro_range=None,
+    gyro_bias="local",
+    rng=None,
+    source: str = "",
+    method_options: dict | None = None,
+    acc_bias_instability=None,
+    rest=None,
+    allow_unobservable: bool = False,
+    rotation_angle: float = -2 * np.pi,
+    held_misalignment: float = accel.HELD_MISALIGNMENT,
+    gyro_g_sensitivity=None,
+    gyro_bias_instability=None,
+    gyro_bias_corr_time: float = float("inf"),
+) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
     K and b come out in raw units per SI unit. Every fit passes the gates of :mod:`optinav.multipos.gates` or
@@ -225,13 +259,17 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     t = as_float_array(t, "time", finite=False)
     acc = as_float_array(acc, "accelerometer data", last_dims=(3,), finite=False)
     if acc.ndim != 2 or t.ndim != 1 or acc.shape[0] != t.shape[0]:
-        raise OptinavError(f"time ({t.shape}) and accelerometer ({acc.shape}) data do not match",
-                           "give one time stamp per accelerometer sample")
+        raise OptinavError(
+            f"time ({t.shape}) and accelerometer ({acc.shape}) data do not match",
+            "give one time stamp per accelerometer sample",
+        )
     if gyro is not None:
         gyro = as_float_array(gyro, "gyroscope data", last_dims=(3,), finite=False)
         if gyro.shape != acc.shape:
-            raise OptinavError(f"gyroscope data {gyro.shape} and accelerometer data {acc.shape} differ in length",
-                               "give both sensors on the same time column")
+            raise OptinavError(
+                f"gyroscope data {gyro.shape} and accelerometer data {acc.shape} differ in length",
+                "give both sensors on the same time column",
+            )
     finite = np.isfinite(t) & np.all(np.isfinite(acc), axis=1)
     if gyro is not None:
         finite &= np.all(np.isfinite(gyro), axis=1)
@@ -241,9 +279,14 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         gyro = gyro[finite] if gyro is not None else None
     t = check_timestamps(t, "time", min_count=10)
     g, g_source = local_gravity(g, lat, height_m)
-    notes = [f"g = {g:.6g} m/s^2 ({g_source})" + (": give --gravity or --latitude for the local value (it "
-                                                   "differs from standard gravity by up to 0.3 %)"
-                                                   if g_source.startswith("standard") else "")]
+    notes = [
+        f"g = {g:.6g} m/s^2 ({g_source})"
+        + (
+            ": give --gravity or --latitude for the local value (it differs from standard gravity by up to 0.3 %)"
+            if g_source.startswith("standard")
+            else ""
+        )
+    ]
     sat_a = saturated_mask(acc, acc_range, counts=acc_unit == "counts")
     sat_g = saturated_mask(gyro, gyro_range, counts=gyro_unit == "counts") if gyro is not None else None
     valid = ~sat_a
@@ -253,8 +296,22 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
-        return _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source,
-                         notes, float(rotation_angle))
+        return _ferraris(
+            t,
+            acc,
+            gyro,
+            sections,
+            g,
+            g_source,
+            acc_unit,
+            gyro_unit,
+            n_nan,
+            sat_a,
+            t_start,
+            source,
+            notes,
+            float(rotation_angle),
+        )
     selection = {}
     step("detect static intervals")
     if sections is not None:
@@ -263,12 +320,29 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         ranges = np.asarray(sl.index_ranges, int)[keep]
         t_int, how = np.asarray(sl.t_intervals, float)[keep], "manual sections"
     elif threshold is not None:
-        det = static.detect_static(t, acc, gyr=gyro, window_s=window_s, threshold=threshold,
-                                   min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
+        det = static.detect_static(
+            t,
+            acc,
+            gyr=gyro,
+            window_s=window_s,
+            threshold=threshold,
+            min_duration_s=min_duration_s,
+            acc_unit=acc_unit,
+            gyro_unit=gyro_unit,
+        )
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "threshold"
     else:
-        det, selection = _select_threshold(t, acc, gyro, g, valid, window_s=window_s,
-                                           min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit)
+        det, selection = _select_threshold(
+            t,
+            acc,
+            gyro,
+            g,
+            valid,
+            window_s=window_s,
+            min_duration_s=min_duration_s,
+            acc_unit=acc_unit,
+            gyro_unit=gyro_unit,
+        )
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
         selection["threshold"] = det.threshold
     det = None  # its moving variances (16 B per row) are not needed further
@@ -278,15 +352,27 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
             f"only {len(ranges)} static interval(s) of at least {min_duration_s:g} s found (acc {levels}; threshold "
             f"{float(selection.get('threshold') or threshold or np.nan):.3g}); norm observation needs at least 6 poses",
             "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
-            "--min-duration, or give the poses by hand with --sections")
+            "--min-duration, or give the poses by hand with --sections",
+        )
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
     gate_log: list[dict] = []
-    fit = _fit_accel_gated(st, g, notes, acc_unit=acc_unit, method=method, model_form=model_form, data=data,
-                           gate_log=gate_log,
-                           samples=samples, rng=rng, bias_instability=acc_bias_instability,
-                           held_misalignment=held_misalignment, **(method_options or {}))
+    fit = _fit_accel_gated(
+        st,
+        g,
+        notes,
+        acc_unit=acc_unit,
+        method=method,
+        model_form=model_form,
+        data=data,
+        gate_log=gate_log,
+        samples=samples,
+        rng=rng,
+        bias_instability=acc_bias_instability,
+        held_misalignment=held_misalignment,
+        **(method_options or {}),
+    )
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
         used[i0:i1] = True
@@ -297,17 +383,34 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
     K_std = np.zeros((3, 3))
     for j, (r, c) in enumerate(model.K_INDEX):
         K_std[r, c] = fit.std[j]
-    acc_entry = {"K": fit.K, "b": fit.b, "K_std": K_std, "b_std": fit.std[6:9], "form": "upper-triangular",
-                 "estimated": fit.estimated, "held": fit.held, "chi2": fit.chi2, "dof": fit.dof,
-                 "crlb_std": fit.crlb_std, "paper": model.to_paper(fit.K, fit.b, g),
-                 "held_std_rad": held_misalignment if fit.held else None}
+    acc_entry = {
+        "K": fit.K,
+        "b": fit.b,
+        "K_std": K_std,
+        "b_std": fit.std[6:9],
+        "form": "upper-triangular",
+        "estimated": fit.estimated,
+        "held": fit.held,
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "crlb_std": fit.crlb_std,
+        "paper": model.to_paper(fit.K, fit.b, g),
+        "held_std_rad": held_misalignment if fit.held else None,
+    }
     obs = fit.observability
-    observability = {"accelerometer": {"rank": obs.rank, "n_params": obs.n_params,
-                                       "singular_values": obs.singular_values,
-                                       "unobservable": list(obs.unobservable_directions),
-                                       "statements": list(obs.statements), "distinct_poses": fit.n_distinct}}
-    observability.update({k: observability["accelerometer"][k] for k in ("rank", "n_params", "singular_values",
-                                                                         "unobservable")})
+    observability = {
+        "accelerometer": {
+            "rank": obs.rank,
+            "n_params": obs.n_params,
+            "singular_values": obs.singular_values,
+            "unobservable": list(obs.unobservable_directions),
+            "statements": list(obs.statements),
+            "distinct_poses": fit.n_distinct,
+        }
+    }
+    observability.update(
+        {k: observability["accelerometer"][k] for k in ("rank", "n_params", "singular_values", "unobservable")}
+    )
     gyro_entry = None
     excluded = {"nan_rows": n_nan, "saturated_acc": int(np.count_nonzero(sat_a))}
     if gyro is not None:
@@ -322,47 +425,106 @@ def calibrate(t, acc, gyr=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "ra
         if isinstance(gyro_bias, str) and gyro_bias == "rest" and rest is None:
             # the initial rest: the first static interval, before any turn
             rest = (float(t[ranges[0, 0]]), float(t[ranges[0, 1] - 1]))
-            notes.append(f"gyro bias from the initial rest, the first static interval {rest[0]:.6g}-{rest[1]:.6g} s "
-                         "(--rest T0 T1 to choose another window)")
-        gc = gyro_cal.calibrate_gyro(t, gyro, ranges, up, bias=gyro_bias, rest=rest, rng=rng,
-                                     allow_unobservable=allow_unobservable, drop_transitions=drop,
-                                     g_sensitivity_std=gyro_g_sensitivity, gravity=g, unit=gyro_unit,
-                                     bias_instability=gyro_bias_instability, bias_corr_time=gyro_bias_corr_time)
+            notes.append(
+                f"gyro bias from the initial rest, the first static interval {rest[0]:.6g}-{rest[1]:.6g} s "
+                "(--rest T0 T1 to choose another window)"
+            )
+        gc = gyro_cal.calibrate_gyro(
+            t,
+            gyro,
+            ranges,
+            up,
+            bias=gyro_bias,
+            rest=rest,
+            rng=rng,
+            allow_unobservable=allow_unobservable,
+            drop_transitions=drop,
+            g_sensitivity_std=gyro_g_sensitivity,
+            gravity=g,
+            unit=gyro_unit,
+            bias_instability=gyro_bias_instability,
+            bias_corr_time=gyro_bias_corr_time,
+        )
         gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
-            notes.append("gyroscope directions the turns do not determine are held at the initial guess: "
-                         + "; ".join(gc.unobservable))
+            notes.append(
+                "gyroscope directions the turns do not determine are held at the initial guess: "
+                + "; ".join(gc.unobservable)
+            )
         if gc.g_sensitivity_source == "rests":
-            notes.append(f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
-                         "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
-                         "--gyro-g-sensitivity to state the datasheet value")
+            notes.append(
+                f"the gyro rest biases follow the specific force (g-sensitivity ≈ {gc.g_sensitivity:.3g} raw "
+                "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
+                "--gyro-g-sensitivity to state the datasheet value"
+            )
         # Earth rate is neglected (module docs): "local" and "static" include what the rests hold of it, "estimate"
         # has it in the scatter of the rest means it fits; one rest window holds the projection of Ω_E in one
         # pose, of unknown heading: Ω_E·K_ii/√3 per axis (a random direction)
-        b_std = (gc.b_std if gc.bias_mode in ("local", "static", "estimate")
-                 else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)) / np.sqrt(3.0)))
-        gyro_entry = {"K": gc.K, "b": gc.b, "K_std": gc.K_std, "b_std": b_std, "form": "full",
-                      "residual_rms_rad": gc.residual_rms, "n_transitions": gc.n_transitions,
-                      "bias_mode": gc.bias_mode, "unobservable": list(gc.unobservable)}
+        b_std = (
+            gc.b_std
+            if gc.bias_mode in ("local", "static", "estimate")
+            else np.hypot(gc.b_std, OMEGA_E * np.abs(np.diag(gc.K)) / np.sqrt(3.0))
+        )
+        gyro_entry = {
+            "K": gc.K,
+            "b": gc.b,
+            "K_std": gc.K_std,
+            "b_std": b_std,
+            "form": "full",
+            "residual_rms_rad": gc.residual_rms,
+            "n_transitions": gc.n_transitions,
+            "bias_mode": gc.bias_mode,
+            "unobservable": list(gc.unobservable),
+        }
         gobs = gc.observability
-        observability["gyroscope"] = {"rank": gobs.rank, "n_params": gobs.n_params,
-                                      "singular_values": gobs.singular_values,
-                                      "unobservable": list(gobs.unobservable_directions)}
-    quality = {"n_poses": int(len(ranges)), "pose_residual_rms": float(np.sqrt(np.mean(fit.residuals ** 2))),
-               "chi2": fit.chi2, "dof": fit.dof, "interval_selection": how, "gravity_source": g_source,
-               "optimizer_success": fit.success, "optimizer_message": fit.message, "nfev": fit.nfev,
-               "data": data, "notes": notes}
+        observability["gyroscope"] = {
+            "rank": gobs.rank,
+            "n_params": gobs.n_params,
+            "singular_values": gobs.singular_values,
+            "unobservable": list(gobs.unobservable_directions),
+        }
+    quality = {
+        "n_poses": int(len(ranges)),
+        "pose_residual_rms": float(np.sqrt(np.mean(fit.residuals**2))),
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "interval_selection": how,
+        "gravity_source": g_source,
+        "optimizer_success": fit.success,
+        "optimizer_message": fit.message,
+        "nfev": fit.nfev,
+        "data": data,
+        "notes": notes,
+    }
     if selection:
         quality["threshold_selection"] = selection
-    units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "time": "s", "residual_rms": "m/s^2",
-             "gravity": "m/s^2", "K": "raw per SI unit", "b": "raw"}
+    units = {
+        "accelerometer_raw": acc_unit,
+        "accelerometer": "m/s^2",
+        "time": "s",
+        "residual_rms": "m/s^2",
+        "gravity": "m/s^2",
+        "K": "raw per SI unit",
+        "b": "raw",
+    }
     if gyro is not None:
         units.update({"gyroscope_raw": gyro_unit, "gyroscope": "rad/s"})
-    return CalibrationResult(accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g,
-                             residual_rms=residual_rms, static_intervals=t_int, observability=observability,
-                             method=method, elapsed_s=time.perf_counter() - t_start, excluded=excluded,
-                             quality=quality, source=source, gates=gate_log,
-                             convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message))
+    return CalibrationResult(
+        accelerometer=acc_entry,
+        gyroscope=gyro_entry,
+        units=units,
+        gravity=g,
+        residual_rms=residual_rms,
+        static_intervals=t_int,
+        observability=observability,
+        method=method,
+        elapsed_s=time.perf_counter() - t_start,
+        excluded=excluded,
+        quality=quality,
+        source=source,
+        gates=gate_log,
+        convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message),
+    )
 
 
 def _row_norms(raw, rows, theta=None) -> np.ndarray:
@@ -372,16 +534,17 @@ def _row_norms(raw, rows, theta=None) -> np.ndarray:
     out = np.empty(int(np.count_nonzero(rows)))
     k = 0
     for a in range(0, raw.shape[0], static._BLOCK):
-        x = raw[a:a + static._BLOCK][rows[a:a + static._BLOCK]]
+        x = raw[a : a + static._BLOCK][rows[a : a + static._BLOCK]]
         if theta is not None:
             x = model.corrected(theta, x)
-        out[k:k + x.shape[0]] = np.linalg.norm(x, axis=1)
+        out[k : k + x.shape[0]] = np.linalg.norm(x, axis=1)
         k += x.shape[0]
     return out
 
 
-def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None,
-                     **kw) -> accel.AccelFit:
+def _fit_accel_gated(
+    st, g, notes: list, *, acc_unit: str, model_form: str, gate_log: list | None = None, **kw
+) -> accel.AccelFit:
     """:func:`accel.fit_accel` that passes the gates; with ``model_form="auto"`` a full model that fails one
     falls back to the diagonal model with a note naming the cause. The passed gates are appended to
     ``gate_log``."""
@@ -394,8 +557,10 @@ def _fit_accel_gated(st, g, notes: list, *, acc_unit: str, model_form: str, gate
             raise
         fit = accel.fit_accel(st, g, model_form="diagonal", **kw)
         gate_log += _accel_gates(fit, st, acc_unit)
-        notes.append(f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
-                     "held at 0 (scales and biases fitted; --model full insists on the full model)")
+        notes.append(
+            f"the full accelerometer model failed ({exc.cause}); the misalignments K_xy, K_xz, K_yz are "
+            "held at 0 (scales and biases fitted; --model full insists on the full model)"
+        )
         return fit
     if fit.note:
         notes.append(fit.note)
@@ -406,17 +571,20 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
     """Convergence, residual and plausibility gates of an accelerometer fit (:mod:`optinav.multipos.gates`);
     raises on the first that fails, else returns their outcomes (:func:`optinav.core.results.gate`)."""
     if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
-        raise OptinavError(f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; "
-                           f"{fit.nfev} evaluations)", "pass --model diagonal or --method lm, or check the static "
-                                                       "intervals (--threshold, --sections)")
-    rms = float(np.sqrt(np.mean(fit.residuals ** 2)))
+        raise OptinavError(
+            f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; {fit.nfev} evaluations)",
+            "pass --model diagonal or --method lm, or check the static intervals (--threshold, --sections)",
+        )
+    rms = float(np.sqrt(np.mean(fit.residuals**2)))
     if rms > gates.MAX_RESIDUAL_G * fit.g:
         k = int(np.argmax(np.abs(fit.residuals)))
-        raise OptinavError(f"the poses do not fit one accelerometer model: residual RMS of |a| - g is {rms:.3g} "
-                           f"m/s^2 (pose {k + 1}: {fit.residuals[k]:+.3g} m/s^2; noise of a pose mean "
-                           f"{float(np.median(fit.residual_sigma)):.2g} m/s^2)",
-                           "check for motion inside the static intervals (a lower --threshold, a longer "
-                           "--min-duration, or --sections)")
+        raise OptinavError(
+            f"the poses do not fit one accelerometer model: residual RMS of |a| - g is {rms:.3g} "
+            f"m/s^2 (pose {k + 1}: {fit.residuals[k]:+.3g} m/s^2; noise of a pose mean "
+            f"{float(np.median(fit.residual_sigma)):.2g} m/s^2)",
+            "check for motion inside the static intervals (a lower --threshold, a longer "
+            "--min-duration, or --sections)",
+        )
     # counts have no nominal scale: the axes are judged against each other
     nominal = float(np.median(np.abs(np.diag(fit.K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
     gates.check_matrix(fit.K, nominal, "accelerometer", acc_unit, option="--acc-unit", columns_flag="--columns")
@@ -426,11 +594,16 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
     ang = np.degrees(np.arccos(np.clip(cosang, -1, 1)))
     if np.max(ang) > gates.MAX_TURN_DEG:
         k = int(np.argmax(ang))
-        raise OptinavError(f"the calibration turns pose {k + 1} by {ang[k]:.3g}° away from its raw direction "
-                           f"(> {gates.MAX_TURN_DEG:g}°): an implausible misalignment", "pass --model diagonal")
-    return [gate("acc optimizer converged", fit.success, None, kind="true"),
-            gate("acc residual rms of |a| - g", rms, gates.MAX_RESIDUAL_G * fit.g, unit="m/s^2"),
-            gate("acc largest turn of a pose", float(np.max(ang)), gates.MAX_TURN_DEG, unit="deg")]
+        raise OptinavError(
+            f"the calibration turns pose {k + 1} by {ang[k]:.3g}° away from its raw direction "
+            f"(> {gates.MAX_TURN_DEG:g}°): an implausible misalignment",
+            "pass --model diagonal",
+        )
+    return [
+        gate("acc optimizer converged", fit.success, None, kind="true"),
+        gate("acc residual rms of |a| - g", rms, gates.MAX_RESIDUAL_G * fit.g, unit="m/s^2"),
+        gate("acc largest turn of a pose", float(np.max(ang)), gates.MAX_TURN_DEG, unit="deg"),
+    ]
 
 
 def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
@@ -441,13 +614,16 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
     for i0, i1 in ranges:
         if np.any(sat_g[i0:i1]):
             i = i0 + int(np.flatnonzero(sat_g[i0:i1])[0])
-            raise OptinavError(f"the gyroscope is at its full scale at rest (t = {t[i]:.6g} s)",
-                               "check --gyro-range and --gyro-unit")
-    drop = [k for k in range(len(ranges) - 1) if np.any(sat_g[ranges[k][1]:ranges[k + 1][0]])]
+            raise OptinavError(
+                f"the gyroscope is at its full scale at rest (t = {t[i]:.6g} s)", "check --gyro-range and --gyro-unit"
+            )
+    drop = [k for k in range(len(ranges) - 1) if np.any(sat_g[ranges[k][1] : ranges[k + 1][0]])]
     if drop:
         when = ", ".join(f"{t[ranges[k][1]]:.4g}–{t[ranges[k + 1][0]]:.4g} s" for k in drop[:5])
-        notes.append(f"the gyroscope saturates during {len(drop)} turn(s) ({when}{', …' if len(drop) > 5 else ''}); "
-                     "those turns are left out of the gyro calibration (turn more slowly, or raise the range)")
+        notes.append(
+            f"the gyroscope saturates during {len(drop)} turn(s) ({when}{', …' if len(drop) > 5 else ''}); "
+            "those turns are left out of the gyro calibration (turn more slowly, or raise the range)"
+        )
     return drop
 
 
@@ -455,37 +631,58 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
     """Convergence, residual and plausibility gates of a gyro fit (:mod:`optinav.multipos.gates`); raises on
     the first that fails, else returns their outcomes."""
     if not gc.success or not (np.all(np.isfinite(gc.K)) and np.all(np.isfinite(gc.b)) and np.isfinite(gc.residual_rms)):
-        raise OptinavError(f"the gyroscope fit did not converge ({gc.message})",
-                           "check the static intervals (--threshold, --sections) and --gyro-unit")
+        raise OptinavError(
+            f"the gyroscope fit did not converge ({gc.message})",
+            "check the static intervals (--threshold, --sections) and --gyro-unit",
+        )
     nominal = float(np.median(np.abs(np.diag(gc.K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
-    gates.check_matrix(gc.K, nominal, "gyroscope", gyro_unit, option="--gyro-unit",
-                       columns_flag="--columns or --gyro-columns")
+    gates.check_matrix(
+        gc.K, nominal, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag="--columns or --gyro-columns"
+    )
     if gc.residual_rms > gates.MAX_GYRO_RESIDUAL_RAD:
-        raise OptinavError(f"the turns do not carry gravity onto the next pose: residual RMS "
-                           f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
-                           ("" if gc.bias_mode == "local" else "for a gyro bias that drifts during the session pass "
-                            "--gyro-bias local; else ") + "check for motion inside the static intervals (--threshold, "
-                           "--sections) and the time column (--rate, --time-unit)")
-    return [gate("gyr optimizer converged", gc.success, None, kind="true"),
-            gate("gyr residual rms of the carried gravity direction", gc.residual_rms, gates.MAX_GYRO_RESIDUAL_RAD,
-                 unit="rad")]
+        raise OptinavError(
+            f"the turns do not carry gravity onto the next pose: residual RMS "
+            f"{np.degrees(gc.residual_rms):.3g}° (accepted {np.degrees(gates.MAX_GYRO_RESIDUAL_RAD):.3g}°)",
+            (
+                ""
+                if gc.bias_mode == "local"
+                else "for a gyro bias that drifts during the session pass --gyro-bias local; else "
+            )
+            + "check for motion inside the static intervals (--threshold, "
+            "--sections) and the time column (--rate, --time-unit)",
+        )
+    return [
+        gate("gyr optimizer converged", gc.success, None, kind="true"),
+        gate(
+            "gyr residual rms of the carried gravity direction",
+            gc.residual_rms,
+            gates.MAX_GYRO_RESIDUAL_RAD,
+            unit="rad",
+        ),
+    ]
 
 
-def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes,
-              rotation_angle):
+def _ferraris(
+    t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes, rotation_angle
+):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
     from . import ferraris
 
     if gyro is None or sections is None:
-        raise OptinavError("the Ferraris method needs gyroscope data and the nine named sections "
-                           "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
-                           "give the gyro columns and either a label column naming the sections or --sections FILE")
+        raise OptinavError(
+            "the Ferraris method needs gyroscope data and the nine named sections "
+            "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
+            "give the gyro columns and either a label column naming the sections or --sections FILE",
+        )
     if np.any(sat_a):
-        raise OptinavError(f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
-                           "the Ferraris method has no way to skip them: cut them from the sections")
+        raise OptinavError(
+            f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
+            "the Ferraris method has no way to skip them: cut them from the sections",
+        )
     sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
-    fc = ferraris.ferraris_from_sections(t, acc, gyro, sl if sl is not None else sections, gravity=g,
-                                         expected_angle=rotation_angle)
+    fc = ferraris.ferraris_from_sections(
+        t, acc, gyro, sl if sl is not None else sections, gravity=g, expected_angle=rotation_angle
+    )
     if sl is None:
         names = list(sections)
         idx = np.array([sections[n] for n in names], int)
@@ -501,36 +698,89 @@ def _ferraris(t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, s
     # gates: the six poses agree on g, both matrices are plausible, the turns go the stated way
     pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
     if pose_rms > gates.MAX_RESIDUAL_G * g:
-        raise OptinavError(f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2",
-                           "check that the sections x_p … z_a hold still poses in imucal's order (--sections)")
+        raise OptinavError(
+            f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2",
+            "check that the sections x_p … z_a hold still poses in imucal's order (--sections)",
+        )
     acc_nominal = float(np.median(np.abs(np.diag(fc.acc_K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
-    gates.check_matrix(fc.acc_K, acc_nominal, "accelerometer", acc_unit, option="--acc-unit",
-                       columns_flag="--columns, or the section names")
+    gates.check_matrix(
+        fc.acc_K,
+        acc_nominal,
+        "accelerometer",
+        acc_unit,
+        option="--acc-unit",
+        columns_flag="--columns, or the section names",
+    )
     if np.all(np.diag(fc.gyr_K) < 0):
-        raise OptinavError(f"the three rotations turn the other way than --rotation-angle "
-                           f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
-                           f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}")
+        raise OptinavError(
+            f"the three rotations turn the other way than --rotation-angle "
+            f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
+            f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}",
+        )
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
-    gates.check_matrix(fc.gyr_K, gyro_nominal, "gyroscope", gyro_unit, option="--gyro-unit",
-                       columns_flag="--columns or --gyro-columns, or --rotation-angle")
+    gates.check_matrix(
+        fc.gyr_K,
+        gyro_nominal,
+        "gyroscope",
+        gyro_unit,
+        option="--gyro-unit",
+        columns_flag="--columns or --gyro-columns, or --rotation-angle",
+    )
     nan3 = np.full((3, 3), np.nan)
-    acc_entry = {"K": fc.acc_K, "b": fc.acc_b, "K_std": nan3, "b_std": np.full(3, np.nan), "form": "full",
-                 "estimated": ["K (9)", "b (3)"], "held": []}
-    gyro_entry = {"K": fc.gyr_K, "b": fc.gyr_b, "G": fc.gyr_G, "K_std": nan3, "b_std": np.full(3, np.nan),
-                  "form": "full"}
-    units = {"accelerometer_raw": acc_unit, "accelerometer": "m/s^2", "gyroscope_raw": gyro_unit,
-             "gyroscope": "rad/s", "time": "s", "residual_rms": "m/s^2", "gravity": "m/s^2",
-             "K": "raw per SI unit", "b": "raw", "G": "gyro raw per m/s^2"}
+    acc_entry = {
+        "K": fc.acc_K,
+        "b": fc.acc_b,
+        "K_std": nan3,
+        "b_std": np.full(3, np.nan),
+        "form": "full",
+        "estimated": ["K (9)", "b (3)"],
+        "held": [],
+    }
+    gyro_entry = {
+        "K": fc.gyr_K,
+        "b": fc.gyr_b,
+        "G": fc.gyr_G,
+        "K_std": nan3,
+        "b_std": np.full(3, np.nan),
+        "form": "full",
+    }
+    units = {
+        "accelerometer_raw": acc_unit,
+        "accelerometer": "m/s^2",
+        "gyroscope_raw": gyro_unit,
+        "gyroscope": "rad/s",
+        "time": "s",
+        "residual_rms": "m/s^2",
+        "gravity": "m/s^2",
+        "K": "raw per SI unit",
+        "b": "raw",
+        "G": "gyro raw per m/s^2",
+    }
     return CalibrationResult(
-        accelerometer=acc_entry, gyroscope=gyro_entry, units=units, gravity=g, residual_rms=residual_rms,
+        accelerometer=acc_entry,
+        gyroscope=gyro_entry,
+        units=units,
+        gravity=g,
+        residual_rms=residual_rms,
         static_intervals=t_iv[static_idx],
-        observability={"note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
-                               "parameter exactly; no uncertainty is estimated", "unobservable": []},
-        method="ferraris", elapsed_s=time.perf_counter() - t_start,
+        observability={
+            "note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
+            "parameter exactly; no uncertainty is estimated",
+            "unobservable": [],
+        },
+        method="ferraris",
+        elapsed_s=time.perf_counter() - t_start,
         excluded={"nan_rows": n_nan, "saturated_acc": 0},
-        quality={"gravity_source": g_source, "sections": names, "pose_residual_rms": pose_rms,
-                 "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(), "notes": notes}, source=source,
-        convergence=convergence(None, message="closed form"))
+        quality={
+            "gravity_source": g_source,
+            "sections": names,
+            "pose_residual_rms": pose_rms,
+            "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(),
+            "notes": notes,
+        },
+        source=source,
+        convergence=convergence(None, message="closed form"),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -579,16 +829,23 @@ class FileOptions:
     def check(self) -> None:
         """Reject contradictory options before any file is read."""
         if self.rest is not None and self.gyro_bias != "rest":
-            raise OptinavError("--rest T0 T1 sets the window of --gyro-bias rest", "add --gyro-bias rest, or drop --rest")
-        for name, flag in (("acc_bias_instability", "--acc-bias-instability"),
-                           ("held_misalignment", "--held-misalignment"), ("gyro_g_sensitivity", "--gyro-g-sensitivity"),
-                           ("gyro_bias_instability", "--gyro-bias-instability")):
+            raise OptinavError(
+                "--rest T0 T1 sets the window of --gyro-bias rest", "add --gyro-bias rest, or drop --rest"
+            )
+        for name, flag in (
+            ("acc_bias_instability", "--acc-bias-instability"),
+            ("held_misalignment", "--held-misalignment"),
+            ("gyro_g_sensitivity", "--gyro-g-sensitivity"),
+            ("gyro_bias_instability", "--gyro-bias-instability"),
+        ):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
                 raise OptinavError(f"{flag} {v!r} is not a finite number >= 0", f"give {flag} as a 1-sigma value")
         if not (np.isfinite(self.rotation_angle) and self.rotation_angle != 0):
-            raise OptinavError(f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
-                               "give the Ferraris turn in degrees, e.g. --rotation-angle -360")
+            raise OptinavError(
+                f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
+                "give the Ferraris turn in degrees, e.g. --rotation-angle -360",
+            )
         if self.latitude is not None and not -90 <= self.latitude <= 90:
             raise OptinavError(f"--latitude {self.latitude:g} is outside ±90°", "give the latitude in degrees")
         if self.generations is not None and self.method not in ("ga", "pso"):
@@ -614,9 +871,20 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     and only time, accelerometer, gyroscope and labels are kept, so the peak while reading is those arrays plus
     one block of ``chunk_rows`` rows, not the parsed table (about 530 B per row before)."""
     o = options
-    blocks = iter_imu(path, columns=o.columns, gyro_path=o.gyro, gyro_columns=o.gyro_columns, acc_unit=o.acc_unit,
-                      gyro_unit=o.gyro_unit, time_unit=o.time_unit, rate_hz=o.rate, datasets=o.datasets or None,
-                      delimiter=o.delimiter, topic=o.topic, chunk_rows=chunk_rows)
+    blocks = iter_imu(
+        path,
+        columns=o.columns,
+        gyro_path=o.gyro,
+        gyro_columns=o.gyro_columns,
+        acc_unit=o.acc_unit,
+        gyro_unit=o.gyro_unit,
+        time_unit=o.time_unit,
+        rate_hz=o.rate,
+        datasets=o.datasets or None,
+        delimiter=o.delimiter,
+        topic=o.topic,
+        chunk_rows=chunk_rows,
+    )
     parts = {key: _Gather() for key in ("t", "acc", "gyro")}
     labels: list = []
     start = None
@@ -640,8 +908,15 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
         if log.labels is not None:
             labels.append(log.labels)
         notes += log.notes
-    return SessionData(parts["t"].array(), parts["acc"].array(), acc_unit, parts["gyro"].array(), gyro_unit,
-                       np.concatenate(labels) if labels else None, tuple(notes))
+    return SessionData(
+        parts["t"].array(),
+        parts["acc"].array(),
+        acc_unit,
+        parts["gyro"].array(),
+        gyro_unit,
+        np.concatenate(labels) if labels else None,
+        tuple(notes),
+    )
 
 
 class _Gather:
@@ -660,13 +935,13 @@ class _Gather:
             self.buf = np.empty((max(rows, need),) + block.shape[1:], block.dtype)
         elif need > len(self.buf):
             grown = np.empty((max(need, int(1.5 * len(self.buf)), rows),) + self.buf.shape[1:], self.buf.dtype)
-            grown[:self.n] = self.buf[:self.n]
+            grown[: self.n] = self.buf[: self.n]
             self.buf = grown
-        self.buf[self.n:need] = block
+        self.buf[self.n : need] = block
         self.n = need
 
     def array(self) -> np.ndarray | None:
-        return None if self.buf is None else self.buf[:self.n]
+        return None if self.buf is None else self.buf[: self.n]
 
 
 def calibrate_data(data: SessionData, options: FileOptions, source: str = "") -> CalibrationResult:
@@ -679,24 +954,44 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    res = calibrate(data.t, data.acc, data.gyr, acc_unit=data.acc_unit,
-                    gyro_unit=data.gyro_unit or "rad/s", g=o.gravity,
-                    lat=None if o.latitude is None else np.radians(o.latitude),
-                    height_m=o.height, method=o.method, model_form=o.model,
-                    data="samples" if o.fit_samples else "means", sections=sections,
-                    window_s=o.window, min_duration_s=o.min_duration, threshold=o.threshold,
-                    acc_range=o.acc_range, gyro_range=o.gyro_range, gyro_bias=o.gyro_bias, rng=o.seed,
-                    source=source, method_options=method_options, rest=o.rest,
-                    allow_unobservable=o.allow_unobservable, rotation_angle=np.radians(o.rotation_angle),
-                    acc_bias_instability=o.acc_bias_instability, held_misalignment=o.held_misalignment,
-                    gyro_g_sensitivity=o.gyro_g_sensitivity, gyro_bias_instability=o.gyro_bias_instability,
-                    gyro_bias_corr_time=o.gyro_bias_corr_time)
+    res = calibrate(
+        data.t,
+        data.acc,
+        data.gyr,
+        acc_unit=data.acc_unit,
+        gyro_unit=data.gyro_unit or "rad/s",
+        g=o.gravity,
+        lat=None if o.latitude is None else np.radians(o.latitude),
+        height_m=o.height,
+        method=o.method,
+        model_form=o.model,
+        data="samples" if o.fit_samples else "means",
+        sections=sections,
+        window_s=o.window,
+        min_duration_s=o.min_duration,
+        threshold=o.threshold,
+        acc_range=o.acc_range,
+        gyro_range=o.gyro_range,
+        gyro_bias=o.gyro_bias,
+        rng=o.seed,
+        source=source,
+        method_options=method_options,
+        rest=o.rest,
+        allow_unobservable=o.allow_unobservable,
+        rotation_angle=np.radians(o.rotation_angle),
+        acc_bias_instability=o.acc_bias_instability,
+        held_misalignment=o.held_misalignment,
+        gyro_g_sensitivity=o.gyro_g_sensitivity,
+        gyro_bias_instability=o.gyro_bias_instability,
+        gyro_bias_corr_time=o.gyro_bias_corr_time,
+    )
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
 
 
-def hold_out(data: SessionData, options: FileOptions, res: CalibrationResult, k: int,
-             source: str = "") -> CalibrationResult:
+def hold_out(
+    data: SessionData, options: FileOptions, res: CalibrationResult, k: int, source: str = ""
+) -> CalibrationResult:
     """Refit without static pose ``k`` of ``res`` and check the calibration on it (an out-of-sample check).
 
     Parameters
@@ -721,22 +1016,31 @@ def hold_out(data: SessionData, options: FileOptions, res: CalibrationResult, k:
     """
     poses = np.asarray(res.static_intervals, float)
     if options.method == "ferraris":
-        raise OptinavError("--hold-out needs a norm-model fit; the ferraris method uses its 9 named sections",
-                           "drop --hold-out or use another --method")
+        raise OptinavError(
+            "--hold-out needs a norm-model fit; the ferraris method uses its 9 named sections",
+            "drop --hold-out or use another --method",
+        )
     if not 1 <= k <= len(poses):
         raise OptinavError(f"--hold-out {k}: the log has {len(poses)} static poses", f"pass K from 1 to {len(poses)}")
-    fit = calibrate_data(data, dataclasses.replace(options, hold_out=None, sections=[
-        tuple(p) for i, p in enumerate(poses) if i != k - 1]), source=source)
+    fit = calibrate_data(
+        data,
+        dataclasses.replace(options, hold_out=None, sections=[tuple(p) for i, p in enumerate(poses) if i != k - 1]),
+        source=source,
+    )
 
     def error(t0: float, t1: float) -> float:
         inside = (data.t >= t0) & (data.t <= t1)
-        return float(np.linalg.norm(fit.correct_accel(data.acc[inside].mean(axis=0, keepdims=True))[0])
-                     - fit.gravity)
+        return float(np.linalg.norm(fit.correct_accel(data.acc[inside].mean(axis=0, keepdims=True))[0]) - fit.gravity)
 
     used = np.array([error(*p) for p in fit.static_intervals])
-    fit.quality["held_out"] = {"pose": k, "t0_s": float(poses[k - 1, 0]), "t1_s": float(poses[k - 1, 1]),
-                               "norm_error_m_s2": error(*poses[k - 1]), "n_used": int(used.size),
-                               "rms_used_m_s2": float(np.sqrt(np.mean(used ** 2)))}
+    fit.quality["held_out"] = {
+        "pose": k,
+        "t0_s": float(poses[k - 1, 0]),
+        "t1_s": float(poses[k - 1, 1]),
+        "norm_error_m_s2": error(*poses[k - 1]),
+        "n_used": int(used.size),
+        "rms_used_m_s2": float(np.sqrt(np.mean(used**2))),
+    }
     return fit
 
 

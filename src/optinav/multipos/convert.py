@@ -42,9 +42,19 @@ from optinav.core.units import factor
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
-__all__ = ["to_imu_tk", "from_imu_tk", "imu_tk_matrices", "read_imu_tk", "write_imu_tk",
-           "to_imucal", "from_imucal", "ImucalCalibration", "read_imucal_json", "write_imucal_json",
-           "IMUCAL_FORMAT_VERSION"]
+__all__ = [
+    "to_imu_tk",
+    "from_imu_tk",
+    "imu_tk_matrices",
+    "read_imu_tk",
+    "write_imu_tk",
+    "to_imucal",
+    "from_imucal",
+    "ImucalCalibration",
+    "read_imucal_json",
+    "write_imucal_json",
+    "IMUCAL_FORMAT_VERSION",
+]
 
 IMUCAL_FORMAT_VERSION = "2.0.0"
 _MIS3 = ("mis_yz", "mis_zy", "mis_zx")
@@ -56,8 +66,10 @@ def _K(K, name="K") -> np.ndarray:
     if K.ndim != 2:
         raise OptinavError(f"{name} has shape {K.shape}, expected (3, 3)", "pass one 3×3 matrix")
     if np.linalg.cond(K) > 1e12:
-        raise OptinavError(f"{name} is singular or ill-conditioned (cond {np.linalg.cond(K):.3g})",
-                           "pass a calibration matrix of full rank")
+        raise OptinavError(
+            f"{name} is singular or ill-conditioned (cond {np.linalg.cond(K):.3g})",
+            "pass a calibration matrix of full rank",
+        )
     return K
 
 
@@ -76,12 +88,11 @@ def _unit_factor(unit) -> float:
 # imu_tk
 # --------------------------------------------------------------------------------------------------------
 
+
 def imu_tk_matrices(params: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(T, S, B) of an imu_tk parameter dict (missing misalignments are zero)."""
     m = {k: float(params.get(k, 0.0)) for k in _MIS6}
-    T = np.array([[1.0, -m["mis_yz"], m["mis_zy"]],
-                  [m["mis_xz"], 1.0, -m["mis_zx"]],
-                  [-m["mis_xy"], m["mis_yx"], 1.0]])
+    T = np.array([[1.0, -m["mis_yz"], m["mis_zy"]], [m["mis_xz"], 1.0, -m["mis_zx"]], [-m["mis_xy"], m["mis_yx"], 1.0]])
     s = _b(params.get("scale", (1.0, 1.0, 1.0)), "scale")
     return T, np.diag(s), _b(params.get("bias", (0.0, 0.0, 0.0)), "bias")
 
@@ -104,11 +115,13 @@ def to_imu_tk(K, b, *, form: str = "body", calibrated_unit: str | None = None, t
             raise OptinavError(
                 f"K is not representable in imu_tk's body form: K⁻¹ has below-diagonal entries up to {low:.3g} "
                 f"({low / np.abs(A).max():.2g} of its largest entry)",
-                "use form='general' (imu_tk's 6-misalignment gyro form) or an upper-triangular K")
+                "use form='general' (imu_tk's 6-misalignment gyro form) or an upper-triangular K",
+            )
     s = np.diag(A).copy()
     if np.any(s == 0):
-        raise OptinavError("K⁻¹ has a zero diagonal entry, which imu_tk's T·S cannot express",
-                           "check the axis order of K")
+        raise OptinavError(
+            "K⁻¹ has a zero diagonal entry, which imu_tk's T·S cannot express", "check the axis order of K"
+        )
     T = A / s[None, :]
     out = {"mis_yz": -T[0, 1], "mis_zy": T[0, 2], "mis_zx": -T[1, 2]}
     if form == "general":
@@ -118,8 +131,9 @@ def to_imu_tk(K, b, *, form: str = "body", calibrated_unit: str | None = None, t
     return out
 
 
-def from_imu_tk(params: dict | None = None, *, calibrated_unit: str | None = None, **kw
-                ) -> tuple[np.ndarray, np.ndarray]:
+def from_imu_tk(
+    params: dict | None = None, *, calibrated_unit: str | None = None, **kw
+) -> tuple[np.ndarray, np.ndarray]:
     """(K, b) of ``raw = K x + b`` from imu_tk parameters (a dict like :func:`to_imu_tk`'s, or keywords
     ``mis_yz, mis_zy, mis_zx, mis_xz, mis_xy, mis_yx, scale, bias``; missing misalignments are 0).
     ``calibrated_unit`` as in :func:`to_imu_tk`."""
@@ -127,8 +141,7 @@ def from_imu_tk(params: dict | None = None, *, calibrated_unit: str | None = Non
     p.update(kw)
     unknown = set(p) - set(_MIS6) - {"scale", "bias", "form"}
     if unknown:
-        raise OptinavError(f"unknown imu_tk parameter(s) {sorted(unknown)}",
-                           f"use {', '.join(_MIS6)}, scale, bias")
+        raise OptinavError(f"unknown imu_tk parameter(s) {sorted(unknown)}", f"use {', '.join(_MIS6)}, scale, bias")
     T, S, B = imu_tk_matrices(p)
     A = T @ S * _unit_factor(calibrated_unit)
     if not np.all(np.isfinite(A)) or np.linalg.cond(A) > 1e12:
@@ -156,19 +169,30 @@ def read_imu_tk(path, *, tol: float = 1e-12) -> dict:
     try:
         vals = np.array([float(x) for x in tokens])
     except ValueError:
-        raise OptinavError(f"{p} holds non-numeric text",
-                           "pass a file written by imu_tk's CalibratedTriad::save") from None
+        raise OptinavError(
+            f"{p} holds non-numeric text", "pass a file written by imu_tk's CalibratedTriad::save"
+        ) from None
     if vals.size != 21 or not np.all(np.isfinite(vals)):
-        raise OptinavError(f"{p} holds {vals.size} numbers, expected 21 finite ones (T 3×3, S 3×3, B 3)",
-                           "pass a file written by imu_tk's CalibratedTriad::save")
+        raise OptinavError(
+            f"{p} holds {vals.size} numbers, expected 21 finite ones (T 3×3, S 3×3, B 3)",
+            "pass a file written by imu_tk's CalibratedTriad::save",
+        )
     T, S, B = vals[:9].reshape(3, 3), vals[9:18].reshape(3, 3), vals[18:]
     if np.any(np.abs(np.diag(T) - 1.0) > 1e-6):
-        raise OptinavError(f"{p}: the misalignment matrix has diagonal {np.diag(T).tolist()}, imu_tk's is 1",
-                           "check the file layout (T, S, B)")
+        raise OptinavError(
+            f"{p}: the misalignment matrix has diagonal {np.diag(T).tolist()}, imu_tk's is 1",
+            "check the file layout (T, S, B)",
+        )
     if np.any(np.abs(S - np.diag(np.diag(S))) > tol * np.abs(S).max()):
         raise OptinavError(f"{p}: the scale matrix is not diagonal", "check the file layout (T, S, B)")
-    out = {"mis_yz": -T[0, 1], "mis_zy": T[0, 2], "mis_zx": -T[1, 2],
-           "mis_xz": T[1, 0], "mis_xy": -T[2, 0], "mis_yx": T[2, 1]}
+    out = {
+        "mis_yz": -T[0, 1],
+        "mis_zy": T[0, 2],
+        "mis_zx": -T[1, 2],
+        "mis_xz": T[1, 0],
+        "mis_xy": -T[2, 0],
+        "mis_yx": T[2, 1],
+    }
     out = {k: float(v) for k, v in out.items()}
     out["scale"], out["bias"] = np.diag(S).copy(), B.copy()
     out["form"] = "body" if np.all(np.tril(T, -1) == 0) else "general"
@@ -179,6 +203,7 @@ def read_imu_tk(path, *, tol: float = 1e-12) -> dict:
 # imucal
 # --------------------------------------------------------------------------------------------------------
 
+
 def _factor_rows(M: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
     k = np.linalg.norm(M, axis=1)
     if np.any(k == 0):
@@ -186,8 +211,7 @@ def _factor_rows(M: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.diag(k), M / k[:, None]
 
 
-def to_imucal(K, b, *, G=None, sensor: str | None = None, acc_unit: str = "m/s^2",
-              gyr_unit: str = "deg/s") -> dict:
+def to_imucal(K, b, *, G=None, sensor: str | None = None, acc_unit: str = "m/s^2", gyr_unit: str = "deg/s") -> dict:
     """imucal's factors of ``raw = K x + b (+ G f)``: ``{"K": diag, "R": rows of unit norm, "b"}`` plus
     ``"K_ga"`` for a gyro. ``sensor``: "accel" or "gyro" (default: "gyro" iff G is given). imucal's
     calibrated units ``acc_unit`` (m/s²) and ``gyr_unit`` (deg/s) fix the unit conversion."""
@@ -205,8 +229,7 @@ def to_imucal(K, b, *, G=None, sensor: str | None = None, acc_unit: str = "m/s^2
     return {"K": Kd, "R": R, "b": b.copy(), "K_ga": Ga * _unit_factor(acc_unit)}
 
 
-def from_imucal(K, R, b, *, K_ga=None, sensor: str | None = None, acc_unit: str = "m/s^2",
-                gyr_unit: str = "deg/s"):
+def from_imucal(K, R, b, *, K_ga=None, sensor: str | None = None, acc_unit: str = "m/s^2", gyr_unit: str = "deg/s"):
     """``(K, b)`` (accel) or ``(K, b, G)`` (gyro: sensor="gyro" or K_ga given) of optinav's convention from
     imucal's K (diagonal), R and b; units as in :func:`to_imucal`."""
     sensor = sensor or ("gyro" if K_ga is not None else "accel")
@@ -250,8 +273,9 @@ class ImucalCalibration:
             shape = (3,) if k.startswith("b_") else (3, 3)
             v = as_float_array(getattr(self, k), k, last_dims=shape)
             if v.shape != shape:
-                raise OptinavError(f"imucal field {k} has shape {v.shape}, expected {shape}",
-                                   "pass a complete Ferraris calibration")
+                raise OptinavError(
+                    f"imucal field {k} has shape {v.shape}, expected {shape}", "pass a complete Ferraris calibration"
+                )
             setattr(self, k, v.copy())
 
     @property
@@ -271,24 +295,51 @@ class ImucalCalibration:
         """``{"acc_K", "acc_b", "gyr_K", "gyr_G", "gyr_b"}`` in optinav's convention (x in SI)."""
         au, gu = self._units
         aK, ab = from_imucal(self.K_a, self.R_a, self.b_a, sensor="accel", acc_unit=au)
-        gK, gb, G = from_imucal(self.K_g, self.R_g, self.b_g, K_ga=self.K_ga, sensor="gyro", acc_unit=au,
-                                gyr_unit=gu)
+        gK, gb, G = from_imucal(self.K_g, self.R_g, self.b_g, K_ga=self.K_ga, sensor="gyro", acc_unit=au, gyr_unit=gu)
         return {"acc_K": aK, "acc_b": ab, "gyr_K": gK, "gyr_G": G, "gyr_b": gb}
 
     @classmethod
-    def from_optinav(cls, acc_K, acc_b, gyr_K, gyr_G, gyr_b, *, from_acc_unit=None, from_gyr_unit=None,
-                     comment=None, acc_unit: str = "m/s^2", gyr_unit: str = "deg/s") -> "ImucalCalibration":
+    def from_optinav(
+        cls,
+        acc_K,
+        acc_b,
+        gyr_K,
+        gyr_G,
+        gyr_b,
+        *,
+        from_acc_unit=None,
+        from_gyr_unit=None,
+        comment=None,
+        acc_unit: str = "m/s^2",
+        gyr_unit: str = "deg/s",
+    ) -> "ImucalCalibration":
         """From optinav's (K, b) of both triads and the gyro g-sensitivity G (raw gyro per m/s²)."""
         a = to_imucal(acc_K, acc_b, sensor="accel", acc_unit=acc_unit)
         g = to_imucal(gyr_K, gyr_b, G=gyr_G, sensor="gyro", acc_unit=acc_unit, gyr_unit=gyr_unit)
-        return cls(K_a=a["K"], R_a=a["R"], b_a=a["b"], K_g=g["K"], R_g=g["R"], K_ga=g["K_ga"], b_g=g["b"],
-                   acc_unit=acc_unit, gyr_unit=gyr_unit, from_acc_unit=from_acc_unit,
-                   from_gyr_unit=from_gyr_unit, comment=comment)
+        return cls(
+            K_a=a["K"],
+            R_a=a["R"],
+            b_a=a["b"],
+            K_g=g["K"],
+            R_g=g["R"],
+            K_ga=g["K_ga"],
+            b_g=g["b"],
+            acc_unit=acc_unit,
+            gyr_unit=gyr_unit,
+            from_acc_unit=from_acc_unit,
+            from_gyr_unit=from_gyr_unit,
+            comment=comment,
+        )
 
     def to_dict(self) -> dict:
         """imucal's JSON layout (format 2.0.0)."""
-        d = {"acc_unit": self.acc_unit, "gyr_unit": self.gyr_unit, "from_acc_unit": self.from_acc_unit,
-             "from_gyr_unit": self.from_gyr_unit, "comment": self.comment}
+        d = {
+            "acc_unit": self.acc_unit,
+            "gyr_unit": self.gyr_unit,
+            "from_acc_unit": self.from_acc_unit,
+            "from_gyr_unit": self.from_gyr_unit,
+            "comment": self.comment,
+        }
         for k in self._MATS:
             d[k] = getattr(self, k).tolist()
         d["cal_type"] = self.cal_type
@@ -313,12 +364,16 @@ def read_imucal_json(source) -> ImucalCalibration:
         if "gyro_unit" in d:
             d["gyr_unit"] = d.pop("gyro_unit")
     elif str(version).split(".")[0] != "2":
-        raise OptinavError(f"{src} has imucal format version {version}, this reader knows 2.x and legacy 1.x",
-                           "re-export the calibration with imucal 2")
+        raise OptinavError(
+            f"{src} has imucal format version {version}, this reader knows 2.x and legacy 1.x",
+            "re-export the calibration with imucal 2",
+        )
     cal_type = d.pop("cal_type", None)
     if cal_type not in ("Ferraris", "Turntable"):
-        raise OptinavError(f"{src} is an imucal calibration of type {cal_type!r}, not a Ferraris one",
-                           "pass a FerrarisCalibrationInfo export")
+        raise OptinavError(
+            f"{src} is an imucal calibration of type {cal_type!r}, not a Ferraris one",
+            "pass a FerrarisCalibrationInfo export",
+        )
     missing = [k for k in ImucalCalibration._MATS if k not in d]
     if missing:
         raise OptinavError(f"{src} lacks {', '.join(missing)}", "pass a complete Ferraris calibration export")
@@ -332,8 +387,10 @@ def read_imucal_json(source) -> ImucalCalibration:
 def write_imucal_json(path, cal: ImucalCalibration) -> None:
     """Write ``cal`` in imucal's JSON export layout (format 2.0.0, loadable by imucal's from_json_file)."""
     if not isinstance(cal, ImucalCalibration):
-        raise OptinavError(f"expected an ImucalCalibration, got {type(cal).__name__}",
-                           "convert first, e.g. FerrarisCalibration.to_imucal()")
+        raise OptinavError(
+            f"expected an ImucalCalibration, got {type(cal).__name__}",
+            "convert first, e.g. FerrarisCalibration.to_imucal()",
+        )
     d = cal.to_dict()
     for k in ImucalCalibration._MATS:
         if not all(math.isfinite(v) for v in np.ravel(d[k])):

@@ -72,8 +72,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optinav.core.observability import (ObservabilityReport, ObservabilitySVD, analyze, observability_matrix,
-                                        observability_svd)
+from optinav.core.observability import (
+    ObservabilityReport,
+    ObservabilitySVD,
+    analyze,
+    observability_matrix,
+    observability_svd,
+)
 from optinav.core.results import Result
 from optinav.core.rotations import rot_axis
 from optinav.core.simulate import describe_pose, orientation_from_up
@@ -83,10 +88,22 @@ from optinav.errors import OptinavError
 from optinav.multipos import model
 
 __all__ = [
-    "PAPER_TABLE1", "PAPER_SCHEME_UP", "PAPER_G", "PAPER_STATES",
-    "linear_observability", "observability_vs_n", "ObservabilityTable",
-    "default_candidates", "pose_orientation", "describe_scheme",
-    "SchemeDesign", "design_scheme", "evaluate_scheme", "predict_std", "MIN_POSES", "CRITERIA",
+    "PAPER_TABLE1",
+    "PAPER_SCHEME_UP",
+    "PAPER_G",
+    "PAPER_STATES",
+    "linear_observability",
+    "observability_vs_n",
+    "ObservabilityTable",
+    "default_candidates",
+    "pose_orientation",
+    "describe_scheme",
+    "SchemeDesign",
+    "design_scheme",
+    "evaluate_scheme",
+    "predict_std",
+    "MIN_POSES",
+    "CRITERIA",
 ]
 
 # ----------------------------------------------------------------------------------------------------------
@@ -126,10 +143,26 @@ _S = math.sqrt(0.5)
 #: (computed 29.5608; no axis/45° triple and no g consistent with 29.405 = 3g gives better; the N = 4 row
 #: prints 29.562, computed 29.5625, so the N = 3 entry is likely a print slip). Ties (identical singular
 #: values): at N = 7 (+x−y vs +x+y) and N = 8 (+x+z vs +x−z); the first was kept.
-PAPER_SCHEME_UP = np.array([
-    (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (1, 0, 0), (_S, -_S, 0), (_S, 0, _S),
-    (0, -_S, _S), (-_S, _S, 0), (-_S, 0, -_S), (0, _S, -_S), (-_S, -_S, 0), (-_S, 0, _S), (0, _S, _S)],
-    dtype=float)
+PAPER_SCHEME_UP = np.array(
+    [
+        (1, 0, 0),
+        (0, 1, 0),
+        (0, 0, 1),
+        (0, 0, -1),
+        (0, -1, 0),
+        (1, 0, 0),
+        (_S, -_S, 0),
+        (_S, 0, _S),
+        (0, -_S, _S),
+        (-_S, _S, 0),
+        (-_S, 0, -_S),
+        (0, _S, -_S),
+        (-_S, -_S, 0),
+        (-_S, 0, _S),
+        (0, _S, _S),
+    ],
+    dtype=float,
+)
 PAPER_SCHEME_UP.setflags(write=False)
 
 
@@ -173,11 +206,14 @@ class ObservabilityTable(Result):
     g: float = field(metadata={"unit": "m/s^2"})
 
     def summary(self) -> str:
-        lines = [f"Observability of the linear model (Gao & Zhang 2019, Table 1), g = {self.g:.5f} m/s^2",
-                 "  N  rank  singular values"]
+        lines = [
+            f"Observability of the linear model (Gao & Zhang 2019, Table 1), g = {self.g:.5f} m/s^2",
+            "  N  rank  singular values",
+        ]
         for n, r, s in zip(self.n_positions, self.rank, self.singular_values):
-            lines.append(f"  {int(n):2d}  {int(r):4d}  "
-                         + " ".join(f"{x:8.3f}" if x >= 5e-4 else f"{x:8.1e}" for x in s))
+            lines.append(
+                f"  {int(n):2d}  {int(r):4d}  " + " ".join(f"{x:8.3f}" if x >= 5e-4 else f"{x:8.1e}" for x in s)
+            )
         return "\n".join(lines)
 
 
@@ -200,17 +236,24 @@ def observability_vs_n(up_dirs=PAPER_SCHEME_UP, g: float = PAPER_G, n_min: int =
     """
     d = _unit_dirs(up_dirs)
     if not isinstance(n_min, (int, np.integer)) or not 1 <= n_min <= d.shape[0]:
-        raise OptinavError(f"n_min = {n_min!r} is not between 1 and the {d.shape[0]} positions given",
-                           "pass an integer n_min ≤ len(up_dirs)")
+        raise OptinavError(
+            f"n_min = {n_min!r} is not between 1 and the {d.shape[0]} positions given",
+            "pass an integer n_min ≤ len(up_dirs)",
+        )
     ns = np.arange(int(n_min), d.shape[0] + 1)
     res = [linear_observability(d[:n], g) for n in ns]
-    return ObservabilityTable(n_positions=ns, rank=np.array([r.rank for r in res]),
-                              singular_values=np.stack([r.singular_values for r in res]), g=float(g))
+    return ObservabilityTable(
+        n_positions=ns,
+        rank=np.array([r.rank for r in res]),
+        singular_values=np.stack([r.singular_values for r in res]),
+        g=float(g),
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------
 # poses
 # ----------------------------------------------------------------------------------------------------------
+
 
 def default_candidates() -> np.ndarray:
     """The 26 default candidate up directions (body frame), in this order: the 6 axis-up poses
@@ -264,8 +307,10 @@ def _poses(candidates) -> tuple[np.ndarray, np.ndarray]:
         err = np.abs(np.swapaxes(c, -1, -2) @ c - np.eye(3)).max(axis=(1, 2))
         if np.any(err > 1e-6) or np.any(np.linalg.det(c) <= 0):
             i = int(np.argmax(err + (np.linalg.det(c) <= 0)))
-            raise OptinavError(f"candidates[{i}] is not a rotation matrix",
-                               "pass C_b^n (ENU) rotation matrices or body up vectors (P, 3)")
+            raise OptinavError(
+                f"candidates[{i}] is not a rotation matrix",
+                "pass C_b^n (ENU) rotation matrices or body up vectors (P, 3)",
+            )
         return c[:, 2, :] + 0.0, c.copy()  # up_b = C_b^nᵀ·e_U = third row of C_b^n
     d = _unit_dirs(c, "candidates")
     return d, np.stack([pose_orientation(x) for x in d])
@@ -307,14 +352,17 @@ def _setup(sigma, noise_density, rate_hz, scale, g) -> _Setup:
     g = check_positive(g, "g")
     rate_hz = check_positive(rate_hz, "rate_hz")
     if sigma is not None and noise_density is not None:
-        raise OptinavError("both sigma and noise_density were given",
-                           "pass the per-sample noise sigma or the white-noise density, not both")
+        raise OptinavError(
+            "both sigma and noise_density were given",
+            "pass the per-sample noise sigma or the white-noise density, not both",
+        )
 
     def vec(x, name):
         v = as_float_array(x, name)
         if v.ndim > 1 or (v.ndim == 1 and v.shape[0] != 3):
-            raise OptinavError(f"{name} has shape {v.shape}, expected a scalar or (3,)",
-                               "pass one value or one per axis")
+            raise OptinavError(
+                f"{name} has shape {v.shape}, expected a scalar or (3,)", "pass one value or one per axis"
+            )
         v = np.broadcast_to(v, (3,)).astype(float)
         if np.any(v <= 0):
             raise OptinavError(f"{name} must be positive", f"pass the accelerometer {name} in raw units")
@@ -332,8 +380,10 @@ def _setup(sigma, noise_density, rate_hz, scale, g) -> _Setup:
 
         spec = preset("mems-mti1")
         s1 = np.asarray(spec.acc_vrw, float) * scale  # (m/s²)/√Hz → raw/√Hz
-        text = (f"white noise {_fmt_vec(s1)} raw/√Hz (assumed: Xsens MTi-1 class, "
-                f"{spec.acc_vrw[0] / (1e-6 * G_STANDARD):.0f} µg/√Hz; pass sigma or noise_density)")
+        text = (
+            f"white noise {_fmt_vec(s1)} raw/√Hz (assumed: Xsens MTi-1 class, "
+            f"{spec.acc_vrw[0] / (1e-6 * G_STANDARD):.0f} µg/√Hz; pass sigma or noise_density)"
+        )
     return _Setup(scale, g, s1, text, rate_hz)
 
 
@@ -342,8 +392,10 @@ def _dwell(dwell_s, P: int) -> np.ndarray:
     if dw.ndim == 0:
         dw = np.full(P, float(dw))
     if dw.shape != (P,) or np.any(dw <= 0):
-        raise OptinavError(f"dwell_s must be positive, a scalar or one per pose ({P}), got "
-                           f"{np.array2string(dw, threshold=5)}", "give the time at rest in each pose, in s")
+        raise OptinavError(
+            f"dwell_s must be positive, a scalar or one per pose ({P}), got {np.array2string(dw, threshold=5)}",
+            "give the time at rest in each pose, in s",
+        )
     return dw
 
 
@@ -392,14 +444,17 @@ def _reported(value: float, criterion: str) -> float:
 def _check_criterion(criterion) -> str:
     c = str(criterion).upper()
     if c not in CRITERIA:
-        raise OptinavError(f"unknown design criterion {criterion!r}",
-                           "use 'D' (max log det Fisher), 'E' (max min eigenvalue) or 'A' (min trace CRLB)")
+        raise OptinavError(
+            f"unknown design criterion {criterion!r}",
+            "use 'D' (max log det Fisher), 'E' (max min eigenvalue) or 'A' (min trace CRLB)",
+        )
     return c
 
 
 # ----------------------------------------------------------------------------------------------------------
 # result
 # ----------------------------------------------------------------------------------------------------------
+
 
 @dataclass
 class SchemeDesign(Result):
@@ -446,19 +501,28 @@ class SchemeDesign(Result):
         return np.asarray(self.predicted_std, float) / d
 
     def summary(self) -> str:
-        crit = {"D": "D-optimal (max log det Fisher)", "E": "E-optimal (max smallest Fisher eigenvalue)",
-                "A": "A-optimal (min sum of scaled variances)"}[self.criterion]
-        how = (f"{crit}, chosen from {self.n_candidates} candidate poses"
-               + (" (repeats allowed)" if self.allow_repeats else "")) if self.n_candidates else \
-            f"evaluated scheme, {crit.split(' ')[0]} value"
+        crit = {
+            "D": "D-optimal (max log det Fisher)",
+            "E": "E-optimal (max smallest Fisher eigenvalue)",
+            "A": "A-optimal (min sum of scaled variances)",
+        }[self.criterion]
+        how = (
+            (
+                f"{crit}, chosen from {self.n_candidates} candidate poses"
+                + (" (repeats allowed)" if self.allow_repeats else "")
+            )
+            if self.n_candidates
+            else f"evaluated scheme, {crit.split(' ')[0]} value"
+        )
         u = np.asarray(self.up_dirs, float)
-        lines = [f"Accelerometer calibration scheme: {self.n_poses} static poses — {how}; criterion value "
-                 f"{self.value:.6g}",
-                 f"Model: ‖K⁻¹(m − b)‖ = g per pose (9 parameters), nominal K = {self.scale:g}·I "
-                 f"raw/(m/s²), b = 0, g = {self.g:.5f} m/s²",
-                 f"Noise: {self.noise} → σ of each pose mean {_fmt_vec(self.sigma_mean)} raw",
-                 "Procedure: rest the unit on a level surface in each pose and keep it still for the time given "
-                 "(heading does not matter; the words give one):"]
+        lines = [
+            f"Accelerometer calibration scheme: {self.n_poses} static poses — {how}; criterion value {self.value:.6g}",
+            f"Model: ‖K⁻¹(m − b)‖ = g per pose (9 parameters), nominal K = {self.scale:g}·I "
+            f"raw/(m/s²), b = 0, g = {self.g:.5f} m/s²",
+            f"Noise: {self.noise} → σ of each pose mean {_fmt_vec(self.sigma_mean)} raw",
+            "Procedure: rest the unit on a level surface in each pose and keep it still for the time given "
+            "(heading does not matter; the words give one):",
+        ]
         for i, (txt, d, t) in enumerate(zip(self.descriptions, u, np.asarray(self.dwell_s, float)), 1):
             lines.append(f"  {i:2d}. {txt} — {t:g} s{_placement_words(d)}")
         tilt = np.degrees(np.arccos(np.clip(np.abs(u).max(axis=1), -1, 1)))
@@ -467,8 +531,11 @@ class SchemeDesign(Result):
             kinds.append("a 45° wedge for the 45° poses")
         if np.any(np.abs(tilt - math.degrees(math.acos(1 / math.sqrt(3)))) < 1e-6):
             kinds.append("a corner cradle (each face 54.7° from level) for the corner poses")
-        if np.any((tilt > 1e-6) & (np.abs(tilt - 45.0) > 1e-6)
-                  & (np.abs(tilt - math.degrees(math.acos(1 / math.sqrt(3)))) > 1e-6)):
+        if np.any(
+            (tilt > 1e-6)
+            & (np.abs(tilt - 45.0) > 1e-6)
+            & (np.abs(tilt - math.degrees(math.acos(1 / math.sqrt(3)))) > 1e-6)
+        ):
             kinds.append("an adjustable fixture for the other tilted poses")
         if kinds:
             lines.append("  (tilted poses need a fixture: " + "; ".join(kinds) + ")")
@@ -482,8 +549,11 @@ class SchemeDesign(Result):
             if i < 3:
                 extra = f"= {rel[i] * 1e6:.3g} ppm of the nominal scale"
             elif i < 6:
-                extra = (f"= {rel[i] * 1e3:.3g} mrad misalignment" if rel[i] >= 1e-3
-                         else f"= {rel[i] * 1e6:.3g} µrad misalignment")
+                extra = (
+                    f"= {rel[i] * 1e3:.3g} mrad misalignment"
+                    if rel[i] >= 1e-3
+                    else f"= {rel[i] * 1e6:.3g} µrad misalignment"
+                )
             else:
                 extra = f"= {rel[i] * self.g / G_STANDARD * 1e3:.3g} mg (input-referred, b/k)"
             lines.append(f"  {nm:5s}  {s:.3g} {_UNITS[i]}  {extra}")
@@ -508,23 +578,37 @@ def _placement_words(d: np.ndarray) -> str:
     return f"  [{txt} above horizontal" + (f", {' and '.join(level)} level]" if level else "]")
 
 
-def _build(up, orient, st: _Setup, dwell, criterion: str, cand_idx, n_cand: int,
-           allow_repeats: bool) -> SchemeDesign:
+def _build(up, orient, st: _Setup, dwell, criterion: str, cand_idx, n_cand: int, allow_repeats: bool) -> SchemeDesign:
     J, sig, sm = _whitened_jacobian(up, st, dwell)
     rep = analyze(J, sig, names=model.ACCEL_PARAMS, units=_UNITS)
     Jw = J / sig[:, None] * st.D
     value = _reported(float(_criterion_value(Jw.T @ Jw, criterion)), criterion)
     return SchemeDesign(
-        up_dirs=up, orientations=orient, descriptions=[describe_pose(c) for c in orient], criterion=criterion,
-        value=value, names=list(model.ACCEL_PARAMS), predicted_std=np.asarray(rep.crlb_std, float),
-        crlb=np.asarray(rep.crlb, float), observability=rep, scale=st.scale, g=st.g, sigma_mean=sm,
-        dwell_s=dwell, rate_hz=st.rate_hz, noise=st.noise_text, candidate_index=np.asarray(cand_idx, dtype=int),
-        n_candidates=int(n_cand), allow_repeats=bool(allow_repeats))
+        up_dirs=up,
+        orientations=orient,
+        descriptions=[describe_pose(c) for c in orient],
+        criterion=criterion,
+        value=value,
+        names=list(model.ACCEL_PARAMS),
+        predicted_std=np.asarray(rep.crlb_std, float),
+        crlb=np.asarray(rep.crlb, float),
+        observability=rep,
+        scale=st.scale,
+        g=st.g,
+        sigma_mean=sm,
+        dwell_s=dwell,
+        rate_hz=st.rate_hz,
+        noise=st.noise_text,
+        candidate_index=np.asarray(cand_idx, dtype=int),
+        n_candidates=int(n_cand),
+        allow_repeats=bool(allow_repeats),
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------
 # design, evaluation
 # ----------------------------------------------------------------------------------------------------------
+
 
 def _search_value(F: np.ndarray, criterion: str) -> float:
     """Log-scale objective for annealing (to maximize). E adds 0.1·Σ log of the other eigenvalues so that
@@ -625,8 +709,11 @@ class _Designer:
                 if len(fixed) <= self.n:
                     found.append(self.exchange(self.fill(fixed), criterion))
         if criterion == "A":  # the D-optimal scheme is a good start for A
-            found.append(self.exchange(max(found, key=lambda x: float(_criterion_value(
-                self.outer[x[0]].sum(axis=0), "D")))[0], criterion))
+            found.append(
+                self.exchange(
+                    max(found, key=lambda x: float(_criterion_value(self.outer[x[0]].sum(axis=0), "D")))[0], criterion
+                )
+            )
         elif criterion == "E":  # λ_min is non-smooth with plateaus: also start from the D and A optima
             found += [self.exchange(self.run(c, chains), criterion) for c in ("D", "A")]
         start = max(found, key=lambda x: x[1])[0]
@@ -637,9 +724,21 @@ class _Designer:
         return min(tied)  # of equally good schemes, the one listing the earliest candidates (axis poses first)
 
 
-def design_scheme(n_poses: int, *, criterion: str = "D", candidates=None, sigma=None, noise_density=None,
-                  rate_hz: float = 100.0, dwell_s: float = 60.0, scale: float = 1.0, g: float = G_STANDARD,
-                  allow_repeats: bool = False, chains: int = 6, rng=0) -> SchemeDesign:
+def design_scheme(
+    n_poses: int,
+    *,
+    criterion: str = "D",
+    candidates=None,
+    sigma=None,
+    noise_density=None,
+    rate_hz: float = 100.0,
+    dwell_s: float = 60.0,
+    scale: float = 1.0,
+    g: float = G_STANDARD,
+    allow_repeats: bool = False,
+    chains: int = 6,
+    rng=0,
+) -> SchemeDesign:
     """Choose ``n_poses`` static poses for the accelerometer norm-model calibration (module docstring).
 
     Parameters
@@ -679,30 +778,43 @@ def design_scheme(n_poses: int, *, criterion: str = "D", candidates=None, sigma=
     if isinstance(n_poses, bool) or not isinstance(n_poses, (int, np.integer)):
         raise OptinavError(f"n_poses must be an integer, got {n_poses!r}", "pass e.g. n_poses=12")
     if n_poses < MIN_POSES:
-        raise OptinavError(f"n_poses = {n_poses} is too few: the norm model gives one scalar per pose and has "
-                           f"9 parameters", f"use n_poses ≥ {MIN_POSES} (12 or more recommended)")
+        raise OptinavError(
+            f"n_poses = {n_poses} is too few: the norm model gives one scalar per pose and has 9 parameters",
+            f"use n_poses ≥ {MIN_POSES} (12 or more recommended)",
+        )
     st = _setup(sigma, noise_density, rate_hz, scale, g)
     dwell = check_positive(dwell_s, "dwell_s")
     up, orient = _poses(candidates)
     M = up.shape[0]
     if not allow_repeats and n_poses > M:
-        raise OptinavError(f"n_poses = {n_poses} exceeds the {M} candidate poses",
-                           "pass allow_repeats=True or more candidates")
+        raise OptinavError(
+            f"n_poses = {n_poses} exceeds the {M} candidate poses", "pass allow_repeats=True or more candidates"
+        )
     J, sig, _ = _whitened_jacobian(up, st, np.full(M, dwell))
     Phi = J / sig[:, None] * st.D
     rep_all = analyze(J, sig, names=model.ACCEL_PARAMS)
     if rep_all.rank < 9:
-        raise OptinavError("the candidate poses cannot determine all 9 parameters ("
-                           + "; ".join(rep_all.statements) + ")",
-                           "add candidates with up vectors in general directions (45° or corner poses)")
+        raise OptinavError(
+            "the candidate poses cannot determine all 9 parameters (" + "; ".join(rep_all.statements) + ")",
+            "add candidates with up vectors in general directions (45° or corner poses)",
+        )
     if isinstance(chains, bool) or not isinstance(chains, (int, np.integer)) or chains < 0:
         raise OptinavError(f"chains must be a non-negative integer, got {chains!r}", "pass e.g. chains=6")
     idx = _Designer(Phi, up, int(n_poses), bool(allow_repeats), as_rng(rng)).run(crit, int(chains))
     return _build(up[idx], orient[idx], st, np.full(len(idx), dwell), crit, idx, M, bool(allow_repeats))
 
 
-def evaluate_scheme(up_dirs, *, criterion: str = "D", sigma=None, noise_density=None, rate_hz: float = 100.0,
-                    dwell_s=60.0, scale: float = 1.0, g: float = G_STANDARD) -> SchemeDesign:
+def evaluate_scheme(
+    up_dirs,
+    *,
+    criterion: str = "D",
+    sigma=None,
+    noise_density=None,
+    rate_hz: float = 100.0,
+    dwell_s=60.0,
+    scale: float = 1.0,
+    g: float = G_STANDARD,
+) -> SchemeDesign:
     """The :class:`SchemeDesign` report of a given scheme (no selection); any number of poses.
 
     A rank-deficient scheme gets ``inf`` standard deviations for the parameters it cannot determine and its
@@ -739,8 +851,16 @@ def evaluate_scheme(up_dirs, *, criterion: str = "D", sigma=None, noise_density=
     return _build(up, orient, st, _dwell(dwell_s, up.shape[0]), crit, np.full(up.shape[0], -1), 0, False)
 
 
-def predict_std(up_dirs, *, sigma=None, noise_density=None, rate_hz: float = 100.0, dwell_s=60.0,
-                scale: float = 1.0, g: float = G_STANDARD) -> np.ndarray:
+def predict_std(
+    up_dirs,
+    *,
+    sigma=None,
+    noise_density=None,
+    rate_hz: float = 100.0,
+    dwell_s=60.0,
+    scale: float = 1.0,
+    g: float = G_STANDARD,
+) -> np.ndarray:
     """CRLB 1σ of θ = :data:`model.ACCEL_PARAMS` for a given scheme.
 
     Parameters
@@ -766,5 +886,6 @@ def predict_std(up_dirs, *, sigma=None, noise_density=None, rate_hz: float = 100
     (9,) ndarray
         The std [raw/(m/s^2) for K, raw for b]; ``inf`` where not observable.
     """
-    return evaluate_scheme(up_dirs, sigma=sigma, noise_density=noise_density, rate_hz=rate_hz,
-                           dwell_s=dwell_s, scale=scale, g=g).predicted_std
+    return evaluate_scheme(
+        up_dirs, sigma=sigma, noise_density=noise_density, rate_hz=rate_hz, dwell_s=dwell_s, scale=scale, g=g
+    ).predicted_std

@@ -28,8 +28,17 @@ FORMATS = ("imu_tk", "imucal", "kalibr")
 _RAW_UNITS = {"accelerometer": ("counts", "g", "mg", "m/s^2"), "gyroscope": ("counts", "deg/s", "rad/s")}
 
 
-def export_calibration(res, fmt: str, out, *, gyro_out=None, noise=None, rostopic: str | None = None,
-                       update_rate: float | None = None, option: str = "--out") -> list[Path]:
+def export_calibration(
+    res,
+    fmt: str,
+    out,
+    *,
+    gyro_out=None,
+    noise=None,
+    rostopic: str | None = None,
+    update_rate: float | None = None,
+    option: str = "--out",
+) -> list[Path]:
     """Write ``res`` in format ``fmt`` (one of :data:`FORMATS`) to ``out`` (and ``gyro_out`` for imu_tk's gyro
     file); returns the paths written. ``noise``: an AllanAnalysis for Kalibr's noise keys."""
     from optinav.multipos.convert import ImucalCalibration, to_imu_tk, write_imu_tk, write_imucal_json
@@ -41,12 +50,15 @@ def export_calibration(res, fmt: str, out, *, gyro_out=None, noise=None, rostopi
     has_G = G is not None and np.any(np.asarray(G) != 0)
     if fmt == "imu_tk":
         if has_G:
-            raise OptinavError("imu_tk's model has no gyro g-sensitivity, which this calibration estimated",
-                               "export with --to imucal or --to kalibr (both keep it)")
+            raise OptinavError(
+                "imu_tk's model has no gyro g-sensitivity, which this calibration estimated",
+                "export with --to imucal or --to kalibr (both keep it)",
+            )
         written = []
         if acc is not None and gyro is not None and gyro_out is None:
-            raise OptinavError("imu_tk keeps the gyroscope calibration in a second file",
-                               "name it with --gyro-out (e.g. gyro.calib)")
+            raise OptinavError(
+                "imu_tk keeps the gyroscope calibration in a second file", "name it with --gyro-out (e.g. gyro.calib)"
+            )
         if acc is not None:
             K = np.asarray(acc["K"], float)
             body = np.allclose(np.tril(np.linalg.inv(K), -1), 0.0, atol=1e-12 * np.abs(np.linalg.inv(K)).max())
@@ -60,19 +72,26 @@ def export_calibration(res, fmt: str, out, *, gyro_out=None, noise=None, rostopi
         return written
     if fmt == "imucal":
         if acc is None or gyro is None:
-            raise OptinavError("imucal's Ferraris calibration holds both the accelerometer and the gyroscope",
-                               "calibrate with gyroscope data, or export with --to imu_tk")
+            raise OptinavError(
+                "imucal's Ferraris calibration holds both the accelerometer and the gyroscope",
+                "calibrate with gyroscope data, or export with --to imu_tk",
+            )
         units = res.units or {}
-        cal = ImucalCalibration.from_optinav(acc["K"], acc["b"], gyro["K"], G if G is not None else np.zeros((3, 3)),
-                                             gyro["b"], from_acc_unit=units.get("accelerometer_raw"),
-                                             from_gyr_unit=units.get("gyroscope_raw"),
-                                             comment=f"exported by optinav from {res.source or 'a calibration'}")
+        cal = ImucalCalibration.from_optinav(
+            acc["K"],
+            acc["b"],
+            gyro["K"],
+            G if G is not None else np.zeros((3, 3)),
+            gyro["b"],
+            from_acc_unit=units.get("accelerometer_raw"),
+            from_gyr_unit=units.get("gyroscope_raw"),
+            comment=f"exported by optinav from {res.source or 'a calibration'}",
+        )
         write_imucal_json(out, cal)
         return [Path(out)]
     from optinav.multipos.kalibr import write_kalibr_imu_yaml
 
-    write_kalibr_imu_yaml(out, noise=noise, calibration=res, rostopic=rostopic, update_rate=update_rate,
-                          option=option)
+    write_kalibr_imu_yaml(out, noise=noise, calibration=res, rostopic=rostopic, update_rate=update_rate, option=option)
     return [Path(out)]
 
 
@@ -93,8 +112,9 @@ def load_calibration(path, gyro_path=None):
     if head.startswith(("{", "[")):
         data = parse_json(text, f"calibration file {path}", "pass an optinav, imucal or imu_tk calibration file")
         if gyro_path is not None:
-            raise OptinavError("--gyro-cal is for imu_tk's separate gyroscope file; this JSON holds both triads",
-                               "drop --gyro-cal")
+            raise OptinavError(
+                "--gyro-cal is for imu_tk's separate gyroscope file; this JSON holds both triads", "drop --gyro-cal"
+            )
         if isinstance(data, dict) and "schema" in data:
             return CalibrationResult.from_json(path)
         if isinstance(data, dict) and "K_a" in data:
@@ -105,23 +125,32 @@ def load_calibration(path, gyro_path=None):
                 u = _raw_unit(sensor, getattr(cal, key))
                 if u:
                     units[f"{sensor}_raw"] = u
-            return CalibrationResult(accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
-                                     gyroscope={"K": p["gyr_K"], "b": p["gyr_b"], "G": p["gyr_G"]},
-                                     units=units, method="imucal", source=str(path))
-        raise OptinavError(f"{path} is JSON but neither an optinav result nor an imucal export",
-                           "pass RESULT.json of optinav calibrate or imucal's to_json_file output")
+            return CalibrationResult(
+                accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
+                gyroscope={"K": p["gyr_K"], "b": p["gyr_b"], "G": p["gyr_G"]},
+                units=units,
+                method="imucal",
+                source=str(path),
+            )
+        raise OptinavError(
+            f"{path} is JSON but neither an optinav result nor an imucal export",
+            "pass RESULT.json of optinav calibrate or imucal's to_json_file output",
+        )
     if head.startswith(("%YAML", "accelerometer_", "gyroscope_", "imu0:", "rostopic")) or "scale-misalignment" in head:
-        raise OptinavError(f"{path} is a Kalibr file, which holds no biases (Kalibr estimates them along its "
-                           "trajectory), so it cannot correct raw data",
-                           "apply the optinav, imucal or imu_tk calibration it was exported from")
+        raise OptinavError(
+            f"{path} is a Kalibr file, which holds no biases (Kalibr estimates them along its "
+            "trajectory), so it cannot correct raw data",
+            "apply the optinav, imucal or imu_tk calibration it was exported from",
+        )
     acc_K, acc_b = from_imu_tk(_imu_tk_params(read_imu_tk(path)))
     entry = {"accelerometer": {"K": acc_K, "b": acc_b}}
     if gyro_path is not None:
         g_K, g_b = from_imu_tk(_imu_tk_params(read_imu_tk(gyro_path)))
         entry["gyroscope"] = {"K": g_K, "b": g_b}
     units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
-    return CalibrationResult(**entry, units=units, method="imu_tk",
-                             source=" + ".join(str(p) for p in (path, gyro_path) if p is not None))
+    return CalibrationResult(
+        **entry, units=units, method="imu_tk", source=" + ".join(str(p) for p in (path, gyro_path) if p is not None)
+    )
 
 
 def _imu_tk_params(p: dict) -> dict:

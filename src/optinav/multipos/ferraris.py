@@ -38,9 +38,16 @@ from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
-__all__ = ["FerrarisCalibration", "ferraris_calibration", "ferraris_from_sections", "sections_from_labels", "POSES",
-           "ROTATIONS",
-           "SECTIONS", "IMUCAL_GRAVITY"]
+__all__ = [
+    "FerrarisCalibration",
+    "ferraris_calibration",
+    "ferraris_from_sections",
+    "sections_from_labels",
+    "POSES",
+    "ROTATIONS",
+    "SECTIONS",
+    "IMUCAL_GRAVITY",
+]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
 POSES = ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a")
@@ -90,8 +97,10 @@ class FerrarisCalibration(Result):
         w = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
         f = as_float_array(acc_si, "acc_si", last_dims=(3,))
         if f.shape != w.shape:
-            raise OptinavError(f"acc_si has shape {f.shape} but gyro_raw has {w.shape}",
-                               "pass one corrected acc sample per gyro sample")
+            raise OptinavError(
+                f"acc_si has shape {f.shape} but gyro_raw has {w.shape}",
+                "pass one corrected acc sample per gyro sample",
+            )
         r = w - f @ self.gyr_G.T - self.gyr_b
         return np.linalg.solve(self.gyr_K, r.reshape(-1, 3).T).T.reshape(w.shape)
 
@@ -104,26 +113,37 @@ class FerrarisCalibration(Result):
         """The same calibration as an :class:`optinav.multipos.convert.ImucalCalibration` (outputs m/s², deg/s)."""
         from optinav.multipos.convert import ImucalCalibration
 
-        return ImucalCalibration.from_optinav(self.acc_K, self.acc_b, self.gyr_K, self.gyr_G, self.gyr_b,
-                                              from_acc_unit=self.acc_unit, from_gyr_unit=self.gyro_unit,
-                                              comment=comment)
+        return ImucalCalibration.from_optinav(
+            self.acc_K,
+            self.acc_b,
+            self.gyr_K,
+            self.gyr_G,
+            self.gyr_b,
+            from_acc_unit=self.acc_unit,
+            from_gyr_unit=self.gyro_unit,
+            comment=comment,
+        )
 
 
-register_legacy(FerrarisCalibration, FerrarisCalibration.SCHEMA, 1, lambda d: nested_kwargs(
-    FerrarisCalibration, d, {"gyro_" + k: "gyr_" + k for k in "KGb"}))
+register_legacy(
+    FerrarisCalibration,
+    FerrarisCalibration.SCHEMA,
+    1,
+    lambda d: nested_kwargs(FerrarisCalibration, d, {"gyro_" + k: "gyr_" + k for k in "KGb"}),
+)
 
 
 # --------------------------------------------------------------------------------------------------------
 # input handling
 # --------------------------------------------------------------------------------------------------------
 
+
 def _sections(x, names: tuple[str, ...], what: str) -> list:
     """A dict by name or a sequence in ``names`` order → list of arrays (each (3,) or (N, 3))."""
     if isinstance(x, dict):
         missing = [n for n in names if n not in x]
         if missing:
-            raise OptinavError(f"{what} lacks the section(s) {', '.join(missing)}",
-                               f"give all of {', '.join(names)}")
+            raise OptinavError(f"{what} lacks the section(s) {', '.join(missing)}", f"give all of {', '.join(names)}")
         items = [x[n] for n in names]
     else:
         if isinstance(x, np.ndarray) and x.ndim == 2 and x.shape == (len(names), 3):
@@ -132,11 +152,14 @@ def _sections(x, names: tuple[str, ...], what: str) -> list:
             try:
                 items = list(x)
             except TypeError:
-                raise OptinavError(f"{what} is not a sequence of {len(names)} sections",
-                                   f"pass a dict or a list in the order {', '.join(names)}") from None
+                raise OptinavError(
+                    f"{what} is not a sequence of {len(names)} sections",
+                    f"pass a dict or a list in the order {', '.join(names)}",
+                ) from None
         if len(items) != len(names):
-            raise OptinavError(f"{what} has {len(items)} sections, expected {len(names)}",
-                               f"pass them in the order {', '.join(names)}")
+            raise OptinavError(
+                f"{what} has {len(items)} sections, expected {len(names)}", f"pass them in the order {', '.join(names)}"
+            )
     out = []
     for n, it in zip(names, items):
         a = as_float_array(it, f"{what}[{n}]", last_dims=(3,))
@@ -157,9 +180,21 @@ def _pose_means(x, what: str) -> tuple[np.ndarray, np.ndarray | None]:
 # calibration
 # --------------------------------------------------------------------------------------------------------
 
-def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz: float | None = None, dt=None,
-                         expected_angle=-2.0 * np.pi, gravity: float = IMUCAL_GRAVITY, static_counts=None,
-                         acc_unit: str = "raw", gyro_unit: str = "raw") -> FerrarisCalibration:
+
+def ferraris_calibration(
+    acc_static,
+    gyro_static,
+    acc_rot,
+    gyro_rot,
+    *,
+    rate_hz: float | None = None,
+    dt=None,
+    expected_angle=-2.0 * np.pi,
+    gravity: float = IMUCAL_GRAVITY,
+    static_counts=None,
+    acc_unit: str = "raw",
+    gyro_unit: str = "raw",
+) -> FerrarisCalibration:
     """Ferraris closed form (module docstring) from the six poses and the three rotations.
 
     Parameters
@@ -190,25 +225,34 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
     """
     rate = rate_hz
     g = check_positive(gravity, "gravity")
-    th = np.broadcast_to(as_float_array(expected_angle, "expected_angle"), (3,)).astype(float).copy() \
-        if np.ndim(expected_angle) == 0 else as_float_array(expected_angle, "expected_angle")
+    th = (
+        np.broadcast_to(as_float_array(expected_angle, "expected_angle"), (3,)).astype(float).copy()
+        if np.ndim(expected_angle) == 0
+        else as_float_array(expected_angle, "expected_angle")
+    )
     if th.shape != (3,) or np.any(th == 0):
-        raise OptinavError(f"expected_angle must be a non-zero scalar or 3 non-zero angles (rad), got {th!r}",
-                           "pass e.g. expected_angle=-2*pi (imucal's -360 deg)")
+        raise OptinavError(
+            f"expected_angle must be a non-zero scalar or 3 non-zero angles (rad), got {th!r}",
+            "pass e.g. expected_angle=-2*pi (imucal's -360 deg)",
+        )
     Ua, ca = _pose_means(acc_static, "acc_static")
     Ug, cg = _pose_means(gyro_static, "gyro_static")
     if static_counts is not None:
         sc = as_float_array(static_counts, "static_counts")
         if sc.shape != (6,) or np.any(sc <= 0):
-            raise OptinavError(f"static_counts must be 6 positive counts, got {np.ravel(sc).tolist()}",
-                               "give the number of samples of each pose")
+            raise OptinavError(
+                f"static_counts must be 6 positive counts, got {np.ravel(sc).tolist()}",
+                "give the number of samples of each pose",
+            )
         cg = sc
     ar = _sections(acc_rot, ROTATIONS, "acc_rot")
     gr = _sections(gyro_rot, ROTATIONS, "gyro_rot")
     for n, a, w in zip(ROTATIONS, ar, gr):
         if a.ndim != 2 or w.ndim != 2 or a.shape != w.shape:
-            raise OptinavError(f"rotation {n}: acc {a.shape} and gyro {w.shape} samples do not match",
-                               "pass (M, 3) acc and gyro samples of the same rotation")
+            raise OptinavError(
+                f"rotation {n}: acc {a.shape} and gyro {w.shape} samples do not match",
+                "pass (M, 3) acc and gyro samples of the same rotation",
+            )
     if (rate is None) == (dt is None):
         raise OptinavError("give exactly one of rate (Hz) and dt (s)", "e.g. rate=102.4")
     if rate is not None:
@@ -223,8 +267,10 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
         steps = [as_float_array(s, f"dt[{n}]") for n, s in zip(ROTATIONS, _seq3(dt))]
         for n, s, w in zip(ROTATIONS, steps, gr):
             if s.shape != (w.shape[0],) or np.any(s <= 0):
-                raise OptinavError(f"dt[{n}] must hold {w.shape[0]} positive steps, got shape {s.shape}",
-                                   "give one step (s) per rotation sample")
+                raise OptinavError(
+                    f"dt[{n}] must hold {w.shape[0]} positive steps, got shape {s.shape}",
+                    "give one step (s) per rotation sample",
+                )
         durations = np.array([s.sum() for s in steps])
 
     # accelerometer (Ferraris eqs. 19-23): columns are the x, y, z poses
@@ -232,8 +278,10 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
     acc_K = (Up - Un) / (2.0 * g)
     acc_b = 0.5 * np.diag(Up + Un)
     if _singular(acc_K):
-        raise OptinavError("the six accelerometer pose means give a singular scale matrix",
-                           "check that the poses x_p..z_a point each axis up and down, in imucal's order")
+        raise OptinavError(
+            "the six accelerometer pose means give a singular scale matrix",
+            "check that the poses x_p..z_a point each axis up and down, in imucal's order",
+        )
     # gyroscope g-sensitivity (eq. 9) and bias (all static samples)
     Vp, Vn = Ug[0::2].T, Ug[1::2].T
     G = (Vp - Vn) / (2.0 * g)
@@ -247,14 +295,27 @@ def ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, *, rate_hz:
         W[:, j] = c.sum(axis=0) / r if steps[j] is None else (c * steps[j][:, None]).sum(axis=0)
     gyr_K = W / th[None, :]
     if _singular(gyr_K):
-        raise OptinavError("the three rotations give a singular gyro scale matrix",
-                           "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle")
+        raise OptinavError(
+            "the three rotations give a singular gyro scale matrix",
+            "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle",
+        )
     norms = np.linalg.norm((Ua - acc_b) @ Kinv.T, axis=1)
-    return FerrarisCalibration(acc_K=acc_K, acc_b=acc_b, gyr_K=gyr_K, gyr_G=G, gyr_b=gyr_b, gravity=g,
-                               expected_angle=th, acc_unit=str(acc_unit), gyro_unit=str(gyro_unit),
-                               acc_static_means=Ua, gyro_static_means=Ug,
-                               static_counts=None if ca is None else ca, rotation_duration=durations,
-                               acc_static_norm=norms)
+    return FerrarisCalibration(
+        acc_K=acc_K,
+        acc_b=acc_b,
+        gyr_K=gyr_K,
+        gyr_G=G,
+        gyr_b=gyr_b,
+        gravity=g,
+        expected_angle=th,
+        acc_unit=str(acc_unit),
+        gyro_unit=str(gyro_unit),
+        acc_static_means=Ua,
+        gyro_static_means=Ug,
+        static_counts=None if ca is None else ca,
+        rotation_duration=durations,
+        acc_static_norm=norms,
+    )
 
 
 def _singular(M: np.ndarray) -> bool:
@@ -267,11 +328,14 @@ def _seq3(x):
     try:
         items = list(x)
     except TypeError:
-        raise OptinavError("dt is neither a scalar nor 3 per-sample step arrays",
-                           "pass dt=1/rate or 3 arrays") from None
+        raise OptinavError(
+            "dt is neither a scalar nor 3 per-sample step arrays", "pass dt=1/rate or 3 arrays"
+        ) from None
     if len(items) != 3:
-        raise OptinavError(f"dt has {len(items)} entries, expected 3 (x_rot, y_rot, z_rot)",
-                           "pass a scalar dt or one step array per rotation")
+        raise OptinavError(
+            f"dt has {len(items)} entries, expected 3 (x_rot, y_rot, z_rot)",
+            "pass a scalar dt or one step array per rotation",
+        )
     return items
 
 
@@ -287,14 +351,18 @@ def sections_from_labels(labels) -> dict | None:
         return None
     missing = [n for n in SECTIONS if n not in present]
     if missing:
-        raise OptinavError(f"the label column names {', '.join(present)} but not {', '.join(missing)}",
-                           "label all nine Ferraris sections, or give them with --sections FILE")
+        raise OptinavError(
+            f"the label column names {', '.join(present)} but not {', '.join(missing)}",
+            "label all nine Ferraris sections, or give them with --sections FILE",
+        )
     out = {}
     for n in SECTIONS:
         i = np.flatnonzero(lab == n)
         if i[-1] - i[0] + 1 != i.size:
-            raise OptinavError(f"the label {n!r} marks {i.size} samples that are not one contiguous run",
-                               "label each Ferraris section once, or give them with --sections FILE")
+            raise OptinavError(
+                f"the label {n!r} marks {i.size} samples that are not one contiguous run",
+                "label each Ferraris section once, or give them with --sections FILE",
+            )
         out[n] = (int(i[0]), int(i[-1]) + 1)
     return out
 
@@ -329,8 +397,10 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
     acc = as_float_array(acc, "acc", last_dims=(3,))
     gyro = as_float_array(gyro, "gyro", last_dims=(3,))
     if acc.ndim != 2 or gyro.shape != acc.shape:
-        raise OptinavError(f"acc {acc.shape} and gyro {gyro.shape} must be (N, 3) arrays of equal length",
-                           "pass one acc and one gyro sample per epoch")
+        raise OptinavError(
+            f"acc {acc.shape} and gyro {gyro.shape} must be (N, 3) arrays of equal length",
+            "pass one acc and one gyro sample per epoch",
+        )
     N = acc.shape[0]
     if np.ndim(t_or_rate) == 0:
         rate = check_positive(t_or_rate, "rate")
@@ -345,8 +415,9 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
     if isinstance(sections, SectionList):
         sections = sections.as_dict()
     if not isinstance(sections, dict):
-        raise OptinavError("sections must map the section names to sample ranges",
-                           "pass {'x_p': (i0, i1), ..., 'z_rot': (i0, i1)}")
+        raise OptinavError(
+            "sections must map the section names to sample ranges", "pass {'x_p': (i0, i1), ..., 'z_rot': (i0, i1)}"
+        )
     missing = [n for n in SECTIONS if n not in sections]
     if missing:
         raise OptinavError(f"sections lacks {', '.join(missing)}", f"annotate all of {', '.join(SECTIONS)}")
@@ -357,11 +428,13 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
             i0, i1 = (v["start"], v["end"]) if isinstance(v, dict) else tuple(v)
             i0, i1 = int(i0), int(i1)
         except (KeyError, TypeError, ValueError):
-            raise OptinavError(f"section {n!r} is {v!r}, not a sample range (i0, i1)",
-                               "give half-open sample index ranges") from None
+            raise OptinavError(
+                f"section {n!r} is {v!r}, not a sample range (i0, i1)", "give half-open sample index ranges"
+            ) from None
         if not 0 <= i0 < i1 <= N:
-            raise OptinavError(f"section {n!r} range [{i0}, {i1}) is empty or outside the log of {N} samples",
-                               "give 0 ≤ i0 < i1 ≤ N")
+            raise OptinavError(
+                f"section {n!r} range [{i0}, {i1}) is empty or outside the log of {N} samples", "give 0 ≤ i0 < i1 ≤ N"
+            )
         idx[n] = (i0, i1)
     acc_static = {n: acc[slice(*idx[n])] for n in POSES}
     gyro_static = {n: gyro[slice(*idx[n])] for n in POSES}

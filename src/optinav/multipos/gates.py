@@ -86,8 +86,10 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
     likely = [u for u in _ACC_UNITS if 1 / UNIT_TOL < rest_norm * factor(u) / g < UNIT_TOL]
     guess = likely[0] if likely else "counts"
     what = "raw counts?" if guess == "counts" else f"data in {guess}?"
-    raise OptinavError(f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}",
-                       f"pass {option} {guess}")
+    raise OptinavError(
+        f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}",
+        f"pass {option} {guess}",
+    )
 
 
 def signed_permutations() -> list[np.ndarray]:
@@ -136,15 +138,18 @@ def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: st
     if np.any(d <= 0) or np.any(coupling > MAX_COUPLING):
         P, share = axis_permutation(K)
         if share > 0.8 and not np.allclose(P, np.eye(3)):
-            raise OptinavError(f"the {sensor} axes look swapped or flipped against the accelerometer's: "
-                               f"{describe_permutation(P, sensor, 'accelerometer frame')}",
-                               f"fix the column order or signs ({columns_flag})")
+            raise OptinavError(
+                f"the {sensor} axes look swapped or flipped against the accelerometer's: "
+                f"{describe_permutation(P, sensor, 'accelerometer frame')}",
+                f"fix the column order or signs ({columns_flag})",
+            )
         i, j = np.unravel_index(int(np.argmax(np.where(np.isfinite(coupling), coupling, np.inf))), (3, 3))
-        raise OptinavError(f"the {sensor} fit is implausible: K_{'xyz'[i]}{'xyz'[j]}/K_{'xyz'[i]}{'xyz'[i]} = "
-                           f"{coupling[i, j]:.3g} (> {MAX_COUPLING:g}) or a non-positive scale "
-                           f"(diagonal {', '.join(f'{v:.4g}' for v in d)})",
-                           "check the static intervals (--threshold, --sections) and the column order "
-                           f"({columns_flag})")
+        raise OptinavError(
+            f"the {sensor} fit is implausible: K_{'xyz'[i]}{'xyz'[j]}/K_{'xyz'[i]}{'xyz'[i]} = "
+            f"{coupling[i, j]:.3g} (> {MAX_COUPLING:g}) or a non-positive scale "
+            f"(diagonal {', '.join(f'{v:.4g}' for v in d)})",
+            f"check the static intervals (--threshold, --sections) and the column order ({columns_flag})",
+        )
     if nominal is None:
         return
     ratio = d / nominal
@@ -155,17 +160,24 @@ def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: st
         r = float(np.median(d))
         likely = [u for u in _GYRO_UNITS if u != unit and 1 / SCALE_FACTOR < r * factor(u) < SCALE_FACTOR]
         if likely:
-            raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
-                               f"the data look like {likely[0]}", f"pass {option} {likely[0]}")
+            raise OptinavError(
+                f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
+                f"the data look like {likely[0]}",
+                f"pass {option} {likely[0]}",
+            )
         if r * factor("deg/s") > TURN_UNIT_TOL:  # more than TURN_UNIT_TOL raw per deg/s: no SI unit is that coarse
-            raise OptinavError(f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
-                               f"raw counts? ({r * factor('deg/s'):.3g} per deg/s)",
-                               f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)")
+            raise OptinavError(
+                f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
+                f"raw counts? ({r * factor('deg/s'):.3g} per deg/s)",
+                f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)",
+            )
     k = int(np.flatnonzero(bad)[0])
-    raise OptinavError(f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
-                       f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
-                       f"check {option} and the static intervals (--threshold, --sections)"
-                       + (", or use --model diagonal" if sensor == "accelerometer" else ""))
+    raise OptinavError(
+        f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
+        f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
+        f"check {option} and the static intervals (--threshold, --sections)"
+        + (", or use --model diagonal" if sensor == "accelerometer" else ""),
+    )
 
 
 def check_gyro_turns(theta_perp, alpha, noise, t0, t1, unit: str, option: str = "--gyro-unit") -> None:
@@ -184,12 +196,14 @@ def check_gyro_turns(theta_perp, alpha, noise, t0, t1, unit: str, option: str = 
     if np.any(still):
         k = np.flatnonzero(still)
         when = ", ".join(f"{t0[i]:.4g}–{t1[i]:.4g} s ({np.degrees(alpha[i]):.0f}°)" for i in k[:3])
-        raise OptinavError(f"in {k.size} of {alpha.size} transitions gravity moves between the poses but the "
-                           f"gyroscope sees no turn ({when}{', …' if k.size > 3 else ''}): the log is cut between "
-                           "the poses, or its rows are not in time order",
-                           "for a file of cut Ferraris sections use --method ferraris (sections from a label column "
-                           "or --sections), or --no-gyro; else check the time column (--rate, --time-unit) and the "
-                           "row order")
+        raise OptinavError(
+            f"in {k.size} of {alpha.size} transitions gravity moves between the poses but the "
+            f"gyroscope sees no turn ({when}{', …' if k.size > 3 else ''}): the log is cut between "
+            "the poses, or its rows are not in time order",
+            "for a file of cut Ferraris sections use --method ferraris (sections from a label column "
+            "or --sections), or --no-gyro; else check the time column (--rate, --time-unit) and the "
+            "row order",
+        )
     use = big & ~still
     if unit == "counts" or np.count_nonzero(use) < 2:
         return
@@ -198,9 +212,14 @@ def check_gyro_turns(theta_perp, alpha, noise, t0, t1, unit: str, option: str = 
     if 1 / TURN_UNIT_TOL <= ratio <= TURN_UNIT_TOL:
         return
     likely = [u for u in _GYRO_UNITS if u != unit and 1 / TURN_UNIT_TOL <= k_raw * factor(u) <= TURN_UNIT_TOL]
-    what = (f"the data look like {likely[0]}" if likely else
-            f"raw counts? ({k_raw * DEG:.3g} per deg/s)")
-    cause = (f"the gyroscope turns {ratio:.3g}× as far as gravity does between the poses in {unit} (median of "
-             f"{np.count_nonzero(use)} turns, perpendicular to gravity): {what}")
-    raise OptinavError(cause, f"pass {option} {likely[0]}" if likely else
-                       f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)")
+    what = f"the data look like {likely[0]}" if likely else f"raw counts? ({k_raw * DEG:.3g} per deg/s)"
+    cause = (
+        f"the gyroscope turns {ratio:.3g}× as far as gravity does between the poses in {unit} (median of "
+        f"{np.count_nonzero(use)} turns, perpendicular to gravity): {what}"
+    )
+    raise OptinavError(
+        cause,
+        f"pass {option} {likely[0]}"
+        if likely
+        else f"pass {option} counts (and --gyro-range if the full scale is not the integer type's)",
+    )

@@ -84,8 +84,15 @@ from optinav.core.strapdown import attitude_update
 from optinav.core.validate import as_float_array, as_rng, check_timestamps
 from optinav.errors import OptinavError
 
-__all__ = ["GYRO_PARAMS", "GyroCalibration", "calibrate_gyro", "theta_to_Kb", "Kb_to_theta",
-           "transition_residuals", "MIN_TRANSITIONS"]
+__all__ = [
+    "GYRO_PARAMS",
+    "GyroCalibration",
+    "calibrate_gyro",
+    "theta_to_Kb",
+    "Kb_to_theta",
+    "transition_residuals",
+    "MIN_TRANSITIONS",
+]
 
 #: parameter names in θ order: K row-major (K_ij: raw axis i per unit true rate about axis j), then b
 GYRO_PARAMS = ("K_xx", "K_xy", "K_xz", "K_yx", "K_yy", "K_yz", "K_zx", "K_zy", "K_zz", "b_x", "b_y", "b_z")
@@ -94,11 +101,11 @@ MIN_TRANSITIONS = 5
 BIAS_MODES = ("static", "local", "rest", "estimate")
 METHODS = ("lm", "gauss-newton", "trf")
 _CONING = ("previous", "none")
-_UNIT_TOL = 0.05   # |‖u‖ − 1| accepted for the up directions (they are normalized afterwards)
-_B_SCALE = 0.01    # rad/s: the magnitude b is judged at (x_scale, observability threshold)
-_PRIOR_K = 0.1     # std (units of k₀) of the pull to K₀ in the first, regularized fit
-_PRIOR_B = 1.0     # the same for b (rad/s × k₀): loose, b is fixed by the static means
-_COEF_TOL = 1e-2   # couplings below 1 % (scaled units) are left out of the words: weak noise-driven mixing
+_UNIT_TOL = 0.05  # |‖u‖ − 1| accepted for the up directions (they are normalized afterwards)
+_B_SCALE = 0.01  # rad/s: the magnitude b is judged at (x_scale, observability threshold)
+_PRIOR_K = 0.1  # std (units of k₀) of the pull to K₀ in the first, regularized fit
+_PRIOR_B = 1.0  # the same for b (rad/s × k₀): loose, b is fixed by the static means
+_COEF_TOL = 1e-2  # couplings below 1 % (scaled units) are left out of the words: weak noise-driven mixing
 
 
 def theta_to_Kb(theta) -> tuple[np.ndarray, np.ndarray]:
@@ -156,8 +163,7 @@ class GyroCalibration(Result):
     def correct(self, gyro_raw) -> np.ndarray:
         """Calibrated rate ω = K⁻¹(raw − b), rad/s, for raw (..., 3)."""
         raw = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
-        return np.linalg.solve(np.asarray(self.K), (raw - np.asarray(self.b)).reshape(-1, 3).T).T.reshape(
-            raw.shape)
+        return np.linalg.solve(np.asarray(self.K), (raw - np.asarray(self.b)).reshape(-1, 3).T).T.reshape(raw.shape)
 
     def scale_misalignment(self) -> tuple[np.ndarray, np.ndarray]:
         """Relative scale factors ``diag(K)/k`` (k = mean diagonal) and misalignments ``K_ij/K_ii`` (rad)."""
@@ -167,9 +173,11 @@ class GyroCalibration(Result):
 
     def summary(self) -> str:
         K, Ks = np.asarray(self.K), np.asarray(self.K_std)
-        lines = [f"Gyro calibration ({self.method}, bias {self.bias_mode}): {self.n_transitions} transitions, "
-                 f"residual RMS {self.residual_rms:.3g} rad, σ̂ {self.sigma:.3g} rad ({self.dof} dof), "
-                 f"{self.elapsed_s:.3g} s"]
+        lines = [
+            f"Gyro calibration ({self.method}, bias {self.bias_mode}): {self.n_transitions} transitions, "
+            f"residual RMS {self.residual_rms:.3g} rad, σ̂ {self.sigma:.3g} rad ({self.dof} dof), "
+            f"{self.elapsed_s:.3g} s"
+        ]
         for i in range(3):
             row = "  ".join(f"{K[i, j]:12.6g} ± {Ks[i, j]:.2g}" for j in range(3))
             lines.append(f"  K[{'xyz'[i]}] = {row}  raw/(rad/s)")
@@ -184,56 +192,72 @@ class GyroCalibration(Result):
 # input handling
 # ------------------------------------------------------------------------------------------------------
 
+
 def _intervals(static_intervals, t: np.ndarray, units: str) -> np.ndarray:
     iv = as_float_array(static_intervals, "static_intervals", last_dims=(2,))
     if iv.ndim != 2:
-        raise OptinavError(f"static_intervals has shape {iv.shape}, expected (K, 2)",
-                           "pass one [start, end) pair per static interval")
+        raise OptinavError(
+            f"static_intervals has shape {iv.shape}, expected (K, 2)", "pass one [start, end) pair per static interval"
+        )
     n = t.size
     if units == "samples":
         if np.any(iv != np.round(iv)):
-            raise OptinavError("static_intervals are not whole sample indices",
-                               "pass integer [i0, i1) index pairs, or interval_units='s' for times")
+            raise OptinavError(
+                "static_intervals are not whole sample indices",
+                "pass integer [i0, i1) index pairs, or interval_units='s' for times",
+            )
         idx = iv.astype(np.int64)
     elif units == "s":
         if np.any(iv[:, 1] <= iv[:, 0]):
             k = int(np.flatnonzero(iv[:, 1] <= iv[:, 0])[0])
-            raise OptinavError(f"static interval {k} ends before it starts ({iv[k, 0]:.6g} s → {iv[k, 1]:.6g} s)",
-                               "give [t0, t1] with t0 < t1")
+            raise OptinavError(
+                f"static interval {k} ends before it starts ({iv[k, 0]:.6g} s → {iv[k, 1]:.6g} s)",
+                "give [t0, t1] with t0 < t1",
+            )
         idx = np.stack([np.searchsorted(t, iv[:, 0], "left"), np.searchsorted(t, iv[:, 1], "right")], 1)
     else:
         raise OptinavError(f"interval_units={units!r} is not understood", "use 'samples' or 's'")
     bad = (idx[:, 0] < 0) | (idx[:, 1] > n)
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
-        raise OptinavError(f"static interval {k} [{idx[k, 0]}, {idx[k, 1]}) is outside the {n} samples",
-                           "give sample ranges within the log")
+        raise OptinavError(
+            f"static interval {k} [{idx[k, 0]}, {idx[k, 1]}) is outside the {n} samples",
+            "give sample ranges within the log",
+        )
     short = idx[:, 1] - idx[:, 0] < 2
     if np.any(short):
         k = int(np.flatnonzero(short)[0])
-        raise OptinavError(f"static interval {k} holds {max(int(idx[k, 1] - idx[k, 0]), 0)} sample(s)",
-                           "give each static interval at least two samples")
+        raise OptinavError(
+            f"static interval {k} holds {max(int(idx[k, 1] - idx[k, 0]), 0)} sample(s)",
+            "give each static interval at least two samples",
+        )
     over = idx[1:, 0] < idx[:-1, 1]
     if np.any(over):
         k = int(np.flatnonzero(over)[0])
         what = "overlaps" if idx[k + 1, 0] >= idx[k, 0] else "starts before"
-        raise OptinavError(f"static interval {k + 1} {what} interval {k} "
-                           f"([{idx[k + 1, 0]}, {idx[k + 1, 1]}) vs [{idx[k, 0]}, {idx[k, 1]}))",
-                           "pass disjoint intervals sorted in time")
+        raise OptinavError(
+            f"static interval {k + 1} {what} interval {k} "
+            f"([{idx[k + 1, 0]}, {idx[k + 1, 1]}) vs [{idx[k, 0]}, {idx[k, 1]}))",
+            "pass disjoint intervals sorted in time",
+        )
     return idx
 
 
 def _up_dirs(up_dirs, n_int: int) -> np.ndarray:
     u = as_float_array(up_dirs, "up_dirs", last_dims=(3,))
     if u.ndim != 2 or u.shape[0] != n_int:
-        raise OptinavError(f"up_dirs has shape {u.shape}, expected ({n_int}, 3) for {n_int} static intervals",
-                           "give one gravity direction per static interval")
+        raise OptinavError(
+            f"up_dirs has shape {u.shape}, expected ({n_int}, 3) for {n_int} static intervals",
+            "give one gravity direction per static interval",
+        )
     nrm = np.linalg.norm(u, axis=1)
     bad = np.abs(nrm - 1.0) > _UNIT_TOL
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
-        raise OptinavError(f"up_dirs[{k}] has norm {nrm[k]:.4g}, not a unit vector",
-                           "normalize the mean calibrated specific force of each interval")
+        raise OptinavError(
+            f"up_dirs[{k}] has norm {nrm[k]:.4g}, not a unit vector",
+            "normalize the mean calibrated specific force of each interval",
+        )
     return u / nrm[:, None]
 
 
@@ -247,6 +271,7 @@ def _choice(value, options, name: str) -> str:
 # ------------------------------------------------------------------------------------------------------
 # the model
 # ------------------------------------------------------------------------------------------------------
+
 
 class _Transitions:
     """The motion samples of all transitions, concatenated for one strapdown call per evaluation."""
@@ -264,8 +289,8 @@ class _Transitions:
         self.t_rows = tt
         h = np.diff(tt)
         self.gap = np.zeros(h.size, dtype=bool)
-        self.gap[self.ends[:-1]] = True          # increment joining two transitions
-        h[self.gap] = np.median(h[~self.gap])    # any positive step: its increment is zero
+        self.gap[self.ends[:-1]] = True  # increment joining two transitions
+        h[self.gap] = np.median(h[~self.gap])  # any positive step: its increment is zero
         self.h = h
         self.durations = tt[self.ends] - tt[self.starts]
         self.u0, self.u1 = u[keep], u[keep + 1]
@@ -315,8 +340,9 @@ class _Transitions:
         return np.linalg.norm(cs[self.ends] - cs[self.starts], axis=1)
 
 
-def transition_residuals(t, gyro_raw, static_intervals, up_dirs, K, b, *, interval_units: str = "samples",
-                         coning: str = "previous") -> np.ndarray:
+def transition_residuals(
+    t, gyro_raw, static_intervals, up_dirs, K, b, *, interval_units: str = "samples", coning: str = "previous"
+) -> np.ndarray:
     """Residuals r_k = C_kᵀu_k − u_{k+1} (T, 3) of a given K (raw per rad/s) and b (raw); see the module doc."""
     t = check_timestamps(t, "t")
     raw = _raw(gyro_raw, t.size)
@@ -329,8 +355,9 @@ def transition_residuals(t, gyro_raw, static_intervals, up_dirs, K, b, *, interv
 def _raw(gyro_raw, n: int) -> np.ndarray:
     raw = as_float_array(gyro_raw, "gyro_raw", last_dims=(3,))
     if raw.ndim != 2 or raw.shape[0] != n:
-        raise OptinavError(f"gyro_raw has shape {raw.shape}, expected ({n}, 3) to match t",
-                           "pass one gyro sample per timestamp")
+        raise OptinavError(
+            f"gyro_raw has shape {raw.shape}, expected ({n}, 3) to match t", "pass one gyro sample per timestamp"
+        )
     return raw
 
 
@@ -345,9 +372,11 @@ def _scale_guess(tr: _Transitions, b: np.ndarray) -> float:
     theta = tr.raw_rotation(b)
     alpha = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
     if alpha.sum() < np.radians(5.0) or theta.sum() <= 0:
-        raise OptinavError(f"the transitions change the gravity direction by only {np.degrees(alpha.sum()):.3g}° "
-                           "in total, so the gyro scale cannot be found",
-                           "turn the device between poses so that the up axis changes (e.g. flips about x, y, z)")
+        raise OptinavError(
+            f"the transitions change the gravity direction by only {np.degrees(alpha.sum()):.3g}° "
+            "in total, so the gyro scale cannot be found",
+            "turn the device between poses so that the up axis changes (e.g. flips about x, y, z)",
+        )
     k_hat = theta.sum() / alpha.sum()
     _check_axes(tr, b, k_hat)
 
@@ -378,11 +407,13 @@ def _check_axes(tr: _Transitions, b: np.ndarray, k: float) -> None:
             best = P
     c_id = costs[np.eye(3).tobytes()]
     if not np.array_equal(best, np.eye(3)) and costs[best.tobytes()] < 0.1 * c_id:
-        raise OptinavError("the gyroscope axes look swapped or flipped against the accelerometer's: "
-                           + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
-                           + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
-                           f"{np.sqrt(c_id / len(tr.u0)):.2g} as labelled)",
-                           "fix the column order or signs (--columns or --gyro-columns)")
+        raise OptinavError(
+            "the gyroscope axes look swapped or flipped against the accelerometer's: "
+            + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
+            + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
+            f"{np.sqrt(c_id / len(tr.u0)):.2g} as labelled)",
+            "fix the column order or signs (--columns or --gyro-columns)",
+        )
 
 
 def _stats(raw, idx):
@@ -403,8 +434,10 @@ def _missing_axes(rep: ObservabilityReport) -> str:
     if cols:
         ax = ["xyz"[j] for j in sorted(cols)]
         axes = ax[0] if len(ax) == 1 else ", ".join(ax[:-1]) + " and " + ax[-1]
-        txt = (f"add poses whose transitions rotate about the body {axes} {'axes' if len(cols) > 1 else 'axis'} "
-               f"(e.g. flip the device about {axes} so that gravity moves in the plane normal to it)")
+        txt = (
+            f"add poses whose transitions rotate about the body {axes} {'axes' if len(cols) > 1 else 'axis'} "
+            f"(e.g. flip the device about {axes} so that gravity moves in the plane normal to it)"
+        )
     else:
         txt = "add transitions about other axes and between more different poses"
     if bias:
@@ -416,12 +449,29 @@ def _missing_axes(rep: ObservabilityReport) -> str:
 # the calibration
 # ------------------------------------------------------------------------------------------------------
 
-def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", rest=None, method: str = "lm",
-                   x0=None, rng=None, interval_units: str = "samples", coning: str = "previous",
-                   allow_unobservable: bool = False, max_std: float = 0.05,
-                   drop_transitions=(), g_sensitivity_std: float | None = None,
-                   gravity: float = 9.80665, unit: str | None = None, bias_instability=None,
-                   bias_corr_time: float = float("inf")) -> GyroCalibration:
+
+def calibrate_gyro(
+    t,
+    gyro_raw,
+    static_intervals,
+    up_dirs,
+    *,
+    bias="static",
+    rest=None,
+    method: str = "lm",
+    x0=None,
+    rng=None,
+    interval_units: str = "samples",
+    coning: str = "previous",
+    allow_unobservable: bool = False,
+    max_std: float = 0.05,
+    drop_transitions=(),
+    g_sensitivity_std: float | None = None,
+    gravity: float = 9.80665,
+    unit: str | None = None,
+    bias_instability=None,
+    bias_corr_time: float = float("inf"),
+) -> GyroCalibration:
     """Gyro K and b of ``raw = K·ω + b`` from static intervals and the turns between them.
 
     Parameters
@@ -499,10 +549,12 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     keep = np.array([k for k in range(idx.shape[0] - 1) if k not in drop], int)
     n_tr = keep.size
     if n_tr < MIN_TRANSITIONS:
-        raise OptinavError(f"{n_tr} transition(s) usable between {idx.shape[0]} static intervals, at least "
-                           f"{MIN_TRANSITIONS} are needed (each gives 2 constraints on the 9 entries of K, "
-                           "plus one for the noise estimate)",
-                           f"record at least {MIN_TRANSITIONS + 1} static poses with turns about all three axes")
+        raise OptinavError(
+            f"{n_tr} transition(s) usable between {idx.shape[0]} static intervals, at least "
+            f"{MIN_TRANSITIONS} are needed (each gives 2 constraints on the 9 entries of K, "
+            "plus one for the noise estimate)",
+            f"record at least {MIN_TRANSITIONS + 1} static poses with turns about all three axes",
+        )
     gen = as_rng(rng)
 
     # --- bias
@@ -516,8 +568,10 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         if b_fixed.shape != (3,):
             raise OptinavError(f"bias has shape {b_fixed.shape}, expected (3,)", "pass one bias per axis (raw)")
     if rest is not None and mode != "rest":
-        raise OptinavError(f"rest was given but bias={bias if mode != 'given' else 'a vector'!r}",
-                           "pass bias='rest' to use the rest window, or drop rest")
+        raise OptinavError(
+            f"rest was given but bias={bias if mode != 'given' else 'a vector'!r}",
+            "pass bias='rest' to use the rest window, or drop rest",
+        )
     b_cov = np.zeros((3, 3))
     if mode == "rest":
         if rest is None:
@@ -527,13 +581,15 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             raise OptinavError(f"rest must be (t0, t1) with t0 < t1 in s, got {w.tolist()}", "pass rest=(t0, t1)")
         sel = (t >= w[0]) & (t <= w[1])
         if np.count_nonzero(sel) < 2:
-            raise OptinavError(f"the rest window [{w[0]:.6g}, {w[1]:.6g}] s holds {np.count_nonzero(sel)} sample(s)",
-                               "give a window inside the log with at least two samples")
+            raise OptinavError(
+                f"the rest window [{w[0]:.6g}, {w[1]:.6g}] s holds {np.count_nonzero(sel)} sample(s)",
+                "give a window inside the log with at least two samples",
+            )
         b_fixed = raw[sel].mean(0)
         b_cov = np.diag(raw[sel].var(0, ddof=1) / np.count_nonzero(sel))
     elif mode in ("static", "local", "estimate"):
         b_static = (counts[:, None] * means).sum(0) / counts.sum()
-        b_cov = np.diag((counts[:, None] ** 2 * sems ** 2).sum(0) / counts.sum() ** 2)
+        b_cov = np.diag((counts[:, None] ** 2 * sems**2).sum(0) / counts.sum() ** 2)
         if mode == "static":
             b_fixed = b_static
         elif mode == "local":
@@ -551,7 +607,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         b_fixed = means[k0_] + f * (means[k1_] - means[k0_])
         chord = u[k0_] + f * (u[k1_] - u[k0_])  # the specific force the interpolated bias assumes (units of g)
         b_init = b_fixed
-        b_cov = np.diag(np.mean(sems ** 2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
+        b_cov = np.diag(np.mean(sems**2, axis=0) / 2)  # one turn's bias: the mean of two rests (propagated)
 
     if unit is not None:
         # before any fit: the turns must agree with the gravity-direction changes in the declared unit
@@ -604,11 +660,13 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     p_start = p_guess
     nfev = 0
     if mode == "estimate":
+
         def ang_static(p):
             return angle_res(np.concatenate([p, b_static]))
 
-        pre, n_ev = _fit_regularized(ang_static, K0.reshape(-1), K0.reshape(-1), prior_sd[:9], 2 * n_tr - 9,
-                                     names[:9], scales[:9], method, gen)
+        pre, n_ev = _fit_regularized(
+            ang_static, K0.reshape(-1), K0.reshape(-1), prior_sd[:9], 2 * n_tr - 9, names[:9], scales[:9], method, gen
+        )
         nfev += n_ev
         sigma_w = max(_sigma_hat(ang_static(pre.x), 2 * n_tr - 9), 1e-12)
         p_start = np.concatenate([pre.x, b_init])
@@ -636,7 +694,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             # variance components: rescale each group to a unit variance factor (the static means also carry
             # the projected Earth rate and g-sensitivity, which their sample scatter does not show)
             for _ in range(3):
-                ra, rs = res.residuals[: 3 * n_tr], res.residuals[3 * n_tr:]
+                ra, rs = res.residuals[: 3 * n_tr], res.residuals[3 * n_tr :]
                 fa = float(ra @ ra) / max(2 * n_tr - 9, 1)
                 fs = float(rs @ rs) / max(3 * idx.shape[0] - 3, 1)
                 if fa <= 0 or fs <= 0 or 0.8 < fa / fs < 1.25:
@@ -656,7 +714,9 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         if not allow_unobservable:
             raise OptinavError(
                 f"gyro calibration is rank-deficient (rank {rep.rank}/{n_par}); unobservable: "
-                + "; ".join(unobservable), _missing_axes(rep))
+                + "; ".join(unobservable),
+                _missing_axes(rep),
+            )
         # hold the null directions at the initial guess: fit only along the observable subspace
         Js = (J_a / _sigma_hat(r_a, dof)) * scales[None, :]
         _, _, vt = np.linalg.svd(Js, full_matrices=True)
@@ -679,7 +739,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     K_hat, b_hat = split(p_hat)
     cov = np.zeros((12, 12))
     cov[:n_par, :n_par] = cov_fit
-    A = _pinv(J, scales, rep.rank)                                    # n_par × m, on the observable subspace
+    A = _pinv(J, scales, rep.rank)  # n_par × m, on the observable subspace
     r_ang = tr.residuals(K_hat, b_hat)
     if mode == "estimate":
         sigma_ang = sigma_w * sig_hat
@@ -688,12 +748,16 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
         cov[9:, 9:] = b_cov
         if mode in ("static", "local", "rest"):
             b_ref = b_hat if mode != "local" else b_static
-            Jb = _jac(lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1), b_ref,
-                      np.full(3, k0 * _B_SCALE), r_ang.reshape(-1))
+            Jb = _jac(
+                lambda bb: tr.residuals(K_hat, b_hat + (bb - b_ref)).reshape(-1),
+                b_ref,
+                np.full(3, k0 * _B_SCALE),
+                r_ang.reshape(-1),
+            )
             G = -A @ Jb
             # a static bias holds G·f̄ and each turn sees G·(f − f̄), up to σ·g per axis ("local": below)
             sg_turn = abs(float(g_sensitivity_std or 0.0)) * gravity if mode != "local" else 0.0
-            b_prop = b_cov + np.eye(3) * sg_turn ** 2
+            b_prop = b_cov + np.eye(3) * sg_turn**2
             cov[:9, :9] += G @ b_prop @ G.T
             cov[:9, 9:] = G @ b_cov
             cov[9:, :9] = cov[:9, 9:].T
@@ -732,12 +796,12 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
             L[:9] = A @ J_G
             # the part of G's turn errors that K cannot absorb is already in σ̂ (the residuals): count it once
             P = J_G - J @ L[:9]
-            sig2 = sig_hat ** 2
+            sig2 = sig_hat**2
             if sig2 > 0:
                 keep = max(sig2 - float(g_sens) ** 2 * float(np.sum(P * P)) / max(dof, 1), 0.0) / sig2
                 cov[:9, :9] -= (1.0 - keep) * cov_fit
             for i in range(3):
-                L[9 + i, 3 * i: 3 * i + 3] = gravity * ubar
+                L[9 + i, 3 * i : 3 * i + 3] = gravity * ubar
             cov += float(g_sens) ** 2 * (L @ L.T)
     elif bias_instability is not None and mode != "given":
         # a drift common to the whole session leaves no trace in the rests: only a noise model can bound it
@@ -745,7 +809,7 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     if g_sensitivity_std and mode != "local":
         sg = abs(float(g_sensitivity_std)) * float(gravity)
         fbar = (counts[:, None] * u).sum(0) / counts.sum() if mode != "rest" else np.ones(1)
-        cov[9:, 9:] += np.eye(3) * sg ** 2 * float(fbar @ fbar)
+        cov[9:, 9:] += np.eye(3) * sg**2 * float(fbar @ fbar)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     obs = np.ones(12, dtype=bool)
     obs[:n_par] = np.asarray(rep.observable, dtype=bool)
@@ -760,25 +824,44 @@ def calibrate_gyro(t, gyro_raw, static_intervals, up_dirs, *, bias="static", res
     bound[:n_par] = np.linalg.norm(Aa, axis=2) @ beta * scale_ang
     row_norm = np.linalg.norm(K_hat, axis=1)
     if mode == "estimate":
-        As = np.abs(A[:, 3 * n_tr:]).reshape(n_par, idx.shape[0], 3)
+        As = np.abs(A[:, 3 * n_tr :]).reshape(n_par, idx.shape[0], 3)
         bound[:n_par] += np.einsum("pki,ki->p", As, (row_norm * om)[None, :] / sems)
     elif mode in ("static", "local", "rest"):
         bound[9:] = row_norm * om
     bound[~obs] = np.inf
 
     angles = _angles(r_ang, tr.u1)
-    rot_ang = 2.0 * np.arctan2(np.linalg.norm(tr.rotations(K_hat, b_hat)[:, 1:], axis=1),
-                               np.abs(tr.rotations(K_hat, b_hat)[:, 0]))
+    rot_ang = 2.0 * np.arctan2(
+        np.linalg.norm(tr.rotations(K_hat, b_hat)[:, 1:], axis=1), np.abs(tr.rotations(K_hat, b_hat)[:, 0])
+    )
     return GyroCalibration(
-        K=K_hat.copy(), b=np.asarray(b_static if mode == "local" else b_hat, dtype=float).copy(),
+        K=K_hat.copy(),
+        b=np.asarray(b_static if mode == "local" else b_hat, dtype=float).copy(),
         K_std=std[:9].reshape(3, 3),
-        b_std=std[9:].copy(), covariance=cov, residual_rms=float(np.sqrt(np.mean(angles ** 2))),
-        transition_residuals=angles, transition_angles=rot_ang, transition_durations=tr.durations.copy(),
-        n_transitions=int(n_tr), sigma=float(sigma_ang), dof=int(dof), k0=float(k0), observability=rep,
-        unobservable=unobservable, earth_rate_bound=beta, earth_rate_param_bound=bound, method=method,
-        bias_mode=mode, coning=coning, success=bool(res.success), message=str(res.message), nfev=int(nfev),
-        elapsed_s=time.perf_counter() - t_start, g_sensitivity=float(g_sens) if g_sens else None,
-        g_sensitivity_source=g_sens_source)
+        b_std=std[9:].copy(),
+        covariance=cov,
+        residual_rms=float(np.sqrt(np.mean(angles**2))),
+        transition_residuals=angles,
+        transition_angles=rot_ang,
+        transition_durations=tr.durations.copy(),
+        n_transitions=int(n_tr),
+        sigma=float(sigma_ang),
+        dof=int(dof),
+        k0=float(k0),
+        observability=rep,
+        unobservable=unobservable,
+        earth_rate_bound=beta,
+        earth_rate_param_bound=bound,
+        method=method,
+        bias_mode=mode,
+        coning=coning,
+        success=bool(res.success),
+        message=str(res.message),
+        nfev=int(nfev),
+        elapsed_s=time.perf_counter() - t_start,
+        g_sensitivity=float(g_sens) if g_sens else None,
+        g_sensitivity_source=g_sens_source,
+    )
 
 
 def _rest_regression(means, tc, u, gravity: float) -> dict | None:
@@ -800,10 +883,10 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
     if dof < 2:
         return None
     s2 = ((means - X @ coef) ** 2).sum(0) / dof
-    G = coef[3:].T                                    # row i: axis i's sensitivity to f_x, f_y, f_z
+    G = coef[3:].T  # row i: axis i's sensitivity to f_x, f_y, f_z
     var_G = s2[:, None] * np.diag(XtX_inv)[None, 3:]  # (3, 3)
-    stat = float(np.sum(G ** 2 / np.maximum(var_G, 1e-300)))
-    g_sigma = float(np.sqrt(max(np.mean(G ** 2 - var_G), 0.0)))
+    stat = float(np.sum(G**2 / np.maximum(var_G, 1e-300)))
+    g_sigma = float(np.sqrt(max(np.mean(G**2 - var_G), 0.0)))
     return {"s2": s2, "G": G, "g_sigma": g_sigma, "g_significant": bool(stat > chi2.ppf(0.999, 9)) and g_sigma > 0}
 
 
@@ -823,7 +906,7 @@ def _local_bias_var(sems, w, u, tc, K, bias_instability=None, corr_time: float =
     w = np.asarray(w, float)
     ubar = w @ u
     earth2 = (_earth.constants("wgs84").omega_ie * np.abs(np.diag(K))) ** 2 / 3.0
-    var = (w[:, None] ** 2 * sems ** 2).sum(0) + earth2 * (float(w @ w) + float(ubar @ ubar))
+    var = (w[:, None] ** 2 * sems**2).sum(0) + earth2 * (float(w @ w) + float(ubar @ ubar))
     if bias_instability is not None:
         tau = float(corr_time)
         E = np.exp(-np.abs(tc[:, None] - tc[None, :]) / tau) if np.isfinite(tau) else np.ones((tc.size, tc.size))
@@ -891,7 +974,8 @@ def _report(J, r, dof, names, units, scales, max_std) -> ObservabilityReport:
     Js = (J / sig) * scales[None, :]
     s = np.linalg.svd(Js, compute_uv=False)
     if s.size == 0 or s[0] <= 0:
-        raise OptinavError("the transitions carry no information on the gyro parameters",
-                           "turn the device between the static poses")
+        raise OptinavError(
+            "the transitions carry no information on the gyro parameters", "turn the device between the static poses"
+        )
     rel = min(max(1.0 / (max_std * s[0]), DEFAULT_REL_TOL), 0.999)
     return analyze(J, sigma=sig, names=names, units=units, scales=scales, rel_tol=rel, coef_tol=_COEF_TOL)

@@ -26,16 +26,22 @@ import numpy as np
 from optinav.core.files import read_text, write_text
 from optinav.errors import OptinavError
 
-NOISE_KEYS = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
-              "gyroscope_random_walk")
+NOISE_KEYS = (
+    "accelerometer_noise_density",
+    "accelerometer_random_walk",
+    "gyroscope_noise_density",
+    "gyroscope_random_walk",
+)
 
 
 def lq(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """K = L·Q with L lower triangular of positive diagonal and Q a rotation (det K > 0 needed)."""
     K = np.asarray(K, float)
     if not np.all(np.isfinite(K)) or np.linalg.det(K) <= 0:
-        raise OptinavError("the calibration matrix has det(K) <= 0 (a mirrored or singular axis set)",
-                           "Kalibr's model needs a right-handed sensor: check the axis signs of the calibration")
+        raise OptinavError(
+            "the calibration matrix has det(K) <= 0 (a mirrored or singular axis set)",
+            "Kalibr's model needs a right-handed sensor: check the axis signs of the calibration",
+        )
     Qt, Rt = np.linalg.qr(K.T)
     s = np.sign(np.diag(Rt))
     L, Q = (Rt * s[:, None]).T, (Qt * s[None, :]).T
@@ -58,8 +64,10 @@ def kalibr_intrinsics(cal) -> dict:
     from optinav.core.units import factor
 
     if cal.accelerometer is None or cal.gyroscope is None:
-        raise OptinavError("Kalibr's scale-misalignment model needs both the accelerometer and the gyroscope "
-                           "calibration", "calibrate with gyroscope data (turns between the poses)")
+        raise OptinavError(
+            "Kalibr's scale-misalignment model needs both the accelerometer and the gyroscope calibration",
+            "calibrate with gyroscope data (turns between the poses)",
+        )
     f_a = _factor(cal.units.get("accelerometer_raw"), factor)
     f_g = _factor(cal.units.get("gyroscope_raw"), factor)
     M_a, C_i_s = lq(f_a * cal.accelerometer["K"])
@@ -74,8 +82,15 @@ def _factor(unit, factor) -> float:
     return 1.0 if unit in (None, "counts") else float(factor(unit))
 
 
-def write_kalibr_imu_yaml(path, *, noise=None, calibration=None, rostopic: str | None = None,
-                          update_rate: float | None = None, option: str = "--out") -> None:
+def write_kalibr_imu_yaml(
+    path,
+    *,
+    noise=None,
+    calibration=None,
+    rostopic: str | None = None,
+    update_rate: float | None = None,
+    option: str = "--out",
+) -> None:
     """Write Kalibr's IMU YAML: the noise keys from ``noise`` (an :class:`~optinav.core.allan.AllanAnalysis` of SI
     data with both triads), ``rostopic``/``update_rate`` (from ``noise`` unless given) and, with ``calibration``,
     ``model: scale-misalignment`` and its matrices. Refuses a file with neither."""
@@ -88,13 +103,20 @@ def write_kalibr_imu_yaml(path, *, noise=None, calibration=None, rostopic: str |
         kal = dict(noise.kalibr or {})
         missing = [k for k in NOISE_KEYS if k not in kal]
         if missing:
-            raise OptinavError(f"the allan result lacks {', '.join(missing)} (Kalibr needs both triads in SI units)",
-                               "run optinav allan on a log with accelerometer and gyroscope in SI units "
-                               "(calibrate and apply raw counts first)")
-        units = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
-                 "gyroscope_noise_density": "rad/s/sqrt(Hz)", "gyroscope_random_walk": "rad/s^2/sqrt(Hz)"}
-        head.append("# noise: continuous-time white-noise density N and random walk K of the four-term Allan fit, "
-                    "largest axis")
+            raise OptinavError(
+                f"the allan result lacks {', '.join(missing)} (Kalibr needs both triads in SI units)",
+                "run optinav allan on a log with accelerometer and gyroscope in SI units "
+                "(calibrate and apply raw counts first)",
+            )
+        units = {
+            "accelerometer_noise_density": "m/s^2/sqrt(Hz)",
+            "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
+            "gyroscope_noise_density": "rad/s/sqrt(Hz)",
+            "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
+        }
+        head.append(
+            "# noise: continuous-time white-noise density N and random walk K of the four-term Allan fit, largest axis"
+        )
         for k in NOISE_KEYS:
             body.append(f"{k}: {_num(kal[k])}  # [{units[k]}]")
         if rate is None:
@@ -118,8 +140,10 @@ def write_kalibr_imu_yaml(path, *, noise=None, calibration=None, rostopic: str |
         body.append("# optinav: rotation from optinav's sensor frame s to Kalibr's frame i (a_i = C_i_s a_s)")
         body += _matrix("C_i_s", m["C_i_s"], indent="")
         body.append("# optinav: raw units of the calibration (M in raw per SI unit for counts)")
-        body.append(f"optinav_units: {{accelerometer_raw: {calibration.units.get('accelerometer_raw', 'm/s^2')}, "
-                    f"gyroscope_raw: {calibration.units.get('gyroscope_raw', 'rad/s')}}}")
+        body.append(
+            f"optinav_units: {{accelerometer_raw: {calibration.units.get('accelerometer_raw', 'm/s^2')}, "
+            f"gyroscope_raw: {calibration.units.get('gyroscope_raw', 'rad/s')}}}"
+        )
     write_text(path, "\n".join(head + body) + "\n", option)
 
 
@@ -137,10 +161,15 @@ def read_kalibr_imu_yaml(path) -> dict:
     try:
         data = yaml.safe_load("\n".join(lines))
     except yaml.YAMLError as exc:
-        raise OptinavError(f"{path} is not valid YAML ({' '.join(str(exc).split())[:80]})",
-                           "pass a Kalibr imu.yaml") from None
-    if isinstance(data, dict) and len(data) >= 1 and all(str(k).startswith("imu") for k in data) and \
-            isinstance(next(iter(data.values())), dict):
+        raise OptinavError(
+            f"{path} is not valid YAML ({' '.join(str(exc).split())[:80]})", "pass a Kalibr imu.yaml"
+        ) from None
+    if (
+        isinstance(data, dict)
+        and len(data) >= 1
+        and all(str(k).startswith("imu") for k in data)
+        and isinstance(next(iter(data.values())), dict)
+    ):
         data = next(iter(data.values()))
     if not isinstance(data, dict):
         raise OptinavError(f"{path} is not a Kalibr IMU file (no key: value mapping)", "pass a Kalibr imu.yaml")
@@ -154,8 +183,10 @@ def calibration_from_kalibr(data: dict) -> dict:
     from optinav.core.units import factor
 
     if data.get("model") != "scale-misalignment":
-        raise OptinavError(f"the Kalibr file's model is {data.get('model')!r}, not 'scale-misalignment'",
-                           "pass the imu yaml of a kalibr --imu-models scale-misalignment run")
+        raise OptinavError(
+            f"the Kalibr file's model is {data.get('model')!r}, not 'scale-misalignment'",
+            "pass the imu yaml of a kalibr --imu-models scale-misalignment run",
+        )
     try:
         M_a = np.asarray(data["accelerometers"]["M"], float).reshape(3, 3)
         M_g = np.asarray(data["gyroscopes"]["M"], float).reshape(3, 3)
@@ -163,11 +194,19 @@ def calibration_from_kalibr(data: dict) -> dict:
         C = np.asarray(data["gyroscopes"]["C_gyro_i"], float).reshape(3, 3)
         C_i_s = np.asarray(data.get("C_i_s", np.eye(3)), float).reshape(3, 3)
     except (KeyError, TypeError, ValueError):
-        raise OptinavError("the Kalibr file lacks accelerometers.M or gyroscopes.M/A/C_gyro_i as 3×3 matrices",
-                           "pass a complete scale-misalignment imu yaml") from None
+        raise OptinavError(
+            "the Kalibr file lacks accelerometers.M or gyroscopes.M/A/C_gyro_i as 3×3 matrices",
+            "pass a complete scale-misalignment imu yaml",
+        ) from None
     units = data.get("optinav_units") or {}
     f_a = _factor(units.get("accelerometer_raw", "m/s^2"), factor)
     f_g = _factor(units.get("gyroscope_raw", "rad/s"), factor)
-    return {"acc_K": M_a @ C_i_s / f_a, "gyr_K": M_g @ C @ C_i_s / f_g, "gyr_G": A @ C @ C_i_s / f_g,
-            "units": {"accelerometer_raw": units.get("accelerometer_raw", "m/s^2"),
-                      "gyroscope_raw": units.get("gyroscope_raw", "rad/s")}}
+    return {
+        "acc_K": M_a @ C_i_s / f_a,
+        "gyr_K": M_g @ C @ C_i_s / f_g,
+        "gyr_G": A @ C @ C_i_s / f_g,
+        "units": {
+            "accelerometer_raw": units.get("accelerometer_raw", "m/s^2"),
+            "gyroscope_raw": units.get("gyroscope_raw", "rad/s"),
+        },
+    }

@@ -45,8 +45,10 @@ def Kb_to_theta(K, b) -> np.ndarray:
     b = as_float_array(b, "b", last_dims=(3,))
     low = np.abs(np.tril(K, -1)).max()
     if low > 1e-12 * np.abs(K).max():
-        raise OptinavError("K has non-zero entries below the diagonal, which norm observations cannot determine",
-                           "express K in the upper-triangular form (sensor z axis and y–z plane as reference)")
+        raise OptinavError(
+            "K has non-zero entries below the diagonal, which norm observations cannot determine",
+            "express K in the upper-triangular form (sensor z axis and y–z plane as reference)",
+        )
     return np.array([K[r, c] for r, c in K_INDEX] + list(b))
 
 
@@ -119,8 +121,13 @@ def to_paper(K, b, g: float) -> dict:
     """Our K (raw per m/s²), b → the paper's S_ii (output per 1 g input), M_ij (rad) and B (raw units)."""
     K = as_float_array(K, "K", last_dims=(3, 3))
     S = np.diag(K) * g
-    return {"S": S, "M_xy": K[0, 1] / K[0, 0], "M_xz": K[0, 2] / K[0, 0], "M_yz": K[1, 2] / K[1, 1],
-            "B": as_float_array(b, "b", last_dims=(3,)).copy()}
+    return {
+        "S": S,
+        "M_xy": K[0, 1] / K[0, 0],
+        "M_xz": K[0, 2] / K[0, 0],
+        "M_yz": K[1, 2] / K[1, 1],
+        "B": as_float_array(b, "b", last_dims=(3,)).copy(),
+    }
 
 
 def from_paper(S, M_xy: float, M_xz: float, M_yz: float, B, g: float) -> tuple[np.ndarray, np.ndarray]:

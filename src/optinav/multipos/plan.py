@@ -43,8 +43,19 @@ from optinav.multipos import design as _design
 from optinav.multipos.gyro import GYRO_PARAMS
 from optinav.multipos.model import ACCEL_PARAMS
 
-__all__ = ["PosePlan", "plan_poses", "plot_plan", "pose_words", "turn_between", "gyro_turn_std", "noise_from_allan",
-           "plan_noise", "MIN_DWELL_S", "ACC_NAMES", "GYRO_NAMES"]
+__all__ = [
+    "PosePlan",
+    "plan_poses",
+    "plot_plan",
+    "pose_words",
+    "turn_between",
+    "gyro_turn_std",
+    "noise_from_allan",
+    "plan_noise",
+    "MIN_DWELL_S",
+    "ACC_NAMES",
+    "GYRO_NAMES",
+]
 
 MIN_DWELL_S = 5.0
 ACC_NAMES = ACCEL_PARAMS
@@ -53,6 +64,7 @@ _DEG_H = math.pi / 180.0 / 3600.0  # rad/s per deg/h
 
 
 # --- words ------------------------------------------------------------------------------------------------------
+
 
 def _deg(x: float) -> str:
     return f"{x:.0f}" if abs(x - round(x)) < 0.05 else f"{x:.1f}"
@@ -79,8 +91,9 @@ def pose_words(C_b_n) -> str:
     elif max(elev) - min(elev) < 0.05:
         kind = "edge between the" if len(faces) == 2 else "corner of the"
         names = " and ".join(faces) if len(faces) == 2 else f"{faces[0]}, {faces[1]} and {faces[2]}"
-        text = f"{kind} {names} faces up ({'both' if len(faces) == 2 else 'all three'} faces {_deg(elev[0])}° " \
-               "above level)"
+        text = (
+            f"{kind} {names} faces up ({'both' if len(faces) == 2 else 'all three'} faces {_deg(elev[0])}° above level)"
+        )
     else:
         text = ", ".join(f"{f} face {_deg(e)}°" for f, e in zip(faces, elev)) + " above level"
     # the heading from describe_pose's last words ("…, y north"): the most level remaining axis
@@ -109,14 +122,18 @@ def turn_between(u0, u1) -> tuple[np.ndarray, float, str]:
         ax = ax - (ax @ a) * a
     ax = ax / np.linalg.norm(ax)
     j = int(np.argmax(np.abs(ax)))
-    name = f"its {'xyz'[j]} axis" if abs(abs(ax[j]) - 1) < 1e-9 else \
-        "the axis [" + ", ".join(f"{v:.3f}" for v in np.round(ax, 3) + 0.0) + "]"
+    name = (
+        f"its {'xyz'[j]} axis"
+        if abs(abs(ax[j]) - 1) < 1e-9
+        else "the axis [" + ", ".join(f"{v:.3f}" for v in np.round(ax, 3) + 0.0) + "]"
+    )
     k = [i for i in range(3) if abs(b[i]) > 1e-6]
     until = f" until the {_face(k[0], b[k[0]])} face is up" if len(k) == 1 else " into the next pose"
     return ax, ang, f"tip it {_deg(math.degrees(ang))}° about {name}{until}"
 
 
 # --- gyroscope prediction -------------------------------------------------------------------------------------
+
 
 def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, static_time_s: float):
     """Predicted 1σ of the gyro calibration (K row-major (9), b (3)) from the turns between poses.
@@ -143,7 +160,7 @@ def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, st
         # δω = −δK·Φ/T − δb; r = −e × u = [u×]e
         Jk = np.hstack([cu @ M @ np.kron(np.eye(3), Phi[None, :]), cu @ M * T])
         # white rate noise: cov e = T·mean(R diag(N²) Rᵀ); r's covariance has rank 2: whiten on its range
-        Ce = T * np.einsum("sij,j,skj->ik", Rs, n ** 2, Rs) / mid.size
+        Ce = T * np.einsum("sij,j,skj->ik", Rs, n**2, Rs) / mid.size
         P = np.linalg.svd(cu)[0][:, :2]
         L = np.linalg.cholesky(P.T @ cu @ Ce @ cu.T @ P)
         rows.append(np.linalg.solve(L, P.T @ Jk))
@@ -156,7 +173,7 @@ def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, st
     if rep.rank == 9:
         FK = JK.T @ JK
         G = np.linalg.solve(FK, JK.T @ Jb)  # K̂ moves by −G·δb for a bias error δb
-        cov = np.linalg.inv(FK) + G @ np.diag(sb ** 2) @ G.T
+        cov = np.linalg.inv(FK) + G @ np.diag(sb**2) @ G.T
         std[:9] = np.sqrt(np.diag(cov))
     else:
         std[:9] = np.asarray(rep.crlb_std, float)
@@ -165,14 +182,16 @@ def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, st
 
 # --- noise ------------------------------------------------------------------------------------------------------
 
+
 def noise_from_allan(path) -> dict:
     """Noise densities from a JSON file: the first ``accelerometer_noise_density`` (m/s²/√Hz) and
     ``gyroscope_noise_density`` (rad/s/√Hz) found at any depth (Kalibr's names and convention), each a number
     or one per axis. Returns ``{"acc": (3,) or None, "gyro": (3,) or None}``."""
     from optinav.core.files import parse_json, read_text
 
-    data = parse_json(read_text(path, "noise file"), str(path),
-                      "pass the JSON written by optinav allan, or give --acc-noise-density")
+    data = parse_json(
+        read_text(path, "noise file"), str(path), "pass the JSON written by optinav allan, or give --acc-noise-density"
+    )
     found: dict = {}
 
     def walk(x):
@@ -198,17 +217,25 @@ def noise_from_allan(path) -> dict:
         except (TypeError, ValueError):
             arr = None
         if arr is not None and not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
-            raise OptinavError(f"{path}: {kind} noise density {v!r} is not a positive number",
-                               "fix the file or pass --acc-noise-density / --gyro-noise-density")
+            raise OptinavError(
+                f"{path}: {kind} noise density {v!r} is not a positive number",
+                "fix the file or pass --acc-noise-density / --gyro-noise-density",
+            )
         out[kind] = arr
     if out["acc"] is None and out["gyro"] is None:
-        raise OptinavError(f"{path} holds neither accelerometer_noise_density nor gyroscope_noise_density",
-                           "pass the JSON written by optinav allan, or --acc-noise-density/--gyro-noise-density")
+        raise OptinavError(
+            f"{path} holds neither accelerometer_noise_density nor gyroscope_noise_density",
+            "pass the JSON written by optinav allan, or --acc-noise-density/--gyro-noise-density",
+        )
     return out
 
 
-def plan_noise(allan=None, preset: str | None = None, acc_noise_density: float | None = None,
-               gyro_noise_density: float | None = None) -> tuple[np.ndarray, np.ndarray | None, str]:
+def plan_noise(
+    allan=None,
+    preset: str | None = None,
+    acc_noise_density: float | None = None,
+    gyro_noise_density: float | None = None,
+) -> tuple[np.ndarray, np.ndarray | None, str]:
     """The white-noise densities a plan is made for, and where they come from.
 
     Parameters
@@ -264,6 +291,7 @@ def plan_noise(allan=None, preset: str | None = None, acc_noise_density: float |
 
 # --- the plan ---------------------------------------------------------------------------------------------------
 
+
 @dataclass
 class PosePlan(Result):
     """A calibration session plan: poses in order, dwell, turns and predicted precision.
@@ -318,28 +346,42 @@ class PosePlan(Result):
 
     def markdown(self) -> str:
         """The plan as a Markdown page for the technician."""
-        lines = [f"# Calibration pose plan: {self.n_poses} poses ({self.criterion}-optimal)", "",
-                 f"Noise: {self.noise_source}. Rate {self.rate_hz:g} Hz.", "",
-                 f"**Rest {self.dwell_s:g} s in each pose** ({self.dwell_reason}); turn at about "
-                 f"{self.turn_rate_deg_s:g}°/s. Session about {self.session_s / 60:.1f} min plus handling.", "",
-                 "Start with the unit at rest in pose 1. A face is named by the body axis leaving through it "
-                 "(the +x face is the one the +x arrow on the case points out of); heading does not matter, the "
-                 "words give one to make the poses repeatable.", "",
-                 "| # | pose | then |", "|---|---|---|"]
+        lines = [
+            f"# Calibration pose plan: {self.n_poses} poses ({self.criterion}-optimal)",
+            "",
+            f"Noise: {self.noise_source}. Rate {self.rate_hz:g} Hz.",
+            "",
+            f"**Rest {self.dwell_s:g} s in each pose** ({self.dwell_reason}); turn at about "
+            f"{self.turn_rate_deg_s:g}°/s. Session about {self.session_s / 60:.1f} min plus handling.",
+            "",
+            "Start with the unit at rest in pose 1. A face is named by the body axis leaving through it "
+            "(the +x face is the one the +x arrow on the case points out of); heading does not matter, the "
+            "words give one to make the poses repeatable.",
+            "",
+            "| # | pose | then |",
+            "|---|---|---|",
+        ]
         for i, w in enumerate(self.words):
             nxt = self.turns[i]["words"] if i < len(self.turns) else "stop (end of session)"
             lines.append(f"| {i + 1} | {w} | {nxt} |")
-        lines += ["", "## Predicted 1σ (Cramér–Rao bound, white noise, nominal parameters)", "",
-                  "| sensor | parameter | 1σ | unit |", "|---|---|---|---|"]
+        lines += [
+            "",
+            "## Predicted 1σ (Cramér–Rao bound, white noise, nominal parameters)",
+            "",
+            "| sensor | parameter | 1σ | unit |",
+            "|---|---|---|---|",
+        ]
         lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in self.std_table()]
         if self.notes:
             lines += ["", "## Notes", ""] + [f"- {n}" for n in self.notes]
         return "\n".join(lines) + "\n"
 
     def summary(self) -> str:
-        lines = [f"optinav pose plan: {self.n_poses} poses ({self.criterion}-optimal), rest {self.dwell_s:g} s "
-                 f"each ({self.dwell_reason}); session about {self.session_s / 60:.1f} min",
-                 f"noise: {self.noise_source}"]
+        lines = [
+            f"optinav pose plan: {self.n_poses} poses ({self.criterion}-optimal), rest {self.dwell_s:g} s "
+            f"each ({self.dwell_reason}); session about {self.session_s / 60:.1f} min",
+            f"noise: {self.noise_source}",
+        ]
         for i, w in enumerate(self.words):
             lines.append(f"  pose {i + 1:2d}: {w}")
             if i < len(self.turns):
@@ -378,31 +420,47 @@ def _order(up: np.ndarray, orient: np.ndarray) -> np.ndarray:
 
 
 #: target name → (accelerometer parameter indices, factor from the target's unit to the std's unit)
-TARGETS = {"scale_ppm": ((0, 1, 2), 1e-6), "misalignment_mrad": ((3, 4, 5), 1e-3),
-           "bias_mg": ((6, 7, 8), 1e-3 * G_STANDARD)}
+TARGETS = {
+    "scale_ppm": ((0, 1, 2), 1e-6),
+    "misalignment_mrad": ((3, 4, 5), 1e-3),
+    "bias_mg": ((6, 7, 8), 1e-3 * G_STANDARD),
+}
 
 
-def plan_poses(n_poses: int = 12, *, criterion: str = "D", acc_noise_density=None, gyro_noise_density=None,
-               noise_source: str = "", rate_hz: float = 100.0, dwell_s: float | None = None,
-               targets: dict | None = None, gyro_bias_deg_h: float | None = None, turn_rate_deg_s: float = 45.0,
-               max_dwell_s: float = 600.0, g: float = G_STANDARD, rng=0) -> PosePlan:
+def plan_poses(
+    n_poses: int = 12,
+    *,
+    criterion: str = "D",
+    acc_noise_density=None,
+    gyro_noise_density=None,
+    noise_source: str = "",
+    rate_hz: float = 100.0,
+    dwell_s: float | None = None,
+    targets: dict | None = None,
+    gyro_bias_deg_h: float | None = None,
+    turn_rate_deg_s: float = 45.0,
+    max_dwell_s: float = 600.0,
+    g: float = G_STANDARD,
+    rng=0,
+) -> PosePlan:
     """The pose plan (module docstring). Noise densities in m/s²/√Hz and rad/s/√Hz (scalar or per axis);
     ``dwell_s`` s per pose, or None to derive it from ``targets`` (``{"scale_ppm": …, "misalignment_mrad": …,
     "bias_mg": …}``, accelerometer 1σ) and ``gyro_bias_deg_h`` (gyro bias 1σ from all rest, deg/h);
     neither: 30 s."""
     if acc_noise_density is None:
-        raise OptinavError("the plan needs the accelerometer noise density",
-                           "pass --allan ALLAN.json, --acc-noise-density or --preset")
+        raise OptinavError(
+            "the plan needs the accelerometer noise density", "pass --allan ALLAN.json, --acc-noise-density or --preset"
+        )
     acc_n = np.broadcast_to(np.asarray(acc_noise_density, float), (3,)).copy()
-    gyro_n = None if gyro_noise_density is None else np.broadcast_to(np.asarray(gyro_noise_density, float),
-                                                                     (3,)).copy()
+    gyro_n = None if gyro_noise_density is None else np.broadcast_to(np.asarray(gyro_noise_density, float), (3,)).copy()
     targets = {k: float(v) for k, v in (targets or {}).items() if v is not None}
     for k, v in targets.items():
         if k not in TARGETS or not (math.isfinite(v) and v > 0):
             raise OptinavError(f"target {k}={v!r} is not a positive number", "give targets as positive numbers")
     ref = 60.0
-    d = _design.design_scheme(int(n_poses), criterion=criterion, noise_density=acc_n, rate_hz=rate_hz,
-                              dwell_s=ref, g=g, rng=rng)
+    d = _design.design_scheme(
+        int(n_poses), criterion=criterion, noise_density=acc_n, rate_hz=rate_hz, dwell_s=ref, g=g, rng=rng
+    )
     notes = []
     seq = _order(np.asarray(d.up_dirs), np.asarray(d.orientations))
     up, orient = np.asarray(d.up_dirs)[seq], np.asarray(d.orientations)[seq]
@@ -416,59 +474,96 @@ def plan_poses(n_poses: int = 12, *, criterion: str = "D", acc_noise_density=Non
             need = max(need, t)
         if gyro_bias_deg_h:
             if gyro_n is None:
-                raise OptinavError("a gyro bias target needs the gyro noise density",
-                                   "pass --gyro-noise-density, --allan or --preset")
+                raise OptinavError(
+                    "a gyro bias target needs the gyro noise density", "pass --gyro-noise-density, --allan or --preset"
+                )
             t = float(np.max(gyro_n / (gyro_bias_deg_h * _DEG_H)) ** 2) / up.shape[0]
             why.append((t, "gyro_bias_deg_h"))
             need = max(need, t)
         dwell = float(math.ceil(need))
         t_top, top = max(why)
-        what = {"scale_ppm": "accelerometer scale-factor target {:g} ppm", "misalignment_mrad":
-                "accelerometer misalignment target {:g} mrad", "bias_mg": "accelerometer bias target {:g} mg",
-                "gyro_bias_deg_h": "gyro bias target {:g} deg/h"}[top].format(targets.get(top, gyro_bias_deg_h))
-        reason = (f"the {what} sets it" if t_top >= MIN_DWELL_S else
-                  f"the {MIN_DWELL_S:g} s minimum; the targets need less")
+        what = {
+            "scale_ppm": "accelerometer scale-factor target {:g} ppm",
+            "misalignment_mrad": "accelerometer misalignment target {:g} mrad",
+            "bias_mg": "accelerometer bias target {:g} mg",
+            "gyro_bias_deg_h": "gyro bias target {:g} deg/h",
+        }[top].format(targets.get(top, gyro_bias_deg_h))
+        reason = (
+            f"the {what} sets it" if t_top >= MIN_DWELL_S else f"the {MIN_DWELL_S:g} s minimum; the targets need less"
+        )
         if dwell > max_dwell_s:
-            notes.append(f"the targets need {dwell:g} s per pose, more than {max_dwell_s:g} s: beyond the Allan "
-                         "deviation minimum more averaging does not help (bias instability); relax the targets "
-                         "or use more poses")
+            notes.append(
+                f"the targets need {dwell:g} s per pose, more than {max_dwell_s:g} s: beyond the Allan "
+                "deviation minimum more averaging does not help (bias instability); relax the targets "
+                "or use more poses"
+            )
     else:
         dwell = 30.0 if dwell_s is None else float(dwell_s)
         reason = "given" if dwell_s is not None else "default; pass targets to derive it"
-    final = _design.evaluate_scheme(up, criterion=d.criterion, noise_density=acc_n, rate_hz=rate_hz,
-                                    dwell_s=dwell, g=g)
+    final = _design.evaluate_scheme(up, criterion=d.criterion, noise_density=acc_n, rate_hz=rate_hz, dwell_s=dwell, g=g)
     acc_std = [None if not np.isfinite(s) else float(s) for s in final.predicted_std]
     turns = []
     for k in range(up.shape[0] - 1):
         ax, ang, words = turn_between(up[k], up[k + 1])
-        turns.append({"from": k + 1, "to": k + 2, "axis_body": ax.tolist(), "angle_deg": math.degrees(ang),
-                      "duration_s": max(1.0, math.degrees(ang) / turn_rate_deg_s), "words": words})
+        turns.append(
+            {
+                "from": k + 1,
+                "to": k + 2,
+                "axis_body": ax.tolist(),
+                "angle_deg": math.degrees(ang),
+                "duration_s": max(1.0, math.degrees(ang) / turn_rate_deg_s),
+                "words": words,
+            }
+        )
     gyro_std = rank = None
     if gyro_n is not None:
-        std, rep = gyro_turn_std(up, [t["axis_body"] for t in turns], [math.radians(t["angle_deg"]) for t in turns],
-                                 [t["duration_s"] for t in turns], gyro_n, dwell * up.shape[0])
+        std, rep = gyro_turn_std(
+            up,
+            [t["axis_body"] for t in turns],
+            [math.radians(t["angle_deg"]) for t in turns],
+            [t["duration_s"] for t in turns],
+            gyro_n,
+            dwell * up.shape[0],
+        )
         gyro_std = [None if not np.isfinite(s) else float(s) for s in std]
         rank = int(rep.rank)
         if rank < 9:
-            notes.append("the turns leave gyro parameters undetermined (" + "; ".join(rep.statements) + "); add "
-                         "turns about the missing axes, e.g. a full turn about each body axis")
+            notes.append(
+                "the turns leave gyro parameters undetermined (" + "; ".join(rep.statements) + "); add "
+                "turns about the missing axes, e.g. a full turn about each body axis"
+            )
     axes = np.abs(np.array([t["axis_body"] for t in turns])).max(axis=0) if turns else np.zeros(3)
     missing = [a for a, v in zip("xyz", axes) if v < 0.5]
     if missing:
-        notes.append(f"no turn is mainly about the body {', '.join(missing)} axis; the gyro scale of that axis "
-                     "is only seen through tilted turns")
-    return PosePlan(criterion=d.criterion, up_dirs=up, orientations=orient, words=[pose_words(c) for c in orient],
-                    dwell_s=dwell, dwell_reason=reason, rate_hz=float(rate_hz), acc_noise_density=acc_n,
-                    gyro_noise_density=gyro_n, noise_source=noise_source, acc_std=acc_std, turns=turns,
-                    turn_rate_deg_s=float(turn_rate_deg_s), gyro_std=gyro_std, gyro_rank=rank,
-                    targets={**targets, **({"gyro_bias_deg_h": gyro_bias_deg_h} if gyro_bias_deg_h else {})},
-                    notes=notes, g=float(g))
+        notes.append(
+            f"no turn is mainly about the body {', '.join(missing)} axis; the gyro scale of that axis "
+            "is only seen through tilted turns"
+        )
+    return PosePlan(
+        criterion=d.criterion,
+        up_dirs=up,
+        orientations=orient,
+        words=[pose_words(c) for c in orient],
+        dwell_s=dwell,
+        dwell_reason=reason,
+        rate_hz=float(rate_hz),
+        acc_noise_density=acc_n,
+        gyro_noise_density=gyro_n,
+        noise_source=noise_source,
+        acc_std=acc_std,
+        turns=turns,
+        turn_rate_deg_s=float(turn_rate_deg_s),
+        gyro_std=gyro_std,
+        gyro_rank=rank,
+        targets={**targets, **({"gyro_bias_deg_h": gyro_bias_deg_h} if gyro_bias_deg_h else {})},
+        notes=notes,
+        g=float(g),
+    )
 
 
 # --- figure -----------------------------------------------------------------------------------------------------
 
-_FACE_COLORS = {"+x": "#d62728", "−x": "#f4a6a6", "+y": "#2ca02c", "−y": "#a6dba0", "+z": "#1f77b4",
-                "−z": "#a6c8e8"}
+_FACE_COLORS = {"+x": "#d62728", "−x": "#f4a6a6", "+y": "#2ca02c", "−y": "#a6dba0", "+z": "#1f77b4", "−z": "#a6c8e8"}
 
 
 def plot_plan(plan: PosePlan, path) -> None:
@@ -508,11 +603,13 @@ def plot_plan(plan: PosePlan, path) -> None:
                     v[j1], v[j2] = c1 * half[j1], c2 * half[j2]
                     corners.append(C @ v)
                 name = _face(i, s)
-                ax.add_collection3d(Poly3DCollection([corners], facecolor=_FACE_COLORS[name], edgecolor="k",
-                                                     linewidth=0.6))
+                ax.add_collection3d(
+                    Poly3DCollection([corners], facecolor=_FACE_COLORS[name], edgecolor="k", linewidth=0.6)
+                )
                 centre = C @ (n * half)
-                ax.text(*(centre + 0.12 * (C @ n)), name, fontsize=9, ha="center", va="center", weight="bold",
-                        zorder=10)
+                ax.text(
+                    *(centre + 0.12 * (C @ n)), name, fontsize=9, ha="center", va="center", weight="bold", zorder=10
+                )
         # beside the box, not above it: seen from 60° an arrow over the box lies across its top faces
         ax.quiver(-0.65, 0.65, 0.0, 0, 0, 0.45, color="k", arrow_length_ratio=0.3)
         ax.text(-0.65, 0.65, 0.55, "up", fontsize=7, ha="center")

@@ -90,11 +90,15 @@ class CalibrationResult(Estimate):
     def parameters(self) -> dict[str, Parameter]:
         out: dict[str, Parameter] = {}
         if self.accelerometer is not None:
-            out.update(_triad_parameters("acc", self.accelerometer, self.units.get("accelerometer_raw") or "raw",
-                                         "m/s^2"))
+            out.update(
+                _triad_parameters("acc", self.accelerometer, self.units.get("accelerometer_raw") or "raw", "m/s^2")
+            )
         if self.gyroscope is not None:
-            out.update(_triad_parameters("gyr", self.gyroscope, self.units.get("gyroscope_raw") or "raw", "rad/s",
-                                         acc_unit="m/s^2"))
+            out.update(
+                _triad_parameters(
+                    "gyr", self.gyroscope, self.units.get("gyroscope_raw") or "raw", "rad/s", acc_unit="m/s^2"
+                )
+            )
         return out
 
     def __post_init__(self):
@@ -102,8 +106,10 @@ class CalibrationResult(Estimate):
         self.gyroscope = _triad(self.gyroscope, "gyroscope")
         self.static_intervals = np.asarray(self.static_intervals, float).reshape(-1, 2)
         if self.accelerometer is None and self.gyroscope is None:
-            raise OptinavError("the calibration result has neither an accelerometer nor a gyroscope",
-                               "pass a result file written by `optinav calibrate`")
+            raise OptinavError(
+                "the calibration result has neither an accelerometer nor a gyroscope",
+                "pass a result file written by `optinav calibrate`",
+            )
 
     def correct_accel(self, raw) -> np.ndarray:
         """Corrected specific force a = K⁻¹(raw − b).
@@ -147,8 +153,10 @@ class CalibrationResult(Estimate):
         G = self.gyroscope.get("G")
         if G is not None and np.any(np.asarray(G) != 0):
             if acc is None:
-                raise OptinavError("the gyroscope calibration has a g-sensitivity term but no accelerometer data "
-                                   "was given", "pass the accelerometer data too")
+                raise OptinavError(
+                    "the gyroscope calibration has a g-sensitivity term but no accelerometer data was given",
+                    "pass the accelerometer data too",
+                )
             v = v - np.asarray(acc, float) @ np.asarray(G, float).T
         return np.linalg.solve(K, v.T).T
 
@@ -170,11 +178,14 @@ class CalibrationResult(Estimate):
             Ks = d.get("K_std", np.full((3, 3), np.nan))
             bs = d.get("b_std", np.full(3, np.nan))
             for i in range(3):
-                row = "  ".join(f"{K[i, j]: .6g}" + (f" ±{Ks[i, j]:.2g}" if np.isfinite(Ks[i, j]) else "")
-                                for j in range(3))
+                row = "  ".join(
+                    f"{K[i, j]: .6g}" + (f" ±{Ks[i, j]:.2g}" if np.isfinite(Ks[i, j]) else "") for j in range(3)
+                )
                 lines.append(f"  K[{'xyz'[i]}] = {row}")
-            lines.append("  b = " + "  ".join(f"{b[i]: .6g}" + (f" ±{bs[i]:.2g}" if np.isfinite(bs[i]) else "")
-                                              for i in range(3)))
+            lines.append(
+                "  b = "
+                + "  ".join(f"{b[i]: .6g}" + (f" ±{bs[i]:.2g}" if np.isfinite(bs[i]) else "") for i in range(3))
+            )
             if d.get("held"):
                 lines.append(f"  held (not observable from these poses): {', '.join(d['held'])}")
         if math.isfinite(self.residual_rms):
@@ -183,9 +194,11 @@ class CalibrationResult(Estimate):
             lines.append(f"static intervals used: {len(self.static_intervals)}")
         held = self.quality.get("held_out")
         if held:
-            lines.append(f"held-out pose {held['pose']} ({held['t0_s']:g}-{held['t1_s']:g} s): |a| - g = "
-                         f"{held['norm_error_m_s2']:+.2e} m/s^2; the {held['n_used']} poses used: rms "
-                         f"{held['rms_used_m_s2']:.2e} m/s^2")
+            lines.append(
+                f"held-out pose {held['pose']} ({held['t0_s']:g}-{held['t1_s']:g} s): |a| - g = "
+                f"{held['norm_error_m_s2']:+.2e} m/s^2; the {held['n_used']} poses used: rms "
+                f"{held['rms_used_m_s2']:.2e} m/s^2"
+            )
         for s in self.observability.get("unobservable", []) or []:
             lines.append(f"unobservable: {s}")
         return "\n".join(lines)
@@ -194,8 +207,10 @@ class CalibrationResult(Estimate):
 _AX = "xyz"
 #: the accelerometer's ``crlb_std`` order (:data:`optinav.multipos.model.ACCEL_PARAMS`)
 _ACC_CRLB = ("K_xx", "K_yy", "K_zz", "K_xy", "K_xz", "K_yz", "b_x", "b_y", "b_z")
-_GAUGE = ("fixed at 0 by the upper-triangular form: norm observations cannot see a rotation of the triad "
-          "(the sensor z axis and y-z plane are the reference)")
+_GAUGE = (
+    "fixed at 0 by the upper-triangular form: norm observations cannot see a rotation of the triad "
+    "(the sensor z axis and y-z plane are the reference)"
+)
 
 
 def _std(a, i, j=None):
@@ -219,13 +234,21 @@ def _triad_parameters(prefix: str, d: dict, raw: str, si: str, acc_unit: str | N
         c = crlb.get(short)
         c = float(c) if c is not None and math.isfinite(c) else None
         if short in held:
-            return name, Parameter(None, unit, reason="held at 0: the poses cannot determine it (diagonal model; "
-                                                      "its 1σ model error enters the scale and bias std)",
-                                   observable=False)
+            return name, Parameter(
+                None,
+                unit,
+                reason="held at 0: the poses cannot determine it (diagonal model; "
+                "its 1σ model error enters the scale and bias std)",
+                observable=False,
+            )
         which = [u for u in unobs if short in u.replace("(", " ").replace(")", " ").split()]
         if which:
-            return name, Parameter(None, unit, observable=False,
-                                   reason="held at the initial guess, not determined by the turns: " + "; ".join(which))
+            return name, Parameter(
+                None,
+                unit,
+                observable=False,
+                reason="held at the initial guess, not determined by the turns: " + "; ".join(which),
+            )
         return name, Parameter(float(value), unit, std=std, crlb_std=c)
 
     K, Ks = np.asarray(d["K"], float), d.get("K_std")
@@ -256,16 +279,18 @@ def _legacy_v1(data: dict) -> dict:
     if "optimizer_success" in q:
         from optinav.core.results import convergence
 
-        kw["convergence"] = convergence(q.get("optimizer_success"), evaluations=q.get("nfev"),
-                                        message=q.get("optimizer_message") or "")
+        kw["convergence"] = convergence(
+            q.get("optimizer_success"), evaluations=q.get("nfev"), message=q.get("optimizer_message") or ""
+        )
     return kw
 
 
 register_legacy(CalibrationResult, "optinav.calibration", 1, _legacy_v1)
 
 
-def session_truth(acc_K, acc_b, gyr_K=None, gyr_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s",
-                  info: dict | None = None) -> Truth:
+def session_truth(
+    acc_K, acc_b, gyr_K=None, gyr_b=None, *, acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", info: dict | None = None
+) -> Truth:
     """A simulated unit's truth in the parameterization :func:`~optinav.multipos.calibrate.calibrate`
     estimates: the accelerometer K in the upper-triangular form U (K = U·Q with Q a rotation: norm observations
     fix the sensor z axis and y-z plane) and the gyroscope K expressed in that frame (K_g·Qᵀ); raw units as
@@ -284,9 +309,14 @@ def session_truth(acc_K, acc_b, gyr_K=None, gyr_b=None, *, acc_unit: str = "m/s^
 def _truth_v1(data: dict) -> dict:
     units = data.get("units") or {}
     a, g = data["accelerometer"], data.get("gyroscope")
-    return session_truth(a["K"], a["b"], None if g is None else g["K"], None if g is None else g["b"],
-                         acc_unit=units.get("accelerometer_raw", "m/s^2"),
-                         gyro_unit=units.get("gyroscope_raw", "rad/s")).parameters
+    return session_truth(
+        a["K"],
+        a["b"],
+        None if g is None else g["K"],
+        None if g is None else g["b"],
+        acc_unit=units.get("accelerometer_raw", "m/s^2"),
+        gyro_unit=units.get("gyroscope_raw", "rad/s"),
+    ).parameters
 
 
 register_truth_legacy("multipos", "optinav.simulation_truth", _truth_v1)

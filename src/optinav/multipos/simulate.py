@@ -29,12 +29,25 @@ S45 = float(np.sqrt(0.5))
 PAPER_SCHEME = np.array(PAPER_SCHEME_UP[:12])
 SIX_SCHEME = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
 #: 18 poses: the six axis poses, the eight corners and four 45° poses — well conditioned for all 9 parameters
-SCHEME_18 = np.vstack([SIX_SCHEME, np.array([(sx, sy, sz) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)])
-                       / np.sqrt(3), [(S45, S45, 0), (-S45, 0, S45), (0, S45, -S45), (S45, 0, -S45)]])
+SCHEME_18 = np.vstack(
+    [
+        SIX_SCHEME,
+        np.array([(sx, sy, sz) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)]) / np.sqrt(3),
+        [(S45, S45, 0), (-S45, 0, S45), (0, S45, -S45), (S45, 0, -S45)],
+    ]
+)
 SCHEMES = {"paper12": PAPER_SCHEME, "six": SIX_SCHEME, "18": SCHEME_18}
 #: Gao & Zhang (2019) Table 2, "traditional multi-position" reference of their MTi-1: S per 1 g, M (rad), B m/s²
-PAPER_REFERENCE = {"S": (9.80518, 9.78718, 9.77107), "M_xy": -0.0058, "M_xz": 0.00522, "M_yz": 0.00393,
-                   "B": (0.11646, 0.0361, 0.13644), "M_yx": 0.00607, "M_zx": -0.0036, "M_zy": -0.0062}
+PAPER_REFERENCE = {
+    "S": (9.80518, 9.78718, 9.77107),
+    "M_xy": -0.0058,
+    "M_xz": 0.00522,
+    "M_yz": 0.00393,
+    "B": (0.11646, 0.0361, 0.13644),
+    "M_yx": 0.00607,
+    "M_zx": -0.0036,
+    "M_zy": -0.0062,
+}
 RAW_UNITS = ("m/s^2", "g", "counts")
 
 
@@ -87,8 +100,14 @@ class SimulatedSession(Result):
 
         acc = self.acc if self.acc_unit in ("counts", "m/s^2") else self.acc * factor(self.acc_unit)
         gyro = self.gyr if self.gyro_unit in ("counts", "rad/s") else self.gyr * factor(self.gyro_unit)
-        return ImuLog(t=self.t, acc=acc, gyr=gyro, acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
-                      gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s", source="optinav simulate")
+        return ImuLog(
+            t=self.t,
+            acc=acc,
+            gyr=gyro,
+            acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
+            gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s",
+            source="optinav simulate",
+        )
 
     def truth(self, site: dict | None = None, provenance: dict | None = None):
         """The session's truth file content (:func:`~optinav.multipos.result.session_truth`).
@@ -109,22 +128,40 @@ class SimulatedSession(Result):
         """
         from optinav.multipos.result import session_truth
 
-        info = {"model": "raw = K x + b",
-                "units": {"accelerometer_raw": self.acc_unit, "accelerometer": "m/s^2",
-                          "gyroscope_raw": self.gyro_unit, "gyroscope": "rad/s", "time": "s"},
-                "accelerometer": {"K": self.acc_K.tolist(), "b": self.acc_b.tolist(),
-                                  "noise_sigma": self.acc_noise_sigma,
-                                  "bias_instability": self.acc_bias_instability},
-                "gyroscope": {"K": self.gyr_K.tolist(), "b": self.gyr_b.tolist()}, "gravity": self.gravity,
-                **(site or {}),
-                "static_intervals": self.static_intervals.tolist(), "up_dirs": self.up_dirs.tolist(),
-                "poses": self.descriptions, **(provenance or {})}
-        return session_truth(self.acc_K, self.acc_b, self.gyr_K, self.gyr_b, acc_unit=self.acc_unit,
-                             gyro_unit=self.gyro_unit, info=info)
+        info = {
+            "model": "raw = K x + b",
+            "units": {
+                "accelerometer_raw": self.acc_unit,
+                "accelerometer": "m/s^2",
+                "gyroscope_raw": self.gyro_unit,
+                "gyroscope": "rad/s",
+                "time": "s",
+            },
+            "accelerometer": {
+                "K": self.acc_K.tolist(),
+                "b": self.acc_b.tolist(),
+                "noise_sigma": self.acc_noise_sigma,
+                "bias_instability": self.acc_bias_instability,
+            },
+            "gyroscope": {"K": self.gyr_K.tolist(), "b": self.gyr_b.tolist()},
+            "gravity": self.gravity,
+            **(site or {}),
+            "static_intervals": self.static_intervals.tolist(),
+            "up_dirs": self.up_dirs.tolist(),
+            "poses": self.descriptions,
+            **(provenance or {}),
+        }
+        return session_truth(
+            self.acc_K, self.acc_b, self.gyr_K, self.gyr_b, acc_unit=self.acc_unit, gyro_unit=self.gyro_unit, info=info
+        )
 
 
-register_legacy(SimulatedSession, SimulatedSession.SCHEMA, 1, lambda d: nested_kwargs(
-    SimulatedSession, d, {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}))  # old names
+register_legacy(
+    SimulatedSession,
+    SimulatedSession.SCHEMA,
+    1,
+    lambda d: nested_kwargs(SimulatedSession, d, {"gyro": "gyr", "gyro_K": "gyr_K", "gyro_b": "gyr_b"}),
+)  # old names
 
 
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
@@ -137,11 +174,24 @@ def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     return table[unit]
 
 
-def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", dwell_s: float = 60.0,
-             rate_hz: float | None = None, transition_s: float = 4.0, rest_s: float = 10.0,
-             lat: float = float(np.radians(38.88)), height_m: float = 35.0, truth: str = "draw",
-             acc_unit: str = "m/s^2", gyro_unit: str = "rad/s", acc_counts_per_si: float = 2048 / G_STANDARD,
-             gyro_counts_per_si: float = 16.4 / DEG, jitter: float = 0.0, rng=None) -> SimulatedSession:
+def simulate(
+    scheme="paper12",
+    *,
+    spec: ImuSpec | ImuModel | str = "mems-mti1",
+    dwell_s: float = 60.0,
+    rate_hz: float | None = None,
+    transition_s: float = 4.0,
+    rest_s: float = 10.0,
+    lat: float = float(np.radians(38.88)),
+    height_m: float = 35.0,
+    truth: str = "draw",
+    acc_unit: str = "m/s^2",
+    gyro_unit: str = "rad/s",
+    acc_counts_per_si: float = 2048 / G_STANDARD,
+    gyro_counts_per_si: float = 16.4 / DEG,
+    jitter: float = 0.0,
+    rng=None,
+) -> SimulatedSession:
     """Simulate a static multi-position session.
 
     Poses alternate yaw so that consecutive transitions turn about varied axes.
@@ -195,13 +245,20 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     lat = float(lat)
     g = float(normal_gravity(lat, height_m))
     if truth == "paper":
-        K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
-                                PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
+        K, b = model.from_paper(
+            PAPER_REFERENCE["S"],
+            PAPER_REFERENCE["M_xy"],
+            PAPER_REFERENCE["M_xz"],
+            PAPER_REFERENCE["M_yz"],
+            PAPER_REFERENCE["B"],
+            g,
+        )
         unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
     elif truth != "draw":
         raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
-    poses = np.stack([orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2)
-                                                      for k, u in enumerate(ups)])
+    poses = np.stack(
+        [orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2) for k, u in enumerate(ups)]
+    )
     dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
     n = int(round((dwell.sum() + transition_s * len(ups)) * rate))
     t = np.arange(n) / rate
@@ -218,10 +275,22 @@ def simulate(scheme="paper12", *, spec: ImuSpec | ImuModel | str = "mems-mti1", 
     intervals = np.array([[tr.t[labels == k][0], tr.t[labels == k][-1]] for k in range(len(ups))])
     vrw = np.asarray(unit_model.acc_noise.white, float)
     from optinav.core.simulate import describe_pose
+
     return SimulatedSession(
-        t=tr.t, acc=meas.acc * fa, gyr=meas.gyr * fg, acc_unit=acc_unit, gyro_unit=gyro_unit,
-        acc_K=unit_model.acc.K * fa, acc_b=unit_model.acc.bias * fa,
-        gyr_K=unit_model.gyr.K * fg, gyr_b=unit_model.gyr.bias * fg, gravity=g, up_dirs=ups,
-        static_intervals=intervals, labels=labels, acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
+        t=tr.t,
+        acc=meas.acc * fa,
+        gyr=meas.gyr * fg,
+        acc_unit=acc_unit,
+        gyro_unit=gyro_unit,
+        acc_K=unit_model.acc.K * fa,
+        acc_b=unit_model.acc.bias * fa,
+        gyr_K=unit_model.gyr.K * fg,
+        gyr_b=unit_model.gyr.bias * fg,
+        gravity=g,
+        up_dirs=ups,
+        static_intervals=intervals,
+        labels=labels,
+        acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
         acc_bias_instability=float(np.max(unit_model.acc_noise.gm_sigma) * fa),
-        descriptions=[describe_pose(c) for c in poses[1:]])
+        descriptions=[describe_pose(c) for c in poses[1:]],
+    )

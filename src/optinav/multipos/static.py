@@ -38,9 +38,21 @@ from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError
 
-__all__ = ["StaticDetection", "ThresholdCandidates", "SectionList", "moving_variance", "noise_floor",
-           "threshold_candidates", "default_candidate", "detect_static", "intervals_from_mask",
-           "sections_from_list", "detection_from_sections", "DEFAULT_MULTIPLIERS", "STABLE_RUN"]
+__all__ = [
+    "StaticDetection",
+    "ThresholdCandidates",
+    "SectionList",
+    "moving_variance",
+    "noise_floor",
+    "threshold_candidates",
+    "default_candidate",
+    "detect_static",
+    "intervals_from_mask",
+    "sections_from_list",
+    "detection_from_sections",
+    "DEFAULT_MULTIPLIERS",
+    "STABLE_RUN",
+]
 
 #: default threshold multipliers of the noise floor (geometric, 1.5 … 300, ratio ≈ 1.37)
 DEFAULT_MULTIPLIERS = tuple(float(m) for m in np.geomspace(1.5, 300.0, 18))
@@ -53,6 +65,7 @@ _EPS = np.finfo(float).eps
 # --------------------------------------------------------------------------------------------------------
 # results
 # --------------------------------------------------------------------------------------------------------
+
 
 @dataclass(eq=False)
 class StaticDetection(Result):
@@ -148,12 +161,15 @@ class SectionList(Result):
 # moving variance and noise floor
 # --------------------------------------------------------------------------------------------------------
 
+
 def _check_t_x(t, x, name: str) -> tuple[np.ndarray, np.ndarray]:
     t = check_timestamps(t, "t", min_count=2)
     x = as_float_array(x, name, last_dims=(3,))
     if x.ndim != 2 or x.shape[0] != t.size:
-        raise OptinavError(f"{name} has shape {x.shape} but t has {t.size} samples",
-                           f"pass {name} as an (N, 3) array with one row per timestamp")
+        raise OptinavError(
+            f"{name} has shape {x.shape} but t has {t.size} samples",
+            f"pass {name} as an (N, 3) array with one row per timestamp",
+        )
     return t, x
 
 
@@ -178,24 +194,24 @@ def _moving_variance(t: np.ndarray, x: np.ndarray, window_s: float) -> tuple[np.
     var = np.empty(n_rows)
     n_min = np.inf
     for a in range(0, n_rows, _BLOCK):
-        ta = t[a:a + _BLOCK]
+        ta = t[a : a + _BLOCK]
         lo = np.searchsorted(t, ta - half - slack, side="left")
         hi = np.searchsorted(t, ta + half + slack, side="right")
         end = held0 + c1.shape[0] - 1
         first = int(lo[0])
         if hi[-1] > end:
-            xc = x[end:hi[-1]] - centre
-            c1 = np.concatenate([c1[first - held0:-1], np.cumsum(np.concatenate([c1[-1:], xc]), axis=0)])
-            c2 = np.concatenate([c2[first - held0:-1], np.cumsum(np.concatenate([c2[-1:], xc * xc]), axis=0)])
+            xc = x[end : hi[-1]] - centre
+            c1 = np.concatenate([c1[first - held0 : -1], np.cumsum(np.concatenate([c1[-1:], xc]), axis=0)])
+            c2 = np.concatenate([c2[first - held0 : -1], np.cumsum(np.concatenate([c2[-1:], xc * xc]), axis=0)])
         else:
-            c1, c2 = c1[first - held0:], c2[first - held0:]
+            c1, c2 = c1[first - held0 :], c2[first - held0 :]
         held0 = first
         lo -= held0
         hi -= held0
         n = (hi - lo).astype(float)[:, None]
         n_min = min(n_min, float(n.min()))
         mean = (c1[hi] - c1[lo]) / n
-        var[a:a + ta.size] = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
+        var[a : a + ta.size] = ((c2[hi] - c2[lo]) / n - mean * mean).sum(axis=1)
     # rounding error of a difference of two cumulative sums ≈ eps × (running sum) / (window count)
     resolution = float(8 * _EPS * c2[-1].sum() / max(n_min, 1.0))
     return np.maximum(var, 0.0, out=var), resolution
@@ -223,7 +239,7 @@ def noise_floor(variance, *, resolution: float = 0.0) -> float:
 
     def logs(a: int) -> np.ndarray:
         # values at the rounding level count as that level (noise-free or quantized data at rest)
-        x = v[a:a + _BLOCK]
+        x = v[a : a + _BLOCK]
         return np.log10(np.maximum(x[np.isfinite(x)], lowest))
 
     # in blocks (the same numbers as on the whole series): the memory stays a few blocks, not copies of v
@@ -249,6 +265,7 @@ def noise_floor(variance, *, resolution: float = 0.0) -> float:
 # --------------------------------------------------------------------------------------------------------
 # intervals
 # --------------------------------------------------------------------------------------------------------
+
 
 def intervals_from_mask(t, mask, *, min_duration_s: float = 0.0, trim_s: float = 0.0) -> np.ndarray:
     """Half-open index ranges (K, 2) of the runs of ``mask``, each trimmed by ``trim_s`` s at both ends and
@@ -283,15 +300,24 @@ def _detection(t, acc, gyro, va, vg, thr, gthr, window_s, min_duration_s, trim_s
     ranges = intervals_from_mask(t, mask, min_duration_s=min_duration_s, trim_s=trim_s)
     ti = np.column_stack([t[ranges[:, 0]], t[ranges[:, 1] - 1]]) if ranges.size else np.zeros((0, 2))
     return StaticDetection(
-        t_intervals=ti, index_ranges=ranges, acc_means=_means(acc, ranges),
+        t_intervals=ti,
+        index_ranges=ranges,
+        acc_means=_means(acc, ranges),
         gyro_means=_means(gyro, ranges) if gyro is not None else None,
-        counts=(ranges[:, 1] - ranges[:, 0]).astype(np.int64), acc_variance=va, gyro_variance=vg,
-        threshold=float(thr), gyro_threshold=None if gthr is None else float(gthr), window_s=float(window_s),
-        min_duration_s=float(min_duration_s), trim_s=float(trim_s), method=method)
+        counts=(ranges[:, 1] - ranges[:, 0]).astype(np.int64),
+        acc_variance=va,
+        gyro_variance=vg,
+        threshold=float(thr),
+        gyro_threshold=None if gthr is None else float(gthr),
+        window_s=float(window_s),
+        min_duration_s=float(min_duration_s),
+        trim_s=float(trim_s),
+        method=method,
+    )
 
 
 def _levels(v: np.ndarray, unit: str) -> str:
-    return (f"moving variance min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} {unit}")
+    return f"moving variance min {np.min(v):.3g}, median {np.median(v):.3g}, max {np.max(v):.3g} {unit}"
 
 
 def _check_t_acc_gyro(t, acc, gyro):
@@ -299,8 +325,10 @@ def _check_t_acc_gyro(t, acc, gyro):
     if gyro is not None:
         gyro = as_float_array(gyro, "gyro", last_dims=(3,))
         if gyro.shape != acc.shape:
-            raise OptinavError(f"gyro has shape {gyro.shape} but acc has {acc.shape}",
-                               "pass gyro and acc sampled at the same timestamps")
+            raise OptinavError(
+                f"gyro has shape {gyro.shape} but acc has {acc.shape}",
+                "pass gyro and acc sampled at the same timestamps",
+            )
     return t, acc, gyro
 
 
@@ -315,14 +343,26 @@ def _prepare(t, acc, gyro, window_s, min_duration_s, trim_s):
         raise OptinavError(f"trim_s must be ≥ 0, got {trim_s!r}", "pass a trim in s (default half a window)")
     span = t[-1] - t[0]
     if window_s > 0.5 * span:
-        raise OptinavError(f"window_s = {window_s:g} s is more than half the log ({span:.6g} s)",
-                           "use a shorter window (about 1 s) or a longer log")
+        raise OptinavError(
+            f"window_s = {window_s:g} s is more than half the log ({span:.6g} s)",
+            "use a shorter window (about 1 s) or a longer log",
+        )
     return t, acc, gyro, window_s, min_duration_s, trim_s
 
 
-def threshold_candidates(t, acc, *, gyr=None, window_s: float = 1.0, min_duration_s: float = 2.0,
-                         trim_s: float | None = None, multipliers=None, init_rest_s: float | None = None,
-                         acc_unit: str = "input units", gyro_unit: str = "input units") -> ThresholdCandidates:
+def threshold_candidates(
+    t,
+    acc,
+    *,
+    gyr=None,
+    window_s: float = 1.0,
+    min_duration_s: float = 2.0,
+    trim_s: float | None = None,
+    multipliers=None,
+    init_rest_s: float | None = None,
+    acc_unit: str = "input units",
+    gyro_unit: str = "input units",
+) -> ThresholdCandidates:
     """Candidate thresholds ``m × noise floor`` (``multipliers``, default :data:`DEFAULT_MULTIPLIERS`) with
     their detections; see the module docstring for the floor and the default rule.
 
@@ -337,8 +377,10 @@ def threshold_candidates(t, acc, *, gyr=None, window_s: float = 1.0, min_duratio
         init_rest_s = check_positive(init_rest_s, "init_rest_s")
         k = int(np.searchsorted(t, t[0] + init_rest_s, side="right"))
         if k < 3 or init_rest_s < window_s:
-            raise OptinavError(f"init_rest_s = {init_rest_s:g} s covers {k} samples, fewer than a window",
-                               "pass an initial rest of at least one window (imu_tk uses ~50 s) or leave it None")
+            raise OptinavError(
+                f"init_rest_s = {init_rest_s:g} s covers {k} samples, fewer than a window",
+                "pass an initial rest of at least one window (imu_tk uses ~50 s) or leave it None",
+            )
         fa = max(float(acc[:k].var(axis=0).sum()), ra, np.finfo(float).tiny)
         fg = max(float(gyro[:k].var(axis=0).sum()), rg, np.finfo(float).tiny) if gyro is not None else None
     else:
@@ -348,8 +390,12 @@ def threshold_candidates(t, acc, *, gyr=None, window_s: float = 1.0, min_duratio
     if mult.size == 0 or not np.all(np.isfinite(mult)) or np.any(mult <= 0):
         raise OptinavError("multipliers must be positive finite numbers", "pass e.g. multipliers=[2, 5, 10]")
     mult = np.unique(mult)
-    dets = [_detection(t, acc, gyro, va, vg, m * fa, None if fg is None else m * fg, window_s, min_duration_s,
-                       trim_s, "auto") for m in mult]
+    dets = [
+        _detection(
+            t, acc, gyro, va, vg, m * fa, None if fg is None else m * fg, window_s, min_duration_s, trim_s, "auto"
+        )
+        for m in mult
+    ]
     n = np.array([d.n_intervals for d in dets], dtype=np.int64)
     st = np.array([float(d.durations.sum()) for d in dets])
     if n.max() == 0:
@@ -360,10 +406,19 @@ def threshold_candidates(t, acc, *, gyr=None, window_s: float = 1.0, min_duratio
             f"no static interval of at least {min_duration_s:g} s found with thresholds up to "
             f"{mult.max():g} × the noise floor {fa:.3g} ({acc_unit})^2 ({what})",
             "try a longer window_s, a larger threshold (or multipliers), a shorter min_duration_s, "
-            "or give the static sections by hand (--sections)")
-    return ThresholdCandidates(multipliers=mult, noise_floor=fa, gyro_noise_floor=fg, thresholds=mult * fa,
-                               gyro_thresholds=None if fg is None else mult * fg, n_intervals=n,
-                               static_time_s=st, detections=dets, default_index=default_candidate(n))
+            "or give the static sections by hand (--sections)",
+        )
+    return ThresholdCandidates(
+        multipliers=mult,
+        noise_floor=fa,
+        gyro_noise_floor=fg,
+        thresholds=mult * fa,
+        gyro_thresholds=None if fg is None else mult * fg,
+        n_intervals=n,
+        static_time_s=st,
+        detections=dets,
+        default_index=default_candidate(n),
+    )
 
 
 def default_candidate(n_intervals, stable: int = STABLE_RUN) -> int:
@@ -390,10 +445,21 @@ def default_candidate(n_intervals, stable: int = STABLE_RUN) -> int:
     return int(start + (length - 1) // 2)
 
 
-def detect_static(t, acc, *, gyr=None, window_s: float = 1.0, threshold: float | None = None,
-                  gyro_threshold: float | None = None, min_duration_s: float = 2.0, trim_s: float | None = None,
-                  multipliers=None, init_rest_s: float | None = None, acc_unit: str = "input units",
-                  gyro_unit: str = "input units") -> StaticDetection:
+def detect_static(
+    t,
+    acc,
+    *,
+    gyr=None,
+    window_s: float = 1.0,
+    threshold: float | None = None,
+    gyro_threshold: float | None = None,
+    min_duration_s: float = 2.0,
+    trim_s: float | None = None,
+    multipliers=None,
+    init_rest_s: float | None = None,
+    acc_unit: str = "input units",
+    gyro_unit: str = "input units",
+) -> StaticDetection:
     """Static intervals of a log from the moving variance of ``acc`` (and ``gyr``).
 
     A sample is static when the acc moving variance over a centred ``window_s`` window is ≤ ``threshold`` and,
@@ -434,11 +500,22 @@ def detect_static(t, acc, *, gyr=None, window_s: float = 1.0, threshold: float |
     gyro = gyr
     if threshold is None:
         if gyro_threshold is not None:
-            raise OptinavError("gyro_threshold was given without threshold",
-                               "give both thresholds, or neither for the automatic choice")
-        return threshold_candidates(t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s,
-                                    trim_s=trim_s, multipliers=multipliers, init_rest_s=init_rest_s,
-                                    acc_unit=acc_unit, gyro_unit=gyro_unit).default
+            raise OptinavError(
+                "gyro_threshold was given without threshold",
+                "give both thresholds, or neither for the automatic choice",
+            )
+        return threshold_candidates(
+            t,
+            acc,
+            gyr=gyro,
+            window_s=window_s,
+            min_duration_s=min_duration_s,
+            trim_s=trim_s,
+            multipliers=multipliers,
+            init_rest_s=init_rest_s,
+            acc_unit=acc_unit,
+            gyro_unit=gyro_unit,
+        ).default
     thr = check_positive(threshold, "threshold")
     gthr = None if gyro_threshold is None else check_positive(gyro_threshold, "gyro_threshold")
     t, acc, gyro, window_s, min_duration_s, trim_s = _prepare(t, acc, gyro, window_s, min_duration_s, trim_s)
@@ -449,16 +526,18 @@ def detect_static(t, acc, *, gyr=None, window_s: float = 1.0, threshold: float |
         what = _levels(va, f"({acc_unit})^2")
         if vg is not None and gthr is not None:
             what += f"; gyro threshold {gthr:.3g}, " + _levels(vg, f"({gyro_unit})^2")
-        raise OptinavError(f"no static interval of at least {min_duration_s:g} s with acc threshold "
-                           f"{thr:.3g} ({acc_unit})^2 ({what})",
-                           "try a longer window_s, a larger threshold, a shorter min_duration_s, "
-                           "or give the static sections by hand (--sections)")
+        raise OptinavError(
+            f"no static interval of at least {min_duration_s:g} s with acc threshold {thr:.3g} ({acc_unit})^2 ({what})",
+            "try a longer window_s, a larger threshold, a shorter min_duration_s, "
+            "or give the static sections by hand (--sections)",
+        )
     return det
 
 
 # --------------------------------------------------------------------------------------------------------
 # manual sections
 # --------------------------------------------------------------------------------------------------------
+
 
 def _parse_text(text: str, src: str) -> list:
     rows = []
@@ -475,8 +554,10 @@ def _parse_text(text: str, src: str) -> list:
             else:
                 raise ValueError
         except ValueError:
-            raise OptinavError(f"{src} line {ln} is not 'start end' or 'name start end' in seconds: {line.strip()!r}",
-                               "write one section per line, times in seconds") from None
+            raise OptinavError(
+                f"{src} line {ln} is not 'start end' or 'name start end' in seconds: {line.strip()!r}",
+                "write one section per line, times in seconds",
+            ) from None
     return rows
 
 
@@ -500,26 +581,32 @@ def _load_sections(sections):
         for name, v in sections.items():
             if isinstance(v, dict):
                 if "start" not in v or "end" not in v:
-                    raise OptinavError(f"section {name!r} has no 'start'/'end' keys",
-                                       "use {'name': {'start': i0, 'end': i1}} (sample indices)")
+                    raise OptinavError(
+                        f"section {name!r} has no 'start'/'end' keys",
+                        "use {'name': {'start': i0, 'end': i1}} (sample indices)",
+                    )
                 a, b = v["start"], v["end"]
-                if not all(isinstance(q, (int, np.integer)) or (isinstance(q, float) and q.is_integer())
-                           for q in (a, b)):
-                    raise OptinavError(f"section {name!r} start/end {a!r}, {b!r} are not sample indices",
-                                       "imucal section lists hold integer sample indices")
+                if not all(
+                    isinstance(q, (int, np.integer)) or (isinstance(q, float) and q.is_integer()) for q in (a, b)
+                ):
+                    raise OptinavError(
+                        f"section {name!r} start/end {a!r}, {b!r} are not sample indices",
+                        "imucal section lists hold integer sample indices",
+                    )
                 rows.append((str(name), int(a), int(b)))
                 kinds.add("index")
             else:
                 try:
                     a, b = (float(q) for q in v)
                 except (TypeError, ValueError):
-                    raise OptinavError(f"section {name!r} is {v!r}, not (start, end) in seconds",
-                                       "give each section as (start_s, end_s)") from None
+                    raise OptinavError(
+                        f"section {name!r} is {v!r}, not (start, end) in seconds",
+                        "give each section as (start_s, end_s)",
+                    ) from None
                 rows.append((str(name), a, b))
                 kinds.add("time")
         if len(kinds) > 1:
-            raise OptinavError("the section list mixes sample indices and times",
-                               "use one layout for all sections")
+            raise OptinavError("the section list mixes sample indices and times", "use one layout for all sections")
         return rows, (kinds.pop() if kinds else "time"), True
     if isinstance(sections, (list, tuple)) and len(sections) == 0:
         return [], "time", False
@@ -565,16 +652,20 @@ def sections_from_list(sections, t) -> SectionList:
         label = f"section {name!r}" if name else f"section {k + 1}"
         if kind == "index":
             if not (0 <= a < b <= N):
-                raise OptinavError(f"{label} sample range [{a}, {b}) is not inside the log of {N} samples "
-                                   "or is empty", "give 0 ≤ start < end ≤ number of samples")
+                raise OptinavError(
+                    f"{label} sample range [{a}, {b}) is not inside the log of {N} samples or is empty",
+                    "give 0 ≤ start < end ≤ number of samples",
+                )
             i0, i1 = int(a), int(b)
         else:
             if not (np.isfinite(a) and np.isfinite(b)) or a >= b:
                 raise OptinavError(f"{label} has start {a:g} s ≥ end {b:g} s", "give start < end in seconds")
             tol = 1e-9 * max(1.0, abs(t[-1]))
             if a < t[0] - tol or b > t[-1] + tol:
-                raise OptinavError(f"{label} [{a:g}, {b:g}] s is outside the log [{t[0]:g}, {t[-1]:g}] s",
-                                   "give times in seconds on the log's time axis")
+                raise OptinavError(
+                    f"{label} [{a:g}, {b:g}] s is outside the log [{t[0]:g}, {t[-1]:g}] s",
+                    "give times in seconds on the log's time axis",
+                )
             i0 = int(np.searchsorted(t, a - tol, side="left"))
             i1 = int(np.searchsorted(t, b + tol, side="right"))
             if i1 <= i0:
@@ -586,17 +677,20 @@ def sections_from_list(sections, t) -> SectionList:
     order = np.argsort(ranges[:, 0], kind="stable")
     if not named and np.any(order != np.arange(len(order))):
         k = int(np.flatnonzero(np.diff(ranges[:, 0]) < 0)[0])
-        raise OptinavError(f"sections are not in time order: section {k + 2} starts before section {k + 1}",
-                           "sort the sections by start time")
+        raise OptinavError(
+            f"sections are not in time order: section {k + 2} starts before section {k + 1}",
+            "sort the sections by start time",
+        )
     ranges = ranges[order]
     names = [names[i] for i in order]
     for k in range(1, len(ranges)):
         if ranges[k, 0] < ranges[k - 1, 1]:
             a = names[k - 1] or f"{k}"
             b = names[k] or f"{k + 1}"
-            raise OptinavError(f"sections {a!r} and {b!r} overlap "
-                               f"(t = {t[ranges[k, 0]]:.6g} s .. {t[ranges[k - 1, 1] - 1]:.6g} s)",
-                               "make the sections disjoint")
+            raise OptinavError(
+                f"sections {a!r} and {b!r} overlap (t = {t[ranges[k, 0]]:.6g} s .. {t[ranges[k - 1, 1] - 1]:.6g} s)",
+                "make the sections disjoint",
+            )
     ti = np.column_stack([t[ranges[:, 0]], t[ranges[:, 1] - 1]])
     return SectionList(t_intervals=ti, index_ranges=ranges, names=names)
 
@@ -610,10 +704,22 @@ def detection_from_sections(sections, t, acc, *, gyr=None) -> StaticDetection:
     sl = sections if isinstance(sections, SectionList) else sections_from_list(sections, t)
     r = np.asarray(sl.index_ranges, dtype=np.int64).reshape(-1, 2)
     if r.size and r.max() > t.size:
-        raise OptinavError(f"the sections reach sample {int(r.max())} but the log has {t.size}",
-                           "give sections of this log")
-    return StaticDetection(t_intervals=np.asarray(sl.t_intervals, dtype=float).reshape(-1, 2), index_ranges=r,
-                           acc_means=_means(acc, r), gyro_means=_means(gyro, r) if gyro is not None else None,
-                           counts=(r[:, 1] - r[:, 0]).astype(np.int64), acc_variance=None, gyro_variance=None,
-                           threshold=None, gyro_threshold=None, window_s=None, min_duration_s=None, trim_s=None,
-                           method="manual", names=list(sl.names))
+        raise OptinavError(
+            f"the sections reach sample {int(r.max())} but the log has {t.size}", "give sections of this log"
+        )
+    return StaticDetection(
+        t_intervals=np.asarray(sl.t_intervals, dtype=float).reshape(-1, 2),
+        index_ranges=r,
+        acc_means=_means(acc, r),
+        gyro_means=_means(gyro, r) if gyro is not None else None,
+        counts=(r[:, 1] - r[:, 0]).astype(np.int64),
+        acc_variance=None,
+        gyro_variance=None,
+        threshold=None,
+        gyro_threshold=None,
+        window_s=None,
+        min_duration_s=None,
+        trim_s=None,
+        method="manual",
+        names=list(sl.names),
+    )

@@ -24,8 +24,13 @@ from .simulate import SCHEMES
 CONFIGS = {
     "full, white noise": {"scheme": "18", "model": "full", "misalignment": 0.005, "drift": 0.0},
     "diagonal, misalignments held": {"scheme": "18", "model": "diagonal", "misalignment": 0.005, "drift": 0.0},
-    "diagonal, held terms ignored (before)": {"scheme": "18", "model": "diagonal", "misalignment": 0.005,
-                                              "drift": 0.0, "held_std": 0.0},
+    "diagonal, held terms ignored (before)": {
+        "scheme": "18",
+        "model": "diagonal",
+        "misalignment": 0.005,
+        "drift": 0.0,
+        "held_std": 0.0,
+    },
     "six poses (auto: held)": {"scheme": "six", "model": "auto", "misalignment": 0.005, "drift": 0.0},
     "full, bias offset (instability)": {"scheme": "18", "model": "full", "misalignment": 0.005, "drift": 3e-3},
 }
@@ -41,7 +46,7 @@ def run_config(config: dict, n_runs: int = 100, rng=0) -> dict[str, float]:
     ups = SCHEMES[config["scheme"]]
     ups = ups / np.linalg.norm(ups, axis=1, keepdims=True)
     P = len(ups)
-    cov = np.tile(np.eye(3) * SIGMA ** 2, (P, 1, 1))
+    cov = np.tile(np.eye(3) * SIGMA**2, (P, 1, 1))
     z = {k: [] for k in GROUPS}
     for _ in range(int(n_runs)):
         k = 1.0 + gen.normal(0, 2e-3, 3)
@@ -52,9 +57,13 @@ def run_config(config: dict, n_runs: int = 100, rng=0) -> dict[str, float]:
         drift = gen.normal(0, config["drift"], 3) if config["drift"] else np.zeros(3)
         means = np.array([K @ (G * u) for u in ups]) + b + drift + gen.normal(0, SIGMA / np.sqrt(N_PER_POSE), (P, 3))
         st = accel.PoseStatistics(means, cov, np.full(P, N_PER_POSE))
-        fit = accel.fit_accel(st, G, model_form=config["model"],
-                              bias_instability=config["drift"] or None,
-                              held_misalignment=config.get("held_std", config["misalignment"]))
+        fit = accel.fit_accel(
+            st,
+            G,
+            model_form=config["model"],
+            bias_instability=config["drift"] or None,
+            held_misalignment=config.get("held_std", config["misalignment"]),
+        )
         err = fit.theta - model.Kb_to_theta(K, b)
         for name, idx in GROUPS.items():
             ok = [i for i in idx if np.isfinite(fit.std[i])]
@@ -112,26 +121,39 @@ def gyro_g_sensitivity_study(n_runs: int = 30, rng=0, only=None) -> dict[str, di
     gen = as_rng(rng)
     z = {"gyro, g-sensitivity ignored": ([], []), "gyro, --gyro-g-sensitivity": ([], [])}
     for _ in range(int(n_runs)):
-        seed = int(gen.integers(2 ** 31))
+        seed = int(gen.integers(2**31))
         g2 = np.random.default_rng(seed)
         unit = preset("mems-mti1").draw(g2)
         gy = unit.gyr
-        unit = dataclasses.replace(unit, gyr=TriadErrors("gyro", bias=gy.bias, scale=gy.scale,
-                                                           misalignment=gy.misalignment,
-                                                           g_sensitivity=g2.normal(0, GYRO_G_SENSITIVITY, (3, 3))))
+        unit = dataclasses.replace(
+            unit,
+            gyr=TriadErrors(
+                "gyro",
+                bias=gy.bias,
+                scale=gy.scale,
+                misalignment=gy.misalignment,
+                g_sensitivity=g2.normal(0, GYRO_G_SENSITIVITY, (3, 3)),
+            ),
+        )
         s = simulate("18", spec=unit, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
         _, Q = model.upper_triangular_form(s.acc_K)
         Kg = s.gyr_K @ Q.T
         for name, opt in zip(list(z), (None, GYRO_G_SENSITIVITY * float(np.mean(np.diag(s.gyr_K))))):
             if only is not None and name not in set(only):
                 continue
-            r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity,
-                          gyro_g_sensitivity=opt)
+            r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity, gyro_g_sensitivity=opt)
             b_true = _session_gyro_bias(s, unit, seed, drawn=False, intervals=r.static_intervals)
             z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
             z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
-    return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
-                   "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items() if b}
+    return {
+        name: {
+            "scale": float(np.sqrt(np.mean(np.square(k)))),
+            "misalignment": None,
+            "bias": float(np.sqrt(np.mean(np.square(b)))),
+        }
+        for name, (b, k) in z.items()
+        if b
+    }
 
 
 #: the initial rest (s) of the simulated sessions (rest_s = 5 s) that ``--gyro-bias rest`` is given
@@ -158,17 +180,19 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
 
     gen = as_rng(rng)
     hi = f"{DRIFTING_GYRO_DEG_H:g} °/h"
-    cases = [("gyro, bias 10 °/h (MTi-1), local (default)", 10.0, "local", False),
-             ("gyro, bias 10 °/h (MTi-1), rest (initial rest)", 10.0, "rest", False),
-             ("gyro, bias 10 °/h (MTi-1), estimate", 10.0, "estimate", False),
-             (f"gyro, bias {hi}, static (the former default)", DRIFTING_GYRO_DEG_H, "static", False),
-             (f"gyro, bias {hi}, local (default)", DRIFTING_GYRO_DEG_H, "local", False),
-             (f"gyro, bias {hi}, local + --gyro-bias-instability", DRIFTING_GYRO_DEG_H, "local", True)]
+    cases = [
+        ("gyro, bias 10 °/h (MTi-1), local (default)", 10.0, "local", False),
+        ("gyro, bias 10 °/h (MTi-1), rest (initial rest)", 10.0, "rest", False),
+        ("gyro, bias 10 °/h (MTi-1), estimate", 10.0, "estimate", False),
+        (f"gyro, bias {hi}, static (the former default)", DRIFTING_GYRO_DEG_H, "static", False),
+        (f"gyro, bias {hi}, local (default)", DRIFTING_GYRO_DEG_H, "local", False),
+        (f"gyro, bias {hi}, local + --gyro-bias-instability", DRIFTING_GYRO_DEG_H, "local", True),
+    ]
     if only is not None:  # a subset of the rows (by name)
         cases = [c for c in cases if c[0] in set(only)]
     z = {name: ([], []) for name, *_ in cases}
     for _ in range(int(n_runs)):
-        seed = int(gen.integers(2 ** 31))
+        seed = int(gen.integers(2**31))
         for B in sorted({c[1] for c in cases}):
             spec = preset("mems-mti1", gyro_bias_instability=(B, "deg/h"))
             s = simulate("18", spec=spec, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="counts", rng=seed)
@@ -179,21 +203,44 @@ def gyro_drift_study(n_runs: int = 30, rng=0, only=None) -> dict[str, dict[str, 
                     continue
                 inst = GM_SIGMA_PER_BIAS_INSTABILITY * B * DEG / 3600 * float(np.mean(np.diag(s.gyr_K)))
                 rest = REST_WINDOW if mode == "rest" else None
-                r = calibrate(s.t, s.acc, s.gyr, acc_unit="counts", gyro_unit="counts", g=s.gravity,
-                              gyro_bias=mode, gyro_bias_instability=inst if given else None,
-                              gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)), rest=rest)
-                b_true = s.gyr_b if given else _session_gyro_bias(
-                    s, spec, seed, drawn=True, intervals=[rest] if rest else r.static_intervals)
+                r = calibrate(
+                    s.t,
+                    s.acc,
+                    s.gyr,
+                    acc_unit="counts",
+                    gyro_unit="counts",
+                    g=s.gravity,
+                    gyro_bias=mode,
+                    gyro_bias_instability=inst if given else None,
+                    gyro_bias_corr_time=float(np.mean(spec.gyro_bias_corr_time)),
+                    rest=rest,
+                )
+                b_true = (
+                    s.gyr_b
+                    if given
+                    else _session_gyro_bias(s, spec, seed, drawn=True, intervals=[rest] if rest else r.static_intervals)
+                )
                 z[name][0].extend((r.gyroscope["b"] - b_true) / r.gyroscope["b_std"])
                 z[name][1].extend(((r.gyroscope["K"] - Kg) / r.gyroscope["K_std"]).ravel())
-    return {name: {"scale": float(np.sqrt(np.mean(np.square(k)))), "misalignment": None,
-                   "bias": float(np.sqrt(np.mean(np.square(b))))} for name, (b, k) in z.items()}
+    return {
+        name: {
+            "scale": float(np.sqrt(np.mean(np.square(k)))),
+            "misalignment": None,
+            "bias": float(np.sqrt(np.mean(np.square(b)))),
+        }
+        for name, (b, k) in z.items()
+    }
 
 
 def table(results: dict[str, dict[str, float]]) -> str:
     """A markdown table of :func:`run_all` results."""
     lines = ["| configuration | " + " | ".join(GROUPS) + " |", "|---|" + "---|" * len(GROUPS)]
     for name, row in results.items():
-        lines.append(f"| {name} | " + " | ".join("in K" if row[g] is None else "held" if not np.isfinite(row[g])
-                                                 else f"{row[g]:.2f}" for g in GROUPS) + " |")
+        lines.append(
+            f"| {name} | "
+            + " | ".join(
+                "in K" if row[g] is None else "held" if not np.isfinite(row[g]) else f"{row[g]:.2f}" for g in GROUPS
+            )
+            + " |"
+        )
     return "\n".join(lines)

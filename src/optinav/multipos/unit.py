@@ -11,8 +11,9 @@ from optinav.multipos.result import CalibrationResult
 def check(options: FileOptions) -> None:
     """The options' own checks and the site (gravity or latitude/height), once before a batch."""
     options.check()
-    local_gravity(options.gravity, None if options.latitude is None else math.radians(options.latitude),
-                  options.height)  # FileOptions holds the CLI's degrees
+    local_gravity(
+        options.gravity, None if options.latitude is None else math.radians(options.latitude), options.height
+    )  # FileOptions holds the CLI's degrees
 
 
 def run_unit(path, options: FileOptions, reference: bool = False) -> tuple[CalibrationResult, dict]:
@@ -26,12 +27,19 @@ def run_unit(path, options: FileOptions, reference: bool = False) -> tuple[Calib
     chi2 = acc.get("chi2") if acc is not None else None
     dof = acc.get("dof") if acc is not None else None
     gyr = res.gyroscope
-    return res, {"acc_unit": res.units["accelerometer_raw"], "gyr_unit": res.units.get("gyroscope_raw"),
-                 "gravity_m_s2": res.gravity, "n_samples": len(data.t), "n_poses": len(res.static_intervals),
-                 "residual_rms_m_s2": res.residual_rms, "pose_residual_rms_m_s2": res.quality["pose_residual_rms"],
-                 "chi2": chi2, "dof": dof,
-                 "reduced_chi2": chi2 / dof if chi2 is not None and dof and math.isfinite(chi2) else None,
-                 "gyr_residual_rms_rad": None if gyr is None or _closed_form(res) else gyr["residual_rms_rad"]}
+    return res, {
+        "acc_unit": res.units["accelerometer_raw"],
+        "gyr_unit": res.units.get("gyroscope_raw"),
+        "gravity_m_s2": res.gravity,
+        "n_samples": len(data.t),
+        "n_poses": len(res.static_intervals),
+        "residual_rms_m_s2": res.residual_rms,
+        "pose_residual_rms_m_s2": res.quality["pose_residual_rms"],
+        "chi2": chi2,
+        "dof": dof,
+        "reduced_chi2": chi2 / dof if chi2 is not None and dof and math.isfinite(chi2) else None,
+        "gyr_residual_rms_rad": None if gyr is None or _closed_form(res) else gyr["residual_rms_rad"],
+    }
 
 
 def _closed_form(res: CalibrationResult) -> bool:

@@ -9,10 +9,44 @@ cells, formats per column), ``checks``, ``figures`` and ``headline`` (read from 
 and check as numbers) and the PNG figures.
 """
 
-from optinav.reports.report import (STUDIES, Cell, Check, Figure, Headline, Limit, StudyResult, Table,
-                                    available_studies, check_report_dir, get_study, prepare_report_dir, quantity,
-                                    register_study, rounded, run_studies, value_at, write_report)
+from optinav.reports.report import (
+    STUDIES,
+    Cell,
+    Check,
+    Figure,
+    Headline,
+    Limit,
+    StudyResult,
+    Table,
+    available_studies,
+    check_report_dir,
+    get_study,
+    prepare_report_dir,
+    quantity,
+    register_study,
+    rounded,
+    run_studies,
+    value_at,
+    write_report,
+)
 
-__all__ = ["STUDIES", "Cell", "Check", "Figure", "Headline", "Limit", "StudyResult", "Table", "available_studies",
-           "check_report_dir", "get_study", "prepare_report_dir", "quantity", "register_study", "rounded",
-           "run_studies", "value_at", "write_report"]
+__all__ = [
+    "STUDIES",
+    "Cell",
+    "Check",
+    "Figure",
+    "Headline",
+    "Limit",
+    "StudyResult",
+    "Table",
+    "available_studies",
+    "check_report_dir",
+    "get_study",
+    "prepare_report_dir",
+    "quantity",
+    "register_study",
+    "rounded",
+    "run_studies",
+    "value_at",
+    "write_report",
+]

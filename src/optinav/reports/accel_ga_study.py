@@ -25,39 +25,65 @@ from optinav.core.observability import rmse_ratio_band
 from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
 from optinav.multipos.simulate import PAPER_REFERENCE, simulate
-from optinav.reports.report import (Check, Figure, Headline, Limit, StudyResult, Table, quantity,
-                                    register_study, value_at)
+from optinav.reports.report import (
+    Check,
+    Figure,
+    Headline,
+    Limit,
+    StudyResult,
+    Table,
+    quantity,
+    register_study,
+    value_at,
+)
 
 NAMES = ["B_x", "B_y", "B_z", "S_xx", "S_yy", "S_zz", "M_xy", "M_xz", "M_yz"]
 #: the units of the paper's parameters: biases, scale factors (per 1 g input), misalignments
 NAME_UNITS = {"B": "m/s²", "S": "", "M": "rad"}
 #: Table 2 of the paper: relative errors (%) of Newton and of the GA against the reference calibration
-PAPER_REL_ERR = {"newton": [-0.146, -0.554, 1.451, 0.000204, 0.0104, 0.414, None, None, None],
-                 "ga": [-0.017, 0.019, -0.051, 0.007, 0.004, 0.0003, 10.69, -53.64, -21.37]}
+PAPER_REL_ERR = {
+    "newton": [-0.146, -0.554, 1.451, 0.000204, 0.0104, 0.414, None, None, None],
+    "ga": [-0.017, 0.019, -0.051, 0.007, 0.004, 0.0003, 10.69, -53.64, -21.37],
+}
 PAPER_TIME_S = {"ga": 164.28, "newton": 421.92}
 #: Table 4: mean static attitude error after calibration (deg), pitch and roll
 PAPER_LEVEL_DEG = {"traditional": (0.015, 0.109), "newton": (0.24, -0.191), "ga": (0.062, -0.051)}
 RATE_HZ = 100.0
 #: the calibrations of the levelling test (Table 4), by the key of their fit (None: uncalibrated)
-LEVELLING = {"uncalibrated": None, "Newton": "newton", "adaptive GA": "ga",
-             "adaptive GA, optinav operators": "ga_optinav", "optinav LM": "lm"}
+LEVELLING = {
+    "uncalibrated": None,
+    "Newton": "newton",
+    "adaptive GA": "ga",
+    "adaptive GA, optinav operators": "ga_optinav",
+    "optinav LM": "lm",
+}
 
 LIMITS = {
-    "table1_singular_values": Limit(1.5e-3, reason="the paper prints 3 decimals (±5e-4) and g itself is only known "
-                                                    "as 29.405/3 from its table (±2e-4 per unit)"),
+    "table1_singular_values": Limit(
+        1.5e-3,
+        reason="the paper prints 3 decimals (±5e-4) and g itself is only known "
+        "as 29.405/3 from its table (±2e-4 per unit)",
+    ),
     "table1_ranks": Limit(0, unit="mismatches", reason="the rank is exact: it must equal the paper's for every N"),
-    "design_ratio": Limit(1.0, ">=", reason="the designed scheme must see the misalignments at least as well as "
-                                            "the paper's 12 positions"),
-    "lm_z": Limit(4.0, reason="4σ of the reported std: a Gaussian error exceeds it over 9 parameters with "
-                              "probability 6e-4"),
-    "lm_speed_quick": Limit(100.0, ">=", "×", reason="a few milliseconds for LM against ≈ 1 s for 200 generations "
-                                                      "of the GA (quick run)"),
+    "design_ratio": Limit(
+        1.0, ">=", reason="the designed scheme must see the misalignments at least as well as the paper's 12 positions"
+    ),
+    "lm_z": Limit(
+        4.0, reason="4σ of the reported std: a Gaussian error exceeds it over 9 parameters with probability 6e-4"
+    ),
+    "lm_speed_quick": Limit(
+        100.0, ">=", "×", reason="a few milliseconds for LM against ≈ 1 s for 200 generations of the GA (quick run)"
+    ),
     "lm_speed": Limit(1000.0, ">=", "×", reason="LM against 500 generations of the GA on 60 s poses"),
     "lm_vs_ga_scale": Limit(1.0, reason="LM reaches the least-squares minimum the GA can only approach"),
-    "levelling": Limit(None, unit="deg", reason="4σ of the tilt error from the fit's std and the test pose's bias "
-                                                "instability"),
-    "efficiency_max": Limit(None, reason="the 99 % band of RMSE/√CRLB of an efficient estimator over the runs, "
-                                         "Bonferroni over the 9 parameters (at least 1.1)"),
+    "levelling": Limit(
+        None, unit="deg", reason="4σ of the tilt error from the fit's std and the test pose's bias instability"
+    ),
+    "efficiency_max": Limit(
+        None,
+        reason="the 99 % band of RMSE/√CRLB of an efficient estimator over the runs, "
+        "Bonferroni over the 9 parameters (at least 1.1)",
+    ),
     "efficiency_min": Limit(None, ">=", reason="the lower end of the same 99 % band"),
 }
 
@@ -75,8 +101,7 @@ def _per_parameter(v, unit=None) -> dict:
 def _level(f) -> tuple[float, float]:
     """Pitch and roll (deg) of the sensor frame from the mean specific force (x right, y forward, z up)."""
     f = np.asarray(f, float)
-    return (float(np.degrees(np.arctan2(f[1], np.hypot(f[0], f[2])))),
-            float(np.degrees(np.arctan2(-f[0], f[2]))))
+    return (float(np.degrees(np.arctan2(f[1], np.hypot(f[0], f[2])))), float(np.degrees(np.arctan2(-f[0], f[2]))))
 
 
 # --- computation --------------------------------------------------------------------------------------------
@@ -89,12 +114,17 @@ def _table1() -> dict:
     diffs = []
     for n, s in zip(ours.n_positions, ours.singular_values):
         sv_p = np.asarray(design.PAPER_TABLE1[int(n)][1], float)
-        d = np.abs(s[:sv_p.size] - sv_p)
+        d = np.abs(s[: sv_p.size] - sv_p)
         d[sv_p < 1e-3] = 0.0  # the paper's 1.715e-7 is a numerical zero; ours is ~1e-15
         diffs.append(float(d.max()))
-    return {"ours": ours, "diff": diffs, "worst": max([0.0, *diffs]),
-            "rank_mismatches": float(np.sum(ours.rank != np.array([design.PAPER_TABLE1[int(n)][0]
-                                                                   for n in ours.n_positions])))}
+    return {
+        "ours": ours,
+        "diff": diffs,
+        "worst": max([0.0, *diffs]),
+        "rank_mismatches": float(
+            np.sum(ours.rank != np.array([design.PAPER_TABLE1[int(n)][0] for n in ours.n_positions]))
+        ),
+    }
 
 
 def _design(sigma, rate, dwell) -> dict:
@@ -111,8 +141,9 @@ def _fits(quick, rng) -> dict:
     dwell = 10.0 if quick else 60.0
     sess = simulate("paper12", spec="mems-mti1", truth="paper", dwell_s=dwell, rng=rng)
     g = sess.gravity
-    idx = np.array([[np.searchsorted(sess.t, a), np.searchsorted(sess.t, b, side="right")]
-                    for a, b in sess.static_intervals])
+    idx = np.array(
+        [[np.searchsorted(sess.t, a), np.searchsorted(sess.t, b, side="right")] for a, b in sess.static_intervals]
+    )
     st = accel.pose_statistics(sess.acc, idx)
     samples = [sess.acc[i0:i1] for i0, i1 in idx]
     fits = {}
@@ -120,8 +151,9 @@ def _fits(quick, rng) -> dict:
     for key, ops in (("ga", "paper"), ("ga_optinav", "optinav")):
         step(f"GA ({ops} operators)")
         t0 = time.perf_counter()
-        fits[key] = accel.fit_accel(st, g, method="ga", data="samples", samples=samples, rng=rng,
-                                    generations=gens, operators=ops)
+        fits[key] = accel.fit_accel(
+            st, g, method="ga", data="samples", samples=samples, rng=rng, generations=gens, operators=ops
+        )
         fits[key].elapsed_s = time.perf_counter() - t0
     step("Newton and LM")
     t0 = time.perf_counter()
@@ -151,18 +183,29 @@ def _fits(quick, rng) -> dict:
         p, r = _level(np.linalg.solve(K, meas.acc.mean(axis=0) - b))
         lev[name] = (p - p0, r - r0)
     # tilt error ≈ bias error / g ⊕ misalignment error ⊕ the test pose's own bias drift / g (rad)
-    sig_tilt = np.sqrt((np.max(lm.std[6:9]) / (g * lm.K[0, 0])) ** 2 + np.max(lm.std[3:6] / lm.K[0, 0]) ** 2
-                       + (np.max(unit.acc_noise.gm_sigma) / g) ** 2)
+    sig_tilt = np.sqrt(
+        (np.max(lm.std[6:9]) / (g * lm.K[0, 0])) ** 2
+        + np.max(lm.std[3:6] / lm.K[0, 0]) ** 2
+        + (np.max(unit.acc_noise.gm_sigma) / g) ** 2
+    )
     ga = fits["ga"]
     lo, hi = accel.search_interval(st.means, g)
-    return {"dwell": dwell, "generations": gens, "fits": fits, "truth": truth, "vec": vec,
-            "rel": {k: 100 * (v - truth) / truth for k, v in vec.items()},
-            "std": np.r_[lm.std[6:9], lm.std[:3] * g, lm.std[3:6] / np.diag(lm.K)[[0, 0, 1]]],
-            "levelling": lev, "levelling_limit": float(4 * np.degrees(sig_tilt)),
-            # the GA's convergence: fitness per generation and the best individual against the truth, scaled by
-            # the search interval
-            "ga_history": ga.history, "ga_mean_cost": ga.trace["mean_cost"],
-            "ga_convergence": (ga.trace["best_x"] - model.Kb_to_theta(sess.acc_K, sess.acc_b)) / (hi - lo)}
+    return {
+        "dwell": dwell,
+        "generations": gens,
+        "fits": fits,
+        "truth": truth,
+        "vec": vec,
+        "rel": {k: 100 * (v - truth) / truth for k, v in vec.items()},
+        "std": np.r_[lm.std[6:9], lm.std[:3] * g, lm.std[3:6] / np.diag(lm.K)[[0, 0, 1]]],
+        "levelling": lev,
+        "levelling_limit": float(4 * np.degrees(sig_tilt)),
+        # the GA's convergence: fitness per generation and the best individual against the truth, scaled by
+        # the search interval
+        "ga_history": ga.history,
+        "ga_mean_cost": ga.trace["mean_cost"],
+        "ga_convergence": (ga.trace["best_x"] - model.Kb_to_theta(sess.acc_K, sess.acc_b)) / (hi - lo),
+    }
 
 
 def _findings(rel, fits, lev) -> list[dict]:
@@ -174,22 +217,50 @@ def _findings(rel, fits, lev) -> list[dict]:
     mis_ratio = float(np.max(ab["newton"][6:9]) / max(np.max(ab["ga"][6:9]), 1e-12))
     lev_n = float(np.max(np.abs(lev["Newton"])))
     lev_ratio = lev_n / max(float(np.max(np.abs(lev["adaptive GA"]))), 1e-12)
-    same_min = ("Newton converges to the least-squares minimum of the same objective (smooth, one minimum near "
-                "the start); a GA can only approach that minimum, so it cannot be more accurate")
-    rows = [("GA biases 1–3 orders of magnitude more accurate than Newton's", "≥ 10", bias_ratio, bias_ratio >= 10,
-             same_min),
-            ("GA scale factors 1–3 orders of magnitude more accurate than Newton's", "≥ 10", scale_ratio,
-             scale_ratio >= 10, same_min),
-            ("GA 61 % faster than Newton (time GA / Newton)", 0.39, time_ratio, time_ratio <= 0.5,
-             "a Newton step on 9 parameters costs a few evaluations of the objective with its analytic "
-             "derivatives; the GA needs population × generations evaluations"),
-            ("Newton fails on the misalignments (max rel. error Newton / GA)", "failed", mis_ratio, mis_ratio >= 10,
-             "the 12 positions observe the misalignments (full rank); Newton from the interval centre converges "
-             "on them as on the rest"),
-            ("Newton levelling error ≈ 0.24°, ≈ 4× the GA's (ratio Newton / GA)", 3.9, lev_ratio, lev_ratio >= 2,
-             f"with both at the same minimum the levelling errors agree (Newton {lev_n:.3f}°)")]
-    return [{"finding": f, "paper": p, "ours": v, "reproduced": bool(ok), "reason": why}
-            for f, p, v, ok, why in rows]
+    same_min = (
+        "Newton converges to the least-squares minimum of the same objective (smooth, one minimum near "
+        "the start); a GA can only approach that minimum, so it cannot be more accurate"
+    )
+    rows = [
+        (
+            "GA biases 1–3 orders of magnitude more accurate than Newton's",
+            "≥ 10",
+            bias_ratio,
+            bias_ratio >= 10,
+            same_min,
+        ),
+        (
+            "GA scale factors 1–3 orders of magnitude more accurate than Newton's",
+            "≥ 10",
+            scale_ratio,
+            scale_ratio >= 10,
+            same_min,
+        ),
+        (
+            "GA 61 % faster than Newton (time GA / Newton)",
+            0.39,
+            time_ratio,
+            time_ratio <= 0.5,
+            "a Newton step on 9 parameters costs a few evaluations of the objective with its analytic "
+            "derivatives; the GA needs population × generations evaluations",
+        ),
+        (
+            "Newton fails on the misalignments (max rel. error Newton / GA)",
+            "failed",
+            mis_ratio,
+            mis_ratio >= 10,
+            "the 12 positions observe the misalignments (full rank); Newton from the interval centre converges "
+            "on them as on the rest",
+        ),
+        (
+            "Newton levelling error ≈ 0.24°, ≈ 4× the GA's (ratio Newton / GA)",
+            3.9,
+            lev_ratio,
+            lev_ratio >= 2,
+            f"with both at the same minimum the levelling errors agree (Newton {lev_n:.3f}°)",
+        ),
+    ]
+    return [{"finding": f, "paper": p, "ours": v, "reproduced": bool(ok), "reason": why} for f, p, v, ok, why in rows]
 
 
 def _efficiency(quick, rng) -> dict:
@@ -199,8 +270,14 @@ def _efficiency(quick, rng) -> dict:
     rate, dwell = RATE_HZ, 10.0 if quick else 60.0
     spec = preset("mems-mti1")
     g = 9.80167
-    K, b = model.from_paper(PAPER_REFERENCE["S"], PAPER_REFERENCE["M_xy"], PAPER_REFERENCE["M_xz"],
-                            PAPER_REFERENCE["M_yz"], PAPER_REFERENCE["B"], g)
+    K, b = model.from_paper(
+        PAPER_REFERENCE["S"],
+        PAPER_REFERENCE["M_xy"],
+        PAPER_REFERENCE["M_xz"],
+        PAPER_REFERENCE["M_yz"],
+        PAPER_REFERENCE["B"],
+        g,
+    )
     ups = design.design_scheme(12, criterion="D").up_dirs
     sigma = float(np.max(spec.acc_vrw) * np.sqrt(rate))
     eff, _ = accel.efficiency(K, b, ups, g, sigma, int(dwell * rate), n_runs, rng)
@@ -237,15 +314,17 @@ def _worst(v, sl) -> float:
 
 def summary(n) -> dict:
     """The numbers of ``summary.json``, each with its unit."""
-    return {"table1_max_abs_diff": quantity(n["table1"]["worst"], ""),
-            "design_misalignment_std_ratio": quantity(_design_ratio(n), ""),
-            "truth": _per_parameter(n["truth"]),
-            "estimate": {k: _per_parameter(v) for k, v in n["vec"].items()},
-            "relative_error": {k: quantity(v, "%") for k, v in n["rel"].items()},
-            "time": {k: quantity(f.elapsed_s, "s") for k, f in n["fits"].items()},
-            "levelling_error": {k: quantity(v, "deg") for k, v in n["levelling"].items()},
-            "findings_reproduced": quantity(sum(f["reproduced"] for f in n["findings"]), ""),
-            "efficiency": quantity(n["efficiency"]["efficiency"], "")}
+    return {
+        "table1_max_abs_diff": quantity(n["table1"]["worst"], ""),
+        "design_misalignment_std_ratio": quantity(_design_ratio(n), ""),
+        "truth": _per_parameter(n["truth"]),
+        "estimate": {k: _per_parameter(v) for k, v in n["vec"].items()},
+        "relative_error": {k: quantity(v, "%") for k, v in n["rel"].items()},
+        "time": {k: quantity(f.elapsed_s, "s") for k, f in n["fits"].items()},
+        "levelling_error": {k: quantity(v, "deg") for k, v in n["levelling"].items()},
+        "findings_reproduced": quantity(sum(f["reproduced"] for f in n["findings"]), ""),
+        "efficiency": quantity(n["efficiency"]["efficiency"], ""),
+    }
 
 
 # --- checks -------------------------------------------------------------------------------------------------
@@ -255,23 +334,35 @@ def checks(n) -> list[Check]:
     rel, fits, eff = n["rel"], n["fits"], n["efficiency"]
     z = (n["vec"]["lm"] - n["truth"]) / n["std"]
     lo, hi = eff["band"]
-    return [Check.against("Table 1: max |singular value − paper|", n["table1"]["worst"],
-                          LIMITS["table1_singular_values"]),
-            Check.against("Table 1: ranks equal the paper's", n["table1"]["rank_mismatches"], LIMITS["table1_ranks"]),
-            Check.against("D-optimal 12 poses vs paper's 12: misalignment σ ratio (paper/designed)", _design_ratio(n),
-                          LIMITS["design_ratio"]),
-            Check.against("LM: max |error|/σ over the 9 parameters", float(np.max(np.abs(z))), LIMITS["lm_z"]),
-            Check.against("LM faster than the GA (time ratio)", fits["ga"].elapsed_s / fits["lm"].elapsed_s,
-                          LIMITS["lm_speed_quick" if n["quick"] else "lm_speed"]),
-            Check.against("LM scale error vs GA scale error (max |rel. err| ratio)",
-                          float(np.max(np.abs(rel["lm"][3:6])) / max(np.max(np.abs(rel["ga"][3:6])), 1e-12)),
-                          LIMITS["lm_vs_ga_scale"]),
-            Check.against("LM levelling error (max |pitch|, |roll|), limit 4σ from the fit's std and the test pose's "
-                          "bias instability", float(np.max(np.abs(n["levelling"]["optinav LM"]))), LIMITS["levelling"],
-                          at=n["levelling_limit"]),
-            Check.against("max RMSE/√CRLB", float(eff["efficiency"].max()), LIMITS["efficiency_max"],
-                          at=max(hi, 1.1)),
-            Check.against("min RMSE/√CRLB", float(eff["efficiency"].min()), LIMITS["efficiency_min"], at=lo)]
+    return [
+        Check.against("Table 1: max |singular value − paper|", n["table1"]["worst"], LIMITS["table1_singular_values"]),
+        Check.against("Table 1: ranks equal the paper's", n["table1"]["rank_mismatches"], LIMITS["table1_ranks"]),
+        Check.against(
+            "D-optimal 12 poses vs paper's 12: misalignment σ ratio (paper/designed)",
+            _design_ratio(n),
+            LIMITS["design_ratio"],
+        ),
+        Check.against("LM: max |error|/σ over the 9 parameters", float(np.max(np.abs(z))), LIMITS["lm_z"]),
+        Check.against(
+            "LM faster than the GA (time ratio)",
+            fits["ga"].elapsed_s / fits["lm"].elapsed_s,
+            LIMITS["lm_speed_quick" if n["quick"] else "lm_speed"],
+        ),
+        Check.against(
+            "LM scale error vs GA scale error (max |rel. err| ratio)",
+            float(np.max(np.abs(rel["lm"][3:6])) / max(np.max(np.abs(rel["ga"][3:6])), 1e-12)),
+            LIMITS["lm_vs_ga_scale"],
+        ),
+        Check.against(
+            "LM levelling error (max |pitch|, |roll|), limit 4σ from the fit's std and the test pose's "
+            "bias instability",
+            float(np.max(np.abs(n["levelling"]["optinav LM"]))),
+            LIMITS["levelling"],
+            at=n["levelling_limit"],
+        ),
+        Check.against("max RMSE/√CRLB", float(eff["efficiency"].max()), LIMITS["efficiency_max"], at=max(hi, 1.1)),
+        Check.against("min RMSE/√CRLB", float(eff["efficiency"].min()), LIMITS["efficiency_min"], at=lo),
+    ]
 
 
 # --- tables -------------------------------------------------------------------------------------------------
@@ -280,57 +371,134 @@ def checks(n) -> list[Check]:
 def tables(n) -> list[Table]:
     t1, fits, vec, rel, truth, std = n["table1"], n["fits"], n["vec"], n["rel"], n["truth"], n["std"]
     ours = t1["ours"]
-    out = [Table("Table 1 — rank and singular values of Q = [H; HA; …; HA⁸] vs the number of positions",
-                 ["N", "rank (ours)", "rank (paper)", "singular values (ours)", "max |ours − paper|"],
-                 [[int(N), int(r), int(design.PAPER_TABLE1[int(N)][0]), list(s), d]
-                  for N, r, s, d in zip(ours.n_positions, ours.rank, ours.singular_values, t1["diff"])],
-                 "Positions: the sequence recovered from the printed table; "
-                 f"g = {design.PAPER_G:.5f} m/s². N = 3 is rank deficient, N ≥ 4 full rank for this linear "
-                 "model (3 outputs per pose). Our estimator observes only the norm (1 scalar per pose), so "
-                 "it needs N ≥ 9 — see the design table.", formats=[None, None, None, "{:.3f}", "{:.1e}"])]
+    out = [
+        Table(
+            "Table 1 — rank and singular values of Q = [H; HA; …; HA⁸] vs the number of positions",
+            ["N", "rank (ours)", "rank (paper)", "singular values (ours)", "max |ours − paper|"],
+            [
+                [int(N), int(r), int(design.PAPER_TABLE1[int(N)][0]), list(s), d]
+                for N, r, s, d in zip(ours.n_positions, ours.rank, ours.singular_values, t1["diff"])
+            ],
+            "Positions: the sequence recovered from the printed table; "
+            f"g = {design.PAPER_G:.5f} m/s². N = 3 is rank deficient, N ≥ 4 full rank for this linear "
+            "model (3 outputs per pose). Our estimator observes only the norm (1 scalar per pose), so "
+            "it needs N ≥ 9 — see the design table.",
+            formats=[None, None, None, "{:.3f}", "{:.1e}"],
+        )
+    ]
     label = {"paper12": "paper's 12 positions", "D": "D-optimal 12", "E": "E-optimal 12"}
-    out.append(Table("Pose-scheme design for the norm model (predicted 1σ, MTi-1 white noise, 60 s per pose)",
-                     ["scheme", "max σ(K_ii) [ppm]", "max σ(K_ij) [µrad]", "max σ(b) [µg]", "poses"],
-                     [[label[k], np.max(d.predicted_std[:3]) * 1e6, np.max(d.predicted_std[3:6]) * 1e6,
-                       np.max(d.predicted_std[6:9]) * 1e6 / 9.80665, "; ".join(d.descriptions)]
-                      for k, d in n["design"].items()],
-                     "The paper's 12 positions repeat +x up and include three axis pairs only, so the norm model "
-                     "sees the misalignments weakly; the designed schemes use 45° and corner poses.",
-                     formats=[None, "{:.1f}", "{:.1f}", "{:.1f}"]))
-    rows = [[nm, float(truth[j]), float(vec["newton"][j]), float(rel["newton"][j]), PAPER_REL_ERR["newton"][j],
-             float(vec["ga"][j]), float(rel["ga"][j]), PAPER_REL_ERR["ga"][j], float(rel["ga_optinav"][j]),
-             float(vec["lm"][j]), float(std[j]), float(rel["lm"][j])] for j, nm in enumerate(NAMES)]
-    out.append(Table("Table 2: calibration results and relative errors (%) against the truth",
-                     ["parameter", "truth (paper ref.)", "Newton", "Newton rel. err [%]", "paper Newton [%]",
-                      "GA (paper's operators)", "GA rel. err [%]", "paper GA [%]",
-                      "GA, optinav operators, rel. err [%]", "optinav LM", "LM std", "LM rel. err [%]"], rows,
-                     f"Simulated MTi-1 (datasheet noise incl. bias instability), 12 positions × {n['dwell']:g} s at "
-                     f"100 Hz, one session for all methods. B in m/s², S per 1 g input, M in rad. Both GAs "
-                     f"({n['generations']} generations, population 50) and Newton fit every sample (as in the paper), "
-                     "LM the pose means (the same least-squares minimum, weighted). The paper's Newton failed on the "
-                     "misalignments (empty cells)."))
-    out.append(Table("Table 3 — computation time", ["method", "time [s] (optinav)", "time [s] (paper)"],
-                     [["adaptive GA (paper's operators)", fits["ga"].elapsed_s, PAPER_TIME_S["ga"]],
-                      ["adaptive GA (optinav operators)", fits["ga_optinav"].elapsed_s, None],
-                      ["Newton", fits["newton"].elapsed_s, PAPER_TIME_S["newton"]],
-                      ["optinav LM (pose means)", fits["lm"].elapsed_s, None]],
-                     "Paper: MATLAB on the authors' PC; optinav: this machine."))
+    out.append(
+        Table(
+            "Pose-scheme design for the norm model (predicted 1σ, MTi-1 white noise, 60 s per pose)",
+            ["scheme", "max σ(K_ii) [ppm]", "max σ(K_ij) [µrad]", "max σ(b) [µg]", "poses"],
+            [
+                [
+                    label[k],
+                    np.max(d.predicted_std[:3]) * 1e6,
+                    np.max(d.predicted_std[3:6]) * 1e6,
+                    np.max(d.predicted_std[6:9]) * 1e6 / 9.80665,
+                    "; ".join(d.descriptions),
+                ]
+                for k, d in n["design"].items()
+            ],
+            "The paper's 12 positions repeat +x up and include three axis pairs only, so the norm model "
+            "sees the misalignments weakly; the designed schemes use 45° and corner poses.",
+            formats=[None, "{:.1f}", "{:.1f}", "{:.1f}"],
+        )
+    )
+    rows = [
+        [
+            nm,
+            float(truth[j]),
+            float(vec["newton"][j]),
+            float(rel["newton"][j]),
+            PAPER_REL_ERR["newton"][j],
+            float(vec["ga"][j]),
+            float(rel["ga"][j]),
+            PAPER_REL_ERR["ga"][j],
+            float(rel["ga_optinav"][j]),
+            float(vec["lm"][j]),
+            float(std[j]),
+            float(rel["lm"][j]),
+        ]
+        for j, nm in enumerate(NAMES)
+    ]
+    out.append(
+        Table(
+            "Table 2: calibration results and relative errors (%) against the truth",
+            [
+                "parameter",
+                "truth (paper ref.)",
+                "Newton",
+                "Newton rel. err [%]",
+                "paper Newton [%]",
+                "GA (paper's operators)",
+                "GA rel. err [%]",
+                "paper GA [%]",
+                "GA, optinav operators, rel. err [%]",
+                "optinav LM",
+                "LM std",
+                "LM rel. err [%]",
+            ],
+            rows,
+            f"Simulated MTi-1 (datasheet noise incl. bias instability), 12 positions × {n['dwell']:g} s at "
+            f"100 Hz, one session for all methods. B in m/s², S per 1 g input, M in rad. Both GAs "
+            f"({n['generations']} generations, population 50) and Newton fit every sample (as in the paper), "
+            "LM the pose means (the same least-squares minimum, weighted). The paper's Newton failed on the "
+            "misalignments (empty cells).",
+        )
+    )
+    out.append(
+        Table(
+            "Table 3 — computation time",
+            ["method", "time [s] (optinav)", "time [s] (paper)"],
+            [
+                ["adaptive GA (paper's operators)", fits["ga"].elapsed_s, PAPER_TIME_S["ga"]],
+                ["adaptive GA (optinav operators)", fits["ga_optinav"].elapsed_s, None],
+                ["Newton", fits["newton"].elapsed_s, PAPER_TIME_S["newton"]],
+                ["optinav LM (pose means)", fits["lm"].elapsed_s, None],
+            ],
+            "Paper: MATLAB on the authors' PC; optinav: this machine.",
+        )
+    )
     paper_lev = {"Newton": PAPER_LEVEL_DEG["newton"], "adaptive GA": PAPER_LEVEL_DEG["ga"]}
-    out.append(Table("Table 4: static levelling error after calibration (deg)",
-                     ["calibration", "pitch error", "roll error", "paper pitch", "paper roll"],
-                     [[name, *e, *paper_lev.get(name, (None, None))] for name, e in n["levelling"].items()],
-                     "A 60 s static test pose (roll 3°, pitch −5°) outside the calibration set; pitch/roll from "
-                     "the mean corrected specific force. The paper's 'traditional' reference: 0.015 / 0.109."))
-    out.append(Table("The paper's head-to-head findings, checked on the same session",
-                     ["paper's finding", "paper", "optinav (same data)", "reproduced", "reason"],
-                     [[f["finding"], f["paper"], f["ours"], f["reproduced"],
-                       "reproduced on this session" if f["reproduced"] else f["reason"]] for f in n["findings"]],
-                     "GA = the paper's operators, as rebuilt; ratios are medians over the axes where stated."))
+    out.append(
+        Table(
+            "Table 4: static levelling error after calibration (deg)",
+            ["calibration", "pitch error", "roll error", "paper pitch", "paper roll"],
+            [[name, *e, *paper_lev.get(name, (None, None))] for name, e in n["levelling"].items()],
+            "A 60 s static test pose (roll 3°, pitch −5°) outside the calibration set; pitch/roll from "
+            "the mean corrected specific force. The paper's 'traditional' reference: 0.015 / 0.109.",
+        )
+    )
+    out.append(
+        Table(
+            "The paper's head-to-head findings, checked on the same session",
+            ["paper's finding", "paper", "optinav (same data)", "reproduced", "reason"],
+            [
+                [
+                    f["finding"],
+                    f["paper"],
+                    f["ours"],
+                    f["reproduced"],
+                    "reproduced on this session" if f["reproduced"] else f["reason"],
+                ]
+                for f in n["findings"]
+            ],
+            "GA = the paper's operators, as rebuilt; ratios are medians over the axes where stated.",
+        )
+    )
     e = n["efficiency"]
-    out.append(Table(f"Efficiency of the default estimator: RMSE/√CRLB over {e['n_runs']} Monte Carlo runs",
-                     ["parameter"] + list(model.ACCEL_PARAMS), [["RMSE/√CRLB", *e["efficiency"]]],
-                     f"D-optimal 12 poses, {e['dwell']:g} s each at {e['rate']:g} Hz, white noise σ = "
-                     f"{e['sigma']:.4g} m/s² per sample.", formats=[None] + ["{:.3f}"] * len(model.ACCEL_PARAMS)))
+    out.append(
+        Table(
+            f"Efficiency of the default estimator: RMSE/√CRLB over {e['n_runs']} Monte Carlo runs",
+            ["parameter"] + list(model.ACCEL_PARAMS),
+            [["RMSE/√CRLB", *e["efficiency"]]],
+            f"D-optimal 12 poses, {e['dwell']:g} s each at {e['rate']:g} Hz, white noise σ = "
+            f"{e['sigma']:.4g} m/s² per sample.",
+            formats=[None] + ["{:.3f}"] * len(model.ACCEL_PARAMS),
+        )
+    )
     return out
 
 
@@ -372,14 +540,27 @@ def figures(n) -> list[Figure]:
         ax.legend(ncol=3, fontsize=7)
         ax.grid(True, alpha=0.3)
 
-    return [Figure("accel_ga_singular_values.png", "Singular values of the observability matrix vs the number of "
-                   "positions: optinav (lines) and the paper's Table 1 (dots)", draw_sv),
-            Figure("accel_ga_fitness.png", "Best and mean fitness of the adaptive GA (paper's operators) per "
-                                           "generation", draw_fit),
-            Figure("accel_ga_convergence.png", "Convergence of the GA's best individual, per parameter (paper's "
-                                               "operators): gene exchange only recombines values the population "
-                                               "already holds, and the adaptive mutation rate of the fitter half "
-                                               "is near zero, so the search stalls early", draw_conv)]
+    return [
+        Figure(
+            "accel_ga_singular_values.png",
+            "Singular values of the observability matrix vs the number of "
+            "positions: optinav (lines) and the paper's Table 1 (dots)",
+            draw_sv,
+        ),
+        Figure(
+            "accel_ga_fitness.png",
+            "Best and mean fitness of the adaptive GA (paper's operators) per generation",
+            draw_fit,
+        ),
+        Figure(
+            "accel_ga_convergence.png",
+            "Convergence of the GA's best individual, per parameter (paper's "
+            "operators): gene exchange only recombines values the population "
+            "already holds, and the adaptive mutation rate of the fitter half "
+            "is near zero, so the search stalls early",
+            draw_conv,
+        ),
+    ]
 
 
 def headline(s) -> list[Headline]:
@@ -387,25 +568,63 @@ def headline(s) -> list[Headline]:
     rel = lambda m: value_at(s, f"relative_error.{m}")  # noqa: E731
     lev = lambda m: float(np.max(np.abs(value_at(s, f"levelling_error.{m}"))))  # noqa: E731
     pga = [x for x in PAPER_REL_ERR["ga"] if x is not None]
-    return [Headline("worst bias relative error", "%", _worst(pga, slice(0, 3)), _worst(rel("ga"), slice(0, 3)),
-                     _worst(rel("lm"), slice(0, 3)),
-                     "rebuild = GA with the paper's operators; best = LM; same session"),
-            Headline("worst scale-factor relative error", "%", _worst(pga, slice(3, 6)), _worst(rel("ga"), slice(3, 6)),
-                     _worst(rel("lm"), slice(3, 6)), ""),
-            Headline("calibration time", "s", PAPER_TIME_S["ga"], value_at(s, "time.ga"), value_at(s, "time.lm"),
-                     "paper: MATLAB; ours: this machine"),
-            Headline("worst levelling error", "deg", max(map(abs, PAPER_LEVEL_DEG["ga"])), lev("adaptive GA"),
-                     lev("optinav LM"), ""),
-            Headline("paper's head-to-head findings reproduced (of 5)", "", None,
-                     float(value_at(s, "findings_reproduced")), None, "see the findings table")]
+    return [
+        Headline(
+            "worst bias relative error",
+            "%",
+            _worst(pga, slice(0, 3)),
+            _worst(rel("ga"), slice(0, 3)),
+            _worst(rel("lm"), slice(0, 3)),
+            "rebuild = GA with the paper's operators; best = LM; same session",
+        ),
+        Headline(
+            "worst scale-factor relative error",
+            "%",
+            _worst(pga, slice(3, 6)),
+            _worst(rel("ga"), slice(3, 6)),
+            _worst(rel("lm"), slice(3, 6)),
+            "",
+        ),
+        Headline(
+            "calibration time",
+            "s",
+            PAPER_TIME_S["ga"],
+            value_at(s, "time.ga"),
+            value_at(s, "time.lm"),
+            "paper: MATLAB; ours: this machine",
+        ),
+        Headline(
+            "worst levelling error",
+            "deg",
+            max(map(abs, PAPER_LEVEL_DEG["ga"])),
+            lev("adaptive GA"),
+            lev("optinav LM"),
+            "",
+        ),
+        Headline(
+            "paper's head-to-head findings reproduced (of 5)",
+            "",
+            None,
+            float(value_at(s, "findings_reproduced")),
+            None,
+            "see the findings table",
+        ),
+    ]
 
 
 @register_study("accel-ga")
 def run(quick: bool = False, rng=None) -> StudyResult:
     n = compute(quick, np.random.default_rng(rng))
     s = summary(n)
-    return StudyResult(name="accel-ga", title="MEMS accelerometer calibration by norm observation "
-                                               "(Gao & Zhang 2019, adaptive GA): the paper's GA rebuilt, against "
-                                               "Newton and LM",
-                       description=__doc__.split("\n\n", 1)[1].replace("\n", " "), tables=tables(n),
-                       checks=checks(n), figures=figures(n), summary=s, headline=headline(s))
+    return StudyResult(
+        name="accel-ga",
+        title="MEMS accelerometer calibration by norm observation "
+        "(Gao & Zhang 2019, adaptive GA): the paper's GA rebuilt, against "
+        "Newton and LM",
+        description=__doc__.split("\n\n", 1)[1].replace("\n", " "),
+        tables=tables(n),
+        checks=checks(n),
+        figures=figures(n),
+        summary=s,
+        headline=headline(s),
+    )

@@ -10,8 +10,12 @@ import numpy as np
 from optinav.core.allan import FLICKER_FLOOR, allan_deviation_model
 from optinav.reports.report import Cell, Figure, StudyResult, Table, write_report
 
-_TERMS = (("white", "white noise N", "·√s", -0.5, 1.0), ("bias_instability", "bias instability B", "", 0.0, None),
-          ("random_walk", "random walk K", "/√s", 0.5, 3.0), ("quantization", "quantization Q", "·s", -1.0, math.sqrt(3)))
+_TERMS = (
+    ("white", "white noise N", "·√s", -0.5, 1.0),
+    ("bias_instability", "bias instability B", "", 0.0, None),
+    ("random_walk", "random walk K", "/√s", 0.5, 3.0),
+    ("quantization", "quantization Q", "·s", -1.0, math.sqrt(3)),
+)
 
 
 def _text(cell: dict) -> str:
@@ -37,11 +41,19 @@ def _tables(name: str, d: dict) -> list[Table]:
         i_r = np.asarray(getattr(ro, key + "_interval")).reshape(2, -1)
         for j in range(v_f.size):
             rows.append([f"{label} [{unit}{suffix}]", "xyz"[j], _cell(v_f[j], i_f[:, j]), _cell(v_r[j], i_r[:, j])])
-    note = ("fit: weighted least squares of σ² = 3Q²/τ² + N²/τ + (2 ln2/π)B² + K²τ/3 over the whole curve; read-off: "
-            "IEEE Std 952 slopes (N at τ = 1 s on −1/2, B = flat minimum / 0.664, K at τ = 3 s on +1/2, Q on −1). "
-            "Brackets: 68 % interval (the read-off's covers sampling error only).")
-    return [Table(f"{name.capitalize()} noise terms", ["term", "axis", "fit [68 % interval]",
-                                                        "IEEE 952 read-off [68 % interval]"], rows, note)]
+    note = (
+        "fit: weighted least squares of σ² = 3Q²/τ² + N²/τ + (2 ln2/π)B² + K²τ/3 over the whole curve; read-off: "
+        "IEEE Std 952 slopes (N at τ = 1 s on −1/2, B = flat minimum / 0.664, K at τ = 3 s on +1/2, Q on −1). "
+        "Brackets: 68 % interval (the read-off's covers sampling error only)."
+    )
+    return [
+        Table(
+            f"{name.capitalize()} noise terms",
+            ["term", "axis", "fit [68 % interval]", "IEEE 952 read-off [68 % interval]"],
+            rows,
+            note,
+        )
+    ]
 
 
 def _figure(name: str, d: dict) -> Figure:
@@ -59,10 +71,13 @@ def _figure(name: str, d: dict) -> Figure:
             c = colors[j % 3]
             ax.loglog(tau, A[:, j], "o", ms=3.5, color=c, label=f"{'xyz'[j]}")
             ax.fill_between(tau, lo[:, j], hi[:, j], color=c, alpha=0.15, lw=0)
-            model = allan_deviation_model(tau, white=np.atleast_1d(fit.white)[j],
-                                          bias_instability=np.atleast_1d(fit.bias_instability)[j],
-                                          random_walk=np.atleast_1d(fit.random_walk)[j],
-                                          quantization=np.atleast_1d(fit.quantization)[j])
+            model = allan_deviation_model(
+                tau,
+                white=np.atleast_1d(fit.white)[j],
+                bias_instability=np.atleast_1d(fit.bias_instability)[j],
+                random_walk=np.atleast_1d(fit.random_walk)[j],
+                quantization=np.atleast_1d(fit.quantization)[j],
+            )
             ax.loglog(tau, model, "-", color=c, lw=1.2, alpha=0.8)
             # the IEEE 952 read-off: each slope through its coefficient, a decade either side of where it was read
             for key, _, _, slope, at in _TERMS:
@@ -80,8 +95,10 @@ def _figure(name: str, d: dict) -> Figure:
                     ax.loglog(span, v * (span / at) ** slope, "--", color=c, lw=1.0)
         ax.set_xlabel("cluster time τ [s]")
         ax.set_ylabel(f"Allan deviation [{unit}]")
-        ax.set_title(f"{name}: estimates with 68 % band, four-term fit (solid), IEEE 952 read-off slopes (dashed)\n"
-                     "and 0.664·B floor (dotted)")
+        ax.set_title(
+            f"{name}: estimates with 68 % band, four-term fit (solid), IEEE 952 read-off slopes (dashed)\n"
+            "and 0.664·B floor (dotted)"
+        )
         ax.title.set_fontsize(9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(title="axis", fontsize=8)
@@ -98,9 +115,19 @@ def write_allan_report(res, out_dir) -> Path:
             tables += _tables(name, d)
             figures.append(_figure(name, d))
     if res.kalibr:
-        tables.append(Table("Kalibr continuous-time noise (largest axis)", ["key", "value"],
-                            [[k, Cell(v, "{:.6g}") if isinstance(v, float) else v] for k, v in res.kalibr.items()]))
-    study = StudyResult(name="allan", title=f"Allan deviation of {res.source or 'the log'}",
-                        description=f"{res.n_samples} samples at {res.rate_hz:.6g} Hz over {res.duration_s / 3600:.3g} h.",
-                        tables=tables, figures=figures, summary={"kalibr": res.kalibr})
+        tables.append(
+            Table(
+                "Kalibr continuous-time noise (largest axis)",
+                ["key", "value"],
+                [[k, Cell(v, "{:.6g}") if isinstance(v, float) else v] for k, v in res.kalibr.items()],
+            )
+        )
+    study = StudyResult(
+        name="allan",
+        title=f"Allan deviation of {res.source or 'the log'}",
+        description=f"{res.n_samples} samples at {res.rate_hz:.6g} Hz over {res.duration_s / 3600:.3g} h.",
+        tables=tables,
+        figures=figures,
+        summary={"kalibr": res.kalibr},
+    )
     return write_report([study], out_dir, title="optinav allan")

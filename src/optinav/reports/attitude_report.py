@@ -19,13 +19,19 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
     """The estimation summary of an :class:`~optinav.attitude.AttitudeEstimate` of ``n_samples`` samples;
     ``score``: (inclination RMSE rad, heading RMSE rad, samples) against a reference, or None. Cells hold
     numbers (degrees, as the report shows them); the text is written at render time."""
-    rows = [["method", res.method], ["frame", res.frame], ["samples", int(n_samples)],
-            ["polarization used", res.pol_used]]
+    rows = [
+        ["method", res.method],
+        ["frame", res.frame],
+        ["samples", int(n_samples)],
+        ["polarization used", res.pol_used],
+    ]
     rows += [[f"polarization skipped: {k}", v] for k, v in res.pol_skipped.items()]
     rows += [["accelerometer threshold hits", res.acc_threshold_hits]]
     if score is not None:
-        rows += [["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
-                 ["heading RMSE vs reference [deg]", Cell(float(np.degrees(score[1])), _fixed(3))]]
+        rows += [
+            ["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
+            ["heading RMSE vs reference [deg]", Cell(float(np.degrees(score[1])), _fixed(3))],
+        ]
     if res.gyro_bias is not None:
         rows.append(["final gyro bias [deg/s]", Cell(np.degrees(res.gyro_bias).tolist(), _fixed(4))])
     return [Table("Estimation summary", ["item", "value"], rows)]
@@ -44,7 +50,11 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None) -> Path:
             axs[k].grid(alpha=0.3)
         axs[-1].set_xlabel("t [s]")
 
-    study = StudyResult(name="attitude", title=f"Attitude of {Path(source).name} ({res.method})",
-                        description=res.summary(), tables=attitude_tables(res, len(t), score),
-                        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))])
+    study = StudyResult(
+        name="attitude",
+        title=f"Attitude of {Path(source).name} ({res.method})",
+        description=res.summary(),
+        tables=attitude_tables(res, len(t), score),
+        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))],
+    )
     return write_report([study], out_dir, title="optinav attitude")

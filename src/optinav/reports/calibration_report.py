@@ -25,9 +25,12 @@ def _triad_table(name: str, d: dict, raw_unit: str, si_unit: str) -> Table:
     K, b = np.asarray(d["K"]), np.asarray(d["b"])
     Ks = np.asarray(d.get("K_std", np.full((3, 3), np.nan)), float)
     bs = np.asarray(d.get("b_std", np.full(3, np.nan)), float)
-    rows = [[f"row {'xyz'[i]}"]
-            + [Cell({"value": float(K[i, j]), "std": float(Ks[i, j])}, _value_std) for j in range(3)]
-            + [Cell({"value": float(b[i]), "std": float(bs[i])}, _value_std)] for i in range(3)]
+    rows = [
+        [f"row {'xyz'[i]}"]
+        + [Cell({"value": float(K[i, j]), "std": float(Ks[i, j])}, _value_std) for j in range(3)]
+        + [Cell({"value": float(b[i]), "std": float(bs[i])}, _value_std)]
+        for i in range(3)
+    ]
     note = f"raw = K·x + b, x in {si_unit}, raw in {raw_unit}; ± one standard deviation."
     if d.get("held"):
         note += f" Held at 0 (not observable from these poses): {', '.join(d['held'])}."
@@ -42,8 +45,16 @@ def pose_statistics(res, t, acc) -> list[dict]:
     for t0, t1 in np.asarray(res.static_intervals, float):
         m = (t >= t0) & (t <= t1) & np.all(np.isfinite(a), axis=1)
         n = np.linalg.norm(a[m], axis=1)
-        out.append({"t0": float(t0), "t1": float(t1), "samples": int(m.sum()), "norm_error_mean": float(n.mean() - g),
-                    "norm_std": float(n.std()), "up": a[m].mean(axis=0) / np.linalg.norm(a[m].mean(axis=0))})
+        out.append(
+            {
+                "t0": float(t0),
+                "t1": float(t1),
+                "samples": int(m.sum()),
+                "norm_error_mean": float(n.mean() - g),
+                "norm_std": float(n.std()),
+                "up": a[m].mean(axis=0) / np.linalg.norm(a[m].mean(axis=0)),
+            }
+        )
     return out
 
 
@@ -52,26 +63,46 @@ def tables(res, poses) -> list[Table]:
     out = [_triad_table("Accelerometer", res.accelerometer, res.units.get("accelerometer_raw", "raw"), "m/s²")]
     if res.gyroscope is not None:
         out.append(_triad_table("Gyroscope", res.gyroscope, res.units.get("gyroscope_raw", "raw"), "rad/s"))
-    out.append(Table("Static intervals: corrected |a| − g per pose",
-                     ["pose", "t0 [s]", "t1 [s]", "samples", "mean |a| − g [m/s²]", "std |a| [m/s²]",
-                      "up direction (sensor frame)"],
-                     [[k + 1, p["t0"], p["t1"], p["samples"], p["norm_error_mean"], p["norm_std"], p["up"]]
-                      for k, p in enumerate(poses)],
-                     formats=[None, "{:.2f}", "{:.2f}", None, "{:+.3e}", "{:.3e}", "{:+.3f}"]))
+    out.append(
+        Table(
+            "Static intervals: corrected |a| − g per pose",
+            [
+                "pose",
+                "t0 [s]",
+                "t1 [s]",
+                "samples",
+                "mean |a| − g [m/s²]",
+                "std |a| [m/s²]",
+                "up direction (sensor frame)",
+            ],
+            [
+                [k + 1, p["t0"], p["t1"], p["samples"], p["norm_error_mean"], p["norm_std"], p["up"]]
+                for k, p in enumerate(poses)
+            ],
+            formats=[None, "{:.2f}", "{:.2f}", None, "{:+.3e}", "{:.3e}", "{:+.3f}"],
+        )
+    )
     obs = res.observability or {}
     orows = [[k, Cell(v, str)] for k, v in obs.items() if k not in ("accelerometer", "gyroscope")]
     for sensor in ("accelerometer", "gyroscope"):
         o = obs.get(sensor)
         if o:
-            orows.append([f"{sensor} rank", Cell({"rank": o.get("rank"), "of": o.get("n_params")},
-                                                 lambda d: f"{d['rank']} of {d['of']}")])
+            orows.append(
+                [
+                    f"{sensor} rank",
+                    Cell({"rank": o.get("rank"), "of": o.get("n_params")}, lambda d: f"{d['rank']} of {d['of']}"),
+                ]
+            )
             for u in o.get("unobservable", []) or []:
                 orows.append([f"{sensor} unobservable", u])
     out.append(Table("Observability", ["item", "value"], orows))
     q = [[k, Cell(v, str)] for k, v in (res.quality or {}).items() if k != "threshold_selection"]
     q += [[f"excluded {k}", Cell(v, str)] for k, v in (res.excluded or {}).items()]
-    q += [["residual rms of |a| − g (static samples)", Cell(res.residual_rms, "{:.4g} m/s²")],
-          ["method", res.method], ["elapsed", Cell(res.elapsed_s, "{:.3f} s")]]
+    q += [
+        ["residual rms of |a| − g (static samples)", Cell(res.residual_rms, "{:.4g} m/s²")],
+        ["method", res.method],
+        ["elapsed", Cell(res.elapsed_s, "{:.3f} s")],
+    ]
     out.append(Table("Quality", ["item", "value"], q))
     return out
 
@@ -102,8 +133,10 @@ def figures(res, t, acc, poses) -> list[Figure]:
         ax.set_title("Norm residual per pose after calibration")
         ax.grid(True, axis="y")
 
-    return [Figure("calibration_norm.png", "Norm of the corrected specific force minus g over the log", draw_norm),
-            Figure("calibration_pose_residuals.png", "Mean norm residual of each static pose", draw_res)]
+    return [
+        Figure("calibration_norm.png", "Norm of the corrected specific force minus g over the log", draw_norm),
+        Figure("calibration_pose_residuals.png", "Mean norm residual of each static pose", draw_res),
+    ]
 
 
 def write_calibration_report(res, t, acc, gyro, out_dir) -> Path:
@@ -111,11 +144,17 @@ def write_calibration_report(res, t, acc, gyro, out_dir) -> Path:
     t, acc = np.asarray(t, float), np.asarray(acc, float)
     poses = pose_statistics(res, t, acc)
     raw = res.units.get("accelerometer_raw", "raw")
-    study = StudyResult(name="calibration", title=f"Calibration of {res.source or 'a log'} ({res.method})",
-                        description=res.summary().replace("\n", "  \n"), tables=tables(res, poses),
-                        figures=figures(res, t, acc, poses),
-                        summary={"accelerometer_K": quantity(res.accelerometer["K"], f"{raw} per m/s²"),
-                                 "accelerometer_b": quantity(res.accelerometer["b"], raw),
-                                 "residual_rms": quantity(res.residual_rms, "m/s²"),
-                                 "pose_norm_error_mean": quantity([p["norm_error_mean"] for p in poses], "m/s²")})
+    study = StudyResult(
+        name="calibration",
+        title=f"Calibration of {res.source or 'a log'} ({res.method})",
+        description=res.summary().replace("\n", "  \n"),
+        tables=tables(res, poses),
+        figures=figures(res, t, acc, poses),
+        summary={
+            "accelerometer_K": quantity(res.accelerometer["K"], f"{raw} per m/s²"),
+            "accelerometer_b": quantity(res.accelerometer["b"], raw),
+            "residual_rms": quantity(res.residual_rms, "m/s²"),
+            "pose_norm_error_mean": quantity([p["norm_error_mean"] for p in poses], "m/s²"),
+        },
+    )
     return write_report([study], out_dir, title="optinav calibration")

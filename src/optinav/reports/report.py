@@ -171,16 +171,26 @@ class StudyResult:
 #: study name → (module that registers it, one-line description). Listing the studies (``--help``) reads only
 #: this table; a study's module, with its heavy imports, is loaded when the study runs.
 STUDIES: dict[str, tuple[str, str]] = {
-    "core": ("optinav.reports.core_study",
-             "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory"),
-    "accel-ga": ("optinav.reports.accel_ga_study",
-                 "Gao & Zhang 2019: accelerometer norm-observation calibration, GA vs Newton vs optinav LM"),
-    "rins-pso": ("optinav.reports.rins_study",
-                 "Li et al. 2023: dual-axis rotational INS gimbal non-orthogonality, PSO vs axis method vs LM"),
-    "gfimu": ("optinav.reports.gfimu_study",
-              "Hao & Liu 2011: gyro-free 10-accelerometer array, 50 installation errors on a turntable"),
-    "polarized": ("optinav.reports.polarized_study",
-                  "Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF"),
+    "core": (
+        "optinav.reports.core_study",
+        "shared core: Earth model, rotations, IMU noise, strapdown coning, alignment vs theory",
+    ),
+    "accel-ga": (
+        "optinav.reports.accel_ga_study",
+        "Gao & Zhang 2019: accelerometer norm-observation calibration, GA vs Newton vs optinav LM",
+    ),
+    "rins-pso": (
+        "optinav.reports.rins_study",
+        "Li et al. 2023: dual-axis rotational INS gimbal non-orthogonality, PSO vs axis method vs LM",
+    ),
+    "gfimu": (
+        "optinav.reports.gfimu_study",
+        "Hao & Liu 2011: gyro-free 10-accelerometer array, 50 installation errors on a turntable",
+    ),
+    "polarized": (
+        "optinav.reports.polarized_study",
+        "Jin et al. 2021: MIMU + skylight polarization attitude, GD vs CG vs QN vs MEKF",
+    ),
 }
 
 _REGISTERED: dict[str, Callable[..., StudyResult]] = {}
@@ -209,8 +219,14 @@ def get_study(name: str) -> Callable[..., StudyResult]:
     return _REGISTERED[name]
 
 
-def run_studies(names, *, quick: bool = False, seed: int = 2026, data_dir: str | Path | None = None,
-                announce: Callable[[str], None] | None = None) -> list[StudyResult]:
+def run_studies(
+    names,
+    *,
+    quick: bool = False,
+    seed: int = 2026,
+    data_dir: str | Path | None = None,
+    announce: Callable[[str], None] | None = None,
+) -> list[StudyResult]:
     """Run registered studies (what ``optinav reproduce`` does before writing the report).
 
     Parameters
@@ -244,13 +260,17 @@ def run_studies(names, *, quick: bool = False, seed: int = 2026, data_dir: str |
         if announce is not None:
             announce(name)
         t0 = time.perf_counter()
-        extra = {"data_dir": Path(data_dir)} if data_dir is not None and "data_dir" in inspect.signature(
-            fn).parameters else {}
+        extra = (
+            {"data_dir": Path(data_dir)}
+            if data_dir is not None and "data_dir" in inspect.signature(fn).parameters
+            else {}
+        )
         with task(f"study {k}/{len(fns)} {name}"):
             r = fn(quick=quick, rng=np.random.default_rng(rng.integers(2**63)), **extra)
         r.elapsed = time.perf_counter() - t0
         results.append(r)
     return results
+
 
 def _fmt(x: Any) -> str:
     """The default text of a value: 7 significant digits, "—" for ``None``, yes/no for booleans."""
@@ -297,17 +317,35 @@ def _md(x: Any) -> str:
 
 def _headline(results: list[StudyResult]) -> tuple[list[str], list[str]]:
     """The table at the top of the report: per study its checks and headline numbers (Markdown, HTML)."""
-    cols = ["study", "checks passed", "quantity", "paper", "optinav rebuild of the paper's method",
-            "optinav best", "unit"]
-    md = ["## Headline", "", "Each row compares methods on the same simulated data; the paper's value is "
-          "from its own experiment.", "", "| " + " | ".join(cols) + " |", "|---|---|---|---:|---:|---:|---|"]
+    cols = [
+        "study",
+        "checks passed",
+        "quantity",
+        "paper",
+        "optinav rebuild of the paper's method",
+        "optinav best",
+        "unit",
+    ]
+    md = [
+        "## Headline",
+        "",
+        "Each row compares methods on the same simulated data; the paper's value is from its own experiment.",
+        "",
+        "| " + " | ".join(cols) + " |",
+        "|---|---|---|---:|---:|---:|---|",
+    ]
     h = ["<h2>Headline</h2><table><tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cols) + "</tr>"]
     for r in results:
         ok = f"{sum(c.passed for c in r.checks)}/{len(r.checks)}"
         rows = r.headline or [Headline("—", "", None, None, None)]
         for k, hl in enumerate(rows):
-            cells = [r.name if k == 0 else "", ok if k == 0 else "", hl.quantity,
-                     *("—" if v is None else f"{float(v):.3g}" for v in (hl.paper, hl.rebuild, hl.best)), hl.unit]
+            cells = [
+                r.name if k == 0 else "",
+                ok if k == 0 else "",
+                hl.quantity,
+                *("—" if v is None else f"{float(v):.3g}" for v in (hl.paper, hl.rebuild, hl.best)),
+                hl.unit,
+            ]
             md.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
             h.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
     md.append("")
@@ -374,11 +412,13 @@ def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OptinavError(f"cannot create report folder {out}: {describe(exc)}",
-                           f"choose a writable {option}") from None
+        raise OptinavError(
+            f"cannot create report folder {out}: {describe(exc)}", f"choose a writable {option}"
+        ) from None
     if not os.access(out, os.W_OK | os.X_OK):
-        raise OptinavError(f"cannot write into the report folder {out}: permission denied",
-                           f"choose a writable {option}")
+        raise OptinavError(
+            f"cannot write into the report folder {out}: permission denied", f"choose a writable {option}"
+        )
     return out
 
 
@@ -386,10 +426,13 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
     """Write ``index.md``, ``index.html``, ``summary.json`` and PNGs for ``results`` into ``out_dir``."""
     out = prepare_report_dir(out_dir)
     md = [f"# {title}", "", f"Written {time.strftime('%Y-%m-%d %H:%M:%S')} by optinav.", ""]
-    h = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
-         "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
-         "td,th{border:1px solid #999;padding:2px 6px;text-align:right}th{background:#eee}"
-         ".fail{color:#b00}.pass{color:#070}</style>", f"<h1>{html.escape(title)}</h1>"]
+    h = [
+        f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
+        "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
+        "td,th{border:1px solid #999;padding:2px 6px;text-align:right}th{background:#eee}"
+        ".fail{color:#b00}.pass{color:#070}</style>",
+        f"<h1>{html.escape(title)}</h1>",
+    ]
     summary: dict[str, Any] = {"title": title, "studies": {}}
     if any(r.headline or r.checks for r in results):  # a one-log report (calibrate, allan) has nothing to compare
         hmd, hh = _headline(results)
@@ -400,27 +443,39 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
         h += [f"<h2>{html.escape(r.title)}</h2>", f"<p>{html.escape(r.description)}</p>"]
         if r.checks:
             md += ["| check | value | limit | unit | result | comment |", "|---|---:|---:|---|---|---|"]
-            h.append("<table><tr><th>check</th><th>value</th><th>limit</th><th>unit</th><th>result</th>"
-                     "<th>comment</th></tr>")
+            h.append(
+                "<table><tr><th>check</th><th>value</th><th>limit</th><th>unit</th><th>result</th><th>comment</th></tr>"
+            )
             for c in r.checks:
                 verdict = "pass" if c.passed else "FAIL"
-                md.append(f"| {_md(c.name)} | {_md(c.value)} | {c.kind} {_md(c.limit)} | {_md(c.unit)} | {verdict} "
-                          f"| {_md(c.note)} |")
-                h.append(f"<tr><td>{html.escape(c.name)}</td><td>{_fmt(c.value)}</td><td>{html.escape(c.kind)} "
-                         f"{_fmt(c.limit)}</td><td>{html.escape(c.unit)}</td>"
-                         f"<td class='{verdict.lower()}'>{verdict}</td><td>{html.escape(c.note)}</td></tr>")
+                md.append(
+                    f"| {_md(c.name)} | {_md(c.value)} | {c.kind} {_md(c.limit)} | {_md(c.unit)} | {verdict} "
+                    f"| {_md(c.note)} |"
+                )
+                h.append(
+                    f"<tr><td>{html.escape(c.name)}</td><td>{_fmt(c.value)}</td><td>{html.escape(c.kind)} "
+                    f"{_fmt(c.limit)}</td><td>{html.escape(c.unit)}</td>"
+                    f"<td class='{verdict.lower()}'>{verdict}</td><td>{html.escape(c.note)}</td></tr>"
+                )
             md.append("")
             h.append("</table>")
         for t in r.tables:
-            md += [f"**{t.title}**", "", "| " + " | ".join(_md(c) for c in t.columns) + " |",
-                   "|" + "---|" * len(t.columns)]
+            md += [
+                f"**{t.title}**",
+                "",
+                "| " + " | ".join(_md(c) for c in t.columns) + " |",
+                "|" + "---|" * len(t.columns),
+            ]
             cells = t.text_rows()
             md += ["| " + " | ".join(_md(c) for c in row) + " |" for row in cells]
             if t.note:
                 md += ["", f"_{t.note}_"]
             md.append("")
-            h.append(f"<h3>{html.escape(t.title)}</h3><table><tr>"
-                     + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
+            h.append(
+                f"<h3>{html.escape(t.title)}</h3><table><tr>"
+                + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns)
+                + "</tr>"
+            )
             h += ["<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in cells]
             h.append("</table>" + (f"<p><i>{html.escape(t.note)}</i></p>" if t.note else ""))
         for fig, fname in _save_figures(r, out):
@@ -428,15 +483,32 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
                 md += [f"_Figure omitted ({fig.caption}): install matplotlib._", ""]
             else:
                 md += [f"![{fig.caption}]({fname})", "", f"_{fig.caption}_", ""]
-                h.append(f"<figure><img src='{html.escape(fname)}' width='700'>"
-                         f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
+                h.append(
+                    f"<figure><img src='{html.escape(fname)}' width='700'>"
+                    f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>"
+                )
         summary["studies"][r.name] = {
-            "title": r.title, "elapsed_s": r.elapsed, "summary": plain(r.summary),
+            "title": r.title,
+            "elapsed_s": r.elapsed,
+            "summary": plain(r.summary),
             "headline": [plain(dataclasses.asdict(hl)) for hl in r.headline],
-            "checks": [{"name": c.name, "value": plain(c.value), "limit": plain(c.limit), "unit": c.unit,
-                        "kind": c.kind, "passed": c.passed, "note": c.note, "reason": c.reason} for c in r.checks],
-            "tables": [{"title": t.title, "columns": t.columns, "rows": plain(_cell_values(t.rows)), "note": t.note}
-                       for t in r.tables],
+            "checks": [
+                {
+                    "name": c.name,
+                    "value": plain(c.value),
+                    "limit": plain(c.limit),
+                    "unit": c.unit,
+                    "kind": c.kind,
+                    "passed": c.passed,
+                    "note": c.note,
+                    "reason": c.reason,
+                }
+                for c in r.checks
+            ],
+            "tables": [
+                {"title": t.title, "columns": t.columns, "rows": plain(_cell_values(t.rows)), "note": t.note}
+                for t in r.tables
+            ],
         }
     write_text(out / "index.md", "\n".join(md) + "\n", "--report")
     write_text(out / "index.html", "\n".join(h) + "\n", "--report")

@@ -24,8 +24,12 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         return cr.write_calibration_report(res, d.t, d.acc, d.gyr, out_dir)
     from optinav.reports.report import StudyResult, write_report
 
-    study = StudyResult(name="calibration", title=f"Calibration of {res.source or 'a log'} ({res.method})",
-                        description=res.summary().replace("\n", "  \n"), tables=cr.tables(res, []))
+    study = StudyResult(
+        name="calibration",
+        title=f"Calibration of {res.source or 'a log'} ({res.method})",
+        description=res.summary().replace("\n", "  \n"),
+        tables=cr.tables(res, []),
+    )
     return write_report([study], out_dir, title="optinav calibration")
 
 
@@ -43,8 +47,9 @@ def attitude_report(res, out_dir, data=None, options=None) -> Path:
         raise OptinavError("an attitude estimate holds no time stamps", "pass the log it came from with --data")
     t = read_log(data, options or AttitudeOptions())[0]
     if t.size != len(res.q):
-        raise OptinavError(f"{data} has {t.size} samples, the estimate {len(res.q)}",
-                           "pass the log the estimate came from with --data")
+        raise OptinavError(
+            f"{data} has {t.size} samples, the estimate {len(res.q)}", "pass the log the estimate came from with --data"
+        )
     eul = np.degrees(euler_from_quat(res.q, frame_name(res.frame)))
     return write_attitude_report(res, t, eul, str(data), out_dir)
 
@@ -72,8 +77,10 @@ def write_result_reports(results, out, data=None) -> Path:
 
     data = list(data or [])
     if data and len(data) != len(results):
-        raise OptinavError(f"{len(data)} --data files for {len(results)} results",
-                           "give one --data per result, in the same order, or none")
+        raise OptinavError(
+            f"{len(data)} --data files for {len(results)} results",
+            "give one --data per result, in the same order, or none",
+        )
     out = Path(out)
     single_file = out.suffix.lower() == ".md"
     if single_file:
@@ -81,8 +88,9 @@ def write_result_reports(results, out, data=None) -> Path:
     root = check_report_dir(out.with_name(out.stem + "_files") if single_file else out, "--out")
     loaded = [registry.for_result(p) for p in results]
     if any(res is None for _, res in loaded):  # an imucal/imu_tk file: the report is of optinav results
-        raise OptinavError("only optinav result files (with a schema) have a report",
-                           "pass RESULT.json written by optinav calibrate")
+        raise OptinavError(
+            "only optinav result files (with a schema) have a report", "pass RESULT.json written by optinav calibrate"
+        )
     stems = _stems(results)
     folders = [root if len(results) == 1 and not single_file else root / s for s in stems]
     # a report that fails (a check of its system, a bad --data) leaves none of the folders it made behind
@@ -92,12 +100,12 @@ def write_result_reports(results, out, data=None) -> Path:
         for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
             system.load("report")(res, folder, d)
         if single_file:
-            parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}")
-                     for f in folders]
+            parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
             return write_text(out, "\n".join(parts), "--out")
         if len(results) > 1:
-            lines = ["# optinav report", ""] + [f"- [{Path(p).name}]({s}/index.md) ({sys_.name})"
-                                                 for p, s, (sys_, _) in zip(results, stems, loaded)]
+            lines = ["# optinav report", ""] + [
+                f"- [{Path(p).name}]({s}/index.md) ({sys_.name})" for p, s, (sys_, _) in zip(results, stems, loaded)
+            ]
             write_text(root / "index.md", "\n".join(lines) + "\n", "--out")
     except BaseException:
         for folder in new:

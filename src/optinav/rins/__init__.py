@@ -11,5 +11,16 @@ from optinav.rins.io import read_rins, write_rins
 from optinav.rins.model import PARAM_NAMES, residual_jacobian, residuals, vehicle_attitude
 from optinav.rins.simulate import RinsData, simulate
 
-__all__ = ["PARAM_NAMES", "residuals", "residual_jacobian", "vehicle_attitude", "RinsData", "simulate",
-           "read_rins", "write_rins", "RinsCalibration", "calibrate", "prepare"]
+__all__ = [
+    "PARAM_NAMES",
+    "residuals",
+    "residual_jacobian",
+    "vehicle_attitude",
+    "RinsData",
+    "simulate",
+    "read_rins",
+    "write_rins",
+    "RinsCalibration",
+    "calibrate",
+    "prepare",
+]

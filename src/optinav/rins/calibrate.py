@@ -39,12 +39,19 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core.observability import analyze, format_combination, rref
 from optinav.core.optimize import Problem, minimize
-from optinav.core.results import (Estimate, Parameter, Truth, convergence, flat_kwargs, gate, register_legacy,
-                                 register_truth_legacy)
+from optinav.core.results import (
+    Estimate,
+    Parameter,
+    Truth,
+    convergence,
+    flat_kwargs,
+    gate,
+    register_legacy,
+    register_truth_legacy,
+)
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
-from optinav.rins.model import (PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals,
-                                sensor_attitude)
+from optinav.rins.model import PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals, sensor_attitude
 from optinav.rins.process import SensorAttitude, motion_mask, sensor_attitude_from_imu
 
 __all__ = ["METHODS", "RinsCalibration", "calibrate", "prepare", "observability", "attitude_errors"]
@@ -61,6 +68,7 @@ MAX_RESIDUAL_RATIO = 100.0
 
 
 # --- data preparation -----------------------------------------------------------------------------------
+
 
 @dataclasses.dataclass
 class Prepared:
@@ -93,8 +101,9 @@ class Prepared:
         return {}
 
 
-def prepare(data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None,
-            sa: SensorAttitude | None = None) -> Prepared:
+def prepare(
+    data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None, sa: SensorAttitude | None = None
+) -> Prepared:
     """Align, integrate ``C_s^n`` once, and pick the residual epochs (epoch 0 kept).
 
     Parameters
@@ -134,17 +143,21 @@ def _motion_check(alpha, beta) -> None:
     rb = np.ptp(beta) if beta.size else 0.0
     thr = np.radians(5.0)
     if ra < thr and rb < thr:
-        raise OptinavError("no gimbal motion after the alignment: none of the six angles "
-                           f"({', '.join(PARAM_NAMES)}) can be calibrated", "record a rotation scheme turning "
-                           "both the inner (alpha) and the outer (beta) axis, e.g. the 16-position sequence")
+        raise OptinavError(
+            "no gimbal motion after the alignment: none of the six angles "
+            f"({', '.join(PARAM_NAMES)}) can be calibrated",
+            "record a rotation scheme turning "
+            "both the inner (alpha) and the outer (beta) axis, e.g. the 16-position sequence",
+        )
     if ra < thr or rb < thr:
         moving, still = ("inner (alpha)", "outer (beta)") if rb < thr else ("outer (beta)", "inner (alpha)")
         rep = observability(alpha, beta)
         lost = [s.split(": ", 1)[1] for s in rep.statements if s.startswith("unobservable")]
-        raise OptinavError(f"only the {moving} axis turns, the {still} encoder stays still: "
-                           f"{'; '.join(lost)} cannot be calibrated (rank {rep.rank}/6)",
-                           "record a scheme turning both axes (if the axis did turn, its encoder channel is "
-                           "missing or frozen)")
+        raise OptinavError(
+            f"only the {moving} axis turns, the {still} encoder stays still: "
+            f"{'; '.join(lost)} cannot be calibrated (rank {rep.rank}/6)",
+            "record a scheme turning both axes (if the axis did turn, its encoder channel is missing or frozen)",
+        )
 
 
 def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
@@ -160,12 +173,15 @@ def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
     bad = still & turning
     if bad.sum() * np.median(np.diff(sa.t)) > 2.0:
         k = int(np.flatnonzero(bad)[0])
-        raise OptinavError(f"the gyros turn at {np.degrees(rate[k]):.3g} °/s at t = {sa.t[k + 1]:.6g} s while "
-                           "both encoders report rest: an encoder channel is frozen or missing",
-                           "check the alpha/beta columns (and that they belong to this IMU recording)")
+        raise OptinavError(
+            f"the gyros turn at {np.degrees(rate[k]):.3g} °/s at t = {sa.t[k + 1]:.6g} s while "
+            "both encoders report rest: an encoder channel is frozen or missing",
+            "check the alpha/beta columns (and that they belong to this IMU recording)",
+        )
 
 
 # --- observability ------------------------------------------------------------------------------------------
+
 
 def observability(alpha, beta, p=None, sigma=1.0):
     """First-order observability of the six angles for gimbal angles ``alpha``, ``beta`` (rad).
@@ -187,7 +203,7 @@ def observable_combinations(alpha, beta):
     (6, k) of the observable subspace, C its RREF rows (the combinations reported) and their names."""
     rep = observability(alpha, beta)
     null = np.asarray(rep.null_space, float)
-    V = np.linalg.svd(null.T)[2][null.shape[1]:].T if null.shape[1] else np.eye(6)
+    V = np.linalg.svd(null.T)[2][null.shape[1] :].T if null.shape[1] else np.eye(6)
     C = rref(V.T, 1e-8)
     return rep, V, C, [format_combination(c, PARAM_NAMES) for c in C]
 
@@ -219,8 +235,13 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
                 dth = np.asarray(data.dtheta, float)[sa.index[:-1]]
                 dK = np.zeros((3, 3))
                 dK[i, j] = sig
-                q = attitude_update(quat_from_dcm(sa.c_s_n[0]), dth - dth @ dK.T, coning="previous",
-                                    omega_in_n=_earth.earth_rate(data.lat, "enu"), dt=np.diff(sa.t))
+                q = attitude_update(
+                    quat_from_dcm(sa.c_s_n[0]),
+                    dth - dth @ dK.T,
+                    coning="previous",
+                    omega_in_n=_earth.earth_rate(data.lat, "enu"),
+                    dt=np.diff(sa.t),
+                )
                 cs = prep._gyro_perturbed[(i, j, sig)] = dcm_from_quat(q[np.searchsorted(sa.t, prep.t)])
             dr = residuals(cs, a, b, p, pieces=prep.pieces) - r0
             dp = V @ (-pinv @ dr)
@@ -241,7 +262,7 @@ def _autocorr_time(r: np.ndarray) -> float:
         acf = acf / acf[0]
         tau = 1.0
         for m in range(1, n):
-            tau = 1.0 + 2.0 * acf[1:m + 1].sum()
+            tau = 1.0 + 2.0 * acf[1 : m + 1].sum()
             if m >= 5 * tau:
                 break
         taus.append(max(tau, 1.0))
@@ -249,6 +270,7 @@ def _autocorr_time(r: np.ndarray) -> float:
 
 
 # --- the result ---------------------------------------------------------------------------------------------
+
 
 @dataclasses.dataclass
 class RinsCalibration(Estimate):
@@ -291,10 +313,14 @@ class RinsCalibration(Estimate):
 
     def parameters(self) -> dict[str, Parameter]:
         if self.method == "none":
-            return {nm: Parameter(None, "rad", observable=False, reason="not estimated (method 'none')")
-                    for nm in PARAM_NAMES}
-        out = {c["name"]: Parameter(float(c["value"]), "rad", std=c.get("std"), crlb_std=c.get("crlb_std"))
-               for c in self.combinations}
+            return {
+                nm: Parameter(None, "rad", observable=False, reason="not estimated (method 'none')")
+                for nm in PARAM_NAMES
+            }
+        out = {
+            c["name"]: Parameter(float(c["value"]), "rad", std=c.get("std"), crlb_std=c.get("crlb_std"))
+            for c in self.combinations
+        }
         statements = self.observability.get("statements", [])
         for nm in PARAM_NAMES:
             if nm not in out:
@@ -329,12 +355,17 @@ class RinsCalibration(Estimate):
         for s in self.observability.get("statements", []):
             lines.append(f"  observability: {s}")
         b, a = self.rmse_before_deg, self.rmse_after_deg
-        lines.append("  attitude RMSE [roll, pitch, yaw] deg: before " + ", ".join(f"{x:.4g}" for x in b)
-                     + "; after " + ", ".join(f"{x:.4g}" for x in a))
+        lines.append(
+            "  attitude RMSE [roll, pitch, yaw] deg: before "
+            + ", ".join(f"{x:.4g}" for x in b)
+            + "; after "
+            + ", ".join(f"{x:.4g}" for x in a)
+        )
         return "\n".join(lines)
 
 
 # --- methods ---------------------------------------------------------------------------------------------------
+
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
     """[roll, pitch, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
@@ -352,9 +383,13 @@ def _fit_lm(prep, V, p_start=None):
     r0 = residuals(cs, a, b, p0, pieces=pc)
     J0 = residual_jacobian(cs, a, b, p0, pieces=pc) @ V
     z0 = -np.linalg.lstsq(J0, r0, rcond=None)[0]
-    prob = Problem(residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
-                   jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
-                   x0=z0, x_scale=SCALE, names=[f"z{i}" for i in range(V.shape[1])])
+    prob = Problem(
+        residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
+        jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
+        x0=z0,
+        x_scale=SCALE,
+        names=[f"z{i}" for i in range(V.shape[1])],
+    )
     res = minimize(prob, "lm", xtol=1e-10, ftol=1e-10)
     return p0 + V @ res.x, res
 
@@ -363,10 +398,13 @@ def _fit_pso(prep, rng, search: float, small_angle: bool, options: dict):
     cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
     # the paper's V ∈ [−1, 1] in units of 5 % of the search half-width (±1 rad steps would overshoot mrad angles)
     opts = {**PSO_PAPER, "v_max": 0.05 * search, **options}
-    prob = Problem(residuals=lambda p: residuals(cs, a, b, p, small_angle, pc),
-                   residuals_batch=lambda P: residuals(cs, a, b, P, small_angle, pc),
-                   x0=np.zeros(6), search_interval=(np.full(6, -search), np.full(6, search)),
-                   names=list(PARAM_NAMES))
+    prob = Problem(
+        residuals=lambda p: residuals(cs, a, b, p, small_angle, pc),
+        residuals_batch=lambda P: residuals(cs, a, b, P, small_angle, pc),
+        x0=np.zeros(6),
+        search_interval=(np.full(6, -search), np.full(6, search)),
+        names=list(PARAM_NAMES),
+    )
     res = minimize(prob, "pso", rng=rng, final_jacobian=False, **opts)
     return res.x, res
 
@@ -396,10 +434,10 @@ def _measure_axes(prep: Prepared):
         for s, e in zip(edges[::2], edges[1::2]):
             s0, e1 = max(s - 5, 0), min(e + 5, mv.size)  # a few samples of margin: the move starts between rows
             d_ang = ang[e1] - ang[s0]
-            if abs(d_ang) < np.radians(20) or np.ptp(other[s0:e1 + 1]) > np.radians(0.1):
+            if abs(d_ang) < np.radians(20) or np.ptp(other[s0 : e1 + 1]) > np.radians(0.1):
                 continue
             u = rel[s0:e1].sum(0) / d_ang
-            out[axis].append((u, d_ang, float(np.mean(other[s0:e1 + 1]))))
+            out[axis].append((u, d_ang, float(np.mean(other[s0 : e1 + 1]))))
     return out
 
 
@@ -407,8 +445,9 @@ def _fit_axis(prep: Prepared, V):
     """Axis-vector baseline: forward/reverse-averaged axis directions → first-order LS for p in span(V)."""
     moves = _measure_axes(prep)
     if not moves["Z"] or not moves["Y"]:
-        raise OptinavError("the axis method needs moves of both gimbals of at least 20°",
-                           "use a dual-axis scheme (or --method lm)")
+        raise OptinavError(
+            "the axis method needs moves of both gimbals of at least 20°", "use a dual-axis scheme (or --method lm)"
+        )
     rows, meas = [], []
 
     def add(u_list, which):
@@ -449,22 +488,29 @@ def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     """A fit that did not converge, an implausible angle or a residual far above the gyro noise ends in a
     one-line error instead of a result (issue 13: no wrong answer with exit 0); else their outcomes."""
     if method == "lm" and res is not None and not res.success:
-        raise OptinavError(f"the LM fit did not converge ({res.message})",
-                           "check the data (encoder columns, --lat) or try --method pso")
+        raise OptinavError(
+            f"the LM fit did not converge ({res.message})",
+            "check the data (encoder columns, --lat) or try --method pso",
+        )
     values = [(nm, float(c @ p)) for c, nm in zip(C, cnames)]
     bad = [(nm, v) for nm, v in values if abs(v) > MAX_ANGLE]
     if bad:
         nm, v = max(bad, key=lambda x: abs(x[1]))
-        raise OptinavError(f"the fitted {nm} = {v:.4g} rad is not a plausible non-orthogonality (|angle| ≤ "
-                           f"{MAX_ANGLE} rad): the alpha/beta columns may be swapped, in degrees or of another "
-                           "recording", "check the encoder columns (alpha = inner, beta = outer, rad)")
+        raise OptinavError(
+            f"the fitted {nm} = {v:.4g} rad is not a plausible non-orthogonality (|angle| ≤ "
+            f"{MAX_ANGLE} rad): the alpha/beta columns may be swapped, in degrees or of another "
+            "recording",
+            "check the encoder columns (alpha = inner, beta = outer, rad)",
+        )
     rms = float(np.sqrt(np.mean(np.asarray(e_after) ** 2)))
     walk = noise_walk(prep)
     if walk > 0 and rms > MAX_RESIDUAL_RATIO * walk:
-        raise OptinavError(f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, "
-                           f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains: the gimbal "
-                           "model does not fit this recording",
-                           "check the encoder columns (alpha = inner, beta = outer, rad) and --lat")
+        raise OptinavError(
+            f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, "
+            f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains: the gimbal "
+            "model does not fit this recording",
+            "check the encoder columns (alpha = inner, beta = outer, rad) and --lat",
+        )
     out = [gate("optimizer converged", res.success, None, kind="true")] if method == "lm" and res is not None else []
     out.append(gate("largest |combination|", max((abs(v) for _, v in values), default=0.0), MAX_ANGLE, unit="rad"))
     if walk > 0:
@@ -472,10 +518,22 @@ def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     return out
 
 
-def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, residual_rate: float = 10.0,
-              align_s: float | None = None, window=None, rng=None, search: float = 0.01,
-              small_angle: bool = False, pso_options: dict | None = None, source: str = "",
-              gyro_misalignment: float = np.radians(5 / 3600), gyro_scale: float = 2e-6) -> RinsCalibration:
+def calibrate(
+    data=None,
+    method: str = "lm",
+    *,
+    prep: Prepared | None = None,
+    residual_rate: float = 10.0,
+    align_s: float | None = None,
+    window=None,
+    rng=None,
+    search: float = 0.01,
+    small_angle: bool = False,
+    pso_options: dict | None = None,
+    source: str = "",
+    gyro_misalignment: float = np.radians(5 / 3600),
+    gyro_scale: float = 2e-6,
+) -> RinsCalibration:
     """Calibrate the six non-orthogonality angles from a :class:`~optinav.rins.simulate.RinsData` recording.
 
     Parameters
@@ -535,8 +593,13 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     elif method == "pso":
         p_raw, res = _fit_pso(prep, as_rng(rng), search, small_angle, pso_options or {})
         history = np.degrees(np.sqrt(np.asarray(res.history) / n_res)).tolist()
-        info = {"nfev": res.nfev, "p_raw": p_raw.tolist(), "small_angle": small_angle, "search": search,
-                **{k: v for k, v in res.options.items() if k in ("n_particles", "generations", "w", "c1", "c2")}}
+        info = {
+            "nfev": res.nfev,
+            "p_raw": p_raw.tolist(),
+            "small_angle": small_angle,
+            "search": search,
+            **{k: v for k, v in res.options.items() if k in ("n_particles", "generations", "w", "c1", "c2")},
+        }
         p = V @ (V.T @ p_raw)  # the unobservable directions do not change the residuals; report none of them
     else:
         p, info = _fit_axis(prep, V)
@@ -547,8 +610,12 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     if method != "none":
         gates = _quality_gates(method, p, V, C, cnames, res if method in ("lm", "pso") else None, e_after, prep)
     if method in ("lm", "pso"):
-        conv = convergence(res.success if method == "lm" else None, iterations=getattr(res, "nit", None),
-                           evaluations=res.nfev, message=res.message)
+        conv = convergence(
+            res.success if method == "lm" else None,
+            iterations=getattr(res, "nit", None),
+            evaluations=res.nfev,
+            message=res.message,
+        )
     else:
         conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
@@ -558,29 +625,55 @@ def calibrate(data=None, method: str = "lm", *, prep: Prepared | None = None, re
     tau = _autocorr_time(e_after)
     rep = analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
     cov_noise = np.asarray(rep.crlb) * tau
-    cov_sys = (_systematic_cov(prep, p, V, J @ V, r, gyro_misalignment, gyro_scale) if method != "none"
-               else np.zeros((6, 6)))
+    cov_sys = (
+        _systematic_cov(prep, p, V, J @ V, r, gyro_misalignment, gyro_scale) if method != "none" else np.zeros((6, 6))
+    )
     cov = cov_noise + cov_sys
     combos, angles, stds = [], {}, {}
     for c, nm in zip(C, cnames):
         sd = float(np.sqrt(max(c @ cov @ c, 0.0)))
-        combos.append({"name": nm, "coefficients": c.tolist(), "value": float(c @ p), "std": sd,
-                       "std_noise": float(np.sqrt(max(c @ cov_noise @ c, 0.0))),
-                       "std_gyro_errors": float(np.sqrt(max(c @ cov_sys @ c, 0.0))),
-                       "crlb_std": float(np.sqrt(max(c @ np.asarray(rep.crlb) @ c, 0.0)))})
+        combos.append(
+            {
+                "name": nm,
+                "coefficients": c.tolist(),
+                "value": float(c @ p),
+                "std": sd,
+                "std_noise": float(np.sqrt(max(c @ cov_noise @ c, 0.0))),
+                "std_gyro_errors": float(np.sqrt(max(c @ cov_sys @ c, 0.0))),
+                "crlb_std": float(np.sqrt(max(c @ np.asarray(rep.crlb) @ c, 0.0))),
+            }
+        )
     for i, nm in enumerate(PARAM_NAMES):
         ok = bool(rep0.observable[i]) and method != "none"
         angles[nm] = float(p[i]) if ok else None
         stds[nm] = float(np.sqrt(cov[i, i])) if ok else None
-    obs = {"rank": int(rep0.rank), "singular_values": np.asarray(rep0.singular_values).tolist(),
-           "null_space": np.asarray(rep0.null_space).T.tolist(), "statements": list(rep0.statements),
-           "observable": [bool(x) for x in rep0.observable], "scale_rad": SCALE}
-    return RinsCalibration(angles=angles, angles_std=stds, combinations=combos, observability=obs,
-                           rmse_before_deg=_rms_deg(e_before), rmse_after_deg=_rms_deg(e_after), method=method,
-                           elapsed_s=elapsed if method != "none" else time.perf_counter() - t_start,
-                           p_used=p.tolist(), fitness_history_deg=history, correlation_time=tau,
-                           n_epochs=int(prep.alpha.size), residual_rate_hz=float(residual_rate or np.nan),
-                           options=info, source=source, convergence=conv, gates=gates)
+    obs = {
+        "rank": int(rep0.rank),
+        "singular_values": np.asarray(rep0.singular_values).tolist(),
+        "null_space": np.asarray(rep0.null_space).T.tolist(),
+        "statements": list(rep0.statements),
+        "observable": [bool(x) for x in rep0.observable],
+        "scale_rad": SCALE,
+    }
+    return RinsCalibration(
+        angles=angles,
+        angles_std=stds,
+        combinations=combos,
+        observability=obs,
+        rmse_before_deg=_rms_deg(e_before),
+        rmse_after_deg=_rms_deg(e_after),
+        method=method,
+        elapsed_s=elapsed if method != "none" else time.perf_counter() - t_start,
+        p_used=p.tolist(),
+        fitness_history_deg=history,
+        correlation_time=tau,
+        n_epochs=int(prep.alpha.size),
+        residual_rate_hz=float(residual_rate or np.nan),
+        options=info,
+        source=source,
+        convergence=conv,
+        gates=gates,
+    )
 
 
 def _legacy_v1(data: dict) -> dict:
@@ -596,8 +689,9 @@ def _legacy_v1(data: dict) -> dict:
         if isinstance(v, list) and len(v) == 3:
             kw[key] = [v[1], v[0], v[2]]
     if kw.get("method") == "lm" and "message" in (data.get("options") or {}):
-        kw["convergence"] = convergence(None, evaluations=data["options"].get("nfev"),
-                                        message=data["options"]["message"])
+        kw["convergence"] = convergence(
+            None, evaluations=data["options"].get("nfev"), message=data["options"]["message"]
+        )
     return kw
 
 
@@ -634,11 +728,20 @@ def simulation_truth(data, *, seed: int, lat_deg: float) -> Truth:
         :func:`rins_truth` of the angles, with the scheme, site, seed and the drawn gyro errors.
     """
     p = np.asarray(data.truth, float)
-    info = {"unit": "rad", "angles": dict(zip(PARAM_NAMES, p.tolist())), "lat_deg": lat_deg, "seed": seed,
-            "scheme": data.info["scheme"], "steps": data.info["steps"], "align_s": data.align_s,
-            "gyro_K": data.info["gyro_K"], "gyro_bias_rad_s": data.info["gyro_bias"]}
+    info = {
+        "unit": "rad",
+        "angles": dict(zip(PARAM_NAMES, p.tolist())),
+        "lat_deg": lat_deg,
+        "seed": seed,
+        "scheme": data.info["scheme"],
+        "steps": data.info["steps"],
+        "align_s": data.align_s,
+        "gyro_K": data.info["gyro_K"],
+        "gyro_bias_rad_s": data.info["gyro_bias"],
+    }
     return rins_truth(p, data.alpha, data.beta, info)
 
 
-register_truth_legacy("rins", "optinav.rins_truth",
-                      lambda d: {nm: Parameter(float(d["angles"][nm]), "rad") for nm in PARAM_NAMES})
+register_truth_legacy(
+    "rins", "optinav.rins_truth", lambda d: {nm: Parameter(float(d["angles"][nm]), "rad") for nm in PARAM_NAMES}
+)

@@ -31,8 +31,10 @@ def _fmt(path) -> str:
     p = Path(path)
     f = _FORMATS.get(p.suffix.lower())
     if f is None:
-        raise OptinavError(f"{p.name}: unknown rotational-INS file type {p.suffix!r}",
-                           "use .npz, .csv or .h5 (see docs/methods/rins.md)")
+        raise OptinavError(
+            f"{p.name}: unknown rotational-INS file type {p.suffix!r}",
+            "use .npz, .csv or .h5 (see docs/methods/rins.md)",
+        )
     return f
 
 
@@ -54,9 +56,17 @@ def write_rins(path, data: RinsData) -> Path:
     """
     path = Path(path)
     kind = _fmt(path)
-    cols = {"t": data.t, "dtheta_x": data.dtheta[:, 0], "dtheta_y": data.dtheta[:, 1],
-            "dtheta_z": data.dtheta[:, 2], "dv_x": data.dv[:, 0], "dv_y": data.dv[:, 1], "dv_z": data.dv[:, 2],
-            "alpha": data.alpha, "beta": data.beta}
+    cols = {
+        "t": data.t,
+        "dtheta_x": data.dtheta[:, 0],
+        "dtheta_y": data.dtheta[:, 1],
+        "dtheta_z": data.dtheta[:, 2],
+        "dv_x": data.dv[:, 0],
+        "dv_y": data.dv[:, 1],
+        "dv_z": data.dv[:, 2],
+        "alpha": data.alpha,
+        "beta": data.beta,
+    }
     site = {"lat_deg": float(np.degrees(data.lat)), "height_m": float(data.height_m)}
     if kind == "npz":
         with atomic_open(path, "wb") as fh:
@@ -74,8 +84,10 @@ def write_rins(path, data: RinsData) -> Path:
                 fh.attrs[k] = v
     else:
         table = np.column_stack([cols[c] for c in COLUMNS])
-        header = (f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
-                  "units: t=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS))
+        header = (
+            f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
+            "units: t=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS)
+        )
         write_csv(path, table, header, comments="# ")
     return path
 
@@ -118,8 +130,10 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
     missing = [c for c in names if tab.find(c) is None]
     if missing:
         found = ", ".join(list(tab.data)[:12])
-        raise OptinavError(f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
-                           f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)")
+        raise OptinavError(
+            f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
+            f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
+        )
     col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
     site = {}
     if kind == "csv":
@@ -139,10 +153,18 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
     n = col["t"].size
     for c, name in zip(COLUMNS, names):
         if col[c].size != n:
-            raise OptinavError(f"column {name} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
-                               "resample the encoder angles to the IMU epochs first")
+            raise OptinavError(
+                f"column {name} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
+                "resample the encoder angles to the IMU epochs first",
+            )
     if ends:  # row k: the encoders at end epoch t[k] and the increments over (t[k], t[k+1]] of the next row
         col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
-    return RinsData(t=col["t"], dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
-                    dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]), alpha=col["alpha"],
-                    beta=col["beta"], lat=float(lat), height_m=float(h))
+    return RinsData(
+        t=col["t"],
+        dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
+        dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]),
+        alpha=col["alpha"],
+        beta=col["beta"],
+        lat=float(lat),
+        height_m=float(h),
+    )

@@ -34,8 +34,17 @@ import numpy as np
 from optinav.core.rotations import rot_x, rot_y, rot_z, small_angle_dcm
 from optinav.errors import OptinavError
 
-__all__ = ["PARAM_NAMES", "nonorth_dcm", "chain_pieces", "vehicle_attitude", "attitude_change",
-           "euler_rpy", "residuals", "residual_jacobian", "sensor_attitude"]
+__all__ = [
+    "PARAM_NAMES",
+    "nonorth_dcm",
+    "chain_pieces",
+    "vehicle_attitude",
+    "attitude_change",
+    "euler_rpy",
+    "residuals",
+    "residual_jacobian",
+    "sensor_attitude",
+]
 
 #: parameter names in the order of ``p``
 PARAM_NAMES = ("theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z")
@@ -46,8 +55,10 @@ def _params(p) -> tuple[np.ndarray, bool]:
     single = p.ndim == 1
     p2 = np.atleast_2d(p)
     if p2.ndim != 2 or p2.shape[1] != 6:
-        raise OptinavError(f"non-orthogonality parameters have shape {p.shape}, expected (6,) or (P, 6)",
-                           "pass [theta_x, theta_y, theta_z, eta_x, eta_y, eta_z] in rad")
+        raise OptinavError(
+            f"non-orthogonality parameters have shape {p.shape}, expected (6,) or (P, 6)",
+            "pass [theta_x, theta_y, theta_z, eta_x, eta_y, eta_z] in rad",
+        )
     return p2, single
 
 
@@ -93,8 +104,13 @@ def vehicle_attitude(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=No
     A = nonorth_dcm(p2[:, 0:3], small_angle)  # (P,3,3)
     B = nonorth_dcm(p2[:, 3:6], small_angle)
     c = np.ascontiguousarray(c_s_n, dtype=float)
-    out = _chain(c, np.ascontiguousarray(A), np.ascontiguousarray(Z, dtype=float), np.ascontiguousarray(B),
-                 np.ascontiguousarray(Y, dtype=float))
+    out = _chain(
+        c,
+        np.ascontiguousarray(A),
+        np.ascontiguousarray(Z, dtype=float),
+        np.ascontiguousarray(B),
+        np.ascontiguousarray(Y, dtype=float),
+    )
     return out[0] if single else out
 
 

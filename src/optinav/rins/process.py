@@ -56,16 +56,21 @@ def check_data(data) -> None:
     for name, a in (("alpha (inner encoder)", data.alpha), ("beta (outer encoder)", data.beta)):
         a = as_float_array(a, name)
         if a.shape != (n,):
-            raise OptinavError(f"{name} has {a.size} samples for {n} IMU samples (sample-rate mismatch)",
-                               "resample the encoder angles to the IMU epochs (e.g. numpy.interp) first")
+            raise OptinavError(
+                f"{name} has {a.size} samples for {n} IMU samples (sample-rate mismatch)",
+                "resample the encoder angles to the IMU epochs (e.g. numpy.interp) first",
+            )
     if dth.shape != (n, 3) or dv.shape != (n, 3):
-        raise OptinavError(f"dtheta {dth.shape} / dv {dv.shape} do not match {n} time stamps",
-                           "give one increment row per time stamp")
+        raise OptinavError(
+            f"dtheta {dth.shape} / dv {dv.shape} do not match {n} time stamps", "give one increment row per time stamp"
+        )
     dt = np.diff(t)
     if np.max(dt) > 1.5 * np.median(dt):
         k = int(np.argmax(dt))
-        raise OptinavError(f"gap of {dt[k]:.4g} s at t = {t[k]:.6g} s (nominal step {np.median(dt):.4g} s)",
-                           "pass an uninterrupted recording (increments over a gap are not defined)")
+        raise OptinavError(
+            f"gap of {dt[k]:.4g} s at t = {t[k]:.6g} s (nominal step {np.median(dt):.4g} s)",
+            "pass an uninterrupted recording (increments over a gap are not defined)",
+        )
     rate = 1.0 / np.median(dt)
     for name, a in (("alpha (inner encoder)", data.alpha), ("beta (outer encoder)", data.beta)):
         a = np.asarray(a, float)
@@ -77,9 +82,11 @@ def check_data(data) -> None:
         if inside.size > 20:
             held = float(np.mean(d[inside] == 0.0))
             if held > 0.3:
-                raise OptinavError(f"{name} holds its value on {held:.0%} of the samples while it turns: it is "
-                                   f"sampled slower than the IMU ({rate:.4g} Hz)",
-                                   "interpolate the encoder angles to the IMU epochs (sample-rate mismatch)")
+                raise OptinavError(
+                    f"{name} holds its value on {held:.0%} of the samples while it turns: it is "
+                    f"sampled slower than the IMU ({rate:.4g} Hz)",
+                    "interpolate the encoder angles to the IMU epochs (sample-rate mismatch)",
+                )
 
 
 #: smallest latitude disagreement (deg) reported; gyro bias of a navigation-grade IMU moves the measured
@@ -107,9 +114,11 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
     meas, sd = measured_latitude(dth, dv, span)
     tol = max(np.radians(LAT_TOL_DEG), 5 * sd)
     if sd < np.radians(10) and abs(meas - lat) > tol:
-        raise OptinavError(f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
-                           f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest",
-                           "check --lat (north positive) or the file's lat_deg")
+        raise OptinavError(
+            f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
+            f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest",
+            "check --lat (north positive) or the file's lat_deg",
+        )
 
 
 def _rest_rows(data, align_s) -> int:
@@ -121,8 +130,9 @@ def _rest_rows(data, align_s) -> int:
     return first
 
 
-def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str = "previous",
-                             fine: bool = True) -> SensorAttitude:
+def sensor_attitude_from_imu(
+    data, *, align_s: float | None = None, coning: str = "previous", fine: bool = True
+) -> SensorAttitude:
     """Align on the initial rest, then integrate ``C_s^n`` over the rest of the recording.
 
     data: :class:`~optinav.rins.simulate.RinsData`. align_s: longest alignment window (s; default the whole
@@ -134,15 +144,19 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     step = float(np.median(dt))
     k_a = _rest_rows(data, align_s)
     if k_a * step < 10.0:
-        raise OptinavError(f"only {k_a * step:.3g} s of rest before the first gimbal move",
-                           "record at least 60 s (the paper: 600 s) static with both gimbals still first")
+        raise OptinavError(
+            f"only {k_a * step:.3g} s of rest before the first gimbal move",
+            "record at least 60 s (the paper: 600 s) static with both gimbals still first",
+        )
     if k_a >= t.size - 2:
-        raise OptinavError("the gimbals never move after the alignment (no gimbal motion)",
-                           "nothing can be calibrated: record a rotation scheme turning both axes")
+        raise OptinavError(
+            "the gimbals never move after the alignment (no gimbal motion)",
+            "nothing can be calibrated: record a rotation scheme turning both axes",
+        )
     # row k integrates over (t[k], t[k+1]]; t[m] is the last epoch with both encoders still, so the alignment
     # uses rows 0..m−1 (epochs t[0..m]) and the strapdown starts at t[m]
     m = k_a - 1
-    ep = t[:m + 1]
+    ep = t[: m + 1]
     dth, dv = data.dtheta[:m], data.dv[:m]
     span = ep[-1] - ep[0]
     # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
@@ -150,14 +164,31 @@ def sensor_attitude_from_imu(data, *, align_s: float | None = None, coning: str 
     latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, data.lat)
     coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.height_m, "enu")
     if fine:
-        al = fine_alignment(ep, dth, dv, data.lat, data.height_m, frame="enu", q0=coarse.q_b_n, gyro_white=5e-7,
-                            acc_white=5e-5, gyro_bias_std=1e-7, acc_bias_std=3e-4)
+        al = fine_alignment(
+            ep,
+            dth,
+            dv,
+            data.lat,
+            data.height_m,
+            frame="enu",
+            q0=coarse.q_b_n,
+            gyro_white=5e-7,
+            acc_white=5e-5,
+            gyro_bias_std=1e-7,
+            acc_bias_std=3e-4,
+        )
     else:
         al = coarse
     w_ie = _earth.earth_rate(data.lat, "enu")
     # rows m..N−2 carry the attitude from t[m] to t[N−1] (the last row ends after the last encoder epoch)
     q = attitude_update(al.q_b_n, data.dtheta[m:-1], coning=coning, omega_in_n=w_ie, dt=dt[m:])
     idx = np.arange(m, t.size)
-    return SensorAttitude(t=t[idx], c_s_n=dcm_from_quat(q), alpha=np.asarray(data.alpha, float)[idx],
-                          beta=np.asarray(data.beta, float)[idx], index=idx, align_end=float(t[m]),
-                          align_std=np.asarray(al.attitude_std, float))
+    return SensorAttitude(
+        t=t[idx],
+        c_s_n=dcm_from_quat(q),
+        alpha=np.asarray(data.alpha, float)[idx],
+        beta=np.asarray(data.beta, float)[idx],
+        index=idx,
+        align_end=float(t[m]),
+        align_std=np.asarray(al.attitude_std, float),
+    )

@@ -18,10 +18,20 @@ def rins_tables(res: RinsCalibration) -> list[Table]:
     attitude RMSE table (deg)."""
     rows = [[nm, res.angles.get(nm), res.angles_std.get(nm)] for nm in PARAM_NAMES]
     rows += [[c["name"], c["value"], c.get("std")] for c in res.combinations if " " in c["name"]]
-    return [Table("Angles [rad] (— = not observable individually)", ["angle", "value [rad]", "std [rad]"], rows,
-                  formats=[None, "{:.6e}", "{:.2e}"]),
-            Table("Vehicle attitude RMSE [deg]", ["", "roll", "pitch", "yaw"],
-                  [["before", *res.rmse_before_deg], ["after", *res.rmse_after_deg]], formats=[None] + ["{:.4g}"] * 3)]
+    return [
+        Table(
+            "Angles [rad] (— = not observable individually)",
+            ["angle", "value [rad]", "std [rad]"],
+            rows,
+            formats=[None, "{:.6e}", "{:.2e}"],
+        ),
+        Table(
+            "Vehicle attitude RMSE [deg]",
+            ["", "roll", "pitch", "yaw"],
+            [["before", *res.rmse_before_deg], ["after", *res.rmse_after_deg]],
+            formats=[None] + ["{:.4g}"] * 3,
+        ),
+    ]
 
 
 def _angles_figure(res: RinsCalibration) -> Figure:
@@ -57,8 +67,12 @@ def _error_figure(res: RinsCalibration, prep) -> Figure:
         axs[0].legend(fontsize=7)
         axs[-1].set_xlabel("time since navigation start [s]")
 
-    return Figure("attitude_error.png", "extracted vehicle attitude change (error) before and after compensation",
-                  draw, (7.0, 6.0))
+    return Figure(
+        "attitude_error.png",
+        "extracted vehicle attitude change (error) before and after compensation",
+        draw,
+        (7.0, 6.0),
+    )
 
 
 def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
@@ -70,9 +84,12 @@ def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
         from optinav.rins.unit import RinsOptions, read
 
         o = options or RinsOptions()
-        figures.append(_error_figure(res, prepare(read(data, o), residual_rate=o.residual_rate_hz,
-                                                  align_s=o.align_s)))
-    study = StudyResult(name="rins-calibration", title=f"Rotational-INS non-orthogonality ({res.method})",
-                        description="; ".join(res.observability.get("statements", [])), tables=rins_tables(res),
-                        figures=figures)
+        figures.append(_error_figure(res, prepare(read(data, o), residual_rate=o.residual_rate_hz, align_s=o.align_s)))
+    study = StudyResult(
+        name="rins-calibration",
+        title=f"Rotational-INS non-orthogonality ({res.method})",
+        description="; ".join(res.observability.get("statements", [])),
+        tables=rins_tables(res),
+        figures=figures,
+    )
     return write_report([study], out_dir, title="optinav calibrate rins")

@@ -55,8 +55,10 @@ def scheme_steps(scheme) -> list[tuple[str, float]]:
         for tok in scheme.split(","):
             m = re.fullmatch(r"\s*([ZzYy])\s*([+-]?\d+(?:\.\d*)?)\s*", tok)
             if not m:
-                raise OptinavError(f"rotation scheme {scheme!r} is neither a preset nor a step list",
-                                   f"use one of {', '.join(SCHEMES)} or steps like 'Z+180,Y-180,Z-180'")
+                raise OptinavError(
+                    f"rotation scheme {scheme!r} is neither a preset nor a step list",
+                    f"use one of {', '.join(SCHEMES)} or steps like 'Z+180,Y-180,Z-180'",
+                )
             steps.append((m.group(1).upper(), float(m.group(2))))
         return steps
     steps = [(str(a).upper(), float(d)) for a, d in scheme]
@@ -97,8 +99,7 @@ class RinsData(Result):
         return float(1.0 / np.median(np.diff(self.t)))
 
 
-register_legacy(RinsData, RinsData.SCHEMA, 1,
-                lambda d: nested_kwargs(RinsData, d, {"h": "height_m", "c_b_n": "C_b_n"}))
+register_legacy(RinsData, RinsData.SCHEMA, 1, lambda d: nested_kwargs(RinsData, d, {"h": "height_m", "c_b_n": "C_b_n"}))
 
 
 def _schedules(steps, t_start, move_s, dwell_s, profile, lock_sigma, rng):
@@ -114,26 +115,50 @@ def _schedules(steps, t_start, move_s, dwell_s, profile, lock_sigma, rng):
         true_moves[axis].append(Move(t, move_s, ang + new - eps[axis], profile))
         eps[axis] = new
         t += move_s + dwell_s
-    return (AxisSchedule(moves["Z"]), AxisSchedule(moves["Y"]), AxisSchedule(true_moves["Z"]),
-            AxisSchedule(true_moves["Y"]), t)
+    return (
+        AxisSchedule(moves["Z"]),
+        AxisSchedule(moves["Y"]),
+        AxisSchedule(true_moves["Z"]),
+        AxisSchedule(true_moves["Y"]),
+        t,
+    )
 
 
 def _wobbled(schedule, amp, phase):
     """``w·sin(θ(t) + φ)`` with its rate and acceleration, for a wobble joint driven by ``schedule``."""
+
     def f(t):
         th, rt, ac = schedule(t)
         s, c = np.sin(th + phase), np.cos(th + phase)
         return amp * s, amp * c * rt, amp * (c * ac - s * rt**2)
+
     return f
 
 
-def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: float = 10.0,
-             dwell_s: float = 50.0, align_s: float = 600.0, rate_hz: float = 200.0,
-             lat: float = float(np.radians(28.2)), height_m: float = 50.0,
-             attitude=tuple(np.radians((0.5, -0.3, 30.0)).tolist()), imu="rlg-nav", gyro_misalignment=None,
-             gyro_scale=None, imu_errors: bool = True, noise: bool = True, encoder_noise=np.radians(1 / 3600),
-             encoder_lsb=2 * np.pi / 2**21, lock_sigma: float = 0.0, wobble: float = 0.0,
-             profile: str = "cosine", rng=None) -> RinsData:
+def simulate(
+    nonorth=(0.0,) * 6,
+    *,
+    scheme="psins16",
+    cycles: int = 1,
+    move_s: float = 10.0,
+    dwell_s: float = 50.0,
+    align_s: float = 600.0,
+    rate_hz: float = 200.0,
+    lat: float = float(np.radians(28.2)),
+    height_m: float = 50.0,
+    attitude=tuple(np.radians((0.5, -0.3, 30.0)).tolist()),
+    imu="rlg-nav",
+    gyro_misalignment=None,
+    gyro_scale=None,
+    imu_errors: bool = True,
+    noise: bool = True,
+    encoder_noise=np.radians(1 / 3600),
+    encoder_lsb=2 * np.pi / 2**21,
+    lock_sigma: float = 0.0,
+    wobble: float = 0.0,
+    profile: str = "cosine",
+    rng=None,
+) -> RinsData:
     """Simulate a static-base dual-axis rotational-INS session (see the module docstring).
 
     Parameters
@@ -189,11 +214,14 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
     gen = as_rng(rng)
     p = np.asarray(nonorth, dtype=float)
     if p.shape != (6,) or not np.all(np.isfinite(p)):
-        raise OptinavError(f"nonorth has shape {p.shape}, expected 6 finite angles",
-                           f"pass {', '.join(PARAM_NAMES)} in rad")
+        raise OptinavError(
+            f"nonorth has shape {p.shape}, expected 6 finite angles", f"pass {', '.join(PARAM_NAMES)} in rad"
+        )
     if np.any(np.abs(p) > 0.1):
-        raise OptinavError(f"non-orthogonality angles up to {np.max(np.abs(p)):.3g} rad are not small",
-                           "pass radians (e.g. 1e-4), or --unit deg for degrees")
+        raise OptinavError(
+            f"non-orthogonality angles up to {np.max(np.abs(p)):.3g} rad are not small",
+            "pass radians (e.g. 1e-4), or --unit deg for degrees",
+        )
     rate = check_positive(rate_hz, "rate_hz")
     lat, h = float(lat), float(height_m)
     if not -np.pi / 2 <= lat <= np.pi / 2:
@@ -210,8 +238,18 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
         fixed = [c_b_n, np.eye(3), B.T, np.eye(3), A.T]
         axes = ["y", "x", "z", "x"]
         angles = [ty, _wobbled(ty, wobble, ph[0]), tz, _wobbled(tz, wobble, ph[1])]
-        truth = gimbal(fixed, axes, angles, end, rate, lat, h, "enu",
-                       breakpoints=ty.breakpoints + tz.breakpoints, max_step=min(1.0 / rate, 0.05))
+        truth = gimbal(
+            fixed,
+            axes,
+            angles,
+            end,
+            rate,
+            lat,
+            h,
+            "enu",
+            breakpoints=ty.breakpoints + tz.breakpoints,
+            max_step=min(1.0 / rate, 0.05),
+        )
     else:
         truth = gimbal([c_b_n, B.T, A.T], ["y", "z"], [ty, tz], end, rate, lat, h, "enu")
     spec = preset(imu) if isinstance(imu, str) else imu
@@ -235,9 +273,29 @@ def simulate(nonorth=(0.0,) * 6, *, scheme="psins16", cycles: int = 1, move_s: f
         if encoder_lsb > 0:
             a = np.round(a / encoder_lsb) * encoder_lsb
         enc.append(a)
-    info = {"scheme": scheme if isinstance(scheme, str) else "custom", "steps": [f"{a}{d:+g}" for a, d in steps],
-            "move_s": move_s, "dwell_s": dwell_s, "imu": spec.name, "gyro_K": unit.gyr.K.tolist(),
-            "gyro_bias": unit.gyr.bias.tolist(), "lock_sigma": lock_sigma, "wobble": wobble,
-            "encoder_noise": encoder_noise if noise else 0.0, "encoder_lsb": encoder_lsb}
-    return RinsData(t=ts, dtheta=meas.gyr, dv=meas.acc, alpha=enc[0], beta=enc[1], lat=lat,
-                    height_m=float(h), truth=p.copy(), C_b_n=c_b_n, align_s=float(align_s), info=info)
+    info = {
+        "scheme": scheme if isinstance(scheme, str) else "custom",
+        "steps": [f"{a}{d:+g}" for a, d in steps],
+        "move_s": move_s,
+        "dwell_s": dwell_s,
+        "imu": spec.name,
+        "gyro_K": unit.gyr.K.tolist(),
+        "gyro_bias": unit.gyr.bias.tolist(),
+        "lock_sigma": lock_sigma,
+        "wobble": wobble,
+        "encoder_noise": encoder_noise if noise else 0.0,
+        "encoder_lsb": encoder_lsb,
+    }
+    return RinsData(
+        t=ts,
+        dtheta=meas.gyr,
+        dv=meas.acc,
+        alpha=enc[0],
+        beta=enc[1],
+        lat=lat,
+        height_m=float(h),
+        truth=p.copy(),
+        C_b_n=c_b_n,
+        align_s=float(align_s),
+        info=info,
+    )

@@ -33,8 +33,10 @@ def check(options: RinsOptions) -> None:
     if options.method not in METHODS:
         raise OptinavError(f"unknown method {options.method!r}", f"use one of {', '.join(METHODS)}")
     if not (math.isfinite(options.residual_rate_hz) and options.residual_rate_hz > 0):
-        raise OptinavError(f"--residual-rate {options.residual_rate_hz!r} is not a positive rate",
-                           "give epochs per second, e.g. --residual-rate 10")
+        raise OptinavError(
+            f"--residual-rate {options.residual_rate_hz!r} is not a positive rate",
+            "give epochs per second, e.g. --residual-rate 10",
+        )
 
 
 def read(path, options: RinsOptions):
@@ -94,7 +96,13 @@ def apply_file(result_path, data_path, out, options: RinsOptions | None = None) 
         raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
     res = RinsCalibration.from_json(result_path)
     t, C_b_n = compensated_attitude(res.p, data_path, options)
-    write_csv(out, np.column_stack([t, quat_from_dcm(C_b_n), np.degrees(euler_from_dcm(C_b_n, "enu"))]),
-              "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg", "%.12g")
-    return (f"wrote the vehicle attitude of {t.size} epochs to {out}, the gimbal non-orthogonality of "
-            f"{res.method} compensated (q_b_n ENU, degrees)")
+    write_csv(
+        out,
+        np.column_stack([t, quat_from_dcm(C_b_n), np.degrees(euler_from_dcm(C_b_n, "enu"))]),
+        "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg",
+        "%.12g",
+    )
+    return (
+        f"wrote the vehicle attitude of {t.size} epochs to {out}, the gimbal non-orthogonality of "
+        f"{res.method} compensated (q_b_n ENU, degrees)"
+    )

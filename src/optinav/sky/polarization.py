@@ -29,8 +29,19 @@ from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng
 from optinav.errors import OptinavError
 
-__all__ = ["DEFAULT_D_MAX", "DEFAULT_NEUTRAL_DISTANCE", "SkyPolarization", "scattering_angle", "rayleigh_dop",
-           "sky_polarization", "aop_in_sensor", "zenith_aop", "wrap_axial", "PointSensor", "PolarizationReading"]
+__all__ = [
+    "DEFAULT_D_MAX",
+    "DEFAULT_NEUTRAL_DISTANCE",
+    "SkyPolarization",
+    "scattering_angle",
+    "rayleigh_dop",
+    "sky_polarization",
+    "aop_in_sensor",
+    "zenith_aop",
+    "wrap_axial",
+    "PointSensor",
+    "PolarizationReading",
+]
 
 #: maximum degree of polarization of a clear sky (chosen; measured clear-sky maxima are 0.6–0.85)
 DEFAULT_D_MAX = 0.75
@@ -61,8 +72,9 @@ def _unit(x, name) -> np.ndarray:
     a = as_float_array(x, name, last_dims=(3,))
     n = np.linalg.norm(a, axis=-1)
     if np.any(np.abs(n - 1.0) > 1e-6):
-        raise OptinavError(f"{name} is not a unit vector (norm {float(np.max(np.abs(n - 1))) + 1:.6g})",
-                           f"normalize {name}")
+        raise OptinavError(
+            f"{name} is not a unit vector (norm {float(np.max(np.abs(n - 1))) + 1:.6g})", f"normalize {name}"
+        )
     return a / n[..., None]
 
 
@@ -97,8 +109,15 @@ def _check_dmax(d_max) -> float:
     return d
 
 
-def sky_polarization(sun, view, *, model: str = "rayleigh", d_max: float = DEFAULT_D_MAX, up=None,
-                     neutral_distance: float = DEFAULT_NEUTRAL_DISTANCE) -> SkyPolarization:
+def sky_polarization(
+    sun,
+    view,
+    *,
+    model: str = "rayleigh",
+    d_max: float = DEFAULT_D_MAX,
+    up=None,
+    neutral_distance: float = DEFAULT_NEUTRAL_DISTANCE,
+) -> SkyPolarization:
     """Polarization of skylight seen in direction ``view`` with the sun at ``sun`` (unit vectors, one frame).
 
     ``model="rayleigh"``: E ∝ sun × view, d = d_max·sin²γ/(1 + cos²γ). ``model="berry"``: the
@@ -120,8 +139,9 @@ def sky_polarization(sun, view, *, model: str = "rayleigh", d_max: float = DEFAU
         return SkyPolarization(e=e, dop=dop, gamma=gamma, valid=valid)
     if m == "berry":
         if up is None:
-            raise OptinavError("the Berry model needs the zenith direction", "pass up=[0, 0, -1] for NED, "
-                               "[0, 0, 1] for ENU")
+            raise OptinavError(
+                "the Berry model needs the zenith direction", "pass up=[0, 0, -1] for NED, [0, 0, 1] for ENU"
+            )
         return _berry(s, v, _unit(up, "up"), float(neutral_distance), d_max, gamma)
     raise OptinavError(f"unknown sky model {model!r}", "use 'rayleigh' or 'berry'")
 
@@ -184,6 +204,7 @@ def zenith_aop(sun_m) -> np.ndarray:
 
 # --- point-source sensor ----------------------------------------------------------------------------------
 
+
 @dataclass
 class PolarizationReading:
     """Output of :meth:`PointSensor.measure`: angle (rad, [−π/2, π/2)) and degree of polarization, the
@@ -222,12 +243,16 @@ class PointSensor:
         self.psi = as_float_array(self.psi, "psi").ravel()
         k = self.psi.size
         if k not in (3, 4):
-            raise OptinavError(f"a point sensor needs 3 or 4 polarizer channels, got {k}",
-                               "pass psi=(0, 60, 120) deg or (0, 45, 90, 135) deg in rad")
+            raise OptinavError(
+                f"a point sensor needs 3 or 4 polarizer channels, got {k}",
+                "pass psi=(0, 60, 120) deg or (0, 45, 90, 135) deg in rad",
+            )
         c = np.stack([np.cos(2 * self.psi), np.sin(2 * self.psi)])
         if np.linalg.matrix_rank(c, tol=1e-6) < 2:
-            raise OptinavError("the polarizer orientations do not resolve the angle (collinear in 2ψ)",
-                               "use orientations spread over 180°")
+            raise OptinavError(
+                "the polarizer orientations do not resolve the angle (collinear in 2ψ)",
+                "use orientations spread over 180°",
+            )
         er = float(self.extinction_ratio)
         if not er > 1.0:
             raise OptinavError(f"extinction_ratio = {er} must be > 1", "pass e.g. 100 (or np.inf for ideal)")
@@ -254,8 +279,13 @@ class PointSensor:
         rng = as_rng(rng)
         s = cls(**kw)
         k = s.psi.size
-        return cls(**{**kw, "gain": 1.0 + rng.normal(0.0, gain_sigma, k),
-                      "offset": rng.normal(0.0, offset_sigma * s.intensity, k)})
+        return cls(
+            **{
+                **kw,
+                "gain": 1.0 + rng.normal(0.0, gain_sigma, k),
+                "offset": rng.normal(0.0, offset_sigma * s.intensity, k),
+            }
+        )
 
     @property
     def _eta(self) -> tuple[float, float]:

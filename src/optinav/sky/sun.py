@@ -28,8 +28,15 @@ from optinav.core.units import DEG
 from optinav.errors import OptinavError
 from optinav.sky import _spa_tables as T
 
-__all__ = ["SolarPosition", "solar_position", "solar_position_deg", "sun_vector", "utc_seconds",
-           "delta_t_espenak", "julian_day"]
+__all__ = [
+    "SolarPosition",
+    "solar_position",
+    "solar_position_deg",
+    "sun_vector",
+    "utc_seconds",
+    "delta_t_espenak",
+    "julian_day",
+]
 
 _CHUNK = 65536  # samples per block: bounds the (terms × samples) temporaries
 _UNIX_JD0 = 2440587.5  # Julian day of 1970-01-01T00:00 UTC
@@ -41,10 +48,13 @@ _SUN_RADIUS_DEG = 0.26667
 
 # --- time -------------------------------------------------------------------------------------------------
 
+
 def _naive_error(what) -> OptinavError:
-    return OptinavError(f"time {what!s} has no UTC offset",
-                        "give timezone-aware times, e.g. '2021-01-17T10:34:00+08:00' or '...Z' for UTC, "
-                        "or numpy datetime64 values in UTC")
+    return OptinavError(
+        f"time {what!s} has no UTC offset",
+        "give timezone-aware times, e.g. '2021-01-17T10:34:00+08:00' or '...Z' for UTC, "
+        "or numpy datetime64 values in UTC",
+    )
 
 
 def _one_seconds(x) -> float:
@@ -53,8 +63,7 @@ def _one_seconds(x) -> float:
         try:
             d = _dt.datetime.fromisoformat(s)
         except ValueError:
-            raise OptinavError(f"time {x!r} is not ISO 8601",
-                               "write it like 2021-01-17T10:34:00+08:00") from None
+            raise OptinavError(f"time {x!r} is not ISO 8601", "write it like 2021-01-17T10:34:00+08:00") from None
         if d.tzinfo is None or d.utcoffset() is None:
             raise _naive_error(repr(x))
         return d.timestamp()
@@ -65,10 +74,14 @@ def _one_seconds(x) -> float:
     if isinstance(x, np.datetime64):
         return _datetime64_seconds(np.asarray(x)).item()
     if isinstance(x, _dt.date):
-        raise OptinavError(f"time {x!s} is a date without a time of day and UTC offset",
-                           "give a timezone-aware datetime or an ISO string with an offset")
-    raise OptinavError(f"cannot read a time from {type(x).__name__} {x!r}",
-                       "pass ISO strings with an offset, aware datetimes or datetime64 (UTC)")
+        raise OptinavError(
+            f"time {x!s} is a date without a time of day and UTC offset",
+            "give a timezone-aware datetime or an ISO string with an offset",
+        )
+    raise OptinavError(
+        f"cannot read a time from {type(x).__name__} {x!r}",
+        "pass ISO strings with an offset, aware datetimes or datetime64 (UTC)",
+    )
 
 
 def _datetime64_seconds(a: np.ndarray) -> np.ndarray:
@@ -124,52 +137,84 @@ def delta_t_espenak(decimal_year) -> np.ndarray:
         out[mask] = val[mask]
 
     u = (y - 1820.0) / 100.0
-    put(y < -500, -20 + 32 * u ** 2)
+    put(y < -500, -20 + 32 * u**2)
     u = y / 100.0
-    put((y >= -500) & (y < 500), 10583.6 - 1014.41 * u + 33.78311 * u ** 2 - 5.952053 * u ** 3
-        - 0.1798452 * u ** 4 + 0.022174192 * u ** 5 + 0.0090316521 * u ** 6)
+    put(
+        (y >= -500) & (y < 500),
+        10583.6
+        - 1014.41 * u
+        + 33.78311 * u**2
+        - 5.952053 * u**3
+        - 0.1798452 * u**4
+        + 0.022174192 * u**5
+        + 0.0090316521 * u**6,
+    )
     u = (y - 1000.0) / 100.0
-    put((y >= 500) & (y < 1600), 1574.2 - 556.01 * u + 71.23472 * u ** 2 + 0.319781 * u ** 3
-        - 0.8503463 * u ** 4 - 0.005050998 * u ** 5 + 0.0083572073 * u ** 6)
+    put(
+        (y >= 500) & (y < 1600),
+        1574.2
+        - 556.01 * u
+        + 71.23472 * u**2
+        + 0.319781 * u**3
+        - 0.8503463 * u**4
+        - 0.005050998 * u**5
+        + 0.0083572073 * u**6,
+    )
     t = y - 1600
-    put((y >= 1600) & (y < 1700), 120 - 0.9808 * t - 0.01532 * t ** 2 + t ** 3 / 7129)
+    put((y >= 1600) & (y < 1700), 120 - 0.9808 * t - 0.01532 * t**2 + t**3 / 7129)
     t = y - 1700
-    put((y >= 1700) & (y < 1800), 8.83 + 0.1603 * t - 0.0059285 * t ** 2 + 0.00013336 * t ** 3 - t ** 4 / 1174000)
+    put((y >= 1700) & (y < 1800), 8.83 + 0.1603 * t - 0.0059285 * t**2 + 0.00013336 * t**3 - t**4 / 1174000)
     t = y - 1800
-    put((y >= 1800) & (y < 1860), 13.72 - 0.332447 * t + 0.0068612 * t ** 2 + 0.0041116 * t ** 3
-        - 0.00037436 * t ** 4 + 0.0000121272 * t ** 5 - 0.0000001699 * t ** 6 + 0.000000000875 * t ** 7)
+    put(
+        (y >= 1800) & (y < 1860),
+        13.72
+        - 0.332447 * t
+        + 0.0068612 * t**2
+        + 0.0041116 * t**3
+        - 0.00037436 * t**4
+        + 0.0000121272 * t**5
+        - 0.0000001699 * t**6
+        + 0.000000000875 * t**7,
+    )
     t = y - 1860
-    put((y >= 1860) & (y < 1900), 7.62 + 0.5737 * t - 0.251754 * t ** 2 + 0.01680668 * t ** 3
-        - 0.0004473624 * t ** 4 + t ** 5 / 233174)
+    put(
+        (y >= 1860) & (y < 1900),
+        7.62 + 0.5737 * t - 0.251754 * t**2 + 0.01680668 * t**3 - 0.0004473624 * t**4 + t**5 / 233174,
+    )
     t = y - 1900
-    put((y >= 1900) & (y < 1920), -2.79 + 1.494119 * t - 0.0598939 * t ** 2 + 0.0061966 * t ** 3 - 0.000197 * t ** 4)
+    put((y >= 1900) & (y < 1920), -2.79 + 1.494119 * t - 0.0598939 * t**2 + 0.0061966 * t**3 - 0.000197 * t**4)
     t = y - 1920
-    put((y >= 1920) & (y < 1941), 21.20 + 0.84493 * t - 0.076100 * t ** 2 + 0.0020936 * t ** 3)
+    put((y >= 1920) & (y < 1941), 21.20 + 0.84493 * t - 0.076100 * t**2 + 0.0020936 * t**3)
     t = y - 1950
-    put((y >= 1941) & (y < 1961), 29.07 + 0.407 * t - t ** 2 / 233 + t ** 3 / 2547)
+    put((y >= 1941) & (y < 1961), 29.07 + 0.407 * t - t**2 / 233 + t**3 / 2547)
     t = y - 1975
-    put((y >= 1961) & (y < 1986), 45.45 + 1.067 * t - t ** 2 / 260 - t ** 3 / 718)
+    put((y >= 1961) & (y < 1986), 45.45 + 1.067 * t - t**2 / 260 - t**3 / 718)
     t = y - 2000
-    put((y >= 1986) & (y < 2005), 63.86 + 0.3345 * t - 0.060374 * t ** 2 + 0.0017275 * t ** 3
-        + 0.000651814 * t ** 4 + 0.00002373599 * t ** 5)
-    put((y >= 2005) & (y < 2050), 62.92 + 0.32217 * t + 0.005589 * t ** 2)
+    put(
+        (y >= 1986) & (y < 2005),
+        63.86 + 0.3345 * t - 0.060374 * t**2 + 0.0017275 * t**3 + 0.000651814 * t**4 + 0.00002373599 * t**5,
+    )
+    put((y >= 2005) & (y < 2050), 62.92 + 0.32217 * t + 0.005589 * t**2)
     u = (y - 1820.0) / 100.0
-    put((y >= 2050) & (y < 2150), -20 + 32 * u ** 2 - 0.5628 * (2150 - y))
-    put(y >= 2150, -20 + 32 * u ** 2)
+    put((y >= 2050) & (y < 2150), -20 + 32 * u**2 - 0.5628 * (2150 - y))
+    put(y >= 2150, -20 + 32 * u**2)
     return out
 
 
 #: the years for which the SPA is valid (Reda & Andreas 2008, abstract: -2000 to 6000), as Unix seconds
-SPA_VALID_S = (float(np.datetime64("-2000-01-01T00:00:00", "s").astype(np.int64)),
-               float(np.datetime64("6001-01-01T00:00:00", "s").astype(np.int64)))
+SPA_VALID_S = (
+    float(np.datetime64("-2000-01-01T00:00:00", "s").astype(np.int64)),
+    float(np.datetime64("6001-01-01T00:00:00", "s").astype(np.int64)),
+)
 
 
 def _check_valid_range(unix_seconds: np.ndarray) -> None:
     bad = (unix_seconds < SPA_VALID_S[0]) | (unix_seconds >= SPA_VALID_S[1])
     if np.any(bad):
         t = np.floor(unix_seconds[bad][0]).astype(np.int64).astype("datetime64[s]")
-        raise OptinavError(f"time {t}Z is outside the years -2000 to 6000 for which the SPA is valid",
-                           "pass a time within -2000..6000")
+        raise OptinavError(
+            f"time {t}Z is outside the years -2000 to 6000 for which the SPA is valid", "pass a time within -2000..6000"
+        )
 
 
 def _decimal_year(unix_seconds: np.ndarray) -> np.ndarray:
@@ -181,6 +226,7 @@ def _decimal_year(unix_seconds: np.ndarray) -> np.ndarray:
 
 # --- SPA core (degrees inside, as the report writes it) ---------------------------------------------------
 
+
 def _series(table: np.ndarray, jme: np.ndarray) -> np.ndarray:
     # Σ A cos(B + C·JME) (SPA Eq. 9)
     return np.cos(table[:, 1:2] + table[:, 2:3] * jme[None, :]).T @ table[:, 0]
@@ -189,7 +235,7 @@ def _series(table: np.ndarray, jme: np.ndarray) -> np.ndarray:
 def _poly_series(tables, jme):
     acc = np.zeros_like(jme)
     for k, tab in enumerate(tables):
-        acc = acc + _series(tab, jme) * jme ** k
+        acc = acc + _series(tab, jme) * jme**k
     return acc / 1e8
 
 
@@ -206,13 +252,16 @@ def _slow_terms(jde: np.ndarray) -> tuple[np.ndarray, ...]:
     L = _poly_series(_L, jme)
     B = _poly_series(_B, jme)
     R = _poly_series(_R, jme)
-    x = np.stack([
-        297.85036 + 445267.111480 * jce - 0.0019142 * jce ** 2 + jce ** 3 / 189474.0,
-        357.52772 + 35999.050340 * jce - 0.0001603 * jce ** 2 - jce ** 3 / 300000.0,
-        134.96298 + 477198.867398 * jce + 0.0086972 * jce ** 2 + jce ** 3 / 56250.0,
-        93.27191 + 483202.017538 * jce - 0.0036825 * jce ** 2 + jce ** 3 / 327270.0,
-        125.04452 - 1934.136261 * jce + 0.0020708 * jce ** 2 + jce ** 3 / 450000.0,
-    ], axis=1)  # (N, 5) deg (Eqs. 15–19)
+    x = np.stack(
+        [
+            297.85036 + 445267.111480 * jce - 0.0019142 * jce**2 + jce**3 / 189474.0,
+            357.52772 + 35999.050340 * jce - 0.0001603 * jce**2 - jce**3 / 300000.0,
+            134.96298 + 477198.867398 * jce + 0.0086972 * jce**2 + jce**3 / 56250.0,
+            93.27191 + 483202.017538 * jce - 0.0036825 * jce**2 + jce**3 / 327270.0,
+            125.04452 - 1934.136261 * jce + 0.0020708 * jce**2 + jce**3 / 450000.0,
+        ],
+        axis=1,
+    )  # (N, 5) deg (Eqs. 15–19)
     arg = np.radians(x @ _NUT_Y.T)  # (N, 63)
     abcd = T._NUT_ABCD
     dpsi = (np.sin(arg) * (abcd[:, 0] + abcd[:, 1] * jce[:, None])).sum(axis=1) / 36e6
@@ -253,13 +302,20 @@ def _spa_block(jd, delta_t, lat_deg, lon_deg, height, pressure_mbar, temp_c, ref
     beta = -B
 
     U = jme / 10.0
-    eps0 = (84381.448 + U * (-4680.93 + U * (-1.55 + U * (1999.25 + U * (-51.38 + U * (-249.67 + U * (
-        -39.05 + U * (7.12 + U * (27.87 + U * (5.79 + U * 2.45))))))))))  # arcsec (Eq. 24)
+    eps0 = 84381.448 + U * (
+        -4680.93
+        + U
+        * (
+            -1.55
+            + U
+            * (1999.25 + U * (-51.38 + U * (-249.67 + U * (-39.05 + U * (7.12 + U * (27.87 + U * (5.79 + U * 2.45)))))))
+        )
+    )  # arcsec (Eq. 24)
     eps = eps0 / 3600.0 + deps
     dtau = -20.4898 / (3600.0 * R)  # aberration (Eq. 26)
     lam = theta + dpsi + dtau
 
-    nu0 = (280.46061837 + 360.98564736629 * (jd - _J2000) + 0.000387933 * jc ** 2 - jc ** 3 / 38710000.0) % 360.0
+    nu0 = (280.46061837 + 360.98564736629 * (jd - _J2000) + 0.000387933 * jc**2 - jc**3 / 38710000.0) % 360.0
     nu = nu0 + dpsi * np.cos(np.radians(eps))  # apparent sidereal time at Greenwich (Eq. 29)
 
     lr, er, br = np.radians(lam), np.radians(eps), np.radians(beta)
@@ -283,8 +339,12 @@ def _spa_block(jd, delta_t, lat_deg, lon_deg, height, pressure_mbar, temp_c, ref
 
     e0 = np.degrees(np.arcsin(np.sin(phi) * np.sin(delta_p) + np.cos(phi) * np.cos(delta_p) * np.cos(Hp)))
     if refract:
-        de = (pressure_mbar / 1010.0) * (283.0 / (273.0 + temp_c)) * 1.02 / (
-            60.0 * np.tan(np.radians(e0 + 10.3 / (e0 + 5.11))))  # Eq. 42 (Bennett/Sæmundsson form)
+        de = (
+            (pressure_mbar / 1010.0)
+            * (283.0 / (273.0 + temp_c))
+            * 1.02
+            / (60.0 * np.tan(np.radians(e0 + 10.3 / (e0 + 5.11))))
+        )  # Eq. 42 (Bennett/Sæmundsson form)
         de = np.where(e0 >= -(_SUN_RADIUS_DEG + atmos_refract), de, 0.0)
     else:
         de = np.zeros_like(e0)
@@ -293,21 +353,40 @@ def _spa_block(jd, delta_t, lat_deg, lon_deg, height, pressure_mbar, temp_c, ref
     gamma = np.degrees(np.arctan2(np.sin(Hp), np.cos(Hp) * np.sin(phi) - np.tan(delta_p) * np.cos(phi)))
     azimuth = (gamma + 180.0) % 360.0  # from north, eastward (Eq. 46)
 
-    M = (280.4664567 + 360007.6982779 * jme + 0.03032028 * jme ** 2 + jme ** 3 / 49931.0
-         - jme ** 4 / 15300.0 - jme ** 5 / 2000000.0) % 360.0
+    M = (
+        280.4664567
+        + 360007.6982779 * jme
+        + 0.03032028 * jme**2
+        + jme**3 / 49931.0
+        - jme**4 / 15300.0
+        - jme**5 / 2000000.0
+    ) % 360.0
     E = 4.0 * (M - 0.0057183 - alpha + dpsi * np.cos(er))  # minutes (Eq. A1)
     E = E - 1440.0 * np.round(E / 1440.0)  # keep |E| ≤ 20 min whatever the wrap of α
 
     H_geo = (H + 180.0) % 360.0 - 180.0
     Hp_deg = (np.degrees(Hp) + 180.0) % 360.0 - 180.0
-    return dict(elevation=e, elevation_geometric=e0, azimuth=azimuth, declination=delta,
-                declination_topocentric=np.degrees(delta_p), right_ascension=alpha,
-                right_ascension_topocentric=alpha_p % 360.0, hour_angle=H_geo, hour_angle_topocentric=Hp_deg,
-                equation_of_time=E * 60.0, earth_sun_distance=R, ecliptic_longitude=lam,
-                nutation_longitude=dpsi, nutation_obliquity=deps, obliquity=eps)
+    return dict(
+        elevation=e,
+        elevation_geometric=e0,
+        azimuth=azimuth,
+        declination=delta,
+        declination_topocentric=np.degrees(delta_p),
+        right_ascension=alpha,
+        right_ascension_topocentric=alpha_p % 360.0,
+        hour_angle=H_geo,
+        hour_angle_topocentric=Hp_deg,
+        equation_of_time=E * 60.0,
+        earth_sun_distance=R,
+        ecliptic_longitude=lam,
+        nutation_longitude=dpsi,
+        nutation_obliquity=deps,
+        obliquity=eps,
+    )
 
 
 # --- result -----------------------------------------------------------------------------------------------
+
 
 def _rad(unit="rad"):
     return field(metadata={"unit": unit})
@@ -359,8 +438,9 @@ class SolarPosition(Result):
         return np.round(np.asarray(self.unix_time) * 1e6).astype(np.int64).astype("datetime64[us]")
 
 
-register_legacy(SolarPosition, SolarPosition.SCHEMA, 1,
-                lambda d: nested_kwargs(SolarPosition, d, {"height": "height_m"}))  # old names
+register_legacy(
+    SolarPosition, SolarPosition.SCHEMA, 1, lambda d: nested_kwargs(SolarPosition, d, {"height": "height_m"})
+)  # old names
 
 
 def sun_vector(azimuth, elevation, frame: str = "ned") -> np.ndarray:
@@ -383,8 +463,17 @@ def _scalar(x, name, lo=-np.inf, hi=np.inf) -> float:
     return v
 
 
-def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=285.15, delta_t=None,
-                   atmos_refract=ATMOS_REFRACT_DEG * DEG) -> SolarPosition:
+def solar_position(
+    time,
+    lat,
+    lon,
+    height_m=0.0,
+    *,
+    pressure=None,
+    temperature=285.15,
+    delta_t=None,
+    atmos_refract=ATMOS_REFRACT_DEG * DEG,
+) -> SolarPosition:
     """Topocentric sun position (NREL SPA) for an observer at geodetic ``lat``, ``lon`` (rad, east positive)
     and ``height_m`` (m; the SPA uses it for parallax only).
 
@@ -410,11 +499,15 @@ def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=2
         dts = delta_t_espenak(_decimal_year(s))
     else:
         try:
-            dts = np.broadcast_to(np.asarray(delta_t, dtype=float), shape).ravel() if np.ndim(delta_t) else \
-                np.full(s.shape, _scalar(delta_t, "delta_t", -1e6, 1e6))
+            dts = (
+                np.broadcast_to(np.asarray(delta_t, dtype=float), shape).ravel()
+                if np.ndim(delta_t)
+                else np.full(s.shape, _scalar(delta_t, "delta_t", -1e6, 1e6))
+            )
         except (ValueError, TypeError):
-            raise OptinavError(f"delta_t has shape {np.shape(delta_t)} for times of shape {shape}",
-                               "pass one ΔT (s) or one per time") from None
+            raise OptinavError(
+                f"delta_t has shape {np.shape(delta_t)} for times of shape {shape}", "pass one ΔT (s) or one per time"
+            ) from None
         if not np.all(np.isfinite(dts)):
             raise OptinavError("delta_t contains NaN or infinite values", "pass finite ΔT in s")
     jd = julian_day(s)
@@ -423,10 +516,32 @@ def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=2
         slow = _slow_terms_fast(jd + dts / 86400.0)
         for i in range(0, s.size, _CHUNK):
             sl = slice(i, i + _CHUNK)
-            parts.append(_spa_block(jd[sl], dts[sl], lat / DEG, lon / DEG, height, p_mbar, t_c, refract, atmos,
-                                    tuple(v[sl] for v in slow)))
-    keys = ("elevation", "elevation_geometric", "azimuth", "declination", "declination_topocentric",
-            "right_ascension", "hour_angle", "hour_angle_topocentric", "equation_of_time", "earth_sun_distance")
+            parts.append(
+                _spa_block(
+                    jd[sl],
+                    dts[sl],
+                    lat / DEG,
+                    lon / DEG,
+                    height,
+                    p_mbar,
+                    t_c,
+                    refract,
+                    atmos,
+                    tuple(v[sl] for v in slow),
+                )
+            )
+    keys = (
+        "elevation",
+        "elevation_geometric",
+        "azimuth",
+        "declination",
+        "declination_topocentric",
+        "right_ascension",
+        "hour_angle",
+        "hour_angle_topocentric",
+        "equation_of_time",
+        "earth_sun_distance",
+    )
     out = {}
     for k in keys:
         v = np.concatenate([p[k] for p in parts]) if parts else np.empty(0)
@@ -434,24 +549,52 @@ def solar_position(time, lat, lon, height_m=0.0, *, pressure=None, temperature=2
     deg = {k: out[k] * DEG for k in keys if k not in ("equation_of_time", "earth_sun_distance")}
     el = deg["elevation"]
     return SolarPosition(
-        unix_time=secs, lat=lat, lon=lon, height_m=height, zenith=np.pi / 2 - el, azimuth=deg["azimuth"],
-        elevation=el, elevation_geometric=deg["elevation_geometric"], declination=deg["declination"],
-        declination_topocentric=deg["declination_topocentric"], right_ascension=deg["right_ascension"],
-        hour_angle=deg["hour_angle"], hour_angle_topocentric=deg["hour_angle_topocentric"],
-        equation_of_time=out["equation_of_time"], earth_sun_distance=out["earth_sun_distance"],
-        delta_t=dts.reshape(shape), refraction=refract,
+        unix_time=secs,
+        lat=lat,
+        lon=lon,
+        height_m=height,
+        zenith=np.pi / 2 - el,
+        azimuth=deg["azimuth"],
+        elevation=el,
+        elevation_geometric=deg["elevation_geometric"],
+        declination=deg["declination"],
+        declination_topocentric=deg["declination_topocentric"],
+        right_ascension=deg["right_ascension"],
+        hour_angle=deg["hour_angle"],
+        hour_angle_topocentric=deg["hour_angle_topocentric"],
+        equation_of_time=out["equation_of_time"],
+        earth_sun_distance=out["earth_sun_distance"],
+        delta_t=dts.reshape(shape),
+        refraction=refract,
         pressure=p_mbar * 100.0 if refract else float("nan"),
-        temperature=t_c + 273.15 if refract else float("nan"))
+        temperature=t_c + 273.15 if refract else float("nan"),
+    )
 
 
-def solar_position_deg(time, lat_deg, lon_deg, height_m=0.0, *, pressure_mbar=None, temperature_c=12.0,
-                       delta_t=None, atmos_refract_deg=ATMOS_REFRACT_DEG) -> SolarPosition:
+def solar_position_deg(
+    time,
+    lat_deg,
+    lon_deg,
+    height_m=0.0,
+    *,
+    pressure_mbar=None,
+    temperature_c=12.0,
+    delta_t=None,
+    atmos_refract_deg=ATMOS_REFRACT_DEG,
+) -> SolarPosition:
     """:func:`solar_position` with latitude/longitude in degrees, pressure in mbar (hPa) and temperature in
     °C: the NREL SPA report's own units, for checking against it and for I/O (the CLI's ``optinav sun``).
     Library code calls :func:`solar_position` (SI). The result is in SI (rad) like :func:`solar_position`."""
     p = None if pressure_mbar is None else _scalar(pressure_mbar, "pressure_mbar", 0.0, 2000.0) * 100.0
     t = _scalar(temperature_c, "temperature_c", -120.0, 120.0) + 273.15
     lat = _scalar(lat_deg, "lat_deg", -90, 90) * DEG
-    return solar_position(time, lat, _scalar(lon_deg, "lon_deg", -360, 360) * DEG,
-                          height_m, pressure=p, temperature=t, delta_t=delta_t,
-                          atmos_refract=_scalar(atmos_refract_deg, "atmos_refract_deg", 0, 5) * DEG)
+    return solar_position(
+        time,
+        lat,
+        _scalar(lon_deg, "lon_deg", -360, 360) * DEG,
+        height_m,
+        pressure=p,
+        temperature=t,
+        delta_t=delta_t,
+        atmos_refract=_scalar(atmos_refract_deg, "atmos_refract_deg", 0, 5) * DEG,
+    )

@@ -13,5 +13,13 @@ from .ga import adaptive_probability, fitness
 from .problem import OptimizeResult, Problem
 from .pso import pso_velocity
 
-__all__ = ["METHODS", "OptimizeResult", "Problem", "adaptive_probability", "fitness", "method_options",
-           "minimize", "pso_velocity"]
+__all__ = [
+    "METHODS",
+    "OptimizeResult",
+    "Problem",
+    "adaptive_probability",
+    "fitness",
+    "method_options",
+    "minimize",
+    "pso_velocity",
+]

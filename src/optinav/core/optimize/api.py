@@ -46,8 +46,9 @@ def method_options(method: str) -> dict:
     return {k: p.default for k, p in sig.parameters.items() if p.kind is inspect.Parameter.KEYWORD_ONLY}
 
 
-def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian: bool = True,
-             **options) -> OptimizeResult:
+def minimize(
+    problem: Problem, method: str = "trf", *, rng=None, final_jacobian: bool = True, **options
+) -> OptimizeResult:
     """Minimize ``problem``'s cost (``E = Σ r²`` for least squares) with ``method``.
 
     Methods (options in parentheses; see :func:`method_options`):
@@ -82,8 +83,10 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
         Solution x [parameter units], cost, convergence and trace.
     """
     if not isinstance(problem, Problem):
-        raise OptinavError(f"minimize needs a Problem, got {type(problem).__name__}",
-                           "wrap the objective in optinav.core.optimize.Problem(...)")
+        raise OptinavError(
+            f"minimize needs a Problem, got {type(problem).__name__}",
+            "wrap the objective in optinav.core.optimize.Problem(...)",
+        )
     if not isinstance(method, str) or method.lower() not in _RUNNERS:
         raise OptinavError(f"unknown optimization method {method!r}", f"use one of {', '.join(METHODS)}")
     method = method.lower()
@@ -91,8 +94,10 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
     defaults = method_options(method)
     unknown = sorted(set(options) - set(defaults))
     if unknown:
-        raise OptinavError(f"method {method!r} has no option(s) {', '.join(unknown)}",
-                           f"its options are {', '.join(defaults) or 'none'}")
+        raise OptinavError(
+            f"method {method!r} has no option(s) {', '.join(unknown)}",
+            f"its options are {', '.join(defaults) or 'none'}",
+        )
     used = {**defaults, **options}
     gen = as_rng(rng)
 
@@ -118,10 +123,19 @@ def minimize(problem: Problem, method: str = "trf", *, rng=None, final_jacobian:
             out["residuals"] = r
         out["jacobian"] = ev.jacobian(x, r, scheme)
     return OptimizeResult(
-        x=x, cost=float(out["cost"]), success=bool(out["success"]), message=str(out["message"]),
-        method=method, nit=int(out["nit"]), nfev=int(ev.nfev), njev=int(ev.njev),
-        history=np.asarray(out["history"], dtype=float), elapsed=time.perf_counter() - t0,
-        jacobian=out.get("jacobian"), residuals=out.get("residuals"), names=problem.param_names,
+        x=x,
+        cost=float(out["cost"]),
+        success=bool(out["success"]),
+        message=str(out["message"]),
+        method=method,
+        nit=int(out["nit"]),
+        nfev=int(ev.nfev),
+        njev=int(ev.njev),
+        history=np.asarray(out["history"], dtype=float),
+        elapsed=time.perf_counter() - t0,
+        jacobian=out.get("jacobian"),
+        residuals=out.get("residuals"),
+        names=problem.param_names,
         trace=out.get("trace", {}),
         options={k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in used.items()},
     )

@@ -94,11 +94,25 @@ def fitness(E) -> np.ndarray:
     return np.where(np.isfinite(E), 1.0 / np.maximum(E, _FMIN_COST), 0.0)
 
 
-def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, population: int = 50,
-           generations: int = 200, k1: float = 1.0, k2: float = 0.5, k3: float = 1.0, k4: float = 0.5,
-           selection_fraction: float = 0.5, mutation: str = "non-uniform", mutation_shape: float = 2.0,
-           pm_min: float = 0.005, ftol: float | None = None, stall_generations: int = 20,
-           operators: str = "optinav") -> dict:
+def run_ga(
+    ev: Evaluator,
+    problem: Problem,
+    rng: np.random.Generator,
+    *,
+    population: int = 50,
+    generations: int = 200,
+    k1: float = 1.0,
+    k2: float = 0.5,
+    k3: float = 1.0,
+    k4: float = 0.5,
+    selection_fraction: float = 0.5,
+    mutation: str = "non-uniform",
+    mutation_shape: float = 2.0,
+    pm_min: float = 0.005,
+    ftol: float | None = None,
+    stall_generations: int = 20,
+    operators: str = "optinav",
+) -> dict:
     """Adaptive GA; ``ftol`` (off by default) stops once the best cost improved by less than ``ftol·E``
     over ``stall_generations`` generations. ``operators``: "optinav" (arithmetic crossover, per-gene
     non-uniform mutation) or "paper" (gene exchange, per-individual mutation; module docstring)."""
@@ -106,8 +120,10 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
     M = int(population)
     G = int(generations)
     if M < 4 or G < 1:
-        raise OptinavError(f"GA needs population >= 4 and generations >= 1 (got {M}, {G})",
-                           "increase the population or the number of generations")
+        raise OptinavError(
+            f"GA needs population >= 4 and generations >= 1 (got {M}, {G})",
+            "increase the population or the number of generations",
+        )
     if not 0 < selection_fraction <= 1:
         raise OptinavError(f"selection_fraction = {selection_fraction!r} must be in (0, 1]", "e.g. 0.5")
     if operators not in ("optinav", "paper"):
@@ -189,11 +205,20 @@ def run_ga(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, populat
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]
             if old - best_E <= ftol * old:
-                message = (f"stopped at generation {g}: best cost improved by less than ftol in "
-                           f"{stall_generations} generations")
+                message = (
+                    f"stopped at generation {g}: best cost improved by less than ftol in "
+                    f"{stall_generations} generations"
+                )
                 break
     success = bool(np.isfinite(best_E))
     if not success:
         message = "no individual had a finite cost"
-    return dict(x=best_x, cost=best_E, success=success, message=message, nit=g, history=np.asarray(history),
-                trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)})
+    return dict(
+        x=best_x,
+        cost=best_E,
+        success=success,
+        message=message,
+        nit=g,
+        history=np.asarray(history),
+        trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)},
+    )

@@ -18,8 +18,10 @@ _EPS = np.finfo(float).eps
 
 def _need_lsq(ev: Evaluator, method: str) -> None:
     if not ev.lsq:
-        raise OptinavError(f"method {method!r} needs a least-squares problem (residuals)",
-                           "use 'newton', 'bfgs', 'pso' or 'ga' for a scalar cost")
+        raise OptinavError(
+            f"method {method!r} needs a least-squares problem (residuals)",
+            "use 'newton', 'bfgs', 'pso' or 'ga' for a scalar cost",
+        )
 
 
 def _check_scheme(jac: str) -> str:
@@ -32,9 +34,19 @@ def _xnorm(ev: Evaluator, v) -> float:
     return float(np.linalg.norm(v / ev.scale))
 
 
-def run_least_squares(ev: Evaluator, problem: Problem, x0, r0, method: str, *, ftol: float = 1e-10,
-                      xtol: float = 1e-10, gtol: float = 1e-10, max_nfev: int | None = None,
-                      jac: str = "2-point") -> dict:
+def run_least_squares(
+    ev: Evaluator,
+    problem: Problem,
+    x0,
+    r0,
+    method: str,
+    *,
+    ftol: float = 1e-10,
+    xtol: float = 1e-10,
+    gtol: float = 1e-10,
+    max_nfev: int | None = None,
+    jac: str = "2-point",
+) -> dict:
     """``scipy.optimize.least_squares`` with method 'lm' (MINPACK) or 'trf'.
 
     A Jacobian evaluation marks an iteration (both methods compute one per accepted step), so the cost
@@ -47,8 +59,10 @@ def run_least_squares(ev: Evaluator, problem: Problem, x0, r0, method: str, *, f
         if problem.has_bounds():
             raise OptinavError("method 'lm' does not take bounds", "use method='trf' (or remove the bounds)")
         if ev.m < ev.n:
-            raise OptinavError(f"method 'lm' needs at least as many residuals as parameters "
-                               f"({ev.m} < {ev.n})", "use method='trf' or add observations")
+            raise OptinavError(
+                f"method 'lm' needs at least as many residuals as parameters ({ev.m} < {ev.n})",
+                "use method='trf' or add observations",
+            )
     last = {"x": x0.copy(), "r": r0}
     jac_at = {"x": None, "J": None}
     history: list[float] = []
@@ -83,13 +97,31 @@ def run_least_squares(ev: Evaluator, problem: Problem, x0, r0, method: str, *, f
     if not history or E < history[-1]:
         history.append(min(E, history[-1]) if history else E)
     J = jac_at["J"] if np.array_equal(jac_at["x"], x) else ev.jacobian(x, r, jac)
-    return dict(x=x, cost=E, success=bool(res.status > 0), message=str(res.message),
-                nit=len(history) - 1, history=np.asarray(history), jacobian=J, residuals=r)
+    return dict(
+        x=x,
+        cost=E,
+        success=bool(res.status > 0),
+        message=str(res.message),
+        nit=len(history) - 1,
+        history=np.asarray(history),
+        jacobian=J,
+        residuals=r,
+    )
 
 
-def run_gauss_newton(ev: Evaluator, problem: Problem, x0, r0, *, max_iter: int = 100, xtol: float = 1e-10,
-                     ftol: float = 1e-14, jac: str = "2-point", max_halvings: int = 30,
-                     rcond: float | None = None) -> dict:
+def run_gauss_newton(
+    ev: Evaluator,
+    problem: Problem,
+    x0,
+    r0,
+    *,
+    max_iter: int = 100,
+    xtol: float = 1e-10,
+    ftol: float = 1e-14,
+    jac: str = "2-point",
+    max_halvings: int = 30,
+    rcond: float | None = None,
+) -> dict:
     """Gauss–Newton: ``J p = −r`` in the least-squares sense (SVD), step halving until ``E`` does not increase.
 
     Stops when ``‖Δx/s‖ ≤ xtol (xtol + ‖x/s‖)`` or ``E_k − E_{k+1} ≤ ftol·E_k``. A rank-deficient ``J``
@@ -116,8 +148,10 @@ def run_gauss_newton(ev: Evaluator, problem: Problem, x0, r0, *, max_iter: int =
             null = Vt[-1] if s.size == ev.n else _null_vector(J)
             top = np.argsort(-np.abs(null))[:3]
             combo = " ".join(f"{null[i]:+.2f}·{names[i]}" for i in top if abs(null[i]) > 1e-3)
-            message = (f"Jacobian is rank-deficient (rank {rank} < {ev.n} parameters) at iteration {nit}: "
-                       f"the direction {combo} is not observable from these residuals")
+            message = (
+                f"Jacobian is rank-deficient (rank {rank} < {ev.n} parameters) at iteration {nit}: "
+                f"the direction {combo} is not observable from these residuals"
+            )
             break
         p = -Vt.T @ ((U.T @ r) / s)
         small_step = _xnorm(ev, p) <= xtol * (xtol + _xnorm(ev, x))
@@ -132,8 +166,11 @@ def run_gauss_newton(ev: Evaluator, problem: Problem, x0, r0, *, max_iter: int =
             alpha *= 0.5
         if not accepted:
             success = small_step
-            message = ("converged: relative step below xtol" if small_step else
-                       f"no decrease along the Gauss–Newton step after {max_halvings} halvings")
+            message = (
+                "converged: relative step below xtol"
+                if small_step
+                else f"no decrease along the Gauss–Newton step after {max_halvings} halvings"
+            )
             break
         step = xn - x
         dE = E - En
@@ -146,8 +183,7 @@ def run_gauss_newton(ev: Evaluator, problem: Problem, x0, r0, *, max_iter: int =
             success, message = True, "converged: relative cost change below ftol"
             break
     # J belongs to the point before the last step; minimize() evaluates it at the solution
-    return dict(x=x, cost=E, success=success, message=message, nit=nit, history=np.asarray(history),
-                residuals=r)
+    return dict(x=x, cost=E, success=success, message=message, nit=nit, history=np.asarray(history), residuals=r)
 
 
 def _null_vector(J):
@@ -155,8 +191,20 @@ def _null_vector(J):
     return Vt[-1]
 
 
-def run_newton(ev: Evaluator, problem: Problem, x0, r0, E0, *, max_iter: int = 100, xtol: float = 1e-10,
-               gtol: float = 0.0, damping: bool = False, jac: str = "2-point", max_halvings: int = 30) -> dict:
+def run_newton(
+    ev: Evaluator,
+    problem: Problem,
+    x0,
+    r0,
+    E0,
+    *,
+    max_iter: int = 100,
+    xtol: float = 1e-10,
+    gtol: float = 0.0,
+    damping: bool = False,
+    jac: str = "2-point",
+    max_halvings: int = 30,
+) -> dict:
     """Newton's method on the cost: ``x ← x − H⁻¹∇E`` (Frosio et al. 2009 baseline).
 
     ``∇E = 2Jᵀr`` (least squares) or the problem's gradient; ``H`` exact when the problem gives
@@ -199,8 +247,10 @@ def run_newton(ev: Evaluator, problem: Problem, x0, r0, E0, *, max_iter: int = 1
         if damping:
             slope = float(g @ p)
             if slope >= 0:
-                message = (f"Hessian ({how}) is not positive definite at iteration {nit}: the Newton "
-                           f"direction does not descend")
+                message = (
+                    f"Hessian ({how}) is not positive definite at iteration {nit}: the Newton "
+                    f"direction does not descend"
+                )
                 break
             for _ in range(max_halvings + 1):
                 xn = ev.clip(x + alpha * p)
@@ -232,11 +282,12 @@ def run_newton(ev: Evaluator, problem: Problem, x0, r0, E0, *, max_iter: int = 1
         lam = np.linalg.eigvalsh(0.5 * (H + H.T))
         if lam[0] <= 0:
             success = False
-            message = (f"stopped at a stationary point that is not a minimum (Hessian eigenvalue {lam[0]:.3g}); "
-                       f"x is the best iterate found")
+            message = (
+                f"stopped at a stationary point that is not a minimum (Hessian eigenvalue {lam[0]:.3g}); "
+                f"x is the best iterate found"
+            )
     E, x, r = best
-    return dict(x=x, cost=E, success=success, message=message, nit=nit, history=np.asarray(history),
-                residuals=r)
+    return dict(x=x, cost=E, success=success, message=message, nit=nit, history=np.asarray(history), residuals=r)
 
 
 def _eval(ev: Evaluator, x):
@@ -246,14 +297,26 @@ def _eval(ev: Evaluator, x):
     return None, ev.cost(x)
 
 
-def run_bfgs(ev: Evaluator, problem: Problem, x0, r0, E0, *, gtol: float = 1e-10, xrtol: float = 0.0,
-             max_iter: int | None = None, jac: str = "2-point") -> dict:
+def run_bfgs(
+    ev: Evaluator,
+    problem: Problem,
+    x0,
+    r0,
+    E0,
+    *,
+    gtol: float = 1e-10,
+    xrtol: float = 0.0,
+    max_iter: int | None = None,
+    jac: str = "2-point",
+) -> dict:
     """BFGS via ``scipy.optimize.minimize(method='BFGS')``, gradient ``2Jᵀr`` (analytic or finite-difference
     Jacobian) or the problem's gradient (else central differences of the cost). No bounds."""
     _check_scheme(jac)
     if problem.has_bounds():
-        raise OptinavError("method 'bfgs' does not take bounds",
-                           "use 'trf', 'gauss-newton', 'newton', 'pso' or 'ga' (or remove the bounds)")
+        raise OptinavError(
+            "method 'bfgs' does not take bounds",
+            "use 'trf', 'gauss-newton', 'newton', 'pso' or 'ga' (or remove the bounds)",
+        )
     history = [E0]
     first = {"x": x0.copy(), "r": r0}
 
@@ -289,9 +352,12 @@ def run_bfgs(ev: Evaluator, problem: Problem, x0, r0, E0, *, gtol: float = 1e-10
         probe = ev.clip(np.vstack([x + np.diag(h), x - np.diag(h)]))
         if np.all(ev.cost_batch(probe) >= E):
             success = True
-            message = ("converged to working precision: the line search cannot decrease the cost and no "
-                       "lower point lies one step ε^(1/3)·max(|x|, x_scale) away along any parameter")
+            message = (
+                "converged to working precision: the line search cannot decrease the cost and no "
+                "lower point lies one step ε^(1/3)·max(|x|, x_scale) away along any parameter"
+            )
     if E < history[-1]:
         history.append(E)
-    return dict(x=x, cost=E, success=success, message=message, nit=int(res.nit), history=np.asarray(history),
-                residuals=r)
+    return dict(
+        x=x, cost=E, success=success, message=message, nit=int(res.nit), history=np.asarray(history), residuals=r
+    )

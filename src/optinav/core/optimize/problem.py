@@ -72,27 +72,35 @@ class Problem:
             self.x0 = 0.5 * (si[0] + si[1])
         x0 = as_float_array(self.x0, "x0")
         if x0.ndim != 1 or x0.size == 0:
-            raise OptinavError(f"x0 must be a non-empty 1-D vector, got shape {x0.shape}",
-                               "pass one value per parameter")
+            raise OptinavError(
+                f"x0 must be a non-empty 1-D vector, got shape {x0.shape}", "pass one value per parameter"
+            )
         self.x0 = x0
         n = x0.size
-        lb, ub = _pair(self.bounds, "bounds", n) if self.bounds is not None else (
-            np.full(n, -np.inf), np.full(n, np.inf))
+        lb, ub = (
+            _pair(self.bounds, "bounds", n) if self.bounds is not None else (np.full(n, -np.inf), np.full(n, np.inf))
+        )
         if np.any(lb >= ub):
             i = int(np.flatnonzero(lb >= ub)[0])
-            raise OptinavError(f"bounds for {self._name(i)} have lb = {lb[i]:.6g} >= ub = {ub[i]:.6g}",
-                               "give lb < ub for every parameter (remove a fixed parameter from x)")
+            raise OptinavError(
+                f"bounds for {self._name(i)} have lb = {lb[i]:.6g} >= ub = {ub[i]:.6g}",
+                "give lb < ub for every parameter (remove a fixed parameter from x)",
+            )
         if np.any((x0 < lb) | (x0 > ub)):
             i = int(np.flatnonzero((x0 < lb) | (x0 > ub))[0])
-            raise OptinavError(f"x0 is outside the bounds: {self._name(i)} = {x0[i]:.6g} not in "
-                               f"[{lb[i]:.6g}, {ub[i]:.6g}]", "start inside the bounds")
+            raise OptinavError(
+                f"x0 is outside the bounds: {self._name(i)} = {x0[i]:.6g} not in [{lb[i]:.6g}, {ub[i]:.6g}]",
+                "start inside the bounds",
+            )
         self.bounds = (lb, ub) if self.bounds is not None else None
         if si is not None:
             si = _pair(self.search_interval, "search_interval", n)
             if np.any(si[0] >= si[1]):
                 i = int(np.flatnonzero(si[0] >= si[1])[0])
-                raise OptinavError(f"search_interval for {self._name(i)} has lb = {si[0][i]:.6g} >= "
-                                   f"ub = {si[1][i]:.6g}", "give lb < ub for every parameter")
+                raise OptinavError(
+                    f"search_interval for {self._name(i)} has lb = {si[0][i]:.6g} >= ub = {si[1][i]:.6g}",
+                    "give lb < ub for every parameter",
+                )
             self.search_interval = si
         if self.names is not None:
             names = [str(s) for s in self.names]
@@ -102,8 +110,10 @@ class Problem:
         if self.x_scale is not None and not (isinstance(self.x_scale, str) and self.x_scale == "jac"):
             s = as_float_array(self.x_scale, "x_scale")
             if s.ndim > 1 or (s.ndim == 1 and s.size != n) or np.any(s <= 0):
-                raise OptinavError(f"x_scale must be a positive scalar or {n} positive values",
-                                   "pass the typical size of each parameter")
+                raise OptinavError(
+                    f"x_scale must be a positive scalar or {n} positive values",
+                    "pass the typical size of each parameter",
+                )
             self.x_scale = np.broadcast_to(s, (n,)).astype(float)
         elif isinstance(self.x_scale, str) and self.x_scale != "jac":
             raise OptinavError(f"x_scale={self.x_scale!r} is not understood", "pass numbers or 'jac'")
@@ -153,19 +163,26 @@ class Problem:
         lb, ub = self.lower, self.upper
         if self.search_interval is None:
             if not (np.all(np.isfinite(lb)) and np.all(np.isfinite(ub))):
-                raise OptinavError("PSO/GA need a finite box to draw the population from, but the bounds are "
-                                   "infinite and no search_interval is given",
-                                   "pass Problem(search_interval=(lb, ub)) or finite bounds")
+                raise OptinavError(
+                    "PSO/GA need a finite box to draw the population from, but the bounds are "
+                    "infinite and no search_interval is given",
+                    "pass Problem(search_interval=(lb, ub)) or finite bounds",
+                )
             return lb.copy(), ub.copy()
         lo = np.maximum(self.search_interval[0], lb)
         hi = np.minimum(self.search_interval[1], ub)
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-            raise OptinavError("PSO/GA need a finite box to draw the population from, but the search_interval "
-                               "is infinite where the bounds are", "give a finite search_interval")
+            raise OptinavError(
+                "PSO/GA need a finite box to draw the population from, but the search_interval "
+                "is infinite where the bounds are",
+                "give a finite search_interval",
+            )
         if np.any(lo >= hi):
             i = int(np.flatnonzero(lo >= hi)[0])
-            raise OptinavError(f"search_interval for {self._name(i)} does not overlap the bounds",
-                               "give a search interval inside the bounds")
+            raise OptinavError(
+                f"search_interval for {self._name(i)} does not overlap the bounds",
+                "give a search interval inside the bounds",
+            )
         return lo, hi
 
 
@@ -177,13 +194,16 @@ def _check_callables(p: Problem) -> None:
     if p.residuals is None and p.cost is None:
         raise OptinavError("Problem has neither residuals nor cost", "pass residuals=f (least squares) or cost=f")
     if p.residuals is not None and p.cost is not None:
-        raise OptinavError("Problem has both residuals and cost",
-                           "pass residuals (cost is then Σ r²) or cost, not both")
+        raise OptinavError(
+            "Problem has both residuals and cost", "pass residuals (cost is then Σ r²) or cost, not both"
+        )
     if p.residuals is None and (p.jacobian is not None or p.residuals_batch is not None):
         raise OptinavError("Problem has a jacobian/residuals_batch but no residuals", "pass residuals as well")
     if p.cost is None and (p.gradient is not None or p.cost_batch is not None):
-        raise OptinavError("Problem has a gradient/cost_batch but no cost",
-                           "for a least-squares problem give jacobian/residuals_batch instead")
+        raise OptinavError(
+            "Problem has a gradient/cost_batch but no cost",
+            "for a least-squares problem give jacobian/residuals_batch instead",
+        )
 
 
 def _pair(v, name: str, n: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -200,8 +220,10 @@ def _pair(v, name: str, n: int | None) -> tuple[np.ndarray, np.ndarray]:
     out = []
     for a, side in ((lo, "lb"), (hi, "ub")):
         if a.ndim > 1 or (a.ndim == 1 and a.size != n):
-            raise OptinavError(f"{name} {side} has shape {a.shape} but x0 has {n} parameter(s)",
-                               "give a scalar or one value per parameter (check the size of x0)")
+            raise OptinavError(
+                f"{name} {side} has shape {a.shape} but x0 has {n} parameter(s)",
+                "give a scalar or one value per parameter (check the size of x0)",
+            )
         out.append(np.broadcast_to(a, (n,)).astype(float))
     return out[0], out[1]
 
@@ -271,8 +293,11 @@ class Evaluator:
         if not self._checked_batch:
             self._checked_batch = True
             if R.shape != (X.shape[0], self.m):
-                raise OptinavError(f"residuals_batch returned shape {R.shape} for {X.shape[0]} points, "
-                                   f"expected ({X.shape[0]}, {self.m})", "return one residual row per point")
+                raise OptinavError(
+                    f"residuals_batch returned shape {R.shape} for {X.shape[0]} points, "
+                    f"expected ({X.shape[0]}, {self.m})",
+                    "return one residual row per point",
+                )
         return R
 
     def cost(self, x) -> float:
@@ -292,8 +317,9 @@ class Evaluator:
             self.nfev += X.shape[0]
             c = np.asarray(self.p.cost_batch(X), dtype=float).reshape(-1)
             if c.shape != (X.shape[0],):
-                raise OptinavError(f"cost_batch returned {c.size} values for {X.shape[0]} points",
-                                   "return one cost per point")
+                raise OptinavError(
+                    f"cost_batch returned {c.size} values for {X.shape[0]} points", "return one cost per point"
+                )
         else:
             self.nfev += X.shape[0]
             c = np.array([float(self.p.cost(x)) for x in X])
@@ -310,17 +336,20 @@ class Evaluator:
                 self.nfev += 1
                 raw = np.asarray(self.p.cost(x0.copy()), dtype=float)
         except (IndexError, ValueError, TypeError) as exc:
-            raise OptinavError(f"evaluating {what} at x0 failed ({type(exc).__name__}: {exc})",
-                               f"check that x0 has the {self.n} parameter(s) the {what} function expects"
-                               ) from None
+            raise OptinavError(
+                f"evaluating {what} at x0 failed ({type(exc).__name__}: {exc})",
+                f"check that x0 has the {self.n} parameter(s) the {what} function expects",
+            ) from None
         if self.lsq:
             if raw.ndim != 1 or raw.size == 0:
-                raise OptinavError(f"residuals(x0) has shape {raw.shape}, expected (m,)",
-                                   "return a 1-D vector of residuals")
+                raise OptinavError(
+                    f"residuals(x0) has shape {raw.shape}, expected (m,)", "return a 1-D vector of residuals"
+                )
             if not np.all(np.isfinite(raw)):
                 bad = int(np.count_nonzero(~np.isfinite(raw)))
-                raise OptinavError(f"residuals at x0 contain {bad} NaN/infinite value(s)",
-                                   "start from a valid x0 or fix the data")
+                raise OptinavError(
+                    f"residuals at x0 contain {bad} NaN/infinite value(s)", "start from a valid x0 or fix the data"
+                )
             self.m = raw.size
             return raw, float(raw @ raw)
         if raw.size != 1 or not np.isfinite(raw).all():
@@ -341,7 +370,7 @@ class Evaluator:
             h = np.where(out, -h, h)
             return x + np.diag(h), h
         h = self._steps(x, _EPS ** (1 / 3))
-        hp = np.where(x + h > self.ub, 0.0, h)   # one-sided near a bound
+        hp = np.where(x + h > self.ub, 0.0, h)  # one-sided near a bound
         hm = np.where(x - h < self.lb, 0.0, h)
         return np.vstack([x + np.diag(hp), x - np.diag(hm)]), (hp, hm, n)
 
@@ -354,8 +383,10 @@ class Evaluator:
             if not self._checked_jac:
                 self._checked_jac = True
                 if J.shape != (self.m, self.n):
-                    raise OptinavError(f"jacobian returned shape {J.shape}, expected ({self.m}, {self.n})",
-                                       "return ∂r/∂x with one row per residual and one column per parameter")
+                    raise OptinavError(
+                        f"jacobian returned shape {J.shape}, expected ({self.m}, {self.n})",
+                        "return ∂r/∂x with one row per residual and one column per parameter",
+                    )
             return J
         if scheme == "2-point":
             if r is None:
@@ -424,7 +455,7 @@ class Evaluator:
                 gm, _ = self.gradient(x - e)
                 H[:, j] = (gp - gm) / (2 * h[j])
             return 0.5 * (H + H.T), "central differences of the analytic gradient"
-        h = self._steps(x, _EPS ** 0.25)
+        h = self._steps(x, _EPS**0.25)
         x = self._inside(x, h)
         iu, ju = np.triu_indices(n, 1)
         E = np.eye(n) * h
@@ -434,10 +465,10 @@ class Evaluator:
             pts += [x + a + b, x + a - b, x - a + b, x - a - b]
         c = self.cost_batch(np.vstack(pts))
         c0 = self.cost(x)
-        H = np.diag((c[:n] - 2 * c0 + c[n:2 * n]) / h**2)
+        H = np.diag((c[:n] - 2 * c0 + c[n : 2 * n]) / h**2)
         if iu.size:
             k = iu.size
-            q = c[2 * n:].reshape(4, k)
+            q = c[2 * n :].reshape(4, k)
             H[iu, ju] = H[ju, iu] = (q[0] - q[1] - q[2] + q[3]) / (4 * h[iu] * h[ju])
         return H, "second differences of the cost"
 

@@ -59,17 +59,31 @@ def _limits(v, n, name):
     return np.broadcast_to(a, (n,)).astype(float)
 
 
-def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_particles: int = 20,
-            generations: int = 150, w: float = 0.8, c1: float = 2.0, c2: float = 2.0, v_max=1.0,
-            v_min=None, ftol: float | None = None, stall_generations: int = 20) -> dict:
+def run_pso(
+    ev: Evaluator,
+    problem: Problem,
+    rng: np.random.Generator,
+    *,
+    n_particles: int = 20,
+    generations: int = 150,
+    w: float = 0.8,
+    c1: float = 2.0,
+    c2: float = 2.0,
+    v_max=1.0,
+    v_min=None,
+    ftol: float | None = None,
+    stall_generations: int = 20,
+) -> dict:
     """Global-best PSO; ``ftol`` (off by default) stops once the best cost improved by less than
     ``ftol·E`` over ``stall_generations`` generations."""
     n = ev.n
     n_particles = int(n_particles)
     generations = int(generations)
     if n_particles < 2 or generations < 1:
-        raise OptinavError(f"PSO needs n_particles >= 2 and generations >= 1 (got {n_particles}, {generations})",
-                           "increase the swarm or the number of generations")
+        raise OptinavError(
+            f"PSO needs n_particles >= 2 and generations >= 1 (got {n_particles}, {generations})",
+            "increase the swarm or the number of generations",
+        )
     vmax = _limits(v_max, n, "v_max")
     vmin = -vmax if v_min is None else _limits(v_min, n, "v_min")
     if np.any(vmin >= vmax):
@@ -90,8 +104,9 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
     mean_cost, best_xs = [finite_mean(f)], [gbest.copy()]
     message = f"completed {generations} generations"
     g = 0
-    for g in progress(range(1, generations + 1), total=generations, desc="PSO generations",
-                      enabled=None if in_task() else False):
+    for g in progress(
+        range(1, generations + 1), total=generations, desc="PSO generations", enabled=None if in_task() else False
+    ):
         r1 = rng.random((n_particles, n))
         r2 = rng.random((n_particles, n))
         V = pso_velocity(V, X, pbest, gbest, r1, r2, w=w, c1=c1, c2=c2, v_min=vmin, v_max=vmax)
@@ -108,11 +123,20 @@ def run_pso(ev: Evaluator, problem: Problem, rng: np.random.Generator, *, n_part
         if ftol is not None and g >= stall_generations:
             old = history[-1 - stall_generations]
             if old - gbest_f <= ftol * old:
-                message = f"stopped at generation {g}: best cost improved by less than ftol in " \
-                          f"{stall_generations} generations"
+                message = (
+                    f"stopped at generation {g}: best cost improved by less than ftol in "
+                    f"{stall_generations} generations"
+                )
                 break
     success = bool(np.isfinite(gbest_f))
     if not success:
         message = "no particle had a finite cost"
-    return dict(x=gbest, cost=gbest_f, success=success, message=message, nit=g, history=np.asarray(history),
-                trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)})
+    return dict(
+        x=gbest,
+        cost=gbest_f,
+        success=success,
+        message=message,
+        nit=g,
+        history=np.asarray(history),
+        trace={"mean_cost": np.asarray(mean_cost), "best_x": np.asarray(best_xs)},
+    )
