@@ -24,7 +24,7 @@ from optinav.multipos.simulate import simulate
 from optinav.multipos.uncertainty import _session_gyro_bias
 
 LAT, HEIGHT = 38.88, 35.0
-OPTIONS = FileOptions(latitude=LAT, height=HEIGHT)
+OPTIONS = FileOptions(lat_deg=LAT, height_m=HEIGHT)
 CAL_ARGS = ["--latitude", str(LAT), "--height", str(HEIGHT)]
 # (file name, accelerometer unit written, seed): small sessions (18 poses of 5 s at 20 Hz) calibrate in ~0.1 s
 UNITS = [("u1.csv", "m/s^2", 11), ("u2.csv", "counts", 12), ("u3.npz", "m/s^2", 13)]
@@ -136,7 +136,7 @@ def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path,
     s = run_batch(
         d,
         out,
-        FileOptions(latitude=LAT, height=HEIGHT, method="gn"),
+        FileOptions(lat_deg=LAT, height_m=HEIGHT, method="gn"),
         scheduler=cluster.scheduler_address,
         show_progress=False,
     )
