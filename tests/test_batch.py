@@ -197,6 +197,44 @@ def test_interrupted_run_keeps_finished_rows_and_resumes(units, tmp_path, monkey
     assert s.rows[1] == batch._complete(journal[1])  # u1 was kept as journaled
 
 
+#: FileOptions fields renamed to the vocabulary (docs/conventions.md): new name → the name journals had before
+RENAMED_OPTIONS = {"rate_hz": "rate", "height_m": "height", "gyro_path": "gyro", "lat_deg": "latitude"}
+
+
+def _hash_with_names(job, names: dict) -> str:
+    """options_hash's formula over the job with the option fields spelled by ``names``."""
+    import dataclasses
+    import hashlib
+
+    d = dataclasses.asdict(job)
+    d["options"] = {names.get(k, k): v for k, v in d["options"].items()}
+    text = json.dumps({"layout": batch.LAYOUT, **d}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def test_journal_of_the_old_option_names_is_recomputed_not_mixed(units, tmp_path):
+    """Rows journaled when the options were named ``rate``/``height``/``gyro``/``latitude`` carry another options
+    hash: the next run recomputes every unit and the table holds only rows of the current options."""
+    d, _ = units
+    out = tmp_path / "r.csv"
+    job = batch.BatchJob("multipos", OPTIONS, False)
+    new_hash = batch.options_hash(job)
+    assert _hash_with_names(job, {}) == new_hash  # the formula above is options_hash's
+    old_hash = _hash_with_names(job, RENAMED_OPTIONS)
+    assert old_hash != new_hash
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert s.n_computed == 4
+    journal = tmp_path / "r.csv.journal.jsonl"
+    recs = [json.loads(x) for x in journal.read_text().splitlines()]
+    assert {r["row"]["options_hash"] for r in recs} == {new_hash}
+    for r in recs:  # as an older optinav would have journaled the same calibrations
+        r["row"]["options_hash"] = old_hash
+    journal.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (s.n_resumed, s.n_computed, s.n_ok, s.n_failed) == (0, 4, 3, 1)
+    assert {r["options_hash"] for r in read_results(out)} == {new_hash}
+
+
 def test_killed_process_loses_nothing_finished(units, tmp_path):
     d, _ = units
     out = tmp_path / "r.csv"
