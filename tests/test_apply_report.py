@@ -315,7 +315,7 @@ def test_report_gfimu_and_attitude_into_one_markdown_file(gfimu, attitude, capsy
     assert cells[0][1] == {"value": res.estimate[k] * 1e3, "std": res.std[k] * 1e3, "crlb": res.crlb_std[k] * 1e3}
     from optinav.attitude.estimators import AttitudeEstimate
 
-    assert f"| samples | {len(AttitudeEstimate.from_json(est).q)} |" in md  # the attitude estimate's section
+    assert f"| samples | {len(AttitudeEstimate.from_json(est).q_b_n)} |" in md  # the attitude estimate's section
 
 
 def test_report_multipos_without_data_and_errors(tmp_path, capsys):

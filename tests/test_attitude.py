@@ -288,9 +288,9 @@ def test_mekf_estimates_gyro_bias_and_reports_consistent_sigma():
         acc_noise=0.05 / G,
         pol_noise=np.radians(0.5),
     )
-    assert np.max(np.abs(r.gyro_bias - bias)) < 1.5e-3
+    assert np.max(np.abs(r.gyr_bias - bias)) < 1.5e-3
     # normalized estimation error squared (3 dof) averaged over the second half: ≈ 3 when consistent
-    e = quat_multiply(np.array([1, -1, -1, -1]) * d["q"], r.q)  # q_true* ⊗ q = body-frame error
+    e = quat_multiply(np.array([1, -1, -1, -1]) * d["q"], r.q_b_n)  # q_true* ⊗ q = body-frame error
     rv = 2 * e[:, 1:] * np.sign(e[:, :1])
     nees = np.sum((rv / r.att_std) ** 2, axis=1)[6000:]
     assert 0.5 < np.mean(nees) < 9.0
@@ -314,12 +314,12 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     t = np.arange(1, n + 1) * d["dt"]
     bound = np.linalg.norm(bias) * t + 4 * sigma * np.sqrt(3 * d["dt"] * t)
     r = estimate(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], **opts)
-    head = heading_error(r.q, d["q"])
+    head = heading_error(r.q_b_n, d["q"])
     assert np.all(head <= bound), f"{np.degrees(np.max(head - bound)):.2f} deg above the gyro-only bound"
     # tilt: better than one accelerometer sample (0.05/g rad = 0.29°); a heading leak would show here first
-    assert rmse(_tilt_err_deg(r.q, d["q"])) < np.degrees(0.05 / G)
+    assert rmse(_tilt_err_deg(r.q_b_n, d["q"])) < np.degrees(0.05 / G)
     # the rotation makes every bias component observable (the filter's σ of it ≈ 0.03 °/s)
-    assert np.max(np.abs(r.gyro_bias - bias)) < np.radians(0.1)
+    assert np.max(np.abs(r.gyr_bias - bias)) < np.radians(0.1)
     # the gyro alone is near its bound at the end of the rest (the vertical bias is unobservable at rest)
     q_gyro = estimate_q(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
     assert heading_error(q_gyro[rest - 1], d["q"][rest - 1]) > 0.5 * bound[rest - 1]
@@ -327,7 +327,7 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     rp = estimate(
         d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"], pol_noise=np.radians(0.5), **opts
     )
-    assert np.degrees(np.max(heading_error(rp.q[rest:], d["q"][rest:]))) < 0.5
+    assert np.degrees(np.max(heading_error(rp.q_b_n[rest:], d["q"][rest:]))) < 0.5
 
 
 def test_mekf_heading_sigma_is_capped_without_heading_measurement():
@@ -359,13 +359,13 @@ def test_streaming_equals_batch(method):
 
 def test_streaming_classes_and_state():
     f = QuasiNewton(q0=[1, 0, 0, 0])
-    assert f.q is None
+    assert f.q_b_n is None
     q = f.update([0, 0, 0.1], [0, 0, -G], 0.01)
-    assert np.allclose(q, f.q) and np.isclose(np.linalg.norm(q), 1.0)
+    assert np.allclose(q, f.q_b_n) and np.isclose(np.linalg.norm(q), 1.0)
     assert np.isclose(euler_from_quat(q)[2], 0.001, atol=1e-9)  # 0.1 rad/s about down for 10 ms
     m = MEKF()
     m.update([0, 0, 0], [0, 0, -G], 0.01)
-    assert m.att_std.shape == (3,) and m.gyro_bias.shape == (3,)
+    assert m.att_std.shape == (3,) and m.gyr_bias.shape == (3,)
 
 
 @pytest.mark.parametrize(

@@ -159,20 +159,39 @@ DATA_CLASSES = (
 )
 #: fields not yet renamed, and why
 FIELD_EXCEPTIONS: dict[str, str] = {}
+#: the attitude system's results, runs and filters: an attitude is ``q_b_n`` and the estimated gyro bias ``gyr_bias``
+#: (a spec's or an option's ``gyro_bias`` elsewhere is a setting, named like its CLI flag)
+ATTITUDE_CLASSES = (
+    "optinav.attitude.estimators.AttitudeEstimate",
+    "optinav.attitude.iframe.IframeRun",
+    "optinav.attitude.iframe.AttitudeFilter",
+    "optinav.attitude.estimators.GradientDescent",
+    "optinav.attitude.estimators.MEKF",
+    "optinav.attitude.stream.StreamEstimator",
+)
+ATTITUDE_BANNED = {**BANNED_IN_SYSTEMS, "gyro_bias": "gyr_bias", "bias": "gyr_bias"}
 
 
-def _field_violations(classes) -> list[str]:
+def _field_violations(classes, banned=BANNED) -> list[str]:
     import dataclasses
 
     bad = []
     for cls in classes:
-        names = list(cls._fields) if hasattr(cls, "_fields") else [f.name for f in dataclasses.fields(cls)]
-        names += [k for k, v in vars(cls).items() if isinstance(v, property) and not k.startswith("_")]
+        names = (
+            list(cls._fields)
+            if hasattr(cls, "_fields")
+            else [f.name for f in dataclasses.fields(cls)]
+            if dataclasses.is_dataclass(cls)
+            else []
+        )
+        names += [
+            k for c in cls.__mro__[:-1] for k, v in vars(c).items() if isinstance(v, property) and not k.startswith("_")
+        ]
         for name in names:
             if f"{cls.__name__}.{name}" in FIELD_EXCEPTIONS:
                 continue
-            if name in BANNED:
-                bad.append(f"{cls.__name__}.{name} → {BANNED[name]}")
+            if name in banned:
+                bad.append(f"{cls.__name__}.{name} → {banned[name]}")
             elif name.startswith("accel_"):  # the accelerometer's stem is acc, in compound names too
                 bad.append(f"{cls.__name__}.{name} → acc_{name[len('accel_') :]}")
     return bad
@@ -266,6 +285,16 @@ def test_cli_flags_fill_the_renamed_options():
     assert options_from_args(AttitudeOptions, args).rate_hz == 50.0
     args = parser.parse_args(["apply", "r.json", "raw.csv", "--rate", "25", "--out", "o.csv"])
     assert options_from_args(ApplyOptions, args).rate_hz == 25.0
+
+
+def test_attitude_results_and_filters_name_the_attitude_q_b_n():
+    classes = [getattr(importlib.import_module(p.rsplit(".", 1)[0]), p.rsplit(".", 1)[1]) for p in ATTITUDE_CLASSES]
+    bad = _field_violations(classes, {**BANNED, **ATTITUDE_BANNED})
+    assert not bad, "banned field names:\n" + "\n".join(bad)
+    import dataclasses
+
+    old = dataclasses.make_dataclass("Run", [("q", float), ("bias", float), ("gyro_bias", float), ("q_b_n", float)])
+    assert len(_field_violations([old], ATTITUDE_BANNED)) == 3
 
 
 # --- one frame spelling, one validator, documented defaults ------------------------------------------------

@@ -207,11 +207,23 @@ def test_legacy_gfimu_result_and_truth_load():
 def test_legacy_attitude_estimate_loads():
     old = _old("attitude_v2.json")
     res = AttitudeEstimate.from_json(LEGACY / "attitude_v2.json")
-    np.testing.assert_array_equal(res.q, old["fields"]["q"]["value"]["__ndarray__"])
+    np.testing.assert_array_equal(res.q_b_n, old["fields"]["q"]["value"]["__ndarray__"])
     assert res.method == "mekf" and res.elapsed_s == 0.0 and "roll" in res.parameters()
     # re-written in the current layout, it reads back the same
     again = AttitudeEstimate.from_json(res.to_json())
-    np.testing.assert_array_equal(again.q, res.q)
+    np.testing.assert_array_equal(again.q_b_n, res.q_b_n)
+
+
+def test_attitude_estimate_v4_with_the_old_field_names_loads():
+    """v4 (plain arrays, fields ``q`` and ``gyro_bias``) reads into v5's ``q_b_n`` and ``gyr_bias``."""
+    old = _old("attitude_v4.json")
+    assert old["version"] == 4 and {"q", "gyro_bias"} <= set(old["fields"])
+    res = AttitudeEstimate.from_json(LEGACY / "attitude_v4.json")
+    np.testing.assert_array_equal(res.q_b_n, old["fields"]["q"]["value"])
+    np.testing.assert_array_equal(res.gyr_bias, old["fields"]["gyro_bias"]["value"])
+    new = json.loads(res.to_json())
+    assert new["version"] == AttitudeEstimate.VERSION == 5 and "q_b_n" in new["fields"] and "q" not in new["fields"]
+    assert new["parameters"] == old["parameters"]
 
 
 def test_a_fresh_interpreter_reads_every_file_through_the_base_class():
@@ -359,6 +371,9 @@ def _same(got, want):
 
 # --- arrays as plain lists (docs/results.md) ------------------------------------------------------------------
 
+#: fields renamed since (AttitudeEstimate v5)
+ATTITUDE_RENAMED = {"q": "q_b_n", "gyro_bias": "gyr_bias"}
+
 #: RESULT.json of each system in the version before arrays became plain lists (``{"__ndarray__"}``)
 PREVIOUS = {
     "multipos_v2.json": CalibrationResult,
@@ -373,11 +388,11 @@ def test_results_of_the_version_before_plain_arrays_load(name):
     from optinav.core.results import PLAIN_ARRAYS_SINCE
 
     old, cls = _old(name), PREVIOUS[name]
-    assert old["version"] == PLAIN_ARRAYS_SINCE[old["schema"]] - 1 == cls.VERSION - 1
+    assert old["version"] == PLAIN_ARRAYS_SINCE[old["schema"]] - 1 <= cls.VERSION - 1
     res = Result.from_json(LEGACY / name)
     assert type(res) is cls
     for k, e in old["fields"].items():
-        _same(getattr(res, k), e["value"])
+        _same(getattr(res, ATTITUDE_RENAMED.get(k, k)), e["value"])
     new = json.loads(res.to_json())
     assert new["version"] == cls.VERSION and "__ndarray__" not in res.to_json()
     assert new["parameters"] == old["parameters"] and new["quality_gates"] == old["quality_gates"]

@@ -81,11 +81,11 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 4
+    VERSION: ClassVar[int] = 5
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
 
-    q: np.ndarray = field(metadata={"unit": ""})
+    q_b_n: np.ndarray = field(metadata={"unit": ""})
     method: str = "iframe"
     frame: str = DEFAULT_FRAME
     options: dict = field(default_factory=dict)
@@ -93,7 +93,7 @@ class AttitudeEstimate(Estimate):
     pol_skipped: dict = field(default_factory=dict)
     acc_threshold_hits: int = 0
     att_std: np.ndarray | None = field(default=None, metadata={"unit": "rad"})
-    gyro_bias: np.ndarray | None = field(default=None, metadata={"unit": "rad/s"})
+    gyr_bias: np.ndarray | None = field(default=None, metadata={"unit": "rad/s"})
     rest: np.ndarray | None = field(default=None, metadata={"unit": ""})
     acc_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
     mag_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
@@ -114,13 +114,13 @@ class AttitudeEstimate(Estimate):
             else ("no magnetometer or polarization used: the heading follows the gyro from its initial value")
         )
         out = {
-            "q_b_n": Parameter(self.q, "", observable=heading, reason=why),
+            "q_b_n": Parameter(self.q_b_n, "", observable=heading, reason=why),
             "roll": Parameter(e[:, 0], "rad"),
             "pitch": Parameter(e[:, 1], "rad"),
             "yaw": Parameter(e[:, 2], "rad", observable=heading, reason=why),
         }
-        if self.gyro_bias is not None:
-            out["gyr_bias"] = Parameter(np.asarray(self.gyro_bias, float), "rad/s")
+        if self.gyr_bias is not None:
+            out["gyr_bias"] = Parameter(np.asarray(self.gyr_bias, float), "rad/s")
         return out
 
     def euler(self) -> np.ndarray:
@@ -131,7 +131,7 @@ class AttitudeEstimate(Estimate):
         (N, 3) ndarray
             [roll, pitch, yaw] [rad].
         """
-        return euler_from_quat(self.q, frame_name(self.frame))
+        return euler_from_quat(self.q_b_n, frame_name(self.frame))
 
     def summary(self) -> str:
         """One line: method, frame, samples, rest / magnetometer / polarization use.
@@ -144,7 +144,7 @@ class AttitudeEstimate(Estimate):
         return summary_line(
             self.method,
             self.frame,
-            self.q.shape[0],
+            self.q_b_n.shape[0],
             offline=self.offline,
             segments=self.segments,
             rest=None if self.rest is None else float(np.mean(self.rest)),
@@ -479,7 +479,7 @@ def estimate(
         first = parts[0]
         cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
         return AttitudeEstimate(
-            q=cat("q"),
+            q_b_n=cat("q_b_n"),
             method=method,
             frame=frame,
             options=first.options,
@@ -487,7 +487,7 @@ def estimate(
             pol_skipped={k: sum(p.pol_skipped.get(k, 0) for p in parts) for k in first.pol_skipped},
             acc_threshold_hits=sum(p.acc_threshold_hits for p in parts),
             att_std=cat("att_std"),
-            gyro_bias=parts[-1].gyro_bias,
+            gyr_bias=parts[-1].gyr_bias,
             rest=cat("rest"),
             acc_used=cat("acc_used"),
             mag_used=cat("mag_used"),
@@ -500,11 +500,11 @@ def estimate(
             gyr, acc, dts, mag=mag, frame=frame, q0=None if q0 is None else _as_q0(q0), offline=offline, **opts
         )
         return AttitudeEstimate(
-            q=r.q,
+            q_b_n=r.q_b_n,
             method=method,
             frame=frame,
             options=opts,
-            gyro_bias=r.bias[-1].copy(),
+            gyr_bias=r.gyr_bias[-1].copy(),
             rest=r.rest,
             acc_used=r.acc_used,
             mag_used=r.mag_used if mag is not None else None,
@@ -527,9 +527,9 @@ def estimate(
         skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
     bias = state[4:7].copy() if method == "mekf" else None
     if front is not None:
-        bias = front.bias[-1] + (0.0 if bias is None else bias)
+        bias = front.gyr_bias[-1] + (0.0 if bias is None else bias)
     return AttitudeEstimate(
-        q=out,
+        q_b_n=out,
         method=method,
         frame=frame,
         options=opts,
@@ -537,7 +537,7 @@ def estimate(
         pol_skipped=skipped,
         acc_threshold_hits=int(counts[_kernels.C_ACC_SHRUNK]),
         att_std=std if method == "mekf" else None,
-        gyro_bias=bias,
+        gyr_bias=bias,
         rest=None if front is None else front.rest,
         input_stage=input_stage,
     )
@@ -566,7 +566,7 @@ def estimate_q(
     (N, 4) ndarray
         q_b^n [-] as [w, x, y, z].
     """
-    return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q
+    return estimate(gyr, acc, dt, pol=pol, method=method, frame=frame, q0=q0, **options).q_b_n
 
 
 # --- streaming ------------------------------------------------------------------------------------------------
@@ -601,7 +601,7 @@ class _Filter:
         self._un = up_vector(self.frame)
 
     @property
-    def q(self) -> np.ndarray | None:
+    def q_b_n(self) -> np.ndarray | None:
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
 
@@ -675,7 +675,7 @@ class MEKF(_Filter):
         return self._std[0].copy()
 
     @property
-    def gyro_bias(self) -> np.ndarray:
+    def gyr_bias(self) -> np.ndarray:
         return self.state[4:7].copy()
 
 
@@ -703,7 +703,12 @@ def make_filter(method: str = "iframe", **kwargs):
     return _CLASSES[m](**kwargs)
 
 
-register_legacy(AttitudeEstimate, "optinav.attitude.estimate", 2, lambda d: nested_kwargs(AttitudeEstimate, d))
+#: the fields of versions 2-4 that the vocabulary renamed in version 5
+_V4_NAMES = {"q": "q_b_n", "gyro_bias": "gyr_bias"}
+for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
+    register_legacy(
+        AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d, _V4_NAMES)
+    )
 
 
 def attitude_truth(q_b_n, frame: str = DEFAULT_FRAME, info: dict | None = None) -> Truth:

@@ -421,7 +421,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         acc = col(r, "acc")
         finite &= bool(np.isfinite(acc).all())
         f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
-        r[:, c["q"]] = f.q
+        r[:, c["q"]] = f.q_b_n
         r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
@@ -439,8 +439,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r = r[:k]
         w = _if._run(st, par, g[::-1].copy(), col(r, "acc")[::-1].copy(), mag(r)[::-1].copy(), d[::-1].copy())
         flags = col(r, "flags").astype(bool)
-        r[:, c["q"]] = _if._fuse(col(r, "q"), w.q[::-1])
-        r[:, c["bias"]] = -w.bias[::-1]
+        r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1])
+        r[:, c["bias"]] = -w.gyr_bias[::-1]
         r[:, c["flags"]] = np.column_stack([flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | w.mag_used[::-1]])
         store.write(s, r)
     n = b - a

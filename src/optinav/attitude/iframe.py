@@ -97,11 +97,11 @@ def _new_state(opts: dict, q0=None) -> np.ndarray:
 class IframeRun:
     """Per-sample outputs of the ``iframe`` estimator."""
 
-    q: np.ndarray  # (N, 4) q_b^n
+    q_b_n: np.ndarray  # (N, 4) q_b^n
     rest: np.ndarray  # (N,) bool
     acc_used: np.ndarray  # (N,) bool
     mag_used: np.ndarray  # (N,) bool
-    bias: np.ndarray  # (N, 3) rad/s
+    gyr_bias: np.ndarray  # (N, 3) rad/s
     state: np.ndarray  # final state
 
 
@@ -153,8 +153,8 @@ def run_iframe(
     st = fwd.state.copy()
     st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
     bwd = _run(st, par, *_reverse(gyr, acc, m, dts))
-    bias = -bwd.bias[::-1]
-    q = _fuse(fwd.q, bwd.q[::-1])
+    bias = -bwd.gyr_bias[::-1]
+    q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1])
     q = _zero_phase_tilt(q, gyr, acc, dts, bias, frame, opts["tau_acc"])
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
@@ -226,8 +226,8 @@ def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.nd
     # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
     # the measured norm's low-pass so the published methods' norm checks still see the dynamics
     up = _UP[frame_name(frame)]
-    acc_f = quat_rotate(quat_conjugate(r.q), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
-    return gyr - r.bias, acc_f
+    acc_f = quat_rotate(quat_conjugate(r.q_b_n), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
+    return gyr - r.gyr_bias, acc_f
 
 
 class AttitudeFilter:
@@ -309,7 +309,7 @@ class AttitudeFilter:
         return _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
 
     @property
-    def q(self) -> np.ndarray:
+    def q_b_n(self) -> np.ndarray:
         return self._state[_k.S_Q : _k.S_Q + 4].copy()
 
     @property
@@ -317,7 +317,7 @@ class AttitudeFilter:
         return bool(self._state[_k.S_REST])
 
     @property
-    def bias(self) -> np.ndarray:
+    def gyr_bias(self) -> np.ndarray:
         return self._state[_k.S_BIAS : _k.S_BIAS + 3].copy()
 
     @property

@@ -136,7 +136,7 @@ class StreamEstimator:
         self.n = self.rest = self.acc_hits = self.segments = 0
         self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
-        self.gyro_bias = None
+        self.gyr_bias = None
         self.restart()
 
     def restart(self) -> None:
@@ -168,13 +168,13 @@ class StreamEstimator:
             m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
             r = _if._run(self._front, self.par, gyr, acc, m, dts)
             self.rest += int(np.count_nonzero(r.rest))
-            front_bias = r.bias[-1].copy()
+            front_bias = r.gyr_bias[-1].copy()
             if self.method == "iframe":
                 if mag is not None:
                     self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
                 self.acc_hits += int(np.count_nonzero(~r.acc_used))
-                self.gyro_bias = front_bias
-                return r.q
+                self.gyr_bias = front_bias
+                return r.q_b_n
             gyr, acc = _if.front_outputs(r, gyr, acc, self.frame)
         if self._state is None:
             q = self.q0 if self.q0 is not None and first_segment else initial_attitude(acc[0], self.frame, pol, 0)
@@ -206,7 +206,7 @@ class StreamEstimator:
         bias = self._state[4:7].copy() if self.method == "mekf" else None
         if front_bias is not None:
             bias = front_bias + (0.0 if bias is None else bias)
-        self.gyro_bias = bias
+        self.gyr_bias = bias
         return out
 
     @property

@@ -164,8 +164,8 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
         if ref is not None:
             q_ref, mask = ref
             extra.update(
-                inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q, q_ref), mask))),
-                heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q, q_ref), mask))),
+                inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q_b_n, q_ref), mask))),
+                heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q_b_n, q_ref), mask))),
                 n_reference=int(mask.sum()),
             )
     return res, extra

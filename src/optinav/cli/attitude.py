@@ -248,11 +248,11 @@ def run(args) -> int:
         allow_gaps=args.allow_gaps,
         **options,
     )
-    table = attitude_rows(t, res.q, args.frame)
+    table = attitude_rows(t, res.q_b_n, args.frame)
     step("write")
     write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
-    score = reference_rmse(res.q, *ref) if args.reference else None
+    score = reference_rmse(res.q_b_n, *ref) if args.reference else None
     if score is not None:
         print(
             f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "

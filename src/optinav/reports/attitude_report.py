@@ -32,8 +32,8 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
             ["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
             ["heading RMSE vs reference [deg]", Cell(float(np.degrees(score[1])), _fixed(3))],
         ]
-    if res.gyro_bias is not None:
-        rows.append(["final gyro bias [deg/s]", Cell(np.degrees(res.gyro_bias).tolist(), _fixed(4))])
+    if res.gyr_bias is not None:
+        rows.append(["final gyro bias [deg/s]", Cell(np.degrees(res.gyr_bias).tolist(), _fixed(4))])
     return [Table("Estimation summary", ["item", "value"], rows)]
 
 

@@ -106,7 +106,7 @@ def _estimate(fl, m, opts):
     t0 = time.perf_counter()
     r = estimate(d.gyr, d.acc, d.dt, pol=fl["pol"], method=m, frame=d.frame, q0=d.q_b_n[0], **opts)
     el = time.perf_counter() - t0
-    return {"res": r, "err": np.degrees(euler_errors(r.q, d.q_b_n, d.frame)), "elapsed": el, "options": opts}
+    return {"res": r, "err": np.degrees(euler_errors(r.q_b_n, d.q_b_n, d.frame)), "elapsed": el, "options": opts}
 
 
 def _score(err):
@@ -127,7 +127,7 @@ def _tune(train):
 def _nees(fl, r):
     from optinav.core.rotations import quat_conjugate, quat_multiply, rotvec_from_quat
 
-    rv = rotvec_from_quat(quat_multiply(quat_conjugate(fl["data"].q_b_n), r.q))
+    rv = rotvec_from_quat(quat_multiply(quat_conjugate(fl["data"].q_b_n), r.q_b_n))
     return np.sum((rv / r.att_std) ** 2, axis=1)
 
 

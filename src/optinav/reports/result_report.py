@@ -46,11 +46,12 @@ def attitude_report(res, out_dir, data=None, options=None) -> Path:
     if data is None:
         raise OptinavError("an attitude estimate holds no time stamps", "pass the log it came from with --data")
     t = read_log(data, options or AttitudeOptions())[0]
-    if t.size != len(res.q):
+    if t.size != len(res.q_b_n):
         raise OptinavError(
-            f"{data} has {t.size} samples, the estimate {len(res.q)}", "pass the log the estimate came from with --data"
+            f"{data} has {t.size} samples, the estimate {len(res.q_b_n)}",
+            "pass the log the estimate came from with --data",
         )
-    eul = np.degrees(euler_from_quat(res.q, frame_name(res.frame)))
+    eul = np.degrees(euler_from_quat(res.q_b_n, frame_name(res.frame)))
     return write_attitude_report(res, t, eul, str(data), out_dir)
 
 
