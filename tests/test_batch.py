@@ -235,6 +235,24 @@ def test_journal_of_the_old_option_names_is_recomputed_not_mixed(units, tmp_path
     assert {r["options_hash"] for r in read_results(out)} == {new_hash}
 
 
+def test_a_worker_of_another_version_is_an_error_not_a_missing_row(units, tmp_path, monkeypatch):
+    """A worker whose optinav reads the options into other fields (e.g. from before the rename) returns rows of
+    another options hash: a one-line error naming the versions, nothing journaled under it."""
+    d, _ = units
+    out = tmp_path / "r.csv"
+    real = batch.calibrate_unit
+    old_hash = _hash_with_names(batch.BatchJob("multipos", OPTIONS, False), RENAMED_OPTIONS)
+
+    def old_worker(path, options, name=""):
+        return {**real(path, options, name), "options_hash": old_hash, "optinav_version": "0.1.0"}
+
+    monkeypatch.setattr(batch, "calibrate_unit", old_worker)
+    with pytest.raises(OptinavError, match=r"another optinav \(0\.1\.0\)"):
+        run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (tmp_path / "r.csv.journal.jsonl").read_text() == ""
+    assert read_results(out) == []
+
+
 def test_killed_process_loses_nothing_finished(units, tmp_path):
     d, _ = units
     out = tmp_path / "r.csv"
