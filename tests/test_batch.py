@@ -24,7 +24,7 @@ from optinav.multipos.simulate import simulate
 from optinav.multipos.uncertainty import _session_gyro_bias
 
 LAT, HEIGHT = 38.88, 35.0
-OPTIONS = FileOptions(latitude=LAT, height=HEIGHT)
+OPTIONS = FileOptions(lat_deg=LAT, height_m=HEIGHT)
 CAL_ARGS = ["--latitude", str(LAT), "--height", str(HEIGHT)]
 # (file name, accelerometer unit written, seed): small sessions (18 poses of 5 s at 20 Hz) calibrate in ~0.1 s
 UNITS = [("u1.csv", "m/s^2", 11), ("u2.csv", "counts", 12), ("u3.npz", "m/s^2", 13)]
@@ -136,7 +136,7 @@ def test_dask_cluster_batch_matches_truth_then_resumes(units, cluster, tmp_path,
     s = run_batch(
         d,
         out,
-        FileOptions(latitude=LAT, height=HEIGHT, method="gn"),
+        FileOptions(lat_deg=LAT, height_m=HEIGHT, method="gn"),
         scheduler=cluster.scheduler_address,
         show_progress=False,
     )
@@ -195,6 +195,62 @@ def test_interrupted_run_keeps_finished_rows_and_resumes(units, tmp_path, monkey
     s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
     assert (s.n_resumed, s.n_computed, s.n_ok) == (2, 2, 3)
     assert s.rows[1] == batch._complete(journal[1])  # u1 was kept as journaled
+
+
+#: FileOptions fields renamed to the vocabulary (docs/conventions.md): new name → the name journals had before
+RENAMED_OPTIONS = {"rate_hz": "rate", "height_m": "height", "gyro_path": "gyro", "lat_deg": "latitude"}
+
+
+def _hash_with_names(job, names: dict) -> str:
+    """options_hash's formula over the job with the option fields spelled by ``names``."""
+    import dataclasses
+    import hashlib
+
+    d = dataclasses.asdict(job)
+    d["options"] = {names.get(k, k): v for k, v in d["options"].items()}
+    text = json.dumps({"layout": batch.LAYOUT, **d}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def test_journal_of_the_old_option_names_is_recomputed_not_mixed(units, tmp_path):
+    """Rows journaled when the options were named ``rate``/``height``/``gyro``/``latitude`` carry another options
+    hash: the next run recomputes every unit and the table holds only rows of the current options."""
+    d, _ = units
+    out = tmp_path / "r.csv"
+    job = batch.BatchJob("multipos", OPTIONS, False)
+    new_hash = batch.options_hash(job)
+    assert _hash_with_names(job, {}) == new_hash  # the formula above is options_hash's
+    old_hash = _hash_with_names(job, RENAMED_OPTIONS)
+    assert old_hash != new_hash
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert s.n_computed == 4
+    journal = tmp_path / "r.csv.journal.jsonl"
+    recs = [json.loads(x) for x in journal.read_text().splitlines()]
+    assert {r["row"]["options_hash"] for r in recs} == {new_hash}
+    for r in recs:  # as an older optinav would have journaled the same calibrations
+        r["row"]["options_hash"] = old_hash
+    journal.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    s = run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (s.n_resumed, s.n_computed, s.n_ok, s.n_failed) == (0, 4, 3, 1)
+    assert {r["options_hash"] for r in read_results(out)} == {new_hash}
+
+
+def test_a_worker_of_another_version_is_an_error_not_a_missing_row(units, tmp_path, monkeypatch):
+    """A worker whose optinav reads the options into other fields (e.g. from before the rename) returns rows of
+    another options hash: a one-line error naming the versions, nothing journaled under it."""
+    d, _ = units
+    out = tmp_path / "r.csv"
+    real = batch.calibrate_unit
+    old_hash = _hash_with_names(batch.BatchJob("multipos", OPTIONS, False), RENAMED_OPTIONS)
+
+    def old_worker(path, options, name=""):
+        return {**real(path, options, name), "options_hash": old_hash, "optinav_version": "0.1.0"}
+
+    monkeypatch.setattr(batch, "calibrate_unit", old_worker)
+    with pytest.raises(OptinavError, match=r"another optinav \(0\.1\.0\)"):
+        run_batch(d, out, OPTIONS, workers=0, show_progress=False)
+    assert (tmp_path / "r.csv.journal.jsonl").read_text() == ""
+    assert read_results(out) == []
 
 
 def test_killed_process_loses_nothing_finished(units, tmp_path):

@@ -226,6 +226,67 @@ def test_data_class_fields_use_the_vocabulary():
     assert len(_field_violations([old])) == 9
 
 
+def _option_classes():
+    """The options dataclasses every registered system declares (``options`` and ``apply_options``)."""
+    from optinav import registry
+
+    keys = ("options", "apply_options")
+    return list({s.load(k) for s in registry.systems() for k in keys if getattr(s, k)})
+
+
+def test_option_records_use_the_vocabulary():
+    """The option records mirror the CLI flags' meaning, not their spelling: ``--rate`` is ``rate_hz``,
+    ``--height`` ``height_m``, ``--gyro FILE`` ``gyro_path``, ``--latitude DEG`` ``lat_deg`` (degrees are the
+    CLI's, so the unit is in the name); options keep the ``gyro_`` stem of the flags (``gyro_unit``)."""
+    import dataclasses
+
+    classes = _option_classes()
+    names = {c.__name__ for c in classes}
+    assert {"FileOptions", "ApplyOptions", "AttitudeOptions", "RinsOptions", "GfimuOptions"} <= names
+    assert not (bad := _field_violations(classes)), "banned option names:\n" + "\n".join(bad)
+    for cls in classes:
+        fields = {f.name for f in dataclasses.fields(cls)}
+        assert not {"latitude", "lat", "lon"} & fields, f"{cls.__name__}: a latitude option is lat_deg (CLI degrees)"
+    from optinav.multipos.calibrate import FileOptions
+
+    assert {"rate_hz", "height_m", "gyro_path", "lat_deg", "gyro_unit", "acc_unit"} <= {
+        f.name for f in dataclasses.fields(FileOptions)
+    }
+
+
+def test_cli_flags_fill_the_renamed_options():
+    """``--rate``/``--height``/``--gyro``/``--latitude`` keep their spelling and land in the renamed fields."""
+    from optinav.attitude.unit import AttitudeOptions
+    from optinav.cli.common import file_options, options_from_args
+    from optinav.cli.main import build_parser
+    from optinav.multipos.apply import ApplyOptions
+
+    parser = build_parser()
+    args = parser.parse_args(
+        [
+            "calibrate",
+            "accel",
+            "s.csv",
+            "--rate",
+            "204.8",
+            "--latitude",
+            "38.88",
+            "--height",
+            "35",
+            "--gyro",
+            "g.csv",
+            "--out",
+            "r.json",
+        ]
+    )
+    o = file_options(args)
+    assert (o.rate_hz, o.lat_deg, o.height_m, o.gyro_path) == (204.8, 38.88, 35.0, "g.csv")
+    args = parser.parse_args(["attitude", "f.csv", "--rate", "50", "--out", "o.csv"])
+    assert options_from_args(AttitudeOptions, args).rate_hz == 50.0
+    args = parser.parse_args(["apply", "r.json", "raw.csv", "--rate", "25", "--out", "o.csv"])
+    assert options_from_args(ApplyOptions, args).rate_hz == 25.0
+
+
 def test_attitude_results_and_filters_name_the_attitude_q_b_n():
     classes = [getattr(importlib.import_module(p.rsplit(".", 1)[0]), p.rsplit(".", 1)[1]) for p in ATTITUDE_CLASSES]
     bad = _field_violations(classes, {**BANNED, **ATTITUDE_BANNED})

@@ -486,7 +486,7 @@ def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsy
     from optinav.multipos.calibrate import FileOptions
 
     with pytest.raises(OptinavError, match="latitude 95"):
-        run_batch(d, tmp_path / "r.csv", FileOptions(latitude=95), workers=0)
+        run_batch(d, tmp_path / "r.csv", FileOptions(lat_deg=95), workers=0)
     with pytest.raises(SystemExit):  # the CLI refuses it at parsing already
         main(["batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "r.csv"), "--latitude", "95"])
     assert not (tmp_path / "r.csv").exists() and not (tmp_path / "r.csv.journal.jsonl").exists()

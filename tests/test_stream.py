@@ -551,7 +551,7 @@ def _whole_session(path, o):
     from optinav.io import raw_units
     from optinav.multipos.calibrate import SessionData
 
-    log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, rate_hz=o.rate)
+    log = read_imu(path, columns=o.columns, acc_unit=o.acc_unit, gyro_unit=o.gyro_unit, rate_hz=o.rate_hz)
     acc, acc_unit = raw_units(log, "acc")
     gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
     return SessionData(log.t, acc, acc_unit, gyro, gyro_unit, log.labels, tuple(log.notes))
@@ -575,14 +575,14 @@ def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
     from optinav.multipos.calibrate import FileOptions, calibrate_data, read_session_file
 
     if case == "simulated":
-        path, o = session / "s.csv", FileOptions(latitude=38.88, height=35)
+        path, o = session / "s.csv", FileOptions(lat_deg=38.88, height_m=35)
     elif case == "annotated":
         path = _imucal("annotated_session.csv")
-        o = FileOptions(rate=204.8, acc_unit="counts", gyro_unit="counts", gravity=9.81, no_gyro=True)
+        o = FileOptions(rate_hz=204.8, acc_unit="counts", gyro_unit="counts", gravity=9.81, no_gyro=True)
     else:
         path = _imucal("example_ferraris_session.csv")
         o = FileOptions(
-            rate=102.4,
+            rate_hz=102.4,
             gyro_unit="deg/s",
             gravity=9.81,
             method="ferraris",

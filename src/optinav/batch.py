@@ -710,6 +710,14 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
                         "options_hash": ohash,
                     }
                     continue
+                if row.get("options_hash") != ohash:
+                    # the worker read the options into other fields (another optinav, e.g. from before a rename):
+                    # its rows would be journaled but never match, so the table would silently lack them
+                    raise OptinavError(
+                        f"a worker computed {unit.path.name} with options hash {row.get('options_hash')}, not "
+                        f"{ohash}: it runs another optinav ({row.get('optinav_version')})",
+                        "install the same optinav on every worker, or run with --workers N (local processes)",
+                    )
                 row.update(unit=unit.name, file=unit.path.name, file_size=unit.size, file_mtime_ns=unit.mtime_ns)
                 journal.append(_complete(row))
                 n_computed += 1

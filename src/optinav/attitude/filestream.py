@@ -147,7 +147,7 @@ class _Blocks:
             acc_unit=o.acc_unit,
             gyro_unit=o.gyro_unit,
             time_unit=o.time_unit,
-            rate_hz=o.rate,
+            rate_hz=o.rate_hz,
             datasets=o.datasets or None,
             delimiter=o.delimiter,
             chunk_rows=self.chunk_rows,

@@ -22,7 +22,7 @@ class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
     ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
     imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``options`` (estimator options, SI), and the
-    reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate`` Hz, ``delimiter``,
+    reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
     ``datasets``)."""
 
     method: str | None = None
@@ -37,7 +37,7 @@ class AttitudeOptions:
     acc_unit: str | None = None
     gyro_unit: str | None = None
     time_unit: str | None = None
-    rate: float | None = None
+    rate_hz: float | None = None
     delimiter: str | None = None
     datasets: str | None = None
     topic: str | None = None
@@ -75,7 +75,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         acc_unit=o.acc_unit,
         gyro_unit=o.gyro_unit,
         time_unit=o.time_unit,
-        rate_hz=o.rate,
+        rate_hz=o.rate_hz,
         datasets=o.datasets or None,
         delimiter=o.delimiter,
         topic=o.topic,

@@ -76,7 +76,7 @@ def run(args) -> int:
         acc_unit=args.acc_unit,
         gyro_unit=args.gyro_unit,
         time_unit=args.time_unit,
-        rate_hz=args.rate,
+        rate_hz=args.rate_hz,
         datasets=args.datasets or None,
         delimiter=args.delimiter,
         chunk_rows=args.chunk_rows,

@@ -113,7 +113,7 @@ def register(sub) -> None:
     pol.add_argument("--aop-unit", choices=["rad", "deg"], default="rad", help="unit of the AoP column")
     pol.add_argument("--lat", type=float, metavar="DEG", help="latitude, deg (sun position)")
     pol.add_argument("--lon", type=float, metavar="DEG", help="longitude, deg east (sun position)")
-    pol.add_argument("--height", type=float, default=0.0, metavar="M", help="height, m (default 0)")
+    pol.add_argument("--height", dest="height_m", type=float, default=0.0, metavar="M", help="height, m (default 0)")
     pol.add_argument("--start-time", metavar="ISO8601", help="time of t = 0 with UTC offset")
     pol.add_argument("--sun-azimuth", type=float, metavar="DEG", help="fixed sun azimuth, deg from north to east")
     pol.add_argument("--sun-elevation", type=float, metavar="DEG", help="fixed sun elevation, deg")
@@ -204,7 +204,7 @@ def _sun(args) -> dict:
     """The sun options of :func:`optinav.attitude.recording.sun_along_log`, in radians."""
     rad = [None if v is None else math.radians(v) for v in (args.lat, args.lon, args.sun_azimuth, args.sun_elevation)]
     return dict(
-        lat=rad[0], lon=rad[1], height_m=args.height, start_time=args.start_time, azimuth=rad[2], elevation=rad[3]
+        lat=rad[0], lon=rad[1], height_m=args.height_m, start_time=args.start_time, azimuth=rad[2], elevation=rad[3]
     )
 
 
@@ -325,7 +325,7 @@ def register_simulate(kinds) -> None:
     p.add_argument("--out", required=True, metavar="DATA.csv", help="output CSV")
     p.add_argument("--kind", choices=["static", "dynamic"], default="dynamic", help="flight (default dynamic)")
     p.add_argument("--duration", type=float, default=60.0, metavar="S", help="duration in s (default 60)")
-    p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    p.add_argument("--rate", dest="rate_hz", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
     p.add_argument("--gyro-bias", metavar="BX,BY,BZ", help="constant residual gyro bias, deg/s (default none)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=run_simulate_flight, progress_task="simulate flight")
@@ -341,12 +341,12 @@ def run_simulate_flight(args) -> int:
 
     out = output_path(args.out, (".csv",), "flight.csv")
     # measured: about 2500 B per sample at the peak, 4000 with margin
-    check_memory(args.duration * args.rate, 4000, "this flight", "shorten --duration or lower --rate")
+    check_memory(args.duration * args.rate_hz, 4000, "this flight", "shorten --duration or lower --rate")
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), TRUTH_CSV_HEADER + "\n")
     truth_path(out)
     bias = np.radians(parse_floats(args.gyro_bias, 3, "--gyro-bias", "BX,BY,BZ")) if args.gyro_bias else None
     step("simulate")
-    d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate, gyro_bias=bias, rng=args.seed)
+    d = simulate(args.kind, duration_s=args.duration, rate_hz=args.rate_hz, gyro_bias=bias, rng=args.seed)
     step("write")
     write_flight(out, d, truth)
     write_truth(
@@ -354,7 +354,7 @@ def run_simulate_flight(args) -> int:
         attitude_truth(
             d.q_b_n,
             d.frame,
-            {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate, "start_time": str(d.start_time)},
+            {"kind": args.kind, "seed": args.seed, "rate_hz": args.rate_hz, "start_time": str(d.start_time)},
         ),
     )
     e0 = np.degrees(d.euler[0])

@@ -56,7 +56,9 @@ def register(sub) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
-    a.add_argument("--gyro", metavar="GYRODATA", help="gyroscope in a second file sharing the time column")
+    a.add_argument(
+        "--gyro", dest="gyro_path", metavar="GYRODATA", help="gyroscope in a second file sharing the time column"
+    )
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
@@ -119,8 +121,12 @@ def add_calibration_options(a) -> None:
     add_input_options(a)
     grav = a.add_mutually_exclusive_group()
     grav.add_argument("--gravity", type=POSITIVE, metavar="G", help="local gravity in m/s^2")
-    grav.add_argument("--latitude", type=LATITUDE, metavar="DEG", help="latitude in degrees (normal gravity)")
-    a.add_argument("--height", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)")
+    grav.add_argument(
+        "--latitude", dest="lat_deg", type=LATITUDE, metavar="DEG", help="latitude in degrees (normal gravity)"
+    )
+    a.add_argument(
+        "--height", dest="height_m", type=HEIGHT, metavar="M", help="height in m with --latitude (default 0)"
+    )
     a.add_argument("--method", choices=METHOD_NAMES, default="lm", help="estimator (default lm)")
     a.add_argument(
         "--model",

@@ -130,7 +130,9 @@ def add_input_options(p, *, gyro: bool = True) -> None:
             help="gyroscope unit in the file (default: as declared, else rad/s)",
         )
     p.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column (default s)")
-    p.add_argument("--rate", type=RATE, help="sample rate in Hz for files without a time column")
+    p.add_argument(
+        "--rate", dest="rate_hz", type=RATE, metavar="HZ", help="sample rate in Hz for files without a time column"
+    )
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
     p.add_argument(
@@ -244,8 +246,8 @@ def file_options(args):
     ``--rest T0 T1`` as a tuple, and ``--height`` (None when not given) only with ``--latitude``."""
     from optinav.multipos.calibrate import FileOptions
 
-    height, rest = getattr(args, "height", None), getattr(args, "rest", None)
-    if height is not None and getattr(args, "latitude", None) is None:
+    height, rest = getattr(args, "height_m", None), getattr(args, "rest", None)
+    if height is not None and getattr(args, "lat_deg", None) is None:
         raise OptinavError(
             "--height without --latitude has no effect (it sets the normal gravity's height)",
             "add --latitude DEG, or drop --height",
@@ -253,7 +255,7 @@ def file_options(args):
     return options_from_args(
         FileOptions,
         args,
-        height=0.0 if height is None else height,
+        height_m=0.0 if height is None else height,
         rest=None if rest is None else tuple(float(v) for v in rest),
     )
 

@@ -72,7 +72,9 @@ def register(sub) -> None:
     )
     tg.add_argument("--target-bias", type=POSITIVE, metavar="MG", help="accelerometer bias 1-sigma, mg")
     tg.add_argument("--target-gyro-bias", type=POSITIVE, metavar="DEG/H", help="gyro bias 1-sigma from all rest, deg/h")
-    p.add_argument("--rate", type=RATE, default=100.0, help="sample rate in Hz (default 100)")
+    p.add_argument(
+        "--rate", dest="rate_hz", type=RATE, default=100.0, metavar="HZ", help="sample rate in Hz (default 100)"
+    )
     p.add_argument(
         "--turn-rate",
         type=POSITIVE,
@@ -112,7 +114,7 @@ def run(args) -> int:
         acc_noise_density=acc,
         gyro_noise_density=gyro,
         noise_source=text,
-        rate_hz=args.rate,
+        rate_hz=args.rate_hz,
         dwell_s=args.dwell,
         targets=targets,
         gyro_bias_deg_h=args.target_gyro_bias,

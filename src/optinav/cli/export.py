@@ -39,14 +39,16 @@ def register(sub) -> None:
     p.add_argument("--gyro-out", metavar="FILE", help="imu_tk: the gyroscope's parameter file")
     p.add_argument("--noise", metavar="ALLAN.json", help="kalibr: noise parameters from optinav allan")
     p.add_argument("--rostopic", metavar="TOPIC", help="kalibr: the IMU topic (default: the allan result's)")
-    p.add_argument("--rate", type=RATE, metavar="HZ", help="kalibr: update_rate (default: the allan result's)")
+    p.add_argument(
+        "--rate", dest="rate_hz", type=RATE, metavar="HZ", help="kalibr: update_rate (default: the allan result's)"
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     require_files((args.result, "result file"), (args.noise, "allan result"))
     if args.to != "kalibr":
-        for flag, value in (("--noise", args.noise), ("--rostopic", args.rostopic), ("--rate", args.rate)):
+        for flag, value in (("--noise", args.noise), ("--rostopic", args.rostopic), ("--rate", args.rate_hz)):
             if value is not None:
                 raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
     if args.to != "imu_tk" and args.gyro_out:
@@ -65,7 +67,7 @@ def run(args) -> int:
 
         noise = AllanAnalysis.from_json(args.noise)
     for path in export_calibration(
-        res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic, update_rate=args.rate
+        res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic, update_rate=args.rate_hz
     ):
         print(f"optinav: {args.to} file written to {path}")
     if args.to == "kalibr" and noise is None:

@@ -55,7 +55,9 @@ def register_simulate(kinds) -> None:
     p.add_argument(
         "--align", type=POSITIVE, default=600.0, metavar="S", help="initial static alignment (default 600 s)"
     )
-    p.add_argument("--rate", type=RATE, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)")
+    p.add_argument(
+        "--rate", dest="rate_hz", type=RATE, default=200.0, metavar="HZ", help="sample rate (default 200 Hz)"
+    )
     p.add_argument("--lat", type=LATITUDE, default=28.2, metavar="DEG", help="latitude in degrees (default 28.2)")
     p.add_argument(
         "--gyro-misalignment-arcsec",
@@ -98,7 +100,7 @@ def run_simulate(args) -> int:
     # measured: about 470 B per sample at the peak, 800 with margin
     n_moves = args.cycles * len(scheme_steps(args.scheme))
     check_memory(
-        args.rate * (args.align + n_moves * (args.move + args.dwell)),
+        args.rate_hz * (args.align + n_moves * (args.move + args.dwell)),
         800,
         "this session",
         "shorten --align/--dwell/--move, fewer --cycles or a lower --rate",
@@ -111,7 +113,7 @@ def run_simulate(args) -> int:
         move_s=args.move,
         dwell_s=args.dwell,
         align_s=args.align,
-        rate_hz=args.rate,
+        rate_hz=args.rate_hz,
         lat=np.radians(args.lat),
         gyro_misalignment=None if args.gyro_misalignment_arcsec is None else args.gyro_misalignment_arcsec * arc,
         gyro_scale=None if args.gyro_scale_ppm is None else args.gyro_scale_ppm * 1e-6,
@@ -124,7 +126,7 @@ def run_simulate(args) -> int:
 
     tp = write_truth(out, simulation_truth(d, seed=args.seed, lat_deg=args.lat))
     print(
-        f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate:.0f} s at {args.rate:g} Hz, "
+        f"optinav: wrote {d.t.size} samples ({d.t[-1] - d.t[0] + 1 / args.rate_hz:.0f} s at {args.rate_hz:g} Hz, "
         f"{len(d.info['steps'])} moves) to {out} and the truth to {tp}"
     )
     return 0

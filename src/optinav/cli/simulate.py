@@ -67,7 +67,7 @@ def register(sub) -> None:
     a.add_argument("--dwell", type=POSITIVE, metavar="S", help="dwell per pose in s (default 60, or the plan's)")
     a.add_argument("--transition", type=POSITIVE, default=4.0, metavar="S", help="turn duration in s (default 4)")
     a.add_argument("--rest", type=POSITIVE, default=10.0, metavar="S", help="initial rest in s (default 10)")
-    a.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
+    a.add_argument("--rate", dest="rate_hz", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
     a.add_argument(
         "--jitter",
         type=number(0.0, 0.5, what="a fraction of the step"),
@@ -77,7 +77,7 @@ def register(sub) -> None:
     a.add_argument("--acc-unit", choices=["counts", "g", "m/s^2"], default="m/s^2")
     a.add_argument("--gyro-unit", choices=["counts", "deg/s", "rad/s"], default="rad/s")
     a.add_argument("--latitude", type=LATITUDE, default=38.88, metavar="DEG")
-    a.add_argument("--height", type=HEIGHT, default=35.0, metavar="M")
+    a.add_argument("--height", dest="height_m", type=HEIGHT, default=35.0, metavar="M")
     a.add_argument("--seed", type=SEED, default=0)
     a.set_defaults(func=run_accel_multipos, progress_task="simulate accel-multipos")
     st = kinds.add_parser(
@@ -100,7 +100,7 @@ def register(sub) -> None:
     st.add_argument(
         "--preset", default="mems-mti1", help="IMU preset of the white noise and bias instability (default mems-mti1)"
     )
-    st.add_argument("--rate", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
+    st.add_argument("--rate", dest="rate_hz", type=RATE, metavar="HZ", help="sample rate (default the preset's)")
     st.add_argument(
         "--gyro-rrw",
         type=NON_NEGATIVE,
@@ -133,7 +133,7 @@ def run_accel_multipos(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).rate_hz
+    rate = args.rate_hz or preset(args.preset).rate_hz
     scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
     if args.plan:
         from optinav.multipos.plan import PosePlan
@@ -154,11 +154,11 @@ def run_accel_multipos(args) -> int:
         scheme,
         spec=args.preset,
         dwell_s=dwell,
-        rate_hz=args.rate,
+        rate_hz=args.rate_hz,
         transition_s=args.transition,
         rest_s=args.rest,
         lat=np.radians(args.latitude),
-        height_m=args.height,
+        height_m=args.height_m,
         truth=args.truth,
         acc_unit=args.acc_unit,
         gyro_unit=args.gyro_unit,
@@ -175,7 +175,7 @@ def run_accel_multipos(args) -> int:
     tp = write_truth(
         out,
         s.truth(
-            {"latitude_deg": args.latitude, "height_m": args.height},
+            {"latitude_deg": args.latitude, "height_m": args.height_m},
             {"seed": args.seed, "preset": args.preset, "truth": args.truth},
         ),
     )
@@ -194,7 +194,7 @@ def run_static(args) -> int:
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate or preset(args.preset).rate_hz
+    rate = args.rate_hz or preset(args.preset).rate_hz
     # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
     check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
     step("simulate")

@@ -34,7 +34,9 @@ def register(sub) -> None:
     )
     p.add_argument("--lat", type=LATITUDE, required=True, metavar="DEG", help="geodetic latitude, deg (north +)")
     p.add_argument("--lon", type=LONGITUDE, required=True, metavar="DEG", help="longitude, deg (east +)")
-    p.add_argument("--height", type=HEIGHT, default=0.0, metavar="M", help="height, m (parallax; default 0)")
+    p.add_argument(
+        "--height", dest="height_m", type=HEIGHT, default=0.0, metavar="M", help="height, m (parallax; default 0)"
+    )
     p.add_argument(
         "--time",
         action="append",
@@ -98,14 +100,14 @@ def run(args) -> int:
         np.asarray(args.time, dtype=object),
         args.lat,
         args.lon,
-        args.height,
+        args.height_m,
         pressure_mbar=args.pressure,
         temperature_c=args.temperature,
         delta_t=args.delta_t,
     )
     times, ned, enu = r.time, r.sun_vector("ned"), r.sun_vector("enu")  # whole arrays: once, not per row
     rows = [_row(r, i, times, ned, enu) for i in range(len(args.time))]
-    out = {"lat_deg": args.lat, "lon_deg": args.lon, "height_m": args.height}
+    out = {"lat_deg": args.lat, "lon_deg": args.lon, "height_m": args.height_m}
     data = [{**out, **row} for row in rows]
     print(json.dumps(data[0] if len(data) == 1 else data, indent=2))
     return 0

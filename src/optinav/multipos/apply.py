@@ -26,7 +26,7 @@ MAX_COND = 10.0
 @dataclasses.dataclass
 class ApplyOptions:
     """How the raw log is read (the reading options of :func:`optinav.io.imu.iter_imu`: ``columns``, units
-    (None: those the calibration was made in), ``time_unit``, ``rate`` Hz, ``datasets``, ``delimiter``,
+    (None: those the calibration was made in), ``time_unit``, ``rate_hz`` Hz, ``datasets``, ``delimiter``,
     ``topic``), ``chunk_rows`` rows per block, and ``gyro_cal``: imu_tk's gyroscope parameter file when the
     result is imu_tk's accelerometer file."""
 
@@ -34,7 +34,7 @@ class ApplyOptions:
     acc_unit: str | None = None
     gyro_unit: str | None = None
     time_unit: str | None = None
-    rate: float | None = None
+    rate_hz: float | None = None
     datasets: str | None = None
     delimiter: str | None = None
     topic: str | None = None
@@ -67,7 +67,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
         acc_unit=acc_unit,
         gyro_unit=gyro_unit,
         time_unit=o.time_unit,
-        rate_hz=o.rate,
+        rate_hz=o.rate_hz,
         datasets=o.datasets or None,
         delimiter=o.delimiter,
         chunk_rows=o.chunk_rows or CHUNK_ROWS,

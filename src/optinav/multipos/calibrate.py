@@ -786,24 +786,24 @@ def _ferraris(
 @dataclasses.dataclass(frozen=True)
 class FileOptions:
     """How to read and calibrate one log: the options of ``optinav calibrate accel``, same names and units
-    (``gyro``/``gyro_columns``: a second file holding the gyroscope; ``datasets``: "std=name,..." text;
-    ``gravity`` m/s², ``latitude`` degrees, ``height`` m, ``window``/``min_duration`` s, ``rest`` (t0, t1) s,
+    (``gyro_path``/``gyro_columns``: a second file holding the gyroscope; ``datasets``: "std=name,..." text;
+    ``gravity`` m/s², ``lat_deg`` degrees, ``height_m`` m, ``window``/``min_duration`` s, ``rest`` (t0, t1) s,
     ranges (±R, or a (lo, hi) span) and ``threshold`` in raw units). Picklable, so batch workers receive it as is."""
 
     columns: str | None = None
-    gyro: str | None = None
+    gyro_path: str | None = None
     gyro_columns: str | None = None
     no_gyro: bool = False
     acc_unit: str | None = None
     gyro_unit: str | None = None
     time_unit: str | None = None
-    rate: float | None = None
+    rate_hz: float | None = None
     delimiter: str | None = None
     datasets: str | None = None
     topic: str | None = None
     gravity: float | None = None
-    latitude: float | None = None
-    height: float = 0.0
+    lat_deg: float | None = None
+    height_m: float = 0.0
     method: str = "lm"
     model: str = "auto"
     fit_samples: bool = False
@@ -846,8 +846,8 @@ class FileOptions:
                 f"--rotation-angle {self.rotation_angle!r} is not a non-zero angle",
                 "give the Ferraris turn in degrees, e.g. --rotation-angle -360",
             )
-        if self.latitude is not None and not -90 <= self.latitude <= 90:
-            raise OptinavError(f"--latitude {self.latitude:g} is outside ±90°", "give the latitude in degrees")
+        if self.lat_deg is not None and not -90 <= self.lat_deg <= 90:
+            raise OptinavError(f"--latitude {self.lat_deg:g} is outside ±90°", "give the latitude in degrees")
         if self.generations is not None and self.method not in ("ga", "pso"):
             raise OptinavError("--generations applies to --method ga or pso only", "drop --generations")
 
@@ -874,12 +874,12 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     blocks = iter_imu(
         path,
         columns=o.columns,
-        gyro_path=o.gyro,
+        gyro_path=o.gyro_path,
         gyro_columns=o.gyro_columns,
         acc_unit=o.acc_unit,
         gyro_unit=o.gyro_unit,
         time_unit=o.time_unit,
-        rate_hz=o.rate,
+        rate_hz=o.rate_hz,
         datasets=o.datasets or None,
         delimiter=o.delimiter,
         topic=o.topic,
@@ -961,8 +961,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         acc_unit=data.acc_unit,
         gyro_unit=data.gyro_unit or "rad/s",
         g=o.gravity,
-        lat=None if o.latitude is None else np.radians(o.latitude),
-        height_m=o.height,
+        lat=None if o.lat_deg is None else np.radians(o.lat_deg),
+        height_m=o.height_m,
         method=o.method,
         model_form=o.model,
         data="samples" if o.fit_samples else "means",

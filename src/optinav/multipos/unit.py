@@ -12,7 +12,7 @@ def check(options: FileOptions) -> None:
     """The options' own checks and the site (gravity or latitude/height), once before a batch."""
     options.check()
     local_gravity(
-        options.gravity, None if options.latitude is None else math.radians(options.latitude), options.height
+        options.gravity, None if options.lat_deg is None else math.radians(options.lat_deg), options.height_m
     )  # FileOptions holds the CLI's degrees
 
 
