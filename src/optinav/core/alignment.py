@@ -171,15 +171,9 @@ def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=CORE_FRAM
     return phi
 
 
-def _error_model(c_b_n, lat, h, frame, earth):
-    """Continuous-time F (12×12) and noise input G (12×6) of the static φ-angle error model."""
-    F, G = _error_model_static(lat, h, frame, earth)
-    _error_model_attitude(F, G, c_b_n)
-    return F, G
-
-
 def _error_model_attitude(F, G, c_b_n) -> None:
-    """The attitude-dependent blocks of :func:`_error_model`, written into ``F`` and ``G`` in place."""
+    """The attitude-dependent blocks of the static φ-angle error model (``C_b^n`` in F's attitude/bias couplings
+    and in the noise input G), written into ``F`` and ``G`` of :func:`_error_model_static` in place."""
     F[0:3, 6:9] = -c_b_n
     F[3:6, 9:12] = c_b_n
     G[0:3, 0:3] = -c_b_n
@@ -187,7 +181,8 @@ def _error_model_attitude(F, G, c_b_n) -> None:
 
 
 def _error_model_static(lat, h, frame, earth):
-    """The blocks of :func:`_error_model` that do not depend on the attitude (the rest zero)."""
+    """Continuous-time F (12×12) and noise input G (12×6) of the static φ-angle error model without their
+    attitude blocks (zero until :func:`_error_model_attitude` fills them): Earth rate, transport rate, gravity."""
     w_ie = _earth.earth_rate(lat, frame, earth)
     f_n = -_earth.gravity_vector(lat, h, frame, earth)
     rm, rn = _earth.radii(lat, h, earth)
