@@ -81,7 +81,7 @@ class StreamRun:
 
 
 class _Score:
-    """BROAD's inclination and heading RMSE (:mod:`optinav.attitude.metrics`) from per-block sums of squares."""
+    """:func:`optinav.attitude.recording.reference_rmse` accumulated over blocks, from per-block sums of squares."""
 
     def __init__(self):
         self.ss = np.zeros(2)

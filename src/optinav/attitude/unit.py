@@ -139,7 +139,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
     the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its simulated truth
     (``STEM.truth.csv``), over the samples where it is valid."""
     from optinav.attitude.estimators import estimate
-    from optinav.attitude.metrics import heading_error, inclination_error, rmse
+    from optinav.attitude.recording import reference_rmse
 
     p, o = Path(path), options
     t, gyr, acc, mag, embedded = read_log(p, options)
@@ -162,10 +162,10 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[A
     if reference:
         ref = _reference(p, t, embedded)
         if ref is not None:
-            q_ref, mask = ref
+            inclination, heading, n = reference_rmse(res.q_b_n, *ref)
             extra.update(
-                inclination_rmse_deg=float(np.degrees(rmse(inclination_error(res.q_b_n, q_ref), mask))),
-                heading_rmse_deg=float(np.degrees(rmse(heading_error(res.q_b_n, q_ref), mask))),
-                n_reference=int(mask.sum()),
+                inclination_rmse_deg=float(np.degrees(inclination)),
+                heading_rmse_deg=float(np.degrees(heading)),
+                n_reference=n,
             )
     return res, extra
