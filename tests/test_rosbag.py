@@ -153,10 +153,19 @@ def rosbags_reference(bag, topic):
     return np.array(rows)
 
 
-SCANNED = [("ros1", None), ("ros1", "bz2"), ("ros1", "lz4"), ("mcap", None), ("mcap", "storage"), ("mcap-file", None)]
+SCANNED = [
+    ("ros1", None),
+    ("ros1", "bz2"),
+    ("ros1", "lz4"),
+    ("mcap", None),
+    ("mcap", "storage"),
+    ("mcap-file", None),
+    ("sqlite3", None),
+    ("sqlite3-file", None),
+]
 
 
-@pytest.mark.parametrize(("kind", "compression"), SCANNED + [("mcap", "message"), ("sqlite3", None)])
+@pytest.mark.parametrize(("kind", "compression"), SCANNED + [("mcap", "message"), ("sqlite3", "message")])
 def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
     """The values equal rosbags' deserializer message for message: Imu with frame ids of several lengths (some
     messages through the deserializer), a MagneticField topic interleaved, chunks compressed or not. Bags the
@@ -175,7 +184,7 @@ def test_storage_scan_equals_rosbags(tmp_path, monkeypatch, kind, compression):
     ref, ref_mag = rosbags_reference(bag, "/imu"), rosbags_reference(bag, "/mag")
     if (kind, compression) in SCANNED:
         monkeypatch.setattr(rb, "_rosbags_blocks", None)
-        if kind == "ros1":
+        if kind.startswith(("ros1", "sqlite3")):  # read without opening rosbags' reader
             import rosbags.highlevel
 
             monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)
@@ -265,6 +274,55 @@ def test_scanner_failure_falls_back_to_rosbags(tmp_path, monkeypatch):
         assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_sqlite_scan_reads_only_and_falls_back(tmp_path, monkeypatch):
+    """A sqlite3 bag is read from its b-tree without rosbags' reader and never written (same bytes and time
+    stamp after the read); Imu messages whose frame ids vary in length go through the deserializer one by one;
+    a write-ahead log beside the database, or a scanner failure, hand the bag to rosbags with the same values."""
+    import hashlib
+    import os
+
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(18)
+    msgs, t, gyr, acc = imu_topic(rng, n=500, rate=1000.0, frames=("imu",) * 7 + ("imu_long_frame_id",))
+    chatter = [(1_700_000_000 * 10**9 + 3 * k, lambda ts, k=k: ts.types[STR](data="y" * (k % 50))) for k in range(200)]
+    bag = write_bag(tmp_path / "s", "sqlite3-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    before = hashlib.sha256(bag.read_bytes()).hexdigest(), os.stat(bag).st_mtime_ns
+    seen = []
+    real = bagscan.sqlite_blocks
+
+    def spy(*a):
+        for b in real(*a):
+            seen.append(b[1].size)
+            yield b
+
+    monkeypatch.setattr(bagscan, "sqlite_blocks", spy)
+    with monkeypatch.context() as m:
+        import rosbags.highlevel
+
+        m.setattr(rosbags.highlevel, "AnyReader", None)
+        m.setattr(rb, "_rosbags_blocks", None)
+        log = read_imu(bag)
+    assert sum(seen) == 500
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    assert (hashlib.sha256(bag.read_bytes()).hexdigest(), os.stat(bag).st_mtime_ns) == before
+    seen.clear()
+    wal = bag.with_name(bag.name + "-wal")
+    wal.write_bytes(b"x")  # a log SQLite would replay: the file alone is not the database
+    with pytest.raises(bagscan.NotFast, match="write-ahead"):
+        next(real(bag, "/imu"))
+    wal.unlink()
+
+    def refuse(*a):
+        raise bagscan.NotFast("test")
+        yield
+
+    monkeypatch.setattr(bagscan, "sqlite_blocks", refuse)
+    log = read_imu(bag)  # through rosbags' reader and iteration
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 _DAMAGE = {}
 
 
@@ -281,7 +339,7 @@ def _damage_bags(tmp_path_factory):
             )
             for k in range(8)
         ]
-        for kind in ("ros1", "mcap-file"):
+        for kind in ("ros1", "mcap-file", "sqlite3-file"):
             bag = write_bag(d / kind, kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)})
             _DAMAGE[kind] = (bag.suffix, bag.read_bytes())
     return _DAMAGE
@@ -294,9 +352,9 @@ def _read_both(path):
 
     out = []
     for scan in (True, False):
-        saved = bagscan.blocks, rb._ros1_quick
+        saved = bagscan.blocks, rb._ros1_quick, rb._sqlite_quick
         if not scan:
-            bagscan.blocks, rb._ros1_quick = (lambda *a: None), (lambda *a: None)
+            bagscan.blocks, rb._ros1_quick, rb._sqlite_quick = (lambda *a: None), (lambda *a: None), (lambda *a: None)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -305,12 +363,16 @@ def _read_both(path):
         except OptinavError as exc:
             out.append(exc)
         finally:
-            bagscan.blocks, rb._ros1_quick = saved
+            bagscan.blocks, rb._ros1_quick, rb._sqlite_quick = saved
     return out
 
 
 @settings(max_examples=40)
-@given(kind=st.sampled_from(("ros1", "mcap-file")), where=st.floats(0, 1, exclude_max=True), flip=st.integers(1, 255))
+@given(
+    kind=st.sampled_from(("ros1", "mcap-file", "sqlite3-file")),
+    where=st.floats(0, 1, exclude_max=True),
+    flip=st.integers(1, 255),
+)
 def test_damaged_byte_never_gives_other_values_than_rosbags(tmp_path_factory, kind, where, flip):
     """One byte of a bag changed anywhere: reading through the scanners gives a one-line error or the values
     rosbags gives; never another table, never a traceback."""

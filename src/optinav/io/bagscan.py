@@ -17,11 +17,16 @@ steady rate) is found with numpy strides, not a Python step per record:
   (``chunk_pos``; data: conn u32, count u32 pairs), ``0x02`` message data (``conn``, ``time`` = sec u32, nsec
   u32). Only the chunks that hold the topic are read.
 
+- ROS 2 sqlite3 (sqlite.org/fileformat2.html): the table b-tree of rosbag2's ``messages`` (id INTEGER PRIMARY
+  KEY, topic_id, timestamp, data), found through the standard library's ``sqlite3`` opened read-only; its leaf
+  cells are parsed as byte columns, a cell shape (payload size, record header, topic id) once seen matched with
+  byte masks. SQLite's own row-by-row fetch costs more than the whole scan (measured: 15.7 s for 3.6 M rows
+  with ``fetchmany``, against pyarrow's 0.5 s for the same table in Parquet).
+
 ``rosbags`` stays the reader of record: :func:`blocks` returns None — or a scanner raises :class:`NotFast` part
-way — for anything else (compressed ROS 2 bags, unchunked MCAP, unknown chunk compression, a layout that does not
-parse); the caller then reads the topic through ``rosbags``, which also reports damage. ROS 2 sqlite3 bags are
-always read through ``rosbags``: there the cost is SQLite's row-by-row fetch, which a direct query on rosbag2's
-tables does not lower (measured: 1.5 s against rosbags' 1.4 s for 200 000 messages).
+way — for anything else (compressed ROS 2 bags, unchunked MCAP, unknown chunk compression, a sqlite3 file with a
+write-ahead log or overflow pages, a layout that does not parse); the caller then reads the topic through
+``rosbags``, which also reports damage.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-__all__ = ["NotFast", "blocks", "ros1_index"]
+__all__ = ["NotFast", "blocks", "ros1_index", "sqlite_blocks", "sqlite_topics", "windows"]
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _ROS1_MAGIC = b"#ROSBAG V2.0\n"
@@ -67,6 +72,8 @@ def blocks(reader, path: Path, topic: str):
     suffixes = {f.suffix for f in files}
     if suffixes == {".mcap"}:
         return itertools.chain.from_iterable(_mcap(f, topic) for f in files)
+    if suffixes == {".db3"}:
+        return itertools.chain.from_iterable(sqlite_blocks(f, topic) for f in files)
     return None
 
 
@@ -397,3 +404,259 @@ def _ros1_records(buf: bytes, conns: set):
             continue
         pos = de
     return got.block(buf)
+
+
+# --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------
+
+
+def _be(u8: np.ndarray, pos: np.ndarray, size, *, signed: bool = True) -> np.ndarray:
+    """Big-endian integers of ``size`` bytes (0–8; one size, or one per element) at ``pos``, as int64."""
+    size = np.asarray(size, dtype=np.int64)
+    if size.ndim == 0 or size.size == 0 or bool(np.all(size == size.flat[0])):
+        top = int(size.flat[0]) if size.size else 0
+        if top == 0 or pos.size == 0:
+            return np.zeros(pos.shape, dtype=np.int64)
+        rows = windows(u8, pos, top)
+        if top not in (1, 2, 4, 8):
+            fill = (rows[:, :1] >= 0x80) * np.uint8(0xFF) if signed else np.zeros((rows.shape[0], 1), np.uint8)
+            rows = np.concatenate([np.repeat(fill, 8 - top, axis=1), rows], axis=1)
+            top = 8
+        return np.ascontiguousarray(rows).view(f">{'i' if signed else 'u'}{top}")[:, 0].astype(np.int64)
+    size = np.broadcast_to(size, pos.shape)
+    val = np.zeros(pos.shape, dtype=np.uint64)
+    for j in range(int(size.max(initial=0))):
+        on = size > j
+        val = np.where(on, (val << np.uint64(8)) | u8[np.where(on, pos + j, 0)], val)
+    if not signed:
+        return val.astype(np.int64)
+    shift = (64 - 8 * np.maximum(size, 1)).astype(np.uint64)
+    out = (val << shift).view(np.int64) >> shift.astype(np.int64)
+    return np.where(size > 0, out, 0)
+
+
+def _varint(u8: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(values, byte lengths) of the SQLite varints at ``pos`` (big-endian groups of 7 bits, high bit = more;
+    at most 8 bytes here: longer ones are negative numbers, which no field read here holds)."""
+    val = np.zeros(pos.shape, dtype=np.int64)
+    n = np.zeros(pos.shape, dtype=np.int64)
+    live = np.ones(pos.shape, dtype=bool)
+    last = u8.size - 1
+    for _ in range(8):
+        b = u8[np.minimum(pos + n, last)].astype(np.int64)
+        val = np.where(live, (val << 7) | (b & 0x7F), val)
+        n += live
+        live &= (b & 0x80) != 0
+        if not live.any():
+            return val, n
+    raise NotFast("a varint longer than 8 bytes")
+
+
+def _cells(u8: np.ndarray, pages: np.ndarray, psize: int, hsize: int) -> tuple[np.ndarray, np.ndarray]:
+    """(cells per page, byte offset in the file of each cell) of the b-tree ``pages``, cells in key order (the
+    cell pointer array after the ``hsize``-byte page header)."""
+    base = (pages - 1) * psize
+    cnt = _be(u8, base + 3, 2, signed=False)
+    pg = np.repeat(np.arange(pages.size), cnt)
+    k = np.arange(pg.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ptr = _be(u8, base[pg] + hsize + 2 * k, 2, signed=False)
+    if np.any(ptr < hsize + 2 * cnt[pg]) or np.any(ptr >= psize):
+        raise NotFast("a cell pointer outside its page")
+    return cnt, base[pg] + ptr
+
+
+#: SQLite serial type → bytes of an integer field (7 is a float, ≥ 10 reserved or a string)
+_INT_BYTES = np.array([0, 1, 2, 3, 4, 6, 8, -1, 0, 0], dtype=np.int64)
+
+
+def _connect(path: Path):
+    import sqlite3
+    from urllib.parse import quote
+
+    return sqlite3.connect(f"file:{quote(str(path.resolve()))}?mode=ro", uri=True)  # read-only: never written
+
+
+def sqlite_topics(path: Path) -> list[tuple[str, str, str]]:
+    """(name, type, serialization format) of every topic of the rosbag2 sqlite3 file ``path``, from its
+    ``topics`` table read with the standard library (read-only)."""
+    con = _connect(path)
+    try:
+        return [tuple(r) for r in con.execute("SELECT name, type, serialization_format FROM topics ORDER BY id")]
+    finally:
+        con.close()
+
+
+def _sqlite_meta(path: Path, topic: str):
+    """(CDR topic ids of ``topic``, root page of ``messages``, page size) from rosbag2's tables, read with the
+    standard library opened read-only; None for another schema."""
+    con = _connect(path)
+    try:
+        ids = [
+            i
+            for i, f in con.execute("SELECT id, serialization_format FROM topics WHERE name=?", (topic,))
+            if f == "cdr"
+        ]
+        root = con.execute("SELECT rootpage, sql FROM sqlite_master WHERE type='table' AND name='messages'").fetchone()
+        cols = [(c[1], c[2].upper(), c[5]) for c in con.execute("PRAGMA table_info(messages)")]
+        psize = con.execute("PRAGMA page_size").fetchone()[0]
+    finally:
+        con.close()
+    want = [("id", "INTEGER", 1), ("topic_id", "INTEGER", 0), ("timestamp", "INTEGER", 0), ("data", "BLOB", 0)]
+    if not ids or root is None or cols != want or "WITHOUT ROWID" in root[1].upper():
+        return None
+    return set(ids), int(root[0]), int(psize)
+
+
+def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
+    """The blocks of ``topic`` in a rosbag2 sqlite3 file, read from the table b-tree of ``messages`` by the
+    file format (sqlite.org/fileformat2.html): interior pages (type 5) give the leaves (type 13) in rowid order,
+    each leaf cell ``payload size, rowid`` varints and a record ``header size, serial types…, values`` of
+    (id — the rowid, stored NULL —, topic_id, timestamp, data blob). Every page of a level is parsed at once with
+    numpy; a file with a write-ahead log, overflow pages for the topic, or anything unexpected raises
+    :class:`NotFast`. ``rows``: a list the number of rows of the table (all topics) is appended to before the
+    first block."""
+    wal = path.with_name(path.name + "-wal")
+    if wal.exists() and wal.stat().st_size > 0:
+        raise NotFast("a write-ahead log beside the database")
+    meta = _sqlite_meta(path, topic)
+    if meta is None:
+        raise NotFast("not rosbag2's messages table")
+    ids, root, psize = meta
+    u8 = _map(path)
+    if bytes(u8[:16]) != b"SQLite format 3\x00" or u8.size % psize:
+        raise NotFast("not an SQLite 3 database")
+    usable = psize - int(u8[20])
+    npages = u8.size // psize
+    level = np.array([root], dtype=np.int64)
+    while True:
+        if np.any(level < 2) or np.any(level > npages):
+            raise NotFast("a page number outside the file")
+        kind = u8[(level - 1) * psize]
+        if np.all(kind == 13):
+            break
+        if not np.all(kind == 5):
+            raise NotFast("not a table b-tree page")
+        # each page's children: the left child of every cell in key order, then the right-most pointer
+        cnt, cell = _cells(u8, level, psize, 12)
+        right = np.cumsum(cnt + 1) - 1
+        nxt = np.empty(cell.size + level.size, dtype=np.int64)
+        left = np.ones(nxt.size, dtype=bool)
+        left[right] = False
+        nxt[left] = _be(u8, cell, 4, signed=False)
+        nxt[right] = _be(u8, (level - 1) * psize + 8, 4, signed=False)
+        level = nxt
+    if rows is not None:
+        rows.append(int(_be(u8, (level - 1) * psize + 3, 2, signed=False).sum()))
+    step = _LEAVES  # leaves per block
+    last, shapes = -1, {}
+    for b in range(0, level.size, step):
+        _, cell = _cells(u8, level[b : b + step], psize, 8)
+        win = windows(u8, cell, _WINDOW)
+        mine, data, dlen, logt, rowid = _sqlite_like(win, shapes)
+        rest = np.flatnonzero(rowid < 0)
+        if rest.size:  # the cells no known message shape matches: parsed field by field
+            got = _sqlite_cells(win[rest], ids, usable)
+            mine[rest], data[rest], dlen[rest], logt[rest], rowid[rest] = got[:5]
+            shapes.update(got[5])
+        if rowid.size and (rowid[0] <= last or np.any(np.diff(rowid) <= 0)):
+            raise NotFast("rowids out of order")
+        last = int(rowid[-1]) if rowid.size else last
+        if mine.any():
+            yield u8, cell[mine] + data[mine], dlen[mine], logt[mine]
+
+
+def windows(u8: np.ndarray, start: np.ndarray, width: int) -> np.ndarray:
+    """(n, width) copy of the ``width`` bytes of ``u8`` from each of ``start`` (zero past the end): one gather of
+    ``width``-byte items from a view that starts an item at every byte."""
+    if start.size and int(start.max()) + width > u8.size:
+        padded = np.zeros(int(start.max()) + width, dtype=np.uint8)
+        padded[: u8.size] = u8
+        u8 = padded
+    items = np.ndarray((u8.size - width + 1,), dtype=f"V{width}", buffer=u8, strides=(1,))
+    return items[start].view(np.uint8).reshape(start.size, width)
+
+
+def _sqlite_like(win: np.ndarray, shapes: dict):
+    """Cells whose bytes match a message shape already seen (``shapes``: (payload-size bytes, record header and
+    topic id bytes) → (stamp bytes, data length)) after a rowid varint of any length: (mine, data offset in the
+    cell, data length, timestamp, rowid), rowid −1 for the cells no shape matches. Each shape is a byte mask
+    compared eight bytes at a time and the rowid and stamp are read from byte columns: no per-cell parsing."""
+    n, width = win.shape
+    words = win.view("<u8")
+    mine, data = np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64)
+    dlen, logt, rowid = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), np.full(n, -1, dtype=np.int64)
+    for (pay, head), (b2, size) in shapes.items():
+        p0 = len(pay)
+        if p0 + 9 > width or n == 0:
+            continue
+        wid = np.argmax(win[:, p0 : p0 + 9] < 0x80, axis=1) + 1  # the rowid varint's length
+        for w in range(int(wid.min()), int(wid.max()) + 1):
+            h0 = p0 + w
+            end = h0 + len(head) + b2
+            if end > width:
+                break
+            ref, mask = np.zeros(width, dtype=np.uint8), np.zeros(width, dtype=np.uint8)
+            ref[:p0], ref[h0 : h0 + len(head)] = np.frombuffer(pay, np.uint8), np.frombuffer(head, np.uint8)
+            mask[:p0] = mask[h0 : h0 + len(head)] = 0xFF
+            ok = (rowid < 0) & (wid == w)
+            for k in np.flatnonzero(mask.view("<u8")):
+                ok &= (words[:, k] & mask.view("<u8")[k]) == ref.view("<u8")[k]
+            if not ok.any():
+                continue
+            r = np.zeros(n, dtype=np.int64)
+            for j in range(p0, h0):
+                r = (r << 7) | (win[:, j] & 0x7F)
+            rowid[ok], mine[ok], data[ok], dlen[ok] = r[ok], True, end, size
+            logt[ok] = _be(win.reshape(-1), np.flatnonzero(ok) * width + (end - b2), b2)
+    return mine, data, dlen, logt, rowid
+
+
+def _sqlite_cells(win: np.ndarray, ids: set, usable: int):
+    """The cells ``win`` parsed field by field: (mine, data offset in the cell, data length, timestamp, rowid,
+    {shape: …} of the topic's messages for :func:`_sqlite_like`)."""
+    width = win.shape[1]
+    flat = win.reshape(-1)
+    at = np.arange(win.shape[0], dtype=np.int64) * width
+    size, n = _varint(flat, at)
+    rowid, n2 = _varint(flat, at + n)
+    rec = at + n + n2
+    hs, n = _varint(flat, rec)
+    p, types = rec + n, []
+    for _ in range(4):
+        st, n = _varint(flat, p)
+        types.append(st)
+        p = p + n
+    if np.any(p != rec + hs) or np.any(types[0] != 0) or np.any(types[1] > 9) or np.any(types[2] > 9):
+        raise NotFast("a record of another layout")
+    b1, b2 = _INT_BYTES[types[1]], _INT_BYTES[types[2]]
+    if np.any(b1 < 0) or np.any(b2 < 0) or np.any(p + b1 + b2 - at > width):
+        raise NotFast("a topic id or timestamp of another kind")
+    mine = np.isin(_be(flat, p, b1) + (types[1] == 9), list(ids))
+    dt = types[3]
+    dlen = (dt - 12) // 2
+    bad = (dt < 12) | (dt % 2 == 1) | (size != hs + b1 + b2 + dlen) | (size > usable - 35)
+    if np.any(mine & bad):
+        raise NotFast("a message record of another layout, or on overflow pages")
+    shapes = {}
+    for i in np.flatnonzero(mine)[:1]:
+        row = win[i].tobytes()
+        key = (row[: int(rec[i] - at[i] - n2[i])], row[int(rec[i] - at[i]) : int(p[i] - at[i] + b1[i])])
+        shapes[key] = (int(b2[i]), int(dlen[i]))
+    data = p - at + b1 + b2
+    return mine, data, np.where(mine, dlen, 0), _be(flat, p + b1, b2), rowid, shapes
+
+
+#: leaf pages per block of a sqlite3 scan: a few MB, so the decoder finds the block's bytes still in cache
+_LEAVES = 1024
+
+#: bytes of a cell parsed at once: payload size (≤ 9), rowid (≤ 9), record header (≤ 10 here), topic id, stamp
+_WINDOW = 48
+
+
+def _map(path: Path) -> np.ndarray:
+    """The bytes of ``path`` mapped read-only (prefaulted where the OS offers it: the whole file is read)."""
+    import mmap
+
+    with open(path, "rb") as fh:
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
+        mm = mmap.mmap(fh.fileno(), 0, flags=flags, prot=mmap.PROT_READ)
+    return np.frombuffer(mm, dtype=np.uint8)

@@ -14,6 +14,7 @@ one.
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from pathlib import Path
 
@@ -80,7 +81,7 @@ def load_bag(path, *, topic=None, only=None):
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
-    got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else None
+    got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
     if got is None:
         try:
             reader = AnyReader([path])
@@ -148,6 +149,86 @@ class _Ros1Types:
 
     def deserialize(self, raw: bytes, msgtype: str):
         return self.store.deserialize_ros1(raw, msgtype)
+
+
+class _Ros2Types(_Ros1Types):
+    """``rosbags``' ROS 2 type store as the deserializer of a ROS 2 sqlite3 bag read without opening rosbags'
+    reader (whose opening counts every topic's messages with a join over the whole table)."""
+
+    is2 = True
+
+    def __init__(self):
+        from rosbags.typesys import Stores, get_typestore
+
+        self.store = get_typestore(Stores.LATEST)
+        self.readers = (self,)
+
+    def deserialize(self, raw: bytes, msgtype: str):
+        return self.store.deserialize_cdr(raw, msgtype)
+
+
+def _sqlite_files(path: Path) -> list[Path] | None:
+    """The .db3 files of an uncompressed rosbag2 sqlite3 bag (a bare .db3 file, or a folder whose
+    metadata.yaml names them); None for anything else."""
+    if path.is_file():
+        return [path] if path.suffix.lower() == ".db3" else None
+    try:
+        from ruamel.yaml import YAML  # rosbags' own dependency
+
+        info = YAML(typ="safe").load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        files = [path / Path(f).name for f in info["relative_file_paths"]]
+        plain = str(info.get("compression_mode", "") or "").lower() in ("", "none")
+        if info["storage_identifier"] == "sqlite3" and plain and files and all(f.suffix == ".db3" for f in files):
+            return files if all(f.is_file() for f in files) else None
+    except Exception:  # noqa: BLE001 - a metadata file this does not read: rosbags' reader decides
+        return None
+    return None
+
+
+def _sqlite_quick(path: Path, wanted: list[str]):
+    """The topics of a ROS 2 sqlite3 bag read from its files (:func:`optinav.io.bagscan.sqlite_topics`, the
+    ``messages`` b-tree scanned by :mod:`optinav.io.bagscan`), the messages checked against rosbags' ROS 2 type
+    store; None when that does not apply (rosbags reads)."""
+    from optinav.io import bagscan
+
+    files = _sqlite_files(path)
+    if files is None:
+        return None
+    try:
+        types = _Ros2Types()
+        topics = {}
+        for f in files:
+            for name, msgtype, fmt in bagscan.sqlite_topics(f):
+                d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
+                d["fmt"].add(fmt)
+    except Exception:  # noqa: BLE001 - anything the scanner does not read: rosbags' reader decides
+        return None
+    try:
+        chosen = _choose(path, topics, wanted)
+    except OptinavError:  # the error lists the topics with their counts: rosbags' reader counts them
+        return None
+    if any(name is not None and topics[name]["fmt"] != {"cdr"} for name in chosen):
+        return None
+    try:
+        out = []
+        for name in chosen:
+            if name is None:
+                out.append(None)
+                continue
+            # the table's row count bounds the topic's: the arrays are cut to the messages found
+            rows = []
+            gens = [bagscan.sqlite_blocks(f, name, rows) for f in files]
+            first = [next(g, None) for g in gens]
+            blocks = itertools.chain.from_iterable([b] + list(g) if b else [] for b, g in zip(first, gens))
+            size = sum(f.stat().st_size for f in files)
+            topics[name]["count"] = min(sum(rows), size // _MIN_MSG_BYTES) if any(first) else 0
+            _require_messages(path, name, topics[name]["count"])
+            out.append((name, _read_topic(types, path, name, topics[name], blocks=blocks)))
+        return tuple(out)
+    except OptinavError:
+        raise
+    except Exception:  # noqa: BLE001 - NotFast, or a file the scanner does not read: rosbags' reader decides
+        return None
 
 
 def _ros1_quick(path: Path, wanted: list[str]):
@@ -218,9 +299,15 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
         imu_topic = imu[0]
         mag_topic = mag[0] if len(mag) == 1 else None
     for name in (imu_topic, mag_topic):
-        if name is not None and topics[name]["count"] == 0:
-            raise OptinavError(f"topic {name!r} of {path.name} holds no messages", "pass a topic with messages")
+        if name is not None:
+            _require_messages(path, name, topics[name]["count"])
     return imu_topic, mag_topic
+
+
+def _require_messages(path: Path, name: str, count) -> None:
+    """Refuse a topic without messages (``count`` None: not counted yet, sqlite3 bags count when read)."""
+    if count == 0:
+        raise OptinavError(f"topic {name!r} of {path.name} holds no messages", "pass a topic with messages")
 
 
 # --- decoding -------------------------------------------------------------------------------------------------
@@ -275,7 +362,7 @@ def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
     return st.sec + st.nanosec * 1e-9, np.asarray(v, dtype=float)
 
 
-def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(header stamps s, log times s, values) of every message of ``topic``, in log-time order: Imu values are
     ``[gx gy gz ax ay az]``, MagneticField ``[mx my mz]``. The raw bytes come in blocks from the storage itself
     (:mod:`optinav.io.bagscan`) or, when it does not read this bag, from ``rosbags``' iteration."""
@@ -292,14 +379,14 @@ def _read_topic(reader, path: Path, topic: str, info: dict) -> tuple[np.ndarray,
             "reindex the bag (ros2 bag reindex / rosbag reindex)",
         )
     dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count)
-    fast = bagscan.blocks(reader, path, topic)
+    fast = bagscan.blocks(reader, path, topic) if blocks is None else blocks
     done = None
     if fast is not None:
         try:
             done = dec.run(fast, strict=True)
         except Exception:  # noqa: BLE001 - anything the scanners do not read: rosbags reads it (and names damage)
             done = None
-        if done is not None and done != count:
+        if done is not None and done != count and blocks is None:
             done = None
     if done is None and not hasattr(reader, "messages"):
         raise bagscan.NotFast(f"topic {topic!r}")  # no rosbags reader open: the caller opens one
@@ -409,7 +496,24 @@ def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return np.ndarray(
             (off.size,), dtype=dtype, buffer=u8, offset=int(off[0]), strides=(size if off.size == 1 else int(step[0]),)
         )
-    return np.ascontiguousarray(u8[off[:, None] + np.arange(size)]).view(dtype)[:, 0]
+    # scattered records: only the fields' bytes are gathered, into a packed copy with the same field names
+    from optinav.io.bagscan import windows
+
+    names = sorted(dtype.names, key=lambda k: dtype.fields[k][1])
+    packed = np.dtype({"names": names, "formats": [dtype.fields[k][0] for k in names]})
+    out = np.empty(off.size, dtype=packed)
+    raw = out.view(np.uint8).reshape(off.size, packed.itemsize)
+    # runs of adjacent fields (stamp and string length) are gathered at once
+    runs = []
+    for k in names:
+        at, n, pk = dtype.fields[k][1], dtype.fields[k][0].itemsize, packed.fields[k][1]
+        if runs and runs[-1][0] + runs[-1][1] == at:
+            runs[-1][1] += n
+        else:
+            runs.append([at, n, pk])
+    for at, n, pk in runs:
+        raw[:, pk : pk + n] = windows(u8, off + at, n)
+    return out
 
 
 def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
