@@ -80,17 +80,28 @@ def blocks(reader, path: Path, topic: str):
 # --- runs of like records -------------------------------------------------------------------------------------
 
 
-def _run(u8: np.ndarray, pos: int, stride: int, same: tuple) -> int:
+def _run(u8: np.ndarray, pos: int, stride: int, same: tuple, hint: int = 16) -> int:
     """How many records of ``stride`` bytes follow one another from ``pos`` (at least 1) whose bytes in the
-    ranges ``same`` ((start, stop) relative to the record) equal those of the record at ``pos``."""
+    ranges ``same`` ((start, stop) relative to the record) equal those of the record at ``pos``: the ranges are
+    one byte mask over the record's first words, compared eight bytes at a time, in windows growing from
+    ``hint`` records (the previous run's length: a topic alone in its chunks is one window)."""
+    span = -(-max(b for _, b in same) // 8) * 8
+    if span > stride:
+        raise NotFast("a record shorter than its header words")
+    mask = np.zeros(span, dtype=np.uint8)
+    for a, b in same:
+        mask[a:b] = 0xFF
+    mask = mask.view("<u8")
+    ref = u8[pos : pos + span].copy().view("<u8") & mask
+    live = np.flatnonzero(mask)
     avail = (u8.size - pos) // stride
-    k, w = 1, 16
+    k, w = 1, max(16, hint)
     while k < avail:
         m = min(w, avail - k)
+        rows = np.ndarray((m, span // 8), dtype="<u8", buffer=u8, offset=pos + k * stride, strides=(stride, 8))
         ok = np.ones(m, dtype=bool)
-        for a, b in same:
-            rows = as_strided(u8[pos + k * stride + a :], shape=(m, b - a), strides=(stride, 1))
-            ok &= (rows == u8[pos + a : pos + b]).all(axis=1)
+        for j in live:
+            ok &= (rows[:, j] & mask[j]) == ref[j]
         if not ok.all():
             return k + int(np.argmin(ok))
         k += m
@@ -353,41 +364,38 @@ def ros1_index(path: Path) -> dict:
 
 
 def _ros1(path: Path, topic: str):
-    """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read."""
+    """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read, from the
+    file mapped read-only (uncompressed chunks are parsed in place, not copied)."""
     idx = ros1_index(path)
     conns = {c for c, v in idx["conns"].items() if v[0] == topic}
-    with open(path, "rb") as fh:
-        for pos, held in idx["chunks"]:
-            if not held & conns:
-                continue
-            if not idx["first"] <= pos < idx["index_pos"]:
-                raise NotFast("chunk offset outside the data")
-            fh.seek(pos)
-            head = fh.read(4)
-            hl = _U32.unpack_from(head, 0)[0] if len(head) == 4 else -1
-            header = fh.read(hl) if hl >= 0 else b""
-            dlen = fh.read(4)
-            if len(header) != hl or len(dlen) != 4:
-                raise NotFast("truncated record")
-            f = _fields(header, 0, hl)
-            n = _U32.unpack_from(dlen, 0)[0]
-            if _op(header, f) != 0x05:
-                raise NotFast("no chunk at a chunk info's offset")
-            raw = fh.read(n)
-            if len(raw) != n:
-                raise NotFast("truncated chunk")
-            buf = _decompress(bytes(header[slice(*f.get(b"compression", (0, 0)))]).decode("ascii", "replace"), raw)
-            if b"size" in f and len(buf) != _U32.unpack_from(header, f[b"size"][0])[0]:
+    mm, u8 = _map(path)
+    for pos, held in idx["chunks"]:
+        if not held & conns:
+            continue
+        if not idx["first"] <= pos < idx["index_pos"]:
+            raise NotFast("chunk offset outside the data")
+        f, ds, de = _record(mm, pos, idx["index_pos"])
+        if _op(mm, f) != 0x05:
+            raise NotFast("no chunk at a chunk info's offset")
+        kind = bytes(mm[slice(*f.get(b"compression", (0, 0)))]).decode("ascii", "replace")
+        size = _U32.unpack_from(mm, f[b"size"][0])[0] if b"size" in f else None
+        if kind in ("", "none"):
+            if size is not None and de - ds != size:
                 raise NotFast("chunk size mismatch")
-            out = _ros1_records(buf, conns)
-            if out is not None:
-                yield out
+            out = _ros1_records(mm, u8, ds, de, conns)
+        else:
+            buf = _decompress(kind, mm[ds:de])
+            if size is not None and len(buf) != size:
+                raise NotFast("chunk size mismatch")
+            out = _ros1_records(buf, np.frombuffer(buf, dtype=np.uint8), 0, len(buf), conns)
+        if out is not None:
+            yield out
 
 
-def _ros1_records(buf: bytes, conns: set):
-    u8 = np.frombuffer(buf, dtype=np.uint8)
+def _ros1_records(buf, u8: np.ndarray, pos: int, end: int, conns: set):
+    """The block of the records ``buf[pos:end]`` (``u8`` its bytes as numpy, offsets relative to both)."""
     got = _Collect()
-    pos, end = 0, len(buf)
+    hint = 16
     while pos < end:
         f, ds, de = _record(buf, pos, end)
         if _op(buf, f) == 0x02 and _U32.unpack_from(buf, f[b"conn"][0])[0] in conns:
@@ -395,7 +403,8 @@ def _ros1_records(buf: bytes, conns: set):
             if f[b"time"][1] - f[b"time"][0] != 8:
                 raise NotFast("message time field of another size")
             stride = de - pos
-            k = _run(u8, pos, stride, ((0, t), (t + 8, ds - pos)))  # every header byte but the time
+            k = min(_run(u8, pos, stride, ((0, t), (t + 8, ds - pos)), hint), (end - pos) // stride)
+            hint = k  # every header byte but the time alike, within this chunk
             ns = _column(u8, pos + t, k, stride, "<u4").astype(np.int64) * 1_000_000_000 + _column(
                 u8, pos + t + 4, k, stride, "<u4"
             )
@@ -403,7 +412,7 @@ def _ros1_records(buf: bytes, conns: set):
             pos += k * stride
             continue
         pos = de
-    return got.block(buf)
+    return got.block(u8)
 
 
 # --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------
@@ -521,7 +530,7 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     if meta is None:
         raise NotFast("not rosbag2's messages table")
     ids, root, psize = meta
-    u8 = _map(path)
+    u8 = _map(path)[1]
     if bytes(u8[:16]) != b"SQLite format 3\x00" or u8.size % psize:
         raise NotFast("not an SQLite 3 database")
     usable = psize - int(u8[20])
@@ -652,11 +661,12 @@ _LEAVES = 1024
 _WINDOW = 48
 
 
-def _map(path: Path) -> np.ndarray:
-    """The bytes of ``path`` mapped read-only (prefaulted where the OS offers it: the whole file is read)."""
+def _map(path: Path):
+    """(mmap, numpy bytes) of ``path`` mapped read-only, prefaulted where the OS offers it (the scans read most
+    of the file)."""
     import mmap
 
     with open(path, "rb") as fh:
         flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
         mm = mmap.mmap(fh.fileno(), 0, flags=flags, prot=mmap.PROT_READ)
-    return np.frombuffer(mm, dtype=np.uint8)
+    return mm, np.frombuffer(mm, dtype=np.uint8)
