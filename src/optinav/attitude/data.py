@@ -120,8 +120,9 @@ def synthesize_polarization(
 ) -> PolarizationMeasurement:
     """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
 
-    q_ref (N, 4) body → ``frame`` (NaN rows give missing samples; BROAD's ``q_ref`` is ENU: pass ``frame="enu"``);
-    sun_n (3,) or (N, 3) unit sun vector in the frame; ``aop_noise`` rad (white, Gaussian). ``options`` go to :class:`PolarizationMeasurement`.
+    q_ref (N, 4) body → ``frame`` (NaN rows give missing samples; BROAD's ``q_ref`` is ENU: pass
+    ``frame="enu"``); sun_n (3,) or (N, 3) unit sun vector in the frame; ``aop_noise`` rad (white, Gaussian).
+    ``options`` go to :class:`PolarizationMeasurement`.
     """
     from optinav.attitude.measurement import PolarizationMeasurement, as_c_b_m, predicted_aop
 

@@ -33,8 +33,8 @@ _EULER_SEQ = {"ned": "ZYX", "enu": "ZXY"}
 #: navigation-frame names, as :func:`frame_name` returns them (docs/conventions.md, "Frames")
 FRAMES = ("enu", "ned")
 #: the one default navigation frame of every function and result taking ``frame`` (aerospace: body
-#: forward-right-down, navigation north-east-down); code reproducing PSINS (rins, gfimu, their studies) passes
-#: ``"enu"`` explicitly (docs/conventions.md, "Spelling and defaults")
+#: forward-right-down, navigation north-east-down); code reproducing PSINS (rins, the studies) passes ``"enu"``
+#: explicitly (docs/conventions.md, "Spelling and defaults")
 DEFAULT_FRAME = "ned"
 
 
