@@ -383,6 +383,10 @@ def _ros1(path: Path, topic: str):
             if size is not None and de - ds != size:
                 raise NotFast("chunk size mismatch")
             out = _ros1_records(mm, u8, ds, de, conns)
+            if out is not None:
+                yield out
+                _release(mm, ds, de)  # decoded by now
+            continue
         else:
             buf = _decompress(kind, mm[ds:de])
             if size is not None and len(buf) != size:
@@ -530,7 +534,7 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     if meta is None:
         raise NotFast("not rosbag2's messages table")
     ids, root, psize = meta
-    u8 = _map(path)[1]
+    mm, u8 = _map(path)
     if bytes(u8[:16]) != b"SQLite format 3\x00" or u8.size % psize:
         raise NotFast("not an SQLite 3 database")
     usable = psize - int(u8[20])
@@ -539,7 +543,8 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     while True:
         if np.any(level < 2) or np.any(level > npages):
             raise NotFast("a page number outside the file")
-        kind = u8[(level - 1) * psize]
+        head = _page_heads(mm, u8, level, psize)
+        kind = head[:, 0]
         if np.all(kind == 13):
             break
         if not np.all(kind == 5):
@@ -554,7 +559,7 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
         nxt[right] = _be(u8, (level - 1) * psize + 8, 4, signed=False)
         level = nxt
     if rows is not None:
-        rows.append(int(_be(u8, (level - 1) * psize + 3, 2, signed=False).sum()))
+        rows.append(int((head[:, 3].astype(np.int64) * 256 + head[:, 4]).sum()))
     step = _LEAVES  # leaves per block
     last, shapes = -1, {}
     for b in range(0, level.size, step):
@@ -571,15 +576,33 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
         last = int(rowid[-1]) if rowid.size else last
         if mine.any():
             yield u8, cell[mine] + data[mine], dlen[mine], logt[mine]
+        leaves = level[b : b + step]
+        _release(mm, int(leaves.min() - 1) * psize, int(leaves.max()) * psize)  # decoded by now
+
+
+def _page_heads(mm, u8: np.ndarray, pages: np.ndarray, psize: int) -> np.ndarray:
+    """(n, 5) first bytes (type, first freeblock, cell count) of each of ``pages``, read in slices unmapped
+    again after each: reading every leaf's header would otherwise map the whole file at once."""
+    out = np.empty((pages.size, 5), dtype=np.uint8)
+    for i in range(0, pages.size, 16384):
+        p = pages[i : i + 16384]
+        out[i : i + p.size] = windows(u8, (p - 1) * psize, 5)
+        _release(mm, int(p.min() - 1) * psize, int(p.max()) * psize)
+    return out
 
 
 def windows(u8: np.ndarray, start: np.ndarray, width: int) -> np.ndarray:
     """(n, width) copy of the ``width`` bytes of ``u8`` from each of ``start`` (zero past the end): one gather of
     ``width``-byte items from a view that starts an item at every byte."""
-    if start.size and int(start.max()) + width > u8.size:
-        padded = np.zeros(int(start.max()) + width, dtype=np.uint8)
-        padded[: u8.size] = u8
-        u8 = padded
+    over = start + width > u8.size
+    if over.any():  # the last few: from a zero-padded copy of the file's tail
+        lo = int(start[over].min())
+        tail = np.zeros(u8.size - lo + width, dtype=np.uint8)
+        tail[: u8.size - lo] = u8[lo:]
+        out = np.empty((start.size, width), dtype=np.uint8)
+        out[~over] = windows(u8, start[~over], width)
+        out[over] = windows(tail, start[over] - lo, width)
+        return out
     items = np.ndarray((u8.size - width + 1,), dtype=f"V{width}", buffer=u8, strides=(1,))
     return items[start].view(np.uint8).reshape(start.size, width)
 
@@ -662,11 +685,24 @@ _WINDOW = 48
 
 
 def _map(path: Path):
-    """(mmap, numpy bytes) of ``path`` mapped read-only, prefaulted where the OS offers it (the scans read most
-    of the file)."""
+    """(mmap, numpy bytes) of ``path`` mapped read-only."""
     import mmap
 
     with open(path, "rb") as fh:
-        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
-        mm = mmap.mmap(fh.fileno(), 0, flags=flags, prot=mmap.PROT_READ)
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
     return mm, np.frombuffer(mm, dtype=np.uint8)
+
+
+def _release(mm, start: int, stop: int) -> None:
+    """Unmap the pages of ``mm[start:stop]`` already read (they stay in the OS cache; a later read maps them
+    again): the resident set holds the block being decoded, not the whole file."""
+    import mmap
+
+    advice = getattr(mmap, "MADV_DONTNEED", None)
+    start -= start % mmap.PAGESIZE
+    if advice is None or stop <= start:
+        return
+    try:
+        mm.madvise(advice, start, min(stop, len(mm)) - start)
+    except (OSError, ValueError):  # an OS without madvise on file maps: the pages stay mapped
+        pass

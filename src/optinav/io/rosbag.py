@@ -219,7 +219,9 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             rows = []
             gens = [bagscan.sqlite_blocks(f, name, rows) for f in files]
             first = [next(g, None) for g in gens]
-            blocks = itertools.chain.from_iterable([b] + list(g) if b else [] for b, g in zip(first, gens))
+            blocks = itertools.chain.from_iterable(
+                itertools.chain([b], g) for b, g in zip(first, gens) if b is not None
+            )
             size = sum(f.stat().st_size for f in files)
             topics[name]["count"] = min(sum(rows), size // _MIN_MSG_BYTES) if any(first) else 0
             _require_messages(path, name, topics[name]["count"])
