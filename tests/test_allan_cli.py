@@ -72,9 +72,10 @@ def test_allan_end_to_end_with_kalibr(rest, capsys):
     for sensor in ("accelerometer", "gyroscope"):
         fit = res.sensor(sensor)["fit"]
         N_true = np.array(truth[sensor]["white"])
-        # white noise is measured to a few percent in 40 min; its 68 % interval holds the truth in 2 of 3 axes (the
-        # issue's target)
-        assert np.sum((fit.white_interval[0] <= N_true) & (N_true <= fit.white_interval[1])) >= 2
+        # white noise is measured to a few percent in 40 min, within 3 of its reported std in every axis (a 68 %
+        # interval misses 2 of 3 axes of one record a quarter of the time: its coverage is
+        # test_allan.test_fit_interval_coverage's and benchmarks/results_allan_coverage.md's)
+        assert np.all(np.abs(fit.white - N_true) <= 3.0 * fit.white_std)
         assert np.all(np.abs(fit.white / N_true - 1) < 0.05)
     # Kalibr's file: plain YAML with the fit's largest-axis N and K in Kalibr's units
     head, *rest_lines = yml.read_text().splitlines()

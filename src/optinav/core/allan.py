@@ -704,8 +704,10 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     noise. Where the misfit is significant (χ² above its 1 − :data:`FIT_MISFIT_P` quantile: anti-alias filters,
     Gauss–Markov bumps, real sensors) a relative model error f on every variance, 2/EDF + f², is raised until
     χ²/dof = 1 (``model_floor``); an exact model keeps f = 0, which a fixed floor made 5 times too wide for N.
-    Unlike the slope read-off it is not biased by the neighbouring terms. Coverage of the 68 % intervals on
-    simulated logs: ``benchmarks/results_allan_coverage.md``.
+    The std of a free term comes from the covariance over the free terms' columns alone: a term NNLS holds at
+    zero is fixed there (an active constraint), not a trade-off that widens the others (counting it up to doubled
+    the other terms' std where quantization, not simulated, was fitted to 0). Unlike the slope read-off it is not
+    biased by the neighbouring terms. Coverage of the 68 % intervals on simulated logs: ``benchmarks/results_allan_coverage.md``.
 
     Parameters
     ----------
@@ -766,9 +768,15 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
             floor[j] = hi_f
             c, model, L, chi2[j] = _fit_column(y, e, R, basis, hi_f, iterations, nnls)
         Aw = L @ basis
-        cov = np.linalg.pinv(Aw.T @ Aw)
+        var = np.diag(np.linalg.pinv(Aw.T @ Aw))
+        free = c > 0
+        if free.any() and not free.all():
+            # the terms NNLS held at zero are fixed there: the free terms' covariance is that of the fit over
+            # their columns alone (a zero term's own std stays the unconstrained one, for its upper bound)
+            var = var.copy()
+            var[free] = np.diag(np.linalg.pinv(Aw[:, free].T @ Aw[:, free]))
         coef[use, j] = c
-        cstd[use, j] = np.sqrt(np.maximum(np.diag(cov), 0.0) * max(chi2[j], 1.0))
+        cstd[use, j] = np.sqrt(np.maximum(var, 0.0) * max(chi2[j], 1.0))
     value = np.sqrt(coef)
     with np.errstate(divide="ignore", invalid="ignore"):
         std = np.where(value > 0, cstd / (2.0 * value), np.sqrt(cstd))
