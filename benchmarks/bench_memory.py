@@ -346,6 +346,24 @@ def markdown_modes(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def run_simulate(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate accel-multipos`` (this tree, streamed: generated and written in
+    blocks) at each row count of ``sizes``, the same session as :func:`run` (``--dwell 8328`` at 10 M rows), CSV;
+    the file is removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            name, argv = _steps(d, rows)[0]
+            peak, wall, _ = _run(ROOT / "src", argv)
+            n = _rows_of(d / f"log{rows}.csv")
+            out.append({"method": name, "rows": n, "peak_mib": peak, "wall_s": wall})
+            print(f"{name}: {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -356,6 +374,10 @@ if __name__ == "__main__":
     if sys.argv[1] == "--after":
         # python benchmarks/bench_memory.py --after RESULTS.json NOTE: this tree's rows re-measured in place
         remeasure(Path(sys.argv[2]), sys.argv[3])
+    elif sys.argv[1] == "--simulate":
+        # python benchmarks/bench_memory.py --simulate SIMULATE.json [ROWS ...]: the streamed simulator alone
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate(sizes), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-modes":
         quick = "--quick" in sys.argv
         res = run_attitude_modes(quick)
