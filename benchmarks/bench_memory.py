@@ -12,8 +12,10 @@ per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row lo
 200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks;
 ``--offline`` runs its passes over a scratch file beside the output). Calibrate reads in blocks (iter_imu) into one
 array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
-static detection (16 B per row); it holds the log, so it grows. Not streamed yet: the simulators (their noise processes
-are drawn for the whole log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
+static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
+blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
+(results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
+simulators are generated whole. Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
@@ -364,6 +366,41 @@ def run_simulate(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
     return out
 
 
+def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
+    """Replace the "simulate accel-multipos (after)" rows of the results JSON ``path`` by the runs of
+    :func:`run_simulate` at the two row counts of its group (the "before" rows stay), with ``note`` added to its
+    notes."""
+    import json
+
+    results = json.loads(path.read_text())
+    name = "simulate accel-multipos (after)"
+    old = [r for r in results["rows"] if r["method"] == name]
+    group = old[0]["group"]
+    n1, p1 = runs[0]["rows"], runs[0]["peak_mib"]
+    n2, p2, w2 = runs[1]["rows"], runs[1]["peak_mib"], runs[1]["wall_s"]
+    slope = (p2 - p1) / ((n2 - n1) / 1e6)
+    new = [
+        {"group": group, "method": name, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
+        {"group": group, "method": name, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
+        {"group": group, "method": name, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
+        {
+            "group": group,
+            "method": name,
+            "metric": "peak RSS at 10 M rows (extrapolated)",
+            "value": p1 + slope * (10 - n1 / 1e6),
+            "unit": "MiB",
+        },
+        {"group": group, "method": name, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
+    ]
+    rows = results["rows"]
+    i = rows.index(old[0])
+    results["rows"] = [r for r in rows[:i] if r["method"] != name] + new + [r for r in rows[i:] if r["method"] != name]
+    results["meta"]["notes"] = results["meta"].get("notes", []) + [
+        f"{name} re-measured {time.strftime('%Y-%m-%dT%H:%M%z')} ({note})"
+    ]
+    path.write_text(json.dumps(results, indent=2) + "\n")
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -378,6 +415,10 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --simulate SIMULATE.json [ROWS ...]: the streamed simulator alone
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_simulate(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--merge-simulate":
+        # python benchmarks/bench_memory.py --merge-simulate RESULTS.json SIMULATE.json NOTE: its 1 M and 3 M runs
+        # become the "after" rows of simulate accel-multipos in RESULTS.json
+        merge_simulate(Path(sys.argv[2]), json.loads(Path(sys.argv[3]).read_text()), sys.argv[4])
     elif sys.argv[1] == "--attitude-modes":
         quick = "--quick" in sys.argv
         res = run_attitude_modes(quick)

@@ -163,3 +163,11 @@ def test_preset_draw_is_unchanged_by_streaming():
     unit = preset("mems-mti1").draw(np.random.default_rng(5))
     st = SessionStream(dwell_s=1, rest_s=1, rng=5)
     assert np.array_equal(st.unit_model.acc.K, unit.acc.K) and np.array_equal(st.unit_model.gyr.bias, unit.gyr.bias)
+
+
+def test_progress_of_the_blocks_on_a_terminal(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("optinav.core.progress.progress_enabled", lambda: True)
+    argv = ["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--dwell", "1", "--rest", "1"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "simulate accel-multipos: " in err and "1/1" in err and ", truth" in err
