@@ -163,24 +163,28 @@ def run(quick: bool, before: bool = True) -> list[dict]:
                 shutil.rmtree(d)
     for (name, version), pts in peaks.items():
         (n1, p1, _), (n2, p2, w2) = pts
-        slope = (p2 - p1) / ((n2 - n1) / 1e6)  # MiB per million rows, the imports cancel
-        group = f"peak memory, logs of {n1} and {n2} rows"
-        method = f"{name} ({version})"
-        out += [
-            {"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
-            {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
-            {"group": group, "method": method, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
-            {
-                "group": group,
-                "method": method,
-                "metric": "peak RSS at 10 M rows (extrapolated)",
-                "value": p1 + slope * (10 - n1 / 1e6),
-                "unit": "MiB",
-            },
-            {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
-        ]
+        out += _peak_rows(f"peak memory, logs of {n1} and {n2} rows", f"{name} ({version})", n1, p1, n2, p2, w2)
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+
+
+def _peak_rows(group: str, method: str, n1: int, p1: float, n2: int, p2: float, w2: float) -> list[dict]:
+    """The rows of one command measured at ``n1`` and ``n2`` rows (peaks ``p1``, ``p2`` MiB; wall ``w2`` s at
+    ``n2``): both peaks, the growth per million rows (the imports cancel) and the peak extrapolated to 10 M rows."""
+    slope = (p2 - p1) / ((n2 - n1) / 1e6)
+    return [
+        {"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
+        {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
+        {"group": group, "method": method, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
+        {
+            "group": group,
+            "method": method,
+            "metric": "peak RSS at 10 M rows (extrapolated)",
+            "value": p1 + slope * (10 - n1 / 1e6),
+            "unit": "MiB",
+        },
+        {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
+    ]
 
 
 def remeasure(path: Path, note: str) -> None:
@@ -376,22 +380,10 @@ def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
     name = "simulate accel-multipos (after)"
     old = [r for r in results["rows"] if r["method"] == name]
     group = old[0]["group"]
-    n1, p1 = runs[0]["rows"], runs[0]["peak_mib"]
-    n2, p2, w2 = runs[1]["rows"], runs[1]["peak_mib"], runs[1]["wall_s"]
-    slope = (p2 - p1) / ((n2 - n1) / 1e6)
-    new = [
-        {"group": group, "method": name, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
-        {"group": group, "method": name, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
-        {"group": group, "method": name, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
-        {
-            "group": group,
-            "method": name,
-            "metric": "peak RSS at 10 M rows (extrapolated)",
-            "value": p1 + slope * (10 - n1 / 1e6),
-            "unit": "MiB",
-        },
-        {"group": group, "method": name, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
-    ]
+    first, second = runs[0], runs[1]
+    new = _peak_rows(
+        group, name, first["rows"], first["peak_mib"], second["rows"], second["peak_mib"], second["wall_s"]
+    )
     rows = results["rows"]
     i = rows.index(old[0])
     results["rows"] = [r for r in rows[:i] if r["method"] != name] + new + [r for r in rows[i:] if r["method"] != name]

@@ -1032,38 +1032,30 @@ class RateSampler:
         return w_ib, f_b, self._motion.labels(t)
 
 
-def static_positions_sampler(
-    orientations,
-    dwell,
-    lat,
-    height_m=0.0,
-    lon=0.0,
-    frame=CORE_FRAME,
-    earth="wgs84",
-    transition=None,
-    *,
-    transition_profile="cosine",
-    names=None,
-    lever_arm=None,
-    gravity=None,
-) -> RateSampler:
+def static_positions_sampler(orientations, dwell, lat, *, lever_arm=None, **options) -> RateSampler:
     """The motion of :func:`static_positions` as a :class:`RateSampler`: its rates at epochs given block by block,
     so that a long log need not be held at once (no increments, attitude or epochs are kept).
 
     Parameters
     ----------
-    orientations, dwell, lat, height_m, lon, frame, earth, transition, transition_profile, names, lever_arm, gravity
+    orientations, dwell, lat, lever_arm
         As :func:`static_positions`.
+    **options
+        Its other keywords but ``rate_hz`` and ``t``: ``height_m``, ``lon``, ``frame``, ``earth``, ``transition``,
+        ``transition_profile``, ``names``, ``gravity``.
 
     Returns
     -------
     RateSampler
         ``sampler(t) -> (gyr [rad/s], acc [m/s^2], labels)``; ``sampler.duration`` [s].
     """
-    motion = _static_motion(
-        orientations, dwell, lat, height_m, lon, frame, earth, transition, transition_profile, names, gravity
-    )
-    return RateSampler(motion, _lever(lever_arm))
+    kw = dict(height_m=0.0, lon=0.0, frame=CORE_FRAME, earth="wgs84", transition=None)
+    kw.update(transition_profile="cosine", names=None, gravity=None)
+    unknown = sorted(set(options) - set(kw))
+    if unknown:
+        raise OptinavError(f"static_positions_sampler takes no {unknown[0]!r}", f"use one of {', '.join(kw)}")
+    kw.update(options)
+    return RateSampler(_static_motion(orientations, dwell, lat, **kw), _lever(lever_arm))
 
 
 def _static_motion(

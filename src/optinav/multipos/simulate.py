@@ -152,6 +152,13 @@ register_legacy(
 )  # old names
 
 
+def paper_accelerometer(g: float) -> tuple[np.ndarray, np.ndarray]:
+    """K [-] and b [m/s^2] of Gao & Zhang's Table 2 accelerometer (:data:`PAPER_REFERENCE`; S per local g ``g``
+    [m/s^2])."""
+    r = PAPER_REFERENCE
+    return model.from_paper(r["S"], r["M_xy"], r["M_xz"], r["M_yz"], r["B"], g)
+
+
 def _as_log(t, acc, gyr, acc_unit: str, gyro_unit: str):
     """Raw samples (acc [acc_unit], gyr [gyro_unit]) as an ImuLog in SI (counts stay counts) for :func:`write_imu`."""
     from optinav.core.units import factor
@@ -199,9 +206,35 @@ class SessionStream:
 
     Parameters
     ----------
-    scheme, spec, dwell_s, rate_hz, transition_s, rest_s, lat, height_m, truth, acc_unit, gyro_unit,
-    acc_counts_per_si, gyro_counts_per_si, jitter, rng
-        As :func:`simulate`.
+    scheme : str or (P, 3) array
+        A name in :data:`SCHEMES` or sensor-frame up vectors [-].
+    spec : ImuSpec, ImuModel or str
+        An ImuSpec (a unit is drawn with ``rng``), an ImuModel, or a preset name.
+    dwell_s : float
+        Dwell per pose [s].
+    rate_hz : float or None
+        Sample rate [Hz]; None: the unit's.
+    transition_s : float
+        Duration of each turn between poses [s].
+    rest_s : float
+        Initial rest in the first pose [s].
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    truth : str
+        ``"draw"`` (the unit's errors) or ``"paper"``: the accelerometer errors of Gao & Zhang's Table 2 (S per
+        local g, three misalignments, biases).
+    acc_unit, gyro_unit : str
+        Units of the raw outputs (``"counts"`` or an SI / named unit).
+    acc_counts_per_si : float
+        Nominal counts per m/s² of ``acc_unit="counts"`` [1/(m/s^2)].
+    gyro_counts_per_si : float
+        Nominal counts per rad/s of ``gyro_unit="counts"`` [1/(rad/s)].
+    jitter : float
+        Timestamp jitter as a fraction of the step [-] (irregular sampling).
+    rng : int, Generator or None
+        Seed or generator.
 
     Attributes
     ----------
@@ -242,14 +275,7 @@ class SessionStream:
         lat = float(lat)
         self.gravity = g = float(normal_gravity(lat, height_m))
         if truth == "paper":
-            K, b = model.from_paper(
-                PAPER_REFERENCE["S"],
-                PAPER_REFERENCE["M_xy"],
-                PAPER_REFERENCE["M_xz"],
-                PAPER_REFERENCE["M_yz"],
-                PAPER_REFERENCE["B"],
-                g,
-            )
+            K, b = paper_accelerometer(g)
             unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
         elif truth != "draw":
             raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
@@ -362,24 +388,7 @@ class SessionStream:
             yield _as_log(t, acc, gyr, self.acc_unit, self.gyro_unit)
 
 
-def simulate(
-    scheme="paper12",
-    *,
-    spec: ImuSpec | ImuModel | str = "mems-mti1",
-    dwell_s: float = 60.0,
-    rate_hz: float | None = None,
-    transition_s: float = 4.0,
-    rest_s: float = 10.0,
-    lat: float = float(np.radians(38.88)),
-    height_m: float = 35.0,
-    truth: str = "draw",
-    acc_unit: str = "m/s^2",
-    gyro_unit: str = "rad/s",
-    acc_counts_per_si: float = 2048 / G_STANDARD,
-    gyro_counts_per_si: float = 16.4 / DEG,
-    jitter: float = 0.0,
-    rng=None,
-) -> SimulatedSession:
+def simulate(scheme="paper12", **options) -> SimulatedSession:
     """Simulate a static multi-position session.
 
     Poses alternate yaw so that consecutive transitions turn about varied axes. The samples are those of
@@ -389,55 +398,16 @@ def simulate(
     ----------
     scheme : str or (P, 3) array
         A name in :data:`SCHEMES` or sensor-frame up vectors [-].
-    spec : ImuSpec, ImuModel or str
-        An ImuSpec (a unit is drawn with ``rng``), an ImuModel, or a preset name.
-    dwell_s : float
-        Dwell per pose [s].
-    rate_hz : float or None
-        Sample rate [Hz]; None: the unit's.
-    transition_s : float
-        Duration of each turn between poses [s].
-    rest_s : float
-        Initial rest in the first pose [s].
-    lat : float
-        Latitude [rad].
-    height_m : float
-        Height above the ellipsoid [m].
-    truth : str
-        ``"draw"`` (the unit's errors) or ``"paper"``: the accelerometer errors of Gao & Zhang's Table 2 (S per
-        local g, three misalignments, biases).
-    acc_unit, gyro_unit : str
-        Units of the raw outputs (``"counts"`` or an SI / named unit).
-    acc_counts_per_si : float
-        Nominal counts per m/s² of ``acc_unit="counts"`` [1/(m/s^2)].
-    gyro_counts_per_si : float
-        Nominal counts per rad/s of ``gyro_unit="counts"`` [1/(rad/s)].
-    jitter : float
-        Timestamp jitter as a fraction of the step [-] (irregular sampling).
-    rng : int, Generator or None
-        Seed or generator.
+    **options
+        The keywords of :class:`SessionStream`: ``spec``, ``dwell_s``, ``rate_hz``, ``transition_s``, ``rest_s``,
+        ``lat``, ``height_m``, ``truth``, ``acc_unit``, ``gyro_unit``, ``acc_counts_per_si``,
+        ``gyro_counts_per_si``, ``jitter``, ``rng``.
 
     Returns
     -------
     SimulatedSession
         Raw log ``t`` [s], ``acc`` [acc_unit], ``gyro`` [gyro_unit] with the true K, b and up vectors.
     """
-    stream = SessionStream(
-        scheme,
-        spec=spec,
-        dwell_s=dwell_s,
-        rate_hz=rate_hz,
-        transition_s=transition_s,
-        rest_s=rest_s,
-        lat=lat,
-        height_m=height_m,
-        truth=truth,
-        acc_unit=acc_unit,
-        gyro_unit=gyro_unit,
-        acc_counts_per_si=acc_counts_per_si,
-        gyro_counts_per_si=gyro_counts_per_si,
-        jitter=jitter,
-        rng=rng,
-    )
+    stream = SessionStream(scheme, **options)
     parts = list(zip(*stream.blocks()))
     return stream.session(*(np.concatenate(p) for p in parts))
