@@ -393,6 +393,41 @@ def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
     path.write_text(json.dumps(results, indent=2) + "\n")
 
 
+#: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
+REPORT_BEFORE = "0d7719b"
+
+
+def run_attitude_report(sizes=(1_000_000, 3_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav attitude LOG --report DIR`` on the simulated accel-multipos log of each
+    row count, with this tree ("after": streamed, the figure every k-th row) and with commit
+    :data:`REPORT_BEFORE` ("before": the whole log read at once)."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {"after": ROOT / "src"}
+        old = _before_src(Path(tmp), REPORT_BEFORE)
+        if old is not None:
+            versions["before"] = old
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            _run(ROOT / "src", _steps(d, rows)[0][1])
+            n = _rows_of(d / f"log{rows}.csv")
+            for version, src in versions.items():
+                argv = [
+                    "attitude",
+                    str(d / f"log{rows}.csv"),
+                    "--out",
+                    str(d / "att.csv"),
+                    "--report",
+                    str(d / version),
+                ]
+                peak, wall, _ = _run(src, argv)
+                out.append({"method": f"attitude --report ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"attitude --report ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -407,6 +442,10 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --simulate SIMULATE.json [ROWS ...]: the streamed simulator alone
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_simulate(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--attitude-report":
+        # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_attitude_report(sizes), indent=1) + "\n")
     elif sys.argv[1] == "--merge-simulate":
         # python benchmarks/bench_memory.py --merge-simulate RESULTS.json SIMULATE.json NOTE: its 1 M and 3 M runs
         # become the "after" rows of simulate accel-multipos in RESULTS.json
