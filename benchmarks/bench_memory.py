@@ -15,7 +15,8 @@ array per field and keeps time, accelerometer and gyroscope (56 B per row) plus 
 static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
-simulators are generated whole. Results: results_memory.json, and results_memory.md from
+simulators are generated whole. ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and

@@ -170,4 +170,5 @@ def test_progress_of_the_blocks_on_a_terminal(tmp_path, capsys, monkeypatch):
     argv = ["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--dwell", "1", "--rest", "1"]
     assert main(argv) == 0
     err = capsys.readouterr().err
-    assert "simulate accel-multipos: " in err and "1/1" in err and ", truth" in err
+    # the task's steps and the bar of the blocks (drawn at its start; nested, it is cleared when done)
+    assert "simulate accel-multipos: " in err and "/1 [" in err and ", truth" in err
