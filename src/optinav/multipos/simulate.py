@@ -265,7 +265,7 @@ def simulate(
     if jitter:
         t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
         t[0] = 0.0
-    tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t)
+    tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t, frame="enu")
     meas = unit_model.apply(tr.gyr, tr.acc, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
     fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
     fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
@@ -292,5 +292,5 @@ def simulate(
         labels=labels,
         acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
         acc_bias_instability=float(np.max(unit_model.acc_noise.gm_sigma) * fa),
-        descriptions=[describe_pose(c) for c in poses[1:]],
+        descriptions=[describe_pose(c, frame="enu") for c in poses[1:]],
     )
