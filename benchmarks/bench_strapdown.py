@@ -76,9 +76,9 @@ def run(quick: bool) -> list[dict]:
     for coning in ("none", "previous", "two-sample", "four-sample"):
         group = f"strapdown mechanize {coning}"
         args = (q0, np.zeros(3), np.array([np.radians(45.0), 0.0, 0.0]))
-        strapdown.mechanize(dth[:16], dv[:16], t[:17], *args, coning=coning)
+        strapdown.mechanize(dth[:16], dv[:16], t[:17], *args, frame="enu", coning=coning)
         rate = n_mech / _best(
-            lambda: strapdown.mechanize(dth[:n_mech], dv[:n_mech], t[: n_mech + 1], *args, coning=coning)
+            lambda: strapdown.mechanize(dth[:n_mech], dv[:n_mech], t[: n_mech + 1], *args, frame="enu", coning=coning)
         )
         row(group, f"numba mechanize (N={n_mech})", rate)
     return rows

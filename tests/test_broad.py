@@ -58,7 +58,7 @@ def test_broad_heading_with_synthesized_polarization(trial):
         PAPER_SITE["height_m"],
     )
     sun = sp.sun_vector("enu")
-    pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
+    pol = synthesize_polarization(trial.q_ref, sun, aop_noise=np.radians(0.5), rng=0, frame="enu")
     i0 = int(np.flatnonzero(np.all(np.isfinite(trial.q_ref), axis=1))[0])  # start at the first optical sample
     sl = slice(i0, None)
     mask = trial.eval_mask[sl]

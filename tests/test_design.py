@@ -151,7 +151,7 @@ def test_noise_inputs_and_scale_are_consistent():
 
 
 def test_candidates_as_matrices_and_repeats():
-    c6 = six_positions()
+    c6 = six_positions(frame="enu")
     rep = design.evaluate_scheme(c6)
     np.testing.assert_allclose(rep.orientations, c6)
     np.testing.assert_allclose(rep.up_dirs, AXIS6, atol=1e-15)

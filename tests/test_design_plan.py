@@ -25,9 +25,12 @@ S = math.sqrt(0.5)
     "c, words",
     [
         (np.eye(3), "+z face up; y axis north"),  # body = ENU
-        (orientation_from_up("x"), "+x face up; y axis north"),
-        (orientation_from_up("-y", north="x"), "−y face up; x axis north"),
-        (orientation_from_up("-z", north="-x"), "−z face up; y axis west"),  # x south, y west: y is nearer north
+        (orientation_from_up("x", frame="enu"), "+x face up; y axis north"),
+        (orientation_from_up("-y", north="x", frame="enu"), "−y face up; x axis north"),
+        (
+            orientation_from_up("-z", north="-x", frame="enu"),
+            "−z face up; y axis west",
+        ),  # x south, y west: y is nearer north
     ],
 )
 def test_words_of_axis_poses(c, words):

@@ -38,9 +38,9 @@ DATA = (
 
 def _poses():
     ups = ["z", "x", "y", "-z", "-x", "-y", "z", "y", "x", "-y", "-z", "x", "-x", "z"]
-    P = [orientation_from_up(u) for u in ups]
-    P.insert(3, orientation_from_up("z") @ rot_x(0.6) @ rot_y(0.4))  # tilted poses
-    P.insert(9, orientation_from_up("y") @ rot_z(0.5))
+    P = [orientation_from_up(u, frame="enu") for u in ups]
+    P.insert(3, orientation_from_up("z", frame="enu") @ rot_x(0.6) @ rot_y(0.4))  # tilted poses
+    P.insert(9, orientation_from_up("y", frame="enu") @ rot_z(0.5))
     return np.stack(P)
 
 
@@ -53,7 +53,7 @@ def _session(rng, *, lat=0.0, earth_model="none", jitter=True):
         t = np.clip(t + rng.uniform(-0.3, 0.3, t.size) / RATE, 0.0, T)
         t[0] = 0.0
     kw = {"earth": "wgs84"} if earth_model == "wgs84" else {"earth": "none", "gravity": [0.0, 0.0, -9.80665]}
-    truth = static_positions(P, dwell=dwell, rate_hz=RATE, lat=lat, transition=tr, t=t, **kw)
+    truth = static_positions(P, dwell=dwell, rate_hz=RATE, lat=lat, transition=tr, t=t, frame="enu", **kw)
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
     f = np.array([truth.acc[a:b].mean(0) for a, b in iv])
@@ -140,8 +140,8 @@ def test_earth_rate_stays_within_documented_bound(bias):
 
 def _single_axis_session(rng):
     ang = np.radians([0, 90, 200, 280, 30, 150, 250, 340])
-    P = np.stack([orientation_from_up("z") @ rot_x(a) for a in ang])  # every turn is about body x
-    truth = static_positions(P, dwell=2.0, rate_hz=RATE, lat=0.7, transition=2.0)
+    P = np.stack([orientation_from_up("z", frame="enu") @ rot_x(a) for a in ang])  # every turn is about body x
+    truth = static_positions(P, dwell=2.0, rate_hz=RATE, lat=0.7, transition=2.0, frame="enu")
     lab = truth.labels
     iv = np.array([[np.flatnonzero(lab == p)[0], np.flatnonzero(lab == p)[-1] + 1] for p in range(lab.max() + 1)])
     f = np.array([truth.acc[a:b].mean(0) for a, b in iv])

@@ -311,27 +311,77 @@ def test_frame_name_is_the_one_validator():
             frame_name(bad)
 
 
-def test_frame_defaults_are_the_documented_ones():
-    """Core navigation defaults to CORE_FRAME (ENU, as PSINS); Euler angles and the attitude system to
-    DEFAULT_FRAME (NED); every default is spelled as frame_name returns it (docs/conventions.md)."""
-    from optinav.core.rotations import CORE_FRAME, DEFAULT_FRAME
+#: data-class fields named ``frame`` that are not a navigation frame: a turntable move's axis is fixed in the
+#: "body" or the "nav" frame
+NOT_NAVIGATION_FRAMES = {"optinav.core.simulate.Rotate.frame"}
 
-    # BROAD's recordings are ENU: the synthesizer for them defaults to their frame
-    data_frames = {"optinav.attitude.data.synthesize_polarization": "enu"}
-    seen = 0
+
+def _frame_defaults():
+    """(name, default) of every ``frame`` / Euler ``convention`` parameter of the public API that has a default,
+    and of every ``frame`` field of a public data class that has one (``MISSING`` for a required field)."""
+    import dataclasses
+
+    out = []
     for name, fn in _public_callables():
         for key in ("frame", "convention"):
             p = inspect.signature(fn).parameters.get(key)
-            if p is None or p.default is inspect.Parameter.empty or not isinstance(p.default, str):
-                continue
-            seen += 1
-            if name in data_frames:
-                want = data_frames[name]
-            elif name.startswith(
-                ("optinav.core.earth", "optinav.core.simulate", "optinav.core.strapdown", "optinav.core.alignment")
+            if p is not None and p.default is not inspect.Parameter.empty:
+                out.append((f"{name}({key}=)", p.default))
+    seen = set()
+    for mod_name in _public_modules():
+        for obj in vars(importlib.import_module(mod_name)).values():
+            if (
+                inspect.isclass(obj)
+                and dataclasses.is_dataclass(obj)
+                and obj.__module__.startswith("optinav")
+                and obj not in seen
             ):
-                want = CORE_FRAME
-            else:
-                want = DEFAULT_FRAME
-            assert p.default == want, f"{name}({key}={p.default!r}): expected {want!r}"
-    assert seen > 30
+                seen.add(obj)
+                for f in dataclasses.fields(obj):
+                    name = f"{obj.__module__}.{obj.__qualname__}.{f.name}"
+                    if f.name == "frame" and name not in NOT_NAVIGATION_FRAMES:
+                        out.append((name, f.default))
+    return out
+
+
+def _bad_frame_defaults(found) -> list[str]:
+    import dataclasses
+
+    from optinav.core.rotations import DEFAULT_FRAME
+
+    return [f"{n}: {d!r}" for n, d in found if d is not dataclasses.MISSING and d != DEFAULT_FRAME]
+
+
+def test_every_frame_default_is_the_one_default():
+    """One default navigation frame, NED (docs/conventions.md, "Spelling and defaults"): every ``frame`` and Euler
+    ``convention`` parameter and every ``frame`` field of the public API defaults to ``DEFAULT_FRAME`` or has no
+    default; code that reproduces PSINS passes "enu" explicitly."""
+    from optinav.core.rotations import DEFAULT_FRAME
+
+    assert DEFAULT_FRAME == "ned"
+    found = _frame_defaults()
+    names = {n for n, _ in found}
+    # the walk reaches the navigation core, the attitude system, the sky models and the results
+    for must in (
+        "optinav.core.earth.gravity_vector(frame=)",
+        "optinav.core.alignment.fine_alignment(frame=)",
+        "optinav.core.simulate.static_positions(frame=)",
+        "optinav.core.strapdown.mechanize(frame=)",
+        "optinav.core.rotations.euler_from_dcm(convention=)",
+        "optinav.attitude.data.synthesize_polarization(frame=)",
+        "optinav.attitude.estimators.estimate(frame=)",
+        "optinav.sky.sun.sun_vector(frame=)",
+        "optinav.core.strapdown.NavSolution.frame",
+        "optinav.attitude.estimators.AttitudeEstimate.frame",
+    ):
+        assert must in names, must
+    assert len(found) > 40
+    bad = _bad_frame_defaults(found)
+    assert not bad, "frame defaults other than DEFAULT_FRAME:\n" + "\n".join(bad)
+
+
+def test_the_frame_default_check_flags_another_default():
+    import dataclasses
+
+    found = [("a(frame=)", "enu"), ("b(frame=)", "ned"), ("C.frame", dataclasses.MISSING), ("d(convention=)", "ENU")]
+    assert _bad_frame_defaults(found) == ["a(frame=): 'enu'", "d(convention=): 'ENU'"]

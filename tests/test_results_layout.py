@@ -428,7 +428,9 @@ def test_every_data_class_reads_its_version_before_plain_arrays():
 
     s = simulate_session("six", dwell_s=0.3, rate_hz=10.0, transition_s=0.3, rest_s=0.2, acc_unit="counts", rng=1)
     objs = [
-        static_positions(six_positions()[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2),
+        static_positions(
+            six_positions(frame="enu")[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2, frame="enu"
+        ),
         s.log(),
         simulate_flight("static", 0.3, 10, rng=1),
         simulate_rins(scheme="dual4", align_s=0.2, dwell_s=0.2, move_s=0.2, rate_hz=10, rng=1),
@@ -514,3 +516,54 @@ def test_legacy_data_classes_load_under_their_new_field_names(name):
     assert again["version"] == cls.VERSION and set(rename.values()) <= set(again["fields"])
     assert not set(rename) & set(again["fields"])
     assert cls.from_json(res.to_json()).to_json() == res.to_json()
+
+
+# --- frames of files written before NED became the one default (docs/conventions.md) ----------------------------
+
+
+def test_old_enu_files_load_as_enu():
+    """Files of the former ENU core default name their frame: they read back as ENU, not as today's NED default.
+    The v1 ImuTruth is today's ENU simulation of the same call (tests/data/legacy/README.md) to the last bit, and the
+    v1 alignment's Euler angles are in the ENU convention of the frame it stores."""
+    from optinav.core.alignment import attitude_error
+    from optinav.core.rotations import DEFAULT_FRAME, dcm_from_euler
+    from optinav.core.simulate import ImuTruth, six_positions, static_positions
+
+    assert DEFAULT_FRAME == "ned"
+    tr = ImuTruth.from_json(LEGACY / "imu_truth_v1.json")
+    assert _old("imu_truth_v1.json")["fields"]["frame"]["value"] == tr.frame == "enu"
+    now = static_positions(
+        six_positions(frame="enu")[:2], 0.2, 10.0, np.radians(30), height_m=100, transition=0.2, frame="enu"
+    )
+    for name in ("C_b_n", "q_b_n", "gyr", "acc", "dtheta", "dv", "vel_n", "pos"):
+        np.testing.assert_array_equal(getattr(tr, name), getattr(now, name), err_msg=name)
+    al = Result.from_json(LEGACY / "alignment_v1.json")
+    assert al.frame == "enu"
+    np.testing.assert_allclose(dcm_from_euler(al.euler, al.frame), al.C_b_n, rtol=0, atol=1e-15)
+    # the pose it aligned (six_positions()[:1] of the ENU default then): tilt ≈ the drawn unit's bias / g, not 2 rad
+    assert np.abs(attitude_error(al.C_b_n, six_positions(frame="enu")[0])).max() < 0.02
+    assert np.abs(attitude_error(al.C_b_n, six_positions(frame="ned")[0])).max() > 2.0
+
+
+def test_nav_solution_frame_as_written_and_enu_when_missing():
+    """A NavSolution file keeps the frame it names; one without ``frame`` (optinav always wrote it) reads as the
+    ENU of the former core default, in the current layout and in the version before plain arrays."""
+    from optinav.core.results import PLAIN_ARRAYS_SINCE
+    from optinav.core.simulate import six_positions, static_positions
+    from optinav.core.strapdown import NavSolution, mechanize
+
+    lat = np.radians(30)
+    for frame in ("enu", "ned"):
+        tr = static_positions(six_positions(frame=frame)[:1], 1.0, 10.0, lat, height_m=100, frame=frame)
+        nav = mechanize(tr.dtheta, tr.dv, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0], frame=frame, vertical="hold")
+        assert nav.frame == frame and NavSolution.from_json(nav.to_json()).frame == frame
+        # at rest in its frame: the solution's velocity stays zero (a frame mix-up would fall at g)
+        assert np.abs(nav.vel_n).max() < 1e-9
+    d = nav.to_dict()  # NED, written with its frame
+    del d["fields"]["frame"]
+    for data in (d, _ndarray_layout(d, PLAIN_ARRAYS_SINCE)):
+        back = Result.from_dict(json.loads(json.dumps(data)))
+        assert type(back) is NavSolution and back.frame == "enu"
+        np.testing.assert_array_equal(back.vel_n, nav.vel_n)
+    with pytest.raises(TypeError, match="frame"):
+        NavSolution(t=nav.t, q_b_n=nav.q_b_n, vel_n=nav.vel_n, pos=nav.pos)  # built by code, the frame is required

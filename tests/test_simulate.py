@@ -80,7 +80,11 @@ def test_static_six_positions_truth(frame, earth_name):
 def test_static_frames_describe_the_same_motion():
     kw = dict(dwell=[3.0, 4.0, 2.0], rate_hz=20.0, lat=LAT, transition=[1.5, 2.5])
     cs_enu = np.stack(
-        [dcm_from_euler([0.1, -0.2, 0.3], "enu"), S.orientation_from_up("-x"), S.orientation_from_up("y", "-x")]
+        [
+            dcm_from_euler([0.1, -0.2, 0.3], "enu"),
+            S.orientation_from_up("-x", frame="enu"),
+            S.orientation_from_up("y", "-x", frame="enu"),
+        ]
     )
     cs_ned = np.stack([np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ c for c in cs_enu])
     a = S.static_positions(cs_enu, frame="enu", **kw)
@@ -93,9 +97,9 @@ def test_static_frames_describe_the_same_motion():
 
 
 def test_static_transition_is_smooth_and_lands_exactly():
-    c0 = S.orientation_from_up("z")
-    c1 = S.orientation_from_up("x") @ rot_x(0.3)
-    tr = S.static_positions([c0, c1], [2.0, 2.0], 200.0, LAT, earth="none", transition=3.0)
+    c0 = S.orientation_from_up("z", frame="enu")
+    c1 = S.orientation_from_up("x", frame="enu") @ rot_x(0.3)
+    tr = S.static_positions([c0, c1], [2.0, 2.0], 200.0, LAT, earth="none", transition=3.0, frame="enu")
     moving = np.flatnonzero(tr.labels == -1)
     w = tr.gyr
     # rate profile starts and ends at zero: the epochs around the transition have a small rate
@@ -120,14 +124,19 @@ def test_orientation_from_up_and_describe():
             assert np.linalg.det(c) == pytest.approx(1.0)
             np.testing.assert_allclose(c @ unit_axis(up), up_n, atol=1e-15)
             np.testing.assert_allclose(c @ unit_axis(north), north_n, atol=1e-15)
-    c = S.orientation_from_up("z") @ rot_y(np.radians(30))
-    assert S.describe_pose(c) == "z up, tilted 30° about y, y north"
-    assert S.describe_pose(S.orientation_from_up("-y", "x")) == "y down, x north"
+    c = S.orientation_from_up("z", frame="enu") @ rot_y(np.radians(30))
+    assert S.describe_pose(c, frame="enu") == "z up, tilted 30° about y, y north"
+    assert S.describe_pose(S.orientation_from_up("-y", "x", frame="enu"), frame="enu") == "y down, x north"
     # turning the level pose 90° counter-clockwise (seen from above) about z brings x to north
-    assert S.describe_pose(S.orientation_from_up("z") @ rot_z(np.radians(90))) == "z up, x north"
-    assert S.describe_pose(S.orientation_from_up("z") @ rot_z(np.radians(30))) == "z up, y at azimuth 330.00°"
+    assert (
+        S.describe_pose(S.orientation_from_up("z", frame="enu") @ rot_z(np.radians(90)), frame="enu") == "z up, x north"
+    )
+    assert (
+        S.describe_pose(S.orientation_from_up("z", frame="enu") @ rot_z(np.radians(30)), frame="enu")
+        == "z up, y at azimuth 330.00°"
+    )
     with pytest.raises(OptinavError):
-        S.orientation_from_up("x", "x")
+        S.orientation_from_up("x", "x", frame="enu")
 
 
 @settings(max_examples=30, deadline=None)
@@ -149,7 +158,7 @@ BETA, FREQ = np.radians(2.0), 3.0
 def test_coning_attitude_integrates_the_rate():
     # independent check: integrate q̇ = ½ q ⊗ [0, ω(t)] with a high-order RK at tight tolerance
     dur = 2.0 / FREQ
-    tr = S.coning(BETA, FREQ, dur, 200.0, phase=0.4)
+    tr = S.coning(BETA, FREQ, dur, 200.0, phase=0.4, frame="enu")
     q0 = tr.q_b_n[0]
 
     def rhs(t, q):
@@ -164,7 +173,7 @@ def test_coning_attitude_integrates_the_rate():
 
 
 def test_coning_increments_equal_quadrature_of_rate():
-    tr = S.coning(BETA, FREQ, 1.0, 50.0)
+    tr = S.coning(BETA, FREQ, 1.0, 50.0, frame="enu")
     # closed-form Δθ against adaptive quadrature of ω(t), component by component
     for k in [0, 7, 33, 49]:
         for i in range(3):
@@ -199,14 +208,14 @@ def test_coning_noncommutativity_closed_form(h_frac):
 
 def test_coning_with_earth_rate_and_gravity():
     c0 = dcm_from_euler([0.2, -0.1, 1.0], "enu")
-    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, height_m=100.0, initial=c0)
-    ref = S.coning(BETA, FREQ, 1.0, 100.0, initial=c0)
+    tr = S.coning(BETA, FREQ, 1.0, 100.0, earth="wgs84", lat=LAT, height_m=100.0, initial=c0, frame="enu")
+    ref = S.coning(BETA, FREQ, 1.0, 100.0, initial=c0, frame="enu")
     c = tr.C_b_n
     np.testing.assert_allclose(c, ref.C_b_n, atol=1e-15)
     # static base: ω_ib = ω_cone + C_n^b ω_ie, f = C_n^b(−g)
-    w_ie = earth.earth_rate(LAT)
+    w_ie = earth.earth_rate(LAT, frame="enu")
     np.testing.assert_allclose(tr.gyr - ref.gyr, body(w_ie, c), atol=1e-19)
-    np.testing.assert_allclose(tr.acc, body(-earth.gravity_vector(LAT, 100.0), c), atol=1e-14)
+    np.testing.assert_allclose(tr.acc, body(-earth.gravity_vector(LAT, 100.0, frame="enu"), c), atol=1e-14)
     # increments of the Earth-rate and gravity parts against adaptive quadrature on a few intervals
     for k in [0, 42, 99]:
 
@@ -217,7 +226,12 @@ def test_coning_with_earth_rate_and_gravity():
         for i in range(3):
             e_w, _ = quad(integrand, tr.t[k], tr.t[k + 1], args=(i, w_ie), epsabs=1e-22, epsrel=1e-13)
             e_f, _ = quad(
-                integrand, tr.t[k], tr.t[k + 1], args=(i, -earth.gravity_vector(LAT, 100.0)), epsabs=1e-16, epsrel=1e-14
+                integrand,
+                tr.t[k],
+                tr.t[k + 1],
+                args=(i, -earth.gravity_vector(LAT, 100.0, frame="enu")),
+                epsabs=1e-16,
+                epsrel=1e-14,
             )
             # the difference of two ~6e-4 rad increments carries ~1e-19 rad of rounding
             assert abs(tr.dtheta[k, i] - ref.dtheta[k, i] - e_w) < 5e-19
@@ -245,7 +259,7 @@ SCHEDULE = [
 
 
 def test_turntable_attitudes_and_earth_free_angles():
-    tr = S.turntable(SCHEDULE, 50.0, LAT, initial=C0, earth="none")
+    tr = S.turntable(SCHEDULE, 50.0, LAT, initial=C0, earth="none", frame="enu")
     c = tr.C_b_n
     c2 = C0 @ rot_z(90 * DEG)  # body-axis rotation: C = C_0 R(θ)
     c4 = rot_x(-180 * DEG) @ c2  # nav-axis rotation: C = R(θ) C_0
@@ -284,7 +298,7 @@ def test_turntable_any_rotation(axis, angle, duration, profile, frame, rate):
     sched = [S.Rest(0.3), S.Rotate(axis, angle, duration, frame=frame, profile=profile), S.Rest(0.3)]
     total = 0.6 + duration
     t = np.linspace(0.0, total, int(total * rate) + 2)  # irregular w.r.t. the schedule, ends with it
-    tr = S.turntable(sched, None, 0.0, initial=C0, earth="none", t=t)
+    tr = S.turntable(sched, None, 0.0, initial=C0, earth="none", t=t, frame="enu")
     u = np.asarray(axis) / np.linalg.norm(axis)
     end = C0 @ rot_axis(u, angle) if frame == "body" else rot_axis(u, angle) @ C0
     np.testing.assert_allclose(tr.C_b_n[-1] - end, 0, atol=1e-14)
@@ -300,7 +314,7 @@ def test_turntable_ned_equals_enu():
         else r
         for r in SCHEDULE
     ]
-    a = S.turntable(SCHEDULE, 10.0, LAT, initial=C0)
+    a = S.turntable(SCHEDULE, 10.0, LAT, initial=C0, frame="enu")
     b = S.turntable(sched_ned, 10.0, LAT, initial=m @ C0, frame="ned")
     for name in ("gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(b, name), getattr(a, name), atol=1e-14)
@@ -314,9 +328,9 @@ def test_turntable_increments_with_earth_rate_against_quadrature():
     # Σ Δθ over the cosine move equals ∫(ω_nb + C_n^b ω_ie) dt evaluated by adaptive quadrature of an
     # independent model: C(t) = C_0 R_z(θ(t)), ω_nb = θ̇ e_z
     sched = [S.Rest(1.0), S.Rotate("z", 90 * DEG, 3.0), S.Rest(1.0)]
-    tr = S.turntable(sched, 10.0, LAT, height_m=30.0, initial=C0)
-    w_ie = earth.earth_rate(LAT)
-    g = earth.gravity_vector(LAT, 30.0)
+    tr = S.turntable(sched, 10.0, LAT, height_m=30.0, initial=C0, frame="enu")
+    w_ie = earth.earth_rate(LAT, frame="enu")
+    g = earth.gravity_vector(LAT, 30.0, frame="enu")
 
     def model(t):
         tau = np.clip(t - 1.0, 0, 3.0)
@@ -340,7 +354,7 @@ def test_quadrature_error_against_16_node_rule(monkeypatch):
     # state and show the error: 8-node Gauss–Legendre vs 16 nodes on the same panels, 1 Hz sampling so that a
     # whole move falls in a few intervals (the hardest case for the panel rule)
     def run(rate):
-        return S.turntable(SCHEDULE, rate, LAT, initial=C0)
+        return S.turntable(SCHEDULE, rate, LAT, initial=C0, frame="enu")
 
     a = [run(1.0), run(10.0)]
     x, w = np.polynomial.legendre.leggauss(16)
@@ -357,7 +371,7 @@ def test_quadrature_error_against_16_node_rule(monkeypatch):
 def test_irregular_epochs():
     rng = np.random.default_rng(7)
     t = np.sort(np.concatenate([[0.0, 12.5], rng.uniform(0, 12.5, 300)]))
-    tr = S.turntable(SCHEDULE, None, LAT, initial=C0, earth="none", t=t)
+    tr = S.turntable(SCHEDULE, None, LAT, initial=C0, earth="none", t=t, frame="enu")
     np.testing.assert_array_equal(tr.t, t)
     # Earth-free, single-axis moves: the increments telescope, so their total equals the composed rotation's
     # net angle sum along each body axis in turn; check the first move alone
@@ -365,10 +379,10 @@ def test_irregular_epochs():
     inside = (t[k[0]] >= 0) & (t[k[-1] + 1] <= 6.0)
     assert inside
     np.testing.assert_allclose(tr.dtheta[k].sum(0), [0, 0, 90 * DEG], atol=1e-14)
-    co = S.coning(BETA, FREQ, 1.0, None, t=t[t <= 1.0])
+    co = S.coning(BETA, FREQ, 1.0, None, t=t[t <= 1.0], frame="enu")
     tt = co.t
     np.testing.assert_allclose(co.dtheta, S.coning_increment(BETA, FREQ, tt[:-1], tt[1:]), atol=1e-17)
-    st_ = S.static_positions(S.six_positions(), 2.0, None, LAT, t=t[t <= 12.0])
+    st_ = S.static_positions(S.six_positions(frame="enu"), 2.0, None, LAT, t=t[t <= 12.0], frame="enu")
     both = st_.labels[:-1] == st_.labels[1:]
     np.testing.assert_allclose(st_.dv[both], st_.acc[:-1][both] * st_.dt[both, None], atol=1e-14)
 
@@ -410,7 +424,7 @@ def skew_inv(m):
 
 
 def test_gimbal_dual_axis_truth():
-    tr = S.gimbal([np.eye(3), C_MIS, C_IMU], ["z", "y"], [OUTER, INNER], 10.0, 20.0, LAT, earth="wgs84")
+    tr = S.gimbal([np.eye(3), C_MIS, C_IMU], ["z", "y"], [OUTER, INNER], 10.0, 20.0, LAT, earth="wgs84", frame="enu")
     c = tr.C_b_n
     # rest segments: 0–1 s, 4–5 s, 9–10 s (moves overlap between 1 and 4 s, and 5–9 s is one motion)
     assert np.unique(tr.labels).tolist() == [-1, 0, 1, 2]
@@ -419,10 +433,10 @@ def test_gimbal_dual_axis_truth():
         c[tr.segment(2)] - rot_z(np.pi / 2) @ C_MIS @ rot_y(0.3 + 1.5 * np.pi) @ C_IMU, 0, atol=1e-14
     )
     rest = tr.labels >= 0
-    np.testing.assert_allclose(tr.acc[rest], body(-earth.gravity_vector(LAT), c)[rest], atol=1e-13)
+    np.testing.assert_allclose(tr.acc[rest], body(-earth.gravity_vector(LAT, frame="enu"), c)[rest], atol=1e-13)
     assert tr.segment_names[1].startswith("θ1 = 180°, θ2 = 107.19°: ")
     # increments against adaptive quadrature of the chain's rate (verified above) plus the Earth rate
-    w_ie = earth.earth_rate(LAT)
+    w_ie = earth.earth_rate(LAT, frame="enu")
     for k in [22, 30, 41, 79, 130, 165]:
         for i in range(3):
 
@@ -444,9 +458,9 @@ def test_gimbal_dual_axis_truth():
 
 def test_gimbal_single_axis_equals_turntable_and_callable_angles():
     sched = [S.Rest(1.0), S.Rotate("y", 1.0, 2.0), S.Rest(1.0)]
-    tt = S.turntable(sched, 25.0, LAT, initial=C0)
+    tt = S.turntable(sched, 25.0, LAT, initial=C0, frame="enu")
     ax = S.AxisSchedule([S.Move(1.0, 2.0, 1.0)])
-    gm = S.gimbal([C0, np.eye(3)], ["y"], [ax], 4.0, 25.0, LAT)
+    gm = S.gimbal([C0, np.eye(3)], ["y"], [ax], 4.0, 25.0, LAT, frame="enu")
     for name in ("q_b_n", "gyr", "acc", "dtheta", "dv"):
         np.testing.assert_allclose(getattr(gm, name), getattr(tt, name), atol=1e-15)
 
@@ -456,7 +470,14 @@ def test_gimbal_single_axis_equals_turntable_and_callable_angles():
         return amp * np.sin(p), amp * 2 * np.pi * f * np.cos(p), -amp * (2 * np.pi * f) ** 2 * np.sin(p)
 
     gm = S.gimbal(
-        [np.eye(3), np.eye(3), C_IMU], ["z", "x"], [osc, lambda t: osc(t, 0.1, 0.7)], 3.0, 10.0, LAT, earth="none"
+        [np.eye(3), np.eye(3), C_IMU],
+        ["z", "x"],
+        [osc, lambda t: osc(t, 0.1, 0.7)],
+        3.0,
+        10.0,
+        LAT,
+        earth="none",
+        frame="enu",
     )
     assert gm.segment_names == ["gimbal motion"] and np.all(gm.labels == 0)
 
@@ -474,7 +495,7 @@ def test_lever_arm_centripetal_and_tangential():
     # turning about body z by θ(t): a point at r = [L, 0, 0] feels f = [−θ̇² L, θ̈ L, 0] (no gravity, inertial)
     L = 0.05
     sched = [S.Rest(0.5), S.Rotate("z", 2 * np.pi, 2.0), S.Rest(0.5)]
-    tr = S.turntable(sched, 100.0, 0.0, earth="none", lever_arm=[L, 0, 0])
+    tr = S.turntable(sched, 100.0, 0.0, earth="none", lever_arm=[L, 0, 0], frame="enu")
     tau = np.clip(tr.t - 0.5, 0, 2.0)
     A, T = 2 * np.pi, 2.0
     thd = A / T * (1 - np.cos(2 * np.pi * tau / T))
@@ -498,13 +519,13 @@ def knots(seed=3, n=7):
 
 def test_trajectory_passes_through_knots():
     tk, att, pos = knots()
-    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, height0_m=50.0)
+    tr = S.trajectory(tk, att, pos, 20.0, lat0=0.7, lon0=2.0, height0_m=50.0, frame="enu")
     idx = np.searchsorted(tr.t, tk)
     np.testing.assert_allclose(tr.C_b_n[idx], att, atol=1e-15)
     # the geodetic positions map back to the tangent-frame knots (ECEF rounding 6.4e6 m × 2e-16 ≈ 1e-9 m)
     r0 = earth.geodetic_to_ecef(0.7, 2.0, 50.0)
     r = earth.geodetic_to_ecef(tr.pos[idx, 0], tr.pos[idx, 1], tr.pos[idx, 2])
-    np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0).T, pos, atol=5e-9)
+    np.testing.assert_allclose((r - r0) @ earth.dcm_e_to_n(0.7, 2.0, frame="enu").T, pos, atol=5e-9)
     ned = S.trajectory(
         tk,
         np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1.0]]) @ att,
@@ -523,7 +544,7 @@ def test_trajectory_passes_through_knots():
 def test_trajectory_end_velocities_are_in_the_frame_axes():
     tk, att, pos = knots()
     v0, v1 = np.array([3.0, -1.0, 0.5]), np.array([-2.0, 4.0, -1.5])  # ENU
-    enu = S.trajectory(tk, att, pos, 20.0, lat0=0.7, bc_type=((1, v0), (1, v1)))
+    enu = S.trajectory(tk, att, pos, 20.0, lat0=0.7, bc_type=((1, v0), (1, v1)), frame="enu")
     swap = [1, 0, 2], np.array([1, 1, -1])
     ned = S.trajectory(
         tk,
@@ -542,12 +563,12 @@ def test_trajectory_velocity_and_position_derivatives():
     tk, att, pos = knots()
     lat0 = 0.7
     t = np.linspace(2.3, 2.5, 201)  # 1 kHz inside one knot interval
-    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t)
+    tr = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, frame="enu")
     c = tr.C_b_n
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
-    w_ie, w_en = earth.earth_rate(lat), earth.transport_rate(lat, h, v)
+    w_ie, w_en = earth.earth_rate(lat, frame="enu"), earth.transport_rate(lat, h, v, frame="enu")
     # invert the mechanization: a^n = C_b^n f^b − (2ω_ie + ω_en) × v + g
-    a = np.einsum("mij,mj->mi", c, tr.acc) - np.cross(2 * w_ie + w_en, v) + earth.gravity_vector(lat, h)
+    a = np.einsum("mij,mj->mi", c, tr.acc) - np.cross(2 * w_ie + w_en, v) + earth.gravity_vector(lat, h, frame="enu")
     # central difference of v^n: v is (nearly) quadratic inside a knot interval (cubic position spline; the
     # frame turns at ~1e-5 rad/s), so the truncation error is negligible and rounding is ~1e-11 m/s²
     dv_fd = (v[2:] - v[:-2]) / (t[2:] - t[:-2])[:, None]
@@ -557,18 +578,18 @@ def test_trajectory_velocity_and_position_derivatives():
     # (6.4e6 m × 1.1e-16 ≈ 1e-9 m), amplified by 18/(12 × 10 ms) to ≈ 2e-7 m/s and 3e-14 rad/s
     p, tp = tr.pos[::10], t[::10]
     p_fd = (-p[4:] + 8 * p[3:-1] - 8 * p[1:-3] + p[:-4]) / (12 * (tp[1] - tp[0]))
-    rate = earth.position_rate(lat, h, v)[::10][2:-2]
+    rate = earth.position_rate(lat, h, v, frame="enu")[::10][2:-2]
     np.testing.assert_allclose(p_fd[:, :2], rate[:, :2], rtol=0, atol=1e-13)
     np.testing.assert_allclose(p_fd[:, 2], rate[:, 2], rtol=0, atol=1e-6)
     # ω_ib − ω_nb = C_n^b(ω_ie + ω_en)
-    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, earth="none")
+    tn = S.trajectory(tk, att, pos, None, lat0=lat0, lon0=2.0, height0_m=50.0, t=t, earth="none", frame="enu")
     np.testing.assert_allclose(tr.gyr - tn.gyr, body(w_ie + w_en, c), atol=1e-17)
 
 
 def test_trajectory_increments_integrate_back_to_attitude():
     tk, att, pos = knots(5)
-    coarse = S.trajectory(tk, att, pos, 4.0, lat0=0.3, earth="none")
-    fine = S.trajectory(tk, att, pos, 1000.0, lat0=0.3, earth="none")
+    coarse = S.trajectory(tk, att, pos, 4.0, lat0=0.3, earth="none", frame="enu")
+    fine = S.trajectory(tk, att, pos, 1000.0, lat0=0.3, earth="none", frame="enu")
     # re-sampling: the fine increments sum to the coarse ones (both exact)
     np.testing.assert_allclose(fine.dtheta.reshape(-1, 250, 3).sum(1), coarse.dtheta, atol=2e-14)
     np.testing.assert_allclose(fine.dv.reshape(-1, 250, 3).sum(1), coarse.dv, atol=1e-12)
@@ -592,8 +613,8 @@ def test_trajectory_lever_arm():
     tk, att, pos = knots()
     t = np.linspace(3.1, 3.2, 101)
     r = np.array([0.3, -0.2, 0.1])
-    a = S.trajectory(tk, att, pos, None, lat0=0.7, t=t)
-    b = S.trajectory(tk, att, pos, None, lat0=0.7, t=t, lever_arm=r)
+    a = S.trajectory(tk, att, pos, None, lat0=0.7, t=t, frame="enu")
+    b = S.trajectory(tk, att, pos, None, lat0=0.7, t=t, lever_arm=r, frame="enu")
     w = a.gyr
     wd = (w[2:] - w[:-2]) / (t[2:] - t[:-2])[:, None]  # error h²/6 |ω'''| ≈ 1e-7 · 10
     expect = a.acc[1:-1] + np.cross(wd, r) + np.cross(w[1:-1], np.cross(w[1:-1], r))
@@ -608,14 +629,14 @@ def test_rate_of_the_navigation_frame_derivative():
     pos = np.array([[0, 0, 0], [500, 300, 50], [1100, 500, 80], [1600, 900, 60], [2000, 1500, 20.0]])
     att = np.stack([np.eye(3)] * 5)
     t = np.linspace(3.0, 3.4, 41)
-    tr = S.trajectory(tk, att, pos, None, lat0=1.2, t=t)
+    tr = S.trajectory(tk, att, pos, None, lat0=1.2, t=t, frame="enu")
     lat, h, v = tr.pos[:, 0], tr.pos[:, 2], tr.vel_n
     a = (
         np.einsum("mij,mj->mi", tr.C_b_n, tr.acc)
-        - np.cross(2 * earth.earth_rate(lat) + earth.transport_rate(lat, h, v), v)
-        + earth.gravity_vector(lat, h)
+        - np.cross(2 * earth.earth_rate(lat, frame="enu") + earth.transport_rate(lat, h, v, frame="enu"), v)
+        + earth.gravity_vector(lat, h, frame="enu")
     )
-    w = earth.earth_rate(lat) + earth.transport_rate(lat, h, v)
+    w = earth.earth_rate(lat, frame="enu") + earth.transport_rate(lat, h, v, frame="enu")
     w_fd = (-w[4:] + 8 * w[3:-1] - 8 * w[1:-3] + w[:-4]) / (12 * (t[1] - t[0]))
     np.testing.assert_allclose(S._omega_in_dot(tr.pos, v, a, "wgs84")[2:-2], w_fd, rtol=1e-6, atol=1e-15)
     assert np.max(np.abs(w_fd)) > 1e-8  # the check is not vacuous
@@ -625,7 +646,7 @@ def test_rate_of_the_navigation_frame_derivative():
 
 
 def test_json_round_trip(tmp_path):
-    tr = S.turntable(SCHEDULE[:3], 5.0, LAT, initial=C0)
+    tr = S.turntable(SCHEDULE[:3], 5.0, LAT, initial=C0, frame="enu")
     back = Result.from_json(tr.to_json(tmp_path / "truth.json"))
     assert isinstance(back, S.ImuTruth)
     for name in ("t", "q_b_n", "pos", "vel_n", "gyr", "acc", "dtheta", "dv", "labels"):

@@ -71,8 +71,10 @@ def test_blocked_moving_variance_is_bit_identical_to_whole_array_sums(monkeypatc
 
 def _simulated_log(rng, *, jitter=False):
     """12 poses (the six axis poses, twice, with a 2 s turn between), 100 Hz, white noise."""
-    C = np.concatenate([six_positions(), six_positions()[[2, 3, 4, 5, 0, 1]]])  # consecutive poses differ
-    truth = static_positions(C, dwell=8.0, rate_hz=100.0, lat=0.8, transition=2.0)
+    C = np.concatenate(
+        [six_positions(frame="enu"), six_positions(frame="enu")[[2, 3, 4, 5, 0, 1]]]
+    )  # consecutive poses differ
+    truth = static_positions(C, dwell=8.0, rate_hz=100.0, lat=0.8, transition=2.0, frame="enu")
     t = truth.t
     if jitter:  # irregular sampling: keep every sample with probability 0.9
         keep = rng.random(t.size) < 0.9

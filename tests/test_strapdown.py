@@ -162,7 +162,7 @@ def test_coning_drift_against_analytic_coning(coning):
     # times C = Σ|c| — plus the omitted |β_xy|, giving ≤ Ω v sin²α [2Cλ/n + (ΩH)²/12]. All are order α⁴,
     # so a small α = 0.1° keeps the bound well below D even for the four-sample algorithm (≈ 16 %).
     alpha, f, rate = 0.1 * DEG, 10.0, 100.0
-    tr = S.coning(alpha, f, 20.0, rate)
+    tr = S.coning(alpha, f, 20.0, rate, frame="enu")
     q = SD.attitude_update(tr.q_b_n[0], tr.dtheta, coning=coning)
     idx = SD.output_indices(tr.dtheta.shape[0], coning)
     en = rotvec_from_quat(quat_multiply(q, quat_conjugate(tr.q_b_n[idx])))
@@ -190,7 +190,7 @@ def test_coning_drift_against_analytic_coning(coning):
 def test_no_coning_compensation_is_clearly_worse_on_coning():
     # First-order drift of summing rotation vectors without correction: ½ sin²α (λ − sin λ)/h ≈ Ω sin²α λ²/12.
     alpha, f, rate = 1.0 * DEG, 10.0, 100.0
-    tr = S.coning(alpha, f, 10.0, rate)
+    tr = S.coning(alpha, f, 10.0, rate, frame="enu")
     drifts = {}
     for c in ("none", "previous"):
         q = SD.attitude_update(tr.q_b_n[0], tr.dtheta, coning=c)
@@ -210,12 +210,12 @@ NAB_B = np.array([100.0, -50.0, 200.0]) * 1e-6 * 9.80665  # accelerometer bias, 
 
 @pytest.fixture(scope="module")
 def static_hour():
-    return S.static_positions(C_STATIC[None], 3600.0, 100.0, LAT, height_m=H)
+    return S.static_positions(C_STATIC[None], 3600.0, 100.0, LAT, height_m=H, frame="enu")
 
 
 def test_static_hour_error_free_stays_at_rounding_level(static_hour):
     tr = static_hour
-    nav = SD.mechanize(tr.dtheta, tr.dv, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0], vertical="hold")
+    nav = SD.mechanize(tr.dtheta, tr.dv, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0], vertical="hold", frame="enu")
     # On a static base the update is exact: q(−ω_ie T) ⊗ q ⊗ q(C_n^b ω_ie T) = q, and the rotation
     # compensation cancels the −½ζ×Δv term. Only rounding accumulates: ≤ 1 eps per update over
     # N = 3.6e5 updates, ≤ 2 N eps ≈ 8e-11 rad of tilt; through the Schuler loop a tilt φ gives at most
@@ -244,7 +244,7 @@ def _error_model(lat, h, c_b_n, eps_b, nab_b):
     w = earth.WGS84.omega_ie
     g = float(earth.gravity(lat, h))
     rm, rn = earth.radii(lat, h)
-    w_ie = earth.earth_rate(lat)
+    w_ie = earth.earth_rate(lat, frame="enu")
     A = np.zeros((7, 7))
     A[0:3, 0:3] = -skew(w_ie)
     # δω_in = δω_ie + δω_en: δω_ie = [0, −ω sin L δL, ω cos L δL], δω_en = [−δv_N/R_M, δv_E/R_N, δv_E tan L/R_N]
@@ -265,7 +265,14 @@ def test_static_hour_with_biases_follows_error_model(static_hour):
     tr = static_hour
     dt = tr.dt[:, None]
     nav = SD.mechanize(
-        tr.dtheta + EPS_B * dt, tr.dv + NAB_B * dt, tr.t, tr.q_b_n[0], tr.vel_n[0], tr.pos[0], vertical="hold"
+        tr.dtheta + EPS_B * dt,
+        tr.dv + NAB_B * dt,
+        tr.t,
+        tr.q_b_n[0],
+        tr.vel_n[0],
+        tr.pos[0],
+        vertical="hold",
+        frame="enu",
     )
     # The vertical channel is unstable (δḧ = 2g/R δh + ∇_U); it is held here (h = h0, v_U = 0) so the
     # horizontal Schuler/Foucault dynamics over the full hour can be compared with the linear model.
@@ -308,6 +315,7 @@ def test_static_short_time_growth_law(static_hour):
         tr.vel_n[0],
         tr.pos[0],
         vertical="hold",
+        frame="enu",
     )
     t = tr.t[k]
     g = float(earth.gravity(LAT, H))
@@ -345,6 +353,7 @@ def test_free_vertical_channel_diverges_as_cosh(static_hour):
         tr.vel_n[0],
         tr.pos[0],
         vertical="free",
+        frame="enu",
     )
     kg = -(earth.gravity(LAT, H + 1.0) - earth.gravity(LAT, H - 1.0)) / 2.0
     t = tr.t[: k + 1]
@@ -475,7 +484,9 @@ def test_irregular_timestamps_match_regular(traj100):
     # attitude_update alone with per-sample dt and ω_in^n per sample (ω_ie + ω_en from core.earth at the
     # truth states, averaged over each step: trapezoid error ~ T³ ω̈_in N ≈ 1e-13 rad): same error laws.
     def att_only(trj):
-        w_in = earth.earth_rate(trj.pos[:, 0]) + earth.transport_rate(trj.pos[:, 0], trj.pos[:, 2], trj.vel_n)
+        w_in = earth.earth_rate(trj.pos[:, 0], frame="enu") + earth.transport_rate(
+            trj.pos[:, 0], trj.pos[:, 2], trj.vel_n, frame="enu"
+        )
         q = SD.attitude_update(trj.q_b_n[0], trj.dtheta, omega_in_n=0.5 * (w_in[1:] + w_in[:-1]), dt=trj.dt)
         return np.max(qerr(q, trj.q_b_n))
 
@@ -499,7 +510,9 @@ def test_ned_equals_enu_on_the_same_motion(traj100):
 
 def test_nav_solution_json_round_trip(traj50):
     tr = traj50
-    nav = SD.mechanize(tr.dtheta[:20], tr.dv[:20], tr.t[:21], tr.q_b_n[0], tr.vel_n[0], tr.pos[0], coning="two-sample")
+    nav = SD.mechanize(
+        tr.dtheta[:20], tr.dv[:20], tr.t[:21], tr.q_b_n[0], tr.vel_n[0], tr.pos[0], coning="two-sample", frame="enu"
+    )
     back = SD.NavSolution.from_json(nav.to_json())
     np.testing.assert_array_equal(back.q_b_n, nav.q_b_n)
     np.testing.assert_array_equal(back.index, [0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20])

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from optinav.core.rotations import DEFAULT_FRAME
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 
@@ -115,12 +116,13 @@ def load_broad(path) -> BroadTrial:
 
 
 def synthesize_polarization(
-    q_ref, sun_n, *, frame: str = "enu", C_b_m=None, aop_noise: float = 0.0, rng=None, **options
+    q_ref, sun_n, *, frame: str = DEFAULT_FRAME, C_b_m=None, aop_noise: float = 0.0, rng=None, **options
 ) -> PolarizationMeasurement:
     """Rayleigh AoP a zenith-viewing sensor would have measured along a reference trajectory.
 
-    q_ref (N, 4) body → ``frame`` (NaN rows give missing samples); sun_n (3,) or (N, 3) unit sun vector in the
-    frame; ``aop_noise`` rad (white, Gaussian). ``options`` go to :class:`PolarizationMeasurement`.
+    q_ref (N, 4) body → ``frame`` (NaN rows give missing samples; BROAD's ``q_ref`` is ENU: pass
+    ``frame="enu"``); sun_n (3,) or (N, 3) unit sun vector in the frame; ``aop_noise`` rad (white, Gaussian).
+    ``options`` go to :class:`PolarizationMeasurement`.
     """
     from optinav.attitude.measurement import PolarizationMeasurement, as_c_b_m, predicted_aop
 

@@ -1,6 +1,6 @@
 """Static initial alignment: analytic coarse alignment and Kalman-filter fine alignment.
 
-Both work on a static base at a known latitude, in the navigation frame ``frame`` ("enu" or "ned").
+Both work on a static base at a known latitude, in the navigation frame ``frame`` ("ned", the default, or "enu").
 
 Coarse alignment (double-vector / TRIAD): the body-frame specific force ``f_b`` (≈ −C_n^b g^n) and angular
 rate ``ω_b`` (≈ C_n^b ω_ie^n) averaged over the window give an up, an east and a north direction in both
@@ -25,7 +25,7 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import (
-    CORE_FRAME,
+    DEFAULT_FRAME,
     frame_name,
     dcm_from_quat,
     euler_from_dcm,
@@ -90,7 +90,7 @@ def _axes(up, rate):
     return np.column_stack([e, np.cross(u, e), u])
 
 
-def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> AlignmentResult:
+def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=DEFAULT_FRAME, earth="wgs84") -> AlignmentResult:
     """Analytic static alignment from mean specific force and angular rate.
 
     Parameters
@@ -132,7 +132,7 @@ def coarse_alignment(acc, gyr, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84
     return AlignmentResult("coarse", frame, q, euler_from_dcm(c_b_n, frame), np.full(3, np.nan))
 
 
-def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def alignment_limits(gyro_bias_n, acc_bias_n, lat, height_m=0.0, frame=DEFAULT_FRAME, earth="wgs84") -> np.ndarray:
     """Theoretical static-alignment errors φ caused by biases given in the n frame.
 
     First order: in ENU, φ_E = −∇_N/g, φ_N = ∇_E/g, φ_U = −ε_E/(ω_ie cos L) + ∇_E tan L / g, with
@@ -207,7 +207,7 @@ def fine_alignment(
     lat,
     height_m=0.0,
     *,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     earth="wgs84",
     q0=None,
     gyro_white=1e-6,

@@ -1,6 +1,6 @@
 """Earth model: constant sets, normal gravity, Earth and transport rates, radii of curvature.
 
-Navigation frame vectors are returned in ``frame=CORE_FRAME`` (east, north, up; default) or ``"ned"``.
+Navigation frame vectors are returned in ``frame="ned"`` (north, east, down; the default) or ``"enu"``.
 Latitude ``lat`` in rad, height ``h`` in m above the ellipsoid, velocities in m/s in the navigation frame.
 
 Two constant sets:
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optinav.core.rotations import CORE_FRAME, frame_name
+from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 
@@ -144,7 +144,7 @@ def gravity(lat, height_m=0.0, earth="wgs84") -> np.ndarray:
     return g0 * (1.0 - 2.0 / e.a * (1.0 + e.f + m - 2.0 * e.f * s2) * h + 3.0 / e.a**2 * h**2)
 
 
-def gravity_vector(lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def gravity_vector(lat, height_m=0.0, frame=DEFAULT_FRAME, earth="wgs84") -> np.ndarray:
     """Gravity vector g^n: ``[0, 0, −g]`` in ENU, ``[0, 0, g]`` in NED.
 
     Parameters
@@ -169,7 +169,7 @@ def gravity_vector(lat, height_m=0.0, frame=CORE_FRAME, earth="wgs84") -> np.nda
     return np.stack([z, z, sign * g], -1)
 
 
-def earth_rate(lat, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def earth_rate(lat, frame=DEFAULT_FRAME, earth="wgs84") -> np.ndarray:
     """Earth rate ω_ie^n: ENU ``[0, ω cos L, ω sin L]``; NED ``[ω cos L, 0, −ω sin L]``.
 
     Parameters
@@ -194,7 +194,7 @@ def earth_rate(lat, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
     return np.stack([c, z, -s], -1)
 
 
-def transport_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def transport_rate(lat, height_m, v_n, frame=DEFAULT_FRAME, earth="wgs84") -> np.ndarray:
     """Transport rate ω_en^n for a navigation-frame velocity.
 
     Parameters
@@ -225,7 +225,7 @@ def transport_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.nd
     return np.stack([ve / rn, -vn / rm, -ve * t / rn], -1)
 
 
-def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.ndarray:
+def position_rate(lat, height_m, v_n, frame=DEFAULT_FRAME, earth="wgs84") -> np.ndarray:
     """Time derivative of ``[lat, lon, height_m]`` for a navigation-frame velocity.
 
     Parameters
@@ -247,7 +247,7 @@ def position_rate(lat, height_m, v_n, frame=CORE_FRAME, earth="wgs84") -> np.nda
     return np.stack([vn / rm, ve / (rn * np.cos(lat)), vu], -1)
 
 
-def dcm_e_to_n(lat, lon, frame=CORE_FRAME) -> np.ndarray:
+def dcm_e_to_n(lat, lon, frame=DEFAULT_FRAME) -> np.ndarray:
     """``C_e^n`` from ECEF to the local navigation frame.
 
     Parameters

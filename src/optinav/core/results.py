@@ -257,6 +257,9 @@ class Result:
 
     SCHEMA: ClassVar[str] = "optinav.result"
     VERSION: ClassVar[int] = 1
+    #: field → what a file without the field meant, for a field whose default has since changed or gone (e.g.
+    #: ``frame``: "enu" before NED became the one default); filled in when a file of any version lacks it
+    MISSING_MEANT: ClassVar[dict[str, Any]] = {}
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -359,7 +362,7 @@ class Result:
             if name in names:
                 kwargs[name] = _entry_value(entry)
         try:
-            return target(**kwargs)
+            return target(**{**target.MISSING_MEANT, **kwargs})
         except TypeError as exc:
             raise OptinavError(f"{schema} file is incomplete ({exc})", "re-run to write a complete result") from None
 
@@ -367,7 +370,7 @@ class Result:
     def _from_legacy(cls, convert, data: dict) -> "Result":
         try:
             kwargs = convert(data)
-            return cls(**kwargs)
+            return cls(**{**cls.MISSING_MEANT, **kwargs})
         except OptinavError:
             raise
         except (TypeError, KeyError) as exc:

@@ -32,11 +32,10 @@ _EULER_SEQ = {"ned": "ZYX", "enu": "ZXY"}
 
 #: navigation-frame names, as :func:`frame_name` returns them (docs/conventions.md, "Frames")
 FRAMES = ("enu", "ned")
-#: the default frame of Euler angles and of the attitude system (aerospace: body FRD, navigation NED)
+#: the one default navigation frame of every function and result taking ``frame`` (aerospace: body
+#: forward-right-down, navigation north-east-down); code reproducing PSINS (rins, the studies) passes ``"enu"``
+#: explicitly (docs/conventions.md, "Spelling and defaults")
 DEFAULT_FRAME = "ned"
-#: the default of the navigation core (Earth model, simulators, strapdown, alignment) and of rins: ENU as
-#: PSINS, whose results the core reproduces (docs/conventions.md says why it differs)
-CORE_FRAME = "enu"
 
 
 def frame_name(frame, what: str = "navigation frame") -> str:

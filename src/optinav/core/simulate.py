@@ -24,7 +24,7 @@ Increments ``dtheta[k] = ∫ ω_ib^b dt`` and ``dv[k] = ∫ f^b dt`` over ``(t[k
 
 Rest segments on a static base have constant ``ω_ib`` and ``f``; their increments are ``value · dt``.
 
-Navigation frame: ``frame="enu"`` (default) or ``"ned"``. Inputs (orientations, nav-frame axes, position
+Navigation frame: ``frame="ned"`` (the default) or ``"enu"``. Inputs (orientations, nav-frame axes, position
 offsets) are in that frame; internally everything is computed in ENU and converted at the boundary.
 """
 
@@ -40,7 +40,7 @@ from optinav.core import earth as _earth
 from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import (
     C_ENU_NED,
-    CORE_FRAME,
+    DEFAULT_FRAME,
     dcm_from_quat,
     dcm_orthonormalize,
     frame_name,
@@ -840,7 +840,7 @@ _NORTH = {"enu": np.array([0.0, 1.0, 0.0]), "ned": np.array([1.0, 0.0, 0.0])}
 _DEFAULT_NORTH = {0: "y", 1: "z", 2: "y"}
 
 
-def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
+def orientation_from_up(up, north=None, frame=DEFAULT_FRAME) -> np.ndarray:
     """``C_b^n`` of a level pose: body axis ``up`` points up, body axis ``north`` points north.
 
     Parameters
@@ -873,7 +873,7 @@ def orientation_from_up(up, north=None, frame=CORE_FRAME) -> np.ndarray:
     return C_ENU_NED @ c_b_enu if frame == "ned" else c_b_enu
 
 
-def six_positions(frame=CORE_FRAME) -> np.ndarray:
+def six_positions(frame=DEFAULT_FRAME) -> np.ndarray:
     """The standard six-position set: +x, −x, +y, −y, +z, −z up (default north axes).
 
     Parameters
@@ -894,7 +894,7 @@ def _fmt_deg(x):
     return f"{d:.0f}" if abs(d - round(d)) < 1e-6 else f"{d:.2f}"
 
 
-def describe_pose(C_b_n, frame=CORE_FRAME) -> str:
+def describe_pose(C_b_n, frame=DEFAULT_FRAME) -> str:
     """Words a technician can follow: the body axis up/down, any tilt, and which axis faces north.
 
     E.g. ``"x up, y north"``, ``"z down, tilted 45° about y, x east"``.
@@ -955,7 +955,7 @@ def static_positions(
     lat,
     height_m=0.0,
     lon=0.0,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     earth="wgs84",
     transition=None,
     *,
@@ -1049,7 +1049,7 @@ def static_positions_sampler(orientations, dwell, lat, *, lever_arm=None, **opti
     RateSampler
         ``sampler(t) -> (gyr [rad/s], acc [m/s^2], labels)``; ``sampler.duration`` [s].
     """
-    kw = dict(height_m=0.0, lon=0.0, frame=CORE_FRAME, earth="wgs84", transition=None)
+    kw = dict(height_m=0.0, lon=0.0, frame=DEFAULT_FRAME, earth="wgs84", transition=None)
     kw.update(transition_profile="cosine", names=None, gravity=None)
     unknown = sorted(set(options) - set(kw))
     if unknown:
@@ -1155,7 +1155,7 @@ def turntable(
     lat,
     height_m=0.0,
     initial=None,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     earth="wgs84",
     *,
     lon=0.0,
@@ -1251,7 +1251,7 @@ def gimbal(
     rate_hz,
     lat,
     height_m=0.0,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     earth="wgs84",
     *,
     lon=0.0,
@@ -1489,7 +1489,7 @@ def coning(
     rate_hz,
     earth="none",
     *,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     lat=0.0,
     height_m=0.0,
     lon=0.0,
@@ -1584,7 +1584,7 @@ def trajectory(
     attitude_knots,
     position_knots,
     rate_hz,
-    frame=CORE_FRAME,
+    frame=DEFAULT_FRAME,
     earth="wgs84",
     *,
     lat0,

@@ -3,7 +3,7 @@
 Inputs are IMU increments over the sample intervals ``(t[k], t[k+1]]``: ``dtheta`` (N, 3) in rad
 (∫ω_ib^b dt) and ``dv`` (N, 3) in m/s (∫f^b dt). Attitude is the quaternion ``q_b^n`` (scalar first,
 Hamilton, see :mod:`optinav.core.rotations`); positions are geodetic ``[lat, lon, h]`` (rad, rad, m);
-velocities are in the local-level navigation frame ``frame="enu"`` (default) or ``"ned"``.
+velocities are in the local-level navigation frame ``frame="ned"`` (the default) or ``"enu"``.
 
 One attitude update over an interval (Savage 1998, "Strapdown inertial navigation integration algorithm
 design", JGCD 21(1) eqs. 11–16; Titterton & Weston 2004, §11.2)::
@@ -34,7 +34,7 @@ n-sample algorithm gives it at ``t[0], t[n], t[2n], …`` and, when ``N`` is not
 :func:`output_indices` returns the sample indices of the outputs.
 
 Sequential loops are small ``numba`` kernels behind this numpy API (the layout of pyins). The
-mechanization runs in ENU internally; ``frame="ned"`` only rotates the inputs and outputs.
+mechanization runs in ENU internally (as PSINS); ``frame="ned"`` only rotates the inputs and outputs.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ import numpy as np
 from optinav.core import earth as _earth
 from optinav.core._quat import qrotate, qupdate
 from optinav.core.results import Result
-from optinav.core.rotations import CORE_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm, quat_multiply
+from optinav.core.rotations import DEFAULT_FRAME, C_ENU_NED, frame_name, quat_conjugate, quat_from_dcm, quat_multiply
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 
@@ -507,16 +507,19 @@ def attitude_update(
 
 @dataclass
 class NavSolution(Result):
-    """Strapdown navigation solution at the output epochs (:func:`output_indices`)."""
+    """Strapdown navigation solution at the output epochs (:func:`output_indices`), in the navigation frame
+    ``frame`` ("ned" or "enu", as :func:`mechanize` was given)."""
 
     SCHEMA = "optinav.nav_solution"
     VERSION = 2
+    #: every file optinav wrote names its frame; one without it is read as the ENU of the former default
+    MISSING_MEANT = {"frame": "enu"}
 
     t: np.ndarray = field(metadata={"unit": "s"})
     q_b_n: np.ndarray = field(metadata={"unit": ""})  #: (M+1, 4) scalar-first quaternion q_b^n
     vel_n: np.ndarray = field(metadata={"unit": "m/s"})  #: (M+1, 3) in the navigation frame
     pos: np.ndarray = field(metadata={"unit": "rad, rad, m"})  #: (M+1, 3) [lat, lon, h]
-    frame: str = field(default="enu", metadata={"unit": "-"})
+    frame: str = field(metadata={"unit": "-"})
     earth: str = field(default="wgs84", metadata={"unit": "-"})
     coning: str = field(default="previous", metadata={"unit": "-"})
     index: np.ndarray | None = field(default=None, metadata={"unit": ""})  #: sample index of each output
@@ -535,7 +538,7 @@ def mechanize(
     q0,
     vel0,
     pos0,
-    frame: str = CORE_FRAME,
+    frame: str = DEFAULT_FRAME,
     earth="wgs84",
     coning: str = "previous",
     sculling: bool = True,

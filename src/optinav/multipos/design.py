@@ -283,7 +283,7 @@ def pose_orientation(up_dir) -> np.ndarray:
     u = _unit_dirs(up_dir, "up_dir")[0]
     k = int(np.argmax(np.abs(u)))
     s = 1.0 if u[k] > 0 else -1.0
-    c0 = orientation_from_up(("" if s > 0 else "-") + "xyz"[k])
+    c0 = orientation_from_up(("" if s > 0 else "-") + "xyz"[k], frame="enu")
     e = s * np.eye(3)[k]
     ax = np.cross(u, e)
     sn = np.linalg.norm(ax)
@@ -318,7 +318,7 @@ def _poses(candidates) -> tuple[np.ndarray, np.ndarray]:
 
 def describe_scheme(up_dirs) -> list[str]:
     """Words for each pose (:func:`optinav.core.simulate.describe_pose` of :func:`pose_orientation`)."""
-    return [describe_pose(pose_orientation(u)) for u in _unit_dirs(up_dirs)]
+    return [describe_pose(pose_orientation(u), frame="enu") for u in _unit_dirs(up_dirs)]
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -586,7 +586,7 @@ def _build(up, orient, st: _Setup, dwell, criterion: str, cand_idx, n_cand: int,
     return SchemeDesign(
         up_dirs=up,
         orientations=orient,
-        descriptions=[describe_pose(c) for c in orient],
+        descriptions=[describe_pose(c, frame="enu") for c in orient],
         criterion=criterion,
         value=value,
         names=list(model.ACCEL_PARAMS),

@@ -97,7 +97,7 @@ def pose_words(C_b_n) -> str:
     else:
         text = ", ".join(f"{f} face {_deg(e)}°" for f, e in zip(faces, elev)) + " above level"
     # the heading from describe_pose's last words ("…, y north"): the most level remaining axis
-    head = describe_pose(c).rsplit(", ", 1)[-1]
+    head = describe_pose(c, frame="enu").rsplit(", ", 1)[-1]
     axis, where = head.split(" ", 1)
     level = abs(up["xyz".index(axis)]) < 1e-6
     if len(faces) == 1:

@@ -288,8 +288,10 @@ class SessionStream:
         self.acc_unit, self.gyro_unit = acc_unit, gyro_unit
         self.fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
         self.fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
-        self.descriptions = [describe_pose(c) for c in poses[1:]]
-        self._sampler = static_positions_sampler(poses, dwell, lat, height_m=height_m, transition=transition_s)
+        self.descriptions = [describe_pose(c, frame="enu") for c in poses[1:]]
+        self._sampler = static_positions_sampler(
+            poses, dwell, lat, height_m=height_m, transition=transition_s, frame="enu"
+        )
         key = noise_key(gen)
         self._measure = MeasurementStream(unit_model, key)
         self._jitter = SampleDraws(key, 6, 1, "uniform")

@@ -174,7 +174,7 @@ def _fits(quick, rng) -> dict:
     unit = preset("mems-mti1").draw(rng)
     unit = dataclasses.replace(unit, acc=TriadErrors.from_matrix("accel", sess.acc_K, sess.acc_b))
     c = rotations.dcm_from_euler(np.radians([3.0, -5.0, 30.0]), convention="enu")
-    tr = static_positions(c[None], 60.0, 100.0, np.radians(38.88), height_m=35.0)
+    tr = static_positions(c[None], 60.0, 100.0, np.radians(38.88), height_m=35.0, frame="enu")
     meas = unit.apply(tr.gyr, tr.acc, rng=rng)
     p0, r0 = _level(tr.acc.mean(axis=0))
     lev = {}

@@ -202,7 +202,7 @@ def _coning(quick, rng) -> dict:
     """Attitude drift (rad/s) of each coning algorithm under exact coning motion and Ignagni's theory."""
     alpha, freq, rate = np.radians(0.1), 10.0, 200.0
     duration = 5.0 if quick else 50.0
-    truth = simulate.coning(alpha, freq, duration, rate)
+    truth = simulate.coning(alpha, freq, duration, rate, frame="enu")
     per = int(round(rate / freq))  # samples per cone period
     out = {"freq": freq, "rate": rate, "theory": {}, "measured": {}}
     for alg in strapdown.CONING_ALGORITHMS:

@@ -183,7 +183,7 @@ def _broad(quick, data_dir) -> dict:
         i0 = int(np.flatnonzero(np.all(np.isfinite(tr.q_ref), axis=1))[0])
         sl = slice(i0, None)
         mask = tr.eval_mask[sl]
-        pol = synthesize_polarization(tr.q_ref, sun, aop_noise=np.radians(0.5), rng=0)
+        pol = synthesize_polarization(tr.q_ref, sun, aop_noise=np.radians(0.5), rng=0, frame="enu")
         out[f.stem] = {}
         for m in METHODS:
             q6 = estimate_q(tr.gyr, tr.acc, tr.dt, method=m, frame="ENU")
