@@ -580,11 +580,11 @@ def test_workers_die_with_the_batch(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", code], env=env, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 60
-        # a pid file can exist before its worker has written the pid: wait for both numbers
+        # only the renamed pid files: a worker's ``.part`` file may vanish between listing and reading
         pids = []
         while time.monotonic() < deadline and len(pids) < 2:
             time.sleep(0.05)
-            pids = [int(t) for t in (p.read_text() for p in tmp_path.glob("pid*")) if t.strip()]
+            pids = [int(p.read_text()) for p in (tmp_path / "pid1", tmp_path / "pid2") if p.is_file()]
         assert len(pids) == 2
     finally:
         proc.send_signal(signal.SIGKILL)
