@@ -814,7 +814,7 @@ class TriadNoise(Result):
         kind : str
             ``"rate"`` or ``"increment"``.
         residual : (3,) float ndarray or None
-            The quantization residual carried in and out (:func:`quantize`).
+            The quantization residual carried in and out [units of y] (:func:`quantize`).
 
         Returns
         -------
@@ -1023,7 +1023,18 @@ class SampleDraws:
         return gen.standard_normal(shape) if self.dist == "normal" else gen.random(shape)
 
     def take(self, i0: int, i1: int) -> np.ndarray:
-        """The draws of samples ``i0`` … ``i1 − 1``, shape (i1 − i0, width)."""
+        """The draws of samples ``i0`` … ``i1 − 1``.
+
+        Parameters
+        ----------
+        i0, i1 : int
+            First and one-past-last sample index [-].
+
+        Returns
+        -------
+        (i1 − i0, width) ndarray
+            The draws [-] (standard normal or uniform on [0, 1)).
+        """
         out = np.empty((max(i1 - i0, 0), self.width))
         pos = i0
         while pos < i1:
