@@ -12,8 +12,11 @@ per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row lo
 200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks;
 ``--offline`` runs its passes over a scratch file beside the output). Calibrate reads in blocks (iter_imu) into one
 array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
-static detection (16 B per row); it holds the log, so it grows. Not streamed yet: the simulators (their noise processes
-are drawn for the whole log; only the writing is done in blocks). Results: results_memory.json, and results_memory.md from
+static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
+blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
+(results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
+simulators are generated whole. ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
@@ -161,24 +164,28 @@ def run(quick: bool, before: bool = True) -> list[dict]:
                 shutil.rmtree(d)
     for (name, version), pts in peaks.items():
         (n1, p1, _), (n2, p2, w2) = pts
-        slope = (p2 - p1) / ((n2 - n1) / 1e6)  # MiB per million rows, the imports cancel
-        group = f"peak memory, logs of {n1} and {n2} rows"
-        method = f"{name} ({version})"
-        out += [
-            {"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
-            {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
-            {"group": group, "method": method, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
-            {
-                "group": group,
-                "method": method,
-                "metric": "peak RSS at 10 M rows (extrapolated)",
-                "value": p1 + slope * (10 - n1 / 1e6),
-                "unit": "MiB",
-            },
-            {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
-        ]
+        out += _peak_rows(f"peak memory, logs of {n1} and {n2} rows", f"{name} ({version})", n1, p1, n2, p2, w2)
     order = {"simulate accel-multipos": 0, "calibrate accel": 1, "apply": 2, "attitude": 3}
     return sorted(out, key=lambda r: (r["group"], order.get(r["method"].split(" (")[0], 9), r["method"]))
+
+
+def _peak_rows(group: str, method: str, n1: int, p1: float, n2: int, p2: float, w2: float) -> list[dict]:
+    """The rows of one command measured at ``n1`` and ``n2`` rows (peaks ``p1``, ``p2`` MiB; wall ``w2`` s at
+    ``n2``): both peaks, the growth per million rows (the imports cancel) and the peak extrapolated to 10 M rows."""
+    slope = (p2 - p1) / ((n2 - n1) / 1e6)
+    return [
+        {"group": group, "method": method, "metric": f"peak RSS at {n1} rows", "value": p1, "unit": "MiB"},
+        {"group": group, "method": method, "metric": f"peak RSS at {n2} rows", "value": p2, "unit": "MiB"},
+        {"group": group, "method": method, "metric": "growth per million rows", "value": slope, "unit": "MiB"},
+        {
+            "group": group,
+            "method": method,
+            "metric": "peak RSS at 10 M rows (extrapolated)",
+            "value": p1 + slope * (10 - n1 / 1e6),
+            "unit": "MiB",
+        },
+        {"group": group, "method": method, "metric": f"wall time at {n2} rows", "value": w2, "unit": "s"},
+    ]
 
 
 def remeasure(path: Path, note: str) -> None:
@@ -346,6 +353,82 @@ def markdown_modes(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def run_simulate(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate accel-multipos`` (this tree, streamed: generated and written in
+    blocks) at each row count of ``sizes``, the same session as :func:`run` (``--dwell 8328`` at 10 M rows), CSV;
+    the file is removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            name, argv = _steps(d, rows)[0]
+            peak, wall, _ = _run(ROOT / "src", argv)
+            n = _rows_of(d / f"log{rows}.csv")
+            out.append({"method": name, "rows": n, "peak_mib": peak, "wall_s": wall})
+            print(f"{name}: {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
+def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
+    """Replace the "simulate accel-multipos (after)" rows of the results JSON ``path`` by the runs of
+    :func:`run_simulate` at the two row counts of its group (the "before" rows stay), with ``note`` added to its
+    notes."""
+    import json
+
+    results = json.loads(path.read_text())
+    name = "simulate accel-multipos (after)"
+    old = [r for r in results["rows"] if r["method"] == name]
+    group = old[0]["group"]
+    first, second = runs[0], runs[1]
+    new = _peak_rows(
+        group, name, first["rows"], first["peak_mib"], second["rows"], second["peak_mib"], second["wall_s"]
+    )
+    rows = results["rows"]
+    i = rows.index(old[0])
+    results["rows"] = [r for r in rows[:i] if r["method"] != name] + new + [r for r in rows[i:] if r["method"] != name]
+    results["meta"]["notes"] = results["meta"].get("notes", []) + [
+        f"{name} re-measured {time.strftime('%Y-%m-%dT%H:%M%z')} ({note})"
+    ]
+    path.write_text(json.dumps(results, indent=2) + "\n")
+
+
+#: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
+REPORT_BEFORE = "0d7719b"
+
+
+def run_attitude_report(sizes=(1_000_000, 3_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav attitude LOG --report DIR`` on the simulated accel-multipos log of each
+    row count, with this tree ("after": streamed, the figure every k-th row) and with commit
+    :data:`REPORT_BEFORE` ("before": the whole log read at once)."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {"after": ROOT / "src"}
+        old = _before_src(Path(tmp), REPORT_BEFORE)
+        if old is not None:
+            versions["before"] = old
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            _run(ROOT / "src", _steps(d, rows)[0][1])
+            n = _rows_of(d / f"log{rows}.csv")
+            for version, src in versions.items():
+                argv = [
+                    "attitude",
+                    str(d / f"log{rows}.csv"),
+                    "--out",
+                    str(d / "att.csv"),
+                    "--report",
+                    str(d / version),
+                ]
+                peak, wall, _ = _run(src, argv)
+                out.append({"method": f"attitude --report ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"attitude --report ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -356,6 +439,18 @@ if __name__ == "__main__":
     if sys.argv[1] == "--after":
         # python benchmarks/bench_memory.py --after RESULTS.json NOTE: this tree's rows re-measured in place
         remeasure(Path(sys.argv[2]), sys.argv[3])
+    elif sys.argv[1] == "--simulate":
+        # python benchmarks/bench_memory.py --simulate SIMULATE.json [ROWS ...]: the streamed simulator alone
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--attitude-report":
+        # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_attitude_report(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--merge-simulate":
+        # python benchmarks/bench_memory.py --merge-simulate RESULTS.json SIMULATE.json NOTE: its 1 M and 3 M runs
+        # become the "after" rows of simulate accel-multipos in RESULTS.json
+        merge_simulate(Path(sys.argv[2]), json.loads(Path(sys.argv[3]).read_text()), sys.argv[4])
     elif sys.argv[1] == "--attitude-modes":
         quick = "--quick" in sys.argv
         res = run_attitude_modes(quick)

@@ -1,5 +1,5 @@
 """The attitude of a log file estimated block by block, so that memory does not grow with its length
-(``optinav attitude`` without ``--report``; issue 17).
+(``optinav attitude``; issue 17).
 
 Two passes over the blocks: the first gathers what the physics checks judge (:class:`StreamChecks`), the second
 runs the filter with its state carried from block to block (:class:`StreamEstimator`, the magnetometer and
@@ -7,14 +7,16 @@ polarization columns of the block included), writes each block's rows and adds t
 the score against a reference (BROAD: ``opt_quat`` over ``movement``). The output is renamed into place only
 after every check passed, so the file is the in-memory path's byte for byte, and the score its RMSE to rounding.
 ``--offline`` (iframe's forward–backward smoother) keeps the second pass's inputs in a scratch file beside the
-output and runs its passes over that file in blocks (:func:`_offline_segment`), again byte for byte.
+output and runs its passes over that file in blocks (:func:`_offline_segment`), again byte for byte. For ``--report``
+the run also keeps what the report's summary shows (:class:`StreamedEstimate`) and every k-th row of roll, pitch and
+yaw for its figure (at most ``figure_points`` rows), so the report too is bounded in memory.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +27,7 @@ from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows
 from optinav.core.files import CHUNK_ROWS, csv_writer
 from optinav.errors import OptinavError
 
-__all__ = ["PolColumns", "pol_columns", "StreamRun", "stream_attitude"]
+__all__ = ["PolColumns", "pol_columns", "StreamRun", "StreamedEstimate", "stream_attitude"]
 
 
 @dataclass
@@ -70,14 +72,51 @@ def pol_columns(columns: str, frame: str, *, aop_unit: str = "rad", min_dop: flo
 
 
 @dataclass
+class StreamedEstimate:
+    """The fields of an :class:`~optinav.attitude.AttitudeEstimate` that its report's summary shows, of an estimate
+    run block by block (:func:`optinav.reports.attitude_report.attitude_tables` reads them)."""
+
+    method: str
+    frame: str
+    line: str
+    pol_used: int = 0
+    pol_skipped: dict = field(default_factory=dict)
+    acc_threshold_hits: int = 0
+    gyr_bias: np.ndarray | None = None  # rad/s, the final estimate
+
+    def summary(self) -> str:
+        """The line :meth:`AttitudeEstimate.summary` prints for the same estimate."""
+        return self.line
+
+
+@dataclass
 class StreamRun:
     """What :func:`stream_attitude` did: ``summary`` (the line of :meth:`AttitudeEstimate.summary`), ``n`` samples
     and ``score`` (inclination RMSE [rad], heading RMSE [rad], samples with a valid reference) or None, as
-    :func:`optinav.attitude.recording.reference_rmse`."""
+    :func:`optinav.attitude.recording.reference_rmse`; ``estimate`` the report's fields and ``figure`` every k-th
+    row's (t [s], (m, 3) roll, pitch, yaw [deg]) when ``figure_points`` was given, else None."""
 
     summary: str
     n: int
     score: tuple[float, float, int] | None = None
+    estimate: StreamedEstimate | None = None
+    figure: tuple[np.ndarray, np.ndarray] | None = None
+
+
+class _Decimated:
+    """Every ``stride``-th row (by row index in the log) of the attitude rows, at most about ``points`` of ``n``."""
+
+    def __init__(self, n: int, points: int):
+        self.stride = max(1, -(-int(n) // max(int(points), 1)))
+        self.parts: list[np.ndarray] = []
+
+    def add(self, row0: int, rows: np.ndarray) -> None:
+        first = (-row0) % self.stride
+        self.parts.append(np.array(rows[first :: self.stride][:, [0, 5, 6, 7]]))
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        a = np.concatenate(self.parts) if self.parts else np.empty((0, 4))
+        return a[:, 0], a[:, 1:]
 
 
 class _Score:
@@ -307,7 +346,7 @@ class _Scratch:
         return np.ascontiguousarray(rows[:, self.cols[name]])
 
 
-def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress) -> StreamRun:
+def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0) -> StreamRun:
     """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
     file beside ``out``; each segment (between time gaps) then runs :func:`_offline_segment` over it, and a last
     forward pass writes the CSV. The output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
@@ -356,7 +395,8 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
         lat = 0.0
         for k, (a, b) in enumerate(bounds):
             lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk)
-        rest = mag_used = 0
+        rest = mag_used = acc_hits = 0
+        fig = _Decimated(store.n, figure_points) if figure_points else None
         with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
             for a in range(0, store.n, blk):
                 r = store.read(a, min(a + blk, store.n))
@@ -365,14 +405,19 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
                     from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
                     q = quat_multiply(q, quat_from_rotvec((store.col(r, "gyr") - store.col(r, "bias")) * lat))
-                write(attitude_rows(store.col(r, "t")[:, 0], q, frame))
+                rows = attitude_rows(store.col(r, "t")[:, 0], q, frame)
+                write(rows)
+                if fig is not None:
+                    fig.add(a, rows)
                 flags = store.col(r, "flags")
                 rest += int(np.count_nonzero(flags[:, 0]))
+                acc_hits += int(np.count_nonzero(flags[:, 1] == 0))
                 mag_used += int(np.count_nonzero(flags[:, 2]))
                 if score is not None:
                     score.add(q, store.col(r, "q_ref"), store.col(r, "movement")[:, 0].astype(bool))
             result = None if score is None else score.result()
         n = store.n
+        bias = store.col(store.read(n - 1, n), "bias")[0].copy() if n else None
     line = summary_line(
         "iframe",
         frame,
@@ -382,7 +427,8 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
         rest=rest / n,
         mag_used=mag_used / n if src.mag else None,
     )
-    return StreamRun(line, n, result)
+    est = StreamedEstimate("iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias)
+    return StreamRun(line, n, result, est, None if fig is None else fig.arrays())
 
 
 def _free_bytes(path) -> float:
@@ -506,14 +552,16 @@ def stream_attitude(
     chunk_rows: int = CHUNK_ROWS,
     announce: Callable[[int, str], None] | None = None,
     progress: bool | None = None,
+    figure_points: int = 0,
 ) -> StreamRun:
     """Estimate the attitude of the log ``path`` block by block (at most ``chunk_rows`` samples held) and write
     the attitude CSV (:data:`optinav.attitude.recording.CSV_HEADER`) to ``out`` atomically. ``options`` as :func:`optinav.attitude.unit.
     read_log` / :func:`~optinav.attitude.estimate` (``offline``: the inputs go to a scratch file beside ``out``,
     removed at the end, for the backward and zero-phase passes; about 200 B per sample on disk);
     ``pol`` the polarization columns; ``reference`` scores against a BROAD trial's optical reference (frame ENU).
-    ``announce(n, method)`` is called between the two passes. Bad input raises :class:`OptinavError` before
-    anything is written under ``out``."""
+    ``announce(n, method)`` is called between the two passes; ``figure_points`` > 0 keeps every k-th row's Euler
+    angles, at most that many (:attr:`StreamRun.figure`, for ``--report``). Bad input raises :class:`OptinavError`
+    before anything is written under ``out``."""
     from optinav.attitude.checks import check_aop
     from optinav.attitude.methods import _method
     from optinav.core.progress import progress_blocks, step
@@ -561,9 +609,10 @@ def stream_attitude(
 
     if o.offline:
         step("estimate (iframe offline), write")
-        return _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress)
+        return _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points)
     estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
     step(f"estimate ({method}), write")  # one pass does both
+    fig = _Decimated(checks.n, figure_points) if figure_points else None
     with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
             checks.collect(row0, gyr, acc, dts)
@@ -595,7 +644,10 @@ def stream_attitude(
                         )
                     )
             q = np.concatenate(qs)
-            write(attitude_rows(t, q, frame))
+            rows = attitude_rows(t, q, frame)
+            write(rows)
+            if fig is not None:
+                fig.add(row0, rows)
             if score is not None:
                 score.add(q, extra["q_ref"], extra["movement"])
         checks.finish_second(frame)
@@ -607,4 +659,23 @@ def stream_attitude(
                 "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
             )
         result = None if score is None else score.result()
-    return StreamRun(estimator.summary(), checks.n, result)
+    return StreamRun(estimator.summary(), checks.n, result, _estimate(estimator), None if fig is None else fig.arrays())
+
+
+def _estimate(e: StreamEstimator) -> StreamedEstimate:
+    """The report's fields of an online estimate run block by block (as :func:`~optinav.attitude.estimate` sets
+    them for the whole log)."""
+    from optinav.attitude import _kernels
+
+    skipped = {}
+    if e.pol_skipped is not None:
+        skipped = {**e.pol_skipped, "sun_near_sensor_zenith": int(e.counts[_kernels.C_POL_NEAR_ZENITH])}
+    return StreamedEstimate(
+        e.method,
+        e.frame,
+        e.summary(),
+        pol_used=int(e.counts[0]) if e.method != "iframe" else 0,
+        pol_skipped=skipped,
+        acc_threshold_hits=e.acc_threshold_hits,
+        gyr_bias=None if e.gyr_bias is None else np.array(e.gyr_bias),
+    )

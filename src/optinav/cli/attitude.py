@@ -264,9 +264,14 @@ def run(args) -> int:
 
 
 def _streams(args) -> bool:
-    """Whether the log is estimated block by block: everything but the --report plots (which need the whole
-    recording at once; --offline smoothing streams through a scratch file beside --out)."""
-    return not args.report
+    """Whether the log is estimated block by block: always (--offline smoothing streams through a scratch file beside
+    --out; --report keeps the summary's fields and every k-th row for its figure). The in-memory path below is the
+    reference the streamed one is compared with byte for byte (tests/test_stream.py switches it on)."""
+    return True
+
+
+#: rows of roll, pitch and yaw the --report figure shows at most (every k-th row of a longer log)
+REPORT_POINTS = 200_000
 
 
 def _run_stream(args, options, q0, out, announce) -> int:
@@ -287,6 +292,7 @@ def _run_stream(args, options, q0, out, announce) -> int:
         reference=args.reference,
         chunk_rows=args.chunk_rows,
         announce=lambda n, m: announce(n),
+        figure_points=REPORT_POINTS if args.report else 0,
     )
     print(run.summary)
     if run.score is not None:
@@ -295,6 +301,13 @@ def _run_stream(args, options, q0, out, announce) -> int:
             f"{math.degrees(run.score[1]):.3f} deg ({run.score[2]} movement samples with a valid reference)"
         )
     print(f"optinav: attitude written to {out}")
+    if args.report:
+        from optinav.reports.attitude_report import write_attitude_report
+
+        t, eul = run.figure
+        finish_report(
+            args, lambda d: write_attitude_report(run.estimate, t, eul, args.data, d, run.score, n_samples=run.n)
+        )
     return 0
 
 

@@ -111,6 +111,24 @@ def check_memory(n_rows: float, bytes_per_row: float, what: str, remedy: str) ->
         )
 
 
+def check_disk(n_rows: float, bytes_per_row: float, path, what: str, remedy: str) -> None:
+    """Refuse up front a streamed output of ``n_rows`` rows (``bytes_per_row`` each, measured for that writer) that
+    does not fit in the free space of ``path``'s folder, with the estimate in the message."""
+    import shutil
+
+    need = float(n_rows) * bytes_per_row
+    try:
+        have = shutil.disk_usage(Path(path).parent or ".").free
+    except OSError:
+        return  # the writer reports the OS error itself
+    if not math.isfinite(need) or need > have:
+        raise OptinavError(
+            f"{what} would need {n_rows:.3g} samples, about {need / 2**30:.3g} GiB on disk "
+            f"({have / 2**30:.3g} GiB free where --out goes)",
+            remedy,
+        )
+
+
 def add_input_options(p, *, gyro: bool = True) -> None:
     """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic."""
     p.add_argument(

@@ -12,6 +12,7 @@ from optinav.cli.common import (
     POSITIVE,
     RATE,
     SEED,
+    check_disk,
     check_memory,
     number,
     output_path,
@@ -19,6 +20,13 @@ from optinav.cli.common import (
     truth_path,
     write_truth,
 )
+
+
+#: peak memory per sample of a session written to NPZ/HDF5/MAT, whose blocks are gathered before writing: the
+#: gathered and the concatenated samples (t, acc, gyr: 56 B each) and the unit conversion, with margin
+BINARY_BYTES_PER_ROW = 300
+#: bytes per row of a session written as text (measured: 1.33 GB for 10 M rows in m/s^2 and rad/s)
+TEXT_BYTES_PER_ROW = 133
 
 
 def register(sub) -> None:
@@ -126,31 +134,19 @@ def register(sub) -> None:
 def run_accel_multipos(args) -> int:
     import numpy as np
 
-    from optinav.core.imu_model import preset
-    from optinav.core.progress import step
-    from optinav.io import write_imu
-    from optinav.multipos.simulate import SCHEMES, simulate
+    from optinav.core.progress import progress, step
+    from optinav.io.imu import open_imu_writer
+    from optinav.multipos.plan import PosePlan
+    from optinav.multipos.simulate import SessionStream
 
     out = output_path(args.out)
     truth_path(out)
-    rate = args.rate_hz or preset(args.preset).rate_hz
     scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
     if args.plan:
-        from optinav.multipos.plan import PosePlan
-
         plan = PosePlan.from_json(args.plan)
         scheme, dwell = np.asarray(plan.up_dirs, float), args.dwell or float(plan.dwell_s)
-    n_poses = len(SCHEMES[scheme]) if isinstance(scheme, str) else len(scheme)
-    # measured (benchmarks/bench_memory.py, 1 M and 3 M rows): about 615 B per sample at the peak now that the
-    # log is written block by block, 900 with margin
-    check_memory(
-        rate * (args.rest + n_poses * (dwell + args.transition)),
-        900,
-        "this session",
-        "shorten --dwell/--rest/--transition or lower --rate",
-    )
     step("simulate")
-    s = simulate(
+    stream = SessionStream(
         scheme,
         spec=args.preset,
         dwell_s=dwell,
@@ -165,13 +161,21 @@ def run_accel_multipos(args) -> int:
         jitter=args.jitter,
         rng=args.seed,
     )
-    step("write")
-    write_imu(
+    remedy = "shorten --dwell/--rest/--transition or lower --rate"
+    if out.suffix.lower() in (".csv", ".tsv", ".txt"):
+        check_disk(stream.n, TEXT_BYTES_PER_ROW, out, "this session", remedy)
+    else:
+        # NPZ/HDF5/MAT hold whole arrays: the blocks are gathered before writing (text streams, memory bounded)
+        check_memory(stream.n, BINARY_BYTES_PER_ROW, "this session", "write .csv, or " + remedy)
+    with open_imu_writer(
         out,
-        s.log(),
         acc_unit=None if args.acc_unit == "counts" else args.acc_unit,
         gyro_unit=None if args.gyro_unit == "counts" else args.gyro_unit,
-    )
+    ) as writer:
+        for log in progress(stream.log_blocks(), total=stream.n_blocks(), desc="simulate accel-multipos"):
+            writer.write(log)
+    step("truth")
+    s = stream.session()
     tp = write_truth(
         out,
         s.truth(
@@ -179,7 +183,7 @@ def run_accel_multipos(args) -> int:
             {"seed": args.seed, "preset": args.preset, "truth": args.truth},
         ),
     )
-    print(f"optinav: wrote {len(s.t)} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
+    print(f"optinav: wrote {stream.n} samples ({len(s.up_dirs)} poses) to {out} and the truth to {tp}")
     for k, d in enumerate(s.descriptions, 1):
         print(f"  pose {k:2d}: {d}")
     return 0

@@ -414,25 +414,30 @@ class TriadErrors(Result):
 
 
 @njit(cache=True)
-def _gauss_markov_kernel(w, phi, sigma):  # pragma: no cover - compiled
+def _gauss_markov_kernel(w, phi, sigma, state, fresh):  # pragma: no cover - compiled
+    # state (k,): the value before w[0] (ignored when fresh: a stationary start); left at the last value
     n, k = w.shape
     out = np.empty_like(w)
     for j in range(k):
-        b = sigma[j] * w[0, j]  # stationary start
-        out[0, j] = b
-        for i in range(1, n):
+        b = state[j]
+        for i in range(n):
             p = phi[i, j]
-            b = p * b + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
+            if fresh and i == 0:
+                b = sigma[j] * w[0, j]  # stationary start
+            else:
+                b = p * b + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
             out[i, j] = b
+        state[j] = b
     return out
 
 
 @njit(cache=True)
-def _quantize_carry_kernel(v, h):  # pragma: no cover - compiled
+def _quantize_carry_kernel(v, h, residual):  # pragma: no cover - compiled
+    # residual (k,): the rounding residual carried into v[0]; left at the one after the last sample
     n, k = v.shape
     out = np.empty_like(v)
     for j in range(k):
-        r = 0.0
+        r = residual[j]
         for i in range(n):
             step = h[i, j]
             if step > 0.0:
@@ -442,6 +447,7 @@ def _quantize_carry_kernel(v, h):  # pragma: no cover - compiled
                 out[i, j] = q
             else:
                 out[i, j] = v[i, j]
+        residual[j] = r
     return out
 
 
@@ -468,9 +474,12 @@ def white_noise(n: int, density, dt, rng=None, *, kind: str = "rate") -> np.ndar
     """
     kind = _check_kind(kind)
     N = _vec3(density, "noise density", nonneg=True)
-    d = _dt(dt, (n,))
-    std = N[None, :] * (1.0 / np.sqrt(d) if kind == "rate" else np.sqrt(d))[:, None]
-    return as_rng(rng).standard_normal((n, 3)) * std
+    return _white(as_rng(rng).standard_normal((n, 3)), N, _dt(dt, (n,)), kind)
+
+
+def _white(w, N, d, kind: str) -> np.ndarray:
+    """Unit normals ``w`` (n, 3) as white noise of density N over intervals d (:func:`white_noise`)."""
+    return w * (N[None, :] * (1.0 / np.sqrt(d) if kind == "rate" else np.sqrt(d))[:, None])
 
 
 def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
@@ -501,9 +510,14 @@ def gauss_markov(n: int, sigma, tau, dt, rng=None) -> np.ndarray:
     t = _vec3(tau, "Gauss-Markov tau", allow_inf=True)
     if np.any(t <= 0):
         raise OptinavError(f"Gauss-Markov correlation time must be positive, got {t.tolist()}", "pass tau in s")
-    d = _dt(dt, (n,))
-    phi = np.exp(-d[:, None] / t[None, :])
-    return _gauss_markov_kernel(as_rng(rng).standard_normal((n, 3)), np.ascontiguousarray(phi), s)
+    return _gauss_markov(as_rng(rng).standard_normal((n, 3)), s, t, _dt(dt, (n,)), np.zeros(3), True)
+
+
+def _gauss_markov(w, sigma, tau, d, state, fresh: bool) -> np.ndarray:
+    """Unit normals ``w`` (n, 3) as the Gauss–Markov process of :func:`gauss_markov`, continued from ``state`` (3,)
+    (updated in place to the last value), or started stationary when ``fresh``."""
+    phi = np.exp(-d[:, None] / tau[None, :])
+    return _gauss_markov_kernel(np.ascontiguousarray(w), np.ascontiguousarray(phi), sigma, state, fresh)
 
 
 def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
@@ -526,8 +540,17 @@ def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
         The walk [rad/s or m/s^2].
     """
     K = _vec3(density, "random-walk density", nonneg=True)
-    d = _dt(dt, (n,))
-    return np.cumsum(as_rng(rng).standard_normal((n, 3)) * K[None, :] * np.sqrt(d)[:, None], axis=0)
+    return _random_walk_from(as_rng(rng).standard_normal((n, 3)), K, _dt(dt, (n,)), np.zeros(3))
+
+
+def _random_walk_from(w, K, d, state) -> np.ndarray:
+    """Unit normals ``w`` (n, 3) as the random walk of :func:`random_walk`, continued from ``state`` (3,) (updated
+    in place to the last value)."""
+    x = np.cumsum(w * K[None, :] * np.sqrt(d)[:, None], axis=0)
+    x += state
+    if len(x):
+        state[:] = x[-1]
+    return x
 
 
 _random_walk = random_walk  # static_noise's keyword of the same name hides the function
@@ -651,7 +674,9 @@ def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.n
     return np.clip(y, -bound, bound), flags
 
 
-def quantize(y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", carry: bool = True) -> np.ndarray:
+def quantize(
+    y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", carry: bool = True, residual=None
+) -> np.ndarray:
     """Quantize outputs to the LSB per axis (0: off).
 
     With ``carry`` the rounding residual of each sample is added to the next one, as the increment outputs of
@@ -673,6 +698,9 @@ def quantize(y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", car
         ``"rate"`` or ``"increment"``: what the LSB is.
     carry : bool
         Carry the rounding residual to the next sample.
+    residual : (3,) float ndarray or None
+        With ``carry``: the residual carried into the first sample [increment units], updated in place to the one
+        after the last (so a long log quantized block by block equals it quantized at once); None: zero.
 
     Returns
     -------
@@ -691,7 +719,11 @@ def quantize(y, lsb, dt=None, *, kind: str = "rate", lsb_kind: str = "rate", car
     d = _dt(dt, (y.shape[0],))[:, None] if "rate" in (kind, lsb_kind) else None
     v = y * d if kind == "rate" else y
     h = np.ascontiguousarray(np.broadcast_to(q[None, :] * d if lsb_kind == "rate" else q, y.shape))
-    out = _quantize_carry_kernel(np.ascontiguousarray(v), h) if carry else _round_to(v, h)
+    if carry:
+        r = np.zeros(3) if residual is None else residual
+        out = _quantize_carry_kernel(np.ascontiguousarray(v), h, r)
+    else:
+        out = _round_to(v, h)
     return out / d if kind == "rate" else out
 
 
@@ -770,7 +802,7 @@ class TriadNoise(Result):
             e += random_walk(n, self.random_walk, d, rng)
         return e
 
-    def digitize(self, y, dt, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
+    def digitize(self, y, dt, *, kind: str = "rate", residual=None) -> tuple[np.ndarray, np.ndarray]:
         """Saturate then quantize outputs.
 
         Parameters
@@ -781,6 +813,8 @@ class TriadNoise(Result):
             Intervals [s].
         kind : str
             ``"rate"`` or ``"increment"``.
+        residual : (3,) float ndarray or None
+            The quantization residual carried in and out [units of y] (:func:`quantize`).
 
         Returns
         -------
@@ -790,7 +824,8 @@ class TriadNoise(Result):
             Saturation flags.
         """
         y, flags = saturate(y, self.range, dt, kind=kind)
-        return quantize(y, self.lsb, dt, kind=kind, lsb_kind=self.lsb_kind, carry=self.carry), flags
+        q = quantize(y, self.lsb, dt, kind=kind, lsb_kind=self.lsb_kind, carry=self.carry, residual=residual)
+        return q, flags
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -945,6 +980,148 @@ class ImuModel(Result):
         fa = self.acc.compensate(ya, dt=d, kind=kind)
         wg = self.gyr.compensate(yg, dt=d, acc=fa, kind=kind)
         return ImuCompensated(gyr=wg, acc=fa, kind=kind)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# long logs block by block: draws indexed by sample, ImuModel.apply with its noise states carried
+# ----------------------------------------------------------------------------------------------------------
+
+#: samples per block of :class:`SampleDraws`: a fixed length in samples, so the draws of a sample do not depend on
+#: how a caller splits a long simulation into blocks
+DRAW_BLOCK = 1 << 16
+
+
+class SampleDraws:
+    """Random draws indexed by sample: ``take(i0, i1)`` gives the draws of samples [i0, i1), the same whatever
+    blocks a long simulation is generated in.
+
+    The draws of sample i are row ``i mod DRAW_BLOCK`` of the ``(DRAW_BLOCK, width)`` array that the generator of
+    ``SeedSequence(key, spawn_key=(stream, i // DRAW_BLOCK))`` draws first (the last block drawn is kept).
+
+    Parameters
+    ----------
+    key : int
+        Entropy of the simulation (e.g. drawn from the caller's generator).
+    stream : int
+        Which process of the simulation (independent draws per stream).
+    width : int
+        Values per sample.
+    dist : str
+        ``"normal"`` (standard normal) or ``"uniform"`` ([0, 1)).
+    """
+
+    def __init__(self, key: int, stream: int, width: int = 3, dist: str = "normal"):
+        if dist not in ("normal", "uniform"):
+            raise OptinavError(f"unknown distribution {dist!r}", "use 'normal' or 'uniform'")
+        self.key, self.stream, self.width, self.dist = int(key), int(stream), int(width), dist
+        self._j, self._block = -1, None
+
+    def _draw(self, j: int) -> np.ndarray:
+        seq = np.random.SeedSequence(self.key, spawn_key=(self.stream, j))
+        gen = np.random.Generator(np.random.PCG64(seq))
+        shape = (DRAW_BLOCK, self.width)
+        return gen.standard_normal(shape) if self.dist == "normal" else gen.random(shape)
+
+    def take(self, i0: int, i1: int) -> np.ndarray:
+        """The draws of samples ``i0`` … ``i1 − 1``.
+
+        Parameters
+        ----------
+        i0, i1 : int
+            First and one-past-last sample index [-].
+
+        Returns
+        -------
+        (i1 − i0, width) ndarray
+            The draws [-] (standard normal or uniform on [0, 1)).
+        """
+        out = np.empty((max(i1 - i0, 0), self.width))
+        pos = i0
+        while pos < i1:
+            j = pos // DRAW_BLOCK
+            if j != self._j:
+                self._j, self._block = j, self._draw(j)
+            a, b = pos - j * DRAW_BLOCK, min(i1 - j * DRAW_BLOCK, DRAW_BLOCK)
+            out[pos - i0 : pos - i0 + b - a] = self._block[a:b]
+            pos += b - a
+        return out
+
+
+class _TriadStream:
+    """One triad's noise, saturation and quantization continued over consecutive blocks (:class:`MeasurementStream`)."""
+
+    def __init__(self, noise: TriadNoise, key: int, stream0: int):
+        self.noise = noise
+        self.white = SampleDraws(key, stream0) if np.any(noise.white > 0) else None
+        self.gm = SampleDraws(key, stream0 + 1) if np.any(noise.gm_sigma > 0) else None
+        self.rw = SampleDraws(key, stream0 + 2) if np.any(noise.random_walk > 0) else None
+        self.gm_state, self.rw_state, self.residual = np.zeros(3), np.zeros(3), np.zeros(3)
+
+    def __call__(self, y, d, i0: int) -> tuple[np.ndarray, np.ndarray]:
+        i1, nz = i0 + len(y), self.noise
+        e = np.zeros_like(y)
+        if self.white is not None:
+            e += _white(self.white.take(i0, i1), nz.white, d, "rate")
+        if self.gm is not None:
+            e += _gauss_markov(self.gm.take(i0, i1), nz.gm_sigma, nz.gm_tau, d, self.gm_state, i0 == 0)
+        if self.rw is not None:
+            e += _random_walk_from(self.rw.take(i0, i1), nz.random_walk, d, self.rw_state)
+        return nz.digitize(y + e, d, residual=self.residual)
+
+
+class MeasurementStream:
+    """:meth:`ImuModel.apply` (rates) of a long log, block by block: deterministic errors, noise, saturation and
+    quantization, with the Gauss–Markov and random-walk states and the quantization residuals carried from one block
+    to the next, and the draws of each sample taken from :class:`SampleDraws` of ``key`` — so the outputs of a log
+    do not depend on the blocks it is generated in, and memory does not grow with its length.
+
+    Parameters
+    ----------
+    model : ImuModel
+        The unit.
+    key : int
+        Entropy of the noise draws.
+
+    Examples
+    --------
+    >>> stream = MeasurementStream(model, key)            # doctest: +SKIP
+    >>> for gyr, acc, dt in blocks:                       # doctest: +SKIP
+    ...     meas_gyr, meas_acc = stream(gyr, acc, dt)
+    """
+
+    def __init__(self, model: ImuModel, key: int):
+        self.model, self.samples = model, 0
+        self._gyr = _TriadStream(model.gyro_noise, key, 0)
+        self._acc = _TriadStream(model.acc_noise, key, 3)
+
+    def __call__(self, gyr, acc, dt) -> tuple[np.ndarray, np.ndarray]:
+        """The next block's measured outputs.
+
+        Parameters
+        ----------
+        gyr : (n, 3) array
+            True angular rate [rad/s] at the block's epochs.
+        acc : (n, 3) array
+            True specific force [m/s^2].
+        dt : (n,) array
+            Interval ending each sample's noise step [s].
+
+        Returns
+        -------
+        gyr : (n, 3) ndarray
+            Measured rate [rad/s].
+        acc : (n, 3) ndarray
+            Measured specific force [m/s^2].
+        """
+        w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
+        d = self.model._dt(dt, w.shape[0])
+        i0 = self.samples
+        ya = self.model.acc.apply(f, dt=d)
+        yg = self.model.gyr.apply(w, dt=d, acc=f)
+        yg, _ = self._gyr(yg, d, i0)
+        ya, _ = self._acc(ya, d, i0)
+        self.samples += w.shape[0]
+        return yg, ya
 
 
 #: field renames of earlier versions of the layouts above (old name → new), per (schema, version)

@@ -58,6 +58,8 @@ __all__ = [
     "ImuTruth",
     "GL_ORDER",
     "static_positions",
+    "static_positions_sampler",
+    "RateSampler",
     "orientation_from_up",
     "six_positions",
     "describe_pose",
@@ -1006,7 +1008,61 @@ def static_positions(
     ImuTruth
         Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
-    rate, h = rate_hz, height_m
+    motion = _static_motion(
+        orientations, dwell, lat, height_m, lon, frame, earth, transition, transition_profile, names, gravity
+    )
+    return motion.simulate(_epochs(motion.t_end, rate_hz, t), _lever(lever_arm))
+
+
+class RateSampler:
+    """The ideal rates of a motion at any epochs, for a log generated block by block (:func:`static_positions_sampler`).
+
+    ``sampler(t)`` gives ``(gyr, acc, labels)`` at the epochs ``t`` [s] (clipped to [0, ``duration``]): ω_ib^b
+    [rad/s], f^b [m/s^2] and the segment labels, as :func:`static_positions` gives them at those epochs.
+    """
+
+    def __init__(self, motion, lever_arm=None):
+        self._motion, self._lever = motion, lever_arm
+        self.duration = float(motion.t_end)
+        self.segment_names = list(motion.names)
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.clip(np.asarray(t, float), 0.0, self.duration)
+        w_ib, f_b, *_ = self._motion.kinematics(t, lever_arm=self._lever)
+        return w_ib, f_b, self._motion.labels(t)
+
+
+def static_positions_sampler(orientations, dwell, lat, *, lever_arm=None, **options) -> RateSampler:
+    """The motion of :func:`static_positions` as a :class:`RateSampler`: its rates at epochs given block by block,
+    so that a long log need not be held at once (no increments, attitude or epochs are kept).
+
+    Parameters
+    ----------
+    orientations, dwell, lat, lever_arm
+        As :func:`static_positions`.
+    **options
+        Its other keywords but ``rate_hz`` and ``t``: ``height_m``, ``lon``, ``frame``, ``earth``, ``transition``,
+        ``transition_profile``, ``names``, ``gravity``.
+
+    Returns
+    -------
+    RateSampler
+        ``sampler(t) -> (gyr [rad/s], acc [m/s^2], labels)``; ``sampler.duration`` [s].
+    """
+    kw = dict(height_m=0.0, lon=0.0, frame=DEFAULT_FRAME, earth="wgs84", transition=None)
+    kw.update(transition_profile="cosine", names=None, gravity=None)
+    unknown = sorted(set(options) - set(kw))
+    if unknown:
+        raise OptinavError(f"static_positions_sampler takes no {unknown[0]!r}", f"use one of {', '.join(kw)}")
+    kw.update(options)
+    return RateSampler(_static_motion(orientations, dwell, lat, **kw), _lever(lever_arm))
+
+
+def _static_motion(
+    orientations, dwell, lat, height_m, lon, frame, earth, transition, transition_profile, names, gravity
+):
+    """The motion of :func:`static_positions` (its arguments, checked here)."""
+    h = height_m
     frame, earth = frame_name(frame), _check_earth(earth)
     cs = _as_dcms(orientations, "orientations")
     if cs.ndim == 2:
@@ -1055,8 +1111,7 @@ def static_positions(
                 pieces.append(_Chain(t0, t0 + d, -1, [c_enu[p], np.eye(3)], [rv / ang], [f], max_step=step))
             t0 += d
     seg_names = list(names) if names is not None else [describe_pose(c, frame) for c in cs]
-    motion = _Motion(pieces, site, frame, earth, seg_names, g)
-    return motion.simulate(_epochs(t0, rate, t), _lever(lever_arm))
+    return _Motion(pieces, site, frame, earth, seg_names, g)
 
 
 @dataclass(frozen=True)

@@ -14,9 +14,9 @@ import numpy as np
 
 from optinav.core import rotations
 from optinav.core.earth import gravity as normal_gravity
-from optinav.core.imu_model import ImuModel, ImuSpec, TriadErrors, preset
+from optinav.core.imu_model import ImuModel, ImuSpec, MeasurementStream, SampleDraws, TriadErrors, preset
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.simulate import static_positions
+from optinav.core.simulate import describe_pose, static_positions_sampler
 from optinav.core.units import DEG, G_STANDARD
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
@@ -95,19 +95,7 @@ class SimulatedSession(Result):
             acc [m/s^2] and gyr [rad/s] (raw counts stay counts), which :func:`optinav.io.write_imu` converts
             back to the file's ``acc_unit``/``gyro_unit``.
         """
-        from optinav.core.units import factor
-        from optinav.io import ImuLog
-
-        acc = self.acc if self.acc_unit in ("counts", "m/s^2") else self.acc * factor(self.acc_unit)
-        gyro = self.gyr if self.gyro_unit in ("counts", "rad/s") else self.gyr * factor(self.gyro_unit)
-        return ImuLog(
-            t=self.t,
-            acc=acc,
-            gyr=gyro,
-            acc_unit="counts" if self.acc_unit == "counts" else "m/s^2",
-            gyro_unit="counts" if self.gyro_unit == "counts" else "rad/s",
-            source="optinav simulate",
-        )
+        return _as_log(self.t, self.acc, self.gyr, self.acc_unit, self.gyro_unit)
 
     def truth(self, site: dict | None = None, provenance: dict | None = None):
         """The session's truth file content (:func:`~optinav.multipos.result.session_truth`).
@@ -164,6 +152,28 @@ register_legacy(
 )  # old names
 
 
+def paper_accelerometer(g: float) -> tuple[np.ndarray, np.ndarray]:
+    """K [-] and b [m/s^2] of Gao & Zhang's Table 2 accelerometer (:data:`PAPER_REFERENCE`; S per local g ``g``
+    [m/s^2])."""
+    r = PAPER_REFERENCE
+    return model.from_paper(r["S"], r["M_xy"], r["M_xz"], r["M_yz"], r["B"], g)
+
+
+def _as_log(t, acc, gyr, acc_unit: str, gyro_unit: str):
+    """Raw samples (acc [acc_unit], gyr [gyro_unit]) as an ImuLog in SI (counts stay counts) for :func:`write_imu`."""
+    from optinav.core.units import factor
+    from optinav.io import ImuLog
+
+    return ImuLog(
+        t=t,
+        acc=acc if acc_unit in ("counts", "m/s^2") else acc * factor(acc_unit),
+        gyr=gyr if gyro_unit in ("counts", "rad/s") else gyr * factor(gyro_unit),
+        acc_unit="counts" if acc_unit == "counts" else "m/s^2",
+        gyro_unit="counts" if gyro_unit == "counts" else "rad/s",
+        source="optinav simulate",
+    )
+
+
 def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     if kind == "acc":
         table = {"m/s^2": 1.0, "g": 1.0 / G_STANDARD, "counts": counts_per_si}
@@ -174,27 +184,25 @@ def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     return table[unit]
 
 
-def simulate(
-    scheme="paper12",
-    *,
-    spec: ImuSpec | ImuModel | str = "mems-mti1",
-    dwell_s: float = 60.0,
-    rate_hz: float | None = None,
-    transition_s: float = 4.0,
-    rest_s: float = 10.0,
-    lat: float = float(np.radians(38.88)),
-    height_m: float = 35.0,
-    truth: str = "draw",
-    acc_unit: str = "m/s^2",
-    gyro_unit: str = "rad/s",
-    acc_counts_per_si: float = 2048 / G_STANDARD,
-    gyro_counts_per_si: float = 16.4 / DEG,
-    jitter: float = 0.0,
-    rng=None,
-) -> SimulatedSession:
-    """Simulate a static multi-position session.
+def noise_key(gen) -> int:
+    """The key of a session's per-sample draws (noise, jitter), drawn from ``gen`` right after the unit
+    (:class:`SessionStream`)."""
+    return int(gen.integers(0, 2**63))
 
-    Poses alternate yaw so that consecutive transitions turn about varied axes.
+
+#: samples per block of a session generated block by block (:class:`SessionStream`): some tens of MB each
+BLOCK_ROWS = 1 << 17
+
+
+class SessionStream:
+    """A simulated static multi-position session generated block by block, so that memory does not grow with its
+    length (``optinav simulate accel-multipos``); :func:`simulate` gathers the same blocks.
+
+    The unit is drawn from ``rng`` first (so a seed gives the same unit and truth K, b as before); then one key is
+    drawn, from which the noise and the timestamp jitter of every sample are drawn by sample index
+    (:class:`~optinav.core.imu_model.SampleDraws`), with the noise states carried across blocks
+    (:class:`~optinav.core.imu_model.MeasurementStream`): the same seed gives the same samples whatever the block
+    length.
 
     Parameters
     ----------
@@ -228,69 +236,180 @@ def simulate(
     rng : int, Generator or None
         Seed or generator.
 
+    Attributes
+    ----------
+    n : int
+        Samples of the session.
+    rate_hz : float
+        Sample rate [Hz].
+    """
+
+    def __init__(
+        self,
+        scheme="paper12",
+        *,
+        spec: ImuSpec | ImuModel | str = "mems-mti1",
+        dwell_s: float = 60.0,
+        rate_hz: float | None = None,
+        transition_s: float = 4.0,
+        rest_s: float = 10.0,
+        lat: float = float(np.radians(38.88)),
+        height_m: float = 35.0,
+        truth: str = "draw",
+        acc_unit: str = "m/s^2",
+        gyro_unit: str = "rad/s",
+        acc_counts_per_si: float = 2048 / G_STANDARD,
+        gyro_counts_per_si: float = 16.4 / DEG,
+        jitter: float = 0.0,
+        rng=None,
+    ):
+        gen = as_rng(rng)
+        ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
+        if ups is None:
+            raise OptinavError(f"unknown scheme {scheme!r}", f"use one of {', '.join(SCHEMES)} or give up vectors")
+        unit_model = preset(spec) if isinstance(spec, str) else spec
+        unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
+        if not isinstance(unit_model, ImuModel):
+            raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
+        self.rate_hz = unit_model.rate_hz if rate_hz is None else check_positive(rate_hz, "rate_hz")
+        lat = float(lat)
+        self.gravity = g = float(normal_gravity(lat, height_m))
+        if truth == "paper":
+            K, b = paper_accelerometer(g)
+            unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
+        elif truth != "draw":
+            raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
+        poses = np.stack(
+            [orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2) for k, u in enumerate(ups)]
+        )
+        dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
+        self.n = int(round((dwell.sum() + transition_s * len(ups)) * self.rate_hz))
+        self.ups, self.unit_model, self.jitter = ups, unit_model, float(jitter)
+        self.acc_unit, self.gyro_unit = acc_unit, gyro_unit
+        self.fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
+        self.fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
+        self.descriptions = [describe_pose(c, frame="enu") for c in poses[1:]]
+        self._sampler = static_positions_sampler(
+            poses, dwell, lat, height_m=height_m, transition=transition_s, frame="enu"
+        )
+        key = noise_key(gen)
+        self._measure = MeasurementStream(unit_model, key)
+        self._jitter = SampleDraws(key, 6, 1, "uniform")
+        self._first = np.full(len(ups), np.nan)
+        self._last = np.full(len(ups), np.nan)
+        self._done = 0
+
+    def _epochs(self, i0: int, i1: int) -> np.ndarray:
+        t = np.arange(i0, i1) / self.rate_hz
+        if self.jitter:
+            t = t + (self._jitter.take(i0, i1)[:, 0] - 0.5) * self.jitter / self.rate_hz
+            if i0 == 0 and i1 > 0:
+                t[0] = 0.0
+        return np.clip(t, 0.0, self._sampler.duration)
+
+    def blocks(self, block_rows: int = BLOCK_ROWS):
+        """Generate the session's samples in order, ``block_rows`` at a time (once per stream).
+
+        Parameters
+        ----------
+        block_rows : int
+            Samples per block (memory grows with it, not with the session; the samples do not depend on it).
+
+        Yields
+        ------
+        t : (m,) ndarray
+            Epochs [s].
+        acc : (m, 3) ndarray
+            Raw accelerometer [acc_unit].
+        gyr : (m, 3) ndarray
+            Raw gyroscope [gyro_unit].
+        labels : (m,) int ndarray
+            Pose index, -1 in turns, -2 in the initial rest.
+        """
+        if self._done:
+            raise OptinavError("this session was already generated", "make a new SessionStream")
+        step = int(check_positive(block_rows, "block_rows"))
+        for i0 in range(0, self.n, step):
+            i1 = min(i0 + step, self.n)
+            te = self._epochs(i0, min(i1 + 1, self.n))
+            t = te[: i1 - i0]
+            dt = np.r_[np.diff(te), [1.0 / self.rate_hz] * (i1 - i0 + 1 - te.size)]
+            gyr, acc, labels = self._sampler(t)
+            mg, ma = self._measure(gyr, acc, dt)
+            labels[labels == 0] = -2  # the rest period is not a calibration pose
+            labels[labels > 0] -= 1
+            for k in np.unique(labels[labels >= 0]):
+                tk = t[labels == k]
+                if np.isnan(self._first[k]):
+                    self._first[k] = tk[0]
+                self._last[k] = tk[-1]
+            self._done = i1
+            yield t, ma * self.fa, mg * self.fg, labels
+
+    def n_blocks(self, block_rows: int = BLOCK_ROWS) -> int:
+        """Number of blocks :meth:`blocks` yields for ``block_rows``."""
+        return -(-self.n // int(block_rows))
+
+    def session(self, t=None, acc=None, gyr=None, labels=None) -> SimulatedSession:
+        """The session (after :meth:`blocks` ran to the end) with the samples given, or none (empty arrays: the
+        truth and the poses only, e.g. for :meth:`SimulatedSession.truth`).
+
+        Returns
+        -------
+        SimulatedSession
+            The samples with the true K, b, static intervals and poses.
+        """
+        if self._done < self.n:
+            raise OptinavError("the session's blocks were not all generated", "run blocks() to the end first")
+        if np.any(np.isnan(self._first)):
+            raise OptinavError("a pose holds no sample", "lengthen dwell_s or raise rate_hz")
+        um, fa, fg = self.unit_model, self.fa, self.fg
+        vrw = np.asarray(um.acc_noise.white, float)
+        return SimulatedSession(
+            t=np.empty(0) if t is None else t,
+            acc=np.empty((0, 3)) if acc is None else acc,
+            gyr=np.empty((0, 3)) if gyr is None else gyr,
+            acc_unit=self.acc_unit,
+            gyro_unit=self.gyro_unit,
+            acc_K=um.acc.K * fa,
+            acc_b=um.acc.bias * fa,
+            gyr_K=um.gyr.K * fg,
+            gyr_b=um.gyr.bias * fg,
+            gravity=self.gravity,
+            up_dirs=self.ups,
+            static_intervals=np.column_stack([self._first, self._last]),
+            labels=np.empty(0, np.int64) if labels is None else labels,
+            acc_noise_sigma=float(np.max(vrw) * np.sqrt(self.rate_hz) * fa),
+            acc_bias_instability=float(np.max(um.acc_noise.gm_sigma) * fa),
+            descriptions=list(self.descriptions),
+        )
+
+    def log_blocks(self, block_rows: int = BLOCK_ROWS):
+        """:meth:`blocks` as ImuLog blocks to write (:meth:`SimulatedSession.log`'s units)."""
+        for t, acc, gyr, _ in self.blocks(block_rows):
+            yield _as_log(t, acc, gyr, self.acc_unit, self.gyro_unit)
+
+
+def simulate(scheme="paper12", **options) -> SimulatedSession:
+    """Simulate a static multi-position session.
+
+    Poses alternate yaw so that consecutive transitions turn about varied axes. The samples are those of
+    :class:`SessionStream` (gathered here), whose noise is drawn by sample index from one key drawn after the unit.
+
+    Parameters
+    ----------
+    scheme : str or (P, 3) array
+        A name in :data:`SCHEMES` or sensor-frame up vectors [-].
+    **options
+        The keywords of :class:`SessionStream`: ``spec``, ``dwell_s``, ``rate_hz``, ``transition_s``, ``rest_s``,
+        ``lat``, ``height_m``, ``truth``, ``acc_unit``, ``gyro_unit``, ``acc_counts_per_si``,
+        ``gyro_counts_per_si``, ``jitter``, ``rng``.
+
     Returns
     -------
     SimulatedSession
         Raw log ``t`` [s], ``acc`` [acc_unit], ``gyro`` [gyro_unit] with the true K, b and up vectors.
     """
-    gen = as_rng(rng)
-    ups = SCHEMES.get(scheme) if isinstance(scheme, str) else as_float_array(scheme, "scheme", last_dims=(3,))
-    if ups is None:
-        raise OptinavError(f"unknown scheme {scheme!r}", f"use one of {', '.join(SCHEMES)} or give up vectors")
-    unit_model = preset(spec) if isinstance(spec, str) else spec
-    unit_model = unit_model.draw(gen) if isinstance(unit_model, ImuSpec) else unit_model
-    if not isinstance(unit_model, ImuModel):
-        raise OptinavError("spec must be an ImuSpec, an ImuModel or a preset name", "e.g. spec='mems-mti1'")
-    rate = unit_model.rate_hz if rate_hz is None else check_positive(rate_hz, "rate_hz")
-    lat = float(lat)
-    g = float(normal_gravity(lat, height_m))
-    if truth == "paper":
-        K, b = model.from_paper(
-            PAPER_REFERENCE["S"],
-            PAPER_REFERENCE["M_xy"],
-            PAPER_REFERENCE["M_xz"],
-            PAPER_REFERENCE["M_yz"],
-            PAPER_REFERENCE["B"],
-            g,
-        )
-        unit_model = dataclasses.replace(unit_model, acc=TriadErrors.from_matrix("accel", K, b))
-    elif truth != "draw":
-        raise OptinavError(f"truth={truth!r} is not understood", "use 'draw' or 'paper'")
-    poses = np.stack(
-        [orientation_for_up(ups[0])] + [orientation_for_up(u, yaw=(k % 4) * np.pi / 2) for k, u in enumerate(ups)]
-    )
-    dwell = np.r_[rest_s, np.full(len(ups), check_positive(dwell_s, "dwell_s"))]
-    n = int(round((dwell.sum() + transition_s * len(ups)) * rate))
-    t = np.arange(n) / rate
-    if jitter:
-        t = t + gen.uniform(-0.5, 0.5, n) * jitter / rate
-        t[0] = 0.0
-    tr = static_positions(poses, dwell, rate, lat, height_m=height_m, transition=transition_s, t=t, frame="enu")
-    meas = unit_model.apply(tr.gyr, tr.acc, dt=np.r_[np.diff(tr.t), 1 / rate], rng=gen)
-    fa = _raw_factor(acc_unit, "acc", acc_counts_per_si)
-    fg = _raw_factor(gyro_unit, "gyro", gyro_counts_per_si)
-    labels = tr.labels.copy()
-    labels[labels == 0] = -2  # the rest period is not a calibration pose
-    labels[labels > 0] -= 1
-    intervals = np.array([[tr.t[labels == k][0], tr.t[labels == k][-1]] for k in range(len(ups))])
-    vrw = np.asarray(unit_model.acc_noise.white, float)
-    from optinav.core.simulate import describe_pose
-
-    return SimulatedSession(
-        t=tr.t,
-        acc=meas.acc * fa,
-        gyr=meas.gyr * fg,
-        acc_unit=acc_unit,
-        gyro_unit=gyro_unit,
-        acc_K=unit_model.acc.K * fa,
-        acc_b=unit_model.acc.bias * fa,
-        gyr_K=unit_model.gyr.K * fg,
-        gyr_b=unit_model.gyr.bias * fg,
-        gravity=g,
-        up_dirs=ups,
-        static_intervals=intervals,
-        labels=labels,
-        acc_noise_sigma=float(np.max(vrw) * np.sqrt(rate) * fa),
-        acc_bias_instability=float(np.max(unit_model.acc_noise.gm_sigma) * fa),
-        descriptions=[describe_pose(c, frame="enu") for c in poses[1:]],
-    )
+    stream = SessionStream(scheme, **options)
+    parts = list(zip(*stream.blocks()))
+    return stream.session(*(np.concatenate(p) for p in parts))

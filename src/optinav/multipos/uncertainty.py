@@ -79,9 +79,12 @@ def run_all(n_runs: int = 100, rng=0) -> dict[str, dict[str, float]]:
 def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.ndarray:
     """The unit's mean gyro bias over the static samples of simulated session ``s`` (raw): its constant bias plus
     the mean of its Gauss–Markov drift there — over the static intervals the calibration used (``intervals``,
-    (t0, t1) s; what ``local`` reports the bias of), else over the simulated poses. The drift is redrawn from ``seed`` in the order :func:`simulate`
-    draws it (the unit first when ``drawn``, then the gyro white noise and the Gauss–Markov bias)."""
-    from optinav.core.imu_model import gauss_markov, white_noise
+    (t0, t1) s; what ``local`` reports the bias of), else over the simulated poses. The drift is redrawn from ``seed`` as
+    :class:`~optinav.multipos.simulate.SessionStream` draws it (the unit first when ``drawn``, then the key of the
+    per-sample draws, of which the Gauss–Markov bias takes its own stream)."""
+    from optinav.core.imu_model import ImuModel, MeasurementStream, TriadNoise
+
+    from .simulate import noise_key
 
     gen = np.random.default_rng(seed)
     if drawn:
@@ -89,9 +92,8 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
     n = s.t.size
     d = np.r_[np.diff(s.t), 1.0 / unit.rate_hz]
     nz = unit.gyro_noise
-    if np.any(nz.white > 0):
-        white_noise(n, nz.white, d, gen, kind="rate")
-    drift = gauss_markov(n, nz.gm_sigma, nz.gm_tau, d, gen) if np.any(nz.gm_sigma > 0) else np.zeros((n, 3))
+    drift_only = ImuModel(gyro_noise=TriadNoise(gm_sigma=nz.gm_sigma, gm_tau=nz.gm_tau), rate_hz=unit.rate_hz)
+    drift = MeasurementStream(drift_only, noise_key(gen))(np.zeros((n, 3)), np.zeros((n, 3)), d)[0]
     rest = s.labels >= 0
     if intervals is not None:
         rest = np.zeros(n, bool)

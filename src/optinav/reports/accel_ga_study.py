@@ -24,7 +24,7 @@ from optinav.core.imu_model import TriadErrors, preset
 from optinav.core.observability import rmse_ratio_band
 from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
-from optinav.multipos.simulate import PAPER_REFERENCE, simulate
+from optinav.multipos.simulate import paper_accelerometer, simulate
 from optinav.reports.report import (
     Check,
     Figure,
@@ -270,14 +270,7 @@ def _efficiency(quick, rng) -> dict:
     rate, dwell = RATE_HZ, 10.0 if quick else 60.0
     spec = preset("mems-mti1")
     g = 9.80167
-    K, b = model.from_paper(
-        PAPER_REFERENCE["S"],
-        PAPER_REFERENCE["M_xy"],
-        PAPER_REFERENCE["M_xz"],
-        PAPER_REFERENCE["M_yz"],
-        PAPER_REFERENCE["B"],
-        g,
-    )
+    K, b = paper_accelerometer(g)
     ups = design.design_scheme(12, criterion="D").up_dirs
     sigma = float(np.max(spec.acc_vrw) * np.sqrt(rate))
     eff, _ = accel.efficiency(K, b, ups, g, sigma, int(dwell * rate), n_runs, rng)

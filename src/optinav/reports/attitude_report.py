@@ -37,10 +37,13 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
     return [Table("Estimation summary", ["item", "value"], rows)]
 
 
-def write_attitude_report(res, t, eul_deg, source, out_dir, score=None) -> Path:
+def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_samples: int | None = None) -> Path:
     """Write index.md/index.html, summary.json and the Euler-angle figure of an attitude estimate into
-    ``out_dir``: ``t`` (s) and ``eul_deg`` (N, 3) roll, pitch, yaw in degrees; ``score`` as in
-    :func:`attitude_tables`."""
+    ``out_dir``: ``t`` (s) and ``eul_deg`` (m, 3) roll, pitch, yaw in degrees (every k-th sample of a long log:
+    ``n_samples``, default m, is the estimate's length); ``score`` as in :func:`attitude_tables`; ``res`` an
+    :class:`~optinav.attitude.AttitudeEstimate` or :class:`~optinav.attitude.filestream.StreamedEstimate`."""
+    n = len(t) if n_samples is None else int(n_samples)
+    every = "" if n <= len(t) else f"; one sample in {-(-n // max(len(t), 1))} of {n}"
 
     def draw(fig):
         axs = fig.subplots(3, 1, sharex=True)
@@ -54,7 +57,7 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None) -> Path:
         name="attitude",
         title=f"Attitude of {Path(source).name} ({res.method})",
         description=res.summary(),
-        tables=attitude_tables(res, len(t), score),
-        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame})", draw, (8, 6))],
+        tables=attitude_tables(res, n, score),
+        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame}{every})", draw, (8, 6))],
     )
     return write_report([study], out_dir, title="optinav attitude")

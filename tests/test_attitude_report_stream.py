@@ -1,0 +1,67 @@
+"""`optinav attitude --report` estimates block by block (issue 17): its summary is the in-memory estimate's and its
+figure every k-th row of the written attitude, so the report is bounded in memory."""
+
+import json
+
+import numpy as np
+import pytest
+
+from optinav.attitude import PolarizationMeasurement, estimate
+from optinav.attitude.filestream import pol_columns, stream_attitude
+from optinav.attitude.recording import attitude_rows, sun_along_log
+from optinav.attitude.unit import AttitudeOptions
+from optinav.cli.main import main
+from optinav.reports.attitude_report import attitude_tables
+
+
+@pytest.fixture(scope="module")
+def flight(tmp_path_factory):
+    from optinav.attitude.simulate import PAPER_SITE, PAPER_TIMES, simulate
+
+    d = simulate("dynamic", duration_s=12, rate_hz=100, rng=7, gyro_bias=np.radians([0.3, -0.2, 0.25]))
+    path = tmp_path_factory.mktemp("rep") / "flight.csv"
+    cols = np.column_stack([d.t, d.acc, d.gyr, d.aop, d.dop])
+    np.savetxt(path, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz,aop,dop", comments="", fmt="%.17g")
+    sun = dict(lat=PAPER_SITE["lat"], lon=PAPER_SITE["lon"], height_m=35.0, start_time=PAPER_TIMES["dynamic"])
+    return d, path, sun
+
+
+def _values(tables):
+    return [[getattr(c, "value", c) for c in row] for t in tables for row in t.rows]
+
+
+@pytest.mark.parametrize(
+    "method, offline, pol",
+    [("iframe", False, False), ("iframe", True, False), ("qn", False, False), ("mekf", False, True)],
+)
+def test_streamed_report_fields_are_the_in_memory_estimates(flight, tmp_path, method, offline, pol):
+    d, path, sun = flight
+    o = AttitudeOptions(method=method, frame="NED", offline=offline)
+    pc = pol_columns("aop,dop", "NED", **sun) if pol else None
+    run = stream_attitude(path, tmp_path / "a.csv", o, pol=pc, chunk_rows=333, figure_points=150)
+    dt = np.r_[d.t[1] - d.t[0], np.diff(d.t)]
+    pm = PolarizationMeasurement(d.aop, sun_along_log(d.t, "NED", **sun), dop=d.dop, frame="NED") if pol else None
+    res = estimate(d.gyr, d.acc, dt, pol=pm, method=method, frame="NED", offline=offline)
+    assert run.estimate.summary() == res.summary()
+    got, want = _values(attitude_tables(run.estimate, run.n)), _values(attitude_tables(res, d.t.size))
+    assert got[:-1] == want[:-1] if res.gyr_bias is not None else got == want
+    if res.gyr_bias is not None:  # the final gyro bias, to the rounding of the blocks' arithmetic
+        assert np.allclose(got[-1][1], want[-1][1], rtol=0, atol=1e-12)
+    if pol:
+        assert run.estimate.pol_used > 0 and run.estimate.pol_used == res.pol_used
+    # the figure: every k-th row of the written attitude (k = ceil(n / 150))
+    rows = attitude_rows(d.t, res.q_b_n, "NED")
+    k = -(-d.t.size // 150)
+    t, eul = run.figure
+    assert np.array_equal(t, rows[::k, 0]) and np.allclose(eul, rows[::k, 5:8], rtol=0, atol=1e-9)
+
+
+def test_cli_report_streams(flight, tmp_path):
+    _, path, _ = flight
+    rep = tmp_path / "rep"
+    argv = ["--quiet", "attitude", str(path), "--out", str(tmp_path / "a.csv"), "--report", str(rep), "--chunk-rows"]
+    assert main([*argv, "500"]) == 0
+    study = json.loads((rep / "summary.json").read_text())["studies"]["attitude"]
+    rows = {r[0]: r[1] for t in study["tables"] for r in t["rows"]}
+    assert rows["samples"] == 1201 and rows["method"] == "iframe"  # 12 s at 100 Hz, both ends
+    assert (rep / "attitude_euler.png").is_file()
