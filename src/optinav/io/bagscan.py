@@ -257,7 +257,13 @@ def _mcap_chunk(body: bytes, topic: str, chans: set):
     buf = _decompress(kind, body[p + 8 : p + 8 + rlen])
     if len(buf) != usize or (crc and zlib.crc32(buf) != crc):
         raise NotFast("chunk size or CRC mismatch")
-    return _mcap_records(buf, topic, chans)
+    out = _mcap_records(buf, topic, chans)
+    # a log time outside the chunk's own message span is damage (rosbags then reads the bag, as it would)
+    top = np.iinfo(np.int64).max
+    t0, t1 = (min(_U64.unpack_from(body, k)[0], top) for k in (0, 8))
+    if out is not None and (t0 or t1) and (np.any(out[3] < t0) or np.any(out[3] > t1)):  # (0, 0): span not set
+        raise NotFast("a message's log time outside its chunk's span")
+    return out
 
 
 def _mcap_records(buf: bytes, topic: str, chans: set):
@@ -524,8 +530,8 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     file format (sqlite.org/fileformat2.html): interior pages (type 5) give the leaves (type 13) in rowid order,
     each leaf cell ``payload size, rowid`` varints and a record ``header size, serial types…, values`` of
     (id — the rowid, stored NULL —, topic_id, timestamp, data blob). Every page of a level is parsed at once with
-    numpy; a file with a write-ahead log, overflow pages for the topic, or anything unexpected raises
-    :class:`NotFast`. ``rows``: a list the number of rows of the table (all topics) is appended to before the
+    numpy; a file with a write-ahead log, overflow pages for the topic, log times that decrease in rowid order, or
+    anything unexpected raises :class:`NotFast`. ``rows``: a list the number of rows of the table (all topics) is appended to before the
     first block."""
     wal = path.with_name(path.name + "-wal")
     if wal.exists() and wal.stat().st_size > 0:
@@ -561,7 +567,7 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     if rows is not None:
         rows.append(int((head[:, 3].astype(np.int64) * 256 + head[:, 4]).sum()))
     step = _LEAVES  # leaves per block
-    last, shapes = -1, {}
+    last, last_t, shapes = -1, np.iinfo(np.int64).min, {}
     for b in range(0, level.size, step):
         _, cell = _cells(u8, level[b : b + step], psize, 8)
         win = windows(u8, cell, _WINDOW)
@@ -575,7 +581,13 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
             raise NotFast("rowids out of order")
         last = int(rowid[-1]) if rowid.size else last
         if mine.any():
-            yield u8, cell[mine] + data[mine], dlen[mine], logt[mine]
+            t = logt[mine]
+            # rosbags reads log times through the timestamp index, which a damaged table can contradict: the
+            # table's order is trusted only where it is the index's (non-decreasing), else rosbags reads the bag
+            if t[0] < last_t or np.any(np.diff(t) < 0):
+                raise NotFast("log times out of order in the messages table")
+            last_t = int(t[-1])
+            yield u8, cell[mine] + data[mine], dlen[mine], t
         leaves = level[b : b + step]
         _release(mm, int(leaves.min() - 1) * psize, int(leaves.max()) * psize)  # decoded by now
 
