@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import optimize, stats
 
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive
@@ -587,8 +587,8 @@ class AllanNoiseFit(Result):
     Units as :class:`AllanNoiseParameters` (data in rate unit ``[u]``: N [u]·√s, B [u], K [u]/√s, Q [u]·s);
     arrays (k,) per column, or floats for one series. ``*_std`` is the 1σ of the coefficient (delta method
     from the variance coefficient), ``*_interval`` [lower, upper] the ``confidence`` interval (the variance
-    coefficient as a scaled χ² with ν = 2(c/σ_c)² degrees of freedom, square-rooted); a term fitted to zero is
-    0 with the upper bound √(z·σ_c) (as is one with ν < 1, up to √(ĉ + z·σ_c)). ``chi2_dof`` is the weighted residual per degree of freedom (≈ 1 when the four-term model fits).
+    coefficients c the fit does not reject at that level, square-rooted; see :func:`fit_noise_model`): a term
+    fitted to zero has the lower bound 0, an upper bound no finite value reaches is inf. ``chi2_dof`` is the weighted residual per degree of freedom (≈ 1 when the four-term model fits).
     """
 
     SCHEMA = "optinav.allan_noise_fit"
@@ -693,6 +693,40 @@ def _fit_column(y, e, R, basis, floor, iterations, nnls):
     return c, model, L, float(r @ r) / max(y.size - basis.shape[1], 1)
 
 
+def _inverted_interval(y, e, R, basis, c, free, i, floor, inflate, z) -> tuple[float, float]:
+    """[lower, upper] of the variance coefficient c_i: every value c ≥ 0 with |ĉ_i − c| ≤ z·σ_i(c), where σ_i(c) is
+    the std of ĉ_i when the true curve is the fit with c_i = c (its weights, the other terms as fitted). An
+    upper bound that no finite value reaches (σ_i growing as fast as c/z) is inf."""
+    cols = free.copy()
+    cols[i] = True
+    ci = float(c[i])
+    # a curve that is 0 somewhere (the term the only one there, tried at 0) has no finite weights: keep it a
+    # small fraction above 0, relative to the fitted curve
+    least = 1e-9 * (basis @ c)
+
+    def sigma(v: float) -> float:
+        cc = c.copy()
+        cc[i] = v
+        Aw = _whitener(np.maximum(basis @ cc, least), e, R, floor) @ basis[:, cols]
+        k = int(np.sum(cols[:i]))
+        return math.sqrt(max(np.linalg.pinv(Aw.T @ Aw)[k, k], 0.0) * inflate)
+
+    def h(v: float, sign: float) -> float:
+        return sign * (v - ci) - z * sigma(v)
+
+    lower = 0.0
+    if ci > 0 and h(0.0, -1.0) > 0:
+        lower = optimize.brentq(h, 0.0, ci, args=(-1.0,), rtol=1e-6)
+    s0 = sigma(ci)
+    step = max(z * s0, ci, np.finfo(float).tiny)
+    hi = ci + step
+    for _ in range(60):
+        if h(hi, 1.0) >= 0:
+            return lower, optimize.brentq(h, ci, hi, args=(1.0,), rtol=1e-6)
+        hi = ci + (hi - ci) * 4.0
+    return lower, math.inf
+
+
 def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int = 4) -> AllanNoiseFit:
     """Fit σ²(τ) = 3Q²/τ² + N²/τ + (2 ln2/π)·B² + K²τ/3 (IEEE Std 952-1997 Annex C) to an Allan deviation.
 
@@ -706,8 +740,13 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     χ²/dof = 1 (``model_floor``); an exact model keeps f = 0, which a fixed floor made 5 times too wide for N.
     The std of a free term comes from the covariance over the free terms' columns alone: a term NNLS holds at
     zero is fixed there (an active constraint), not a trade-off that widens the others (counting it up to doubled
-    the other terms' std where quantization, not simulated, was fitted to 0). Unlike the slope read-off it is not
-    biased by the neighbouring terms. Coverage of the 68 % intervals on simulated logs: ``benchmarks/results_allan_coverage.md``.
+    the other terms' std where quantization, not simulated, was fitted to 0). The interval of a coefficient is
+    the set of values the fit does not reject: every c ≥ 0 with |ĉ − c| ≤ z·σ(c), σ(c) the std ĉ would have if the
+    curve were the fit with that coefficient set to c (a score-type interval). Its width follows the value tried,
+    not the estimate: a Wald or χ² interval scaled by ĉ itself covered K 54 % of the time where the record ends
+    near the random-walk upturn (ĉ_K then weighs the last points against the flat flicker term with weights of
+    both signs, so it is neither χ²-shaped nor of a relative spread independent of ĉ). Unlike the slope read-off
+    the fit is not biased by the neighbouring terms. Coverage of the 68 % intervals on simulated logs: ``benchmarks/results_allan_coverage.md``.
 
     Parameters
     ----------
@@ -748,6 +787,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     cstd = np.full((4, k), np.nan)
     chi2 = np.full(k, np.nan)
     floor = np.zeros(k)
+    bounds = np.zeros((4, 2, k))
     dof = max(tau.size - int(use.sum()), 1)
     alphas = np.asarray(result.alpha).reshape(tau.size, -1)
     for j in range(k):
@@ -772,23 +812,18 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
         free = c > 0
         if free.any() and not free.all():
             # the terms NNLS held at zero are fixed there: the free terms' covariance is that of the fit over
-            # their columns alone (a zero term's own std stays the unconstrained one, for its upper bound)
+            # their columns alone (a zero term's own std stays the unconstrained one)
             var = var.copy()
             var[free] = np.diag(np.linalg.pinv(Aw[:, free].T @ Aw[:, free]))
         coef[use, j] = c
         cstd[use, j] = np.sqrt(np.maximum(var, 0.0) * max(chi2[j], 1.0))
+        inflate = max(chi2[j], 1.0)
+        for i in range(c.size):
+            bounds[np.flatnonzero(use)[i], :, j] = _inverted_interval(y, e, R, basis, c, free, i, floor[j], inflate, z)
     value = np.sqrt(coef)
     with np.errstate(divide="ignore", invalid="ignore"):
         std = np.where(value > 0, cstd / (2.0 * value), np.sqrt(cstd))
-    # ĉ is a weighted sum of χ²-distributed variances: treat it as c·χ²_ν/ν with ν = 2(ĉ/σ_c)² (Satterthwaite), the
-    # skewed interval the single-point estimates have
-    conf = float(result.confidence)
-    lo, hi = np.zeros_like(coef), np.sqrt(coef + z * np.nan_to_num(cstd))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pos = (coef > 0) & (cstd > 0) & (coef >= cstd / np.sqrt(2.0))  # ν ≥ 1; below it, [0, √(ĉ + z·σ_c)]
-    nu = 2.0 * (coef[pos] / cstd[pos]) ** 2
-    lo[pos] = np.sqrt(coef[pos] * nu / stats.chi2.ppf(0.5 * (1 + conf), nu))
-    hi[pos] = np.sqrt(coef[pos] * nu / stats.chi2.ppf(0.5 * (1 - conf), nu))
+    lo, hi = np.sqrt(bounds[:, 0]), np.sqrt(bounds[:, 1])
     out = {}
     for i, name in enumerate(FIT_TERMS):
         if not use[i]:
@@ -888,7 +923,8 @@ KALIBR_UNITS = {
 def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     """Kalibr's noise entries of a fit in SI units, the largest axis of each.
 
-    A random walk fitted to 0 (not seen in the record) becomes the upper end of its interval.
+    A random walk fitted to 0 (not seen in the record) becomes the upper end of its interval; one whose
+    interval has no upper end (a record too short to bound it) is refused.
 
     Parameters
     ----------
@@ -906,6 +942,11 @@ def kalibr_noise(fit: AllanNoiseFit, sensor: str) -> dict:
     K = np.atleast_1d(np.asarray(fit.random_walk, float))
     K_hi = np.asarray(fit.random_walk_interval, float).reshape(2, -1)[1]
     K_used = np.where(K > 0, K, K_hi)
+    if not np.all(np.isfinite(K_used)):
+        raise OptinavError(
+            f"the {sensor} random walk is not bounded by this record (its 68 % interval has no upper end)",
+            "record longer at rest (hours) for Kalibr's random walk",
+        )
     return {
         f"{sensor}_noise_density": float(np.nanmax(N)),
         f"{sensor}_random_walk": float(np.nanmax(K_used)),
@@ -1043,7 +1084,11 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
         fit = fit_noise_model(ad)
         out[name] = {"deviation": ad, "read_off": noise_parameters_from_allan(ad), "fit": fit}
         if units[name] in ("m/s^2", "rad/s"):
-            kal.update(kalibr_noise(fit, name))
+            try:
+                kal.update(kalibr_noise(fit, name))
+            except OptinavError:
+                if need_kalibr:  # without --kalibr, an unbounded random walk only leaves Kalibr's keys out
+                    raise
     kal["update_rate"] = 1.0 / dt
     return AllanAnalysis(
         accelerometer=out.get("accelerometer"),
