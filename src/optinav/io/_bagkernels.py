@@ -104,6 +104,21 @@ def _is(buf, a, b, name):
     return True
 
 
+@numba.njit(**_NJ)
+def _eq(buf, a, b, n):
+    """``buf[a:a + n]`` equals ``buf[b:b + n]`` (eight bytes at a time)."""
+    j = 0
+    while j + 8 <= n:
+        if _i64(buf, a + j) != _i64(buf, b + j):
+            return False
+        j += 8
+    while j < n:
+        if _u8(buf, a + j) != _u8(buf, b + j):
+            return False
+        j += 1
+    return True
+
+
 _OP, _CONN, _TIME = (np.frombuffer(s, dtype=np.uint8).copy() for s in (b"op", b"conn", b"time"))
 
 
@@ -112,18 +127,38 @@ def ros1_walk(buf, pos, end, conns, off, size, logt, k):
     """Records of a ROS 1 chunk's ``buf[pos:end]`` (``header_len u32, fields (len u32, name=value)…, data_len
     u32, data``): a message data record (op ``0x02``) of a connection in ``conns`` adds (data offset, data size,
     log time ns from the ``time`` field sec u32, nsec u32) at row ``k``. A field's last occurrence counts, as in
-    :func:`optinav.io.bagscan._fields`. Returns (status, pos, k)."""
+    :func:`optinav.io.bagscan._fields`; a header equal to the topic's last message's but for the time value is
+    not parsed again. Returns (status, pos, k)."""
     opn, connn, timen = _OP, _CONN, _TIME
+    ref, ref_t = np.int64(-1), np.int64(0)  # header start and time value offset of the topic's last message
     while pos < end:
         if pos + 4 > end:
             return TRUNCATED, pos, k
-        he = pos + 4 + np.int64(_u32(buf, pos))
+        hlen = np.int64(_u32(buf, pos))
+        he = pos + 4 + hlen
         if he + 4 > end:
             return TRUNCATED, pos, k
         ds = he + 4
         de = ds + np.int64(_u32(buf, he))
         if de > end:
             return TRUNCATED, pos, k
+        same = ref >= 0 and hlen == np.int64(_u32(buf, ref))  # then both headers lie within the chunk
+        if (
+            same
+            and _eq(buf, ref + 4, pos + 4, ref_t - 4)
+            and _eq(buf, ref + ref_t + 8, pos + ref_t + 8, hlen - ref_t - 4)
+        ):
+            # byte for byte the header of the topic's last message (same length word) but the time value: the
+            # same fields, not parsed again
+            if k == off.size:
+                return FULL, pos, k
+            off[k] = ds
+            size[k] = de - ds
+            logt[k] = np.int64(_u32(buf, pos + ref_t)) * 1_000_000_000 + np.int64(_u32(buf, pos + ref_t + 4))
+            k += 1
+            ref = pos
+            pos = de
+            continue
         op, conn, tpos = -1, np.int64(-1), np.int64(-1)
         p = pos + 4
         while p < he:
@@ -161,6 +196,7 @@ def ros1_walk(buf, pos, end, conns, off, size, logt, k):
                 size[k] = de - ds
                 logt[k] = np.int64(_u32(buf, tpos)) * 1_000_000_000 + np.int64(_u32(buf, tpos + 4))
                 k += 1
+                ref, ref_t = pos, tpos - pos
         pos = de
     return OK, pos, k
 
@@ -207,6 +243,8 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
     nbytes = buf.size
     cells = 0
     k = 0
+    # the topic's last message: record start, bytes of its header and topic id, payload size, stamp bytes, data size
+    ref, ref_n, ref_psz, ref_b2, ref_dlen = np.int64(-1), np.int64(0), np.int64(0), np.int64(0), np.int64(0)
     for pg in pages:
         base = (pg - 1) * psize
         if pg < 1 or base + psize > nbytes or buf[base] != 13:
@@ -229,6 +267,23 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
             if rid <= last[0]:
                 return ROWID_ORDER, cells, k
             last[0] = rid
+            if ref >= 0 and psz == ref_psz and rec + ref_n + ref_b2 <= lim and _eq(buf, ref, rec, ref_n):
+                # record header and topic id byte for byte the topic's last message's, same payload size: the same
+                # serial types, not parsed again
+                if rec + psz > base + psize:
+                    return MALFORMED, cells, k
+                p = rec + ref_n
+                t = _be(buf, p, ref_b2)
+                if t < last[1]:
+                    return TIME_ORDER, cells, k
+                last[1] = t
+                if k == off.size:
+                    return FULL, cells, k
+                off[k] = p + ref_b2
+                size[k] = ref_dlen
+                logt[k] = t
+                k += 1
+                continue
             p = rec + n3
             t0, n = _varint(buf, p, lim)
             p += n
@@ -264,6 +319,7 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
             size[k] = dlen
             logt[k] = t
             k += 1
+            ref, ref_n, ref_psz, ref_b2, ref_dlen = rec, p + b1 - rec, psz, b2, dlen
     return OK, cells, k
 
 

@@ -5,7 +5,8 @@ decoding, is what reading a bag costs. These scanners read the storage by its pu
 :mod:`optinav.io.rosbag` blocks ``(buf, off, size, logt)`` — message ``i`` is ``buf[off[i]:off[i] + size[i]]``,
 logged at ``logt[i]`` ns — one per chunk (or per ``_LEAVES`` leaf pages), the records walked by the compiled
 kernels of :mod:`optinav.io._bagkernels` over the file mapped read-only (a block's arrays are reused for the
-next one):
+next one). Each chunk's bytes are first read in order (:func:`optinav.io._bagkernels.touch`: the pages fault
+in at the memory's bandwidth) and unmapped once decoded, so the resident set holds one chunk of the file:
 
 - MCAP (mcap.dev/spec, major version 0): records ``opcode u8, length u64, content``; Channel ``0x04``
   (id u16, schema id u16, topic, message encoding, …), Message ``0x05`` (channel id u16, sequence u32, log time
@@ -26,8 +27,8 @@ next one):
 
 ``rosbags`` stays the reader of record: :func:`blocks` returns None — or a scanner raises :class:`NotFast` part
 way — for anything else (compressed ROS 2 bags, unchunked MCAP, unknown chunk compression, a sqlite3 file with a
-write-ahead log or overflow pages, a layout that does not parse); the caller then reads the topic through
-``rosbags``, which also reports damage.
+write-ahead log or overflow pages, a layout that does not parse, a big-endian host); the caller then reads the
+topic through ``rosbags``, which also reports damage.
 """
 
 from __future__ import annotations
@@ -97,6 +98,25 @@ class _Rows:
         if k == 0:
             return None
         return buf, self.off[:k], self.size[:k], self.logt[:k]
+
+
+class _Unmap:
+    """Unmaps the decoded ranges of a map (:func:`_release`) a few MB at a time: one call per chunk costs more
+    than the unmapping itself."""
+
+    def __init__(self, mm, span: int = 8 << 20):
+        self.mm, self.span, self.lo, self.hi = mm, span, None, 0
+
+    def add(self, start: int, stop: int) -> None:
+        self.lo = start if self.lo is None else min(self.lo, start)
+        self.hi = max(self.hi, stop)
+        if self.hi - self.lo >= self.span:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.lo is not None:
+            _release(self.mm, self.lo, self.hi)
+        self.lo, self.hi = None, 0
 
 
 def _walked(status: int, where: str) -> None:
@@ -197,9 +217,11 @@ def _mcap(path: Path, topic: str):
             if off + 9 + n > u8.size:
                 raise NotFast("truncated chunk")
             spans.append((off, off + 9 + n))
+        done = _Unmap(mm)
         for off, end in spans:
             yield from _mcap_chunk(mm, u8, off + 9, end - off - 9, topic, chans, rows)
-            _release(mm, off, end)  # decoded by now
+            done.add(off, end)  # decoded by now
+        done.flush()
         return
     chans: set = set()
     pos = 8
@@ -364,7 +386,7 @@ def _ros1(path: Path, topic: str):
     idx = ros1_index(path)
     conns = np.array(sorted(c for c, v in idx["conns"].items() if v[0] == topic), dtype=np.int64)
     mm, u8 = _map(path)
-    rows = _Rows()
+    rows, done = _Rows(), _Unmap(mm)
     for pos, held in idx["chunks"]:
         if not held & set(conns.tolist()):
             continue
@@ -386,7 +408,8 @@ def _ros1(path: Path, topic: str):
             out = _ros1_records(np.frombuffer(buf, dtype=np.uint8), 0, len(buf), conns, rows, touched=True)
         if out is not None:
             yield out
-        _release(mm, pos, de)  # decoded by now
+        done.add(pos, de)  # decoded by now
+    done.flush()
 
 
 def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _Rows, touched=False):
@@ -534,6 +557,7 @@ def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: i
     got = _Rows()
     got.room(min(leaves.size, _LEAVES) * ((psize - 8) // 6 + 1))  # a cell: 2-byte pointer and 4 bytes at least
     last = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
+    done = _Unmap(mm)
     for b in range(0, leaves.size, _LEAVES):
         pages = leaves[b : b + _LEAVES]
         kern.touch_pages(u8, pages, psize)
@@ -551,7 +575,8 @@ def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: i
         out = got.block(u8, k)
         if out is not None:
             yield out
-        _release(mm, int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
+        done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
+    done.flush()
 
 
 def _page_heads(mm, u8: np.ndarray, pages: np.ndarray, psize: int) -> np.ndarray:

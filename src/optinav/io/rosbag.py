@@ -7,9 +7,9 @@ gives the columns ``t`` (header stamp, s), ``ax ay az`` (``linear_acceleration``
 Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
 
 The raw messages of a topic come in blocks straight from the storage (:mod:`optinav.io.bagscan`; rosbags'
-iteration when the scanners do not read the bag) and are decoded with numpy from their fixed byte layout (checked
-against ``rosbags``' own deserializer on the first message); messages of another length are deserialized one by
-one.
+iteration when the scanners do not read the bag) and are decoded from their fixed byte layout by a compiled
+gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
+(n, 3) arrays; messages of another length are deserialized one by one.
 """
 
 from __future__ import annotations
@@ -449,6 +449,7 @@ class _Decoder:
 
     def __init__(self, reader, ros1: bool, msgtype: str, count: int, *, grow: bool = False):
         self.reader, self.ros1, self.msgtype, self.count, self.grow = reader, ros1, msgtype, count, grow
+        self.done = 0
         self._alloc(count)
 
     def _alloc(self, count: int) -> None:
