@@ -88,6 +88,7 @@ class _Rows:
 
     def __init__(self):
         self.off = self.size = self.logt = np.empty(0, dtype=np.int64)
+        self.chans = np.zeros(1 << 16, dtype=np.bool_)  # MCAP: the topic's channel ids
 
     def room(self, n: int) -> None:
         if self.off.size < n:
@@ -283,7 +284,7 @@ def _mcap_records(buf, u8: np.ndarray, pos: int, end: int, topic: str, chans: se
     from optinav.io import _bagkernels as kern
 
     rows.room((end - pos) // 31 + 1)  # a Message record holds at least 31 bytes
-    mask = np.zeros(1 << 16, dtype=np.bool_)
+    mask = rows.chans
     mask[list(chans)] = True
     if not touched:
         kern.touch(u8, pos, end)
