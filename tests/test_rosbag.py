@@ -449,6 +449,35 @@ def test_offsets_outside_a_block_fall_back_to_rosbags(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_mcap_log_time_outside_its_chunk_goes_to_rosbags(tmp_path):
+    """One Imu message's log time moved past its chunk's message span: the scanner refuses the chunk and the
+    values are rosbags' own (its reader of record), whatever it makes of the contradiction."""
+    import struct
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(21)
+    msgs, *_ = imu_topic(rng, n=30)
+    bag = write_bag(tmp_path / "s", "mcap-file", {"/imu": (IMU, msgs)})
+    raw = bytearray(bag.read_bytes())
+    with open(bag, "rb") as fh:
+        chans, offsets = bagscan._mcap_index(fh, "/imu")
+    start = offsets[0] + 9
+    end_time = struct.unpack_from("<Q", raw, start + 8)[0]
+    p = start + 32 + struct.unpack_from("<I", raw, start + 28)[0] + 8  # the chunk's first record
+    while raw[p] != 0x05:
+        p += 9 + struct.unpack_from("<Q", raw, p + 1)[0]
+    struct.pack_into("<Q", raw, p + 15, end_time + 10**9)  # the first message's log time, 1 s past the span
+    bag.write_bytes(bytes(raw))
+    with pytest.raises(bagscan.NotFast, match="span"):
+        list(bagscan._mcap(bag, "/imu"))
+    ours, ref = _read_both(bag)
+    if isinstance(ours, dict) and isinstance(ref, dict):
+        assert ours.keys() == ref.keys() and all(np.array_equal(ours[k], ref[k]) for k in ours)
+    else:
+        assert isinstance(ours, OptinavError) and isinstance(ref, OptinavError)
+
+
 def test_triad_shares_only_an_n_by_3_array():
     """read_imu takes the columns of one row-major (n, 3) array back whole; other columns are stacked copies."""
     from optinav.io.imu import _triad

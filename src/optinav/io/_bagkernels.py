@@ -44,7 +44,7 @@ _i64 = _loader(types.int64, ir.IntType(64))
 _f8 = _loader(types.float64, ir.DoubleType())
 
 #: statuses of the walkers (0: the range is done)
-OK, CHANNEL, TRUNCATED, MALFORMED, FULL, ROWID_ORDER, TIME_ORDER = 0, 1, 2, 3, 4, 5, 6
+OK, CHANNEL, TRUNCATED, MALFORMED, FULL, ROWID_ORDER, TIME_ORDER, SPAN = 0, 1, 2, 3, 4, 5, 6, 7
 
 
 @numba.njit(**_NJ)
@@ -68,10 +68,12 @@ def touch_pages(buf, pages, psize):
 
 
 @numba.njit(**_NJ)
-def mcap_walk(buf, pos, end, chans, off, size, logt, k):
+def mcap_walk(buf, pos, end, chans, off, size, logt, k, t0, t1):
     """Records of an MCAP chunk's ``buf[pos:end]``: Message ``0x05`` of a channel with ``chans[id]`` set adds
     (data offset, data size, log time) at row ``k``. Returns (status, pos, k): CHANNEL stops at a Channel
-    record for the caller to read; TRUNCATED/MALFORMED a record that does not fit; FULL the arrays."""
+    record for the caller to read; TRUNCATED/MALFORMED a record that does not fit; FULL the arrays; SPAN a log
+    time outside the chunk's message span ``[t0, t1]`` (unless both are 0: not set)."""
+    spanned = t0 != 0 or t1 != 0
     while pos < end:
         if pos + 9 > end:
             return TRUNCATED, pos, k
@@ -83,9 +85,12 @@ def mcap_walk(buf, pos, end, chans, off, size, logt, k):
             if chans[_u16(buf, pos + 9)]:
                 if k == off.size:
                     return FULL, pos, k
+                t = _i64(buf, pos + 15)
+                if spanned and (t < t0 or t > t1):
+                    return SPAN, pos, k
                 off[k] = pos + 31
                 size[k] = n - 22
-                logt[k] = _i64(buf, pos + 15)
+                logt[k] = t
                 k += 1
         elif op == 0x04:
             return CHANNEL, pos, k
@@ -358,7 +363,7 @@ def warm() -> None:
     i64 = np.zeros(4, dtype=np.int64)
     touch(buf, 0, 64)
     touch_pages(buf, i64[:0], 64)
-    mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0)
+    mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
     v = np.zeros((1, 3))

@@ -268,19 +268,18 @@ def _mcap_chunk(mm, u8: np.ndarray, start: int, n: int, topic: str, chans: set, 
         raw = b8
     if raw.size != usize or (crc and zlib.crc32(raw) != crc):
         raise NotFast("chunk size or CRC mismatch")
-    out = _mcap_records(buf, b8, pos, pos + raw.size, topic, chans, rows, touched)
     # a log time outside the chunk's own message span is damage (rosbags then reads the bag, as it would)
     top = np.iinfo(np.int64).max
-    t0, t1 = (min(_U64.unpack_from(mm, start + k)[0], top) for k in (0, 8))
-    if out is not None and (t0 or t1) and (np.any(out[3] < t0) or np.any(out[3] > t1)):  # (0, 0): span not set
-        raise NotFast("a message's log time outside its chunk's span")
+    span = tuple(min(_U64.unpack_from(mm, start + k)[0], top) for k in (0, 8))  # (0, 0): span not set
+    out = _mcap_records(buf, b8, pos, pos + raw.size, topic, chans, rows, touched, span)
     if out is not None:
         yield out
 
 
-def _mcap_records(buf, u8: np.ndarray, pos: int, end: int, topic: str, chans: set, rows: _Rows, touched=False):
+def _mcap_records(buf, u8: np.ndarray, pos: int, end: int, topic: str, chans: set, rows: _Rows, touched, span):
     """The block of the chunk records ``u8[pos:end]`` (``buf``: the same bytes for :mod:`struct`), walked by
-    :func:`optinav.io._bagkernels.mcap_walk`; a Channel record in the chunk is read here and the walk goes on."""
+    :func:`optinav.io._bagkernels.mcap_walk`; a Channel record in the chunk is read here and the walk goes on.
+    ``span``: the chunk's (start, end) log times."""
     from optinav.io import _bagkernels as kern
 
     rows.room((end - pos) // 31 + 1)  # a Message record holds at least 31 bytes
@@ -290,12 +289,14 @@ def _mcap_records(buf, u8: np.ndarray, pos: int, end: int, topic: str, chans: se
         kern.touch(u8, pos, end)
     k = 0
     while True:
-        status, pos, k = kern.mcap_walk(u8, pos, end, mask, rows.off, rows.size, rows.logt, k)
+        status, pos, k = kern.mcap_walk(u8, pos, end, mask, rows.off, rows.size, rows.logt, k, *span)
         if status != kern.CHANNEL:
             break
         _mcap_channel(buf, pos + 9, topic, chans)
         mask[list(chans)] = True
         pos += 9 + _U64.unpack_from(buf, pos + 1)[0]
+    if status == kern.SPAN:
+        raise NotFast("a message's log time outside its chunk's span")
     _walked(status, "an MCAP chunk")
     return rows.block(u8, k)
 
