@@ -4,23 +4,30 @@ The same samples (time, accelerometer, gyroscope; float64) are written as a Parq
 default row groups) and as ROS bags of ``sensor_msgs/msg/Imu`` messages: ROS 2 sqlite3, ROS 2 mcap and ROS 1
 (rosbags' writers; the message bytes are rosbags' serialization of one message with the stamp and values
 patched in, which keeps writing 3.6 M messages to minutes). Each reading runs in a fresh process: the time
-of the read (best of ``REPEAT`` for Parquet, one read for bags) and the growth of the peak resident set over
+of the read (best of ``REPEAT`` for Parquet and optinav's reading of bags, one read for rosbags and for a fresh
+process's first read) and the growth of the peak resident set over
 the resident set after the imports (``VmHWM`` and ``VmRSS`` of ``/proc/self/status``, Linux; not
 ``getrusage``, whose peak survives the exec and so includes the parent's; the peak is reset after the imports
 through ``/proc/self/clear_refs``; pyarrow allocates outside Python, so tracemalloc would miss it).
 
 Methods side by side: ``pyarrow.parquet.read_table`` of the file (the reference: an Arrow table, no conversion);
-``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check);
+``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check; the
+bag scanners' numba kernels loaded and rosbags' type stores imported before the timing, like the other imports),
+and of each bag once more, the first read of a process with only ``optinav.io`` imported before the timing
+(rosbags' imports, numba's import and start — about 1.5 s, which any optinav pipeline using numba pays once — and
+the first allocations from the OS inside it);
 for each bag rosbags' own iteration over the raw messages (``AnyReader.messages``, no decoding: what reading
 through rosbags costs at least), and for the sqlite3 bag rosbags' per-message deserializer
 (``AnyReader.deserialize``), the usual way to read a bag in Python. Target (issue 14): the reader no slower than
-2x pyarrow. Quick: 100 000 samples. ``python benchmarks/bench_readers.py RESULTS.json`` prints the Markdown
+2x pyarrow. ``OPTINAV_BENCH_BEFORE=SRC`` adds the reading of each bag by the optinav whose source is in SRC,
+in the same run (before/after a change). Quick: 100 000 samples. ``python benchmarks/bench_readers.py RESULTS.json`` prints the Markdown
 table of a results file (results_readers.md).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -30,6 +37,8 @@ import numpy as np
 
 RATE = 1000.0
 REPEAT = 3
+#: the ``src`` folder of an earlier optinav, whose read_imu of each bag is timed beside this one's in the same run
+BEFORE = os.environ.get("OPTINAV_BENCH_BEFORE")
 
 _CHILD = r"""
 import json, sys, time
@@ -59,10 +68,22 @@ elif kind == "rosbags":
                 a = m.linear_acceleration
                 acc[i] = (a.x, a.y, a.z)
         return acc.shape[0]
+elif kind == "optinav-cold":
+    from optinav.io import read_imu  # the rest (pyarrow or rosbags, numba and its kernels) inside the timing
+    def read():
+        return len(read_imu(path))
 else:
     from optinav.io import read_imu
     import optinav.io.parquet, optinav.io.rosbag  # noqa: F401 - imports outside the timing
     import pyarrow.parquet, rosbags.highlevel  # noqa: F401
+    import rosbags.typesys.stores.latest, rosbags.typesys.stores.ros1_noetic  # noqa: F401 - the type stores
+    if not path.endswith(".parquet"):
+        try:
+            from optinav.io import _bagkernels
+        except ImportError:  # an optinav before the compiled scanners (OPTINAV_BENCH_BEFORE)
+            _bagkernels = None
+        if _bagkernels is not None:
+            _bagkernels.warm()  # numba's start and the kernels' cached code, outside the timing like the imports
     def read():
         return len(read_imu(path))
 def status_kib(key):
@@ -82,8 +103,11 @@ print(json.dumps({"n": n, "seconds": best, "peak_growth_mib": (peak - base) / 10
 """
 
 
-def _child(kind: str, path: Path, repeat: int) -> dict:
-    proc = subprocess.run([sys.executable, "-c", _CHILD, kind, str(path), str(repeat)], capture_output=True, text=True)
+def _child(kind: str, path: Path, repeat: int, src: str | None = None) -> dict:
+    env = None if src is None else {**os.environ, "PYTHONPATH": src}
+    proc = subprocess.run(
+        [sys.executable, "-c", _CHILD, kind, str(path), str(repeat)], capture_output=True, text=True, env=env
+    )
     if proc.returncode != 0:
         raise RuntimeError(f"{kind} {path.name} failed: {proc.stderr.strip()[-400:]}")
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -231,7 +255,9 @@ def run(quick: bool) -> list[dict]:
         for kind, label in (("sqlite3", "ROS 2 sqlite3 bag"), ("mcap", "ROS 2 mcap bag"), ("ros1", "ROS 1 bag")):
             bag = _write_bag(d / f"imu_{kind}", kind, ns, acc, gyr)
             _check(bag, ns, acc, gyr)
-            res = _child("optinav", bag, 1)
+            if os.environ.get("OPTINAV_BENCH_BEFORE"):  # another optinav's source tree, read in the same run
+                add("optinav read_imu, before (OPTINAV_BENCH_BEFORE)", _child("optinav", bag, REPEAT, BEFORE), label)
+            res = _child("optinav", bag, REPEAT)
             add("optinav read_imu", res, label)
             rows.append(
                 {
@@ -242,6 +268,8 @@ def run(quick: bool) -> list[dict]:
                     "unit": "x",
                 }
             )
+            cold = _child("optinav-cold", bag, 1)
+            add("optinav read_imu, fresh process (imports and numba's start timed)", cold, label)
             add("rosbags raw iteration (no decoding)", _child("rosbags-raw", bag, 1), label)
             if kind == "sqlite3":
                 add("rosbags deserialize per message", _child("rosbags", bag, 1), label)
@@ -260,7 +288,8 @@ def table(results: dict) -> str:
     out = [
         "# Reading a 1-hour 1 kHz IMU log (benchmarks/bench_readers.py)\n",
         f"{rows[0]['group']}; {meta['date']}, Python {meta['python']}, a shared 2-core machine (wall times vary "
-        "with the load). One run per bag, best of 3 for Parquet; peak memory is the growth of the resident set "
+        "with the load). Best of 3 reads in one process for Parquet and for optinav's reading of bags, one read "
+        "for rosbags and for a fresh process; peak memory is the growth of the resident set "
         "over the one after the imports.\n",
         "| file | method | time [s] | time / pyarrow | peak memory growth [MiB] |",
         "|---|---|---:|---:|---:|",

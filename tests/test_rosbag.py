@@ -412,6 +412,87 @@ def test_many_messages_cross_the_decoding_blocks(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_sqlite_arrays_grow_past_the_first_block_estimate(tmp_path, monkeypatch):
+    """One leaf page per block and the strings first: the first block holds no Imu message, so the estimate the
+    arrays start from is far below the topic's count; they grow and every value is there."""
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(19)
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data="z" * 900)) for k in range(20)]
+    bag = write_bag(tmp_path / "g", "sqlite3-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    rows = []
+    blocks = list(bagscan.sqlite_blocks(bag, "/imu", rows))
+    assert rows and rows[0] < 400 and len(blocks) > 5
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_offsets_outside_a_block_fall_back_to_rosbags(tmp_path, monkeypatch):
+    """A scanner handing out a message past its block's bytes is never read past: rosbags reads the topic."""
+    from optinav.io import bagscan
+
+    real = bagscan.blocks
+
+    def shifted(*a):
+        out = real(*a)
+        return None if out is None else ((buf, off + len(buf), size, logt) for buf, off, size, logt in out)
+
+    monkeypatch.setattr(bagscan, "blocks", shifted)
+    rng = np.random.default_rng(20)
+    msgs, t, gyr, acc = imu_topic(rng, n=30)
+    log = read_imu(write_bag(tmp_path / "m", "mcap", {"/imu": (IMU, msgs)}))
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_mcap_log_time_outside_its_chunk_goes_to_rosbags(tmp_path):
+    """One Imu message's log time moved past its chunk's message span: the scanner refuses the chunk and the
+    values are rosbags' own (its reader of record), whatever it makes of the contradiction."""
+    import struct
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(21)
+    msgs, *_ = imu_topic(rng, n=30)
+    bag = write_bag(tmp_path / "s", "mcap-file", {"/imu": (IMU, msgs)})
+    raw = bytearray(bag.read_bytes())
+    with open(bag, "rb") as fh:
+        chans, offsets = bagscan._mcap_index(fh, "/imu")
+    start = offsets[0] + 9
+    end_time = struct.unpack_from("<Q", raw, start + 8)[0]
+    p = start + 32 + struct.unpack_from("<I", raw, start + 28)[0] + 8  # the chunk's first record
+    while raw[p] != 0x05:
+        p += 9 + struct.unpack_from("<Q", raw, p + 1)[0]
+    struct.pack_into("<Q", raw, p + 15, end_time + 10**9)  # the first message's log time, 1 s past the span
+    bag.write_bytes(bytes(raw))
+    with pytest.raises(bagscan.NotFast, match="span"):
+        list(bagscan._mcap(bag, "/imu"))
+    ours, ref = _read_both(bag)
+    if isinstance(ours, dict) and isinstance(ref, dict):
+        assert ours.keys() == ref.keys() and all(np.array_equal(ours[k], ref[k]) for k in ours)
+    else:
+        assert isinstance(ours, OptinavError) and isinstance(ref, OptinavError)
+
+
+def test_triad_shares_only_an_n_by_3_array():
+    """read_imu takes the columns of one row-major (n, 3) array back whole; other columns are stacked copies."""
+    from optinav.io.imu import _triad
+
+    x = np.arange(30.0).reshape(10, 3)
+    got = _triad([x[:, 0], x[:, 1], x[:, 2]])
+    assert np.array_equal(got, x) and np.shares_memory(got, x)
+    got = _triad([x[:4, 0], x[:4, 1], x[:4, 2]])
+    assert got.shape == (4, 3) and np.array_equal(got, x[:4])
+    wide = np.arange(70.0).reshape(10, 7)
+    for cols in ([wide[:, 1], wide[:, 2], wide[:, 3]], [x[:, 1], x[:, 0], x[:, 2]], [x[:, 0], x[:, 1], x[:, 1]]):
+        got = _triad(cols)
+        assert np.array_equal(got, np.column_stack(cols)) and not any(np.shares_memory(got, c) for c in cols)
+
+
 def test_topic_choice(tmp_path):
     rng = np.random.default_rng(4)
     m1, t1, g1, a1 = imu_topic(rng)

@@ -449,6 +449,23 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, 
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
 
 
+def _triad(cols: list[np.ndarray]) -> np.ndarray:
+    """The (n, 3) array of three columns: a view of the memory they share when they are the columns 0, 1, 2 of
+    one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's), else a stacked
+    copy (the strided copy costs about as much as decoding the bag)."""
+    a = cols[0]
+    base, item = a.base, a.itemsize
+    ptr = [c.__array_interface__["data"][0] for c in cols]
+    if (
+        base is not None
+        and all(c.base is base and c.ndim == 1 and c.dtype == a.dtype and c.shape == a.shape for c in cols)
+        and all(c.strides == (3 * item,) for c in cols)
+        and ptr == [ptr[0], ptr[0] + item, ptr[0] + 2 * item]
+    ):
+        return np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item))
+    return np.column_stack(cols)
+
+
 def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
     """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
     the file's check of that is the caller's)."""
@@ -529,7 +546,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             tri = arr
             srcs = [name]
         elif comps:
-            tri = np.column_stack([found[c][1] for c in _COMPONENTS[kind]])
+            tri = _triad([found[c][1] for c in _COMPONENTS[kind]])
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue

@@ -7,14 +7,15 @@ gives the columns ``t`` (header stamp, s), ``ax ay az`` (``linear_acceleration``
 Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
 
 The raw messages of a topic come in blocks straight from the storage (:mod:`optinav.io.bagscan`; rosbags'
-iteration when the scanners do not read the bag) and are decoded with numpy from their fixed byte layout (checked
-against ``rosbags``' own deserializer on the first message); messages of another length are deserialized one by
-one.
+iteration when the scanners do not read the bag) and are decoded from their fixed byte layout by a compiled
+gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
+(n, 3) arrays; messages of another length are deserialized one by one.
 """
 
 from __future__ import annotations
 
 import itertools
+import sys
 import warnings
 from pathlib import Path
 
@@ -106,17 +107,18 @@ def load_bag(path, *, topic=None, only=None):
     (imu_topic, (t, t_log, vals)), mag = got
     table = Table(path=path, kind="rosbag", data={})
     table.data["t"] = _time_base(path, imu_topic, t, t_log)
+    gyr, acc = vals  # (n, 3) each: the columns are their views, which read_imu takes back whole
     for j, a in enumerate("xyz"):
-        table.data[f"a{a}"] = vals[:, 3 + j]
+        table.data[f"a{a}"] = acc[:, j]
     for j, a in enumerate("xyz"):
-        table.data[f"g{a}"] = vals[:, j]
+        table.data[f"g{a}"] = gyr[:, j]
     table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
     table.meta.update({"topic": imu_topic, "frame": "sensor_msgs/Imu"})
     if mag is not None:
         mag_topic, (tm, tm_log, b) = mag
         tm = _time_base(path, mag_topic, tm, tm_log)
         for j, a in enumerate("xyz"):
-            table.data[f"m{a}"] = _resample(tm, b[:, j], table.data["t"])
+            table.data[f"m{a}"] = _resample(tm, b[0][:, j], table.data["t"])
             table.units[f"m{a}"] = "T"
         table.meta["mag_topic"] = mag_topic
     return table
@@ -215,7 +217,7 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             if name is None:
                 out.append(None)
                 continue
-            # the table's row count bounds the topic's: the arrays are cut to the messages found
+            # an estimate of the topic's messages from the first block: the decoder's arrays grow past it
             rows = []
             gens = [bagscan.sqlite_blocks(f, name, rows) for f in files]
             first = [next(g, None) for g in gens]
@@ -224,6 +226,7 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             )
             size = sum(f.stat().st_size for f in files)
             topics[name]["count"] = min(sum(rows), size // _MIN_MSG_BYTES) if any(first) else 0
+            topics[name]["grow"] = True
             _require_messages(path, name, topics[name]["count"])
             out.append((name, _read_topic(types, path, name, topics[name], blocks=blocks)))
         return tuple(out)
@@ -380,7 +383,8 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
             "more than the file can hold",
             "reindex the bag (ros2 bag reindex / rosbag reindex)",
         )
-    dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count)
+    grow = info.get("grow", False)  # count is an estimate (sqlite3): the arrays grow past it
+    dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count, grow=grow)
     fast = bagscan.blocks(reader, path, topic) if blocks is None else blocks
     done = None
     if fast is not None:
@@ -403,17 +407,17 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
                 f"message(s) ({_why(exc)})",
                 "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)",
             ) from None
-    if dec.done > count:
+    if dec.done > count and not grow:
         raise OptinavError(
             f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
             "reindex the bag (ros2 bag reindex / rosbag reindex)",
         )
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
-    stamp, logt, vals = dec.stamp[:done], dec.logt[:done], dec.vals[:done]
-    if np.any(np.diff(logt) < 0):  # the storage's record order; rosbags yields log-time order (ties: as stored)
+    stamp, logt, vals = dec.stamp[:done], dec.logt[:done], tuple(v[:done] for v in dec.vals)
+    if np.any(logt[1:] < logt[:-1]):  # the storage's record order; rosbags yields log-time order (ties: as stored)
         order = np.argsort(logt, kind="stable")
-        stamp, logt, vals = stamp[order], logt[order], vals[order]
+        stamp, logt, vals = stamp[order], logt[order], tuple(v[order] for v in vals)
     return stamp, logt * 1e-9, vals
 
 
@@ -438,15 +442,29 @@ def _joined(chunk: list, times: list):
 
 
 class _Decoder:
-    """Decodes blocks ``(buf, off, size, logt)`` into preallocated stamp, log-time and value arrays: messages of
-    the fixed layout with numpy, the others with ``rosbags``' deserializer."""
+    """Decodes blocks ``(buf, off, size, logt)`` into preallocated stamp, log-time and value arrays (Imu: gyr and
+    acc, MagneticField: mag, (n, 3) each): messages of the fixed layout with a compiled gather
+    (:func:`optinav.io._bagkernels.gather`; numpy on a big-endian host), the others with ``rosbags``'
+    deserializer. ``grow``: ``count`` is an estimate and the arrays grow past it."""
 
-    def __init__(self, reader, ros1: bool, msgtype: str, count: int):
-        self.reader, self.ros1, self.msgtype, self.count = reader, ros1, msgtype, count
+    def __init__(self, reader, ros1: bool, msgtype: str, count: int, *, grow: bool = False):
+        self.reader, self.ros1, self.msgtype, self.count, self.grow = reader, ros1, msgtype, count, grow
+        self.done = 0
+        self._alloc(count)
+
+    def _alloc(self, count: int) -> None:
+        self.count = count
         self.stamp = np.empty(count)
         self.logt = np.empty(count, dtype=np.int64)
-        self.vals = np.empty((count, 6 if msgtype == IMU_TYPE else 3))
-        self.done = 0
+        self.vals = tuple(np.empty((count, 3)) for _ in range(2 if self.msgtype == IMU_TYPE else 1))
+
+    def _resize(self, count: int) -> None:
+        old = self.stamp, self.logt, self.vals
+        self._alloc(count)
+        n = self.done
+        self.stamp[:n], self.logt[:n] = old[0][:n], old[1][:n]
+        for v, w in zip(self.vals, old[2]):
+            v[:n] = w[:n]
 
     def run(self, blocks, *, strict: bool) -> int:
         """Decode every block from row 0; the number of messages. ``strict``: more messages than the index
@@ -454,6 +472,8 @@ class _Decoder:
         self.done, layout = 0, None
         for buf, off, size, logt in blocks:
             n = size.size
+            if self.done + n > self.count and self.grow:
+                self._resize(max(2 * self.count, self.done + n))
             if self.done + n > self.count:
                 if strict:
                     raise ValueError("more messages than the index counts")
@@ -468,23 +488,49 @@ class _Decoder:
                 layout = layout or False  # False: every message through rosbags' deserializer
             rows = slice(self.done, self.done + n)
             self.logt[rows] = logt
-            fast = np.zeros(n, dtype=bool)
             if layout:
-                fast = size == layout[0].itemsize
-                arr = _gather(u8, off[fast], layout[0])
-                same = arr["len"] == layout[2]  # same size but another string length: a layout of its own
-                if not same.all():
-                    fast[np.flatnonzero(fast)[~same]] = False
-                    arr = arr[same]
-                at = rows if fast.all() else np.flatnonzero(fast) + self.done
-                self.stamp[at] = arr["sec"] + arr["nsec"] * 1e-9
-                for j, k in enumerate(layout[1]):
-                    self.vals[at, 3 * j : 3 * j + 3] = arr[k]
-            for j in np.flatnonzero(~fast):
+                other = self._fast(u8, off, size, layout)
+            else:
+                _inside(u8, off, size)
+                other = np.ones(n, dtype=bool)
+            for j in np.flatnonzero(other):
                 raw = bytes(u8[off[j] : off[j] + size[j]])
-                self.stamp[self.done + j], self.vals[self.done + j] = _slow(self.reader, raw, self.msgtype)
+                t, v = _slow(self.reader, raw, self.msgtype)
+                self.stamp[self.done + j] = t
+                for k, arr in enumerate(self.vals):
+                    arr[self.done + j] = v[3 * k : 3 * k + 3]
             self.done += n
         return self.done
+
+    def _fast(self, u8: np.ndarray, off: np.ndarray, size: np.ndarray, layout) -> np.ndarray:
+        """Decode the messages of ``layout`` at rows ``done…``; the mask of the others."""
+        dtype, names, slen = layout
+        if sys.byteorder == "little":
+            from optinav.io import _bagkernels as kern
+
+            o = [dtype.fields[k][1] for k in names] + [-1]
+            return kern.gather(
+                u8, off, size, dtype.itemsize, dtype.fields["sec"][1], not self.ros1, dtype.fields["len"][1], slen,
+                o[0], o[1], self.stamp, self.vals[0], self.vals[-1], self.done,
+            )  # fmt: skip
+        _inside(u8, off, size)
+        fast = size == dtype.itemsize
+        arr = _gather(u8, off[fast], dtype)
+        same = arr["len"] == slen  # same size but another string length: a layout of its own
+        if not same.all():
+            fast[np.flatnonzero(fast)[~same]] = False
+            arr = arr[same]
+        at = np.flatnonzero(fast) + self.done
+        self.stamp[at] = arr["sec"] + arr["nsec"] * 1e-9
+        for j, k in enumerate(names):
+            self.vals[j][at] = arr[k]
+        return ~fast
+
+
+def _inside(u8: np.ndarray, off: np.ndarray, size: np.ndarray) -> None:
+    """Refuse a block whose messages reach outside its bytes (the scanner's offsets: never read past them)."""
+    if off.size and (off.min() < 0 or size.min() < 0 or (off + size).max() > u8.size):
+        raise ValueError("a message outside its block")
 
 
 def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:

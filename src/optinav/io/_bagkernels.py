@@ -1,0 +1,370 @@
+"""Compiled record walkers of :mod:`optinav.io.bagscan` and the field gather of :mod:`optinav.io.rosbag`.
+
+One pass per chunk or block of pages over the storage's bytes (numba, ``cache=True``): a record of the wanted
+topic adds its message's offset, size and log time to preallocated arrays; anything these walkers do not expect
+returns a status, and the caller raises :class:`~optinav.io.bagscan.NotFast` (``rosbags`` then reads the topic).
+Layouts: MCAP (mcap.dev/spec), ROS 1 bag 2.0 (wiki.ros.org/Bags/Format/2.0), SQLite table b-tree leaves
+(sqlite.org/fileformat2.html). Replaces numpy run finding whose per-run calls and passes over the bytes cost more
+than the walk. Integers and floats are loaded straight from the bytes (unaligned, little-endian: the scanners
+run these only on a little-endian host).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+_NJ = dict(cache=True, nogil=True)
+
+
+def _loader(nbtype, lltype):
+    """An intrinsic ``load(u8, pos)``: the value of ``nbtype`` in the bytes of ``u8`` from ``pos`` — one
+    unaligned load, where numba's indexing would load byte by byte, each with a negative-index check. The callers
+    keep ``pos`` within the array."""
+
+    @intrinsic
+    def load(typingctx, arr, pos):
+        def codegen(context, builder, signature, args):
+            ary = context.make_array(signature.args[0])(context, builder, args[0])
+            ptr = builder.gep(ary.data, [args[1]])
+            return builder.load(builder.bitcast(ptr, lltype.as_pointer()), align=1)
+
+        return nbtype(arr, pos), codegen
+
+    return load
+
+
+_u8 = _loader(types.uint8, ir.IntType(8))
+_u16 = _loader(types.uint16, ir.IntType(16))
+_u32 = _loader(types.uint32, ir.IntType(32))
+_i64 = _loader(types.int64, ir.IntType(64))
+_f8 = _loader(types.float64, ir.DoubleType())
+
+#: statuses of the walkers (0: the range is done)
+OK, CHANNEL, TRUNCATED, MALFORMED, FULL, ROWID_ORDER, TIME_ORDER, SPAN = 0, 1, 2, 3, 4, 5, 6, 7
+
+
+@numba.njit(**_NJ)
+def touch(buf, start, stop):
+    """Read one byte of every 64 of ``buf[start:stop]`` in order (returns their sum): the map's pages fault in and
+    the lines stream into the cache at the memory's bandwidth, so the walk that follows (a chain of dependent
+    loads, one record's length giving the next record's place) finds them there instead of waiting on each."""
+    s = np.int64(0)
+    for i in range(max(start, 0), min(stop, buf.size), 64):
+        s += _u8(buf, i)
+    return s
+
+
+@numba.njit(**_NJ)
+def touch_pages(buf, pages, psize):
+    """:func:`touch` for the pages ``pages`` (numbers from 1) of ``psize`` bytes."""
+    s = np.int64(0)
+    for pg in pages:
+        s += touch(buf, (pg - 1) * psize, pg * psize)
+    return s
+
+
+@numba.njit(**_NJ)
+def mcap_walk(buf, pos, end, chans, off, size, logt, k, t0, t1):
+    """Records of an MCAP chunk's ``buf[pos:end]``: Message ``0x05`` of a channel with ``chans[id]`` set adds
+    (data offset, data size, log time) at row ``k``. Returns (status, pos, k): CHANNEL stops at a Channel
+    record for the caller to read; TRUNCATED/MALFORMED a record that does not fit; FULL the arrays; SPAN a log
+    time outside the chunk's message span ``[t0, t1]`` (unless both are 0: not set)."""
+    spanned = t0 != 0 or t1 != 0
+    while pos < end:
+        if pos + 9 > end:
+            return TRUNCATED, pos, k
+        n = _i64(buf, pos + 1)
+        if n < 0 or n > end - pos - 9:
+            return MALFORMED, pos, k
+        op = _u8(buf, pos)
+        if op == 0x05 and n >= 22:
+            if chans[_u16(buf, pos + 9)]:
+                if k == off.size:
+                    return FULL, pos, k
+                t = _i64(buf, pos + 15)
+                if spanned and (t < t0 or t > t1):
+                    return SPAN, pos, k
+                off[k] = pos + 31
+                size[k] = n - 22
+                logt[k] = t
+                k += 1
+        elif op == 0x04:
+            return CHANNEL, pos, k
+        pos += 9 + n
+    return OK, pos, k
+
+
+@numba.njit(**_NJ)
+def _is(buf, a, b, name):
+    """The bytes ``buf[a:b]`` equal ``name``."""
+    if b - a != name.size:
+        return False
+    for j in range(name.size):
+        if buf[a + j] != name[j]:
+            return False
+    return True
+
+
+@numba.njit(**_NJ)
+def _eq(buf, a, b, n):
+    """``buf[a:a + n]`` equals ``buf[b:b + n]`` (eight bytes at a time)."""
+    j = 0
+    while j + 8 <= n:
+        if _i64(buf, a + j) != _i64(buf, b + j):
+            return False
+        j += 8
+    while j < n:
+        if _u8(buf, a + j) != _u8(buf, b + j):
+            return False
+        j += 1
+    return True
+
+
+_OP, _CONN, _TIME = (np.frombuffer(s, dtype=np.uint8).copy() for s in (b"op", b"conn", b"time"))
+
+
+@numba.njit(**_NJ)
+def ros1_walk(buf, pos, end, conns, off, size, logt, k):
+    """Records of a ROS 1 chunk's ``buf[pos:end]`` (``header_len u32, fields (len u32, name=value)…, data_len
+    u32, data``): a message data record (op ``0x02``) of a connection in ``conns`` adds (data offset, data size,
+    log time ns from the ``time`` field sec u32, nsec u32) at row ``k``. A field's last occurrence counts, as in
+    :func:`optinav.io.bagscan._fields`; a header equal to the topic's last message's but for the time value is
+    not parsed again. Returns (status, pos, k)."""
+    opn, connn, timen = _OP, _CONN, _TIME
+    ref, ref_t = np.int64(-1), np.int64(0)  # header start and time value offset of the topic's last message
+    while pos < end:
+        if pos + 4 > end:
+            return TRUNCATED, pos, k
+        hlen = np.int64(_u32(buf, pos))
+        he = pos + 4 + hlen
+        if he + 4 > end:
+            return TRUNCATED, pos, k
+        ds = he + 4
+        de = ds + np.int64(_u32(buf, he))
+        if de > end:
+            return TRUNCATED, pos, k
+        same = ref >= 0 and hlen == np.int64(_u32(buf, ref))  # then both headers lie within the chunk
+        if (
+            same
+            and _eq(buf, ref + 4, pos + 4, ref_t - 4)
+            and _eq(buf, ref + ref_t + 8, pos + ref_t + 8, hlen - ref_t - 4)
+        ):
+            # byte for byte the header of the topic's last message (same length word) but the time value: the
+            # same fields, not parsed again
+            if k == off.size:
+                return FULL, pos, k
+            off[k] = ds
+            size[k] = de - ds
+            logt[k] = np.int64(_u32(buf, pos + ref_t)) * 1_000_000_000 + np.int64(_u32(buf, pos + ref_t + 4))
+            k += 1
+            ref = pos
+            pos = de
+            continue
+        op, conn, tpos = -1, np.int64(-1), np.int64(-1)
+        p = pos + 4
+        while p < he:
+            if p + 4 > he:
+                return MALFORMED, pos, k
+            q = p + 4 + np.int64(_u32(buf, p))
+            if q > he:
+                return MALFORMED, pos, k
+            eq = p + 4
+            while eq < q and buf[eq] != 0x3D:  # "="
+                eq += 1
+            if eq >= q:
+                return MALFORMED, pos, k
+            if _is(buf, p + 4, eq, opn):
+                op = buf[eq + 1] if q - eq - 1 == 1 else -2
+            elif _is(buf, p + 4, eq, connn):
+                conn = np.int64(_u32(buf, eq + 1)) if q - eq - 1 == 4 else np.int64(-2)
+            elif _is(buf, p + 4, eq, timen):
+                tpos = eq + 1 if q - eq - 1 == 8 else np.int64(-2)
+            p = q
+        if op < 0:
+            return MALFORMED, pos, k
+        if op == 0x02:
+            if conn < 0:
+                return MALFORMED, pos, k
+            mine = False
+            for c in conns:
+                mine |= c == conn
+            if mine:
+                if tpos < 0:
+                    return MALFORMED, pos, k
+                if k == off.size:
+                    return FULL, pos, k
+                off[k] = ds
+                size[k] = de - ds
+                logt[k] = np.int64(_u32(buf, tpos)) * 1_000_000_000 + np.int64(_u32(buf, tpos + 4))
+                k += 1
+                ref, ref_t = pos, tpos - pos
+        pos = de
+    return OK, pos, k
+
+
+@numba.njit(**_NJ)
+def _varint(buf, p, lim):
+    """(value, bytes) of the SQLite varint at ``p`` (at most 8 bytes here, none past ``lim``); bytes 0: longer or
+    past ``lim``."""
+    v = np.int64(0)
+    for j in range(8):
+        if p + j >= lim:
+            return v, 0
+        b = np.int64(_u8(buf, p + j))
+        v = (v << np.int64(7)) | (b & 0x7F)
+        if b < 0x80:
+            return v, j + 1
+    return v, 0
+
+
+@numba.njit(**_NJ)
+def _be(buf, p, n):
+    """Big-endian two's-complement integer of ``n`` (0–8) bytes at ``p``."""
+    if n == 0:
+        return np.int64(0)
+    v = np.int64(-1) if _u8(buf, p) >= 0x80 else np.int64(0)
+    for j in range(n):
+        v = (v << np.int64(8)) | np.int64(_u8(buf, p + j))
+    return v
+
+
+#: SQLite serial type → bytes of an integer field (7 is a float, ≥ 10 reserved or a string)
+_INT_BYTES = np.array([0, 1, 2, 3, 4, 6, 8, -1, 0, 0], dtype=np.int64)
+
+
+@numba.njit(**_NJ)
+def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
+    """The cells of the table b-tree leaf ``pages`` (type 13, header 8 bytes) in key order, each ``payload size,
+    rowid`` varints and a record ``header size, serial types…`` of (id — stored NULL —, topic_id, timestamp, data
+    blob): a cell whose topic id is in ``ids`` adds (data offset in the file, data size, timestamp) at the next
+    row. ``last``: (rowid, timestamp) of the previous block's last cell and message, updated. Returns (status,
+    cells, rows): MALFORMED for a page, cell or record of another layout or a message on overflow pages,
+    ROWID_ORDER for rowids not increasing, TIME_ORDER for message timestamps that decrease in rowid order."""
+    intb = _INT_BYTES
+    nbytes = buf.size
+    cells = 0
+    k = 0
+    # the topic's last message: record start, bytes of its header and topic id, payload size, stamp bytes, data size
+    ref, ref_n, ref_psz, ref_b2, ref_dlen = np.int64(-1), np.int64(0), np.int64(0), np.int64(0), np.int64(0)
+    for pg in pages:
+        base = (pg - 1) * psize
+        if pg < 1 or base + psize > nbytes or buf[base] != 13:
+            return MALFORMED, cells, k
+        cnt = (np.int64(buf[base + 3]) << 8) | buf[base + 4]
+        cells += cnt
+        for c in range(cnt):
+            q = base + 8 + 2 * c
+            ptr = (np.int64(buf[q]) << 8) | buf[q + 1]
+            if ptr < 8 + 2 * cnt or ptr >= psize:
+                return MALFORMED, cells, k
+            at = base + ptr
+            lim = min(at + 48, nbytes)  # the fields before the blob lie in the cell's first 48 bytes
+            psz, n1 = _varint(buf, at, lim)
+            rid, n2 = _varint(buf, at + n1, lim)
+            rec = at + n1 + n2
+            hs, n3 = _varint(buf, rec, lim)
+            if n1 == 0 or n2 == 0 or n3 == 0:
+                return MALFORMED, cells, k
+            if rid <= last[0]:
+                return ROWID_ORDER, cells, k
+            last[0] = rid
+            if ref >= 0 and psz == ref_psz and rec + ref_n + ref_b2 <= lim and _eq(buf, ref, rec, ref_n):
+                # record header and topic id byte for byte the topic's last message's, same payload size: the same
+                # serial types, not parsed again
+                if rec + psz > base + psize:
+                    return MALFORMED, cells, k
+                p = rec + ref_n
+                t = _be(buf, p, ref_b2)
+                if t < last[1]:
+                    return TIME_ORDER, cells, k
+                last[1] = t
+                if k == off.size:
+                    return FULL, cells, k
+                off[k] = p + ref_b2
+                size[k] = ref_dlen
+                logt[k] = t
+                k += 1
+                continue
+            p = rec + n3
+            t0, n = _varint(buf, p, lim)
+            p += n
+            t1, n4 = _varint(buf, p, lim)
+            p += n4
+            t2, n5 = _varint(buf, p, lim)
+            p += n5
+            t3, n6 = _varint(buf, p, lim)
+            p += n6
+            if n == 0 or n4 == 0 or n5 == 0 or n6 == 0 or p != rec + hs or t0 != 0 or t1 > 9 or t2 > 9:
+                return MALFORMED, cells, k
+            b1, b2 = intb[t1], intb[t2]
+            if b1 < 0 or b2 < 0 or p + b1 + b2 > lim:
+                return MALFORMED, cells, k
+            topic = _be(buf, p, b1) + (1 if t1 == 9 else 0)
+            mine = False
+            for i in ids:
+                mine |= i == topic
+            if not mine:
+                continue
+            dlen = (t3 - 12) // 2
+            if t3 < 12 or t3 % 2 == 1 or psz != hs + b1 + b2 + dlen or psz > usable - 35:
+                return MALFORMED, cells, k
+            if rec + psz > base + psize:  # the payload past its page: a damaged pointer or size
+                return MALFORMED, cells, k
+            t = _be(buf, p + b1, b2)
+            if t < last[1]:
+                return TIME_ORDER, cells, k
+            last[1] = t
+            if k == off.size:
+                return FULL, cells, k
+            off[k] = p + b1 + b2
+            size[k] = dlen
+            logt[k] = t
+            k += 1
+            ref, ref_n, ref_psz, ref_b2, ref_dlen = rec, p + b1 - rec, psz, b2, dlen
+    return OK, cells, k
+
+
+@numba.njit(**_NJ)
+def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, stamp, va, vb, row0):
+    """Messages ``buf[off[i]:off[i] + size[i]]`` of the fixed layout (``itemsize`` bytes, string length ``slen``
+    at ``o_len``): stamp (sec u32 or i32 at ``o_sec``, nsec u32 after it, s) and the float64 triads at ``o_a``
+    into ``va`` and, unless ``o_b`` < 0, at ``o_b`` into ``vb`` ((n, 3) arrays), written at row ``row0 + i``.
+    Returns the mask of the messages of another layout (left for the deserializer)."""
+    n = off.size
+    other = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        p = off[i]
+        if p < 0 or size[i] < 0 or p + size[i] > buf.size:
+            raise ValueError("a message outside its block")  # the scanner's offsets: never read past them
+        if size[i] != itemsize or np.int64(_u32(buf, p + o_len)) != slen:
+            other[i] = True
+            continue
+        sec = np.int64(_u32(buf, p + o_sec))
+        if signed_sec and sec >= 2**31:
+            sec -= 2**32
+        r = row0 + i
+        stamp[r] = sec + np.int64(_u32(buf, p + o_sec + 4)) * 1e-9
+        q = p + o_a
+        va[r, 0], va[r, 1], va[r, 2] = _f8(buf, q), _f8(buf, q + 8), _f8(buf, q + 16)
+        if o_b >= 0:
+            q = p + o_b
+            vb[r, 0], vb[r, 1], vb[r, 2] = _f8(buf, q), _f8(buf, q + 8), _f8(buf, q + 16)
+    return other
+
+
+def warm() -> None:
+    """Load every kernel (numba's start and the cached machine code, about a second in a fresh process) on a
+    few bytes, with the argument types the scanners pass: lets a benchmark time a read apart from that start."""
+    buf = np.frombuffer(bytes(64), dtype=np.uint8)  # read-only, as the file map and decompressed chunks are
+    i64 = np.zeros(4, dtype=np.int64)
+    touch(buf, 0, 64)
+    touch_pages(buf, i64[:0], 64)
+    mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
+    ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
+    sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
+    v = np.zeros((1, 3))
+    gather(buf, i64[:0], i64[:0], 1, 0, True, 0, 0, 0, -1, np.zeros(1), v, v, 0)
