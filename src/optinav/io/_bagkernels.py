@@ -74,6 +74,8 @@ def mcap_walk(buf, pos, end, chans, off, size, logt, k, t0, t1):
     record for the caller to read; TRUNCATED/MALFORMED a record that does not fit; FULL the arrays; SPAN a log
     time outside the chunk's message span ``[t0, t1]`` (unless both are 0: not set)."""
     spanned = t0 != 0 or t1 != 0
+    if pos < 0 or end > buf.size or chans.size < 1 << 16:  # the loads below are unchecked
+        return MALFORMED, pos, k
     while pos < end:
         if pos + 9 > end:
             return TRUNCATED, pos, k
@@ -136,6 +138,8 @@ def ros1_walk(buf, pos, end, conns, off, size, logt, k):
     not parsed again. Returns (status, pos, k)."""
     opn, connn, timen = _OP, _CONN, _TIME
     ref, ref_t = np.int64(-1), np.int64(0)  # header start and time value offset of the topic's last message
+    if pos < 0 or end > buf.size:  # the loads below are unchecked
+        return MALFORMED, pos, k
     while pos < end:
         if pos + 4 > end:
             return TRUNCATED, pos, k
@@ -255,6 +259,8 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
         if pg < 1 or base + psize > nbytes or buf[base] != 13:
             return MALFORMED, cells, k
         cnt = (np.int64(buf[base + 3]) << 8) | buf[base + 4]
+        if 8 + 2 * cnt > psize:  # the cell pointers past their page
+            return MALFORMED, cells, k
         cells += cnt
         for c in range(cnt):
             q = base + 8 + 2 * c
@@ -334,6 +340,8 @@ def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, s
     at ``o_len``): stamp (sec u32 or i32 at ``o_sec``, nsec u32 after it, s) and the float64 triads at ``o_a``
     into ``va`` and, unless ``o_b`` < 0, at ``o_b`` into ``vb`` ((n, 3) arrays), written at row ``row0 + i``.
     Returns the mask of the messages of another layout (left for the deserializer)."""
+    if o_len + 4 > itemsize or o_sec + 8 > itemsize or o_a + 24 > itemsize or o_b + 24 > itemsize:
+        raise ValueError("a field outside the message layout")  # the loads below are unchecked
     n = off.size
     other = np.zeros(n, dtype=np.bool_)
     for i in range(n):
