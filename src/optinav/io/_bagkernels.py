@@ -27,9 +27,9 @@ def _loader(nbtype, lltype):
 
     @intrinsic
     def load(typingctx, arr, pos):
-        def codegen(context, builder, signature, args):
-            ary = context.make_array(signature.args[0])(context, builder, args[0])
-            ptr = builder.gep(ary.data, [args[1]])
+        def codegen(context, builder, signature, values):
+            ary = context.make_array(signature.args[0])(context, builder, values[0])
+            ptr = builder.gep(ary.data, [values[1]])
             return builder.load(builder.bitcast(ptr, lltype.as_pointer()), align=1)
 
         return nbtype(arr, pos), codegen
