@@ -375,4 +375,4 @@ def warm() -> None:
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
     v = np.zeros((1, 3))
-    gather(buf, i64[:0], i64[:0], 1, 0, True, 0, 0, 0, -1, np.zeros(1), v, v, 0)
+    gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, np.zeros(1), v, v, 0)
