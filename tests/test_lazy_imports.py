@@ -73,6 +73,18 @@ def test_attitude_reports_a_bad_file_before_heavy_imports(tmp_path, kind, extra)
     assert not (tmp_path / "o.csv").exists()
 
 
+@pytest.mark.parametrize("kind", ["text_cell", "ragged_row"])
+def test_allan_reports_a_bad_file_before_heavy_imports(tmp_path, kind):
+    """``optinav allan`` streams the file into the Allan sums: the read error comes before scipy loads (the fit)."""
+    bad = tmp_path / "bad.csv"
+    bad.write_text(BAD_FILES[kind])
+    r = _probe(["allan", str(bad), "--out", str(tmp_path / "o.json")])
+    assert r["rc"] == 2
+    assert r["err"] and r["err"][0].startswith("optinav: error:") and "Traceback" not in r["err"][0]
+    assert r["loaded"] == [], f"imported before the read error: {r['loaded']}"
+    assert not (tmp_path / "o.json").exists()
+
+
 def test_attitude_checks_its_options_before_reading(tmp_path):
     """A bad estimator option is still refused before the file is read (here a file that does not exist)."""
     r = _probe(

@@ -26,7 +26,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
 
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array, check_positive
@@ -361,6 +360,8 @@ def allan_deviation_from_angle(
     AllanDeviation
         Arrays (n_tau, k): τ [s], deviation [rate unit].
     """
+    from scipy import stats  # lazily: a bad file is reported before scipy loads
+
     if noise != "auto" and noise not in NOISE_ALPHA:
         raise OptinavError(f"unknown noise type {noise!r}", f"use 'auto' or one of {sorted(NOISE_ALPHA)}")
     if not 0.0 < float(confidence) < 1.0:
@@ -570,6 +571,8 @@ def noise_parameters_from_allan(
 
 def _chi2_interval(value: np.ndarray, rel_sigma: np.ndarray, confidence: float) -> np.ndarray:
     """(2, k) interval of a deviation-like value read at a point of EDF 1/(2·rel_sigma²)."""
+    from scipy import stats  # lazily: a bad file is reported before scipy loads
+
     value, rel = np.asarray(value, float), np.asarray(rel_sigma, float)
     out = np.full((2, value.size), np.nan)
     ok = np.isfinite(value) & np.isfinite(rel) & (rel > 0)
@@ -697,6 +700,8 @@ def _inverted_interval(y, e, R, basis, c, free, i, floor, inflate, z) -> tuple[f
     """[lower, upper] of the variance coefficient c_i: every value c ≥ 0 with |ĉ_i − c| ≤ z·σ_i(c), where σ_i(c) is
     the std of ĉ_i when the true curve is the fit with c_i = c (its weights, the other terms as fitted). An
     upper bound that no finite value reaches (σ_i growing as fast as c/z) is inf."""
+    from scipy import optimize  # lazily: a bad file is reported before scipy loads
+
     cols = free.copy()
     cols[i] = True
     ci = float(c[i])
@@ -762,6 +767,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     AllanNoiseFit
         N [u·√s], B [u], K [u/√s], Q [u·s] with their std (u the rate unit).
     """
+    from scipy import stats  # lazily: a bad file is reported before scipy loads
     from scipy.optimize import nnls
 
     if not isinstance(result, AllanDeviation):
