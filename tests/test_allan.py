@@ -238,6 +238,21 @@ def test_fit_interval_is_the_set_the_fit_does_not_reject():
         kalibr_noise(unbounded, "gyroscope")
 
 
+def test_fit_and_its_intervals_scale_with_the_unit():
+    """The same record in another unit (rad/s → mrad/s or µ-scale values of a good gyro) gives the same fit and
+    intervals in that unit: no absolute tolerance on the variance coefficients (K² of a navigation gyro is
+    ~1e-16 (rad/s)²/s; a root finder's absolute x tolerance of 2e-12 once turned such intervals into [0, 0])."""
+    x, dt, _ = _three_term_record(23, n=2**15)
+    ref = fit_noise_model(allan_deviation(x, dt))
+    for scale in (1e-5, 1e3):
+        fit = fit_noise_model(allan_deviation(x * scale, dt))
+        for name in ("white", "bias_instability", "random_walk", "quantization"):
+            np.testing.assert_allclose(getattr(fit, name), getattr(ref, name) * scale, rtol=1e-6, atol=0)
+            np.testing.assert_allclose(
+                getattr(fit, name + "_interval"), getattr(ref, name + "_interval") * scale, rtol=1e-5, atol=0
+            )
+
+
 def test_read_off_intervals_and_fit_results_serialize():
     x, dt, truth = _three_term_record(22, n=2**15)
     ad = allan_deviation(x, dt, unit="rad/s")

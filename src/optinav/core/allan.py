@@ -721,13 +721,13 @@ def _inverted_interval(y, e, R, basis, c, free, i, floor, inflate, z) -> tuple[f
 
     lower = 0.0
     if ci > 0 and h(0.0, -1.0) > 0:
-        lower = optimize.brentq(h, 0.0, ci, args=(-1.0,), rtol=1e-6)
+        lower = optimize.brentq(h, 0.0, ci, args=(-1.0,), xtol=1e-9 * ci, rtol=1e-6)  # scale-free: c may be 1e-16
     s0 = sigma(ci)
     step = max(z * s0, ci, np.finfo(float).tiny)
     hi = ci + step
     for _ in range(60):
         if h(hi, 1.0) >= 0:
-            return lower, optimize.brentq(h, ci, hi, args=(1.0,), rtol=1e-6)
+            return lower, optimize.brentq(h, ci, hi, args=(1.0,), xtol=1e-9 * hi, rtol=1e-6)
         hi = ci + (hi - ci) * 4.0
     return lower, math.inf
 
