@@ -821,9 +821,9 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
             # their columns alone (a zero term's own std stays the unconstrained one)
             var = var.copy()
             var[free] = np.diag(np.linalg.pinv(Aw[:, free].T @ Aw[:, free]))
-        coef[use, j] = c
-        cstd[use, j] = np.sqrt(np.maximum(var, 0.0) * max(chi2[j], 1.0))
         inflate = max(chi2[j], 1.0)
+        coef[use, j] = c
+        cstd[use, j] = np.sqrt(np.maximum(var, 0.0) * inflate)
         for i in range(c.size):
             bounds[np.flatnonzero(use)[i], :, j] = _inverted_interval(y, e, R, basis, c, free, i, floor[j], inflate, z)
     value = np.sqrt(coef)

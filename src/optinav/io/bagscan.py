@@ -225,12 +225,13 @@ def _mcap(path: Path, topic: str):
         done.flush()
         return
     chans: set = set()
-    pos = 8
+    pos, done = 8, _Unmap(mm)
     while True:
         if pos + 9 > u8.size:
             raise NotFast("no Data End record")
         op, n = u8[pos], _U64.unpack_from(mm, pos + 1)[0]
         if op in (0x0F, 0x02):  # Data End, or a Footer straight after the data
+            done.flush()
             return
         if op == 0x05:
             raise NotFast("messages outside chunks")
@@ -240,7 +241,7 @@ def _mcap(path: Path, topic: str):
             _mcap_channel(mm, pos + 9, topic, chans)
         elif op == 0x06:
             yield from _mcap_chunk(mm, u8, pos + 9, n, topic, chans, rows)
-            _release(mm, pos, pos + 9 + n)
+            done.add(pos, pos + 9 + n)  # decoded by now
         pos += 9 + n
 
 
@@ -388,9 +389,9 @@ def _ros1(path: Path, topic: str):
     idx = ros1_index(path)
     conns = np.array(sorted(c for c, v in idx["conns"].items() if v[0] == topic), dtype=np.int64)
     mm, u8 = _map(path)
-    rows, done = _Rows(), _Unmap(mm)
+    rows, done, wanted = _Rows(), _Unmap(mm), set(conns.tolist())
     for pos, held in idx["chunks"]:
-        if not held & set(conns.tolist()):
+        if not held & wanted:
             continue
         if not idx["first"] <= pos < idx["index_pos"]:
             raise NotFast("chunk offset outside the data")
@@ -430,39 +431,22 @@ def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _
 # --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------
 
 
-def _be(u8: np.ndarray, pos: np.ndarray, size, *, signed: bool = True) -> np.ndarray:
-    """Big-endian integers of ``size`` bytes (0–8; one size, or one per element) at ``pos``, as int64."""
-    size = np.asarray(size, dtype=np.int64)
-    if size.ndim == 0 or size.size == 0 or bool(np.all(size == size.flat[0])):
-        top = int(size.flat[0]) if size.size else 0
-        if top == 0 or pos.size == 0:
-            return np.zeros(pos.shape, dtype=np.int64)
-        rows = windows(u8, pos, top)
-        if top not in (1, 2, 4, 8):
-            fill = (rows[:, :1] >= 0x80) * np.uint8(0xFF) if signed else np.zeros((rows.shape[0], 1), np.uint8)
-            rows = np.concatenate([np.repeat(fill, 8 - top, axis=1), rows], axis=1)
-            top = 8
-        return np.ascontiguousarray(rows).view(f">{'i' if signed else 'u'}{top}")[:, 0].astype(np.int64)
-    size = np.broadcast_to(size, pos.shape)
-    val = np.zeros(pos.shape, dtype=np.uint64)
-    for j in range(int(size.max(initial=0))):
-        on = size > j
-        val = np.where(on, (val << np.uint64(8)) | u8[np.where(on, pos + j, 0)], val)
-    if not signed:
-        return val.astype(np.int64)
-    shift = (64 - 8 * np.maximum(size, 1)).astype(np.uint64)
-    out = (val << shift).view(np.int64) >> shift.astype(np.int64)
-    return np.where(size > 0, out, 0)
+def _be(u8: np.ndarray, pos: np.ndarray, size: int) -> np.ndarray:
+    """Unsigned big-endian integers of ``size`` bytes (2 or 4: page headers, cell pointers, page numbers) at
+    ``pos``, as int64."""
+    if pos.size == 0:
+        return np.zeros(pos.shape, dtype=np.int64)
+    return np.ascontiguousarray(windows(u8, pos, size)).view(f">u{size}")[:, 0].astype(np.int64)
 
 
 def _cells(u8: np.ndarray, pages: np.ndarray, psize: int, hsize: int) -> tuple[np.ndarray, np.ndarray]:
     """(cells per page, byte offset in the file of each cell) of the b-tree ``pages``, cells in key order (the
     cell pointer array after the ``hsize``-byte page header)."""
     base = (pages - 1) * psize
-    cnt = _be(u8, base + 3, 2, signed=False)
+    cnt = _be(u8, base + 3, 2)
     pg = np.repeat(np.arange(pages.size), cnt)
     k = np.arange(pg.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ptr = _be(u8, base[pg] + hsize + 2 * k, 2, signed=False)
+    ptr = _be(u8, base[pg] + hsize + 2 * k, 2)
     if np.any(ptr < hsize + 2 * cnt[pg]) or np.any(ptr >= psize):
         raise NotFast("a cell pointer outside its page")
     return cnt, base[pg] + ptr
@@ -544,8 +528,8 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
         nxt = np.empty(cell.size + level.size, dtype=np.int64)
         left = np.ones(nxt.size, dtype=bool)
         left[right] = False
-        nxt[left] = _be(u8, cell, 4, signed=False)
-        nxt[right] = _be(u8, (level - 1) * psize + 8, 4, signed=False)
+        nxt[left] = _be(u8, cell, 4)
+        nxt[right] = _be(u8, (level - 1) * psize + 8, 4)
         level = nxt
     yield from _sqlite_leaves(mm, u8, level, psize, usable, np.array(sorted(ids), dtype=np.int64), rows)
 
