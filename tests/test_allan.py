@@ -223,6 +223,27 @@ def test_flicker_starts_stationary():
         assert np.all(np.abs(np.mean(x**2, axis=0) / var.sum() - 1) < tol)
 
 
+def test_phase_noise_only_before_the_first_frequency_noise_point():
+    """Quantization (white PM, slope −1) is a short-τ term: a steep drop at the last, few-cluster points is a
+    fluctuation, not phase noise, and must not get white-PM's EDF (≈ N/2 at any m, the weight of the whole record).
+    A three-term record whose last two points fell steeply had α = 2 there and EDF 87 382 at m = N/4 (the fit
+    then took a model floor of 1 and missed B); it is white FM now, EDF 4."""
+    from optinav.core.allan import _alpha_from_slopes, _edf
+
+    tau = 0.01 * 2.0 ** np.arange(12)
+    slope = np.array([-1, -1, -1, -0.5, -0.5, -0.5, 0, 0, 0, 0, 0, -1.2])  # deviation slopes, the last a drop
+    adev = np.exp(np.concatenate(([0.0], np.cumsum(slope[1:] * np.log(2.0)))))
+    alpha = _alpha_from_slopes(tau, adev[:, None])[:, 0]
+    assert np.all(alpha[:2] == 2) and not np.any(alpha[3:] == 2) and alpha[-1] == 0
+    n = 2**18
+    m = np.array([n // 4])
+    assert _edf(n + 1, m, np.array([0]))[0] < 5 < 80_000 < _edf(n + 1, m, np.array([2]))[0]
+    # on a simulated record: no point past the white-noise region is read as phase noise
+    x, dt, _ = _three_term_record(104)
+    ad = allan_deviation(x, dt)
+    assert not np.any(np.asarray(ad.alpha)[3:] == 2) and np.all(ad.edf[-1] < 10)
+
+
 def test_flicker_noise_floor():
     """Flicker noise of coefficient B has the flat Allan floor 0.664·B (IEEE 952 C.1.3) between short and long τ:
     inside the 1 − 1e-4 EDF interval of every point with 8 ≤ m ≤ N/64."""

@@ -160,12 +160,20 @@ def local_slope(tau, adev, *, span: float = 2.0) -> np.ndarray:
 
 
 def _alpha_from_slopes(tau: np.ndarray, adev: np.ndarray) -> np.ndarray:
-    """Noise type per point from the local log-log slope of the deviation (rounded to a power law)."""
+    """Noise type per point from the local log-log slope of the deviation (rounded to a power law).
+
+    Phase noise (α = 2, slope −1: quantization in rate data) is a short-τ term: it is kept only for the points
+    before the first frequency-noise one. Further out a slope of −1 is the fluctuation of an estimate from a few
+    clusters (the last two points of a record decide the slope there), and white-PM's EDF, about N/2 at any m,
+    would give that point the weight of the whole record; it is taken as white FM, the steepest frequency noise.
+    """
     if tau.size < 2:
         return np.zeros(adev.shape, dtype=int)
     slope = local_slope(tau, adev)
     mu = np.clip(np.rint(2.0 * np.nan_to_num(slope, nan=-0.5)), -2, 1).astype(int)  # variance slope
-    return np.select([mu == -2, mu == -1, mu == 0], [2, 0, -1], -2)
+    alpha = np.select([mu == -2, mu == -1, mu == 0], [2, 0, -1], -2)
+    past_pm = np.cumsum(alpha != 2, axis=0) > 0  # at or after the first frequency-noise point
+    return np.where((alpha == 2) & past_pm, 0, alpha)
 
 
 #: rows of θ differenced at a time: bounds the temporary memory of long records (≈ 8 MB per column)
