@@ -163,8 +163,8 @@ def test_matches_allantools_with_chunks(monkeypatch):
 def test_phase_noise_only_before_the_first_frequency_noise_point():
     """Quantization (white PM, slope −1) is a short-τ term: a steep drop at the last, few-cluster points is a
     fluctuation, not phase noise, and must not get white-PM's EDF (≈ N/2 at any m, the weight of the whole record).
-    A three-term record whose last two points fell steeply had α = 2 there and EDF 87 382 at m = N/4 (the fit
-    then took a model floor of 1 and missed B); it is white FM now, EDF 4."""
+    A three-term record whose last two points fell steeply had α = 2 there and EDF 87 382 at m = N/4 (the fit then
+    took a model floor of 1: N 9 % low, B 21 % high, K 0); it is white FM now, EDF 4 (N, B, K within 5 %)."""
     from optinav.core.allan import _alpha_from_slopes, _edf
 
     tau = 0.01 * 2.0 ** np.arange(12)
@@ -176,9 +176,13 @@ def test_phase_noise_only_before_the_first_frequency_noise_point():
     m = np.array([n // 4])
     assert _edf(n + 1, m, np.array([0]))[0] < 5 < 80_000 < _edf(n + 1, m, np.array([2]))[0]
     # on a simulated record: no point past the white-noise region is read as phase noise
-    x, dt, _ = _three_term_record(104)
+    x, dt, truth = _three_term_record(104)
     ad = allan_deviation(x, dt)
     assert not np.any(np.asarray(ad.alpha)[3:] == 2) and np.all(ad.edf[-1] < 10)
+    fit = fit_noise_model(ad)
+    assert fit.model_floor[1] == 0.0
+    for name in ("white", "bias_instability", "random_walk"):
+        assert getattr(fit, name)[1] == pytest.approx(truth[name][1], rel=0.05), name
 
 
 def test_flicker_noise_floor():
