@@ -15,7 +15,9 @@ array per field and keeps time, accelerometer and gyroscope (56 B per row) plus 
 static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
-simulators are generated whole. ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+simulators are generated whole, except ``simulate static`` (generated and written in blocks since its flicker noise
+is an FIR plus first-order processes): ``--simulate-static`` measures it before and after at 1 M and 3 M rows and after
+at 10 M rows (results_memory_simulate_static.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -394,6 +396,36 @@ def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
     path.write_text(json.dumps(results, indent=2) + "\n")
 
 
+#: the commit whose ``simulate static`` generated the whole log (one FFT over eight times its length)
+STATIC_BEFORE = "1448b49"
+
+
+def run_simulate_static(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate static`` (preset mems-mti1, 100 Hz, CSV) at each row count of
+    ``sizes`` with this tree ("after": generated and written in blocks) and with commit :data:`STATIC_BEFORE`
+    ("before": the whole log at once), and at ``after_only`` with this tree alone (the "before" would need about
+    6 GB there); the file is removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {"after": ROOT / "src"}
+        old = _before_src(Path(tmp), STATIC_BEFORE)
+        if old is not None:
+            versions["before"] = old
+        for rows in (*sizes, *after_only):
+            for version, src in versions.items():
+                if version == "before" and rows in after_only:
+                    continue
+                log = Path(tmp) / f"static{rows}.csv"
+                argv = ["simulate", "static", "--out", str(log), "--hours", f"{rows / 360000:.9g}", "--seed", "1"]
+                peak, wall, _ = _run(src, argv)
+                n = _rows_of(log)
+                out.append({"method": f"simulate static ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"simulate static ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                log.unlink()
+                log.with_suffix(".truth.json").unlink()
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -443,6 +475,9 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --simulate SIMULATE.json [ROWS ...]: the streamed simulator alone
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_simulate(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-static":
+        # python benchmarks/bench_memory.py --simulate-static STATIC.json: simulate static before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_static(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)

@@ -191,18 +191,15 @@ def run_accel_multipos(args) -> int:
 
 def run_static(args) -> int:
     """``optinav simulate static``: white + flicker + random-walk noise at rest, SI truth beside the data."""
-    from optinav.core.imu_model import preset, simulate_static
-    from optinav.core.progress import step
+    from optinav.core.imu_model import StaticLogStream, preset
+    from optinav.core.progress import progress, step
     from optinav.core.units import to_si
-    from optinav.io import ImuLog, write_imu
+    from optinav.io import ImuLog, open_imu_writer
 
     out = output_path(args.out)
     truth_path(out)
     rate = args.rate_hz or preset(args.preset).rate_hz
-    # measured: about 350 B per sample at the peak (the flicker FFT of one triad), 600 with margin
-    check_memory(round(args.hours * 3600 * rate), 600, "this log", "shorten --hours or lower --rate")
-    step("simulate")
-    s = simulate_static(
+    stream = StaticLogStream(
         args.hours * 3600,
         args.preset,
         rate_hz=rate,
@@ -210,13 +207,16 @@ def run_static(args) -> int:
         gyr_random_walk=to_si(args.gyro_rrw, "deg/h/sqrt(h)"),
         seed=args.seed,
     )
-    step("write")
-    write_imu(
-        out,
-        ImuLog(t=s.t, acc=s.acc, gyr=s.gyr, source="optinav simulate static"),
-        acc_unit=args.acc_unit,
-        gyro_unit=args.gyro_unit,
-    )
-    tp = write_truth(out, s.truth)
-    print(f"optinav: wrote {s.t.size} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
+    remedy = "shorten --hours or lower --rate"
+    if out.suffix.lower() in (".csv", ".tsv", ".txt"):
+        check_disk(stream.n, TEXT_BYTES_PER_ROW, out, "this log", remedy)
+    else:
+        # NPZ/HDF5/MAT hold whole arrays: the blocks are gathered before writing (text streams, memory bounded)
+        check_memory(stream.n, BINARY_BYTES_PER_ROW, "this log", "write .csv, or " + remedy)
+    step("simulate")
+    with open_imu_writer(out, acc_unit=args.acc_unit, gyro_unit=args.gyro_unit) as writer:
+        for t, acc, gyr in progress(stream.blocks(), total=stream.n_blocks(), desc="simulate static"):
+            writer.write(ImuLog(t=t, acc=acc, gyr=gyr, source="optinav simulate static"))
+    tp = write_truth(out, stream.truth)
+    print(f"optinav: wrote {stream.n} samples ({args.hours:g} h at {rate:g} Hz) to {out} and the truth to {tp}")
     return 0

@@ -30,13 +30,15 @@ the optinav papers use. Everything here is SI; engineering units enter only thro
 from __future__ import annotations
 
 import dataclasses
+import functools
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO
+from optinav.core.allan import FLICKER_FLOOR, GM_ADEV_PEAK_RATIO, flicker_avar_factor
 from optinav.core.results import Parameter, Result, Truth, nested_kwargs, register_legacy
 from optinav.core.units import to_si
 from optinav.core.validate import as_float_array, as_rng, check_positive
@@ -556,13 +558,142 @@ def _random_walk_from(w, K, d, state) -> np.ndarray:
 _random_walk = random_walk  # static_noise's keyword of the same name hides the function
 
 
-def flicker_noise(n: int, bias_instability, dt: float, rng=None, *, low_octaves: int = 0) -> np.ndarray:
+def _ar1_avar(m, tau) -> np.ndarray:
+    """(M, K) Allan variance at cluster sizes ``m`` (M,) of unit-variance AR(1) sequences x_i = φ x_{i−1} + √(1 − φ²) w_i,
+    φ = exp(−1/τ), correlation times ``tau`` (K,) in samples.
+
+    AVAR(m) = (4 S(m) − S(2m)) / (2m²) with S(m) = Σ_{i,j<m} φ^|i−j| the variance of an m-sample sum, which is
+    (m + φ (2m(1 − φ) − (1 − φ^m)(3 − φ^m)) / (1 − φ)²) / m² in closed form; for m/τ < 0.001 its Taylor series in 1/τ
+    (m/τ·(2m²/3 + 1/3) − m⁴/(2τ²) + …)/m², whose closed form cancels there.
+    """
+    m = np.asarray(m, dtype=float)[:, None]
+    a = 1.0 / np.asarray(tau, dtype=float)[None, :]
+    x = m * a
+    u, e1 = -np.expm1(-a), -np.expm1(-x)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        closed = (m + np.exp(-a) * (2.0 * m * u - e1 * (2.0 + e1)) / u**2) / m**2
+    series = (a * (2 * m**3 / 3 + m / 3) - a**2 * m**4 / 2 + a**3 * (7 * m**5 / 30 - m**3 / 18 - m / 90)) / m**2
+    return np.where(x < 1e-3, series, closed)
+
+
+#: flicker noise (:func:`_flicker_design`): the shortest correlation time of its poles [samples] (one per octave
+#: above it), the taps of its FIR, and the fraction of the equal octave variance its poles faster than the FIR's
+#: length carry (the FIR adds the rest of the spectrum there, so it must stay positive)
+_FLICKER_TAU0 = 2.0
+_FLICKER_TAPS = 4096
+_FLICKER_FAST_SHARE = 0.99
+#: frequency grid of the FIR's design [points]
+_FLICKER_GRID = 1 << 20
+
+
+def _ar1_psd(f, tau, var) -> np.ndarray:
+    """Two-sided PSD at frequencies ``f`` [cycles/sample] of the sum of AR(1) sequences of correlation times ``tau``
+    [samples] and variances ``var``: Σ σ²(1 − φ²)/|1 − φ e^{−i2πf}|², φ = exp(−1/τ)."""
+    s2 = 2.0 * np.sin(np.pi * np.asarray(f, float)) ** 2  # 1 − cos 2πf
+    out = np.zeros_like(s2)
+    for t, v in zip(np.asarray(tau, float), np.asarray(var, float)):  # one pole at a time: no (n_f, K) array
+        # |1 − φe^{−i2πf}|² = (1 − φ)² + 2φ(1 − cos 2πf), with 1 − φ from expm1 (φ → 1 for slow poles)
+        u, phi = -math.expm1(-1.0 / t), math.exp(-1.0 / t)
+        out += v * -math.expm1(-2.0 / t) / (u * u + 2.0 * phi * s2)
+    return out
+
+
+def _fir_avar(h, m) -> np.ndarray:
+    """Allan variance at cluster sizes ``m`` of unit white noise filtered by the FIR ``h``: AVAR(m) =
+    (4 S(m) − S(2m)) / 2m², S(m) = Σ_{|j|<m} (m − |j|) r_j from its autocovariance r_j = Σ_k h_k h_{k+j}."""
+    h = np.asarray(h, float)
+    L = h.size
+    nfft = 1 << int(np.ceil(np.log2(2 * L)))
+    r = np.fft.irfft(np.abs(np.fft.rfft(h, nfft)) ** 2, nfft)[:L]
+    j = np.arange(L)
+    c0, c1 = np.cumsum(r[1:]), np.cumsum(j[1:] * r[1:])
+
+    def S(mm):
+        k = np.minimum(mm - 1, L - 1).astype(int)  # lags 1 … k inside the FIR's support
+        s0 = np.where(k > 0, c0[np.maximum(k - 1, 0)], 0.0)
+        s1 = np.where(k > 0, c1[np.maximum(k - 1, 0)], 0.0)
+        return mm * r[0] + 2.0 * (mm * s0 - s1)
+
+    m = np.asarray(m, float)
+    return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m**2)
+
+
+@functools.lru_cache(maxsize=64)
+def _flicker_design(poles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flicker noise of B = 1 as a zero-phase FIR on one white sequence plus ``poles`` AR(1) sequences, one per
+    octave of correlation time from ``_FLICKER_TAU0`` samples: (correlation times [samples], variances [B²], FIR
+    taps [B]). Their sum has the Allan variance of sampled flicker (:func:`flicker_avar_factor` × 2 ln2 B²/π, the
+    one-sided PSD B²/(π f) up to the Nyquist frequency).
+
+    Equal variances B² ln 2/π per octave make a sum of first-order processes 1/f between its end corners; alone,
+    its Allan variance misses the sampled-flicker curve by up to 2 % at m ≤ 4, which biased N by half its σ in long
+    simulated records. So the poles faster than the FIR's length carry 99 % of that variance, and the FIR carries the
+    rest of the spectrum (B²/(2π|f|) minus all the poles', positive there) from 1/``_FLICKER_TAPS`` up to Nyquist,
+    its edges Hann-tapered; the slower poles' variances are then fitted (non-negative least squares, pulled towards
+    the equal variance) to the Allan variance left at m ≥ taps/8. Exact Allan variance of the sum (closed forms, :func:`_ar1_avar`, :func:`_fir_avar`)
+    against the sampled-flicker curve: within 0.005 % at m ≤ 4, 0.05 % up to m = 64, 0.2 % up to τ_max/64.
+    """
+    from scipy.optimize import nnls
+
+    L = _FLICKER_TAPS
+    tau = _FLICKER_TAU0 * 2.0 ** np.arange(poles)
+    var = np.full(poles, np.log(2.0) / np.pi)
+    fast = tau < L
+    var[fast] *= _FLICKER_FAST_SHARE
+    f = np.fft.rfftfreq(_FLICKER_GRID, 1.0)
+    target = np.zeros_like(f)
+    target[1:] = 1.0 / (2.0 * np.pi * f[1:])
+    rest = np.where(f >= 1.0 / L, target - _ar1_psd(f, tau, var), 0.0)
+    if np.any(rest < 0):  # pragma: no cover - a design change, not an input, could cause it
+        raise AssertionError("flicker design: the fast poles exceed the 1/f spectrum")
+    h0 = np.fft.irfft(np.sqrt(rest), n=_FLICKER_GRID)
+    h = np.concatenate([h0[-(L // 2) :], h0[: L // 2]])
+    edge = np.abs(np.arange(L) - L // 2) / (L // 2)  # 0 at the centre, 1 at the ends; the outer quarter tapered
+    h *= np.where(edge < 0.75, 1.0, 0.5 * (1.0 + np.cos(np.pi * (edge - 0.75) / 0.25)))
+    m = np.unique(np.round(np.geomspace(L / 8, max(tau[-1] / 64, L), 200)))
+    target_avar = FLICKER_FLOOR**2 * flicker_avar_factor(m)
+    left = target_avar - _fir_avar(h, m) - _ar1_avar(m, tau[fast]) @ var[fast]
+    # pulled towards the equal variance (weight 10⁻³), as the slowest poles otherwise trade a large variance for the
+    # last few per mille of the curve (a near-constant offset of several B)
+    k, reg, equal = int(np.count_nonzero(~fast)), np.sqrt(1e-3), np.log(2.0) / np.pi
+    A = np.vstack([_ar1_avar(m, tau[~fast]) / target_avar[:, None], reg * np.eye(k) / equal])
+    var[~fast] = nnls(A, np.concatenate([left / target_avar, np.full(k, reg)]))[0]
+    return tau, var, h
+
+
+def _flicker_poles(n: int) -> int:
+    """Poles of the flicker design for an n-sample record: the slowest correlation time ≥ 128 n samples, so the
+    Allan variance is flat up to τ = 2n·dt, past the last cluster time of the record."""
+    return int(np.ceil(np.log2(128.0 * max(n, 2) / _FLICKER_TAU0))) + 1
+
+
+@njit(cache=True)
+def _flicker_kernel(w, phi, sigma, state, fresh):  # pragma: no cover - compiled
+    # w (n, 3K) unit normals, axis-major (column a·K + k: pole k of axis a); state (3K,) the poles' values before
+    # w[0] (ignored when fresh: a stationary start), left at the last values; out (n, 3) the sum of the poles per axis
+    n, width = w.shape
+    K = phi.shape[0]
+    gain = sigma * np.sqrt(1.0 - phi * phi)
+    out = np.zeros((n, 3))
+    for i in range(n):
+        for j in range(width):
+            k = j % K
+            if fresh and i == 0:
+                b = sigma[k] * w[0, j]
+            else:
+                b = phi[k] * state[j] + gain[k] * w[i, j]
+            state[j] = b
+            out[i, j // K] += b
+    return out
+
+
+def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
     """Flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis.
 
-    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from 1/(n·dt) to the Nyquist
-    frequency, made by shaping the spectrum of white noise (Kasdin, Proc. IEEE 83(5), 1995): its Allan variance is
-    2·ln2·B²/π, the flat 0.664·B, between a few dt and a fraction of the record (NIST SP 1065 Table 3:
-    σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling only.
+    The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from well below 1/(n·dt) to the
+    Nyquist frequency, as a sum of first-order Gauss–Markov sequences one octave apart (:class:`StaticNoiseStream`):
+    its Allan variance is the sampled-flicker curve, 2·ln2·B²/π (the flat 0.664·B) beyond a few samples up to
+    τ = 2n·dt (NIST SP 1065 Table 3: σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling only.
 
     Parameters
     ----------
@@ -574,47 +705,30 @@ def flicker_noise(n: int, bias_instability, dt: float, rng=None, *, low_octaves:
         Sample interval [s].
     rng : int, Generator or None
         Seed or generator.
-    low_octaves : int
-        L > 0 synthesizes 2^L·n samples (one axis at a time) and keeps the first n, so the spectrum reaches
-        1/(2^L·n·dt) with lines 2^L times closer: a record of n samples of a longer-lived process. Without it the
-        expected Allan variance at τ = n·dt/4 is 8 % below the floor; with L = 3 it is within 0.2 %.
 
     Returns
     -------
     (n, 3) ndarray
         Noise [units of B].
     """
-    B = _vec3(bias_instability, "bias instability", nonneg=True)
-    dt = check_positive(dt, "dt")
     n = int(n)
     if n < 2:
         raise OptinavError(f"flicker noise needs at least 2 samples, got {n}", "pass n >= 2")
-    rng = as_rng(rng)
-    if low_octaves > 0:
-        long_n = n << int(low_octaves)
-        return np.column_stack([_unit_flicker(long_n, 1, dt, rng)[:n, 0] for _ in range(3)]) * B
-    return _unit_flicker(n, 3, dt, rng) * B[None, :]
+    B = _vec3(bias_instability, "bias instability", nonneg=True)
+    return StaticNoiseStream(n, dt, bias_instability=B, key=_draw_key(rng)).gather()
 
 
-def _unit_flicker(n: int, k: int, dt: float, rng) -> np.ndarray:
-    """(n, k) flicker noise of B = 1 (see :func:`flicker_noise`)."""
-    spec = np.fft.rfft(rng.standard_normal((n, k)), axis=0)
-    f = np.fft.rfftfreq(n, dt)
-    # unit white noise has one-sided PSD 2·dt; scale each bin to the target PSD, no DC
-    gain = np.zeros_like(f)
-    gain[1:] = np.sqrt(1.0 / (np.pi * f[1:]) / (2.0 * dt))
-    spec *= gain[:, None]
-    return np.fft.irfft(spec, n=n, axis=0)
+def _draw_key(rng) -> int:
+    """One key for :class:`SampleDraws` drawn from a seed or generator."""
+    return int(as_rng(rng).integers(2**63))
 
 
-def static_noise(
-    n: int, dt: float, *, white=0.0, bias_instability=0.0, random_walk=0.0, rng=None, low_octaves: int = 3
-) -> np.ndarray:
+def static_noise(n: int, dt: float, *, white=0.0, bias_instability=0.0, random_walk=0.0, rng=None) -> np.ndarray:
     """(n, 3) rate noise of a unit at rest: white N + flicker B + random walk K per axis (IEEE Std 952 terms,
     SI: N in [u]·√s, B in [u], K in [u]/√s for rate unit [u]), as ``optinav simulate static`` records it.
 
-    The flicker term reaches ``low_octaves`` octaves below 1/(n·dt) (:func:`flicker_noise`), so the Allan
-    deviation of the record matches IEEE 952's flat 0.664·B up to the last cluster time τ = n·dt/4.
+    The whole of :class:`StaticNoiseStream` (one key drawn from ``rng``): the Allan deviation of the flicker term is
+    IEEE 952's flat 0.664·B up to past the last cluster time τ = n·dt/4.
 
     Parameters
     ----------
@@ -626,21 +740,16 @@ def static_noise(
         N [u·√s], B [u], K [u/√s] per axis.
     rng : int, Generator or None
         Seed or generator.
-    low_octaves : int
-        Octaves of flicker spectrum below 1/(n·dt) (:func:`flicker_noise`).
 
     Returns
     -------
     (n, 3) ndarray
         Rate noise [u] (rad/s or m/s^2).
     """
-    rng = as_rng(rng)
-    x = white_noise(n, white, dt, rng)
-    if np.any(np.asarray(bias_instability) > 0):
-        x += flicker_noise(n, bias_instability, dt, rng, low_octaves=low_octaves)
-    if np.any(np.asarray(random_walk) > 0):
-        x += _random_walk(n, random_walk, dt, rng)
-    return x
+    stream = StaticNoiseStream(
+        n, dt, white=white, bias_instability=bias_instability, random_walk=random_walk, key=_draw_key(rng)
+    )
+    return stream.gather()
 
 
 def saturate(y, limit, dt=None, *, kind: str = "rate") -> tuple[np.ndarray, np.ndarray]:
@@ -1045,6 +1154,96 @@ class SampleDraws:
             out[pos - i0 : pos - i0 + b - a] = self._block[a:b]
             pos += b - a
         return out
+
+
+class StaticNoiseStream:
+    """Rate noise of a unit at rest — white N + flicker B + random walk K per axis (IEEE Std 952 terms) — generated
+    block by block with its states carried, so that memory does not grow with the length of the log
+    (``optinav simulate static``; :func:`static_noise` gathers it).
+
+    The flicker term is a zero-phase FIR of 4096 taps on one white sequence plus first-order Gauss–Markov sequences,
+    one per octave of correlation time from two samples to 128 times the record (:func:`_flicker_design`): its Allan
+    variance is the sampled-flicker curve of the four-term fit (flat 0.664·B beyond a few samples) within 0.005 % at
+    m ≤ 4 and 0.2 % up to τ = 2n·dt. Unlike one FFT over the whole record, both parts continue sample by sample
+    (the FIR keeps its last 4095 draws, the sequences their values). Each process draws
+    its normals by sample index (:class:`SampleDraws`), so the output does not depend on the blocks asked for.
+
+    Parameters
+    ----------
+    n : int
+        Samples of the whole log (sets the slowest flicker pole).
+    dt : float
+        Sample interval [s].
+    white, bias_instability, random_walk : float or (3,) array
+        N [u·√s], B [u], K [u/√s] per axis, for the rate unit [u] (rad/s or m/s^2).
+    key : int
+        Entropy of the draws.
+    stream0 : int
+        First of the four :class:`SampleDraws` streams used (white, flicker poles, random walk, flicker FIR).
+    """
+
+    def __init__(
+        self, n: int, dt: float, *, white=0.0, bias_instability=0.0, random_walk=0.0, key: int = 0, stream0: int = 0
+    ):
+        self.n, self.dt, self.samples = int(n), check_positive(dt, "dt"), 0
+        self.N = _vec3(white, "white noise density", nonneg=True)
+        self.B = _vec3(bias_instability, "bias instability", nonneg=True)
+        self.K = _vec3(random_walk, "random-walk density", nonneg=True)
+        self._white = SampleDraws(key, stream0) if np.any(self.N > 0) else None
+        self._rw = SampleDraws(key, stream0 + 2) if np.any(self.K > 0) else None
+        self._rw_state = np.zeros(3)
+        self._flicker = None
+        if np.any(self.B > 0):
+            tau, var, self._fir = _flicker_design(_flicker_poles(self.n))
+            self._phi = np.exp(-1.0 / tau)
+            self._sigma = np.sqrt(var)
+            self._flicker = SampleDraws(key, stream0 + 1, width=3 * tau.size)
+            self._fl_white = SampleDraws(key, stream0 + 3)
+            self._fl_state = np.zeros(3 * tau.size)
+
+    def take(self, size: int) -> np.ndarray:
+        """The next ``size`` samples (fewer at the end of the log).
+
+        Parameters
+        ----------
+        size : int
+            Samples wanted [-].
+
+        Returns
+        -------
+        (m, 3) ndarray
+            Rate noise [u].
+        """
+        i0 = self.samples
+        i1 = min(i0 + int(size), self.n)
+        m = max(i1 - i0, 0)
+        x = np.zeros((m, 3))
+        d = np.full(m, self.dt)
+        if self._white is not None:
+            x += _white(self._white.take(i0, i1), self.N, d, "rate")
+        if self._flicker is not None and m:
+            fl = _flicker_kernel(self._flicker.take(i0, i1), self._phi, self._sigma, self._fl_state, i0 == 0)
+            # the FIR's output at sample i uses the draws i … i + taps − 1 of its own stream (stationary from i = 0)
+            u = self._fl_white.take(i0, i1 + self._fir.size - 1)
+            nfft = 1 << int(np.ceil(np.log2(len(u))))
+            conv = np.fft.irfft(np.fft.rfft(u, nfft, axis=0) * np.fft.rfft(self._fir, nfft)[:, None], nfft, axis=0)
+            x += self.B * (fl + conv[self._fir.size - 1 : self._fir.size - 1 + m])
+        if self._rw is not None:
+            x += _random_walk_from(self._rw.take(i0, i1), self.K, d, self._rw_state)
+        self.samples = i1
+        return x
+
+    def gather(self) -> np.ndarray:
+        """The rest of the log in one array.
+
+        Returns
+        -------
+        (m, 3) ndarray
+            Rate noise [u].
+        """
+        return np.concatenate(
+            [self.take(DRAW_BLOCK) for _ in range(-(-(self.n - self.samples) // DRAW_BLOCK))] or [np.zeros((0, 3))]
+        )
 
 
 class _TriadStream:
@@ -1510,6 +1709,133 @@ _STATIC_UNITS = {
 }
 
 
+class StaticLogStream:
+    """An IMU at rest with known noise terms, for noise characterisation, generated block by block
+    (``optinav simulate static``; :func:`simulate_static` gathers it).
+
+    z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
+    white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE Std 952;
+    Allan floor 0.664·B, up to past the last cluster time: :class:`StaticNoiseStream`), and a random walk. The
+    draws of each sample are indexed by sample (key ``seed``), so the log does not depend on the block length.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the log [s] (at least 1000 samples).
+    spec : str
+        Preset name (:func:`preset`).
+    rate_hz : float or None
+        Sample rate [Hz]; None: the preset's.
+    acc_random_walk : float
+        Accelerometer random walk on every axis [m/s^2/sqrt(s)].
+    gyr_random_walk : float
+        Gyroscope rate random walk on every axis [rad/s/sqrt(s)].
+    seed : int
+        Seed of the draws (recorded in the truth).
+
+    Attributes
+    ----------
+    n : int
+        Samples of the log.
+    rate_hz : float
+        Sample rate [Hz].
+    truth : Truth
+        Each noise term per sensor and axis in SI units (system "allan").
+    """
+
+    def __init__(
+        self,
+        duration_s: float,
+        spec: str = "mems-mti1",
+        *,
+        rate_hz: float | None = None,
+        acc_random_walk: float = 0.0,
+        gyr_random_walk: float = 0.0,
+        seed: int = 0,
+    ):
+        from optinav.core.earth import gravity
+
+        s = preset(spec)
+        self.rate_hz = float(rate_hz or s.rate_hz)
+        self.n = n = int(round(duration_s * self.rate_hz))
+        if n < 1000:
+            raise OptinavError(
+                f"{duration_s / 3600:g} h at {self.rate_hz:g} Hz is {n} samples; a noise log needs thousands",
+                "raise --hours",
+            )
+        self.dt = 1.0 / self.rate_hz
+        terms = {
+            "accelerometer": (s.acc_vrw, s.acc_bias_instability, np.full(3, float(acc_random_walk))),
+            "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk))),
+        }
+        self._acc, self._gyr = (
+            StaticNoiseStream(n, self.dt, white=N, bias_instability=B, random_walk=K, key=int(seed), stream0=4 * i)
+            for i, (N, B, K) in enumerate(terms.values())
+        )
+        self.gravity = float(gravity(np.radians(45.0), 0.0))
+        short = {"accelerometer": "acc", "gyroscope": "gyr"}
+        # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
+        params = {
+            f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), _STATIC_UNITS[name][term])
+            for name, (N, B, K) in terms.items()
+            for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
+            for i, ax in enumerate("xyz")
+        }
+        self.truth = Truth(
+            "allan",
+            params,
+            {
+                "kind": "static",
+                "units": _STATIC_UNITS,
+                **{
+                    name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
+                    for name, (N, B, K) in terms.items()
+                },
+                "rate_hz": self.rate_hz,
+                "gravity": self.gravity,
+                "preset": spec,
+                "seed": seed,
+            },
+        )
+
+    def n_blocks(self, size: int = DRAW_BLOCK) -> int:
+        """Blocks of ``size`` samples in the log.
+
+        Parameters
+        ----------
+        size : int
+            Samples per block [-].
+
+        Returns
+        -------
+        int
+            Number of blocks [-].
+        """
+        return -(-self.n // int(size))
+
+    def blocks(self, size: int = DRAW_BLOCK):
+        """The log block by block, in one pass (the noise states are carried from block to block).
+
+        Parameters
+        ----------
+        size : int
+            Samples per block [-] (the last may be shorter).
+
+        Yields
+        ------
+        t : (m,) ndarray
+            Time [s].
+        acc : (m, 3) ndarray
+            Specific force [m/s^2].
+        gyr : (m, 3) ndarray
+            Angular rate [rad/s].
+        """
+        g = np.array([0.0, 0.0, self.gravity])
+        for i0 in range(0, self.n, int(size)):
+            acc, gyr = self._acc.take(size), self._gyr.take(size)
+            yield (i0 + np.arange(len(acc))) * self.dt, acc + g, gyr
+
+
 def simulate_static(
     duration_s: float,
     spec: str = "mems-mti1",
@@ -1519,11 +1845,7 @@ def simulate_static(
     gyr_random_walk: float = 0.0,
     seed: int = 0,
 ) -> StaticLog:
-    """An IMU at rest with known noise terms, for noise characterisation (``optinav simulate static``).
-
-    z up, gravity along +z (normal gravity at latitude 45°), no rotation; the noise of the preset ``spec``:
-    white noise (VRW/ARW), bias instability as flicker (1/f) noise of the datasheet coefficient B (IEEE Std 952;
-    Allan floor 0.664·B, up to the last cluster time: :func:`static_noise`), and a random walk.
+    """An IMU at rest with known noise terms, for noise characterisation: the whole :class:`StaticLogStream`.
 
     Parameters
     ----------
@@ -1545,48 +1867,8 @@ def simulate_static(
     StaticLog
         t [s], acc [m/s^2], gyr [rad/s] and the truth: each term per sensor and axis in SI units.
     """
-    from optinav.core.earth import gravity
-
-    s = preset(spec)
-    rate = rate_hz or s.rate_hz
-    n = int(round(duration_s * rate))
-    if n < 1000:
-        raise OptinavError(
-            f"{duration_s / 3600:g} h at {rate:g} Hz is {n} samples; a noise log needs thousands", "raise --hours"
-        )
-    dt = 1.0 / rate
-    rng = np.random.default_rng(seed)
-    terms = {
-        "accelerometer": (s.acc_vrw, s.acc_bias_instability, np.full(3, float(acc_random_walk))),
-        "gyroscope": (s.gyro_arw, s.gyro_bias_instability, np.full(3, float(gyr_random_walk))),
-    }
-    data = {
-        name: static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=rng)
-        for name, (N, B, K) in terms.items()
-    }
-    g = float(gravity(np.radians(45.0), 0.0))
-    short = {"accelerometer": "acc", "gyroscope": "gyr"}
-    # the common truth layout (one parameter per sensor, term and axis) and the noise terms in their own layout
-    params = {
-        f"{short[name]}_{term}_{ax}": Parameter(float(v[i]), _STATIC_UNITS[name][term])
-        for name, (N, B, K) in terms.items()
-        for term, v in (("white", N), ("bias_instability", B), ("random_walk", K))
-        for i, ax in enumerate("xyz")
-    }
-    truth = Truth(
-        "allan",
-        params,
-        {
-            "kind": "static",
-            "units": _STATIC_UNITS,
-            **{
-                name: {"white": N.tolist(), "bias_instability": B.tolist(), "random_walk": K.tolist()}
-                for name, (N, B, K) in terms.items()
-            },
-            "rate_hz": rate,
-            "gravity": g,
-            "preset": spec,
-            "seed": seed,
-        },
+    stream = StaticLogStream(
+        duration_s, spec, rate_hz=rate_hz, acc_random_walk=acc_random_walk, gyr_random_walk=gyr_random_walk, seed=seed
     )
-    return StaticLog(np.arange(n) * dt, data["accelerometer"] + np.array([0.0, 0.0, g]), data["gyroscope"], truth)
+    t, acc, gyr = (np.concatenate(x) for x in zip(*stream.blocks()))
+    return StaticLog(t, acc, gyr, stream.truth)
