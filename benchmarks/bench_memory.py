@@ -81,6 +81,15 @@ def _before_src(tmp: Path, commit: str = BEFORE) -> Path | None:
     return dest / "src"
 
 
+def _versions(tmp: Path, commit: str) -> dict[str, Path]:
+    """The sources to run: "after" (this tree) and, in a git checkout, "before" (``commit``)."""
+    versions = {"after": ROOT / "src"}
+    old = _before_src(tmp, commit)
+    if old is not None:
+        versions["before"] = old
+    return versions
+
+
 def _steps(d: Path, rows: int) -> list[tuple[str, list[str]]]:
     dwell = (rows / 100.0 - 10.0) / 12.0 - 4.0
     log, res = d / f"log{rows}.csv", d / f"result{rows}.json"
@@ -407,10 +416,7 @@ def run_simulate_static(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) 
     6 GB there); the file is removed after each run."""
     out = []
     with tempfile.TemporaryDirectory() as tmp:
-        versions = {"after": ROOT / "src"}
-        old = _before_src(Path(tmp), STATIC_BEFORE)
-        if old is not None:
-            versions["before"] = old
+        versions = _versions(Path(tmp), STATIC_BEFORE)
         for rows in (*sizes, *after_only):
             for version, src in versions.items():
                 if version == "before" and rows in after_only:
@@ -436,10 +442,7 @@ def run_attitude_report(sizes=(1_000_000, 3_000_000)) -> list[dict]:
     :data:`REPORT_BEFORE` ("before": the whole log read at once)."""
     out = []
     with tempfile.TemporaryDirectory() as tmp:
-        versions = {"after": ROOT / "src"}
-        old = _before_src(Path(tmp), REPORT_BEFORE)
-        if old is not None:
-            versions["before"] = old
+        versions = _versions(Path(tmp), REPORT_BEFORE)
         for rows in sizes:
             d = Path(tmp) / str(rows)
             d.mkdir()

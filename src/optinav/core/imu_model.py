@@ -1849,18 +1849,9 @@ def simulate_static(
 
     Parameters
     ----------
-    duration_s : float
-        Length of the log [s] (at least 1000 samples).
-    spec : str
-        Preset name (:func:`preset`).
-    rate_hz : float or None
-        Sample rate [Hz]; None: the preset's.
-    acc_random_walk : float
-        Accelerometer random walk on every axis [m/s^2/sqrt(s)].
-    gyr_random_walk : float
-        Gyroscope rate random walk on every axis [rad/s/sqrt(s)].
-    seed : int
-        Seed of the draws (recorded in the truth).
+    duration_s, spec, rate_hz, acc_random_walk, gyr_random_walk, seed
+        As :class:`StaticLogStream`: length [s], preset name, rate [Hz] (None: the preset's), random walks
+        [m/s^2/sqrt(s)] and [rad/s/sqrt(s)], seed.
 
     Returns
     -------
