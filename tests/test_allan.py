@@ -209,6 +209,10 @@ def test_flicker_design_is_sampled_flicker_up_to_twice_the_record():
         err = (_fir_avar(h, m) + _ar1_avar(m, tau) @ var) / (FLICKER_FLOOR**2 * flicker_avar_factor(m)) - 1
         assert np.max(np.abs(err[m <= 4])) < 1e-4 and np.max(np.abs(err[m <= 64])) < 1e-3, n
         assert np.max(np.abs(err)) < 3e-3, n
+    # records too short to have a pole slower than the FIR (scipy's nnls once got an empty matrix and crashed)
+    for n in (2, 10, 31):
+        x = flicker_noise(n, [1.0, 2.0, 3.0], 0.01, rng=1)
+        assert x.shape == (n, 3) and np.all(np.isfinite(x))
 
 
 def test_static_noise_does_not_depend_on_the_blocks():

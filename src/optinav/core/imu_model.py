@@ -656,8 +656,9 @@ def _flicker_design(poles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # pulled towards the equal variance (weight 10⁻³), as the slowest poles otherwise trade a large variance for the
     # last few per mille of the curve (a near-constant offset of several B)
     k, reg, equal = int(np.count_nonzero(~fast)), np.sqrt(1e-3), np.log(2.0) / np.pi
-    A = np.vstack([_ar1_avar(m, tau[~fast]) / target_avar[:, None], reg * np.eye(k) / equal])
-    var[~fast] = nnls(A, np.concatenate([left / target_avar, np.full(k, reg)]))[0]
+    if k:  # a record shorter than taps/128 has no slow pole (and scipy's nnls must not get an empty matrix)
+        A = np.vstack([_ar1_avar(m, tau[~fast]) / target_avar[:, None], reg * np.eye(k) / equal])
+        var[~fast] = nnls(A, np.concatenate([left / target_avar, np.full(k, reg)]))[0]
     return tau, var, h
 
 
