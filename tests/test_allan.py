@@ -231,14 +231,14 @@ def test_static_noise_does_not_depend_on_the_blocks():
 def test_flicker_starts_stationary():
     """The flicker poles start from their stationary distribution (no transient): over 4000 draws the variance at
     the first sample and at the 300th is the design's Σσ² (tolerance 4 × the χ² spread √(2/4000))."""
-    from optinav.core.imu_model import _flicker_design, _flicker_kernel
+    from optinav.core.imu_model import _ar1_kernel, _flicker_design
 
     tau, var, _ = _flicker_design(12)
-    phi, sigma = np.exp(-1.0 / tau), np.sqrt(var)
+    phi, sigma = np.tile(np.exp(-1.0 / tau), 3)[None, :], np.tile(np.sqrt(var), 3)
     rng = np.random.default_rng(4)
     first, later = [], []
     for _ in range(4000):
-        out = _flicker_kernel(rng.standard_normal((300, 3 * tau.size)), phi, sigma, np.zeros(3 * tau.size), True)
+        out = _ar1_kernel(rng.standard_normal((300, 3 * tau.size)), phi, sigma, np.zeros(3 * tau.size), True, 3)
         first.append(out[0])
         later.append(out[-1])
     tol = 4 * np.sqrt(2 / 4000)

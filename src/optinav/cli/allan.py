@@ -29,8 +29,8 @@ def register(sub) -> None:
             Kalibr's continuous-time noise density is N (unit/sqrt(Hz)) and its random walk K
             (unit/s/sqrt(Hz)), taken from the fit. Record hours at rest; long logs are summed in chunks.
             The random walk comes from the last octaves of the record: in simulations its 68 % interval held
-            the truth 65-73 % of the time when the log ran 44 times longer than the cluster time where the curve
-            turns upwards, 67-76 % at 10 times (benchmarks/results_allan_coverage.md), with wider intervals."""),
+            the truth 65-69 % of the time when the log ran 44 times longer than the cluster time where the curve
+            turns upwards, 68-70 % at 10 times (benchmarks/results_allan_coverage.md), with wider intervals."""),
         epilog=textwrap.dedent("""\
             example (a simulated 2-hour static log in SI units):
               optinav simulate static --out rest.csv --hours 2

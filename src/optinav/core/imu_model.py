@@ -416,20 +416,26 @@ class TriadErrors(Result):
 
 
 @njit(cache=True)
-def _gauss_markov_kernel(w, phi, sigma, state, fresh):  # pragma: no cover - compiled
-    # state (k,): the value before w[0] (ignored when fresh: a stationary start); left at the last value
+def _ar1_kernel(w, phi, sigma, state, fresh, groups):  # pragma: no cover - compiled
+    # first-order Gauss–Markov sequences, column j of w (n, k) the unit normals of sequence j; phi (n, k) per sample
+    # or (1, k) constant; state (k,) the values before w[0] (ignored when fresh: a stationary start), left at the
+    # last values; out (n, groups): sequence j added into column j // (k / groups) (groups = k: each its own column)
     n, k = w.shape
-    out = np.empty_like(w)
-    for j in range(k):
-        b = state[j]
-        for i in range(n):
-            p = phi[i, j]
+    per = k // groups
+    const = phi.shape[0] == 1
+    gain = sigma * np.sqrt(1.0 - phi[0] * phi[0])
+    out = np.zeros((n, groups))
+    for i in range(n):
+        for j in range(k):
             if fresh and i == 0:
                 b = sigma[j] * w[0, j]  # stationary start
+            elif const:
+                b = phi[0, j] * state[j] + gain[j] * w[i, j]
             else:
-                b = p * b + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
-            out[i, j] = b
-        state[j] = b
+                p = phi[i, j]
+                b = p * state[j] + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
+            state[j] = b
+            out[i, j // per] += b
     return out
 
 
@@ -519,7 +525,7 @@ def _gauss_markov(w, sigma, tau, d, state, fresh: bool) -> np.ndarray:
     """Unit normals ``w`` (n, 3) as the Gauss–Markov process of :func:`gauss_markov`, continued from ``state`` (3,)
     (updated in place to the last value), or started stationary when ``fresh``."""
     phi = np.exp(-d[:, None] / tau[None, :])
-    return _gauss_markov_kernel(np.ascontiguousarray(w), np.ascontiguousarray(phi), sigma, state, fresh)
+    return _ar1_kernel(np.ascontiguousarray(w), np.ascontiguousarray(phi), sigma, state, fresh, w.shape[1])
 
 
 def random_walk(n: int, density, dt, rng=None) -> np.ndarray:
@@ -630,8 +636,9 @@ def _flicker_design(poles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     simulated records. So the poles faster than the FIR's length carry 99 % of that variance, and the FIR carries the
     rest of the spectrum (B²/(2π|f|) minus all the poles', positive there) from 1/``_FLICKER_TAPS`` up to Nyquist,
     its edges Hann-tapered; the slower poles' variances are then fitted (non-negative least squares, pulled towards
-    the equal variance) to the Allan variance left at m ≥ taps/8. Exact Allan variance of the sum (closed forms, :func:`_ar1_avar`, :func:`_fir_avar`)
-    against the sampled-flicker curve: within 0.005 % at m ≤ 4, 0.05 % up to m = 64, 0.2 % up to τ_max/64.
+    the equal variance) to the Allan variance left at m ≥ taps/8. Exact Allan variance of the sum (closed forms,
+    :func:`_ar1_avar`, :func:`_fir_avar`) against the sampled-flicker curve: within 0.005 % at m ≤ 4, 0.05 % up to
+    m = 64, 0.2 % up to τ_max/64.
     """
     from scipy.optimize import nnls
 
@@ -668,33 +675,14 @@ def _flicker_poles(n: int) -> int:
     return int(np.ceil(np.log2(128.0 * max(n, 2) / _FLICKER_TAU0))) + 1
 
 
-@njit(cache=True)
-def _flicker_kernel(w, phi, sigma, state, fresh):  # pragma: no cover - compiled
-    # w (n, 3K) unit normals, axis-major (column a·K + k: pole k of axis a); state (3K,) the poles' values before
-    # w[0] (ignored when fresh: a stationary start), left at the last values; out (n, 3) the sum of the poles per axis
-    n, width = w.shape
-    K = phi.shape[0]
-    gain = sigma * np.sqrt(1.0 - phi * phi)
-    out = np.zeros((n, 3))
-    for i in range(n):
-        for j in range(width):
-            k = j % K
-            if fresh and i == 0:
-                b = sigma[k] * w[0, j]
-            else:
-                b = phi[k] * state[j] + gain[k] * w[i, j]
-            state[j] = b
-            out[i, j // K] += b
-    return out
-
-
 def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
     """Flicker (1/f) rate noise of IEEE 952 bias-instability coefficient B per axis.
 
     The PSD is IEEE Std 952-1997 C.1.3's (B²/2π)/f, two-sided (one-sided B²/(π f)), from well below 1/(n·dt) to the
-    Nyquist frequency, as a sum of first-order Gauss–Markov sequences one octave apart (:class:`StaticNoiseStream`):
-    its Allan variance is the sampled-flicker curve, 2·ln2·B²/π (the flat 0.664·B) beyond a few samples up to
-    τ = 2n·dt (NIST SP 1065 Table 3: σ² = 2 ln2 · h₋₁ for the one-sided h₋₁/f). Regular sampling only.
+    Nyquist frequency, as an FIR on white noise plus first-order Gauss–Markov sequences one octave apart
+    (:class:`StaticNoiseStream`, :func:`_flicker_design`): its Allan variance is the sampled-flicker curve,
+    2·ln2·B²/π (the flat 0.664·B) beyond a few samples up to τ = 2n·dt (NIST SP 1065 Table 3: σ² = 2 ln2 · h₋₁ for
+    the one-sided h₋₁/f). Regular sampling only.
 
     Parameters
     ----------
@@ -715,8 +703,7 @@ def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
     n = int(n)
     if n < 2:
         raise OptinavError(f"flicker noise needs at least 2 samples, got {n}", "pass n >= 2")
-    B = _vec3(bias_instability, "bias instability", nonneg=True)
-    return StaticNoiseStream(n, dt, bias_instability=B, key=_draw_key(rng)).gather()
+    return StaticNoiseStream(n, dt, bias_instability=bias_instability, key=_draw_key(rng)).gather()
 
 
 def _draw_key(rng) -> int:
@@ -1196,10 +1183,12 @@ class StaticNoiseStream:
         self._flicker = None
         if np.any(self.B > 0):
             tau, var, self._fir = _flicker_design(_flicker_poles(self.n))
-            self._phi = np.exp(-1.0 / tau)
-            self._sigma = np.sqrt(var)
+            # the poles of the three axes side by side (column a·K + k: pole k of axis a), φ constant
+            self._phi = np.tile(np.exp(-1.0 / tau), 3)[None, :]
+            self._sigma = np.tile(np.sqrt(var), 3)
             self._flicker = SampleDraws(key, stream0 + 1, width=3 * tau.size)
             self._fl_white = SampleDraws(key, stream0 + 3)
+            self._fir_spectrum: dict[int, np.ndarray] = {}
             self._fl_state = np.zeros(3 * tau.size)
 
     def take(self, size: int) -> np.ndarray:
@@ -1223,11 +1212,13 @@ class StaticNoiseStream:
         if self._white is not None:
             x += _white(self._white.take(i0, i1), self.N, d, "rate")
         if self._flicker is not None and m:
-            fl = _flicker_kernel(self._flicker.take(i0, i1), self._phi, self._sigma, self._fl_state, i0 == 0)
+            fl = _ar1_kernel(self._flicker.take(i0, i1), self._phi, self._sigma, self._fl_state, i0 == 0, 3)
             # the FIR's output at sample i uses the draws i … i + taps − 1 of its own stream (stationary from i = 0)
             u = self._fl_white.take(i0, i1 + self._fir.size - 1)
             nfft = 1 << int(np.ceil(np.log2(len(u))))
-            conv = np.fft.irfft(np.fft.rfft(u, nfft, axis=0) * np.fft.rfft(self._fir, nfft)[:, None], nfft, axis=0)
+            if nfft not in self._fir_spectrum:  # one per FFT length: every full block shares it
+                self._fir_spectrum[nfft] = np.fft.rfft(self._fir, nfft)[:, None]
+            conv = np.fft.irfft(np.fft.rfft(u, nfft, axis=0) * self._fir_spectrum[nfft], nfft, axis=0)
             x += self.B * (fl + conv[self._fir.size - 1 : self._fir.size - 1 + m])
         if self._rw is not None:
             x += _random_walk_from(self._rw.take(i0, i1), self.K, d, self._rw_state)
