@@ -1284,6 +1284,8 @@ class MeasurementStream:
         self.model, self.samples = model, 0
         self._gyr = _TriadStream(model.gyro_noise, key, 0)
         self._acc = _TriadStream(model.acc_noise, key, 3)
+        #: saturated axis samples so far, per triad (the count of ImuMeasurement's flags)
+        self.gyro_saturated, self.acc_saturated = 0, 0
 
     def __call__(self, gyr, acc, dt) -> tuple[np.ndarray, np.ndarray]:
         """The next block's measured outputs.
@@ -1309,8 +1311,10 @@ class MeasurementStream:
         i0 = self.samples
         ya = self.model.acc.apply(f, dt=d)
         yg = self.model.gyr.apply(w, dt=d, acc=f)
-        yg, _ = self._gyr(yg, d, i0)
-        ya, _ = self._acc(ya, d, i0)
+        yg, sg = self._gyr(yg, d, i0)
+        ya, sa = self._acc(ya, d, i0)
+        self.gyro_saturated += int(np.count_nonzero(sg))
+        self.acc_saturated += int(np.count_nonzero(sa))
         self.samples += w.shape[0]
         return yg, ya
 
