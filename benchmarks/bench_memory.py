@@ -432,6 +432,34 @@ def run_simulate_static(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) 
     return out
 
 
+#: the commit whose ``simulate flight`` generated the whole flight (a global spline, the truth JSON built in memory)
+FLIGHT_BEFORE = "7afc2c8"
+
+
+def run_simulate_flight(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate flight --kind dynamic`` (100 Hz: the CSV, STEM.truth.csv and
+    STEM.truth.json) at each row count of ``sizes`` with this tree ("after": generated and written in blocks) and
+    with commit :data:`FLIGHT_BEFORE` ("before": the whole flight at once), and at ``after_only`` with this tree
+    alone (the "before" would need about 25 GB there); the files are removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), FLIGHT_BEFORE)
+        for rows in (*sizes, *after_only):
+            for version, src in versions.items():
+                if version == "before" and rows in after_only:
+                    continue
+                log = Path(tmp) / f"flight{rows}.csv"
+                argv = ["simulate", "flight", "--kind", "dynamic", "--out", str(log)]
+                argv += ["--duration", f"{(rows - 1) / 100:.9g}", "--seed", "1"]
+                peak, wall, _ = _run(src, argv)
+                n = _rows_of(log) + 1  # one comment line above the header, not two
+                out.append({"method": f"simulate flight ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"simulate flight ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                for p in (log, log.with_suffix(".truth.json"), log.with_suffix(".truth.csv")):
+                    p.unlink()
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -481,6 +509,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-static":
         # python benchmarks/bench_memory.py --simulate-static STATIC.json: simulate static before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_static(), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-flight":
+        # python benchmarks/bench_memory.py --simulate-flight FLIGHT.json: simulate flight before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_flight(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)

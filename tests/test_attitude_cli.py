@@ -112,6 +112,13 @@ def test_cli_simulate_flight_then_attitude(tmp_path, capsys):
     msg = capsys.readouterr().err
     e0 = msg.rsplit(":", 1)[1].strip()
     truth = np.loadtxt(tmp_path / "flight.truth.csv", delimiter=",", skiprows=1)
+    # the truth file (written block by block) holds the same attitude as the CSV beside it; no scratch file is left
+    from optinav.core.results import Truth
+
+    tj = Truth.from_json(tmp_path / "flight.truth.json")
+    assert tj.info["seed"] == 3 and tj.info["frame"] == "ned" and tj.parameters["yaw"].unit == "rad"
+    np.testing.assert_allclose(tj.parameters["q_b_n"].value, truth[:, 1:], rtol=0, atol=1e-12)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["flight.csv", "flight.truth.csv", "flight.truth.json"]
     assert (
         main(
             [

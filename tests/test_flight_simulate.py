@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
-from optinav.attitude.simulate import PAPER_SITE, FlightData, simulate
+from optinav.attitude.simulate import PAPER_SITE, FlightData, FlightStream, simulate
 from optinav.core.earth import gravity_vector
 from optinav.core.imu_model import preset
 from optinav.core.units import DEG
@@ -120,3 +122,45 @@ def test_flight_data_roundtrip(tmp_path):
     back = FlightData.from_json(path)
     np.testing.assert_array_equal(back.q_b_n, f.q_b_n)
     assert back.metadata["imu"] == "mpu6000"
+
+
+def test_flight_blocks_do_not_change_the_flight():
+    """The flight is generated block by block; any block length gives the same samples as :func:`simulate`."""
+    whole = simulate("dynamic", 12.0, 50.0, rng=4, pol_rate_hz=10.0)
+    stream = FlightStream("dynamic", 12.0, 50.0, rng=4, pol_rate_hz=10.0)
+    parts = list(stream.blocks(97))
+    assert len(parts) == stream.n_blocks(97) == 7 and stream.n == len(whole) == 601
+    for k in parts[0]:
+        got, want = np.concatenate([p[k] for p in parts]), getattr(whole, k)
+        if k in ("t", "gyr", "acc", "q_b_n", "gyr_true", "acc_true"):
+            assert np.array_equal(got, want), k
+        else:  # the sun and the sky: numpy's vectorized sin/cos round by SIMD lane, so by position in the block
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12, err_msg=k)
+    assert np.isnan(whole.aop[1:5]).all() and np.isfinite(whole.aop[[0, 5, 10]]).all()  # 10 Hz of 50 Hz
+    meta = stream.metadata
+    assert meta["gyro_saturated"] == whole.metadata["gyro_saturated"]
+    assert meta["sun_elevation_deg_mean"] == pytest.approx(whole.metadata["sun_elevation_deg_mean"], rel=1e-12)
+    with pytest.raises(OptinavError, match="already generated"):
+        next(stream.blocks())
+
+
+def test_long_flight_manoeuvres_are_integrated_in_chunks(monkeypatch):
+    """The 0.01 s manoeuvre grid of a long flight is integrated a chunk at a time with the integrals carried: the
+    knots are those of one pass over the whole grid to rounding."""
+    mod = sys.modules["optinav.attitude.simulate"]  # the package attribute `simulate` is the function
+    one = mod._dynamic_knots(60.0, "ned", np.random.default_rng(5), 4.0, 0.5, 0.1)
+    monkeypatch.setattr(mod, "FINE_CHUNK", 777)
+    chunked = mod._dynamic_knots(60.0, "ned", np.random.default_rng(5), 4.0, 0.5, 0.1)
+    for a, b in zip(one, chunked):
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-10)
+
+
+def test_point_sensor_draws_must_match_the_channels():
+    sensor = PointSensor(noise=0.01)
+    with pytest.raises(OptinavError, match="one per channel"):
+        sensor.measure(np.zeros(4), np.full(4, 0.5), draws=np.zeros((4, 2)))
+    # the same standard normal draws as a generator's give the same reading
+    z = np.random.default_rng(2).standard_normal((4, 3))
+    a = sensor.measure(np.full(4, 0.3), np.full(4, 0.5), draws=z)
+    b = sensor.measure(np.full(4, 0.3), np.full(4, 0.5), np.random.default_rng(2))
+    np.testing.assert_allclose(a.aop, b.aop, rtol=0, atol=1e-15)

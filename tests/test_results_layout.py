@@ -567,3 +567,32 @@ def test_nav_solution_frame_as_written_and_enu_when_missing():
         np.testing.assert_array_equal(back.vel_n, nav.vel_n)
     with pytest.raises(TypeError, match="frame"):
         NavSolution(t=nav.t, q_b_n=nav.q_b_n, vel_n=nav.vel_n, pos=nav.pos)  # built by code, the frame is required
+
+
+def test_truth_series_written_in_blocks_reads_back(tmp_path):
+    """A per-sample truth written block by block is the truth :meth:`Truth.to_json` writes, read back."""
+    from optinav.attitude.estimators import TRUTH_UNITS, attitude_truth_series
+    from optinav.core.results import TruthSeriesWriter
+
+    q = np.random.default_rng(1).normal(size=(25, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    want = attitude_truth(q, "enu", {"seed": 3})
+    path = tmp_path / "x.truth.json"
+    with TruthSeriesWriter(path, "attitude", TRUTH_UNITS, {"frame": "enu", "seed": 3}) as w:
+        for i in range(0, 25, 7):
+            w.write(**attitude_truth_series(q[i : i + 7], "enu"))
+    got = Truth.from_json(path)
+    assert got.system == "attitude" and got.info == want.info
+    for name, p in want.parameters.items():
+        assert np.array_equal(got.parameters[name].value, p.value) and got.parameters[name].unit == p.unit
+    assert json.loads(path.read_text()) == json.loads(want.to_json())
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["x.truth.json"]  # no scratch file left
+
+
+def test_truth_series_writer_leaves_nothing_on_error(tmp_path):
+    from optinav.core.results import TruthSeriesWriter
+
+    with pytest.raises(RuntimeError), TruthSeriesWriter(tmp_path / "x.truth.json", "attitude", {"yaw": "rad"}) as w:
+        w.write(yaw=np.zeros(3))
+        raise RuntimeError("the simulation failed")
+    assert list(tmp_path.iterdir()) == []

@@ -691,3 +691,29 @@ def test_json_round_trip(tmp_path):
 def test_bad_input_raises_optinav_error(call):
     with pytest.raises(OptinavError):
         call()
+
+
+def test_trajectory_sampler_windows_join_as_one_spline():
+    """Splined window by window (64 knots of overlap), the motion is the one spline through all knots to rounding;
+    one window is :func:`trajectory`'s motion exactly."""
+    rng = np.random.default_rng(3)
+    K = 301
+    tk = np.linspace(0.0, 30.0, K)
+    c = dcm_from_euler(np.cumsum(rng.normal(0, 0.05, (K, 3)), axis=0), "ned")
+    pos = np.cumsum(np.cumsum(rng.normal(0, 0.05, (K, 3)), axis=0), axis=0)
+    bc = ((1, np.array([1.0, 0.0, 0.0])), (1, np.array([0.0, 1.0, 0.0])))
+    site = dict(lat0=0.6, lon0=2.0, height0_m=30.0, bc_type=bc)
+    whole = S.trajectory(tk, c, pos, 100.0, frame="ned", **site)
+    one = S.TrajectorySampler(tk, c, pos, "ned", **site)
+    assert one.windows == 1
+    gyr, acc, q = one.states(whole.t)
+    assert np.array_equal(gyr, whole.gyr) and np.array_equal(acc, whole.acc) and np.array_equal(q, whole.q_b_n)
+    windowed = S.TrajectorySampler(tk, c, pos, "ned", window_knots=37, **site)
+    assert windowed.windows == 9
+    gyr, acc, q = windowed.states(whole.t)
+    np.testing.assert_allclose(gyr, whole.gyr, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(acc, whole.acc, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(q, whole.q_b_n, rtol=0, atol=1e-13)
+    # any order of epochs, windows rebuilt as needed
+    idx = rng.permutation(whole.t.size)[:200]
+    np.testing.assert_allclose(windowed.states(whole.t[idx])[1], whole.acc[idx], rtol=0, atol=1e-10)

@@ -711,18 +711,24 @@ for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
     )
 
 
+#: the series of a simulated attitude's truth (:func:`attitude_truth`) and their units
+TRUTH_UNITS = {"q_b_n": "", "roll": "rad", "pitch": "rad", "yaw": "rad"}
+
+
+def attitude_truth_series(q_b_n, frame: str = DEFAULT_FRAME) -> dict:
+    """The truth series of attitudes ``q_b_n`` (N, 4): ``q_b_n`` and ``roll``, ``pitch``, ``yaw`` [rad] in
+    ``frame``'s Euler convention (:data:`TRUTH_UNITS`), for a truth written block by block."""
+    q = np.asarray(q_b_n, float)
+    e = euler_from_quat(q, frame_name(frame))
+    return {"q_b_n": q, "roll": e[:, 0], "pitch": e[:, 1], "yaw": e[:, 2]}
+
+
 def attitude_truth(q_b_n, frame: str = DEFAULT_FRAME, info: dict | None = None) -> Truth:
     """A simulated attitude ``q_b_n`` (N, 4) as truth with the names of :class:`AttitudeEstimate`
     (``q_b_n``, ``roll``, ``pitch``, ``yaw`` in ``frame``'s Euler convention)."""
-    q = np.asarray(q_b_n, float)
-    e = euler_from_quat(q, frame_name(frame))
+    series = attitude_truth_series(q_b_n, frame)
     return Truth(
         "attitude",
-        {
-            "q_b_n": Parameter(q, ""),
-            "roll": Parameter(e[:, 0], "rad"),
-            "pitch": Parameter(e[:, 1], "rad"),
-            "yaw": Parameter(e[:, 2], "rad"),
-        },
+        {n: Parameter(series[n], u) for n, u in TRUTH_UNITS.items()},
         {"frame": frame_name(frame), **(info or {})},
     )

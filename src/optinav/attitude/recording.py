@@ -8,6 +8,8 @@ epoch), q_b_n [w, x, y, z] and roll, pitch, yaw in degrees (file I/O) of the fra
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from optinav.errors import OptinavError
@@ -17,7 +19,7 @@ __all__ = [
     "CSV_FORMAT",
     "TRUTH_CSV_HEADER",
     "attitude_rows",
-    "write_flight",
+    "flight_writer",
     "sun_along_log",
     "read_polarization",
     "pol_column_names",
@@ -55,27 +57,51 @@ def attitude_rows(t, q_b_n, frame: str) -> np.ndarray:
     return np.column_stack([t, q_b_n, np.degrees(euler_from_quat(q_b_n, frame_name(frame)))])
 
 
-def write_flight(path, flight, truth_csv) -> None:
-    """Write a simulated flight as the CSV ``optinav attitude`` reads and its true attitude beside it, atomically.
+@contextlib.contextmanager
+def flight_writer(path, truth_csv, truth_json=None, *, frame: str, info: dict | None = None):
+    """Write a simulated flight block by block, atomically: the CSV ``optinav attitude`` reads, its true attitude
+    beside it and, when named, the truth file ``batch --reference`` compares with (each file appears only when the
+    ``with`` block ends without an error).
 
     Parameters
     ----------
     path : str or Path
         The flight's CSV (:data:`FLIGHT_HEADER`: IMU in SI, angle of polarization in degrees).
-    flight : FlightData
-        What :func:`optinav.attitude.simulate` returns.
     truth_csv : str or Path
         The true attitude's CSV (:data:`TRUTH_CSV_HEADER`: t [s], q_b_n).
-    """
-    from optinav.core.files import write_csv
+    truth_json : str, Path or None
+        ``STEM.truth.json`` (:func:`optinav.attitude.estimators.attitude_truth`'s layout), or None.
+    frame : str
+        The flight's navigation frame.
+    info : dict or None
+        What the truth file records besides the series (seed, rate …).
 
-    write_csv(
-        path,
-        np.column_stack([flight.t, flight.acc, flight.gyr, np.degrees(flight.aop), flight.dop]),
-        FLIGHT_HEADER,
-        "%.10g",
-    )
-    write_csv(truth_csv, np.column_stack([flight.t, flight.q_b_n]), TRUTH_CSV_HEADER, "%.12g")
+    Yields
+    ------
+    callable
+        ``write(block)``: a block of :meth:`optinav.attitude.simulate.FlightStream.blocks` (or the same arrays of a
+        whole :class:`FlightData`).
+    """
+    from optinav.attitude.estimators import TRUTH_UNITS, attitude_truth_series
+    from optinav.core.files import csv_writer
+    from optinav.core.results import TruthSeriesWriter
+    from optinav.core.rotations import frame_name
+
+    with contextlib.ExitStack() as stack:
+        data = stack.enter_context(csv_writer(path, FLIGHT_HEADER, "%.10g"))
+        truth = stack.enter_context(csv_writer(truth_csv, TRUTH_CSV_HEADER, "%.12g"))
+        series = None
+        if truth_json is not None:
+            head = {"frame": frame_name(frame), **(info or {})}
+            series = stack.enter_context(TruthSeriesWriter(truth_json, "attitude", TRUTH_UNITS, head))
+
+        def write(b) -> None:
+            data(np.column_stack([b["t"], b["acc"], b["gyr"], np.degrees(b["aop"]), b["dop"]]))
+            truth(np.column_stack([b["t"], b["q_b_n"]]))
+            if series is not None:
+                series.write(**attitude_truth_series(b["q_b_n"], frame))
+
+        yield write
 
 
 def sun_along_log(

@@ -26,7 +26,7 @@ from optinav.core.units import DEG
 from optinav.core.validate import as_float_array, as_rng, check_positive
 from optinav.errors import OptinavError
 
-__all__ = ["FlightData", "simulate", "PAPER_SITE", "PAPER_TIMES"]
+__all__ = ["FlightData", "FlightStream", "simulate", "PAPER_SITE", "PAPER_TIMES"]
 
 #: the paper's site: roof of the mechanical east building, Dalian University of Technology (38.8814192° N,
 #: 121.528255° E, 35 m): ``lat``, ``lon`` in rad, ``height_m`` in m
@@ -108,13 +108,17 @@ register_legacy(
 )
 
 
-def _smooth_signal(rng, t, f_lo, f_hi, n_terms=3):
-    # a sum of sinusoids with random frequencies and phases, normalized to unit peak over t
+def _smooth_params(rng, f_lo, f_hi, n_terms=3):
+    # a sum of sinusoids with random frequencies [Hz], phases and amplitudes
     f = rng.uniform(f_lo, f_hi, n_terms)
     ph = rng.uniform(0, 2 * np.pi, n_terms)
     amp = rng.uniform(0.5, 1.0, n_terms)
-    x = np.sum(amp[:, None] * np.sin(2 * np.pi * f[:, None] * t[None, :] + ph[:, None]), axis=0)
-    return x / np.max(np.abs(x))
+    return f, ph, amp
+
+
+def _smooth_eval(par, t):
+    f, ph, amp = par
+    return np.sum(amp[:, None] * np.sin(2 * np.pi * f[:, None] * t[None, :] + ph[:, None]), axis=0)
 
 
 def _envelope(t, duration, rest, ramp):
@@ -126,84 +130,353 @@ def _envelope(t, duration, rest, ramp):
     return smooth((t - rest) / ramp) * smooth((duration - t) / ramp)
 
 
-def _dynamic_truth(duration, rate, frame, lat, lon, h, rng, accel_level, tilt, knot_spacing):
-    from scipy.integrate import cumulative_trapezoid
+#: the dynamic flight's manoeuvres are integrated on a 0.01 s grid, this many points at a time
+FINE_CHUNK = 1 << 19
+#: samples per block of a flight generated block by block (:class:`FlightStream`)
+BLOCK_ROWS = 1 << 16
 
-    from optinav.core.simulate import trajectory
+
+def _dynamic_knots(duration, frame, rng, accel_level, tilt, knot_spacing):
+    """Knot times, C_b^n and positions (axes of ``frame``) of the dynamic flight and its end velocities: random
+    smooth accelerations and attitude integrated on a 0.01 s grid, :data:`FINE_CHUNK` points at a time (with the
+    integrals carried), sampled at knots ``knot_spacing`` apart."""
+    from scipy.integrate import cumulative_trapezoid
 
     rest = min(5.0, 0.1 * duration)  # still on the ground first: the estimators initialize from gravity
     ramp = min(3.0, 0.15 * duration)
-    fine = np.linspace(0.0, duration, int(np.ceil(duration / 0.01)) + 1)
-    env = _envelope(fine, duration, rest, ramp)
-    # horizontal accelerations up to ~accel_level (m/s²), vertical a fifth of it; 0.05–0.3 Hz manoeuvres
-    acc = (
-        accel_level
-        * np.stack(
-            [
-                _smooth_signal(rng, fine, 0.05, 0.3),
-                _smooth_signal(rng, fine, 0.05, 0.3),
-                0.2 * _smooth_signal(rng, fine, 0.05, 0.3),
-            ],
-            axis=1,
-        )
-        * env[:, None]
-    )
-    vel = cumulative_trapezoid(acc, fine, axis=0, initial=0.0)
-    pos = cumulative_trapezoid(vel, fine, axis=0, initial=0.0)
-    # attitude: roll/pitch within ±tilt (0.1–0.4 Hz), heading turning at up to 45 °/s
-    roll = tilt * _smooth_signal(rng, fine, 0.1, 0.4) * env
-    pitch = tilt * _smooth_signal(rng, fine, 0.1, 0.4) * env
-    yaw_rate = 45 * DEG * _smooth_signal(rng, fine, 0.03, 0.15) * env
-    yaw = rng.uniform(-np.pi, np.pi) + cumulative_trapezoid(yaw_rate, fine, initial=0.0)
+    # horizontal accelerations up to ~accel_level (m/s²), vertical a fifth of it; 0.05–0.3 Hz manoeuvres;
+    # roll/pitch within ±tilt (0.1–0.4 Hz), heading turning at up to 45 °/s
+    bands = [(0.05, 0.3)] * 3 + [(0.1, 0.4)] * 2 + [(0.03, 0.15)]
+    pars = [_smooth_params(rng, lo, hi) for lo, hi in bands]
+    yaw0 = rng.uniform(-np.pi, np.pi)
+    nf = int(np.ceil(duration / 0.01)) + 1
+    h = duration / (nf - 1)
+
+    def grid(i0, i1):  # points i0 … i1 − 1 of np.linspace(0, duration, nf)
+        x = np.arange(i0, i1) * h
+        if i1 == nf:
+            x[-1] = duration
+        return x
+
+    # consecutive chunks share their end point, so the integrals join
+    edges = list(range(0, nf - 1, FINE_CHUNK)) + [nf - 1]
+    peak = np.zeros(len(pars))
+    for i0, i1 in zip(edges[:-1], edges[1:]):
+        x = grid(i0, i1 + 1)
+        peak = np.maximum(peak, [np.max(np.abs(_smooth_eval(p, x))) for p in pars])
     n_k = max(int(np.ceil(duration / knot_spacing - 1e-9)), 3)
     tk = np.linspace(0.0, duration, n_k + 1)
-
-    def at(x):  # the fine-grid signal at the knots
-        x2 = x.reshape(fine.size, -1)
-        return np.stack([np.interp(tk, fine, x2[:, j]) for j in range(x2.shape[1])], axis=1).reshape(
-            (tk.size,) + x.shape[1:]
-        )
-
-    eul = np.stack([at(roll), at(pitch), (at(yaw) + np.pi) % (2 * np.pi) - np.pi], axis=1)
+    eul, pos = np.empty((tk.size, 3)), np.empty((tk.size, 3))
+    v0, p0, y0 = np.zeros(3), np.zeros(3), 0.0
+    for i0, i1 in zip(edges[:-1], edges[1:]):
+        fine = grid(i0, i1 + 1)
+        env = _envelope(fine, duration, rest, ramp)
+        sig = [_smooth_eval(p, fine) / m for p, m in zip(pars, peak)]
+        acc = accel_level * np.stack([sig[0], sig[1], 0.2 * sig[2]], axis=1) * env[:, None]
+        vel = cumulative_trapezoid(acc, fine, axis=0, initial=0.0) + v0
+        p = cumulative_trapezoid(vel, fine, axis=0, initial=0.0) + p0
+        roll, pitch = tilt * sig[3] * env, tilt * sig[4] * env
+        yaw = yaw0 + (cumulative_trapezoid(45 * DEG * sig[5] * env, fine, initial=0.0) + y0)
+        v0, p0, y0 = vel[-1], p[-1], yaw[-1] - yaw0
+        last = i1 == nf - 1
+        k = np.flatnonzero((tk >= fine[0]) & ((tk <= fine[-1]) if last else (tk < fine[-1])))
+        for j, x in enumerate((roll, pitch, yaw)):
+            eul[k, j] = np.interp(tk[k], fine, x)
+        for j in range(3):
+            pos[k, j] = np.interp(tk[k], fine, p[:, j])
+    eul[:, 2] = (eul[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    vel_end = v0
     if frame == "enu":
         eul[:, 2] = -eul[:, 2]  # the same heading in the ENU (counter-clockwise yaw) convention
-        pos, vel = ned_to_enu(pos), ned_to_enu(vel)
-    conv = frame
-    c = dcm_from_euler(eul, conv)
-    bc = ((1, vel[0]), (1, vel[-1]))  # in the axes of ``frame``, as the positions
-    return trajectory(tk, c, at(pos), rate, frame=conv, lat0=lat, lon0=lon, height0_m=h, bc_type=bc)
+        pos, vel_end = ned_to_enu(pos), ned_to_enu(vel_end)
+    return tk, dcm_from_euler(eul, frame), pos, vel_end
 
 
-def simulate(
-    kind: str = "static",
-    duration_s: float = 60.0,
-    rate_hz: float = 100.0,
-    *,
-    time=None,
-    lat: float = PAPER_SITE["lat"],
-    lon: float = PAPER_SITE["lon"],
-    height_m: float = PAPER_SITE["height_m"],
-    frame: str = DEFAULT_FRAME,
-    imu: str | ImuSpec = "mpu6000",
-    imu_errors: bool = False,
-    gyro_bias=None,
-    attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
-    accel_level: float = 4.0,
-    tilt: float = float(np.radians(30.0)),
-    knot_spacing_s: float = 0.1,
-    sky_model: str = "rayleigh",
-    d_max: float | None = None,
-    neutral_distance: float | None = None,
-    sensor=None,
-    pol_noise: float | None = None,
-    pol_rate_hz: float | None = None,
-    C_b_m=None,
-    pressure_mbar: float | None = 1013.25,
-    temperature_c: float = 5.0,
-    delta_t: float | None = None,
-    rng=None,
-) -> FlightData:
-    """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs.
+class FlightStream:
+    """A simulated flight generated block by block, so that memory does not grow with its length (``optinav
+    simulate flight``); :func:`simulate` gathers the same blocks.
+
+    From ``rng``, in order: the trajectory (dynamic), the unit's errors, then one key from which the IMU noise and
+    the polarization sensor's noise of every sample are drawn by sample index
+    (:class:`~optinav.core.imu_model.SampleDraws`, noise states carried by
+    :class:`~optinav.core.imu_model.MeasurementStream`): the same seed gives the same flight whatever the block
+    length. The dynamic trajectory is splined window by window (:class:`optinav.core.simulate.TrajectorySampler`).
+
+    Parameters
+    ----------
+    kind : str
+        ``"static"`` (``attitude`` held for ``duration_s``) or ``"dynamic"`` (smooth random manoeuvres: still for
+        the first min(5 s, 10 %), smooth ramps in and out, heading turning at up to 45 °/s).
+    duration_s : float
+        Length [s].
+    rate_hz : float
+        IMU sample rate [Hz].
+    time : str or None
+        ISO-8601 start with UTC offset; None: the paper's time for ``kind``.
+    lat, lon : float
+        Site [rad].
+    height_m : float
+        Height above the ellipsoid [m].
+    frame : str
+        ``"ned"`` (body FRD) or ``"enu"`` (body RFU).
+    imu : str or ImuSpec
+        Preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB).
+    imu_errors : bool
+        Also draw the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000).
+    gyro_bias : (3,) array or None
+        A constant residual gyro bias [rad/s].
+    attitude : (3,) array_like
+        Static attitude [roll, pitch, yaw] [rad] (Euler convention of ``frame``).
+    accel_level : float
+        Dynamic: largest horizontal acceleration [m/s^2] (vertical a fifth).
+    tilt : float
+        Dynamic: roll/pitch within ±tilt [rad], at 0.1–0.4 Hz.
+    knot_spacing_s : float
+        Dynamic: attitude/position splined through knots this far apart [s].
+    sky_model : str
+        ``"rayleigh"`` or ``"berry"``.
+    d_max : float or None
+        Largest degree of polarization of the sky model [-].
+    neutral_distance : float or None
+        Berry model: separation δ of the neutral points around the sun [rad].
+    sensor : PointSensor or None
+        The polarization sensor (default 3 channels, extinction ratio 100).
+    pol_noise : float or None
+        Relative intensity noise of the sensor [-] (default 0.002).
+    pol_rate_hz : float or None
+        Polarization sample rate [Hz] (default every IMU sample; NaN between).
+    C_b_m : (3, 3) array or None
+        Sensor mounting C_b^m [-]; None: zenith-viewing :func:`default_c_b_m`.
+    pressure_mbar : float or None
+        Air pressure for refraction [mbar]; None: geometric sun.
+    temperature_c : float
+        Air temperature for refraction [°C].
+    delta_t : float or None
+        TT − UT1 [s]; None: :func:`optinav.sky.sun.delta_t_espenak`.
+    rng : int, Generator or None
+        Seed or generator (trajectory, IMU and sensor noise).
+
+    Attributes
+    ----------
+    n : int
+        Samples of the flight.
+    """
+
+    def __init__(
+        self,
+        kind: str = "static",
+        duration_s: float = 60.0,
+        rate_hz: float = 100.0,
+        *,
+        time=None,
+        lat: float = PAPER_SITE["lat"],
+        lon: float = PAPER_SITE["lon"],
+        height_m: float = PAPER_SITE["height_m"],
+        frame: str = DEFAULT_FRAME,
+        imu: str | ImuSpec = "mpu6000",
+        imu_errors: bool = False,
+        gyro_bias=None,
+        attitude=tuple(np.radians((1.0, -2.0, 30.0)).tolist()),
+        accel_level: float = 4.0,
+        tilt: float = float(np.radians(30.0)),
+        knot_spacing_s: float = 0.1,
+        sky_model: str = "rayleigh",
+        d_max: float | None = None,
+        neutral_distance: float | None = None,
+        sensor=None,
+        pol_noise: float | None = None,
+        pol_rate_hz: float | None = None,
+        C_b_m=None,
+        pressure_mbar: float | None = 1013.25,
+        temperature_c: float = 5.0,
+        delta_t: float | None = None,
+        rng=None,
+    ):
+        from optinav.core.imu_model import MeasurementStream, SampleDraws, draw_key
+        from optinav.core.simulate import TrajectorySampler, static_positions_sampler
+        from optinav.sky import polarization as P
+        from optinav.sky.sun import utc_seconds
+
+        kind = str(kind).lower()
+        if kind not in ("static", "dynamic"):
+            raise OptinavError(f"unknown flight kind {kind!r}", "use 'static' or 'dynamic'")
+        frame = frame_name(frame)
+        duration = check_positive(duration_s, "duration_s")
+        rate = check_positive(rate_hz, "rate_hz")
+        if duration * rate < 2:
+            raise OptinavError("the flight has fewer than 2 samples", "increase duration_s or rate_hz")
+        lat, lon, height = float(lat), float(lon), float(height_m)
+        if not -np.pi / 2 <= lat <= np.pi / 2:
+            raise OptinavError(f"lat = {lat:g} rad is outside [-π/2, π/2]", "pass the latitude in rad")
+        rng = as_rng(rng)
+        self.start_time = PAPER_TIMES[kind] if time is None else time
+        self._t0 = float(utc_seconds(self.start_time))  # raises for a time without UTC offset
+        spec = preset(imu) if isinstance(imu, str) else imu
+        if not isinstance(spec, ImuSpec):
+            raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
+        spec = spec.replace(rate_hz=rate)
+        c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
+        if c_b_m.shape != (3, 3) or not np.allclose(c_b_m @ c_b_m.T, np.eye(3), atol=1e-9) or np.linalg.det(c_b_m) < 0:
+            raise OptinavError("C_b_m is not a rotation matrix", "pass the sensor mounting C_b^m (orthonormal, det +1)")
+        if sensor is None:
+            sensor = P.PointSensor(noise=0.002 if pol_noise is None else float(pol_noise))
+        elif pol_noise is not None:
+            raise OptinavError("pass either sensor or pol_noise", "set the noise in the PointSensor")
+        self._pol_step = None
+        if pol_rate_hz is not None:
+            self._pol_step = max(int(round(rate / check_positive(pol_rate_hz, "pol_rate_hz"))), 1)
+
+        if kind == "static":
+            att = as_float_array(attitude, "attitude", last_dims=(3,))
+            c = dcm_from_euler(att, "ned")
+            if frame == "enu":
+                from optinav.core.rotations import attitude_ned_to_enu
+
+                c = attitude_ned_to_enu(c)
+            self._truth = static_positions_sampler(c[None], duration, lat, height_m=height, lon=lon, frame=frame)
+        else:
+            tk, c, pk, v_end = _dynamic_knots(
+                duration, frame, rng, float(accel_level), float(tilt), check_positive(knot_spacing_s, "knot_spacing_s")
+            )
+            self._truth = TrajectorySampler(
+                tk, c, pk, frame, lat0=lat, lon0=lon, height0_m=height, bc_type=((1, np.zeros(3)), (1, v_end))
+            )
+        self.model = spec.draw(rng, errors=bool(imu_errors))
+        self._imu = (spec.name, bool(imu_errors))
+        key = draw_key(rng)
+        self._measure = MeasurementStream(self.model, key)
+        self._pol_draws = SampleDraws(key, 7, sensor.psi.size)
+        self._bias = None if gyro_bias is None else as_float_array(gyro_bias, "gyro_bias", last_dims=(3,))
+        self.n = int(np.floor(duration * rate + 1e-9)) + 1
+        self.rate_hz, self.frame, self.kind, self.C_b_m, self.sensor = rate, frame, kind, c_b_m, sensor
+        self.lat, self.lon, self.height_m = lat, lon, height
+        self._sun = dict(
+            pressure=None if pressure_mbar is None else 100.0 * pressure_mbar,
+            temperature=temperature_c + 273.15,
+            delta_t=delta_t,
+        )
+        self._sky = (sky_model, d_max, neutral_distance)
+        self._stats = {"rate": 0.0, "force": 0.0, "elevation": 0.0, "azimuth": 0.0, "refraction": False}
+        self._done = 0
+
+    def n_blocks(self, block_rows: int = BLOCK_ROWS) -> int:
+        """Number of blocks :meth:`blocks` yields for ``block_rows``."""
+        return -(-self.n // int(block_rows))
+
+    def blocks(self, block_rows: int = BLOCK_ROWS):
+        """Generate the flight's samples in order, ``block_rows`` at a time (once per stream).
+
+        Parameters
+        ----------
+        block_rows : int
+            Samples per block (memory grows with it, not with the flight; the samples do not depend on it).
+
+        Yields
+        ------
+        dict
+            The block's arrays under :class:`FlightData`'s names: ``t``, ``gyr``, ``acc``, ``q_b_n``, ``aop``,
+            ``dop``, ``aop_true``, ``dop_true``, ``sun_n``, ``sun_elevation``, ``sun_azimuth``, ``gyr_true``,
+            ``acc_true`` (units as there).
+        """
+        from optinav.sky import polarization as P
+        from optinav.sky.sun import solar_position
+
+        if self._done:
+            raise OptinavError("this flight was already generated", "make a new FlightStream")
+        step = int(check_positive(block_rows, "block_rows"))
+        sky_model, d_max, neutral_distance = self._sky
+        st = self._stats
+        for i0 in range(0, self.n, step):
+            i1 = min(i0 + step, self.n)
+            t = np.arange(i0, i1) / self.rate_hz
+            w_true, f_true, q = self._truth.states(t)
+            gyr, acc = self._measure(w_true, f_true, np.full(t.size, 1.0 / self.rate_hz))
+            if self._bias is not None:
+                gyr = gyr + self._bias
+            # the sun at every sample (the vehicle moves < 1 km: the site's position is used)
+            times = (np.round((self._t0 + t) * 1e9)).astype("datetime64[ns]")
+            sp = solar_position(times, self.lat, self.lon, self.height_m, **self._sun)
+            sun_n = sp.sun_vector(self.frame)
+            c_n_m = self.C_b_m @ np.swapaxes(dcm_from_quat(q), -1, -2)
+            sun_m = np.einsum("nij,nj->ni", c_n_m, sun_n)
+            kw = {} if d_max is None else {"d_max": d_max}
+            if sky_model.lower() == "berry":
+                kw["up"] = np.einsum("nij,j->ni", c_n_m, up_vector(self.frame))
+                if neutral_distance is not None:
+                    kw["neutral_distance"] = neutral_distance
+            sky = P.sky_polarization(sun_m, np.broadcast_to([0.0, 0.0, 1.0], sun_m.shape), model=sky_model, **kw)
+            aop_true = P.aop_in_sensor(sky.e)
+            reading = self.sensor.measure(aop_true, sky.dop, draws=self._pol_draws.take(i0, i1))
+            aop, dop = reading.aop.copy(), reading.dop.copy()
+            aop[~np.isfinite(aop_true)] = np.nan  # sun on the viewing axis: no usable angle
+            if self._pol_step is not None:
+                skip = np.arange(i0, i1) % self._pol_step != 0
+                aop[skip], dop[skip] = np.nan, np.nan
+            st["rate"] = max(st["rate"], float(np.max(np.linalg.norm(w_true, axis=1))))
+            st["force"] = max(st["force"], float(np.max(np.linalg.norm(f_true, axis=1))))
+            st["elevation"] += float(np.sum(sp.elevation))
+            st["azimuth"] += float(np.sum(sp.azimuth))
+            st["refraction"] = sp.refraction
+            self._done = i1
+            yield {
+                "t": t,
+                "gyr": gyr,
+                "acc": acc,
+                "q_b_n": q,
+                "aop": aop,
+                "dop": dop,
+                "aop_true": aop_true,
+                "dop_true": sky.dop,
+                "sun_n": sun_n,
+                "sun_elevation": sp.elevation,
+                "sun_azimuth": sp.azimuth,
+                "gyr_true": w_true,
+                "acc_true": f_true,
+            }
+
+    @property
+    def metadata(self) -> dict:
+        """What the simulation recorded (after :meth:`blocks` ran to the end): the unit, the sensor, saturated
+        samples, the largest rate and specific force, the mean sun position."""
+        if self._done < self.n:
+            raise OptinavError("the flight's blocks were not all generated", "run blocks() to the end first")
+        sensor, st = self.sensor, self._stats
+        return {
+            "imu": self._imu[0],
+            "imu_errors": self._imu[1],
+            "sky_model": self._sky[0],
+            "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
+            "sensor_noise": float(sensor.noise),
+            "extinction_ratio": float(sensor.extinction_ratio),
+            "gyro_saturated": self._measure.gyro_saturated,
+            "acc_saturated": self._measure.acc_saturated,
+            "max_rate_deg_s": float(np.degrees(st["rate"])),
+            "max_specific_force_m_s2": st["force"],
+            "sun_elevation_deg_mean": float(np.degrees(st["elevation"] / self.n)),
+            "sun_azimuth_deg_mean": float(np.degrees(st["azimuth"] / self.n)),
+            "refraction": st["refraction"],
+        }
+
+    def flight(self, **arrays) -> FlightData:
+        """The :class:`FlightData` of the gathered blocks (after :meth:`blocks` ran to the end)."""
+        meta = self.metadata
+        return FlightData(
+            dt=1.0 / self.rate_hz,
+            C_b_m=self.C_b_m,
+            frame=self.frame,
+            kind=self.kind,
+            start_time=str(self.start_time),
+            lat=self.lat,
+            lon=self.lon,
+            height_m=self.height_m,
+            metadata=meta,
+            **arrays,
+        )
+
+
+def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 100.0, **options) -> FlightData:
+    """Simulate a static test or a dynamic UAV flight with IMU and skylight-polarization outputs: the blocks of
+    :class:`FlightStream` gathered.
 
     The sun: SPA at every sample with refraction. Defaults reproduce the paper's site and times
     (:data:`PAPER_SITE`).
@@ -267,139 +540,6 @@ def simulate(
     FlightData
         IMU samples ``gyr`` [rad/s], ``acc`` [m/s^2], true ``q_b_n``, AoP [rad], DoP and the sun.
     """
-    from optinav.core.simulate import static_positions
-    from optinav.sky import polarization as P
-    from optinav.sky.sun import solar_position, utc_seconds
-
-    kind = str(kind).lower()
-    if kind not in ("static", "dynamic"):
-        raise OptinavError(f"unknown flight kind {kind!r}", "use 'static' or 'dynamic'")
-    frame = frame_name(frame)
-    duration = check_positive(duration_s, "duration_s")
-    rate = check_positive(rate_hz, "rate_hz")
-    if duration * rate < 2:
-        raise OptinavError("the flight has fewer than 2 samples", "increase duration_s or rate_hz")
-    lat, lon, height = float(lat), float(lon), float(height_m)
-    if not -np.pi / 2 <= lat <= np.pi / 2:
-        raise OptinavError(f"lat = {lat:g} rad is outside [-π/2, π/2]", "pass the latitude in rad")
-    rng = as_rng(rng)
-    start = PAPER_TIMES[kind] if time is None else time
-    t0 = float(utc_seconds(start))  # raises for a time without UTC offset
-    spec = preset(imu) if isinstance(imu, str) else imu
-    if not isinstance(spec, ImuSpec):
-        raise OptinavError("imu must be a preset name or an ImuSpec", "pass e.g. imu='mpu6000'")
-    spec = spec.replace(rate_hz=rate)
-    conv = frame
-
-    if kind == "static":
-        att = as_float_array(attitude, "attitude", last_dims=(3,))
-        c = dcm_from_euler(att, "ned")
-        if frame == "enu":
-            from optinav.core.rotations import attitude_ned_to_enu
-
-            c = attitude_ned_to_enu(c)
-        truth = static_positions(c[None], duration, rate, lat, height, lon, frame=conv)
-    else:
-        truth = _dynamic_truth(
-            duration,
-            rate,
-            frame,
-            lat,
-            lon,
-            float(height),
-            rng,
-            float(accel_level),
-            float(tilt),
-            check_positive(knot_spacing_s, "knot_spacing_s"),
-        )
-
-    t = truth.t
-    w_true, f_true = truth.gyr, truth.acc
-    model = spec.draw(rng, errors=bool(imu_errors))
-    meas = model.apply(w_true, f_true, dt=1.0 / rate, rng=rng)
-    gyr = meas.gyr
-    if gyro_bias is not None:
-        gyr = gyr + as_float_array(gyro_bias, "gyro_bias", last_dims=(3,))
-
-    # the sun at every sample (the vehicle moves < 1 km: the site's position is used)
-    times = (np.round((t0 + t) * 1e9)).astype("datetime64[ns]")
-    sp = solar_position(
-        times,
-        lat,
-        lon,
-        height,
-        pressure=None if pressure_mbar is None else 100.0 * pressure_mbar,
-        temperature=temperature_c + 273.15,
-        delta_t=delta_t,
-    )
-    sun_n = sp.sun_vector(conv)
-
-    c_b_m = default_c_b_m(frame) if C_b_m is None else as_float_array(C_b_m, "C_b_m", last_dims=(3, 3))
-    if c_b_m.shape != (3, 3) or not np.allclose(c_b_m @ c_b_m.T, np.eye(3), atol=1e-9) or np.linalg.det(c_b_m) < 0:
-        raise OptinavError("C_b_m is not a rotation matrix", "pass the sensor mounting C_b^m (orthonormal, det +1)")
-    c_n_b = np.swapaxes(dcm_from_quat(truth.q_b_n), -1, -2)
-    c_n_m = c_b_m @ c_n_b
-    sun_m = np.einsum("nij,nj->ni", c_n_m, sun_n)
-    view_m = np.broadcast_to([0.0, 0.0, 1.0], sun_m.shape)
-    kw = {}
-    if d_max is not None:
-        kw["d_max"] = d_max
-    if sky_model.lower() == "berry":
-        kw["up"] = np.einsum("nij,j->ni", c_n_m, up_vector(frame))
-        if neutral_distance is not None:
-            kw["neutral_distance"] = neutral_distance
-    sky = P.sky_polarization(sun_m, view_m, model=sky_model, **kw)
-    aop_true = P.aop_in_sensor(sky.e)
-    dop_true = sky.dop
-    if sensor is None:
-        sensor = P.PointSensor(noise=0.002 if pol_noise is None else float(pol_noise))
-    elif pol_noise is not None:
-        raise OptinavError("pass either sensor or pol_noise", "set the noise in the PointSensor")
-    reading = sensor.measure(aop_true, dop_true, rng)
-    aop, dop = reading.aop.copy(), reading.dop.copy()
-    aop[~np.isfinite(aop_true)] = np.nan  # sun on the viewing axis: no usable angle
-    if pol_rate_hz is not None:
-        pr = check_positive(pol_rate_hz, "pol_rate_hz")
-        step = max(int(round(rate / pr)), 1)
-        keep = np.zeros(t.size, bool)
-        keep[::step] = True
-        aop[~keep], dop[~keep] = np.nan, np.nan
-    meta = {
-        "imu": spec.name,
-        "imu_errors": bool(imu_errors),
-        "sky_model": sky_model,
-        "sensor_channels_deg": [float(x) for x in np.degrees(sensor.psi)],
-        "sensor_noise": float(sensor.noise),
-        "extinction_ratio": float(sensor.extinction_ratio),
-        "gyro_saturated": int(np.count_nonzero(meas.gyro_saturated)),
-        "acc_saturated": int(np.count_nonzero(meas.acc_saturated)),
-        "max_rate_deg_s": float(np.degrees(np.max(np.linalg.norm(w_true, axis=1)))),
-        "max_specific_force_m_s2": float(np.max(np.linalg.norm(f_true, axis=1))),
-        "sun_elevation_deg_mean": float(np.degrees(np.mean(sp.elevation))),
-        "sun_azimuth_deg_mean": float(np.degrees(np.mean(sp.azimuth))),
-        "refraction": sp.refraction,
-    }
-    return FlightData(
-        t=t,
-        dt=1.0 / rate,
-        gyr=gyr,
-        acc=meas.acc,
-        q_b_n=truth.q_b_n,
-        aop=aop,
-        dop=dop,
-        aop_true=aop_true,
-        dop_true=dop_true,
-        sun_n=sun_n,
-        sun_elevation=sp.elevation,
-        sun_azimuth=sp.azimuth,
-        C_b_m=c_b_m,
-        frame=frame,
-        kind=kind,
-        start_time=str(start),
-        lat=lat,
-        lon=lon,
-        height_m=float(height),
-        gyr_true=w_true,
-        acc_true=f_true,
-        metadata=meta,
-    )
+    stream = FlightStream(kind, duration_s, rate_hz, **options)
+    parts = list(stream.blocks())
+    return stream.flight(**{k: np.concatenate([p[k] for p in parts]) for k in parts[0]})

@@ -703,11 +703,12 @@ def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
     n = int(n)
     if n < 2:
         raise OptinavError(f"flicker noise needs at least 2 samples, got {n}", "pass n >= 2")
-    return StaticNoiseStream(n, dt, bias_instability=bias_instability, key=_draw_key(rng)).gather()
+    return StaticNoiseStream(n, dt, bias_instability=bias_instability, key=draw_key(rng)).gather()
 
 
-def _draw_key(rng) -> int:
-    """One key for :class:`SampleDraws` drawn from a seed or generator."""
+def draw_key(rng) -> int:
+    """One key for :class:`SampleDraws` drawn from a seed or generator (a simulation draws it right after the
+    unit's errors, so a seed keeps giving the same unit)."""
     return int(as_rng(rng).integers(2**63))
 
 
@@ -735,7 +736,7 @@ def static_noise(n: int, dt: float, *, white=0.0, bias_instability=0.0, random_w
         Rate noise [u] (rad/s or m/s^2).
     """
     stream = StaticNoiseStream(
-        n, dt, white=white, bias_instability=bias_instability, random_walk=random_walk, key=_draw_key(rng)
+        n, dt, white=white, bias_instability=bias_instability, random_walk=random_walk, key=draw_key(rng)
     )
     return stream.gather()
 

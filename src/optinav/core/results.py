@@ -835,6 +835,87 @@ class Truth:
         return out
 
 
+def _json_rows(v: np.ndarray) -> str:
+    """Rows of an array as JSON text, one row per line, without the enclosing brackets (non-finite → null)."""
+    v = np.asarray(v, float)
+    num = (lambda x: repr(x) if math.isfinite(x) else "null") if not np.all(np.isfinite(v)) else repr
+    if v.ndim == 1:
+        return ",\n".join(map(num, v.tolist()))
+    return ",\n".join("[" + ", ".join(map(num, r)) + "]" for r in v.reshape(len(v), -1).tolist())
+
+
+class TruthSeriesWriter:
+    """A truth whose parameters are per-sample series (e.g. a simulated flight's attitude), written to
+    ``STEM.truth.json`` block by block: each series' rows wait in a scratch file beside the output until
+    :meth:`close` assembles the file atomically, in :meth:`Truth.to_json`'s layout (:meth:`Truth.from_json` reads
+    it), so memory does not grow with the length of the series.
+
+    Parameters
+    ----------
+    path : str or Path
+        The truth file.
+    system : str
+        The system (``"attitude"``).
+    units : dict of str to str
+        Series name → unit, in the file's order.
+    info : dict
+        What else the simulator recorded (plain JSON types).
+    option : str
+        The CLI option that names the output (for errors).
+    """
+
+    def __init__(self, path, system: str, units: dict, info: dict | None = None, option: str = "--out"):
+        import contextlib
+
+        from optinav.core.files import scratch_file
+
+        self.path, self.option = Path(path), option
+        self._head = Truth(system, {n: Parameter(None, u) for n, u in units.items()}, dict(info or {}))
+        self._stack = contextlib.ExitStack()
+        self._scratch = {n: self._stack.enter_context(scratch_file(self.path, option)) for n in units}
+
+    def write(self, **series) -> None:
+        """Append a block's rows of each series (every series of ``units``, the same rows)."""
+        for name, fh in self._scratch.items():
+            text = _json_rows(series[name])
+            if text:
+                fh.write(((",\n" if fh.tell() else "") + text).encode())
+
+    def close(self) -> Path:
+        """Write the file (atomically) and remove the scratch files; returns the path."""
+        import shutil
+
+        from optinav.core.files import atomic_open, os_error
+
+        with self._stack:
+            d = self._head.to_dict()
+            for n in self._scratch:
+                d["parameters"][n]["value"] = f"@@series:{n}@@"
+            text = json.dumps(d, indent=2, allow_nan=False)
+            with atomic_open(self.path, "wb", self.option) as out:
+                for n, fh in self._scratch.items():
+                    head, text = text.split(f'"@@series:{n}@@"', 1)
+                    out.write(head.encode() + b"[\n")
+                    try:
+                        fh.flush()
+                        fh.seek(0)
+                        shutil.copyfileobj(fh, out, 1 << 20)
+                    except OSError as exc:
+                        raise os_error(self.path, exc, self.option) from None
+                    out.write(b"\n]")
+                out.write(text.encode() + b"\n")
+        return self.path
+
+    def __enter__(self) -> "TruthSeriesWriter":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self._stack.close()
+
+
 def register_truth_legacy(system: str, schema: str, convert) -> None:
     """Read truth files of an older optinav (``schema``) as ``system`` truth.
 

@@ -60,6 +60,7 @@ __all__ = [
     "static_positions",
     "static_positions_sampler",
     "RateSampler",
+    "TrajectorySampler",
     "orientation_from_up",
     "six_positions",
     "describe_pose",
@@ -750,13 +751,15 @@ class _Motion:
         idx = self.piece_index(t)
         return np.array([self.pieces[i].label for i in idx], dtype=np.int64)
 
+    def in_frame(self, c, v):
+        """C_b^ENU and v^ENU in the motion's frame."""
+        return (C_ENU_NED @ c, v @ C_ENU_NED.T) if self.frame == "ned" else (c, v)
+
     def simulate(self, t, lever_arm=None, quat=None) -> ImuTruth:
         t = np.asarray(t, float)
         w_ib, f_b, _, c, pos, v = self.kinematics(t, lever_arm=lever_arm)
         dtheta, dv = self.increments(t, lever_arm)
-        if self.frame == "ned":
-            c = C_ENU_NED @ c
-            v = v @ C_ENU_NED.T
+        c, v = self.in_frame(c, v)
         q = (
             quat_from_dcm(c)
             if quat is None
@@ -1030,6 +1033,13 @@ class RateSampler:
         t = np.clip(np.asarray(t, float), 0.0, self.duration)
         w_ib, f_b, *_ = self._motion.kinematics(t, lever_arm=self._lever)
         return w_ib, f_b, self._motion.labels(t)
+
+    def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(gyr, acc, q_b_n)`` at the epochs ``t`` [s]: ω_ib^b [rad/s], f^b [m/s^2] and the attitude
+        [w, x, y, z] in the motion's frame, as :class:`ImuTruth` holds them."""
+        t = np.clip(np.asarray(t, float), 0.0, self.duration)
+        w_ib, f_b, _, c, _, v = self._motion.kinematics(t, lever_arm=self._lever)
+        return w_ib, f_b, quat_from_dcm(self._motion.in_frame(c, v)[0])
 
 
 def static_positions_sampler(orientations, dwell, lat, *, lever_arm=None, **options) -> RateSampler:
@@ -1579,6 +1589,151 @@ def _bc_to_enu(bc_type, frame):
     return tuple(out)
 
 
+def _trajectory_knots(t_knots, attitude_knots, position_knots, frame, earth, lat0, lon0, height0_m, gravity):
+    """The checked knots of :func:`trajectory`: times, C_b^n (K, 3, 3) and positions (K, 3) in ``frame``."""
+    frame, earth = frame_name(frame), _check_earth(earth)
+    tk = check_timestamps(t_knots, "t_knots")
+    K = tk.size
+    if abs(tk[0]) > 1e-12:
+        raise OptinavError(f"t_knots starts at {tk[0]:.6g} s", "start the knots at t = 0")
+    att = np.asarray(attitude_knots, dtype=float)
+    if att.shape == (K, 4):
+        q = as_float_array(att, "attitude_knots", last_dims=(4,))
+        if np.any(np.abs(np.linalg.norm(q, axis=-1) - 1) > _ORTHO_TOL):
+            raise OptinavError("attitude_knots quaternions are not unit quaternions", "normalize them")
+        cs = dcm_from_quat(q)
+    elif att.shape == (K, 3, 3):
+        cs = _as_dcms(att, "attitude_knots")
+    else:
+        raise OptinavError(
+            f"attitude_knots has shape {att.shape}, expected ({K}, 3, 3) or ({K}, 4)", "give one attitude per knot"
+        )
+    pk = as_float_array(position_knots, "position_knots", last_dims=(3,))
+    if pk.shape != (K, 3):
+        raise OptinavError(f"position_knots has shape {pk.shape}, expected ({K}, 3)", "give one position per knot")
+    site = (_check_lat(lat0, "lat0"), _scalar(lon0, "lon0"), _scalar(height0_m, "height0_m"))
+    return tk, cs, pk, frame, earth, site, _gravity_arg(gravity, earth)
+
+
+def _trajectory_motion(tk, cs, pk, bc_type, frame, earth, site, gravity) -> "_Motion":
+    """The :class:`_Motion` of :func:`trajectory` through knots ``tk`` (from 0) with C_b^n ``cs`` and positions
+    ``pk`` in ``frame`` and end conditions ``bc_type`` already in ENU axes."""
+    from scipy.interpolate import CubicSpline
+    from scipy.spatial.transform import Rotation, RotationSpline
+
+    K = tk.size
+    cs = np.stack([_to_enu(c, frame) for c in cs])
+    pk = _vec_to_enu(pk, frame)
+    rs = RotationSpline(tk, Rotation.from_matrix(cs))
+    try:
+        ps = CubicSpline(tk, pk, axis=0, bc_type=bc_type)
+    except ValueError as exc:
+        raise OptinavError(f"cannot build the position spline ({exc})", "check bc_type and the knots") from None
+    duration = float(tk[-1])
+    # panel length: at most 1 rad of body rotation per panel, estimated on a fine grid, and the knot spacing
+    fine = np.linspace(0, duration, 64 * K)
+    wmax = float(np.max(np.linalg.norm(np.atleast_2d(rs(fine, 1)), axis=-1)))
+    step = min(float(np.min(np.diff(tk))), 1.0 / (1.5 * wmax + 1e-12))
+    piece = _Spline(0.0, duration, 0, rs, tk, step)
+    trans = _TangentSpline(ps, *site, earth, tk[1:-1])
+    return _Motion([piece], trans, frame, earth, ["trajectory"], gravity)
+
+
+#: knots per window of :class:`TrajectorySampler` (a longer trajectory is splined window by window) and the knots
+#: each window's splines extend beyond it: a cubic spline's dependence on a knot decays by 2 − √3 ≈ 0.27 per knot,
+#: so 64 knots away it is ~1e-37, far below rounding: the windows join as one spline through all knots would
+TRAJECTORY_WINDOW_KNOTS = 16384
+TRAJECTORY_WINDOW_PAD = 64
+
+
+class TrajectorySampler:
+    """The motion of :func:`trajectory` at any epochs, for a long log generated block by block: the splines are
+    built over windows of :data:`TRAJECTORY_WINDOW_KNOTS` knots (each extended by :data:`TRAJECTORY_WINDOW_PAD`
+    knots on both sides, so it agrees with one spline through all knots to rounding), one window at a time, so
+    memory does not grow with the number of knots beyond the knots themselves; with no more knots than one window
+    it is :func:`trajectory`'s motion exactly.
+
+    ``sampler(t)`` gives ``(gyr, acc, labels)`` as :class:`RateSampler`; :meth:`states` gives
+    ``(gyr, acc, q_b_n)``. Epochs are best given in increasing order (one window is kept built).
+
+    Parameters
+    ----------
+    t_knots, attitude_knots, position_knots, frame, earth, lat0, lon0, height0_m, bc_type, lever_arm, gravity
+        As :func:`trajectory`.
+    window_knots : int
+        Knots per window.
+    """
+
+    def __init__(
+        self,
+        t_knots,
+        attitude_knots,
+        position_knots,
+        frame=DEFAULT_FRAME,
+        earth="wgs84",
+        *,
+        lat0,
+        lon0=0.0,
+        height0_m=0.0,
+        bc_type="not-a-knot",
+        lever_arm=None,
+        gravity=None,
+        window_knots: int = TRAJECTORY_WINDOW_KNOTS,
+    ):
+        tk, cs, pk, frame, earth, site, g = _trajectory_knots(
+            t_knots, attitude_knots, position_knots, frame, earth, lat0, lon0, height0_m, gravity
+        )
+        self._knots, self._frame, self._earth, self._site, self._g = (tk, cs, pk), frame, earth, site, g
+        bc = _bc_to_enu(bc_type, frame)
+        self._bc = (bc, bc) if isinstance(bc, str) else tuple(bc)
+        self._lever = _lever(lever_arm)
+        self._w = max(int(window_knots), 1)
+        self.windows = -(-(tk.size - 1) // self._w)
+        self.duration = float(tk[-1])
+        self.segment_names = ["trajectory"]
+        self._built = (-1, None, 0.0)
+
+    def _motion(self, j: int):
+        if self._built[0] != j:
+            tk, cs, pk = self._knots
+            last = tk.size - 1
+            a = 0 if j == 0 else j * self._w - TRAJECTORY_WINDOW_PAD
+            b = last if j == self.windows - 1 else (j + 1) * self._w + TRAJECTORY_WINDOW_PAD
+            a, b = max(a, 0), min(b, last)
+            bc = (self._bc[0] if a == 0 else "not-a-knot", self._bc[1] if b == last else "not-a-knot")
+            t0 = float(tk[a])
+            tw = tk[a : b + 1] - t0 if a else tk[: b + 1]
+            motion = _trajectory_motion(
+                tw, cs[a : b + 1], pk[a : b + 1], bc, self._frame, self._earth, self._site, self._g
+            )
+            self._built = (j, motion, t0)
+        return self._built[1], self._built[2]
+
+    def _each_window(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration)
+        tk = self._knots[0]
+        starts = tk[np.arange(self.windows) * self._w]
+        j = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, self.windows - 1)
+        for w in np.unique(j):
+            sel = np.flatnonzero(j == w)
+            motion, t0 = self._motion(int(w))
+            yield sel, motion, t[sel] - t0
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        gyr, acc, _ = self.states(t)
+        return gyr, acc, np.zeros(len(gyr), np.int64)
+
+    def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(gyr, acc, q_b_n)`` at the epochs ``t`` [s]: ω_ib^b [rad/s], f^b [m/s^2] and the attitude
+        [w, x, y, z] in ``frame``, as :class:`ImuTruth` holds them."""
+        n = np.size(t)
+        gyr, acc, q = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 4))
+        for sel, motion, tw in self._each_window(t):
+            w_ib, f_b, _, c, _, v = motion.kinematics(tw, lever_arm=self._lever)
+            gyr[sel], acc[sel], q[sel] = w_ib, f_b, quat_from_dcm(motion.in_frame(c, v)[0])
+        return gyr, acc, q
+
+
 def trajectory(
     t_knots,
     attitude_knots,
@@ -1635,47 +1790,8 @@ def trajectory(
     ImuTruth
         Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
-    rate = rate_hz
-    from scipy.interpolate import CubicSpline
-    from scipy.spatial.transform import Rotation, RotationSpline
-
-    frame, earth = frame_name(frame), _check_earth(earth)
-    tk = check_timestamps(t_knots, "t_knots")
-    K = tk.size
-    if abs(tk[0]) > 1e-12:
-        raise OptinavError(f"t_knots starts at {tk[0]:.6g} s", "start the knots at t = 0")
-    att = np.asarray(attitude_knots, dtype=float)
-    if att.shape == (K, 4):
-        q = as_float_array(att, "attitude_knots", last_dims=(4,))
-        if np.any(np.abs(np.linalg.norm(q, axis=-1) - 1) > _ORTHO_TOL):
-            raise OptinavError("attitude_knots quaternions are not unit quaternions", "normalize them")
-        cs = dcm_from_quat(q)
-    elif att.shape == (K, 3, 3):
-        cs = _as_dcms(att, "attitude_knots")
-    else:
-        raise OptinavError(
-            f"attitude_knots has shape {att.shape}, expected ({K}, 3, 3) or ({K}, 4)", "give one attitude per knot"
-        )
-    pk = as_float_array(position_knots, "position_knots", last_dims=(3,))
-    if pk.shape != (K, 3):
-        raise OptinavError(f"position_knots has shape {pk.shape}, expected ({K}, 3)", "give one position per knot")
-    lat0 = _check_lat(lat0, "lat0")
-    lon0, h0 = _scalar(lon0, "lon0"), _scalar(height0_m, "height0_m")
-    g = _gravity_arg(gravity, earth)
-    cs = np.stack([_to_enu(c, frame) for c in cs])
-    pk = _vec_to_enu(pk, frame)
-    bc_type = _bc_to_enu(bc_type, frame)
-    rs = RotationSpline(tk, Rotation.from_matrix(cs))
-    try:
-        ps = CubicSpline(tk, pk, axis=0, bc_type=bc_type)
-    except ValueError as exc:
-        raise OptinavError(f"cannot build the position spline ({exc})", "check bc_type and the knots") from None
-    duration = float(tk[-1])
-    # panel length: at most 1 rad of body rotation per panel, estimated on a fine grid, and the knot spacing
-    fine = np.linspace(0, duration, 64 * K)
-    wmax = float(np.max(np.linalg.norm(np.atleast_2d(rs(fine, 1)), axis=-1)))
-    step = min(float(np.min(np.diff(tk))), 1.0 / (1.5 * wmax + 1e-12))
-    piece = _Spline(0.0, duration, 0, rs, tk, step)
-    trans = _TangentSpline(ps, lat0, lon0, h0, earth, tk[1:-1])
-    motion = _Motion([piece], trans, frame, earth, ["trajectory"], g)
-    return motion.simulate(_epochs(duration, rate, t), _lever(lever_arm))
+    tk, cs, pk, frame, earth, site, g = _trajectory_knots(
+        t_knots, attitude_knots, position_knots, frame, earth, lat0, lon0, height0_m, gravity
+    )
+    motion = _trajectory_motion(tk, cs, pk, _bc_to_enu(bc_type, frame), frame, earth, site, g)
+    return motion.simulate(_epochs(float(tk[-1]), rate_hz, t), _lever(lever_arm))

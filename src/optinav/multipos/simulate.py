@@ -14,7 +14,7 @@ import numpy as np
 
 from optinav.core import rotations
 from optinav.core.earth import gravity as normal_gravity
-from optinav.core.imu_model import ImuModel, ImuSpec, MeasurementStream, SampleDraws, TriadErrors, preset
+from optinav.core.imu_model import ImuModel, ImuSpec, MeasurementStream, SampleDraws, TriadErrors, draw_key, preset
 from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.simulate import describe_pose, static_positions_sampler
 from optinav.core.units import DEG, G_STANDARD
@@ -184,12 +184,6 @@ def _raw_factor(unit: str, kind: str, counts_per_si: float) -> float:
     return table[unit]
 
 
-def noise_key(gen) -> int:
-    """The key of a session's per-sample draws (noise, jitter), drawn from ``gen`` right after the unit
-    (:class:`SessionStream`)."""
-    return int(gen.integers(0, 2**63))
-
-
 #: samples per block of a session generated block by block (:class:`SessionStream`): some tens of MB each
 BLOCK_ROWS = 1 << 17
 
@@ -292,7 +286,7 @@ class SessionStream:
         self._sampler = static_positions_sampler(
             poses, dwell, lat, height_m=height_m, transition=transition_s, frame="enu"
         )
-        key = noise_key(gen)
+        key = draw_key(gen)
         self._measure = MeasurementStream(unit_model, key)
         self._jitter = SampleDraws(key, 6, 1, "uniform")
         self._first = np.full(len(ups), np.nan)

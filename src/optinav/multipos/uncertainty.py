@@ -82,9 +82,7 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
     (t0, t1) s; what ``local`` reports the bias of), else over the simulated poses. The drift is redrawn from ``seed`` as
     :class:`~optinav.multipos.simulate.SessionStream` draws it (the unit first when ``drawn``, then the key of the
     per-sample draws, of which the Gauss–Markov bias takes its own stream)."""
-    from optinav.core.imu_model import ImuModel, MeasurementStream, TriadNoise
-
-    from .simulate import noise_key
+    from optinav.core.imu_model import ImuModel, MeasurementStream, TriadNoise, draw_key
 
     gen = np.random.default_rng(seed)
     if drawn:
@@ -93,7 +91,7 @@ def _session_gyro_bias(s, unit, seed: int, drawn: bool, intervals=None) -> np.nd
     d = np.r_[np.diff(s.t), 1.0 / unit.rate_hz]
     nz = unit.gyro_noise
     drift_only = ImuModel(gyro_noise=TriadNoise(gm_sigma=nz.gm_sigma, gm_tau=nz.gm_tau), rate_hz=unit.rate_hz)
-    drift = MeasurementStream(drift_only, noise_key(gen))(np.zeros((n, 3)), np.zeros((n, 3)), d)[0]
+    drift = MeasurementStream(drift_only, draw_key(gen))(np.zeros((n, 3)), np.zeros((n, 3)), d)[0]
     rest = s.labels >= 0
     if intervals is not None:
         rest = np.zeros(n, bool)

@@ -297,8 +297,9 @@ class PointSensor:
         a, b = self._eta
         return 0.5 * np.stack([np.full_like(self.psi, a), b * np.cos(2 * self.psi), b * np.sin(2 * self.psi)], axis=1)
 
-    def channels(self, aop, dop, rng=None, *, noise: bool = True) -> np.ndarray:
-        """Raw channel outputs (..., K) for true angle ``aop`` (rad, frame m) and degree ``dop``."""
+    def channels(self, aop, dop, rng=None, *, noise: bool = True, draws=None) -> np.ndarray:
+        """Raw channel outputs (..., K) for true angle ``aop`` (rad, frame m) and degree ``dop``; the noise from
+        ``rng``, or from ``draws`` (..., K) standard normal draws when given (a simulation drawn by sample index)."""
         al = np.asarray(aop, dtype=float)
         d = np.asarray(dop, dtype=float)
         al, d = np.broadcast_arrays(np.where(np.isfinite(al), al, 0.0), np.where(np.isfinite(al), d, 0.0))
@@ -308,7 +309,14 @@ class PointSensor:
         ideal = stokes @ self.design().T
         y = ideal * self.gain + self.offset
         if noise and self.noise > 0:
-            y = y + as_rng(rng).normal(0.0, self.noise * self.intensity, y.shape)
+            sigma = self.noise * self.intensity
+            if draws is None:
+                y = y + as_rng(rng).normal(0.0, sigma, y.shape)
+            else:
+                z = np.asarray(draws, float)
+                if z.shape != y.shape:
+                    raise OptinavError(f"draws have shape {z.shape}, the channels {y.shape}", "pass one per channel")
+                y = y + sigma * z
         return y
 
     def invert(self, y) -> PolarizationReading:
@@ -323,9 +331,10 @@ class PointSensor:
             dop = np.where(s0 > 0, p / s0, np.nan)
         return PolarizationReading(aop=aop, dop=dop, intensity=s0, channels=y)
 
-    def measure(self, aop, dop, rng=None, *, noise: bool = True) -> PolarizationReading:
-        """Channels then inversion: the sensor's measured angle and degree of polarization."""
-        return self.invert(self.channels(aop, dop, rng, noise=noise))
+    def measure(self, aop, dop, rng=None, *, noise: bool = True, draws=None) -> PolarizationReading:
+        """Channels then inversion: the sensor's measured angle and degree of polarization (``draws``: as
+        :meth:`channels`)."""
+        return self.invert(self.channels(aop, dop, rng, noise=noise, draws=draws))
 
     def aop_sigma(self, dop) -> np.ndarray:
         """Theoretical 1σ AoP noise (rad) from the channel noise (small-noise, ideal gains): the LS covariance
