@@ -131,7 +131,7 @@ def _envelope(t, duration, rest, ramp):
 
 
 #: the dynamic flight's manoeuvres are integrated on a 0.01 s grid, this many points at a time
-FINE_CHUNK = 1 << 19
+FINE_CHUNK = 1 << 17
 #: samples per block of a flight generated block by block (:class:`FlightStream`)
 BLOCK_ROWS = 1 << 16
 

@@ -1630,9 +1630,13 @@ def _trajectory_motion(tk, cs, pk, bc_type, frame, earth, site, gravity) -> "_Mo
     except ValueError as exc:
         raise OptinavError(f"cannot build the position spline ({exc})", "check bc_type and the knots") from None
     duration = float(tk[-1])
-    # panel length: at most 1 rad of body rotation per panel, estimated on a fine grid, and the knot spacing
+    # panel length: at most 1 rad of body rotation per panel, estimated on a fine grid (in slices: memory), and the
+    # knot spacing
     fine = np.linspace(0, duration, 64 * K)
-    wmax = float(np.max(np.linalg.norm(np.atleast_2d(rs(fine, 1)), axis=-1)))
+    wmax = max(
+        float(np.max(np.linalg.norm(np.atleast_2d(rs(fine[i : i + 65536], 1)), axis=-1)))
+        for i in range(0, fine.size, 65536)
+    )
     step = min(float(np.min(np.diff(tk))), 1.0 / (1.5 * wmax + 1e-12))
     piece = _Spline(0.0, duration, 0, rs, tk, step)
     trans = _TangentSpline(ps, *site, earth, tk[1:-1])
