@@ -1425,7 +1425,18 @@ class IncrementSampler:
         self.segment_names = list(motion.names)
 
     def epochs(self, i0: int, i1: int) -> np.ndarray:
-        """Epochs ``i0`` … ``i1 − 1`` of the run [s] (the same values as the whole run's)."""
+        """Epochs ``i0`` … ``i1 − 1`` of the run (the same values as the whole run's).
+
+        Parameters
+        ----------
+        i0, i1 : int
+            First and one-past-last epoch index [-].
+
+        Returns
+        -------
+        (i1 − i0,) ndarray
+            Epochs [s].
+        """
         return np.arange(i0, i1) / self.rate_hz
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
