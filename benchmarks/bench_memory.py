@@ -16,8 +16,10 @@ static detection (16 B per row); it holds the log, so it grows. ``simulate accel
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
 simulators are generated whole, except ``simulate static`` (generated and written in blocks since its flicker noise
-is an FIR plus first-order processes): ``--simulate-static`` measures it before and after at 1 M and 3 M rows and after
-at 10 M rows (results_memory_simulate_static.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+is an FIR plus first-order processes) and ``simulate rins`` (in blocks since its increments and noise are drawn per
+block): ``--simulate-static`` measures the first before and after at 1 M and 3 M rows and after at 10 M rows
+(results_memory_simulate_static.json), ``--simulate-rins`` the same for the second
+(results_memory_simulate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -432,6 +434,53 @@ def run_simulate_static(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) 
     return out
 
 
+#: the commit whose ``simulate rins`` generated the whole session (about 470 B per sample at the peak)
+RINS_BEFORE = "6d4f545"
+
+
+def _rins_argv(out: Path, rows: int) -> list[str]:
+    """``optinav simulate rins`` of ``rows`` samples: the default psins16 scheme at 200 Hz (960 s per cycle), as
+    many cycles as fit after a 600 s alignment, the alignment lengthened to make up the rest."""
+    seconds = rows / 200.0
+    cycles = max(1, int((seconds - 600.0) // 960.0))
+    align = seconds - 960.0 * cycles
+    return [
+        "simulate",
+        "rins",
+        "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4",
+        "--cycles",
+        str(cycles),
+        "--align",
+        f"{align:.9g}",
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+    ]
+
+
+def run_simulate_rins(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate rins`` (CSV, :func:`_rins_argv`) at each row count of ``sizes``
+    with this tree ("after": generated and written in blocks) and with commit :data:`RINS_BEFORE` ("before": the
+    whole session at once), and at ``after_only`` with this tree alone (the "before" would need about 5 GB there);
+    the file is removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), RINS_BEFORE)
+        for rows in (*sizes, *after_only):
+            for version, src in versions.items():
+                if version == "before" and rows in after_only:
+                    continue
+                data = Path(tmp) / f"rins{rows}.csv"
+                peak, wall, _ = _run(src, _rins_argv(data, rows))
+                n = _rows_of(data)
+                out.append({"method": f"simulate rins ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"simulate rins ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                data.unlink()
+                data.with_suffix(".truth.json").unlink()
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -481,6 +530,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-static":
         # python benchmarks/bench_memory.py --simulate-static STATIC.json: simulate static before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_static(), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-rins":
+        # python benchmarks/bench_memory.py --simulate-rins RINS.json: simulate rins before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_rins(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
