@@ -1410,8 +1410,8 @@ class IncrementSampler:
     """The exact increments of a motion over any consecutive epochs, for a log generated block by block
     (:func:`gimbal_sampler`; :class:`RateSampler` gives rates).
 
-    ``sampler(t)`` gives ``(dtheta, dv)`` over ``(t[k], t[k+1]]`` for the epochs ``t`` (m+1) [s] (clipped to
-    [0, ``duration``]): ∫ω_ib^b dt [rad] and ∫f^b dt [m/s] (m, 3), as the whole run's rows over those intervals
+    ``sampler(t)`` gives ``(dtheta, dv)`` over ``(t[k], t[k+1]]`` for increasing epochs ``t`` (m+1) [s] within
+    [0, ``duration``]: ∫ω_ib^b dt [rad] and ∫f^b dt [m/s] (m, 3), as the whole run's rows over those intervals
     (breaks of smoothness inside them are handled). The run's epochs are ``k / rate_hz``, k = 0 … ``n``
     (:meth:`epochs`), as the function the sampler stands for gives them.
     """
@@ -1440,8 +1440,7 @@ class IncrementSampler:
         return np.arange(i0, i1) / self.rate_hz
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
-        t = np.clip(np.asarray(t, float), 0.0, self.duration)
-        return self._motion.increments(t, self._lever)
+        return self._motion.increments(np.asarray(t, float), self._lever)
 
 
 def gimbal_sampler(fixed, axes, angles, duration, rate_hz, lat, *, lever_arm=None, **options) -> IncrementSampler:
