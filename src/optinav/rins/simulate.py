@@ -11,6 +11,9 @@ errors (they bias the axis-vector baseline). Encoders: the joint angles plus whi
 encoder resolution. Optional unmodelled effects: *lock error* (each stop of a gimbal ends ε_k away from the
 commanded angle the encoder reports, ε_k ~ N(0, σ²)) and *axis wobble* (the outer axis tilts about x_h2 by
 ``w·sin β``, the inner axis about x_h1 by ``w·sin α``).
+
+A session is generated block by block (:class:`RinsStream`; :func:`simulate` gathers the blocks), so a long one
+can be written without being held in memory.
 """
 
 from __future__ import annotations
