@@ -16,8 +16,10 @@ static detection (16 B per row); it holds the log, so it grows. ``simulate accel
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
 simulators are generated whole, except ``simulate static`` (generated and written in blocks since its flicker noise
-is an FIR plus first-order processes): ``--simulate-static`` measures it before and after at 1 M and 3 M rows and after
-at 10 M rows (results_memory_simulate_static.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+is an FIR plus first-order processes) and ``simulate rins`` (in blocks since its increments and noise are drawn per
+block): ``--simulate-static`` measures the first before and after at 1 M and 3 M rows and after at 10 M rows
+(results_memory_simulate_static.json), ``--simulate-rins`` the same for the second
+(results_memory_simulate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -405,31 +407,72 @@ def merge_simulate(path: Path, runs: list[dict], note: str) -> None:
     path.write_text(json.dumps(results, indent=2) + "\n")
 
 
+def _run_simulator(name: str, before: str, argv_of, sizes, after_only, comment_lines: int = 2) -> list[dict]:
+    """Peak RSS and wall time of ``optinav simulate NAME`` writing a CSV of each row count of ``sizes`` with this
+    tree ("after") and with commit ``before`` ("before"), and at ``after_only`` with this tree alone; ``argv_of(out,
+    rows)`` is the command line; the files (the CSV and its ``STEM.truth.*``) are removed after each run."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), before)
+        for rows in (*sizes, *after_only):
+            for version, src in versions.items():
+                if version == "before" and rows in after_only:
+                    continue
+                data = Path(tmp) / f"{name}{rows}.csv"
+                peak, wall, _ = _run(src, argv_of(data, rows))
+                n = _rows_of(data) + 2 - comment_lines
+                out.append({"method": f"simulate {name} ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"simulate {name} ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                for p in [data, *Path(tmp).glob(f"{name}{rows}.truth.*")]:
+                    p.unlink()
+    return out
+
+
 #: the commit whose ``simulate static`` generated the whole log (one FFT over eight times its length)
 STATIC_BEFORE = "1448b49"
 
 
 def run_simulate_static(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
-    """Peak RSS and wall time of ``optinav simulate static`` (preset mems-mti1, 100 Hz, CSV) at each row count of
-    ``sizes`` with this tree ("after": generated and written in blocks) and with commit :data:`STATIC_BEFORE`
-    ("before": the whole log at once), and at ``after_only`` with this tree alone (the "before" would need about
-    6 GB there); the file is removed after each run."""
-    out = []
-    with tempfile.TemporaryDirectory() as tmp:
-        versions = _versions(Path(tmp), STATIC_BEFORE)
-        for rows in (*sizes, *after_only):
-            for version, src in versions.items():
-                if version == "before" and rows in after_only:
-                    continue
-                log = Path(tmp) / f"static{rows}.csv"
-                argv = ["simulate", "static", "--out", str(log), "--hours", f"{rows / 360000:.9g}", "--seed", "1"]
-                peak, wall, _ = _run(src, argv)
-                n = _rows_of(log)
-                out.append({"method": f"simulate static ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
-                print(f"simulate static ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
-                log.unlink()
-                log.with_suffix(".truth.json").unlink()
-    return out
+    """``simulate static`` (preset mems-mti1, 100 Hz, CSV) with this tree ("after": generated and written in
+    blocks) and with commit :data:`STATIC_BEFORE` ("before": the whole log at once), at ``after_only`` with this
+    tree alone (the "before" would need about 6 GB there)."""
+
+    def argv(out, rows):
+        return ["simulate", "static", "--out", str(out), "--hours", f"{rows / 360000:.9g}", "--seed", "1"]
+
+    return _run_simulator("static", STATIC_BEFORE, argv, sizes, after_only)
+
+
+#: the commit whose ``simulate rins`` generated the whole session (about 470 B per sample at the peak)
+RINS_BEFORE = "6d4f545"
+
+
+def _rins_argv(out: Path, rows: int) -> list[str]:
+    """``optinav simulate rins`` of ``rows`` samples: the default psins16 scheme at 200 Hz (960 s per cycle), as
+    many cycles as fit after a 600 s alignment, the alignment lengthened to make up the rest."""
+    seconds = rows / 200.0
+    cycles = max(1, int((seconds - 600.0) // 960.0))
+    align = seconds - 960.0 * cycles
+    return [
+        "simulate",
+        "rins",
+        "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4",
+        "--cycles",
+        str(cycles),
+        "--align",
+        f"{align:.9g}",
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+    ]
+
+
+def run_simulate_rins(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """``simulate rins`` (CSV, :func:`_rins_argv`) with this tree ("after": generated and written in blocks) and
+    with commit :data:`RINS_BEFORE` ("before": the whole session at once), at ``after_only`` with this tree alone
+    (the "before" would need about 5 GB there)."""
+    return _run_simulator("rins", RINS_BEFORE, _rins_argv, sizes, after_only)
 
 
 #: the commit whose ``simulate flight`` generated the whole flight (a global spline, the truth JSON built in memory)
@@ -437,27 +480,14 @@ FLIGHT_BEFORE = "7afc2c8"
 
 
 def run_simulate_flight(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
-    """Peak RSS and wall time of ``optinav simulate flight --kind dynamic`` (100 Hz: the CSV, STEM.truth.csv and
-    STEM.truth.json) at each row count of ``sizes`` with this tree ("after": generated and written in blocks) and
-    with commit :data:`FLIGHT_BEFORE` ("before": the whole flight at once), and at ``after_only`` with this tree
-    alone (the "before" would need about 25 GB there); the files are removed after each run."""
-    out = []
-    with tempfile.TemporaryDirectory() as tmp:
-        versions = _versions(Path(tmp), FLIGHT_BEFORE)
-        for rows in (*sizes, *after_only):
-            for version, src in versions.items():
-                if version == "before" and rows in after_only:
-                    continue
-                log = Path(tmp) / f"flight{rows}.csv"
-                argv = ["simulate", "flight", "--kind", "dynamic", "--out", str(log)]
-                argv += ["--duration", f"{(rows - 1) / 100:.9g}", "--seed", "1"]
-                peak, wall, _ = _run(src, argv)
-                n = _rows_of(log) + 1  # one comment line above the header, not two
-                out.append({"method": f"simulate flight ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
-                print(f"simulate flight ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
-                for p in (log, log.with_suffix(".truth.json"), log.with_suffix(".truth.csv")):
-                    p.unlink()
-    return out
+    """``simulate flight --kind dynamic`` (100 Hz: the CSV, STEM.truth.csv and STEM.truth.json) with this tree
+    ("after": generated and written in blocks) and with commit :data:`FLIGHT_BEFORE` ("before": the whole flight at
+    once), at ``after_only`` with this tree alone (the "before" would need about 25 GB there)."""
+
+    def argv(out, rows):
+        return ["simulate", "flight", "--kind", "dynamic", "--out", str(out), "--duration", f"{(rows - 1) / 100:.9g}"]
+
+    return _run_simulator("flight", FLIGHT_BEFORE, lambda o, r: argv(o, r) + ["--seed", "1"], sizes, after_only, 1)
 
 
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
@@ -509,6 +539,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-static":
         # python benchmarks/bench_memory.py --simulate-static STATIC.json: simulate static before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_static(), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-rins":
+        # python benchmarks/bench_memory.py --simulate-rins RINS.json: simulate rins before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_rins(), indent=1) + "\n")
     elif sys.argv[1] == "--simulate-flight":
         # python benchmarks/bench_memory.py --simulate-flight FLIGHT.json: simulate flight before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_flight(), indent=1) + "\n")

@@ -223,3 +223,143 @@ def test_bad_input_errors():
     held[1::2] = held[0::2][: held[1::2].size]
     _err(dataclasses.replace(base, alpha=held), "sampled slower than the IMU")
     _err(dataclasses.replace(base, beta=base.beta[::2]), "sample-rate mismatch")
+
+
+# --- the session generated block by block (RinsStream) -------------------------------------------------------
+
+ODD = dict(SHORT, wobble=2e-5, lock_sigma=1e-5)  # both gimbal chains (wobble: four joints) and the lock errors
+
+
+def _rows(d):
+    return {f: getattr(d, f) for f in ("t", "dtheta", "dv", "alpha", "beta")}
+
+
+@pytest.mark.parametrize("options", [SHORT, ODD], ids=["plain", "wobble+lock"])
+def test_stream_blocks_do_not_change_the_session_and_simulate_gathers_them(options):
+    from optinav.rins.calibrate import OBSERVABILITY_EPOCHS, simulation_truth
+    from optinav.rins.simulate import RinsStream
+
+    whole = simulate(P_TRUE, rng=7, **options)
+    assert whole.t.size == 12000 and np.all(np.isfinite(whole.dtheta))
+    for block_rows in (997, 4096):
+        s = RinsStream(P_TRUE, rng=7, **options)
+        blocks = list(s.blocks(block_rows))
+        assert len(blocks) == s.n_blocks(block_rows) == -(-12000 // block_rows)
+        for name, parts in zip(("t", "dtheta", "dv", "alpha", "beta"), zip(*blocks)):
+            np.testing.assert_array_equal(np.concatenate(parts), getattr(whole, name), err_msg=name)
+        # the truth from the encoder samples the stream keeps equals the one from the whole session's encoders
+        kept = simulation_truth(s.data(), seed=7, lat_deg=28.2, encoders=s.encoder_samples())
+        assert kept.to_json() == simulation_truth(whole, seed=7, lat_deg=28.2).to_json()
+        assert s.encoder_samples()[0].size <= 2 * OBSERVABILITY_EPOCHS
+        with pytest.raises(OptinavError, match="already generated"):
+            next(s.blocks())
+    # another seed, another session; the same seed without noise: noise-free increments and encoders
+    assert not np.array_equal(simulate(P_TRUE, rng=8, **options).dtheta, whole.dtheta)
+    clean = simulate(P_TRUE, rng=7, noise=False, **options)
+    assert 0 < np.std(whole.dv[:, 0] - clean.dv[:, 0]) < 1e-5
+    s = RinsStream(P_TRUE, rng=7, **options)
+    with pytest.raises(OptinavError, match="not all generated"):
+        s.encoder_samples()
+
+
+def test_gimbal_sampler_block_increments_equal_the_whole_runs():
+    """Increments of a block (its epochs plus the next block's first) are the whole run's rows, also with
+    breakpoints (move starts, trapezoid corners) inside a block."""
+    from optinav.core.simulate import AxisSchedule, Move, gimbal, gimbal_sampler
+
+    ty = AxisSchedule([Move(1.003, 2.0, np.pi, "cosine"), Move(6.0, 2.0, -np.pi, "trapezoid")])
+    tz = AxisSchedule([Move(3.517, 2.0, np.pi / 2, "quintic")])
+    fixed, axes = [np.eye(3), nonorth_dcm([1e-3, 0, 0]).T, np.eye(3)], ["y", "z"]
+    whole = gimbal(fixed, axes, [ty, tz], 10.0, 100.0, 0.5, 50.0, "enu")
+    s = gimbal_sampler(fixed, axes, [ty, tz], 10.0, 100.0, 0.5, height_m=50.0, frame="enu")
+    assert s.n == whole.t.size - 1 == 1000
+    for block_rows in (37, 250):
+        parts = [s(s.epochs(i0, min(i0 + block_rows, s.n) + 1)) for i0 in range(0, s.n, block_rows)]
+        dth, dv = (np.concatenate(p) for p in zip(*parts))
+        np.testing.assert_allclose(dth, whole.dtheta, rtol=0, atol=1e-17)
+        np.testing.assert_allclose(dv, whole.dv, rtol=0, atol=1e-15)
+    assert np.abs(whole.dtheta).max() > 1e-2  # it moved
+    with pytest.raises(OptinavError, match="max_step"):
+        gimbal_sampler(fixed, axes, [ty, lambda t: (0 * t, 0 * t, 0 * t)], 10.0, 100.0, 0.5)
+
+
+def test_measurement_stream_of_increments_is_imu_model_apply():
+    """MeasurementStream(kind='increment') block by block = ImuModel.apply(kind='increment') without noise
+    (bias·dt, scale, saturation of Δ/dt, quantization with the residual carried); with noise the white part has
+    σ = N·√dt."""
+    from optinav.core.imu_model import MeasurementStream, TriadNoise, preset
+
+    spec = preset("rlg-nav").replace(gyro_range=0.5, gyro_lsb=1e-7, acc_lsb=1e-5)
+    unit = spec.draw(1)
+    rng = np.random.default_rng(0)
+    n = 5000
+    dt = np.full(n, 0.005) + rng.uniform(0, 1e-4, n)
+    w = rng.normal(0, 0.4, (n, 3)) * dt[:, None]
+    f = (rng.normal(0, 1, (n, 3)) + [0, 0, 9.8]) * dt[:, None]
+    ref = unit.apply(w, f, dt, kind="increment", noise=False)
+    s = MeasurementStream(unit, 5, kind="increment", noise=False)
+    parts = [s(w[i : i + 700], f[i : i + 700], dt[i : i + 700]) for i in range(0, n, 700)]
+    g, a = (np.concatenate(p) for p in zip(*parts))
+    np.testing.assert_allclose(g, ref.gyr, rtol=0, atol=1e-20)
+    np.testing.assert_allclose(a, ref.acc, rtol=0, atol=1e-20)
+    assert s.gyro_saturated == int(ref.gyro_saturated.sum()) > 100 and s.acc_saturated == 0
+    white = dataclasses.replace(unit, acc_noise=TriadNoise(white=unit.acc_noise.white))  # white noise alone
+    zero = np.zeros((n, 3))
+    e = MeasurementStream(white, 5, kind="increment")(zero, zero, dt)[1] - unit.acc.apply(zero, dt=dt, kind="increment")
+    np.testing.assert_allclose(np.std(e / np.sqrt(dt)[:, None], axis=0), unit.acc_noise.white, rtol=0.05)
+
+
+def test_streamed_csv_is_write_rins_byte_for_byte(tmp_path):
+    from optinav.rins.io import rins_csv_writer
+    from optinav.rins.simulate import RinsStream
+
+    whole = simulate(P_TRUE, rng=4, **ODD)
+    write_rins(tmp_path / "whole.csv", whole)
+    s = RinsStream(P_TRUE, rng=4, **ODD)
+    with rins_csv_writer(tmp_path / "blocks.csv", s.lat, s.height_m) as write:
+        for block in s.blocks(1500):
+            write(*block)
+    assert (tmp_path / "blocks.csv").read_bytes() == (tmp_path / "whole.csv").read_bytes()
+    back = read_rins(tmp_path / "blocks.csv")
+    for name, v in _rows(back).items():
+        np.testing.assert_array_equal(v, getattr(whole, name), err_msg=name)
+    assert back.lat == pytest.approx(whole.lat, abs=1e-12) and back.height_m == whole.height_m
+
+
+def test_cli_streams_csv_in_blocks_and_the_calibration_recovers_the_truth(tmp_path, monkeypatch, capsys):
+    import importlib
+    import json
+
+    from optinav.cli.main import main
+    from optinav.core.results import Truth
+    from optinav.rins.calibrate import RinsCalibration, simulation_truth
+
+    monkeypatch.setattr(importlib.import_module("optinav.rins.simulate"), "BLOCK_ROWS", 2500)  # five blocks
+    data = tmp_path / "r.csv"
+    text = ",".join(f"{x:.17g}" for x in P_TRUE)
+    argv = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "100", "--seed", "4"]
+    assert main(["--quiet", "simulate", "rins", f"--nonorth={text}", *argv, "--out", str(data)]) == 0
+    assert "wrote 12000 samples" in capsys.readouterr().out
+    got, want = read_rins(data), simulate(P_TRUE, rng=4, **SHORT)
+    for name, v in _rows(got).items():
+        np.testing.assert_array_equal(v, getattr(want, name), err_msg=name)
+    truth = json.loads((tmp_path / "r.truth.json").read_text())
+    assert truth == json.loads(simulation_truth(want, seed=4, lat_deg=28.2).to_json())
+    out = tmp_path / "res.json"
+    assert main(["--quiet", "calibrate", "rins", str(data), "--out", str(out)]) == 0
+    cmp = Truth.from_json(tmp_path / "r.truth.json").compare(RinsCalibration.from_json(out))
+    assert sorted(cmp) == ["eta_x", "theta_x", "theta_y", "theta_z + eta_z"]
+    assert all(float(c["z"]) < 4 for c in cmp.values()), cmp
+
+
+@pytest.mark.parametrize(
+    "suffix, needles", [(".csv", ("GiB on disk", "free")), (".npz", ("GiB of memory", "write .csv"))]
+)
+def test_cli_refuses_sessions_that_cannot_fit_before_generating(tmp_path, capsys, suffix, needles):
+    from optinav.cli.main import main
+
+    argv = ["simulate", "rins", "--nonorth=0,0,0,0,0,0", "--dwell", "1e8", "--out", str(tmp_path / f"r{suffix}")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert all(s in err for s in needles) and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []

@@ -1249,20 +1249,22 @@ class _TriadStream:
         self.rw = SampleDraws(key, stream0 + 2) if np.any(noise.random_walk > 0) else None
         self.gm_state, self.rw_state, self.residual = np.zeros(3), np.zeros(3), np.zeros(3)
 
-    def __call__(self, y, d, i0: int) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, y, d, i0: int, kind: str = "rate", noise: bool = True) -> tuple[np.ndarray, np.ndarray]:
         i1, nz = i0 + len(y), self.noise
-        e = np.zeros_like(y)
-        if self.white is not None:
-            e += _white(self.white.take(i0, i1), nz.white, d, "rate")
-        if self.gm is not None:
-            e += _gauss_markov(self.gm.take(i0, i1), nz.gm_sigma, nz.gm_tau, d, self.gm_state, i0 == 0)
-        if self.rw is not None:
-            e += _random_walk_from(self.rw.take(i0, i1), nz.random_walk, d, self.rw_state)
-        return nz.digitize(y + e, d, residual=self.residual)
+        if noise:
+            e = np.zeros_like(y)  # rate-equivalent, as TriadNoise.sample: times dt for increments
+            if self.white is not None:
+                e += _white(self.white.take(i0, i1), nz.white, d, "rate")
+            if self.gm is not None:
+                e += _gauss_markov(self.gm.take(i0, i1), nz.gm_sigma, nz.gm_tau, d, self.gm_state, i0 == 0)
+            if self.rw is not None:
+                e += _random_walk_from(self.rw.take(i0, i1), nz.random_walk, d, self.rw_state)
+            y = y + (e if kind == "rate" else e * d[:, None])
+        return nz.digitize(y, d, kind=kind, residual=self.residual)
 
 
 class MeasurementStream:
-    """:meth:`ImuModel.apply` (rates) of a long log, block by block: deterministic errors, noise, saturation and
+    """:meth:`ImuModel.apply` of a long log, block by block: deterministic errors, noise, saturation and
     quantization, with the Gauss–Markov and random-walk states and the quantization residuals carried from one block
     to the next, and the draws of each sample taken from :class:`SampleDraws` of ``key`` — so the outputs of a log
     do not depend on the blocks it is generated in, and memory does not grow with its length.
@@ -1273,6 +1275,11 @@ class MeasurementStream:
         The unit.
     key : int
         Entropy of the noise draws.
+    kind : str
+        ``"rate"`` (rad/s, m/s^2) or ``"increment"`` (Δθ rad, Δv m/s over each interval; noise scaled by dt), as
+        :meth:`ImuModel.apply`.
+    noise : bool
+        Include the random terms (saturation and quantization stay either way).
 
     Examples
     --------
@@ -1281,8 +1288,9 @@ class MeasurementStream:
     ...     meas_gyr, meas_acc = stream(gyr, acc, dt)
     """
 
-    def __init__(self, model: ImuModel, key: int):
+    def __init__(self, model: ImuModel, key: int, *, kind: str = "rate", noise: bool = True):
         self.model, self.samples = model, 0
+        self.kind, self.noise = _check_kind(kind), bool(noise)
         self._gyr = _TriadStream(model.gyro_noise, key, 0)
         self._acc = _TriadStream(model.acc_noise, key, 3)
         #: saturated axis samples so far, per triad (the count of ImuMeasurement's flags)
@@ -1294,26 +1302,26 @@ class MeasurementStream:
         Parameters
         ----------
         gyr : (n, 3) array
-            True angular rate [rad/s] at the block's epochs.
+            True angular rate [rad/s] at the block's epochs, or Δθ [rad] over each interval (``kind="increment"``).
         acc : (n, 3) array
-            True specific force [m/s^2].
+            True specific force [m/s^2], or Δv [m/s].
         dt : (n,) array
-            Interval ending each sample's noise step [s].
+            Interval ending each sample's noise step (the increment's interval) [s].
 
         Returns
         -------
         gyr : (n, 3) ndarray
-            Measured rate [rad/s].
+            Measured rate [rad/s] or Δθ [rad].
         acc : (n, 3) ndarray
-            Measured specific force [m/s^2].
+            Measured specific force [m/s^2] or Δv [m/s].
         """
         w, f = _samples(gyr, "gyr"), _samples(acc, "acc")
         d = self.model._dt(dt, w.shape[0])
-        i0 = self.samples
-        ya = self.model.acc.apply(f, dt=d)
-        yg = self.model.gyr.apply(w, dt=d, acc=f)
-        yg, sg = self._gyr(yg, d, i0)
-        ya, sa = self._acc(ya, d, i0)
+        i0, kind = self.samples, self.kind
+        ya = self.model.acc.apply(f, dt=d, kind=kind)
+        yg = self.model.gyr.apply(w, dt=d, acc=f, kind=kind)
+        yg, sg = self._gyr(yg, d, i0, kind, self.noise)
+        ya, sa = self._acc(ya, d, i0, kind, self.noise)
         self.gyro_saturated += int(np.count_nonzero(sg))
         self.acc_saturated += int(np.count_nonzero(sa))
         self.samples += w.shape[0]

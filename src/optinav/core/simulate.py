@@ -71,6 +71,8 @@ __all__ = [
     "AxisSchedule",
     "chain_attitude",
     "gimbal",
+    "gimbal_sampler",
+    "IncrementSampler",
     "coning",
     "coning_attitude",
     "coning_rate",
@@ -798,13 +800,18 @@ def _epochs(duration, rate, t):
     if rate is None:
         raise OptinavError("neither a sample rate nor epochs were given", "pass rate_hz (Hz) or t (s)")
     rate = check_positive(rate, "rate_hz")
+    return np.arange(_intervals(duration, rate) + 1) / rate
+
+
+def _intervals(duration, rate) -> int:
+    """Sample intervals of ``duration`` [s] at ``rate`` [Hz] (epochs k/rate, k = 0 … n), at least one."""
     n = int(math.floor(duration * rate + 1e-9))
     if n < 1:
         raise OptinavError(
             f"duration {duration:.6g} s at {rate:.6g} Hz gives fewer than two epochs",
             "raise the sample rate or lengthen the motion",
         )
-    return np.arange(n + 1) / rate
+    return n
 
 
 def _lever(lever_arm):
@@ -1317,7 +1324,30 @@ def gimbal(
     ImuTruth
         Epochs [s], attitude, ``gyr`` [rad/s], ``acc`` [m/s^2] and exact increments [rad, m/s].
     """
-    rate, h = rate_hz, height_m
+    motion, tt = _gimbal_motion(
+        fixed,
+        axes,
+        angles,
+        duration,
+        lat,
+        height_m,
+        frame,
+        earth,
+        lon,
+        breakpoints,
+        max_step,
+        gravity,
+        lambda: _epochs(duration, rate_hz, t),
+    )
+    return motion.simulate(tt, _lever(lever_arm))
+
+
+def _gimbal_motion(
+    fixed, axes, angles, duration, lat, height_m, frame, earth, lon, breakpoints, max_step, gravity, epochs
+):
+    """The motion of :func:`gimbal` (its arguments, checked here) and its epochs: ``epochs()`` (called once, after
+    the checks), or None, in which case plain angle callables need ``max_step``."""
+    h = height_m
     frame, earth = frame_name(frame), _check_earth(earth)
     duration = check_positive(duration, "duration")
     k = len(axes)
@@ -1343,11 +1373,15 @@ def gimbal(
             funcs.append(AxisSchedule([], initial=_scalar(a, f"angles[{i}]")))
     site = _site(lat, lon, h, earth)
     g = _gravity_arg(gravity, earth)
-    tt = _epochs(duration, rate, t)
+    tt = epochs()
     step = 1.0 / peak if peak > 0 else np.inf
     if max_step is not None:
         step = check_positive(max_step, "max_step")
     elif not schedules_only:
+        if tt is None:
+            raise OptinavError(
+                "a gimbal with plain angle callables needs max_step here", "pass max_step [s] (e.g. the sample step)"
+            )
         est = sum(float(np.max(np.abs(np.asarray(f(tt)[1], float)))) for f in funcs)
         step = min(step, float(np.median(np.diff(tt))), 1.0 / (1.5 * est + 1e-12))
 
@@ -1379,8 +1413,84 @@ def gimbal(
     else:
         pieces = [_Chain(0.0, duration, 0, fx, axes, funcs, breakpoints=brk, max_step=step)]
         names = ["gimbal motion"]
-    motion = _Motion(pieces, site, frame, earth, names, g)
-    return motion.simulate(tt, _lever(lever_arm))
+    return _Motion(pieces, site, frame, earth, names, g), tt
+
+
+class IncrementSampler:
+    """The exact increments of a motion over any consecutive epochs, for a log generated block by block
+    (:func:`gimbal_sampler`; :class:`RateSampler` gives rates).
+
+    ``sampler(t)`` gives ``(dtheta, dv)`` over ``(t[k], t[k+1]]`` for increasing epochs ``t`` (m+1) [s] within
+    [0, ``duration``]: ∫ω_ib^b dt [rad] and ∫f^b dt [m/s] (m, 3), as the whole run's rows over those intervals
+    (breaks of smoothness inside them are handled). The run's epochs are ``k / rate_hz``, k = 0 … ``n``
+    (:meth:`epochs`), as the function the sampler stands for gives them.
+    """
+
+    def __init__(self, motion, rate_hz: float, lever_arm=None):
+        self._motion, self._lever = motion, lever_arm
+        self.duration = float(motion.t_end)
+        self.rate_hz = check_positive(rate_hz, "rate_hz")
+        #: sample intervals (rows) of the run: epochs 0 … n
+        self.n = _intervals(self.duration, self.rate_hz)
+        self.segment_names = list(motion.names)
+
+    def epochs(self, i0: int, i1: int) -> np.ndarray:
+        """Epochs ``i0`` … ``i1 − 1`` of the run (the same values as the whole run's).
+
+        Parameters
+        ----------
+        i0, i1 : int
+            First and one-past-last epoch index [-].
+
+        Returns
+        -------
+        (i1 − i0,) ndarray
+            Epochs [s].
+        """
+        return np.arange(i0, i1) / self.rate_hz
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
+        return self._motion.increments(np.asarray(t, float), self._lever)
+
+
+def gimbal_sampler(fixed, axes, angles, duration, rate_hz, lat, *, lever_arm=None, **options) -> IncrementSampler:
+    """The motion of :func:`gimbal` as an :class:`IncrementSampler`: its exact increments over epochs given block by
+    block, so that a long run need not be held at once (no epochs, attitude or rates are kept).
+
+    Parameters
+    ----------
+    fixed, axes, angles, duration, rate_hz, lat, lever_arm
+        As :func:`gimbal`.
+    **options
+        Its other keywords but ``t``: ``height_m``, ``frame``, ``earth``, ``lon``, ``breakpoints``, ``max_step``
+        (needed with plain angle callables: the default estimate samples the whole run), ``gravity``.
+
+    Returns
+    -------
+    IncrementSampler
+        ``sampler(t) -> (dtheta [rad], dv [m/s])``; ``sampler.n`` rows, ``sampler.epochs(i0, i1)`` [s].
+    """
+    kw = dict(height_m=0.0, frame=DEFAULT_FRAME, earth="wgs84", lon=0.0, breakpoints=(), max_step=None, gravity=None)
+    unknown = sorted(set(options) - set(kw))
+    if unknown:
+        raise OptinavError(f"gimbal_sampler takes no {unknown[0]!r}", f"use one of {', '.join(kw)}")
+    kw.update(options)
+    motion, _ = _gimbal_motion(
+        fixed,
+        axes,
+        angles,
+        duration,
+        lat,
+        kw["height_m"],
+        kw["frame"],
+        kw["earth"],
+        kw["lon"],
+        kw["breakpoints"],
+        kw["max_step"],
+        kw["gravity"],
+        lambda: None,
+    )
+    return IncrementSampler(motion, rate_hz, _lever(lever_arm))
 
 
 # --- coning ---------------------------------------------------------------------------------------------

@@ -183,6 +183,10 @@ def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
 # --- observability ------------------------------------------------------------------------------------------
 
 
+#: epochs of a recording that :func:`observability` evaluates (every k-th, k = max(1, n // this))
+OBSERVABILITY_EPOCHS = 3000
+
+
 def observability(alpha, beta, p=None, sigma=1.0):
     """First-order observability of the six angles for gimbal angles ``alpha``, ``beta`` (rad).
 
@@ -190,7 +194,7 @@ def observability(alpha, beta, p=None, sigma=1.0):
     recording's errors); parameters scaled by :data:`SCALE`. Returns an ObservabilityReport.
     """
     p = np.zeros(6) if p is None else np.asarray(p, float)
-    stride = max(1, len(alpha) // 3000)  # the rank needs the shape of the trajectory, not every epoch
+    stride = max(1, len(alpha) // OBSERVABILITY_EPOCHS)  # the rank needs the shape of the trajectory, not every epoch
     alpha, beta = np.asarray(alpha, float)[::stride], np.asarray(beta, float)[::stride]
     cs = sensor_attitude(np.broadcast_to(np.eye(3), (len(alpha), 3, 3)), alpha, beta, p)
     J = residual_jacobian(cs, alpha, beta, p)
@@ -709,7 +713,7 @@ def rins_truth(angles, alpha, beta, info: dict | None = None) -> Truth:
     return Truth("rins", params, dict(info or {}))
 
 
-def simulation_truth(data, *, seed: int, lat_deg: float) -> Truth:
+def simulation_truth(data, *, seed: int, lat_deg: float, encoders=None) -> Truth:
     """The truth of a recording :func:`optinav.rins.simulate.simulate` made, as ``optinav simulate rins``
     writes it beside the data.
 
@@ -721,6 +725,10 @@ def simulation_truth(data, *, seed: int, lat_deg: float) -> Truth:
         The seed it was simulated with.
     lat_deg : float
         Its latitude as given [deg] (recorded as given, not converted back from radians).
+    encoders : (alpha, beta) or None
+        Encoder angles [rad] to judge the observability with instead of ``data``'s: every k-th of a session
+        streamed without keeping its rows (:meth:`optinav.rins.simulate.RinsStream.encoder_samples`,
+        k as :func:`observability` strides the whole).
 
     Returns
     -------
@@ -739,7 +747,8 @@ def simulation_truth(data, *, seed: int, lat_deg: float) -> Truth:
         "gyro_K": data.info["gyro_K"],
         "gyro_bias_rad_s": data.info["gyro_bias"],
     }
-    return rins_truth(p, data.alpha, data.beta, info)
+    alpha, beta = (data.alpha, data.beta) if encoders is None else encoders
+    return rins_truth(p, alpha, beta, info)
 
 
 register_truth_legacy(

@@ -11,12 +11,13 @@ or a CSV comment line ``# optinav rins: lat_deg=28.2 height_m=50``.
 
 from __future__ import annotations
 
+import contextlib
 import re
 from pathlib import Path
 
 import numpy as np
 
-from optinav.core.files import atomic_open, atomic_path, write_csv
+from optinav.core.files import atomic_open, atomic_path, csv_writer
 from optinav.errors import OptinavError
 from optinav.io.readers import load_table
 from optinav.rins.simulate import RinsData
@@ -24,10 +25,12 @@ from optinav.rins.simulate import RinsData
 COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
 _FORMATS = {".npz": "npz", ".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5"}
 
-__all__ = ["COLUMNS", "write_rins", "read_rins"]
+__all__ = ["COLUMNS", "file_format", "write_rins", "rins_csv_writer", "read_rins"]
 
 
-def _fmt(path) -> str:
+def file_format(path, *, writing: bool = False) -> str:
+    """``"npz"``, ``"csv"`` or ``"hdf5"`` by the suffix of ``path``; an unknown suffix (or HDF5 to write without h5py)
+    is an error."""
     p = Path(path)
     f = _FORMATS.get(p.suffix.lower())
     if f is None:
@@ -35,6 +38,11 @@ def _fmt(path) -> str:
             f"{p.name}: unknown rotational-INS file type {p.suffix!r}",
             "use .npz, .csv or .h5 (see docs/methods/rins.md)",
         )
+    if writing and f == "hdf5":
+        try:
+            import h5py  # noqa: F401
+        except ImportError:
+            raise OptinavError("writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv") from None
     return f
 
 
@@ -55,7 +63,7 @@ def write_rins(path, data: RinsData) -> Path:
         The file written.
     """
     path = Path(path)
-    kind = _fmt(path)
+    kind = file_format(path, writing=True)
     cols = {
         "t": data.t,
         "dtheta_x": data.dtheta[:, 0],
@@ -72,10 +80,8 @@ def write_rins(path, data: RinsData) -> Path:
         with atomic_open(path, "wb") as fh:
             np.savez(fh, **cols, **{k: np.array(v) for k, v in site.items()})
     elif kind == "hdf5":
-        try:
-            import h5py
-        except ImportError:
-            raise OptinavError("writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv") from None
+        import h5py
+
         with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
             for k, v in cols.items():
                 ds = fh.create_dataset(k, data=np.asarray(v, float))
@@ -83,13 +89,37 @@ def write_rins(path, data: RinsData) -> Path:
             for k, v in site.items():
                 fh.attrs[k] = v
     else:
-        table = np.column_stack([cols[c] for c in COLUMNS])
-        header = (
-            f"optinav rins: lat_deg={site['lat_deg']:.10g} height_m={site['height_m']:.10g}\n"
-            "units: t=s dtheta=rad dv=m/s alpha=rad beta=rad\n" + ",".join(COLUMNS)
-        )
-        write_csv(path, table, header, comments="# ")
+        with rins_csv_writer(path, data.lat, data.height_m) as write:
+            write(data.t, data.dtheta, data.dv, data.alpha, data.beta)
     return path
+
+
+@contextlib.contextmanager
+def rins_csv_writer(path, lat: float, height_m: float):
+    """A rotational-INS CSV file written block by block, atomically: the layout of :func:`write_rins` (site and
+    units comment lines, the :data:`COLUMNS` header), so the blocks of a session give the same bytes as the whole.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (.csv); it appears when the ``with`` block ends without an error.
+    lat : float
+        Latitude [rad].
+    height_m : float
+        Height [m].
+
+    Yields
+    ------
+    callable
+        ``write(t, dtheta, dv, alpha, beta)`` appends rows: t [s], dtheta (m, 3) [rad], dv (m, 3) [m/s], alpha
+        and beta [rad].
+    """
+    header = (
+        f"# optinav rins: lat_deg={float(np.degrees(lat)):.10g} height_m={float(height_m):.10g}\n"
+        "# units: t=s dtheta=rad dv=m/s alpha=rad beta=rad\n# " + ",".join(COLUMNS)
+    )
+    with csv_writer(path, header) as write:
+        yield lambda t, dtheta, dv, alpha, beta: write(np.column_stack([t, dtheta, dv, alpha, beta]))
 
 
 def _site_from_csv(path: Path) -> dict:
@@ -122,7 +152,7 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
         Increments ``dtheta`` [rad], ``dv`` [m/s] and encoder angles [rad].
     """
     path = Path(path)
-    kind = _fmt(path)
+    kind = file_format(path)
     tab = load_table(path)
     # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
     ends = tab.find("t") is None and tab.find("time") is not None
