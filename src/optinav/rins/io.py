@@ -19,7 +19,7 @@ import numpy as np
 
 from optinav.core.files import atomic_open, atomic_path, csv_writer
 from optinav.errors import OptinavError
-from optinav.io.readers import load_table
+from optinav.io.readers import iter_table
 from optinav.rins.simulate import RinsData
 
 COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
@@ -153,23 +153,33 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
     """
     path = Path(path)
     kind = file_format(path)
-    tab = load_table(path)
-    # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
-    ends = tab.find("t") is None and tab.find("time") is not None
-    names = ("time",) + COLUMNS[1:] if ends else COLUMNS
-    missing = [c for c in names if tab.find(c) is None]
-    if missing:
-        found = ", ".join(list(tab.data)[:12])
-        raise OptinavError(
-            f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
-            f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
-        )
-    col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
+    # text in blocks (iter_table: the whole text and its parse held at once cost ~700 B per row), each column
+    # gathered once; other formats come as one table
+    parts, ends, names = None, False, COLUMNS
+    for tab in iter_table(path):
+        if parts is None:
+            # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
+            ends = tab.find("t") is None and tab.find("time") is not None
+            names = ("time",) + COLUMNS[1:] if ends else COLUMNS
+            missing = [c for c in names if tab.find(c) is None]
+            if missing:
+                found = ", ".join(list(tab.data)[:12])
+                raise OptinavError(
+                    f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
+                    f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
+                )
+            parts, meta = {c: [] for c in COLUMNS}, tab.meta
+        for c, n in zip(COLUMNS, names):
+            parts[c].append(np.asarray(tab.get(n), dtype=float).ravel())
+    if parts is None:
+        raise OptinavError(f"{path.name} holds no data rows", f"write the columns {', '.join(COLUMNS)}")
+    col = {c: (v[0] if len(v) == 1 else np.concatenate(v)) for c, v in parts.items()}
+    del parts
     site = {}
     if kind == "csv":
         site = _site_from_csv(path)
     elif kind == "npz":  # scalars (0-d arrays) are the table's metadata, not columns
-        site = {k: float(tab.meta[k]) for k in ("lat_deg", "height_m") if k in tab.meta}
+        site = {k: float(meta[k]) for k in ("lat_deg", "height_m") if k in meta}
     else:
         import h5py
 
