@@ -14,12 +14,11 @@ per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row lo
 array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
 static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
-(results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json. The other
-simulators are generated whole, except ``simulate static`` (generated and written in blocks since its flicker noise
-is an FIR plus first-order processes) and ``simulate rins`` (in blocks since its increments and noise are drawn per
-block): ``--simulate-static`` measures the first before and after at 1 M and 3 M rows and after at 10 M rows
-(results_memory_simulate_static.json), ``--simulate-rins`` the same for the second
-(results_memory_simulate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+(results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json.
+``simulate static``, ``simulate rins`` and ``simulate flight`` are generated and written in blocks too:
+``--simulate-static``, ``--simulate-rins`` and ``--simulate-flight`` measure each before and after at 1 M and 3 M
+rows and after at 10 M rows (results_memory_simulate_static.json, results_memory_simulate_rins.json,
+results_memory_simulate_flight.json; one runner, ``_run_simulator``). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
