@@ -715,3 +715,21 @@ def test_json_readers_never_crash(tmp_path, content):
             read(Path(p))
         except OptinavError as exc:
             assert "\n" not in str(exc)
+
+
+def test_calibrate_rins_refuses_a_session_that_cannot_fit(tmp_path, capsys):
+    """The row count comes from the file's header alone (here an NPZ whose arrays claim 1e11 rows): refused up front
+    with the estimate, before anything is read."""
+    import io
+    import zipfile
+
+    import numpy as np
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (10**11,)})
+    path = tmp_path / "huge.npz"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("t.npy", buf.getvalue())
+    assert main(["calibrate", "rins", str(path), "--out", str(tmp_path / "r.json")]) == 2
+    one_line_error(capsys, "GiB of memory", "shorter part of the recording")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["huge.npz"]

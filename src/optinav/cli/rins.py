@@ -212,8 +212,21 @@ def add_apply_options(g) -> None:
     )
 
 
+#: peak memory per row of ``calibrate rins`` (measured: about 380 B per row above a fixed part, the increments, the
+#: full-rate strapdown attitude and the gyro re-integrations being held), with margin
+CALIBRATE_BYTES_PER_ROW = 500
+
+
 def run_calibrate(args) -> int:
     require_files((args.data, "data file"))
     from optinav.cli.calibrate import calibrate_unit
+    from optinav.rins.io import row_estimate
+
+    check_memory(
+        row_estimate(args.data),
+        CALIBRATE_BYTES_PER_ROW,
+        f"calibrating {args.data}",
+        "calibrate a shorter part of the recording (the alignment rest and whole rotation cycles)",
+    )
 
     return calibrate_unit(args, "rins")

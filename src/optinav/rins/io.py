@@ -134,6 +134,38 @@ def _site_from_csv(path: Path) -> dict:
     return out
 
 
+def row_estimate(path) -> int:
+    """About how many rows ``path`` holds, without reading it: the length of its ``t`` (or first) array for NPZ and
+    HDF5, the file size over the mean length of its first data lines for CSV; 0 when that cannot be told (the
+    reader then reports what is wrong)."""
+    import zipfile
+
+    path = Path(path)
+    try:
+        kind = file_format(path)
+        if kind == "csv":
+            with open(path, "rb") as fh:
+                head = fh.read(1 << 16)
+            lines = [x for x in head.splitlines()[:-1] if x.strip() and not x.lstrip().startswith(b"#")][1:]
+            return int(path.stat().st_size / (sum(map(len, lines)) / len(lines) + 1)) if lines else 0
+        if kind == "npz":
+            with zipfile.ZipFile(path) as z:
+                names = z.namelist()
+                name = "t.npy" if "t.npy" in names else names[0]
+                with z.open(name) as fh:
+                    major, _ = np.lib.format.read_magic(fh)
+                    read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+                    shape = read(fh)[0]
+            return int(shape[0]) if shape else 0
+        import h5py
+
+        with h5py.File(path, "r") as fh:
+            ds = fh["t"] if "t" in fh else next((v for v in fh.values() if hasattr(v, "shape")), None)
+            return int(ds.shape[0]) if ds is not None and ds.shape else 0
+    except (OSError, ValueError, KeyError, StopIteration, ImportError, zipfile.BadZipFile, OptinavError):
+        return 0
+
+
 def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
     """Read a rotational-INS file (columns in :data:`COLUMNS`).
 
