@@ -484,56 +484,17 @@ def simulate(kind: str = "static", duration_s: float = 60.0, rate_hz: float = 10
     Parameters
     ----------
     kind : str
-        ``"static"`` (``attitude`` held for ``duration_s``) or ``"dynamic"`` (smooth random manoeuvres: still for
-        the first min(5 s, 10 %), smooth ramps in and out, heading turning at up to 45 °/s).
+        ``"static"`` or ``"dynamic"`` (as :class:`FlightStream`).
     duration_s : float
         Length [s].
     rate_hz : float
         IMU sample rate [Hz].
-    time : str or None
-        ISO-8601 start with UTC offset; None: the paper's time for ``kind``.
-    lat, lon : float
-        Site [rad].
-    height_m : float
-        Height above the ellipsoid [m].
-    frame : str
-        ``"ned"`` (body FRD) or ``"enu"`` (body RFU).
-    imu : str or ImuSpec
-        Preset name or :class:`ImuSpec` (default MPU6000: noise, in-run bias instability, range, LSB).
-    imu_errors : bool
-        Also draw the spec's turn-on errors (±20 °/s gyro bias for an uncalibrated MPU6000).
-    gyro_bias : (3,) array or None
-        A constant residual gyro bias [rad/s].
-    attitude : (3,) array_like
-        Static attitude [roll, pitch, yaw] [rad] (Euler convention of ``frame``).
-    accel_level : float
-        Dynamic: largest horizontal acceleration [m/s^2] (vertical a fifth).
-    tilt : float
-        Dynamic: roll/pitch within ±tilt [rad], at 0.1–0.4 Hz.
-    knot_spacing_s : float
-        Dynamic: attitude/position splined through knots this far apart [s].
-    sky_model : str
-        ``"rayleigh"`` or ``"berry"``.
-    d_max : float or None
-        Largest degree of polarization of the sky model [-].
-    neutral_distance : float or None
-        Berry model: separation δ of the neutral points around the sun [rad].
-    sensor : PointSensor or None
-        The polarization sensor (default 3 channels, extinction ratio 100).
-    pol_noise : float or None
-        Relative intensity noise of the sensor [-] (default 0.002).
-    pol_rate_hz : float or None
-        Polarization sample rate [Hz] (default every IMU sample; NaN between).
-    C_b_m : (3, 3) array or None
-        Sensor mounting C_b^m [-]; None: zenith-viewing :func:`default_c_b_m`.
-    pressure_mbar : float or None
-        Air pressure for refraction [mbar]; None: geometric sun.
-    temperature_c : float
-        Air temperature for refraction [°C].
-    delta_t : float or None
-        TT − UT1 [s]; None: :func:`optinav.sky.sun.delta_t_espenak`.
-    rng : int, Generator or None
-        Seed or generator (trajectory, IMU and sensor noise).
+    **options
+        The other keywords of :class:`FlightStream`: ``time``, ``lat``, ``lon`` [rad], ``height_m`` [m], ``frame``,
+        ``imu``, ``imu_errors``, ``gyro_bias`` [rad/s], ``attitude`` [rad], ``accel_level`` [m/s^2], ``tilt``
+        [rad], ``knot_spacing_s`` [s], ``sky_model``, ``d_max``, ``neutral_distance`` [rad], ``sensor``,
+        ``pol_noise``, ``pol_rate_hz`` [Hz], ``C_b_m``, ``pressure_mbar``, ``temperature_c``, ``delta_t`` [s],
+        ``rng``.
 
     Returns
     -------

@@ -708,7 +708,18 @@ def flicker_noise(n: int, bias_instability, dt: float, rng=None) -> np.ndarray:
 
 def draw_key(rng) -> int:
     """One key for :class:`SampleDraws` drawn from a seed or generator (a simulation draws it right after the
-    unit's errors, so a seed keeps giving the same unit)."""
+    unit's errors, so a seed keeps giving the same unit).
+
+    Parameters
+    ----------
+    rng : int, Generator or None
+        Seed or generator.
+
+    Returns
+    -------
+    int
+        The key, in [0, 2^63).
+    """
     return int(as_rng(rng).integers(2**63))
 
 

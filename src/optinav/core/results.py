@@ -875,14 +875,26 @@ class TruthSeriesWriter:
         self._scratch = {n: self._stack.enter_context(scratch_file(self.path, option)) for n in units}
 
     def write(self, **series) -> None:
-        """Append a block's rows of each series (every series of ``units``, the same rows)."""
+        """Append a block's rows of each series.
+
+        Parameters
+        ----------
+        **series : array
+            Every series of ``units`` by name, the same rows of each [in its unit].
+        """
         for name, fh in self._scratch.items():
             text = _json_rows(series[name])
             if text:
                 fh.write(((",\n" if fh.tell() else "") + text).encode())
 
     def close(self) -> Path:
-        """Write the file (atomically) and remove the scratch files; returns the path."""
+        """Write the file (atomically) and remove the scratch files.
+
+        Returns
+        -------
+        Path
+            The truth file written.
+        """
         import shutil
 
         from optinav.core.files import atomic_open, os_error

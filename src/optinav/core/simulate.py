@@ -1042,8 +1042,22 @@ class RateSampler:
         return w_ib, f_b, self._motion.labels(t)
 
     def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(gyr, acc, q_b_n)`` at the epochs ``t`` [s]: ω_ib^b [rad/s], f^b [m/s^2] and the attitude
-        [w, x, y, z] in the motion's frame, as :class:`ImuTruth` holds them."""
+        """The ideal outputs and the attitude at epochs, as :class:`ImuTruth` holds them.
+
+        Parameters
+        ----------
+        t : (n,) array
+            Epochs [s] (clipped to [0, ``duration``]).
+
+        Returns
+        -------
+        gyr : (n, 3) ndarray
+            ω_ib^b [rad/s].
+        acc : (n, 3) ndarray
+            f^b [m/s^2].
+        q_b_n : (n, 4) ndarray
+            Attitude [w, x, y, z] in the motion's frame [-].
+        """
         t = np.clip(np.asarray(t, float), 0.0, self.duration)
         w_ib, f_b, _, c, _, v = self._motion.kinematics(t, lever_arm=self._lever)
         return w_ib, f_b, quat_from_dcm(self._motion.in_frame(c, v)[0])
@@ -1838,8 +1852,22 @@ class TrajectorySampler:
         return gyr, acc, np.zeros(len(gyr), np.int64)
 
     def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(gyr, acc, q_b_n)`` at the epochs ``t`` [s]: ω_ib^b [rad/s], f^b [m/s^2] and the attitude
-        [w, x, y, z] in ``frame``, as :class:`ImuTruth` holds them."""
+        """The ideal outputs and the attitude at epochs, as :class:`ImuTruth` holds them.
+
+        Parameters
+        ----------
+        t : (n,) array
+            Epochs [s] (clipped to [0, ``duration``]).
+
+        Returns
+        -------
+        gyr : (n, 3) ndarray
+            ω_ib^b [rad/s].
+        acc : (n, 3) ndarray
+            f^b [m/s^2].
+        q_b_n : (n, 4) ndarray
+            Attitude [w, x, y, z] in ``frame`` [-].
+        """
         n = np.size(t)
         gyr, acc, q = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 4))
         for sel, motion, tw in self._each_window(t):
