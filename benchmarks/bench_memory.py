@@ -19,7 +19,8 @@ simulators are generated whole, except ``simulate static`` (generated and writte
 is an FIR plus first-order processes) and ``simulate rins`` (in blocks since its increments and noise are drawn per
 block): ``--simulate-static`` measures the first before and after at 1 M and 3 M rows and after at 10 M rows
 (results_memory_simulate_static.json), ``--simulate-rins`` the same for the second
-(results_memory_simulate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+(results_memory_simulate_rins.json) and ``--simulate-gfimu`` for ``simulate gfimu-turntable`` (generated and written in
+blocks since its noise is drawn by sample index; results_memory_simulate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -490,6 +491,23 @@ def run_simulate_flight(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) 
     return _run_simulator("flight", FLIGHT_BEFORE, lambda o, r: argv(o, r) + ["--seed", "1"], sizes, after_only, 1)
 
 
+#: the commit whose ``simulate gfimu-turntable`` generated the whole data set (about 1.6 kB per row checked)
+GFIMU_BEFORE = "e3ae9d7"
+
+
+def _gfimu_argv(out: Path, rows: int) -> list[str]:
+    """``optinav simulate gfimu-turntable`` of ``rows`` samples: the built-in 10-accelerometer array, the six
+    cases (three mountings, rates 0.5 and 1.0 rad/s) at 100 Hz, ``--duration`` set to ``rows / 600`` s per case."""
+    return ["simulate", "gfimu-turntable", "--duration", f"{rows / 600:.9g}", "--seed", "1", "--out", str(out)]
+
+
+def run_simulate_gfimu(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """``simulate gfimu-turntable`` (CSV, :func:`_gfimu_argv`; a header line, no comment lines) with this tree
+    ("after": generated and written in blocks) and with commit :data:`GFIMU_BEFORE` ("before": the whole data set
+    at once), at ``after_only`` with this tree alone (the "before" would need about 16 GB there)."""
+    return _run_simulator("gfimu-turntable", GFIMU_BEFORE, _gfimu_argv, sizes, after_only, 0)
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -545,6 +563,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-flight":
         # python benchmarks/bench_memory.py --simulate-flight FLIGHT.json: simulate flight before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_flight(), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-gfimu":
+        # python benchmarks/bench_memory.py --simulate-gfimu GFIMU.json: simulate gfimu-turntable before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_gfimu(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
