@@ -20,7 +20,8 @@ is an FIR plus first-order processes) and ``simulate rins`` (in blocks since its
 block): ``--simulate-static`` measures the first before and after at 1 M and 3 M rows and after at 10 M rows
 (results_memory_simulate_static.json), ``--simulate-rins`` the same for the second
 (results_memory_simulate_rins.json) and ``--simulate-gfimu`` for ``simulate gfimu-turntable`` (generated and written in
-blocks since its noise is drawn by sample index; results_memory_simulate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+blocks since its noise is drawn by sample index; results_memory_simulate_gfimu.json), ``--calibrate-gfimu``
+``calibrate gfimu`` on its CSV at 1 M and 3 M rows (not streamed; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -508,6 +509,35 @@ def run_simulate_gfimu(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -
     return _run_simulator("gfimu-turntable", GFIMU_BEFORE, _gfimu_argv, sizes, after_only, 0)
 
 
+def run_calibrate_gfimu(sizes=(1_000_000, 3_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav calibrate gfimu`` (``--builtin cylinder10``) on the CSV of
+    :func:`_gfimu_argv` at each row count (written by this tree), with this tree ("after") and with commit
+    :data:`GFIMU_BEFORE` ("before"); ``csv_bytes`` is the file's size."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), GFIMU_BEFORE)
+        for rows in sizes:
+            data = Path(tmp) / f"gfimu{rows}.csv"
+            _run(ROOT / "src", _gfimu_argv(data, rows))
+            n = _rows_of(data) + 2
+            for version, src in versions.items():
+                argv = ["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(Path(tmp) / "r.json")]
+                peak, wall, _ = _run(src, argv)
+                size = data.stat().st_size
+                out.append(
+                    {
+                        "method": f"calibrate gfimu ({version})",
+                        "rows": n,
+                        "peak_mib": peak,
+                        "wall_s": wall,
+                        "csv_bytes": size,
+                    }
+                )
+                print(f"calibrate gfimu ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            data.unlink()
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -566,6 +596,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-gfimu":
         # python benchmarks/bench_memory.py --simulate-gfimu GFIMU.json: simulate gfimu-turntable before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_gfimu(), indent=1) + "\n")
+    elif sys.argv[1] == "--calibrate-gfimu":
+        # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json: calibrate gfimu on the simulator's CSV
+        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)

@@ -163,7 +163,7 @@ def register_simulate(kinds) -> None:
 
 def text_bytes_per_row(n_accelerometers: int) -> int:
     """Bytes on disk per CSV row of ``optinav simulate gfimu-turntable`` assumed by its up-front check: measured
-    184 B per row for 10 accelerometers (about 15 B per output, 35 B for t, case, mounting, table_rate, wedge and
+    182-184 B per row for 10 accelerometers (about 15 B per output, 35 B for t, case, mounting, table_rate, wedge and
     gravity), assumed 20 B per output + 80 B."""
     return 20 * n_accelerometers + 80
 
