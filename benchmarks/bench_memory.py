@@ -15,10 +15,12 @@ array per field and keeps time, accelerometer and gyroscope (56 B per row) plus 
 static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json.
-``simulate static``, ``simulate rins`` and ``simulate flight`` are generated and written in blocks too:
-``--simulate-static``, ``--simulate-rins`` and ``--simulate-flight`` measure each before and after at 1 M and 3 M
-rows and after at 10 M rows (results_memory_simulate_static.json, results_memory_simulate_rins.json,
-results_memory_simulate_flight.json; one runner, ``_run_simulator``). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+``simulate static``, ``simulate rins``, ``simulate flight`` and ``simulate gfimu-turntable`` are generated and
+written in blocks too: ``--simulate-static``, ``--simulate-rins``, ``--simulate-flight`` and ``--simulate-gfimu``
+measure each before and after at 1 M and 3 M rows and after at 10 M rows (results_memory_simulate_static.json,
+results_memory_simulate_rins.json, results_memory_simulate_flight.json, results_memory_simulate_gfimu.json; one
+runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` on its CSV at 1 M and 3 M rows (not
+streamed; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -489,6 +491,52 @@ def run_simulate_flight(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) 
     return _run_simulator("flight", FLIGHT_BEFORE, lambda o, r: argv(o, r) + ["--seed", "1"], sizes, after_only, 1)
 
 
+#: the commit whose ``simulate gfimu-turntable`` generated the whole data set (about 1.6 kB per row checked)
+GFIMU_BEFORE = "e3ae9d7"
+
+
+def _gfimu_argv(out: Path, rows: int) -> list[str]:
+    """``optinav simulate gfimu-turntable`` of ``rows`` samples: the built-in 10-accelerometer array, the six
+    cases (three mountings, rates 0.5 and 1.0 rad/s) at 100 Hz, ``--duration`` set to ``rows / 600`` s per case."""
+    return ["simulate", "gfimu-turntable", "--duration", f"{rows / 600:.9g}", "--seed", "1", "--out", str(out)]
+
+
+def run_simulate_gfimu(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """``simulate gfimu-turntable`` (CSV, :func:`_gfimu_argv`; a header line, no comment lines) with this tree
+    ("after": generated and written in blocks) and with commit :data:`GFIMU_BEFORE` ("before": the whole data set
+    at once), at ``after_only`` with this tree alone (the "before" would need about 16 GB there)."""
+    return _run_simulator("gfimu-turntable", GFIMU_BEFORE, _gfimu_argv, sizes, after_only, 0)
+
+
+def run_calibrate_gfimu(sizes=(1_000_000, 3_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav calibrate gfimu`` (``--builtin cylinder10``) on the CSV of
+    :func:`_gfimu_argv` at each row count (written by this tree), with this tree ("after") and with commit
+    :data:`GFIMU_BEFORE` ("before"); ``csv_bytes`` is the file's size."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), GFIMU_BEFORE)
+        for rows in sizes:
+            data = Path(tmp) / f"gfimu{rows}.csv"
+            _run(ROOT / "src", _gfimu_argv(data, rows))
+            n = _rows_of(data) + 2
+            for version, src in versions.items():
+                argv = ["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(Path(tmp) / "r.json")]
+                peak, wall, _ = _run(src, argv)
+                size = data.stat().st_size
+                out.append(
+                    {
+                        "method": f"calibrate gfimu ({version})",
+                        "rows": n,
+                        "peak_mib": peak,
+                        "wall_s": wall,
+                        "csv_bytes": size,
+                    }
+                )
+                print(f"calibrate gfimu ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            data.unlink()
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -544,6 +592,12 @@ if __name__ == "__main__":
     elif sys.argv[1] == "--simulate-flight":
         # python benchmarks/bench_memory.py --simulate-flight FLIGHT.json: simulate flight before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_flight(), indent=1) + "\n")
+    elif sys.argv[1] == "--simulate-gfimu":
+        # python benchmarks/bench_memory.py --simulate-gfimu GFIMU.json: simulate gfimu-turntable before/after
+        Path(sys.argv[2]).write_text(json.dumps(run_simulate_gfimu(), indent=1) + "\n")
+    elif sys.argv[1] == "--calibrate-gfimu":
+        # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json: calibrate gfimu on the simulator's CSV
+        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)

@@ -139,3 +139,66 @@ def test_calibrate_errors(tmp_path, capsys):
     )
     assert "cannot be separated" in capsys.readouterr().err
     assert main(["calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(tmp_path / "r.txt")]) == 2
+
+
+def _simulate_argv(data, *extra):
+    return ["--quiet", "simulate", "gfimu-turntable", "--errors", "random", "--duration", "2", "--seed", "4", *extra]
+
+
+def test_simulate_csv_in_blocks_is_the_library_data(tmp_path, monkeypatch):
+    """The CLI streams the CSV in blocks (here 7 of 250 rows, the last short): the bytes TurntableData.save writes
+    for the library's simulation with the same seed, read back by calibrate gfimu, which recovers the truth."""
+    from optinav.gfimu import InstallationErrors, simulate, turntable
+
+    monkeypatch.setattr(turntable, "BLOCK_ROWS", 250)
+    data = tmp_path / "tt.csv"
+    assert main([*_simulate_argv(data), "--out", str(data)]) == 0
+    arr = builtin()
+    e = InstallationErrors.random(10, rng=5)
+    ref = simulate(arr, e, rates=(0.5, 1.0), duration=2.0, rng=4)
+    assert len(ref.t) == 1200
+    ref.save(tmp_path / "ref.csv")
+    assert data.read_bytes() == (tmp_path / "ref.csv").read_bytes()
+    truth = json.loads((tmp_path / "tt.truth.json").read_text())
+    tv = np.array(list(truth["coefficients"].values()))
+    np.testing.assert_array_equal(tv, e.vector())
+    assert truth["samples_per_case"] == 200
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())["fields"]
+    est, std = np.array(r["estimate"]["value"]), np.array(r["std"]["value"])
+    assert np.abs((est - tv) / std).max() < 4.5
+    # the NPZ gathers the same blocks
+    assert main([*_simulate_argv(data), "--out", str(tmp_path / "tt.npz")]) == 0
+    with np.load(tmp_path / "tt.npz") as z:
+        np.testing.assert_array_equal(z["f"], ref.acc)
+        np.testing.assert_array_equal(z["case"], ref.case.astype(float))
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz", ".h5"])
+def test_oversized_data_sets_are_refused_up_front(tmp_path, capsys, monkeypatch, suffix):
+    """3 M rows (--duration 5000 at 100 Hz, six cases): the CSV against the free disk, NPZ/HDF5 against memory;
+    nothing is written."""
+    import shutil
+    from collections import namedtuple
+
+    from optinav.cli import common
+
+    monkeypatch.setattr(common, "available_memory", lambda: 2**30)  # half of it, 512 MiB, for the data set
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(2**40, 2**40 - 2**28, 2**28))  # 256 MiB free
+    argv = ["simulate", "gfimu-turntable", "--duration", "5000", "--out", str(tmp_path / f"g{suffix}")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "3e+06 samples" in err
+    if suffix == ".csv":  # 280 B per row assumed: 0.78 GiB
+        assert "0.782 GiB on disk" in err and "0.25 GiB free" in err
+    else:  # 220 B per row assumed: 0.61 GiB
+        assert "0.615 GiB of memory" in err and "write .csv" in err
+    assert list(tmp_path.iterdir()) == []
+    # a short one (6 000 rows) fits either way
+    monkeypatch.setattr(common, "available_memory", lambda: 2**32)
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(2**40, 2**40 - 2**32, 2**32))
+    argv[3] = "10"
+    assert main(["--quiet", *argv]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"g{suffix}", "g.truth.json"])

@@ -115,3 +115,105 @@ def test_result_json_and_data_files(tmp_path):
         assert list(d2.case) == list(d.case) and d2.gamma == pytest.approx(d.gamma)
     with pytest.raises(OptinavError, match="6 accelerometer|configuration"):
         calibrate(builtin().with_geometry(arr.positions[:6], arr.directions[:6]), d)
+
+
+# --- the simulator in blocks (TurntableStream): bounded memory, the same rows whatever the block length -----------
+
+
+def _stream(**kw):
+    from optinav.gfimu.turntable import TurntableStream
+
+    arr = builtin()
+    args = dict(rates=(0.5, 1.0), mountings=(1, 2, 3), duration=3.0, rng=11, offset=[0.002, -0.001, 0.0])
+    return TurntableStream(arr, InstallationErrors.random(10, rng=5), **{**args, **kw})
+
+
+def test_stream_rows_do_not_depend_on_the_block_length():
+    whole = _stream().gather()
+    n = len(whole.t)
+    assert n == 1800 and list(whole.case) == [k for k in range(1, 7) for _ in range(300)]
+    for rows in (1, 7, 299, 300, 301, 1024, 10**6):
+        s = _stream()
+        assert s.n == n and s.n_blocks(rows) == -(-n // rows)
+        blocks = list(s.blocks(rows))
+        assert len(blocks) == s.n_blocks(rows)
+        d = s.gather(iter(blocks))
+        for a, b in (
+            (d.t, whole.t),
+            (d.acc, whole.acc),
+            (d.mounting, whole.mounting),
+            (d.table_rate, whole.table_rate),
+        ):
+            np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(np.concatenate([b[2] for b in blocks]), whole.case)
+    # another seed gives other noise on the same noise-free outputs
+    other = _stream(rng=12).gather()
+    assert not np.array_equal(other.acc, whole.acc)
+    np.testing.assert_allclose(other.acc, whole.acc, atol=10 * MICRO_G)
+
+
+def test_simulate_is_the_stream_gathered():
+    from optinav.gfimu.turntable import model_outputs
+
+    arr = builtin()
+    e = InstallationErrors.random(10, rng=5)
+    d = simulate(arr, e, duration=3.0, rng=11, offset=[0.002, -0.001, 0.0])
+    g = _stream().gather()
+    for a, b in (
+        (d.t, g.t),
+        (d.acc, g.acc),
+        (d.mounting, g.mounting),
+        (d.table_rate, g.table_rate),
+        (d.sigma, g.sigma),
+    ):
+        np.testing.assert_array_equal(a, b)
+    assert (d.gamma, d.gravity) == (g.gamma, g.gravity)
+    # times back to back at the sample rate; the noise white, 1 µg, around the model's outputs
+    np.testing.assert_allclose(np.diff(d.t), 0.01, rtol=1e-9)
+    from optinav.gfimu.errors import perturb
+
+    act = perturb(arr, e)
+    u = np.radians(30.0)
+    f0 = model_outputs(
+        act.positions, act.directions, np.array([np.sin(u), 0, np.cos(u)]), 0.5, d.gravity, [0.002, -0.001, 0.0]
+    )
+    z = (d.acc[:300] - f0) / MICRO_G
+    assert abs(z.std() - 1) < 0.05 and abs(z.mean()) < 0.1
+    assert abs(np.corrcoef(z[:-1].ravel(), z[1:].ravel())[0, 1]) < 0.1
+    with pytest.raises(OptinavError, match="rows"):
+        _stream().gather(list(_stream().blocks(500))[:-1])
+
+
+def test_case_labels_follow_the_order_of_appearance():
+    from optinav.gfimu.turntable import case_labels
+
+    d = simulate(builtin(), mountings=(3, 1, 3), rates=(1.0, 0.5), duration=0.02, rng=0)
+    assert list(d.mounting) == [3, 3, 3, 3, 1, 1, 1, 1, 3, 3, 3, 3]
+    assert list(d.case) == [1, 1, 2, 2, 3, 3, 4, 4, 1, 1, 2, 2]
+    assert list(case_labels([2, 2, 1, 2], [0.5, 0.5 + 1e-14, 0.5, 0.5])) == [1, 1, 2, 1]
+    assert case_labels([], []).shape == (0,)
+
+
+def test_streamed_csv_is_the_saved_file(tmp_path):
+    from optinav.gfimu.turntable import turntable_csv_writer
+
+    s = _stream(mountings=(1, 2, 3, 1), gamma=np.radians(25.0), gravity=9.79)
+    d = _stream(mountings=(1, 2, 3, 1), gamma=np.radians(25.0), gravity=9.79).gather()
+    d.save(tmp_path / "whole.csv")
+    with turntable_csv_writer(tmp_path / "blocks.csv", 10, s.gamma, s.gravity) as write:
+        for block in s.blocks(333):
+            write(*block)
+    whole = (tmp_path / "whole.csv").read_bytes()
+    assert (tmp_path / "blocks.csv").read_bytes() == whole
+    lines = whole.decode().splitlines()
+    assert lines[0] == "t,f1,f2,f3,f4,f5,f6,f7,f8,f9,f10,case,mounting,table_rate,wedge,gravity"
+    assert len(lines) == 1 + 2400 and lines[-1].split(",")[11:14] == ["2", "1", "1"]  # mounting 1 again: cases 1, 2
+    back = TurntableData.load(tmp_path / "blocks.csv", 10)
+    np.testing.assert_allclose(back.acc, d.acc, rtol=1e-11)
+    np.testing.assert_allclose(back.t, d.t, rtol=1e-11)
+    assert list(back.case) == list(d.case) and back.gamma == pytest.approx(d.gamma) and back.gravity == 9.79
+    # an error inside the block leaves no file
+    with pytest.raises(RuntimeError), turntable_csv_writer(tmp_path / "x.csv", 10, s.gamma) as write:
+        write(*next(_stream().blocks(10)))
+        raise RuntimeError("stop")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocks.csv", "whole.csv"]

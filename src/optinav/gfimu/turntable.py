@@ -29,13 +29,15 @@ it only moves the reference point of A (f_i depends on A + ω̇×c + ω×(ω×c)
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from optinav.core.files import atomic_open, atomic_path, write_csv
+from optinav.core.files import atomic_open, atomic_path, csv_writer
+from optinav.core.imu_model import SampleDraws, draw_key
 from optinav.core.observability import analyze
 from optinav.core.optimize import Problem, minimize
 from optinav.core.results import (
@@ -65,6 +67,8 @@ from optinav.gfimu.errors import (
 __all__ = [
     "table_axes",
     "TurntableData",
+    "TurntableStream",
+    "turntable_csv_writer",
     "simulate",
     "case_means",
     "closed_form",
@@ -74,6 +78,7 @@ __all__ = [
     "PAPER",
     "MICRO_G",
     "required_samples",
+    "BLOCK_ROWS",
 ]
 
 MICRO_G = 1e-6 * G_STANDARD
@@ -88,6 +93,9 @@ PAPER = {
     "max_rel_err_direction_pct": {"low": 0.042, "high": 0.041},
 }
 MOUNTING_NAMES = ("x-z", "y-z", "x-y")
+#: rows per block of :class:`TurntableStream` and of the CSV :meth:`TurntableData.save` writes (memory grows with
+#: it, not with the log; the rows do not depend on it)
+BLOCK_ROWS = 1 << 16
 
 
 def table_axes(gamma: float, mountings=(1, 2, 3)) -> np.ndarray:
@@ -126,11 +134,7 @@ class TurntableData:
     @property
     def case(self) -> np.ndarray:
         """Case label 1..K in order of appearance of (mounting, rate)."""
-        keys = list(zip(self.mounting.astype(int), np.round(self.table_rate, 12)))
-        order = {}
-        for k in keys:
-            order.setdefault(k, len(order) + 1)
-        return np.array([order[k] for k in keys])
+        return case_labels(self.mounting, self.table_rate)
 
     def save(self, path) -> Path:
         """Write the log atomically, by suffix.
@@ -152,28 +156,28 @@ class TurntableData:
 
         path = Path(path)
         n = len(self.t)
-        cols = {
-            "t": self.t,
-            "case": self.case.astype(float),
-            "mounting": self.mounting.astype(float),
-            "table_rate": self.table_rate,
-            "wedge": np.full(n, self.gamma),
-            "gravity": np.full(n, self.gravity),
-        }
+        case = self.case
+
+        def columns():
+            return {
+                "t": self.t,
+                "case": case.astype(float),
+                "mounting": self.mounting.astype(float),
+                "table_rate": self.table_rate,
+                "wedge": np.full(n, self.gamma),
+                "gravity": np.full(n, self.gravity),
+            }
+
         suf = path.suffix.lower()
         if suf == ".npz":
             with atomic_open(path, "wb") as fh:
-                np.savez(fh, f=self.acc, **cols)
+                np.savez(fh, f=self.acc, **columns())
         elif suf in (".csv", ".txt"):
-            header = (
-                ["t"]
-                + [f"f{i + 1}" for i in range(self.acc.shape[1])]
-                + ["case", "mounting", "table_rate", "wedge", "gravity"]
-            )
-            data = np.column_stack(
-                [self.t, self.acc, cols["case"], cols["mounting"], self.table_rate, cols["wedge"], cols["gravity"]]
-            )
-            write_csv(path, data, ",".join(header), "%.12g")
+            # in blocks through the streamed writer: the layout of optinav simulate gfimu-turntable's CSV
+            with turntable_csv_writer(path, self.acc.shape[1], self.gamma, self.gravity) as write:
+                for i0 in range(0, n, BLOCK_ROWS):
+                    s = slice(i0, i0 + BLOCK_ROWS)
+                    write(self.t[s], self.acc[s], case[s], self.mounting[s], self.table_rate[s])
         elif suf in (".h5", ".hdf5"):
             try:
                 import h5py
@@ -181,7 +185,7 @@ class TurntableData:
                 raise OptinavError("writing HDF5 needs h5py", "pip install h5py, or use .npz/.csv") from None
             with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
                 fh["f"] = self.acc
-                for k, v in cols.items():
+                for k, v in columns().items():
                     fh[k] = v
         else:
             raise OptinavError(f"cannot write {path.suffix or 'a file without suffix'}", "use .npz, .csv or .h5")
@@ -226,6 +230,74 @@ class TurntableData:
         )
 
 
+def case_labels(mounting, table_rate) -> np.ndarray:
+    """Case label 1..K of every row: the order of first appearance of its (mounting, rate rounded to 1e-12 rad/s).
+
+    Vectorized over the runs of equal rows (a log's cases are long runs), so it takes a few bytes per row.
+
+    Parameters
+    ----------
+    mounting : (T,) array
+        Mounting of each row (1..3).
+    table_rate : (T,) array
+        Table rate of each row [rad/s].
+
+    Returns
+    -------
+    (T,) int ndarray
+        The case labels [-].
+    """
+    m = np.asarray(mounting).astype(int, copy=False).ravel()
+    w = np.round(np.asarray(table_rate, float).ravel(), 12)
+    if m.size == 0:
+        return np.zeros(0, int)
+    starts = np.flatnonzero(np.r_[True, (m[1:] != m[:-1]) | (w[1:] != w[:-1])])
+    order: dict = {}
+    run_labels = [order.setdefault((int(m[i]), float(w[i])), len(order) + 1) for i in starts]
+    return np.repeat(np.asarray(run_labels, int), np.diff(np.r_[starts, m.size]))
+
+
+@contextlib.contextmanager
+def turntable_csv_writer(path, n_accelerometers: int, gamma: float, gravity: float = G_STANDARD):
+    """A turntable CSV file written block by block, atomically (:func:`optinav.core.files.csv_writer`): the layout
+    of :meth:`TurntableData.save` (header ``t,f1..fN,case,mounting,table_rate,wedge,gravity``, ``%.12g``), so the
+    blocks of a log give the same bytes as the whole.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (.csv); it appears when the ``with`` block ends without an error.
+    n_accelerometers : int
+        Number of outputs N.
+    gamma : float
+        Wedge angle γ [rad] (the ``wedge`` column).
+    gravity : float
+        Gravity [m/s^2] (the ``gravity`` column).
+
+    Yields
+    ------
+    callable
+        ``write(t, acc, case, mounting, table_rate)`` appends rows: t [s], acc (m, N) [m/s^2], case label,
+        mounting (1..3) and table rate [rad/s].
+    """
+    header = ",".join(
+        ["t"]
+        + [f"f{i + 1}" for i in range(int(n_accelerometers))]
+        + ["case", "mounting", "table_rate", "wedge", "gravity"]
+    )
+    wedge, grav = float(gamma), float(gravity)
+
+    def write(t, acc, case, mounting, table_rate):
+        m = len(t)
+        block = np.column_stack([t, acc, case, mounting, table_rate, np.full(m, wedge), np.full(m, grav)]).astype(
+            float, copy=False
+        )
+        put(block)
+
+    with csv_writer(path, header, "%.12g") as put:
+        yield write
+
+
 def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
     """The accelerometer outputs (T, N) m/s² of a table read by :func:`optinav.io.readers.load_table`: its array
     ``f`` or its columns ``f1..fN``; checked finite and, when given, ``n_accelerometers`` wide."""
@@ -261,6 +333,135 @@ def model_outputs(positions, directions, u, w, g, offset=None) -> np.ndarray:
     return np.asarray(directions, float) @ (g * u) + w * w * np.einsum("ni,ij,nj->n", directions, P, r)
 
 
+class TurntableStream:
+    """The turntable cases (mountings × rates, ``duration`` each at ``rate_hz``) generated block by block, so that
+    memory does not grow with the length of the log (``optinav simulate gfimu-turntable``); :func:`simulate` gathers
+    the same blocks.
+
+    Within a case the noise-free outputs are constant (:func:`model_outputs`); one key is drawn from ``rng`` (where
+    the noise was drawn before), from which the white noise of every sample is drawn by sample index
+    (:class:`~optinav.core.imu_model.SampleDraws`, N values per sample): the same seed gives the same log whatever
+    the block length.
+
+    Parameters
+    ----------
+    nominal, errors, rates, gamma, mountings, rate_hz, duration, noise, offset, gravity, rng
+        As :func:`simulate`.
+
+    Attributes
+    ----------
+    n : int
+        Rows of the log (samples per case × cases).
+    n_case : int
+        Samples per case.
+    n_accelerometers : int
+        Outputs N per row.
+    gamma, gravity : float
+        Wedge angle [rad] and gravity [m/s^2].
+    sigma : (N,) ndarray
+        Noise std [m/s^2].
+    """
+
+    def __init__(
+        self,
+        nominal: AccelerometerArray,
+        errors: InstallationErrors | None = None,
+        *,
+        rates=(0.5, 1.0),
+        gamma: float = np.radians(30.0),
+        mountings=(1, 2, 3),
+        rate_hz: float = 100.0,
+        duration: float = 10.0,
+        noise=MICRO_G,
+        offset=None,
+        gravity: float = G_STANDARD,
+        rng=None,
+    ):
+        rng = as_rng(rng)
+        errors = InstallationErrors.zeros(nominal.n) if errors is None else errors
+        actual = perturb(nominal, errors)
+        rates = as_float_array(rates, "rates").ravel()
+        if rates.size < 1 or np.any(rates <= 0):
+            raise OptinavError("table rates must be positive", "give e.g. rates=(0.5, 1.0) rad/s")
+        check_positive(rate_hz, "rate_hz")
+        check_positive(duration, "duration")
+        U = table_axes(gamma, mountings)
+        off = (
+            np.zeros((len(U), 3)) if offset is None else np.broadcast_to(as_float_array(offset, "offset"), (len(U), 3))
+        )
+        self.sigma = np.broadcast_to(as_float_array(noise, "noise"), (nominal.n,)).astype(float)
+        self.n_case = n = max(int(round(duration * rate_hz)), 1)
+        self.rate_hz, self.gamma, self.gravity = float(rate_hz), float(gamma), float(gravity)
+        self.n_accelerometers = nominal.n
+        f0, mnt, ws, t0 = [], [], [], []
+        start = 0.0
+        for k, (m, u) in enumerate(zip(mountings, U)):
+            for w in rates:
+                f0.append(model_outputs(actual.positions, actual.directions, u, w, gravity, off[k]))
+                mnt.append(int(m))
+                ws.append(float(w))
+                t0.append(start)
+                start += n / rate_hz
+        self._f0, self._mounting, self._rate = np.array(f0), np.array(mnt), np.array(ws)
+        self._t0, self._case = np.array(t0), case_labels(self._mounting, self._rate)
+        self.n = n * len(f0)
+        self._draws = SampleDraws(draw_key(rng), 0, width=nominal.n)
+
+    def blocks(self, block_rows: int | None = None):
+        """Generate the log's rows in order, ``block_rows`` at a time.
+
+        Parameters
+        ----------
+        block_rows : int or None
+            Rows per block (default :data:`BLOCK_ROWS`; memory grows with it, not with the log; the rows do not
+            depend on it).
+
+        Yields
+        ------
+        t : (m,) ndarray
+            Sample times [s] (cases back to back).
+        acc : (m, N) ndarray
+            Accelerometer outputs [m/s^2].
+        case : (m,) int ndarray
+            Case label 1..K (as :attr:`TurntableData.case`).
+        mounting : (m,) int ndarray
+            Mounting 1..3.
+        table_rate : (m,) ndarray
+            Table rate [rad/s].
+        """
+        step = int(check_positive(BLOCK_ROWS if block_rows is None else block_rows, "block_rows"))
+        for i0 in range(0, self.n, step):
+            i1 = min(i0 + step, self.n)
+            k, j = np.divmod(np.arange(i0, i1), self.n_case)
+            t = self._t0[k] + j / self.rate_hz
+            acc = self._f0[k] + self._draws.take(i0, i1) * self.sigma
+            yield t, acc, self._case[k], self._mounting[k], self._rate[k]
+
+    def n_blocks(self, block_rows: int | None = None) -> int:
+        """Number of blocks :meth:`blocks` yields for ``block_rows`` (default :data:`BLOCK_ROWS`)."""
+        return -(-self.n // int(BLOCK_ROWS if block_rows is None else block_rows))
+
+    def gather(self, blocks=None) -> TurntableData:
+        """The whole log in memory: ``blocks`` (default :meth:`blocks`; e.g. wrapped in a progress bar) filled into
+        arrays of :attr:`n` rows.
+
+        Returns
+        -------
+        TurntableData
+            As :func:`simulate` returns it.
+        """
+        n, N = self.n, self.n_accelerometers
+        t, acc, mnt, rate = np.empty(n), np.empty((n, N)), np.empty(n, int), np.empty(n)
+        i = 0
+        for bt, bacc, _, bm, bw in self.blocks() if blocks is None else blocks:
+            j = i + bt.size
+            t[i:j], acc[i:j], mnt[i:j], rate[i:j] = bt, bacc, bm, bw
+            i = j
+        if i != n:
+            raise OptinavError(f"the blocks gave {i} of the log's {n} rows", "pass all the blocks of this stream")
+        return TurntableData(t, acc, mnt, rate, self.gamma, self.gravity, self.sigma)
+
+
 def simulate(
     nominal: AccelerometerArray,
     errors: InstallationErrors | None = None,
@@ -275,7 +476,8 @@ def simulate(
     gravity: float = G_STANDARD,
     rng=None,
 ) -> TurntableData:
-    """Simulate the turntable cases (mountings × rates), ``duration`` each at ``rate_hz``.
+    """Simulate the turntable cases (mountings × rates), ``duration`` each at ``rate_hz``: the blocks of a
+    :class:`TurntableStream` with the same arguments gathered (a seed gives the same rows).
 
     Parameters
     ----------
@@ -307,31 +509,19 @@ def simulate(
     TurntableData
         ``t`` [s], ``f`` [m/s^2], mounting, ``table_rate`` [rad/s].
     """
-    rng = as_rng(rng)
-    errors = InstallationErrors.zeros(nominal.n) if errors is None else errors
-    actual = perturb(nominal, errors)
-    rates = as_float_array(rates, "rates").ravel()
-    if rates.size < 1 or np.any(rates <= 0):
-        raise OptinavError("table rates must be positive", "give e.g. rates=(0.5, 1.0) rad/s")
-    check_positive(rate_hz, "rate_hz")
-    check_positive(duration, "duration")
-    U = table_axes(gamma, mountings)
-    off = np.zeros((len(U), 3)) if offset is None else np.broadcast_to(as_float_array(offset, "offset"), (len(U), 3))
-    sig = np.broadcast_to(as_float_array(noise, "noise"), (nominal.n,)).astype(float)
-    n = max(int(round(duration * rate_hz)), 1)
-    ts, fs, ms, ws = [], [], [], []
-    t0 = 0.0
-    for k, (m, u) in enumerate(zip(mountings, U)):
-        for w in rates:
-            f0 = model_outputs(actual.positions, actual.directions, u, w, gravity, off[k])
-            fs.append(f0 + rng.normal(0.0, 1.0, (n, nominal.n)) * sig)
-            ts.append(t0 + np.arange(n) / rate_hz)
-            t0 += n / rate_hz
-            ms.append(np.full(n, int(m)))
-            ws.append(np.full(n, float(w)))
-    return TurntableData(
-        np.concatenate(ts), np.vstack(fs), np.concatenate(ms), np.concatenate(ws), float(gamma), float(gravity), sig
-    )
+    return TurntableStream(
+        nominal,
+        errors,
+        rates=rates,
+        gamma=gamma,
+        mountings=mountings,
+        rate_hz=rate_hz,
+        duration=duration,
+        noise=noise,
+        offset=offset,
+        gravity=gravity,
+        rng=rng,
+    ).gather()
 
 
 @dataclass
