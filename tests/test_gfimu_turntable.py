@@ -217,3 +217,28 @@ def test_streamed_csv_is_the_saved_file(tmp_path):
         write(*next(_stream().blocks(10)))
         raise RuntimeError("stop")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocks.csv", "whole.csv"]
+
+
+def test_cases_summarized_while_reading_in_blocks(tmp_path, monkeypatch):
+    """Calibration reads a long log block by block into per-case means and the pooled within-case std (pairwise
+    merges across blocks): the summary and the fit equal those of the whole log in memory."""
+    from optinav.gfimu.turntable import case_means, read_cases
+
+    arr = builtin("cylinder10")
+    e = InstallationErrors.random(arr.n, rng=3)
+    d = simulate(arr, e, rates=(0.5, 1.0), duration=1.0, noise=1e-4, rng=5)
+    path = d.save(tmp_path / "tt.csv")
+    monkeypatch.setattr("optinav.io.readers.CHUNK_ROWS", 37)  # every case spans several blocks
+    got = read_cases(path, arr.n)
+    whole = case_means(TurntableData.load(path, arr.n))
+    assert got.samples == len(d.t) and got.n_outputs == arr.n and got.gamma == pytest.approx(d.gamma)
+    assert np.array_equal(got.cases.count, whole.count) and np.array_equal(got.cases.mounting, whole.mounting)
+    np.testing.assert_allclose(got.cases.rate, whole.rate, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.cases.mean, whole.mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.cases.sigma, whole.sigma, rtol=1e-9)
+    np.testing.assert_allclose(got.cases.sigma, 1e-4, rtol=0.05)  # the simulated noise
+    a, b = calibrate(arr, got), calibrate(arr, TurntableData.load(path, arr.n))
+    np.testing.assert_allclose(a.estimate, b.estimate, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.std, b.std, rtol=1e-6)
+    with pytest.raises(OptinavError, match="accelerometer columns"):
+        read_cases(path, arr.n + 1)

@@ -533,20 +533,117 @@ class CaseMeans:
     sigma: np.ndarray  # (N,) pooled within-case std, m/s²
 
 
+class CaseAccumulator:
+    """Per-case counts, means and within-case sums of squares of a turntable log given block by block (cases: the
+    (mounting, rate rounded to 1e-12 rad/s) pairs in order of first appearance, as :func:`case_labels`), merged
+    with Chan et al.'s pairwise update, so a log of any length is summarized in O(cases) memory
+    (:func:`read_cases`); :func:`case_means` is one block of it."""
+
+    def __init__(self):
+        self._keys: dict = {}
+        self._n: list = []
+        self._mean: list = []
+        self._m2: list = []
+        self.samples = 0
+
+    def add(self, mounting, table_rate, acc) -> None:
+        """Add a block: mounting (m,) 1..3, table rate (m,) [rad/s], outputs (m, N) [m/s^2]."""
+        m = np.asarray(mounting).astype(int, copy=False).ravel()
+        w = np.round(np.asarray(table_rate, float).ravel(), 12)
+        f = np.asarray(acc, float)
+        self.samples += m.size
+        if m.size == 0:
+            return
+        starts = np.flatnonzero(np.r_[True, (m[1:] != m[:-1]) | (w[1:] != w[:-1])])
+        ends = np.r_[starts[1:], m.size]
+        for a, b in zip(starts, ends):
+            k = self._keys.setdefault((int(m[a]), float(w[a])), len(self._keys))
+            x = f[a:b]
+            nb, mb = b - a, x.mean(axis=0)
+            m2b = ((x - mb) ** 2).sum(axis=0)
+            if k == len(self._n):
+                self._n.append(nb)
+                self._mean.append(mb)
+                self._m2.append(m2b)
+                continue
+            na, d = self._n[k], mb - self._mean[k]
+            n = na + nb
+            self._mean[k] = self._mean[k] + d * (nb / n)
+            self._m2[k] = self._m2[k] + m2b + d**2 * (na * nb / n)
+            self._n[k] = n
+
+    def result(self) -> CaseMeans:
+        """The :class:`CaseMeans` of what was added."""
+        if not self._n:
+            raise OptinavError("the turntable log has no samples", "pass a recording with data rows")
+        keys = list(self._keys)
+        cnt = np.asarray(self._n, int)
+        dof = int(np.sum(cnt - 1))
+        m2 = np.sum(self._m2, axis=0)
+        sigma = np.sqrt(m2 / dof) if dof > 0 else np.full(m2.shape, np.nan)
+        return CaseMeans(
+            np.array([k[0] for k in keys], int), np.array([k[1] for k in keys], float), np.array(self._mean), cnt, sigma
+        )
+
+
 def case_means(data: TurntableData) -> CaseMeans:
-    case = data.case
-    labels = np.unique(case)
-    mean = np.array([data.acc[case == c].mean(axis=0) for c in labels])
-    cnt = np.array([np.count_nonzero(case == c) for c in labels])
-    mnt = np.array([data.mounting[case == c][0] for c in labels])
-    rate = np.array([data.table_rate[case == c][0] for c in labels])
-    dof = int(np.sum(cnt - 1))
-    if dof > 0:
-        ss = sum(((data.acc[case == c] - mean[k]) ** 2).sum(axis=0) for k, c in enumerate(labels))
-        sigma = np.sqrt(ss / dof)
-    else:
-        sigma = np.full(data.acc.shape[1], np.nan)
-    return CaseMeans(mnt, rate, mean, cnt, sigma)
+    """Per-case means, counts and the pooled within-case std of a whole log (:class:`CaseAccumulator`)."""
+    acc = CaseAccumulator()
+    acc.add(data.mounting, data.table_rate, data.acc)
+    return acc.result()
+
+
+@dataclass
+class TurntableCases:
+    """A turntable log summarized per case (what the calibration needs): the case means ``cases``, the wedge
+    ``gamma`` [rad], ``gravity`` [m/s^2], the number of outputs ``n_outputs`` and of rows ``samples``."""
+
+    cases: CaseMeans
+    gamma: float
+    gravity: float
+    n_outputs: int
+    samples: int
+
+
+def read_cases(path, n_accelerometers: int | None = None, rate_factor: float = 1.0) -> TurntableCases:
+    """Summarize a turntable log per case while reading it block by block (text) or whole (other formats), so
+    calibrating a long log needs memory for one block, not the log.
+
+    Parameters
+    ----------
+    path : str or Path
+        .npz, .csv or .h5 file in :meth:`TurntableData.save`'s columns.
+    n_accelerometers : int or None
+        Expected number of outputs (checked when given).
+    rate_factor : float
+        Factor from the file's table rate to rad/s (π/180 for deg/s).
+
+    Returns
+    -------
+    TurntableCases
+        The case means, wedge [rad], gravity [m/s^2] and sizes.
+    """
+    from optinav.io.readers import iter_table
+
+    acc, head = CaseAccumulator(), None
+    for tab in iter_table(path):
+        if head is None:
+            need = ["t", "mounting", "table_rate", "wedge"]
+            missing = [k for k in need if tab.find(k) is None]
+            if missing:
+                raise OptinavError(
+                    f"{path} has no {', '.join(missing)} (found: {tab.names()})",
+                    "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md",
+                )
+            g = np.asarray(tab.get("gravity"), float).ravel()[0] if tab.find("gravity") is not None else G_STANDARD
+            head = (float(np.asarray(tab.get("wedge"), float).ravel()[0]), float(g))
+        f = array_outputs(tab, path, n_accelerometers)
+        rate = np.asarray(tab.get("table_rate"), float) * rate_factor
+        acc.add(np.asarray(tab.get("mounting"), float).astype(int), rate, f)
+        n_out = f.shape[1]
+    if head is None:
+        raise OptinavError(f"{path} holds no data rows", "pass a recording with data rows")
+    return TurntableCases(acc.result(), head[0], head[1], n_out, acc.samples)
 
 
 #: plausible installation errors: a position error up to 5 cm and a direction error up to 0.2 rad (11°); the
@@ -867,7 +964,12 @@ class _Model:
 
 
 def calibrate(
-    nominal: AccelerometerArray, data: TurntableData, *, method: str = "lm", offset: str = "zero", sigma=None
+    nominal: AccelerometerArray,
+    data: TurntableData | TurntableCases,
+    *,
+    method: str = "lm",
+    offset: str = "zero",
+    sigma=None,
 ) -> TurntableCalibration:
     """Estimate the installation errors (5 per sensor) from turntable data (module docstring).
 
@@ -875,8 +977,8 @@ def calibrate(
     ----------
     nominal : AccelerometerArray
         The design array.
-    data : TurntableData
-        The log.
+    data : TurntableData or TurntableCases
+        The log, or its per-case summary (:func:`read_cases`: a long log read block by block).
     method : str
         ``"lm"`` (default, nonlinear least squares) or ``"closed-form"`` (the paper's baseline; its covariance is
         reported from the least-squares Jacobian at its solution).
@@ -905,12 +1007,14 @@ def calibrate(
                 f"offset has shape {fixed.shape}", "give the measured offset (3,) m, or one per mounting"
             )
         offset = "known"
-    if data.acc.shape[1] != nominal.n:
+    summary = isinstance(data, TurntableCases)
+    n_out = data.n_outputs if summary else data.acc.shape[1]
+    if n_out != nominal.n:
         raise OptinavError(
-            f"the data has {data.acc.shape[1]} accelerometer outputs, the configuration {nominal.n}",
+            f"the data has {n_out} accelerometer outputs, the configuration {nominal.n}",
             "pass the configuration the data was recorded with",
         )
-    cm = case_means(data)
+    cm = data.cases if summary else case_means(data)
     check_data(nominal, cm, data.gamma, data.gravity)
     if sigma is None:
         sig = cm.sigma
