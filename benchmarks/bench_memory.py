@@ -19,8 +19,8 @@ blocks too (noise drawn per sample, its states carried): ``--simulate`` measures
 written in blocks too: ``--simulate-static``, ``--simulate-rins``, ``--simulate-flight`` and ``--simulate-gfimu``
 measure each before and after at 1 M and 3 M rows and after at 10 M rows (results_memory_simulate_static.json,
 results_memory_simulate_rins.json, results_memory_simulate_flight.json, results_memory_simulate_gfimu.json; one
-runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` on its CSV at 1 M and 3 M rows (not
-streamed; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` before and after on its CSV at 1 M, 3 M and 10 M
+rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -596,8 +596,9 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --simulate-gfimu GFIMU.json: simulate gfimu-turntable before/after
         Path(sys.argv[2]).write_text(json.dumps(run_simulate_gfimu(), indent=1) + "\n")
     elif sys.argv[1] == "--calibrate-gfimu":
-        # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json: calibrate gfimu on the simulator's CSV
-        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(), indent=1) + "\n")
+        # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json [ROWS ...]: calibrate gfimu before/after
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(sizes), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
