@@ -210,24 +210,29 @@ class TurntableData:
         from optinav.io.readers import load_table
 
         tab = load_table(path)
-        need = ["t", "mounting", "table_rate", "wedge"]
-        missing = [k for k in need if tab.find(k) is None]
-        if missing:
-            raise OptinavError(
-                f"{path} has no {', '.join(missing)} (found: {tab.names()})",
-                "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md",
-            )
+        gamma, g = _turntable_constants(tab, path)
         f = array_outputs(tab, path, n_accelerometers)
-        g = float(np.asarray(tab.get("gravity"), float).ravel()[0]) if tab.find("gravity") is not None else G_STANDARD
         t = np.asarray(tab.get("t"), float)
         return cls(
             t,
             f,
             np.asarray(tab.get("mounting"), float).astype(int),
             np.asarray(tab.get("table_rate"), float),
-            float(np.asarray(tab.get("wedge"), float).ravel()[0]),
+            gamma,
             g,
         )
+
+
+def _turntable_constants(tab, path) -> tuple[float, float]:
+    """The wedge angle [rad] and gravity [m/s^2] of a turntable table, its required columns checked."""
+    missing = [k for k in ("t", "mounting", "table_rate", "wedge") if tab.find(k) is None]
+    if missing:
+        raise OptinavError(
+            f"{path} has no {', '.join(missing)} (found: {tab.names()})",
+            "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md",
+        )
+    g = float(np.asarray(tab.get("gravity"), float).ravel()[0]) if tab.find("gravity") is not None else G_STANDARD
+    return float(np.asarray(tab.get("wedge"), float).ravel()[0]), g
 
 
 def case_labels(mounting, table_rate) -> np.ndarray:
@@ -462,20 +467,7 @@ class TurntableStream:
         return TurntableData(t, acc, mnt, rate, self.gamma, self.gravity, self.sigma)
 
 
-def simulate(
-    nominal: AccelerometerArray,
-    errors: InstallationErrors | None = None,
-    *,
-    rates=(0.5, 1.0),
-    gamma: float = np.radians(30.0),
-    mountings=(1, 2, 3),
-    rate_hz: float = 100.0,
-    duration: float = 10.0,
-    noise=MICRO_G,
-    offset=None,
-    gravity: float = G_STANDARD,
-    rng=None,
-) -> TurntableData:
+def simulate(nominal: AccelerometerArray, errors: InstallationErrors | None = None, **options) -> TurntableData:
     """Simulate the turntable cases (mountings × rates), ``duration`` each at ``rate_hz``: the blocks of a
     :class:`TurntableStream` with the same arguments gathered (a seed gives the same rows).
 
@@ -485,43 +477,17 @@ def simulate(
         The design array.
     errors : InstallationErrors or None
         True installation errors; None: zero.
-    rates : sequence of float
-        Table rates [rad/s].
-    gamma : float
-        Wedge angle γ [rad].
-    mountings : sequence of int
-        Mountings in 1..3.
-    rate_hz : float
-        Sample rate [Hz].
-    duration : float
-        Length of each case [s].
-    noise : float or (N,) array
-        White accelerometer noise std [m/s^2] (default 1 µg, as in the paper).
-    offset : (3,) or (M, 3) array or None
-        Array reference point from the table axis [m], body axes, for all mountings or per mounting.
-    gravity : float
-        Gravity [m/s^2].
-    rng : int, Generator or None
-        Seed or generator.
+    **options
+        The keywords of :class:`TurntableStream`: ``rates`` [rad/s], ``gamma`` [rad], ``mountings`` (1..3),
+        ``rate_hz`` [Hz], ``duration`` [s per case], ``noise`` [m/s^2], ``offset`` [m], ``gravity`` [m/s^2],
+        ``rng``.
 
     Returns
     -------
     TurntableData
         ``t`` [s], ``f`` [m/s^2], mounting, ``table_rate`` [rad/s].
     """
-    return TurntableStream(
-        nominal,
-        errors,
-        rates=rates,
-        gamma=gamma,
-        mountings=mountings,
-        rate_hz=rate_hz,
-        duration=duration,
-        noise=noise,
-        offset=offset,
-        gravity=gravity,
-        rng=rng,
-    ).gather()
+    return TurntableStream(nominal, errors, **options).gather()
 
 
 @dataclass
@@ -628,15 +594,7 @@ def read_cases(path, n_accelerometers: int | None = None, rate_factor: float = 1
     acc, head = CaseAccumulator(), None
     for tab in iter_table(path):
         if head is None:
-            need = ["t", "mounting", "table_rate", "wedge"]
-            missing = [k for k in need if tab.find(k) is None]
-            if missing:
-                raise OptinavError(
-                    f"{path} has no {', '.join(missing)} (found: {tab.names()})",
-                    "write it with optinav simulate gfimu-turntable or see docs/methods/gfimu.md",
-                )
-            g = np.asarray(tab.get("gravity"), float).ravel()[0] if tab.find("gravity") is not None else G_STANDARD
-            head = (float(np.asarray(tab.get("wedge"), float).ravel()[0]), float(g))
+            head = _turntable_constants(tab, path)
         f = array_outputs(tab, path, n_accelerometers)
         rate = np.asarray(tab.get("table_rate"), float) * rate_factor
         acc.add(np.asarray(tab.get("mounting"), float).astype(int), rate, f)

@@ -416,64 +416,23 @@ class RinsStream:
         return alpha, beta
 
 
-def simulate(
-    nonorth=(0.0,) * 6,
-    *,
-    scheme="psins16",
-    cycles: int = 1,
-    move_s: float = 10.0,
-    dwell_s: float = 50.0,
-    align_s: float = 600.0,
-    rate_hz: float = 200.0,
-    lat: float = float(np.radians(28.2)),
-    height_m: float = 50.0,
-    attitude=tuple(np.radians((0.5, -0.3, 30.0)).tolist()),
-    imu="rlg-nav",
-    gyro_misalignment=None,
-    gyro_scale=None,
-    imu_errors: bool = True,
-    noise: bool = True,
-    encoder_noise=np.radians(1 / 3600),
-    encoder_lsb=2 * np.pi / 2**21,
-    lock_sigma: float = 0.0,
-    wobble: float = 0.0,
-    profile: str = "cosine",
-    rng=None,
-) -> RinsData:
+def simulate(nonorth=(0.0,) * 6, **options) -> RinsData:
     """Simulate a static-base dual-axis rotational-INS session (see the module docstring): the blocks of
     :class:`RinsStream` gathered, so the same seed gives the same rows as the streamed session.
 
     Parameters
     ----------
-    nonorth, scheme, cycles, move_s, dwell_s, align_s, rate_hz, lat, height_m, attitude, imu, gyro_misalignment,
-    gyro_scale, imu_errors, noise, encoder_noise, encoder_lsb, lock_sigma, wobble, profile, rng
-        As :class:`RinsStream`: angles [rad], times [s], rate [Hz], height [m].
+    nonorth : (6,) array_like
+        True non-orthogonality ``[θx, θy, θz, ηx, ηy, ηz]`` [rad].
+    **options
+        The keywords of :class:`RinsStream`: ``scheme``, ``cycles``, ``move_s``, ``dwell_s``, ``align_s`` [s],
+        ``rate_hz`` [Hz], ``lat`` [rad], ``height_m`` [m], ``attitude`` [rad], ``imu``, ``gyro_misalignment`` [rad],
+        ``gyro_scale``, ``imu_errors``, ``noise``, ``encoder_noise``, ``encoder_lsb``, ``lock_sigma``, ``wobble``
+        [rad], ``profile``, ``rng``.
 
     Returns
     -------
     RinsData
         Increments ``dtheta`` [rad] and ``dv`` [m/s], encoder angles [rad] and the truth.
     """
-    return RinsStream(
-        nonorth,
-        scheme=scheme,
-        cycles=cycles,
-        move_s=move_s,
-        dwell_s=dwell_s,
-        align_s=align_s,
-        rate_hz=rate_hz,
-        lat=lat,
-        height_m=height_m,
-        attitude=attitude,
-        imu=imu,
-        gyro_misalignment=gyro_misalignment,
-        gyro_scale=gyro_scale,
-        imu_errors=imu_errors,
-        noise=noise,
-        encoder_noise=encoder_noise,
-        encoder_lsb=encoder_lsb,
-        lock_sigma=lock_sigma,
-        wobble=wobble,
-        profile=profile,
-        rng=rng,
-    ).gather()
+    return RinsStream(nonorth, **options).gather()
