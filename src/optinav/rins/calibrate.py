@@ -160,10 +160,18 @@ def _motion_check(alpha, beta) -> None:
         )
 
 
+def _increments(data, sa: SensorAttitude) -> np.ndarray:
+    """The gyro increments of the strapdown epochs: row k integrates over (sa.t[k], sa.t[k+1]] (a view where the
+    epochs are consecutive rows, as :func:`sensor_attitude_from_imu` gives them: no copy of a long log)."""
+    idx, dth = sa.index, np.asarray(data.dtheta, float)
+    if idx.size and idx[-1] - idx[0] == idx.size - 1:
+        return dth[idx[0] : idx[-1]]
+    return dth[idx[:-1]]
+
+
 def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
     """Gyros turning by large angles while both encoders report rest → a frozen encoder channel."""
-    idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
+    dth = _increments(data, sa)
     rate = np.linalg.norm(dth, axis=1) / np.diff(sa.t)
     moving = (motion_mask(sa.alpha) | motion_mask(sa.beta)).astype(float)
     # the encoders see a move a little later/earlier than the gyros (slow start of a rate profile): widen it
@@ -236,12 +244,12 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
                 continue
             cs = prep._gyro_perturbed.get((i, j, sig))
             if cs is None:
-                dth = np.asarray(data.dtheta, float)[sa.index[:-1]]
-                dK = np.zeros((3, 3))
-                dK[i, j] = sig
+                dth = _increments(data, sa)
+                perturbed = dth.copy()  # (I − δK)Δθ with δK = sig at (i, j) alone
+                perturbed[:, i] -= sig * dth[:, j]
                 q = attitude_update(
                     quat_from_dcm(sa.c_s_n[0]),
-                    dth - dth @ dK.T,
+                    perturbed,
                     coning="previous",
                     omega_in_n=_earth.earth_rate(data.lat, "enu"),
                     dt=np.diff(sa.t),
@@ -424,8 +432,7 @@ def axis_vectors(p, alpha_out) -> tuple[np.ndarray, np.ndarray]:
 def _measure_axes(prep: Prepared):
     """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα)], outer [(u, Δβ, α)])."""
     data, sa = prep.data, prep.full
-    idx = sa.index
-    dth = np.asarray(data.dtheta, float)[idx[:-1]]  # row idx[k] integrates over (sa.t[k], sa.t[k+1]]
+    dth = _increments(data, sa)
     dt = np.diff(sa.t)
     w_ie = _earth.earth_rate(data.lat, "enu")
     # Earth rate in the IMU frame along the strapdown attitude (start of each interval)

@@ -205,8 +205,11 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
             parts[c].append(np.asarray(tab.get(n), dtype=float).ravel())
     if parts is None:
         raise OptinavError(f"{path.name} holds no data rows", f"write the columns {', '.join(COLUMNS)}")
-    col = {c: (v[0] if len(v) == 1 else np.concatenate(v)) for c, v in parts.items()}
-    del parts
+    col = {}
+    for c in COLUMNS:  # one column at a time, its blocks freed as it is joined (not the log twice)
+        v = parts.pop(c)
+        col[c] = v[0] if len(v) == 1 else np.concatenate(v)
+        del v
     site = {}
     if kind == "csv":
         site = _site_from_csv(path)
@@ -231,10 +234,12 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
             )
     if ends:  # row k: the encoders at end epoch t[k] and the increments over (t[k], t[k+1]] of the next row
         col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
+    dtheta = np.column_stack([col.pop(f"dtheta_{a}") for a in "xyz"])
+    dv = np.column_stack([col.pop(f"dv_{a}") for a in "xyz"])
     return RinsData(
         t=col["t"],
-        dtheta=np.column_stack([col["dtheta_x"], col["dtheta_y"], col["dtheta_z"]]),
-        dv=np.column_stack([col["dv_x"], col["dv_y"], col["dv_z"]]),
+        dtheta=dtheta,
+        dv=dv,
         alpha=col["alpha"],
         beta=col["beta"],
         lat=float(lat),
