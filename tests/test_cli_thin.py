@@ -206,3 +206,14 @@ if __name__ == "__main__":  # the review as a table: python tests/test_cli_thin.
     for (module, name, kind), n in rows.items():
         if kind == "body":
             print(f"{module:<14} {name:<22} {n:>5} {rows[(module, name, 'reach')]:>6}")
+
+
+def test_python_m_optinav_is_the_command():
+    """``python -m optinav`` runs the same command (a scripts folder off PATH), exit codes included."""
+    import subprocess
+    import sys
+
+    ok = subprocess.run([sys.executable, "-m", "optinav", "--version"], capture_output=True, text=True, timeout=60)
+    assert ok.returncode == 0 and ok.stdout.startswith("optinav ")
+    bad = subprocess.run([sys.executable, "-m", "optinav", "sun", "--nonsense"], capture_output=True, timeout=60)
+    assert bad.returncode == 2
