@@ -1852,30 +1852,24 @@ class StaticLogStream:
             yield (i0 + np.arange(len(acc))) * self.dt, acc + g, gyr
 
 
-def simulate_static(
-    duration_s: float,
-    spec: str = "mems-mti1",
-    *,
-    rate_hz: float | None = None,
-    acc_random_walk: float = 0.0,
-    gyr_random_walk: float = 0.0,
-    seed: int = 0,
-) -> StaticLog:
+def simulate_static(duration_s: float, spec: str = "mems-mti1", **options) -> StaticLog:
     """An IMU at rest with known noise terms, for noise characterisation: the whole :class:`StaticLogStream`.
 
     Parameters
     ----------
-    duration_s, spec, rate_hz, acc_random_walk, gyr_random_walk, seed
-        As :class:`StaticLogStream`: length [s], preset name, rate [Hz] (None: the preset's), random walks
-        [m/s^2/sqrt(s)] and [rad/s/sqrt(s)], seed.
+    duration_s : float
+        Length [s].
+    spec : str
+        Preset name.
+    **options
+        The keywords of :class:`StaticLogStream`: ``rate_hz`` [Hz] (None: the preset's), ``acc_random_walk``
+        [m/s^2/sqrt(s)], ``gyr_random_walk`` [rad/s/sqrt(s)], ``seed``.
 
     Returns
     -------
     StaticLog
         t [s], acc [m/s^2], gyr [rad/s] and the truth: each term per sensor and axis in SI units.
     """
-    stream = StaticLogStream(
-        duration_s, spec, rate_hz=rate_hz, acc_random_walk=acc_random_walk, gyr_random_walk=gyr_random_walk, seed=seed
-    )
+    stream = StaticLogStream(duration_s, spec, **options)
     t, acc, gyr = (np.concatenate(x) for x in zip(*stream.blocks()))
     return StaticLog(t, acc, gyr, stream.truth)
