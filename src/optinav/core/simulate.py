@@ -1036,10 +1036,17 @@ class RateSampler:
         self.duration = float(motion.t_end)
         self.segment_names = list(motion.names)
 
+    def _each_window(self, t):
+        """(rows, motion, its epochs) covering the epochs ``t``: one motion here (windows in a subclass)."""
+        yield slice(None), self._motion, np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration)
+
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t = np.clip(np.asarray(t, float), 0.0, self.duration)
-        w_ib, f_b, *_ = self._motion.kinematics(t, lever_arm=self._lever)
-        return w_ib, f_b, self._motion.labels(t)
+        n = np.size(t)
+        gyr, acc, labels = np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        for rows, motion, tw in self._each_window(t):
+            gyr[rows], acc[rows] = motion.kinematics(tw, lever_arm=self._lever)[:2]
+            labels[rows] = motion.labels(tw)
+        return gyr, acc, labels
 
     def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The ideal outputs and the attitude at epochs, as :class:`ImuTruth` holds them.
@@ -1058,9 +1065,12 @@ class RateSampler:
         q_b_n : (n, 4) ndarray
             Attitude [w, x, y, z] in the motion's frame [-].
         """
-        t = np.clip(np.asarray(t, float), 0.0, self.duration)
-        w_ib, f_b, _, c, _, v = self._motion.kinematics(t, lever_arm=self._lever)
-        return w_ib, f_b, quat_from_dcm(self._motion.in_frame(c, v)[0])
+        n = np.size(t)
+        gyr, acc, q = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 4))
+        for rows, motion, tw in self._each_window(t):
+            w_ib, f_b, _, c, _, v = motion.kinematics(tw, lever_arm=self._lever)
+            gyr[rows], acc[rows], q[rows] = w_ib, f_b, quat_from_dcm(motion.in_frame(c, v)[0])
+        return gyr, acc, q
 
 
 def static_positions_sampler(orientations, dwell, lat, *, lever_arm=None, **options) -> RateSampler:
@@ -1774,15 +1784,15 @@ TRAJECTORY_WINDOW_KNOTS = 16384
 TRAJECTORY_WINDOW_PAD = 64
 
 
-class TrajectorySampler:
+class TrajectorySampler(RateSampler):
     """The motion of :func:`trajectory` at any epochs, for a long log generated block by block: the splines are
     built over windows of :data:`TRAJECTORY_WINDOW_KNOTS` knots (each extended by :data:`TRAJECTORY_WINDOW_PAD`
     knots on both sides, so it agrees with one spline through all knots to rounding), one window at a time, so
     memory does not grow with the number of knots beyond the knots themselves; with no more knots than one window
     it is :func:`trajectory`'s motion exactly.
 
-    ``sampler(t)`` gives ``(gyr, acc, labels)`` as :class:`RateSampler`; :meth:`states` gives
-    ``(gyr, acc, q_b_n)``. Epochs are best given in increasing order (one window is kept built).
+    ``sampler(t)`` and :meth:`states` as :class:`RateSampler` (labels 0: one segment). Epochs are best given in
+    increasing order (one window is kept built).
 
     Parameters
     ----------
@@ -1821,7 +1831,7 @@ class TrajectorySampler:
         self.segment_names = ["trajectory"]
         self._built = (-1, None, 0.0)
 
-    def _motion(self, j: int):
+    def _window_motion(self, j: int):
         if self._built[0] != j:
             tk, cs, pk = self._knots
             last = tk.size - 1
@@ -1844,36 +1854,8 @@ class TrajectorySampler:
         j = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, self.windows - 1)
         for w in np.unique(j):
             sel = np.flatnonzero(j == w)
-            motion, t0 = self._motion(int(w))
+            motion, t0 = self._window_motion(int(w))
             yield sel, motion, t[sel] - t0
-
-    def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        gyr, acc, _ = self.states(t)
-        return gyr, acc, np.zeros(len(gyr), np.int64)
-
-    def states(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The ideal outputs and the attitude at epochs, as :class:`ImuTruth` holds them.
-
-        Parameters
-        ----------
-        t : (n,) array
-            Epochs [s] (clipped to [0, ``duration``]).
-
-        Returns
-        -------
-        gyr : (n, 3) ndarray
-            ω_ib^b [rad/s].
-        acc : (n, 3) ndarray
-            f^b [m/s^2].
-        q_b_n : (n, 4) ndarray
-            Attitude [w, x, y, z] in ``frame`` [-].
-        """
-        n = np.size(t)
-        gyr, acc, q = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 4))
-        for sel, motion, tw in self._each_window(t):
-            w_ib, f_b, _, c, _, v = motion.kinematics(tw, lever_arm=self._lever)
-            gyr[sel], acc[sel], q[sel] = w_ib, f_b, quat_from_dcm(motion.in_frame(c, v)[0])
-        return gyr, acc, q
 
 
 def trajectory(
