@@ -11,7 +11,7 @@ import numpy as np
 from optinav.core.progress import step
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray, builtin, identifiability
-from optinav.gfimu.turntable import TurntableCalibration, TurntableData, calibrate, read_cases
+from optinav.gfimu.turntable import TurntableCalibration, calibrate, read_cases
 
 
 @dataclasses.dataclass
@@ -47,14 +47,6 @@ def check(options: GfimuOptions) -> None:
     if options.rate_unit not in ("rad/s", "deg/s"):
         raise OptinavError(f"--rate-unit {options.rate_unit!r}", "use rad/s or deg/s")
     identifiability(options.array()).require(("linear",))
-
-
-def read(path, options: GfimuOptions) -> TurntableData:
-    """The turntable recording at ``path`` for the array of ``options``, its table rate in rad/s."""
-    data = TurntableData.load(path, options.array().n)
-    if options.rate_unit == "deg/s":
-        data.table_rate = np.radians(data.table_rate)
-    return data
 
 
 def run_unit(path, options: GfimuOptions, reference: bool = False) -> tuple[TurntableCalibration, dict]:
