@@ -197,3 +197,22 @@ def test_quantities_and_headline_from_summary(tmp_path):
     js = json.loads((out / "summary.json").read_text())["studies"]["demo"]
     assert js["tables"][0]["rows"][0] == [1 / 3, [0.25, 0.5], {"gain": 0.033}, 2.0]
     assert js["summary"]["rmse"]["lm"] == {"value": 0.5, "unit": "deg"} and js["checks"][0]["reason"] == "4σ"
+
+
+def test_a_study_draws_the_same_alone_as_among_others(monkeypatch):
+    """Each study's generator comes from (seed, its name): running one study alone (``reproduce rins-pso``)
+    gives the numbers it has in ``reproduce all``, whatever runs before it."""
+    from types import SimpleNamespace
+
+    from optinav.reports import report
+
+    def study(quick, rng):
+        return SimpleNamespace(draws=rng.standard_normal(3))
+
+    monkeypatch.setattr(report, "get_study", lambda name: study)
+    together = report.run_studies(["core", "accel-ga", "gfimu"], seed=7)
+    alone = report.run_studies(["gfimu"], seed=7)
+    other_seed = report.run_studies(["gfimu"], seed=8)
+    assert np.array_equal(together[2].draws, alone[0].draws)
+    assert not np.array_equal(together[0].draws, together[2].draws)
+    assert not np.array_equal(alone[0].draws, other_seed[0].draws)
