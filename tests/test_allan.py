@@ -250,7 +250,7 @@ def test_phase_noise_only_before_the_first_frequency_noise_point():
     """Quantization (white PM, slope −1) is a short-τ term: a steep drop at the last, few-cluster points is a
     fluctuation, not phase noise, and must not get white-PM's EDF (≈ N/2 at any m, the weight of the whole record).
     A three-term record whose last two points fell steeply had α = 2 there and EDF 87 382 at m = N/4 (the fit then
-    took a model floor of 0.68: B 9 % low, K 40 % low); it is white FM now, EDF 4 (N, B, K within 5 %)."""
+    took a model floor of 0.68: B 9 % low, K 40 % low); it is white FM now, EDF 4, and the fit needs no floor."""
     from optinav.core.allan import _alpha_from_slopes, _edf
 
     tau = 0.01 * 2.0 ** np.arange(12)
@@ -268,7 +268,82 @@ def test_phase_noise_only_before_the_first_frequency_noise_point():
     fit = fit_noise_model(ad)
     assert fit.model_floor[2] == 0.0
     for name in ("white", "bias_instability", "random_walk"):
-        assert getattr(fit, name)[2] == pytest.approx(truth[name][2], rel=0.05), name
+        # within 2σ of its reported std (K's is 17 % here: a 5 % tolerance was luck)
+        assert abs(getattr(fit, name)[2] - truth[name][2]) < 2 * getattr(fit, name + "_std")[2], name
+
+
+def _avar_cov_direct(c, m, n, dt):
+    """Cov(σ̂²_a, σ̂²_b) from the full covariance matrix of θ (generalized covariances of white N, flicker B and
+    random-walk K rate noise, white θ for quantization Q; c = (Q², N², B², K²)): 2‖D_a Σ D_bᵀ‖²_F / norms,
+    D_m the matrix of the second differences at cluster size m."""
+    s = np.abs(np.subtract.outer(np.arange(n + 1.0), np.arange(n + 1.0)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        flick = np.where(s > 0, s**2 * np.log(np.where(s > 0, s, 1.0)), 0.0)
+    sig = c[0] * np.eye(n + 1) - c[1] * dt * s / 2 + c[2] * dt**2 * flick / (2 * np.pi) + c[3] * dt**3 * s**3 / 12
+    D = []  # each D_m Σ, then (D_a Σ) D_bᵀ
+    for mi in m:
+        d = np.zeros((n + 1 - 2 * mi, n + 1))
+        r = np.arange(d.shape[0])
+        d[r, r], d[r, r + mi], d[r, r + 2 * mi] = 1.0, -2.0, 1.0
+        D.append(d)
+    out = np.zeros((len(m), len(m)))
+    for a, da in enumerate(D):
+        for b, db in enumerate(D):
+            out[a, b] = (
+                2 * np.sum((da @ sig @ db.T) ** 2) / (da.shape[0] * db.shape[0] * 4 * (m[a] * m[b]) ** 2 * dt**4)
+            )
+    return out
+
+
+def test_avar_covariance_equals_the_direct_matrix_sum():
+    """The lag-by-lag sum of :func:`allan_variance_covariance` (pieces, Euler–Maclaurin on the long ones) equals
+    the covariance computed from the whole covariance matrix of θ, for each term alone and a mixture, at cluster
+    sizes up to n/4 and a non-octave one (relative to the variances: 1e-3)."""
+    from optinav.core.allan import allan_variance_covariance
+
+    n, dt = 200, 0.1
+    m = np.array([1, 2, 3, 8, 20, 50])
+    ad = AllanDeviation(
+        tau=m * dt,
+        adev=np.ones(m.size),
+        lower=np.ones(m.size),
+        upper=np.ones(m.size),
+        edf=np.ones(m.size),
+        alpha=np.zeros(m.size),
+        m=m,
+        dt=dt,
+        n_samples=n,
+        confidence=0.683,
+    )
+    terms = ("quantization", "white", "bias_instability", "random_walk")
+    values = (0.02, 0.3, 0.5, 0.05)
+    for use in ([0], [1], [2], [3], [0, 1, 2, 3]):
+        kw = {terms[i]: values[i] for i in use}
+        c = np.array([kw.get(t, 0.0) ** 2 for t in terms])
+        got, want = allan_variance_covariance(ad, **kw), _avar_cov_direct(c, m, n, dt)
+        scale = np.sqrt(np.outer(np.diag(want), np.diag(want)))
+        assert np.max(np.abs(got - want) / scale) < 1e-3, kw
+
+
+def test_avar_covariance_matches_simulated_records():
+    """The covariance of the Allan variances of simulated records (white, flicker and random-walk rate noise, each
+    term dominating somewhere; 600 records of 2048 samples) matches :func:`allan_variance_covariance`: standard
+    deviations within 4 standard errors (≈ 4/√(2·600)), correlations within 0.15, for m ≥ 4 (the random walk's
+    discrete sequence differs from the continuous model below)."""
+    from optinav.core.allan import allan_variance_covariance
+
+    n, dt, rec = 2048, 0.1, 200
+    kw = {"white": 1e-3, "bias_instability": 1e-3 / FLICKER_FLOOR / np.sqrt(1.0), "random_walk": 1e-3 * np.sqrt(3 / 30)}
+    x = static_noise(n * rec, dt, rng=7, **{k: np.full(3, v) for k, v in kw.items()})
+    A = np.array([allan_deviation(x[i * n : (i + 1) * n, j], dt).adev ** 2 for i in range(rec) for j in range(3)])
+    ad = allan_deviation(x[:n, 0], dt)
+    keep = np.asarray(ad.m) >= 4
+    theory = allan_variance_covariance(ad, **kw)[np.ix_(keep, keep)]
+    emp = np.cov(A[:, keep].T)
+    sd_t, sd_e = np.sqrt(np.diag(theory)), np.sqrt(np.diag(emp))
+    assert np.all(np.abs(sd_e / sd_t - 1) < 4 / np.sqrt(2 * A.shape[0]))
+    r_t, r_e = theory / np.outer(sd_t, sd_t), emp / np.outer(sd_e, sd_e)
+    assert np.max(np.abs(r_e - r_t)) < 0.15
 
 
 def test_flicker_noise_floor():

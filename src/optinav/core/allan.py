@@ -4,8 +4,9 @@
 increments (Δθ, Δv) at cluster times τ = m·dt, with an approximate confidence interval from the
 equivalent degrees of freedom (EDF) of the estimate. ``noise_parameters_from_allan`` reads the noise
 coefficients off the log-log curve as IEEE Std 952-1997 Annex C does (slopes −1, −1/2, 0, +1/2),
-``fit_noise_model`` fits the four-term model to the whole curve (generalized least squares with the χ² variance
-and the octave-to-octave correlation of the estimates; not biased by neighbouring terms as the read-off is), and
+``fit_noise_model`` fits the four-term model to the whole curve (generalized least squares with the covariance of
+the estimates for the fitted noise, :func:`allan_variance_covariance`; not biased by neighbouring terms as the
+read-off is), and
 ``allan_deviation_model`` gives the theoretical curve of each term (used to check simulations). A long log read
 in blocks is folded into an :class:`AngleAccumulator` and passed to ``allan_deviation_from_angle``;
 :class:`AllanAnalysis` is the result of ``optinav allan``, computed from a log's blocks by :func:`analyse_blocks`
@@ -22,6 +23,7 @@ Howe, Allan & Barnes 1981 / Stein 1985).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -632,23 +634,154 @@ FIT_TERMS = ("quantization", "white", "bias_instability", "random_walk")
 FIT_MISFIT_P = 0.1
 
 
-#: correlation of overlapping Allan-variance estimates one octave apart, by noise type α (measured on simulated
-#: white, flicker and random-walk rate noise, 400 records each; two octaves apart it is about the square)
-OCTAVE_CORRELATION = {2: 0.5, 1: 0.5, 0: 0.5, -1: 0.68, -2: 0.87}
+_STENCIL = np.array([1.0, -2.0, 1.0])  # θ_{k} − 2θ_{k+m} + θ_{k+2m}
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+_SHORT_PIECE = 64  # pieces up to this many lags are summed term by term
 
 
-def _octave_correlation(tau: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Correlation matrix of the Allan-variance estimates at ``tau``: ρ^(octaves apart), ρ from the noise type
-    of the points in between (a chain: the product of the neighbouring correlations)."""
-    rho = np.array([OCTAVE_CORRELATION.get(int(a), 0.5) for a in alpha])
-    step = np.sqrt(rho[:-1] * rho[1:]) ** np.log2(tau[1:] / tau[:-1])
-    cum = np.concatenate(([0.0], np.cumsum(np.log(step))))
-    return np.exp(-np.abs(cum[:, None] - cum[None, :]))
+def _generalized_covariance(term: int, lag: np.ndarray, dt: float) -> np.ndarray:
+    """Generalized covariance of θ (rate·s) at |lag| samples for a unit variance coefficient of the white (1),
+    flicker (2) or random-walk (3) term: −dt·|s|/2, dt²·s²·ln|s|/(2π) and dt³·|s|³/12 (each gives its basis
+    1/τ, 2 ln2/π and τ/3 through the second difference; terms in s⁰…s² cancel in it)."""
+    if term == 1:
+        return -0.5 * dt * lag
+    if term == 2:
+        return dt**2 / (2.0 * np.pi) * lag**2 * np.log(np.where(lag > 0, lag, 1.0))
+    return dt**3 * lag**3 / 12.0
 
 
-def _whitener(model: np.ndarray, edf: np.ndarray, R: np.ndarray, floor: float) -> np.ndarray:
-    """L⁻¹ of the Cholesky factor of the estimates' covariance D·R·D, D = model·√(2/EDF + floor²)."""
-    d = np.maximum(model, np.finfo(float).tiny) * np.sqrt(2.0 / edf + floor**2)
+def _stencil_covariances(k, ma, mb, dt: float) -> np.ndarray:
+    """(4, …) Cov(d_a(0), d_b(k)) of the second differences d_a at cluster size ma and d_b at mb, k samples
+    apart, for a unit coefficient of each term (quantization: white θ of unit variance)."""
+    C = np.zeros((4,) + np.shape(k))
+    for p, sp in enumerate((0.0, ma, 2 * ma)):
+        for q, sq in enumerate((0.0, mb, 2 * mb)):
+            lag = np.abs(k + sq - sp)
+            cc = _STENCIL[p] * _STENCIL[q]
+            C[0] += cc * (lag == 0)
+            for term in (1, 2, 3):
+                C[term] += cc * _generalized_covariance(term, lag, dt)
+    return C
+
+
+def _pieces(lo: int, hi: int, nodes, scale: int) -> list:
+    """Break points of [lo, hi] at ``nodes`` (where the summand is not smooth), long pieces split geometrically
+    from both ends (flicker's covariances decay like k⁻², not polynomially)."""
+    pts = sorted({lo, hi, *[x for x in nodes if lo < x < hi]})
+    out = [pts[0]]
+    for x0, x1 in zip(pts[:-1], pts[1:]):
+        s, left, right = scale, [x0], [x1]
+        while right[-1] - left[-1] > 4 * s:
+            left.append(left[-1] + s)
+            right.append(right[-1] - s)
+            s *= 2
+        out += left[1:] + right[::-1]
+    return out
+
+
+def _pair_counts(k, na, nb):
+    """Number of estimator terms (i, j), 0 ≤ i < na, 0 ≤ j < nb, with j − i = k."""
+    return np.maximum(0.0, np.minimum(na - 1, nb - 1 - k) - np.maximum(0.0, -k) + 1)
+
+
+@functools.lru_cache(maxsize=32)
+def _avar_covariance_terms(m: tuple, n_samples: int, dt: float) -> np.ndarray:
+    """S (4, 4, T, T): Cov(σ̂²(m_a), σ̂²(m_b)) = Σ_pq c_p c_q S[p, q, a, b] for a Gaussian noise of variance
+    coefficients c = (Q², N², B², K²) (the order of :data:`FIT_TERMS`), overlapping estimator of ``n_samples``.
+
+    Isserlis: Cov(Σ_i d_a,i², Σ_j d_b,j²) = 2 Σ_ij Cov(d_a,i, d_b,j)², summed over the lag k = j − i with the
+    number of pairs at each lag; the covariances of the second differences come from the generalized covariance
+    of θ of each term (exact for white θ, white and random-walk rate; flicker from its continuous-time s² ln s).
+    The lag sum runs piece by piece between the points where the summand is not smooth: term by term for short
+    pieces, else Euler–Maclaurin (Gauss–Legendre integral, end values, first-derivative correction); checked
+    against the direct sum to 1e-3 and against Monte Carlo covariances of simulated records.
+    """
+    m = np.asarray(m, np.int64)
+    nn = (int(n_samples) + 1 - 2 * m).astype(float)
+    ia, ib = np.triu_indices(m.size)
+    npair = ia.size
+    k0, k1, owner, inner, inner_owner = [], [], [], [], []
+    for idx in range(npair):
+        ma, mb, na, nb = int(m[ia[idx]]), int(m[ib[idx]]), int(nn[ia[idx]]), int(nn[ib[idx]])
+        nodes = {sp - sq for sp in (0, ma, 2 * ma) for sq in (0, mb, 2 * mb)} | {0, nb - na}
+        pts = np.array(_pieces(-(na - 1), nb - 1, nodes, max(8, max(ma, mb) // 2)), float)
+        k0.append(pts[:-1])
+        k1.append(pts[1:])
+        owner.append(np.full(pts.size - 1, idx))
+        inner.append(pts[1:-1])
+        inner_owner.append(np.full(pts.size - 2, idx))
+    k0, k1, owner = np.concatenate(k0), np.concatenate(k1), np.concatenate(owner)
+    inner, inner_owner = np.concatenate(inner), np.concatenate(inner_owner)
+    span = k1 - k0
+    long = span > _SHORT_PIECE
+    a0, a1, L, lo_owner = k0[long], k1[long], span[long], owner[long]
+    k_gl = (0.5 * (a0 + a1))[:, None] + (0.5 * L)[:, None] * _GL_X
+    w_gl = (0.5 * L)[:, None] * _GL_W
+    k_end = np.stack([a0, a0 + 1, a1 - 1, a1], axis=1)
+    w_end = np.broadcast_to([0.5 + 1 / 12, -1 / 12, -1 / 12, 0.5 + 1 / 12], k_end.shape)
+    count = span[~long].astype(np.int64) + 1
+    first = np.repeat(k0[~long], count)
+    k_short = first + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
+    k = np.concatenate([k_gl.ravel(), k_end.ravel(), k_short, inner])
+    # the shared end of two pieces is summed by both: once subtracted
+    w = np.concatenate([w_gl.ravel(), w_end.ravel(), np.ones(k_short.size), -np.ones(inner.size)])
+    p = np.concatenate(
+        [np.repeat(lo_owner, _GL_X.size), np.repeat(lo_owner, 4), np.repeat(owner[~long], count), inner_owner]
+    )
+    mf = m.astype(float)
+    w = w * _pair_counts(k, nn[ia][p], nn[ib][p])
+    C = _stencil_covariances(k, mf[ia][p], mf[ib][p], dt)
+    M = np.zeros((npair, 4, 4))
+    for a in range(1, 4):
+        for b in range(a, 4):
+            M[:, a, b] = M[:, b, a] = np.bincount(p, w * C[a] * C[b], minlength=npair)
+    # quantization: its covariance is non-zero only at the lags where two stencil nodes meet, summed exactly
+    sa = np.stack([np.zeros(npair), mf[ia], 2 * mf[ia]], 1)
+    sb = np.stack([np.zeros(npair), mf[ib], 2 * mf[ib]], 1)
+    ks = (sa[:, :, None] - sb[:, None, :]).reshape(npair, 9)
+    once = (ks[:, :, None] == ks[:, None, :]).sum(-1)  # a lag reached by several node pairs counts once
+    wk = _pair_counts(ks, nn[ia][:, None], nn[ib][:, None]) / once
+    Cs = _stencil_covariances(ks, mf[ia][:, None], mf[ib][:, None], dt)
+    M[:, 0, :] = M[:, :, 0] = (Cs[0] * Cs * wk).sum(-1).T
+    norm = 2.0 / (nn[ia] * nn[ib] * 4.0 * (mf[ia] * mf[ib]) ** 2 * dt**4)
+    S = np.zeros((4, 4, m.size, m.size))
+    S[:, :, ia, ib] = (M * norm[:, None, None]).transpose(1, 2, 0)
+    S[:, :, ib, ia] = S[:, :, ia, ib]
+    S.setflags(write=False)
+    return S
+
+
+def allan_variance_covariance(
+    result: AllanDeviation, *, white=0.0, bias_instability=0.0, random_walk=0.0, quantization=0.0
+) -> np.ndarray:
+    """Covariance of the overlapping Allan-variance estimates of ``result`` (its cluster sizes and record length)
+    for Gaussian noise with the given coefficients (as :func:`allan_deviation_model`; rate unit of the data).
+
+    Parameters
+    ----------
+    result : AllanDeviation
+        Gives m, dt and the number of samples.
+    white, bias_instability, random_walk, quantization : float
+        N [u·√s], B [u], K [u/√s], Q [u·s].
+
+    Returns
+    -------
+    (T, T) ndarray
+        Cov(σ̂²(τ_a), σ̂²(τ_b)) [u⁴].
+    """
+    c = np.array([quantization, white, bias_instability, random_walk], float) ** 2
+    S = _avar_covariance_terms(tuple(int(x) for x in result.m), int(result.n_samples), float(result.dt))
+    return np.einsum("p,q,pqab->ab", c, c, S)
+
+
+def _whitener(c: np.ndarray, S: np.ndarray, basis: np.ndarray, floor: float, least: np.ndarray) -> np.ndarray:
+    """L⁻¹ of the Cholesky factor of the estimates' covariance for coefficients ``c`` (S over the fitted terms),
+    each variance raised by the relative model error ``floor`` (f²·model², correlated as the estimates) and by
+    ``least``² (a curve that is zero somewhere has no finite weights)."""
+    cov = np.einsum("p,q,pqab->ab", c, c, S) + np.diag(least**2)
+    d0 = np.sqrt(np.diag(cov))
+    d = np.sqrt(d0**2 + (floor * (basis @ c)) ** 2)
+    R = cov / np.outer(d0, d0)
     C = np.linalg.cholesky(R * np.outer(d, d) + np.diag((1e-12 * d) ** 2))
     return np.linalg.inv(C)
 
@@ -690,37 +823,40 @@ def _fit_basis(tau: np.ndarray, m: np.ndarray) -> np.ndarray:
     return np.column_stack([3.0 / tau**2, 1.0 / tau, FLICKER_FLOOR**2 * flicker_avar_factor(m), tau / 3.0])
 
 
-def _fit_column(y, e, R, basis, floor, iterations, nnls):
-    """One weighted NNLS fit of the variance coefficients: (coefficients, model curve, whitener, χ²/dof)."""
-    model = y.copy()
+def _fit_column(y, e, S, basis, floor, iterations, nnls):
+    """One generalized NNLS fit of the variance coefficients: (coefficients, model curve, whitener, χ²/dof).
+    Started from the EDF-weighted fit, the covariance then comes from the fitted coefficients."""
+    least = 1e-9 * np.abs(y)
+    W = np.diag(1.0 / (np.maximum(np.abs(y), np.finfo(float).tiny) * np.sqrt(2.0 / e)))
+    c, _ = nnls(W @ basis, W @ y)
     for _ in range(iterations):
-        W = _whitener(model, e, R, floor)
-        c, _ = nnls(W @ basis, W @ y)
-        new = basis @ c
-        if np.all(new > 0):
-            model = new
-    L = _whitener(model, e, R, floor)
+        L = _whitener(c, S, basis, floor, least)
+        new, _ = nnls(L @ basis, L @ y)
+        if np.any(new > 0):
+            c = new
+    L = _whitener(c, S, basis, floor, least)
+    model = basis @ c
     r = L @ (y - model)
     return c, model, L, float(r @ r) / max(y.size - basis.shape[1], 1)
 
 
-def _inverted_interval(y, e, R, basis, c, free, i, floor, inflate, z) -> tuple[float, float]:
+def _inverted_interval(y, e, S, basis, c, free, i, floor, inflate, z) -> tuple[float, float]:
     """[lower, upper] of the variance coefficient c_i: every value c ≥ 0 with |ĉ_i − c| ≤ z·σ_i(c), where σ_i(c) is
-    the std of ĉ_i when the true curve is the fit with c_i = c (its weights, the other terms as fitted). An
+    the std of ĉ_i when the true curve is the fit with c_i = c (its covariance, the other terms as fitted). An
     upper bound that no finite value reaches (σ_i growing as fast as c/z) is inf."""
     from scipy import optimize  # lazily: a bad file is reported before scipy loads
 
     cols = free.copy()
     cols[i] = True
     ci = float(c[i])
-    # a curve that is 0 somewhere (the term the only one there, tried at 0) has no finite weights: keep it a
-    # small fraction above 0, relative to the fitted curve
-    least = 1e-9 * (basis @ c)
+    # a curve that is 0 somewhere (the term the only one there, tried at 0) has no finite weights: keep its
+    # variance a small fraction above 0, relative to the fitted curve
+    least = 1e-9 * (basis @ c) * np.sqrt(2.0 / e)
 
     def sigma(v: float) -> float:
         cc = c.copy()
         cc[i] = v
-        Aw = _whitener(np.maximum(basis @ cc, least), e, R, floor) @ basis[:, cols]
+        Aw = _whitener(cc, S, basis, floor, least) @ basis[:, cols]
         k = int(np.sum(cols[:i]))
         return math.sqrt(max(np.linalg.pinv(Aw.T @ Aw)[k, k], 0.0) * inflate)
 
@@ -743,13 +879,14 @@ def _inverted_interval(y, e, R, basis, c, free, i, floor, inflate, z) -> tuple[f
 def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int = 4) -> AllanNoiseFit:
     """Fit σ²(τ) = 3Q²/τ² + N²/τ + (2 ln2/π)·B² + K²τ/3 (IEEE Std 952-1997 Annex C) to an Allan deviation.
 
-    The model is linear in (Q², N², B², K²): non-negative weighted least squares (scipy ``nnls``) with each
-    covariance of the Allan variances built from σ²_model²·2/EDF (the χ² variance of the estimate) and the
-    correlation of neighbouring octaves (:data:`OCTAVE_CORRELATION`), iterated so the weights come from the model
-    rather than the noisy estimate. The B² column is the Allan variance of *sampled* flicker noise
+    The model is linear in (Q², N², B², K²): non-negative generalized least squares (scipy ``nnls``) with the
+    covariance of the Allan-variance estimates for the fitted mixture (:func:`allan_variance_covariance`: exact
+    second moments of the overlapping estimator of this record length, every pair of cluster times, so the
+    crossings between terms and the correlation of neighbouring points are right), started from the EDF weights
+    and iterated so the covariance comes from the model rather than the noisy estimate. The B² column is the Allan variance of *sampled* flicker noise
     (:func:`flicker_avar_factor`: 19 % above the floor at m = 1), so its short-τ excess is not taken for white
     noise. Where the misfit is significant (χ² above its 1 − :data:`FIT_MISFIT_P` quantile: anti-alias filters,
-    Gauss–Markov bumps, real sensors) a relative model error f on every variance, 2/EDF + f², is raised until
+    Gauss–Markov bumps, real sensors) a relative model error f on every variance (f²·model² added to it) is raised until
     χ²/dof = 1 (``model_floor``); an exact model keeps f = 0, which a fixed floor made 5 times too wide for N.
     The std of a free term comes from the covariance over the free terms' columns alone: a term NNLS holds at
     zero is fixed there (an active constraint), not a trade-off that widens the others (counting it up to doubled
@@ -803,24 +940,24 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     floor = np.zeros(k)
     bounds = np.zeros((4, 2, k))
     dof = max(tau.size - int(use.sum()), 1)
-    alphas = np.asarray(result.alpha).reshape(tau.size, -1)
+    S = _avar_covariance_terms(tuple(int(x) for x in result.m), int(result.n_samples), float(result.dt))
+    S = S[np.ix_(use, use)]
     for j in range(k):
         y, e = A2[:, j], E[:, j]
         if not np.all(np.isfinite(y)) or np.all(y <= 0):
             continue
-        R = _octave_correlation(tau, alphas[:, j])
-        c, model, L, chi2[j] = _fit_column(y, e, R, basis, 0.0, iterations, nnls)
+        c, model, L, chi2[j] = _fit_column(y, e, S, basis, 0.0, iterations, nnls)
         if chi2[j] * dof > stats.chi2.ppf(1.0 - FIT_MISFIT_P, dof):
             # a significant misfit: the model's own relative error f on the variance, raised until χ²/dof = 1
             lo_f, hi_f = 1e-4, 1.0
             for _ in range(30):
                 mid = math.sqrt(lo_f * hi_f)
-                if _fit_column(y, e, R, basis, mid, iterations, nnls)[3] > 1.0:
+                if _fit_column(y, e, S, basis, mid, iterations, nnls)[3] > 1.0:
                     lo_f = mid
                 else:
                     hi_f = mid
             floor[j] = hi_f
-            c, model, L, chi2[j] = _fit_column(y, e, R, basis, hi_f, iterations, nnls)
+            c, model, L, chi2[j] = _fit_column(y, e, S, basis, hi_f, iterations, nnls)
         Aw = L @ basis
         var = np.diag(np.linalg.pinv(Aw.T @ Aw))
         free = c > 0
@@ -833,7 +970,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
         coef[use, j] = c
         cstd[use, j] = np.sqrt(np.maximum(var, 0.0) * inflate)
         for i in range(c.size):
-            bounds[np.flatnonzero(use)[i], :, j] = _inverted_interval(y, e, R, basis, c, free, i, floor[j], inflate, z)
+            bounds[np.flatnonzero(use)[i], :, j] = _inverted_interval(y, e, S, basis, c, free, i, floor[j], inflate, z)
     value = np.sqrt(coef)
     with np.errstate(divide="ignore", invalid="ignore"):
         std = np.where(value > 0, cstd / (2.0 * value), np.sqrt(cstd))

@@ -76,6 +76,7 @@ def coverage(design: Design, seeds) -> dict:
     truth = design.truth()
     out = {m: {t: [] for t in TERMS} for m in ("fit", "read_off")}
     out["kalibr"] = {"noise_density": [], "random_walk": []}
+    out["misfit"] = {"flagged": []}
     for seed in seeds:
         x = static_noise(design.n, design.dt, rng=int(seed), **truth)
         ad = allan_deviation(x, design.dt)
@@ -84,6 +85,7 @@ def coverage(design: Design, seeds) -> dict:
             for t in TERMS:
                 iv = np.asarray(getattr(res, t + "_interval"))
                 out[method][t].append((iv[0] <= truth[t]) & (truth[t] <= iv[1]))
+        out["misfit"]["flagged"].append(np.asarray(fit.model_floor) > 0)
         kal = kalibr_noise(fit, "gyroscope")
         for key, term in (("noise_density", "white"), ("random_walk", "random_walk")):
             # Kalibr's value is the largest axis of the fit: its interval is that axis' one, its truth the largest
