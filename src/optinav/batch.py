@@ -238,9 +238,16 @@ def truth_columns(res, path: Path) -> dict:
     tp = path.with_name(path.stem + ".truth.json")  # where optinav simulate writes it
     if not tp.is_file():
         return {}
-    cmp = Truth.from_json(tp).compare(res)
+    # a result estimated block by block compared itself while streaming (it keeps no per-sample series)
+    cmp = getattr(res, "truth_comparison", None)
+    if cmp is None:
+        cmp = Truth.from_json(tp).compare(res)
     row, zs = {}, []
     for name, c in cmp.items():
+        if "rmse" in c:  # a series, compared block by block
+            row[f"{name}_rmse"] = _num(c["rmse"])
+            zs += [float(c["z"])] if np.isfinite(c["z"]) else []
+            continue
         err = np.asarray(c["error"], float)
         if err.ndim == 0 or (err.ndim == 1 and err.size <= 4):
             _flat(name, err, row, "_error")
