@@ -231,8 +231,10 @@ def result_columns(res) -> dict:
 
 
 def truth_columns(res, path: Path) -> dict:
-    """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share,
-    and ``truth_max_z`` (the largest |error|/std); nothing when there is no truth file beside the unit."""
+    """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share
+    (``NAME_rmse`` for a time series), and ``truth_max_z`` (the largest |error|/std); nothing when there is no
+    truth file beside the unit. A result that compared itself while it was estimated block by block brings its
+    ``truth_comparison`` (:class:`optinav.attitude.filestream.StreamedEstimate`)."""
     from optinav.core.results import Truth
 
     tp = path.with_name(path.stem + ".truth.json")  # where optinav simulate writes it
