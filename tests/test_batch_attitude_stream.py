@@ -1,5 +1,6 @@
 """``optinav batch attitude`` runs each unit block by block (no per-unit output, memory bounded): its row equals
-the whole-log estimate's numbers (the estimate, its reference scores and its truth comparison)."""
+the whole-log estimate's numbers (the estimate, its reference scores and its truth comparison) and the scores of
+the single-file ``optinav attitude`` output."""
 
 import csv
 
@@ -79,3 +80,15 @@ def test_batch_attitude_row_equals_the_whole_log(tmp_path, monkeypatch, offline,
     for k, v in want.items():
         np.testing.assert_allclose(float(row[k]), v, rtol=1e-9, atol=0, err_msg=k)
     assert int(row["n_samples"]) == 1201 and 0.0 < float(row["inclination_rmse_deg"]) < 20.0
+    # the single-file command on the same log: its attitude (q to 9 digits) gives the row's scores
+    from optinav.attitude.recording import reference_rmse
+
+    att = tmp_path / "att.csv"
+    assert main(["--quiet", "attitude", str(data), "--out", str(att)] + ["--offline"] * offline + ["--mag"] * mag) == 0
+    q = np.loadtxt(att, delimiter=",", skiprows=1)[:, 1:5]
+    q_ref = np.loadtxt(d / "f3.truth.csv", delimiter=",", skiprows=1)[:, 1:]
+    inc, head, n = reference_rmse(q, q_ref, np.ones(len(q), bool))
+    np.testing.assert_allclose(
+        [float(row["inclination_rmse_deg"]), float(row["heading_rmse_deg"])], np.degrees([inc, head]), rtol=1e-6
+    )
+    assert int(row["n_reference"]) == n == 1201
