@@ -21,7 +21,9 @@ measure each before and after at 1 M and 3 M rows and after at 10 M rows (result
 results_memory_simulate_rins.json, results_memory_simulate_flight.json, results_memory_simulate_gfimu.json; one
 runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` before and after on its CSV at 1 M, 3 M and 10 M
 rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
-after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
+after (streamed; results_memory_attitude_report.json). ``--apply-gfimu`` measures ``apply`` of a gfimu result and
+``--batch-attitude`` a one-unit ``batch attitude`` before and after (results_memory_apply_gfimu.json,
+results_memory_batch_attitude.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
 "Bad cell": the 1 M-row log with the last row's ``ay`` replaced by text; the time until ``apply`` and
@@ -569,6 +571,61 @@ def run_attitude_report(sizes=(1_000_000, 3_000_000)) -> list[dict]:
     return out
 
 
+#: main before ``apply`` of a gfimu result and ``batch attitude`` streamed (the "before" of the two runners below)
+APPLY_BATCH_BEFORE = "165ef2b"
+
+
+def run_apply_gfimu(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav apply RESULT.json DATA --out OUT.csv`` for a gfimu result (calibrated
+    by this tree on a 60 000-row data set) on the CSV of :func:`_gfimu_argv` at each row count (written by this
+    tree; its t and f1..f10 are solved, rate method integration), with this tree ("after": read, solved and
+    written in blocks) and with commit :data:`APPLY_BATCH_BEFORE` ("before": the whole table at once)."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), APPLY_BATCH_BEFORE)
+        res, small = Path(tmp) / "r.json", Path(tmp) / "small.csv"
+        _run(ROOT / "src", _gfimu_argv(small, 60_000))
+        _run(ROOT / "src", ["calibrate", "gfimu", str(small), "--builtin", "cylinder10", "--out", str(res)])
+        for rows in sizes:
+            data, motion = Path(tmp) / f"gfimu{rows}.csv", Path(tmp) / "motion.csv"
+            _run(ROOT / "src", _gfimu_argv(data, rows))
+            n = _rows_of(data) + 2
+            for version, src in versions.items():
+                peak, wall, _ = _run(src, ["apply", str(res), str(data), "--out", str(motion)])
+                rec = {"method": f"apply gfimu ({version})", "rows": n, "peak_mib": peak, "wall_s": wall}
+                out.append({**rec, "csv_bytes": data.stat().st_size})
+                print(f"apply gfimu ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                motion.unlink()
+            data.unlink()
+    return out
+
+
+def run_batch_attitude(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav batch attitude DIR --workers 0`` (the unit in the measured process) on a
+    folder holding one unit, the simulated accel-multipos log of :func:`_steps` at each row count, with this tree
+    ("after": the unit streamed, no per-unit output) and with commit :data:`APPLY_BATCH_BEFORE` ("before": the
+    whole log read and estimated at once), at ``after_only`` with this tree alone."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), APPLY_BATCH_BEFORE)
+        for rows in (*sizes, *after_only):
+            d = Path(tmp) / str(rows)
+            units = d / "units"
+            units.mkdir(parents=True)
+            _run(ROOT / "src", _steps(d, rows)[0][1])
+            (d / f"log{rows}.csv").rename(units / f"log{rows}.csv")
+            n = _rows_of(units / f"log{rows}.csv")
+            for version, src in versions.items():
+                if version == "before" and rows in after_only:
+                    continue
+                argv = ["batch", "attitude", str(units), "--workers", "0", "--fresh", "--out", str(d / "res.csv")]
+                peak, wall, _ = _run(src, argv)
+                out.append({"method": f"batch attitude ({version})", "rows": n, "peak_mib": peak, "wall_s": wall})
+                print(f"batch attitude ({version}): {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -603,6 +660,14 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_attitude_report(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--apply-gfimu":
+        # python benchmarks/bench_memory.py --apply-gfimu APPLY.json [ROWS ...]: apply of a gfimu result, before/after
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_apply_gfimu(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--batch-attitude":
+        # python benchmarks/bench_memory.py --batch-attitude BATCH.json: one unit of 1 M and 3 M rows before/after,
+        # 10 M rows after
+        Path(sys.argv[2]).write_text(json.dumps(run_batch_attitude(), indent=1) + "\n")
     elif sys.argv[1] == "--merge-simulate":
         # python benchmarks/bench_memory.py --merge-simulate RESULTS.json SIMULATE.json NOTE: its 1 M and 3 M runs
         # become the "after" rows of simulate accel-multipos in RESULTS.json

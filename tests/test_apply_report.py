@@ -153,6 +153,36 @@ def test_apply_gfimu_solves_with_the_calibrated_geometry(gfimu, capsys):
     assert err.count("\n") == 1 and "--rate-method one of integration" in err and not (d / "x.csv").exists()
 
 
+@pytest.mark.parametrize("method", ["integration", "gauss-newton"])
+def test_apply_gfimu_in_blocks_equals_the_whole_log(gfimu, monkeypatch, method):
+    """optinav apply reads, solves and writes a gfimu log in blocks (here of 7 rows): its table is the
+    whole-array solve_motion with the calibrated geometry, to the CSV's 12 digits."""
+    import optinav.io.readers
+
+    d, _, result = gfimu
+    res = TurntableCalibration.from_json(result)
+    arr = res.calibrated_array()
+    m = spinning_motion(duration=1.0, dt=0.01)
+    f = arr.outputs(m.A, m.wdot, m.omega) + np.random.default_rng(1).normal(0.0, SIGMA, (m.t.size, arr.n))
+    log = d / "blocks.csv"
+    header = "t," + ",".join(f"f{i + 1}" for i in range(arr.n))
+    np.savetxt(log, np.column_stack([m.t, f]), delimiter=",", comments="", header=header, fmt="%.17g")
+    monkeypatch.setattr(optinav.io.readers, "CHUNK_ROWS", 7)
+    out = d / f"blocks_{method}.csv"
+    w0 = ",".join(f"{v:.17g}" for v in m.omega[0])
+    argv = ["--quiet", "apply", str(result), str(log), "--omega0", w0, "--rate-method", method, "--out", str(out)]
+    assert main(argv) == 0
+    tab = np.loadtxt(out, delimiter=",", skiprows=1)
+    whole = solve_motion(arr, f, m.t, m.omega[0], method)
+    ref = np.column_stack([whole.t, whole.A, whole.omega, whole.wdot])
+    assert tab.shape == ref.shape == (101, 10)
+    np.testing.assert_allclose(tab, ref, rtol=1e-11, atol=1e-13)
+    # a log of one sample has no rate to integrate: one line, no output
+    np.savetxt(log, np.column_stack([m.t[:1], f[:1]]), delimiter=",", comments="", header=header, fmt="%.17g")
+    assert main([*argv[:-1], str(d / "one.csv")]) == 2
+    assert not (d / "one.csv").exists()
+
+
 @pytest.fixture(scope="module")
 def attitude(tmp_path_factory):
     """A static flight and the iframe estimate of it as a result file (optinav.attitude.estimate)."""

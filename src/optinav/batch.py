@@ -231,16 +231,25 @@ def result_columns(res) -> dict:
 
 
 def truth_columns(res, path: Path) -> dict:
-    """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share,
-    and ``truth_max_z`` (the largest |error|/std); nothing when there is no truth file beside the unit."""
+    """``NAME_error`` (estimate − truth) for every parameter the unit's ``STEM.truth.json`` and the result share
+    (``NAME_rmse`` for a time series), and ``truth_max_z`` (the largest |error|/std); nothing when there is no
+    truth file beside the unit. A result that compared itself while it was estimated block by block brings its
+    ``truth_comparison`` (:class:`optinav.attitude.filestream.StreamedEstimate`)."""
     from optinav.core.results import Truth
 
     tp = path.with_name(path.stem + ".truth.json")  # where optinav simulate writes it
     if not tp.is_file():
         return {}
-    cmp = Truth.from_json(tp).compare(res)
+    # a result estimated block by block compared itself while streaming (it keeps no per-sample series)
+    cmp = getattr(res, "truth_comparison", None)
+    if cmp is None:
+        cmp = Truth.from_json(tp).compare(res)
     row, zs = {}, []
     for name, c in cmp.items():
+        if "rmse" in c:  # a series, compared block by block
+            row[f"{name}_rmse"] = _num(c["rmse"])
+            zs += [float(c["z"])] if np.isfinite(c["z"]) else []
+            continue
         err = np.asarray(c["error"], float)
         if err.ndim == 0 or (err.ndim == 1 and err.size <= 4):
             _flat(name, err, row, "_error")

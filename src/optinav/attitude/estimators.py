@@ -72,6 +72,15 @@ __all__ = [
 ]
 
 
+def filter_convergence() -> dict:
+    """The convergence record of a recursive filter (it does not iterate: ``converged`` is None)."""
+    return convergence(None, message="recursive filter")
+
+
+#: why q_b_n and the yaw are not observable when neither the magnetometer nor polarization was used
+NO_HEADING = "no magnetometer or polarization used: the heading follows the gyro from its initial value"
+
+
 @dataclass
 class AttitudeEstimate(Estimate):
     """Estimated attitude q_b^n per sample and how the measurements were used (docs/results.md).
@@ -102,17 +111,13 @@ class AttitudeEstimate(Estimate):
     segments: int = 1
     elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
     #: a filter does not iterate to convergence: ``converged`` is None
-    convergence: dict = field(default_factory=lambda: convergence(None, message="recursive filter"))
+    convergence: dict = field(default_factory=lambda: filter_convergence())
     gates: list = field(default_factory=list)
 
     def parameters(self) -> dict[str, Parameter]:
         e = self.euler()
         heading = self.pol_used > 0 or (self.mag_used is not None and bool(np.any(self.mag_used)))
-        why = (
-            None
-            if heading
-            else ("no magnetometer or polarization used: the heading follows the gyro from its initial value")
-        )
+        why = None if heading else NO_HEADING
         out = {
             "q_b_n": Parameter(self.q_b_n, "", observable=heading, reason=why),
             "roll": Parameter(e[:, 0], "rad"),

@@ -14,7 +14,10 @@ yaw for its figure (at most ``figure_points`` rows), so the report too is bounde
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import os
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,8 +76,11 @@ def pol_columns(columns: str, frame: str, *, aop_unit: str = "rad", min_dop: flo
 
 @dataclass
 class StreamedEstimate:
-    """The fields of an :class:`~optinav.attitude.AttitudeEstimate` that its report's summary shows, of an estimate
-    run block by block (:func:`optinav.reports.attitude_report.attitude_tables` reads them)."""
+    """The fields of an :class:`~optinav.attitude.AttitudeEstimate` that its report's summary and a batch row show,
+    of an estimate run block by block (:func:`optinav.reports.attitude_report.attitude_tables` and
+    :func:`optinav.batch.result_columns` read them); the per-sample series are not kept. ``mag_used``: samples with
+    the magnetometer used (None: none given); ``truth_comparison``: :meth:`optinav.core.results.Truth.compare` of
+    a simulated truth, its per-sample series as their RMS error (``{"rmse", "z"}``), when one was given."""
 
     method: str
     frame: str
@@ -83,6 +89,38 @@ class StreamedEstimate:
     pol_skipped: dict = field(default_factory=dict)
     acc_threshold_hits: int = 0
     gyr_bias: np.ndarray | None = None  # rad/s, the final estimate
+    mag_used: int | None = None
+    truth_comparison: dict | None = None
+    gates: list = field(default_factory=list)
+
+    @property
+    def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
+        from optinav.attitude.estimators import AttitudeEstimate
+
+        return AttitudeEstimate.SCHEMA
+
+    @property
+    def convergence(self) -> dict:
+        from optinav.attitude.estimators import filter_convergence
+
+        return filter_convergence()
+
+    @property
+    def heading(self) -> bool:
+        """Whether the magnetometer or polarization fixed the heading (else q_b_n and the yaw are unobservable)."""
+        return self.pol_used > 0 or bool(self.mag_used)
+
+    def parameters(self) -> dict:
+        """The parameters that are not per-sample series: ``gyr_bias`` (3,) rad/s where the method has one."""
+        from optinav.core.results import Parameter
+
+        return {} if self.gyr_bias is None else {"gyr_bias": Parameter(np.asarray(self.gyr_bias, float), "rad/s")}
+
+    def unobservable(self) -> dict[str, str]:
+        """As :meth:`AttitudeEstimate.unobservable`: q_b_n and the yaw without a heading measurement."""
+        from optinav.attitude.estimators import NO_HEADING
+
+        return {} if self.heading else {"q_b_n": NO_HEADING, "yaw": NO_HEADING}
 
     def summary(self) -> str:
         """The line :meth:`AttitudeEstimate.summary` prints for the same estimate."""
@@ -94,13 +132,15 @@ class StreamRun:
     """What :func:`stream_attitude` did: ``summary`` (the line of :meth:`AttitudeEstimate.summary`), ``n`` samples
     and ``score`` (inclination RMSE [rad], heading RMSE [rad], samples with a valid reference) or None, as
     :func:`optinav.attitude.recording.reference_rmse`; ``estimate`` the report's fields and ``figure`` every k-th
-    row's (t [s], (m, 3) roll, pitch, yaw [deg]) when ``figure_points`` was given, else None."""
+    row's (t [s], (m, 3) roll, pitch, yaw [deg]) when ``figure_points`` was given, else None; ``duration_s`` the
+    last time stamp minus the first [s]."""
 
     summary: str
     n: int
     score: tuple[float, float, int] | None = None
     estimate: StreamedEstimate | None = None
     figure: tuple[np.ndarray, np.ndarray] | None = None
+    duration_s: float = 0.0
 
 
 class _Decimated:
@@ -145,17 +185,125 @@ class _Score:
         return float(r[0]), float(r[1]), self.n
 
 
+class _TruthSeries:
+    """:meth:`optinav.core.results.Truth.compare` of a simulated truth's per-sample series (q_b_n, roll, pitch, yaw)
+    accumulated over blocks as sums of squared errors; its other parameters are compared with the final estimate."""
+
+    SERIES = ("q_b_n", "roll", "pitch", "yaw")
+
+    def __init__(self, truth, frame: str):
+        self.truth, self.frame = truth, frame
+        self.ss: dict[str, float] = {}
+        self.k: dict[str, int] = {}
+
+    def add(self, row0: int, q: np.ndarray) -> None:
+        from optinav.attitude.estimators import AttitudeEstimate
+        from optinav.core.results import Truth
+
+        n = len(q)
+        part = Truth(
+            self.truth.system,
+            {
+                k: dataclasses.replace(p, value=np.asarray(p.value, float)[row0 : row0 + n])
+                for k, p in self.truth.parameters.items()
+                if k in self.SERIES and p.value is not None
+            },
+        )
+        for name, c in part.compare(_Observed(AttitudeEstimate(q_b_n=q, frame=self.frame))).items():
+            e = np.asarray(c["error"], float)
+            self.ss[name] = self.ss.get(name, 0.0) + float(np.sum(e**2))
+            self.k[name] = self.k.get(name, 0) + e.size
+
+    def result(self, est: StreamedEstimate, n: int) -> dict:
+        """The comparison as :meth:`Truth.compare` gives it for the whole estimate ``est`` of ``n`` samples (its
+        series as ``{"rmse", "z"}``, only those the estimate observes)."""
+        from optinav.core.results import Truth
+
+        for name in self.SERIES:
+            p = self.truth.parameters.get(name)
+            if p is not None and p.value is not None and len(p.value) != n:
+                raise OptinavError(
+                    f"the truth's {name} has {len(p.value)} samples, the log {n}",
+                    "pass the truth written with this log by optinav simulate flight, or remove it",
+                )
+        hidden = est.unobservable()
+        out = {
+            name: {"rmse": float(np.sqrt(self.ss[name] / self.k[name])), "z": float("nan")}
+            for name in self.ss
+            if name not in hidden and self.k[name]
+        }
+        rest = {k: p for k, p in self.truth.parameters.items() if k not in self.SERIES}
+        out.update(Truth(self.truth.system, rest).compare(est))
+        return out
+
+
+class _Observed:
+    """A result's parameters all taken as observable: a block is compared whatever the whole log observes."""
+
+    def __init__(self, result):
+        self.result = result
+
+    def parameters(self) -> dict:
+        return {k: dataclasses.replace(p, observable=True) for k, p in self.result.parameters().items()}
+
+
+class _TruthRows:
+    """The reference q (n, 4) of a simulator's ``STEM.truth.csv`` (t, qw, qx, qy, qz per log row) read block by
+    block beside the log's blocks."""
+
+    def __init__(self, path: Path):
+        from optinav.io.readers import iter_table
+
+        self.path, self.rows = Path(path), 0
+        self._blocks = iter(iter_table(path))
+        self._buf = np.empty((0, 4))
+
+    def take(self, n: int) -> np.ndarray:
+        while self._buf.shape[0] < n:
+            tab = next(self._blocks, None)
+            if tab is None:
+                raise self.mismatch(f"{self.rows + self._buf.shape[0]} rows for more log samples")
+            cols = list(tab.data.values())
+            if len(cols) != 5:
+                raise self.mismatch(f"{len(cols)} columns")
+            self._buf = np.vstack([self._buf, np.column_stack([np.asarray(c, float) for c in cols[1:]])])
+        q, self._buf = self._buf[:n], self._buf[n:]
+        self.rows += n
+        return q
+
+    def finish(self) -> None:
+        """Check that the truth ends with the log."""
+        if self._buf.shape[0] or next(self._blocks, None) is not None:
+            raise self.mismatch(f"more rows than the {self.rows} log samples")
+
+    def mismatch(self, what: str) -> OptinavError:
+        return OptinavError(
+            f"{self.path.name} does not hold t,qw,qx,qy,qz for each log sample ({what})",
+            "write it with optinav simulate flight, or remove it",
+        )
+
+
 class _Blocks:
     """The blocks of a log: (first row, t, gyr, acc, dts, {"mag", "aop", "dop", "q_ref", "movement"}) with
     ``size``/``position`` for the progress bar. A BROAD trial is read whole (its HDF5/MAT library reads it so)
-    and cut; text files are read block by block (:func:`optinav.io.iter_imu`)."""
+    and cut; text files are read block by block (:func:`optinav.io.iter_imu`), with the reference q of
+    ``truth_csv`` (a simulator's ``STEM.truth.csv``) as "q_ref" when given (every sample scored)."""
 
     def __init__(
-        self, path, o: AttitudeOptions, *, mag: bool, pol: PolColumns | None, reference: bool, chunk_rows: int
+        self,
+        path,
+        o: AttitudeOptions,
+        *,
+        mag: bool,
+        pol: PolColumns | None,
+        reference: bool,
+        chunk_rows: int,
+        truth_csv=None,
     ):
         from optinav.attitude.data import is_broad
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
+        self.truth_csv = truth_csv
         self.broad = is_broad(path) and not o.columns and not o.datasets
         if reference and not self.broad:
             raise OptinavError(
@@ -194,6 +342,7 @@ class _Blocks:
         )
         self.size = chunks.size
         prev = None
+        truth = None if self.truth_csv is None else _TruthRows(self.truth_csv)
         for log in chunks:
             self.position = chunks.position
             if log.acc is None or log.gyr is None:
@@ -210,15 +359,12 @@ class _Blocks:
             # two rows at least in the first block: its first step comes from its first two times
             first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
             prev = t[-1]
-            yield (
-                row0,
-                t,
-                log.gyr,
-                log.acc,
-                np.diff(t, prepend=first),
-                log.finite,
-                self._extra(chunks.table, row0, len(log)),
-            )
+            extra = self._extra(chunks.table, row0, len(log))
+            if truth is not None:
+                extra.update(q_ref=truth.take(len(log)), movement=np.ones(len(log), bool))
+            yield (row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, extra)
+        if truth is not None:
+            truth.finish()
 
     def _extra(self, table, row0: int, n: int) -> dict:
         if not self.names:
@@ -346,10 +492,13 @@ class _Scratch:
         return np.ascontiguousarray(rows[:, self.cols[name]])
 
 
-def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0) -> StreamRun:
+def _stream_offline(
+    src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None
+) -> StreamRun:
     """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
-    file beside ``out``; each segment (between time gaps) then runs :func:`_offline_segment` over it, and a last
-    forward pass writes the CSV. The output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
+    file beside ``out`` (None: in the temporary folder); each segment (between time gaps) then runs
+    :func:`_offline_segment` over it, and a last forward pass writes the CSV (none when ``out`` is None). The
+    output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
     from optinav.attitude.estimators import summary_line
     from optinav.attitude.methods import IFRAME_DEFAULTS, _options
     from optinav.core.files import scratch_file
@@ -363,14 +512,18 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress,
         fields["mag"] = 3
     if score is not None:
         fields.update(q_ref=4, movement=1)
-    need, free = checks.n * sum(fields.values()) * 8, _free_bytes(out)
+    # without an output file (a batch unit) the scratch file goes to the temporary folder
+    place = Path(out) if out is not None else Path(tempfile.gettempdir()) / src.path.name
+    need, free = checks.n * sum(fields.values()) * 8, _free_bytes(place)
     if need > free:
         raise OptinavError(
-            f"--offline needs {need / 2**30:.2f} GiB of scratch space beside {out} for {checks.n} "
+            f"--offline needs {need / 2**30:.2f} GiB of scratch space in {place.parent} for {checks.n} "
             f"samples; {free / 2**30:.2f} GiB are free there",
-            "write --out to a disk with more free space, or drop --offline",
+            "write --out to a disk with more free space, or drop --offline"
+            if out is not None
+            else "set TMPDIR to a disk with more free space, or drop --offline",
         )
-    with scratch_file(out) as fh:
+    with scratch_file(place) as fh:
         store = _Scratch(fh, fields)
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, "attitude: iframe offline", progress):
             checks.collect(row0, gyr, acc, dts)
@@ -397,7 +550,7 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress,
             lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk)
         rest = mag_used = acc_hits = 0
         fig = _Decimated(store.n, figure_points) if figure_points else None
-        with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
+        with _rows_writer(out) as write:
             for a in range(0, store.n, blk):
                 r = store.read(a, min(a + blk, store.n))
                 q = store.col(r, "q")
@@ -415,6 +568,8 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress,
                 mag_used += int(np.count_nonzero(flags[:, 2]))
                 if score is not None:
                     score.add(q, store.col(r, "q_ref"), store.col(r, "movement")[:, 0].astype(bool))
+                if truth is not None:
+                    truth.add(a, q)
             result = None if score is None else score.result()
         n = store.n
         bias = store.col(store.read(n - 1, n), "bias")[0].copy() if n else None
@@ -427,8 +582,20 @@ def _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress,
         rest=rest / n,
         mag_used=mag_used / n if src.mag else None,
     )
-    est = StreamedEstimate("iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias)
+    est = StreamedEstimate(
+        "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None
+    )
+    if truth is not None:
+        est.truth_comparison = truth.result(est, n)
     return StreamRun(line, n, result, est, None if fig is None else fig.arrays())
+
+
+def _rows_writer(out):
+    """The attitude CSV writer of ``out`` (:func:`optinav.core.files.csv_writer`), or one that keeps nothing when
+    ``out`` is None (a batch unit keeps only its table row)."""
+    if out is None:
+        return contextlib.nullcontext(lambda rows: None)
+    return csv_writer(out, CSV_HEADER, CSV_FORMAT)
 
 
 def _free_bytes(path) -> float:
@@ -553,6 +720,8 @@ def stream_attitude(
     announce: Callable[[int, str], None] | None = None,
     progress: bool | None = None,
     figure_points: int = 0,
+    truth_csv=None,
+    truth=None,
 ) -> StreamRun:
     """Estimate the attitude of the log ``path`` block by block (at most ``chunk_rows`` samples held) and write
     the attitude CSV (:data:`optinav.attitude.recording.CSV_HEADER`) to ``out`` atomically. ``options`` as :func:`optinav.attitude.unit.
@@ -560,8 +729,11 @@ def stream_attitude(
     removed at the end, for the backward and zero-phase passes; about 200 B per sample on disk);
     ``pol`` the polarization columns; ``reference`` scores against a BROAD trial's optical reference (frame ENU).
     ``announce(n, method)`` is called between the two passes; ``figure_points`` > 0 keeps every k-th row's Euler
-    angles, at most that many (:attr:`StreamRun.figure`, for ``--report``). Bad input raises :class:`OptinavError`
-    before anything is written under ``out``."""
+    angles, at most that many (:attr:`StreamRun.figure`, for ``--report``). ``out`` None writes no CSV (a batch
+    unit: only the run's numbers are kept). ``truth_csv``: a simulator's ``STEM.truth.csv`` (t, qw, qx, qy, qz per
+    sample, read block by block) scored as the reference of a log that is not a BROAD trial; ``truth``: a
+    :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
+    Bad input raises :class:`OptinavError` before anything is written under ``out``."""
     from optinav.attitude.checks import check_aop
     from optinav.attitude.methods import _method
     from optinav.core.progress import progress_blocks, step
@@ -578,15 +750,16 @@ def stream_attitude(
     if reference and frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     StreamEstimator.check(method, o.options)
-    src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows)
+    src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows, truth_csv=truth_csv)
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
 
     step("checks")
-    checks, bad, aop_max, t_first = StreamChecks(), 0, 0.0, None
+    checks, bad, aop_max, t_first, t_last = StreamChecks(), 0, 0.0, None, None
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
         if t_first is None:
             t_first = float(t[0])
+        t_last = float(t[-1])
         bad += int(np.count_nonzero(~finite))
         if not bad:
             checks.add(gyr, acc, dts)
@@ -603,17 +776,20 @@ def stream_attitude(
     gaps = checks.gaps
     if announce is not None:
         announce(checks.n, method)
-    score = _Score() if reference else None
+    score = _Score() if reference or truth_csv is not None else None
+    tcmp = None if truth is None else _TruthSeries(truth, frame)
+    duration = 0.0 if t_first is None else t_last - t_first
     # the estimators (numba kernels) load only now, so that a bad file is reported within a second of start
     from optinav.attitude.measurement import PolarizationMeasurement
 
     if o.offline:
         step("estimate (iframe offline), write")
-        return _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points)
+        run = _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp)
+        return dataclasses.replace(run, duration_s=duration)
     estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
     step(f"estimate ({method}), write")  # one pass does both
     fig = _Decimated(checks.n, figure_points) if figure_points else None
-    with csv_writer(out, CSV_HEADER, CSV_FORMAT) as write:
+    with _rows_writer(out) as write:
         for row0, t, gyr, acc, dts, _, extra in progress_blocks(src, f"attitude: {method}", progress):
             checks.collect(row0, gyr, acc, dts)
             if gaps.size and not o.allow_gaps:
@@ -650,6 +826,8 @@ def stream_attitude(
                 fig.add(row0, rows)
             if score is not None:
                 score.add(q, extra["q_ref"], extra["movement"])
+            if tcmp is not None:
+                tcmp.add(row0, q)
         checks.finish_second(frame)
         if gaps.size and not o.allow_gaps:
             i = int(gaps[0])
@@ -659,7 +837,12 @@ def stream_attitude(
                 "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
             )
         result = None if score is None else score.result()
-    return StreamRun(estimator.summary(), checks.n, result, _estimate(estimator), None if fig is None else fig.arrays())
+    est = _estimate(estimator)
+    if tcmp is not None:
+        est.truth_comparison = tcmp.result(est, checks.n)
+    return StreamRun(
+        estimator.summary(), checks.n, result, est, None if fig is None else fig.arrays(), duration_s=duration
+    )
 
 
 def _estimate(e: StreamEstimator) -> StreamedEstimate:
@@ -678,4 +861,5 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         pol_skipped=skipped,
         acc_threshold_hits=e.acc_threshold_hits,
         gyr_bias=None if e.gyr_bias is None else np.array(e.gyr_bias),
+        mag_used=e.mag_used,
     )

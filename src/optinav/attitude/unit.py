@@ -14,7 +14,7 @@ from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
 if TYPE_CHECKING:
-    from optinav.attitude.estimators import AttitudeEstimate
+    from optinav.attitude.filestream import StreamedEstimate
 
 
 @dataclasses.dataclass
@@ -116,56 +116,38 @@ def steps(t, path="") -> np.ndarray:
     return np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
 
 
-def _reference(path: Path, t: np.ndarray, embedded):
-    """(q_ref (N, 4), mask) for ``path``: a BROAD trial's own reference over its movement phases, else the
-    simulator's ``STEM.truth.csv`` (t, qw, qx, qy, qz) beside it; None when there is none."""
-    if embedded is not None:
-        q_ref, movement = embedded
-        return q_ref, movement & np.all(np.isfinite(q_ref), axis=1)
-    truth = path.with_name(path.stem + ".truth.csv")
-    if not truth.is_file():
-        return None
-    tab = np.loadtxt(truth, delimiter=",", skiprows=1, ndmin=2)
-    if tab.shape[1] != 5 or tab.shape[0] != t.size:
-        raise OptinavError(
-            f"{truth.name} does not hold t,qw,qx,qy,qz for each of the {t.size} samples",
-            "write it with optinav simulate flight, or remove it",
-        )
-    return tab[:, 1:], np.all(np.isfinite(tab[:, 1:]), axis=1)
-
-
-def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[AttitudeEstimate, dict]:
-    """Read ``path`` and estimate its attitude; extra columns: samples, duration (s), and with ``reference``
-    the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its simulated truth
-    (``STEM.truth.csv``), over the samples where it is valid."""
-    from optinav.attitude.estimators import estimate
-    from optinav.attitude.recording import reference_rmse
+def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[StreamedEstimate, dict]:
+    """Estimate the attitude of ``path`` block by block (:func:`optinav.attitude.filestream.stream_attitude`, no
+    output file), so a unit's memory does not grow with its log; extra columns: samples, duration (s), and with
+    ``reference`` the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its
+    simulated truth (``STEM.truth.csv``), over the samples where it is valid. With ``reference`` a simulated
+    ``STEM.truth.json`` beside it is compared too (:attr:`StreamedEstimate.truth_comparison`; that file is read
+    whole)."""
+    from optinav.attitude.data import is_broad
+    from optinav.attitude.filestream import stream_attitude
+    from optinav.core import files
+    from optinav.core.results import Truth
 
     p, o = Path(path), options
-    t, gyr, acc, mag, embedded = read_log(p, options)
-    if reference and embedded is not None and o.frame != "enu":
-        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
-    dt = steps(t, p)
-    res = estimate(
-        gyr,
-        acc,
-        dt,
-        method=_method(o.method, None),
-        frame=o.frame,
-        mag=mag,
-        offline=o.offline,
-        input_stage=o.input_stage,
-        allow_gaps=o.allow_gaps,
-        **dict(o.options),
+    broad = is_broad(p) and not o.columns and not o.datasets
+    truth_csv = p.with_name(p.stem + ".truth.csv")
+    truth_json = p.with_name(p.stem + ".truth.json")
+    run = stream_attitude(
+        p,
+        None,
+        o,
+        reference=reference and broad,
+        truth_csv=truth_csv if reference and not broad and truth_csv.is_file() else None,
+        truth=Truth.from_json(truth_json) if reference and truth_json.is_file() else None,
+        chunk_rows=files.CHUNK_ROWS,
+        progress=False,
     )
-    extra = {"n_samples": int(t.size), "duration_s": float(t[-1] - t[0]) if t.size else 0.0}
-    if reference:
-        ref = _reference(p, t, embedded)
-        if ref is not None:
-            inclination, heading, n = reference_rmse(res.q_b_n, *ref)
-            extra.update(
-                inclination_rmse_deg=float(np.degrees(inclination)),
-                heading_rmse_deg=float(np.degrees(heading)),
-                n_reference=n,
-            )
-    return res, extra
+    extra = {"n_samples": int(run.n), "duration_s": float(run.duration_s)}
+    if run.score is not None:
+        inclination, heading, n = run.score
+        extra.update(
+            inclination_rmse_deg=float(np.degrees(inclination)),
+            heading_rmse_deg=float(np.degrees(heading)),
+            n_reference=n,
+        )
+    return run.estimate, extra

@@ -15,7 +15,7 @@ Units: f m/s², t s, ω rad/s, ω̇ rad/s², A m/s².
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -32,6 +32,8 @@ __all__ = [
     "rate_gauss_newton",
     "solve_rate",
     "solve_motion",
+    "MotionSolver",
+    "RateState",
     "RATE_METHODS",
 ]
 
@@ -127,6 +129,21 @@ def _omega0(omega0) -> np.ndarray:
     return w
 
 
+@dataclass
+class RateState:
+    """What a rate method carries from one block of epochs to the next: ``omega`` (3,) rad/s at the last epoch
+    solved, its time ``t`` (s; None before the first epoch, when ``omega`` is ω₀ and the first epoch takes it) and
+    ``wdot`` (3,) rad/s², the method's angular acceleration there (its prediction to the next epoch uses it)."""
+
+    omega: np.ndarray
+    t: float | None = None
+    wdot: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def steps(self, t) -> np.ndarray:
+        """The step (s) before each epoch of the block ``t``: from the carried epoch, 0 before the first one."""
+        return np.diff(t, prepend=t[0] if self.t is None else self.t)
+
+
 def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarray:
     """Angular rate by trapezoidal integration of the least-squares ω̇ (paper, §4).
 
@@ -152,44 +169,49 @@ def rate_integration(array: AccelerometerArray, acc, t, omega0=None) -> np.ndarr
     (T, 3) ndarray
         ω [rad/s].
     """
-    f = acc
-    f = _outputs(array, f)
+    f = _outputs(array, acc)
     t = _time(t, f.shape[0])
+    return _integration(array, f, t, RateState(_omega0(omega0)))[0]
+
+
+def _integration(array: AccelerometerArray, f, t, state: RateState) -> tuple[np.ndarray, RateState]:
+    """:func:`rate_integration` of one block of epochs from ``state``: (T, 3) ω [rad/s] and the state after it.
+    Before the first epoch the step is 0, so the first ω is ω₀ whatever ``state.wdot``."""
     ident = identifiability(array)
     ident.require(("linear",))
-    w0 = _omega0(omega0)
-    dt = np.diff(t)
+    dt = state.steps(t)
     if all(n in ident.solvable_without_rate for n in LINEAR_NAMES[3:]):
-        sol = solve_linear(array, f)
-        inc = 0.5 * (sol.wdot[1:] + sol.wdot[:-1]) * dt[:, None]
-        return w0 + np.vstack([np.zeros((1, 3)), np.cumsum(inc, axis=0)])
+        wd = solve_linear(array, f).wdot
+        inc = 0.5 * (wd + np.vstack([state.wdot, wd[:-1]])) * dt[:, None]
+        w = state.omega + np.cumsum(inc, axis=0)
+        return w, RateState(w[-1].copy(), float(t[-1]), wd[-1].copy())
     wts = array.weights()
     P = np.linalg.pinv(array.H_lin * wts[:, None])[3:] * wts[None, :]  # ω̇ rows (3, N)
-    return _integrate_compensated(
+    w, wd = _integrate_compensated(
         np.ascontiguousarray(P),
         np.ascontiguousarray(array.H_quad, dtype=float),
         np.ascontiguousarray(f, dtype=float),
         dt,
-        w0,
+        np.array(state.omega, float),
+        np.array(state.wdot, float),
     )
+    return w, RateState(w[-1].copy(), float(t[-1]), wd)
 
 
 @numba.njit(cache=True, nogil=True)
-def _integrate_compensated(P, Hq, f, dt, w0):
+def _integrate_compensated(P, Hq, f, dt, w, wd):
     """The epoch loop of :func:`rate_integration` for a geometry whose ω̇ needs the quadratic terms removed:
-    ω̇_k = P (f_k − H_quad q(ω⁻)) with ω⁻ = ω_{k−1} + ω̇_{k−1}Δt, then the trapezoid (T, 3)."""
+    ω̇_k = P (f_k − H_quad q(ω⁻)) with ω⁻ = ω_{k−1} + ω̇_{k−1}Δt_k, then the trapezoid; ``w``, ``wd`` the state
+    at the epoch before the block, ``dt[k]`` the step before epoch k. Returns ω (T, 3) and the last ω̇."""
     T = f.shape[0]
     out = np.empty((T, 3))
-    w = w0.copy()
-    wd = _wdot(P, Hq, f[0], w)
-    out[0] = w
-    for k in range(1, T):
-        h = dt[k - 1]
+    for k in range(T):
+        h = dt[k]
         wd_new = _wdot(P, Hq, f[k], w + wd * h)
         w = w + 0.5 * (wd + wd_new) * h
         wd = wd_new
         out[k] = w
-    return out
+    return out, wd
 
 
 @numba.njit(cache=True, nogil=True)
@@ -238,9 +260,16 @@ def rate_quadratic(
     (T, 3) ndarray
         ω [rad/s].
     """
-    f = acc
-    f = _outputs(array, f)
+    f = _outputs(array, acc)
     t = _time(t, f.shape[0])
+    return _quadratic(array, f, t, RateState(_omega0(omega0)), prior_std, iterations, sigma)[0]
+
+
+def _quadratic(
+    array: AccelerometerArray, f, t, state: RateState, prior_std: float = 0.05, iterations: int = 3, sigma=None
+) -> tuple[np.ndarray, RateState]:
+    """:func:`rate_quadratic` of one block of epochs from ``state``: (T, 3) ω [rad/s] and the state after it
+    (``wdot``: the last least-squares ω̇, which the next prediction averages with its own)."""
     sol = solve_linear(array, f)
     if sol.basis.shape[0] < 3:
         raise OptinavError(
@@ -254,21 +283,25 @@ def rate_quadratic(
     Lz = np.linalg.cholesky(np.linalg.inv(s2 * sol.z_cov)).T
     B = sol.basis
     out = np.empty((f.shape[0], 3))
-    w = _omega0(omega0).copy()
-    out[0] = w
+    w = np.array(state.omega, float)
+    first = 0
+    if state.t is None:  # the first epoch of the log: ω₀ as given
+        out[0], first = w, 1
+    dt = state.steps(t)
+    wd_prev = np.vstack([state.wdot, sol.wdot[:-1]])
     ip = 1.0 / prior_std
     LB, Lzk = Lz @ B, sol.z @ Lz.T  # the whitened design and observations, once for all epochs
     J = np.zeros((LB.shape[0] + 3, 3))
     J[LB.shape[0] :] = ip * np.eye(3)
-    for k in range(1, f.shape[0]):
-        pred = w + 0.5 * (sol.wdot[k] + sol.wdot[k - 1]) * (t[k] - t[k - 1])
+    for k in range(first, f.shape[0]):
+        pred = w + 0.5 * (sol.wdot[k] + wd_prev[k]) * dt[k]
         w = pred.copy()
         for _ in range(iterations):
             r = np.concatenate([LB @ quadratic_products(w) - Lzk[k], ip * (w - pred)])
             J[: LB.shape[0]] = LB @ _dq(w)
             w = w - np.linalg.lstsq(J, r, rcond=None)[0]
         out[k] = w
-    return out
+    return out, RateState(out[-1].copy(), float(t[-1]), sol.wdot[-1].copy())
 
 
 def rate_gauss_newton(
@@ -305,25 +338,38 @@ def rate_gauss_newton(
     wdot : (T, 3) ndarray
         ω̇ [rad/s^2].
     """
-    f = acc
-    f = _outputs(array, f)
+    f = _outputs(array, acc)
     t = _time(t, f.shape[0])
+    om, A, wd, _ = _gauss_newton(array, f, t, RateState(_omega0(omega0)), prior_std, iterations, sigma)
+    return om, A, wd
+
+
+def _gauss_newton(
+    array: AccelerometerArray, f, t, state: RateState, prior_std: float = 0.05, iterations: int = 3, sigma=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, RateState]:
+    """:func:`rate_gauss_newton` of one block of epochs from ``state``: ω [rad/s], A [m/s^2], ω̇ [rad/s^2] (T, 3)
+    each and the state after them."""
     identifiability(array).require(("linear",))
     wts = 1.0 / _sigma(array, sigma)
     Hl, Hq = array.H_lin * wts[:, None], array.H_quad * wts[:, None]
     fw = f * wts
     T = f.shape[0]
     om, A, wd = np.empty((T, 3)), np.empty((T, 3)), np.empty((T, 3))
-    w = _omega0(omega0).copy()
-    x = np.linalg.lstsq(Hl, fw[0] - Hq @ quadratic_products(w), rcond=None)[0]
-    om[0], A[0], wd[0] = w, x[:3], x[3:]
+    w = np.array(state.omega, float)
+    x = np.r_[np.zeros(3), state.wdot]
+    first = 0
+    if state.t is None:  # the first epoch of the log: ω₀ as given, [A, ω̇] by least squares with it
+        x = np.linalg.lstsq(Hl, fw[0] - Hq @ quadratic_products(w), rcond=None)[0]
+        om[0], A[0], wd[0] = w, x[:3], x[3:]
+        first = 1
+    dt = state.steps(t)
     ip = 1.0 / prior_std
     Hl_pinv = np.linalg.pinv(Hl)  # rank [A, ω̇] = 6 (required above): the LS solve is this fixed matrix
     J = np.zeros((array.n + 3, 9))  # constant blocks filled once; only ∂/∂ω of the quadratic terms changes
     J[: array.n, :6] = Hl
     J[array.n :, 6:] = ip * np.eye(3)
-    for k in range(1, T):
-        pred = w + x[3:] * (t[k] - t[k - 1])
+    for k in range(first, T):
+        pred = w + x[3:] * dt[k]
         w = pred.copy()
         for _ in range(iterations):
             fq = fw[k] - Hq @ quadratic_products(w)
@@ -334,7 +380,7 @@ def rate_gauss_newton(
             x = x + step[:6]
             w = w + step[6:]
         om[k], A[k], wd[k] = w, x[:3], x[3:]
-    return om, A, wd
+    return om, A, wd, RateState(om[-1].copy(), float(t[-1]), wd[-1].copy())
 
 
 def solve_rate(array: AccelerometerArray, acc, t, omega0=None, method: str = "integration", **options) -> np.ndarray:
@@ -395,12 +441,63 @@ def solve_motion(array: AccelerometerArray, acc, t, omega0=None, method: str = "
         ``A`` (T, 3) specific force at the array's reference point [m/s²], ``wdot`` (T, 3) [rad/s²], ``omega``
         (T, 3) [rad/s].
     """
-    from optinav.gfimu.errors import Motion
-
     f = _outputs(array, acc)
-    t = _time(t, f.shape[0])
-    w = solve_rate(array, f, t, omega0, method)
-    wts = array.weights()
-    P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]  # (6, N)
-    x = (f - quadratic_products(w) @ array.H_quad.T) @ P.T
-    return Motion(t, x[:, :3], x[:, 3:], w, f"{array.name or 'array'} ({method})")
+    return MotionSolver(array, omega0, method)(f, _time(t, f.shape[0]))
+
+
+class MotionSolver:
+    """:func:`solve_motion` block by block: each call solves the next epochs of a log with the rate method's
+    state carried from the previous call, so a long log needs memory for one block, and the blocks of a log give
+    its whole-array motion to rounding (``optinav apply`` of a gfimu result).
+
+    Parameters
+    ----------
+    array, omega0, method
+        As :func:`solve_motion` (``omega0`` the rate at the log's first epoch).
+    **options
+        The rate method's options (``prior_std``, ``iterations``, ``sigma``; see :func:`rate_quadratic`).
+
+    Attributes
+    ----------
+    state : RateState
+        The rate method's state after the epochs solved so far.
+    rows : int
+        Epochs solved so far.
+    """
+
+    def __init__(self, array: AccelerometerArray, omega0=None, method: str = "integration", **options):
+        if method not in RATE_METHODS:
+            raise OptinavError(f"unknown rate method {method!r}", f"use one of {', '.join(RATE_METHODS)}")
+        self.array, self.method, self.options = array, method, options
+        self.state, self.rows = RateState(_omega0(omega0)), 0
+        wts = array.weights()
+        self._P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]  # (6, N)
+
+    def __call__(self, acc, t):
+        """The motion of the next epochs: outputs ``acc`` (T, N) [m/s^2] at times ``t`` (T,) [s], after the
+        epochs of the previous calls (strictly increasing across them too).
+
+        Returns
+        -------
+        Motion
+            ``A`` (T, 3) [m/s^2], ``wdot`` (T, 3) [rad/s^2], ``omega`` (T, 3) [rad/s] of these epochs.
+        """
+        from optinav.gfimu.errors import Motion
+
+        f = _outputs(self.array, acc)
+        prev = () if self.state.t is None else (self.state.t,)
+        t = check_timestamps(np.r_[prev, as_float_array(t, "t")], "t", min_count=1, index0=self.rows - len(prev))
+        t = t[len(prev) :]
+        if t.shape[0] != f.shape[0]:
+            raise OptinavError(f"{t.shape[0]} timestamps for {f.shape[0]} output rows", "give one timestamp per row")
+        if t.shape[0] == 0:
+            return Motion(t, np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), self.array.name)
+        if self.method == "integration":
+            w, self.state = _integration(self.array, f, t, self.state)
+        elif self.method == "quadratic":
+            w, self.state = _quadratic(self.array, f, t, self.state, **self.options)
+        else:
+            w, _, _, self.state = _gauss_newton(self.array, f, t, self.state, **self.options)
+        self.rows += t.shape[0]
+        x = (f - quadratic_products(w) @ self.array.H_quad.T) @ self._P.T
+        return Motion(t, x[:, :3], x[:, 3:], w, f"{self.array.name or 'array'} ({self.method})")

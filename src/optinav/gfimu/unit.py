@@ -80,11 +80,14 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     """``optinav apply`` for a gfimu result: solve the array outputs of ``data_path`` (t and f1..fN, or an array
     f, m/s²) with the calibrated geometry (the paper's compensation) and write ``out`` (CSV): t (s), specific
     force A at the array's reference point ax, ay, az (m/s²), angular rate gx, gy, gz (rad/s) and angular
-    acceleration wdot_x..z (rad/s²); returns the one-line account."""
-    from optinav.core.files import write_csv
-    from optinav.gfimu.solve import RATE_METHODS, solve_motion
+    acceleration wdot_x..z (rad/s²); returns the one-line account. Text logs are read, solved and written block
+    by block (:class:`~optinav.gfimu.solve.MotionSolver` carries the rate between blocks), so memory does not grow
+    with the log; ``out`` appears only when every block was solved."""
+    from optinav.core.files import csv_writer
+    from optinav.core.progress import progress_blocks
+    from optinav.gfimu.solve import RATE_METHODS, MotionSolver
     from optinav.gfimu.turntable import array_outputs
-    from optinav.io.readers import load_table
+    from optinav.io.readers import iter_table
 
     o = options or GfimuApplyOptions()
     if o.rate_method not in RATE_METHODS:
@@ -92,13 +95,18 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     if Path(out).suffix.lower() not in (".csv", ".txt"):
         raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
     res = TurntableCalibration.from_json(result_path)
-    tab = load_table(data_path)
-    if tab.find("t") is None:
-        raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
-    f = array_outputs(tab, data_path, len(res.dalpha))
-    m = solve_motion(res.calibrated_array(), f, np.asarray(tab.get("t"), float), o.omega0, o.rate_method)
-    write_csv(out, np.column_stack([m.t, m.A, m.omega, m.wdot]), "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g")
+    solver = MotionSolver(res.calibrated_array(), o.omega0, o.rate_method)
+    blocks = iter_table(data_path)
+    with csv_writer(out, "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g") as write:
+        for tab in progress_blocks(blocks, "apply: gfimu"):
+            if tab.find("t") is None:
+                raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
+            f = array_outputs(tab, data_path, len(res.dalpha))
+            m = solver(f, np.asarray(tab.get("t"), float))
+            write(np.column_stack([m.t, m.A, m.omega, m.wdot]))
+        if solver.rows < 2:  # as the whole-log solve: a rate needs two epochs (the file is not written)
+            raise OptinavError(f"{data_path} has {solver.rows} sample(s), at least 2 are needed", "record a longer log")
     return (
-        f"wrote the motion of {m.t.size} samples to {out}, solved with the calibrated geometry of "
+        f"wrote the motion of {solver.rows} samples to {out}, solved with the calibrated geometry of "
         f"{len(res.dalpha)} accelerometers ({o.rate_method}; m/s^2, rad/s, rad/s^2)"
     )

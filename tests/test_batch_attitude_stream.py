@@ -1,0 +1,94 @@
+"""``optinav batch attitude`` runs each unit block by block (no per-unit output, memory bounded): its row equals
+the whole-log estimate's numbers (the estimate, its reference scores and its truth comparison) and the scores of
+the single-file ``optinav attitude`` output."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+
+
+def _flight_with_mag(d, seed: int):
+    """A simulated dynamic flight (STEM.truth.csv/.json beside it) with magnetometer columns mx, my, mz added: the
+    NED field seen through the true attitude, plus noise (µT)."""
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    data = d / f"f{seed}.csv"
+    argv = ["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "12", "--seed", str(seed)]
+    assert main([*argv, "--out", str(data)]) == 0
+    lines = data.read_text().splitlines()
+    q = np.loadtxt(d / f"f{seed}.truth.csv", delimiter=",", skiprows=1)[:, 1:]
+    m = quat_rotate(quat_conjugate(q), np.broadcast_to([20.0, -3.0, 45.0], (len(q), 3)))
+    m = m + np.random.default_rng(seed).normal(0.0, 0.2, m.shape)
+    head = [i for i, line in enumerate(lines) if line.startswith("t,")][0]
+    rows = lines[: head + 1] + [f"{a},{x:.17g},{y:.17g},{z:.17g}" for a, (x, y, z) in zip(lines[head + 1 :], m)]
+    rows[head] += ",mx,my,mz"
+    data.write_text("\n".join(rows) + "\n")
+    return data
+
+
+def _whole_log_row(data, options):
+    """The row's numbers computed on the whole log in memory: estimate(), reference_rmse against STEM.truth.csv,
+    Truth.compare against STEM.truth.json (series as their RMS error)."""
+    from optinav.attitude import estimate
+    from optinav.attitude.recording import reference_rmse
+    from optinav.attitude.unit import read_log, steps
+    from optinav.core.results import Truth
+
+    t, gyr, acc, mag, _ = read_log(data, options)
+    res = estimate(gyr, acc, steps(t), mag=mag, offline=options.offline)
+    q_ref = np.loadtxt(data.with_name(data.stem + ".truth.csv"), delimiter=",", skiprows=1)[:, 1:]
+    inc, head, n = reference_rmse(res.q_b_n, q_ref, np.ones(len(t), bool))
+    row = {
+        "n_samples": t.size,
+        "duration_s": t[-1] - t[0],
+        "inclination_rmse_deg": np.degrees(inc),
+        "heading_rmse_deg": np.degrees(head),
+        "n_reference": n,
+        "unobservable": "; ".join(res.unobservable()),
+        **{f"gyr_bias_{a}": v for a, v in zip("xyz", res.gyr_bias)},
+    }
+    for name, c in Truth.from_json(data.with_name(data.stem + ".truth.json")).compare(res).items():
+        row[f"{name}_rmse"] = np.sqrt(np.mean(np.asarray(c["error"]) ** 2))
+    return row
+
+
+@pytest.mark.parametrize("offline", [False, True])
+@pytest.mark.parametrize("mag", [False, True])
+def test_batch_attitude_row_equals_the_whole_log(tmp_path, monkeypatch, offline, mag):
+    """Blocks of 333 rows (odd; the truth CSV read beside them): every number of the row is the whole-log one to
+    1e-9 relative, the heading-dependent columns (q_b_n and yaw RMSE, 'unobservable') appear with --mag only."""
+    import optinav.core.files
+    from optinav.attitude.unit import AttitudeOptions
+
+    d = tmp_path / "units"
+    d.mkdir()
+    data = _flight_with_mag(d, 3)
+    monkeypatch.setattr(optinav.core.files, "CHUNK_ROWS", 333)
+    out = tmp_path / "res.csv"
+    argv = ["--quiet", "batch", "attitude", str(d), "--reference", "--workers", "0", "--out", str(out)]
+    assert main(argv + ["--offline"] * offline + ["--mag"] * mag) == 0
+    (row,) = list(csv.DictReader(out.open()))
+    assert row["status"] == "ok" and not (d / "f3.csv").with_suffix(".att.csv").exists()
+    assert sorted(p.name for p in d.iterdir()) == ["f3.csv", "f3.truth.csv", "f3.truth.json"]  # nothing left
+    want = _whole_log_row(data, AttitudeOptions(offline=offline, mag=mag))
+    assert row["unobservable"] == want.pop("unobservable") == ("" if mag else "q_b_n; yaw")
+    assert ("yaw_rmse" in want) == ("q_b_n_rmse" in want) == mag
+    assert set(k for k in row if k.endswith("_rmse") and row[k]) == set(k for k in want if k.endswith("_rmse"))
+    for k, v in want.items():
+        np.testing.assert_allclose(float(row[k]), v, rtol=1e-9, atol=0, err_msg=k)
+    assert int(row["n_samples"]) == 1201 and 0.0 < float(row["inclination_rmse_deg"]) < 20.0
+    # the single-file command on the same log: its attitude (q to 9 digits) gives the row's scores
+    from optinav.attitude.recording import reference_rmse
+
+    att = tmp_path / "att.csv"
+    assert main(["--quiet", "attitude", str(data), "--out", str(att)] + ["--offline"] * offline + ["--mag"] * mag) == 0
+    q = np.loadtxt(att, delimiter=",", skiprows=1)[:, 1:5]
+    q_ref = np.loadtxt(d / "f3.truth.csv", delimiter=",", skiprows=1)[:, 1:]
+    inc, head, n = reference_rmse(q, q_ref, np.ones(len(q), bool))
+    np.testing.assert_allclose(
+        [float(row["inclination_rmse_deg"]), float(row["heading_rmse_deg"])], np.degrees([inc, head]), rtol=1e-6
+    )
+    assert int(row["n_reference"]) == n == 1201
