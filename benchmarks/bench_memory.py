@@ -537,6 +537,31 @@ def run_calibrate_gfimu(sizes=(1_000_000, 3_000_000)) -> list[dict]:
     return out
 
 
+def run_calibrate_rins(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav calibrate rins`` (default options: lm, 10 Hz residual epochs) and of
+    ``optinav apply`` of its result on the ``simulate rins`` CSV of :func:`_rins_argv` at each row count, this tree
+    (both streamed: two passes over the file); ``csv_bytes`` is the session's size. The files are removed after
+    each size."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            data, res = d / f"rins{rows}.csv", d / "result.json"
+            _run(ROOT / "src", _rins_argv(data, rows))
+            n = _rows_of(data)
+            for name, argv in (
+                ("calibrate rins", ["calibrate", "rins", str(data), "--out", str(res)]),
+                ("apply (rins)", ["apply", str(res), str(data), "--out", str(d / "attitude.csv")]),
+            ):
+                peak, wall, _ = _run(ROOT / "src", argv)
+                row = {"method": name, "rows": n, "peak_mib": peak, "wall_s": wall, "csv_bytes": data.stat().st_size}
+                out.append(row)
+                print(f"{name}: {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -599,6 +624,10 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json [ROWS ...]: calibrate gfimu before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--calibrate-rins":
+        # python benchmarks/bench_memory.py --calibrate-rins CAL.json [ROWS ...]: calibrate rins and apply, this tree
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_rins(sizes), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)
