@@ -82,7 +82,7 @@ class Prepared:
     ``t`` [s] (epoch 0 = the navigation start), ``c_s_n`` (T, 3, 3) and the encoder angles [rad] there, their
     epoch numbers ``index``; ``align`` the first pass's :class:`~optinav.rins.process.Alignment`; ``moves`` the
     axis method's per-move vectors; ``frozen`` the frozen-encoder error found (raised on first use) or None;
-    ``perturbed`` ``(i, j, s)`` → ``c_s_n`` at the residual epochs of the gyro re-integrations; ``source`` the
+    ``perturbed`` ``(i, j, s)`` → ``q_s^n`` at the residual epochs of the gyro re-integrations; ``source`` the
     recording's blocks (read again only for re-integrations not made yet)."""
 
     t: np.ndarray
@@ -111,21 +111,23 @@ class Prepared:
         _motion_check(self.alpha, self.beta)
         return observable_combinations(self.alpha, self.beta)
 
-    def perturbed_attitudes(self, keys) -> list:
-        """``c_s_n`` at the residual epochs re-integrated with ``(I − δK)Δθ`` for each ``(i, j, s)`` of ``keys``;
-        those :func:`prepare` did not integrate cost one more pass over the recording, all at once."""
+    def perturbed_attitudes(self, keys):
+        """``c_s_n`` at the residual epochs re-integrated with ``(I − δK)Δθ`` for each ``(i, j, s)`` of ``keys``, one
+        at a time (kept as quaternions); those :func:`prepare` did not integrate cost one more pass over the
+        recording, all at once."""
         missing = [k for k in keys if k not in self.perturbed]
         if missing:
             dec = _Decimation(lambda j, t: np.isin(j, self.index))
             for nb in strapdown_blocks(self.source, self.align, perturb=missing, desc="re-integrate"):
                 dec.feed(nb)
             self.perturbed.update(zip(missing, dec.result()[5]))
-        return [self.perturbed[k] for k in keys]
+        for k in keys:
+            yield dcm_from_quat(self.perturbed[k])
 
 
 class _Decimation:
     """The residual epochs of the strapdown blocks: those ``select(j, t)`` keeps (epoch numbers, s), with
-    ``C_s^n`` of the main integration and of each re-integration."""
+    ``C_s^n`` of the main integration and ``q_s^n`` of each re-integration."""
 
     def __init__(self, select):
         self.select = select
@@ -141,12 +143,13 @@ class _Decimation:
                 dcm_from_quat(nb.q[k]),
                 nb.alpha[k],
                 nb.beta[k],
-                [dcm_from_quat(p[k]) for p in nb.perturbed],
+                [p[k] for p in nb.perturbed],
             )
         )
 
     def result(self):
-        """(index, t, c_s_n, alpha, beta, [c_s_n of each re-integration])."""
+        """(index, t, c_s_n, alpha, beta, [q_s^n of each re-integration]): the re-integrations as quaternions
+        (32 B per epoch, not 72), turned into DCMs one at a time where used."""
         cols = [np.concatenate([p[i] for p in self.parts]) for i in range(5)]
         n_p = len(self.parts[0][5]) if self.parts else 0
         pert = [np.concatenate([p[5][i] for p in self.parts]) for i in range(n_p)]

@@ -1,9 +1,13 @@
 """Processing chain of a rotational-INS recording: checks → alignment → strapdown → ``C_s^n(t)``.
 
 Alignment on the initial rest (both encoders still, at most ``align_s`` s): analytic coarse alignment then the
-Kalman fine alignment of :mod:`optinav.core.alignment`. Strapdown: :func:`optinav.core.strapdown.attitude_update`
+Kalman fine alignment of :mod:`optinav.core.alignment`. Strapdown: :class:`optinav.core.strapdown.AttitudeStream`
 with the Earth rate as the navigation-frame rate (static base: ``ω_in^n = ω_ie^n``, no transport rate),
 "previous"-sample coning correction. ``C_s^n`` is computed once; calibrations only re-evaluate the gimbal chain.
+
+Block by block, in two passes over the recording (:func:`optinav.rins.io.rins_source`: a file read again, or a
+:class:`~optinav.rins.simulate.RinsData` sliced): :func:`survey` (the checks, the initial rest, the alignment),
+then :func:`strapdown_blocks` (the attitude carried across blocks: any block length gives the whole-log numbers).
 """
 
 from __future__ import annotations
