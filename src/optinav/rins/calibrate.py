@@ -551,6 +551,7 @@ def _fit_lm(prep, V, p_start=None):
     r0 = residuals(cs, a, b, p0, pieces=pc)
     J0 = residual_jacobian(cs, a, b, p0, pieces=pc) @ V
     z0 = -np.linalg.lstsq(J0, r0, rcond=None)[0]
+    del J0, r0  # not held through the fit (the residual Jacobian of a long recording is ~100 B per epoch)
     prob = Problem(
         residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
         jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
