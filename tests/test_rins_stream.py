@@ -157,3 +157,20 @@ def test_npz_column_length_mismatch_is_named(session, tmp_path):
     np.savez(path, **cols)
     with pytest.raises(OptinavError, match="column beta has 11995 samples for 12000 time stamps"):
         calibrate(str(path), "lm")
+
+
+def test_residuals_and_jacobian_in_chunks_equal_one_evaluation(session, monkeypatch):
+    """Chunks of 7 epochs (the first epoch, the reference of the attitude change, carried) give the numbers of one
+    chunk over all epochs, for one parameter vector and a batch."""
+    import optinav.rins.model as model
+
+    prep = prepare(session, gyro_misalignment=0, gyro_scale=0)
+    p = np.array([3e-4, -1e-4, 2e-4, 1e-4, 5e-4, -2e-4])
+    P = np.stack([p, -p, 2 * p])
+    args = (prep.c_s_n, prep.alpha, prep.beta)
+    whole = [model.residuals(*args, p), model.residuals(*args, P, True), model.residual_jacobian(*args, p)]
+    monkeypatch.setattr(model, "CHUNK_EPOCHS", 7)
+    parts = [model.residuals(*args, p), model.residuals(*args, P, True), model.residual_jacobian(*args, p)]
+    assert whole[0].shape == (3 * 598,) and whole[1].shape == (3, 3 * 598) and whole[2].shape == (3 * 598, 6)
+    for a, b in zip(parts, whole):
+        np.testing.assert_array_equal(a, b)
