@@ -23,7 +23,7 @@ from optinav.core.rotations import dcm_from_quat, quat_from_dcm
 from optinav.core.strapdown import AttitudeStream
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
-from optinav.rins.io import rins_source
+from optinav.rins.io import RinsFile, rins_source
 
 __all__ = [
     "SensorAttitude",
@@ -174,6 +174,11 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
         )
 
 
+def _blocks(src, desc: str):
+    """The blocks of ``src``, behind a progress bar of the bytes read for a file (the CLI's; none for arrays)."""
+    return progress_blocks(src, desc) if isinstance(src, RinsFile) else iter(src)
+
+
 @dataclasses.dataclass
 class Alignment:
     """The start of the strapdown found by the first pass (:func:`survey`): data row ``m`` (epoch ``t_m`` [s], the
@@ -218,7 +223,7 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     checks = _Checks()
     rest: dict = {"t": [], "dtheta": [], "dv": []}
     k_a, t0, prev = None, None, None  # rows of the rest once known; first epoch; last encoder angles
-    for b in progress_blocks(src, desc):
+    for b in _blocks(src, desc):
         t = checks.feed(b)
         if k_a is not None or not t.size:
             continue
@@ -342,7 +347,7 @@ def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(
     q_p = quat_from_dcm(dcm_from_quat(main.q))  # the start as the attitude's first DCM gives it back
     others = [(i, j, s, AttitudeStream(q_p, coning=coning, omega_in_n=w_ie)) for i, j, s in perturb]
     held = None  # the last row of the previous block: its increment and epoch (the interval into this block)
-    for b in progress_blocks(rins_source(data), desc):
+    for b in _blocks(rins_source(data), desc):
         r1 = b.row0 + len(b.t)
         if r1 <= al.m:
             continue
