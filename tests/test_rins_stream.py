@@ -174,3 +174,21 @@ def test_residuals_and_jacobian_in_chunks_equal_one_evaluation(session, monkeypa
     assert whole[0].shape == (3 * 598,) and whole[1].shape == (3, 3 * 598) and whole[2].shape == (3 * 598, 6)
     for a, b in zip(parts, whole):
         np.testing.assert_array_equal(a, b)
+
+
+def test_cli_refuses_up_front_by_the_streamed_estimate(session, tmp_path, monkeypatch, capsys):
+    """Text is read in blocks (100 B per row assumed), NPZ whole in each pass (300 B per row)."""
+    import optinav.cli.common as common
+    from optinav.cli.main import main
+
+    monkeypatch.setattr(common, "available_memory", lambda: 1e6)
+    need = {}
+    for suffix in (".csv", ".npz"):
+        path = write_rins(tmp_path / f"s{suffix}", session)
+        assert main(["--quiet", "calibrate", "rins", str(path), "--out", str(tmp_path / "r.json")]) == 2
+        err = capsys.readouterr().err
+        assert "would need" in err and "Traceback" not in err
+        need[suffix] = float(err.split("about ")[1].split(" GiB")[0]) * 2**30
+    assert need[".csv"] == pytest.approx(12000 * 100, rel=0.05) and need[".npz"] == pytest.approx(
+        12000 * 300, rel=0.005
+    )
