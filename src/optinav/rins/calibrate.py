@@ -97,11 +97,6 @@ class Prepared:
     source: Any
 
     @functools.cached_property
-    def pieces(self):
-        """Gimbal rotations (Z_t, Y_t) of the residual epochs, computed once."""
-        return chain_pieces(self.alpha, self.beta)
-
-    @functools.cached_property
     def subspace(self):
         """(observability report, V, C, names) of the gimbal motion — they depend on α, β only, so every
         method run on this preparation shares them. The bad-input checks run here, once, on first use.
@@ -411,7 +406,7 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
     cov = np.zeros((6, 6))
     keys = _perturbations(gyro_misalignment, gyro_scale)
     for cs in prep.perturbed_attitudes(keys):
-        dr = residuals(cs, a, b, p, pieces=prep.pieces) - r0
+        dr = residuals(cs, a, b, p) - r0
         dp = V @ (-pinv @ dr)
         cov += np.outer(dp, dp)
     return cov
@@ -537,7 +532,7 @@ class RinsCalibration(Estimate):
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
     """[roll, pitch, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
-    return residuals(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces).reshape(-1, 3)
+    return residuals(prep.c_s_n, prep.alpha, prep.beta, p).reshape(-1, 3)
 
 
 def _rms_deg(e) -> list:
@@ -546,15 +541,15 @@ def _rms_deg(e) -> list:
 
 def _fit_lm(prep, V, p_start=None):
     """LM in the observable subspace p = V z; start from the linearized LS solution (one GN step from 0)."""
-    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
     p0 = np.zeros(6) if p_start is None else np.asarray(p_start, float)
-    r0 = residuals(cs, a, b, p0, pieces=pc)
-    J0 = residual_jacobian(cs, a, b, p0, pieces=pc) @ V
+    r0 = residuals(cs, a, b, p0)
+    J0 = residual_jacobian(cs, a, b, p0) @ V
     z0 = -np.linalg.lstsq(J0, r0, rcond=None)[0]
     del J0, r0  # not held through the fit (the residual Jacobian of a long recording is ~100 B per epoch)
     prob = Problem(
-        residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
-        jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
+        residuals=lambda z: residuals(cs, a, b, p0 + V @ z),
+        jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z) @ V,
         x0=z0,
         x_scale=SCALE,
         names=[f"z{i}" for i in range(V.shape[1])],
@@ -564,12 +559,12 @@ def _fit_lm(prep, V, p_start=None):
 
 
 def _fit_pso(prep, rng, search: float, small_angle: bool, options: dict):
-    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
     # the paper's V ∈ [−1, 1] in units of 5 % of the search half-width (±1 rad steps would overshoot mrad angles)
     opts = {**PSO_PAPER, "v_max": 0.05 * search, **options}
     prob = Problem(
-        residuals=lambda p: residuals(cs, a, b, p, small_angle, pc),
-        residuals_batch=lambda P: residuals(cs, a, b, P, small_angle, pc),
+        residuals=lambda p: residuals(cs, a, b, p, small_angle),
+        residuals_batch=lambda P: residuals(cs, a, b, P, small_angle),
         x0=np.zeros(6),
         search_interval=(np.full(6, -search), np.full(6, search)),
         names=list(PARAM_NAMES),
@@ -773,7 +768,7 @@ def calibrate(
     else:
         conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
-    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces)
+    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p)
     r = e_after.ravel()
     sigma = float(np.sqrt(np.mean(r**2))) if np.any(r) else 1e-12
     tau = _autocorr_time(e_after)

@@ -55,6 +55,14 @@ PARAM_NAMES = ("theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z")
 CHUNK_EPOCHS = 1 << 14
 
 
+def _pieces(alpha, beta, pieces, a: int, b: int):
+    """The gimbal rotations (Z, Y) of epochs a..b−1: of ``pieces`` when given, else computed for those epochs only
+    (a long recording's (T, 3, 3) pair is not held)."""
+    if pieces is not None:
+        return pieces[0][a:b], pieces[1][a:b]
+    return chain_pieces(np.asarray(alpha, float)[a:b], np.asarray(beta, float)[a:b])
+
+
 def _params(p) -> tuple[np.ndarray, bool]:
     p = np.asarray(p, dtype=float)
     single = p.ndim == 1
@@ -213,13 +221,12 @@ def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> 
         The residuals, epoch-major [rad] (ENU Euler convention).
     """
     p2, single = _params(p)
-    Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
     T = len(c_s_n)
     e = np.empty((p2.shape[0], max(T - 1, 0), 3))
-    c0 = vehicle_attitude(c_s_n[:1], alpha[:1], beta[:1], p2, small_angle, (Z[:1], Y[:1]))[:, 0]
+    c0 = vehicle_attitude(c_s_n[:1], alpha[:1], beta[:1], p2, small_angle, _pieces(alpha, beta, pieces, 0, 1))[:, 0]
     for a in range(1, T, CHUNK_EPOCHS):  # the chain's (P, chunk, 3, 3) temporaries, not (P, T, 3, 3)
         b = min(a + CHUNK_EPOCHS, T)
-        C = vehicle_attitude(c_s_n[a:b], alpha[a:b], beta[a:b], p2, small_angle, (Z[a:b], Y[a:b]))
+        C = vehicle_attitude(c_s_n[a:b], alpha[a:b], beta[a:b], p2, small_angle, _pieces(alpha, beta, pieces, a, b))
         _change_euler(C, c0, e[:, a - 1 : b - 1])
     e = e.reshape(p2.shape[0], -1)
     return e[0] if single else e
@@ -257,7 +264,6 @@ def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
         The Jacobian [rad/rad].
     """
     p = np.asarray(p, float)
-    Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
     A = nonorth_dcm(p[0:3])
     B = nonorth_dcm(p[3:6])
     W = _param_axes(p[0:3])  # (3,3) rows
@@ -266,8 +272,9 @@ def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
 
     def chain(a, b):
         """c_t = C_s^n A Z B Y and the rows (ZBY)ᵀw_k, Yᵀu_k (k, 6, 3) of epochs a..b−1."""
-        ZBY = Z[a:b] @ B @ Y[a:b]
-        return (c_s_n[a:b] @ A) @ ZBY, np.concatenate([W @ ZBY, U @ Y[a:b]], axis=1)
+        Z, Y = _pieces(alpha, beta, pieces, a, b)
+        ZBY = Z @ B @ Y
+        return (c_s_n[a:b] @ A) @ ZBY, np.concatenate([W @ ZBY, U @ Y], axis=1)
 
     c0, v0 = (x[0] for x in chain(0, 1))
     T = len(c_s_n)
