@@ -82,7 +82,8 @@ class Prepared:
     ``t`` [s] (epoch 0 = the navigation start), ``c_s_n`` (T, 3, 3) and the encoder angles [rad] there, their
     epoch numbers ``index``; ``align`` the first pass's :class:`~optinav.rins.process.Alignment`; ``moves`` the
     axis method's per-move vectors; ``frozen`` the frozen-encoder error found (raised on first use) or None;
-    ``perturbed`` ``(i, j, s)`` → ``q_s^n`` at the residual epochs of the gyro re-integrations; ``source`` the
+    ``perturbed`` ``(i, j, s)`` → where the ``q_s^n`` of that gyro re-integration at the residual epochs wait
+    (:class:`_Spill`, out of memory until the uncertainty after the fit); ``source`` the
     recording's blocks (read again only for re-integrations not made yet)."""
 
     t: np.ndarray
@@ -108,47 +109,68 @@ class Prepared:
 
     def perturbed_attitudes(self, keys):
         """``c_s_n`` at the residual epochs re-integrated with ``(I − δK)Δθ`` for each ``(i, j, s)`` of ``keys``, one
-        at a time (kept as quaternions); those :func:`prepare` did not integrate cost one more pass over the
-        recording, all at once."""
+        at a time (kept as quaternions in a scratch file); those :func:`prepare` did not integrate cost one more
+        pass over the recording, all at once."""
         missing = [k for k in keys if k not in self.perturbed]
         if missing:
-            dec = _Decimation(lambda j, t: np.isin(j, self.index))
+            dec = _Decimation(lambda j, t: np.isin(j, self.index), len(missing))
             for nb in strapdown_blocks(self.source, self.align, perturb=missing, desc="re-integrate"):
                 dec.feed(nb)
             self.perturbed.update(zip(missing, dec.result()[5]))
         for k in keys:
-            yield dcm_from_quat(self.perturbed[k])
+            spill, i = self.perturbed[k]
+            yield dcm_from_quat(spill.read(i))
+
+
+class _Spill:
+    """Rows of ``n`` quaternions (one per re-integration) appended to an unnamed scratch file block by block and
+    read back one re-integration at a time: they wait for the uncertainty after the fit out of memory (32 B per
+    epoch each; the file goes when it is closed or collected)."""
+
+    ROWS = 1 << 16  #: epochs read back at a time
+
+    def __init__(self, n: int):
+        import tempfile
+
+        self.n, self.rows, self.fh = n, 0, tempfile.TemporaryFile()
+
+    def append(self, qs) -> None:
+        """Append the epochs of one block: ``qs`` (n,) of (k, 4)."""
+        block = np.stack(qs, axis=1) if qs else np.empty((0, self.n, 4))
+        self.fh.seek(0, 2)
+        self.fh.write(np.ascontiguousarray(block, float).tobytes())
+        self.rows += block.shape[0]
+
+    def read(self, i: int) -> np.ndarray:
+        """The quaternions (T, 4) of re-integration ``i``."""
+        out = np.empty((self.rows, 4))
+        self.fh.seek(0)
+        for a in range(0, self.rows, self.ROWS):
+            k = min(self.ROWS, self.rows - a)
+            out[a : a + k] = np.frombuffer(self.fh.read(k * self.n * 32), float).reshape(k, self.n, 4)[:, i]
+        return out
 
 
 class _Decimation:
     """The residual epochs of the strapdown blocks: those ``select(j, t)`` keeps (epoch numbers, s), with
-    ``C_s^n`` of the main integration and ``q_s^n`` of each re-integration."""
+    ``C_s^n`` of the main integration and ``q_s^n`` of each of ``n_perturbed`` re-integrations, these in a
+    scratch file (:class:`_Spill`)."""
 
-    def __init__(self, select):
+    def __init__(self, select, n_perturbed: int):
         self.select = select
         self.parts: list = []
+        self.spill = _Spill(n_perturbed)
 
     def feed(self, nb) -> None:
         j = nb.j0 + np.arange(nb.t.size)
         k = np.flatnonzero(self.select(j, nb.t))
-        self.parts.append(
-            (
-                j[k],
-                nb.t[k],
-                dcm_from_quat(nb.q[k]),
-                nb.alpha[k],
-                nb.beta[k],
-                [p[k] for p in nb.perturbed],
-            )
-        )
+        self.parts.append((j[k], nb.t[k], dcm_from_quat(nb.q[k]), nb.alpha[k], nb.beta[k]))
+        self.spill.append([p[k] for p in nb.perturbed])
 
     def result(self):
-        """(index, t, c_s_n, alpha, beta, [q_s^n of each re-integration]): the re-integrations as quaternions
-        (32 B per epoch, not 72), turned into DCMs one at a time where used."""
+        """(index, t, c_s_n, alpha, beta, [(spill, i) of each re-integration])."""
         cols = [np.concatenate([p[i] for p in self.parts]) for i in range(5)]
-        n_p = len(self.parts[0][5]) if self.parts else 0
-        pert = [np.concatenate([p[5][i] for p in self.parts]) for i in range(n_p)]
-        return (*cols, pert)
+        return (*cols, [(self.spill, i) for i in range(self.spill.n)])
 
 
 def _perturbations(gyro_misalignment: float, gyro_scale: float) -> list:
@@ -200,7 +222,7 @@ def prepare(
         return keep
 
     keys = _perturbations(gyro_misalignment, gyro_scale)
-    dec, frozen, moves = _Decimation(select), _FrozenWatch(al), _AxisMoves(al)
+    dec, frozen, moves = _Decimation(select, len(keys)), _FrozenWatch(al), _AxisMoves(al)
     for nb in strapdown_blocks(src, al, perturb=keys):
         dec.feed(nb)
         frozen.feed(nb)
