@@ -20,7 +20,9 @@ written in blocks too: ``--simulate-static``, ``--simulate-rins``, ``--simulate-
 measure each before and after at 1 M and 3 M rows and after at 10 M rows (results_memory_simulate_static.json,
 results_memory_simulate_rins.json, results_memory_simulate_flight.json, results_memory_simulate_gfimu.json; one
 runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` before and after on its CSV at 1 M, 3 M and 10 M
-rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
+rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--calibrate-rins`` measures
+``calibrate rins`` and ``apply`` of its result (this tree, both streamed) on the ``simulate rins`` CSV at 1 M, 3 M and 10 M
+rows (results_memory_calibrate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
 after (streamed; results_memory_attitude_report.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
