@@ -535,8 +535,20 @@ class AttitudeStream:
         self._prev = np.zeros(4)  # the last increment [rad] and its interval [s]; 0: none yet
 
     def update(self, dtheta, dt) -> np.ndarray:
-        """Integrate the next increments ``dtheta`` (N, 3) [rad] over intervals ``dt`` (N,) [s]; returns ``q_b^n``
-        (N + 1, 4) at the block's epochs, the first the attitude carried in (N = 0: that one alone)."""
+        """Integrate the next increments of the log.
+
+        Parameters
+        ----------
+        dtheta : (N, 3) array
+            Body angular increments [rad], continuing the previous block's.
+        dt : (N,) array
+            Their intervals [s].
+
+        Returns
+        -------
+        (N + 1, 4) ndarray
+            ``q_b^n`` [-] at the block's epochs, the first the attitude carried in (N = 0: that one alone).
+        """
         dth = np.ascontiguousarray(as_float_array(dtheta, "dtheta", last_dims=(3,)).reshape(-1, 3))
         d = np.ascontiguousarray(as_float_array(dt, "dt").reshape(-1))
         n = dth.shape[0]
