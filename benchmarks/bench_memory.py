@@ -20,9 +20,11 @@ written in blocks too: ``--simulate-static``, ``--simulate-rins``, ``--simulate-
 measure each before and after at 1 M and 3 M rows and after at 10 M rows (results_memory_simulate_static.json,
 results_memory_simulate_rins.json, results_memory_simulate_flight.json, results_memory_simulate_gfimu.json; one
 runner, ``_run_simulator``); ``--calibrate-gfimu`` measures ``calibrate gfimu`` before and after on its CSV at 1 M, 3 M and 10 M
-rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in memory) and
-after (streamed; results_memory_attitude_report.json). ``--apply-gfimu`` measures ``apply`` of a gfimu result and
-``--batch-attitude`` a one-unit ``batch attitude`` before and after (results_memory_apply_gfimu.json,
+rows (summarized per case while reading; results_memory_calibrate_gfimu.json). ``--calibrate-rins`` measures
+``calibrate rins`` and ``apply`` of its result (this tree, both streamed) on the ``simulate rins`` CSV at 1 M, 3 M and 10 M
+rows (results_memory_calibrate_rins.json). ``--attitude-report`` measures ``attitude --report`` before (whole log in
+memory) and after (streamed; results_memory_attitude_report.json). ``--apply-gfimu`` measures ``apply`` of a gfimu
+result and ``--batch-attitude`` a one-unit ``batch attitude`` before and after (results_memory_apply_gfimu.json,
 results_memory_batch_attitude.json). Results: results_memory.json, and results_memory.md from
 ``python benchmarks/bench_memory.py results_memory.json``.
 
@@ -539,6 +541,31 @@ def run_calibrate_gfimu(sizes=(1_000_000, 3_000_000)) -> list[dict]:
     return out
 
 
+def run_calibrate_rins(sizes=(1_000_000, 3_000_000, 10_000_000)) -> list[dict]:
+    """Peak RSS and wall time of ``optinav calibrate rins`` (default options: lm, 10 Hz residual epochs) and of
+    ``optinav apply`` of its result on the ``simulate rins`` CSV of :func:`_rins_argv` at each row count, this tree
+    (both streamed: two passes over the file); ``csv_bytes`` is the session's size. The files are removed after
+    each size."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in sizes:
+            d = Path(tmp) / str(rows)
+            d.mkdir()
+            data, res = d / f"rins{rows}.csv", d / "result.json"
+            _run(ROOT / "src", _rins_argv(data, rows))
+            n = _rows_of(data)
+            for name, argv in (
+                ("calibrate rins", ["calibrate", "rins", str(data), "--out", str(res)]),
+                ("apply (rins)", ["apply", str(res), str(data), "--out", str(d / "attitude.csv")]),
+            ):
+                peak, wall, _ = _run(ROOT / "src", argv)
+                row = {"method": name, "rows": n, "peak_mib": peak, "wall_s": wall, "csv_bytes": data.stat().st_size}
+                out.append(row)
+                print(f"{name}: {n} rows, peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+            shutil.rmtree(d)
+    return out
+
+
 #: the commit whose ``attitude --report`` read the whole log (the "before" of :func:`run_attitude_report`)
 REPORT_BEFORE = "0d7719b"
 
@@ -656,6 +683,10 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --calibrate-gfimu CAL.json [ROWS ...]: calibrate gfimu before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_calibrate_gfimu(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--calibrate-rins":
+        # python benchmarks/bench_memory.py --calibrate-rins CAL.json [ROWS ...]: calibrate rins and apply, this tree
+        sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
+        Path(sys.argv[2]).write_text(json.dumps(run_calibrate_rins(sizes), indent=1) + "\n")
     elif sys.argv[1] == "--attitude-report":
         # python benchmarks/bench_memory.py --attitude-report REPORT.json [ROWS ...]: attitude --report, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000)

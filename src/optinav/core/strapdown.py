@@ -55,6 +55,7 @@ __all__ = [
     "CONING_ALGORITHMS",
     "NavSolution",
     "attitude_update",
+    "AttitudeStream",
     "mechanize",
     "output_indices",
     "rotation_increments",
@@ -86,16 +87,19 @@ def _prev_coef(cprev, hp, h):
 
 
 @numba.njit(cache=True)
-def _attitude_single(q0, dth, zeta, zstep, cprev, hs, out, store):
+def _attitude_single(q0, dth, zeta, zstep, cprev, hs, out, store, prev):
     """One update per sample; φ_k = Δθ_k + c_k Δθ_{k−1}×Δθ_k; zstep < 0: no navigation-frame rotation.
 
     c_k = cprev for equal steps; with intervals ``hs`` (N,) it is ``cprev · 2h_k²/(h_{k−1}(h_{k−1}+h_k))``.
+    ``prev`` (4,): the increment before ``dth[0]`` and its interval (> 0; 0: none, the log's start).
     """
     w, x, y, z = q0[0], q0[1], q0[2], q0[3]
-    px = py = pz = 0.0
+    px, py, pz = prev[0], prev[1], prev[2]
     n = dth.shape[0]
     irregular = hs.shape[0] == n
     c = cprev
+    if irregular and n > 0 and prev[3] > 0.0:
+        c = _prev_coef(cprev, prev[3], hs[0])
     if store:
         out[0, 0] = w
         out[0, 1] = x
@@ -494,12 +498,74 @@ def attitude_update(
     hs = np.ascontiguousarray(d) if d is not None and d.ndim == 1 else np.empty(0)
     if n == 1:
         out = np.empty((1 if final_only else n_samp + 1, 4))
-        _attitude_single(q, dth, zeta, zstep, 1.0 / 12.0 if coning == "previous" else 0.0, hs, out, not final_only)
+        _attitude_single(
+            q, dth, zeta, zstep, 1.0 / 12.0 if coning == "previous" else 0.0, hs, out, not final_only, np.zeros(4)
+        )
     else:
         idx = output_indices(n_samp, coning)
         out = np.empty((1 if final_only else idx.size, 4))
         _attitude_multi(q, dth, zeta, zstep, idx, _CS, out, not final_only)
     return out[0] if final_only else out
+
+
+class AttitudeStream:
+    """:func:`attitude_update` ("previous" or "none" coning, per-sample intervals) over the consecutive blocks of one
+    log: the quaternion and the coning state (the last increment and its interval) are carried from block to
+    block, so the blocks give the attitudes of one call over the whole log bit for bit.
+
+    Parameters
+    ----------
+    q0 : (4,) or (3, 3) array
+        ``q_b^n`` [w, x, y, z] [-] (or ``C_b^n``) at the first epoch.
+    coning : str
+        "previous" or "none".
+    omega_in_n : (3,) array or None
+        Constant rate of the navigation frame w.r.t. inertial space, navigation axes [rad/s]; None: inertial.
+    """
+
+    def __init__(self, q0, *, coning: str = "previous", omega_in_n=None):
+        coning, n = _coning(coning)
+        if n != 1:
+            raise OptinavError(
+                f"AttitudeStream integrates sample by sample, not {coning!r}", "use 'previous' or 'none'"
+            )
+        self.q = _as_quat0(q0)
+        self._cprev = 1.0 / 12.0 if coning == "previous" else 0.0
+        self._w = None if omega_in_n is None else as_float_array(omega_in_n, "omega_in_n", last_dims=(3,))
+        self._prev = np.zeros(4)  # the last increment [rad] and its interval [s]; 0: none yet
+
+    def update(self, dtheta, dt) -> np.ndarray:
+        """Integrate the next increments of the log.
+
+        Parameters
+        ----------
+        dtheta : (N, 3) array
+            Body angular increments [rad], continuing the previous block's.
+        dt : (N,) array
+            Their intervals [s].
+
+        Returns
+        -------
+        (N + 1, 4) ndarray
+            ``q_b^n`` [-] at the block's epochs, the first the attitude carried in (N = 0: that one alone).
+        """
+        dth = np.ascontiguousarray(as_float_array(dtheta, "dtheta", last_dims=(3,)).reshape(-1, 3))
+        d = np.ascontiguousarray(as_float_array(dt, "dt").reshape(-1))
+        n = dth.shape[0]
+        if d.shape[0] != n or np.any(d <= 0):
+            raise OptinavError(f"dt needs {n} positive intervals, got shape {d.shape}", "pass one interval per row")
+        out = np.empty((n + 1, 4))
+        if n == 0:
+            out[0] = self.q
+            return out
+        if self._w is None:
+            zeta, zstep = np.zeros((1, 3)), -1
+        else:
+            zeta, zstep = np.ascontiguousarray(self._w * d[..., None]), 1
+        _attitude_single(self.q, dth, zeta, zstep, self._cprev, d, out, True, self._prev)
+        self.q = out[-1].copy()
+        self._prev = np.append(dth[-1], d[-1])
+        return out
 
 
 # --- full mechanization -------------------------------------------------------------------------------

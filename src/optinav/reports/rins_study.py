@@ -131,7 +131,7 @@ def compute(quick: bool, gen) -> dict:
     # PSO Monte Carlo (random initial swarms) on 2 Hz residual epochs
     step("PSO Monte Carlo")
     n_mc = 4 if quick else 50
-    prep_mc = prep if rr == 2.0 else prepare(data, residual_rate=2.0, sa=prep.full)
+    prep_mc = prep if rr == 2.0 else prepare(data, residual_rate=2.0)
     mc = [
         calibrate(method="pso", prep=prep_mc, rng=gen, search=0.02, **sys_kw)
         for _ in progress(range(n_mc), desc="PSO runs")

@@ -52,7 +52,9 @@ from optinav.core.results import (
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
 from optinav.rins.model import PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals, sensor_attitude
-from optinav.rins.process import SensorAttitude, motion_mask, sensor_attitude_from_imu
+from optinav.core.rotations import dcm_from_quat
+from optinav.rins.io import rins_source
+from optinav.rins.process import MOTION_STEP, Alignment, strapdown_blocks, survey
 
 __all__ = ["METHODS", "RinsCalibration", "calibrate", "prepare", "observability", "attitude_errors"]
 
@@ -65,6 +67,10 @@ MAX_ANGLE = 0.05
 #: largest accepted ratio of the fitted attitude-residual RMS to the attitude random walk of the gyro noise over
 #: the recording (a correct fit on simulated navigation-grade data leaves about 10: gyro scale/misalignment)
 MAX_RESIDUAL_RATIO = 100.0
+#: 1σ of the uncalibrated gyro misalignment (rad; the "rlg-nav" preset: 5″) and scale factor (-) propagated into
+#: the reported std by default
+GYRO_MISALIGNMENT = float(np.radians(5 / 3600))
+GYRO_SCALE = 2e-6
 
 
 # --- data preparation -----------------------------------------------------------------------------------
@@ -72,70 +78,168 @@ MAX_RESIDUAL_RATIO = 100.0
 
 @dataclasses.dataclass
 class Prepared:
-    """Decimated epochs used by the residuals (epoch 0 = navigation start) and the full-rate attitude."""
+    """What a calibration uses of a recording, gathered in one pass over it (:func:`prepare`): the residual epochs
+    ``t`` [s] (epoch 0 = the navigation start), ``c_s_n`` (T, 3, 3) and the encoder angles [rad] there, their
+    epoch numbers ``index``; ``align`` the first pass's :class:`~optinav.rins.process.Alignment`; ``moves`` the
+    axis method's per-move vectors; ``frozen`` the frozen-encoder error found (raised on first use) or None;
+    ``perturbed`` ``(i, j, s)`` → where the ``q_s^n`` of that gyro re-integration at the residual epochs wait
+    (:class:`_Spill`, out of memory until the uncertainty after the fit); ``source`` the
+    recording's blocks (read again only for re-integrations not made yet)."""
 
     t: np.ndarray
     c_s_n: np.ndarray
     alpha: np.ndarray
     beta: np.ndarray
-    full: SensorAttitude
-    data: Any
-
-    @functools.cached_property
-    def pieces(self):
-        """Gimbal rotations (Z_t, Y_t) of the residual epochs, computed once."""
-        return chain_pieces(self.alpha, self.beta)
+    index: np.ndarray
+    align: Alignment
+    moves: dict
+    frozen: OptinavError | None
+    perturbed: dict
+    source: Any
 
     @functools.cached_property
     def subspace(self):
         """(observability report, V, C, names) of the gimbal motion — they depend on α, β only, so every
         method run on this preparation shares them. The bad-input checks run here, once, on first use.
         V: orthonormal basis (6, k) of the observable subspace; C, names: its RREF rows and their names."""
-        _frozen_encoder_check(self.data, self.full)
+        if self.frozen is not None:
+            raise self.frozen
         _motion_check(self.alpha, self.beta)
         return observable_combinations(self.alpha, self.beta)
 
-    @functools.cached_property
-    def _gyro_perturbed(self) -> dict:
-        """C_s^n at the residual epochs re-integrated with (I − δK)Δθ, per perturbed element and size."""
-        return {}
+    def perturbed_attitudes(self, keys):
+        """``c_s_n`` at the residual epochs re-integrated with ``(I − δK)Δθ`` for each ``(i, j, s)`` of ``keys``, one
+        at a time (kept as quaternions in a scratch file); those :func:`prepare` did not integrate cost one more
+        pass over the recording, all at once."""
+        missing = [k for k in keys if k not in self.perturbed]
+        if missing:
+            dec = _Decimation(lambda j, t: np.isin(j, self.index), len(missing))
+            for nb in strapdown_blocks(self.source, self.align, perturb=missing, desc="re-integrate"):
+                dec.feed(nb)
+            self.perturbed.update(zip(missing, dec.result()[5]))
+        for k in keys:
+            spill, i = self.perturbed[k]
+            yield dcm_from_quat(spill.read(i))
+
+
+class _Spill:
+    """Rows of ``n`` quaternions (one per re-integration) appended to an unnamed scratch file block by block and
+    read back one re-integration at a time: they wait for the uncertainty after the fit out of memory (32 B per
+    epoch each; the file goes when it is closed or collected)."""
+
+    ROWS = 1 << 16  #: epochs read back at a time
+
+    def __init__(self, n: int):
+        import tempfile
+
+        self.n, self.rows, self.fh = n, 0, tempfile.TemporaryFile()
+
+    def append(self, qs) -> None:
+        """Append the epochs of one block: ``qs`` (n,) of (k, 4)."""
+        block = np.stack(qs, axis=1) if qs else np.empty((0, self.n, 4))
+        self.fh.seek(0, 2)
+        self.fh.write(np.ascontiguousarray(block, float).tobytes())
+        self.rows += block.shape[0]
+
+    def read(self, i: int) -> np.ndarray:
+        """The quaternions (T, 4) of re-integration ``i``."""
+        out = np.empty((self.rows, 4))
+        self.fh.seek(0)
+        for a in range(0, self.rows, self.ROWS):
+            k = min(self.ROWS, self.rows - a)
+            out[a : a + k] = np.frombuffer(self.fh.read(k * self.n * 32), float).reshape(k, self.n, 4)[:, i]
+        return out
+
+
+class _Decimation:
+    """The residual epochs of the strapdown blocks: those ``select(j, t)`` keeps (epoch numbers, s), with
+    ``C_s^n`` of the main integration and ``q_s^n`` of each of ``n_perturbed`` re-integrations, these in a
+    scratch file (:class:`_Spill`)."""
+
+    def __init__(self, select, n_perturbed: int):
+        self.select = select
+        self.parts: list = []
+        self.spill = _Spill(n_perturbed)
+
+    def feed(self, nb) -> None:
+        j = nb.j0 + np.arange(nb.t.size)
+        k = np.flatnonzero(self.select(j, nb.t))
+        self.parts.append((j[k], nb.t[k], dcm_from_quat(nb.q[k]), nb.alpha[k], nb.beta[k]))
+        self.spill.append([p[k] for p in nb.perturbed])
+
+    def result(self):
+        """(index, t, c_s_n, alpha, beta, [(spill, i) of each re-integration])."""
+        cols = [np.concatenate([p[i] for p in self.parts]) for i in range(5)]
+        return (*cols, [(self.spill, i) for i in range(self.spill.n)])
+
+
+def _perturbations(gyro_misalignment: float, gyro_scale: float) -> list:
+    """The (i, j, 1σ) of the gyro triad errors :func:`_systematic_cov` propagates (those of zero size left out)."""
+    return [(i, j, s) for i in range(3) for j in range(3) if (s := gyro_scale if i == j else gyro_misalignment) > 0]
 
 
 def prepare(
-    data, *, residual_rate: float = 10.0, align_s: float | None = None, window=None, sa: SensorAttitude | None = None
+    data,
+    *,
+    residual_rate: float = 10.0,
+    align_s: float | None = None,
+    window=None,
+    gyro_misalignment: float = GYRO_MISALIGNMENT,
+    gyro_scale: float = GYRO_SCALE,
 ) -> Prepared:
-    """Align, integrate ``C_s^n`` once, and pick the residual epochs (epoch 0 kept).
+    """Check, align and integrate ``C_s^n`` over the recording block by block (two passes: checks and alignment,
+    then the strapdown with the gyro re-integrations beside it), keeping the residual epochs (epoch 0 kept) and
+    what the checks and the axis method need — memory does not grow with the full-rate log.
 
     Parameters
     ----------
-    data : RinsData
-        The recording.
+    data : RinsData, str or Path, or block source
+        The recording: in memory, a file (read block by block, twice), or :func:`optinav.rins.io.rins_source`.
     residual_rate : float
         Rate of the residual epochs [Hz].
     align_s : float or None
         Longest alignment window [s]; None: the whole initial rest.
     window : (2,) tuple or None
         ``(t0, t1)`` [s] restricting the calibration epochs.
-    sa : SensorAttitude or None
-        A full-rate attitude already integrated (reused).
+    gyro_misalignment, gyro_scale : float
+        1σ of the gyro triad errors integrated beside the strapdown for the systematic std [rad, -] (as
+        :func:`calibrate` takes them; other sizes cost one more pass when asked for).
 
     Returns
     -------
     Prepared
-        The residual epochs ``t`` [s], ``c_s_n`` [-], encoder angles [rad] and the full-rate attitude.
+        The residual epochs ``t`` [s], ``c_s_n`` [-], encoder angles [rad] and what the checks found.
     """
-    if sa is None:
-        sa = sensor_attitude_from_imu(data, align_s=align_s)
-    t = sa.t
-    step = float(np.median(np.diff(t)))
-    stride = max(1, int(round(1.0 / (residual_rate * step)))) if residual_rate else 1
-    keep = np.zeros(t.size, bool)
-    keep[::stride] = True
-    if window is not None:
-        keep &= (t >= window[0]) & (t <= window[1])
-        keep[0] = True
-    idx = np.flatnonzero(keep)
-    return Prepared(t=t[idx], c_s_n=sa.c_s_n[idx], alpha=sa.alpha[idx], beta=sa.beta[idx], full=sa, data=data)
+    src = rins_source(data)
+    al = survey(src, align_s=align_s)
+    stride = max(1, int(round(1.0 / (residual_rate * al.step_nav)))) if residual_rate else 1
+
+    def select(j, t):
+        keep = j % stride == 0
+        if window is not None:
+            keep &= (t >= window[0]) & (t <= window[1])
+            keep |= j == 0
+        return keep
+
+    keys = _perturbations(gyro_misalignment, gyro_scale)
+    dec, frozen, moves = _Decimation(select, len(keys)), _FrozenWatch(al), _AxisMoves(al)
+    for nb in strapdown_blocks(src, al, perturb=keys):
+        dec.feed(nb)
+        frozen.feed(nb)
+        moves.feed(nb)
+    idx, t, cs, a, b, pert = dec.result()
+    return Prepared(
+        t=t,
+        c_s_n=cs,
+        alpha=a,
+        beta=b,
+        index=idx,
+        align=al,
+        moves=moves.finish(),
+        frozen=frozen.finish(),
+        perturbed=dict(zip(keys, pert)),
+        source=src,
+    )
 
 
 def _motion_check(alpha, beta) -> None:
@@ -160,32 +264,121 @@ def _motion_check(alpha, beta) -> None:
         )
 
 
-def _increments(data, sa: SensorAttitude) -> np.ndarray:
-    """The gyro increments of the strapdown epochs: row k integrates over (sa.t[k], sa.t[k+1]] (a view where the
-    epochs are consecutive rows, as :func:`sensor_attitude_from_imu` gives them: no copy of a long log)."""
-    idx, dth = sa.index, np.asarray(data.dtheta, float)
-    if idx.size and idx[-1] - idx[0] == idx.size - 1:
-        return dth[idx[0] : idx[-1]]
-    return dth[idx[:-1]]
+class _FrozenWatch:
+    """Gyros turning by large angles while both encoders report rest → a frozen encoder channel, block by
+    block: an epoch counts when the interval into it turns faster than 1 °/s and no encoder moves within ±2 s
+    (the encoders see a move a little later/earlier than the gyros: the slow start of a rate profile), so the
+    epochs whose window reaches past a block wait for the next one."""
 
+    def __init__(self, al: Alignment):
+        self.w = max(1, int(round(2.0 / al.step_nav)))
+        self.step = al.step_nav
+        self.prev = None  # the last encoder angles
+        self.last_mv = -(1 << 62)  # epoch number of the last moving epoch
+        self.pending = (np.empty(0, np.int64), np.empty(0), np.empty(0))  # epochs, rates [rad/s], t [s]
+        self.count, self.first = 0, None
 
-def _frozen_encoder_check(data, sa: SensorAttitude) -> None:
-    """Gyros turning by large angles while both encoders report rest → a frozen encoder channel."""
-    dth = _increments(data, sa)
-    rate = np.linalg.norm(dth, axis=1) / np.diff(sa.t)
-    moving = (motion_mask(sa.alpha) | motion_mask(sa.beta)).astype(float)
-    # the encoders see a move a little later/earlier than the gyros (slow start of a rate profile): widen it
-    w = max(1, int(round(2.0 / np.median(np.diff(sa.t)))))
-    still = (np.convolve(moving, np.ones(2 * w + 1), mode="same") == 0)[1:]
-    turning = rate > np.radians(1.0)  # far above Earth rate
-    bad = still & turning
-    if bad.sum() * np.median(np.diff(sa.t)) > 2.0:
-        k = int(np.flatnonzero(bad)[0])
-        raise OptinavError(
-            f"the gyros turn at {np.degrees(rate[k]):.3g} °/s at t = {sa.t[k + 1]:.6g} s while "
+    def _confirm(self, j, rate, t) -> None:
+        self.count += j.size
+        if j.size and self.first is None:
+            self.first = (float(rate[0]), float(t[0]))
+
+    def feed(self, nb) -> None:
+        j = nb.j0 + np.arange(nb.t.size)
+        if self.prev is None:
+            self.prev = (nb.alpha[0], nb.beta[0])
+        mv = (np.abs(np.diff(nb.alpha, prepend=self.prev[0])) > MOTION_STEP) | (
+            np.abs(np.diff(nb.beta, prepend=self.prev[1])) > MOTION_STEP
+        )
+        self.prev = (nb.alpha[-1], nb.beta[-1])
+        rate = np.zeros(j.size)
+        rate[j.size - nb.dt.size :] = np.linalg.norm(nb.dtheta, axis=1) / nb.dt
+        turning = rate > np.radians(1.0)  # far above Earth rate
+        turning[: j.size - nb.dt.size] = False  # the navigation start: no interval into it
+        # the epochs waiting for this block: dropped when an encoder moves within w after them
+        pj, pr, pt = self.pending
+        if mv.any():
+            ok = pj + self.w < j[mv][0]
+            pj, pr, pt = pj[ok], pr[ok], pt[ok]
+        done = pj + self.w <= j[-1]
+        self._confirm(pj[done], pr[done], pt[done])
+        pj, pr, pt = pj[~done], pr[~done], pt[~done]
+        last = np.maximum.accumulate(np.where(mv, j, self.last_mv))
+        self.last_mv = int(last[-1])
+        big = np.iinfo(np.int64).max
+        nxt = np.minimum.accumulate(np.where(mv, j, big)[::-1])[::-1]
+        cand = turning & (j - last > self.w)
+        bad = cand & (nxt != big) & (nxt - j > self.w) | cand & (nxt == big) & (j + self.w <= j[-1])
+        self._confirm(j[bad], rate[bad], nb.t[bad])
+        wait = cand & (nxt == big) & (j + self.w > j[-1])
+        self.pending = (
+            np.concatenate([pj, j[wait]]),
+            np.concatenate([pr, rate[wait]]),
+            np.concatenate([pt, nb.t[wait]]),
+        )
+
+    def finish(self) -> OptinavError | None:
+        """The error when more than 2 s of such epochs were seen (the window at the log's end is cut), else None."""
+        self._confirm(*self.pending)
+        if self.count * self.step <= 2.0:
+            return None
+        rate, t = self.first
+        return OptinavError(
+            f"the gyros turn at {np.degrees(rate):.3g} °/s at t = {t:.6g} s while "
             "both encoders report rest: an encoder channel is frozen or missing",
             "check the alpha/beta columns (and that they belong to this IMU recording)",
         )
+
+
+class _AxisMoves:
+    """The axis vector of every gimbal move from the gyro increments, block by block: (inner [(u, Δα, β)],
+    outer [(u, Δβ, α)]). The increments less the Earth rate (in the IMU frame along the strapdown attitude at
+    each interval's start) are kept from 5 rows before a move until 5 rows after it (a move may span blocks)."""
+
+    MARGIN = 5  #: rows of margin either side of a move: it starts between rows
+
+    def __init__(self, al: Alignment):
+        self.w_ie = _earth.earth_rate(al.lat, "enu")
+        self.base = 0  # epoch number of the first kept epoch (and interval)
+        self.alpha, self.beta, self.rel = np.empty(0), np.empty(0), np.empty((0, 3))
+        self.done = {"Z": 0, "Y": 0}  # the end of the last move handled, per axis
+        self.out: dict = {"Z": [], "Y": []}
+
+    def feed(self, nb) -> None:
+        earth_s = np.einsum("kji,j->ki", dcm_from_quat(nb.q_start), self.w_ie) * nb.dt[:, None]
+        self.alpha = np.concatenate([self.alpha, nb.alpha])
+        self.beta = np.concatenate([self.beta, nb.beta])
+        self.rel = np.concatenate([self.rel, nb.dtheta - earth_s])
+        self._scan(final=False)
+
+    def _scan(self, final: bool) -> None:
+        n, base, mg = self.rel.shape[0], self.base, self.MARGIN  # intervals kept; epochs: n + 1
+        end = base + n
+        keep = end - mg - 1  # a move not yet seen starts at `end` at the earliest
+        for axis, ang, other in (("Z", self.alpha, self.beta), ("Y", self.beta, self.alpha)):
+            mv = np.abs(np.diff(ang)) > MOTION_STEP
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], mv.astype(int), [0]]))) + base
+            for s, e in zip(edges[::2], edges[1::2]):
+                if e <= self.done[axis]:
+                    continue  # the tail of a move handled before
+                if not final and e + mg >= end:  # the move may go on, or its margin is not all here
+                    keep = min(keep, s - mg)
+                    break
+                s0, e1 = max(s - mg, 0) - base, min(e + mg, end) - base
+                self.done[axis] = e
+                d_ang = ang[e1] - ang[s0]
+                if abs(d_ang) < np.radians(20) or np.ptp(other[s0 : e1 + 1]) > np.radians(0.1):
+                    continue
+                u = self.rel[s0:e1].sum(0) / d_ang
+                self.out[axis].append((u, d_ang, float(np.mean(other[s0 : e1 + 1]))))
+        cut = max(keep, 0) - base
+        if cut > 0:
+            self.alpha, self.beta, self.rel = self.alpha[cut:], self.beta[cut:], self.rel[cut:]
+            self.base += cut
+
+    def finish(self) -> dict:
+        self._scan(final=True)
+        return self.out
 
 
 # --- observability ------------------------------------------------------------------------------------------
@@ -226,38 +419,18 @@ def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro
     A gyro triad error δK turns the measured rotations like a tilted gimbal axis, so it maps into the angles
     one-to-one; propagated by re-integrating ``C_s^n`` with ``(I − δK)Δθ`` for each of the 9 elements and
     one linearized step ``Δp = −(J V)⁺ Δr``. ``JV``, ``r0``: the residual Jacobian times V and the residuals
-    at ``p``. The re-integrated attitudes depend on the preparation only and are kept on it.
+    at ``p``. The re-integrated attitudes are the preparation's (:meth:`Prepared.perturbed_attitudes`).
     """
-    from optinav.core.rotations import dcm_from_quat, quat_from_dcm
-    from optinav.core.strapdown import attitude_update
-
-    sa, data = prep.full, prep.data
     if gyro_misalignment <= 0 and gyro_scale <= 0:
         return np.zeros((6, 6))
     a, b = prep.alpha, prep.beta
     pinv = np.linalg.pinv(JV)
     cov = np.zeros((6, 6))
-    for i in range(3):
-        for j in range(3):
-            sig = gyro_scale if i == j else gyro_misalignment
-            if sig <= 0:
-                continue
-            cs = prep._gyro_perturbed.get((i, j, sig))
-            if cs is None:
-                dth = _increments(data, sa)
-                perturbed = dth.copy()  # (I − δK)Δθ with δK = sig at (i, j) alone
-                perturbed[:, i] -= sig * dth[:, j]
-                q = attitude_update(
-                    quat_from_dcm(sa.c_s_n[0]),
-                    perturbed,
-                    coning="previous",
-                    omega_in_n=_earth.earth_rate(data.lat, "enu"),
-                    dt=np.diff(sa.t),
-                )
-                cs = prep._gyro_perturbed[(i, j, sig)] = dcm_from_quat(q[np.searchsorted(sa.t, prep.t)])
-            dr = residuals(cs, a, b, p, pieces=prep.pieces) - r0
-            dp = V @ (-pinv @ dr)
-            cov += np.outer(dp, dp)
+    keys = _perturbations(gyro_misalignment, gyro_scale)
+    for cs in prep.perturbed_attitudes(keys):
+        dr = residuals(cs, a, b, p) - r0
+        dp = V @ (-pinv @ dr)
+        cov += np.outer(dp, dp)
     return cov
 
 
@@ -381,7 +554,7 @@ class RinsCalibration(Estimate):
 
 def attitude_errors(prep: Prepared, p) -> np.ndarray:
     """[roll, pitch, yaw] (rad) of the extracted attitude change at the residual epochs t ≥ 1, (T−1, 3)."""
-    return residuals(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces).reshape(-1, 3)
+    return residuals(prep.c_s_n, prep.alpha, prep.beta, p).reshape(-1, 3)
 
 
 def _rms_deg(e) -> list:
@@ -390,14 +563,15 @@ def _rms_deg(e) -> list:
 
 def _fit_lm(prep, V, p_start=None):
     """LM in the observable subspace p = V z; start from the linearized LS solution (one GN step from 0)."""
-    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
     p0 = np.zeros(6) if p_start is None else np.asarray(p_start, float)
-    r0 = residuals(cs, a, b, p0, pieces=pc)
-    J0 = residual_jacobian(cs, a, b, p0, pieces=pc) @ V
+    r0 = residuals(cs, a, b, p0)
+    J0 = residual_jacobian(cs, a, b, p0) @ V
     z0 = -np.linalg.lstsq(J0, r0, rcond=None)[0]
+    del J0, r0  # not held through the fit (the residual Jacobian of a long recording is ~100 B per epoch)
     prob = Problem(
-        residuals=lambda z: residuals(cs, a, b, p0 + V @ z, pieces=pc),
-        jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z, pieces=pc) @ V,
+        residuals=lambda z: residuals(cs, a, b, p0 + V @ z),
+        jacobian=lambda z: residual_jacobian(cs, a, b, p0 + V @ z) @ V,
         x0=z0,
         x_scale=SCALE,
         names=[f"z{i}" for i in range(V.shape[1])],
@@ -407,12 +581,12 @@ def _fit_lm(prep, V, p_start=None):
 
 
 def _fit_pso(prep, rng, search: float, small_angle: bool, options: dict):
-    cs, a, b, pc = prep.c_s_n, prep.alpha, prep.beta, prep.pieces
+    cs, a, b = prep.c_s_n, prep.alpha, prep.beta
     # the paper's V ∈ [−1, 1] in units of 5 % of the search half-width (±1 rad steps would overshoot mrad angles)
     opts = {**PSO_PAPER, "v_max": 0.05 * search, **options}
     prob = Problem(
-        residuals=lambda p: residuals(cs, a, b, p, small_angle, pc),
-        residuals_batch=lambda P: residuals(cs, a, b, P, small_angle, pc),
+        residuals=lambda p: residuals(cs, a, b, p, small_angle),
+        residuals_batch=lambda P: residuals(cs, a, b, P, small_angle),
         x0=np.zeros(6),
         search_interval=(np.full(6, -search), np.full(6, search)),
         names=list(PARAM_NAMES),
@@ -430,26 +604,9 @@ def axis_vectors(p, alpha_out) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _measure_axes(prep: Prepared):
-    """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα)], outer [(u, Δβ, α)])."""
-    data, sa = prep.data, prep.full
-    dth = _increments(data, sa)
-    dt = np.diff(sa.t)
-    w_ie = _earth.earth_rate(data.lat, "enu")
-    # Earth rate in the IMU frame along the strapdown attitude (start of each interval)
-    earth_s = np.einsum("kji,j->ki", sa.c_s_n[:-1], w_ie) * dt[:, None]
-    rel = dth - earth_s
-    out = {"Z": [], "Y": []}
-    for axis, ang, other in (("Z", sa.alpha, sa.beta), ("Y", sa.beta, sa.alpha)):
-        mv = motion_mask(ang)[1:]
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], mv.astype(int), [0]])))
-        for s, e in zip(edges[::2], edges[1::2]):
-            s0, e1 = max(s - 5, 0), min(e + 5, mv.size)  # a few samples of margin: the move starts between rows
-            d_ang = ang[e1] - ang[s0]
-            if abs(d_ang) < np.radians(20) or np.ptp(other[s0 : e1 + 1]) > np.radians(0.1):
-                continue
-            u = rel[s0:e1].sum(0) / d_ang
-            out[axis].append((u, d_ang, float(np.mean(other[s0 : e1 + 1]))))
-    return out
+    """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα, β)], outer [(u, Δβ, α)]),
+    gathered by :func:`prepare` (:class:`_AxisMoves`)."""
+    return prep.moves
 
 
 def _fit_axis(prep: Prepared, V):
@@ -489,10 +646,7 @@ def _fit_axis(prep: Prepared, V):
 def noise_walk(prep: Prepared) -> float:
     """Attitude random walk (rad) of the gyro white noise over the calibrated span: the per-sample noise of the
     increments at rest (first differences, so the Earth rate drops out) times √(samples)."""
-    k = int(prep.full.index[0])  # rows before the strapdown start: the alignment rest
-    dth = np.asarray(prep.data.dtheta, float)[:k]
-    sd = float(np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2)) if k > 2 else 0.0
-    return sd * np.sqrt(prep.full.t.size)
+    return prep.align.rest_sd * np.sqrt(prep.align.n - prep.align.m)
 
 
 def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
@@ -542,15 +696,15 @@ def calibrate(
     small_angle: bool = False,
     pso_options: dict | None = None,
     source: str = "",
-    gyro_misalignment: float = np.radians(5 / 3600),
-    gyro_scale: float = 2e-6,
+    gyro_misalignment: float = GYRO_MISALIGNMENT,
+    gyro_scale: float = GYRO_SCALE,
 ) -> RinsCalibration:
     """Calibrate the six non-orthogonality angles from a :class:`~optinav.rins.simulate.RinsData` recording.
 
     Parameters
     ----------
-    data : RinsData or None
-        The recording (None when ``prep`` is given).
+    data : RinsData, str or Path, or None
+        The recording, in memory or a file (None when ``prep`` is given).
     method : str
         ``"lm"`` (default), ``"pso"``, ``"axis"`` or ``"none"`` (module docstring).
     prep : Prepared or None
@@ -588,8 +742,14 @@ def calibrate(
     if prep is None:
         if data is None:
             raise OptinavError("calibrate needs data or prep", "pass a RinsData recording")
-        prep = prepare(data, residual_rate=residual_rate, align_s=align_s, window=window)
-    data = prep.data
+        prep = prepare(
+            data,
+            residual_rate=residual_rate,
+            align_s=align_s,
+            window=window,
+            gyro_misalignment=gyro_misalignment,
+            gyro_scale=gyro_scale,
+        )
     rep0, V, C, cnames = prep.subspace  # checks the input on first use
     t_fit = time.perf_counter()
     history: list = []
@@ -630,7 +790,7 @@ def calibrate(
     else:
         conv = convergence(None, message="closed form" if method == "axis" else "not estimated")
     # uncertainty on the observable subspace (white-noise CRLB inflated by the residual correlation time)
-    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p, pieces=prep.pieces)
+    J = residual_jacobian(prep.c_s_n, prep.alpha, prep.beta, p)
     r = e_after.ravel()
     sigma = float(np.sqrt(np.mean(r**2))) if np.any(r) else 1e-12
     tau = _autocorr_time(e_after)

@@ -12,6 +12,7 @@ or a CSV comment line ``# optinav rins: lat_deg=28.2 height_m=50``.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import re
 from pathlib import Path
 
@@ -25,7 +26,17 @@ from optinav.rins.simulate import RinsData
 COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
 _FORMATS = {".npz": "npz", ".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5"}
 
-__all__ = ["COLUMNS", "file_format", "write_rins", "rins_csv_writer", "read_rins"]
+__all__ = [
+    "COLUMNS",
+    "file_format",
+    "write_rins",
+    "rins_csv_writer",
+    "read_rins",
+    "RinsBlock",
+    "ArraySource",
+    "RinsFile",
+    "rins_source",
+]
 
 
 def file_format(path, *, writing: bool = False) -> str:
@@ -166,8 +177,148 @@ def row_estimate(path) -> int:
         return 0
 
 
+#: rows per block of a recording processed block by block (the memory of a block, not of the log)
+BLOCK_ROWS = 1 << 16
+
+
+@dataclasses.dataclass
+class RinsBlock:
+    """Consecutive rows ``row0 ..`` of a recording: ``t`` (s), ``dtheta`` (k, 3) rad, ``dv`` (k, 3) m/s, encoder
+    angles ``alpha``, ``beta`` (rad), as the fields of :class:`~optinav.rins.simulate.RinsData`."""
+
+    row0: int
+    t: np.ndarray
+    dtheta: np.ndarray
+    dv: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+
+
+class ArraySource:
+    """An in-memory :class:`~optinav.rins.simulate.RinsData` as blocks of ``block_rows`` rows (views, no copies);
+    iterable again and again. ``lat`` (rad), ``height_m`` (m); ``size``/``position``: rows, for progress bars."""
+
+    def __init__(self, data: RinsData, block_rows: int = BLOCK_ROWS):
+        t = np.asarray(data.t)
+        if t.ndim != 1:
+            raise OptinavError(f"time must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
+        n = t.size
+        for name, a in (("alpha (inner encoder)", data.alpha), ("beta (outer encoder)", data.beta)):
+            if np.shape(a) != (n,):
+                raise OptinavError(
+                    f"{name} has {np.size(a)} samples for {n} IMU samples (sample-rate mismatch)",
+                    "resample the encoder angles to the IMU epochs (e.g. numpy.interp) first",
+                )
+        if np.shape(data.dtheta) != (n, 3) or np.shape(data.dv) != (n, 3):
+            raise OptinavError(
+                f"dtheta {np.shape(data.dtheta)} / dv {np.shape(data.dv)} do not match {n} time stamps",
+                "give one increment row per time stamp",
+            )
+        self.data, self.block_rows = data, max(1, int(block_rows))
+        self.lat, self.height_m = float(data.lat), float(data.height_m)
+        self.size, self.position = n, 0
+
+    def __iter__(self):
+        d, n = self.data, self.size
+        for r0 in range(0, n, self.block_rows):
+            r1 = min(r0 + self.block_rows, n)
+            self.position = r1
+            yield RinsBlock(r0, d.t[r0:r1], d.dtheta[r0:r1], d.dv[r0:r1], d.alpha[r0:r1], d.beta[r0:r1])
+
+
+class RinsFile:
+    """A rotational-INS file (:data:`COLUMNS`) read block by block each time it is iterated: text in blocks of
+    ``block_rows`` lines (:func:`optinav.io.iter_table`), NPZ and HDF5 read whole by their libraries and then
+    cut into blocks. ``lat`` (rad) and ``height_m`` (m): the overrides, else the file's (known after the first
+    block). Files with a ``time`` column (interval ends, module docstring) give one row fewer. ``size``,
+    ``position``: bytes, for :func:`optinav.core.progress.progress_blocks`."""
+
+    def __init__(self, path, *, lat: float | None = None, height_m: float | None = None, block_rows: int = BLOCK_ROWS):
+        self.path = Path(path)
+        self.kind = file_format(self.path)
+        self.block_rows = max(1, int(block_rows))
+        self._lat, self._height = lat, height_m
+        self.lat, self.height_m = lat, height_m
+        self.size, self.position = self.path.stat().st_size, 0
+
+    def _site(self, meta) -> None:
+        path, site = self.path, {}
+        if self.kind == "csv":
+            site = _site_from_csv(path)
+        elif self.kind == "npz":  # scalars (0-d arrays) are the table's metadata, not columns
+            site = {k: float(meta[k]) for k in ("lat_deg", "height_m") if k in meta}
+        else:
+            import h5py
+
+            with h5py.File(path, "r") as fh:
+                site = {k: float(fh.attrs[k]) for k in ("lat_deg", "height_m") if k in fh.attrs}
+        lat = self._lat if self._lat is not None else site.get("lat_deg")
+        if lat is None:
+            raise OptinavError(f"{path.name} does not state the latitude", "pass --lat DEG (the alignment needs it)")
+        self.lat = float(lat if self._lat is not None else np.radians(lat))
+        self.height_m = float(self._height if self._height is not None else site.get("height_m", 0.0))
+
+    def __iter__(self):
+        path = self.path
+        chunks = iter_table(path, chunk_rows=self.block_rows)
+        ends, names, held, rows = False, COLUMNS, None, 0
+        for tab in chunks:
+            if held is None and rows == 0:
+                # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
+                ends = tab.find("t") is None and tab.find("time") is not None
+                names = ("time",) + COLUMNS[1:] if ends else COLUMNS
+                missing = [c for c in names if tab.find(c) is None]
+                if missing:
+                    found = ", ".join(list(tab.data)[:12])
+                    raise OptinavError(
+                        f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
+                        f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
+                    )
+                self._site(tab.meta)
+            col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
+            n = col["t"].size
+            for c, name in zip(COLUMNS, names):
+                if col[c].size != n:
+                    raise OptinavError(
+                        f"column {name} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
+                        "resample the encoder angles to the IMU epochs first",
+                    )
+            if ends:  # row k: the encoders at end epoch t[k], the increments of file row k + 1 (held across blocks)
+                if held is not None:
+                    col = {
+                        c: np.concatenate([held[c], v]) if c in ("t", "alpha", "beta") else v for c, v in col.items()
+                    }
+                else:
+                    col = {c: v if c in ("t", "alpha", "beta") else v[1:] for c, v in col.items()}
+                held = {c: col[c][-1:] for c in ("t", "alpha", "beta")}
+                col = {c: v[:-1] if c in ("t", "alpha", "beta") else v for c, v in col.items()}
+            dth = np.column_stack([col.pop(f"dtheta_{a}") for a in "xyz"])
+            dv = np.column_stack([col.pop(f"dv_{a}") for a in "xyz"])
+            k = col["t"].size
+            for r0 in range(0, k, self.block_rows):  # whole-array formats come as one table
+                r1 = min(r0 + self.block_rows, k)
+                self.position = chunks.position
+                yield RinsBlock(
+                    rows + r0, col["t"][r0:r1], dth[r0:r1], dv[r0:r1], col["alpha"][r0:r1], col["beta"][r0:r1]
+                )
+            rows += k
+        if rows == 0:
+            raise OptinavError(f"{path.name} holds no data rows", f"write the columns {', '.join(COLUMNS)}")
+
+
+def rins_source(data, *, lat: float | None = None, height_m: float | None = None):
+    """Blocks of a recording: ``data`` as it is when it is a source already (:class:`ArraySource`,
+    :class:`RinsFile`), a :class:`~optinav.rins.simulate.RinsData` as an :class:`ArraySource`, else a path read
+    by :class:`RinsFile` (``lat`` [rad], ``height_m`` [m] overriding the file's)."""
+    if isinstance(data, (ArraySource, RinsFile)):
+        return data
+    if isinstance(data, RinsData):
+        return ArraySource(data)
+    return RinsFile(data, lat=lat, height_m=height_m)
+
+
 def read_rins(path, *, lat: float | None = None, height_m: float | None = None) -> RinsData:
-    """Read a rotational-INS file (columns in :data:`COLUMNS`).
+    """Read a rotational-INS file (columns in :data:`COLUMNS`) whole.
 
     Parameters
     ----------
@@ -183,65 +334,14 @@ def read_rins(path, *, lat: float | None = None, height_m: float | None = None) 
     RinsData
         Increments ``dtheta`` [rad], ``dv`` [m/s] and encoder angles [rad].
     """
-    path = Path(path)
-    kind = file_format(path)
-    # text in blocks (iter_table: the whole text and its parse held at once cost ~700 B per row), each column
-    # gathered once; other formats come as one table
-    parts, ends, names = None, False, COLUMNS
-    for tab in iter_table(path):
-        if parts is None:
-            # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
-            ends = tab.find("t") is None and tab.find("time") is not None
-            names = ("time",) + COLUMNS[1:] if ends else COLUMNS
-            missing = [c for c in names if tab.find(c) is None]
-            if missing:
-                found = ", ".join(list(tab.data)[:12])
-                raise OptinavError(
-                    f"{path.name} has no column(s) {', '.join(missing)} (found: {found})",
-                    f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
-                )
-            parts, meta = {c: [] for c in COLUMNS}, tab.meta
-        for c, n in zip(COLUMNS, names):
-            parts[c].append(np.asarray(tab.get(n), dtype=float).ravel())
-    if parts is None:
-        raise OptinavError(f"{path.name} holds no data rows", f"write the columns {', '.join(COLUMNS)}")
+    src = RinsFile(path, lat=lat, height_m=height_m)
+    parts: dict = {c: [] for c in ("t", "dtheta", "dv", "alpha", "beta")}
+    for b in src:
+        for c, v in parts.items():
+            v.append(getattr(b, c))
     col = {}
-    for c in COLUMNS:  # one column at a time, its blocks freed as it is joined (not the log twice)
+    for c in list(parts):  # one column at a time, its blocks freed as it is joined (not the log twice)
         v = parts.pop(c)
         col[c] = v[0] if len(v) == 1 else np.concatenate(v)
         del v
-    site = {}
-    if kind == "csv":
-        site = _site_from_csv(path)
-    elif kind == "npz":  # scalars (0-d arrays) are the table's metadata, not columns
-        site = {k: float(meta[k]) for k in ("lat_deg", "height_m") if k in meta}
-    else:
-        import h5py
-
-        with h5py.File(path, "r") as fh:
-            site = {k: float(fh.attrs[k]) for k in ("lat_deg", "height_m") if k in fh.attrs}
-    if lat is None and "lat_deg" in site:
-        lat = np.radians(site["lat_deg"])
-    if lat is None:
-        raise OptinavError(f"{path.name} does not state the latitude", "pass --lat DEG (the alignment needs it)")
-    h = height_m if height_m is not None else site.get("height_m", 0.0)
-    n = col["t"].size
-    for c, name in zip(COLUMNS, names):
-        if col[c].size != n:
-            raise OptinavError(
-                f"column {name} has {col[c].size} samples for {n} time stamps (sample-rate mismatch)",
-                "resample the encoder angles to the IMU epochs first",
-            )
-    if ends:  # row k: the encoders at end epoch t[k] and the increments over (t[k], t[k+1]] of the next row
-        col = {c: (v[1:] if c.startswith(("dtheta", "dv")) else v[:-1]) for c, v in col.items()}
-    dtheta = np.column_stack([col.pop(f"dtheta_{a}") for a in "xyz"])
-    dv = np.column_stack([col.pop(f"dv_{a}") for a in "xyz"])
-    return RinsData(
-        t=col["t"],
-        dtheta=dtheta,
-        dv=dv,
-        alpha=col["alpha"],
-        beta=col["beta"],
-        lat=float(lat),
-        height_m=float(h),
-    )
+    return RinsData(**col, lat=src.lat, height_m=src.height_m)

@@ -50,6 +50,19 @@ __all__ = [
 PARAM_NAMES = ("theta_x", "theta_y", "theta_z", "eta_x", "eta_y", "eta_z")
 
 
+#: epochs per chunk of :func:`residuals` and :func:`residual_jacobian`: their temporaries (about 1 kB per epoch
+#: and parameter vector) stay bounded while only the result grows with the recording
+CHUNK_EPOCHS = 1 << 14
+
+
+def _pieces(alpha, beta, pieces, a: int, b: int):
+    """The gimbal rotations (Z, Y) of epochs a..b−1: of ``pieces`` when given, else computed for those epochs only
+    (a long recording's (T, 3, 3) pair is not held)."""
+    if pieces is not None:
+        return pieces[0][a:b], pieces[1][a:b]
+    return chain_pieces(np.asarray(alpha, float)[a:b], np.asarray(beta, float)[a:b])
+
+
 def _params(p) -> tuple[np.ndarray, bool]:
     p = np.asarray(p, dtype=float)
     single = p.ndim == 1
@@ -133,23 +146,21 @@ def _chain(c, A, Z, B, Y):
 
 
 @numba.njit(cache=True, nogil=True)
-def _change_euler(C):
-    """:func:`euler_rpy` of :func:`attitude_change` for t ≥ 1, (P, T−1, 3), from the five elements of
-    ``E_t = C_0ᵀ C_t`` it needs."""
+def _change_euler(C, C0, out):
+    """:func:`euler_rpy` of :func:`attitude_change` into ``out`` (P, T, 3) for the epochs ``C`` (P, T, 3, 3) relative
+    to ``C0`` (P, 3, 3), from the five elements of ``E_t = C_0ᵀ C_t`` it needs."""
     P, T = C.shape[0], C.shape[1]
-    out = np.empty((P, max(T - 1, 0), 3))
     for p in range(P):
-        c0 = C[p, 0]
-        for t in range(1, T):
+        c0 = C0[p]
+        for t in range(T):
             ct = C[p, t]
             e = np.empty((3, 3))
             for i in (0, 1, 2):
                 for j in (0, 1, 2):
                     e[i, j] = c0[0, i] * ct[0, j] + c0[1, i] * ct[1, j] + c0[2, i] * ct[2, j]
-            out[p, t - 1, 0] = np.arctan2(-e[2, 0], e[2, 2])
-            out[p, t - 1, 1] = np.arcsin(min(max(e[2, 1], -1.0), 1.0))
-            out[p, t - 1, 2] = np.arctan2(-e[0, 1], e[1, 1])
-    return out
+            out[p, t, 0] = np.arctan2(-e[2, 0], e[2, 2])
+            out[p, t, 1] = np.arcsin(min(max(e[2, 1], -1.0), 1.0))
+            out[p, t, 2] = np.arctan2(-e[0, 1], e[1, 1])
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -210,7 +221,14 @@ def residuals(c_s_n, alpha, beta, p, small_angle: bool = False, pieces=None) -> 
         The residuals, epoch-major [rad] (ENU Euler convention).
     """
     p2, single = _params(p)
-    e = _change_euler(vehicle_attitude(c_s_n, alpha, beta, p2, small_angle, pieces)).reshape(p2.shape[0], -1)
+    T = len(c_s_n)
+    e = np.empty((p2.shape[0], max(T - 1, 0), 3))
+    c0 = vehicle_attitude(c_s_n[:1], alpha[:1], beta[:1], p2, small_angle, _pieces(alpha, beta, pieces, 0, 1))[:, 0]
+    for a in range(1, T, CHUNK_EPOCHS):  # the chain's (P, chunk, 3, 3) temporaries, not (P, T, 3, 3)
+        b = min(a + CHUNK_EPOCHS, T)
+        C = vehicle_attitude(c_s_n[a:b], alpha[a:b], beta[a:b], p2, small_angle, _pieces(alpha, beta, pieces, a, b))
+        _change_euler(C, c0, e[:, a - 1 : b - 1])
+    e = e.reshape(p2.shape[0], -1)
     return e[0] if single else e
 
 
@@ -246,22 +264,33 @@ def residual_jacobian(c_s_n, alpha, beta, p, pieces=None) -> np.ndarray:
         The Jacobian [rad/rad].
     """
     p = np.asarray(p, float)
-    Z, Y = chain_pieces(alpha, beta) if pieces is None else pieces
     A = nonorth_dcm(p[0:3])
     B = nonorth_dcm(p[3:6])
-    ZBY = Z @ B @ Y
-    c = (np.asarray(c_s_n, float) @ A) @ ZBY
-    E = c[0].T @ c
     W = _param_axes(p[0:3])  # (3,3) rows
     U = _param_axes(p[3:6])
-    v = np.concatenate([W @ ZBY, U @ Y], axis=1)  # rows (ZBY)ᵀw_k, Yᵀu_k: (T,6,3)
-    d = v - v[0] @ E  # rows E_tᵀ v_0
-    eul = euler_rpy(E)
-    roll, pitch = eul[:, 0], eul[:, 1]
-    cr, sr, cp, sp = (x[:, None] for x in (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)))
-    wx, wy, wz = d[..., 0], d[..., 1], d[..., 2]
-    pitch_rate = cr * wx + sr * wz
-    yaw_rate = (cr * wz - sr * wx) / cp
-    roll_rate = wy - yaw_rate * sp
-    J = np.stack([roll_rate, pitch_rate, yaw_rate], axis=-1)  # (T, 6, [roll, pitch, yaw])
-    return np.transpose(J[1:], (0, 2, 1)).reshape(-1, 6)
+    c_s_n = np.asarray(c_s_n, float)
+
+    def chain(a, b):
+        """c_t = C_s^n A Z B Y and the rows (ZBY)ᵀw_k, Yᵀu_k (k, 6, 3) of epochs a..b−1."""
+        Z, Y = _pieces(alpha, beta, pieces, a, b)
+        ZBY = Z @ B @ Y
+        return (c_s_n[a:b] @ A) @ ZBY, np.concatenate([W @ ZBY, U @ Y], axis=1)
+
+    c0, v0 = (x[0] for x in chain(0, 1))
+    T = len(c_s_n)
+    out = np.empty((max(T - 1, 0), 3, 6))
+    for a in range(1, T, CHUNK_EPOCHS):  # temporaries of a chunk of epochs (about 1 kB each), not of all
+        b = min(a + CHUNK_EPOCHS, T)
+        c, v = chain(a, b)
+        E = c0.T @ c
+        d = v - v0 @ E  # rows E_tᵀ v_0
+        eul = euler_rpy(E)
+        roll, pitch = eul[:, 0], eul[:, 1]
+        cr, sr, cp, sp = (x[:, None] for x in (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)))
+        wx, wy, wz = d[..., 0], d[..., 1], d[..., 2]
+        pitch_rate = cr * wx + sr * wz
+        yaw_rate = (cr * wz - sr * wx) / cp
+        out[a - 1 : b - 1, 0] = wy - yaw_rate * sp  # roll rate
+        out[a - 1 : b - 1, 1] = pitch_rate
+        out[a - 1 : b - 1, 2] = yaw_rate
+    return out.reshape(-1, 6)

@@ -1,9 +1,13 @@
 """Processing chain of a rotational-INS recording: checks → alignment → strapdown → ``C_s^n(t)``.
 
 Alignment on the initial rest (both encoders still, at most ``align_s`` s): analytic coarse alignment then the
-Kalman fine alignment of :mod:`optinav.core.alignment`. Strapdown: :func:`optinav.core.strapdown.attitude_update`
+Kalman fine alignment of :mod:`optinav.core.alignment`. Strapdown: :class:`optinav.core.strapdown.AttitudeStream`
 with the Earth rate as the navigation-frame rate (static base: ``ω_in^n = ω_ie^n``, no transport rate),
 "previous"-sample coning correction. ``C_s^n`` is computed once; calibrations only re-evaluate the gimbal chain.
+
+Block by block, in two passes over the recording (:func:`optinav.rins.io.rins_source`: a file read again, or a
+:class:`~optinav.rins.simulate.RinsData` sliced): :func:`survey` (the checks, the initial rest, the alignment),
+then :func:`strapdown_blocks` (the attitude carried across blocks: any block length gives the whole-log numbers).
 """
 
 from __future__ import annotations
@@ -14,12 +18,23 @@ import numpy as np
 
 from optinav.core import earth as _earth
 from optinav.core.alignment import coarse_alignment, fine_alignment
-from optinav.core.rotations import dcm_from_quat
-from optinav.core.strapdown import attitude_update
+from optinav.core.progress import progress_blocks
+from optinav.core.rotations import dcm_from_quat, quat_from_dcm
+from optinav.core.strapdown import AttitudeStream
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
+from optinav.rins.io import RinsFile, rins_source
 
-__all__ = ["SensorAttitude", "check_data", "sensor_attitude_from_imu", "motion_mask"]
+__all__ = [
+    "SensorAttitude",
+    "Alignment",
+    "NavBlock",
+    "check_data",
+    "survey",
+    "strapdown_blocks",
+    "sensor_attitude_from_imu",
+    "motion_mask",
+]
 
 #: an encoder step above this (rad) between samples counts as motion
 MOTION_STEP = np.radians(0.01)
@@ -47,46 +62,84 @@ def motion_mask(angle, step: float = MOTION_STEP) -> np.ndarray:
     return d > step
 
 
-def check_data(data) -> None:
-    """Bad-input checks of issue 4, item 8 (one-line OptinavErrors; see docs/methods/rins.md)."""
-    t = check_timestamps(data.t, "time", min_count=10)
-    n = t.size
-    dth = as_float_array(data.dtheta, "dtheta (gyro increments)", last_dims=(3,))
-    dv = as_float_array(data.dv, "dv (accelerometer increments)", last_dims=(3,))
-    for name, a in (("alpha (inner encoder)", data.alpha), ("beta (outer encoder)", data.beta)):
-        a = as_float_array(a, name)
-        if a.shape != (n,):
+def _check_block(b, prev_t) -> np.ndarray:
+    """The bad-input checks of one block: timestamps (with the previous block's last, ``prev_t``, so an
+    unsorted pair across the boundary is seen), finite increments and encoder angles; returns t (float)."""
+    t = as_float_array(b.t, "time")
+    if t.ndim != 1:
+        raise OptinavError(f"time must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
+    tt = t if prev_t is None else np.concatenate([[prev_t], t])
+    check_timestamps(tt, "time", min_count=1, index0=b.row0 - (tt.size - t.size))
+    as_float_array(b.dtheta, "dtheta (gyro increments)", last_dims=(3,))
+    as_float_array(b.dv, "dv (accelerometer increments)", last_dims=(3,))
+    for name, a in (("alpha (inner encoder)", b.alpha), ("beta (outer encoder)", b.beta)):
+        as_float_array(a, name)
+    return t
+
+
+class _Checks:
+    """The bad-input checks of issue 4, item 8 accumulated block by block (:meth:`feed`, then :meth:`finish`):
+    time stamps, gaps (the largest step against the median, so the steps are kept: 8 B per row, the median
+    must be exact), and encoders sampled slower than the IMU (8 rows of overlap carried across blocks)."""
+
+    def __init__(self):
+        self.n, self.prev_t, self.dt = 0, None, []
+        self.gap = (-np.inf, 0.0)  # the largest step [s] (the first of equals) and the epoch it starts at
+        self.enc = {name: [np.empty(0), 0, 0] for name in ENCODERS}  # last 8 angles, moving rows, held of them
+
+    def feed(self, b) -> np.ndarray:
+        t = _check_block(b, self.prev_t)
+        tt = t if self.prev_t is None else np.concatenate([[self.prev_t], t])
+        dt = np.diff(tt)
+        if dt.size:
+            self.dt.append(dt)
+            k = int(np.argmax(dt))
+            if dt[k] > self.gap[0]:
+                self.gap = (float(dt[k]), float(tt[k]))
+        for name, a in zip(ENCODERS, (b.alpha, b.beta)):
+            st = self.enc[name]
+            a = np.concatenate([st[0], np.asarray(a, float)])
+            # fast part of the moves: the angle changes by > 8 motion steps over ±4 samples
+            inside = np.flatnonzero(np.abs(a[8:] - a[:-8]) > 8 * MOTION_STEP) + 4
+            st[1] += inside.size
+            st[2] += int(np.count_nonzero(a[inside + 1] == a[inside]))
+            st[0] = a[-8:]
+        self.n += t.size
+        self.prev_t = float(t[-1]) if t.size else self.prev_t
+        return t
+
+    def finish(self) -> np.ndarray:
+        """Raise what the whole recording shows; returns the sample steps (s)."""
+        if self.n < 10:
+            raise OptinavError(f"time has {self.n} sample(s), at least 10 are needed", "record a longer log")
+        dt = np.concatenate(self.dt)
+        self.dt = []
+        med = float(np.median(dt))
+        if self.gap[0] > 1.5 * med:
             raise OptinavError(
-                f"{name} has {a.size} samples for {n} IMU samples (sample-rate mismatch)",
-                "resample the encoder angles to the IMU epochs (e.g. numpy.interp) first",
+                f"gap of {self.gap[0]:.4g} s at t = {self.gap[1]:.6g} s (nominal step {med:.4g} s)",
+                "pass an uninterrupted recording (increments over a gap are not defined)",
             )
-    if dth.shape != (n, 3) or dv.shape != (n, 3):
-        raise OptinavError(
-            f"dtheta {dth.shape} / dv {dv.shape} do not match {n} time stamps", "give one increment row per time stamp"
-        )
-    dt = np.diff(t)
-    if np.max(dt) > 1.5 * np.median(dt):
-        k = int(np.argmax(dt))
-        raise OptinavError(
-            f"gap of {dt[k]:.4g} s at t = {t[k]:.6g} s (nominal step {np.median(dt):.4g} s)",
-            "pass an uninterrupted recording (increments over a gap are not defined)",
-        )
-    rate = 1.0 / np.median(dt)
-    for name, a in (("alpha (inner encoder)", data.alpha), ("beta (outer encoder)", data.beta)):
-        a = np.asarray(a, float)
-        d = np.abs(np.diff(a))
-        # fast part of the moves: the angle changes by > 8 motion steps over ±4 samples
-        fast = np.abs(a[8:] - a[:-8]) > 8 * MOTION_STEP
-        inside = np.flatnonzero(fast) + 4
-        inside = inside[inside < d.size]
-        if inside.size > 20:
-            held = float(np.mean(d[inside] == 0.0))
-            if held > 0.3:
+        for name, (_, moving, held) in self.enc.items():
+            if moving > 20 and held / moving > 0.3:
                 raise OptinavError(
-                    f"{name} holds its value on {held:.0%} of the samples while it turns: it is "
-                    f"sampled slower than the IMU ({rate:.4g} Hz)",
+                    f"{name} holds its value on {held / moving:.0%} of the samples while it turns: it is "
+                    f"sampled slower than the IMU ({1.0 / med:.4g} Hz)",
                     "interpolate the encoder angles to the IMU epochs (sample-rate mismatch)",
                 )
+        return dt
+
+
+ENCODERS = ("alpha (inner encoder)", "beta (outer encoder)")
+
+
+def check_data(data) -> None:
+    """Bad-input checks of issue 4, item 8 (one-line OptinavErrors; see docs/methods/rins.md) of a
+    :class:`~optinav.rins.simulate.RinsData` or any block source (:func:`optinav.rins.io.rins_source`)."""
+    checks = _Checks()
+    for b in rins_source(data):
+        checks.feed(b)
+    checks.finish()
 
 
 #: smallest latitude disagreement (deg) reported; gyro bias of a navigation-grade IMU moves the measured
@@ -121,34 +174,84 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
         )
 
 
-def _rest_rows(data, align_s) -> int:
-    """Number of initial rows with both encoders still (capped to ``align_s`` seconds)."""
-    moving = motion_mask(data.alpha) | motion_mask(data.beta)
-    first = int(np.argmax(moving)) if moving.any() else data.t.size
-    if align_s is not None:
-        first = min(first, int(np.searchsorted(data.t, data.t[0] + align_s)))
-    return first
+def _blocks(src, desc: str):
+    """The blocks of ``src``, behind a progress bar of the bytes read for a file (the CLI's; none for arrays)."""
+    return progress_blocks(src, desc) if isinstance(src, RinsFile) else iter(src)
 
 
-def sensor_attitude_from_imu(
-    data, *, align_s: float | None = None, coning: str = "previous", fine: bool = True
-) -> SensorAttitude:
-    """Align on the initial rest, then integrate ``C_s^n`` over the rest of the recording.
+@dataclasses.dataclass
+class Alignment:
+    """The start of the strapdown found by the first pass (:func:`survey`): data row ``m`` (epoch ``t_m`` [s], the
+    last with both encoders still, capped by ``align_s``), ``q0`` the aligned ``q_s^n`` there (ENU), ``std`` its
+    1σ (rad), ``n`` rows in all, ``step``/``step_nav`` the median sample step of the whole recording / of the
+    strapdown epochs (rows m..n−1) [s], ``rest_sd`` the per-sample gyro noise of the rest (rad, first differences
+    of the increments over √2; 0 under 3 rows), ``lat`` [rad], ``height_m`` [m]."""
 
-    data: :class:`~optinav.rins.simulate.RinsData`. align_s: longest alignment window (s; default the whole
-    initial rest). Returns the attitude from the last alignment row on.
+    m: int
+    t_m: float
+    q0: np.ndarray
+    std: np.ndarray
+    n: int
+    step: float
+    step_nav: float
+    rest_sd: float
+    lat: float
+    height_m: float
+
+
+def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str = "check") -> Alignment:
+    """First pass over a recording: the bad-input checks, the initial rest (rows kept until the first gimbal
+    move or ``align_s`` [s]), the latitude check and the alignment on that rest.
+
+    Parameters
+    ----------
+    data : RinsData, path or block source
+        The recording (:func:`optinav.rins.io.rins_source`).
+    align_s : float or None
+        Longest alignment window [s]; None: the whole initial rest.
+    fine : bool
+        Kalman fine alignment after the analytic coarse one.
+    desc : str
+        Label of the progress bar (files).
+
+    Returns
+    -------
+    Alignment
+        Where and how the strapdown starts.
     """
-    check_data(data)
-    t = np.asarray(data.t, float)
-    dt = np.diff(t)
+    src = rins_source(data)
+    checks = _Checks()
+    rest: dict = {"t": [], "dtheta": [], "dv": []}
+    k_a, t0, prev = None, None, None  # rows of the rest once known; first epoch; last encoder angles
+    for b in _blocks(src, desc):
+        t = checks.feed(b)
+        if k_a is not None or not t.size:
+            continue
+        a, bb = np.asarray(b.alpha, float), np.asarray(b.beta, float)
+        if prev is None:
+            t0, prev = float(t[0]), (a[0], bb[0])
+        moving = (np.abs(np.diff(a, prepend=prev[0])) > MOTION_STEP) | (
+            np.abs(np.diff(bb, prepend=prev[1])) > MOTION_STEP
+        )
+        prev = (a[-1], bb[-1])
+        stop = moving.copy()
+        if align_s is not None:
+            stop |= t >= t0 + align_s
+        end = int(np.argmax(stop)) if stop.any() else t.size
+        for c in rest:
+            rest[c].append(np.asarray(getattr(b, c), float)[:end])
+        if end < t.size:
+            k_a = b.row0 + end
+    dt = checks.finish()
+    n = checks.n
+    k_a = n if k_a is None else k_a
     step = float(np.median(dt))
-    k_a = _rest_rows(data, align_s)
     if k_a * step < 10.0:
         raise OptinavError(
             f"only {k_a * step:.3g} s of rest before the first gimbal move",
             "record at least 60 s (the paper: 600 s) static with both gimbals still first",
         )
-    if k_a >= t.size - 2:
+    if k_a >= n - 2:
         raise OptinavError(
             "the gimbals never move after the alignment (no gimbal motion)",
             "nothing can be calibrated: record a rotation scheme turning both axes",
@@ -156,20 +259,23 @@ def sensor_attitude_from_imu(
     # row k integrates over (t[k], t[k+1]]; t[m] is the last epoch with both encoders still, so the alignment
     # uses rows 0..m−1 (epochs t[0..m]) and the strapdown starts at t[m]
     m = k_a - 1
-    ep = t[: m + 1]
-    dth, dv = data.dtheta[:m], data.dv[:m]
+    step_nav = float(np.median(dt[m:]))
+    del dt
+    ep = np.concatenate(rest["t"])[: m + 1]
+    dth, dv = np.concatenate(rest["dtheta"])[:m], np.concatenate(rest["dv"])[:m]
     span = ep[-1] - ep[0]
+    lat, h = src.lat, src.height_m
     # the encoders see a move start a little after the gyros (slow start of a rate profile): leave 2 s out
     k_lat = max(2, m - int(round(2.0 / step)))
-    latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, data.lat)
-    coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, data.lat, data.height_m, "enu")
+    latitude_check(dth[:k_lat], dv[:k_lat], k_lat * step, lat)
+    coarse = coarse_alignment(dv.sum(0) / span, dth.sum(0) / span, lat, h, "enu")
     if fine:
         al = fine_alignment(
             ep,
             dth,
             dv,
-            data.lat,
-            data.height_m,
+            lat,
+            h,
             frame="enu",
             q0=coarse.q_b_n,
             gyro_white=5e-7,
@@ -179,16 +285,119 @@ def sensor_attitude_from_imu(
         )
     else:
         al = coarse
-    w_ie = _earth.earth_rate(data.lat, "enu")
-    # rows m..N−2 carry the attitude from t[m] to t[N−1] (the last row ends after the last encoder epoch)
-    q = attitude_update(al.q_b_n, data.dtheta[m:-1], coning=coning, omega_in_n=w_ie, dt=dt[m:])
-    idx = np.arange(m, t.size)
+    rest_sd = float(np.std(np.diff(dth, axis=0), axis=0).max() / np.sqrt(2)) if m > 2 else 0.0
+    return Alignment(
+        m=m,
+        t_m=float(ep[m]),
+        q0=np.asarray(al.q_b_n, float),
+        std=np.asarray(al.attitude_std, float),
+        n=n,
+        step=step,
+        step_nav=step_nav,
+        rest_sd=rest_sd,
+        lat=float(lat),
+        height_m=float(h),
+    )
+
+
+@dataclasses.dataclass
+class NavBlock:
+    """The strapdown epochs of one block: epoch numbers ``j0 ..`` (0 = the navigation start, data row ``m``),
+    ``t`` (s), ``q`` (k, 4) ``q_s^n`` (ENU), encoder angles ``alpha``, ``beta`` (rad); the intervals ending at the
+    last ``len(dt)`` epochs (all but the first at the start): increments ``dtheta`` (rad), steps ``dt`` (s) and
+    ``q_start`` the attitude at each interval's start; ``perturbed``: ``q_s^n`` (k, 4) of each re-integration."""
+
+    j0: int
+    t: np.ndarray
+    q: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    dtheta: np.ndarray
+    dt: np.ndarray
+    q_start: np.ndarray
+    perturbed: list
+
+
+def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(), desc: str = "strapdown"):
+    """Second pass: ``C_s^n`` integrated from the alignment on, block by block (the attitude and coning state
+    carried, :class:`optinav.core.strapdown.AttitudeStream`): the attitude of the whole-log integration at every
+    epoch, bit for bit, for any block length. Static base: the Earth rate is the navigation-frame rate.
+
+    Parameters
+    ----------
+    data : RinsData, path or block source
+        The recording (as :func:`survey` read it).
+    al : Alignment
+        The first pass's result.
+    coning : str
+        "previous" or "none".
+    perturb : sequence of (i, j, s)
+        Gyro triad errors integrated beside it, each with the increments ``(I − δK)Δθ``, ``δK`` = ``s`` at
+        (i, j) alone, from the same start (re-read from its DCM, as a calibration's attitude gives it).
+    desc : str
+        Label of the progress bar (files).
+
+    Yields
+    ------
+    NavBlock
+        The epochs of each block from row ``al.m`` on.
+    """
+    w_ie = _earth.earth_rate(al.lat, "enu")
+    main = AttitudeStream(al.q0, coning=coning, omega_in_n=w_ie)
+    q_p = quat_from_dcm(dcm_from_quat(main.q))  # the start as the attitude's first DCM gives it back
+    others = [(i, j, s, AttitudeStream(q_p, coning=coning, omega_in_n=w_ie)) for i, j, s in perturb]
+    held = None  # the last row of the previous block: its increment and epoch (the interval into this block)
+    for b in _blocks(rins_source(data), desc):
+        r1 = b.row0 + len(b.t)
+        if r1 <= al.m:
+            continue
+        a = max(al.m - b.row0, 0)
+        t = np.asarray(b.t, float)
+        dth_all = np.asarray(b.dtheta, float)
+        if held is None:  # the navigation start: epochs m.., intervals between them
+            dth, tt, first = dth_all[a:-1], t[a:], 0
+        else:
+            dth, tt, first = np.concatenate([held[0][None], dth_all[:-1]]), np.concatenate([[held[1]], t]), 1
+        dt = np.diff(tt)
+        q = main.update(dth, dt)
+        pert = []
+        for i, j, s, stream in others:
+            d = dth.copy()
+            d[:, i] -= s * dth[:, j]
+            pert.append(stream.update(d, dt)[first:])
+        j0 = 0 if held is None else b.row0 - al.m
+        held = (dth_all[-1], t[-1])
+        yield NavBlock(
+            j0=j0,
+            t=tt[first:],
+            q=q[first:],
+            alpha=np.asarray(b.alpha, float)[a:],
+            beta=np.asarray(b.beta, float)[a:],
+            dtheta=dth,
+            dt=dt,
+            q_start=q[:-1],
+            perturbed=pert,
+        )
+
+
+def sensor_attitude_from_imu(
+    data, *, align_s: float | None = None, coning: str = "previous", fine: bool = True
+) -> SensorAttitude:
+    """Align on the initial rest, then integrate ``C_s^n`` over the rest of the recording, at every epoch.
+
+    data: :class:`~optinav.rins.simulate.RinsData` (or a path or block source). align_s: longest alignment window
+    (s; default the whole initial rest). Returns the attitude from the last alignment row on (the whole log's
+    worth: the calibration keeps only its residual epochs, see :func:`optinav.rins.calibrate.prepare`).
+    """
+    al = survey(data, align_s=align_s, fine=fine)
+    parts = list(strapdown_blocks(data, al, coning=coning))
+    cat = lambda f: np.concatenate([getattr(p, f) for p in parts])  # noqa: E731
     return SensorAttitude(
-        t=t[idx],
-        c_s_n=dcm_from_quat(q),
-        alpha=np.asarray(data.alpha, float)[idx],
-        beta=np.asarray(data.beta, float)[idx],
-        index=idx,
-        align_end=float(t[m]),
-        align_std=np.asarray(al.attitude_std, float),
+        t=cat("t"),
+        c_s_n=dcm_from_quat(cat("q")),
+        alpha=cat("alpha"),
+        beta=cat("beta"),
+        index=np.arange(al.m, al.n),
+        align_end=al.t_m,
+        align_std=al.std,
     )

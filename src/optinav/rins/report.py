@@ -77,14 +77,18 @@ def _error_figure(res: RinsCalibration, prep) -> Figure:
 
 def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
     """Write the report of ``res`` into ``out_dir``; ``data``: the recording it was calibrated from (adds the
-    attitude-change figure), read with ``options`` (:class:`optinav.rins.unit.RinsOptions`, default its
+    attitude-change figure; read block by block), read with ``options`` (:class:`optinav.rins.unit.RinsOptions`, default its
     defaults)."""
     figures = [_angles_figure(res)]
     if data is not None:
         from optinav.rins.unit import RinsOptions, read
 
         o = options or RinsOptions()
-        figures.append(_error_figure(res, prepare(read(data, o), residual_rate=o.residual_rate_hz, align_s=o.align_s)))
+        # the figure needs the residual epochs only: no gyro re-integrations
+        prep = prepare(
+            read(data, o), residual_rate=o.residual_rate_hz, align_s=o.align_s, gyro_misalignment=0, gyro_scale=0
+        )
+        figures.append(_error_figure(res, prep))
     study = StudyResult(
         name="rins-calibration",
         title=f"Rotational-INS non-orthogonality ({res.method})",
