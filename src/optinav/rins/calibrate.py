@@ -54,7 +54,7 @@ from optinav.errors import OptinavError
 from optinav.rins.model import PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals, sensor_attitude
 from optinav.core.rotations import dcm_from_quat
 from optinav.rins.io import rins_source
-from optinav.rins.process import MOTION_STEP, Alignment, strapdown_blocks, survey
+from optinav.rins.process import MOTION_STEP, Alignment, motion_mask, strapdown_blocks, survey
 
 __all__ = ["METHODS", "RinsCalibration", "calibrate", "prepare", "observability", "attitude_errors"]
 
@@ -287,9 +287,7 @@ class _FrozenWatch:
         j = nb.j0 + np.arange(nb.t.size)
         if self.prev is None:
             self.prev = (nb.alpha[0], nb.beta[0])
-        mv = (np.abs(np.diff(nb.alpha, prepend=self.prev[0])) > MOTION_STEP) | (
-            np.abs(np.diff(nb.beta, prepend=self.prev[1])) > MOTION_STEP
-        )
+        mv = motion_mask(nb.alpha, prev=self.prev[0]) | motion_mask(nb.beta, prev=self.prev[1])
         self.prev = (nb.alpha[-1], nb.beta[-1])
         rate = np.zeros(j.size)
         rate[j.size - nb.dt.size :] = np.linalg.norm(nb.dtheta, axis=1) / nb.dt

@@ -56,10 +56,11 @@ class SensorAttitude:
     align_std: np.ndarray
 
 
-def motion_mask(angle, step: float = MOTION_STEP) -> np.ndarray:
-    """Rows where an encoder angle changed by more than ``step`` rad since the previous row."""
-    d = np.abs(np.diff(np.asarray(angle, float), prepend=angle[0]))
-    return d > step
+def motion_mask(angle, step: float = MOTION_STEP, prev: float | None = None) -> np.ndarray:
+    """Rows where an encoder angle changed by more than ``step`` rad since the previous row; ``prev``: the angle
+    before the first row (the previous block's last; None: the first row counts as still)."""
+    a = np.asarray(angle, float)
+    return np.abs(np.diff(a, prepend=a[0] if prev is None else prev)) > step
 
 
 def _check_block(b, prev_t) -> np.ndarray:
@@ -230,9 +231,7 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
         a, bb = np.asarray(b.alpha, float), np.asarray(b.beta, float)
         if prev is None:
             t0, prev = float(t[0]), (a[0], bb[0])
-        moving = (np.abs(np.diff(a, prepend=prev[0])) > MOTION_STEP) | (
-            np.abs(np.diff(bb, prepend=prev[1])) > MOTION_STEP
-        )
+        moving = motion_mask(a, prev=prev[0]) | motion_mask(bb, prev=prev[1])
         prev = (a[-1], bb[-1])
         stop = moving.copy()
         if align_s is not None:
