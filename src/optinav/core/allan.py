@@ -770,7 +770,13 @@ def allan_variance_covariance(
         Cov(σ̂²(τ_a), σ̂²(τ_b)) [u⁴].
     """
     c = np.array([quantization, white, bias_instability, random_walk], float) ** 2
-    S = _avar_covariance_terms(tuple(int(x) for x in result.m), int(result.n_samples), float(result.dt))
+    return _mixture_covariance(
+        c, _avar_covariance_terms(tuple(int(x) for x in result.m), int(result.n_samples), float(result.dt))
+    )
+
+
+def _mixture_covariance(c: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Σ_pq c_p c_q S[p, q]: the estimates' covariance for variance coefficients ``c`` (the terms of ``S``)."""
     return np.einsum("p,q,pqab->ab", c, c, S)
 
 
@@ -778,7 +784,7 @@ def _whitener(c: np.ndarray, S: np.ndarray, basis: np.ndarray, floor: float, lea
     """L⁻¹ of the Cholesky factor of the estimates' covariance for coefficients ``c`` (S over the fitted terms),
     each variance raised by the relative model error ``floor`` (f²·model², correlated as the estimates) and by
     ``least``² (a curve that is zero somewhere has no finite weights)."""
-    cov = np.einsum("p,q,pqab->ab", c, c, S) + np.diag(least**2)
+    cov = _mixture_covariance(c, S) + np.diag(least**2)
     d0 = np.sqrt(np.diag(cov))
     d = np.sqrt(d0**2 + (floor * (basis @ c)) ** 2)
     R = cov / np.outer(d0, d0)
