@@ -653,6 +653,116 @@ def run_batch_attitude(sizes=(1_000_000, 3_000_000), after_only=(10_000_000,)) -
     return out
 
 
+#: main before binary files were read in row blocks (the "before" of :func:`run_binary_formats`)
+BINARY_BEFORE = "a2fedd0"
+#: the binary layouts of :func:`run_binary_formats` (file name → extra arguments of the commands)
+BINARY_FORMATS = {
+    "log.h5": [],
+    "log.npz": [],
+    "log.parquet": [],
+    "log_v73.mat": [],
+    "log.npy": ["--columns", "t,ax,ay,az,gx,gy,gz"],
+}
+
+
+def _write_binary(d: Path, rows: int) -> dict[str, Path]:
+    """The simulated accel-multipos session of about ``rows`` rows (100 Hz, seed 1) in each layout of
+    :data:`BINARY_FORMATS`, written in blocks (the NPZ from arrays gathered here: numpy writes it whole): HDF5
+    datasets ``t``, ``acc``, ``gyro`` (chunked); NPZ arrays of the same names; Parquet columns t, ax … gz (row
+    groups of 1 M rows); a MATLAB v7.3 file (``t`` N×1, ``acc``/``gyro`` N×3, stored column-major); one N×7 .npy
+    matrix."""
+    import h5py
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from optinav.multipos.simulate import SessionStream
+
+    dwell = (rows / 100.0 - 10.0 - 4.0 * 12) / 12
+    stream = SessionStream("paper12", dwell_s=dwell, rate_hz=100.0, rng=1)
+    n = stream.n
+    paths = {k: d / k for k in BINARY_FORMATS}
+    t_all, acc_all, gyr_all = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
+    names = ["t", "ax", "ay", "az", "gx", "gy", "gz"]
+    npy = np.lib.format.open_memmap(paths["log.npy"], mode="w+", dtype=float, shape=(n, 7))
+    with h5py.File(paths["log.h5"], "w") as h5, h5py.File(paths["log_v73.mat"], "w", userblock_size=512) as mat:
+        h5s = {
+            k: h5.create_dataset(k, shape=(n,) + s, dtype=float, chunks=(65536,) + s)
+            for k, s in (("t", ()), ("acc", (3,)), ("gyro", (3,)))
+        }
+        mats = {
+            k: mat.create_dataset(k, shape=(w, n), dtype=float, chunks=(w, 65536))
+            for k, w in (("t", 1), ("acc", 3), ("gyro", 3))
+        }
+        for ds in mats.values():
+            ds.attrs["MATLAB_class"] = np.bytes_("double")
+        writer = pq.ParquetWriter(paths["log.parquet"], pa.schema([(c, pa.float64()) for c in names]))
+        a, buf = 0, []
+        for log in stream.log_blocks():
+            b = a + len(log)
+            t_all[a:b], acc_all[a:b], gyr_all[a:b] = log.t, log.acc, log.gyr
+            for k, v in (("t", log.t), ("acc", log.acc), ("gyro", log.gyr)):
+                h5s[k][a:b] = v
+                mats[k][:, a:b] = np.atleast_2d(v.T)
+            npy[a:b] = np.column_stack([log.t, log.acc, log.gyr])
+            buf.append(pa.table(dict(zip(names, np.column_stack([log.t, log.acc, log.gyr]).T))))
+            if sum(x.num_rows for x in buf) >= 1_000_000 or b == n:
+                writer.write_table(pa.concat_tables(buf), row_group_size=1 << 20)
+                buf = []
+            a = b
+        writer.close()
+    npy.flush()
+    del npy
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 ."
+    with open(paths["log_v73.mat"], "r+b") as fh:
+        fh.write(header.ljust(116, b" ") + bytes(8) + b"\x00\x02IM")
+    np.savez(paths["log.npz"], t=t_all, acc=acc_all, gyro=gyr_all)
+    return paths
+
+
+def run_binary_formats(rows: int = 10_000_000, before=("log.h5", "log.parquet")) -> list[dict]:
+    """Peak RSS and wall time of ``optinav attitude FILE --frame ENU`` and ``optinav calibrate accel FILE`` on the
+    session of :func:`_write_binary` (about ``rows`` rows) in each binary layout, with this tree ("after": read
+    in row blocks, :mod:`optinav.io.arrayblocks`) and, for the layouts in ``before``, with commit
+    :data:`BINARY_BEFORE` (the file read whole by its library, then cut)."""
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = _versions(Path(tmp), BINARY_BEFORE)
+        d = Path(tmp) / "data"
+        d.mkdir()
+        paths = _write_binary(d, rows)
+        for name, extra in BINARY_FORMATS.items():
+            path = paths[name]
+            for version, src in versions.items():
+                if version == "before" and name not in before:
+                    continue
+                for cmd, argv in (
+                    ("attitude", ["attitude", str(path), "--frame", "ENU", "--out", str(d / "att.csv"), *extra]),
+                    (
+                        "calibrate accel",
+                        [
+                            "calibrate",
+                            "accel",
+                            str(path),
+                            "--latitude",
+                            "38.88",
+                            "--height",
+                            "35",
+                            "--out",
+                            str(d / "r.json"),
+                            *extra,
+                        ],
+                    ),
+                ):
+                    peak, wall, _ = _run(src, argv)
+                    rec = {"method": f"{cmd} {name} ({version})", "rows": rows, "peak_mib": peak, "wall_s": wall}
+                    out.append({**rec, "file_bytes": path.stat().st_size})
+                    print(f"{rec['method']}: peak {peak:.0f} MiB, {wall:.0f} s", file=sys.stderr)
+                    for f in (d / "att.csv", d / "r.json"):
+                        f.unlink(missing_ok=True)
+    return out
+
+
 if __name__ == "__main__":
     # python benchmarks/bench_memory.py RESULTS.json > results_memory.md
     # python benchmarks/bench_memory.py --after RESULTS.json NOTE: re-measure this tree's rows in RESULTS.json
@@ -695,6 +805,11 @@ if __name__ == "__main__":
         # python benchmarks/bench_memory.py --apply-gfimu APPLY.json [ROWS ...]: apply of a gfimu result, before/after
         sizes = tuple(int(x) for x in sys.argv[3:]) or (1_000_000, 3_000_000, 10_000_000)
         Path(sys.argv[2]).write_text(json.dumps(run_apply_gfimu(sizes), indent=1) + "\n")
+    elif sys.argv[1] == "--binary-formats":
+        # python benchmarks/bench_memory.py --binary-formats BINARY.json [ROWS]: attitude and calibrate accel on
+        # HDF5, NPZ, Parquet, MATLAB v7.3 and NPY logs, this tree (and before on HDF5 and Parquet)
+        rows = int(sys.argv[3]) if len(sys.argv) > 3 else 10_000_000
+        Path(sys.argv[2]).write_text(json.dumps(run_binary_formats(rows), indent=1) + "\n")
     elif sys.argv[1] == "--batch-attitude":
         # python benchmarks/bench_memory.py --batch-attitude BATCH.json: one unit of 1 M and 3 M rows before/after,
         # 10 M rows after

@@ -2,7 +2,8 @@
 
 ``read_table`` returns named numpy arrays; ``read_imu`` interprets them as an :class:`ImuLog` (time in s,
 accelerometer in m/s² or counts, gyroscope in rad/s or counts); ``write_imu`` writes a log back as CSV/TSV/text,
-NPZ, HDF5 or MAT. ``iter_imu``/``iter_table`` read text logs in blocks (memory independent of their length) and
+NPZ, HDF5 or MAT. ``iter_imu``/``iter_table`` read logs in blocks (text, NPY, NPZ, HDF5, MATLAB v7.3, Parquet; memory
+independent of their length) and
 ``open_imu_writer`` writes logs block by block. Formats, column aliases and units: docs/file-formats.md.
 """
 

@@ -374,6 +374,7 @@ class _Part:
     sample: np.ndarray | None = None
     declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
     srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
+    used: set = field(default_factory=set)  # the names of every array taken
 
 
 def _canonical(kind: str, unit: str, option: str) -> str:
@@ -500,7 +501,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         hit = ALIASES.get(normalize_name(table.table)[0])
         if hit and hit[0] in _COMPONENTS and table.table_array.shape[1] == 3:
             found[hit[0]] = (table.table, table.table_array)
-    part = _Part(path=Path(path), table=table, n=0)
+    part = _Part(path=Path(path), table=table, n=0, used={name for name, _ in found.values()})
     lengths: dict[str, int] = {}
     for std, (name, arr) in found.items():
         if std not in ("acc", "gyro") and arr.ndim != 1:
@@ -822,9 +823,10 @@ def iter_imu(
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
 
     The blocks' concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate
-    note on the first block, the incomplete-last-line note on the last). Text files are read block by block, so
-    memory does not grow with their length; other formats, and a separate ``gyro_path``, are read whole and then
-    cut.
+    note on the first block, the incomplete-last-line note on the last). Text, NPY, NPZ, HDF5, MATLAB v7.3 and
+    Parquet files are read block by block (:func:`optinav.io.iter_table`), so memory does not grow with their
+    length; MATLAB v4/v5 files, ROS bags, a separate ``gyro_path`` and a file whose time or sensor arrays are not
+    all of one length are read whole and then cut.
 
     Parameters
     ----------
@@ -869,28 +871,42 @@ class ImuChunks:
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0
-        #: the raw table of the block last yielded (text files; None for formats read whole): its other columns
+        #: the raw table of the block last yielded (None for files read whole): its other columns
         self.table = None
 
     @property
     def position(self) -> int:
         return self.tables.position
 
+    def _whole(self):
+        log = read_imu(self.path, **self.kw)
+        self.tables.position = self.size
+        for a in range(0, len(log), self.chunk_rows):
+            part = log.select(slice(a, a + self.chunk_rows))
+            part.notes = list(log.notes) if a == 0 else []
+            self.rows += len(part)
+            yield part
+
     def __iter__(self):
-        if self.tables.kind != "text" or self.kw["gyro_path"] is not None:
-            log = read_imu(self.path, **self.kw)
-            self.tables.position = self.size
-            for a in range(0, len(log), self.chunk_rows):
-                part = log.select(slice(a, a + self.chunk_rows))
-                part.notes = list(log.notes) if a == 0 else []
-                self.rows += len(part)
-                yield part
+        if not self.tables.blockwise or self.kw["gyro_path"] is not None:
+            yield from self._whole()
             return
         prev_t = None
         seen: dict[str, np.ndarray] = {}  # kind → which components held a number so far
         part = None
-        for table in self.tables:
-            part = _part_of(self.path, table, self.mapping, None, "columns", block=True)
+        tables = iter(self.tables)
+        for table in tables:
+            try:
+                part = _part_of(self.path, table, self.mapping, None, "columns", block=True)
+            except OptinavError:
+                if not (table.row0 == 0 and table.fixed):
+                    raise
+                part = None
+            if table.row0 == 0 and table.fixed and (part is None or part.used & table.fixed):
+                # an array taken is not of the samples' length: read whole (read_imu's result or error)
+                tables.close()
+                yield from self._whole()
+                return
             log = _log_of([part], *self.opts, row0=table.row0, prev_t=prev_t, block=True)
             for kind in ("acc", "gyro"):
                 v = getattr(part, kind)

@@ -17,7 +17,7 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["load_parquet", "PARQUET_SUFFIXES"]
+__all__ = ["load_parquet", "iter_parquet", "PARQUET_SUFFIXES"]
 
 PARQUET_SUFFIXES = (".parquet", ".pq")
 
@@ -33,33 +33,36 @@ def _pyarrow():
     return pa, pq
 
 
-def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str] | None = None):
-    """Read the Parquet file ``path`` into a Table (see the module docs).
+def _open(path: Path):
+    """(pyarrow, the open ParquetFile, the Table template with the file's metadata); one-line errors."""
+    from optinav.io.readers import Table
 
-    ``names``: the columns' names in order (``_``/``-`` skips one) replacing the file's. ``only`` (the names a
-    ``std=name`` mapping needs) does not prune the columns read: as in a text file, the unmapped columns are
-    still recognised by their names.
-    """
-    from optinav.io.readers import SKIP_NAMES, Table, _add
-
-    path = Path(path)
     pa, pq = _pyarrow()
     try:
         pf = pq.ParquetFile(path)
         schema = pf.schema_arrow
-        tab = pf.read(use_threads=True)
-    except OptinavError:
-        raise
     except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged or non-Parquet files
-        raise OptinavError(
-            f"{path.name} is not a readable Parquet file ({' '.join(str(exc).split())[:200]})",
-            "check that the file is complete",
-        ) from None
+        raise _damaged(path, exc) from None
     table = Table(path=path, kind="parquet", data={})
     for k, v in (schema.metadata or {}).items():
         key = k.decode("utf-8", "replace")
         if key not in ("pandas", "ARROW:schema") and len(v) < 200:
             table.meta[key] = v.decode("utf-8", "replace").strip()
+    return pa, pf, table
+
+
+def _damaged(path: Path, exc: Exception) -> OptinavError:
+    return OptinavError(
+        f"{path.name} is not a readable Parquet file ({' '.join(str(exc).split())[:200]})",
+        "check that the file is complete",
+    )
+
+
+def _fill(table, tab, names, pa) -> None:
+    """Add the columns of the Arrow table ``tab`` (named ``names`` in order when given) to ``table``."""
+    from optinav.io.readers import SKIP_NAMES, _add
+
+    path = table.path
     fields = list(tab.schema)
     if names is not None:
         if len(names) != len(fields):
@@ -76,7 +79,64 @@ def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str
     if not table.data:
         extra = f" (unreadable: {table.names()})" if table.skipped else ""
         raise OptinavError(f"{path.name} holds no numeric columns{extra}", "write the data as numeric columns")
+
+
+def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str] | None = None):
+    """Read the Parquet file ``path`` into a Table (see the module docs).
+
+    ``names``: the columns' names in order (``_``/``-`` skips one) replacing the file's. ``only`` (the names a
+    ``std=name`` mapping needs) does not prune the columns read: as in a text file, the unmapped columns are
+    still recognised by their names.
+    """
+    path = Path(path)
+    pa, pf, table = _open(path)
+    try:
+        tab = pf.read(use_threads=True)
+    except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged files
+        raise _damaged(path, exc) from None
+    _fill(table, tab, names, pa)
     return table
+
+
+def iter_parquet(path, *, names: Sequence[str] | None = None, chunk_rows: int, progress=None):
+    """:func:`load_parquet` in blocks of ``chunk_rows`` rows (record batches joined and cut; never a block of a
+    single row, see :func:`optinav.io.arrayblocks.block_bounds`); one table when the file holds no more.
+    ``progress(fraction)`` after each block."""
+    import dataclasses
+
+    from optinav.io.arrayblocks import block_bounds
+
+    path = Path(path)
+    pa, pf, tpl = _open(path)
+    n = pf.metadata.num_rows
+    if n <= chunk_rows:
+        yield load_parquet(path, names=names)
+        return
+    batches = pf.iter_batches(batch_size=max(int(chunk_rows), 2), use_threads=True)
+    held, got = [], 0
+    for a, b in block_bounds(n, chunk_rows):
+        try:
+            while got < b - a:
+                batch = next(batches, None)
+                if batch is None:
+                    raise OptinavError(
+                        f"{path.name} holds fewer rows ({a + got}) than its metadata states ({n})",
+                        "check that the file is complete",
+                    )
+                held.append(pa.Table.from_batches([batch]))
+                got += batch.num_rows
+            whole = pa.concat_tables(held) if len(held) > 1 else held[0]
+        except OptinavError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged files
+            raise _damaged(path, exc) from None
+        rest = whole.slice(b - a)
+        held, got = ([rest] if rest.num_rows else []), rest.num_rows
+        table = dataclasses.replace(tpl, data={}, units={}, meta=dict(tpl.meta), skipped={}, row0=a)
+        _fill(table, whole.slice(0, b - a), names, pa)
+        if progress is not None:
+            progress(b / n)
+        yield table
 
 
 def _column(table, name: str, fld, col, pa, add) -> None:

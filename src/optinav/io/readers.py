@@ -83,8 +83,11 @@ class Table:
     table: str | None = None
     table_array: np.ndarray | None = None
     skipped: dict[str, str] = dataclasses.field(default_factory=dict)
-    #: index of the first row in the file (0 unless the table is one block of a streamed text file)
+    #: index of the first row in the file (0 unless the table is one block of a streamed file)
     row0: int = 0
+    #: names of a streamed binary file's arrays that are not of the blocks' length (such as a 3×3 matrix beside
+    #: the samples): whole in the first block, empty in the others, so that each name's blocks join to the file's
+    fixed: frozenset = frozenset()
 
     def names(self, limit: int = _MAX_LISTED) -> str:
         """The available names as one short comma list (for error messages)."""
@@ -312,8 +315,10 @@ def iter_table(
 ) -> "TableChunks":
     """:func:`load_table` in blocks, so that memory does not grow with the file.
 
-    Text files (gzip too) are read line block by line block; other formats (one array read whole by their
-    libraries) come as a single table. The layout (header, units, preamble, delimiter) comes from the first lines;
+    Text files (gzip too) are read line block by line block; NPY, NPZ, HDF5, MATLAB v7.3 and Parquet files a
+    block of rows at a time (:mod:`optinav.io.arrayblocks`: arrays of another length than the samples' whole in
+    the first block and empty after it, named in ``Table.fixed``); MATLAB v4/v5 files and ROS bags come as a
+    single table. The layout (header, units, preamble, delimiter) comes from the first lines;
     a bad cell fails when its block is parsed, naming its line and column; an incomplete last line is dropped and
     reported in the last block's ``meta['truncated_line']`` as :func:`load_table` does.
 
@@ -356,16 +361,18 @@ class TableChunks:
         self.size = path.stat().st_size
         self.position = 0
 
+    @property
+    def blockwise(self) -> bool:
+        """Whether the blocks are read one at a time (False: the file comes whole as one table)."""
+        if self.kind == "text":
+            return True
+        if self.kind == "mat":
+            return _mat_flavour(self.path) != "mat" and self.delimiter is None and self.topic is None
+        return self.kind != "rosbag" and self.delimiter is None and self.topic is None
+
     def __iter__(self):
         if self.kind != "text":
-            yield load_table(
-                self.path,
-                names=self.names,
-                delimiter=self.delimiter,
-                only=self.only,
-                text_columns=self.text_columns,
-                topic=self.topic,
-            )
+            yield from self._binary()
             self.position = self.size
             return
         try:
@@ -378,6 +385,39 @@ class TableChunks:
             ) from None
         except (EOFError, zlib.error) as exc:  # truncated or corrupt gzip stream
             raise OptinavError(f"{self.path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
+
+    def _binary(self):
+        def load():
+            return load_table(
+                self.path,
+                names=self.names,
+                delimiter=self.delimiter,
+                only=self.only,
+                text_columns=self.text_columns,
+                topic=self.topic,
+            )
+
+        def progress(fraction: float) -> None:
+            self.position = int(fraction * self.size)
+
+        if not self.blockwise:
+            yield load()  # bags and MATLAB v4/v5 files are read whole; the options give their errors
+        elif self.kind == "parquet":
+            from optinav.io.parquet import iter_parquet
+
+            yield from iter_parquet(self.path, names=self.names, chunk_rows=self.chunk_rows, progress=progress)
+        else:
+            from optinav.io.arrayblocks import array_blocks
+
+            yield from array_blocks(
+                self.path,
+                self.kind,
+                names=self.names,
+                only=self.only,
+                chunk_rows=self.chunk_rows,
+                load=load,
+                progress=progress,
+            )
 
     def _text(self):
         path, n = self.path, self.chunk_rows
@@ -1126,7 +1166,9 @@ def _h5py():
     return h5py
 
 
-def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table:
+def _h5_open(path: Path, only: Sequence[str] | None, *, matlab: bool):
+    """(open h5py file, Table with the file attributes as ``meta``, dataset paths to read) of an HDF5 or MATLAB
+    v7.3 file: ``only``'s datasets, else all (MATLAB's ``#refs#`` left out); one-line errors."""
     h5py = _h5py()
     table = Table(path=path, kind="mat73" if matlab else "hdf5", data={})
     try:
@@ -1134,31 +1176,58 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
     except Exception as exc:  # noqa: BLE001 - OSError for non-HDF5 files, others for damaged ones
         raise OptinavError(f"{path} is not a readable HDF5 file ({exc})", "check that the file is complete") from None
     try:
+        for k, v in fh.attrs.items():
+            if isinstance(v, (bytes, str, np.bytes_, np.str_)):
+                table.meta[k] = v.decode("utf-8", "replace") if isinstance(v, (bytes, np.bytes_)) else str(v)
+            elif np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
+                table.meta[k] = repr(float(np.asarray(v).ravel()[0]))  # e.g. a sampling_rate attribute
+        found: list[str] = []
+
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and not (matlab and name.startswith("#")):
+                found.append(name)
+
+        fh.visititems(visit)
+        wanted = found
+        if only:
+            wanted = []
+            for name in only:
+                key = _h5_find(fh, found, name, h5py)
+                if key is None:
+                    listed = ", ".join(found[:_MAX_LISTED]) + (" …" if len(found) > _MAX_LISTED else "")
+                    raise OptinavError(
+                        f"{path} has no dataset {name!r} (datasets: {listed or 'none'})",
+                        "use one of the dataset paths listed",
+                    )
+                wanted.append(key)
+    except OptinavError:
+        fh.close()
+        raise
+    except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
+        fh.close()
+        raise _h5_damaged(path, exc) from None
+    return fh, table, wanted
+
+
+def _h5_damaged(path: Path, exc: Exception) -> OptinavError:
+    return OptinavError(
+        f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})", "check that the file is complete"
+    )
+
+
+def _h5_unit(ds) -> str | None:
+    """A dataset's ``unit``/``units`` attribute."""
+    unit = ds.attrs.get("unit", ds.attrs.get("units"))
+    if isinstance(unit, (bytes, np.bytes_)):
+        unit = unit.decode("utf-8", "replace")
+    return unit if isinstance(unit, str) else None
+
+
+def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table:
+    fh, table, wanted = _h5_open(path, only, matlab=matlab)
+    h5py = _h5py()
+    try:
         with fh:
-            for k, v in fh.attrs.items():
-                if isinstance(v, (bytes, str, np.bytes_, np.str_)):
-                    table.meta[k] = v.decode("utf-8", "replace") if isinstance(v, (bytes, np.bytes_)) else str(v)
-                elif np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
-                    table.meta[k] = repr(float(np.asarray(v).ravel()[0]))  # e.g. a sampling_rate attribute
-            found: list[str] = []
-
-            def visit(name, obj):
-                if isinstance(obj, h5py.Dataset) and not (matlab and name.startswith("#")):
-                    found.append(name)
-
-            fh.visititems(visit)
-            wanted = found
-            if only:
-                wanted = []
-                for name in only:
-                    key = _h5_find(fh, found, name, h5py)
-                    if key is None:
-                        listed = ", ".join(found[:_MAX_LISTED]) + (" …" if len(found) > _MAX_LISTED else "")
-                        raise OptinavError(
-                            f"{path} has no dataset {name!r} (datasets: {listed or 'none'})",
-                            "use one of the dataset paths listed",
-                        )
-                    wanted.append(key)
             for name in wanted:
                 ds = fh[name]
                 arr = _h5_read(fh, ds, matlab, h5py)
@@ -1166,17 +1235,13 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
                     table.skipped[name] = "unsupported MATLAB/HDF5 type"
                     continue
                 _add(table, name, arr)
-                unit = ds.attrs.get("unit", ds.attrs.get("units"))
-                if isinstance(unit, (bytes, np.bytes_)):
-                    unit = unit.decode("utf-8", "replace")
-                if isinstance(unit, str) and name in table.data:
+                unit = _h5_unit(ds)
+                if unit is not None and name in table.data:
                     table.units[name] = unit
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
-        raise OptinavError(
-            f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})", "check that the file is complete"
-        ) from None
+        raise _h5_damaged(path, exc) from None
     _check_nonempty(table)
     return table
 
@@ -1192,23 +1257,24 @@ def _h5_find(fh, found: list[str], name: str, h5py) -> str | None:
     return low[0] if len(low) == 1 else None
 
 
-def _h5_read(fh, ds, matlab: bool, h5py):
-    """A dataset's value; MATLAB v7.3 data are transposed back and chars/cells of strings decoded."""
+def _h5_read(fh, ds, matlab: bool, h5py, sel=()):
+    """A dataset's value (``sel``: an h5py selection of it, such as a block of rows); MATLAB v7.3 data are
+    transposed back and chars/cells of strings decoded."""
     if not matlab:
         if ds.dtype.kind == "O" and h5py.check_string_dtype(ds.dtype) is None:
             return None  # references or other object data
-        return ds[()]
+        return ds[sel]
     cls = ds.attrs.get("MATLAB_class", b"")
     cls = cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
     if ds.attrs.get("MATLAB_empty", 0):
         return None
     if cls == "char":
-        codes = np.asarray(ds[()]).T  # rows × characters in MATLAB layout
+        codes = np.asarray(ds[sel]).T  # rows × characters in MATLAB layout
         codes = np.atleast_2d(codes)
         rows = ["".join(map(chr, r)).rstrip() for r in codes.astype(np.int64)]
         return np.asarray(rows[0] if len(rows) == 1 else rows, dtype=str)
     if cls == "cell":
-        refs = np.asarray(ds[()]).T.ravel()
+        refs = np.asarray(ds[sel]).T.ravel()
         items = []
         for ref in refs:
             val = _h5_read(fh, fh[ref], True, h5py)
@@ -1218,19 +1284,25 @@ def _h5_read(fh, ds, matlab: bool, h5py):
         return np.asarray(items, dtype=str)
     if ds.dtype.kind not in "biuf":
         return None
-    return np.asarray(ds[()]).T
+    return np.asarray(ds[sel]).T
 
 
-def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
+def _mat_flavour(path: Path) -> str:
+    """ "mat73" (MATLAB v7.3, HDF5 inside), "hdf5" (a plain HDF5 file named .mat) or "mat" (v4/v5)."""
     try:
         with open(path, "rb") as fh:
             head = fh.read(520)
     except OSError as exc:
         raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
     if head.startswith(b"MATLAB 7.3") or head[512:520] == _HDF5_MAGIC:
-        return _load_hdf5(path, only, matlab=True)
-    if head.startswith(_HDF5_MAGIC):
-        return _load_hdf5(path, only, matlab=False)
+        return "mat73"
+    return "hdf5" if head.startswith(_HDF5_MAGIC) else "mat"
+
+
+def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
+    flavour = _mat_flavour(path)
+    if flavour != "mat":
+        return _load_hdf5(path, only, matlab=flavour == "mat73")
     import scipy.io
 
     try:

@@ -228,8 +228,8 @@ class ArraySource:
 
 class RinsFile:
     """A rotational-INS file (:data:`COLUMNS`) read block by block each time it is iterated: text in blocks of
-    ``block_rows`` lines (:func:`optinav.io.iter_table`), NPZ and HDF5 read whole by their libraries and then
-    cut into blocks. ``lat`` (rad) and ``height_m`` (m): the overrides, else the file's (known after the first
+    ``block_rows`` lines, NPZ and HDF5 in blocks of rows (:func:`optinav.io.iter_table`; a file read whole
+    by its library is cut into blocks). ``lat`` (rad) and ``height_m`` (m): the overrides, else the file's (known after the first
     block). Files with a ``time`` column (interval ends, module docstring) give one row fewer. ``size``,
     ``position``: bytes, for :func:`optinav.core.progress.progress_blocks`."""
 

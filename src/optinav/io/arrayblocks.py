@@ -1,0 +1,356 @@
+"""Binary data files (NPY, NPZ, HDF5, MATLAB v7.3) read in row blocks for :func:`optinav.io.iter_table`.
+
+A file's arrays are grouped by their number of samples (rows; a 1×N or N×1 array is a vector of N); the length
+holding the most bytes is the blocks' length, and each array of that length is read a block of rows at a time
+(HDF5 slices, seek-and-read of NPY data, a sequential read of each NPZ member, compressed or not). Every other
+array (a 3×3 matrix beside the samples, a vector at another rate) comes whole in the first block and empty in
+the others (:attr:`~optinav.io.readers.Table.fixed`), scalars as metadata in every block: each name's blocks join
+to what :func:`~optinav.io.readers.load_table` returns. A file of at most one block, or one these readers do
+not handle (object arrays, a .npy version they do not know, MATLAB v4/v5), is read whole by ``load_table``, which
+also gives its errors.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from optinav.errors import OptinavError
+
+__all__ = ["array_blocks", "block_bounds"]
+
+
+def block_bounds(n: int, chunk_rows: int) -> list[tuple[int, int]]:
+    """The ``[a, b)`` row ranges of ``n`` rows in blocks of at most ``chunk_rows`` (at least 2), none of a single
+    row (a lone row would read as a scalar, a 1×3 row as a vector of 3): a last block of one row takes one from
+    the block before."""
+    step = max(int(chunk_rows), 2)
+    out = [(a, min(a + step, n)) for a in range(0, n, step)]
+    if len(out) > 1 and out[-1][1] - out[-1][0] == 1:
+        (a, b), _ = out[-2:]
+        out[-2:] = [(a, b - 1), (b - 1, n)] if b - a > 2 else [(a, n)]
+    return out
+
+
+def sample_axis(shape: tuple[int, ...]) -> tuple[int, int] | None:
+    """(axis, samples) of an array as :func:`optinav.io.readers._convert` sees it: a vector's length (a 1×N or
+    N×1 matrix is one), else the rows of a matrix; None for a scalar, a single value or a >2-D array."""
+    size = int(np.prod(shape, dtype=np.int64))
+    if size <= 1 or len(shape) not in (1, 2):
+        return None
+    if len(shape) == 2 and 1 in shape:
+        return (1 if shape[0] == 1 else 0), size
+    return 0, int(shape[0])
+
+
+@dataclasses.dataclass
+class _Item:
+    """One array of a file: ``rows`` samples along its sample axis (None: not a sample array), ``read(a, b)``
+    rows a:b as the whole-file reader would hold them before conversion (None: only whole), ``whole()``."""
+
+    name: str
+    rows: int | None
+    nbytes: int
+    read: Callable[[int, int], np.ndarray] | None
+    whole: Callable[[], np.ndarray | None]
+    unit: str | None = None
+
+
+@dataclasses.dataclass
+class _Source:
+    table: object  # the Table template: kind, meta, skipped
+    items: list[_Item]
+    close: Callable[[], None]
+    fixed_keys: dict = dataclasses.field(default_factory=dict)  # item name → its table keys (not sliced)
+    fixed_empty: dict = dataclasses.field(default_factory=dict)  # table key → its empty array
+
+
+def array_blocks(path: Path, kind: str, *, names, only, chunk_rows: int, load, progress=None):
+    """The tables of ``path`` (format ``kind``) a block of ``chunk_rows`` rows at a time (module docs); ``load()``
+    reads the file whole (small files, formats not handled here). ``progress(fraction)`` after each block."""
+    from optinav.io.readers import _check_nonempty, _name_table_columns, _split_single_table
+
+    src = _open(path, kind, only)
+    if src is None:
+        yield load()
+        return
+    try:
+        lengths: dict[int, int] = {}
+        for it in src.items:
+            if it.rows is not None and it.read is not None:
+                lengths[it.rows] = lengths.get(it.rows, 0) + it.nbytes
+        n = max(lengths, key=lengths.get) if lengths else 0
+        if n <= chunk_rows:
+            src.close()
+            yield load()
+            return
+        for a, b in block_bounds(n, chunk_rows):
+            table = _block(src, n, a, b, path)
+            if a == 0:
+                _check_nonempty(table)
+            table = _split_single_table(table)
+            if names is not None:
+                table = _name_table_columns(table, names)
+            if progress is not None:
+                progress(b / n)
+            yield table
+    finally:
+        src.close()
+
+
+def _block(src: _Source, n: int, a: int, b: int, path: Path):
+    """The table of rows a:b (the blocks' length ``n``); the arrays of other lengths whole when ``a`` is 0."""
+    from optinav.io.readers import Table, _add
+
+    tpl = src.table
+    table = Table(path=path, kind=tpl.kind, data={}, meta=dict(tpl.meta), skipped=dict(tpl.skipped), row0=a)
+    for it in src.items:
+        sliced = it.rows == n and it.read is not None
+        if not sliced and a > 0:  # whole in the first block: empty here
+            table.data.update({k: src.fixed_empty[k] for k in src.fixed_keys[it.name]})
+            continue
+        try:
+            arr = it.read(a, b) if sliced else it.whole()
+        except OptinavError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - h5py/zipfile/zlib errors of a damaged file
+            raise OptinavError(
+                f"{path}: could not read {it.name!r} ({type(exc).__name__}: {' '.join(str(exc).split())[:160]})",
+                "check that the file is complete",
+            ) from None
+        before = set(table.data)
+        if arr is None:
+            table.skipped[it.name] = "unsupported MATLAB/HDF5 type"
+        else:
+            _add(table, it.name, arr)
+        if not sliced:
+            src.fixed_keys[it.name] = [k for k in table.data if k not in before]
+            src.fixed_empty.update({k: table.data[k][:0] for k in src.fixed_keys[it.name]})
+    for it in src.items:
+        if it.unit is not None and it.name in table.data:
+            table.units[it.name] = it.unit
+    if a == 0:  # what the other arrays add to the metadata holds for every block
+        tpl.meta, tpl.skipped = dict(table.meta), dict(table.skipped)
+    table.fixed = frozenset(k for keys in src.fixed_keys.values() for k in keys)
+    return table
+
+
+def _open(path: Path, kind: str, only) -> _Source | None:
+    from optinav.io.readers import _mat_flavour
+
+    if kind == "npy":
+        src = _npy(path)
+    elif kind == "npz":
+        src = _npz(path)
+    elif kind == "hdf5":
+        src = _hdf5(path, only, matlab=False)
+    elif kind == "mat" and (flavour := _mat_flavour(path)) != "mat":
+        src = _hdf5(path, only, matlab=flavour == "mat73")
+    else:
+        return None
+    return src
+
+
+# --- HDF5 and MATLAB v7.3 -----------------------------------------------------------------------------------
+
+
+def _hdf5(path: Path, only, *, matlab: bool) -> _Source:
+    from optinav.io.readers import _h5_open, _h5_read, _h5_unit, _h5py
+
+    h5py = _h5py()
+    fh, table, wanted = _h5_open(path, only, matlab=matlab)
+    items = []
+    for name in wanted:
+        ds = fh[name]
+        shape = tuple(ds.shape)[::-1] if matlab else tuple(ds.shape)  # MATLAB's layout is the transpose
+        if matlab:
+            cls = ds.attrs.get("MATLAB_class", b"")
+            cls = cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
+            plain = not ds.attrs.get("MATLAB_empty", 0) and (cls in ("char", "cell") or ds.dtype.kind in "biuf")
+            if cls == "char":  # a char matrix: one string per row
+                found = (0, shape[0]) if plain and len(shape) == 2 and shape[0] >= 2 else None
+            else:
+                found = sample_axis(shape) if plain else None
+        else:
+            plain = not (ds.dtype.kind == "O" and h5py.check_string_dtype(ds.dtype) is None)
+            found = sample_axis(shape) if plain and (ds.dtype.names is None or len(shape) == 1) else None
+        whole = lambda ds=ds: _h5_read(fh, ds, matlab, h5py)
+        if found is None:
+            items.append(_Item(name, None, 0, None, whole, _h5_unit(ds)))
+            continue
+        axis, rows = found
+        h5axis = len(shape) - 1 - axis if matlab else axis
+
+        def read(a, b, ds=ds, h5axis=h5axis, ndim=len(shape)):
+            return _h5_read(
+                fh, ds, matlab, h5py, tuple(slice(a, b) if i == h5axis else slice(None) for i in range(ndim))
+            )
+
+        items.append(_Item(name, rows, int(ds.size) * ds.dtype.itemsize, read, whole, _h5_unit(ds)))
+    return _Source(table, items, fh.close)
+
+
+# --- NPY and NPZ --------------------------------------------------------------------------------------------
+
+
+def _header(fp) -> tuple[tuple[int, ...], bool, np.dtype] | None:
+    """(shape, fortran_order, dtype) of the .npy stream ``fp`` positioned at its start; None for a version these
+    readers do not know or an object dtype (the whole-file reader gives its error)."""
+    fmt = np.lib.format
+    try:
+        version = fmt.read_magic(fp)
+        if version == (1, 0):
+            shape, fortran, dtype = fmt.read_array_header_1_0(fp)
+        elif version == (2, 0):
+            shape, fortran, dtype = fmt.read_array_header_2_0(fp)
+        else:
+            return None
+    except Exception:  # noqa: BLE001 - not an NPY stream: the whole-file reader names the problem
+        return None
+    if dtype.hasobject:
+        return None
+    return tuple(shape), bool(fortran), dtype
+
+
+class _Rows:
+    """Rows of one .npy array read from a stream: sequentially (``seekable``: from any row, and a Fortran-order
+    matrix a column at a time), the stream opened on first use by ``opener`` and positioned by ``data0``."""
+
+    def __init__(self, opener, data0: int, shape, fortran: bool, dtype, seekable: bool):
+        self.opener, self.data0, self.shape, self.dtype = opener, data0, shape, dtype
+        self.fortran = fortran and len(shape) == 2 and 1 not in shape
+        self.seekable, self.fp, self.at = seekable, None, 0
+        axis = sample_axis(shape)
+        self.axis = 0 if axis is None else axis[0]
+        self.row = int(np.prod(shape, dtype=np.int64)) // max(int(shape[self.axis]), 1)  # values per row
+
+    def _stream(self):
+        if self.fp is None:
+            self.fp = self.opener()
+            self.fp.seek(self.data0)
+            self.at = 0
+        return self.fp
+
+    def _take(self, count: int) -> np.ndarray:
+        nbytes = count * self.dtype.itemsize
+        buf = self.fp.read(nbytes)
+        if len(buf) != nbytes:
+            raise OptinavError("the file ends inside its data (truncated)", "re-save or re-copy the file")
+        return np.frombuffer(buf, self.dtype)
+
+    def read(self, a: int, b: int) -> np.ndarray:
+        fp = self._stream()
+        shape = list(self.shape)
+        shape[self.axis] = b - a
+        if self.fortran:  # column j of an (n, m) Fortran matrix is contiguous
+            n, cols = self.shape[0], []
+            for j in range(self.shape[1]):
+                fp.seek(self.data0 + (j * n + a) * self.dtype.itemsize)
+                cols.append(self._take(b - a))
+            return np.column_stack(cols)
+        if a != self.at:
+            if not self.seekable:
+                raise RuntimeError(f"rows {a}: blocks must be read in order")
+            fp.seek(self.data0 + a * self.row * self.dtype.itemsize)
+        out = self._take((b - a) * self.row).reshape(shape)
+        self.at = b
+        return out
+
+    def close(self) -> None:
+        if self.fp is not None:
+            self.fp.close()
+            self.fp = None
+
+
+def _npy_item(name: str, opener, seekable: bool, whole) -> tuple[_Item, _Rows] | None:
+    with opener() as fp:
+        head = _header(fp)
+        data0 = fp.tell()
+    if head is None:
+        return None
+    shape, fortran, dtype = head
+    found = sample_axis(shape) if dtype.names is None or len(shape) == 1 else None
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if found is None:
+        return _Item(name, None, nbytes, None, whole), None
+    rows = _Rows(opener, data0, shape, fortran, dtype, seekable)
+    if rows.fortran and not seekable:
+        # a Fortran-order matrix inside a compressed member cannot be read by rows: whole, then cut
+        cache = {}
+
+        def read(a, b):
+            if "arr" not in cache:
+                cache["arr"] = whole()
+            return cache["arr"][a:b]
+
+        return _Item(name, found[1], nbytes, read, whole), None
+    return _Item(name, found[1], nbytes, rows.read, whole), rows
+
+
+def _npy(path: Path) -> _Source | None:
+    from optinav.io.readers import Table
+
+    def opener():
+        return open(path, "rb")
+
+    def whole():
+        return np.load(path, allow_pickle=False)
+
+    try:
+        got = _npy_item(path.stem, opener, True, whole)
+    except OSError:
+        return None
+    if got is None or got[0].read is None:
+        return None
+    item, rows = got
+    if rows is not None and path.stat().st_size < rows.data0 + item.nbytes:
+        return None  # truncated: the whole-file reader names it
+    if rows is not None and rows.dtype.names is not None:
+        # a structured .npy is a table whose fields are the columns (load_table names them without the stem)
+        item.name = ""
+    return _Source(Table(path=path, kind="npy", data={}), [item], rows.close if rows else (lambda: None))
+
+
+def _npz(path: Path) -> _Source | None:
+    from optinav.io.readers import Table
+
+    try:
+        zf = zipfile.ZipFile(path)
+    except Exception:  # noqa: BLE001 - the whole-file reader names the problem
+        return None
+    items, streams = [], []
+    try:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                zf.close()
+                return None
+            name = info.filename[:-4]
+
+            def opener(info=info):
+                return zf.open(info)
+
+            def whole(info=info):
+                with zf.open(info) as fp:
+                    return np.lib.format.read_array(fp, allow_pickle=False)
+
+            got = _npy_item(name, opener, info.compress_type == zipfile.ZIP_STORED, whole)
+            if got is None:
+                zf.close()
+                return None
+            items.append(got[0])
+            if got[1] is not None:
+                streams.append(got[1])
+    except Exception:  # noqa: BLE001 - a damaged archive: the whole-file reader names the problem
+        zf.close()
+        return None
+
+    def close():
+        for s in streams:
+            s.close()
+        zf.close()
+
+    return _Source(Table(path=path, kind="npz", data={}), items, close)

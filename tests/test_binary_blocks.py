@@ -1,0 +1,226 @@
+"""Binary files read in row blocks (optinav.io.arrayblocks, optinav.io.parquet.iter_parquet): each name's blocks
+join to exactly what the whole-file reader returns, and iter_imu's blocks to read_imu's log, errors included."""
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from optinav.errors import OptinavError
+from optinav.io import iter_imu, read_imu
+from optinav.io.arrayblocks import block_bounds
+from optinav.io.readers import iter_table, load_table
+from test_io import _mutate, _valid, _write_mat73
+
+N = 203
+
+
+def _columns(n: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return np.arange(n) / 100.0, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+
+
+def _files(d: Path, n: int = N) -> dict[str, Path]:
+    """One file of every layout the block readers handle, each with something beside the samples."""
+    t, acc, gyr = _columns(n)
+    lab = np.array(["a", "bb"] * (n // 2) + ["c"] * (n % 2))
+    rec = np.zeros(n, dtype=[("t", float), ("ax", float), ("ay", np.float32), ("az", np.int16)])
+    rec["t"], rec["ax"], rec["ay"], rec["az"] = t, acc[:, 0], acc[:, 1], np.arange(n)
+    out = {k: d / k for k in ("a.npz", "z.npz", "c.npy", "f.npy", "r.npy", "e.h5", "m.mat", "m2.mat", "p.parquet")}
+    np.savez(out["a.npz"], t=t, acc=acc, gyro=gyr, M=np.eye(3), rate=100.0, label=lab, acc_unit="g")
+    np.savez_compressed(out["z.npz"], t=t, acc=acc, gyro=np.asfortranarray(gyr), M=np.eye(3), row=t[None, :])
+    np.save(out["c.npy"], np.column_stack([t, acc, gyr]))
+    np.save(out["f.npy"], np.asfortranarray(np.column_stack([t, acc, gyr])))
+    np.save(out["r.npy"], rec)
+    with h5py.File(out["e.h5"], "w") as f:
+        f["imu/t"], f["imu/acc"], f["M"], f["row"], f["col"] = t, acc, np.eye(3), t[None, :], t[:, None]
+        f.create_dataset("imu/gyro", data=gyr, chunks=(16, 3), compression="gzip")
+        f["lab"] = np.array([b"x", b"yy"] * (n // 2) + [b"z"] * (n % 2))
+        f.create_dataset("comp", data=rec, chunks=True)
+        f.attrs["rate"], f["imu/acc"].attrs["unit"] = 100.0, "g"
+        f["slow"] = np.arange(n // 3 * 2.0)  # another rate: whole in the first block
+    labels = ["x", "yy", "zzz"] * (n // 3) + ["w"] * (n % 3)
+    _write_mat73(out["m.mat"], {"t": t, "acc": acc, "acc_unit": "g", "labels": labels, "M": np.eye(3), "note": "ab"})
+    _write_mat73(out["m2.mat"], {"data": np.column_stack([t, acc])})
+    table = pa.table(
+        {
+            "t": t,
+            "v": acc[:, 0],
+            "s": lab,
+            "lst": pa.array(list(acc), type=pa.list_(pa.float64(), 3)),
+            "st": pa.array([{"x": float(v), "y": 1.0} for v in t]),
+        }
+    )
+    pq.write_table(table, out["p.parquet"], row_group_size=37)
+    return out
+
+
+def _joined(path: Path, chunk: int, **kw):
+    blocks = list(iter_table(path, chunk_rows=chunk, **kw))
+    parts: dict[str, list] = {}
+    for b in blocks:
+        for k, v in b.data.items():
+            parts.setdefault(k, []).append(v)
+    return blocks, {k: np.concatenate(v) for k, v in parts.items()}
+
+
+def _same_as_whole(path: Path, chunk: int, **kw) -> list:
+    whole = load_table(path, **kw)
+    blocks, joined = _joined(path, chunk, **kw)
+    assert list(joined) == list(whole.data)
+    for k, v in joined.items():
+        assert v.dtype == whole.data[k].dtype and np.array_equal(v, whole.data[k]), k
+    for b in blocks:
+        assert (b.meta, b.units, b.skipped, b.table) == (whole.meta, whole.units, whole.skipped, whole.table)
+    key = next(k for k in whole.data if k not in blocks[0].fixed)
+    assert [b.row0 for b in blocks] == list(np.cumsum([0] + [len(b.data[key]) for b in blocks]))[:-1]
+    return blocks
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    return _files(tmp_path_factory.mktemp("blocks"))
+
+
+@pytest.mark.parametrize("name", ["a.npz", "z.npz", "c.npy", "f.npy", "r.npy", "e.h5", "m.mat", "m2.mat", "p.parquet"])
+@pytest.mark.parametrize("chunk", [1, 2, 7, 101, N - 1, N, 10_000])
+def test_blocks_join_to_the_whole_file(files, name, chunk):
+    blocks = _same_as_whole(files[name], chunk)
+    assert len(blocks) == (1 if chunk >= N else len(block_bounds(N, chunk))) and len(block_bounds(N, 7)) == 29
+    assert all(len(b.data[next(k for k in b.data if k not in b.fixed)]) <= max(chunk, 3) for b in blocks)
+    if len(blocks) > 1 and name in ("a.npz", "z.npz", "e.h5", "m.mat"):
+        assert "M" in blocks[0].fixed and blocks[1].data["M"].shape == (0, 3)  # whole once, then empty
+
+
+@pytest.mark.parametrize("name", ["c.npy", "f.npy", "m2.mat"])
+def test_positional_names_of_a_single_matrix(files, name):
+    blocks = _same_as_whole(
+        files[name], 50, names=["t", "ax", "_", "az"] + (["gx", "gy", "gz"] if "npy" in name else [])
+    )
+    assert "ay" not in blocks[0].data and blocks[0].table is not None
+
+
+def test_hdf5_datasets_by_path(files):
+    blocks = _same_as_whole(files["e.h5"], 50, only=["imu/t", "imu/gyro", "M"])
+    assert list(blocks[0].data) == ["imu/t", "imu/gyro", "M"] and len(blocks) == 5
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 10, 11, 100, 101])
+@pytest.mark.parametrize("chunk", [1, 2, 3, 4, 10])
+def test_block_bounds(n, chunk):
+    b = block_bounds(n, chunk)
+    assert b[0][0] == 0 and b[-1][1] == n and all(x[1] == y[0] for x, y in zip(b, b[1:]))
+    sizes = [y - x for x, y in b]
+    assert min(sizes) >= 2 and max(sizes) <= max(chunk, 2) + (1 if chunk <= 2 else 0)
+    if chunk >= 3:
+        assert max(sizes) <= chunk
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    n=st.integers(2, 80),
+    chunk=st.integers(1, 30),
+    kind=st.sampled_from(["npz", "npz-deflated", "npy-fortran", "h5-chunked", "parquet"]),
+)
+def test_any_length_and_block_size_joins_to_the_whole(tmp_path, n, chunk, kind):
+    t, acc, _ = _columns(n, seed=n)
+    path = tmp_path / f"x.{kind.split('-')[0]}"
+    if kind == "npz":
+        np.savez(path, t=t, acc=acc, k=np.ones(2))
+    elif kind == "npz-deflated":
+        np.savez_compressed(path, t=t, acc=np.asfortranarray(acc))
+    elif kind == "npy-fortran":
+        np.save(path, np.asfortranarray(np.column_stack([t, acc])))
+    elif kind == "h5-chunked":
+        with h5py.File(path, "w") as f:
+            f.create_dataset("t", data=t, chunks=(min(n, 3),))
+            f["acc"], f["k"] = acc, np.ones(5)
+    else:
+        pq.write_table(pa.table({"t": t, "ax": acc[:, 0]}), path, row_group_size=max(1, n // 3))
+    _same_as_whole(path, chunk)
+
+
+_IMU_COLUMNS = {
+    "c.npy": {"columns": "t,ax,ay,az,gx,gy,gz"},
+    "e.h5": {"columns": "t=imu/t,acc=imu/acc,gyro=imu/gyro"},
+    "p.parquet": {"columns": "t=t,acc=lst"},
+}
+
+
+@pytest.mark.parametrize("name", ["a.npz", "z.npz", "e.h5", "m.mat", "p.parquet", "c.npy"])
+def test_iter_imu_of_a_binary_file_is_read_imu_in_blocks(files, name):
+    kw = _IMU_COLUMNS.get(name, {})
+    whole = read_imu(files[name], **kw)
+    chunks = iter_imu(files[name], chunk_rows=20, **kw)
+    logs = list(chunks)
+    assert len(logs) == 11 and all(len(x) <= 20 for x in logs) and chunks.table is not None
+    for attr in ("t", "acc", "gyr"):
+        a = [getattr(x, attr) for x in logs]
+        assert (a[0] is None and getattr(whole, attr) is None) or np.array_equal(
+            np.concatenate(a), getattr(whole, attr)
+        )
+    assert logs[0].notes == whole.notes and logs[0].acc_input_unit == whole.acc_input_unit
+    assert chunks.position == chunks.size and chunks.rows == N
+
+
+def test_iter_imu_reads_whole_when_a_used_array_is_of_another_length(tmp_path):
+    t, acc, gyr = _columns(N)
+    np.savez(tmp_path / "bad.npz", t=t[:100], acc=acc, gyro=gyr)  # the samples are acc/gyro, t is shorter
+    with pytest.raises(OptinavError) as whole:
+        read_imu(tmp_path / "bad.npz")
+    with pytest.raises(OptinavError) as blocks:
+        list(iter_imu(tmp_path / "bad.npz", chunk_rows=20))
+    assert str(blocks.value) == str(whole.value) and "t: 100, acc: 203" in str(whole.value)
+    # the samples are the minority: the big unrelated array sets the blocks, the log is still read once
+    np.savez(tmp_path / "small.npz", t=t[:5], acc=acc[:5], gyro=gyr[:5], image=np.zeros(5000))
+    logs = list(iter_imu(tmp_path / "small.npz", chunk_rows=20))
+    assert np.array_equal(np.concatenate([x.t for x in logs]), t[:5])
+
+
+def test_a_damaged_member_is_a_one_line_error(tmp_path):
+    t, acc, gyr = _columns(5000)
+    path = tmp_path / "x.npz"
+    np.savez(path, t=t, acc=acc, gyro=gyr)
+    raw = bytearray(path.read_bytes())
+    i = raw.index(b"gyro.npy") + 80_000  # inside gyro's data: its CRC fails when the member is read to its end
+    raw[i : i + 8] = b"\xff" * 8
+    path.write_bytes(bytes(raw))
+    with pytest.raises(OptinavError) as exc:
+        list(iter_table(path, chunk_rows=1000))
+    assert "\n" not in str(exc.value) and "x.npz" in str(exc.value)
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    mutations=st.lists(
+        st.tuples(
+            st.sampled_from(["truncate", "replace", "insert", "delete"]),
+            st.floats(0, 1),
+            st.binary(min_size=1, max_size=8),
+        ),
+        min_size=1,
+        max_size=3,
+    ),
+    name=st.sampled_from(["a.npz", "z.npz", "c.npy", "e.h5", "m.mat", "p.parquet"]),
+)
+def test_fuzz_blocks_give_read_imus_log_or_a_one_line_error(tmp_path_factory, files, mutations, name):
+    path = tmp_path_factory.mktemp("fuzz") / name
+    path.write_bytes(_mutate(files[name].read_bytes(), mutations))
+    kw = _IMU_COLUMNS.get(name, {})
+    try:
+        whole = read_imu(path, **kw)
+    except OptinavError:
+        whole = None
+    try:
+        logs = list(iter_imu(path, chunk_rows=30, **kw))
+    except OptinavError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    if whole is not None:
+        _valid(whole)
+        assert np.array_equal(np.concatenate([x.t for x in logs]), whole.t)
