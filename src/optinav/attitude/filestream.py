@@ -187,28 +187,48 @@ class _Score:
 
 class _TruthSeries:
     """:meth:`optinav.core.results.Truth.compare` of a simulated truth's per-sample series (q_b_n, roll, pitch, yaw)
-    accumulated over blocks as sums of squared errors; its other parameters are compared with the final estimate."""
+    accumulated over blocks as sums of squared errors; its other parameters are compared with the final estimate.
+    ``truth``: a :class:`~optinav.core.results.Truth` or a
+    :class:`~optinav.core.results.TruthSeriesReader` (long series read block by block beside the log)."""
 
     SERIES = ("q_b_n", "roll", "pitch", "yaw")
 
     def __init__(self, truth, frame: str):
-        self.truth, self.frame = truth, frame
+        from optinav.core.results import TruthSeriesReader
+
+        self.reader = truth if isinstance(truth, TruthSeriesReader) else None
+        self.truth, self.frame = (truth.truth if self.reader is not None else truth), frame
+        streamed = self.reader.rows if self.reader is not None else {}
+        # the series held in memory, as arrays once (not per block)
+        self.inline = {
+            k: np.asarray(p.value, float)
+            for k, p in self.truth.parameters.items()
+            if k in self.SERIES and p.value is not None and k not in streamed
+        }
+        self.streamed = [k for k in self.SERIES if k in streamed]
         self.ss: dict[str, float] = {}
         self.k: dict[str, int] = {}
+
+    def _mismatch(self, name: str, have: int, n: int) -> OptinavError:
+        return OptinavError(
+            f"the truth's {name} has {have} samples, the log {n}",
+            "pass the truth written with this log by optinav simulate flight, or remove it",
+        )
 
     def add(self, row0: int, q: np.ndarray) -> None:
         from optinav.attitude.estimators import AttitudeEstimate
         from optinav.core.results import Truth
 
         n = len(q)
-        part = Truth(
-            self.truth.system,
-            {
-                k: dataclasses.replace(p, value=np.asarray(p.value, float)[row0 : row0 + n])
-                for k, p in self.truth.parameters.items()
-                if k in self.SERIES and p.value is not None
-            },
-        )
+        values = {k: v[row0 : row0 + n] for k, v in self.inline.items()}
+        for k in self.streamed:
+            values[k] = self.reader.take(k, n)
+        for k, v in values.items():
+            if len(v) < n:
+                have = self.reader.taken(k) if k in self.streamed else len(self.inline[k])
+                raise self._mismatch(k, have, f"at least {row0 + n}")
+        params = self.truth.parameters
+        part = Truth(self.truth.system, {k: dataclasses.replace(params[k], value=v) for k, v in values.items()})
         for name, c in part.compare(_Observed(AttitudeEstimate(q_b_n=q, frame=self.frame))).items():
             e = np.asarray(c["error"], float)
             self.ss[name] = self.ss.get(name, 0.0) + float(np.sum(e**2))
@@ -219,13 +239,15 @@ class _TruthSeries:
         series as ``{"rmse", "z"}``, only those the estimate observes)."""
         from optinav.core.results import Truth
 
-        for name in self.SERIES:
-            p = self.truth.parameters.get(name)
-            if p is not None and p.value is not None and len(p.value) != n:
-                raise OptinavError(
-                    f"the truth's {name} has {len(p.value)} samples, the log {n}",
-                    "pass the truth written with this log by optinav simulate flight, or remove it",
-                )
+        for name, v in self.inline.items():
+            if len(v) != n:
+                raise self._mismatch(name, len(v), n)
+        for name in self.streamed:
+            rest = self.reader.count_rest(name)
+            if rest:
+                raise self._mismatch(name, self.reader.taken(name), n)
+        if self.reader is not None:
+            self.reader.close()
         hidden = est.unobservable()
         out = {
             name: {"rmse": float(np.sqrt(self.ss[name] / self.k[name])), "z": float("nan")}

@@ -121,12 +121,12 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
     output file), so a unit's memory does not grow with its log; extra columns: samples, duration (s), and with
     ``reference`` the inclination and heading RMSE (deg) against the recording's reference (BROAD) or its
     simulated truth (``STEM.truth.csv``), over the samples where it is valid. With ``reference`` a simulated
-    ``STEM.truth.json`` beside it is compared too (:attr:`StreamedEstimate.truth_comparison`; that file is read
-    whole)."""
+    ``STEM.truth.json`` beside it is compared too (:attr:`StreamedEstimate.truth_comparison`; its per-sample
+    series read block by block beside the log)."""
     from optinav.attitude.data import is_broad
-    from optinav.attitude.filestream import stream_attitude
+    from optinav.attitude.filestream import _TruthSeries, stream_attitude
     from optinav.core import files
-    from optinav.core.results import Truth
+    from optinav.core.results import TruthSeriesReader
 
     p, o = Path(path), options
     broad = is_broad(p) and not o.columns and not o.datasets
@@ -138,7 +138,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         o,
         reference=reference and broad,
         truth_csv=truth_csv if reference and not broad and truth_csv.is_file() else None,
-        truth=Truth.from_json(truth_json) if reference and truth_json.is_file() else None,
+        truth=TruthSeriesReader(truth_json, _TruthSeries.SERIES) if reference and truth_json.is_file() else None,
         chunk_rows=files.CHUNK_ROWS,
         progress=False,
     )

@@ -844,6 +844,94 @@ def _json_rows(v: np.ndarray) -> str:
     return ",\n".join("[" + ", ".join(map(num, r)) + "]" for r in v.reshape(len(v), -1).tolist())
 
 
+class TruthSeriesReader:
+    """A truth file (:meth:`Truth.from_json`'s layout) whose long per-sample series stay on disk and are read block
+    by block (:mod:`optinav.core.jsonstream`), so that memory does not grow with their length: ``truth`` holds
+    every other parameter, and the streamed series with value None; :meth:`take` gives a series' next rows.
+
+    Parameters
+    ----------
+    path : str or Path
+        The truth file.
+    series : sequence of str
+        The parameters that may be per-sample series (``q_b_n``, ``roll`` …); those written inline (short) are
+        in ``truth`` as usual.
+    """
+
+    def __init__(self, path, series):
+        from optinav.core.jsonstream import ArrayRows, skeleton
+
+        self.path = Path(path)
+        remedy = "pass an unmodified truth file"
+        data, regions = skeleton(self.path, depth=4, what="truth file", remedy=remedy)
+        self.rows: dict = {}
+        params = data.get("parameters") if isinstance(data, dict) else None
+        if isinstance(params, dict):
+            for name, p in params.items():
+                if name in series and isinstance(p, dict) and isinstance(p.get("value"), str) and p["value"] in regions:
+                    self.rows[name] = ArrayRows(self.path, regions[p.pop("value")], f"the truth's {name}")
+                    p["value"] = None
+        if any(r.marker in json.dumps(data) for r in regions.values()):
+            # long arrays elsewhere (not a series): the file is read whole after all
+            self.close()
+            self.rows = {}
+            self.truth = Truth.from_json(self.path)
+            return
+        self.truth = Truth.from_dict(data)
+
+    def take(self, name: str, n: int) -> np.ndarray:
+        """The next rows of a series.
+
+        Parameters
+        ----------
+        name : str
+            The series (a key of ``rows``).
+        n : int
+            How many rows (fewer at its end).
+
+        Returns
+        -------
+        ndarray
+            The rows [the series' unit].
+        """
+        return self.rows[name].take(n)
+
+    def taken(self, name: str) -> int:
+        """Rows of a series taken so far.
+
+        Parameters
+        ----------
+        name : str
+            The series.
+
+        Returns
+        -------
+        int
+            The count.
+        """
+        return self.rows[name].rows
+
+    def count_rest(self, name: str) -> int:
+        """Rows of a series not taken yet (reads them).
+
+        Parameters
+        ----------
+        name : str
+            The series.
+
+        Returns
+        -------
+        int
+            The count.
+        """
+        return self.rows[name].count_rest()
+
+    def close(self) -> None:
+        """Close the file."""
+        for r in self.rows.values():
+            r.close()
+
+
 class TruthSeriesWriter:
     """A truth whose parameters are per-sample series (e.g. a simulated flight's attitude), written to
     ``STEM.truth.json`` block by block: each series' rows wait in a scratch file beside the output until
