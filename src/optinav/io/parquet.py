@@ -33,13 +33,14 @@ def _pyarrow():
     return pa, pq
 
 
-def _open(path: Path):
-    """(pyarrow, the open ParquetFile, the Table template with the file's metadata); one-line errors."""
+def _open(path: Path, **kw):
+    """(pyarrow, the open ParquetFile (``kw``: its options), the Table template with the file's metadata);
+    one-line errors."""
     from optinav.io.readers import Table
 
     pa, pq = _pyarrow()
     try:
-        pf = pq.ParquetFile(path)
+        pf = pq.ParquetFile(path, **kw)
         schema = pf.schema_arrow
     except Exception as exc:  # noqa: BLE001 - ArrowInvalid/OSError on damaged or non-Parquet files
         raise _damaged(path, exc) from None
@@ -99,20 +100,28 @@ def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str
 
 
 def iter_parquet(path, *, names: Sequence[str] | None = None, chunk_rows: int, progress=None):
-    """:func:`load_parquet` in blocks of ``chunk_rows`` rows (record batches joined and cut; never a block of a
-    single row, see :func:`optinav.io.arrayblocks.block_bounds`); one table when the file holds no more.
+    """:func:`load_parquet` in blocks of ``chunk_rows`` rows (record batches of one row group at a time, joined
+    and cut; never a block of a single row, see :func:`optinav.io.arrayblocks.block_bounds`); one table when the
+    file holds no more.
     ``progress(fraction)`` after each block."""
     import dataclasses
 
     from optinav.io.arrayblocks import block_bounds
 
     path = Path(path)
-    pa, pf, tpl = _open(path)
+    # column chunks read through a 1 MiB buffer (not whole), one row group at a time: one reader over all row
+    # groups keeps what it decoded until it ends (memory grows with the file)
+    pa, pf, tpl = _open(path, buffer_size=1 << 20, pre_buffer=False)
     n = pf.metadata.num_rows
     if n <= chunk_rows:
         yield load_parquet(path, names=names)
         return
-    batches = pf.iter_batches(batch_size=max(int(chunk_rows), 2), use_threads=True)
+    step = max(int(chunk_rows), 2)
+    batches = (
+        batch
+        for group in range(pf.metadata.num_row_groups)
+        for batch in pf.iter_batches(batch_size=step, row_groups=[group], use_threads=True)
+    )
     held, got = [], 0
     for a, b in block_bounds(n, chunk_rows):
         try:
