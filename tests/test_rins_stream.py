@@ -195,3 +195,16 @@ def test_cli_refuses_up_front_by_the_streamed_estimate(session, tmp_path, monkey
     assert need[".csv"] == pytest.approx(12000 * 100, rel=0.05) and need[".npz"] == pytest.approx(
         12000 * 300, rel=0.005
     )
+
+
+def test_a_rest_longer_than_the_alignment_keeps_is_refused_with_the_flag(session, monkeypatch):
+    """The initial rest is held for the alignment up to MAX_REST_ROWS rows: a longer one (60 s, about 6000 rows,
+    the cap set to 2500) ends in a one-line error naming --align without holding the rest, and --align 20 aligns
+    on its first 20 s as before."""
+    import optinav.rins.process as process
+
+    want = survey(session, align_s=20.0)
+    monkeypatch.setattr(process, "MAX_REST_ROWS", 2500)
+    with pytest.raises(OptinavError, match=r"initial rest lasts 60 s \(60[0-9]{2} rows\).*--align S"):
+        survey(session)
+    _same_alignment(survey(session, align_s=20.0), want)

@@ -200,6 +200,10 @@ class Alignment:
     height_m: float
 
 
+#: most rows of the initial rest kept for the alignment (56 B each: 235 MB); a longer rest needs ``align_s``
+MAX_REST_ROWS = 1 << 22
+
+
 def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str = "check") -> Alignment:
     """First pass over a recording: the bad-input checks, the initial rest (rows kept until the first gimbal
     move or ``align_s`` [s]), the latitude check and the alignment on that rest.
@@ -224,6 +228,7 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     checks = _Checks()
     rest: dict = {"t": [], "dtheta": [], "dv": []}
     k_a, t0, prev = None, None, None  # rows of the rest once known; first epoch; last encoder angles
+    kept, overflow = 0, False  # rest rows kept; more than MAX_REST_ROWS (no longer kept)
     for b in _blocks(src, desc):
         t = checks.feed(b)
         if k_a is not None or not t.size:
@@ -237,8 +242,12 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
         if align_s is not None:
             stop |= t >= t0 + align_s
         end = int(np.argmax(stop)) if stop.any() else t.size
-        for c in rest:
-            rest[c].append(np.asarray(getattr(b, c), float)[:end])
+        if kept + end > MAX_REST_ROWS and not overflow:
+            overflow, rest = True, {c: [] for c in rest}  # a rest this long ends in an error: keep none of it
+        if not overflow:
+            for c in rest:
+                rest[c].append(np.asarray(getattr(b, c), float)[:end])
+            kept += end
         if end < t.size:
             k_a = b.row0 + end
     dt = checks.finish()
@@ -254,6 +263,12 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
         raise OptinavError(
             "the gimbals never move after the alignment (no gimbal motion)",
             "nothing can be calibrated: record a rotation scheme turning both axes",
+        )
+    if overflow:
+        raise OptinavError(
+            f"the initial rest lasts {k_a * step:.0f} s ({k_a} rows), longer than the {MAX_REST_ROWS} rows the "
+            "alignment keeps in memory",
+            "pass --align S to align on its first S seconds (the paper: 600)",
         )
     # row k integrates over (t[k], t[k+1]]; t[m] is the last epoch with both encoders still, so the alignment
     # uses rows 0..m−1 (epochs t[0..m]) and the strapdown starts at t[m]
