@@ -208,3 +208,48 @@ def test_a_rest_longer_than_the_alignment_keeps_is_refused_with_the_flag(session
     with pytest.raises(OptinavError, match=r"initial rest lasts 60 s \(60[0-9]{2} rows\).*--align S"):
         survey(session)
     _same_alignment(survey(session, align_s=20.0), want)
+
+
+def test_a_gimbal_that_never_stops_is_summed_in_bounded_memory():
+    """The axis method's move summation keeps a few epochs of history, whatever the length of a move: an inner
+    gimbal turning at 30 °/s from epoch 100 to the end of the data (3000 epochs) gives one move, its axis the
+    increments' (z) and its angle the encoders', the same bits for blocks of 64 epochs and for one block."""
+    from types import SimpleNamespace
+
+    from optinav.rins.calibrate import _AxisMoves
+    from optinav.rins.process import NavBlock
+
+    n, dt = 3100, 0.01
+    alpha = np.concatenate([np.zeros(101), np.radians(30.0) * dt * np.arange(1, n - 100)])
+    al = SimpleNamespace(lat=np.radians(40.0))
+    w_ie = earth.earth_rate(al.lat, "enu")
+    dth = np.column_stack([np.zeros((n - 1, 2)), np.diff(alpha)]) + w_ie * dt  # the Earth rate removed again
+
+    def run(rows):
+        moves = _AxisMoves(al)
+        for a in range(0, n - 1, rows):
+            b = min(a + rows, n - 1)
+            k = b - a
+            e0 = 0 if a == 0 else a + 1  # the first block brings the start epoch too
+            moves.feed(
+                NavBlock(
+                    j0=e0,
+                    t=np.arange(e0, b + 1) * dt,
+                    q=np.tile([1.0, 0, 0, 0], (b + 1 - e0, 1)),
+                    alpha=alpha[e0 : b + 1],
+                    beta=np.zeros(b + 1 - e0),
+                    dtheta=dth[a:b],
+                    dt=np.full(k, dt),
+                    q_start=np.tile([1.0, 0, 0, 0], (k, 1)),
+                    perturbed=[],
+                )
+            )
+            assert moves.ang["Z"].size <= moves.MARGIN + 2 and moves.rel.shape[0] <= moves.MARGIN + 2
+        return moves.finish()
+
+    out = run(64)
+    ((u, d_ang, other),) = out["Z"]
+    assert out["Y"] == [] and d_ang == alpha[-1] - alpha[95] and other == 0.0
+    np.testing.assert_allclose(u, [0.0, 0.0, 1.0], atol=1e-12)
+    (whole,) = run(n)["Z"]
+    assert np.array_equal(whole[0], u) and whole[1:] == (d_ang, other)

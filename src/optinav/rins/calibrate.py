@@ -330,52 +330,89 @@ class _FrozenWatch:
 
 class _AxisMoves:
     """The axis vector of every gimbal move from the gyro increments, block by block: (inner [(u, Δα, β)],
-    outer [(u, Δβ, α)]). The increments less the Earth rate (in the IMU frame along the strapdown attitude at
-    each interval's start) are kept from 5 rows before a move until 5 rows after it (a move may span blocks)."""
+    outer [(u, Δβ, α)]). A move runs over the intervals whose encoder step exceeds MOTION_STEP; from 5 epochs
+    before it to 5 after it, the increments less the Earth rate (in the IMU frame along the strapdown attitude at
+    each interval's start) are summed as they arrive, with the range and mean of the other encoder: memory holds
+    a few epochs of history, however long a move lasts (a gimbal that never stops included)."""
 
-    MARGIN = 5  #: rows of margin either side of a move: it starts between rows
+    MARGIN = 5  #: epochs of margin either side of a move: it starts between rows
 
     def __init__(self, al: Alignment):
         self.w_ie = _earth.earth_rate(al.lat, "enu")
-        self.base = 0  # epoch number of the first kept epoch (and interval)
-        self.alpha, self.beta, self.rel = np.empty(0), np.empty(0), np.empty((0, 3))
-        self.done = {"Z": 0, "Y": 0}  # the end of the last move handled, per axis
+        self.g0 = 0  # global number of the first epoch in the history
+        self.ang = {"Z": np.empty(0), "Y": np.empty(0)}  # the history: epochs g0 …
+        self.rel = np.empty((0, 3))  # the intervals after each history epoch but the last
+        self.moving = {"Z": False, "Y": False}  # the last interval seen turned the axis
+        self.open: dict = {"Z": [], "Y": []}  # moves being summed
         self.out: dict = {"Z": [], "Y": []}
 
     def feed(self, nb) -> None:
         earth_s = np.einsum("kji,j->ki", dcm_from_quat(nb.q_start), self.w_ie) * nb.dt[:, None]
-        self.alpha = np.concatenate([self.alpha, nb.alpha])
-        self.beta = np.concatenate([self.beta, nb.beta])
-        self.rel = np.concatenate([self.rel, nb.dtheta - earth_s])
-        self._scan(final=False)
+        new = {"Z": np.asarray(nb.alpha, float), "Y": np.asarray(nb.beta, float)}
+        i0 = self.g0 + self.ang["Z"].size - 1  # global number of the first new interval (-1 before any epoch)
+        ang = {k: np.concatenate([self.ang[k], v]) for k, v in new.items()}
+        rel = np.concatenate([self.rel, nb.dtheta - earth_s])
+        first = self.ang["Z"].size == 0  # the first block brings the start epoch: one epoch more than intervals
+        last = self.g0 + ang["Z"].size - 1
+        for axis, other in (("Z", "Y"), ("Y", "Z")):
+            step = np.abs(np.diff(ang[axis][-(new[axis].size + (0 if first else 1)) :])) > MOTION_STEP
+            flips = np.flatnonzero(np.diff(np.concatenate([[self.moving[axis]], step])))
+            for k in flips.tolist():
+                g = (0 if first else i0) + k  # global interval where the motion starts or stops
+                if step[k]:
+                    s0 = max(g - self.MARGIN, 0)
+                    c = ang[other][s0 - self.g0]
+                    self.open[axis].append(
+                        {
+                            "s0": s0,
+                            "a0": ang[axis][s0 - self.g0],
+                            "upto": s0,
+                            "e1": None,
+                            "sum": np.zeros(3),
+                            "lo": c,
+                            "hi": c,
+                            "osum": c,
+                            "count": 1,
+                        }
+                    )
+                else:
+                    self.open[axis][-1]["e1"] = g + self.MARGIN
+            if step.size:
+                self.moving[axis] = bool(step[-1])
+            self._advance(axis, other, ang, rel, last, final=False)
+        keep = self.MARGIN + 2  # epochs of history: a move starting at the next interval reaches MARGIN back
+        cut = max(ang["Z"].size - keep, 0)
+        self.ang = {k: v[cut:] for k, v in ang.items()}
+        self.rel, self.g0 = rel[cut:], self.g0 + cut
 
-    def _scan(self, final: bool) -> None:
-        n, base, mg = self.rel.shape[0], self.base, self.MARGIN  # intervals kept; epochs: n + 1
-        end = base + n
-        keep = end - mg - 1  # a move not yet seen starts at `end` at the earliest
-        for axis, ang, other in (("Z", self.alpha, self.beta), ("Y", self.beta, self.alpha)):
-            mv = np.abs(np.diff(ang)) > MOTION_STEP
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], mv.astype(int), [0]]))) + base
-            for s, e in zip(edges[::2], edges[1::2]):
-                if e <= self.done[axis]:
-                    continue  # the tail of a move handled before
-                if not final and e + mg >= end:  # the move may go on, or its margin is not all here
-                    keep = min(keep, s - mg)
-                    break
-                s0, e1 = max(s - mg, 0) - base, min(e + mg, end) - base
-                self.done[axis] = e
-                d_ang = ang[e1] - ang[s0]
-                if abs(d_ang) < np.radians(20) or np.ptp(other[s0 : e1 + 1]) > np.radians(0.1):
-                    continue
-                u = self.rel[s0:e1].sum(0) / d_ang
-                self.out[axis].append((u, d_ang, float(np.mean(other[s0 : e1 + 1]))))
-        cut = max(keep, 0) - base
-        if cut > 0:
-            self.alpha, self.beta, self.rel = self.alpha[cut:], self.beta[cut:], self.rel[cut:]
-            self.base += cut
+    def _advance(self, axis: str, other: str, ang, rel, last: int, final: bool) -> None:
+        """Sum each open move of ``axis`` up to its end (or to ``last``, the last epoch here), emitting those
+        complete (at the end of the data every open move ends with it)."""
+        still = []
+        for mv in self.open[axis]:
+            e1 = last if mv["e1"] is None and final else mv["e1"]
+            to = last if e1 is None else min(e1, last)
+            a, b = mv["upto"] - self.g0, to - self.g0
+            if b > a:
+                # sequential sums (carried from the last block): the same bits for any block length
+                mv["sum"] = np.cumsum(np.concatenate([mv["sum"][None], rel[a:b]]), axis=0)[-1]
+                o = ang[other][a + 1 : b + 1]
+                mv["lo"], mv["hi"] = min(mv["lo"], float(o.min())), max(mv["hi"], float(o.max()))
+                mv["osum"] = float(np.cumsum(np.concatenate([[mv["osum"]], o]))[-1])
+                mv["count"] += o.size
+                mv["upto"] = to
+            if e1 is None or (to < e1 and not final):
+                still.append(mv)
+                continue
+            d_ang = float(ang[axis][b] - mv["a0"])
+            if abs(d_ang) >= np.radians(20) and mv["hi"] - mv["lo"] <= np.radians(0.1):
+                self.out[axis].append((mv["sum"] / d_ang, d_ang, mv["osum"] / mv["count"]))
+        self.open[axis] = still
 
     def finish(self) -> dict:
-        self._scan(final=True)
+        last = self.g0 + self.ang["Z"].size - 1
+        for axis, other in (("Z", "Y"), ("Y", "Z")):
+            self._advance(axis, other, self.ang, self.rel, last, final=True)
         return self.out
 
 
