@@ -661,6 +661,7 @@ BINARY_FORMATS = {
     "log.npz": [],
     "log.parquet": [],
     "log_v73.mat": [],
+    "log_v7.mat": [],
     "log.npy": ["--columns", "t,ax,ay,az,gx,gy,gz"],
 }
 
@@ -670,7 +671,7 @@ def _write_binary(d: Path, rows: int) -> dict[str, Path]:
     :data:`BINARY_FORMATS`, written in blocks (the NPZ from arrays gathered here: numpy writes it whole): HDF5
     datasets ``t``, ``acc``, ``gyro`` (chunked); NPZ arrays of the same names; Parquet columns t, ax … gz (row
     groups of 1 M rows); a MATLAB v7.3 file (``t`` N×1, ``acc``/``gyro`` N×3, stored column-major); one N×7 .npy
-    matrix."""
+    matrix; a compressed MATLAB v7 file (:func:`_write_mat7`)."""
     import h5py
     import numpy as np
     import pyarrow as pa
@@ -717,7 +718,15 @@ def _write_binary(d: Path, rows: int) -> dict[str, Path]:
     with open(paths["log_v73.mat"], "r+b") as fh:
         fh.write(header.ljust(116, b" ") + bytes(8) + b"\x00\x02IM")
     np.savez(paths["log.npz"], t=t_all, acc=acc_all, gyro=gyr_all)
+    _write_mat7(paths["log_v7.mat"], t_all, acc_all, gyr_all)
     return paths
+
+
+def _write_mat7(path: Path, t, acc, gyr) -> None:
+    """A MATLAB v7 file (v5 layout, compressed, as MATLAB's default ``save``): ``t`` N×1, ``acc``, ``gyro`` N×3."""
+    import scipy.io
+
+    scipy.io.savemat(path, {"t": t[:, None], "acc": acc, "gyro": gyr}, do_compression=True)
 
 
 def run_binary_formats(rows: int = 10_000_000, before=("log.h5", "log.parquet")) -> list[dict]:

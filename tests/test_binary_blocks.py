@@ -8,6 +8,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import scipy.io
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -31,7 +32,8 @@ def _files(d: Path, n: int = N) -> dict[str, Path]:
     lab = np.array(["a", "bb"] * (n // 2) + ["c"] * (n % 2))
     rec = np.zeros(n, dtype=[("t", float), ("ax", float), ("ay", np.float32), ("az", np.int16)])
     rec["t"], rec["ax"], rec["ay"], rec["az"] = t, acc[:, 0], acc[:, 1], np.arange(n)
-    out = {k: d / k for k in ("a.npz", "z.npz", "c.npy", "f.npy", "r.npy", "e.h5", "m.mat", "m2.mat", "p.parquet")}
+    names = ("a.npz", "z.npz", "c.npy", "f.npy", "r.npy", "e.h5", "m.mat", "m2.mat", "p.parquet", "v5.mat", "v5z.mat")
+    out = {k: d / k for k in names}
     np.savez(out["a.npz"], t=t, acc=acc, gyro=gyr, M=np.eye(3), rate=100.0, label=lab, acc_unit="g")
     np.savez_compressed(out["z.npz"], t=t, acc=acc, gyro=np.asfortranarray(gyr), M=np.eye(3), row=t[None, :])
     np.save(out["c.npy"], np.column_stack([t, acc, gyr]))
@@ -57,6 +59,20 @@ def _files(d: Path, n: int = N) -> dict[str, Path]:
         }
     )
     pq.write_table(table, out["p.parquet"], row_group_size=37)
+    v5 = {
+        "t": t[:, None],
+        "acc": acc,
+        "gyro": gyr.astype(np.float32),
+        "counts": np.arange(n, dtype=np.int16)[None, :],
+        "moving": (np.arange(n) % 3 == 0)[:, None],
+        "M": np.eye(3),
+        "acc_unit": "g",
+        "info": {"rate": 100.0, "who": "x"},
+        "labels": np.array(["a", "b"] * (n // 2) + ["c"] * (n % 2), dtype=object)[:, None],
+        "cube": np.zeros((2, 2, 2)),
+    }
+    scipy.io.savemat(out["v5.mat"], v5)
+    scipy.io.savemat(out["v5z.mat"], v5, do_compression=True)
     return out
 
 
@@ -87,13 +103,21 @@ def files(tmp_path_factory):
     return _files(tmp_path_factory.mktemp("blocks"))
 
 
+@pytest.fixture(autouse=True)
+def _stream_small_matlab_matrices(monkeypatch):
+    """MATLAB v5 matrices are read by rows from 1 MiB of data on: from any size here, so that small files test it."""
+    import optinav.io.arrayblocks
+
+    monkeypatch.setattr(optinav.io.arrayblocks, "_MAT_STREAM_BYTES", 1)
+
+
 @pytest.mark.parametrize("name", ["a.npz", "z.npz", "c.npy", "f.npy", "r.npy", "e.h5", "m.mat", "m2.mat", "p.parquet"])
 @pytest.mark.parametrize("chunk", [1, 2, 7, 101, N - 1, N, 10_000])
 def test_blocks_join_to_the_whole_file(files, name, chunk):
     blocks = _same_as_whole(files[name], chunk)
     assert len(blocks) == (1 if chunk >= N else len(block_bounds(N, chunk))) and len(block_bounds(N, 7)) == 29
     assert all(len(b.data[next(k for k in b.data if k not in b.fixed)]) <= max(chunk, 3) for b in blocks)
-    if len(blocks) > 1 and name in ("a.npz", "z.npz", "e.h5", "m.mat"):
+    if len(blocks) > 1 and name in ("a.npz", "z.npz", "e.h5", "m.mat", "v5.mat", "v5z.mat"):
         assert "M" in blocks[0].fixed and blocks[1].data["M"].shape == (0, 3)  # whole once, then empty
 
 
@@ -152,13 +176,15 @@ _IMU_COLUMNS = {
 }
 
 
-@pytest.mark.parametrize("name", ["a.npz", "z.npz", "e.h5", "m.mat", "p.parquet", "c.npy"])
+@pytest.mark.parametrize("name", ["a.npz", "z.npz", "e.h5", "m.mat", "p.parquet", "c.npy", "v5.mat", "v5z.mat"])
 def test_iter_imu_of_a_binary_file_is_read_imu_in_blocks(files, name):
     kw = _IMU_COLUMNS.get(name, {})
     whole = read_imu(files[name], **kw)
     chunks = iter_imu(files[name], chunk_rows=20, **kw)
     logs = list(chunks)
-    assert len(logs) == 11 and all(len(x) <= 20 for x in logs) and chunks.table is not None
+    assert len(logs) == 11 and all(len(x) <= 20 for x in logs)
+    # a MATLAB v5 cell of labels is read whole only: the file is then read whole (chunks.table stays None)
+    assert (chunks.table is None) == name.startswith("v5")
     for attr in ("t", "acc", "gyr"):
         a = [getattr(x, attr) for x in logs]
         assert (a[0] is None and getattr(whole, attr) is None) or np.array_equal(
@@ -206,7 +232,7 @@ def test_a_damaged_member_is_a_one_line_error(tmp_path):
         min_size=1,
         max_size=3,
     ),
-    name=st.sampled_from(["a.npz", "z.npz", "c.npy", "e.h5", "m.mat", "p.parquet"]),
+    name=st.sampled_from(["a.npz", "z.npz", "c.npy", "e.h5", "m.mat", "p.parquet", "v5.mat", "v5z.mat"]),
 )
 def test_fuzz_blocks_give_read_imus_log_or_a_one_line_error(tmp_path_factory, files, mutations, name):
     path = tmp_path_factory.mktemp("fuzz") / name
@@ -224,3 +250,22 @@ def test_fuzz_blocks_give_read_imus_log_or_a_one_line_error(tmp_path_factory, fi
     if whole is not None:
         _valid(whole)
         assert np.array_equal(np.concatenate([x.t for x in logs]), whole.t)
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_matlab_v5_log_read_in_blocks(tmp_path, monkeypatch, compress):
+    """A MATLAB v5/v7 log (t N×1, acc and gyro N×3, stored column-major, compressed or not) read by rows equals
+    read_imu; with the default threshold its small matrices are read whole (one table)."""
+    import optinav.io.arrayblocks
+
+    t, acc, gyr = _columns(N)
+    path = tmp_path / "log.mat"
+    scipy.io.savemat(path, {"t": t[:, None], "acc": acc, "gyro": gyr, "rate_note": "x"}, do_compression=compress)
+    whole = read_imu(path)
+    chunks = iter_imu(path, chunk_rows=20)
+    logs = list(chunks)
+    assert chunks.table is not None and len(logs) == 11
+    for attr in ("t", "acc", "gyr"):
+        assert np.array_equal(np.concatenate([getattr(x, attr) for x in logs]), getattr(whole, attr))
+    monkeypatch.setattr(optinav.io.arrayblocks, "_MAT_STREAM_BYTES", 1 << 20)
+    assert len(list(iter_table(path, chunk_rows=20))) == 1

@@ -57,14 +57,19 @@ def is_broad(path) -> bool:
     p = Path(path)
     if p.suffix.lower() not in (".h5", ".hdf5", ".mat") or not p.is_file():
         return False
-    if p.suffix.lower() != ".mat":  # the names only: a long trial is not read whole to answer
-        import h5py
+    # the names only: a long log is not read whole to answer
+    from optinav.io.arrayblocks import mat5_names
 
-        try:
-            with h5py.File(p, "r") as f:
-                return "imu_gyr" in f and "imu_acc" in f
-        except OSError:
-            pass  # not HDF5 after all: the reader below names the problem
+    names = mat5_names(p) if p.suffix.lower() == ".mat" else None
+    if names is not None:
+        return "imu_gyr" in names and "imu_acc" in names
+    import h5py
+
+    try:
+        with h5py.File(p, "r") as f:  # HDF5 and MATLAB v7.3
+            return "imu_gyr" in f and "imu_acc" in f
+    except OSError:
+        pass  # not HDF5 after all: the reader below names the problem
     from optinav.io.readers import load_table
 
     data = load_table(p).data

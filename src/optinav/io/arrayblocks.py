@@ -1,19 +1,22 @@
-"""Binary data files (NPY, NPZ, HDF5, MATLAB v7.3) read in row blocks for :func:`optinav.io.iter_table`.
+"""Binary data files (NPY, NPZ, HDF5, MATLAB v5/v7 and v7.3) read in row blocks for :func:`optinav.io.iter_table`.
 
 A file's arrays are grouped by their number of samples (rows; a 1×N or N×1 array is a vector of N); the length
 holding the most bytes is the blocks' length, and each array of that length is read a block of rows at a time
-(HDF5 slices, seek-and-read of NPY data, a sequential read of each NPZ member, compressed or not). Every other
+(HDF5 slices, seek-and-read of NPY data, a sequential read of each NPZ member, compressed or not; a MATLAB
+v5/v7 numeric matrix from its column-major data, a compressed one first inflated into a scratch file). Every other
 array (a 3×3 matrix beside the samples, a vector at another rate) comes whole in the first block and empty in
 the others (:attr:`~optinav.io.readers.Table.fixed`), scalars as metadata in every block: each name's blocks join
 to what :func:`~optinav.io.readers.load_table` returns. A file of at most one block, or one these readers do
-not handle (object arrays, a .npy version they do not know, MATLAB v4/v5), is read whole by ``load_table``, which
-also gives its errors.
+not handle (object arrays, a .npy version they do not know, MATLAB v4), is read whole by ``load_table``, which also gives
+its errors.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import struct
 import zipfile
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -21,7 +24,7 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["array_blocks", "block_bounds"]
+__all__ = ["array_blocks", "block_bounds", "is_mat5", "mat5_names", "sample_axis"]
 
 
 def block_bounds(n: int, chunk_rows: int) -> list[tuple[int, int]]:
@@ -58,6 +61,8 @@ class _Item:
     read: Callable[[int, int], np.ndarray] | None
     whole: Callable[[], np.ndarray | None]
     unit: str | None = None
+    #: how a whole value joins the table (default :func:`optinav.io.readers._add`; MATLAB v5: structs, cells)
+    add: Callable | None = None
 
 
 @dataclasses.dataclass
@@ -126,7 +131,7 @@ def _block(src: _Source, n: int, a: int, b: int, path: Path):
         if arr is None:
             table.skipped[it.name] = "unsupported MATLAB/HDF5 type"
         else:
-            _add(table, it.name, arr)
+            (it.add or _add)(table, it.name, arr)
         if not sliced:
             src.fixed_keys[it.name] = [k for k in table.data if k not in before]
             src.fixed_empty.update({k: table.data[k][:0] for k in src.fixed_keys[it.name]})
@@ -148,8 +153,9 @@ def _open(path: Path, kind: str, only) -> _Source | None:
         src = _npz(path)
     elif kind == "hdf5":
         src = _hdf5(path, only, matlab=False)
-    elif kind == "mat" and (flavour := _mat_flavour(path)) != "mat":
-        src = _hdf5(path, only, matlab=flavour == "mat73")
+    elif kind == "mat":
+        flavour = _mat_flavour(path)
+        src = _mat5(path) if flavour == "mat" else _hdf5(path, only, matlab=flavour == "mat73")
     else:
         return None
     return src
@@ -354,3 +360,176 @@ def _npz(path: Path) -> _Source | None:
         zf.close()
 
     return _Source(Table(path=path, kind="npz", data={}), items, close)
+
+
+# --- MATLAB v5/v7 (not v7.3) --------------------------------------------------------------------------------
+
+#: MAT v5 data types of numeric data → numpy kinds (byte order added)
+_MI = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 9: "f8", 12: "i8", 13: "u8"}
+_MI_MATRIX, _MI_COMPRESSED = 14, 15
+#: numeric array classes (mxDOUBLE_CLASS … mxUINT64_CLASS)
+_MX_NUMERIC = range(6, 16)
+#: variables smaller than this are read whole (scipy.io.loadmat) [bytes of data]
+_MAT_STREAM_BYTES = 1 << 20
+
+
+def is_mat5(path: Path) -> bool:
+    """Whether ``path`` is a MATLAB v5/v7 file (its 128-byte header ends in the endian mark IM or MI)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(128)
+    except OSError:
+        return False
+    return len(head) == 128 and head[126:128] in (b"IM", b"MI")
+
+
+def mat5_names(path: Path) -> list[str] | None:
+    """The variable names of a MATLAB v5/v7 file, from the variables' headers (nothing read whole); None for a
+    file this reader does not walk (v4, v7.3, damaged)."""
+    if not is_mat5(path):
+        return None
+    src = _mat5(Path(path))
+    if src is None:
+        return None
+    src.close()
+    return [it.name for it in src.items]
+
+
+def _element(buf: bytes, off: int, e: str) -> tuple[int, int, int, int]:
+    """(type, bytes, data offset, next offset) of the MAT v5 data element at ``off`` (small elements too)."""
+    typ, n = struct.unpack_from(e + "II", buf, off)
+    if typ >> 16:  # small data element: bytes in the upper half, data in the tag's second word
+        return typ & 0xFFFF, typ >> 16, off + 4, off + 8
+    return typ, n, off + 8, off + 8 + (n + 7) // 8 * 8
+
+
+def _matrix_head(buf: bytes, e: str):
+    """(class, complex, dims, name, real-part type, bytes, offset) of the miMATRIX element whose tag starts
+    ``buf``; None when it is not a plain numeric matrix."""
+    typ, _, off, _ = _element(buf, 0, e)
+    if typ != _MI_MATRIX:
+        return None
+    _, _, d, off = _element(buf, off, e)  # array flags
+    flags = struct.unpack_from(e + "I", buf, d)[0]
+    _, n, d, off = _element(buf, off, e)  # dimensions
+    dims = struct.unpack_from(e + f"{n // 4}i", buf, d)
+    _, n, d, off = _element(buf, off, e)  # name
+    name = buf[d : d + n].decode("latin-1")
+    if (flags & 0xFF) not in _MX_NUMERIC or flags & 0x800:
+        return None
+    typ, n, d, _ = _element(buf, off, e)
+    return flags & 0xFF, False, tuple(dims), name, typ, n, d
+
+
+def _mat5(path: Path) -> _Source | None:
+    """The variables of a MATLAB v5/v7 file: numeric matrices of at least :data:`_MAT_STREAM_BYTES` read by rows
+    from their column-major data (a compressed one inflated into a scratch file on first use), every other
+    variable whole through scipy.io.loadmat; None when the file is not one this reader walks."""
+    from optinav.io.readers import Table, _mat_walk
+
+    try:
+        size = path.stat().st_size
+        fh = open(path, "rb")
+    except OSError:
+        return None
+    items, closers = [], [fh.close]
+
+    def close():
+        for c in closers:
+            c()
+
+    try:
+        head = fh.read(128)
+        if len(head) < 128 or head[126:128] not in (b"IM", b"MI"):
+            close()
+            return None
+        e = "<" if head[126:128] == b"IM" else ">"
+        pos = 128
+        while pos + 8 <= size:
+            fh.seek(pos)
+            typ, n = struct.unpack(e + "II", fh.read(8))
+            if typ >> 16 or typ not in (_MI_MATRIX, _MI_COMPRESSED) or pos + 8 + n > size:
+                close()
+                return None  # not a variable this reader walks: load_table reads (or refuses) the file
+            if typ == _MI_COMPRESSED:
+                peek = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
+                found = _matrix_head(peek, e) if len(peek) >= 8 else None
+            else:
+                fh.seek(pos)
+                found = _matrix_head(fh.read(min(n + 8, 1 << 13)), e)
+            if found is not None and found[4] in _MI and found[5] >= _MAT_STREAM_BYTES and sample_axis(found[2]):
+                items.append(_mat5_item(path, fh, pos, typ == _MI_COMPRESSED, found, e, closers))
+            else:
+                name = _mat5_name(fh, pos, typ, n, e)
+                if name is None:
+                    close()
+                    return None
+                items.append(_Item(name, None, 0, None, (lambda name=name: _loadmat(path, name)), add=_mat_walk))
+            pos += 8 + n
+    except (OSError, struct.error, zlib.error, UnicodeDecodeError):
+        close()
+        return None
+    return _Source(Table(path=path, kind="mat", data={}), items, close)
+
+
+def _mat5_name(fh, pos: int, typ: int, n: int, e: str) -> str | None:
+    """The name of the variable at ``pos`` (any class)."""
+    fh.seek(pos + 8)
+    if typ == _MI_COMPRESSED:
+        buf = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
+    else:
+        fh.seek(pos)
+        buf = fh.read(min(n + 8, 1 << 13))
+    try:
+        _, _, off, _ = _element(buf, 0, e)
+        for _ in range(2):  # flags, dimensions
+            _, _, _, off = _element(buf, off, e)
+        _, k, d, _ = _element(buf, off, e)
+        return buf[d : d + k].decode("latin-1") or None
+    except struct.error:
+        return None
+
+
+def _loadmat(path: Path, name: str):
+    import warnings
+
+    import scipy.io
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return scipy.io.loadmat(path, variable_names=[name], simplify_cells=True)[name]
+
+
+def _mat5_item(path: Path, fh, pos: int, compressed: bool, found, e: str, closers: list) -> _Item:
+    """A numeric matrix read by rows: the column-major data of MATLAB (a vector contiguous)."""
+    import tempfile
+
+    _, _, dims, name, typ, nbytes, d = found
+    dtype = np.dtype(e + _MI[typ])
+    if int(np.prod(dims, dtype=np.int64)) * dtype.itemsize != nbytes:
+        raise struct.error("the data do not fill the dimensions")
+
+    def opener():
+        if not compressed:
+            return open(path, "rb")
+        # inflate the element once into a scratch file (bounded output per call: data that compress well)
+        scratch = tempfile.TemporaryFile()
+        z = zlib.decompressobj()
+        fh.seek(pos + 4)
+        left = struct.unpack(e + "I", fh.read(4))[0]
+        while left:
+            chunk = fh.read(min(1 << 20, left))
+            if not chunk:
+                raise OptinavError(f"{path.name}: {name!r} ends early", "check that the file is complete")
+            left -= len(chunk)
+            while chunk:
+                scratch.write(z.decompress(chunk, 1 << 24))
+                chunk = z.unconsumed_tail
+        scratch.write(z.flush())
+        scratch.seek(0)
+        return scratch
+
+    data0 = d if compressed else pos + d
+    rows = _Rows(opener, data0, dims, True, dtype, True)
+    closers.append(rows.close)
+    return _Item(name, sample_axis(dims)[1], nbytes, rows.read, lambda: _loadmat(path, name))

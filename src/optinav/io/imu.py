@@ -825,7 +825,7 @@ def iter_imu(
     The blocks' concatenation equals what :func:`read_imu` returns (same values, units, checks and notes: the rate
     note on the first block, the incomplete-last-line note on the last). Text, NPY, NPZ, HDF5, MATLAB v7.3 and
     Parquet files are read block by block (:func:`optinav.io.iter_table`), so memory does not grow with their
-    length; MATLAB v4/v5 files, ROS bags, a separate ``gyro_path`` and a file whose time or sensor arrays are not
+    length; MATLAB v4 files, ROS bags, a separate ``gyro_path`` and a file whose time or sensor arrays are not
     all of one length are read whole and then cut.
 
     Parameters

@@ -315,10 +315,10 @@ def iter_table(
 ) -> "TableChunks":
     """:func:`load_table` in blocks, so that memory does not grow with the file.
 
-    Text files (gzip too) are read line block by line block; NPY, NPZ, HDF5, MATLAB v7.3 and Parquet files a
-    block of rows at a time (:mod:`optinav.io.arrayblocks`: arrays of another length than the samples' whole in
-    the first block and empty after it, named in ``Table.fixed``); MATLAB v4/v5 files and ROS bags come as a
-    single table. The layout (header, units, preamble, delimiter) comes from the first lines;
+    Text files (gzip too) are read line block by line block; NPY, NPZ, HDF5, MATLAB v5/v7/v7.3 and Parquet
+    files a block of rows at a time (:mod:`optinav.io.arrayblocks`: arrays of another length than the samples'
+    whole in the first block and empty after it, named in ``Table.fixed``); MATLAB v4 files and ROS bags come as
+    a single table. The layout (header, units, preamble, delimiter) comes from the first lines;
     a bad cell fails when its block is parsed, naming its line and column; an incomplete last line is dropped and
     reported in the last block's ``meta['truncated_line']`` as :func:`load_table` does.
 
@@ -367,7 +367,10 @@ class TableChunks:
         if self.kind == "text":
             return True
         if self.kind == "mat":
-            return _mat_flavour(self.path) != "mat" and self.delimiter is None and self.topic is None
+            from optinav.io.arrayblocks import is_mat5
+
+            plain = _mat_flavour(self.path) != "mat" or is_mat5(self.path)  # not MATLAB v4
+            return plain and self.delimiter is None and self.topic is None
         return self.kind != "rosbag" and self.delimiter is None and self.topic is None
 
     def __iter__(self):
@@ -401,7 +404,7 @@ class TableChunks:
             self.position = int(fraction * self.size)
 
         if not self.blockwise:
-            yield load()  # bags and MATLAB v4/v5 files are read whole; the options give their errors
+            yield load()  # bags and MATLAB v4 files are read whole; the options give their errors
         elif self.kind == "parquet":
             from optinav.io.parquet import iter_parquet
 
@@ -1315,28 +1318,30 @@ def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
             "save it from MATLAB with save(..., '-v7') or '-v7.3'",
         ) from None
     table = Table(path=path, kind="mat", data={})
-
-    def walk(prefix: str, value) -> None:
-        if isinstance(value, dict):
-            for k, v in value.items():
-                walk(f"{prefix}/{k}" if prefix else k, v)
-        elif isinstance(value, (list, tuple)):
-            if value and all(isinstance(v, str) for v in value):
-                _add(table, prefix, np.asarray([v.strip() for v in value], dtype=str))
-            elif value and all(isinstance(v, (int, float, np.number)) for v in value):
-                _add(table, prefix, np.asarray(value, dtype=float))
-            else:
-                table.skipped[prefix] = "cell array"
-        elif isinstance(value, str):
-            table.meta[prefix.split("/")[-1]] = value
-        else:
-            _add(table, prefix, value)
-
     for key, value in mat.items():
         if not key.startswith("__"):
-            walk(key, value)
+            _mat_walk(table, key, value)
     _check_nonempty(table)
     return table
+
+
+def _mat_walk(table: Table, prefix: str, value) -> None:
+    """Add a MATLAB v4/v5 variable as scipy.io.loadmat(simplify_cells=True) returns it: structs as ``a/b``,
+    cells of strings or numbers as arrays (other cells skipped), strings as metadata, arrays as columns."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _mat_walk(table, f"{prefix}/{k}" if prefix else k, v)
+    elif isinstance(value, (list, tuple)):
+        if value and all(isinstance(v, str) for v in value):
+            _add(table, prefix, np.asarray([v.strip() for v in value], dtype=str))
+        elif value and all(isinstance(v, (int, float, np.number)) for v in value):
+            _add(table, prefix, np.asarray(value, dtype=float))
+        else:
+            table.skipped[prefix] = "cell array"
+    elif isinstance(value, str):
+        table.meta[prefix.split("/")[-1]] = value
+    else:
+        _add(table, prefix, value)
 
 
 def _check_nonempty(table: Table) -> None:
