@@ -57,13 +57,17 @@ def mag_msg(ts, sec, nsec, b, frame="mag", seq=0):
     )
 
 
-def write_bag(path: Path, kind: str, topics: dict, compression: str | None = None, big_endian=()) -> Path:
+def write_bag(
+    path: Path, kind: str, topics: dict, compression: str | None = None, big_endian=(), chunk_threshold=None
+) -> Path:
     """``topics``: ``{name: (msgtype, [(log_time_ns, message_factory(ts)), ...])}`` → the bag to pass to optinav.
     ``compression``: ROS 1 chunks ``"bz2"``/``"lz4"``; ROS 2 ``"storage"`` (zstd chunks) or ``"message"`` (zstd
     per message); ``big_endian``: indices of the messages (of every topic) serialized as big-endian CDR."""
     if kind == "ros1":
         path = path.with_suffix(".bag")
         w = Writer1(path)
+        if chunk_threshold is not None:  # bytes of a ROS 1 chunk (rosbags: 1 MiB)
+            w.chunk_threshold = chunk_threshold
         if compression:
             w.set_compression(Writer1.CompressionFormat[compression.upper()])
         with w:
@@ -633,3 +637,98 @@ def test_cli_calibrate_and_apply_read_a_bag(tmp_path, capsys):
         "optinav: error: bag has no topic '/gps' (topics: /imu (sensor_msgs/Imu, "
         f"{len(log)} msgs)); pass one of the listed topics with --topic"
     ]
+
+
+def _joined_tables(bag, chunk, **kw):
+    from optinav.io.readers import iter_table
+
+    blocks = list(iter_table(bag, chunk_rows=chunk, **kw))
+    keys = list(blocks[0].data)
+    return blocks, {k: np.concatenate([b.data[k] for b in blocks]) for k in keys}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_bag_read_in_blocks_equals_the_whole_bag(tmp_path, monkeypatch, kind):
+    """A bag the scanners read comes in tables of chunk_rows messages (two passes over its storage: the time base,
+    then the tables), the MagneticField topic interpolated onto each; joined they are load_bag's columns. The
+    storage's own blocks are small here (ROS 1 chunks of 8 KiB, sqlite3 leaves two pages at a time), so that the
+    tables cut across them."""
+    import optinav.io.bagscan
+    from optinav.io import iter_imu
+    from optinav.io.readers import load_table
+
+    monkeypatch.setattr(optinav.io.bagscan, "_LEAVES", 2)
+
+    rng = np.random.default_rng(21)
+    msgs, t, gyr, acc = imu_topic(rng, n=500)
+    tm = np.arange(0, 5.0, 0.04) + 1_700_000_000
+    bm = rng.normal(0, 3e-5, (tm.size, 3))
+    mags = [
+        (int(round(x * 1e9)), lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k]))
+        for k, x in enumerate(tm)
+    ]
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, mags)}, chunk_threshold=8192)
+    whole = load_table(bag)
+    blocks, joined = _joined_tables(bag, 64)
+    assert len(blocks) == 8 and [b.row0 for b in blocks] == list(range(0, 500, 64))
+    assert list(joined) == list(whole.data) and all(b.meta == whole.meta and b.units == whole.units for b in blocks)
+    for k, v in whole.data.items():
+        assert np.array_equal(joined[k], v, equal_nan=True), k
+    assert np.array_equal(joined["t"], t) and np.array_equal(joined["gx"], gyr[:, 0])
+    chunks = iter_imu(bag, chunk_rows=100)
+    logs = list(chunks)
+    log = read_imu(bag)
+    assert len(logs) == 5 and chunks.table is not None and chunks.position == chunks.size
+    assert np.array_equal(np.concatenate([x.acc for x in logs]), log.acc)
+
+
+def test_bag_blocks_keep_the_time_base_and_fall_back_when_out_of_order(tmp_path):
+    """Zero header stamps: the log times, decided in the first pass, one warning; log times out of the storage's
+    order: the bag is read whole (one table), sorted as load_bag does."""
+    rng = np.random.default_rng(22)
+    msgs, t, gyr, acc = imu_topic(rng, n=300, stamps=np.zeros(300, np.int64), t0=0)
+    logt = 1_700_000_000 * 10**9 + 10_000_000 * np.arange(300)
+    bag = write_bag(tmp_path / "z", "ros1", {"/imu": (IMU, [(int(logt[i]), m) for i, (_, m) in enumerate(msgs)])})
+    with pytest.warns(UserWarning, match="header stamps of '/imu' are zero") as rec:
+        blocks, joined = _joined_tables(bag, 64)
+    assert len(blocks) == 5 and len([w for w in rec if "header stamps" in str(w.message)]) == 1
+    np.testing.assert_array_equal(joined["t"], logt * 1e-9)
+    perm = rng.permutation(300)
+    msgs2, *_ = imu_topic(rng, n=300)
+    shuffled = [(1_700_000_000 * 10**9 + 1_000_000 * int(perm[i]), make) for i, (_, make) in enumerate(msgs2)]
+    bag2 = write_bag(tmp_path / "o", "ros1", {"/imu": (IMU, shuffled)})
+    with pytest.warns(UserWarning, match="not strictly increasing"):
+        blocks, joined = _joined_tables(bag2, 64)
+    assert len(blocks) == 1
+    with pytest.warns(UserWarning):
+        assert np.array_equal(joined["gx"], read_table(bag2)["gx"])
+
+
+@settings(max_examples=40)
+@given(
+    kind=st.sampled_from(("ros1", "mcap-file", "sqlite3-file")),
+    where=st.floats(0, 1, exclude_max=True),
+    flip=st.integers(1, 255),
+)
+def test_damaged_bag_in_blocks_gives_the_whole_reading(tmp_path_factory, kind, where, flip):
+    """One byte of a bag changed anywhere: its tables of 7 messages join to what the whole reading gives, or both
+    end in the same one-line error."""
+    suffix, raw = _damage_bags(tmp_path_factory)[kind]
+    raw = bytearray(raw)
+    raw[int(where * len(raw))] ^= flip
+    path = tmp_path_factory.mktemp("d") / f"b{suffix}"
+    path.write_bytes(bytes(raw))
+    got = []
+    for blocks in (True, False):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                got.append(_joined_tables(path, 7)[1] if blocks else dict(read_table(path)))
+        except OptinavError as exc:
+            assert "\n" not in str(exc)
+            got.append(str(exc))
+    ours, whole = got
+    if isinstance(whole, str) or isinstance(ours, str):
+        assert ours == whole
+    else:
+        assert ours.keys() == whole.keys() and all(np.array_equal(ours[k], whole[k], equal_nan=True) for k in ours)

@@ -913,9 +913,15 @@ class ImuChunks:
                 if v is not None:
                     seen[kind] = seen.get(kind, np.zeros(3, bool)) | ~np.all(np.isnan(v), axis=0)
             prev_t = float(log.t[-1])
-            self.rows += len(log)
-            self.table = table
-            yield log
+            # a file that came whole (a bag the scanners do not read, MATLAB v4) is cut: its table is not the
+            # pieces' (None, as for the files read whole)
+            self.table = table if len(log) <= self.chunk_rows else None
+            for a in range(0, len(log), self.chunk_rows):
+                piece = log if len(log) <= self.chunk_rows else log.select(slice(a, a + self.chunk_rows))
+                if piece is not log:
+                    piece.notes = list(log.notes) if a == 0 else []
+                self.rows += len(piece)
+                yield piece
         for kind, ok in seen.items():
             if not ok.all():
                 raise _no_number(self.path, kind, _value_names(part.srcs[kind])[int(np.argmin(ok))])

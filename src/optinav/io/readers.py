@@ -366,12 +366,14 @@ class TableChunks:
         """Whether the blocks are read one at a time (False: the file comes whole as one table)."""
         if self.kind == "text":
             return True
+        if self.kind == "rosbag":  # (a bag the scanners do not read comes as one table)
+            return self.delimiter is None and self.names is None
         if self.kind == "mat":
             from optinav.io.arrayblocks import is_mat5
 
             plain = _mat_flavour(self.path) != "mat" or is_mat5(self.path)  # not MATLAB v4
             return plain and self.delimiter is None and self.topic is None
-        return self.kind != "rosbag" and self.delimiter is None and self.topic is None
+        return self.delimiter is None and self.topic is None
 
     def __iter__(self):
         if self.kind != "text":
@@ -404,7 +406,11 @@ class TableChunks:
             self.position = int(fraction * self.size)
 
         if not self.blockwise:
-            yield load()  # bags and MATLAB v4 files are read whole; the options give their errors
+            yield load()  # MATLAB v4 files are read whole; the options give their errors
+        elif self.kind == "rosbag":
+            from optinav.io.rosbag import iter_bag
+
+            yield from iter_bag(self.path, topic=self.topic, chunk_rows=self.chunk_rows, progress=progress)
         elif self.kind == "parquet":
             from optinav.io.parquet import iter_parquet
 

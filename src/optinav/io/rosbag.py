@@ -9,7 +9,8 @@ Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
 The raw messages of a topic come in blocks straight from the storage (:mod:`optinav.io.bagscan`; rosbags'
 iteration when the scanners do not read the bag) and are decoded from their fixed byte layout by a compiled
 gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
-(n, 3) arrays; messages of another length are deserialized one by one.
+(n, 3) arrays; messages of another length are deserialized one by one. :func:`iter_bag` gives the same table in
+blocks of messages (two passes over the storage), so that memory does not grow with the bag.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["BAG_SUFFIXES", "is_bag", "load_bag", "IMU_TYPE", "MAG_TYPE"]
+__all__ = ["BAG_SUFFIXES", "is_bag", "load_bag", "iter_bag", "IMU_TYPE", "MAG_TYPE"]
 
 #: file suffixes of bags (ROS 1 .bag, ROS 2 storage files); a ROS 2 bag folder holds a metadata.yaml
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
@@ -582,13 +583,16 @@ def _time_base(path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray) -> 
         return stamp
     if stamp.size == 1 and stamp[0] > 0:
         return stamp
-    why = "zero" if np.all(stamp == 0) else "not strictly increasing"
+    _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
+    return t_log
+
+
+def _log_time_warning(path: Path, topic: str, why: str) -> None:
     warnings.warn(
         f"{path.name}: the header stamps of {topic!r} are {why}; using the bag's log times instead "
         "(receive times, with their jitter)",
-        stacklevel=3,
+        stacklevel=4,
     )
-    return t_log
 
 
 def _resample(t_src: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -600,3 +604,158 @@ def _resample(t_src: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarray:
     reach = 2.0 * float(np.median(np.diff(ts))) if ts.size > 1 else 0.0
     out[(t < ts[0] - reach) | (t > ts[-1] + reach)] = np.nan
     return out
+
+
+# --- block by block -------------------------------------------------------------------------------------------
+
+
+def iter_bag(path, *, topic=None, chunk_rows: int, progress=None):
+    """:func:`load_bag` in tables of ``chunk_rows`` Imu messages, so that memory does not grow with the bag:
+    two passes over the storage's blocks (:mod:`optinav.io.bagscan`), the first decoding only to choose the time
+    base (header stamps when all are set and increasing, else log times, as :func:`load_bag`) and to count, the
+    second yielding the tables; a MagneticField topic is read whole and interpolated onto each table's stamps. A
+    bag the scanners do not read, log times out of the storage's order, a count that differs from the index, or
+    at most ``chunk_rows`` messages: one table from :func:`load_bag`. ``progress(fraction)`` after each table."""
+    path = Path(path)
+    plan = _stream_plan(path, _parse_topics(topic))
+    if plan is None:
+        yield load_bag(path, topic=topic)
+        return
+    try:
+        yield from _stream(path, plan, int(chunk_rows), progress, topic)
+    finally:
+        plan["close"]()
+
+
+def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
+    """How to read ``path`` block by block (types, topics chosen, a block source per topic), or None."""
+    from optinav.io import bagscan
+
+    if sys.byteorder != "little" or not path.exists():
+        return None
+    try:
+        if path.is_file() and path.suffix.lower() == ".bag":
+            idx = bagscan.ros1_index(path)
+            types, topics = _Ros1Types(), {}
+            for conn, (name, msgtype, md5) in idx["conns"].items():
+                msgtype = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
+                d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": 0, "md5": set()})
+                d["cons"].append(conn)
+                d["count"] += idx["counts"].get(conn, 0)
+                d["md5"].add(md5)
+            imu, mag = _choose(path, topics, wanted)
+            if any(n is not None and topics[n]["md5"] != {types.md5(topics[n]["type"])} for n in (imu, mag)):
+                return None
+            blocks = lambda name: bagscan.blocks(types, path, name)  # noqa: E731
+            return {"types": types, "ros1": True, "topics": topics, "imu": imu, "mag": mag, "count": True,
+                    "blocks": blocks, "close": lambda: None}  # fmt: skip
+        files = _sqlite_files(path)
+        if files is not None:
+            types, topics = _Ros2Types(), {}
+            for f in files:
+                for name, msgtype, fmt in bagscan.sqlite_topics(f):
+                    d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
+                    d["fmt"].add(fmt)
+            imu, mag = _choose(path, topics, wanted)
+            if any(n is not None and topics[n]["fmt"] != {"cdr"} for n in (imu, mag)):
+                return None
+            blocks = lambda name: itertools.chain.from_iterable(bagscan.sqlite_blocks(f, name) for f in files)  # noqa: E731
+            return {"types": types, "ros1": False, "topics": topics, "imu": imu, "mag": mag, "count": False,
+                    "blocks": blocks, "close": lambda: None}  # fmt: skip
+        reader = _rosbags()([path])
+        reader.open()
+    except Exception:  # noqa: BLE001 - anything the scanners or rosbags do not read: load_bag names it
+        return None
+    try:
+        topics = {}
+        for con in reader.connections:
+            topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
+            topics[con.topic]["cons"].append(con)
+            topics[con.topic]["count"] += con.msgcount
+        imu, mag = _choose(path, topics, wanted)
+        if bagscan.blocks(reader, path, imu) is None:
+            raise bagscan.NotFast("rosbags' iteration")
+    except Exception:  # noqa: BLE001 - a bag the scanners do not read (or a topic error load_bag gives)
+        reader.close()
+        return None
+    return {"types": reader, "ros1": False, "topics": topics, "imu": imu, "mag": mag, "count": True,
+            "blocks": lambda name: bagscan.blocks(reader, path, name), "close": reader.close}  # fmt: skip
+
+
+def _decoded(plan: dict, name: str):
+    """(stamps s, log times ns, values) of each storage block of topic ``name``; valid until the next."""
+    dec = _Decoder(plan["types"], plan["ros1"], plan["topics"][name]["type"], _BLOCK, grow=True)
+    for block in plan["blocks"](name):
+        n = dec.run([block], strict=False)
+        yield dec.stamp[:n], dec.logt[:n], tuple(v[:n] for v in dec.vals)
+
+
+def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
+    name = plan["imu"]
+    # first pass: the time base and the count (anything unexpected: the bag is read whole)
+    total, prev_s, prev_l, stamps_ok, zero = 0, -np.inf, None, True, True
+    try:
+        for stamp, logt, _ in _decoded(plan, name):
+            if not stamp.size:
+                continue
+            if (prev_l is not None and logt[0] < prev_l) or np.any(logt[1:] < logt[:-1]):
+                raise ValueError("log times out of the storage's order")
+            stamps_ok = stamps_ok and bool(stamp[0] > prev_s and np.all(np.diff(stamp) > 0) and np.all(stamp > 0))
+            zero = zero and not np.any(stamp)
+            prev_s, prev_l = float(stamp[-1]), int(logt[-1])
+            total += stamp.size
+    except Exception:  # noqa: BLE001 - load_bag reads it (through rosbags if need be) and names any damage
+        yield load_bag(path, topic=topic)
+        return
+    count = plan["topics"][name]["count"]
+    if total <= chunk_rows or (plan["count"] and total != count):
+        yield load_bag(path, topic=topic)
+        return
+    if not stamps_ok:
+        _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
+    mag = None
+    if plan["mag"] is not None:  # read whole (a few values per Imu message at most), in log-time order
+        parts = [(s.copy(), lt.copy(), v[0].copy()) for s, lt, v in _decoded(plan, plan["mag"])]
+        if not parts or not sum(p[0].size for p in parts):
+            raise OptinavError(
+                f"topic {plan['mag']!r} of {path.name} holds no readable messages", "pass a topic with messages"
+            )
+        tm, tm_log, b = (np.concatenate([p[j] for p in parts]) for j in range(3))
+        order = np.argsort(tm_log, kind="stable")
+        mag = (_time_base(path, plan["mag"], tm[order], tm_log[order] * 1e-9), b[order])
+    # second pass: the tables
+    held, have, done = [], 0, 0
+    for stamp, logt, (gyr, acc) in _decoded(plan, name):
+        held.append((stamp.copy() if stamps_ok else logt * 1e-9, gyr.copy(), acc.copy()))  # the decoder reuses them
+        have += stamp.size
+        while have >= chunk_rows or (have and done + have == total):
+            k = min(chunk_rows, have)
+            t, g, a = (np.concatenate([h[j] for h in held]) for j in range(3))
+            rest = (t[k:], g[k:], a[k:])
+            held, have = ([rest] if rest[0].size else []), rest[0].size
+            done += k
+            if progress is not None:
+                progress(done / total)
+            yield _bag_table(path, name, t[:k], g[:k], a[:k], plan["mag"], mag, done - k)
+    if done != total:  # the storage changed between the passes
+        raise OptinavError(f"{path.name} changed while it was read ({done} of {total} messages)", "read it again")
+
+
+def _bag_table(path: Path, topic: str, t, gyr, acc, mag_topic, mag, row0: int):
+    """The :func:`load_bag` table of one block of messages (``mag``: the whole (stamps, values) of the
+    MagneticField topic)."""
+    from optinav.io.readers import Table
+
+    table = Table(path=path, kind="rosbag", data={"t": t}, row0=row0)
+    for j, a in enumerate("xyz"):
+        table.data[f"a{a}"] = acc[:, j]
+    for j, a in enumerate("xyz"):
+        table.data[f"g{a}"] = gyr[:, j]
+    table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
+    table.meta.update({"topic": topic, "frame": "sensor_msgs/Imu"})
+    if mag is not None:
+        for j, a in enumerate("xyz"):
+            table.data[f"m{a}"] = _resample(mag[0], mag[1][:, j], t)
+            table.units[f"m{a}"] = "T"
+        table.meta["mag_topic"] = mag_topic
+    return table
