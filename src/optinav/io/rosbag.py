@@ -69,8 +69,6 @@ def load_bag(path, *, topic=None, only=None):
     ``topic``: ``"/imu"`` or ``"/imu,/mag"`` (a comma list or sequence); None picks the bag's only Imu topic and
     its only MagneticField topic if it has exactly one. ``only`` is accepted for symmetry with the other readers.
     """
-    from optinav.io.readers import Table
-
     path = Path(path)
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
@@ -105,24 +103,12 @@ def load_bag(path, *, topic=None, only=None):
                 reader.close()
             except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
                 pass
-    (imu_topic, (t, t_log, vals)), mag = got
-    table = Table(path=path, kind="rosbag", data={})
-    table.data["t"] = _time_base(path, imu_topic, t, t_log)
-    gyr, acc = vals  # (n, 3) each: the columns are their views, which read_imu takes back whole
-    for j, a in enumerate("xyz"):
-        table.data[f"a{a}"] = acc[:, j]
-    for j, a in enumerate("xyz"):
-        table.data[f"g{a}"] = gyr[:, j]
-    table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
-    table.meta.update({"topic": imu_topic, "frame": "sensor_msgs/Imu"})
-    if mag is not None:
-        mag_topic, (tm, tm_log, b) = mag
-        tm = _time_base(path, mag_topic, tm, tm_log)
-        for j, a in enumerate("xyz"):
-            table.data[f"m{a}"] = _resample(tm, b[0][:, j], table.data["t"])
-            table.units[f"m{a}"] = "T"
-        table.meta["mag_topic"] = mag_topic
-    return table
+    (imu_topic, (t, t_log, (gyr, acc))), mag = got
+    t = _time_base(path, imu_topic, t, t_log)
+    if mag is None:
+        return _bag_table(path, imu_topic, t, gyr, acc, None, None, 0)
+    mag_topic, (tm, tm_log, b) = mag
+    return _bag_table(path, imu_topic, t, gyr, acc, mag_topic, (_time_base(path, mag_topic, tm, tm_log), b[0]), 0)
 
 
 def _read(reader, path: Path, topics: dict, imu_topic: str, mag_topic: str | None) -> tuple:
@@ -198,12 +184,7 @@ def _sqlite_quick(path: Path, wanted: list[str]):
     if files is None:
         return None
     try:
-        types = _Ros2Types()
-        topics = {}
-        for f in files:
-            for name, msgtype, fmt in bagscan.sqlite_topics(f):
-                d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
-                d["fmt"].add(fmt)
+        types, topics = _Ros2Types(), _sqlite_topic_types(files)
     except Exception:  # noqa: BLE001 - anything the scanner does not read: rosbags' reader decides
         return None
     try:
@@ -247,13 +228,7 @@ def _ros1_quick(path: Path, wanted: list[str]):
         types = _Ros1Types()
     except Exception:  # noqa: BLE001 - anything the index scanner does not read: rosbags' reader decides
         return None
-    topics = {}
-    for conn, (name, msgtype, md5) in idx["conns"].items():
-        msgtype = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
-        d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": 0, "md5": set()})
-        d["cons"].append(conn)
-        d["count"] += idx["counts"].get(conn, 0)
-        d["md5"].add(md5)
+    topics = _ros1_topics(idx)
     chosen = _choose(path, topics, wanted)
     if any(name is not None and topics[name]["md5"] != {types.md5(topics[name]["type"])} for name in chosen):
         return None
@@ -261,6 +236,30 @@ def _ros1_quick(path: Path, wanted: list[str]):
         return _read(types, path, topics, *chosen)
     except bagscan.NotFast:
         return None
+
+
+def _ros1_topics(idx: dict) -> dict:
+    """Topic → {type, connections, count, md5 sums} of a ROS 1 bag's index (:func:`optinav.io.bagscan.ros1_index`)."""
+    topics: dict = {}
+    for conn, (name, msgtype, md5) in idx["conns"].items():
+        msgtype = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
+        d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": 0, "md5": set()})
+        d["cons"].append(conn)
+        d["count"] += idx["counts"].get(conn, 0)
+        d["md5"].add(md5)
+    return topics
+
+
+def _sqlite_topic_types(files: list[Path]) -> dict:
+    """Topic → {type, serialization formats} of a ROS 2 sqlite3 bag's files (counts come when read)."""
+    from optinav.io import bagscan
+
+    topics: dict = {}
+    for f in files:
+        for name, msgtype, fmt in bagscan.sqlite_topics(f):
+            d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
+            d["fmt"].add(fmt)
+    return topics
 
 
 def _why(exc: Exception) -> str:
@@ -635,14 +634,7 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
         return None
     try:
         if path.is_file() and path.suffix.lower() == ".bag":
-            idx = bagscan.ros1_index(path)
-            types, topics = _Ros1Types(), {}
-            for conn, (name, msgtype, md5) in idx["conns"].items():
-                msgtype = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
-                d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": 0, "md5": set()})
-                d["cons"].append(conn)
-                d["count"] += idx["counts"].get(conn, 0)
-                d["md5"].add(md5)
+            types, topics = _Ros1Types(), _ros1_topics(bagscan.ros1_index(path))
             imu, mag = _choose(path, topics, wanted)
             if any(n is not None and topics[n]["md5"] != {types.md5(topics[n]["type"])} for n in (imu, mag)):
                 return None
@@ -651,11 +643,7 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
                     "blocks": blocks, "close": lambda: None}  # fmt: skip
         files = _sqlite_files(path)
         if files is not None:
-            types, topics = _Ros2Types(), {}
-            for f in files:
-                for name, msgtype, fmt in bagscan.sqlite_topics(f):
-                    d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
-                    d["fmt"].add(fmt)
+            types, topics = _Ros2Types(), _sqlite_topic_types(files)
             imu, mag = _choose(path, topics, wanted)
             if any(n is not None and topics[n]["fmt"] != {"cdr"} for n in (imu, mag)):
                 return None
@@ -692,8 +680,8 @@ def _decoded(plan: dict, name: str):
 
 def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     name = plan["imu"]
-    # first pass: the time base and the count (anything unexpected: the bag is read whole)
-    total, prev_s, prev_l, stamps_ok, zero = 0, -np.inf, None, True, True
+    # first pass: the time base and the count, and the magnetometer whole (anything unexpected: read whole)
+    total, prev_s, prev_l, stamps_ok, zero, mag = 0, -np.inf, None, True, True, None
     try:
         for stamp, logt, _ in _decoded(plan, name):
             if not stamp.size:
@@ -704,6 +692,13 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
             zero = zero and not np.any(stamp)
             prev_s, prev_l = float(stamp[-1]), int(logt[-1])
             total += stamp.size
+        if plan["mag"] is not None:  # a few values per Imu message at most
+            parts = [(s.copy(), lt.copy(), v[0].copy()) for s, lt, v in _decoded(plan, plan["mag"])]
+            mag = tuple(np.concatenate([p[j] for p in parts]) for j in range(3)) if parts else None
+            if mag is None or not mag[0].size or np.any(mag[1][1:] < mag[1][:-1]):
+                raise ValueError("no magnetometer messages, or out of the storage's order")
+            if plan["count"] and mag[0].size != plan["topics"][plan["mag"]]["count"]:
+                raise ValueError("magnetometer messages other than the index counts")
     except Exception:  # noqa: BLE001 - load_bag reads it (through rosbags if need be) and names any damage
         yield load_bag(path, topic=topic)
         return
@@ -713,17 +708,19 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         return
     if not stamps_ok:
         _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
-    mag = None
-    if plan["mag"] is not None:  # read whole (a few values per Imu message at most), in log-time order
-        parts = [(s.copy(), lt.copy(), v[0].copy()) for s, lt, v in _decoded(plan, plan["mag"])]
-        if not parts or not sum(p[0].size for p in parts):
-            raise OptinavError(
-                f"topic {plan['mag']!r} of {path.name} holds no readable messages", "pass a topic with messages"
-            )
-        tm, tm_log, b = (np.concatenate([p[j] for p in parts]) for j in range(3))
-        order = np.argsort(tm_log, kind="stable")
-        mag = (_time_base(path, plan["mag"], tm[order], tm_log[order] * 1e-9), b[order])
-    # second pass: the tables
+    if mag is not None:
+        mag = (_time_base(path, plan["mag"], mag[0], mag[1] * 1e-9), mag[2])
+    try:  # second pass (the first read the same blocks: an error here is the storage changing under it)
+        yield from _tables(path, plan, chunk_rows, progress, total, stamps_ok, mag)
+    except OptinavError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})", "read it again") from None
+
+
+def _tables(path: Path, plan: dict, chunk_rows: int, progress, total: int, stamps_ok: bool, mag):
+    """The second pass of :func:`iter_bag`: the tables of ``chunk_rows`` messages."""
+    name = plan["imu"]
     held, have, done = [], 0, 0
     for stamp, logt, (gyr, acc) in _decoded(plan, name):
         held.append((stamp.copy() if stamps_ok else logt * 1e-9, gyr.copy(), acc.copy()))  # the decoder reuses them
@@ -742,8 +739,9 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
 
 
 def _bag_table(path: Path, topic: str, t, gyr, acc, mag_topic, mag, row0: int):
-    """The :func:`load_bag` table of one block of messages (``mag``: the whole (stamps, values) of the
-    MagneticField topic)."""
+    """The :func:`load_bag` table of the messages ``t``, ``gyr``, ``acc`` ((n, 3) each: the columns are their
+    views, which read_imu takes back whole), from row ``row0``; ``mag``: the whole (stamps, values) of the
+    MagneticField topic, interpolated onto ``t``."""
     from optinav.io.readers import Table
 
     table = Table(path=path, kind="rosbag", data={"t": t}, row0=row0)
