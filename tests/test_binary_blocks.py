@@ -90,7 +90,7 @@ def _same_as_whole(path: Path, chunk: int, **kw) -> list:
     blocks, joined = _joined(path, chunk, **kw)
     assert list(joined) == list(whole.data)
     for k, v in joined.items():
-        assert v.dtype == whole.data[k].dtype and np.array_equal(v, whole.data[k]), k
+        assert v.dtype == whole.data[k].dtype and np.array_equal(v, whole.data[k], equal_nan=v.dtype.kind == "f"), k
     for b in blocks:
         assert (b.meta, b.units, b.skipped, b.table) == (whole.meta, whole.units, whole.skipped, whole.table)
     key = next(k for k in whole.data if k not in blocks[0].fixed)
@@ -269,3 +269,20 @@ def test_matlab_v5_log_read_in_blocks(tmp_path, monkeypatch, compress):
         assert np.array_equal(np.concatenate([getattr(x, attr) for x in logs]), getattr(whole, attr))
     monkeypatch.setattr(optinav.io.arrayblocks, "_MAT_STREAM_BYTES", 1 << 20)
     assert len(list(iter_table(path, chunk_rows=20))) == 1
+
+
+def test_a_real_matlab_v5_trial_read_in_blocks(monkeypatch):
+    """BROAD trial 29 as published (MATLAB v5, ../shared/data/attitude/broad, CC BY 4.0): its matrices read by rows
+    join to scipy's whole reading, scalars and strings as metadata in every block."""
+    import optinav.io.arrayblocks
+    from optinav.io.arrayblocks import mat5_names
+
+    path = (
+        Path(__file__).resolve().parents[1].parent / "shared/data/attitude/broad/29_disturbed_stationary_magnet_B.mat"
+    )
+    if not path.is_file():
+        pytest.skip("the shared BROAD trial is not here")
+    assert mat5_names(path)[:4] == ["imu_gyr", "imu_acc", "imu_mag", "opt_quat"]
+    monkeypatch.setattr(optinav.io.arrayblocks, "_MAT_STREAM_BYTES", 1)
+    blocks = _same_as_whole(path, 5000)
+    assert len(blocks) == 11 and blocks[0].meta["sampling_rate"] == load_table(path).meta["sampling_rate"]
