@@ -379,6 +379,12 @@ class TableChunks:
         if self.kind != "text":
             yield from self._binary()
             self.position = self.size
+            if self.kind == "parquet":
+                # what pyarrow freed goes back to the OS (its pool keeps it otherwise: ~100 MiB that a caller
+                # holding the log, such as calibrate, would carry on top of it to its peak)
+                import pyarrow as pa
+
+                pa.default_memory_pool().release_unused()
             return
         try:
             yield from self._text()
