@@ -79,7 +79,12 @@ def array_blocks(path: Path, kind: str, *, names, only, chunk_rows: int, load, p
     reads the file whole (small files, formats not handled here). ``progress(fraction)`` after each block."""
     from optinav.io.readers import _check_nonempty, _name_table_columns, _split_single_table
 
-    src = _open(path, kind, only)
+    try:
+        src = _open(path, kind, only)
+    except OptinavError:
+        raise
+    except Exception:  # noqa: BLE001 - a damaged file: the whole-file reader names the problem
+        src = None
     if src is None:
         yield load()
         return
@@ -165,10 +170,20 @@ def _open(path: Path, kind: str, only) -> _Source | None:
 
 
 def _hdf5(path: Path, only, *, matlab: bool) -> _Source:
-    from optinav.io.readers import _h5_open, _h5_read, _h5_unit, _h5py
+    from optinav.io.readers import _h5_open, _h5py
 
     h5py = _h5py()
     fh, table, wanted = _h5_open(path, only, matlab=matlab)
+    try:
+        return _Source(table, _h5_items(fh, wanted, matlab, h5py), fh.close)
+    except Exception:
+        fh.close()
+        raise
+
+
+def _h5_items(fh, wanted, matlab: bool, h5py) -> list[_Item]:
+    from optinav.io.readers import _h5_read, _h5_unit
+
     items = []
     for name in wanted:
         ds = fh[name]
@@ -197,7 +212,7 @@ def _hdf5(path: Path, only, *, matlab: bool) -> _Source:
             )
 
         items.append(_Item(name, rows, int(ds.size) * ds.dtype.itemsize, read, whole, _h5_unit(ds)))
-    return _Source(table, items, fh.close)
+    return items
 
 
 # --- NPY and NPZ --------------------------------------------------------------------------------------------
