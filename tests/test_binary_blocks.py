@@ -288,3 +288,19 @@ def test_a_real_matlab_v5_trial_read_in_blocks(monkeypatch):
     monkeypatch.setattr(optinav.io.arrayblocks, "_MAT_STREAM_BYTES", 1)
     blocks = _same_as_whole(path, 5000)
     assert len(blocks) == 11 and blocks[0].meta["sampling_rate"] == load_table(path).meta["sampling_rate"]
+
+
+@pytest.mark.parametrize("where,value", [(145, 0xFF), (176, 0x00), (176, 0x7F)])
+def test_a_contradicting_matlab_v5_header_is_refused_before_scipy(tmp_path, where, value):
+    """scipy.io.loadmat's compiled reader crashes the process (segmentation fault) on a MATLAB v5 variable whose
+    flags byte (145: complex/global/logical bits all set) or real-part data type (176) was damaged: such a header
+    is refused first, in one line."""
+    path = tmp_path / "x.mat"
+    scipy.io.savemat(path, {"t": np.arange(5.0)[:, None]})
+    raw = bytearray(path.read_bytes())
+    assert raw[128] == 14 and raw[176] == 9  # miMATRIX; miDOUBLE
+    raw[where] = value
+    path.write_bytes(bytes(raw))
+    with pytest.raises(OptinavError, match="is not a readable MATLAB file") as exc:
+        load_table(path)
+    assert "\n" not in str(exc.value)

@@ -24,7 +24,7 @@ import numpy as np
 
 from optinav.errors import OptinavError
 
-__all__ = ["array_blocks", "block_bounds", "is_mat5", "mat5_names", "sample_axis"]
+__all__ = ["array_blocks", "block_bounds", "check_mat5", "is_mat5", "mat5_names", "sample_axis"]
 
 
 def block_bounds(n: int, chunk_rows: int) -> list[tuple[int, int]]:
@@ -434,6 +434,84 @@ def _matrix_head(buf: bytes, e: str):
         return None
     typ, n, d, _ = _element(buf, off, e)
     return flags & 0xFF, False, tuple(dims), name, typ, n, d
+
+
+#: MAT v5 data types a char array's data may have, with their byte sizes (0: variable, UTF-8)
+_MI_CHAR = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 16: 0, 17: 2, 18: 4}
+
+
+def check_mat5(path: Path) -> None:
+    """Refuse a MATLAB v5/v7 file whose variable headers contradict themselves (flags, array class, the data
+    type and size of a numeric or char array against its dimensions) before scipy.io.loadmat reads it: its
+    compiled reader crashes the process on such headers (a flipped flags byte, a data-type code out of range).
+    Compressed variables are checked on their first 8 KiB. One-line :class:`OptinavError`."""
+    if not is_mat5(path):
+        return
+    with open(path, "rb") as fh:
+        head = fh.read(128)
+        e = "<" if head[126:128] == b"IM" else ">"
+        size, pos = path.stat().st_size, 128
+        while pos + 8 <= size:
+            fh.seek(pos)
+            typ, n = struct.unpack(e + "II", fh.read(8))
+            if typ == _MI_COMPRESSED:
+                try:
+                    buf = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
+                except zlib.error:
+                    return  # scipy raises its own (Python) error for a damaged stream
+                whole = False
+            else:
+                fh.seek(pos)
+                buf, whole = fh.read(min(n + 8, 1 << 20)), n + 8 <= 1 << 20
+            why = _mat5_header_fault(buf, e, whole)
+            if why:
+                raise OptinavError(
+                    f"{path.name} is not a readable MATLAB file (the variable at byte {pos}: {why})",
+                    "save it again from MATLAB (save(..., '-v7') or '-v7.3')",
+                )
+            pos += 8 + n
+
+
+def _mat5_header_fault(buf: bytes, e: str, whole: bool) -> str | None:
+    """What is wrong with the miMATRIX element at the start of ``buf`` (None: nothing seen); ``whole``: ``buf``
+    holds the element entirely (its imaginary part can be checked too)."""
+    try:
+        typ, n, off, _ = _element(buf, 0, e)
+        if typ != _MI_MATRIX:
+            return None  # not a variable scipy reads as an array: it skips or names it
+        if n == 0:
+            return None  # an empty element: scipy reads it as an empty array
+        ftyp, fn, d, off = _element(buf, off, e)
+        if ftyp != 6 or fn != 8:
+            return "array flags of another type or size"
+        flags = struct.unpack_from(e + "I", buf, d)[0]
+        cls = flags & 0xFF
+        if not 1 <= cls <= 17 or (flags >> 8) & ~0x0E & 0xFF:
+            return f"array flags {flags:#x}"
+        dtyp, dn, d, off = _element(buf, off, e)
+        if dtyp != 5 or dn < 8 or dn % 4:
+            return "dimensions of another type or size"
+        dims = struct.unpack_from(e + f"{dn // 4}i", buf, d)
+        if min(dims) < 0:
+            return f"negative dimensions {dims}"
+        ntyp, _, _, off = _element(buf, off, e)
+        if ntyp != 1:
+            return "a name of another type"
+        count = int(np.prod(dims, dtype=np.int64))
+        if cls in _MX_NUMERIC or cls == 4:
+            rtyp, rn, _, off = _element(buf, off, e)
+            sizes = _MI_CHAR if cls == 4 else {k: np.dtype(v).itemsize for k, v in _MI.items()}
+            if rtyp not in sizes:
+                return f"data of type {rtyp} for array class {cls}"
+            if sizes[rtyp] and rn != count * sizes[rtyp]:
+                return f"{rn} bytes of data for dimensions {dims}"
+            if flags & 0x800 and whole:
+                ityp, inn, _, _ = _element(buf, off, e)
+                if ityp not in sizes or (sizes[ityp] and inn != count * sizes[ityp]):
+                    return "a complex array without its imaginary part"
+    except struct.error:
+        return "a header cut short" if whole else None
+    return None
 
 
 def _mat5(path: Path) -> _Source | None:

@@ -1320,6 +1320,10 @@ def _load_mat(path: Path, only: Sequence[str] | None) -> Table:
         return _load_hdf5(path, only, matlab=flavour == "mat73")
     import scipy.io
 
+    from optinav.io.arrayblocks import check_mat5
+
+    check_mat5(path)
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
