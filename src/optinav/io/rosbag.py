@@ -92,11 +92,7 @@ def load_bag(path, *, topic=None, only=None):
                 "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)",
             ) from None
         try:
-            topics = {}
-            for con in reader.connections:
-                topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
-                topics[con.topic]["cons"].append(con)
-                topics[con.topic]["count"] += con.msgcount
+            topics = _reader_topics(reader)
             got = _read(reader, path, topics, *_choose(path, topics, wanted))
         finally:
             try:
@@ -247,6 +243,16 @@ def _ros1_topics(idx: dict) -> dict:
         d["cons"].append(conn)
         d["count"] += idx["counts"].get(conn, 0)
         d["md5"].add(md5)
+    return topics
+
+
+def _reader_topics(reader) -> dict:
+    """Topic → {type, connections, count} of an open rosbags reader."""
+    topics: dict = {}
+    for con in reader.connections:
+        topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
+        topics[con.topic]["cons"].append(con)
+        topics[con.topic]["count"] += con.msgcount
     return topics
 
 
@@ -655,11 +661,7 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
     except Exception:  # noqa: BLE001 - anything the scanners or rosbags do not read: load_bag names it
         return None
     try:
-        topics = {}
-        for con in reader.connections:
-            topics.setdefault(con.topic, {"type": con.msgtype, "cons": [], "count": 0})
-            topics[con.topic]["cons"].append(con)
-            topics[con.topic]["count"] += con.msgcount
+        topics = _reader_topics(reader)
         imu, mag = _choose(path, topics, wanted)
         if bagscan.blocks(reader, path, imu) is None:
             raise bagscan.NotFast("rosbags' iteration")
