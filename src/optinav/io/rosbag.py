@@ -180,15 +180,12 @@ def _sqlite_quick(path: Path, wanted: list[str]):
     if files is None:
         return None
     try:
-        types, topics = _Ros2Types(), _sqlite_topic_types(files)
-    except Exception:  # noqa: BLE001 - anything the scanner does not read: rosbags' reader decides
-        return None
-    try:
-        chosen = _choose(path, topics, wanted)
+        got = _sqlite_setup(path, files, wanted)
     except OptinavError:  # the error lists the topics with their counts: rosbags' reader counts them
         return None
-    if any(name is not None and topics[name]["fmt"] != {"cdr"} for name in chosen):
+    if got is None:
         return None
+    types, topics, chosen = got
     try:
         out = []
         for name in chosen:
@@ -219,6 +216,22 @@ def _ros1_quick(path: Path, wanted: list[str]):
     messages checked against Noetic's definitions by md5sum; None when that does not apply (rosbags reads)."""
     from optinav.io import bagscan
 
+    got = _ros1_setup(path, wanted)
+    if got is None:
+        return None
+    types, topics, chosen = got
+    try:
+        return _read(types, path, topics, *chosen)
+    except bagscan.NotFast:
+        return None
+
+
+def _ros1_setup(path: Path, wanted: list[str]):
+    """(deserializer, topics, (Imu topic, MagneticField topic or None)) of the ROS 1 bag ``path`` from its own
+    index; None when the index scanner does not read it or a chosen topic's definition is not Noetic's (by
+    md5sum). The topic choice's errors raise."""
+    from optinav.io import bagscan
+
     try:
         idx = bagscan.ros1_index(path)
         types = _Ros1Types()
@@ -228,10 +241,21 @@ def _ros1_quick(path: Path, wanted: list[str]):
     chosen = _choose(path, topics, wanted)
     if any(name is not None and topics[name]["md5"] != {types.md5(topics[name]["type"])} for name in chosen):
         return None
+    return types, topics, chosen
+
+
+def _sqlite_setup(path: Path, files: list[Path], wanted: list[str]):
+    """(deserializer, topics, (Imu topic, MagneticField topic or None)) of a ROS 2 sqlite3 bag from its files;
+    None when the scanner does not read them or a chosen topic is not CDR-serialized. The topic choice's errors
+    raise."""
     try:
-        return _read(types, path, topics, *chosen)
-    except bagscan.NotFast:
+        types, topics = _Ros2Types(), _sqlite_topic_types(files)
+    except Exception:  # noqa: BLE001 - anything the scanner does not read: rosbags' reader decides
         return None
+    chosen = _choose(path, topics, wanted)
+    if any(name is not None and topics[name]["fmt"] != {"cdr"} for name in chosen):
+        return None
+    return types, topics, chosen
 
 
 def _ros1_topics(idx: dict) -> dict:
@@ -640,19 +664,19 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
         return None
     try:
         if path.is_file() and path.suffix.lower() == ".bag":
-            types, topics = _Ros1Types(), _ros1_topics(bagscan.ros1_index(path))
-            imu, mag = _choose(path, topics, wanted)
-            if any(n is not None and topics[n]["md5"] != {types.md5(topics[n]["type"])} for n in (imu, mag)):
+            got = _ros1_setup(path, wanted)
+            if got is None:
                 return None
+            types, topics, (imu, mag) = got
             blocks = lambda name: bagscan.blocks(types, path, name)  # noqa: E731
             return {"types": types, "ros1": True, "topics": topics, "imu": imu, "mag": mag, "count": True,
                     "blocks": blocks, "close": lambda: None}  # fmt: skip
         files = _sqlite_files(path)
         if files is not None:
-            types, topics = _Ros2Types(), _sqlite_topic_types(files)
-            imu, mag = _choose(path, topics, wanted)
-            if any(n is not None and topics[n]["fmt"] != {"cdr"} for n in (imu, mag)):
+            got = _sqlite_setup(path, files, wanted)
+            if got is None:
                 return None
+            types, topics, (imu, mag) = got
             blocks = lambda name: itertools.chain.from_iterable(bagscan.sqlite_blocks(f, name) for f in files)  # noqa: E731
             return {"types": types, "ros1": False, "topics": topics, "imu": imu, "mag": mag, "count": False,
                     "blocks": blocks, "close": lambda: None}  # fmt: skip
