@@ -881,6 +881,14 @@ class ImuChunks:
     def _whole(self):
         log = read_imu(self.path, **self.kw)
         self.tables.position = self.size
+        yield from self._pieces(log)
+
+    def _pieces(self, log: ImuLog):
+        """``log`` in pieces of at most ``chunk_rows`` samples (its notes with the first)."""
+        if len(log) <= self.chunk_rows:
+            self.rows += len(log)
+            yield log
+            return
         for a in range(0, len(log), self.chunk_rows):
             part = log.select(slice(a, a + self.chunk_rows))
             part.notes = list(log.notes) if a == 0 else []
@@ -916,12 +924,7 @@ class ImuChunks:
             # a file that came whole (a bag the scanners do not read, MATLAB v4) is cut: its table is not the
             # pieces' (None, as for the files read whole)
             self.table = table if len(log) <= self.chunk_rows else None
-            for a in range(0, len(log), self.chunk_rows):
-                piece = log if len(log) <= self.chunk_rows else log.select(slice(a, a + self.chunk_rows))
-                if piece is not log:
-                    piece.notes = list(log.notes) if a == 0 else []
-                self.rows += len(piece)
-                yield piece
+            yield from self._pieces(log)
         for kind, ok in seen.items():
             if not ok.all():
                 raise _no_number(self.path, kind, _value_names(part.srcs[kind])[int(np.argmin(ok))])
