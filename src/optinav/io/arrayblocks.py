@@ -388,14 +388,21 @@ _MX_NUMERIC = range(6, 16)
 _MAT_STREAM_BYTES = 1 << 20
 
 
+def _mat5_endian(head: bytes) -> str | None:
+    """The byte order ("<" or ">") of a MATLAB v5/v7 file from its 128-byte header (the endian mark IM or MI);
+    None for anything else."""
+    if len(head) < 128 or head[126:128] not in (b"IM", b"MI"):
+        return None
+    return "<" if head[126:128] == b"IM" else ">"
+
+
 def is_mat5(path: Path) -> bool:
     """Whether ``path`` is a MATLAB v5/v7 file (its 128-byte header ends in the endian mark IM or MI)."""
     try:
         with open(path, "rb") as fh:
-            head = fh.read(128)
+            return _mat5_endian(fh.read(128)) is not None
     except OSError:
         return False
-    return len(head) == 128 and head[126:128] in (b"IM", b"MI")
 
 
 def mat5_names(path: Path) -> list[str] | None:
@@ -418,22 +425,64 @@ def _element(buf: bytes, off: int, e: str) -> tuple[int, int, int, int]:
     return typ, n, off + 8, off + 8 + (n + 7) // 8 * 8
 
 
-def _matrix_head(buf: bytes, e: str):
-    """(class, complex, dims, name, real-part type, bytes, offset) of the miMATRIX element whose tag starts
-    ``buf``; None when it is not a plain numeric matrix."""
-    typ, _, off, _ = _element(buf, 0, e)
-    if typ != _MI_MATRIX:
+def _variables(fh, e: str, size: int, limit: int):
+    """(byte offset, element type, bytes, head) of each top-level data element of an open MAT v5 file: ``head``
+    its first bytes from the tag, up to ``limit`` (a compressed element's first 8 KiB inflated). A damaged
+    compressed stream raises zlib.error."""
+    pos = 128
+    while pos + 8 <= size:
+        fh.seek(pos)
+        typ, n = struct.unpack(e + "II", fh.read(8))
+        if typ == _MI_COMPRESSED:
+            head = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
+        else:
+            fh.seek(pos)
+            head = fh.read(min(n + 8, limit))
+        yield pos, typ, n, head
+        pos += 8 + n
+
+
+@dataclasses.dataclass
+class _MatrixHead:
+    """The header of a miMATRIX element: the types and sizes of its array-flags, dimensions and name elements as
+    found (``dims`` None when that element is not int32 values), and the offset of the data that follows."""
+
+    flags_type: int
+    flags_bytes: int
+    flags: int
+    dims_type: int
+    dims: tuple | None
+    name_type: int
+    name: str
+    data: int
+
+    @property
+    def cls(self) -> int:
+        return self.flags & 0xFF
+
+
+def _matrix_head(buf: bytes, e: str) -> _MatrixHead | None:
+    """The header of the miMATRIX element whose tag starts ``buf`` (None: another element, or an empty one);
+    struct.error when ``buf`` ends inside it."""
+    typ, n, off, _ = _element(buf, 0, e)
+    if typ != _MI_MATRIX or n == 0:
         return None
-    _, _, d, off = _element(buf, off, e)  # array flags
+    ftyp, fn, d, off = _element(buf, off, e)
     flags = struct.unpack_from(e + "I", buf, d)[0]
-    _, n, d, off = _element(buf, off, e)  # dimensions
-    dims = struct.unpack_from(e + f"{n // 4}i", buf, d)
-    _, n, d, off = _element(buf, off, e)  # name
-    name = buf[d : d + n].decode("latin-1")
-    if (flags & 0xFF) not in _MX_NUMERIC or flags & 0x800:
+    dtyp, dn, d, off = _element(buf, off, e)
+    dims = struct.unpack_from(e + f"{dn // 4}i", buf, d) if dtyp == 5 and dn >= 8 and dn % 4 == 0 else None
+    ntyp, nn, d, off = _element(buf, off, e)
+    return _MatrixHead(ftyp, fn, flags, dtyp, dims, ntyp, buf[d : d + nn].decode("latin-1"), off)
+
+
+def _numeric_matrix(buf: bytes, e: str):
+    """(dims, name, real-part type, bytes, data offset) of a real numeric matrix whose element starts ``buf``;
+    None for any other variable."""
+    h = _matrix_head(buf, e)
+    if h is None or h.dims is None or h.cls not in _MX_NUMERIC or h.flags & 0x800:
         return None
-    typ, n, d, _ = _element(buf, off, e)
-    return flags & 0xFF, False, tuple(dims), name, typ, n, d
+    typ, n, d, _ = _element(buf, h.data, e)
+    return tuple(h.dims), h.name, typ, n, d
 
 
 #: MAT v5 data types a char array's data may have, with their byte sizes (0: variable, UTF-8)
@@ -445,67 +494,48 @@ def check_mat5(path: Path) -> None:
     type and size of a numeric or char array against its dimensions) before scipy.io.loadmat reads it: its
     compiled reader crashes the process on such headers (a flipped flags byte, a data-type code out of range).
     Compressed variables are checked on their first 8 KiB. One-line :class:`OptinavError`."""
-    if not is_mat5(path):
-        return
     with open(path, "rb") as fh:
-        head = fh.read(128)
-        e = "<" if head[126:128] == b"IM" else ">"
-        size, pos = path.stat().st_size, 128
-        while pos + 8 <= size:
-            fh.seek(pos)
-            typ, n = struct.unpack(e + "II", fh.read(8))
-            if typ == _MI_COMPRESSED:
-                try:
-                    buf = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
-                except zlib.error:
-                    return  # scipy raises its own (Python) error for a damaged stream
-                whole = False
-            else:
-                fh.seek(pos)
-                buf, whole = fh.read(min(n + 8, 1 << 20)), n + 8 <= 1 << 20
-            why = _mat5_header_fault(buf, e, whole)
-            if why:
-                raise OptinavError(
-                    f"{path.name} is not a readable MATLAB file (the variable at byte {pos}: {why})",
-                    "save it again from MATLAB (save(..., '-v7') or '-v7.3')",
-                )
-            pos += 8 + n
+        e = _mat5_endian(fh.read(128))
+        if e is None:
+            return
+        try:
+            for pos, typ, n, head in _variables(fh, e, path.stat().st_size, 1 << 20):
+                why = _mat5_header_fault(head, e, typ != _MI_COMPRESSED and n + 8 <= 1 << 20)
+                if why:
+                    raise OptinavError(
+                        f"{path.name} is not a readable MATLAB file (the variable at byte {pos}: {why})",
+                        "save it again from MATLAB (save(..., '-v7') or '-v7.3')",
+                    )
+        except zlib.error:
+            return  # scipy raises its own (Python) error for a damaged stream
 
 
 def _mat5_header_fault(buf: bytes, e: str, whole: bool) -> str | None:
     """What is wrong with the miMATRIX element at the start of ``buf`` (None: nothing seen); ``whole``: ``buf``
     holds the element entirely (its imaginary part can be checked too)."""
     try:
-        typ, n, off, _ = _element(buf, 0, e)
-        if typ != _MI_MATRIX:
-            return None  # not a variable scipy reads as an array: it skips or names it
-        if n == 0:
-            return None  # an empty element: scipy reads it as an empty array
-        ftyp, fn, d, off = _element(buf, off, e)
-        if ftyp != 6 or fn != 8:
+        h = _matrix_head(buf, e)
+        if h is None:
+            return None  # not a variable scipy reads as an array (it skips or names it), or an empty one
+        if h.flags_type != 6 or h.flags_bytes != 8:
             return "array flags of another type or size"
-        flags = struct.unpack_from(e + "I", buf, d)[0]
-        cls = flags & 0xFF
-        if not 1 <= cls <= 17 or (flags >> 8) & ~0x0E & 0xFF:
-            return f"array flags {flags:#x}"
-        dtyp, dn, d, off = _element(buf, off, e)
-        if dtyp != 5 or dn < 8 or dn % 4:
+        if not 1 <= h.cls <= 17 or (h.flags >> 8) & ~0x0E & 0xFF:
+            return f"array flags {h.flags:#x}"
+        if h.dims is None:
             return "dimensions of another type or size"
-        dims = struct.unpack_from(e + f"{dn // 4}i", buf, d)
-        if min(dims) < 0:
-            return f"negative dimensions {dims}"
-        ntyp, _, _, off = _element(buf, off, e)
-        if ntyp != 1:
+        if min(h.dims) < 0:
+            return f"negative dimensions {h.dims}"
+        if h.name_type != 1:
             return "a name of another type"
-        count = int(np.prod(dims, dtype=np.int64))
-        if cls in _MX_NUMERIC or cls == 4:
-            rtyp, rn, _, off = _element(buf, off, e)
-            sizes = _MI_CHAR if cls == 4 else {k: np.dtype(v).itemsize for k, v in _MI.items()}
+        count = int(np.prod(h.dims, dtype=np.int64))
+        if h.cls in _MX_NUMERIC or h.cls == 4:
+            rtyp, rn, _, off = _element(buf, h.data, e)
+            sizes = _MI_CHAR if h.cls == 4 else {k: np.dtype(v).itemsize for k, v in _MI.items()}
             if rtyp not in sizes:
-                return f"data of type {rtyp} for array class {cls}"
+                return f"data of type {rtyp} for array class {h.cls}"
             if sizes[rtyp] and rn != count * sizes[rtyp]:
-                return f"{rn} bytes of data for dimensions {dims}"
-            if flags & 0x800 and whole:
+                return f"{rn} bytes of data for dimensions {h.dims}"
+            if h.flags & 0x800 and whole:
                 ityp, inn, _, _ = _element(buf, off, e)
                 if ityp not in sizes or (sizes[ityp] and inn != count * sizes[ityp]):
                     return "a complex array without its imaginary part"
@@ -532,55 +562,27 @@ def _mat5(path: Path) -> _Source | None:
             c()
 
     try:
-        head = fh.read(128)
-        if len(head) < 128 or head[126:128] not in (b"IM", b"MI"):
+        e = _mat5_endian(fh.read(128))
+        if e is None:
             close()
             return None
-        e = "<" if head[126:128] == b"IM" else ">"
-        pos = 128
-        while pos + 8 <= size:
-            fh.seek(pos)
-            typ, n = struct.unpack(e + "II", fh.read(8))
+        for pos, typ, n, head in _variables(fh, e, size, 1 << 13):
             if typ >> 16 or typ not in (_MI_MATRIX, _MI_COMPRESSED) or pos + 8 + n > size:
                 close()
                 return None  # not a variable this reader walks: load_table reads (or refuses) the file
-            if typ == _MI_COMPRESSED:
-                peek = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
-                found = _matrix_head(peek, e) if len(peek) >= 8 else None
-            else:
-                fh.seek(pos)
-                found = _matrix_head(fh.read(min(n + 8, 1 << 13)), e)
-            if found is not None and found[4] in _MI and found[5] >= _MAT_STREAM_BYTES and sample_axis(found[2]):
+            found = _numeric_matrix(head, e) if len(head) >= 8 else None
+            if found is not None and found[2] in _MI and found[3] >= _MAT_STREAM_BYTES and sample_axis(found[0]):
                 items.append(_mat5_item(path, fh, pos, typ == _MI_COMPRESSED, found, e, closers))
-            else:
-                name = _mat5_name(fh, pos, typ, n, e)
-                if name is None:
-                    close()
-                    return None
-                items.append(_Item(name, None, 0, None, (lambda name=name: _loadmat(path, name)), add=_mat_walk))
-            pos += 8 + n
+                continue
+            h = _matrix_head(head, e) if len(head) >= 8 else None
+            if h is None or not h.name:
+                close()
+                return None
+            items.append(_Item(h.name, None, 0, None, (lambda name=h.name: _loadmat(path, name)), add=_mat_walk))
     except (OSError, struct.error, zlib.error, UnicodeDecodeError):
         close()
         return None
     return _Source(Table(path=path, kind="mat", data={}), items, close)
-
-
-def _mat5_name(fh, pos: int, typ: int, n: int, e: str) -> str | None:
-    """The name of the variable at ``pos`` (any class)."""
-    fh.seek(pos + 8)
-    if typ == _MI_COMPRESSED:
-        buf = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
-    else:
-        fh.seek(pos)
-        buf = fh.read(min(n + 8, 1 << 13))
-    try:
-        _, _, off, _ = _element(buf, 0, e)
-        for _ in range(2):  # flags, dimensions
-            _, _, _, off = _element(buf, off, e)
-        _, k, d, _ = _element(buf, off, e)
-        return buf[d : d + k].decode("latin-1") or None
-    except struct.error:
-        return None
 
 
 def _loadmat(path: Path, name: str):
@@ -597,7 +599,7 @@ def _mat5_item(path: Path, fh, pos: int, compressed: bool, found, e: str, closer
     """A numeric matrix read by rows: the column-major data of MATLAB (a vector contiguous)."""
     import tempfile
 
-    _, _, dims, name, typ, nbytes, d = found
+    dims, name, typ, nbytes, d = found
     dtype = np.dtype(e + _MI[typ])
     if int(np.prod(dims, dtype=np.int64)) * dtype.itemsize != nbytes:
         raise struct.error("the data do not fill the dimensions")
