@@ -153,17 +153,15 @@ def _open(path: Path, kind: str, only) -> _Source | None:
     from optinav.io.readers import _mat_flavour
 
     if kind == "npy":
-        src = _npy(path)
-    elif kind == "npz":
-        src = _npz(path)
-    elif kind == "hdf5":
-        src = _hdf5(path, only, matlab=False)
-    elif kind == "mat":
+        return _npy(path)
+    if kind == "npz":
+        return _npz(path)
+    if kind == "hdf5":
+        return _hdf5(path, only, matlab=False)
+    if kind == "mat":
         flavour = _mat_flavour(path)
-        src = _mat5(path) if flavour == "mat" else _hdf5(path, only, matlab=flavour == "mat73")
-    else:
-        return None
-    return src
+        return _mat5(path) if flavour == "mat" else _hdf5(path, only, matlab=flavour == "mat73")
+    return None
 
 
 # --- HDF5 and MATLAB v7.3 -----------------------------------------------------------------------------------
@@ -182,15 +180,14 @@ def _hdf5(path: Path, only, *, matlab: bool) -> _Source:
 
 
 def _h5_items(fh, wanted, matlab: bool, h5py) -> list[_Item]:
-    from optinav.io.readers import _h5_read, _h5_unit
+    from optinav.io.readers import _h5_read, _h5_unit, _matlab_class
 
     items = []
     for name in wanted:
         ds = fh[name]
         shape = tuple(ds.shape)[::-1] if matlab else tuple(ds.shape)  # MATLAB's layout is the transpose
         if matlab:
-            cls = ds.attrs.get("MATLAB_class", b"")
-            cls = cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
+            cls = _matlab_class(ds)
             plain = not ds.attrs.get("MATLAB_empty", 0) and (cls in ("char", "cell") or ds.dtype.kind in "biuf")
             if cls == "char":  # a char matrix: one string per row
                 found = (0, shape[0]) if plain and len(shape) == 2 and shape[0] >= 2 else None

@@ -1272,6 +1272,12 @@ def _h5_find(fh, found: list[str], name: str, h5py) -> str | None:
     return low[0] if len(low) == 1 else None
 
 
+def _matlab_class(ds) -> str:
+    """A MATLAB v7.3 dataset's ``MATLAB_class`` attribute ("double", "char", "cell" …; "" without one)."""
+    cls = ds.attrs.get("MATLAB_class", b"")
+    return cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
+
+
 def _h5_read(fh, ds, matlab: bool, h5py, sel=()):
     """A dataset's value (``sel``: an h5py selection of it, such as a block of rows); MATLAB v7.3 data are
     transposed back and chars/cells of strings decoded."""
@@ -1279,8 +1285,7 @@ def _h5_read(fh, ds, matlab: bool, h5py, sel=()):
         if ds.dtype.kind == "O" and h5py.check_string_dtype(ds.dtype) is None:
             return None  # references or other object data
         return ds[sel]
-    cls = ds.attrs.get("MATLAB_class", b"")
-    cls = cls.decode() if isinstance(cls, (bytes, np.bytes_)) else str(cls)
+    cls = _matlab_class(ds)
     if ds.attrs.get("MATLAB_empty", 0):
         return None
     if cls == "char":
