@@ -869,7 +869,7 @@ class TruthSeriesReader:
         if isinstance(params, dict):
             for name, p in params.items():
                 if name in series and isinstance(p, dict) and isinstance(p.get("value"), str) and p["value"] in regions:
-                    self.rows[name] = ArrayRows(self.path, regions[p.pop("value")], f"the truth's {name}")
+                    self.rows[name] = ArrayRows(self.path, regions[p["value"]], f"the truth's {name}")
                     p["value"] = None
         if any(r.marker in json.dumps(data) for r in regions.values()):
             # long arrays elsewhere (not a series): the file is read whole after all
