@@ -111,6 +111,23 @@ def test_lm_recovers_truth_within_reported_sigma_and_std_is_honest():
     assert np.all((rms > 0.7) & (rms < 1.3)), rms
 
 
+def test_pose_statistics_skip_invalid_and_non_finite_rows():
+    K, b = truth_counts()
+    raw, idx, _ = simulate(K, b, SCHEME18, rng=5)
+    raw = raw.copy()
+    valid = np.ones(len(raw), bool)
+    valid[idx[0, 0] + 3] = False
+    raw[idx[1, 0] + 2, 1] = np.nan
+    st = accel.pose_statistics(raw, idx, valid=valid)
+    for k, (i0, i1) in enumerate(idx):
+        x = raw[i0:i1][valid[i0:i1] & np.all(np.isfinite(raw[i0:i1]), axis=1)]
+        np.testing.assert_array_equal(st.means[k], x.mean(axis=0))
+        assert st.counts[k] == len(x)
+    assert st.counts[0] == idx[0, 1] - idx[0, 0] - 1 and st.counts[1] == idx[1, 1] - idx[1, 0] - 1
+    with pytest.raises(OptinavError, match="valid has shape"):
+        accel.pose_statistics(raw, idx, valid=valid[:-1])
+
+
 @pytest.mark.parametrize("method", ["gn", "trf", "newton"])
 def test_local_methods_agree_with_lm(method):
     K, b = truth_counts()

@@ -19,6 +19,7 @@ from optinav.multipos.static import (
     moving_variance,
     noise_floor,
     sections_from_list,
+    _rank,
     threshold_candidates,
 )
 
@@ -119,6 +120,40 @@ def test_given_threshold_and_candidates_are_consistent():
     # larger thresholds never drop static samples
     st = cand.static_time_s
     assert np.all(np.diff(st) >= -1e-9)
+
+
+@pytest.mark.parametrize("with_gyro", [True, False])
+def test_candidates_without_variances_find_the_same_intervals(with_gyro):
+    # keep_variance=False (calibrate: 2 B per row instead of 16) compares ranks, not variances: the same
+    # intervals for every candidate, also for variances exactly at a threshold
+    rng = np.random.default_rng(8)
+    t, acc, gyro, *_ = _simulated_log(rng, jitter=True)
+    gyr = gyro if with_gyro else None
+    full = threshold_candidates(t, acc, gyr=gyr)
+    lean = threshold_candidates(t, acc, gyr=gyr, keep_variance=False)
+    for a, b in zip(full.detections, lean.detections, strict=True):
+        np.testing.assert_array_equal(a.index_ranges, b.index_ranges)
+        np.testing.assert_array_equal(a.acc_means, b.acc_means)
+        assert b.acc_variance is None and b.gyro_variance is None
+        assert a.threshold == b.threshold and a.gyro_threshold == b.gyro_threshold
+    assert lean.default_index == full.default_index
+    v = full.detections[0].acc_variance
+    thr = np.sort(np.concatenate([full.thresholds, [v[5], v[500]]]))
+    ranks = _rank(np.concatenate([v, thr]), thr)
+    for j, th in enumerate(thr):
+        np.testing.assert_array_equal(ranks <= j, np.concatenate([v, thr]) <= th)
+
+
+def test_no_candidate_interval_error_is_the_same_without_variances():
+    rng = np.random.default_rng(2)
+    t = np.arange(3000) / 100.0
+    acc = np.cumsum(rng.normal(size=(3000, 3)), axis=0)
+    msgs = []
+    for keep in (True, False):
+        with pytest.raises(OptinavError) as e:
+            threshold_candidates(t, acc, multipliers=[1e-9], keep_variance=keep)
+        msgs.append(str(e.value))
+    assert msgs[0] == msgs[1] and "median" in msgs[0]
 
 
 def test_default_candidate_rule():

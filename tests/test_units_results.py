@@ -89,6 +89,23 @@ def test_timestamps_checks():
         check_timestamps([0.0])
 
 
+def test_timestamp_steps_are_checked_across_blocks(monkeypatch):
+    # the steps are checked a block at a time: a fault on either side of a block edge names its sample
+    import optinav.core.validate as validate
+
+    monkeypatch.setattr(validate, "_STEP_BLOCK", 4)
+    for i in range(1, 12):
+        t = np.arange(12.0)
+        t[i] = t[i - 1]
+        with pytest.raises(OptinavError, match=f"duplicate timestamp at index {i} "):
+            check_timestamps(t)
+        t = np.arange(12.0)
+        t[i] = t[i - 1] - 0.5
+        with pytest.raises(OptinavError, match=rf"not sorted: t\[{i}\]"):
+            check_timestamps(t)
+    np.testing.assert_array_equal(check_timestamps(np.arange(12.0)), np.arange(12.0))
+
+
 def test_array_checks():
     with pytest.raises(OptinavError, match="shape"):
         as_float_array(np.zeros((4, 2)), "gyro", last_dims=(3,))

@@ -69,14 +69,19 @@ def pose_statistics(raw, index_ranges, *, valid=None) -> PoseStatistics:
         ``means`` (P, 3) [raw], ``covariances`` (P, 3, 3) of one sample [raw²], ``counts`` (P,).
     """
     raw = as_float_array(raw, "accelerometer samples", last_dims=(3,), finite=False)
-    ok = (
-        np.all(np.isfinite(raw), axis=1)
-        if valid is None
-        else (np.asarray(valid, bool) & np.all(np.isfinite(raw), axis=1))
-    )
+    valid = None if valid is None else np.asarray(valid, bool)
+    if valid is not None and valid.shape != raw.shape[:1]:
+        raise OptinavError(
+            f"valid has shape {valid.shape}, the samples {raw.shape}", "pass one valid flag per sample row"
+        )
     means, covs, counts = [], [], []
     for k, (i0, i1) in enumerate(np.asarray(index_ranges, dtype=int)):
-        x = raw[i0:i1][ok[i0:i1]]
+        # the finite test per pose: masks over the whole log would be 4 B per row of it
+        x = raw[i0:i1]
+        ok = np.all(np.isfinite(x), axis=1)
+        if valid is not None:
+            ok &= valid[i0:i1]
+        x = x[ok]
         if x.shape[0] < 2:
             raise OptinavError(
                 f"static pose {k} has {x.shape[0]} valid sample(s)",

@@ -104,7 +104,14 @@ def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
 
 def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_unit, gyro_unit):
     cands = static.threshold_candidates(
-        t, acc, gyr=gyro, window_s=window_s, min_duration_s=min_duration_s, acc_unit=acc_unit, gyro_unit=gyro_unit
+        t,
+        acc,
+        gyr=gyro,
+        window_s=window_s,
+        min_duration_s=min_duration_s,
+        acc_unit=acc_unit,
+        gyro_unit=gyro_unit,
+        keep_variance=False,
     )
     scores = []
     seen = {}
@@ -377,8 +384,11 @@ def calibrate(
     for i0, i1 in ranges:
         used[i0:i1] = True
     used &= valid
-    residual_rms = float(np.sqrt(np.mean((_row_norms(acc, used, fit.theta) - g) ** 2)))
+    resid = _row_norms(acc, used, fit.theta)
     used = None
+    resid -= g  # in place: (‖·‖ − g)² as one array, not three of 8 B per static row
+    residual_rms = float(np.sqrt(np.mean(np.square(resid, out=resid))))
+    resid = None
 
     K_std = np.zeros((3, 3))
     for j, (r, c) in enumerate(model.K_INDEX):
