@@ -236,6 +236,43 @@ def test_empty_cells_are_nan_and_counted(tmp_path):
     assert np.isnan(log.acc[0, 1])
 
 
+@pytest.mark.parametrize("compiled", [False, True])
+def test_value_checks_are_the_same_through_the_compiled_interleave(tmp_path, monkeypatch, compiled):
+    # long columns are interleaved by a compiled kernel that also returns their range (no min/max passes, no
+    # finite count when all are finite); here every column takes that path, with the same results and errors
+    import optinav.io.imu as imu
+
+    if compiled:
+        monkeypatch.setattr(imu, "_COMPILED_ROWS", 2)
+    head = "t,ax,ay,az,gx,gy,gz\n"
+    log = read_imu(
+        _write(tmp_path / "n.csv", head + "0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n3,inf,2,3,1,1,nan\n")
+    )
+    assert log.nan_rows == 3 and log.finite.tolist() == [False, False, True, False]
+    log = read_imu(_write(tmp_path / "ok.csv", head + "0,1,2,3,4,5,6\n1,-1,-2,-3,-4,-5,-6\n"), gyro_unit="deg/s")
+    assert log.nan_rows == 0 and log.acc.flags.c_contiguous
+    np.testing.assert_array_equal(log.acc, [[1, 2, 3], [-1, -2, -3]])
+    np.testing.assert_allclose(log.gyr, np.radians([[4, 5, 6], [-4, -5, -6]]), rtol=1e-15)
+    with pytest.raises(OptinavError, match="'gy' holds 1e\\+308 in data row 2"):
+        read_imu(_write(tmp_path / "h.csv", head + "0,1,2,3,4,5,6\n1,1,2,3,4,1e308,6\n"))
+    with pytest.raises(OptinavError, match="'ay' holds no number"):
+        read_imu(_write(tmp_path / "e.csv", head + "0,1,,3,4,5,6\n1,1,nan,3,4,5,6\n"))
+
+
+@given(st.lists(st.sampled_from([0.0, -1.5, 2.0, 1e300, -1e300, np.inf, -np.inf, np.nan]), min_size=3, max_size=30))
+def test_interleave_kernel_range_and_layout(values):
+    from optinav.io._colkernels import interleave3
+
+    v = np.array(values[: len(values) // 3 * 3]).reshape(3, -1)
+    out = np.empty((v.shape[1], 3))
+    lo, hi = interleave3(v[0], v[1], v[2], out)
+    np.testing.assert_array_equal(out, v.T)
+    if np.isnan(v).any():
+        assert np.isnan(lo) and np.isnan(hi)
+    else:
+        assert (lo, hi) == (v.min(), v.max())
+
+
 def test_missing_columns_and_time_errors(tmp_path):
     with pytest.raises(OptinavError, match="found ax \\('acc_x'\\), ay \\('acc_y'\\) but no az column"):
         read_imu(_write(tmp_path / "a.csv", "t,acc_x,acc_y\n0,1,2\n1,1,2\n"))

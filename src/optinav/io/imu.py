@@ -375,6 +375,7 @@ class _Part:
     declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
     srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
     used: set = field(default_factory=set)  # the names of every array taken
+    finite: set = field(default_factory=set)  # the kinds whose every value is known to be finite
 
 
 def _canonical(kind: str, unit: str, option: str) -> str:
@@ -450,10 +451,16 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, 
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
 
 
-def _triad(cols: list[np.ndarray]) -> np.ndarray:
-    """The (n, 3) array of three columns: a view of the memory they share when they are the columns 0, 1, 2 of
-    one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's), else a stacked
-    copy (the strided copy costs about as much as decoding the bag)."""
+#: columns at least this long are interleaved by the compiled kernel (shorter ones by numpy: no numba start)
+_COMPILED_ROWS = 1 << 18
+
+
+def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | None]:
+    """The (n, 3) array of three columns, and (min, max) of its values when it was computed on the way (NaN
+    when any value is NaN; None: not computed): a view of the memory they share when they are the columns 0, 1,
+    2 of one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's), else a
+    copy (the strided copy costs about as much as decoding the bag; a long float64 one is compiled, with the
+    range, :func:`optinav.io._colkernels.interleave3`)."""
     a = cols[0]
     base, item = a.base, a.itemsize
     ptr = [c.__array_interface__["data"][0] for c in cols]
@@ -463,8 +470,13 @@ def _triad(cols: list[np.ndarray]) -> np.ndarray:
         and all(c.strides == (3 * item,) for c in cols)
         and ptr == [ptr[0], ptr[0] + item, ptr[0] + 2 * item]
     ):
-        return np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item))
-    return np.column_stack(cols)
+        return np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item)), None
+    if a.ndim == 1 and a.size >= _COMPILED_ROWS and all(c.dtype == np.float64 and c.shape == a.shape for c in cols):
+        from optinav.io._colkernels import interleave3
+
+        out = np.empty((a.size, 3))
+        return out, interleave3(*cols, out)
+    return np.column_stack(cols), None
 
 
 def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
@@ -544,14 +556,16 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
                     f"{part.path.name}: {name!r} has shape {arr.shape}, expected (N, 3){hint}",
                     f"store {kind} as one row per sample, or map ax/ay/az-style columns",
                 )
-            tri = arr
+            tri, bounds = arr, None
             srcs = [name]
         elif comps:
-            tri = _triad([found[c][1] for c in _COMPONENTS[kind]])
+            tri, bounds = _triad([found[c][1] for c in _COMPONENTS[kind]])
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
-        _check_values(part.path, kind, tri, srcs, row0=table.row0, empty_ok=block)
+        _check_values(part.path, kind, tri, srcs, row0=table.row0, empty_ok=block, bounds=bounds)
+        if bounds is not None and np.isfinite(bounds[0]) and np.isfinite(bounds[1]):
+            part.finite.add(kind)
         setattr(part, kind, tri)
         part.srcs[kind] = srcs
         for s in srcs:
@@ -613,13 +627,23 @@ def _no_number(path: Path, kind: str, name: str) -> OptinavError:
 
 
 def _check_values(
-    path: Path, kind: str, tri: np.ndarray, srcs: list[str], *, row0: int = 0, empty_ok: bool = False
+    path: Path,
+    kind: str,
+    tri: np.ndarray,
+    srcs: list[str],
+    *,
+    row0: int = 0,
+    empty_ok: bool = False,
+    bounds: tuple[float, float] | None = None,
 ) -> None:
     """A column without a single number (unless ``empty_ok``: a block of a streamed file), or a finite cell beyond
     :data:`MAX_VALUE` (1e308 …), is an error; NaN and inf mark missing samples (rows the calibration drops and
-    counts). ``row0``: index of the first row in the file."""
-    if tri.size and tri.max() <= MAX_VALUE and tri.min() >= -MAX_VALUE:  # no NaN/inf/huge cell: the usual case
-        return
+    counts). ``row0``: index of the first row in the file; ``bounds``: (min, max) of ``tri`` when known (NaN if
+    any value is NaN)."""
+    if tri.size:
+        lo, hi = bounds if bounds is not None else (tri.min(), tri.max())
+        if hi <= MAX_VALUE and lo >= -MAX_VALUE:  # no NaN/inf/huge cell: the usual case
+            return
     names = _value_names(srcs)
     for j in range(3):
         col = tri[:, j]
@@ -801,7 +825,9 @@ def _log_of(
             notes.append(
                 f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was left out"
             )
-    log.nan_rows = int(np.count_nonzero(~log.finite))
+    # no row to count when the interleave's range showed every value finite (a unit factor keeps them so)
+    known = all(kind in main.finite for kind, v in (("acc", main.acc), ("gyro", main.gyro)) if v is not None)
+    log.nan_rows = 0 if known else int(np.count_nonzero(~log.finite))
     return log
 
 
