@@ -11,8 +11,8 @@ figures are a linear extrapolation from 1 M and 3 M, which holds for the streame
 per-row state stays as measured. Target (issue 17): under 1 GB for a 10 M-row log. Streamed: apply (blocks of
 200 000 rows: flat), attitude (two passes; three floats per row kept for the exact medians of its checks;
 ``--offline`` runs its passes over a scratch file beside the output). Calibrate reads in blocks (iter_imu) into one
-array per field and keeps time, accelerometer and gyroscope (56 B per row) plus the two moving variances of its
-static detection (16 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
+array per field and keeps time, accelerometer and gyroscope (56 B per row) plus its static detection's rank of
+each row among the candidate thresholds (2 B per row); it holds the log, so it grows. ``simulate accel-multipos`` generates and writes in
 blocks too (noise drawn per sample, its states carried): ``--simulate`` measures it alone at 1 M, 3 M and 10 M rows
 (results_memory_simulate.json) and ``--merge-simulate`` puts its 1 M and 3 M runs into results_memory.json.
 ``simulate static``, ``simulate rins``, ``simulate flight`` and ``simulate gfimu-turntable`` are generated and
