@@ -221,6 +221,31 @@ def test_a_damaged_member_is_a_one_line_error(tmp_path):
     assert "\n" not in str(exc.value) and "x.npz" in str(exc.value)
 
 
+def test_a_damaged_element_inside_a_matlab_cell_array_is_a_one_line_error(files, tmp_path):
+    # found by the fuzz test on Hypothesis seed 17: an element tag missing inside the cell array `labels` (its
+    # header intact) crashed scipy.io.loadmat's compiled reader (segmentation fault); the elements of cell and
+    # struct arrays are now checked inside their parent before scipy reads the file
+    import struct
+
+    from optinav.io.arrayblocks import _mat5_endian, _matrix_head, _variables
+
+    raw = bytearray(files["v5.mat"].read_bytes())
+    with open(files["v5.mat"], "rb") as fh:
+        e = _mat5_endian(fh.read(128))
+        pos, head = next((p, h) for p, _, _, h in _variables(fh, e, len(raw), 1 << 20) if b"labels" in h[:64])
+    off = pos + _matrix_head(head, e).data
+    for _ in range(33):  # to the 34th cell
+        off += 8 + struct.unpack_from(e + "I", raw, off + 4)[0]
+    cut = off + _matrix_head(bytes(raw[off : off + 256]), e).data  # that cell's character data element
+    del raw[cut : cut + 8]
+    path = tmp_path / "cut.mat"
+    path.write_bytes(bytes(raw))
+    for read in (lambda: read_imu(path), lambda: list(iter_imu(path, chunk_rows=30))):
+        with pytest.raises(OptinavError, match="variable at byte .*: element 33") as exc:
+            read()
+        assert "\n" not in str(exc.value)
+
+
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 # a byte inserted in the HDF5 file's global heap: its unit attribute failed to read while the blocks were planned
 @example(mutations=[("insert", 0.8125, b"\x00")], name="e.h5")

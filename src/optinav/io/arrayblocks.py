@@ -507,9 +507,14 @@ def check_mat5(path: Path) -> None:
             return  # scipy raises its own (Python) error for a damaged stream
 
 
-def _mat5_header_fault(buf: bytes, e: str, whole: bool) -> str | None:
+#: nesting of cell and struct arrays that :func:`_mat5_header_fault` follows
+_MAT5_DEPTH = 16
+
+
+def _mat5_header_fault(buf: bytes, e: str, whole: bool, depth: int = 0) -> str | None:
     """What is wrong with the miMATRIX element at the start of ``buf`` (None: nothing seen); ``whole``: ``buf``
-    holds the element entirely (its imaginary part can be checked too)."""
+    holds the element entirely (its imaginary part and the elements of a cell or struct array are checked too,
+    each inside its parent)."""
     try:
         h = _matrix_head(buf, e)
         if h is None:
@@ -536,8 +541,41 @@ def _mat5_header_fault(buf: bytes, e: str, whole: bool) -> str | None:
                 ityp, inn, _, _ = _element(buf, off, e)
                 if ityp not in sizes or (sizes[ityp] and inn != count * sizes[ityp]):
                     return "a complex array without its imaginary part"
+        elif h.cls in (1, 2, 3) and whole:
+            return _mat5_children_fault(buf, h, count, e, depth)
     except struct.error:
         return "a header cut short" if whole else None
+    return None
+
+
+def _mat5_children_fault(buf: bytes, h: _MatrixHead, count: int, e: str, depth: int) -> str | None:
+    """What is wrong with the elements of the cell (class 1), struct (2) or object (3) array whose header is
+    ``h`` in ``buf`` (the whole element): each must be a miMATRIX element inside its parent, itself sound."""
+    if depth >= _MAT5_DEPTH:
+        return f"cell or struct arrays nested more than {_MAT5_DEPTH} deep"
+    end = 8 + struct.unpack_from(e + "I", buf, 4)[0]
+    off, n_children = h.data, count
+    if h.cls != 1:
+        if h.cls == 3:  # the class name before the fields
+            off = _element(buf, off, e)[3]
+        ltyp, ln, d, off = _element(buf, off, e)
+        if ltyp != 5 or ln != 4:
+            return "struct field-name length of another type or size"
+        width = struct.unpack_from(e + "i", buf, d)[0]
+        ntyp, nn, _, off = _element(buf, off, e)
+        if width <= 0 or ntyp != 1 or nn % width:
+            return f"struct field names of {nn} bytes for names of {width}"
+        n_children = count * (nn // width)
+    for k in range(n_children):
+        if off + 8 > end:
+            return f"{n_children - k} of {n_children} elements missing"
+        typ, n = struct.unpack_from(e + "II", buf, off)
+        if typ != _MI_MATRIX or off + 8 + n > end:
+            return f"element {k} of {n_children} is not an array inside its parent"
+        why = _mat5_header_fault(buf[off : off + 8 + n], e, True, depth + 1)
+        if why:
+            return f"element {k}: {why}"
+        off += 8 + n
     return None
 
 
