@@ -246,6 +246,38 @@ def test_a_damaged_element_inside_a_matlab_cell_array_is_a_one_line_error(files,
         assert "\n" not in str(exc.value)
 
 
+def test_a_char_array_marked_sparse_is_a_one_line_error(files, tmp_path):
+    # found by a fork-per-file fuzz: one byte turning a cell's char array into a sparse one (class 5) crashed
+    # scipy.io.loadmat; a sparse array's indices and values are checked against its dimensions first
+    import struct
+
+    import scipy.io
+    import scipy.sparse
+
+    from optinav.io.arrayblocks import _mat5_endian, _matrix_head, _variables
+
+    raw = bytearray(files["v5.mat"].read_bytes())
+    with open(files["v5.mat"], "rb") as fh:
+        e = _mat5_endian(fh.read(128))
+        pos, head = next((p, h) for p, _, _, h in _variables(fh, e, len(raw), 1 << 20) if b"labels" in h[:64])
+    off = pos + _matrix_head(head, e).data
+    for _ in range(14):
+        off += 8 + struct.unpack_from(e + "I", raw, off + 4)[0]
+    assert raw[off + 16] == 4  # the 15th cell: a char array (class 4) ...
+    raw[off + 16] = 5  # ... marked sparse
+    path = tmp_path / "sparse.mat"
+    path.write_bytes(bytes(raw))
+    with pytest.raises(OptinavError, match="variable at byte .*: element 14") as exc:
+        read_imu(path)
+    assert "\n" not in str(exc.value)
+    # real sparse arrays (real, complex, logical, empty; in a cell too) still read
+    t, acc, gyr = _columns(50)
+    for m in (np.array([[0, 2.0], [3, 0]]), np.zeros((4, 3)), np.array([[1 + 2j, 0]]), np.array([[True, False]])):
+        sp = scipy.sparse.csc_matrix(m)
+        scipy.io.savemat(path, {"t": t, "acc": acc, "gyro": gyr, "s": sp, "c": np.array([sp], dtype=object)})
+        np.testing.assert_array_equal(read_imu(path).acc, acc)
+
+
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 # a byte inserted in the HDF5 file's global heap: its unit attribute failed to read while the blocks were planned
 @example(mutations=[("insert", 0.8125, b"\x00")], name="e.h5")

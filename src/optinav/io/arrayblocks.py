@@ -543,8 +543,35 @@ def _mat5_header_fault(buf: bytes, e: str, whole: bool, depth: int = 0) -> str |
                     return "a complex array without its imaginary part"
         elif h.cls in (1, 2, 3) and whole:
             return _mat5_children_fault(buf, h, count, e, depth)
+        elif h.cls == 5:
+            return _mat5_sparse_fault(buf, h, e, whole)
     except struct.error:
         return "a header cut short" if whole else None
+    return None
+
+
+def _mat5_sparse_fault(buf: bytes, h: _MatrixHead, e: str, whole: bool) -> str | None:
+    """What is wrong with the sparse array (class 5) whose header is ``h``: row indices ``ir`` and column
+    starts ``jc`` (int32, ``jc`` one more than the columns, from 0 up to the entries), the values (and the
+    imaginary part) one per row index; the indices checked when ``buf`` holds the element whole."""
+    if len(h.dims) != 2:
+        return f"a sparse array of dimensions {h.dims}"
+    rows, cols = h.dims
+    ityp, inn, i0, off = _element(buf, h.data, e)
+    jtyp, jn, j0, off = _element(buf, off, e)
+    if ityp != 5 or inn % 4 or jtyp != 5 or jn != 4 * (cols + 1):
+        return f"sparse indices of types {ityp}/{jtyp} and {inn}/{jn} bytes for dimensions {h.dims}"
+    nnz = inn // 4
+    sizes = {k: np.dtype(v).itemsize for k, v in _MI.items()}
+    for part in ("values", "imaginary values") if h.flags & 0x800 else ("values",):
+        vtyp, vn, _, off = _element(buf, off, e)
+        if vtyp not in sizes or vn != nnz * sizes[vtyp]:
+            return f"sparse {part} of type {vtyp} and {vn} bytes for {nnz} entries"
+    if whole:
+        ir = np.frombuffer(buf, e + "i4", nnz, i0)
+        jc = np.frombuffer(buf, e + "i4", cols + 1, j0)
+        if jc[0] != 0 or jc[-1] > nnz or np.any(np.diff(jc) < 0) or (nnz and (ir.min() < 0 or ir.max() >= rows)):
+            return "sparse indices out of order or out of range"
     return None
 
 
