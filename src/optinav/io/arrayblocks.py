@@ -490,14 +490,23 @@ def check_mat5(path: Path) -> None:
     """Refuse a MATLAB v5/v7 file whose variable headers contradict themselves (flags, array class, the data
     type and size of a numeric or char array against its dimensions) before scipy.io.loadmat reads it: its
     compiled reader crashes the process on such headers (a flipped flags byte, a data-type code out of range).
-    Compressed variables are checked on their first 8 KiB. One-line :class:`OptinavError`."""
+    Variables of up to 1 MiB are checked whole (the elements of cell, struct and sparse arrays too; a compressed
+    one inflated), larger ones on their headers (a compressed one on its first 8 KiB). One-line
+    :class:`OptinavError`."""
+    limit = 1 << 20
     with open(path, "rb") as fh:
         e = _mat5_endian(fh.read(128))
         if e is None:
             return
         try:
-            for pos, typ, n, head in _variables(fh, e, path.stat().st_size, 1 << 20):
-                why = _mat5_header_fault(head, e, typ != _MI_COMPRESSED and n + 8 <= 1 << 20)
+            for pos, typ, n, head in _variables(fh, e, path.stat().st_size, limit):
+                whole = typ != _MI_COMPRESSED and n + 8 <= limit
+                if typ == _MI_COMPRESSED and n <= limit:
+                    fh.seek(pos + 8)
+                    inflated = zlib.decompressobj().decompress(fh.read(n), limit + 8)
+                    if len(inflated) >= 8 and struct.unpack_from(e + "I", inflated, 4)[0] + 8 <= len(inflated):
+                        head, whole = inflated, True
+                why = _mat5_header_fault(head, e, whole)
                 if why:
                     raise OptinavError(
                         f"{path.name} is not a readable MATLAB file (the variable at byte {pos}: {why})",
@@ -609,9 +618,12 @@ def _mat5_children_fault(buf: bytes, h: _MatrixHead, count: int, e: str, depth: 
 def _mat5(path: Path) -> _Source | None:
     """The variables of a MATLAB v5/v7 file: numeric matrices of at least :data:`_MAT_STREAM_BYTES` read by rows
     from their column-major data (a compressed one inflated into a scratch file on first use), every other
-    variable whole through scipy.io.loadmat; None when the file is not one this reader walks."""
+    variable whole through scipy.io.loadmat; None when the file is not one this reader walks. A file whose
+    headers contradict themselves is refused first (:func:`check_mat5`): scipy walks every variable's header
+    even for one name."""
     from optinav.io.readers import Table, _mat_walk
 
+    check_mat5(path)
     try:
         size = path.stat().st_size
         fh = open(path, "rb")
