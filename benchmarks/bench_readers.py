@@ -12,7 +12,8 @@ through ``/proc/self/clear_refs``; pyarrow allocates outside Python, so tracemal
 
 Methods side by side: ``pyarrow.parquet.read_table`` of the file (the reference: an Arrow table, no conversion);
 ``optinav read_imu`` of the Parquet file and of each bag (an :class:`optinav.io.ImuLog` with every check; the
-bag scanners' numba kernels loaded and rosbags' type stores imported before the timing, like the other imports),
+bag scanners' and the column interleave's numba kernels loaded and rosbags' type stores imported before the
+timing, like the other imports),
 and of each bag once more, the first read of a process with only ``optinav.io`` imported before the timing
 (rosbags' imports, numba's import and start — about 1.5 s, which any optinav pipeline using numba pays once — and
 the first allocations from the OS inside it);
@@ -77,7 +78,10 @@ else:
     import optinav.io.parquet, optinav.io.rosbag  # noqa: F401 - imports outside the timing
     import pyarrow.parquet, rosbags.highlevel  # noqa: F401
     import rosbags.typesys.stores.latest, rosbags.typesys.stores.ros1_noetic  # noqa: F401 - the type stores
-    if not path.endswith(".parquet"):
+    if path.endswith(".parquet"):
+        from optinav.io import _colkernels  # numba's start and the interleave's cached code, as for the bags
+        _colkernels.interleave3(*np.zeros((3, 1)), np.zeros((1, 3)))
+    else:
         try:
             from optinav.io import _bagkernels
         except ImportError:  # an optinav before the compiled scanners (OPTINAV_BENCH_BEFORE)
