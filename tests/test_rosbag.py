@@ -17,7 +17,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from optinav.cli.main import main
 from optinav.errors import OptinavError
-from optinav.io import read_imu, read_table
+from optinav.io import iter_imu, read_imu, read_table
 from optinav.io.rosbag import load_bag
 
 TS1 = get_typestore(Stores.ROS1_NOETIC)
@@ -577,6 +577,25 @@ def test_damaged_bags_are_one_line_errors(tmp_path):
     (tmp_path / "notabag" / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 99}\n")
     with pytest.raises(OptinavError, match="not a readable ROS bag"):
         read_imu(tmp_path / "notabag")
+
+
+def test_a_damaged_topics_table_is_a_one_line_error(tmp_path):
+    # found by a fork-per-file fuzz: a damaged sqlite3 bag whose topics table gave a NULL type (here a blob)
+    # escaped as an AttributeError (TypeError) while the topics were listed; such a table now goes to rosbags'
+    # reader, whose error is one line
+    import sqlite3
+
+    rng = np.random.default_rng(3)
+    msgs, *_ = imu_topic(rng, n=20)
+    bag = write_bag(tmp_path / "b", "sqlite3-file", {"/imu": (IMU, msgs)})
+    con = sqlite3.connect(bag)
+    con.execute("UPDATE topics SET type = X'00' WHERE name = '/imu'")  # a blob: what damage reads as
+    con.commit()
+    con.close()
+    for read in (lambda: read_imu(bag), lambda: list(iter_imu(bag, chunk_rows=7))):
+        with pytest.raises(OptinavError) as exc:
+            read()
+        assert "\n" not in str(exc.value) and bag.name in str(exc.value)
 
 
 def test_missing_rosbags_names_the_extra(tmp_path, monkeypatch):

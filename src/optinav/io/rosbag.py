@@ -287,6 +287,8 @@ def _sqlite_topic_types(files: list[Path]) -> dict:
     topics: dict = {}
     for f in files:
         for name, msgtype, fmt in bagscan.sqlite_topics(f):
+            if not all(isinstance(v, str) for v in (name, msgtype, fmt)):  # a damaged topics table
+                raise ValueError(f"topic row {(name, msgtype, fmt)!r}")
             d = topics.setdefault(name, {"type": msgtype, "cons": [], "count": None, "fmt": set()})
             d["fmt"].add(fmt)
     return topics
