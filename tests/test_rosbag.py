@@ -487,13 +487,13 @@ def test_triad_shares_only_an_n_by_3_array():
     from optinav.io.imu import _triad
 
     x = np.arange(30.0).reshape(10, 3)
-    got = _triad([x[:, 0], x[:, 1], x[:, 2]])
-    assert np.array_equal(got, x) and np.shares_memory(got, x)
-    got = _triad([x[:4, 0], x[:4, 1], x[:4, 2]])
+    got, bounds = _triad([x[:, 0], x[:, 1], x[:, 2]])
+    assert np.array_equal(got, x) and np.shares_memory(got, x) and bounds is None
+    got, _ = _triad([x[:4, 0], x[:4, 1], x[:4, 2]])
     assert got.shape == (4, 3) and np.array_equal(got, x[:4])
     wide = np.arange(70.0).reshape(10, 7)
     for cols in ([wide[:, 1], wide[:, 2], wide[:, 3]], [x[:, 1], x[:, 0], x[:, 2]], [x[:, 0], x[:, 1], x[:, 1]]):
-        got = _triad(cols)
+        got, _ = _triad(cols)
         assert np.array_equal(got, np.column_stack(cols)) and not any(np.shares_memory(got, c) for c in cols)
 
 
