@@ -599,9 +599,9 @@ def _mat5_children_fault(buf: bytes, h: _MatrixHead, count: int, e: str, depth: 
             return "struct field-name length of another type or size"
         width = struct.unpack_from(e + "i", buf, d)[0]
         ntyp, nn, _, off = _element(buf, off, e)
-        if width <= 0 or ntyp != 1 or nn % width:
+        if ntyp != 1 or width < 0 or (width == 0 and nn) or (width and nn % width):
             return f"struct field names of {nn} bytes for names of {width}"
-        n_children = count * (nn // width)
+        n_children = count * (nn // width) if width else 0
     for k in range(n_children):
         if off + 8 > end:
             return f"{n_children - k} of {n_children} elements missing"
