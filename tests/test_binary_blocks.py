@@ -221,21 +221,29 @@ def test_a_damaged_member_is_a_one_line_error(tmp_path):
     assert "\n" not in str(exc.value) and "x.npz" in str(exc.value)
 
 
-def test_a_damaged_element_inside_a_matlab_cell_array_is_a_one_line_error(files, tmp_path):
-    # found by the fuzz test on Hypothesis seed 17: an element tag missing inside the cell array `labels` (its
-    # header intact) crashed scipy.io.loadmat's compiled reader (segmentation fault); the elements of cell and
-    # struct arrays are now checked inside their parent before scipy reads the file
+def _labels_cell(path: Path, k: int) -> tuple[bytearray, str, int]:
+    """(the bytes of the MATLAB v5 file ``path``, its byte order, the offset of cell ``k`` of its ``labels``)."""
     import struct
 
     from optinav.io.arrayblocks import _mat5_endian, _matrix_head, _variables
 
-    raw = bytearray(files["v5.mat"].read_bytes())
-    with open(files["v5.mat"], "rb") as fh:
+    raw = bytearray(path.read_bytes())
+    with open(path, "rb") as fh:
         e = _mat5_endian(fh.read(128))
         pos, head = next((p, h) for p, _, _, h in _variables(fh, e, len(raw), 1 << 20) if b"labels" in h[:64])
     off = pos + _matrix_head(head, e).data
-    for _ in range(33):  # to the 34th cell
+    for _ in range(k):
         off += 8 + struct.unpack_from(e + "I", raw, off + 4)[0]
+    return raw, e, off
+
+
+def test_a_damaged_element_inside_a_matlab_cell_array_is_a_one_line_error(files, tmp_path):
+    # found by the fuzz test on Hypothesis seed 17: an element tag missing inside the cell array `labels` (its
+    # header intact) crashed scipy.io.loadmat's compiled reader (segmentation fault); the elements of cell and
+    # struct arrays are now checked inside their parent before scipy reads the file
+    from optinav.io.arrayblocks import _matrix_head
+
+    raw, e, off = _labels_cell(files["v5.mat"], 33)  # the 34th cell
     cut = off + _matrix_head(bytes(raw[off : off + 256]), e).data  # that cell's character data element
     del raw[cut : cut + 8]
     path = tmp_path / "cut.mat"
@@ -250,20 +258,10 @@ def test_a_damaged_element_inside_a_matlab_cell_array_is_a_one_line_error(files,
 def test_a_char_array_marked_sparse_is_a_one_line_error(files, tmp_path):
     # found by a fork-per-file fuzz: one byte turning a cell's char array into a sparse one (class 5) crashed
     # scipy.io.loadmat; a sparse array's indices and values are checked against its dimensions first
-    import struct
-
     import scipy.io
     import scipy.sparse
 
-    from optinav.io.arrayblocks import _mat5_endian, _matrix_head, _variables
-
-    raw = bytearray(files["v5.mat"].read_bytes())
-    with open(files["v5.mat"], "rb") as fh:
-        e = _mat5_endian(fh.read(128))
-        pos, head = next((p, h) for p, _, _, h in _variables(fh, e, len(raw), 1 << 20) if b"labels" in h[:64])
-    off = pos + _matrix_head(head, e).data
-    for _ in range(14):
-        off += 8 + struct.unpack_from(e + "I", raw, off + 4)[0]
+    raw, _, off = _labels_cell(files["v5.mat"], 14)
     assert raw[off + 16] == 4  # the 15th cell: a char array (class 4) ...
     raw[off + 16] = 5  # ... marked sparse
     path = tmp_path / "sparse.mat"
