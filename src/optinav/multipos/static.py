@@ -382,9 +382,10 @@ def threshold_candidates(
     their detections; see the module docstring for the floor and the default rule.
 
     ``init_rest_s``: if given, the floor is the total variance of the first ``init_rest_s`` seconds (the log
-    must start at rest, as imu_tk assumes). ``keep_variance=False``: the detections hold no moving variances
-    (``acc_variance``/``gyro_variance`` None; the same intervals, in 2 B per row instead of 16 while they are
-    found). Other arguments as in :func:`detect_static`.
+    must start at rest, as imu_tk assumes). Each candidate's samples are found from the rank of each row's
+    variance among the thresholds (:func:`_rank`: the same comparisons in 1 B per row). ``keep_variance=False``:
+    the detections hold no moving variances (``acc_variance``/``gyro_variance`` None; the same intervals, in
+    2 B per row instead of 16 while they are found). Other arguments as in :func:`detect_static`.
     """
     gyro = gyr
     t, acc, gyro, window_s, min_duration_s, trim_s = _prepare(t, acc, gyro, window_s, min_duration_s, trim_s)
@@ -402,24 +403,22 @@ def threshold_candidates(
             )
 
     def floor_of(x):
-        """The moving variance of ``x``, its noise floor, and (not kept) its rank among the thresholds."""
+        """The moving variance of ``x`` (None unless kept), its noise floor, its rank among the thresholds."""
         v, res = _moving_variance(t, x, window_s)
         if init_rest_s is not None:
             f = max(float(x[:k].var(axis=0).sum()), res, np.finfo(float).tiny)
         else:
             f = noise_floor(v, resolution=res)
-        return (v, f, None) if keep_variance else (None, f, _rank(v, mult * f))
+        return (v if keep_variance else None), f, _rank(v, mult * f)
 
     va, fa, rank_a = floor_of(acc)
     vg, fg, rank_g = floor_of(gyro) if gyro is not None else (None, None, None)
 
     def detection(j: int) -> StaticDetection:
+        mask = rank_a <= j  # v <= mult[j] · floor
+        if rank_g is not None:
+            mask &= rank_g <= j
         thr, gthr = mult[j] * fa, None if fg is None else mult[j] * fg
-        mask = None
-        if not keep_variance:
-            mask = rank_a <= j
-            if rank_g is not None:
-                mask &= rank_g <= j
         return _detection(t, acc, gyro, va, vg, thr, gthr, window_s, min_duration_s, trim_s, "auto", mask)
 
     dets = [detection(j) for j in range(mult.size)]
