@@ -160,7 +160,10 @@ def _open(path: Path, kind: str, only) -> _Source | None:
         return _hdf5(path, only, matlab=False)
     if kind == "mat":
         flavour = _mat_flavour(path)
-        return _mat5(path) if flavour == "mat" else _hdf5(path, only, matlab=flavour == "mat73")
+        if flavour != "mat":
+            return _hdf5(path, only, matlab=flavour == "mat73")
+        check_mat5(path)  # the blocks read variables through scipy, which walks every variable's header
+        return _mat5(path)
     return None
 
 
@@ -424,14 +427,15 @@ def _element(buf: bytes, off: int, e: str) -> tuple[int, int, int, int]:
 
 def _variables(fh, e: str, size: int, limit: int):
     """(byte offset, element type, bytes, head) of each top-level data element of an open MAT v5 file: ``head``
-    its first bytes from the tag, up to ``limit`` (a compressed element's first 8 KiB inflated). A damaged
-    compressed stream raises zlib.error."""
+    its first bytes from the tag, up to ``limit`` (a compressed element inflated: up to ``limit`` bytes, from all
+    of it when it is at most ``limit`` bytes, else from its first 64 KiB). A damaged compressed stream raises
+    zlib.error."""
     pos = 128
     while pos + 8 <= size:
         fh.seek(pos)
         typ, n = struct.unpack(e + "II", fh.read(8))
         if typ == _MI_COMPRESSED:
-            head = zlib.decompressobj().decompress(fh.read(min(n, 1 << 16)), 1 << 13)
+            head = zlib.decompressobj().decompress(fh.read(n if n <= limit else 1 << 16), limit)
         else:
             fh.seek(pos)
             head = fh.read(min(n + 8, limit))
@@ -500,12 +504,10 @@ def check_mat5(path: Path) -> None:
             return
         try:
             for pos, typ, n, head in _variables(fh, e, path.stat().st_size, limit):
-                whole = typ != _MI_COMPRESSED and n + 8 <= limit
-                if typ == _MI_COMPRESSED and n <= limit:
-                    fh.seek(pos + 8)
-                    inflated = zlib.decompressobj().decompress(fh.read(n), limit + 8)
-                    if len(inflated) >= 8 and struct.unpack_from(e + "I", inflated, 4)[0] + 8 <= len(inflated):
-                        head, whole = inflated, True
+                if typ != _MI_COMPRESSED:
+                    whole = n + 8 <= limit
+                else:  # whole when the inflated element ends inside the head
+                    whole = len(head) >= 8 and struct.unpack_from(e + "I", head, 4)[0] + 8 <= len(head)
                 why = _mat5_header_fault(head, e, whole)
                 if why:
                     raise OptinavError(
@@ -618,12 +620,9 @@ def _mat5_children_fault(buf: bytes, h: _MatrixHead, count: int, e: str, depth: 
 def _mat5(path: Path) -> _Source | None:
     """The variables of a MATLAB v5/v7 file: numeric matrices of at least :data:`_MAT_STREAM_BYTES` read by rows
     from their column-major data (a compressed one inflated into a scratch file on first use), every other
-    variable whole through scipy.io.loadmat; None when the file is not one this reader walks. A file whose
-    headers contradict themselves is refused first (:func:`check_mat5`): scipy walks every variable's header
-    even for one name."""
+    variable whole through scipy.io.loadmat; None when the file is not one this reader walks."""
     from optinav.io.readers import Table, _mat_walk
 
-    check_mat5(path)
     try:
         size = path.stat().st_size
         fh = open(path, "rb")
