@@ -215,6 +215,109 @@ def test_ros1_chunks_without_the_topic_are_skipped(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+class _SpyPool:
+    """A stand-in for bagscan's helper thread that counts the halves handed to it (run in a real thread)."""
+
+    def __init__(self):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.pool, self.jobs = ThreadPoolExecutor(max_workers=1), 0
+
+    def submit(self, fn, *args):
+        self.jobs += 1
+        return self.pool.submit(fn, *args)
+
+
+def _spy_decode(monkeypatch):
+    """Record what every bagscan.ros1_decode call returns."""
+    from optinav.io import bagscan
+
+    calls, real = [], bagscan.ros1_decode
+
+    def spy(*args, **kw):
+        calls.append(real(*args, **kw))
+        return calls[-1]
+
+    monkeypatch.setattr(bagscan, "ros1_decode", spy)
+    return calls
+
+
+def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
+    """A plain ROS 1 bag of many chunks (Imu and MagneticField in each) is decoded chunk by chunk in rounds, half
+    of each round by a helper thread: the values written, exactly, and the same with one thread."""
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(21)
+    msgs, t, gyr, acc = imu_topic(rng, n=1500, rate=1000.0)
+    mags = [(int((1_700_000_000 + k * 0.01) * 1e9), lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, rng.normal(0, 1e-5, 3))) for k in range(150)]  # fmt: skip
+    # the topics written in turns, so that chunks hold both
+    both = {"/imu": (IMU, []), "/mag": (MAG, [])}
+    bag = tmp_path / "b.bag"
+    w = Writer1(bag)
+    w.chunk_threshold = 16384
+    with w:
+        cons = {name: w.add_connection(name, typ, typestore=TS1) for name, (typ, _) in both.items()}
+        for i, (t_ns, make) in enumerate(msgs):
+            w.write(cons["/imu"], t_ns, TS1.serialize_ros1(make(TS1), IMU))
+            if i % 10 == 0:
+                t_m, make_m = mags[i // 10]
+                w.write(cons["/mag"], t_m, TS1.serialize_ros1(make_m(TS1), MAG))
+    idx = bagscan.ros1_index(bag)
+    assert len(idx["chunks"]) > 20 and all(len(held) == 2 for _, held in idx["chunks"])
+    calls = _spy_decode(monkeypatch)
+    monkeypatch.setattr(bagscan, "_ROUND", 50_000)  # three or four chunks a round
+    spy = _SpyPool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    log = read_imu(bag)
+    assert calls == [True, True] and spy.jobs >= 2 * 8  # both topics, every round split
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    mag = read_table(bag)["mz"]
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    del calls[:]
+    log1 = read_imu(bag)
+    assert calls == [True, True]
+    assert np.array_equal(log1.t, t) and np.array_equal(log1.gyr, gyr) and np.array_equal(log1.acc, acc)
+    assert np.array_equal(read_table(bag)["mz"], mag, equal_nan=True)
+
+
+def test_ros1_decode_declines_what_the_blocks_read(tmp_path, monkeypatch):
+    """The chunk decoder gives up — and the block reader reads the bag, with the values written — for compressed
+    chunks, for a message of another layout in a later chunk, and (called directly) for chunk counts other than the
+    chunk infos' or that do not add up to the topic's count."""
+    import optinav.io.rosbag as rb
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(22)
+    calls = _spy_decode(monkeypatch)
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0)
+    bag = write_bag(tmp_path / "lz4", "ros1", {"/imu": (IMU, msgs)}, compression="lz4", chunk_threshold=8192)
+    log = read_imu(bag)
+    assert calls == [False]
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    frames = ("imu",) * 300 + ("imu_link_long",) + ("imu",) * 99  # a longer message in the fourth chunk or so
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0, frames=frames)
+    bag = write_bag(tmp_path / "odd", "ros1", {"/imu": (IMU, msgs)}, chunk_threshold=8192)
+    log = read_imu(bag)
+    assert calls[1:] == [False]
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    # the chunk infos' counts against what the chunks hold
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0)
+    bag = write_bag(tmp_path / "plain", "ros1", {"/imu": (IMU, msgs)}, chunk_threshold=8192)
+    idx = bagscan.ros1_index(bag)
+    conn = next(iter(idx["chunks"][0][1]))
+    dec = rb._Decoder(rb._Ros1Types(), True, IMU, 400)
+    out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[1])
+    cons = np.array([conn], dtype=np.int64)
+    assert bagscan.ros1_decode(bag, idx, cons, dec.kernel_layout, out)
+    assert np.array_equal(dec.vals[0], gyr) and np.array_equal(dec.logt, [m[0] for m in msgs])
+    for shift in ((1, -1), (1, 0), (0, -1)):  # counts moved between two chunks, one too many, one too few
+        bad = {**idx, "chunks": [(pos, dict(held)) for pos, held in idx["chunks"]]}
+        bad["chunks"][1][1][conn] += shift[0]
+        bad["chunks"][-1][1][conn] += shift[1]
+        assert not bagscan.ros1_decode(bag, bad, cons, dec.kernel_layout, out)
+    assert not bagscan.ros1_decode(bag, idx, cons, lambda raw: None, out)  # a layout not read: declined
+
+
 def test_mcap_summary_picks_chunks_and_its_absence_scans_them(tmp_path, monkeypatch):
     """MCAP: the summary's chunk index picks the chunks of the Imu topic (a first chunk of strings only is not
     read); with the footer's summary offset zeroed (no summary) every chunk is scanned. Same values either way."""

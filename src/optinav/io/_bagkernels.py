@@ -210,6 +210,81 @@ def ros1_walk(buf, pos, end, conns, off, size, logt, k):
     return OK, pos, k
 
 
+_COMPRESSION, _SIZE, _NONE = (np.frombuffer(s, dtype=np.uint8).copy() for s in (b"compression", b"size", b"none"))
+
+
+@numba.njit(**_NJ)
+def ros1_chunk(buf, pos, end):
+    """The ROS 1 chunk record at ``buf[pos:end]``: (status, data start, data stop). OK only for a chunk (op
+    ``0x05``) stored uncompressed (``compression=none``) whose ``size`` field, when present, is its data's
+    length; else MALFORMED (the caller reads that chunk another way)."""
+    opn, compn, sizen, nonen = _OP, _COMPRESSION, _SIZE, _NONE
+    if pos < 0 or end > buf.size or pos + 4 > end:
+        return MALFORMED, pos, pos
+    he = pos + 4 + np.int64(_u32(buf, pos))
+    if he + 4 > end:
+        return MALFORMED, pos, pos
+    ds = he + 4
+    de = ds + np.int64(_u32(buf, he))
+    if de > end:
+        return MALFORMED, pos, pos
+    op, plain, csize = -1, False, np.int64(-1)
+    p = pos + 4
+    while p < he:
+        if p + 4 > he:
+            return MALFORMED, pos, pos
+        q = p + 4 + np.int64(_u32(buf, p))
+        if q > he:
+            return MALFORMED, pos, pos
+        eq = p + 4
+        while eq < q and buf[eq] != 0x3D:  # "="
+            eq += 1
+        if eq >= q:
+            return MALFORMED, pos, pos
+        if _is(buf, p + 4, eq, opn):
+            op = buf[eq + 1] if q - eq - 1 == 1 else -2
+        elif _is(buf, p + 4, eq, compn):
+            plain = _is(buf, eq + 1, q, nonen)
+        elif _is(buf, p + 4, eq, sizen):
+            csize = np.int64(_u32(buf, eq + 1)) if q - eq - 1 == 4 else np.int64(-2)
+        p = q
+    if op != 0x05 or not plain or csize == -2 or (csize >= 0 and csize != de - ds):
+        return MALFORMED, pos, pos
+    return OK, ds, de
+
+
+@numba.njit(**_NJ)
+def ros1_decode(buf, chunks, end, expect, row0, conns, off, size, logt, lay, stamp, va, vb, out_logt):
+    """Walk and decode the uncompressed ROS 1 chunks at the offsets ``chunks`` (records before ``end``): each
+    chunk's bytes read in order (:func:`touch`), its messages of ``conns`` found (:func:`ros1_walk`, into the
+    scratch ``off``/``size``/``logt``), which must number ``expect[i]`` (the chunk info's count), then gathered
+    (:func:`gather`, layout ``lay`` = itemsize, sec offset, signed sec, length offset, string length, triad
+    offsets a and b) into rows ``row0[i]…`` of ``stamp``, ``va``, ``vb`` and ``out_logt``. Returns (status,
+    chunks done, sum of the bytes read): MALFORMED for a chunk that is not plain or does not walk, FULL for a
+    count other than ``expect``, CHANNEL for a message of another layout (the caller then reads another way)."""
+    seen = np.int64(0)
+    for i in range(chunks.size):
+        status, ds, de = ros1_chunk(buf, chunks[i], end)
+        if status != OK:
+            return status, i, seen
+        n = expect[i]
+        if n < 0 or n + 1 > off.size or row0[i] < 0 or row0[i] + n > stamp.size:
+            return FULL, i, seen
+        seen += touch(buf, ds, de)  # used: the loads stay
+        status, _, k = ros1_walk(buf, ds, de, conns, off[: n + 1], size[: n + 1], logt[: n + 1], 0)
+        if status != OK:
+            return status, i, seen
+        if k != n:
+            return FULL, i, seen
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+                       stamp, va, vb, row0[i])  # fmt: skip
+        for j in range(k):
+            if other[j]:
+                return CHANNEL, i, seen
+            out_logt[row0[i] + j] = logt[j]
+    return OK, chunks.size, seen
+
+
 @numba.njit(**_NJ)
 def _varint(buf, p, lim):
     """(value, bytes) of the SQLite varint at ``p`` (at most 8 bytes here, none past ``lim``); bytes 0: longer or
@@ -374,5 +449,9 @@ def warm() -> None:
     mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
+    v = np.zeros((1, 3))
+    ros1_decode(
+        buf, i64[:0], 64, i64[:0], i64[:0], i64, i64, i64, i64, np.zeros(7, dtype=np.int64), np.zeros(1), v, v, i64
+    )
     v = np.zeros((1, 3))
     gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, np.zeros(1), v, v, 0)

@@ -60,7 +60,7 @@ def blocks(reader, path: Path, topic: str):
     if not readers or len(readers) != 1 or sys.byteorder != "little":  # the walkers load little-endian words
         return None
     if not getattr(reader, "is2", True):
-        return _ros1(Path(path), topic) if Path(path).is_file() else None
+        return _ros1(Path(path), topic, getattr(reader, "index", None)) if Path(path).is_file() else None
     sub = readers[0]
     try:
         if sub.compression_mode:  # message- or file-compressed storage: rosbags decompresses
@@ -345,7 +345,8 @@ def _op(buf: bytes, f: dict) -> int:
 def ros1_index(path: Path) -> dict:
     """The index of the ROS 1 bag ``path`` from its connection and chunk info records (after ``index_pos``):
     ``{"first": offset of the first record after the bag header, "index_pos": …, "conns": {conn id: (topic,
-    type, md5sum)}, "counts": {conn id: messages}, "chunks": [(chunk offset, {conn ids in it}), …]}``. Raises
+    type, md5sum)}, "counts": {conn id: messages}, "chunks": [(chunk offset, {conn id: messages in it}), …]}``
+    (chunks in file order). Raises
     :class:`NotFast` when the bag is not one this reads."""
     with open(path, "rb") as fh:
         data = fh.read(len(_ROS1_MAGIC) + 4096 + 64)
@@ -372,26 +373,28 @@ def ros1_index(path: Path) -> dict:
                 for g, k in ((f, b"topic"), (d, b"type"), (d, b"md5sum"))
             )
         elif op == 0x06:
-            held = set()
+            held: dict = {}
             for conn, n in struct.iter_unpack("<II", tail[ds:de]):
                 counts[conn] = counts.get(conn, 0) + n
-                held.add(conn)
+                held[conn] = held.get(conn, 0) + n
             chunks.append((_U64.unpack_from(tail, f[b"chunk_pos"][0])[0], held))
         pos = de
     if not conns:
         raise NotFast("no connection records")
-    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": sorted(chunks)}
+    chunks.sort(key=lambda c: c[0])
+    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": chunks}
 
 
-def _ros1(path: Path, topic: str):
+def _ros1(path: Path, topic: str, idx: dict | None = None):
     """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read, from the
-    file mapped read-only (uncompressed chunks are walked in place, not copied, and unmapped once decoded)."""
-    idx = ros1_index(path)
+    file mapped read-only (uncompressed chunks are walked in place, not copied, and unmapped once decoded).
+    ``idx``: the bag's :func:`ros1_index`, if read already."""
+    idx = ros1_index(path) if idx is None else idx
     conns = np.array(sorted(c for c, v in idx["conns"].items() if v[0] == topic), dtype=np.int64)
     mm, u8 = _map(path)
     rows, done, wanted = _Rows(), _Unmap(mm), set(conns.tolist())
     for pos, held in idx["chunks"]:
-        if not held & wanted:
+        if not held.keys() & wanted:
             continue
         if not idx["first"] <= pos < idx["index_pos"]:
             raise NotFast("chunk offset outside the data")
@@ -426,6 +429,101 @@ def _ros1_records(u8: np.ndarray, pos: int, end: int, conns: np.ndarray, rows: _
     status, pos, k = kern.ros1_walk(u8, pos, end, conns, rows.off, rows.size, rows.logt, 0)
     _walked(status, "a ROS 1 chunk")
     return rows.block(u8, k)
+
+
+#: bytes of ROS 1 chunks decoded per round of :func:`ros1_decode` (half by each of two threads): the map's pages of a
+#: round are released after it, so the resident set holds about one round of the file
+_ROUND = 16 << 20
+
+
+def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) -> bool:
+    """Decode every message of the connections ``conns`` of the ROS 1 bag ``path`` (its :func:`ros1_index`
+    ``idx``) into ``out`` = (stamps s, log times ns, triads a, triads b: arrays of the connections' count of rows,
+    in chunk order) by :func:`optinav.io._bagkernels.ros1_decode`: the chunks in rounds of about ``_ROUND`` bytes,
+    each round split between this thread and a helper thread when the process may run on two CPUs (the kernels
+    release the GIL), the round's pages unmapped after it. ``layout(first message bytes)``: the gather layout
+    (7 int64, see the kernel) or None. False — nothing to trust in ``out`` — when a chunk is compressed, a chunk's
+    count differs from its chunk info, a message has another layout, or the bag does not parse: the caller then
+    reads the blocks (:func:`blocks`), which handle all of these."""
+    from concurrent.futures import wait
+
+    from optinav.io import _bagkernels as kern
+
+    wanted = set(conns.tolist())
+    sel = [(pos, sum(held.get(c, 0) for c in wanted)) for pos, held in idx["chunks"] if held.keys() & wanted]
+    if not sel:
+        return False
+    pos = np.array([p for p, _ in sel], dtype=np.int64)
+    expect = np.array([n for _, n in sel], dtype=np.int64)
+    stamp, logt, va, vb = out
+    if int(expect.sum()) != stamp.size or np.any(pos < idx["first"]) or np.any(pos >= idx["index_pos"]):
+        return False
+    row0 = np.zeros(pos.size, dtype=np.int64)
+    np.cumsum(expect[:-1], out=row0[1:])
+    end = idx["index_pos"]
+    mm, u8 = _map(path)
+    if end > u8.size:
+        return False
+    scratch = [tuple(np.empty(int(expect.max()) + 1, dtype=np.int64) for _ in range(3)) for _ in range(2)]
+    # the layout from the first message of the first chunk
+    status, ds, de = kern.ros1_chunk(u8, pos[0], end)
+    if status != kern.OK:
+        return False
+    off, size, lt = scratch[0]
+    status, _, k = kern.ros1_walk(u8, ds, de, conns, off, size, lt, 0)
+    lay = layout(bytes(u8[off[0] : off[0] + size[0]])) if status == kern.OK and k else None
+    if lay is None:
+        return False
+
+    def run(a: int, b: int, buf: tuple) -> bool:
+        got = kern.ros1_decode(u8, pos[a:b], end, expect[a:b], row0[a:b], conns, *buf, lay, stamp, va, vb, logt)
+        return got[0] == kern.OK
+
+    # round boundaries by the chunks' offsets (a chunk and its index records lie between two offsets)
+    nxt = np.append(pos[1:], end)
+    pool = _helper()
+    done = _Unmap(mm)
+    a = 0
+    while a < pos.size:
+        b = int(np.searchsorted(pos, pos[a] + _ROUND, side="left"))
+        b = max(b, a + 1)
+        if pool is not None and b - a >= 2:
+            h = int(np.searchsorted(pos, (pos[a] + nxt[b - 1]) // 2, side="left"))
+            h = min(max(h, a + 1), b - 1)
+            job = pool.submit(run, h, b, scratch[1])
+            try:
+                ok = run(a, h, scratch[0])
+            finally:
+                wait([job])  # never leave the helper reading a map this returns from
+            ok = job.result() and ok
+        else:
+            ok = run(a, b, scratch[0])
+        if not ok:
+            return False
+        done.add(int(pos[a]), int(nxt[b - 1]))
+        a = b
+    done.flush()
+    return True
+
+
+_POOL: list = []
+
+
+def _helper():
+    """One helper thread for :func:`ros1_decode` (None when the process may run on one CPU only)."""
+    import os
+
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cpus = os.cpu_count() or 1
+    if cpus < 2:
+        return None
+    if not _POOL:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="optinav-bag"))
+    return _POOL[0]
 
 
 # --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------

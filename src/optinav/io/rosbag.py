@@ -15,6 +15,7 @@ blocks of messages (two passes over the storage), so that memory does not grow w
 
 from __future__ import annotations
 
+import functools
 import itertools
 import sys
 import warnings
@@ -114,16 +115,24 @@ def _read(reader, path: Path, topics: dict, imu_topic: str, mag_topic: str | Non
     return imu, mag
 
 
+@functools.cache
+def _store(name: str):
+    """``rosbags``' type store ``Stores.<name>``, one per process: it compiles a type's deserializer on first use
+    (about 30 ms for sensor_msgs/Imu), which a new store would do again for every bag read. Only read here."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(getattr(Stores, name))
+
+
 class _Ros1Types:
     """``rosbags``' ROS 1 (Noetic) type store as the deserializer of a ROS 1 bag read without opening rosbags'
     reader (whose opening reads every index entry in Python, ~7 µs a message)."""
 
     is2 = False
+    index = None  # the bag's index (bagscan.ros1_index), set by _ros1_setup
 
     def __init__(self):
-        from rosbags.typesys import Stores, get_typestore
-
-        self.store = get_typestore(Stores.ROS1_NOETIC)
+        self.store = _store("ROS1_NOETIC")
         self.readers = (self,)
 
     def md5(self, msgtype: str) -> str | None:
@@ -143,9 +152,7 @@ class _Ros2Types(_Ros1Types):
     is2 = True
 
     def __init__(self):
-        from rosbags.typesys import Stores, get_typestore
-
-        self.store = get_typestore(Stores.LATEST)
+        self.store = _store("LATEST")
         self.readers = (self,)
 
     def deserialize(self, raw: bytes, msgtype: str):
@@ -235,6 +242,7 @@ def _ros1_setup(path: Path, wanted: list[str]):
     try:
         idx = bagscan.ros1_index(path)
         types = _Ros1Types()
+        types.index = idx
     except Exception:  # noqa: BLE001 - anything the index scanner does not read: rosbags' reader decides
         return None
     topics = _ros1_topics(idx)
@@ -417,8 +425,16 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
         )
     grow = info.get("grow", False)  # count is an estimate (sqlite3): the arrays grow past it
     dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count, grow=grow)
-    fast = bagscan.blocks(reader, path, topic) if blocks is None else blocks
     done = None
+    if blocks is None and getattr(reader, "index", None) is not None and sys.byteorder == "little":
+        try:  # a plain ROS 1 bag: walked and gathered chunk by chunk in one compiled call per round
+            out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[-1])
+            cons = np.array(sorted(info["cons"]), dtype=np.int64)
+            if bagscan.ros1_decode(path, reader.index, cons, dec.kernel_layout, out):
+                done = dec.done = count
+        except Exception:  # noqa: BLE001 - anything it does not read: the blocks below read it (or name damage)
+            done = None
+    fast = None if done is not None else bagscan.blocks(reader, path, topic) if blocks is None else blocks
     if fast is not None:
         try:
             done = dec.run(fast, strict=True)
@@ -534,17 +550,31 @@ class _Decoder:
             self.done += n
         return self.done
 
+    def kernel_layout(self, first: bytes) -> np.ndarray | None:
+        """The layout of the message ``first`` as the compiled gather takes it (itemsize, sec offset, signed sec,
+        string length offset, string length, triad offsets a and b; b −1 for one triad), when it is the fixed
+        layout and rosbags' deserializer reads the same values from it; else None."""
+        layout = _layout(first, self.ros1, self.msgtype)
+        if layout is None or not _layout_agrees(self.reader, first, layout, self.msgtype):
+            return None
+        return self._kernel_args(layout)
+
+    def _kernel_args(self, layout) -> np.ndarray:
+        dtype, names, slen = layout
+        o = [dtype.fields[k][1] for k in names] + [-1]
+        args = [dtype.itemsize, dtype.fields["sec"][1], not self.ros1, dtype.fields["len"][1], slen, o[0], o[1]]
+        return np.array(args, dtype=np.int64)
+
     def _fast(self, u8: np.ndarray, off: np.ndarray, size: np.ndarray, layout) -> np.ndarray:
         """Decode the messages of ``layout`` at rows ``done…``; the mask of the others."""
-        dtype, names, slen = layout
         if sys.byteorder == "little":
             from optinav.io import _bagkernels as kern
 
-            o = [dtype.fields[k][1] for k in names] + [-1]
+            lay = self._kernel_args(layout)
             return kern.gather(
-                u8, off, size, dtype.itemsize, dtype.fields["sec"][1], not self.ros1, dtype.fields["len"][1], slen,
-                o[0], o[1], self.stamp, self.vals[0], self.vals[-1], self.done,
-            )  # fmt: skip
+                u8, off, size, *lay[:2], bool(lay[2]), *lay[3:], self.stamp, self.vals[0], self.vals[-1], self.done
+            )
+        dtype, names, slen = layout
         _inside(u8, off, size)
         fast = size == dtype.itemsize
         arr = _gather(u8, off[fast], dtype)
