@@ -259,14 +259,37 @@ def test_value_checks_are_the_same_through_the_compiled_interleave(tmp_path, mon
         read_imu(_write(tmp_path / "e.csv", head + "0,1,,3,4,5,6\n1,1,nan,3,4,5,6\n"))
 
 
+@pytest.mark.parametrize("compiled", [False, True])
+def test_value_checks_are_the_same_for_n_by_3_arrays(tmp_path, monkeypatch, compiled):
+    # an (n, 3) array (or a bag's columns, views of one) has its range taken in one compiled pass when long; here
+    # every array takes that path, with the same counts and errors as numpy's min and max
+    import optinav.io.imu as imu
+
+    if compiled:
+        monkeypatch.setattr(imu, "_COMPILED_ROWS", 2)
+    t = np.arange(4) * 0.01
+    gyr = np.ones((4, 3))
+    acc = np.array([[1.0, np.nan, 3], [1, 2, 3], [1, 2, 3], [np.inf, 2, 3]])
+    np.savez(tmp_path / "n.npz", t=t, acc=acc, gyr=gyr)
+    log = read_imu(tmp_path / "n.npz")
+    assert log.nan_rows == 2 and log.finite.tolist() == [False, True, True, False]
+    np.savez(tmp_path / "ok.npz", t=t, acc=-acc[[1, 1, 2, 2]], gyr=gyr)
+    assert read_imu(tmp_path / "ok.npz").nan_rows == 0
+    acc[2, 1] = -1e308
+    np.savez(tmp_path / "h.npz", t=t, acc=acc, gyr=gyr)
+    with pytest.raises(OptinavError, match="holds -1e\\+308 in data row 3"):
+        read_imu(tmp_path / "h.npz")
+
+
 @given(st.lists(st.sampled_from([0.0, -1.5, 2.0, 1e300, -1e300, np.inf, -np.inf, np.nan]), min_size=3, max_size=30))
 def test_interleave_kernel_range_and_layout(values):
-    from optinav.io._colkernels import interleave3
+    from optinav.io._colkernels import interleave3, value_range
 
     v = np.array(values[: len(values) // 3 * 3]).reshape(3, -1)
     out = np.empty((v.shape[1], 3))
     lo, hi = interleave3(v[0], v[1], v[2], out)
     np.testing.assert_array_equal(out, v.T)
+    assert np.array_equal(value_range(out.reshape(-1)), (lo, hi), equal_nan=True)
     if np.isnan(v).any():
         assert np.isnan(lo) and np.isnan(hi)
     else:

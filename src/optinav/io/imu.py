@@ -455,11 +455,21 @@ def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, 
 _COMPILED_ROWS = 1 << 18
 
 
+def _range(tri: np.ndarray) -> tuple[float, float] | None:
+    """(min, max) of a long contiguous float64 triad in one compiled pass (NaN when any value is NaN), else None
+    (the value check then takes numpy's min and max)."""
+    if tri.shape[0] < _COMPILED_ROWS or tri.dtype != np.float64 or not tri.flags.c_contiguous:
+        return None
+    from optinav.io._colkernels import value_range
+
+    return value_range(tri.reshape(-1))
+
+
 def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | None]:
     """The (n, 3) array of three columns, and (min, max) of its values when it was computed on the way (NaN
     when any value is NaN; None: not computed): a view of the memory they share when they are the columns 0, 1,
-    2 of one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's), else a
-    copy (the strided copy costs about as much as decoding the bag; a long float64 one is compiled, with the
+    2 of one row-major (n, 3) array (a reader's array handed out as column views, e.g. a ROS bag's; its range by
+    :func:`_range`), else a copy (the strided copy costs about as much as decoding the bag; a long float64 one is compiled, with the
     range, :func:`optinav.io._colkernels.interleave3`)."""
     a = cols[0]
     base, item = a.base, a.itemsize
@@ -470,7 +480,8 @@ def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | No
         and all(c.strides == (3 * item,) for c in cols)
         and ptr == [ptr[0], ptr[0] + item, ptr[0] + 2 * item]
     ):
-        return np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item)), None
+        tri = np.lib.stride_tricks.as_strided(a, shape=(a.shape[0], 3), strides=(3 * item, item))
+        return tri, _range(tri)
     if a.ndim == 1 and a.size >= _COMPILED_ROWS and all(c.dtype == np.float64 and c.shape == a.shape for c in cols):
         from optinav.io._colkernels import interleave3
 
@@ -556,7 +567,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
                     f"{part.path.name}: {name!r} has shape {arr.shape}, expected (N, 3){hint}",
                     f"store {kind} as one row per sample, or map ax/ay/az-style columns",
                 )
-            tri, bounds = arr, None
+            tri, bounds = arr, _range(arr)
             srcs = [name]
         elif comps:
             tri, bounds = _triad([found[c][1] for c in _COMPONENTS[kind]])
