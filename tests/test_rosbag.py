@@ -345,6 +345,45 @@ def test_compressed_chunks_inflated_ahead_by_helper_threads(tmp_path, monkeypatc
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+@pytest.mark.parametrize("damage", ["conn to the other topic", "conn unknown", "count"])
+def test_ros1_chunk_info_against_the_chunks_index_records(tmp_path, damage):
+    """A damaged chunk info (its Imu connection id turned into the other topic's or an unknown one, or its count
+    changed) would make the scanners skip or miscount a chunk while the counts still add up; checked against the
+    index data records after each chunk, such a bag is read by rosbags: the values written, all of them."""
+    import struct
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(24)
+    msgs, t, gyr, acc = imu_topic(rng, n=300, rate=1000.0)
+    mags = [(1_700_000_000 * 10**9 + 10**7 * k, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, [1e-5, 0, 0])) for k in range(8)]  # fmt: skip
+    bag = write_bag(tmp_path / "b", "ros1", {"/imu": (IMU, msgs), "/mag": (MAG, mags)}, chunk_threshold=2048)
+    idx = bagscan.ros1_index(bag)
+    imu = next(c for c, v in idx["conns"].items() if v[0] == "/imu")
+    mag = next(c for c, v in idx["conns"].items() if v[0] == "/mag")
+    raw = bytearray(bag.read_bytes())
+    pos, at = idx["index_pos"], None
+    while pos < len(raw):  # the (conn, count) pair of Imu in the last chunk info that lists it
+        f, ds, de = bagscan._record(bytes(raw), pos, len(raw))
+        if bagscan._op(bytes(raw), f) == 0x06:
+            for k in range(ds, de, 8):
+                if struct.unpack_from("<I", raw, k)[0] == imu:
+                    at, count = k, struct.unpack_from("<I", raw, k + 4)[0]
+        pos = de
+    if damage == "count":
+        struct.pack_into("<I", raw, at + 4, count + 1)
+    else:
+        struct.pack_into("<I", raw, at, mag if damage == "conn to the other topic" else 99)
+    bad = tmp_path / "bad.bag"
+    bad.write_bytes(bytes(raw))
+    with pytest.raises(bagscan.NotFast, match="index records"):
+        bagscan._ros1_selected(bagscan.ros1_index(bad), np.frombuffer(bytes(raw), np.uint8), np.array([imu]))
+    ref = rosbags_reference(bad, "/imu")
+    assert np.array_equal(ref[:, 0], t)  # rosbags reads the chunks' own index records
+    log = read_imu(bad)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 def test_work_ahead_keeps_order_and_raises_in_place(monkeypatch):
     """:func:`bagscan._ahead`: results in the items' order whatever the threads' finishing order, an error of an
     item's work raised when that item comes (the items before it handed out), work not started dropped when the

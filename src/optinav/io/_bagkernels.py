@@ -253,6 +253,66 @@ def ros1_chunk(buf, pos, end):
     return OK, ds, de
 
 
+_COUNT = np.frombuffer(b"count", dtype=np.uint8).copy()
+
+
+@numba.njit(**_NJ)
+def ros1_tails(buf, pos, nxt, conns):
+    """The messages of the connections ``conns`` in each ROS 1 chunk at ``pos[i]`` by its index data records (op
+    ``0x04``: ``conn``, ``count`` fields), which follow the chunk record up to the next chunk ``nxt[i]`` (other
+    records there are skipped). Returns (status, counts): MALFORMED for records that do not end at ``nxt[i]``."""
+    opn, connn, countn = _OP, _CONN, _COUNT
+    counts = np.zeros(pos.size, dtype=np.int64)
+    for i in range(pos.size):
+        end = nxt[i]
+        p = pos[i]
+        if p < 0 or end > buf.size or p + 4 > end:
+            return MALFORMED, counts
+        he = p + 4 + np.int64(_u32(buf, p))
+        if he + 4 > end:
+            return MALFORMED, counts
+        q = he + 4 + np.int64(_u32(buf, he))  # past the chunk record
+        while q < end:
+            if q + 4 > end:
+                return MALFORMED, counts
+            he = q + 4 + np.int64(_u32(buf, q))
+            if he + 4 > end:
+                return MALFORMED, counts
+            de = he + 4 + np.int64(_u32(buf, he))
+            if de > end:
+                return MALFORMED, counts
+            op, conn, cnt = -1, np.int64(-1), np.int64(-1)
+            f = q + 4
+            while f < he:
+                if f + 4 > he:
+                    return MALFORMED, counts
+                g = f + 4 + np.int64(_u32(buf, f))
+                if g > he:
+                    return MALFORMED, counts
+                eq = f + 4
+                while eq < g and buf[eq] != 0x3D:  # "="
+                    eq += 1
+                if eq >= g:
+                    return MALFORMED, counts
+                if _is(buf, f + 4, eq, opn):
+                    op = buf[eq + 1] if g - eq - 1 == 1 else -2
+                elif _is(buf, f + 4, eq, connn):
+                    conn = np.int64(_u32(buf, eq + 1)) if g - eq - 1 == 4 else np.int64(-2)
+                elif _is(buf, f + 4, eq, countn):
+                    cnt = np.int64(_u32(buf, eq + 1)) if g - eq - 1 == 4 else np.int64(-2)
+                f = g
+            if op == 0x04:
+                if conn < 0 or cnt < 0:
+                    return MALFORMED, counts
+                for c in conns:
+                    if c == conn:
+                        counts[i] += cnt
+            q = de
+        if q != end:
+            return MALFORMED, counts
+    return OK, counts
+
+
 @numba.njit(**_NJ)
 def ros1_decode(buf, chunks, end, expect, row0, conns, off, size, logt, lay, stamp, va, vb, out_logt):
     """Walk and decode the uncompressed ROS 1 chunks at the offsets ``chunks`` (records before ``end``): each
@@ -448,6 +508,7 @@ def warm() -> None:
     touch_pages(buf, i64[:0], 64)
     mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
+    ros1_tails(buf, i64[:0], i64[:0], i64)
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
     v = np.zeros((1, 3))
     ros1_decode(

@@ -405,6 +405,25 @@ def ros1_index(path: Path) -> dict:
     return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": chunks}
 
 
+def _ros1_selected(idx: dict, u8: np.ndarray, conns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(offsets, message counts of ``conns``) of the chunks whose chunk info lists one of ``conns``, after checking
+    every chunk's count of ``conns`` by its chunk info against its index data records
+    (:func:`optinav.io._bagkernels.ros1_tails`): a damaged chunk info (a connection id or count changed) would
+    otherwise skip a chunk of the topic and still add up. Raises :class:`NotFast` when they disagree."""
+    from optinav.io import _bagkernels as kern
+
+    wanted = set(conns.tolist())
+    pos = np.array([p for p, _ in idx["chunks"]], dtype=np.int64)
+    info = np.array([sum(held.get(c, 0) for c in wanted) for _, held in idx["chunks"]], dtype=np.int64)
+    if not pos.size or np.any(np.diff(pos) <= 0) or pos[0] < idx["first"] or idx["index_pos"] > u8.size:
+        raise NotFast("chunk offsets out of order or outside the data")
+    status, tails = kern.ros1_tails(u8, pos, np.append(pos[1:], idx["index_pos"]), conns)
+    if status != kern.OK or not np.array_equal(tails, info):
+        raise NotFast("chunk infos other than the chunks' index records")
+    held = info > 0
+    return pos[held], info[held]
+
+
 def _ros1(path: Path, topic: str, idx: dict | None = None):
     """The blocks of ``topic``: only the chunks whose chunk info lists one of its connections are read, from the
     file mapped read-only (uncompressed chunks are walked in place, not copied, and unmapped once decoded).
@@ -412,13 +431,12 @@ def _ros1(path: Path, topic: str, idx: dict | None = None):
     idx = ros1_index(path) if idx is None else idx
     conns = np.array(sorted(c for c, v in idx["conns"].items() if v[0] == topic), dtype=np.int64)
     mm, u8 = _map(path)
-    rows, done, wanted = _Rows(), _Unmap(mm), set(conns.tolist())
+    rows, done = _Rows(), _Unmap(mm)
+    selected = _ros1_selected(idx, u8, conns)[0].tolist()
 
     def chunks():
         """(offset, end, (compression, bytes, size) of a compressed chunk or None, data span) of each chunk."""
-        for pos, held in idx["chunks"]:
-            if not held.keys() & wanted:
-                continue
+        for pos in selected:
             if not idx["first"] <= pos < idx["index_pos"]:
                 raise NotFast("chunk offset outside the data")
             f, ds, de = _record(mm, pos, idx["index_pos"])
@@ -522,21 +540,17 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
 
     from optinav.io import _bagkernels as kern
 
-    wanted = set(conns.tolist())
-    sel = [(pos, sum(held.get(c, 0) for c in wanted)) for pos, held in idx["chunks"] if held.keys() & wanted]
-    if not sel:
+    mm, u8 = _map(path)
+    try:
+        pos, expect = _ros1_selected(idx, u8, conns)
+    except NotFast:
         return False
-    pos = np.array([p for p, _ in sel], dtype=np.int64)
-    expect = np.array([n for _, n in sel], dtype=np.int64)
     stamp, logt, va, vb = out
-    if int(expect.sum()) != stamp.size or np.any(pos < idx["first"]) or np.any(pos >= idx["index_pos"]):
+    if not pos.size or int(expect.sum()) != stamp.size or np.any(pos >= idx["index_pos"]):
         return False
     row0 = np.zeros(pos.size, dtype=np.int64)
     np.cumsum(expect[:-1], out=row0[1:])
     end = idx["index_pos"]
-    mm, u8 = _map(path)
-    if end > u8.size:
-        return False
     scratch = [tuple(np.empty(int(expect.max()) + 1, dtype=np.int64) for _ in range(3)) for _ in range(2)]
     # the layout from the first message of the first chunk
     status, ds, de = kern.ros1_chunk(u8, pos[0], end)
