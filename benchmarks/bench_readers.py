@@ -187,23 +187,30 @@ def _messages(kind: str, ns, acc, gyr):
     return out
 
 
-def _write_bag(path: Path, kind: str, ns, acc, gyr) -> Path:
+def _write_bag(path: Path, kind: str, ns, acc, gyr, compression: str | None = None) -> Path:
+    """``compression``: ROS 1 chunks ``"lz4"``/``"bz2"``, ROS 2 ``"zstd"`` (storage: compressed chunks)."""
     msgs = _messages(kind, ns, acc, gyr)
     if kind == "ros1":
         from rosbags.rosbag1 import Writer
         from rosbags.typesys import Stores, get_typestore
 
         path = path.with_suffix(".bag")
-        with Writer(path) as w:
+        w = Writer(path)
+        if compression:
+            w.set_compression(Writer.CompressionFormat[compression.upper()])
+        with w:
             con = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=get_typestore(Stores.ROS1_NOETIC))
             for t, m in zip(ns.tolist(), msgs):
                 w.write(con, t, m.tobytes())
         return path
-    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
     plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
-    with Writer(path, version=9, storage_plugin=plugin) as w:
+    w = Writer(path, version=9, storage_plugin=plugin)
+    if compression:
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat[compression.upper()])
+    with w:
         con = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=get_typestore(Stores.ROS2_HUMBLE))
         for t, m in zip(ns.tolist(), msgs):
             w.write(con, t, m.tobytes())
@@ -277,6 +284,17 @@ def run(quick: bool) -> list[dict]:
             add("rosbags raw iteration (no decoding)", _child("rosbags-raw", bag, 1), label)
             if kind == "sqlite3":
                 add("rosbags deserialize per message", _child("rosbags", bag, 1), label)
+        # bags as loggers often write them: compressed chunks (1 M messages; the codecs dominate)
+        nc = 20_000 if quick else 1_000_000
+        ns, acc, gyr = _samples(nc)
+        group = f"read {nc} IMU samples from compressed chunks"
+        for kind, comp, label in (("ros1", "lz4", "ROS 1 bag, lz4"), ("ros1", "bz2", "ROS 1 bag, bz2"),
+                                  ("mcap", "zstd", "ROS 2 mcap bag, zstd")):  # fmt: skip
+            bag = _write_bag(d / f"imu_{kind}_{comp}", kind, ns, acc, gyr, comp)
+            _check(bag, ns, acc, gyr)
+            if os.environ.get("OPTINAV_BENCH_BEFORE"):
+                add("optinav read_imu, before (OPTINAV_BENCH_BEFORE)", _child("optinav", bag, REPEAT, BEFORE), label)
+            add("optinav read_imu", _child("optinav", bag, REPEAT), label)
     return rows
 
 
@@ -288,7 +306,9 @@ def table(results: dict) -> str:
     for r in rows:
         fmt, _, what = r["metric"].partition(": ")
         if what in ("time", "peak memory growth"):
-            cells.setdefault((fmt, r["method"]), {})[what] = r["value"]
+            if r["group"] != rows[0]["group"]:  # another size: no ratio to the 1-hour Parquet read
+                fmt = f"{fmt} ({r['group'].split(' IMU')[0].removeprefix('read ')} messages)"
+            cells.setdefault((fmt, r["method"]), {"same": r["group"] == rows[0]["group"]})[what] = r["value"]
     out = [
         "# Reading a 1-hour 1 kHz IMU log (benchmarks/bench_readers.py)\n",
         f"{rows[0]['group']}; {meta['date']}, Python {meta['python']}, a shared 2-core machine (wall times vary "
@@ -299,9 +319,9 @@ def table(results: dict) -> str:
         "|---|---|---:|---:|---:|",
     ]
     for (fmt, method), v in cells.items():
+        ratio = f"{v['time'] / ref:.1f}" if v["same"] else "—"
         out.append(
-            f"| {fmt} | {method} | {v['time']:.2f} | {v['time'] / ref:.1f} | "
-            f"{v.get('peak memory growth', float('nan')):.0f} |"
+            f"| {fmt} | {method} | {v['time']:.2f} | {ratio} | {v.get('peak memory growth', float('nan')):.0f} |"
         )
     return "\n".join(out) + "\n"
 
