@@ -259,6 +259,37 @@ def test_value_checks_are_the_same_through_the_compiled_interleave(tmp_path, mon
         read_imu(_write(tmp_path / "e.csv", head + "0,1,,3,4,5,6\n1,1,nan,3,4,5,6\n"))
 
 
+def test_gyro_triad_built_beside_the_acc_one(tmp_path, monkeypatch):
+    # long separate columns: the gyro triad is interleaved by a helper thread while this one does the acc's; the
+    # same log as in turn (no helper: one CPU)
+    import optinav.io._pool as pool
+    import optinav.io.imu as imu
+
+    monkeypatch.setattr(imu, "_COMPILED_ROWS", 2)
+    rng = np.random.default_rng(4)
+    v = rng.normal(size=(50, 6))
+    v[7, 4] = np.nan
+    rows = "".join(f"{0.01 * i}," + ",".join(repr(float(x)) for x in r) + "\n" for i, r in enumerate(v))
+    path = _write(tmp_path / "g.csv", "t,ax,ay,az,gx,gy,gz\n" + rows)
+    jobs = []
+    real = pool.helper()
+
+    class Spy:
+        def submit(self, fn, *args):
+            jobs.append(fn.__name__)
+            return real.submit(fn, *args)
+
+    monkeypatch.setattr(pool, "helper", lambda: Spy())
+    log = read_imu(path)
+    assert jobs == ["_triad"] and log.nan_rows == 1
+    np.testing.assert_array_equal(log.gyr, v[:, 3:])
+    np.testing.assert_array_equal(log.acc, v[:, :3])
+    monkeypatch.setattr(pool, "helper", lambda: None)
+    one = read_imu(path)
+    np.testing.assert_array_equal(one.gyr, log.gyr)
+    assert one.nan_rows == 1
+
+
 @pytest.mark.parametrize("compiled", [False, True])
 def test_value_checks_are_the_same_for_n_by_3_arrays(tmp_path, monkeypatch, compiled):
     # an (n, 3) array (or a bag's columns, views of one) has its range taken in one compiled pass when long; here

@@ -331,7 +331,7 @@ def test_compressed_chunks_inflated_ahead_by_helper_threads(tmp_path, monkeypatc
     bag = write_bag(tmp_path / "z", kind, {"/imu": (IMU, msgs)}, compression=compression, **thr)
     spy = _SpyPool(workers=2)
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
-    monkeypatch.setattr(bagscan, "_WORKERS", [2])
+    monkeypatch.setattr(bagscan, "_workers", lambda: 2)
     log = read_imu(bag)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
     if kind == "ros1":
@@ -394,7 +394,7 @@ def test_work_ahead_keeps_order_and_raises_in_place(monkeypatch):
 
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
-    monkeypatch.setattr(bagscan, "_WORKERS", [2])
+    monkeypatch.setattr(bagscan, "_workers", lambda: 2)
 
     def work(item):
         time.sleep(0.002 * (item[0] % 3))

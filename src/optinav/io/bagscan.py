@@ -16,8 +16,12 @@ in at the memory's bandwidth) and unmapped once decoded, so the resident set hol
 - ROS 1 bag 2.0 (wiki.ros.org/Bags/Format/2.0): records ``header_len u32, fields (len u32, name=value)…,
   data_len u32, data``; op ``0x03`` bag header (``index_pos``), ``0x05`` chunk (``compression`` none/bz2/lz4,
   ``size``), ``0x07`` connection (``conn``, ``topic``; data: ``type``, ``md5sum``, …), ``0x06`` chunk info
-  (``chunk_pos``; data: conn u32, count u32 pairs), ``0x02`` message data (``conn``, ``time`` = sec u32, nsec
-  u32). Only the chunks that hold the topic are read.
+  (``chunk_pos``; data: conn u32, count u32 pairs), ``0x04`` index data after each chunk (``conn``,
+  ``count``), ``0x02`` message data (``conn``, ``time`` = sec u32, nsec u32). Only the chunks that hold the
+  topic are read, after their chunk infos are checked against the index data records. An uncompressed bag is
+  decoded whole by :func:`ros1_decode` (each chunk walked and gathered in one compiled call, two threads).
+
+Chunks compressed with a slow codec (bz2, zstd) are inflated by helper threads ahead of the walk (:func:`_ahead`).
 
 - ROS 2 sqlite3 (sqlite.org/fileformat2.html): the table b-tree of rosbag2's ``messages`` (id INTEGER PRIMARY
   KEY, topic_id, timestamp, data), found through the standard library's ``sqlite3`` opened read-only; its interior
@@ -497,7 +501,7 @@ def _ahead(items, work, needs):
     try:
         for item in items:
             queue.append((item, pool.submit(work, item) if needs(item) else None))
-            if len(queue) > 2 * _WORKERS[0]:
+            if len(queue) > 2 * _workers():
                 first, job = queue.popleft()
                 yield first, work(first) if job is None else job.result()
         while queue:
@@ -593,27 +597,18 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
     return True
 
 
-_POOL: list = []
-_WORKERS = [0]
-
-
 def _helper():
-    """The helper threads of the bag readers, one per CPU the process may run on, at most 4 (:func:`ros1_decode`
-    hands one half of a round to one; :func:`_ahead` inflates chunks in all); None on one CPU."""
-    import os
+    """The readers' helper threads (:func:`optinav.io._pool.helper`): :func:`ros1_decode` hands one half of a
+    round to one, :func:`_ahead` inflates chunks in all; None on one CPU."""
+    from optinav.io._pool import helper
 
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
-    if cpus < 2:
-        return None
-    if not _POOL:
-        from concurrent.futures import ThreadPoolExecutor
+    return helper()
 
-        _WORKERS[0] = min(cpus, 4)
-        _POOL.append(ThreadPoolExecutor(max_workers=_WORKERS[0], thread_name_prefix="optinav-bag"))
-    return _POOL[0]
+
+def _workers() -> int:
+    from optinav.io._pool import WORKERS
+
+    return WORKERS[0]
 
 
 # --- ROS 2 sqlite3 ----------------------------------------------------------------------------------------------

@@ -465,6 +465,21 @@ def _range(tri: np.ndarray) -> tuple[float, float] | None:
     return value_range(tri.reshape(-1))
 
 
+def _gyro_triad_ahead(found: dict):
+    """The gyro's :func:`_triad` started in a helper thread (:mod:`optinav.io._pool`) when both triads are long
+    columns (the compiled interleave or range pass releases the GIL, so the acc's runs at once), else None."""
+    cols = [found[c][1] for c in _COMPONENTS["gyro"] if c in found]
+    acc = [c for c in _COMPONENTS["acc"] if c in found]
+    if len(cols) != 3 or len(acc) != 3 or "gyro" in found or "acc" in found or cols[0].ndim != 1:
+        return None
+    if cols[0].size < _COMPILED_ROWS:  # numba's start is not worth it
+        return None
+    from optinav.io._pool import helper
+
+    pool = helper()
+    return None if pool is None else pool.submit(_triad, cols)
+
+
 def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | None]:
     """The (n, 3) array of three columns, and (min, max) of its values when it was computed on the way (NaN
     when any value is NaN; None: not computed): a view of the memory they share when they are the columns 0, 1,
@@ -544,6 +559,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             f"{part.path.name}: the columns have different lengths ({shown})",
             "pass columns/arrays with one value per sample",
         )
+    ahead = _gyro_triad_ahead(found)
     for kind in ("acc", "gyro"):
         comps = [c for c in _COMPONENTS[kind] if c in found]
         if comps and kind in found:
@@ -570,7 +586,9 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             tri, bounds = arr, _range(arr)
             srcs = [name]
         elif comps:
-            tri, bounds = _triad([found[c][1] for c in _COMPONENTS[kind]])
+            tri, bounds = (
+                ahead.result() if kind == "gyro" and ahead else _triad([found[c][1] for c in _COMPONENTS[kind]])
+            )
             srcs = [found[c][0] for c in _COMPONENTS[kind]]
         else:
             continue
