@@ -635,6 +635,39 @@ def test_sqlite_arrays_grow_past_the_first_block_estimate(tmp_path, monkeypatch)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
+    """sqlite3 bags decoded page block by page block in one compiled call per round: the strings first (the
+    first blocks hold no Imu message), one leaf page per block, rounds of three pages, arrays grown from a low
+    estimate: every value written; a message of another layout declines (the blocks read it, same values)."""
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(25)
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0)
+    chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data="z" * 900)) for k in range(20)]
+    bag = write_bag(tmp_path / "g", "sqlite3-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", 3 * 4096)
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    calls, real = [], bagscan.sqlite_decode
+    monkeypatch.setattr(bagscan, "sqlite_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    grown = []
+    import optinav.io.rosbag as rb
+
+    resize = rb._Decoder._resize
+    monkeypatch.setattr(rb._Decoder, "_resize", lambda self, n: grown.append(n) or resize(self, n))
+    log = read_imu(bag)
+    assert calls == [400] and len(grown) >= 2
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    frames = ("imu",) * 300 + ("imu_link_long",) + ("imu",) * 99
+    msgs, t, gyr, acc = imu_topic(rng, n=400, rate=1000.0, frames=frames)
+    bag = write_bag(tmp_path / "h", "sqlite3-file", {"/imu": (IMU, msgs)})
+    log = read_imu(bag)
+    assert calls[1:] == [None]
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 def test_offsets_outside_a_block_fall_back_to_rosbags(tmp_path, monkeypatch):
     """A scanner handing out a message past its block's bytes is never read past: rosbags reads the topic."""
     from optinav.io import bagscan

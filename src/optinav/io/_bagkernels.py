@@ -43,8 +43,8 @@ _u32 = _loader(types.uint32, ir.IntType(32))
 _i64 = _loader(types.int64, ir.IntType(64))
 _f8 = _loader(types.float64, ir.DoubleType())
 
-#: statuses of the walkers (0: the range is done)
-OK, CHANNEL, TRUNCATED, MALFORMED, FULL, ROWID_ORDER, TIME_ORDER, SPAN = 0, 1, 2, 3, 4, 5, 6, 7
+#: statuses of the walkers (0: the range is done); ROOM: the decoders' output arrays are full
+OK, CHANNEL, TRUNCATED, MALFORMED, FULL, ROWID_ORDER, TIME_ORDER, SPAN, ROOM = 0, 1, 2, 3, 4, 5, 6, 7, 8
 
 
 @numba.njit(**_NJ)
@@ -470,6 +470,35 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
 
 
 @numba.njit(**_NJ)
+def sqlite_decode(buf, pages, psize, usable, ids, block, off, size, logt, last, lay, stamp, va, vb, out_logt, row):
+    """:func:`sqlite_walk` and :func:`gather` over the leaf ``pages``, ``block`` pages at a time (read in order
+    first, :func:`touch_pages`; walked into the scratch ``off``/``size``/``logt``, which must hold a block's
+    cells; gathered while in cache) into rows ``row…`` of ``stamp``, ``va``, ``vb``, ``out_logt`` (``lay``: see
+    :func:`ros1_decode`). Returns (status, pages done, rows filled, sum of the bytes read): ROOM when the next
+    block does not fit the output (``last`` as before that block: decode again from there), CHANNEL for a message
+    of another layout, the walker's status otherwise."""
+    seen = np.int64(0)
+    for b in range(0, pages.size, block):
+        pg = pages[b : b + block]
+        seen += touch_pages(buf, pg, psize)  # used: the loads stay
+        l0, l1 = last[0], last[1]
+        status, _, k = sqlite_walk(buf, pg, psize, usable, ids, off, size, logt, last)
+        if status != OK:
+            return status, b, row, seen
+        if row + k > stamp.size or row + k > out_logt.size:
+            last[0], last[1] = l0, l1
+            return ROOM, b, row, seen
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+                       stamp, va, vb, row)  # fmt: skip
+        for j in range(k):
+            if other[j]:
+                return CHANNEL, b, row, seen
+            out_logt[row + j] = logt[j]
+        row += k
+    return OK, pages.size, row, seen
+
+
+@numba.njit(**_NJ)
 def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, stamp, va, vb, row0):
     """Messages ``buf[off[i]:off[i] + size[i]]`` of the fixed layout (``itemsize`` bytes, string length ``slen``
     at ``o_len``): stamp (sec u32 or i32 at ``o_sec``, nsec u32 after it, s) and the float64 triads at ``o_a``
@@ -509,6 +538,8 @@ def warm() -> None:
     mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     ros1_tails(buf, i64[:0], i64[:0], i64)
+    sqlite_decode(buf, i64[:0], 64, 64, i64, 1, i64, i64, i64, i64[:2], np.zeros(7, dtype=np.int64), np.zeros(1),
+                  np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])
     v = np.zeros((1, 3))
     ros1_decode(

@@ -682,6 +682,13 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
     times that decrease in rowid order, or anything unexpected raises :class:`NotFast`. ``rows``: a list an
     estimate of the topic's messages (for preallocation; the reader grows its arrays past it) is appended to
     before the first block."""
+    yield from _sqlite_leaves(*sqlite_leaves(path, topic), rows)
+
+
+def sqlite_leaves(path: Path, topic: str) -> tuple:
+    """(mmap, its bytes, the leaf pages of ``messages`` in rowid order, page size, usable bytes per page, the
+    topic's ids) of a rosbag2 sqlite3 file; :class:`NotFast` when the file is not one the scanner reads (see
+    :func:`sqlite_blocks`)."""
     if sys.byteorder != "little":
         raise NotFast("a big-endian host: the walkers load little-endian words")
     wal = path.with_name(path.name + "-wal")
@@ -714,7 +721,62 @@ def sqlite_blocks(path: Path, topic: str, rows: list | None = None):
         nxt[left] = _be(u8, cell, 4)
         nxt[right] = _be(u8, (level - 1) * psize + 8, 4)
         level = nxt
-    yield from _sqlite_leaves(mm, u8, level, psize, usable, np.array(sorted(ids), dtype=np.int64), rows)
+    return mm, u8, level, psize, usable, np.array(sorted(ids), dtype=np.int64)
+
+
+def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
+    """Decode every message of ``topic`` in the rosbag2 sqlite3 ``files`` (in turn) by
+    :func:`optinav.io._bagkernels.sqlite_decode`: leaf pages in rounds of about ``_ROUND`` bytes, ``_LEAVES``
+    pages walked and gathered at a time, each round's pages unmapped after it. ``layout(first message bytes)``:
+    the gather layout or None; ``reserve(rows kept, rows needed)``: the output (stamps, log times ns, triads a,
+    triads b) with room for ``rows needed``, its first ``rows kept`` rows kept. The number of messages, or None
+    — nothing to trust in the output — for anything the blocks (:func:`sqlite_blocks`) handle otherwise (other
+    layouts, rowids or log times out of order, pages that do not parse; and a file without the topic's
+    messages)."""
+    from optinav.io import _bagkernels as kern
+
+    row, lay = 0, None
+    for f in files:
+        try:
+            mm, u8, leaves, psize, usable, ids = sqlite_leaves(f, topic)
+        except NotFast:
+            return None
+        scratch = tuple(np.empty(_LEAVES * ((psize - 8) // 6 + 1), dtype=np.int64) for _ in range(3))
+        last = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
+        # the first block with messages: the layout (from the first file's first message) and an estimate of the
+        # rows (its messages per page)
+        probe, k, b = last.copy(), 0, 0
+        while k == 0 and b < leaves.size:
+            status, _, k = kern.sqlite_walk(u8, leaves[b : b + _LEAVES], psize, usable, ids, *scratch, probe)
+            if status != kern.OK:
+                return None
+            b += _LEAVES
+        if k == 0:
+            return None
+        if lay is None:
+            off, size = scratch[0], scratch[1]
+            lay = layout(bytes(u8[off[0] : off[0] + size[0]]))
+            if lay is None:
+                return None
+        out = reserve(row, row + -(-k * leaves.size // min(leaves.size, b)) + 16)
+        done = _Unmap(mm)
+        per = max(_ROUND // psize, _LEAVES)
+        b = 0
+        while b < leaves.size:
+            pages = leaves[b : b + per]
+            status, at, row, _ = kern.sqlite_decode(
+                u8, pages, psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], row
+            )
+            if status == kern.ROOM:
+                out = reserve(row, 2 * out[0].size)
+                pages = pages[:at]
+            elif status != kern.OK:
+                return None
+            if pages.size:
+                done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
+            b += pages.size
+        done.flush()
+    return row
 
 
 def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: int, ids: np.ndarray, rows):

@@ -199,6 +199,10 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             if name is None:
                 out.append(None)
                 continue
+            fused = _sqlite_fused(types, files, name, topics[name]["type"])
+            if fused is not None:
+                out.append((name, fused))
+                continue
             # an estimate of the topic's messages from the first block: the decoder's arrays grow past it
             rows = []
             gens = [bagscan.sqlite_blocks(f, name, rows) for f in files]
@@ -216,6 +220,36 @@ def _sqlite_quick(path: Path, wanted: list[str]):
         raise
     except Exception:  # noqa: BLE001 - NotFast, or a file the scanner does not read: rosbags' reader decides
         return None
+
+
+def _sqlite_fused(types, files: list[Path], name: str, msgtype: str):
+    """(header stamps s, log times s, values) of topic ``name`` decoded page by page by
+    :func:`optinav.io.bagscan.sqlite_decode`, or None (then the blocks read it)."""
+    from optinav.io import bagscan
+
+    dec = _Decoder(types, False, msgtype, 0, grow=True)
+
+    def reserve(kept: int, need: int):
+        if need > dec.count:
+            dec.done = kept
+            dec._resize(need)
+        return dec.stamp, dec.logt, dec.vals[0], dec.vals[-1]
+
+    try:
+        n = bagscan.sqlite_decode(files, name, dec.kernel_layout, reserve)
+    except Exception:  # noqa: BLE001 - anything it does not read: the blocks read it (or name the damage)
+        return None
+    if not n:
+        return None
+    return _ordered(dec.stamp[:n], dec.logt[:n], tuple(v[:n] for v in dec.vals))
+
+
+def _ordered(stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
+    """(stamps, log times s, values) in log-time order, as rosbags yields them (ties: as stored)."""
+    if np.any(logt[1:] < logt[:-1]):
+        order = np.argsort(logt, kind="stable")
+        stamp, logt, vals = stamp[order], logt[order], tuple(v[order] for v in vals)
+    return stamp, logt * 1e-9, vals
 
 
 def _ros1_quick(path: Path, wanted: list[str]):
@@ -462,11 +496,8 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
         )
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
-    stamp, logt, vals = dec.stamp[:done], dec.logt[:done], tuple(v[:done] for v in dec.vals)
-    if np.any(logt[1:] < logt[:-1]):  # the storage's record order; rosbags yields log-time order (ties: as stored)
-        order = np.argsort(logt, kind="stable")
-        stamp, logt, vals = stamp[order], logt[order], tuple(v[order] for v in vals)
-    return stamp, logt * 1e-9, vals
+    # the storage's record order; rosbags yields log-time order
+    return _ordered(dec.stamp[:done], dec.logt[:done], tuple(v[:done] for v in dec.vals))
 
 
 def _rosbags_blocks(reader, info: dict):
