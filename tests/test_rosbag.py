@@ -384,6 +384,48 @@ def test_ros1_chunk_info_against_the_chunks_index_records(tmp_path, damage):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_mcap_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
+    """An MCAP file of several uncompressed chunks is decoded chunk by chunk, half of each round by a helper
+    thread, each chunk's rows from its Message Index records: the values written. Declined — the blocks read it,
+    the same values — for zstd chunks, a message of another layout in a later chunk, and a Message Index whose
+    count was changed."""
+    import struct
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(26)
+    calls, real = [], bagscan.mcap_decode
+    monkeypatch.setattr(bagscan, "mcap_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    monkeypatch.setattr(bagscan, "_ROUND", 2 << 20)  # two chunks a round
+    spy = _SpyPool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    msgs, t, gyr, acc = imu_topic(rng, n=13000, rate=1000.0)  # four 1 MiB chunks (rosbags' size)
+    bag = write_bag(tmp_path / "m", "mcap", {"/imu": (IMU, msgs)})
+    log = read_imu(bag)
+    assert calls == [True] and spy.jobs >= 2
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    zst = write_bag(tmp_path / "z", "mcap", {"/imu": (IMU, msgs[:4000])}, compression="storage")
+    log = read_imu(zst)
+    assert calls[1:] == [False] and np.array_equal(log.gyr, gyr[:4000])
+    frames = ("imu",) * 9000 + ("imu_link_long",) + ("imu",) * 3999
+    msgs2, t2, gyr2, acc2 = imu_topic(rng, n=13000, rate=1000.0, frames=frames)
+    odd = write_bag(tmp_path / "o", "mcap", {"/imu": (IMU, msgs2)})
+    log = read_imu(odd)
+    assert calls[2:] == [False]
+    assert np.array_equal(log.t, t2) and np.array_equal(log.gyr, gyr2) and np.array_equal(log.acc, acc2)
+    # one Message Index record's count changed (its records' byte length, 16 bytes a message)
+    mcap = next(bag.glob("*.mcap"))
+    raw = bytearray(mcap.read_bytes())
+    with open(mcap, "rb") as fh:
+        _, _, indexes = bagscan._mcap_index(fh, "/imu")
+    m = indexes[1][0]
+    struct.pack_into("<I", raw, m + 11, struct.unpack_from("<I", raw, m + 11)[0] - 16)
+    mcap.write_bytes(bytes(raw))
+    ours, ref = _read_both(bag)
+    assert calls[3:4] == [False]
+    assert isinstance(ours, dict) and np.array_equal(ours["t"], ref["t"])
+
+
 def test_work_ahead_keeps_order_and_raises_in_place(monkeypatch):
     """:func:`bagscan._ahead`: results in the items' order whatever the threads' finishing order, an error of an
     item's work raised when that item comes (the items before it handed out), work not started dropped when the
@@ -425,7 +467,7 @@ def test_mcap_summary_picks_chunks_and_its_absence_scans_them(tmp_path, monkeypa
     chatter = [(1_600_000_000 * 10**9 + k, lambda ts, k=k: ts.types[STR](data=str(k % 10) * 5000)) for k in range(300)]
     bag = write_bag(tmp_path / "m", "mcap-file", {"/chatter": (STR, chatter), "/imu": (IMU, msgs)})
     with open(bag, "rb") as fh:
-        chans, offsets = bagscan._mcap_index(fh, "/imu")
+        chans, offsets, _ = bagscan._mcap_index(fh, "/imu")
     assert len(chans) == 1 and 1 <= len(offsets) and offsets[0] > 1_000_000  # the chatter chunk is skipped
     monkeypatch.setattr(rb, "_rosbags_blocks", None)
     log = read_imu(bag)
@@ -697,7 +739,7 @@ def test_mcap_log_time_outside_its_chunk_goes_to_rosbags(tmp_path):
     bag = write_bag(tmp_path / "s", "mcap-file", {"/imu": (IMU, msgs)})
     raw = bytearray(bag.read_bytes())
     with open(bag, "rb") as fh:
-        chans, offsets = bagscan._mcap_index(fh, "/imu")
+        chans, offsets, _ = bagscan._mcap_index(fh, "/imu")
     start = offsets[0] + 9
     end_time = struct.unpack_from("<Q", raw, start + 8)[0]
     p = start + 32 + struct.unpack_from("<I", raw, start + 28)[0] + 8  # the chunk's first record

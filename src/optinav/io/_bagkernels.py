@@ -470,6 +470,54 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
 
 
 @numba.njit(**_NJ)
+def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_logt, row):
+    """:func:`mcap_walk` and :func:`gather` over the MCAP Chunk records at ``chunks`` (offsets of their opcode),
+    each stored uncompressed and without a CRC, read in order first (:func:`touch`), walked into the scratch
+    ``off``/``size``/``logt`` (Channel records in a chunk are skipped: ``chans`` comes from the summary),
+    gathered while in cache into rows ``row…`` (``lay``: see :func:`ros1_decode`). Returns (status, chunks done,
+    rows filled, sum of the bytes read): MALFORMED for a compressed or CRC-checked chunk or one that does not
+    parse, FULL when the scratch is too small for a chunk, ROOM when the output is, CHANNEL for a message of
+    another layout, SPAN as the walker."""
+    seen = np.int64(0)
+    for i in range(chunks.size):
+        pos = chunks[i]
+        if pos < 0 or pos + 9 + 40 > buf.size or buf[pos] != 0x06:
+            return MALFORMED, i, row, seen
+        n = _i64(buf, pos + 1)
+        if n < 40 or n > buf.size - pos - 9:
+            return MALFORMED, i, row, seen
+        s = pos + 9
+        t0, t1 = _i64(buf, s), _i64(buf, s + 8)
+        usize, crc, clen = _i64(buf, s + 16), _u32(buf, s + 24), _u32(buf, s + 28)
+        p = s + 32
+        if clen != 0 or crc != 0 or t0 < 0 or t1 < 0 or p + 8 > s + n:
+            return MALFORMED, i, row, seen
+        rlen = _i64(buf, p)
+        if rlen < 0 or rlen != usize or rlen > s + n - p - 8:
+            return MALFORMED, i, row, seen
+        ds, de = p + 8, p + 8 + rlen
+        seen += touch(buf, ds, de)  # used: the loads stay
+        k, q = 0, ds
+        while True:
+            status, q, k = mcap_walk(buf, q, de, chans, off, size, logt, k, t0, t1)
+            if status != CHANNEL:
+                break
+            q += 9 + _i64(buf, q + 1)  # the walker checked that it fits
+        if status != OK:
+            return status, i, row, seen
+        if row + k > stamp.size or row + k > out_logt.size:
+            return ROOM, i, row, seen
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+                       stamp, va, vb, row)  # fmt: skip
+        for j in range(k):
+            if other[j]:
+                return CHANNEL, i, row, seen
+            out_logt[row + j] = logt[j]
+        row += k
+    return OK, chunks.size, row, seen
+
+
+@numba.njit(**_NJ)
 def sqlite_decode(buf, pages, psize, usable, ids, block, off, size, logt, last, lay, stamp, va, vb, out_logt, row):
     """:func:`sqlite_walk` and :func:`gather` over the leaf ``pages``, ``block`` pages at a time (read in order
     first, :func:`touch_pages`; walked into the scratch ``off``/``size``/``logt``, which must hold a block's
@@ -538,6 +586,8 @@ def warm() -> None:
     mcap_walk(buf, 0, 0, np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, 0, 0, 0)
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     ros1_tails(buf, i64[:0], i64[:0], i64)
+    mcap_decode(buf, i64[:0], np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, np.zeros(7, dtype=np.int64),
+                np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_decode(buf, i64[:0], 64, 64, i64, 1, i64, i64, i64, i64[:2], np.zeros(7, dtype=np.int64), np.zeros(1),
                   np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])

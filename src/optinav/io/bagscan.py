@@ -169,9 +169,10 @@ def _mcap_channel(buf: bytes, pos: int, topic: str, chans: set) -> None:
 
 
 def _mcap_index(fh, topic: str):
-    """(ids of the CDR channels of ``topic``, offsets of the chunks that hold one of them) from the summary
-    section (Channel and Chunk Index ``0x08`` records: start, end, chunk offset u64, length u64, message index
-    offsets map<u16, u64>, …); None without a summary or without the topic's channels in it."""
+    """(ids of the CDR channels of ``topic``, offsets of the chunks that hold one of them, for each such chunk the
+    offsets of its Message Index records of those channels) from the summary section (Channel and Chunk Index
+    ``0x08`` records: start, end, chunk offset u64, length u64, message index offsets map<u16, u64>, …); None
+    without a summary or without the topic's channels in it."""
     fh.seek(0, 2)
     size = fh.tell()
     if size < 2 * len(_MCAP_MAGIC) + 29:
@@ -194,12 +195,13 @@ def _mcap_index(fh, topic: str):
             _mcap_channel(buf, pos + 9, topic, chans)
         elif op == 0x08:
             m = _U32.unpack_from(buf, pos + 41)[0]
-            held = {c for c, _ in struct.iter_unpack("<HQ", buf[pos + 45 : pos + 45 + m])}
+            held = dict(struct.iter_unpack("<HQ", buf[pos + 45 : pos + 45 + m]))
             chunks.append((_U64.unpack_from(buf, pos + 25)[0], held))
         pos += 9 + n
     if not chans:
         return None
-    return chans, sorted(off for off, held in chunks if held & chans)
+    mine = sorted((off, [held[c] for c in chans if c in held]) for off, held in chunks if held.keys() & chans)
+    return chans, [off for off, _ in mine], [m for _, m in mine]
 
 
 def _mcap(path: Path, topic: str):
@@ -213,7 +215,7 @@ def _mcap(path: Path, topic: str):
     mm, u8 = _map(path)
     rows = _Rows()
     if idx is not None:
-        chans, offsets = idx
+        chans, offsets, _ = idx
         spans = []
         for off in offsets:
             if off + 9 > u8.size or u8[off] != 0x06:
@@ -249,6 +251,78 @@ def _mcap(path: Path, topic: str):
             yield from _mcap_chunk(mm, u8, item, _mcap_work((None, None, item)), topic, chans, rows)
             done.add(pos, pos + 9 + n)  # decoded by now
         pos += 9 + n
+
+
+def mcap_file(reader) -> Path | None:
+    """The one MCAP file of an open ``rosbags`` reader whose storage is not compressed as a whole or by message,
+    else None."""
+    readers = getattr(reader, "readers", None)
+    if not readers or len(readers) != 1 or not getattr(reader, "is2", False):
+        return None
+    try:
+        if readers[0].compression_mode:
+            return None
+        storage = readers[0].storage
+        files = [getattr(st, "path", None) for st in getattr(storage, "storages", [storage])]
+    except Exception:  # noqa: BLE001 - attributes rosbags may rename: the blocks decide
+        return None
+    if len(files) != 1 or not isinstance(files[0], Path) or files[0].suffix != ".mcap" or not files[0].is_file():
+        return None
+    return files[0]
+
+
+def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
+    """Decode every message of ``topic`` in the MCAP file ``path`` into ``out`` = (stamps s, log times ns, triads
+    a, triads b; as many rows as the topic has messages) by :func:`optinav.io._bagkernels.mcap_decode`: the
+    chunks the summary's chunk index lists for the topic, each chunk's rows from its Message Index records (one
+    per channel: 16 bytes a message), in rounds (:func:`_rounds`: two threads). ``layout``: see
+    :func:`ros1_decode`. False — nothing to trust in ``out`` — for a file without a summary, compressed or
+    CRC-checked chunks, counts other than the message indexes', another layout, or anything that does not parse:
+    the blocks (:func:`blocks`) read those."""
+    from optinav.io import _bagkernels as kern
+
+    stamp, logt, va, vb = out
+    with open(path, "rb") as fh:
+        if fh.read(8) != _MCAP_MAGIC:
+            return False
+        idx = _mcap_index(fh, topic)
+    if idx is None or not idx[1] or not stamp.size:
+        return False
+    chans = np.zeros(1 << 16, dtype=np.bool_)
+    chans[list(idx[0])] = True
+    pos = np.array(idx[1], dtype=np.int64)
+    mm, u8 = _map(path)
+    expect = np.zeros(pos.size, dtype=np.int64)
+    for i, offs in enumerate(idx[2]):  # Message Index: opcode 0x07, length u64, channel u16, records u32 + 16 each
+        for m in offs:
+            if m + 15 > u8.size or u8[m] != 0x07:
+                return False
+            n = _U32.unpack_from(mm, m + 11)[0]
+            if n % 16:
+                return False
+            expect[i] += n // 16
+    if int(expect.sum()) != stamp.size or np.any(np.diff(pos) <= 0):
+        return False
+    row0 = np.zeros(pos.size + 1, dtype=np.int64)
+    np.cumsum(expect, out=row0[1:])
+    scratch = [tuple(np.empty(int(expect.max()) + 1, dtype=np.int64) for _ in range(3)) for _ in range(2)]
+    # the layout from the first chunk's first message (the chunk walked, nothing gathered into no rows: ROOM)
+    no = np.zeros(7, dtype=np.int64)
+    status, *_ = kern.mcap_decode(u8, pos[:1], chans, *scratch[0], no, stamp[:0], va[:0], vb[:0], logt[:0], 0)
+    if status != kern.ROOM:
+        return False
+    off, size, _ = scratch[0]
+    lay = layout(bytes(u8[off[0] : off[0] + size[0]]))
+    if lay is None:
+        return False
+
+    def run(a: int, b: int, buf: tuple) -> bool:
+        # rows row0[a]:row0[b], no more: the kernel stops with ROOM past them
+        lim = slice(0, row0[b])
+        got = kern.mcap_decode(u8, pos[a:b], chans, *buf, lay, stamp[lim], va[lim], vb[lim], logt[lim], row0[a])
+        return got[0] == kern.OK and got[2] == row0[b]
+
+    return _rounds(mm, pos, np.append(pos[1:], u8.size), run, scratch)
 
 
 def _mcap_head(mm, u8: np.ndarray, start: int, n: int) -> tuple:
@@ -540,8 +614,6 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
     (7 int64, see the kernel) or None. False — nothing to trust in ``out`` — when a chunk is compressed, a chunk's
     count differs from its chunk info, a message has another layout, or the bag does not parse: the caller then
     reads the blocks (:func:`blocks`), which handle all of these."""
-    from concurrent.futures import wait
-
     from optinav.io import _bagkernels as kern
 
     mm, u8 = _map(path)
@@ -571,7 +643,15 @@ def ros1_decode(path: Path, idx: dict, conns: np.ndarray, layout, out: tuple) ->
         return got[0] == kern.OK
 
     # round boundaries by the chunks' offsets (a chunk and its index records lie between two offsets)
-    nxt = np.append(pos[1:], end)
+    return _rounds(mm, pos, np.append(pos[1:], end), run, scratch)
+
+
+def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
+    """Decode the chunks at ``pos`` (each ending before ``nxt``) in rounds of about ``_ROUND`` bytes:
+    ``run(a, b, scratch)`` decodes chunks ``a:b`` (True when they are done right); half of each round is handed
+    to a helper thread (the other ``scratch``) when there is one. The round's pages are unmapped after it."""
+    from concurrent.futures import wait
+
     pool = _helper()
     done = _Unmap(mm)
     a = 0

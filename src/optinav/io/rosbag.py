@@ -468,6 +468,14 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
                 done = dec.done = count
         except Exception:  # noqa: BLE001 - anything it does not read: the blocks below read it (or name damage)
             done = None
+    mcap = bagscan.mcap_file(reader) if blocks is None and done is None and sys.byteorder == "little" else None
+    if mcap is not None:
+        try:  # an MCAP file: walked and gathered chunk by chunk in one compiled call per round
+            out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[-1])
+            if bagscan.mcap_decode(mcap, topic, dec.kernel_layout, out):
+                done = dec.done = count
+        except Exception:  # noqa: BLE001 - anything it does not read: the blocks below read it (or name damage)
+            done = None
     fast = None if done is not None else bagscan.blocks(reader, path, topic) if blocks is None else blocks
     if fast is not None:
         try:
