@@ -710,6 +710,48 @@ def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+@pytest.mark.parametrize("side", [(1.5, 64), (0.2, 1)])  # the second half's rows: room enough, or too little
+def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, side):
+    """sqlite3 rounds split in halves, the second decoded by a helper thread into rows of its own and copied
+    after the first's (when it runs out of room, its rest goes to the next round): the Imu and MagneticField
+    values of the one-thread reading, exactly; log times out of order across the pages still read in rosbags'
+    order (the order across the halves is checked)."""
+    import rosbags.highlevel
+
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(27)
+    msgs, t, gyr, acc = imu_topic(rng, n=600, rate=1000.0)
+    mags = [(1_700_000_000 * 10**9 + 10**7 * k + 3, lambda ts, k=k: mag_msg(ts, 1_700_000_000, 10**7 * k, rng.normal(0, 1e-5, 3))) for k in range(60)]  # fmt: skip
+    bag = write_bag(tmp_path / "s", "sqlite3-file", {"/imu": (IMU, msgs), "/mag": (MAG, mags)})
+    any_reader = rosbags.highlevel.AnyReader
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
+    monkeypatch.setattr(bagscan, "_helper", lambda: None)
+    one = read_table(bag)
+    monkeypatch.setattr(bagscan, "_LEAVES", 1)
+    monkeypatch.setattr(bagscan, "_ROUND", 6 * 4096)
+    monkeypatch.setattr(bagscan, "_SIDE", side)
+    spy = _SpyPool()
+    monkeypatch.setattr(bagscan, "_helper", lambda: spy)
+    calls, real = [], bagscan.sqlite_decode
+    monkeypatch.setattr(bagscan, "sqlite_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    two = read_table(bag)
+    assert calls == [600, 60] and spy.jobs >= 4
+    for k in one:
+        assert np.array_equal(two[k], one[k], equal_nan=True), k
+    assert np.array_equal(two["t"], t) and np.array_equal(two["gx"], gyr[:, 0])
+    # log times permuted: declined by the order checks, read in rosbags' order
+    monkeypatch.setattr(rosbags.highlevel, "AnyReader", any_reader)
+    perm = rng.permutation(600)
+    shuffled = [(1_700_000_000 * 10**9 + 1_000_000 * int(perm[i]), make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "o", "sqlite3-file", {"/imu": (IMU, shuffled)})
+    ref = rosbags_reference(bag, "/imu")
+    with pytest.warns(UserWarning, match="not strictly increasing"):
+        log = read_imu(bag)
+    assert calls[2:] == [None]
+    assert np.array_equal(log.gyr, ref[:, 1:4]) and np.array_equal(log.acc, ref[:, 4:7])
+
+
 def test_offsets_outside_a_block_fall_back_to_rosbags(tmp_path, monkeypatch):
     """A scanner handing out a message past its block's bytes is never read past: rosbags reads the topic."""
     from optinav.io import bagscan

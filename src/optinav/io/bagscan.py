@@ -813,6 +813,8 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
     — nothing to trust in the output — for anything the blocks (:func:`sqlite_blocks`) handle otherwise (other
     layouts, rowids or log times out of order, pages that do not parse; and a file without the topic's
     messages)."""
+    from concurrent.futures import wait
+
     from optinav.io import _bagkernels as kern
 
     row, lay = 0, None
@@ -838,25 +840,80 @@ def sqlite_decode(files: list[Path], topic: str, layout, reserve) -> int | None:
             lay = layout(bytes(u8[off[0] : off[0] + size[0]]))
             if lay is None:
                 return None
-        out = reserve(row, row + -(-k * leaves.size // min(leaves.size, b)) + 16)
-        done = _Unmap(mm)
-        per = max(_ROUND // psize, _LEAVES)
+        est = k / min(leaves.size, b)  # messages per page
+        out = reserve(row, row + int(np.ceil(est * leaves.size)) + 16)
+        done, per, pool, side = _Unmap(mm), max(_ROUND // psize, _LEAVES), _helper(), None
         b = 0
         while b < leaves.size:
             pages = leaves[b : b + per]
-            status, at, row, _ = kern.sqlite_decode(
-                u8, pages, psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], row
-            )
-            if status == kern.ROOM:
-                out = reserve(row, 2 * out[0].size)
-                pages = pages[:at]
-            elif status != kern.OK:
-                return None
+            half = pages.size // 2 // _LEAVES * _LEAVES
+            if pool is None or half < _LEAVES:
+                row, out, took = _sqlite_serial(u8, pages, psize, usable, ids, scratch, last, lay, reserve, out, row)
+                if took is None:
+                    return None
+                pages = pages[:took]
+            else:
+                # the second half into rows of its own by a helper thread (its count is not known before),
+                # copied after the first half's; the order across the halves checked after
+                part = pages[half:]
+                need = int(np.ceil(_SIDE[0] * max(est, row / max(b, 1)) * part.size)) + _SIDE[1]
+                if side is None or side[0].size < need:
+                    va = np.empty((need, 3))
+                    vb = va if out[2] is out[3] else np.empty((need, 3))  # one triad (MagneticField): one array
+                    side = (np.empty(need), np.empty(need, dtype=np.int64), va, vb)
+                    side2 = tuple(np.empty_like(a) for a in scratch)
+                last2 = np.array([-1, np.iinfo(np.int64).min], dtype=np.int64)
+                job = pool.submit(kern.sqlite_decode, u8, part, psize, usable, ids, _LEAVES, *side2, last2, lay,
+                                  side[0], side[2], side[3], side[1], 0)  # fmt: skip
+                try:
+                    row, out, took = _sqlite_serial(
+                        u8, pages[:half], psize, usable, ids, scratch, last, lay, reserve, out, row
+                    )
+                finally:
+                    wait([job])  # never leave the helper reading a map this returns from
+                status, at, n, _ = job.result()
+                if took != half or status not in (kern.OK, kern.ROOM):
+                    return None
+                probe = last.copy()  # the rowids across the halves, and the log times
+                if kern.sqlite_walk(u8, part[:_LEAVES], psize, usable, ids, *scratch, probe)[0] != kern.OK:
+                    return None
+                if n and side[1][0] < last[1]:
+                    return None
+                if row + n > out[0].size:
+                    out = reserve(row, max(2 * out[0].size, row + n))
+                for dst, src in zip(out, side):
+                    dst[row : row + n] = src[:n]
+                row += n
+                last[0], last[1] = max(last[0], last2[0]), max(last[1], last2[1])
+                pages = pages[: half + at]  # ROOM: the rest of the second half in the next round
             if pages.size:
                 done.add(int(pages.min() - 1) * psize, int(pages.max()) * psize)  # decoded by now
             b += pages.size
         done.flush()
     return row
+
+
+#: room of the second half's own rows in :func:`sqlite_decode`: (factor on the messages per page so far, rows);
+#: a half that holds more stops (ROOM) and its rest is decoded in the next round
+_SIDE = (1.5, 64)
+
+
+def _sqlite_serial(u8, pages, psize, usable, ids, scratch, last, lay, reserve, out, row):
+    """:func:`optinav.io._bagkernels.sqlite_decode` of ``pages`` into ``out`` from ``row``, the output grown
+    (``reserve``) when it is full: (rows filled, output, pages done — None on any other status)."""
+    from optinav.io import _bagkernels as kern
+
+    took = 0
+    while took < pages.size:
+        status, at, row, _ = kern.sqlite_decode(
+            u8, pages[took:], psize, usable, ids, _LEAVES, *scratch, last, lay, out[0], out[2], out[3], out[1], row
+        )
+        took += at
+        if status == kern.ROOM:
+            out = reserve(row, 2 * out[0].size)
+        elif status != kern.OK:
+            return row, out, None
+    return row, out, took
 
 
 def _sqlite_leaves(mm, u8: np.ndarray, leaves: np.ndarray, psize: int, usable: int, ids: np.ndarray, rows):
