@@ -9,7 +9,10 @@ Imu stamps. Topic choice, time base and errors: docs/file-formats.md.
 The raw messages of a topic come in blocks straight from the storage (:mod:`optinav.io.bagscan`; rosbags'
 iteration when the scanners do not read the bag) and are decoded from their fixed byte layout by a compiled
 gather (:mod:`optinav.io._bagkernels`; checked against ``rosbags``' own deserializer on the first message) into
-(n, 3) arrays; messages of another length are deserialized one by one. :func:`iter_bag` gives the same table in
+(n, 3) arrays; messages of another length are deserialized one by one. Plain ROS 1 bags, MCAP files and sqlite3
+files are decoded whole, each chunk (or block of pages) walked and gathered in one compiled call while its bytes
+are in cache, half of the work by a helper thread (:func:`_whole`, :func:`_sqlite_fused`); anything they decline
+goes through the blocks. :func:`iter_bag` gives the same table in
 blocks of messages (two passes over the storage), so that memory does not grow with the bag.
 """
 
@@ -460,22 +463,8 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
     grow = info.get("grow", False)  # count is an estimate (sqlite3): the arrays grow past it
     dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count, grow=grow)
     done = None
-    if blocks is None and getattr(reader, "index", None) is not None and sys.byteorder == "little":
-        try:  # a plain ROS 1 bag: walked and gathered chunk by chunk in one compiled call per round
-            out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[-1])
-            cons = np.array(sorted(info["cons"]), dtype=np.int64)
-            if bagscan.ros1_decode(path, reader.index, cons, dec.kernel_layout, out):
-                done = dec.done = count
-        except Exception:  # noqa: BLE001 - anything it does not read: the blocks below read it (or name damage)
-            done = None
-    mcap = bagscan.mcap_file(reader) if blocks is None and done is None and sys.byteorder == "little" else None
-    if mcap is not None:
-        try:  # an MCAP file: walked and gathered chunk by chunk in one compiled call per round
-            out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[-1])
-            if bagscan.mcap_decode(mcap, topic, dec.kernel_layout, out):
-                done = dec.done = count
-        except Exception:  # noqa: BLE001 - anything it does not read: the blocks below read it (or name damage)
-            done = None
+    if blocks is None and _whole(reader, path, topic, info, dec):
+        done = dec.done = count
     fast = None if done is not None else bagscan.blocks(reader, path, topic) if blocks is None else blocks
     if fast is not None:
         try:
@@ -506,6 +495,26 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
     # the storage's record order; rosbags yields log-time order
     return _ordered(dec.stamp[:done], dec.logt[:done], tuple(v[:done] for v in dec.vals))
+
+
+def _whole(reader, path: Path, topic: str, info: dict, dec) -> bool:
+    """Decode every message of ``topic`` into the decoder's arrays (``info["count"]`` rows) by the storage's
+    compiled decoder — a plain ROS 1 bag read through its own index (:func:`optinav.io.bagscan.ros1_decode`), or
+    an MCAP file (:func:`optinav.io.bagscan.mcap_decode`): each chunk walked and gathered in one call while in
+    cache, two threads. False when neither applies or it declines: the blocks read the topic."""
+    from optinav.io import bagscan
+
+    if sys.byteorder != "little":
+        return False
+    out = (dec.stamp, dec.logt, dec.vals[0], dec.vals[-1])
+    try:
+        if getattr(reader, "index", None) is not None:
+            cons = np.array(sorted(info["cons"]), dtype=np.int64)
+            return bagscan.ros1_decode(path, reader.index, cons, dec.kernel_layout, out)
+        mcap = bagscan.mcap_file(reader)
+        return mcap is not None and bagscan.mcap_decode(mcap, topic, dec.kernel_layout, out)
+    except Exception:  # noqa: BLE001 - anything it does not read: the blocks read it (or name the damage)
+        return False
 
 
 def _rosbags_blocks(reader, info: dict):
