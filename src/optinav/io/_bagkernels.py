@@ -130,13 +130,48 @@ _OP, _CONN, _TIME = (np.frombuffer(s, dtype=np.uint8).copy() for s in (b"op", b"
 
 
 @numba.njit(**_NJ)
+def _fields(buf, p, he, a, b):
+    """The ROS 1 record header fields ``buf[p:he]`` (``len u32, name=value`` each): (ok, op, start and length of
+    the value of field ``a``, of field ``b``); op the ``op`` byte (−1 absent, −2 not one byte), a start −1 for a
+    field absent. A field's last occurrence counts. ok False for fields that do not parse."""
+    op, sa, la, sb, lb = -1, np.int64(-1), np.int64(0), np.int64(-1), np.int64(0)
+    while p < he:
+        if p + 4 > he:
+            return False, op, sa, la, sb, lb
+        q = p + 4 + np.int64(_u32(buf, p))
+        if q > he:
+            return False, op, sa, la, sb, lb
+        eq = p + 4
+        while eq < q and buf[eq] != 0x3D:  # "="
+            eq += 1
+        if eq >= q:
+            return False, op, sa, la, sb, lb
+        if _is(buf, p + 4, eq, _OP):
+            op = buf[eq + 1] if q - eq - 1 == 1 else -2
+        elif _is(buf, p + 4, eq, a):
+            sa, la = eq + 1, q - eq - 1
+        elif _is(buf, p + 4, eq, b):
+            sb, lb = eq + 1, q - eq - 1
+        p = q
+    return True, op, sa, la, sb, lb
+
+
+@numba.njit(**_NJ)
+def _u32_field(buf, start, n):
+    """A u32 field's value (−1 absent, −2 not four bytes)."""
+    if start < 0:
+        return np.int64(-1)
+    return np.int64(_u32(buf, start)) if n == 4 else np.int64(-2)
+
+
+@numba.njit(**_NJ)
 def ros1_walk(buf, pos, end, conns, off, size, logt, k):
     """Records of a ROS 1 chunk's ``buf[pos:end]`` (``header_len u32, fields (len u32, name=value)…, data_len
     u32, data``): a message data record (op ``0x02``) of a connection in ``conns`` adds (data offset, data size,
     log time ns from the ``time`` field sec u32, nsec u32) at row ``k``. A field's last occurrence counts, as in
     :func:`optinav.io.bagscan._fields`; a header equal to the topic's last message's but for the time value is
     not parsed again. Returns (status, pos, k)."""
-    opn, connn, timen = _OP, _CONN, _TIME
+    connn, timen = _CONN, _TIME
     ref, ref_t = np.int64(-1), np.int64(0)  # header start and time value offset of the topic's last message
     if pos < 0 or end > buf.size:  # the loads below are unchecked
         return MALFORMED, pos, k
@@ -168,26 +203,11 @@ def ros1_walk(buf, pos, end, conns, off, size, logt, k):
             ref = pos
             pos = de
             continue
-        op, conn, tpos = -1, np.int64(-1), np.int64(-1)
-        p = pos + 4
-        while p < he:
-            if p + 4 > he:
-                return MALFORMED, pos, k
-            q = p + 4 + np.int64(_u32(buf, p))
-            if q > he:
-                return MALFORMED, pos, k
-            eq = p + 4
-            while eq < q and buf[eq] != 0x3D:  # "="
-                eq += 1
-            if eq >= q:
-                return MALFORMED, pos, k
-            if _is(buf, p + 4, eq, opn):
-                op = buf[eq + 1] if q - eq - 1 == 1 else -2
-            elif _is(buf, p + 4, eq, connn):
-                conn = np.int64(_u32(buf, eq + 1)) if q - eq - 1 == 4 else np.int64(-2)
-            elif _is(buf, p + 4, eq, timen):
-                tpos = eq + 1 if q - eq - 1 == 8 else np.int64(-2)
-            p = q
+        ok, op, cs, cl, ts, tl = _fields(buf, pos + 4, he, connn, timen)
+        if not ok:
+            return MALFORMED, pos, k
+        conn = _u32_field(buf, cs, cl)
+        tpos = ts if ts < 0 or tl == 8 else np.int64(-2)
         if op < 0:
             return MALFORMED, pos, k
         if op == 0x02:
@@ -218,7 +238,7 @@ def ros1_chunk(buf, pos, end):
     """The ROS 1 chunk record at ``buf[pos:end]``: (status, data start, data stop). OK only for a chunk (op
     ``0x05``) stored uncompressed (``compression=none``) whose ``size`` field, when present, is its data's
     length; else MALFORMED (the caller reads that chunk another way)."""
-    opn, compn, sizen, nonen = _OP, _COMPRESSION, _SIZE, _NONE
+    compn, sizen, nonen = _COMPRESSION, _SIZE, _NONE
     if pos < 0 or end > buf.size or pos + 4 > end:
         return MALFORMED, pos, pos
     he = pos + 4 + np.int64(_u32(buf, pos))
@@ -228,26 +248,11 @@ def ros1_chunk(buf, pos, end):
     de = ds + np.int64(_u32(buf, he))
     if de > end:
         return MALFORMED, pos, pos
-    op, plain, csize = -1, False, np.int64(-1)
-    p = pos + 4
-    while p < he:
-        if p + 4 > he:
-            return MALFORMED, pos, pos
-        q = p + 4 + np.int64(_u32(buf, p))
-        if q > he:
-            return MALFORMED, pos, pos
-        eq = p + 4
-        while eq < q and buf[eq] != 0x3D:  # "="
-            eq += 1
-        if eq >= q:
-            return MALFORMED, pos, pos
-        if _is(buf, p + 4, eq, opn):
-            op = buf[eq + 1] if q - eq - 1 == 1 else -2
-        elif _is(buf, p + 4, eq, compn):
-            plain = _is(buf, eq + 1, q, nonen)
-        elif _is(buf, p + 4, eq, sizen):
-            csize = np.int64(_u32(buf, eq + 1)) if q - eq - 1 == 4 else np.int64(-2)
-        p = q
+    ok, op, cs, cl, ss, sl = _fields(buf, pos + 4, he, compn, sizen)
+    if not ok:
+        return MALFORMED, pos, pos
+    plain = cs >= 0 and _is(buf, cs, cs + cl, nonen)
+    csize = _u32_field(buf, ss, sl)
     if op != 0x05 or not plain or csize == -2 or (csize >= 0 and csize != de - ds):
         return MALFORMED, pos, pos
     return OK, ds, de
@@ -261,7 +266,7 @@ def ros1_tails(buf, pos, nxt, conns):
     """The messages of the connections ``conns`` in each ROS 1 chunk at ``pos[i]`` by its index data records (op
     ``0x04``: ``conn``, ``count`` fields), which follow the chunk record up to the next chunk ``nxt[i]`` (other
     records there are skipped). Returns (status, counts): MALFORMED for records that do not end at ``nxt[i]``."""
-    opn, connn, countn = _OP, _CONN, _COUNT
+    connn, countn = _CONN, _COUNT
     counts = np.zeros(pos.size, dtype=np.int64)
     for i in range(pos.size):
         end = nxt[i]
@@ -281,26 +286,10 @@ def ros1_tails(buf, pos, nxt, conns):
             de = he + 4 + np.int64(_u32(buf, he))
             if de > end:
                 return MALFORMED, counts
-            op, conn, cnt = -1, np.int64(-1), np.int64(-1)
-            f = q + 4
-            while f < he:
-                if f + 4 > he:
-                    return MALFORMED, counts
-                g = f + 4 + np.int64(_u32(buf, f))
-                if g > he:
-                    return MALFORMED, counts
-                eq = f + 4
-                while eq < g and buf[eq] != 0x3D:  # "="
-                    eq += 1
-                if eq >= g:
-                    return MALFORMED, counts
-                if _is(buf, f + 4, eq, opn):
-                    op = buf[eq + 1] if g - eq - 1 == 1 else -2
-                elif _is(buf, f + 4, eq, connn):
-                    conn = np.int64(_u32(buf, eq + 1)) if g - eq - 1 == 4 else np.int64(-2)
-                elif _is(buf, f + 4, eq, countn):
-                    cnt = np.int64(_u32(buf, eq + 1)) if g - eq - 1 == 4 else np.int64(-2)
-                f = g
+            ok, op, cs, cl, ns, nl = _fields(buf, q + 4, he, connn, countn)
+            if not ok:
+                return MALFORMED, counts
+            conn, cnt = _u32_field(buf, cs, cl), _u32_field(buf, ns, nl)
             if op == 0x04:
                 if conn < 0 or cnt < 0:
                     return MALFORMED, counts
