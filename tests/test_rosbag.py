@@ -228,17 +228,17 @@ class _SpyPool:
         return self.pool.submit(fn, *args)
 
 
-def _spy_decode(monkeypatch):
-    """Record what every bagscan.ros1_decode call returns."""
+def _spy_decode(monkeypatch, name="ros1_decode"):
+    """Record what every call of the whole-topic decoder ``bagscan.<name>`` returns."""
     from optinav.io import bagscan
 
-    calls, real = [], bagscan.ros1_decode
+    calls, real = [], getattr(bagscan, name)
 
     def spy(*args, **kw):
         calls.append(real(*args, **kw))
         return calls[-1]
 
-    monkeypatch.setattr(bagscan, "ros1_decode", spy)
+    monkeypatch.setattr(bagscan, name, spy)
     return calls
 
 
@@ -394,8 +394,7 @@ def test_mcap_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     from optinav.io import bagscan
 
     rng = np.random.default_rng(26)
-    calls, real = [], bagscan.mcap_decode
-    monkeypatch.setattr(bagscan, "mcap_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    calls = _spy_decode(monkeypatch, "mcap_decode")
     monkeypatch.setattr(bagscan, "_ROUND", 2 << 20)  # two chunks a round
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
@@ -692,8 +691,7 @@ def test_sqlite_pages_decoded_in_rounds_and_grown(tmp_path, monkeypatch):
     monkeypatch.setattr(bagscan, "_LEAVES", 1)
     monkeypatch.setattr(bagscan, "_ROUND", 3 * 4096)
     monkeypatch.setattr(rosbags.highlevel, "AnyReader", None)  # read by the scanner alone
-    calls, real = [], bagscan.sqlite_decode
-    monkeypatch.setattr(bagscan, "sqlite_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    calls = _spy_decode(monkeypatch, "sqlite_decode")
     grown = []
     import optinav.io.rosbag as rb
 
@@ -733,8 +731,7 @@ def test_sqlite_rounds_split_between_two_threads(tmp_path, monkeypatch, side):
     monkeypatch.setattr(bagscan, "_SIDE", side)
     spy = _SpyPool()
     monkeypatch.setattr(bagscan, "_helper", lambda: spy)
-    calls, real = [], bagscan.sqlite_decode
-    monkeypatch.setattr(bagscan, "sqlite_decode", lambda *a: calls.append(real(*a)) or calls[-1])
+    calls = _spy_decode(monkeypatch, "sqlite_decode")
     two = read_table(bag)
     assert calls == [600, 60] and spy.jobs >= 4
     for k in one:
