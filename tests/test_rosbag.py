@@ -872,6 +872,48 @@ def test_stamps_backwards_use_log_time(tmp_path):
     assert np.array_equal(log.gyr, gyr)
 
 
+@pytest.mark.parametrize(
+    ("kind", "compression"),
+    [("ros1", "bz2"), ("ros1", "lz4"), ("mcap", "storage"), ("mcap", "file"), ("sqlite3", "file")],
+)
+def test_compressed_bag_of_a_quantized_imu_reads_whole(tmp_path, kind, compression):
+    """A quantized IMU at rest compresses tenfold: more messages than the stored bytes could hold uncompressed is
+    no sign of a damaged index in a compressed bag (was refused: "more than the file can hold"). rosbag2's file
+    compression (``ros2 bag record --compression-mode file``) reads too."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    gyr = np.round(rng.normal(0, 0.002, (n, 3)) / 0.001) * 0.001  # a few counts of noise
+    acc = np.round((rng.normal(0, 0.01, (n, 3)) + [0, 0, 9.81]) / 0.01) * 0.01
+    msgs, t, _, _ = imu_topic(rng, n=n, stamps=np.arange(n, dtype=np.int64) * 10_000_000)
+    msgs = [(ns, lambda ts, i=i, m=m: _with_values(m(ts), gyr[i], acc[i])) for i, (ns, m) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "q", kind, {"/imu": (IMU, msgs)}, compression=compression)
+    size = sum(f.stat().st_size for f in bag.iterdir()) if bag.is_dir() else bag.stat().st_size
+    assert n * 64 > size  # the old bound refused this bag
+    log = read_imu(bag)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_array_equal(log.acc, acc)
+    np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-9)
+    assert sum(c.t.size for c in iter_imu(bag, chunk_rows=1000)) == n
+
+
+def test_compressed_bag_whose_index_counts_too_many_is_a_one_line_error(tmp_path):
+    """A count beyond the stored bytes in a compressed bag is read as far as the messages go, then refused with
+    both numbers (not allocated for, not read as a shorter recording)."""
+    rng = np.random.default_rng(4)
+    msgs, *_ = imu_topic(rng, n=500)
+    bag = write_bag(tmp_path / "f", "sqlite3", {"/imu": (IMU, msgs)}, compression="file")
+    meta = bag / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("message_count: 500", "message_count: 1000000000000"))
+    with pytest.raises(OptinavError, match=r"holds 500 messages, its index says 1000000000000"):
+        read_imu(bag)
+
+
+def _with_values(msg, gyr, acc):
+    for obj, v in ((msg.angular_velocity, gyr), (msg.linear_acceleration, acc)):
+        obj.x, obj.y, obj.z = map(float, v)
+    return msg
+
+
 def test_damaged_bags_are_one_line_errors(tmp_path):
     rng = np.random.default_rng(7)
     msgs, *_ = imu_topic(rng, n=200)

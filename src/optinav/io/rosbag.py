@@ -452,18 +452,15 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
 
     msgtype, count = info["type"], info["count"]
     size = sum(f.stat().st_size for f in path.iterdir() if f.is_file()) if path.is_dir() else path.stat().st_size
-    if count * _MIN_MSG_BYTES > size:  # a damaged index: do not allocate for it
-        if not hasattr(reader, "messages"):
-            raise bagscan.NotFast("count beyond the file size")
-        raise OptinavError(
-            f"{path.name} is not a readable ROS bag: its index counts {count} messages of {topic!r}, "
-            "more than the file can hold",
-            "reindex the bag (ros2 bag reindex / rosbag reindex)",
-        )
-    grow = info.get("grow", False)  # count is an estimate (sqlite3): the arrays grow past it
-    dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, count, grow=grow)
+    # more messages than the stored bytes hold uncompressed: compressed storage (chunks or the whole file; a
+    # quantized IMU compresses tenfold), or a damaged index. Allocate for what the bytes hold, grow as messages
+    # come, and require the index's count at the end.
+    cap = max(size // _MIN_MSG_BYTES, 1)
+    packed = count > cap
+    grow = info.get("grow", False) or packed  # grow: count is an estimate (sqlite3) or beyond the bytes
+    dec = _Decoder(reader, not getattr(reader, "is2", True), msgtype, min(count, cap), grow=grow)
     done = None
-    if blocks is None and _whole(reader, path, topic, info, dec):
+    if blocks is None and not packed and _whole(reader, path, topic, info, dec):
         done = dec.done = count
     fast = None if done is not None else bagscan.blocks(reader, path, topic) if blocks is None else blocks
     if fast is not None:
@@ -486,9 +483,9 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
                 f"message(s) ({_why(exc)})",
                 "check that the bag was closed properly (ros2 bag reindex / rosbag reindex)",
             ) from None
-    if dec.done > count and not grow:
+    if (dec.done > count and not grow) or (packed and dec.done != count):
         raise OptinavError(
-            f"topic {topic!r} of {path.name} holds more messages than its index says ({count})",
+            f"topic {topic!r} of {path.name} holds {dec.done} messages, its index says {count}",
             "reindex the bag (ros2 bag reindex / rosbag reindex)",
         )
     if done == 0:
