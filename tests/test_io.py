@@ -1,6 +1,7 @@
 """optinav.io: table readers (text, NPZ, HDF5, MATLAB v5/v7.3), read_imu, write_imu and their errors."""
 
 import math
+import re
 import os
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from hypothesis import strategies as st
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
 from optinav.io import ImuLog, read_imu, read_table, write_imu
+from optinav.io.imu import TIME_UNITS
 from optinav.io.readers import iter_table, load_table
 
 try:
@@ -165,18 +167,18 @@ def test_aliases_are_recognised(tmp_path):
     assert log.sample.tolist() == [10, 11, 12] and log.labels.tolist() == ["a", "a", "b"]
     # a name implying its unit and a mapping entry
     log = read_imu(
-        _write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,6\n"),
+        _write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,5.5\n"),
         columns="t=zeit",
         gyro_unit="deg/s",
     )
-    assert log.t.tolist() == [5.0, 6.0] and log.acc is None
+    assert log.t.tolist() == [5.0, 5.5] and log.acc is None
     np.testing.assert_allclose(log.gyr[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
     log = read_imu(tmp_path / "b.csv")
     assert log.t.tolist() == [0.0, 500e-6]
 
 
 def test_units_convert_to_si_and_counts_are_kept(tmp_path):
-    path = _write(tmp_path / "u.csv", "t,ax,ay,az,gx,gy,gz\n0,1,0,-1,180,0,-90\n1,0.5,2,0,360,1,0\n")
+    path = _write(tmp_path / "u.csv", "t,ax,ay,az,gx,gy,gz\n0,1,0,-1,180,0,-90\n0.01,0.5,2,0,360,1,0\n")
     log = read_imu(path, acc_unit="g", gyro_unit="deg/s")
     assert log.acc[0, 0] == G_STANDARD == 9.80665 and log.acc[0, 2] == -9.80665
     assert log.gyr[0, 0] == pytest.approx(math.pi, rel=1e-15) and log.gyr[1, 0] == pytest.approx(2 * math.pi)
@@ -185,7 +187,7 @@ def test_units_convert_to_si_and_counts_are_kept(tmp_path):
     assert raw.acc_unit == raw.gyro_unit == "counts" and raw.gyr[0, 0] == 180.0 and raw.acc[1, 0] == 0.5
     si = read_imu(path)
     assert si.acc[0, 0] == 1.0 and si.gyr[0, 0] == 180.0  # defaults m/s^2, rad/s: no conversion
-    assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-3]
+    assert read_imu(path, time_unit="ms").t.tolist() == [0.0, 1e-5]
     assert read_imu(path, acc_unit="mg").acc[1, 0] == pytest.approx(0.5e-3 * 9.80665, rel=1e-15)
     for kw, accepted in (
         ({"acc_unit": "ug"}, "counts, g, mg, m/s\\^2"),
@@ -229,7 +231,8 @@ def test_text_errors_name_the_line_and_column(tmp_path):
 
 def test_empty_cells_are_nan_and_counted(tmp_path):
     path = _write(
-        tmp_path / "n.csv", "t,ax,ay,az,gx,gy,gz\n0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n3,inf,2,3,1,1,nan\n"
+        tmp_path / "n.csv",
+        "t,ax,ay,az,gx,gy,gz\n0,1,,3,1,1,1\n.01,1,2,3,nan,1,1\n.02,1,2,3,1,1,1\n.03,inf,2,3,1,1,nan\n",
     )
     log = read_imu(path)
     assert log.nan_rows == 3 and len(log) == 4 and log.finite.tolist() == [False, False, True, False]
@@ -246,10 +249,10 @@ def test_value_checks_are_the_same_through_the_compiled_interleave(tmp_path, mon
         monkeypatch.setattr(imu, "_COMPILED_ROWS", 2)
     head = "t,ax,ay,az,gx,gy,gz\n"
     log = read_imu(
-        _write(tmp_path / "n.csv", head + "0,1,,3,1,1,1\n1,1,2,3,nan,1,1\n2,1,2,3,1,1,1\n3,inf,2,3,1,1,nan\n")
+        _write(tmp_path / "n.csv", head + "0,1,,3,1,1,1\n.01,1,2,3,nan,1,1\n.02,1,2,3,1,1,1\n.03,inf,2,3,1,1,nan\n")
     )
     assert log.nan_rows == 3 and log.finite.tolist() == [False, False, True, False]
-    log = read_imu(_write(tmp_path / "ok.csv", head + "0,1,2,3,4,5,6\n1,-1,-2,-3,-4,-5,-6\n"), gyro_unit="deg/s")
+    log = read_imu(_write(tmp_path / "ok.csv", head + "0,1,2,3,4,5,6\n.01,-1,-2,-3,-4,-5,-6\n"), gyro_unit="deg/s")
     assert log.nan_rows == 0 and log.acc.flags.c_contiguous
     np.testing.assert_array_equal(log.acc, [[1, 2, 3], [-1, -2, -3]])
     np.testing.assert_allclose(log.gyr, np.radians([[4, 5, 6], [-4, -5, -6]]), rtol=1e-15)
@@ -356,7 +359,7 @@ def test_missing_columns_and_time_errors(tmp_path):
 
 
 def test_label_column_text_is_kept_elsewhere_refused(tmp_path):
-    body = "x_p,0,1,2,3\nx_p,1,1,2,3\nz_rot,2,1,2,3\n"
+    body = "x_p,0,1,2,3\nx_p,.01,1,2,3\nz_rot,.02,1,2,3\n"
     log = read_imu(_write(tmp_path / "l.csv", "part,t,ax,ay,az\n" + body))
     assert log.labels.tolist() == ["x_p", "x_p", "z_rot"]
     with pytest.raises(OptinavError, match="line 2, column 1 \\('kind'\\): 'x_p' is not a number"):
@@ -368,9 +371,9 @@ def test_label_column_text_is_kept_elsewhere_refused(tmp_path):
     assert read_imu(tmp_path / "k.csv", columns="label=kind").labels.tolist() == ["x_p", "x_p", "z_rot"]
     with pytest.raises(OptinavError, match="line 3 has 4 field\\(s\\), 5 expected"):
         read_imu(_write(tmp_path / "r.csv", "part,t,ax,ay,az\nx_p,0,1,2,3\nx_p,1,1,2\nz_rot,2,1,2,3\n"))
-    quoted = read_imu(_write(tmp_path / "q.csv", 'part,t,ax,ay,az\n"a, b",0,1,2,3\nc,1,1,2,3\n'))
+    quoted = read_imu(_write(tmp_path / "q.csv", 'part,t,ax,ay,az\n"a, b",0,1,2,3\nc,.01,1,2,3\n'))
     assert quoted.labels.tolist() == ["a, b", "c"]
-    numeric = read_imu(_write(tmp_path / "i.csv", "label,t,ax,ay,az\n-1,0,1,2,3\n4,1,1,2,3\n"))
+    numeric = read_imu(_write(tmp_path / "i.csv", "label,t,ax,ay,az\n-1,0,1,2,3\n4,.01,1,2,3\n"))
     assert numeric.labels.dtype.kind == "i" and numeric.labels.tolist() == [-1, 4]
 
 
@@ -704,3 +707,29 @@ def test_million_row_csv_reads_in_seconds(tmp_path):
     elapsed = time.perf_counter() - start
     _same(log, back)
     assert elapsed < 30.0, f"reading {n} rows took {elapsed:.1f} s"
+
+
+def test_a_time_column_in_another_unit_than_seconds_is_refused_unless_stated(tmp_path):
+    """Times read as seconds because nothing states their unit must give an IMU rate (≥ 2 Hz): a logger's
+    millis() at 1 kHz or nanoseconds since boot read as seconds gave 1 Hz / 1e-7 Hz logs and noise densities
+    orders of magnitude off, with exit 0. The error names the unit that fits; a stated unit is taken."""
+    rng = np.random.default_rng(2)
+    n = 400
+    acc = rng.normal(0, 0.01, (n, 3)) + [0, 0, 9.81]
+    body = "".join("{}," + ",".join(map(repr, a.tolist())) + "\n" for a in acc)
+    for unit, step, fits in (("ms", 1, "ms"), ("ms", 2, "ms"), ("ns", 10_000_000, "ns"), ("us", 5000, "us")):
+        ticks = 1_700_000_000 * (step if unit == "ms" else 1) + np.arange(n) * step
+        path = _write(tmp_path / f"{unit}{step}.csv", "t,ax,ay,az\n" + body.format(*ticks))
+        with pytest.raises(
+            OptinavError, match=rf"steps {re.escape(f'{step:.3g}')} s read as seconds .*pass --time-unit {fits}\b"
+        ):
+            read_imu(path)
+        log = read_imu(path, time_unit=unit)
+        np.testing.assert_allclose(np.diff(log.t), step * TIME_UNITS[unit], rtol=0, atol=1e-6)  # epoch times
+        np.testing.assert_array_equal(log.acc, acc)
+    slow = _write(tmp_path / "slow.csv", "t,ax,ay,az\n" + body.format(*np.arange(n)))  # a 1 Hz log, said so
+    assert read_imu(slow, time_unit="s").t[-1] == n - 1
+    fast = _write(tmp_path / "ok.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 2.5)))  # 2.5 Hz: accepted
+    assert read_imu(fast).t[1] == 0.4
+    with pytest.raises(OptinavError, match=r"in its stated unit: a 1e\+08 Hz IMU log; pass the right --time-unit"):
+        read_imu(_write(tmp_path / "s.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 100))), time_unit="us")

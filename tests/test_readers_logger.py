@@ -94,12 +94,12 @@ def test_npz_without_signature_nor_text_is_one_line(tmp_path, suffix):
 
 
 def test_latin1_header_reads(tmp_path):
-    log = read_imu(_w(tmp_path / "l.csv", "t,ax [m/s²],ay,az\n0,1,2,3\n1,1,2,3\n".encode("latin-1")))
+    log = read_imu(_w(tmp_path / "l.csv", "t,ax [m/s²],ay,az\n0,1,2,3\n.01,1,2,3\n".encode("latin-1")))
     assert log.acc.shape == (2, 3)
 
 
 def test_incomplete_last_line_is_left_out_with_a_note(tmp_path):
-    log = read_imu(_w(tmp_path / "c.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n2,1,2"))
+    log = read_imu(_w(tmp_path / "c.csv", "t,ax,ay,az\n0,1,2,3\n.01,1,2,3\n.02,1,2"))
     assert len(log) == 2 and any("last line (4) is incomplete" in n for n in log.notes)
     with pytest.raises(OptinavError, match="line 4 has 3 field"):  # a complete line with a field missing
         read_imu(_w(tmp_path / "d.csv", "t,ax,ay,az\n0,1,2,3\n1,1,2,3\n2,1,2\n"))

@@ -129,10 +129,10 @@ def test_time_order_and_empty_columns_are_checked_across_blocks(tmp_path):
     assert str(e.value) == str(e0.value)
     # a column empty in one block is fine, empty in the whole file is the whole reader's error
     q = tmp_path / "empty.csv"
-    q.write_text("t,ax,ay,az\n" + "".join(f"{i},1,{'' if i < 25 else 2},3\n" for i in range(30)))
+    q.write_text("t,ax,ay,az\n" + "".join(f"{i / 100},1,{'' if i < 25 else 2},3\n" for i in range(30)))
     assert len(sum((list(b.acc[:, 1]) for b in iter_imu(q, chunk_rows=10)), [])) == 30
     r = tmp_path / "none.csv"
-    r.write_text("t,ax,ay,az\n" + "".join(f"{i},1,,3\n" for i in range(30)))
+    r.write_text("t,ax,ay,az\n" + "".join(f"{i / 100},1,,3\n" for i in range(30)))
     with pytest.raises(OptinavError) as e0:
         read_imu(r)
     with pytest.raises(OptinavError) as e:

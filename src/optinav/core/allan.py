@@ -1215,9 +1215,10 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
             if x is None:
                 raise OptinavError(f"a block of {source or 'the log'} lacks the {name}", "check --columns")
             if not np.all(np.isfinite(x)):
-                n_bad = int(np.count_nonzero(~np.all(np.isfinite(x), axis=1)))
+                bad = np.flatnonzero(~np.all(np.isfinite(x), axis=1))
                 raise OptinavError(
-                    f"the {name} data have {n_bad} row(s) with NaN or inf near t = {log.t[0]:.6g} s",
+                    f"the {name} data have {bad.size} row(s) with NaN or inf in a block of the log, the first at "
+                    f"t = {log.t[bad[0]]:.6g} s",
                     "cut the bad rows out of the log (the Allan deviation needs a gap-free record)",
                 )
             if len(x):

@@ -810,6 +810,7 @@ def _log_of(
         what = f"time column {p.t_name!r} of {p.path.name}"
         if prev_t is None:
             t = check_timestamps(t, what, min_count=1 if block else 2)
+            _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"])
         else:
             check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
     elif rate is None and _file_rate(main.table) is None:
@@ -858,6 +859,30 @@ def _log_of(
     known = all(kind in main.finite for kind, v in (("acc", main.acc), ("gyro", main.gyro)) if v is not None)
     log.nan_rows = 0 if known else int(np.count_nonzero(~log.finite))
     return log
+
+
+#: sample rates (Hz) an IMU log can have: a time column read as seconds because nothing states its unit, whose
+#: median step gives a rate below the first, is most likely in ms (a logger's millis() at 1 kHz reads as 1 Hz), µs
+#: or ns; one whose stated unit gives a rate above the second is misstated
+_RATE_RANGE = (2.0, 1e7)
+
+
+def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool) -> None:
+    """Refuse times whose median step (over the first 65 536) gives an implausible IMU rate (:data:`_RATE_RANGE`);
+    below the range only when the unit was not stated (``--time-unit s`` accepts a slow log)."""
+    if t.size < 2:
+        return
+    step = float(np.median(np.diff(t[:65537])))
+    rate = 1.0 / step
+    low, high = _RATE_RANGE
+    if low <= rate <= high or (rate < low and not defaulted):
+        return
+    fits = [u for u, f in TIME_UNITS.items() if f != 1.0 and low <= 1.0 / (step * f) <= 1e5] if defaulted else []
+    hint = f"pass --time-unit {'|'.join(fits)}" if fits else "pass the right --time-unit (s, ms, us, ns)"
+    if rate < low:
+        hint += " (or --time-unit s if that rate is right)"
+    read = "read as seconds (no unit stated)" if defaulted else "in its stated unit"
+    raise OptinavError(f"{what} steps {step:.3g} s {read}: a {rate:.3g} Hz IMU log", hint)
 
 
 def iter_imu(
