@@ -208,3 +208,45 @@ def test_fuzz_logger_text_reads_or_fails_in_one_line(tmp_path, pieces, suffix, r
     for v in (log.acc, log.gyr):
         if v is not None:
             assert v.shape == (len(log), 3) and not np.any(np.isfinite(v) & (np.abs(v) > 1e12))
+
+
+XSENS_HEAD = """// General information:
+//  MT Manager version: 2022.2.0
+//  XDA version: 2022.2.0 build 7381 rev 124627
+// Device information:
+//  DeviceId: 00B42D4F
+//  ProductCode: MTW2-3A7G6
+// Device settings:
+//  Filter Profile: human(46.1)
+//  Option Flags: Orientation Smoother Disabled, Position/Velocity Smoother Disabled
+{rate}// Coordinate system: ENU
+PacketCounter\tSampleTimeFine\tYear\tMonth\tDay\tSecond\tAcc_X\tAcc_Y\tAcc_Z\tGyr_X\tGyr_Y\tGyr_Z\tRoll\tPitch\tYaw
+"""
+
+
+@pytest.mark.parametrize("rate", ["// Update Rate: 100.0Hz\n", ""])
+def test_xsens_mt_manager_export_reads(tmp_path, rate):
+    """An Xsens MT Manager text export as written: '//' settings lines, tab-separated, PacketCounter and a
+    SampleTimeFine that may be NaN (wireless MTw), Acc_* in m/s^2, Gyr_* in rad/s, Euler columns beside; the rate
+    from its 'Update Rate' line, or --rate when it has none (was refused: 'line 2 has 5 field(s), 3 expected')."""
+    rng = np.random.default_rng(5)
+    acc = rng.normal(0, 0.01, (50, 3)) + [0, 0, 9.81]
+    gyr = rng.normal(0, 0.001, (50, 3))
+    rows = "".join(
+        "\t".join(
+            [str(51400 + i)] + ["NaN"] * 5 + [f"{v:.6f}" for v in (*acc[i], *gyr[i])] + ["-0.25", "0.21", "-137.1"]
+        )
+        + "\n"
+        for i in range(50)
+    )
+    path = _w(tmp_path / "MT_00B42D4F_000.txt", XSENS_HEAD.format(rate=rate) + rows)
+    if not rate:
+        with pytest.raises(OptinavError, match="has no time column .*pass --rate HZ"):
+            read_imu(path)
+    log = read_imu(path) if rate else read_imu(path, rate_hz=100.0)
+    np.testing.assert_allclose(log.t[:3], [0.0, 0.01, 0.02])
+    np.testing.assert_allclose(log.acc, np.round(acc, 6), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(log.gyr, np.round(gyr, 6), rtol=0, atol=1e-12)
+    assert log.sample[0] == 51400
+    if rate:
+        assert any("Update Rate" in n for n in log.notes)

@@ -766,9 +766,9 @@ def _text_layout(
         s = line.strip()
         if not s:
             continue
-        if s.startswith("#"):
+        if s.startswith("#") or (not content and s.startswith("//")):  # '//' heads an Xsens MT Manager export
             if not content:
-                comments.append(s.lstrip("#").strip())
+                comments.append(s.lstrip("#/").strip())
                 last_comment = i
             continue
         if not _strip_comment(s).strip():
@@ -1023,6 +1023,8 @@ RATE_KEYS = (
     "fs_hz",
     "frequency",
     "odr",
+    "update_rate",
+    "output_rate",
 )
 
 
@@ -1056,10 +1058,18 @@ def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
 
 
 def _comment_meta(comments: list[str]) -> dict[str, str]:
-    """``# units: t=s acc=m/s^2 gyro=rad/s`` (as written by write_imu) → {time_unit, acc_unit, gyro_unit}."""
+    """``# units: t=s acc=m/s^2 gyro=rad/s`` (as written by write_imu) → {time_unit, acc_unit, gyro_unit}; a
+    ``key: value`` comment with a rate key (``// Update Rate: 100.0Hz``) → rate (Hz), as a preamble line."""
     meta: dict[str, str] = {}
     keys = {"t": "time_unit", "time": "time_unit", "acc": "acc_unit", "gyro": "gyro_unit"}
     for c in comments:
+        kv = _KEY_VALUE.match(c)
+        if kv and normalize_name(kv.group(1))[0] in RATE_KEYS and "rate" not in meta:
+            try:
+                meta["rate"] = repr(float(kv.group(2).lower().replace("hz", "").strip()))
+                meta["rate_key"] = kv.group(1).strip()
+            except ValueError:
+                pass
         m = re.search(r"\bunits?\s*:\s*(.*)$", c, re.IGNORECASE)
         if not m:
             continue
