@@ -250,3 +250,21 @@ def test_xsens_mt_manager_export_reads(tmp_path, rate):
     assert log.sample[0] == 51400
     if rate:
         assert any("Update Rate" in n for n in log.notes)
+
+
+def test_euroc_asl_imu_csv_reads_as_published(tmp_path):
+    """EuRoC / TUM-VI ``imu0/data.csv`` (ASL format): a '#' header with units in brackets, times in ns since the
+    epoch, w_RS_S_* before a_RS_S_*, CRLF. Read with no option (was: no accelerometer or gyroscope data), and
+    with names given the header's [ns] is kept (was read as seconds: a 2e-7 Hz log)."""
+    rng = np.random.default_rng(6)
+    n, t0 = 300, 1403636579758555392
+    gyr, acc = rng.normal(0, 0.002, (n, 3)), rng.normal(0, 0.02, (n, 3)) + [9.81, 0, 0]
+    head = "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+    head += "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]"
+    rows = [",".join([str(t0 + i * 5_000_000)] + [repr(float(v)) for v in (*gyr[i], *acc[i])]) for i in range(n)]
+    path = _w(tmp_path / "data.csv", "\r\n".join([head, *rows]) + "\r\n")
+    for log in (read_imu(path), read_imu(path, columns="t,gx,gy,gz,ax,ay,az")):
+        np.testing.assert_allclose(np.diff(log.t), 0.005, rtol=0, atol=1e-6)
+        assert log.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
+        np.testing.assert_array_equal(log.gyr, gyr)
+        np.testing.assert_array_equal(log.acc, acc)

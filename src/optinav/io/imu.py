@@ -77,6 +77,8 @@ GYRO_UNITS = {
     "degrees/s": "deg/s",
     "rad/s": "rad/s",
     "rad/sec": "rad/s",
+    "rad s^-1": "rad/s",
+    "deg s^-1": "deg/s",
 }
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -166,6 +168,8 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         for p in prefixes:
             for axis in "xyz":
                 al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
+    for axis in "xyz":  # the ASL/EuRoC dataset format (EuRoC, TUM-VI): a_RS_S_x, w_RS_S_x of the sensor S
+        al[f"a_rs_s_{axis}"], al[f"w_rs_s_{axis}"] = (f"a{axis}", None), (f"g{axis}", None)
     for n in (
         "acc",
         "accel",

@@ -823,10 +823,13 @@ def _text_layout(
     else:
         colnames = [f"col{j + 1}" for j in range(ncol)]
     if header is not None and names is not None:
-        units = {n: units[h] for n, h in zip(colnames, header) if h in units}
+        # names given over a header keep the header's units (its units row, or a unit in brackets: EuRoC's
+        # 'timestamp [ns]'); a unit in a given name overrides
+        units = {n: units.get(h) or normalize_name(h)[1] for n, h in zip(colnames, header)}
+        units = {n: u for n, u in units.items() if u and n not in SKIP_NAMES}
     for j, h in enumerate(colnames):
         unit = normalize_name(h)[1]
-        if unit and h not in units:
+        if unit and (h not in units or names is not None):
             units[h] = unit
     keep = [j for j, n in enumerate(colnames) if n not in SKIP_NAMES]
     if not keep:
