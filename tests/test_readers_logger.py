@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from optinav.cli.main import main
 from optinav.errors import OptinavError
-from optinav.io import read_imu
+from optinav.io import iter_imu, read_imu
 from optinav.multipos.result import CalibrationResult
 from optinav.multipos.simulate import simulate
 
@@ -268,3 +268,59 @@ def test_euroc_asl_imu_csv_reads_as_published(tmp_path):
         assert log.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
         np.testing.assert_array_equal(log.gyr, gyr)
         np.testing.assert_array_equal(log.acc, acc)
+
+
+def _triads(seed, n, down=9.81):
+    rng = np.random.default_rng(seed)
+    return rng.normal(0, 0.002, (n, 3)), rng.normal(0, 0.02, (n, 3)) + [0, 0, down]
+
+
+def test_rostopic_echo_csv_reads_with_header_stamps(tmp_path):
+    """``rostopic echo -p /imu > imu.csv`` (ROS 1): field.* names, the header stamp in ns beside the receive
+    time %time, a text frame id (left out: nobody reads it; was 'imu_link' is not a number), covariances."""
+    n, t0 = 200, 1403636579758555392
+    gyr, acc = _triads(7, n)
+    cov = lambda p: [f"field.{p}_covariance{i}" for i in range(9)]  # noqa: E731
+    hdr = ["%time", "field.header.seq", "field.header.stamp", "field.header.frame_id"]
+    hdr += [f"field.orientation.{a}" for a in "xyzw"] + cov("orientation")
+    hdr += [f"field.angular_velocity.{a}" for a in "xyz"] + cov("angular_velocity")
+    hdr += [f"field.linear_acceleration.{a}" for a in "xyz"] + cov("linear_acceleration")
+    rows = []
+    for i in range(n):
+        stamp = t0 + i * 5_000_000
+        vals = [str(stamp + 4321), str(i), str(stamp), "imu_link", "0.0", "0.0", "0.0", "1.0"] + ["0.0"] * 9
+        vals += [repr(float(v)) for v in gyr[i]] + ["0.0"] * 9 + [repr(float(v)) for v in acc[i]] + ["0.0"] * 9
+        rows.append(",".join(vals))
+    path = _w(tmp_path / "imu.csv", "\n".join([",".join(hdr), *rows]) + "\n")
+    for log in (read_imu(path), next(iter(iter_imu(path, chunk_rows=10_000)))):
+        assert log.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)  # the header stamp, not %time
+        np.testing.assert_allclose(np.diff(log.t), 0.005, rtol=0, atol=1e-6)
+        np.testing.assert_array_equal(log.gyr, gyr)
+        np.testing.assert_array_equal(log.acc, acc)
+    bad = _w(tmp_path / "bad.csv", "t,ax,ay,az\n0,x,1,2\n0.01,1,1,2\n")  # text in a column that is read
+    with pytest.raises(OptinavError, match="'x' is not a number"):
+        read_imu(bad)
+
+
+def test_px4_sensor_combined_and_arduino_millis_read(tmp_path):
+    """PX4's sensor_combined as pyulog's ulog2csv writes it (gyro_rad[0..2], accelerometer_m_s2[0..2], timestamp
+    in µs since boot: --time-unit us, which the error names) and an Arduino log with a millis() column."""
+    n = 300
+    gyr, acc = _triads(8, n, down=-9.81)
+    hdr = "timestamp,gyro_rad[0],gyro_rad[1],gyro_rad[2],gyro_integral_dt,accelerometer_timestamp_relative,"
+    hdr += "accelerometer_m_s2[0],accelerometer_m_s2[1],accelerometer_m_s2[2],accelerometer_integral_dt"
+    rows = [
+        ",".join(
+            [str(20_123_456 + 4000 * i), *map(repr, gyr[i].tolist()), "4000", "0", *map(repr, acc[i].tolist()), "4000"]
+        )
+        for i in range(n)
+    ]
+    px4 = _w(tmp_path / "log_0_sensor_combined_0.csv", "\n".join([hdr, *rows]) + "\n")
+    with pytest.raises(OptinavError, match="pass --time-unit us"):
+        read_imu(px4)
+    log = read_imu(px4, time_unit="us")
+    np.testing.assert_allclose(np.diff(log.t), 0.004, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_array_equal(log.acc, acc)
+    ard = _w(tmp_path / "ard.csv", "millis,ax,ay,az\n" + "".join(f"{1000 + i},{i % 7},0,1000\n" for i in range(n)))
+    np.testing.assert_allclose(np.diff(read_imu(ard, acc_unit="counts").t), 0.001, rtol=0, atol=1e-12)

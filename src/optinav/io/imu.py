@@ -116,6 +116,8 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
     for unit in ("ms", "us", "ns"):
         for n in (f"time_{unit}", f"t_{unit}", f"timestamp_{unit}", unit):
             al[n] = ("t", unit)
+    al["millis"], al["micros"] = ("t", "ms"), ("t", "us")  # Arduino's clocks
+    al["header_stamp"] = ("t", "ns")  # rostopic echo -p prints the header stamp in ns
     for n in (
         "n_samples",
         "n_sample",
@@ -148,6 +150,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "lin_acc",
         "linear_acceleration",
         "imu_acc",
+        "accelerometer_m_s2",  # PX4 sensor_combined (pyulog's CSV)
     )
     gyro_prefix = (
         "g",
@@ -163,6 +166,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "ang_vel",
         "angvel",
         "imu_gyro",
+        "gyro_rad",  # PX4 sensor_combined (pyulog's CSV)
     )
     for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
         for p in prefixes:
@@ -438,6 +442,11 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
+    sources = set(mapping.values())
+
+    def needed(name: str) -> bool:  # a column read_imu takes (a text column it does not is left out)
+        return name in sources or normalize_name(name)[0] in ALIASES
+
     return (
         positional,
         mapping,
@@ -446,6 +455,7 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
             "only": list(mapping.values()) or None,
             "text_columns": LABEL_COLUMNS + label_sources,
             "topic": topic,
+            "needed": needed,
         },
     )
 
@@ -855,6 +865,11 @@ def _log_of(
         notes=notes,
     )
     for p in parts:
+        if "text_left_out" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "
+                "with label=NAME in columns if it names the poses)"
+            )
         if "truncated_line" in p.table.meta:
             notes.append(
                 f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was left out"

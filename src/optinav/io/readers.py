@@ -62,6 +62,8 @@ _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _MAX_LISTED = 20
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
 _BRACKET_UNIT = re.compile(r"^(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
+#: an array index 0–2 right after a name (pyulog's ``gyro_rad[0]``): the axis x–z, not a unit
+_AXIS_INDEX = re.compile(r"^(.*\S)\[([012])\]\s*$")
 
 
 @dataclasses.dataclass
@@ -258,11 +260,14 @@ def load_table(
     only: Sequence[str] | None = None,
     text_columns: Sequence[str] = LABEL_COLUMNS,
     topic=None,
+    needed=None,
 ) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
     ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
-    HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only).
+    HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only); ``needed(name)``: whether a text
+    file's column is used — one that is not and holds text in the first data row is left out (a frame id
+    beside the values), instead of being an error.
     """
     path = Path(path)
     kind, gz = _file_kind(path)
@@ -276,7 +281,7 @@ def load_table(
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         try:
-            table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels)
+            table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels, needed)
         except OptinavError as exc:
             raise _text_despite_suffix(path, exc) from None
     else:
@@ -312,6 +317,7 @@ def iter_table(
     text_columns: Sequence[str] = LABEL_COLUMNS,
     chunk_rows: int | None = None,
     topic=None,
+    needed=None,
 ) -> "TableChunks":
     """:func:`load_table` in blocks, so that memory does not grow with the file.
 
@@ -344,19 +350,22 @@ def iter_table(
     TableChunks
         An iterable of :class:`Table` (``row0``: the block's first row in the file).
     """
-    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic)
+    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic, needed)
 
 
 class TableChunks:
     """The blocks of :func:`iter_table`; ``size`` (bytes of the file) and ``position`` (bytes read so far, of the
     compressed file for ``.gz``) tell the progress."""
 
-    def __init__(self, path: Path, names, delimiter, only, text_columns, chunk_rows: int | None, topic=None):
+    def __init__(
+        self, path: Path, names, delimiter, only, text_columns, chunk_rows: int | None, topic=None, needed=None
+    ):
         chunk_rows = CHUNK_ROWS if chunk_rows is None else chunk_rows
         if int(chunk_rows) < 1:
             raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
         self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
         self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
+        self.needed = needed
         self.kind, self.gz = _file_kind(path)
         self.size = path.stat().st_size
         self.position = 0
@@ -461,7 +470,7 @@ class TableChunks:
                 content = sum(1 for x in head if _strip_comment(x).strip())
                 if not more or content >= _HEAD_CONTENT:
                     break
-            lay = _text_layout(path, head, self.names, self.delimiter, labels)
+            lay = _text_layout(path, head, self.names, self.delimiter, labels, self.needed)
             pending = head[lay.start :]
             offset = lay.start  # file line index of pending[0]
             first = True  # pending[0] is the file's first data line
@@ -632,8 +641,13 @@ def normalize_name(name: str) -> tuple[str, str | None]:
     """
     s = str(name).strip()
     unit = None
-    m = _BRACKET_UNIT.match(s)
-    if m and m.group(1):
+    if s.startswith("field."):  # rostopic echo -p: field.angular_velocity.x, field.header.stamp
+        s = s[len("field.") :]
+    ax = _AXIS_INDEX.match(s)
+    m = None if ax else _BRACKET_UNIT.match(s)
+    if ax:
+        s = f"{ax.group(1)}_{'xyz'[int(ax.group(2))]}"
+    elif m and m.group(1):
         s, unit = m.group(1), m.group(2).strip() or None
     s = s.replace("\\", "/").rstrip("/").split("/")[-1]
     s = re.sub(r"[\s.\-]+", "_", s.lower()).strip("_")
@@ -754,10 +768,10 @@ class _Layout:
 
 
 def _text_layout(
-    path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None, labels: set[str]
+    path: Path, lines: list[str], names: Sequence[str] | None, delimiter: str | None, labels: set[str], needed=None
 ) -> _Layout:
     """The :class:`_Layout` of a text file from its first lines (all lines up to the 10th after a preamble of at
-    most :data:`_MAX_PREAMBLE` lines suffice)."""
+    most :data:`_MAX_PREAMBLE` lines suffice); ``needed``: see :func:`load_table`."""
     given, delim = _delimiter_option(delimiter)
     comments: list[str] = []
     last_comment = -2
@@ -835,7 +849,15 @@ def _text_layout(
     if not keep:
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
+    out: list[int] = []
+    if needed is not None:  # a column nobody reads with text in the first data row: left out
+        row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
+        if row is not None and len(row) == ncol:
+            out = [j for j in keep if not (j in textable or _is_number(row[j]) or needed(colnames[j]))]
+            keep = [j for j in keep if j not in out]
     meta = _comment_meta(comments)
+    if needed is not None and out:
+        meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
     meta.update(preamble)
     return _Layout(delim, colnames, units, meta, start, keep, textable)
 
@@ -871,10 +893,12 @@ def _parse_block(
     )
 
 
-def _load_text(path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None, labels: set[str]) -> Table:
+def _load_text(
+    path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None, labels: set[str], needed=None
+) -> Table:
     text = _decode(path, raw)
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    lay = _text_layout(path, lines, names, delimiter, labels)
+    lay = _text_layout(path, lines, names, delimiter, labels, needed)
     data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start)
     meta = dict(lay.meta)
     if truncated is not None:
