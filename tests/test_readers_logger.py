@@ -324,3 +324,23 @@ def test_px4_sensor_combined_and_arduino_millis_read(tmp_path):
     np.testing.assert_array_equal(log.acc, acc)
     ard = _w(tmp_path / "ard.csv", "millis,ax,ay,az\n" + "".join(f"{1000 + i},{i % 7},0,1000\n" for i in range(n)))
     np.testing.assert_allclose(np.diff(read_imu(ard, acc_unit="counts").t), 0.001, rtol=0, atol=1e-12)
+
+
+def test_kalibr_imu_csv_reads_as_published(tmp_path):
+    """Kalibr's IMU CSV (kalibr_bagcreater's imu0.csv: timestamp [ns], omega_* [rad/s], alpha_* [m/s^2]): alpha
+    is the accelerometer there and the timestamp ns; elsewhere alpha_* is not an accelerometer."""
+    n, t0 = 200, 1_600_000_000_000_000_000
+    gyr, acc = _triads(9, n)
+    rows = [
+        ",".join([str(t0 + 5_000_000 * i), *map(repr, gyr[i].tolist()), *map(repr, acc[i].tolist())]) for i in range(n)
+    ]
+    path = _w(
+        tmp_path / "imu0.csv", "\n".join(["timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z", *rows]) + "\n"
+    )
+    log = read_imu(path)
+    np.testing.assert_allclose(np.diff(log.t), 0.005, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_array_equal(log.acc, acc)
+    other = _w(tmp_path / "o.csv", "t,alpha_x,alpha_y,alpha_z\n" + "".join(f"{i / 100},1,2,3\n" for i in range(5)))
+    with pytest.raises(OptinavError, match="no accelerometer or gyroscope data"):
+        read_imu(other)

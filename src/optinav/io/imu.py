@@ -519,6 +519,22 @@ def _triad(cols: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float] | No
     return np.column_stack(cols), None
 
 
+def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> None:
+    """Kalibr's IMU CSV (``kalibr_bagcreater``: ``timestamp,omega_x..z,alpha_x..z``; ns, rad/s, m/s²), where
+    ``alpha`` is the accelerometer: its columns become ``ax..az`` and its timestamp ns, when the file holds
+    omega and alpha triads and nothing else looks like an accelerometer."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if not all(f"{p}_{a}" in norm for p in ("omega", "alpha") for a in "xyz"):
+        return
+    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc")):
+        return
+    for a in "xyz":
+        candidates[f"a{a}"] = norm[f"alpha_{a}"]
+    key = candidates.get("t")
+    if key is not None and "t" not in found and normalize_name(key)[0] == "timestamp":
+        implied.setdefault(key, "ns")
+
+
 def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
     """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
     the file's check of that is the caller's)."""
@@ -546,6 +562,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         candidates[std] = key
         if hit[1]:
             implied[key] = hit[1]
+    _kalibr_csv(table, found, candidates, implied)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
     # a file holding one samples × 3 matrix named like a triad ("acc", "gyro")

@@ -344,6 +344,9 @@ def iter_table(
         Rows per block; None: :data:`CHUNK_ROWS`.
     topic : str or None
         A ROS bag's Imu topic; None: its only one.
+    needed : callable or None
+        ``needed(name)``: whether a text file's column is used; one that is not and holds text in the first data
+        row is left out (see :func:`load_table`). None: every column is parsed.
 
     Returns
     -------
