@@ -596,9 +596,10 @@ def _read_both(path):
 
     out = []
     for scan in (True, False):
-        saved = bagscan.blocks, rb._ros1_quick, rb._sqlite_quick
-        if not scan:
+        saved = bagscan.blocks, rb._ros1_quick, rb._sqlite_quick, rb._whole, rb._inflated_load
+        if not scan:  # every path of optinav's own off: rosbags' reader and iteration alone
             bagscan.blocks, rb._ros1_quick, rb._sqlite_quick = (lambda *a: None), (lambda *a: None), (lambda *a: None)
+            rb._whole, rb._inflated_load = (lambda *a: False), (lambda *a: None)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -608,7 +609,7 @@ def _read_both(path):
         except OptinavError as exc:
             out.append(exc)
         finally:
-            bagscan.blocks, rb._ros1_quick, rb._sqlite_quick = saved
+            bagscan.blocks, rb._ros1_quick, rb._sqlite_quick, rb._whole, rb._inflated_load = saved
     return out
 
 
@@ -896,12 +897,44 @@ def test_compressed_bag_of_a_quantized_imu_reads_whole(tmp_path, kind, compressi
     assert sum(c.t.size for c in iter_imu(bag, chunk_rows=1000)) == n
 
 
+@pytest.mark.parametrize("kind", ["sqlite3", "mcap"])
+def test_file_compressed_bag_is_inflated_and_read_by_the_storage_decoders(tmp_path, monkeypatch, kind):
+    """``ros2 bag record --compression-mode file``: each .zstd file is inflated into a temporary folder (removed
+    after) and read there like a plain bag — not message by message through rosbags (15 µs a message); the
+    table names the bag itself. A damaged .zstd file is a one-line error."""
+    import tempfile
+
+    import optinav.io.rosbag as rb
+
+    rng = np.random.default_rng(8)
+    msgs, t, gyr, acc = imu_topic(rng, n=500)
+    bag = write_bag(tmp_path / "fz", kind, {"/imu": (IMU, msgs)}, compression="file")
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+
+    def no_rosbags(*a, **k):
+        raise AssertionError("read through rosbags' iteration")
+
+    monkeypatch.setattr(rb, "_rosbags_blocks", no_rosbags)
+    log = read_imu(bag)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_array_equal(log.acc, acc)
+    np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-9)
+    assert load_bag(bag).path == bag and not any(scratch.iterdir())
+    z = next(bag.glob("*.zstd"))
+    z.write_bytes(z.read_bytes()[: z.stat().st_size // 2])
+    with pytest.raises(OptinavError, match=r"fz is not a readable ROS bag: .*\.zstd is not a complete zstd file"):
+        read_imu(bag)
+    assert not any(scratch.iterdir())
+
+
 def test_compressed_bag_whose_index_counts_too_many_is_a_one_line_error(tmp_path):
     """A count beyond the stored bytes in a compressed bag is read as far as the messages go, then refused with
     both numbers (not allocated for, not read as a shorter recording)."""
     rng = np.random.default_rng(4)
     msgs, *_ = imu_topic(rng, n=500)
-    bag = write_bag(tmp_path / "f", "sqlite3", {"/imu": (IMU, msgs)}, compression="file")
+    bag = write_bag(tmp_path / "f", "sqlite3", {"/imu": (IMU, msgs)}, compression="message")
     meta = bag / "metadata.yaml"
     meta.write_text(meta.read_text().replace("message_count: 500", "message_count: 1000000000000"))
     with pytest.raises(OptinavError, match=r"holds 500 messages, its index says 1000000000000"):

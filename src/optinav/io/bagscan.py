@@ -144,12 +144,17 @@ def _decompress(kind: str, data: bytes) -> bytes:
 
         return decompress(data)
     if kind == "zstd":
-        try:
-            from compression import zstd  # Python >= 3.14
-        except ImportError:
-            from backports import zstd  # rosbags' own dependency before 3.14
-        return zstd.decompress(data)
+        return zstd_module().decompress(data)
     raise NotFast(f"chunk compression {kind!r}")
+
+
+def zstd_module():
+    """The standard library's zstd (Python ≥ 3.14) or its backport (rosbags' own dependency before)."""
+    try:
+        from compression import zstd  # Python >= 3.14
+    except ImportError:
+        from backports import zstd
+    return zstd
 
 
 # --- MCAP -----------------------------------------------------------------------------------------------------

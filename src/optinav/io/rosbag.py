@@ -85,6 +85,9 @@ def load_bag(path, *, topic=None, only=None):
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
+    inflated = _inflated_load(path, topic)
+    if inflated is not None:
+        return inflated
     got = _ros1_quick(path, wanted) if path.is_file() and path.suffix.lower() == ".bag" else _sqlite_quick(path, wanted)
     if got is None:
         try:
@@ -109,6 +112,68 @@ def load_bag(path, *, topic=None, only=None):
         return _bag_table(path, imu_topic, t, gyr, acc, None, None, 0)
     mag_topic, (tm, tm_log, b) = mag
     return _bag_table(path, imu_topic, t, gyr, acc, mag_topic, (_time_base(path, mag_topic, tm, tm_log), b[0]), 0)
+
+
+def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
+    """(bag information, its files) of a rosbag2 bag compressed file by file with zstd (``ros2 bag record
+    --compression-mode file``); None for anything else."""
+    if not path.is_dir():
+        return None
+    try:
+        from ruamel.yaml import YAML  # rosbags' own dependency
+
+        info = YAML(typ="safe").load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        mode, fmt = (str(info.get(k, "") or "").lower() for k in ("compression_mode", "compression_format"))
+        files = [path / Path(f).name for f in info["relative_file_paths"]]
+        if mode != "file" or fmt != "zstd" or info["storage_identifier"] not in ("sqlite3", "mcap") or not files:
+            return None
+        if not all(f.suffix == ".zstd" and f.is_file() for f in files):
+            return None
+    except Exception:  # noqa: BLE001 - a metadata file this does not read: rosbags' reader decides
+        return None
+    return info, files
+
+
+def _inflated_load(path: Path, topic):
+    """:func:`load_bag` of a bag compressed file by file: each file inflated into a temporary folder of the same
+    name (as rosbags' reader does) and read there as a plain bag by the storage's decoders — rosbags' message by
+    message iteration took 15 µs a message; None when ``path`` is not such a bag."""
+    import shutil
+    import tempfile
+
+    from ruamel.yaml import YAML
+
+    from optinav.io.bagscan import zstd_module
+
+    got = _file_compressed(path)
+    if got is None:
+        return None
+    info, files = got
+    zstd = zstd_module()
+    with tempfile.TemporaryDirectory(prefix="optinav-bag-") as tmp:
+        plain = Path(tmp) / path.name
+        try:
+            plain.mkdir()
+            for f in files:
+                with f.open("rb") as src, zstd.open(src, "rb") as z, (plain / f.stem).open("wb") as dst:
+                    shutil.copyfileobj(z, dst, 1 << 20)
+        except (zstd.ZstdError, EOFError) as exc:  # EOFError: a truncated file
+            raise OptinavError(
+                f"{path.name} is not a readable ROS bag: {f.name} is not a complete zstd file ({_why(exc)})",
+                "check that the bag was closed properly and copied whole",
+            ) from None
+        except OSError as exc:
+            raise OptinavError(
+                f"cannot inflate {path.name} into a temporary folder ({exc.strerror or exc})",
+                "free space where TMPDIR points, or point TMPDIR at a disk with room",
+            ) from None
+        info = dict(info, compression_mode="", compression_format="")
+        info["relative_file_paths"] = [Path(f).stem for f in info["relative_file_paths"]]
+        info["files"] = [dict(e, path=Path(e["path"]).stem) for e in info.get("files") or [] if isinstance(e, dict)]
+        YAML(typ="safe").dump({"rosbag2_bagfile_information": info}, plain / "metadata.yaml")
+        table = load_bag(plain, topic=topic)
+    table.path = path
+    return table
 
 
 def _read(reader, path: Path, topics: dict, imu_topic: str, mag_topic: str | None) -> tuple:
