@@ -204,3 +204,18 @@ def test_cli_attitude_reads_parquet(tmp_path, capsys):
     write_imu(rt, read_imu(tmp_path / "s.parquet"))
     assert np.array_equal(np.load(rt)["acc"], log.acc)
     json.dumps(log.notes)
+
+
+def test_pandas_datetime_index_is_the_time(tmp_path):
+    """A DataFrame with an unnamed DatetimeIndex written by pandas (stored as '__index_level_0__'): its
+    timestamps are the samples' times in seconds since the epoch (was: no time column)."""
+    pd = pytest.importorskip("pandas")
+    rng = np.random.default_rng(4)
+    vals = rng.normal(0, 1, (50, 6))
+    df = pd.DataFrame(
+        vals, columns=["ax", "ay", "az", "gx", "gy", "gz"], index=pd.date_range("2026-01-01", periods=50, freq="5ms")
+    )
+    df.to_parquet(tmp_path / "p.parquet")
+    log = read_imu(tmp_path / "p.parquet")
+    assert log.t[0] == pytest.approx(1767225600.0) and np.allclose(np.diff(log.t), 0.005, atol=1e-6)
+    np.testing.assert_array_equal(log.acc, vals[:, :3])

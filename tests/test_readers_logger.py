@@ -344,3 +344,34 @@ def test_kalibr_imu_csv_reads_as_published(tmp_path):
     other = _w(tmp_path / "o.csv", "t,alpha_x,alpha_y,alpha_z\n" + "".join(f"{i / 100},1,2,3\n" for i in range(5)))
     with pytest.raises(OptinavError, match="no accelerometer or gyroscope data"):
         read_imu(other)
+
+
+@pytest.mark.parametrize(
+    ("head", "fmt", "offset_s"),
+    [
+        ("time", "%Y-%m-%d %H:%M:%S.%f", 0.0),  # pandas' to_csv of a DatetimeIndex named 'time'
+        ("", "%Y-%m-%d %H:%M:%S.%f", 0.0),  # ... of an unnamed one: an empty header name
+        ("timestamp", "%Y-%m-%dT%H:%M:%S.%fZ", 0.0),
+        ("timestamp", "%Y-%m-%dT%H:%M:%S.%f+02:00", -7200.0),
+    ],
+)
+def test_iso_datetime_time_column_reads_as_epoch_seconds(tmp_path, head, fmt, offset_s):
+    """ISO 8601 date-times in the time column (was: "'2026-01-01 00:00:00.000' is not a number") are seconds
+    since the epoch, a UTC offset applied; a cell of other text later is a one-line error."""
+    import datetime as dt
+
+    n = 120
+    gyr, acc = _triads(10, n)
+    t0 = dt.datetime(2026, 1, 1, 12, 0, 0)
+    stamps = [(t0 + dt.timedelta(milliseconds=10 * i)).strftime(fmt) for i in range(n)]
+    body = "".join(f"{s},{','.join(map(repr, [*acc[i].tolist(), *gyr[i].tolist()]))}\n" for i, s in enumerate(stamps))
+    path = _w(tmp_path / "d.csv", f"{head},ax,ay,az,gx,gy,gz\n" + body)
+    epoch = (t0 - dt.datetime(1970, 1, 1)).total_seconds() + offset_s
+    for log in (read_imu(path), next(iter(iter_imu(path, chunk_rows=50)))):
+        assert log.t[0] == pytest.approx(epoch, abs=1e-6)
+        np.testing.assert_allclose(np.diff(log.t), 0.01, rtol=0, atol=1e-6)
+        np.testing.assert_array_equal(log.acc, acc[: len(log)])
+    with pytest.raises(OptinavError, match="holds date-times and other text"):
+        read_imu(_w(tmp_path / "e.csv", f"{head},ax,ay,az,gx,gy,gz\n" + body + "soon,1,2,3,4,5,6\n"))
+    with pytest.raises(OptinavError, match="declares s but time_unit='ms' was passed"):
+        read_imu(path, time_unit="ms")

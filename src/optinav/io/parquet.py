@@ -74,12 +74,20 @@ def _fill(table, tab, names, pa) -> None:
             )
         pairs = [(n, f, tab.column(j)) for j, (n, f) in enumerate(zip(names, fields)) if n not in SKIP_NAMES]
     else:
-        pairs = [(f.name, f, tab.column(j)) for j, f in enumerate(fields)]
+        pairs = [(_index_name(f, pa), f, tab.column(j)) for j, f in enumerate(fields)]
     for name, fld, col in pairs:
         _column(table, name, fld, col, pa, _add)
     if not table.data:
         extra = f" (unreadable: {table.names()})" if table.skipped else ""
         raise OptinavError(f"{path.name} holds no numeric columns{extra}", "write the data as numeric columns")
+
+
+def _index_name(fld, pa) -> str:
+    """A column's name; pandas' unnamed index stored as a column (``__index_level_0__``) is ``time`` when it holds
+    timestamps or durations (a DatetimeIndex: the samples' times)."""
+    if fld.name == "__index_level_0__" and (pa.types.is_timestamp(fld.type) or pa.types.is_duration(fld.type)):
+        return "time"
+    return fld.name
 
 
 def load_parquet(path, *, names: Sequence[str] | None = None, only: Sequence[str] | None = None):

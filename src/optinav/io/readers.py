@@ -768,6 +768,7 @@ class _Layout:
     start: int
     keep: list[int]
     textable: set[int]
+    dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
 
 
 def _text_layout(
@@ -853,16 +854,22 @@ def _text_layout(
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
     out: list[int] = []
-    if needed is not None:  # a column nobody reads with text in the first data row: left out
-        row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
-        if row is not None and len(row) == ncol:
-            out = [j for j in keep if not (j in textable or _is_number(row[j]) or needed(colnames[j]))]
-            keep = [j for j in keep if j not in out]
+    row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
+    row = row if row is not None and len(row) == ncol else None
+    # ISO 8601 date-times (pandas' to_csv of a DatetimeIndex, many loggers): seconds since the epoch
+    dates = {j for j in keep if row is not None and j not in textable and _DATETIME.match(row[j])}
+    for j in sorted(dates):
+        if header is not None and names is None and header[j] == "" and "time" not in colnames:
+            colnames[j] = "time"  # pandas' to_csv of an unnamed DatetimeIndex: the samples' times
+        units[colnames[j]] = "s"
+    if needed is not None and row is not None:  # a column nobody reads with text in the first data row: left out
+        out = [j for j in keep if not (j in textable or j in dates or _is_number(row[j]) or needed(colnames[j]))]
+        keep = [j for j in keep if j not in out]
     meta = _comment_meta(comments)
     if needed is not None and out:
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
     meta.update(preamble)
-    return _Layout(delim, colnames, units, meta, start, keep, textable)
+    return _Layout(delim, colnames, units, meta, start, keep, textable | dates, dates)
 
 
 def _parse_block(
@@ -880,20 +887,44 @@ def _parse_block(
     the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
     newline (only the block holding it passes False)."""
     data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
-    if data is not None:
-        return data, None
-    return _parse_slow(
-        path,
-        lines,
-        start,
-        lay.delim,
-        lay.colnames,
-        lay.keep,
-        lay.textable,
-        complete=complete,
-        offset=offset,
-        first=first,
-    )
+    truncated = None
+    if data is None:
+        data, truncated = _parse_slow(
+            path,
+            lines,
+            start,
+            lay.delim,
+            lay.colnames,
+            lay.keep,
+            lay.textable,
+            complete=complete,
+            offset=offset,
+            first=first,
+        )
+    for j in lay.dates:
+        data[j] = _epoch_seconds(path, lay.colnames[j], data[j])
+    return data, truncated
+
+
+_DATETIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}(:\d{2}(\.\d+)?)?\s*(Z|[+-]\d{2}:?\d{2})?$")
+
+
+def _epoch_seconds(path: Path, name: str, cells: np.ndarray) -> np.ndarray:
+    """ISO 8601 date-time cells (a UTC offset applied; none: taken as UTC) → float seconds since the Unix epoch
+    (resolution about 0.2 µs today); an empty cell is NaN."""
+    cells = np.char.strip(np.asarray(cells, dtype=str))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # numpy's note that it converts a UTC offset instead of keeping it
+        try:
+            ns = cells.astype("datetime64[ns]")
+        except ValueError as exc:
+            raise OptinavError(
+                f"{path.name}: column {name!r} holds date-times and other text ({str(exc)[:120]})",
+                "fix the cell, or skip the column ('_' in columns)",
+            ) from None
+    out = ns.astype(np.int64) * 1e-9
+    out[np.isnat(ns)] = np.nan
+    return out
 
 
 def _load_text(
