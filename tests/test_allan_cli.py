@@ -164,3 +164,35 @@ def test_streamed_log_matches_in_memory(rest, tmp_path):
     dev = res.gyroscope["deviation"]
     assert np.allclose(dev.tau, ref.tau, rtol=1e-12)
     assert np.max(np.abs(dev.adev / ref.adev - 1)) < 1e-9
+
+
+def test_allan_refuses_an_accelerometer_not_in_m_s2_and_a_moving_log(tmp_path, capsys):
+    """A log at rest has |a| ≈ g: an accelerometer in g read as m/s² (no unit stated) gave a VRW 9.8× too small
+    with exit 0 — now refused naming --acc-unit g, and with it the result is the m/s² log's. A log whose gravity
+    direction moves is not at rest: refused, the gyro alone too."""
+    rng = np.random.default_rng(11)
+    n, rate = 30_000, 100.0
+    t = np.arange(n) / rate
+    acc = rng.normal(0, 0.02, (n, 3)) + [0.1, -0.2, 9.79]
+    gyr = rng.normal(0, 0.002, (n, 3))
+    head = "t,ax,ay,az,gx,gy,gz"
+    si, g = tmp_path / "si.csv", tmp_path / "g.csv"
+    np.savetxt(si, np.c_[t, acc, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
+    np.savetxt(g, np.c_[t, acc / 9.80665, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
+    assert main(["allan", str(g), "--out", str(tmp_path / "g.json")]) == 2
+    err = capsys.readouterr().err
+    assert "mean norm is 0.999 m/s², not about 9.8 at rest: it looks like g" in err and "--acc-unit g" in err
+    assert main(["--quiet", "allan", str(g), "--acc-unit", "g", "--out", str(tmp_path / "g.json")]) == 0
+    assert main(["--quiet", "allan", str(si), "--out", str(tmp_path / "si.json")]) == 0
+    a, b = (Result.from_json(tmp_path / f"{k}.json") for k in ("g", "si"))
+    np.testing.assert_allclose(a.accelerometer["deviation"].adev, b.accelerometer["deviation"].adev, rtol=1e-9)
+    # turned by 90° halfway (a second pose): not at rest
+    moved = np.r_[acc[: n // 2], acc[n // 2 :][:, [2, 1, 0]]]
+    mv = tmp_path / "moved.csv"
+    np.savetxt(mv, np.c_[t, moved, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
+    for extra in ([], ["--sensor", "gyro"]):
+        capsys.readouterr()
+        assert main(["allan", str(mv), "--out", str(tmp_path / "m.json"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert "the gravity direction moves in this log (|mean a| / mean |a| = 0.714)" in err  # cos 45° and biases
+        assert len(err.strip().splitlines()) == 1

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.core.results import Result
+from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
 
@@ -1163,6 +1164,44 @@ class _RegularTiming:
         return (self.t_last - self.t0) / (self.n - 1)
 
 
+class _AtRest:
+    """What the specific force of a log analysed at rest must show (m/s², summed block by block): a mean norm
+    near g — else the unit is not m/s² (a log in g read as m/s² gave noise densities 9.8× too small, exit 0) —
+    and a gravity direction that stays put: |mean a| / mean |a| ≥ :data:`_REST_RATIO` (0.98: turned by less
+    than about 23° between two halves); a moving log has no Allan deviation of its noise."""
+
+    def __init__(self):
+        self.sum, self.norm, self.n = np.zeros(3), 0.0, 0
+
+    def add(self, a: np.ndarray) -> None:
+        self.sum += a.sum(axis=0)
+        self.norm += float(np.sqrt(np.einsum("ij,ij->i", a, a)).sum())
+        self.n += a.shape[0]
+
+    def check(self) -> None:
+        if not self.n:
+            return
+        mean = self.norm / self.n
+        if not 0.3 * G_STANDARD < mean < 3.0 * G_STANDARD:
+            unit = "g" if 0.3 < mean < 3.0 else "mg" if 300.0 < mean < 3000.0 else None
+            raise OptinavError(
+                f"the accelerometer's mean norm is {mean:.3g} m/s², not about 9.8 at rest"
+                + (f": it looks like {unit}" if unit else ""),
+                f"declare the unit with --acc-unit {unit or '(g, mg, m/s^2, counts)'}",
+            )
+        ratio = float(np.linalg.norm(self.sum / self.n)) / mean
+        if ratio < _REST_RATIO:
+            raise OptinavError(
+                f"the gravity direction moves in this log (|mean a| / mean |a| = {ratio:.3f}): it is not a log at "
+                "rest, and the Allan deviation of a moving sensor is not its noise",
+                "record the sensor still (or cut the static part out of the log)",
+            )
+
+
+#: |mean a| / mean |a| of a log at rest: 1 − (noise/g)²/2; below this the gravity direction moved (cos 11.5°)
+_REST_RATIO = 0.98
+
+
 def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: str = "", need_kalibr: bool = False):
     """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
 
@@ -1185,6 +1224,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
         Per sensor the Allan deviation, the IEEE 952 read-off and the four-term fit; Kalibr's noise keys.
     """
     timing = _RegularTiming()
+    at_rest = _AtRest()
     angles: dict = {}
     units: dict[str, str] = {}
     for log in blocks:
@@ -1223,8 +1263,11 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 )
             if len(x):
                 acc.add(x)
+        if log.acc is not None and log.acc_unit != "counts" and len(log.acc) and np.all(np.isfinite(log.acc)):
+            at_rest.add(log.acc)  # the gyro's analysis too needs the log at rest
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")
+    at_rest.check()
     dt = timing.check()
     out = {}
     kal = {}
