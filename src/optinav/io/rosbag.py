@@ -137,7 +137,7 @@ def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
 def _inflated_load(path: Path, topic):
     """:func:`load_bag` of a bag compressed file by file: each file inflated into a temporary folder of the same
     name (as rosbags' reader does) and read there as a plain bag by the storage's decoders — rosbags' message by
-    message iteration took 15 µs a message; None when ``path`` is not such a bag."""
+    message iteration took 2.5–6 µs a message, these 0.6 µs; None when ``path`` is not such a bag."""
     import shutil
     import tempfile
 
@@ -164,8 +164,8 @@ def _inflated_load(path: Path, topic):
             ) from None
         except OSError as exc:
             raise OptinavError(
-                f"cannot inflate {path.name} into a temporary folder ({exc.strerror or exc})",
-                "free space where TMPDIR points, or point TMPDIR at a disk with room",
+                f"cannot inflate {path.name} into a temporary folder ({exc.strerror or exc}: {exc.filename})",
+                "check that the bag is readable and that TMPDIR points at a disk with room for it uncompressed",
             ) from None
         info = dict(info, compression_mode="", compression_format="")
         info["relative_file_paths"] = [Path(f).stem for f in info["relative_file_paths"]]
