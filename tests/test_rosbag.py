@@ -922,6 +922,17 @@ def test_file_compressed_bag_is_inflated_and_read_by_the_storage_decoders(tmp_pa
     np.testing.assert_array_equal(log.acc, acc)
     np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-9)
     assert load_bag(bag).path == bag and not any(scratch.iterdir())
+    import errno
+    import shutil
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(scratch / "x"))
+
+    with monkeypatch.context() as m:
+        m.setattr(shutil, "copyfileobj", full)
+        with pytest.raises(OptinavError, match=r"cannot inflate fz into a temporary folder \(No space left on device"):
+            read_imu(bag)
+    assert not any(scratch.iterdir())
     z = next(bag.glob("*.zstd"))
     z.write_bytes(z.read_bytes()[: z.stat().st_size // 2])
     with pytest.raises(OptinavError, match=r"fz is not a readable ROS bag: .*\.zstd is not a complete zstd file"):
