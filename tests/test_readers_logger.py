@@ -375,3 +375,25 @@ def test_iso_datetime_time_column_reads_as_epoch_seconds(tmp_path, head, fmt, of
         read_imu(_w(tmp_path / "e.csv", f"{head},ax,ay,az,gx,gy,gz\n" + body + "soon,1,2,3,4,5,6\n"))
     with pytest.raises(OptinavError, match="declares s but time_unit='ms' was passed"):
         read_imu(path, time_unit="ms")
+
+
+def test_allan_and_attitude_print_what_the_reader_assumed(tmp_path, capsys):
+    """The reader's notes (the rate's source, a text column left out) reach the user of allan and attitude as
+    they reach calibrate's."""
+    rng = np.random.default_rng(12)
+    n = 6000
+    acc = rng.normal(0, 0.01, (n, 3)) + [0, 0, 9.81]
+    gyr = rng.normal(0, 0.001, (n, 3))
+    rows = "".join(
+        "\t".join(
+            [str(i), "NaN", "NaN", "NaN", "NaN", "NaN"] + [f"{v:.6f}" for v in (*acc[i], *gyr[i])] + ["0", "0", "0"]
+        )
+        + "\n"
+        for i in range(n)
+    )
+    path = _w(tmp_path / "MT.txt", XSENS_HEAD.format(rate="// Update Rate: 100.0Hz\n") + rows)
+    note = "optinav: note: sample rate 100 Hz from the preamble line 'Update Rate' of MT.txt"
+    assert main(["allan", str(path), "--out", str(tmp_path / "a.json")]) == 0
+    assert note in capsys.readouterr().err
+    assert main(["attitude", str(path), "--frame", "ENU", "--out", str(tmp_path / "q.csv")]) == 0
+    assert note in capsys.readouterr().err

@@ -133,7 +133,8 @@ class StreamRun:
     and ``score`` (inclination RMSE [rad], heading RMSE [rad], samples with a valid reference) or None, as
     :func:`optinav.attitude.recording.reference_rmse`; ``estimate`` the report's fields and ``figure`` every k-th
     row's (t [s], (m, 3) roll, pitch, yaw [deg]) when ``figure_points`` was given, else None; ``duration_s`` the
-    last time stamp minus the first [s]."""
+    last time stamp minus the first [s]; ``notes`` what the reader assumed or left out (the rate's source, a text
+    column left out, an incomplete last line)."""
 
     summary: str
     n: int
@@ -141,6 +142,7 @@ class StreamRun:
     estimate: StreamedEstimate | None = None
     figure: tuple[np.ndarray, np.ndarray] | None = None
     duration_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
 
 
 class _Decimated:
@@ -333,6 +335,7 @@ class _Blocks:
             )
         self.size = max(self.path.stat().st_size, 1) if self.path.is_file() else 1
         self.position = 0
+        self.notes: list[str] = []  # the reader's notes (optinav.io.ImuLog.notes), each once
         self._whole: dict | None = None
         names = {}
         if mag:
@@ -367,6 +370,7 @@ class _Blocks:
         truth = None if self.truth_csv is None else _TruthRows(self.truth_csv)
         for log in chunks:
             self.position = chunks.position
+            self.notes += [n for n in log.notes if n not in self.notes]
             if log.acc is None or log.gyr is None:
                 raise OptinavError(
                     f"{self.path} needs accelerometer and gyroscope columns",
@@ -609,7 +613,7 @@ def _stream_offline(
     )
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
-    return StreamRun(line, n, result, est, None if fig is None else fig.arrays())
+    return StreamRun(line, n, result, est, None if fig is None else fig.arrays(), notes=src.notes)
 
 
 def _rows_writer(out):
@@ -863,7 +867,13 @@ def stream_attitude(
     if tcmp is not None:
         est.truth_comparison = tcmp.result(est, checks.n)
     return StreamRun(
-        estimator.summary(), checks.n, result, est, None if fig is None else fig.arrays(), duration_s=duration
+        estimator.summary(),
+        checks.n,
+        result,
+        est,
+        None if fig is None else fig.arrays(),
+        duration_s=duration,
+        notes=src.notes,
     )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import textwrap
 
 from optinav.cli.common import (
@@ -82,8 +83,15 @@ def run(args) -> int:
         chunk_rows=args.chunk_rows,
         topic=args.topic,
     )
+    notes: list[str] = []
+
+    def noted(logs):  # the reader's notes (the rate's source, a text column left out, an incomplete last line)
+        for log in logs:
+            notes.extend(n for n in log.notes if n not in notes)
+            yield log
+
     res = analyse_blocks(
-        progress_blocks(blocks, "allan: read"),
+        noted(progress_blocks(blocks, "allan: read")),
         args.sensor,
         source=str(args.data),
         rostopic=args.rostopic or "",
@@ -91,6 +99,8 @@ def run(args) -> int:
     )
     step("write")
     res.to_json(out)
+    for note in notes:
+        print(f"optinav: note: {note}", file=sys.stderr)
     print(res.summary())
     print(f"optinav: result written to {out}")
     if kalibr is not None:

@@ -294,6 +294,8 @@ def _run_stream(args, options, q0, out, announce) -> int:
         announce=lambda n, m: announce(n),
         figure_points=REPORT_POINTS if args.report else 0,
     )
+    for note in run.notes:
+        print(f"optinav: note: {note}", file=sys.stderr)
     print(run.summary)
     if run.score is not None:
         print(
