@@ -1,6 +1,7 @@
 """Files as loggers write them: text under a .mat/.log name, key,value preambles with the rate, rate attributes
 and variables, an incomplete last line, an empty column, absurd cells — read, or a one-line error."""
 
+import datetime
 import gzip
 
 import numpy as np
@@ -397,3 +398,27 @@ def test_allan_and_attitude_print_what_the_reader_assumed(tmp_path, capsys):
     assert note in capsys.readouterr().err
     assert main(["attitude", str(path), "--frame", "ENU", "--out", str(tmp_path / "q.csv")]) == 0
     assert note in capsys.readouterr().err
+
+
+@settings(max_examples=60, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    start=st.datetimes(min_value=datetime.datetime(1971, 1, 1), max_value=datetime.datetime(2200, 1, 1)),
+    offset_min=st.integers(-14 * 60, 14 * 60),
+    sep=st.sampled_from(["T", " "]),
+    zulu=st.booleans(),
+)
+def test_iso_datetimes_parse_to_the_epoch_seconds_python_gives(tmp_path, start, offset_min, sep, zulu):
+    """Invariant of the date-time time column: the seconds are those of Python's datetime for the same instant,
+    whatever the separator and UTC offset (to the float's resolution)."""
+    dt = datetime
+
+    tz = dt.timezone(dt.timedelta(minutes=offset_min))
+    stamps = [(start + dt.timedelta(milliseconds=5 * i)).replace(tzinfo=tz) for i in range(3)]
+    suffix = (
+        (lambda s: "Z") if zulu and offset_min == 0 else (lambda s: s.strftime("%z")[:3] + ":" + s.strftime("%z")[3:])
+    )
+    cells = [s.strftime(f"%Y-%m-%d{sep}%H:%M:%S.%f") + suffix(s) for s in stamps]
+    path = _w(tmp_path / "h.csv", "time,ax,ay,az\n" + "".join(f"{c},0,0,9.8\n" for c in cells))
+    got = read_imu(path, time_unit="s").t
+    want = np.array([s.timestamp() for s in stamps])
+    np.testing.assert_allclose(got, want, rtol=0, atol=2e-6 * max(1.0, abs(want[0]) / 1e9))
