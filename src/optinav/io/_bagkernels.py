@@ -459,9 +459,10 @@ def sqlite_walk(buf, pages, psize, usable, ids, off, size, logt, last):
 
 
 @numba.njit(**_NJ)
-def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_logt, row):
+def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_logt, row, crc_checked):
     """:func:`mcap_walk` and :func:`gather` over the MCAP Chunk records at ``chunks`` (offsets of their opcode),
-    each stored uncompressed and without a CRC, read in order first (:func:`touch`), walked into the scratch
+    each stored uncompressed and without a CRC (or with one the caller checked: ``crc_checked``), read in order
+    first (:func:`touch`), walked into the scratch
     ``off``/``size``/``logt`` (Channel records in a chunk are skipped: ``chans`` comes from the summary),
     gathered while in cache into rows ``row…`` (``lay``: see :func:`ros1_decode`). Returns (status, chunks done,
     rows filled, sum of the bytes read): MALFORMED for a compressed or CRC-checked chunk or one that does not
@@ -479,7 +480,7 @@ def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_log
         t0, t1 = _i64(buf, s), _i64(buf, s + 8)
         usize, crc, clen = _i64(buf, s + 16), _u32(buf, s + 24), _u32(buf, s + 28)
         p = s + 32
-        if clen != 0 or crc != 0 or t0 < 0 or t1 < 0 or p + 8 > s + n:
+        if clen != 0 or (crc != 0 and not crc_checked) or t0 < 0 or t1 < 0 or p + 8 > s + n:
             return MALFORMED, i, row, seen
         rlen = _i64(buf, p)
         if rlen < 0 or rlen != usize or rlen > s + n - p - 8:
@@ -576,7 +577,7 @@ def warm() -> None:
     ros1_walk(buf, 0, 0, i64, i64, i64, i64, 0)
     ros1_tails(buf, i64[:0], i64[:0], i64)
     mcap_decode(buf, i64[:0], np.zeros(1 << 16, dtype=np.bool_), i64, i64, i64, np.zeros(7, dtype=np.int64),
-                np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
+                np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), i64, 0, False)  # fmt: skip
     sqlite_decode(buf, i64[:0], 64, 64, i64, 1, i64, i64, i64, i64[:2], np.zeros(7, dtype=np.int64), np.zeros(1),
                   np.zeros((1, 3)), np.zeros((1, 3)), i64, 0)  # fmt: skip
     sqlite_walk(buf, i64[:0], 64, 64, i64, i64, i64, i64, i64[:2])

@@ -531,6 +531,8 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
     if fast is not None:
         try:
             done = dec.run(fast, strict=True)
+        except bagscan.Damaged:  # where rosbags would read it wrong
+            raise
         except Exception:  # noqa: BLE001 - anything the scanners do not read: rosbags reads it (and names damage)
             done = None
         if done is not None and done != count and blocks is None:
@@ -575,6 +577,8 @@ def _whole(reader, path: Path, topic: str, info: dict, dec) -> bool:
             return bagscan.ros1_decode(path, reader.index, cons, dec.kernel_layout, out)
         mcap = bagscan.mcap_file(reader)
         return mcap is not None and bagscan.mcap_decode(mcap, topic, dec.kernel_layout, out)
+    except bagscan.Damaged:  # where rosbags would read it wrong
+        raise
     except Exception:  # noqa: BLE001 - anything it does not read: the blocks read it (or name the damage)
         return False
 
