@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import textwrap
 
 from optinav.cli.common import (
     add_chunk_option,
     add_input_options,
+    ReaderNotes,
     add_report_option,
     output_path,
     prepare_report,
@@ -83,15 +83,9 @@ def run(args) -> int:
         chunk_rows=args.chunk_rows,
         topic=args.topic,
     )
-    notes: list[str] = []
-
-    def noted(logs):  # the reader's notes (the rate's source, a text column left out, an incomplete last line)
-        for log in logs:
-            notes.extend(n for n in log.notes if n not in notes)
-            yield log
-
+    notes = ReaderNotes()
     res = analyse_blocks(
-        noted(progress_blocks(blocks, "allan: read")),
+        notes.watch(progress_blocks(blocks, "allan: read")),
         args.sensor,
         source=str(args.data),
         rostopic=args.rostopic or "",
@@ -99,8 +93,7 @@ def run(args) -> int:
     )
     step("write")
     res.to_json(out)
-    for note in notes:
-        print(f"optinav: note: {note}", file=sys.stderr)
+    notes.print()
     print(res.summary())
     print(f"optinav: result written to {out}")
     if kalibr is not None:

@@ -305,3 +305,23 @@ def finish_report(args, write) -> None:
     """``write(folder) -> path`` the report when ``--report`` was given, and say where it is."""
     if args.report:
         print(f"optinav: report written to {write(args.report)}/index.md")
+
+
+class ReaderNotes:
+    """The notes of the logs read block by block (:attr:`optinav.io.ImuLog.notes`: the rate's source, a text
+    column left out, an incomplete last line), each once: ``watch(blocks)`` passes the blocks through,
+    ``print()`` writes them to stderr as calibrate does."""
+
+    def __init__(self):
+        self.notes: list[str] = []
+
+    def watch(self, blocks):
+        for log in blocks:
+            self.notes.extend(n for n in log.notes if n not in self.notes)
+            yield log
+
+    def print(self) -> None:
+        import sys
+
+        for note in self.notes:
+            print(f"optinav: note: {note}", file=sys.stderr)
