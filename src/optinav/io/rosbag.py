@@ -313,11 +313,11 @@ def _sqlite_fused(types, files: list[Path], name: str, msgtype: str):
 
 
 def _ordered(stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
-    """(stamps, log times s, values) in log-time order, as rosbags yields them (ties: as stored)."""
+    """(stamps s, log times ns, values) in log-time order, as rosbags yields them (ties: as stored)."""
     if np.any(logt[1:] < logt[:-1]):
         order = np.argsort(logt, kind="stable")
         stamp, logt, vals = stamp[order], logt[order], tuple(v[order] for v in vals)
-    return stamp, logt * 1e-9, vals
+    return stamp, logt, vals
 
 
 def _ros1_quick(path: Path, wanted: list[str]):
@@ -753,13 +753,14 @@ def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
 
 
 def _time_base(path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray) -> np.ndarray:
-    """Header stamps when they are set and strictly increasing; else the bag's log (receive) times, with a warning."""
+    """Header stamps (s) when they are set and strictly increasing; else the bag's log (receive) times ``t_log``
+    (ns, converted to s only then), with a warning."""
     if stamp.size > 1 and np.all(np.diff(stamp) > 0) and np.all(stamp > 0):
         return stamp
     if stamp.size == 1 and stamp[0] > 0:
         return stamp
     _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
-    return t_log
+    return t_log * 1e-9
 
 
 def _log_time_warning(path: Path, topic: str, why: str) -> None:
@@ -881,7 +882,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     if not stamps_ok:
         _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
     if mag is not None:
-        mag = (_time_base(path, plan["mag"], mag[0], mag[1] * 1e-9), mag[2])
+        mag = (_time_base(path, plan["mag"], mag[0], mag[1]), mag[2])
     try:  # second pass (the first read the same blocks: an error here is the storage changing under it)
         yield from _tables(path, plan, chunk_rows, progress, total, stamps_ok, mag)
     except OptinavError:
