@@ -20,6 +20,7 @@ from optinav.cli.common import (
     parse_floats,
     parse_key_values,
     prepare_report,
+    print_notes,
     truth_path,
 )
 from optinav.core.files import check_sidecar, write_csv
@@ -294,8 +295,7 @@ def _run_stream(args, options, q0, out, announce) -> int:
         announce=lambda n, m: announce(n),
         figure_points=REPORT_POINTS if args.report else 0,
     )
-    for note in run.notes:
-        print(f"optinav: note: {note}", file=sys.stderr)
+    print_notes(run.notes)
     print(run.summary)
     if run.score is not None:
         print(

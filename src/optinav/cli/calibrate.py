@@ -20,6 +20,7 @@ from optinav.cli.common import (
     finish_report,
     output_path,
     prepare_report,
+    print_notes,
     register_system_hooks,
 )
 
@@ -286,8 +287,7 @@ def run_accel(args) -> int:
     res = calibrate_data(data, options, source=str(args.data))
     step("write")
     res.to_json(out)
-    for note in res.quality.get("notes", []):
-        print(f"optinav: note: {note}", file=sys.stderr)
+    print_notes(res.quality.get("notes", []))
     print(res.summary())
     print(f"optinav: result written to {out}")
     if exports:

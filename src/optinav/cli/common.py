@@ -321,7 +321,12 @@ class ReaderNotes:
             yield log
 
     def print(self) -> None:
-        import sys
+        print_notes(self.notes)
 
-        for note in self.notes:
-            print(f"optinav: note: {note}", file=sys.stderr)
+
+def print_notes(notes) -> None:
+    """Each note on stderr as ``optinav: note: …``."""
+    import sys
+
+    for note in notes:
+        print(f"optinav: note: {note}", file=sys.stderr)

@@ -370,18 +370,19 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
 
 
 def _mcap_crcs(mm, u8: np.ndarray, pos: np.ndarray) -> np.ndarray | None:
-    """(records start, end, CRC-32 or 0) of the uncompressed Chunk records at ``pos``; None when one is compressed
-    or does not parse (the kernel checks the rest of each header again)."""
+    """(records start, end, CRC-32 or 0) of the uncompressed Chunk records at ``pos`` (:func:`_mcap_head`);
+    None when one is compressed or does not parse (the kernel checks each header again)."""
     out = np.zeros((pos.size, 3), dtype=np.int64)
     for i, p in enumerate(pos.tolist()):
-        if p + 9 + 40 > u8.size or u8[p] != 0x06:
+        if p + 9 > u8.size or u8[p] != 0x06:
             return None
-        s = p + 9
-        crc, clen = _U32.unpack_from(mm, s + 24)[0], _U32.unpack_from(mm, s + 28)[0]
-        rlen = _U64.unpack_from(mm, s + 32)[0]
-        if clen != 0 or s + 40 + rlen > u8.size:
+        try:
+            kind, data, _, crc, _ = _mcap_head(mm, u8, p + 9, _U64.unpack_from(mm, p + 1)[0])
+        except NotFast:
             return None
-        out[i] = s + 40, s + 40 + rlen, crc
+        if kind not in ("", "none"):
+            return None
+        out[i] = *data, crc
     return out
 
 

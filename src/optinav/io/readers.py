@@ -1107,15 +1107,21 @@ def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
         return {}  # a two-column table, not a preamble
     meta = {f"preamble:{k}": v for k, v in out.items()}
     for k, v in out.items():
-        if normalize_name(k)[0] in RATE_KEYS:
-            try:
-                rate = float(v.lower().replace("hz", "").strip())
-            except ValueError:
-                continue
-            meta.setdefault("rate", repr(rate))
-            meta.setdefault("rate_key", k)
+        _rate_entry(meta, k, v)
     meta["_preamble_lines"] = str(n)
     return meta
+
+
+def _rate_entry(meta: dict[str, str], key: str, value: str) -> None:
+    """Set ``meta``'s rate (Hz; ``100 Hz`` is fine) and its key from a ``key: value`` line whose key is one of
+    :data:`RATE_KEYS`, unless a rate is set already."""
+    if normalize_name(key)[0] not in RATE_KEYS or "rate" in meta:
+        return
+    try:
+        rate = float(value.lower().replace("hz", "").strip())
+    except ValueError:
+        return
+    meta["rate"], meta["rate_key"] = repr(rate), key.strip()
 
 
 def _comment_meta(comments: list[str]) -> dict[str, str]:
@@ -1125,12 +1131,8 @@ def _comment_meta(comments: list[str]) -> dict[str, str]:
     keys = {"t": "time_unit", "time": "time_unit", "acc": "acc_unit", "gyro": "gyro_unit"}
     for c in comments:
         kv = _KEY_VALUE.match(c)
-        if kv and normalize_name(kv.group(1))[0] in RATE_KEYS and "rate" not in meta:
-            try:
-                meta["rate"] = repr(float(kv.group(2).lower().replace("hz", "").strip()))
-                meta["rate_key"] = kv.group(1).strip()
-            except ValueError:
-                pass
+        if kv:
+            _rate_entry(meta, kv.group(1), kv.group(2))
         m = re.search(r"\bunits?\s*:\s*(.*)$", c, re.IGNORECASE)
         if not m:
             continue

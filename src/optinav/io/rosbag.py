@@ -117,21 +117,28 @@ def load_bag(path, *, topic=None, only=None):
 def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
     """(bag information, its files) of a rosbag2 bag compressed file by file with zstd (``ros2 bag record
     --compression-mode file``); None for anything else."""
+    got = _bag_info(path)
+    if got is None:
+        return None
+    info, files = got
+    mode, fmt = (str(info.get(k, "") or "").lower() for k in ("compression_mode", "compression_format"))
+    if mode != "file" or fmt != "zstd" or info.get("storage_identifier") not in ("sqlite3", "mcap") or not files:
+        return None
+    return (info, files) if all(f.suffix == ".zstd" and f.is_file() for f in files) else None
+
+
+def _bag_info(path: Path) -> tuple[dict, list[Path]] | None:
+    """(``rosbag2_bagfile_information`` of the folder's metadata.yaml, its storage files beside it); None for a
+    file, or a metadata file this does not read (rosbags' reader then decides)."""
     if not path.is_dir():
         return None
     try:
         from ruamel.yaml import YAML  # rosbags' own dependency
 
         info = YAML(typ="safe").load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-        mode, fmt = (str(info.get(k, "") or "").lower() for k in ("compression_mode", "compression_format"))
-        files = [path / Path(f).name for f in info["relative_file_paths"]]
-        if mode != "file" or fmt != "zstd" or info["storage_identifier"] not in ("sqlite3", "mcap") or not files:
-            return None
-        if not all(f.suffix == ".zstd" and f.is_file() for f in files):
-            return None
+        return info, [path / Path(f).name for f in info["relative_file_paths"]]
     except Exception:  # noqa: BLE001 - a metadata file this does not read: rosbags' reader decides
         return None
-    return info, files
 
 
 def _inflated_load(path: Path, topic):
@@ -245,16 +252,13 @@ def _sqlite_files(path: Path) -> list[Path] | None:
     metadata.yaml names them); None for anything else."""
     if path.is_file():
         return [path] if path.suffix.lower() == ".db3" else None
-    try:
-        from ruamel.yaml import YAML  # rosbags' own dependency
-
-        info = YAML(typ="safe").load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-        files = [path / Path(f).name for f in info["relative_file_paths"]]
-        plain = str(info.get("compression_mode", "") or "").lower() in ("", "none")
-        if info["storage_identifier"] == "sqlite3" and plain and files and all(f.suffix == ".db3" for f in files):
-            return files if all(f.is_file() for f in files) else None
-    except Exception:  # noqa: BLE001 - a metadata file this does not read: rosbags' reader decides
+    got = _bag_info(path)
+    if got is None:
         return None
+    info, files = got
+    plain = str(info.get("compression_mode", "") or "").lower() in ("", "none")
+    if info.get("storage_identifier") == "sqlite3" and plain and files and all(f.suffix == ".db3" for f in files):
+        return files if all(f.is_file() for f in files) else None
     return None
 
 
