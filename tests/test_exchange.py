@@ -215,15 +215,23 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     rest = tmp_path / "rest.npz"
     assert main(["--quiet", "simulate", "static", "--out", str(rest), "--hours", "0.2", "--seed", "2"]) == 0
     allan = tmp_path / "allan.json"
-    assert main(["--quiet", "allan", str(rest), "--out", str(allan), "--rostopic", "/imu0"]) == 0
+    assert main(["--quiet", "allan", str(rest), "--out", str(allan)]) == 0
     capsys.readouterr()
     yml = tmp_path / "imu.yaml"
     assert main(["export", str(out), "--to", "kalibr", "--noise", str(allan), "--out", str(yml)]) == 0
-    k = yaml.safe_load("\n".join(yml.read_text().splitlines()[1:]))
+    # read as Kalibr reads it (yaml.safe_load of the whole file); every key its IMU parameters require, the topic
+    # Kalibr's examples use when none is known, and a note saying so
+    assert "rostopic /imu0 written (Kalibr requires one); --rostopic" in capsys.readouterr().out
+    k = yaml.safe_load(yml.read_text())
     a = json.loads(allan.read_text())["fields"]["kalibr"]["value"]
-    for key in ("accelerometer_noise_density", "gyroscope_random_walk", "update_rate"):
+    for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density"):
+        assert k[key] == a[key]
+    for key in ("gyroscope_random_walk", "update_rate"):
         assert k[key] == a[key]
     assert k["rostopic"] == "/imu0" and k["model"] == "scale-misalignment"
+    assert main(["--quiet", "export", str(out), "--to", "kalibr", "--noise", str(allan), "--rostopic", "/a/imu",
+                 "--out", str(tmp_path / "b.yaml")]) == 0  # fmt: skip
+    assert yaml.safe_load((tmp_path / "b.yaml").read_text())["rostopic"] == "/a/imu"
     # one-line refusals naming the flag
     assert main(["export", str(out), "--to", "imucal", "--noise", str(allan), "--out", str(tmp_path / "c.json")]) == 2
     assert "--noise is for --to kalibr" in capsys.readouterr().err

@@ -70,6 +70,10 @@ def run(args) -> int:
         res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic, update_rate=args.rate_hz
     ):
         print(f"optinav: {args.to} file written to {path}")
+    if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
+        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC
+
+        print(f"optinav: note: rostopic {DEFAULT_ROSTOPIC} written (Kalibr requires one); --rostopic names yours")
     if args.to == "kalibr" and noise is None:
         print(
             "optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "

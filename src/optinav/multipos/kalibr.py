@@ -82,6 +82,10 @@ def _factor(unit, factor) -> float:
     return 1.0 if unit in (None, "counts") else float(factor(unit))
 
 
+#: the topic written into a Kalibr IMU file when none is known (Kalibr requires the key; its examples' name)
+DEFAULT_ROSTOPIC = "/imu0"
+
+
 def write_kalibr_imu_yaml(
     path,
     *,
@@ -93,10 +97,14 @@ def write_kalibr_imu_yaml(
 ) -> None:
     """Write Kalibr's IMU YAML: the noise keys from ``noise`` (an :class:`~optinav.core.allan.AllanAnalysis` of SI
     data with both triads), ``rostopic``/``update_rate`` (from ``noise`` unless given) and, with ``calibration``,
-    ``model: scale-misalignment`` and its matrices. Refuses a file with neither."""
+    ``model: scale-misalignment`` and its matrices. Refuses a file with neither. With ``noise`` the file is a
+    Kalibr input (``kalibr_calibrate_imu_camera --imu``): every key Kalibr requires, the topic
+    :data:`DEFAULT_ROSTOPIC` unless given or in ``noise``."""
     if noise is None and calibration is None:
         raise OptinavError("nothing to write into the Kalibr file", "give an allan result or a calibration")
-    head = ["%YAML:1.0", "# Kalibr IMU configuration written by optinav"]
+    # no "%YAML:1.0" line (OpenCV's, as imu_utils writes): Kalibr reads the file with yaml.safe_load, which
+    # refuses that directive
+    head = ["# Kalibr IMU configuration written by optinav"]
     body = []
     rate = update_rate
     if noise is not None:
@@ -121,7 +129,8 @@ def write_kalibr_imu_yaml(
             body.append(f"{k}: {_num(kal[k])}  # [{units[k]}]")
         if rate is None:
             rate = kal.get("update_rate")
-        rostopic = rostopic or noise.rostopic or None
+        # Kalibr's IMU parameters require a topic: its examples' name unless one is known
+        rostopic = rostopic or noise.rostopic or DEFAULT_ROSTOPIC
     if rostopic:
         if any(c in rostopic for c in "\n\r#:'\"{}[],&*!|>%@`") or not rostopic.strip():
             raise OptinavError(f"the topic {rostopic!r} is not a plain ROS name", "use a name like /imu0")
