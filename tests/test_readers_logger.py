@@ -422,3 +422,35 @@ def test_iso_datetimes_parse_to_the_epoch_seconds_python_gives(tmp_path, start, 
     got = read_imu(path, time_unit="s").t
     want = np.array([s.timestamp() for s in stamps])
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-6 * max(1.0, abs(want[0]) / 1e9))
+
+
+def test_a_column_nobody_reads_may_hold_text_further_down(tmp_path):
+    """A logger's event / GPS-fix column, empty or numeric at first and text on some row, is NaN there: the file
+    reads (it was refused at that row), whole and in blocks, also with the columns named."""
+    rng = np.random.default_rng(5)
+    n = 600
+    v = np.round(rng.normal(size=(n, 6)), 6)
+    event = [""] * n
+    event[300] = "button"
+    fix = ["0"] * 200 + ["3D"] * (n - 200)
+    lines = ["t,ax,ay,az,gx,gy,gz,event,gps_fix"] + [
+        f"{k * 0.01:.2f}," + ",".join(f"{x:.6f}" for x in v[k]) + f",{event[k]},{fix[k]}" for k in range(n)
+    ]
+    f = _w(tmp_path / "ev.csv", "\n".join(lines) + "\n")
+    for kw in ({}, {"columns": "t=t,ax=ax,ay=ay,az=az,gx=gx,gy=gy,gz=gz"}):
+        log = read_imu(f, **kw)
+        assert np.array_equal(log.acc, v[:, :3]) and np.array_equal(log.gyr, v[:, 3:])
+        np.testing.assert_allclose(log.t, np.arange(n) * 0.01, atol=1e-12)
+        blocks = list(iter_imu(f, chunk_rows=128, **kw))
+        assert np.array_equal(np.concatenate([b.acc for b in blocks]), v[:, :3])
+    # a column read_imu takes still refuses text, naming the row
+    lines[401] = lines[401].replace(f",{v[400, 0]:.6f},", ",oops,", 1)
+    with pytest.raises(OptinavError, match="line 402, column 2 .'ax'.: 'oops' is not a number"):
+        read_imu(_w(tmp_path / "bad.csv", "\n".join(lines) + "\n"))
+
+
+def test_a_delimiter_that_splits_nothing_is_a_one_line_error(tmp_path, capsys):
+    f = _w(tmp_path / "mini.csv", "t,ax,ay,az,gx,gy,gz\n" + "".join(f"{k / 100},1,2,9.8,0,0,0\n" for k in range(50)))
+    assert main(["allan", str(f), "--delimiter", ";", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no column of numbers" in err and "--delimiter" in err

@@ -769,6 +769,7 @@ class _Layout:
     keep: list[int]
     textable: set[int]
     dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
+    loose: set[int] = dataclasses.field(default_factory=set)  # columns nobody reads: a text cell there is NaN
 
 
 def _text_layout(
@@ -865,11 +866,24 @@ def _text_layout(
     if needed is not None and row is not None:  # a column nobody reads with text in the first data row: left out
         out = [j for j in keep if not (j in textable or j in dates or _is_number(row[j]) or needed(colnames[j]))]
         keep = [j for j in keep if j not in out]
+        if not keep:
+            raise OptinavError(
+                f"{path.name}: no column of numbers in the first data row ({lines[start].strip()[:60]!r}, "
+                f"split at {'whitespace' if delim is None else repr(delim)})",
+                "check the delimiter option (--delimiter), or drop it to let the file's delimiter be found",
+            )
+    # a column nobody reads (a logger's event or GPS-fix column) may hold text further down: NaN there, not an
+    # error; its first cells were numbers or empty
+    loose = (
+        set()
+        if needed is None
+        else {j for j in keep if j not in textable and j not in dates and not needed(colnames[j])}
+    )
     meta = _comment_meta(comments)
     if needed is not None and out:
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
     meta.update(preamble)
-    return _Layout(delim, colnames, units, meta, start, keep, textable | dates, dates)
+    return _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose)
 
 
 def _parse_block(
@@ -903,7 +917,20 @@ def _parse_block(
         )
     for j in lay.dates:
         data[j] = _epoch_seconds(path, lay.colnames[j], data[j])
+    for j in lay.loose:
+        data[j] = _loose_numbers(data[j])
     return data, truncated
+
+
+def _loose_numbers(cells: np.ndarray) -> np.ndarray:
+    """A column nobody reads as floats: its numbers, NaN for text and empty cells."""
+    if cells.dtype.kind == "f":
+        return cells
+    cells = np.char.strip(np.asarray(cells, dtype=str))
+    out = np.full(cells.shape, np.nan)
+    ok = np.array([_is_number(c) and c != "" for c in cells.tolist()], dtype=bool)
+    out[ok] = cells[ok].astype(float)
+    return out
 
 
 _DATETIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}(:\d{2}(\.\d+)?)?\s*(Z|[+-]\d{2}:?\d{2})?$")
