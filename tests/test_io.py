@@ -167,11 +167,11 @@ def test_aliases_are_recognised(tmp_path):
     assert log.sample.tolist() == [10, 11, 12] and log.labels.tolist() == ["a", "a", "b"]
     # a name implying its unit and a mapping entry
     log = read_imu(
-        _write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,5.5\n"),
+        _write(tmp_path / "b.csv", "time_us,w_x,w_y,w_z,zeit\n0,1,2,3,5\n500,1,2,3,5.05\n"),
         columns="t=zeit",
         gyro_unit="deg/s",
     )
-    assert log.t.tolist() == [5.0, 5.5] and log.acc is None
+    assert log.t.tolist() == [5.0, 5.05] and log.acc is None
     np.testing.assert_allclose(log.gyr[0], np.deg2rad([1, 2, 3]), rtol=1e-15)
     log = read_imu(tmp_path / "b.csv")
     assert log.t.tolist() == [0.0, 500e-6]
@@ -501,7 +501,7 @@ def test_missing_h5py_is_a_clear_error(tmp_path, monkeypatch):
 def test_mat_v5_variables_structs_and_single_matrix(tmp_path):
     import scipy.io
 
-    t = np.arange(4) * 0.5
+    t = np.arange(4) * 0.05
     scipy.io.savemat(
         tmp_path / "a.mat",
         {
@@ -713,7 +713,7 @@ def test_million_row_csv_reads_in_seconds(tmp_path):
 
 
 def test_a_time_column_in_another_unit_than_seconds_is_refused_unless_stated(tmp_path):
-    """Times read as seconds because nothing states their unit must give an IMU rate (≥ 2 Hz): a logger's
+    """Times read as seconds because nothing states their unit must give an IMU rate (≥ 10 Hz): a logger's
     millis() at 1 kHz or nanoseconds since boot read as seconds gave 1 Hz / 1e-7 Hz logs and noise densities
     orders of magnitude off, with exit 0. The error names the unit that fits; a stated unit is taken."""
     rng = np.random.default_rng(2)
@@ -732,7 +732,12 @@ def test_a_time_column_in_another_unit_than_seconds_is_refused_unless_stated(tmp
         np.testing.assert_array_equal(log.acc, acc)
     slow = _write(tmp_path / "slow.csv", "t,ax,ay,az\n" + body.format(*np.arange(n)))  # a 1 Hz log, said so
     assert read_imu(slow, time_unit="s").t[-1] == n - 1
-    fast = _write(tmp_path / "ok.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 2.5)))  # 2.5 Hz: accepted
-    assert read_imu(fast).t[1] == 0.4
+    fast = _write(tmp_path / "ok.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 10)))  # 10 Hz: accepted
+    assert read_imu(fast).t[1] == 0.1
+    # a 4 kHz log's 0.25 ms steps read as seconds gave a 4 Hz log (noise densities 32x off), exit 0
+    khz4 = _write(tmp_path / "k4.csv", "time,ax,ay,az\n" + body.format(*(np.arange(n) * 0.25)))
+    with pytest.raises(OptinavError, match=r"steps 0.25 s read as seconds .*: a 4 Hz IMU log; pass --time-unit ms"):
+        read_imu(khz4)
+    assert read_imu(khz4, time_unit="ms").t[1] == 0.25e-3
     with pytest.raises(OptinavError, match=r"in its stated unit: a 1e\+08 Hz IMU log; pass the right --time-unit"):
         read_imu(_write(tmp_path / "s.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 100))), time_unit="us")

@@ -42,14 +42,14 @@ def test_two_column_table_is_not_a_preamble(tmp_path):
 
 @pytest.mark.parametrize("suffix", [".mat", ".log", ".dat", ".npz", ".npy", ".h5", ".hdf5", ".MAT", ".csv.npz"])
 def test_text_under_a_binary_or_logger_suffix_is_text(tmp_path, suffix):
-    log = read_imu(_w(tmp_path / f"x{suffix}", "t ax ay az\n0 1 2 3\n0.5 1 2 3\n"))
-    assert log.t.tolist() == [0.0, 0.5]
+    log = read_imu(_w(tmp_path / f"x{suffix}", "t ax ay az\n0 1 2 3\n0.05 1 2 3\n"))
+    assert log.t.tolist() == [0.0, 0.05]
 
 
 def test_binary_under_the_wrong_suffix_is_read_by_its_content(tmp_path):
-    np.savez(tmp_path / "a.npz", t=np.array([0.0, 0.5]), ax=np.ones(2), ay=np.ones(2), az=np.ones(2))
+    np.savez(tmp_path / "a.npz", t=np.array([0.0, 0.05]), ax=np.ones(2), ay=np.ones(2), az=np.ones(2))
     (tmp_path / "a.csv").write_bytes((tmp_path / "a.npz").read_bytes())
-    assert read_imu(tmp_path / "a.csv").t.tolist() == [0.0, 0.5]
+    assert read_imu(tmp_path / "a.csv").t.tolist() == [0.0, 0.05]
 
 
 @pytest.mark.parametrize(

@@ -898,9 +898,10 @@ def _log_of(
 
 
 #: sample rates (Hz) an IMU log can have: a time column read as seconds because nothing states its unit, whose
-#: median step gives a rate below the first, is most likely in ms (a logger's millis() at 1 kHz reads as 1 Hz), µs
-#: or ns; one whose stated unit gives a rate above the second is misstated
-_RATE_RANGE = (2.0, 1e7)
+#: median step gives a rate below the first, is as likely in ms (a logger's millis() at 1 kHz reads as 1 Hz, a
+#: 4 kHz log's 0.25 ms steps as 4 Hz), µs or ns, so its unit must be stated; one whose stated unit gives a rate
+#: above the second is misstated
+_RATE_RANGE = (10.0, 1e7)
 
 
 def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool) -> None:
@@ -911,6 +912,7 @@ def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool) -> None:
     step = float(np.median(np.diff(t[:65537])))
     rate = 1.0 / step
     low, high = _RATE_RANGE
+    low *= 1 - 1e-9  # a 10 Hz log's steps written as decimals (0.1, 0.2, …) have a median step a hair over 0.1
     if low <= rate <= high or (rate < low and not defaulted):
         return
     fits = [u for u, f in TIME_UNITS.items() if f != 1.0 and low <= 1.0 / (step * f) <= 1e5] if defaulted else []
