@@ -454,3 +454,45 @@ def test_a_delimiter_that_splits_nothing_is_a_one_line_error(tmp_path, capsys):
     assert main(["allan", str(f), "--delimiter", ";", "--out", str(tmp_path / "x.json")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no column of numbers" in err and "--delimiter" in err
+
+
+def test_a_time_step_back_is_named_for_what_it_is(tmp_path, capsys):
+    """A wrapping µs counter (an Arduino's micros() after 71.6 min) or a second recording appended was met with
+    'sort the samples by time', which would scramble the log: the error names the wrap (with the unwrap) or the
+    jump back; a few samples out of order still read 'sort'."""
+    n = 3000
+    body = "".join("{},0,0,9.81,0,0,0\n" for _ in range(n))
+    us = (np.arange(n, dtype=np.int64) * 10_000 + 2**32 - 15_000_000) % 2**32  # wraps at sample 1500
+    f = _w(tmp_path / "wrap.csv", "timestamp_us,ax,ay,az,gx,gy,gz\n" + body.format(*us))
+    with pytest.raises(OptinavError, match=r"t\[1500\] = 0 s < .*32-bit µs counter wrapping every 4294.97 s\)"
+                       r"; unwrap the time \(add 2\^32 µs after each wrap\)"):  # fmt: skip
+        read_imu(f)
+    for chunk in (512, 1500):  # the wrap inside a block and on a block's first sample
+        with pytest.raises(OptinavError, match="32-bit µs counter wrapping"):
+            list(iter_imu(f, chunk_rows=chunk))
+    t = np.r_[np.arange(1000) * 0.01, np.arange(2000) * 0.01]  # a second recording appended
+    with pytest.raises(OptinavError, match=r"jump back by 9.99 s, 999 steps: a second recording .*; cut the log"):
+        read_imu(_w(tmp_path / "two.csv", "t,ax,ay,az,gx,gy,gz\n" + body.format(*t)))
+    t = np.arange(n) * 0.01
+    t[[10, 11]] = t[[11, 10]]
+    with pytest.raises(OptinavError, match=r"is not sorted: t\[11\] = 0.1 s < t\[10\] = 0.11 s; sort the samples"):
+        read_imu(_w(tmp_path / "swap.csv", "t,ax,ay,az,gx,gy,gz\n" + body.format(*t)))
+
+
+def test_cli_errors_name_the_command_line_options(tmp_path, capsys):
+    """The library's messages name its keyword arguments (time_unit=..., rate_hz=...): the command line prints its
+    own flags instead. 'msec'/'usec' units in a header are read."""
+    from optinav.cli.main import cli_wording
+
+    assert cli_wording("pass time_unit=... or rate_hz=100, columns='t=x' (time_unit_x=1)") == (
+        "pass --time-unit ... or --rate 100, --columns 't=x' (time_unit_x=1)"
+    )
+    f = _w(tmp_path / "a.csv", "Time [minutes],ax,ay,az\n" + "".join(f"{k},1,2,9\n" for k in range(20)))
+    assert main(["allan", str(f), "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err
+    assert "pass --time-unit ... to state the unit" in err and "time_unit=" not in err
+    f = _w(tmp_path / "b.csv", "t,ax,ay,az\n" + "".join(f"{k / 100},1,2,9\n" for k in range(20)))
+    assert main(["allan", str(f), "--rate", "100", "--out", str(tmp_path / "x.json")]) == 2
+    assert "and --rate 100 was given too" in capsys.readouterr().err
+    log = read_imu(_w(tmp_path / "c.csv", "Time [msec],ax,ay,az\n0,1,2,9\n10,1,2,9\n20,1,2,9\n"))
+    np.testing.assert_allclose(log.t, [0, 0.01, 0.02], rtol=0, atol=1e-15)

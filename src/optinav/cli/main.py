@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 import textwrap
 import warnings
@@ -108,7 +109,7 @@ def _dispatch(args) -> int:
     except OptinavError as exc:
         if args.debug:
             raise
-        print(f"optinav: error: {exc}", file=sys.stderr)
+        print(f"optinav: error: {cli_wording(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("optinav: interrupted", file=sys.stderr)
@@ -130,9 +131,28 @@ def _dispatch(args) -> int:
         return 1
 
 
+#: the library's keyword arguments named in its messages, as the command line spells them
+_FLAGS = {
+    "rate_hz": "--rate",
+    "time_unit": "--time-unit",
+    "acc_unit": "--acc-unit",
+    "gyro_unit": "--gyro-unit",
+    "gyro_columns": "--gyro-columns",
+    "mag_columns": "--mag-columns",
+    "columns": "--columns",
+    "delimiter": "--delimiter",
+}
+_KEYWORD = re.compile(r"(?<![\w-])(" + "|".join(_FLAGS) + r")=")
+
+
+def cli_wording(message: str) -> str:
+    """A library message as the command line's user reads it: ``time_unit=...`` → ``--time-unit ...``."""
+    return _KEYWORD.sub(lambda m: _FLAGS[m.group(1)] + " ", message)
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """CLI users get a warning as one line like the errors, not Python's file:line and source echo."""
-    print(f"optinav: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    print(f"optinav: warning: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
 
 
 #: options that name what a command writes, never what it reads

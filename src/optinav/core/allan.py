@@ -1157,8 +1157,8 @@ class _RegularTiming:
             raise OptinavError(
                 f"the log is not regularly sampled: {self.bad} interval(s) differ from the median "
                 f"{self.dt0:.6g} s by more than {MAX_JITTER:.0%}, first at t = {t:.6g} s ({d:.6g} s)",
-                "cut the log at the gap and analyse the longest regular part (or pass --rate to "
-                "ignore a file's bad time stamps)",
+                "cut the log at the gap and analyse the longest regular part (or, when only the time stamps are "
+                "bad and no sample is missing, skip the time column ('_' in columns) and pass rate_hz=HZ)",
             )
         # the mean interval of a regular log: the median of rounded time stamps would be off in the 12th digit
         return (self.t_last - self.t0) / (self.n - 1)

@@ -47,6 +47,32 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
 _STEP_BLOCK = 1 << 20
 
 
+#: (bits, unit s, name) of the time counters loggers write, for naming a wrap
+_COUNTERS = tuple((b, u, n) for b in (16, 32) for u, n in ((1e-6, "µs"), (1e-3, "ms"), (1e-9, "ns"), (1.0, "s")))
+
+
+def _backwards(t: np.ndarray, i: int) -> tuple[str, str]:
+    """(what the step back from ``t[i]`` to ``t[i + 1]`` looks like, the remedy): a counter wrapping, a jump back
+    of many steps (a restart), or samples out of order."""
+    near = np.diff(t[max(i - 64, 0) : i + 66])
+    step = float(np.median(near[near > 0])) if np.any(near > 0) else 0.0
+    back = float(t[i] - t[i + 1])
+    if step > 0 and back > 100 * step:
+        for bits, unit, uname in _COUNTERS:
+            period = 2.0**bits * unit
+            if abs(back + step - period) <= max(2 * step, 1e-9 * period):
+                return (
+                    f" (a {bits}-bit {uname} counter wrapping every {period:.6g} s)",
+                    f"unwrap the time (add 2^{bits} {uname} after each wrap), or skip the time column ('_' in columns) "
+                    "and give the rate",
+                )
+        return (
+            f" (a jump back by {back:.6g} s, {back / step:.3g} steps: a second recording or a clock reset)",
+            "cut the log at that sample and read each part alone",
+        )
+    return "", "sort the samples by time"
+
+
 def check_timestamps(
     t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None, index0: int = 0
 ) -> np.ndarray:
@@ -86,9 +112,10 @@ def check_timestamps(
             )
         if np.any(dt < 0):
             i = a + int(np.flatnonzero(dt < 0)[0])
+            why, hint = _backwards(t, i)
             raise OptinavError(
-                f"{name} is not sorted: t[{index0 + i + 1}] = {t[i + 1]:.6g} s < t[{index0 + i}] = {t[i]:.6g} s",
-                "sort the samples by time",
+                f"{name} is not sorted: t[{index0 + i + 1}] = {t[i + 1]:.6g} s < t[{index0 + i}] = {t[i]:.6g} s{why}",
+                hint,
             )
     if max_gap_factor is not None and t.size > 1:
         dt = np.diff(t)

@@ -82,7 +82,20 @@ GYRO_UNITS = {
 }
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-_TIME_SPELLINGS = {"s": "s", "sec": "s", "ms": "ms", "us": "us", "µs": "us", "μs": "us", "ns": "ns"}
+_TIME_SPELLINGS = {
+    "s": "s",
+    "sec": "s",
+    "secs": "s",
+    "seconds": "s",
+    "ms": "ms",
+    "msec": "ms",
+    "us": "us",
+    "usec": "us",
+    "µs": "us",
+    "μs": "us",
+    "ns": "ns",
+    "nsec": "ns",
+}
 _CANONICAL = {
     "acc": ("counts", "g", "mg", "m/s^2"),
     "gyro": ("counts", "deg/s", "rad/s"),
