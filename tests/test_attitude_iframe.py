@@ -103,9 +103,10 @@ def test_gyro_bias_in_fast_motion():
     bias = np.radians([0.4, -0.3, 0.3])
     r = estimate(w + bias, acc, DT)
     lim = estimate(w + bias, acc, DT, motion_max_gyr=2.0)
-    assert np.max(np.abs(np.degrees(r.gyr_bias - bias))) < 0.05  # measured 0.007 °/s
-    assert np.max(np.abs(np.degrees(lim.gyr_bias - bias))) > 0.05  # measured 0.15 °/s
-    # measured 0.03° against 0.30° tilt RMS over the second half
+    err = np.max(np.abs(np.degrees(r.gyr_bias - bias)))
+    assert err < 0.05  # measured 0.001 °/s
+    assert np.max(np.abs(np.degrees(lim.gyr_bias - bias))) > 10 * err  # measured 0.049 °/s
+    # measured 0.004° against 0.084° tilt RMS over the second half
     assert 3 * tilt_deg(r.q_b_n, q_true, slice(n // 2, None)) < tilt_deg(lim.q_b_n, q_true, slice(n // 2, None))
 
 
@@ -253,8 +254,9 @@ def test_iframe_enu_and_ned_agree():
 
 def test_input_stage_for_published_methods():
     """A horizontal acceleration (norm g) and a gyro bias pull the published QN and GD (no bias state); the input
-    stage removes most of that. (MEKF estimates its own bias and gains little here: 1.0° → 0.5° only after
-    50 s, so it is not asserted.)"""
+    stage removes most of that once started (from 20 s: the low-pass starts as the mean of its first tau_acc
+    seconds, as VQF's, which in this motion from the first sample costs the first 20 s a few degrees). (MEKF
+    estimates its own bias and gains little here: 1.0° → 0.5° only after 50 s, so it is not asserted.)"""
     n = 6000
     th = np.radians(20.0) * np.sin(2 * np.pi * 0.5 * np.arange(n) * DT)
     acc = G * np.column_stack([np.sin(th), np.zeros(n), -np.cos(th)])
@@ -264,8 +266,8 @@ def test_input_stage_for_published_methods():
         plain = estimate(gyr, acc, DT, method=m)
         staged = estimate(gyr, acc, DT, method=m, input_stage=True)
         assert staged.input_stage and not plain.input_stage
-        assert tilt_deg(staged.q_b_n, q_true, slice(1000, None)) < 0.5 * tilt_deg(
-            plain.q_b_n, q_true, slice(1000, None)
+        assert tilt_deg(staged.q_b_n, q_true, slice(2000, None)) < 0.5 * tilt_deg(
+            plain.q_b_n, q_true, slice(2000, None)
         )
 
 

@@ -37,7 +37,8 @@ S_Q = 57  # output q_b^n (4)
 S_TIME = 61  # time since start (s)
 S_RDT = 62  # dt of the cached rest coefficients, then α (1)
 S_LPC = 64  # Butterworth memory of C_b^I (9 entries × 4)
-STATE_SIZE = 100
+S_AVG_N = 100  # samples averaged so far in the first ``tau_acc`` seconds (the low-passes' start)
+STATE_SIZE = 101
 
 # --- parameter layout (all SI: s, rad, rad/s, m/s², relative) ------------------------------------------------
 P_TAU_ACC, P_REST_TAU, P_REST_GYR, P_REST_ACC, P_REST_TIME = 0, 1, 2, 3, 4
@@ -84,9 +85,15 @@ def _butter(st, par, h):
 
 
 @numba.njit(**_NJ)
-def _lp(st, j, x, base=S_LP):
-    """One Butterworth step (direct form I) on channel j of the memory at ``base``."""
+def _lp(st, j, x, base=S_LP, n=0.0):
+    """One Butterworth step (direct form I) on channel j of the memory at ``base``; ``n`` ≥ 1: the start, the
+    mean of the n samples so far instead, kept as the filter's steady state for that input (every memory equal),
+    so that one accelerated first sample does not weigh for seconds (as VQF starts its low-pass)."""
     m = base + 4 * j
+    if n > 0.0:
+        y = st[m] + (x - st[m]) / n
+        st[m] = st[m + 1] = st[m + 2] = st[m + 3] = y
+        return y
     b0, b1, a1, a2 = st[S_DT + 1], st[S_DT + 2], st[S_DT + 3], st[S_DT + 4]
     y = b0 * x + b1 * st[m] + b0 * st[m + 1] - a1 * st[m + 2] - a2 * st[m + 3]
     st[m + 1] = st[m]
@@ -219,18 +226,22 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if na > 0.0 and math.isfinite(na):
         st[S_ACC_USED] = 1.0
         _butter(st, par, h)
+        n = 0.0  # the first tau_acc seconds: the running mean (see _lp)
+        if st[S_TIME] <= par[P_TAU_ACC]:
+            st[S_AVG_N] += 1.0
+            n = st[S_AVG_N]
         ix, iy, iz = _rot(g0, g1, g2, g3, ax, ay, az)
-        lx, ly, lz = _lp(st, 0, ix), _lp(st, 1, iy), _lp(st, 2, iz)
+        lx, ly, lz = _lp(st, 0, ix, S_LP, n), _lp(st, 1, iy, S_LP, n), _lp(st, 2, iz, S_LP, n)
         # C_b^I low-passed like the specific force: the correction rate responds to the bias through it
-        _lp(st, 0, g0 * g0 + g1 * g1 - g2 * g2 - g3 * g3, S_LPC)
-        _lp(st, 1, 2.0 * (g1 * g2 - g0 * g3), S_LPC)
-        _lp(st, 2, 2.0 * (g1 * g3 + g0 * g2), S_LPC)
-        _lp(st, 3, 2.0 * (g1 * g2 + g0 * g3), S_LPC)
-        _lp(st, 4, g0 * g0 - g1 * g1 + g2 * g2 - g3 * g3, S_LPC)
-        _lp(st, 5, 2.0 * (g2 * g3 - g0 * g1), S_LPC)
-        _lp(st, 6, 2.0 * (g1 * g3 - g0 * g2), S_LPC)
-        _lp(st, 7, 2.0 * (g2 * g3 + g0 * g1), S_LPC)
-        _lp(st, 8, g0 * g0 - g1 * g1 - g2 * g2 + g3 * g3, S_LPC)
+        _lp(st, 0, g0 * g0 + g1 * g1 - g2 * g2 - g3 * g3, S_LPC, n)
+        _lp(st, 1, 2.0 * (g1 * g2 - g0 * g3), S_LPC, n)
+        _lp(st, 2, 2.0 * (g1 * g3 + g0 * g2), S_LPC, n)
+        _lp(st, 3, 2.0 * (g1 * g2 + g0 * g3), S_LPC, n)
+        _lp(st, 4, g0 * g0 - g1 * g1 + g2 * g2 - g3 * g3, S_LPC, n)
+        _lp(st, 5, 2.0 * (g2 * g3 - g0 * g1), S_LPC, n)
+        _lp(st, 6, 2.0 * (g1 * g3 - g0 * g2), S_LPC, n)
+        _lp(st, 7, 2.0 * (g2 * g3 + g0 * g1), S_LPC, n)
+        _lp(st, 8, g0 * g0 - g1 * g1 - g2 * g2 + g3 * g3, S_LPC, n)
         nl = math.sqrt(lx * lx + ly * ly + lz * lz)
         if nl > 0.0:
             vx, vy, vz = _rot(c0, c1, c2, c3, lx / nl, ly / nl, lz / nl)
@@ -275,23 +286,33 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         mw = vx * wx + vy * wy + vz * wz
         dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
         phi = math.atan2(mw, mn)  # azimuth of the field, from north toward west (positive about up)
-        if st[S_M_REF_T] == 0.0:
+        # the reference starts as the mean of the second half of the low-pass's start (the first tau_acc s):
+        # a dip measured with the first, possibly accelerated, sample's tilt would reject every later sample,
+        # and one sample's noise (≈ 1 µT) is a good part of the norm gate
+        settling = st[S_TIME] <= par[P_TAU_ACC]
+        if st[S_M_REF_T] == 0.0 or st[S_TIME] <= 0.5 * par[P_TAU_ACC]:
             st[S_M_NORM] = nm
             st[S_M_DIP] = dip
-        ok = abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM] and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH]
+            st[S_M_REF_T] = 0.0
+        ok = settling or (
+            abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM] and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH]
+        )
         if ok:
             st[S_M_DIST_T] = 0.0
-            kr = h / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + h)
+            kr = h / (st[S_M_REF_T] + h) if settling else h / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + h)
             st[S_M_REF_T] += h
             st[S_M_NORM] += kr * (nm - st[S_M_NORM])
             st[S_M_DIP] += kr * (dip - st[S_M_DIP])
             err = -phi - st[S_DELTA]
             err = math.atan2(math.sin(err), math.cos(err))
-            if st[S_M_INIT] == 0.0:
+            if st[S_M_INIT] == 0.0 or settling:
+                # while the tilt settles the heading follows the field; then the mean of the samples since,
+                # growing to the time constant tau_mag (a heading taken with a start's tilt would take
+                # tau_mag's several times to fade)
                 st[S_DELTA] = -phi
                 st[S_M_INIT] = 1.0
             else:
-                k = h / max(par[P_TAU_MAG], min(st[S_TIME], par[P_TAU_MAG]) + h)
+                k = h / min(par[P_TAU_MAG], max(st[S_TIME] - par[P_TAU_ACC], h))
                 st[S_DELTA] += k * err
             st[S_MAG_USED] = 1.0
         else:

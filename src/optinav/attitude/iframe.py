@@ -15,6 +15,10 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
 * the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
+* start: the low-passes begin as the running mean of the first ``tau_acc`` seconds (as VQF's), so a recording
+  that starts in motion is not levelled by its first, accelerated sample; the magnetic reference is the mean of
+  the second half of that time, the heading follows the field until then and converges from then on with a
+  gain of 1/n growing to ``tau_mag``;
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
   recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
   is negated, so is its bias), and the two estimates fused (mean of the error rotation): the forward pass lags
