@@ -14,7 +14,7 @@ from optinav.core.rotations import frame_name
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
 
-__all__ = ["find_gaps", "check_imu", "check_aop", "check_frame", "FrameWarning"]
+__all__ = ["find_gaps", "check_imu", "check_aop", "check_frame", "check_mag", "FrameWarning", "MagnetometerWarning"]
 
 #: a step this many times the median step (and longer than MIN_GAP_S) is a gap
 GAP_FACTOR = 5.0
@@ -23,6 +23,10 @@ MIN_GAP_S = 0.5
 
 class FrameWarning(UserWarning):
     """The accelerometer at rest contradicts the chosen navigation frame."""
+
+
+class MagnetometerWarning(UserWarning):
+    """The magnetometer's field norm follows the orientation: an uncalibrated (hard-iron) magnetometer."""
 
 
 def find_gaps(dts: np.ndarray) -> np.ndarray:
@@ -226,3 +230,47 @@ def check_frame(acc: np.ndarray, frame: str) -> None:
             FrameWarning,
             stacklevel=3,
         )
+
+
+#: a field norm spread (std / median) above this is more than noise and disturbances in passing
+MAG_SPREAD = 0.05
+#: the hard-iron check fits about this many magnetometer rows, evenly spaced
+MAG_FIT_ROWS = 100_000
+
+
+def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+    """(offset b, relative spread of |m| (std / median), relative spread of |m − b|) when a constant offset b
+    (sphere fit, linear least squares) explains most of a field norm that varies with the orientation; None
+    otherwise. ``mag`` (n, 3) in any unit; NaN rows are left out."""
+    m = mag[np.all(np.isfinite(mag), axis=1)]
+    if m.shape[0] < 100:
+        return None
+    n0 = _norm(m)
+    s0 = float(np.std(n0) / np.median(n0))
+    if s0 <= MAG_SPREAD:
+        return None
+    A = np.column_stack([2.0 * m, np.ones(m.shape[0])])
+    x = np.linalg.lstsq(A, np.einsum("ij,ij->i", m, m), rcond=None)[0]
+    b = x[:3]
+    r2 = float(x[3] + b @ b)
+    if not r2 > 0:
+        return None
+    s1 = float(np.std(_norm(m - b)) / np.sqrt(r2))
+    # a disturbance (a magnet passing, steel nearby) is no constant offset: the fit does not explain it
+    return (b, s0, s1) if s1 < s0 / 3 and np.linalg.norm(b) > 2 * MAG_SPREAD * np.sqrt(r2) else None
+
+
+def check_mag(mag: np.ndarray) -> None:
+    """Warn once when the field norm varies with the orientation as a constant offset makes it (an uncalibrated
+    magnetometer: its heading is wrong by tens of degrees, and the disturbance gate cannot tell)."""
+    got = hard_iron(mag)
+    if got is None:
+        return
+    b, s0, s1 = got
+    warnings.warn(
+        f"the magnetometer's field norm varies by {s0:.0%} (std/median) with the orientation, and a constant "
+        f"offset of [{b[0]:.4g}, {b[1]:.4g}, {b[2]:.4g}] (its unit) explains it down to {s1:.1%}: an "
+        "uncalibrated (hard-iron) magnetometer gives a wrong heading; calibrate it (subtract the offset) first",
+        MagnetometerWarning,
+        stacklevel=3,
+    )

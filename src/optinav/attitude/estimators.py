@@ -32,7 +32,7 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
-from optinav.attitude.checks import check_frame, check_imu, find_gaps
+from optinav.attitude.checks import MAG_FIT_ROWS, check_frame, check_imu, check_mag, find_gaps
 from optinav.attitude.iframe import AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options
@@ -453,6 +453,8 @@ def estimate(
     if checks:
         check_imu(gyr, acc, dts)
         check_frame(acc, frame)
+        if mag is not None:
+            check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)])
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])

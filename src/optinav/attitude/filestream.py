@@ -789,6 +789,8 @@ def stream_attitude(
         bad += int(np.count_nonzero(~finite))
         if not bad:
             checks.add(gyr, acc, dts)
+            if "mag" in extra:
+                checks.add_mag(extra["mag"])
         if pol is not None and pol.aop_unit != "deg":
             a = np.abs(extra["aop"][np.isfinite(extra["aop"])])
             aop_max = max(aop_max, float(a.max()) if a.size else 0.0)

@@ -36,6 +36,19 @@ class StreamChecks:
         self._head: list[np.ndarray] = []  # the first 200 accelerometer rows (frame check)
         self._head_n = 0
         self.n = 0
+        self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
+        self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
+
+    def add_mag(self, mag: np.ndarray) -> None:
+        """Pass 1: the block's magnetometer rows (n, 3); evenly spaced rows are kept, at most twice
+        :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full)."""
+        first = (-self._mag_seen) % self._mag_stride
+        self._mag.append(mag[first :: self._mag_stride].copy())
+        self._mag_kept += self._mag[-1].shape[0]
+        self._mag_seen += mag.shape[0]
+        if self._mag_kept > 2 * _c.MAG_FIT_ROWS:
+            kept = np.concatenate(self._mag)[::2]
+            self._mag, self._mag_kept, self._mag_stride = [kept], kept.shape[0], 2 * self._mag_stride
 
     def add(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 1: one block of gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s."""
@@ -107,6 +120,8 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame)
+        if self._mag:
+            _c.check_mag(np.concatenate(self._mag))
 
 
 class StreamEstimator:
