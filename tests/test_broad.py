@@ -252,3 +252,25 @@ def test_streamed_hard_iron_rows_are_evenly_spaced(block):
     kept = np.concatenate(c._mag)
     s = c._mag_stride
     assert s == 4 and np.array_equal(kept, mag[::s])
+
+
+def test_a_deg_s_gyro_on_a_log_at_rest_is_refused():
+    """The first 30 s of trial 02 (at rest) with the gyro in deg/s but declared rad/s: its 0.2 °/s bias read as
+    0.2 rad/s tilted the estimate 41° with exit 0 (the unit check judged how gravity turns around a centred
+    mean, which a steady false turn follows). A body the accelerometer shows still for 2 s cannot turn about a
+    horizontal axis: refused naming --gyro-unit deg/s; the same samples in rad/s, and a steady level turn
+    (specific force tilted by its centripetal pull, turning about the vertical), pass."""
+    from optinav.attitude.checks import check_imu
+    from optinav.errors import OptinavError
+
+    tr = load_broad(PATH)
+    m = int(30 / tr.dt)
+    d = np.full(m, tr.dt)
+    with pytest.raises(OptinavError, match=r"--gyro-unit deg/s \(the gyro turns at 0.1\d+ rad/s about a horizontal"):
+        check_imu(np.degrees(tr.gyr[:m]), tr.acc[:m], d)
+    check_imu(tr.gyr[:m], tr.acc[:m], d)
+    rng = np.random.default_rng(3)
+    n = 6000
+    acc = np.tile([1.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.05, (n, 3))  # 1 m/s² centripetal, level body
+    gyr = np.tile([0.0, 0.0, 0.2], (n, 1)) + rng.normal(0, 0.002, (n, 3))
+    check_imu(gyr, acc, np.full(n, 0.01))

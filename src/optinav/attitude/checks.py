@@ -95,8 +95,43 @@ def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.nd
     return _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
 
 
+#: a body still for 2 s (accelerometer steady) cannot turn about a horizontal axis faster than this (rad/s,
+#: 5.7 °/s): a deg/s gyro declared rad/s (a 0.2 °/s bias reads 0.2 rad/s and tilts the estimate tens of
+#: degrees), or a bias far beyond the 2 °/s the estimators track
+STILL_RATE = 0.1
+
+
+def _still_turn(g, a, d) -> float:
+    """The largest mean gyro rate (rad/s) about an axis ⊥ the specific force, less half the rate about it, over
+    2-s windows in which the accelerometer is steady (per-axis std < 0.1 m/s², |a| within 5 % of g): a turn
+    there would tilt gravity in the body. (A steady turn keeps |a| up to 5 % over g — a centripetal pull of
+    ≤ 0.32 g — and turns ⊥ the specific force at ≤ 0.32 × the rate about it: never counted.)"""
+    w = max(2, int(round(2.0 / float(np.median(d)))))
+    k = g.shape[0] // w
+    if k == 0:
+        return 0.0
+    ab = a[: k * w].reshape(k, w, 3)
+    gm = g[: k * w].reshape(k, w, 3).mean(axis=1)
+    am = ab.mean(axis=1)
+    na = _norm(am)
+    still = (np.sqrt(np.sum(ab.var(axis=1), axis=1)) < 0.1) & (np.abs(na - G_STANDARD) < 0.05 * G_STANDARD)
+    if not np.any(still):
+        return 0.0
+    u = am[still] / na[still, None]
+    par = np.sum(gm[still] * u, axis=1)
+    perp = _norm(gm[still] - par[:, None] * u)
+    return float(np.max(perp - 0.5 * np.abs(par)))
+
+
 def _unit_hint_window(g, a, d, window_max: float) -> str:
     k = g.shape[0]
+    still = _still_turn(g, a, d)
+    if still > STILL_RATE:
+        return (
+            f"{_SCALES[np.pi / 180]} (the gyro turns at {still:.3g} rad/s about a horizontal axis while the "
+            "accelerometer shows the body still; if it is in rad/s, that bias is beyond any the estimators track: "
+            "subtract it first)"
+        )
     if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
     spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
