@@ -496,3 +496,47 @@ def test_cli_errors_name_the_command_line_options(tmp_path, capsys):
     assert "and --rate 100 was given too" in capsys.readouterr().err
     log = read_imu(_w(tmp_path / "c.csv", "Time [msec],ax,ay,az\n0,1,2,9\n10,1,2,9\n20,1,2,9\n"))
     np.testing.assert_allclose(log.t, [0, 0.01, 0.02], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("enc, gz", [("utf-16", False), ("utf-16-le", False), ("utf-16", True)])
+def test_utf16_text_reads(tmp_path, enc, gz):
+    """Excel's "Unicode Text" (UTF-16 with a byte-order mark, tabs) was called binary; read whole and in blocks.
+    Without a byte-order mark it is named as UTF-16 text."""
+    import codecs
+
+    rng = np.random.default_rng(8)
+    v = np.round(rng.normal(size=(3000, 6)), 6)
+    text = "t\tax\tay\taz\tgx\tgy\tgz\r\n" + "".join(
+        f"{k / 100:.2f}\t" + "\t".join(f"{x:.6f}" for x in v[k]) + "\r\n" for k in range(3000)
+    )
+    raw = text.encode(enc) if enc == "utf-16" else codecs.BOM_UTF16_LE + text.encode(enc)
+    f = tmp_path / ("u.txt.gz" if gz else "u.txt")
+    f.write_bytes(gzip.compress(raw) if gz else raw)
+    log = read_imu(f)
+    assert np.array_equal(log.acc, v[:, :3]) and np.array_equal(log.gyr, v[:, 3:])
+    assert np.array_equal(np.concatenate([b.gyr for b in iter_imu(f, chunk_rows=700)]), v[:, 3:])
+    if not gz:
+        f.write_bytes(text.encode("utf-16-le"))
+        with pytest.raises(OptinavError, match="looks like UTF-16 text without a byte-order mark; save it as UTF-8"):
+            read_imu(f)
+
+
+def test_a_zip_that_is_not_npz_is_named(tmp_path):
+    """A phone app's export (a zip of CSV files) or an openpyxl workbook (its content-types entry last, beyond
+    the first 4 kB) was read as NPZ: 'holds no numeric arrays'."""
+    import zipfile
+
+    z = tmp_path / "export.zip"
+    with zipfile.ZipFile(z, "w") as w:
+        w.writestr("Accelerometer.csv", "time,x,y,z\n0,1,2,3\n")
+        w.writestr("Gyroscope.csv", "time,x,y,z\n0,1,2,3\n")
+    with pytest.raises(OptinavError, match=r"zip archive of 2 text table\(s\) \(Accelerometer.csv, Gyroscope.csv\)"):
+        read_imu(z)
+    x = tmp_path / "log.xlsx"
+    with zipfile.ZipFile(x, "w") as w:
+        w.writestr("xl/worksheets/sheet1.xml", "<x/>" * 2000)
+        w.writestr("[Content_Types].xml", "<Types/>")
+    with pytest.raises(OptinavError, match=r"is an Office \(.xlsx\) workbook"):
+        read_imu(x)
+    np.savez(tmp_path / "ok.npz", t=np.arange(3) * 0.01, ax=np.ones(3), ay=np.ones(3), az=np.ones(3))
+    assert read_imu(tmp_path / "ok.npz").acc.shape == (3, 3)

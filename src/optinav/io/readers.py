@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import gzip
+import io
 import itertools
 import re
 import zlib
@@ -451,6 +452,9 @@ class TableChunks:
         labels = {normalize_name(c)[0] for c in self.text_columns}
         with open(path, "rb") as raw:
             src = gzip.GzipFile(fileobj=raw, mode="rb") if self.gz else raw
+            if src.peek(2)[:2] in _UTF16_BOMS:  # read as UTF-8 lines (the BOM consumed)
+                wide = io.TextIOWrapper(src, encoding="utf-16", newline="")  # held: collected, it closes the file
+                src = (line.encode("utf-8") for line in wide)
             state = {"complete": True}
 
             def block(k: int = n) -> list[str]:
@@ -558,6 +562,8 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         raise OptinavError(f"{path.name}: {exc.cause}", exc.remedy) from None
     if kind == "gztext":
         kind, gz = "text", True
+    if kind == "npz":
+        _zip_is_npz(path)
     if kind is None or (gz and kind != "text"):
         shown = "".join(path.suffixes[-2 if gz else -1 :]) or "(none)"
         raise OptinavError(
@@ -565,6 +571,32 @@ def _file_kind(path: Path) -> tuple[str, bool]:
             f"use one of {', '.join(SUFFIXES)} (text files may end in .gz)",
         )
     return kind, gz
+
+
+def _zip_is_npz(path: Path) -> None:
+    """A zip that is not NumPy's .npz named for what it is: an Office workbook (whose content-types entry
+    openpyxl writes last), a zip of CSV files (a phone app's export), anything else."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return  # the NPZ reader names the damage
+    if not names or all(n.endswith(".npy") for n in names):
+        return
+    if "[Content_Types].xml" in names or any(n.startswith("xl/") for n in names):
+        raise OptinavError(f"{path.name} is an Office (.xlsx) workbook, not a data table", "save the sheet as CSV")
+    tables = [n for n in names if n.lower().endswith((".csv", ".txt", ".tsv"))]
+    if tables:
+        shown = ", ".join(tables[:4]) + (", …" if len(tables) > 4 else "")
+        raise OptinavError(
+            f"{path.name} is a zip archive of {len(tables)} text table(s) ({shown})", "extract it and pass one table"
+        )
+    raise OptinavError(
+        f"{path.name} is a zip archive ({', '.join(names[:3])}{', …' if len(names) > 3 else ''}), not NumPy's .npz",
+        "extract the data and pass it as CSV, NPZ, HDF5 or MAT",
+    )
 
 
 def _no_option(path: Path, **given) -> None:
@@ -674,7 +706,21 @@ def _read_bytes(path: Path, gz: bool) -> bytes:
         raise OptinavError(f"{path} is a damaged gzip file ({exc})", "re-export or decompress it") from None
 
 
+#: byte-order marks of UTF-16 text (Excel's "Unicode Text", Windows tools)
+_UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
 def _decode(path: Path, raw: bytes) -> str:
+    if raw.startswith(_UTF16_BOMS):
+        try:
+            return raw.decode("utf-16")
+        except UnicodeDecodeError:
+            raise OptinavError(
+                f"{path} starts as UTF-16 text but does not decode as UTF-16", "save it as UTF-8 CSV"
+            ) from None
+    head = raw[:400]
+    if head and max(head[0::2].count(0), head[1::2].count(0)) > 0.9 * (len(head) // 2):
+        raise OptinavError(f"{path} looks like UTF-16 text without a byte-order mark", "save it as UTF-8 CSV")
     if b"\x00" in raw:
         raise OptinavError(
             f"{path} looks binary (it contains NUL bytes), not a text table",
