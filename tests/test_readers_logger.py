@@ -540,3 +540,22 @@ def test_a_zip_that_is_not_npz_is_named(tmp_path):
         read_imu(x)
     np.savez(tmp_path / "ok.npz", t=np.arange(3) * 0.01, ax=np.ones(3), ay=np.ones(3), az=np.ones(3))
     assert read_imu(tmp_path / "ok.npz").acc.shape == (3, 3)
+
+
+@pytest.mark.parametrize("sep", [";", "\t", " "])
+def test_decimal_commas_read_where_comma_is_not_the_delimiter(tmp_path, sep):
+    """A German / French Excel or LibreOffice export, phyphox's "CSV (semicolon, decimal comma)": ';' (or tab)
+    between cells and ',' in numbers was refused with no option to accept it. Read, whole and in blocks, with a
+    note; a label's text is left as it is in the header."""
+    rng = np.random.default_rng(12)
+    n = 2500
+    v = np.round(rng.normal(size=(n, 6)), 6)
+    head = sep.join(["Time (s)", "ax", "ay", "az", "gx", "gy", "gz"]) if sep != " " else "t ax ay az gx gy gz"
+    rows = [sep.join([f"{k / 100:.2f}".replace(".", ",")] + [f"{x:.6f}".replace(".", ",") for x in v[k]])
+            for k in range(n)]  # fmt: skip
+    f = _w(tmp_path / "eu.csv", "\n".join([head, *rows]) + "\n")
+    log = read_imu(f)
+    assert np.array_equal(log.acc, v[:, :3]) and np.array_equal(log.gyr, v[:, 3:])
+    np.testing.assert_allclose(log.t, np.arange(n) / 100, atol=1e-12)
+    assert any("decimal commas read as decimal points" in x for x in log.notes)
+    assert np.array_equal(np.concatenate([b.acc for b in iter_imu(f, chunk_rows=333)]), v[:, :3])

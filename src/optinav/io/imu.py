@@ -895,6 +895,8 @@ def _log_of(
         notes=notes,
     )
     for p in parts:
+        if "decimal_comma" in p.table.meta and row0 == 0:
+            notes.append(f"{p.path.name}: decimal commas read as decimal points (',' is not its delimiter)")
         if "text_left_out" in p.table.meta and row0 == 0:
             notes.append(
                 f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "

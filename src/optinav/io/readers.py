@@ -816,6 +816,7 @@ class _Layout:
     textable: set[int]
     dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
     loose: set[int] = dataclasses.field(default_factory=set)  # columns nobody reads: a text cell there is NaN
+    comma: bool = False  # decimal commas (a ';' or tab file from a German or French Excel): read as points
 
 
 def _text_layout(
@@ -848,6 +849,10 @@ def _text_layout(
     sample = [_strip_comment(lines[i]) for i in content]
     if not given:
         delim = _sniff(sample)
+    # decimal commas: only where ',' is not the delimiter, and only when some cell is a decimal-comma number
+    comma = delim != "," and any(_DECIMAL_COMMA.match(t) for x in sample for t in _split(x, delim))
+    if comma:
+        sample = [_points(x, delim) for x in sample]
     toks0 = _split(sample[0], delim)
     is_header = _is_header(toks0, _split(sample[1], delim) if len(sample) > 1 else None)
     units: dict[str, str] = {}
@@ -928,8 +933,20 @@ def _text_layout(
     meta = _comment_meta(comments)
     if needed is not None and out:
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
+    if comma:
+        meta["decimal_comma"] = "1"
     meta.update(preamble)
-    return _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose)
+    return _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose, comma)
+
+
+def _points(line: str, delim: str | None) -> str:
+    """``line`` with its decimal-comma numbers written with points (other cells as they are)."""
+    if "," not in line:
+        return line
+    toks = _split(line, delim)
+    if not any(_DECIMAL_COMMA.match(t) for t in toks):
+        return line
+    return (delim or " ").join(t.replace(",", ".") if _DECIMAL_COMMA.match(t) else t for t in toks)
 
 
 def _parse_block(
@@ -946,6 +963,8 @@ def _parse_block(
     line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
     the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
     newline (only the block holding it passes False)."""
+    if lay.comma:  # ',' is not the delimiter: every comma in a data line is a decimal one (labels' too)
+        lines = lines[:start] + [x.replace(",", ".") for x in lines[start:]]
     data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
     truncated = None
     if data is None:
