@@ -559,3 +559,16 @@ def test_decimal_commas_read_where_comma_is_not_the_delimiter(tmp_path, sep):
     np.testing.assert_allclose(log.t, np.arange(n) / 100, atol=1e-12)
     assert any("decimal commas read as decimal points" in x for x in log.notes)
     assert np.array_equal(np.concatenate([b.acc for b in iter_imu(f, chunk_rows=333)]), v[:, :3])
+
+
+def test_a_hash_inside_a_cell_is_no_comment(tmp_path):
+    """'pose#1' … 'pose#5' in a label column were all read as 'pose' (numpy's comment character cut the cell,
+    silently merging the poses); a '#' starts a comment only at a line's start or after white space."""
+    lines = ["t,ax,ay,az,pose"] + [f"{k / 100:.2f},1,2,{k},pose#{k // 10 + 1}" for k in range(50)]
+    lines.insert(20, "# a comment line")
+    lines[30] += "  # a trailing comment"
+    log = read_imu(_w(tmp_path / "h.csv", "\n".join(lines) + "\n"))
+    assert sorted(set(log.labels.tolist())) == [f"pose#{i}" for i in range(1, 6)]
+    assert log.acc[:, 2].tolist() == list(range(50))
+    log = read_imu(_w(tmp_path / "n.csv", "t ax ay az\n" + "".join(f"{k / 100} 1 2 3  # x\n" for k in range(9))))
+    assert log.acc.shape == (9, 3)

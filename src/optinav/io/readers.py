@@ -759,8 +759,15 @@ def _sniff(sample: list[str]) -> str | None:
     return None
 
 
+#: a comment: '#' at the start of a line or after white space ("pose#1" or "#3" after a delimiter is a cell)
+_COMMENT = re.compile(r"(?:^|(?<=\s))#")
+
+
 def _strip_comment(line: str) -> str:
-    return line.split("#", 1)[0] if "#" in line else line
+    if "#" not in line:
+        return line
+    m = _COMMENT.search(line)
+    return line if m is None else line[: m.start()]
 
 
 def _split(line: str, delim: str | None) -> list[str]:
@@ -1041,7 +1048,9 @@ def _load_text(
 def _loadtxt(lines, delim, dtype, usecols=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return np.loadtxt(lines, delimiter=delim, comments="#", dtype=dtype, ndmin=2, quotechar='"', usecols=usecols)
+        # no comment character: numpy's would cut a cell like "pose#1" (a line with a comment goes to the exact
+        # parser, which knows one)
+        return np.loadtxt(lines, delimiter=delim, comments=None, dtype=dtype, ndmin=2, quotechar='"', usecols=usecols)
 
 
 def _parse_fast(lines, start, delim, ncol, keep, textable) -> dict[int, np.ndarray] | None:
