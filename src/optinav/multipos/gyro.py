@@ -711,6 +711,16 @@ def calibrate_gyro(
     unobservable: list[str] = []
     if not rep.full_rank:
         unobservable = list(rep.unobservable_directions)
+        # an under-determined design still fits its turns to the noise (≤ 1.5° RMS for a consumer MEMS gyro);
+        # turns that miss by tens of degrees are triads that disagree, which no choice of held parameters fixes
+        miss = float(np.degrees(np.sqrt(np.mean(angle_res(res_a.x) ** 2))))
+        if miss > _MISMATCH_DEG:
+            raise OptinavError(
+                f"the gyro's turns between the poses do not match how the accelerometer's gravity moved: they miss "
+                f"by {miss:.0f}° RMS after the best fit (noise gives about 1°)",
+                "an axis of one triad is flipped or two are swapped (check the columns' order and signs: both "
+                "triads right-handed, in the same body axes), or a 'static' pose moved (--threshold, --sections)",
+            )
         if not allow_unobservable:
             raise OptinavError(
                 f"gyro calibration is rank-deficient (rank {rep.rank}/{n_par}); unobservable: "
@@ -964,6 +974,11 @@ def _jac(fun, p, scales, r0):
         e[j] = h[j]
         J[:, j] = (np.asarray(fun(p + e)).reshape(-1) - r0) / h[j]
     return J
+
+
+#: the RMS angle (deg) by which fitted turns may miss the accelerometer's poses before the triads are taken to
+#: disagree (an axis flipped or two swapped: 26-36° in simulated sessions, noise 0.3-1.4°)
+_MISMATCH_DEG = 10.0
 
 
 def _report(J, r, dof, names, units, scales, max_std) -> ObservabilityReport:
