@@ -101,31 +101,33 @@ def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.nd
 STILL_RATE = 0.1
 
 
-def _still_turn(g, a, d) -> float:
+def _still_turn(g, a, d) -> tuple[float, float]:
     """The largest mean gyro rate (rad/s) about an axis ⊥ the specific force, less half the rate about it, over
     2-s windows in which the accelerometer is steady (per-axis std < 0.1 m/s², |a| within 5 % of g): a turn
     there would tilt gravity in the body. (A steady turn keeps |a| up to 5 % over g — a centripetal pull of
-    ≤ 0.32 g — and turns ⊥ the specific force at ≤ 0.32 × the rate about it: never counted.)"""
+    ≤ 0.32 g — and turns ⊥ the specific force at ≤ 0.32 × the rate about it: never counted.) Also the fraction
+    of the windows whose accelerometer is steady, whatever its norm."""
     w = max(2, int(round(2.0 / float(np.median(d)))))
     k = g.shape[0] // w
     if k == 0:
-        return 0.0
+        return 0.0, 0.0
     ab = a[: k * w].reshape(k, w, 3)
     gm = g[: k * w].reshape(k, w, 3).mean(axis=1)
     am = ab.mean(axis=1)
     na = _norm(am)
-    still = (np.sqrt(np.sum(ab.var(axis=1), axis=1)) < 0.1) & (np.abs(na - G_STANDARD) < 0.05 * G_STANDARD)
+    steady = np.sqrt(np.sum(ab.var(axis=1), axis=1)) < 0.1
+    still = steady & (np.abs(na - G_STANDARD) < 0.05 * G_STANDARD)
     if not np.any(still):
-        return 0.0
+        return 0.0, float(np.mean(steady))
     u = am[still] / na[still, None]
     par = np.sum(gm[still] * u, axis=1)
     perp = _norm(gm[still] - par[:, None] * u)
-    return float(np.max(perp - 0.5 * np.abs(par)))
+    return float(np.max(perp - 0.5 * np.abs(par))), float(np.mean(steady))
 
 
 def _unit_hint_window(g, a, d, window_max: float) -> str:
     k = g.shape[0]
-    still = _still_turn(g, a, d)
+    still, steady = _still_turn(g, a, d)
     if still > STILL_RATE:
         return (
             f"{_SCALES[np.pi / 180]} (the gyro turns at {still:.3g} rad/s about a horizontal axis while the "
@@ -134,6 +136,10 @@ def _unit_hint_window(g, a, d, window_max: float) -> str:
         )
     if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
+    if steady >= 0.9:
+        # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
+        # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
+        return ""
     spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
     best = min(spread, key=spread.get)
     return _SCALES[best] if best != 1.0 and spread[1.0] > 2.0 * spread[best] + 0.02 else ""
