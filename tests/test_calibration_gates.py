@@ -461,3 +461,20 @@ def test_triads_that_disagree_are_named_not_called_unobservable(change):
     with pytest.raises(OptinavError, match=r"turns between the poses do not match .* miss by \d+° RMS.*flipped"):
         calibrate(s.t, acc, gyr, g=s.gravity)
     calibrate(s.t, s.acc, s.gyr, g=s.gravity)  # the same session as recorded calibrates
+
+
+def test_a_clipped_accelerometer_is_named_and_its_poses_left_out():
+    """An accelerometer clipped at ±8.5 m/s² (a ±0.87 g range) was refused as 'check for motion inside the static
+    intervals'. The poses whose axis reads one value in every sample are named as clipped; with the range given
+    (--acc-range) the saturated poses are left out with a note and the six tilted poses calibrate the scales and
+    biases within their std."""
+    s = simulate("paper12", dwell_s=6, rest_s=3, rng=3)
+    acc = np.clip(s.acc, -8.5, 8.5)
+    with pytest.raises(OptinavError, match=r"pose \d+ axis [xyz] reads 8.5 in every sample .*clipped at the sensor"):
+        calibrate(s.t, acc, None, g=s.gravity)
+    r = calibrate(s.t, acc, None, g=s.gravity, acc_range=8.5)
+    assert sum("at the accelerometer's full scale" in n for n in r.quality["notes"]) == 6
+    K, b = np.asarray(r.accelerometer["K"]), np.asarray(r.accelerometer["b"])
+    K_std = np.asarray(r.accelerometer["K_std"])
+    assert np.all(np.abs(np.diag(K) - np.diag(s.acc_K)) < 3 * np.diag(K_std))
+    assert np.all(np.abs(b - s.acc_b) < 0.002)

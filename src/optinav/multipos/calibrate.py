@@ -83,6 +83,26 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
+def _drop_saturated(ranges: np.ndarray, t_int: np.ndarray, valid: np.ndarray, notes: list) -> tuple:
+    """The static poses with at least half their samples below the accelerometer's full scale; a note per pose
+    left out. Fewer than 6 left: an error naming the range."""
+    frac = np.array([np.mean(valid[i0:i1]) if i1 > i0 else 0.0 for i0, i1 in ranges])
+    out = np.flatnonzero(frac < 0.5)
+    for k in out:
+        notes.append(
+            f"static pose {k + 1} ({t_int[k][0]:.4g}–{t_int[k][1]:.4g} s) left out: {1 - frac[k]:.0%} of its samples "
+            "at the accelerometer's full scale"
+        )
+    if out.size and ranges.shape[0] - out.size < 6:
+        raise OptinavError(
+            f"{out.size} of {ranges.shape[0]} static poses are at the accelerometer's full scale, "
+            f"{ranges.shape[0] - out.size} remain: norm observation needs at least 6",
+            "record with a larger accelerometer range (or check --acc-range)",
+        )
+    keep = frac >= 0.5
+    return ranges[keep], t_int[keep]
+
+
 def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
     """Gravity magnitude (m/s²) and how it was obtained: given ``g``, normal gravity at ``lat`` (rad) and
     ``height_m`` (m), or standard."""
@@ -361,6 +381,7 @@ def calibrate(
             "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
             "--min-duration, or give the poses by hand with --sections",
         )
+    ranges, t_int = _drop_saturated(ranges, t_int, valid, notes)
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
@@ -588,6 +609,19 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
     rms = float(np.sqrt(np.mean(fit.residuals**2)))
     if rms > gates.MAX_RESIDUAL_G * fit.g:
         k = int(np.argmax(np.abs(fit.residuals)))
+        # an axis without any noise in a pose sits at a limit: a sensor clipped at its range reads the same
+        # value in every sample
+        var = np.diagonal(st.covariances, axis1=1, axis2=2)
+        flat = np.argwhere((var == 0) & (st.counts[:, None] > 10))
+        if flat.size:
+            p, j = (int(x) for x in flat[0])
+            raise OptinavError(
+                f"the poses do not fit one accelerometer model (residual RMS of |a| - g {rms:.3g} m/s^2): in pose "
+                f"{p + 1} axis {'xyz'[j]} reads {st.means[p, j]:.6g} in every sample ({len(flat)} pose-axes so): "
+                "clipped at the sensor's range",
+                "record with a larger accelerometer range, or mark it with --acc-range so that those poses are "
+                "left out",
+            )
         raise OptinavError(
             f"the poses do not fit one accelerometer model: residual RMS of |a| - g is {rms:.3g} "
             f"m/s^2 (pose {k + 1}: {fit.residuals[k]:+.3g} m/s^2; noise of a pose mean "
