@@ -103,6 +103,11 @@ def _drop_saturated(ranges: np.ndarray, t_int: np.ndarray, valid: np.ndarray, no
     return ranges[keep], t_int[keep]
 
 
+#: relative std of standard gravity as the local g when neither g nor the latitude is given: normal gravity
+#: spans 9.780 (equator) to 9.832 m/s² (poles), ±0.3 % of 9.80665, taken as uniform
+G_UNKNOWN_REL_STD = 0.003 / np.sqrt(3.0)
+
+
 def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
     """Gravity magnitude (m/s²) and how it was obtained: given ``g``, normal gravity at ``lat`` (rad) and
     ``height_m`` (m), or standard."""
@@ -309,7 +314,8 @@ def calibrate(
     notes = [
         f"g = {g:.6g} m/s^2 ({g_source})"
         + (
-            ": give --gravity or --latitude for the local value (it differs from standard gravity by up to 0.3 %)"
+            ": give --gravity or --latitude for the local value (it differs from standard gravity by up to 0.3 %; "
+            "the accelerometer scales' std includes that, 0.17 %)"
             if g_source.startswith("standard")
             else ""
         )
@@ -414,6 +420,10 @@ def calibrate(
     K_std = np.zeros((3, 3))
     for j, (r, c) in enumerate(model.K_INDEX):
         K_std[r, c] = fit.std[j]
+    if g_source.startswith("standard"):
+        # the scales are relative to the g assumed: an unknown local g (normal gravity spans ±0.3 % of standard
+        # gravity) scales K by as much, far beyond the fit's own std on a good session
+        K_std = np.hypot(K_std, np.abs(fit.K) * G_UNKNOWN_REL_STD)
     acc_entry = {
         "K": fit.K,
         "b": fit.b,
