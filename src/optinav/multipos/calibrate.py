@@ -83,6 +83,27 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
+def _clipped_rows(acc: np.ndarray, t: np.ndarray, ranges: np.ndarray, notes: list) -> np.ndarray:
+    """Rows of the static poses in which an axis reads the log's extreme value of that axis in every sample: a
+    sensor clipped at its range (noise always moves an unclipped axis), whatever the unit; a note per axis."""
+    out = np.zeros(acc.shape[0], bool)
+    lo, hi = np.nanmin(acc, axis=0), np.nanmax(acc, axis=0)
+    for i0, i1 in ranges:
+        seg = acc[i0:i1]
+        if seg.shape[0] <= 10:
+            continue
+        for j in range(3):
+            v = seg[:, j]
+            if v[0] in (lo[j], hi[j]) and np.all(v == v[0]):
+                out[i0:i1] = True
+                notes.append(
+                    f"the static pose at {t[i0]:.4g}–{t[i1 - 1]:.4g} s: the accelerometer's {'xyz'[j]} axis reads "
+                    f"{v[0]:.6g} in every sample, the log's extreme (clipped at the sensor's range)"
+                )
+                break
+    return out
+
+
 def _drop_saturated(ranges: np.ndarray, t_int: np.ndarray, valid: np.ndarray, notes: list) -> tuple:
     """The static poses with at least half their samples below the accelerometer's full scale; a note per pose
     left out. Fewer than 6 left: an error naming the range."""
@@ -387,7 +408,7 @@ def calibrate(
             "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
             "--min-duration, or give the poses by hand with --sections",
         )
-    ranges, t_int = _drop_saturated(ranges, t_int, valid, notes)
+    ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
