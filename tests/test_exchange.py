@@ -318,3 +318,15 @@ def test_apply_reads_imucal_own_export_and_matches_its_output(tmp_path):
     a, b = read_imucal_json(ref), read_imucal_json(tmp_path / "again.json")
     for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g"):
         assert _close(getattr(b, k), getattr(a, k)) or np.max(np.abs(getattr(b, k) - getattr(a, k))) < 1e-12, k
+
+
+def test_calibrate_exports_never_replace_the_result_or_each_other(session, tmp_path, capsys):
+    """`--out r.json --export imucal:r.json` turned the result file into an imucal file (exit 0); an imu_tk pair
+    naming one file, or two exports to one file, kept only the last. Refused before any work."""
+    d, data = session
+    r = tmp_path / "r.json"
+    for extra in (["--export", f"imucal:{r}"], ["--export", f"imu_tk:{tmp_path / 'a.calib'},{tmp_path / 'a.calib'}"],
+                  ["--export", f"imucal:{tmp_path / 'x'}", "--export", f"kalibr:{tmp_path / 'x'}"]):  # fmt: skip
+        assert main(["calibrate", "accel", str(data), "--out", str(r), *extra]) == 2
+        assert "give each output file its own name" in capsys.readouterr().err
+        assert not r.exists()

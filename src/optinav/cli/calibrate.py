@@ -276,7 +276,7 @@ def run_accel(args) -> int:
     from optinav.multipos.calibrate import calibrate_data, read_session_file
 
     out = output_path(args.out, (".json",), "RESULT.json")
-    exports = [parse_export(spec) for spec in args.export]
+    exports = distinct_outputs(out, [parse_export(spec) for spec in args.export])
     prepare_report(args)
     options = file_options(args)
     options.check()
@@ -300,6 +300,25 @@ def run_accel(args) -> int:
 
     finish_report(args, lambda d: write_calibration_report(res, data.t, data.acc, data.gyr, d))
     return 0
+
+
+def distinct_outputs(out, exports: list) -> list:
+    """``exports`` (of :func:`parse_export`) when no two outputs, --out included, name one file (the last would
+    silently replace the other: a result file turned into an imucal file)."""
+    from pathlib import Path
+
+    from optinav.errors import OptinavError
+
+    seen = {Path(out).resolve(): "--out"}
+    for fmt, *paths in exports:
+        for p in (q for q in paths if q is not None):
+            key = Path(p).resolve()
+            if key in seen:
+                raise OptinavError(
+                    f"--export {fmt} names {p}, which {seen[key]} writes too", "give each output file its own name"
+                )
+            seen[key] = f"--export {fmt}"
+    return exports
 
 
 def parse_export(spec: str):
