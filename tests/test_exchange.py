@@ -330,3 +330,21 @@ def test_calibrate_exports_never_replace_the_result_or_each_other(session, tmp_p
         assert main(["calibrate", "accel", str(data), "--out", str(r), *extra]) == 2
         assert "give each output file its own name" in capsys.readouterr().err
         assert not r.exists()
+
+
+def test_apply_refuses_data_in_other_raw_units(session, tmp_path, capsys):
+    """A calibration applied to data in other raw units (a log without unit header, counts read as the result's
+    unit) gave |a| of 0.17 or 19 964 m/s² with exit 0. The first block's corrected |a| must be about g."""
+    import pandas as pd
+
+    d, data = session
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(res)]) == 0
+    df = pd.read_csv(data, comment="#")
+    df[["ax", "ay", "az"]] *= 1000.0  # the same log in mili-units, no unit stated
+    other = tmp_path / "milli.csv"
+    df.to_csv(other, index=False)
+    assert main(["apply", str(res), str(other), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "not about g" in err and "--acc-unit" in err and not (tmp_path / "o.csv").exists()
+    assert main(["--quiet", "apply", str(res), str(data), "--out", str(tmp_path / "ok.csv")]) == 0

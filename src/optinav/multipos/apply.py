@@ -79,12 +79,29 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
             acc, gyro = corrected(res, log, data_path, result_path)
+            if writer.rows == 0 and acc is not None:
+                _check_corrected_norm(acc, log, data_path, result_path)
             writer.write(
                 ImuLog(
                     t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
                 )
             )
     return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
+
+
+def _check_corrected_norm(acc, log, data_path, result_path) -> None:
+    """The first block's corrected specific force must read about g (median norm within ×2): a calibration made
+    for other raw units (g for counts, counts for m/s²) gave |a| of 0.17 or 19 964 m/s² with exit 0."""
+    from optinav.core.units import G_STANDARD
+
+    med = float(np.nanmedian(np.sqrt(np.einsum("ij,ij->i", acc, acc))))
+    if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD:
+        raise OptinavError(
+            f"{Path(result_path).name} applied to {Path(data_path).name} gives |a| = {med:.4g} m/s^2 (median of the "
+            f"first {acc.shape[0]} samples), not about g: the data's raw unit ({log.acc_input_unit or 'unstated'}) "
+            "is not the one the calibration was made for",
+            "state the data's unit with --acc-unit (counts, g, mg, m/s^2), or apply the calibration of this sensor",
+        )
 
 
 def corrected(res, log, data_path, result_path):
