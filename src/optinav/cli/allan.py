@@ -97,12 +97,12 @@ def run(args) -> int:
     print(res.summary())
     print(f"optinav: result written to {out}")
     if kalibr is not None:
-        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC, write_kalibr_imu_yaml
+        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE, write_kalibr_imu_yaml
 
         write_kalibr_imu_yaml(kalibr, noise=res, option="--kalibr")
         print(f"optinav: Kalibr imu.yaml written to {kalibr}")
         if not res.rostopic:
-            print(f"optinav: note: rostopic {DEFAULT_ROSTOPIC} written (Kalibr requires one); --rostopic names yours")
+            print(f"optinav: note: {DEFAULT_ROSTOPIC_NOTE}")
     if args.report:
         from optinav.reports.allan_report import write_allan_report
 

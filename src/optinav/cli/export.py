@@ -71,9 +71,9 @@ def run(args) -> int:
     ):
         print(f"optinav: {args.to} file written to {path}")
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
-        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC
+        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE
 
-        print(f"optinav: note: rostopic {DEFAULT_ROSTOPIC} written (Kalibr requires one); --rostopic names yours")
+        print(f"optinav: note: {DEFAULT_ROSTOPIC_NOTE}")
     if args.to == "kalibr" and noise is None:
         print(
             "optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "

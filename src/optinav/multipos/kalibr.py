@@ -84,6 +84,8 @@ def _factor(unit, factor) -> float:
 
 #: the topic written into a Kalibr IMU file when none is known (Kalibr requires the key; its examples' name)
 DEFAULT_ROSTOPIC = "/imu0"
+#: what the commands say when they wrote :data:`DEFAULT_ROSTOPIC`
+DEFAULT_ROSTOPIC_NOTE = f"rostopic {DEFAULT_ROSTOPIC} written (Kalibr requires one); --rostopic names yours"
 
 
 def write_kalibr_imu_yaml(
