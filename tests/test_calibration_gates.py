@@ -503,3 +503,17 @@ def test_scales_std_covers_an_unknown_local_gravity(lat_deg):
     r = calibrate(s.t, s.acc, None, g=s.gravity)
     K, K_std = np.asarray(r.accelerometer["K"]), np.asarray(r.accelerometer["K_std"])
     assert np.all(np.abs(np.diag(K) - np.diag(s.acc_K)) < 4 * np.diag(K_std)) and np.all(np.diag(K_std) < 2e-4)
+
+
+def test_gyro_scale_window_of_a_physical_unit_is_tight_and_counts_have_none():
+    """A gyro in deg/s reads within ×GYRO_SCALE_FACTOR of 1; the accelerometer keeps the wide window."""
+    nom = 180.0 / np.pi  # deg/s per rad/s
+    kw = {"option": "--gyro-unit", "columns_flag": "--columns"}
+    for r in (1.0, 1.14, 1 / 1.14):
+        gates.check_matrix(np.eye(3) * nom * r, nom, "gyroscope", "deg/s", **kw)
+    for r in (1.16, 1 / 1.16, 1.4):
+        with pytest.raises(OptinavError, match="wrong time base") as e:
+            gates.check_matrix(np.diag([nom, nom * r, nom]), nom, "gyroscope", "deg/s", **kw)
+        assert "--rate" in e.value.remedy and "K_yy" in str(e.value)
+    gates.check_matrix(np.eye(3) * 1.4, 1.0, "accelerometer", "m/s^2", **kw)
+    gates.check_matrix(np.diag([1.0, 1.4, 1.0]), 1.0, "gyroscope", "counts", **kw)

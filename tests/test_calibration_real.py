@@ -106,3 +106,18 @@ def test_annotated_session_in_counts_paper_methods_agree_with_lm(tmp_path, metho
     # and both agree with imucal's closed form on the six axis poses to its cross terms
     imucal = read_imucal_json(DATA / "reference" / "example_cal_annotated_session.json").to_optinav()
     np.testing.assert_allclose(np.diag(ref.accelerometer["K"]), np.diag(imucal["acc_K"]), rtol=2e-3)
+
+
+@pytest.mark.parametrize("rate", [80.0, 120.0, 140.0])
+@pytest.mark.parametrize("route", ["ferraris", "default"])
+def test_a_wrong_sample_rate_is_refused_by_the_gyro_scale(tmp_path, capsys, rate, route):
+    """The example log is 102.4 Hz in deg/s: a --rate off by 17-37 % scales every integrated turn by as much
+    (K_xx 43.1 instead of 58.9 raw per rad/s at 140 Hz), which a gyro that reads deg/s cannot be; it used to pass
+    the ×1.5 window with exit 0."""
+    args = [*EXAMPLE, "--rate", f"{rate:g}"]
+    if route == "ferraris":
+        args += ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    _run(tmp_path, args, code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "gyroscope scale" in err and "wrong time base" in err and "--rate" in err
+    assert not (tmp_path / "r.json").exists()

@@ -800,6 +800,7 @@ def _ferraris(
         gyro_unit,
         option="--gyro-unit",
         columns_flag="--columns or --gyro-columns, or --rotation-angle",
+        time_flags="--rate, --time-unit; and the turn angle, --rotation-angle",
     )
     nan3 = np.full((3, 3), np.nan)
     acc_entry = {

@@ -8,7 +8,8 @@ After each fit (:mod:`optinav.multipos.calibrate`):
 * **convergence** — the optimizer reports success (an evaluation limit hit is a failure);
 * **residual** — the pose residual RMS is within :data:`MAX_RESIDUAL_G` × g: a larger one means motion in a
   "static" interval or data that no ellipsoid fits (the within-pose noise already inflates the std);
-* **plausibility** — diagonal scales within ×:data:`SCALE_FACTOR` of the nominal scale of the declared unit,
+* **plausibility** — diagonal scales within ×:data:`SCALE_FACTOR` of the nominal scale of the declared unit
+  (×:data:`GYRO_SCALE_FACTOR` for a gyroscope in deg/s or rad/s: beyond it the time base is wrong),
   couplings ``|K_ij|/K_ii`` ≤ :data:`MAX_COUPLING`, corrected pose directions within :data:`MAX_TURN_DEG` of
   the raw ones (no axis swap or sign flip), and for the gyroscope a K close to a positive diagonal; when it is
   close to a signed axis permutation instead, :func:`axis_permutation` names it (48 signed permutations).
@@ -32,6 +33,10 @@ SAME_POSE_DEG = 10.0
 MAX_RESIDUAL_G = 0.01
 #: diagonal scale factors must lie within nominal/SCALE_FACTOR … nominal·SCALE_FACTOR
 SCALE_FACTOR = 1.5
+#: a gyro declared in a physical unit (deg/s, rad/s) reads its rate to a few % (datasheet sensitivity tolerance);
+#: a diagonal scale outside nominal/GYRO_SCALE_FACTOR … nominal·GYRO_SCALE_FACTOR means a wrong time base
+#: (--rate, --time-unit) or turn angle, which scale the integrated turns, not the sensor
+GYRO_SCALE_FACTOR = 1.15
 #: largest accepted |K_ij| / K_ii (misalignment or cross-coupling, rad)
 MAX_COUPLING = 0.2
 #: largest accepted angle (degrees) between a corrected pose direction and its raw direction
@@ -129,9 +134,19 @@ def describe_permutation(P, sensor: str, frame: str) -> str:
     return f"{', '.join(parts)} of the {frame}"
 
 
-def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: str, columns_flag: str) -> None:
+def check_matrix(
+    K,
+    nominal: float | None,
+    sensor: str,
+    unit: str,
+    *,
+    option: str,
+    columns_flag: str,
+    time_flags: str = "--rate, --time-unit",
+) -> None:
     """Plausibility of a fitted K (raw per SI unit): diagonal positive and within ×SCALE_FACTOR of ``nominal``
-    (None: not checked), couplings ≤ MAX_COUPLING; a K close to a signed axis permutation is named as such."""
+    (None: not checked; a gyroscope in deg/s or rad/s within ×GYRO_SCALE_FACTOR, else ``time_flags`` are
+    named), couplings ≤ MAX_COUPLING; a K close to a signed axis permutation is named as such."""
     K = np.asarray(K, float)
     d = np.diag(K)
     coupling = np.abs(K - np.diag(d)) / np.maximum(np.abs(d)[:, None], np.finfo(float).tiny)
@@ -154,6 +169,17 @@ def check_matrix(K, nominal: float | None, sensor: str, unit: str, *, option: st
         return
     ratio = d / nominal
     bad = (ratio > SCALE_FACTOR) | (ratio < 1 / SCALE_FACTOR)
+    if sensor == "gyroscope" and unit in _GYRO_UNITS and not np.any(bad):
+        off = (ratio > GYRO_SCALE_FACTOR) | (ratio < 1 / GYRO_SCALE_FACTOR)
+        if np.any(off):
+            k = int(np.flatnonzero(off)[0])
+            raise OptinavError(
+                f"the gyroscope scale K_{'xyz'[k]}{'xyz'[k]} is {ratio[k]:.3g}× its nominal value in {unit} "
+                f"(diagonal {', '.join(f'{r:.3g}' for r in ratio)}×; a gyro reads within "
+                f"×{GYRO_SCALE_FACTOR:g}): the turns were integrated over a wrong time base or angle",
+                f"check the sample rate or time column ({time_flags})",
+            )
+        return
     if not np.any(bad):
         return
     if sensor == "gyroscope":
