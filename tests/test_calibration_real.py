@@ -121,3 +121,18 @@ def test_a_wrong_sample_rate_is_refused_by_the_gyro_scale(tmp_path, capsys, rate
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "gyroscope scale" in err and "wrong time base" in err and "--rate" in err
     assert not (tmp_path / "r.json").exists()
+
+
+def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, capsys):
+    """imucal's z_rot (a 360° turn about the vertical) labelled only to 85 % of its samples: the closed form
+    integrated the rest into K_zz 14 % too large — the turn the gyro makes after the section is the evidence."""
+    import json
+
+    sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    s = sections["z_rot"]
+    s["end"] = s["start"] + int(0.85 * (s["end"] - s["start"]))
+    path = tmp_path / "sections.json"
+    path.write_text(json.dumps(sections))
+    _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(path)], code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "the turn of z_rot goes on after it ends" in err and "--sections" in err

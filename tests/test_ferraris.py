@@ -420,3 +420,110 @@ def test_imucal_json_write_read(tmp_path):
         read_imucal_json(json.dumps({**theirs, "cal_type": "Other"}))
     with pytest.raises(OptinavError, match="lacks"):
         read_imucal_json(json.dumps({k: v for k, v in theirs.items() if k != "K_ga"}))
+
+
+# --- whole rotations: a cut section or a short turn is named, not scaled into K_g -------------------------------
+
+_RATE = 100.0
+
+
+def _rot(axis: int, phi: float) -> np.ndarray:
+    c, s = np.cos(phi), np.sin(phi)
+    i, j = [k for k in range(3) if k != axis]
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None):
+    """A continuous log at 100 Hz (t, raw acc, raw gyro, labels): the six poses (3 s each, 1 s unlabelled rest
+    around each), then per axis a turn about that axis while it is horizontal (x and y from z up, z from x up),
+    by ``turned`` (rad, raised-cosine rate over 4 s) between 1 s rests; ``cut`` < 1 ends the x_rot label at that
+    share of its turn (the rest of the turn unlabelled)."""
+    K_a, b_a, K_g, G, b_g = truth
+    rng = rng or np.random.default_rng(1)
+    f_rows, w_rows, labels = [], [], []
+
+    def still(f, n, label=""):
+        f_rows.append(np.tile(f, (n, 1)))
+        w_rows.append(np.zeros((n, 3)))
+        labels.extend([label] * n)
+
+    for i, ax in enumerate("xyz"):
+        for sign, suf in ((1, "p"), (-1, "a")):
+            f = np.zeros(3)
+            f[i] = sign * g
+            still(f, 100)
+            still(f, 300, f"{ax}_{suf}")
+            still(f, 100)
+    n = int(4 * _RATE)
+    tt = (np.arange(n) + 0.5) / _RATE
+    for j, ax in enumerate("xyz"):
+        f0 = np.array([g, 0, 0]) if j == 2 else np.array([0, 0, g])
+        rate = turned[j] / 4.0 * (1 - np.cos(2 * np.pi * tt / 4.0))
+        phi = turned[j] / 4.0 * (tt - 4.0 / (2 * np.pi) * np.sin(2 * np.pi * tt / 4.0))
+        still(f0, 100, f"{ax}_rot")
+        w = np.zeros((n, 3))
+        w[:, j] = rate
+        f_rows.append(np.array([_rot(j, p).T @ f0 for p in phi]))
+        w_rows.append(w)
+        k = int(cut * n) if j == 0 else n
+        labels.extend([f"{ax}_rot"] * k + [""] * (n - k))
+        still(_rot(j, phi[-1]).T @ f0, 100, f"{ax}_rot" if k == n else "")
+        still(_rot(j, phi[-1]).T @ f0, 100)
+    f, w = np.vstack(f_rows), np.vstack(w_rows)
+    acc = f @ K_a.T + b_a + rng.normal(scale=0.5, size=f.shape)
+    gyr = w @ K_g.T + f @ G.T + b_g + rng.normal(scale=0.5, size=f.shape)
+    return np.arange(f.shape[0]) / _RATE, acc, gyr, np.array(labels)
+
+
+def _write_labelled(path, t, acc, gyr, labels):
+    with open(path, "w") as fh:
+        fh.write("t,ax,ay,az,gx,gy,gz,part\n")
+        for k in range(t.size):
+            fh.write(",".join(f"{v:.6f}" for v in (t[k], *acc[k], *gyr[k])) + f",{labels[k]}\n")
+    return path
+
+
+def _ferraris_cli(tmp_path, log, capsys):
+    from optinav.cli.main import main
+
+    path = _write_labelled(tmp_path / "log.csv", *log)
+    out = tmp_path / "r.json"
+    argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
+    code = main([*argv, "--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(out)])
+    return code, capsys.readouterr().err.strip().splitlines(), out
+
+
+def test_whole_turns_about_horizontal_axes_calibrate_and_are_seen_by_the_accelerometer(tmp_path, capsys):
+    from optinav.multipos.result import CalibrationResult
+
+    truth = _truth(np.random.default_rng(3))
+    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth), capsys)
+    assert code == 0, err
+    r = CalibrationResult.from_json(out)
+    assert _rel(r.gyroscope["K"], truth[2]) < 2e-3
+    rot = r.quality["rotations"]
+    assert [x["missed_deg"] for x in rot] == [0.0, 0.0, 0.0]
+    np.testing.assert_allclose([x["acc_turn_deg"] for x in rot], 360.0, atol=1.0)
+    assert {"gyr largest turn outside a rotation section"} <= {gt["name"] for gt in r.gates}
+
+
+def test_a_rotation_section_cut_inside_the_turn_is_an_error(tmp_path, capsys):
+    """x_rot labelled only up to 84 % of its turn (about 303° of 360°): the closed form scales K_xx down by 16 %
+    with exit 0 unless the turn after the section is seen."""
+    truth = _truth(np.random.default_rng(3))
+    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, cut=0.84), capsys)
+    assert code == 2 and not out.exists()
+    assert "turn of x_rot goes on after it ends" in err[-1] and "--sections" in err[-1]
+
+
+def test_a_turn_shorter_than_stated_is_seen_by_the_accelerometer(tmp_path, capsys):
+    """A 330° turn about y stated as 360°: K_yy 8 % small, inside every scale window; the accelerometer sees the
+    gravity turn 330°."""
+    truth = _truth(np.random.default_rng(3))
+    code, err, out = _ferraris_cli(
+        tmp_path, _continuous_log(truth, turned=(2 * np.pi, np.radians(330), 2 * np.pi)), capsys
+    )
+    assert code == 2 and not out.exists()
+    assert "in y_rot the accelerometer sees gravity turn by 330" in err[-1] and "--rotation-angle" in err[-1]

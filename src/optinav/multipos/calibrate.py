@@ -802,6 +802,26 @@ def _ferraris(
         columns_flag="--columns or --gyro-columns, or --rotation-angle",
         time_flags="--rate, --time-unit; and the turn angle, --rotation-angle",
     )
+    turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
+    gate_log = [
+        gate("acc pose residual rms of |a| - g", pose_rms, gates.MAX_RESIDUAL_G * g, unit="m/s^2"),
+        gate(
+            "gyr largest turn outside a rotation section",
+            float(np.radians(max(r["missed_deg"] for r in turns))),
+            float(ferraris.MAX_MISSED_TURN * np.min(np.abs(fc.expected_angle))),
+            unit="rad",
+        ),
+    ]
+    seen = [abs(r["acc_turn_deg"] - np.degrees(fc.expected_angle[k])) for k, r in enumerate(turns)]
+    if np.any(np.isfinite(seen)):
+        gate_log.append(
+            gate(
+                "gyr largest difference of the turn the accelerometer sees from the stated angle",
+                float(np.radians(np.nanmax(seen))),
+                float(np.radians(ferraris.MAX_TURN_MISMATCH_DEG)),
+                unit="rad",
+            )
+        )
     nan3 = np.full((3, 3), np.nan)
     acc_entry = {
         "K": fc.acc_K,
@@ -852,9 +872,11 @@ def _ferraris(
             "sections": names,
             "pose_residual_rms": pose_rms,
             "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(),
+            "rotations": turns,
             "notes": notes,
         },
         source=source,
+        gates=gate_log,
         convergence=convergence(None, message="closed form"),
     )
 

@@ -47,6 +47,7 @@ __all__ = [
     "ROTATIONS",
     "SECTIONS",
     "IMUCAL_GRAVITY",
+    "check_rotations",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -56,6 +57,15 @@ ROTATIONS = ("x_rot", "y_rot", "z_rot")
 SECTIONS = POSES + ROTATIONS
 #: imucal's default gravity (m/s²); pass the local gravity (optinav.core.earth.gravity) for best accuracy
 IMUCAL_GRAVITY = 9.81
+#: the turn goes on outside its section while the rate about the axis keeps its sign and stays above this
+#: fraction of the section's 90th-percentile rate
+TURN_GOES_ON = 0.02
+#: largest accepted turn outside a rotation section, as a fraction of the stated angle
+MAX_MISSED_TURN = 0.02
+#: gravity at least this far (degrees) from a rotation axis lets the accelerometer see the turn
+ACC_SEES_TURN_DEG = 30.0
+#: largest accepted difference (degrees) between the turn the accelerometer sees and the stated angle
+MAX_TURN_MISMATCH_DEG = 5.0
 
 
 @dataclass(eq=False)
@@ -446,3 +456,72 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
     step = np.append(step, step[-1])
     dts = [step[slice(*idx[n])] for n in ROTATIONS]
     return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, dt=dts, **kwargs)
+
+
+def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int) -> tuple[float, float]:
+    """Angle (rad) turned about one axis just before sample i0 and from sample i1 on, while the rate ``w``
+    (rad/s) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its 90th-percentile rate."""
+    sec = w[i0:i1]
+    sign = np.sign(sec @ dt[i0:i1]) or 1.0
+    level = TURN_GOES_ON * float(np.percentile(np.abs(sec), 90))
+    gap = 5.0 * float(np.median(dt))  # a jump in time (a log of cut sections) ends the turn
+
+    def run(ks) -> float:
+        total = 0.0
+        for k in ks:
+            if sign * w[k] <= level or dt[k] > gap:
+                break
+            total += w[k] * dt[k]
+        return abs(total)
+
+    return run(range(i0 - 1, -1, -1)), run(range(i1, w.size))
+
+
+def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list[dict]:
+    """Each rotation section holds one whole turn by the stated angle, or a one-line error.
+
+    Two views that the closed form cannot give (it scales K_g so that every section integrates to the stated
+    angle, whatever the section holds): the turn the gyro sees *outside* the section (it goes on after the
+    section ends or began before it: a cut section, K_g too small by the missed share), and, for an axis at
+    least :data:`ACC_SEES_TURN_DEG` from gravity, the turn of gravity the accelerometer sees across the section
+    (a turn shorter or longer than stated). ``t`` (N,) s, ``acc``/``gyr`` (N, 3) raw, ``ranges`` name →
+    (i0, i1) of the log. Returns per rotation ``{"name", "missed_deg", "acc_turn_deg"}`` (NaN: not seen)."""
+    t = np.asarray(t, float)
+    a = cal.correct_acc(acc)
+    w = cal.correct_gyro(gyr, a)
+    dt = np.diff(t)
+    dt = np.append(dt, dt[-1] if dt.size else 0.0)
+    out = []
+    for j, name in enumerate(ROTATIONS):
+        i0, i1 = ranges[name]
+        stated = abs(float(cal.expected_angle[j]))
+        before, after = _turn_outside(w[:, j], dt, i0, i1)
+        if before + after > MAX_MISSED_TURN * stated:
+            where = "goes on after it ends" if after >= before else "began before it starts"
+            raise OptinavError(
+                f"the turn of {name} {where}: the gyro turns {np.degrees(before + after):.3g}° about "
+                f"{'xyz'[j]} outside the section ({np.degrees(before):.3g}° before, {np.degrees(after):.3g}° "
+                f"after), so the gyro scale misses that share of the {np.degrees(stated):.4g}° turn",
+                f"let the section {name} span the whole turn, from rest to rest (--sections, or the label column)",
+            )
+        p = [k for k in range(3) if k != j]
+        f = a[i0:i1]
+        perp = np.linalg.norm(f[:, p], axis=1)
+        acc_turn = np.nan
+        if np.median(perp / np.linalg.norm(f, axis=1)) >= np.sin(np.radians(ACC_SEES_TURN_DEG)):
+            # gravity turns the other way in the sensor frame: −(angle of its component across the axis)
+            phi = np.unwrap(np.arctan2(f[:, p[1]], f[:, p[0]]))
+            m = max(1, min(f.shape[0] // 10, int(np.ceil(0.1 / max(float(np.median(dt[i0:i1])), 1e-9)))))
+            acc_turn = -float(phi[-m:].mean() - phi[:m].mean())
+            if abs(acc_turn - cal.expected_angle[j]) > np.radians(MAX_TURN_MISMATCH_DEG):
+                raise OptinavError(
+                    f"in {name} the accelerometer sees gravity turn by {np.degrees(acc_turn):.4g}° about "
+                    f"{'xyz'[j]}, not the stated {np.degrees(cal.expected_angle[j]):.4g}°: the section does not "
+                    "hold the whole turn, or the turn was not by the stated angle",
+                    f"let the section {name} span the whole turn from rest to rest (--sections), or pass the "
+                    "angle turned (--rotation-angle)",
+                )
+        out.append(
+            {"name": name, "missed_deg": float(np.degrees(before + after)), "acc_turn_deg": float(np.degrees(acc_turn))}
+        )
+    return out
