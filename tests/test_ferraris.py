@@ -527,3 +527,17 @@ def test_a_turn_shorter_than_stated_is_seen_by_the_accelerometer(tmp_path, capsy
     )
     assert code == 2 and not out.exists()
     assert "in y_rot the accelerometer sees gravity turn by 330" in err[-1] and "--rotation-angle" in err[-1]
+
+
+def test_a_ferraris_pose_that_creeps_is_an_error(tmp_path, capsys):
+    """The y_a pose tilting 3° during its section: the closed form cannot leave a pose out."""
+    truth = _truth(np.random.default_rng(3))
+    t, acc, gyr, labels = _continuous_log(truth)
+    i = np.flatnonzero(labels == "y_a")
+    phi = np.radians(3.0) * np.linspace(0, 1, i.size)
+    f = np.linalg.solve(truth[0], (acc[i] - truth[1]).T).T
+    f = np.array([_rot(0, p).T @ v for p, v in zip(phi, f)])
+    acc[i] = f @ truth[0].T + truth[1]
+    code, err, out = _ferraris_cli(tmp_path, (t, acc, gyr, labels), capsys)
+    assert code == 2 and not out.exists()
+    assert "the Ferraris pose y_a is not still" in err[-1] and "--sections" in err[-1]

@@ -104,6 +104,58 @@ def _clipped_rows(acc: np.ndarray, t: np.ndarray, ranges: np.ndarray, notes: lis
     return out
 
 
+#: a static pose whose gravity direction moves by more than this many σ of its noise (first third against last
+#: third) and by more than MIN_CREEP_DEG is not static: it creeps or tilts slowly, below the variance detector
+CREEP_SIGMA = 6.0
+#: smallest pose creep (degrees) that counts: imucal's real poses settle by up to 0.05°, and its turns about the
+#: vertical (static to an accelerometer alone) wobble by 0.1–0.2°; a uniform creep φ shortens the pose mean by
+#: g·φ²/24, 3e-5 m/s² at 0.5° (below a pose mean's noise), 5e-4 m/s² at 2°
+MIN_CREEP_DEG = 0.5
+
+
+def pose_creep(acc: np.ndarray, ranges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per static pose, the angle (rad) between the mean accelerometer direction of its first and last third,
+    and that angle's 1σ noise (rad) from the detrended samples (lag-1 correlation taken into account)."""
+    ang, sig = np.zeros(len(ranges)), np.full(len(ranges), np.inf)
+    for k, (i0, i1) in enumerate(ranges):
+        seg = acc[i0:i1]
+        seg = seg[np.all(np.isfinite(seg), axis=1)]
+        n = seg.shape[0] // 3
+        if n < 5:
+            continue
+        a0, a1 = seg[:n].mean(axis=0), seg[-n:].mean(axis=0)
+        ang[k] = np.arccos(np.clip(a0 @ a1 / (np.linalg.norm(a0) * np.linalg.norm(a1)), -1.0, 1.0))
+        x = np.arange(seg.shape[0]) - 0.5 * (seg.shape[0] - 1)
+        r = seg - seg.mean(axis=0) - np.outer(x, (x @ (seg - seg.mean(axis=0))) / (x @ x))
+        rho = np.clip(np.sum(r[1:] * r[:-1]) / max(np.sum(r * r), 1e-300), 0.0, 0.95)
+        # σ of one axis' third-mean difference across the pose direction, per unit of |a|
+        sig[k] = np.sqrt(np.mean(r * r) * 2.0 / n * (1 + rho) / (1 - rho)) / np.linalg.norm(a0)
+    return ang, sig
+
+
+def _drop_creeping(acc, ranges, t_int, notes: list) -> tuple:
+    """The static poses that hold still (:func:`pose_creep`); a note per pose left out. More than a third left
+    out, or fewer than 6 left: an error naming the first."""
+    ang, sig = pose_creep(acc, ranges)
+    bad = (ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG))
+    for k in np.flatnonzero(bad):
+        notes.append(
+            f"static pose {k + 1} ({t_int[k][0]:.4g}–{t_int[k][1]:.4g} s) left out: gravity moves by "
+            f"{np.degrees(ang[k]):.2g}° within it ({ang[k] / sig[k]:.0f}σ of its noise), a slow creep or tilt"
+        )
+    n_bad, n = int(np.count_nonzero(bad)), ranges.shape[0]
+    if n_bad and (n - n_bad < 6 or n_bad > n / 3):
+        k = int(np.flatnonzero(bad)[0])
+        raise OptinavError(
+            f"{n_bad} of {n} static poses are not still (pose {k + 1}, {t_int[k][0]:.4g}–{t_int[k][1]:.4g} s: "
+            f"gravity moves by {np.degrees(ang[k]):.2g}° within it)"
+            + (f"; {n - n_bad} remain, norm observation needs at least 6" if n - n_bad < 6 else ""),
+            "hold each pose still (let it settle before the rest); else check the static intervals "
+            "(--threshold, --sections)",
+        )
+    return ranges[~bad], t_int[~bad]
+
+
 def _drop_saturated(ranges: np.ndarray, t_int: np.ndarray, valid: np.ndarray, notes: list) -> tuple:
     """The static poses with at least half their samples below the accelerometer's full scale; a note per pose
     left out. Fewer than 6 left: an error naming the range."""
@@ -409,6 +461,7 @@ def calibrate(
             "--min-duration, or give the poses by hand with --sections",
         )
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
+    ranges, t_int = _drop_creeping(acc, ranges, t_int, notes)
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
@@ -765,6 +818,15 @@ def _ferraris(
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
+    ang, sig = pose_creep(acc, idx[static_idx])
+    bad = np.flatnonzero((ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG)))
+    if bad.size:
+        k = int(bad[0])
+        raise OptinavError(
+            f"the Ferraris pose {names[static_idx[k]]} is not still: gravity moves by {np.degrees(ang[k]):.2g}° "
+            "within it (a slow creep or tilt; its gyro rate enters the gyro bias and g-sensitivity)",
+            "let the section hold only the still part of the pose (--sections, or the label column)",
+        )
     a = fc.correct_acc(acc)
     mask = np.zeros(len(t), bool)
     for i0, i1 in idx[static_idx]:
