@@ -136,3 +136,17 @@ def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, ca
     _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(path)], code=2)
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "the turn of z_rot goes on after it ends" in err and "--sections" in err
+
+
+def test_example_session_ferraris_std_agrees_with_the_norm_route(tmp_path):
+    """Ferraris now reports a std (it had none): every K, b and G element has one, and the two routes' scales
+    and biases of both triads agree within 3 combined σ on imucal's real session."""
+    sections = str(DATA / "example_ferraris_session_list.json")
+    fer = _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", sections]).parameters()
+    norm = _run(tmp_path, EXAMPLE).parameters()
+    assert all(p.std is not None and p.std > 0 for n, p in fer.items() if "_K_" in n or "_b_" in n or "_G_" in n)
+    for n in [f"{s}_K_{a}{a}" for s in ("acc", "gyr") for a in "xyz"] + [
+        f"{s}_b_{a}" for s in ("acc", "gyr") for a in "xyz"
+    ]:
+        z = (fer[n].value - norm[n].value) / np.hypot(fer[n].std, norm[n].std)
+        assert abs(z) < 3, (n, z)

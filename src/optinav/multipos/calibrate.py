@@ -808,8 +808,8 @@ def _ferraris(
             "the Ferraris method has no way to skip them: cut them from the sections",
         )
     sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
-    fc = ferraris.ferraris_from_sections(
-        t, acc, gyro, sl if sl is not None else sections, gravity=g, expected_angle=rotation_angle
+    fc, std = ferraris.ferraris_from_sections(
+        t, acc, gyro, sl if sl is not None else sections, gravity=g, expected_angle=rotation_angle, with_std=True
     )
     if sl is None:
         names = list(sections)
@@ -884,12 +884,19 @@ def _ferraris(
                 unit="rad",
             )
         )
-    nan3 = np.full((3, 3), np.nan)
+    # beyond the noise: an unknown local g scales K_a, a turn the sections missed (below the gate) scales that
+    # column of K_g, and the Earth rate (ignored by the method) is in every rest of b_g
+    acc_K_std = std["acc_K"]
+    if g_source.startswith("standard"):
+        acc_K_std = np.hypot(acc_K_std, np.abs(fc.acc_K) * G_UNKNOWN_REL_STD)
+    missed = np.radians([r["missed_deg"] for r in turns]) / np.abs(fc.expected_angle)
+    gyr_K_std = np.hypot(std["gyr_K"], np.abs(fc.gyr_K) * missed[None, :])
+    gyr_b_std = np.hypot(std["gyr_b"], OMEGA_E * np.abs(np.diag(fc.gyr_K)) / np.sqrt(3.0))
     acc_entry = {
         "K": fc.acc_K,
         "b": fc.acc_b,
-        "K_std": nan3,
-        "b_std": np.full(3, np.nan),
+        "K_std": acc_K_std,
+        "b_std": std["acc_b"],
         "form": "full",
         "estimated": ["K (9)", "b (3)"],
         "held": [],
@@ -898,8 +905,9 @@ def _ferraris(
         "K": fc.gyr_K,
         "b": fc.gyr_b,
         "G": fc.gyr_G,
-        "K_std": nan3,
-        "b_std": np.full(3, np.nan),
+        "K_std": gyr_K_std,
+        "b_std": gyr_b_std,
+        "G_std": std["gyr_G"],
         "form": "full",
     }
     units = {
@@ -922,8 +930,10 @@ def _ferraris(
         residual_rms=residual_rms,
         static_intervals=t_iv[static_idx],
         observability={
-            "note": "closed form: 6 axis poses and 3 rotations of known angle determine every "
-            "parameter exactly; no uncertainty is estimated",
+            "note": "closed form: 6 axis poses and 3 rotations of known angle determine every parameter "
+            "exactly; the std is the noise of the poses and turns through the closed form (Monte Carlo), with "
+            "an unknown local g, a turn missed by the sections and the Earth rate in the bias; the turns are taken as "
+            "exactly the stated angle (--rotation-angle)",
             "unobservable": [],
         },
         method="ferraris",

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -48,6 +49,7 @@ __all__ = [
     "SECTIONS",
     "IMUCAL_GRAVITY",
     "check_rotations",
+    "ferraris_std",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -233,7 +235,55 @@ def ferraris_calibration(
     FerrarisCalibration
         ``acc_K`` [raw/(m/s^2)], ``acc_b`` [raw], ``gyr_K`` [raw/(rad/s)], ``gyr_G`` [raw/(m/s^2)], ``gyr_b`` [raw].
     """
-    rate = rate_hz
+    p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, static_counts)
+    acc_K, acc_b, G, gyr_b, gyr_K = _closed_form(p.Ua, p.Ug, p.cg, p.Sw, p.Sa, p.D, p.th, p.g)
+    if _singular(acc_K):
+        raise OptinavError(
+            "the six accelerometer pose means give a singular scale matrix",
+            "check that the poses x_p..z_a point each axis up and down, in imucal's order",
+        )
+    if _singular(gyr_K):
+        raise OptinavError(
+            "the three rotations give a singular gyro scale matrix",
+            "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle",
+        )
+    norms = np.linalg.norm((p.Ua - acc_b) @ np.linalg.inv(acc_K).T, axis=1)
+    return FerrarisCalibration(
+        acc_K=acc_K,
+        acc_b=acc_b,
+        gyr_K=gyr_K,
+        gyr_G=G,
+        gyr_b=gyr_b,
+        gravity=p.g,
+        expected_angle=p.th,
+        acc_unit=str(acc_unit),
+        gyro_unit=str(gyro_unit),
+        acc_static_means=p.Ua,
+        gyro_static_means=p.Ug,
+        static_counts=p.ca,
+        rotation_duration=p.D,
+        acc_static_norm=norms,
+    )
+
+
+class _Inputs(NamedTuple):
+    g: float
+    th: np.ndarray  # (3,) rad
+    Ua: np.ndarray  # (6, 3) pose means, acc raw
+    Ug: np.ndarray  # (6, 3) pose means, gyro raw
+    ca: np.ndarray | None  # samples per pose (None: means given)
+    cg: np.ndarray | None  # weights of the gyro bias
+    static: tuple  # (acc, gyro) pose sections as given
+    rot: tuple  # (acc, gyro) rotation samples
+    steps: list  # per rotation: (M_j,) steps in s, or None (Σ / rate)
+    rate: float | None
+    Sw: np.ndarray  # (3, 3) column j: Σ gyro dt over rotation j (raw·s)
+    Sa: np.ndarray  # (3, 3) column j: Σ acc dt over rotation j (raw·s)
+    D: np.ndarray  # (3,) rotation durations (s)
+
+
+def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angle, gravity, static_counts) -> _Inputs:
+    """Checked inputs of :func:`ferraris_calibration` and the sums over each rotation."""
     g = check_positive(gravity, "gravity")
     th = (
         np.broadcast_to(as_float_array(expected_angle, "expected_angle"), (3,)).astype(float).copy()
@@ -266,13 +316,11 @@ def ferraris_calibration(
     if (rate is None) == (dt is None):
         raise OptinavError("give exactly one of rate (Hz) and dt (s)", "e.g. rate=102.4")
     if rate is not None:
-        r = check_positive(rate, "rate")
+        rate = check_positive(rate, "rate")
         steps = [None, None, None]
-        durations = np.array([w.shape[0] / r for w in gr])
     elif isinstance(dt, (int, float, np.number)) or (isinstance(dt, np.ndarray) and dt.ndim == 0):
         d = check_positive(dt, "dt")
         steps = [np.full(w.shape[0], d) for w in gr]
-        durations = np.array([w.shape[0] * d for w in gr])
     else:
         steps = [as_float_array(s, f"dt[{n}]") for n, s in zip(ROTATIONS, _seq3(dt))]
         for n, s, w in zip(ROTATIONS, steps, gr):
@@ -281,51 +329,93 @@ def ferraris_calibration(
                     f"dt[{n}] must hold {w.shape[0]} positive steps, got shape {s.shape}",
                     "give one step (s) per rotation sample",
                 )
-        durations = np.array([s.sum() for s in steps])
+    Sw, Sa, D = np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3)
+    for j, (a, w, h) in enumerate(zip(ar, gr, steps)):
+        if h is None:
+            Sw[:, j], Sa[:, j], D[j] = w.sum(axis=0) / rate, a.sum(axis=0) / rate, w.shape[0] / rate
+        else:
+            Sw[:, j], Sa[:, j], D[j] = h @ w, h @ a, h.sum()
+    static = (_sections(acc_static, POSES, "acc_static"), _sections(gyro_static, POSES, "gyro_static"))
+    return _Inputs(g, th, Ua, Ug, ca, cg, static, (ar, gr), steps, rate, Sw, Sa, D)
 
+
+def _closed_form(Ua, Ug, cg, Sw, Sa, D, th, g):
+    """K_a, b_a, G, b_g, K_g of the module docstring from the pose means and the rotation sums (the integral of
+    the offset-free gyro output is linear in them: ∫c dt = Sw − G K_a⁻¹ (Sa − b_a D) − b_g D)."""
     # accelerometer (Ferraris eqs. 19-23): columns are the x, y, z poses
     Up, Un = Ua[0::2].T, Ua[1::2].T
     acc_K = (Up - Un) / (2.0 * g)
     acc_b = 0.5 * np.diag(Up + Un)
-    if _singular(acc_K):
-        raise OptinavError(
-            "the six accelerometer pose means give a singular scale matrix",
-            "check that the poses x_p..z_a point each axis up and down, in imucal's order",
-        )
     # gyroscope g-sensitivity (eq. 9) and bias (all static samples)
-    Vp, Vn = Ug[0::2].T, Ug[1::2].T
-    G = (Vp - Vn) / (2.0 * g)
+    G = (Ug[0::2].T - Ug[1::2].T) / (2.0 * g)
     gyr_b = Ug.mean(axis=0) if cg is None else (cg[:, None] * Ug).sum(axis=0) / cg.sum()
-    # rotations (eqs. 12-15): integrate the offset-free gyro output
-    W = np.zeros((3, 3))
-    Kinv = np.linalg.inv(acc_K)
-    for j, (a, w) in enumerate(zip(ar, gr)):
-        f = (a - acc_b) @ Kinv.T
-        c = w - f @ G.T - gyr_b
-        W[:, j] = c.sum(axis=0) / r if steps[j] is None else (c * steps[j][:, None]).sum(axis=0)
-    gyr_K = W / th[None, :]
-    if _singular(gyr_K):
-        raise OptinavError(
-            "the three rotations give a singular gyro scale matrix",
-            "check that x_rot, y_rot and z_rot each turn about one sensor axis by expected_angle",
-        )
-    norms = np.linalg.norm((Ua - acc_b) @ Kinv.T, axis=1)
-    return FerrarisCalibration(
-        acc_K=acc_K,
-        acc_b=acc_b,
-        gyr_K=gyr_K,
-        gyr_G=G,
-        gyr_b=gyr_b,
-        gravity=g,
-        expected_angle=th,
-        acc_unit=str(acc_unit),
-        gyro_unit=str(gyro_unit),
-        acc_static_means=Ua,
-        gyro_static_means=Ug,
-        static_counts=None if ca is None else ca,
-        rotation_duration=durations,
-        acc_static_norm=norms,
-    )
+    # rotations (eqs. 12-15)
+    with np.errstate(all="ignore"):
+        Kinv = np.linalg.pinv(acc_K) if _singular(acc_K) else np.linalg.inv(acc_K)
+    W = Sw - G @ Kinv @ (Sa - np.outer(acc_b, D)) - np.outer(gyr_b, D)
+    return acc_K, acc_b, G, gyr_b, W / th[None, :]
+
+
+def _mean_cov(x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Covariance (3, 3) of the mean of samples x (N, 3) with the lag-1 correlation of the noise taken into
+    account (AR(1): variance of the mean × (1 + ρ)/(1 − ρ)); also ρ and the per-sample variance (3,)."""
+    r = x - x.mean(axis=0)
+    n = x.shape[0]
+    rho = float(np.clip(np.sum(r[1:] * r[:-1]) / max(float(np.sum(r * r)), 1e-300), 0.0, 0.95))
+    cov = r.T @ r / max(n - 1, 1)
+    return cov / n * (1 + rho) / (1 - rho), rho, np.diag(cov)
+
+
+def ferraris_std(
+    acc_static,
+    gyro_static,
+    acc_rot,
+    gyro_rot,
+    *,
+    rate_hz: float | None = None,
+    dt=None,
+    expected_angle=-2.0 * np.pi,
+    gravity: float = IMUCAL_GRAVITY,
+    rng=0,
+    n_draws: int = 2000,
+) -> dict:
+    """1σ of the Ferraris closed form from the noise of its inputs, by Monte Carlo through the closed form.
+
+    The pose means vary by their within-pose covariance over the samples (lag-1 correlation taken into account)
+    and the rotation integrals by the gyro's and accelerometer's white noise measured in the poses, integrated
+    over each rotation (Σ dt²). Not included (add them where known): the unknown local g, the Earth rate in the
+    bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not means);
+    ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
+    result's units (NaN when the poses are given as means)."""
+    from optinav.core.validate import as_rng
+
+    p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
+    shapes = {"acc_K": (3, 3), "acc_b": (3,), "gyr_G": (3, 3), "gyr_b": (3,), "gyr_K": (3, 3)}
+    if p.ca is None or np.any(p.ca < 3):
+        return {k: np.full(v, np.nan) for k, v in shapes.items()}
+    gen = as_rng(rng)
+    covs = []
+    noise = []
+    for secs in p.static:
+        c = [_mean_cov(x) for x in secs]
+        covs.append(np.array([ci[0] for ci in c]))
+        rho = float(np.median([ci[1] for ci in c]))
+        var = np.median([ci[2] for ci in c], axis=0)  # per-sample white noise, pooled over the poses
+        noise.append(var * (1 + rho) / (1 - rho))
+    # Σ dt² per rotation: the variance of an integral of white noise
+    h2 = np.array([(x.shape[0] / p.rate**2) if h is None else float(h @ h) for x, h in zip(p.rot[1], p.steps)])
+    w, V = np.linalg.eigh(np.stack(covs))  # a square root that a zero-variance (clipped) axis cannot break
+    chol = V * np.sqrt(np.clip(w, 0.0, None))[..., None, :]
+    draws = {k: np.empty((n_draws, *v)) for k, v in shapes.items()}
+    for i in range(n_draws):
+        Ua = p.Ua + np.einsum("pij,pj->pi", chol[0], gen.standard_normal((6, 3)))
+        Ug = p.Ug + np.einsum("pij,pj->pi", chol[1], gen.standard_normal((6, 3)))
+        Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * gen.standard_normal((3, 3))
+        Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :]) * gen.standard_normal((3, 3))
+        out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
+        for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out):
+            draws[k][i] = v
+    return {k: v.std(axis=0, ddof=1) for k, v in draws.items()}
 
 
 def _singular(M: np.ndarray) -> bool:
@@ -377,7 +467,7 @@ def sections_from_labels(labels) -> dict | None:
     return out
 
 
-def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisCalibration:
+def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = False, **kwargs):
     """Ferraris calibration of a continuous log with annotated sections.
 
     With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate, Σ samples / rate
@@ -396,10 +486,13 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
     **kwargs
         Passed to :func:`ferraris_calibration`.
 
+    with_std : bool
+        Also return :func:`ferraris_std` of the sections (seed 0).
+
     Returns
     -------
-    FerrarisCalibration
-        As :func:`ferraris_calibration`.
+    FerrarisCalibration, or (FerrarisCalibration, dict) with ``with_std``
+        As :func:`ferraris_calibration` (and :func:`ferraris_std`).
     """
     gyro = gyr
     from optinav.multipos.static import SectionList, sections_from_list
@@ -446,16 +539,19 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, **kwargs) -> FerrarisC
                 f"section {n!r} range [{i0}, {i1}) is empty or outside the log of {N} samples", "give 0 ≤ i0 < i1 ≤ N"
             )
         idx[n] = (i0, i1)
-    acc_static = {n: acc[slice(*idx[n])] for n in POSES}
-    gyro_static = {n: gyro[slice(*idx[n])] for n in POSES}
-    acc_rot = {n: acc[slice(*idx[n])] for n in ROTATIONS}
-    gyro_rot = {n: gyro[slice(*idx[n])] for n in ROTATIONS}
+    parts = [{n: x[slice(*idx[n])] for n in names} for x, names in ((acc, POSES), (gyro, POSES))]
+    parts += [{n: x[slice(*idx[n])] for n in ROTATIONS} for x in (acc, gyro)]
     if rate is not None:
-        return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz=rate, **kwargs)
-    step = np.diff(t)
-    step = np.append(step, step[-1])
-    dts = [step[slice(*idx[n])] for n in ROTATIONS]
-    return ferraris_calibration(acc_static, gyro_static, acc_rot, gyro_rot, dt=dts, **kwargs)
+        timing = {"rate_hz": rate}
+    else:
+        step = np.diff(t)
+        step = np.append(step, step[-1])
+        timing = {"dt": [step[slice(*idx[n])] for n in ROTATIONS]}
+    if with_std:
+        return ferraris_calibration(*parts, **timing, **kwargs), ferraris_std(
+            *parts, **timing, **{k: v for k, v in kwargs.items() if k in ("expected_angle", "gravity")}
+        )
+    return ferraris_calibration(*parts, **timing, **kwargs)
 
 
 def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int) -> tuple[float, float]:

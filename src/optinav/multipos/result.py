@@ -8,7 +8,7 @@ Layout (``schema`` "optinav.calibration", ``version`` 1; documented in docs/file
                "gyroscope": "rad/s", "time": "s", ...},
      "accelerometer": {"K": 3×3, "b": [3], "K_std": 3×3, "b_std": [3], "form": "upper-triangular",
                        "estimated": [...], "held": [...]},
-     "gyroscope": {"K": 3×3, "b": [3], "K_std", "b_std", "G": 3×3 or null, ...} or null,
+     "gyroscope": {"K": 3×3, "b": [3], "K_std", "b_std", "G": 3×3 or null, "G_std": 3×3 (ferraris), ...} or null,
      "gravity": 9.80..., "residual_rms": ..., "static_intervals": [[t0, t1], ...],
      "observability": {"rank", "n_params", "singular_values", "unobservable", "statements"},
      "method": "lm", "elapsed_s": ..., "excluded": {"nan_rows": n, "saturated": n}, "quality": {...}}
@@ -54,7 +54,7 @@ def _triad(d: dict | None, name: str) -> dict | None:
         det = np.linalg.det(out["K"])
     if abs(det) < 1e-300:
         raise OptinavError(f"the {name} matrix K is singular", "the result file is corrupt; re-run the calibration")
-    for key in ("K_std", "b_std", "G"):
+    for key in ("K_std", "b_std", "G", "G_std"):
         if d.get(key) is not None:
             out[key] = np.asarray(_nan(d[key]), dtype=float)
     return out
@@ -265,10 +265,12 @@ def _triad_parameters(prefix: str, d: dict, raw: str, si: str, acc_unit: str | N
         n, p = entry(f"b_{_AX[i]}", b[i], _std(bs, i), raw)
         out[n] = p
     if d.get("G") is not None:
-        G = np.asarray(d["G"], float)
+        G, Gs = np.asarray(d["G"], float), d.get("G_std")
         for i in range(3):
             for j in range(3):
-                out[f"{prefix}_G_{_AX[i]}{_AX[j]}"] = Parameter(float(G[i, j]), f"{raw} per {acc_unit}")
+                out[f"{prefix}_G_{_AX[i]}{_AX[j]}"] = Parameter(
+                    float(G[i, j]), f"{raw} per {acc_unit}", std=_std(Gs, i, j)
+                )
     return out
 
 
