@@ -559,6 +559,7 @@ def calibrate(
             unit=gyro_unit,
             bias_instability=gyro_bias_instability,
             bias_corr_time=gyro_bias_corr_time,
+            up_cov=_up_cov(fit, st),
         )
         gate_log += _gyro_gates(gc, gyro_unit)
         if gc.unobservable:
@@ -640,6 +641,30 @@ def calibrate(
         gates=gate_log,
         convergence=convergence(fit.success, evaluations=fit.nfev, message=fit.message),
     )
+
+
+def _up_cov(fit: accel.AccelFit, st: accel.PoseStatistics) -> np.ndarray:
+    """Covariance (3P × 3P) of the pose up directions u_k = K⁻¹(m_k − b)/‖·‖ from the accelerometer fit's own
+    uncertainty (its std with the Gauss–Newton correlations), to first order: common to all poses, so the gyro's
+    turn residuals cannot show it (a design whose poses span little — a cone — turns it into the gyro scales)."""
+    free = np.flatnonzero(np.isfinite(fit.std))
+    J = model.norm_jacobian(fit.theta, st.means)[:, free] / accel.residual_sigma(fit.theta, st)[:, None]
+    C = np.linalg.pinv(J.T @ J)
+    d = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    cov = (C / np.outer(d, d)) * np.outer(fit.std[free], fit.std[free])
+
+    def up(theta):
+        a = model.corrected(theta, st.means)
+        return (a / np.linalg.norm(a, axis=1, keepdims=True)).reshape(-1)
+
+    u0 = up(fit.theta)
+    D = np.empty((u0.size, free.size))
+    for c, i in enumerate(free):
+        h = 1e-6 * max(abs(float(fit.theta[i])), float(np.mean(np.abs(fit.theta[:3]))) * 1e-3)
+        th = fit.theta.copy()
+        th[i] += h
+        D[:, c] = (up(th) - u0) / h
+    return D @ cov @ D.T
 
 
 def _row_norms(raw, rows, theta=None) -> np.ndarray:

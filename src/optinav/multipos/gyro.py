@@ -294,7 +294,18 @@ class _Transitions:
         self.h = h
         self.durations = tt[self.ends] - tt[self.starts]
         self.u0, self.u1 = u[keep], u[keep + 1]
+        self.keep = keep
         self.coning = coning
+
+    def up_jacobian(self, K, b, n_up: int) -> np.ndarray:
+        """∂r/∂u (3T × 3·n_up) of the residuals r_k = C_kᵀu_k − u_{k+1} with respect to the up directions."""
+        qc = quat_conjugate(self.rotations(K, b))
+        C = np.stack([quat_rotate(qc, np.broadcast_to(e, (qc.shape[0], 3))) for e in np.eye(3)], axis=-1)  # C_kᵀ
+        J = np.zeros((3 * self.keep.size, 3 * n_up))
+        for k, i in enumerate(self.keep):
+            J[3 * k : 3 * k + 3, 3 * i : 3 * i + 3] = C[k]
+            J[3 * k : 3 * k + 3, 3 * i + 3 : 3 * i + 6] = -np.eye(3)
+        return J
 
     def rotations(self, K, b) -> np.ndarray:
         """Quaternions q_k of C_{b(k+1)}^{b(k)} (T, 4) for the given K, b."""
@@ -471,6 +482,7 @@ def calibrate_gyro(
     unit: str | None = None,
     bias_instability=None,
     bias_corr_time: float = float("inf"),
+    up_cov=None,
 ) -> GyroCalibration:
     """Gyro K and b of ``raw = K·ω + b`` from static intervals and the turns between them.
 
@@ -525,6 +537,10 @@ def calibrate_gyro(
         against the bias of this session (the mean of the bias over the static intervals).
     bias_corr_time : float
         Correlation time of that Gauss–Markov bias [s] (default ∞: a constant offset per run).
+    up_cov : (3K, 3K) array or None
+        Covariance of the up directions (row-major) that is common to the poses — from the accelerometer's own
+        calibration: its errors turn every pose's direction together, which the turn residuals cannot show;
+        propagated into K and b to first order. Independent noise per pose is in the residuals already.
 
     Returns
     -------
@@ -820,6 +836,13 @@ def calibrate_gyro(
         sg = abs(float(g_sensitivity_std)) * float(gravity)
         fbar = (counts[:, None] * u).sum(0) / counts.sum() if mode != "rest" else np.ones(1)
         cov[9:, 9:] += np.eye(3) * sg**2 * float(fbar @ fbar)
+    if up_cov is not None:
+        Ju = tr.up_jacobian(K_hat, b_hat, u.shape[0])
+        if mode == "estimate":
+            Ju = Ju / wts["a"]
+        Ju = np.vstack([Ju, np.zeros((A.shape[1] - Ju.shape[0], Ju.shape[1]))])
+        M = A @ Ju
+        cov[:n_par, :n_par] += M @ np.asarray(up_cov, float) @ M.T
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     obs = np.ones(12, dtype=bool)
     obs[:n_par] = np.asarray(rep.observable, dtype=bool)
