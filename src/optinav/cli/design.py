@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import POSITIVE, RATE, SEED, number, output_path
+from optinav.cli.common import NON_NEGATIVE, POSITIVE, RATE, SEED, number, output_path
 from optinav.errors import OptinavError
 
 
@@ -57,6 +57,13 @@ def register(sub) -> None:
         metavar="RAD/S/√HZ",
         help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))",
     )
+    noise.add_argument(
+        "--gyro-g-sensitivity",
+        type=NON_NEGATIVE,
+        metavar="RAD/S/(M/S^2)",
+        help="gyroscope g-sensitivity 1-sigma per element in rad/s per m/s^2 (datasheet 'linear acceleration "
+        "sensitivity'; 0.1 deg/s/g = 1.78e-4); default the preset's",
+    )
     # no choices= here: the preset table lives in numerical code that --help must not import
     noise.add_argument(
         "--preset",
@@ -105,9 +112,14 @@ def run(args) -> int:
     }
     if args.dwell is not None and (any(v is not None for v in targets.values()) or args.target_gyro_bias):
         raise OptinavError("--dwell and a --target-* option both set the rest time", "pass one of them")
-    from optinav.multipos.plan import plan_noise, plan_poses, plot_plan
+    from optinav.multipos.plan import plan_g_sensitivity, plan_noise, plan_poses, plot_plan
 
     acc, gyro, text = plan_noise(args.allan, args.preset, args.acc_noise_density, args.gyro_noise_density)
+    g_sens, g_text = plan_g_sensitivity(
+        args.allan, args.preset, args.gyro_g_sensitivity, args.acc_noise_density is not None
+    )
+    if gyro is not None and g_text:
+        text = text[:-1] + "; " + g_text + ")"
     plan = plan_poses(
         args.poses,
         criterion=args.criterion,
@@ -121,6 +133,7 @@ def run(args) -> int:
         turn_rate_deg_s=args.turn_rate,
         max_dwell_s=args.max_dwell,
         rng=args.seed,
+        gyro_g_sensitivity=g_sens if gyro is not None else 0.0,
     )
     for note in plan.notes:
         print(f"optinav: note: {note}", file=sys.stderr)

@@ -52,6 +52,7 @@ __all__ = [
     "gyro_turn_std",
     "noise_from_allan",
     "plan_noise",
+    "plan_g_sensitivity",
     "MIN_DWELL_S",
     "ACC_NAMES",
     "GYRO_NAMES",
@@ -135,14 +136,27 @@ def turn_between(u0, u1) -> tuple[np.ndarray, float, str]:
 # --- gyroscope prediction -------------------------------------------------------------------------------------
 
 
-def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, static_time_s: float):
+def gyro_turn_std(
+    up_dirs,
+    turn_axes,
+    turn_angles,
+    turn_times,
+    noise_density,
+    static_time_s: float,
+    g_sensitivity: float = 0.0,
+    g: float = G_STANDARD,
+    rest_weights=None,
+):
     """Predicted 1σ of the gyro calibration (K row-major (9), b (3)) from the turns between poses.
 
     ``up_dirs`` (P, 3) body up vector per pose, turn k from pose k to k+1: body axis ``turn_axes[k]``, angle
     ``turn_angles[k]`` rad, duration ``turn_times[k]`` s; ``noise_density`` (3,) or scalar rad/s/√Hz;
-    ``static_time_s``: total rest time giving the bias. Nominal K = I (raw in rad/s); first-order model of
-    the module docstring; b is the mean of the rests, fixed while K is fitted, and its error propagated into
-    K. Returns (std (12,) with inf where not determined, ObservabilityReport of K).
+    ``static_time_s``: total rest time giving the bias; ``g_sensitivity``: 1σ of each element of the gyro's
+    g-sensitivity G (rad/s per m/s², datasheet; the model leaves it out). Nominal K = I (raw in rad/s); first-order
+    model of the module docstring; b is the mean of the rests, fixed while K is fitted, and its error propagated
+    into K. G puts G·g·ū (ū the rests' mean up vector, weighted by ``rest_weights`` (P,), default equal) into b
+    and G·g·(ū_k − ū) into turn k (ū_k the mean of its end poses' up vectors), a bias error of that turn. Returns (std (12,) with inf where not determined,
+    ObservabilityReport of K).
     """
     u = np.asarray(up_dirs, float)
     n = np.broadcast_to(np.asarray(noise_density, float), (3,))
@@ -167,13 +181,26 @@ def gyro_turn_std(up_dirs, turn_axes, turn_angles, turn_times, noise_density, st
     J = np.vstack(rows)
     sb = n / math.sqrt(static_time_s)  # the bias from all rest, fixed during the K fit (bias="static")
     JK, Jb = J[:, :9], J[:, 9:]
+    w = np.ones(u.shape[0]) if rest_weights is None else np.asarray(rest_weights, float)
+    ubar = (w / w.sum()) @ u
+    # turn k's rows see δb_k = G·g·(ū_k − ū): linear in vec(G) (row-major), δb_k = g·(I ⊗ (ū_k − ū)ᵀ)·vec(G)
+    JG = np.vstack(
+        [
+            Jb[2 * k : 2 * k + 2] @ (g * np.kron(np.eye(3), (0.5 * (u[k] + u[k + 1]) - ubar)[None, :]))
+            for k in range(u.shape[0] - 1)
+        ]
+    )
+    sg = abs(float(g_sensitivity))
+    sb = np.sqrt(sb**2 + (sg * g) ** 2 * float(ubar @ ubar))
     rep = analyze(JK, np.ones(J.shape[0]), names=list(GYRO_NAMES[:9]), scales=np.ones(9))
     std = np.full(12, np.inf)
     std[9:] = sb
     if rep.rank == 9:
         FK = JK.T @ JK
         G = np.linalg.solve(FK, JK.T @ Jb)  # K̂ moves by −G·δb for a bias error δb
-        cov = np.linalg.inv(FK) + G @ np.diag(sb**2) @ G.T
+        sb_noise = n / math.sqrt(static_time_s)
+        H = np.linalg.solve(FK, JK.T @ JG)  # and by −H·vec(G) for the g-sensitivity in the turns
+        cov = np.linalg.inv(FK) + G @ np.diag(sb_noise**2) @ G.T + sg**2 * (H @ H.T)
         std[:9] = np.sqrt(np.diag(cov))
     else:
         std[:9] = np.asarray(rep.crlb_std, float)
@@ -287,6 +314,21 @@ def plan_noise(
     if gyro is not None:
         text += f", gyroscope {float(np.mean(gyro)) * 180 / np.pi * 60:.3g} deg/√h"
     return acc, gyro, text + " (" + "; ".join(parts) + ")"
+
+
+def plan_g_sensitivity(allan=None, preset: str | None = None, given: float | None = None, acc_given: bool = False):
+    """1σ per element of the gyro g-sensitivity (rad/s per m/s²) a plan is made for: ``given``, else the preset's
+    (mems-mti1 when neither ``allan`` nor an accelerometer density is given, as :func:`plan_noise`), else 0
+    (an Allan deviation does not show it). Returns (value, text or "")."""
+    if given is not None:
+        return float(given), "gyro g-sensitivity given"
+    name = preset or (None if allan or acc_given else "mems-mti1")
+    if not name:
+        return 0.0, ""
+    from optinav.core.imu_model import preset as get
+
+    v = float(get(name).gyro_g_sensitivity)
+    return v, (f"gyro g-sensitivity {v * G_STANDARD * 180 / np.pi:.3g} deg/s/g" if v else "")
 
 
 # --- the plan ---------------------------------------------------------------------------------------------------
@@ -419,6 +461,9 @@ def _order(up: np.ndarray, orient: np.ndarray) -> np.ndarray:
     return np.asarray(seq)
 
 
+#: the initial rest (s) in the first pose that docs/howto/calibrate-your-imu.md asks for: part of the gyro's rests
+INITIAL_REST_S = 30.0
+
 #: target name → (accelerometer parameter indices, factor from the target's unit to the std's unit)
 TARGETS = {
     "scale_ppm": ((0, 1, 2), 1e-6),
@@ -442,11 +487,13 @@ def plan_poses(
     max_dwell_s: float = 600.0,
     g: float = G_STANDARD,
     rng=0,
+    gyro_g_sensitivity: float = 0.0,
 ) -> PosePlan:
     """The pose plan (module docstring). Noise densities in m/s²/√Hz and rad/s/√Hz (scalar or per axis);
     ``dwell_s`` s per pose, or None to derive it from ``targets`` (``{"scale_ppm": …, "misalignment_mrad": …,
     "bias_mg": …}``, accelerometer 1σ) and ``gyro_bias_deg_h`` (gyro bias 1σ from all rest, deg/h);
-    neither: 30 s."""
+    neither: 30 s. ``gyro_g_sensitivity``: 1σ per element of the gyro g-sensitivity (rad/s per m/s²), in the
+    predicted gyro std (:func:`gyro_turn_std`)."""
     if acc_noise_density is None:
         raise OptinavError(
             "the plan needs the accelerometer noise density", "pass --allan ALLAN.json, --acc-noise-density or --preset"
@@ -523,9 +570,19 @@ def plan_poses(
             [math.radians(t["angle_deg"]) for t in turns],
             [t["duration_s"] for t in turns],
             gyro_n,
-            dwell * up.shape[0],
+            dwell * up.shape[0] + INITIAL_REST_S,
+            g_sensitivity=gyro_g_sensitivity,
+            g=g,
+            rest_weights=np.full(up.shape[0], dwell) + INITIAL_REST_S * (np.arange(up.shape[0]) == 0),
         )
         gyro_std = [None if not np.isfinite(s) else float(s) for s in std]
+        if gyro_bias_deg_h and gyro_g_sensitivity and float(np.max(std[9:])) > gyro_bias_deg_h * _DEG_H:
+            notes.append(
+                f"the gyro bias target {gyro_bias_deg_h:g} deg/h is below what the g-sensitivity leaves in it "
+                f"({float(np.max(std[9:])) / _DEG_H:.3g} deg/h): more rest does not reach it; poses whose up "
+                "vectors average to zero (and a short initial rest) do, or a stated g-sensitivity "
+                "(calibrate --gyro-g-sensitivity)"
+            )
         rank = int(rep.rank)
         if rank < 9:
             notes.append(
