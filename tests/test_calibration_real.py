@@ -150,3 +150,17 @@ def test_example_session_ferraris_std_agrees_with_the_norm_route(tmp_path):
     ]:
         z = (fer[n].value - norm[n].value) / np.hypot(fer[n].std, norm[n].std)
         assert abs(z) < 3, (n, z)
+
+
+def test_annotated_session_gyro_counts_name_their_implied_full_scale(tmp_path, capsys):
+    """Counts have no nominal scale to check a wrong --rate against; the note states the full scale the fitted
+    K implies for the 16-bit counts — 2000 deg/s (a standard range) at the true 204.8 Hz, half that at 102.4 Hz."""
+    import re
+
+    for rate, fs in ((204.8, 2000.0), (102.4, 1000.0)):
+        argv = [*ANNOTATED, "--rate", f"{rate:g}", "--method", "ferraris", "--rotation-angle", "360"]
+        _run(tmp_path, argv)
+        err = capsys.readouterr().err
+        m = re.search(r"full scale of ±([\d.]+), ±([\d.]+), ±([\d.]+) deg/s \(x, y, z\) for 16-bit counts", err)
+        assert m, err
+        np.testing.assert_allclose([float(v) for v in m.groups()], fs, rtol=0.03)

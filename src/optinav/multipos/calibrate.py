@@ -64,6 +64,22 @@ def count_range(raw) -> tuple[float, float]:
     return -np.inf, np.inf
 
 
+def gyro_full_scale_note(gyro_raw, K, flags: str = "--rate, --time-unit") -> str | None:
+    """For a gyro in raw counts (no nominal scale to check K against): the full scale (deg/s) its fitted K
+    implies for the integer type of the counts, for the user to compare with the sensor's range setting — a
+    wrong time base scales every K alike. None when the type is not known."""
+    lo, hi = count_range(gyro_raw)
+    if not np.all(np.isfinite((lo, hi))):
+        return None
+    half = (hi - lo + 1.0) / 2.0
+    fs = np.degrees(half / np.abs(np.diag(np.asarray(K, float))))
+    bits = int(round(np.log2(hi - lo + 1.0)))
+    return (
+        f"the gyro scales in counts imply a full scale of ±{', ±'.join(f'{v:.4g}' for v in fs)} deg/s (x, y, z) for "
+        f"{bits}-bit counts; if the sensor was set to another range, the time base is off by that ratio ({flags})"
+    )
+
+
 def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
     """Rows (N,) with any axis at or beyond the full scale: ``limit`` (raw units) is ±R (a scalar or one per
     axis) or a span (lo, hi); without it, raw ``counts`` saturate at the ends of the integer type they were
@@ -562,6 +578,8 @@ def calibrate(
             up_cov=_up_cov(fit, st),
         )
         gate_log += _gyro_gates(gc, gyro_unit)
+        if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, gc.K)):
+            notes.append(fs)
         if gc.unobservable:
             notes.append(
                 "gyroscope directions the turns do not determine are held at the initial guess: "
@@ -890,6 +908,8 @@ def _ferraris(
         time_flags="--rate, --time-unit; and the turn angle, --rotation-angle",
     )
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
+    if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, fc.gyr_K, "--rate, --time-unit, --rotation-angle")):
+        notes.append(fs)
     gate_log = [
         gate("acc pose residual rms of |a| - g", pose_rms, gates.MAX_RESIDUAL_G * g, unit="m/s^2"),
         gate(
