@@ -221,7 +221,7 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     assert main(["export", str(out), "--to", "kalibr", "--noise", str(allan), "--out", str(yml)]) == 0
     # read as Kalibr reads it (yaml.safe_load of the whole file); every key its IMU parameters require, the topic
     # Kalibr's examples use when none is known, and a note saying so
-    assert "rostopic /imu0 written (Kalibr requires one); --rostopic" in capsys.readouterr().out
+    assert "rostopic /imu0 written (Kalibr requires one); --rostopic" in capsys.readouterr().err
     k = yaml.safe_load(yml.read_text())
     a = json.loads(allan.read_text())["fields"]["kalibr"]["value"]
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density"):

@@ -12,6 +12,7 @@ from optinav.cli.common import (
     add_report_option,
     output_path,
     prepare_report,
+    print_notes,
     require_files,
 )
 from optinav.errors import OptinavError
@@ -102,7 +103,7 @@ def run(args) -> int:
         write_kalibr_imu_yaml(kalibr, noise=res, option="--kalibr")
         print(f"optinav: Kalibr imu.yaml written to {kalibr}")
         if not res.rostopic:
-            print(f"optinav: note: {DEFAULT_ROSTOPIC_NOTE}")
+            print_notes([DEFAULT_ROSTOPIC_NOTE])
     if args.report:
         from optinav.reports.allan_report import write_allan_report
 

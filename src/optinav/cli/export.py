@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import RATE, output_path, require_files
+from optinav.cli.common import RATE, output_path, print_notes, require_files
 from optinav.errors import OptinavError
 
 FORMATS = ("imu_tk", "imucal", "kalibr")
@@ -73,10 +73,12 @@ def run(args) -> int:
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
         from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE
 
-        print(f"optinav: note: {DEFAULT_ROSTOPIC_NOTE}")
+        print_notes([DEFAULT_ROSTOPIC_NOTE])
     if args.to == "kalibr" and noise is None:
-        print(
-            "optinav: note: no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a "
-            "static log and pass its result)"
+        print_notes(
+            [
+                "no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a static log and "
+                "pass its result)"
+            ]
         )
     return 0

@@ -538,7 +538,7 @@ def calibrate_gyro(
     bias_corr_time : float
         Correlation time of that Gauss–Markov bias [s] (default ∞: a constant offset per run).
     up_cov : (3K, 3K) array or None
-        Covariance of the up directions (row-major) that is common to the poses — from the accelerometer's own
+        Covariance of the up directions (row-major) [-] that is common to the poses — from the accelerometer's own
         calibration: its errors turn every pose's direction together, which the turn residuals cannot show;
         propagated into K and b to first order. Independent noise per pose is in the residuals already.
 
