@@ -564,3 +564,24 @@ def test_gyro_std_includes_the_accelerometer_calibration_for_poses_in_a_cone():
         r = calibrate(s.t, s.acc, s.gyr, g=s.gravity, rng=1)
         z = (np.diag(r.gyroscope["K"]) - np.diag(s.gyr_K)) / np.diag(r.gyroscope["K_std"])
         assert np.all(np.abs(z) < 4), (seed, z)
+
+
+def test_a_quiet_axis_mid_range_is_not_called_clipped():
+    """A pose whose axis reads one value throughout (noise below one count) but not at the poses' extreme is
+    quantization: a fit that fails the residual gate then names motion, not clipping."""
+    import importlib
+
+    from optinav.multipos import accel
+    from optinav.multipos.simulate import SCHEME_18
+
+    cal = importlib.import_module("optinav.multipos.calibrate")
+    g = 9.81
+    means = SCHEME_18 * g
+    means[3] *= 1.2  # a pose that does not fit: residual RMS > 1 % of g
+    cov = np.tile(np.eye(3) * 1e-4, (len(means), 1, 1))
+    cov[7, 1, 1] = 0.0  # pose 8's y reads one value; it is mid-range (-g/sqrt(3) between -g and +g)
+    st = accel.PoseStatistics(means, cov, np.full(len(means), 500))
+    fit = accel.fit_accel(st, g)
+    with pytest.raises(OptinavError, match="motion inside the static intervals") as e:
+        cal._accel_gates(fit, st, "m/s^2")
+    assert "clipped" not in str(e.value)

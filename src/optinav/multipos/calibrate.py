@@ -739,7 +739,9 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
         # an axis without any noise in a pose sits at a limit: a sensor clipped at its range reads the same
         # value in every sample
         var = np.diagonal(st.covariances, axis1=1, axis2=2)
-        flat = np.argwhere((var == 0) & (st.counts[:, None] > 10))
+        # at the poses' extreme of that axis: a quiet axis reading one count mid-range is quantization, not clipping
+        extreme = (st.means == st.means.max(axis=0)) | (st.means == st.means.min(axis=0))
+        flat = np.argwhere((var == 0) & (st.counts[:, None] > 10) & extreme)
         if flat.size:
             p, j = (int(x) for x in flat[0])
             raise OptinavError(
