@@ -565,3 +565,21 @@ def test_ferraris_std_covers_the_errors_of_noisy_sessions():
         assert 0.7 < rms < 1.3, (name, rms)
     means = ferraris_std({k: v.mean(axis=0) for k, v in acc_s.items()}, gyr_s, acc_r, gyr_r, rate_hz=100.0)
     assert np.all(np.isnan(means["acc_K"]))  # means carry no noise to propagate
+
+
+def test_a_turn_check_stops_at_the_next_section_of_a_file_of_cut_sections():
+    """Sections joined end to end (imucal's annotated layout): x_rot followed at once by y_rot whose first
+    samples also turn about x is not a turn that goes on after x_rot."""
+    from optinav.multipos.ferraris import check_rotations
+
+    truth = _truth(np.random.default_rng(3))
+    t, acc, gyr, labels = _continuous_log(truth)
+    keep = labels != ""
+    t, acc, gyr, labels = np.arange(np.count_nonzero(keep)) / _RATE, acc[keep], gyr[keep], labels[keep]
+    i = np.flatnonzero(labels == "y_rot")[:50]
+    gyr[i] += truth[2][:, 0] * 1.0  # 1 rad/s about x in y_rot's first half second
+    ranges = {
+        n: (int(np.flatnonzero(labels == n)[0]), int(np.flatnonzero(labels == n)[-1]) + 1) for n in POSES + ROTATIONS
+    }
+    cal = ferraris_from_sections(t, acc, gyr, ranges, gravity=9.81, expected_angle=2 * np.pi)
+    assert check_rotations(cal, t, acc, gyr, ranges)[0]["missed_deg"] == 0.0

@@ -554,9 +554,10 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     return ferraris_calibration(*parts, **timing, **kwargs)
 
 
-def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int) -> tuple[float, float]:
+def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int, other: np.ndarray) -> tuple[float, float]:
     """Angle (rad) turned about one axis just before sample i0 and from sample i1 on, while the rate ``w``
-    (rad/s) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its 90th-percentile rate."""
+    (rad/s) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its 90th-percentile rate, up to
+    a sample of another section (``other`` (N,) bool: a file of cut sections joins them end to end)."""
     sec = w[i0:i1]
     sign = np.sign(sec @ dt[i0:i1]) or 1.0
     level = TURN_GOES_ON * float(np.percentile(np.abs(sec), 90))
@@ -565,7 +566,7 @@ def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int) -> tuple[floa
     def run(ks) -> float:
         total = 0.0
         for k in ks:
-            if sign * w[k] <= level or dt[k] > gap:
+            if sign * w[k] <= level or dt[k] > gap or other[k]:
                 break
             total += w[k] * dt[k]
         return abs(total)
@@ -591,7 +592,10 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
     for j, name in enumerate(ROTATIONS):
         i0, i1 = ranges[name]
         stated = abs(float(cal.expected_angle[j]))
-        before, after = _turn_outside(w[:, j], dt, i0, i1)
+        other = np.zeros(w.shape[0], bool)
+        for n, (a0, a1) in ranges.items():
+            other[a0:a1] |= n != name
+        before, after = _turn_outside(w[:, j], dt, i0, i1, other)
         if before + after > MAX_MISSED_TURN * stated:
             where = "goes on after it ends" if after >= before else "began before it starts"
             raise OptinavError(
