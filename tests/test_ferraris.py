@@ -428,8 +428,9 @@ _RATE = 100.0
 
 
 def _rot(axis: int, phi: float) -> np.ndarray:
+    """Rotation by ``phi`` (rad) about +axis (right-handed)."""
     c, s = np.cos(phi), np.sin(phi)
-    i, j = [k for k in range(3) if k != axis]
+    i, j = (axis + 1) % 3, (axis + 2) % 3
     R = np.eye(3)
     R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
     return R
@@ -485,27 +486,32 @@ def _write_labelled(path, t, acc, gyr, labels):
     return path
 
 
-def _ferraris_cli(tmp_path, log, capsys):
+def _ferraris_cli(tmp_path, log, capsys, angle=360):
     from optinav.cli.main import main
 
     path = _write_labelled(tmp_path / "log.csv", *log)
     out = tmp_path / "r.json"
     argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
-    code = main([*argv, "--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(out)])
+    code = main(
+        [*argv, "--method", "ferraris", "--rotation-angle", f"{angle:g}", "--gravity", "9.81", "--out", str(out)]
+    )
     return code, capsys.readouterr().err.strip().splitlines(), out
 
 
-def test_whole_turns_about_horizontal_axes_calibrate_and_are_seen_by_the_accelerometer(tmp_path, capsys):
+@pytest.mark.parametrize("sign", [1, -1])
+def test_whole_turns_about_horizontal_axes_calibrate_and_are_seen_by_the_accelerometer(tmp_path, capsys, sign):
+    """Right-handed turns of ±360° about each axis while it is horizontal (a y turn was refused with the sign of
+    its angle flipped)."""
     from optinav.multipos.result import CalibrationResult
 
     truth = _truth(np.random.default_rng(3))
-    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth), capsys)
+    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, turned=(sign * 2 * np.pi,) * 3), capsys, sign * 360)
     assert code == 0, err
     r = CalibrationResult.from_json(out)
     assert _rel(r.gyroscope["K"], truth[2]) < 2e-3
     rot = r.quality["rotations"]
     assert [x["missed_deg"] for x in rot] == [0.0, 0.0, 0.0]
-    np.testing.assert_allclose([x["acc_turn_deg"] for x in rot], 360.0, atol=1.0)
+    np.testing.assert_allclose([x["acc_turn_deg"] for x in rot], sign * 360.0, atol=1.0)
     assert {"gyr largest turn outside a rotation section"} <= {gt["name"] for gt in r.gates}
 
 

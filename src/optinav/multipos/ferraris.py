@@ -604,7 +604,7 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
                 f"after), so the gyro scale misses that share of the {np.degrees(stated):.4g}° turn",
                 f"let the section {name} span the whole turn, from rest to rest (--sections, or the label column)",
             )
-        p = [k for k in range(3) if k != j]
+        p = [(j + 1) % 3, (j + 2) % 3]  # cyclic: the angle of atan2(f_p1, f_p0) turns about +j
         f = a[i0:i1]
         perp = np.linalg.norm(f[:, p], axis=1)
         acc_turn = np.nan
