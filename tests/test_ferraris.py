@@ -436,18 +436,22 @@ def _rot(axis: int, phi: float) -> np.ndarray:
     return R
 
 
-def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None):
+def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None, earth=0.0, sg=0.5):
     """A continuous log at 100 Hz (t, raw acc, raw gyro, labels): the six poses (3 s each, 1 s unlabelled rest
     around each), then per axis a turn about that axis while it is horizontal (x and y from z up, z from x up),
     by ``turned`` (rad, raised-cosine rate over 4 s) between 1 s rests; ``cut`` < 1 ends the x_rot label at that
-    share of its turn (the rest of the turn unlabelled)."""
+    share of its turn (the rest of the turn unlabelled). ``earth`` (rad/s): a rate seen in every still pose,
+    half along the up axis and half across it (the Earth rate at 30° latitude, heading fixed per pose); ``sg``:
+    gyro noise (counts)."""
     K_a, b_a, K_g, G, b_g = truth
     rng = rng or np.random.default_rng(1)
     f_rows, w_rows, labels = [], [], []
 
     def still(f, n, label=""):
         f_rows.append(np.tile(f, (n, 1)))
-        w_rows.append(np.zeros((n, 3)))
+        up = f / np.linalg.norm(f)
+        across = np.roll(np.abs(up), 1)  # a body axis across the up one
+        w_rows.append(np.tile(earth * (0.5 * up + np.sqrt(0.75) * across), (n, 1)))
         labels.extend([label] * n)
 
     for i, ax in enumerate("xyz"):
@@ -474,7 +478,7 @@ def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rn
         still(_rot(j, phi[-1]).T @ f0, 100)
     f, w = np.vstack(f_rows), np.vstack(w_rows)
     acc = f @ K_a.T + b_a + rng.normal(scale=0.5, size=f.shape)
-    gyr = w @ K_g.T + f @ G.T + b_g + rng.normal(scale=0.5, size=f.shape)
+    gyr = w @ K_g.T + f @ G.T + b_g + rng.normal(scale=sg, size=f.shape)
     return np.arange(f.shape[0]) / _RATE, acc, gyr, np.array(labels)
 
 
@@ -589,3 +593,17 @@ def test_a_turn_check_stops_at_the_next_section_of_a_file_of_cut_sections():
     }
     cal = ferraris_from_sections(t, acc, gyr, ranges, gravity=9.81, expected_angle=2 * np.pi)
     assert check_rotations(cal, t, acc, gyr, ranges)[0]["missed_deg"] == 0.0
+
+
+def test_ferraris_g_sensitivity_std_includes_the_earth_rate(tmp_path, capsys):
+    """G = (up − down pose)/2g takes the Earth rate's change between the two poses (here Ω_E/2 vertical, so
+    Ω_E·K_ii/(2g) on G_ii): 10-25σ off with exit 0 when the std was the noise alone."""
+    from optinav.multipos.result import CalibrationResult
+
+    truth = _truth(np.random.default_rng(3))
+    log = _continuous_log(truth, earth=7.292115e-5, sg=0.05)
+    code, err, out = _ferraris_cli(tmp_path, log, capsys)
+    assert code == 0, err
+    r = CalibrationResult.from_json(out)
+    z = (r.gyroscope["G"] - truth[3]) / r.gyroscope["G_std"]
+    assert np.all(np.abs(np.diag(z)) < 3) and np.any(np.abs(np.diag(z)) > 0.5), z

@@ -939,6 +939,9 @@ def _ferraris(
     missed = np.radians([r["missed_deg"] for r in turns]) / np.abs(fc.expected_angle)
     gyr_K_std = np.hypot(std["gyr_K"], np.abs(fc.gyr_K) * missed[None, :])
     gyr_b_std = np.hypot(std["gyr_b"], OMEGA_E * np.abs(np.diag(fc.gyr_K)) / np.sqrt(3.0))
+    # G = (up − down pose)/2g also takes the Earth rate's change between the two poses, at most 2Ω_E per axis
+    # (vertical part: sign flip; horizontal: heading): uniform within ±Ω_E·K_ii/g
+    gyr_G_std = np.hypot(std["gyr_G"], (OMEGA_E * np.abs(np.diag(fc.gyr_K)) / (g * np.sqrt(3.0)))[:, None])
     acc_entry = {
         "K": fc.acc_K,
         "b": fc.acc_b,
@@ -954,7 +957,7 @@ def _ferraris(
         "G": fc.gyr_G,
         "K_std": gyr_K_std,
         "b_std": gyr_b_std,
-        "G_std": std["gyr_G"],
+        "G_std": gyr_G_std,
         "form": "full",
     }
     units = {
@@ -979,7 +982,7 @@ def _ferraris(
         observability={
             "note": "closed form: 6 axis poses and 3 rotations of known angle determine every parameter "
             "exactly; the std is the noise of the poses and turns through the closed form (Monte Carlo), with "
-            "an unknown local g, a turn missed by the sections and the Earth rate in the bias; the turns are taken as "
+            "an unknown local g, a turn missed by the sections and the Earth rate in the bias and G; the turns are taken as "
             "exactly the stated angle (--rotation-angle)",
             "unobservable": [],
         },
