@@ -537,13 +537,23 @@ def _creep(s, pose: int, deg: float):
     return acc, gyr
 
 
-def test_a_pose_that_creeps_is_left_out_with_a_note():
+@pytest.mark.parametrize("unit", ["m/s^2", "offset counts"])
+def test_a_pose_that_creeps_is_left_out_with_a_note(unit):
     """A pose that tilts 2° during its 8 s rest: 0.25 °/s, too slow for the variance detector, put the gyro
-    bias 10σ off; now the pose is left out and the fit is right. A 0.3° creep is kept (real poses settle)."""
-    s = simulate("18", dwell_s=8, rest_s=5, rng=5)
+    bias 10σ off; now the pose is left out and the fit is right. A 0.3° creep is kept (real poses settle).
+    Counts of an unsigned ADC (offset 32768) shrank the raw angle 28x below the threshold: it is measured on
+    offset-free directions."""
+    counts = unit != "m/s^2"
+    kw = {"acc_unit": "counts", "gyro_unit": "counts"} if counts else {}
+    s = simulate("18", dwell_s=8, rest_s=5, rng=5, **kw)
     for deg, left_out in ((2.0, True), (0.3, False)):
         acc, gyr = _creep(s, 4, deg)
-        r = calibrate(s.t, acc, gyr, g=s.gravity, rng=1)
+        if counts:
+            acc, gyr = acc + OFFSET, gyr + OFFSET
+        r = calibrate(s.t, acc, gyr, g=s.gravity, rng=1, **kw)
+        if counts:
+            r.accelerometer["b"] = r.accelerometer["b"] - OFFSET
+            r.gyroscope["b"] = r.gyroscope["b"] - OFFSET
         notes = [n for n in r.quality["notes"] if "a slow creep or tilt" in n]
         assert bool(notes) == left_out and r.quality["n_poses"] == 18 - left_out
         assert np.all(np.abs(r.gyroscope["b"] - s.gyr_b) < 4 * r.gyroscope["b_std"])

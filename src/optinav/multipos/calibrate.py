@@ -129,13 +129,17 @@ CREEP_SIGMA = 6.0
 MIN_CREEP_DEG = 0.5
 
 
-def pose_creep(acc: np.ndarray, ranges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pose_creep(acc: np.ndarray, ranges: np.ndarray, correct=None) -> tuple[np.ndarray, np.ndarray]:
     """Per static pose, the angle (rad) between the mean accelerometer direction of its first and last third,
-    and that angle's 1σ noise (rad) from the detrended samples (lag-1 correlation taken into account)."""
+    and that angle's 1σ noise (rad) from the detrended samples (lag-1 correlation taken into account).
+    ``correct`` maps raw samples (n, 3) to offset-free ones (a first calibration): raw counts with an offset
+    (an unsigned ADC at 32768) would shrink every angle."""
     ang, sig = np.zeros(len(ranges)), np.full(len(ranges), np.inf)
     for k, (i0, i1) in enumerate(ranges):
         seg = acc[i0:i1]
         seg = seg[np.all(np.isfinite(seg), axis=1)]
+        if correct is not None and seg.shape[0]:
+            seg = correct(seg)
         n = seg.shape[0] // 3
         if n < 5:
             continue
@@ -149,10 +153,13 @@ def pose_creep(acc: np.ndarray, ranges: np.ndarray) -> tuple[np.ndarray, np.ndar
     return ang, sig
 
 
-def _drop_creeping(acc, ranges, t_int, notes: list) -> tuple:
-    """The static poses that hold still (:func:`pose_creep`); a note per pose left out. More than a third left
-    out, or fewer than 6 left: an error naming the first."""
-    ang, sig = pose_creep(acc, ranges)
+def _drop_creeping(acc, ranges, t_int, notes: list, g: float, valid=None) -> tuple:
+    """The static poses that hold still (:func:`pose_creep`, offset-free by the closed-form ellipsoid fit of the
+    pose means); a note per pose left out. More than a third left out, or fewer than 6 left: an error naming the
+    first."""
+    means = accel.pose_statistics(acc, ranges, valid=valid).means
+    theta0 = accel.initial_estimate(means, g)
+    ang, sig = pose_creep(acc, ranges, (lambda x: model.corrected(theta0, x)) if np.all(np.isfinite(theta0)) else None)
     bad = (ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG))
     for k in np.flatnonzero(bad):
         notes.append(
@@ -477,7 +484,7 @@ def calibrate(
             "--min-duration, or give the poses by hand with --sections",
         )
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
-    ranges, t_int = _drop_creeping(acc, ranges, t_int, notes)
+    ranges, t_int = _drop_creeping(acc, ranges, t_int, notes, g, valid)
     st = accel.pose_statistics(acc, ranges, valid=valid)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
@@ -863,7 +870,7 @@ def _ferraris(
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
-    ang, sig = pose_creep(acc, idx[static_idx])
+    ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero((ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG)))
     if bad.size:
         k = int(bad[0])
