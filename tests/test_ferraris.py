@@ -436,13 +436,16 @@ def _rot(axis: int, phi: float) -> np.ndarray:
     return R
 
 
-def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None, earth=0.0, sg=0.5):
+def _continuous_log(
+    truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None, earth=0.0, sg=0.5, quarters=False
+):
     """A continuous log at 100 Hz (t, raw acc, raw gyro, labels): the six poses (3 s each, 1 s unlabelled rest
     around each), then per axis a turn about that axis while it is horizontal (x and y from z up, z from x up),
     by ``turned`` (rad, raised-cosine rate over 4 s) between 1 s rests; ``cut`` < 1 ends the x_rot label at that
     share of its turn (the rest of the turn unlabelled). ``earth`` (rad/s): a rate seen in every still pose,
     half along the up axis and half across it (the Earth rate at 30° latitude, heading fixed per pose); ``sg``:
-    gyro noise (counts)."""
+    gyro noise (counts); ``quarters``: each turn in four equal steps with 1 s pauses (``cut`` then ends x_rot's
+    label at the start of that share of the turn's samples)."""
     K_a, b_a, K_g, G, b_g = truth
     rng = rng or np.random.default_rng(1)
     f_rows, w_rows, labels = [], [], []
@@ -465,8 +468,15 @@ def _continuous_log(truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rn
     tt = (np.arange(n) + 0.5) / _RATE
     for j, ax in enumerate("xyz"):
         f0 = np.array([g, 0, 0]) if j == 2 else np.array([0, 0, g])
-        rate = turned[j] / 4.0 * (1 - np.cos(2 * np.pi * tt / 4.0))
-        phi = turned[j] / 4.0 * (tt - 4.0 / (2 * np.pi) * np.sin(2 * np.pi * tt / 4.0))
+        if quarters:  # 1 s bursts of a quarter turn, 1 s pauses: 7 s of the 4 s grid stretched to n samples
+            u = tt / 4.0 * 7.0
+            k4, fr = np.floor(u), u - np.floor(u)
+            burst = (k4 % 2 == 0) & (k4 < 7)
+            rate = np.where(burst, turned[j] / 4.0 * 7.0 / 4.0 * (1 - np.cos(2 * np.pi * fr)), 0.0)
+            phi = turned[j] / 4.0 * (np.ceil(k4 / 2) + np.where(burst, fr - np.sin(2 * np.pi * fr) / (2 * np.pi), 0.0))
+        else:
+            rate = turned[j] / 4.0 * (1 - np.cos(2 * np.pi * tt / 4.0))
+            phi = turned[j] / 4.0 * (tt - 4.0 / (2 * np.pi) * np.sin(2 * np.pi * tt / 4.0))
         still(f0, 100, f"{ax}_rot")
         w = np.zeros((n, 3))
         w[:, j] = rate
@@ -607,3 +617,13 @@ def test_ferraris_g_sensitivity_std_includes_the_earth_rate(tmp_path, capsys):
     r = CalibrationResult.from_json(out)
     z = (r.gyroscope["G"] - truth[3]) / r.gyroscope["G_std"]
     assert np.all(np.abs(np.diag(z)) < 3) and np.any(np.abs(np.diag(z)) > 0.5), z
+
+
+def test_a_turn_in_steps_cut_before_its_last_step_is_an_error(tmp_path, capsys):
+    """A 360° turn made as 4 × 90° with pauses (imucal's practice), x_rot labelled up to the pause before its
+    last step: the scan stopped at the pause, K_xx 25 % off with exit 0 (helper); the whole turn passes."""
+    truth = _truth(np.random.default_rng(3))
+    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True), capsys)
+    assert code == 0, err
+    code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True, cut=0.8), capsys)
+    assert code == 2 and "the turn of x_rot goes on after it ends" in err[-1]

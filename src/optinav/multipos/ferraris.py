@@ -555,23 +555,42 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
 
 
 def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int, other: np.ndarray) -> tuple[float, float]:
-    """Angle (rad) turned about one axis just before sample i0 and from sample i1 on, while the rate ``w``
-    (rad/s) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its 90th-percentile rate, up to
-    a sample of another section (``other`` (N,) bool: a file of cut sections joins them end to end)."""
-    sec = w[i0:i1]
+    """Angle (rad) turned about axis j just before sample i0 and from sample i1 on, while the rate ``w`` (N, 3,
+    rad/s; column 0 the axis j) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its
+    90th-percentile rate, up to a sample of another section (``other`` (N,) bool: a file of cut sections joins
+    them end to end). A turn made in steps (4 × 90° with pauses) goes on after a pause no longer than 1.5× the
+    longest pause inside the section, with a burst about the axis (|ω_j| ≥ 0.9‖ω‖)."""
+    wj = w[:, 0]
+    sec = wj[i0:i1]
     sign = np.sign(sec @ dt[i0:i1]) or 1.0
     level = TURN_GOES_ON * float(np.percentile(np.abs(sec), 90))
     gap = 5.0 * float(np.median(dt))  # a jump in time (a log of cut sections) ends the turn
+    moving = sign * wj > level
+    axial = np.abs(wj) >= 0.9 * np.linalg.norm(w, axis=1)
+    inside = np.flatnonzero(moving[i0:i1])
+    longest = 0
+    if inside.size > 1:
+        steps = np.diff(inside) - 1
+        longest = int(steps.max())
+    lead = int(inside[0]) if inside.size else i1 - i0
+    trail = int(i1 - i0 - 1 - inside[-1]) if inside.size else i1 - i0
 
-    def run(ks) -> float:
-        total = 0.0
+    def run(ks, pause: int) -> float:
+        total, resumed = 0.0, pause == 0
         for k in ks:
-            if sign * w[k] <= level or dt[k] > gap or other[k]:
+            if dt[k] > gap or other[k]:
                 break
-            total += w[k] * dt[k]
+            if moving[k] and (resumed or axial[k]):
+                total += wj[k] * dt[k]
+                pause, resumed = 0, True
+                continue
+            pause += 1
+            resumed = False
+            if pause > 1.5 * longest:
+                break
         return abs(total)
 
-    return run(range(i0 - 1, -1, -1)), run(range(i1, w.size))
+    return run(range(i0 - 1, -1, -1), lead), run(range(i1, wj.size), trail)
 
 
 def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list[dict]:
@@ -595,7 +614,7 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
         other = np.zeros(w.shape[0], bool)
         for n, (a0, a1) in ranges.items():
             other[a0:a1] |= n != name
-        before, after = _turn_outside(w[:, j], dt, i0, i1, other)
+        before, after = _turn_outside(np.roll(w, -j, axis=1), dt, i0, i1, other)
         if before + after > MAX_MISSED_TURN * stated:
             where = "goes on after it ends" if after >= before else "began before it starts"
             raise OptinavError(
