@@ -363,3 +363,18 @@ def test_a_steady_level_turn_is_not_taken_for_a_deg_s_gyro(centripetal, rate):
     acc = np.tile([centripetal, 0.0, G], (n, 1)) + rng.normal(0, 0.05, (n, 3))
     gyr = np.tile([0.0, 0.0, rate], (n, 1)) + rng.normal(0, 0.002, (n, 3))
     check_imu(gyr, acc, np.full(n, 0.01))
+
+
+def test_a_start_in_a_disturbed_field_gives_way_to_the_steady_field():
+    """The first 4 s next to a magnet (+30 µT north-east): the reference learned at the start was that field,
+    and the steady true field after it counted as disturbed for mag_new_time (20 s), the heading from the gyro
+    alone. Now a reference seen for less time than a steady field gives way after as long as it was seen."""
+    n = 6000
+    w, acc, q_true = motion(n, seed=7, amp=0.8)
+    mag = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n())
+    dist = slice(0, 400)
+    mag[dist] += np.einsum("nji,j->ni", dcm_from_quat(q_true[dist]), [30.0, 30.0, 0.0])
+    r = estimate(w, acc, DT, mag=mag)
+    h = np.degrees(heading_error(r.q_b_n, q_true))
+    assert r.mag_used[1500:2000].mean() > 0.9  # by 15-20 s the steady field is the reference
+    assert np.abs(h[2500:]).max() < 2.0

@@ -38,7 +38,9 @@ S_TIME = 61  # time since start (s)
 S_RDT = 62  # dt of the cached rest coefficients, then α (1)
 S_LPC = 64  # Butterworth memory of C_b^I (9 entries × 4)
 S_AVG_N = 100  # samples averaged so far in the first ``tau_acc`` seconds (the low-passes' start)
-STATE_SIZE = 101
+S_M_LP = 101  # |m| and dip low-passed over mag_current_tau (the candidate's input; |m| = 0: not started)
+S_M_T0 = 103  # s, start of the heading's running mean (then first order, tau_mag); 0: tau_acc
+STATE_SIZE = 104
 
 # --- parameter layout (all SI: s, rad, rad/s, m/s², relative) ------------------------------------------------
 P_TAU_ACC, P_REST_TAU, P_REST_GYR, P_REST_ACC, P_REST_TIME = 0, 1, 2, 3, 4
@@ -47,7 +49,9 @@ P_MOTION_MAX_GYR, P_MOTION_MAX_ACC, P_GRAVITY = 10, 11, 12
 P_TAU_MAG, P_MAG_NORM_TH, P_MAG_DIP_TH, P_MAG_NEW_TIME, P_TAU_MAG_REF = 13, 14, 15, 16, 17
 P_UP, P_NORTH = 18, 21  # unit up and north of the navigation frame
 P_LATENCY = 24  # s, output predicted forward by the sensor latency
-PAR_SIZE = 25
+P_BIAS_LOOP = 25  # -, the motion bias loop's time constant is at least this many tau_acc
+P_MAG_CUR_TAU = 26  # s, low-pass of |m| and dip for the new-field candidate; 0 = none
+PAR_SIZE = 27
 
 
 @numba.njit(**_NJ)
@@ -267,14 +271,28 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     and abs(nl - par[P_GRAVITY]) < par[P_MOTION_MAX_ACC]
                 ):
                     st[S_BIAS_MOTION] = 1.0
-                    r = par[P_BIAS_MOTION] ** 2 / h
+                    r0 = par[P_BIAS_MOTION] ** 2 / h
                     L = S_LPC
                     for px, py, pz in ((nx, ny, nz), (wx, wy, wz)):
                         jx, jy, jz = _rot(c0, -c1, -c2, -c3, px, py, pz)  # p into I
                         hx = jx * st[L + 4 * 0 + 2] + jy * st[L + 4 * 3 + 2] + jz * st[L + 4 * 6 + 2]
                         hy = jx * st[L + 4 * 1 + 2] + jy * st[L + 4 * 4 + 2] + jz * st[L + 4 * 7 + 2]
                         hz = jx * st[L + 4 * 2 + 2] + jy * st[L + 4 * 5 + 2] + jz * st[L + 4 * 8 + 2]
-                        z = -(ex * px + ey * py + ez * pz) / h
+                        # a correction rate beyond the bias bound is not bias (VQF clips it too): the start's
+                        # levelling, an acceleration the low-pass let through
+                        z = min(max(-(ex * px + ey * py + ez * pz) / h, -clip), clip)
+                        # the bias closes a loop through the low-pass (bias → q_g → LP → correction → bias): with
+                        # the prior σ (a recording that starts in motion, no rest yet) the gain P/r would make it
+                        # ~1000× faster than tau_acc, and the bias rings between the clips (BROAD cut in motion:
+                        # ±2 °/s for a minute; heading 10–18° off). The variance is floored so that the loop's time
+                        # constant P/r·h is at least bias_loop·tau_acc; once P is small (after rest) it is r0.
+                        P = st[S_P : S_P + 9]
+                        s0 = (
+                            hx * (P[0] * hx + P[1] * hy + P[2] * hz)
+                            + hy * (P[3] * hx + P[4] * hy + P[5] * hz)
+                            + hz * (P[6] * hx + P[7] * hy + P[8] * hz)
+                        )
+                        r = max(r0, par[P_BIAS_LOOP] * par[P_TAU_ACC] * s0 / h)
                         _bias_update(st, hx, hy, hz, z, r, clip)
     # --- magnetometer heading ------------------------------------------------------------------------------
     t0, t1, t2, t3 = _qmul(c0, c1, c2, c3, g0, g1, g2, g3)
@@ -290,6 +308,18 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         # a dip measured with the first, possibly accelerated, sample's tilt would reject every later sample,
         # and one sample's noise (≈ 1 µT) is a good part of the norm gate
         settling = st[S_TIME] <= par[P_TAU_ACC]
+        # the new-field candidate sees norm and dip low-passed over mag_current_tau: one sample's noise (≈ 1 µT, a
+        # good part of the 5 % gate) reset a steady candidate every second or so, so a field learned at a
+        # disturbed start was never replaced in motion. The use gate keeps the raw sample (it also rejects the
+        # samples of fast rotations whose tilt is off)
+        if st[S_M_LP] == 0.0:
+            st[S_M_LP] = nm
+            st[S_M_LP + 1] = dip
+        else:
+            am = 1.0 - math.exp(-h / par[P_MAG_CUR_TAU]) if par[P_MAG_CUR_TAU] > 0.0 else 1.0
+            st[S_M_LP] += am * (nm - st[S_M_LP])
+            st[S_M_LP + 1] += am * (dip - st[S_M_LP + 1])
+        cn, cd = st[S_M_LP], st[S_M_LP + 1]
         if st[S_M_REF_T] == 0.0 or st[S_TIME] <= 0.5 * par[P_TAU_ACC]:
             st[S_M_NORM] = nm
             st[S_M_DIP] = dip
@@ -312,25 +342,40 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 st[S_DELTA] = -phi
                 st[S_M_INIT] = 1.0
             else:
-                k = h / min(par[P_TAU_MAG], max(st[S_TIME] - par[P_TAU_ACC], h))
+                tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
+                k = h / min(par[P_TAU_MAG], max(st[S_TIME] - tm0, h))
                 st[S_DELTA] += k * err
             st[S_MAG_USED] = 1.0
         else:
+            if st[S_M_T0] == 0.0 and st[S_TIME] < par[P_TAU_ACC] + par[P_TAU_MAG]:
+                # the heading's first running mean (tau_mag s) takes every sample, as VQF's start: the reference
+                # was learned in 2 s of a start that may be in motion or in a disturbed field, and is no more
+                # trustworthy than the samples it would reject
+                err = -phi - st[S_DELTA]
+                err = math.atan2(math.sin(err), math.cos(err))
+                st[S_DELTA] += h / max(st[S_TIME] - par[P_TAU_ACC], h) * err
             # a new, steady field (moved to another place) becomes the reference after mag_new_time
             if st[S_M_DIST_T] == 0.0:
-                st[S_M_C_NORM] = nm
-                st[S_M_C_DIP] = dip
+                st[S_M_C_NORM] = cn
+                st[S_M_C_DIP] = cd
             kc = h / max(1.0, st[S_M_DIST_T] + h)
-            st[S_M_C_NORM] += kc * (nm - st[S_M_C_NORM])
-            st[S_M_C_DIP] += kc * (dip - st[S_M_C_DIP])
+            st[S_M_C_NORM] += kc * (cn - st[S_M_C_NORM])
+            st[S_M_C_DIP] += kc * (cd - st[S_M_C_DIP])
             if (
-                abs(nm - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
-                and abs(dip - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]
+                abs(cn - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
+                and abs(cd - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]
             ):
                 st[S_M_DIST_T] += h
             else:
                 st[S_M_DIST_T] = 0.0
-            if st[S_M_DIST_T] > par[P_MAG_NEW_TIME]:
+            # ... or sooner when the reference itself was seen for less time (at least tau_acc): a reference learned
+            # at a start in a disturbed field loses to a field steady for longer
+            t_new = min(par[P_MAG_NEW_TIME], max(st[S_M_REF_T], par[P_TAU_ACC]))
+            if st[S_M_DIST_T] > t_new:
+                if st[S_M_REF_T] < par[P_MAG_NEW_TIME]:
+                    # the replaced reference was seen for less time than the new one: δ taken from it weighs
+                    # no more than the new field's samples; the heading restarts its running mean
+                    st[S_M_T0] = st[S_TIME]
                 st[S_M_NORM] = st[S_M_C_NORM]
                 st[S_M_DIP] = st[S_M_C_DIP]
                 st[S_M_REF_T] = h

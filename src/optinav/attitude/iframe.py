@@ -14,11 +14,14 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   axis; at any rotation rate unless ``motion_max_gyr`` > 0 sets a limit); the bias is clipped at ``bias_clip``;
 * the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
-  gyro alone; a new steady field becomes the reference after ``mag_new_time`` s;
+  gyro alone; a new steady field becomes the reference after ``mag_new_time`` s, or after as long as the
+  reference was seen (at least ``tau_acc``), judged on norm and dip low-passed over ``mag_current_tau``;
+* the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
+  variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion);
 * start: the low-passes begin as the running mean of the first ``tau_acc`` seconds (as VQF's), so a recording
   that starts in motion is not levelled by its first, accelerated sample; the magnetic reference is the mean of
   the second half of that time, the heading follows the field until then and converges from then on with a
-  gain of 1/n growing to ``tau_mag``;
+  gain of 1/n growing to ``tau_mag`` (over every sample for the first ``tau_mag`` s);
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
   recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
   is negated, so is its bias), and the two estimates fused (mean of the error rotation): the forward pass lags
@@ -66,7 +69,7 @@ _ORDER = (
     "mag_dip_th",
     "mag_new_time",
     "tau_mag_ref",
-)  # then latency at P_LATENCY
+)  # then latency, bias_loop and mag_current_tau at P_LATENCY, P_BIAS_LOOP, P_MAG_CUR_TAU
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
 _NORTH = {"ned": np.array([1.0, 0.0, 0.0]), "enu": np.array([0.0, 1.0, 0.0])}
@@ -85,6 +88,8 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     if not (np.isfinite(opts["latency"]) and opts["latency"] >= 0.0):
         raise OptinavError(f"option latency={opts['latency']!r} must be ≥ 0 s", "pass the IMU's delay in s, or 0")
     p[_k.P_LATENCY] = opts["latency"]
+    p[_k.P_BIAS_LOOP] = opts["bias_loop"]
+    p[_k.P_MAG_CUR_TAU] = opts["mag_current_tau"]
     return p
 
 

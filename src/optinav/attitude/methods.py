@@ -24,7 +24,8 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "bias_rw": 0.003 * _D2R,  # rad/s/√s, bias random walk
     "bias_rest": 0.05 * _D2R,  # rad/s·√s, rest measurement noise density
     "bias_motion": 0.05 * _D2R,  # rad/s·√s, motion (tilt-correction rate) noise density; 0 = off
-    "bias_clip": 2.0 * _D2R,  # rad/s, bias estimate bound
+    "bias_clip": 2.0 * _D2R,  # rad/s, bias estimate bound (and of a motion update's innovation)
+    "bias_loop": 2.0,  # -, the motion bias loop's time constant is at least this many tau_acc
     "motion_max_gyr": 0.0,  # rad/s, no motion bias update above this rate; 0 = no limit
     "motion_max_acc": 1.0,  # m/s², ... or when the low-passed |acc| is this far from g
     "gravity": 9.81,  # m/s²
@@ -33,6 +34,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "mag_dip_th": 5.0 * _D2R,  # rad, deviation of the dip angle from the reference
     "mag_new_time": 20.0,  # s, a steady new field becomes the reference after this time
     "tau_mag_ref": 30.0,  # s, averaging time of the learned reference
+    "mag_current_tau": 0.05,  # s, low-pass of the field's norm and dip seen by the new-field candidate; 0 = none
     "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
 }
 
