@@ -437,7 +437,7 @@ def _rot(axis: int, phi: float) -> np.ndarray:
 
 
 def _continuous_log(
-    truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None, earth=0.0, sg=0.5, quarters=False
+    truth, turned=(2 * np.pi,) * 3, cut: float = 1.0, g=9.81, rng=None, earth=0.0, sg=0.5, quarters=False, tilt=0.0
 ):
     """A continuous log at 100 Hz (t, raw acc, raw gyro, labels): the six poses (3 s each, 1 s unlabelled rest
     around each), then per axis a turn about that axis while it is horizontal (x and y from z up, z from x up),
@@ -445,7 +445,8 @@ def _continuous_log(
     share of its turn (the rest of the turn unlabelled). ``earth`` (rad/s): a rate seen in every still pose,
     half along the up axis and half across it (the Earth rate at 30° latitude, heading fixed per pose); ``sg``:
     gyro noise (counts); ``quarters``: each turn in four equal steps with 1 s pauses (``cut`` then ends x_rot's
-    label at the start of that share of the turn's samples)."""
+    label at the start of that share of the turn's samples); ``tilt`` (rad): 1σ of each axis pose's tilt from
+    the axis (placed by hand)."""
     K_a, b_a, K_g, G, b_g = truth
     rng = rng or np.random.default_rng(1)
     f_rows, w_rows, labels = [], [], []
@@ -461,6 +462,8 @@ def _continuous_log(
         for sign, suf in ((1, "p"), (-1, "a")):
             f = np.zeros(3)
             f[i] = sign * g
+            if tilt:
+                f = _rot((i + 1) % 3, rng.normal(0, tilt)) @ _rot((i + 2) % 3, rng.normal(0, tilt)) @ f
             still(f, 100)
             still(f, 300, f"{ax}_{suf}")
             still(f, 100)
@@ -500,15 +503,14 @@ def _write_labelled(path, t, acc, gyr, labels):
     return path
 
 
-def _ferraris_cli(tmp_path, log, capsys, angle=360):
+def _ferraris_cli(tmp_path, log, capsys, angle=360, extra=()):
     from optinav.cli.main import main
 
     path = _write_labelled(tmp_path / "log.csv", *log)
     out = tmp_path / "r.json"
     argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
-    code = main(
-        [*argv, "--method", "ferraris", "--rotation-angle", f"{angle:g}", "--gravity", "9.81", "--out", str(out)]
-    )
+    argv += ["--method", "ferraris", "--rotation-angle", f"{angle:g}", "--gravity", "9.81", *extra]
+    code = main([*argv, "--out", str(out)])
     return code, capsys.readouterr().err.strip().splitlines(), out
 
 
@@ -627,3 +629,20 @@ def test_a_turn_in_steps_cut_before_its_last_step_is_an_error(tmp_path, capsys):
     assert code == 0, err
     code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True, cut=0.8), capsys)
     assert code == 2 and "the turn of x_rot goes on after it ends" in err[-1]
+
+
+def test_ferraris_misalignment_std_includes_the_pose_alignment(tmp_path, capsys):
+    """Poses placed by hand (1° tilt, 1σ): a tilted pose fakes a misalignment one for one, which the noise alone
+    put at 1e-4 (tens of σ off with exit 0); --pose-alignment (default 1°) enters the std."""
+    from optinav.multipos.result import CalibrationResult
+
+    truth = _truth(np.random.default_rng(3))
+    log = _continuous_log(truth, tilt=np.radians(1.0), rng=np.random.default_rng(11))
+    off = ~np.eye(3, dtype=bool)
+    z = {}
+    for deg in ("1", "0"):
+        code, err, out = _ferraris_cli(tmp_path, log, capsys, extra=("--pose-alignment", deg))
+        assert code == 0, err
+        r = CalibrationResult.from_json(out)
+        z[deg] = np.abs((r.accelerometer["K"] - truth[0]) / r.accelerometer["K_std"])[off]
+    assert z["1"].max() < 3.5 and z["0"].max() > 10, z

@@ -206,6 +206,15 @@ def add_calibration_options(a) -> None:
         "clockwise full turn seen from the axis tip)",
     )
     a.add_argument(
+        "--pose-alignment",
+        type=NON_NEGATIVE,
+        default=1.0,
+        metavar="DEG",
+        help="--method ferraris: 1-sigma of how well each pose and turn axis lines up with the sensor axes, in "
+        "degrees (default 1: placed by hand against a table or box; 0.1 for a precise jig); enters the std of "
+        "the misalignments, which a tilted pose fakes one for one",
+    )
+    a.add_argument(
         "--acc-bias-instability",
         type=NON_NEGATIVE,
         metavar="RAW",

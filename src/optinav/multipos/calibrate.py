@@ -302,6 +302,7 @@ def calibrate(
     rest=None,
     allow_unobservable: bool = False,
     rotation_angle: float = -2 * np.pi,
+    pose_alignment: float = np.radians(1.0),
     held_misalignment: float = accel.HELD_MISALIGNMENT,
     gyro_g_sensitivity=None,
     gyro_bias_instability=None,
@@ -363,6 +364,9 @@ def calibrate(
         Hold gyro directions the turns do not determine instead of failing.
     rotation_angle : float
         The Ferraris turn [rad] (imucal's −2π).
+    pose_alignment : float
+        Ferraris: 1σ of the alignment of each pose and turn axis with the sensor axes [rad]; a pose tilted by δ
+        moves the misalignments of its column by δ·K_ii/√2 (turns: δ·K_ii), which the std then includes.
     held_misalignment : float
         1σ of misalignments a reduced model holds at 0 [rad] (their model error enters the stds of the scales
         and biases).
@@ -440,6 +444,7 @@ def calibrate(
             source,
             notes,
             float(rotation_angle),
+            float(pose_alignment),
         )
     selection = {}
     step("detect static intervals")
@@ -843,7 +848,21 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
 
 
 def _ferraris(
-    t, acc, gyro, sections, g, g_source, acc_unit, gyro_unit, n_nan, sat_a, t_start, source, notes, rotation_angle
+    t,
+    acc,
+    gyro,
+    sections,
+    g,
+    g_source,
+    acc_unit,
+    gyro_unit,
+    n_nan,
+    sat_a,
+    t_start,
+    source,
+    notes,
+    rotation_angle,
+    pose_alignment=np.radians(1.0),
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
     from . import ferraris
@@ -946,6 +965,14 @@ def _ferraris(
     missed = np.radians([r["missed_deg"] for r in turns]) / np.abs(fc.expected_angle)
     gyr_K_std = np.hypot(std["gyr_K"], np.abs(fc.gyr_K) * missed[None, :])
     gyr_b_std = np.hypot(std["gyr_b"], OMEGA_E * np.abs(np.diag(fc.gyr_K)) / np.sqrt(3.0))
+    # a pose tilted by δ across its axis j reads K·g·δ on the other axes: column j's misalignments move by
+    # K_ii·(δ_up − δ_down)/2 (K_jj·δ²/2 on the diagonal); a turn about an axis off by δ moves column j by K_ii·δ
+    sa = float(pose_alignment)
+    off = 1.0 - np.eye(3)
+    acc_K_std = np.hypot(
+        acc_K_std, np.abs(np.diag(fc.acc_K))[:, None] * (off * sa / np.sqrt(2.0) + np.eye(3) * sa**2 / 2)
+    )
+    gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + np.eye(3) * sa**2 / 2))
     # G = (up − down pose)/2g also takes the Earth rate's change between the two poses, at most 2Ω_E per axis
     # (vertical part: sign flip; horizontal: heading): uniform within ±Ω_E·K_ii/g
     gyr_G_std = np.hypot(std["gyr_G"], (OMEGA_E * np.abs(np.diag(fc.gyr_K)) / (g * np.sqrt(3.0)))[:, None])
@@ -989,8 +1016,9 @@ def _ferraris(
         observability={
             "note": "closed form: 6 axis poses and 3 rotations of known angle determine every parameter "
             "exactly; the std is the noise of the poses and turns through the closed form (Monte Carlo), with "
-            "an unknown local g, a turn missed by the sections and the Earth rate in the bias and G; the turns are taken as "
-            "exactly the stated angle (--rotation-angle)",
+            "an unknown local g, a turn missed by the sections, the Earth rate in the bias and G, and the "
+            "alignment of the poses and turn axes (--pose-alignment); the turns are taken as exactly the "
+            "stated angle (--rotation-angle)",
             "unobservable": [],
         },
         method="ferraris",
@@ -1044,6 +1072,7 @@ class FileOptions:
     rest: tuple | None = None
     allow_unobservable: bool = False
     rotation_angle: float = -360.0
+    pose_alignment: float = 1.0
     acc_bias_instability: float | None = None
     held_misalignment: float = accel.HELD_MISALIGNMENT
     gyro_g_sensitivity: float | None = None
@@ -1064,6 +1093,7 @@ class FileOptions:
             ("held_misalignment", "--held-misalignment"),
             ("gyro_g_sensitivity", "--gyro-g-sensitivity"),
             ("gyro_bias_instability", "--gyro-bias-instability"),
+            ("pose_alignment", "--pose-alignment"),
         ):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
@@ -1206,6 +1236,7 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         rest=o.rest,
         allow_unobservable=o.allow_unobservable,
         rotation_angle=np.radians(o.rotation_angle),
+        pose_alignment=np.radians(o.pose_alignment),
         acc_bias_instability=o.acc_bias_instability,
         held_misalignment=o.held_misalignment,
         gyro_g_sensitivity=o.gyro_g_sensitivity,
