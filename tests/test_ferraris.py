@@ -646,3 +646,24 @@ def test_ferraris_misalignment_std_includes_the_pose_alignment(tmp_path, capsys)
         r = CalibrationResult.from_json(out)
         z[deg] = np.abs((r.accelerometer["K"] - truth[0]) / r.accelerometer["K_std"])[off]
     assert z["1"].max() < 3.5 and z["0"].max() > 10, z
+
+
+def test_a_gyro_clipped_in_a_turn_is_an_error_and_a_knock_outside_the_sections_is_not(tmp_path, capsys):
+    """A turn faster than the gyro's range reads flat at the log's extreme: its integral fell short and K_xx came
+    out 7 % small with exit 0 (also with --gyro-range; helper). An accelerometer at full scale between the
+    sections (a knock while moving the unit) refused the whole calibration; only the sections matter."""
+    truth = _truth(np.random.default_rng(3))
+    t, acc, gyr, labels = _continuous_log(truth)
+    i = np.flatnonzero(labels == "x_rot")
+    top = 0.8 * gyr[i, 0].max()
+    clipped = gyr.copy()
+    clipped[i, 0] = np.minimum(gyr[i, 0], top)
+    code, err, out = _ferraris_cli(tmp_path, (t, acc, clipped, labels), capsys)
+    assert (
+        code == 2 and "gyroscope is at its full scale" in err[-1] and "x_rot" in err[-1] and "--gyro-range" in err[-1]
+    )
+    knock = acc.copy()
+    k = np.flatnonzero(labels == "")[150]
+    knock[k : k + 3] = 32767.0  # a 16-bit accelerometer's full scale, outside every section
+    code, err, out = _ferraris_cli(tmp_path, (t, knock, gyr, labels), capsys)
+    assert code == 0, err

@@ -445,6 +445,7 @@ def calibrate(
             notes,
             float(rotation_angle),
             float(pose_alignment),
+            sat_g,
         )
     selection = {}
     step("detect static intervals")
@@ -847,6 +848,45 @@ def _gyro_gates(gc, gyro_unit: str) -> list[dict]:
     ]
 
 
+def flat_runs(v: np.ndarray, run: int = 5) -> list[tuple[int, int]]:
+    """Half-open ranges (i0, i1) where ``v`` (N,) reads its extreme value (max or min) in ``run`` or more
+    consecutive samples: a sensor clipped at its range (noise always moves an unclipped axis)."""
+    if v.size < run:
+        return []
+    starts = np.flatnonzero(np.r_[True, v[1:] != v[:-1]])
+    lengths = np.diff(np.r_[starts, v.size])
+    ext = (v[starts] == np.nanmax(v)) | (v[starts] == np.nanmin(v))
+    return [(int(a), int(a + n)) for a, n in zip(starts, lengths) if n >= run and ext[starts == a][0]]
+
+
+def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
+    """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
+    the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, flat at the log's extreme
+    above the turn's typical rate (a clipped peak: the turn's integral falls short, K too small)."""
+    sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
+    for j in range(3):
+        v = gyro[:, j] - gyr_b[j]
+        for a, b in flat_runs(gyro[:, j]):
+            for nm, (i0, i1) in zip(names, idx):
+                if str(nm).endswith("_rot") and a < i1 and b > i0:
+                    r = np.abs(v[i0:i1])
+                    typical = float(np.median(r[r > 0.1 * r.max()])) if r.max() > 0 else 0.0
+                    if abs(v[a]) >= 1.2 * typical:
+                        sat_g[max(a, i0) : min(b, i1)] = True
+    for what, sat, flag in (("accelerometer", sat_a, "--acc-range"), ("gyroscope", sat_g, "--gyro-range")):
+        for nm, (i0, i1) in zip(names, idx):
+            n = int(np.count_nonzero(sat[i0:i1]))
+            if n:
+                k = i0 + int(np.flatnonzero(sat[i0:i1])[0])
+                turning = str(nm).endswith("_rot") and what == "gyroscope"
+                raise OptinavError(
+                    f"the {what} is at its full scale in {n} samples of the section {nm} (from t = {t[k]:.6g} s)"
+                    + (": the turn was faster than its range, so its integral falls short" if turning else ""),
+                    ("turn more slowly or record with a larger range" if turning else "cut them from the section")
+                    + f" ({flag} states the range)",
+                )
+
+
 def _ferraris(
     t,
     acc,
@@ -863,6 +903,7 @@ def _ferraris(
     notes,
     rotation_angle,
     pose_alignment=np.radians(1.0),
+    sat_g=None,
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
     from . import ferraris
@@ -872,11 +913,6 @@ def _ferraris(
             "the Ferraris method needs gyroscope data and the nine named sections "
             "(x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot)",
             "give the gyro columns and either a label column naming the sections or --sections FILE",
-        )
-    if np.any(sat_a):
-        raise OptinavError(
-            f"{int(np.count_nonzero(sat_a))} accelerometer samples are saturated",
-            "the Ferraris method has no way to skip them: cut them from the sections",
         )
     sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
     fc, std = ferraris.ferraris_from_sections(
@@ -888,6 +924,7 @@ def _ferraris(
         t_iv = np.column_stack([t[idx[:, 0]], t[idx[:, 1] - 1]])
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
+    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero((ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG)))
