@@ -628,7 +628,29 @@ def test_a_turn_in_steps_cut_before_its_last_step_is_an_error(tmp_path, capsys):
     code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True), capsys)
     assert code == 0, err
     code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True, cut=0.8), capsys)
-    assert code == 2 and "the turn of x_rot goes on after it ends" in err[-1]
+    # about a horizontal axis the accelerometer judges the whole turn
+    assert code == 2 and "in x_rot the accelerometer sees gravity turn by 270" in err[-1]
+
+
+@pytest.mark.parametrize(("tips", "missed"), [(False, 90.0), (True, 0.0)])
+def test_a_step_after_a_pause_counts_when_gravity_stays(tips, missed):
+    """About a vertical axis (the accelerometer is blind to it) a turn in 4 x 90° steps cut before its last step
+    goes on after the pause (missed 90°: K 25 % off with exit 0 before); a burst after the pause that moves
+    gravity is the move to the next pose, not a step (a false alarm before)."""
+    from optinav.multipos.ferraris import _turn_outside
+
+    n, h = 1000, 0.01
+    w = np.zeros((n, 3))
+    step = np.pi / 2 / 100 / h  # rad/s: 90° in 100 samples
+    for a in (0, 150, 300, 450, 600):  # four steps inside the section [0, 570), one after it
+        w[a : a + 100, 0] = step
+    up = np.tile([1.0, 0.0, 0.0], (n, 1))  # gravity along the turn axis: a vertical axis
+    if tips:
+        c = np.linspace(0, np.pi / 2, 100)
+        up[600:700] = np.column_stack([np.cos(c), np.sin(c), 0 * c])
+        up[700:] = [0.0, 1.0, 0.0]
+    before, after = _turn_outside(w, np.full(n, h), 0, 570, np.zeros(n, bool), up)
+    assert before == 0.0 and np.degrees(after) == pytest.approx(missed, abs=1.0)
 
 
 def test_ferraris_misalignment_std_includes_the_pose_alignment(tmp_path, capsys):

@@ -68,6 +68,8 @@ MAX_MISSED_TURN = 0.02
 ACC_SEES_TURN_DEG = 30.0
 #: largest accepted difference (degrees) between the turn the accelerometer sees and the stated angle
 MAX_TURN_MISMATCH_DEG = 5.0
+#: a step of a turn made in steps keeps gravity within this angle (degrees) of where the section left it
+STEP_KEEPS_UP_DEG = 5.0
 
 
 @dataclass(eq=False)
@@ -554,12 +556,16 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     return ferraris_calibration(*parts, **timing, **kwargs)
 
 
-def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int, other: np.ndarray) -> tuple[float, float]:
+def _turn_outside(
+    w: np.ndarray, dt: np.ndarray, i0: int, i1: int, other: np.ndarray, up: np.ndarray | None
+) -> tuple[float, float]:
     """Angle (rad) turned about axis j just before sample i0 and from sample i1 on, while the rate ``w`` (N, 3,
     rad/s; column 0 the axis j) keeps the sign of the section's turn above :data:`TURN_GOES_ON` of its
     90th-percentile rate, up to a sample of another section (``other`` (N,) bool: a file of cut sections joins
     them end to end). A turn made in steps (4 × 90° with pauses) goes on after a pause no longer than 1.5× the
-    longest pause inside the section, with a burst about the axis (|ω_j| ≥ 0.9‖ω‖)."""
+    longest pause inside the section, with a burst about the axis (|ω_j| ≥ 0.9‖ω‖) that keeps gravity within
+    :data:`STEP_KEEPS_UP_DEG` of where it was (``up`` (N, 3) unit specific force: a step about a vertical axis
+    does, the move to the next pose does not); ``up`` None: no steps after a pause (the accelerometer judges)."""
     wj = w[:, 0]
     sec = wj[i0:i1]
     sign = np.sign(sec @ dt[i0:i1]) or 1.0
@@ -568,29 +574,30 @@ def _turn_outside(w: np.ndarray, dt: np.ndarray, i0: int, i1: int, other: np.nda
     moving = sign * wj > level
     axial = np.abs(wj) >= 0.9 * np.linalg.norm(w, axis=1)
     inside = np.flatnonzero(moving[i0:i1])
-    longest = 0
-    if inside.size > 1:
-        steps = np.diff(inside) - 1
-        longest = int(steps.max())
+    longest = int((np.diff(inside) - 1).max()) if inside.size > 1 and up is not None else 0
     lead = int(inside[0]) if inside.size else i1 - i0
     trail = int(i1 - i0 - 1 - inside[-1]) if inside.size else i1 - i0
+    cos_keep = np.cos(np.radians(STEP_KEEPS_UP_DEG))
 
-    def run(ks, pause: int) -> float:
-        total, resumed = 0.0, pause == 0
+    def run(ks, pause: int, ref: int) -> float:
+        total, burst, resumed = 0.0, 0.0, pause == 0
         for k in ks:
             if dt[k] > gap or other[k]:
                 break
             if moving[k] and (resumed or axial[k]):
+                if not resumed and up is not None and up[k] @ up[ref] < cos_keep:
+                    total -= burst  # gravity moved: the move to the next pose, not a step of the turn
+                    break
                 total += wj[k] * dt[k]
-                pause, resumed = 0, True
+                burst += wj[k] * dt[k]
+                pause = 0
                 continue
-            pause += 1
-            resumed = False
+            pause, resumed, burst = pause + 1, False, 0.0
             if pause > 1.5 * longest:
                 break
         return abs(total)
 
-    return run(range(i0 - 1, -1, -1), lead), run(range(i1, wj.size), trail)
+    return run(range(i0 - 1, -1, -1), lead, i0), run(range(i1, wj.size), trail, i1 - 1)
 
 
 def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list[dict]:
@@ -607,6 +614,7 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
     w = cal.correct_gyro(gyr, a)
     dt = np.diff(t)
     dt = np.append(dt, dt[-1] if dt.size else 0.0)
+    up = a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-300)
     out = []
     for j, name in enumerate(ROTATIONS):
         i0, i1 = ranges[name]
@@ -614,7 +622,13 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
         other = np.zeros(w.shape[0], bool)
         for n, (a0, a1) in ranges.items():
             other[a0:a1] |= n != name
-        before, after = _turn_outside(np.roll(w, -j, axis=1), dt, i0, i1, other)
+        p = [(j + 1) % 3, (j + 2) % 3]  # cyclic: the angle of atan2(f_p1, f_p0) turns about +j
+        f = a[i0:i1]
+        perp = np.linalg.norm(f[:, p], axis=1)
+        sees = bool(np.median(perp / np.linalg.norm(f, axis=1)) >= np.sin(np.radians(ACC_SEES_TURN_DEG)))
+        # a turn about a vertical axis made in steps may go on after a pause; about a horizontal one the
+        # accelerometer sees the whole turn, and the move to the next pose would look like one more step
+        before, after = _turn_outside(np.roll(w, -j, axis=1), dt, i0, i1, other, None if sees else up)
         if before + after > MAX_MISSED_TURN * stated:
             where = "goes on after it ends" if after >= before else "began before it starts"
             raise OptinavError(
@@ -623,11 +637,8 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
                 f"after), so the gyro scale misses that share of the {np.degrees(stated):.4g}° turn",
                 f"let the section {name} span the whole turn, from rest to rest (--sections, or the label column)",
             )
-        p = [(j + 1) % 3, (j + 2) % 3]  # cyclic: the angle of atan2(f_p1, f_p0) turns about +j
-        f = a[i0:i1]
-        perp = np.linalg.norm(f[:, p], axis=1)
         acc_turn = np.nan
-        if np.median(perp / np.linalg.norm(f, axis=1)) >= np.sin(np.radians(ACC_SEES_TURN_DEG)):
+        if sees:
             # gravity turns the other way in the sensor frame: −(angle of its component across the axis)
             phi = np.unwrap(np.arctan2(f[:, p[1]], f[:, p[0]]))
             m = max(1, min(f.shape[0] // 10, int(np.ceil(0.1 / max(float(np.median(dt[i0:i1])), 1e-9)))))
