@@ -1000,6 +1000,10 @@ def _ferraris(
     if g_source.startswith("standard"):
         acc_K_std = np.hypot(acc_K_std, np.abs(fc.acc_K) * G_UNKNOWN_REL_STD)
     missed = np.radians([r["missed_deg"] for r in turns]) / np.abs(fc.expected_angle)
+    # the accelerometer measured the turn about a horizontal axis: its difference from the stated angle (below
+    # the gate) scales that column of K_g as a missed turn does
+    seen = np.array([r["acc_turn_deg"] for r in turns], float) - np.degrees(fc.expected_angle)
+    missed = np.hypot(missed, np.where(np.isfinite(seen), np.radians(seen), 0.0) / np.abs(fc.expected_angle))
     gyr_K_std = np.hypot(std["gyr_K"], np.abs(fc.gyr_K) * missed[None, :])
     gyr_b_std = np.hypot(std["gyr_b"], OMEGA_E * np.abs(np.diag(fc.gyr_K)) / np.sqrt(3.0))
     # a pose tilted by δ across its axis j reads K·g·δ on the other axes: column j's misalignments move by
