@@ -655,8 +655,15 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
     mag = (lambda r: col(r, "mag")) if "mag" in c else (lambda r: no_mag)
     st = _if._new_state(opts, None if q0 is None else _as_q0(q0))
     finite = True
+    t_run, h_last = 0.0, 0.0  # the elapsed time at the last row and the last step (s): the fusion weights
     for s in range(a, b, blk):
         r = store.read(s, min(s + blk, b)).copy()
+        h = col(r, "dts")[:, 0]
+        # the elapsed time per row, summed in order as the in-memory cumsum does, kept in "v" (free until the
+        # zero-phase pass) for the backward pass's fusion weights
+        t = np.cumsum(np.r_[t_run, h])[1:]
+        r[:, c["v"].start] = t
+        t_run, h_last = float(t[-1]), float(h[-1])
         acc = col(r, "acc")
         finite &= bool(np.isfinite(acc).all())
         f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
@@ -678,7 +685,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r = r[:k]
         w = _if._run(st, par, g[::-1].copy(), col(r, "acc")[::-1].copy(), mag(r)[::-1].copy(), d[::-1].copy())
         flags = col(r, "flags").astype(bool)
-        r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1])
+        share = _if.backward_share(col(r, "v")[:, 0], t_run, h_last, opts["tau_acc"])
+        r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1], share)
         r[:, c["bias"]] = -w.gyr_bias[::-1]
         r[:, c["flags"]] = np.column_stack([flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | w.mag_used[::-1]])
         store.write(s, r)
@@ -697,12 +705,13 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r[:, c["qg"]] = qg
         r[:, c["v"]] = quat_rotate(qg, col(r, "acc"))
         store.write(s, r)
-    # filtfilt(bf, af, v, axis=0, padlen=pad): odd extensions at both ends, forward then backward with the
-    # steady-state initial conditions, in blocks with the filter state carried (the same arithmetic)
+    # filtfilt(bf, af, v, axis=0, padlen=pad, padtype="even"): even extensions at both ends, forward then
+    # backward with the steady-state initial conditions, in blocks with the filter state carried (the same
+    # arithmetic)
     head = col(store.read(a, a + pad + 1), "v")
     tail = col(store.read(b - pad - 1, b), "v")
-    left = 2 * head[0:1] - head[pad:0:-1]
-    right = 2 * tail[-1:] - tail[-2::-1]
+    left = head[pad:0:-1]
+    right = tail[-2::-1]
     zi = lfilter_zi(bf, af).reshape(-1, 1)
     _, z = lfilter(bf, af, left, axis=0, zi=zi * left[0:1])
     for s in range(a, b, blk):

@@ -24,10 +24,11 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   gain of 1/n growing to ``tau_mag`` (over every sample for the first ``tau_mag`` s);
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
   recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
-  is negated, so is its bias), and the two estimates fused (mean of the error rotation): the forward pass lags
-  the low-pass, the backward pass leads. Then a zero-phase refinement: the specific force in the almost-inertial
-  frame of the smoothed bias, low-passed forward and backward (Butterworth, same ``tau_acc``), gives a lag-free
-  up direction; the fused estimate is turned halfway towards it (tilt only).
+  is negated, so is its bias), and the two estimates fused (weighted mean of the error rotation, each pass by
+  its running time, :func:`backward_share`): the forward pass lags the low-pass, the backward pass leads. Then a
+  zero-phase refinement: the specific force in the almost-inertial frame of the smoothed bias, low-passed
+  forward and backward (Butterworth, same ``tau_acc``, even padding), gives a lag-free up direction; the fused
+  estimate is turned halfway towards it (tilt only).
 * timing: gyr[k] is integrated over (t[k−1], t[k]] and the output is the attitude at t[k] (as VQF); an IMU
   whose samples are late by a known ``latency`` (s, e.g. its low-pass group delay; default 0) gets the output
   predicted that far ahead with the bias-corrected rate, q ⊗ exp((ω − b)·latency) (offline: once, after the
@@ -133,12 +134,22 @@ def _reverse(gyr, acc, mag, dts):
     return g, acc[::-1].copy(), (mag[::-1].copy() if mag.shape[0] else mag), np.ascontiguousarray(d)
 
 
-def _fuse(qf, qb):
-    """Mean of two attitude estimates: exp(½·log(q_b ⊗ q_f*)) ⊗ q_f."""
+def backward_share(t, t_end: float, h_last: float, tau: float) -> np.ndarray:
+    """Weight (N,) of the backward estimate in the offline fusion at the elapsed times ``t`` (s, the sum of the
+    steps up to each sample; ``t_end`` the last one, ``h_last`` the last step): each pass is weighted by how long
+    it has run, 1 − exp(−t/τ) (τ = ``tau_acc``) — ½ in the middle, the backward pass alone at the start, where
+    the forward one is still settling (a recording that starts in motion), and the forward pass at the end."""
+    wf = -np.expm1(-np.asarray(t, float) / tau)
+    wb = -np.expm1(-(t_end - np.asarray(t, float) + h_last) / tau)
+    return wb / (wf + wb)
+
+
+def _fuse(qf, qb, share):
+    """Weighted mean of the forward and backward estimates: exp(w·log(q_b ⊗ q_f*)) ⊗ q_f, w = ``share`` (N,)."""
     from optinav.core.rotations import quat_conjugate, quat_from_rotvec, quat_multiply, rotvec_from_quat
 
     r = rotvec_from_quat(quat_multiply(qb, quat_conjugate(qf)))
-    return quat_multiply(quat_from_rotvec(0.5 * r), qf)
+    return quat_multiply(quat_from_rotvec(np.asarray(share, float)[:, None] * r), qf)
 
 
 def run_iframe(
@@ -163,7 +174,9 @@ def run_iframe(
     st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
     bwd = _run(st, par, *_reverse(gyr, acc, m, dts))
     bias = -bwd.gyr_bias[::-1]
-    q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1])
+    h = np.broadcast_to(dts, (gyr.shape[0],))
+    t = np.cumsum(h)
+    q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1], backward_share(t, t[-1], h[-1], opts["tau_acc"]))
     q = _zero_phase_tilt(q, gyr, acc, dts, bias, frame, opts["tau_acc"])
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
@@ -187,7 +200,7 @@ def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
     b, a, pad = zero_phase_filter(dts, tau, n)
     qg = np.empty((n, 4))
     _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, np.array([1.0, 0.0, 0.0, 0.0]))
-    lp = filtfilt(b, a, quat_rotate(qg, acc), axis=0, padlen=pad)
+    lp = filtfilt(b, a, quat_rotate(qg, acc), axis=0, padlen=pad, padtype="even")
     up_b = quat_rotate(quat_conjugate(qg), lp)
     if not np.all(np.linalg.norm(up_b, axis=1) > 0.0):
         return q
