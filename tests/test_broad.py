@@ -312,3 +312,55 @@ def test_offline_on_a_recording_that_ends_or_starts_in_motion(start_s, end_s, be
     s = slice(max(0, int(m0 + start_s / tr.dt)), None if end_s is None else int(m0 + end_s / tr.dt))
     q = estimate_q(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", offline=True, checks=False)
     assert np.degrees(rmse(inclination_error(q, tr.q_ref[s]), tr.eval_mask[s])) < 0.8, before
+
+
+def _broad_copy(path, out, drop=(), scale=None, attrs=None):
+    """A copy of a BROAD HDF5 trial without the datasets ``drop``, the IMU arrays scaled (``scale``: {name:
+    factor}) and root attributes added."""
+    import h5py
+
+    with h5py.File(path, "r") as src, h5py.File(out, "w") as dst:
+        for k in src:
+            if k not in drop:
+                dst[k] = src[k][()] * (scale or {}).get(k, 1.0)
+        dst.attrs.update(dict(src.attrs))
+        dst.attrs.update(attrs or {})
+    return out
+
+
+def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
+    """An HDF5 in BROAD's layout without the optical reference was refused ('lacks opt_quat, movement') even
+    without --reference; its units in the file's attributes or in --acc-unit/--gyro-unit were ignored (an
+    accelerometer in g then refused with "declare the unit with --acc-unit"), --time-unit and a contradicting
+    --rate passed silently; the generic reader found no gyroscope in imu_gyr (helper)."""
+    from optinav.cli.main import main
+    from optinav.io import read_imu
+
+    p = SHARED / BROAD_TRIAL_02
+    if not p.is_file():
+        pytest.skip("trial 02 absent")
+    out = str(tmp_path / "x.csv")
+
+    def run(path, *extra):
+        code = main(["--quiet", "attitude", str(path), "--frame", "ENU", *extra, "--out", out])
+        cap = capsys.readouterr()
+        return code, (cap.out + cap.err).strip().splitlines()
+
+    own = _broad_copy(p, tmp_path / "own.hdf5", drop=("opt_quat", "movement"))
+    assert run(own)[0] == 0
+    code, err = run(own, "--reference")
+    assert code == 2 and "not a BROAD file with opt_quat and movement" in err[-1], err
+    assert read_imu(own).gyr.shape == (read_imu(own).t.size, 3)
+    d2r, g = np.pi / 180.0, 9.80665
+    scaled = {"imu_gyr": 1 / d2r, "imu_acc": 1 / g}
+    by_attr = _broad_copy(p, tmp_path / "attr.hdf5", scale=scaled, attrs={"acc_unit": "g", "gyro_unit": "deg/s"})
+    by_flag = _broad_copy(p, tmp_path / "flag.hdf5", scale=scaled)
+    code, ref = run(p, "--reference")
+    for path, extra in ((by_attr, ()), (by_flag, ("--acc-unit", "g", "--gyro-unit", "deg/s"))):
+        code, got = run(path, "--reference", *extra)
+        score = [x for x in got if "inclination RMSE" in x]
+        assert code == 0 and len(score) == 1 and score == [x for x in ref if "inclination RMSE" in x]
+    code, err = run(p, "--time-unit", "ms")
+    assert code == 2 and "--time-unit" in err[-1]
+    code, err = run(p, "--rate", "100")
+    assert code == 2 and "sampling_rate" in err[-1] and "drop --rate" in err[-1]

@@ -23,7 +23,15 @@ if TYPE_CHECKING:
     from optinav.attitude.measurement import PolarizationMeasurement
 from optinav.sky.polarization import wrap_axial
 
-__all__ = ["BroadTrial", "is_broad", "load_broad", "BROAD_TRIAL_02", "synthesize_polarization"]
+__all__ = [
+    "BroadTrial",
+    "is_broad",
+    "has_reference",
+    "broad_units",
+    "load_broad",
+    "BROAD_TRIAL_02",
+    "synthesize_polarization",
+]
 
 #: path of BROAD trial 02 inside a data folder laid out as the project's shared data (``attitude/broad/``);
 #: the library reads only the paths it is given, the CLI, tests and benchmarks resolve the folder
@@ -83,38 +91,97 @@ def _broad_rate(rate, path) -> float:
     except (TypeError, ValueError, IndexError):
         rate = float("nan")
     if not np.isfinite(rate) or rate <= 0:
-        raise OptinavError(f"{Path(path).name} has no valid 'sampling_rate'", "pass a BROAD trial HDF5 or MAT file")
+        raise OptinavError(
+            f"{Path(path).name} has no valid 'sampling_rate'",
+            "give --rate HZ, or name a time dataset with --datasets t=NAME,acc=imu_acc,gyro=imu_gyr",
+        )
     return rate
 
 
-def load_broad(path) -> BroadTrial:
-    """Read a BROAD trial as published: HDF5 (``sampling_rate`` attribute) or MAT (``sampling_rate`` variable)."""
+def has_reference(path) -> bool:
+    """True when the BROAD-layout file ``path`` holds the optical reference (``opt_quat`` and ``movement``)."""
+    p = Path(path)
+    from optinav.io.arrayblocks import mat5_names
+
+    names = mat5_names(p) if p.suffix.lower() == ".mat" else None
+    if names is None:
+        import h5py
+
+        try:
+            with h5py.File(p, "r") as f:
+                names = set(f)
+        except OSError:
+            from optinav.io.readers import load_table
+
+            names = set(load_table(p).data)
+    return "opt_quat" in names and "movement" in names
+
+
+def broad_units(name: str, attrs, options=None, file_rate=None) -> tuple[float, float, float]:
+    """(acc factor, gyro factor, rate Hz) of a BROAD-layout file: the units from the options (``acc_unit``,
+    ``gyro_unit`` of :class:`optinav.attitude.unit.AttitudeOptions`) or the file's attributes of those names
+    (BROAD's own files: m/s², rad/s); the rate its ``sampling_rate``, or ``rate_hz`` when it states none. A time
+    unit, a rate that contradicts the file's or raw counts end in a one-line error."""
+    from optinav.core.units import factor
+
+    o = options
+    if o is not None and getattr(o, "time_unit", None):
+        raise OptinavError(
+            f"{name} has BROAD's layout: its time is sample / sampling_rate, there is no time column",
+            "drop --time-unit (--rate gives the rate of a file that states none)",
+        )
+    given = None if o is None else getattr(o, "rate_hz", None)
+    if file_rate is not None and given is not None:
+        fr = _broad_rate(file_rate, name)
+        if abs(fr - float(given)) > 1e-9 * fr:
+            raise OptinavError(
+                f"{name} states sampling_rate {fr:.6g} Hz, --rate says {float(given):.6g}", "drop --rate"
+            )
+    rate = _broad_rate(file_rate if file_rate is not None else given, name)
+    out = []
+    for key in ("acc_unit", "gyro_unit"):
+        unit = (None if o is None else getattr(o, key, None)) or attrs.get(key)
+        if isinstance(unit, bytes):
+            unit = unit.decode()
+        if unit is not None and str(unit).strip().lower() == "counts":
+            raise OptinavError(f"{name} is in raw counts", "calibrate first (optinav apply), or declare its unit")
+        out.append(1.0 if unit is None else factor(str(unit)))
+    return out[0], out[1], rate
+
+
+def load_broad(path, options=None) -> BroadTrial:
+    """Read a BROAD trial as published: HDF5 (``sampling_rate`` attribute) or MAT (``sampling_rate`` variable);
+    ``opt_quat`` and ``movement`` (the optical reference) may be absent (NaN / False then). ``options``: the
+    reading options of :class:`optinav.attitude.unit.AttitudeOptions` (units, rate; :func:`broad_units`)."""
     from optinav.io.readers import load_table
 
     p = Path(path)
     if not p.is_file():
         raise OptinavError(f"BROAD file {p} not found", "download it from github.com/dlaidig/broad (data_hdf5/)")
     tab = load_table(p)
-    missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in tab.data]
+    missing = [k for k in ("imu_gyr", "imu_acc") if k not in tab.data]
     if missing:
         raise OptinavError(f"{p.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 or MAT file")
     rate = tab.meta.get("sampling_rate")
     if rate is None and "sampling_rate" in tab.data:
         rate = np.asarray(tab.get("sampling_rate"), float).ravel()[0]
-    if rate is None and tab.kind == "hdf5":
+    attrs = dict(tab.meta)
+    if tab.kind == "hdf5":
         import h5py
 
         with h5py.File(p, "r") as f:
-            rate = f.attrs.get("sampling_rate")
-    rate = _broad_rate(rate, p)
-    gyr = np.asarray(tab.get("imu_gyr"), float)
+            attrs.update(f.attrs)
+            rate = f.attrs.get("sampling_rate") if rate is None else rate
+    fa, fg, rate = broad_units(p.name, attrs, options, rate)
+    gyr = np.asarray(tab.get("imu_gyr"), float) * fg
     mag = np.asarray(tab.get("imu_mag"), float) if "imu_mag" in tab.data else np.full(gyr.shape, np.nan)
+    n = gyr.shape[0]
     return BroadTrial(
         gyr=gyr,
-        acc=np.asarray(tab.get("imu_acc"), float),
+        acc=np.asarray(tab.get("imu_acc"), float) * fa,
         mag=mag,
-        q_ref=np.asarray(tab.get("opt_quat"), float),
-        movement=np.asarray(tab.get("movement")).ravel().astype(bool),
+        q_ref=np.asarray(tab.get("opt_quat"), float) if "opt_quat" in tab.data else np.full((n, 4), np.nan),
+        movement=np.asarray(tab.get("movement")).ravel().astype(bool) if "movement" in tab.data else np.zeros(n, bool),
         rate_hz=rate,
         name=p.stem,
     )

@@ -324,12 +324,12 @@ class _Blocks:
         chunk_rows: int,
         truth_csv=None,
     ):
-        from optinav.attitude.data import is_broad
+        from optinav.attitude.data import has_reference, is_broad
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
         self.truth_csv = truth_csv
         self.broad = is_broad(path) and not o.columns and not o.datasets
-        if reference and not self.broad:
+        if reference and not (self.broad and has_reference(path)):
             raise OptinavError(
                 f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
             )
@@ -432,9 +432,11 @@ class _Blocks:
         with contextlib.ExitStack() as stack:
             if self.path.suffix.lower() in (".h5", ".hdf5"):
                 # HDF5: the datasets are read block by block (the file is validated as load_broad does)
-                tr = _Hdf5Trial(stack, self.path)
+                tr = _Hdf5Trial(stack, self.path, self.o)
+                fa, fg = tr.acc_factor, tr.gyro_factor
             else:  # MAT: scipy reads it whole
-                tr = load_broad(self.path)
+                tr = load_broad(self.path, self.o)
+                fa = fg = 1.0
             n = tr.gyr.shape[0]
             h = 1.0 / tr.rate_hz
             prev = None
@@ -444,7 +446,7 @@ class _Blocks:
                 t = np.arange(a, min(a + self.chunk_rows, n)) / tr.rate_hz
                 first = (t[0] - (t[1] - t[0] if t.size > 1 else h)) if prev is None else prev
                 prev = t[-1]
-                gyr, acc = np.asarray(tr.gyr[s], float), np.asarray(tr.acc[s], float)
+                gyr, acc = np.asarray(tr.gyr[s], float) * fg, np.asarray(tr.acc[s], float) * fa
                 extra = {
                     "q_ref": np.asarray(tr.q_ref[s], float),
                     "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
@@ -459,23 +461,26 @@ class _Hdf5Trial:
     """The datasets of a BROAD HDF5 trial, sliced on demand (``gyr``, ``acc``, ``mag`` or None, ``q_ref``,
     ``movement``, ``rate_hz``); the checks of :func:`optinav.attitude.data.load_broad`."""
 
-    def __init__(self, stack, path: Path):
+    def __init__(self, stack, path: Path, options=None):
         import h5py
 
-        from optinav.attitude.data import _broad_rate
+        from optinav.attitude.data import broad_units
 
         try:
             f = stack.enter_context(h5py.File(path, "r"))
         except OSError as exc:
             raise OptinavError(f"cannot read {path} ({exc})", "pass a BROAD trial HDF5 file") from None
-        missing = [k for k in ("imu_gyr", "imu_acc", "opt_quat", "movement") if k not in f]
+        missing = [k for k in ("imu_gyr", "imu_acc") if k not in f]
         if missing:
             raise OptinavError(f"{path.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 or MAT file")
         rate = f.attrs.get("sampling_rate")
         if rate is None and "sampling_rate" in f:
             rate = f["sampling_rate"][()]
-        self.rate_hz = _broad_rate(rate, path)
-        self.gyr, self.acc, self.q_ref, self.movement = (f[k] for k in ("imu_gyr", "imu_acc", "opt_quat", "movement"))
+        self.acc_factor, self.gyro_factor, self.rate_hz = broad_units(path.name, dict(f.attrs), options, rate)
+        self.gyr, self.acc = f["imu_gyr"], f["imu_acc"]
+        n = self.gyr.shape[0]
+        self.q_ref = f["opt_quat"] if "opt_quat" in f else np.full((n, 4), np.nan)
+        self.movement = f["movement"] if "movement" in f else np.zeros(n, bool)
         self.mag = f["imu_mag"] if "imu_mag" in f else None
 
 

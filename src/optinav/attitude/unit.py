@@ -54,12 +54,16 @@ def check(options: AttitudeOptions) -> None:
 def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     """(t s, gyr rad/s, acc m/s², mag or None, (q_ref, movement) or None) from a BROAD trial as published
     (its optical reference when ``reference``) or any IMU log in SI units."""
-    from optinav.attitude.data import is_broad, load_broad
+    from optinav.attitude.data import has_reference, is_broad, load_broad
 
     o = options
     want_mag = o.mag or bool(o.mag_columns)
     if is_broad(path) and not o.columns and not o.datasets:
-        tr = load_broad(path)
+        tr = load_broad(path, o)
+        if reference and not has_reference(path):
+            raise OptinavError(
+                f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
+            )
         t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu

@@ -179,6 +179,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "ang_vel",
         "angvel",
         "imu_gyro",
+        "imu_gyr",  # BROAD's datasets
         "gyro_rad",  # PX4 sensor_combined (pyulog's CSV)
     )
     for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
@@ -211,6 +212,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "angular_velocity",
         "angular_rate",
         "imu_gyro",
+        "imu_gyr",
     ):
         al[n] = ("gyro", None)
     return al
