@@ -364,3 +364,22 @@ def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
     assert code == 2 and "--time-unit" in err[-1]
     code, err = run(p, "--rate", "100")
     assert code == 2 and "sampling_rate" in err[-1] and "drop --rate" in err[-1]
+
+
+def test_a_gyro_logged_in_whole_deg_s_is_not_taken_for_clipped():
+    """Trial 02's gyro rounded to whole deg/s (a logger's CSV): a 411 °/s peak held 3 samples and entered by
+    3 °/s (0.7 % of the peak, above the 0.5 % rule) was refused as clipped, with no way round it (helper); the
+    quantum of the output now bounds a natural step. A real clip of the same data at 300 °/s is still named."""
+    from optinav.attitude.checks import _check_clipping, axis_steps, quantum
+    from optinav.errors import OptinavError
+
+    p = SHARED / BROAD_TRIAL_02
+    if not p.is_file():
+        pytest.skip("trial 02 absent")
+    tr = load_broad(p)
+    whole = np.radians(np.round(np.degrees(tr.gyr)))
+    assert quantum(axis_steps(whole[:, 0])) == pytest.approx(np.radians(1.0))
+    assert quantum(axis_steps(tr.gyr[:, 0])) == 0.0
+    _check_clipping(whole, None, tr.dt)  # no error
+    with pytest.raises(OptinavError, match="clipped"):
+        _check_clipping(np.clip(whole, -np.radians(300.0), np.radians(300.0)), None, tr.dt)

@@ -35,6 +35,8 @@ class StreamChecks:
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
         self._head: list[np.ndarray] = []  # the first 200 accelerometer rows (frame check)
         self._head_n = 0
+        self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
+        self._gyr_head_n = 0
         self.n = 0
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
@@ -60,6 +62,10 @@ class StreamChecks:
         if self._head_n < 200:
             self._head.append(acc[: 200 - self._head_n].copy())
             self._head_n += self._head[-1].shape[0]
+        if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
+            d = np.diff(gyr, axis=0)
+            self._gyr_head.append(d[:: max(1, d.shape[0] // 256)][:256].copy())
+            self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
 
     def finish_first(self) -> None:
@@ -114,8 +120,9 @@ class StreamChecks:
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
             m = self._max[k, j]
+            q = _c.quantum(np.concatenate(self._gyr_head)[:, k]) if self._gyr_head else 0.0
             steep = _c.steep_runs(
-                np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt
+                np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q
             )
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
