@@ -45,9 +45,11 @@ _SCALES = {
 }
 
 
-def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float) -> float:
-    """RMS angle (rad) between the specific force carried into the gyro-integrated frame and its 2-s moving
-    mean: small when the gyro (× scale) explains how gravity turns in the body, whatever the translation."""
+def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float) -> tuple[float, float]:
+    """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
+    specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
+    2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
+    wandering in the frame by tens of degrees, a right one by the bias's drift)."""
     from optinav.core.rotations import quat_rotate
     from optinav.core.strapdown import attitude_update
 
@@ -61,7 +63,12 @@ def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: fl
     m = (c[w:] - c[:-w]) / w
     x = a_i[w // 2 : w // 2 + m.shape[0]]
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
-    return float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
+    mu = m.mean(axis=0)
+    cos_mu = m @ mu / (np.linalg.norm(m, axis=1) * np.linalg.norm(mu) + 1e-300)
+    return (
+        float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2))),
+        float(np.sqrt(np.mean(np.arccos(np.clip(cos_mu, -1.0, 1.0)) ** 2))),
+    )
 
 
 #: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
@@ -140,9 +147,15 @@ def _unit_hint_window(g, a, d, window_max: float) -> str:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
         return ""
-    spread = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
-    best = min(spread, key=spread.get)
-    return _SCALES[best] if best != 1.0 and spread[1.0] > 2.0 * spread[best] + 0.02 else ""
+    spreads = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
+    # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
+    # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
+    for i, floor in ((0, 0.0), (1, 0.2)):
+        spread = {s: v[i] for s, v in spreads.items()}
+        best = min(spread, key=spread.get)
+        if best != 1.0 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
+            return _SCALES[best]
+    return ""
 
 
 def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None) -> None:
