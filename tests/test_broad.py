@@ -408,3 +408,27 @@ def test_a_rad_s_gyro_declared_deg_s_is_named_on_dynamic_recordings(name):
     with pytest.raises(OptinavError, match="rad/s declared deg/s"):
         check_imu(tr.gyr * np.pi / 180.0, tr.acc, np.array([tr.dt]))
     check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
+
+
+def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
+    """opt_quat stored [x, y, z, w] (scipy's order) scored 102° with no hint (helper): a warning now says that
+    read so it scores 0.39°; BROAD's own order gives none."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    p = SHARED / BROAD_TRIAL_02
+    if not p.is_file():
+        pytest.skip("trial 02 absent")
+    bad = _broad_copy(p, tmp_path / "xyzw.hdf5")
+    with h5py.File(bad, "r+") as f:
+        q = f["opt_quat"][()]
+        del f["opt_quat"]
+        f["opt_quat"] = q[:, [1, 2, 3, 0]]
+    for path, warned in ((p, False), (bad, True)):
+        assert (
+            main(["--quiet", "attitude", str(path), "--frame", "ENU", "--reference", "--out", str(tmp_path / "x.csv")])
+            == 0
+        )
+        err = capsys.readouterr().err
+        assert ("look stored scalar-last" in err) == warned, err

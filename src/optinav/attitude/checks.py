@@ -29,6 +29,27 @@ class MagnetometerWarning(UserWarning):
     """The magnetometer's field norm follows the orientation: an uncalibrated (hard-iron) magnetometer."""
 
 
+class ReferenceWarning(UserWarning):
+    """A reference orientation that looks stored in another quaternion order."""
+
+
+#: [x, y, z, w] read as [w, x, y, z]: the reference's columns in the order that undoes it
+XYZW = [3, 0, 1, 2]
+
+
+def warn_reference_order(rmse: float, rmse_xyzw: float) -> None:
+    """Warn once when the inclination against the reference is far off (> 20°) yet within a quarter of that, and
+    below 5°, with its quaternions read as [x, y, z, w] (scipy's order) instead of [w, x, y, z]."""
+    if rmse > np.radians(20.0) and rmse_xyzw < min(0.25 * rmse, np.radians(5.0)):
+        warnings.warn(
+            f"the reference scores {np.degrees(rmse):.3g}° inclination RMSE but {np.degrees(rmse_xyzw):.3g}° read "
+            "as [x, y, z, w]: its quaternions look stored scalar-last; reorder them to [w, x, y, z] (BROAD's "
+            "opt_quat order)",
+            ReferenceWarning,
+            stacklevel=2,
+        )
+
+
 def find_gaps(dts: np.ndarray) -> np.ndarray:
     """Indices i whose step dt[i] (from sample i−1, s) is a time gap: > GAP_FACTOR × median and > MIN_GAP_S."""
     if dts.shape[0] < 3:

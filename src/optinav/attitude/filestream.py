@@ -165,25 +165,31 @@ class _Score:
     """:func:`optinav.attitude.recording.reference_rmse` accumulated over blocks, from per-block sums of squares."""
 
     def __init__(self):
-        self.ss = np.zeros(2)
-        self.k = np.zeros(2, dtype=np.int64)
+        self.ss = np.zeros(3)  # inclination, heading, inclination with the reference read as [x, y, z, w]
+        self.k = np.zeros(3, dtype=np.int64)
         self.n = 0
 
     def add(self, q, q_ref, movement) -> None:
+        from optinav.attitude.checks import XYZW
         from optinav.attitude.metrics import heading_error, inclination_error
 
         mask = movement & np.all(np.isfinite(q_ref), axis=1)
         self.n += int(mask.sum())
-        for j, err in enumerate((inclination_error, heading_error)):
-            e = err(q, q_ref)
+        for j, (err, ref) in enumerate(
+            ((inclination_error, q_ref), (heading_error, q_ref), (inclination_error, q_ref[:, XYZW]))
+        ):
+            e = err(q, ref)
             ok = np.isfinite(e) & mask
             self.ss[j] += float(np.sum(e[ok] ** 2))
             self.k[j] += int(np.count_nonzero(ok))
 
     def result(self) -> tuple[float, float, int]:
-        if not np.all(self.k):
+        from optinav.attitude.checks import warn_reference_order
+
+        if not np.all(self.k[:2]):
             raise OptinavError("no finite samples to average", "check the reference data and the mask")
-        r = np.sqrt(self.ss / self.k)
+        r = np.sqrt(self.ss / np.maximum(self.k, 1))
+        warn_reference_order(float(r[0]), float(r[2]))
         return float(r[0]), float(r[1]), self.n
 
 

@@ -246,9 +246,9 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
     """
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
+    from optinav.attitude.checks import XYZW, warn_reference_order
+
     mask = movement & np.all(np.isfinite(q_ref), axis=1)
-    return (
-        float(rmse(inclination_error(q_b_n, q_ref), mask)),
-        float(rmse(heading_error(q_b_n, q_ref), mask)),
-        int(mask.sum()),
-    )
+    incl = float(rmse(inclination_error(q_b_n, q_ref), mask))
+    warn_reference_order(incl, float(rmse(inclination_error(q_b_n, np.asarray(q_ref)[:, XYZW]), mask)))
+    return incl, float(rmse(heading_error(q_b_n, q_ref), mask)), int(mask.sum())
