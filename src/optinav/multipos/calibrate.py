@@ -153,14 +153,18 @@ def pose_creep(acc: np.ndarray, ranges: np.ndarray, correct=None) -> tuple[np.nd
     return ang, sig
 
 
-def _drop_creeping(acc, ranges, t_int, notes: list, g: float, valid=None) -> tuple:
+def creeping(ang: np.ndarray, sig: np.ndarray) -> np.ndarray:
+    """The poses (bool) whose :func:`pose_creep` angle is beyond CREEP_SIGMA σ of its noise and MIN_CREEP_DEG."""
+    return (ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG))
+
+
+def _drop_creeping(acc, ranges, t_int, st: accel.PoseStatistics, notes: list, g: float) -> tuple:
     """The static poses that hold still (:func:`pose_creep`, offset-free by the closed-form ellipsoid fit of the
-    pose means); a note per pose left out. More than a third left out, or fewer than 6 left: an error naming the
-    first."""
-    means = accel.pose_statistics(acc, ranges, valid=valid).means
-    theta0 = accel.initial_estimate(means, g)
+    pose means ``st``), their time intervals and statistics; a note per pose left out. More than a third left
+    out, or fewer than 6 left: an error naming the first."""
+    theta0 = accel.initial_estimate(st.means, g)
     ang, sig = pose_creep(acc, ranges, (lambda x: model.corrected(theta0, x)) if np.all(np.isfinite(theta0)) else None)
-    bad = (ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG))
+    bad = creeping(ang, sig)
     for k in np.flatnonzero(bad):
         notes.append(
             f"static pose {k + 1} ({t_int[k][0]:.4g}–{t_int[k][1]:.4g} s) left out: gravity moves by "
@@ -176,7 +180,8 @@ def _drop_creeping(acc, ranges, t_int, notes: list, g: float, valid=None) -> tup
             "hold each pose still (let it settle before the rest); else check the static intervals "
             "(--threshold, --sections)",
         )
-    return ranges[~bad], t_int[~bad]
+    keep = ~bad
+    return ranges[keep], t_int[keep], accel.PoseStatistics(st.means[keep], st.covariances[keep], st.counts[keep])
 
 
 def _drop_saturated(ranges: np.ndarray, t_int: np.ndarray, valid: np.ndarray, notes: list) -> tuple:
@@ -490,8 +495,7 @@ def calibrate(
             "--min-duration, or give the poses by hand with --sections",
         )
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
-    ranges, t_int = _drop_creeping(acc, ranges, t_int, notes, g, valid)
-    st = accel.pose_statistics(acc, ranges, valid=valid)
+    ranges, t_int, st = _drop_creeping(acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
     gate_log: list[dict] = []
@@ -927,7 +931,7 @@ def _ferraris(
     _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
-    bad = np.flatnonzero((ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG)))
+    bad = np.flatnonzero(creeping(ang, sig))
     if bad.size:
         k = int(bad[0])
         raise OptinavError(
