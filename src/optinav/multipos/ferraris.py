@@ -183,8 +183,8 @@ def _sections(x, names: tuple[str, ...], what: str) -> list:
     return out
 
 
-def _pose_means(x, what: str) -> tuple[np.ndarray, np.ndarray | None]:
-    secs = _sections(x, POSES, what)
+def _pose_means(secs: list) -> tuple[np.ndarray, np.ndarray | None]:
+    """Means (6, 3) of the parsed poses and their sample counts (None when means were given)."""
     means = np.array([s if s.ndim == 1 else s.mean(axis=0) for s in secs])
     counts = np.array([s.shape[0] for s in secs], dtype=np.int64) if all(s.ndim == 2 for s in secs) else None
     return means, counts
@@ -238,6 +238,11 @@ def ferraris_calibration(
         ``acc_K`` [raw/(m/s^2)], ``acc_b`` [raw], ``gyr_K`` [raw/(rad/s)], ``gyr_G`` [raw/(m/s^2)], ``gyr_b`` [raw].
     """
     p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, static_counts)
+    return _calibration(p, acc_unit, gyro_unit)
+
+
+def _calibration(p: _Inputs, acc_unit: str, gyro_unit: str) -> FerrarisCalibration:
+    """:func:`ferraris_calibration` of prepared inputs."""
     acc_K, acc_b, G, gyr_b, gyr_K = _closed_form(p.Ua, p.Ug, p.cg, p.Sw, p.Sa, p.D, p.th, p.g)
     if _singular(acc_K):
         raise OptinavError(
@@ -297,8 +302,9 @@ def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angl
             f"expected_angle must be a non-zero scalar or 3 non-zero angles (rad), got {th!r}",
             "pass e.g. expected_angle=-2*pi (imucal's -360 deg)",
         )
-    Ua, ca = _pose_means(acc_static, "acc_static")
-    Ug, cg = _pose_means(gyro_static, "gyro_static")
+    static = (_sections(acc_static, POSES, "acc_static"), _sections(gyro_static, POSES, "gyro_static"))
+    Ua, ca = _pose_means(static[0])
+    Ug, cg = _pose_means(static[1])
     if static_counts is not None:
         sc = as_float_array(static_counts, "static_counts")
         if sc.shape != (6,) or np.any(sc <= 0):
@@ -337,7 +343,6 @@ def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angl
             Sw[:, j], Sa[:, j], D[j] = w.sum(axis=0) / rate, a.sum(axis=0) / rate, w.shape[0] / rate
         else:
             Sw[:, j], Sa[:, j], D[j] = h @ w, h @ a, h.sum()
-    static = (_sections(acc_static, POSES, "acc_static"), _sections(gyro_static, POSES, "gyro_static"))
     return _Inputs(g, th, Ua, Ug, ca, cg, static, (ar, gr), steps, rate, Sw, Sa, D)
 
 
@@ -389,9 +394,14 @@ def ferraris_std(
     bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not means);
     ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
     result's units (NaN when the poses are given as means)."""
+    p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
+    return _std(p, rng, n_draws)
+
+
+def _std(p: _Inputs, rng, n_draws: int) -> dict:
+    """:func:`ferraris_std` of prepared inputs."""
     from optinav.core.validate import as_rng
 
-    p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
     shapes = {"acc_K": (3, 3), "acc_b": (3,), "gyr_G": (3, 3), "gyr_b": (3,), "gyr_K": (3, 3)}
     if p.ca is None or np.any(p.ca < 3):
         return {k: np.full(v, np.nan) for k, v in shapes.items()}
@@ -549,11 +559,21 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
         step = np.diff(t)
         step = np.append(step, step[-1])
         timing = {"dt": [step[slice(*idx[n])] for n in ROTATIONS]}
-    if with_std:
-        return ferraris_calibration(*parts, **timing, **kwargs), ferraris_std(
-            *parts, **timing, **{k: v for k, v in kwargs.items() if k in ("expected_angle", "gravity")}
-        )
-    return ferraris_calibration(*parts, **timing, **kwargs)
+    if not with_std:
+        return ferraris_calibration(*parts, **timing, **kwargs)
+    # the inputs prepared once for both: the closed form, then its Monte Carlo std
+    units = {k: kwargs.pop(k, "raw") for k in ("acc_unit", "gyro_unit")}
+    p = _prepare(
+        *parts,
+        timing.get("rate_hz"),
+        timing.get("dt"),
+        kwargs.pop("expected_angle", -2.0 * np.pi),
+        kwargs.pop("gravity", IMUCAL_GRAVITY),
+        kwargs.pop("static_counts", None),
+    )
+    if kwargs:
+        raise TypeError(f"ferraris_from_sections got unexpected keyword(s) {sorted(kwargs)}")
+    return _calibration(p, **units), _std(p, 0, 2000)
 
 
 def _turn_outside(
