@@ -63,8 +63,7 @@ class StreamChecks:
             self._head.append(acc[: 200 - self._head_n].copy())
             self._head_n += self._head[-1].shape[0]
         if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
-            d = np.diff(gyr, axis=0)
-            self._gyr_head.append(d[:: max(1, d.shape[0] // 256)][:256].copy())
+            self._gyr_head.append(_c.axis_steps(gyr, 256))
             self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
 
