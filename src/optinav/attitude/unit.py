@@ -58,21 +58,18 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
 
     o = options
     want_mag = o.mag or bool(o.mag_columns)
-    if is_broad(path) and not o.columns and not o.datasets:
+    broad = is_broad(path) and not o.columns and not o.datasets
+    if reference and not (broad and has_reference(path)):
+        raise OptinavError(
+            f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
+        )
+    if broad:
         tr = load_broad(path, o)
-        if reference and not has_reference(path):
-            raise OptinavError(
-                f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
-            )
         t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
     from optinav.io.readers import read_table
 
-    if reference:
-        raise OptinavError(
-            f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
-        )
     log = read_imu(
         path,
         columns=o.columns,
