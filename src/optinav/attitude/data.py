@@ -60,28 +60,31 @@ class BroadTrial:
         return self.movement & np.all(np.isfinite(self.q_ref), axis=1)
 
 
+def _names(p: Path) -> set:
+    """The dataset / variable names of an HDF5 or MAT file (the names only: a long log is not read whole)."""
+    from optinav.io.arrayblocks import mat5_names
+
+    names = mat5_names(p) if p.suffix.lower() == ".mat" else None
+    if names is not None:
+        return set(names)
+    import h5py
+
+    try:
+        with h5py.File(p, "r") as f:  # HDF5 and MATLAB v7.3
+            return set(f)
+    except OSError:
+        pass  # not HDF5 after all: the reader below names the problem
+    from optinav.io.readers import load_table
+
+    return set(load_table(p).data)
+
+
 def is_broad(path) -> bool:
     """True for an HDF5 or MAT file (by suffix) holding BROAD's ``imu_gyr`` and ``imu_acc``."""
     p = Path(path)
     if p.suffix.lower() not in (".h5", ".hdf5", ".mat") or not p.is_file():
         return False
-    # the names only: a long log is not read whole to answer
-    from optinav.io.arrayblocks import mat5_names
-
-    names = mat5_names(p) if p.suffix.lower() == ".mat" else None
-    if names is not None:
-        return "imu_gyr" in names and "imu_acc" in names
-    import h5py
-
-    try:
-        with h5py.File(p, "r") as f:  # HDF5 and MATLAB v7.3
-            return "imu_gyr" in f and "imu_acc" in f
-    except OSError:
-        pass  # not HDF5 after all: the reader below names the problem
-    from optinav.io.readers import load_table
-
-    data = load_table(p).data
-    return "imu_gyr" in data and "imu_acc" in data
+    return {"imu_gyr", "imu_acc"} <= _names(p)
 
 
 def _broad_rate(rate, path) -> float:
@@ -100,21 +103,7 @@ def _broad_rate(rate, path) -> float:
 
 def has_reference(path) -> bool:
     """True when the BROAD-layout file ``path`` holds the optical reference (``opt_quat`` and ``movement``)."""
-    p = Path(path)
-    from optinav.io.arrayblocks import mat5_names
-
-    names = mat5_names(p) if p.suffix.lower() == ".mat" else None
-    if names is None:
-        import h5py
-
-        try:
-            with h5py.File(p, "r") as f:
-                names = set(f)
-        except OSError:
-            from optinav.io.readers import load_table
-
-            names = set(load_table(p).data)
-    return "opt_quat" in names and "movement" in names
+    return {"opt_quat", "movement"} <= _names(Path(path))
 
 
 def broad_units(name: str, attrs, options=None, file_rate=None) -> tuple[float, float, float]:
