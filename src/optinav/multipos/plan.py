@@ -179,7 +179,7 @@ def gyro_turn_std(
         L = np.linalg.cholesky(P.T @ cu @ Ce @ cu.T @ P)
         rows.append(np.linalg.solve(L, P.T @ Jk))
     J = np.vstack(rows)
-    sb = n / math.sqrt(static_time_s)  # the bias from all rest, fixed during the K fit (bias="static")
+    sb_noise = n / math.sqrt(static_time_s)  # the bias from all rest, fixed during the K fit (bias="static")
     JK, Jb = J[:, :9], J[:, 9:]
     w = np.ones(u.shape[0]) if rest_weights is None else np.asarray(rest_weights, float)
     ubar = (w / w.sum()) @ u
@@ -191,14 +191,12 @@ def gyro_turn_std(
         ]
     )
     sg = abs(float(g_sensitivity))
-    sb = np.sqrt(sb**2 + (sg * g) ** 2 * float(ubar @ ubar))
     rep = analyze(JK, np.ones(J.shape[0]), names=list(GYRO_NAMES[:9]), scales=np.ones(9))
     std = np.full(12, np.inf)
-    std[9:] = sb
+    std[9:] = np.sqrt(sb_noise**2 + (sg * g) ** 2 * float(ubar @ ubar))  # and G·g·ū in every rest
     if rep.rank == 9:
         FK = JK.T @ JK
         G = np.linalg.solve(FK, JK.T @ Jb)  # K̂ moves by −G·δb for a bias error δb
-        sb_noise = n / math.sqrt(static_time_s)
         H = np.linalg.solve(FK, JK.T @ JG)  # and by −H·vec(G) for the g-sensitivity in the turns
         cov = np.linalg.inv(FK) + G @ np.diag(sb_noise**2) @ G.T + sg**2 * (H @ H.T)
         std[:9] = np.sqrt(np.diag(cov))
