@@ -188,8 +188,9 @@ def _messages(kind: str, ns, acc, gyr):
 
 
 def _write_bag(path: Path, kind: str, ns, acc, gyr, compression: str | None = None) -> Path:
-    """``compression``: ROS 1 chunks ``"lz4"``/``"bz2"``, ROS 2 ``"zstd"`` (storage: compressed chunks) or
-    ``"file-zstd"`` (each storage file compressed whole: ``ros2 bag record --compression-mode file``)."""
+    """``compression``: ROS 1 chunks ``"lz4"``/``"bz2"``, ROS 2 ``"zstd"`` (storage: compressed chunks),
+    ``"file-zstd"`` (each storage file compressed whole: ``ros2 bag record --compression-mode file``) or
+    ``"message-zstd"`` (each message compressed: ``--compression-mode message``)."""
     msgs = _messages(kind, ns, acc, gyr)
     if kind == "ros1":
         from rosbags.rosbag1 import Writer
@@ -211,9 +212,7 @@ def _write_bag(path: Path, kind: str, ns, acc, gyr, compression: str | None = No
     w = Writer(path, version=9, storage_plugin=plugin)
     if compression:
         mode, _, fmt = compression.rpartition("-")
-        w.set_compression(
-            CompressionMode.FILE if mode == "file" else CompressionMode.STORAGE, CompressionFormat[fmt.upper()]
-        )
+        w.set_compression(CompressionMode[(mode or "storage").upper()], CompressionFormat[fmt.upper()])
     with w:
         con = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=get_typestore(Stores.ROS2_HUMBLE))
         for t, m in zip(ns.tolist(), msgs):
@@ -295,7 +294,9 @@ def run(quick: bool) -> list[dict]:
         for kind, comp, label in (("ros1", "lz4", "ROS 1 bag, lz4"), ("ros1", "bz2", "ROS 1 bag, bz2"),
                                   ("mcap", "zstd", "ROS 2 mcap bag, zstd"),
                                   ("mcap", "file-zstd", "ROS 2 mcap bag, file-compressed (zstd)"),
-                                  ("sqlite3", "file-zstd", "ROS 2 sqlite3 bag, file-compressed (zstd)")):  # fmt: skip
+                                  ("sqlite3", "file-zstd", "ROS 2 sqlite3 bag, file-compressed (zstd)"),
+                                  ("mcap", "message-zstd", "ROS 2 mcap bag, message-compressed (zstd)"),
+                                  ("sqlite3", "message-zstd", "ROS 2 sqlite3 bag, message-compressed (zstd)")):  # fmt: skip
             bag = _write_bag(d / f"imu_{kind}_{comp}", kind, ns, acc, gyr, comp)
             _check(bag, ns, acc, gyr)
             if os.environ.get("OPTINAV_BENCH_BEFORE"):

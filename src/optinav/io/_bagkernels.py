@@ -566,6 +566,47 @@ def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, s
     return other
 
 
+@numba.njit(**_NJ)
+def zstd_sizes(buf, off, size, content):
+    """The content size of each Zstandard frame ``buf[off[i]:off[i] + size[i]]`` from its header (RFC 8878
+    §3.1.1: magic, frame header descriptor, window descriptor, dictionary id, frame content size) into
+    ``content``. Returns −1, or the first message ``i`` that is not a frame header with a content size."""
+    for i in range(off.size):
+        a, n = off[i], size[i]
+        if a < 0 or n < 6 or a + n > buf.size or _u32(buf, a) != 0xFD2FB528:
+            return i
+        fhd = np.int64(buf[a + 4])
+        flag, single, did = fhd >> 6, (fhd >> 5) & 1, fhd & 3
+        if (fhd >> 3) & 1:  # reserved bit
+            return i
+        h = a + 5 + (1 - single) + (0 if did == 0 else 1 << (did - 1))
+        w = (1 if single else 0) if flag == 0 else 1 << flag
+        if w == 0 or h + w > a + n:
+            return i
+        v = np.int64(0)
+        for j in range(w):
+            v |= np.int64(buf[h + j]) << (8 * j)
+        content[i] = v + 256 if w == 2 else v
+        if content[i] < 0:
+            return i
+    return -1
+
+
+@numba.njit(**_NJ)
+def zstd_inflate(call, ctx, src, off, size, dst, doff, dsize):
+    """Inflate the Zstandard frames ``src[off[i]:off[i] + size[i]]`` into ``dst[doff[i]:doff[i] + dsize[i]]`` by
+    ``call`` = libzstd's ``ZSTD_decompressDCtx`` (a ctypes function of five ``size_t``: the context ``ctx``, the
+    destination, its capacity, the source, its size). Returns −1, or the first frame outside the arrays, that
+    fails or that inflates to another size."""
+    s, d = src.ctypes.data, dst.ctypes.data
+    for i in range(off.size):
+        if off[i] < 0 or size[i] < 0 or off[i] + size[i] > src.size or doff[i] < 0 or doff[i] + dsize[i] > dst.size:
+            return i
+        if call(ctx, d + doff[i], dsize[i], s + off[i], size[i]) != dsize[i]:
+            return i
+    return -1
+
+
 def warm() -> None:
     """Load every kernel (numba's start and the cached machine code, about a second in a fresh process) on a
     few bytes, with the argument types the scanners pass: lets a benchmark time a read apart from that start."""
@@ -587,3 +628,4 @@ def warm() -> None:
     )
     v = np.zeros((1, 3))
     gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, np.zeros(1), v, v, 0)
+    zstd_sizes(buf, i64[:0], i64[:0], i64[:0])
