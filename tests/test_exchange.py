@@ -239,6 +239,17 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     assert "--gyro-out" in capsys.readouterr().err
     assert main(["apply", str(yml), str(data), "--out", str(tmp_path / "x.csv")]) == 2
     assert "holds no biases" in capsys.readouterr().err
+    # Kalibr's noise-only imu.yaml as its wiki shows it (comment lines first) and as allan --kalibr writes it
+    wiki = tmp_path / "wiki.yaml"
+    wiki.write_text("#Accelerometers\naccelerometer_noise_density: 1.86e-03\naccelerometer_random_walk: 4.33e-04\n"
+                    "#Gyroscopes\ngyroscope_noise_density: 1.87e-04\ngyroscope_random_walk: 2.66e-05\n"
+                    "rostopic: /imu0\nupdate_rate: 200.0\n")  # fmt: skip
+    kal = tmp_path / "noise.yaml"
+    assert main(["--quiet", "allan", str(rest), "--kalibr", str(kal), "--out", str(tmp_path / "al.json")]) == 0
+    assert kal.read_text().startswith("#")
+    for f in (wiki, kal):
+        assert main(["apply", str(f), str(data), "--out", str(tmp_path / "y.csv")]) == 2
+        assert "is a Kalibr file" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

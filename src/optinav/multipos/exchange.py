@@ -136,7 +136,10 @@ def load_calibration(path, gyro_path=None):
             f"{path} is JSON but neither an optinav result nor an imucal export",
             "pass RESULT.json of optinav calibrate or imucal's to_json_file output",
         )
-    if head.startswith(("%YAML", "accelerometer_", "gyroscope_", "imu0:", "rostopic")) or "scale-misalignment" in head:
+    # Kalibr's imu.yaml often opens with comment lines (its wiki's example, optinav's allan --kalibr)
+    first = next((ln.strip() for ln in head.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    kalibr_keys = ("%YAML", "---", "accelerometer_", "gyroscope_", "imu0:", "rostopic", "update_rate", "model:")
+    if first.startswith(kalibr_keys) or "scale-misalignment" in head:
         raise OptinavError(
             f"{path} is a Kalibr file, which holds no biases (Kalibr estimates them along its "
             "trajectory), so it cannot correct raw data",
