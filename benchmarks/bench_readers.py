@@ -1,8 +1,8 @@
 """Reading a 1-hour 1 kHz IMU log (3.6 M samples) from Parquet and from ROS bags: time and peak memory.
 
 The same samples (time, accelerometer, gyroscope; float64) are written as a Parquet file (pyarrow, snappy,
-default row groups) and as ROS bags of ``sensor_msgs/msg/Imu`` messages: ROS 2 sqlite3, ROS 2 mcap and ROS 1
-(rosbags' writers; the message bytes are rosbags' serialization of one message with the stamp and values
+default row groups) and as ROS bags of ``sensor_msgs/msg/Imu`` messages: ROS 2 sqlite3, ROS 2 mcap (also with
+chunk CRCs) and ROS 1 (rosbags' writers; the message bytes are rosbags' serialization of one message with the stamp and values
 patched in, which keeps writing 3.6 M messages to minutes). Each reading runs in a fresh process: the time
 of the read (best of ``REPEAT`` for Parquet and optinav's reading of bags, one read for rosbags and for a fresh
 process's first read) and the growth of the peak resident set over
@@ -220,6 +220,30 @@ def _write_bag(path: Path, kind: str, ns, acc, gyr, compression: str | None = No
     return path
 
 
+def _with_chunk_crcs(bag: Path, out: Path) -> Path:
+    """A copy of the ROS 2 mcap bag folder ``bag`` whose uncompressed Chunk records carry their CRC-32 (what the
+    mcap library and ``ros2 bag record`` write; rosbags' writer writes 0, none): the cost of checking them."""
+    import shutil
+    import struct
+    import zlib
+
+    shutil.copytree(bag, out)
+    mcap = next(out.glob("*.mcap"))
+    raw = bytearray(mcap.read_bytes())
+    pos = 8
+    while pos + 9 <= len(raw) and raw[pos] not in (0x0F, 0x02):  # records up to Data End / Footer
+        n = struct.unpack_from("<Q", raw, pos + 1)[0]
+        if raw[pos] == 0x06:  # Chunk: start, end, uncompressed size u64, CRC u32, compression (len u32 + str), ...
+            s = pos + 9
+            if struct.unpack_from("<I", raw, s + 28)[0] != 0:
+                raise RuntimeError("a compressed chunk: expected none")
+            rlen = struct.unpack_from("<Q", raw, s + 32)[0]
+            struct.pack_into("<I", raw, s + 24, zlib.crc32(raw[s + 40 : s + 40 + rlen]))
+        pos += 9 + n
+    mcap.write_bytes(bytes(raw))
+    return out
+
+
 def _check(path: Path, ns, acc, gyr) -> None:
     """The reader returns the samples written (else the timing is meaningless)."""
     from optinav.io import read_imu
@@ -266,8 +290,14 @@ def run(quick: bool) -> list[dict]:
                 "unit": "x (target <= 2)",
             }
         )
-        for kind, label in (("sqlite3", "ROS 2 sqlite3 bag"), ("mcap", "ROS 2 mcap bag"), ("ros1", "ROS 1 bag")):
-            bag = _write_bag(d / f"imu_{kind}", kind, ns, acc, gyr)
+        kinds = (("sqlite3", "ROS 2 sqlite3 bag"), ("mcap", "ROS 2 mcap bag"),
+                 ("mcap-crc", "ROS 2 mcap bag, chunk CRCs (as ros2 bag record writes)"), ("ros1", "ROS 1 bag"))  # fmt: skip
+        bags: dict = {}
+        for kind, label in kinds:
+            if kind == "mcap-crc":
+                bag = _with_chunk_crcs(bags["mcap"], d / "imu_mcap_crc")
+            else:
+                bag = bags[kind] = _write_bag(d / f"imu_{kind}", kind, ns, acc, gyr)
             _check(bag, ns, acc, gyr)
             if os.environ.get("OPTINAV_BENCH_BEFORE"):  # another optinav's source tree, read in the same run
                 add("optinav read_imu, before (OPTINAV_BENCH_BEFORE)", _child("optinav", bag, REPEAT, BEFORE), label)
@@ -282,6 +312,8 @@ def run(quick: bool) -> list[dict]:
                     "unit": "x",
                 }
             )
+            if kind == "mcap-crc":
+                continue
             cold = _child("optinav-cold", bag, 1)
             add("optinav read_imu, fresh process (imports and numba's start timed)", cold, label)
             add("rosbags raw iteration (no decoding)", _child("rosbags-raw", bag, 1), label)
