@@ -316,14 +316,14 @@ def test_mislabelled_or_damaged_imu_refused(case, match):
 def test_gyro_unit_judged_where_the_gyro_turns():
     """The unit check looks at the 20 s with the most turning: a deg/s gyro declared rad/s that only moves after
     11 min of rest (beyond the first 60 000 samples) is still refused, at the cost of 20 s of strapdown."""
-    from optinav.attitude.checks import _gyro_unit_hint, _turning_window
+    from optinav.attitude.checks import gyro_unit_hint, _turning_window
 
     n, rest = 70000, 66000
     w, acc, _ = motion(n, seed=10, amp=2.0, rest=rest)
     sl = _turning_window(np.linalg.norm(w, axis=1), np.array([DT]))
     assert sl.stop - sl.start == 2000 and sl.start >= rest
-    assert _gyro_unit_hint(w, acc, np.array([DT])) == ""
-    assert "--gyro-unit deg/s" in _gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
+    assert gyro_unit_hint(w, acc, np.array([DT])) == ""
+    assert "--gyro-unit deg/s" in gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
     with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
         estimate_q(np.degrees(w), acc, DT)
 

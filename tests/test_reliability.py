@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from optinav.cli.main import main
@@ -733,3 +734,224 @@ def test_calibrate_rins_refuses_a_session_that_cannot_fit(tmp_path, capsys):
     assert main(["calibrate", "rins", str(path), "--out", str(tmp_path / "r.json")]) == 2
     one_line_error(capsys, "GiB of memory", "shorter part of the recording")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["huge.npz"]
+
+
+# --- faults a helper found as a demanding user (pipes, unreadable folders, damaged HDF5, full disks) ----------
+
+
+@pytest.fixture(scope="module")
+def counts_session(tmp_path_factory):
+    """A simulated multi-position session in raw counts and deg/s, and its calibration."""
+    d = tmp_path_factory.mktemp("faults")
+    data, res = d / "s.csv", d / "r.json"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "8"]
+    assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "3"]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(res)]) == 0
+    return d, data, res
+
+
+def test_a_pipe_or_device_as_input_is_refused_at_once(tmp_path, capsys, counts_session):
+    """A named pipe blocked ``open`` for ever (calibrate, attitude); a device read as "empty" or "missing"."""
+    _, _, res = counts_session
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    import threading
+
+    def unblock():  # a reader that opens the pipe blocks until a writer comes: fail, never hang the suite
+        while not done.wait(5.0):
+            _unblock(fifo)
+
+    done = threading.Event()
+    threading.Thread(target=unblock, daemon=True).start()
+    for argv in (
+        ["calibrate", "accel", str(fifo), "--out", str(tmp_path / "o.json")],
+        ["attitude", str(fifo), "--out", str(tmp_path / "a.csv")],
+        ["allan", str(fifo), "--out", str(tmp_path / "al.json")],
+        ["apply", str(res), str(fifo), "--out", str(tmp_path / "x.csv")],
+    ):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, "pipe.csv is a named pipe, not a file")
+    done.set()
+    assert main(["attitude", "/dev/zero", "--out", str(tmp_path / "a.csv")]) == 2
+    one_line_error(capsys, "/dev/zero is a device, not a file")
+
+
+def _unblock(fifo) -> None:
+    """Open and close the pipe's writing end when a reader waits on it (a non-blocking open for writing fails
+    otherwise): the reader's open returns and it reads the end of the data."""
+    try:
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    except OSError:
+        pass
+
+
+def test_an_input_in_a_folder_that_cannot_be_looked_at(tmp_path, capsys, monkeypatch, counts_session):
+    """``Path.exists`` raises PermissionError (Python 3.11) for a file in a folder without permission: it was an
+    internal error; it is a one-line error naming the file (simulated: the tests may run as root)."""
+    _, data, res = counts_session
+    hidden = tmp_path / "noexec" / "s.csv"
+    real = Path.stat
+
+    def stat(self, *a, **kw):
+        if "noexec" in str(self):
+            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(Path, "stat", stat)
+    for argv in (
+        ["calibrate", "accel", str(hidden), "--out", str(tmp_path / "o.json")],
+        ["attitude", str(hidden), "--out", str(tmp_path / "a.csv")],
+        ["apply", str(res), str(hidden), "--out", str(tmp_path / "x.csv")],
+        ["batch", "calibrate", "accel", str(hidden.parent), "--out", str(tmp_path / "b.csv")],
+    ):
+        assert main(argv) == 2, argv
+        one_line_error(capsys, "noexec", "permission denied")
+
+
+def test_a_damaged_broad_hdf5_is_a_one_line_error(tmp_path, capsys):
+    """A BROAD-layout HDF5 file with a damaged compressed block (h5py: OSError from the filter, mid-stream) or a
+    damaged object header (KeyError on opening the dataset): both were internal errors of attitude (online and
+    offline); both are the reader's one-line error."""
+    h5py = pytest.importorskip("h5py")
+    rng = np.random.default_rng(4)
+    n = 60_000
+
+    def trial(name):
+        f = tmp_path / name
+        with h5py.File(f, "w") as h:
+            h.attrs["sampling_rate"] = 286.0
+            h.create_dataset("imu_gyr", data=rng.normal(0, 0.1, (n, 3)), chunks=(2000, 3), compression="gzip")
+            h.create_dataset("imu_acc", data=rng.normal(0, 0.1, (n, 3)) + [0, 0, 9.81], chunks=(2000, 3),
+                             compression="gzip")  # fmt: skip
+            info = h["imu_acc"].id.get_chunk_info(20)
+        return f, bytearray(f.read_bytes()), info
+
+    f, raw, info = trial("block.hdf5")
+    raw[info.byte_offset : info.byte_offset + info.size] = bytes(info.size)  # one gzip block zeroed
+    f.write_bytes(bytes(raw))
+    g, raw, _ = trial("header.hdf5")
+    mid = len(raw) // 2
+    raw[mid : mid + 200_000] = rng.integers(0, 256, 200_000, dtype=np.uint8).tobytes()
+    g.write_bytes(bytes(raw))
+    for path in (f, g):
+        for extra in ([], ["--offline"]):
+            assert main(["attitude", str(path), "--frame", "ENU", "--out", str(tmp_path / "a.csv"), *extra]) == 2
+            one_line_error(capsys, f"{path.name}: could not read the HDF5 content")
+
+
+def test_batch_journal_on_a_full_disk(tmp_path, capsys, monkeypatch, counts_session):
+    """The batch's journal could not be written (a full disk): it was an internal error that left an empty
+    journal behind; it is the writers' one-line error, and no journal is left."""
+    import optinav.batch as batch
+
+    d, data, _ = counts_session
+    units = tmp_path / "units"
+    units.mkdir()
+    (units / "a.csv").write_bytes(data.read_bytes())
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(batch.os, "fsync", full)
+    out = tmp_path / "b.csv"
+    (tmp_path / "b.csv.journal.jsonl").write_text('{"torn')  # a torn line: the journal writes a newline first
+    assert main(["batch", "calibrate", "accel", str(units), "--out", str(out), "--workers", "0"]) == 2
+    one_line_error(capsys, "no space left on the device")
+    (tmp_path / "b.csv.journal.jsonl").unlink()
+    monkeypatch.setattr(batch.Journal, "_read", lambda self: (_ for _ in ()).throw(batch.os_error(self.path,
+                        OSError(errno.ENOSPC, "full"))))  # fmt: skip
+    assert main(["batch", "calibrate", "accel", str(units), "--out", str(out), "--workers", "0"]) == 2
+    one_line_error(capsys, "no space left on the device")
+    assert not (tmp_path / "b.csv.journal.jsonl").exists() and not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "why"),
+    [
+        (["--method", "mekf", "--option", "acc_noise=0"], "acc_noise=0.0 must be > 0"),
+        (["--method", "mekf", "--option", "acc_inflate=0"], "acc_inflate=0.0 must be > 0"),
+        (["--method", "mekf", "--option", "acc_noise=1e-300"], "acc_noise=1e-300 must be > 0"),
+        (["--option", "latency=100"], "latency=100.0 s must be within 0…1 s"),
+        (["--sun-elevation=-1000"], "--sun-elevation: -1000 is out of range"),
+        (["--lat", "95"], "--lat: 95 is out of range"),
+    ],
+)
+def test_attitude_options_that_divide_by_zero_or_make_no_sense(tmp_path, capsys, argv, why, counts_session):
+    """acc_noise=0 was a ZeroDivisionError (internal error); a 100 s latency or a sun 1000° high ran with exit 0."""
+    f = counts_session[0] / "flight.csv"
+    if not f.exists():
+        assert main(["--quiet", "simulate", "flight", "--out", str(f), "--duration", "2", "--seed", "1"]) == 0
+    capsys.readouterr()
+    try:
+        rc = main(["--quiet", "attitude", str(f), "--out", str(tmp_path / "a.csv"), *argv])
+    except SystemExit as exc:  # argparse's range errors
+        rc = exc.code
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert why in err and err.strip().count("\n") == 0, err
+
+
+def test_imucal_file_with_text_for_a_matrix(tmp_path, capsys, counts_session):
+    d, data, res = counts_session
+    cal = tmp_path / "cal.json"
+    assert main(["--quiet", "export", str(res), "--to", "imucal", "--out", str(cal)]) == 0
+    bad = json.loads(cal.read_text())
+    bad["K_a"] = "abc"
+    cal.write_text(json.dumps(bad))
+    assert main(["apply", str(cal), str(data), "--out", str(tmp_path / "x.csv")]) == 2
+    one_line_error(capsys, "K_a is not an array of numbers")
+
+
+def test_apply_refuses_a_gyro_in_another_unit_and_notes_a_cut_line(tmp_path, capsys, counts_session):
+    """A log whose gyro is in rad/s, corrected by a calibration made for deg/s, read 57 times too small with exit
+    0; an incomplete last line was dropped without the note the other commands give."""
+    d, data, res = counts_session
+    lines = data.read_text().splitlines()
+    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]  # the column names' line
+    cols = lines[head].split(",")
+    g = [cols.index(c) for c in cols if c.strip().lower() in ("gx", "gy", "gz")]
+    rad = lines[: head + 1]
+    for ln in lines[head + 1 :]:
+        v = ln.split(",")
+        for j in g:
+            v[j] = repr(float(v[j]) * np.pi / 180)
+        rad.append(",".join(v))
+    f = tmp_path / "rad.csv"
+    f.write_text("\n".join(rad) + "\n")
+    assert main(["apply", str(res), str(f), "--out", str(tmp_path / "x.csv")]) == 2
+    one_line_error(capsys, "the data's gyro looks like rad/s, not the deg/s the calibration was made for")
+    cut = tmp_path / "cut.csv"
+    text = data.read_text()
+    cut.write_text(text[: text.rstrip().rindex(",")])  # the last line without its last column
+    assert main(["apply", str(res), str(cut), "--out", str(tmp_path / "y.csv")]) == 0
+    assert "optinav: note: cut.csv: the last line" in capsys.readouterr().err
+
+
+def test_report_data_of_another_log_is_refused(tmp_path, capsys, counts_session):
+    """``report --data`` with a log that is not the result's gave NaN pose rows with exit 0."""
+    d, data, res = counts_session
+    other = tmp_path / "other.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(other), "--scheme", "18", "--dwell", "4"]
+    assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "4"]) == 0
+    assert main(["report", str(res), "--data", str(other), "--out", str(tmp_path / "r1")]) == 2
+    one_line_error(capsys, "other.csv has no samples in static interval", "not its log")
+    si = tmp_path / "si.csv"
+    assert main(["--quiet", "simulate", "flight", "--out", str(si), "--duration", "2"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(res), "--data", str(si), "--out", str(tmp_path / "r2")]) == 2
+    one_line_error(capsys, "the result was calibrated from raw counts", "not its log")
+    assert main(["--quiet", "report", str(res), "--data", str(data), "--out", str(tmp_path / "r3")]) == 0
+
+
+def test_report_on_the_out_file_and_gyro_out_without_a_gyro(tmp_path, capsys, counts_session):
+    d, data, res = counts_session
+    out = tmp_path / "c.json"
+    assert main(["calibrate", "accel", str(data), "--out", str(out), "--report", str(out)]) == 2
+    one_line_error(capsys, "names the --out file")
+    assert not out.exists()  # refused before the work, nothing written
+    ng = tmp_path / "ng.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--no-gyro", "--out", str(ng)]) == 0
+    capsys.readouterr()
+    argv = ["export", str(ng), "--to", "imu_tk", "--out", str(tmp_path / "a.calib")]
+    assert main(argv + ["--gyro-out", str(tmp_path / "g.calib")]) == 2
+    one_line_error(capsys, "this calibration has no gyroscope")

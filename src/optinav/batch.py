@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.core.files import atomic_open, atomic_path, check_output
+from optinav.core.files import atomic_open, atomic_path, check_output, describe, os_error
 from optinav.errors import OptinavError
 
 JOURNAL_SCHEMA = "optinav.batch_journal"
@@ -149,19 +149,24 @@ def _data_suffix(name: str) -> str | None:
 
 def find_units(directory, *, exclude=()) -> list[Unit]:
     """The units of ``directory`` (module docstring rule), sorted by file name; ``exclude``: paths to skip."""
+    from optinav.core.files import input_kind
+
     d = Path(directory)
-    if not d.is_dir():
+    if input_kind(d, "folder", "pass the folder holding one data file per unit") != "dir":
         raise OptinavError(f"{d} is not a folder", "pass the folder holding one data file per unit")
     skip = {Path(p).resolve() for p in exclude}
     found = []
-    for p in sorted(d.iterdir(), key=lambda q: q.name):
-        if p.name.startswith(".") or not p.is_file() or p.resolve() in skip:
-            continue
-        suffix = _data_suffix(p.name)
-        if suffix is None or p.name[: -len(suffix)].endswith(".truth"):
-            continue  # not data, or a simulation's truth (STEM.truth.csv) beside its data
-        st = p.stat()
-        found.append((p.name[: -len(suffix)], p, st))
+    try:
+        for p in sorted(d.iterdir(), key=lambda q: q.name):
+            if p.name.startswith(".") or not p.is_file() or p.resolve() in skip:
+                continue
+            suffix = _data_suffix(p.name)
+            if suffix is None or p.name[: -len(suffix)].endswith(".truth"):
+                continue  # not data, or a simulation's truth (STEM.truth.csv) beside its data
+            st = p.stat()
+            found.append((p.name[: -len(suffix)], p, st))
+    except OSError as exc:
+        raise OptinavError(f"cannot read the folder {d} ({describe(exc)})", "check the folder's permissions") from None
     stems = [s for s, _, _ in found]
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
 
@@ -320,6 +325,7 @@ class Journal:
 
     def __init__(self, path: Path, *, fresh: bool = False):
         self.path = Path(path)
+        existed = self.path.exists()
         try:
             self._fh = open(self.path, "a+", encoding="utf-8", errors="replace")
         except OSError as exc:
@@ -337,13 +343,22 @@ class Journal:
             raise OptinavError(
                 f"another optinav batch is writing {self.path}", "wait for it to finish, or use another --out"
             ) from None
-        if fresh:
-            self._fh.truncate(0)
-        self.rows = self._read()
+        try:
+            if fresh:
+                self._fh.truncate(0)
+            self.rows = self._read()
+        except OptinavError:
+            self._fh.close()
+            if not existed and self.path.stat().st_size == 0:  # no journal left behind by a batch that never ran
+                self.path.unlink()
+            raise
 
     def _read(self) -> dict[str, dict]:
-        self._fh.seek(0)
-        text = self._fh.read()
+        try:
+            self._fh.seek(0)
+            text = self._fh.read()
+        except OSError as exc:
+            raise os_error(self.path, exc) from None
         rows = {}
         for line in text.splitlines():
             try:
@@ -353,18 +368,21 @@ class Journal:
             if isinstance(rec, dict) and rec.get("schema") == JOURNAL_SCHEMA and isinstance(rec.get("row"), dict):
                 rows[rec["row"].get("file")] = rec["row"]  # a later line for the same file wins
         if text and not text.endswith("\n"):
-            self._fh.write("\n")  # start the next record on its own line after a torn one
-            self._sync()
+            self._write("\n")  # start the next record on its own line after a torn one
         return rows
 
-    def _sync(self) -> None:
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
+    def _write(self, text: str) -> None:
+        """Append ``text`` and sync it to the disk; an OS failure (a full disk) is a one-line error."""
+        try:
+            self._fh.write(text)
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+        except OSError as exc:
+            raise os_error(self.path, exc) from None
 
     def append(self, row: dict) -> None:
         rec = {"schema": JOURNAL_SCHEMA, "version": JOURNAL_VERSION, "row": row}
-        self._fh.write(json.dumps(rec, allow_nan=False) + "\n")
-        self._sync()
+        self._write(json.dumps(rec, allow_nan=False) + "\n")
         self.rows[row["file"]] = row
 
     def close(self) -> None:

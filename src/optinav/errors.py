@@ -13,3 +13,8 @@ class OptinavError(ValueError):
         super().__init__(" ".join(msg.split()))
         self.cause = cause
         self.remedy = remedy
+
+
+class Note(UserWarning):
+    """Something a reader or a step did that the user should know (a line left out, a rate taken from the time
+    column): shown by the CLI as ``optinav: note: …``; from Python, an ordinary warning that can be filtered."""

@@ -114,7 +114,7 @@ def _turning_window(ng: np.ndarray, dts: np.ndarray) -> slice:
     return slice(i, i + w)
 
 
-def _gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None) -> str:
+def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None) -> str:
     """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint. Judged on
     the UNIT_WINDOW_S s where the gyro turns most (the strapdowns' cost is independent of the recording's
     length). ``ng``: the gyro's row norms if already computed."""
@@ -185,7 +185,7 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
     na = _norm(acc)
     ng = _norm(gyr)
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)))
-    hint = _gyro_unit_hint(gyr, acc, dts, ng)
+    hint = gyro_unit_hint(gyr, acc, dts, ng)
     if hint:
         raise _unit_error(hint)
     _check_clipping(gyr, gyro_range, float(np.median(dts)))

@@ -452,13 +452,19 @@ class _Blocks:
                 t = np.arange(a, min(a + self.chunk_rows, n)) / tr.rate_hz
                 first = (t[0] - (t[1] - t[0] if t.size > 1 else h)) if prev is None else prev
                 prev = t[-1]
-                gyr, acc = np.asarray(tr.gyr[s], float) * fg, np.asarray(tr.acc[s], float) * fa
-                extra = {
-                    "q_ref": np.asarray(tr.q_ref[s], float),
-                    "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
-                }
-                if self.mag:
-                    extra["mag"] = np.asarray(tr.mag[s], float) if tr.mag is not None else np.full(gyr.shape, np.nan)
+                try:
+                    gyr, acc = np.asarray(tr.gyr[s], float) * fg, np.asarray(tr.acc[s], float) * fa
+                    extra = {
+                        "q_ref": np.asarray(tr.q_ref[s], float),
+                        "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
+                    }
+                    if self.mag:
+                        m = tr.mag
+                        extra["mag"] = np.asarray(m[s], float) if m is not None else np.full(gyr.shape, np.nan)
+                except OSError as exc:  # h5py: a damaged block (a chunk's filter fails) from this row on
+                    from optinav.io.readers import h5_damaged
+
+                    raise h5_damaged(self.path, exc) from None
                 finite = np.isfinite(gyr).all(axis=1) & np.isfinite(acc).all(axis=1)
                 yield a, t, gyr, acc, np.diff(t, prepend=first), finite, extra
 
@@ -479,15 +485,21 @@ class _Hdf5Trial:
         missing = [k for k in ("imu_gyr", "imu_acc") if k not in f]
         if missing:
             raise OptinavError(f"{path.name} lacks BROAD dataset(s) {missing}", "pass a BROAD trial HDF5 or MAT file")
-        rate = f.attrs.get("sampling_rate")
-        if rate is None and "sampling_rate" in f:
-            rate = f["sampling_rate"][()]
-        self.acc_factor, self.gyro_factor, self.rate_hz = broad_units(path.name, dict(f.attrs), options, rate)
-        self.gyr, self.acc = f["imu_gyr"], f["imu_acc"]
-        n = self.gyr.shape[0]
-        self.q_ref = f["opt_quat"] if "opt_quat" in f else np.full((n, 4), np.nan)
-        self.movement = f["movement"] if "movement" in f else np.zeros(n, bool)
-        self.mag = f["imu_mag"] if "imu_mag" in f else None
+        try:
+            rate = f.attrs.get("sampling_rate")
+            if rate is None and "sampling_rate" in f:
+                rate = f["sampling_rate"][()]
+            attrs = dict(f.attrs)
+            self.gyr, self.acc = f["imu_gyr"], f["imu_acc"]
+            n = self.gyr.shape[0]
+            self.q_ref = f["opt_quat"] if "opt_quat" in f else np.full((n, 4), np.nan)
+            self.movement = f["movement"] if "movement" in f else np.zeros(n, bool)
+            self.mag = f["imu_mag"] if "imu_mag" in f else None
+        except (OSError, KeyError, ValueError, RuntimeError) as exc:  # h5py: a damaged object header or block
+            from optinav.io.readers import h5_damaged
+
+            raise h5_damaged(path, exc) from None
+        self.acc_factor, self.gyro_factor, self.rate_hz = broad_units(path.name, attrs, options, rate)
 
 
 class _Scratch:

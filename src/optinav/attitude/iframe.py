@@ -73,6 +73,10 @@ _ORDER = (
 )  # then latency, bias_loop and mag_current_tau at P_LATENCY, P_BIAS_LOOP, P_MAG_CUR_TAU
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
+#: the largest ``latency`` (s) taken: the output is predicted that far with the gyro, which only holds for a
+#: delay far shorter than the motion's time scale
+MAX_LATENCY = 1.0
+
 _NORTH = {"ned": np.array([1.0, 0.0, 0.0]), "enu": np.array([0.0, 1.0, 0.0])}
 _UP = {"ned": np.array([0.0, 0.0, -1.0]), "enu": np.array([0.0, 0.0, 1.0])}
 
@@ -86,8 +90,11 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     frame = frame_name(frame)
     p[_k.P_UP : _k.P_UP + 3] = _UP[frame]
     p[_k.P_NORTH : _k.P_NORTH + 3] = _NORTH[frame]
-    if not (np.isfinite(opts["latency"]) and opts["latency"] >= 0.0):
-        raise OptinavError(f"option latency={opts['latency']!r} must be ≥ 0 s", "pass the IMU's delay in s, or 0")
+    if not (np.isfinite(opts["latency"]) and 0.0 <= opts["latency"] <= MAX_LATENCY):
+        raise OptinavError(
+            f"option latency={opts['latency']!r} s must be within 0…{MAX_LATENCY:g} s (an IMU's delay is milliseconds)",
+            "pass the IMU's delay in s, e.g. latency=0.002, or 0",
+        )
     p[_k.P_LATENCY] = opts["latency"]
     p[_k.P_BIAS_LOOP] = opts["bias_loop"]
     p[_k.P_MAG_CUR_TAU] = opts["mag_current_tau"]

@@ -78,6 +78,10 @@ DEFAULTS: dict[str, dict[str, float]] = {
 }
 
 
+#: options a method divides by (a noise σ enters as 1/σ², g as 1/g): 0 is refused, not a division by zero
+_DIVISORS = {"mekf": ("acc_noise", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
+
+
 def _options(method: str, options: dict) -> dict:
     if method not in METHODS:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
@@ -93,6 +97,8 @@ def _options(method: str, options: dict) -> dict:
             fv = float("nan")
         if not np.isfinite(fv) or fv < 0:
             raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
+        if k in _DIVISORS.get(method, ()) and not (fv**2 > 0 and fv**2 * np.finfo(float).max > 1.0):
+            raise OptinavError(f"option {k}={v!r} must be > 0 (the filter divides by it)", f"pass a positive {k}")
         opts[k] = fv
     if method == "mekf" and opts["max_heading_std"] <= 0:
         raise OptinavError("max_heading_std must be > 0", "pass a bound in rad, e.g. max_heading_std=3.14")

@@ -9,18 +9,24 @@ import textwrap
 from pathlib import Path
 
 from optinav.cli.common import (
+    ELEVATION,
+    HEIGHT,
+    LATITUDE,
+    LONGITUDE,
     add_chunk_option,
     add_input_options,
     add_report_option,
     check_disk,
     check_memory,
     finish_report,
+    number,
     options_from_args,
     output_path,
     parse_floats,
     parse_key_values,
     prepare_report,
     print_notes,
+    require_files,
     truth_path,
 )
 from optinav.core.files import check_sidecar, write_csv
@@ -112,13 +118,23 @@ def register(sub) -> None:
         help="names of the angle-of-polarization column (and degree of polarization) in DATA; NaN = no sample",
     )
     pol.add_argument("--aop-unit", choices=["rad", "deg"], default="rad", help="unit of the AoP column")
-    pol.add_argument("--lat", type=float, metavar="DEG", help="latitude, deg (sun position)")
-    pol.add_argument("--lon", type=float, metavar="DEG", help="longitude, deg east (sun position)")
-    pol.add_argument("--height", dest="height_m", type=float, default=0.0, metavar="M", help="height, m (default 0)")
+    pol.add_argument("--lat", type=LATITUDE, metavar="DEG", help="latitude, deg (sun position)")
+    pol.add_argument("--lon", type=LONGITUDE, metavar="DEG", help="longitude, deg east (sun position)")
+    pol.add_argument("--height", dest="height_m", type=HEIGHT, default=0.0, metavar="M", help="height, m (default 0)")
     pol.add_argument("--start-time", metavar="ISO8601", help="time of t = 0 with UTC offset")
-    pol.add_argument("--sun-azimuth", type=float, metavar="DEG", help="fixed sun azimuth, deg from north to east")
-    pol.add_argument("--sun-elevation", type=float, metavar="DEG", help="fixed sun elevation, deg")
-    pol.add_argument("--min-dop", type=float, default=0.05, help="skip samples with a lower DoP (default 0.05)")
+    pol.add_argument(
+        "--sun-azimuth",
+        type=number(-360.0, 360.0, what="an azimuth in degrees"),
+        metavar="DEG",
+        help="fixed sun azimuth, deg from north to east",
+    )
+    pol.add_argument("--sun-elevation", type=ELEVATION, metavar="DEG", help="fixed sun elevation, deg")
+    pol.add_argument(
+        "--min-dop",
+        type=number(0.0, 1.0, what="a degree of polarization in [0, 1]"),
+        default=0.05,
+        help="skip samples with a lower DoP (default 0.05)",
+    )
     p.add_argument("--out", required=True, metavar="ATTITUDE.csv", help="output CSV")
     add_chunk_option(p)
     add_report_option(p)
@@ -222,6 +238,7 @@ def run(args) -> int:
     from optinav.core.progress import step
 
     method, options, q0, out = _checked(args)
+    require_files((args.data, "data file"))
     o = options_from_args(AttitudeOptions, args, options=options)
     if _streams(args):
         return _run_stream(args, o, q0, out, _announce(args, method))

@@ -193,12 +193,12 @@ def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = ""
 def require_files(*items: tuple[str | None, str]) -> None:
     """``(path, what)`` pairs that must name existing files, checked before a command imports its numerical
     modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped."""
+    from optinav.core.files import input_kind
     from optinav.io.rosbag import is_bag
 
     for path, what in items:
-        if path is not None and not Path(path).is_file() and not (Path(path).is_dir() and is_bag(path)):
-            p = Path(path)
-            raise OptinavError(f"{what} {p} {'is a folder' if p.is_dir() else 'does not exist'}", "check the path")
+        if path is not None and input_kind(path, what) == "dir" and not is_bag(path):
+            raise OptinavError(f"{what} {Path(path)} is a folder", "check the path")
 
 
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
@@ -298,6 +298,12 @@ def prepare_report(args) -> None:
     if args.report:
         from optinav.reports import check_report_dir
 
+        for opt in ("out", "export"):  # files the command writes before the report
+            other = getattr(args, opt, None)
+            if isinstance(other, (str, Path)) and Path(args.report).resolve() == Path(other).resolve():
+                raise OptinavError(
+                    f"--report {args.report} names the --{opt} file", "give the report a folder of its own"
+                )
         check_report_dir(args.report)
 
 

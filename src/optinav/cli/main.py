@@ -151,8 +151,12 @@ def cli_wording(message: str) -> str:
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """CLI users get a warning as one line like the errors, not Python's file:line and source echo."""
-    print(f"optinav: warning: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
+    """CLI users get a warning as one line like the errors, not Python's file:line and source echo; a
+    :class:`optinav.errors.Note` as a note."""
+    from optinav.errors import Note
+
+    kind = "note" if isinstance(category, type) and issubclass(category, Note) else "warning"
+    print(f"optinav: {kind}: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
 
 
 #: options that name what a command writes, never what it reads

@@ -442,6 +442,42 @@ def check_sidecar(path, signature: str, option: str = "--out") -> Path:
 MAX_JSON_DEPTH = 64
 
 
+def input_kind(path, what: str = "data file", remedy: str = "check the path") -> str:
+    """What an input path is, or a one-line :class:`OptinavError` naming ``what``: missing, not to be looked at
+    (a folder on the way without permission), or neither a regular file nor a folder — a named pipe or a device,
+    whose reading would block or never end.
+
+    Parameters
+    ----------
+    path : str or Path
+        The input.
+    what : str
+        What it is, for the message.
+    remedy : str
+        What to do when it is missing, for the message.
+
+    Returns
+    -------
+    str
+        ``"file"`` or ``"dir"``.
+    """
+    import stat
+
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        raise OptinavError(f"{what} {p} does not exist", remedy) from None
+    except OSError as exc:
+        raise OptinavError(f"cannot read {what} {p} ({describe(exc)})", "check the file and its permissions") from None
+    if stat.S_ISDIR(mode):
+        return "dir"
+    if stat.S_ISREG(mode):
+        return "file"
+    kind = "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+    raise OptinavError(f"{what} {p} is {kind}, not a file", "save the data to a file and pass that")
+
+
 def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
     """The UTF-8 text of ``path``; a missing file, a folder, an OS error or bytes that are not UTF-8 become a one-line
     :class:`OptinavError` naming ``what``.
@@ -461,10 +497,8 @@ def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
         The text.
     """
     p = Path(path)
-    if p.is_dir():
+    if input_kind(p, what, remedy) == "dir":
         raise OptinavError(f"{what} {p} is a folder", "pass a file")
-    if not p.is_file():
-        raise OptinavError(f"{what} {p} does not exist", remedy)
     try:
         data = p.read_bytes()
     except OSError as exc:

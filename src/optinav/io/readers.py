@@ -538,9 +538,10 @@ def _suffix(path: Path) -> str:
 def _file_kind(path: Path) -> tuple[str, bool]:
     """(format, gzip-compressed?) of ``path`` from its first bytes and suffix; one-line errors for a missing,
     empty or unknown file."""
-    if not path.exists():
-        raise OptinavError(f"data file {path} does not exist", "check the path")
+    from optinav.core.files import input_kind
     from optinav.io.rosbag import is_bag
+
+    input_kind(path)
 
     if is_bag(path):  # a ROS 2 bag is a folder; rosbags checks the files itself
         return "rosbag", False
@@ -1394,11 +1395,11 @@ def _h5_open(path: Path, only: Sequence[str] | None, *, matlab: bool):
         raise
     except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
         fh.close()
-        raise _h5_damaged(path, exc) from None
+        raise h5_damaged(path, exc) from None
     return fh, table, wanted
 
 
-def _h5_damaged(path: Path, exc: Exception) -> OptinavError:
+def h5_damaged(path: Path, exc: Exception) -> OptinavError:
     return OptinavError(
         f"{path}: could not read the HDF5 content ({type(exc).__name__}: {exc})", "check that the file is complete"
     )
@@ -1430,7 +1431,7 @@ def _load_hdf5(path: Path, only: Sequence[str] | None, *, matlab: bool) -> Table
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001 - h5py raises many types for damaged files
-        raise _h5_damaged(path, exc) from None
+        raise h5_damaged(path, exc) from None
     _check_nonempty(table)
     return table
 

@@ -8,11 +8,12 @@ The calibration is optinav's RESULT.json, an imucal JSON export or imu_tk parame
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from optinav.errors import OptinavError
+from optinav.errors import Note, OptinavError
 
 #: accepted ratio of a calibrated scale to its nominal value (1 / the SI factor of the raw unit); MEMS scale
 #: errors are percent, so a factor 2 only lets through what cannot be a calibration of that unit
@@ -76,11 +77,18 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     source = f"optinav apply {Path(result_path).name} {Path(data_path).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
     # grow with the log; a bad row fails when its block is read and leaves no output
+    seen: list[str] = []
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
+            for note in log.notes:  # the reader's notes (an incomplete last line left out, ...), each once
+                if note not in seen:
+                    seen.append(note)
+                    warnings.warn(note, Note, stacklevel=2)
             acc, gyro = corrected(res, log, data_path, result_path)
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
+                if gyro is not None:
+                    _check_corrected_gyro(acc, gyro, log, data_path, result_path)
             writer.write(
                 ImuLog(
                     t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
@@ -101,6 +109,29 @@ def _check_corrected_norm(acc, log, data_path, result_path) -> None:
             f"first {acc.shape[0]} samples), not about g: the data's raw unit ({log.acc_input_unit or 'unstated'}) "
             "is not the one the calibration was made for",
             "state the data's unit with --acc-unit (counts, g, mg, m/s^2), or apply the calibration of this sensor",
+        )
+
+
+def _check_corrected_gyro(acc, gyro, log, data_path, result_path) -> None:
+    """The first block's corrected gyro must explain how the corrected specific force turns in the body (the
+    attitude input check, :func:`optinav.attitude.checks.gyro_unit_hint`; silent when too little turns): a log in
+    rad/s corrected by a calibration made for deg/s read 57 times too small with exit 0."""
+    from optinav.attitude.checks import gyro_unit_hint
+
+    if log.t is None or log.t.size < 3:
+        return
+    dts = np.diff(log.t, prepend=2 * log.t[0] - log.t[1])
+    ok = np.isfinite(acc).all(axis=1) & np.isfinite(gyro).all(axis=1)
+    if not ok.all() or not np.all(dts > 0):
+        return  # the reader's checks name gaps and non-finite rows; the unit is judged on clean blocks
+    hint = gyro_unit_hint(gyro, acc, dts)
+    if hint:
+        unit = hint.split(" declared ")[0]
+        raise OptinavError(
+            f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
+            f"gravity turns in the body; the data's gyro looks like {unit}, not the {log.gyro_input_unit or 'unit'} "
+            "the calibration was made for",
+            "convert the gyro to the calibration's raw unit, or apply the calibration of this sensor",
         )
 
 

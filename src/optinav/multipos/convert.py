@@ -377,7 +377,12 @@ def read_imucal_json(source) -> ImucalCalibration:
     missing = [k for k in ImucalCalibration._MATS if k not in d]
     if missing:
         raise OptinavError(f"{src} lacks {', '.join(missing)}", "pass a complete Ferraris calibration export")
-    kw = {k: np.asarray(d[k], dtype=float) for k in ImucalCalibration._MATS}
+    kw = {}
+    for k in ImucalCalibration._MATS:
+        try:
+            kw[k] = np.asarray(d[k], dtype=float)
+        except (TypeError, ValueError):
+            raise OptinavError(f"{src}: {k} is not an array of numbers", "pass an unedited imucal export") from None
     for k in ("acc_unit", "gyr_unit", "from_acc_unit", "from_gyr_unit", "comment"):
         if k in d:
             kw[k] = d[k]

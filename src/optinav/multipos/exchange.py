@@ -55,6 +55,11 @@ def export_calibration(
                 "export with --to imucal or --to kalibr (both keep it)",
             )
         written = []
+        if gyro is None and gyro_out is not None:
+            raise OptinavError(
+                "--gyro-out names imu_tk's gyroscope file, and this calibration has no gyroscope",
+                "drop --gyro-out (the accelerometer file is written to --out)",
+            )
         if acc is not None and gyro is not None and gyro_out is None:
             raise OptinavError(
                 "imu_tk keeps the gyroscope calibration in a second file", "name it with --gyro-out (e.g. gyro.calib)"

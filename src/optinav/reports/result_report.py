@@ -18,9 +18,28 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
     from optinav.reports import calibration_report as cr
 
     if data is not None:
+        import dataclasses
+
         from optinav.multipos.calibrate import FileOptions, read_session_file
 
-        d = read_session_file(data, options or FileOptions())
+        o = options or FileOptions()
+        units = res.units or {}
+        # the log the result came from is in the raw units the calibration was made for (as apply reads it)
+        if o.acc_unit is None and units.get("accelerometer_raw"):
+            o = dataclasses.replace(o, acc_unit=units["accelerometer_raw"])
+        if o.gyro_unit is None and units.get("gyroscope_raw"):
+            o = dataclasses.replace(o, gyro_unit=units["gyroscope_raw"])
+        try:
+            d = read_session_file(data, o)
+        except OptinavError as exc:
+            if options is None and " declares " in exc.cause and " was passed" in exc.cause:  # the file's own units
+                raw = ", ".join(f"{units[k]}" for k in ("accelerometer_raw", "gyroscope_raw") if units.get(k))
+                raise OptinavError(
+                    f"{exc.cause.split(' but ')[0]}, the result was calibrated from raw {raw}: not its log",
+                    "pass the log the result was calibrated from with --data",
+                ) from None
+            raise
+        _check_same_log(res, d, data)
         return cr.write_calibration_report(res, d.t, d.acc, d.gyr, out_dir)
     from optinav.reports.report import StudyResult, write_report
 
@@ -31,6 +50,32 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         tables=cr.tables(res, []),
     )
     return write_report([study], out_dir, title="optinav calibration")
+
+
+def _check_same_log(res, d, data) -> None:
+    """``--data`` must be the log ``res`` was calibrated from: every static interval holds samples of it, and its
+    corrected specific force reads about g there (another session, or a log in other units, gave a report of NaN
+    rows with exit 0)."""
+    import numpy as np
+
+    from optinav.core.units import G_STANDARD
+
+    t = np.asarray(d.t, float)
+    a = res.correct_accel(np.asarray(d.acc, float))
+    for k, (t0, t1) in enumerate(np.asarray(res.static_intervals, float)):
+        m = (t >= t0) & (t <= t1) & np.all(np.isfinite(a), axis=1)
+        if not m.any():
+            raise OptinavError(
+                f"{data} has no samples in static interval {k} ({t0:.6g}–{t1:.6g} s) of the result: not its log",
+                "pass the log the result was calibrated from with --data",
+            )
+        med = float(np.median(np.linalg.norm(a[m], axis=1)))
+        if not 0.5 * G_STANDARD <= med <= 2.0 * G_STANDARD:
+            raise OptinavError(
+                f"{data} corrected by the result reads |a| = {med:.4g} m/s² in static interval {k}, not about g: not "
+                f"the log it was calibrated from, or not in its raw unit ({(res.units or {}).get('accelerometer_raw')})",
+                "pass the log the result was calibrated from with --data",
+            )
 
 
 def attitude_report(res, out_dir, data=None, options=None) -> Path:
