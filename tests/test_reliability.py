@@ -377,6 +377,13 @@ def turntable(tmp_path_factory):
         ("stuck4", [], "accelerometer(s) 4 barely change"),
         ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
         ("good", ["--noise", "1e-9"], "against --noise"),
+        # found by a helper: each fitted "exactly" (χ² 1.5) with tens of thousands of σ of error, exit 0
+        ("swap18", [], "0.04 m about their mean at accelerometer 8"),
+        ("swap4_10", [], "two output columns are swapped"),
+        ("rate+20%", [], "× the stated ones"),
+        ("rate-20%", [], "i.e. rates 1.25× the stated ones"),
+        ("five cases", [], "equations for 50 unknowns: no redundancy"),
+        ("bias 3e-5", [], "(reduced χ² 19.4)"),
     ],
 )
 def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
@@ -390,6 +397,16 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
         d["f"][:, 3] = 0.2
     elif case == "deg":
         d["table_rate"] = np.degrees(d["table_rate"])
+    elif case.startswith("swap"):
+        i, j = (0, 7) if case == "swap18" else (3, 9)
+        d["f"][:, [i, j]] = d["f"][:, [j, i]]
+    elif case.startswith("rate"):
+        d["table_rate"] = d["table_rate"] * (1.2 if "+" in case else 0.8)
+    elif case == "five cases":
+        keep = d["case"] != 6
+        d = {k: (v[keep] if v.ndim else v) for k, v in d.items()}
+    elif case == "bias 3e-5":  # an unmodelled bias of 3 µg on one sensor: tens of σ of its direction errors
+        d["f"][:, 2] += 3e-5
     bad = tmp_path / "bad.npz"
     np.savez(bad, **d)
     out = tmp_path / "r.json"
@@ -419,6 +436,57 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
         dr = np.asarray(res["dr"]["value"])
         std = np.asarray(res["std"]["value"]).reshape(-1, 5)[:, :3]
         assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
+
+
+def test_gfimu_std_widen_with_the_residual_and_apply_refuses_garbage(turntable, tmp_path, capsys):
+    """An unmodelled bias below the χ² gate widens the std by √χ² (was 20σ off with the noise-only std); apply
+    refused nothing: two columns swapped made the rate integration diverge to 1e227 rad/s and NaN, outputs in g
+    gave a rate 3× too small, both with exit 0."""
+    import numpy as np
+
+    path, d = turntable
+    truth = json.loads(path.with_name("tt.truth.json").read_text())
+    b = {k: v.copy() for k, v in d.items()}
+    b["f"][:, 2] += 1e-5
+    np.savez(tmp_path / "b.npz", **b)
+    out = tmp_path / "r.json"
+    assert (
+        main(["--quiet", "calibrate", "gfimu", str(tmp_path / "b.npz"), "--builtin", "cylinder10", "--out", str(out)])
+        == 0
+    )
+    res = json.loads(out.read_text())["fields"]
+    assert any("std scaled by √(reduced χ²)" in st for st in res["statements"]["value"])
+    est, std = np.asarray(res["estimate"]["value"]), np.asarray(res["std"]["value"])
+    x = np.column_stack([truth["dr_m"], truth["dalpha_rad"], truth["dbeta_rad"]]).ravel()
+    assert np.max(np.abs(est[: x.size] - x) / std[: x.size]) < 4.0
+    assert main(["--quiet", "calibrate", "gfimu", str(path), "--builtin", "cylinder10", "--out", str(out)]) == 0
+    one = d["case"] == 1
+    c1 = {k: (v[one] if v.ndim else v) for k, v in d.items()}
+    w0 = ["--omega0", "0.25,0,0.4330127"]  # case 1: 0.5 rad/s about the table axis, 30° off the array's z
+    for name, f, why in (
+        (
+            "swap",
+            c1["f"][:, [0, 7, 2, 3, 4, 5, 6, 1, 8, 9]],
+            "the outputs of swap.npz do not fit the calibrated geometry",
+        ),
+        ("in_g", c1["f"] / 9.80665, "the outputs look like g, not m/s^2"),
+    ):
+        np.savez(tmp_path / f"{name}.npz", **{**c1, "f": f})
+        rc = main(["--quiet", "apply", str(out), str(tmp_path / f"{name}.npz"), "--out", str(tmp_path / "m.csv"), *w0])
+        assert rc == 2, name
+        one_line_error(capsys, why)
+    np.savez(tmp_path / "ok.npz", **c1)
+    assert main(["--quiet", "apply", str(out), str(tmp_path / "ok.npz"), "--out", str(tmp_path / "m.csv"), *w0]) == 0
+    # a rate integration that diverges (not finite, or beyond any motion) is named, whatever made it
+    from optinav.gfimu.errors import Motion
+    from optinav.gfimu.unit import _check_motion
+
+    t = np.arange(4.0)
+    for bad in (np.nan, 1e227):
+        w = np.zeros((4, 3))
+        w[2, 0] = bad
+        with pytest.raises(OptinavError, match="diverges at t = 2 s"):
+            _check_motion(Motion(t, np.full((4, 3), 5.7), np.zeros((4, 3)), w, "a"), "x.npz", True)
 
 
 # --- batch: inputs, options once, workers that die ---------------------------------------------------------------

@@ -463,6 +463,8 @@ class MotionSolver:
         The rate method's state after the epochs solved so far.
     rows : int
         Epochs solved so far.
+    residual_rms : ndarray or None
+        (N,) [m/s^2] RMS per output of what the rigid-body model leaves in the last call's epochs.
     """
 
     def __init__(self, array: AccelerometerArray, omega0=None, method: str = "integration", **options):
@@ -470,6 +472,7 @@ class MotionSolver:
             raise OptinavError(f"unknown rate method {method!r}", f"use one of {', '.join(RATE_METHODS)}")
         self.array, self.method, self.options = array, method, options
         self.state, self.rows = RateState(_omega0(omega0)), 0
+        self.residual_rms = None
         wts = array.weights()
         self._P = np.linalg.pinv(array.H_lin * wts[:, None]) * wts[None, :]  # (6, N)
 
@@ -499,5 +502,8 @@ class MotionSolver:
         else:
             w, _, _, self.state = _gauss_newton(self.array, f, t, self.state, **self.options)
         self.rows += t.shape[0]
-        x = (f - quadratic_products(w) @ self.array.H_quad.T) @ self._P.T
+        fq = f - quadratic_products(w) @ self.array.H_quad.T
+        x = fq @ self._P.T
+        # what the rigid-body model leaves of each output (the array has more outputs than A and ω̇ take)
+        self.residual_rms = np.sqrt(np.mean((fq - x @ self.array.H_lin.T) ** 2, axis=0))
         return Motion(t, x[:, :3], x[:, 3:], w, f"{self.array.name or 'array'} ({self.method})")

@@ -607,8 +607,25 @@ def read_cases(path, n_accelerometers: int | None = None, rate_factor: float = 1
 #: plausible installation errors: a position error up to 5 cm and a direction error up to 0.2 rad (11°); the
 #: paper's are 1 mm and 0.01 rad, so anything beyond is a wrong configuration, wrong units or broken data
 MAX_DR_M, MAX_DANGLE_RAD = 0.05, 0.2
-#: largest accepted reduced χ² of the case-mean fit (residual RMS 5σ)
-MAX_REDUCED_CHI2 = 25.0
+#: and position errors about their mean (a common shift is the array's centre off the axis) below this fraction of
+#: the smallest spacing of distinct sensor positions: two output columns swapped move a sensor by a full spacing
+#: (cylinder10: 40 mm, fitted "exactly" with a perfect χ²)
+MAX_DR_SPACING = 0.25
+#: largest accepted reduced χ² of the case-mean fit (residual RMS 3σ); below it the std are scaled by √χ²
+MAX_REDUCED_CHI2 = 9.0
+#: the measured rate-dependent change of the outputs against the nominal array's: a table rate 12 % off scales it
+#: by 0.8 or 1.25 and was fitted as millimetres of position error with a perfect χ²; a real array's installation
+#: errors move the least-squares scale by a few per cent
+RATE_SCALE_RANGE = (0.8, 1.25)
+
+
+def dr_limit(nominal: AccelerometerArray) -> float:
+    """The largest plausible position error (m): :data:`MAX_DR_M`, or less than :data:`MAX_DR_SPACING` of the
+    smallest spacing between distinct sensor positions (sensors sharing a position count once)."""
+    p = np.asarray(nominal.positions, float)
+    d = np.linalg.norm(p[:, None] - p[None], axis=2)
+    d = d[d > 1e-9]
+    return float(min(MAX_DR_M, MAX_DR_SPACING * d.min())) if d.size else MAX_DR_M
 
 
 def nominal_case_means(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> np.ndarray:
@@ -624,7 +641,7 @@ def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: floa
       predicts (the cases turn gravity through the wedge angle, so every sensor's output must change);
     * the table-rate unit: per mounting, the change of the case means between two rates is
       ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
-      (0.5–2); (π/180)² means rates in deg/s labelled rad/s."""
+      (within :data:`RATE_SCALE_RANGE`); (π/180)² means rates in deg/s labelled rad/s."""
     pred = nominal_case_means(nominal, cm, gamma, g)
     s = _rate_scale(cm, pred)
     deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
@@ -644,11 +661,13 @@ def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: floa
             f"changes by {span_p[i]:.3g}): stuck or constant outputs",
             "check those channels (or pass the configuration the data was recorded with)",
         )
-    if s is not None and not 0.5 < s < 2.0:
+    lo, hi = RATE_SCALE_RANGE
+    if s is not None and not lo < s < hi:
         raise OptinavError(
             f"the table rates disagree with the centripetal terms the accelerometers measure (the "
-            f"rate-dependent change of the outputs is {s:.3g}× the predicted)",
-            "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s)",
+            f"rate-dependent change of the outputs is {s:.3g}× the predicted, i.e. rates {np.sqrt(s):.3g}× the "
+            "stated ones)",
+            "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s) and the configuration",
         )
 
 
@@ -1046,13 +1065,16 @@ def calibrate(
     J = model.jacobian(x)
     r = model.residuals(x)
     rep = analyze(J, 1.0, names=names, units=units)
-    gates = _quality_gates(method, out if method == "lm" else None, x[: 5 * nominal.n], r, int(rep.rank), sigma is None)
+    lm = out if method == "lm" else None
+    gates, chi2 = _quality_gates(method, lm, x[: 5 * nominal.n], r, int(rep.rank), sigma is None, dr_limit(nominal))
     conv = (
         convergence(out.success, iterations=getattr(out, "nit", None), evaluations=out.nfev, message=out.message)
         if method == "lm"
         else convergence(None, message="closed form")
     )
     std, crlb, cov = np.array(rep.std), np.array(rep.crlb_std), np.array(rep.covariance)
+    if chi2 > 1.0:  # residuals beyond the noise (an unmodelled error below the gate): the std widen with them
+        std, cov = std * np.sqrt(chi2), cov * chi2
     if offset == "estimate":
         # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
         M = np.zeros((model.n_params, model.n_params))
@@ -1070,6 +1092,8 @@ def calibrate(
         o = x[5 * nominal.n :].reshape(-1, 2)
         offs = np.array([o[j] @ model.perp[m] for j, m in enumerate(model.mounts)])
     statements = list(rep.statements) + ([gauge] if gauge else [])
+    if chi2 > 1.0:
+        statements.append(f"std scaled by √(reduced χ²) = {np.sqrt(chi2):.3g}: residuals beyond the noise")
     if fixed is not None:
         statements.append("offset of the array centre from the table axis fixed at the given value")
         offs = fixed[[list(cm.mounting).index(m) for m in model.mounts]]
@@ -1100,9 +1124,10 @@ def calibrate(
     )
 
 
-def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[dict]:
-    """After the fit: converged, plausible installation errors, residual consistent with the noise; raises on
-    the first that fails, else returns their outcomes."""
+def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: float) -> tuple[list[dict], float]:
+    """After the fit: converged, plausible installation errors (|dr| ≤ ``max_dr`` m, :func:`dr_limit`), residual
+    consistent with the noise and redundant data to judge it by; raises on the first that fails, else returns
+    their outcomes and the reduced χ²."""
     if out is not None and not out.success:
         raise OptinavError(
             f"the LM fit did not converge ({out.message})",
@@ -1110,15 +1135,26 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[
         )
     e = InstallationErrors.from_vector(x)
     dr, da = float(np.max(np.abs(e.dr))), float(np.max(np.abs(np.r_[e.dalpha, e.dbeta])))
-    if dr > MAX_DR_M or da > MAX_DANGLE_RAD:
+    # a common shift of every position is the array's centre off the table axis (harmless): the spacing limit
+    # is on the sensors' errors about their mean
+    rel = np.linalg.norm(e.dr - e.dr.mean(axis=0), axis=1)
+    if dr > MAX_DR_M or float(rel.max()) > max_dr or da > MAX_DANGLE_RAD:
+        i = int(np.argmax(rel))
         raise OptinavError(
-            f"the fitted installation errors are implausible (|dr| up to {dr:.3g} m, direction errors "
-            f"up to {da:.3g} rad; limits {MAX_DR_M} m, {MAX_DANGLE_RAD} rad): the data do not "
-            "belong to this configuration, or a column is in the wrong unit",
-            "pass the configuration the data was recorded with and check the units",
+            f"the fitted installation errors are implausible (|dr| up to {dr:.3g} m, {rel[i]:.3g} m about their "
+            f"mean at accelerometer {i + 1}; direction errors up to {da:.3g} rad; limits {MAX_DR_M} m, "
+            f"{max_dr:.3g} m, {MAX_DANGLE_RAD} rad): the data do not belong to this configuration, two output "
+            "columns are swapped, the table rates are off, or a column is in the wrong unit",
+            "check the output columns' order against the configuration, table_rate and the units",
         )
     dof = r.size - rank
-    chi2 = float(r @ r) / dof if dof > 0 else float("nan")
+    if dof <= 0:
+        raise OptinavError(
+            f"the turntable cases give {r.size} equations for {rank} unknowns: no redundancy to check the fit "
+            "against the noise (a wrong column or a bias would be fitted exactly)",
+            "record all six cases (three mountings, two rates each)",
+        )
+    chi2 = float(r @ r) / dof
     if dof > 0 and chi2 > MAX_REDUCED_CHI2:
         why = "the noise measured within the cases" if sigma_from_data else "--noise"
         raise OptinavError(
@@ -1129,11 +1165,11 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool) -> list[
     gates = [gate("optimizer converged", out.success, None, kind="true")] if out is not None else []
     gates += [
         gate("largest |dr|", dr, MAX_DR_M, unit="m"),
+        gate("largest |dr − mean dr|", float(rel.max()), max_dr, unit="m"),
         gate("largest |direction error|", da, MAX_DANGLE_RAD, unit="rad"),
+        gate("reduced chi-square", chi2, MAX_REDUCED_CHI2),
     ]
-    if dof > 0:
-        gates.append(gate("reduced chi-square", chi2, MAX_REDUCED_CHI2))
-    return gates
+    return gates, chi2
 
 
 def scheme_identifiability(

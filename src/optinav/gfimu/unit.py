@@ -76,6 +76,58 @@ class GfimuApplyOptions:
     rate_method: str = "integration"
 
 
+#: a solved rate beyond this (rad/s, 11 000 °/s) is a diverging integration, not a motion
+MAX_RATE = 200.0
+
+
+def _check_motion(m, data_path, first: bool) -> None:
+    """The solved motion must be finite and below :data:`MAX_RATE` (two output columns swapped made the rate
+    integration diverge to 1e227 rad/s, then NaN, with exit 0); the first block's specific force must not read
+    1 (or 1000) where it reads about g in m/s² (outputs in g or mg: a rate 3× too small with exit 0)."""
+    ok = np.isfinite(m.omega).all(axis=1) & np.isfinite(m.A).all(axis=1)
+    big = ok & np.any(np.abs(np.where(ok[:, None], m.omega, 0.0)) > MAX_RATE, axis=1)
+    bad = np.flatnonzero(~ok | big)
+    if bad.size:
+        raise OptinavError(
+            f"the rate solution of {Path(data_path).name} diverges at t = {m.t[bad[0]]:.6g} s (a rate beyond "
+            f"{MAX_RATE:g} rad/s or not finite): the outputs contradict the calibrated geometry",
+            "check the order of the output columns f1..fN against the configuration, and --omega0",
+        )
+    if first and m.A.shape[0]:
+        med = float(np.median(np.linalg.norm(m.A, axis=1)))
+        for unit, g in (("g", 1.0), ("mg", 1000.0)):
+            if 0.9 * g < med < 1.1 * g:
+                raise OptinavError(
+                    f"the specific force solved from {Path(data_path).name} reads {med:.4g} (median |A| of the first "
+                    f"{m.A.shape[0]} samples): the outputs look like {unit}, not m/s^2",
+                    "convert the accelerometer outputs to m/s^2",
+                )
+
+
+#: the outputs' misfit to the calibrated rigid-body model beyond this many times the noise measured at
+#: calibration (median over the outputs, per block) is another array or swapped columns, not a motion
+MAX_MISFIT = 30.0
+
+
+def _check_fit(residual_rms, sigma, data_path) -> None:
+    """The array's outputs must fit the calibrated geometry (the model's residual per output against the noise the
+    calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged."""
+    if residual_rms is None or sigma is None:
+        return
+    sigma = np.asarray(sigma, float)
+    if sigma.shape != residual_rms.shape or not np.all(sigma > 0):
+        return
+    ratio = float(np.median(residual_rms / sigma))
+    if ratio > MAX_MISFIT:
+        worst = int(np.argmax(residual_rms / sigma))
+        raise OptinavError(
+            f"the outputs of {Path(data_path).name} do not fit the calibrated geometry: the rigid-body model leaves "
+            f"{ratio:.3g}× the noise measured at calibration (median over the outputs; most at f{worst + 1})",
+            "check the order of the output columns f1..fN against the configuration, and that this is the "
+            "calibrated array",
+        )
+
+
 def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = None) -> str:
     """``optinav apply`` for a gfimu result: solve the array outputs of ``data_path`` (t and f1..fN, or an array
     f, m/s²) with the calibrated geometry (the paper's compensation) and write ``out`` (CSV): t (s), specific
@@ -102,7 +154,11 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
             if tab.find("t") is None:
                 raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
             f = array_outputs(tab, data_path, len(res.dalpha))
-            m = solver(f, np.asarray(tab.get("t"), float))
+            first = solver.rows == 0
+            with np.errstate(over="ignore", invalid="ignore"):  # a diverging solution is named below
+                m = solver(f, np.asarray(tab.get("t"), float))
+            _check_motion(m, data_path, first)
+            _check_fit(solver.residual_rms, res.sigma, data_path)
             write(np.column_stack([m.t, m.A, m.omega, m.wdot]))
         if solver.rows < 2:  # as the whole-log solve: a rate needs two epochs (the file is not written)
             raise OptinavError(f"{data_path} has {solver.rows} sample(s), at least 2 are needed", "record a longer log")
