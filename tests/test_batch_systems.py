@@ -218,3 +218,23 @@ def test_registry_system_options_are_checked_once(folders, tmp_path):
     with pytest.raises(OptinavError, match="no configuration"):
         run_batch(folders["gfimu"], tmp_path / "r.csv", GfimuOptions())
     assert not (tmp_path / "r.csv").exists()
+
+
+def test_reference_far_from_the_truth_fails_the_unit(tmp_path, capsys):
+    """With --reference a unit whose result lies far outside its std from the simulated truth was "ok" (the truth
+    columns said 42 000 σ, the summary "0 failed", exit 0; found by a helper): it fails, with the reason."""
+    import json
+
+    d = tmp_path / "units"
+    d.mkdir()
+    for k in (1, 2):
+        argv = ["--quiet", "simulate", "accel-multipos", "--out", str(d / f"u{k}.csv"), "--dwell", "5"]
+        assert main(argv + ["--seed", str(k)]) == 0
+    truth = json.loads((d / "u2.truth.json").read_text())
+    truth["parameters"]["acc_K_xx"]["value"] += 0.01  # the truth beside u2 no longer is its truth: 1 % off
+    (d / "u2.truth.json").write_text(json.dumps(truth))
+    capsys.readouterr()
+    out = tmp_path / "b.csv"
+    assert main(["batch", "calibrate", "accel", str(d), "--reference", "--out", str(out), "--workers", "0"]) == 1
+    text = capsys.readouterr().out
+    assert "1 ok, 1 failed" in text and "u2: the result is" in text and "std from the simulated truth" in text

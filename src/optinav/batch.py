@@ -26,7 +26,8 @@ Rows are read from the result through the common layout (:class:`optinav.core.re
 column per parameter (``NAME``, ``NAME_std``, ``NAME_crlb_std``; a triad as ``NAME_x`` … ``NAME_z``, another
 vector of up to four elements as ``NAME_0`` …; time series are left out), the convergence, the quality gates
 and the names of the unobservable parameters, plus the system's own columns. With ``reference=True`` a unit's
-simulated truth beside it (``STEM.truth.json``) is compared field by field (``NAME_error`` and ``truth_max_z``).
+simulated truth beside it (``STEM.truth.json``) is compared field by field (``NAME_error`` and ``truth_max_z``;
+a unit more than :data:`MAX_TRUTH_Z` std from its truth fails).
 """
 
 from __future__ import annotations
@@ -266,6 +267,11 @@ def truth_columns(res, path: Path) -> dict:
     return row
 
 
+#: with ``reference``, a unit whose largest |error|/std against its truth exceeds this fails (a 5σ excursion is
+#: beyond chance even over the 50 parameters of a gfimu array)
+MAX_TRUTH_Z = 5.0
+
+
 def calibrate_unit(path: str, job, name: str = "") -> dict:
     """Run one unit's file through its system (``job``: a :class:`BatchJob`, or multipos options) and return its
     table row; never raises for a bad unit (status "failed" and the one-line error instead). Runs in a worker
@@ -288,9 +294,16 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
         res, extra = SYSTEMS[job.system].load("run_unit")(p, job.options, job.reference)
         row.update({k: _cell(v) for k, v in extra.items()})
         row.update(result_columns(res))
+        row.update(status="ok", error="")
         if job.reference:
             row.update(truth_columns(res, p))
-        row.update(status="ok", error="")
+            z = row.get("truth_max_z")
+            if z is not None and z > MAX_TRUTH_Z:  # scored against the truth: an error the std did not cover
+                row.update(
+                    status="failed",
+                    error=f"the result is {z:.3g} std from the simulated truth (beyond {MAX_TRUTH_Z:g}): an error its "
+                    "std and gates missed",
+                )
     except OptinavError as exc:
         row.update(status="failed", error=str(exc))
     except Exception as exc:  # noqa: BLE001 - a unit's crash is its row, not the batch's end
