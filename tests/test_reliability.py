@@ -284,6 +284,43 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
     assert main(["--quiet", "calibrate", "rins", str(rins_file), "--lat", "28.3", "--out", str(out)]) == 0
 
 
+@pytest.mark.parametrize(
+    "case, why",
+    [
+        ("flip gx", "the gimbal model does not fit this recording; check the gyro columns"),
+        ("gyro deg", "57.3× the Earth rate"),
+        ("gyro rate", "the gyro increments are not in rad"),
+        ("encoders deg", "in degrees, not rad?); write the encoder columns in rad"),
+    ],
+)
+def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, case, why):
+    """Found by a helper: a gyro column's sign flipped passed the residual gate (73× the noise walk, limit 100)
+    with every angle 82σ off; gyro increments in degrees or given as rates, and encoders in degrees, were refused
+    with messages about the encoders or the rest."""
+    import numpy as np
+
+    d = dict(np.load(rins_file))
+    if case == "flip gx":  # the helper's scheme (psins16, 20 s dwells): the flip shows in the residual
+        src = tmp_path / "p.npz"
+        argv = ["--quiet", "simulate", "rins", "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3", "--seed", "3"]
+        assert main(argv + ["--align", "300", "--dwell", "20", "--out", str(src)]) == 0
+        d = dict(np.load(src))
+        d["dtheta_x"] = -d["dtheta_x"]
+    elif case == "gyro deg":
+        d.update({f"dtheta_{k}": np.degrees(d[f"dtheta_{k}"]) for k in "xyz"})
+    elif case == "gyro rate":
+        h = float(np.median(np.diff(d["t"])))
+        d.update({f"dtheta_{k}": d[f"dtheta_{k}"] / h for k in "xyz"})
+    else:
+        d["alpha"], d["beta"] = np.degrees(d["alpha"]), np.degrees(d["beta"])
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **d)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(bad), "--out", str(out)]) == 2
+    one_line_error(capsys, why)
+    assert not out.exists()
+
+
 # --- sun: the SPA's whole valid range, refused outside --------------------------------------------------------
 
 

@@ -65,8 +65,9 @@ PSO_PAPER = dict(n_particles=20, generations=150, w=0.8, c1=2.0, c2=2.0)
 #: largest plausible non-orthogonality angle (rad): machining and assembly give mrad, the paper's largest is 9 mrad
 MAX_ANGLE = 0.05
 #: largest accepted ratio of the fitted attitude-residual RMS to the attitude random walk of the gyro noise over
-#: the recording (a correct fit on simulated navigation-grade data leaves about 10: gyro scale/misalignment)
-MAX_RESIDUAL_RATIO = 100.0
+#: the recording (a correct fit on simulated navigation-grade data leaves 2-12: gyro scale/misalignment up to
+#: 30″; a gyro column's sign flipped left 73-97 and passed the former 100; an unmodelled 100 ppm scale, 42-52)
+MAX_RESIDUAL_RATIO = 30.0
 #: 1σ of the uncalibrated gyro misalignment (rad; the "rlg-nav" preset: 5″) and scale factor (-) propagated into
 #: the reported std by default
 GYRO_MISALIGNMENT = float(np.radians(5 / 3600))
@@ -699,17 +700,17 @@ def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
         raise OptinavError(
             f"the fitted {nm} = {v:.4g} rad is not a plausible non-orthogonality (|angle| ≤ "
             f"{MAX_ANGLE} rad): the alpha/beta columns may be swapped, in degrees or of another "
-            "recording",
-            "check the encoder columns (alpha = inner, beta = outer, rad)",
+            "recording, or the gyro columns swapped or sign-flipped",
+            "check the encoder columns (alpha = inner, beta = outer, rad) and the gyro columns (x, y, z, signs)",
         )
     rms = float(np.sqrt(np.mean(np.asarray(e_after) ** 2)))
     walk = noise_walk(prep)
     if walk > 0 and rms > MAX_RESIDUAL_RATIO * walk:
         raise OptinavError(
             f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, "
-            f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains: the gimbal "
-            "model does not fit this recording",
-            "check the encoder columns (alpha = inner, beta = outer, rad) and --lat",
+            f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains (limit {MAX_RESIDUAL_RATIO:g}×): "
+            "the gimbal model does not fit this recording",
+            "check the gyro columns (order, signs), the encoder columns (alpha = inner, beta = outer, rad) and --lat",
         )
     out = [gate("optimizer converged", res.success, None, kind="true")] if method == "lm" and res is not None else []
     out.append(gate("largest |combination|", max((abs(v) for _, v in values), default=0.0), MAX_ANGLE, unit="rad"))

@@ -166,6 +166,16 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
     if not -np.pi / 2 <= lat <= np.pi / 2:
         raise OptinavError(f"latitude {np.degrees(lat):.6g}° is outside [-90°, 90°]", "pass --lat DEG (north +)")
     meas, sd = measured_latitude(dth, dv, span)
+    w = float(np.linalg.norm(dth.sum(0) / span))
+    ratio = w / _earth.WGS84.omega_ie
+    if sd < 0.1 and not 0.5 < ratio < 2.0:  # a navigation-grade gyro at rest reads the Earth rate, nothing else
+        step = span / max(len(dth), 1)
+        raise OptinavError(
+            f"the gyros measure {w:.3g} rad/s at rest, {ratio:.3g}× the Earth rate ({_earth.WGS84.omega_ie:.3g} "
+            f"rad/s): the gyro increments are not in rad (degrees read ×57.3; rates in rad/s instead of "
+            f"increments ×{1 / step:.3g})",
+            "write the gyro columns as angle increments in rad over each sample step",
+        )
     tol = max(np.radians(LAT_TOL_DEG), 5 * sd)
     if sd < np.radians(10) and abs(meas - lat) > tol:
         raise OptinavError(
@@ -229,11 +239,13 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     rest: dict = {"t": [], "dtheta": [], "dv": []}
     k_a, t0, prev = None, None, None  # rows of the rest once known; first epoch; last encoder angles
     kept, overflow = 0, False  # rest rows kept; more than MAX_REST_ROWS (no longer kept)
+    enc = 0.0  # the largest |encoder angle| of the blocks up to the first move
     for b in _blocks(src, desc):
         t = checks.feed(b)
         if k_a is not None or not t.size:
             continue
         a, bb = np.asarray(b.alpha, float), np.asarray(b.beta, float)
+        enc = max(enc, float(np.nanmax(np.abs(a))), float(np.nanmax(np.abs(bb))))
         if prev is None:
             t0, prev = float(t[0]), (a[0], bb[0])
         moving = motion_mask(a, prev=prev[0]) | motion_mask(bb, prev=prev[1])
@@ -255,9 +267,13 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     k_a = n if k_a is None else k_a
     step = float(np.median(dt))
     if k_a * step < 10.0:
+        deg = enc > 2 * np.pi * 1.05  # an encoder in degrees moves 57× in rad: its noise looks like motion
         raise OptinavError(
-            f"only {k_a * step:.3g} s of rest before the first gimbal move",
-            "record at least 60 s (the paper: 600 s) static with both gimbals still first",
+            f"only {k_a * step:.3g} s of rest before the first gimbal move"
+            + (f" (the encoders read up to {enc:.4g} at the start: in degrees, not rad?)" if deg else ""),
+            "write the encoder columns in rad"
+            if deg
+            else "record at least 60 s (the paper: 600 s) static with both gimbals still first",
         )
     if k_a >= n - 2:
         raise OptinavError(
