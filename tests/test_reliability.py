@@ -291,6 +291,9 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
         ("gyro deg", "57.3× the Earth rate"),
         ("gyro rate", "the gyro increments are not in rad"),
         ("encoders deg", "in degrees, not rad?); write the encoder columns in rad"),
+        ("flip gy", "the gyros turn 1× the encoder's angle about an axis 179° from the gimbal's"),
+        ("swap gx gy", "about an axis 89"),
+        ("flip beta", "move 1 (-180°) the gyros turn"),
     ],
 )
 def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, case, why):
@@ -308,6 +311,12 @@ def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, c
         d["dtheta_x"] = -d["dtheta_x"]
     elif case == "gyro deg":
         d.update({f"dtheta_{k}": np.degrees(d[f"dtheta_{k}"]) for k in "xyz"})
+    elif case == "flip gy":
+        d["dtheta_y"] = -d["dtheta_y"]
+    elif case == "swap gx gy":
+        d["dtheta_x"], d["dtheta_y"] = d["dtheta_y"], d["dtheta_x"]
+    elif case == "flip beta":
+        d["beta"] = -d["beta"]
     elif case == "gyro rate":
         h = float(np.median(np.diff(d["t"])))
         d.update({f"dtheta_{k}": d[f"dtheta_{k}"] / h for k in "xyz"})

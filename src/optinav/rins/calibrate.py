@@ -639,6 +639,30 @@ def axis_vectors(p, alpha_out) -> tuple[np.ndarray, np.ndarray]:
     return A @ np.array([0.0, 0, 1]), (A @ Z @ B @ np.array([0.0, 1, 0])).reshape(-1, 3)
 
 
+#: largest angle (rad) between the axis the gyros turn about during a gimbal move and the gimbal's nominal axis:
+#: non-orthogonality and misalignment are milliradians; a gyro column's sign flipped or two columns swapped turn
+#: it by up to 180° (180° moves end where they would unflipped, so the attitude residual hardly shows it)
+MAX_MOVE_AXIS = 0.05
+
+
+def check_move_axes(moves: dict) -> None:
+    """Each gimbal move of 20° or more (:class:`_AxisMoves`: the gyro increments less the Earth rate, summed over
+    the move, per encoder radian) must turn about the gimbal's nominal axis, within :data:`MAX_MOVE_AXIS`, at
+    the encoder's rate (the sum's norm within 10 % of 1)."""
+    for axis, name in (("Z", "inner (alpha)"), ("Y", "outer (beta)")):
+        for k, (u, d_ang, other) in enumerate(moves.get(axis, [])):
+            u0 = axis_vectors(np.zeros(6), [other])[0] if axis == "Z" else axis_vectors(np.zeros(6), [other])[1][0]
+            nu = float(np.linalg.norm(u))
+            off = float(np.arccos(np.clip(u @ u0 / max(nu, 1e-300), -1.0, 1.0)))
+            if off > MAX_MOVE_AXIS or not 0.9 < nu < 1.1:
+                raise OptinavError(
+                    f"during {name} move {k + 1} ({np.degrees(d_ang):+.0f}°) the gyros turn {nu:.3g}× the encoder's "
+                    f"angle about an axis {np.degrees(off):.3g}° from the gimbal's: a gyro column's sign or order, or "
+                    "an encoder's sign, contradicts the other",
+                    "check the gyro columns (x, y, z, signs) and the encoder signs (alpha = inner, beta = outer)",
+                )
+
+
 def _measure_axes(prep: Prepared):
     """Axis vector of every gimbal move from the gyro increments: (inner [(u, Δα, β)], outer [(u, Δβ, α)]),
     gathered by :func:`prepare` (:class:`_AxisMoves`)."""
@@ -787,6 +811,7 @@ def calibrate(
             gyro_scale=gyro_scale,
         )
     rep0, V, C, cnames = prep.subspace  # checks the input on first use
+    check_move_axes(prep.moves)
     t_fit = time.perf_counter()
     history: list = []
     info: dict = {}
