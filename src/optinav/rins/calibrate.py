@@ -657,9 +657,9 @@ def check_move_axes(moves: dict) -> None:
             if off > MAX_MOVE_AXIS or not 0.9 < nu < 1.1:
                 raise OptinavError(
                     f"during {name} move {k + 1} ({np.degrees(d_ang):+.0f}°) the gyros turn {nu:.3g}× the encoder's "
-                    f"angle about an axis {np.degrees(off):.3g}° from the gimbal's: a gyro column's sign or order, or "
-                    "an encoder's sign, contradicts the other",
-                    "check the gyro columns (x, y, z, signs) and the encoder signs (alpha = inner, beta = outer)",
+                    f"angle about an axis {np.degrees(off):.3g}° from the gimbal's: the gyro columns (sign, order) "
+                    "or the encoders (sign, alpha/beta swapped) contradict each other",
+                    "check the gyro columns (x, y, z, signs) and the encoder columns (alpha = inner, beta = outer)",
                 )
 
 
