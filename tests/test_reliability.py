@@ -1069,3 +1069,25 @@ def test_report_on_the_out_file_and_gyro_out_without_a_gyro(tmp_path, capsys, co
     argv = ["export", str(ng), "--to", "imu_tk", "--out", str(tmp_path / "a.calib")]
     assert main(argv + ["--gyro-out", str(tmp_path / "g.calib")]) == 2
     one_line_error(capsys, "this calibration has no gyroscope")
+
+
+def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
+    """imucal's real Ferraris session has no time column: ``report --data`` said "pass --rate HZ", an option
+    report did not have; it has it now (and refuses it without --data or for a result that reads no rate)."""
+    shared = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
+    data = shared / "example_ferraris_session.csv"
+    if not data.is_file():
+        pytest.skip("imucal's example session is not in ../shared/data")
+    res = tmp_path / "fr.json"
+    argv = ["--quiet", "calibrate", "accel", str(data), "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    argv += ["--method", "ferraris", "--sections", str(shared / "example_ferraris_session_list.json")]
+    assert main(argv + ["--out", str(res)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(res), "--data", str(data), "--out", str(tmp_path / "r0")]) == 2
+    one_line_error(capsys, "has no time column")
+    assert (
+        main(["--quiet", "report", str(res), "--data", str(data), "--rate", "102.4", "--out", str(tmp_path / "r")]) == 0
+    )
+    assert "pose" in (tmp_path / "r" / "index.md").read_text()
+    assert main(["report", str(res), "--rate", "102.4", "--out", str(tmp_path / "r2")]) == 2
+    one_line_error(capsys, "--rate is the sampling rate of the --data recordings")

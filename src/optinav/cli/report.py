@@ -6,6 +6,9 @@ from __future__ import annotations
 import argparse
 import textwrap
 
+from optinav.cli.common import RATE
+from optinav.errors import OptinavError
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -34,6 +37,13 @@ def register(sub) -> None:
         metavar="DATA",
         help="the recording of a result (repeatable, one per result in order)",
     )
+    p.add_argument(
+        "--rate",
+        dest="rate_hz",
+        type=RATE,
+        metavar="HZ",
+        help="sampling rate of --data recordings without a time column (multi-position and attitude results)",
+    )
     p.add_argument("--out", required=True, metavar="DIR|FILE.md", help="report folder or Markdown file")
     p.set_defaults(func=run)
 
@@ -43,5 +53,7 @@ def run(args) -> int:
     from optinav.reports.result_report import write_result_reports
 
     require_files(*((r, "result file") for r in args.results), *((d, "--data file") for d in args.data))
-    print(f"optinav: report written to {write_result_reports(args.results, args.out, args.data)}")
+    if args.rate_hz is not None and not args.data:
+        raise OptinavError("--rate is the sampling rate of the --data recordings", "give --data, or drop --rate")
+    print(f"optinav: report written to {write_result_reports(args.results, args.out, args.data, args.rate_hz)}")
     return 0

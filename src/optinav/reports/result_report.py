@@ -32,7 +32,8 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         try:
             d = read_session_file(data, o)
         except OptinavError as exc:
-            if options is None and " declares " in exc.cause and " was passed" in exc.cause:  # the file's own units
+            ours = options is None or (options.acc_unit is None and options.gyro_unit is None)
+            if ours and " declares " in exc.cause and " was passed" in exc.cause:  # the file's own units
                 raw = ", ".join(f"{units[k]}" for k in ("accelerometer_raw", "gyroscope_raw") if units.get(k))
                 raise OptinavError(
                     f"{exc.cause.split(' but ')[0]}, the result was calibrated from raw {raw}: not its log",
@@ -50,6 +51,18 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
         tables=cr.tables(res, []),
     )
     return write_report([study], out_dir, title="optinav calibration")
+
+
+def _reading(system, rate_hz: float | None):
+    """The reading options of ``system``'s recordings with ``rate_hz``, or None (its defaults)."""
+    if rate_hz is None:
+        return None
+    import dataclasses
+
+    cls = system.load("options")
+    if "rate_hz" not in {f.name for f in dataclasses.fields(cls)}:
+        raise OptinavError(f"--rate does not apply to {system.name} results", "drop --rate")
+    return cls(rate_hz=float(rate_hz))
 
 
 def _check_same_log(res, d, data) -> None:
@@ -112,11 +125,12 @@ def _stems(paths) -> list[str]:
     return out
 
 
-def write_result_reports(results, out, data=None) -> Path:
+def write_result_reports(results, out, data=None, rate_hz: float | None = None) -> Path:
     """Report every result file of ``results`` (paths; ``data``: None or the recording of each, in order) into
     ``out``: a folder (one result: its report there; several: one sub-folder each and an index.md linking
     them) or a Markdown file ``FILE.md`` (the reports one after the other, their figures, HTML and summaries in
-    ``FILE_files/``). Returns the Markdown file written."""
+    ``FILE_files/``). ``rate_hz``: the sampling rate (Hz) of recordings without a time column (the reading
+    option of multi-position and attitude results). Returns the Markdown file written."""
     from optinav import registry
     from optinav.core.files import check_output, write_text
     from optinav.reports.report import check_report_dir
@@ -144,7 +158,7 @@ def write_result_reports(results, out, data=None) -> Path:
     new = [made] if made is not None else [f for f in folders if not f.exists()]
     try:
         for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
-            system.load("report")(res, folder, d)
+            system.load("report")(res, folder, d, _reading(system, rate_hz))
         if single_file:
             parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
             return write_text(out, "\n".join(parts), "--out")
