@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import os
 import struct
 import sys
 import zlib
@@ -366,34 +367,38 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
     from optinav.io import _bagkernels as kern
 
     stamp, logt, va, vb = out
+    # the few bytes of each chunk's header and message indexes are read with pread, not from the map: a kernel
+    # that caches the file in large folios maps a whole folio (up to the chunk) for one byte touched, and one
+    # byte per chunk then put the whole file in the resident set before the first round was decoded
     with open(path, "rb") as fh:
         if fh.read(8) != _MCAP_MAGIC:
             return False
         idx = _mcap_index(fh, topic)
-    if idx is None or not idx[1] or not stamp.size:
+        if idx is None or not idx[1] or not stamp.size:
+            return False
+        pos = np.array(idx[1], dtype=np.int64)
+        expect = np.zeros(pos.size, dtype=np.int64)
+        for i, offs in enumerate(idx[2]):  # Message Index: opcode 0x07, length u64, channel u16, records u32 + 16 each
+            for m in offs:
+                head = os.pread(fh.fileno(), 15, m)
+                if len(head) != 15 or head[0] != 0x07:
+                    return False
+                n = _U32.unpack_from(head, 11)[0]
+                if n % 16:
+                    return False
+                expect[i] += n // 16
+        if int(expect.sum()) != stamp.size or np.any(np.diff(pos) <= 0):
+            return False
+        # chunks that carry a CRC-32 (the mcap library's default; rosbag2 turns it off): checked by zlib, which
+        # releases the GIL, in the thread that then walks them
+        crcs = _mcap_crcs(fh.fileno(), pos)
+    if crcs is None:
         return False
     chans = np.zeros(1 << 16, dtype=np.bool_)
     chans[list(idx[0])] = True
-    pos = np.array(idx[1], dtype=np.int64)
     mm, u8 = _map(path)
-    expect = np.zeros(pos.size, dtype=np.int64)
-    for i, offs in enumerate(idx[2]):  # Message Index: opcode 0x07, length u64, channel u16, records u32 + 16 each
-        for m in offs:
-            if m + 15 > u8.size or u8[m] != 0x07:
-                return False
-            n = _U32.unpack_from(mm, m + 11)[0]
-            if n % 16:
-                return False
-            expect[i] += n // 16
-    if int(expect.sum()) != stamp.size or np.any(np.diff(pos) <= 0):
-        return False
     row0 = np.zeros(pos.size + 1, dtype=np.int64)
     np.cumsum(expect, out=row0[1:])
-    # chunks that carry a CRC-32 (the mcap library's default; rosbag2 turns it off): checked by zlib, which
-    # releases the GIL, in the thread that then walks them
-    crcs = _mcap_crcs(mm, u8, pos)
-    if crcs is None:
-        return False
     checked = bool(np.any(crcs[:, 2]))
     scratch = [tuple(np.empty(int(expect.max()) + 1, dtype=np.int64) for _ in range(3)) for _ in range(2)]
     # the layout from the first chunk's first message (the chunk walked, nothing gathered into no rows: ROOM)
@@ -425,20 +430,22 @@ def mcap_decode(path: Path, topic: str, layout, out: tuple) -> bool:
     return _rounds(mm, pos, np.append(pos[1:], u8.size), run, scratch)
 
 
-def _mcap_crcs(mm, u8: np.ndarray, pos: np.ndarray) -> np.ndarray | None:
-    """(records start, end, CRC-32 or 0) of the uncompressed Chunk records at ``pos`` (:func:`_mcap_head`);
-    None when one is compressed or does not parse (the kernel checks each header again)."""
+def _mcap_crcs(fd: int, pos: np.ndarray) -> np.ndarray | None:
+    """(records start, end, CRC-32 or 0) of the uncompressed Chunk records at ``pos`` of the file ``fd``
+    (:func:`_mcap_head` on each header, read with pread); None when one is compressed or does not parse (the
+    kernel checks each header again)."""
     out = np.zeros((pos.size, 3), dtype=np.int64)
     for i, p in enumerate(pos.tolist()):
-        if p + 9 > u8.size or u8[p] != 0x06:
+        head = os.pread(fd, 9 + 80, p)  # opcode, length, the header up to a compression name of 40 bytes
+        if len(head) < 9 or head[0] != 0x06:
             return None
         try:
-            kind, data, _, crc, _ = _mcap_head(mm, u8, p + 9, _U64.unpack_from(mm, p + 1)[0])
-        except NotFast:
+            kind, data, _, crc, _ = _mcap_head(head, None, 9, _U64.unpack_from(head, 1)[0])
+        except (NotFast, struct.error):
             return None
         if kind not in ("", "none"):
             return None
-        out[i] = *data, crc
+        out[i] = data[0] + p, data[1] + p, crc
     return out
 
 
