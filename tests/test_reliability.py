@@ -484,6 +484,21 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
         assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
 
 
+def test_gfimu_rate_check_knows_the_offset(tmp_path, capsys):
+    """An array 10-30 cm off the table axis, the offset given: the rate-scale check predicted the outputs with the
+    centre on the axis and refused correct data as "table rates 1.2x the stated ones" (found by a helper); without
+    the offset the error names it too."""
+    f = tmp_path / "o.npz"
+    argv = ["--quiet", "simulate", "gfimu-turntable", "--out", str(f), "--seed", "14", "--offset", "0.3,0.2,0.1"]
+    assert main(argv + ["--duration", "2"]) == 0
+    out = tmp_path / "r.json"
+    base = ["--quiet", "calibrate", "gfimu", str(f), "--builtin", "cylinder10", "--out", str(out)]
+    assert main(base + ["--offset", "0.3,0.2,0.1"]) == 0
+    capsys.readouterr()
+    assert main(base) == 2
+    one_line_error(capsys, "or the array's centre is off the table axis", "--offset X,Y,Z")
+
+
 def test_gfimu_std_widen_with_the_residual_and_apply_refuses_garbage(turntable, tmp_path, capsys):
     """An unmodelled bias below the χ² gate widens the std by √χ² (was 20σ off with the noise-only std); apply
     refused nothing: two columns swapped made the rate integration diverge to 1e227 rad/s and NaN, outputs in g
@@ -1033,7 +1048,7 @@ def test_apply_refuses_a_gyro_in_another_unit_and_notes_a_cut_line(tmp_path, cap
     f = tmp_path / "rad.csv"
     f.write_text("\n".join(rad) + "\n")
     assert main(["apply", str(res), str(f), "--out", str(tmp_path / "x.csv")]) == 2
-    one_line_error(capsys, "the data's gyro looks like rad/s, not the deg/s the calibration was made for")
+    one_line_error(capsys, "(as if it were in rad/s): the data's gyro is not in the deg/s the calibration was made for")
     cut = tmp_path / "cut.csv"
     text = data.read_text()
     cut.write_text(text[: text.rstrip().rindex(",")])  # the last line without its last column

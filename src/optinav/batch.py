@@ -267,9 +267,10 @@ def truth_columns(res, path: Path) -> dict:
     return row
 
 
-#: with ``reference``, a unit whose largest |error|/std against its truth exceeds this fails (a 5σ excursion is
-#: beyond chance even over the 50 parameters of a gfimu array)
-MAX_TRUTH_Z = 5.0
+#: with ``reference``, a unit whose largest |error|/std against its truth exceeds this fails: a gross error its
+#: std and gates missed (swapped columns gave 42 000); honest std put the largest of 24-50 parameters at 5-5.6 in
+#: a few per cent of simulated units (a helper's batches), which are not failures
+MAX_TRUTH_Z = 10.0
 
 
 def calibrate_unit(path: str, job, name: str = "") -> dict:

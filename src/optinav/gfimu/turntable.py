@@ -628,21 +628,28 @@ def dr_limit(nominal: AccelerometerArray) -> float:
     return float(min(MAX_DR_M, MAX_DR_SPACING * d.min())) if d.size else MAX_DR_M
 
 
-def nominal_case_means(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> np.ndarray:
-    """Case means (K, N) m/s² the nominal array would read (no installation errors, centre on the axis)."""
+def nominal_case_means(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float, offsets=None) -> np.ndarray:
+    """Case means (K, N) m/s² the nominal array would read (no installation errors; its centre on the axis, or
+    ``offsets`` (K, 3) m off it per case)."""
     U = table_axes(gamma, cm.mounting)
-    return np.array([model_outputs(nominal.positions, nominal.directions, u, w, g) for u, w in zip(U, cm.rate)])
+    offs = [None] * len(U) if offsets is None else offsets
+    return np.array(
+        [model_outputs(nominal.positions, nominal.directions, u, w, g, o) for u, w, o in zip(U, cm.rate, offs)]
+    )
 
 
-def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> None:
+def check_data(
+    nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float, offsets=None, offset_known: bool = True
+) -> None:
     """Checks of the turntable data against the nominal array before a fit (one-line errors):
 
     * stuck or constant outputs: a sensor whose case means span less than a tenth of what the nominal geometry
       predicts (the cases turn gravity through the wedge angle, so every sensor's output must change);
     * the table-rate unit: per mounting, the change of the case means between two rates is
       ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
-      (within :data:`RATE_SCALE_RANGE`); (π/180)² means rates in deg/s labelled rad/s."""
-    pred = nominal_case_means(nominal, cm, gamma, g)
+      (within :data:`RATE_SCALE_RANGE`, with the array's centre where ``offsets`` (K, 3) m puts it; 0.5–2 when
+      the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s."""
+    pred = nominal_case_means(nominal, cm, gamma, g, offsets)
     s = _rate_scale(cm, pred)
     deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
     if deg:
@@ -661,13 +668,14 @@ def check_data(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: floa
             f"changes by {span_p[i]:.3g}): stuck or constant outputs",
             "check those channels (or pass the configuration the data was recorded with)",
         )
-    lo, hi = RATE_SCALE_RANGE
+    lo, hi = RATE_SCALE_RANGE if offset_known else (0.5, 2.0)
     if s is not None and not lo < s < hi:
         raise OptinavError(
             f"the table rates disagree with the centripetal terms the accelerometers measure (the "
             f"rate-dependent change of the outputs is {s:.3g}× the predicted, i.e. rates {np.sqrt(s):.3g}× the "
-            "stated ones)",
-            "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s) and the configuration",
+            "stated ones, or the array's centre is off the table axis)",
+            "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s), the configuration, and give "
+            "the centre's offset from the axis (--offset X,Y,Z in m, or estimate)",
         )
 
 
@@ -992,7 +1000,11 @@ def calibrate(
             "pass the configuration the data was recorded with",
         )
     cm = data.cases if summary else case_means(data)
-    check_data(nominal, cm, data.gamma, data.gravity)
+    case_offsets = None
+    if fixed is not None:
+        fk = np.broadcast_to(fixed, (3, 3))
+        case_offsets = np.array([fk[int(m) - 1] for m in cm.mounting])
+    check_data(nominal, cm, data.gamma, data.gravity, case_offsets, offset != "estimate")
     if sigma is None:
         sig = cm.sigma
         if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
@@ -1002,9 +1014,7 @@ def calibrate(
             )
     else:
         sig = noise_sigma(sigma, nominal.n)  # a wrong σ would give a plausible result with a wrong std
-    if fixed is not None:
-        fk = np.broadcast_to(fixed, (3, 3))
-        fixed = np.array([fk[int(m) - 1] for m in cm.mounting])
+    fixed = case_offsets
     model = _Model(nominal, cm, data.gamma, data.gravity, sig, offset == "estimate", fixed_offset=fixed)
     names = model.names()
     units = _unit_names(nominal.n, model.n_off)

@@ -123,8 +123,8 @@ def _check_fit(residual_rms, sigma, data_path) -> None:
         raise OptinavError(
             f"the outputs of {Path(data_path).name} do not fit the calibrated geometry: the rigid-body model leaves "
             f"{ratio:.3g}× the noise measured at calibration (median over the outputs; most at f{worst + 1})",
-            "check the order of the output columns f1..fN against the configuration, and that this is the "
-            "calibrated array",
+            "check --omega0 (the rate at the log's first sample; default: at rest), the order of the output "
+            "columns f1..fN against the configuration, and that this is the calibrated array",
         )
 
 

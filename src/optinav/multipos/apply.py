@@ -129,8 +129,8 @@ def _check_corrected_gyro(acc, gyro, log, data_path, result_path) -> None:
         unit = hint.split(" declared ")[0]
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
-            f"gravity turns in the body; the data's gyro looks like {unit}, not the {log.gyro_input_unit or 'unit'} "
-            "the calibration was made for",
+            f"gravity turns in the body (as if it were in {unit}): the data's gyro is not in the "
+            f"{log.gyro_input_unit or 'unit'} the calibration was made for, or the calibration is another sensor's",
             "convert the gyro to the calibration's raw unit, or apply the calibration of this sensor",
         )
 
