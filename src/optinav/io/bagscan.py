@@ -310,7 +310,7 @@ def _mcap(path: Path, topic: str):
                 raise NotFast("truncated chunk")
             spans.append((off, off + 9 + n))
         done = _Unmap(mm)
-        heads = ((o, e, _mcap_head(mm, u8, o + 9, e - o - 9)) for o, e in spans)
+        heads = ((o, e, _mcap_head(mm, o + 9, e - o - 9)) for o, e in spans)
         for (off, end, item), raw in _ahead(heads, _mcap_work, lambda h: h[2][0] in _SLOW_CODECS):
             yield from _mcap_chunk(mm, u8, item, raw, topic, chans, rows)
             done.add(off, end)  # decoded by now
@@ -332,7 +332,7 @@ def _mcap(path: Path, topic: str):
         if op == 0x04:
             _mcap_channel(mm, pos + 9, topic, chans)
         elif op == 0x06:
-            item = _mcap_head(mm, u8, pos + 9, n)
+            item = _mcap_head(mm, pos + 9, n)
             yield from _mcap_chunk(mm, u8, item, _mcap_work((None, None, item)), topic, chans, rows)
             done.add(pos, pos + 9 + n)  # decoded by now
         pos += 9 + n
@@ -440,7 +440,7 @@ def _mcap_crcs(fd: int, pos: np.ndarray) -> np.ndarray | None:
         if len(head) < 9 or head[0] != 0x06:
             return None
         try:
-            kind, data, _, crc, _ = _mcap_head(head, None, 9, _U64.unpack_from(head, 1)[0])
+            kind, data, _, crc, _ = _mcap_head(head, 9, _U64.unpack_from(head, 1)[0])
         except (NotFast, struct.error):
             return None
         if kind not in ("", "none"):
@@ -458,8 +458,8 @@ def _crcs_match(mm, rows: np.ndarray) -> bool:
         view.release()
 
 
-def _mcap_head(mm, u8: np.ndarray, start: int, n: int) -> tuple:
-    """The Chunk record whose content is ``u8[start:start + n]`` (``mm``: the same bytes for :mod:`struct`):
+def _mcap_head(mm, start: int, n: int) -> tuple:
+    """The Chunk record whose content is ``mm[start:start + n]`` (the file map, or a header read on its own):
     (compression, its records' bytes (a copy when compressed) or their span in the file, uncompressed size, CRC,
     message span)."""
     if n < 40:

@@ -541,11 +541,10 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     from optinav.core.files import input_kind
     from optinav.io.rosbag import is_bag
 
-    input_kind(path)
-
+    node = input_kind(path)
     if is_bag(path):  # a ROS 2 bag is a folder; rosbags checks the files itself
         return "rosbag", False
-    if path.is_dir():
+    if node == "dir":
         raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
     gz = path.suffix.lower() == ".gz"
     suffix = _suffix(path)
