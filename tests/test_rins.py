@@ -208,6 +208,8 @@ def test_bad_input_errors():
     # only the inner axis turns
     inner = simulate(P_TRUE, rng=2, scheme="single4", align_s=60, dwell_s=10, move_s=5, rate_hz=100)
     _err(inner, r"only the inner \(alpha\) axis turns.*eta_x.*cannot be calibrated")
+    # the words name the noise-free structure: encoder noise is no coupling (was 'theta_x + 2.24e+05·eta_z')
+    _err(inner, r"turns, the outer \(beta\) encoder stays still: theta_z; eta_x; eta_y; eta_z cannot be calibrated")
     # frozen outer encoder while the outer gimbal turns
     frozen = dataclasses.replace(base, beta=np.zeros_like(base.beta))
     _err(frozen, "encoder channel is frozen or missing")
