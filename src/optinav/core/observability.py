@@ -288,10 +288,6 @@ def _structure(Js: np.ndarray, d: np.ndarray, names: list[str], rel_tol: float, 
     observable = np.ones(n, dtype=bool)
     statements: list[str] = []
     if r < n:
-        # a singular value ≤ rel_tol·s_max counts as zero, so the null basis is known only up to a mixing of that
-        # size with the observable directions: smaller coefficients are that mixing, not a coupling (rins: one
-        # axis turning, encoder noise read as "theta_x + 2.24e5·eta_z" with theta_x observable)
-        coef_tol = max(coef_tol, rel_tol)
         N = rref(null_u.T, coef_tol)  # canonical null basis, u coordinates
         support = N != 0.0
         observable = ~support.any(axis=0)

@@ -435,8 +435,18 @@ def observability(alpha, beta, p=None, sigma=1.0):
     alpha, beta = np.asarray(alpha, float)[::stride], np.asarray(beta, float)[::stride]
     cs = sensor_attitude(np.broadcast_to(np.eye(3), (len(alpha), 3, 3)), alpha, beta, p)
     J = residual_jacobian(cs, alpha, beta, p)
-    # rel_tol 1e-3: encoder noise (~1″) makes exactly unobservable directions look 1e-5 × observable
-    return analyze(J, sigma, names=list(PARAM_NAMES), units=["rad"] * 6, scales=np.full(6, SCALE), rel_tol=REL_TOL)
+    # rel_tol 1e-3: encoder noise (~1″) makes exactly unobservable directions look 1e-5 × observable, and mixes
+    # them with observable ones by as little: coefficients below it are that mixing, not a coupling (one axis
+    # turning read "theta_x + 2.24e+05·eta_z", theta_x observable)
+    return analyze(
+        J,
+        sigma,
+        names=list(PARAM_NAMES),
+        units=["rad"] * 6,
+        scales=np.full(6, SCALE),
+        rel_tol=REL_TOL,
+        coef_tol=REL_TOL,
+    )
 
 
 def observable_combinations(alpha, beta):
