@@ -5,13 +5,13 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from optinav import OptinavError
 from optinav.core import units
 from optinav.core.results import Result
-from optinav.core.validate import as_float_array, check_timestamps
+from optinav.core.validate import as_float_array, check_timestamps, integration_steps
 
 
 def test_unit_conversions_by_hand():
@@ -120,3 +120,33 @@ def test_check_positive():
     for bad in (None, "abc", 0, -1.0, float("inf"), float("nan")):
         with pytest.raises(OptinavError, match="positive finite"):
             check_positive(bad, "rate")
+
+
+@given(
+    rate=st.floats(20.0, 2000.0),
+    tick=st.sampled_from([1e-3, 1e-4, 1.0 / 32768]),
+    t0=st.floats(0.0, 1e5),
+    n=st.integers(50, 2000),
+)
+def test_integration_steps_undo_the_rounding_of_uniform_stamps(rate, tick, t0, n):
+    """Uniform sampling, stamps rounded to a coarse tick: the steps are the true step within the fit's error
+    (tick/n), not a tick off; the integral of a constant rate is the duration."""
+    h = 1.0 / rate
+    assume(tick < 0.6 * h)  # coarser ticks give duplicate stamps, which the readers refuse
+    t = np.round((t0 + h * np.arange(n)) / tick) * tick
+    s = integration_steps(t)
+    assert s.shape == (n,)
+    if tick >= 0.01 * h and len(np.unique(np.round(np.diff(t) / tick))) == 2:
+        np.testing.assert_allclose(s, h, rtol=0, atol=2 * tick / n)
+    else:  # a fine tick (or steps that are whole ticks) is left alone
+        np.testing.assert_allclose(s[:-1], np.diff(t))
+
+
+def test_integration_steps_keep_real_irregular_steps_and_gaps():
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.009, 0.011, 500))  # real jitter, exact stamps: a random walk off any line
+    np.testing.assert_array_equal(integration_steps(t)[:-1], np.diff(t))
+    g = np.round(np.r_[np.arange(100), np.arange(106, 200)] / 102.4, 3)  # ms stamps and a 6-sample gap
+    s = integration_steps(g)
+    np.testing.assert_array_equal(s[:-1], np.diff(g))
+    assert s[-1] == np.median(np.diff(g))  # the last sample: the median step, not a step past the end

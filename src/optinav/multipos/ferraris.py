@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.core.validate import as_float_array, check_positive, check_timestamps, integration_steps
 from optinav.errors import OptinavError
 
 __all__ = [
@@ -482,8 +482,10 @@ def sections_from_labels(labels) -> dict | None:
 def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = False, **kwargs):
     """Ferraris calibration of a continuous log with annotated sections.
 
-    With timestamps the rotation integral uses the forward steps t[k+1] − t[k]; with a rate, Σ samples / rate
-    (imucal).
+    With timestamps the rotation integral uses the steps inside each section
+    (:func:`optinav.core.validate.integration_steps`: the step to the next row is not the section's — a log cut to
+    its nine sections joins them end to end, and a turn's last sample times the 10 s to the next section added
+    4–9° to it); with a rate, Σ samples / rate (imucal).
 
     Parameters
     ----------
@@ -556,9 +558,7 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     if rate is not None:
         timing = {"rate_hz": rate}
     else:
-        step = np.diff(t)
-        step = np.append(step, step[-1])
-        timing = {"dt": [step[slice(*idx[n])] for n in ROTATIONS]}
+        timing = {"dt": [integration_steps(t[slice(*idx[n])]) for n in ROTATIONS]}
     if not with_std:
         return ferraris_calibration(*parts, **timing, **kwargs)
     # the inputs prepared once for both: the closed form, then its Monte Carlo std

@@ -81,7 +81,7 @@ from optinav.core.optimize import Problem, minimize
 from optinav.core.results import Result
 from optinav.core.rotations import quat_conjugate, quat_multiply, quat_rotate
 from optinav.core.strapdown import attitude_update
-from optinav.core.validate import as_float_array, as_rng, check_timestamps
+from optinav.core.validate import as_float_array, as_rng, check_timestamps, integration_steps
 from optinav.errors import OptinavError
 
 __all__ = [
@@ -287,7 +287,8 @@ class _Transitions:
         self.raw = raw[sel]
         tt = t[sel]
         self.t_rows = tt
-        h = np.diff(tt)
+        # steps per transition (stamps rounded to a coarse tick get the uniform step); the joins are set below
+        h = np.concatenate([integration_steps(t[s]) for s in segs])[:-1]
         self.gap = np.zeros(h.size, dtype=bool)
         self.gap[self.ends[:-1]] = True  # increment joining two transitions
         h[self.gap] = np.median(h[~self.gap])  # any positive step: its increment is zero
