@@ -66,30 +66,72 @@ _SCALES = {
 }
 
 
-def _gravity_spread(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float) -> tuple[float, float]:
-    """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
-    specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
-    2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
-    wandering in the frame by tens of degrees, a right one by the bias's drift)."""
+#: the shortest window (s) on which the gyro's unit is judged by how gravity turns (three of its 2-s means)
+UNIT_MIN_S = 6.0
+
+#: the largest constant gyro bias (rad/s, 5 °/s) the unit check allows for: a MEMS gyro's bias can drift gravity
+#: in the gyro-integrated frame by tens of degrees over its window — as much as a wrong unit on a body that hardly
+#: turns (BROAD trial 11 with 2 °/s on x: 0.20 rad, refused as deg/s declared rad/s)
+UNIT_BIAS_MAX = np.radians(5.0)
+
+
+def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray]:
+    """The per-sample spread (rad) and the unit 2-s means (M, 3) of the specific force carried into the frame the
+    gyro rates ``gyr`` (rad/s) integrate to."""
     from optinav.core.rotations import quat_rotate
     from optinav.core.strapdown import attitude_update
 
     h = dts[:, None] if dts.shape[0] > 1 else dts[0]
-    q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h * scale, coning="none")[1:]
+    q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:]
     a_i = quat_rotate(q, acc)
-    w = max(2, int(round(2.0 / float(np.median(dts)))))
-    if a_i.shape[0] <= w:
-        w = max(2, a_i.shape[0] // 2)
     c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
     m = (c[w:] - c[:-w]) / w
     x = a_i[w // 2 : w // 2 + m.shape[0]]
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
-    mu = m.mean(axis=0)
-    cos_mu = m @ mu / (np.linalg.norm(m, axis=1) * np.linalg.norm(mu) + 1e-300)
-    return (
-        float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2))),
-        float(np.sqrt(np.mean(np.arccos(np.clip(cos_mu, -1.0, 1.0)) ** 2))),
-    )
+    per_sample = float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
+    return per_sample, m / (np.linalg.norm(m, axis=1, keepdims=True) + 1e-300)
+
+
+def _drift(u: np.ndarray) -> float:
+    """RMS angle (rad) of unit vectors about their mean direction."""
+    mu = u.mean(axis=0)
+    cos_mu = u @ mu / (np.linalg.norm(mu) + 1e-300)
+    return float(np.sqrt(np.mean(np.arccos(np.clip(cos_mu, -1.0, 1.0)) ** 2)))
+
+
+def _gravity_spread(
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False
+) -> tuple[float, float]:
+    """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
+    specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
+    2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
+    wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
+    taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
+    means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one."""
+    w = max(2, int(round(2.0 / float(np.median(dts)))))
+    if gyr.shape[0] <= w:
+        w = max(2, gyr.shape[0] // 2)
+    g = gyr * scale
+    per_sample, u = _spreads(g, acc, dts, w)
+    if not fit_bias:
+        return per_sample, _drift(u)
+    b = np.zeros(3)
+    eps = 1e-3 * UNIT_BIAS_MAX
+    ub = u
+    for _ in range(2):
+        r0 = (ub - ub.mean(axis=0)).ravel()
+        J = np.empty((r0.size, 3))
+        for i in range(3):
+            db = b.copy()
+            db[i] += eps
+            ui = _spreads(g - db, acc, dts, w)[1]
+            J[:, i] = ((ui - ui.mean(axis=0)).ravel() - r0) / eps
+        b = b + np.linalg.lstsq(J, -r0, rcond=None)[0]
+        nb = float(np.linalg.norm(b))
+        if nb > UNIT_BIAS_MAX:
+            b *= UNIT_BIAS_MAX / nb
+        ub = _spreads(g - b, acc, dts, w)[1]
+    return per_sample, min(_drift(u), _drift(ub))
 
 
 #: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
@@ -164,6 +206,8 @@ def _unit_hint_window(g, a, d, window_max: float) -> str:
         )
     if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
+    if k * float(np.median(d)) < UNIT_MIN_S:
+        return ""  # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused)
     if steady >= 0.9:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
@@ -174,6 +218,11 @@ def _unit_hint_window(g, a, d, window_max: float) -> str:
     for i, floor in ((0, 0.0), (1, 0.2)):
         spread = {s: v[i] for s, v in spreads.items()}
         best = min(spread, key=spread.get)
+        if i == 1 and best == np.pi / 180 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
+            # against a gyro too small to turn anything, the declared unit may carry a constant bias (a MEMS
+            # gyro's few °/s drift gravity as far as a slow body turns); the tiny alternative gets none (a
+            # bias would explain the body's own turning). Against the ×57 alternative a bias cannot help.
+            spread[1.0] = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
         if best != 1.0 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
             return _SCALES[best]
     return ""
@@ -188,7 +237,7 @@ def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: 
     hint = gyro_unit_hint(gyr, acc, dts, ng)
     if hint:
         raise _unit_error(hint)
-    _check_clipping(gyr, gyro_range, float(np.median(dts)))
+    _check_clipping(gyr, gyro_range, float(np.median(dts)), acc)
 
 
 def check_norms(med_a: float, med_g: float, peak: float) -> None:
@@ -258,7 +307,7 @@ def axis_steps(x: np.ndarray, count: int = QUANTUM_ROWS) -> np.ndarray:
     return x[i + 1] - x[i]
 
 
-def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> None:
+def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float, acc: np.ndarray | None = None) -> None:
     """A saturated axis sits at one extreme value for ≥ 3 consecutive samples and enters or leaves that plateau
     steeply (a step > 0.5 % of the limit and > 5 quanta of the output), or stays there ≥ 0.1 s (an output whose
     quantum is below 0.1 % of the peak): a natural peak
@@ -275,23 +324,30 @@ def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float) -> Non
             at = y >= m - 1e-9 * max(m, 1.0)
             if gyro_range is not None:
                 at |= y >= 0.999 * gyro_range
-            steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt)
+
+            def held(s, e):
+                return acc is not None and bool(np.all(gyr[s:e] == gyr[s]) and np.all(acc[s:e] == acc[s]))
+
+            steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt, held=held)
             if steep:  # the output's quantum can only clear it (rarely asked: it costs a pass over the axis)
-                steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt, quantum(axis_steps(x)))
+                steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt, quantum(axis_steps(x)), held)
             if steep:
                 raise clipped(k, sgn * m, steep)
 
 
-def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float, q: float = 0.0) -> int:
+def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float, q: float = 0.0, held=None) -> int:
     """The runs of ≥ 3 consecutive samples at an axis's extreme ``m`` (``idx``: the sorted indices of the
     samples there, few) that look saturated (see :func:`_check_clipping`); ``y_at(i)`` the (signed) axis value
-    of sample i of ``n``, asked only for ``idx`` and their neighbours; ``q`` the axis's quantum."""
+    of sample i of ``n``, asked only for ``idx`` and their neighbours; ``q`` the axis's quantum. ``held(s, e)``
+    True: the whole sample (gyro and accelerometer) repeats over the run [s, e) — a logger holding its last
+    sample, not a clip (one axis saturates while the other channels go on; BROAD trial 24 holds a sample four
+    times at 3.2 rad/s)."""
     brk = np.flatnonzero(np.diff(idx) > 1)
     starts = np.concatenate([idx[:1], idx[brk + 1]])
     ends = np.concatenate([idx[brk] + 1, idx[-1:] + 1])  # run [s, e)
     steep = 0
     for s, e in zip(starts, ends):
-        if e - s < 3:
+        if e - s < 3 or (held is not None and held(s, e)):
             continue
         step_in = y_at(s) - y_at(s - 1) if s > 0 else 0.0
         step_out = y_at(e - 1) - y_at(e) if e < n else 0.0

@@ -90,7 +90,7 @@ class StreamChecks:
         _c.check_norms(med_a, med_g, self.peak)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        self._clip = {(k, j): ([], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
+        self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
 
     def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
@@ -98,7 +98,7 @@ class StreamChecks:
         a, b = max(self.window.start - row0, 0), min(self.window.stop - row0, n)
         if a < b:
             self._win.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
-        for (k, j), (idx, keys, vals) in self._clip.items():
+        for (k, j), (idx, keys, vals, rows) in self._clip.items():
             y = gyr[:, k] if j == 0 else -gyr[:, k]
             m = self._max[k, j]
             at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
@@ -109,20 +109,25 @@ class StreamChecks:
             idx.append(at + row0)
             keys.append(near + row0)
             vals.append(y[near])
+            rows.append(np.hstack([gyr[at], acc[at]]))  # whole samples at the extreme: a held one repeats them all
 
     def finish_second(self, frame: str) -> None:
         """The checks that need the second pass, in the order of check_imu, then the frame warning."""
         if self._win:
             g, a, d = (np.concatenate(x) for x in zip(*self._win))
             _c.check_gyro_unit(g, a, d, self.window_max)
-        for (k, j), (idx, keys, vals) in self._clip.items():
+        for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
+            idx, rows = np.concatenate(idx), np.concatenate(rows)
             m = self._max[k, j]
             q = _c.quantum(np.concatenate(self._gyr_head)[:, k]) if self._gyr_head else 0.0
-            steep = _c.steep_runs(
-                np.concatenate(idx), lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q
-            )
+
+            def held(s, e, idx=idx, rows=rows):
+                r = rows[np.searchsorted(idx, s) : np.searchsorted(idx, e)]
+                return bool(np.all(r == r[0]))
+
+            steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame)
