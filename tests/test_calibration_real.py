@@ -203,3 +203,53 @@ def test_ferraris_with_time_stamps_is_imucal(tmp_path, cut, stamp_ms):
     std = np.diag(np.asarray(r.gyroscope["K_std"]))
     dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(ref["gyr_K"]))
     assert np.all(dev < 0.1 * std), (dev, std)
+
+
+def test_apply_converts_stated_units_and_refuses_a_wrong_gyro_unit(tmp_path, capsys):
+    """imucal's example session calibrated in m/s^2 and deg/s, applied to the same log (helper): with its gyro in
+    rad/s the corrected gyro was 57x small with exit 0 (the session's turns are about the vertical, which gravity
+    does not see; the flips between poses show it); a header declaring g and rad/s, or --acc-unit g, was refused
+    ('--acc-unit m/s^2 was passed', which nobody passed). Stated units are converted now."""
+    cal = tmp_path / "cal.json"
+    args = EXAMPLE + ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    assert main(["--quiet", *args, "--out", str(cal)]) == 0
+    rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    acc = np.column_stack([rows[f"acc_{a}"] for a in "xyz"])
+    gyr = np.column_stack([rows[f"gyr_{a}"] for a in "xyz"])
+    t = np.arange(rows.size) / 102.4
+
+    def write(name, head, a, g):
+        p = tmp_path / name
+        np.savetxt(p, np.column_stack([t, a, g]), delimiter=",", header=",".join(head), comments="")
+        return p
+
+    plain = write("plain.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], acc, gyr)
+    rad = write("rad.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], acc, np.radians(gyr))
+    units = ["t [s]"] + [f"acc_{a} [g]" for a in "xyz"] + [f"gyr_{a} [rad/s]" for a in "xyz"]
+    declared = write("declared.csv", units, acc / 9.80665, np.radians(gyr))
+
+    def apply(data, *extra):
+        out = tmp_path / f"out_{data.stem}_{len(extra)}.csv"
+        rc = main(["--quiet", "apply", str(cal), str(data), *extra, "--out", str(out)])
+        return rc, out
+
+    rc, ref = apply(plain)
+    assert rc == 0
+    assert apply(rad)[0] == 2
+    err = capsys.readouterr().err
+    assert "were the data's gyro in rad/s" in err and "--gyro-unit" in err, err
+    want = _read_out(ref)
+    for data, extra in ((rad, ("--gyro-unit", "rad/s")), (declared, ())):
+        rc, out = apply(data, *extra)
+        assert rc == 0, capsys.readouterr().err
+        got = _read_out(out)
+        for c in ("ax", "ay", "az", "gx", "gy", "gz"):
+            np.testing.assert_allclose(got[c], want[c], rtol=1e-9, atol=1e-12)
+
+
+def _read_out(path):
+    """An optinav CSV output (its '#' provenance lines skipped) as a structured array by column name."""
+    import io
+
+    lines = [ln for ln in Path(path).read_text().splitlines() if not ln.startswith("#")]
+    return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)

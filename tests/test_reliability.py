@@ -1048,7 +1048,16 @@ def test_apply_refuses_a_gyro_in_another_unit_and_notes_a_cut_line(tmp_path, cap
     f = tmp_path / "rad.csv"
     f.write_text("\n".join(rad) + "\n")
     assert main(["apply", str(res), str(f), "--out", str(tmp_path / "x.csv")]) == 2
-    one_line_error(capsys, "(as if it were in rad/s): the data's gyro is not in the deg/s the calibration was made for")
+    one_line_error(
+        capsys, "as it would were the data's gyro in rad/s: it is not in the deg/s the calibration", "--gyro-unit"
+    )
+    # declared, the unit is converted: the same corrected log as from the deg/s file
+    f.write_text(f.read_text().replace("gyro=deg/s", "gyro=rad/s"))
+    assert main(["--quiet", "apply", str(res), str(f), "--out", str(tmp_path / "r.csv")]) == 0
+    assert main(["--quiet", "apply", str(res), str(data), "--out", str(tmp_path / "d.csv")]) == 0
+    r, dd = (_read_out(tmp_path / n) for n in ("r.csv", "d.csv"))
+    for c in ("gx", "gy", "gz", "ax"):
+        np.testing.assert_allclose(r[c], dd[c], rtol=1e-12, atol=1e-15)
     cut = tmp_path / "cut.csv"
     text = data.read_text()
     cut.write_text(text[: text.rstrip().rindex(",")])  # the last line without its last column
@@ -1106,3 +1115,11 @@ def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     assert "pose" in (tmp_path / "r" / "index.md").read_text()
     assert main(["report", str(res), "--rate", "102.4", "--out", str(tmp_path / "r2")]) == 2
     one_line_error(capsys, "--rate is the sampling rate of the --data recordings")
+
+
+def _read_out(path):
+    """An optinav CSV output (its '#' provenance lines skipped) as a structured array by column name."""
+    import io
+
+    lines = [ln for ln in Path(path).read_text().splitlines() if not ln.startswith("#")]
+    return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)

@@ -156,13 +156,67 @@ def _turning_window(ng: np.ndarray, dts: np.ndarray) -> slice:
     return slice(i, i + w)
 
 
-def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None) -> str:
+#: samples per bin of the accelerometer sums that locate where gravity turns most in the body
+TILT_BIN = 64
+#: the bins are merged to about this many seconds before the angles between neighbours are summed
+TILT_BIN_S = 0.5
+
+
+def tilt_sums(acc: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Bin numbers (k,) and specific-force sums (k, 3) of the TILT_BIN-sample bins a block starting at row
+    ``row0`` touches (a bin split between blocks is summed again by :func:`tilting_window`)."""
+    idx = (row0 + np.arange(acc.shape[0])) // TILT_BIN
+    bins, first = np.unique(idx, return_index=True)
+    return bins, np.add.reduceat(acc, first, axis=0) if acc.shape[0] else np.zeros((0, 3))
+
+
+def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> slice:
+    """The UNIT_WINDOW_S-long stretch (of ``n`` samples, step ``dt`` s) in which the mean specific force turns
+    most in the body (the angles between consecutive ~TILT_BIN_S means summed): the poses and flips of a
+    calibration session, where the most gyro turning is a spin about the vertical that gravity does not see.
+    ``bins``/``sums`` from :func:`tilt_sums` over the whole log (in any number of blocks)."""
+    w = int(np.ceil(UNIT_WINDOW_S / dt)) if dt > 0 else n
+    if n <= w or bins.size == 0:
+        return slice(0, n)
+    tot = np.zeros((int(bins.max()) + 1, 3))
+    np.add.at(tot, bins, sums)
+    m = max(1, int(round(TILT_BIN_S / (TILT_BIN * dt))))
+    k = tot.shape[0] // m
+    mean = tot[: k * m].reshape(k, m, 3).sum(axis=1)
+    u = mean / (_norm(mean)[:, None] + 1e-300)
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", u[1:], u[:-1]), -1.0, 1.0))
+    wb = max(1, w // (m * TILT_BIN))
+    if ang.size <= wb:
+        return slice(0, w)
+    c = np.concatenate([[0.0], np.cumsum(ang)])
+    j = int(np.argmax(c[wb:] - c[:-wb]))
+    start = min(j * m * TILT_BIN, n - w)
+    return slice(start, start + w)
+
+
+def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None, alt=None) -> str:
     """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint. Judged on
-    the UNIT_WINDOW_S s where the gyro turns most (the strapdowns' cost is independent of the recording's
-    length). ``ng``: the gyro's row norms if already computed."""
+    the UNIT_WINDOW_S s where the gyro turns most and on those where gravity turns most in the body (the
+    strapdowns' cost is independent of the recording's length). ``ng``: the gyro's row norms if already
+    computed; ``alt(scale, sl)``: the gyro of rows ``sl`` (rad/s) had the raw data been ``scale`` × what they
+    are (a calibrated gyro: its bias is not scaled with them), default ``gyr[sl]·scale``."""
     ng = _norm(gyr) if ng is None else ng
-    sl = _turning_window(ng, dts)
-    return _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
+    d = dts if dts.shape[0] > 1 else np.full(1, float(dts[0]))
+    for sl in unit_windows(ng, d, *tilt_sums(acc)):
+        a = None if alt is None else (lambda s, sl=sl: alt(s, sl))
+        hint = _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])), a)
+        if hint:
+            return hint
+    return ""
+
+
+def unit_windows(ng: np.ndarray, dts: np.ndarray, bins: np.ndarray, sums: np.ndarray) -> list[slice]:
+    """The windows the gyro unit is judged on: where the gyro turns most, and where gravity turns most in the
+    body (one when they overlap by half)."""
+    a = _turning_window(ng, dts)
+    b = tilting_window(bins, sums, ng.shape[0], float(np.median(dts)))
+    overlap = min(a.stop, b.stop) - max(a.start, b.start)
+    return [a] if overlap >= 0.5 * (a.stop - a.start) else [a, b]
 
 
 #: a body still for 2 s (accelerometer steady) cannot turn about a horizontal axis faster than this (rad/s,
@@ -195,7 +249,9 @@ def _still_turn(g, a, d) -> tuple[float, float]:
     return float(np.max(perp - 0.5 * np.abs(par))), float(np.mean(steady))
 
 
-def _unit_hint_window(g, a, d, window_max: float) -> str:
+def _unit_hint_window(g, a, d, window_max: float, alt=None) -> str:
+    """The hint of :func:`gyro_unit_hint` on one window; ``alt(scale)``: the window's gyro (rad/s) had the raw
+    data been ``scale`` × what they are (default ``g·scale``; a calibration's bias is not scaled with them)."""
     k = g.shape[0]
     still, steady = _still_turn(g, a, d)
     if still > STILL_RATE:
@@ -212,7 +268,7 @@ def _unit_hint_window(g, a, d, window_max: float) -> str:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
         return ""
-    spreads = {s: _gravity_spread(g, a, d, s) for s in _SCALES}
+    spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
     for i, floor in ((0, 0.0), (1, 0.2)):
@@ -262,8 +318,9 @@ def check_norms(med_a: float, med_g: float, peak: float) -> None:
 
 
 def _unit_error(hint: str) -> OptinavError:
+    factor = "π/180" if hint.startswith("deg/s declared") else "180/π"
     return OptinavError(
-        "the gyro in rad/s does not explain how gravity turns in the body, a unit factor of π/180 does",
+        f"the gyro in rad/s does not explain how gravity turns in the body, a unit factor of {factor} does",
         f"it looks like {hint}",
     )
 

@@ -32,6 +32,7 @@ class StreamChecks:
         self._dts: list[np.ndarray] = []
         self._na: list[np.ndarray] = []
         self._ng: list[np.ndarray] = []
+        self._tilt: list[tuple[np.ndarray, np.ndarray]] = []  # specific-force sums per TILT_BIN samples
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
         self._head: list[np.ndarray] = []  # the first 200 accelerometer rows (frame check)
         self._head_n = 0
@@ -57,6 +58,7 @@ class StreamChecks:
         self._dts.append(np.array(dts, dtype=float))
         self._na.append(_c._norm(acc))
         self._ng.append(_c._norm(gyr))
+        self._tilt.append(_c.tilt_sums(acc, self.n))
         self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
         if self._head_n < 200:
@@ -79,8 +81,10 @@ class StreamChecks:
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
-        self.window = _c._turning_window(ng, np.array([self.median_dt]))
-        self.window_max = float(np.max(ng[self.window]))
+        bins, sums = (np.concatenate(x) for x in zip(*self._tilt))
+        self._tilt = []
+        self.windows = _c.unit_windows(ng, np.array([self.median_dt]), bins, sums)
+        self.window_max = [float(np.max(ng[w])) for w in self.windows]
         med_g = float(np.median(ng, overwrite_input=True))
         del ng
         na = np.concatenate(self._na)
@@ -89,15 +93,16 @@ class StreamChecks:
         del na
         _c.check_norms(med_a, med_g, self.peak)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
-        self._win: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
 
     def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
         n = gyr.shape[0]
-        a, b = max(self.window.start - row0, 0), min(self.window.stop - row0, n)
-        if a < b:
-            self._win.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
+        for win, got in zip(self.windows, self._win):
+            a, b = max(win.start - row0, 0), min(win.stop - row0, n)
+            if a < b:
+                got.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             y = gyr[:, k] if j == 0 else -gyr[:, k]
             m = self._max[k, j]
@@ -113,9 +118,10 @@ class StreamChecks:
 
     def finish_second(self, frame: str) -> None:
         """The checks that need the second pass, in the order of check_imu, then the frame warning."""
-        if self._win:
-            g, a, d = (np.concatenate(x) for x in zip(*self._win))
-            _c.check_gyro_unit(g, a, d, self.window_max)
+        for got, peak in zip(self._win, self.window_max):
+            if got:
+                g, a, d = (np.concatenate(x) for x in zip(*got))
+                _c.check_gyro_unit(g, a, d, peak)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]

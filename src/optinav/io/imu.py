@@ -765,6 +765,7 @@ def read_imu(
     datasets=None,
     delimiter: str | None = None,
     topic=None,
+    unit_defaults: tuple[str, str] | None = None,
 ) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
@@ -800,12 +801,16 @@ def read_imu(
     topic : str or None
         A ROS bag's Imu topic (``"/imu"``); None: its only one (:mod:`optinav.io.rosbag`).
 
+    unit_defaults : (str, str) or None
+        The accelerometer and gyroscope units of a file that declares none and for which no unit is passed
+        (default m/s^2 and rad/s; ``optinav apply`` passes the calibration's raw units).
+
     Returns
     -------
     ImuLog
         ``t`` [s], ``acc`` [m/s^2 or counts], ``gyr`` [rad/s or counts].
     """
-    acc_u, gyro_u, time_u, rate = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns)
+    opts = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults)
     main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
     parts = [main]
     if gyro_path is not None:
@@ -813,10 +818,10 @@ def read_imu(
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
-    return _log_of(parts, acc_u, gyro_u, time_u, rate)
+    return _log_of(parts, *opts)
 
 
-def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
+def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, unit_defaults=None):
     acc_u = None if acc_unit is None else _canonical("acc", acc_unit, "acc_unit")
     gyro_u = None if gyro_unit is None else _canonical("gyro", gyro_unit, "gyro_unit")
     time_u = None if time_unit is None else _canonical("time", time_unit, "time_unit")
@@ -824,11 +829,24 @@ def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns):
         rate = check_positive(rate, "rate_hz")
     if gyro_columns is not None and gyro_path is None:
         raise OptinavError("gyro_columns was given without gyro_path", "pass gyro_path, or put the names in columns")
-    return acc_u, gyro_u, time_u, rate
+    acc_d, gyro_d = ("m/s^2", "rad/s") if unit_defaults is None else unit_defaults
+    acc_d = _canonical("acc", acc_d or "m/s^2", "acc_unit")
+    gyro_d = _canonical("gyro", gyro_d or "rad/s", "gyro_unit")
+    return acc_u, gyro_u, time_u, rate, acc_d, gyro_d
 
 
 def _log_of(
-    parts: list[_Part], acc_u, gyro_u, time_u, rate, *, row0: int = 0, prev_t: float | None = None, block: bool = False
+    parts: list[_Part],
+    acc_u,
+    gyro_u,
+    time_u,
+    rate,
+    acc_d: str = "m/s^2",
+    gyro_d: str = "rad/s",
+    *,
+    row0: int = 0,
+    prev_t: float | None = None,
+    block: bool = False,
 ) -> ImuLog:
     """The :class:`ImuLog` of the parts read (main file, optional gyro file). A block of a streamed file
     (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
@@ -876,11 +894,11 @@ def _log_of(
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
-        acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", "m/s^2")
+        acc_in = _resolve_unit("acc", acc_u, main, "acc_unit", acc_d)
         acc = to_si(main.acc, acc_in) if acc_in in ("g", "mg") else main.acc
     if main.gyro is not None:
         gpart = parts[-1]
-        gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", "rad/s")
+        gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
         gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
     log = ImuLog(
         t=t,
@@ -954,6 +972,7 @@ def iter_imu(
     delimiter: str | None = None,
     chunk_rows: int = CHUNK_ROWS,
     topic=None,
+    unit_defaults: tuple[str, str] | None = None,
 ) -> "ImuChunks":
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
 
@@ -965,7 +984,7 @@ def iter_imu(
 
     Parameters
     ----------
-    path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic
+    path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic, unit_defaults
         As :func:`read_imu`.
     rate_hz : float or None
         Sample rate [Hz] for files without a time column, as :func:`read_imu`.
@@ -990,6 +1009,7 @@ def iter_imu(
         delimiter=delimiter,
         chunk_rows=chunk_rows,
         topic=topic,
+        unit_defaults=unit_defaults,
     )
 
 
@@ -1000,7 +1020,13 @@ class ImuChunks:
     def __init__(self, path, *, chunk_rows: int | None = None, **kw):
         self.path, self.kw = Path(path), kw
         self.opts = _imu_options(
-            kw["acc_unit"], kw["gyro_unit"], kw["time_unit"], kw["rate_hz"], kw["gyro_path"], kw["gyro_columns"]
+            kw["acc_unit"],
+            kw["gyro_unit"],
+            kw["time_unit"],
+            kw["rate_hz"],
+            kw["gyro_path"],
+            kw["gyro_columns"],
+            kw.get("unit_defaults"),
         )
         _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)

@@ -60,13 +60,17 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     ):
         if entry is not None:
             check_plausible_K(sensor, entry, res.units.get(key))
-    acc_unit = o.acc_unit or (res.units.get("accelerometer_raw") if res.accelerometer else None)
-    gyro_unit = o.gyro_unit or (res.units.get("gyroscope_raw") if res.gyroscope else None)
+    # a unit the file declares or the user states wins; a file that declares none is in the calibration's units
+    defaults = (
+        res.units.get("accelerometer_raw") if res.accelerometer else None,
+        res.units.get("gyroscope_raw") if res.gyroscope else None,
+    )
     blocks = iter_imu(
         data_path,
         columns=o.columns,
-        acc_unit=acc_unit,
-        gyro_unit=gyro_unit,
+        acc_unit=o.acc_unit,
+        gyro_unit=o.gyro_unit,
+        unit_defaults=defaults,
         time_unit=o.time_unit,
         rate_hz=o.rate_hz,
         datasets=o.datasets or None,
@@ -88,7 +92,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
                 if gyro is not None:
-                    _check_corrected_gyro(acc, gyro, log, data_path, result_path)
+                    _check_corrected_gyro(res, acc, gyro, log, data_path, result_path)
             writer.write(
                 ImuLog(
                     t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
@@ -112,10 +116,12 @@ def _check_corrected_norm(acc, log, data_path, result_path) -> None:
         )
 
 
-def _check_corrected_gyro(acc, gyro, log, data_path, result_path) -> None:
+def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     """The first block's corrected gyro must explain how the corrected specific force turns in the body (the
-    attitude input check, :func:`optinav.attitude.checks.gyro_unit_hint`; silent when too little turns): a log in
-    rad/s corrected by a calibration made for deg/s read 57 times too small with exit 0."""
+    attitude input check, :func:`optinav.attitude.checks.gyro_unit_hint`, with the raw gyro ×π/180 and ×180/π
+    corrected by the calibration as the alternatives; silent when too little turns): a log in rad/s corrected by
+    a calibration made for deg/s read 57 times too small with exit 0 (the calibration's bias, in its own unit,
+    is no multiple of the data's)."""
     from optinav.attitude.checks import gyro_unit_hint
 
     if log.t is None or log.t.size < 3:
@@ -124,30 +130,25 @@ def _check_corrected_gyro(acc, gyro, log, data_path, result_path) -> None:
     ok = np.isfinite(acc).all(axis=1) & np.isfinite(gyro).all(axis=1)
     if not ok.all() or not np.all(dts > 0):
         return  # the reader's checks name gaps and non-finite rows; the unit is judged on clean blocks
-    hint = gyro_unit_hint(gyro, acc, dts)
+    raw = calibration_raw(log, "gyro", res.units.get("gyroscope_raw"))
+    hint = gyro_unit_hint(gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * s, acc[sl]))
     if hint:
-        unit = hint.split(" declared ")[0]
+        unit = "deg/s" if hint.startswith("deg/s") else "rad/s"
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
-            f"gravity turns in the body (as if it were in {unit}): the data's gyro is not in the "
+            f"gravity turns in the body, as it would were the data's gyro in {unit}: it is not in the "
             f"{log.gyro_input_unit or 'unit'} the calibration was made for, or the calibration is another sensor's",
-            "convert the gyro to the calibration's raw unit, or apply the calibration of this sensor",
+            "state the data's gyro unit with --gyro-unit (deg/s, rad/s), or apply the calibration of this sensor",
         )
 
 
 def corrected(res, log, data_path, result_path):
     """One block's corrected (acc m/s², gyro rad/s), None for a sensor the result or the data lack."""
-    from optinav.io import raw_units
-
     acc = gyro = None
     if res.accelerometer is not None and log.acc is not None:
-        raw, unit = raw_units(log, "acc")
-        _check_unit("accelerometer", unit, res.units.get("accelerometer_raw"))
-        acc = res.correct_accel(raw)
+        acc = res.correct_accel(calibration_raw(log, "acc", res.units.get("accelerometer_raw")))
     if res.gyroscope is not None and log.gyr is not None:
-        raw, unit = raw_units(log, "gyro")
-        _check_unit("gyroscope", unit, res.units.get("gyroscope_raw"))
-        gyro = res.correct_gyro(raw, acc)
+        gyro = res.correct_gyro(calibration_raw(log, "gyro", res.units.get("gyroscope_raw")), acc)
     if acc is None and gyro is None:
         raise OptinavError(
             f"{data_path} has no data for the sensors in {result_path}", "check --columns (t,ax,ay,az,gx,gy,gz)"
@@ -185,9 +186,22 @@ def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
         )
 
 
-def _check_unit(sensor: str, unit: str, expected: str | None) -> None:
-    if expected and unit != expected:
+def calibration_raw(log, kind: str, expected: str | None) -> np.ndarray:
+    """The log's ``kind`` ("acc"/"gyro") triad in the calibration's raw unit ``expected``: a physical unit
+    (g, mg, m/s^2; deg/s, rad/s) is converted to another; counts are no physical unit, so counts against a
+    physical unit (or the reverse) cannot be and are refused."""
+    from optinav.core.units import factor
+    from optinav.io import raw_units
+
+    raw, unit = raw_units(log, kind)
+    if not expected or unit == expected:
+        return raw
+    sensor, flag = ("accelerometer", "--acc-unit") if kind == "acc" else ("gyroscope", "--gyro-unit")
+    if "counts" in (unit, expected):
         raise OptinavError(
-            f"the {sensor} data are in {unit} but the calibration was made in {expected}",
-            f"pass data in {expected} (or --{'acc' if sensor[0] == 'a' else 'gyro'}-unit {expected})",
+            f"the {sensor} data are in {unit} but the calibration was made in {expected}: no factor converts "
+            "counts to a physical unit",
+            f"apply the calibration to data in {expected} ({flag} states the data's unit)",
         )
+    si = log.acc if kind == "acc" else log.gyr  # the reader's SI values
+    return si / factor(expected)
