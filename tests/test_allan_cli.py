@@ -195,3 +195,28 @@ def test_allan_refuses_an_accelerometer_not_in_m_s2_and_a_moving_log(tmp_path, c
         err = capsys.readouterr().err
         assert "the gravity direction moves in this log (|mean a| / mean |a| = 0.714)" in err  # cos 45° and biases
         assert len(err.strip().splitlines()) == 1
+
+
+def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
+    """A static pose of imucal's real session (gyro in deg/s, no unit stated): read as rad/s its noise density
+    (0.0045 'rad/s/√Hz') would have gone into a Kalibr file with exit 0 (helper); its rest rate (0.7) and noise are
+    beyond any MEMS gyro in rad/s. Stated as deg/s it runs."""
+    from pathlib import Path
+
+    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal" / "example_ferraris_session.csv"
+    if not data.is_file():
+        pytest.skip("imucal data absent")
+    rows = np.genfromtxt(data, delimiter=",", names=True)[540:1271]  # pose x_p
+    f = tmp_path / "xp.csv"
+    cols = [rows[f"acc_{a}"] for a in "xyz"] + [rows[f"gyr_{a}"] for a in "xyz"]
+    np.savetxt(
+        f,
+        np.column_stack([np.arange(rows.size) / 102.4, *cols]),
+        delimiter=",",
+        header="t,ax,ay,az,gx,gy,gz",
+        comments="",
+    )
+    assert main(["allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "looks like deg/s read as rad/s" in err and "--gyro-unit deg/s" in err, err
+    assert main(["--quiet", "allan", str(f), "--gyro-unit", "deg/s", "--out", str(tmp_path / "b.json")]) == 0

@@ -1198,6 +1198,47 @@ class _AtRest:
             )
 
 
+class _GyroAtRest:
+    """What a gyro in rad/s at rest must show (summed block by block): a mean rate within :data:`GYRO_REST_MAX`
+    (20 °/s, the largest zero-rate offset a MEMS data sheet allows) and a white noise density N within
+    :data:`GYRO_N_MAX` (0.17 °/s/√Hz, several times the noisiest MEMS gyro's) — a log in deg/s read as rad/s is
+    57× beyond both (imucal's session: 34 °/s and 0.33 °/s/√Hz; its N would have gone into a Kalibr file)."""
+
+    def __init__(self):
+        self.sum, self.d2, self.n, self.nd, self.last = np.zeros(3), 0.0, 0, 0, None
+
+    def add(self, g: np.ndarray) -> None:
+        if not g.shape[0]:
+            return
+        x = g if self.last is None else np.vstack([self.last, g])
+        d = np.diff(x, axis=0)
+        self.d2 += float(np.einsum("ij,ij->", d, d))
+        self.nd += d.shape[0]
+        self.sum += g.sum(axis=0)
+        self.n += g.shape[0]
+        self.last = g[-1:].copy()
+
+    def check(self, dt: float) -> None:
+        if not self.n or not self.nd:
+            return
+        rate = float(np.linalg.norm(self.sum / self.n))
+        # white noise of per-sample std σ: first differences have variance 2σ² per axis; N = σ·√dt
+        dens = float(np.sqrt(self.d2 / (2.0 * 3.0 * self.nd) * dt))
+        if rate > GYRO_REST_MAX or dens > GYRO_N_MAX:
+            raise OptinavError(
+                f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz, beyond any "
+                f"MEMS gyro in rad/s (at most {GYRO_REST_MAX:.2g} rad/s at rest, {GYRO_N_MAX:.2g} rad/s/√Hz): it "
+                "looks like deg/s read as rad/s",
+                "declare the unit with --gyro-unit deg/s",
+            )
+
+
+#: the largest mean rate (rad/s) of a gyro at rest that is taken to be in rad/s (20 °/s)
+GYRO_REST_MAX = np.radians(20.0)
+#: the largest white noise density (rad/s/√Hz) of a gyro in rad/s (0.17 °/s/√Hz)
+GYRO_N_MAX = 3e-3
+
+
 #: |mean a| / mean |a| of a log at rest: 1 − (noise/g)²/2; below this the gravity direction moved (cos 11.5°)
 _REST_RATIO = 0.98
 
@@ -1225,6 +1266,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     """
     timing = _RegularTiming()
     at_rest = _AtRest()
+    gyro_rest = _GyroAtRest()
     angles: dict = {}
     units: dict[str, str] = {}
     for log in blocks:
@@ -1265,10 +1307,13 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 acc.add(x)
         if log.acc is not None and log.acc_unit != "counts" and len(log.acc) and np.all(np.isfinite(log.acc)):
             at_rest.add(log.acc)  # the gyro's analysis too needs the log at rest
+        if "gyroscope" in angles and log.gyro_unit == "rad/s":
+            gyro_rest.add(log.gyr)
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")
     at_rest.check()
     dt = timing.check()
+    gyro_rest.check(dt)
     out = {}
     kal = {}
     for name in list(angles):
