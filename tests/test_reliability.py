@@ -1072,7 +1072,7 @@ def test_report_data_of_another_log_is_refused(tmp_path, capsys, counts_session)
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(other), "--scheme", "18", "--dwell", "4"]
     assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "deg/s", "--seed", "4"]) == 0
     assert main(["report", str(res), "--data", str(other), "--out", str(tmp_path / "r1")]) == 2
-    one_line_error(capsys, "other.csv has no samples in static interval", "not its log")
+    one_line_error(capsys, "other.csv", "static interval", "not its log")
     si = tmp_path / "si.csv"
     assert main(["--quiet", "simulate", "flight", "--out", str(si), "--duration", "2"]) == 0
     capsys.readouterr()
@@ -1115,6 +1115,9 @@ def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     assert "pose" in (tmp_path / "r" / "index.md").read_text()
     assert main(["report", str(res), "--rate", "102.4", "--out", str(tmp_path / "r2")]) == 2
     one_line_error(capsys, "--rate is the sampling rate of the --data recordings")
+    # a wrong rate put the static intervals on the moves: two '+x up' rows, one with motion, exit 0 (helper)
+    assert main(["report", str(res), "--data", str(data), "--rate", "50", "--out", str(tmp_path / "r3")]) == 2
+    one_line_error(capsys, "static interval 0", "is not still", "--rate")
 
 
 def _read_out(path):

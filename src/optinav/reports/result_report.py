@@ -89,6 +89,24 @@ def _check_same_log(res, d, data) -> None:
                 f"the log it was calibrated from, or not in its raw unit ({(res.units or {}).get('accelerometer_raw')})",
                 "pass the log the result was calibrated from with --data",
             )
+        # a static interval holds one pose: with another time base (a wrong --rate) it reaches into the moves
+        u = a[m] / np.linalg.norm(a[m], axis=1, keepdims=True)
+        c = np.median(u, axis=0)
+        off = np.degrees(np.arccos(np.clip(u @ (c / np.linalg.norm(c)), -1.0, 1.0)))
+        moving = float(np.mean(off > STILL_DEG))
+        if moving > STILL_SHARE:
+            raise OptinavError(
+                f"static interval {k} ({t0:.6g}–{t1:.6g} s) of the result is not still in {data}: "
+                f"{100 * moving:.0f} % of its samples point more than {STILL_DEG:g}° from the pose — the log's time "
+                "base is not the one the result was calibrated with, or it is not its log",
+                "read the log as calibrate did (--rate, --time-unit), or pass the log it was calibrated from",
+            )
+
+
+#: a sample of a static interval farther than this (deg) from the interval's pose direction is motion
+STILL_DEG = 10.0
+#: more than this share of such samples: the interval is not a pose of the log read
+STILL_SHARE = 0.05
 
 
 def attitude_report(res, out_dir, data=None, options=None) -> Path:
