@@ -253,3 +253,44 @@ def _read_out(path):
 
     lines = [ln for ln in Path(path).read_text().splitlines() if not ln.startswith("#")]
     return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)
+
+
+def test_mistakes_on_the_real_session_name_the_flag_that_helps(tmp_path, capsys):
+    """Errors that named the wrong flag (helper): acc and gyro columns swapped led to '--acc-unit counts' and then
+    to a fit that 'did not converge — pass --method lm' (lm in use); twice the rate named --gyro-unit and the
+    static intervals, not the time base; swapped rotation sections named only the columns."""
+    import json
+
+    rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    swap = tmp_path / "swap.csv"
+    cols = [rows[f"gyr_{a}"] for a in "xyz"] + [rows[f"acc_{a}"] for a in "xyz"]
+    np.savetxt(swap, np.column_stack(cols), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="")
+    sec = DATA / "example_ferraris_session_list.json"
+    fr = ["--method", "ferraris", "--sections", str(sec)]
+    base = ["--quiet", "calibrate", "accel", "--gyro-unit", "deg/s", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    cases = [
+        ([str(swap), "--rate", "102.4"], "the two triads look swapped"),
+        ([str(swap), "--rate", "102.4", *fr], "the two triads look swapped"),
+        ([str(DATA / "example_ferraris_session.csv"), "--rate", "204.8", *fr], "the time base (--rate, --time-unit"),
+    ]
+    s = json.loads(sec.read_text())
+    s["y_rot"], s["z_rot"] = s["z_rot"], s["y_rot"]
+    (tmp_path / "sw.json").write_text(json.dumps(s))
+    cases.append(
+        (
+            [
+                str(DATA / "example_ferraris_session.csv"),
+                "--rate",
+                "102.4",
+                "--method",
+                "ferraris",
+                "--sections",
+                str(tmp_path / "sw.json"),
+            ],
+            "the rotation sections' names",
+        )
+    )
+    for argv, needle in cases:
+        assert main(base[:3] + argv + base[3:]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and needle in err, (argv, err)

@@ -130,9 +130,10 @@ def check_timestamps(
     return t
 
 
-def integration_steps(t) -> np.ndarray:
-    """Steps [s] for integrating samples at times ``t`` (N,): the forward steps t[k+1] − t[k], the last sample's
-    the median step. A stretch sampled uniformly whose stamps are rounded to a coarse tick (1 ms at 102.4 Hz: steps
+def integration_steps(t, t_next: float | None = None) -> np.ndarray:
+    """Steps [s] for integrating samples at times ``t`` (N,): the forward steps t[k+1] − t[k]; the last sample's
+    the step to ``t_next`` (the time of the row after the stretch) unless that is longer than 5 median steps (a
+    jump: a log cut to sections joined end to end), else the median step. A stretch sampled uniformly whose stamps are rounded to a coarse tick (1 ms at 102.4 Hz: steps
     of 9 and 10 ms) gets its uniform step: the steps take two values one tick q apart and every stamp is within
     0.75·q of a straight line through them (q/2 from the true one). The rounding would otherwise pair each rate with a step off by up to a
     tick — on a jerky hand turn (33 °/s between samples) 0.3° of 360, five times the calibration's std."""
@@ -149,7 +150,8 @@ def integration_steps(t) -> np.ndarray:
         slope, icpt = np.polyfit(k, t, 1)
         if np.max(np.abs(t - (icpt + slope * k))) <= 0.75 * q:
             return np.full(t.size, float(slope))
-    return np.append(step, med)
+    last = med if t_next is None or not 0.0 < t_next - t[-1] <= 5.0 * med else float(t_next - t[-1])
+    return np.append(step, last)
 
 
 def as_rng(rng) -> np.random.Generator:

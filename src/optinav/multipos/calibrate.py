@@ -431,6 +431,8 @@ def calibrate(
     if not np.any(valid):
         raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
     rest_norm = float(np.median(_row_norms(acc, valid), overwrite_input=True))
+    if gyro is not None and "counts" not in (acc_unit, gyro_unit):
+        gates.check_swapped_triads(rest_norm, acc_unit, float(np.median(_row_norms(gyro, valid))), g)
     gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
@@ -748,7 +750,8 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
     if not fit.success or not np.all(np.isfinite(fit.theta)) or not np.all(np.isfinite(fit.residuals)):
         raise OptinavError(
             f"the {fit.method} fit of the accelerometer did not converge ({fit.message}; {fit.nfev} evaluations)",
-            "pass --model diagonal or --method lm, or check the static intervals (--threshold, --sections)",
+            ("pass --model diagonal" + (" or --method lm" if fit.method != "lm" else ""))
+            + ", or check the static intervals (--threshold, --sections) and the units (--acc-unit)",
         )
     rms = float(np.sqrt(np.mean(fit.residuals**2)))
     if rms > gates.MAX_RESIDUAL_G * fit.g:
@@ -973,8 +976,8 @@ def _ferraris(
         "gyroscope",
         gyro_unit,
         option="--gyro-unit",
-        columns_flag="--columns or --gyro-columns, or --rotation-angle",
-        time_flags="--rate, --time-unit; and the turn angle, --rotation-angle",
+        columns_flag="--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle",
+        time_flags="--rate, --time-unit, or the turn angle --rotation-angle",
     )
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
     if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, fc.gyr_K, "--rate, --time-unit, --rotation-angle")):

@@ -483,9 +483,9 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     """Ferraris calibration of a continuous log with annotated sections.
 
     With timestamps the rotation integral uses the steps inside each section
-    (:func:`optinav.core.validate.integration_steps`: the step to the next row is not the section's — a log cut to
-    its nine sections joins them end to end, and a turn's last sample times the 10 s to the next section added
-    4–9° to it); with a rate, Σ samples / rate (imucal).
+    (:func:`optinav.core.validate.integration_steps`: the step to the next row only where it is no jump — a log
+    cut to its nine sections joins them end to end, and a turn's last sample times the 10 s to the next section
+    added 4–9° to it); with a rate, Σ samples / rate (imucal).
 
     Parameters
     ----------
@@ -558,7 +558,9 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     if rate is not None:
         timing = {"rate_hz": rate}
     else:
-        timing = {"dt": [integration_steps(t[slice(*idx[n])]) for n in ROTATIONS]}
+        timing = {
+            "dt": [integration_steps(t[slice(*idx[n])], t[idx[n][1]] if idx[n][1] < N else None) for n in ROTATIONS]
+        }
     if not with_std:
         return ferraris_calibration(*parts, **timing, **kwargs)
     # the inputs prepared once for both: the closed form, then its Monte Carlo std

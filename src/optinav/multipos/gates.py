@@ -97,6 +97,20 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
     )
 
 
+def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: float) -> None:
+    """One-line error when the accelerometer columns do not read g but the gyroscope columns would, in the
+    accelerometer's unit (median norms in the columns' raw units): the two triads are swapped (the unit errors
+    that would follow led from --acc-unit counts to a fit that did not converge)."""
+    if 1 / UNIT_TOL < acc_norm * factor(acc_unit) / g < UNIT_TOL:
+        return
+    if 1 / UNIT_TOL < gyro_norm * factor(acc_unit) / g < UNIT_TOL:
+        raise OptinavError(
+            f"the accelerometer columns read {acc_norm:.4g} {acc_unit} and the gyroscope columns {gyro_norm:.4g} "
+            "(median norms): the two triads look swapped",
+            "check the column order (--columns t,ax,ay,az,gx,gy,gz)",
+        )
+
+
 def signed_permutations() -> list[np.ndarray]:
     """The 48 signed axis permutations (3×3, one ±1 per row and column), the identity first."""
     out = []
@@ -154,8 +168,12 @@ def check_matrix(
         P, share = axis_permutation(K)
         if share > 0.8 and not np.allclose(P, np.eye(3)):
             raise OptinavError(
-                f"the {sensor} axes look swapped or flipped against the accelerometer's: "
-                f"{describe_permutation(P, sensor, 'accelerometer frame')}",
+                (
+                    f"the {sensor} axes look swapped or flipped against the accelerometer's: "
+                    if sensor != "accelerometer"
+                    else "the accelerometer axes look swapped or flipped against the poses' order: "
+                )
+                + f"{describe_permutation(P, sensor, 'accelerometer frame')}",
                 f"fix the column order or signs ({columns_flag})",
             )
         i, j = np.unravel_index(int(np.argmax(np.where(np.isfinite(coupling), coupling, np.inf))), (3, 3))
@@ -201,7 +219,13 @@ def check_matrix(
     raise OptinavError(
         f"the {sensor} scale K_{'xyz'[k]}{'xyz'[k]} = {d[k]:.4g} raw per SI unit is {ratio[k]:.3g}× "
         f"its nominal value {nominal:.4g} in {unit} (accepted ×{1 / SCALE_FACTOR:.2g}…×{SCALE_FACTOR:g})",
-        f"check {option} and the static intervals (--threshold, --sections)"
+        f"check {option}"
+        + (
+            f", the time base ({time_flags}: a wrong one scales K by its factor)"
+            if sensor == "gyroscope" and unit in _GYRO_UNITS
+            else ""
+        )
+        + " and the static intervals (--threshold, --sections)"
         + (", or use --model diagonal" if sensor == "accelerometer" else ""),
     )
 
