@@ -394,3 +394,37 @@ def test_the_tilt_does_not_depend_on_the_heading():
         errs.append(tilt_deg(q, quat_multiply(qz, fl.q_b_n)))
     # (the bias clip between the two rows' updates leaves a trace: 6e-4° here)
     np.testing.assert_allclose(errs, errs[0], rtol=0, atol=5e-3)
+
+
+def test_every_streaming_filter_takes_update_gyr_acc_dt():
+    """make_filter(m).update(gyr, acc, dt) is the published filters' form; iframe's third argument is mag, and a
+    step there raised "object of type 'float' has no len()" (helper). A number in its place is the step now."""
+    from optinav.attitude import METHODS, make_filter
+
+    w, acc, _ = motion(300, seed=3)
+    for m in METHODS:
+        f, ref = make_filter(m), make_filter(m)
+        for k in range(300):
+            f.update(w[k], acc[k], DT)
+            ref.update(w[k], acc[k], dt=DT)
+        np.testing.assert_array_equal(f.q_b_n, ref.q_b_n)
+    with pytest.raises(OptinavError, match="rate_hz = 1 Hz is no IMU sample rate"):
+        AttitudeFilter(1.0)
+    for bad in (100.0, 10.0):  # a rate, or a step in ms, passed as dt ran with exit 0 or was taken for deg/s
+        with pytest.raises(OptinavError, match=f"dt = {bad:g} s is no IMU sample step"):
+            estimate_q(w, acc, bad)
+        with pytest.raises(OptinavError, match="no IMU sample step"):
+            AttitudeFilter(dt=bad)
+
+
+def test_a_scalar_last_q0_is_named():
+    from optinav.attitude.checks import InitialAttitudeWarning
+
+    """A q0 stored [x, y, z, w] tilted the start by 111° with no word, and gd kept 74° of it (helper)."""
+    q0 = quat_multiply(quat_from_rotvec([0.6, -0.4, 1.0]), [1.0, 0, 0, 0])
+    acc = np.einsum("ij,nj->ni", dcm_from_quat(q0).T, np.tile([0.0, 0.0, -G], (500, 1)))  # at rest in pose q0
+    with pytest.warns(InitialAttitudeWarning, match=r"stored scalar-last"):
+        estimate_q(np.zeros((500, 3)), acc, DT, q0=np.r_[q0[1:], q0[0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        estimate_q(np.zeros((500, 3)), acc, DT, q0=q0)

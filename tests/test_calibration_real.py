@@ -267,7 +267,17 @@ def test_mistakes_on_the_real_session_name_the_flag_that_helps(tmp_path, capsys)
     np.savetxt(swap, np.column_stack(cols), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="")
     sec = DATA / "example_ferraris_session_list.json"
     fr = ["--method", "ferraris", "--sections", str(sec)]
-    base = ["--quiet", "calibrate", "accel", "--gyro-unit", "deg/s", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    base = [
+        "--quiet",
+        "calibrate",
+        "accel",
+        "--gyro-unit",
+        "deg/s",
+        "--gravity",
+        "9.81",
+        "--out",
+        str(tmp_path / "r.json"),
+    ]
     cases = [
         ([str(swap), "--rate", "102.4"], "the two triads look swapped"),
         ([str(swap), "--rate", "102.4", *fr], "the two triads look swapped"),

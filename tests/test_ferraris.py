@@ -702,3 +702,26 @@ def test_a_turn_a_few_degrees_off_enters_the_gyro_scale_std(tmp_path, capsys):
     r = CalibrationResult.from_json(out)
     z = (np.diag(r.gyroscope["K"]) - np.diag(truth[2])) / np.diag(r.gyroscope["K_std"])
     assert np.all(np.abs(z) < 2.0) and np.all(np.abs(z) > 0.3), z
+
+
+def test_the_monte_carlo_std_takes_rng():
+    """The Ferraris std is a Monte Carlo: ``rng`` was ignored by calibrate() (seed 0 always) and refused by
+    ferraris_from_sections (TypeError). A seed repeats, another seed draws anew; the default stays 0."""
+    from pathlib import Path
+
+    from optinav.multipos import calibrate
+
+    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
+    if not (data / "example_ferraris_session.csv").is_file():
+        pytest.skip("imucal data absent")
+    rows = np.genfromtxt(data / "example_ferraris_session.csv", delimiter=",", names=True)
+    acc = np.column_stack([rows[f"acc_{a}"] for a in "xyz"])
+    gyr = np.column_stack([rows[f"gyr_{a}"] for a in "xyz"])
+    sec = data / "example_ferraris_session_list.json"
+    std = [ferraris_from_sections(102.4, acc, gyr, sec, with_std=True, rng=r)[1]["gyr_K"] for r in (1, 2, 1, 0)]
+    assert np.array_equal(std[0], std[2]) and not np.array_equal(std[0], std[1])
+    t = np.arange(rows.size) / 102.4
+    kw = dict(method="ferraris", sections=sec, gyro_unit="deg/s", g=9.81)
+    runs = [calibrate(t, acc, gyr, rng=r, **kw).gyroscope["K_std"] for r in (1, 2, None, None, 0)]
+    assert not np.array_equal(runs[0], runs[1])
+    assert np.array_equal(runs[2], runs[3]) and np.array_equal(runs[2], runs[4])  # None: seed 0, a run repeats

@@ -150,3 +150,15 @@ def test_integration_steps_keep_real_irregular_steps_and_gaps():
     s = integration_steps(g)
     np.testing.assert_array_equal(s[:-1], np.diff(g))
     assert s[-1] == np.median(np.diff(g))  # the last sample: the median step, not a step past the end
+
+
+def test_a_version_that_is_no_whole_number_is_named():
+    """A result whose "version" is the text "5" said "version 5 is not supported (this optinav reads version 5)"."""
+    from optinav.attitude import estimate
+
+    w = np.zeros((200, 3))
+    acc = np.tile([0.0, 0.0, -9.81], (200, 1))
+    d = estimate(w, acc, 0.01).to_dict()
+    d["version"] = str(d["version"])
+    with pytest.raises(OptinavError, match=r"version '\d+' is not a whole number"):
+        Result.from_dict(d)

@@ -50,6 +50,44 @@ def warn_reference_order(rmse: float, rmse_xyzw: float) -> None:
         )
 
 
+class InitialAttitudeWarning(UserWarning):
+    """A given initial attitude q0 contradicts the vertical the accelerometer shows at the start."""
+
+
+def check_q0(q0: np.ndarray, acc: np.ndarray, frame: str) -> None:
+    """Warn once when ``q0`` (q_b^n, unit) tilts more than 30° from the vertical of the first samples' specific
+    force (when that reads about g: a start at rest), naming [x, y, z, w] storage when that order fits within 10°
+    (a scalar-last q0 tilted the start by 111° on a simulated flight, and gd kept 74° of it, silently)."""
+    from optinav.attitude.measurement import up_vector
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
+    na = float(np.linalg.norm(a))
+    if not np.isfinite(na) or abs(na - G_STANDARD) > 0.2 * G_STANDARD:
+        return
+    up = up_vector(frame)
+
+    def tilt(q):
+        b = quat_rotate(quat_conjugate(np.asarray(q, float)), up)
+        return float(np.degrees(np.arccos(np.clip(b @ a / na, -1.0, 1.0))))
+
+    ang = tilt(q0)
+    if ang <= 30.0:
+        return
+    alt = tilt(np.asarray(q0, float)[XYZW])
+    warnings.warn(
+        f"q0 tilts {ang:.0f}° from the vertical the accelerometer shows at the start"
+        + (
+            f"; read as [x, y, z, w] it fits within {alt:.0f}°: it looks stored scalar-last (scipy's order); "
+            "reorder it to [w, x, y, z]"
+            if alt < 10.0
+            else "; check its frame and convention (q_b^n, [w, x, y, z])"
+        ),
+        InitialAttitudeWarning,
+        stacklevel=4,
+    )
+
+
 def find_gaps(dts: np.ndarray) -> np.ndarray:
     """Indices i whose step dt[i] (from sample i−1, s) is a time gap: > GAP_FACTOR × median and > MIN_GAP_S."""
     if dts.shape[0] < 3:

@@ -262,15 +262,15 @@ def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.nd
 class AttitudeFilter:
     """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
 
-    ``rate_hz`` or ``dt`` (s) gives the default step. After each update: :attr:`q` (q_b^n), :attr:`rest`,
-    :attr:`bias` (rad/s), :attr:`acc_used`, :attr:`mag_used`. :meth:`update_batch` runs chunks with the same
+    ``rate_hz`` or ``dt`` (s) gives the default step. After each update: :attr:`q_b_n`, :attr:`rest`,
+    :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used`. :meth:`update_batch` runs chunks with the same
     arithmetic as :func:`optinav.attitude.estimate`.
     """
 
     def __init__(
         self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None, **options
     ):
-        from optinav.attitude.estimators import _as_q0, _options
+        from optinav.attitude.estimators import MAX_STEP_S, _as_q0, _options, check_step
 
         self.frame = frame_name(frame)
         self.options = _options("iframe", options)
@@ -278,6 +278,13 @@ class AttitudeFilter:
             dt = 1.0 / float(rate_hz)
         if dt is not None and not (np.isfinite(dt) and dt > 0):
             raise OptinavError(f"dt={dt!r} must be a positive step in s", "pass rate_hz or dt > 0")
+        if dt is not None and rate_hz is not None and dt > MAX_STEP_S:
+            raise OptinavError(
+                f"rate_hz = {rate_hz:g} Hz is no IMU sample rate (at least {1 / MAX_STEP_S:g} Hz)",
+                "pass the rate in Hz (dt= takes the step in seconds)",
+            )
+        if dt is not None:
+            check_step(float(dt))
         self.dt = dt
         self._par = _params(self.frame, self.options)
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
@@ -285,7 +292,8 @@ class AttitudeFilter:
         self._step6 = _k.step6
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
-        """One sample; then read :attr:`q`, :attr:`rest`, … Only the lengths are checked (speed): pass finite floats.
+        """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked (speed): pass finite
+        floats.
 
         Parameters
         ----------
@@ -293,11 +301,14 @@ class AttitudeFilter:
             Angular rate ω_ib^b [rad/s].
         acc : (3,) array
             Specific force [m/s^2].
-        mag : (3,) array or None
-            Magnetometer [any unit].
+        mag : (3,) array, float or None
+            Magnetometer [any unit]; a number here is the step dt (``update(gyr, acc, dt)``, the form of the
+            other methods' filters from :func:`~optinav.attitude.make_filter`).
         dt : float or None
             Step [s]; None: the filter's.
         """
+        if mag is not None and not hasattr(mag, "__len__"):
+            mag, dt = None, mag
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")

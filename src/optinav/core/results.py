@@ -350,10 +350,15 @@ class Result:
             raise OptinavError(f"unknown result schema {schema!r}", "upgrade optinav or check the file")
         if cls is not Result and not issubclass(target, cls):
             raise OptinavError(f"result schema {schema!r} is not a {cls.SCHEMA}", "pass the right result file")
-        if data.get("version") != target.VERSION:
+        version = data.get("version")
+        if not isinstance(version, int) or isinstance(version, bool):
             raise OptinavError(
-                f"{schema} version {data.get('version')} is not supported "
-                f"(this optinav reads version {target.VERSION})",
+                f"{schema} version {version!r} is not a whole number (this optinav reads version {target.VERSION})",
+                "the file was edited or written by another program: re-run with this optinav",
+            )
+        if version != target.VERSION:
+            raise OptinavError(
+                f"{schema} version {version} is not supported (this optinav reads version {target.VERSION})",
                 "re-run with this optinav",
             )
         kwargs = {}

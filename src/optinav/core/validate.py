@@ -131,12 +131,27 @@ def check_timestamps(
 
 
 def integration_steps(t, t_next: float | None = None) -> np.ndarray:
-    """Steps [s] for integrating samples at times ``t`` (N,): the forward steps t[k+1] − t[k]; the last sample's
-    the step to ``t_next`` (the time of the row after the stretch) unless that is longer than 5 median steps (a
-    jump: a log cut to sections joined end to end), else the median step. A stretch sampled uniformly whose stamps are rounded to a coarse tick (1 ms at 102.4 Hz: steps
-    of 9 and 10 ms) gets its uniform step: the steps take two values one tick q apart and every stamp is within
-    0.75·q of a straight line through them (q/2 from the true one). The rounding would otherwise pair each rate with a step off by up to a
-    tick — on a jerky hand turn (33 °/s between samples) 0.3° of 360, five times the calibration's std."""
+    """Steps for integrating samples at times ``t``: the forward steps t[k+1] − t[k]; the last sample's the step
+    to ``t_next`` unless that is longer than 5 median steps (a jump: a log cut to sections joined end to end),
+    else the median step.
+
+    A stretch sampled uniformly whose stamps are rounded to a coarse tick q (1 ms at 102.4 Hz: steps of 9 and
+    10 ms) gets its uniform step: its steps take two values q apart and every stamp lies within 0.75·q of a
+    straight line through them (q/2 from the true one). The rounding would otherwise pair each rate with a step
+    off by up to a tick — on a jerky hand turn (33 °/s between samples) 0.3° of 360, five times the std.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times [s], increasing.
+    t_next : float or None
+        Time of the row after the stretch [s], None at the end of the log.
+
+    Returns
+    -------
+    (N,) ndarray
+        The step of each sample [s].
+    """
     t = np.asarray(t, float)
     if t.size < 2:
         return np.zeros(t.size)

@@ -356,7 +356,7 @@ def calibrate(
         mean reported, its std that of the session's bias), "static" (mean over the static poses), "rest"
         (mean over ``rest``), "estimate" (jointly with K_g) or a 3-vector [gyro_unit].
     rng : int, Generator or None
-        Seed or generator of a stochastic optimizer.
+        Seed or generator of a stochastic optimizer, and of the Ferraris method's Monte Carlo std (None: 0).
     source : str
         Recorded in the result.
     method_options : dict or None
@@ -453,6 +453,7 @@ def calibrate(
             float(rotation_angle),
             float(pose_alignment),
             sat_g,
+            rng=rng,
         )
     selection = {}
     step("detect static intervals")
@@ -911,8 +912,11 @@ def _ferraris(
     rotation_angle,
     pose_alignment=np.radians(1.0),
     sat_g=None,
+    *,
+    rng=None,
 ):
-    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated."""
+    """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated;
+    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats)."""
     from . import ferraris
 
     if gyro is None or sections is None:
@@ -923,7 +927,14 @@ def _ferraris(
         )
     sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
     fc, std = ferraris.ferraris_from_sections(
-        t, acc, gyro, sl if sl is not None else sections, gravity=g, expected_angle=rotation_angle, with_std=True
+        t,
+        acc,
+        gyro,
+        sl if sl is not None else sections,
+        gravity=g,
+        expected_angle=rotation_angle,
+        with_std=True,
+        rng=0 if rng is None else rng,
     )
     if sl is None:
         names = list(sections)

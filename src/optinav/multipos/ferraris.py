@@ -501,7 +501,7 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
         Passed to :func:`ferraris_calibration`.
 
     with_std : bool
-        Also return :func:`ferraris_std` of the sections (seed 0).
+        Also return :func:`ferraris_std` of the sections (``rng=`` among ``kwargs`` seeds it; default 0).
 
     Returns
     -------
@@ -561,6 +561,7 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
         timing = {
             "dt": [integration_steps(t[slice(*idx[n])], t[idx[n][1]] if idx[n][1] < N else None) for n in ROTATIONS]
         }
+    rng = kwargs.pop("rng", 0)  # the Monte Carlo std's seed
     if not with_std:
         return ferraris_calibration(*parts, **timing, **kwargs)
     # the inputs prepared once for both: the closed form, then its Monte Carlo std
@@ -575,7 +576,7 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     )
     if kwargs:
         raise TypeError(f"ferraris_from_sections got unexpected keyword(s) {sorted(kwargs)}")
-    return _calibration(p, **units), _std(p, 0, 2000)
+    return _calibration(p, **units), _std(p, rng, 2000)
 
 
 def _turn_outside(
