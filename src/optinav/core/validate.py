@@ -136,8 +136,8 @@ def integration_steps(t, t_next: float | None = None) -> np.ndarray:
     else the median step.
 
     A stretch sampled uniformly whose stamps are rounded to a coarse tick q (1 ms at 102.4 Hz: steps of 9 and
-    10 ms) gets its uniform step: its steps take two values q apart and every stamp lies within 0.75·q of a
-    straight line through them (q/2 from the true one). The rounding would otherwise pair each rate with a step
+    10 ms) gets its uniform step: its steps take two values q apart and the stamps lie within a band of width q
+    about a straight line (the rounding's ±q/2 about the true one), whose slope is the step. The rounding would otherwise pair each rate with a step
     off by up to a tick — on a jerky hand turn (33 °/s between samples) 0.3° of 360, five times the std.
 
     Parameters
@@ -161,10 +161,18 @@ def integration_steps(t, t_next: float | None = None) -> np.ndarray:
     q = hi - lo
     eps = 1e-6 * med  # the stamps' float rounding
     if t.size > 2 and 0.01 * med <= q < med and np.all((step - lo <= eps) | (hi - step <= eps)):
+        from scipy.optimize import minimize_scalar
+
         k = np.arange(t.size, dtype=float)
-        slope, icpt = np.polyfit(k, t, 1)
-        if np.max(np.abs(t - (icpt + slope * k))) <= 0.75 * q:
-            return np.full(t.size, float(slope))
+        x = t - t[0]
+
+        def spread(h):  # convex in h: the stamps' spread about the line of slope h
+            r = x - k * h
+            return float(r.max() - r.min())
+
+        best = minimize_scalar(spread, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9 * med})
+        if best.fun <= q * (1.0 + 1e-6) + eps:
+            return np.full(t.size, float(best.x))
     last = med if t_next is None or not 0.0 < t_next - t[-1] <= 5.0 * med else float(t_next - t[-1])
     return np.append(step, last)
 
