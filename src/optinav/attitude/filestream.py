@@ -719,7 +719,6 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
     bf, af, pad = _if.zero_phase_filter(dts, opts["tau_acc"], n)
-    del dts
     q = np.array([1.0, 0.0, 0.0, 0.0])
     for s in range(a, b, blk):
         r = store.read(s, min(s + blk, b)).copy()
@@ -728,13 +727,15 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r[:, c["qg"]] = qg
         r[:, c["v"]] = quat_rotate(qg, col(r, "acc"))
         store.write(s, r)
-    # filtfilt(bf, af, v, axis=0, padlen=pad, padtype="even"): even extensions at both ends, forward then
-    # backward with the steady-state initial conditions, in blocks with the filter state carried (the same
-    # arithmetic)
-    head = col(store.read(a, a + pad + 1), "v")
-    tail = col(store.read(b - pad - 1, b), "v")
-    left = head[pad:0:-1]
-    right = tail[-2::-1]
+    # iframe._zero_phase_tilt: filtfilt(bf, af, [left, v, right], axis=0, padtype=None) with constant extensions at
+    # the mean of each end's first tau_acc s (edge_rows), forward then backward with the steady-state initial
+    # conditions, in blocks with the filter state carried (the same arithmetic)
+    k0 = _if.edge_rows(dts, opts["tau_acc"], pad)
+    del dts
+    head = col(store.read(a, a + k0), "v")
+    tail = col(store.read(b - k0, b), "v")
+    left = np.repeat(head.mean(axis=0)[None], pad, 0)
+    right = np.repeat(tail.mean(axis=0)[None], pad, 0)
     zi = lfilter_zi(bf, af).reshape(-1, 1)
     _, z = lfilter(bf, af, left, axis=0, zi=zi * left[0:1])
     for s in range(a, b, blk):
