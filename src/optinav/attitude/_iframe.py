@@ -472,3 +472,25 @@ def strapdown(gyr, bias, dt, out, q):
         out[i, 2] = q2
         out[i, 3] = q3
     q[0], q[1], q[2], q[3] = q0, q1, q2, q3
+
+
+@numba.njit(**_NJ)
+def smooth_azimuth(d, used, dt, tau, state, out, backward):
+    """One direction of the offline heading smoothing: ``out`` (N,) the running first-order mean (time constant
+    ``tau`` s, gain at least 1/n of the n samples so far) of the angles ``d`` (N,) rad over the samples ``used``,
+    held across the others; ``state`` (2,) [mean, count] is carried from block to block (count 0: not started;
+    ``out`` is then NaN); ``dt`` 1 or N steps (s); ``backward``: from the last sample to the first."""
+    n = d.shape[0]
+    for j in range(n):
+        i = n - 1 - j if backward else j
+        if used[i] and math.isfinite(d[i]):
+            if state[1] == 0.0:
+                state[0] = d[i]
+                state[1] = 1.0
+            else:
+                state[1] += 1.0
+                h = dt[i] if dt.shape[0] > 1 else dt[0]
+                g = max(h / tau, 1.0 / state[1])
+                e = d[i] - state[0]
+                state[0] += g * math.atan2(math.sin(e), math.cos(e))
+        out[i] = state[0] if state[1] > 0.0 else math.nan

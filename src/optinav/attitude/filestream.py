@@ -715,6 +715,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         store.write(s, r)
     n = b - a
     if n < 16 or not finite:
+        _offline_heading(store, a, b, opts, frame, blk)
         return lat
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
@@ -757,7 +758,43 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
             r = store.read(s, min(s + blk, b)).copy()
             r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
             store.write(s, r)
+    _offline_heading(store, a, b, opts, frame, blk)
     return lat
+
+
+def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, blk: int) -> None:
+    """The offline heading smoothing of :func:`optinav.attitude.iframe.run_iframe` on the rows [a, b) of
+    ``store`` (with a magnetometer): the field's azimuth in the smoothed attitude, its running mean forward (kept
+    in "v") and then backward, in blocks with the states carried; the same arithmetic."""
+    from optinav.attitude import _iframe as _k
+    from optinav.attitude import iframe as _if
+
+    c, col = store.cols, store.col
+    tau = opts["tau_mag_smooth"]
+    if "mag" not in c or not tau > 0.0:
+        return
+    st, seen = np.zeros(2), False
+    for s in range(a, b, blk):
+        r = store.read(s, min(s + blk, b)).copy()
+        used = col(r, "flags")[:, 2].astype(bool)
+        seen |= bool(used.any())
+        out = np.empty(r.shape[0])
+        _k.smooth_azimuth(
+            _if.field_azimuth(col(r, "q"), col(r, "mag"), frame), used, col(r, "dts")[:, 0], tau, st, out, False
+        )
+        r[:, c["v"].start] = out
+        store.write(s, r)
+    if not seen:
+        return
+    st = np.zeros(2)
+    for e in range(b, a, -blk):
+        s = max(e - blk, a)
+        r = store.read(s, e).copy()
+        fwd = r[:, c["v"].start].copy()
+        out = np.empty(r.shape[0])
+        _k.smooth_azimuth(fwd, col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0], tau, st, out, True)
+        r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, fwd, frame)
+        store.write(s, r)
 
 
 def _mag_names(mag_columns: str | None) -> list[str]:

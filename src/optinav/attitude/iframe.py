@@ -185,11 +185,39 @@ def run_iframe(
     t = np.cumsum(h)
     q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1], backward_share(t, t[-1], h[-1], opts["tau_acc"]))
     q = _zero_phase_tilt(q, gyr, acc, dts, bias, frame, opts["tau_acc"])
+    used = fwd.mag_used | bwd.mag_used[::-1]
+    if m.shape[0] and opts["tau_mag_smooth"] > 0.0 and used.any():
+        fs, bs = np.zeros(2), np.zeros(2)
+        s = np.empty(q.shape[0])
+        _k.smooth_azimuth(field_azimuth(q, m, frame), used, dts, opts["tau_mag_smooth"], fs, s, False)
+        out = np.empty(q.shape[0])
+        _k.smooth_azimuth(s, used, dts, opts["tau_mag_smooth"], bs, out, True)
+        q = heading_turned(q, out, s, frame)
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
     return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias, fwd.state)
+
+
+def field_azimuth(q, mag, frame) -> np.ndarray:
+    """Azimuth (N,) rad of the magnetometer's horizontal field in the navigation frame of the attitudes ``q``
+    (N, 4), from north toward west (positive about up): the heading error the field shows."""
+    from optinav.core.rotations import quat_rotate
+
+    f = frame_name(frame)
+    up, north = _UP[f], _NORTH[f]
+    v = quat_rotate(q, mag)
+    return np.arctan2(v @ np.cross(up, north), v @ north)
+
+
+def heading_turned(q, out, fwd, frame) -> np.ndarray:
+    """``q`` (N, 4) turned about up by −``out`` (N,) rad (the smoothed field azimuth; where the backward pass had
+    not started, the forward one's ``fwd``, else 0): the offline heading correction."""
+    from optinav.core.rotations import quat_from_rotvec, quat_multiply
+
+    a = np.where(np.isfinite(out), out, np.where(np.isfinite(fwd), fwd, 0.0))
+    return quat_multiply(quat_from_rotvec(-a[:, None] * _UP[frame_name(frame)][None, :]), q)
 
 
 def _zero_phase_tilt(q, gyr, acc, dts, bias, frame, tau):
