@@ -455,13 +455,18 @@ def test_a_mems_gyro_bias_is_no_unit_error(bias_deg_s):
 
 @pytest.mark.parametrize(
     "name, row, seconds",
-    [("24_disturbed_tapping_A.hdf5", 27105, 5.0), ("16_undisturbed_fast_translation_B.hdf5", 19591, 1.0)],
+    [
+        ("24_disturbed_tapping_A.hdf5", 27105, 5.0),
+        ("16_undisturbed_fast_translation_B.hdf5", 19591, 1.0),
+        ("11_undisturbed_slow_translation_B.hdf5", 17595, 5.0),
+    ],
 )
 def test_excerpts_pass_the_input_checks(tmp_path, capsys, name, row, seconds):
     """Excerpts of real trials were refused (helper): 5 s of trial 24 as 'gyro axis y clipped at 3.225 rad/s' —
     the logger held one whole sample four times at the excerpt's peak (every channel repeats: no clip); 1 s of
     trial 16's fast translation as 'rad/s declared deg/s' with rad/s declared (too short to judge the unit by how
-    gravity turns). Both run, in memory and streamed from a file."""
+    gravity turns); 5 s of trial 11 as 'clipped at 1.16 rad/s', a sharp natural peak three samples flat (one run
+    of 3-4 samples is no evidence). All run, in memory and streamed from a file."""
     from optinav.attitude.checks import check_imu
     from optinav.cli.main import main
 
@@ -531,3 +536,30 @@ def test_offline_9d_heading_of_a_recording_in_motion(name, start_s, end_s, befor
     off = estimate_q(tr.gyr[sl], tr.acc[sl], tr.dt, frame="ENU", mag=tr.mag[sl], offline=True, checks=False)
     head = np.degrees(rmse(heading_error(off, tr.q_ref[sl]), tr.eval_mask[sl]))
     assert head < 0.6 * before, (head, before, vqf)
+
+
+def test_an_excerpt_in_rad_s_declared_deg_s_is_named_and_a_right_q0_is_not():
+    """60 s of trial 07 (880 °/s peaks) with its rad/s gyro declared deg/s ran with exit 0 at 22° (helper): the
+    drift criterion's floor, which allows for a bias, held it back — a bias cannot steady a gyro that reads 57×
+    too small, so that comparison has no floor now. And a right q0 at a start in motion was warned about (34°):
+    the q0 check judges only a still start."""
+    import warnings
+
+    from optinav.attitude.checks import check_imu
+    from optinav.errors import OptinavError
+
+    p = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
+    q = SHARED / "attitude" / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+    if not (p.is_file() and q.is_file()):
+        pytest.skip("trials 07 / 02 absent")
+    tr = load_broad(p)
+    sl = slice(35376, 35376 + int(60 / tr.dt))
+    d = np.array([tr.dt])
+    with pytest.raises(OptinavError, match="rad/s declared deg/s"):
+        check_imu(tr.gyr[sl] * np.pi / 180, tr.acc[sl], d)
+    check_imu(tr.gyr[sl], tr.acc[sl], d)
+    tr = load_broad(q)
+    sl = slice(12416, 12416 + int(10 / tr.dt))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        estimate(tr.gyr[sl], tr.acc[sl], tr.dt, frame="ENU", q0=tr.q_ref[12416])

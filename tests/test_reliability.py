@@ -1115,6 +1115,38 @@ def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     assert "pose" in (tmp_path / "r" / "index.md").read_text()
     assert main(["report", str(res), "--rate", "102.4", "--out", str(tmp_path / "r2")]) == 2
     one_line_error(capsys, "--rate is the sampling rate of the --data recordings")
+    # a time column in ms: calibrate takes --time-unit ms, and report had no such flag (helper)
+    rows = np.genfromtxt(data, delimiter=",", names=True)
+    ms = tmp_path / "ms.csv"
+    cols = [np.arange(rows.size) * 1000 / 102.4] + [rows[f"acc_{a}"] for a in "xyz"] + [rows[f"gyr_{a}"] for a in "xyz"]
+    np.savetxt(ms, np.column_stack(cols), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    res_ms = tmp_path / "ms.json"
+    argv_ms = [
+        "--quiet",
+        "calibrate",
+        "accel",
+        str(ms),
+        "--time-unit",
+        "ms",
+        "--gyro-unit",
+        "deg/s",
+        "--gravity",
+        "9.81",
+    ]
+    assert main(argv_ms + ["--out", str(res_ms)]) == 0
+    argv_rep = [
+        "--quiet",
+        "report",
+        str(res_ms),
+        "--data",
+        str(ms),
+        "--time-unit",
+        "ms",
+        "--out",
+        str(tmp_path / "rms"),
+    ]
+    assert main(argv_rep) == 0
+    capsys.readouterr()
     # a wrong rate put the static intervals on the moves: two '+x up' rows, one with motion, exit 0 (helper)
     assert main(["report", str(res), "--data", str(data), "--rate", "50", "--out", str(tmp_path / "r3")]) == 2
     one_line_error(capsys, "static interval 0", "is not still", "--rate")

@@ -55,15 +55,18 @@ class InitialAttitudeWarning(UserWarning):
 
 
 def check_q0(q0: np.ndarray, acc: np.ndarray, frame: str) -> None:
-    """Warn once when ``q0`` (q_b^n, unit) tilts more than 30° from the vertical of the first samples' specific
-    force (when that reads about g: a start at rest), naming [x, y, z, w] storage when that order fits within 10°
+    """Warn once when ``q0`` (q_b^n, unit) tilts more than 30° from the vertical of the first 20 samples' specific
+    force (when they are steady and read about g: a start at rest), naming [x, y, z, w] storage when that order fits within 10°
     (a scalar-last q0 tilted the start by 111° on a simulated flight, and gd kept 74° of it, silently)."""
     from optinav.attitude.measurement import up_vector
     from optinav.core.rotations import quat_conjugate, quat_rotate
 
-    a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
+    w = acc[: max(1, min(acc.shape[0], 20))]
+    a = w.mean(axis=0)
     na = float(np.linalg.norm(a))
-    if not np.isfinite(na) or abs(na - G_STANDARD) > 0.2 * G_STANDARD:
+    # judged only on a start at rest: the first 20 samples steady and reading g (a start in motion tilts the body
+    # within them — a right q0 was warned about by 34°)
+    if not np.isfinite(na) or abs(na - G_STANDARD) > 0.1 * G_STANDARD or float(np.max(np.ptp(w, axis=0))) > 0.5:
         return
     up = up_vector(frame)
 
@@ -312,6 +315,8 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None) -> str:
     for i, floor in ((0, 0.0), (1, 0.2)):
         spread = {s: v[i] for s, v in spreads.items()}
         best = min(spread, key=spread.get)
+        if best != np.pi / 180:
+            floor = 0.0  # the floor allows for a bias, which cannot steady a gyro that reads 57× too small
         if i == 1 and best == np.pi / 180 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
             # against a gyro too small to turn anything, the declared unit may carry a constant bias (a MEMS
             # gyro's few °/s drift gravity as far as a slow body turns); the tiny alternative gets none (a
@@ -440,7 +445,7 @@ def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float, q: float = 0.
     brk = np.flatnonzero(np.diff(idx) > 1)
     starts = np.concatenate([idx[:1], idx[brk + 1]])
     ends = np.concatenate([idx[brk] + 1, idx[-1:] + 1])  # run [s, e)
-    steep = 0
+    steep, longest = 0, 0
     for s, e in zip(starts, ends):
         if e - s < 3 or (held is not None and held(s, e)):
             continue
@@ -450,7 +455,10 @@ def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float, q: float = 0.
         # deg/s) stay within one quantum over a slow peak for a long time
         if max(step_in, step_out) > max(0.005 * m, 5.0 * q) or ((e - s) * dt >= 0.1 and q < 0.001 * m):
             steep += 1
-    return steep
+            longest = max(longest, e - s)
+    # one run of 3-4 samples is no evidence: a sharp natural peak tops out so (5 s of BROAD trial 11 was refused
+    # at 1.16 rad/s, its range beyond 1.6), and so short a clip costs the attitude only the excess over it
+    return steep if steep >= 2 or longest >= 5 else 0
 
 
 def clipped(k: int, limit: float, steep: int) -> OptinavError:

@@ -44,6 +44,12 @@ def register(sub) -> None:
         metavar="HZ",
         help="sampling rate of --data recordings without a time column (multi-position and attitude results)",
     )
+    p.add_argument(
+        "--time-unit",
+        dest="time_unit",
+        choices=("s", "ms", "us", "ns"),
+        help="unit of the --data recordings' time column, as given to calibrate or attitude (default s)",
+    )
     p.add_argument("--out", required=True, metavar="DIR|FILE.md", help="report folder or Markdown file")
     p.set_defaults(func=run)
 
@@ -55,5 +61,8 @@ def run(args) -> int:
     require_files(*((r, "result file") for r in args.results), *((d, "--data file") for d in args.data))
     if args.rate_hz is not None and not args.data:
         raise OptinavError("--rate is the sampling rate of the --data recordings", "give --data, or drop --rate")
-    print(f"optinav: report written to {write_result_reports(args.results, args.out, args.data, args.rate_hz)}")
+    if args.time_unit is not None and not args.data:
+        raise OptinavError("--time-unit is the unit of the --data recordings' time", "give --data, or drop --time-unit")
+    written = write_result_reports(args.results, args.out, args.data, args.rate_hz, time_unit=args.time_unit)
+    print(f"optinav: report written to {written}")
     return 0

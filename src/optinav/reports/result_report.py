@@ -53,16 +53,22 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
     return write_report([study], out_dir, title="optinav calibration")
 
 
-def _reading(system, rate_hz: float | None):
-    """The reading options of ``system``'s recordings with ``rate_hz``, or None (its defaults)."""
-    if rate_hz is None:
+def _reading(system, rate_hz: float | None, time_unit: str | None = None):
+    """The reading options of ``system``'s recordings with ``rate_hz`` and ``time_unit``, or None (its
+    defaults)."""
+    if rate_hz is None and time_unit is None:
         return None
     import dataclasses
 
     cls = system.load("options")
-    if "rate_hz" not in {f.name for f in dataclasses.fields(cls)}:
-        raise OptinavError(f"--rate does not apply to {system.name} results", "drop --rate")
-    return cls(rate_hz=float(rate_hz))
+    names = {f.name for f in dataclasses.fields(cls)}
+    kw = {}
+    for value, field_name, flag in ((rate_hz, "rate_hz", "--rate"), (time_unit, "time_unit", "--time-unit")):
+        if value is not None:
+            if field_name not in names:
+                raise OptinavError(f"{flag} does not apply to {system.name} results", f"drop {flag}")
+            kw[field_name] = float(value) if field_name == "rate_hz" else value
+    return cls(**kw)
 
 
 def _check_same_log(res, d, data) -> None:
@@ -143,12 +149,15 @@ def _stems(paths) -> list[str]:
     return out
 
 
-def write_result_reports(results, out, data=None, rate_hz: float | None = None) -> Path:
+def write_result_reports(
+    results, out, data=None, rate_hz: float | None = None, *, time_unit: str | None = None
+) -> Path:
     """Report every result file of ``results`` (paths; ``data``: None or the recording of each, in order) into
     ``out``: a folder (one result: its report there; several: one sub-folder each and an index.md linking
     them) or a Markdown file ``FILE.md`` (the reports one after the other, their figures, HTML and summaries in
     ``FILE_files/``). ``rate_hz``: the sampling rate (Hz) of recordings without a time column (the reading
-    option of multi-position and attitude results). Returns the Markdown file written."""
+    option of multi-position and attitude results), ``time_unit`` that of their time column. Returns the Markdown
+    file written."""
     from optinav import registry
     from optinav.core.files import check_output, write_text
     from optinav.reports.report import check_report_dir
@@ -176,7 +185,7 @@ def write_result_reports(results, out, data=None, rate_hz: float | None = None) 
     new = [made] if made is not None else [f for f in folders if not f.exists()]
     try:
         for (system, res), folder, d in zip(loaded, folders, data or [None] * len(results)):
-            system.load("report")(res, folder, d, _reading(system, rate_hz))
+            system.load("report")(res, folder, d, _reading(system, rate_hz, time_unit))
         if single_file:
             parts = [_relinked((f / "index.md").read_text(encoding="utf-8"), f"{root.name}/{f.name}") for f in folders]
             return write_text(out, "\n".join(parts), "--out")
