@@ -369,6 +369,14 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
         )
 
 
+def no_mag_error() -> OptinavError:
+    """A magnetometer given without one usable sample: the heading would come from the gyro alone."""
+    return OptinavError(
+        "the magnetometer has no sample with three finite values: the heading would come from the gyro alone",
+        "check --mag-columns or the MagneticField topic's time stamps (another clock?), or drop --mag",
+    )
+
+
 def _checked_imu(gyr, acc, mag=None):
     """(N, 3) float arrays gyr, acc (and mag or None) with matching N >= 1."""
     gyr = as_float_array(gyr, "gyr", last_dims=(3,))
@@ -381,6 +389,8 @@ def _checked_imu(gyr, acc, mag=None):
         mag = as_float_array(mag, "mag", last_dims=(3,), finite=False)
         if mag.shape != gyr.shape:
             raise OptinavError(f"mag has shape {mag.shape}, expected {gyr.shape}", "align the magnetometer")
+        if not np.isfinite(mag).all(axis=1).any():
+            raise no_mag_error()
         mag = np.ascontiguousarray(mag)
     return np.ascontiguousarray(gyr), np.ascontiguousarray(acc), mag
 

@@ -41,10 +41,12 @@ class StreamChecks:
         self.n = 0
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
+        self._mag_any = False  # a magnetometer row with three finite values seen
 
     def add_mag(self, mag: np.ndarray) -> None:
         """Pass 1: the block's magnetometer rows (n, 3); evenly spaced rows are kept, at most twice
         :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full)."""
+        self._mag_any = self._mag_any or bool(np.isfinite(mag).all(axis=1).any())
         first = (-self._mag_seen) % self._mag_stride
         self._mag.append(mag[first :: self._mag_stride].copy())
         self._mag_kept += self._mag[-1].shape[0]
@@ -72,6 +74,10 @@ class StreamChecks:
     def finish_first(self) -> None:
         """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
         ``median_dt`` (s) and the windows the second pass gathers."""
+        if self._mag_seen and not self._mag_any:
+            from optinav.attitude.estimators import no_mag_error
+
+            raise no_mag_error()
         dts = np.concatenate(self._dts)
         self._dts = []
         self.gaps = _c.find_gaps(dts)

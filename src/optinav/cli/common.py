@@ -198,6 +198,12 @@ def require_files(*items: tuple[str | None, str]) -> None:
 
     for path, what in items:
         if path is not None and input_kind(path, what) == "dir" and not is_bag(path):
+            if any(Path(path).glob("*.db3")) or any(Path(path).glob("*.mcap")):
+                raise OptinavError(
+                    f"{what} {Path(path)} is a folder of ROS 2 bag files without metadata.yaml (a recording still "
+                    "running, or one that did not close)",
+                    "pass one of its .db3/.mcap files, or reindex the bag (ros2 bag reindex)",
+                )
             raise OptinavError(f"{what} {Path(path)} is a folder", "check the path")
 
 

@@ -117,6 +117,11 @@ class Table:
         if key is None and self.table is not None and name.lstrip("/").lower() == self.table.lower():
             return self.table_array
         if key is None:
+            if self.kind == "rosbag" and name.lstrip("/").lower() in ("mx", "my", "mz"):
+                raise OptinavError(
+                    f"{self.path.name} has no MagneticField topic read with its Imu topic {self.meta.get('topic')!r}",
+                    "name both topics with --topic IMU,MAG, or drop --mag",
+                )
             what = "column" if self.kind == "text" else "array/dataset"
             raise OptinavError(
                 f"{self.path} has no {what} named {name!r} (found: {self.names()})", "use one of the names found"

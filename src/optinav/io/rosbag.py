@@ -83,6 +83,7 @@ def load_bag(path, *, topic=None, only=None):
         )
     if path.is_file() and path.stat().st_size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a complete bag")
+    _check_wal(path)
     wanted = _parse_topics(topic)
     AnyReader = _rosbags()
     inflated = _inflated_load(path, topic)
@@ -107,11 +108,33 @@ def load_bag(path, *, topic=None, only=None):
             except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
                 pass
     (imu_topic, (t, t_log, (gyr, acc))), mag = got
-    t = _time_base(path, imu_topic, t, t_log)
     if mag is None:
-        return _bag_table(path, imu_topic, t, gyr, acc, None, None, 0)
+        return _bag_table(path, imu_topic, _time_base(path, imu_topic, t, t_log), gyr, acc, None, None, 0)
     mag_topic, (tm, tm_log, b) = mag
-    return _bag_table(path, imu_topic, t, gyr, acc, mag_topic, (_time_base(path, mag_topic, tm, tm_log), b[0]), 0)
+    # one clock for both topics: a topic on its log times beside one on header stamps is offset by the delay
+    # between stamping and logging (0.4 s: yaw off by up to 19°)
+    both = _stamps_ok(t) and _stamps_ok(tm)
+    t = _time_base(path, imu_topic, t, t_log, both, mag_topic)
+    tm = _time_base(path, mag_topic, tm, tm_log, both, imu_topic)
+    _check_mag_overlap(path, imu_topic, (float(t[0]), float(t[-1])), mag_topic, tm)
+    return _bag_table(path, imu_topic, t, gyr, acc, mag_topic, (tm, b[0]), 0)
+
+
+def _check_wal(path: Path) -> None:
+    """Refuse a rosbag2 sqlite3 file with a non-empty write-ahead log beside it (``X.db3-wal``: a recording still
+    running, or one that crashed, with ``--storage-preset-profile resilient``): its newest messages are only in
+    the log, which neither the scanners nor rosbags read (half of such a bag was read with exit 0), and the
+    input is never written, so no checkpoint here."""
+    files = [path] if path.is_file() else sorted(path.glob("*.db3")) if path.is_dir() else []
+    for f in files:
+        wal = f.with_name(f.name + "-wal")
+        if f.suffix.lower() == ".db3" and wal.is_file() and wal.stat().st_size > 0:
+            raise OptinavError(
+                f"{f.name} has a write-ahead log ({wal.name}, {wal.stat().st_size} bytes) with messages not yet in "
+                "the database: the recording is still running or did not close",
+                "stop the recording; or copy the .db3 with its -wal file and fold the log into the copy "
+                "(sqlite3 COPY.db3 'PRAGMA wal_checkpoint(TRUNCATE)')",
+            )
 
 
 def _file_compressed(path: Path) -> tuple[dict, list[Path]] | None:
@@ -769,15 +792,42 @@ def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
     return bool(np.array_equal(v, v_ref, equal_nan=True) and t == t_ref)
 
 
-def _time_base(path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray) -> np.ndarray:
-    """Header stamps (s) when they are set and strictly increasing; else the bag's log (receive) times ``t_log``
-    (ns, converted to s only then), with a warning."""
-    if stamp.size > 1 and np.all(np.diff(stamp) > 0) and np.all(stamp > 0):
+def _stamps_ok(stamp: np.ndarray) -> bool:
+    """Header stamps (s) that are set and strictly increasing."""
+    return bool(stamp.size and np.all(stamp > 0) and np.all(np.diff(stamp) > 0))
+
+
+def _time_base(
+    path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray, ok: bool | None = None, other: str | None = None
+) -> np.ndarray:
+    """Header stamps (s) when they are set and strictly increasing (``ok``: that verdict for every topic read
+    together); else the bag's log (receive) times ``t_log`` (ns, converted to s only then), with a warning —
+    naming ``other``, the topic whose stamps made it so, when this one's own are fine."""
+    own = _stamps_ok(stamp)
+    if own and ok is not False:
         return stamp
-    if stamp.size == 1 and stamp[0] > 0:
-        return stamp
-    _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
+    if own:
+        warnings.warn(
+            f"{path.name}: the header stamps of {other!r} are not usable, so {topic!r} too is read on the bag's "
+            "log times (one clock for both topics)",
+            stacklevel=4,
+        )
+    else:
+        _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
     return t_log * 1e-9
+
+
+def _check_mag_overlap(path: Path, imu_topic: str, span: tuple, mag_topic: str, tm: np.ndarray) -> None:
+    """Warn when a MagneticField topic's times never meet the Imu topic's ``span`` (s): a driver stamping on
+    another clock leaves the magnetometer NaN at every IMU sample (``attitude --mag`` then refuses it; without
+    --mag nothing needs it)."""
+    if tm.size and (float(np.max(tm)) < span[0] or float(np.min(tm)) > span[1]):
+        warnings.warn(
+            f"{path.name}: the times of {mag_topic!r} ({float(np.min(tm)):.6g}–{float(np.max(tm)):.6g} s) never meet "
+            f"those of {imu_topic!r} ({span[0]:.6g}–{span[1]:.6g} s): the two topics are stamped on different "
+            "clocks, and the magnetometer reads NaN at every IMU sample",
+            stacklevel=4,
+        )
 
 
 def _log_time_warning(path: Path, topic: str, why: str) -> None:
@@ -810,6 +860,7 @@ def iter_bag(path, *, topic=None, chunk_rows: int, progress=None):
     bag the scanners do not read, log times out of the storage's order, a count that differs from the index, or
     at most ``chunk_rows`` messages: one table from :func:`load_bag`. ``progress(fraction)`` after each table."""
     path = Path(path)
+    _check_wal(path)
     plan = _stream_plan(path, _parse_topics(topic))
     if plan is None:
         yield load_bag(path, topic=topic)
@@ -872,10 +923,13 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     name = plan["imu"]
     # first pass: the time base and the count, and the magnetometer whole (anything unexpected: read whole)
     total, prev_s, prev_l, stamps_ok, zero, mag = 0, -np.inf, None, True, True, None
+    first_s = first_l = None
     try:
         for stamp, logt, _ in _decoded(plan, name):
             if not stamp.size:
                 continue
+            if first_s is None:
+                first_s, first_l = float(stamp[0]), int(logt[0])
             if (prev_l is not None and logt[0] < prev_l) or np.any(logt[1:] < logt[:-1]):
                 raise ValueError("log times out of the storage's order")
             stamps_ok = stamps_ok and bool(stamp[0] > prev_s and np.all(np.diff(stamp) > 0) and np.all(stamp > 0))
@@ -896,10 +950,20 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     if total <= chunk_rows or (plan["count"] and total != count):
         yield load_bag(path, topic=topic)
         return
+    mag_ok = mag is None or _stamps_ok(mag[0])
     if not stamps_ok:
         _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
+    elif not mag_ok:  # one clock for both topics (see load_bag)
+        warnings.warn(
+            f"{path.name}: the header stamps of {plan['mag']!r} are not usable, so {name!r} too is read on the "
+            "bag's log times (one clock for both topics)",
+            stacklevel=3,
+        )
+        stamps_ok = False
     if mag is not None:
-        mag = (_time_base(path, plan["mag"], mag[0], mag[1]), mag[2])
+        mag = (_time_base(path, plan["mag"], mag[0], mag[1], stamps_ok and mag_ok, name), mag[2])
+        span = (first_s, prev_s) if stamps_ok else (first_l * 1e-9, prev_l * 1e-9)
+        _check_mag_overlap(path, name, span, plan["mag"], mag[0])
     try:  # second pass (the first read the same blocks: an error here is the storage changing under it)
         yield from _tables(path, plan, chunk_rows, progress, total, stamps_ok, mag)
     except OptinavError:
