@@ -316,18 +316,7 @@ def test_a_time_gap_inside_a_turn_is_noted(tmp_path, capsys):
     f = tmp_path / "gap.csv"
     data = np.column_stack([np.arange(rows.size) / 102.4, *cols])[keep]
     np.savetxt(f, data, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
-    args = [
-        "--quiet",
-        "calibrate",
-        "accel",
-        str(f),
-        "--gyro-unit",
-        "deg/s",
-        "--gravity",
-        "9.81",
-        "--method",
-        "ferraris",
-    ]
+    args = ["--quiet", "calibrate", "accel", str(f), *EXAMPLE[5:], "--method", "ferraris"]  # EXAMPLE's units, g
     args += ["--sections", str(DATA / "example_ferraris_session_list.json"), "--out", str(tmp_path / "r.json")]
     assert main(args) == 0
     err = capsys.readouterr().err
