@@ -55,9 +55,10 @@ class InitialAttitudeWarning(UserWarning):
 
 
 def check_q0(q0: np.ndarray, acc: np.ndarray, frame: str) -> None:
-    """Warn once when ``q0`` (q_b^n, unit) tilts more than 30° from the vertical of the first 20 samples' specific
-    force (when they are steady and read about g: a start at rest), naming [x, y, z, w] storage when that order fits within 10°
-    (a scalar-last q0 tilted the start by 111° on a simulated flight, and gd kept 74° of it, silently)."""
+    """Warn once when ``q0`` (q_b^n, unit) tilts more than 30° from the vertical of the first 20 samples'
+    specific force (when they are steady and read about g: a start at rest), naming [x, y, z, w] storage when
+    that order fits within 10° (a scalar-last q0 tilted the start by 111° on a simulated flight, and gd kept 74°
+    of it, silently)."""
     from optinav.attitude.measurement import up_vector
     from optinav.core.rotations import quat_conjugate, quat_rotate
 
