@@ -570,6 +570,11 @@ def calibrate(
         excluded["saturated_gyro"] = int(np.count_nonzero(sat_g))
         drop = _saturated_turns(t, sat_g, ranges, notes)
         excluded["saturated_turns"] = len(drop)
+        gapped = [k for k in _gap_turns(t, ranges) if k not in drop]
+        excluded["gap_turns"] = len(gapped)
+        if gapped:
+            notes.append(f"{_gap_words(t, ranges, gapped)}: those turns are left out of the gyro calibration")
+        drop = drop + gapped
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
         step("fit gyroscope and gates")
@@ -580,23 +585,32 @@ def calibrate(
                 f"gyro bias from the initial rest, the first static interval {rest[0]:.6g}-{rest[1]:.6g} s "
                 "(--rest T0 T1 to choose another window)"
             )
-        gc = gyro_cal.calibrate_gyro(
-            t,
-            gyro,
-            ranges,
-            up,
-            bias=gyro_bias,
-            rest=rest,
-            rng=rng,
-            allow_unobservable=allow_unobservable,
-            drop_transitions=drop,
-            g_sensitivity_std=gyro_g_sensitivity,
-            gravity=g,
-            unit=gyro_unit,
-            bias_instability=gyro_bias_instability,
-            bias_corr_time=gyro_bias_corr_time,
-            up_cov=_up_cov(fit, st),
-        )
+        try:
+            gc = gyro_cal.calibrate_gyro(
+                t,
+                gyro,
+                ranges,
+                up,
+                bias=gyro_bias,
+                rest=rest,
+                rng=rng,
+                allow_unobservable=allow_unobservable,
+                drop_transitions=drop,
+                g_sensitivity_std=gyro_g_sensitivity,
+                gravity=g,
+                unit=gyro_unit,
+                bias_instability=gyro_bias_instability,
+                bias_corr_time=gyro_bias_corr_time,
+                up_cov=_up_cov(fit, st),
+            )
+        except OptinavError as exc:
+            if not gapped:
+                raise
+            # the turns left out for their time gaps are why the gyro cannot be calibrated: say so
+            raise OptinavError(
+                f"{exc.cause} — {_gap_words(t, ranges, gapped)}, left out of the gyro calibration",
+                "log without dropping samples during the turns, or record the turns again",
+            ) from None
         gate_log += _gyro_gates(gc, gyro_unit)
         if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, gc.K)):
             notes.append(fs)
@@ -800,6 +814,42 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
     ]
 
 
+#: samples missing from a turn (its duration over the median step, less the samples it holds) from which the
+#: turn is left out; stamping jitter bunches the stamps without changing the count
+LOST_SAMPLES = 1.5
+
+
+def _gap_turns(t, ranges) -> list[int]:
+    """Transitions (k: interval k → k+1) that lost samples: the gyro's integral over them is unknown (4 samples
+    lost in a jerky hand turn left gyro K_xx 1.6 % off, 6 std, with exit 0)."""
+    med = _typical_step(t)
+    out = []
+    for k in range(len(ranges) - 1):
+        a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
+        if b > a and (t[b] - t[a]) / med - (b - a) > LOST_SAMPLES:
+            out.append(k)
+    return out
+
+
+def _typical_step(t) -> float:
+    """The sample step (s): the mean of the steps within 3 medians (stamps rounded to a coarse tick have a median
+    a tick off the step, jittered stamps steps well beyond it; gaps of two lost samples and more are left out)."""
+    d = np.diff(t[: min(t.size, 65537)])
+    med = float(np.median(d))
+    return float(np.mean(d[d <= 3.0 * med]))
+
+
+def _gap_words(t, ranges, ks) -> str:
+    """'samples lost (step h s) in N turn(s) (t0–t1 s: n; …)'."""
+    med = _typical_step(t)
+    parts = []
+    for k in ks[:5]:
+        a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
+        parts.append(f"{t[a]:.4g}–{t[b]:.4g} s: {(t[b] - t[a]) / med - (b - a):.0f}")
+    more = ", …" if len(ks) > 5 else ""
+    return f"samples lost (step {med:.3g} s) in {len(ks)} turn(s) ({'; '.join(parts)}{more})"
+
+
 def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
     """Transitions (indices k: interval k → k+1) during which the gyro saturates; a saturated static interval
     is an error (its bias and the pose would be wrong)."""
@@ -896,23 +946,22 @@ def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
 
 
 def _turn_gaps(t, names, idx) -> list[str]:
-    """A note per rotation section with a time gap inside (a step > 1.5 median steps): its integral bridges the
-    gap with the rate before it, and a section list in sample indices made on the log before samples were lost
-    no longer covers the turn (5 lost rows shifted imucal's x_rot: gyro K_xx 1.9 % off, exit 0; helper)."""
-    med = float(np.median(np.diff(t[: min(t.size, 65537)])))
+    """A note per rotation section that lost samples (its duration over the sample step, less the samples it
+    holds, :data:`LOST_SAMPLES`): its integral bridges the gap with the rate before it, and a section list in sample
+    indices made on the log before samples were lost no longer covers the turn (5 lost rows shifted imucal's
+    x_rot: gyro K_xx 1.9 % off, exit 0; helper)."""
+    h = _typical_step(t)
     out = []
     for nm, (i0, i1) in zip(names, idx):
         if not str(nm).endswith("_rot") or i1 - i0 < 2:
             continue
-        dt = np.diff(t[i0:i1])
-        big = np.flatnonzero(dt > 1.5 * med)
-        if big.size:
-            k = int(big[np.argmax(dt[big])])
+        lost = (t[i1 - 1] - t[i0]) / h - (i1 - 1 - i0)
+        if lost > LOST_SAMPLES:
+            k = int(np.argmax(np.diff(t[i0:i1])))
             out.append(
-                f"{nm}: {big.size} time gap(s) inside the turn, the longest {dt[k]:.3g} s (about "
-                f"{dt[k] / med - 1:.0f} samples missing) at t = {t[i0 + k]:.6g} s: the turn's integral bridges it "
-                "with the rate before it; a section list in sample indices must count the rows of this log "
-                "(--sections)"
+                f"{nm}: about {lost:.0f} samples lost inside the turn (the longest step {t[i0 + k + 1] - t[i0 + k]:.3g} s "
+                f"at t = {t[i0 + k]:.6g} s): the turn's integral bridges it with the rate before it; a section list in "
+                "sample indices must count the rows of this log (--sections)"
             )
     return out
 
