@@ -353,3 +353,19 @@ def test_default_route_leaves_out_turns_that_lost_samples(tmp_path, capsys):
     jit = t + np.random.default_rng(0).uniform(-0.003, 0.003, t.size)
     _, err = run("jitter.csv", np.maximum.accumulate(jit) + np.arange(t.size) * 1e-9, every)
     assert "samples lost" not in err, err
+
+
+def test_a_pose_held_shorter_than_min_duration_is_named(tmp_path, capsys):
+    """The second pose cut to 1.9 s: the detection left it out under --min-duration 2 and the error asked to
+    'record at least 6 distinct poses' the log holds (helper). It names the short still stretches and the flag."""
+    rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    t = np.arange(rows.size) / 102.4
+    keep = ~((t >= 17.5) & (t < 23.5))
+    cols = [rows[f"acc_{a}"][keep] for a in "xyz"] + [rows[f"gyr_{a}"][keep] for a in "xyz"]
+    f = tmp_path / "short.csv"
+    np.savetxt(f, np.column_stack(cols), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="")
+    base = ["--quiet", "calibrate", "accel", str(f), *EXAMPLE[3:], "--out", str(tmp_path / "r.json")]
+    assert main(base) == 2
+    err = capsys.readouterr().err
+    assert "shorter than --min-duration 2 s were left out" in err and "15.6" in err and "--min-duration 1.5" in err, err
+    assert main(base + ["--min-duration", "1.5"]) == 0

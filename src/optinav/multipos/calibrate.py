@@ -488,6 +488,8 @@ def calibrate(
         )
         ranges, t_int, how = np.asarray(det.index_ranges, int), np.asarray(det.t_intervals, float), "automatic"
         selection["threshold"] = det.threshold
+    # what finds the still stretches, to name those shorter than --min-duration if a pose direction is missing
+    still = None if sections is not None else (det.threshold, det.gyro_threshold, det.window_s, det.trim_s)
     det = None  # its moving variances (16 B per row) are not needed further
     if len(ranges) < 6 and sections is None:
         levels = static._levels(static.moving_variance(t, acc, window_s), f"({acc_unit})^2")
@@ -502,21 +504,34 @@ def calibrate(
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
     gate_log: list[dict] = []
-    fit = _fit_accel_gated(
-        st,
-        g,
-        notes,
-        acc_unit=acc_unit,
-        method=method,
-        model_form=model_form,
-        data=data,
-        gate_log=gate_log,
-        samples=samples,
-        rng=rng,
-        bias_instability=acc_bias_instability,
-        held_misalignment=held_misalignment,
-        **(method_options or {}),
-    )
+    try:
+        fit = _fit_accel_gated(
+            st,
+            g,
+            notes,
+            acc_unit=acc_unit,
+            method=method,
+            model_form=model_form,
+            data=data,
+            gate_log=gate_log,
+            samples=samples,
+            rng=rng,
+            bias_instability=acc_bias_instability,
+            held_misalignment=held_misalignment,
+            **(method_options or {}),
+        )
+    except OptinavError as exc:
+        short = _short_still(still, t, acc, gyro, min_duration_s) if "distinct pose directions" in exc.cause else []
+        if not short:
+            raise
+        # a pose held shorter than --min-duration was left out, and may be the direction missing: name it
+        when = "; ".join(f"{a:.4g}–{b:.4g} s" for a, b in short[:5]) + (", …" if len(short) > 5 else "")
+        longest = max(b - a for a, b in short)
+        raise OptinavError(
+            f"{exc.cause} — {len(short)} still stretch(es) shorter than --min-duration {min_duration_s:g} s were "
+            f"left out ({when})",
+            f"pass --min-duration {max(0.5, np.floor(longest * 2) / 2):g} to take them, or hold each pose longer",
+        ) from None
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
         used[i0:i1] = True
@@ -812,6 +827,20 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
         gate("acc residual rms of |a| - g", rms, gates.MAX_RESIDUAL_G * fit.g, unit="m/s^2"),
         gate("acc largest turn of a pose", float(np.max(ang)), gates.MAX_TURN_DEG, unit="deg"),
     ]
+
+
+def _short_still(still, t, acc, gyro, min_duration_s: float) -> list[tuple[float, float]]:
+    """The still stretches (s) at the detection's ``still`` = (threshold, gyro threshold, window s, trim s) that
+    are at least 0.5 s long but shorter than ``min_duration_s``, which the detection left out (a pose held 1.9 s
+    under the default 2 s: its direction went missing and the error asked for poses that were recorded; helper)."""
+    if still is None or still[0] is None or min_duration_s <= 0.5:
+        return []
+    thr, gthr, window_s, trim_s = still
+    mask = static.moving_variance(t, acc, window_s) <= thr
+    if gyro is not None and gthr is not None:
+        mask &= static.moving_variance(t, gyro, window_s) <= gthr
+    r = static.intervals_from_mask(t, mask, min_duration_s=0.5, trim_s=float(trim_s or 0.0))
+    return [(float(t[a]), float(t[b - 1])) for a, b in r if t[b - 1] - t[a] < min_duration_s]
 
 
 #: samples missing from a turn (its duration over the median step, less the samples it holds) from which the
