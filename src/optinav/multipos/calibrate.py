@@ -530,7 +530,8 @@ def calibrate(
         raise OptinavError(
             f"{exc.cause} — {len(short)} still stretch(es) shorter than --min-duration {min_duration_s:g} s were "
             f"left out ({when})",
-            f"pass --min-duration {max(0.5, np.floor(longest * 2) / 2):g} to take them, or hold each pose longer",
+            f"pass --min-duration {max(0.5, np.floor(longest * 2) / 2):g} to take them"
+            + (f"; or {exc.remedy}" if exc.remedy else ""),
         ) from None
     used = np.zeros(len(t), bool)
     for i0, i1 in ranges:
