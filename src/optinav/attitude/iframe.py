@@ -27,8 +27,9 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   is negated, so is its bias), and the two estimates fused (weighted mean of the error rotation, each pass by
   its running time, :func:`backward_share`): the forward pass lags the low-pass, the backward pass leads. Then a
   zero-phase refinement: the specific force in the almost-inertial frame of the smoothed bias, low-passed
-  forward and backward (Butterworth, same ``tau_acc``, even padding), gives a lag-free up direction; the fused
-  estimate is turned halfway towards it (tilt only).
+  forward and backward (Butterworth, same ``tau_acc``, each end extended by its first ``tau_acc`` s' mean), gives
+  a lag-free up direction; the fused estimate is turned halfway towards it (tilt only). With a magnetometer the
+  heading is then the field's azimuth in that attitude, averaged forward and backward over ``tau_mag_smooth``.
 * timing: gyr[k] is integrated over (t[k−1], t[k]] and the output is the attitude at t[k] (as VQF); an IMU
   whose samples are late by a known ``latency`` (s, e.g. its low-pass group delay; default 0) gets the output
   predicted that far ahead with the bias-corrected rate, q ⊗ exp((ω − b)·latency) (offline: once, after the
