@@ -694,8 +694,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
-    st = st.copy()
-    st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
+    st = _if.reversed_state(st)
     for e in range(b, a, -blk):
         s = max(e - blk, a)
         r = store.read(s, min(e + 1, b)).copy()
