@@ -586,7 +586,7 @@ def calibrate(
         excluded["saturated_gyro"] = int(np.count_nonzero(sat_g))
         drop = _saturated_turns(t, sat_g, ranges, notes)
         excluded["saturated_turns"] = len(drop)
-        gapped = [k for k in _gap_turns(t, ranges) if k not in drop]
+        gapped = [k for k in _turns_that_lost_samples(t, ranges) if k not in drop]
         excluded["gap_turns"] = len(gapped)
         if gapped:
             notes.append(f"{_gap_words(t, ranges, gapped)}: those turns are left out of the gyro calibration")
@@ -844,19 +844,19 @@ def _short_still(still, t, acc, gyro, min_duration_s: float) -> list[tuple[float
     return [(float(t[a]), float(t[b - 1])) for a, b in r if t[b - 1] - t[a] < min_duration_s]
 
 
-#: samples missing from a turn (its duration over the median step, less the samples it holds) from which the
+#: samples missing from a turn (its duration over the sample step, less the samples it holds) from which the
 #: turn is left out; stamping jitter bunches the stamps without changing the count
 LOST_SAMPLES = 1.5
 
 
-def _gap_turns(t, ranges) -> list[int]:
+def _turns_that_lost_samples(t, ranges) -> list[int]:
     """Transitions (k: interval k → k+1) that lost samples: the gyro's integral over them is unknown (4 samples
     lost in a jerky hand turn left gyro K_xx 1.6 % off, 6 std, with exit 0)."""
-    med = _typical_step(t)
+    h = _typical_step(t)
     out = []
     for k in range(len(ranges) - 1):
         a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
-        if b > a and (t[b] - t[a]) / med - (b - a) > LOST_SAMPLES:
+        if b > a and (t[b] - t[a]) / h - (b - a) > LOST_SAMPLES:
             out.append(k)
     return out
 
@@ -871,13 +871,13 @@ def _typical_step(t) -> float:
 
 def _gap_words(t, ranges, ks) -> str:
     """'samples lost (step h s) in N turn(s) (t0–t1 s: n; …)'."""
-    med = _typical_step(t)
+    h = _typical_step(t)
     parts = []
     for k in ks[:5]:
         a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
-        parts.append(f"{t[a]:.4g}–{t[b]:.4g} s: {(t[b] - t[a]) / med - (b - a):.0f}")
+        parts.append(f"{t[a]:.4g}–{t[b]:.4g} s: {(t[b] - t[a]) / h - (b - a):.0f}")
     more = ", …" if len(ks) > 5 else ""
-    return f"samples lost (step {med:.3g} s) in {len(ks)} turn(s) ({'; '.join(parts)}{more})"
+    return f"samples lost (step {h:.3g} s) in {len(ks)} turn(s) ({'; '.join(parts)}{more})"
 
 
 def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
@@ -975,7 +975,7 @@ def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
                 )
 
 
-def _turn_gaps(t, names, idx) -> list[str]:
+def _sections_that_lost_samples(t, names, idx) -> list[str]:
     """A note per rotation section that lost samples (its duration over the sample step, less the samples it
     holds, :data:`LOST_SAMPLES`): its integral bridges the gap with the rate before it, and a section list in sample
     indices made on the log before samples were lost no longer covers the turn (5 lost rows shifted imucal's
@@ -1044,7 +1044,7 @@ def _ferraris(
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
-    notes.extend(_turn_gaps(t, names, idx))
+    notes.extend(_sections_that_lost_samples(t, names, idx))
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero(creeping(ang, sig))
