@@ -23,8 +23,9 @@ def register(sub) -> None:
               accel (multipos): raw triads corrected, a = K⁻¹(raw − b) (m/s^2), ω = K_g⁻¹(raw − G·a − b_g)
                 (rad/s), block by block. RESULT may also be an imucal JSON export or an imu_tk accelerometer
                 file (--gyro-cal for its gyroscope file); the data are read in the raw units the calibration was
-                made in unless --acc-unit/--gyro-unit say otherwise. Output by extension (.csv .tsv .txt .npz
-                .h5 .mat).
+                made in unless the file or --acc-unit/--gyro-unit say otherwise (physical units are converted to
+                the calibration's; counts against a physical unit are refused). Output by extension (.csv .tsv
+                .txt .npz .h5 .mat).
               rins: the vehicle attitude of a recording with the gimbal non-orthogonality compensated (CSV: t,
                 q_b_n, roll/pitch/yaw in degrees, ENU).
               gfimu: the array outputs solved with the calibrated geometry, the paper's compensation of the
