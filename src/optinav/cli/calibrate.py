@@ -88,7 +88,7 @@ def add_apply_options(g) -> None:
     g.add_argument(
         "--gyro-cal", metavar="FILE", help="imu_tk's gyroscope parameter file (RESULT is then its accelerometer file)"
     )
-    add_input_options(g)
+    add_input_options(g, unit_default=("the calibration's", "the calibration's"))
     add_chunk_option(g)
 
 

@@ -129,8 +129,9 @@ def check_disk(n_rows: float, bytes_per_row: float, path, what: str, remedy: str
         )
 
 
-def add_input_options(p, *, gyro: bool = True) -> None:
-    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic."""
+def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = ("m/s^2", "rad/s")) -> None:
+    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic; ``unit_default``
+    names the units of a file that declares none, in the help."""
     p.add_argument(
         "--columns",
         help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
@@ -139,13 +140,13 @@ def add_input_options(p, *, gyro: bool = True) -> None:
     p.add_argument(
         "--acc-unit",
         choices=["counts", "g", "mg", "m/s^2"],
-        help="accelerometer unit in the file (default: as declared, else m/s^2)",
+        help=f"accelerometer unit in the file (default: as declared, else {unit_default[0]})",
     )
     if gyro:
         p.add_argument(
             "--gyro-unit",
             choices=["counts", "deg/s", "rad/s"],
-            help="gyroscope unit in the file (default: as declared, else rad/s)",
+            help=f"gyroscope unit in the file (default: as declared, else {unit_default[1]})",
         )
     p.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column (default s)")
     p.add_argument(
