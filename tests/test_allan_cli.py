@@ -220,3 +220,14 @@ def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "looks like deg/s read as rad/s" in err and "--gyro-unit deg/s" in err, err
     assert main(["--quiet", "allan", str(f), "--gyro-unit", "deg/s", "--out", str(tmp_path / "b.json")]) == 0
+
+
+def test_a_moving_log_in_counts_is_refused(tmp_path, capsys):
+    """A multi-position session in raw counts gave noise figures with exit 0 (the at-rest check judged only logs
+    in m/s^2; helper): the gravity direction's steadiness needs no unit."""
+    f = tmp_path / "u.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "4", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "counts", "--seed", "1"]) == 0
+    capsys.readouterr()
+    assert main(["--quiet", "allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
+    assert "the gravity direction moves in this log" in capsys.readouterr().err

@@ -1171,18 +1171,21 @@ class _AtRest:
     than about 23° between two halves); a moving log has no Allan deviation of its noise."""
 
     def __init__(self):
-        self.sum, self.norm, self.n = np.zeros(3), 0.0, 0
+        self.sum, self.norm, self.n, self.counts = np.zeros(3), 0.0, 0, False
 
-    def add(self, a: np.ndarray) -> None:
+    def add(self, a: np.ndarray, counts: bool = False) -> None:
+        """One block (m/s², or raw counts: then only the direction is judged — a moving log in counts gave noise
+        figures with exit 0)."""
         self.sum += a.sum(axis=0)
         self.norm += float(np.sqrt(np.einsum("ij,ij->i", a, a)).sum())
         self.n += a.shape[0]
+        self.counts = self.counts or counts
 
     def check(self) -> None:
         if not self.n:
             return
         mean = self.norm / self.n
-        if not 0.3 * G_STANDARD < mean < 3.0 * G_STANDARD:
+        if not self.counts and not 0.3 * G_STANDARD < mean < 3.0 * G_STANDARD:
             unit = "g" if 0.3 < mean < 3.0 else "mg" if 300.0 < mean < 3000.0 else None
             raise OptinavError(
                 f"the accelerometer's mean norm is {mean:.3g} m/s², not about 9.8 at rest"
@@ -1305,8 +1308,8 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 )
             if len(x):
                 acc.add(x)
-        if log.acc is not None and log.acc_unit != "counts" and len(log.acc) and np.all(np.isfinite(log.acc)):
-            at_rest.add(log.acc)  # the gyro's analysis too needs the log at rest
+        if log.acc is not None and len(log.acc) and np.all(np.isfinite(log.acc)):
+            at_rest.add(log.acc, counts=log.acc_unit == "counts")  # the gyro's analysis too needs the log at rest
         if "gyroscope" in angles and log.gyro_unit == "rad/s":
             gyro_rest.add(log.gyr)
     if not angles:
