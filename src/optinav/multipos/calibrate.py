@@ -99,6 +99,27 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
+def clipped_gyro_rows(gyro: np.ndarray, dt: float) -> np.ndarray:
+    """Rows (N,) at an axis's extreme in runs that look saturated (the attitude input check's rule,
+    :func:`optinav.attitude.checks.steep_runs`: flat for ≥ 3 samples and entered or left steeply, at least two runs
+    or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left K_xx 4 %
+    low with exit 0 (helper). ``dt`` the median step (s)."""
+    from optinav.attitude.checks import axis_steps, quantum, steep_runs
+
+    out = np.zeros(gyro.shape[0], bool)
+    for k in range(3):
+        x = gyro[:, k]
+        for sgn in (1.0, -1.0):
+            y = sgn * x
+            m = float(np.nanmax(y))
+            if not (np.isfinite(m) and m > 0.0):
+                continue
+            at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
+            if at.size >= 3 and steep_runs(at, y.__getitem__, y.size, m, dt, quantum(axis_steps(x))):
+                out[at] = True
+    return out
+
+
 def _clipped_rows(acc: np.ndarray, t: np.ndarray, ranges: np.ndarray, notes: list) -> np.ndarray:
     """Rows of the static poses in which an axis reads the log's extreme value of that axis in every sample: a
     sensor clipped at its range (noise always moves an unclipped axis), whatever the unit; a note per axis."""
@@ -427,6 +448,8 @@ def calibrate(
     ]
     sat_a = saturated_mask(acc, acc_range, counts=acc_unit == "counts")
     sat_g = saturated_mask(gyro, gyro_range, counts=gyro_unit == "counts") if gyro is not None else None
+    if gyro is not None and gyro_range is None and method != "ferraris":  # Ferraris checks its turns itself
+        sat_g |= clipped_gyro_rows(gyro, float(np.median(np.diff(t[: min(t.size, 65537)]))))
     valid = ~sat_a
     if not np.any(valid):
         raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
