@@ -356,3 +356,21 @@ def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):
     with pytest.raises(OptinavError, match=r"optinav\[dask\]"):
         run_batch(d, tmp_path / "r.csv", OPTIONS, scheduler="tcp://127.0.0.1:1")
     assert not (tmp_path / "r.csv").exists()  # nothing started, nothing written
+
+
+def test_batch_keeps_the_hold_out_check_and_the_notes(tmp_path, capsys):
+    """``batch --hold-out K`` fitted every unit without pose K but tabulated nothing of the held-out check, and
+    the notes calibrate prints (a time base off by a factor, turns left out, …) were lost (helper)."""
+    d = tmp_path / "units"
+    d.mkdir()
+    for seed in (1, 2):
+        argv = ["--quiet", "simulate", "accel-multipos", "--out", str(d / f"u{seed}.csv"), "--dwell", "4"]
+        assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "counts", "--seed", str(seed)]) == 0
+    out = tmp_path / "r.csv"
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--hold-out", "3", "--out", str(out)]) == 0
+    capsys.readouterr()
+    rows = read_results(out)
+    for r in rows:
+        assert r["status"] == "ok" and r["held_out_pose"] == 3
+        assert 0.0 < abs(r["held_out_norm_error_m_s2"]) < 0.05
+        assert "g = 9.80665 m/s^2" in r["notes"]

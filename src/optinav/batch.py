@@ -90,6 +90,9 @@ _EXTRA_TYPES = {
     "rank": "int",
     "n_params": "int",
     "n_reference": "int",
+    "held_out_pose": "int",
+    "held_out_n_used": "int",
+    "notes": "str",
 }
 
 
@@ -233,6 +236,13 @@ def result_columns(res) -> dict:
             for v, suffix in ((p.std, "_std"), (p.crlb_std, "_crlb_std")):
                 if v is not None or scalar:  # a vector without std gets no columns for it
                     _flat(name, v, row, suffix)
+    quality = getattr(res, "quality", None)
+    if isinstance(quality, dict):
+        # what calibrate prints beside the numbers (a time base off by a factor, turns left out, …) and the
+        # held-out pose's check (--hold-out): the table kept neither (helper)
+        for k, v in (quality.get("held_out") or {}).items():
+            row[f"held_out_{k}"] = _num(v) if isinstance(v, (int, float)) else v
+        row["notes"] = " | ".join(str(n) for n in quality.get("notes") or [])
     return row
 
 
