@@ -99,16 +99,16 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
         return np.any((raw <= lo) | (raw >= hi), axis=1)
 
 
-def clipped_gyro_rows(gyro: np.ndarray, dt: float) -> np.ndarray:
+def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
     """Rows (N,) at an axis's extreme in runs that look saturated (the attitude input check's rule,
     :func:`optinav.attitude.checks.steep_runs`: flat for ≥ 3 samples and entered or left steeply, at least two runs
     or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left K_xx 4 %
     low with exit 0 (helper). ``dt`` the median step (s)."""
     from optinav.attitude.checks import axis_steps, quantum, steep_runs
 
-    out = np.zeros(gyro.shape[0], bool)
+    out = np.zeros(gyr.shape[0], bool)
     for k in range(3):
-        x = gyro[:, k]
+        x = gyr[:, k]
         for sgn in (1.0, -1.0):
             y = sgn * x
             m = float(np.nanmax(y))
