@@ -374,3 +374,17 @@ def test_batch_keeps_the_hold_out_check_and_the_notes(tmp_path, capsys):
         assert r["status"] == "ok" and r["held_out_pose"] == 3
         assert 0.0 < abs(r["held_out_norm_error_m_s2"]) < 0.05
         assert "g = 9.80665 m/s^2" in r["notes"]
+
+
+def test_an_earlier_batch_table_in_the_folder_is_no_unit(tmp_path, capsys):
+    """A results table of an earlier batch (another --out) left in the units folder was taken as a unit and
+    failed the whole lot ('no accelerometer or gyroscope data', exit 1; helper)."""
+    d = tmp_path / "units"
+    d.mkdir()
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(d / "u1.csv"), "--dwell", "4"]
+    assert main(argv + ["--acc-unit", "counts", "--gyro-unit", "counts", "--seed", "1"]) == 0
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "first.csv")]) == 0
+    (d / "old_results.csv").write_bytes((tmp_path / "first.csv").read_bytes())
+    assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "second.csv")]) == 0
+    capsys.readouterr()
+    assert [r["unit"] for r in read_results(tmp_path / "second.csv")] == ["u1"]

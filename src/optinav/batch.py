@@ -3,7 +3,8 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: .csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat, text also as .gz), in
-sorted file-name order; hidden files (leading ".") and the batch's own output/journal are skipped
+sorted file-name order; hidden files (leading "."), the batch's own output/journal and any results table an
+earlier batch wrote there are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
@@ -167,6 +168,8 @@ def find_units(directory, *, exclude=()) -> list[Unit]:
             suffix = _data_suffix(p.name)
             if suffix is None or p.name[: -len(suffix)].endswith(".truth"):
                 continue  # not data, or a simulation's truth (STEM.truth.csv) beside its data
+            if suffix in (".csv", ".parquet") and p.stat().st_size > 0 and _is_results_table(p, suffix):
+                continue  # an earlier batch's results table (another --out) is no unit: it failed the lot
             st = p.stat()
             found.append((p.name[: -len(suffix)], p, st))
     except OSError as exc:
