@@ -243,8 +243,7 @@ def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.nda
     computed; ``alt(scale, sl)``: the gyro of rows ``sl`` (rad/s) had the raw data been ``scale`` × what they
     are (a calibrated gyro: its bias is not scaled with them), default ``gyr[sl]·scale``."""
     ng = _norm(gyr) if ng is None else ng
-    d = dts if dts.shape[0] > 1 else np.full(1, float(dts[0]))
-    for sl in unit_windows(ng, d, *tilt_sums(acc)):
+    for sl in unit_windows(ng, dts, *tilt_sums(acc)):
         a = None if alt is None else (lambda s, sl=sl: alt(s, sl))
         hint = _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])), a)
         if hint:
@@ -415,25 +414,38 @@ def _check_clipping(gyr: np.ndarray, gyro_range: float | None, dt: float, acc: n
     of quantized data is flat too, but briefly, and is reached by steps of a few quanta (a plateau of three
     samples within one quantum bounds the curvature: data logged in whole deg/s at 286 Hz enter a 411 °/s peak
     by 3 °/s). ``dt`` s: the median step."""
+    # < 57 °/s: no realistic range saturates there (without a stated range)
+    for k, sgn, m, _, steep in saturated_extremes(
+        gyr, dt, min_peak=1.0 if gyro_range is None else -np.inf, limit=gyro_range, acc=acc
+    ):
+        raise clipped(k, sgn * m, steep)
+
+
+def saturated_extremes(gyr: np.ndarray, dt: float, *, min_peak: float = -np.inf, limit=None, acc=None):
+    """Yield (axis k, sign ±1, extreme m, the indices at it, the runs that look saturated) for each axis and sign
+    of ``gyr`` (N, 3, any unit) whose samples at its extreme (and at ≥ 0.999 ``limit``, a stated range) form runs
+    that look saturated (:func:`steep_runs`, with the output's quantum); extremes below ``min_peak`` are not
+    judged; ``acc`` (N, 3): a run where the whole sample repeats is a held one. ``dt`` s: the median step."""
     for k in range(3):
         x = gyr[:, k]
         for sgn in (1.0, -1.0):
             y = sgn * x
-            m = float(np.max(y))
-            if m < 1.0 and gyro_range is None:  # < 57 °/s: no realistic range saturates there
+            m = float(np.nanmax(y))
+            if not (np.isfinite(m) and m >= min_peak):
                 continue
             at = y >= m - 1e-9 * max(m, 1.0)
-            if gyro_range is not None:
-                at |= y >= 0.999 * gyro_range
+            if limit is not None:
+                at |= y >= 0.999 * limit
+            idx = np.flatnonzero(at)
 
             def held(s, e):
                 return acc is not None and bool(np.all(gyr[s:e] == gyr[s]) and np.all(acc[s:e] == acc[s]))
 
-            steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt, held=held)
+            steep = steep_runs(idx, y.__getitem__, y.size, m, dt, held=held)
             if steep:  # the output's quantum can only clear it (rarely asked: it costs a pass over the axis)
-                steep = steep_runs(np.flatnonzero(at), y.__getitem__, y.size, m, dt, quantum(axis_steps(x)), held)
+                steep = steep_runs(idx, y.__getitem__, y.size, m, dt, quantum(axis_steps(x)), held)
             if steep:
-                raise clipped(k, sgn * m, steep)
+                yield k, sgn, m, idx, steep
 
 
 def steep_runs(idx: np.ndarray, y_at, n: int, m: float, dt: float, q: float = 0.0, held=None) -> int:

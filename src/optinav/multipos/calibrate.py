@@ -101,22 +101,14 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
 
 def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
     """Rows (N,) at an axis's extreme in runs that look saturated (the attitude input check's rule,
-    :func:`optinav.attitude.checks.steep_runs`: flat for ≥ 3 samples and entered or left steeply, at least two runs
-    or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left K_xx 4 %
+    :func:`optinav.attitude.checks.saturated_extremes`: flat for ≥ 3 samples and entered or left steeply, at least
+    two runs or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left K_xx 4 %
     low with exit 0 (helper). ``dt`` the median step (s)."""
-    from optinav.attitude.checks import axis_steps, quantum, steep_runs
+    from optinav.attitude.checks import saturated_extremes
 
     out = np.zeros(gyr.shape[0], bool)
-    for k in range(3):
-        x = gyr[:, k]
-        for sgn in (1.0, -1.0):
-            y = sgn * x
-            m = float(np.nanmax(y))
-            if not (np.isfinite(m) and m > 0.0):
-                continue
-            at = np.flatnonzero(y >= m - 1e-9 * max(m, 1.0))
-            if at.size >= 3 and steep_runs(at, y.__getitem__, y.size, m, dt, quantum(axis_steps(x))):
-                out[at] = True
+    for _, _, _, idx, _ in saturated_extremes(gyr, dt, min_peak=np.finfo(float).tiny):
+        out[idx] = True
     return out
 
 
