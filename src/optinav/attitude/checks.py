@@ -360,8 +360,14 @@ def check_norms(med_a: float, med_g: float, peak: float) -> None:
         )
 
 
+def hint_scale(hint: str) -> float:
+    """The unit factor a (non-empty) hint of :func:`gyro_unit_hint` names: π/180 for a deg/s gyro declared rad/s,
+    180/π for the reverse."""
+    return np.pi / 180 if hint.startswith(_SCALES[np.pi / 180]) else 180 / np.pi
+
+
 def _unit_error(hint: str) -> OptinavError:
-    factor = "π/180" if hint.startswith("deg/s declared") else "180/π"
+    factor = "π/180" if hint_scale(hint) < 1.0 else "180/π"
     return OptinavError(
         f"the gyro in rad/s does not explain how gravity turns in the body, a unit factor of {factor} does",
         f"it looks like {hint}",

@@ -221,7 +221,7 @@ def run_iframe(
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
-    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, fwd.mag_used | bwd.mag_used[::-1], bias, fwd.state)
+    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, used, bias, fwd.state)
 
 
 def field_azimuth(q, mag, frame) -> np.ndarray:
