@@ -137,8 +137,9 @@ def integration_steps(t, t_next: float | None = None) -> np.ndarray:
 
     A stretch sampled uniformly whose stamps are rounded to a coarse tick q (1 ms at 102.4 Hz: steps of 9 and
     10 ms) gets its uniform step: its steps take two values q apart and the stamps lie within a band of width q
-    about a straight line (the rounding's ±q/2 about the true one), whose slope is the step. The rounding would otherwise pair each rate with a step
-    off by up to a tick — on a jerky hand turn (33 °/s between samples) 0.3° of 360, five times the std.
+    about a straight line (the rounding's ±q/2 about the true one), whose slope is the step. The rounding would
+    otherwise pair each rate with a step off by up to a tick — on a jerky hand turn (33 °/s between samples) 0.3°
+    of 360, five times the std.
 
     Parameters
     ----------

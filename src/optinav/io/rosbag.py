@@ -807,11 +807,7 @@ def _time_base(
     if own and ok is not False:
         return stamp
     if own:
-        warnings.warn(
-            f"{path.name}: the header stamps of {other!r} are not usable, so {topic!r} too is read on the bag's "
-            "log times (one clock for both topics)",
-            stacklevel=4,
-        )
+        _one_clock_warning(path, other, topic, stacklevel=5)
     else:
         _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
     return t_log * 1e-9
@@ -828,6 +824,15 @@ def _check_mag_overlap(path: Path, imu_topic: str, span: tuple, mag_topic: str, 
             "clocks, and the magnetometer reads NaN at every IMU sample",
             stacklevel=4,
         )
+
+
+def _one_clock_warning(path: Path, bad: str, topic: str, stacklevel: int) -> None:
+    """``topic``'s own stamps are fine, but ``bad``'s are not: both are read on the bag's log times."""
+    warnings.warn(
+        f"{path.name}: the header stamps of {bad!r} are not usable, so {topic!r} too is read on the bag's log times "
+        "(one clock for both topics)",
+        stacklevel=stacklevel,
+    )
 
 
 def _log_time_warning(path: Path, topic: str, why: str) -> None:
@@ -954,11 +959,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     if not stamps_ok:
         _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
     elif not mag_ok:  # one clock for both topics (see load_bag)
-        warnings.warn(
-            f"{path.name}: the header stamps of {plan['mag']!r} are not usable, so {name!r} too is read on the "
-            "bag's log times (one clock for both topics)",
-            stacklevel=3,
-        )
+        _one_clock_warning(path, plan["mag"], name, stacklevel=4)
         stamps_ok = False
     if mag is not None:
         mag = (_time_base(path, plan["mag"], mag[0], mag[1], stamps_ok and mag_ok, name), mag[2])
