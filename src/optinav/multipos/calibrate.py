@@ -871,9 +871,14 @@ def _turns_that_lost_samples(t, ranges) -> list[int]:
     out = []
     for k in range(len(ranges) - 1):
         a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
-        if b > a and (t[b] - t[a]) / h - (b - a) > LOST_SAMPLES:
+        if b > a and _lost(t, a, b, h) > LOST_SAMPLES:
             out.append(k)
     return out
+
+
+def _lost(t, a: int, b: int, h: float) -> float:
+    """Samples missing between rows a and b (b > a): the time between them over the step ``h``, less the rows."""
+    return float((t[b] - t[a]) / h - (b - a))
 
 
 def _typical_step(t) -> float:
@@ -890,7 +895,7 @@ def _gap_words(t, ranges, ks) -> str:
     parts = []
     for k in ks[:5]:
         a, b = int(ranges[k][1]) - 1, int(ranges[k + 1][0])
-        parts.append(f"{t[a]:.4g}–{t[b]:.4g} s: {(t[b] - t[a]) / h - (b - a):.0f}")
+        parts.append(f"{t[a]:.4g}–{t[b]:.4g} s: {_lost(t, a, b, h):.0f}")
     more = ", …" if len(ks) > 5 else ""
     return f"samples lost (step {h:.3g} s) in {len(ks)} turn(s) ({'; '.join(parts)}{more})"
 
@@ -1000,7 +1005,7 @@ def _sections_that_lost_samples(t, names, idx) -> list[str]:
     for nm, (i0, i1) in zip(names, idx):
         if not str(nm).endswith("_rot") or i1 - i0 < 2:
             continue
-        lost = (t[i1 - 1] - t[i0]) / h - (i1 - 1 - i0)
+        lost = _lost(t, i0, i1 - 1, h)
         if lost > LOST_SAMPLES:
             k = int(np.argmax(np.diff(t[i0:i1])))
             out.append(
