@@ -102,8 +102,8 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
 def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
     """Rows (N,) at an axis's extreme in runs that look saturated (the attitude input check's rule,
     :func:`optinav.attitude.checks.saturated_extremes`: flat for ≥ 3 samples and entered or left steeply, at least
-    two runs or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left K_xx 4 %
-    low with exit 0 (helper). ``dt`` the median step (s)."""
+    two runs or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left
+    K_xx 4 % low with exit 0 (helper). ``dt`` the median step (s)."""
     from optinav.attitude.checks import saturated_extremes
 
     out = np.zeros(gyr.shape[0], bool)
