@@ -428,3 +428,16 @@ def test_a_scalar_last_q0_is_named():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         estimate_q(np.zeros((500, 3)), acc, DT, q0=q0)
+
+
+@pytest.mark.parametrize("row0", [0, 1, 63, 64, 65, 12345])
+@pytest.mark.parametrize("n", [1, 63, 64, 65, 1000])
+def test_tilt_sums_are_the_sums_of_the_global_bins(row0, n):
+    """The specific force summed per TILT_BIN rows of the whole log, for a block starting at any row."""
+    from optinav.attitude.checks import TILT_BIN, tilt_sums
+
+    a = np.random.default_rng(n + row0).normal(size=(n, 3))
+    g = (row0 + np.arange(n)) // TILT_BIN
+    bins, sums = tilt_sums(a, row0)
+    np.testing.assert_array_equal(bins, np.unique(g))
+    np.testing.assert_allclose(sums, [a[g == b].sum(axis=0) for b in np.unique(g)], rtol=1e-12, atol=1e-12)

@@ -207,9 +207,14 @@ TILT_BIN_S = 0.5
 def tilt_sums(acc: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Bin numbers (k,) and specific-force sums (k, 3) of the TILT_BIN-sample bins a block starting at row
     ``row0`` touches (a bin split between blocks is summed again by :func:`tilting_window`)."""
-    idx = (row0 + np.arange(acc.shape[0])) // TILT_BIN
-    bins, first = np.unique(idx, return_index=True)
-    return bins, np.add.reduceat(acc, first, axis=0) if acc.shape[0] else np.zeros((0, 3))
+    n = acc.shape[0]
+    if not n:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    # the rows where a bin begins: the block's first row, then every TILT_BIN-th global row (no sort needed)
+    first = np.arange((-row0) % TILT_BIN, n, TILT_BIN)
+    if first.size == 0 or first[0] != 0:
+        first = np.concatenate([[0], first])
+    return row0 // TILT_BIN + np.arange(first.size), np.add.reduceat(acc, first, axis=0)
 
 
 def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> slice:
