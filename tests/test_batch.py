@@ -207,6 +207,7 @@ def _hash_with_names(job, names: dict) -> str:
     import hashlib
 
     d = dataclasses.asdict(job)
+    d.pop("results_dir")  # where results go is not what they are
     d["options"] = {names.get(k, k): v for k, v in d["options"].items()}
     text = json.dumps({"layout": batch.LAYOUT, **d}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]

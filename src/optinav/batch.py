@@ -94,6 +94,9 @@ _EXTRA_TYPES = {
     "held_out_pose": "int",
     "held_out_n_used": "int",
     "notes": "str",
+    "result_file": "str",
+    "lot_outlier": "bool",
+    "lot_review": "str",
 }
 
 
@@ -105,6 +108,9 @@ class BatchJob:
     system: str
     options: object
     reference: bool = False
+    #: where each ok unit's result JSON goes (``UNIT.json``, as ``optinav calibrate --out`` writes it); not part
+    #: of the options hash (it changes where results go, not what they are)
+    results_dir: str | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,6 +136,8 @@ class BatchSummary:
     n_resumed: int
     n_computed: int
     n_lost: int = 0  # units whose worker died: reported failed, not journaled, retried by the next run
+    lot: str = ""  # what the lot check found (:func:`lot_check`); empty for an estimate system
+    results_dir: Path | None = None
 
     def summary(self) -> str:
         lines = [
@@ -137,6 +145,9 @@ class BatchSummary:
             f"({self.n_resumed} resumed from the journal, {self.n_computed} computed now)"
         ]
         lines += [f"  failed: {r['unit']}: {r['error']}" for r in self.rows if r["status"] != "ok"]
+        lines += [f"  review: {r['unit']}: {r['lot_review']}" for r in self.rows if r.get("lot_outlier")]
+        if self.lot:
+            lines.append(f"  {self.lot}")
         return "\n".join(lines)
 
 
@@ -183,7 +194,9 @@ def options_hash(job) -> str:
     under the same ones."""
     if not isinstance(job, BatchJob):
         job = BatchJob("multipos", job)
-    text = json.dumps({"layout": LAYOUT, **dataclasses.asdict(job)}, sort_keys=True, default=str)
+    fields = dataclasses.asdict(job)
+    fields.pop("results_dir", None)
+    text = json.dumps({"layout": LAYOUT, **fields}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -309,6 +322,10 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
         row.update({k: _cell(v) for k, v in extra.items()})
         row.update(result_columns(res))
         row.update(status="ok", error="")
+        if job.results_dir is not None:
+            rp = Path(job.results_dir) / f"{name or p.name}.json"
+            res.to_json(rp)  # atomic: a killed worker leaves the old file or none
+            row["result_file"] = rp.name
         if job.reference:
             row.update(truth_columns(res, p))
             z = row.get("truth_max_z")
@@ -342,6 +359,122 @@ def _type(column: str) -> str:
 
 def _complete(row: dict, columns: list[str] | None = None) -> dict:
     return {c: row.get(c) for c in (columns or columns_of([row]))}
+
+
+# ----------------------------------------------------------------------------------------------- lot check
+#: the lot check runs on at least this many ok units (fewer cannot tell a unit from the lot's spread)
+LOT_MIN_UNITS = 5
+#: family-wise false-alarm probability of the lot check for a lot whose parameters are normally distributed
+LOT_ALPHA = 0.01
+#: at most this many outliers per parameter are looked for (a lot with more is no longer one lot)
+LOT_MAX_OUTLIERS = 3
+#: a raw-count scale this many times off the lot's median (or its inverse) fails the unit: the bound of the
+#: scale's plausibility gate against a nominal value (``optinav.multipos.gates.SCALE_FACTOR``), with the lot's
+#: median as the nominal a log in counts lacks
+LOT_SCALE_FACTOR = 1.5
+
+
+def _esd_outliers(x: np.ndarray, alpha: float) -> list[int]:
+    """Indices of the outliers of ``x`` by Rosner's generalized ESD test (Technometrics 25(2), 1983) at level
+    ``alpha``, testing up to a third of the values and at most :data:`LOT_MAX_OUTLIERS` (so two units off the
+    same way do not hide each other), each step at ``alpha`` over the number of steps (Rosner's test is liberal
+    in lots of fewer than about 25)."""
+    from scipy.stats import t as student
+
+    idx = np.arange(x.size)
+    removed, stats = [], []
+    steps = min(max(1, (x.size - 1) // 3), LOT_MAX_OUTLIERS)
+    alpha = alpha / steps  # each step at alpha/steps: the test's level holds for small lots too (Rosner's is liberal)
+    for _ in range(steps):
+        rest = np.delete(x, removed) if removed else x
+        keep = np.delete(idx, removed) if removed else idx
+        n = rest.size
+        if n < LOT_MIN_UNITS - 1:
+            break
+        dev = np.abs(rest - rest.mean())
+        j = int(np.argmax(dev))
+        sd = rest.std(ddof=1)
+        r = dev[j] / sd if sd > 0 else (np.inf if dev[j] > 0 else 0.0)
+        tq = student.isf(alpha / (2 * n), n - 2)
+        lam = (n - 1) * tq / np.sqrt((n - 2 + tq**2) * n)
+        stats.append(r > lam)
+        removed.append(int(keep[j]))
+    last = max((k for k, hit in enumerate(stats) if hit), default=-1)
+    return removed[: last + 1]
+
+
+def _scale_columns(row: dict) -> list[tuple[str, str]]:
+    """(column, raw unit) of the diagonal scale parameters of triads recorded in raw counts (multipos)."""
+    out = []
+    for sensor in ("acc", "gyr"):
+        if row.get(f"{sensor}_unit") == "counts":
+            out += [(f"{sensor}_K_{a}{a}", "counts") for a in _AX if f"{sensor}_K_{a}{a}" in row]
+    return out
+
+
+def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
+    """Compare the ok units of a calibration lot with each other; mark ``rows`` in place and return a summary.
+
+    Every parameter column with a std (``NAME`` beside ``NAME_std``) is tested for outlying units by the
+    generalized ESD test at ``alpha / P`` (P parameters: the whole lot's false-alarm probability is at most
+    about ``alpha`` when its units' parameters are normal). A flagged unit keeps status ok — its calibration passed its
+    own gates — and gets ``lot_outlier`` true and ``lot_review`` naming the parameters, each against the other
+    units' median and spread: a unit to look at, or a lot with heavy tails. A scale of a triad in raw counts
+    beyond ×:data:`LOT_SCALE_FACTOR` of the lot's median fails the unit: it was recorded at another range or in
+    another unit than the lot (in a physical unit the scale's gate against its nominal value does this). Needs
+    :data:`LOT_MIN_UNITS` ok units; ``alpha`` 0 switches the check off.
+    """
+    ok = [r for r in rows if r.get("status") == "ok"]
+    if alpha <= 0:
+        return "lot check: off"
+    if len(ok) < LOT_MIN_UNITS:
+        return f"lot check: not run ({len(ok)} ok units; it needs {LOT_MIN_UNITS})"
+    params = [c for c in dict.fromkeys(k for r in ok for k in r) if f"{c}_std" in ok[0] and not c.endswith("_std")]
+    failed = []
+    medians = {}
+    for col, unit in dict.fromkeys(c for r in ok for c in _scale_columns(r)):
+        vals = np.array([_num(r.get(col)) or np.nan for r in ok], float)
+        if np.sum(np.isfinite(vals)) >= LOT_MIN_UNITS:
+            medians[col] = (float(np.nanmedian(vals)), unit)
+    for r in ok:
+        for col, (med, unit) in medians.items():
+            v = _num(r.get(col))
+            if v is not None and med > 0 and not (1 / LOT_SCALE_FACTOR <= v / med <= LOT_SCALE_FACTOR):
+                r.update(
+                    status="failed",
+                    error=f"{col} = {v:.5g} {unit} per SI unit is {v / med:.3g}× the lot's median {med:.5g} "
+                    f"(accepted ×{1 / LOT_SCALE_FACTOR:.2g}…×{LOT_SCALE_FACTOR:g}): recorded at another range or in "
+                    "another unit than the lot? check the unit's settings, or calibrate it alone with its own "
+                    "--acc-unit/--gyro-unit",
+                )
+                failed.append(r)
+                break
+    ok = [r for r in ok if r not in failed]
+    tested = []
+    for col in params:
+        vals = np.array([_num(r.get(col)) if _num(r.get(col)) is not None else np.nan for r in ok], float)
+        good = np.flatnonzero(np.isfinite(vals))
+        if good.size >= LOT_MIN_UNITS:
+            tested.append((col, vals, good))
+    flagged: dict[int, list[str]] = {}
+    for col, vals, good in tested:
+        for k in _esd_outliers(vals[good], alpha / len(tested)):
+            i = int(good[k])
+            others = np.delete(vals[good], k)
+            flagged.setdefault(i, []).append(
+                f"{col} = {vals[i]:.5g} (the others {np.median(others):.5g} ± {others.std(ddof=1):.2g})"
+            )
+    for i, r in enumerate(ok):
+        r["lot_outlier"] = i in flagged
+        r["lot_review"] = "; ".join(flagged.get(i, []))
+    text = f"lot check: {len(ok) + len(failed)} units, {len(tested)} parameters"
+    if failed:
+        text += f"; failed (scale off the lot): {', '.join(r['unit'] for r in failed)}"
+    if flagged:
+        text += "; outliers to review (column lot_review): " + ", ".join(ok[i]["unit"] for i in sorted(flagged))
+    else:
+        text += "; no outliers"
+    return text
 
 
 # --------------------------------------------------------------------------------------------------- journal
@@ -416,13 +549,19 @@ class Journal:
         self._fh.close()
 
 
-def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool) -> bool:
+def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool, results_dir: str | None = None) -> bool:
     return (
         row is not None
         and row.get("file_size") == unit.size
         and row.get("file_mtime_ns") == unit.mtime_ns
         and row.get("options_hash") == ohash
         and not (retry_failed and row.get("status") != "ok")
+        # an ok unit whose result file is not where this run writes them is computed again
+        and not (
+            results_dir is not None
+            and row.get("status") == "ok"
+            and not (Path(results_dir) / f"{unit.name}.json").is_file()
+        )
     )
 
 
@@ -681,6 +820,8 @@ def run_batch(
     fresh: bool = False,
     retry_failed: bool = False,
     show_progress: bool | None = None,
+    results_dir=None,
+    lot_alpha: float = LOT_ALPHA,
 ) -> BatchSummary:
     """Run every unit of ``directory`` through a system and write the table ``out`` (.csv/.parquet); see the
     module docs.
@@ -693,7 +834,10 @@ def run_batch(
     ``scheduler``: a dask.distributed scheduler address instead (the workers must see ``directory`` at the same
     path and have optinav installed). ``fresh``: ignore the journal and recompute every unit; ``retry_failed``:
     recompute units whose journal row failed (otherwise a failed unit is retried only once its file changes).
-    ``show_progress``: None follows :func:`optinav.core.progress.progress_enabled`.
+    ``show_progress``: None follows :func:`optinav.core.progress.progress_enabled`. ``results_dir``: a folder
+    where each ok unit's result JSON is written as ``UNIT.json`` (what ``optinav calibrate --out`` writes, for
+    ``optinav export`` / ``apply``; calibration systems). ``lot_alpha``: the lot check's false-alarm
+    probability (:func:`lot_check`, calibration systems; 0 = off).
     """
     from optinav import registry
 
@@ -711,7 +855,21 @@ def run_batch(
             f"pass {sysd.load('options').__name__}(...)",
         )
     sysd.load("check")(options)  # bad options: once, not per unit
-    job = BatchJob(sysd.name, options, bool(reference))
+    if not (0 <= lot_alpha < 1):
+        raise OptinavError(f"--lot-alpha {lot_alpha:g} is not a probability in [0, 1)", "pass e.g. 0.01, or 0 (off)")
+    if results_dir is not None:
+        if sysd.kind != "calibration":
+            raise OptinavError(
+                f"--results-dir: a {sysd.command} unit has no result file (its table row is its result)",
+                "drop --results-dir",
+            )
+        rd = Path(results_dir)
+        if not rd.is_dir():
+            raise OptinavError(f"--results-dir {rd} is not a folder", "create it first")
+        if not os.access(rd, os.W_OK | os.X_OK):
+            raise OptinavError(f"--results-dir {rd} is not writable", "choose a folder you can write to")
+        results_dir = str(rd.resolve())  # workers (a dask cluster's too) may run elsewhere than this cwd
+    job = BatchJob(sysd.name, options, bool(reference), results_dir)
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:
@@ -734,21 +892,27 @@ def run_batch(
         _require_distributed()
         client = _dask_client(scheduler)  # unreachable: one-line error before any file is written
     try:
-        return _run_batch(units, out, journal_path, job, workers, client, fresh, retry_failed, show_progress)
+        summary = _run_batch(
+            units, out, journal_path, job, workers, client, fresh, retry_failed, show_progress, lot_alpha
+        )
+        summary.results_dir = None if results_dir is None else Path(results_dir)
+        return summary
     finally:
         if client is not None:
             client.close()
 
 
-def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_failed, show_progress):
+def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_failed, show_progress, lot_alpha):
     from optinav.core.progress import progress
+    from optinav.registry import SYSTEMS
 
     ohash = options_hash(options)
     journal = Journal(journal_path, fresh=fresh)
     lost: dict[str, dict] = {}
     n_computed = 0
     try:
-        resumed = {u.name for u in units if _done(journal.rows.get(u.path.name), u, ohash, retry_failed)}
+        rdir = options.results_dir
+        resumed = {u.name for u in units if _done(journal.rows.get(u.path.name), u, ohash, retry_failed, rdir)}
         jobs = [u for u in units if u.name not in resumed]
         if jobs:
             it = _run_jobs(jobs, options, workers, client)
@@ -782,11 +946,21 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
         rows = []
         for u in units:
             r = journal.rows.get(u.path.name)
-            if _done(r, u, ohash, False):
+            if _done(r, u, ohash, False, options.results_dir):
                 rows.append(_complete(r))
+                if options.results_dir is not None and r.get("status") == "ok":
+                    rows[-1]["result_file"] = f"{u.name}.json"  # a row journaled by a run without the folder
             elif u.path.name in lost:
                 rows.append(_complete(lost[u.path.name]))
         journal.close()
+        lot = ""
+        if SYSTEMS[options.system].kind == "calibration":
+            lot = lot_check(rows, lot_alpha)
+            for r in rows:
+                if options.results_dir is not None and r.get("result_file") and r["status"] != "ok":
+                    # failed by the lot: no result file an `export` of the folder could pick up (so a resume
+                    # computes it again)
+                    (Path(options.results_dir) / r.pop("result_file")).unlink(missing_ok=True)
         write_table(rows, out)
     n_ok = sum(r["status"] == "ok" for r in rows)
     return BatchSummary(
@@ -799,6 +973,7 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
         n_resumed=len(resumed),
         n_computed=n_computed,
         n_lost=len(lost),
+        lot=lot,
     )
 
 

@@ -97,6 +97,22 @@ def _system_parser(sub, system: registry.System):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_common(p)
+    if system.kind == "calibration":
+        p.add_argument(
+            "--results-dir",
+            metavar="FOLDER",
+            help="also write each ok unit's result JSON there as UNIT.json (what `optinav calibrate --out` writes: "
+            "for `optinav export` and `optinav apply`)",
+        )
+        p.add_argument(
+            "--lot-alpha",
+            type=float,
+            default=0.01,
+            metavar="P",
+            help="the lot check's false-alarm probability (default 0.01; 0 = off): units whose parameters stand "
+            "out from the other ok units (≥ 5) are flagged for review (column lot_outlier); a raw-count scale "
+            "beyond ×1.5 of the lot's median fails its unit",
+        )
     if system.cli:
         hook = getattr(importlib.import_module(system.cli), "add_batch_options", None)
         if hook is not None:
@@ -144,7 +160,11 @@ def run_batch_command(args) -> int:
         scheduler=args.scheduler,
         fresh=args.fresh,
         retry_failed=args.retry_failed,
+        results_dir=getattr(args, "results_dir", None),
+        lot_alpha=getattr(args, "lot_alpha", 0.01),
     )
     print(s.summary())
     print(f"optinav: results written to {s.out} (journal {s.journal.name})")
+    if s.results_dir is not None:
+        print(f"optinav: each ok unit's result JSON in {s.results_dir}")
     return 1 if s.n_failed else 0  # a failed or lost unit is not a successful batch
