@@ -20,7 +20,7 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion);
 * start: the low-passes begin as the running mean of the first ``tau_acc`` seconds (as VQF's), so a recording
   that starts in motion is not levelled by its first, accelerated sample; the magnetic reference is the mean of
-  the second half of that time, the heading follows the field until then and converges from then on with a
+  the second half of that time, the heading follows the field (low-passed over 0.2 s) until then and converges from then on with a
   gain of 1/n growing to ``tau_mag`` (over every sample for the first ``tau_mag`` s);
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
   recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
