@@ -293,6 +293,37 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
     }
 
 
+def _sections_on_kept_rows(sections, keep: np.ndarray, method: str):
+    """Sections given by sample index (imucal's section list, a label column's ranges) moved onto the rows left
+    once the non-finite ones are dropped: the indices count the rows as written, so every section after an empty
+    row pointed one row later (10 empty cells in a pose: gyro K_zz 1.1 % off, exit 0). Sections in seconds are
+    returned as given (they select by time)."""
+    pos = np.concatenate([[0], np.cumsum(keep)])  # kept rows before each row as written
+    if (
+        isinstance(sections, dict)
+        and method == "ferraris"
+        and all(isinstance(v, (tuple, list)) and len(v) == 2 for v in sections.values())
+    ):
+        rows = [(str(n), int(a), int(b)) for n, (a, b) in sections.items()]  # a label column's ranges
+    else:
+        rows, kind, _ = static._load_sections(sections)
+        if kind != "index":
+            return sections
+    moved = {}
+    for name, a, b in rows:
+        if not (0 <= a < b <= keep.size):
+            return sections  # out of the log: the section check names it
+        if pos[b] == pos[a]:
+            raise OptinavError(
+                f"section {name!r} (rows {a}-{b - 1}) holds no sample with finite values",
+                "fill or cut the empty rows, or give the sections in seconds (--sections FILE)",
+            )
+        i0, i1 = int(pos[a]), int(pos[b])
+        # the Ferraris route takes {name: (i0, i1)}; the section list reads a pair as seconds, so imucal's layout
+        moved[name] = (i0, i1) if method == "ferraris" else {"start": i0, "end": i1}
+    return moved
+
+
 def calibrate(
     t,
     acc,
@@ -425,6 +456,8 @@ def calibrate(
         finite &= np.all(np.isfinite(gyro), axis=1)
     n_nan = int(np.count_nonzero(~finite))
     if n_nan:
+        if sections is not None:
+            sections = _sections_on_kept_rows(sections, finite, method)
         t, acc = t[finite], acc[finite]
         gyro = gyro[finite] if gyro is not None else None
     t = check_timestamps(t, "time", min_count=10)
@@ -997,8 +1030,8 @@ def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
 
 def _sections_that_lost_samples(t, names, idx) -> list[str]:
     """A note per rotation section that lost samples (its duration over the sample step, less the samples it
-    holds, :data:`LOST_SAMPLES`): its integral bridges the gap with the rate before it, and a section list in sample
-    indices made on the log before samples were lost no longer covers the turn (5 lost rows shifted imucal's
+    holds, :data:`LOST_SAMPLES`): its integral bridges the gap (:func:`optinav.multipos.ferraris._gap_variance`), and a
+    section list in sample indices made on the log before samples were lost no longer covers the turn (5 lost rows shifted imucal's
     x_rot: gyro K_xx 1.9 % off, exit 0; helper)."""
     h = _typical_step(t)
     out = []
@@ -1010,8 +1043,9 @@ def _sections_that_lost_samples(t, names, idx) -> list[str]:
             k = int(np.argmax(np.diff(t[i0:i1])))
             out.append(
                 f"{nm}: about {lost:.0f} samples lost inside the turn (the longest step {t[i0 + k + 1] - t[i0 + k]:.3g} s "
-                f"at t = {t[i0 + k]:.6g} s): the turn's integral bridges it with the rate before it; a section list in "
-                "sample indices must count the rows of this log (--sections)"
+                f"at t = {t[i0 + k]:.6g} s): the turn's integral bridges it with the mean of the rates on both sides, "
+                "and the gyro std includes the turn's own rate changes over as long; a section list in sample indices "
+                "must count the rows of this log (--sections)"
             )
     return out
 

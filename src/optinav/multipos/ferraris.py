@@ -287,6 +287,33 @@ class _Inputs(NamedTuple):
     Sw: np.ndarray  # (3, 3) column j: Σ gyro dt over rotation j (raw·s)
     Sa: np.ndarray  # (3, 3) column j: Σ acc dt over rotation j (raw·s)
     D: np.ndarray  # (3,) rotation durations (s)
+    gap_var: np.ndarray  # (3, 3) column j: variance of Σ gyro dt over the gaps of rotation j (raw·s)²
+
+
+def _gap_variance(w: np.ndarray, h: np.ndarray, k: int) -> np.ndarray:
+    """Variance (3,) of the unknown integral of ``w`` over the gap after sample ``k`` (step ``h[k]``) bridged by
+    the mean of its end rates: the turn's own departure from that bridge, over every stretch of the same length
+    it did record (a hand turn's rate peaks between samples 0.1 s apart: the bridge missed 4° of 28°)."""
+    med = float(np.median(h))
+    L = max(1, int(round(h[k] / med)))
+    M = w.shape[0]
+    fallback = (h[k] * (w[k + 1] - w[k])) ** 2 / 12.0  # uniform between the two rectangles
+    if M - L < 3:
+        return fallback
+    cw = np.concatenate([np.zeros((1, 3)), np.cumsum(w * h[:, None], axis=0)])
+    ch = np.concatenate([[0.0], np.cumsum(h)])
+    cg = np.concatenate([[0], np.cumsum(h > GAP_STEPS * med)])
+    i = np.arange(M - L)
+    clean = cg[i + L] == cg[i]  # stretches without a gap of their own
+    if np.count_nonzero(clean) < 3:
+        return fallback
+    i = i[clean]
+    dev = (cw[i + L] - cw[i]) - 0.5 * (w[i] + w[i + L]) * (ch[i + L] - ch[i])[:, None]
+    return np.maximum(np.mean(dev**2, axis=0) * (h[k] / np.mean(ch[i + L] - ch[i])) ** 2, fallback)
+
+
+#: a step longer than this many median steps inside a rotation is a gap (lost samples)
+GAP_STEPS = 1.5
 
 
 def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angle, gravity, static_counts) -> _Inputs:
@@ -337,13 +364,20 @@ def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angl
                     f"dt[{n}] must hold {w.shape[0]} positive steps, got shape {s.shape}",
                     "give one step (s) per rotation sample",
                 )
-    Sw, Sa, D = np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3)
+    Sw, Sa, D, gap_var = np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3))
     for j, (a, w, h) in enumerate(zip(ar, gr, steps)):
         if h is None:
             Sw[:, j], Sa[:, j], D[j] = w.sum(axis=0) / rate, a.sum(axis=0) / rate, w.shape[0] / rate
-        else:
-            Sw[:, j], Sa[:, j], D[j] = h @ w, h @ a, h.sum()
-    return _Inputs(g, th, Ua, Ug, ca, cg, static, (ar, gr), steps, rate, Sw, Sa, D)
+            continue
+        Sw[:, j], Sa[:, j], D[j] = h @ w, h @ a, h.sum()
+        gap = np.flatnonzero(h[:-1] > GAP_STEPS * np.median(h))
+        if gap.size:
+            # lost samples inside the turn: the step across the gap takes the mean of the rates on both sides
+            # (the rate before alone: 10 lost rows of a hand turn, K_xx 1.2 % off at a std of 0.016 %)
+            Sw[:, j] += 0.5 * h[gap] @ (w[gap + 1] - w[gap])
+            Sa[:, j] += 0.5 * h[gap] @ (a[gap + 1] - a[gap])
+            gap_var[:, j] = sum(_gap_variance(w, h, k) for k in gap)
+    return _Inputs(g, th, Ua, Ug, ca, cg, static, (ar, gr), steps, rate, Sw, Sa, D, gap_var)
 
 
 def _closed_form(Ua, Ug, cg, Sw, Sa, D, th, g):
@@ -423,7 +457,7 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
         Ua = p.Ua + np.einsum("pij,pj->pi", chol[0], gen.standard_normal((6, 3)))
         Ug = p.Ug + np.einsum("pij,pj->pi", chol[1], gen.standard_normal((6, 3)))
         Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * gen.standard_normal((3, 3))
-        Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :]) * gen.standard_normal((3, 3))
+        Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var) * gen.standard_normal((3, 3))
         out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
         for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out):
             draws[k][i] = v
