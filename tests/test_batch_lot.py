@@ -147,3 +147,25 @@ def test_lot_check_on_a_lot_of_simulated_units_flags_none(tmp_path):
     s = run_batch(tmp_path, tmp_path / "r.csv", OPTIONS, workers=0, show_progress=False)
     assert s.n_ok == 8 and "8 units" in s.lot and "no outliers" in s.lot, s.lot
     assert json.loads(json.dumps(s.rows[0]["lot_outlier"])) is False
+
+
+def test_an_edited_section_file_recomputes_its_units(tmp_path):
+    """The options hash held the --sections file's name only: a section list edited between two runs resumed
+    every unit from the journal with the old sections (helper). The files the options name are hashed by content,
+    read once by the batch (a worker computes the same hash from the job)."""
+    d = tmp_path / "units"
+    d.mkdir()
+    _session(d, "u1.csv", 1)
+    sec = tmp_path / "sections.txt"
+    sec.write_text("3.5 8.0\n")
+    opts = FileOptions(acc_unit="counts", gyro_unit="counts", sections=str(sec), allow_unobservable=True)
+    job = batch.BatchJob("multipos", opts, False, None, batch._option_files({"sections": str(sec)}))
+    h1 = batch.options_hash(job)
+    assert h1 != batch.options_hash(batch.BatchJob("multipos", opts, False))
+    out = tmp_path / "r.csv"
+    s1 = run_batch(d, out, opts, workers=0, show_progress=False)
+    assert s1.n_computed == 1 and s1.rows[0]["options_hash"] == h1
+    assert run_batch(d, out, opts, workers=0, show_progress=False).n_resumed == 1
+    sec.write_text("3.5 7.0\n")
+    s3 = run_batch(d, out, opts, workers=0, show_progress=False)
+    assert (s3.n_resumed, s3.n_computed) == (0, 1)

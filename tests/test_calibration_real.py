@@ -123,14 +123,19 @@ def test_a_wrong_sample_rate_is_refused_by_the_gyro_scale(tmp_path, capsys, rate
     assert not (tmp_path / "r.json").exists()
 
 
-def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, capsys):
+@pytest.mark.parametrize("end", ["85 %", "0.6 s short"])
+def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, capsys, end):
     """imucal's z_rot (a 360° turn about the vertical) labelled only to 85 % of its samples: the closed form
-    integrated the rest into K_zz 14 % too large — the turn the gyro makes after the section is the evidence."""
+    integrated the rest into K_zz 14 % too large — the turn the gyro makes after the section is the evidence.
+    A section 0.6 s short (K_zz 0.79×) was blamed on the time base (--rate, --time-unit; helper)."""
     import json
 
     sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
     s = sections["z_rot"]
-    s["end"] = s["start"] + int(0.85 * (s["end"] - s["start"]))
+    if end == "85 %":
+        s["end"] = s["start"] + int(0.85 * (s["end"] - s["start"]))
+    else:
+        s["end"] -= int(0.6 * 102.4)
     path = tmp_path / "sections.json"
     path.write_text(json.dumps(sections))
     _run(tmp_path, [*EXAMPLE, "--method", "ferraris", "--sections", str(path)], code=2)

@@ -111,6 +111,9 @@ class BatchJob:
     #: where each ok unit's result JSON goes (``UNIT.json``, as ``optinav calibrate --out`` writes it); not part
     #: of the options hash (it changes where results go, not what they are)
     results_dir: str | None = None
+    #: {path: SHA-256} of the files the options name (:func:`_option_files`), read once by the batch: part of the
+    #: options hash, so a section list edited between runs recomputes its units (workers do not read them again)
+    option_files: dict | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -196,8 +199,38 @@ def options_hash(job) -> str:
         job = BatchJob("multipos", job)
     fields = dataclasses.asdict(job)
     fields.pop("results_dir", None)
+    if not fields.get("option_files"):
+        fields.pop("option_files", None)  # the hash of a job without option files as before they were hashed
     text = json.dumps({"layout": LAYOUT, **fields}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _option_files(options) -> dict:
+    """{path: SHA-256 of its content} for every option value naming an existing file (``--sections``, a
+    configuration): the options hash covers what the files say, not only their names."""
+    out = {}
+
+    def walk(v):
+        if isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                walk(x)
+        elif isinstance(v, (str, Path)) and v and "\n" not in str(v) and len(str(v)) < 4096:
+            p = Path(v)
+            try:
+                if p.is_file():
+                    h = hashlib.sha256()
+                    with open(p, "rb") as fh:
+                        for block in iter(lambda: fh.read(1 << 20), b""):
+                            h.update(block)
+                    out[str(p)] = h.hexdigest()
+            except OSError:
+                pass  # unreadable: the unit's run names it
+
+    walk(options)
+    return out
 
 
 def _num(v):
@@ -428,7 +461,7 @@ def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
     if alpha <= 0:
         return "lot check: off"
     if len(ok) < LOT_MIN_UNITS:
-        return f"lot check: not run ({len(ok)} ok units; it needs {LOT_MIN_UNITS})"
+        return f"lot check: not run (it needs {LOT_MIN_UNITS} ok units, {len(ok)} here)"
     params = [c for c in dict.fromkeys(k for r in ok for k in r) if f"{c}_std" in ok[0] and not c.endswith("_std")]
     failed = []
     medians = {}
@@ -869,7 +902,7 @@ def run_batch(
         if not os.access(rd, os.W_OK | os.X_OK):
             raise OptinavError(f"--results-dir {rd} is not writable", "choose a folder you can write to")
         results_dir = str(rd.resolve())  # workers (a dask cluster's too) may run elsewhere than this cwd
-    job = BatchJob(sysd.name, options, bool(reference), results_dir)
+    job = BatchJob(sysd.name, options, bool(reference), results_dir, _option_files(dataclasses.asdict(options)))
     out = Path(out)
     _check_output(out)
     if scheduler is not None and workers is not None:

@@ -1136,6 +1136,12 @@ def _ferraris(
             f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
             f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}",
         )
+    gyro_flags = "--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle"
+    # swapped sections or axes first (no nominal: the shape of K only), then the turns: a section that misses part
+    # of its turn scales K_g by the share it holds (0.6 s short of a hand turn: K_zz 0.79×), which the scale's
+    # gate would blame on the time base (helper)
+    gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
+    turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     gates.check_matrix(
         fc.gyr_K,
@@ -1143,10 +1149,9 @@ def _ferraris(
         "gyroscope",
         gyro_unit,
         option="--gyro-unit",
-        columns_flag="--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle",
+        columns_flag=gyro_flags,
         time_flags="--rate, --time-unit, or the turn angle --rotation-angle",
     )
-    turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
     if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, fc.gyr_K, "--rate, --time-unit, --rotation-angle")):
         notes.append(fs)
     gate_log = [
