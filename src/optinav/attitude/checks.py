@@ -108,6 +108,9 @@ _SCALES = {
 }
 
 
+#: a step longer than this many median steps has lost samples (the unit check judges the stretches between)
+LOST_STEPS = 1.75
+
 #: the shortest window (s) on which the gyro's unit is judged by how gravity turns (three of its 2-s means)
 UNIT_MIN_S = 6.0
 
@@ -308,6 +311,20 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None) -> str:
         )
     if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
         return ""  # too little rotation to tell
+    if d.shape[0] > 1:
+        # the longest stretch without lost samples: across a gap the strapdown turns by the rate after it for the
+        # whole gap, which no unit factor explains (a correct rad/s log with 0.36 s lost in motion was refused as
+        # deg/s, and as rad/s when declared deg/s; helper)
+        cut = np.flatnonzero(d > LOST_STEPS * float(np.median(d)))
+        if cut.size:
+            edges = np.concatenate([[0], cut, [k]])
+            i = int(np.argmax(np.diff(edges)))
+            sl = slice(int(edges[i]), int(edges[i + 1]))
+            g, a, d = g[sl], a[sl], d[sl]
+            k = g.shape[0]
+            if alt is not None:
+                alt0 = alt
+                alt = lambda s, sl=sl: alt0(s)[sl]  # noqa: E731
     if k * float(np.median(d)) < UNIT_MIN_S:
         return ""  # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused)
     if steady >= 0.9:

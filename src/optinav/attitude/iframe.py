@@ -30,6 +30,10 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   forward and backward (Butterworth, same ``tau_acc``, each end extended by its first ``tau_acc`` s' mean), gives
   a lag-free up direction; the fused estimate is turned halfway towards it (tilt only). With a magnetometer the
   heading is then the field's azimuth in that attitude, averaged forward and backward over ``tau_mag_smooth``.
+* lost samples (a step beyond 1.75 typical steps, shorter than the gaps :func:`optinav.attitude.checks.find_gaps`
+  refuses): the low-passes take the step in sub-steps of the typical step, their input interpolated, so that
+  their memory keeps its spacing; a gap of 0.05 s or more restarts them as at the start (the running mean over
+  the next ``tau_acc`` s), since the gyro's turn across it is a guess;
 * timing: gyr[k] is integrated over (t[k−1], t[k]] and the output is the attitude at t[k] (as VQF); an IMU
   whose samples are late by a known ``latency`` (s, e.g. its low-pass group delay; default 0) gets the output
   predicted that far ahead with the bias-corrected rate, q ⊗ exp((ω − b)·latency) (offline: once, after the

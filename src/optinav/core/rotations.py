@@ -698,3 +698,48 @@ def attitude_ned_to_enu(c_b_n_ned) -> np.ndarray:
         Attitude in the ENU convention [-].
     """
     return C_ENU_NED.T @ np.asarray(c_b_n_ned, dtype=float) @ C_RFU_FRD
+
+
+def signed_permutations(*, proper_only: bool = False) -> list[np.ndarray]:
+    """The 48 signed axis permutations (3×3, one ±1 per row and column; the 24 rotations among them with
+    ``proper_only``), the identity first: the ways a triad's columns can be swapped or flipped.
+
+    Returns
+    -------
+    list of (3, 3) ndarray
+        The matrices P; a raw triad reading ``P @ x`` of the true ``x``.
+    """
+    import itertools
+
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            P = np.zeros((3, 3))
+            P[np.arange(3), perm] = signs
+            if not proper_only or np.linalg.det(P) > 0:
+                out.append(P)
+    return out
+
+
+def describe_permutation(P, sensor: str, frame: str) -> str:
+    """'gyroscope x reads -y, …' for a signed axis permutation ``P`` (rows: the sensor's raw axes, columns: the
+    ``frame``'s axes): the axes a swapped or flipped column order puts where.
+
+    Parameters
+    ----------
+    P : (3, 3) array
+        One ±1 per row and column.
+    sensor, frame : str
+        Names for the text.
+
+    Returns
+    -------
+    str
+        The raw axes that do not read their own axis, and what they read.
+    """
+    parts = []
+    for i in range(3):
+        j = int(np.flatnonzero(P[i])[0])
+        if i != j or P[i, j] < 0:
+            parts.append(f"{sensor} {'xyz'[i]} reads {'-' if P[i, j] < 0 else '+'}{'xyz'[j]}")
+    return f"{', '.join(parts)} of the {frame}"

@@ -25,6 +25,7 @@ import itertools
 import numpy as np
 
 from optinav.core.units import DEG, factor
+from optinav.core.rotations import describe_permutation  # noqa: F401 - its home before core
 from optinav.errors import OptinavError
 
 #: poses closer than this (degrees) count as one direction in the rank test
@@ -136,16 +137,6 @@ def axis_permutation(K) -> tuple[np.ndarray, float]:
     for i, j in enumerate(best):
         P[i, j] = np.sign(K[i, j]) or 1.0
     return P, float(sum(abs(K[i, best[i]]) for i in range(3)) / np.abs(K).sum())
-
-
-def describe_permutation(P, sensor: str, frame: str) -> str:
-    """'raw gyro x measures −y, …' for a signed permutation P (rows: raw axes, columns: frame axes)."""
-    parts = []
-    for i in range(3):
-        j = int(np.flatnonzero(P[i])[0])
-        if i != j or P[i, j] < 0:
-            parts.append(f"{sensor} {'xyz'[i]} reads {'-' if P[i, j] < 0 else '+'}{'xyz'[j]}")
-    return f"{', '.join(parts)} of the {frame}"
 
 
 def check_matrix(
