@@ -460,3 +460,46 @@ def test_tilt_sums_are_the_sums_of_the_global_bins(row0, n):
     bins, sums = tilt_sums(a, row0)
     np.testing.assert_array_equal(bins, np.unique(g))
     np.testing.assert_allclose(sums, [a[g == b].sum(axis=0) for b in np.unique(g)], rtol=1e-12, atol=1e-12)
+
+
+def _flight(seed=1, duration=30):
+    from optinav.attitude.simulate import simulate
+
+    d = simulate("dynamic", duration_s=duration, rate_hz=100, rng=seed, gyro_bias=np.radians([0.3, -0.2, 0.25]))
+    return d.gyr, d.acc
+
+
+def test_a_time_base_off_by_two_is_named():
+    """A time column at half the rate (t doubled, no unit header) gave roll/pitch/yaw errors of 40/24/24° with
+    exit 0: the unit check tried only the factors 1, π/180 and 180/π (helper). (A time base half as long is
+    judged on BROAD in test_broad.py: a flight's sustained accelerations hide its smaller drift.)"""
+    from optinav.attitude.checks import check_imu
+
+    gyr, acc = _flight()
+    with pytest.raises(OptinavError, match="twice as long") as exc:
+        check_imu(gyr, acc, np.array([0.02]))
+    assert "--rate" in exc.value.remedy and "--time-unit" in exc.value.remedy
+    check_imu(gyr, acc, np.array([0.01]))
+
+
+def test_swapped_gyro_axes_are_named_not_blamed_on_the_unit():
+    """gx and gy swapped: named "deg/s declared rad/s", and the --gyro-unit deg/s it advised gave 14° roll/pitch
+    errors with exit 0 (helper)."""
+    from optinav.attitude.checks import check_imu
+
+    gyr, acc = _flight()
+    swapped = gyr[:, [1, 0, 2]]
+    with pytest.raises(OptinavError, match=r"gyro x reads \+y, gyro y reads \+x") as exc:
+        check_imu(swapped, acc, np.array([0.01]))
+    assert "--columns" in exc.value.remedy
+    with pytest.raises(OptinavError, match=r"gyro x reads \+y.*rad/s declared deg/s"):
+        check_imu(swapped * np.pi / 180, acc, np.array([0.01]))  # the advice followed: a rad/s log read as deg/s
+
+
+@pytest.mark.parametrize("seed", [1, 2, 7])
+def test_dynamic_flights_pass_the_time_and_axes_checks(seed):
+    """Sustained accelerations of a flight leave a correct gyro's drift near gravity's own: no false alarm."""
+    from optinav.attitude.checks import check_imu
+
+    gyr, acc = _flight(seed, duration=12)
+    check_imu(gyr, acc, np.array([0.01]))

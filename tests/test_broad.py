@@ -628,3 +628,18 @@ def test_a_correct_gyro_unit_is_not_refused_for_lost_samples():
     check_imu(tr.gyr[k], tr.acc[k], dts)
     with pytest.raises(Exception, match="rad/s declared deg/s"):
         check_imu(tr.gyr[k] * np.pi / 180, tr.acc[k], dts)  # a deg/s-sized gyro is still named
+
+
+@pytest.mark.parametrize(("factor", "words"), [(2.0, "twice as long"), (0.5, "half as long")])
+@pytest.mark.parametrize("name", ["02_undisturbed_slow_rotation_B", "07_undisturbed_fast_rotation_B"])
+def test_a_time_base_off_by_two_is_named_on_broad(name, factor, words):
+    """A sample rate or time column off by 2 turned gravity by the gyro twice or half as far as the accelerometer
+    saw and passed (or, on fast rotation, was blamed on the gyro unit)."""
+    from optinav.attitude.checks import check_imu
+
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    with pytest.raises(Exception, match=words):
+        check_imu(tr.gyr, tr.acc, np.array([tr.dt * factor]))

@@ -244,7 +244,9 @@ def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> sli
     return slice(start, start + w)
 
 
-def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None, alt=None) -> str:
+def gyro_unit_hint(
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None, alt=None, units_only: bool = False
+) -> str:
     """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint. Judged on
     the UNIT_WINDOW_S s where the gyro turns most and on those where gravity turns most in the body (the
     strapdowns' cost is independent of the recording's length). ``ng``: the gyro's row norms if already
@@ -253,7 +255,8 @@ def gyro_unit_hint(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.nda
     ng = _norm(gyr) if ng is None else ng
     for sl in unit_windows(ng, dts, *tilt_sums(acc)):
         a = None if alt is None else (lambda s, sl=sl: alt(s, sl))
-        hint = _unit_hint_window(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])), a)
+        d = dts[sl] if dts.shape[0] > 1 else dts
+        hint = _unit_hint_window(gyr[sl], acc[sl], d, float(np.max(ng[sl])), a, units_only)
         if hint:
             return hint
     return ""
@@ -298,7 +301,7 @@ def _still_turn(g, a, d) -> tuple[float, float]:
     return float(np.max(perp - 0.5 * np.abs(par))), float(np.mean(steady))
 
 
-def _unit_hint_window(g, a, d, window_max: float, alt=None) -> str:
+def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = False) -> str:
     """The hint of :func:`gyro_unit_hint` on one window; ``alt(scale)``: the window's gyro (rad/s) had the raw
     data been ``scale`` × what they are (default ``g·scale``; a calibration's bias is not scaled with them)."""
     k = g.shape[0]
@@ -345,8 +348,88 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None) -> str:
             # bias would explain the body's own turning). Against the ×57 alternative a bias cannot help.
             spread[1.0] = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
         if best != 1.0 and spread[1.0] > max(2.0 * spread[best] + 0.02, floor):
+            if best == np.pi / 180 and not units_only:
+                # a gyro too small to turn anything explains gravity better than the declared one also when the
+                # declared one turns about the wrong axes (gx and gy swapped: "deg/s declared rad/s", and the
+                # flag that hint names gave garbage with exit 0; helper)
+                other = _time_hint(g, a, d, spread[best]) or _axes_hint(g, a, d, spread[best])
+                if other:
+                    return other
             return _SCALES[best]
+    if units_only:
+        return ""
+    return _time_or_axes_hint(g, a, d, spreads[1.0][1])
+
+
+#: how gravity drifts in the body over the unit window (rad, RMS of its 2-s means about their mean) below which
+#: the gyro's time base and axes cannot be judged
+CONSISTENCY_STILL = 0.3
+#: the drift (rad) of gravity in the declared gyro's frame beyond which the time base and axes are questioned,
+#: and below which an alternative must bring it: the nine BROAD trials as declared 0.025-0.105 (a simulated
+#: dynamic flight's sustained accelerations up to 0.23), a gyro 2× too large ≥ 0.22, axes swapped ≥ 0.16
+CONSISTENCY_BAD = 0.2
+#: time-base factors tried against the declared one: the gyro integrated over steps twice too long (a time
+#: column at half the rate, or --rate twice too small) and half as long
+_TIME_SCALES = {0.5: "twice", 2.0: "half"}
+TIME_HINT = "the time steps look"
+AXES_HINT = "the gyro axes look swapped or flipped"
+
+
+def _drift_of(g, a, d) -> float:
+    return _gravity_spread(g, a, d, 1.0)[1]
+
+
+def _axes_hint(g, a, d, beat: float) -> str:
+    """A hint naming the signed axis permutation of the gyro (at its declared scale, or with the unit factor
+    π/180 or 180/π) that explains how gravity turns within :data:`CONSISTENCY_BAD` and clearly better than
+    ``beat`` (the best drift without a permutation), else ''."""
+    from optinav.core.rotations import describe_permutation, signed_permutations
+
+    best, drift = None, np.inf
+    for scale in (1.0, np.pi / 180, 180 / np.pi):
+        for P in signed_permutations()[1:]:
+            v = _drift_of(g @ P * scale, a, d)  # raw row g = P ω: ω = Pᵀ g, as rows g @ P
+            if v < drift:
+                best, drift = (P, scale), v
+    if best is None or not (drift < CONSISTENCY_BAD and drift < 0.75 * beat):
+        return ""
+    P, scale = best
+    unit = "" if scale == 1.0 else f", and {_SCALES[scale].split(':')[0]}"
+    return f"{AXES_HINT}: {describe_permutation(P, 'gyro', 'accelerometer axes')}{unit}"
+
+
+def _time_hint(g, a, d, beat: float) -> str:
+    """A hint naming a time base off by 2 when the gyro × 0.5 or × 2 explains how gravity turns within
+    :data:`CONSISTENCY_BAD` and in half the drift ``beat`` leaves, else ''."""
+    times = {s: _drift_of(g * s, a, d) for s in _TIME_SCALES}
+    s = min(times, key=times.get)
+    if times[s] < CONSISTENCY_BAD and times[s] < 0.5 * beat:
+        return (
+            f"{TIME_HINT} {_TIME_SCALES[s]} as long as they are (the gyro turns gravity ×{1 / s:g} as far as the "
+            "accelerometer sees)"
+        )
     return ""
+
+
+def _time_or_axes_hint(g, a, d, drift1: float) -> str:
+    """When the declared gyro does not explain how gravity turns in the body (while it does turn): a time base off
+    by 2, or axes swapped or flipped, where one of them explains it clearly better; '' otherwise. Judged on the drift of the 2-s means
+    of gravity in the gyro-integrated frame (translation averaged out), the declared gyro with the constant bias
+    that steadies it most."""
+    if drift1 <= CONSISTENCY_BAD:
+        return ""
+    w = max(2, int(round(2.0 / float(np.median(d)))))
+    if _drift(_spreads(np.zeros_like(g), a, d, w)[1]) < CONSISTENCY_STILL:
+        return ""  # gravity hardly turns in the body: nothing to judge by
+    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
+    if drift1 <= CONSISTENCY_BAD:
+        return ""
+    time = _time_hint(g, a, d, drift1)
+    if time:
+        return time
+    # nothing that explains it is no evidence: a dynamic flight's sustained accelerations leave a correct gyro's
+    # drift (0.17-0.23 rad) near gravity's own in the body (0.23-0.32)
+    return _axes_hint(g, a, d, drift1)
 
 
 def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None) -> None:
@@ -389,6 +472,17 @@ def hint_scale(hint: str) -> float:
 
 
 def _unit_error(hint: str) -> OptinavError:
+    if hint.startswith(TIME_HINT):
+        return OptinavError(
+            f"{hint}: the time column or the sample rate is off",
+            "check --rate, or the time column's unit (--time-unit)",
+        )
+    if hint.startswith(AXES_HINT):
+        unit = next((u for u in ("deg/s", "rad/s") if f"{u} declared" in hint), None)
+        return OptinavError(
+            hint,
+            "fix the gyro's column order or signs (--columns)" + (f" and pass --gyro-unit {unit}" if unit else ""),
+        )
     factor = "π/180" if hint_scale(hint) < 1.0 else "180/π"
     return OptinavError(
         f"the gyro in rad/s does not explain how gravity turns in the body, a unit factor of {factor} does",

@@ -131,7 +131,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     if not ok.all() or not np.all(dts > 0):
         return  # the reader's checks name gaps and non-finite rows; the unit is judged on clean blocks
     raw = calibration_raw(log, "gyro", res.units.get("gyroscope_raw"))
-    hint = gyro_unit_hint(gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * s, acc[sl]))
+    hint = gyro_unit_hint(gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * s, acc[sl]), units_only=True)
     if hint:
         unit = "deg/s" if hint_scale(hint) < 1.0 else "rad/s"
         raise OptinavError(
