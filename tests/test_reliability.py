@@ -120,6 +120,22 @@ def test_bad_output_locations(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.json", "file"]
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_a_named_pipe_as_output_is_refused_not_replaced(tmp_path, capsys):
+    """Every writer renamed its temporary file over a FIFO at --out: the pipe a reader waited on became a
+    regular file, exit 0 (helper). The atomic writer refuses a pipe, socket or device."""
+    import stat
+
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    assert main(["gfimu", "analyze", "--builtin", "cylinder10", "--out", str(fifo)]) == 2
+    one_line_error(capsys, "is a named pipe, not a file")
+    os.mkfifo(tmp_path / "p.truth.json")  # where the truth is written beside the data: reading it blocked
+    assert main(["simulate", "flight", "--kind", "static", "--duration", "2", "--out", str(tmp_path / "p.csv")]) == 2
+    one_line_error(capsys, "is a named pipe, not a file")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and stat.S_ISFIFO(os.stat(tmp_path / "p.truth.json").st_mode)
+
+
 # --- the atomic writer ------------------------------------------------------------------------------------------
 
 

@@ -603,12 +603,36 @@ def clipped(k: int, limit: float, steep: int) -> OptinavError:
     )
 
 
-def check_aop(aop: np.ndarray) -> None:
-    """AoP in rad lies in [−π, π]; values beyond 2π are degrees declared rad."""
-    a = aop[np.isfinite(aop)]
-    if a.size and float(np.max(np.abs(a))) > 2 * np.pi:
+def check_aop(aop: np.ndarray, unit: str = "rad") -> None:
+    """The angle of polarization as read (``aop`` in its declared ``unit``, "rad" or "deg"): AoP lies in [−π, π]
+    rad, so values beyond 2π are degrees declared rad; values in "degrees" that never leave ±π/2 yet span more than
+    one of them (:data:`AOP_RAD_SPAN`) over :data:`AOP_MIN_ROWS` samples are radians declared deg (its 37-84°
+    errors passed with exit 0; helper)."""
+    a = np.asarray(aop, float)
+    a = a[np.isfinite(a)]
+    if a.size:
+        aop_range(float(a.min()), float(a.max()), a.size, unit)
+
+
+#: samples, and span (in the declared unit) of an AoP column in "degrees" within ±π/2 judged to be radians
+AOP_MIN_ROWS = 50
+AOP_RAD_SPAN = 1.0
+
+
+def aop_range(lo: float, hi: float, n: int, unit: str = "rad") -> None:
+    """:func:`check_aop` from the column's smallest and largest finite value and their count (a log read block
+    by block gathers them)."""
+    if unit == "deg":
+        if n >= AOP_MIN_ROWS and max(abs(lo), abs(hi)) <= 1.01 * np.pi / 2 and hi - lo >= AOP_RAD_SPAN:
+            raise OptinavError(
+                f"the angle of polarization in degrees stays within {lo:.3g}…{hi:.3g}, inside ±π/2, over {n} "
+                "samples: it looks like radians declared deg",
+                "declare the unit with --aop-unit rad",
+            )
+        return
+    if max(abs(lo), abs(hi)) > 2 * np.pi:
         raise OptinavError(
-            f"the angle of polarization reaches {float(np.max(np.abs(a))):.1f}, beyond 2π rad: it "
+            f"the angle of polarization reaches {max(abs(lo), abs(hi)):.1f}, beyond 2π rad: it "
             "looks like degrees declared rad",
             "declare the unit with --aop-unit deg",
         )

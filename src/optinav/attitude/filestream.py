@@ -829,7 +829,7 @@ def stream_attitude(
     sample, read block by block) scored as the reference of a log that is not a BROAD trial; ``truth``: a
     :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
     Bad input raises :class:`OptinavError` before anything is written under ``out``."""
-    from optinav.attitude.checks import check_aop
+    from optinav.attitude.checks import aop_range
     from optinav.attitude.methods import _method
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
@@ -850,7 +850,7 @@ def stream_attitude(
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
 
     step("checks")
-    checks, bad, aop_max, t_first, t_last = StreamChecks(), 0, 0.0, None, None
+    checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
         if t_first is None:
             t_first = float(t[0])
@@ -860,15 +860,16 @@ def stream_attitude(
             checks.add(gyr, acc, dts)
             if "mag" in extra:
                 checks.add_mag(extra["mag"])
-        if pol is not None and pol.aop_unit != "deg":
-            a = np.abs(extra["aop"][np.isfinite(extra["aop"])])
-            aop_max = max(aop_max, float(a.max()) if a.size else 0.0)
+        if pol is not None:
+            a = extra["aop"][np.isfinite(extra["aop"])]
+            if a.size:
+                aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
     if bad:
         raise OptinavError(
             f"{path} has {bad} rows with NaN accelerometer/gyro values", "remove or interpolate them first"
         )
-    if pol is not None:
-        check_aop(np.array([aop_max]))
+    if pol is not None and aop_n:
+        aop_range(aop_lo, aop_hi, aop_n, pol.aop_unit)
     checks.finish_first()
     gaps = checks.gaps
     if announce is not None:

@@ -218,10 +218,9 @@ def read_polarization(
     aop = np.asarray(table["aop"], float).reshape(-1)
     if aop.size != n:
         raise OptinavError(f"AoP column has {aop.size} rows, the IMU {n}", "check --pol-columns")
+    check_aop(aop, aop_unit)
     if aop_unit == "deg":
         aop = np.radians(aop)
-    else:
-        check_aop(aop)
     return aop, (np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None)
 
 

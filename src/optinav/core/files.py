@@ -157,6 +157,7 @@ def check_output(path, option: str = "--out") -> Path:
         )
     if out.is_dir():
         raise OptinavError(f"{option} {out} is a folder", f"give a file name for {option}")
+    _refuse_special(out, option)
     parent = out.parent
     if not parent.exists():
         # a regular file somewhere up the path makes it "does not exist" too; say which
@@ -173,6 +174,22 @@ def check_output(path, option: str = "--out") -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OptinavError(f"cannot write {out}: the folder {parent} is not writable", f"choose a writable {option}")
     return out
+
+
+def _refuse_special(out: Path, option: str, named: str | None = None, remedy: str | None = None) -> None:
+    """A named pipe, device or socket at the output path is refused: the atomic write (a file renamed over it)
+    would replace it with a regular file (a FIFO a reader waits on was unlinked, exit 0; /dev/null as root)."""
+    import stat
+
+    try:
+        mode = os.stat(out).st_mode
+    except OSError:
+        return
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        kind = "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise OptinavError(
+            f"{named or f'{option} {out}'} is {kind}, not a file", remedy or f"give a file name for {option}"
+        )
 
 
 @contextlib.contextmanager
@@ -200,6 +217,7 @@ def atomic_path(path, option: str = "--out") -> Iterator[Path]:
         raise OptinavError(
             f"{option} {path} is the input {src}: writing it would destroy the input", f"choose another {option}"
         )
+    _refuse_special(path, option)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
         os.close(fd)
@@ -422,6 +440,8 @@ def check_sidecar(path, signature: str, option: str = "--out") -> Path:
         raise OptinavError(f"{p} (written beside {option}) is the input {src}", f"choose another {option}")
     if p.is_dir():
         raise OptinavError(f"{p} (written beside {option}) is a folder", f"choose another {option}")
+    # before it is read: a pipe would block
+    _refuse_special(p, option, f"{p} (written beside {option})", f"move it away or choose another {option}")
     if p.exists():
         try:
             with open(p, "rb") as fh:
