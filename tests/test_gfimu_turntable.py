@@ -41,6 +41,25 @@ def test_paper_setup_errors_and_crlb():
     assert _rel(cf.vector(), v)[:, 3:].max() < 0.02  # directions: tiny (paper 0.04 % with one sample)
 
 
+def test_a_table_rate_error_is_stated_and_its_accuracy_goes_into_the_std():
+    """A table rate 0.1 % off scales every centripetal term by 1.002, which the positions absorb (Δr_i ≈ 2e·r_i):
+    converged, every gate passed, positions 68 std off (helper). Not separable from the data: the result says
+    so, and the rates' stated accuracy enters the std."""
+    import dataclasses
+
+    arr = builtin()
+    e = InstallationErrors.uniform(10)
+    d = simulate(arr, e, rates=(0.5, 1.0), duration=10.0, rng=4)
+    off = dataclasses.replace(d, table_rate=d.table_rate * 1.001)
+    exact = calibrate(arr, off)
+    z = np.abs(exact.estimate - e.vector()) / exact.std
+    assert z.max() > 20 and any("taken as exact" in s and "--rate-accuracy" in s for s in exact.statements)
+    honest = calibrate(arr, off, rate_accuracy=1e-3)
+    z = np.abs(honest.estimate - e.vector()) / honest.std
+    assert z.max() < 4.5 and any("exact within 0.001" in s for s in honest.statements)
+    np.testing.assert_allclose(honest.estimate, exact.estimate)  # the estimate is the same; only its std
+
+
 def test_single_sample_closed_form_matches_paper_scale():
     """One sample per case (the paper's setting): position errors of order the paper's 12 % / 244 %."""
     arr = builtin()

@@ -299,6 +299,14 @@ def add_batch_options(p) -> None:
         help="unit of the table_rate column (default rad/s, as optinav writes it)",
     )
     p.add_argument("--noise", type=POSITIVE, metavar="M/S2", help="accelerometer noise std (default: from the data)")
+    p.add_argument(
+        "--rate-accuracy",
+        type=NON_NEGATIVE,
+        default=0.0,
+        metavar="REL",
+        help="relative 1σ of the table rates, e.g. 1e-4 (default 0: exact); a rate error moves the positions by "
+        "2e·r, which the data cannot tell apart, so it goes into their std",
+    )
 
 
 def add_apply_options(g) -> None:

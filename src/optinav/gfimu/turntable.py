@@ -955,6 +955,7 @@ def calibrate(
     method: str = "lm",
     offset: str = "zero",
     sigma=None,
+    rate_accuracy: float = 0.0,
 ) -> TurntableCalibration:
     """Estimate the installation errors (5 per sensor) from turntable data (module docstring).
 
@@ -972,6 +973,10 @@ def calibrate(
         (per-mounting offsets, gauge mean Δr = 0).
     sigma : float, (N,) array or None
         Accelerometer noise std [m/s^2]; None: the within-case scatter.
+    rate_accuracy : float
+        Relative 1σ of the table rates [-] (0: exact). A rate error e scales every centripetal term by 1 + 2e,
+        which the positions absorb (Δr_i ≈ 2e·r_i, not separable from the data): its effect is added to the
+        covariance, and stated either way.
 
     Returns
     -------
@@ -1085,6 +1090,24 @@ def calibrate(
     std, crlb, cov = np.array(rep.std), np.array(rep.crlb_std), np.array(rep.covariance)
     if chi2 > 1.0:  # residuals beyond the noise (an unmodelled error below the gate): the std widen with them
         std, cov = std * np.sqrt(chi2), cov * chi2
+    # the table rate is an input: a relative error e moves the estimate by e·s (s from the linearized fit; the
+    # centripetal terms go with ω², so their residuals move by 2e × their size)
+    f_fit, th_fit, _ = model.predict(x)
+    centripetal = f_fit - data.gravity * np.einsum("ni,ki->kn", th_fit, model.U)
+    s_rate = -np.linalg.lstsq(J, (2.0 * centripetal * model.W).ravel(), rcond=None)[0]
+    if rate_accuracy > 0.0:
+        cov = cov + rate_accuracy**2 * np.outer(s_rate, s_rate)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    dr_per = float(np.max(np.abs(s_rate[: 5 * nominal.n].reshape(nominal.n, 5)[:, :3])))
+    rate_statement = (
+        f"the table rates are taken as exact within {rate_accuracy:.3g} (relative 1σ, in the std): a rate error e "
+        if rate_accuracy > 0.0
+        else "the table rates are taken as exact (pass --rate-accuracy to put their accuracy in the std): a rate "
+        "error e "
+    ) + (
+        f"moves the positions by up to {dr_per * 1e-3 * 1e3:.3g} mm per 0.1 % (Δr_i ≈ 2e·r_i), which the data "
+        "cannot tell from installation errors"
+    )
     if offset == "estimate":
         # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
         M = np.zeros((model.n_params, model.n_params))
@@ -1101,7 +1124,7 @@ def calibrate(
     if offset == "estimate":
         o = x[5 * nominal.n :].reshape(-1, 2)
         offs = np.array([o[j] @ model.perp[m] for j, m in enumerate(model.mounts)])
-    statements = list(rep.statements) + ([gauge] if gauge else [])
+    statements = list(rep.statements) + ([gauge] if gauge else []) + [rate_statement]
     if chi2 > 1.0:
         statements.append(f"std scaled by √(reduced χ²) = {np.sqrt(chi2):.3g}: residuals beyond the noise")
     if fixed is not None:

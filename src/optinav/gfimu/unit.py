@@ -19,7 +19,7 @@ class GfimuOptions:
     """The options of ``optinav calibrate gfimu``: the nominal array (``config`` file or ``builtin`` name),
     ``method`` ("lm" or "closed-form"), ``offset`` ("zero", "estimate" or the measured (x, y, z) in m),
     ``rate_unit`` of the table_rate column ("rad/s" or "deg/s"), ``noise`` accelerometer std in m/s² (None:
-    from the data)."""
+    from the data), ``rate_accuracy`` the table rates' relative 1σ (0: exact; in the std)."""
 
     config: str | None = None
     builtin: str | None = None
@@ -27,6 +27,7 @@ class GfimuOptions:
     offset: str | tuple = "zero"
     rate_unit: str = "rad/s"
     noise: float | None = None
+    rate_accuracy: float = 0.0
 
     def array(self) -> AccelerometerArray:
         """The nominal array: the configuration file or the built-in one."""
@@ -46,6 +47,11 @@ def check(options: GfimuOptions) -> None:
         raise OptinavError(f"unknown calibration method {options.method!r}", "use 'lm' or 'closed-form'")
     if options.rate_unit not in ("rad/s", "deg/s"):
         raise OptinavError(f"--rate-unit {options.rate_unit!r}", "use rad/s or deg/s")
+    if not (0.0 <= options.rate_accuracy < 0.1):
+        raise OptinavError(
+            f"--rate-accuracy {options.rate_accuracy:g} is not a relative accuracy in [0, 0.1)",
+            "give the table rates' relative 1σ, e.g. 1e-4",
+        )
     identifiability(options.array()).require(("linear",))
 
 
@@ -58,7 +64,14 @@ def run_unit(path, options: GfimuOptions, reference: bool = False) -> tuple[Turn
     data = read_cases(path, options.array().n, factor)
     offset = options.offset if isinstance(options.offset, str) else np.asarray(options.offset, float)
     step(f"fit ({options.method})")
-    res = calibrate(options.array(), data, method=options.method, offset=offset, sigma=options.noise)
+    res = calibrate(
+        options.array(),
+        data,
+        method=options.method,
+        offset=offset,
+        sigma=options.noise,
+        rate_accuracy=options.rate_accuracy,
+    )
     return res, {
         "n_samples": int(data.samples),
         "rank": int(res.rank),
