@@ -1174,3 +1174,51 @@ def _read_out(path):
 
     lines = [ln for ln in Path(path).read_text().splitlines() if not ln.startswith("#")]
     return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)
+
+
+def test_gfimu_negated_outputs_and_a_single_sample_are_named(turntable, tmp_path, capsys):
+    """All outputs negated gave a numpy warning and 'rates nan× the stated ones'; a one-row NPZ was 'has no t,
+    mounting, … (found: f)' (one-element arrays are read as the file's settings; helper)."""
+    d = dict(turntable[1])
+    neg = tmp_path / "neg.npz"
+    np.savez(neg, **{**d, "f": -d["f"]})
+    args = ["--quiet", "calibrate", "gfimu", "--builtin", "cylinder10", "--out", str(tmp_path / "r.json")]
+    assert main([*args[:3], str(neg), *args[3:]]) == 2
+    one_line_error(capsys, "the outputs look negated", "negate the f columns")
+    one = tmp_path / "one.npz"
+    np.savez(one, **{k: v[:1] for k, v in d.items()})
+    assert main([*args[:3], str(one), *args[3:]]) == 2
+    one_line_error(capsys, "single values: t,")
+
+
+def test_batch_names_data_entries_that_are_no_file(tmp_path, capsys, counts_session):
+    """A named pipe and broken or looping links with a data suffix were dropped without a word ('2 units' of a
+    folder of five entries; helper): the summary names them."""
+    d = tmp_path / "units"
+    d.mkdir()
+    (d / "u1.csv").write_bytes(counts_session[1].read_bytes())
+    (d / "broken.csv").symlink_to(tmp_path / "nowhere.csv")
+    (d / "loop.csv").symlink_to(d / "loop.csv")
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(d / "pipe.csv")
+    argv = ["batch", "calibrate", "accel", str(d), "--acc-unit", "counts", "--gyro-unit", "deg/s"]
+    assert main([*argv, "--workers", "0", "--out", str(tmp_path / "r.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "skipped: broken.csv: a broken or looping link" in out and "skipped: loop.csv" in out
+    assert not hasattr(os, "mkfifo") or "skipped: pipe.csv: a named pipe" in out
+
+
+def test_apply_says_how_many_rows_were_not_finite(tmp_path, capsys, counts_session):
+    """Rows with NaN or infinite cells went through apply as NaN with exit 0 and no word, while attitude and
+    allan refuse them (helper): they are kept row for row, and counted in a note."""
+    _, data, res = counts_session
+    lines = data.read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line[:1].isdigit())
+    for k, bad in ((first + 50, "nan"), (first + 80, "inf")):
+        cells = lines[k].split(",")
+        cells[1] = bad
+        lines[k] = ",".join(cells)
+    f = tmp_path / "holes.csv"
+    f.write_text("\n".join(lines) + "\n")
+    assert main(["apply", str(res), str(f), "--out", str(tmp_path / "c.csv")]) == 0
+    assert "2 rows of holes.csv hold empty, NaN or infinite values: written as NaN" in capsys.readouterr().err

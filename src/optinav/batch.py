@@ -141,6 +141,7 @@ class BatchSummary:
     n_lost: int = 0  # units whose worker died: reported failed, not journaled, retried by the next run
     lot: str = ""  # what the lot check found (:func:`lot_check`); empty for an estimate system
     results_dir: Path | None = None
+    skipped: list = dataclasses.field(default_factory=list)  # (name, why): data-named entries that are no file
 
     def summary(self) -> str:
         lines = [
@@ -149,6 +150,7 @@ class BatchSummary:
         ]
         lines += [f"  failed: {r['unit']}: {r['error']}" for r in self.rows if r["status"] != "ok"]
         lines += [f"  review: {r['unit']}: {r['lot_review']}" for r in self.rows if r.get("lot_outlier")]
+        lines += [f"  skipped: {name}: {why}, not a unit" for name, why in self.skipped]
         if self.lot:
             lines.append(f"  {self.lot}")
         return "\n".join(lines)
@@ -166,8 +168,10 @@ def _data_suffix(name: str) -> str | None:
     return last if last in SUFFIXES else None
 
 
-def find_units(directory, *, exclude=()) -> list[Unit]:
-    """The units of ``directory`` (module docstring rule), sorted by file name; ``exclude``: paths to skip."""
+def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Unit]:
+    """The units of ``directory`` (module docstring rule), sorted by file name; ``exclude``: paths to skip;
+    ``skipped``: a list that receives (name, why) of the entries with a data suffix that are no regular file (a
+    named pipe, a broken or looping link), which are not units either."""
     from optinav.core.files import input_kind
 
     d = Path(directory)
@@ -177,7 +181,13 @@ def find_units(directory, *, exclude=()) -> list[Unit]:
     found = []
     try:
         for p in sorted(d.iterdir(), key=lambda q: q.name):
-            if p.name.startswith(".") or not p.is_file() or p.resolve() in skip:
+            if p.name.startswith("."):
+                continue
+            if not p.is_file():
+                if skipped is not None and _data_suffix(p.name) is not None and not p.is_dir():
+                    skipped.append((p.name, _not_a_file(p)))
+                continue
+            if p.resolve() in skip:
                 continue
             suffix = _data_suffix(p.name)
             if suffix is None or p.name[: -len(suffix)].endswith(".truth"):
@@ -190,6 +200,16 @@ def find_units(directory, *, exclude=()) -> list[Unit]:
         raise OptinavError(f"cannot read the folder {d} ({describe(exc)})", "check the folder's permissions") from None
     stems = [s for s, _, _ in found]
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
+
+
+def _not_a_file(p: Path) -> str:
+    import stat
+
+    try:
+        mode = os.stat(p).st_mode
+    except OSError as exc:
+        return "a broken or looping link" if p.is_symlink() else describe(exc)
+    return "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
 
 
 def options_hash(job) -> str:
@@ -914,7 +934,8 @@ def run_batch(
         raise OptinavError(f"--workers {workers} is negative", "give a number of processes (0 = in this process)")
     workers = _default_workers() if workers is None else int(workers)
     journal_path = out.with_name(out.name + ".journal.jsonl")
-    units = find_units(directory, exclude=(out, journal_path))
+    skipped: list = []
+    units = find_units(directory, exclude=(out, journal_path), skipped=skipped)
     if not units:
         raise OptinavError(
             f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
@@ -929,6 +950,7 @@ def run_batch(
             units, out, journal_path, job, workers, client, fresh, retry_failed, show_progress, lot_alpha
         )
         summary.results_dir = None if results_dir is None else Path(results_dir)
+        summary.skipped = skipped
         return summary
     finally:
         if client is not None:

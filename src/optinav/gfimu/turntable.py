@@ -669,6 +669,18 @@ def check_data(
             "check those channels (or pass the configuration the data was recorded with)",
         )
     lo, hi = RATE_SCALE_RANGE if offset_known else (0.5, 2.0)
+    if s is not None and -hi < s < -lo:
+        raise OptinavError(
+            f"the rate-dependent change of the outputs is {s:.3g}× the one the configuration predicts: the outputs "
+            "look negated (every sensor reads the opposite of its specific force along its direction)",
+            "negate the f columns, or the directions in the configuration if the sensors point the other way",
+        )
+    if s is not None and s <= 0:
+        raise OptinavError(
+            f"the rate-dependent change of the outputs is {s:.3g}× the one the configuration predicts (its sign "
+            "opposite): the outputs do not follow the centripetal terms of this array",
+            "check the f columns' order and sign against the configuration, and the table_rate column",
+        )
     if s is not None and not lo < s < hi:
         raise OptinavError(
             f"the table rates disagree with the centripetal terms the accelerometers measure (the "

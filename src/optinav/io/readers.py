@@ -101,6 +101,9 @@ class Table:
             text += f" (columns of the {self.table_array.shape[0]}×{self.table_array.shape[1]} array {self.table!r})"
         if self.skipped:
             text += "; unreadable: " + ", ".join(f"{k} ({v})" for k, v in list(self.skipped.items())[:5])
+        single = _single_values(self)
+        if single:
+            text += f"; single values: {single}"
         return text
 
     def find(self, name: str) -> str | None:
@@ -1547,10 +1550,28 @@ def _mat_walk(table: Table, prefix: str, value) -> None:
 def _check_nonempty(table: Table) -> None:
     if not table.data:
         extra = f" (unreadable: {table.names()})" if table.skipped else ""
+        single = _single_values(table)
+        if single:
+            raise OptinavError(
+                f"{table.path} holds a single sample ({single} are one value each, read as the file's settings)",
+                "record more than one sample",
+            )
         raise OptinavError(
             f"{table.path} holds no numeric arrays{extra}",
             "save the data as numeric arrays (one per quantity, or one samples × columns matrix)",
         )
+
+
+def _single_values(table: Table, limit: int = 6) -> str:
+    """The names of the file's one-value numeric entries (read as settings, like a rate), for messages."""
+    names = []
+    for k, v in table.meta.items():
+        try:
+            float(v)
+        except (TypeError, ValueError):
+            continue
+        names.append(k)
+    return ", ".join(names[:limit]) + (", …" if len(names) > limit else "")
 
 
 def _split_single_table(table: Table) -> Table:

@@ -82,12 +82,15 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
     # grow with the log; a bad row fails when its block is read and leaves no output
     seen: list[str] = []
+    n_bad = 0
     with open_imu_writer(out) as writer:
         for log in progress_blocks(blocks, "apply"):
             for note in log.notes:  # the reader's notes (an incomplete last line left out, ...), each once
                 if note not in seen:
                     seen.append(note)
                     warnings.warn(note, Note, stacklevel=2)
+            raw = [x for x in (log.acc, log.gyr) if x is not None]
+            n_bad += int(np.count_nonzero(~np.all(np.isfinite(np.hstack(raw)), axis=1))) if raw else 0
             acc, gyro = corrected(res, log, data_path, result_path)
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
@@ -98,6 +101,13 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                     t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
                 )
             )
+    if n_bad:
+        # kept, row for row (the output keeps the log's rows and times); said, so that no one averages them away
+        warnings.warn(
+            f"{n_bad} rows of {Path(data_path).name} hold empty, NaN or infinite values: written as NaN",
+            Note,
+            stacklevel=2,
+        )
     return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
 
 
