@@ -208,6 +208,8 @@ def _hash_with_names(job, names: dict) -> str:
 
     d = dataclasses.asdict(job)
     d.pop("results_dir")  # where results go is not what they are
+    if not d.get("option_files"):
+        d.pop("option_files")  # a job that names no files hashes as before files were hashed
     d["options"] = {names.get(k, k): v for k, v in d["options"].items()}
     text = json.dumps({"layout": batch.LAYOUT, **d}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
