@@ -310,12 +310,14 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
         ("flip gy", "the gyros turn 1× the encoder's angle about an axis 179° from the gimbal's"),
         ("swap gx gy", "about an axis 89"),
         ("flip beta", "move 1 (-180°) the gyros turn"),
+        ("t in ms", "specific force of 0.001 g at rest"),
+        ("t doubled", "specific force of 0.501 g at rest"),
     ],
 )
 def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, case, why):
     """Found by a helper: a gyro column's sign flipped passed the residual gate (73× the noise walk, limit 100)
     with every angle 82σ off; gyro increments in degrees or given as rates, and encoders in degrees, were refused
-    with messages about the encoders or the rest."""
+    with messages about the encoders or the rest; a time column in ms or doubled, about the gyro or --lat."""
     import numpy as np
 
     d = dict(np.load(rins_file))
@@ -336,6 +338,8 @@ def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, c
     elif case == "gyro rate":
         h = float(np.median(np.diff(d["t"])))
         d.update({f"dtheta_{k}": d[f"dtheta_{k}"] / h for k in "xyz"})
+    elif case.startswith("t "):  # were blamed on the gyro increments' unit and on --lat (helper)
+        d["t"] = d["t"] * (1000.0 if case == "t in ms" else 2.0)
     else:
         d["alpha"], d["beta"] = np.degrees(d["alpha"]), np.degrees(d["beta"])
     bad = tmp_path / "bad.npz"

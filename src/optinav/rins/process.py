@@ -165,6 +165,15 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
     misplaces the Earth rate removed by the strapdown and every angle comes out wrong)."""
     if not -np.pi / 2 <= lat <= np.pi / 2:
         raise OptinavError(f"latitude {np.degrees(lat):.6g}° is outside [-90°, 90°]", "pass --lat DEG (north +)")
+    f = float(np.linalg.norm(dv.sum(0))) / span / _earth.WGS84.g_e
+    if not 0.8 < f < 1.25:
+        # gyro and accelerometer increments both divided by the span: a wrong time base scales both alike, a
+        # wrong gyro unit the gyro alone (a t column in ms was blamed on the gyro increments, 2× on --lat; helper)
+        raise OptinavError(
+            f"the accelerometer increments give a specific force of {f:.3g} g at rest over the time column's "
+            f"{span:.6g} s: the time column is off by that factor (not in seconds, or another rate)",
+            "write the t column in seconds on the samples' own clock",
+        )
     meas, sd = measured_latitude(dth, dv, span)
     w = float(np.linalg.norm(dth.sum(0) / span))
     ratio = w / _earth.WGS84.omega_ie
