@@ -704,10 +704,15 @@ def signed_permutations(*, proper_only: bool = False) -> list[np.ndarray]:
     """The 48 signed axis permutations (3×3, one ±1 per row and column; the 24 rotations among them with
     ``proper_only``), the identity first: the ways a triad's columns can be swapped or flipped.
 
+    Parameters
+    ----------
+    proper_only : bool
+        Only the rotations (determinant +1).
+
     Returns
     -------
     list of (3, 3) ndarray
-        The matrices P; a raw triad reading ``P @ x`` of the true ``x``.
+        The matrices P [-]; a raw triad reading ``P @ x`` of the true ``x``.
     """
     import itertools
 
@@ -728,7 +733,7 @@ def describe_permutation(P, sensor: str, frame: str) -> str:
     Parameters
     ----------
     P : (3, 3) array
-        One ±1 per row and column.
+        One ±1 per row and column [-].
     sensor, frame : str
         Names for the text.
 
