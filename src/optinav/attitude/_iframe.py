@@ -39,10 +39,11 @@ S_RDT = 62  # dt of the cached rest coefficients, then α (1)
 S_LPC = 64  # Butterworth memory of C_b^I (9 entries × 4)
 S_AVG_N = 100  # samples averaged so far in the first ``tau_acc`` seconds (the low-passes' start)
 S_M_LP = 101  # |m| and dip low-passed over mag_current_tau (the candidate's input; |m| = 0: not started)
-S_M_T0 = 103  # s, start of the heading's running mean (then first order, tau_mag); 0: tau_acc
+S_M_T0 = 103  # s of magnetometer age, start of the heading's running mean (then first order, tau_mag); 0: tau_acc
 S_LP_T0 = 104  # s, when the low-passes' running-mean start began last: 0, or the end of a gap
 S_HNOM = 105  # s, the typical step (a slow mean of the steps that are no gap)
-STATE_SIZE = 106
+S_M_SEEN, S_M_T1, S_M_LAST = 106, 107, 108  # 1 once a mag sample came; s: time before the first, of the last
+STATE_SIZE = 109
 
 #: a step longer than this many typical steps is a gap of lost samples, low-passed in sub-steps
 GAP_SUBSTEP = 1.75
@@ -368,10 +369,21 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         mw = vx * wx + vy * wy + vz * wz
         dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
         phi = math.atan2(mw, mn)  # azimuth of the field, from north toward west (positive about up)
+        # the magnetometer's own clock: its start-up counts from its first sample (one that starts late, after the
+        # tilt settled, got none: heading 11.6° vs VQF 1.9° on BROAD trial 07 with the field from 30 s; helper),
+        # and each sample weighs the time since the previous one (a magnetometer at 1/30 of the IMU rate, its rows
+        # NaN between, had every time constant 30× longer: 2.0° vs VQF 0.55°)
+        if st[S_M_SEEN] == 0.0:
+            st[S_M_SEEN] = 1.0
+            st[S_M_T1] = st[S_TIME] - h
+            st[S_M_LAST] = st[S_TIME] - h
+        hm = st[S_TIME] - st[S_M_LAST]
+        st[S_M_LAST] = st[S_TIME]
+        age = st[S_TIME] - st[S_M_T1]
         # the reference starts as the mean of the second half of the low-pass's start (the first tau_acc s):
         # a dip measured with the first, possibly accelerated, sample's tilt would reject every later sample,
         # and one sample's noise (≈ 1 µT) is a good part of the norm gate
-        settling = st[S_TIME] <= par[P_TAU_ACC]
+        settling = age <= par[P_TAU_ACC]
         # the new-field candidate sees norm and dip low-passed over mag_current_tau: one sample's noise (≈ 1 µT, a
         # good part of the 5 % gate) reset a steady candidate every second or so, so a field learned at a
         # disturbed start was never replaced in motion. The use gate keeps the raw sample (it also rejects the
@@ -380,11 +392,11 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
             st[S_M_LP] = nm
             st[S_M_LP + 1] = dip
         else:
-            am = 1.0 - math.exp(-h / par[P_MAG_CUR_TAU]) if par[P_MAG_CUR_TAU] > 0.0 else 1.0
+            am = 1.0 - math.exp(-hm / par[P_MAG_CUR_TAU]) if par[P_MAG_CUR_TAU] > 0.0 else 1.0
             st[S_M_LP] += am * (nm - st[S_M_LP])
             st[S_M_LP + 1] += am * (dip - st[S_M_LP + 1])
         cn, cd = st[S_M_LP], st[S_M_LP + 1]
-        if st[S_M_REF_T] == 0.0 or st[S_TIME] <= 0.5 * par[P_TAU_ACC]:
+        if st[S_M_REF_T] == 0.0 or age <= 0.5 * par[P_TAU_ACC]:
             st[S_M_NORM] = nm
             st[S_M_DIP] = dip
             st[S_M_REF_T] = 0.0
@@ -393,8 +405,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         )
         if ok:
             st[S_M_DIST_T] = 0.0
-            kr = h / (st[S_M_REF_T] + h) if settling else h / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + h)
-            st[S_M_REF_T] += h
+            kr = hm / (st[S_M_REF_T] + hm) if settling else hm / max(par[P_TAU_MAG_REF], st[S_M_REF_T] + hm)
+            st[S_M_REF_T] += hm
             st[S_M_NORM] += kr * (nm - st[S_M_NORM])
             st[S_M_DIP] += kr * (dip - st[S_M_DIP])
             err = -phi - st[S_DELTA]
@@ -406,32 +418,32 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 # while the tilt settles the heading follows the field, low-passed over MAG_SETTLE_TAU; then the
                 # mean of the samples since, growing to the time constant tau_mag (a heading taken with a
                 # start's tilt would take tau_mag's several times to fade)
-                st[S_DELTA] += h / max(min(st[S_TIME], MAG_SETTLE_TAU), h) * err
+                st[S_DELTA] += hm / max(min(age, MAG_SETTLE_TAU), hm) * err
             else:
                 tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
-                k = h / min(par[P_TAU_MAG], max(st[S_TIME] - tm0, h))
+                k = min(1.0, hm / min(par[P_TAU_MAG], max(age - tm0, hm)))
                 st[S_DELTA] += k * err
             st[S_MAG_USED] = 1.0
         else:
-            if st[S_M_T0] == 0.0 and st[S_TIME] < par[P_TAU_ACC] + par[P_TAU_MAG]:
+            if st[S_M_T0] == 0.0 and age < par[P_TAU_ACC] + par[P_TAU_MAG]:
                 # the heading's first running mean (tau_mag s) takes every sample, as VQF's start: the reference
                 # was learned in 2 s of a start that may be in motion or in a disturbed field, and is no more
                 # trustworthy than the samples it would reject
                 err = -phi - st[S_DELTA]
                 err = math.atan2(math.sin(err), math.cos(err))
-                st[S_DELTA] += h / max(st[S_TIME] - par[P_TAU_ACC], h) * err
+                st[S_DELTA] += hm / max(age - par[P_TAU_ACC], hm) * err
             # a new, steady field (moved to another place) becomes the reference after mag_new_time
             if st[S_M_DIST_T] == 0.0:
                 st[S_M_C_NORM] = cn
                 st[S_M_C_DIP] = cd
-            kc = h / max(1.0, st[S_M_DIST_T] + h)
+            kc = hm / max(1.0, st[S_M_DIST_T] + hm)
             st[S_M_C_NORM] += kc * (cn - st[S_M_C_NORM])
             st[S_M_C_DIP] += kc * (cd - st[S_M_C_DIP])
             if (
                 abs(cn - st[S_M_C_NORM]) < par[P_MAG_NORM_TH] * st[S_M_C_NORM]
                 and abs(cd - st[S_M_C_DIP]) < par[P_MAG_DIP_TH]
             ):
-                st[S_M_DIST_T] += h
+                st[S_M_DIST_T] += hm
             else:
                 st[S_M_DIST_T] = 0.0
             # ... or sooner when the reference itself was seen for less time (at least tau_acc): a reference learned
@@ -441,10 +453,10 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 if st[S_M_REF_T] < par[P_MAG_NEW_TIME]:
                     # the replaced reference was seen for less time than the new one: δ taken from it weighs
                     # no more than the new field's samples; the heading restarts its running mean
-                    st[S_M_T0] = st[S_TIME]
+                    st[S_M_T0] = age
                 st[S_M_NORM] = st[S_M_C_NORM]
                 st[S_M_DIP] = st[S_M_C_DIP]
-                st[S_M_REF_T] = h
+                st[S_M_REF_T] = hm
                 st[S_M_DIST_T] = 0.0
     h0, h1, h2, h3 = _rotvec_q(st[S_DELTA] * ux, st[S_DELTA] * uy, st[S_DELTA] * uz)
     o0, o1, o2, o3 = _qmul(h0, h1, h2, h3, t0, t1, t2, t3)

@@ -425,7 +425,7 @@ def estimate(
     checks: bool = True,
     **options,
 ) -> AttitudeEstimate:
-    """Attitude q_b^n of a recording as an :class:`AttitudeEstimate`; :func:`estimate_q` returns only ``q``.
+    """Attitude q_b^n of a recording as an :class:`AttitudeEstimate`; :func:`estimate_q` returns only ``q_b_n``.
 
     Without ``pol`` roll and pitch are observed and the heading follows the gyro, or the magnetometer (iframe).
     Bad input raises :class:`OptinavError`.
@@ -463,7 +463,7 @@ def estimate(
     Returns
     -------
     AttitudeEstimate
-        ``q`` (N, 4) q_b^n [w, x, y, z] plus per-sample flags, counts and σ [rad].
+        ``q_b_n`` (N, 4) q_b^n [w, x, y, z] plus per-sample flags, counts and σ [rad].
     """
     frame = frame_name(frame)
     method = _method(method, pol)

@@ -21,7 +21,9 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
 * start: the low-passes begin as the running mean of the first ``tau_acc`` seconds (as VQF's), so a recording
   that starts in motion is not levelled by its first, accelerated sample; the magnetic reference is the mean of
   the second half of that time, the heading follows the field (low-passed over 0.2 s) until then and converges from then on with a
-  gain of 1/n growing to ``tau_mag`` (over every sample for the first ``tau_mag`` s);
+  gain of 1/n growing to ``tau_mag`` (over every sample for the first ``tau_mag`` s); the magnetometer's
+  start-up runs on its own age (from its first finite sample: one that starts late gets it too), and each of
+  its samples weighs the time since the previous one (a magnetometer slower than the IMU, NaN rows between);
 * offline (:func:`estimate_iframe` with ``offline=True``): a forward pass, a backward pass over the reversed
   recording started from the forward end state (so its bias has seen the whole recording; the reversed gyro
   is negated, so is its bias), and the two estimates fused (weighted mean of the error rotation, each pass by
