@@ -164,6 +164,10 @@ def test_noise_from_allan_json(tmp_path):
     p.write_text("{}")
     with pytest.raises(OptinavError, match="holds neither"):
         noise_from_allan(p)
+    # optinav's own allan result of a log in counts has no densities: named as such, not "pass optinav's JSON"
+    p.write_text(json.dumps({"schema": "optinav.allan", "fields": {"kalibr": {"value": {"update_rate": 100.0}}}}))
+    with pytest.raises(OptinavError, match="allan result of a log in raw units.*optinav apply"):
+        noise_from_allan(p)
 
 
 def test_cli_writes_markdown_json_and_figure(tmp_path, capsys):

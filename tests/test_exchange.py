@@ -85,7 +85,12 @@ def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
 
     d = tmp_path_factory.mktemp("kalibr")
     res = _calibration(seed, G=with_G, acc_unit=units[0], gyro_unit=units[1])
-    export_calibration(res, "kalibr", d / "imu.yaml", rostopic="/imu0", update_rate=200.0)
+    # raw counts: the driver's counts per SI unit (Kalibr reads m/s² and rad/s); refused without them
+    cps = {"accelerometer": 2048 / 9.80665, "gyroscope": 16.4 * 180 / np.pi} if units[0] == "counts" else None
+    if cps:
+        with pytest.raises(OptinavError, match="--acc-lsb"):
+            export_calibration(res, "kalibr", d / "imu.yaml", rostopic="/imu0", update_rate=200.0)
+    export_calibration(res, "kalibr", d / "imu.yaml", rostopic="/imu0", update_rate=200.0, counts_per_si=cps)
     data = read_kalibr_imu_yaml(d / "imu.yaml")
     assert data["model"] == "scale-misalignment" and data["rostopic"] == "/imu0" and data["update_rate"] == 200.0
     M_a, M_g = np.array(data["accelerometers"]["M"]), np.array(data["gyroscopes"]["M"])
@@ -100,8 +105,8 @@ def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
     # Kalibr's equation in its frame: f·(raw − b) = M_a·a_i and M_g·C·ω_i + A·C·a_i for a, ω in optinav's frame
     rng = np.random.default_rng(seed)
     a_s, w_s = rng.normal(0, 9.8, 3), rng.normal(0, 1.0, 3)
-    fa = 1.0 if units[0] == "counts" else factor(units[0])
-    fg = 1.0 if units[1] == "counts" else factor(units[1])
+    fa = 1.0 / cps["accelerometer"] if units[0] == "counts" else factor(units[0])
+    fg = 1.0 / cps["gyroscope"] if units[1] == "counts" else factor(units[1])
     raw_a = res.accelerometer["K"] @ a_s
     raw_g = res.gyroscope["K"] @ w_s + G @ a_s
     a_i, w_i = C_i_s @ a_s, C_i_s @ w_s
@@ -180,13 +185,18 @@ def test_calibrate_export_then_apply_each_format(session, capsys):
                 f"imucal:{d / 'cal.json'}",
                 "--export",
                 f"imu_tk:{d / 'acc.calib'},{d / 'gyro.calib'}",
-                "--export",
-                f"kalibr:{d / 'imu.yaml'}",
             ]
         )
         == 0
     )
     assert "imu_tk file written" in capsys.readouterr().out
+    # Kalibr reads m/s² and rad/s: an accelerometer in counts needs its driver's sensitivity, refused up front
+    kal = ["--quiet", "calibrate", "accel", str(data), "--out", str(d / "k.json"), "--export", f"kalibr:{d / 'k.yaml'}"]
+    assert main(kal) == 2 and "optinav export RESULT.json --to kalibr --acc-lsb" in capsys.readouterr().err
+    assert not (d / "k.json").exists()
+    assert (
+        main(["--quiet", "export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--out", str(d / "imu.yaml")]) == 0
+    )
     ref = d / "ref.npz"
     assert main(["--quiet", "apply", str(out), str(data), "--out", str(ref)]) == 0
     z_ref = np.load(ref)
@@ -204,7 +214,8 @@ def test_calibrate_export_then_apply_each_format(session, capsys):
     # optinav export gives the same bytes as calibrate --export
     for fmt, fname in (("imucal", "cal.json"), ("kalibr", "imu.yaml")):
         o = d / f"again_{fname}"
-        assert main(["--quiet", "export", str(out), "--to", fmt, "--out", str(o)]) == 0
+        lsb = ["--acc-lsb", "2048"] if fmt == "kalibr" else []
+        assert main(["--quiet", "export", str(out), "--to", fmt, *lsb, "--out", str(o)]) == 0
         assert o.read_text().replace(str(o), "") == (d / fname).read_text().replace(str(d / fname), "")
 
 
@@ -218,7 +229,8 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     assert main(["--quiet", "allan", str(rest), "--out", str(allan)]) == 0
     capsys.readouterr()
     yml = tmp_path / "imu.yaml"
-    assert main(["export", str(out), "--to", "kalibr", "--noise", str(allan), "--out", str(yml)]) == 0
+    lsb = ["--acc-lsb", "2048"]  # the session's accelerometer is in counts (its gyro in deg/s)
+    assert main(["export", str(out), "--to", "kalibr", *lsb, "--noise", str(allan), "--out", str(yml)]) == 0
     # read as Kalibr reads it (yaml.safe_load of the whole file); every key its IMU parameters require, the topic
     # Kalibr's examples use when none is known, and a note saying so
     assert "rostopic /imu0 written (Kalibr requires one); --rostopic" in capsys.readouterr().err
@@ -229,7 +241,7 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
     for key in ("gyroscope_random_walk", "update_rate"):
         assert k[key] == a[key]
     assert k["rostopic"] == "/imu0" and k["model"] == "scale-misalignment"
-    assert main(["--quiet", "export", str(out), "--to", "kalibr", "--noise", str(allan), "--rostopic", "/a/imu",
+    assert main(["--quiet", "export", str(out), "--to", "kalibr", *lsb, "--noise", str(allan), "--rostopic", "/a/imu",
                  "--out", str(tmp_path / "b.yaml")]) == 0  # fmt: skip
     assert yaml.safe_load((tmp_path / "b.yaml").read_text())["rostopic"] == "/a/imu"
     # one-line refusals naming the flag

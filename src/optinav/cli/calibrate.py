@@ -23,6 +23,7 @@ from optinav.cli.common import (
     print_notes,
     register_system_hooks,
 )
+from optinav.errors import OptinavError
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
 
@@ -291,6 +292,14 @@ def run_accel(args) -> int:
     options.check()
     step("read")
     data = read_session_file(args.data, options)
+    counts = [s for s, u in (("--acc-lsb", data.acc_unit), ("--gyro-lsb", data.gyro_unit)) if u == "counts"]
+    if counts and any(fmt == "kalibr" for fmt, *_ in exports):
+        # refused before the work: Kalibr's M is relative to the driver's conversion to m/s² and rad/s
+        raise OptinavError(
+            "--export kalibr of a calibration in raw counts needs the driver's sensitivity (Kalibr reads m/s^2 and "
+            "rad/s)",
+            f"drop it here and run optinav export RESULT.json --to kalibr {' '.join(f'{c} ...' for c in counts)}",
+        )
     if not getattr(args, "quiet", False):
         print(f"optinav: calibrating {len(data.t)} samples from {args.data} ({args.method}) ...", file=sys.stderr)
     res = calibrate_data(data, options, source=str(args.data))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import RATE, output_path, print_notes, require_files
+from optinav.cli.common import POSITIVE, RATE, output_path, print_notes, require_files
 from optinav.errors import OptinavError
 
 FORMATS = ("imu_tk", "imucal", "kalibr")
@@ -42,13 +42,31 @@ def register(sub) -> None:
     p.add_argument(
         "--rate", dest="rate_hz", type=RATE, metavar="HZ", help="kalibr: update_rate (default: the allan result's)"
     )
+    p.add_argument(
+        "--acc-lsb",
+        type=POSITIVE,
+        metavar="LSB_PER_G",
+        help="kalibr, an accelerometer calibrated in counts: its driver's sensitivity (e.g. 2048 at ±16 g)",
+    )
+    p.add_argument(
+        "--gyro-lsb",
+        type=POSITIVE,
+        metavar="LSB_PER_DEG_S",
+        help="kalibr, a gyroscope calibrated in counts: its driver's sensitivity (e.g. 16.4 at ±2000 °/s)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     require_files((args.result, "result file"), (args.noise, "allan result"))
     if args.to != "kalibr":
-        for flag, value in (("--noise", args.noise), ("--rostopic", args.rostopic), ("--rate", args.rate_hz)):
+        for flag, value in (
+            ("--noise", args.noise),
+            ("--rostopic", args.rostopic),
+            ("--rate", args.rate_hz),
+            ("--acc-lsb", args.acc_lsb),
+            ("--gyro-lsb", args.gyro_lsb),
+        ):
             if value is not None:
                 raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
     if args.to != "imu_tk" and args.gyro_out:
@@ -66,8 +84,22 @@ def run(args) -> int:
         from optinav.core.allan import AllanAnalysis
 
         noise = AllanAnalysis.from_json(args.noise)
+    from optinav.core.units import DEG, G_STANDARD
+
+    cps = {}
+    if args.acc_lsb:
+        cps["accelerometer"] = args.acc_lsb / G_STANDARD  # counts per m/s²
+    if args.gyro_lsb:
+        cps["gyroscope"] = args.gyro_lsb / DEG  # counts per rad/s
     for path in export_calibration(
-        res, args.to, out, gyro_out=gyro_out, noise=noise, rostopic=args.rostopic, update_rate=args.rate_hz
+        res,
+        args.to,
+        out,
+        gyro_out=gyro_out,
+        noise=noise,
+        rostopic=args.rostopic,
+        update_rate=args.rate_hz,
+        counts_per_si=cps or None,
     ):
         print(f"optinav: {args.to} file written to {path}")
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):

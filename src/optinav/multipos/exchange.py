@@ -38,6 +38,7 @@ def export_calibration(
     rostopic: str | None = None,
     update_rate: float | None = None,
     option: str = "--out",
+    counts_per_si: dict | None = None,
 ) -> list[Path]:
     """Write ``res`` in format ``fmt`` (one of :data:`FORMATS`) to ``out`` (and ``gyro_out`` for imu_tk's gyro
     file); returns the paths written. ``noise``: an AllanAnalysis for Kalibr's noise keys."""
@@ -96,7 +97,15 @@ def export_calibration(
         return [Path(out)]
     from optinav.multipos.kalibr import write_kalibr_imu_yaml
 
-    write_kalibr_imu_yaml(out, noise=noise, calibration=res, rostopic=rostopic, update_rate=update_rate, option=option)
+    write_kalibr_imu_yaml(
+        out,
+        noise=noise,
+        calibration=res,
+        rostopic=rostopic,
+        update_rate=update_rate,
+        option=option,
+        counts_per_si=counts_per_si,
+    )
     return [Path(out)]
 
 

@@ -10,7 +10,8 @@ optinav's ``raw = K x + b`` (x in the sensor frame s, raw in the file's unit of 
 LQ factorization f·K_a = M_a·C_i_s: Kalibr's frame i is the accelerometer's lower-triangular frame, rotated by
 C_i_s from optinav's; then f_g·K_g·C_i_sᵀ = M_g·C_gyro_i and A = f_g·G·C_i_sᵀ·C_gyro_iᵀ. C_i_s is written as a
 comment-free extra key ``C_i_s`` (Kalibr ignores unknown keys) so that reading the file back recovers optinav's
-frame. Raw counts have f = 1 (M in counts per SI unit: the data Kalibr reads must then be counts too).
+frame. Raw counts need the driver's counts per SI unit (f = its inverse: Kalibr reads m/s² and rad/s, M is
+relative to the driver's nominal conversion); the export refuses counts without it.
 
 Noise (Kalibr's continuous-time convention): ``*_noise_density`` = white-noise coefficient N (m/s²/√Hz,
 rad/s/√Hz), ``*_random_walk`` = random-walk coefficient K (m/s³/√Hz, rad/s²/√Hz), ``update_rate`` in Hz.
@@ -58,9 +59,12 @@ def _num(v: float) -> str:
     return f"{v:.17g}"
 
 
-def kalibr_intrinsics(cal) -> dict:
+def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
     """Kalibr's scale-misalignment matrices of a :class:`~optinav.multipos.result.CalibrationResult` (both
-    triads needed): ``{"M_accel", "M_gyro", "A", "C_gyro_i", "C_i_s"}``."""
+    triads needed): ``{"M_accel", "M_gyro", "A", "C_gyro_i", "C_i_s"}``. A triad calibrated in raw counts needs
+    the counts per SI unit its driver divides by (``counts_per_si`` {"accelerometer": counts per m/s²,
+    "gyroscope": counts per rad/s}): Kalibr reads sensor_msgs/Imu in m/s² and rad/s, so its M is relative to
+    the driver's nominal conversion."""
     from optinav.core.units import factor
 
     if cal.accelerometer is None or cal.gyroscope is None:
@@ -68,8 +72,9 @@ def kalibr_intrinsics(cal) -> dict:
             "Kalibr's scale-misalignment model needs both the accelerometer and the gyroscope calibration",
             "calibrate with gyroscope data (turns between the poses)",
         )
-    f_a = _factor(cal.units.get("accelerometer_raw"), factor)
-    f_g = _factor(cal.units.get("gyroscope_raw"), factor)
+    cps = counts_per_si or {}
+    f_a = _factor(cal.units.get("accelerometer_raw"), factor, cps.get("accelerometer"), "accelerometer", "--acc-lsb")
+    f_g = _factor(cal.units.get("gyroscope_raw"), factor, cps.get("gyroscope"), "gyroscope", "--gyro-lsb")
     M_a, C_i_s = lq(f_a * cal.accelerometer["K"])
     M_g, C_gyro_i = lq(f_g * cal.gyroscope["K"] @ C_i_s.T)
     G = cal.gyroscope.get("G")
@@ -78,8 +83,25 @@ def kalibr_intrinsics(cal) -> dict:
     return {"M_accel": M_a, "M_gyro": M_g, "A": A, "C_gyro_i": C_gyro_i, "C_i_s": C_i_s}
 
 
-def _factor(unit, factor) -> float:
-    return 1.0 if unit in (None, "counts") else float(factor(unit))
+def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") -> float:
+    """SI units per raw unit: a physical unit's factor; raw counts 1 / the driver's counts per SI unit (refused
+    without it when ``flag`` names the option; 1 when reading back a file written before it was recorded)."""
+    if unit is None:
+        return 1.0
+    if unit != "counts":
+        return float(factor(unit))
+    if counts_per_si:
+        return 1.0 / float(counts_per_si)
+    if flag:
+        # Kalibr's M is dimensionless against data in m/s² and rad/s: counts per SI unit (M ≈ 208, 937) would be
+        # misread with exit 0 (helper)
+        raise OptinavError(
+            f"the {sensor} calibration is of raw counts, and Kalibr reads m/s^2 and rad/s (sensor_msgs/Imu): its M "
+            "is relative to the driver's conversion",
+            f"give the driver's sensitivity ({flag} LSB per {'g' if sensor == 'accelerometer' else 'deg/s'}), or "
+            "export --to imu_tk or imucal, which take raw counts",
+        )
+    return 1.0
 
 
 #: the topic written into a Kalibr IMU file when none is known (Kalibr requires the key; its examples' name)
@@ -96,6 +118,7 @@ def write_kalibr_imu_yaml(
     rostopic: str | None = None,
     update_rate: float | None = None,
     option: str = "--out",
+    counts_per_si: dict | None = None,
 ) -> None:
     """Write Kalibr's IMU YAML: the noise keys from ``noise`` (an :class:`~optinav.core.allan.AllanAnalysis` of SI
     data with both triads), ``rostopic``/``update_rate`` (from ``noise`` unless given) and, with ``calibration``,
@@ -140,7 +163,7 @@ def write_kalibr_imu_yaml(
     if rate is not None:
         body.append(f"update_rate: {_num(float(rate))}  # [Hz]")
     if calibration is not None:
-        m = kalibr_intrinsics(calibration)
+        m = kalibr_intrinsics(calibration, counts_per_si)
         body.append("model: scale-misalignment")
         body.append("accelerometers:")
         body += _matrix("M", m["M_accel"])
@@ -150,11 +173,17 @@ def write_kalibr_imu_yaml(
         body += _matrix("C_gyro_i", m["C_gyro_i"])
         body.append("# optinav: rotation from optinav's sensor frame s to Kalibr's frame i (a_i = C_i_s a_s)")
         body += _matrix("C_i_s", m["C_i_s"], indent="")
-        body.append("# optinav: raw units of the calibration (M in raw per SI unit for counts)")
         body.append(
-            f"optinav_units: {{accelerometer_raw: {calibration.units.get('accelerometer_raw', 'm/s^2')}, "
-            f"gyroscope_raw: {calibration.units.get('gyroscope_raw', 'rad/s')}}}"
+            "# optinav: raw units of the calibration (counts: the driver's counts per SI unit, M relative to it)"
         )
+        units = {
+            "accelerometer_raw": calibration.units.get("accelerometer_raw", "m/s^2"),
+            "gyroscope_raw": calibration.units.get("gyroscope_raw", "rad/s"),
+        }
+        for sensor, n in (counts_per_si or {}).items():
+            if units.get(f"{sensor}_raw") == "counts" and n:
+                units[f"{sensor}_counts_per_si"] = _num(float(n))
+        body.append("optinav_units: {" + ", ".join(f"{k}: {v}" for k, v in units.items()) + "}")
     write_text(path, "\n".join(head + body) + "\n", option)
 
 
@@ -210,8 +239,8 @@ def calibration_from_kalibr(data: dict) -> dict:
             "pass a complete scale-misalignment imu yaml",
         ) from None
     units = data.get("optinav_units") or {}
-    f_a = _factor(units.get("accelerometer_raw", "m/s^2"), factor)
-    f_g = _factor(units.get("gyroscope_raw", "rad/s"), factor)
+    f_a = _factor(units.get("accelerometer_raw", "m/s^2"), factor, units.get("accelerometer_counts_per_si"))
+    f_g = _factor(units.get("gyroscope_raw", "rad/s"), factor, units.get("gyroscope_counts_per_si"))
     return {
         "acc_K": M_a @ C_i_s / f_a,
         "gyr_K": M_g @ C @ C_i_s / f_g,
