@@ -231,3 +231,13 @@ def test_a_moving_log_in_counts_is_refused(tmp_path, capsys):
     capsys.readouterr()
     assert main(["--quiet", "allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
     assert "the gravity direction moves in this log" in capsys.readouterr().err
+
+
+def test_a_short_log_says_its_random_walk_is_not_reliable(tmp_path, capsys):
+    """30-s logs gave a random walk 29-86× the truth with 68 % intervals 10× off it, with no word (helper)."""
+    log = tmp_path / "short.csv"
+    assert main(["--quiet", "simulate", "static", "--out", str(log), "--hours", "0.01", "--seed", "3"]) == 0
+    assert main(["allan", str(log), "--out", str(tmp_path / "a.json")]) == 0
+    err = capsys.readouterr().err
+    assert "the log spans 0.6 min" in err and "neither K nor its interval is reliable (N is)" in err
+    assert json.loads((tmp_path / "a.json").read_text())["fields"]["notes"]["value"]

@@ -163,18 +163,22 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     )
 
 
-def add_chunk_option(p) -> None:
-    """--chunk-rows: rows of a text log read, processed and written at a time (memory does not grow with the
-    log's length)."""
+def add_chunk_option(p, keeps: str | None = None) -> None:
+    """--chunk-rows: rows of a text log read and parsed at a time; ``keeps``: what the command holds per sample
+    beyond them (None: nothing, so memory does not grow with the log's length)."""
     from optinav.core.files import CHUNK_ROWS
 
+    grows = (
+        "memory grows with N, not with the log's length"
+        if keeps is None
+        else f"the text is read N rows at a time, and {keeps}"
+    )
     p.add_argument(
         "--chunk-rows",
         type=COUNT,
         default=CHUNK_ROWS,
         metavar="N",
-        help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); memory grows with N, "
-        "not with the log's length",
+        help=f"rows of a text log processed at a time (default {CHUNK_ROWS}); {grows}",
     )
 
 
