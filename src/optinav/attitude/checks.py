@@ -691,6 +691,89 @@ def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     return (b, s0, s1) if s1 < s0 / 3 and np.linalg.norm(b) > 2 * MAG_SPREAD * np.sqrt(r2) else None
 
 
+def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bin numbers (k,), and per TILT_BIN-sample bin the specific-force and field sums (k, 3) over the rows with
+    a finite field, and their count (k,), of a block starting at row ``row0`` (as :func:`tilt_sums`)."""
+    n = acc.shape[0]
+    if not n:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+    ok = np.all(np.isfinite(mag), axis=1) & np.all(np.isfinite(acc), axis=1)
+    first = np.arange((-row0) % TILT_BIN, n, TILT_BIN)
+    if first.size == 0 or first[0] != 0:
+        first = np.concatenate([[0], first])
+    a = np.where(ok[:, None], acc, 0.0)
+    m = np.where(ok[:, None], mag, 0.0)
+    bins = row0 // TILT_BIN + np.arange(first.size)
+    return bins, np.add.reduceat(a, first, axis=0), np.add.reduceat(m, first, axis=0), np.add.reduceat(ok, first)
+
+
+#: s, the magnetometer-axes check compares gravity and the field averaged over this long (translation averages out)
+MAG_AXES_S = 1.0
+#: deg, the 5-95 % spread of the angle between gravity and the field beyond which the axes are questioned (BROAD's
+#: nine as recorded: 12° and less; the field's axes swapped: 80°), and the share of it another axis order must
+#: bring it to
+MAG_AXES_SPREAD_DEG = 25.0
+MAG_AXES_GAIN = 1.0 / 3.0
+MAG_AXES_REMEDY = "give the magnetometer's columns in the IMU's axes (--mag-columns, or remap them in the file)"
+
+
+def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> str:
+    """'' when the field keeps its angle to gravity as the body turns, or no other order of its axes keeps it
+    better; else the signed permutation of the magnetometer's axes that does (a field in another frame than the
+    IMU's, such as the AK8963 inside an MPU-9250: x and y swapped, z negated). Judged on the sums of
+    :func:`mag_sums` gathered into :data:`MAG_AXES_S` groups (a bin split between blocks is summed again)."""
+    from optinav.core.rotations import describe_permutation, signed_permutations
+
+    if len(bins) == 0:
+        return ""
+    u, inv = np.unique(bins, return_inverse=True)
+    A = np.zeros((u.size, 3))
+    M = np.zeros((u.size, 3))
+    C = np.zeros(u.size)
+    np.add.at(A, inv, acc_sums)
+    np.add.at(M, inv, mag_sums)
+    np.add.at(C, inv, counts)
+    g = max(1, int(round(MAG_AXES_S / (TILT_BIN * dt))))
+    k = (u.size // g) * g
+    if k < 30 * g:
+        return ""  # under 30 groups: too little to judge
+    A, M, C = (x[:k].reshape(k // g, g, *x.shape[1:]).sum(axis=1) for x in (A, M, C))
+    keep = C > 0.5 * g * TILT_BIN
+    A, M = A[keep], M[keep]
+    if A.shape[0] < 30:
+        return ""
+    a = A / np.maximum(_norm(A), 1e-300)[:, None]
+
+    def spread(P) -> float:
+        m = M @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
+        c = np.einsum("ij,ij->i", a, m) / np.maximum(_norm(m), 1e-300)
+        ang = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+        lo, hi = np.percentile(ang, [5, 95])
+        return float(hi - lo)
+
+    perms = signed_permutations()
+    declared = spread(perms[0])
+    if declared <= MAG_AXES_SPREAD_DEG:
+        return ""
+    best = min(perms[1:], key=spread)
+    s_best = spread(best)
+    if s_best < MAG_AXES_GAIN * declared and s_best <= MAG_AXES_SPREAD_DEG:
+        return (
+            f"the magnetic field's angle to gravity spans {declared:.0f}° as the body turns (5-95 %), {s_best:.0f}° with "
+            f"the magnetometer's axes read as {describe_permutation(best, 'magnetometer', 'IMU axes')}: its axes are "
+            "not the IMU's"
+        )
+    return ""
+
+
+def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float) -> None:
+    """Refuse a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout gave a heading
+    77° off with exit 0; helper); ``dt`` the median step (s)."""
+    hint = mag_axes_hint(*mag_sums(acc, mag), dt)
+    if hint:
+        raise OptinavError(hint, MAG_AXES_REMEDY)
+
+
 def check_mag(mag: np.ndarray) -> None:
     """Warn once when the field norm varies with the orientation as a constant offset makes it (an uncalibrated
     magnetometer: its heading is wrong by tens of degrees, and the disturbance gate cannot tell)."""

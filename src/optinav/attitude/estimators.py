@@ -32,7 +32,15 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.attitude import _kernels
-from optinav.attitude.checks import MAG_FIT_ROWS, check_frame, check_imu, check_mag, check_q0, find_gaps
+from optinav.attitude.checks import (
+    MAG_FIT_ROWS,
+    check_frame,
+    check_imu,
+    check_mag,
+    check_mag_axes,
+    check_q0,
+    find_gaps,
+)
 from optinav.attitude.iframe import AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options
@@ -482,6 +490,7 @@ def estimate(
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
             check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)])
+            check_mag_axes(acc, mag, float(np.median(dts)))
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])

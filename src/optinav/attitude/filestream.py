@@ -859,7 +859,7 @@ def stream_attitude(
         if not bad:
             checks.add(gyr, acc, dts)
             if "mag" in extra:
-                checks.add_mag(extra["mag"])
+                checks.add_mag(extra["mag"], acc)
         if pol is not None:
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:

@@ -42,10 +42,14 @@ class StreamChecks:
         self._mag: list[np.ndarray] = []  # magnetometer rows 0, s, 2s, … (the hard-iron check)
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
         self._mag_any = False  # a magnetometer row with three finite values seen
+        self._mag_sums: list[tuple] = []  # per TILT_BIN rows: gravity and field sums (the magnetometer-axes check)
 
-    def add_mag(self, mag: np.ndarray) -> None:
-        """Pass 1: the block's magnetometer rows (n, 3); evenly spaced rows are kept, at most twice
-        :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full)."""
+    def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None) -> None:
+        """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
+        at most twice :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full); with ``acc``
+        the block's gravity and field sums per bin (:func:`~optinav.attitude.checks.mag_sums`)."""
+        if acc is not None:
+            self._mag_sums.append(_c.mag_sums(acc, mag, self.n - mag.shape[0]))
         self._mag_any = self._mag_any or bool(np.isfinite(mag).all(axis=1).any())
         first = (-self._mag_seen) % self._mag_stride
         self._mag.append(mag[first :: self._mag_stride].copy())
@@ -145,6 +149,10 @@ class StreamChecks:
         _c.check_frame(np.concatenate(self._head), frame)
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
+        if self._mag_sums:
+            hint = _c.mag_axes_hint(*(np.concatenate(x) for x in zip(*self._mag_sums)), self.median_dt)
+            if hint:
+                raise OptinavError(hint, _c.MAG_AXES_REMEDY)
 
 
 class StreamEstimator:
