@@ -217,6 +217,9 @@ def test_an_uncalibrated_magnetometer_is_named():
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
     b = hard_iron(mag)[0]
     np.testing.assert_allclose(b, [30.0, 0.0, 0.0], atol=1.0)
+    # 5 µT turned the heading 12-16° with no word (helper): the fit takes the norm's spread 5.4 % down to 1.8 %
+    with pytest.warns(MagnetometerWarning, match=r"offset of \[[45]\.\d+, -2\.\d+, 1\.\d+\]"):
+        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag + [5.0, -2.5, 1.5])
     with warnings.catch_warnings():
         warnings.simplefilter("error", MagnetometerWarning)
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag)
