@@ -61,6 +61,25 @@ def test_lot_check_flags_the_parameter_that_stands_out_and_keeps_the_unit_ok():
     assert "no outliers" in lot_check(_rows({k: np.delete(v, 6) for k, v in vals.items()}))
 
 
+def test_lot_check_compares_units_of_the_same_raw_units_only():
+    """Units in counts and in m/s² are not one population: the lot's median over both failed the good units of
+    the smaller group, and a unit declared in g among units in m/s² was flagged (helper)."""
+    rng = np.random.default_rng(4)
+    counts = _rows({"acc_K_xx": 208.8 + rng.normal(0, 0.5, 8), "acc_b_x": rng.normal(0, 10, 8)}, unit_kind="counts")
+    si = _rows({"acc_K_xx": 1.0 + rng.normal(0, 2e-3, 3), "acc_b_x": rng.normal(0, 0.05, 3)})
+    for i, r in enumerate(si):
+        r["unit"] = f"s{i}"
+    rows = counts + si
+    text = lot_check(rows)
+    assert all(r["status"] == "ok" for r in rows), [r.get("error") for r in rows]
+    assert "8 units in counts/counts" in text and "not compared (fewer than 5): 3 in m/s^2/m/s^2" in text
+    assert all("lot_outlier" not in r for r in si) and not any(r["lot_outlier"] for r in counts)
+    g = _rows({"acc_K_xx": [1.0, 1.001, 0.999, 1.002, 0.998, 1.0], "acc_b_x": [0.01, -0.02, 0.0, 0.02, 0.01, -0.01]})
+    g += _rows({"acc_K_xx": [0.102, 0.1021], "acc_b_x": [0.001, 0.002]}, unit_kind="g")
+    lot_check(g)
+    assert not any(r.get("lot_outlier") for r in g) and all(r["status"] == "ok" for r in g)
+
+
 def test_lot_check_needs_five_units_and_can_be_switched_off():
     rows = _rows({"acc_b_x": [0.0, 0.01, -0.01, 5.0]})
     assert "not run" in lot_check(rows) and all("lot_outlier" not in r for r in rows)
@@ -109,7 +128,7 @@ def test_batch_fails_the_unit_recorded_at_another_range_and_writes_each_result(l
     args = ["batch", "calibrate", "accel", str(lot), "--acc-unit", "counts", "--gyro-unit", "counts"]
     assert main(["--quiet", *args, "--out", str(out), "--workers", "0", "--results-dir", str(res)]) == 1
     text = capsys.readouterr().out
-    assert "u7: gyr_K_xx" in text and "the lot's median" in text
+    assert "u7: gyr_K_xx" in text and "of the lot's units in counts" in text
     rows = {r["unit"]: r for r in read_results(out)}
     assert rows["u7"]["status"] == "failed" and rows["u7"]["gyr_K_xx"] == pytest.approx(2000, rel=0.02)
     assert all(rows[f"u{i}"]["status"] == "ok" and rows[f"u{i}"]["lot_outlier"] is False for i in range(1, 7))
@@ -121,7 +140,8 @@ def test_batch_fails_the_unit_recorded_at_another_range_and_writes_each_result(l
     np.testing.assert_allclose(one.gyroscope["K"], alone.gyroscope["K"], rtol=1e-12)
     assert rows["u3"]["result_file"] == "u3.json"
     kalibr = tmp_path / "imu.yaml"
-    assert main(["--quiet", "export", str(res / "u3.json"), "--to", "kalibr", "--out", str(kalibr)]) == 0
+    lsb = ["--acc-lsb", "2048", "--gyro-lsb", str(1000 * np.pi / 180)]  # the sessions' counts (see _session)
+    assert main(["--quiet", "export", str(res / "u3.json"), "--to", "kalibr", *lsb, "--out", str(kalibr)]) == 0
     # a result file removed: its unit is computed again on resume (the others resumed)
     (res / "u2.json").unlink()
     s = run_batch(lot, out, OPTIONS, workers=0, results_dir=res, show_progress=False)
@@ -169,3 +189,27 @@ def test_an_edited_section_file_recomputes_its_units(tmp_path):
     sec.write_text("3.5 7.0\n")
     s3 = run_batch(d, out, opts, workers=0, show_progress=False)
     assert (s3.n_resumed, s3.n_computed) == (0, 1)
+
+
+def test_result_files_belong_to_their_rows(tmp_path):
+    """Two defects a helper found: a unit that failed on a re-run kept the result file of its earlier ok run (an
+    `export` of the folder would use it), and a resumed batch took a result file another run with other options
+    had written into the same folder. A failed unit's file is removed; a row takes its file only if it is the one
+    it wrote (its SHA-256 in the row)."""
+    d = tmp_path / "units"
+    d.mkdir()
+    for seed in (1, 2, 3):
+        _session(d, f"u{seed}.csv", seed)
+    res = tmp_path / "res"
+    res.mkdir()
+    a = run_batch(d, tmp_path / "a.csv", OPTIONS, workers=0, results_dir=res, show_progress=False)
+    assert a.n_ok == 3 and all(r["result_sha"] for r in a.rows)
+    other = FileOptions(acc_unit="counts", gyro_unit="counts", model="diagonal")
+    run_batch(d, tmp_path / "b.csv", other, workers=0, results_dir=res, show_progress=False)
+    again = run_batch(d, tmp_path / "a.csv", OPTIONS, workers=0, results_dir=res, show_progress=False)
+    assert again.n_computed == 3  # b's files replaced a's: a's rows are computed again, not resumed
+    one = Result.from_json(res / "u1.json")
+    np.testing.assert_allclose(one.accelerometer["K"], calibrate_file(d / "u1.csv", OPTIONS).accelerometer["K"])
+    (d / "u2.csv").write_text("t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n")  # the unit's log is now broken
+    s = run_batch(d, tmp_path / "a.csv", OPTIONS, workers=0, results_dir=res, show_progress=False)
+    assert s.n_failed == 1 and not (res / "u2.json").exists() and (res / "u1.json").exists()

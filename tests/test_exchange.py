@@ -86,7 +86,12 @@ def test_kalibr_round_trip_and_model(tmp_path_factory, seed, with_G, units):
     d = tmp_path_factory.mktemp("kalibr")
     res = _calibration(seed, G=with_G, acc_unit=units[0], gyro_unit=units[1])
     # raw counts: the driver's counts per SI unit (Kalibr reads m/s² and rad/s); refused without them
-    cps = {"accelerometer": 2048 / 9.80665, "gyroscope": 16.4 * 180 / np.pi} if units[0] == "counts" else None
+    # (the driver's counts per SI unit: those the calibration implies, so that Kalibr's M ≈ 1)
+    cps = (
+        {s: float(np.median(np.diag(getattr(res, s)["K"]))) for s in ("accelerometer", "gyroscope")}
+        if units[0] == "counts"
+        else None
+    )
     if cps:
         with pytest.raises(OptinavError, match="--acc-lsb"):
             export_calibration(res, "kalibr", d / "imu.yaml", rostopic="/imu0", update_rate=200.0)
@@ -197,6 +202,9 @@ def test_calibrate_export_then_apply_each_format(session, capsys):
     assert (
         main(["--quiet", "export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--out", str(d / "imu.yaml")]) == 0
     )
+    # a sensitivity of another range setting (4096 LSB/g at ±8 g) gave M ≈ 0.5 with exit 0 (helper)
+    assert main(["export", str(out), "--to", "kalibr", "--acc-lsb", "4096", "--out", str(d / "x.yaml")]) == 2
+    assert "implies about 20" in capsys.readouterr().err and not (d / "x.yaml").exists()
     ref = d / "ref.npz"
     assert main(["--quiet", "apply", str(out), str(data), "--out", str(ref)]) == 0
     z_ref = np.load(ref)

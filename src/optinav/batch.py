@@ -33,6 +33,7 @@ a unit more than :data:`MAX_TRUTH_Z` std from its truth fails).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -95,6 +96,7 @@ _EXTRA_TYPES = {
     "held_out_n_used": "int",
     "notes": "str",
     "result_file": "str",
+    "result_sha": "str",
     "lot_outlier": "bool",
     "lot_review": "str",
 }
@@ -379,6 +381,7 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
             rp = Path(job.results_dir) / f"{name or p.name}.json"
             res.to_json(rp)  # atomic: a killed worker leaves the old file or none
             row["result_file"] = rp.name
+            row["result_sha"] = _file_sha(rp)  # a resume takes the file only if it is still this one
         if job.reference:
             row.update(truth_columns(res, p))
             z = row.get("truth_max_z")
@@ -428,29 +431,32 @@ LOT_SCALE_FACTOR = 1.5
 
 
 def _esd_outliers(x: np.ndarray, alpha: float) -> list[int]:
-    """Indices of the outliers of ``x`` by Rosner's generalized ESD test (Technometrics 25(2), 1983) at level
-    ``alpha``, testing up to a third of the values and at most :data:`LOT_MAX_OUTLIERS` (so two units off the
-    same way do not hide each other), each step at ``alpha`` over the number of steps (Rosner's test is liberal
-    in lots of fewer than about 25)."""
+    """Indices of the outliers of ``x`` at level ``alpha``: the generalized ESD procedure (Rosner, Technometrics
+    25(2), 1983), its statistic written as each value's deviation from the others over their std (Student's t
+    with n − 2 dof, a monotone function of Rosner's R; Bonferroni over the n values). Up to a third of the values
+    and at most :data:`LOT_MAX_OUTLIERS` are tested (two units off the same way do not hide each other), each step
+    at ``alpha`` over the number of steps. Small lots detect little: among 9 units, with 21 parameters at a 1 %
+    lot-wide level, a unit 10 lot std off is flagged about half the time."""
     from scipy.stats import t as student
 
     idx = np.arange(x.size)
     removed, stats = [], []
     steps = min(max(1, (x.size - 1) // 3), LOT_MAX_OUTLIERS)
-    alpha = alpha / steps  # each step at alpha/steps: the test's level holds for small lots too (Rosner's is liberal)
+    alpha = alpha / steps
     for _ in range(steps):
-        rest = np.delete(x, removed) if removed else x
         keep = np.delete(idx, removed) if removed else idx
+        rest = x[keep]
         n = rest.size
         if n < LOT_MIN_UNITS - 1:
             break
-        dev = np.abs(rest - rest.mean())
-        j = int(np.argmax(dev))
-        sd = rest.std(ddof=1)
-        r = dev[j] / sd if sd > 0 else (np.inf if dev[j] > 0 else 0.0)
-        tq = student.isf(alpha / (2 * n), n - 2)
-        lam = (n - 1) * tq / np.sqrt((n - 2 + tq**2) * n)
-        stats.append(r > lam)
+        total, total2 = rest.sum(), (rest**2).sum()
+        mo = (total - rest) / (n - 1)
+        vo = np.maximum((total2 - rest**2) - (n - 1) * mo**2, 0.0) / (n - 2)
+        dev = np.abs(rest - mo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tval = np.where(vo > 0, dev / np.sqrt(vo * (1.0 + 1.0 / (n - 1))), np.where(dev > 0, np.inf, 0.0))
+        j = int(np.argmax(tval))
+        stats.append(tval[j] > student.isf(alpha / (2 * n), n - 2))
         removed.append(int(keep[j]))
     last = max((k for k, hit in enumerate(stats) if hit), default=-1)
     return removed[: last + 1]
@@ -468,20 +474,40 @@ def _scale_columns(row: dict) -> list[tuple[str, str]]:
 def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
     """Compare the ok units of a calibration lot with each other; mark ``rows`` in place and return a summary.
 
-    Every parameter column with a std (``NAME`` beside ``NAME_std``) is tested for outlying units by the
-    generalized ESD test at ``alpha / P`` (P parameters: the whole lot's false-alarm probability is at most
-    about ``alpha`` when its units' parameters are normal). A flagged unit keeps status ok — its calibration passed its
-    own gates — and gets ``lot_outlier`` true and ``lot_review`` naming the parameters, each against the other
-    units' median and spread: a unit to look at, or a lot with heavy tails. A scale of a triad in raw counts
-    beyond ×:data:`LOT_SCALE_FACTOR` of the lot's median fails the unit: it was recorded at another range or in
-    another unit than the lot (in a physical unit the scale's gate against its nominal value does this). Needs
-    :data:`LOT_MIN_UNITS` ok units; ``alpha`` 0 switches the check off.
+    Units are compared within groups of the same raw units (``acc_unit``, ``gyr_unit``: parameters in counts and
+    in m/s² are not one population; a unit in g among units in m/s² was flagged, and a lot's mixed medians failed
+    good units; helper). In each group of at least :data:`LOT_MIN_UNITS` ok units, every parameter column with a
+    std (``NAME`` beside ``NAME_std``) is tested for outlying units by the generalized ESD test at ``alpha / P``
+    (P parameters: the group's false-alarm probability is at most about ``alpha`` when its units' parameters are
+    normal). A flagged unit keeps status ok — its calibration passed its own gates — and gets ``lot_outlier``
+    true and ``lot_review`` naming the parameters, each against the other units' median and spread: a unit to
+    look at, or a lot with heavy tails. A scale of a triad in raw counts beyond ×:data:`LOT_SCALE_FACTOR` of its
+    group's median fails the unit: it was recorded at another range than the lot (in a physical unit the
+    scale's gate against its nominal value does this). ``alpha`` 0 switches the check off.
     """
     ok = [r for r in rows if r.get("status") == "ok"]
     if alpha <= 0:
         return "lot check: off"
-    if len(ok) < LOT_MIN_UNITS:
-        return f"lot check: not run (it needs {LOT_MIN_UNITS} ok units, {len(ok)} here)"
+    groups: dict[tuple, list[dict]] = {}
+    for r in ok:
+        groups.setdefault((r.get("acc_unit"), r.get("gyr_unit")), []).append(r)
+    parts, small = [], []
+    for key, members in groups.items():
+        label = "/".join(str(u) for u in key if u) or "all"
+        if len(members) < LOT_MIN_UNITS:
+            small.append(f"{len(members)} in {label}")
+            continue
+        parts.append(_lot_group(members, alpha, label if len(groups) > 1 else ""))
+    if not parts:
+        return f"lot check: not run (it needs {LOT_MIN_UNITS} ok units of the same raw units; " + ", ".join(small) + ")"
+    text = "lot check: " + "; ".join(parts)
+    if small:
+        text += "; not compared (fewer than " + f"{LOT_MIN_UNITS}): " + ", ".join(small)
+    return text
+
+
+def _lot_group(ok: list[dict], alpha: float, label: str) -> str:
+    """:func:`lot_check` of one group of units of the same raw units; its summary (``label`` names the group)."""
     params = [c for c in dict.fromkeys(k for r in ok for k in r) if f"{c}_std" in ok[0] and not c.endswith("_std")]
     failed = []
     medians = {}
@@ -495,10 +521,10 @@ def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
             if v is not None and med > 0 and not (1 / LOT_SCALE_FACTOR <= v / med <= LOT_SCALE_FACTOR):
                 r.update(
                     status="failed",
-                    error=f"{col} = {v:.5g} {unit} per SI unit is {v / med:.3g}× the lot's median {med:.5g} "
-                    f"(accepted ×{1 / LOT_SCALE_FACTOR:.2g}…×{LOT_SCALE_FACTOR:g}): recorded at another range or in "
-                    "another unit than the lot? check the unit's settings, or calibrate it alone with its own "
-                    "--acc-unit/--gyro-unit",
+                    error=f"{col} = {v:.5g} {unit} per SI unit is {v / med:.3g}× the median {med:.5g} of the lot's "
+                    f"units in {unit} (accepted ×{1 / LOT_SCALE_FACTOR:.2g}…×{LOT_SCALE_FACTOR:g}): recorded at "
+                    "another range setting than the lot? check the unit's settings, and calibrate it alone if they "
+                    "differ on purpose",
                 )
                 failed.append(r)
                 break
@@ -520,7 +546,7 @@ def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
     for i, r in enumerate(ok):
         r["lot_outlier"] = i in flagged
         r["lot_review"] = "; ".join(flagged.get(i, []))
-    text = f"lot check: {len(ok) + len(failed)} units, {len(tested)} parameters"
+    text = f"{len(ok) + len(failed)} units{f' in {label}' if label else ''}, {len(tested)} parameters"
     if failed:
         text += f"; failed (scale off the lot): {', '.join(r['unit'] for r in failed)}"
     if flagged:
@@ -609,13 +635,22 @@ def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool, results_
         and row.get("file_mtime_ns") == unit.mtime_ns
         and row.get("options_hash") == ohash
         and not (retry_failed and row.get("status") != "ok")
-        # an ok unit whose result file is not where this run writes them is computed again
+        # an ok unit whose result file is not the one its row wrote (none, or another run's in the same folder) is
+        # computed again
         and not (
             results_dir is not None
             and row.get("status") == "ok"
-            and not (Path(results_dir) / f"{unit.name}.json").is_file()
+            and row.get("result_sha") != _file_sha(Path(results_dir) / f"{unit.name}.json")
         )
     )
+
+
+def _file_sha(path: Path) -> str | None:
+    """Short SHA-256 of a file's content, None when it cannot be read."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+    except OSError:
+        return None
 
 
 # ---------------------------------------------------------------------------------------------------- output
@@ -1003,19 +1038,21 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
             r = journal.rows.get(u.path.name)
             if _done(r, u, ohash, False, options.results_dir):
                 rows.append(_complete(r))
-                if options.results_dir is not None and r.get("status") == "ok":
-                    rows[-1]["result_file"] = f"{u.name}.json"  # a row journaled by a run without the folder
             elif u.path.name in lost:
                 rows.append(_complete(lost[u.path.name]))
         journal.close()
         lot = ""
         if SYSTEMS[options.system].kind == "calibration":
             lot = lot_check(rows, lot_alpha)
+        if options.results_dir is not None:
             for r in rows:
-                if options.results_dir is not None and r.get("result_file") and r["status"] != "ok":
-                    # failed by the lot: no result file an `export` of the folder could pick up (so a resume
-                    # computes it again)
-                    (Path(options.results_dir) / r.pop("result_file")).unlink(missing_ok=True)
+                if r["status"] != "ok":
+                    # a failed unit (by its own gates, its truth or the lot) leaves no result file an `export` of the
+                    # folder could pick up, an earlier run's neither (a lot-failed unit is computed again on resume)
+                    r.pop("result_file", None)
+                    r.pop("result_sha", None)
+                    with contextlib.suppress(OSError):
+                        (Path(options.results_dir) / f"{r['unit']}.json").unlink(missing_ok=True)
         write_table(rows, out)
     n_ok = sum(r["status"] == "ok" for r in rows)
     return BatchSummary(

@@ -80,6 +80,23 @@ def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
     G = cal.gyroscope.get("G")
     G = np.zeros((3, 3)) if G is None else np.asarray(G, float)
     A = f_g * G @ C_i_s.T @ C_gyro_i.T
+    from optinav.core.units import DEG, G_STANDARD
+    from optinav.multipos.gates import SCALE_FACTOR
+
+    for sensor, M, flag, per in (
+        ("accelerometer", M_a, "--acc-lsb", 1.0 / G_STANDARD),
+        ("gyroscope", M_g, "--gyro-lsb", DEG),
+    ):
+        d = float(np.median(np.diag(M)))
+        if cps.get(sensor) and not (1.0 / SCALE_FACTOR <= d <= SCALE_FACTOR):
+            # a sensitivity for another range setting gave M ≈ 0.5 or 0.125 with exit 0 (helper)
+            implied = d * float(cps[sensor]) / per  # the LSB per g (per deg/s) the calibration implies
+            raise OptinavError(
+                f"with {flag} {float(cps[sensor]) / per:.6g} Kalibr's {sensor} M is {d:.3g} on its diagonal (≈ 1 for "
+                f"the driver's sensitivity): the calibration implies about {implied:.4g} LSB per "
+                f"{'g' if sensor == 'accelerometer' else 'deg/s'}",
+                f"give {flag} for the range setting the unit was calibrated at",
+            )
     return {"M_accel": M_a, "M_gyro": M_g, "A": A, "C_gyro_i": C_gyro_i, "C_i_s": C_i_s}
 
 
