@@ -425,10 +425,11 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                 st[S_DELTA] += k * err
             st[S_MAG_USED] = 1.0
         else:
-            if st[S_M_T0] == 0.0 and age < par[P_TAU_ACC] + par[P_TAU_MAG]:
+            if st[S_M_T0] == 0.0 and age < par[P_TAU_ACC] + par[P_TAU_MAG] and st[S_M_T1] < par[P_TAU_ACC]:
                 # the heading's first running mean (tau_mag s) takes every sample, as VQF's start: the reference
                 # was learned in 2 s of a start that may be in motion or in a disturbed field, and is no more
-                # trustworthy than the samples it would reject
+                # trustworthy than the samples it would reject. Not for a magnetometer that starts after the tilt
+                # settled: its reference's dip is sound, and a magnet 8 s after a late start was followed (trial 33)
                 err = -phi - st[S_DELTA]
                 err = math.atan2(math.sin(err), math.cos(err))
                 st[S_DELTA] += hm / max(age - par[P_TAU_ACC], hm) * err

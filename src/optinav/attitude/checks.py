@@ -328,6 +328,10 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
             if alt is not None:
                 alt0 = alt
                 alt = lambda s, sl=sl: alt0(s)[sl]  # noqa: E731
+            if k * float(np.median(d)) < 2 * UNIT_MIN_S:
+                # a stretch of three 2-s means: a gyro 57× too large spun gravity steady there and a correct
+                # rad/s log with four short gaps was refused (helper); the unit is judged elsewhere or not at all
+                return ""
     if k * float(np.median(d)) < UNIT_MIN_S:
         return ""  # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused)
     if steady >= 0.9:
@@ -713,23 +717,28 @@ def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarra
 
 #: s, the magnetometer-axes check compares gravity and the field averaged over this long (translation averages out)
 MAG_AXES_S = 1.0
-#: deg, the 5-95 % spread of the angle between gravity and the field beyond which the axes are questioned (BROAD's
-#: nine as recorded: 12° and less; the field's axes swapped: 80°), and the share of it another axis order must
-#: bring it to
-MAG_AXES_SPREAD_DEG = 25.0
-MAG_AXES_GAIN = 1.0 / 3.0
+#: deg, the 5-95 % spread of the angle between gravity and the field beyond which the axes are questioned. As
+#: recorded, the nine BROAD trials spread up to 54° (the magnet trials) and cuts of fast translation up to 51°,
+#: where the accelerometer's 1-s means are no gravity (another axis order then spread 12° at best: 37/12); the
+#: AK8963 layout of an MPU-9250 (x and y swapped, z negated) 77/4, 95/6 and 87/10 on the rotating trials
+MAG_AXES_SPREAD_DEG = 45.0
+#: another axis order must bring the spread below this share of the declared one and below the degrees given:
+#: refused beyond the first pair (overwhelming), warned about beyond the second
+MAG_AXES_REFUSE = (1.0 / 6.0, 10.0)
+MAG_AXES_WARN = (1.0 / 3.0, 20.0)
 MAG_AXES_REMEDY = "give the magnetometer's columns in the IMU's axes (--mag-columns, or remap them in the file)"
 
 
-def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> str:
-    """'' when the field keeps its angle to gravity as the body turns, or no other order of its axes keeps it
-    better; else the signed permutation of the magnetometer's axes that does (a field in another frame than the
-    IMU's, such as the AK8963 inside an MPU-9250: x and y swapped, z negated). Judged on the sums of
+def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> tuple[str, bool]:
+    """('', False) when the field keeps its angle to gravity as the body turns, or no other order of its axes
+    keeps it clearly better; else (text, refuse): the signed permutation of the magnetometer's axes that does (a
+    field in another frame than the IMU's, such as the AK8963 inside an MPU-9250), and whether the evidence is
+    overwhelming (:data:`MAG_AXES_REFUSE`) or only strong (:data:`MAG_AXES_WARN`). Judged on the sums of
     :func:`mag_sums` gathered into :data:`MAG_AXES_S` groups (a bin split between blocks is summed again)."""
     from optinav.core.rotations import describe_permutation, signed_permutations
 
     if len(bins) == 0:
-        return ""
+        return "", False
     u, inv = np.unique(bins, return_inverse=True)
     A = np.zeros((u.size, 3))
     M = np.zeros((u.size, 3))
@@ -740,12 +749,12 @@ def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> str:
     g = max(1, int(round(MAG_AXES_S / (TILT_BIN * dt))))
     k = (u.size // g) * g
     if k < 30 * g:
-        return ""  # under 30 groups: too little to judge
+        return "", False  # under 30 groups: too little to judge
     A, M, C = (x[:k].reshape(k // g, g, *x.shape[1:]).sum(axis=1) for x in (A, M, C))
     keep = C > 0.5 * g * TILT_BIN
     A, M = A[keep], M[keep]
     if A.shape[0] < 30:
-        return ""
+        return "", False
     a = A / np.maximum(_norm(A), 1e-300)[:, None]
 
     def spread(P) -> float:
@@ -758,24 +767,35 @@ def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> str:
     perms = signed_permutations()
     declared = spread(perms[0])
     if declared <= MAG_AXES_SPREAD_DEG:
-        return ""
+        return "", False
     best = min(perms[1:], key=spread)
     s_best = spread(best)
-    if s_best < MAG_AXES_GAIN * declared and s_best <= MAG_AXES_SPREAD_DEG:
-        return (
-            f"the magnetic field's angle to gravity spans {declared:.0f}° as the body turns (5-95 %), {s_best:.0f}° with "
-            f"the magnetometer's axes read as {describe_permutation(best, 'magnetometer', 'IMU axes')}: its axes are "
-            "not the IMU's"
-        )
-    return ""
+    for (share, most), refuse in ((MAG_AXES_REFUSE, True), (MAG_AXES_WARN, False)):
+        if s_best < share * declared and s_best <= most:
+            return (
+                f"the magnetic field's angle to gravity spans {declared:.0f}° as the body turns (5-95 %), "
+                f"{s_best:.0f}° with the magnetometer's axes read as "
+                f"{describe_permutation(best, 'magnetometer', 'IMU axes')}: its axes "
+                + ("are not the IMU's" if refuse else "look not to be the IMU's (a heading from it would be off)"),
+                refuse,
+            )
+    return "", False
 
 
 def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float) -> None:
-    """Refuse a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout gave a heading
-    77° off with exit 0; helper); ``dt`` the median step (s)."""
-    hint = mag_axes_hint(*mag_sums(acc, mag), dt)
-    if hint:
+    """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
+    gave a heading 77° off with exit 0; helper); ``dt`` the median step (s)."""
+    warn_or_refuse_mag_axes(*mag_axes_hint(*mag_sums(acc, mag), dt))
+
+
+def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
+    """The outcome of :func:`mag_axes_hint`: an error when overwhelming, a :class:`MagnetometerWarning` when
+    strong, nothing otherwise."""
+    if not hint:
+        return
+    if refuse:
         raise OptinavError(hint, MAG_AXES_REMEDY)
+    warnings.warn(f"{hint}; {MAG_AXES_REMEDY}", MagnetometerWarning, stacklevel=3)
 
 
 def check_mag(mag: np.ndarray) -> None:

@@ -150,9 +150,9 @@ class StreamChecks:
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
         if self._mag_sums:
-            hint = _c.mag_axes_hint(*(np.concatenate(x) for x in zip(*self._mag_sums)), self.median_dt)
-            if hint:
-                raise OptinavError(hint, _c.MAG_AXES_REMEDY)
+            _c.warn_or_refuse_mag_axes(
+                *_c.mag_axes_hint(*(np.concatenate(x) for x in zip(*self._mag_sums)), self.median_dt)
+            )
 
 
 class StreamEstimator:
