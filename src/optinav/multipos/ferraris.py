@@ -309,8 +309,17 @@ def _gap_variance(w: np.ndarray, h: np.ndarray, k: int) -> np.ndarray:
         return fallback
     i = i[clean]
     dev = (cw[i + L] - cw[i]) - 0.5 * (w[i] + w[i + L]) * (ch[i + L] - ch[i])[:, None]
-    return np.maximum(np.mean(dev**2, axis=0) * (h[k] / np.mean(ch[i + L] - ch[i])) ** 2, fallback)
+    scale = (h[k] / np.mean(ch[i + L] - ch[i])) ** 2
+    whole = np.mean(dev**2, axis=0) * scale
+    # and the stretches around the gap alone: a hand turn's rate changes most near its peak, and the mean over the
+    # whole section (its slow ends too) left a gap there 4-5 std off (helper)
+    near = np.abs(i + 0.5 * L - (k + 0.5)) <= GAP_NEIGHBOURHOOD * L
+    local = np.mean(dev[near] ** 2, axis=0) * scale if np.count_nonzero(near) >= 3 else whole
+    return np.maximum(np.maximum(whole, local), fallback)
 
+
+#: the stretches within this many gap lengths of a gap give its local variance (:func:`_gap_variance`)
+GAP_NEIGHBOURHOOD = 3.0
 
 #: a step longer than this many median steps inside a rotation is a gap (lost samples)
 GAP_STEPS = 1.5
