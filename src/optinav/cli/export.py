@@ -84,13 +84,9 @@ def run(args) -> int:
         from optinav.core.allan import AllanAnalysis
 
         noise = AllanAnalysis.from_json(args.noise)
-    from optinav.core.units import DEG, G_STANDARD
+    from optinav.multipos.kalibr import counts_per_si
 
-    cps = {}
-    if args.acc_lsb:
-        cps["accelerometer"] = args.acc_lsb / G_STANDARD  # counts per m/s²
-    if args.gyro_lsb:
-        cps["gyroscope"] = args.gyro_lsb / DEG  # counts per rad/s
+    cps = counts_per_si(args.acc_lsb, args.gyro_lsb)
     for path in export_calibration(
         res,
         args.to,
@@ -99,7 +95,7 @@ def run(args) -> int:
         noise=noise,
         rostopic=args.rostopic,
         update_rate=args.rate_hz,
-        counts_per_si=cps or None,
+        counts_per_si=cps,
     ):
         print(f"optinav: {args.to} file written to {path}")
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):

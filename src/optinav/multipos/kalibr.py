@@ -59,6 +59,19 @@ def _num(v: float) -> str:
     return f"{v:.17g}"
 
 
+def counts_per_si(acc_lsb: float | None = None, gyro_lsb: float | None = None) -> dict | None:
+    """The driver's counts per SI unit from datasheet sensitivities: ``acc_lsb`` LSB per g → counts per m/s²,
+    ``gyro_lsb`` LSB per deg/s → counts per rad/s; None when neither is given."""
+    from optinav.core.units import DEG, G_STANDARD
+
+    out = {}
+    if acc_lsb:
+        out["accelerometer"] = float(acc_lsb) / G_STANDARD
+    if gyro_lsb:
+        out["gyroscope"] = float(gyro_lsb) / DEG
+    return out or None
+
+
 def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
     """Kalibr's scale-misalignment matrices of a :class:`~optinav.multipos.result.CalibrationResult` (both
     triads needed): ``{"M_accel", "M_gyro", "A", "C_gyro_i", "C_i_s"}``. A triad calibrated in raw counts needs
