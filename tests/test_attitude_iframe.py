@@ -523,3 +523,17 @@ def test_a_magnetometer_slower_than_the_imu_keeps_its_time_constants():
     full = np.degrees(heading_error(estimate(w, acc, DT, mag=mag, q0=q0).q_b_n, q_true))[4000:]
     slow = np.degrees(heading_error(estimate(w, acc, DT, mag=sparse, q0=q0).q_b_n, q_true))[4000:]
     assert rmse(slow) < 1.5 * rmse(full) + 0.2, (rmse(slow), rmse(full))
+
+
+def test_a_start_upside_down_is_no_frame_mistake_when_the_rest_is_upright():
+    """A cut that starts while the body is upside down (BROAD trial 03 from 76.2 s) was told to use the other frame
+    (the first 200 samples only were judged; helper): the whole recording's mean specific force must lean the same
+    way."""
+    from optinav.attitude.checks import check_frame
+
+    acc = np.vstack([np.tile([0.0, 0.0, -G], (300, 1)), np.tile([0.0, 0.0, G], (3000, 1))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FrameWarning)
+        check_frame(acc, "ENU")
+    with pytest.warns(FrameWarning, match="--frame NED"):
+        check_frame(-acc[::-1], "ENU")  # −g on z from the start and mostly: NED data declared ENU

@@ -642,15 +642,21 @@ def aop_range(lo: float, hi: float, n: int, unit: str = "rad") -> None:
         )
 
 
-def check_frame(acc: np.ndarray, frame: str) -> None:
+def check_frame(acc: np.ndarray, frame: str, mean=None) -> None:
     """Warn once when the first second's specific force (a body at rest reads +g along body up) contradicts the
-    frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g)."""
+    frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g) — and
+    the whole recording's mean specific force (``mean``, default the mean of ``acc``) leans the same way: a
+    recording that starts upside down and then turns upright (a cut) is no frame mistake (helper)."""
     frame = frame_name(frame)
     a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
     na = float(np.linalg.norm(a))
     if na == 0 or not np.isfinite(na):
         return
     z = a[2] / na
+    m = np.nanmean(acc, axis=0) if mean is None else np.asarray(mean, float)
+    zm = float(m[2] / np.linalg.norm(m)) if np.all(np.isfinite(m)) and np.linalg.norm(m) > 0 else z
+    if (frame == "ned" and zm <= 0.0) or (frame == "enu" and zm >= 0.0):
+        return
     if frame == "ned" and z > 0.9:
         warnings.warn(
             "the accelerometer reads +g along body z at the start: that is an up-pointing z "

@@ -146,7 +146,8 @@ class StreamChecks:
             steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
-        _c.check_frame(np.concatenate(self._head), frame)
+        sums = np.concatenate([t[1] for t in self._tilt]) if self._tilt else np.zeros((0, 3))
+        _c.check_frame(np.concatenate(self._head), frame, sums.sum(axis=0) if sums.size else None)
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
         if self._mag_sums:
