@@ -728,3 +728,24 @@ def test_a_correct_gyro_unit_with_several_short_gaps_is_not_refused():
         keep[a : a + int(lost / tr.dt)] = False
     k = i0 + np.flatnonzero(keep)
     check_imu(tr.gyr[k], tr.acc[k], np.diff(k * tr.dt, prepend=(k[0] - 1) * tr.dt))
+
+
+def test_a_cut_that_starts_upside_down_gets_no_frame_warning(tmp_path, capsys):
+    """Trial 03 from 76.2 s starts with the body upside down: judged on its first 200 samples alone it was told to
+    use NED (helper); the whole recording's mean specific force must lean the same way — also block by block in
+    `optinav attitude`, which had dropped the whole log's sums after its first pass (found on review)."""
+    from optinav.cli.main import main
+
+    p = SHARED / "attitude" / "broad" / "03_undisturbed_slow_rotation_C.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 03 absent")
+    tr = load_broad(p)
+    sl = slice(int(76.2 / tr.dt), int(176.2 / tr.dt))
+    assert tr.acc[sl][0, 2] < 0  # z reads −g at the start of the cut
+    f = tmp_path / "cut.csv"
+    t = np.arange(sl.stop - sl.start) * tr.dt
+    np.savetxt(
+        f, np.column_stack([t, tr.acc[sl], tr.gyr[sl]]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments=""
+    )
+    assert main(["attitude", str(f), "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
+    assert "use --frame NED" not in capsys.readouterr().err

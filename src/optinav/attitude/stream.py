@@ -93,6 +93,7 @@ class StreamChecks:
         self.peak = float(np.max(ng))
         bins, sums = (np.concatenate(x) for x in zip(*self._tilt))
         self._tilt = []
+        self._acc_sum = sums.sum(axis=0)  # the whole log's mean specific force, for the frame warning
         self.windows = _c.unit_windows(ng, np.array([self.median_dt]), bins, sums)
         self.window_max = [float(np.max(ng[w])) for w in self.windows]
         med_g = float(np.median(ng, overwrite_input=True))
@@ -146,8 +147,7 @@ class StreamChecks:
             steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
-        sums = np.concatenate([t[1] for t in self._tilt]) if self._tilt else np.zeros((0, 3))
-        _c.check_frame(np.concatenate(self._head), frame, sums.sum(axis=0) if sums.size else None)
+        _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
         if self._mag_sums:
