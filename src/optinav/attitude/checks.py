@@ -120,6 +120,18 @@ UNIT_MIN_S = 6.0
 UNIT_BIAS_MAX = np.radians(5.0)
 
 
+def _means_window(dts: np.ndarray, n: int) -> int:
+    """Samples in the 2-s moving means of the unit checks (at most half of the ``n`` samples)."""
+    w = max(2, int(round(2.0 / float(np.median(dts)))))
+    return w if n > w else max(2, n // 2)
+
+
+def _moving_means(x: np.ndarray, w: int) -> np.ndarray:
+    """The ``w``-sample moving means (M, 3) of ``x`` (n, 3)."""
+    c = np.cumsum(np.vstack([np.zeros(3), x]), axis=0)
+    return (c[w:] - c[:-w]) / w
+
+
 def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray]:
     """The per-sample spread (rad) and the unit 2-s means (M, 3) of the specific force carried into the frame the
     gyro rates ``gyr`` (rad/s) integrate to."""
@@ -129,8 +141,7 @@ def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple
     h = dts[:, None] if dts.shape[0] > 1 else dts[0]
     q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:]
     a_i = quat_rotate(q, acc)
-    c = np.cumsum(np.vstack([np.zeros(3), a_i]), axis=0)
-    m = (c[w:] - c[:-w]) / w
+    m = _moving_means(a_i, w)
     x = a_i[w // 2 : w // 2 + m.shape[0]]
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
     per_sample = float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
@@ -153,9 +164,7 @@ def _gravity_spread(
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
     means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one."""
-    w = max(2, int(round(2.0 / float(np.median(dts)))))
-    if gyr.shape[0] <= w:
-        w = max(2, gyr.shape[0] // 2)
+    w = _means_window(dts, gyr.shape[0])
     g = gyr * scale
     per_sample, u = _spreads(g, acc, dts, w)
     if not fit_bias:
@@ -210,14 +219,19 @@ TILT_BIN_S = 0.5
 def tilt_sums(acc: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Bin numbers (k,) and specific-force sums (k, 3) of the TILT_BIN-sample bins a block starting at row
     ``row0`` touches (a bin split between blocks is summed again by :func:`tilting_window`)."""
-    n = acc.shape[0]
-    if not n:
+    if not acc.shape[0]:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
-    # the rows where a bin begins: the block's first row, then every TILT_BIN-th global row (no sort needed)
+    bins, first = _bin_starts(acc.shape[0], row0)
+    return bins, np.add.reduceat(acc, first, axis=0)
+
+
+def _bin_starts(n: int, row0: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bin numbers and first rows (both (k,)) of the TILT_BIN-sample bins that a block of ``n`` > 0 rows starting
+    at row ``row0`` touches: the block's first row, then every TILT_BIN-th global row (no sort needed)."""
     first = np.arange((-row0) % TILT_BIN, n, TILT_BIN)
     if first.size == 0 or first[0] != 0:
         first = np.concatenate([[0], first])
-    return row0 // TILT_BIN + np.arange(first.size), np.add.reduceat(acc, first, axis=0)
+    return row0 // TILT_BIN + np.arange(first.size), first
 
 
 def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> slice:
@@ -422,8 +436,8 @@ def _time_or_axes_hint(g, a, d, drift1: float) -> str:
     that steadies it most."""
     if drift1 <= CONSISTENCY_BAD:
         return ""
-    w = max(2, int(round(2.0 / float(np.median(d)))))
-    if _drift(_spreads(np.zeros_like(g), a, d, w)[1]) < CONSISTENCY_STILL:
+    m = _moving_means(a, _means_window(d, a.shape[0]))
+    if _drift(m / (_norm(m)[:, None] + 1e-300)) < CONSISTENCY_STILL:
         return ""  # gravity hardly turns in the body: nothing to judge by
     drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
     if drift1 <= CONSISTENCY_BAD:
@@ -712,12 +726,9 @@ def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarra
     if not n:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
     ok = np.all(np.isfinite(mag), axis=1) & np.all(np.isfinite(acc), axis=1)
-    first = np.arange((-row0) % TILT_BIN, n, TILT_BIN)
-    if first.size == 0 or first[0] != 0:
-        first = np.concatenate([[0], first])
+    bins, first = _bin_starts(n, row0)
     a = np.where(ok[:, None], acc, 0.0)
     m = np.where(ok[:, None], mag, 0.0)
-    bins = row0 // TILT_BIN + np.arange(first.size)
     return bins, np.add.reduceat(a, first, axis=0), np.add.reduceat(m, first, axis=0), np.add.reduceat(ok, first)
 
 
@@ -774,8 +785,8 @@ def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> tuple[str, boo
     declared = spread(perms[0])
     if declared <= MAG_AXES_SPREAD_DEG:
         return "", False
-    best = min(perms[1:], key=spread)
-    s_best = spread(best)
+    s_best, i = min((spread(P), i) for i, P in enumerate(perms[1:], 1))
+    best = perms[i]
     for (share, most), refuse in ((MAG_AXES_REFUSE, True), (MAG_AXES_WARN, False)):
         if s_best < share * declared and s_best <= most:
             return (
