@@ -241,15 +241,9 @@ def _option_files(options) -> dict:
                 walk(x)
         elif isinstance(v, (str, Path)) and v and "\n" not in str(v) and len(str(v)) < 4096:
             p = Path(v)
-            try:
-                if p.is_file():
-                    h = hashlib.sha256()
-                    with open(p, "rb") as fh:
-                        for block in iter(lambda: fh.read(1 << 20), b""):
-                            h.update(block)
-                    out[str(p)] = h.hexdigest()
-            except OSError:
-                pass  # unreadable: the unit's run names it
+            digest = _file_sha(p, None) if p.is_file() else None
+            if digest is not None:  # unreadable: the unit's run names it
+                out[str(p)] = digest
 
     walk(options)
     return out
@@ -462,6 +456,11 @@ def _esd_outliers(x: np.ndarray, alpha: float) -> list[int]:
     return removed[: last + 1]
 
 
+def _column(rows: list[dict], col: str) -> np.ndarray:
+    """The column ``col`` of ``rows`` as floats, NaN where a row has no finite value."""
+    return np.array([np.nan if (v := _num(r.get(col))) is None else v for r in rows], float)
+
+
 def _scale_columns(row: dict) -> list[tuple[str, str]]:
     """(column, raw unit) of the diagonal scale parameters of triads recorded in raw counts (multipos)."""
     out = []
@@ -512,7 +511,7 @@ def _lot_group(ok: list[dict], alpha: float, label: str) -> str:
     failed = []
     medians = {}
     for col, unit in dict.fromkeys(c for r in ok for c in _scale_columns(r)):
-        vals = np.array([_num(r.get(col)) or np.nan for r in ok], float)
+        vals = _column(ok, col)
         if np.sum(np.isfinite(vals)) >= LOT_MIN_UNITS:
             medians[col] = (float(np.nanmedian(vals)), unit)
     for r in ok:
@@ -531,7 +530,7 @@ def _lot_group(ok: list[dict], alpha: float, label: str) -> str:
     ok = [r for r in ok if r not in failed]
     tested = []
     for col in params:
-        vals = np.array([_num(r.get(col)) if _num(r.get(col)) is not None else np.nan for r in ok], float)
+        vals = _column(ok, col)
         good = np.flatnonzero(np.isfinite(vals))
         if good.size >= LOT_MIN_UNITS:
             tested.append((col, vals, good))
@@ -645,12 +644,17 @@ def _done(row: dict | None, unit: Unit, ohash: str, retry_failed: bool, results_
     )
 
 
-def _file_sha(path: Path) -> str | None:
-    """Short SHA-256 of a file's content, None when it cannot be read."""
+def _file_sha(path: Path, length: int | None = 16) -> str | None:
+    """SHA-256 of a file's content (its first ``length`` hex digits; None: all), read in 1-MiB blocks; None when
+    the file cannot be read."""
+    h = hashlib.sha256()
     try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
     except OSError:
         return None
+    return h.hexdigest()[:length]
 
 
 # ---------------------------------------------------------------------------------------------------- output
