@@ -1110,14 +1110,15 @@ def calibrate(
     if rate_accuracy > 0.0:
         cov = cov + rate_accuracy**2 * np.outer(s_rate, s_rate)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    dr_per = float(np.max(np.abs(s_rate[: 5 * nominal.n].reshape(nominal.n, 5)[:, :3])))
+    # m per unit of e is mm per 0.1 % (× 1e-3 for 0.1 %, × 1e3 for mm)
+    dr_mm_per_permille = float(np.max(np.abs(s_rate[: 5 * nominal.n].reshape(nominal.n, 5)[:, :3])))
     rate_statement = (
         f"the table rates are taken as exact within {rate_accuracy:.3g} (relative 1σ, in the std): a rate error e "
         if rate_accuracy > 0.0
         else "the table rates are taken as exact (pass --rate-accuracy to put their accuracy in the std): a rate "
         "error e "
     ) + (
-        f"moves the positions by up to {dr_per * 1e-3 * 1e3:.3g} mm per 0.1 % (Δr_i ≈ 2e·r_i), which the data "
+        f"moves the positions by up to {dr_mm_per_permille:.3g} mm per 0.1 % (Δr_i ≈ 2e·r_i), which the data "
         "cannot tell from installation errors"
     )
     if offset == "estimate":
