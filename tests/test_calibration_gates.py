@@ -241,6 +241,34 @@ def test_imucal_annotated_sections_by_the_default_route_name_ferraris(tmp_path, 
     assert main(argv + ["--no-gyro"]) == 0
 
 
+@needs_data
+@pytest.mark.parametrize("route", [["--method", "ferraris", "--rotation-angle", "360"], []])
+def test_swapped_triads_in_counts_are_named(tmp_path, capsys, route):
+    """imucal's annotated session (raw counts) with the gyro written in the accelerometer's columns and back: in
+    counts no unit check can tell the triads apart, and both routes failed on a pose or scale gate that pointed at
+    the sections or --acc-unit. The gate's error now also names the swap (the "accelerometer" norm varies by
+    218 % over rests and turns, the "gyroscope" norm by 3.9 %) and --columns."""
+    head = (DATA / "annotated_session.csv").read_text().splitlines()
+    rows = [r.split(",") for r in head[1:]]
+    swapped = tmp_path / "swapped.csv"
+    swapped.write_text("\n".join([head[0]] + [",".join(r[:2] + r[5:8] + r[2:5]) for r in rows]) + "\n")
+    argv = ["calibrate", "accel", str(swapped), "--rate", "204.8", "--acc-unit", "counts", "--gyro-unit", "counts"]
+    err = _cli_error(capsys, argv + route + ["--out", str(tmp_path / "r.json")])
+    assert "are the two triads swapped?" in err and "(--columns)" in err
+    assert "norm varies by 218%" in err
+
+
+def test_swapped_triads_words_only_for_the_swap(sim):
+    """The words come only when the accelerometer columns' norm varies like a gyro's and the gyro columns' is
+    steady: a simulated session in counts in its right order gives none, swapped gives them."""
+    from optinav.multipos.calibrate import swapped_triads
+
+    s = sim[0]
+    assert swapped_triads(s.acc, s.gyr) is None
+    assert "swapped" in swapped_triads(s.gyr, s.acc)
+    assert swapped_triads(s.acc, None) is None
+
+
 # ---------------------------------------------------------------------------------------------------- axes
 
 

@@ -1468,7 +1468,57 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         from .ferraris import sections_from_labels
 
         sections = sections_from_labels(data.labels)
-    res = calibrate(
+    try:
+        res = _calibrate_data(data, o, sections, method_options, source)
+    except OptinavError as exc:
+        swap = swapped_triads(data.acc, data.gyr)
+        if swap is None or "swapped" in str(exc):  # in SI units the unit check names it already
+            raise
+        raise OptinavError(f"{exc.cause} ({swap})", "swap the triads' columns (--columns)") from exc
+    res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
+    return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
+
+
+#: coefficient of variation of a triad's norm over a calibration log: an accelerometer's stays within a few % (it
+#: reads g in every pose and during hand turns; imucal's sessions: 0.04, 0.08), a gyro's is above 1 (rest against
+#: turns: 2.2, 3.4); an "accelerometer" above SWAP_CV_ACC with a "gyro" SWAP_RATIO times steadier is the other way
+SWAP_CV_ACC = 0.2
+SWAP_RATIO = 5.0
+
+
+def swapped_triads(acc, gyr) -> str | None:
+    """Words naming the triads as swapped when the accelerometer columns vary in norm like a gyro's and the gyro
+    columns hold a steady norm like an accelerometer's, else None (raw counts show no unit to tell them apart).
+
+    Parameters
+    ----------
+    acc, gyr : (N, 3) arrays or None
+        The columns read as accelerometer and gyroscope [any unit].
+
+    Returns
+    -------
+    str or None
+        The words, or None.
+    """
+    if acc is None or gyr is None or len(acc) < 10:
+        return None
+
+    def cv(x):
+        n = np.linalg.norm(np.asarray(x, float), axis=1)
+        n = n[np.isfinite(n)]
+        return float(np.std(n) / np.mean(n)) if n.size > 9 and np.mean(n) > 0 else float("nan")
+
+    ca, cg = cv(acc), cv(gyr)
+    if not (ca > SWAP_CV_ACC and ca > SWAP_RATIO * cg):
+        return None
+    return (
+        f"the accelerometer columns' norm varies by {ca:.0%} like a gyro's over rests and turns, the gyroscope "
+        f"columns' by {cg:.1%} like an accelerometer's reading g: are the two triads swapped?"
+    )
+
+
+def _calibrate_data(data: SessionData, o: FileOptions, sections, method_options, source) -> CalibrationResult:
+    return calibrate(
         data.t,
         data.acc,
         data.gyr,
@@ -1500,8 +1550,6 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         gyro_bias_instability=o.gyro_bias_instability,
         gyro_bias_corr_time=o.gyro_bias_corr_time,
     )
-    res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
-    return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
 
 
 def hold_out(
