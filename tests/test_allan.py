@@ -274,8 +274,9 @@ def test_phase_noise_only_before_the_first_frequency_noise_point():
 
 def _avar_cov_direct(c, m, n, dt):
     """Cov(σ̂²_a, σ̂²_b) from the full covariance matrix of θ (generalized covariances of white N, flicker B and
-    random-walk K rate noise, white θ for quantization Q; c = (Q², N², B², K²)): 2‖D_a Σ D_bᵀ‖²_F / norms,
-    D_m the matrix of the second differences at cluster size m."""
+    random-walk K rate noise, white θ for quantization Q; c = (Q², N², B², K²[, R²])): 2‖D_a Σ D_bᵀ‖²_F / norms,
+    D_m the matrix of the second differences at cluster size m; a rate ramp R (θ_k = R·dt²·k(k−1)/2, its second
+    differences μ_m = D_m θ) adds 4·μ_aᵀ D_a Σ D_bᵀ μ_b / norms (Isserlis with a mean)."""
     s = np.abs(np.subtract.outer(np.arange(n + 1.0), np.arange(n + 1.0)))
     with np.errstate(divide="ignore", invalid="ignore"):
         flick = np.where(s > 0, s**2 * np.log(np.where(s > 0, s, 1.0)), 0.0)
@@ -286,11 +287,13 @@ def _avar_cov_direct(c, m, n, dt):
         r = np.arange(d.shape[0])
         d[r, r], d[r, r + mi], d[r, r + 2 * mi] = 1.0, -2.0, 1.0
         D.append(d)
+    ramp = np.sqrt(c[4]) * dt**2 * np.arange(n + 1.0) * (np.arange(n + 1.0) - 1) / 2 if len(c) > 4 else 0 * s[0]
     out = np.zeros((len(m), len(m)))
     for a, da in enumerate(D):
         for b, db in enumerate(D):
-            out[a, b] = (
-                2 * np.sum((da @ sig @ db.T) ** 2) / (da.shape[0] * db.shape[0] * 4 * (m[a] * m[b]) ** 2 * dt**4)
+            cab = da @ sig @ db.T
+            out[a, b] = (2 * np.sum(cab**2) + 4 * (da @ ramp) @ cab @ (db @ ramp)) / (
+                da.shape[0] * db.shape[0] * 4 * (m[a] * m[b]) ** 2 * dt**4
             )
     return out
 
@@ -315,9 +318,9 @@ def test_avar_covariance_equals_the_direct_matrix_sum():
         n_samples=n,
         confidence=0.683,
     )
-    terms = ("quantization", "white", "bias_instability", "random_walk")
-    values = (0.02, 0.3, 0.5, 0.05)
-    for use in ([0], [1], [2], [3], [0, 1, 2, 3]):
+    terms = ("quantization", "white", "bias_instability", "random_walk", "rate_ramp")
+    values = (0.02, 0.3, 0.5, 0.05, 0.2)
+    for use in ([0], [1], [2], [3], [0, 1, 2, 3], [0, 4], [1, 4], [2, 4], [3, 4], [0, 1, 2, 3, 4]):
         kw = {terms[i]: values[i] for i in use}
         c = np.array([kw.get(t, 0.0) ** 2 for t in terms])
         got, want = allan_variance_covariance(ad, **kw), _avar_cov_direct(c, m, n, dt)
@@ -396,16 +399,16 @@ def test_fit_recovers_simulated_noise_within_its_interval():
 def test_a_term_fitted_to_zero_does_not_widen_the_others():
     """Quantization is not simulated: where NNLS holds it at 0, the other terms' std is that of the fit without
     the quantization column (the constraint is active: its column carries no uncertainty into the others), up to
-    the χ²/dof scale of a fit with one parameter fewer (13 against 14 degrees of freedom: √(14/13) − 1 = 4 %)."""
+    the χ²/dof scale of a fit with one parameter fewer (12 against 13 degrees of freedom: √(13/12) − 1 = 4.1 %)."""
     x, dt, _ = _three_term_record(CLEAN_SEED)
     ad = allan_deviation(x, dt)
     full = fit_noise_model(ad)
-    without = fit_noise_model(ad, terms=("white", "bias_instability", "random_walk"))
+    without = fit_noise_model(ad, terms=("white", "bias_instability", "random_walk", "rate_ramp"))
     held = full.quantization == 0.0
     assert held.any()
     for name in ("white", "bias_instability", "random_walk"):
         a, b = getattr(full, name + "_std")[held], getattr(without, name + "_std")[held]
-        np.testing.assert_allclose(a, b, rtol=0.04)
+        np.testing.assert_allclose(a, b, rtol=np.sqrt(13 / 12) - 1 + 1e-3)
 
 
 def test_fit_interval_is_the_set_the_fit_does_not_reject():
@@ -494,6 +497,8 @@ def test_fit_interval_coverage():
         (0, "white"),
         (1, "white"),
         (1, "random_walk"),
+        (2, "random_walk"),
+        (2, "rate_ramp"),
     ],
 )
 def test_fit_interval_coverage_full(design, term):

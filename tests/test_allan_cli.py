@@ -241,3 +241,31 @@ def test_a_short_log_says_its_random_walk_is_not_reliable(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "the log spans 0.6 min" in err and "neither K nor its interval is reliable (N is)" in err
     assert json.loads((tmp_path / "a.json").read_text())["fields"]["notes"]["value"]
+
+
+def test_a_warm_up_ramp_is_fitted_apart_from_the_random_walk_and_named(tmp_path, capsys):
+    """A gyro whose rate drifts steadily over the log (a sensor warming up: here by 20·K·√T on x over the
+    40 min) was fitted as random walk — K_x 4.9× the truth, its 68 % interval [3.9, 7.3]× excluding it, and no
+    word. The ramp is now the fit's fifth term R: K's interval holds the truth again on x (1.2×), R is within
+    10 % of the simulated ramp, and the note names x alone."""
+    from optinav.core.allan import FLICKER_FLOOR
+    from optinav.core.imu_model import static_noise
+
+    n, dt = 40 * 60 * 50, 0.02
+    N = np.array([2e-3, 2e-3, 2e-3])
+    B = N / FLICKER_FLOOR
+    K = np.sqrt(3 / 200.0) * FLICKER_FLOOR * B
+    t = np.arange(n) * dt
+    gyr = static_noise(n, dt, white=N, bias_instability=B, random_walk=K, rng=5)
+    R = 20.0 * K[0] / np.sqrt(n * dt)
+    gyr[:, 0] += R * t
+    acc = np.array([0.0, 0.0, 9.81]) + static_noise(n, dt, white=np.full(3, 1e-3), rng=6)
+    log = tmp_path / "warm.csv"
+    np.savetxt(log, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    out = tmp_path / "a.json"
+    assert main(["allan", str(log), "--out", str(out), "--sensor", "gyro"]) == 0
+    err = capsys.readouterr().err
+    assert "the gyroscope rate drifts steadily (x R = " in err and " y R" not in err and " z R" not in err
+    fit = Result.from_json(out.read_text()).gyroscope["fit"]
+    assert fit.random_walk_interval[0, 0] <= K[0] <= fit.random_walk_interval[1, 0]
+    assert abs(fit.rate_ramp[0] / R - 1) < 0.1

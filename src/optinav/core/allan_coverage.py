@@ -2,7 +2,7 @@
 
 Each record is :func:`optinav.core.imu_model.static_noise` (the noise of ``optinav simulate static``) with white
 N, flicker B and random walk K per axis whose Allan terms cross at ``cross_white_s`` (N/B) and ``cross_rw_s``
-(B/K); :func:`coverage` counts, per term and axis, how often the reported interval holds the truth. The
+(B/K), in one design plus a rate ramp R (a warm-up drift); :func:`coverage` counts, per term and axis, how often the reported interval holds the truth. The
 benchmark (``benchmarks/bench_allan_coverage.py``) runs hundreds of records, ``tests/test_allan.py`` a few dozen.
 """
 
@@ -34,6 +34,8 @@ class Design:
     dt: float
     cross_white_s: float
     cross_rw_s: float
+    #: a rate ramp (a warm-up drift) whose change over the record is this many times the random walk's K·√T
+    ramp: float = 0.0
 
     def truth(self) -> dict[str, np.ndarray]:
         """The simulated noise terms, with the crossing times of the design.
@@ -41,11 +43,16 @@ class Design:
         Returns
         -------
         dict of str to (3,) ndarray
-            ``white`` N [rad/√s], ``bias_instability`` B [rad/s], ``random_walk`` K [rad/s/√s] per axis.
+            ``white`` N [rad/√s], ``bias_instability`` B [rad/s], ``random_walk`` K [rad/s/√s] per axis, and with a
+            ramp ``rate_ramp`` R [rad/s²].
         """
         N = np.array([1e-3, 2e-3, 5e-4])
         B = N / math.sqrt(self.cross_white_s) / FLICKER_FLOOR
-        return {"white": N, "bias_instability": B, "random_walk": math.sqrt(3.0 / self.cross_rw_s) * FLICKER_FLOOR * B}
+        K = math.sqrt(3.0 / self.cross_rw_s) * FLICKER_FLOOR * B
+        out = {"white": N, "bias_instability": B, "random_walk": K}
+        if self.ramp:
+            out["rate_ramp"] = self.ramp * K / math.sqrt(self.n * self.dt)
+        return out
 
 
 #: 3.6 h at 20 Hz, upturn at 300 s (the log is 44 times longer); 2.9 h at 50 Hz, upturn at 1000 s (10 times:
@@ -53,6 +60,7 @@ class Design:
 DESIGNS = (
     Design("long record (44x the upturn)", 2**18, 0.05, 1.0, 300.0),
     Design("short record (10x the upturn)", int(2.9 * 3600 * 50), 0.02, 0.3, 1000.0),
+    Design("long record with a warm-up ramp (3 K·√T)", 2**18, 0.05, 1.0, 300.0, ramp=3.0),
 )
 
 
@@ -74,15 +82,18 @@ def coverage(design: Design, seeds) -> dict:
         ``{method: {term: bool ndarray}}`` as above.
     """
     truth = design.truth()
-    out = {m: {t: [] for t in TERMS} for m in ("fit", "read_off")}
+    terms = TERMS + (("rate_ramp",) if "rate_ramp" in truth else ())
+    out = {m: {t: [] for t in terms} for m in ("fit", "read_off")}
     out["kalibr"] = {"noise_density": [], "random_walk": []}
     out["misfit"] = {"flagged": []}
     for seed in seeds:
-        x = static_noise(design.n, design.dt, rng=int(seed), **truth)
+        x = static_noise(design.n, design.dt, rng=int(seed), **{t: truth[t] for t in TERMS})
+        if "rate_ramp" in truth:
+            x += np.arange(design.n)[:, None] * design.dt * truth["rate_ramp"]
         ad = allan_deviation(x, design.dt)
         fit, ro = fit_noise_model(ad), noise_parameters_from_allan(ad)
         for method, res in (("fit", fit), ("read_off", ro)):
-            for t in TERMS:
+            for t in terms:
                 iv = np.asarray(getattr(res, t + "_interval"))
                 out[method][t].append((iv[0] <= truth[t]) & (truth[t] <= iv[1]))
         out["misfit"]["flagged"].append(np.asarray(fit.model_floor) > 0)

@@ -5,7 +5,9 @@ Kalibr (Rehder et al., ICRA 2016, "Extending kalibr") models the IMU in its own 
     a_meas = M_a · a_i + b_a                                  M_a lower triangular
     ω_meas = M_g · C_gyro_i · ω_i + A · C_gyro_i · a_i + b_g     M_g lower triangular, C_gyro_i a rotation
 
-with measurements in SI (sensor_msgs/Imu: m/s², rad/s) and biases estimated along the trajectory (not stored).
+with measurements in SI (sensor_msgs/Imu: m/s², rad/s) and biases estimated along the trajectory (not stored);
+the error terms of Kalibr's ``IccScaledMisalignedImu`` (``IccSensors.py``) are these equations, with M_accel and
+M_gyro lower triangular and A full, written as the rotation matrix C_gyro_i and the lists M and A.
 optinav's ``raw = K x + b`` (x in the sensor frame s, raw in the file's unit of SI factor f) maps to it by the
 LQ factorization f·K_a = M_a·C_i_s: Kalibr's frame i is the accelerometer's lower-triangular frame, rotated by
 C_i_s from optinav's; then f_g·K_g·C_i_sᵀ = M_g·C_gyro_i and A = f_g·G·C_i_sᵀ·C_gyro_iᵀ. C_i_s is written as a
@@ -178,7 +180,7 @@ def write_kalibr_imu_yaml(
             "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
         }
         head.append(
-            "# noise: continuous-time white-noise density N and random walk K of the four-term Allan fit, largest axis"
+            "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp kept out of K), largest axis"
         )
         for k in NOISE_KEYS:
             body.append(f"{k}: {_num(kal[k])}  # [{units[k]}]")

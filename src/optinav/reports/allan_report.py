@@ -15,6 +15,7 @@ _TERMS = (
     ("bias_instability", "bias instability B", "", 0.0, None),
     ("random_walk", "random walk K", "/√s", 0.5, 3.0),
     ("quantization", "quantization Q", "·s", -1.0, math.sqrt(3)),
+    ("rate_ramp", "rate ramp R", "/s", 1.0, math.sqrt(2)),
 )
 
 
@@ -35,6 +36,8 @@ def _tables(name: str, d: dict) -> list[Table]:
     unit = fit.unit or "unit"
     rows = []
     for key, label, suffix, _, _ in _TERMS:
+        if getattr(fit, key) is None:
+            continue  # a fit written before the rate ramp was a term
         v_f = np.atleast_1d(getattr(fit, key))
         i_f = np.asarray(getattr(fit, key + "_interval")).reshape(2, -1)
         v_r = np.atleast_1d(getattr(ro, key))
@@ -42,8 +45,9 @@ def _tables(name: str, d: dict) -> list[Table]:
         for j in range(v_f.size):
             rows.append([f"{label} [{unit}{suffix}]", "xyz"[j], _cell(v_f[j], i_f[:, j]), _cell(v_r[j], i_r[:, j])])
     note = (
-        "fit: weighted least squares of σ² = 3Q²/τ² + N²/τ + (2 ln2/π)B² + K²τ/3 over the whole curve; read-off: "
-        "IEEE Std 952 slopes (N at τ = 1 s on −1/2, B = flat minimum / 0.664, K at τ = 3 s on +1/2, Q on −1). "
+        "fit: weighted least squares of σ² = 3Q²/τ² + N²/τ + (2 ln2/π)B² + K²τ/3 + R²τ²/2 over the whole curve; "
+        "read-off: IEEE Std 952 slopes (N at τ = 1 s on −1/2, B = flat minimum / 0.664, K at τ = 3 s on +1/2, "
+        "Q on −1, R at τ = √2 s on +1). "
         "Brackets: 68 % interval (the read-off's covers sampling error only)."
     )
     return [
@@ -67,6 +71,7 @@ def _figure(name: str, d: dict) -> Figure:
         lo = np.asarray(ad.lower, float).reshape(tau.size, -1)
         hi = np.asarray(ad.upper, float).reshape(tau.size, -1)
         colors = ("tab:red", "tab:green", "tab:blue")
+        ramp = np.zeros(A.shape[1]) if fit.rate_ramp is None else np.atleast_1d(fit.rate_ramp)
         for j in range(A.shape[1]):
             c = colors[j % 3]
             ax.loglog(tau, A[:, j], "o", ms=3.5, color=c, label=f"{'xyz'[j]}")
@@ -77,10 +82,13 @@ def _figure(name: str, d: dict) -> Figure:
                 bias_instability=np.atleast_1d(fit.bias_instability)[j],
                 random_walk=np.atleast_1d(fit.random_walk)[j],
                 quantization=np.atleast_1d(fit.quantization)[j],
+                rate_ramp=ramp[j],
             )
             ax.loglog(tau, model, "-", color=c, lw=1.2, alpha=0.8)
             # the IEEE 952 read-off: each slope through its coefficient, a decade either side of where it was read
             for key, _, _, slope, at in _TERMS:
+                if getattr(ro, key) is None:
+                    continue
                 v = float(np.atleast_1d(getattr(ro, key))[j])
                 t_read = float(np.atleast_1d(getattr(ro, key + "_tau"))[j])
                 if not (np.isfinite(v) and np.isfinite(t_read)):
@@ -91,12 +99,12 @@ def _figure(name: str, d: dict) -> Figure:
                 if slope == 0.0:
                     ax.loglog(span, np.full(span.shape, FLICKER_FLOOR * v), ":", color=c, lw=1.5)
                 else:
-                    # N·τ^(−1/2) is N at τ = 1 s, K·(τ/3)^(1/2) is K at 3 s, √3·Q/τ is Q at √3 s
+                    # N·τ^(−1/2) is N at τ = 1 s, K·(τ/3)^(1/2) is K at 3 s, √3·Q/τ is Q at √3 s, R·τ/√2 is R at √2 s
                     ax.loglog(span, v * (span / at) ** slope, "--", color=c, lw=1.0)
         ax.set_xlabel("cluster time τ [s]")
         ax.set_ylabel(f"Allan deviation [{unit}]")
         ax.set_title(
-            f"{name}: estimates with 68 % band, four-term fit (solid), IEEE 952 read-off slopes (dashed)\n"
+            f"{name}: estimates with 68 % band, five-term fit (solid), IEEE 952 read-off slopes (dashed)\n"
             "and 0.664·B floor (dotted)"
         )
         ax.title.set_fontsize(9)
@@ -125,7 +133,8 @@ def write_allan_report(res, out_dir) -> Path:
     study = StudyResult(
         name="allan",
         title=f"Allan deviation of {res.source or 'the log'}",
-        description=f"{res.n_samples} samples at {res.rate_hz:.6g} Hz over {res.duration_s / 3600:.3g} h.",
+        description=f"{res.n_samples} samples at {res.rate_hz:.6g} Hz over {res.duration_s / 3600:.3g} h."
+        + "".join(f"\n\nNote: {n}." for n in res.notes),
         tables=tables,
         figures=figures,
         summary={"kalibr": res.kalibr},
