@@ -181,3 +181,34 @@ def test_check_aop_both_ways():
     check_aop(np.full(200, 1.2), "deg")  # a still sensor's AoP of 1.2° spans nothing: not judged
     with pytest.raises(OptinavError, match="degrees declared rad"):
         check_aop(np.degrees(x) * 10, "rad")
+
+
+def test_magnetometer_and_single_sensor_files_name_the_flag_that_helps(tmp_path, capsys):
+    """--mag on an Xsens export (Mag_X, ...) or Physics Toolbox (Bx, ...) listed the file's columns without naming
+    --mag-columns; a phone app's accelerometer-only file was told to use --columns, which cannot add a gyro
+    (helper)."""
+    import numpy as np
+
+    from optinav.cli.main import main
+
+    n = 3000
+    t = np.arange(n) * 0.01
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1))
+    gyr = np.zeros((n, 3))
+    mag = np.tile([20.0, 0.0, -40.0], (n, 1))
+    for head, want in (
+        ("Mag_X,Mag_Y,Mag_Z", "--mag-columns Mag_X,Mag_Y,Mag_Z"),
+        ("Bx,By,Bz", "--mag-columns Bx,By,Bz"),
+    ):
+        f = tmp_path / "x.csv"
+        np.savetxt(
+            f, np.column_stack([t, acc, gyr, mag]), delimiter=",", comments="", header="t,ax,ay,az,gx,gy,gz," + head
+        )
+        argv = ["--quiet", "attitude", str(f), "--mag", "--frame", "ENU", "--out", str(tmp_path / "o.csv")]
+        assert main(argv) == 2
+        assert want in capsys.readouterr().err
+    f = tmp_path / "Accelerometer.csv"
+    np.savetxt(f, np.column_stack([t, acc]), delimiter=",", comments="", header="t,ax,ay,az")
+    assert main(["--quiet", "attitude", str(f), "--frame", "ENU", "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "has only the accelerometer" in err and "merge the sensors' files" in err

@@ -322,8 +322,9 @@ def test_gyro_unit_judged_where_the_gyro_turns():
     w, acc, _ = motion(n, seed=10, amp=2.0, rest=rest)
     sl = _turning_window(np.linalg.norm(w, axis=1), np.array([DT]))
     assert sl.stop - sl.start == 2000 and sl.start >= rest
-    assert gyro_unit_hint(w, acc, np.array([DT])) == ""
-    assert "--gyro-unit deg/s" in gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
+    assert gyro_unit_hint(w, acc, np.array([DT])) is None
+    hint = gyro_unit_hint(np.degrees(w), acc, np.array([DT]))
+    assert hint.kind == "unit" and hint.scale == np.pi / 180
     with pytest.raises(OptinavError, match="--gyro-unit deg/s"):
         estimate_q(np.degrees(w), acc, DT)
 

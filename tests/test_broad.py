@@ -749,3 +749,73 @@ def test_a_cut_that_starts_upside_down_gets_no_frame_warning(tmp_path, capsys):
     )
     assert main(["attitude", str(f), "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
     assert "use --frame NED" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("name", "rate"),
+    [
+        ("02_undisturbed_slow_rotation_B", 1000.0),
+        ("02_undisturbed_slow_rotation_B", 200.0),
+        ("07_undisturbed_fast_rotation_B", 400.0),
+        ("07_undisturbed_fast_rotation_B", 230.0),
+    ],
+)
+def test_a_wrong_sample_rate_is_named_with_the_rate_the_data_fit(name, rate):
+    """Only a rate off by 2 was named: --rate 1000, 200 or 400 for BROAD's 285.7 Hz ran with exit 0 at 80°, 40° and
+    14° inclination RMSE, and --rate 100 was blamed on the gyro unit, whose flag then gave 80° (helper). The
+    factor is searched now, and the message names --rate with the rate the data fit."""
+    from optinav.attitude.checks import check_imu
+
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
+        check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
+    fit = float(exc.value.remedy.split("the data fit ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.05 and "--rate" in exc.value.remedy
+    check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
+
+
+def test_a_time_column_in_ticks_or_an_epoch_read_in_the_wrong_unit_is_named():
+    """Xsens' SampleTimeFine (100-µs ticks) read as µs made the log 100× too fast and too short (1.9 s) for the
+    unit check: exit 0 at 18°; an epoch in ns read as s gave steps of 3.5e6 s, integrated with exit 0 (helper)."""
+    from optinav.attitude.checks import check_imu
+
+    tr = load_broad(PATH)
+    with pytest.raises(Exception, match="about ×0.0") as exc:
+        check_imu(tr.gyr, tr.acc, np.array([tr.dt / 100]))
+    assert "--time-unit" in exc.value.remedy and "roughly" in exc.value.remedy
+    with pytest.raises(Exception, match="no IMU's rate"):
+        check_imu(tr.gyr, tr.acc, np.array([tr.dt * 1e9]))
+
+
+def test_a_linear_acceleration_output_is_refused_in_any_unit():
+    """A phone's 'linear acceleration' (gravity removed) was hinted as 'g', and --acc-unit g then ran with exit 0
+    at 77° inclination RMSE (helper): while the gyro is still, its 2-s means keep ~10 % of its norm (the nine
+    BROAD trials ≥ 99 %), and it is refused with the cause named."""
+    from optinav.attitude.checks import check_imu
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    tr = load_broad(PATH)
+    ok = np.all(np.isfinite(tr.q_ref), axis=1)
+    lin = tr.acc[ok] - quat_rotate(quat_conjugate(tr.q_ref[ok]), np.array([0.0, 0.0, 9.81]))
+    for unit_factor in (1.0, 9.80665):  # as m/s², and as if declared g
+        with pytest.raises(Exception, match="gravity looks removed"):
+            check_imu(tr.gyr[ok], lin * unit_factor, np.array([tr.dt]))
+
+
+def test_a_gyro_in_a_finer_unit_does_not_get_the_flag_the_user_gave(tmp_path, capsys):
+    """A gyro in mdps declared deg/s was told 'it looks like deg/s declared rad/s: --gyro-unit deg/s', the flag
+    it already had (helper): with the declared unit known, the message names another unit."""
+    from optinav.cli.main import main
+
+    tr = load_broad(PATH)
+    n = 20000
+    f = tmp_path / "mdps.csv"
+    cols = np.column_stack([np.arange(n) * tr.dt, tr.acc[:n], np.degrees(tr.gyr[:n]) * 1000.0])
+    np.savetxt(f, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    argv = ["--quiet", "attitude", str(f), "--gyro-unit", "deg/s", "--frame", "ENU", "--out", str(tmp_path / "o.csv")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--gyro-unit deg/s" not in err and "as declared in deg/s" in err and "--gyro-unit" in err

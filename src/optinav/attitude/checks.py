@@ -7,6 +7,7 @@ wrong attitude); the frame check warns once (an upside-down start is possible).
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -100,12 +101,29 @@ def find_gaps(dts: np.ndarray) -> np.ndarray:
     return np.flatnonzero((dts > GAP_FACTOR * med) & (dts > MIN_GAP_S))
 
 
-#: gyro unit factors tried against the declared rad/s: deg/s declared rad/s, rad/s declared deg/s
+#: gyro unit factors tried against the declared unit (the check sees rad/s): ×π/180 (deg/s declared rad/s) and
+#: ×180/π (rad/s declared deg/s)
 _SCALES = {
     1.0: "",
     np.pi / 180: "deg/s declared rad/s: --gyro-unit deg/s",
     180 / np.pi: "rad/s declared deg/s: --gyro-unit rad/s",
 }
+
+
+@dataclass(frozen=True)
+class UnitHint:
+    """What the gyro-unit check found (:func:`gyro_unit_hint`): ``kind`` "unit" (a unit factor ``scale`` of π/180 or
+    180/π), "time" (the gyro needs another ``scale``: the time steps or the gyro's scale are off by it) or "axes"
+    (the signed permutation ``P``, at the unit factor ``scale``); ``scale`` multiplies the gyro as declared;
+    ``words``: what was seen, for the message; ``rate_hz``: the sample rate the data imply for a "time" hint."""
+
+    kind: str
+    scale: float
+    words: str = ""
+    P: np.ndarray | None = None
+    rate_hz: float = float("nan")
+    #: the factor is only roughly known (a log too short for the 2-s means)
+    rough: bool = False
 
 
 #: a step longer than this many median steps has lost samples (the unit check judges the stretches between)
@@ -260,8 +278,8 @@ def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> sli
 
 def gyro_unit_hint(
     gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None, alt=None, units_only: bool = False
-) -> str:
-    """'' when the declared rad/s explains the turning of gravity best (or nothing turns), else a hint. Judged on
+) -> UnitHint | None:
+    """None when the declared unit explains the turning of gravity best (or nothing turns), else a hint. Judged on
     the UNIT_WINDOW_S s where the gyro turns most and on those where gravity turns most in the body (the
     strapdowns' cost is independent of the recording's length). ``ng``: the gyro's row norms if already
     computed; ``alt(scale, sl)``: the gyro of rows ``sl`` (rad/s) had the raw data been ``scale`` × what they
@@ -273,7 +291,7 @@ def gyro_unit_hint(
         hint = _unit_hint_window(gyr[sl], acc[sl], d, float(np.max(ng[sl])), a, units_only)
         if hint:
             return hint
-    return ""
+    return None
 
 
 def unit_windows(ng: np.ndarray, dts: np.ndarray, bins: np.ndarray, sums: np.ndarray) -> list[slice]:
@@ -315,19 +333,19 @@ def _still_turn(g, a, d) -> tuple[float, float]:
     return float(np.max(perp - 0.5 * np.abs(par))), float(np.mean(steady))
 
 
-def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = False) -> str:
+def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = False) -> UnitHint | None:
     """The hint of :func:`gyro_unit_hint` on one window; ``alt(scale)``: the window's gyro (rad/s) had the raw
     data been ``scale`` × what they are (default ``g·scale``; a calibration's bias is not scaled with them)."""
     k = g.shape[0]
     still, steady = _still_turn(g, a, d)
     if still > STILL_RATE:
-        return (
-            f"{_SCALES[np.pi / 180]} (the gyro turns at {still:.3g} rad/s about a horizontal axis while the "
-            "accelerometer shows the body still; if it is in rad/s, that bias is beyond any the estimators track: "
-            "subtract it first)"
+        return UnitHint(
+            "unit",
+            np.pi / 180,
+            f"the gyro turns at {still:.3g} rad/s about a horizontal axis while the accelerometer shows the body still",
         )
     if window_max * max(_SCALES) * float(np.median(d)) * k < 0.5:
-        return ""  # too little rotation to tell
+        return None  # too little rotation to tell
     if d.shape[0] > 1:
         # the longest stretch without lost samples: across a gap the strapdown turns by the rate after it for the
         # whole gap, which no unit factor explains (a correct rad/s log with 0.36 s lost in motion was refused as
@@ -345,13 +363,15 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
             if k * float(np.median(d)) < 2 * UNIT_MIN_S:
                 # a stretch of three 2-s means: a gyro 57× too large spun gravity steady there and a correct
                 # rad/s log with four short gaps was refused (helper); the unit is judged elsewhere or not at all
-                return ""
+                return None
     if k * float(np.median(d)) < UNIT_MIN_S:
-        return ""  # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused)
+        # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused); only a
+        # gyro far too slow for the turns gravity makes is named (time in 100-µs ticks read as µs: exit 0, helper)
+        return None if units_only else _short_time_hint(g, a, d)
     if steady >= 0.9:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
-        return ""
+        return None
     spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
@@ -373,9 +393,9 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
                 other = _time_hint(g, a, d, spread[best]) or _axes_hint(g, a, d, spread[best])
                 if other:
                     return other
-            return _SCALES[best]
+            return UnitHint("unit", best)
     if units_only:
-        return ""
+        return None
     return _time_or_axes_hint(g, a, d, spreads[1.0][1])
 
 
@@ -386,18 +406,30 @@ CONSISTENCY_STILL = 0.3
 #: and below which an alternative must bring it: the nine BROAD trials as declared 0.025-0.105 (a simulated
 #: dynamic flight's sustained accelerations up to 0.23), a gyro 2× too large ≥ 0.22, axes swapped ≥ 0.16
 CONSISTENCY_BAD = 0.2
-#: time-base factors tried against the declared one: the gyro integrated over steps twice too long (a time
-#: column at half the rate, or --rate twice too small) and half as long
+#: words for the time-base factors off by 2: the gyro integrated over steps twice too long (a time column at half
+#: the rate, or --rate twice too small) and half as long
 _TIME_SCALES = {0.5: "twice", 2.0: "half"}
-TIME_HINT = "the time steps look"
-AXES_HINT = "the gyro axes look swapped or flipped"
+#: a factor within this ratio of π/180 or 180/π is the gyro's unit (the unit hint names it), and one within it of 1
+#: is no finding
+SCALE_NEAR = 1.1
+#: the time/scale search runs this far (×) below the estimate from the angles gravity turns through (translation
+#: only adds to those angles, so the estimate is mostly high: 1.1-4× on the nine BROAD trials) and 1.5× above it
+SCALE_BELOW, SCALE_ABOVE = 5.0, 1.5
+#: factors that slips of the time base give (a rate twice or half the true one, a time unit off by 10 or a power of
+#: 1000), taken over the search's best when their drift is within ROUND_SCALE_TOL of it
+_ROUND_SCALES = (0.5, 2.0, 0.1, 10.0, 1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9)
+ROUND_SCALE_TOL = 1.2
+#: another factor on the gyro must leave at most this share of the declared gyro's drift (bias fitted): the nine
+#: BROAD trials as declared ≥ 1.02 (their best factor within ±30 % of 1, or no better), with their time base off by
+#: 20-40 % 0.04-0.39 (where rotation shows it; translation and vibration cannot tell: 0.5-1.0)
+TIME_RATIO = 0.4
 
 
 def _drift_of(g, a, d) -> float:
     return _gravity_spread(g, a, d, 1.0)[1]
 
 
-def _axes_hint(g, a, d, beat: float) -> str:
+def _axes_hint(g, a, d, beat: float) -> UnitHint | None:
     """A hint naming the signed axis permutation of the gyro (at its declared scale, or with the unit factor
     π/180 or 180/π) that explains how gravity turns within :data:`CONSISTENCY_BAD` and clearly better than
     ``beat`` (the best drift without a permutation), else ''."""
@@ -410,65 +442,194 @@ def _axes_hint(g, a, d, beat: float) -> str:
             if v < drift:
                 best, drift = (P, scale), v
     if best is None or not (drift < CONSISTENCY_BAD and drift < 0.75 * beat):
-        return ""
+        return None
     P, scale = best
-    unit = "" if scale == 1.0 else f", and {_SCALES[scale].split(':')[0]}"
-    return f"{AXES_HINT}: {describe_permutation(P, 'gyro', 'accelerometer axes')}{unit}"
+    return UnitHint("axes", scale, describe_permutation(P, "gyro", "accelerometer axes"), P)
 
 
-def _time_hint(g, a, d, beat: float) -> str:
-    """A hint naming a time base off by 2 when the gyro × 0.5 or × 2 explains how gravity turns within
-    :data:`CONSISTENCY_BAD` and in half the drift ``beat`` leaves, else ''."""
-    times = {s: _drift_of(g * s, a, d) for s in _TIME_SCALES}
-    s = min(times, key=times.get)
-    if times[s] < CONSISTENCY_BAD and times[s] < 0.5 * beat:
-        return (
-            f"{TIME_HINT} {_TIME_SCALES[s]} as long as they are (the gyro turns gravity ×{1 / s:g} as far as the "
-            "accelerometer sees)"
-        )
-    return ""
+def _turn_scale(g, a, d) -> float | None:
+    """The factor by which the gyro (rad/s) turns gravity less than the accelerometer sees it turn: the angles
+    between consecutive 0.1-s mean specific-force directions over the gyro's rotation ⊥ to them, summed (None when
+    the gyro hardly turns or gravity turns by less than :data:`SHORT_TURN` rad in all). Translation only adds to
+    the accelerometer's angles: 1.1-4× the true factor on the nine BROAD trials' unit windows."""
+    dt = float(np.median(d))
+    m = max(1, int(round(0.1 / dt)))
+    k = g.shape[0] // m
+    if k < 3:
+        return None
+    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
+    u = am / (_norm(am)[:, None] + 1e-300)
+    th = g[: k * m].reshape(k, m, 3).sum(axis=1) * dt
+    th = 0.5 * (th[:-1] + th[1:])  # from one bin's centre to the next
+    um = u[:-1] + u[1:]
+    um /= _norm(um)[:, None] + 1e-300
+    perp = float(np.sum(_norm(th - np.einsum("ij,ij->i", th, um)[:, None] * um)))
+    alpha = float(np.sum(np.arccos(np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0))))
+    return alpha / perp if perp > 1e-6 and alpha > SHORT_TURN else None
 
 
-def _time_or_axes_hint(g, a, d, drift1: float) -> str:
+#: a short log (under UNIT_MIN_S) is refused only when its gyro turns gravity less than 1/SHORT_SCALE as far as the
+#: accelerometer sees it turn (5× the largest overestimate translation gave) through at least SHORT_TURN rad
+SHORT_SCALE = 20.0
+SHORT_TURN = 0.5
+
+
+def _short_time_hint(g, a, d) -> UnitHint | None:
+    """The "time" hint of a window too short for the 2-s means: only a gyro :data:`SHORT_SCALE` times too slow."""
+    s0 = _turn_scale(g, a, d)
+    if s0 is None or s0 < SHORT_SCALE:
+        return None
+    return UnitHint(
+        "time",
+        s0,
+        f"the gyro, over these time steps, turns gravity about ×{1 / s0:.2g} as far as the accelerometer sees it turn",
+        rate_hz=1.0 / (s0 * float(np.median(d))),
+        rough=True,
+    )
+
+
+def _time_hint(g, a, d, beat: float) -> UnitHint | None:
+    """A "time" hint when one factor on the gyro (a sample rate or time unit off by it, or a gyro scale) explains
+    how gravity turns within :data:`CONSISTENCY_BAD` and in :data:`TIME_RATIO` of the drift ``beat`` leaves, else
+    None: searched
+    (steps of 2.3 %) about the factor the turning angles give (:func:`_turn_scale`); none near π/180 or 180/π
+    (the gyro's unit) or 1."""
+    s0 = _turn_scale(g, a, d)
+    if s0 is None:
+        return None
+    grid = s0 * np.logspace(
+        -np.log10(SCALE_BELOW), np.log10(SCALE_ABOVE), int(100 * np.log10(SCALE_BELOW * SCALE_ABOVE)) + 1
+    )
+    drift = np.array([_drift_of(g * s, a, d) for s in grid])
+    i = int(np.argmin(drift))
+    s, best = float(grid[i]), float(drift[i])
+    if not (best < CONSISTENCY_BAD and best < TIME_RATIO * beat):
+        return None
+    # a flight's sustained accelerations move the minimum (a time base off by 2 found at ×1.62): the usual slips
+    # (a rate halved, a time unit off by a power of 1000 or 10) are taken when they do nearly as well
+    for f in sorted(_ROUND_SCALES, key=lambda f: abs(np.log(f / s))):
+        if grid[0] <= f <= grid[-1] and _drift_of(g * f, a, d) <= ROUND_SCALE_TOL * best:
+            s = f
+            break
+    if any(abs(np.log(s / u)) < np.log(SCALE_NEAR) for u in _SCALES):
+        return None
+    half = next((w for f, w in _TIME_SCALES.items() if abs(np.log(s / f)) < np.log(1.05)), None)
+    words = (
+        f"the time steps look {half} as long as they are (the gyro turns gravity ×{1 / s:.3g} as far as the "
+        "accelerometer sees)"
+        if half
+        else f"the gyro, over these time steps, turns gravity ×{1 / s:.3g} as far as the accelerometer sees it turn"
+    )
+    return UnitHint("time", s, words, rate_hz=1.0 / (s * float(np.median(d))))
+
+
+def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
     """When the declared gyro does not explain how gravity turns in the body (while it does turn): a time base off
-    by 2, or axes swapped or flipped, where one of them explains it clearly better; '' otherwise. Judged on the drift of the 2-s means
+    or scale off, or axes swapped or flipped, where one of them explains it clearly better; None otherwise. Judged on the drift of the 2-s means
     of gravity in the gyro-integrated frame (translation averaged out), the declared gyro with the constant bias
     that steadies it most."""
-    if drift1 <= CONSISTENCY_BAD:
-        return ""
+    if drift1 <= CONSISTENCY_BAD and all(_drift_of(g * s, a, d) >= drift1 for s in (1 / SCALE_NEAR, SCALE_NEAR)):
+        return None  # the declared gyro steadies gravity well, better than 10 % more or less of it
     m = _moving_means(a, _means_window(d, a.shape[0]))
     if _drift(m / (_norm(m)[:, None] + 1e-300)) < CONSISTENCY_STILL:
-        return ""  # gravity hardly turns in the body: nothing to judge by
+        return None  # gravity hardly turns in the body: nothing to judge by
     drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
-    if drift1 <= CONSISTENCY_BAD:
-        return ""
+    # a rate 40 % too high steadied gravity within 0.15 rad on fast rotation (BROAD 07: 13.5° with exit 0;
+    # helper): the time base is judged also below CONSISTENCY_BAD, against a stricter share
     time = _time_hint(g, a, d, drift1)
     if time:
         return time
+    if drift1 <= CONSISTENCY_BAD:
+        return None
     # nothing that explains it is no evidence: a dynamic flight's sustained accelerations leave a correct gyro's
     # drift (0.17-0.23 rad) near gravity's own in the body (0.23-0.32)
     return _axes_hint(g, a, d, drift1)
 
 
-def check_imu(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None) -> None:
-    """Refuse inputs whose magnitudes contradict their declared units (acc m/s², gyr rad/s), swapped triads and
-    a clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if known."""
+def check_imu(
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None, gyro_unit: str | None = None
+) -> None:
+    """Refuse inputs whose magnitudes contradict their declared units (acc m/s², gyr rad/s), swapped triads, an
+    accelerometer without gravity and a clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if
+    known; ``gyro_unit``: the unit the gyro was declared in before it was converted (named in the messages; None:
+    not known, the messages name the usual deg/s ↔ rad/s mix-up)."""
     na = _norm(acc)
     ng = _norm(gyr)
-    check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)))
+    dt = float(np.median(dts))
+    check_rate(dt)
+    share = gravity_share(*tilt_sums(acc), dt, na, ng)
+    check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share)
     hint = gyro_unit_hint(gyr, acc, dts, ng)
     if hint:
-        raise _unit_error(hint)
-    _check_clipping(gyr, gyro_range, float(np.median(dts)), acc)
+        raise unit_error(hint, gyro_unit)
+    _check_clipping(gyr, gyro_range, dt, acc)
 
 
-def check_norms(med_a: float, med_g: float, peak: float) -> None:
-    """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s) and the gyro's
-    peak norm: swapped triads, an accelerometer not in m/s², a gyro in deg/s."""
+#: sample rates (Hz) an IMU log can have: outside, the time column's unit or --rate is wrong
+RATE_RANGE_HZ = (0.5, 100_000.0)
+
+
+def check_rate(dt: float) -> None:
+    """Refuse a median step ``dt`` (s) no IMU samples at (:data:`RATE_RANGE_HZ`): an epoch in ns read as s gave
+    steps of 3.5e6 s, integrated with exit 0 (helper)."""
+    lo, hi = RATE_RANGE_HZ
+    if not (1.0 / hi <= dt <= 1.0 / lo):
+        raise OptinavError(
+            f"the samples are {dt:.3g} s apart ({1.0 / dt:.3g} Hz), no IMU's rate: the time column's unit is wrong",
+            "give the time column's unit (--time-unit s, ms, us or ns) or the sample rate (--rate)",
+        )
+
+
+#: in the 2-s windows where the gyro turns by less than GRAVITY_STILL_TURN rad, an accelerometer with gravity keeps
+#: its norm in the window's mean (the nine BROAD trials: 0.98-1.0 of the median norm), a linear-acceleration output
+#: (gravity removed by the phone or the IMU's fusion) keeps little of it: below this share it is refused
+GRAVITY_SHARE = 0.5
+GRAVITY_STILL_TURN = 0.2
+
+
+def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndarray) -> float:
+    """The median norm of the specific force's ~2-s means, over the windows in which the gyro turns by less than
+    :data:`GRAVITY_STILL_TURN` rad (there gravity keeps its direction in the body), divided by the median norm
+    (``na``: the row norms or their median); ``bins``/``sums`` from :func:`tilt_sums`, ``ng`` the gyro's row norms
+    (rad/s). NaN when no window is that still (or the log is shorter than 2 s)."""
+    m = max(1, int(round(2.0 / (TILT_BIN * dt)))) if dt > 0 else 1
+    if bins.size == 0:
+        return float("nan")
+    tot = np.zeros((int(bins.max()) + 1, 3))
+    np.add.at(tot, bins, sums)
+    k = min(tot.shape[0] // m, ng.shape[0] // (m * TILT_BIN))
+    if k == 0:
+        return float("nan")
+    means = tot[: k * m].reshape(k, m, 3).sum(axis=1) / (m * TILT_BIN)
+    turn = ng[: k * m * TILT_BIN].reshape(k, m * TILT_BIN).sum(axis=1) * dt  # bounds the angle turned
+    still = turn < GRAVITY_STILL_TURN
+    med = float(np.median(na)) if np.ndim(na) else float(na)
+    if not np.any(still) or med <= 0:
+        return float("nan")
+    return float(np.median(_norm(means[still]))) / med
+
+
+def _gyro_words(unit: str) -> str:
+    return f"--gyro-unit {unit}" if unit else "--gyro-unit"
+
+
+def check_norms(
+    med_a: float, med_g: float, peak: float, gyro_unit: str | None = None, share: float = float("nan")
+) -> None:
+    """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s), the gyro's peak
+    norm and the accelerometer's :func:`gravity_share`: swapped triads, gravity removed, an accelerometer not in
+    m/s², a gyro beyond any range (``gyro_unit`` the declared one)."""
     if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
         raise OptinavError(
             f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the two triads look swapped",
             "check the column order of --columns (t,ax,ay,az,gx,gy,gz)",
+        )
+    if share < GRAVITY_SHARE:
+        # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77° (helper)
+        raise OptinavError(
+            f"while the gyro is still, the accelerometer's 2-s means keep {share:.0%} of its norm (median "
+            f"{med_a:.3g} m/s²): gravity looks removed (a linear-acceleration output), and the attitude is judged by it",
+            "give the accelerometer's own output, with gravity (not 'linear acceleration' or 'user acceleration')",
         )
     if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
         unit = "g" if 0.3 < med_a < 3 else "another unit"
@@ -477,43 +638,79 @@ def check_norms(med_a: float, med_g: float, peak: float) -> None:
             "declare the unit with --acc-unit (g, mg, m/s^2)",
         )
     if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
+        if gyro_unit in (None, "rad/s"):
+            raise OptinavError(
+                f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
+                "declare the unit with --gyro-unit deg/s",
+            )
         raise OptinavError(
-            f"the gyro peaks at {peak:.0f} rad/s: it looks like deg/s declared rad/s",
-            "declare the unit with --gyro-unit deg/s",
+            f"the gyro peaks at {np.degrees(peak):.3g} deg/s as declared in {gyro_unit}, beyond any gyro's range: the "
+            "data are in a finer unit (mdps? raw counts?)",
+            f"check {_gyro_words('')}: raw counts need their calibration (optinav apply) first",
         )
 
 
-def hint_scale(hint: str) -> float:
-    """The unit factor a (non-empty) hint of :func:`gyro_unit_hint` names: π/180 for a deg/s gyro declared rad/s,
-    180/π for the reverse."""
-    return np.pi / 180 if hint.startswith(_SCALES[np.pi / 180]) else 180 / np.pi
+def hint_scale(hint: UnitHint) -> float:
+    """The factor a hint of :func:`gyro_unit_hint` puts on the gyro as declared (π/180: it reads 57× too much)."""
+    return hint.scale
 
 
-def _unit_error(hint: str) -> OptinavError:
-    if hint.startswith(TIME_HINT):
+def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
+    """The error of a hint of :func:`gyro_unit_hint` for a gyro declared in ``gyro_unit`` (converted to rad/s
+    before the check; None: not known): names the flag that fixes what was found, never the unit the user already
+    gave."""
+    if hint.kind == "time":
         return OptinavError(
-            f"{hint}: the time column or the sample rate is off",
-            "check --rate, or the time column's unit (--time-unit)",
+            f"{hint.words}: the time column, the sample rate or the gyro's unit is off by that factor",
+            f"check --rate (the data fit {'roughly ' if hint.rough else ''}{hint.rate_hz:.3g} Hz) or the time column's unit (--time-unit), or "
+            f"{_gyro_words('')} (raw counts need their calibration, optinav apply)",
         )
-    if hint.startswith(AXES_HINT):
-        unit = next((u for u in ("deg/s", "rad/s") if f"{u} declared" in hint), None)
+    perm = f"{AXES_HINT}: {hint.words}" if hint.kind == "axes" else ""
+    seen = f" ({hint.words})" if hint.kind == "unit" and hint.words else ""
+    if hint.scale == 1.0:
+        return OptinavError(perm, "fix the gyro's column order or signs (--columns)")
+    want = "deg/s" if hint.scale < 1.0 else "rad/s"
+    if gyro_unit is None:
+        gyro_unit = "rad/s" if want == "deg/s" else "deg/s"
+    if gyro_unit == ("rad/s" if want == "deg/s" else "deg/s"):
+        # the usual mix-up: the other of the two units explains it
+        if perm:
+            return OptinavError(
+                f"{perm}, and {want} declared {gyro_unit}",
+                f"fix the gyro's column order or signs (--columns) and pass --gyro-unit {want}",
+            )
+        factor = "π/180" if want == "deg/s" else "180/π"
+        extra = ""
+        if seen:
+            extra = f" ({hint.words}" + (
+                "; if it is in rad/s, that bias is beyond any the estimators track: subtract it first)"
+                if want == "deg/s"
+                else ")"
+            )
         return OptinavError(
-            hint,
-            "fix the gyro's column order or signs (--columns)" + (f" and pass --gyro-unit {unit}" if unit else ""),
+            f"the gyro in {gyro_unit} does not explain how gravity turns in the body, a unit factor of {factor} does",
+            f"it looks like {want} declared {gyro_unit}: --gyro-unit {want}{extra}",
         )
-    factor = "π/180" if hint_scale(hint) < 1.0 else "180/π"
+    more = "57× more" if hint.scale < 1.0 else "57× less"
     return OptinavError(
-        f"the gyro in rad/s does not explain how gravity turns in the body, a unit factor of {factor} does",
-        f"it looks like {hint}",
+        (f"{perm}: " if perm else "")
+        + f"the gyro declared {gyro_unit} reads {more} than turns gravity in the body{seen}",
+        f"check {_gyro_words('')}: the data are in another unit (raw counts need their calibration, optinav apply)",
     )
 
 
-def check_gyro_unit(g: np.ndarray, a: np.ndarray, d: np.ndarray, window_max: float) -> None:
+#: the axes hint's first words
+AXES_HINT = "the gyro axes look swapped or flipped"
+
+
+def check_gyro_unit(
+    g: np.ndarray, a: np.ndarray, d: np.ndarray, window_max: float, gyro_unit: str | None = None
+) -> None:
     """The gyro-unit check of :func:`check_imu` on the samples of its window (gyr g, acc a, steps d, all (k, ·))
-    whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them)."""
+    whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them); ``gyro_unit`` as declared."""
     hint = _unit_hint_window(g, a, d, window_max)
     if hint:
-        raise _unit_error(hint)
+        raise unit_error(hint, gyro_unit)
 
 
 #: samples of each axis from which its quantum (the output's least significant bit) is estimated

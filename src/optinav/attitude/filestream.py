@@ -334,6 +334,7 @@ class _Blocks:
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
         self.truth_csv = truth_csv
+        self.gyro_unit = "rad/s"  # as the file declared it (the checks' messages name it), set by the first block
         self.broad = is_broad(path) and not o.columns and not o.datasets
         if reference and not (self.broad and has_reference(path)):
             raise OptinavError(
@@ -378,14 +379,17 @@ class _Blocks:
             self.position = chunks.position
             self.notes += [n for n in log.notes if n not in self.notes]
             if log.acc is None or log.gyr is None:
+                has = "only the accelerometer" if log.acc is not None else "only the gyroscope"
                 raise OptinavError(
-                    f"{self.path} needs accelerometer and gyroscope columns",
-                    "name them with --columns t,ax,ay,az,gx,gy,gz",
+                    f"{self.path} has {has}: the attitude needs the accelerometer and the gyroscope in one file",
+                    "merge the sensors' files on one time column first (phone apps write a file per sensor), or name "
+                    "the columns with --columns t,ax,ay,az,gx,gy,gz",
                 )
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
                 raise OptinavError(
                     "the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit"
                 )
+            self.gyro_unit = log.gyro_input_unit or log.gyro_unit
             row0 = chunks.rows - len(log)
             t = log.t
             # two rows at least in the first block: its first step comes from its first two times
@@ -401,6 +405,23 @@ class _Blocks:
     def _extra(self, table, row0: int, n: int) -> dict:
         if not self.names:
             return {}
+        try:
+            return self._extra_columns(table, row0, n)
+        except OptinavError as exc:
+            if not (self.mag and "named 'm" in exc.cause and "(found: " in exc.cause):
+                raise
+            # Xsens' Mag_X, a phone app's magneticField_x: --mag looked for mx,my,mz and named only the file's columns
+            found = exc.cause.split("(found: ")[1].rstrip(")").split("; ")[0].split(", ")
+            like = [c for c in found if "mag" in c.lower()]
+            if len(like) != 3:
+                like = [c for c in found if c.lower() in ("bx", "by", "bz")]  # Physics Toolbox: the field B
+            raise OptinavError(
+                exc.cause,
+                "name the magnetometer's three columns with --mag-columns"
+                + (f" (e.g. --mag-columns {','.join(like)})" if len(like) == 3 else " X,Y,Z"),
+            ) from None
+
+    def _extra_columns(self, table, row0: int, n: int) -> dict:
         if table is None:  # a format read whole by its library: its columns once, then cut
             if self._whole is None:
                 from optinav.io.readers import read_table
@@ -870,6 +891,7 @@ def stream_attitude(
         )
     if pol is not None and aop_n:
         aop_range(aop_lo, aop_hi, aop_n, pol.aop_unit)
+    checks.gyro_unit = src.gyro_unit
     checks.finish_first()
     gaps = checks.gaps
     if announce is not None:

@@ -28,7 +28,9 @@ class StreamChecks:
     (pass 1), :meth:`finish_first` (swapped triads, accelerometer unit, gyro peak, time gaps), :meth:`collect`
     every block again (pass 2), :meth:`finish_second` (gyro unit from how gravity turns, clipping, frame)."""
 
-    def __init__(self):
+    def __init__(self, gyro_unit: str | None = None):
+        #: the unit the gyro was declared in before its conversion to rad/s (the messages name it; None: not known)
+        self.gyro_unit = gyro_unit
         self._dts: list[np.ndarray] = []
         self._na: list[np.ndarray] = []
         self._ng: list[np.ndarray] = []
@@ -88,21 +90,23 @@ class StreamChecks:
         self.gap_steps = dts[self.gaps]
         self.median_dt = float(np.median(dts))
         del dts
+        _c.check_rate(self.median_dt)
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
         bins, sums = (np.concatenate(x) for x in zip(*self._tilt))
         self._tilt = []
-        self._acc_sum = sums.sum(axis=0)  # the whole log's mean specific force, for the frame warning
-        self.windows = _c.unit_windows(ng, np.array([self.median_dt]), bins, sums)
-        self.window_max = [float(np.max(ng[w])) for w in self.windows]
-        med_g = float(np.median(ng, overwrite_input=True))
-        del ng
         na = np.concatenate(self._na)
         self._na = []
         med_a = float(np.median(na, overwrite_input=True))
         del na
-        _c.check_norms(med_a, med_g, self.peak)
+        self._acc_sum = sums.sum(axis=0)  # the whole log's mean specific force, for the frame warning
+        self.windows = _c.unit_windows(ng, np.array([self.median_dt]), bins, sums)
+        self.window_max = [float(np.max(ng[w])) for w in self.windows]
+        share = _c.gravity_share(bins, sums, self.median_dt, med_a, ng)
+        med_g = float(np.median(ng, overwrite_input=True))
+        del ng
+        _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
@@ -132,7 +136,7 @@ class StreamChecks:
         for got, peak in zip(self._win, self.window_max):
             if got:
                 g, a, d = (np.concatenate(x) for x in zip(*got))
-                _c.check_gyro_unit(g, a, d, peak)
+                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
