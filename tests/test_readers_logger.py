@@ -572,3 +572,28 @@ def test_a_hash_inside_a_cell_is_no_comment(tmp_path):
     assert log.acc[:, 2].tolist() == list(range(50))
     log = read_imu(_w(tmp_path / "n.csv", "t ax ay az\n" + "".join(f"{k / 100} 1 2 3  # x\n" for k in range(9))))
     assert log.acc.shape == (9, 3)
+
+
+def test_a_shimmer_consensys_export_reads_with_its_names(tmp_path):
+    """Shimmer Consensys writes Excel's '"sep=<tab>"' line, the header with a trailing tab, a row of "CAL" labels
+    and a row of units (ms, m/(s^2), deg/s): the sep line was read as the only column ("1 expected"), and --delimiter
+    tab then found one column named 'sep=' (helper). Read now, its units converted."""
+    p = "Shimmer_9F6D_"
+    names = ["Timestamp_Unix_CAL"] + [f"Accel_LN_{a}_CAL" for a in "XYZ"] + [f"Gyro_{a}_CAL" for a in "XYZ"]
+    rows = [[1000.0 + 10 * i, 0.1, 0.2, 9.8, 1.0 * i, 0.0, -2.0] for i in range(5)]
+    text = '"sep=\t"\n' + "\t".join(p + n for n in names) + "\t\n" + "CAL\t" * 7 + "\n"
+    text += "ms\t" + "m/(s^2)\t" * 3 + "deg/s\t" * 3 + "\n" + "".join("\t".join(map(str, r)) + "\t\n" for r in rows)
+    f = _w(tmp_path / "shimmer.csv", text)
+    cols = ",".join(f"{k}={p}{n}" for k, n in zip(["t", "ax", "ay", "az", "gx", "gy", "gz"], names))
+    log = read_imu(f, columns=cols)
+    np.testing.assert_allclose(log.t, [1.0, 1.01, 1.02, 1.03, 1.04])
+    np.testing.assert_allclose(log.acc[0], [0.1, 0.2, 9.8])
+    np.testing.assert_allclose(log.gyr[:, 0], np.radians([0, 1, 2, 3, 4]))
+
+
+def test_coarse_duplicate_times_name_the_way_round_them(tmp_path):
+    """Whole-millisecond stamps at 286 Hz repeat: the error said "drop duplicated samples", naming no flag."""
+    f = _w(tmp_path / "dup.csv", "t,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n0,0,0,9.8,0,0,0\n1,0,0,9.8,0,0,0\n")
+    with pytest.raises(OptinavError, match="duplicate timestamp") as exc:
+        read_imu(f, time_unit="ms")
+    assert "'_' in --columns" in exc.value.remedy and "--rate" in exc.value.remedy

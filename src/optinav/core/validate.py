@@ -108,7 +108,8 @@ def check_timestamps(
             i = a + int(np.flatnonzero(dt == 0)[0])
             raise OptinavError(
                 f"{name} has a duplicate timestamp at index {index0 + i + 1} (t = {t[i + 1]:.6g} s)",
-                "drop duplicated samples",
+                "drop duplicated samples; a time column too coarse for the rate (whole ms at hundreds of Hz) can be "
+                "skipped with '_' in --columns, the sample rate given with --rate",
             )
         if np.any(dt < 0):
             i = a + int(np.flatnonzero(dt < 0)[0])

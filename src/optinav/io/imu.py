@@ -62,6 +62,8 @@ ACC_UNITS = {
     "m/s²": "m/s^2",
     "m/s/s": "m/s^2",
     "m s^-2": "m/s^2",
+    "m/(s^2)": "m/s^2",  # Shimmer Consensys
+    "m/(s²)": "m/s^2",
 }
 #: accepted gyroscope unit spellings → canonical unit
 GYRO_UNITS = {

@@ -812,9 +812,17 @@ def _is_header(tokens: list[str], following: list[str] | None) -> bool:
     text = [not _is_number(t) for t in tokens]
     if not any(text):
         return False
-    if following is None or len(following) != len(tokens) or all(text):
+    # an empty name (a trailing delimiter) is no number
+    if following is None or len(following) != len(tokens) or all(x or t == "" for x, t in zip(text, tokens)):
         return True
     return any(t and _is_number(f) and f != "" for t, f in zip(text, following))
+
+
+def _label_row(tokens: list[str], header: list[str]) -> bool:
+    """A row under the header with a word in every named column (units, or a label such as Shimmer's "CAL")."""
+    return len(tokens) == len(header) and all(
+        (t and not _is_number(t)) or (not h and not t) for t, h in zip(tokens, header)
+    )
 
 
 @dataclasses.dataclass
@@ -832,6 +840,10 @@ class _Layout:
     dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
     loose: set[int] = dataclasses.field(default_factory=set)  # columns nobody reads: a text cell there is NaN
     comma: bool = False  # decimal commas (a ';' or tab file from a German or French Excel): read as points
+
+
+#: Excel's first line naming the delimiter ("sep=;" or "sep=<tab>", quoted or not)
+_EXCEL_SEP = re.compile(r'^"?sep=(.)"?$')
 
 
 def _text_layout(
@@ -859,6 +871,14 @@ def _text_layout(
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
+    excel = _EXCEL_SEP.match(lines[content[0]].strip())
+    if excel:
+        # Excel's delimiter line (a Shimmer Consensys export: '"sep=\t"'): it names the delimiter and is no row
+        content = content[1:]
+        if not content:
+            raise OptinavError(f"{path} has no data rows after its 'sep=' line", "pass a file with data")
+        if not given:
+            given, delim = True, excel.group(1)
     preamble = _preamble(lines, content)
     content = content[int(preamble.pop("_preamble_lines", 0)) :][:10]
     sample = [_strip_comment(lines[i]) for i in content]
@@ -876,11 +896,14 @@ def _text_layout(
     if is_header:
         header = toks0
         start = content[0] + 1
-        if len(sample) > 1:  # a row of units right below the header
-            toks1 = _split(sample[1], delim)
-            if len(toks1) == len(header) and all(t and not _is_number(t) for t in toks1) and len(sample) > 2:
-                units = {h: u for h, u in zip(header, toks1)}
-                start = content[1] + 1
+        # rows of units (or labels: Shimmer writes "CAL" rows, then units) right below the header: the last one
+        # holds the units
+        j = 1
+        while j < min(len(sample) - 1, 4) and _label_row(_split(sample[j], delim), header):
+            j += 1
+        if j > 1:
+            units = {h: u for h, u in zip(header, _split(sample[j - 1], delim)) if h}
+            start = content[j - 1] + 1
     elif comments and last_comment == content[0] - 1:
         # numpy.savetxt writes its header as a '# a,b,c' comment: use the comment line right above the data if it fits
         cand = _split(comments[-1], delim)
