@@ -654,3 +654,13 @@ def test_a_gyro_clipped_below_its_integer_range_leaves_its_turns_out(tmp_path, c
     r = CalibrationResult.from_json(res)
     k, s = np.diag(np.asarray(r.gyroscope["K"])), np.diag(np.asarray(r.gyroscope["K_std"]))
     assert np.all(np.abs(k - np.diag(np.asarray(truth))) < 3 * s), (k, np.diag(np.asarray(truth)), s)
+
+
+@needs_data
+def test_a_doubled_rate_that_leaves_too_few_poses_names_rate(tmp_path, capsys):
+    """imucal's example session at 102.4 Hz given --rate 204.8 (the annotated session's rate): its still stretches
+    halve and too few reach --min-duration; the error listed --window, --threshold, --min-duration and --sections
+    but not --rate (helper)."""
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "204.8"]
+    err = _cli_error(capsys, argv + ["--gyro-unit", "deg/s", "--out", str(tmp_path / "r.json")])
+    assert "static interval(s)" in err and "--rate" in err

@@ -544,8 +544,9 @@ def calibrate(
         raise OptinavError(
             f"only {len(ranges)} static interval(s) of at least {min_duration_s:g} s found (acc {levels}; threshold "
             f"{float(selection.get('threshold') or threshold or np.nan):.3g}); norm observation needs at least 6 poses",
-            "check that the log holds >= 6 still poses, or try a longer --window, a --threshold, a shorter "
-            "--min-duration, or give the poses by hand with --sections",
+            "check that the log holds >= 6 still poses and that --rate (or the time column) is right (the "
+            "intervals' lengths come from it), or try a longer --window, a --threshold, a shorter --min-duration, or "
+            "give the poses by hand with --sections",
         )
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
     ranges, t_int, st = _drop_creeping(acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g)
