@@ -29,7 +29,8 @@ def register(sub) -> None:
             flat minimum / 0.664, rate random walk K at tau = 3 s on the slope +1/2, quantization Q on the slope
             -1, rate ramp R at tau = sqrt(2) s on +1) and a least-squares fit of the five-term model to the whole
             curve, with 68 % intervals. A steady drift of the rate (a sensor warming up) is the ramp R, kept out of
-            the random walk K (it was taken for K: 2-6 times the truth); a clear one is named in a note.
+            the random walk K (it was taken for K: 2-6 times the truth); a clear one is named in a note, and so is
+            a warm-up that settles early in the log (no ramp: it still enters K), by the log's halves' K disagreeing.
             Kalibr's continuous-time noise density is N (unit/sqrt(Hz)) and its random walk K
             (unit/s/sqrt(Hz)), taken from the fit. Record hours at rest; long logs are summed in chunks.
             The random walk comes from the last octaves of the record: in simulations its 68 % interval held
