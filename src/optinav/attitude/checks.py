@@ -432,7 +432,7 @@ def _drift_of(g, a, d) -> float:
 def _axes_hint(g, a, d, beat: float) -> UnitHint | None:
     """A hint naming the signed axis permutation of the gyro (at its declared scale, or with the unit factor
     π/180 or 180/π) that explains how gravity turns within :data:`CONSISTENCY_BAD` and clearly better than
-    ``beat`` (the best drift without a permutation), else ''."""
+    ``beat`` (the best drift without a permutation), else None."""
     from optinav.core.rotations import describe_permutation, signed_permutations
 
     best, drift = None, np.inf
@@ -491,9 +491,8 @@ def _short_time_hint(g, a, d) -> UnitHint | None:
 def _time_hint(g, a, d, beat: float) -> UnitHint | None:
     """A "time" hint when one factor on the gyro (a sample rate or time unit off by it, or a gyro scale) explains
     how gravity turns within :data:`CONSISTENCY_BAD` and in :data:`TIME_RATIO` of the drift ``beat`` leaves, else
-    None: searched
-    (steps of 2.3 %) about the factor the turning angles give (:func:`_turn_scale`); none near π/180 or 180/π
-    (the gyro's unit) or 1."""
+    None: searched (steps of 2.3 %) about the factor the turning angles give (:func:`_turn_scale`); none near π/180
+    or 180/π (the gyro's unit) or 1."""
     s0 = _turn_scale(g, a, d)
     if s0 is None:
         return None
@@ -609,10 +608,6 @@ def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndar
     return float(np.median(_norm(means[still]))) / med
 
 
-def _gyro_words(unit: str) -> str:
-    return f"--gyro-unit {unit}" if unit else "--gyro-unit"
-
-
 def check_norms(
     med_a: float, med_g: float, peak: float, gyro_unit: str | None = None, share: float = float("nan")
 ) -> None:
@@ -646,13 +641,8 @@ def check_norms(
         raise OptinavError(
             f"the gyro peaks at {np.degrees(peak):.3g} deg/s as declared in {gyro_unit}, beyond any gyro's range: the "
             "data are in a finer unit (mdps? raw counts?)",
-            f"check {_gyro_words('')}: raw counts need their calibration (optinav apply) first",
+            "check --gyro-unit: raw counts need their calibration (optinav apply) first",
         )
-
-
-def hint_scale(hint: UnitHint) -> float:
-    """The factor a hint of :func:`gyro_unit_hint` puts on the gyro as declared (π/180: it reads 57× too much)."""
-    return hint.scale
 
 
 def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
@@ -662,8 +652,8 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
     if hint.kind == "time":
         return OptinavError(
             f"{hint.words}: the time column, the sample rate or the gyro's unit is off by that factor",
-            f"check --rate (the data fit {'roughly ' if hint.rough else ''}{hint.rate_hz:.3g} Hz) or the time column's unit (--time-unit), or "
-            f"{_gyro_words('')} (raw counts need their calibration, optinav apply)",
+            f"check --rate (the data fit {'roughly ' if hint.rough else ''}{hint.rate_hz:.3g} Hz) or the time "
+            "column's unit (--time-unit), or --gyro-unit (raw counts need their calibration, optinav apply)",
         )
     perm = f"{AXES_HINT}: {hint.words}" if hint.kind == "axes" else ""
     seen = f" ({hint.words})" if hint.kind == "unit" and hint.words else ""
@@ -695,7 +685,7 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
     return OptinavError(
         (f"{perm}: " if perm else "")
         + f"the gyro declared {gyro_unit} reads {more} than turns gravity in the body{seen}",
-        f"check {_gyro_words('')}: the data are in another unit (raw counts need their calibration, optinav apply)",
+        "check --gyro-unit: the data are in another unit (raw counts need their calibration, optinav apply)",
     )
 
 

@@ -132,7 +132,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     corrected by the calibration as the alternatives; silent when too little turns): a log in rad/s corrected by
     a calibration made for deg/s read 57 times too small with exit 0 (the calibration's bias, in its own unit,
     is no multiple of the data's)."""
-    from optinav.attitude.checks import gyro_unit_hint, hint_scale
+    from optinav.attitude.checks import gyro_unit_hint
 
     if log.t is None or log.t.size < 3:
         return
@@ -143,7 +143,7 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     raw = calibration_raw(log, "gyro", res.units.get("gyroscope_raw"))
     hint = gyro_unit_hint(gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * s, acc[sl]), units_only=True)
     if hint:
-        unit = "deg/s" if hint_scale(hint) < 1.0 else "rad/s"
+        unit = "deg/s" if hint.scale < 1.0 else "rad/s"
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
             f"gravity turns in the body, as it would were the data's gyro in {unit}: it is not in the "
