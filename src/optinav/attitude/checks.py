@@ -474,11 +474,57 @@ SHORT_SCALE = 20.0
 SHORT_TURN = 0.5
 
 
+#: the gyro's rotation ⊥ gravity and the accelerometer's own turn, bin by bin, must agree at least this well
+#: (correlation of the two rotation vectors) before a short log's scale is judged: translation, a lever arm's pull
+#: and vibration turn the accelerometer's means without the gyro (BROAD 07's fast rotation, 27's vibration, a car:
+#: ratios 28× to hundreds of times with the gyro right)
+SHORT_CORRELATION = 0.7
+
+
+def _rotation_fit(g, a, d) -> tuple[float, float]:
+    """(scale, correlation) of the accelerometer's turns on the gyro's: per bin, the rotation vector that takes one
+    mean specific-force direction to the next against the gyro's rotation ⊥ to them (a body-frame vector turns
+    against the body: u × u' ≈ −θ⊥); the least-squares factor and the correlation of the two, for bins of 0.1 s
+    as declared and 10 and 100 times fewer samples (a time base 100× off makes a declared 0.1 s ten seconds), the
+    best correlated."""
+    dt = float(np.median(d))
+    best = (float("nan"), 0.0)
+    for span in (0.1, 0.01, 0.001):
+        fit = _rotation_fit_bins(g, a, dt, max(1, int(round(span / dt))))
+        if fit[1] > best[1]:
+            best = fit
+    return best
+
+
+def _rotation_fit_bins(g, a, dt: float, m: int) -> tuple[float, float]:
+    """:func:`_rotation_fit` with bins of ``m`` samples."""
+    k = g.shape[0] // m
+    if k < 3:
+        return float("nan"), 0.0
+    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
+    u = am / (_norm(am)[:, None] + 1e-300)
+    th = g[: k * m].reshape(k, m, 3).sum(axis=1) * dt
+    th = 0.5 * (th[:-1] + th[1:])
+    um = u[:-1] + u[1:]
+    um /= _norm(um)[:, None] + 1e-300
+    tp = th - np.einsum("ij,ij->i", th, um)[:, None] * um
+    r = -np.cross(u[:-1], u[1:])
+    rt, tt, rr = float(np.sum(r * tp)), float(np.sum(tp * tp)), float(np.sum(r * r))
+    if tt <= 0 or rr <= 0:
+        return float("nan"), 0.0
+    return rr / rt if rt > 0 else float("inf"), rt / np.sqrt(rr * tt)
+
+
 def _short_time_hint(g, a, d) -> UnitHint | None:
-    """The "time" hint of a window too short for the 2-s means: only a gyro :data:`SHORT_SCALE` times too slow."""
+    """The "time" hint of a window too short for the 2-s means: only a gyro :data:`SHORT_SCALE` times too slow whose
+    rotations match the accelerometer's turns (:data:`SHORT_CORRELATION`)."""
     s0 = _turn_scale(g, a, d)
     if s0 is None or s0 < SHORT_SCALE:
         return None
+    s1, corr = _rotation_fit(g, a, d)
+    if not (corr >= SHORT_CORRELATION and s1 >= SHORT_SCALE):
+        return None
+    s0 = s1
     return UnitHint(
         "time",
         s0,
@@ -561,6 +607,9 @@ def check_imu(
     hint = gyro_unit_hint(gyr, acc, dts, ng)
     if hint:
         raise unit_error(hint, gyro_unit)
+    if not share >= 0.0:  # no still window: judged where the gyro turns most
+        sl = _turning_window(ng, dts)
+        _check_moving_gravity(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts)
     _check_clipping(gyr, gyro_range, dt, acc)
 
 
@@ -589,7 +638,7 @@ GRAVITY_STILL_TURN = 0.2
 def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndarray) -> float:
     """The median norm of the specific force's ~2-s means, over the windows in which the gyro turns by less than
     :data:`GRAVITY_STILL_TURN` rad (there gravity keeps its direction in the body), divided by the median norm
-    (``na``: the row norms or their median); ``bins``/``sums`` from :func:`tilt_sums`, ``ng`` the gyro's row norms
+    or g, the smaller (``na``: the row norms or their median); ``bins``/``sums`` from :func:`tilt_sums`, ``ng`` the gyro's row norms
     (rad/s). NaN when no window is that still (or the log is shorter than 2 s)."""
     m = max(1, int(round(2.0 / (TILT_BIN * dt)))) if dt > 0 else 1
     if bins.size == 0:
@@ -602,7 +651,8 @@ def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndar
     means = tot[: k * m].reshape(k, m, 3).sum(axis=1) / (m * TILT_BIN)
     turn = ng[: k * m * TILT_BIN].reshape(k, m * TILT_BIN).sum(axis=1) * dt  # bounds the angle turned
     still = turn < GRAVITY_STILL_TURN
-    med = float(np.median(na)) if np.ndim(na) else float(na)
+    # against g where the norm is larger: vibration of 2 g on a still mount doubles the median norm, not gravity
+    med = min(float(np.median(na)) if np.ndim(na) else float(na), G_STANDARD)
     if not np.any(still) or med <= 0:
         return float("nan")
     return float(np.median(_norm(means[still]))) / med
@@ -621,11 +671,7 @@ def check_norms(
         )
     if share < GRAVITY_SHARE:
         # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77° (helper)
-        raise OptinavError(
-            f"while the gyro is still, the accelerometer's 2-s means keep {share:.0%} of its norm (median "
-            f"{med_a:.3g} m/s²): gravity looks removed (a linear-acceleration output), and the attitude is judged by it",
-            "give the accelerometer's own output, with gravity (not 'linear acceleration' or 'user acceleration')",
-        )
+        raise _gravity_removed(share, med_a, "while the gyro is still")
     if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
         unit = "g" if 0.3 < med_a < 3 else "another unit"
         raise OptinavError(
@@ -660,6 +706,7 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
     if hint.scale == 1.0:
         return OptinavError(perm, "fix the gyro's column order or signs (--columns)")
     want = "deg/s" if hint.scale < 1.0 else "rad/s"
+    seen_as = gyro_unit or "rad/s"  # the library takes rad/s: what it was declared in before is not known
     if gyro_unit is None:
         gyro_unit = "rad/s" if want == "deg/s" else "deg/s"
     if gyro_unit == ("rad/s" if want == "deg/s" else "deg/s"):
@@ -678,7 +725,7 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
                 else ")"
             )
         return OptinavError(
-            f"the gyro in {gyro_unit} does not explain how gravity turns in the body, a unit factor of {factor} does",
+            f"the gyro in {seen_as} does not explain how gravity turns in the body, a unit factor of {factor} does",
             f"it looks like {want} declared {gyro_unit}: --gyro-unit {want}{extra}",
         )
     more = "57× more" if hint.scale < 1.0 else "57× less"
@@ -693,14 +740,55 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
 AXES_HINT = "the gyro axes look swapped or flipped"
 
 
+def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float:
+    """The median norm of the specific force's 2-s means in the gyro-integrated (almost inertial) frame, over its
+    median norm or g, the smaller: gravity stays put there while the body moves (the nine BROAD trials' unit
+    windows ≥ 0.9), a linear-acceleration output averages out (NaN for a window under 4 s)."""
+    from optinav.core.rotations import quat_rotate
+    from optinav.core.strapdown import attitude_update
+
+    w = _means_window(d, g.shape[0])
+    if g.shape[0] < 2 * w:
+        return float("nan")
+    h = d[:, None] if d.shape[0] > 1 else d[0]
+    q = attitude_update([1.0, 0.0, 0.0, 0.0], g * h, coning="none")[1:]
+    m = _moving_means(quat_rotate(q, a), w)
+    return float(np.median(_norm(m))) / min(float(np.median(_norm(a))), G_STANDARD)
+
+
+def _gravity_removed(share: float, med_a: float, where: str) -> OptinavError:
+    return OptinavError(
+        f"{where}, the accelerometer's 2-s means keep {share:.0%} of its norm (median {med_a:.3g} m/s²): gravity "
+        "looks removed (a linear-acceleration output), and the attitude is judged by it",
+        "give the accelerometer's own output, with gravity (not 'linear acceleration' or 'user acceleration')",
+    )
+
+
 def check_gyro_unit(
-    g: np.ndarray, a: np.ndarray, d: np.ndarray, window_max: float, gyro_unit: str | None = None
+    g: np.ndarray,
+    a: np.ndarray,
+    d: np.ndarray,
+    window_max: float,
+    gyro_unit: str | None = None,
+    moving: bool = False,
 ) -> None:
     """The gyro-unit check of :func:`check_imu` on the samples of its window (gyr g, acc a, steps d, all (k, ·))
-    whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them); ``gyro_unit`` as declared."""
+    whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them); ``gyro_unit`` as declared;
+    ``moving``: the log had no still window, so gravity is judged in the gyro-integrated frame here."""
     hint = _unit_hint_window(g, a, d, window_max)
     if hint:
         raise unit_error(hint, gyro_unit)
+    if moving:
+        _check_moving_gravity(g, a, d)
+
+
+def _check_moving_gravity(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> None:
+    """A log in motion throughout has no still window to judge gravity by (:func:`gravity_share` NaN): a
+    linear-acceleration output of 20-60 s of BROAD's motion ran with exit 0 at 48-110° (helper). Judged in the
+    gyro-integrated frame instead, once the gyro's unit has passed."""
+    share = inertial_gravity_share(g, a, d)
+    if share < GRAVITY_SHARE:
+        raise _gravity_removed(share, float(np.median(_norm(a))), "in the gyro-integrated frame")
 
 
 #: samples of each axis from which its quantum (the output's least significant bit) is estimated

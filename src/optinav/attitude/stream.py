@@ -103,7 +103,7 @@ class StreamChecks:
         self._acc_sum = sums.sum(axis=0)  # the whole log's mean specific force, for the frame warning
         self.windows = _c.unit_windows(ng, np.array([self.median_dt]), bins, sums)
         self.window_max = [float(np.max(ng[w])) for w in self.windows]
-        share = _c.gravity_share(bins, sums, self.median_dt, med_a, ng)
+        share = self.gravity_share = _c.gravity_share(bins, sums, self.median_dt, med_a, ng)
         med_g = float(np.median(ng, overwrite_input=True))
         del ng
         _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share)
@@ -136,7 +136,7 @@ class StreamChecks:
         for got, peak in zip(self._win, self.window_max):
             if got:
                 g, a, d = (np.concatenate(x) for x in zip(*got))
-                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit)
+                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit, moving=not self.gravity_share >= 0.0)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
