@@ -877,3 +877,19 @@ def test_a_linear_acceleration_output_in_continuous_motion_is_refused():
     check_imu(tr.gyr[i:j], tr.acc[i:j], np.array([tr.dt]))
     with pytest.raises(Exception, match="gravity looks removed"):
         check_imu(tr.gyr[i:j], lin, np.array([tr.dt]))
+
+
+@pytest.mark.parametrize(("name", "start_s", "seconds"), [("03_undisturbed_slow_rotation_C", 0.0, 60.0), ("02_undisturbed_slow_rotation_B", 40.0, 20.0)])  # fmt: skip
+def test_a_rate_too_high_on_a_cut_is_named(name, start_s, seconds):
+    """--rate 1000 for 285.7 Hz on cuts (helper): 60 s of trial 03 ran at 65° (gravity drifted within the 2-s means'
+    tolerance), 20 s of 02 at 48° (17 s declared: too short for them). The gyro's rotations against the
+    accelerometer's turns, bin by bin where they correlate, name the factor; the cuts at their true rate pass."""
+    from optinav.attitude.checks import check_imu
+
+    tr = load_broad(SHARED / "attitude" / "broad" / f"{name}.hdf5")
+    i = int(round(start_s / tr.dt))
+    j = i + int(round(seconds / tr.dt))
+    with pytest.raises(Exception, match="as far as the accelerometer sees it turn") as exc:
+        check_imu(tr.gyr[i:j], tr.acc[i:j], np.array([1e-3]))
+    assert "--rate" in exc.value.remedy
+    check_imu(tr.gyr[i:j], tr.acc[i:j], np.array([tr.dt]))
