@@ -372,6 +372,11 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
         return None
+    if _perp_share(g, a, d) < PERP_SHARE_MIN:
+        # a body that turns mostly about the vertical (a car) does not turn gravity: a gyro 57× too large spun the
+        # frame fast enough to average the car's sustained accelerations out of the 2-s means and was taken for the
+        # right unit (a helper's level-car logs: 9 of 36 refused as rad/s declared deg/s)
+        return None
     spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
@@ -483,6 +488,26 @@ SHORT_TURN = 0.5
 #: and vibration turn the accelerometer's means without the gyro (BROAD 07's fast rotation, 27's vibration, a car:
 #: ratios 28× to hundreds of times with the gyro right)
 SHORT_CORRELATION = 0.7
+
+
+#: the share of the gyro's rotation ⊥ gravity (0.1-s bins) below which how gravity turns cannot judge the gyro: the
+#: nine BROAD trials' unit windows 0.64-0.96, a level car turning and braking 0.14-0.25
+PERP_SHARE_MIN = 0.4
+
+
+def _perp_share(g, a, d) -> float:
+    """The gyro's rotation ⊥ the specific force's 0.1-s mean direction over its whole rotation, summed over bins."""
+    dt = float(np.median(d))
+    m = max(1, int(round(0.1 / dt)))
+    k = g.shape[0] // m
+    if k == 0:
+        return 1.0
+    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
+    u = am / (_norm(am)[:, None] + 1e-300)
+    th = g[: k * m].reshape(k, m, 3).sum(axis=1)
+    tp = th - np.einsum("ij,ij->i", th, u)[:, None] * u
+    total = float(np.sum(_norm(th)))
+    return float(np.sum(_norm(tp))) / total if total > 0 else 1.0
 
 
 #: bins :func:`_rotation_fit` needs at one bin length
