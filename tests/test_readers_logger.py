@@ -597,3 +597,12 @@ def test_coarse_duplicate_times_name_the_way_round_them(tmp_path):
     with pytest.raises(OptinavError, match="duplicate timestamp") as exc:
         read_imu(f, time_unit="ms")
     assert "'_' in --columns" in exc.value.remedy and "--rate" in exc.value.remedy
+
+
+def test_rows_of_words_under_the_header_are_not_all_taken_for_labels(tmp_path):
+    """Label rows under the header (Shimmer's "CAL", then units) are skipped only when data follow them: quoted
+    decimal commas ("0,0035") looked like three rows of words and were skipped, the error then naming line 5."""
+    rows = "".join(f'"0,{i:06d}","0,1","0,2","9,8","0,0","0,0","0,0"\n' for i in range(0, 40, 4))
+    f = _w(tmp_path / "q.csv", '"t","ax","ay","az","gx","gy","gz"\n' + rows)
+    with pytest.raises(OptinavError, match="line 3"):
+        read_imu(f)

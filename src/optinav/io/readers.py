@@ -899,8 +899,10 @@ def _text_layout(
         # rows of units (or labels: Shimmer writes "CAL" rows, then units) right below the header: the last one
         # holds the units
         j = 1
-        while j < min(len(sample) - 1, 4) and _label_row(_split(sample[j], delim), header):
+        while j < min(len(sample) - 1, 3) and _label_row(_split(sample[j], delim), header):
             j += 1
+        if j > 2 and not any(_is_number(t) and t for t in _split(sample[j], delim)):
+            j = 2  # more rows of words follow: data this reader cannot parse, named at their own line below
         if j > 1:
             units = {h: u for h, u in zip(header, _split(sample[j - 1], delim)) if h}
             start = content[j - 1] + 1
