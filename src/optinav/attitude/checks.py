@@ -252,6 +252,15 @@ def _bin_starts(n: int, row0: int) -> tuple[np.ndarray, np.ndarray]:
     return row0 // TILT_BIN + np.arange(first.size), first
 
 
+def _grouped_tilt_sums(bins: np.ndarray, sums: np.ndarray, m: int) -> np.ndarray:
+    """The specific-force sums (k, 3) of ``m`` consecutive TILT_BIN-sample bins, from :func:`tilt_sums`'s per-block
+    bins (a bin split between two blocks is summed again here)."""
+    tot = np.zeros((int(bins.max()) + 1, 3))
+    np.add.at(tot, bins, sums)
+    k = tot.shape[0] // m
+    return tot[: k * m].reshape(k, m, 3).sum(axis=1)
+
+
 def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> slice:
     """The UNIT_WINDOW_S-long stretch (of ``n`` samples, step ``dt`` s) in which the mean specific force turns
     most in the body (the angles between consecutive ~TILT_BIN_S means summed): the poses and flips of a
@@ -260,11 +269,8 @@ def tilting_window(bins: np.ndarray, sums: np.ndarray, n: int, dt: float) -> sli
     w = int(np.ceil(UNIT_WINDOW_S / dt)) if dt > 0 else n
     if n <= w or bins.size == 0:
         return slice(0, n)
-    tot = np.zeros((int(bins.max()) + 1, 3))
-    np.add.at(tot, bins, sums)
     m = max(1, int(round(TILT_BIN_S / (TILT_BIN * dt))))
-    k = tot.shape[0] // m
-    mean = tot[: k * m].reshape(k, m, 3).sum(axis=1)
+    mean = _grouped_tilt_sums(bins, sums, m)
     u = mean / (_norm(mean)[:, None] + 1e-300)
     ang = np.arccos(np.clip(np.einsum("ij,ij->i", u[1:], u[:-1]), -1.0, 1.0))
     wb = max(1, w // (m * TILT_BIN))
@@ -454,23 +460,40 @@ def _axes_hint(g, a, d, beat: float) -> UnitHint | None:
     return UnitHint("axes", scale, describe_permutation(P, "gyro", "accelerometer axes"), P)
 
 
+def _bin_turns(g, a, dt: float, m: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per bin of ``m`` samples: the specific force's mean direction u (k, 3) and the gyro's rotation θ (k, 3, rad);
+    None under three bins."""
+    k = g.shape[0] // m
+    if k < 3:
+        return None
+    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
+    u = am / (_norm(am)[:, None] + 1e-300)
+    return u, g[: k * m].reshape(k, m, 3).sum(axis=1) * dt
+
+
+def _perp(th: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The part of each rotation θ (n, 3) ⊥ its unit direction u (n, 3)."""
+    return th - np.einsum("ij,ij->i", th, u)[:, None] * u
+
+
+def _between_bins(u: np.ndarray, th: np.ndarray) -> np.ndarray:
+    """The gyro's rotation from one bin's centre to the next, ⊥ the two bins' mean direction (k − 1, 3)."""
+    um = u[:-1] + u[1:]
+    um /= _norm(um)[:, None] + 1e-300
+    return _perp(0.5 * (th[:-1] + th[1:]), um)
+
+
 def _turn_scale(g, a, d) -> float | None:
     """The factor by which the gyro (rad/s) turns gravity less than the accelerometer sees it turn: the angles
     between consecutive 0.1-s mean specific-force directions over the gyro's rotation ⊥ to them, summed (None when
     the gyro hardly turns or gravity turns by less than :data:`SHORT_TURN` rad in all). Translation only adds to
     the accelerometer's angles: 1.1-4× the true factor on the nine BROAD trials' unit windows."""
     dt = float(np.median(d))
-    m = max(1, int(round(0.1 / dt)))
-    k = g.shape[0] // m
-    if k < 3:
+    bins = _bin_turns(g, a, dt, max(1, int(round(0.1 / dt))))
+    if bins is None:
         return None
-    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
-    u = am / (_norm(am)[:, None] + 1e-300)
-    th = g[: k * m].reshape(k, m, 3).sum(axis=1) * dt
-    th = 0.5 * (th[:-1] + th[1:])  # from one bin's centre to the next
-    um = u[:-1] + u[1:]
-    um /= _norm(um)[:, None] + 1e-300
-    perp = float(np.sum(_norm(th - np.einsum("ij,ij->i", th, um)[:, None] * um)))
+    u, th = bins
+    perp = float(np.sum(_norm(_between_bins(u, th))))
     alpha = float(np.sum(np.arccos(np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0))))
     return alpha / perp if perp > 1e-6 and alpha > SHORT_TURN else None
 
@@ -498,16 +521,12 @@ PERP_SHARE_MIN = 0.4
 def _perp_share(g, a, d) -> float:
     """The gyro's rotation ⊥ the specific force's 0.1-s mean direction over its whole rotation, summed over bins."""
     dt = float(np.median(d))
-    m = max(1, int(round(0.1 / dt)))
-    k = g.shape[0] // m
-    if k == 0:
-        return 1.0
-    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
-    u = am / (_norm(am)[:, None] + 1e-300)
-    th = g[: k * m].reshape(k, m, 3).sum(axis=1)
-    tp = th - np.einsum("ij,ij->i", th, u)[:, None] * u
+    bins = _bin_turns(g, a, dt, max(1, int(round(0.1 / dt))))
+    if bins is None:
+        return 1.0  # (reached only by windows of 6 s and more)
+    u, th = bins
     total = float(np.sum(_norm(th)))
-    return float(np.sum(_norm(tp))) / total if total > 0 else 1.0
+    return float(np.sum(_norm(_perp(th, u)))) / total if total > 0 else 1.0
 
 
 #: bins :func:`_rotation_fit` needs at one bin length
@@ -534,16 +553,11 @@ def _rotation_fit(g, a, d) -> tuple[float, float]:
 
 def _rotation_fit_bins(g, a, dt: float, m: int) -> tuple[float, float]:
     """:func:`_rotation_fit` with bins of ``m`` samples."""
-    k = g.shape[0] // m
-    if k < 3:
+    bins = _bin_turns(g, a, dt, m)
+    if bins is None:
         return float("nan"), 0.0
-    am = a[: k * m].reshape(k, m, 3).mean(axis=1)
-    u = am / (_norm(am)[:, None] + 1e-300)
-    th = g[: k * m].reshape(k, m, 3).sum(axis=1) * dt
-    th = 0.5 * (th[:-1] + th[1:])
-    um = u[:-1] + u[1:]
-    um /= _norm(um)[:, None] + 1e-300
-    tp = th - np.einsum("ij,ij->i", th, um)[:, None] * um
+    u, th = bins
+    tp = _between_bins(u, th)
     r = -np.cross(u[:-1], u[1:])
     rt, tt, rr = float(np.sum(r * tp)), float(np.sum(tp * tp)), float(np.sum(r * r))
     if tt <= 0 or rr <= 0:
@@ -676,12 +690,11 @@ def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndar
     m = max(1, int(round(2.0 / (TILT_BIN * dt)))) if dt > 0 else 1
     if bins.size == 0:
         return float("nan")
-    tot = np.zeros((int(bins.max()) + 1, 3))
-    np.add.at(tot, bins, sums)
-    k = min(tot.shape[0] // m, ng.shape[0] // (m * TILT_BIN))
+    means = _grouped_tilt_sums(bins, sums, m) / (m * TILT_BIN)
+    k = min(means.shape[0], ng.shape[0] // (m * TILT_BIN))
     if k == 0:
         return float("nan")
-    means = tot[: k * m].reshape(k, m, 3).sum(axis=1) / (m * TILT_BIN)
+    means = means[:k]
     turn = ng[: k * m * TILT_BIN].reshape(k, m * TILT_BIN).sum(axis=1) * dt  # bounds the angle turned
     still = turn < GRAVITY_STILL_TURN
     # against g where the norm is larger: vibration of 2 g on a still mount doubles the median norm, not gravity
