@@ -649,14 +649,13 @@ def check_imu(
     ng = _norm(gyr)
     dt = float(np.median(dts))
     check_rate(dt)
-    share = gravity_share(*tilt_sums(acc), dt, na, ng)
+    bins, sums = tilt_sums(acc)
+    share = gravity_share(bins, sums, dt, na, ng)
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share)
-    hint = gyro_unit_hint(gyr, acc, dts, ng)
-    if hint:
-        raise unit_error(hint, gyro_unit)
-    if not share >= 0.0:  # no still window: judged where the gyro turns most
-        sl = _turning_window(ng, dts)
-        _check_moving_gravity(gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts)
+    # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
+    for sl in unit_windows(ng, dts, bins, sums):
+        d = dts[sl] if dts.shape[0] > 1 else dts
+        check_gyro_unit(gyr[sl], acc[sl], d, float(np.max(ng[sl])), gyro_unit, moving=not share >= 0.0)
     _check_clipping(gyr, gyro_range, dt, acc)
 
 
