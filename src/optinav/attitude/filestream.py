@@ -405,16 +405,17 @@ class _Blocks:
     def _extra(self, table, row0: int, n: int) -> dict:
         if not self.names:
             return {}
+        from optinav.io.readers import MissingColumn
+
         try:
             return self._extra_columns(table, row0, n)
-        except OptinavError as exc:
-            if not (self.mag and "named 'm" in exc.cause and "(found: " in exc.cause):
+        except MissingColumn as exc:
+            if exc.name not in {self.names.get(k) for k in ("mx", "my", "mz")}:
                 raise
             # Xsens' Mag_X, a phone app's magneticField_x: --mag looked for mx,my,mz and named only the file's columns
-            found = exc.cause.split("(found: ")[1].rstrip(")").split("; ")[0].split(", ")
-            like = [c for c in found if "mag" in c.lower()]
+            like = [c for c in exc.found if "mag" in c.lower()]
             if len(like) != 3:
-                like = [c for c in found if c.lower() in ("bx", "by", "bz")]  # Physics Toolbox: the field B
+                like = [c for c in exc.found if c.lower() in ("bx", "by", "bz")]  # Physics Toolbox: the field B
             raise OptinavError(
                 exc.cause,
                 "name the magnetometer's three columns with --mag-columns"

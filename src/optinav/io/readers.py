@@ -67,6 +67,15 @@ _BRACKET_UNIT = re.compile(r"^(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
 _AXIS_INDEX = re.compile(r"^(.*\S)\[([012])\]\s*$")
 
 
+class MissingColumn(OptinavError):
+    """A column or dataset a caller named that the file lacks: ``name``, and ``found``, the names the file has (a
+    caller that knows which option named it can say so)."""
+
+    def __init__(self, cause: str, remedy: str, *, name: str, found: list):
+        super().__init__(cause, remedy)
+        self.name, self.found = name, found
+
+
 @dataclasses.dataclass
 class Table:
     """The raw content of a data file.
@@ -126,8 +135,11 @@ class Table:
                     "name both topics with --topic IMU,MAG, or drop --mag",
                 )
             what = "column" if self.kind == "text" else "array/dataset"
-            raise OptinavError(
-                f"{self.path} has no {what} named {name!r} (found: {self.names()})", "use one of the names found"
+            raise MissingColumn(
+                f"{self.path} has no {what} named {name!r} (found: {self.names()})",
+                "use one of the names found",
+                name=name,
+                found=list(self.data),
             )
         return self.data[key]
 
