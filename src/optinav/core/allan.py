@@ -1452,13 +1452,13 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     gyro_rest.check(dt)
     out = {}
     kal = {}
-    ramp_notes = []
+    sensor_notes = []
     for name in list(angles):
         acc = angles.pop(name)  # θ is dropped once its deviation is computed
         acc.set_dt(dt)
         ad = allan_deviation_from_angle(acc, unit=units[name], progress_desc=f"Allan deviation ({name})")
         if timing.t_last - timing.t0 >= SHORT_LOG_S:
-            ramp_notes.append(_halves_note(name, acc, units[name]))
+            sensor_notes.append(_halves_note(name, acc, units[name]))
         del acc
         if ad.tau.size < 5:
             raise OptinavError(
@@ -1468,7 +1468,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
             )
         fit = fit_noise_model(ad)
         out[name] = {"deviation": ad, "read_off": noise_parameters_from_allan(ad), "fit": fit}
-        ramp_notes.append(_ramp_note(name, fit, float(timing.t_last - timing.t0)))
+        sensor_notes.append(_ramp_note(name, fit, float(timing.t_last - timing.t0)))
         if units[name] in ("m/s^2", "rad/s"):
             try:
                 kal.update(kalibr_noise(fit, name))
@@ -1486,7 +1486,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
             f"τ reach a tenth of the log, here {span / 10:.3g} s): K mostly takes flicker noise here, and neither K "
             "nor its interval is reliable (N is)"
         )
-    notes += [n for n in ramp_notes if n]
+    notes += [n for n in sensor_notes if n]
     return AllanAnalysis(
         accelerometer=out.get("accelerometer"),
         gyroscope=out.get("gyroscope"),
