@@ -791,6 +791,72 @@ def test_a_time_column_in_ticks_or_an_epoch_read_in_the_wrong_unit_is_named():
         check_imu(tr.gyr, tr.acc, np.array([tr.dt * 1e9]))
 
 
+@pytest.mark.parametrize("rate", [100.0, 200.0, 400.0, 1000.0])
+def test_a_wrong_rate_on_fast_translation_is_named_from_the_whole_log(rate):
+    """BROAD 16 (fast translation at 285.7 Hz) with --rate 100, 400 or 1000 ran with exit 0 at 66, 13 and 28°, and
+    --rate 200 was named as "deg/s declared rad/s", whose flag ran at 35°: over the unit checks' 20-s windows the
+    translation hides how gravity turns (the right factor does no better there). Over the whole log a gyro off by
+    a factor leaves gravity wandering in the gyro-integrated frame; the factor that holds it is the rate named."""
+    from optinav.attitude.checks import check_imu
+
+    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 16 absent")
+    tr = load_broad(p)
+    with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
+        check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
+    fit = float(exc.value.remedy.split("the data fit ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.06
+    if rate == 200.0:  # declared deg/s as well: the other unit and the rate it gives are named together
+        with pytest.raises(Exception, match="gyro's unit is off") as exc:
+            check_imu(tr.gyr * np.pi / 180, tr.acc, np.array([1.0 / rate]), gyro_unit="deg/s")
+        then = float(exc.value.remedy.split("--gyro-unit rad/s (the data then fit ")[1].split(" Hz")[0])
+        assert abs(then / tr.rate_hz - 1) < 0.06
+
+
+def test_a_wrong_rate_on_fast_translation_is_named_on_a_streamed_file(tmp_path, capsys):
+    """`optinav attitude` checks a file block by block: the whole-log time base is judged from bins gathered in
+    its second pass (trial 16 without its time column, --rate 100: exit 0 at 66° before)."""
+    from optinav.cli.main import main
+
+    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 16 absent")
+    tr = load_broad(p)
+    f = tmp_path / "t16.csv"
+    np.savetxt(f, np.hstack([tr.acc, tr.gyr]), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="", fmt="%.6g")
+    args = ["--quiet", "attitude", str(f), "--rate", "100", "--frame", "ENU", "--out", str(tmp_path / "a.csv")]
+    assert main([*args, "--chunk-rows", "7000"]) == 2
+    err = capsys.readouterr().err
+    fit = float(err.split("the data fit ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.06
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_the_whole_log_time_base_check_passes_the_nine_trials_and_splits_at_gaps():
+    """The nine BROAD trials at their rate, whole, pass the whole-log check (their drift as declared 0.01-0.12 rad,
+    no other factor near); a log whose gaps leave no 20-s piece is not judged (a gap in motion would turn the
+    gyro-integrated frame by the rate after it for the whole gap); pieces between gaps are judged."""
+    from optinav.attitude import checks as C
+
+    if len(NINE) != 9:
+        pytest.skip("the nine BROAD trials are not all present")
+    for p in NINE:
+        tr = load_broad(p)
+        assert C.long_time_hint(*C._whole_log_bins(tr.gyr, tr.acc, np.array([tr.dt])), tr.dt) is None, p.name
+    tr = load_broad(SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5")
+    wrong = np.full(tr.gyr.shape[0], 0.01)  # --rate 100
+    bins, sums, gaps = C._whole_log_bins(tr.gyr, tr.acc, wrong)
+    assert C.long_time_hint(bins, sums, gaps, 0.01) is not None
+    every = np.unique(np.searchsorted(np.cumsum(sums[:, 3]), np.arange(15.0, 600.0, 15.0)))
+    assert C.long_time_hint(bins, sums, bins[every[every < bins.shape[0]]], 0.01) is None  # 15-s pieces: not judged
+    wrong[np.arange(1, 6) * int(60.0 / 0.01)] = 2.0  # five 2-s gaps: pieces of 60 s (declared)
+    bins, sums, gaps = C._whole_log_bins(tr.gyr, tr.acc, wrong)
+    assert gaps.size == 5
+    hint = C.long_time_hint(bins, sums, gaps, 0.01)
+    assert hint is not None and abs(hint.rate_hz / tr.rate_hz - 1) < 0.06
+
+
 def test_a_linear_acceleration_output_is_refused_in_any_unit():
     """A phone's 'linear acceleration' (gravity removed) was hinted as 'g', and --acc-unit g then ran with exit 0
     at 77° inclination RMSE (helper): while the gyro is still, its 2-s means keep ~10 % of its norm (the nine

@@ -6,6 +6,7 @@ wrong attitude); the frame check warns once (an upside-down start is possible).
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 
@@ -138,9 +139,9 @@ UNIT_MIN_S = 6.0
 UNIT_BIAS_MAX = np.radians(5.0)
 
 
-def _means_window(dts: np.ndarray, n: int) -> int:
-    """Samples in the 2-s moving means of the unit checks (at most half of the ``n`` samples)."""
-    w = max(2, int(round(2.0 / float(np.median(dts)))))
+def _means_window(dts: np.ndarray, n: int, span: float = 2.0) -> int:
+    """Samples in the ``span``-s (2 s) moving means of the unit checks (at most half of the ``n`` samples)."""
+    w = max(2, int(round(span / float(np.median(dts)))))
     return w if n > w else max(2, n // 2)
 
 
@@ -174,15 +175,16 @@ def _drift(u: np.ndarray) -> float:
 
 
 def _gravity_spread(
-    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False, span: float = 2.0
 ) -> tuple[float, float]:
     """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
     specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
     2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
-    means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one."""
-    w = _means_window(dts, gyr.shape[0])
+    means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one. ``span``: the
+    means' length (s) instead of 2 s."""
+    w = _means_window(dts, gyr.shape[0], span)
     g = gyr * scale
     per_sample, u = _spreads(g, acc, dts, w)
     if not fit_bias:
@@ -597,14 +599,24 @@ def _time_hint(g, a, d, beat: float) -> UnitHint | None:
     s, best = float(grid[i]), float(drift[i])
     if not (best < CONSISTENCY_BAD and best < TIME_RATIO * beat):
         return None
-    # a flight's sustained accelerations move the minimum (a time base off by 2 found at ×1.62): the usual slips
-    # (a rate halved, a time unit off by a power of 1000 or 10) are taken when they do nearly as well
-    for f in sorted(_ROUND_SCALES, key=lambda f: abs(np.log(f / s))):
-        if grid[0] <= f <= grid[-1] and _drift_of(g * f, a, d) <= ROUND_SCALE_TOL * best:
-            s = f
-            break
+    s = _round_scale(s, best, lambda f: _drift_of(g * f, a, d), grid[0], grid[-1])
     if any(abs(np.log(s / u)) < np.log(SCALE_NEAR) for u in _SCALES):
         return None
+    return _time_words(s, float(np.median(d)))
+
+
+def _round_scale(s: float, best: float, drift, lo: float, hi: float, extra: tuple = ()) -> float:
+    """The usual slip (a rate halved, a time unit off by a power of 1000 or 10, or the factors ``extra``) nearest
+    ``s`` in [lo, hi] whose ``drift(f)`` is within ROUND_SCALE_TOL of ``best`` (a flight's sustained accelerations
+    move the minimum: a time base off by 2 was found at ×1.62), else ``s``."""
+    for f in sorted(_ROUND_SCALES + extra, key=lambda f: abs(np.log(f / s))):
+        if lo <= f <= hi and drift(f) <= ROUND_SCALE_TOL * best:
+            return f
+    return s
+
+
+def _time_words(s: float, dt: float) -> UnitHint:
+    """The "time" hint of a gyro that needs the factor ``s`` (declared step ``dt`` s)."""
     half = next((w for f, w in _TIME_SCALES.items() if abs(np.log(s / f)) < np.log(1.05)), None)
     words = (
         f"the time steps look {half} as long as they are (the gyro turns gravity ×{1 / s:.3g} as far as the "
@@ -612,7 +624,7 @@ def _time_hint(g, a, d, beat: float) -> UnitHint | None:
         if half
         else f"the gyro, over these time steps, turns gravity ×{1 / s:.3g} as far as the accelerometer sees it turn"
     )
-    return UnitHint("time", s, words, rate_hz=1.0 / (s * float(np.median(d))))
+    return UnitHint("time", s, words, rate_hz=1.0 / (s * dt))
 
 
 def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
@@ -638,6 +650,175 @@ def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
     return _axes_hint(g, a, d, drift1)
 
 
+#: the whole log's time base is judged (:func:`long_time_hint`) when its gap-free pieces last at least this long
+#: (declared s): over minutes a gyro off by a factor leaves gravity wandering in the gyro-integrated frame even where
+#: translation hides it over the unit windows' 20 s (BROAD's fast translation with --rate 100, 400 or 1000 for its
+#: 285.7 Hz: 66, 13 and 28° with exit 0)
+LONG_MIN_S = 30.0
+#: pieces (declared s) with a gyro bias of their own (a MEMS gyro's bias moves over an hour); shorter gap-free
+#: stretches than LONG_PIECE_MIN_S are left out
+LONG_PIECE_S, LONG_PIECE_MIN_S = 300.0, 20.0
+#: the whole-log check sums the samples in bins of at least LONG_BIN_S (declared s), at most LONG_BINS_MAX bins,
+#: unless the gyro's RMS rate turns a bin further than LONG_BIN_TURN rad (then up to LONG_BINS_TURNING bins): the
+#: accelerometer averaged over a turning bin biased the factor found on BROAD's fast rotation by 12 % at 0.26 rad
+LONG_BIN_S, LONG_BINS_MAX, LONG_BIN_TURN, LONG_BINS_TURNING = 0.02, 5000, 0.1, 50000
+#: the moving means (declared s) of gravity in the gyro-integrated frame: at a rate 2.9× too low 2 s are 0.7 s, and
+#: BROAD's fast translation left 0.2 rad about the right factor at 2 s, 0.06 at 5 s
+LONG_MEANS_S = 5.0
+#: the declared gyro must leave gravity drifting by at least this much (rad, RMS of the 5-s means about their mean,
+#: the bias from rest and fitted) before another factor is searched: the nine BROAD trials as declared 0.01-0.12
+LONG_FLOOR = 0.1
+#: gravity must turn in the body by at least this much (rad, its 5-s means about their mean) to judge by
+LONG_BODY = 0.15
+#: a rest (for the gyro bias): over 1 s (declared) the binned gyro's std (rad/s) and norm and the accelerometer's
+#: std (m/s²) below these
+REST_GYR_STD, REST_GYR, REST_ACC_STD = 0.02, 0.1, 0.1
+
+
+def long_bin_rows(n: int, dt: float, rms_rate: float) -> int:
+    """Samples per bin of the whole-log time-base check (:func:`time_bins`) for ``n`` samples of step ``dt`` s whose
+    gyro's RMS norm is ``rms_rate`` (rad/s)."""
+    m = max(1, int(round(LONG_BIN_S / dt)), int(np.ceil(n / LONG_BINS_MAX)))
+    turning = max(1, int(LONG_BIN_TURN / (rms_rate * dt + 1e-300)), int(np.ceil(n / LONG_BINS_TURNING)))
+    return min(m, turning)
+
+
+def time_bins(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, m: int, row0: int = 0):
+    """Bin numbers (k,) and per-bin sums (k, 8) of the ``m``-sample bins a block starting at row ``row0`` touches:
+    the gyro's rotation Σω·dt (rad, 3), Σdt (s), the specific force Σa (m/s², 3) and the samples (a bin split
+    between blocks appears twice: :func:`merge_bins` adds them)."""
+    n = gyr.shape[0]
+    d = np.broadcast_to(np.asarray(dts, dtype=float), (n,)) if np.size(dts) == 1 else np.asarray(dts, dtype=float)
+    start = np.arange((-row0) % m, n, m)
+    if not start.size or start[0]:
+        start = np.concatenate([[0], start])
+    cols = np.hstack([gyr * d[:, None], d[:, None], acc, np.ones((n, 1))])
+    return (row0 + start) // m, np.add.reduceat(cols, start, axis=0)
+
+
+def merge_bins(bins: np.ndarray, sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`time_bins` of consecutive blocks concatenated, each bin once."""
+    b, inv = np.unique(bins, return_inverse=True)
+    out = np.zeros((b.shape[0], sums.shape[1]))
+    np.add.at(out, inv, sums)
+    return b, out
+
+
+def _rest_bias(g: np.ndarray, a: np.ndarray, T: np.ndarray) -> np.ndarray | None:
+    """The median gyro (rad/s) over the binned samples (rates g, specific force a, durations T) where the body
+    rests for 1 s (:data:`REST_GYR_STD`, :data:`REST_GYR`, :data:`REST_ACC_STD`); None under 1 s of rest."""
+    w = max(3, int(round(1.0 / float(np.median(T)))))
+    if g.shape[0] < 2 * w:
+        return None
+
+    def moving(x):
+        m = _moving_means(x, w)
+        return np.sqrt(np.maximum(_moving_means(x * x, w) - m * m, 0.0).sum(axis=1)), m
+
+    sg, mg = moving(g)
+    sa = moving(a)[0]
+    rest = (sg < REST_GYR_STD) & (sa < REST_ACC_STD) & (_norm(mg) < REST_GYR)
+    return np.median(mg[rest], axis=0) if np.count_nonzero(rest) >= w else None
+
+
+def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray) -> list[tuple]:
+    """The gap-free pieces (rates rad/s less their rest bias, specific force, durations) of the merged bins."""
+    T = sums[:, 3]
+    ok = (T > 0) & ~np.isin(bins, gap_bins)
+    g = np.divide(sums[:, :3], T[:, None], out=np.zeros((T.shape[0], 3)), where=ok[:, None])
+    a = sums[:, 4:7] / np.maximum(sums[:, 7:8], 1.0)
+    runs = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+    pieces = []
+    for i, j in zip(runs[::2], runs[1::2]):
+        span = float(T[i:j].sum())
+        if span >= LONG_PIECE_MIN_S:
+            pieces += np.array_split(np.arange(i, j), int(np.ceil(span / LONG_PIECE_S)))
+    if not pieces or sum(float(T[p].sum()) for p in pieces) < LONG_MIN_S:
+        return []
+    every = _rest_bias(g[ok], a[ok], T[ok])
+    out = []
+    for p in pieces:
+        b = _rest_bias(g[p], a[p], T[p])
+        b = every if b is None else b
+        out.append((g[p] - (0.0 if b is None else b), a[p], T[p]))
+    return out
+
+
+def _long_drift(pieces: list[tuple], s: float, fit_bias: bool = False) -> float:
+    """RMS over the pieces (weighted by their bins) of gravity's drift (rad) in the frame the gyro × ``s``
+    integrates to (:func:`_gravity_spread`, :data:`LONG_MEANS_S`-s means)."""
+    v = [_gravity_spread(g * s, a, T, 1.0, fit_bias, LONG_MEANS_S)[1] ** 2 for g, a, T in pieces]
+    return float(np.sqrt(np.average(v, weights=[g.shape[0] for g, _, _ in pieces])))
+
+
+def _scan(pieces: list[tuple], scales: np.ndarray) -> tuple[float, float]:
+    """(factor, drift) of the scan's best and, Brent's bounded search, between its neighbours."""
+    from scipy.optimize import minimize_scalar
+
+    drift = np.array([_long_drift(pieces, s) for s in scales])
+    i = int(np.argmin(drift))
+    lo, hi = np.log(scales[max(i - 1, 0)]), np.log(scales[min(i + 1, scales.shape[0] - 1)])
+    r = minimize_scalar(lambda x: _long_drift(pieces, np.exp(x)), bounds=(lo, hi), method="bounded")
+    return (float(np.exp(r.x)), float(r.fun)) if r.fun < drift[i] else (float(scales[i]), float(drift[i]))
+
+
+def _whole_log_bins(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`merge_bins` of a whole log (by blocks of 2²⁰ rows) and its gap bins, for :func:`long_time_hint`
+    (empty bins for a log under LONG_MIN_S)."""
+    n, dt = gyr.shape[0], float(np.median(dts))
+    if n * dt < LONG_MIN_S:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 8)), np.zeros(0, dtype=np.int64)
+    m = long_bin_rows(n, dt, float(np.sqrt(np.mean(np.einsum("ij,ij->i", gyr, gyr)))))
+    step = 1 << 20
+    parts = [
+        time_bins(gyr[i : i + step], acc[i : i + step], dts[i : i + step] if dts.shape[0] > 1 else dts, m, i)
+        for i in range(0, n, step)
+    ]
+    return (*merge_bins(*(np.concatenate(x) for x in zip(*parts))), np.unique(find_gaps(dts) // m))
+
+
+def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt: float) -> UnitHint | None:
+    """A "time" (or "unit") hint from the whole log when one factor on the gyro holds gravity in the gyro-integrated
+    frame over minutes far better than the declared gyro does, else None. ``bins``/``sums``: :func:`merge_bins`;
+    ``gap_bins``: bins holding a time gap (left out, the pieces split there); ``dt``: the median declared step (s).
+    Searched: a coarse grid (×1.15, 10⁻³-10³) with its three best minima scanned by 1 %, and from the factor the
+    turning angles give (:func:`_turn_scale`) ×0.4-1.25 by 0.5 % (a body that turns through hundreds of radians
+    holds gravity only within 1 % of the right factor)."""
+    pieces = _long_pieces(bins, sums, gap_bins) if bins.shape[0] else []
+    if not pieces:
+        return None
+    body = [
+        _drift(m / (_norm(m)[:, None] + 1e-300))
+        for m in (_moving_means(a, _means_window(T, a.shape[0], LONG_MEANS_S)) for _, a, T in pieces)
+    ]
+    body = float(np.sqrt(np.average(np.square(body), weights=[p[0].shape[0] for p in pieces])))
+    if body < LONG_BODY:
+        return None  # gravity hardly turns in the body: nothing to judge by
+    declared = _long_drift(pieces, 1.0, fit_bias=True)
+    if declared < LONG_FLOOR:
+        return None
+    grid = np.exp(np.arange(np.log(1e-3), np.log(1e3), np.log(1.15)))
+    coarse = np.array([_long_drift(pieces, s) for s in grid])
+    inner = (coarse <= np.roll(coarse, 1)) & (coarse <= np.roll(coarse, -1))
+    found = [
+        _scan(pieces, grid[i] * 1.15 ** np.linspace(-1.0, 1.0, 29))
+        for i in sorted(np.flatnonzero(inner), key=lambda i: coarse[i])[:3]
+    ]
+    s0 = _turn_scale(*(np.concatenate(x) for x in zip(*pieces)))
+    if s0 is not None:
+        found.append(_scan(pieces, s0 * np.exp(np.arange(np.log(0.4), np.log(1.25), 0.005))))
+    s, _ = min(found, key=lambda x: x[1])
+    best = _long_drift(pieces, s, fit_bias=True)
+    if not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
+        return None
+    if abs(np.log(s)) < np.log(SCALE_NEAR):
+        return None
+    units = (np.pi / 180, 180 / np.pi)
+    s = _round_scale(s, best, lambda f: _long_drift(pieces, f, fit_bias=True), grid[0], grid[-1], units)
+    unit = next((u for u in _SCALES if u != 1.0 and abs(np.log(s / u)) < np.log(SCALE_NEAR)), None)
+    return UnitHint("unit", unit) if unit else _time_words(s, dt)
+
+
 def check_imu(
     gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None, gyro_unit: str | None = None
 ) -> None:
@@ -652,10 +833,13 @@ def check_imu(
     bins, sums = tilt_sums(acc)
     share = gravity_share(bins, sums, dt, na, ng)
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share)
+    long = functools.cache(lambda: long_time_hint(*_whole_log_bins(gyr, acc, dts), dt))
     # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
     for sl in unit_windows(ng, dts, bins, sums):
         d = dts[sl] if dts.shape[0] > 1 else dts
-        check_gyro_unit(gyr[sl], acc[sl], d, float(np.max(ng[sl])), gyro_unit, moving=not share >= 0.0)
+        check_gyro_unit(gyr[sl], acc[sl], d, float(np.max(ng[sl])), gyro_unit, moving=not share >= 0.0, long=long)
+    if long():
+        raise unit_error(long(), gyro_unit)
     _check_clipping(gyr, gyro_range, dt, acc)
 
 
@@ -744,7 +928,8 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
         return OptinavError(
             f"{hint.words}: the time column, the sample rate or the gyro's unit is off by that factor",
             f"check --rate (the data fit {'roughly ' if hint.rough else ''}{hint.rate_hz:.3g} Hz) or the time "
-            "column's unit (--time-unit), or --gyro-unit (raw counts need their calibration, optinav apply)",
+            f"column's unit (--time-unit), or --gyro-unit{_unit_and_rate(hint, gyro_unit)} (raw counts need their "
+            "calibration, optinav apply)",
         )
     perm = f"{AXES_HINT}: {hint.words}" if hint.kind == "axes" else ""
     seen = f" ({hint.words})" if hint.kind == "unit" and hint.words else ""
@@ -779,6 +964,17 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
         + f"the gyro declared {gyro_unit} reads {more} than turns gravity in the body{seen}",
         "check --gyro-unit: the data are in another unit (raw counts need their calibration, optinav apply)",
     )
+
+
+def _unit_and_rate(hint: UnitHint, gyro_unit: str | None) -> str:
+    """For a "time" factor beyond 10× that a unit factor (π/180, 180/π) brings within 3× of 1: the other unit and
+    the rate the data fit with it (BROAD at --rate 200, its rad/s declared deg/s, was told "the data fit 4.98 Hz")."""
+    if abs(np.log(hint.scale)) < np.log(10.0):
+        return ""
+    for u, want in ((np.pi / 180, "deg/s"), (180 / np.pi, "rad/s")):
+        if abs(np.log(hint.scale / u)) < np.log(3.0) and gyro_unit != want:
+            return f" {want} (the data then fit {hint.rate_hz * u:.3g} Hz)"
+    return ""
 
 
 #: the axes hint's first words
@@ -816,11 +1012,19 @@ def check_gyro_unit(
     window_max: float,
     gyro_unit: str | None = None,
     moving: bool = False,
+    long=None,
 ) -> None:
     """The gyro-unit check of :func:`check_imu` on the samples of its window (gyr g, acc a, steps d, all (k, ·))
     whose largest gyro norm is ``window_max`` (a log streamed in blocks gathers them); ``gyro_unit`` as declared;
-    ``moving``: the log had no still window, so gravity is judged in the gyro-integrated frame here."""
+    ``moving``: the log had no still window, so gravity is judged in the gyro-integrated frame here; ``long()``:
+    the whole log's hint (:func:`long_time_hint`), which names what the window took for the gyro's unit."""
     hint = _unit_hint_window(g, a, d, window_max)
+    if hint and hint.kind == "unit" and long is not None:
+        # 20 s of fast translation took a rate 1.4× too high for deg/s declared rad/s (BROAD 16 at --rate 200),
+        # and that flag ran at 35° with exit 0; over minutes the time base shows
+        other = long()
+        if other is not None and abs(np.log(other.scale / hint.scale)) > np.log(1.5):
+            hint = other
     if hint:
         raise unit_error(hint, gyro_unit)
     if moving:

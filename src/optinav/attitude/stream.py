@@ -10,6 +10,8 @@ consecutive blocks with their state carried, so the concatenated output equals
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from optinav.attitude import checks as _c
@@ -94,6 +96,7 @@ class StreamChecks:
         ng = np.concatenate(self._ng)
         self._ng = []
         self.peak = float(np.max(ng))
+        rms_rate = float(np.sqrt(np.mean(ng * ng)))
         bins, sums = (np.concatenate(x) for x in zip(*self._tilt))
         self._tilt = []
         na = np.concatenate(self._na)
@@ -110,6 +113,11 @@ class StreamChecks:
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
+        # and the whole log in bins (its time base judged over minutes), when long enough
+        self._long_m = (
+            _c.long_bin_rows(self.n, self.median_dt, rms_rate) if self.n * self.median_dt >= _c.LONG_MIN_S else 0
+        )
+        self._long: list[tuple[np.ndarray, np.ndarray]] = []
 
     def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
@@ -118,6 +126,8 @@ class StreamChecks:
             a, b = max(win.start - row0, 0), min(win.stop - row0, n)
             if a < b:
                 got.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
+        if self._long_m:
+            self._long.append(_c.time_bins(gyr, acc, dts, self._long_m, row0))
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             y = gyr[:, k] if j == 0 else -gyr[:, k]
             m = self._max[k, j]
@@ -131,12 +141,22 @@ class StreamChecks:
             vals.append(y[near])
             rows.append(np.hstack([gyr[at], acc[at]]))  # whole samples at the extreme: a held one repeats them all
 
+    def _long_hint(self) -> _c.UnitHint | None:
+        """The whole log's time-base hint (:func:`~optinav.attitude.checks.long_time_hint`) from pass 2's bins."""
+        if not self._long:
+            return None
+        bins, sums = _c.merge_bins(*(np.concatenate(x) for x in zip(*self._long)))
+        return _c.long_time_hint(bins, sums, np.unique(self.gaps // self._long_m), self.median_dt)
+
     def finish_second(self, frame: str) -> None:
         """The checks that need the second pass, in the order of check_imu, then the frame warning."""
+        long = functools.cache(self._long_hint)
         for got, peak in zip(self._win, self.window_max):
             if got:
                 g, a, d = (np.concatenate(x) for x in zip(*got))
-                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit, moving=not self.gravity_share >= 0.0)
+                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit, moving=not self.gravity_share >= 0.0, long=long)
+        if long():
+            raise _c.unit_error(long(), self.gyro_unit)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
