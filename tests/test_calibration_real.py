@@ -440,3 +440,67 @@ def test_rows_lost_inside_a_turn_are_placed_by_the_sample_counter(tmp_path, caps
     assert "the sample counter skips 20 samples at 1 place(s)" in err and "x_rot: about 20 samples lost" in err
     k, k0, std = r.gyroscope["K"][0][0], base.gyroscope["K"][0][0], r.gyroscope["K_std"][0][0]
     assert abs(k - k0) < 4.5 * std and abs(k - k0) / k0 < 0.02  # was 6.5 % at a std of 0.02 %
+
+
+FERRARIS = ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+
+
+@pytest.mark.parametrize("angle", ["-350", "-330", "180", "-180"])
+def test_a_wrong_rotation_angle_is_named_by_the_turns_between_the_poses(tmp_path, capsys, angle):
+    """The closed form takes each rotation section as the stated angle, whatever was turned: --rotation-angle
+    -350 or -330 on imucal's session (turns about the vertical: the accelerometer cannot see them) gave K_g 3-9 %
+    off at 178-530 std with exit 0, and 180 was told "pass -180", which failed on the gyro scale (helper). The
+    gyro's turns between the six poses must carry gravity from pose to pose: they give the angle turned."""
+    assert main(["--quiet", *EXAMPLE, *FERRARIS, "--rotation-angle", angle, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pass --rotation-angle -360" in err, err
+
+
+def test_the_right_rotation_angle_keeps_imucal_and_its_std(tmp_path):
+    """At the stated -360° the poses' turns agree (factor 0.9977 ± 0.0011: within twice its std, so K_g's std is
+    the closed form's own) and the result is imucal's."""
+    r = _run(tmp_path, EXAMPLE + FERRARIS)
+    q = r.quality
+    assert abs(q["pose_turn_factor"] - 1.0) < 3 * q["pose_turn_factor_std"] < 0.005
+    assert np.all(np.diag(r.gyroscope["K_std"]) < 0.01)  # 0.0089-0.0093: nothing added
+    assert any(g["name"].startswith("gyr turns between the poses") for g in r.gates)
+
+
+def test_a_ferraris_log_sampled_too_slowly_for_its_turns_is_refused(tmp_path, capsys):
+    """Every 4th row of imucal's session (25.6 Hz, timed by its sample counter at 102.4): the rotations integrate
+    short, K_zz 2.7 % off at 174 std with exit 0 (helper); the poses' turns need K_g ×1.022: refused, --rate named."""
+    import json
+
+    rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    f = tmp_path / "dec4.csv"
+    f.write_text("\n".join([rows[0], *rows[1::4]]) + "\n")
+    sec = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    (tmp_path / "s.json").write_text(
+        json.dumps({k: {"start": v["start"] // 4, "end": v["end"] // 4} for k, v in sec.items()})
+    )
+    args = [*EXAMPLE, "--method", "ferraris", "--sections", str(tmp_path / "s.json")]
+    args[2] = str(f)
+    assert main(["--quiet", *args, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the turns integrated over the rotation sections are off by +2" in err
+    assert "--rate" in err
+
+
+@pytest.mark.parametrize("route", ["ferraris", "default"])
+def test_a_clipped_accelerometer_axis_is_named_without_acc_range(tmp_path, capsys, route):
+    """acc_x clipped at ±9.6 m/s² (pose x_p reads 9.6 in every sample): the Ferraris route gave acc K_xx 0.960
+    (imucal 0.997) at 1100 std with exit 0, the default route left the pose out and then advised --min-duration,
+    which cannot bring it back (helper). Both name the clipping and the range."""
+    rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    names = rows.dtype.names
+    data = np.column_stack([rows[n] for n in names])
+    j = names.index("acc_x")
+    data[:, j] = np.clip(data[:, j], -9.6, 9.6)
+    f = tmp_path / "clip.csv"
+    np.savetxt(f, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    args = [*EXAMPLE, *(FERRARIS if route == "ferraris" else [])]
+    args[2] = str(f)
+    assert main(["--quiet", *args, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "clipped at the sensor's range" in err and "--min-duration" not in err
+    assert "larger accelerometer range" in err

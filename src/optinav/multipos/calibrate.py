@@ -548,7 +548,9 @@ def calibrate(
             "intervals' lengths come from it), or try a longer --window, a --threshold, a shorter --min-duration, or "
             "give the poses by hand with --sections",
         )
-    ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, notes), notes)
+    clipped: list[str] = []
+    ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, clipped), notes)
+    notes.extend(clipped)
     ranges, t_int, st = _drop_creeping(acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
@@ -570,6 +572,12 @@ def calibrate(
             **(method_options or {}),
         )
     except OptinavError as exc:
+        if clipped and "distinct pose directions" in exc.cause:
+            # the pose missing was left out as clipped: --min-duration cannot bring it back (helper)
+            raise OptinavError(
+                f"{exc.cause} — {len(clipped)} pose(s) left out as clipped: {clipped[0]}",
+                "record with a larger accelerometer range (--acc-range states it)",
+            ) from None
         short = _short_still(still, t, acc, gyro, min_duration_s) if "distinct pose directions" in exc.cause else []
         if not short:
             raise
@@ -1001,6 +1009,35 @@ def flat_runs(v: np.ndarray, run: int = 5) -> list[tuple[int, int]]:
     return [(int(a), int(a + n)) for a, n in zip(starts, lengths) if n >= run and ext[starts == a][0]]
 
 
+def _turn_angle(angle: float) -> float:
+    """A turn's angle (deg) as a technician states it: the nearest multiple of 90° within 2 %, else to 0.1°."""
+    r = 90.0 * round(angle / 90.0)
+    return r if r and abs(angle / r - 1.0) < 0.02 else round(angle, 1)
+
+
+def _check_pose_turns(pt, stated: float, rate: float) -> None:
+    """Refuse a Ferraris fit whose rotations' K_g does not carry gravity from pose to pose (:func:`ferraris.
+    pose_turns`: factor beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA std); ``stated`` deg, ``rate`` Hz."""
+    from . import ferraris
+
+    off = pt.factor - 1.0
+    if abs(off) <= max(ferraris.MAX_POSE_TURN, ferraris.MIN_POSE_TURN_SIGMA * pt.std):
+        return
+    angle = stated / pt.factor
+    near = _turn_angle(angle)
+    cause = f"the rotations turned by about {angle:.4g}°, not the stated {stated:g}°"
+    if near == round(angle, 1):  # no technician's angle: the integration of the turns, not the angle
+        cause = f"the turns integrated over the rotation sections are off by {off:+.1%} ({rate:.3g} Hz)"
+    raise OptinavError(
+        f"the gyro's turns between the {pt.transitions + 1} poses need K_g ×{pt.factor:.4f} (± {pt.std:.2g}) to carry "
+        f"gravity from pose to pose: {cause}",
+        f"pass --rotation-angle {near:g}"
+        if near != round(angle, 1)
+        else "check --rate and --time-unit (a rate too low for the turns integrates them short), --rotation-angle, "
+        "and that each rotation section runs from rest to rest (--sections)",
+    )
+
+
 def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
     the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, flat at the log's extreme
@@ -1099,8 +1136,15 @@ def _ferraris(
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
-    notes.extend(_sections_that_lost_samples(t, names, idx))
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
+    clipped: list[str] = []
+    if np.any(_clipped_rows(acc, t, idx[static_idx], clipped)):
+        # without --acc-range a clipped pose went through: acc K_xx 0.960 for 0.997 at 1100 std, exit 0 (helper)
+        raise OptinavError(
+            clipped[0].replace("the static pose at", "the Ferraris pose at"),
+            "record with a larger accelerometer range: the closed form needs all six poses (--acc-range states it)",
+        )
+    notes.extend(_sections_that_lost_samples(t, names, idx))
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero(creeping(ang, sig))
     if bad.size:
@@ -1131,11 +1175,18 @@ def _ferraris(
         option="--acc-unit",
         columns_flag="--columns, or the section names",
     )
+    poses = idx[sorted(static_idx, key=lambda k: idx[k][0])]
+    dirs = np.array([a[i0:i1].mean(axis=0) for i0, i1 in poses])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    stated = float(np.degrees(fc.expected_angle[0]))
     if np.all(np.diag(fc.gyr_K) < 0):
+        pt = ferraris.pose_turns(-fc.gyr_K, -fc.gyr_b, t, dirs, gyro, poses)
+        # the angle the poses' turns give, not merely the other sign (180 was told -180, which then failed)
+        angle = -stated / pt.factor if pt else -stated
         raise OptinavError(
-            f"the three rotations turn the other way than --rotation-angle "
-            f"{np.degrees(fc.expected_angle[0]):g} says (every gyro scale is negative)",
-            f"pass --rotation-angle {-np.degrees(fc.expected_angle[0]):g}",
+            f"the three rotations turn the other way than --rotation-angle {stated:g} says (every gyro scale is "
+            "negative)" + (f"; the gyro's turns between the poses give {angle:.4g}°" if pt else ""),
+            f"pass --rotation-angle {_turn_angle(angle):g}",
         )
     gyro_flags = "--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle"
     # swapped sections or axes first (no nominal: the shape of K only), then the turns: a section that misses part
@@ -1143,6 +1194,12 @@ def _ferraris(
     # gate would blame on the time base (helper)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
+    clipped = clipped_gyro_rows(gyro, float(np.median(np.diff(t))))
+    if sat_g is not None:
+        clipped |= sat_g
+    pose_turn = ferraris.pose_turns(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, clipped)
+    if pose_turn:
+        _check_pose_turns(pose_turn, stated, 1.0 / float(np.median(np.diff(t))))
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     gates.check_matrix(
         fc.gyr_K,
@@ -1164,6 +1221,14 @@ def _ferraris(
             unit="rad",
         ),
     ]
+    if pose_turn:
+        gate_log.append(
+            gate(
+                "gyr turns between the poses: |factor on K_g - 1|",
+                abs(pose_turn.factor - 1.0),
+                max(ferraris.MAX_POSE_TURN, ferraris.MIN_POSE_TURN_SIGMA * pose_turn.std),
+            )
+        )
     seen = [abs(r["acc_turn_deg"] - np.degrees(fc.expected_angle[k])) for k, r in enumerate(turns)]
     if np.any(np.isfinite(seen)):
         gate_log.append(
@@ -1184,6 +1249,9 @@ def _ferraris(
     # the gate) scales that column of K_g as a missed turn does
     seen = np.array([r["acc_turn_deg"] for r in turns], float) - np.degrees(fc.expected_angle)
     missed = np.hypot(missed, np.where(np.isfinite(seen), np.radians(seen), 0.0) / np.abs(fc.expected_angle))
+    if pose_turn:
+        # the poses' turns (below the gate) disagree with the stated angle by that share beyond their noise
+        missed = np.hypot(missed, max(abs(pose_turn.factor - 1.0) - 2.0 * pose_turn.std, 0.0))
     gyr_K_std = np.hypot(std["gyr_K"], np.abs(fc.gyr_K) * missed[None, :])
     gyr_b_std = np.hypot(std["gyr_b"], OMEGA_E * np.abs(np.diag(fc.gyr_K)) / np.sqrt(3.0))
     # a pose tilted by δ across its axis j reads K·g·δ on the other axes: column j's misalignments move by
@@ -1251,6 +1319,8 @@ def _ferraris(
             "pose_residual_rms": pose_rms,
             "rotation_angle_deg": np.degrees(fc.expected_angle).tolist(),
             "rotations": turns,
+            "pose_turn_factor": None if pose_turn is None else pose_turn.factor,
+            "pose_turn_factor_std": None if pose_turn is None else pose_turn.std,
             "notes": notes,
         },
         source=source,

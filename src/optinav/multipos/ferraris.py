@@ -721,3 +721,72 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
             {"name": name, "missed_deg": float(np.degrees(before + after)), "acc_turn_deg": float(np.degrees(acc_turn))}
         )
     return out
+
+
+#: the gyro's turns between the six poses may give the rotations' angle this far (fraction) from the stated one
+#: before the calibration is refused (and beyond MIN_POSE_TURN_SIGMA of its std); below it the share beyond twice
+#: its std enters K_g's std (imucal's session: 0.9977 ± 0.0011)
+MAX_POSE_TURN = 0.01
+MIN_POSE_TURN_SIGMA = 4.0
+#: the poses' turns judge the angle only when one factor carries gravity between them within this RMS (rad per
+#: transition; imucal's session 0.010, and with the wrong angle too)
+POSE_TURN_RMS = np.radians(3.0)
+
+
+class PoseTurns(NamedTuple):
+    """The common factor λ on K_g that best carries gravity from pose to pose through the gyro's turns between
+    them (1: the rotations turned by the stated angle), its std and the transitions used."""
+
+    factor: float
+    std: float
+    transitions: int
+
+
+def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
+    """The gyro (raw, K raw per rad/s, b raw) over the motions between consecutive still poses (``poses`` (P, 2)
+    sample ranges in time order, ``acc_dirs`` (P, 3) their unit gravity directions in the body) must turn gravity
+    from one pose's direction to the next's: the factor λ (K_g → λ·K_g) that does it best. The closed form takes
+    each rotation section as exactly the stated angle, whatever was turned (imucal's session with
+    --rotation-angle -330 gave K_g 9 % off at 530 std, exit 0); the poses' own turns tell. Transitions with a time
+    gap (a log of cut sections) or a clipped gyro sample (``clipped`` (N,) bool rows) are left out; None under two
+    transitions or when they turn gravity by < 30°."""
+    from scipy.optimize import minimize_scalar
+
+    from .gyro import _Transitions
+
+    t = np.asarray(t, float)
+    poses = np.asarray(poses, int)
+    dt = np.diff(t)
+    gap = 5.0 * float(np.median(dt))
+    bad = np.zeros(t.size, bool) if clipped is None else np.asarray(clipped, bool)
+    keep = [
+        k
+        for k in range(poses.shape[0] - 1)
+        if not (np.any(dt[poses[k, 1] - 1 : poses[k + 1, 0]] > gap) or np.any(bad[poses[k, 1] : poses[k + 1, 0]]))
+    ]
+    u = np.asarray(acc_dirs, float)
+    K, b = np.asarray(K, float), np.asarray(b, float)
+    if keep:
+        # a transition the gyro does not turn through (sections cut and joined end to end) is no evidence
+        tr = _Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
+        turned = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
+        gyro_turn = tr.raw_rotation(b) / float(np.median(np.abs(np.diag(K))))
+        # (the scale may be off by the factor sought: a loose bound)
+        keep = [k for k, a, w in zip(keep, turned, gyro_turn) if w >= 0.2 * a]
+        turned = turned[gyro_turn >= 0.2 * turned]
+    if len(keep) < 2 or max(turned, default=0.0) < np.radians(30.0):
+        return None
+    tr = _Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
+
+    def res(lam: float) -> np.ndarray:
+        return tr.residuals(K * lam, b).ravel()  # per transition C_kᵀu_k − u_{k+1}: ≈ the angle off (rad)
+
+    r = minimize_scalar(lambda x: float(np.sum(res(np.exp(x)) ** 2)), bounds=(-1.6, 1.6), method="bounded")
+    lam = float(np.exp(r.x))
+    h = 1e-4
+    J = (res(lam * (1 + h)) - res(lam * (1 - h))) / (2 * h * lam)
+    e = res(lam)
+    std = float(np.sqrt(float(e @ e) / max(e.size - 1, 1) / max(float(J @ J), 1e-300)))
+    if np.sqrt(float(e @ e) / len(keep)) > POSE_TURN_RMS:
+        return None  # no one factor carries gravity between the poses: the motions are not what they seem
+    return PoseTurns(lam, std, len(keep))
