@@ -187,6 +187,55 @@ def test_file_size_limit_is_a_one_line_error(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def _run_cli(argv, **kw) -> subprocess.CompletedProcess:
+    """The command in a subprocess (``python -m optinav.cli.main``), stderr captured as text."""
+    env = {**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])}
+    cmd = [sys.executable, "-m", "optinav.cli.main", *argv]
+    return subprocess.run(cmd, stderr=subprocess.PIPE, text=True, timeout=120, env=env, **kw)
+
+
+SUN = ["sun", "--lat", "1", "--lon", "1", "--time", "2021-01-17T10:34:00Z"]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full here")
+@pytest.mark.parametrize("argv", [SUN, ["design"], ["gfimu", "analyze", "--builtin", "cylinder10"]])
+def test_a_full_standard_output_is_a_one_line_error(argv):
+    """``>/dev/full`` ended in "internal error: OSError [Errno 28]", exit 1 (the JSON of sun is written only when
+    Python flushed at exit)."""
+    with open("/dev/full", "w") as full:
+        proc = _run_cli(argv, stdout=full)
+    err = proc.stderr.strip()
+    assert proc.returncode == 2, err
+    assert err.splitlines()[-1] == (
+        "optinav: error: cannot write to standard output: no space left on the device; "
+        "redirect it to a file on a disk with free space"
+    ), err
+    assert "Traceback" not in err and "Exception ignored" not in err
+
+
+def test_a_closed_standard_output_is_a_one_line_error(tmp_path):
+    """``optinav sun ... >&-`` printed nothing and exited 0: the JSON asked for was lost without a word."""
+    proc = _run_cli(SUN, preexec_fn=lambda: os.close(1), cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip() == (
+        "optinav: error: cannot write to standard output: it is closed; give the command one (a file, a pipe or "
+        "/dev/null)"
+    )
+
+
+def test_a_reader_that_goes_away_ends_quietly():
+    """``optinav sun ... | head``: not an error of optinav's (unchanged by the standard-output checks)."""
+    with subprocess.Popen(
+        [sys.executable, "-m", "optinav.cli.main", *SUN],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": str(Path(files.__file__).parents[2])},
+    ) as proc:
+        proc.stdout.close()  # the reader is gone before the command writes
+        err = proc.stderr.read().decode()
+        assert proc.wait(timeout=120) == 0 and err == "", err
+
+
 # --- JSON inputs: every parser failure is one line --------------------------------------------------------------
 
 

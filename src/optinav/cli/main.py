@@ -5,13 +5,16 @@ Each command module defines ``register(subparsers)`` that adds its parser and se
 ``register_commands(subparsers)`` hook of its CLI module in :mod:`optinav.registry`, and its ``simulate``,
 ``calibrate`` and ``batch`` entries from the other hooks there. Errors: an :class:`OptinavError` prints
 ``optinav: error: <cause; remedy>`` and exits 2; any other exception prints a one-line internal error and exits
-1; ``--debug`` shows the traceback instead.
+1; ``--debug`` shows the traceback instead. A failure to write standard output (a full disk, ``>/dev/full``, a
+closed stdout ``>&-``) is such a one-line error too, exit 2; a reader that went away (``| head``) ends quietly.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
+import io
 import os
 import re
 import sys
@@ -88,8 +91,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from optinav.core.progress import quiet
 
-    with quiet(args.quiet):
-        return _dispatch(args)
+    stdout = sys.stdout
+    sys.stdout = _Stdout(stdout)
+    try:
+        with quiet(args.quiet):
+            return _dispatch(args)
+    finally:
+        sys.stdout = stdout
 
 
 def _dispatch(args) -> int:
@@ -105,7 +113,10 @@ def _dispatch(args) -> int:
             task(label) if label else contextlib.nullcontext(),
         ):
             warnings.showwarning = _one_line_warning
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+            # what is still buffered is written here, where a failure is reported, not at the interpreter's exit
+            sys.stdout.flush()
+            return code
     except OptinavError as exc:
         if args.debug:
             raise
@@ -116,8 +127,7 @@ def _dispatch(args) -> int:
         return 130
     except BrokenPipeError:
         # the reader of our stdout went away (``optinav sun ... | head``): not an error of ours
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        _drop(sys.stdout)
         return 0
     except Exception as exc:  # noqa: BLE001 - last resort: one line unless --debug
         if args.debug:
@@ -129,6 +139,79 @@ def _dispatch(args) -> int:
             file=sys.stderr,
         )
         return 1
+
+
+class _Stdout:
+    """Standard output whose write failures are a one-line :class:`OptinavError` (``cannot write to standard
+    output: no space left on the device``) instead of an OSError any command could meet in any ``print``; a
+    closed stdout (``>&-``: Python's ``sys.stdout`` is None) fails at the first write instead of dropping it."""
+
+    def __init__(self, stream):
+        self._closed = stream is None
+        if self._closed:
+            _reserve_fd1()
+        self._stream = io.StringIO() if self._closed else stream
+
+    def _fail(self, exc: OSError | None) -> OptinavError:
+        from optinav.core.files import describe
+
+        _drop(self._stream)
+        if exc is None or exc.errno == errno.EBADF:
+            return OptinavError(
+                "cannot write to standard output: it is closed", "give the command one (a file, a pipe or /dev/null)"
+            )
+        return OptinavError(
+            f"cannot write to standard output: {describe(exc)}", "redirect it to a file on a disk with free space"
+        )
+
+    def write(self, text: str) -> int:
+        if self._closed:
+            raise self._fail(None)
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _reserve_fd1() -> None:
+    """Give a closed file descriptor 1 to the null device, so no file the command opens takes it (and worker
+    processes writing to it do not write into that file)."""
+    try:
+        os.fstat(1)
+        return
+    except OSError:
+        pass
+    with contextlib.suppress(OSError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        if devnull != 1:
+            os.dup2(devnull, 1)
+            os.close(devnull)
+
+
+def _drop(stream) -> None:
+    """Point ``stream``'s file descriptor at the null device, so what is still buffered for it is discarded at exit
+    instead of failing again (Python's "Exception ignored ..." and exit 120); a stream without one is left alone."""
+    try:
+        fd = stream.fileno()
+    except (AttributeError, ValueError, OSError):
+        return
+    with contextlib.suppress(OSError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, fd)
+        os.close(devnull)
 
 
 #: the library's keyword arguments named in its messages, as the command line spells them
