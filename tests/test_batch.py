@@ -391,3 +391,22 @@ def test_an_earlier_batch_table_in_the_folder_is_no_unit(tmp_path, capsys):
     assert main(["--quiet", "batch", "calibrate", "accel", str(d), "--out", str(tmp_path / "second.csv")]) == 0
     capsys.readouterr()
     assert [r["unit"] for r in read_results(tmp_path / "second.csv")] == ["u1"]
+
+
+@pytest.mark.parametrize("workers", ["0", "1"])
+def test_worker_warnings_are_one_line_like_the_batch_process(tmp_path, workers):
+    """A warning raised in a worker process (``--workers 1``) was Python's two lines (``…/filestream.py:952:
+    FrameWarning: …`` and the source line) while ``--workers 0`` printed ``optinav: warning: …``: the workers
+    now show warnings as the batch process does."""
+    d = tmp_path / "units"
+    d.mkdir()
+    # +g along body z: an up-pointing z, which the attitude reader warns about for the default NED frame
+    (d / "s.csv").write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{k / 100},0,0,9.8,0,0,0\n" for k in range(500)))
+    cmd = [sys.executable, "-m", "optinav.cli.main", "--quiet", "batch", "attitude", str(d)]
+    cmd += ["--out", str(tmp_path / "b.csv"), "--workers", workers]
+    env = {**os.environ, "PYTHONPATH": str(Path(batch.__file__).parents[1])}
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert lines and all(x.startswith("optinav: warning: ") for x in lines), proc.stderr
+    assert any("up-pointing z" in x for x in lines), proc.stderr

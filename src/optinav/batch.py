@@ -40,6 +40,7 @@ import json
 import math
 import os
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as _local_as_completed
 from pathlib import Path
@@ -849,7 +850,7 @@ def _run_local(jobs, options, workers, fn=None):
                 max_workers=min(workers, len(group)),
                 mp_context=_mp_context(),
                 initializer=_worker_init,
-                initargs=(os.getpid(),),
+                initargs=(os.getpid(), _picklable(warnings.showwarning)),
             )
             try:
                 futures = {pool.submit(fn, str(u.path), options, u.name): u for u in group}
@@ -863,13 +864,29 @@ def _run_local(jobs, options, workers, fn=None):
         pending, stage = broken, stage + 1
 
 
-def _worker_init(parent_pid: int) -> None:
-    """In each worker: die with the batch process. Linux: PR_SET_PDEATHSIG (SIGKILL when the parent — the
-    batch, or the fork server between them — exits); everywhere: a watchdog thread that exits when the batch
-    process is gone (the fork server may outlive it for a moment)."""
+def _picklable(fn):
+    """``fn`` when it can be sent to a worker process (a module-level function), else None."""
+    import pickle
+
+    try:
+        pickle.dumps(fn)
+    except Exception:  # noqa: BLE001 - a lambda, a bound method of an unpicklable object, ...
+        return None
+    return fn
+
+
+def _worker_init(parent_pid: int, showwarning=None) -> None:
+    """In each worker: show warnings as the batch process does (``showwarning``: its ``warnings.showwarning``, e.g.
+    the CLI's one-line ``optinav: warning: …``; a fresh worker process would print Python's two-line form), and
+    die with the batch process. Linux: PR_SET_PDEATHSIG (SIGKILL when the parent — the batch, or the fork server
+    between them — exits); everywhere: a watchdog thread that exits when the batch process is gone (the fork
+    server may outlive it for a moment)."""
     import signal
     import sys
     import threading
+
+    if showwarning is not None:
+        warnings.showwarning = showwarning
 
     if sys.platform.startswith("linux"):
         try:
