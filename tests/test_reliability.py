@@ -288,6 +288,18 @@ def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
         (["simulate", "rins", "--nonorth", "0,0,0,0,0,0", "--lat", "95", "--out", "x.npz"], "--lat"),
         (["simulate", "accel-multipos", "--out", "x.csv", "--dwell", "nan"], "not finite"),
         (["calibrate", "rins", "x.npz", "--lat", "-91", "--out", "r.json"], "--lat"),
+        # these ended in "internal error" (ValueError, OverflowError) or named the library's rng/sigma
+        (["reproduce", "core", "--quick", "--seed", "-1", "--out", "r1"], "--seed: -1 is out of range (must be >= 0)"),
+        (["simulate", "flight", "--seed", "-1", "--out", "f.csv"], "--seed: -1 is out of range (must be >= 0)"),
+        (["simulate", "flight", "--rate", "inf", "--out", "f.csv"], "--rate: 'inf' is not finite"),
+        (["simulate", "flight", "--duration", "-5", "--out", "f.csv"], "--duration: -5 is out of range"),
+        (["simulate", "static", "--hours", "1e300", "--out", "s.csv"], "--hours: 1e300 is out of range (must be > 0"),
+        (["design", "--target-bias", "1e-300"], "--target-bias: 1e-300 is out of range (must be >= 1e-06"),
+        (["design", "--target-scale", "1e-300"], "--target-scale: 1e-300 is out of range"),
+        (["design", "--target-misalignment", "1e-300"], "--target-misalignment: 1e-300 is out of range"),
+        (["design", "--target-gyro-bias", "1e-300"], "--target-gyro-bias: 1e-300 is out of range"),
+        (["design", "--acc-noise-density", "1e300"], "--acc-noise-density: 1e300 is out of range (must be >= 1e-12"),
+        (["design", "--gyro-noise-density", "1e300"], "--gyro-noise-density: 1e300 is out of range"),
     ],
 )
 def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):
@@ -296,6 +308,19 @@ def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and why in err and "see optinav" in err, err
+
+
+@pytest.mark.parametrize(
+    "argv, why",
+    [
+        (["--target-bias", "1e-6", "--acc-noise-density", "10"], "bias target 1e-06 mg would need 2.6e+17 s"),
+        (["--target-gyro-bias", "1e-6", "--gyro-noise-density", "1"], "gyro bias target 1e-06 deg/h would need"),
+    ],
+)
+def test_design_targets_beyond_reach_are_named(argv, why, capsys):
+    """Within the options' ranges a target can still need rest beyond any count (the dwell overflowed)."""
+    assert main(["design", *argv]) == 2
+    one_line_error(capsys, why, "more than 1e+12 s", "relax the target")
 
 
 # --- rins quality gates: wrong latitude, swapped encoders ------------------------------------------------------

@@ -13,6 +13,9 @@ from optinav.cli.common import (
     HEIGHT,
     LATITUDE,
     LONGITUDE,
+    POSITIVE,
+    RATE,
+    SEED,
     add_chunk_option,
     add_input_options,
     add_report_option,
@@ -356,10 +359,10 @@ def register_simulate(kinds) -> None:
     )
     p.add_argument("--out", required=True, metavar="DATA.csv", help="output CSV")
     p.add_argument("--kind", choices=["static", "dynamic"], default="dynamic", help="flight (default dynamic)")
-    p.add_argument("--duration", type=float, default=60.0, metavar="S", help="duration in s (default 60)")
-    p.add_argument("--rate", dest="rate_hz", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    p.add_argument("--duration", type=POSITIVE, default=60.0, metavar="S", help="duration in s (default 60)")
+    p.add_argument("--rate", dest="rate_hz", type=RATE, default=100.0, metavar="HZ", help="sample rate (default 100)")
     p.add_argument("--gyro-bias", metavar="BX,BY,BZ", help="constant residual gyro bias, deg/s (default none)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=SEED, default=0)
     p.set_defaults(func=run_simulate_flight, progress_task="simulate flight")
 
 

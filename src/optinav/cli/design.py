@@ -47,13 +47,13 @@ def register(sub) -> None:
     noise.add_argument("--allan", metavar="ALLAN.json", help="noise densities from optinav allan's JSON")
     noise.add_argument(
         "--acc-noise-density",
-        type=POSITIVE,
+        type=number(1e-12, 10.0, what="a noise density in m/s^2/sqrt(Hz)"),
         metavar="M/S^2/√HZ",
         help="accelerometer white-noise density in m/s^2/sqrt(Hz) (= m/s/sqrt(s))",
     )
     noise.add_argument(
         "--gyro-noise-density",
-        type=POSITIVE,
+        type=number(1e-12, 1.0, what="a noise density in rad/s/sqrt(Hz)"),
         metavar="RAD/S/√HZ",
         help="gyroscope white-noise density in rad/s/sqrt(Hz) (= rad/sqrt(s))",
     )
@@ -73,12 +73,31 @@ def register(sub) -> None:
     )
     tg = p.add_argument_group("rest time: --dwell, or targets (1-sigma) that set it")
     tg.add_argument("--dwell", type=POSITIVE, metavar="S", help="rest per pose in s (default 30 without targets)")
-    tg.add_argument("--target-scale", type=POSITIVE, metavar="PPM", help="accelerometer scale factor 1-sigma, ppm")
+    # targets far below any sensor's reach would need rest beyond any count (an overflow): bounded here
     tg.add_argument(
-        "--target-misalignment", type=POSITIVE, metavar="MRAD", help="accelerometer misalignment 1-sigma, mrad"
+        "--target-scale",
+        type=number(1e-3, 1e6, what="a scale-factor target in ppm"),
+        metavar="PPM",
+        help="accelerometer scale factor 1-sigma, ppm (1e-3..1e6)",
     )
-    tg.add_argument("--target-bias", type=POSITIVE, metavar="MG", help="accelerometer bias 1-sigma, mg")
-    tg.add_argument("--target-gyro-bias", type=POSITIVE, metavar="DEG/H", help="gyro bias 1-sigma from all rest, deg/h")
+    tg.add_argument(
+        "--target-misalignment",
+        type=number(1e-6, 1e3, what="a misalignment target in mrad"),
+        metavar="MRAD",
+        help="accelerometer misalignment 1-sigma, mrad (1e-6..1e3)",
+    )
+    tg.add_argument(
+        "--target-bias",
+        type=number(1e-6, 1e4, what="a bias target in mg"),
+        metavar="MG",
+        help="accelerometer bias 1-sigma, mg (1e-6..1e4)",
+    )
+    tg.add_argument(
+        "--target-gyro-bias",
+        type=number(1e-6, 1e6, what="a gyro bias target in deg/h"),
+        metavar="DEG/H",
+        help="gyro bias 1-sigma from all rest, deg/h (1e-6..1e6)",
+    )
     p.add_argument(
         "--rate", dest="rate_hz", type=RATE, default=100.0, metavar="HZ", help="sample rate in Hz (default 100)"
     )

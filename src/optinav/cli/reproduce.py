@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from optinav.cli.common import shared_data_dir
+from optinav.cli.common import SEED, shared_data_dir
 from optinav.reports import available_studies, check_report_dir, get_study, run_studies, write_report
 
 
@@ -32,7 +32,7 @@ def register(sub) -> None:
     p.add_argument("study", nargs="?", default="all", help="study name or 'all' (default)")
     p.add_argument("--quick", action="store_true", help="smaller versions of each study (minutes, not tens)")
     p.add_argument("--out", default="optinav-report", help="report folder (default: optinav-report)")
-    p.add_argument("--seed", type=int, default=2026, help="random seed (default 2026)")
+    p.add_argument("--seed", type=SEED, default=2026, help="random seed (default 2026)")
     p.set_defaults(func=run)
 
 

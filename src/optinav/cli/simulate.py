@@ -104,7 +104,12 @@ def register(sub) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     st.add_argument("--out", required=True, metavar="DATA", help="output data file")
-    st.add_argument("--hours", type=POSITIVE, default=1.0, help="duration in h (default 1)")
+    st.add_argument(
+        "--hours",
+        type=number(0.0, 1e5, lo_open=True, what="a duration in h"),
+        default=1.0,
+        help="duration in h, up to 1e5 (default 1)",
+    )
     st.add_argument(
         "--preset", default="mems-mti1", help="IMU preset of the white noise and bias instability (default mems-mti1)"
     )

@@ -466,6 +466,10 @@ def _order(up: np.ndarray, orient: np.ndarray) -> np.ndarray:
     return np.asarray(seq)
 
 
+#: the longest rest per pose (s) a target may ask for: beyond it a target is out of the sensor's reach (1e12 s is
+#: 30 000 years), and the rest would soon be no finite number
+MAX_TARGET_DWELL_S = 1e12
+
 #: the initial rest (s) in the first pose that docs/howto/calibrate-your-imu.md asks for: part of the gyro's rests
 INITIAL_REST_S = 30.0
 
@@ -521,7 +525,8 @@ def plan_poses(
         for k, v in targets.items():
             idx, f = TARGETS[k]
             s1 = float(np.max(np.asarray(d.predicted_std)[list(idx)]))
-            t = ref * (s1 / (v * f)) ** 2
+            r = s1 / (v * f)
+            t = ref * r * r  # a float product: inf when beyond any count, where ** raised OverflowError
             why.append((t, k))
             need = max(need, t)
         if gyro_bias_deg_h:
@@ -529,10 +534,10 @@ def plan_poses(
                 raise OptinavError(
                     "a gyro bias target needs the gyro noise density", "pass --gyro-noise-density, --allan or --preset"
                 )
-            t = float(np.max(gyro_n / (gyro_bias_deg_h * _DEG_H)) ** 2) / up.shape[0]
+            r = float(np.max(gyro_n)) / (gyro_bias_deg_h * _DEG_H)
+            t = r * r / up.shape[0]
             why.append((t, "gyro_bias_deg_h"))
             need = max(need, t)
-        dwell = float(math.ceil(need))
         t_top, top = max(why)
         what = {
             "scale_ppm": "accelerometer scale-factor target {:g} ppm",
@@ -540,6 +545,13 @@ def plan_poses(
             "bias_mg": "accelerometer bias target {:g} mg",
             "gyro_bias_deg_h": "gyro bias target {:g} deg/h",
         }[top].format(targets.get(top, gyro_bias_deg_h))
+        if not need <= MAX_TARGET_DWELL_S:
+            raise OptinavError(
+                f"the {what} would need {need:.3g} s of rest per pose (more than {MAX_TARGET_DWELL_S:g} s) with this "
+                "noise density",
+                "relax the target",
+            )
+        dwell = float(math.ceil(need))
         reason = (
             f"the {what} sets it" if t_top >= MIN_DWELL_S else f"the {MIN_DWELL_S:g} s minimum; the targets need less"
         )
