@@ -1300,3 +1300,50 @@ def test_apply_says_how_many_rows_were_not_finite(tmp_path, capsys, counts_sessi
     f.write_text("\n".join(lines) + "\n")
     assert main(["apply", str(res), str(f), "--out", str(tmp_path / "c.csv")]) == 0
     assert "2 rows of holes.csv hold empty, NaN or infinite values: written as NaN" in capsys.readouterr().err
+
+
+# --- a damaged result file: any field replaced ends in a one-line error ------------------------------------------
+
+_values = st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=4) | st.just([]) | st.just({})
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(pick=st.data())
+def test_a_result_with_a_field_replaced_fails_in_one_line(tmp_path_factory, capsys, counts_session, pick):
+    """``fields.units`` null made apply and report fail with an internal AttributeError, ``fields.accelerometer``
+    null report with a TypeError: every field of a real result replaced by another JSON value is read, or refused
+    in one line. (Values replaced inside a field, e.g. the accelerometer's K_std, are not all caught yet.)"""
+    _, data, res = counts_session
+    d = json.loads(res.read_text())
+    name = pick.draw(st.sampled_from(sorted(d["fields"])), label="field")
+    d["fields"][name]["value"] = pick.draw(_values, label="value")
+    tmp = tmp_path_factory.mktemp("damaged")
+    bad = tmp / "bad.json"
+    bad.write_text(json.dumps(d))
+    capsys.readouterr()
+    for argv in (
+        ["apply", str(bad), str(data), "--out", str(tmp / "o.csv")],
+        ["report", str(bad), "--out", str(tmp / "r")],
+    ):
+        if main(["--quiet", *argv]) != 0:
+            one_line_error(capsys)
+        capsys.readouterr()
+
+
+def test_a_result_with_null_units_or_accelerometer_is_named(tmp_path, capsys, counts_session):
+    _, data, res = counts_session
+    for name in ("units", "accelerometer"):
+        d = json.loads(res.read_text())
+        d["fields"][name]["value"] = None
+        bad = tmp_path / f"{name}.json"
+        bad.write_text(json.dumps(d))
+        for argv in (["report", str(bad), "--out", str(tmp_path / "r")], ["apply", str(bad), str(data)]):
+            assert main(argv if argv[0] == "report" else [*argv, "--out", str(tmp_path / "o.csv")]) == 2
+            one_line_error(capsys, "pass an unmodified optinav result file")
+    # a result without an accelerometer that loads (the raw unit is SI) has no report: named, not a TypeError
+    from optinav.multipos.result import CalibrationResult
+
+    gyro_only = CalibrationResult(gyroscope={"K": np.eye(3), "b": np.zeros(3)}, units={"gyroscope_raw": "rad/s"})
+    gyro_only.to_json(tmp_path / "g.json")
+    assert main(["report", str(tmp_path / "g.json"), "--out", str(tmp_path / "r")]) == 2
+    one_line_error(capsys, "has no accelerometer", "pass an unmodified optinav result file")

@@ -363,9 +363,12 @@ class Result:
             )
         kwargs = {}
         names = {f.name for f in dataclasses.fields(target)}
+        if not isinstance(data["fields"], dict):
+            raise InvalidResult("'fields' is not an object")
         for name, entry in data["fields"].items():
             if name in names:
                 kwargs[name] = _entry_value(entry)
+        _check_types(target, kwargs)
         try:
             return target(**{**target.MISSING_MEANT, **kwargs})
         except TypeError as exc:
@@ -406,6 +409,8 @@ class Result:
         data = parse_json(text, src, "pass an unmodified optinav result file")
         try:
             return cls.from_dict(data)
+        except InvalidResult as exc:
+            raise InvalidResult(exc.detail, src) from None
         except OptinavError:
             raise
         except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
@@ -414,6 +419,79 @@ class Result:
                 f"{src} is not a valid optinav result ({type(exc).__name__}: {' '.join(str(exc).split())[:80]})",
                 "pass an unmodified optinav result file",
             ) from None
+
+
+class InvalidResult(OptinavError):
+    """A result file whose layout is right but a field holds a value of the wrong kind (edited or damaged)."""
+
+    def __init__(self, detail: str, src: str = "result"):
+        super().__init__(f"{src} is not a valid optinav result ({detail})", "pass an unmodified optinav result file")
+        self.detail = detail
+
+
+#: a field's declared type → the JSON-decoded values it accepts (a float field takes an int: JSON writes 2.0 as 2)
+_ACCEPTS: dict[Any, tuple] = {
+    float: (float, int),
+    int: (int,),
+    bool: (bool,),
+    str: (str,),
+    dict: (dict,),
+    list: (list,),
+    np.ndarray: (np.ndarray, list),
+}
+
+
+def _kind(value: Any) -> str:
+    """A value's kind in the words of JSON (for messages)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "text"
+    if isinstance(value, (list, np.ndarray)):
+        return "a list"
+    if isinstance(value, dict):
+        return "an object"
+    return type(value).__name__
+
+
+def _check_types(target: type, kwargs: dict) -> None:
+    """Every field value of a result being loaded has its field's declared kind (``dict | None`` takes an object
+    or null, ``float`` a number, a nested result its class, ``Any`` anything): a value of another kind (null for
+    the units, text for a matrix) raises :class:`InvalidResult` naming the field, instead of failing later in
+    whatever reads it (an AttributeError in ``apply``)."""
+    import types
+    import typing
+
+    try:
+        hints = typing.get_type_hints(target)
+    except Exception:  # noqa: BLE001 - an annotation that does not resolve: nothing to check against
+        return
+    for name, value in kwargs.items():
+        hint = hints.get(name, Any)
+        options = (
+            typing.get_args(hint)
+            if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union
+            else (hint,)
+        )
+        ok = False
+        for h in options:
+            h = typing.get_origin(h) or h
+            if h is Any or (h is type(None) and value is None):
+                ok = True
+            elif h in _ACCEPTS:
+                ok = isinstance(value, _ACCEPTS[h]) and not (h is not bool and isinstance(value, bool))
+            elif isinstance(h, type):
+                ok = isinstance(value, h)
+            else:
+                ok = True  # a form this check does not know: left to the class
+            if ok:
+                break
+        if not ok:
+            raise InvalidResult(f"field {name!r} is {_kind(value)}")
 
 
 def _import_systems() -> None:

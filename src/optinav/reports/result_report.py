@@ -17,6 +17,12 @@ def multipos_report(res, out_dir, data=None, options=None) -> Path:
     pose residuals (:mod:`optinav.reports.calibration_report`)."""
     from optinav.reports import calibration_report as cr
 
+    if res.accelerometer is None:  # optinav writes none without: the report's tables and residuals are of it
+        raise OptinavError(
+            "the calibration result has no accelerometer (its field 'accelerometer' is null), which every "
+            "multi-position calibration of optinav has",
+            "pass an unmodified optinav result file",
+        )
     if data is not None:
         import dataclasses
 
