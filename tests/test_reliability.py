@@ -1189,6 +1189,30 @@ def test_report_on_the_out_file_and_gyro_out_without_a_gyro(tmp_path, capsys, co
     one_line_error(capsys, "this calibration has no gyroscope")
 
 
+@pytest.mark.parametrize(
+    "cmd, extra, why",
+    [
+        (["calibrate", "accel"], ["--out", "rep/summary.json"], "--out rep/summary.json is a file the report writes"),
+        (
+            ["calibrate", "accel"],
+            ["--out", "r.json", "--export", "imucal:rep/index.md"],
+            "--export imucal rep/index.md",
+        ),
+        (["calibrate", "accel"], ["--out", "r.json", "--export", "imu_tk:a.calib,rep/f.png"], "imu_tk rep/f.png"),
+        (["allan"], ["--out", "rep/summary.json"], "--out rep/summary.json is a file the report writes"),
+    ],
+)
+def test_an_output_the_report_would_replace_is_refused(tmp_path, capsys, monkeypatch, counts_session, cmd, extra, why):
+    """``calibrate accel mp.csv --out rep/summary.json --report rep`` wrote the result, then the report replaced
+    it with its own summary.json (exit 0): refused before any work now."""
+    _, data, _ = counts_session
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rep").mkdir()
+    assert main([*cmd, str(data), *extra, "--report", "rep"]) == 2
+    one_line_error(capsys, why, "give each output file its own name")
+    assert list((tmp_path / "rep").iterdir()) == [] and not (tmp_path / "r.json").exists()
+
+
 def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     """imucal's real Ferraris session has no time column: ``report --data`` said "pass --rate HZ", an option
     report did not have; it has it now (and refuses it without --data or for a result that reads no rate)."""

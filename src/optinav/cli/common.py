@@ -308,14 +308,35 @@ def prepare_report(args) -> None:
     report is written, so a run that fails leaves no folder behind."""
     if args.report:
         from optinav.reports import check_report_dir
+        from optinav.reports.report import report_writes
 
-        for opt in ("out", "export"):  # files the command writes before the report
-            other = getattr(args, opt, None)
-            if isinstance(other, (str, Path)) and Path(args.report).resolve() == Path(other).resolve():
+        for opt, other in _other_outputs(args):  # files the command writes before the report
+            if Path(args.report).resolve() == Path(other).resolve():
                 raise OptinavError(
-                    f"--report {args.report} names the --{opt} file", "give the report a folder of its own"
+                    f"--report {args.report} names the {opt} file", "give the report a folder of its own"
+                )
+            if report_writes(args.report, other):
+                raise OptinavError(
+                    f"{opt} {other} is a file the report writes into --report {args.report}: the report would "
+                    "replace it",
+                    "give each output file its own name",
                 )
         check_report_dir(args.report)
+
+
+def _other_outputs(args) -> list[tuple[str, str]]:
+    """(option, path) of every output file of ``args`` besides the report: --out, --kalibr, --gyro-out and each
+    path of ``--export FMT:FILE[,GYRO]`` (repeatable)."""
+    found = []
+    for opt in ("out", "kalibr", "gyro_out"):
+        value = getattr(args, opt, None)
+        if isinstance(value, (str, Path)) and str(value):
+            found.append(("--" + opt.replace("_", "-"), str(value)))
+    exports = getattr(args, "export", None) or []
+    for spec in [exports] if isinstance(exports, str) else exports:
+        fmt, sep, paths = str(spec).partition(":")
+        found.extend(("--export " + fmt, q) for q in (paths if sep else spec).split(",") if q)
+    return found
 
 
 def finish_report(args, write) -> None:

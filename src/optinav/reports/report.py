@@ -406,6 +406,32 @@ def check_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
     return out
 
 
+#: the files every report writes into its folder, besides its figures (``*.png``)
+REPORT_FILES = ("index.md", "index.html", "summary.json")
+
+
+def report_writes(out_dir: str | Path, path: str | Path) -> bool:
+    """Whether a report written into ``out_dir`` would replace ``path``: one of :data:`REPORT_FILES` or a figure
+    (``*.png``) directly in that folder.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The report folder (it need not exist yet).
+    path : str or Path
+        Another output of the command.
+
+    Returns
+    -------
+    bool
+        True when the report would write ``path``.
+    """
+    p = Path(path)
+    if Path(out_dir).resolve() != p.parent.resolve():
+        return False
+    return p.name in REPORT_FILES or p.suffix.lower() == ".png"
+
+
 def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
     """Create the report folder and check it is writable (when the report is written; :func:`check_report_dir`
     checks the path before the work)."""
