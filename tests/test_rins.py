@@ -227,6 +227,20 @@ def test_bad_input_errors():
     _err(dataclasses.replace(base, beta=base.beta[::2]), "sample-rate mismatch")
 
 
+def test_duplicate_timestamp_names_what_helps_rins_not_other_commands_flags():
+    """calibrate rins has no --columns and no --rate: the duplicate-timestamp remedy named both."""
+    base = simulate(P_TRUE, rng=2, **SHORT)
+    i = np.r_[np.arange(base.t.size), 500]
+    i.sort()
+    dup = dataclasses.replace(
+        base, t=base.t[i], dtheta=base.dtheta[i], dv=base.dv[i], alpha=base.alpha[i], beta=base.beta[i]
+    )
+    with pytest.raises(OptinavError, match="duplicate timestamp at index 501") as exc:
+        calibrate(dup, "lm")
+    msg = str(exc.value)
+    assert "--columns" not in msg and "--rate" not in msg and "drop the duplicated rows" in msg
+
+
 # --- the session generated block by block (RinsStream) -------------------------------------------------------
 
 ODD = dict(SHORT, wobble=2e-5, lock_sigma=1e-5)  # both gimbal chains (wobble: four joints) and the lock errors

@@ -73,8 +73,19 @@ def _backwards(t: np.ndarray, i: int) -> tuple[str, str]:
     return "", "sort the samples by time"
 
 
+#: the remedy of a duplicate timestamp when the caller names none (no option of any command: callers whose
+#: command can skip the time column or take a rate say so, :data:`optinav.io.imu.COARSE_TIME_REMEDY`)
+DUPLICATE_REMEDY = "drop the duplicated samples (each row needs its own time stamp)"
+
+
 def check_timestamps(
-    t, name: str = "time", *, min_count: int = 2, max_gap_factor: float | None = None, index0: int = 0
+    t,
+    name: str = "time",
+    *,
+    min_count: int = 2,
+    max_gap_factor: float | None = None,
+    index0: int = 0,
+    duplicate_remedy: str = DUPLICATE_REMEDY,
 ) -> np.ndarray:
     """Validate a 1-D timestamp vector: finite, strictly increasing, optionally without gaps.
 
@@ -90,6 +101,8 @@ def check_timestamps(
         A step larger than this multiple of the median step is reported as a gap [-].
     index0 : int
         Index of ``t[0]`` in the whole log (a block of a streamed log), for the indices in messages.
+    duplicate_remedy : str
+        What to do about a duplicate timestamp, in the terms of the caller's command (the options it has).
 
     Returns
     -------
@@ -108,8 +121,7 @@ def check_timestamps(
             i = a + int(np.flatnonzero(dt == 0)[0])
             raise OptinavError(
                 f"{name} has a duplicate timestamp at index {index0 + i + 1} (t = {t[i + 1]:.6g} s)",
-                "drop duplicated samples; a time column too coarse for the rate (whole ms at hundreds of Hz) can be "
-                "skipped with '_' in --columns, the sample rate given with --rate",
+                duplicate_remedy,
             )
         if np.any(dt < 0):
             i = a + int(np.flatnonzero(dt < 0)[0])

@@ -84,6 +84,12 @@ GYRO_UNITS = {
 }
 #: time units → seconds per unit
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: the remedy of a duplicate timestamp in an IMU log: the commands reading it can skip the time column and take
+#: the rate instead (``columns``/``rate_hz`` from Python)
+COARSE_TIME_REMEDY = (
+    "drop duplicated samples; a time column too coarse for the rate (whole ms at hundreds of Hz) can be "
+    "skipped with '_' in --columns, the sample rate given with --rate"
+)
 _TIME_SPELLINGS = {
     "s": "s",
     "sec": "s",
@@ -875,10 +881,12 @@ def _log_of(
         p, t = times[0]
         what = f"time column {p.t_name!r} of {p.path.name}"
         if prev_t is None:
-            t = check_timestamps(t, what, min_count=1 if block else 2)
+            t = check_timestamps(t, what, min_count=1 if block else 2, duplicate_remedy=COARSE_TIME_REMEDY)
             _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"])
         else:
-            check_timestamps(np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1)
+            check_timestamps(
+                np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1, duplicate_remedy=COARSE_TIME_REMEDY
+            )
     elif rate is None and _file_rate(main.table) is None:
         raise OptinavError(
             f"{main.path.name} has no time column (found: {main.table.names()})",

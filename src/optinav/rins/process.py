@@ -39,6 +39,12 @@ __all__ = [
 #: an encoder step above this (rad) between samples counts as motion
 MOTION_STEP = np.radians(0.01)
 
+#: a duplicate time stamp in a recording: rins reads its steps from the t column (no rate option)
+DUPLICATE_REMEDY = (
+    "drop the duplicated rows: each row's t (s) starts its own increment interval, and the integration takes "
+    "its steps from the t column"
+)
+
 
 @dataclasses.dataclass
 class SensorAttitude:
@@ -70,7 +76,7 @@ def _check_block(b, prev_t) -> np.ndarray:
     if t.ndim != 1:
         raise OptinavError(f"time must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
     tt = t if prev_t is None else np.concatenate([[prev_t], t])
-    check_timestamps(tt, "time", min_count=1, index0=b.row0 - (tt.size - t.size))
+    check_timestamps(tt, "time", min_count=1, index0=b.row0 - (tt.size - t.size), duplicate_remedy=DUPLICATE_REMEDY)
     as_float_array(b.dtheta, "dtheta (gyro increments)", last_dims=(3,))
     as_float_array(b.dv, "dv (accelerometer increments)", last_dims=(3,))
     for name, a in (("alpha (inner encoder)", b.alpha), ("beta (outer encoder)", b.beta)):
