@@ -241,6 +241,22 @@ def test_duplicate_timestamp_names_what_helps_rins_not_other_commands_flags():
     assert "--columns" not in msg and "--rate" not in msg and "drop the duplicated rows" in msg
 
 
+@pytest.mark.parametrize("suffix,sep", [(".txt", " "), (".tsv.gz", "\t"), (".dat", " ")])
+def test_text_suffixes_the_batch_lists_are_read(tmp_path, suffix, sep):
+    """optinav batch lists .txt .tsv .dat (also .gz) as units: the rins reader reads them as it reads .csv."""
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    path = tmp_path / f"x{suffix}"
+    cols = [d.t, *d.dtheta.T, *d.dv.T, d.alpha, d.beta]
+    header = "# optinav rins: lat_deg=28.2 height_m=50\n" + sep.join(
+        ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
+    )
+    np.savetxt(path, np.column_stack(cols), delimiter=sep, header=header, comments="", fmt="%.17g")
+    e = read_rins(path)
+    np.testing.assert_array_equal(e.alpha, d.alpha)
+    np.testing.assert_array_equal(e.dtheta, d.dtheta)
+    assert e.lat == pytest.approx(np.radians(28.2)) and e.height_m == pytest.approx(50.0)
+
+
 # --- the session generated block by block (RinsStream) -------------------------------------------------------
 
 ODD = dict(SHORT, wobble=2e-5, lock_sigma=1e-5)  # both gimbal chains (wobble: four joints) and the lock errors

@@ -1,4 +1,6 @@
-"""Rotational-INS data files: NPZ, CSV and HDF5 with the columns of docs/methods/rins.md.
+"""Rotational-INS data files with the columns of docs/methods/rins.md: written as NPZ, CSV or HDF5, read from
+any table :func:`optinav.io.iter_table` reads (text .csv/.tsv/.txt/.dat, also .gz; .npz, .npy, HDF5, .mat,
+parquet — the units ``optinav batch`` lists).
 
 Columns (all SI): ``t`` (s, the start of each row's increment interval), ``dtheta_x, dtheta_y, dtheta_z`` (rad,
 gyro increments over (t[k], t[k+1]]), ``dv_x, dv_y, dv_z`` (m/s), ``alpha`` (rad, inner encoder at t[k]),
@@ -40,21 +42,36 @@ __all__ = [
 
 
 def file_format(path, *, writing: bool = False) -> str:
-    """``"npz"``, ``"csv"`` or ``"hdf5"`` by the suffix of ``path``; an unknown suffix (or HDF5 to write without h5py)
-    is an error."""
+    """The format of ``path`` by its suffix: ``"csv"`` for any text table (.csv .tsv .txt .dat .log, also as .gz),
+    else ``"npz"``, ``"npy"``, ``"hdf5"``, ``"mat"`` or ``"parquet"`` — what :func:`optinav.io.iter_table` reads
+    (the suffixes the batch lists). Writing: .npz, .csv or .h5/.hdf5 only. An unknown suffix (or HDF5 to write
+    without h5py) is an error."""
+    from optinav.io.readers import SUFFIXES, _suffix
+
     p = Path(path)
-    f = _FORMATS.get(p.suffix.lower())
-    if f is None:
+    if writing:
+        f = _FORMATS.get(p.suffix.lower())
+        if f is None:
+            raise OptinavError(
+                f"{p.name}: cannot write a rotational-INS file of type {p.suffix!r}",
+                "use .npz, .csv or .h5 (see docs/methods/rins.md)",
+            )
+        if f == "hdf5":
+            try:
+                import h5py  # noqa: F401
+            except ImportError:
+                raise OptinavError(
+                    "writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv"
+                ) from None
+        return f
+    gz = p.suffix.lower() == ".gz"
+    f = SUFFIXES.get(_suffix(p))
+    if f is None or (gz and f != "text"):
         raise OptinavError(
-            f"{p.name}: unknown rotational-INS file type {p.suffix!r}",
-            "use .npz, .csv or .h5 (see docs/methods/rins.md)",
+            f"{p.name}: unknown rotational-INS file type {''.join(p.suffixes[-2 if gz else -1 :]) or '(none)'}",
+            f"use one of {' '.join(SUFFIXES)} (text also as .gz; see docs/methods/rins.md)",
         )
-    if writing and f == "hdf5":
-        try:
-            import h5py  # noqa: F401
-        except ImportError:
-            raise OptinavError("writing HDF5 needs h5py", "pip install 'optinav[hdf5]' or write .npz/.csv") from None
-    return f
+    return "csv" if f == "text" else f
 
 
 def write_rins(path, data: RinsData) -> Path:
@@ -134,8 +151,11 @@ def rins_csv_writer(path, lat: float, height_m: float):
 
 
 def _site_from_csv(path: Path) -> dict:
+    import gzip
+
     out = {}
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rt", encoding="utf-8", errors="replace") as fh:
         for _ in range(20):
             line = fh.readline()
             if not line.startswith("#"):
@@ -154,11 +174,13 @@ def row_estimate(path) -> int:
     path = Path(path)
     try:
         kind = file_format(path)
-        if kind == "csv":
+        if kind == "csv" and path.suffix.lower() != ".gz":
             with open(path, "rb") as fh:
                 head = fh.read(1 << 16)
             lines = [x for x in head.splitlines()[:-1] if x.strip() and not x.lstrip().startswith(b"#")][1:]
             return int(path.stat().st_size / (sum(map(len, lines)) / len(lines) + 1)) if lines else 0
+        if kind != "npz" and kind != "hdf5":
+            return 0
         if kind == "npz":
             with zipfile.ZipFile(path) as z:
                 names = z.namelist()
@@ -245,7 +267,7 @@ class RinsFile:
         path, site = self.path, {}
         if self.kind == "csv":
             site = _site_from_csv(path)
-        elif self.kind == "npz":  # scalars (0-d arrays) are the table's metadata, not columns
+        elif self.kind != "hdf5":  # scalars (0-d arrays, MAT variables) are the table's metadata, not columns
             site = {k: float(meta[k]) for k in ("lat_deg", "height_m") if k in meta}
         else:
             import h5py
