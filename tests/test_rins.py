@@ -257,6 +257,39 @@ def test_text_suffixes_the_batch_lists_are_read(tmp_path, suffix, sep):
     assert e.lat == pytest.approx(np.radians(28.2)) and e.height_m == pytest.approx(50.0)
 
 
+def test_encoder_unit_wrap_and_noise_are_named_not_a_short_rest():
+    """Encoders in degrees, wrapped to [0, 2π) or with 100″ of noise all said 'only 0.005 s of rest … record at
+    least 60 s static' (the rest was 60 s)."""
+    base = simulate(P_TRUE, rng=2, **SHORT)
+    deg = dataclasses.replace(base, alpha=np.degrees(base.alpha), beta=np.degrees(base.beta))
+    _err(deg, r"rest before the first gimbal move: the encoders turn 5\d\.\d× the angle the gyros turn.*in degrees")
+    wrap = dataclasses.replace(base, alpha=np.mod(base.alpha, 2 * np.pi), beta=np.mod(base.beta, 2 * np.pi))
+    _err(wrap, r"jumps by -?6\.283 rad at row \d+, a wrap of 2π.*unwrap the encoder columns")
+    rng = np.random.default_rng(0)
+    noisy_enc = dataclasses.replace(base, alpha=base.alpha + rng.normal(0, np.radians(100 / 3600), base.alpha.size))
+    _err(noisy_enc, r"alpha \(inner encoder\) has [\d.]+″ rms noise from sample to sample, above the 36″ step")
+
+
+def test_declared_encoder_units_are_honoured_or_refused(tmp_path):
+    """'# units: … alpha=deg beta=deg' was ignored (the degrees read as rad); now converted, and a unit that
+    cannot be converted is refused by name."""
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    cols = [d.t, *d.dtheta.T, *d.dv.T, np.degrees(d.alpha), np.degrees(d.beta)]
+    for unit, ok in (("deg", True), ("grad", False)):
+        path = tmp_path / f"{unit}.csv"
+        header = (
+            "# optinav rins: lat_deg=28.2 height_m=50\n"
+            f"# units: t=s dtheta=rad dv=m/s alpha={unit} beta={unit}\n"
+            "t,dtheta_x,dtheta_y,dtheta_z,dv_x,dv_y,dv_z,alpha,beta"
+        )
+        np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
+        if ok:
+            np.testing.assert_allclose(read_rins(path).alpha, d.alpha, rtol=1e-14, atol=1e-15)
+        else:
+            with pytest.raises(OptinavError, match="declares alpha in 'grad'.*one of rad, mrad, urad, deg"):
+                read_rins(path)
+
+
 # --- the session generated block by block (RinsStream) -------------------------------------------------------
 
 ODD = dict(SHORT, wobble=2e-5, lock_sigma=1e-5)  # both gimbal chains (wobble: four joints) and the lock errors

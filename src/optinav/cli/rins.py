@@ -165,7 +165,10 @@ def register_calibrate(kinds) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("data", help="data file (.npz, .csv, .h5) with t (or time), dtheta_x..z, dv_x..z, alpha, beta")
+    p.add_argument(
+        "data",
+        help="data file (.csv .txt .tsv .dat, .npz, .h5, .mat, …) with t (or time), dtheta_x..z, dv_x..z, alpha, beta",
+    )
     add_batch_options(p)
     p.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     add_report_option(p)

@@ -150,10 +150,12 @@ def rins_csv_writer(path, lat: float, height_m: float):
         yield lambda t, dtheta, dv, alpha, beta: write(np.column_stack([t, dtheta, dv, alpha, beta]))
 
 
-def _site_from_csv(path: Path) -> dict:
+def _csv_comments(path: Path) -> tuple[dict, dict]:
+    """(site, declared units) of a text file's comment lines: ``# optinav rins: lat_deg=… height_m=…`` and
+    ``# units: t=s dtheta=rad dv=m/s alpha=deg beta=deg`` (keys: column names or their groups)."""
     import gzip
 
-    out = {}
+    site, units = {}, {}
     opener = gzip.open if path.suffix.lower() == ".gz" else open
     with opener(path, "rt", encoding="utf-8", errors="replace") as fh:
         for _ in range(20):
@@ -161,7 +163,49 @@ def _site_from_csv(path: Path) -> dict:
             if not line.startswith("#"):
                 continue
             for k, v in re.findall(r"(lat_deg|height_m)\s*=\s*([-+0-9.eE]+)", line):
-                out[k] = float(v)
+                site[k] = float(v)
+            m = re.search(r"\bunits?\s*:\s*(.*)$", line, re.IGNORECASE)
+            if m:
+                units.update({k.lower(): v for k, v in re.findall(r"([A-Za-z_]\w*)\s*=\s*([^\s,;]+)", m.group(1))})
+    return site, units
+
+
+#: the units a file may declare for each column group, and their factor to SI (s, rad, m/s)
+_ANGLE = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "deg": np.pi / 180, "arcmin": np.pi / 10800, "arcsec": np.pi / 648000}
+DECLARED_UNITS = {
+    "t": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
+    "dtheta": _ANGLE,
+    "dv": {"m/s": 1.0},
+    "alpha": _ANGLE,
+    "beta": _ANGLE,
+}
+_SPELLINGS = {"°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad", "sec": "s", "µs": "us"}
+
+
+def _group(col: str) -> str:
+    return col.split("_")[0] if col.startswith(("dtheta", "dv")) else col
+
+
+def unit_factors(path: Path, declared: dict, names: dict) -> dict:
+    """The factor to SI of each column (:data:`COLUMNS`) from the units the file declares: ``declared`` maps
+    column names, their groups (``dtheta``, ``dv``) or ``time`` to unit names; ``names``: column → the file's
+    name for it. A unit the column cannot be in is a one-line error; undeclared columns are SI (factor 1)."""
+    out = {}
+    for c, name in names.items():
+        g = _group(c)
+        u = next((declared[k] for k in (name.lower(), c, g) if k in declared), None)
+        if u is None and c == "t":
+            u = declared.get("time")
+        if u is None:
+            continue
+        key = _SPELLINGS.get(u.strip().lower(), u.strip())
+        allowed = DECLARED_UNITS[g]
+        if key not in allowed:
+            raise OptinavError(
+                f"{path.name} declares {name} in {u!r}, a unit optinav cannot convert {g} from",
+                f"write {name} in one of {', '.join(allowed)} and declare that (see docs/methods/rins.md)",
+            )
+        out[c] = allowed[key]
     return out
 
 
@@ -266,7 +310,7 @@ class RinsFile:
     def _site(self, meta) -> None:
         path, site = self.path, {}
         if self.kind == "csv":
-            site = _site_from_csv(path)
+            site = _csv_comments(path)[0]
         elif self.kind != "hdf5":  # scalars (0-d arrays, MAT variables) are the table's metadata, not columns
             site = {k: float(meta[k]) for k in ("lat_deg", "height_m") if k in meta}
         else:
@@ -297,7 +341,14 @@ class RinsFile:
                         f"write the columns {', '.join(COLUMNS)} (see docs/methods/rins.md)",
                     )
                 self._site(tab.meta)
+                declared = {k.lower(): v for k, v in tab.units.items()}
+                if self.kind == "csv":
+                    declared.update(_csv_comments(path)[1])
+                found = {c: tab.find(n) for c, n in zip(COLUMNS, names)}
+                factors = {c: f for c, f in unit_factors(path, declared, found).items() if f != 1.0}
             col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
+            for c, f in factors.items():
+                col[c] = col[c] * f
             n = col["t"].size
             for c, name in zip(COLUMNS, names):
                 if col[c].size != n:

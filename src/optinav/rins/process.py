@@ -93,6 +93,16 @@ class _Checks:
         self.n, self.prev_t, self.dt = 0, None, []
         self.gap = (-np.inf, 0.0)  # the largest step [s] (the first of equals) and the epoch it starts at
         self.enc = {name: [np.empty(0), 0, 0] for name in ENCODERS}  # last 8 angles, moving rows, held of them
+        # per encoder: the largest |angle| (rad as read), the first step beyond π (row, step), the first rows
+        # (for the sample-to-sample noise): what tells an encoder in degrees, wrapped or noisy
+        self.amax = dict.fromkeys(ENCODERS, 0.0)
+        self.jump: dict = dict.fromkeys(ENCODERS)
+        self.head = {name: [] for name in ENCODERS}
+        # the turning every TURN_ROWS rows: of each encoder (|angle change|) and of the gyros (|summed
+        # increments|), summed over the recording; their ratio is 57.3 for encoders in degrees whatever the noise
+        self.turn = dict.fromkeys(ENCODERS, 0.0)
+        self.turn_gyro, self.at = 0.0, None  # the gyro sum, (encoder angles, summed increments) at the last node
+        self.cum = np.zeros(3)
 
     def feed(self, b) -> np.ndarray:
         t = _check_block(b, self.prev_t)
@@ -105,15 +115,85 @@ class _Checks:
                 self.gap = (float(dt[k]), float(tt[k]))
         for name, a in zip(ENCODERS, (b.alpha, b.beta)):
             st = self.enc[name]
+            self._encoder_stats(name, b.row0, np.asarray(a, float), st[0])
             a = np.concatenate([st[0], np.asarray(a, float)])
             # fast part of the moves: the angle changes by > 8 motion steps over ±4 samples
             inside = np.flatnonzero(np.abs(a[8:] - a[:-8]) > 8 * MOTION_STEP) + 4
             st[1] += inside.size
             st[2] += int(np.count_nonzero(a[inside + 1] == a[inside]))
             st[0] = a[-8:]
+        self._turning(b)
         self.n += t.size
         self.prev_t = float(t[-1]) if t.size else self.prev_t
         return t
+
+    def _encoder_stats(self, name: str, row0: int, a: np.ndarray, before: np.ndarray) -> None:
+        if not a.size:
+            return
+        self.amax[name] = max(self.amax[name], float(np.nanmax(np.abs(a))))
+        if self.jump[name] is None:
+            d = np.diff(np.concatenate([before[-1:], a]))
+            big = np.flatnonzero(np.abs(d) > np.pi)
+            if big.size:
+                k = int(big[0])
+                self.jump[name] = (row0 + k - (1 if before.size else 0), float(d[k]))
+        kept = sum(map(len, self.head[name]))
+        if kept < HEAD_ROWS:
+            self.head[name].append(a[: HEAD_ROWS - kept])
+
+    def _turning(self, b) -> None:
+        k = np.flatnonzero((b.row0 + np.arange(len(b.t))) % TURN_ROWS == 0)
+        if not k.size:
+            self.cum = self.cum + np.asarray(b.dtheta, float).sum(0)
+            return
+        cum = self.cum + np.concatenate([np.zeros((1, 3)), np.cumsum(np.asarray(b.dtheta, float), 0)])
+        nodes = np.column_stack([np.asarray(b.alpha, float)[k], np.asarray(b.beta, float)[k]])
+        g = cum[k]
+        if self.at is not None:
+            nodes, g = np.vstack([self.at[0], nodes]), np.vstack([self.at[1], g])
+        d = np.abs(np.diff(nodes, axis=0))
+        for j, name in enumerate(ENCODERS):
+            self.turn[name] += float(np.nansum(d[:, j]))
+        self.turn_gyro += float(np.linalg.norm(np.diff(g, axis=0), axis=1).sum())
+        self.at = (nodes[-1], g[-1])
+        self.cum = cum[-1]
+
+    def encoder_trouble(self) -> tuple[str, str] | None:
+        """(cause, remedy) when an encoder column is not in rad, wraps, or is noisier than the motion step (what
+        makes the rest look shorter than a sample or two), else None."""
+        for name in ENCODERS:
+            j = self.jump[name]
+            if j is not None and abs(abs(j[1]) - 360.0) < 5.0:
+                return (
+                    f"{name} jumps by {j[1]:.6g} at row {j[0] + 1}: it is in degrees wrapped to 360",
+                    "write the encoder columns in rad, unwrapped (or declare '# units: alpha=deg beta=deg' in a "
+                    "text file and unwrap them)",
+                )
+            if j is not None and abs(abs(j[1]) - 2 * np.pi) < 0.1:
+                return (
+                    f"{name} jumps by {j[1]:.4g} rad at row {j[0] + 1}, a wrap of 2π (the angle kept in [0, 2π) "
+                    "or (−π, π]): the gimbals cannot turn a full turn in one sample",
+                    "unwrap the encoder columns (numpy.unwrap) before calibrating",
+                )
+        enc = sum(self.turn.values())
+        if self.turn_gyro > 0.5 and 20.0 < enc / self.turn_gyro < 120.0:
+            return (
+                f"the encoders turn {enc / self.turn_gyro:.3g}× the angle the gyros turn (the encoders read up to "
+                f"{max(self.amax.values()):.4g}): they are in degrees, not rad",
+                "write the encoder columns in rad (or declare '# units: alpha=deg beta=deg' in a text file)",
+            )
+        for name in ENCODERS:
+            a = np.concatenate(self.head[name]) if self.head[name] else np.empty(0)
+            if a.size > 20:
+                # white noise σ gives second differences of σ√6; a smooth gimbal move almost none
+                sd = 1.4826 * float(np.median(np.abs(np.diff(a, 2)))) / np.sqrt(6)
+                if 3 * np.sqrt(2) * sd > MOTION_STEP:
+                    return (
+                        f"{name} has {np.degrees(sd) * 3600:.3g}″ rms noise from sample to sample, "
+                        f"above the {np.degrees(MOTION_STEP) * 3600:.3g}″ step that counts as gimbal motion",
+                        "low-pass or average the encoder angles below that step (or check that they are in rad)",
+                    )
+        return None
 
     def finish(self) -> np.ndarray:
         """Raise what the whole recording shows; returns the sample steps (s)."""
@@ -138,6 +218,11 @@ class _Checks:
 
 
 ENCODERS = ("alpha (inner encoder)", "beta (outer encoder)")
+
+#: first rows of each encoder kept for its noise (:meth:`_Checks.encoder_trouble`)
+HEAD_ROWS = 2000
+#: rows between the samples of the encoder and gyro turning compared (:meth:`_Checks.encoder_trouble`)
+TURN_ROWS = 100
 
 
 def check_data(data) -> None:
@@ -254,13 +339,11 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     rest: dict = {"t": [], "dtheta": [], "dv": []}
     k_a, t0, prev = None, None, None  # rows of the rest once known; first epoch; last encoder angles
     kept, overflow = 0, False  # rest rows kept; more than MAX_REST_ROWS (no longer kept)
-    enc = 0.0  # the largest |encoder angle| of the blocks up to the first move
     for b in _blocks(src, desc):
         t = checks.feed(b)
         if k_a is not None or not t.size:
             continue
         a, bb = np.asarray(b.alpha, float), np.asarray(b.beta, float)
-        enc = max(enc, float(np.nanmax(np.abs(a))), float(np.nanmax(np.abs(bb))))
         if prev is None:
             t0, prev = float(t[0]), (a[0], bb[0])
         moving = motion_mask(a, prev=prev[0]) | motion_mask(bb, prev=prev[1])
@@ -282,13 +365,15 @@ def survey(data, *, align_s: float | None = None, fine: bool = True, desc: str =
     k_a = n if k_a is None else k_a
     step = float(np.median(dt))
     if k_a * step < 10.0:
-        deg = enc > 2 * np.pi * 1.05  # an encoder in degrees moves 57× in rad: its noise looks like motion
+        # an encoder in degrees (57× its noise), wrapped at 2π or noisy looks as if it moved at once
+        trouble = checks.encoder_trouble()
+        if trouble is not None:
+            raise OptinavError(
+                f"only {k_a * step:.3g} s of rest before the first gimbal move: {trouble[0]}", trouble[1]
+            )
         raise OptinavError(
-            f"only {k_a * step:.3g} s of rest before the first gimbal move"
-            + (f" (the encoders read up to {enc:.4g} at the start: in degrees, not rad?)" if deg else ""),
-            "write the encoder columns in rad"
-            if deg
-            else "record at least 60 s (the paper: 600 s) static with both gimbals still first",
+            f"only {k_a * step:.3g} s of rest before the first gimbal move",
+            "record at least 60 s (the paper: 600 s) static with both gimbals still first",
         )
     if k_a >= n - 2:
         raise OptinavError(
