@@ -380,7 +380,7 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
         ("flip gx", "the gimbal model does not fit this recording; check the gyro columns"),
         ("gyro deg", "57.3× the Earth rate"),
         ("gyro rate", "the gyro increments are not in rad"),
-        ("encoders deg", "in degrees, not rad?); write the encoder columns in rad"),
+        ("encoders deg", "they are in degrees, not rad; write the encoder columns in rad"),
         ("flip gy", "the gyros turn 1× the encoder's angle about an axis 179° from the gimbal's"),
         ("swap gx gy", "about an axis 89"),
         ("flip beta", "move 1 (-180°) the gyros turn"),

@@ -290,6 +290,23 @@ def test_declared_encoder_units_are_honoured_or_refused(tmp_path):
                 read_rins(path)
 
 
+def test_rest_checks_name_the_sensor_cause_not_only_latitude_or_time():
+    """dv in g said 'the time column is off'; a flipped z gyro, swapped x/z gyros or a 10 °/h gyro bias said only
+    'check --lat' (following it then failed on the sensors)."""
+    base = simulate(P_TRUE, rng=2, **SHORT)
+    _err(dataclasses.replace(base, dv=base.dv / 9.80665), r"gyros read the Earth rate.*dv columns are in g·s, not m/s")
+    flip = base.dtheta.copy()
+    flip[:, 2] *= -1
+    _err(dataclasses.replace(base, dtheta=flip), r"declared one negated.*z gyro's or z accelerometer's sign flipped")
+    _err(
+        dataclasses.replace(base, dtheta=base.dtheta[:, [2, 1, 0]]),
+        r"check --lat.*if it is right.*axis flipped or swapped, or a bias of about",
+    )
+    bias = base.dtheta.copy()
+    bias[:, 2] += np.radians(10 / 3600) * (base.t[1] - base.t[0])
+    _err(dataclasses.replace(base, dtheta=bias), r"Earth rate's magnitude at rest, which no latitude gives.*gyro bias")
+
+
 # --- the session generated block by block (RinsStream) -------------------------------------------------------
 
 ODD = dict(SHORT, wobble=2e-5, lock_sigma=1e-5)  # both gimbal chains (wobble: four joints) and the lock errors

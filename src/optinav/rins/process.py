@@ -21,6 +21,7 @@ from optinav.core.alignment import coarse_alignment, fine_alignment
 from optinav.core.progress import progress_blocks
 from optinav.core.rotations import dcm_from_quat, quat_from_dcm
 from optinav.core.strapdown import AttitudeStream
+from optinav.core.units import G_STANDARD
 from optinav.core.validate import as_float_array, check_timestamps
 from optinav.errors import OptinavError
 from optinav.rins.io import RinsFile, rins_source
@@ -257,7 +258,32 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
     if not -np.pi / 2 <= lat <= np.pi / 2:
         raise OptinavError(f"latitude {np.degrees(lat):.6g}° is outside [-90°, 90°]", "pass --lat DEG (north +)")
     f = float(np.linalg.norm(dv.sum(0))) / span / _earth.WGS84.g_e
+    meas, sd = measured_latitude(dth, dv, span)
+    w = float(np.linalg.norm(dth.sum(0) / span))
+    ratio = w / _earth.WGS84.omega_ie
+    step = span / max(len(dth), 1)
     if not 0.8 < f < 1.25:
+        if sd < 0.1 and 0.5 < ratio < 2.0:
+            # the gyros read the Earth rate over the same span: the time base is right, the dv columns are not
+            g = _earth.WGS84.g_e / G_STANDARD
+            why = next(
+                (
+                    why
+                    for x, why in ((1 / G_STANDARD, "in g·s"), (1e-3 / G_STANDARD, "in mg·s"), (1 / step, "rates"))
+                    if abs(f * g / x - 1) < 0.05
+                ),
+                None,
+            )
+            hint = {
+                "in g·s": "the dv columns are in g·s, not m/s",
+                "in mg·s": "the dv columns are in mg·s, not m/s",
+                "rates": f"the dv columns hold specific forces in m/s² (×{1 / step:.3g}), not increments",
+            }.get(why, "the dv columns are not velocity increments in m/s")
+            raise OptinavError(
+                f"the accelerometer increments give a specific force of {f:.3g} g at rest while the gyros read the "
+                f"Earth rate ({ratio:.3g}×) over the same {span:.6g} s: {hint}",
+                "write dv_x, dv_y, dv_z as velocity increments in m/s over each sample step",
+            )
         # gyro and accelerometer increments both divided by the span: a wrong time base scales both alike, a
         # wrong gyro unit the gyro alone (a t column in ms was blamed on the gyro increments, 2× on --lat; helper)
         raise OptinavError(
@@ -265,23 +291,35 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
             f"{span:.6g} s: the time column is off by that factor (not in seconds, or another rate)",
             "write the t column in seconds on the samples' own clock",
         )
-    meas, sd = measured_latitude(dth, dv, span)
-    w = float(np.linalg.norm(dth.sum(0) / span))
-    ratio = w / _earth.WGS84.omega_ie
     if sd < 0.1 and not 0.5 < ratio < 2.0:  # a navigation-grade gyro at rest reads the Earth rate, nothing else
-        step = span / max(len(dth), 1)
         raise OptinavError(
             f"the gyros measure {w:.3g} rad/s at rest, {ratio:.3g}× the Earth rate ({_earth.WGS84.omega_ie:.3g} "
             f"rad/s): the gyro increments are not in rad (degrees read ×57.3; rates in rad/s instead of "
             f"increments ×{1 / step:.3g})",
             "write the gyro columns as angle increments in rad over each sample step",
         )
+    dph = np.degrees(_earth.WGS84.omega_ie) * 3600  # the Earth rate, °/h
+    if sd < 0.01 and abs(ratio - 1) > max(0.05, 5 * sd):  # any latitude gives the Earth rate's full magnitude
+        raise OptinavError(
+            f"the gyros measure {ratio:.3g}× the Earth rate's magnitude at rest, which no latitude gives (a "
+            f"latitude only tilts it): a gyro bias of about {abs(ratio - 1) * dph:.2g} °/h, or a gyro scale error",
+            "check the gyro columns (bias, scale, units); the fit assumes a gyro bias far below the Earth rate",
+        )
     tol = max(np.radians(LAT_TOL_DEG), 5 * sd)
     if sd < np.radians(10) and abs(meas - lat) > tol:
+        d = abs(meas - lat)
+        neg = abs(meas + lat) < tol
         raise OptinavError(
             f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
-            f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest",
-            "check --lat (north positive) or the file's lat_deg",
+            f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest (its angle above the plane the "
+            "accelerometers level)" + (": about the declared one negated" if neg else ""),
+            "check --lat (north positive) or the file's lat_deg; if it is right, the sensors disagree: "
+            + (
+                "a z gyro's or z accelerometer's sign flipped (check the columns' signs)"
+                if neg
+                else f"a gyro or accelerometer axis flipped or swapped, or a bias of about {d * dph:.2g} °/h on a "
+                f"gyro or {np.sin(d):.2g} g on a horizontal accelerometer (check the columns' order, signs and biases)"
+            ),
         )
 
 
