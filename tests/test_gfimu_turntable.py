@@ -60,6 +60,23 @@ def test_a_table_rate_error_is_stated_and_its_accuracy_goes_into_the_std():
     np.testing.assert_allclose(honest.estimate, exact.estimate)  # the estimate is the same; only its std
 
 
+def test_outputs_in_g_or_mg_and_the_wedge_in_degrees_are_named():
+    """Outputs in g or mg and a wedge in degrees said 'check table_rate (--rate-unit deg/s) … give the centre's
+    offset (--offset X,Y,Z, or estimate)': neither helps. The outputs' unit is the one optinav apply names."""
+    import dataclasses
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
+    for scale, unit in ((1 / 9.80665, "g"), (1000 / 9.80665, "mg")):
+        with pytest.raises(
+            OptinavError, match=rf"the outputs look like {unit}, not m/s\^2; convert the f columns"
+        ) as e:
+            calibrate(arr, dataclasses.replace(d, acc=d.acc * scale))
+        assert "--offset" not in str(e.value) and "--rate-unit" not in str(e.value)
+    with pytest.raises(OptinavError, match=r"the wedge column reads 30, beyond π/2 rad: it is in degrees"):
+        calibrate(arr, dataclasses.replace(d, gamma=np.degrees(d.gamma)))
+
+
 def test_single_sample_closed_form_matches_paper_scale():
     """One sample per case (the paper's setting): position errors of order the paper's 12 % / 244 %."""
     arr = builtin()

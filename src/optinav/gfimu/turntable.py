@@ -638,6 +638,15 @@ def nominal_case_means(nominal: AccelerometerArray, cm: CaseMeans, gamma: float,
     )
 
 
+def g_unit(reading: float) -> str | None:
+    """``"g"`` or ``"mg"`` when a specific force that should be about g in m/s² reads ``reading`` ≈ 1 or 1000
+    (outputs in g or mg), else None. Shared by the calibration's data check and ``optinav apply``."""
+    for unit, g in (("g", 1.0), ("mg", 1000.0)):
+        if 0.9 * g < reading < 1.1 * g:
+            return unit
+    return None
+
+
 def check_data(
     nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float, offsets=None, offset_known: bool = True
 ) -> None:
@@ -649,7 +658,22 @@ def check_data(
       ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
       (within :data:`RATE_SCALE_RANGE`, with the array's centre where ``offsets`` (K, 3) m puts it; 0.5–2 when
       the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s."""
+    wedge = np.abs(np.asarray(gamma, float))
+    if np.nanmax(wedge) > np.pi / 2:
+        raise OptinavError(
+            f"the wedge column reads {float(np.nanmax(wedge)):.4g}, beyond π/2 rad: it is in degrees, not rad",
+            "write the wedge column in rad",
+        )
     pred = nominal_case_means(nominal, cm, gamma, g, offsets)
+    # the outputs' size against the nominal geometry's, as gravity in m/s² (the rates move it by far less)
+    reading = float(np.linalg.norm(cm.mean) / np.linalg.norm(pred)) * float(np.median(g))
+    unit = g_unit(reading)
+    if unit is not None:
+        raise OptinavError(
+            f"the accelerometer outputs are {reading / float(np.median(g)):.3g}× the size the configuration "
+            f"predicts in m/s² (gravity reads {reading:.4g}): the outputs look like {unit}, not m/s^2",
+            "convert the f columns to m/s^2",
+        )
     s = _rate_scale(cm, pred)
     deg = s is not None and abs(s / np.radians(1) ** 2 - 1) < 0.5
     if deg:

@@ -11,7 +11,7 @@ import numpy as np
 from optinav.core.progress import step
 from optinav.errors import OptinavError
 from optinav.gfimu.array import AccelerometerArray, builtin, identifiability
-from optinav.gfimu.turntable import TurntableCalibration, calibrate, read_cases
+from optinav.gfimu.turntable import TurntableCalibration, calibrate, g_unit, read_cases
 
 
 @dataclasses.dataclass
@@ -108,13 +108,13 @@ def _check_motion(m, data_path, first: bool) -> None:
         )
     if first and m.A.shape[0]:
         med = float(np.median(np.linalg.norm(m.A, axis=1)))
-        for unit, g in (("g", 1.0), ("mg", 1000.0)):
-            if 0.9 * g < med < 1.1 * g:
-                raise OptinavError(
-                    f"the specific force solved from {Path(data_path).name} reads {med:.4g} (median |A| of the first "
-                    f"{m.A.shape[0]} samples): the outputs look like {unit}, not m/s^2",
-                    "convert the accelerometer outputs to m/s^2",
-                )
+        unit = g_unit(med)
+        if unit is not None:
+            raise OptinavError(
+                f"the specific force solved from {Path(data_path).name} reads {med:.4g} (median |A| of the first "
+                f"{m.A.shape[0]} samples): the outputs look like {unit}, not m/s^2",
+                "convert the accelerometer outputs to m/s^2",
+            )
 
 
 #: the outputs' misfit to the calibrated rigid-body model beyond this many times the noise measured at
