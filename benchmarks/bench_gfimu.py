@@ -45,7 +45,7 @@ def run(quick: bool) -> list[dict]:
             cf = closed_form(arr, d).vector()
             t_cf.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            lm = calibrate(arr, d, sigma=PAPER["noise"])
+            lm = calibrate(arr, d, offset="zero", sigma=PAPER["noise"])
             t_lm.append(time.perf_counter() - t0)
             res_cf.append(np.abs((cf - truth) / truth).reshape(-1, 5)[:, :3].max())
             res_lm.append(np.abs((lm.estimate - truth) / truth).reshape(-1, 5)[:, :3].max())

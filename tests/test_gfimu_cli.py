@@ -83,13 +83,25 @@ def test_simulate_calibrate_recovers_truth(tmp_path, capsys, suffix):
     )
     truth = json.loads((tmp_path / "tt.truth.json").read_text())
     out = tmp_path / "r.json"
-    assert main(["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out)]) == 0
+    # simulated on the table axis: --offset zero says so, and the absolute Δr are the truth's
+    argv = ["--quiet", "calibrate", "gfimu", str(data), "--config", str(cfg), "--out", str(out)]
+    assert main([*argv, "--offset", "zero"]) == 0
     r = json.loads(out.read_text())["fields"]
     est = np.array(r["estimate"]["value"])
     std = np.array(r["std"]["value"])
     tv = np.array(list(truth["coefficients"].values()))
     assert est.shape == (50,)
     assert np.abs((est - tv) / std).max() < 4.5
+    # by default the offset is unknown: Δr relative to their mean, named so, as the truth file names them
+    assert main(argv) == 0
+    pars = json.loads(out.read_text())["parameters"]
+    assert pars["dr_x_1"]["value"] is None and pars["mean(dr_x)"]["value"] is None
+    z = [
+        (p["value"] - truth["parameters"][nm]["value"]) / p["std"]
+        for nm, p in pars.items()
+        if p["value"] is not None and nm in truth["parameters"]
+    ]
+    assert len(z) == 50 and np.abs(z).max() < 4.5
     if suffix == ".npz":  # the report: every coefficient with its std, and the figure
         rep = tmp_path / "rep"
         assert (
@@ -164,7 +176,8 @@ def test_simulate_csv_in_blocks_is_the_library_data(tmp_path, monkeypatch):
     np.testing.assert_array_equal(tv, e.vector())
     assert truth["samples_per_case"] == 200
     out = tmp_path / "r.json"
-    assert main(["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(out)]) == 0
+    argv = ["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--offset", "zero"]
+    assert main([*argv, "--out", str(out)]) == 0
     r = json.loads(out.read_text())["fields"]
     est, std = np.array(r["estimate"]["value"]), np.array(r["std"]["value"])
     assert np.abs((est - tv) / std).max() < 4.5

@@ -6,7 +6,7 @@ import pytest
 from optinav.core.results import Result
 from optinav.errors import OptinavError
 from optinav.gfimu import InstallationErrors, builtin, calibrate, closed_form, scheme_identifiability, simulate
-from optinav.gfimu.turntable import MICRO_G, TurntableData, required_samples
+from optinav.gfimu.turntable import MICRO_G, TurntableData, required_samples, turntable_truth
 
 
 def _rel(est, truth):
@@ -18,7 +18,7 @@ def test_noise_free_both_methods_exact():
     e = InstallationErrors.random(10, rng=1)
     d = simulate(arr, e, noise=1e-12, duration=0.05, rng=0)
     np.testing.assert_allclose(closed_form(arr, d).vector(), e.vector(), atol=1e-8)
-    np.testing.assert_allclose(calibrate(arr, d, sigma=1e-12).estimate, e.vector(), atol=1e-9)
+    np.testing.assert_allclose(calibrate(arr, d, offset="zero", sigma=1e-12).estimate, e.vector(), atol=1e-9)
     for bad in (0.0, -1e-5):  # a wrong noise std would give a plausible result with a wrong std
         with pytest.raises(OptinavError, match="sigma must be positive"):
             calibrate(arr, d, sigma=bad)
@@ -29,7 +29,7 @@ def test_paper_setup_errors_and_crlb():
     e = InstallationErrors.uniform(10)  # Δr = 1 mm, Δα = Δβ = 0.01 rad
     v = e.vector()
     d = simulate(arr, e, rates=(0.5, 1.0), duration=10.0, rng=4)  # 1000 samples per case
-    res = calibrate(arr, d)
+    res = calibrate(arr, d, offset="zero")  # simulated on the axis
     assert res.rank == 50 and list(res.samples_per_case) == [1000] * 6
     z = (res.estimate - v) / res.std
     assert np.abs(z).max() < 4.5  # consistent with the reported std (50 coefficients)
@@ -51,10 +51,10 @@ def test_a_table_rate_error_is_stated_and_its_accuracy_goes_into_the_std():
     e = InstallationErrors.uniform(10)
     d = simulate(arr, e, rates=(0.5, 1.0), duration=10.0, rng=4)
     off = dataclasses.replace(d, table_rate=d.table_rate * 1.001)
-    exact = calibrate(arr, off)
+    exact = calibrate(arr, off, offset="zero")
     z = np.abs(exact.estimate - e.vector()) / exact.std
     assert z.max() > 20 and any("taken as exact" in s and "--rate-accuracy" in s for s in exact.statements)
-    honest = calibrate(arr, off, rate_accuracy=1e-3)
+    honest = calibrate(arr, off, offset="zero", rate_accuracy=1e-3)
     z = np.abs(honest.estimate - e.vector()) / honest.std
     assert z.max() < 4.5 and any("exact within 0.001" in s for s in honest.statements)
     np.testing.assert_allclose(honest.estimate, exact.estimate)  # the estimate is the same; only its std
@@ -130,10 +130,32 @@ def test_offset_known_estimate_and_gauge():
         calibrate(arr, d, offset="estimate")
     res = calibrate(arr, d, offset=off)
     assert np.abs((res.estimate - e.vector()) / res.std).max() < 4.5
-    # a body-fixed offset ignored = a common shift of all positions (harmless for the rate solution)
+    # not given, the offset is a common shift of all positions the data cannot tell from mean(Δr): given as zero
+    # (the paper's assumption) every Δr is off by it, thousands of std (the tester's 2 cm: 33 000σ) ...
+    assumed = calibrate(arr, d, offset="zero")
+    np.testing.assert_allclose(assumed.dr - e.dr, np.broadcast_to(off, e.dr.shape), atol=2e-4)
+    assert any("shifts every dr" in s for s in assumed.statements)
+    # ... so by default (unknown) Δr are reported relative to their mean, within their std of the truth's, and
+    # the absolute Δr are not observable
     res0 = calibrate(arr, d)
-    shift = res0.dr - e.dr
-    np.testing.assert_allclose(shift, np.broadcast_to(np.asarray(off), shift.shape), atol=2e-4)
+    truth = turntable_truth(e)
+    cmp = truth.compare(res0)
+    assert len(cmp) == 50 and max(float(c["z"]) for c in cmp.values()) < 4.5
+    assert "dr_x_1 - mean(dr_x)" in cmp and "dr_x_1" not in cmp
+    pars = res0.parameters()
+    assert not pars["dr_x_1"].observable and "--offset" in pars["mean(dr_x)"].reason
+    np.testing.assert_allclose(res0.common_shift_m, e.dr.mean(axis=0) + off, atol=5e-5)
+    np.testing.assert_allclose(res0.dr.mean(axis=0), 0.0, atol=1e-12)
+    np.testing.assert_allclose(res0.dr, res.dr - res.dr.mean(axis=0), atol=5e-5)  # = the known-offset fit's
+    # the common shift does not change the compensated rate solution (ω, ω̇); the repo's solver on a coning motion
+    from optinav.gfimu.errors import coning_motion, perturb
+    from optinav.gfimu.solve import solve_motion
+
+    mo = coning_motion(duration=5.0)
+    f = perturb(arr, e).outputs(mo.A, mo.wdot, mo.omega)
+    known, gauged = (solve_motion(r.calibrated_array(), f, mo.t, mo.omega[0]) for r in (res, res0))
+    assert np.abs(gauged.omega - known.omega).max() < 1e-3 * np.abs(mo.omega).max()
+    assert np.abs(gauged.omega - mo.omega).max() < 2 * np.abs(known.omega - mo.omega).max() + 1e-9
 
 
 def test_result_json_and_data_files(tmp_path):

@@ -269,9 +269,9 @@ def register_calibrate(kinds) -> None:
 
 
 def _offset(text: str):
-    """--offset of the batch: 'zero', 'estimate' or X,Y,Z in m (argparse type)."""
+    """--offset of the batch: 'unknown', 'zero', 'estimate' or X,Y,Z in m (argparse type)."""
     t = text.strip()
-    if t in ("zero", "estimate"):
+    if t in ("unknown", "zero", "estimate"):
         return t
     try:
         return tuple(parse_floats(t, 3, "--offset", "X,Y,Z"))
@@ -288,9 +288,10 @@ def add_batch_options(p) -> None:
     p.add_argument(
         "--offset",
         type=_offset,
-        default="zero",
+        default="unknown",
         metavar="X,Y,Z",
-        help="measured array centre from the table axis, body m (default zero; 'estimate' to estimate it)",
+        help="measured array centre from the table axis, body m; 'zero' for a centred array (absolute dr); "
+        "default unknown: dr relative to their mean, the common shift is not observable",
     )
     p.add_argument(
         "--rate-unit",

@@ -818,16 +818,27 @@ class TurntableCalibration(Estimate):
     gamma: float = field(metadata={"unit": "rad"})
     elapsed_s: float = field(default=0.0, metadata={"unit": "s"})
     gauge: str = field(default="", metadata={"unit": "-"})
+    #: mean of the fitted Δr before the gauge mean(Δr) = 0 was applied (m, body): the mean installation displacement
+    #: plus the array centre's offset from the table axis, which the data cannot separate; None without a gauge
+    common_shift_m: list | None = field(default=None, metadata={"unit": "m"})
     convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
     gates: list = field(default_factory=list, metadata={"unit": "-"})
 
     def parameters(self) -> dict[str, Parameter]:
         units = _unit_names(len(self.dalpha), len(self.names) - 5 * len(self.dalpha))
         est, std, crlb = (np.asarray(a, float) for a in (self.estimate, self.std, self.crlb_std))
-        return {
-            nm: Parameter(float(est[k]), units[k], std=float(std[k]), crlb_std=float(crlb[k]))
-            for k, nm in enumerate(self.names)
-        }
+        out = {}
+        for k, nm in enumerate(self.names):
+            p = Parameter(float(est[k]), units[k], std=float(std[k]), crlb_std=float(crlb[k]))
+            if self.gauge and nm.startswith("dr_"):
+                # Δr relative to their mean: observable; Δr itself holds the unknown common shift
+                out[nm] = Parameter(None, "m", observable=False, reason=self.gauge)
+                out[gauge_name(nm)] = p
+            else:
+                out[nm] = p
+        if self.gauge:
+            out.update({f"mean(dr_{c})": Parameter(None, "m", observable=False, reason=self.gauge) for c in "xyz"})
+        return out
 
     def errors(self) -> InstallationErrors:
         """The estimated installation errors.
@@ -879,15 +890,22 @@ class TurntableCalibration(Estimate):
             f"samples per case {', '.join(str(int(x)) for x in self.samples_per_case)}"
         ]
         lines += ["  " + s for s in self.statements]
+        label = "dr - mean dr" if self.gauge else "dr"
         for i in range(len(self.dalpha)):
             s = self.std[5 * i : 5 * i + 5]
             lines.append(
-                f"  #{i + 1:<2} dr = [{self.dr[i, 0] * 1e3:+.4f} {self.dr[i, 1] * 1e3:+.4f} "
+                f"  #{i + 1:<2} {label} = [{self.dr[i, 0] * 1e3:+.4f} {self.dr[i, 1] * 1e3:+.4f} "
                 f"{self.dr[i, 2] * 1e3:+.4f}] ± [{s[0] * 1e3:.2g} {s[1] * 1e3:.2g} {s[2] * 1e3:.2g}] mm, "
                 f"dalpha = {self.dalpha[i] * 1e3:+.4f} ± {s[3] * 1e3:.2g} mrad, "
                 f"dbeta = {self.dbeta[i] * 1e3:+.4f} ± {s[4] * 1e3:.2g} mrad"
             )
         return "\n".join(lines)
+
+
+def gauge_name(name: str) -> str:
+    """The parameter name of a position error relative to the mean of all of them: ``dr_x_3`` →
+    ``dr_x_3 - mean(dr_x)`` (what the result reports when the common shift is not observable)."""
+    return f"{name} - mean({name.rsplit('_', 1)[0]})"
 
 
 def _unit_names(n, n_off):
@@ -984,12 +1002,23 @@ class _Model:
         return nm
 
 
+#: what a result without a known centre offset reports (``gauge``; ``{shift}`` the fitted common shift in mm)
+GAUGE_UNKNOWN_OFFSET = (
+    "mean(dr) = 0: the array centre's offset from the table axis is not given (--offset X,Y,Z, or --offset zero "
+    "for a centred array), and only r_i + offset enters the outputs, so a common shift of all positions is not "
+    "observable; dr are reported relative to their mean (the fitted common shift, mean dr + offset, is "
+    "[{shift[0]:+.4g} {shift[1]:+.4g} {shift[2]:+.4g}] mm). The compensated rate solution (omega, omega-dot) does "
+    "not depend on the common shift; the specific force A is that at the origin of the calibrated positions, whose "
+    "centroid is the nominal one"
+)
+
+
 def calibrate(
     nominal: AccelerometerArray,
     data: TurntableData | TurntableCases,
     *,
     method: str = "lm",
-    offset: str = "zero",
+    offset: str = "unknown",
     sigma=None,
     rate_accuracy: float = 0.0,
 ) -> TurntableCalibration:
@@ -1004,9 +1033,12 @@ def calibrate(
     method : str
         ``"lm"`` (default, nonlinear least squares) or ``"closed-form"`` (the paper's baseline; its covariance is
         reported from the least-squares Jacobian at its solution).
-    offset : str
-        ``"zero"`` (the array reference point on the table axis, the paper's assumption) or ``"estimate"``
-        (per-mounting offsets, gauge mean Δr = 0).
+    offset : str or array
+        ``"unknown"`` (default: the array centre's body offset from the table axis not known; only ``r_i + d``
+        enters, so the common shift of all Δr is not observable and Δr are reported relative to their mean,
+        gauge mean Δr = 0, :data:`GAUGE_UNKNOWN_OFFSET`), ``"zero"`` (the array reference point on the table
+        axis, the paper's assumption: absolute Δr), a measured (3,) or per-mounting (3, 3) offset [m, body],
+        or ``"estimate"`` (per-mounting offsets, gauge mean Δr = 0; not separable on the paper's scheme).
     sigma : float, (N,) array or None
         Accelerometer noise std [m/s^2]; None: the within-case scatter.
     rate_accuracy : float
@@ -1024,8 +1056,10 @@ def calibrate(
         raise OptinavError(f"unknown calibration method {method!r}", "use 'lm' or 'closed-form'")
     fixed = None
     if isinstance(offset, str):
-        if offset not in ("zero", "estimate"):
-            raise OptinavError(f"offset={offset!r} is not understood", "use 'zero', 'estimate' or a known (3,) in m")
+        if offset not in ("unknown", "zero", "estimate"):
+            raise OptinavError(
+                f"offset={offset!r} is not understood", "use 'unknown', 'zero', 'estimate' or a known (3,) in m"
+            )
     else:
         fixed = as_float_array(offset, "offset")
         if fixed.shape not in ((3,), (3, 3)):
@@ -1078,14 +1112,14 @@ def calibrate(
         )
     gauge = ""
     if method == "closed-form":
-        if offset != "zero":
+        if offset not in ("zero", "unknown"):
             raise OptinavError("the closed form assumes the array centre on the table axis", "use method 'lm'")
         x = closed_form(nominal, cm, data.gamma, data.gravity).vector()
     else:
         try:
             x0 = (
                 closed_form(nominal, cm, data.gamma, data.gravity).vector()
-                if offset == "zero"
+                if offset in ("zero", "unknown")
                 else np.zeros(5 * nominal.n)
             )
         except OptinavError:
@@ -1145,27 +1179,44 @@ def calibrate(
         f"moves the positions by up to {dr_mm_per_permille:.3g} mm per 0.1 % (Δr_i ≈ 2e·r_i), which the data "
         "cannot tell from installation errors"
     )
-    if offset == "estimate":
-        # positions are reported in the gauge mean(dr) = 0: std of dr_i − mean(dr) from the full covariance
+    shift = None
+    if offset in ("estimate", "unknown"):
+        # positions are reported in the gauge mean(dr) = 0: dr_i − mean(dr) and its std from the full covariance
         M = np.zeros((model.n_params, model.n_params))
         for i in range(nominal.n):
             for j in range(nominal.n):
                 M[5 * i : 5 * i + 3, 5 * j : 5 * j + 3] = np.eye(3) / nominal.n
         T = np.eye(model.n_params) - M
+        shift = x[: 5 * nominal.n].reshape(nominal.n, 5)[:, :3].mean(axis=0)
+        x = T @ x
         cov = T @ cov @ T.T
         std = np.sqrt(np.clip(np.diag(cov), 0, None))
-        crlb = std.copy()
+        crlb = np.sqrt(np.clip(np.diag(T @ np.asarray(rep.crlb) @ T.T), 0, None))
+    if offset == "unknown":
+        gauge = GAUGE_UNKNOWN_OFFSET.format(shift=shift * 1e3)
     e = InstallationErrors.from_vector(x[: 5 * nominal.n])
     actual = perturb(nominal, e)
     offs = np.zeros((len(model.mounts), 3))
     if offset == "estimate":
         o = x[5 * nominal.n :].reshape(-1, 2)
         offs = np.array([o[j] @ model.perp[m] for j, m in enumerate(model.mounts)])
-    statements = list(rep.statements) + ([gauge] if gauge else []) + [rate_statement]
+    statements = (
+        list(rep.statements)
+        if offset != "unknown"
+        else [
+            f"unobservable: the common shift of all dr (rank {rep.rank - 3} of {model.n_params} without the centre offset)"
+        ]
+    )
+    statements += ([gauge] if gauge else []) + [rate_statement]
     if chi2 > 1.0:
         statements.append(f"std scaled by √(reduced χ²) = {np.sqrt(chi2):.3g}: residuals beyond the noise")
+    if fixed is not None or offset == "zero":
+        statements.append(
+            "offset of the array centre from the table axis fixed at the given value"
+            + (" (zero: on the axis)" if fixed is None else "")
+            + ": dr are absolute, and an error δd of that offset shifts every dr by −δd (not in the std)"
+        )
     if fixed is not None:
-        statements.append("offset of the array centre from the table axis fixed at the given value")
         offs = fixed[[list(cm.mounting).index(m) for m in model.mounts]]
     return TurntableCalibration(
         method=method,
@@ -1189,6 +1240,7 @@ def calibrate(
         gamma=float(data.gamma),
         elapsed_s=time.perf_counter() - t0,
         gauge=gauge,
+        common_shift_m=None if shift is None else shift.tolist(),
         convergence=conv,
         gates=gates,
     )
@@ -1316,8 +1368,9 @@ register_legacy(TurntableCalibration, "optinav.gfimu.calibration", 1, _legacy_v1
 
 
 def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Truth:
-    """Simulated installation errors in the parameterization :func:`calibrate` estimates (names
-    ``dr_x_1`` … ``dbeta_N``; m, rad) — with ``offset="zero"``, the default.
+    """Simulated installation errors in the parameterizations :func:`calibrate` estimates (names
+    ``dr_x_1`` … ``dbeta_N``; m, rad): absolute (a known offset), and ``dr_x_1 - mean(dr_x)`` … with
+    ``mean(dr_x)`` … (the default, offset unknown: :func:`gauge_name`).
 
     Parameters
     ----------
@@ -1340,11 +1393,18 @@ def turntable_truth(errors: InstallationErrors, info: dict | None = None) -> Tru
         "dbeta_rad": errors.dbeta.tolist(),
         "coefficients": dict(zip(InstallationErrors.names(n), errors.vector().tolist())),
     }
-    return Truth(
-        "gfimu",
-        {nm: Parameter(float(v), u) for nm, v, u in zip(InstallationErrors.names(n), errors.vector(), units)},
-        {**own, **(info or {})},
+    params = {nm: Parameter(float(v), u) for nm, v, u in zip(InstallationErrors.names(n), errors.vector(), units)}
+    # as a result without a known centre offset reports them (gauge mean(dr) = 0, GAUGE_UNKNOWN_OFFSET)
+    mean = errors.dr.mean(axis=0)
+    params.update({f"mean(dr_{c})": Parameter(float(mean[k]), "m") for k, c in enumerate("xyz")})
+    params.update(
+        {
+            gauge_name(f"dr_{c}_{i + 1}"): Parameter(float(errors.dr[i, k] - mean[k]), "m")
+            for i in range(n)
+            for k, c in enumerate("xyz")
+        }
     )
+    return Truth("gfimu", params, {**own, **(info or {})})
 
 
 register_truth_legacy(

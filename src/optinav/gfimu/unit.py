@@ -17,14 +17,15 @@ from optinav.gfimu.turntable import TurntableCalibration, calibrate, g_unit, rea
 @dataclasses.dataclass
 class GfimuOptions:
     """The options of ``optinav calibrate gfimu``: the nominal array (``config`` file or ``builtin`` name),
-    ``method`` ("lm" or "closed-form"), ``offset`` ("zero", "estimate" or the measured (x, y, z) in m),
+    ``method`` ("lm" or "closed-form"), ``offset`` ("unknown": Δr relative to their mean; "zero": centred on the
+    table axis; "estimate"; or the measured (x, y, z) in m),
     ``rate_unit`` of the table_rate column ("rad/s" or "deg/s"), ``noise`` accelerometer std in m/s² (None:
     from the data), ``rate_accuracy`` the table rates' relative 1σ (0: exact; in the std)."""
 
     config: str | None = None
     builtin: str | None = None
     method: str = "lm"
-    offset: str | tuple = "zero"
+    offset: str | tuple = "unknown"
     rate_unit: str = "rad/s"
     noise: float | None = None
     rate_accuracy: float = 0.0

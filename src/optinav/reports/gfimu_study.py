@@ -111,7 +111,7 @@ def _tables_2_3(arr, err, truth, n_mc, rng) -> dict:
         runs = []
         for k in range(n_mc):
             d = simulate(arr, err, rates=rates, duration=N_CASE / RATE_HZ, rng=rng)
-            lm, cfn = calibrate(arr, d), closed_form(arr, d)
+            lm, cfn = calibrate(arr, d, offset="zero"), closed_form(arr, d)
             runs.append((_rel(cfn.vector(), truth), _rel(lm.estimate, truth), lm))
             if k == 0 and key == "high":
                 calib_high, cf_high = lm, cfn
