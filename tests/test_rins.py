@@ -445,3 +445,31 @@ def test_cli_refuses_sessions_that_cannot_fit_before_generating(tmp_path, capsys
     err = capsys.readouterr().err
     assert all(s in err for s in needles) and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_theta_x_y_are_reported_at_theta_z_equal_eta_z_exactly():
+    """θz − ηz = 0.02 rad (tester): θx, θy came out 1.2e-4, 1.5e-4 rad from the truth, z 6-7, with exit 0. Not a
+    truncation: the chain is invariant under C_h1^s → C_h1^s R_z(d), C_h2^h0 → R_z(−d) C_h2^h0 exactly, which turns
+    (θx, θy) by d, so they are defined only at a stated split; the result and the truth use θz = ηz."""
+    from optinav.rins.calibrate import gauge_fixed, observable_combinations, rins_truth
+    from optinav.rins.model import equivalent_angles
+
+    p = np.array([0.015, -0.012, -0.01, 0.012, 0.001, -0.03])
+    d = simulate(p, noise=False, imu_errors=False, rng=0, **SHORT)
+    q = equivalent_angles(p)
+    assert abs(q[2] - q[5]) < 1e-15 and q[4] == 0.0
+    assert abs(q[0] - p[0]) > 1e-4 and abs(q[1] - p[1]) > 1e-4  # (θx, θy) turned by (θz − ηz)/2
+    cs = sensor_attitude(np.broadcast_to(np.eye(3), (d.alpha.size, 3, 3)), d.alpha, d.beta, p)
+    assert np.abs(residuals(cs, d.alpha, d.beta, q)).max() < 1e-13  # the same attitudes: not observable
+    np.testing.assert_allclose(equivalent_angles(q, p[2] - p[5], p[4]), p, atol=1e-15)
+    res = calibrate(d, "lm")
+    truth = rins_truth(p, d.alpha, d.beta)
+    for c in res.combinations:
+        assert abs(c["value"] - truth.parameters[c["name"]].value) < 1e-6, c
+    assert "theta_z = eta_z" in res.observability["gauge"]
+    assert "gauge" in res.parameters()["theta_x"].reason
+    # PSO's particle moves onto θz = ηz along the invariance, not by a linear projection (which leaves it)
+    rep, V, _, _ = observable_combinations(d.alpha, d.beta)
+    r0 = residuals(cs, d.alpha, d.beta, p)
+    assert np.abs(residuals(cs, d.alpha, d.beta, gauge_fixed(p, rep.null_space)) - r0).max() < 1e-13
+    assert np.abs(residuals(cs, d.alpha, d.beta, V @ (V.T @ p)) - r0).max() > 1e-5

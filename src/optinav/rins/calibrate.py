@@ -51,7 +51,15 @@ from optinav.core.results import (
 )
 from optinav.core.validate import as_rng
 from optinav.errors import OptinavError
-from optinav.rins.model import PARAM_NAMES, chain_pieces, nonorth_dcm, residual_jacobian, residuals, sensor_attitude
+from optinav.rins.model import (
+    PARAM_NAMES,
+    chain_pieces,
+    equivalent_angles,
+    nonorth_dcm,
+    residual_jacobian,
+    residuals,
+    sensor_attitude,
+)
 from optinav.core.rotations import dcm_from_quat
 from optinav.rins.io import rins_source
 from optinav.rins.process import MOTION_STEP, Alignment, motion_mask, strapdown_blocks, survey
@@ -459,6 +467,39 @@ def observable_combinations(alpha, beta):
     return rep, V, C, [format_combination(c, PARAM_NAMES) for c in C]
 
 
+#: the exact invariances of the chain (:func:`optinav.rins.model.equivalent_angles`) as first-order directions:
+#: the split of θz − ηz and ηy
+GAUGE_DIRECTIONS = np.array([[0, 0, 1, 0, 0, -1] / np.sqrt(2), [0, 0, 0, 0, 1.0, 0]])
+#: what the reported angles mean when the split of θz − ηz is not observable (RESULT.json ``observability.gauge``)
+GAUGE_STATEMENT = (
+    "theta_x, theta_y, eta_x and theta_z + eta_z are those of the equivalent angles with theta_z = eta_z and eta_y "
+    "= 0: the data fix the gimbal chain, not how theta_z - eta_z splits, and another split d = theta_z - eta_z "
+    "turns (theta_x, theta_y) about z by about d/2 (e.g. theta_x + d/2·theta_y; exactly: "
+    "optinav.rins.model.equivalent_angles(p_used, split=d)); the compensation is the same for every split"
+)
+
+
+def _gauge(null) -> tuple[np.ndarray, tuple[bool, bool] | None]:
+    """An orthonormal basis of ``null`` (6, k) and which of :data:`GAUGE_DIRECTIONS` it holds (split, ηy), or None
+    when it is not spanned by them."""
+    null = np.asarray(null, float).reshape(6, -1)
+    q = np.linalg.qr(null)[0] if null.shape[1] else null
+    if np.linalg.norm(q - GAUGE_DIRECTIONS.T @ (GAUGE_DIRECTIONS @ q)) > 1e-6:
+        return q, None
+    return q, tuple(bool(np.linalg.norm(q.T @ g) > 1 - 1e-6) for g in GAUGE_DIRECTIONS)
+
+
+def gauge_fixed(p, null) -> np.ndarray:
+    """``p`` (rad) moved along the unobservable directions ``null`` (6, k) onto the angles a calibration reports:
+    exactly along the chain's invariance (θz − ηz → 0 and/or ηy → 0, :func:`~optinav.rins.model.equivalent_angles`)
+    when ``null`` lies in the span of :data:`GAUGE_DIRECTIONS`, else the orthogonal projection."""
+    p = np.asarray(p, float)
+    q, free = _gauge(null)
+    if free is None:
+        return p - q @ (q.T @ p)
+    return equivalent_angles(p, 0.0 if free[0] else p[2] - p[5], 0.0 if free[1] else p[4])
+
+
 def _systematic_cov(prep: Prepared, p, V, JV, r0, gyro_misalignment: float, gyro_scale: float) -> np.ndarray:
     """Covariance (rad²) of p̂ caused by unknown gyro scale/misalignment errors of the given 1σ.
 
@@ -548,8 +589,15 @@ class RinsCalibration(Estimate):
                 nm: Parameter(None, "rad", observable=False, reason="not estimated (method 'none')")
                 for nm in PARAM_NAMES
             }
+        gauge = self.observability.get("gauge")
         out = {
-            c["name"]: Parameter(float(c["value"]), "rad", std=c.get("std"), crlb_std=c.get("crlb_std"))
+            c["name"]: Parameter(
+                float(c["value"]),
+                "rad",
+                std=c.get("std"),
+                crlb_std=c.get("crlb_std"),
+                reason=gauge and f"gauge: {gauge}",
+            )
             for c in self.combinations
         }
         statements = self.observability.get("statements", [])
@@ -585,6 +633,8 @@ class RinsCalibration(Estimate):
                 lines.append(f"  {c['name']} = {c['value']: .6e} rad" + (f" ± {std:.2e}" if std else ""))
         for s in self.observability.get("statements", []):
             lines.append(f"  observability: {s}")
+        if self.observability.get("gauge"):
+            lines.append(f"  gauge: {self.observability['gauge']}")
         b, a = self.rmse_before_deg, self.rmse_after_deg
         lines.append(
             "  attitude RMSE [roll, pitch, yaw] deg: before "
@@ -830,6 +880,7 @@ def calibrate(
         p = np.zeros(6)
     elif method == "lm":
         p, res = _fit_lm(prep, V)
+        p = gauge_fixed(p, rep0.null_space)  # span(V) is the first-order slice; the same chain, exactly there
         history = np.degrees(np.sqrt(np.asarray(res.history) / n_res)).tolist()
         info = {"nfev": res.nfev, "njev": res.njev, "message": res.message}
     elif method == "pso":
@@ -842,7 +893,9 @@ def calibrate(
             "search": search,
             **{k: v for k, v in res.options.items() if k in ("n_particles", "generations", "w", "c1", "c2")},
         }
-        p = V @ (V.T @ p_raw)  # the unobservable directions do not change the residuals; report none of them
+        # the unobservable directions do not change the residuals: move along them exactly (a linear projection
+        # leaves the chain's invariant manifold and turns θx, θy by (θz − ηz)/2 of the particle)
+        p = gauge_fixed(p_raw, rep0.null_space)
     else:
         p, info = _fit_axis(prep, V)
     elapsed = time.perf_counter() - t_fit
@@ -897,6 +950,8 @@ def calibrate(
         "observable": [bool(x) for x in rep0.observable],
         "scale_rad": SCALE,
     }
+    if (_gauge(rep0.null_space)[1] or (False,))[0]:
+        obs["gauge"] = GAUGE_STATEMENT
     return RinsCalibration(
         angles=angles,
         angles_std=stds,
@@ -943,11 +998,13 @@ register_legacy(RinsCalibration, "optinav.rins_calibration", 1, _legacy_v1)
 def rins_truth(angles, alpha, beta, info: dict | None = None) -> Truth:
     """A simulated recording's truth in the parameterization :func:`calibrate` estimates: the six angles
     ``angles`` (rad, θx θy θz ηx ηy ηz) and every combination observable with the encoder angles ``alpha``,
-    ``beta`` (rad) under the name the result gives it."""
+    ``beta`` (rad) under the name the result gives it, of the equivalent angles the result reports
+    (:func:`gauge_fixed`: θx, θy at θz = ηz; :data:`GAUGE_STATEMENT`)."""
     p = np.asarray(angles, float)
-    _, _, C, names = observable_combinations(np.asarray(alpha, float), np.asarray(beta, float))
+    rep, _, C, names = observable_combinations(np.asarray(alpha, float), np.asarray(beta, float))
     params = {nm: Parameter(float(v), "rad") for nm, v in zip(PARAM_NAMES, p)}
-    params.update({nm: Parameter(float(c @ p), "rad") for c, nm in zip(C, names)})
+    pg = gauge_fixed(p, rep.null_space)  # the combinations as the result reports them (GAUGE_STATEMENT)
+    params.update({nm: Parameter(float(c @ pg), "rad") for c, nm in zip(C, names)})
     return Truth("rins", params, dict(info or {}))
 
 

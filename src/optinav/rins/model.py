@@ -44,6 +44,7 @@ __all__ = [
     "residuals",
     "residual_jacobian",
     "sensor_attitude",
+    "equivalent_angles",
 ]
 
 #: parameter names in the order of ``p``
@@ -84,6 +85,51 @@ def nonorth_dcm(angles, small_angle: bool = False) -> np.ndarray:
     if small_angle:
         return small_angle_dcm(a)
     return rot_z(a[..., 2]) @ rot_x(a[..., 0]) @ rot_y(a[..., 1])
+
+
+def _zxy(c) -> np.ndarray:
+    """``[a_x, a_y, a_z]`` (rad) of ``c = R_z(a_z) R_x(a_x) R_y(a_y)`` (the inverse of :func:`nonorth_dcm`)."""
+    roll, pitch, yaw = euler_rpy(c)
+    return np.array([pitch, roll, yaw])
+
+
+def equivalent_angles(p, split: float = 0.0, eta_y: float = 0.0) -> np.ndarray:
+    """The angles ``p'`` that give exactly the vehicle attitudes of ``p`` (eq. 6) with ``θz' − ηz' = split`` and
+    ``ηy' = eta_y`` [rad].
+
+    The chain holds ``C_h1^s Z(α) C_h2^h0 Y(β)``; ``R_z(d)`` commutes with ``Z(α)`` and ``R_y(e)`` with ``Y(β)``, so
+    ``C_h1^s → C_h1^s R_z(d)``, ``C_h2^h0 → R_z(−d) C_h2^h0 R_y(e)`` leave every ``E_t`` (eqs. 12–14) unchanged
+    (``e`` turns the vehicle frame about the outer axis: ``E_t → R_y(e)ᵀ E_t R_y(e)``, the identity stays the
+    identity). In the angles of eq. 3 this is ``ηz − d``, ``ηy + e`` exactly, but ``θz + d`` only to first order:
+    ``(θx, θy)`` turn about z by ``−d`` (``θx' ≈ θx + d·θy``, ``θy' ≈ θy − d·θx``). The split of ``θz − ηz`` is
+    not observable, so neither are θx, θy beyond first order; a calibration reports them at ``split = 0``,
+    ``ηy = 0`` (docs/methods/rins.md, "Observability").
+
+    Parameters
+    ----------
+    p : (6,) array
+        ``[θx, θy, θz, ηx, ηy, ηz]`` [rad].
+    split : float
+        ``θz' − ηz'`` wanted [rad].
+    eta_y : float
+        ``ηy'`` wanted [rad].
+
+    Returns
+    -------
+    (6,) ndarray
+        ``[θx', θy', θz', ηx, ηy', ηz']`` [rad].
+    """
+    p = np.asarray(p, float)
+    A, B = nonorth_dcm(p[0:3]), nonorth_dcm(p[3:6])
+    d = 0.5 * (p[5] - p[2] + split)  # exact to first order; θz'(d) = θz + d + O(θx·θy·d)
+    for _ in range(50):  # f(d) = θz'(d) − (ηz − d) − split has slope 2 + O(θ²): converges in a few steps
+        f = _zxy(A @ rot_z(d))[2] - (p[5] - d) - split
+        d -= 0.5 * f
+        if abs(f) < 1e-15:
+            break
+    th = _zxy(A @ rot_z(d))
+    et = _zxy(rot_z(-d) @ B)
+    return np.array([th[0], th[1], th[2], et[0], eta_y, et[2]])
 
 
 def chain_pieces(alpha, beta):
