@@ -21,10 +21,11 @@ noise, and every estimator here works on them (σ/√n each).
   case means for the 50 coefficients (θ unit by construction: 5 unknowns, 6 equations per sensor), started
   from the closed form, with covariance and CRLB from :func:`optinav.core.observability.analyze`.
 
-Ambiguity: only ``r_i + d`` enters. With ``offset="estimate"`` the offset of each mounting (its 2 components
-across the table axis) is estimated too; then a common shift of all positions is not observable (it is
-absorbed by the offsets) and is fixed by the gauge mean(Δr) = 0. A common shift is harmless for navigation:
-it only moves the reference point of A (f_i depends on A + ω̇×c + ω×(ω×c) and r_i − c).
+Ambiguity: only ``r_i + d`` enters, so with ``d`` not known (``offset="unknown"``, the default) a common shift of
+all positions is not observable and Δr are reported relative to their mean (gauge mean(Δr) = 0); ``"zero"`` or a
+measured ``d`` gives absolute Δr. The common shift does not change the rate solution (ω, ω̇): it only moves the
+reference point of A (f_i depends on A + ω̇×c + ω×(ω×c) and r_i − c). With ``offset="estimate"`` the offset of
+each mounting (its 2 components across the table axis) would be estimated too (not separable on this scheme).
 """
 
 from __future__ import annotations
@@ -1099,10 +1100,11 @@ def calibrate(
     if offset == "estimate" and rep0.rank < model.n_params - 3:
         raise OptinavError(
             f"the centre offset cannot be separated from the positions in this scheme (rank {rep0.rank} of "
-            f"{model.n_params}: {model.n_params - rep0.rank} unobservable directions, only 3 of them the harmless "
+            f"{model.n_params}: {model.n_params - rep0.rank} unobservable directions, only 3 of them the "
             "common shift; each mounting gives one centripetal equation per sensor, exactly what its 3 position "
             "errors need)",
-            "centre the array on the table axis, or measure the offset and pass it (--offset X,Y,Z)",
+            "leave --offset out (dr relative to their mean), centre the array (--offset zero) or measure the offset "
+            "and pass it (--offset X,Y,Z)",
         )
     if rep0.rank < model.n_params - (3 if offset == "estimate" else 0):
         raise OptinavError(
@@ -1257,7 +1259,7 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: 
         )
     e = InstallationErrors.from_vector(x)
     dr, da = float(np.max(np.abs(e.dr))), float(np.max(np.abs(np.r_[e.dalpha, e.dbeta])))
-    # a common shift of every position is the array's centre off the table axis (harmless): the spacing limit
+    # a common shift of every position is the array's centre off the table axis: the spacing limit
     # is on the sensors' errors about their mean
     rel = np.linalg.norm(e.dr - e.dr.mean(axis=0), axis=1)
     if dr > MAX_DR_M or float(rel.max()) > max_dr or da > MAX_DANGLE_RAD:
