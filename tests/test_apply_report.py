@@ -53,7 +53,8 @@ def gfimu(tmp_path_factory):
         main(["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--seed", "1", "--out", str(data)])
         == 0
     )
-    assert main(["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(res)]) == 0
+    argv = ["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--offset", "zero"]
+    assert main([*argv, "--out", str(res)]) == 0  # centred, simulated: the calibrated positions are absolute
     return d, data, res
 
 
@@ -76,7 +77,7 @@ def test_rins_calibrate_goes_through_run_unit(rins):
 def test_gfimu_calibrate_goes_through_run_unit(gfimu):
     d, data, out = gfimu
     system = registry.SYSTEMS["gfimu"]
-    ref, _ = system.load("run_unit")(data, system.load("options")(builtin="cylinder10"))
+    ref, _ = system.load("run_unit")(data, system.load("options")(builtin="cylinder10", offset="zero"))
     got = json.loads(out.read_text())["fields"]
     for name, entry in json.loads(ref.to_json())["fields"].items():
         if name != "elapsed_s":

@@ -50,8 +50,8 @@ SYSTEMS = {
     ),
     "gfimu": (
         ["calibrate", "gfimu"],
-        GfimuOptions(builtin="cylinder10"),
-        ["--builtin", "cylinder10"],
+        GfimuOptions(builtin="cylinder10", offset="zero"),  # centred, simulated: absolute Δr against the truth
+        ["--builtin", "cylinder10", "--offset", "zero"],
         lambda k, out: [
             "simulate",
             "gfimu-turntable",

@@ -437,7 +437,7 @@ _ACCEPTS: dict[Any, tuple] = {
     str: (str,),
     dict: (dict,),
     list: (list,),
-    np.ndarray: (np.ndarray, list),
+    np.ndarray: (np.ndarray, list, float, int),  # a 0-d array (one axis) is written as a number
 }
 
 
