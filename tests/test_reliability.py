@@ -70,6 +70,36 @@ def test_apply_and_calibrate_refuse_out_onto_inputs(tmp_path, capsys):
     assert {p: digest(p) for p in before} == before
 
 
+def test_out_onto_a_file_of_another_kind_is_refused(tmp_path, capsys):
+    """--out replaced any existing file that was not an input of the same command: a simulated log by an attitude
+    table, a simulator's truth by a calibration, a raw log by apply or simulate, a sections list by a result, all
+    with exit 0 (helper). An output is replaced only by the command's own kind; a rerun still replaces its own."""
+    assert main(["--quiet", "simulate", "accel-multipos", "--out", str(tmp_path / "mp.csv")]) == 0
+    assert main(["--quiet", "simulate", "flight", "--duration", "20", "--out", str(tmp_path / "fl.csv")]) == 0
+    raw = _data(tmp_path)
+    sections = tmp_path / "sections.json"
+    sections.write_text('{"x_p": {"start": 0, "end": 10}}')
+    keep = {p: digest(p) for p in (tmp_path / "mp.csv", tmp_path / "mp.truth.json", raw, sections)}
+    capsys.readouterr()
+    for argv in (
+        ["attitude", str(tmp_path / "fl.csv"), "--out", str(tmp_path / "mp.csv")],
+        ["calibrate", "accel", str(tmp_path / "mp.csv"), "--out", str(tmp_path / "mp.truth.json")],
+        ["calibrate", "accel", str(tmp_path / "mp.csv"), "--out", str(sections)],
+        ["simulate", "flight", "--duration", "20", "--out", str(raw)],
+        ["attitude", str(tmp_path / "fl.csv"), "--out", str(raw)],
+    ):
+        assert main(["--quiet", *argv]) == 2, argv
+        one_line_error(capsys, "is not a file this command writes", "choose another --out")
+    assert {p: digest(p) for p in keep} == keep
+    r, a = tmp_path / "r.json", tmp_path / "a.csv"
+    for _ in range(2):  # reruns replace their own outputs
+        assert main(["--quiet", "calibrate", "accel", str(tmp_path / "mp.csv"), "--out", str(r)]) == 0
+        assert main(["--quiet", "attitude", str(tmp_path / "fl.csv"), "--out", str(a)]) == 0
+        assert main(["--quiet", "apply", str(r), str(tmp_path / "mp.csv"), "--out", str(tmp_path / "ap.csv")]) == 0
+    assert main(["--quiet", "apply", str(r), str(tmp_path / "mp.csv"), "--out", str(a)]) == 2
+    capsys.readouterr()
+
+
 def test_foreign_sidecar_is_not_overwritten(tmp_path, capsys):
     out = tmp_path / "x.csv"
     truth = tmp_path / "x.truth.csv"
@@ -565,6 +595,8 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
                     "cylinder10",
                     "--rate-unit",
                     "deg/s",
+                    "--offset",
+                    "zero",  # centred, simulated: absolute Δr against the truth
                     "--out",
                     str(out),
                 ]
@@ -606,7 +638,10 @@ def test_gfimu_std_widen_with_the_residual_and_apply_refuses_garbage(turntable, 
     np.savez(tmp_path / "b.npz", **b)
     out = tmp_path / "r.json"
     assert (
-        main(["--quiet", "calibrate", "gfimu", str(tmp_path / "b.npz"), "--builtin", "cylinder10", "--out", str(out)])
+        main(
+            ["--quiet", "calibrate", "gfimu", str(tmp_path / "b.npz"), "--builtin", "cylinder10", "--offset", "zero"]
+            + ["--out", str(out)]
+        )
         == 0
     )
     res = json.loads(out.read_text())["fields"]

@@ -15,6 +15,7 @@ from optinav.cli.common import (
     print_notes,
     require_files,
 )
+from optinav.core.files import RESULT_MARK
 from optinav.errors import OptinavError
 
 
@@ -68,7 +69,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     require_files((args.data, "data file"))
-    out = output_path(args.out, (".json",), "allan.json")
+    out = output_path(args.out, (".json",), "allan.json", mark=RESULT_MARK)
     kalibr = output_path(args.kalibr, (".yaml", ".yml"), "imu.yaml", option="--kalibr") if args.kalibr else None
     if kalibr is not None and kalibr.resolve() == out.resolve():
         raise OptinavError("--kalibr and --out name the same file", "give --kalibr another name, e.g. imu.yaml")

@@ -67,7 +67,7 @@ def run(args) -> int:
             f"use it as it is, e.g. optinav report {args.result}",
         )
     _refuse_foreign_options(args, system)
-    out = output_path(args.out)
+    out = output_path(args.out, mark=b"source: optinav apply")
     options = system_options(system, args, "apply_options") if system.apply_options else None
     print("optinav: " + system.load("apply")(args.result, args.data, out, options))
     return 0

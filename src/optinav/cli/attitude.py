@@ -32,7 +32,7 @@ from optinav.cli.common import (
     require_files,
     truth_path,
 )
-from optinav.core.files import check_sidecar, write_csv
+from optinav.core.files import SIMULATED, check_sidecar, write_csv
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
@@ -191,7 +191,9 @@ def _checked(args):
     options = parse_key_values(args.option)
     method = _method(args.method, True if args.pol_columns else None)
     check_options(method, options)
-    out = output_path(args.out, (".csv",), "ATTITUDE.csv")
+    from optinav.attitude.recording import CSV_HEADER
+
+    out = output_path(args.out, (".csv",), "ATTITUDE.csv", mark=CSV_HEADER.encode())
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
@@ -381,7 +383,7 @@ def run_simulate_flight(args) -> int:
     from optinav.core.progress import progress, step
     from optinav.core.rotations import euler_from_quat
 
-    out = output_path(args.out, (".csv",), "flight.csv")
+    out = output_path(args.out, (".csv",), "flight.csv", mark=SIMULATED)
     truth = check_sidecar(out.with_name(out.stem + ".truth.csv"), TRUTH_CSV_HEADER + "\n")
     truth_json = truth_path(out)
     remedy = "shorten --duration or lower --rate"

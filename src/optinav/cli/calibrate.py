@@ -23,6 +23,7 @@ from optinav.cli.common import (
     print_notes,
     register_system_hooks,
 )
+from optinav.core.files import RESULT_MARK
 from optinav.errors import OptinavError
 
 METHOD_NAMES = ("lm", "gn", "trf", "newton", "ga", "pso", "ferraris")
@@ -101,7 +102,7 @@ def calibrate_unit(args, name: str) -> int:
     from optinav.core.progress import step
 
     system = registry.SYSTEMS[name]
-    out = output_path(args.out, (".json",), "RESULT.json")
+    out = output_path(args.out, (".json",), "RESULT.json", mark=RESULT_MARK)
     prepare_report(args)
     options = system_options(system, args)
     system.load("check")(options)
@@ -285,7 +286,7 @@ def run_accel(args) -> int:
     from optinav.cli.common import file_options
     from optinav.multipos.calibrate import calibrate_data, read_session_file
 
-    out = output_path(args.out, (".json",), "RESULT.json")
+    out = output_path(args.out, (".json",), "RESULT.json", mark=RESULT_MARK)
     exports = distinct_outputs(out, [parse_export(spec) for spec in args.export])
     prepare_report(args)
     options = file_options(args)
@@ -355,5 +356,8 @@ def parse_export(spec: str):
     paths = rest.split(",") if fmt == "imu_tk" else [rest]
     if len(paths) > 2 or not all(paths):
         raise OptinavError(f"--export {spec!r} names {len(paths)} files", "imu_tk takes ACC,GYRO; others one file")
-    checked = [output_path(p, option="--export") for p in paths]
+    from optinav.core.files import numbers_only
+
+    mark = numbers_only if fmt == "imu_tk" else None
+    checked = [output_path(p, option="--export", mark=mark) for p in paths]
     return fmt, checked[0], checked[1] if len(checked) > 1 else None

@@ -182,17 +182,22 @@ def add_chunk_option(p, keeps: str | None = None) -> None:
     )
 
 
-def output_path(path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out") -> Path:
+def output_path(
+    path, suffixes: tuple[str, ...] | None = None, example: str = "", option: str = "--out", mark=None
+) -> Path:
     """``--out`` checked before any work: an allowed suffix (when ``suffixes`` is given), not an input of the
-    command, not a folder, in an existing writable folder."""
-    from optinav.core.files import check_output
+    command, not a folder, in an existing writable folder, not a data file of another kind than ``mark`` says the
+    command writes (:func:`optinav.core.files.check_replace`)."""
+    from optinav.core.files import check_output, check_replace
 
     out = Path(path)
     if suffixes and out.suffix.lower() not in suffixes:
         raise OptinavError(
             f"{option} {out} is not a {'/'.join(suffixes)} file", f"name it like {example or 'out' + suffixes[0]}"
         )
-    return check_output(out, option)
+    check_output(out, option)
+    check_replace(out, option, mark)
+    return out
 
 
 def require_files(*items: tuple[str | None, str]) -> None:

@@ -10,6 +10,8 @@ from optinav.errors import OptinavError
 
 FORMATS = ("imu_tk", "imucal", "kalibr")
 _SUFFIXES = {"imucal": (".json",), "kalibr": (".yaml", ".yml")}
+#: the --out example named when its suffix is wrong
+_EXAMPLES = {"imucal": "cal.json", "kalibr": "imu.yaml"}
 
 
 def register(sub) -> None:
@@ -71,8 +73,11 @@ def run(args) -> int:
                 raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
     if args.to != "imu_tk" and args.gyro_out:
         raise OptinavError("--gyro-out is for --to imu_tk (its second file)", "drop --gyro-out")
-    out = output_path(args.out, _SUFFIXES.get(args.to), {"imucal": "cal.json", "kalibr": "imu.yaml"}.get(args.to, ""))
-    gyro_out = output_path(args.gyro_out, option="--gyro-out") if args.gyro_out else None
+    from optinav.core.files import numbers_only
+
+    mark = numbers_only if args.to == "imu_tk" else None
+    out = output_path(args.out, _SUFFIXES.get(args.to), _EXAMPLES.get(args.to, ""), mark=mark)
+    gyro_out = output_path(args.gyro_out, option="--gyro-out", mark=mark) if args.gyro_out else None
     if gyro_out is not None and gyro_out.resolve() == out.resolve():
         raise OptinavError("--gyro-out and --out name the same file", "give the gyroscope file another name")
     from optinav.multipos.exchange import export_calibration

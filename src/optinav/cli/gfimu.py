@@ -25,6 +25,7 @@ from optinav.cli.common import (
     truth_path,
     write_truth,
 )
+from optinav.core.files import SIMULATED
 from optinav.errors import OptinavError
 
 
@@ -90,7 +91,7 @@ def run_analyze(args) -> int:
     from optinav.gfimu.array import identifiability
 
     arr = _load_array(args.config, args.builtin)
-    out = output_path(args.out, (".json",), "analysis.json") if args.out else None
+    out = output_path(args.out, (".json",), "analysis.json", mark=b'"n_accelerometers"') if args.out else None
     idf = identifiability(arr)
     if not args.allow_deficient:
         idf.require(("linear",))
@@ -184,7 +185,7 @@ def run_simulate(args) -> int:
     from optinav.gfimu.turntable import TurntableStream, turntable_csv_writer, turntable_truth
 
     arr = _load_array(args.config, args.builtin or (None if args.config else "cylinder10"))
-    out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz")
+    out = output_path(args.out, (".npz", ".csv", ".h5", ".hdf5"), "data.npz", mark=SIMULATED)
     truth_path(out)
     rates = parse_floats(args.rates, None, "--rates", "W1,W2")
     if not all(0 < w <= MAX_TABLE_RATE for w in rates):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
+from optinav.core.files import SIMULATED
 from optinav.cli.common import (
     COUNT,
     LATITUDE,
@@ -105,7 +106,7 @@ def run_simulate(args) -> int:
     from optinav.rins.io import file_format, rins_csv_writer, write_rins
     from optinav.rins.simulate import RinsStream
 
-    out = output_path(args.out)
+    out = output_path(args.out, mark=SIMULATED)
     truth_path(out)
     kind = file_format(out, writing=True)
     p = _parse_nonorth(args.nonorth, args.unit)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
+from optinav.core.files import SIMULATED
 from optinav.cli.common import (
     HEIGHT,
     LATITUDE,
@@ -144,7 +145,7 @@ def run_accel_multipos(args) -> int:
     from optinav.multipos.plan import PosePlan
     from optinav.multipos.simulate import SessionStream
 
-    out = output_path(args.out)
+    out = output_path(args.out, mark=SIMULATED)
     truth_path(out)
     scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
     if args.plan:
@@ -201,7 +202,7 @@ def run_static(args) -> int:
     from optinav.core.units import to_si
     from optinav.io import ImuLog, open_imu_writer
 
-    out = output_path(args.out)
+    out = output_path(args.out, mark=SIMULATED)
     truth_path(out)
     rate = args.rate_hz or preset(args.preset).rate_hz
     stream = StaticLogStream(

@@ -17,6 +17,7 @@ import contextlib
 import errno
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Iterable, Iterator
@@ -174,6 +175,96 @@ def check_output(path, option: str = "--out") -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OptinavError(f"cannot write {out}: the folder {parent} is not writable", f"choose a writable {option}")
     return out
+
+
+#: suffixes of files optinav reads as data or configuration: an existing one is replaced by an output only when
+#: optinav wrote it (:func:`check_replace`)
+DATA_SUFFIXES = frozenset(
+    {
+        ".csv",
+        ".txt",
+        ".tsv",
+        ".dat",
+        ".gz",
+        ".npz",
+        ".npy",
+        ".h5",
+        ".hdf5",
+        ".mat",
+        ".parquet",
+        ".json",
+        ".yaml",
+        ".yml",
+        ".bag",
+        ".mcap",
+        ".db3",
+    }
+)
+#: ``mark`` of :func:`check_replace` for the data files ``optinav simulate`` writes (their truth beside them)
+SIMULATED = "simulated"
+#: ``mark`` of :func:`check_replace` for result JSON (a simulator's truth is no result)
+RESULT_MARK = b'"schema": "optinav.'
+
+
+def numbers_only(head: bytes) -> bool:
+    """``mark`` of :func:`check_replace` for imu_tk's parameter files: numbers and white space only.
+
+    Parameters
+    ----------
+    head : bytes
+        The first bytes of the file.
+
+    Returns
+    -------
+    bool
+        Whether they are numbers (at least one digit) and white space only.
+    """
+    return bool(re.fullmatch(rb"[\s0-9eE.+-]*", head)) and any(c.isdigit() for c in head.decode("ascii", "replace"))
+
+
+def check_replace(path, option: str = "--out", mark: bytes | str | None = None) -> None:
+    """Refuse to replace an existing data file that is not what the command writes (a raw log, a sections list, a
+    simulator's truth): ``optinav attitude flight.csv --out mp.csv`` replaced a simulated log, exit 0 (helper).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    option : str
+        The CLI option that names it.
+    mark : bytes, str, callable or None
+        What the command writes: bytes its files hold in their first 256 (:data:`RESULT_MARK`, a table's header), :data:`SIMULATED` (a data file with ``STEM.truth.json`` beside it), a test of
+        the first bytes (:func:`numbers_only`), or None (any file that names optinav in its first bytes). Empty files and files of other suffixes than
+        :data:`DATA_SUFFIXES` (reports, figures) are replaced.
+    """
+    out = Path(path)
+    if out.suffix.lower() not in DATA_SUFFIXES:
+        return
+    try:
+        if not out.is_file() or out.stat().st_size == 0:
+            return
+        with open(out, "rb") as fh:
+            head = fh.read(256)
+    except OSError:
+        return  # unreadable: the write names the cause
+    schema = next((ln for ln in head.splitlines() if b'"schema"' in ln), b"")
+    if mark == SIMULATED:
+        ours = out.with_name(out.stem + ".truth.json").is_file()
+    elif mark == RESULT_MARK:
+        ours = mark in head and b"truth" not in schema
+    elif callable(mark):
+        ours = bool(mark(head))
+    elif isinstance(mark, bytes):
+        ours = mark in head
+    else:
+        ours = b"optinav" in head and b"truth" not in schema
+    if ours:
+        return
+    first = (schema or head.split(b"\n", 1)[0])[:60].decode("utf-8", "replace").strip()
+    raise OptinavError(
+        f"{option} {out} exists and is not a file this command writes (it begins {first!r}): it would be replaced",
+        f"choose another {option}, or remove the file first",
+    )
 
 
 def _refuse_special(out: Path, option: str, named: str | None = None, remedy: str | None = None) -> None:
