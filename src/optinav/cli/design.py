@@ -10,6 +10,22 @@ from optinav.cli.common import NON_NEGATIVE, POSITIVE, RATE, SEED, number, outpu
 from optinav.errors import OptinavError
 
 
+#: design's targets (1-sigma): flag, range, what for the error, metavar, help
+_TARGETS = (
+    ("--target-scale", 1e-3, 1e6, "a scale-factor target in ppm", "PPM", "accelerometer scale factor 1-sigma, ppm"),
+    (
+        "--target-misalignment",
+        1e-6,
+        1e3,
+        "a misalignment target in mrad",
+        "MRAD",
+        "accelerometer misalignment 1-sigma, mrad",
+    ),
+    ("--target-bias", 1e-6, 1e4, "a bias target in mg", "MG", "accelerometer bias 1-sigma, mg"),
+    ("--target-gyro-bias", 1e-6, 1e6, "a gyro bias target in deg/h", "DEG/H", "gyro bias 1-sigma from all rest, deg/h"),
+)
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "design",
@@ -74,30 +90,8 @@ def register(sub) -> None:
     tg = p.add_argument_group("rest time: --dwell, or targets (1-sigma) that set it")
     tg.add_argument("--dwell", type=POSITIVE, metavar="S", help="rest per pose in s (default 30 without targets)")
     # targets far below any sensor's reach would need rest beyond any count (an overflow): bounded here
-    tg.add_argument(
-        "--target-scale",
-        type=number(1e-3, 1e6, what="a scale-factor target in ppm"),
-        metavar="PPM",
-        help="accelerometer scale factor 1-sigma, ppm (1e-3..1e6)",
-    )
-    tg.add_argument(
-        "--target-misalignment",
-        type=number(1e-6, 1e3, what="a misalignment target in mrad"),
-        metavar="MRAD",
-        help="accelerometer misalignment 1-sigma, mrad (1e-6..1e3)",
-    )
-    tg.add_argument(
-        "--target-bias",
-        type=number(1e-6, 1e4, what="a bias target in mg"),
-        metavar="MG",
-        help="accelerometer bias 1-sigma, mg (1e-6..1e4)",
-    )
-    tg.add_argument(
-        "--target-gyro-bias",
-        type=number(1e-6, 1e6, what="a gyro bias target in deg/h"),
-        metavar="DEG/H",
-        help="gyro bias 1-sigma from all rest, deg/h (1e-6..1e6)",
-    )
+    for flag, lo, hi, what, metavar, text in _TARGETS:
+        tg.add_argument(flag, type=number(lo, hi, what=what), metavar=metavar, help=f"{text} ({lo:g}..{hi:g})")
     p.add_argument(
         "--rate", dest="rate_hz", type=RATE, default=100.0, metavar="HZ", help="sample rate in Hz (default 100)"
     )
