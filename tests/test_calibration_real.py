@@ -504,3 +504,17 @@ def test_a_clipped_accelerometer_axis_is_named_without_acc_range(tmp_path, capsy
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "clipped at the sensor's range" in err and "--min-duration" not in err
     assert "larger accelerometer range" in err
+
+
+def test_a_decimated_log_with_a_sample_counter_names_the_rate_of_its_rows(tmp_path, capsys):
+    """Every 4th row of the annotated session (its counter steps by 4): --rate is the counter's rate, and 51.2 Hz
+    (the rows' rate) gave K_g 3.97× with exit 0 and only a note of skipped samples (helper). The note now says
+    which rate --rate was taken as and what to pass if it was the rows'."""
+    rows = (DATA / "annotated_session.csv").read_text().splitlines()
+    f = tmp_path / "dec4.csv"
+    f.write_text("\n".join([rows[0], *rows[1::4]]) + "\n")
+    args = [*ANNOTATED, "--method", "ferraris", "--rotation-angle", "360"]
+    args[2], args[4] = str(f), "51.2"
+    main(["--quiet", *args, "--out", str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert "the sample counter steps by 4 on nearly every row" in err and "pass --rate 204.8" in err
