@@ -300,3 +300,32 @@ def test_cases_summarized_while_reading_in_blocks(tmp_path, monkeypatch):
     np.testing.assert_allclose(a.std, b.std, rtol=1e-6)
     with pytest.raises(OptinavError, match="accelerometer columns"):
         read_cases(path, arr.n + 1)
+
+
+def test_nan_in_a_column_names_the_column_and_its_first_rows(tmp_path, monkeypatch):
+    """NaN in table_rate said 'J contains 250 NaN or infinite value(s)' (an internal name): every column of the
+    log is checked when read, block by block, and the message names the column and its first data rows."""
+    from optinav.gfimu.turntable import read_cases
+
+    arr = builtin("cylinder10")
+    d = simulate(arr, InstallationErrors.random(arr.n, rng=3), rates=(0.5, 1.0), duration=1.0, rng=5)
+    path = d.save(tmp_path / "tt.npz")
+    base = dict(np.load(path))
+    monkeypatch.setattr("optinav.io.readers.CHUNK_ROWS", 37)
+    for col in ("t", "case", "mounting", "table_rate", "wedge", "gravity"):
+        x = {k: v.copy() for k, v in base.items()}
+        x[col][100:105] = np.nan
+        np.savez(tmp_path / "bad.npz", **x)
+        with pytest.raises(OptinavError, match=rf"the {col} column holds NaN/inf in 5 row\(s\) \(data rows 101, 102"):
+            read_cases(tmp_path / "bad.npz", arr.n)
+    x = {k: v.copy() for k, v in base.items()}
+    x["f"][60, 2] = np.inf
+    np.savez(tmp_path / "bad.npz", **x)
+    with pytest.raises(OptinavError, match=r"output 3 of the f array holds NaN/inf in 1 row\(s\) \(data row 61,"):
+        read_cases(tmp_path / "bad.npz", arr.n)
+    rate = d.table_rate.copy()
+    rate[7] = np.nan
+    import dataclasses
+
+    with pytest.raises(OptinavError, match=r"the table_rate column holds NaN/inf in 1 row\(s\) \(data row 8,"):
+        calibrate(arr, dataclasses.replace(d, table_rate=rate))

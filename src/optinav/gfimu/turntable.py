@@ -212,6 +212,7 @@ class TurntableData:
 
         tab = load_table(path)
         gamma, g = _turntable_constants(tab, path)
+        check_finite_columns(tab, path)
         f = array_outputs(tab, path, n_accelerometers)
         t = np.asarray(tab.get("t"), float)
         return cls(
@@ -304,10 +305,73 @@ def turntable_csv_writer(path, n_accelerometers: int, gamma: float, gravity: flo
         yield write
 
 
-def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
+#: the columns of a turntable log besides the outputs (``wedge`` and ``gravity`` may hold a single value)
+LOG_COLUMNS = ("t", "case", "mounting", "table_rate", "wedge", "gravity")
+
+
+def nonfinite_rows_error(path, column: str, bad_rows, row0: int = 0) -> OptinavError:
+    """The one-line error for NaN/inf in a column of a data file, naming the column and its first bad rows.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (named in the message).
+    column : str
+        The column's name (or a phrase naming it, e.g. ``"output 4 of the f array"``).
+    bad_rows : (k,) int array
+        The bad rows of the block read [-], counted from 0.
+    row0 : int
+        Rows of the file before that block [-].
+
+    Returns
+    -------
+    OptinavError
+        The error to raise; data rows are numbered from 1.
+    """
+    rows = np.asarray(bad_rows, int) + int(row0) + 1
+    first = ", ".join(str(int(r)) for r in rows[:3]) + (", ..." if rows.size > 3 else "")
+    what = column if " " in column else f"the {column} column"
+    return OptinavError(
+        f"{path}: {what} holds NaN/inf in {rows.size} row(s) (data row{'s' if rows.size > 1 else ''} {first}, "
+        "counted from 1)",
+        "remove those rows or fill in their values",
+    )
+
+
+def check_finite_columns(tab, path, row0: int = 0) -> None:
+    """Refuse NaN/inf in a turntable table's :data:`LOG_COLUMNS` (those present), naming the column and its first
+    bad rows (:func:`nonfinite_rows_error`), before they reach the case means and the fit.
+
+    Parameters
+    ----------
+    tab : Table
+        A table (or block) read by :func:`optinav.io.readers.iter_table`.
+    path : str or Path
+        Its file (named in the message).
+    row0 : int
+        Rows of the file before this block [-].
+
+    Returns
+    -------
+    None
+    """
+    for name in LOG_COLUMNS:
+        if tab.find(name) is None:
+            continue
+        v = np.asarray(tab.get(name), float)
+        bad = np.flatnonzero(~np.isfinite(v.reshape(v.shape[0], -1)).all(axis=1)) if v.ndim else []
+        if v.ndim == 0 and not np.isfinite(v):
+            bad = [0]
+        if len(bad):
+            raise nonfinite_rows_error(path, name, bad, row0)
+
+
+def array_outputs(tab, path, n_accelerometers: int | None = None, row0: int = 0) -> np.ndarray:
     """The accelerometer outputs (T, N) m/s² of a table read by :func:`optinav.io.readers.load_table`: its array
-    ``f`` or its columns ``f1..fN``; checked finite and, when given, ``n_accelerometers`` wide."""
-    if tab.find("f") is not None:
+    ``f`` or its columns ``f1..fN``; checked finite (NaN/inf named by column and first rows, the table's rows
+    starting at file row ``row0``) and, when given, ``n_accelerometers`` wide."""
+    named = tab.find("f") is None
+    if not named:
         f = np.asarray(tab.get("f"), float)
         if f.ndim == 1:
             f = f[:, None]
@@ -328,7 +392,9 @@ def array_outputs(tab, path, n_accelerometers: int | None = None) -> np.ndarray:
             "pass the configuration the data was recorded with",
         )
     if not np.all(np.isfinite(f)):
-        raise OptinavError(f"{path}: accelerometer outputs contain NaN/inf", "remove or repair those rows")
+        k = int(np.flatnonzero(~np.isfinite(f).all(axis=0))[0])
+        name = f"f{k + 1}" if named else f"output {k + 1} of the f array"
+        raise nonfinite_rows_error(path, name, np.flatnonzero(~np.isfinite(f[:, k])), row0)
     return f
 
 
@@ -554,7 +620,13 @@ class CaseAccumulator:
 
 
 def case_means(data: TurntableData) -> CaseMeans:
-    """Per-case means, counts and the pooled within-case std of a whole log (:class:`CaseAccumulator`)."""
+    """Per-case means, counts and the pooled within-case std of a whole log (:class:`CaseAccumulator`); NaN/inf in
+    its mounting, table rate or outputs named by column and first rows."""
+    for name, v in (("mounting", data.mounting), ("table_rate", data.table_rate), ("acc", data.acc)):
+        v = np.asarray(v, float)
+        v = v.reshape(v.shape[0], -1)
+        if not np.all(np.isfinite(v)):
+            raise nonfinite_rows_error("the turntable data", name, np.flatnonzero(~np.isfinite(v).all(axis=1)))
     acc = CaseAccumulator()
     acc.add(data.mounting, data.table_rate, data.acc)
     return acc.result()
@@ -596,7 +668,8 @@ def read_cases(path, n_accelerometers: int | None = None, rate_factor: float = 1
     for tab in iter_table(path):
         if head is None:
             head = _turntable_constants(tab, path)
-        f = array_outputs(tab, path, n_accelerometers)
+        check_finite_columns(tab, path, acc.samples)
+        f = array_outputs(tab, path, n_accelerometers, acc.samples)
         rate = np.asarray(tab.get("table_rate"), float) * rate_factor
         acc.add(np.asarray(tab.get("mounting"), float).astype(int), rate, f)
         n_out = f.shape[1]
