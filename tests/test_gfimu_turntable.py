@@ -302,6 +302,19 @@ def test_cases_summarized_while_reading_in_blocks(tmp_path, monkeypatch):
         read_cases(path, arr.n + 1)
 
 
+def test_gravity_column_in_g_or_mg_is_named_before_the_fit():
+    """A gravity column in g (1.0) said 'the LM fit did not converge; try --method closed-form', which was refused
+    too: the column's unit is named before the fit, with either method."""
+    import dataclasses
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
+    for g, unit in ((1.0, "g"), (1000.0, "mg")):
+        for method in ("lm", "closed-form"):
+            with pytest.raises(OptinavError, match=rf"the gravity column reads {g:g}: it is in {unit}, not m/s\^2"):
+                calibrate(arr, dataclasses.replace(d, gravity=g), method=method, offset="zero")
+
+
 def test_nan_in_a_column_names_the_column_and_its_first_rows(tmp_path, monkeypatch):
     """NaN in table_rate said 'J contains 250 NaN or infinite value(s)' (an internal name): every column of the
     log is checked when read, block by block, and the message names the column and its first data rows."""

@@ -731,12 +731,40 @@ def check_data(
     * the table-rate unit: per mounting, the change of the case means between two rates is
       ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
       (within :data:`RATE_SCALE_RANGE`, with the array's centre where ``offsets`` (K, 3) m puts it; 0.5–2 when
-      the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s."""
+      the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s;
+    * the units of the gravity column (≈ 1: g, ≈ 1000: mg) and of the outputs, and the wedge in rad.
+
+    Parameters
+    ----------
+    nominal : AccelerometerArray
+        The design array.
+    cm : CaseMeans
+        The case means [m/s^2] with their rates [rad/s].
+    gamma : float
+        Wedge angle γ [rad].
+    g : float
+        Gravity [m/s^2].
+    offsets : (K, 3) array or None
+        The array centre's offset from the table axis per case [m]; None: on the axis.
+    offset_known : bool
+        False when the offsets are to be estimated (a wider rate-scale range).
+
+    Returns
+    -------
+    None
+    """
     wedge = np.abs(np.asarray(gamma, float))
     if np.nanmax(wedge) > np.pi / 2:
         raise OptinavError(
             f"the wedge column reads {float(np.nanmax(wedge)):.4g}, beyond π/2 rad: it is in degrees, not rad",
             "write the wedge column in rad",
+        )
+    grav = float(np.median(g))
+    unit = g_unit(grav)
+    if unit is not None:
+        raise OptinavError(
+            f"the gravity column reads {grav:.4g}: it is in {unit}, not m/s^2",
+            f"write the gravity column in m/s^2 (the local gravity, e.g. {G_STANDARD})",
         )
     pred = nominal_case_means(nominal, cm, gamma, g, offsets)
     # the outputs' size against the nominal geometry's, as gravity in m/s² (the rates move it by far less)
