@@ -342,3 +342,21 @@ def test_nan_in_a_column_names_the_column_and_its_first_rows(tmp_path, monkeypat
 
     with pytest.raises(OptinavError, match=r"the table_rate column holds NaN/inf in 1 row\(s\) \(data row 8,"):
         calibrate(arr, dataclasses.replace(d, table_rate=rate))
+
+
+def test_swapped_rate_labels_are_told_from_negated_outputs():
+    """Rate labels swapped (the case at the higher rate labelled with the lower) said 'the outputs look negated;
+    negate the f columns', which is refused again: swapped labels reverse only the change between the rates,
+    negated outputs gravity's part of the case means too. Each message names its cause; its remedy is accepted."""
+    import dataclasses
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
+    swapped = dataclasses.replace(d, table_rate=np.where(np.isclose(d.table_rate, 0.5), 1.0, 0.5))
+    with pytest.raises(OptinavError, match=r"the table-rate labels look swapped") as e:
+        calibrate(arr, swapped)
+    assert "negate" not in str(e.value)
+    with pytest.raises(OptinavError, match=r"the outputs look negated") as e:
+        calibrate(arr, dataclasses.replace(d, acc=-d.acc))
+    assert "swapped" not in str(e.value)
+    calibrate(arr, d)  # what either remedy gives back

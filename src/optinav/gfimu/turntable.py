@@ -732,7 +732,9 @@ def check_data(
       ``(w₂² − w₁²) θᵀ(uuᵀ − I) r`` (eq. above); fitted against the nominal geometry its scale must be 1
       (within :data:`RATE_SCALE_RANGE`, with the array's centre where ``offsets`` (K, 3) m puts it; 0.5–2 when
       the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s;
-    * the units of the gravity column (≈ 1: g, ≈ 1000: mg) and of the outputs, and the wedge in rad.
+    * the units of the gravity column (≈ 1: g, ≈ 1000: mg) and of the outputs, and the wedge in rad;
+    * a reversed rate-dependent change (scale ≈ −1): swapped table-rate labels when gravity's part of the case
+      means agrees with the nominal (their scale ≈ +1), negated outputs when it flips too (≈ −1).
 
     Parameters
     ----------
@@ -795,7 +797,18 @@ def check_data(
             "check those channels (or pass the configuration the data was recorded with)",
         )
     lo, hi = RATE_SCALE_RANGE if offset_known else (0.5, 2.0)
-    if s is not None and -hi < s < -lo:
+    # the case means against the nominal ones: gravity's part dominates them and is the same at both rates, so
+    # swapped rate labels leave it (scale +1) and reverse only the change between the rates; negated outputs
+    # flip both
+    s_all = float(np.sum(cm.mean * pred) / np.sum(pred * pred))
+    if s is not None and -hi < s < -lo and s_all > 0.5:
+        raise OptinavError(
+            f"the table-rate labels look swapped: the change of the outputs between the two rates is {s:.3g}× the "
+            f"predicted (reversed) while gravity's part of the case means agrees ({s_all:.3g}×), so the case "
+            "recorded at the higher rate is labelled with the lower",
+            "give each case's rows the table_rate they were recorded at (swap the two rate values in the file)",
+        )
+    if s is not None and -hi < s < -lo and s_all < -0.5:
         raise OptinavError(
             f"the rate-dependent change of the outputs is {s:.3g}× the one the configuration predicts: the outputs "
             "look negated (every sensor reads the opposite of its specific force along its direction)",
