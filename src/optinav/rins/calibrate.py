@@ -91,6 +91,8 @@ class Prepared:
     ``t`` [s] (epoch 0 = the navigation start), ``c_s_n`` (T, 3, 3) and the encoder angles [rad] there, their
     epoch numbers ``index``; ``align`` the first pass's :class:`~optinav.rins.process.Alignment`; ``moves`` the
     axis method's per-move vectors; ``frozen`` the frozen-encoder error found (raised on first use) or None;
+    ``gravity`` the error of the accelerometers disagreeing with the gyros across a move (:class:`_GravityWatch`,
+    raised after the move axes are checked: they name a gyro mistake first) or None;
     ``perturbed`` ``(i, j, s)`` → where the ``q_s^n`` of that gyro re-integration at the residual epochs wait
     (:class:`_Spill`, out of memory until the uncertainty after the fit); ``source`` the
     recording's blocks (read again only for re-integrations not made yet)."""
@@ -105,6 +107,7 @@ class Prepared:
     frozen: OptinavError | None
     perturbed: dict
     source: Any
+    gravity: OptinavError | None = None
 
     @functools.cached_property
     def subspace(self):
@@ -232,10 +235,12 @@ def prepare(
 
     keys = _perturbations(gyro_misalignment, gyro_scale)
     dec, frozen, moves = _Decimation(select, len(keys)), _FrozenWatch(al), _AxisMoves(al)
+    gravity = _GravityWatch()
     for nb in strapdown_blocks(src, al, perturb=keys):
         dec.feed(nb)
         frozen.feed(nb)
         moves.feed(nb)
+        gravity.feed(nb)
     idx, t, cs, a, b, pert = dec.result()
     return Prepared(
         t=t,
@@ -248,6 +253,7 @@ def prepare(
         frozen=frozen.finish(),
         perturbed=dict(zip(keys, pert)),
         source=src,
+        gravity=gravity.finish(),
     )
 
 
@@ -334,6 +340,72 @@ class _FrozenWatch:
             f"the gyros turn at {np.degrees(rate):.3g} °/s at t = {t:.6g} s while "
             "both encoders report rest: an encoder channel is frozen or missing",
             "check the alpha/beta columns (and that they belong to this IMU recording)",
+        )
+
+
+#: the gyros see rest below this rate (rad/s, 0.05 °/s: far above the Earth rate, far below a move)
+STILL_RATE = float(np.radians(0.05))
+#: shortest dwell whose gravity is compared (s)
+DWELL_MIN_S = 1.0
+#: largest angle between the gravity of consecutive dwells in the navigation frame (rad): a 1 mg accelerometer bias
+#: moves it by 0.12°, a 1000 ppm gyro scale error by 0.18°, drift and noise by 0.01°; the x and y accelerometer
+#: columns swapped by 1.3° on a near-level IMU (x and z, or an IMU on its side: by tens of degrees)
+GRAVITY_TOL = float(np.radians(0.5))
+
+
+class _GravityWatch:
+    """Gravity measured by the accelerometers against where the gyros carry it, block by block: over each dwell
+    (intervals the gyros see at rest, :data:`STILL_RATE`) the velocity increments are turned into the navigation
+    frame with the strapdown attitude (aligned on the initial rest, carried through the moves by the gyros) and
+    summed; consecutive dwells must agree within :data:`GRAVITY_TOL`. Accelerometer columns swapped or of the wrong
+    sign against the gyros pass the alignment (it levels on them) but read far off after a move."""
+
+    def __init__(self):
+        self.run = None  # the open dwell: [Σ C_s^n dv (3,) m/s, Σ dt s, t start s]
+        self.prev = None  # (unit gravity direction (3,), t start) of the last dwell
+        self.worst = (0.0, 0.0, 0.0)  # (angle rad, t of the earlier dwell, t of the later)
+
+    def _close(self) -> None:
+        run, self.run = self.run, None
+        if run is None or run[1] < DWELL_MIN_S or not np.linalg.norm(run[0]) > 0:
+            return
+        u = run[0] / np.linalg.norm(run[0])
+        if self.prev is not None:
+            ang = float(np.arccos(np.clip(u @ self.prev[0], -1.0, 1.0)))
+            if ang > self.worst[0]:
+                self.worst = (ang, self.prev[1], run[2])
+        self.prev = (u, run[2])
+
+    def feed(self, nb) -> None:
+        if nb.dt.size == 0 or nb.dv is None:
+            return
+        still = np.linalg.norm(nb.dtheta, axis=1) < STILL_RATE * nb.dt
+        f_n = np.einsum("kij,kj->ki", dcm_from_quat(nb.q_start), nb.dv)
+        t0 = nb.t[nb.t.size - nb.dt.size - 1] if nb.t.size > nb.dt.size else nb.t[0] - nb.dt[0]
+        t_start = np.concatenate([[t0], t0 + np.cumsum(nb.dt)[:-1]])
+        edges = np.flatnonzero(np.diff(still.astype(np.int8))) + 1
+        for a, b in zip(np.r_[0, edges], np.r_[edges, still.size]):
+            if not still[a]:
+                self._close()
+                continue
+            if self.run is None:
+                self.run = [np.zeros(3), 0.0, float(t_start[a])]
+            self.run[0] = self.run[0] + f_n[a:b].sum(0)
+            self.run[1] += float(nb.dt[a:b].sum())
+
+    def finish(self) -> OptinavError | None:
+        """The error when two consecutive dwells disagree by more than :data:`GRAVITY_TOL`, else None."""
+        self._close()
+        ang, t1, t2 = self.worst
+        if ang <= GRAVITY_TOL:
+            return None
+        return OptinavError(
+            f"gravity measured by the accelerometers at the dwell from t = {t2:.6g} s is {np.degrees(ang):.3g}° "
+            f"from where the gyros carry the previous dwell's (t = {t1:.6g} s) through the move (at most "
+            f"{np.degrees(GRAVITY_TOL):.2g}° for a sound IMU): the accelerometer columns dv_x, dv_y, dv_z are swapped "
+            f"or of the wrong sign against the gyros' (or an accelerometer bias of about {ang / 2:.2g} g)",
+            "check the order and signs of the dv_x, dv_y, dv_z columns against dtheta_x, dtheta_y, dtheta_z (the "
+            "same axes)",
         )
 
 
@@ -872,6 +944,8 @@ def calibrate(
         )
     rep0, V, C, cnames = prep.subspace  # checks the input on first use
     check_move_axes(prep.moves)
+    if prep.gravity is not None:  # the gyros turn about the gimbal axes: the accelerometers disagree with them
+        raise prep.gravity
     t_fit = time.perf_counter()
     history: list = []
     info: dict = {}

@@ -473,7 +473,8 @@ class NavBlock:
     """The strapdown epochs of one block: epoch numbers ``j0 ..`` (0 = the navigation start, data row ``m``),
     ``t`` (s), ``q`` (k, 4) ``q_s^n`` (ENU), encoder angles ``alpha``, ``beta`` (rad); the intervals ending at the
     last ``len(dt)`` epochs (all but the first at the start): increments ``dtheta`` (rad), steps ``dt`` (s) and
-    ``q_start`` the attitude at each interval's start; ``perturbed``: ``q_s^n`` (k, 4) of each re-integration."""
+    ``q_start`` the attitude at each interval's start, ``dv`` (m/s) the velocity increments of those intervals;
+    ``perturbed``: ``q_s^n`` (k, 4) of each re-integration."""
 
     j0: int
     t: np.ndarray
@@ -484,6 +485,7 @@ class NavBlock:
     dt: np.ndarray
     q_start: np.ndarray
     perturbed: list
+    dv: np.ndarray | None = None
 
 
 def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(), desc: str = "strapdown"):
@@ -521,11 +523,12 @@ def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(
             continue
         a = max(al.m - b.row0, 0)
         t = np.asarray(b.t, float)
-        dth_all = np.asarray(b.dtheta, float)
+        dth_all, dv_all = np.asarray(b.dtheta, float), np.asarray(b.dv, float)
         if held is None:  # the navigation start: epochs m.., intervals between them
-            dth, tt, first = dth_all[a:-1], t[a:], 0
+            dth, dv, tt, first = dth_all[a:-1], dv_all[a:-1], t[a:], 0
         else:
             dth, tt, first = np.concatenate([held[0][None], dth_all[:-1]]), np.concatenate([[held[1]], t]), 1
+            dv = np.concatenate([held[2][None], dv_all[:-1]])
         dt = np.diff(tt)
         q = main.update(dth, dt)
         pert = []
@@ -534,7 +537,7 @@ def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(
             d[:, i] -= s * dth[:, j]
             pert.append(stream.update(d, dt)[first:])
         j0 = 0 if held is None else b.row0 - al.m
-        held = (dth_all[-1], t[-1])
+        held = (dth_all[-1], t[-1], dv_all[-1])
         yield NavBlock(
             j0=j0,
             t=tt[first:],
@@ -545,6 +548,7 @@ def strapdown_blocks(data, al: Alignment, *, coning: str = "previous", perturb=(
             dt=dt,
             q_start=q[:-1],
             perturbed=pert,
+            dv=dv,
         )
 
 
