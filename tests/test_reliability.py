@@ -353,6 +353,18 @@ def test_design_targets_beyond_reach_are_named(argv, why, capsys):
     one_line_error(capsys, why, "more than 1e+12 s", "relax the target")
 
 
+@pytest.mark.parametrize("key, value", [("accelerometer", 1e300), ("gyroscope", 1e300), ("accelerometer", 1e-300)])
+def test_design_refuses_an_absurd_density_from_an_allan_file(tmp_path, capsys, key, value):
+    """An Allan JSON with a noise density of 1e300 ended in "sigma contains … NaN" (an overflow in the plan)."""
+    f = tmp_path / "allan.json"
+    f.write_text(json.dumps({"kalibr": {"accelerometer_noise_density": 1e-3, "gyroscope_noise_density": 1e-4}}))
+    d = json.loads(f.read_text())
+    d["kalibr"][f"{key}_noise_density"] = value
+    f.write_text(json.dumps(d))
+    assert main(["design", "--allan", str(f)]) == 2
+    one_line_error(capsys, f"the {key} noise density {value:g}", "is not in [1e-12", "allan.json")
+
+
 # --- rins quality gates: wrong latitude, swapped encoders ------------------------------------------------------
 
 RINS = ["--scheme", "dual4", "--align", "60", "--dwell", "10", "--move", "5", "--rate", "100"]

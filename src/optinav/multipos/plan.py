@@ -481,6 +481,29 @@ TARGETS = {
 }
 
 
+#: the noise densities a plan is made for: sensor → (lowest, highest) [m/s^2/sqrt(Hz) | rad/s/sqrt(Hz)], as
+#: ``optinav design --acc-noise-density/--gyro-noise-density`` take them
+DENSITY_RANGE = {"accelerometer": (1e-12, 10.0, "m/s^2/sqrt(Hz)"), "gyroscope": (1e-12, 1.0, "rad/s/sqrt(Hz)")}
+
+
+def _density(value, sensor: str, source: str) -> np.ndarray:
+    """A white-noise density per axis, checked against :data:`DENSITY_RANGE` (an absurd one from an edited Allan
+    file, 1e300, overflowed the plan into "sigma contains NaN"): ``source`` names where it came from."""
+    lo, hi, unit = DENSITY_RANGE[sensor]
+    try:
+        n = np.broadcast_to(np.asarray(value, float), (3,)).copy()
+    except (TypeError, ValueError):
+        n = np.full(3, np.nan)
+    if not np.all((n >= lo) & (n <= hi)):  # NaN fails too
+        bad = next((float(x) for x in n if not lo <= x <= hi), float("nan"))
+        raise OptinavError(
+            f"the {sensor} noise density {bad:g} {unit} is not in [{lo:g}, {hi:g}]"
+            + (f" (noise: {source})" if source else ""),
+            "fix the noise source, or pass --acc-noise-density/--gyro-noise-density",
+        )
+    return n
+
+
 def plan_poses(
     n_poses: int = 12,
     *,
@@ -507,8 +530,8 @@ def plan_poses(
         raise OptinavError(
             "the plan needs the accelerometer noise density", "pass --allan ALLAN.json, --acc-noise-density or --preset"
         )
-    acc_n = np.broadcast_to(np.asarray(acc_noise_density, float), (3,)).copy()
-    gyro_n = None if gyro_noise_density is None else np.broadcast_to(np.asarray(gyro_noise_density, float), (3,)).copy()
+    acc_n = _density(acc_noise_density, "accelerometer", noise_source)
+    gyro_n = None if gyro_noise_density is None else _density(gyro_noise_density, "gyroscope", noise_source)
     targets = {k: float(v) for k, v in (targets or {}).items() if v is not None}
     for k, v in targets.items():
         if k not in TARGETS or not (math.isfinite(v) and v > 0):
