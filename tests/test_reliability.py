@@ -1401,6 +1401,38 @@ def test_a_result_with_a_field_replaced_fails_in_one_line(tmp_path_factory, caps
         capsys.readouterr()
 
 
+_nested_values = _values | st.sampled_from(
+    [[1.0, 2.0], [[1.0, 2.0], [3.0, 4.0]], [None] * 3, [[None] * 3] * 3, ["a"] * 3]
+)
+
+
+@settings(max_examples=30, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(pick=st.data())
+def test_a_result_with_a_value_replaced_inside_a_field_fails_in_one_line(
+    tmp_path_factory, capsys, counts_session, pick
+):
+    """``fields.accelerometer.value.K_std`` (or K, b, a gyroscope entry) null, text or a list of the wrong shape
+    made report and apply fail with an internal IndexError/TypeError: refused in one line naming the entry."""
+    _, data, res = counts_session
+    d = json.loads(res.read_text())
+    sensor = pick.draw(st.sampled_from(["accelerometer", "gyroscope"]), label="field")
+    key = pick.draw(st.sampled_from(sorted(d["fields"][sensor]["value"])), label="key")
+    d["fields"][sensor]["value"][key] = value = pick.draw(_nested_values, label="value")
+    tmp = tmp_path_factory.mktemp("damaged")
+    bad = tmp / "bad.json"
+    bad.write_text(json.dumps(d))
+    capsys.readouterr()
+    for argv in (
+        ["apply", str(bad), str(data), "--out", str(tmp / "o.csv")],
+        ["report", str(bad), "--out", str(tmp / "r")],
+    ):
+        if main(["--quiet", *argv]) != 0:
+            err = one_line_error(capsys)
+            if key in ("K", "b", "K_std", "b_std") and value is None:
+                assert f"(field '{sensor}.{key}'" in err and "pass an unmodified optinav result file" in err, err
+        capsys.readouterr()
+
+
 def test_a_result_with_null_units_or_accelerometer_is_named(tmp_path, capsys, counts_session):
     _, data, res = counts_session
     for name in ("units", "accelerometer"):

@@ -494,6 +494,62 @@ def _check_types(target: type, kwargs: dict) -> None:
             raise InvalidResult(f"field {name!r} is {_kind(value)}")
 
 
+def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool = False) -> np.ndarray:
+    """A numeric array inside a result field (a triad's ``K_std``, …), checked while the result is loaded: JSON
+    null inside the list is NaN; a value of another kind or shape (null, text, a list of the wrong shape)
+    raises :class:`InvalidResult` naming ``where``, instead of an IndexError in whatever reads it.
+
+    Parameters
+    ----------
+    value : Any
+        The decoded JSON value (or an array, when built in Python).
+    where : str
+        The field path for the message, e.g. ``"accelerometer.K_std"``.
+    shape : tuple of int or None
+        The required shape (None: any length on that axis).
+    finite : bool
+        Refuse NaN/inf elements too.
+
+    Returns
+    -------
+    ndarray
+        The array [the field's unit, unchanged].
+    """
+    if value is None or isinstance(value, (bool, str, dict)):
+        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected numbers")
+    try:
+        a = _array_or_none(value) if isinstance(value, list) else np.asarray(value, dtype=float)
+        a = np.asarray(a, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidResult(f"field {where!r} holds values that are not numbers") from None
+    if a.ndim != len(shape) or any(n is not None and n != m for n, m in zip(shape, a.shape)):
+        want = "(" + ", ".join("n" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise InvalidResult(f"field {where!r} has shape {a.shape}, expected {want}")
+    if finite and not np.all(np.isfinite(a)):
+        raise InvalidResult(f"field {where!r} holds NaN, infinite or null values")
+    return a
+
+
+def nested_strings(value: Any, where: str) -> list[str]:
+    """A list of names inside a result field (a triad's ``held``, …), checked while the result is loaded.
+
+    Parameters
+    ----------
+    value : Any
+        The decoded JSON value.
+    where : str
+        The field path for the message.
+
+    Returns
+    -------
+    list of str
+        The names.
+    """
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected a list of names")
+    return list(value)
+
+
 def _import_systems() -> None:
     """Import every registered system's result module, so that their schemas (and the layouts of earlier
     versions they read) are known to :meth:`Result.from_dict` without the caller importing them first."""

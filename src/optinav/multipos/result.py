@@ -26,37 +26,50 @@ from dataclasses import field
 
 import numpy as np
 
-from optinav.core.results import Estimate, Parameter, Truth, flat_kwargs, register_legacy, register_truth_legacy
+from optinav.core.results import (
+    Estimate,
+    InvalidResult,
+    Parameter,
+    Truth,
+    flat_kwargs,
+    nested_array,
+    nested_strings,
+    register_legacy,
+    register_truth_legacy,
+)
 from optinav.core.validate import as_float_array
 from optinav.errors import OptinavError
 
 MODEL = "raw = K x + b"
 
 
-def _nan(v):
-    """JSON null back to NaN inside numeric lists."""
-    if isinstance(v, list):
-        return [_nan(x) for x in v]
-    return np.nan if v is None else v
+#: a triad entry's arrays: key → shape (K, b required; the rest optional, G also null)
+_TRIAD_ARRAYS = {"K": (3, 3), "b": (3,), "K_std": (3, 3), "b_std": (3,), "G": (3, 3), "G_std": (3, 3)}
 
 
 def _triad(d: dict | None, name: str) -> dict | None:
+    """A triad entry (``accelerometer``/``gyroscope``) checked key by key: the arrays' kinds and shapes, the names
+    lists, the form; a damaged value raises :class:`~optinav.core.results.InvalidResult` naming e.g.
+    ``'accelerometer.K_std'``."""
     if d is None:
         return None
     if not isinstance(d, dict) or "K" not in d or "b" not in d:
-        raise OptinavError(f"the {name} entry of the result has no K and b", "pass a complete optinav result file")
+        raise InvalidResult(f"field {name!r} has no K and b")
     out = dict(d)
-    out["K"] = as_float_array(d["K"], f"{name} K", last_dims=(3, 3))
-    out["b"] = as_float_array(d["b"], f"{name} b", last_dims=(3,))
-    if out["K"].shape != (3, 3) or out["b"].shape != (3,):
-        raise OptinavError(f"the {name} K/b have shapes {out['K'].shape}/{out['b'].shape}", "expect 3×3 and 3")
+    for key, shape in _TRIAD_ARRAYS.items():
+        if key in ("K", "b") or (key in d and not (key == "G" and d[key] is None)):
+            out[key] = nested_array(d[key], f"{name}.{key}", shape, finite=key in ("K", "b"))
+    if d.get("crlb_std") is not None:
+        out["crlb_std"] = nested_array(d["crlb_std"], f"{name}.crlb_std", (None,))
+    for key in ("estimated", "held", "unobservable"):
+        if key in d:
+            out[key] = nested_strings(d[key], f"{name}.{key}")
+    if d.get("form", "full") not in ("full", "upper-triangular"):
+        raise InvalidResult(f"field '{name}.form' is {d['form']!r}, expected 'full' or 'upper-triangular'")
     with np.errstate(over="ignore"):  # a huge K (a damaged file) overflows to inf: not singular; apply judges it
         det = np.linalg.det(out["K"])
     if abs(det) < 1e-300:
         raise OptinavError(f"the {name} matrix K is singular", "the result file is corrupt; re-run the calibration")
-    for key in ("K_std", "b_std", "G", "G_std"):
-        if d.get(key) is not None:
-            out[key] = np.asarray(_nan(d[key]), dtype=float)
     return out
 
 
