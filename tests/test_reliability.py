@@ -330,6 +330,10 @@ def test_json_inputs_fail_in_one_line(tmp_path, capsys, content, why):
         (["design", "--target-gyro-bias", "1e-300"], "--target-gyro-bias: 1e-300 is out of range"),
         (["design", "--acc-noise-density", "1e300"], "--acc-noise-density: 1e300 is out of range (must be >= 1e-12"),
         (["design", "--gyro-noise-density", "1e300"], "--gyro-noise-density: 1e300 is out of range"),
+        # --rest nan reached the library as data ("remove or interpolate the bad samples")
+        (["calibrate", "accel", "x.csv", "--out", "r.json", "--rest", "nan", "5"], "--rest: 'nan' is not finite"),
+        (["calibrate", "accel", "x.csv", "--out", "r.json", "--rest", "0", "inf"], "--rest: 'inf' is not finite"),
+        (["calibrate", "accel", "x.csv", "--out", "r.json", "--rotation-angle", "nan"], "--rotation-angle: 'nan'"),
     ],
 )
 def test_out_of_range_options_are_one_line_argparse_errors(argv, why, capsys):

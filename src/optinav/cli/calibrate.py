@@ -8,12 +8,14 @@ import sys
 import textwrap
 
 from optinav.cli.common import (
+    ANGLE,
     COUNT,
     HEIGHT,
     LATITUDE,
     NON_NEGATIVE,
     POSITIVE,
     SEED,
+    TIME,
     add_chunk_option,
     add_input_options,
     add_report_option,
@@ -195,13 +197,13 @@ def add_calibration_options(a) -> None:
     a.add_argument(
         "--rest",
         nargs=2,
-        type=float,
+        type=TIME,
         metavar=("T0", "T1"),
         help="rest window in s for --gyro-bias rest (default the first static interval)",
     )
     a.add_argument(
         "--rotation-angle",
-        type=float,
+        type=ANGLE,
         default=-360.0,
         metavar="DEG",
         help="--method ferraris: the angle of each of the three turns in degrees (default -360, imucal's "

@@ -80,6 +80,9 @@ COUNT = number(1, integer=True, what="an integer >= 1")
 SEED = number(0, integer=True, what="a seed (integer >= 0)")
 #: sample rates (Hz): what an IMU or a logger can record
 RATE = number(0.0, 1e6, lo_open=True, what="a rate in Hz")
+#: a time in a log (s) and an angle (degrees): any finite number (NaN or inf reached the library as data)
+TIME = number(what="a time in s")
+ANGLE = number(what="an angle in degrees")
 
 
 def available_memory() -> int:
