@@ -253,6 +253,19 @@ def test_a_closed_standard_output_is_a_one_line_error(tmp_path):
     )
 
 
+def test_a_closed_standard_error_keeps_the_exit_code_and_stdout_clean(tmp_path, counts_session):
+    """``2>&-``: calibrate failed with an internal AttributeError (sys.stderr is None: no isatty), exit 1, and an
+    error message went into standard output (print to a None file writes to stdout)."""
+    _, data, _ = counts_session
+    close, out = (lambda: os.close(2)), subprocess.PIPE
+    proc = _run_cli(["calibrate", "accel", str(data), "--out", "r.json"], preexec_fn=close, stdout=out, cwd=tmp_path)
+    assert proc.returncode == 0 and (tmp_path / "r.json").exists() and "internal error" not in proc.stdout
+    proc = _run_cli(["report", "missing.json", "--out", "r"], preexec_fn=close, stdout=out, cwd=tmp_path)
+    assert proc.returncode == 2 and proc.stdout == "", proc.stdout
+    proc = _run_cli(SUN, preexec_fn=close, stdout=out, cwd=tmp_path)
+    assert proc.returncode == 0 and json.loads(proc.stdout)
+
+
 def test_a_reader_that_goes_away_ends_quietly():
     """``optinav sun ... | head``: not an error of optinav's (unchanged by the standard-output checks)."""
     with subprocess.Popen(

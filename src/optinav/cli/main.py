@@ -84,6 +84,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if sys.stderr is None:
+        # a closed stderr (``2>&-``): messages go to the null device, not into stdout (where print(file=None)
+        # wrote them) nor into the first file the command opens (fd 2), and not an AttributeError (isatty)
+        _reserve_fd(2)
+        sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -149,7 +154,7 @@ class _Stdout:
     def __init__(self, stream):
         self._closed = stream is None
         if self._closed:
-            _reserve_fd1()
+            _reserve_fd(1)
         self._stream = io.StringIO() if self._closed else stream
 
     def _fail(self, exc: OSError | None) -> OptinavError:
@@ -186,18 +191,18 @@ class _Stdout:
         return getattr(self._stream, name)
 
 
-def _reserve_fd1() -> None:
-    """Give a closed file descriptor 1 to the null device, so no file the command opens takes it (and worker
-    processes writing to it do not write into that file)."""
+def _reserve_fd(fd: int) -> None:
+    """Give a closed file descriptor (1 or 2) to the null device, so no file the command opens takes it (and
+    worker processes writing to it do not write into that file)."""
     try:
-        os.fstat(1)
+        os.fstat(fd)
         return
     except OSError:
         pass
     with contextlib.suppress(OSError):
         devnull = os.open(os.devnull, os.O_WRONLY)
-        if devnull != 1:
-            os.dup2(devnull, 1)
+        if devnull != fd:
+            os.dup2(devnull, fd)
             os.close(devnull)
 
 
