@@ -410,6 +410,36 @@ def rins_file(tmp_path_factory):
     return data
 
 
+def test_a_rins_result_with_a_value_replaced_inside_a_field_is_named(rins_file, tmp_path, capsys):
+    """An angle as text, a negative std, a combination null or without a name, statements as a number made report
+    fail with an internal TypeError/KeyError/ValueError."""
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "rins", str(rins_file), "--out", str(res)]) == 0
+    cases = [
+        (("angles", "theta_x"), "x", "angles.theta_x"),
+        (("angles_std", "theta_x"), -1, "angles_std.theta_x"),
+        (("combinations", 0), None, "combinations[0]"),
+        (("combinations", 0, "name"), None, "combinations[0].name"),
+        (("combinations", 1, "value"), [1.0], "combinations[1].value"),
+        (("observability", "statements"), 1.5, "observability.statements"),
+        (("p_used",), [1.0, 2.0], "p_used"),
+    ]
+    for path, value, where in cases:
+        d = json.loads(res.read_text())
+        if len(path) == 1:
+            d["fields"][path[0]]["value"] = value
+        else:
+            t = d["fields"][path[0]]["value"]
+            for k in path[1:-1]:
+                t = t[k]
+            t[path[-1]] = value
+        bad = tmp_path / "bad.json"
+        bad.write_text(json.dumps(d))
+        capsys.readouterr()
+        assert main(["--quiet", "report", str(bad), "--out", str(tmp_path / "rep")]) == 2, where
+        one_line_error(capsys, f"(field '{where}'", "pass an unmodified optinav result file")
+
+
 @pytest.mark.parametrize("lat", ["-28.2", "25", "90"])
 def test_rins_latitude_must_match_the_measured_earth_rate(rins_file, tmp_path, capsys, lat):
     # the file was recorded at 28.2°; the gyros measure it to ~0.02°, so 3° off or the other hemisphere is refused

@@ -530,6 +530,35 @@ def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool
     return a
 
 
+def nested_number(value: Any, where: str, *, none: bool = False, std: bool = False) -> float | None:
+    """A number inside a result field (an angle of ``angles``, a combination's ``value`` …), checked while the
+    result is loaded.
+
+    Parameters
+    ----------
+    value : Any
+        The decoded JSON value.
+    where : str
+        The field path for the message, e.g. ``"angles.theta_x"``.
+    none : bool
+        Accept null (returned as None).
+    std : bool
+        A standard deviation: refuse a negative one.
+
+    Returns
+    -------
+    float or None
+        The number [the field's unit, unchanged].
+    """
+    if value is None and none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected a number" + (" or null" if none else ""))
+    if std and value < 0:
+        raise InvalidResult(f"field {where!r} is {value!r}, a negative standard deviation")
+    return float(value)
+
+
 def nested_strings(value: Any, where: str) -> list[str]:
     """A list of names inside a result field (a triad's ``held``, …), checked while the result is loaded.
 
@@ -545,7 +574,7 @@ def nested_strings(value: Any, where: str) -> list[str]:
     list of str
         The names.
     """
-    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):  # text is no list
         raise InvalidResult(f"field {where!r} is {_kind(value)}, expected a list of names")
     return list(value)
 

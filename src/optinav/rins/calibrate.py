@@ -41,11 +41,16 @@ from optinav.core.observability import analyze, format_combination, rref
 from optinav.core.optimize import Problem, minimize
 from optinav.core.results import (
     Estimate,
+    InvalidResult,
     Parameter,
     Truth,
     convergence,
     flat_kwargs,
+    _kind,
     gate,
+    nested_array,
+    nested_number,
+    nested_strings,
     register_legacy,
     register_truth_legacy,
 )
@@ -654,6 +659,28 @@ class RinsCalibration(Estimate):
     source: str = field(default="", metadata={"unit": "-"})
     convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
     gates: list = field(default_factory=list, metadata={"unit": "-"})
+
+    def __post_init__(self):
+        # the nested values the summary, parameters, report and apply read: a damaged one is named on loading
+        for name in ("angles", "angles_std"):
+            d = getattr(self, name)
+            for nm in PARAM_NAMES:
+                if nm in d:
+                    d[nm] = nested_number(d[nm], f"{name}.{nm}", none=True, std=name == "angles_std")
+        for k, c in enumerate(self.combinations):
+            if not isinstance(c, dict):
+                raise InvalidResult(f"field 'combinations[{k}]' is {_kind(c)}, expected an object")
+            if not isinstance(c.get("name"), str):
+                raise InvalidResult(f"field 'combinations[{k}].name' is {_kind(c.get('name'))}, expected text")
+            c["value"] = nested_number(c.get("value"), f"combinations[{k}].value")
+            for key in ("std", "crlb_std"):
+                c[key] = nested_number(c.get(key), f"combinations[{k}].{key}", none=True, std=True)
+        self.observability["statements"] = nested_strings(
+            self.observability.get("statements", []), "observability.statements"
+        )
+        if not isinstance(self.observability.get("gauge") or "", str):
+            raise InvalidResult(f"field 'observability.gauge' is {_kind(self.observability['gauge'])}, expected text")
+        self.p_used = nested_array(self.p_used, "p_used", (6,), finite=True).tolist()
 
     def parameters(self) -> dict[str, Parameter]:
         if self.method == "none":
