@@ -669,6 +669,27 @@ def test_gfimu_gates(turntable, tmp_path, capsys, case, extra, why):
         assert np.all(np.abs(dr - np.asarray(truth["dr_m"])) < 4 * std)
 
 
+@pytest.mark.parametrize(
+    "name, damage, where",
+    [
+        ("estimate", lambda v: v[:-1], "field 'estimate' has shape (49,), expected (50,)"),
+        ("crlb_std", lambda v: [1.0], "field 'crlb_std' has shape (1,)"),
+        ("std", lambda v: [[1.0]], "field 'std' has shape (1, 1)"),
+        ("statements", lambda v: [None, *v[1:]], "field 'statements' is a list, expected a list of names"),
+    ],
+)
+def test_a_gfimu_result_with_a_damaged_array_is_named(turntable, tmp_path, capsys, name, damage, where):
+    """An estimate one short, a std of the wrong shape, a statement null: internal IndexError/TypeError in report."""
+    data, _ = turntable
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(data), "--builtin", "cylinder10", "--out", str(res)]) == 0
+    d = json.loads(res.read_text())
+    d["fields"][name]["value"] = damage(d["fields"][name]["value"])
+    res.write_text(json.dumps(d))
+    assert main(["--quiet", "report", str(res), "--out", str(tmp_path / "rep")]) == 2
+    one_line_error(capsys, where, "pass an unmodified optinav result file")
+
+
 def test_gfimu_rate_check_knows_the_offset(tmp_path, capsys):
     """An array 10-30 cm off the table axis, the offset given: the rate-scale check predicted the outputs with the
     centre on the axis and refused correct data as "table rates 1.2x the stated ones" (found by a helper); without
@@ -1478,6 +1499,31 @@ def test_a_result_with_a_value_replaced_inside_a_field_fails_in_one_line(
             if key in ("K", "b", "K_std", "b_std") and value is None:
                 assert f"(field '{sensor}.{key}'" in err and "pass an unmodified optinav result file" in err, err
         capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "path, value, where",
+    [
+        (("units", "time"), None, "units.time"),
+        (("units", "accelerometer_raw"), -1, "units.accelerometer_raw"),
+        (("observability", "unobservable"), 1.5, "observability.unobservable"),
+        (("observability", "accelerometer", "unobservable"), True, "observability.accelerometer.unobservable"),
+    ],
+)
+def test_a_calibration_with_damaged_units_or_observability_is_named(
+    tmp_path, capsys, counts_session, path, value, where
+):
+    """A unit as a number or null, the unobservable statements as a number: an internal IndexError/TypeError."""
+    _, _, res = counts_session
+    d = json.loads(res.read_text())
+    t = d["fields"][path[0]]["value"]
+    for k in path[1:-1]:
+        t = t[k]
+    t[path[-1]] = value
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    assert main(["--quiet", "report", str(bad), "--out", str(tmp_path / "r")]) == 2
+    one_line_error(capsys, f"(field '{where}'", "pass an unmodified optinav result file")
 
 
 def test_a_result_with_null_units_or_accelerometer_is_named(tmp_path, capsys, counts_session):

@@ -939,6 +939,18 @@ class TurntableCalibration(Estimate):
     convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
     gates: list = field(default_factory=list, metadata={"unit": "-"})
 
+    def __post_init__(self):
+        # one entry per name in estimate, std and crlb_std; names and statements text: a damaged value is named on
+        # loading, not an IndexError in the report
+        from optinav.core.results import nested_array, nested_strings
+
+        self.names = nested_strings(self.names, "names")
+        n = len(self.names)
+        for name in ("estimate", "std", "crlb_std"):
+            setattr(self, name, nested_array(getattr(self, name), name, (n,)))
+        self.covariance = nested_array(self.covariance, "covariance", (n, n))
+        self.statements = nested_strings(self.statements, "statements")
+
     def parameters(self) -> dict[str, Parameter]:
         units = _unit_names(len(self.dalpha), len(self.names) - 5 * len(self.dalpha))
         est, std, crlb = (np.asarray(a, float) for a in (self.estimate, self.std, self.crlb_std))

@@ -118,6 +118,13 @@ class CalibrationResult(Estimate):
         self.accelerometer = _triad(self.accelerometer, "accelerometer")
         self.gyroscope = _triad(self.gyroscope, "gyroscope")
         self.static_intervals = np.asarray(self.static_intervals, float).reshape(-1, 2)
+        for k, v in self.units.items():
+            if not isinstance(v, str):
+                raise InvalidResult(f"field 'units.{k}' is not text")
+        for sensor in ("", "accelerometer.", "gyroscope."):
+            o = self.observability.get(sensor[:-1]) if sensor else self.observability
+            if isinstance(o, dict) and o.get("unobservable") is not None:
+                o["unobservable"] = nested_strings(o["unobservable"], f"observability.{sensor}unobservable")
         if self.accelerometer is None and self.gyroscope is None:
             raise OptinavError(
                 "the calibration result has neither an accelerometer nor a gyroscope",
