@@ -1526,6 +1526,26 @@ def test_a_calibration_with_damaged_units_or_observability_is_named(
     one_line_error(capsys, f"(field '{where}'", "pass an unmodified optinav result file")
 
 
+@pytest.mark.parametrize(
+    "key, value", [("accelerometer_noise_density", "x"), ("update_rate", [1.0]), ("gyroscope_random_walk", -1)]
+)
+def test_export_refuses_an_allan_result_with_damaged_kalibr_numbers(tmp_path, capsys, counts_session, key, value):
+    """Text or a list for a noise density or the update rate in the --noise file: an internal TypeError."""
+    _, _, res = counts_session
+    from optinav.core.allan import AllanAnalysis
+
+    noise = tmp_path / "allan.json"
+    AllanAnalysis(
+        kalibr={"accelerometer_noise_density": 1e-3, "gyroscope_random_walk": 1e-5, "update_rate": 100.0}
+    ).to_json(noise)
+    d = json.loads(noise.read_text())
+    d["fields"]["kalibr"]["value"][key] = value
+    noise.write_text(json.dumps(d))
+    argv = ["export", str(res), "--to", "kalibr", "--noise", str(noise), "--out", str(tmp_path / "imu.yaml")]
+    assert main(argv) == 2
+    one_line_error(capsys, f"(field 'kalibr.{key}'", "pass an unmodified optinav result file")
+
+
 def test_a_result_with_null_units_or_accelerometer_is_named(tmp_path, capsys, counts_session):
     _, data, res = counts_session
     for name in ("units", "accelerometer"):

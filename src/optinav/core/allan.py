@@ -1082,6 +1082,18 @@ class AllanAnalysis(Result):
     #: what the numbers rest on that the user should know (a log too short for B and K, ...)
     notes: list = field(default_factory=list, metadata={"unit": "-"})
 
+    def __post_init__(self):
+        # Kalibr's numbers (written into IMU.yaml by optinav export --noise): numbers >= 0 or null, named on
+        # loading when damaged (text or a list ended in an internal TypeError)
+        from optinav.core.results import InvalidResult, nested_number
+
+        for k, v in list(self.kalibr.items()):
+            if k == "update_rate" or k.endswith(("_noise_density", "_random_walk")):
+                x = nested_number(v, f"kalibr.{k}", none=True)
+                if x is not None and not (math.isfinite(x) and x >= 0):
+                    raise InvalidResult(f"field 'kalibr.{k}' is {x!r}, not a number >= 0")
+                self.kalibr[k] = x
+
     def sensor(self, name: str) -> dict | None:
         """The analysis of one sensor.
 
