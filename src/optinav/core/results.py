@@ -441,8 +441,19 @@ _ACCEPTS: dict[Any, tuple] = {
 }
 
 
-def _kind(value: Any) -> str:
-    """A value's kind in the words of JSON (for messages)."""
+def json_kind(value: Any) -> str:
+    """A value's kind in the words of JSON (for messages).
+
+    Parameters
+    ----------
+    value : Any
+        A decoded JSON value.
+
+    Returns
+    -------
+    str
+        "null", "a boolean", "a number", "text", "a list", "an object" or the Python type's name.
+    """
     if value is None:
         return "null"
     if isinstance(value, bool):
@@ -491,7 +502,7 @@ def _check_types(target: type, kwargs: dict) -> None:
             if ok:
                 break
         if not ok:
-            raise InvalidResult(f"field {name!r} is {_kind(value)}")
+            raise InvalidResult(f"field {name!r} is {json_kind(value)}")
 
 
 def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool = False) -> np.ndarray:
@@ -516,7 +527,7 @@ def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool
         The array [the field's unit, unchanged].
     """
     if value is None or isinstance(value, (bool, str, dict)):
-        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected numbers")
+        raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected numbers")
     try:
         a = _array_or_none(value) if isinstance(value, list) else np.asarray(value, dtype=float)
         a = np.asarray(a, dtype=float)
@@ -553,7 +564,7 @@ def nested_number(value: Any, where: str, *, none: bool = False, std: bool = Fal
     if value is None and none:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected a number" + (" or null" if none else ""))
+        raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected a number" + (" or null" if none else ""))
     if std and value < 0:
         raise InvalidResult(f"field {where!r} is {value!r}, a negative standard deviation")
     return float(value)
@@ -575,7 +586,7 @@ def nested_strings(value: Any, where: str) -> list[str]:
         The names.
     """
     if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):  # text is no list
-        raise InvalidResult(f"field {where!r} is {_kind(value)}, expected a list of names")
+        raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected a list of names")
     return list(value)
 
 

@@ -46,7 +46,7 @@ from optinav.core.results import (
     Truth,
     convergence,
     flat_kwargs,
-    _kind,
+    json_kind,
     gate,
     nested_array,
     nested_number,
@@ -669,9 +669,9 @@ class RinsCalibration(Estimate):
                     d[nm] = nested_number(d[nm], f"{name}.{nm}", none=True, std=name == "angles_std")
         for k, c in enumerate(self.combinations):
             if not isinstance(c, dict):
-                raise InvalidResult(f"field 'combinations[{k}]' is {_kind(c)}, expected an object")
+                raise InvalidResult(f"field 'combinations[{k}]' is {json_kind(c)}, expected an object")
             if not isinstance(c.get("name"), str):
-                raise InvalidResult(f"field 'combinations[{k}].name' is {_kind(c.get('name'))}, expected text")
+                raise InvalidResult(f"field 'combinations[{k}].name' is {json_kind(c.get('name'))}, expected text")
             c["value"] = nested_number(c.get("value"), f"combinations[{k}].value")
             for key in ("std", "crlb_std"):
                 c[key] = nested_number(c.get(key), f"combinations[{k}].{key}", none=True, std=True)
@@ -679,7 +679,9 @@ class RinsCalibration(Estimate):
             self.observability.get("statements", []), "observability.statements"
         )
         if not isinstance(self.observability.get("gauge") or "", str):
-            raise InvalidResult(f"field 'observability.gauge' is {_kind(self.observability['gauge'])}, expected text")
+            raise InvalidResult(
+                f"field 'observability.gauge' is {json_kind(self.observability['gauge'])}, expected text"
+            )
         self.p_used = nested_array(self.p_used, "p_used", (6,), finite=True).tolist()
 
     def parameters(self) -> dict[str, Parameter]:
