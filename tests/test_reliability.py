@@ -1456,17 +1456,25 @@ def test_a_result_with_a_field_replaced_fails_in_one_line(tmp_path_factory, caps
     d = json.loads(res.read_text())
     name = pick.draw(st.sampled_from(sorted(d["fields"])), label="field")
     d["fields"][name]["value"] = pick.draw(_values, label="value")
+    _apply_and_report(tmp_path_factory, capsys, d, data)
+
+
+def _apply_and_report(tmp_path_factory, capsys, d: dict, data) -> list[str]:
+    """Write the damaged result ``d`` and run apply and report on it: each succeeds or fails in one line (the
+    errors returned)."""
     tmp = tmp_path_factory.mktemp("damaged")
     bad = tmp / "bad.json"
     bad.write_text(json.dumps(d))
     capsys.readouterr()
+    errors = []
     for argv in (
         ["apply", str(bad), str(data), "--out", str(tmp / "o.csv")],
         ["report", str(bad), "--out", str(tmp / "r")],
     ):
         if main(["--quiet", *argv]) != 0:
-            one_line_error(capsys)
+            errors.append(one_line_error(capsys))
         capsys.readouterr()
+    return errors
 
 
 _nested_values = _values | st.sampled_from(
@@ -1486,19 +1494,9 @@ def test_a_result_with_a_value_replaced_inside_a_field_fails_in_one_line(
     sensor = pick.draw(st.sampled_from(["accelerometer", "gyroscope"]), label="field")
     key = pick.draw(st.sampled_from(sorted(d["fields"][sensor]["value"])), label="key")
     d["fields"][sensor]["value"][key] = value = pick.draw(_nested_values, label="value")
-    tmp = tmp_path_factory.mktemp("damaged")
-    bad = tmp / "bad.json"
-    bad.write_text(json.dumps(d))
-    capsys.readouterr()
-    for argv in (
-        ["apply", str(bad), str(data), "--out", str(tmp / "o.csv")],
-        ["report", str(bad), "--out", str(tmp / "r")],
-    ):
-        if main(["--quiet", *argv]) != 0:
-            err = one_line_error(capsys)
-            if key in ("K", "b", "K_std", "b_std") and value is None:
-                assert f"(field '{sensor}.{key}'" in err and "pass an unmodified optinav result file" in err, err
-        capsys.readouterr()
+    for err in _apply_and_report(tmp_path_factory, capsys, d, data):
+        if key in ("K", "b", "K_std", "b_std") and value is None:
+            assert f"(field '{sensor}.{key}'" in err and "pass an unmodified optinav result file" in err, err
 
 
 @pytest.mark.parametrize(
