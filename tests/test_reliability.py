@@ -35,6 +35,22 @@ def _data(tmp_path) -> Path:
     return p
 
 
+def _damaged(res, path: tuple, value, tmp_path) -> Path:
+    """A copy of the result file ``res`` (tmp_path/bad.json) with the value at ``path`` (field name, then keys or
+    indices inside its value) replaced by ``value``."""
+    d = json.loads(Path(res).read_text())
+    if len(path) == 1:
+        d["fields"][path[0]]["value"] = value
+    else:
+        t = d["fields"][path[0]]["value"]
+        for k in path[1:-1]:
+            t = t[k]
+        t[path[-1]] = value
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    return bad
+
+
 # --- inputs are never overwritten -----------------------------------------------------------------------------
 
 
@@ -425,16 +441,7 @@ def test_a_rins_result_with_a_value_replaced_inside_a_field_is_named(rins_file, 
         (("p_used",), [1.0, 2.0], "p_used"),
     ]
     for path, value, where in cases:
-        d = json.loads(res.read_text())
-        if len(path) == 1:
-            d["fields"][path[0]]["value"] = value
-        else:
-            t = d["fields"][path[0]]["value"]
-            for k in path[1:-1]:
-                t = t[k]
-            t[path[-1]] = value
-        bad = tmp_path / "bad.json"
-        bad.write_text(json.dumps(d))
+        bad = _damaged(res, path, value, tmp_path)
         capsys.readouterr()
         assert main(["--quiet", "report", str(bad), "--out", str(tmp_path / "rep")]) == 2, where
         one_line_error(capsys, f"(field '{where}'", "pass an unmodified optinav result file")
@@ -1513,13 +1520,7 @@ def test_a_calibration_with_damaged_units_or_observability_is_named(
 ):
     """A unit as a number or null, the unobservable statements as a number: an internal IndexError/TypeError."""
     _, _, res = counts_session
-    d = json.loads(res.read_text())
-    t = d["fields"][path[0]]["value"]
-    for k in path[1:-1]:
-        t = t[k]
-    t[path[-1]] = value
-    bad = tmp_path / "bad.json"
-    bad.write_text(json.dumps(d))
+    bad = _damaged(res, path, value, tmp_path)
     assert main(["--quiet", "report", str(bad), "--out", str(tmp_path / "r")]) == 2
     one_line_error(capsys, f"(field '{where}'", "pass an unmodified optinav result file")
 
