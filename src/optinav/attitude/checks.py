@@ -151,15 +151,20 @@ def _moving_means(x: np.ndarray, w: int) -> np.ndarray:
     return (c[w:] - c[:-w]) / w
 
 
-def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray]:
-    """The per-sample spread (rad) and the unit 2-s means (M, 3) of the specific force carried into the frame the
-    gyro rates ``gyr`` (rad/s) integrate to."""
+def _in_gyro_frame(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> np.ndarray:
+    """The specific force ``acc`` (n, 3) carried into the frame the gyro rates ``gyr`` (rad/s, steps ``dts`` s)
+    integrate to from the first sample (an almost inertial frame when the gyro is right)."""
     from optinav.core.rotations import quat_rotate
     from optinav.core.strapdown import attitude_update
 
     h = dts[:, None] if dts.shape[0] > 1 else dts[0]
-    q = attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:]
-    a_i = quat_rotate(q, acc)
+    return quat_rotate(attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:], acc)
+
+
+def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray]:
+    """The per-sample spread (rad) and the unit 2-s means (M, 3) of the specific force carried into the frame the
+    gyro rates ``gyr`` (rad/s) integrate to."""
+    a_i = _in_gyro_frame(gyr, acc, dts)
     m = _moving_means(a_i, w)
     x = a_i[w // 2 : w // 2 + m.shape[0]]
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
@@ -444,6 +449,19 @@ def _drift_of(g, a, d) -> float:
     return _gravity_spread(g, a, d, 1.0)[1]
 
 
+def _body_turn(a, d, span: float = 2.0) -> float:
+    """How far gravity turns in the body: the RMS angle (rad) of the specific force's ``span``-s moving means about
+    their mean direction."""
+    m = _moving_means(a, _means_window(d, a.shape[0], span))
+    return _drift(m / (_norm(m)[:, None] + 1e-300))
+
+
+def _declared_holds(g, a, d, drift1: float) -> bool:
+    """The declared gyro, whose drift of gravity's 2-s means is ``drift1``, holds gravity within
+    :data:`CONSISTENCY_BAD` and better than 10 % more or less of it."""
+    return drift1 <= CONSISTENCY_BAD and all(_drift_of(g * s, a, d) >= drift1 for s in (1 / SCALE_NEAR, SCALE_NEAR))
+
+
 def _axes_hint(g, a, d, beat: float) -> UnitHint | None:
     """A hint naming the signed axis permutation of the gyro (at its declared scale, or with the unit factor
     π/180 or 180/π) that explains how gravity turns within :data:`CONSISTENCY_BAD` and clearly better than
@@ -632,10 +650,9 @@ def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
     or scale off, or axes swapped or flipped, where one of them explains it clearly better; None otherwise. Judged on the drift of the 2-s means
     of gravity in the gyro-integrated frame (translation averaged out), the declared gyro with the constant bias
     that steadies it most."""
-    if drift1 <= CONSISTENCY_BAD and all(_drift_of(g * s, a, d) >= drift1 for s in (1 / SCALE_NEAR, SCALE_NEAR)):
+    if _declared_holds(g, a, d, drift1):
         return None  # the declared gyro steadies gravity well, better than 10 % more or less of it
-    m = _moving_means(a, _means_window(d, a.shape[0]))
-    if _drift(m / (_norm(m)[:, None] + 1e-300)) < CONSISTENCY_STILL:
+    if _body_turn(a, d) < CONSISTENCY_STILL:
         return None  # gravity hardly turns in the body: nothing to judge by
     drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
     # a rate 40 % too high steadied gravity within 0.15 rad on fast rotation (BROAD 07: 13.5° with exit 0;
@@ -678,6 +695,20 @@ LONG_BODY = 0.15
 REST_GYR_STD, REST_GYR, REST_ACC_STD = 0.02, 0.1, 0.1
 
 
+def check_time_base(windows, whole, gyro_unit: str | None, share: float) -> None:
+    """The gyro's unit and time base: :func:`check_gyro_unit` on each unit window (``windows``: (gyr, acc, steps,
+    peak norm) each), then, unless a window shows the declared factor (:func:`window_holds`), the whole log's hint
+    ``whole()`` (:func:`long_time_hint`, computed once, also for a window's unit finding); ``share``: the
+    :func:`gravity_share` (NaN: no still window, gravity judged in the gyro-integrated frame)."""
+    long = functools.cache(whole)
+    held = False
+    for g, a, d, peak in windows:
+        check_gyro_unit(g, a, d, peak, gyro_unit, moving=not share >= 0.0, long=long)
+        held = held or window_holds(g, a, d)
+    if not held and long():
+        raise unit_error(long(), gyro_unit)
+
+
 def window_holds(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> bool:
     """Whether a unit window shows the declared time base: gravity turns in the body there (its 2-s means drift by
     ≥ :data:`CONSISTENCY_STILL`) and the declared gyro holds it in the gyro-integrated frame (≤
@@ -696,13 +727,9 @@ def window_holds(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> bool:
     bool
         Whether the declared factor is the local best where gravity turns.
     """
-    if g.shape[0] * float(np.median(d)) < UNIT_MIN_S:
+    if g.shape[0] * float(np.median(d)) < UNIT_MIN_S or _body_turn(a, d) < CONSISTENCY_STILL:
         return False
-    m = _moving_means(a, _means_window(d, a.shape[0]))
-    if _drift(m / (_norm(m)[:, None] + 1e-300)) < CONSISTENCY_STILL:
-        return False
-    drift1 = _drift_of(g, a, d)
-    return drift1 <= CONSISTENCY_BAD and all(_drift_of(g * f, a, d) >= drift1 for f in (1 / SCALE_NEAR, SCALE_NEAR))
+    return _declared_holds(g, a, d, _drift_of(g, a, d))
 
 
 def long_bin_rows(n: int, dt: float, rms_rate: float) -> int:
@@ -797,13 +824,16 @@ def _scan(pieces: list[tuple], scales: np.ndarray) -> tuple[float, float]:
     return (float(np.exp(r.x)), float(r.fun)) if r.fun < drift[i] else (float(scales[i]), float(drift[i]))
 
 
-def _whole_log_bins(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _whole_log_bins(
+    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`merge_bins` of a whole log (by blocks of 2²⁰ rows) and its gap bins, for :func:`long_time_hint`
-    (empty bins for a log under LONG_MIN_S)."""
+    (empty bins for a log under LONG_MIN_S); ``ng``: the gyro's row norms if already computed."""
     n, dt = gyr.shape[0], float(np.median(dts))
     if n * dt < LONG_MIN_S:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 8)), np.zeros(0, dtype=np.int64)
-    m = long_bin_rows(n, dt, float(np.sqrt(np.mean(np.einsum("ij,ij->i", gyr, gyr)))))
+    ng = _norm(gyr) if ng is None else ng
+    m = long_bin_rows(n, dt, float(np.sqrt(np.mean(ng * ng))))
     step = 1 << 20
     parts = [
         time_bins(gyr[i : i + step], acc[i : i + step], dts[i : i + step] if dts.shape[0] > 1 else dts, m, i)
@@ -832,11 +862,8 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     pieces = _long_pieces(bins, sums, gap_bins)
     if not pieces:
         return None
-    body = [
-        _drift(m / (_norm(m)[:, None] + 1e-300))
-        for m in (_moving_means(a, _means_window(T, a.shape[0], LONG_MEANS_S)) for _, a, T in pieces)
-    ]
-    body = float(np.sqrt(np.average(np.square(body), weights=[p[0].shape[0] for p in pieces])))
+    body = [_body_turn(a, T, LONG_MEANS_S) ** 2 for _, a, T in pieces]
+    body = float(np.sqrt(np.average(body, weights=[p[0].shape[0] for p in pieces])))
     if body < LONG_BODY:
         return None  # gravity hardly turns in the body: nothing to judge by
     if _long_drift(pieces, 1.0) < LONG_FLOOR:
@@ -880,15 +907,12 @@ def check_imu(
     bins, sums = tilt_sums(acc)
     share = gravity_share(bins, sums, dt, na, ng)
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share)
-    long = functools.cache(lambda: long_time_hint(*_whole_log_bins(gyr, acc, dts), dt))
-    held = False
     # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
-    for sl in unit_windows(ng, dts, bins, sums):
-        d = dts[sl] if dts.shape[0] > 1 else dts
-        check_gyro_unit(gyr[sl], acc[sl], d, float(np.max(ng[sl])), gyro_unit, moving=not share >= 0.0, long=long)
-        held = held or window_holds(gyr[sl], acc[sl], d)
-    if not held and long():
-        raise unit_error(long(), gyro_unit)
+    windows = (
+        (gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
+        for sl in unit_windows(ng, dts, bins, sums)
+    )
+    check_time_base(windows, lambda: long_time_hint(*_whole_log_bins(gyr, acc, dts, ng), dt), gyro_unit, share)
     _check_clipping(gyr, gyro_range, dt, acc)
 
 
@@ -1034,15 +1058,10 @@ def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float
     """The median norm of the specific force's 2-s means in the gyro-integrated (almost inertial) frame, over its
     median norm or g, the smaller: gravity stays put there while the body moves (the nine BROAD trials' unit
     windows ≥ 0.9), a linear-acceleration output averages out (NaN for a window under 4 s)."""
-    from optinav.core.rotations import quat_rotate
-    from optinav.core.strapdown import attitude_update
-
     w = _means_window(d, g.shape[0])
     if g.shape[0] < 2 * w:
         return float("nan")
-    h = d[:, None] if d.shape[0] > 1 else d[0]
-    q = attitude_update([1.0, 0.0, 0.0, 0.0], g * h, coning="none")[1:]
-    m = _moving_means(quat_rotate(q, a), w)
+    m = _moving_means(_in_gyro_frame(g, a, d), w)
     return float(np.median(_norm(m))) / min(float(np.median(_norm(a))), G_STANDARD)
 
 

@@ -10,8 +10,6 @@ consecutive blocks with their state carried, so the concatenated output equals
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from optinav.attitude import checks as _c
@@ -150,15 +148,10 @@ class StreamChecks:
 
     def finish_second(self, frame: str) -> None:
         """The checks that need the second pass, in the order of check_imu, then the frame warning."""
-        long = functools.cache(self._long_hint)
-        held = False
-        for got, peak in zip(self._win, self.window_max):
-            if got:
-                g, a, d = (np.concatenate(x) for x in zip(*got))
-                _c.check_gyro_unit(g, a, d, peak, self.gyro_unit, moving=not self.gravity_share >= 0.0, long=long)
-                held = held or _c.window_holds(g, a, d)
-        if not held and long():
-            raise _c.unit_error(long(), self.gyro_unit)
+        windows = (
+            (*(np.concatenate(x) for x in zip(*got)), peak) for got, peak in zip(self._win, self.window_max) if got
+        )
+        _c.check_time_base(windows, self._long_hint, self.gyro_unit, self.gravity_share)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
