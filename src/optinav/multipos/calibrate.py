@@ -1009,31 +1009,33 @@ def flat_runs(v: np.ndarray, run: int = 5) -> list[tuple[int, int]]:
     return [(int(a), int(a + n)) for a, n in zip(starts, lengths) if n >= run and ext[starts == a][0]]
 
 
-def _turn_angle(angle: float) -> float:
-    """A turn's angle (deg) as a technician states it: the nearest multiple of 90° within 2 %, else to 0.1°."""
+def _turn_angle(angle: float) -> float | None:
+    """A turn's angle (deg) as a technician states it: the multiple of 90° within 2 % of ``angle``, else None."""
     r = 90.0 * round(angle / 90.0)
-    return r if r and abs(angle / r - 1.0) < 0.02 else round(angle, 1)
+    return r if r and abs(angle / r - 1.0) < 0.02 else None
 
 
 def _check_pose_turns(pt, stated: float, rate: float) -> None:
     """Refuse a Ferraris fit whose rotations' K_g does not carry gravity from pose to pose (:func:`ferraris.
     pose_turns`: factor beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA std); ``stated`` deg, ``rate`` Hz."""
-    from . import ferraris
-
     off = pt.factor - 1.0
-    if abs(off) <= max(ferraris.MAX_POSE_TURN, ferraris.MIN_POSE_TURN_SIGMA * pt.std):
+    if abs(off) <= pt.limit:
         return
     angle = stated / pt.factor
     near = _turn_angle(angle)
-    cause = f"the rotations turned by about {angle:.4g}°, not the stated {stated:g}°"
-    if near == round(angle, 1):  # no technician's angle: the integration of the turns, not the angle
-        cause = f"the turns integrated over the rotation sections are off by {off:+.1%} ({rate:.3g} Hz)"
-    raise OptinavError(
+    head = (
         f"the gyro's turns between the {pt.transitions + 1} poses need K_g ×{pt.factor:.4f} (± {pt.std:.2g}) to carry "
-        f"gravity from pose to pose: {cause}",
-        f"pass --rotation-angle {near:g}"
-        if near != round(angle, 1)
-        else "check --rate and --time-unit (a rate too low for the turns integrates them short), --rotation-angle, "
+    )
+    if near is not None:
+        raise OptinavError(
+            f"{head}gravity from pose to pose: the rotations turned by about {angle:.4g}°, not the stated {stated:g}°",
+            f"pass --rotation-angle {near:g}",
+        )
+    # no technician's angle: the integration of the turns, not the angle
+    raise OptinavError(
+        f"{head}gravity from pose to pose: the turns integrated over the rotation sections are off by {off:+.1%} "
+        f"({rate:.3g} Hz)",
+        "check --rate and --time-unit (a rate too low for the turns integrates them short), --rotation-angle, "
         "and that each rotation section runs from rest to rest (--sections)",
     )
 
@@ -1186,7 +1188,7 @@ def _ferraris(
         raise OptinavError(
             f"the three rotations turn the other way than --rotation-angle {stated:g} says (every gyro scale is "
             "negative)" + (f"; the gyro's turns between the poses give {angle:.4g}°" if pt else ""),
-            f"pass --rotation-angle {_turn_angle(angle):g}",
+            f"pass --rotation-angle {_turn_angle(angle) or round(angle, 1):g}",
         )
     gyro_flags = "--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle"
     # swapped sections or axes first (no nominal: the shape of K only), then the turns: a section that misses part
@@ -1194,12 +1196,13 @@ def _ferraris(
     # gate would blame on the time base (helper)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
-    clipped = clipped_gyro_rows(gyro, float(np.median(np.diff(t))))
+    step_s = float(np.median(np.diff(t)))
+    gyro_clipped = clipped_gyro_rows(gyro, step_s)
     if sat_g is not None:
-        clipped |= sat_g
-    pose_turn = ferraris.pose_turns(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, clipped)
+        gyro_clipped |= sat_g
+    pose_turn = ferraris.pose_turns(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, gyro_clipped)
     if pose_turn:
-        _check_pose_turns(pose_turn, stated, 1.0 / float(np.median(np.diff(t))))
+        _check_pose_turns(pose_turn, stated, 1.0 / step_s)
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     gates.check_matrix(
         fc.gyr_K,
@@ -1226,7 +1229,7 @@ def _ferraris(
             gate(
                 "gyr turns between the poses: |factor on K_g - 1|",
                 abs(pose_turn.factor - 1.0),
-                max(ferraris.MAX_POSE_TURN, ferraris.MIN_POSE_TURN_SIGMA * pose_turn.std),
+                pose_turn.limit,
             )
         )
     seen = [abs(r["acc_turn_deg"] - np.degrees(fc.expected_angle[k])) for k, r in enumerate(turns)]

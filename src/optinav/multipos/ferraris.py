@@ -741,6 +741,11 @@ class PoseTurns(NamedTuple):
     std: float
     transitions: int
 
+    @property
+    def limit(self) -> float:
+        """The largest |factor − 1| accepted: MAX_POSE_TURN, or MIN_POSE_TURN_SIGMA of its std if larger."""
+        return max(MAX_POSE_TURN, MIN_POSE_TURN_SIGMA * self.std)
+
 
 def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
     """The gyro (raw, K raw per rad/s, b raw) over the motions between consecutive still poses (``poses`` (P, 2)
