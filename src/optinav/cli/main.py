@@ -196,14 +196,8 @@ def _reserve_fd(fd: int) -> None:
     worker processes writing to it do not write into that file)."""
     try:
         os.fstat(fd)
-        return
     except OSError:
-        pass
-    with contextlib.suppress(OSError):
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        if devnull != fd:
-            os.dup2(devnull, fd)
-            os.close(devnull)
+        _to_null(fd)
 
 
 def _drop(stream) -> None:
@@ -213,10 +207,16 @@ def _drop(stream) -> None:
         fd = stream.fileno()
     except (AttributeError, ValueError, OSError):
         return
+    _to_null(fd)
+
+
+def _to_null(fd: int) -> None:
+    """Point the file descriptor ``fd`` at the null device (a closed one gets it as the lowest free)."""
     with contextlib.suppress(OSError):
         devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, fd)
-        os.close(devnull)
+        if devnull != fd:
+            os.dup2(devnull, fd)
+            os.close(devnull)
 
 
 #: the library's keyword arguments named in its messages, as the command line spells them

@@ -219,7 +219,16 @@ def numbers_only(head: bytes) -> bool:
     bool
         Whether they are numbers (at least one digit) and white space only.
     """
-    return bool(re.fullmatch(rb"[\s0-9eE.+-]*", head)) and any(c.isdigit() for c in head.decode("ascii", "replace"))
+    return bool(re.fullmatch(rb"[\s0-9eE.+-]*", head)) and re.search(rb"[0-9]", head) is not None
+
+
+def _head(path: Path, n: int) -> bytes | None:
+    """The first ``n`` bytes of the file ``path``; None when it cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(n)
+    except OSError:
+        return None
 
 
 def check_replace(path, option: str = "--out", mark: bytes | str | None = None) -> None:
@@ -233,20 +242,17 @@ def check_replace(path, option: str = "--out", mark: bytes | str | None = None) 
     option : str
         The CLI option that names it.
     mark : bytes, str, callable or None
-        What the command writes: bytes its files hold in their first 256 (:data:`RESULT_MARK`, a table's header), :data:`SIMULATED` (a data file with ``STEM.truth.json`` beside it), a test of
-        the first bytes (:func:`numbers_only`), or None (any file that names optinav in its first bytes). Empty files and files of other suffixes than
-        :data:`DATA_SUFFIXES` (reports, figures) are replaced.
+        What the command writes: bytes its files hold in their first 256 (:data:`RESULT_MARK`, a table's header),
+        :data:`SIMULATED` (a data file with ``STEM.truth.json`` beside it), a test of the first bytes
+        (:func:`numbers_only`), or None (any file that names optinav in its first bytes). Empty files and files of
+        other suffixes than :data:`DATA_SUFFIXES` (reports, figures) are replaced.
     """
     out = Path(path)
     if out.suffix.lower() not in DATA_SUFFIXES:
         return
-    try:
-        if not out.is_file() or out.stat().st_size == 0:
-            return
-        with open(out, "rb") as fh:
-            head = fh.read(256)
-    except OSError:
-        return  # unreadable: the write names the cause
+    head = _head(out, 256) if out.is_file() else None
+    if not head:
+        return  # no file, an empty one, or unreadable (the write names the cause)
     schema = next((ln for ln in head.splitlines() if b'"schema"' in ln), b"")
     if mark == SIMULATED:
         ours = out.with_name(out.stem + ".truth.json").is_file()
@@ -534,11 +540,7 @@ def check_sidecar(path, signature: str, option: str = "--out") -> Path:
     # before it is read: a pipe would block
     _refuse_special(p, option, f"{p} (written beside {option})", f"move it away or choose another {option}")
     if p.exists():
-        try:
-            with open(p, "rb") as fh:
-                head = fh.read(len(signature.encode()) + 64)
-        except OSError:
-            head = b""
+        head = _head(p, len(signature.encode()) + 64) or b""
         if not head.lstrip().startswith(signature.encode()):
             raise OptinavError(
                 f"{p} exists and was not written by optinav; writing beside {option} would replace it",
