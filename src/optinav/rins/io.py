@@ -21,7 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from optinav.core.files import atomic_open, atomic_path, csv_writer
+from optinav.core.units import UNITS
 from optinav.errors import OptinavError
+from optinav.io.imu import TIME_UNITS
 from optinav.io.readers import iter_table
 from optinav.rins.simulate import RinsData
 
@@ -170,15 +172,9 @@ def _csv_comments(path: Path) -> tuple[dict, dict]:
     return site, units
 
 
-#: the units a file may declare for each column group, and their factor to SI (s, rad, m/s)
-_ANGLE = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "deg": np.pi / 180, "arcmin": np.pi / 10800, "arcsec": np.pi / 648000}
-DECLARED_UNITS = {
-    "t": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
-    "dtheta": _ANGLE,
-    "dv": {"m/s": 1.0},
-    "alpha": _ANGLE,
-    "beta": _ANGLE,
-}
+#: the units a file may declare for each column group, and their factor to SI (s, rad, m/s), from the shared tables
+_ANGLE = {u: UNITS[u] for u in ("rad", "mrad", "urad", "deg", "arcmin", "arcsec")}
+DECLARED_UNITS = {"t": TIME_UNITS, "dtheta": _ANGLE, "dv": {"m/s": 1.0}, "alpha": _ANGLE, "beta": _ANGLE}
 _SPELLINGS = {"°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad", "sec": "s", "µs": "us"}
 
 
