@@ -668,3 +668,26 @@ def test_a_doubled_rate_that_leaves_too_few_poses_names_rate(tmp_path, capsys):
     argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "204.8"]
     err = _cli_error(capsys, argv + ["--gyro-unit", "deg/s", "--out", str(tmp_path / "r.json")])
     assert "static interval(s)" in err and "--rate" in err
+
+
+@needs_data
+def test_raw_counts_not_taken_for_swapped_triads(tmp_path, capsys):
+    """imucal's annotated session as the logger wrote it (raw counts, no units stated) with only --rate: its gyro
+    reads about 9 counts at rest, close to g's number, and the swap check named the triads swapped and --columns.
+    A gyro's norm varies over rests and turns (here by more than 100 %), an accelerometer's stays steady: the
+    error now names the accelerometer's unit, and the message after it the gyroscope's (a swapped file is still
+    named swapped: test_swapped_triads_in_counts_are_named, and in SI units below)."""
+    src = str(DATA / "annotated_session.csv")
+    out = str(tmp_path / "r.json")
+    err = _cli_error(capsys, ["calibrate", "accel", src, "--rate", "204.8", "--out", out])
+    assert "swapped" not in err and "raw counts?" in err and "--acc-unit counts" in err
+
+
+def test_swapped_triads_in_si_units_are_named(tmp_path, capsys):
+    """A simulated session in SI units with the two triads' columns exchanged is still named swapped (the gyro
+    columns hold g's steady norm)."""
+    s = simulate("18", dwell_s=8, rest_s=5, rng=3)
+    path = tmp_path / "swapped.csv"
+    np.savetxt(path, np.column_stack([s.t, s.gyr, s.acc]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    err = _cli_error(capsys, ["calibrate", "accel", str(path), "--out", str(tmp_path / "r.json")])
+    assert "the two triads look swapped" in err and "--columns" in err

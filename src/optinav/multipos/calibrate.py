@@ -480,7 +480,9 @@ def calibrate(
         raise OptinavError("every accelerometer sample is at the full scale", "check --acc-range or --acc-unit")
     rest_norm = float(np.median(_row_norms(acc, valid), overwrite_input=True))
     if gyro is not None and "counts" not in (acc_unit, gyro_unit):
-        gates.check_swapped_triads(rest_norm, acc_unit, float(np.median(_row_norms(gyro, valid))), g)
+        gn = _row_norms(gyro, valid)
+        gyro_cv = float(np.std(gn) / np.mean(gn)) if gn.size and np.mean(gn) > 0 else float("nan")
+        gates.check_swapped_triads(rest_norm, acc_unit, float(np.median(gn)), g, gyro_cv)
     gates.check_acc_unit(rest_norm, acc_unit, g)
 
     if method == "ferraris":
@@ -1562,10 +1564,9 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
     return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
 
 
-#: coefficient of variation of a triad's norm over a calibration log: an accelerometer's stays within a few % (it
-#: reads g in every pose and during hand turns; imucal's sessions: 0.04, 0.08), a gyro's is above 1 (rest against
-#: turns: 2.2, 3.4); an "accelerometer" above SWAP_CV_ACC with a "gyro" SWAP_RATIO times steadier is the other way
-SWAP_CV_ACC = 0.2
+#: an "accelerometer" whose norm varies above SWAP_CV_ACC (gates.STEADY_NORM_CV: an accelerometer's stays within
+#: a few %, a gyro's is above 1) with a "gyro" SWAP_RATIO times steadier is the other way round
+SWAP_CV_ACC = gates.STEADY_NORM_CV
 SWAP_RATIO = 5.0
 
 

@@ -98,11 +98,18 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
     )
 
 
-def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: float) -> None:
+#: coefficient of variation of an accelerometer's norm over a calibration log: it reads g in every pose and
+#: stays within a few % during hand turns (imucal's sessions: 0.04, 0.08); a gyro's is above 1 (rest against turns)
+STEADY_NORM_CV = 0.2
+
+
+def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: float, gyro_cv: float = 0.0) -> None:
     """One-line error when the accelerometer columns do not read g but the gyroscope columns would, in the
-    accelerometer's unit (median norms in the columns' raw units): the two triads are swapped (the unit errors
-    that would follow led from --acc-unit counts to a fit that did not converge)."""
-    if 1 / UNIT_TOL < acc_norm * factor(acc_unit) / g < UNIT_TOL:
+    accelerometer's unit, with a steady norm (``gyro_cv``, std/mean of their norms, ≤ STEADY_NORM_CV) like an
+    accelerometer's (median norms in the columns' raw units): the two triads are swapped (the unit errors that
+    would follow led from --acc-unit counts to a fit that did not converge). A gyro in raw counts whose rest
+    reading happens to be near g's number varies like a gyro over the turns: not a swap (its unit is named next)."""
+    if 1 / UNIT_TOL < acc_norm * factor(acc_unit) / g < UNIT_TOL or not gyro_cv <= STEADY_NORM_CV:
         return
     if 1 / UNIT_TOL < gyro_norm * factor(acc_unit) / g < UNIT_TOL:
         raise OptinavError(
