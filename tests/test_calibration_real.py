@@ -1,6 +1,7 @@
 """imucal's real sessions (../shared/data/imucal) through `optinav calibrate accel` by every route, against
 imucal's reference calibrations (reference/*.json, imucal 2.6.0)."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -518,3 +519,27 @@ def test_a_decimated_log_with_a_sample_counter_names_the_rate_of_its_rows(tmp_pa
     main(["--quiet", *args, "--out", str(tmp_path / "r.json")])
     err = capsys.readouterr().err
     assert "the sample counter steps by 4 on nearly every row" in err and "pass --rate 204.8" in err
+
+
+@pytest.mark.parametrize("route", [[], ["--method", "ferraris"]])
+def test_a_decimated_log_timed_by_its_counter_at_the_rows_rate_is_named(tmp_path, capsys, route):
+    """Every 3rd row of imucal's example session (its n_samples counter steps by 3) with --rate 34.13 Hz, the rows'
+    rate: --rate is taken as the counter's, the gyro (deg/s) integrates its turns 3× too long, and the error said
+    "raw counts? pass --gyro-unit counts" (default route) or named the gyro scale. Timed at the rows' rate the
+    calibration passes its gates, so the error now says so and names --rate 102.4; that --rate passes."""
+    rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    f = tmp_path / "dec3.csv"
+    f.write_text("\n".join([rows[0], *rows[1::3]]) + "\n")
+    if route:
+        secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+        sec = tmp_path / "dec3.json"
+        sec.write_text(json.dumps({k: {e: v // 3 for e, v in se.items()} for k, se in secs.items()}))
+        route = [*route, "--sections", str(sec)]
+    args = [*EXAMPLE, *route, "--out", str(tmp_path / "r.json")]
+    args[2], args[4] = str(f), f"{102.4 / 3:.6g}"
+    assert main(["--quiet", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "the sample counter steps by 3" in err and "it passes its gates" in err and "pass --rate 102.4" in err
+    assert "--gyro-unit counts" not in err.split("; if ")[-1]
+    args[4] = "102.4"
+    assert main(["--quiet", *args]) == 0

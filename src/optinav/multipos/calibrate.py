@@ -1415,6 +1415,9 @@ class SessionData(NamedTuple):
     gyro_unit: str | None
     labels: np.ndarray | None = None
     notes: tuple = ()
+    #: rows per step of the file's sample counter where it steps by more than one on nearly every row (a
+    #: decimated log timed by the counter at --rate), else 1
+    counter_step: int = 1
 
 
 def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) -> SessionData:
@@ -1465,9 +1468,10 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
             counter.append(np.asarray(log.sample))
         notes += log.notes
     t = parts["t"].array()
+    step = 1
     if o.rate_hz and counter:
         lab = np.concatenate(labels) if labels else None
-        t = _counter_time(t, np.concatenate(counter), o.rate_hz, notes, lab)
+        t, step = _counter_time(t, np.concatenate(counter), o.rate_hz, notes, lab)
     return SessionData(
         t,
         parts["acc"].array(),
@@ -1476,32 +1480,34 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
         gyro_unit,
         np.concatenate(labels) if labels else None,
         tuple(notes),
+        step,
     )
 
 
-def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list, labels=None) -> np.ndarray:
+def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list, labels=None) -> tuple:
     """Times from the file's sample counter where the time came from ``--rate`` (``t`` uniform) and the counter
-    skips values: rows lost by the logger are then gaps in time, which the turns' integrals bridge and note (20
+    skips values, and the counter's step k per row where nearly every row steps by the same k > 1 (else 1): rows lost by the logger are then gaps in time, which the turns' integrals bridge and note (20
     rows lost at a hand turn's peak left gyro K_xx 6.5 % off with exit 0; helper). Only skips inside a labelled
     section (anywhere, without labels) place rows; any other step of the counter (a wrap, a reset, the meeting of
     sections cut from a longer log) counts as one sample, as before."""
     if sample.shape != t.shape or t.size < 3:
-        return t
+        return t, 1
     if not np.allclose(np.diff(t), 1.0 / rate_hz, rtol=1e-9, atol=0.0):
-        return t  # a time column: it already places the rows
+        return t, 1  # a time column: it already places the rows
     s = np.asarray(sample, float)
     if not (np.all(np.isfinite(s)) and np.all(s == np.round(s))):
-        return t
+        return t, 1
     d = np.diff(s)
     skip = d > 1
     if not skip.any():
-        return t
+        return t, 1
     inside = skip if labels is None or len(labels) != len(s) else skip & (labels[1:] == labels[:-1])
     if not inside.any():
-        return t  # skips only where labelled sections meet: a file cut to its sections, judged as it is
+        return t, 1  # skips only where labelled sections meet: a file cut to its sections, judged as it is
     steps = np.where(inside, d, 1.0)
     k = int(np.median(d))
-    if k > 1 and np.mean(d == k) > 0.9:
+    k = k if k > 1 and np.mean(d == k) > 0.9 else 1
+    if k > 1:
         # every row k counts on: a decimated log, whose row rate is not --rate (an annotated session's every 4th
         # row with --rate 51.2, its row rate, gave K_g 3.97× with exit 0; helper)
         notes.append(
@@ -1515,7 +1521,8 @@ def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list
             f"largest, {int(d[inside].max()) - 1}, after row {int(np.flatnonzero(inside)[np.argmax(d[inside])])}): "
             "the rows are timed by it at --rate"
         )
-    return t[0] + np.concatenate([[0.0], np.cumsum(steps)]) / rate_hz
+    t = t[0] + np.concatenate([[0.0], np.cumsum(steps)]) / rate_hz
+    return t, k
 
 
 class _Gather:
@@ -1557,9 +1564,17 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         res = _calibrate_data(data, o, sections, method_options, source)
     except OptinavError as exc:
         swap = swapped_triads(data.acc, data.gyr)
-        if swap is None or "swapped" in str(exc):  # in SI units the unit check names it already
-            raise
-        raise OptinavError(f"{exc.cause} ({swap})", "swap the triads' columns (--columns)") from exc
+        if swap is not None and "swapped" not in str(exc):  # in SI units the unit check names it already
+            raise OptinavError(f"{exc.cause} ({swap})", "swap the triads' columns (--columns)") from exc
+        if data.counter_step > 1 and o.rate_hz and _passes_at_row_rate(data, o, sections, method_options, source):
+            k, r = data.counter_step, o.rate_hz
+            raise OptinavError(
+                f"the sample counter steps by {k} on nearly every row, so --rate {r:g} was taken as its rate and the "
+                f"rows as {r / k:.4g} Hz; timed so, the calibration fails ({exc.cause}), with the rows at {r:g} Hz "
+                "it passes its gates",
+                f"if {r:g} Hz is the rate of the rows, pass --rate {r * k:g}",
+            ) from exc
+        raise
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))
     return res if o.hold_out is None else hold_out(data, o, res, o.hold_out, source)
 
@@ -1599,6 +1614,18 @@ def swapped_triads(acc, gyr) -> str | None:
         f"the accelerometer columns' norm varies by {ca:.0%} like a gyro's over rests and turns, the gyroscope "
         f"columns' by {cg:.1%} like an accelerometer's reading g: are the two triads swapped?"
     )
+
+
+def _passes_at_row_rate(data: SessionData, o: FileOptions, sections, method_options, source) -> bool:
+    """Whether the calibration passes its gates with the rows of a decimated log (``data.counter_step`` k > 1)
+    timed at --rate instead of at --rate / k: the counter's reading of --rate failed, and this tells an
+    ambiguous rate (a gyro scale k× its nominal was named "raw counts?" or a turn angle) from another cause."""
+    t = data.t[0] + (data.t - data.t[0]) / data.counter_step
+    try:
+        _calibrate_data(data._replace(t=t), o, sections, method_options, source)
+    except OptinavError:
+        return False
+    return True
 
 
 def _calibrate_data(data: SessionData, o: FileOptions, sections, method_options, source) -> CalibrationResult:
