@@ -1382,3 +1382,50 @@ def test_mag_topic_on_another_clock_and_missing(tmp_path, capsys):
         (rec / f.name).write_bytes(f.read_bytes())
     assert main(["--quiet", "attitude", str(rec), "--out", out]) == 2
     assert "without metadata.yaml" in capsys.readouterr().err
+
+
+def test_batch_takes_ros2_bag_folders_and_bag_files(tmp_path, capsys):
+    """A folder of recordings as `ros2 bag record` leaves them (each a folder holding metadata.yaml) beside a
+    ROS 1 bag and a CSV of the same samples: the bag folders were skipped without a word ("1 units"), a folder
+    of only them "holds no data files". Each is now a unit named after its folder, with the values of the
+    others, and a re-run resumes it."""
+    from optinav.batch import read_results
+
+    rng = np.random.default_rng(4)
+    n, t0 = 3000, 1_700_000_000
+    ns = np.arange(n, dtype=np.int64) * 10_000_000
+    gyr = rng.normal(0, 0.01, (n, 3))
+    acc = rng.normal(0, 0.05, (n, 3)) + [0, 0, 9.81]
+    msgs = [
+        (t0 * 10**9 + int(ns[i]), lambda ts, i=i: imu_msg(ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i]))
+        for i in range(n)
+    ]
+    units = tmp_path / "units"
+    units.mkdir()
+    write_bag(units / "b_ros2", "mcap", {"/imu": (IMU, msgs)})
+    write_bag(units / "c_ros1", "ros1", {"/imu": (IMU, msgs)})
+    np.savetxt(
+        units / "a.csv",
+        np.column_stack([t0 + ns * 1e-9, acc, gyr]),
+        delimiter=",",
+        header="t,ax,ay,az,gx,gy,gz",
+        comments="",
+    )
+    out = tmp_path / "res.csv"
+    argv = ["--quiet", "batch", "attitude", str(units), "--frame", "ENU", "--out", str(out), "--workers", "0"]
+    assert main(argv) == 0
+    rows = {r["unit"]: r for r in read_results(out)}
+    assert sorted(rows) == ["a", "b_ros2", "c_ros1"]
+    assert all(r["status"] == "ok" and r["n_samples"] == n for r in rows.values())
+    bias = {u: np.array([rows[u][f"gyr_bias_{a}"] for a in "xyz"]) for u in rows}
+    np.testing.assert_allclose(bias["b_ros2"], bias["a"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(bias["c_ros1"], bias["a"], rtol=0, atol=1e-9)
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert "(3 resumed from the journal, 0 computed now)" in capsys.readouterr().out
+    for p in units.iterdir():
+        if p.name != "b_ros2":
+            p.unlink()
+    out2 = tmp_path / "res2.csv"
+    assert main(argv[:4] + ["--frame", "ENU", "--out", str(out2), "--workers", "0"]) == 0
+    assert [r["unit"] for r in read_results(out2)] == ["b_ros2"]

@@ -2,8 +2,8 @@
 resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch attitude DIR``).
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
-(:data:`optinav.io.readers.SUFFIXES`: .csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat, text also as .gz), in
-sorted file-name order; hidden files (leading "."), the batch's own output/journal and any results table an
+(:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
+ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading "."), the batch's own output/journal and any results table an
 earlier batch wrote there are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
@@ -44,6 +44,7 @@ import warnings
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as _local_as_completed
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -186,6 +187,9 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
         for p in sorted(d.iterdir(), key=lambda q: q.name):
             if p.name.startswith("."):
                 continue
+            if p.is_dir() and (p / "metadata.yaml").is_file():
+                found.append((p.name, p, _folder_stat(p)))  # a ROS 2 bag: a folder of metadata and storage files
+                continue
             if not p.is_file():
                 if skipped is not None and _data_suffix(p.name) is not None and not p.is_dir():
                     skipped.append((p.name, _not_a_file(p)))
@@ -203,6 +207,25 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
         raise OptinavError(f"cannot read the folder {d} ({describe(exc)})", "check the folder's permissions") from None
     stems = [s for s, _, _ in found]
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
+
+
+class _FolderStat(NamedTuple):
+    st_size: int
+    st_mtime_ns: int
+
+
+def _folder_stat(p: Path) -> _FolderStat:
+    """Size (bytes, summed) and latest mtime of the regular files directly in folder ``p`` (a ROS 2 bag): a
+    recording rewritten or re-split counts as changed for resume."""
+    sts = [q.stat() for q in p.iterdir() if q.is_file()]
+    return _FolderStat(sum(st.st_size for st in sts), max((st.st_mtime_ns for st in sts), default=0))
+
+
+def data_kinds() -> str:
+    """The data files a batch folder's units may be, in words (from :data:`optinav.io.readers.SUFFIXES`)."""
+    from optinav.io.readers import SUFFIXES
+
+    return " ".join(SUFFIXES) + " (text also as .gz), or a ROS 2 bag folder"
 
 
 def _not_a_file(p: Path) -> str:
@@ -994,7 +1017,7 @@ def run_batch(
     units = find_units(directory, exclude=(out, journal_path), skipped=skipped)
     if not units:
         raise OptinavError(
-            f"{directory} holds no data files (.csv .tsv .txt .dat .npz .npy .h5 .hdf5 .mat)",
+            f"{directory} holds no data files ({data_kinds()})",
             "pass the folder with one data file per unit",
         )
     client = None
