@@ -3,8 +3,8 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
-ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading "."), the batch's own output/journal and any results table an
-earlier batch wrote there are skipped
+ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading "."), the batch's own output/journal, any results table an
+earlier batch wrote there and .txt/.log notes without a row of numbers are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
@@ -39,6 +39,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
@@ -201,12 +202,46 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
                 continue  # not data, or a simulation's truth (STEM.truth.csv) beside its data
             if suffix in (".csv", ".parquet") and p.stat().st_size > 0 and _is_results_table(p, suffix):
                 continue  # an earlier batch's results table (another --out) is no unit: it failed the lot
+            if suffix in PROSE_SUFFIXES and _is_prose(p):
+                # a README.txt or LICENSE.txt beside the recordings failed as a ragged table (exit 1)
+                if skipped is not None:
+                    skipped.append((p.name, "text without a row of numbers (notes?)"))
+                continue
             st = p.stat()
             found.append((p.name[: -len(suffix)], p, st))
     except OSError as exc:
         raise OptinavError(f"cannot read the folder {d} ({describe(exc)})", "check the folder's permissions") from None
     stems = [s for s, _, _ in found]
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
+
+
+#: text suffixes that notes share with logs (README.txt, run.log): such a file without a row of numbers in its
+#: first PROSE_BYTES is skipped, not a failed unit
+PROSE_SUFFIXES = (".txt", ".log")
+PROSE_BYTES = 65536
+
+
+def _is_prose(p: Path) -> bool:
+    """Whether text file ``p`` has no line of at least two numbers (comma, semicolon, tab or space separated) in
+    its first :data:`PROSE_BYTES`; an unreadable file is left to the reader's own error."""
+    try:
+        with open(p, "rb") as f:
+            head = f.read(PROSE_BYTES).decode("utf-8", "replace")
+    except OSError:
+        return False
+    for line in head.splitlines():
+        fields = [x for x in re.split(r"[,;\t ]+", line.strip()) if x]
+        if len(fields) >= 2 and all(_number(x) for x in fields):
+            return False
+    return True
+
+
+def _number(x: str) -> bool:
+    try:
+        float(x)
+    except ValueError:
+        return False
+    return True
 
 
 class _FolderStat(NamedTuple):
