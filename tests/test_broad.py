@@ -814,6 +814,32 @@ def test_a_wrong_rate_on_fast_translation_is_named_from_the_whole_log(rate):
         assert abs(then / tr.rate_hz - 1) < 0.06
 
 
+@pytest.mark.parametrize(
+    ("name", "rate"),
+    [
+        ("11_undisturbed_slow_translation_B", 100.0),
+        ("11_undisturbed_slow_translation_B", 200.0),
+        ("27_disturbed_phone_vibration_B", 200.0),
+    ],
+)
+def test_a_wrong_rate_on_a_body_that_hardly_tilts_is_named_roughly(name, rate):
+    """BROAD 11 and 27 turn mostly about the vertical (gravity's 5-s means move 0.02-0.05 rad): the whole-log check
+    did not judge them, so --rate 200 for their 285.7 Hz ran with exit 0 (trial 11: 3.3° inclination, 18.7°
+    heading), and --rate 100 was named "deg/s declared rad/s", whose flag ran at 5.1°. The declared gyro drifts
+    gravity there by 0.08-0.57 rad, the right factor by 0.02-0.03: where the factor is a clear minimum below the
+    drift of a gyro scaled away, the rate is named, as rough."""
+    from optinav.attitude.checks import check_imu
+
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
+        check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
+    fit = float(exc.value.remedy.split("the data fit roughly ")[1].split(" Hz")[0])
+    assert abs(fit / tr.rate_hz - 1) < 0.05
+
+
 def test_the_whole_log_check_is_skipped_where_a_window_shows_the_time_base(monkeypatch):
     """Where gravity turns in a unit window and the declared gyro holds it there better than 10 % more or less of
     it, the whole-log check (0.15 s per million samples: input checks 1.58 M samples/s instead of 1.9 M) has nothing

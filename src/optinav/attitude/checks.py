@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -690,6 +690,13 @@ LONG_MEANS_S = 5.0
 LONG_FLOOR = 0.1
 #: gravity must turn in the body by at least this much (rad, its 5-s means about their mean) to judge by
 LONG_BODY = 0.15
+#: where it turns less (a body that mostly turns about the vertical: BROAD 11 and 27, 0.02-0.05), the declared
+#: gyro must drift gravity by at least LOW_BODY_FLOOR (those trials as declared 0.012-0.013; at --rate 100, 200
+#: for their 285.7 Hz 0.42-0.57 and 0.076-0.088) and the factor found must hold it better than
+#: LOW_BODY_TINY × the drift of a gyro that says nothing (10⁻³ of it): a real minimum, not the plateau of a
+#: gyro scaled away (--rate 200 ran at 3.3° and 18.7° heading with exit 0; --rate 100 was named "deg/s declared
+#: rad/s", whose flag ran at 5.1°)
+LOW_BODY_FLOOR, LOW_BODY_TINY = 0.05, 0.7
 #: a rest (for the gyro bias): over 1 s (declared) the binned gyro's std (rad/s) and norm and the accelerometer's
 #: std (m/s²) below these
 REST_GYR_STD, REST_GYR, REST_ACC_STD = 0.02, 0.1, 0.1
@@ -857,19 +864,18 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     if f > 1:
         coarse = _long_pieces(*merge_bins(bins // f, sums), np.unique(gap_bins // f))
         # (the rest bias alone first: the fitted one only lowers the drift, at 9× the cost)
-        if not coarse or _long_drift(coarse, 1.0) < LONG_FLOOR or _long_drift(coarse, 1.0, True) < LONG_FLOOR:
+        if not coarse or _long_drift(coarse, 1.0) < LOW_BODY_FLOOR or _long_drift(coarse, 1.0, True) < LOW_BODY_FLOOR:
             return None
     pieces = _long_pieces(bins, sums, gap_bins)
     if not pieces:
         return None
     body = [_body_turn(a, T, LONG_MEANS_S) ** 2 for _, a, T in pieces]
     body = float(np.sqrt(np.average(body, weights=[p[0].shape[0] for p in pieces])))
-    if body < LONG_BODY:
-        return None  # gravity hardly turns in the body: nothing to judge by
-    if _long_drift(pieces, 1.0) < LONG_FLOOR:
+    floor = LONG_FLOOR if body >= LONG_BODY else LOW_BODY_FLOOR
+    if _long_drift(pieces, 1.0) < floor:
         return None  # (the fitted bias only lowers the drift, at 9× the cost)
     declared = _long_drift(pieces, 1.0, fit_bias=True)
-    if declared < LONG_FLOOR:
+    if declared < floor:
         return None
     grid = np.exp(np.arange(np.log(1e-3), np.log(1e3), np.log(1.15)))
     coarse = np.array([_long_drift(pieces, s) for s in grid])
@@ -883,7 +889,20 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
         found.append(_scan(pieces, s0 * np.exp(np.arange(np.log(0.4), np.log(1.25), 0.005))))
     s, _ = min(found, key=lambda x: x[1])
     best = _long_drift(pieces, s, fit_bias=True)
-    if not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
+    if body < LONG_BODY:
+        # gravity hardly turns: the rest bias leaves the minimum off by up to 20 % (BROAD 11 at --rate 200: 336 Hz
+        # for 285.7), so it is found again with the fitted bias; any gyro scaled towards 0 holds gravity about as
+        # well as it turns, so the factor must be a clear minimum below that plateau, and is named as rough
+        fits = s * np.exp(np.arange(np.log(0.5), np.log(1.6), 0.02))
+        drift = [_long_drift(pieces, x, fit_bias=True) for x in fits]
+        s, best = float(fits[int(np.argmin(drift))]), float(np.min(drift))
+        if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * _long_drift(pieces, grid[0], fit_bias=True)):
+            return None
+        if abs(np.log(s)) < np.log(SCALE_NEAR):
+            return None
+        unit = next((u for u in _SCALES if u != 1.0 and abs(np.log(s / u)) < np.log(SCALE_NEAR)), None)
+        return UnitHint("unit", unit, rough=True) if unit else replace(_time_words(s, dt), rough=True)
+    elif not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
         return None
     if abs(np.log(s)) < np.log(SCALE_NEAR):
         return None
