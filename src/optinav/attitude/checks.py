@@ -691,8 +691,9 @@ LONG_FLOOR = 0.1
 #: gravity must turn in the body by at least this much (rad, its 5-s means about their mean) to judge by
 LONG_BODY = 0.15
 #: where it turns less (a body that mostly turns about the vertical: BROAD 11 and 27, 0.02-0.05), the declared
-#: gyro must drift gravity by at least LOW_BODY_FLOOR (those trials as declared 0.012-0.013; at --rate 100, 200
-#: for their 285.7 Hz 0.42-0.57 and 0.076-0.088) and the factor found must hold it better than
+#: gyro must drift gravity by at least LONG_FLOOR with the rest bias and LOW_BODY_FLOOR with the fitted one (those
+#: trials as declared 0.05, 0.02 and 0.012-0.013; at --rate 100, 200 for their 285.7 Hz 0.65-0.80 and 0.21-0.22,
+#: fitted 0.42-0.57 and 0.076-0.088) and the factor found must hold it better than
 #: LOW_BODY_TINY × the drift of a gyro that says nothing (10⁻³ of it): a real minimum, not the plateau of a
 #: gyro scaled away (--rate 200 ran at 3.3° and 18.7° heading with exit 0; --rate 100 was named "deg/s declared
 #: rad/s", whose flag ran at 5.1°)
@@ -864,18 +865,17 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     if f > 1:
         coarse = _long_pieces(*merge_bins(bins // f, sums), np.unique(gap_bins // f))
         # (the rest bias alone first: the fitted one only lowers the drift, at 9× the cost)
-        if not coarse or _long_drift(coarse, 1.0) < LOW_BODY_FLOOR or _long_drift(coarse, 1.0, True) < LOW_BODY_FLOOR:
+        if not coarse or _long_drift(coarse, 1.0) < LONG_FLOOR or _long_drift(coarse, 1.0, True) < LOW_BODY_FLOOR:
             return None
     pieces = _long_pieces(bins, sums, gap_bins)
     if not pieces:
         return None
     body = [_body_turn(a, T, LONG_MEANS_S) ** 2 for _, a, T in pieces]
     body = float(np.sqrt(np.average(body, weights=[p[0].shape[0] for p in pieces])))
-    floor = LONG_FLOOR if body >= LONG_BODY else LOW_BODY_FLOOR
-    if _long_drift(pieces, 1.0) < floor:
+    if _long_drift(pieces, 1.0) < LONG_FLOOR:
         return None  # (the fitted bias only lowers the drift, at 9× the cost)
     declared = _long_drift(pieces, 1.0, fit_bias=True)
-    if declared < floor:
+    if declared < (LONG_FLOOR if body >= LONG_BODY else LOW_BODY_FLOOR):
         return None
     grid = np.exp(np.arange(np.log(1e-3), np.log(1e3), np.log(1.15)))
     coarse = np.array([_long_drift(pieces, s) for s in grid])
