@@ -840,6 +840,27 @@ def test_a_wrong_rate_on_a_body_that_hardly_tilts_is_named_roughly(name, rate):
     assert abs(fit / tr.rate_hz - 1) < 0.05
 
 
+def test_a_window_s_axes_finding_gives_way_to_the_whole_log_s_rate():
+    """BROAD 33 with --rate 100 (285.7 Hz): a window took the gyro for "y reads +z, z reads +y, and rad/s declared
+    deg/s" and named --columns and --gyro-unit; over the whole log the axes as they are hold gravity at the rate's
+    factor, which is named. A real swap at the right rate (trial 33 and 02, x and y exchanged) is still named."""
+    from optinav.attitude.checks import check_imu
+
+    for name in ("33_disturbed_attached_magnet_2cm", "02_undisturbed_slow_rotation_B"):
+        p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+        if not p.is_file():
+            pytest.skip(f"{name} absent")
+        tr = load_broad(p)
+        if name.startswith("33"):
+            with pytest.raises(Exception, match="the sample rate or the gyro's unit is off") as exc:
+                check_imu(tr.gyr, tr.acc, np.array([0.01]))
+            fit = float(exc.value.remedy.split("the data fit ")[1].split(" Hz")[0])
+            assert abs(fit / tr.rate_hz - 1) < 0.05
+        with pytest.raises(Exception, match=r"gyro x reads \+y, gyro y reads \+x") as exc:
+            check_imu(tr.gyr[:, [1, 0, 2]], tr.acc, np.array([tr.dt]))
+        assert "--columns" in exc.value.remedy
+
+
 def test_the_whole_log_check_is_skipped_where_a_window_shows_the_time_base(monkeypatch):
     """Where gravity turns in a unit window and the declared gyro holds it there better than 10 % more or less of
     it, the whole-log check (0.15 s per million samples: input checks 1.58 M samples/s instead of 1.9 M) has nothing

@@ -1106,9 +1106,11 @@ def check_gyro_unit(
     ``moving``: the log had no still window, so gravity is judged in the gyro-integrated frame here; ``long()``:
     the whole log's hint (:func:`long_time_hint`), which names what the window took for the gyro's unit."""
     hint = _unit_hint_window(g, a, d, window_max)
-    if hint and hint.kind == "unit" and long is not None:
+    if hint and hint.kind in ("unit", "axes") and long is not None:
         # 20 s of fast translation took a rate 1.4× too high for deg/s declared rad/s (BROAD 16 at --rate 200),
-        # and that flag ran at 35° with exit 0; over minutes the time base shows
+        # and that flag ran at 35° with exit 0; over minutes the time base shows. Likewise a window's axes with a
+        # unit factor (BROAD 33 at --rate 100: "gyro y reads +z, z reads +y, and rad/s declared deg/s"), where the
+        # whole log holds gravity with the axes as they are at the factor of the rate
         other = long()
         if other is not None and abs(np.log(other.scale / hint.scale)) > np.log(1.5):
             hint = other
