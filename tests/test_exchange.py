@@ -379,3 +379,46 @@ def test_apply_refuses_data_in_other_raw_units(session, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "not about g" in err and "--acc-unit" in err and not (tmp_path / "o.csv").exists()
     assert main(["--quiet", "apply", str(res), str(data), "--out", str(tmp_path / "ok.csv")]) == 0
+
+
+def _imu_tk_text(T, S, B) -> str:
+    """An imu_tk parameter file as CalibratedTriad::save writes it (C++ streams: 6 significant digits)."""
+    rows = [" ".join(f"{v:g}" for v in r) for r in (*T, *S)]
+    return "\n".join(rows[:3]) + "\n\n" + "\n".join(rows[3:]) + "\n\n" + "\n".join(f"{v:g}" for v in B) + "\n\n"
+
+
+def test_apply_imu_tk_pair_is_imu_tks_model_and_refuses_the_files_mixed_up(tmp_path, capsys):
+    """imu_tk's own files (accelerometer T upper triangular, gyroscope T full; scale 1.05, misalignments 1°) on
+    SI data: apply gives imu_tk's x' = T·S·(raw − B) of each triad (computed here from the file's numbers). The
+    gyroscope file given alone corrected the accelerometer with the gyro's T, S, B and wrote |a| ≈ g with exit 0;
+    the pair given the wrong way round was refused as a unit mismatch. Both now name the mix-up."""
+    import pandas as pd
+
+    data = tmp_path / "si.csv"
+    sim = ["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "5"]
+    assert main([*sim, "--seed", "3"]) == 0
+    m = float(np.radians(1.0))
+    Ta = np.array([[1.0, -m, m], [0.0, 1.0, -m], [0.0, 0.0, 1.0]])  # imu_tk's accelerometer ("body") form
+    Tg = np.array([[1.0, -m, m], [m, 1.0, -m], [-m, m, 1.0]])  # its gyroscope form: six misalignments
+    Sa, Sg = np.diag([1.05, 0.98, 1.02]), np.diag([1.05, 1.01, 0.97])
+    Ba, Bg = np.array([0.12, -0.08, 0.05]), np.array([0.002, -0.001, 0.003])
+    acc_f, gyro_f = tmp_path / "acc.calib", tmp_path / "gyro.calib"
+    acc_f.write_text(_imu_tk_text(Ta, Sa, Ba))
+    gyro_f.write_text(_imu_tk_text(Tg, Sg, Bg))
+    out = tmp_path / "c.csv"
+    assert main(["--quiet", "apply", str(acc_f), str(data), "--gyro-cal", str(gyro_f), "--out", str(out)]) == 0
+    raw, got = pd.read_csv(data, comment="#"), pd.read_csv(out, comment="#")
+    for cols, f in ((["ax", "ay", "az"], acc_f), (["gx", "gy", "gz"], gyro_f)):
+        v = np.array(f.read_text().split(), float)  # as CalibratedTriad::load reads it: T, S row-major, B
+        T, S, B = v[:9].reshape(3, 3), v[9:18].reshape(3, 3), v[18:]
+        want = (raw[cols].to_numpy() - B) @ (T @ S).T
+        assert np.max(np.abs(got[cols].to_numpy() - want)) <= 1e-12 * np.abs(want).max()
+    for argv, why in (
+        ([str(gyro_f), str(data)], "six misalignments"),
+        ([str(gyro_f), str(data), "--gyro-cal", str(acc_f)], "wrong way round"),
+    ):
+        bad = tmp_path / "bad.csv"
+        assert main(["apply", *argv, "--out", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert why in err and "--gyro-cal" in err and len(err.strip().splitlines()) == 1
+        assert not bad.exists()

@@ -92,6 +92,10 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
             raw = [x for x in (log.acc, log.gyr) if x is not None]
             n_bad += int(np.count_nonzero(~np.all(np.isfinite(np.hstack(raw)), axis=1))) if raw else 0
             acc, gyro = corrected(res, log, data_path, result_path)
+            if writer.rows == 0 and res.method == "imu_tk" and res.gyroscope is None and log.gyr is not None:
+                from optinav.multipos.exchange import check_imu_tk_alone
+
+                check_imu_tk_alone(result_path, data_path)
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
                 if gyro is not None:

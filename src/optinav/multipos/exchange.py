@@ -159,10 +159,20 @@ def load_calibration(path, gyro_path=None):
             "trajectory), so it cannot correct raw data",
             "apply the optinav, imucal or imu_tk calibration it was exported from",
         )
-    acc_K, acc_b = from_imu_tk(_imu_tk_params(read_imu_tk(path)))
+    acc = read_imu_tk(path)
+    acc_K, acc_b = from_imu_tk(_imu_tk_params(acc))
     entry = {"accelerometer": {"K": acc_K, "b": acc_b}}
     if gyro_path is not None:
-        g_K, g_b = from_imu_tk(_imu_tk_params(read_imu_tk(gyro_path)))
+        gyro = read_imu_tk(gyro_path)
+        if imu_tk_triangular(gyro) and not imu_tk_triangular(acc):
+            # a swapped pair corrected each triad with the other's T, S, B: refused as a unit mismatch in counts,
+            # exit 0 with SI data of scale ≈ 1 (probe)
+            raise OptinavError(
+                f"{path} has six misalignments (imu_tk's gyroscope form) and {gyro_path} three (imu_tk's "
+                "accelerometer form): the accelerometer and gyroscope files are given the wrong way round",
+                f"pass {gyro_path} as the calibration and {path} with --gyro-cal",
+            )
+        g_K, g_b = from_imu_tk(_imu_tk_params(gyro))
         entry["gyroscope"] = {"K": g_K, "b": g_b}
     units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
     return CalibrationResult(
@@ -172,3 +182,26 @@ def load_calibration(path, gyro_path=None):
 
 def _imu_tk_params(p: dict) -> dict:
     return {k: v for k, v in p.items() if k != "form"}
+
+
+def imu_tk_triangular(params: dict) -> bool:
+    """Whether imu_tk parameters (of :func:`~optinav.multipos.convert.read_imu_tk`) have a triangular T, as
+    imu_tk writes its accelerometer (upper; lower in a common variant); its gyroscope has all six misalignments."""
+    return all(params[k] == 0 for k in ("mis_xz", "mis_xy", "mis_yx")) or all(
+        params[k] == 0 for k in ("mis_yz", "mis_zy", "mis_zx")
+    )
+
+
+def check_imu_tk_alone(path, data_path) -> None:
+    """Refuse an imu_tk file with six misalignments (imu_tk's gyroscope form) given alone, without --gyro-cal,
+    for data that hold a gyroscope: taken as the accelerometer calibration, imu_tk's gyroscope file corrected
+    the accelerometer with the gyro's T, S, B, and SI data of scale ≈ 1 gave |a| ≈ g with exit 0 (probe)."""
+    from optinav.multipos.convert import read_imu_tk
+
+    if not imu_tk_triangular(read_imu_tk(path)):
+        raise OptinavError(
+            f"{Path(path).name} has six misalignments (imu_tk's gyroscope form; imu_tk writes the accelerometer's "
+            f"three) and no --gyro-cal was given, while {Path(data_path).name} holds a gyroscope",
+            "pass imu_tk's accelerometer file as the calibration and this one with --gyro-cal (an accelerometer "
+            "file with six misalignments: add its gyroscope file with --gyro-cal)",
+        )
