@@ -416,6 +416,7 @@ def test_apply_imu_tk_pair_is_imu_tks_model_and_refuses_the_files_mixed_up(tmp_p
     for argv, why in (
         ([str(gyro_f), str(data)], "six misalignments"),
         ([str(gyro_f), str(data), "--gyro-cal", str(acc_f)], "wrong way round"),
+        ([str(gyro_f), str(data), "--gyro-cal", str(gyro_f)], "same calibration"),
     ):
         bad = tmp_path / "bad.csv"
         assert main(["apply", *argv, "--out", str(bad)]) == 2

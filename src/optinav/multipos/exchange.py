@@ -164,6 +164,12 @@ def load_calibration(path, gyro_path=None):
     entry = {"accelerometer": {"K": acc_K, "b": acc_b}}
     if gyro_path is not None:
         gyro = read_imu_tk(gyro_path)
+        if all(np.array_equal(acc[k], gyro[k]) for k in acc):
+            # the gyro file given twice corrected the accelerometer with the gyro's T, S, B with exit 0 (probe)
+            raise OptinavError(
+                f"{path} and --gyro-cal {gyro_path} hold the same calibration: one triad's file is given for both",
+                "pass imu_tk's accelerometer file as the calibration and its gyroscope file with --gyro-cal",
+            )
         if imu_tk_triangular(gyro) and not imu_tk_triangular(acc):
             # a swapped pair corrected each triad with the other's T, S, B: refused as a unit mismatch in counts,
             # exit 0 with SI data of scale ≈ 1 (probe)
