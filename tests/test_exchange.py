@@ -423,3 +423,25 @@ def test_apply_imu_tk_pair_is_imu_tks_model_and_refuses_the_files_mixed_up(tmp_p
         err = capsys.readouterr().err
         assert why in err and "--gyro-cal" in err and len(err.strip().splitlines()) == 1
         assert not bad.exists()
+
+
+def test_export_says_which_parameters_were_held(tmp_path, capsys):
+    """Six axis poses leave the accelerometer misalignments (and one gyro combination) undetermined; with
+    --allow-unobservable they are held at their prior. imu_tk's and imucal's files cannot mark a parameter as
+    held, and the export wrote them like estimated ones without a word; it now names them (and imucal's comment
+    keeps them)."""
+    data, res = tmp_path / "six.csv", tmp_path / "r.json"
+    sim = ["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "six", "--dwell", "10"]
+    assert main([*sim, "--acc-unit", "counts", "--gyro-unit", "counts", "--seed", "3"]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(data), "--allow-unobservable", "--out", str(res)]) == 0
+    held = [n for n, p in CalibrationResult.from_json(res).parameters().items() if (p.reason or "").startswith("held")]
+    assert {"acc_K_xy", "acc_K_xz", "acc_K_yz"} <= set(held)
+    capsys.readouterr()
+    tk = ["export", str(res), "--to", "imu_tk", "--out", str(tmp_path / "a.calib")]
+    assert main([*tk, "--gyro-out", str(tmp_path / "g.calib")]) == 0
+    err = capsys.readouterr().err
+    assert "not observable" in err and all(n in err for n in held), err
+    assert main(["export", str(res), "--to", "imucal", "--out", str(tmp_path / "c.json")]) == 0
+    err = capsys.readouterr().err
+    assert all(n in err for n in held), err
+    assert all(n in json.loads((tmp_path / "c.json").read_text())["comment"] for n in held)

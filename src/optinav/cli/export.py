@@ -103,15 +103,21 @@ def run(args) -> int:
         counts_per_si=cps,
     ):
         print(f"optinav: {args.to} file written to {path}")
-    if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
-        from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE
-
-        print_notes([DEFAULT_ROSTOPIC_NOTE])
-    if args.to == "kalibr" and noise is None:
-        print_notes(
-            [
-                "no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a static log and "
-                "pass its result)"
-            ]
-        )
+    print_notes(_notes(args, res, noise))
     return 0
+
+
+def _notes(args, res, noise) -> list[str]:
+    """What the written file does not say: held parameters, Kalibr's default topic, Kalibr without noise keys."""
+    from optinav.multipos.exchange import held_note
+    from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE
+
+    notes = [n for n in (held_note(res, args.to),) if n]
+    if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
+        notes.append(DEFAULT_ROSTOPIC_NOTE)
+    if args.to == "kalibr" and noise is None:
+        notes.append(
+            "no --noise given, so the file lacks Kalibr's noise keys (run optinav allan on a static log and pass its "
+            "result)"
+        )
+    return notes

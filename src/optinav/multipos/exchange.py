@@ -91,7 +91,9 @@ def export_calibration(
             gyro["b"],
             from_acc_unit=units.get("accelerometer_raw"),
             from_gyr_unit=units.get("gyroscope_raw"),
-            comment=f"exported by optinav from {res.source or 'a calibration'}",
+            comment="; ".join(
+                c for c in (f"exported by optinav from {res.source or 'a calibration'}", held_note(res, fmt)) if c
+            ),
         )
         write_imucal_json(out, cal)
         return [Path(out)]
@@ -107,6 +109,18 @@ def export_calibration(
         counts_per_si=counts_per_si,
     )
     return [Path(out)]
+
+
+def held_note(res, fmt: str) -> str | None:
+    """What a ``fmt`` file cannot say of ``res``: the parameters the data did not determine (held at their prior
+    or initial guess under --allow-unobservable), which the file states as numbers like the estimated ones."""
+    held = [n for n, p in res.parameters().items() if not p.observable and (p.reason or "").startswith("held")]
+    if not held:
+        return None
+    return (
+        f"{', '.join(held)} were not observable and are held at their prior, not estimated; the {fmt} file "
+        "writes them like the estimated ones (RESULT.json keeps which): add poses (optinav design) to estimate them"
+    )
 
 
 def _raw_unit(sensor: str, unit) -> str | None:
