@@ -413,6 +413,12 @@ def test_apply_imu_tk_pair_is_imu_tks_model_and_refuses_the_files_mixed_up(tmp_p
         T, S, B = v[:9].reshape(3, 3), v[9:18].reshape(3, 3), v[18:]
         want = (raw[cols].to_numpy() - B) @ (T @ S).T
         assert np.max(np.abs(got[cols].to_numpy() - want)) <= 1e-12 * np.abs(want).max()
+    # the accelerometer's file alone: the gyro is left out of the output, and the account says so
+    capsys.readouterr()
+    assert main(["apply", str(acc_f), str(data), "--out", str(tmp_path / "acc_only.csv")]) == 0
+    said = capsys.readouterr()
+    assert "(m/s^2)" in said.out and "gyroscope of si.csv left out" in said.err and "--gyro-cal" in said.err
+    assert list(pd.read_csv(tmp_path / "acc_only.csv", comment="#").columns) == ["t", "ax", "ay", "az"]
     for argv, why in (
         ([str(gyro_f), str(data)], "six misalignments"),
         ([str(gyro_f), str(data), "--gyro-cal", str(acc_f)], "wrong way round"),

@@ -96,6 +96,10 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                 from optinav.multipos.exchange import check_imu_tk_alone
 
                 check_imu_tk_alone(result_path, data_path)
+            if writer.rows == 0:
+                written = [u for u, x in (("m/s^2", acc), ("rad/s", gyro)) if x is not None]
+                pairs = (("accelerometer", log.acc, acc), ("gyroscope", log.gyr, gyro))
+                left = [name for name, raw, x in pairs if x is None and raw is not None]
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
                 if gyro is not None:
@@ -112,7 +116,16 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
             Note,
             stacklevel=2,
         )
-    return f"wrote {writer.rows} corrected samples to {out} (m/s^2, rad/s)"
+    if writer.rows and left:
+        # an accelerometer-only calibration wrote the log without its gyro, said "(m/s^2, rad/s)" and nothing else
+        warnings.warn(
+            f"the {' and '.join(left)} of {Path(data_path).name} left out of {Path(out).name}: "
+            f"{Path(result_path).name} holds no {' or '.join(left)} calibration"
+            + (" (imu_tk's gyroscope file goes with --gyro-cal)" if res.method == "imu_tk" else ""),
+            Note,
+            stacklevel=2,
+        )
+    return f"wrote {writer.rows} corrected samples to {out} ({', '.join(written) if writer.rows else 'none'})"
 
 
 def _check_corrected_norm(acc, log, data_path, result_path) -> None:
