@@ -451,3 +451,37 @@ def test_export_says_which_parameters_were_held(tmp_path, capsys):
     err = capsys.readouterr().err
     assert all(n in err for n in held), err
     assert all(n in json.loads((tmp_path / "c.json").read_text())["comment"] for n in held)
+
+
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
+)
+def test_apply_reads_imucals_hdf5_export(tmp_path, capsys):
+    """imucal also saves a calibration as HDF5 (``to_hdf5``: a dataset per matrix, scalar strings for cal_type, the
+    units, comment and format version). `apply` refused it as "not UTF-8 text ... saved as UTF-8"; it now reads it
+    and corrects the example session as imucal's formula does (computed here from the reference matrices)."""
+    import h5py
+    import pandas as pd
+
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    cal = tmp_path / "cal.h5"
+    with h5py.File(cal, "w") as fh:  # the layout imucal's CalibrationInfo.to_hdf5 writes
+        for k, v in ref.items():
+            if isinstance(v, list):
+                fh.create_dataset(k, data=v)
+            elif v:
+                fh[k] = v
+    raw = pd.read_csv(DATA / "example_ferraris_session.csv")
+    out = tmp_path / "c.csv"
+    argv = ["--quiet", "apply", str(cal), str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
+    assert main([*argv, "--out", str(out)]) == 0
+    m = {k: np.array(ref[k]) for k in ("K_a", "R_a", "b_a", "K_g", "R_g", "K_ga", "b_g")}
+    acc = (raw[["acc_x", "acc_y", "acc_z"]].to_numpy() - m["b_a"]) @ np.linalg.inv(m["K_a"] @ m["R_a"]).T
+    gyr = raw[["gyr_x", "gyr_y", "gyr_z"]].to_numpy() - acc @ m["K_ga"].T - m["b_g"]
+    gyr = gyr @ np.linalg.inv(m["K_g"] @ m["R_g"]).T  # deg/s, imucal's gyr_unit
+    got = pd.read_csv(out, comment="#")
+    assert np.max(np.abs(got[["ax", "ay", "az"]].to_numpy() - acc)) <= 1e-12 * np.abs(acc).max()
+    assert np.max(np.abs(np.degrees(got[["gx", "gy", "gz"]].to_numpy()) - gyr)) <= 1e-12 * np.abs(gyr).max()
+    assert main(["apply", str(cal), str(DATA / "example_ferraris_session.csv"), "--gyro-cal", str(cal),
+                 "--out", str(tmp_path / "x.csv")]) == 2  # fmt: skip
+    assert "--gyro-cal" in capsys.readouterr().err and not (tmp_path / "x.csv").exists()

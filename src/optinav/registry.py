@@ -111,9 +111,11 @@ def for_result(path) -> tuple[System, Any]:
     """The system of the result file at ``path``, selected by its schema ``optinav.<system>.<kind>`` (or an
     older layout a system reads), and the loaded result; a file without a schema (imucal, imu_tk) is a
     calibration of :data:`EXCHANGE_SYSTEM`, returned with ``None`` (its system's loader reads it)."""
-    from optinav.core.files import read_text
+    from optinav.core.files import is_hdf5, read_text
     from optinav.core.results import Result
 
+    if is_hdf5(path):  # imucal's to_hdf5 export (optinav's results are JSON)
+        return SYSTEMS[EXCHANGE_SYSTEM], None
     text = read_text(path, "result file")
     if not text.lstrip().startswith("{") or '"schema"' not in text:
         return SYSTEMS[EXCHANGE_SYSTEM], None

@@ -222,6 +222,26 @@ def numbers_only(head: bytes) -> bool:
     return bool(re.fullmatch(rb"[\s0-9eE.+-]*", head)) and re.search(rb"[0-9]", head) is not None
 
 
+#: the signature every HDF5 file starts with
+HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+
+
+def is_hdf5(path) -> bool:
+    """Whether the file ``path`` starts with the HDF5 signature (False when it cannot be read).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    bool
+        Whether its first 8 bytes are :data:`HDF5_MAGIC`.
+    """
+    return _head(Path(path), 8) == HDF5_MAGIC
+
+
 def _head(path: Path, n: int) -> bytes | None:
     """The first ``n`` bytes of the file ``path``; None when it cannot be read."""
     try:

@@ -59,7 +59,6 @@ LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase
 #: positional column names that skip a column
 SKIP_NAMES = ("_", "-")
 
-_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _MAX_LISTED = 20
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
 _BRACKET_UNIT = re.compile(r"^(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
@@ -326,7 +325,7 @@ def load_table(
 
 #: lines per block of the streamed text reader (:func:`iter_table`), defined beside the atomic writers so that the
 #: CLI's parser can show it without loading numpy
-from optinav.core.files import CHUNK_ROWS  # noqa: E402
+from optinav.core.files import CHUNK_ROWS, HDF5_MAGIC as _HDF5_MAGIC  # noqa: E402
 
 
 def iter_table(

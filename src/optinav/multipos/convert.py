@@ -25,7 +25,7 @@ imucal (Küderle et al., JOSS 2022; ``FerrarisCalibrationInfo``)::
 with acc_cal in ``acc_unit`` (m/s²) and gyr_cal in ``gyr_unit`` (deg/s). Hence ``K = K_a R_a / f_acc``,
 ``K_gyro = K_g R_g / f_gyr`` (= · 180/π for deg/s), ``G = K_ga / f_acc``; the inverse factorization takes
 the row norms of K as the diagonal (unique with a positive diagonal). imucal's JSON export (format 2.0.0 and
-the legacy pre-2.0 layout with ``gyro_unit``) is read and written as plain JSON.
+the legacy pre-2.0 layout with ``gyro_unit``) is read and written as plain JSON; its HDF5 export is read.
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ __all__ = [
     "from_imucal",
     "ImucalCalibration",
     "read_imucal_json",
+    "read_imucal_hdf5",
     "write_imucal_json",
     "IMUCAL_FORMAT_VERSION",
 ]
@@ -359,6 +360,30 @@ def read_imucal_json(source) -> ImucalCalibration:
     d = parse_json(text, src, "pass a file written by imucal's to_json_file")
     if not isinstance(d, dict):
         raise OptinavError(f"{src} is not a JSON object", "pass a file written by imucal's to_json_file")
+    return _imucal_from_dict(d, src)
+
+
+def read_imucal_hdf5(path) -> ImucalCalibration:
+    """Read imucal's HDF5 export (``CalibrationInfo.to_hdf5``: one dataset per matrix, scalar string datasets for
+    ``cal_type``, the units, ``comment`` and ``_format_version``; a unit left ``None`` is absent); checked as
+    :func:`read_imucal_json`."""
+    from optinav.io.readers import _h5py
+
+    h5py, src = _h5py(), str(path)
+    d = {}
+    try:
+        with h5py.File(path, "r") as fh:
+            for k, ds in fh.items():
+                if isinstance(ds, h5py.Dataset):
+                    v = ds[()]
+                    d[k] = v.decode("utf-8", "replace") if isinstance(v, bytes) else v
+    except OSError as exc:
+        raise OptinavError(f"{src} is not a readable HDF5 file ({exc})", "pass imucal's to_hdf5 export") from None
+    return _imucal_from_dict(d, src)
+
+
+def _imucal_from_dict(d: dict, src: str) -> ImucalCalibration:
+    """An :class:`ImucalCalibration` from the keys of imucal's export (JSON or HDF5), ``src`` naming it."""
     version = d.pop("_format_version", None)
     if version is None:  # legacy (imucal < 2.0)
         if "gyro_unit" in d:

@@ -2,8 +2,8 @@
 
 :func:`export_calibration` writes a :class:`~optinav.multipos.result.CalibrationResult` as imu_tk's two parameter
 files (accelerometer, gyroscope), imucal's Ferraris JSON or Kalibr's ``scale-misalignment`` imu.yaml (with the
-noise of an ``optinav allan`` result); :func:`load_calibration` reads optinav's RESULT.json, an imucal JSON or
-an imu_tk accelerometer file (with the gyroscope file beside it) back into a ``CalibrationResult``, which is what
+noise of an ``optinav allan`` result); :func:`load_calibration` reads optinav's RESULT.json, an imucal JSON
+(or HDF5) export or an imu_tk accelerometer file (with the gyroscope file beside it) back into a ``CalibrationResult``, which is what
 ``optinav apply`` applies. The parameter conversions are in :mod:`optinav.multipos.convert` and
 :mod:`optinav.multipos.kalibr`; what each format can hold:
 
@@ -128,13 +128,20 @@ def _raw_unit(sensor: str, unit) -> str | None:
 
 
 def load_calibration(path, gyro_path=None):
-    """A :class:`~optinav.multipos.result.CalibrationResult` from optinav's RESULT.json, an imucal JSON export
-    or an imu_tk accelerometer parameter file (``gyro_path``: imu_tk's gyroscope file). The format is recognised
+    """A :class:`~optinav.multipos.result.CalibrationResult` from optinav's RESULT.json, an imucal JSON or HDF5
+    export or an imu_tk accelerometer parameter file (``gyro_path``: imu_tk's gyroscope file). The format is recognised
     from the content. Raw units are those the file records (imucal's ``from_*_unit``; none for imu_tk)."""
-    from optinav.core.files import parse_json, read_text
-    from optinav.multipos.convert import from_imu_tk, read_imu_tk, read_imucal_json
+    from optinav.core.files import is_hdf5, parse_json, read_text
+    from optinav.multipos.convert import from_imu_tk, read_imu_tk, read_imucal_hdf5, read_imucal_json
     from optinav.multipos.result import CalibrationResult
 
+    if is_hdf5(path):  # imucal's to_hdf5 export read "not UTF-8 text ... saved as UTF-8" (probe)
+        if gyro_path is not None:
+            raise OptinavError(
+                "--gyro-cal is for imu_tk's separate gyroscope file; this imucal HDF5 file holds both triads",
+                "drop --gyro-cal",
+            )
+        return _from_imucal(read_imucal_hdf5(path), path)
     text = read_text(path, "calibration file")
     head = text.lstrip()
     if head.startswith(("{", "[")):
@@ -146,20 +153,7 @@ def load_calibration(path, gyro_path=None):
         if isinstance(data, dict) and "schema" in data:
             return CalibrationResult.from_json(path)
         if isinstance(data, dict) and "K_a" in data:
-            cal = read_imucal_json(path)
-            p = cal.to_optinav()
-            units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
-            for sensor, key in (("accelerometer", "from_acc_unit"), ("gyroscope", "from_gyr_unit")):
-                u = _raw_unit(sensor, getattr(cal, key))
-                if u:
-                    units[f"{sensor}_raw"] = u
-            return CalibrationResult(
-                accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
-                gyroscope={"K": p["gyr_K"], "b": p["gyr_b"], "G": p["gyr_G"]},
-                units=units,
-                method="imucal",
-                source=str(path),
-            )
+            return _from_imucal(read_imucal_json(path), path)
         raise OptinavError(
             f"{path} is JSON but neither an optinav result nor an imucal export",
             "pass RESULT.json of optinav calibrate or imucal's to_json_file output",
@@ -197,6 +191,25 @@ def load_calibration(path, gyro_path=None):
     units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
     return CalibrationResult(
         **entry, units=units, method="imu_tk", source=" + ".join(str(p) for p in (path, gyro_path) if p is not None)
+    )
+
+
+def _from_imucal(cal, path):
+    """The CalibrationResult of an imucal calibration read from ``path`` (raw units from its ``from_*_unit``)."""
+    from optinav.multipos.result import CalibrationResult
+
+    p = cal.to_optinav()
+    units = {"accelerometer": "m/s^2", "gyroscope": "rad/s", "K": "raw per SI unit", "b": "raw"}
+    for sensor, key in (("accelerometer", "from_acc_unit"), ("gyroscope", "from_gyr_unit")):
+        u = _raw_unit(sensor, getattr(cal, key))
+        if u:
+            units[f"{sensor}_raw"] = u
+    return CalibrationResult(
+        accelerometer={"K": p["acc_K"], "b": p["acc_b"]},
+        gyroscope={"K": p["gyr_K"], "b": p["gyr_b"], "G": p["gyr_G"]},
+        units=units,
+        method="imucal",
+        source=str(path),
     )
 
 
