@@ -485,3 +485,29 @@ def test_apply_reads_imucals_hdf5_export(tmp_path, capsys):
     assert main(["apply", str(cal), str(DATA / "example_ferraris_session.csv"), "--gyro-cal", str(cal),
                  "--out", str(tmp_path / "x.csv")]) == 2  # fmt: skip
     assert "--gyro-cal" in capsys.readouterr().err and not (tmp_path / "x.csv").exists()
+
+
+def test_apply_refuses_a_physical_gyro_read_as_the_calibrations_counts(tmp_path, capsys):
+    """A calibration of raw counts (≈ 940 counts per rad/s) applied to a log whose gyro is in rad/s, no unit
+    stated (so read as the calibration's counts): the corrected gyro came out ~940× too small with exit 0, and a
+    gyro in deg/s was refused as "rad/s". The alternatives tried for a counts calibration are now the data in
+    deg/s and in rad/s read as counts, and the error names the right one."""
+    import pandas as pd
+
+    data, res = tmp_path / "s.csv", tmp_path / "r.json"
+    sim = ["--quiet", "simulate", "accel-multipos", "--out", str(data), "--scheme", "18", "--dwell", "5"]
+    assert main([*sim, "--acc-unit", "counts", "--gyro-unit", "counts", "--seed", "4"]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(res)]) == 0
+    assert main(["--quiet", "apply", str(res), str(data), "--out", str(tmp_path / "ok.csv")]) == 0
+    cal = CalibrationResult.from_json(res)
+    df = pd.read_csv(data, comment="#")  # no unit line: the gyro is read in the calibration's counts
+    g = ["gx", "gy", "gz"]
+    df[g] = cal.correct_gyro(df[g].to_numpy(), cal.correct_accel(df[["ax", "ay", "az"]].to_numpy()))  # rad/s
+    for unit, scale in (("rad/s", 1.0), ("deg/s", 180 / np.pi)):
+        other, out = tmp_path / f"gyro_{unit[:3]}.csv", tmp_path / "o.csv"
+        df.assign(**{c: df[c] * scale for c in g}).to_csv(other, index=False)
+        capsys.readouterr()
+        assert main(["apply", str(res), str(other), "--out", str(out)]) == 2, unit
+        err = capsys.readouterr().err
+        assert f"were the data's gyro in {unit}" in err and "raw counts" in err, err
+        assert not out.exists()

@@ -146,9 +146,9 @@ def _check_corrected_norm(acc, log, data_path, result_path) -> None:
 def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     """The first block's corrected gyro must explain how the corrected specific force turns in the body (the
     attitude input check, :func:`optinav.attitude.checks.gyro_unit_hint`, with the raw gyro ×π/180 and ×180/π
-    corrected by the calibration as the alternatives; silent when too little turns): a log in rad/s corrected by
-    a calibration made for deg/s read 57 times too small with exit 0 (the calibration's bias, in its own unit,
-    is no multiple of the data's)."""
+    corrected by the calibration as the alternatives, for a calibration of counts the raw gyro read as deg/s and
+    rad/s; silent when too little turns): a log in rad/s corrected by a calibration made for deg/s read 57 times
+    too small with exit 0 (the calibration's bias, in its own unit, is no multiple of the data's)."""
     from optinav.attitude.checks import gyro_unit_hint
 
     if log.t is None or log.t.size < 3:
@@ -157,15 +157,26 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     ok = np.isfinite(acc).all(axis=1) & np.isfinite(gyro).all(axis=1)
     if not ok.all() or not np.all(dts > 0):
         return  # the reader's checks name gaps and non-finite rows; the unit is judged on clean blocks
-    raw = calibration_raw(log, "gyro", res.units.get("gyroscope_raw"))
-    hint = gyro_unit_hint(gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * s, acc[sl]), units_only=True)
+    expected = res.units.get("gyroscope_raw")
+    raw = calibration_raw(log, "gyro", expected)
+    factors = {s: s for s in (np.pi / 180, 180 / np.pi)}  # the data in deg/s read as rad/s, and the reverse
+    if expected == "counts":
+        # a calibration of counts: the alternatives are data in deg/s and rad/s read as counts (× its counts per
+        # deg/s and per rad/s); a rad/s gyro read as counts came out ~900× too small with exit 0 (probe)
+        k = float(np.mean(np.abs(np.diag(np.asarray(res.gyroscope["K"], float)))))
+        factors = {np.pi / 180: k * np.pi / 180, 180 / np.pi: k}
+    hint = gyro_unit_hint(
+        gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * factors[s], acc[sl]), units_only=True
+    )
     if hint:
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
             f"gravity turns in the body, as it would were the data's gyro in {unit}: it is not in the "
             f"{log.gyro_input_unit or 'unit'} the calibration was made for, or the calibration is another sensor's",
-            "state the data's gyro unit with --gyro-unit (deg/s, rad/s), or apply the calibration of this sensor",
+            "apply the calibration to the gyro's raw counts, or that of this sensor"
+            if expected == "counts"
+            else "state the data's gyro unit with --gyro-unit (deg/s, rad/s), or apply the calibration of this sensor",
         )
 
 
