@@ -511,3 +511,21 @@ def test_apply_refuses_a_physical_gyro_read_as_the_calibrations_counts(tmp_path,
         err = capsys.readouterr().err
         assert f"were the data's gyro in {unit}" in err and "raw counts" in err, err
         assert not out.exists()
+
+
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
+)
+def test_calibrate_export_imu_tk_of_a_g_sensitivity_names_a_command_that_exists(tmp_path, capsys):
+    """`calibrate --method ferraris --export imu_tk:…` is refused (imu_tk has no g-sensitivity) after RESULT.json
+    is written; the remedy said "export with --to imucal", a flag calibrate does not have. It now names the
+    export command, which then runs as written."""
+    r = tmp_path / "r.json"
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit",
+            "deg/s", "--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json"),
+            "--gravity", "9.81", "--out", str(r), "--export", f"imu_tk:{tmp_path / 'a.calib'},{tmp_path / 'g.calib'}"]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "g-sensitivity" in err and "optinav export RESULT.json --to imucal" in err, err
+    assert r.exists() and not (tmp_path / "a.calib").exists()
+    assert main(["--quiet", "export", str(r), "--to", "imucal", "--out", str(tmp_path / "c.json")]) == 0

@@ -53,7 +53,7 @@ def export_calibration(
         if has_G:
             raise OptinavError(
                 "imu_tk's model has no gyro g-sensitivity, which this calibration estimated",
-                "export with --to imucal or --to kalibr (both keep it)",
+                "export it to imucal or Kalibr, which keep it (optinav export RESULT.json --to imucal)",
             )
         written = []
         if gyro is None and gyro_out is not None:
@@ -80,7 +80,8 @@ def export_calibration(
         if acc is None or gyro is None:
             raise OptinavError(
                 "imucal's Ferraris calibration holds both the accelerometer and the gyroscope",
-                "calibrate with gyroscope data, or export with --to imu_tk",
+                "calibrate with gyroscope data, or export the accelerometer to imu_tk (optinav export RESULT.json "
+                "--to imu_tk)",
             )
         units = res.units or {}
         cal = ImucalCalibration.from_optinav(
