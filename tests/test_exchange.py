@@ -529,3 +529,25 @@ def test_calibrate_export_imu_tk_of_a_g_sensitivity_names_a_command_that_exists(
     assert "g-sensitivity" in err and "optinav export RESULT.json --to imucal" in err, err
     assert r.exists() and not (tmp_path / "a.calib").exists()
     assert main(["--quiet", "export", str(r), "--to", "imucal", "--out", str(tmp_path / "c.json")]) == 0
+
+
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_cal_annotated_session.json").is_file(), reason="imucal data absent"
+)
+def test_imucal_au_is_counts(tmp_path, capsys):
+    """imucal names raw counts "a.u." (its snapshot of the annotated session). optinav dropped that unit, so the
+    annotated session with its gyro stated in rad/s was corrected as if counts: ~950× too small, exit 0. "a.u." is
+    now counts (as in a data file), and a physical unit against it is refused."""
+    import pandas as pd
+
+    cal = DATA / "reference" / "example_cal_annotated_session.json"
+    assert load_calibration(cal).units["gyroscope_raw"] == "counts"
+    df = pd.read_csv(DATA / "annotated_session.csv")
+    g = ["gyr_x", "gyr_y", "gyr_z"]
+    df[g] = np.radians(df[g] / 16.4)  # the driver's deg/s at ±2000 °/s, then rad/s: stated in the header
+    other = tmp_path / "gyro_rad.csv"
+    df.rename(columns={c: f"{c} [rad/s]" for c in g}).to_csv(other, index=False)
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(cal), str(other), "--rate", "204.8", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "gyroscope data are in rad/s but the calibration was made in counts" in err and not out.exists()

@@ -24,8 +24,6 @@ import numpy as np
 from optinav.errors import OptinavError
 
 FORMATS = ("imu_tk", "imucal", "kalibr")
-#: raw units optinav names (imucal's free-text from_*_unit outside these is not used)
-_RAW_UNITS = {"accelerometer": ("counts", "g", "mg", "m/s^2"), "gyroscope": ("counts", "deg/s", "rad/s")}
 
 
 def export_calibration(
@@ -125,7 +123,14 @@ def held_note(res, fmt: str) -> str | None:
 
 
 def _raw_unit(sensor: str, unit) -> str | None:
-    return unit if unit in _RAW_UNITS[sensor] else None
+    """optinav's name of imucal's free-text ``from_*_unit`` (its "a.u." is counts, as in a data file), None for
+    a unit optinav does not read: imucal's "a.u." was dropped, so a gyro in rad/s under an imucal calibration of
+    counts came out ~940× too small with exit 0 (probe)."""
+    from optinav.io.imu import ACC_UNITS, GYRO_UNITS
+
+    table = ACC_UNITS if sensor == "accelerometer" else GYRO_UNITS
+    key = str(unit).strip() if unit else ""
+    return table.get(key) or table.get(key.lower())
 
 
 def load_calibration(path, gyro_path=None):
