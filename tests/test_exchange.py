@@ -551,3 +551,14 @@ def test_imucal_au_is_counts(tmp_path, capsys):
     assert main(["apply", str(cal), str(other), "--rate", "204.8", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "gyroscope data are in rad/s but the calibration was made in counts" in err and not out.exists()
+
+
+def test_kalibr_sensitivity_for_a_calibration_of_physical_units_is_refused(tmp_path):
+    """--acc-lsb/--gyro-lsb (the driver's counts per g, per °/s) with a calibration made in m/s² and rad/s were
+    accepted and silently unused; they are refused naming the flag."""
+    res = _calibration(3, G=False, acc_unit="m/s^2", gyro_unit="rad/s")
+    for sensor, flag in (("accelerometer", "--acc-lsb"), ("gyroscope", "--gyro-lsb")):
+        with pytest.raises(OptinavError, match=flag):
+            export_calibration(res, "kalibr", tmp_path / "k.yaml", counts_per_si={sensor: 2048 / 9.80665})
+    assert not (tmp_path / "k.yaml").exists()
+    export_calibration(res, "kalibr", tmp_path / "k.yaml")

@@ -88,6 +88,14 @@ def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
             "calibrate with gyroscope data (turns between the poses)",
         )
     cps = counts_per_si or {}
+    for sensor, flag in (("accelerometer", "--acc-lsb"), ("gyroscope", "--gyro-lsb")):
+        unit = cal.units.get(f"{sensor}_raw")
+        if cps.get(sensor) and unit not in (None, "counts"):
+            # a sensitivity for a calibration of physical units was taken without a word and not used (probe)
+            raise OptinavError(
+                f"{flag} gives the driver's counts, and the {sensor} calibration is of {unit}, not raw counts",
+                f"drop {flag} (Kalibr's M is then relative to {unit} converted to SI)",
+            )
     f_a = _factor(cal.units.get("accelerometer_raw"), factor, cps.get("accelerometer"), "accelerometer", "--acc-lsb")
     f_g = _factor(cal.units.get("gyroscope_raw"), factor, cps.get("gyroscope"), "gyroscope", "--gyro-lsb")
     M_a, C_i_s = lq(f_a * cal.accelerometer["K"])
