@@ -491,7 +491,8 @@ def test_apply_refuses_a_physical_gyro_read_as_the_calibrations_counts(tmp_path,
     """A calibration of raw counts (≈ 940 counts per rad/s) applied to a log whose gyro is in rad/s, no unit
     stated (so read as the calibration's counts): the corrected gyro came out ~940× too small with exit 0, and a
     gyro in deg/s was refused as "rad/s". The alternatives tried for a counts calibration are now the data in
-    deg/s and in rad/s read as counts, and the error names the right one."""
+    deg/s and in rad/s read as counts (also for imu_tk's files, which state no unit, when their gyro scale is no
+    physical unit's), and the error names the right one."""
     import pandas as pd
 
     data, res = tmp_path / "s.csv", tmp_path / "r.json"
@@ -503,14 +504,18 @@ def test_apply_refuses_a_physical_gyro_read_as_the_calibrations_counts(tmp_path,
     df = pd.read_csv(data, comment="#")  # no unit line: the gyro is read in the calibration's counts
     g = ["gx", "gy", "gz"]
     df[g] = cal.correct_gyro(df[g].to_numpy(), cal.correct_accel(df[["ax", "ay", "az"]].to_numpy()))  # rad/s
+    # imu_tk's files state no unit: a gyro scale of hundreds of counts per rad/s is no physical unit's
+    tk = (tmp_path / "a.calib", tmp_path / "g.calib")
+    export_calibration(cal, "imu_tk", tk[0], gyro_out=tk[1])
     for unit, scale in (("rad/s", 1.0), ("deg/s", 180 / np.pi)):
         other, out = tmp_path / f"gyro_{unit[:3]}.csv", tmp_path / "o.csv"
         df.assign(**{c: df[c] * scale for c in g}).to_csv(other, index=False)
-        capsys.readouterr()
-        assert main(["apply", str(res), str(other), "--out", str(out)]) == 2, unit
-        err = capsys.readouterr().err
-        assert f"were the data's gyro in {unit}" in err and "raw counts" in err, err
-        assert not out.exists()
+        for cal_args in ([str(res)], [str(tk[0]), "--gyro-cal", str(tk[1])]):
+            capsys.readouterr()
+            assert main(["apply", cal_args[0], str(other), *cal_args[1:], "--out", str(out)]) == 2, (unit, cal_args)
+            err = capsys.readouterr().err
+            assert f"were the data's gyro in {unit}" in err and "raw counts" in err, err
+            assert not out.exists()
 
 
 @pytest.mark.skipif(

@@ -160,10 +160,12 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     expected = res.units.get("gyroscope_raw")
     raw = calibration_raw(log, "gyro", expected)
     factors = {s: s for s in (np.pi / 180, 180 / np.pi)}  # the data in deg/s read as rad/s, and the reverse
-    if expected == "counts":
-        # a calibration of counts: the alternatives are data in deg/s and rad/s read as counts (× its counts per
-        # deg/s and per rad/s); a rad/s gyro read as counts came out ~900× too small with exit 0 (probe)
-        k = float(np.mean(np.abs(np.diag(np.asarray(res.gyroscope["K"], float)))))
+    k = float(np.mean(np.abs(np.diag(np.asarray(res.gyroscope["K"], float)))))
+    # a calibration of counts (stated, or an imu_tk file's scale beyond twice a deg/s one's: no physical unit's):
+    # the alternatives are data in deg/s and rad/s read as counts (× its counts per deg/s and per rad/s); a rad/s
+    # gyro read as counts came out ~900× too small with exit 0 (probe)
+    counts = expected == "counts" or (expected is None and k > 2 * 180 / np.pi)
+    if counts:
         factors = {np.pi / 180: k * np.pi / 180, 180 / np.pi: k}
     hint = gyro_unit_hint(
         gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * factors[s], acc[sl]), units_only=True
@@ -173,9 +175,10 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
             f"gravity turns in the body, as it would were the data's gyro in {unit}: it is not in the "
-            f"{log.gyro_input_unit or 'unit'} the calibration was made for, or the calibration is another sensor's",
+            f"{'counts' if counts else log.gyro_input_unit or 'unit'} the calibration was made for, or the "
+            "calibration is another sensor's",
             "apply the calibration to the gyro's raw counts, or that of this sensor"
-            if expected == "counts"
+            if counts
             else "state the data's gyro unit with --gyro-unit (deg/s, rad/s), or apply the calibration of this sensor",
         )
 
