@@ -567,3 +567,23 @@ def test_kalibr_sensitivity_for_a_calibration_of_physical_units_is_refused(tmp_p
             export_calibration(res, "kalibr", tmp_path / "k.yaml", counts_per_si={sensor: 2048 / 9.80665})
     assert not (tmp_path / "k.yaml").exists()
     export_calibration(res, "kalibr", tmp_path / "k.yaml")
+
+
+def test_export_imu_tk_never_replaces_a_numeric_log(tmp_path, capsys):
+    """imu_tk reads its data as whitespace-separated numbers (``t ax ay az``); `export --to imu_tk --out` replaced
+    such a log with exit 0, since a file of numbers only was taken for an imu_tk parameter file. Only a file that
+    opens with imu_tk's T (three rows of three, 1 on the diagonal, a blank line) is replaced: optinav's and the
+    C++ stream's."""
+    res = tmp_path / "r.json"
+    _calibration(2, G=False).to_json(res)
+    log = tmp_path / "imu_acc.mat"
+    rng = np.random.default_rng(0)
+    np.savetxt(log, np.c_[np.arange(50) * 0.01, rng.normal(0, 1, (50, 3))], fmt="%.6f")
+    before = log.read_bytes()
+    tk = ["export", str(res), "--to", "imu_tk", "--gyro-out", str(tmp_path / "g.calib"), "--out"]
+    assert main([*tk, str(log)]) == 2
+    assert "would be replaced" in capsys.readouterr().err and log.read_bytes() == before
+    cpp = tmp_path / "acc.calib"  # as CalibratedTriad::save writes it (Eigen's aligned columns)
+    cpp.write_text("         1 -0.00123   0.0045\n         0         1 -0.0021\n        -0         0         1\n\n"
+                   "0.00479 0 0\n0 0.00479 0\n0 0 0.0048\n\n1\n2\n3\n\n")  # fmt: skip
+    assert main([*tk, str(cpp)]) == 0 and main([*tk, str(cpp)]) == 0  # its own file again

@@ -358,8 +358,8 @@ def parse_export(spec: str):
     paths = rest.split(",") if fmt == "imu_tk" else [rest]
     if len(paths) > 2 or not all(paths):
         raise OptinavError(f"--export {spec!r} names {len(paths)} files", "imu_tk takes ACC,GYRO; others one file")
-    from optinav.core.files import numbers_only
+    from optinav.core.files import imu_tk_file
 
-    mark = numbers_only if fmt == "imu_tk" else None
+    mark = imu_tk_file if fmt == "imu_tk" else None
     checked = [output_path(p, option="--export", mark=mark) for p in paths]
     return fmt, checked[0], checked[1] if len(checked) > 1 else None

@@ -73,9 +73,9 @@ def run(args) -> int:
                 raise OptinavError(f"{flag} is for --to kalibr", f"drop {flag}")
     if args.to != "imu_tk" and args.gyro_out:
         raise OptinavError("--gyro-out is for --to imu_tk (its second file)", "drop --gyro-out")
-    from optinav.core.files import numbers_only
+    from optinav.core.files import imu_tk_file
 
-    mark = numbers_only if args.to == "imu_tk" else None
+    mark = imu_tk_file if args.to == "imu_tk" else None
     out = output_path(args.out, _SUFFIXES.get(args.to), _EXAMPLES.get(args.to, ""), mark=mark)
     gyro_out = output_path(args.gyro_out, option="--gyro-out", mark=mark) if args.gyro_out else None
     if gyro_out is not None and gyro_out.resolve() == out.resolve():

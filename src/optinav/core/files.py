@@ -206,20 +206,29 @@ SIMULATED = "simulated"
 RESULT_MARK = b'"schema": "optinav.'
 
 
-def numbers_only(head: bytes) -> bool:
-    """``mark`` of :func:`check_replace` for imu_tk's parameter files: numbers and white space only.
+def imu_tk_file(head: bytes) -> bool:
+    """``mark`` of :func:`check_replace` for imu_tk's parameter files: numbers only, opening with imu_tk's
+    misalignment matrix T (three rows of three numbers, 1 on the diagonal) and a blank line. A whitespace-separated
+    numeric log (imu_tk's own data files, ``t ax ay az``) was replaced by ``--to imu_tk --out`` with exit 0 when
+    numbers only were asked (probe).
 
     Parameters
     ----------
     head : bytes
-        The first bytes of the file.
+        The first bytes of the file (256 hold T).
 
     Returns
     -------
     bool
-        Whether they are numbers (at least one digit) and white space only.
+        Whether they are numbers and white space only and begin as imu_tk's parameter file does.
     """
-    return bool(re.fullmatch(rb"[\s0-9eE.+-]*", head)) and re.search(rb"[0-9]", head) is not None
+    if not re.fullmatch(rb"[\s0-9eE.+-]*", head):
+        return False
+    lines = head.replace(b"\r", b"").split(b"\n")
+    if len(lines) < 5 or lines[3].strip():
+        return False
+    rows = [ln.split() for ln in lines[:3]]
+    return all(len(r) == 3 for r in rows) and all(rows[i][i] == b"1" for i in range(3))
 
 
 #: the signature every HDF5 file starts with
@@ -264,7 +273,7 @@ def check_replace(path, option: str = "--out", mark: bytes | str | None = None) 
     mark : bytes, str, callable or None
         What the command writes: bytes its files hold in their first 256 (:data:`RESULT_MARK`, a table's header),
         :data:`SIMULATED` (a data file with ``STEM.truth.json`` beside it), a test of the first bytes
-        (:func:`numbers_only`), or None (any file that names optinav in its first bytes). Empty files and files of
+        (:func:`imu_tk_file`), or None (any file that names optinav in its first bytes). Empty files and files of
         other suffixes than :data:`DATA_SUFFIXES` (reports, figures) are replaced.
     """
     out = Path(path)
