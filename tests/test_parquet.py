@@ -219,3 +219,22 @@ def test_pandas_datetime_index_is_the_time(tmp_path):
     log = read_imu(tmp_path / "p.parquet")
     assert log.t[0] == pytest.approx(1767225600.0) and np.allclose(np.diff(log.t), 0.005, atol=1e-6)
     np.testing.assert_array_equal(log.acc, vals[:, :3])
+
+
+def test_int64_nanoseconds_since_the_epoch(tmp_path):
+    # a header stamp in ns as int64 (beyond 2**53): read as the nearest double, not Arrow's range error (traceback)
+    rng = np.random.default_rng(7)
+    n = 40
+    ns = 1_700_000_000 * 10**9 + np.arange(n, dtype=np.int64) * 5_000_000 + 123
+    acc, gyr = rng.normal(0, 3, (n, 3)), rng.normal(0, 0.5, (n, 3))
+    cols = {f"linear_acceleration.{a}": acc[:, j] for j, a in enumerate("xyz")}
+    cols.update({f"angular_velocity.{a}": gyr[:, j] for j, a in enumerate("xyz")})
+    pq.write_table(pa.table({"header.stamp": pa.array(ns, pa.int64()), **cols}), tmp_path / "ns.parquet")
+    log = read_imu(tmp_path / "ns.parquet")
+    assert np.array_equal(log.t, ns.astype(float) * 1e-9)
+    assert np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)
+    # under a name that states no unit: the error names --time-unit ns
+    pq.write_table(pa.table({"t": pa.array(ns, pa.int64()), **cols}), tmp_path / "t.parquet")
+    with pytest.raises(OptinavError, match="--time-unit ns"):
+        read_imu(tmp_path / "t.parquet")
+    assert np.array_equal(read_imu(tmp_path / "t.parquet", time_unit="ns").t, ns.astype(float) * 1e-9)

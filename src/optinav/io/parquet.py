@@ -209,7 +209,9 @@ def _column(table, name: str, fld, col, pa, add) -> None:
         return
     if pa.types.is_integer(t) or pa.types.is_floating(t) or pa.types.is_boolean(t) or pa.types.is_decimal(t):
         if not pa.types.is_floating(t) or col.null_count:
-            col = col.cast(pa.float64())
+            # unchecked: a 64-bit integer beyond 2**53 (a time in ns since the epoch) rounds to the nearest double,
+            # as numpy's astype does, where the checked cast raised
+            col = col.cast(pa.float64(), safe=False)
             if col.null_count:
                 col = col.fill_null(np.nan)
         arr = col.to_numpy()
