@@ -1035,6 +1035,67 @@ def test_stamps_backwards_use_log_time(tmp_path):
     assert np.array_equal(log.gyr, gyr)
 
 
+def _mag_of(imu):
+    """A MagneticField message with the Imu message's header and its angular velocity × 1e-5 T."""
+    w = imu.angular_velocity
+    return mag_msg(TS2, imu.header.stamp.sec, imu.header.stamp.nanosec, [w.x * 1e-5, w.y * 1e-5, w.z * 1e-5])
+
+
+@pytest.mark.parametrize("kind", ("ros1", "sqlite3", "mcap"))
+def test_messages_recorded_twice_are_left_out(tmp_path, kind):
+    """One publisher recorded on two connections (or a message resent): every copy was a sample of its own, on
+    the bag's log times, with a warning that named the stamps only (100 rows of 50 samples, exit 0). The copies
+    (same stamp, same values) are left out, named, and the header stamps are the time; the blocks agree."""
+    rng = np.random.default_rng(41)
+    msgs, t, gyr, acc = imu_topic(rng, n=200)
+    if kind == "ros1":  # the same message on a second connection, logged 1 µs later (or at the same time)
+        bag = tmp_path / "twice.bag"
+        with Writer1(bag) as w:
+            w.chunk_threshold = 4096
+            cons = [w.add_connection("/imu", IMU, typestore=TS1, callerid=c) for c in ("/a", "/b")]
+            for i, (t_ns, make) in enumerate(msgs):
+                raw = TS1.serialize_ros1(make(TS1), IMU)
+                w.write(cons[0], t_ns, raw)
+                w.write(cons[1], t_ns + 1000 * (i % 2), raw)
+        copies = 200
+    else:  # Imu messages 20 and 150 resent, and MagneticField message 3 (left out too)
+        twice = [m for i, m in enumerate(msgs) for _ in range(2 if i in (20, 150) else 1)]
+        mags = [(t_ns + 1000, lambda ts, m=m: _mag_of(m(ts))) for t_ns, m in msgs[::4]]
+        bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, twice), "/mag": (MAG, mags[:4] + mags[3:])})
+        copies = 2
+    with pytest.warns(UserWarning, match=f"{copies} of the {200 + copies} messages of '/imu' repeat an earlier"):
+        log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    with pytest.warns(UserWarning, match="repeat an earlier"):
+        _, joined = _joined_tables(bag, 64)
+    assert np.array_equal(joined["t"], t) and np.array_equal(joined["gx"], gyr[:, 0])
+    if kind != "ros1":  # the magnetometer at the Imu stamps it shares: its values
+        assert np.array_equal(joined["mx"][:160:4], gyr[:160:4, 0] * 1e-5)
+    # a repeated stamp with other values is no copy: the log times, and the warning says what the stamps do
+    other = [(t_ns, make) for t_ns, make in msgs]
+    other.insert(31, (msgs[30][0] + 1000, lambda ts: imu_msg(ts, 1_700_000_000, 300_000_123, [1, 2, 3], [4, 5, 6])))
+    bag = write_bag(tmp_path / "o", "mcap", {"/imu": (IMU, other)})
+    with pytest.warns(UserWarning, match=r"not strictly increasing \(1 of 201 equal to the one before\)"):
+        log = read_imu(bag)
+    assert len(log) == 201 and np.array_equal(log.t, np.array([m[0] for m in other]) * 1e-9)
+
+
+def test_stamp_faults_are_named(tmp_path):
+    """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
+    increasing', which they were not."""
+    rng = np.random.default_rng(42)
+    ns = np.arange(10) * 10_000_000
+    msgs, *_ = imu_topic(rng, n=10, stamps=ns, t0=0)
+    bag = write_bag(tmp_path / "z", "sqlite3", {"/imu": (IMU, msgs)})
+    with pytest.warns(UserWarning, match=r"stamps of '/imu' are not all positive \(1 of 10 zero\)"):
+        read_imu(bag)
+    msgs, *_ = imu_topic(rng, n=10, stamps=ns, t0=-5)
+    msgs = [(1_700_000_000 * 10**9 + int(ns[i]), make) for i, (_, make) in enumerate(msgs)]
+    bag = write_bag(tmp_path / "n", "mcap", {"/imu": (IMU, msgs)})
+    with pytest.warns(UserWarning, match=r"not all positive \(10 of 10 negative\)"):
+        read_imu(bag)
+
+
 @pytest.mark.parametrize(
     ("kind", "compression"),
     [("ros1", "bz2"), ("ros1", "lz4"), ("mcap", "storage"), ("mcap", "file"), ("sqlite3", "file")],

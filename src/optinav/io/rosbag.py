@@ -107,10 +107,12 @@ def load_bag(path, *, topic=None, only=None):
                 reader.close()
             except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
                 pass
-    (imu_topic, (t, t_log, (gyr, acc))), mag = got
+    (imu_topic, imu), mag = got
+    t, t_log, (gyr, acc) = _without_copies(path, imu_topic, *imu)
     if mag is None:
         return _bag_table(path, imu_topic, _time_base(path, imu_topic, t, t_log), gyr, acc, None, None, 0)
-    mag_topic, (tm, tm_log, b) = mag
+    mag_topic, mag = mag
+    tm, tm_log, b = _without_copies(path, mag_topic, *mag)
     # one clock for both topics: a topic on its log times beside one on header stamps is offset by the delay
     # between stamping and logging (0.4 s: yaw off by up to 19°)
     both = _stamps_ok(t) and _stamps_ok(tm)
@@ -797,6 +799,51 @@ def _stamps_ok(stamp: np.ndarray) -> bool:
     return bool(stamp.size and np.all(stamp > 0) and np.all(np.diff(stamp) > 0))
 
 
+def _stamp_fault(stamp: np.ndarray) -> str:
+    """What keeps header stamps (s, log-time order) from being set and strictly increasing, in words."""
+    if np.all(stamp == 0):
+        return "zero"
+    step = np.diff(stamp)
+    faults = [
+        f"{k} of {stamp.size} {what}"
+        for k, what in (
+            (int(np.sum(stamp == 0)), "zero"),
+            (int(np.sum(stamp < 0)), "negative"),
+            (int(np.sum(step == 0)), "equal to the one before"),
+            (int(np.sum(step < 0)), "earlier than the one before"),
+        )
+        if k
+    ]
+    what = "not strictly increasing" if np.any(step <= 0) else "not all positive"
+    return f"{what} ({', '.join(faults)})"
+
+
+def _without_copies(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
+    """(stamps s, log times ns, values) without the messages that repeat an earlier one — the same header stamp
+    and values: one publisher recorded on two connections, a bag merged with a copy of itself, a message resent —
+    when those copies are all that keeps the stamps from being set and strictly increasing; they carry nothing
+    new, and kept they doubled samples on the log times (with a warning that named the stamps only). Anything
+    else is returned as it is (the time base then decides), so is a topic whose stamps are fine."""
+    if stamp.size < 2 or _stamps_ok(stamp) or not np.all(stamp > 0):
+        return stamp, logt, vals
+    order = np.argsort(stamp, kind="stable")  # equal stamps stay in log-time order: the first copy is kept
+    s = stamp[order]
+    same = s[1:] == s[:-1]
+    for v in vals:
+        w = v[order]
+        same &= np.all((w[1:] == w[:-1]) | (np.isnan(w[1:]) & np.isnan(w[:-1])), axis=1)
+    keep = np.ones(stamp.size, dtype=bool)
+    keep[order[1:][same]] = False
+    if not same.any() or not _stamps_ok(stamp[keep]):
+        return stamp, logt, vals
+    warnings.warn(
+        f"{path.name}: {int(same.sum())} of the {stamp.size} messages of {topic!r} repeat an earlier message (the "
+        "same header stamp and values: recorded twice) and are left out",
+        stacklevel=3,
+    )
+    return stamp[keep], logt[keep], tuple(v[keep] for v in vals)
+
+
 def _time_base(
     path: Path, topic: str, stamp: np.ndarray, t_log: np.ndarray, ok: bool | None = None, other: str | None = None
 ) -> np.ndarray:
@@ -809,7 +856,7 @@ def _time_base(
     if own:
         _one_clock_warning(path, other, topic, stacklevel=5)
     else:
-        _log_time_warning(path, topic, "zero" if np.all(stamp == 0) else "not strictly increasing")
+        _log_time_warning(path, topic, _stamp_fault(stamp))
     return t_log * 1e-9
 
 
@@ -862,8 +909,9 @@ def iter_bag(path, *, topic=None, chunk_rows: int, progress=None):
     two passes over the storage's blocks (:mod:`optinav.io.bagscan`), the first decoding only to choose the time
     base (header stamps when all are set and increasing, else log times, as :func:`load_bag`) and to count, the
     second yielding the tables; a MagneticField topic is read whole and interpolated onto each table's stamps. A
-    bag the scanners do not read, log times out of the storage's order, a count that differs from the index, or
-    at most ``chunk_rows`` messages: one table from :func:`load_bag`. ``progress(fraction)`` after each table."""
+    bag the scanners do not read, log times out of the storage's order, a count that differs from the index, header
+    stamps neither fine nor all zero (copies to leave out), or at most ``chunk_rows`` messages: one table from
+    :func:`load_bag`. ``progress(fraction)`` after each table."""
     path = Path(path)
     _check_wal(path)
     plan = _stream_plan(path, _parse_topics(topic))
@@ -952,12 +1000,16 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         yield load_bag(path, topic=topic)
         return
     count = plan["topics"][name]["count"]
-    if total <= chunk_rows or (plan["count"] and total != count):
+    # stamps neither fine nor all zero: copies to leave out, and their faults named, need the whole topic
+    if total <= chunk_rows or (plan["count"] and total != count) or not (stamps_ok or zero):
         yield load_bag(path, topic=topic)
         return
+    if mag is not None:
+        stamp, logt, (b,) = _without_copies(path, plan["mag"], mag[0], mag[1], (mag[2],))
+        mag = stamp, logt, b
     mag_ok = mag is None or _stamps_ok(mag[0])
     if not stamps_ok:
-        _log_time_warning(path, name, "zero" if zero else "not strictly increasing")
+        _log_time_warning(path, name, "zero")
     elif not mag_ok:  # one clock for both topics (see load_bag)
         _one_clock_warning(path, plan["mag"], name, stacklevel=4)
         stamps_ok = False
