@@ -1080,6 +1080,39 @@ def test_messages_recorded_twice_are_left_out(tmp_path, kind):
     assert len(log) == 201 and np.array_equal(log.t, np.array([m[0] for m in other]) * 1e-9)
 
 
+def test_two_publishers_on_one_ros1_topic(tmp_path, monkeypatch):
+    """Two IMU drivers publishing /imu at once, stamps interleaved 2 ms apart: read as one IMU at twice the rate,
+    no warning, exit 0. Refused, naming both callerids (by the storage scan and by rosbags' reader alike); one
+    driver restarted under another name (one connection after the other) reads as one topic."""
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(43)
+    msgs, t, gyr, acc = imu_topic(rng, n=60)
+    other, *_ = imu_topic(rng, n=60, stamps=np.round(np.arange(60) / 100 * 1e9).astype(np.int64) + 2_000_123)
+
+    def bag(name, pick):
+        with Writer1(tmp_path / name) as w:
+            w.chunk_threshold = 2048
+            cons = [w.add_connection("/imu", IMU, typestore=TS1, callerid=c) for c in ("/imu_a", "/imu_b")]
+            for c, (t_ns, make) in pick:
+                w.write(cons[c], t_ns, TS1.serialize_ros1(make(TS1), IMU))
+        return tmp_path / name
+
+    both = bag("both.bag", [x for i in range(60) for x in ((0, msgs[i]), (1, other[i]))])
+    restart = bag("restart.bag", [(int(i >= 25), m) for i, m in enumerate(msgs)])
+    for scan in (True, False):
+        if not scan:
+            monkeypatch.setattr(bagscan, "ros1_index", lambda path: (_ for _ in ()).throw(bagscan.NotFast("test")))
+        with pytest.raises(
+            OptinavError, match="published by 2 connections whose messages interleave.*/imu_a and /imu_b"
+        ):
+            read_imu(both)
+        with pytest.raises(OptinavError, match="messages interleave"):
+            _joined_tables(both, 16)
+        log = read_imu(restart)
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

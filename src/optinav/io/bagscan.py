@@ -576,7 +576,8 @@ def _op(buf: bytes, f: dict) -> int:
 def ros1_index(path: Path) -> dict:
     """The index of the ROS 1 bag ``path`` from its connection and chunk info records (after ``index_pos``):
     ``{"first": offset of the first record after the bag header, "index_pos": …, "conns": {conn id: (topic,
-    type, md5sum)}, "counts": {conn id: messages}, "chunks": [(chunk offset, {conn id: messages in it}), …]}``
+    type, md5sum)}, "callers": {conn id: the publishing node (callerid, "" when not recorded)}, "counts": {conn id:
+    messages}, "chunks": [(chunk offset, {conn id: messages in it}), …]}``
     (chunks in file order). Raises
     :class:`NotFast` when the bag is not one this reads."""
     with open(path, "rb") as fh:
@@ -592,17 +593,19 @@ def ros1_index(path: Path) -> dict:
             raise NotFast("unindexed bag")
         fh.seek(index_pos)
         tail = fh.read()
-    conns, counts, chunks = {}, {}, []
+    conns, callers, counts, chunks = {}, {}, {}, []
     pos = 0
     while pos < len(tail):
         f, ds, de = _record(tail, pos, len(tail))
         op = _op(tail, f)
         if op == 0x07:
             d = _fields(tail, ds, de)
-            conns[_U32.unpack_from(tail, f[b"conn"][0])[0]] = tuple(
+            conn = _U32.unpack_from(tail, f[b"conn"][0])[0]
+            conns[conn] = tuple(
                 bytes(tail[slice(*g[k])]).decode("utf-8", "replace")
                 for g, k in ((f, b"topic"), (d, b"type"), (d, b"md5sum"))
             )
+            callers[conn] = bytes(tail[slice(*d[b"callerid"])]).decode("utf-8", "replace") if b"callerid" in d else ""
         elif op == 0x06:
             held: dict = {}
             for conn, n in struct.iter_unpack("<II", tail[ds:de]):
@@ -613,7 +616,14 @@ def ros1_index(path: Path) -> dict:
     if not conns:
         raise NotFast("no connection records")
     chunks.sort(key=lambda c: c[0])
-    return {"first": first, "index_pos": index_pos, "conns": conns, "counts": counts, "chunks": chunks}
+    return {
+        "first": first,
+        "index_pos": index_pos,
+        "conns": conns,
+        "callers": callers,
+        "counts": counts,
+        "chunks": chunks,
+    }
 
 
 def _ros1_selected(idx: dict, u8: np.ndarray, conns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

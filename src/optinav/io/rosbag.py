@@ -223,6 +223,9 @@ def _written_out(fh) -> None:
 
 def _read(reader, path: Path, topics: dict, imu_topic: str, mag_topic: str | None) -> tuple:
     """((imu topic, its (stamps, log times, values)), (mag topic, its …) or None)."""
+    for name in (imu_topic, mag_topic):
+        if name is not None:
+            _one_publisher(reader, path, name, topics[name])
     imu = (imu_topic, _read_topic(reader, path, imu_topic, topics[imu_topic]))
     mag = None if mag_topic is None else (mag_topic, _read_topic(reader, path, mag_topic, topics[mag_topic]))
     return imu, mag
@@ -408,6 +411,42 @@ def _sqlite_setup(path: Path, files: list[Path], wanted: list[str]):
     if any(name is not None and topics[name]["fmt"] != {"cdr"} for name in chosen):
         return None
     return types, topics, chosen
+
+
+def _one_publisher(reader, path: Path, topic: str, info: dict) -> None:
+    """Refuse a ROS 1 topic written by several connections at once — two publishers (two IMU drivers, one driver
+    started twice) whose messages interleave: read together they were one IMU at twice the rate with no word
+    (their stamps interleaved and increased). Each connection is read on its own; the messages that repeat one of
+    another connection (the same publisher recorded twice: :func:`_without_copies` leaves them out) do not count,
+    nor do connections one after the other (a driver restarted)."""
+    cons = info["cons"]
+    if len(cons) < 2 or getattr(reader, "is2", True):
+        return
+    index = getattr(reader, "index", None)
+    parts = []
+    for c in cons:
+        n = c.msgcount if index is None else index["counts"].get(c, 0)
+        if n:
+            parts.append((c, _read_topic(reader, path, topic, dict(info, cons=[c], count=n))))
+    if len(parts) < 2:
+        return
+    stamp = np.concatenate([p[1][0] for p in parts])
+    logt = np.concatenate([p[1][1] for p in parts])
+    vals = tuple(np.concatenate([p[1][2][k] for p in parts]) for k in range(len(parts[0][1][2])))
+    own = ~_copies(stamp, vals)
+    label = np.repeat(np.arange(len(parts)), [p[1][0].size for p in parts])
+    spans = sorted(
+        (int(logt[m].min()), int(logt[m].max()), k) for k in range(len(parts)) if (m := own & (label == k)).any()
+    )
+    for (_, end, a), (start, _, b) in zip(spans, spans[1:]):
+        if start <= end:
+            names = [str(index["callers"].get(parts[k][0], "") if index else parts[k][0].ext.callerid) for k in (a, b)]
+            raise OptinavError(
+                f"topic {topic!r} of {path.name} was published by {len(spans)} connections whose messages interleave "
+                f"(callerids {names[0] or '?'} and {names[1] or '?'}): two IMUs, or one driver running twice",
+                f"keep one publisher: rosbag filter IN.bag OUT.bag "
+                f'\'topic != "{topic}" or m._connection_header["callerid"] == "{names[0]}"\'',
+            )
 
 
 def _ros1_topics(idx: dict) -> dict:
@@ -818,6 +857,19 @@ def _stamp_fault(stamp: np.ndarray) -> str:
     return f"{what} ({', '.join(faults)})"
 
 
+def _copies(stamp: np.ndarray, vals: tuple) -> np.ndarray:
+    """(n,) True for the messages with the header stamp (s) and values of an earlier one (in the given order)."""
+    order = np.argsort(stamp, kind="stable")  # equal stamps stay in the given order: the first is not a copy
+    s = stamp[order]
+    same = s[1:] == s[:-1]
+    for v in vals:
+        w = v[order]
+        same &= np.all((w[1:] == w[:-1]) | (np.isnan(w[1:]) & np.isnan(w[:-1])), axis=1)
+    out = np.zeros(stamp.size, dtype=bool)
+    out[order[1:][same]] = True
+    return out
+
+
 def _without_copies(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
     """(stamps s, log times ns, values) without the messages that repeat an earlier one — the same header stamp
     and values: one publisher recorded on two connections, a bag merged with a copy of itself, a message resent —
@@ -826,18 +878,11 @@ def _without_copies(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray,
     else is returned as it is (the time base then decides), so is a topic whose stamps are fine."""
     if stamp.size < 2 or _stamps_ok(stamp) or not np.all(stamp > 0):
         return stamp, logt, vals
-    order = np.argsort(stamp, kind="stable")  # equal stamps stay in log-time order: the first copy is kept
-    s = stamp[order]
-    same = s[1:] == s[:-1]
-    for v in vals:
-        w = v[order]
-        same &= np.all((w[1:] == w[:-1]) | (np.isnan(w[1:]) & np.isnan(w[:-1])), axis=1)
-    keep = np.ones(stamp.size, dtype=bool)
-    keep[order[1:][same]] = False
-    if not same.any() or not _stamps_ok(stamp[keep]):
+    keep = ~_copies(stamp, vals)
+    if keep.all() or not _stamps_ok(stamp[keep]):
         return stamp, logt, vals
     warnings.warn(
-        f"{path.name}: {int(same.sum())} of the {stamp.size} messages of {topic!r} repeat an earlier message (the "
+        f"{path.name}: {int(stamp.size - keep.sum())} of the {stamp.size} messages of {topic!r} repeat an earlier message (the "
         "same header stamp and values: recorded twice) and are left out",
         stacklevel=3,
     )
@@ -936,6 +981,8 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
             if got is None:
                 return None
             types, topics, (imu, mag) = got
+            if any(len(topics[k]["cons"]) > 1 for k in (imu, mag) if k is not None):
+                return None  # several publishers: load_bag reads each (_one_publisher)
             blocks = lambda name: bagscan.blocks(types, path, name)  # noqa: E731
             return {"types": types, "ros1": True, "topics": topics, "imu": imu, "mag": mag, "count": True,
                     "blocks": blocks, "close": lambda: None}  # fmt: skip
