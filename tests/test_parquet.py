@@ -238,3 +238,21 @@ def test_int64_nanoseconds_since_the_epoch(tmp_path):
     with pytest.raises(OptinavError, match="--time-unit ns"):
         read_imu(tmp_path / "t.parquet")
     assert np.array_equal(read_imu(tmp_path / "t.parquet", time_unit="ns").t, ns.astype(float) * 1e-9)
+
+
+def test_field_paths_as_plotjuggler_names_them(tmp_path):
+    # /imu/angular_velocity/x named only 'x' (no triad found) and /imu/orientation/w the gyroscope triad ('w': a
+    # shape error); the axis is now read with its field, in Parquet and in text
+    rng = np.random.default_rng(8)
+    t, acc, gyr = _data(rng, 60)
+    cols = {"__time": t}
+    cols.update({f"/imu/angular_velocity/{a}": gyr[:, j] for j, a in enumerate("xyz")})
+    cols.update({f"/imu/linear_acceleration/{a}": acc[:, j] for j, a in enumerate("xyz")})
+    cols.update({f"/imu/orientation/{a}": np.full(60, 0.5) for a in "wxyz"})
+    pq.write_table(pa.table(cols), tmp_path / "pj.parquet")
+    np.savetxt(
+        tmp_path / "pj.csv", np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments=""
+    )
+    for name in ("pj.parquet", "pj.csv"):
+        log = read_imu(tmp_path / name)
+        assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc), name

@@ -691,7 +691,8 @@ def normalize_name(name: str) -> tuple[str, str | None]:
     """Alias key of a column name and the unit it declares in brackets.
 
     ``"Acc X [m/s^2]"`` → ``("acc_x", "m/s^2")``; ``"imu/gyro"`` → ``("gyro", None)``: lower case, the last
-    path component, spaces, dots and dashes as ``_``.
+    path component (with the one before when it is an axis: ``"/imu/angular_velocity/x"`` →
+    ``"angular_velocity_x"``), spaces, dots and dashes as ``_``.
     """
     s = str(name).strip()
     unit = None
@@ -703,7 +704,12 @@ def normalize_name(name: str) -> tuple[str, str | None]:
         s = f"{ax.group(1)}_{'xyz'[int(ax.group(2))]}"
     elif m and m.group(1):
         s, unit = m.group(1), m.group(2).strip() or None
-    s = s.replace("\\", "/").rstrip("/").split("/")[-1]
+    parts = s.replace("\\", "/").rstrip("/").split("/")
+    s = parts[-1]
+    if len(parts) > 1 and s.lower() in ("x", "y", "z", "w") and parts[-2].strip():
+        # a component of a message field (PlotJuggler: /imu/angular_velocity/x, /imu/orientation/w): alone, x
+        # named nothing and w the gyroscope triad
+        s = f"{parts[-2]}_{s}"
     s = re.sub(r"[\s.\-]+", "_", s.lower()).strip("_")
     return re.sub(r"_+", "_", s), unit
 
