@@ -256,3 +256,26 @@ def test_field_paths_as_plotjuggler_names_them(tmp_path):
     for name in ("pj.parquet", "pj.csv"):
         log = read_imu(tmp_path / name)
         assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc), name
+
+
+def test_ros2_stamp_as_sec_and_nanosec(tmp_path):
+    # a ROS 2 export's stamp in two integer columns (flat, or a header struct): refused as a file without time
+    # ("pass --rate"), which would have thrown the stamps away; now sec + nanosec·1e-9, as a bag's stamp is read
+    rng = np.random.default_rng(9)
+    n = 120
+    ns = 1_700_000_000 * 10**9 + np.cumsum(rng.integers(4_000_000, 6_000_000, n))
+    sec, nsec = ns // 10**9, ns % 10**9
+    _, acc, gyr = _data(rng, n)
+    vec = {
+        f"{q}.{a}": v[:, j]
+        for q, v in (("angular_velocity", gyr), ("linear_acceleration", acc))
+        for j, a in enumerate("xyz")
+    }
+    flat = {"header.stamp.sec": pa.array(sec, pa.int32()), "header.stamp.nanosec": pa.array(nsec, pa.uint32()), **vec}
+    header = pa.array([{"stamp": {"sec": int(s), "nanosec": int(f)}, "frame_id": "imu"} for s, f in zip(sec, nsec)])
+    pq.write_table(pa.table(flat), tmp_path / "flat.parquet", row_group_size=50)
+    pq.write_table(pa.table({"header": header, **vec}), tmp_path / "struct.parquet")
+    for name in ("flat.parquet", "struct.parquet"):
+        log = read_imu(tmp_path / name)
+        assert np.array_equal(log.t, sec + nsec * 1e-9), name
+        assert np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)

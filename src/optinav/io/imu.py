@@ -558,6 +558,33 @@ def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> N
         implied.setdefault(key, "ns")
 
 
+def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> None:
+    """A ROS 2 stamp stored as two integer columns (``header.stamp.sec`` and ``header.stamp.nanosec``, or a struct
+    ``header {stamp {sec, nanosec}}`` flattened) becomes the time, ``sec + nanosec·1e-9`` s as a bag's header
+    stamp is read, when nothing else is the time: the file was refused as one without time (pass --rate)."""
+    if "t" in found or "t" in candidates:
+        return
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    pairs = {
+        k[: -len("_sec")]: (norm[k], norm[k[: -len("sec")] + frac])
+        for k in norm
+        if k.endswith("_sec")
+        for frac in ("nanosec", "nsec")
+        if k[: -len("sec")] + frac in norm
+    }
+    if len(pairs) > 1:
+        pairs = {k: v for k, v in pairs.items() if k.endswith("header_stamp")}
+    if len(pairs) != 1:
+        return
+    sec, frac = next(iter(pairs.values()))
+    if any(table.data[k].dtype.kind != "f" or table.data[k].ndim != 1 for k in (sec, frac)):
+        return
+    name = f"{sec} + {frac}"
+    table.data[name] = table.data[sec] + table.data[frac] * 1e-9
+    candidates["t"] = name
+    implied[name] = "s"
+
+
 def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
     """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
     the file's check of that is the caller's)."""
@@ -586,6 +613,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         if hit[1]:
             implied[key] = hit[1]
     _kalibr_csv(table, found, candidates, implied)
+    _split_stamp(table, found, candidates, implied)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
     # a file holding one samples × 3 matrix named like a triad ("acc", "gyro")
