@@ -1113,6 +1113,18 @@ def test_two_publishers_on_one_ros1_topic(tmp_path, monkeypatch):
         assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
 
 
+def test_log_times_that_repeat_cannot_replace_the_stamps(tmp_path):
+    """Zero stamps and a recorder on a simulated clock (four messages logged at each 10 ms tick): the error was a
+    'duplicate timestamp' in a time column with --columns/--rate as the remedy, neither of which a bag takes."""
+    rng = np.random.default_rng(44)
+    msgs, *_ = imu_topic(rng, n=200, stamps=np.zeros(200, np.int64), t0=0)
+    tick = 1_700_000_000 * 10**9 + 10_000_000 * (np.arange(200) // 4)
+    bag = write_bag(tmp_path / "s", "mcap", {"/imu": (IMU, [(int(tick[i]), m) for i, (_, m) in enumerate(msgs)])})
+    for read in (read_imu, lambda b: _joined_tables(b, 64)):
+        with pytest.raises(OptinavError, match=r"are zero, and the bag's log times cannot replace them: 150 of 200"):
+            read(bag)
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

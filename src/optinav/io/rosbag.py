@@ -898,11 +898,26 @@ def _time_base(
     own = _stamps_ok(stamp)
     if own and ok is not False:
         return stamp
+    fault = _stamp_fault(stamp) if not own else f"fine, but those of {other!r} are not"
+    _log_times_distinct(path, topic, fault, t_log)
     if own:
         _one_clock_warning(path, other, topic, stacklevel=5)
     else:
-        _log_time_warning(path, topic, _stamp_fault(stamp))
+        _log_time_warning(path, topic, fault)
     return t_log * 1e-9
+
+
+def _log_times_distinct(path: Path, topic: str, fault: str, t_log: np.ndarray) -> None:
+    """Refuse log times (ns, in order) that repeat when they are to be the time: the stamps are ``fault``; the
+    error named a time column and --columns/--rate, neither of which a bag takes (a recorder on a simulated
+    clock logs several messages at one tick)."""
+    same = int(np.sum(np.diff(t_log) == 0))
+    if same:
+        raise OptinavError(
+            f"{path.name}: the header stamps of {topic!r} are {fault}, and the bag's log times cannot replace them: "
+            f"{same} of {t_log.size} equal the one before (a recorder on a simulated clock)",
+            "have the driver stamp its messages, or export the topic (values only) and give its rate with --rate",
+        )
 
 
 def _check_mag_overlap(path: Path, imu_topic: str, span: tuple, mag_topic: str, tm: np.ndarray) -> None:
@@ -1022,7 +1037,7 @@ def _decoded(plan: dict, name: str):
 def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     name = plan["imu"]
     # first pass: the time base and the count, and the magnetometer whole (anything unexpected: read whole)
-    total, prev_s, prev_l, stamps_ok, zero, mag = 0, -np.inf, None, True, True, None
+    total, prev_s, prev_l, stamps_ok, zero, mag, same_l = 0, -np.inf, None, True, True, None, False
     first_s = first_l = None
     try:
         for stamp, logt, _ in _decoded(plan, name):
@@ -1034,6 +1049,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
                 raise ValueError("log times out of the storage's order")
             stamps_ok = stamps_ok and bool(stamp[0] > prev_s and np.all(np.diff(stamp) > 0) and np.all(stamp > 0))
             zero = zero and not np.any(stamp)
+            same_l = same_l or (prev_l is not None and logt[0] == prev_l) or bool(np.any(logt[1:] == logt[:-1]))
             prev_s, prev_l = float(stamp[-1]), int(logt[-1])
             total += stamp.size
         if plan["mag"] is not None:  # a few values per Imu message at most
@@ -1048,7 +1064,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         return
     count = plan["topics"][name]["count"]
     # stamps neither fine nor all zero: copies to leave out, and their faults named, need the whole topic
-    if total <= chunk_rows or (plan["count"] and total != count) or not (stamps_ok or zero):
+    if total <= chunk_rows or (plan["count"] and total != count) or not (stamps_ok or zero) or (zero and same_l):
         yield load_bag(path, topic=topic)
         return
     if mag is not None:
