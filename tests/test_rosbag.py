@@ -1125,6 +1125,20 @@ def test_log_times_that_repeat_cannot_replace_the_stamps(tmp_path):
             read(bag)
 
 
+def test_a_bag_under_another_suffix_is_told_its_suffix(tmp_path):
+    """A ROS 1 recording left as X.bag.active (or a bag renamed): the remedy said to export the data to CSV."""
+    rng = np.random.default_rng(45)
+    msgs, t, *_ = imu_topic(rng, n=20)
+    bag = write_bag(tmp_path / "rec", "ros1", {"/imu": (IMU, msgs)})
+    active = bag.rename(tmp_path / "rec.bag.active")
+    with pytest.raises(OptinavError, match=r"a ROS 1 bag.*give it the suffix \.bag \(a \.bag\.active file .*reindex"):
+        read_imu(active)
+    mcap = write_bag(tmp_path / "m", "mcap-file", {"/imu": (IMU, msgs)})
+    with pytest.raises(OptinavError, match=r"an MCAP log.*give it the suffix \.mcap$"):
+        read_imu(mcap.rename(tmp_path / "m.log"))
+    assert np.array_equal(read_imu(active.rename(tmp_path / "rec.bag")).t, t)
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

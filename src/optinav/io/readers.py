@@ -651,6 +651,15 @@ _FOREIGN = (
     (b"\x7fELF", "a program (ELF executable)"),
 )
 
+_EXPORT_REMEDY = "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)"
+#: what to do with a bag under another suffix: it is read under its own (a rosbag recording that did not close
+#: is X.bag.active, without its index)
+_BAG_REMEDY = {
+    b"#ROSBAG": "give it the suffix .bag (a .bag.active file is a recording that did not close: rosbag reindex it)",
+    b"SQLite format 3\x00": f"a ROS 2 bag: give it the suffix .db3; else {_EXPORT_REMEDY}",
+    b"\x89MCAP": "give it the suffix .mcap",
+}
+
 
 def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     """The format from the first bytes before the suffix: binary formats by their magic numbers (MATLAB v7.3
@@ -669,8 +678,7 @@ def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     for magic, what in _FOREIGN:
         if head.startswith(magic):
             raise OptinavError(
-                f"the file is {what}, not a data table optinav reads",
-                "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)",
+                f"the file is {what}, not a data table optinav reads", _BAG_REMEDY.get(magic, _EXPORT_REMEDY)
             )
     if by_suffix in ("npz", "npy", "hdf5", "mat") and b"\x00" not in head:
         try:
