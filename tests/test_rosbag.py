@@ -1000,6 +1000,11 @@ def test_topic_choice(tmp_path):
     csv.write_text("t,ax\n0,1\n1,2\n")
     with pytest.raises(OptinavError, match="applies to ROS bags"):
         read_table(csv, topic="/imu")
+    # read in blocks (calibrate accel, allan) the text file ignored --topic
+    csv.write_text("t,ax,ay,az\n0,0,0,9.8\n0.01,0,0,9.8\n")
+    assert len(list(iter_imu(csv, chunk_rows=1))) == 2
+    with pytest.raises(OptinavError, match="a topic applies to ROS bags, not to x.csv"):
+        list(iter_imu(csv, topic="/imu", chunk_rows=1))
 
 
 def test_no_imu_topic_and_empty_topic(tmp_path):

@@ -390,6 +390,8 @@ class TableChunks:
         self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
         self.needed = needed
         self.kind, self.gz = _file_kind(path)
+        if topic is not None and self.kind != "rosbag":  # as load_table: a text file read in blocks ignored it
+            raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
         self.size = path.stat().st_size
         self.position = 0
 
