@@ -1144,6 +1144,38 @@ def test_a_bag_under_another_suffix_is_told_its_suffix(tmp_path):
     assert np.array_equal(read_imu(active.rename(tmp_path / "rec.bag")).t, t)
 
 
+@pytest.mark.parametrize("kind", ("ros1", "sqlite3", "mcap"))
+def test_values_marked_not_measured_are_not_read(tmp_path, kind):
+    """An accelerometer-only unit publishing sensor_msgs/Imu with angular_velocity_covariance[0] = -1 ('no such
+    data') and zeros as its angular velocity: read as a gyroscope at rest, `optinav attitude` gave an attitude with
+    exit 0. The group is left out (with a warning), whole and in blocks; so is one NaN in every message."""
+    rng = np.random.default_rng(46)
+    msgs, t, gyr, acc = imu_topic(rng, n=200)
+
+    def marked(make, group, fill):
+        def build(ts):
+            msg = make(ts)
+            setattr(msg, f"{group}_covariance", np.r_[-1.0, np.zeros(8)])
+            V = ts.types["geometry_msgs/msg/Vector3"]
+            setattr(msg, group, V(fill, fill, fill))
+            return msg
+
+        return build
+
+    for group, fill in (("angular_velocity", 0.0), ("linear_acceleration", np.nan)):
+        bag = write_bag(
+            tmp_path / f"{group}", kind, {"/imu": (IMU, [(t_ns, marked(m, group, fill)) for t_ns, m in msgs])}
+        )
+        with pytest.warns(UserWarning, match=f"marks its {group.replace('_', ' ')} as not measured"):
+            log = read_imu(bag)
+        with pytest.warns(UserWarning, match="not measured"):
+            blocks = list(iter_imu(bag, chunk_rows=64))
+        for got in (log, blocks[0]):
+            assert (got.gyr is None) == (group == "angular_velocity") and (got.acc is None) != (got.gyr is None)
+        assert np.array_equal(log.t, t) and len(blocks) == 4
+        assert np.array_equal(log.acc, acc) if log.acc is not None else np.array_equal(log.gyr, gyr)
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

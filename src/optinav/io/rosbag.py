@@ -109,6 +109,7 @@ def load_bag(path, *, topic=None, only=None):
                 pass
     (imu_topic, imu), mag = got
     t, t_log, (gyr, acc) = _without_copies(path, imu_topic, *imu)
+    gyr, acc = (None if k in _unmeasured(path, imu_topic, (gyr, acc)) else v for k, v in enumerate((gyr, acc)))
     if mag is None:
         return _bag_table(path, imu_topic, _time_base(path, imu_topic, t, t_log), gyr, acc, None, None, 0)
     mag_topic, mag = mag
@@ -354,7 +355,7 @@ def _sqlite_fused(types, files: list[Path], name: str, msgtype: str):
         return None
     if not n:
         return None
-    return _ordered(dec.stamp[:n], dec.logt[:n], tuple(v[:n] for v in dec.vals))
+    return _ordered(dec.stamp[:n], dec.logt[:n], dec.values(n))
 
 
 def _ordered(stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
@@ -639,7 +640,7 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
     # the storage's record order; rosbags yields log-time order
-    return _ordered(dec.stamp[:done], dec.logt[:done], tuple(v[:done] for v in dec.vals))
+    return _ordered(dec.stamp[:done], dec.logt[:done], dec.values(done))
 
 
 def _whole(reader, path: Path, topic: str, info: dict, dec) -> bool:
@@ -693,7 +694,28 @@ class _Decoder:
     def __init__(self, reader, ros1: bool, msgtype: str, count: int, *, grow: bool = False):
         self.reader, self.ros1, self.msgtype, self.count, self.grow = reader, ros1, msgtype, count, grow
         self.done = 0
+        #: the value groups (0 angular velocity, 1 linear acceleration) the first message marks as not measured
+        self.unmeasured: tuple = ()
         self._alloc(count)
+
+    def _mark(self, first: bytes) -> None:
+        """Note the Imu value groups whose covariance's element 0 is -1 in the message ``first``: no such data
+        (sensor_msgs/Imu's definition; an accelerometer-only unit publishes zeros as its angular velocity)."""
+        if self.msgtype != IMU_TYPE:
+            return
+        try:
+            msg = self.reader.deserialize(first, IMU_TYPE)
+            covs = (msg.angular_velocity_covariance, msg.linear_acceleration_covariance)
+            self.unmeasured = tuple(k for k, c in enumerate(covs) if c[0] == -1)
+        except Exception:  # noqa: BLE001 - the deserializer fails: the main loop reports it
+            pass
+
+    def values(self, n: int) -> tuple:
+        """The first ``n`` rows of each value group (views), those marked not measured NaN."""
+        vals = tuple(v[:n] for v in self.vals)
+        for k in self.unmeasured:
+            vals[k][:] = np.nan
+        return vals
 
     def _alloc(self, count: int) -> None:
         self.count = count
@@ -725,6 +747,7 @@ class _Decoder:
             u8 = np.frombuffer(buf, dtype=np.uint8)
             if layout is None:
                 first = bytes(u8[off[0] : off[0] + size[0]])
+                self._mark(first)
                 layout = _layout(first, self.ros1, self.msgtype)
                 if layout is not None and not _layout_agrees(self.reader, first, layout, self.msgtype):
                     layout = None
@@ -749,6 +772,7 @@ class _Decoder:
         """The layout of the message ``first`` as the compiled gather takes it (itemsize, sec offset, signed sec,
         string length offset, string length, triad offsets a and b; b −1 for one triad), when it is the fixed
         layout and rosbags' deserializer reads the same values from it; else None."""
+        self._mark(first)
         layout = _layout(first, self.ros1, self.msgtype)
         if layout is None or not _layout_agrees(self.reader, first, layout, self.msgtype):
             return None
@@ -887,6 +911,24 @@ def _without_copies(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray,
         stacklevel=3,
     )
     return stamp[keep], logt[keep], tuple(v[keep] for v in vals)
+
+
+def _unmeasured(path: Path, topic: str, vals: tuple, finite=None) -> set:
+    """The Imu value groups (0 angular velocity, 1 linear acceleration) NaN in every message of ``topic`` — not
+    measured (covariance element 0 at -1, see :meth:`_Decoder.values`, or NaN published), so not read: an
+    accelerometer-only unit's zero angular velocity was read as a gyroscope at rest (attitude with exit 0).
+    ``finite``: whether each group has a number anywhere, when the values come in blocks. Warns for each."""
+    if finite is None:
+        finite = [bool(v.size and not np.all(np.isnan(v))) for v in vals]
+    out = {k for k, ok in enumerate(finite) if not ok}
+    for k in sorted(out):
+        what = ("angular velocity", "gyroscope") if k == 0 else ("linear acceleration", "accelerometer")
+        warnings.warn(
+            f"{path.name}: {topic!r} marks its {what[0]} as not measured (covariance element 0 = -1, or NaN in every "
+            f"message): read without {what[1]} data",
+            stacklevel=3,
+        )
+    return out
 
 
 def _time_base(
@@ -1031,7 +1073,7 @@ def _decoded(plan: dict, name: str):
     dec = _Decoder(plan["types"], plan["ros1"], plan["topics"][name]["type"], _BLOCK, grow=True)
     for block in plan["blocks"](name):
         n = dec.run([block], strict=False)
-        yield dec.stamp[:n], dec.logt[:n], tuple(v[:n] for v in dec.vals)
+        yield dec.stamp[:n], dec.logt[:n], dec.values(n)
 
 
 def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
@@ -1040,9 +1082,11 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     total, prev_s, prev_l, stamps_ok, zero, mag, same_l = 0, -np.inf, None, True, True, None, False
     first_s = first_l = None
     try:
-        for stamp, logt, _ in _decoded(plan, name):
+        finite = [False, False]
+        for stamp, logt, vals in _decoded(plan, name):
             if not stamp.size:
                 continue
+            finite = [f or not np.all(np.isnan(v)) for f, v in zip(finite, vals)]
             if first_s is None:
                 first_s, first_l = float(stamp[0]), int(logt[0])
             if (prev_l is not None and logt[0] < prev_l) or np.any(logt[1:] < logt[:-1]):
@@ -1067,6 +1111,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
     if total <= chunk_rows or (plan["count"] and total != count) or not (stamps_ok or zero) or (zero and same_l):
         yield load_bag(path, topic=topic)
         return
+    drop = _unmeasured(path, name, (), finite)
     if mag is not None:
         stamp, logt, (b,) = _without_copies(path, plan["mag"], mag[0], mag[1], (mag[2],))
         mag = stamp, logt, b
@@ -1081,15 +1126,16 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         span = (first_s, prev_s) if stamps_ok else (first_l * 1e-9, prev_l * 1e-9)
         _check_mag_overlap(path, name, span, plan["mag"], mag[0])
     try:  # second pass (the first read the same blocks: an error here is the storage changing under it)
-        yield from _tables(path, plan, chunk_rows, progress, total, stamps_ok, mag)
+        yield from _tables(path, plan, chunk_rows, progress, total, stamps_ok, mag, drop)
     except OptinavError:
         raise
     except Exception as exc:  # noqa: BLE001
         raise OptinavError(f"{path.name} is not a readable ROS bag ({_why(exc)})", "read it again") from None
 
 
-def _tables(path: Path, plan: dict, chunk_rows: int, progress, total: int, stamps_ok: bool, mag):
-    """The second pass of :func:`iter_bag`: the tables of ``chunk_rows`` messages."""
+def _tables(path: Path, plan: dict, chunk_rows: int, progress, total: int, stamps_ok: bool, mag, drop: set):
+    """The second pass of :func:`iter_bag`: the tables of ``chunk_rows`` messages (without the value groups
+    ``drop``, see :func:`_unmeasured`)."""
     name = plan["imu"]
     held, have, done = [], 0, 0
     for stamp, logt, (gyr, acc) in _decoded(plan, name):
@@ -1103,23 +1149,25 @@ def _tables(path: Path, plan: dict, chunk_rows: int, progress, total: int, stamp
             done += k
             if progress is not None:
                 progress(done / total)
-            yield _bag_table(path, name, t[:k], g[:k], a[:k], plan["mag"], mag, done - k)
+            g, a = (None if j in drop else v[:k] for j, v in enumerate((g, a)))
+            yield _bag_table(path, name, t[:k], g, a, plan["mag"], mag, done - k)
     if done != total:  # the storage changed between the passes
         raise OptinavError(f"{path.name} changed while it was read ({done} of {total} messages)", "read it again")
 
 
 def _bag_table(path: Path, topic: str, t, gyr, acc, mag_topic, mag, row0: int):
-    """The :func:`load_bag` table of the messages ``t``, ``gyr``, ``acc`` ((n, 3) each: the columns are their
-    views, which read_imu takes back whole), from row ``row0``; ``mag``: the whole (stamps, values) of the
-    MagneticField topic, interpolated onto ``t``."""
+    """The :func:`load_bag` table of the messages ``t``, ``gyr``, ``acc`` ((n, 3) each, or None: not measured;
+    the columns are their views, which read_imu takes back whole), from row ``row0``; ``mag``: the whole (stamps,
+    values) of the MagneticField topic, interpolated onto ``t``."""
     from optinav.io.readers import Table
 
     table = Table(path=path, kind="rosbag", data={"t": t}, row0=row0)
-    for j, a in enumerate("xyz"):
-        table.data[f"a{a}"] = acc[:, j]
-    for j, a in enumerate("xyz"):
-        table.data[f"g{a}"] = gyr[:, j]
-    table.units.update({"t": "s", **{f"a{a}": "m/s^2" for a in "xyz"}, **{f"g{a}": "rad/s" for a in "xyz"}})
+    for tri, p, unit in ((acc, "a", "m/s^2"), (gyr, "g", "rad/s")):
+        if tri is not None:
+            for j, a in enumerate("xyz"):
+                table.data[f"{p}{a}"] = tri[:, j]
+                table.units[f"{p}{a}"] = unit
+    table.units["t"] = "s"
     table.meta.update({"topic": topic, "frame": "sensor_msgs/Imu"})
     if mag is not None:
         for j, a in enumerate("xyz"):
