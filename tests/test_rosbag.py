@@ -1176,6 +1176,22 @@ def test_values_marked_not_measured_are_not_read(tmp_path, kind):
         assert np.array_equal(log.acc, acc) if log.acc is not None else np.array_equal(log.gyr, gyr)
 
 
+@pytest.mark.parametrize("kind", ("ros1", "sqlite3", "mcap"))
+def test_an_empty_magnetometer_topic_nobody_named(tmp_path, kind):
+    """A magnetometer advertised but never published: the bag could not be read at all, even with --topic /imu
+    ("topic '/mag' holds no messages; pass a topic with messages"). The Imu topic alone now; named, it is refused."""
+    rng = np.random.default_rng(47)
+    msgs, t, gyr, acc = imu_topic(rng, n=100)
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/mag": (MAG, [])})
+    for topic in (None, "/imu"):
+        tab = read_table(bag, topic=topic)
+        assert "mx" not in tab and np.array_equal(tab["t"], t) and np.array_equal(tab["gz"], gyr[:, 2])
+        _, joined = _joined_tables(bag, 16, topic=topic)
+        assert "mx" not in joined and np.array_equal(joined["ax"], acc[:, 0])
+    with pytest.raises(OptinavError, match="topic '/mag' of b.* holds no messages"):
+        read_table(bag, topic="/imu,/mag")
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

@@ -309,7 +309,7 @@ def _sqlite_quick(path: Path, wanted: list[str]):
     types, topics, chosen = got
     try:
         out = []
-        for name in chosen:
+        for j, name in enumerate(chosen):
             if name is None:
                 out.append(None)
                 continue
@@ -327,6 +327,9 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             size = sum(f.stat().st_size for f in files)
             topics[name]["count"] = min(sum(rows), size // _MIN_MSG_BYTES) if any(first) else 0
             topics[name]["grow"] = True
+            if j == 1 and len(wanted) < 2 and topics[name]["count"] == 0:
+                out.append(None)  # the MagneticField topic picked, not named, is empty: the Imu topic alone
+                continue
             _require_messages(path, name, topics[name]["count"])
             out.append((name, _read_topic(types, path, name, topics[name], blocks=blocks)))
         return tuple(out)
@@ -495,7 +498,8 @@ def _listing(topics: dict) -> str:
 
 
 def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | None]:
-    """The Imu topic and the MagneticField topic (or None) to read."""
+    """The Imu topic and the MagneticField topic (or None) to read: the one named, else the bag's only one when
+    it is not known to be empty (it was an error naming that topic, even with the Imu topic named)."""
     for name in wanted:
         if name not in topics:
             raise OptinavError(
@@ -513,6 +517,7 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
                 "pass an Imu topic first with --topic (a MagneticField topic may follow: /imu,/mag)",
             )
         mag_topic = wanted[1] if len(wanted) == 2 else (mag[0] if len(mag) == 1 else None)
+        mag_topic = None if len(wanted) < 2 and mag_topic and topics[mag_topic]["count"] == 0 else mag_topic
         if len(wanted) == 2 and topics[mag_topic]["type"] != MAG_TYPE:
             raise OptinavError(
                 f"topic {mag_topic!r} of {path.name} holds {topics[mag_topic]['type']}, not {MAG_TYPE}",
@@ -526,7 +531,8 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
                 "pick one with --topic TOPIC" if imu else "record the IMU as sensor_msgs/Imu",
             )
         imu_topic = imu[0]
-        mag_topic = mag[0] if len(mag) == 1 else None
+        # the only MagneticField topic, when it has messages (an advertised magnetometer that never published)
+        mag_topic = mag[0] if len(mag) == 1 and topics[mag[0]]["count"] != 0 else None
     for name in (imu_topic, mag_topic):
         if name is not None:
             _require_messages(path, name, topics[name]["count"])
