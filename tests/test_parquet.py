@@ -279,3 +279,23 @@ def test_ros2_stamp_as_sec_and_nanosec(tmp_path):
         log = read_imu(tmp_path / name)
         assert np.array_equal(log.t, sec + nsec * 1e-9), name
         assert np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)
+
+
+@pytest.mark.parametrize("fixed", [True, False])
+def test_a_null_list_is_a_missing_sample(tmp_path, fixed):
+    # one null row in the gyroscope's list column left the whole column out with no word (read_imu: no gyroscope)
+    rng = np.random.default_rng(10)
+    t, acc, gyr = _data(rng, 80)
+    typ = pa.list_(pa.float64(), 3) if fixed else pa.list_(pa.float64())
+    rows = gyr.tolist()
+    rows[7] = rows[40] = None
+    tab = pa.table({"t": t, "gyro": pa.array(rows, typ), "acc": pa.array(acc.tolist(), typ)})
+    pq.write_table(tab, tmp_path / "n.parquet", row_group_size=30)
+    expect = gyr.copy()
+    expect[[7, 40]] = np.nan
+    log = read_imu(tmp_path / "n.parquet")
+    assert np.array_equal(log.gyr, expect, equal_nan=True) and np.array_equal(log.acc, acc) and log.nan_rows == 2
+    from optinav.io import iter_imu
+
+    blocks = list(iter_imu(tmp_path / "n.parquet", chunk_rows=25))
+    assert np.array_equal(np.concatenate([b.gyr for b in blocks]), expect, equal_nan=True)

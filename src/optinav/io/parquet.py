@@ -181,19 +181,21 @@ def _column(table, name: str, fld, col, pa, add) -> None:
             table.skipped[name] = f"list of {value_type}"
             return
         arr = col.combine_chunks() if col.num_chunks != 1 else col.chunk(0)
+        # a null list is a missing sample: a row of NaN (the column was left out whole, with no word: a gyroscope
+        # with one null row read as no gyroscope)
+        valid = arr.is_valid().to_numpy(zero_copy_only=False)
+        held = arr.filter(pa.array(valid)) if arr.null_count else arr
         if pa.types.is_fixed_size_list(t):
             width = t.list_size
         else:
-            lengths = pc.list_value_length(arr).to_numpy(zero_copy_only=False)
-            if arr.null_count or lengths.size == 0 or np.any(lengths != lengths[0]):
-                table.skipped[name] = "lists of varying length"
+            lengths = pc.list_value_length(held).to_numpy(zero_copy_only=False)
+            if lengths.size == 0 or np.any(lengths != lengths[0]):
+                table.skipped[name] = "lists of varying length" if lengths.size else "null lists"
                 return
             width = int(lengths[0])
-        if arr.null_count:
-            table.skipped[name] = "null lists"
-            return
-        flat = pc.list_flatten(arr).to_numpy(zero_copy_only=False).astype(float)
-        table.data[name] = flat.reshape(len(arr), width) if width > 1 else flat
+        out = np.full((len(arr), width), np.nan)
+        out[valid] = pc.list_flatten(held).to_numpy(zero_copy_only=False).astype(float).reshape(-1, width)
+        table.data[name] = out if width > 1 else out[:, 0]
         if unit:
             table.units[name] = unit
         return
