@@ -299,3 +299,17 @@ def test_a_null_list_is_a_missing_sample(tmp_path, fixed):
 
     blocks = list(iter_imu(tmp_path / "n.parquet", chunk_rows=25))
     assert np.array_equal(np.concatenate([b.gyr for b in blocks]), expect, equal_nan=True)
+
+
+def test_an_unreadable_triad_column_is_named(tmp_path):
+    # a gyroscope list column of varying length was left out as unreadable with no word: read without a gyroscope
+    rng = np.random.default_rng(11)
+    t, acc, gyr = _data(rng, 40)
+    rows = gyr.tolist()
+    rows[7] = rows[7][:2]
+    tab = pa.table({"t": t, "gyro": pa.array(rows, pa.list_(pa.float64())), "acc": pa.array(acc.tolist())})
+    pq.write_table(tab, tmp_path / "v.parquet")
+    with pytest.raises(OptinavError, match="'gyro' looks like the gyroscope but cannot be read .lists of varying"):
+        read_imu(tmp_path / "v.parquet")
+    log = read_imu(tmp_path / "v.parquet", columns="t,_,acc")
+    assert log.gyr is None and np.array_equal(log.acc, acc)

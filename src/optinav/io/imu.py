@@ -585,6 +585,21 @@ def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> 
     implied[name] = "s"
 
 
+def _unreadable_triad(table: Table, found: dict) -> None:
+    """Refuse a file whose accelerometer or gyroscope is only in a column the reader left out as unreadable (a
+    Parquet list column of varying length, an HDF5 dataset of three dimensions): the log was read without that
+    sensor and with no word."""
+    for key, why in table.skipped.items():
+        hit = ALIASES.get(normalize_name(key)[0])
+        kind = next((k for k, comps in _COMPONENTS.items() if hit and hit[0] in (k, *comps)), None)
+        if kind is not None and kind not in found and not any(c in found for c in _COMPONENTS[kind]):
+            raise OptinavError(
+                f"{table.path.name}: {key!r} looks like the {'accelerometer' if kind == 'acc' else 'gyroscope'} "
+                f"but cannot be read ({why})",
+                "store it as one row of 3 numbers per sample, or leave it out with '_' in --columns",
+            )
+
+
 def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
     """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
     the file's check of that is the caller's)."""
@@ -616,6 +631,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     _split_stamp(table, found, candidates, implied)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
+    _unreadable_triad(table, found)
     # a file holding one samples × 3 matrix named like a triad ("acc", "gyro")
     if table.table is not None and not (set(found) & {"acc", "gyro", "ax", "gx"}):
         hit = ALIASES.get(normalize_name(table.table)[0])
