@@ -740,3 +740,19 @@ def test_a_time_column_in_another_unit_than_seconds_is_refused_unless_stated(tmp
     assert read_imu(khz4, time_unit="ms").t[1] == 0.25e-3
     with pytest.raises(OptinavError, match=r"in its stated unit: a 1e\+08 Hz IMU log; pass the right --time-unit"):
         read_imu(_write(tmp_path / "s.csv", "t,ax,ay,az\n" + body.format(*(np.arange(n) / 100))), time_unit="us")
+
+
+def test_a_unit_implied_by_a_name_yields_to_the_option(tmp_path):
+    # header.stamp implies ns (rostopic echo -p); one in s was refused with "pass the right --time-unit", and
+    # --time-unit s then with "column 'header.stamp' declares ns": no way to read it
+    t = 1_700_000_000 + np.arange(40) * 0.005
+    rows = "".join(f"{float(x)!r},0,0,9.81,0.1,0,0\n" for x in t)
+    path = tmp_path / "s.csv"
+    path.write_text("header.stamp,ax,ay,az,gx,gy,gz\n" + rows)
+    with pytest.raises(OptinavError, match="pass the right --time-unit"):
+        read_imu(path)
+    assert np.array_equal(read_imu(path, time_unit="s").t, t)
+    # a unit the file states still contradicts the option
+    path.write_text("header.stamp [ns],ax,ay,az,gx,gy,gz\n" + rows)
+    with pytest.raises(OptinavError, match="declares ns but time_unit='s' was passed"):
+        read_imu(path, time_unit="s")

@@ -404,6 +404,8 @@ class _Part:
     labels: np.ndarray | None = None
     sample: np.ndarray | None = None
     declared: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
+    #: units a column's name implies (``header.stamp``: ns), which an option overrides: source → unit, by kind
+    implied: dict = field(default_factory=lambda: {"acc": {}, "gyro": {}, "time": {}})
     srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
     used: set = field(default_factory=set)  # the names of every array taken
     finite: set = field(default_factory=set)  # the kinds whose every value is known to be finite
@@ -420,9 +422,12 @@ def _canonical(kind: str, unit: str, option: str) -> str:
 
 
 def _resolve_unit(kind: str, given: str | None, part: _Part, option: str, default: str) -> str:
-    """The unit of one quantity: the option, else what the file declares, else ``default``; conflicts are errors."""
+    """The unit of one quantity: the option, else what the file declares, else what a column's name implies (the
+    option overrides that: ``header.stamp`` in s was refused against --time-unit s), else ``default``; conflicts
+    are errors."""
     declared = {}
-    for src, unit in part.declared[kind].items():
+    stated = part.declared[kind] if given is not None or part.declared[kind] else part.implied[kind]
+    for src, unit in stated.items():
         try:
             declared[src] = _canonical(kind, unit, option)
         except OptinavError:
@@ -703,9 +708,11 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             part.declared[kind]["the file's unit record"] = table.meta[f"{kind}_unit"]
     if "t" in found:
         part.t_name, part.t = found["t"]
-        unit = table.units.get(part.t_name) or normalize_name(part.t_name)[1] or implied.get(part.t_name)
+        unit = table.units.get(part.t_name) or normalize_name(part.t_name)[1]
         if unit:
             part.declared["time"][f"column {part.t_name!r}"] = unit
+        elif implied.get(part.t_name):
+            part.implied["time"][f"column {part.t_name!r}"] = implied[part.t_name]
     if "time_unit" in table.meta:
         part.declared["time"]["the file's unit record"] = table.meta["time_unit"]
     if "label" in found:
@@ -926,7 +933,7 @@ def _log_of(
         what = f"time column {p.t_name!r} of {p.path.name}"
         if prev_t is None:
             t = check_timestamps(t, what, min_count=1 if block else 2, duplicate_remedy=COARSE_TIME_REMEDY)
-            _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"])
+            _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"] and not p.implied["time"])
         else:
             check_timestamps(
                 np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1, duplicate_remedy=COARSE_TIME_REMEDY
