@@ -275,7 +275,10 @@ def test_ros2_stamp_as_sec_and_nanosec(tmp_path):
     header = pa.array([{"stamp": {"sec": int(s), "nanosec": int(f)}, "frame_id": "imu"} for s, f in zip(sec, nsec)])
     pq.write_table(pa.table(flat), tmp_path / "flat.parquet", row_group_size=50)
     pq.write_table(pa.table({"header": header, **vec}), tmp_path / "struct.parquet")
-    for name in ("flat.parquet", "struct.parquet"):
+    # bare sec and nanosec: 'sec' alone was the time, whole seconds (a duplicate-timestamp error)
+    bare = {"sec": pa.array(sec, pa.int32()), "nanosec": pa.array(nsec, pa.uint32()), **vec}
+    pq.write_table(pa.table(bare), tmp_path / "bare.parquet")
+    for name in ("flat.parquet", "struct.parquet", "bare.parquet"):
         log = read_imu(tmp_path / name)
         assert np.array_equal(log.t, sec + nsec * 1e-9), name
         assert np.array_equal(log.acc, acc) and np.array_equal(log.gyr, gyr)

@@ -564,24 +564,25 @@ def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> N
 
 
 def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> None:
-    """A ROS 2 stamp stored as two integer columns (``header.stamp.sec`` and ``header.stamp.nanosec``, or a struct
-    ``header {stamp {sec, nanosec}}`` flattened) becomes the time, ``sec + nanosec·1e-9`` s as a bag's header
-    stamp is read, when nothing else is the time: the file was refused as one without time (pass --rate)."""
-    if "t" in found or "t" in candidates:
-        return
+    """A ROS 2 stamp stored as two integer columns (``header.stamp.sec`` and ``header.stamp.nanosec``, a struct
+    ``header {stamp {sec, nanosec}}`` flattened, or bare ``sec`` and ``nanosec``) becomes the time, ``sec +
+    nanosec·1e-9`` s as a bag's header stamp is read, when nothing else is the time (the file was refused as one
+    without time, pass --rate) or the time is that ``sec`` (whole seconds: duplicate timestamps)."""
     norm = {normalize_name(k)[0]: k for k in table.data}
     pairs = {
-        k[: -len("_sec")]: (norm[k], norm[k[: -len("sec")] + frac])
+        k[: -len("sec")]: (norm[k], norm[k[: -len("sec")] + frac])
         for k in norm
-        if k.endswith("_sec")
+        if k == "sec" or k.endswith("_sec")
         for frac in ("nanosec", "nsec")
         if k[: -len("sec")] + frac in norm
     }
     if len(pairs) > 1:
-        pairs = {k: v for k, v in pairs.items() if k.endswith("header_stamp")}
-    if len(pairs) != 1:
+        pairs = {k: v for k, v in pairs.items() if k.endswith("header_stamp_")}
+    if len(pairs) != 1 or "t" in found:
         return
     sec, frac = next(iter(pairs.values()))
+    if candidates.get("t", sec) != sec:  # another time column
+        return
     if any(table.data[k].dtype.kind != "f" or table.data[k].ndim != 1 for k in (sec, frac)):
         return
     name = f"{sec} + {frac}"
