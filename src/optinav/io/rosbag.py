@@ -588,13 +588,15 @@ def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
 def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
     msg = reader.deserialize(raw, msgtype)
     st = msg.header.stamp
+    # ROS 1 time is uint32 seconds; rosbags' deserializer gives int32 (stamps after 2038-01-19 were negative)
+    sec = st.sec % 2**32 if not getattr(reader, "is2", True) else st.sec
     if msgtype == IMU_TYPE:
         w, f = msg.angular_velocity, msg.linear_acceleration
         v = [w.x, w.y, w.z, f.x, f.y, f.z]
     else:
         b = msg.magnetic_field
         v = [b.x, b.y, b.z]
-    return st.sec + st.nanosec * 1e-9, np.asarray(v, dtype=float)
+    return sec + st.nanosec * 1e-9, np.asarray(v, dtype=float)
 
 
 def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
