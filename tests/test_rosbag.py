@@ -1213,6 +1213,52 @@ def test_ros1_stamps_after_2038(tmp_path, monkeypatch):
     assert np.array_equal(read_imu(bag).t, t + t0)
 
 
+def test_batch_takes_a_ros2_bag_folder_as_one_unit(tmp_path):
+    """`optinav batch` over a folder of recordings left ROS 2 bag folders out with no word (1 of 3 units, exit 0):
+    a folder with metadata.yaml is one unit, identified for resume by its files' size and newest mtime."""
+    import os
+
+    from optinav.batch import find_units
+
+    rng = np.random.default_rng(49)
+    msgs, *_ = imu_topic(rng, n=50)
+    d = tmp_path / "units"
+    d.mkdir()
+    write_bag(d / "a", "ros1", {"/imu": (IMU, msgs)})
+    for kind in ("sqlite3", "mcap"):
+        write_bag(d / kind, kind, {"/imu": (IMU, msgs)})
+    (d / "notes").mkdir()
+    units = find_units(d)
+    assert [(u.name, u.path.name) for u in units] == [("a", "a.bag"), ("mcap", "mcap"), ("sqlite3", "sqlite3")]
+    files = list((d / "mcap").iterdir())
+    assert units[1].size == sum(f.stat().st_size for f in files)
+    before = units[1].mtime_ns
+    os.utime(files[0], ns=(before + 10**9, before + 10**9))
+    assert find_units(d)[1].mtime_ns == before + 10**9
+
+
+def test_allan_kalibr_rostopic_is_the_bags_topic(tmp_path):
+    """`optinav allan BAG --kalibr` wrote the placeholder rostopic /imu0 (with a note) though the bag names its
+    topic: Kalibr then looks for a topic the bag does not hold. The bag's Imu topic now; --rostopic still wins."""
+    rng = np.random.default_rng(50)
+    n = 3000
+    ns = np.arange(n, dtype=np.int64) * 10_000_000
+    gyr, acc = rng.normal(0, 1e-3, (n, 3)), rng.normal(0, 1e-2, (n, 3)) + [0, 0, 9.81]
+    msgs = [
+        (
+            int(1_700_000_000 * 10**9 + ns[i]),
+            lambda ts, i=i: imu_msg(ts, 1_700_000_000 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i]),
+        )
+        for i in range(n)
+    ]
+    bag = write_bag(tmp_path / "s", "ros1", {"/imu_raw": (IMU, msgs)})
+    for extra, topic in (([], "/imu_raw"), (["--rostopic", "/cam0/imu"], "/cam0/imu")):
+        yaml = tmp_path / f"imu{len(extra)}.yaml"
+        argv = ["--quiet", "allan", str(bag), "--out", str(tmp_path / f"a{len(extra)}.json"), "--kalibr", str(yaml)]
+        assert main(argv + extra) == 0
+        assert f"rostopic: {topic}\n" in yaml.read_text()
+
+
 def test_stamp_faults_are_named(tmp_path):
     """A first stamp of zero (simulated time starting at 0) or negative stamps were called 'not strictly
     increasing', which they were not."""

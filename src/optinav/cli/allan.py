@@ -58,7 +58,11 @@ def register(sub) -> None:
         metavar="IMU.yaml",
         help="also write Kalibr's imu.yaml noise parameters (needs SI data with both triads)",
     )
-    p.add_argument("--rostopic", metavar="TOPIC", help="the IMU topic written into --kalibr (e.g. /imu0)")
+    p.add_argument(
+        "--rostopic",
+        metavar="TOPIC",
+        help="the IMU topic written into --kalibr (default: a bag's Imu topic, else /imu0)",
+    )
     add_input_options(p)
     add_chunk_option(
         p, "the angle sums are kept: 8 B per sample and axis (48 B with both triads; 0.5 GB per hour at 1 kHz)"
@@ -99,6 +103,8 @@ def run(args) -> int:
         rostopic=args.rostopic or "",
         need_kalibr=kalibr is not None,
     )
+    # the Kalibr rostopic: --rostopic, else a bag's Imu topic (not a placeholder)
+    res.rostopic = res.rostopic or (blocks.table.meta.get("topic", "") if blocks.table is not None else "")
     step("write")
     res.to_json(out)
     notes.print()
