@@ -249,6 +249,10 @@ def from_imucal(K, R, b, *, K_ga=None, sensor: str | None = None, acc_unit: str 
     return M / _unit_factor(gyr_unit), b.copy(), Ga / _unit_factor(acc_unit)
 
 
+#: optinav's raw unit → imucal's name of it (its examples and snapshots call raw counts "a.u.")
+IMUCAL_RAW = {"counts": "a.u."}
+
+
 @dataclass(eq=False)
 class ImucalCalibration:
     """An imucal ``FerrarisCalibrationInfo`` (fields named as imucal's; units module docstring)."""
@@ -314,7 +318,9 @@ class ImucalCalibration:
         acc_unit: str = "m/s^2",
         gyr_unit: str = "deg/s",
     ) -> "ImucalCalibration":
-        """From optinav's (K, b) of both triads and the gyro g-sensitivity G (raw gyro per m/s²)."""
+        """From optinav's (K, b) of both triads and the gyro g-sensitivity G (raw gyro per m/s²); a raw unit of
+        counts is written as imucal writes raw data's, "a.u." (imucal compares the unit string its caller gives)."""
+        from_acc_unit, from_gyr_unit = (IMUCAL_RAW.get(u, u) for u in (from_acc_unit, from_gyr_unit))
         a = to_imucal(acc_K, acc_b, sensor="accel", acc_unit=acc_unit)
         g = to_imucal(gyr_K, gyr_b, G=gyr_G, sensor="gyro", acc_unit=acc_unit, gyr_unit=gyr_unit)
         return cls(
