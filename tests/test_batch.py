@@ -334,16 +334,16 @@ def test_unit_rule(tmp_path):
 
 def test_notes_beside_the_recordings_are_skipped_not_failed(tmp_path):
     """A README.txt or LICENSE.txt beside the recordings (the BROAD folder here holds both) was a unit that failed
-    as a ragged table, so the batch ended with exit 1. A .txt/.log without a line of two or more numbers in its
-    head is now skipped and named; a log of numbers under a text header, or with only a header line of text
-    before its rows, stays a unit."""
+    as a ragged table, so the batch ended with exit 1. A .txt/.log without a line of numbers only in its head is
+    now skipped and named; a log of numbers under a text header, and a one-column log, stay units."""
     (tmp_path / "README.txt").write_text("Trial notes\nrecorded 2021-03-04, sensor 2, 100 Hz\n\n- left: ok\n")
     (tmp_path / "run.log").write_text("start 12:00\nstop 12:30\n")
     (tmp_path / "imu.txt").write_text("# my logger\ntime acc_x acc_y\n0.00 0.1 9.8\n0.01 0.2 9.7\n")
     (tmp_path / "imu2.log").write_text("t,ax,ay,az\n0,0,0,9.8\n")
+    (tmp_path / "one.txt").write_text("1.5\n2.5\n")
     skipped: list = []
     units = find_units(tmp_path, skipped=skipped)
-    assert [u.path.name for u in units] == ["imu.txt", "imu2.log"]
+    assert [u.path.name for u in units] == ["imu.txt", "imu2.log", "one.txt"]
     assert sorted(name for name, _ in skipped) == ["README.txt", "run.log"]
     assert all("without a row of numbers" in why for _, why in skipped)
 

@@ -4,7 +4,7 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
 ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading "."), the batch's own output/journal, any results table an
-earlier batch wrote there and .txt/.log notes without a row of numbers are skipped
+earlier batch wrote there and .txt/.log notes without a line of numbers are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
@@ -222,8 +222,8 @@ PROSE_BYTES = 65536
 
 
 def _is_prose(p: Path) -> bool:
-    """Whether text file ``p`` has no line of at least two numbers (comma, semicolon, tab or space separated) in
-    its first :data:`PROSE_BYTES`; an unreadable file is left to the reader's own error."""
+    """Whether text file ``p`` has no line of numbers only (comma, semicolon, tab or space separated; one column
+    counts) in its first :data:`PROSE_BYTES`; an unreadable file is left to the reader's own error."""
     try:
         with open(p, "rb") as f:
             head = f.read(PROSE_BYTES).decode("utf-8", "replace")
@@ -231,7 +231,7 @@ def _is_prose(p: Path) -> bool:
         return False
     for line in head.splitlines():
         fields = [x for x in re.split(r"[,;\t ]+", line.strip()) if x]
-        if len(fields) >= 2 and all(_number(x) for x in fields):
+        if fields and all(_number(x) for x in fields):
             return False
     return True
 
