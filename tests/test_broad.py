@@ -791,6 +791,50 @@ def test_a_time_column_in_ticks_or_an_epoch_read_in_the_wrong_unit_is_named():
         check_imu(tr.gyr, tr.acc, np.array([tr.dt * 1e9]))
 
 
+@pytest.mark.parametrize(
+    ("name", "every"),
+    [
+        ("07_undisturbed_fast_rotation_B", 5),
+        ("07_undisturbed_fast_rotation_B", 10),
+        ("16_undisturbed_fast_translation_B", 5),
+    ],
+)
+def test_a_time_unit_1000_times_too_small_at_a_low_rate_is_named(name, every):
+    """BROAD decimated to 57 or 29 Hz with its time column in ms declared µs (or µs as ns): 183 s read as 0.18 s,
+    too short for the 2-s means, and the 1-s bins of fast motion do not correlate; it ran with exit 0 at 35°
+    inclination RMSE. The steps 1000× further apart are judged too; the message names the rate the data fit."""
+    from optinav.attitude.checks import check_imu
+
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    g, a, h = tr.gyr[::every], tr.acc[::every], tr.dt * every
+    with pytest.raises(Exception, match="×0.001 as far") as exc:
+        check_imu(g, a, np.array([h / 1000]))
+    fit = float(exc.value.remedy.split("the data fit ")[1].split(" Hz")[0])
+    assert abs(fit * h - 1) < 0.01 and "--time-unit" in exc.value.remedy
+    check_imu(g, a, np.array([h]))
+
+
+def test_short_correct_logs_at_high_rates_are_not_taken_for_a_time_unit_slip():
+    """The slip check judges logs under 6 s at 500 Hz and more: correct ones (simulated flights, BROAD cuts
+    resampled to 1 kHz) pass."""
+    from optinav.attitude.checks import check_imu
+    from optinav.attitude.simulate import simulate
+
+    for rate, seconds, seed in ((500.0, 5.5, 0), (1000.0, 3.0, 1), (2000.0, 5.5, 2)):
+        f = simulate("dynamic", duration_s=seconds, rate_hz=rate, rng=seed)
+        check_imu(f.gyr, f.acc, np.array([1.0 / rate]))
+    tr = load_broad(PATH)
+    t = np.arange(len(tr.gyr)) * tr.dt
+    for start in (45.0, 100.0, 130.0):
+        tt = np.arange(start, start + 5.5, 1e-3)
+        g = np.column_stack([np.interp(tt, t, tr.gyr[:, j]) for j in range(3)])
+        a = np.column_stack([np.interp(tt, t, tr.acc[:, j]) for j in range(3)])
+        check_imu(g, a, np.array([1e-3]))
+
+
 @pytest.mark.parametrize("rate", [100.0, 200.0, 400.0, 1000.0])
 def test_a_wrong_rate_on_fast_translation_is_named_from_the_whole_log(rate):
     """BROAD 16 (fast translation at 285.7 Hz) with --rate 100, 400 or 1000 ran with exit 0 at 66, 13 and 28°, and

@@ -380,7 +380,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
     if k * float(np.median(d)) < UNIT_MIN_S:
         # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused); only a
         # gyro far too slow for the turns gravity makes is named (time in 100-µs ticks read as µs: exit 0, helper)
-        return None if units_only else _short_time_hint(g, a, d)
+        return None if units_only else (_slip_hint(g, a, d) or _short_time_hint(g, a, d))
     if steady >= 0.9:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
         # with the heading) as much as a still body with a small bias: how gravity turns cannot tell the unit
@@ -599,6 +599,27 @@ def _short_time_hint(g, a, d) -> UnitHint | None:
         rate_hz=1.0 / (s0 * float(np.median(d))),
         rough=True,
     )
+
+
+#: the slip of a time unit by a power of 1000 (ms read as µs, µs as ns) tried on a log too short as declared for the
+#: 2-s means: BROAD 07 at 57 Hz with its ms time column declared µs (183 s read as 0.18 s) ran with exit 0 at 35°
+TIME_SLIP = 1000.0
+
+
+def _slip_hint(g, a, d) -> UnitHint | None:
+    """The "time" hint of a log too short as declared for the 2-s means whose samples, :data:`TIME_SLIP` times
+    further apart, would span :data:`UNIT_MIN_S` at an IMU's rate: where the gyro explains how gravity turns with
+    those steps (2-s means, a constant bias allowed) within :data:`CONSISTENCY_BAD` and in :data:`TIME_RATIO` of
+    the declared steps' drift (the same means), else None."""
+    dt = float(np.median(d))
+    slow = d * TIME_SLIP
+    if g.shape[0] * dt * TIME_SLIP < UNIT_MIN_S or dt * TIME_SLIP > 1.0 / RATE_RANGE_HZ[0]:
+        return None
+    declared = _gravity_spread(g, a, slow, 1.0 / TIME_SLIP)[1]
+    drift = _gravity_spread(g, a, slow, 1.0, fit_bias=True)[1]
+    if not (drift < CONSISTENCY_BAD and drift < TIME_RATIO * declared):
+        return None
+    return _time_words(TIME_SLIP, dt)
 
 
 def _time_hint(g, a, d, beat: float) -> UnitHint | None:
