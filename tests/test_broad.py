@@ -440,6 +440,33 @@ def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
         assert ("look stored scalar-last" in err) == warned, err
 
 
+def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
+    """Trial 02 cut to its first 20 s (at rest: no sample marked movement) with --reference ran the whole estimate
+    and ended in "no finite samples to average; check the reference data and the mask" (helper): the error now
+    says what the reference lacks and the flag to drop."""
+    import h5py
+
+    from optinav.attitude.recording import reference_rmse
+    from optinav.cli.main import main
+    from optinav.errors import OptinavError
+
+    p = SHARED / BROAD_TRIAL_02
+    if not p.is_file():
+        pytest.skip("trial 02 absent")
+    cut = tmp_path / "first20s.hdf5"
+    with h5py.File(p, "r") as src, h5py.File(cut, "w") as dst:
+        n = int(20 * src.attrs["sampling_rate"])
+        for k in src:
+            dst[k] = src[k][:n]
+        dst.attrs.update(dict(src.attrs))
+    code = main(["--quiet", "attitude", str(cut), "--frame", "ENU", "--reference", "--out", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "of 5714 samples 0 are marked movement" in err[-1] and "drop --reference" in err[-1], err
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
+    with pytest.raises(OptinavError, match="1 are marked movement and 0 have a finite reference"):
+        reference_rmse(q, np.full((3, 4), np.nan), np.array([True, False, False]))
+
+
 @pytest.mark.parametrize("bias_deg_s", [[2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [-2.0, 2.0, 1.0]])
 def test_a_mems_gyro_bias_is_no_unit_error(bias_deg_s):
     """Trial 11 (slow translation: little turning) with an ordinary MEMS bias of 2-3 °/s added: the unit check

@@ -168,13 +168,16 @@ class _Score:
         self.ss = np.zeros(3)  # inclination, heading, inclination with the reference read as [x, y, z, w]
         self.k = np.zeros(3, dtype=np.int64)
         self.n = 0
+        self.seen = np.zeros(3, dtype=np.int64)  # rows, rows marked movement, rows with a finite reference
 
     def add(self, q, q_ref, movement) -> None:
         from optinav.attitude.checks import XYZW
         from optinav.attitude.metrics import heading_error, inclination_error
 
-        mask = movement & np.all(np.isfinite(q_ref), axis=1)
+        valid = np.all(np.isfinite(q_ref), axis=1)
+        mask = movement & valid
         self.n += int(mask.sum())
+        self.seen += (len(valid), int(np.count_nonzero(movement)), int(np.count_nonzero(valid)))
         for j, (err, ref) in enumerate(
             ((inclination_error, q_ref), (heading_error, q_ref), (inclination_error, q_ref[:, XYZW]))
         ):
@@ -186,8 +189,10 @@ class _Score:
     def result(self) -> tuple[float, float, int]:
         from optinav.attitude.checks import warn_reference_order
 
+        from optinav.attitude.recording import nothing_to_score
+
         if not np.all(self.k[:2]):
-            raise OptinavError("no finite samples to average", "check the reference data and the mask")
+            raise nothing_to_score(*(int(x) for x in self.seen))
         r = np.sqrt(self.ss / np.maximum(self.k, 1))
         warn_reference_order(float(r[0]), float(r[2]))
         return float(r[0]), float(r[1]), self.n

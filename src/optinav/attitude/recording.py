@@ -224,6 +224,16 @@ def read_polarization(
     return aop, (np.asarray(table["dop"], float).reshape(-1) if "dop" in table else None)
 
 
+def nothing_to_score(n: int, moving: int, valid: int) -> OptinavError:
+    """The error of a reference without a sample to score: of ``n`` rows, ``moving`` marked movement and ``valid``
+    with a finite reference orientation (a log cut to its rest, or the optical system's lost tracking)."""
+    return OptinavError(
+        f"the reference has no sample to score: of {n} samples {moving} are marked movement and {valid} have a "
+        "finite reference orientation (BROAD scores the movement samples with a valid opt_quat only)",
+        "score a recording that holds its motion phase, or drop --reference for the attitude alone",
+    )
+
+
 def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
     """BROAD's scoring of an estimate against a reference orientation (:mod:`optinav.attitude.metrics`).
 
@@ -247,7 +257,10 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
 
     from optinav.attitude.checks import XYZW, warn_reference_order
 
-    mask = movement & np.all(np.isfinite(q_ref), axis=1)
+    valid = np.all(np.isfinite(q_ref), axis=1)
+    mask = movement & valid
+    if not np.any(mask & np.all(np.isfinite(q_b_n), axis=1)):
+        raise nothing_to_score(len(valid), int(np.count_nonzero(movement)), int(np.count_nonzero(valid)))
     incl = float(rmse(inclination_error(q_b_n, q_ref), mask))
     warn_reference_order(incl, float(rmse(inclination_error(q_b_n, np.asarray(q_ref)[:, XYZW]), mask)))
     return incl, float(rmse(heading_error(q_b_n, q_ref), mask)), int(mask.sum())
