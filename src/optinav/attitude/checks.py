@@ -946,7 +946,8 @@ def check_imu(
     check_rate(dt)
     bins, sums = tilt_sums(acc)
     share = gravity_share(bins, sums, dt, na, ng)
-    check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share)
+    low = (float(np.percentile(na, LOW_PERCENTILE)), float(np.percentile(ng, LOW_PERCENTILE)))
+    check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share, low)
     # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
     windows = (
         (gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
@@ -1000,13 +1001,28 @@ def gravity_share(bins: np.ndarray, sums: np.ndarray, dt: float, na, ng: np.ndar
     return float(np.median(_norm(means[still]))) / med
 
 
+#: percentile of the row norms that tells a gyro from an accelerometer: a gyro at rest reads near zero, an
+#: accelerometer reads g in any orientation (only free fall takes it near zero)
+LOW_PERCENTILE = 5.0
+
+
 def check_norms(
-    med_a: float, med_g: float, peak: float, gyro_unit: str | None = None, share: float = float("nan")
+    med_a: float,
+    med_g: float,
+    peak: float,
+    gyro_unit: str | None = None,
+    share: float = float("nan"),
+    low: tuple[float, float] = (float("nan"), float("nan")),
 ) -> None:
     """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s), the gyro's peak
     norm and the accelerometer's :func:`gravity_share`: swapped triads, gravity removed, an accelerometer not in
-    m/s², a gyro beyond any range (``gyro_unit`` the declared one)."""
-    if med_a < 0.3 * G_STANDARD and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
+    m/s², a gyro beyond any range (``gyro_unit`` the declared one); ``low``: the :data:`LOW_PERCENTILE` of the acc
+    and gyr row norms (NaN: not known)."""
+    # swapped: the gyro columns read about g, and the accelerometer's are small or, where its norm falls near zero
+    # (a gyro at rest) while the gyro's never does (an accelerometer), a fast-turning gyro's (BROAD 29, median
+    # 3.6 rad/s: its swap was blamed on a linear-acceleration output)
+    rest_like = low[0] < 0.1 * med_a and low[1] > 0.5 * med_g
+    if (med_a < 0.3 * G_STANDARD or rest_like) and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
         raise OptinavError(
             f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the two triads look swapped",
             "check the column order of --columns (t,ax,ay,az,gx,gy,gz)",

@@ -99,6 +99,7 @@ class StreamChecks:
         self._tilt = []
         na = np.concatenate(self._na)
         self._na = []
+        low = (float(np.percentile(na, _c.LOW_PERCENTILE)), float(np.percentile(ng, _c.LOW_PERCENTILE)))
         med_a = float(np.median(na, overwrite_input=True))
         del na
         self._acc_sum = sums.sum(axis=0)  # the whole log's mean specific force, for the frame warning
@@ -107,7 +108,7 @@ class StreamChecks:
         share = self.gravity_share = _c.gravity_share(bins, sums, self.median_dt, med_a, ng)
         med_g = float(np.median(ng, overwrite_input=True))
         del ng
-        _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share)
+        _c.check_norms(med_a, med_g, self.peak, self.gyro_unit, share, low)
         # pass 2 gathers the unit window and, per axis and sign reaching 1 rad/s, the samples at the extreme
         self._win: list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in self.windows]
         self._clip = {(k, j): ([], [], [], []) for k in range(3) for j in range(2) if self._max[k, j] >= 1.0}
