@@ -461,6 +461,42 @@ def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     assert "the two triads look swapped" in capsys.readouterr().err
 
 
+def test_a_magnetometer_stored_as_one_n_by_3_array(tmp_path, capsys):
+    """An NPZ/HDF5 with the magnetometer as one (N, 3) array ``mag`` (as acc and gyro are) could not be used: --mag
+    looked for mx,my,mz and the error asked for three names, which --mag-columns refused for one array (helper).
+    One name now takes the array, with the attitude of the same field in three columns; --mag names it."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    p = SHARED / BROAD_TRIAL_02
+    if not p.is_file():
+        pytest.skip("trial 02 absent")
+    tr = load_broad(p)
+    n = int(40 * tr.rate_hz)
+    t, gyr, acc, mag = np.arange(n) * tr.dt, tr.gyr[:n], tr.acc[:n], tr.mag[:n]
+    np.savez(tmp_path / "cols.npz", t=t, acc=acc, gyro=gyr, mx=mag[:, 0], my=mag[:, 1], mz=mag[:, 2])
+    np.savez(tmp_path / "array.npz", t=t, acc=acc, gyro=gyr, mag=mag)
+    with h5py.File(tmp_path / "array.h5", "w") as f:
+        f["t"], f["acc"], f["gyro"], f["mag"] = t, acc, gyr, mag
+
+    def run(path, *extra):
+        out = tmp_path / f"{Path(path).stem}{len(extra)}.csv"
+        code = main(["--quiet", "attitude", str(path), "--frame", "ENU", *extra, "--out", str(out)])
+        return code, capsys.readouterr().err, out
+
+    code, _, want = run(tmp_path / "cols.npz", "--mag")
+    assert code == 0
+    code, err, _ = run(tmp_path / "array.npz", "--mag")
+    assert code == 2 and "--mag-columns mag" in err, err
+    for path in (tmp_path / "array.npz", tmp_path / "array.h5"):
+        code, err, got = run(path, "--mag-columns", "mag")
+        assert code == 0, err
+        assert got.read_text() == want.read_text()
+    code, err, _ = run(tmp_path / "array.npz", "--mag-columns", "t")
+    assert code == 2 and "not (N, 3)" in err, err
+
+
 def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
     """Trial 02 cut to its first 20 s (at rest: no sample marked movement) with --reference ran the whole estimate
     and ended in "no finite samples to average; check the reference data and the mask" (helper): the error now

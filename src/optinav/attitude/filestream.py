@@ -351,7 +351,8 @@ class _Blocks:
         self._whole: dict | None = None
         names = {}
         if mag:
-            names = {f"m{k}": v for k, v in zip("xyz", _mag_names(o.mag_columns))}
+            m = _mag_names(o.mag_columns)
+            names = {"mag": m[0]} if len(m) == 1 else {f"m{k}": v for k, v in zip("xyz", m)}
         if pol is not None:
             names["aop"] = pol.aop
             if pol.dop:
@@ -415,16 +416,16 @@ class _Blocks:
         try:
             return self._extra_columns(table, row0, n)
         except MissingColumn as exc:
-            if exc.name not in {self.names.get(k) for k in ("mx", "my", "mz")}:
+            if exc.name not in {self.names.get(k) for k in ("mx", "my", "mz", "mag")}:
                 raise
             # Xsens' Mag_X, a phone app's magneticField_x: --mag looked for mx,my,mz and named only the file's columns
             like = [c for c in exc.found if "mag" in c.lower()]
-            if len(like) != 3:
+            if len(like) not in (1, 3):
                 like = [c for c in exc.found if c.lower() in ("bx", "by", "bz")]  # Physics Toolbox: the field B
             raise OptinavError(
                 exc.cause,
-                "name the magnetometer's three columns with --mag-columns"
-                + (f" (e.g. --mag-columns {','.join(like)})" if len(like) == 3 else " X,Y,Z"),
+                "name the magnetometer's three columns (or its N×3 array) with --mag-columns"
+                + (f" (e.g. --mag-columns {','.join(like)})" if len(like) in (1, 3) else " X,Y,Z"),
             ) from None
 
     def _extra_columns(self, table, row0: int, n: int) -> dict:
@@ -438,20 +439,20 @@ class _Blocks:
                     delimiter=self.o.delimiter,
                     topic=self.o.topic,
                 )
-                self._whole = {k: np.asarray(v, float).reshape(-1) for k, v in tab.items()}
+                self._whole = {k: _column(k, v) for k, v in tab.items()}
             cols = {k: v[row0 : row0 + n] for k, v in self._whole.items()}
         else:
-            cols = {k: np.asarray(table.get(v), float).reshape(-1) for k, v in self.names.items()}
+            cols = {k: _column(k, table.get(v)) for k, v in self.names.items()}
         for k, v in cols.items():
-            if v.size != n:
+            if v.shape[0] != n:
                 what = "the magnetometer" if k.startswith("m") else f"{k.upper()} column"
                 raise OptinavError(
-                    f"{what} has {v.size} rows, the IMU {n} (block at row {row0})",
+                    f"{what} has {v.shape[0]} rows, the IMU {n} (block at row {row0})",
                     "check --mag-columns" if k.startswith("m") else "check --pol-columns",
                 )
         out = {}
         if self.mag:
-            out["mag"] = np.column_stack([cols["mx"], cols["my"], cols["mz"]])
+            out["mag"] = cols["mag"] if "mag" in cols else np.column_stack([cols["mx"], cols["my"], cols["mz"]])
         for k in ("aop", "dop"):
             if k in cols:
                 out[k] = cols[k]
@@ -824,10 +825,27 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
 
 
 def _mag_names(mag_columns: str | None) -> list[str]:
+    """The magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array."""
     names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
-    if len(names) != 3:
-        raise OptinavError(f"--mag-columns {mag_columns!r} needs three names", "write e.g. mx,my,mz")
+    if len(names) not in (1, 3) or not all(names):
+        raise OptinavError(
+            f"--mag-columns {mag_columns!r} needs three names or one (N×3) array",
+            "write e.g. mx,my,mz, or mag for an N×3 array",
+        )
     return names
+
+
+def _column(key: str, values) -> np.ndarray:
+    """A column of the extra columns as floats: the magnetometer's (N×3) array ``mag`` as (N, 3), checked, the
+    others 1-D."""
+    v = np.asarray(values, float)
+    if key != "mag":
+        return v.reshape(-1)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise OptinavError(
+            f"the magnetometer array has shape {v.shape}, not (N, 3)", "name its three columns with --mag-columns"
+        )
+    return v
 
 
 def stream_attitude(

@@ -95,13 +95,14 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         )
     mag = None
     if want_mag:
-        names = [s.strip() for s in (o.mag_columns or "mx,my,mz").split(",")]
-        if len(names) != 3:
-            raise OptinavError(f"--mag-columns {o.mag_columns!r} needs three names", "write e.g. mx,my,mz")
+        from optinav.attitude.filestream import _column, _mag_names
+
+        names = _mag_names(o.mag_columns)
+        keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
         tab = read_table(
-            path, columns=",".join(f"m{k}={v}" for k, v in zip("xyz", names)), delimiter=o.delimiter, topic=o.topic
+            path, columns=",".join(f"{k}={v}" for k, v in zip(keys, names)), delimiter=o.delimiter, topic=o.topic
         )
-        mag = np.column_stack([np.asarray(tab[f"m{k}"], float).reshape(-1) for k in "xyz"])
+        mag = np.column_stack([_column(k, tab[k]) for k in keys])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
     return log.t, log.gyr, log.acc, mag, None

@@ -89,7 +89,11 @@ def register(sub) -> None:
         action="store_true",
         help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz)",
     )
-    p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
+    p.add_argument(
+        "--mag-columns",
+        metavar="MX,MY,MZ",
+        help="names of the magnetometer columns, or of its N×3 array (implies --mag)",
+    )
     p.add_argument(
         "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
     )
@@ -167,7 +171,11 @@ def add_batch_options(p) -> None:
         help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method",
     )
     p.add_argument("--mag", action="store_true", help="iframe: heading from the magnetometer")
-    p.add_argument("--mag-columns", metavar="MX,MY,MZ", help="names of the magnetometer columns (implies --mag)")
+    p.add_argument(
+        "--mag-columns",
+        metavar="MX,MY,MZ",
+        help="names of the magnetometer columns, or of its N×3 array (implies --mag)",
+    )
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
     p.add_argument(
