@@ -214,6 +214,32 @@ def test_streaming_equals_batch_and_online_is_causal():
     assert np.array_equal(estimate_q(w[:1000], acc[:1000], DT), estimate_q(w, acc, DT)[:1000])
 
 
+def test_a_non_finite_sample_streamed_is_refused_and_leaves_the_state():
+    """AttitudeFilter.update took a NaN gyro or accelerometer sample (a logger's dropped read) silently and every
+    later output was NaN (helper). It is refused now with the state as it was, so skipping it and giving the next
+    sample the time since the last one used matches the batch estimate without that sample."""
+    n = 1500
+    w, acc, _ = motion(n, seed=3, amp=1.0, rest=200)
+    bad = 700
+    keep = np.arange(n) != bad
+    dts = np.full(n, DT)
+    dts[bad + 1] = 2 * DT
+    want = estimate_q(w[keep], acc[keep], dts[keep])
+    f = AttitudeFilter(RATE, frame="NED")
+    got = []
+    for i in range(n):
+        wi, ai = (np.array([np.nan, 0.0, 0.0]), acc[i]) if i == bad else (w[i], acc[i])
+        if i == bad:
+            for gi, aci, h in ((wi, ai, DT), (w[i], np.full(3, np.inf), DT), (w[i], acc[i], float("inf"))):
+                with pytest.raises(OptinavError, match="non-finite"):
+                    f.update(gi, aci, dt=h)
+            continue
+        f.update(wi, ai, dt=dts[i])
+        got.append(f.q_b_n)
+    assert np.all(np.isfinite(got))
+    assert np.max(np.abs(np.array(got) - want)) < 1e-12
+
+
 def test_offline_beats_online_on_translation():
     n = 12000
     rng = np.random.default_rng(7)

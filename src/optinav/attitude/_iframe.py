@@ -229,7 +229,10 @@ def _init(st, par, ax, ay, az):
 @numba.njit(**_NJ)
 def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     """Advance one sample: gyr (rad/s), acc (m/s²), mag (any unit; NaN = none), step h (s). Writes q_b^n to
-    st[S_Q:S_Q+4] and the per-sample flags."""
+    st[S_Q:S_Q+4] and the per-sample flags; True. A non-finite gyr, acc or h leaves the state as it was: False
+    (a NaN there had made every later output NaN)."""
+    if not math.isfinite(gx + gy + gz + ax + ay + az + h):
+        return False
     if st[S_INIT] == 0.0:
         _init(st, par, ax, ay, az)
     st[S_TIME] += h
@@ -467,6 +470,7 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         p0, p1, p2, p3 = _rotvec_q((gx - bx) * lat, (gy - by) * lat, (gz - bz) * lat)
         o0, o1, o2, o3 = _qmul(o0, o1, o2, o3, p0, p1, p2, p3)
     _store_q(st, S_Q, o0, o1, o2, o3)
+    return True
 
 
 @numba.njit(**_NJ)
@@ -508,7 +512,7 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias):
 @numba.njit(**_NJ)
 def step6(st, par, g, a, h):
     """:func:`step` with gyr and acc as 3-sequences (arrays or tuples) and no magnetometer."""
-    step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)
+    return step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)
 
 
 @numba.njit(**_NJ)

@@ -363,8 +363,8 @@ class AttitudeFilter:
         self._step6 = _k.step6
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
-        """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked (speed): pass finite
-        floats.
+        """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
+        non-finite gyr, acc or dt raises :class:`~optinav.errors.OptinavError` and leaves the state unchanged.
 
         Parameters
         ----------
@@ -386,10 +386,15 @@ class AttitudeFilter:
         if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
         if mag is None:
-            self._step6(self._state, self._par, gyr, acc, h)
+            ok = self._step6(self._state, self._par, gyr, acc, h)
         else:
-            self._step(
+            ok = self._step(
                 self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1], mag[2], h
+            )
+        if not ok:
+            raise OptinavError(
+                f"a sample with a non-finite gyr {list(gyr)}, acc {list(acc)} or dt {h} was not used (state unchanged)",
+                "skip it: give the next sample dt= the time since the last one used",
             )
 
     def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
@@ -409,7 +414,7 @@ class AttitudeFilter:
         Returns
         -------
         IframeRun
-            ``q`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` flags, gyro ``bias`` (N, 3) [rad/s].
+            ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` flags, gyro ``gyr_bias`` (N, 3) [rad/s].
         """
         from optinav.attitude.estimators import _as_dt, _checked_imu
 
