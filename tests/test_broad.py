@@ -497,6 +497,26 @@ def test_a_magnetometer_stored_as_one_n_by_3_array(tmp_path, capsys):
     assert code == 2 and "not (N, 3)" in err, err
 
 
+@pytest.mark.parametrize("perm", [7, 37, 40])
+def test_gyro_axes_flipped_on_fast_translation_are_named_from_the_whole_log(perm):
+    """BROAD 16 (fast translation) with its gyro negated or its axes swapped ran with exit 0 at 75°, 46° and 22°
+    inclination RMSE (helper): over the unit window gravity turns too little to judge (0.23 rad), and the whole-log
+    check searched factors only. Over minutes the signed order that holds gravity is named."""
+    from optinav.attitude.checks import check_imu
+    from optinav.core.rotations import signed_permutations
+
+    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 16 absent")
+    tr = load_broad(p)
+    P = signed_permutations()[perm]
+    with pytest.raises(Exception, match="the gyro axes look swapped or flipped") as exc:
+        check_imu(tr.gyr @ P, tr.acc, np.array([tr.dt]))
+    assert "--columns" in exc.value.remedy
+    if perm == 7:
+        assert "gyro x reads -x, gyro y reads -y, gyro z reads -z" in str(exc.value)
+
+
 def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
     """Trial 02 cut to its first 20 s (at rest: no sample marked movement) with --reference ran the whole estimate
     and ended in "no finite samples to average; check the reference data and the mask" (helper): the error now
