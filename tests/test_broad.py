@@ -792,11 +792,12 @@ def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
         warnings.simplefilter("error", MagnetometerWarning)
         for p in NINE:
             tr = load_broad(p)
-            check_mag_axes(tr.acc, tr.mag, tr.dt)
+            check_mag_axes(tr.acc, tr.mag, tr.dt, tr.gyr)
             # cuts of fast translation: the accelerometer's 1-s means are no gravity there (a helper's false alarms)
             n = int(40.0 / tr.dt)
             for i0 in range(0, tr.acc.shape[0] - n, n // 2):
-                check_mag_axes(tr.acc[i0 : i0 + n], tr.mag[i0 : i0 + n], tr.dt)
+                sl = slice(i0, i0 + n)
+                check_mag_axes(tr.acc[sl], tr.mag[sl], tr.dt, tr.gyr[sl])
     p = SHARED / "attitude" / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
     tr = load_broad(p)
     ak = np.column_stack([tr.mag[:, 1], tr.mag[:, 0], -tr.mag[:, 2]])
@@ -814,6 +815,35 @@ def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
             dst.attrs[k] = v
     assert main(["--quiet", "attitude", str(f), "--frame", "ENU", "--mag", "--out", str(tmp_path / "a.csv")]) == 2
     assert "its axes are not the IMU's" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["11_undisturbed_slow_translation_B", "16_undisturbed_fast_translation_B"])
+def test_a_magnetometer_in_other_axes_on_a_yawing_body_is_named(tmp_path, capsys, name):
+    """The AK8963 layout on trials that mostly yaw keeps the field's angle to gravity (11, 16, 27, 29, 33 passed
+    the check above) and ran with exit 0 at a heading 111° and 117° off (helper): the field turns in the body
+    against the gyro there. Named in memory and streamed, at full rate and at a tenth of it (NaN between); the
+    trial as recorded passes (also a tenth of the rate, and with a hard-iron offset of half the field)."""
+    from optinav.attitude.checks import check_mag_axes
+    from optinav.cli.main import main
+    from optinav.errors import OptinavError
+
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    ak = np.column_stack([tr.mag[:, 1], tr.mag[:, 0], -tr.mag[:, 2]])
+    slow = np.arange(len(ak)) % 10 == 0
+    for mag in (ak, np.where(slow[:, None], ak, np.nan)):
+        with pytest.raises(OptinavError, match=r"turns in the body unlike the gyro says.*magnetometer x reads \+y"):
+            estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
+    field = float(np.mean(np.linalg.norm(tr.mag, axis=1)))
+    for mag in (tr.mag, np.where(slow[:, None], tr.mag, np.nan), tr.mag + [0.5 * field, 0.0, 0.0]):
+        check_mag_axes(tr.acc, mag, tr.dt, tr.gyr)
+    csv = tmp_path / "ak.csv"
+    t = np.arange(len(ak)) * tr.dt
+    np.savetxt(csv, np.column_stack([t, tr.acc, tr.gyr, ak]), delimiter=",", header="t,ax,ay,az,gx,gy,gz,mx,my,mz")
+    assert main(["--quiet", "attitude", str(csv), "--frame", "ENU", "--mag", "--out", str(tmp_path / "a.csv")]) == 2
+    assert "turns in the body unlike the gyro says" in capsys.readouterr().err
 
 
 def test_a_correct_gyro_unit_with_several_short_gaps_is_not_refused():

@@ -1470,10 +1470,89 @@ def mag_axes_hint(bins, acc_sums, mag_sums, counts, dt: float) -> tuple[str, boo
     return "", False
 
 
-def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float) -> None:
+#: the field must turn in the body as the gyro says (dm/dt = −ω × m, per TILT_BIN bin): another order of the
+#: magnetometer's axes is named where the declared one leaves more than MAG_TURN_BAD of the field's turning
+#: unexplained and the other less than MAG_TURN_SHARE of what it leaves. The nine BROAD trials as recorded 0.01-0.29
+#: (07, fast rotation over 0.22-s bins, 0.98: not judged against its best other order's 0.94); in the AK8963 layout
+#: 1.5-2.0 against 0.02-0.29. A field negated whole turns the same way and cannot be told.
+MAG_TURN_BAD, MAG_TURN_SHARE = 0.5, 0.25
+#: the field must turn in the body by at least this much in all (rad, summed over the bins) to judge by (the nine
+#: trials 32-431)
+MAG_TURN_MIN = 5.0
+
+
+def gyro_sums(gyr: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bin numbers (k,), gyro sums (k, 3) and row counts (k,) of the TILT_BIN-sample bins a block starting at row
+    ``row0`` touches (as :func:`mag_sums`)."""
+    if not gyr.shape[0]:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0)
+    bins, first = _bin_starts(gyr.shape[0], row0)
+    return bins, np.add.reduceat(gyr, first, axis=0), np.diff(np.append(first, gyr.shape[0])).astype(float)
+
+
+def _summed(bins: np.ndarray, *cols) -> tuple[np.ndarray, ...]:
+    """The columns summed per bin number (a bin split between blocks comes twice), ordered by bin."""
+    u, inv = np.unique(bins, return_inverse=True)
+    out = []
+    for c in cols:
+        x = np.zeros((u.size, *c.shape[1:]))
+        np.add.at(x, inv, c)
+        out.append(x)
+    return (u, *out)
+
+
+def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float) -> str:
+    """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
+    signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin the
+    unit mean field m and mean rate ω (rad/s), neighbours' Δm against −ω × m · TILT_BIN·dt (``dt`` s). A layout that
+    keeps the field's angle to gravity on a body that mostly yaws (the AK8963's x and y swapped, z negated: BROAD
+    11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off) turns the field against the gyro."""
+    from optinav.core.rotations import describe_permutation, signed_permutations
+
+    if len(mag_bins) == 0 or len(g_bins) == 0:
+        return ""
+    ub, M, C = _summed(np.asarray(mag_bins), mag_sums_, counts)
+    ug, G, N = _summed(np.asarray(g_bins), g_sums, g_counts)
+    both, im, ig = np.intersect1d(ub, ug, return_indices=True)
+    M, C, G, N = M[im], C[im], G[ig], N[ig]
+    m = np.where((C > 0)[:, None], M / np.maximum(C, 1.0)[:, None], np.nan)
+    w = G / np.maximum(N, 1.0)[:, None]
+    nxt = np.diff(both) == 1
+    if np.count_nonzero(nxt) < 30:
+        return ""
+    h = TILT_BIN * dt
+
+    def residual(P) -> tuple[float, float]:
+        u = m @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
+        u = u / np.maximum(_norm(u), 1e-300)[:, None]
+        du = (u[1:] - u[:-1])[nxt]
+        pred = -np.cross(0.5 * (w[1:] + w[:-1]), 0.5 * (u[1:] + u[:-1]))[nxt] * h
+        ok = np.all(np.isfinite(du), axis=1)
+        turn = float(np.sum(du[ok] ** 2))
+        return float(np.sum((du[ok] - pred[ok]) ** 2)) / max(turn, 1e-300), float(np.sum(_norm(du[ok])))
+
+    declared, turned = residual(np.eye(3))
+    if turned < MAG_TURN_MIN or declared <= MAG_TURN_BAD:
+        return ""
+    perms = signed_permutations()
+    best, i = min((residual(P)[0], i) for i, P in enumerate(perms[1:], 1))
+    if best >= MAG_TURN_SHARE * declared:
+        return ""
+    return (
+        f"the magnetic field turns in the body unlike the gyro says ({declared:.0%} of its turning unexplained), "
+        f"{best:.0%} with the magnetometer's axes read as {describe_permutation(perms[i], 'magnetometer', 'IMU axes')}"
+        ": its axes are not the IMU's"
+    )
+
+
+def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray | None = None) -> None:
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
-    gave a heading 77° off with exit 0; helper); ``dt`` the median step (s)."""
+    gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field turns against the gyro
+    (:func:`mag_turn_hint`); ``dt`` the median step (s)."""
     warn_or_refuse_mag_axes(*mag_axes_hint(*mag_sums(acc, mag), dt))
+    if gyr is not None:
+        b, _, ms, c = mag_sums(acc, mag)
+        warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
 
 
 def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:

@@ -490,7 +490,7 @@ def estimate(
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
             check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)])
-            check_mag_axes(acc, mag, float(np.median(dts)))
+            check_mag_axes(acc, mag, float(np.median(dts)), gyr)
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])

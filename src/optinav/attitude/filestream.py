@@ -904,7 +904,7 @@ def stream_attitude(
         if not bad:
             checks.add(gyr, acc, dts)
             if "mag" in extra:
-                checks.add_mag(extra["mag"], acc)
+                checks.add_mag(extra["mag"], acc, gyr)
         if pol is not None:
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:

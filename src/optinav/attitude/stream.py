@@ -45,13 +45,16 @@ class StreamChecks:
         self._mag_seen, self._mag_stride, self._mag_kept = 0, 1, 0
         self._mag_any = False  # a magnetometer row with three finite values seen
         self._mag_sums: list[tuple] = []  # per TILT_BIN rows: gravity and field sums (the magnetometer-axes check)
+        self._gyr_sums: list[tuple] = []  # per TILT_BIN rows: gyro sums (the field turning as the gyro says)
 
-    def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None) -> None:
+    def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
         at most twice :data:`~optinav.attitude.checks.MAG_FIT_ROWS` (the spacing doubles when full); with ``acc``
         the block's gravity and field sums per bin (:func:`~optinav.attitude.checks.mag_sums`)."""
         if acc is not None:
             self._mag_sums.append(_c.mag_sums(acc, mag, self.n - mag.shape[0]))
+        if gyr is not None:
+            self._gyr_sums.append(_c.gyro_sums(gyr, self.n - mag.shape[0]))
         self._mag_any = self._mag_any or bool(np.isfinite(mag).all(axis=1).any())
         first = (-self._mag_seen) % self._mag_stride
         self._mag.append(mag[first :: self._mag_stride].copy())
@@ -171,9 +174,11 @@ class StreamChecks:
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
         if self._mag_sums:
-            _c.warn_or_refuse_mag_axes(
-                *_c.mag_axes_hint(*(np.concatenate(x) for x in zip(*self._mag_sums)), self.median_dt)
-            )
+            sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
+            _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
+            if self._gyr_sums:
+                gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
+                _c.warn_or_refuse_mag_axes(_c.mag_turn_hint(sums[0], sums[2], sums[3], *gyro, self.median_dt), True)
 
 
 class StreamEstimator:
