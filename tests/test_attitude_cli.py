@@ -183,6 +183,42 @@ def test_check_aop_both_ways():
         check_aop(np.degrees(x) * 10, "rad")
 
 
+def test_magnetometer_columns_with_units_in_brackets(tmp_path, capsys):
+    """A header ``mx [G]`` (the field's unit in brackets, as ``acc_x [g]`` is read) was not found by --mag and the
+    error asked for "--mag-columns X,Y,Z"; ``mag_x [uT]`` was suggested with its brackets, for the shell to quote
+    (helper). Magnetometer names are matched as the other columns are (a unit in brackets, case, spaces), the
+    estimate equal to the same file's without units; the hint names the columns without their units."""
+    import numpy as np
+
+    from optinav.cli.main import main
+
+    n = 3000
+    rng = np.random.default_rng(0)
+    t = np.arange(n) * 0.01
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    gyr = rng.normal(0, 0.002, (n, 3))
+    mag = np.tile([20.0, 0.0, -40.0], (n, 1)) + rng.normal(0, 0.2, (n, 3))
+    out = {}
+    for name, head in (
+        ("plain", "mx,my,mz"),
+        ("gauss", "mx [G],my [G],mz [G]"),
+        ("xsens", "Mag_X [uT],Mag_Y [uT],Mag_Z [uT]"),
+    ):
+        f = tmp_path / f"{name}.csv"
+        np.savetxt(
+            f, np.column_stack([t, acc, gyr, mag]), delimiter=",", comments="", header="t,ax,ay,az,gx,gy,gz," + head
+        )
+        out[name] = tmp_path / f"{name}.out.csv"
+        argv = ["--quiet", "attitude", str(f), "--frame", "ENU", "--out", str(out[name])]
+        code = main(argv + ["--mag"])
+        err = capsys.readouterr().err
+        if name == "xsens":
+            assert code == 2 and "(e.g. --mag-columns mag_x,mag_y,mag_z)" in err, err
+            code = main(argv + ["--mag-columns", "mag_x,mag_y,mag_z"])
+        assert code == 0, capsys.readouterr().err
+    assert out["gauss"].read_text() == out["plain"].read_text() == out["xsens"].read_text()
+
+
 def test_magnetometer_and_single_sensor_files_name_the_flag_that_helps(tmp_path, capsys):
     """--mag on an Xsens export (Mag_X, ...) or Physics Toolbox (Bx, ...) listed the file's columns without naming
     --mag-columns; a phone app's accelerometer-only file was told to use --columns, which cannot add a gyro

@@ -418,6 +418,8 @@ class _Blocks:
         except MissingColumn as exc:
             if exc.name not in {self.names.get(k) for k in ("mx", "my", "mz", "mag")}:
                 raise
+            if self._resolve_mag(exc.found):
+                return self._extra_columns(table, row0, n)
             # Xsens' Mag_X, a phone app's magneticField_x: --mag looked for mx,my,mz and named only the file's columns
             like = [c for c in exc.found if "mag" in c.lower()]
             if len(like) not in (1, 3):
@@ -425,8 +427,26 @@ class _Blocks:
             raise OptinavError(
                 exc.cause,
                 "name the magnetometer's three columns (or its N×3 array) with --mag-columns"
-                + (f" (e.g. --mag-columns {','.join(like)})" if len(like) in (1, 3) else " X,Y,Z"),
+                + (f" (e.g. --mag-columns {','.join(_short(like))})" if len(like) in (1, 3) else " X,Y,Z"),
             ) from None
+
+    def _resolve_mag(self, found: list) -> bool:
+        """Whether the magnetometer's names were found again among the file's columns ``found`` by their alias key
+        (a unit in brackets, case, spaces: ``mx [G]`` for mx, ``Mag_X`` for mag_x); then ``names`` holds them."""
+        from optinav.io.readers import normalize_name
+
+        keys = [k for k in ("mx", "my", "mz", "mag") if k in self.names]
+        by_key: dict = {}
+        for c in found:
+            by_key.setdefault(normalize_name(c)[0], []).append(c)
+        hits = [by_key.get(normalize_name(self.names[k])[0], []) for k in keys]
+        if not all(len(h) == 1 for h in hits) or len({h[0] for h in hits}) != len(keys):
+            return False
+        new = {k: h[0] for k, h in zip(keys, hits)}
+        if all(new[k] == self.names[k] for k in keys):
+            return False
+        self.names.update(new)
+        return True
 
     def _extra_columns(self, table, row0: int, n: int) -> dict:
         if table is None:  # a format read whole by its library: its columns once, then cut
@@ -822,6 +842,15 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
         _k.smooth_azimuth(fwd, col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0], tau, st, out, True)
         r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, fwd, frame)
         store.write(s, r)
+
+
+def _short(names: list) -> list:
+    """Column names with a unit in brackets as their alias keys (``mag_x [uT]`` → ``mag_x``, which finds the column
+    again, without the shell's quotes), where those are distinct; the others as they are."""
+    from optinav.io.readers import normalize_name
+
+    keys = [normalize_name(c)[0] if normalize_name(c)[1] else c for c in names]
+    return keys if len(set(keys)) == len(keys) and all(keys) else list(names)
 
 
 def _mag_names(mag_columns: str | None) -> list[str]:
