@@ -52,7 +52,16 @@ from optinav.attitude.measurement import (
     up_vector,
     wrap_axial,
 )
-from optinav.core.results import Estimate, Parameter, Truth, convergence, nested_kwargs, register_legacy
+from optinav.core.results import (
+    Array,
+    Entries,
+    Estimate,
+    Parameter,
+    Truth,
+    convergence,
+    nested_kwargs,
+    register_legacy,
+)
 from optinav.core.rotations import (
     DEFAULT_FRAME,
     euler_from_quat,
@@ -101,6 +110,18 @@ class AttitudeEstimate(Estimate):
     VERSION: ClassVar[int] = 5
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
+    #: checked when a file is loaded: a number or null for q_b_n, a list of text for rest or pol_skipped ended in
+    #: an internal TypeError in the report
+    ENTRIES: ClassVar[dict] = {
+        **Estimate.ENTRIES,
+        "q_b_n": Array((None, 4), finite=True),
+        "att_std": Array((None, 3)),
+        "gyr_bias": Array((3,)),
+        "rest": Array((None,)),
+        "acc_used": Array((None,)),
+        "mag_used": Array((None,)),
+        "pol_skipped": Entries(others="count"),
+    }
 
     q_b_n: np.ndarray = field(metadata={"unit": ""})
     method: str = "iframe"

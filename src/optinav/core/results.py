@@ -212,43 +212,57 @@ def _array_of(value: Any, dtype: str) -> np.ndarray:
     return np.asarray(value, dtype=dt)
 
 
-def _decode(value: Any) -> Any:
+def _decode(value: Any, where: str = "") -> Any:
     """Nested results back to their classes; the array and float markers of older versions
-    (``{"__ndarray__": [...], "dtype"}``, ``{"__float__": "nan"}``) back to numpy arrays and floats."""
+    (``{"__ndarray__": [...], "dtype"}``, ``{"__float__": "nan"}``) back to numpy arrays and floats. ``where``: the
+    path of ``value`` in the file, named when a nested result is damaged."""
     if isinstance(value, dict):
         if "__ndarray__" in value:
             return np.asarray(_decode(value["__ndarray__"]), dtype=value.get("dtype", "float64"))
         if "__float__" in value:
             return float(value["__float__"])
         if "schema" in value and "fields" in value:
-            return Result.from_dict(value)
-        return {k: _decode(v) for k, v in value.items()}
+            try:
+                return Result.from_dict(value)
+            except InvalidResult as exc:
+                raise InvalidResult(f"{exc.detail}, inside {where!r}" if where else exc.detail) from None
+        return {k: _decode(v, f"{where}.{k}" if where else str(k)) for k, v in value.items()}
     if isinstance(value, list):
-        return [_decode(v) for v in value]
+        return [_decode(v, f"{where}[{i}]") for i, v in enumerate(value)]
     return value
 
 
-def _entry_value(entry: Any) -> Any:
+def _entry_value(entry: Any, name: str = "") -> Any:
     """A field entry ``{"value", "unit"[, "arrays"]}`` (or a bare value of an older layout) back to Python: the
     arrays its ``arrays`` names become numpy arrays of their dtype; nested results and the markers of older
-    versions (``{"__ndarray__"}``, ``{"__float__"}``) are decoded."""
+    versions (``{"__ndarray__"}``, ``{"__float__"}``) are decoded. ``name``: the field's, for the messages."""
     if not (isinstance(entry, dict) and "value" in entry):
-        return _decode(entry)
-    value = _decode(entry["value"])
+        return _decode(entry, name)
+    value = _decode(entry["value"], name)
     arrays = entry.get("arrays") or {}
     if not isinstance(arrays, dict):
         raise ValueError("'arrays' of a field is not an object")
     for path, dtype in arrays.items():
         steps = _steps(str(path))
         if not steps:
-            value = _array_of(value, dtype)
+            value = _named_array(value, dtype, name)
             continue
         parent = value
         for k in steps[:-1]:
             parent = parent[int(k) if isinstance(parent, list) else k]
         last = int(steps[-1]) if isinstance(parent, list) else steps[-1]
-        parent[last] = _array_of(parent[last], dtype)
+        parent[last] = _named_array(parent[last], dtype, ".".join([name, *steps]))
     return value
+
+
+def _named_array(value: Any, dtype: str, where: str) -> np.ndarray:
+    """:func:`_array_of`, a value that is no array of ``dtype`` (text among numbers, 1e300 in a whole-number
+    array, which overflowed in an internal error) named as :class:`InvalidResult`."""
+    try:
+        return _array_of(value, dtype)
+    except (TypeError, ValueError, OverflowError):
+        what = "whole numbers" if str(dtype).startswith(("int", "uint")) else f"{dtype} values"
+        raise InvalidResult(f"field {where!r} holds values that are not {what}") from None
 
 
 @dataclasses.dataclass
@@ -260,6 +274,8 @@ class Result:
     #: field → what a file without the field meant, for a field whose default has since changed or gone (e.g.
     #: ``frame``: "enu" before NED became the one default); filled in when a file of any version lacks it
     MISSING_MEANT: ClassVar[dict[str, Any]] = {}
+    #: field → what it holds inside (:func:`check_entries`'s kinds), checked key by key when a file is loaded
+    ENTRIES: ClassVar[dict[str, Any]] = {}
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -367,8 +383,11 @@ class Result:
             raise InvalidResult("'fields' is not an object")
         for name, entry in data["fields"].items():
             if name in names:
-                kwargs[name] = _entry_value(entry)
+                kwargs[name] = _entry_value(entry, name)
         _check_types(target, kwargs)
+        for name, kind in target.ENTRIES.items():
+            if kwargs.get(name) is not None:
+                check_entries(kwargs[name], kind, name)
         try:
             return target(**{**target.MISSING_MEANT, **kwargs})
         except TypeError as exc:
@@ -413,7 +432,7 @@ class Result:
             raise InvalidResult(exc.detail, src) from None
         except OptinavError:
             raise
-        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError) as exc:
             # a value of the wrong type deep inside (a list where a name belongs, a string as an array ...)
             raise OptinavError(
                 f"{src} is not a valid optinav result ({type(exc).__name__}: {' '.join(str(exc).split())[:80]})",
@@ -505,7 +524,9 @@ def _check_types(target: type, kwargs: dict) -> None:
             raise InvalidResult(f"field {name!r} is {json_kind(value)}")
 
 
-def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool = False) -> np.ndarray:
+def nested_array(
+    value: Any, where: str, shape: tuple[int, ...], *, finite: bool = False, std: bool = False
+) -> np.ndarray:
     """A numeric array inside a result field (a triad's ``K_std``, …), checked while the result is loaded: JSON
     null inside the list is NaN; a value of another kind or shape (null, text, a list of the wrong shape)
     raises :class:`InvalidResult` naming ``where``, instead of an IndexError in whatever reads it.
@@ -520,6 +541,8 @@ def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool
         The required shape (None: any length on that axis).
     finite : bool
         Refuse NaN/inf elements too.
+    std : bool
+        Standard deviations: refuse negative elements.
 
     Returns
     -------
@@ -538,6 +561,8 @@ def nested_array(value: Any, where: str, shape: tuple[int, ...], *, finite: bool
         raise InvalidResult(f"field {where!r} has shape {a.shape}, expected {want}")
     if finite and not np.all(np.isfinite(a)):
         raise InvalidResult(f"field {where!r} holds NaN, infinite or null values")
+    if std and np.any(a < 0):
+        raise InvalidResult(f"field {where!r} holds a negative standard deviation")
     return a
 
 
@@ -588,6 +613,94 @@ def nested_strings(value: Any, where: str) -> list[str]:
     if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):  # text is no list
         raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected a list of names")
     return list(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Entries:
+    """What an object inside a result field holds, checked key by key while the result is loaded
+    (:func:`check_entries`): ``required`` and ``optional`` key → kind (see :func:`check_entries`); ``others`` the
+    kind of every key not named (None: left as it is)."""
+
+    required: dict = dataclasses.field(default_factory=dict)
+    optional: dict = dataclasses.field(default_factory=dict)
+    others: Any = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Array:
+    """A numeric array inside a result field: ``shape`` (None: any length on that axis); ``finite`` refuses
+    NaN/inf elements."""
+
+    shape: tuple
+    finite: bool = False
+
+
+def check_entries(value: Any, kind: Any, where: str) -> None:
+    """A value inside a result field checked against its kind while the result is loaded; a value of another kind
+    raises :class:`InvalidResult` naming ``where`` (e.g. ``'quality.held_out.t0_s'``, ``'gates[2].passed'``),
+    instead of a TypeError in whatever reads it.
+
+    Parameters
+    ----------
+    value : Any
+        The decoded JSON value.
+    kind : str, Array, Entries or list
+        ``"number"``, ``"count"`` (a whole number >= 0), ``"text"``, ``"bool"``, ``"names"`` (a list of text; each
+        with a trailing ``?``: or null); an :class:`Array`; an :class:`Entries` (an object checked key by key); a
+        one-element list ``[kind]`` (a list of values of that kind).
+    where : str
+        The path for the message.
+    """
+    if isinstance(kind, Entries):
+        if not isinstance(value, dict):
+            raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected an object")
+        missing = [k for k in kind.required if k not in value]
+        if missing:
+            raise InvalidResult(f"field {where!r} has no {missing[0]!r}")
+        named = {**kind.required, **kind.optional}
+        for k, v in value.items():
+            if named.get(k, kind.others) is not None:
+                check_entries(v, named.get(k, kind.others), f"{where}.{k}")
+        return
+    if isinstance(kind, list):
+        if not isinstance(value, list):
+            raise InvalidResult(f"field {where!r} is {json_kind(value)}, expected a list")
+        for i, v in enumerate(value):
+            check_entries(v, kind[0], f"{where}[{i}]")
+        return
+    if isinstance(kind, Array):
+        nested_array(value, where, kind.shape, finite=kind.finite)
+        return
+    if value is None and kind.endswith("?"):
+        return
+    base = kind.rstrip("?")
+    if base == "number":
+        nested_number(value, where)
+        return
+    if base == "names":
+        nested_strings(value, where)
+        return
+    expected = {"count": "a whole number >= 0", "text": "text", "bool": "true or false"}[base]
+    ok = {
+        "count": lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0,
+        "text": lambda v: isinstance(v, str),
+        "bool": lambda v: isinstance(v, (bool, np.bool_)),
+    }[base](value)
+    if not ok:
+        shown = json_kind(value) if isinstance(value, (dict, list, str, np.ndarray)) or value is None else repr(value)
+        raise InvalidResult(
+            f"field {where!r} is {shown}, expected {expected}" + (" or null" if kind.endswith("?") else "")
+        )
+
+
+#: an :class:`Estimate`'s ``convergence`` (:func:`convergence`) and each of its ``gates`` (:func:`gate`)
+CONVERGENCE = Entries(
+    optional={"converged": "bool?", "iterations": "count?", "evaluations": "count?", "message": "text"}
+)
+GATE = Entries(
+    required={"name": "text", "value": "number?", "limit": "number?", "kind": "text", "passed": "bool"},
+    optional={"unit": "text"},
+)
 
 
 def _import_systems() -> None:
@@ -750,6 +863,7 @@ class Estimate(Result):
 
     SYSTEM: ClassVar[str] = ""
     KIND: ClassVar[str] = ""
+    ENTRIES: ClassVar[dict[str, Any]] = {"convergence": CONVERGENCE, "gates": [GATE]}
 
     def parameters(self) -> dict[str, Parameter]:
         """Everything estimated, in the names the simulated truth uses.

@@ -940,14 +940,19 @@ class TurntableCalibration(Estimate):
     gates: list = field(default_factory=list, metadata={"unit": "-"})
 
     def __post_init__(self):
-        # one entry per name in estimate, std and crlb_std; names and statements text: a damaged value is named on
-        # loading, not an IndexError in the report
+        # one entry per name in estimate, std (>= 0) and crlb_std, one per sensor in dalpha, dbeta, dr and the
+        # calibrated geometry; names and statements text: a damaged value is named on loading, not an IndexError
+        # or a TypeError in the report
         from optinav.core.results import nested_array, nested_strings
 
         self.names = nested_strings(self.names, "names")
         n = len(self.names)
         for name in ("estimate", "std", "crlb_std"):
-            setattr(self, name, nested_array(getattr(self, name), name, (n,)))
+            setattr(self, name, nested_array(getattr(self, name), name, (n,), std=name != "estimate"))
+        self.dalpha = nested_array(self.dalpha, "dalpha", (None,))
+        m = len(self.dalpha)
+        for name, shape in (("dbeta", (m,)), ("dr", (m, 3)), ("positions", (m, 3)), ("directions", (m, 3))):
+            setattr(self, name, nested_array(getattr(self, name), name, shape))
         self.covariance = nested_array(self.covariance, "covariance", (n, n))
         self.statements = nested_strings(self.statements, "statements")
 

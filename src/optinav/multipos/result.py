@@ -27,6 +27,8 @@ from dataclasses import field
 import numpy as np
 
 from optinav.core.results import (
+    Array,
+    Entries,
     Estimate,
     InvalidResult,
     Parameter,
@@ -73,6 +75,49 @@ def _triad(d: dict | None, name: str) -> dict | None:
     return out
 
 
+#: what a calibration's ``quality`` holds (the LM fit's, the Ferraris method's, ``--hold-out``'s), checked key by key
+#: when a file is loaded; a held-out pose's numbers went into the summary's formats (a TypeError when damaged)
+QUALITY = Entries(
+    optional={
+        "n_poses": "count",
+        "pose_residual_rms": "number?",
+        "chi2": "number?",
+        "dof": "number?",
+        "interval_selection": "text",
+        "gravity_source": "text",
+        "optimizer_success": "bool",
+        "optimizer_message": "text",
+        "nfev": "count?",
+        "data": "text",
+        "notes": "names",
+        "sections": "names",
+        "rotation_angle_deg": Array((None,)),
+        "pose_turn_factor": "number?",
+        "pose_turn_factor_std": "number?",
+        "threshold_selection": Entries(
+            optional={
+                "rule": "text",
+                "thresholds": Array((None,)),
+                "n_intervals": Array((None,)),
+                "reduced_chi2": Array((None,)),
+                "chosen": "count",
+                "threshold": "number?",
+            }
+        ),
+        "held_out": Entries(
+            required={
+                "pose": "count",
+                "t0_s": "number",
+                "t1_s": "number",
+                "norm_error_m_s2": "number",
+                "n_used": "count",
+                "rms_used_m_s2": "number",
+            }
+        ),
+    }
+)
+
+
 @dataclasses.dataclass
 class CalibrationResult(Estimate):
     """A triad calibration as written to RESULT.json (see the module docstring and docs/results.md).
@@ -84,6 +129,7 @@ class CalibrationResult(Estimate):
     VERSION = 3
     SYSTEM = "multipos"
     KIND = "calibration"
+    ENTRIES = {**Estimate.ENTRIES, "quality": QUALITY}
 
     accelerometer: dict | None = field(default=None, metadata={"unit": "raw per m/s^2 | raw"})
     gyroscope: dict | None = field(default=None, metadata={"unit": "raw per rad/s | raw"})
