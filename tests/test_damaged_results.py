@@ -177,3 +177,28 @@ def test_damaged_entries_are_named(files, tmp_path, capsys, kind, field, path, v
     assert errors
     for err in errors:
         assert f"(field {named}" in err and _UNMODIFIED in err, err
+
+
+@pytest.mark.parametrize("key", ["accelerometer_noise_density", "gyroscope_random_walk"])
+def test_export_kalibr_names_a_noise_key_that_is_null(files, tmp_path, capsys, key):
+    """A null noise density in the --noise file passed the loader (null: not estimated) and ended in an internal
+    TypeError while the YAML was written: refused naming the key, and no file written."""
+    d = json.loads((files[0] / "allan.json").read_text())
+    d["fields"]["kalibr"]["value"][key] = None
+    errors = _read_all(files, "allan", d, tmp_path, capsys)
+    assert errors and all(key in err for err in errors[:1]), errors
+    assert not (tmp_path / "imu.yaml").exists()
+
+
+def test_export_kalibr_with_huge_allan_deviations(files, tmp_path, capsys):
+    """1e300 in every deviation array of the --noise file: the export writes the file's Kalibr numbers (finite, the
+    deviations are not used), or refuses in one line naming the entry; never inf or nan in the YAML."""
+    d = json.loads((files[0] / "allan.json").read_text())
+    for sensor in ("accelerometer", "gyroscope"):
+        dev = d["fields"][sensor]["value"]["deviation"]["fields"]
+        for name in ("adev", "lower", "upper", "edf"):
+            dev[name]["value"] = np.full(np.shape(dev[name]["value"]), 1e300).tolist()
+    assert _read_all(files, "allan", d, tmp_path, capsys) == []
+    text = (tmp_path / "imu.yaml").read_text()
+    noise = yaml.safe_load(text)
+    assert noise["gyroscope_noise_density"] == d["fields"]["kalibr"]["value"]["gyroscope_noise_density"]

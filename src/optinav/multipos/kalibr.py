@@ -174,10 +174,10 @@ def write_kalibr_imu_yaml(
     rate = update_rate
     if noise is not None:
         kal = dict(noise.kalibr or {})
-        missing = [k for k in NOISE_KEYS if k not in kal]
+        missing = [k for k in NOISE_KEYS if kal.get(k) is None]
         if missing:
             raise OptinavError(
-                f"the allan result lacks {', '.join(missing)} (Kalibr needs both triads in SI units)",
+                f"the allan result has no {', '.join(missing)} (Kalibr needs both triads in SI units)",
                 "run optinav allan on a log with accelerometer and gyroscope in SI units "
                 "(calibrate and apply raw counts first)",
             )
