@@ -757,7 +757,7 @@ def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
     transitions or when they turn gravity by < 30°."""
     from scipy.optimize import minimize_scalar
 
-    from .gyro import _Transitions
+    from .transitions import Transitions
 
     t = np.asarray(t, float)
     poses = np.asarray(poses, int)
@@ -769,22 +769,22 @@ def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
         for k in range(poses.shape[0] - 1)
         if not (np.any(dt[poses[k, 1] - 1 : poses[k + 1, 0]] > gap) or np.any(bad[poses[k, 1] : poses[k + 1, 0]]))
     ]
+    if not keep:
+        return None
     u = np.asarray(acc_dirs, float)
     K, b = np.asarray(K, float), np.asarray(b, float)
-    if keep:
-        # a transition the gyro does not turn through (sections cut and joined end to end) is no evidence
-        tr = _Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
-        turned = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
-        gyro_turn = tr.raw_rotation(b) / float(np.median(np.abs(np.diag(K))))
-        # (the scale may be off by the factor sought: a loose bound)
-        keep = [k for k, a, w in zip(keep, turned, gyro_turn) if w >= 0.2 * a]
-        turned = turned[gyro_turn >= 0.2 * turned]
-    if len(keep) < 2 or max(turned, default=0.0) < np.radians(30.0):
+    tr = Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
+    # a transition the gyro does not turn through (sections cut and joined end to end) is no evidence
+    turned = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
+    gyro_turn = tr.raw_rotation(b) / float(np.median(np.abs(np.diag(K))))
+    used = gyro_turn >= 0.2 * turned  # (the scale may be off by the factor sought: a loose bound)
+    turned = turned[used]
+    if turned.size < 2 or turned.max() < np.radians(30.0):
         return None
-    tr = _Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
 
     def res(lam: float) -> np.ndarray:
-        return tr.residuals(K * lam, b).ravel()  # per transition C_kᵀu_k − u_{k+1}: ≈ the angle off (rad)
+        # per transition used C_kᵀu_k − u_{k+1}: ≈ the angle off (rad); each transition's rotation is its own
+        return tr.residuals(K * lam, b)[used].ravel()
 
     r = minimize_scalar(lambda x: float(np.sum(res(np.exp(x)) ** 2)), bounds=(-1.6, 1.6), method="bounded")
     lam = float(np.exp(r.x))
@@ -792,6 +792,6 @@ def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
     J = (res(lam * (1 + h)) - res(lam * (1 - h))) / (2 * h * lam)
     e = res(lam)
     std = float(np.sqrt(float(e @ e) / max(e.size - 1, 1) / max(float(J @ J), 1e-300)))
-    if np.sqrt(float(e @ e) / len(keep)) > POSE_TURN_RMS:
+    if np.sqrt(float(e @ e) / turned.size) > POSE_TURN_RMS:
         return None  # no one factor carries gravity between the poses: the motions are not what they seem
-    return PoseTurns(lam, std, len(keep))
+    return PoseTurns(lam, std, int(turned.size))
