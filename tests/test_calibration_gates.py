@@ -691,3 +691,35 @@ def test_swapped_triads_in_si_units_are_named(tmp_path, capsys):
     np.savetxt(path, np.column_stack([s.t, s.gyr, s.acc]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
     err = _cli_error(capsys, ["calibrate", "accel", str(path), "--out", str(tmp_path / "r.json")])
     assert "the two triads look swapped" in err and "--columns" in err
+
+
+@pytest.mark.parametrize(
+    "named_swap, cause",
+    [
+        # a cause that holds "swapped" only in a name (a folder, a file) names no swap: the hint is added
+        (False, "no pose found in /data/swapped_rig/log.csv"),
+        (True, "the two triads look swapped"),
+    ],
+)
+def test_the_swap_hint_follows_the_error_type_not_its_words(sim, monkeypatch, named_swap, cause):
+    """calibrate_data adds the swapped-triads words to a failed fit unless the error is a SwappedAxes, which names
+    the swap itself (it routed on the word "swapped" in the message, and so missed a cause that holds it in a
+    path)."""
+    import importlib
+
+    from optinav import errors
+
+    cal = importlib.import_module("optinav.multipos.calibrate")  # the module (the package exports the function)
+    kind = errors.SwappedAxes if named_swap else OptinavError
+
+    s = sim[0]
+
+    def fails(*args, **kwargs):
+        raise kind(cause, "check the input")
+
+    monkeypatch.setattr(cal, "_calibrate_data", fails)
+    data = cal.SessionData(s.t, s.gyr, "counts", s.acc, "counts")  # the triads swapped
+    with pytest.raises(OptinavError) as info:
+        cal.calibrate_data(data, cal.FileOptions())
+    assert ("are the two triads swapped?" in str(info.value)) != named_swap, str(info.value)
+    assert str(info.value).startswith(cause)

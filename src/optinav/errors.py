@@ -15,6 +15,11 @@ class OptinavError(ValueError):
         self.remedy = remedy
 
 
+class SwappedAxes(OptinavError):
+    """An :class:`OptinavError` that already names swapped or flipped axes or triads as a likely cause, so that a
+    caller adds no hint of its own about swapped columns."""
+
+
 class Note(UserWarning):
     """Something a reader or a step did that the user should know (a line left out, a rate taken from the time
     column): shown by the CLI as ``optinav: note: …``; from Python, an ordinary warning that can be filtered."""

@@ -33,7 +33,7 @@ from optinav.core.progress import progress_blocks, step
 from optinav.core.results import convergence, gate
 from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
-from optinav.errors import OptinavError
+from optinav.errors import OptinavError, SwappedAxes
 from optinav.io import iter_imu, raw_units
 
 from . import accel, gates, model, static
@@ -576,7 +576,7 @@ def calibrate(
     except OptinavError as exc:
         if clipped and "distinct pose directions" in exc.cause:
             # the pose missing was left out as clipped: --min-duration cannot bring it back (helper)
-            raise OptinavError(
+            raise type(exc)(
                 f"{exc.cause} — {len(clipped)} pose(s) left out as clipped: {clipped[0]}",
                 "record with a larger accelerometer range (--acc-range states it)",
             ) from None
@@ -586,7 +586,7 @@ def calibrate(
         # a pose held shorter than --min-duration was left out, and may be the direction missing: name it
         when = "; ".join(f"{a:.4g}–{b:.4g} s" for a, b in short[:5]) + (", …" if len(short) > 5 else "")
         longest = max(b - a for a, b in short)
-        raise OptinavError(
+        raise type(exc)(
             f"{exc.cause} — {len(short)} still stretch(es) shorter than --min-duration {min_duration_s:g} s were "
             f"left out ({when})",
             f"pass --min-duration {max(0.5, np.floor(longest * 2) / 2):g} to take them"
@@ -681,8 +681,9 @@ def calibrate(
         except OptinavError as exc:
             if not gapped:
                 raise
-            # the turns left out for their time gaps are why the gyro cannot be calibrated: say so
-            raise OptinavError(
+            # the turns left out for their time gaps are why the gyro cannot be calibrated: say so (a swap named
+            # stays named: no second hint is added)
+            raise type(exc)(
                 f"{exc.cause} — {_gap_words(t, ranges, gapped)}, left out of the gyro calibration",
                 "log without dropping samples during the turns, or record the turns again",
             ) from None
@@ -1564,7 +1565,7 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
         res = _calibrate_data(data, o, sections, method_options, source)
     except OptinavError as exc:
         swap = swapped_triads(data.acc, data.gyr)
-        if swap is not None and "swapped" not in str(exc):  # in SI units the unit check names it already
+        if swap is not None and not isinstance(exc, SwappedAxes):  # the unit check names it already
             raise OptinavError(f"{exc.cause} ({swap})", "swap the triads' columns (--columns)") from exc
         if data.counter_step > 1 and o.rate_hz and _passes_at_row_rate(data, o, sections, method_options, source):
             k, r = data.counter_step, o.rate_hz

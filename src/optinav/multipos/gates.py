@@ -26,7 +26,7 @@ import numpy as np
 
 from optinav.core.units import DEG, factor
 from optinav.core.rotations import describe_permutation  # noqa: F401 - its home before core
-from optinav.errors import OptinavError
+from optinav.errors import OptinavError, SwappedAxes
 
 #: poses closer than this (degrees) count as one direction in the rank test
 SAME_POSE_DEG = 10.0
@@ -112,7 +112,7 @@ def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: fl
     if 1 / UNIT_TOL < acc_norm * factor(acc_unit) / g < UNIT_TOL or not gyro_cv <= STEADY_NORM_CV:
         return
     if 1 / UNIT_TOL < gyro_norm * factor(acc_unit) / g < UNIT_TOL:
-        raise OptinavError(
+        raise SwappedAxes(
             f"the accelerometer columns read {acc_norm:.4g} {acc_unit} and the gyroscope columns {gyro_norm:.4g} "
             "(median norms): the two triads look swapped",
             "check the column order (--columns t,ax,ay,az,gx,gy,gz)",
@@ -165,7 +165,7 @@ def check_matrix(
     if np.any(d <= 0) or np.any(coupling > MAX_COUPLING):
         P, share = axis_permutation(K)
         if share > 0.8 and not np.allclose(P, np.eye(3)):
-            raise OptinavError(
+            raise SwappedAxes(
                 (
                     f"the {sensor} axes look swapped or flipped against the accelerometer's: "
                     if sensor != "accelerometer"

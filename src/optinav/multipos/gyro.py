@@ -81,7 +81,7 @@ from optinav.core.optimize import Problem, minimize
 from optinav.core.results import Result
 from optinav.core.validate import as_float_array, as_rng, check_timestamps
 from optinav.multipos.transitions import Transitions
-from optinav.errors import OptinavError
+from optinav.errors import OptinavError, SwappedAxes
 
 __all__ = [
     "GYRO_PARAMS",
@@ -339,7 +339,7 @@ def _check_axes(tr: Transitions, b: np.ndarray, k: float) -> None:
             best = P
     c_id = costs[np.eye(3).tobytes()]
     if not np.array_equal(best, np.eye(3)) and costs[best.tobytes()] < 0.1 * c_id:
-        raise OptinavError(
+        raise SwappedAxes(
             "the gyroscope axes look swapped or flipped against the accelerometer's: "
             + gates.describe_permutation(best, "gyroscope", "accelerometer frame")
             + f" (turn residual {np.sqrt(costs[best.tobytes()] / len(tr.u0)):.2g} vs "
@@ -652,7 +652,7 @@ def calibrate_gyro(
         # turns that miss by tens of degrees are triads that disagree, which no choice of held parameters fixes
         miss = float(np.degrees(np.sqrt(np.mean(angle_res(res_a.x) ** 2))))
         if miss > _MISMATCH_DEG:
-            raise OptinavError(
+            raise SwappedAxes(
                 f"the gyro's turns between the poses do not match how the accelerometer's gravity moved: they miss "
                 f"by {miss:.0f}° RMS after the best fit (noise gives about 1°)",
                 "an axis of one triad is flipped or two are swapped (check the columns' order and signs: both "
