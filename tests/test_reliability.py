@@ -576,6 +576,18 @@ def test_apply_refuses_implausible_K(tmp_path, capsys, K, why):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("sensor", ["accelerometer", "gyroscope"])
+def test_apply_refuses_an_offset_no_converter_holds(tmp_path, capsys, counts_session, sensor):
+    """A bias of 1e300 (a damaged file) overflowed in the gyro-unit check after the correction: a RuntimeWarning line
+    before the error, which blamed the data's gyro unit. Refused in one line naming the offsets."""
+    _, data, res = counts_session
+    bad = _damaged(res, (sensor, "b", 0), 1e300, tmp_path)
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(bad), str(data), "--out", str(out)]) == 2
+    one_line_error(capsys, f"the {sensor} calibration is implausible: the offsets b = 1e+300")
+    assert not out.exists()
+
+
 # --- gfimu quality gates: stuck outputs, table-rate unit, residual against --noise -------------------------------
 
 

@@ -22,6 +22,10 @@ SCALE_FACTOR = 2.0
 COUNTS_PER_SI = (1e-2, 1e9)
 #: largest condition number of K: misalignments are degrees at most, so K is close to a scaled identity
 MAX_COND = 10.0
+#: the largest zero offset |b| accepted [raw units]: a 32-bit converter's whole range (offset-binary counts reach
+#: half of it); a bias of 1e300 in a damaged file overflowed in the checks after the correction (a warning line
+#: before the error)
+MAX_OFFSET = 2.0**32
 
 
 @dataclasses.dataclass
@@ -198,8 +202,9 @@ def corrected(res, log, data_path, result_path):
 
 
 def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
-    """Refuse a calibration whose K/b cannot be a sensor's (non-finite, ill-conditioned, scale far from the raw
-    unit's nominal, e.g. K = 1e300 of a damaged file): applied, it would write plausible-looking garbage."""
+    """Refuse a calibration whose K/b cannot be a sensor's (non-finite, ill-conditioned, an offset beyond
+    :data:`MAX_OFFSET`, scale far from the raw unit's nominal, e.g. K = 1e300 of a damaged file): applied, it would
+    write plausible-looking garbage."""
     from optinav.core.units import factor
 
     K, b = np.asarray(entry["K"], float), np.asarray(entry["b"], float)
@@ -208,6 +213,8 @@ def check_plausible_K(sensor: str, entry: dict, raw_unit: str | None) -> None:
         cause = "K or b is not finite"
     elif np.linalg.cond(K) > MAX_COND:
         cause = f"K has condition number {np.linalg.cond(K):.3g} (> {MAX_COND:g}: axes nearly parallel)"
+    elif np.any(np.abs(b) > MAX_OFFSET):
+        cause = f"the offsets b = {', '.join(f'{v:.4g}' for v in b)} {raw_unit or 'raw'} exceed {MAX_OFFSET:.4g}"
     else:
         scale = np.abs(np.diag(K))
         if raw_unit in (None, "counts"):
