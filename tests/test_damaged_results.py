@@ -168,6 +168,7 @@ _UNMODIFIED = "pass an unmodified optinav result file"
         # in its att_std was not named
         ("attitude", "q_b_n", (), None, "'q_b_n'"),
         ("attitude", "att_std", (0,), ["a", "b", "c"], "'att_std'"),
+        ("attitude", "gyr_bias", (), [None, None, None], "'gyr_bias'"),
         ("attitude", "pol_skipped", (), {"sky": "x"}, "'pol_skipped.sky'"),
     ],
 )
@@ -202,3 +203,12 @@ def test_export_kalibr_with_huge_allan_deviations(files, tmp_path, capsys):
     text = (tmp_path / "imu.yaml").read_text()
     noise = yaml.safe_load(text)
     assert noise["gyroscope_noise_density"] == d["fields"]["kalibr"]["value"]["gyroscope_noise_density"]
+
+
+def test_a_gfimu_direction_of_1e300_is_named_in_one_line(files, tmp_path, capsys):
+    """A calibrated sensing direction of 1e300 overflowed in its norm: a RuntimeWarning line before the error that
+    names the direction's norm (inf)."""
+    d = json.loads((files[0] / "gfimu.json").read_text())
+    d["fields"]["directions"]["value"][0][2] = -1e300
+    errors = _read_all(files, "gfimu", d, tmp_path, capsys)
+    assert any("accelerometer 1: sensing direction has norm inf" in e for e in errors), errors

@@ -110,16 +110,16 @@ class AttitudeEstimate(Estimate):
     VERSION: ClassVar[int] = 5
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
-    #: checked when a file is loaded: a number or null for q_b_n, a list of text for rest or pol_skipped ended in
-    #: an internal TypeError in the report
+    #: checked when a file is loaded: a number or null for q_b_n, nulls or text in rest, gyr_bias or pol_skipped
+    #: ended in an internal TypeError in the report
     ENTRIES: ClassVar[dict] = {
         **Estimate.ENTRIES,
         "q_b_n": Array((None, 4), finite=True),
-        "att_std": Array((None, 3)),
-        "gyr_bias": Array((3,)),
-        "rest": Array((None,)),
-        "acc_used": Array((None,)),
-        "mag_used": Array((None,)),
+        "att_std": Array((None, 3), finite=True),
+        "gyr_bias": Array((3,), finite=True),
+        "rest": Array((None,), finite=True),
+        "acc_used": Array((None,), finite=True),
+        "mag_used": Array((None,), finite=True),
         "pol_skipped": Entries(others="count"),
     }
 

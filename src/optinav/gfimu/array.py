@@ -111,7 +111,8 @@ class AccelerometerArray:
                 f"{p.shape[0]} positions but {d.shape[0]} directions",
                 "give one position and one direction per accelerometer",
             )
-        n = np.linalg.norm(d, axis=1)
+        with np.errstate(over="ignore"):  # a direction of 1e300 (a damaged file) is named below by its norm, inf
+            n = np.linalg.norm(d, axis=1)
         for i, ni in enumerate(n):
             if ni == 0:
                 raise OptinavError(
