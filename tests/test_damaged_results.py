@@ -25,7 +25,22 @@ def files(tmp_path_factory):
     {tmp}: a scratch folder)."""
     d = tmp_path_factory.mktemp("results")
     s = str(d)
-    _run(["simulate", "accel-multipos", "--out", f"{s}/s.csv", "--scheme", "18", "--dwell", "8", "--seed", "3"])
+    _run(
+        [
+            "simulate",
+            "accel-multipos",
+            "--out",
+            f"{s}/s.csv",
+            "--scheme",
+            "18",
+            "--dwell",
+            "8",
+            "--seed",
+            "3",
+            "--acc-unit",
+            "counts",
+        ]
+    )
     _run(["calibrate", "accel", f"{s}/s.csv", "--hold-out", "3", "--out", f"{s}/multipos.json"])
     _run(["simulate", "static", "--out", f"{s}/rest.csv", "--hours", "0.02", "--seed", "1"])
     _run(["allan", f"{s}/rest.csv", "--out", f"{s}/allan.json"])
