@@ -345,7 +345,7 @@ def test_notes_beside_the_recordings_are_skipped_not_failed(tmp_path):
     units = find_units(tmp_path, skipped=skipped)
     assert [u.path.name for u in units] == ["imu.txt", "imu2.log", "one.txt"]
     assert sorted(name for name, _ in skipped) == ["README.txt", "run.log"]
-    assert all("without a row of numbers" in why for _, why in skipped)
+    assert all("without a line of numbers" in why for _, why in skipped)
 
 
 def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):

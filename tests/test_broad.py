@@ -901,15 +901,23 @@ def test_a_wrong_sample_rate_is_named_with_the_rate_the_data_fit(name, rate):
     factor is searched now, and the message names --rate with the rate the data fit."""
     from optinav.attitude.checks import check_imu
 
+    fit, tr = _rate_named(name, rate)
+    assert abs(fit / tr.rate_hz - 1) < 0.05
+    check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
+
+
+def _rate_named(name: str, rate: float, roughly: str = "") -> tuple:
+    """The rate (Hz) the checks name for BROAD trial ``name`` declared at ``rate`` Hz, and the trial."""
+    from optinav.attitude.checks import check_imu
+
     p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
     if not p.is_file():
         pytest.skip(f"{name} absent")
     tr = load_broad(p)
     with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
         check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
-    fit = float(exc.value.remedy.split("the data fit ")[1].split(" Hz")[0])
-    assert abs(fit / tr.rate_hz - 1) < 0.05 and "--rate" in exc.value.remedy
-    check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
+    assert "--rate" in exc.value.remedy
+    return float(exc.value.remedy.split(f"the data fit {roughly}")[1].split(" Hz")[0]), tr
 
 
 def test_a_time_column_in_ticks_or_an_epoch_read_in_the_wrong_unit_is_named():
@@ -1006,15 +1014,7 @@ def test_a_wrong_rate_on_a_body_that_hardly_tilts_is_named_roughly(name, rate):
     heading), and --rate 100 was named "deg/s declared rad/s", whose flag ran at 5.1°. The declared gyro drifts
     gravity there by 0.08-0.57 rad, the right factor by 0.02-0.03: where the factor is a clear minimum below the
     drift of a gyro scaled away, the rate is named, as rough."""
-    from optinav.attitude.checks import check_imu
-
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
-    tr = load_broad(p)
-    with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
-        check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
-    fit = float(exc.value.remedy.split("the data fit roughly ")[1].split(" Hz")[0])
+    fit, tr = _rate_named(name, rate, "roughly ")
     assert abs(fit / tr.rate_hz - 1) < 0.05
 
 

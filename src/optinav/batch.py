@@ -3,8 +3,9 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
-ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading "."), the batch's own output/journal, any results table an
-earlier batch wrote there and .txt/.log notes without a line of numbers are skipped
+ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading
+"."), the batch's own output/journal, any results table an earlier batch wrote there and .txt/.log notes
+without a line of numbers are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
 without its data suffix (``unit7.csv`` → ``unit7``), or the whole file name where two files share a stem.
 
@@ -205,7 +206,7 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
             if suffix in PROSE_SUFFIXES and _is_prose(p):
                 # a README.txt or LICENSE.txt beside the recordings failed as a ragged table (exit 1)
                 if skipped is not None:
-                    skipped.append((p.name, "text without a row of numbers (notes?)"))
+                    skipped.append((p.name, "text without a line of numbers (notes?)"))
                 continue
             st = p.stat()
             found.append((p.name[: -len(suffix)], p, st))
@@ -215,7 +216,7 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
     return [Unit(stem if stems.count(stem) == 1 else p.name, p, st.st_size, st.st_mtime_ns) for stem, p, st in found]
 
 
-#: text suffixes that notes share with logs (README.txt, run.log): such a file without a row of numbers in its
+#: text suffixes that notes share with logs (README.txt, run.log): such a file without a line of numbers in its
 #: first PROSE_BYTES is skipped, not a failed unit
 PROSE_SUFFIXES = (".txt", ".log")
 PROSE_BYTES = 65536

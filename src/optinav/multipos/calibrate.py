@@ -1487,8 +1487,9 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
 
 def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list, labels=None) -> tuple:
     """Times from the file's sample counter where the time came from ``--rate`` (``t`` uniform) and the counter
-    skips values, and the counter's step k per row where nearly every row steps by the same k > 1 (else 1): rows lost by the logger are then gaps in time, which the turns' integrals bridge and note (20
-    rows lost at a hand turn's peak left gyro K_xx 6.5 % off with exit 0; helper). Only skips inside a labelled
+    skips values, and the counter's step k per row where nearly every row steps by the same k > 1 (else 1): rows
+    lost by the logger are then gaps in time, which the turns' integrals bridge and note (20 rows lost at a hand
+    turn's peak left gyro K_xx 6.5 % off with exit 0; helper). Only skips inside a labelled
     section (anywhere, without labels) place rows; any other step of the counter (a wrap, a reset, the meeting of
     sections cut from a longer log) counts as one sample, as before."""
     if sample.shape != t.shape or t.size < 3:
