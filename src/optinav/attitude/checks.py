@@ -719,6 +719,9 @@ LONG_BODY = 0.15
 #: gyro scaled away (--rate 200 ran at 3.3° and 18.7° heading with exit 0; --rate 100 was named "deg/s declared
 #: rad/s", whose flag ran at 5.1°)
 LOW_BODY_FLOOR, LOW_BODY_TINY = 0.05, 0.7
+#: ... and the declared gyro must drift gravity at least this many times as far as a gyro scaled to nothing does
+#: (those trials as declared 0.3-0.4×, at --rate 100/200 2.1-12×)
+LOW_BODY_TINY_WORSE = 1.5
 #: a rest (for the gyro bias): over 1 s (declared) the binned gyro's std (rad/s) and norm and the accelerometer's
 #: std (m/s²) below these
 REST_GYR_STD, REST_GYR, REST_ACC_STD = 0.02, 0.1, 0.1
@@ -842,14 +845,14 @@ def _long_drift(pieces: list[tuple], s: float, fit_bias: bool = False) -> float:
     return float(np.sqrt(np.average(v, weights=[g.shape[0] for g, _, _ in pieces])))
 
 
-def _scan(pieces: list[tuple], scales: np.ndarray) -> tuple[float, float]:
+def _scan(pieces: list[tuple], scales: np.ndarray, fit_bias: bool = False) -> tuple[float, float]:
     """(factor, drift) of the scan's best and, Brent's bounded search, between its neighbours."""
     from scipy.optimize import minimize_scalar
 
-    drift = np.array([_long_drift(pieces, s) for s in scales])
+    drift = np.array([_long_drift(pieces, s, fit_bias) for s in scales])
     i = int(np.argmin(drift))
     lo, hi = np.log(scales[max(i - 1, 0)]), np.log(scales[min(i + 1, scales.shape[0] - 1)])
-    r = minimize_scalar(lambda x: _long_drift(pieces, np.exp(x)), bounds=(lo, hi), method="bounded")
+    r = minimize_scalar(lambda x: _long_drift(pieces, np.exp(x), fit_bias), bounds=(lo, hi), method="bounded")
     return (float(np.exp(r.x)), float(r.fun)) if r.fun < drift[i] else (float(scales[i]), float(drift[i]))
 
 
@@ -899,6 +902,12 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     if declared < (LONG_FLOOR if body >= LONG_BODY else LOW_BODY_FLOOR):
         return None
     grid = np.exp(np.arange(np.log(1e-3), np.log(1e3), np.log(1.15)))
+    if body < LONG_BODY:
+        # a gyro that turns gravity no more than one scaled to nothing may be right (a flight's sustained
+        # accelerations): the search (≈ 0.3 s a log) runs only where the declared one does clearly worse
+        tiny = _long_drift(pieces, grid[0], fit_bias=True)
+        if declared < LOW_BODY_TINY_WORSE * tiny:
+            return None
     coarse = np.array([_long_drift(pieces, s) for s in grid])
     inner = (coarse <= np.roll(coarse, 1)) & (coarse <= np.roll(coarse, -1))
     found = [
@@ -914,10 +923,8 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
         # gravity hardly turns: the rest bias leaves the minimum off by up to 20 % (BROAD 11 at --rate 200: 336 Hz
         # for 285.7), so it is found again with the fitted bias; any gyro scaled towards 0 holds gravity about as
         # well as it turns, so the factor must be a clear minimum below that plateau, and is named as rough
-        fits = s * np.exp(np.arange(np.log(0.5), np.log(1.6), 0.02))
-        drift = [_long_drift(pieces, x, fit_bias=True) for x in fits]
-        s, best = float(fits[int(np.argmin(drift))]), float(np.min(drift))
-        if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * _long_drift(pieces, grid[0], fit_bias=True)):
+        s, best = _scan(pieces, s * np.exp(np.arange(np.log(0.5), np.log(1.6), 0.05)), fit_bias=True)
+        if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * tiny):
             return None
         if abs(np.log(s)) < np.log(SCALE_NEAR):
             return None
