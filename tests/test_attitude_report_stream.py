@@ -65,3 +65,25 @@ def test_cli_report_streams(flight, tmp_path):
     rows = {r[0]: r[1] for t in study["tables"] for r in t["rows"]}
     assert rows["samples"] == 1201 and rows["method"] == "iframe"  # 12 s at 100 Hz, both ends
     assert (rep / "attitude_euler.png").is_file()
+
+
+def test_the_euler_figure_of_a_log_timed_since_the_epoch_starts_at_its_first_sample(tmp_path, monkeypatch):
+    """A time column since the epoch (1.7e9 s) drew an axis labelled "+1.7e9" whose ticks all read the same
+    (helper): the figure's time now runs from the log's first sample, which the axis label states."""
+    from matplotlib.figure import Figure as MplFigure
+
+    from optinav.attitude import estimate
+    from optinav.reports import attitude_report
+
+    captured = []
+    monkeypatch.setattr(attitude_report, "write_report", lambda studies, *a, **k: captured.extend(studies))
+    t = 1_700_000_123.5 + np.arange(500) * 0.01
+    gyr, acc = np.zeros((500, 3)), np.tile([0.0, 0.0, 9.81], (500, 1))
+    res = estimate(gyr, acc, 0.01, frame="ENU")
+    attitude_report.write_attitude_report(res, t, np.zeros((500, 3)), "log.csv", tmp_path)
+    fig = MplFigure()
+    captured[0].figures[0].draw(fig)
+    ax = fig.axes[-1]
+    x = ax.lines[0].get_xdata()
+    assert x[0] == 0.0 and abs(x[-1] - 4.99) < 1e-6  # (1.7e9 + 4.99 s holds 0.2 µs in a float64)
+    assert ax.get_xlabel() == "t − 1700000123.500 s [s]"

@@ -45,13 +45,20 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_sample
     n = len(t) if n_samples is None else int(n_samples)
     every = "" if n <= len(t) else f"; one sample in {-(-n // max(len(t), 1))} of {n}"
 
+    t = np.asarray(t, float)
+    t0 = float(t[0]) if t.size else 0.0
+    # from the first sample: a time column since the epoch (1.7e9 s) drew an axis of "+1.73e9" and ticks that
+    # all read the same
+    since = f"t − {t0:.3f} s [s]" if abs(t0) >= 1e4 else "t [s]"
+    t = t - t0 if abs(t0) >= 1e4 else t
+
     def draw(fig):
         axs = fig.subplots(3, 1, sharex=True)
         for k, name in enumerate(("roll", "pitch", "yaw")):
             axs[k].plot(t, eul_deg[:, k], lw=0.8)
             axs[k].set_ylabel(f"{name} [deg]")
             axs[k].grid(alpha=0.3)
-        axs[-1].set_xlabel("t [s]")
+        axs[-1].set_xlabel(since)
 
     study = StudyResult(
         name="attitude",
