@@ -87,3 +87,20 @@ def test_the_euler_figure_of_a_log_timed_since_the_epoch_starts_at_its_first_sam
     x = ax.lines[0].get_xdata()
     assert x[0] == 0.0 and abs(x[-1] - 4.99) < 1e-6  # (1.7e9 + 4.99 s holds 0.2 µs in a float64)
     assert ax.get_xlabel() == "t − 1700000123.500 s [s]"
+
+
+def test_the_summary_says_how_much_of_the_magnetometer_was_used(tmp_path):
+    """With a magnetometer the report's summary had no line on it (helper); it now gives the share of samples
+    whose field was used, in memory and streamed alike, and none without one."""
+    from optinav.reports.attitude_report import attitude_tables
+
+    n = 400
+    gyr, acc = np.zeros((n, 3)), np.tile([0.0, 0.0, 9.81], (n, 1))
+    mag = np.tile([20.0, 0.0, -40.0], (n, 1))
+    mag[::2] = np.nan  # a magnetometer at half the rate
+    res = estimate(gyr, acc, 0.01, frame="ENU", mag=mag)
+    rows = {r[0]: r[1] for r in attitude_tables(res, n)[0].rows}
+    share = 100.0 * np.count_nonzero(res.mag_used) / n
+    assert 0 < share <= 50.0 and rows["magnetometer samples used [%]"].value == pytest.approx(share)
+    rows = {r[0]: r[1] for r in attitude_tables(estimate(gyr, acc, 0.01, frame="ENU"), n)[0].rows}
+    assert "magnetometer samples used [%]" not in rows
