@@ -1204,3 +1204,20 @@ def test_a_rate_too_high_on_a_cut_is_named(name, start_s, seconds):
         check_imu(tr.gyr[i:j], tr.acc[i:j], np.array([1e-3]))
     assert "--rate" in exc.value.remedy
     check_imu(tr.gyr[i:j], tr.acc[i:j], np.array([tr.dt]))
+
+
+def test_swapped_triads_in_an_hdf5_file_name_the_datasets_option(tmp_path, capsys):
+    """A BROAD file with imu_gyr and imu_acc exchanged was told to check --columns, which names the columns of a
+    table; for HDF5/MAT/NPZ the datasets are named with --datasets, which the message now gives too."""
+    import h5py
+
+    from optinav.cli.main import main
+
+    tr = load_broad(PATH)
+    f = tmp_path / "swapped.hdf5"
+    with h5py.File(f, "w") as h:
+        h.attrs["sampling_rate"] = tr.rate_hz
+        h["imu_gyr"], h["imu_acc"] = tr.acc, tr.gyr
+    assert main(["--quiet", "attitude", str(f), "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "swapped" in err and "--datasets" in err

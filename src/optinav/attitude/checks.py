@@ -1048,7 +1048,7 @@ def check_norms(
     if (med_a < 0.3 * G_STANDARD or rest_like) and 0.3 * G_STANDARD < med_g < 3 * G_STANDARD:
         raise OptinavError(
             f"the accelerometer reads {med_a:.3g} and the gyro {med_g:.3g} (median norms): the two triads look swapped",
-            "check the column order of --columns (t,ax,ay,az,gx,gy,gz)",
+            "check the column order of --columns (t,ax,ay,az,gx,gy,gz), or for HDF5/MAT/NPZ --datasets (acc=NAME,gyro=NAME)",
         )
     if share < GRAVITY_SHARE:
         # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77° (helper)

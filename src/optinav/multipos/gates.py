@@ -115,7 +115,7 @@ def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: fl
         raise SwappedAxes(
             f"the accelerometer columns read {acc_norm:.4g} {acc_unit} and the gyroscope columns {gyro_norm:.4g} "
             "(median norms): the two triads look swapped",
-            "check the column order (--columns t,ax,ay,az,gx,gy,gz)",
+            "check the column order (--columns t,ax,ay,az,gx,gy,gz; for HDF5/MAT/NPZ --datasets acc=NAME,gyro=NAME)",
         )
 
 
