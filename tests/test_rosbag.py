@@ -1669,3 +1669,18 @@ def test_batch_takes_ros2_bag_folders_and_bag_files(tmp_path, capsys):
     out2 = tmp_path / "res2.csv"
     assert main(argv[:4] + ["--frame", "ENU", "--out", str(out2), "--workers", "0"]) == 0
     assert [r["unit"] for r in read_results(out2)] == ["b_ros2"]
+
+
+@pytest.mark.parametrize("kind", ("ros1", "mcap"))
+def test_an_empty_second_imu_topic_leaves_the_one_that_published(tmp_path, kind):
+    """Two Imu topics, one advertised but never published (a second driver started without its sensor): the bag
+    was refused with "pick one with --topic", though only one can be read. That one is read now, with a warning
+    naming the empty one; named, the empty one is refused."""
+    rng = np.random.default_rng(53)
+    msgs, t, gyr, _ = imu_topic(rng, n=60)
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs), "/imu_raw": (IMU, [])})
+    with pytest.warns(UserWarning, match="'/imu' read; '/imu_raw' hold"):
+        log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
+    with pytest.raises(OptinavError, match="'/imu_raw' of b.* holds no messages"):
+        read_imu(bag, topic="/imu_raw")

@@ -524,6 +524,16 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
                 "pass a MagneticField topic second in --topic, or only the Imu topic",
             )
     else:
+        filled = [k for k in imu if topics[k]["count"] != 0]  # (None: not counted yet, may hold messages)
+        if len(imu) > 1 and len(filled) == 1:
+            # an IMU advertised but never published beside the one that did: that one (it was "pick one with
+            # --topic", though only one can be read)
+            empty = [k for k in imu if k not in filled]
+            warnings.warn(
+                f"{path.name}: Imu topic {filled[0]!r} read; {', '.join(map(repr, empty))} hold(s) no messages",
+                stacklevel=3,
+            )
+            imu = filled
         if len(imu) != 1:
             what = "no" if not imu else f"{len(imu)}"
             raise OptinavError(
