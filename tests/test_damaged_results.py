@@ -206,6 +206,20 @@ def test_export_kalibr_names_a_noise_key_that_is_null(files, tmp_path, capsys, k
     assert not (tmp_path / "imu.yaml").exists()
 
 
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("accelerometer_noise_density", 1e300), ("gyroscope_noise_density", 0.0), ("gyroscope_random_walk", 5.0)],
+)
+def test_export_kalibr_refuses_a_noise_value_no_imu_has(files, tmp_path, capsys, key, value):
+    """1e300 as a noise density in the --noise file was written into Kalibr's imu.yaml as it stood, exit 0; so were
+    a zero density and a random walk of 5 rad/s²/√Hz. Each is refused naming the key (an IMU's are far inside 0-1 SI)."""
+    d = json.loads((files[0] / "allan.json").read_text())
+    d["fields"]["kalibr"]["value"][key] = value
+    errors = _read_all(files, "allan", d, tmp_path, capsys)
+    assert errors and key in errors[0] and "no IMU's" in errors[0], errors
+    assert not (tmp_path / "imu.yaml").exists()
+
+
 def test_export_kalibr_with_huge_allan_deviations(files, tmp_path, capsys):
     """1e300 in every deviation array of the --noise file: the export writes the file's Kalibr numbers (finite, the
     deviations are not used), or refuses in one line naming the entry; never inf or nan in the YAML."""

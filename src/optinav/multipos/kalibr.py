@@ -37,6 +37,11 @@ NOISE_KEYS = (
 )
 
 
+#: the largest noise value (SI: m/s²/√Hz, m/s³/√Hz, rad/s/√Hz, rad/s²/√Hz) any IMU has, by orders of magnitude
+#: (consumer MEMS: about 2e-3 and 3e-3 for the accelerometer, 2e-4 and 2e-5 for the gyro)
+NOISE_MAX = 1.0
+
+
 def lq(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """K = L·Q with L lower triangular of positive diagonal and Q a rotation (det K > 0 needed)."""
     K = np.asarray(K, float)
@@ -191,7 +196,15 @@ def write_kalibr_imu_yaml(
             "# noise: continuous-time white-noise density N and random walk K of the five-term Allan fit (a rate ramp kept out of K), largest axis"
         )
         for k in NOISE_KEYS:
-            body.append(f"{k}: {_num(kal[k])}  # [{units[k]}]")
+            v = kal[k]
+            if not (isinstance(v, (int, float)) and 0.0 <= v <= NOISE_MAX and (v > 0.0 or "random_walk" in k)):
+                # 1e300 in an Allan file was written into the yaml as it stood, exit 0 (probe)
+                raise OptinavError(
+                    f"the allan result's {k} is {v!r} {units[k]}: no IMU's (a density is > 0, and none is above "
+                    f"{NOISE_MAX:g} in SI units)",
+                    "run optinav allan again on the sensor's static log, or check the file",
+                )
+            body.append(f"{k}: {_num(v)}  # [{units[k]}]")
         if rate is None:
             rate = kal.get("update_rate")
         # Kalibr's IMU parameters require a topic: its examples' name unless one is known
