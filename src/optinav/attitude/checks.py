@@ -926,18 +926,16 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
         s, best = _scan(pieces, s * np.exp(np.arange(np.log(0.5), np.log(1.6), 0.05)), fit_bias=True)
         if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * tiny):
             return None
-        if abs(np.log(s)) < np.log(SCALE_NEAR):
-            return None
-        unit = next((u for u in _SCALES if u != 1.0 and abs(np.log(s / u)) < np.log(SCALE_NEAR)), None)
-        return UnitHint("unit", unit, rough=True) if unit else replace(_time_words(s, dt), rough=True)
     elif not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
         return _long_axes_hint(pieces, declared, body)
     if abs(np.log(s)) < np.log(SCALE_NEAR):
         return None
-    units = (np.pi / 180, 180 / np.pi)
-    s = _round_scale(s, best, lambda f: _long_drift(pieces, f, fit_bias=True), grid[0], grid[-1], units)
+    rough = body < LONG_BODY  # (its factor is named as found, not rounded to a usual slip)
+    if not rough:
+        units = (np.pi / 180, 180 / np.pi)
+        s = _round_scale(s, best, lambda f: _long_drift(pieces, f, fit_bias=True), grid[0], grid[-1], units)
     unit = next((u for u in _SCALES if u != 1.0 and abs(np.log(s / u)) < np.log(SCALE_NEAR)), None)
-    return UnitHint("unit", unit) if unit else _time_words(s, dt)
+    return replace(UnitHint("unit", unit) if unit else _time_words(s, dt), rough=rough)
 
 
 def _long_axes_hint(pieces: list[tuple], declared: float, body: float) -> UnitHint | None:
@@ -1497,17 +1495,6 @@ def gyro_sums(gyr: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, n
     return bins, np.add.reduceat(gyr, first, axis=0), np.diff(np.append(first, gyr.shape[0])).astype(float)
 
 
-def _summed(bins: np.ndarray, *cols) -> tuple[np.ndarray, ...]:
-    """The columns summed per bin number (a bin split between blocks comes twice), ordered by bin."""
-    u, inv = np.unique(bins, return_inverse=True)
-    out = []
-    for c in cols:
-        x = np.zeros((u.size, *c.shape[1:]))
-        np.add.at(x, inv, c)
-        out.append(x)
-    return (u, *out)
-
-
 def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float) -> str:
     """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
     signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin the
@@ -1518,8 +1505,10 @@ def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: flo
 
     if len(mag_bins) == 0 or len(g_bins) == 0:
         return ""
-    ub, M, C = _summed(np.asarray(mag_bins), mag_sums_, counts)
-    ug, G, N = _summed(np.asarray(g_bins), g_sums, g_counts)
+    # a bin split between blocks comes twice: merged as the time-base bins are
+    ub, MC = merge_bins(np.asarray(mag_bins), np.column_stack([mag_sums_, counts]))
+    ug, GN = merge_bins(np.asarray(g_bins), np.column_stack([g_sums, g_counts]))
+    M, C, G, N = MC[:, :3], MC[:, 3], GN[:, :3], GN[:, 3]
     both, im, ig = np.intersect1d(ub, ug, return_indices=True)
     M, C, G, N = M[im], C[im], G[ig], N[ig]
     m = np.where((C > 0)[:, None], M / np.maximum(C, 1.0)[:, None], np.nan)
@@ -1556,9 +1545,9 @@ def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray 
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
     gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field turns against the gyro
     (:func:`mag_turn_hint`); ``dt`` the median step (s)."""
-    warn_or_refuse_mag_axes(*mag_axes_hint(*mag_sums(acc, mag), dt))
+    b, as_, ms, c = mag_sums(acc, mag)
+    warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dt))
     if gyr is not None:
-        b, _, ms, c = mag_sums(acc, mag)
         warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
 
 
