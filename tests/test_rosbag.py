@@ -91,7 +91,9 @@ def write_bag(
 
 
 def imu_topic(rng, n=40, rate=100.0, t0=1_700_000_000, frames=("imu_link",), stamps=None):
-    """Messages and the values they hold: (messages, t, gyr, acc)."""
+    """Messages and the values they hold: (messages, t, gyr, acc). ``frames``: the header frame_ids, each over
+    its share of the messages in turn (one IMU whose driver was restarted under another frame_id); ``imu_topic``
+    pairs with :func:`interleaved` for several IMUs on one topic."""
     gyr = rng.normal(0, 0.5, (n, 3))
     acc = rng.normal(0, 3, (n, 3)) + [0, 0, 9.81]
     ns = np.round(np.arange(n) / rate * 1e9).astype(np.int64) + 123 if stamps is None else stamps
@@ -99,7 +101,7 @@ def imu_topic(rng, n=40, rate=100.0, t0=1_700_000_000, frames=("imu_link",), sta
         (
             int(t0 * 10**9 + ns[i] + 5_000_000),
             lambda ts, i=i: imu_msg(
-                ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i], frame=frames[i % len(frames)], seq=i
+                ts, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i], frame=frames[i * len(frames) // n], seq=i
             ),
         )
         for i in range(n)
@@ -1116,6 +1118,46 @@ def test_two_publishers_on_one_ros1_topic(tmp_path, monkeypatch):
             _joined_tables(both, 16)
         log = read_imu(restart)
         assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+@pytest.mark.parametrize("kind", KINDS + ("mcap-message",))
+def test_two_imus_on_one_topic_by_frame_id(tmp_path, kind):
+    """Two IMUs (frame_ids imu0/imu1, one connection: rosbag2 keeps no publisher per message, a ROS 1 node may
+    publish both) on /imu at 100 Hz, stamps 3 ms apart: read as one IMU at 200 Hz with exit 0, its gyro and
+    accelerometer alternating between two sensors. Refused naming both frame_ids (also when their names differ
+    in length: the deserializer's path); ``--topic /imu@imu1`` reads that one. A driver restarted under another
+    frame_id (one run, then the other) still reads as one IMU."""
+    rng = np.random.default_rng(45)
+    for names in (("imu0", "imu1"), ("imu0", "imu_right")):
+        a, ta, gyr_a, acc_a = imu_topic(rng, n=300, frames=(names[0],))
+        b, tb, gyr_b, acc_b = imu_topic(
+            rng, n=300, frames=(names[1],), stamps=np.round(np.arange(300) / 100 * 1e9).astype(np.int64) + 3_000_123
+        )
+        both = sorted(a + b, key=lambda m: m[0])
+        comp = "message" if kind == "mcap-message" else None
+        bag = write_bag(tmp_path / f"b{len(names[1])}", kind.removesuffix("-message"), {"/imu": (IMU, both)}, comp)
+        with pytest.raises(OptinavError, match=rf"2 header frame_ids \('{names[0]}' \(300 msgs\), '{names[1]}'"):
+            read_imu(bag)
+        with pytest.raises(OptinavError, match="frame_ids"):
+            _joined_tables(bag, 64)
+        log = read_imu(bag, topic=f"/imu@{names[1]}")
+        assert np.array_equal(log.t, tb) and np.array_equal(log.gyr, gyr_b) and np.array_equal(log.acc, acc_b)
+        with pytest.raises(OptinavError, match=r"no message with frame_id 'imu2'.*--topic /imu@FRAME"):
+            read_imu(bag, topic="/imu@imu2")
+    msgs, t, gyr, acc = imu_topic(rng, n=300, frames=("imu0", "imu_right"))
+    bag = write_bag(tmp_path / "restart", kind.removesuffix("-message"), {"/imu": (IMU, msgs)})
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+def test_two_imus_on_one_topic_from_the_command_line(tmp_path, capsys):
+    rng = np.random.default_rng(46)
+    a, *_ = imu_topic(rng, n=300, frames=("imu0",))
+    b, *_ = imu_topic(rng, n=300, frames=("imu1",), stamps=np.round(np.arange(300) / 100 * 1e9).astype(np.int64) + 3e6)
+    bag = write_bag(tmp_path / "b", "mcap", {"/imu": (IMU, sorted(a + b, key=lambda m: m[0]))})
+    assert main(["allan", str(bag), "--out", str(tmp_path / "n.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--topic /imu@imu0" in err and "'imu1' (300 msgs)" in err
 
 
 def test_log_times_that_repeat_cannot_replace_the_stamps(tmp_path):

@@ -162,7 +162,8 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
         metavar="IMU[,MAG]",
         help="ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder): the "
         "sensor_msgs/Imu topic, optionally a MagneticField topic "
-        "after a comma (default: the bag's only Imu topic)",
+        "after a comma (default: the bag's only Imu topic); TOPIC@FRAME reads "
+        "only the messages of header frame_id FRAME (several IMUs on one topic)",
     )
 
 

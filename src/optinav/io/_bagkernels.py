@@ -325,7 +325,7 @@ def ros1_decode(buf, chunks, end, expect, row0, conns, off, size, logt, lay, sta
             return status, i, seen
         if k != n:
             return FULL, i, seen
-        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6], lay[7:],
                        stamp, va, vb, row0[i])  # fmt: skip
         for j in range(k):
             if other[j]:
@@ -497,7 +497,7 @@ def mcap_decode(buf, chunks, chans, off, size, logt, lay, stamp, va, vb, out_log
             return status, i, row, seen
         if row + k > stamp.size or row + k > out_logt.size:
             return ROOM, i, row, seen
-        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6], lay[7:],
                        stamp, va, vb, row)  # fmt: skip
         for j in range(k):
             if other[j]:
@@ -526,7 +526,7 @@ def sqlite_decode(buf, pages, psize, usable, ids, block, off, size, logt, last, 
         if row + k > stamp.size or row + k > out_logt.size:
             last[0], last[1] = l0, l1
             return ROOM, b, row, seen
-        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6],
+        other = gather(buf, off[:k], size[:k], lay[0], lay[1], lay[2] != 0, lay[3], lay[4], lay[5], lay[6], lay[7:],
                        stamp, va, vb, row)  # fmt: skip
         for j in range(k):
             if other[j]:
@@ -537,21 +537,37 @@ def sqlite_decode(buf, pages, psize, usable, ids, block, off, size, logt, last, 
 
 
 @numba.njit(**_NJ)
-def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, stamp, va, vb, row0):
+def gather(buf, off, size, itemsize, o_sec, signed_sec, o_len, slen, o_a, o_b, frame, stamp, va, vb, row0):
     """Messages ``buf[off[i]:off[i] + size[i]]`` of the fixed layout (``itemsize`` bytes, string length ``slen``
-    at ``o_len``): stamp (sec u32 or i32 at ``o_sec``, nsec u32 after it, s) and the float64 triads at ``o_a``
+    at ``o_len``, the string's bytes — the header's frame_id — those of ``frame`` unless it is empty): stamp (sec u32 or i32 at ``o_sec``, nsec u32 after it, s) and the float64 triads at ``o_a``
     into ``va`` and, unless ``o_b`` < 0, at ``o_b`` into ``vb`` ((n, 3) arrays), written at row ``row0 + i``.
     Returns the mask of the messages of another layout (left for the deserializer)."""
-    if o_len + 4 > itemsize or o_sec + 8 > itemsize or o_a + 24 > itemsize or o_b + 24 > itemsize:
+    if o_len + 4 + frame.size > itemsize or o_sec + 8 > itemsize or o_a + 24 > itemsize or o_b + 24 > itemsize:
         raise ValueError("a field outside the message layout")  # the loads below are unchecked
     n = off.size
     other = np.zeros(n, dtype=np.bool_)
+    # the frame_id's bytes as little-endian 8-byte words and a tail: one load and compare per word
+    words = np.zeros(frame.size // 8, dtype=np.int64)
+    for j in range(words.size * 8):
+        words[j // 8] |= np.int64(frame[j] & 0xFF) << np.int64(8 * (j % 8))
     for i in range(n):
         p = off[i]
         if p < 0 or size[i] < 0 or p + size[i] > buf.size:
             raise ValueError("a message outside its block")  # the scanner's offsets: never read past them
         if size[i] != itemsize or np.int64(_u32(buf, p + o_len)) != slen:
             other[i] = True
+            continue
+        # another frame_id (a second IMU publishing on the topic) is a layout of its own for the caller
+        q = p + o_len + 4
+        for j in range(words.size):
+            if _i64(buf, q + 8 * j) != words[j]:
+                other[i] = True
+                break
+        for j in range(words.size * 8, frame.size):
+            if buf[q + j] != frame[j]:
+                other[i] = True
+                break
+        if other[i]:
             continue
         sec = np.int64(_u32(buf, p + o_sec))
         if signed_sec and sec >= 2**31:
@@ -627,5 +643,5 @@ def warm() -> None:
         buf, i64[:0], 64, i64[:0], i64[:0], i64, i64, i64, i64, np.zeros(7, dtype=np.int64), np.zeros(1), v, v, i64
     )
     v = np.zeros((1, 3))
-    gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, np.zeros(1), v, v, 0)
+    gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, i64[:0], np.zeros(1), v, v, 0)
     zstd_sizes(buf, i64[:0], i64[:0], i64[:0])

@@ -313,7 +313,7 @@ def _sqlite_quick(path: Path, wanted: list[str]):
             if name is None:
                 out.append(None)
                 continue
-            fused = _sqlite_fused(types, files, name, topics[name]["type"])
+            fused = _sqlite_fused(types, path, files, name, topics[name])
             if fused is not None:
                 out.append((name, fused))
                 continue
@@ -339,12 +339,12 @@ def _sqlite_quick(path: Path, wanted: list[str]):
         return None
 
 
-def _sqlite_fused(types, files: list[Path], name: str, msgtype: str):
+def _sqlite_fused(types, path: Path, files: list[Path], name: str, info: dict):
     """(header stamps s, log times s, values) of topic ``name`` decoded page by page by
     :func:`optinav.io.bagscan.sqlite_decode`, or None (then the blocks read it)."""
     from optinav.io import bagscan
 
-    dec = _Decoder(types, False, msgtype, 0, grow=True)
+    dec = _Decoder(types, False, info["type"], 0, grow=True)
 
     def reserve(kept: int, need: int):
         if need > dec.count:
@@ -358,7 +358,7 @@ def _sqlite_fused(types, files: list[Path], name: str, msgtype: str):
         return None
     if not n:
         return None
-    return _ordered(dec.stamp[:n], dec.logt[:n], dec.values(n))
+    return _kept(dec, path, name, n, info.get("frame"))
 
 
 def _ordered(stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
@@ -499,7 +499,9 @@ def _listing(topics: dict) -> str:
 
 def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | None]:
     """The Imu topic and the MagneticField topic (or None) to read: the one named, else the bag's only one when
-    it is not known to be empty (it was an error naming that topic, even with the Imu topic named)."""
+    it is not known to be empty (it was an error naming that topic, even with the Imu topic named). A name
+    ``TOPIC@FRAME`` reads only the topic's messages whose header frame_id is FRAME (``topics[TOPIC]["frame"]``)."""
+    wanted = [_want_frame(topics, name) for name in wanted]
     for name in wanted:
         if name not in topics:
             raise OptinavError(
@@ -549,6 +551,15 @@ def _choose(path: Path, topics: dict, wanted: list[str]) -> tuple[str, str | Non
     return imu_topic, mag_topic
 
 
+def _want_frame(topics: dict, item: str) -> str:
+    """The topic of a ``--topic`` item, ``TOPIC`` or ``TOPIC@FRAME`` ('@' is not in ROS names); a frame_id
+    asked for is noted in ``topics[TOPIC]["frame"]``."""
+    name, at, frame = item.partition("@")
+    if at and name in topics:
+        topics[name]["frame"] = frame
+    return name if at else item
+
+
 def _require_messages(path: Path, name: str, count) -> None:
     """Refuse a topic without messages (``count`` None: not counted yet, sqlite3 bags count when read)."""
     if count == 0:
@@ -559,8 +570,9 @@ def _require_messages(path: Path, name: str, count) -> None:
 
 
 def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
-    """(dtype of one message, field names of the values) for messages of ``len(raw)`` bytes; None when the
-    layout is not the plain little-endian one this decoder knows."""
+    """(dtype of one message, field names of the values, string length, the header's frame_id bytes) for
+    messages of ``len(raw)`` bytes and that frame_id; None when the layout is not the plain little-endian one this
+    decoder knows."""
     n = len(raw)
     if ros1:
         if n < 16:
@@ -592,10 +604,18 @@ def _layout(raw: bytes, ros1: bool, msgtype: str) -> tuple | None:
         "formats": ["<i4" if not ros1 else "<u4", "<u4", "<u4"] + ["(3,)<f8"] * len(names),
         "itemsize": n,
     }
-    return np.dtype(spec), names, slen
+    return np.dtype(spec), names, slen, raw[16 : 16 + slen]
 
 
-def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
+def _frame_name(frame: bytes, ros1: bool) -> str:
+    """The header frame_id of its bytes in a message (CDR strings end in a NUL that the name does not hold)."""
+    if not ros1 and frame.endswith(b"\0"):
+        frame = frame[:-1]
+    return frame.decode("utf-8", "replace")
+
+
+def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray, str]:
+    """(header stamp s, values, header frame_id) of one message by rosbags' deserializer."""
     msg = reader.deserialize(raw, msgtype)
     st = msg.header.stamp
     # ROS 1 time is uint32 seconds; rosbags' deserializer gives int32 (stamps after 2038-01-19 were negative)
@@ -606,7 +626,7 @@ def _slow(reader, raw: bytes, msgtype: str) -> tuple[float, np.ndarray]:
     else:
         b = msg.magnetic_field
         v = [b.x, b.y, b.z]
-    return sec + st.nanosec * 1e-9, np.asarray(v, dtype=float)
+    return sec + st.nanosec * 1e-9, np.asarray(v, dtype=float), str(msg.header.frame_id)
 
 
 def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -658,7 +678,17 @@ def _read_topic(reader, path: Path, topic: str, info: dict, blocks=None) -> tupl
     if done == 0:
         raise OptinavError(f"topic {topic!r} of {path.name} holds no readable messages", "pass a topic with messages")
     # the storage's record order; rosbags yields log-time order
-    return _ordered(dec.stamp[:done], dec.logt[:done], dec.values(done))
+    return _kept(dec, path, topic, done, info.get("frame"))
+
+
+def _kept(dec, path: Path, topic: str, n: int, frame: str | None) -> tuple:
+    """(stamps s, log times ns, values) of the decoder's first ``n`` rows of the frame_id kept
+    (:meth:`_Decoder.frame_rows`), in log-time order."""
+    stamp, logt, vals = dec.stamp[:n], dec.logt[:n], dec.values(n)
+    keep = dec.frame_rows(path, topic, n, frame)
+    if keep is not None:
+        stamp, logt, vals = stamp[keep], logt[keep], tuple(v[keep] for v in vals)
+    return _ordered(stamp, logt, vals)
 
 
 def _whole(reader, path: Path, topic: str, info: dict, dec) -> bool:
@@ -714,6 +744,8 @@ class _Decoder:
         self.done = 0
         #: the value groups (0 angular velocity, 1 linear acceleration) the first message marks as not measured
         self.unmeasured: tuple = ()
+        #: the header frame_ids met, in order; ``fid`` holds each row's index in it
+        self.frames: list[str] = []
         self._alloc(count)
 
     def _mark(self, first: bytes) -> None:
@@ -740,12 +772,13 @@ class _Decoder:
         self.stamp = np.empty(count)
         self.logt = np.empty(count, dtype=np.int64)
         self.vals = tuple(np.empty((count, 3)) for _ in range(2 if self.msgtype == IMU_TYPE else 1))
+        self.fid = np.zeros(count, dtype=np.int32)
 
     def _resize(self, count: int) -> None:
-        old = self.stamp, self.logt, self.vals
+        old = self.stamp, self.logt, self.vals, self.fid
         self._alloc(count)
         n = self.done
-        self.stamp[:n], self.logt[:n] = old[0][:n], old[1][:n]
+        self.stamp[:n], self.logt[:n], self.fid[:n] = old[0][:n], old[1][:n], old[3][:n]
         for v, w in zip(self.vals, old[2]):
             v[:n] = w[:n]
 
@@ -774,12 +807,14 @@ class _Decoder:
             self.logt[rows] = logt
             if layout:
                 other = self._fast(u8, off, size, layout)
+                self.fid[rows] = self._code(_frame_name(layout[3], self.ros1))
             else:
                 _inside(u8, off, size)
                 other = np.ones(n, dtype=bool)
             for j in np.flatnonzero(other):
                 raw = bytes(u8[off[j] : off[j] + size[j]])
-                t, v = _slow(self.reader, raw, self.msgtype)
+                t, v, frame = _slow(self.reader, raw, self.msgtype)
+                self.fid[self.done + j] = self._code(frame)
                 self.stamp[self.done + j] = t
                 for k, arr in enumerate(self.vals):
                     arr[self.done + j] = v[3 * k : 3 * k + 3]
@@ -794,13 +829,48 @@ class _Decoder:
         layout = _layout(first, self.ros1, self.msgtype)
         if layout is None or not _layout_agrees(self.reader, first, layout, self.msgtype):
             return None
+        if self._code(_frame_name(layout[3], self.ros1)) != 0:
+            return None  # every row the kernel fills is of frame 0
         return self._kernel_args(layout)
 
+    def _code(self, frame: str) -> int:
+        if frame not in self.frames:
+            self.frames.append(frame)
+        return self.frames.index(frame)
+
+    def frame_rows(self, path: Path, topic: str, n: int, frame: str | None) -> np.ndarray | None:
+        """The rows of the first ``n`` to keep: those of the header frame_id ``frame`` when one is asked for
+        (``--topic TOPIC@FRAME``), else all (None). Refuses a topic whose messages of several frame_ids
+        interleave — two IMUs publishing on one topic, read as one at the sum of their rates (runs of one frame_id
+        after another, as from a driver restarted under another frame_id, fewer than twice the frame_ids: kept)."""
+        fid = self.fid[:n]
+        if frame is not None:
+            if frame not in self.frames:
+                raise OptinavError(
+                    f"topic {topic!r} of {path.name} has no message with frame_id {frame!r} "
+                    f"(its frame_ids: {', '.join(map(repr, self.frames))})",
+                    f"pass one of them: --topic {topic}@FRAME",
+                )
+            return np.flatnonzero(fid == self.frames.index(frame))
+        if len(self.frames) < 2:
+            return None
+        order = np.argsort(self.logt[:n], kind="stable")
+        if int(np.count_nonzero(np.diff(fid[order]))) < 2 * len(self.frames):
+            return None
+        counts = np.bincount(fid, minlength=len(self.frames))
+        listing = ", ".join(f"{f!r} ({c} msgs)" for f, c in zip(self.frames, counts.tolist()))
+        raise OptinavError(
+            f"topic {topic!r} of {path.name} interleaves the messages of {len(self.frames)} header frame_ids "
+            f"({listing}): several IMUs publishing on one topic, which read as one are none of them",
+            f"read one of them: --topic {topic}@{self.frames[int(np.argmax(counts))]}",
+        )
+
     def _kernel_args(self, layout) -> np.ndarray:
-        dtype, names, slen = layout
+        dtype, names, slen, frame = layout
         o = [dtype.fields[k][1] for k in names] + [-1]
         args = [dtype.itemsize, dtype.fields["sec"][1], not self.ros1, dtype.fields["len"][1], slen, o[0], o[1]]
-        return np.array(args, dtype=np.int64)
+        self.frames = [_frame_name(frame, self.ros1)]
+        return np.array(args + list(frame), dtype=np.int64)
 
     def _fast(self, u8: np.ndarray, off: np.ndarray, size: np.ndarray, layout) -> np.ndarray:
         """Decode the messages of ``layout`` at rows ``done…``; the mask of the others."""
@@ -809,9 +879,19 @@ class _Decoder:
 
             lay = self._kernel_args(layout)
             return kern.gather(
-                u8, off, size, *lay[:2], bool(lay[2]), *lay[3:], self.stamp, self.vals[0], self.vals[-1], self.done
+                u8,
+                off,
+                size,
+                *lay[:2],
+                bool(lay[2]),
+                *lay[3:7],
+                lay[7:],
+                self.stamp,
+                self.vals[0],
+                self.vals[-1],
+                self.done,
             )
-        dtype, names, slen = layout
+        dtype, names, slen, _ = layout  # frame_ids not compared on this (big-endian) path
         _inside(u8, off, size)
         fast = size == dtype.itemsize
         arr = _gather(u8, off[fast], dtype)
@@ -866,13 +946,14 @@ def _gather(u8: np.ndarray, off: np.ndarray, dtype: np.dtype) -> np.ndarray:
 def _layout_agrees(reader, raw: bytes, layout, msgtype: str) -> bool:
     """The numpy decoding of ``raw`` equals rosbags' deserializer (guards the byte offsets above)."""
     try:
-        t_ref, v_ref = _slow(reader, raw, msgtype)
+        t_ref, v_ref, f_ref = _slow(reader, raw, msgtype)
     except Exception:  # noqa: BLE001 - the deserializer itself fails: let the main loop report it
         return True
     arr = np.frombuffer(raw, dtype=layout[0])
     v = np.concatenate([arr[k] for k in layout[1]], axis=1)[0]
     t = float(arr["sec"][0] + arr["nsec"][0] * 1e-9)
-    return bool(np.array_equal(v, v_ref, equal_nan=True) and t == t_ref)
+    same_frame = layout[3] in (f_ref.encode(), f_ref.encode() + b"\0")
+    return bool(np.array_equal(v, v_ref, equal_nan=True) and t == t_ref and same_frame)
 
 
 def _stamps_ok(stamp: np.ndarray) -> bool:
@@ -1048,8 +1129,8 @@ def _stream_plan(path: Path, wanted: list[str]) -> dict | None:
     """How to read ``path`` block by block (types, topics chosen, a block source per topic), or None."""
     from optinav.io import bagscan
 
-    if sys.byteorder != "little" or not path.exists():
-        return None
+    if sys.byteorder != "little" or not path.exists() or any("@" in k for k in wanted):
+        return None  # (a frame_id asked for: read whole, the frames sorted out there)
     try:
         if path.is_file() and path.suffix.lower() == ".bag":
             got = _ros1_setup(path, wanted)
@@ -1091,6 +1172,8 @@ def _decoded(plan: dict, name: str):
     dec = _Decoder(plan["types"], plan["ros1"], plan["topics"][name]["type"], _BLOCK, grow=True)
     for block in plan["blocks"](name):
         n = dec.run([block], strict=False)
+        if len(dec.frames) > 1:
+            raise ValueError("several frame_ids")  # read whole: load_bag keeps one or refuses
         yield dec.stamp[:n], dec.logt[:n], dec.values(n)
 
 
