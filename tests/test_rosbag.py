@@ -1160,6 +1160,45 @@ def test_two_imus_on_one_topic_from_the_command_line(tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "--topic /imu@imu0" in err and "'imu1' (300 msgs)" in err
 
 
+@pytest.mark.parametrize("kind", ("ros1", "mcap", "sqlite3"))
+def test_messages_logged_out_of_stamp_order(tmp_path, kind):
+    """Valid stamps, but 1 message in 10 delivered 25 ms late (best-effort transport): the stamps were judged
+    not increasing and the topic went to the log times (receive jitter on every sample, values out of order) with
+    exit 0. Read in stamp order with a warning; the same for the magnetometer. A clock that jumps back 60 s is
+    not reordered (the log times decide, as before)."""
+    rng = np.random.default_rng(47)
+    n = 400
+    msgs, t, gyr, acc = imu_topic(rng, n=n, rate=200.0)
+    delay = np.full(n, 2_000_000) + rng.integers(0, 500_000, n)
+    delay[rng.choice(n, n // 10, replace=False)] += 25_000_000
+    logt = np.array([m[0] for m in msgs]) - 5_000_000 + delay
+    tm = 1_700_000_000 + np.arange(0, 2.0, 0.05)
+    bm = rng.normal(0, 3e-5, (tm.size, 3))
+    mlog = np.round(tm * 1e9).astype(np.int64) + 2_000_000
+    mlog[3] += 80_000_000
+    mags = [
+        (int(mlog[k]), lambda ts, k=k: mag_msg(ts, int(tm[k]), round((tm[k] % 1) * 1e9), bm[k])) for k in range(tm.size)
+    ]
+    order, morder = np.argsort(logt, kind="stable"), np.argsort(mlog, kind="stable")
+    topics = {
+        "/imu": (IMU, [(int(logt[i]), msgs[i][1]) for i in order]),
+        "/mag": (MAG, [mags[k] for k in morder]),
+    }
+    bag = write_bag(tmp_path / "b", kind, topics)
+    for read in (read_table, lambda b: _joined_tables(b, 64)[1]):
+        with pytest.warns(UserWarning, match=r"of the 400 messages of '/imu' were logged out of their header stamps"):
+            tab = read(bag)
+        assert np.array_equal(tab["t"], t)
+        assert np.array_equal(np.column_stack([tab["gx"], tab["gy"], tab["gz"]]), gyr)
+        np.testing.assert_allclose(tab["mx"][:300], np.interp(t, tm, bm[:, 0])[:300], rtol=0, atol=1e-18)
+    back, *_ = imu_topic(rng, n=100, t0=1_700_000_000 - 60)
+    msgs2 = msgs[:100] + [(msgs[99][0] + 10_000_000 * (k + 1), m[1]) for k, m in enumerate(back)]
+    bag = write_bag(tmp_path / "jump", kind, {"/imu": (IMU, msgs2)})
+    with pytest.warns(UserWarning, match="using the bag's log times"):
+        log = read_imu(bag)
+    assert np.array_equal(log.t, np.array([m[0] for m in msgs2]) * 1e-9)
+
+
 def test_log_times_that_repeat_cannot_replace_the_stamps(tmp_path):
     """Zero stamps and a recorder on a simulated clock (four messages logged at each 10 ms tick): the error was a
     'duplicate timestamp' in a time column with --columns/--rate as the remedy, neither of which a bag takes."""

@@ -108,12 +108,12 @@ def load_bag(path, *, topic=None, only=None):
             except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
                 pass
     (imu_topic, imu), mag = got
-    t, t_log, (gyr, acc) = _without_copies(path, imu_topic, *imu)
+    t, t_log, (gyr, acc) = _in_stamp_order(path, imu_topic, *_without_copies(path, imu_topic, *imu))
     gyr, acc = (None if k in _unmeasured(path, imu_topic, (gyr, acc)) else v for k, v in enumerate((gyr, acc)))
     if mag is None:
         return _bag_table(path, imu_topic, _time_base(path, imu_topic, t, t_log), gyr, acc, None, None, 0)
     mag_topic, mag = mag
-    tm, tm_log, b = _without_copies(path, mag_topic, *mag)
+    tm, tm_log, b = _in_stamp_order(path, mag_topic, *_without_copies(path, mag_topic, *mag))
     # one clock for both topics: a topic on its log times beside one on header stamps is offset by the delay
     # between stamping and logging (0.4 s: yaw off by up to 19°)
     both = _stamps_ok(t) and _stamps_ok(tm)
@@ -993,6 +993,36 @@ def _copies(stamp: np.ndarray, vals: tuple) -> np.ndarray:
     return out
 
 
+#: messages logged out of their stamps' order are put in stamp order when the receive delay (log time − header
+#: stamp) spreads by at most REORDER_MAX_S (s; beyond it the stamps may come from a clock that jumped) and at
+#: most REORDER_MAX_BACK of the stamps step back in log order (a few messages late; a clock running backwards or
+#: stamps unrelated to the order steps back at half the messages or more): otherwise the log times decide
+REORDER_MAX_S, REORDER_MAX_BACK = 1.0, 0.25
+
+
+def _in_stamp_order(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
+    """(stamps s, log times ns, values) in header-stamp order when the messages were only logged out of it —
+    delivered late or out of order (best-effort transport, a driver publishing in bursts): the stamps, sorted, are
+    set and strictly increasing, the receive delay varies by at most ``REORDER_MAX_S`` and at most
+    ``REORDER_MAX_BACK`` of the stamps step back. They went to the log times with a warning (the transport's
+    jitter on every sample). Anything else is returned as it is."""
+    if stamp.size < 2 or _stamps_ok(stamp) or not np.all(stamp > 0):
+        return stamp, logt, vals
+    order = np.argsort(stamp, kind="stable")
+    delay = logt * 1e-9 - stamp
+    back = float(np.mean(np.diff(stamp) < 0))
+    if not _stamps_ok(stamp[order]) or float(np.ptp(delay)) > REORDER_MAX_S or back > REORDER_MAX_BACK:
+        return stamp, logt, vals
+    late = int(np.count_nonzero(order != np.arange(order.size)))
+    warnings.warn(
+        f"{path.name}: {late} of the {stamp.size} messages of {topic!r} were logged out of their header stamps' "
+        f"order (receive delay {1e3 * float(np.min(delay)):.3g}–{1e3 * float(np.max(delay)):.3g} ms); read in "
+        "stamp order",
+        stacklevel=3,
+    )
+    return stamp[order], logt[order], tuple(v[order] for v in vals)
+
+
 def _without_copies(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
     """(stamps s, log times ns, values) without the messages that repeat an earlier one — the same header stamp
     and values: one publisher recorded on two connections, a bag merged with a copy of itself, a message resent —
@@ -1214,7 +1244,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         return
     drop = _unmeasured(path, name, (), finite)
     if mag is not None:
-        stamp, logt, (b,) = _without_copies(path, plan["mag"], mag[0], mag[1], (mag[2],))
+        stamp, logt, (b,) = _in_stamp_order(path, plan["mag"], *_without_copies(path, plan["mag"], *mag[:2], (mag[2],)))
         mag = stamp, logt, b
     mag_ok = mag is None or _stamps_ok(mag[0])
     if not stamps_ok:
