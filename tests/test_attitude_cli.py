@@ -248,3 +248,40 @@ def test_magnetometer_and_single_sensor_files_name_the_flag_that_helps(tmp_path,
     assert main(["--quiet", "attitude", str(f), "--frame", "ENU", "--out", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err
     assert "has only the accelerometer" in err and "merge the sensors' files" in err
+
+
+def test_nan_rows_left_out_as_lost_samples(flight, tmp_path, capsys):
+    """A logger that writes NaN for a lost sample (rows 500-502 gyro, 1500 acc, the last row): refused with no
+    flag to take them as lost. With --drop-nan the rows are left out and the time steps over them: the output
+    equals the run on the file without those rows, also with the rate in place of a time column (the rows keep
+    their times)."""
+    from optinav.attitude.unit import AttitudeOptions, read_log
+
+    d, *_ = flight
+    cols = np.column_stack([d.t, d.acc, np.degrees(d.gyr)])
+    lost = np.array([500, 501, 502, 1500, cols.shape[0] - 1])
+    bad = cols.copy()
+    bad[lost[:3], 5] = np.nan
+    bad[lost[3:], 1] = np.nan
+    kept = np.delete(cols, lost, axis=0)
+    head = "t,ax,ay,az,gx,gy,gz"
+    for name, arr in (("bad", bad), ("kept", kept)):
+        np.savetxt(tmp_path / f"{name}.csv", arr, delimiter=",", header=head, comments="", fmt="%.10g")
+    np.savetxt(tmp_path / "bad_rate.csv", bad[:, 1:], delimiter=",", header=head[2:], comments="", fmt="%.10g")
+    assert main(["--quiet", "attitude", str(tmp_path / "bad.csv"), "--gyro-unit", "deg/s", "--out", "x.csv"]) == 2
+    err = capsys.readouterr().err
+    assert "has 5 rows with NaN" in err and "--drop-nan" in err
+    outs = {}
+    for name, extra in (("kept", []), ("bad", ["--drop-nan"]), ("bad_rate", ["--drop-nan", "--rate", "100"])):
+        out = tmp_path / f"{name}.out.csv"
+        args = ["attitude", str(tmp_path / f"{name}.csv"), "--gyro-unit", "deg/s", "--out", str(out)] + extra
+        assert main(args) == 0
+        outs[name] = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert "5 rows with NaN accelerometer/gyro values left out (--drop-nan)" in capsys.readouterr().err
+    np.testing.assert_array_equal(outs["bad"], outs["kept"])
+    np.testing.assert_allclose(outs["bad_rate"], outs["kept"], rtol=0, atol=1e-9)
+    assert np.isclose(outs["bad"][500, 0] - outs["bad"][499, 0], 0.04)  # the step over three lost samples
+    with pytest.warns(UserWarning, match="5 rows with NaN"):
+        t, gyr, acc, _, _ = read_log(tmp_path / "bad.csv", AttitudeOptions(gyro_unit="deg/s", drop_nan=True))
+    on_file = np.loadtxt(tmp_path / "kept.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(np.column_stack([t, acc, np.degrees(gyr)]), on_file, rtol=1e-14, atol=0)

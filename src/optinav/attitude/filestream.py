@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from optinav.attitude.stream import StreamChecks, StreamEstimator
-from optinav.attitude.unit import AttitudeOptions
+from optinav.attitude.unit import AttitudeOptions, nan_rows_error
 from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows
 from optinav.core.files import CHUNK_ROWS, csv_writer
 from optinav.errors import OptinavError
@@ -318,6 +318,28 @@ class _TruthRows:
         )
 
 
+def _finite_rows(blocks, notes: list[str]):
+    """The ``blocks`` (see :class:`_Blocks`) without their rows that hold a NaN accelerometer or gyro value — lost
+    samples (``--drop-nan``): rows numbered and steps taken over the rows kept; how many were left out is added to
+    ``notes`` at the end."""
+    from optinav.attitude.unit import nan_rows_note
+
+    row, prev, lost = 0, None, 0
+    for _, t, gyr, acc, dts, finite, extra in blocks:
+        keep = np.flatnonzero(finite)
+        lost += finite.size - keep.size
+        if not keep.size:
+            continue
+        tk = t[keep]
+        first = tk[0] - dts[keep[0]] if prev is None else prev
+        prev = tk[-1]
+        yield (row, tk, gyr[keep], acc[keep], np.diff(tk, prepend=first), finite[keep],
+               {k: v[keep] for k, v in extra.items()})  # fmt: skip
+        row += keep.size
+    if lost and nan_rows_note(lost) not in notes:
+        notes.append(nan_rows_note(lost))
+
+
 class _Blocks:
     """The blocks of a log: (first row, t, gyr, acc, dts, {"mag", "aop", "dop", "q_ref", "movement"}) with
     ``size``/``position`` for the progress bar. A BROAD trial is read whole (its HDF5/MAT library reads it so)
@@ -360,9 +382,10 @@ class _Blocks:
         self.names = names
 
     def __iter__(self):
-        if self.broad:
-            yield from self._broad()
-            return
+        blocks = self._broad() if self.broad else self._text()
+        yield from _finite_rows(blocks, self.notes) if self.o.drop_nan else blocks
+
+    def _text(self):
         from optinav.io.imu import iter_imu
 
         o = self.o
@@ -939,9 +962,7 @@ def stream_attitude(
             if a.size:
                 aop_lo, aop_hi, aop_n = min(aop_lo, float(a.min())), max(aop_hi, float(a.max())), aop_n + a.size
     if bad:
-        raise OptinavError(
-            f"{path} has {bad} rows with NaN accelerometer/gyro values", "remove or interpolate them first"
-        )
+        raise OptinavError(*nan_rows_error(path, bad))
     if pol is not None and aop_n:
         aop_range(aop_lo, aop_hi, aop_n, pol.aop_unit)
     checks.gyro_unit = src.gyro_unit

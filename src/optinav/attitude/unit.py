@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,8 @@ if TYPE_CHECKING:
 class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
     ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
-    imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``options`` (estimator options, SI), and the
+    imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
+    gyro value are lost samples, left out; the time steps over them), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
     ``datasets``)."""
 
@@ -32,6 +34,7 @@ class AttitudeOptions:
     mag: bool = False
     mag_columns: str | None = None
     allow_gaps: bool = False
+    drop_nan: bool = False
     options: dict = dataclasses.field(default_factory=dict)
     columns: str | None = None
     acc_unit: str | None = None
@@ -88,11 +91,8 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     if log.acc_unit == "counts" or log.gyro_unit == "counts":
         raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
     ok = log.finite
-    if not np.all(ok):
-        raise OptinavError(
-            f"{path} has {int(np.count_nonzero(~ok))} rows with NaN accelerometer/gyro values",
-            "remove or interpolate them first",
-        )
+    if not np.all(ok) and not o.drop_nan:
+        raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))
     mag = None
     if want_mag:
         from optinav.attitude.filestream import _column, _mag_names
@@ -105,7 +105,22 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         mag = np.column_stack([_column(k, tab[k]) for k in keys])
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
+    if not np.all(ok):
+        warnings.warn(nan_rows_note(int(np.count_nonzero(~ok))), stacklevel=2)
+        return log.t[ok], log.gyr[ok], log.acc[ok], None if mag is None else mag[ok], None
     return log.t, log.gyr, log.acc, mag, None
+
+
+def nan_rows_error(path, n: int) -> tuple[str, str]:
+    """(message, remedy) of a log with ``n`` rows holding a NaN accelerometer or gyro value."""
+    return (
+        f"{path} has {n} rows with NaN accelerometer/gyro values",
+        "remove or interpolate them first, or pass --drop-nan to leave them out as lost samples",
+    )
+
+
+def nan_rows_note(n: int) -> str:
+    return f"{n} rows with NaN accelerometer/gyro values left out (--drop-nan): lost samples, the time steps over them"
 
 
 def steps(t, path="") -> np.ndarray:

@@ -38,6 +38,10 @@ from optinav.errors import OptinavError
 METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
 
 
+#: help of --drop-nan (optinav attitude and batch attitude)
+DROP_NAN_HELP = "leave out rows with a NaN accelerometer/gyro value as lost samples instead of refusing the file"
+
+
 def register_commands(sub) -> None:
     """The system's top-level command (registry hook)."""
     register(sub)
@@ -97,6 +101,7 @@ def register(sub) -> None:
     p.add_argument(
         "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
     )
+    p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)
     p.add_argument(
         "--reference",
         action="store_true",
@@ -177,6 +182,7 @@ def add_batch_options(p) -> None:
         help="names of the magnetometer columns, or of its N×3 array (implies --mag)",
     )
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
+    p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
     p.add_argument(
         "--option",
