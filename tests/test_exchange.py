@@ -589,3 +589,47 @@ def test_export_imu_tk_never_replaces_a_numeric_log(tmp_path, capsys):
     cpp.write_text("         1 -0.00123   0.0045\n         0         1 -0.0021\n        -0         0         1\n\n"
                    "0.00479 0 0\n0 0.00479 0\n0 0 0.0048\n\n1\n2\n3\n\n")  # fmt: skip
     assert main([*tk, str(cpp)]) == 0 and main([*tk, str(cpp)]) == 0  # its own file again
+
+
+@pytest.mark.skipif(
+    not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
+)
+def test_export_converts_imucals_calibration_to_kalibr(tmp_path, capsys):
+    """`optinav export` took only optinav results ("neither ... schema"): imucal's own Ferraris calibration of the
+    example session goes to Kalibr's imu.yaml, whose model equation in its frame reproduces imucal's formula
+    (raw = K R x + b; the gyro's K_ga on the specific force) to 1e-12; imu_tk's file pair goes to imucal; a model
+    the target cannot hold is still refused, and the input is never the output."""
+    from optinav.multipos.convert import read_imucal_json
+
+    ref = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    out = tmp_path / "imu.yaml"
+    assert main(["--quiet", "export", str(ref), "--to", "kalibr", "--rostopic", "/imu0", "--out", str(out)]) == 0
+    data = read_kalibr_imu_yaml(out)
+    cal = read_imucal_json(ref)
+    M_a, M_g = np.array(data["accelerometers"]["M"]), np.array(data["gyroscopes"]["M"])
+    C, C_i_s, A = (np.array(x) for x in (data["gyroscopes"]["C_gyro_i"], data["C_i_s"], data["gyroscopes"]["A"]))
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        a, w_deg = rng.normal(0, 9.8, 3), rng.normal(0, 90.0, 3)
+        raw_a = cal.K_a @ cal.R_a @ a + cal.b_a  # imucal: m/s² and deg/s in, as its from_*_unit say
+        raw_g = cal.K_g @ cal.R_g @ w_deg + cal.K_ga @ a + cal.b_g
+        a_i, w_i = C_i_s @ a, C_i_s @ np.radians(w_deg)
+        np.testing.assert_allclose(raw_a - cal.b_a, M_a @ a_i, rtol=1e-12, atol=1e-11)
+        np.testing.assert_allclose(np.radians(raw_g - cal.b_g), M_g @ C @ w_i + A @ C @ a_i, rtol=1e-12, atol=1e-12)
+    assert main(["--quiet", "export", str(ref), "--to", "imu_tk", "--out", str(tmp_path / "a.calib"),
+                 "--gyro-out", str(tmp_path / "g.calib")]) == 2  # fmt: skip
+    assert "no gyro g-sensitivity" in capsys.readouterr().err
+    assert main(["--quiet", "export", str(out), "--to", "imucal", "--out", str(tmp_path / "c.json")]) == 2
+    assert "Kalibr file, which holds no biases" in capsys.readouterr().err
+    # an imu_tk pair (no g-sensitivity) to imucal, read back as the same calibration
+    res = load_calibration(ref)
+    res.gyroscope["G"] = np.zeros((3, 3))
+    export_calibration(res, "imu_tk", tmp_path / "acc.calib", gyro_out=tmp_path / "gyr.calib")
+    args = ["--quiet", "export", str(tmp_path / "acc.calib"), "--gyro-cal", str(tmp_path / "gyr.calib")]
+    assert main(args + ["--to", "imucal", "--out", str(tmp_path / "tk.json")]) == 0
+    back = load_calibration(tmp_path / "tk.json")
+    for s in ("accelerometer", "gyroscope"):
+        for k in ("K", "b"):
+            np.testing.assert_allclose(getattr(back, s)[k], getattr(res, s)[k], rtol=1e-6, atol=1e-9)
+    assert main(args + ["--to", "imu_tk", "--out", str(tmp_path / "acc.calib")]) == 2
+    assert "is the input" in capsys.readouterr().err

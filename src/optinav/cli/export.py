@@ -19,7 +19,9 @@ def register(sub) -> None:
         "export",
         help="write a calibration for imu_tk, imucal or Kalibr",
         description=textwrap.dedent("""\
-            Write RESULT.json of optinav calibrate in the format another tool reads:
+            Write a calibration in the format another tool reads. RESULT: RESULT.json of optinav calibrate, an
+            imucal export (JSON or HDF5) or imu_tk's accelerometer file (--gyro-cal: its gyroscope file), e.g.
+            imucal's Ferraris calibration as Kalibr's imu.yaml. The formats:
               imu_tk  two text files (T, S, B of CalibratedTriad): --out for the accelerometer, --gyro-out for
                       the gyroscope; no g-sensitivity, outputs in m/s^2 and rad/s
               imucal  FerrarisCalibrationInfo JSON (both triads and K_ga; outputs m/s^2 and deg/s)
@@ -32,10 +34,14 @@ def register(sub) -> None:
               optinav export result.json --to imucal --out cal.json
               optinav export result.json --to imu_tk --out acc.calib --gyro-out gyro.calib
               optinav export result.json --to kalibr --noise allan.json --rostopic /imu0 --out imu.yaml
+              optinav export imucal_cal.json --to kalibr --noise allan.json --out imu.yaml
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("result", help="RESULT.json written by optinav calibrate")
+    p.add_argument(
+        "result", help="RESULT.json of optinav calibrate, an imucal JSON/HDF5 export or imu_tk's accelerometer file"
+    )
+    p.add_argument("--gyro-cal", metavar="FILE", help="imu_tk's gyroscope file (RESULT is then its accelerometer file)")
     p.add_argument("--to", required=True, choices=FORMATS, help="target format")
     p.add_argument("--out", required=True, metavar="FILE", help="output file (imu_tk: the accelerometer's)")
     p.add_argument("--gyro-out", metavar="FILE", help="imu_tk: the gyroscope's parameter file")
@@ -60,7 +66,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    require_files((args.result, "result file"), (args.noise, "allan result"))
+    require_files((args.result, "result file"), (args.gyro_cal, "--gyro-cal file"), (args.noise, "allan result"))
     if args.to != "kalibr":
         for flag, value in (
             ("--noise", args.noise),
@@ -80,10 +86,9 @@ def run(args) -> int:
     gyro_out = output_path(args.gyro_out, option="--gyro-out", mark=mark) if args.gyro_out else None
     if gyro_out is not None and gyro_out.resolve() == out.resolve():
         raise OptinavError("--gyro-out and --out name the same file", "give the gyroscope file another name")
-    from optinav.multipos.exchange import export_calibration
-    from optinav.multipos.result import CalibrationResult
+    from optinav.multipos.exchange import export_calibration, load_calibration
 
-    res = CalibrationResult.from_json(args.result)
+    res = load_calibration(args.result, args.gyro_cal)
     noise = None
     if args.noise:
         from optinav.core.allan import AllanAnalysis
