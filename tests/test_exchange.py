@@ -633,3 +633,43 @@ def test_export_converts_imucals_calibration_to_kalibr(tmp_path, capsys):
             np.testing.assert_allclose(getattr(back, s)[k], getattr(res, s)[k], rtol=1e-6, atol=1e-9)
     assert main(args + ["--to", "imu_tk", "--out", str(tmp_path / "acc.calib")]) == 2
     assert "is the input" in capsys.readouterr().err
+
+
+def test_apply_refuses_rad_s_under_counts_when_gravity_does_not_turn(tmp_path, capsys):
+    """The gyro check judges the unit by how gravity turns in the body: a log that turns only about the vertical
+    (or rests) in rad/s under a calibration of counts, no unit stated, came out ~940x too small with exit 0.
+    Values that are neither whole nor step like counts are refused; integer counts, and the simulator's unrounded
+    counts (noise of a count or so), are applied; --gyro-unit counts overrides (a logger averaging counts)."""
+    from optinav.io import read_imu
+
+    rng = np.random.default_rng(48)
+    cal = _calibration(3, G=False, acc_unit="counts", gyro_unit="counts")
+    res = tmp_path / "r.json"
+    cal.to_json(res)
+    n, rate = 3000, 100.0
+    t = np.arange(n) / rate
+    w = np.zeros((n, 3))
+    w[:, 2] = 2.0 * np.sin(np.pi * t / t[-1]) ** 2  # a turn about the vertical only: gravity stays on z
+    a = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    raw_a = a @ cal.accelerometer["K"].T + cal.accelerometer["b"]
+    w_meas = w + rng.normal(0, 0.002, (n, 3))
+    raw_g = w_meas @ cal.gyroscope["K"].T + cal.gyroscope["b"]
+
+    def write(name, gyr):
+        p = tmp_path / name
+        np.savetxt(p, np.column_stack([t, raw_a, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+        return p
+
+    out = tmp_path / "o.csv"
+    for gyr in (w_meas, np.degrees(w_meas)):  # rad/s or deg/s where counts were meant
+        capsys.readouterr()
+        assert main(["apply", str(res), str(write("phys.csv", gyr)), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert "made for raw gyro counts" in err and "--gyro-unit counts" in err and not out.exists()
+    for name, gyr in (("int.csv", np.round(raw_g)), ("sim.csv", raw_g + rng.normal(0, 1.0, raw_g.shape))):
+        assert main(["--quiet", "apply", str(res), str(write(name, gyr)), "--out", str(out)]) == 0
+        got = read_imu(out)
+        assert got.gyro_unit == "rad/s" and np.max(np.abs(got.gyr[:, 2] - w[:, 2])) < 0.01  # the turn, corrected
+        out.unlink()
+    avg = write("avg.csv", raw_g)  # counts averaged by a logger (no quantization): the user says so
+    assert main(["--quiet", "apply", str(res), str(avg), "--gyro-unit", "counts", "--out", str(out)]) == 0

@@ -108,6 +108,9 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                 _check_corrected_norm(acc, log, data_path, result_path)
                 if gyro is not None:
                     _check_corrected_gyro(res, acc, gyro, log, data_path, result_path)
+            if writer.rows == 0 and gyro is not None and o.gyro_unit is None:
+                # after the gyro check, which names the unit where gravity turns
+                _check_counts_resolution(res, log, data_path, result_path)
             writer.write(
                 ImuLog(
                     t=log.t, acc=acc, gyr=gyro, acc_unit="m/s^2", gyro_unit="rad/s", source=source, labels=log.labels
@@ -144,6 +147,36 @@ def _check_corrected_norm(acc, log, data_path, result_path) -> None:
             f"first {acc.shape[0]} samples), not about g: the data's raw unit ({log.acc_input_unit or 'unstated'}) "
             "is not the one the calibration was made for",
             "state the data's unit with --acc-unit (counts, g, mg, m/s^2), or apply the calibration of this sensor",
+        )
+
+
+#: a raw gyro log in a unit finer than counts: most values not whole and the median step between samples below this
+#: many counts. A converter's counts are whole; unrounded counts (a simulator, a logger's mean of a few samples) of
+#: a gyro whose noise is ~0.8 count or more (a 16-bit ±2000 °/s MEMS gyro at 100 Hz) step by ≥ 0.5 count
+#: (median |step| = 0.67σ√2); rad/s and deg/s read as counts step by their noise, 0.001-0.01 rad/s or ~0.1 °/s
+COUNTS_STEP_MIN = 0.25
+
+
+def _check_counts_resolution(res, log, data_path, result_path) -> None:
+    """Refuse a gyro read as the counts a calibration was made for whose values are neither whole nor step like
+    counts: rad/s data under a calibration of counts, with no unit stated, came out ~940× too small with exit 0
+    when nothing turned gravity (a session turning only about the vertical, or at rest: the gyro check below is
+    silent then)."""
+    if res.units.get("gyroscope_raw") != "counts" or log.gyr is None or log.gyr.shape[0] < 20:
+        return
+    raw = calibration_raw(log, "gyro", "counts")
+    ok = np.isfinite(raw).all(axis=1)
+    raw = raw[ok]
+    if raw.shape[0] < 20:
+        return
+    whole = float(np.mean(raw == np.round(raw)))
+    step = float(np.median(np.abs(np.diff(raw, axis=0))))
+    if whole < 0.5 and step < COUNTS_STEP_MIN:
+        raise OptinavError(
+            f"{Path(result_path).name} was made for raw gyro counts, but the gyro of {Path(data_path).name} reads "
+            f"values that are not whole ({100 * (1 - whole):.0f} %) and step by {step:.2g} counts (median): a "
+            "physical unit (rad/s, deg/s), not a converter's counts",
+            "apply the calibration to the gyro's raw counts (a logger that averages counts: state --gyro-unit counts)",
         )
 
 
