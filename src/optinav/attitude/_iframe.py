@@ -49,11 +49,16 @@ STATE_SIZE = 109
 GAP_SUBSTEP = 1.75
 #: s, a gap at least this long restarts the low-passes as at the start (the running mean over the next tau_acc
 #: s): the gyro alone carried the attitude across it, by the rate of the sample after it, and the turn it made
-#: then is unknown (hand motion: 50 rad/s² over 0.05 s, a few degrees). Ten gaps of 0.05-0.45 s in motion on
-#: five BROAD trials (two draws): inclination 16.0 -> 4.9° and 4.2° mean (VQF, which leaves the gaps out,
-#: 17.0° and 12.8°; fast translation is the exception: 15.2 and 13.9° against VQF's 14.3 and 4.8°); a few lost
-#: samples do not restart (their turn is known well enough)
-GAP_RESTART_S = 0.05
+#: then is unknown (hand motion: 50 rad/s² over 0.1 s, about 15°). Ten gaps of 0.05-0.45 s in motion on five
+#: BROAD trials (two draws): inclination 16.0 -> 4.9° and 4.2° mean (VQF, which leaves the gaps out, 17.0° and
+#: 12.8°; fast translation is the exception: 15.2 and 13.9° against VQF's 14.3 and 4.8°). Shorter gaps do not
+#: restart: their turn is known better than a restart's running mean knows the tilt. One gap in motion at three
+#: places of each of the nine trials, online / offline inclination [deg], restart at 0.05 s -> never: 0.06 s
+#: 1.18/0.63 -> 0.72/0.55, 0.08 s 1.15/0.65 -> 0.89/0.63, 0.1 s 1.19/0.68 -> 1.04/0.71, 0.15 s 1.32/0.75 ->
+#: 1.51/0.96 (beyond, restarting wins more and more); five gaps of 0.03-0.45 s per trial, four draws: threshold
+#: 0.05 -> 0.1 s 2.61/1.75 -> 2.12/1.59 (0.12 s: 2.43/1.72). A step-by-step rule by the gyro's change across the
+#: gap (its turn error |Δω|·h/2) did worse offline (0.3 s gaps 1.36 against 0.94)
+GAP_RESTART_S = 0.1
 
 #: s, while the tilt settles (the first tau_acc s) the heading follows the field low-passed over this time:
 #: following each sample put the field's noise and a fast rotation's tilt error (±10° at 450 °/s, BROAD trial
