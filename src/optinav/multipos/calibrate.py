@@ -84,7 +84,8 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
     """Rows (N,) with any axis at or beyond the full scale: ``limit`` (raw units) is ±R (a scalar or one per
     axis) or a span (lo, hi); without it, raw ``counts`` saturate at the ends of the integer type they were
     written in (:func:`count_range`: never at mid-scale, so an unsigned ADC resting near 32768 is not
-    saturated), and other units are not judged."""
+    saturated), and other units are not judged. A value within a few ulp of the limit counts as at it: deg/s or
+    g read into SI and back differ from the text by an ulp (a gyro clipped at 30 °/s read 29.999999999999996)."""
     raw = np.asarray(raw, float)
     if limit is None:
         if not counts:
@@ -95,8 +96,9 @@ def saturated_mask(raw, limit=None, *, counts: bool = False) -> np.ndarray:
     else:
         lim = np.broadcast_to(np.abs(as_float_array(limit, "range")), (3,))
         lo, hi = -lim, lim
+    tol = 8 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi))
     with np.errstate(invalid="ignore"):
-        return np.any((raw <= lo) | (raw >= hi), axis=1)
+        return np.any((raw <= lo + tol) | (raw >= hi - tol), axis=1)
 
 
 def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
