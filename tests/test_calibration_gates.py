@@ -757,3 +757,35 @@ def test_a_gyro_range_stated_in_deg_s_finds_the_clipped_turns(tmp_path, capsys):
     r = CalibrationResult.from_json(res)
     k, s = np.diag(np.asarray(r.gyroscope["K"])), np.diag(np.asarray(r.gyroscope["K_std"]))
     assert np.all(np.abs(k - np.diag(np.asarray(truth))) < 3 * s), (k, np.diag(np.asarray(truth)), s)
+
+
+def _gyro_clipped_session(tmp_path, limit: float):
+    """A simulated session (deg/s gyro, turns peaking at 64 °/s) with the gyro clipped at ±limit °/s."""
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
+    lines = f.read_text().splitlines()
+    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
+    cols = lines[head].split(",")
+    g = [cols.index(c) for c in cols if c.strip() in ("gx", "gy", "gz")]
+    out = lines[: head + 1]
+    for ln in lines[head + 1 :]:
+        v = ln.split(",")
+        for j in g:
+            v[j] = repr(float(np.clip(float(v[j]), -limit, limit)))
+        out.append(",".join(v))
+    clipped = tmp_path / "c.csv"
+    clipped.write_text("\n".join(out) + "\n")
+    return clipped
+
+
+@pytest.mark.parametrize("stated", [False, True])
+def test_turns_too_fast_for_the_gyro_range_are_named(tmp_path, capsys, stated):
+    """Turns far too fast for the gyro's ±30 °/s: every turn (or all but a few) saturates and is left out, and the
+    error said '0 transition(s) usable … record at least 6 static poses' or 'rank-deficient … add poses', naming
+    neither the saturation nor --gyro-range (helper). The error now says the turns saturate and what helps."""
+    clipped = _gyro_clipped_session(tmp_path, 30.0)
+    capsys.readouterr()
+    argv = ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
+    err = _cli_error(capsys, argv + (["--gyro-range", "30"] if stated else []))
+    assert "saturates in" in err and "turn more slowly" in err and "--gyro-range" in err, err

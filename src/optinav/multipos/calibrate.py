@@ -647,6 +647,7 @@ def calibrate(
         excluded["saturated_gyro"] = int(np.count_nonzero(sat_g))
         drop = _saturated_turns(t, sat_g, ranges, notes)
         excluded["saturated_turns"] = len(drop)
+        saturated = list(drop)
         gapped = [k for k in _turns_that_lost_samples(t, ranges) if k not in drop]
         excluded["gap_turns"] = len(gapped)
         if gapped:
@@ -681,13 +682,20 @@ def calibrate(
                 up_cov=_up_cov(fit, st),
             )
         except OptinavError as exc:
-            if not gapped:
+            if not (gapped or saturated):
                 raise
-            # the turns left out for their time gaps are why the gyro cannot be calibrated: say so (a swap named
-            # stays named: no second hint is added)
+            # the turns left out for their time gaps or a saturated gyro are why the gyro cannot be calibrated:
+            # say so (a swap named stays named: no second hint is added)
+            why, fix = [], []
+            if saturated:
+                why.append(f"the gyroscope saturates in {len(saturated)} turn(s)")
+                fix.append("turn more slowly (or check --gyro-range and --gyro-unit)")
+            if gapped:
+                why.append(_gap_words(t, ranges, gapped))
+                fix.append("log without dropping samples during the turns")
             raise type(exc)(
-                f"{exc.cause} — {_gap_words(t, ranges, gapped)}, left out of the gyro calibration",
-                "log without dropping samples during the turns, or record the turns again",
+                f"{exc.cause} — {'; '.join(why)}, left out of the gyro calibration",
+                f"{', '.join(fix)}, or record the turns again",
             ) from None
         gate_log += _gyro_gates(gc, gyro_unit)
         if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, gc.K)):
