@@ -789,3 +789,29 @@ def test_turns_too_fast_for_the_gyro_range_are_named(tmp_path, capsys, stated):
     argv = ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
     err = _cli_error(capsys, argv + (["--gyro-range", "30"] if stated else []))
     assert "saturates in" in err and "turn more slowly" in err and "--gyro-range" in err, err
+
+
+def test_poses_left_out_as_clipped_are_named_when_the_gyro_fails(tmp_path, capsys):
+    """An accelerometer clipped at 1950 counts (g reads about 2040): the six axis poses are left out and the gyro
+    fit of the turns between the six tilted poses left is rank-deficient; the error named the gyro's rank and
+    'add poses', not the clipping (helper). It now names the poses at the accelerometer's full scale."""
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
+    lines = f.read_text().splitlines()
+    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
+    cols = lines[head].split(",")
+    a = [cols.index(c) for c in cols if c.strip() in ("ax", "ay", "az")]
+    out = lines[: head + 1]
+    for ln in lines[head + 1 :]:
+        v = ln.split(",")
+        for j in a:
+            v[j] = repr(float(np.clip(float(v[j]), -1950.0, 1950.0)))
+        out.append(",".join(v))
+    clipped = tmp_path / "c.csv"
+    clipped.write_text("\n".join(out) + "\n")
+    capsys.readouterr()
+    err = _cli_error(
+        capsys, ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
+    )
+    assert "gyro" in err and "pose(s) at the accelerometer's full scale" in err and "--acc-range" in err, err

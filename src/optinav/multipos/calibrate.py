@@ -553,7 +553,9 @@ def calibrate(
             "give the poses by hand with --sections",
         )
     clipped: list[str] = []
+    n_detected = len(ranges)
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, clipped), notes)
+    n_clipped = n_detected - len(ranges)
     notes.extend(clipped)
     ranges, t_int, st = _drop_creeping(acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g)
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
@@ -682,7 +684,7 @@ def calibrate(
                 up_cov=_up_cov(fit, st),
             )
         except OptinavError as exc:
-            if not (gapped or saturated):
+            if not (gapped or saturated or n_clipped):
                 raise
             # the turns left out for their time gaps or a saturated gyro are why the gyro cannot be calibrated:
             # say so (a swap named stays named: no second hint is added)
@@ -693,6 +695,10 @@ def calibrate(
             if gapped:
                 why.append(_gap_words(t, ranges, gapped))
                 fix.append("log without dropping samples during the turns")
+            if n_clipped:
+                # poses at the accelerometer's full scale are left out, and the turns into them with them
+                why.append(f"{n_clipped} static pose(s) at the accelerometer's full scale")
+                fix.append("record with a larger accelerometer range (--acc-range states it)")
             raise type(exc)(
                 f"{exc.cause} — {'; '.join(why)}, left out of the gyro calibration",
                 f"{', '.join(fix)}, or record the turns again",
