@@ -725,3 +725,22 @@ def test_the_monte_carlo_std_takes_rng():
     runs = [calibrate(t, acc, gyr, rng=r, **kw).gyroscope["K_std"] for r in (1, 2, None, None, 0)]
     assert not np.array_equal(runs[0], runs[1])
     assert np.array_equal(runs[2], runs[3]) and np.array_equal(runs[2], runs[4])  # None: seed 0, a run repeats
+
+
+@needs_data
+@pytest.mark.parametrize("n", [1, 2, 10])
+def test_a_pose_section_of_a_few_samples_is_refused(tmp_path, capsys, n):
+    """imucal's session with its x_p section cut to n samples: 1 or 2 samples gave K and b with a null std and
+    exit 0 (no scatter to estimate it from), and poses of up to 10 samples escaped the clipping check. Now an
+    error names the pose and --sections."""
+    from optinav.cli.main import main
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs["x_p"]["end"] = secs["x_p"]["start"] + n
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    argv += ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("optinav: error: ") and "x_p" in err and f"holds {n} sample" in err and "--sections" in err

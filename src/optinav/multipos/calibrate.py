@@ -1109,6 +1109,11 @@ def _sections_that_lost_samples(t, names, idx) -> list[str]:
     return out
 
 
+#: fewest samples of a Ferraris pose section: its within-pose scatter gives the std (see ferraris.ferraris_std) and
+#: the clipping check (:func:`_clipped_rows`) judges poses of more than 10
+MIN_FERRARIS_POSE_SAMPLES = 11
+
+
 def _ferraris(
     t,
     acc,
@@ -1158,6 +1163,16 @@ def _ferraris(
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
     static_idx = [k for k, nm in enumerate(names) if not str(nm).endswith("_rot")]
+    few = [k for k in static_idx if idx[k][1] - idx[k][0] < MIN_FERRARIS_POSE_SAMPLES]
+    if few:
+        # a pose of 1 or 2 samples has no scatter to give a std: K and b were written with a null std, exit 0
+        k = few[0]
+        raise OptinavError(
+            f"the Ferraris pose {names[k]} holds {idx[k][1] - idx[k][0]} sample(s) ({t_iv[k][0]:.6g}–{t_iv[k][1]:.6g} s): "
+            "too few to tell its noise (and its std), or whether it was still",
+            f"let the section span the whole still pose, at least {MIN_FERRARIS_POSE_SAMPLES} samples (--sections, "
+            "or the label column)",
+        )
     clipped: list[str] = []
     if np.any(_clipped_rows(acc, t, idx[static_idx], clipped)):
         # without --acc-range a clipped pose went through: acc K_xx 0.960 for 0.997 at 1100 std, exit 0 (helper)
