@@ -815,3 +815,20 @@ def test_poses_left_out_as_clipped_are_named_when_the_gyro_fails(tmp_path, capsy
         capsys, ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
     )
     assert "gyro" in err and "pose(s) at the accelerometer's full scale" in err and "--acc-range" in err, err
+
+
+def test_poses_that_all_lie_near_one_axis_are_named(tmp_path, capsys):
+    """Nine poses all within 25° of z up: z's scale and bias cannot be told apart, and the fit ended in 'K_zz … 1e6×
+    its nominal … check --acc-unit … or use --model diagonal' or 'did not converge … pass --model diagonal', which
+    failed alike (helper). The error now names the axis the poses hardly turn and what to record (both models);
+    axis poses, with or without an ADC's offset, are not named."""
+    rng = np.random.default_rng(0)
+    tilt, az = np.radians(rng.uniform(5, 25, 9)), rng.uniform(0, 2 * np.pi, 9)
+    ups = np.column_stack([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
+    s = simulate(ups, dwell_s=8, rest_s=5, acc_unit="counts", gyro_unit="deg/s", rng=2)
+    path = _write(tmp_path, "cone.csv", s.t, s.acc, s.gyr)
+    argv = ["calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "deg/s", "--latitude", "38.88"]
+    for model_form in ("auto", "diagonal"):
+        err = _cli_error(capsys, [*argv, "--model", model_form, "--out", str(tmp_path / "r.json")])
+        assert "hardly turn the z axis" in err and "both up and down" in err, err
+    assert gates.narrow_axes(np.eye(3) * 2040 + 32768) is None and gates.narrow_axes(-np.eye(3)) is None

@@ -585,6 +585,13 @@ def calibrate(
                 "record with a larger accelerometer range (--acc-range states it)",
             ) from None
         short = _short_still(still, t, acc, gyro, min_duration_s) if "distinct pose directions" in exc.cause else []
+        if not short and (narrow := gates.narrow_axes(st.means)):
+            # poses that all lie near one direction: a fit that fails then fails for that (a 25° cone around
+            # z up was told 'did not converge, pass --model diagonal', which failed alike; helper)
+            raise type(exc)(
+                f"{exc.cause} — {narrow}",
+                "record poses with each axis both up and down (e.g. ±x, ±y, ±z up; optinav design plans them)",
+            ) from None
         if not short:
             raise
         # a pose held shorter than --min-duration was left out, and may be the direction missing: name it

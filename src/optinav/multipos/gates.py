@@ -119,6 +119,27 @@ def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: fl
         )
 
 
+#: an axis whose pose means span less than this share of the widest axis's span is hardly turned by the poses:
+#: its scale and bias cannot be told apart (a good session turns each axis up and down, a span of 2 g each)
+MIN_AXIS_SPAN = 0.25
+
+
+def narrow_axes(means) -> str | None:
+    """Words naming the axes that the poses hardly turn (span of the pose means (P, 3), raw units, below
+    :data:`MIN_AXIS_SPAN` of the widest axis's span; an offset such as an unsigned ADC's cancels), or None."""
+    m = np.asarray(means, float)
+    span = np.ptp(m, axis=0) if m.shape[0] else np.zeros(3)
+    if not np.all(np.isfinite(span)) or span.max() <= 0:
+        return None
+    rel = span / span.max()
+    narrow = [j for j in range(3) if rel[j] < MIN_AXIS_SPAN]
+    if not narrow:
+        return None
+    return "the poses hardly turn the " + ", ".join(
+        f"{'xyz'[j]} axis (its pose means span {rel[j]:.2g}× the {'xyz'[int(np.argmax(span))]} axis's)" for j in narrow
+    )
+
+
 def signed_permutations() -> list[np.ndarray]:
     """The 48 signed axis permutations (3×3, one ±1 per row and column), the identity first."""
     out = []
