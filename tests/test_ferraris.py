@@ -778,3 +778,18 @@ def test_a_drifting_gyro_bias_is_refused_in_a_ferraris_session(tmp_path, capsys)
             k, s = g["K"][2][2], g["K_std"][2][2]
             k_ref = ref["K_g"][2][2] * ref["R_g"][2][2] * 180 / np.pi  # imucal's K_g·R_g in deg/s per rad/s
             assert abs(k - k_ref) < 2 * s, (k, k_ref, s)
+
+
+@needs_data
+def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys):
+    """imucal's session with its section list but the default method: the six poses alone (the rotation sections
+    are the Ferraris method's) leave the gyro rank-deficient, and the error said 'add poses …, or pass
+    --allow-unobservable' though the log holds the turns (helper). It now names the rotations left unused,
+    --method ferraris and dropping --sections."""
+    from optinav.cli.main import main
+
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    argv += ["deg/s", "--gravity", "9.81", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "x_rot, y_rot, z_rot" in err and "--method ferraris" in err and "drop --sections" in err, err

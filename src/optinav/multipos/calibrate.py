@@ -509,9 +509,11 @@ def calibrate(
         )
     selection = {}
     step("detect static intervals")
+    rot_names: list[str] = []  # imucal's rotation sections, which only the Ferraris method uses
     if sections is not None:
         sl = static.sections_from_list(sections, t)
         keep = [k for k, name in enumerate(sl.names) if not str(name).endswith("_rot")]  # imucal's rotations
+        rot_names = [str(name) for name in sl.names if str(name).endswith("_rot")]
         ranges = np.asarray(sl.index_ranges, int)[keep]
         t_int, how = np.asarray(sl.t_intervals, float)[keep], "manual sections"
     elif threshold is not None:
@@ -691,6 +693,15 @@ def calibrate(
                 up_cov=_up_cov(fit, st),
             )
         except OptinavError as exc:
+            if rot_names and not (gapped or saturated or n_clipped):
+                # imucal's section list: its six poses alone, with the rotations left out, cannot calibrate the
+                # gyro ('add poses' was all the error said, and the log holds the turns; helper)
+                raise type(exc)(
+                    f"{exc.cause} — the sections' rotations {', '.join(rot_names)} are not used by --method "
+                    f"{method}, only their {len(ranges)} poses",
+                    "pass --method ferraris for imucal's sections, or drop --sections to find the rests between "
+                    "the rotations",
+                ) from None
             if not (gapped or saturated or n_clipped):
                 raise
             # the turns left out for their time gaps or a saturated gyro are why the gyro cannot be calibrated:
