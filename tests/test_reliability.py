@@ -1293,6 +1293,30 @@ def test_apply_refuses_a_gyro_in_another_unit_and_notes_a_cut_line(tmp_path, cap
     assert "optinav: note: cut.csv: the last line" in capsys.readouterr().err
 
 
+def test_apply_names_a_flipped_axis_not_a_unit(tmp_path, capsys, col="gx"):
+    """A log in the calibration's units with its gyro x axis's sign flipped: the corrected gyro turns gravity the
+    wrong way, and the error said 'as it would were the data's gyro in deg/s: it is not in the deg/s the
+    calibration was made for … --gyro-unit' of data in deg/s (probe). It now names the flipped axis and --columns."""
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
+    res = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(f), "--latitude", "38.88", "--out", str(res)]) == 0
+    lines = f.read_text().splitlines()
+    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
+    j = lines[head].split(",").index(col)
+    out = lines[: head + 1]
+    for ln in lines[head + 1 :]:
+        v = ln.split(",")
+        v[j] = repr(-float(v[j]))
+        out.append(",".join(v))
+    flipped = tmp_path / "flipped.csv"
+    flipped.write_text("\n".join(out) + "\n")
+    capsys.readouterr()
+    assert main(["apply", str(res), str(flipped), "--out", str(tmp_path / "x.csv")]) == 2
+    one_line_error(capsys, "reads -", "--columns")
+
+
 def test_report_data_of_another_log_is_refused(tmp_path, capsys, counts_session):
     """``report --data`` with a log that is not the result's gave NaN pose rows with exit 0."""
     d, data, res = counts_session

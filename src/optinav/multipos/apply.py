@@ -204,10 +204,21 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
     counts = expected == "counts" or (expected is None and k > 2 * 180 / np.pi)
     if counts:
         factors = {np.pi / 180: k * np.pi / 180, 180 / np.pi: k}
-    hint = gyro_unit_hint(
-        gyro, acc, dts, alt=lambda s, sl: res.correct_gyro(raw[sl] * factors[s], acc[sl]), units_only=True
-    )
+
+    def alt(s, sl):
+        return res.correct_gyro(raw[sl] * factors[s], acc[sl])
+
+    hint = gyro_unit_hint(gyro, acc, dts, alt=alt, units_only=True)
     if hint:
+        # a gyro that turns about the wrong axes (an axis flipped, in either triad) explains gravity worse than no
+        # turn at all, which was taken for "the data look like deg/s" of data in deg/s (probe): axes named first
+        axes = gyro_unit_hint(gyro, acc, dts, alt=alt)
+        if axes is not None and axes.kind == "axes":
+            raise OptinavError(
+                f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
+                f"how gravity turns in the body: {axes.words}",
+                "fix the column order or signs (--columns), or apply the calibration of this sensor",
+            )
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
