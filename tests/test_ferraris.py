@@ -793,3 +793,23 @@ def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys)
     assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "x_rot, y_rot, z_rot" in err and "--method ferraris" in err and "drop --sections" in err, err
+
+
+@needs_data
+def test_a_short_section_that_is_no_ferraris_pose_is_not_judged_as_one(tmp_path, capsys):
+    """A section list with one more, short section beside imucal's nine (a note of the operator's, 10 samples): the
+    closed form does not use it, and the pose-length gate took it for a pose and refused the session; the nine
+    give imucal's calibration as before."""
+    from optinav.cli.main import main
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs["extra"] = {"start": 10, "end": 20}
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
+    argv += ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    res = tmp_path / "r.json"
+    assert main([*argv, "--out", str(res)]) == 0
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    acc = json.loads(res.read_text())["fields"]["accelerometer"]["value"]
+    np.testing.assert_allclose(acc["b"], ref["b_a"], atol=1e-9)
