@@ -813,3 +813,26 @@ def test_a_short_section_that_is_no_ferraris_pose_is_not_judged_as_one(tmp_path,
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     acc = json.loads(res.read_text())["fields"]["accelerometer"]["value"]
     np.testing.assert_allclose(acc["b"], ref["b_a"], atol=1e-9)
+
+
+@needs_data
+def test_unnamed_sections_for_ferraris_say_how_to_name_them(tmp_path, capsys):
+    """imucal's nine sections as 'start end' lines in seconds without names: the error said 'the sections are not
+    uniquely named; name every section once', not that they have none nor how to name them (probe). With names
+    ('name start end') the same lines give imucal's calibration."""
+    from optinav.cli.main import main
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    argv = ["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
+    argv += ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--out", str(tmp_path / "r.json")]
+    lines = {k: f"{v['start'] / 102.4!r} {(v['end'] - 0.5) / 102.4!r}" for k, v in secs.items()}
+    bare, named = tmp_path / "bare.txt", tmp_path / "named.txt"
+    bare.write_text("\n".join(lines.values()) + "\n")
+    named.write_text("\n".join(f"{k} {v}" for k, v in lines.items()) + "\n")
+    assert main([*argv, "--sections", str(bare)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "9 of the 9 sections have no name" in err and "'name start end'" in err, err
+    assert main([*argv, "--sections", str(named)]) == 0
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    acc = json.loads((tmp_path / "r.json").read_text())["fields"]["accelerometer"]["value"]
+    np.testing.assert_allclose(acc["b"], ref["b_a"], atol=1e-9)

@@ -152,8 +152,18 @@ class SectionList(Result):
 
     def as_dict(self) -> dict:
         """name → (i0, i1) (needs unique non-empty names)."""
-        if len(set(self.names)) != len(self.names) or "" in self.names:
-            raise OptinavError("the sections are not uniquely named", "name every section once")
+        unnamed = self.names.count("")
+        if unnamed:
+            # unnamed 'start end' lines given to a method that needs names (Ferraris: x_p … z_rot) were told 'not
+            # uniquely named', not how to name them (probe)
+            raise OptinavError(
+                f"{unnamed} of the {len(self.names)} sections have no name",
+                "name each section: 'name start end' lines in seconds (--sections), a JSON object name → [start, "
+                "end], or imucal's section list",
+            )
+        twice = sorted({n for n in self.names if self.names.count(n) > 1})
+        if twice:
+            raise OptinavError(f"the section name(s) {', '.join(twice)} are given twice", "name every section once")
         return {n: (int(a), int(b)) for n, (a, b) in zip(self.names, np.asarray(self.index_ranges, dtype=int))}
 
 
