@@ -832,3 +832,29 @@ def test_poses_that_all_lie_near_one_axis_are_named(tmp_path, capsys):
         err = _cli_error(capsys, [*argv, "--model", model_form, "--out", str(tmp_path / "r.json")])
         assert "hardly turn the z axis" in err and "both up and down" in err, err
     assert gates.narrow_axes(np.eye(3) * 2040 + 32768) is None and gates.narrow_axes(-np.eye(3)) is None
+
+
+def test_a_rate_given_against_the_files_stated_rate_is_refused(tmp_path, capsys):
+    """A log without a time column whose preamble states 'Update Rate: 100Hz', calibrated with --rate 50: the flag
+    was taken as it stood and a gyro in counts (no nominal scale to judge by) came out 2× off with exit 0 (probe).
+    Contradicting rates are now an error naming both; a --rate that agrees (or none) calibrates as before."""
+    import json
+
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "counts", "--seed", "11", "--rate", "100"]) == 0
+    lines = f.read_text().splitlines()
+    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
+    body = [ln.split(",", 1)[1] for ln in lines[head:]]  # the time column dropped
+    notime = tmp_path / "n.csv"
+    notime.write_text("# Update Rate: 100Hz\n" + "\n".join(body) + "\n")
+    base = ["calibrate", "accel", str(notime), "--acc-unit", "counts", "--gyro-unit", "counts", "--latitude", "38.88"]
+    err = _cli_error(capsys, [*base, "--rate", "50", "--out", str(tmp_path / "x.json")])
+    assert "states 100 Hz" in err and "--rate 50" in err and "drop --rate" in err, err
+    truth = np.diag(np.asarray(json.loads(f.with_name("d.truth.json").read_text())["gyroscope"]["K"]))
+    for extra in ([], ["--rate", "100"]):
+        res = tmp_path / "r.json"
+        assert main(["--quiet", *base, *extra, "--out", str(res)]) == 0
+        r = CalibrationResult.from_json(res)
+        k, s = np.diag(np.asarray(r.gyroscope["K"])), np.diag(np.asarray(r.gyroscope["K_std"]))
+        assert np.all(np.abs(k - truth) < 4 * s), (k, truth, s)
