@@ -836,3 +836,30 @@ def test_unnamed_sections_for_ferraris_say_how_to_name_them(tmp_path, capsys):
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     acc = json.loads((tmp_path / "r.json").read_text())["fields"]["accelerometer"]["value"]
     np.testing.assert_allclose(acc["b"], ref["b_a"], atol=1e-9)
+
+
+@needs_data
+def test_turns_mostly_at_the_gyro_rail_are_found_without_a_range(tmp_path, capsys):
+    """imucal's annotated session (raw counts, turns peaking at 3400-4600 counts) with its gyro clipped at ±1000
+    counts and no --gyro-range: a turn mostly at the rail had the rail for its typical rate, so the flat peaks
+    were not taken for clipping, and K_g came out about 2× off with exit 0 (only a note on the implied full scale).
+    The typical rate is now that of the unclipped samples: an error names the section and --gyro-range."""
+    from optinav.cli.main import main
+
+    src = DATA / "annotated_session.csv"
+    head, *rows = src.read_text().splitlines()
+    cols = head.split(",")
+    g = [cols.index(c) for c in ("gyr_x", "gyr_y", "gyr_z")]
+    out = [head]
+    for row in rows:
+        v = row.split(",")
+        for j in g:
+            v[j] = repr(float(np.clip(float(v[j]), -1000.0, 1000.0)))
+        out.append(",".join(v))
+    path = tmp_path / "clipped.csv"
+    path.write_text("\n".join(out) + "\n")
+    argv = ["calibrate", "accel", str(path), "--rate", "204.8", "--acc-unit", "counts", "--gyro-unit", "counts"]
+    argv += ["--method", "ferraris", "--rotation-angle", "360", "--out", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "gyroscope is at its full scale" in err and "_rot" in err and "--gyro-range" in err, err

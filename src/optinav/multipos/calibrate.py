@@ -1120,11 +1120,17 @@ def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
     sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
     for j in range(3):
         v = gyro[:, j] - gyr_b[j]
-        for a, b in flat_runs(gyro[:, j]):
+        runs = flat_runs(gyro[:, j])
+        flat = np.zeros(gyro.shape[0], bool)
+        for a, b in runs:
+            flat[a:b] = True
+        for a, b in runs:
             for nm, (i0, i1) in zip(names, idx):
                 if str(nm).endswith("_rot") and a < i1 and b > i0:
-                    r = np.abs(v[i0:i1])
-                    typical = float(np.median(r[r > 0.1 * r.max()])) if r.max() > 0 else 0.0
+                    # the typical rate of the turn's unclipped samples: a turn mostly at the rail (peaks of 4600
+                    # counts clipped at 1000) had the rail for its typical rate, and K_g came out 2× off, exit 0
+                    r = np.abs(v[i0:i1][~flat[i0:i1]])
+                    typical = float(np.median(r[r > 0.1 * r.max()])) if r.size and r.max() > 0 else 0.0
                     if abs(v[a]) >= 1.2 * typical:
                         sat_g[max(a, i0) : min(b, i1)] = True
     for what, sat, flag in (("accelerometer", sat_a, "--acc-range"), ("gyroscope", sat_g, "--gyro-range")):
