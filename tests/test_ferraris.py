@@ -863,3 +863,22 @@ def test_turns_mostly_at_the_gyro_rail_are_found_without_a_range(tmp_path, capsy
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "gyroscope is at its full scale" in err and "_rot" in err and "--gyro-range" in err, err
+
+
+@needs_data
+def test_a_rotation_section_without_its_turn_is_named(tmp_path, capsys):
+    """imucal's session with z_rot placed on the move before the z turn (a quarter turn about x): the error said
+    'the gyroscope fit is implausible: K_zx/K_zz = 0.93 … check the static intervals and the column order' (probe).
+    It now names the section that does not hold its turn, the axis it turns about, and --sections."""
+    from optinav.cli.main import main
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs["z_rot"] = {"start": 8600, "end": 8900}
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    argv += ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "section z_rot does not hold the turn about z" in err and "mostly about x" in err, err
+    assert "--sections" in err

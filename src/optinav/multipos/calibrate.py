@@ -1057,6 +1057,40 @@ def _turn_angle(angle: float) -> float | None:
 FERRARIS_BIAS_DRIFT_SIGMA = 5.0
 
 
+#: a Ferraris rotation section whose gyro turns less than this share of the median of the three, or about its
+#: own axis less than this share of its turn, holds no turn of its own (when the other two do)
+MIN_ROTATION_SHARE = 0.25
+
+
+def _check_rotations_turn(t, gyro, gyr_b, names: list, idx: np.ndarray) -> None:
+    """Error when one rotation section (x_rot, y_rot, z_rot) holds no turn about its axis while the other two do:
+    the gyro's angle in it (raw·s, bias removed) is below :data:`MIN_ROTATION_SHARE` of the median of the three,
+    or mostly about another axis (a section on a rest or on the move between poses was refused as 'the gyroscope
+    fit is implausible … check the column order'; probe). Swapped gyro columns turn every section off its axis:
+    left to the swap check."""
+    where = {str(n): k for k, n in enumerate(names)}
+    dt = np.diff(t, append=t[-1] + (t[-1] - t[-2] if t.size > 1 else 0.0))
+    vec = []
+    for n in ("x_rot", "y_rot", "z_rot"):
+        i0, i1 = idx[where[n]]
+        vec.append(((gyro[i0:i1] - gyr_b) * dt[i0:i1, None]).sum(axis=0))
+    vec = np.array(vec)
+    size = np.linalg.norm(vec, axis=1)
+    typical = float(np.median(size))
+    own = np.abs(np.diag(vec)) / np.maximum(size, 1e-300)
+    bad = (size < MIN_ROTATION_SHARE * typical) | (own < 1.0 - MIN_ROTATION_SHARE)
+    if typical <= 0 or np.count_nonzero(bad) != 1:
+        return
+    j = int(np.flatnonzero(bad)[0])
+    a = int(np.argmax(np.abs(vec[j])))
+    n = ("x_rot", "y_rot", "z_rot")[j]
+    raise OptinavError(
+        f"the section {n} does not hold the turn about {'xyz'[j]}: the gyro turns {size[j] / typical:.2g}× as far in it as in "
+        f"the median rotation section, {own[j]:.0%} of it about {'xyz'[j]} (mostly about {'xyz'[a]})",
+        f"let the section {n} span the turn about {'xyz'[j]}, from rest to rest (--sections, or the label column)",
+    )
+
+
 def _check_ferraris_bias_drift(gyro, names: list, idx: np.ndarray, gyr_K, unit: str) -> None:
     """Error when the gyro bias of the pose pairs x_p/x_a, y_p/y_a, z_p/z_a differs beyond their noise: the
     closed form takes one bias, the poses' mean, for the three rotations after them, so a bias that drifts
@@ -1290,6 +1324,7 @@ def _ferraris(
     # swapped sections or axes first (no nominal: the shape of K only), then the turns: a section that misses part
     # of its turn scales K_g by the share it holds (0.6 s short of a hand turn: K_zz 0.79×), which the scale's
     # gate would blame on the time base (helper)
+    _check_rotations_turn(t, gyro, fc.gyr_b, names, idx)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
     step_s = float(np.median(np.diff(t)))
