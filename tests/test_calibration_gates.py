@@ -858,3 +858,30 @@ def test_a_rate_given_against_the_files_stated_rate_is_refused(tmp_path, capsys)
         r = CalibrationResult.from_json(res)
         k, s = np.diag(np.asarray(r.gyroscope["K"])), np.diag(np.asarray(r.gyroscope["K_std"]))
         assert np.all(np.abs(k - truth) < 4 * s), (k, truth, s)
+
+
+@needs_data
+def test_a_gyro_in_counts_with_one_axis_off_is_not_told_raw_counts(tmp_path, capsys):
+    """imucal's session with its gyro in counts (16.384 per deg/s) and z_rot cut at half its turn: K_zz came out
+    0.46× the other scales and the error said 'raw counts? … pass --gyro-unit counts', which was given (probe). Data
+    declared counts are not told to be counts: the error names the scale off and --sections."""
+    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    cols = head.split(",")
+    g = [cols.index(c) for c in ("gyr_x", "gyr_y", "gyr_z")]
+    out = [head]
+    for row in rows:
+        v = row.split(",")
+        for j in g:
+            v[j] = repr(float(round(float(v[j]) * 16.384)))
+        out.append(",".join(v))
+    path = tmp_path / "counts.csv"
+    path.write_text("\n".join(out) + "\n")
+    import json
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs["z_rot"]["end"] = 9360  # the turn goes on to 9512
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["calibrate", "accel", str(path), "--rate", "102.4", "--gyro-unit", "counts", "--gravity", "9.81"]
+    err = _cli_error(capsys, [*argv, "--method", "ferraris", "--sections", str(sec), "--out", str(tmp_path / "r.json")])
+    assert "raw counts?" not in err and "K_zz" in err and "--sections" in err, err

@@ -228,7 +228,9 @@ def check_matrix(
                 f"the data look like {likely[0]}",
                 f"pass {option} {likely[0]}",
             )
-        if r * factor("deg/s") > TURN_UNIT_TOL:  # more than TURN_UNIT_TOL raw per deg/s: no SI unit is that coarse
+        # more than TURN_UNIT_TOL raw per deg/s: no SI unit is that coarse (data declared counts already are: one
+        # axis off the others' scale then told "raw counts?; pass --gyro-unit counts", probe)
+        if unit != "counts" and r * factor("deg/s") > TURN_UNIT_TOL:
             raise OptinavError(
                 f"the gyroscope scale is {float(np.median(ratio)):.3g}× its nominal value in {unit}: "
                 f"raw counts? ({r * factor('deg/s'):.3g} per deg/s)",
