@@ -882,3 +882,28 @@ def test_a_rotation_section_without_its_turn_is_named(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "section z_rot does not hold the turn about z" in err and "mostly about x" in err, err
     assert "--sections" in err
+
+
+@needs_data
+@pytest.mark.parametrize(
+    "extra, named",
+    [
+        (["--acc-bias-instability", "0.05"], "--acc-bias-instability"),
+        (["--gyro-bias", "static", "--window", "2"], "--window, --gyro-bias"),
+    ],
+)
+def test_options_the_ferraris_method_does_not_use_are_refused(tmp_path, capsys, extra, named):
+    """--method ferraris dropped the norm-model options silently: --acc-bias-instability 0.05 left the bias std at
+    0.00046 m/s^2 as if it had not been stated, --gyro-bias and --window changed nothing (probe). They are now an
+    error naming them; --rotation-angle with the default method likewise."""
+    from optinav.cli.main import main
+
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    argv += ["deg/s", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    sec = ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    assert main([*argv, *sec, *extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"does not use {named}" in err and "drop" in err, err
+    assert main([*argv, "--rotation-angle", "360"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "does not use --rotation-angle" in err and "--method ferraris" in err, err
