@@ -885,3 +885,18 @@ def test_a_gyro_in_counts_with_one_axis_off_is_not_told_raw_counts(tmp_path, cap
     argv = ["calibrate", "accel", str(path), "--rate", "102.4", "--gyro-unit", "counts", "--gravity", "9.81"]
     err = _cli_error(capsys, [*argv, "--method", "ferraris", "--sections", str(sec), "--out", str(tmp_path / "r.json")])
     assert "raw counts?" not in err and "K_zz" in err and "--sections" in err, err
+
+
+def test_a_stated_rate_the_time_column_contradicts_is_noted(tmp_path, capsys):
+    """A log with a time column at 100 Hz and a preamble 'Update Rate: 50Hz': the contradiction passed in silence
+    (probe). The time column is used, with a note naming both; a preamble that agrees adds none."""
+    f = tmp_path / "d.csv"
+    argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
+    assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11", "--rate", "100"]) == 0
+    for rate, noted in (("50", True), ("100.0", False)):
+        g = tmp_path / f"r{rate}.csv"
+        g.write_text(f"# Update Rate: {rate}Hz\n" + f.read_text())
+        capsys.readouterr()
+        assert main(["calibrate", "accel", str(g), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]) == 0
+        err = capsys.readouterr().err
+        assert ("states 50 Hz" in err and "steps at 100 Hz: the time column is used" in err) == noted, err

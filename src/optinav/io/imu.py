@@ -940,6 +940,15 @@ def _log_of(
         if prev_t is None:
             t = check_timestamps(t, what, min_count=1 if block else 2, duplicate_remedy=COARSE_TIME_REMEDY)
             _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"] and not p.implied["time"])
+            stated = _file_rate(main.table)
+            if stated is not None and t.size > 1:
+                # a preamble rate that the time column contradicts was passed over in silence (probe)
+                steps = float(np.median(np.diff(t[: min(t.size, 65537)])))
+                if steps > 0 and not abs(stated[0] * steps - 1.0) <= 0.01:
+                    notes.append(
+                        f"{main.path.name} states {stated[0]:g} Hz in {stated[1]} but its time column {p.t_name!r} steps at "
+                        f"{1.0 / steps:.6g} Hz: the time column is used"
+                    )
         else:
             check_timestamps(
                 np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1, duplicate_remedy=COARSE_TIME_REMEDY
