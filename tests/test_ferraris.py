@@ -907,3 +907,24 @@ def test_options_the_ferraris_method_does_not_use_are_refused(tmp_path, capsys, 
     assert main([*argv, "--rotation-angle", "360"]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "does not use --rotation-angle" in err and "--method ferraris" in err, err
+
+
+@needs_data
+def test_an_extra_section_over_a_move_is_not_judged_as_a_pose(tmp_path, capsys):
+    """A section list with one more section beside imucal's nine that spans the move after x_p (samples 1300-1500):
+    it was judged as a pose and refused ('the Ferraris pose extra is not still', and it entered the poses' turns;
+    probe). Only x_p … z_a are poses: imucal's calibration as without it."""
+    from optinav.cli.main import main
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs["extra"] = {"start": 1300, "end": 1500}
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
+    argv += ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    res = tmp_path / "r.json"
+    assert main([*argv, "--out", str(res)]) == 0
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    f = json.loads(res.read_text())["fields"]
+    np.testing.assert_allclose(f["accelerometer"]["value"]["b"], ref["b_a"], atol=1e-9)
+    assert len(f["static_intervals"]["value"]) == 6
