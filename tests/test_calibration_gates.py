@@ -900,3 +900,15 @@ def test_a_stated_rate_the_time_column_contradicts_is_noted(tmp_path, capsys):
         assert main(["calibrate", "accel", str(g), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]) == 0
         err = capsys.readouterr().err
         assert ("states 50 Hz" in err and "steps at 100 Hz: the time column is used" in err) == noted, err
+
+
+@pytest.mark.parametrize("g", [9.7, 9.9, 9.0, 9.81 * 1.02])
+def test_gravity_outside_earths_range_is_named_with_its_bounds(g):
+    """--gravity 9.7 was refused as 'outside 9.7–9.9' (the bounds are exclusive); the error says so and names the
+    other way to give gravity (--latitude); 9.76-9.83 m/s² (equatorial peaks to the poles) pass."""
+    from optinav.multipos.calibrate import local_gravity
+
+    with pytest.raises(OptinavError, match=r"not above 9.7 and below 9.9 .*--latitude"):
+        local_gravity(g)
+    for ok in (9.764, 9.8322):
+        assert local_gravity(ok) == (ok, "given")

@@ -230,7 +230,11 @@ def local_gravity(g=None, lat=None, height_m: float = 0.0) -> tuple[float, str]:
     if g is not None:
         g = check_positive(g, "gravity")
         if not 9.7 < g < 9.9:
-            raise OptinavError(f"gravity {g:g} m/s^2 is outside 9.7–9.9", "give the local gravity in m/s^2")
+            raise OptinavError(
+                f"gravity {g:g} m/s^2 is not above 9.7 and below 9.9 (Earth's surface: 9.76 on equatorial peaks to "
+                "9.83 at the poles)",
+                "give the local gravity in m/s^2, or --latitude and --height for normal gravity",
+            )
         return g, "given"
     if lat is not None:
         lat = float(lat)
