@@ -543,3 +543,23 @@ def test_a_decimated_log_timed_by_its_counter_at_the_rows_rate_is_named(tmp_path
     assert "--gyro-unit counts" not in err.split("; if ")[-1]
     args[4] = "102.4"
     assert main(["--quiet", *args]) == 0
+
+
+@pytest.mark.parametrize(("acc_col", "gyr_col"), [("acc_x", "gyr_x"), ("acc_y", "gyr_z")])
+def test_one_axis_swapped_between_the_triads_is_named(tmp_path, capsys, acc_col, gyr_col):
+    """imucal's annotated session with one accelerometer column and one gyro column swapped: the error said the
+    poses disagree on g (check --sections) or hardly turn the axis (record other poses); it names the two
+    columns and --columns, by the default method and the Ferraris one."""
+    import pandas as pd
+
+    df = pd.read_csv(DATA / "annotated_session.csv")
+    df[[acc_col, gyr_col]] = df[[gyr_col, acc_col]].to_numpy()
+    path = tmp_path / "swapped.csv"
+    df.to_csv(path, index=False)
+    args = [a if a != str(DATA / "annotated_session.csv") else str(path) for a in ANNOTATED]
+    for extra in ([], ["--method", "ferraris", "--rotation-angle", "360"]):
+        capsys.readouterr()
+        assert main(["--quiet", *args, *extra, "--out", str(tmp_path / "r.json")]) == 2
+        err = capsys.readouterr().err
+        words = f"accelerometer's {acc_col[-1]} and the gyroscope's {gyr_col[-1]} columns look swapped"
+        assert words in err and "--columns" in err and len(err.strip().splitlines()) == 1, err

@@ -173,10 +173,11 @@ def creeping(ang: np.ndarray, sig: np.ndarray) -> np.ndarray:
     return (ang > CREEP_SIGMA * sig) & (ang > np.radians(MIN_CREEP_DEG))
 
 
-def _drop_creeping(acc, ranges, t_int, st: accel.PoseStatistics, notes: list, g: float) -> tuple:
+def _drop_creeping(acc, ranges, t_int, st: accel.PoseStatistics, notes: list, g: float, gyro=None) -> tuple:
     """The static poses that hold still (:func:`pose_creep`, offset-free by the closed-form ellipsoid fit of the
     pose means ``st``), their time intervals and statistics; a note per pose left out. More than a third left
-    out, or fewer than 6 left: an error naming the first."""
+    out, or fewer than 6 left: an error naming the first (or an accelerometer and a gyro column that look swapped,
+    by the ``gyro``'s pose means: :func:`gates.swapped_axis`)."""
     theta0 = accel.initial_estimate(st.means, g)
     ang, sig = pose_creep(acc, ranges, (lambda x: model.corrected(theta0, x)) if np.all(np.isfinite(theta0)) else None)
     bad = creeping(ang, sig)
@@ -188,6 +189,11 @@ def _drop_creeping(acc, ranges, t_int, st: accel.PoseStatistics, notes: list, g:
     n_bad, n = int(np.count_nonzero(bad)), ranges.shape[0]
     if n_bad and (n - n_bad < 6 or n_bad > n / 3):
         k = int(np.flatnonzero(bad)[0])
+        gyr_means = None if gyro is None else np.array([gyro[a:b].mean(axis=0) for a, b in ranges])
+        if swap := gates.swapped_axis(st.means, gyr_means):
+            raise OptinavError(
+                f"{n_bad} of {n} static poses are not still — {swap}", "name the columns in their order with --columns"
+            )
         raise OptinavError(
             f"{n_bad} of {n} static poses are not still (pose {k + 1}, {t_int[k][0]:.4g}–{t_int[k][1]:.4g} s: "
             f"gravity moves by {np.degrees(ang[k]):.2g}° within it)"
@@ -563,7 +569,9 @@ def calibrate(
     ranges, t_int = _drop_saturated(ranges, t_int, valid & ~_clipped_rows(acc, t, ranges, clipped), notes)
     n_clipped = n_detected - len(ranges)
     notes.extend(clipped)
-    ranges, t_int, st = _drop_creeping(acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g)
+    ranges, t_int, st = _drop_creeping(
+        acc, ranges, t_int, accel.pose_statistics(acc, ranges, valid=valid), notes, g, gyro
+    )
     samples = [acc[i0:i1][valid[i0:i1]] for i0, i1 in ranges] if data == "samples" else None
     step(f"fit accelerometer ({method}) and gates")
     gate_log: list[dict] = []
@@ -591,6 +599,9 @@ def calibrate(
                 "record with a larger accelerometer range (--acc-range states it)",
             ) from None
         short = _short_still(still, t, acc, gyro, min_duration_s) if "distinct pose directions" in exc.cause else []
+        gyr_means = None if gyro is None else np.array([gyro[a:b].mean(axis=0) for a, b in ranges])
+        if swap := gates.swapped_axis(st.means, gyr_means):
+            raise type(exc)(f"{exc.cause} — {swap}", "name the columns in their order with --columns") from None
         if not short and (narrow := gates.narrow_axes(st.means)):
             # poses that all lie near one direction: a fit that fails then fails for that (a 25° cone around
             # z up was told 'did not converge, pass --model diagonal', which failed alike; helper)
@@ -1298,9 +1309,14 @@ def _ferraris(
     # gates: the six poses agree on g, both matrices are plausible, the turns go the stated way
     pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
     if pose_rms > gates.MAX_RESIDUAL_G * g:
+        at = [idx[k] for k in static_idx]
+        swap = gates.swapped_axis(*(np.array([x[i0:i1].mean(axis=0) for i0, i1 in at]) for x in (acc, gyro)))
         raise OptinavError(
-            f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2",
-            "check that the sections x_p … z_a hold still poses in imucal's order (--sections)",
+            f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2"
+            + (f" — {swap}" * bool(swap)),
+            "name the columns in their order with --columns"
+            if swap
+            else "check that the sections x_p … z_a hold still poses in imucal's order (--sections)",
         )
     acc_nominal = float(np.median(np.abs(np.diag(fc.acc_K)))) if acc_unit == "counts" else 1.0 / factor(acc_unit)
     gates.check_matrix(

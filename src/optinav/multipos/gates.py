@@ -140,6 +140,31 @@ def narrow_axes(means) -> str | None:
     )
 
 
+def swapped_axis(acc_means, gyr_means) -> str | None:
+    """Words naming an accelerometer axis and a gyro axis whose columns look swapped, or None: across the static
+    poses (means (P, 3), raw units) the accelerometer axis hardly varies (below :data:`MIN_AXIS_SPAN` of its
+    widest axis) while one gyro axis varies at least a third as widely as that and 20 times more than the other
+    gyro axes — gravity's projection read through the gyro's column (a gyro at rest reads its bias and the Earth
+    rate in every pose). acc_x and gyr_x swapped was told the poses hardly turn x, or disagree on g (probe)."""
+    if gyr_means is None:
+        return None
+    a, w = np.asarray(acc_means, float), np.asarray(gyr_means, float)
+    if a.shape[0] < 2 or w.shape != a.shape or not (np.all(np.isfinite(a)) and np.all(np.isfinite(w))):
+        return None
+    sa, sw = np.ptp(a, axis=0), np.ptp(w, axis=0)
+    top = float(sa.max())
+    narrow = [j for j in range(3) if sa[j] < MIN_AXIS_SPAN * top]
+    k = int(np.argmax(sw))
+    if top <= 0 or len(narrow) != 1 or sw[k] < top / 3 or sw[k] < 20 * np.sort(sw)[-2]:
+        return None
+    j = narrow[0]
+    return (
+        f"the accelerometer's {'xyz'[j]} and the gyroscope's {'xyz'[k]} columns look swapped: across the poses the "
+        f"gyro's {'xyz'[k]} varies {sw[k] / top:.2g}× as widely as the accelerometer's widest axis, as gravity "
+        f"would, while the accelerometer's {'xyz'[j]} hardly varies"
+    )
+
+
 def signed_permutations() -> list[np.ndarray]:
     """The 48 signed axis permutations (3×3, one ±1 per row and column), the identity first."""
     out = []
