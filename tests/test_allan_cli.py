@@ -294,3 +294,58 @@ def test_a_warm_up_that_settles_early_is_named_not_stationary(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "random walk differs between the log's halves (x K = " in err and "not stationary" in err
     assert "; y K" not in err and "; z K" not in err
+
+
+def _write_log(path, t, acc, gyr):
+    np.savetxt(path, np.c_[t, acc, gyr], delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.10g")
+
+
+def test_a_log_that_moves_in_the_middle_is_refused(tmp_path, capsys):
+    """Seconds of motion in a log at rest leave the mean gravity direction in place, and the fit took the motion for
+    noise: BROAD's rests joined by 5 s of its motion gave N = 0 on most axes, exit 0; a simulated 20-min rest with a
+    10-s turn and back gave the turned axes N = 0 and K 10⁴× the truth. Refused, naming where the log moves; the
+    rests alone still run."""
+    import os
+    from pathlib import Path
+
+    rng = np.random.default_rng(5)
+    rate, n = 100.0, 120_000
+    t = np.arange(n) / rate
+    acc = rng.normal(0, 0.01, (n, 3)) + np.cumsum(rng.normal(0, 1e-4, (n, 3)), axis=0) + [0, 0, 9.81]
+    gyr = rng.normal(0, 1e-3, (n, 3)) + np.cumsum(rng.normal(0, 1e-5, (n, 3)), axis=0)
+    still = tmp_path / "still.csv"
+    _write_log(still, t, acc, gyr)
+    assert main(["--quiet", "allan", str(still), "--out", str(tmp_path / "s.json")]) == 0
+    i0, i1 = 60_000, 61_000  # 10 s: up 45° about x and back, at 9°/s
+    ang = np.radians(45) * np.sin(np.linspace(0, np.pi, i1 - i0))
+    acc[i0:i1, 1] += 9.81 * np.sin(ang)
+    acc[i0:i1, 2] += 9.81 * (np.cos(ang) - 1)
+    gyr[i0:i1, 0] += np.gradient(ang, 1 / rate)
+    moved = tmp_path / "moved.csv"
+    _write_log(moved, t, acc, gyr)
+    for extra in ([], ["--sensor", "gyro"]):
+        capsys.readouterr()
+        assert main(["allan", str(moved), "--out", str(tmp_path / "m.json"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "is not at rest throughout" in err, err
+        assert "at t = 600 s" in err and "until t = 610 s" in err and "cut the static part" in err, err
+    shared = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    trial = shared / "attitude" / "broad" / "03_undisturbed_slow_rotation_C.hdf5"
+    if not trial.is_file():
+        pytest.skip("BROAD data absent")
+    import h5py
+
+    with h5py.File(trial, "r") as f:
+        a, g, rest = f["imu_acc"][:], f["imu_gyr"][:], ~f["movement"][:].astype(bool)
+        rate = float(f.attrs["sampling_rate"])
+    edges = np.flatnonzero(np.diff(rest.astype(int)))  # the first rest ends, the last begins
+    first, last = np.arange(edges[0] + 1), np.arange(edges[-1] + 1, rest.size)
+    for name, rows, code in (
+        ("rest", first, 0),
+        ("rest_move_rest", np.r_[first, np.arange(edges[0] + 1, edges[0] + 1 + int(5 * rate)), last], 2),
+    ):
+        f = tmp_path / f"{name}.csv"
+        _write_log(f, np.arange(rows.size) / rate, a[rows], g[rows])
+        capsys.readouterr()
+        assert main(["allan", str(f), "--out", str(tmp_path / f"{name}.json")]) == code, capsys.readouterr().err
+    assert "is not at rest throughout" in capsys.readouterr().err

@@ -1381,6 +1381,45 @@ class _GyroAtRest:
             )
 
 
+#: the motion check's window (s): means over it are compared between neighbours
+STILL_WINDOW_S = 1.0
+#: how far (in robust σ of the differences of neighbouring window means) a jump may go in a log at rest: real rests
+#: (BROAD's nine, imucal's twelve poses, simulated hours of white + flicker + random walk + ramp + quantization)
+#: reach 22; five seconds of hand motion in BROAD's rests reach 340-32 000, a 10-s turn of a simulated log 1300
+STILL_Z = 50.0
+
+
+def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str) -> None:
+    """Refuse a log that moves somewhere in it: the means over :data:`STILL_WINDOW_S` (a sixteenth of a shorter
+    log) of an axis jump between neighbours by more than :data:`STILL_Z` robust σ of such jumps. A few seconds of
+    motion in an hour at rest leave the gravity direction's mean in place (:class:`_AtRest`), and the Allan fit then
+    took the motion for noise: N = 0 with K 10⁴× the truth, exit 0 (BROAD's rests joined by 5 s of motion)."""
+    dt = acc.dt
+    w = max(1, int(round(min(STILL_WINDOW_S, acc.n * dt / 16.0) / dt)))
+    nw = acc.n // w
+    if nw < 8:
+        return
+    d = np.diff(acc.theta()[: nw * w + 1 : w], n=2, axis=0)  # differences of neighbouring window sums
+    d -= np.median(d, axis=0)  # a steady drift of the rate is no motion
+    s = 1.4826 * np.median(np.abs(d), axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(s > 0, np.abs(d) / np.where(s > 0, s, 1.0), 0.0)
+    rows, cols = np.nonzero(z > STILL_Z)
+    if rows.size == 0:
+        return
+    i, j = int(rows[0]), int(cols[0])  # the first window that jumps
+    scale = 1.0 / (w * dt) if acc.kind == "rate" else 1.0 / w
+    ta, tb = t0 + (i + 1) * w * dt, t0 + (int(rows.max()) + 1) * w * dt
+    raise OptinavError(
+        f"the {name} is not at rest throughout: its {w * dt:.3g}-s mean on {'xyz'[j] if d.shape[1] == 3 else j} "
+        f"jumps by {d[i, j] * scale:.3g} {unit or 'unit'} at t = {ta:.6g} s ({z[i, j]:.0f}× the scatter of the rest)"
+        + (f", and moves until t = {tb:.6g} s" if tb > ta else "")
+        + ": the Allan deviation of a moving sensor is not its noise",
+        f"cut the static part out of the log (before t = {ta:.6g} s or after t = {tb:.6g} s), or record the sensor "
+        "still",
+    )
+
+
 #: the largest mean rate (rad/s) of a gyro at rest that is taken to be in rad/s (20 °/s)
 GYRO_REST_MAX = np.radians(20.0)
 #: the largest white noise density (rad/s/√Hz) of a gyro in rad/s (0.17 °/s/√Hz)
@@ -1462,12 +1501,14 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     at_rest.check()
     dt = timing.check()
     gyro_rest.check(dt)
+    for name, acc in angles.items():
+        acc.set_dt(dt)
+        _check_still(name, acc, timing.t0, units[name])
     out = {}
     kal = {}
     sensor_notes = []
     for name in list(angles):
         acc = angles.pop(name)  # θ is dropped once its deviation is computed
-        acc.set_dt(dt)
         ad = allan_deviation_from_angle(acc, unit=units[name], progress_desc=f"Allan deviation ({name})")
         if timing.t_last - timing.t0 >= SHORT_LOG_S:
             sensor_notes.append(_halves_note(name, acc, units[name]))
