@@ -349,3 +349,34 @@ def test_a_log_that_moves_in_the_middle_is_refused(tmp_path, capsys):
         capsys.readouterr()
         assert main(["allan", str(f), "--out", str(tmp_path / f"{name}.json")]) == code, capsys.readouterr().err
     assert "is not at rest throughout" in capsys.readouterr().err
+
+
+def test_a_raw_log_read_as_si_is_named_raw_counts(tmp_path, capsys):
+    """imucal's annotated session holds raw counts (~2048/g, ~16.7/(deg/s)); read as SI, the accelerometer was said
+    to look like mg and the gyro like deg/s, and following either hint ran with exit 0 and noise 2× or 16× off
+    (helper). Whole-number samples name raw counts and --acc-unit/--gyro-unit counts."""
+    import os
+    from pathlib import Path
+
+    shared = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    data = shared / "imucal" / "annotated_session.csv"
+    if not data.is_file():
+        pytest.skip("imucal data absent")
+    rows = np.genfromtxt(data, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    pose = rows[rows["part"] == "x_a"]
+    f = tmp_path / "xa.csv"
+    cols = [pose[f"acc_{a}"] for a in "xyz"] + [pose[f"gyr_{a}"] for a in "xyz"]
+    _write_log(f, np.arange(pose.size) / 204.8, np.column_stack(cols[:3]), np.column_stack(cols[3:]))
+    out = str(tmp_path / "a.json")
+    assert main(["allan", str(f), "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "raw counts (its samples are whole numbers)" in err and "--acc-unit counts" in err
+    assert main(["allan", str(f), "--acc-unit", "counts", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "looks like raw counts" in err and "--gyro-unit counts" in err, err
+    assert main(["--quiet", "allan", str(f), "--acc-unit", "counts", "--gyro-unit", "counts", "--out", out]) == 0
+    # a log in g or deg/s (fractional samples) keeps its hint
+    _write_log(f, np.arange(pose.size) / 204.8, np.column_stack(cols[:3]) / 2048.0, np.column_stack(cols[3:]) / 16.7)
+    assert main(["allan", str(f), "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert "it looks like g;" in err and "counts" not in err, err

@@ -1316,11 +1316,12 @@ class _AtRest:
     than about 23° between two halves); a moving log has no Allan deviation of its noise."""
 
     def __init__(self):
-        self.sum, self.norm, self.n, self.counts = np.zeros(3), 0.0, 0, False
+        self.sum, self.norm, self.n, self.counts, self.whole = np.zeros(3), 0.0, 0, False, True
 
     def add(self, a: np.ndarray, counts: bool = False) -> None:
         """One block (m/s², or raw counts: then only the direction is judged — a moving log in counts gave noise
         figures with exit 0)."""
+        self.whole = self.whole and bool(np.all(a == np.round(a)))
         self.sum += a.sum(axis=0)
         self.norm += float(np.sqrt(np.einsum("ij,ij->i", a, a)).sum())
         self.n += a.shape[0]
@@ -1332,10 +1333,22 @@ class _AtRest:
         mean = self.norm / self.n
         if not self.counts and not 0.3 * G_STANDARD < mean < 3.0 * G_STANDARD:
             unit = "g" if 0.3 < mean < 3.0 else "mg" if 300.0 < mean < 3000.0 else None
+            # whole numbers are a raw log's (2048 counts/g looked like mg, and --acc-unit mg then gave N 2× off)
+            counts = self.whole and unit != "g"
             raise OptinavError(
                 f"the accelerometer's mean norm is {mean:.3g} m/s², not about 9.8 at rest"
-                + (f": it looks like {unit}" if unit else ""),
-                f"declare the unit with --acc-unit {unit or '(g, mg, m/s^2, counts)'}",
+                + (f": it looks like {unit}" if unit else "")
+                + (
+                    f"{' or' if unit else ': it looks like'} raw counts (its samples are whole numbers)"
+                    if counts
+                    else ""
+                ),
+                "declare the unit with --acc-unit "
+                + (
+                    "counts (then calibrate and apply for SI noise)" + (f", or --acc-unit {unit}" if unit else "")
+                    if counts
+                    else unit or "(g, mg, m/s^2, counts)"
+                ),
             )
         ratio = float(np.linalg.norm(self.sum / self.n)) / mean
         if ratio < _REST_RATIO:
@@ -1353,11 +1366,12 @@ class _GyroAtRest:
     57× beyond both (imucal's session: 34 °/s and 0.33 °/s/√Hz; its N would have gone into a Kalibr file)."""
 
     def __init__(self):
-        self.sum, self.d2, self.n, self.nd, self.last = np.zeros(3), 0.0, 0, 0, None
+        self.sum, self.d2, self.n, self.nd, self.last, self.whole = np.zeros(3), 0.0, 0, 0, None, True
 
     def add(self, g: np.ndarray) -> None:
         if not g.shape[0]:
             return
+        self.whole = self.whole and bool(np.all(g == np.round(g)))
         x = g if self.last is None else np.vstack([self.last, g])
         d = np.diff(x, axis=0)
         self.d2 += float(np.einsum("ij,ij->", d, d))
@@ -1373,11 +1387,17 @@ class _GyroAtRest:
         # white noise of per-sample std σ: first differences have variance 2σ² per axis; N = σ·√dt
         dens = float(np.sqrt(self.d2 / (2.0 * 3.0 * self.nd) * dt))
         if rate > GYRO_REST_MAX or dens > GYRO_N_MAX:
+            # whole numbers are a raw log's: counts read as deg/s gave N 16× off with exit 0
             raise OptinavError(
                 f"the gyro reads {rate:.3g} rad/s at rest with a noise density of {dens:.3g} rad/s/√Hz, beyond any "
                 f"MEMS gyro in rad/s (at most {GYRO_REST_MAX:.2g} rad/s at rest, {GYRO_N_MAX:.2g} rad/s/√Hz): it "
-                "looks like deg/s read as rad/s",
-                "declare the unit with --gyro-unit deg/s",
+                + (
+                    "looks like raw counts (its samples are whole numbers)"
+                    if self.whole
+                    else "looks like deg/s read as rad/s"
+                ),
+                "declare the unit with --gyro-unit "
+                + ("counts (then calibrate and apply for SI noise), or --gyro-unit deg/s" if self.whole else "deg/s"),
             )
 
 
