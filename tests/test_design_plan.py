@@ -237,3 +237,25 @@ def test_gyro_std_includes_the_g_sensitivity_of_a_consumer_mems():
     k_ratio = np.sqrt(np.mean(np.square(k_err))) / np.mean(pred[[0, 4, 8]])
     b_ratio = np.sqrt(np.mean(np.square(b_err))) / np.mean(pred[9:])
     assert 0.5 < k_ratio < 2 and 0.5 < b_ratio < 2, (k_ratio, b_ratio)
+
+
+@pytest.mark.parametrize(
+    "argv, flag, reach",
+    [
+        (["--target-bias", "1e-6"], "--target-bias", "(600 s per pose reach 0.00245 mg)"),
+        (["--preset", "rlg-nav", "--target-scale", "0.001"], "--target-scale", "(600 s per pose reach 0.354 ppm)"),
+        (["--target-gyro-bias", "0.05"], "--target-gyro-bias", "deg/h)"),
+    ],
+)
+def test_a_target_past_the_allan_minimum_is_refused(tmp_path, capsys, argv, flag, reach):
+    """A target needing more rest per pose than --max-dwell (3.6e9 s for a 1e-6 mg bias) gave a plan promising it
+    with exit 0 and only a note that averaging there does not help: the white-noise 1σ do not hold past the Allan
+    minimum. Refused naming the target's flag and what --max-dwell reaches; the reach itself is met by a plan."""
+    out = tmp_path / "p.json"
+    assert main(["design", "--poses", "12", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "more than --max-dwell 600 s" in err and f"relax {flag}" in err, err
+    assert reach in err, err
+    value = float(re.search(r"reach ([0-9.e+-]+) ", err).group(1))
+    assert main(["--quiet", "design", "--poses", "12", *argv[:-1], f"{value * 1.01:.6g}", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] <= 600

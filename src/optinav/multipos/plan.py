@@ -481,6 +481,16 @@ TARGETS = {
 }
 
 
+#: target name → its option and unit in ``optinav design``
+TARGET_FLAGS = {
+    "scale_ppm": "--target-scale",
+    "misalignment_mrad": "--target-misalignment",
+    "bias_mg": "--target-bias",
+    "gyro_bias_deg_h": "--target-gyro-bias",
+}
+TARGET_UNITS = {"scale_ppm": "ppm", "misalignment_mrad": "mrad", "bias_mg": "mg", "gyro_bias_deg_h": "deg/h"}
+
+
 #: the noise densities a plan is made for: sensor → (lowest, highest) [m/s^2/sqrt(Hz) | rad/s/sqrt(Hz)], as
 #: ``optinav design --acc-noise-density/--gyro-noise-density`` take them
 DENSITY_RANGE = {"accelerometer": (1e-12, 10.0, "m/s^2/sqrt(Hz)"), "gyroscope": (1e-12, 1.0, "rad/s/sqrt(Hz)")}
@@ -544,13 +554,14 @@ def plan_poses(
     seq = _order(np.asarray(d.up_dirs), np.asarray(d.orientations))
     up, orient = np.asarray(d.up_dirs)[seq], np.asarray(d.orientations)[seq]
     if dwell_s is None and (targets or gyro_bias_deg_h):
-        need, why = MIN_DWELL_S, []
+        need, why, reach = MIN_DWELL_S, [], {}
         for k, v in targets.items():
             idx, f = TARGETS[k]
             s1 = float(np.max(np.asarray(d.predicted_std)[list(idx)]))
             r = s1 / (v * f)
             t = ref * r * r  # a float product: inf when beyond any count, where ** raised OverflowError
             why.append((t, k))
+            reach[k] = s1 / f * math.sqrt(ref / max_dwell_s)  # the 1σ max_dwell_s gives, in the target's unit
             need = max(need, t)
         if gyro_bias_deg_h:
             if gyro_n is None:
@@ -560,6 +571,7 @@ def plan_poses(
             r = float(np.max(gyro_n)) / (gyro_bias_deg_h * _DEG_H)
             t = r * r / up.shape[0]
             why.append((t, "gyro_bias_deg_h"))
+            reach["gyro_bias_deg_h"] = float(np.max(gyro_n)) / math.sqrt(max_dwell_s * up.shape[0]) / _DEG_H
             need = max(need, t)
         t_top, top = max(why)
         what = {
@@ -568,21 +580,26 @@ def plan_poses(
             "bias_mg": "accelerometer bias target {:g} mg",
             "gyro_bias_deg_h": "gyro bias target {:g} deg/h",
         }[top].format(targets.get(top, gyro_bias_deg_h))
+        flag = TARGET_FLAGS[top]
         if not need <= MAX_TARGET_DWELL_S:
             raise OptinavError(
                 f"the {what} would need {need:.3g} s of rest per pose (more than {MAX_TARGET_DWELL_S:g} s) with this "
                 "noise density",
-                "relax the target",
+                f"relax the target ({flag})",
             )
         dwell = float(math.ceil(need))
         reason = (
             f"the {what} sets it" if t_top >= MIN_DWELL_S else f"the {MIN_DWELL_S:g} s minimum; the targets need less"
         )
         if dwell > max_dwell_s:
-            notes.append(
-                f"the targets need {dwell:g} s per pose, more than {max_dwell_s:g} s: beyond the Allan "
-                "deviation minimum more averaging does not help (bias instability); relax the targets "
-                "or use more poses"
+            # the plan's 1σ fall as 1/√dwell (white noise); past the Allan-deviation minimum the bias instability
+            # stops them, so a plan printed at 3.6e9 s per pose promised a 1e-6 mg bias with exit 0
+            raise OptinavError(
+                f"the {what} needs {dwell:.3g} s of rest per pose, more than --max-dwell {max_dwell_s:g} s: past the "
+                "Allan-deviation minimum more averaging does not help (bias instability), so the plan could not "
+                "keep its predicted 1-sigma",
+                f"relax {flag} ({max_dwell_s:g} s per pose reach {reach[top]:.3g} {TARGET_UNITS[top]}) or use more "
+                "--poses; raise --max-dwell only up to your sensor's Allan minimum",
             )
     else:
         dwell = 30.0 if dwell_s is None else float(dwell_s)
