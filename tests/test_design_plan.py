@@ -259,3 +259,14 @@ def test_a_target_past_the_allan_minimum_is_refused(tmp_path, capsys, argv, flag
     value = float(re.search(r"reach ([0-9.e+-]+) ", err).group(1))
     assert main(["--quiet", "design", "--poses", "12", *argv[:-1], f"{value * 1.01:.6g}", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] <= 600
+
+
+@pytest.mark.parametrize("value", ["abc", [1e-4, 2e-4], {"value": "x"}])
+def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
+    """A gyroscope_noise_density of text (or 2 axes) was dropped and the plan written without the gyro, exit 0."""
+    p = tmp_path / "noise.json"
+    p.write_text(json.dumps({"accelerometer_noise_density": 1e-3, "gyroscope_noise_density": value}))
+    assert main(["design", "--allan", str(p), "--out", str(tmp_path / "p.md")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "gyro noise density" in err and "is not a positive number" in err, err
+    assert "--gyro-noise-density" in err

@@ -239,8 +239,8 @@ def noise_from_allan(path) -> dict:
             v = v.get("value")
         try:
             arr = None if v is None else np.broadcast_to(np.asarray(v, float), (3,)).copy()
-        except (TypeError, ValueError):
-            arr = None
+        except (TypeError, ValueError):  # text or a list of 2 was dropped, and the plan made without that sensor
+            arr = np.full(3, np.nan)
         if arr is not None and not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
             raise OptinavError(
                 f"{path}: {kind} noise density {v!r} is not a positive number",
