@@ -274,6 +274,29 @@ def test_export_kalibr_with_allan_noise(session, tmp_path, capsys):
         assert "is a Kalibr file" in capsys.readouterr().err
 
 
+def test_export_kalibr_names_noise_files_of_the_wrong_kind(session, tmp_path, capsys):
+    """--noise given a design plan said 'unknown result schema ...; upgrade optinav', a calibration or Kalibr's YAML
+    'pass the right result file' / 'not valid JSON', none naming --noise: each names the option and its file."""
+    d, data = session
+    out = d / "r3.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out)]) == 0
+    plan, yml = tmp_path / "plan.json", tmp_path / "noise.yaml"
+    assert main(["--quiet", "design", "--poses", "9", "--out", str(plan)]) == 0
+    yml.write_text("accelerometer_noise_density: 1.86e-03\ngyroscope_noise_density: 1.87e-04\n")
+    for noise, why in (
+        (plan, "'optinav.pose_plan' is not a optinav.allan"),
+        (out, "'optinav.multipos.calibration' is not a optinav.allan"),
+        (yml, "not valid JSON"),
+    ):
+        capsys.readouterr()
+        argv = ["export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--noise", str(noise)]
+        assert main([*argv, "--out", str(tmp_path / "imu.yaml")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--noise {noise}:" in err and why in err and "optinav allan" in err, err
+        assert "upgrade" not in err
+    assert not (tmp_path / "imu.yaml").exists()
+
+
 @pytest.mark.parametrize(
     "text, why",
     [

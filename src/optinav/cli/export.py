@@ -89,11 +89,7 @@ def run(args) -> int:
     from optinav.multipos.exchange import export_calibration, load_calibration
 
     res = load_calibration(args.result, args.gyro_cal)
-    noise = None
-    if args.noise:
-        from optinav.core.allan import AllanAnalysis
-
-        noise = AllanAnalysis.from_json(args.noise)
+    noise = _load_noise(args.noise) if args.noise else None
     from optinav.multipos.kalibr import counts_per_si
 
     cps = counts_per_si(args.acc_lsb, args.gyro_lsb)
@@ -110,6 +106,19 @@ def run(args) -> int:
         print(f"optinav: {args.to} file written to {path}")
     print_notes(_notes(args, res, noise))
     return 0
+
+
+def _load_noise(path):
+    """The --noise file as an allan result; an error names --noise (a plan, a calibration or Kalibr's YAML was
+    refused as 'the right result file' or 'not valid JSON', the option unnamed)."""
+    from optinav.core.allan import AllanAnalysis
+
+    try:
+        return AllanAnalysis.from_json(path)
+    except OptinavError as exc:
+        raise OptinavError(
+            f"--noise {path}: {exc.cause}", "pass the ALLAN.json that optinav allan wrote (its --out, not --kalibr)"
+        ) from None
 
 
 def _notes(args, res, noise) -> list[str]:

@@ -362,6 +362,8 @@ class Result:
             )
         schema = data["schema"]
         target = _REGISTRY.get(schema)
+        if target is None and cls is not Result:  # asked for one kind: a plan was told to "upgrade optinav"
+            raise OptinavError(f"result schema {schema!r} is not a {cls.SCHEMA}", "pass the right result file")
         if target is None:
             raise OptinavError(f"unknown result schema {schema!r}", "upgrade optinav or check the file")
         if cls is not Result and not issubclass(target, cls):
