@@ -297,6 +297,22 @@ def test_export_kalibr_names_noise_files_of_the_wrong_kind(session, tmp_path, ca
     assert not (tmp_path / "imu.yaml").exists()
 
 
+def test_export_kalibr_passes_on_what_the_noise_rests_on(session, tmp_path, capsys):
+    """A 36-s rest's allan result puts the upper end of K's interval into imu.yaml (170× the truth on a simulated
+    log); allan said its K is not reliable, export said nothing. It repeats the allan result's notes."""
+    d, data = session
+    out = d / "r4.json"
+    assert main(["--quiet", "calibrate", "accel", str(data), "--out", str(out)]) == 0
+    rest, allan = tmp_path / "rest.csv", tmp_path / "allan.json"
+    assert main(["--quiet", "simulate", "static", "--out", str(rest), "--hours", "0.01", "--seed", "2"]) == 0
+    assert main(["--quiet", "allan", str(rest), "--out", str(allan)]) == 0
+    capsys.readouterr()
+    argv = ["export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--noise", str(allan), "--rostopic", "/imu"]
+    assert main([*argv, "--out", str(tmp_path / "imu.yaml")]) == 0
+    err = capsys.readouterr().err
+    assert f"note: --noise {allan}: the log spans 0.6 min" in err and "neither K nor its interval is reliable" in err
+
+
 @pytest.mark.parametrize(
     "text, why",
     [

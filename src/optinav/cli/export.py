@@ -127,6 +127,8 @@ def _notes(args, res, noise) -> list[str]:
     from optinav.multipos.kalibr import DEFAULT_ROSTOPIC_NOTE
 
     notes = [n for n in (held_note(res, args.to),) if n]
+    # what the noise rests on (a log too short for K put 170x the truth into imu.yaml with no word)
+    notes += [f"--noise {args.noise}: {n}" for n in (noise.notes if noise is not None else [])]
     if args.to == "kalibr" and noise is not None and not (args.rostopic or noise.rostopic):
         notes.append(DEFAULT_ROSTOPIC_NOTE)
     if args.to == "kalibr" and noise is None:
