@@ -238,9 +238,13 @@ def test_a_short_log_says_its_random_walk_is_not_reliable(tmp_path, capsys):
     log = tmp_path / "short.csv"
     assert main(["--quiet", "simulate", "static", "--out", str(log), "--hours", "0.01", "--seed", "3"]) == 0
     assert main(["allan", str(log), "--out", str(tmp_path / "a.json")]) == 0
-    err = capsys.readouterr().err
+    cap = capsys.readouterr()
+    err = cap.err
     assert "the log spans 0.6 min" in err and "neither K nor its interval is reliable (N is)" in err
     assert json.loads((tmp_path / "a.json").read_text())["fields"]["notes"]["value"]
+    # a term the IEEE read-off cannot see in 36 s is said so in the table (it printed "(nan)")
+    rw = [line for line in cap.out.splitlines() if line.lstrip().startswith("random walk K")]
+    assert len(rw) == 2 and all(line.count("(not seen)") == 3 for line in rw) and "nan" not in cap.out, cap.out
 
 
 def test_a_warm_up_ramp_is_fitted_apart_from_the_random_walk_and_named(tmp_path, capsys):

@@ -1133,7 +1133,9 @@ class AllanAnalysis(Result):
                 v = np.atleast_1d(getattr(fit, key))
                 iv = np.asarray(getattr(fit, key + "_interval")).reshape(2, -1)
                 r = np.atleast_1d(getattr(ro, key))
-                cells = [f"{'xyz'[j]} {v[j]:.4g} [{iv[0, j]:.3g}, {iv[1, j]:.3g}] ({r[j]:.3g})" for j in range(v.size)]
+                # a term the read-off does not see is said so (it printed "nan"), as the report does
+                seen = [f"{x:.3g}" if np.isfinite(x) else "not seen" for x in r]
+                cells = [f"{'xyz'[j]} {v[j]:.4g} [{iv[0, j]:.3g}, {iv[1, j]:.3g}] ({seen[j]})" for j in range(v.size)]
                 lines.append(f"  {label} [{unit}{suffix}]: " + "; ".join(cells))
         return "\n".join(lines)
 
