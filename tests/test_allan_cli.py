@@ -384,3 +384,21 @@ def test_a_raw_log_read_as_si_is_named_raw_counts(tmp_path, capsys):
     assert main(["allan", str(f), "--out", out]) == 2
     err = capsys.readouterr().err
     assert "it looks like g;" in err and "counts" not in err, err
+
+
+def test_an_axis_that_reads_one_value_throughout_is_refused(tmp_path, capsys):
+    """A gyro axis the logger fills with 0 gave N = 0 [0, 0] on it with exit 0 (no IMU axis is noiseless); refused
+    naming the axis, --columns and --sensor for the other triad, which then runs."""
+    rng = np.random.default_rng(9)
+    n = 30_000
+    t = np.arange(n) / 100.0
+    acc = rng.normal(0, 0.01, (n, 3)) + [0, 0, 9.81]
+    gyr = rng.normal(0, 1e-3, (n, 3))
+    gyr[:, 2] = 0.0
+    f = tmp_path / "dead.csv"
+    _write_log(f, t, acc, gyr)
+    assert main(["allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the gyroscope reads one value in every sample (z = 0 rad/s)" in err, err
+    assert "--columns" in err and "--sensor acc" in err
+    assert main(["--quiet", "allan", str(f), "--sensor", "acc", "--out", str(tmp_path / "a.json")]) == 0

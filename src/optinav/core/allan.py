@@ -1452,6 +1452,21 @@ GYRO_N_MAX = 3e-3
 _REST_RATIO = 0.98
 
 
+def _check_alive(spans: dict, units: dict) -> None:
+    """Refuse an axis that reads one value in every sample: it has no noise to analyse (a dead axis, a column the
+    logger fills with 0, or noise below one step of its resolution) — its N came out 0 [0, 0] with exit 0."""
+    for name, (lo, hi) in spans.items():
+        dead = [j for j in range(np.size(lo)) if lo[j] == hi[j]]
+        if dead:
+            axes = ", ".join(f"{'xyz'[j] if np.size(lo) == 3 else j} = {lo[j]:.6g}" for j in dead)
+            raise OptinavError(
+                f"the {name} reads one value in every sample ({axes} {units.get(name) or ''}): no noise to analyse "
+                "(a dead axis, a column that is not the sensor's, or noise below one step of its resolution)",
+                "check --columns, or analyse the other triad alone with --sensor "
+                + ("gyro" if name == "accelerometer" else "acc"),
+            )
+
+
 def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: str = "", need_kalibr: bool = False):
     """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
 
@@ -1478,6 +1493,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     gyro_rest = _GyroAtRest()
     angles: dict = {}
     units: dict[str, str] = {}
+    spans: dict = {}  # per sensor the (min, max) of each axis
     for log in blocks:
         if not angles:
             present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyr, log.gyro_unit)}
@@ -1514,6 +1530,8 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 )
             if len(x):
                 acc.add(x)
+                lo, hi = spans.get(name, (x[0], x[0]))
+                spans[name] = (np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0)))
         if log.acc is not None and len(log.acc) and np.all(np.isfinite(log.acc)):
             at_rest.add(log.acc, counts=log.acc_unit == "counts")  # the gyro's analysis too needs the log at rest
         if "gyroscope" in angles and log.gyro_unit == "rad/s":
@@ -1521,6 +1539,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")
     at_rest.check()
+    _check_alive(spans, units)
     dt = timing.check()
     gyro_rest.check(dt)
     for name, acc in angles.items():
