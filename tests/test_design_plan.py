@@ -261,6 +261,17 @@ def test_a_target_past_the_allan_minimum_is_refused(tmp_path, capsys, argv, flag
     assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] <= 600
 
 
+def test_a_dwell_past_the_allan_minimum_is_refused(tmp_path, capsys):
+    """--dwell 1e9 (31 years per pose) printed a 0.00023 deg/h gyro bias 1σ with exit 0 and no word; a dwell beyond
+    --max-dwell is refused as the targets are, and allowed once --max-dwell is raised."""
+    out = tmp_path / "p.json"
+    assert main(["design", "--dwell", "1e9", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--dwell 1e+09 s is more than --max-dwell 600 s" in err and "shorten --dwell" in err
+    assert main(["--quiet", "design", "--dwell", "900", "--max-dwell", "900", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] == 900
+
+
 @pytest.mark.parametrize("value", ["abc", [1e-4, 2e-4], {"value": "x"}])
 def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
     """A gyroscope_noise_density of text (or 2 axes) was dropped and the plan written without the gyro, exit 0."""

@@ -107,7 +107,7 @@ def register(sub) -> None:
         type=POSITIVE,
         default=600.0,
         metavar="S",
-        help="refuse targets that need more rest per pose (the Allan minimum of the sensor; default 600)",
+        help="refuse a --dwell or targets needing more rest per pose (the Allan minimum of the sensor; default 600)",
     )
     p.add_argument("--seed", type=SEED, default=0, help="seed of the pose search (default 0)")
     p.add_argument("--out", metavar="PLAN.md|.json", help="write the plan as Markdown (.md) or JSON (.json)")

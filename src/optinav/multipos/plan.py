@@ -9,7 +9,7 @@ Dwell: the accelerometer's predicted standard deviations (Cramér–Rao bound at
 only) scale as ``1/√dwell``, so a target std ``s*`` for a parameter predicted at ``s₁`` with dwell ``T₁`` needs
 ``T = T₁·(s₁/s*)²``; the plan takes the largest such T over the targets given (whole seconds, at least
 :data:`MIN_DWELL_S`). Averaging beyond the Allan-deviation minimum does not reduce the error further (bias
-instability); the plan warns when the dwell exceeds ``--max-dwell``.
+instability); a dwell (given or from the targets) beyond ``--max-dwell`` is refused.
 
 Gyroscope: calibrated from the turns between poses (:mod:`optinav.multipos.gyro`): each turn k carries the
 gravity direction ``u_k`` to ``u_{k+1}``; a wrong K tilts the carried direction, ``r_k = C_kᵀu_k − u_{k+1}``.
@@ -604,6 +604,12 @@ def plan_poses(
     else:
         dwell = 30.0 if dwell_s is None else float(dwell_s)
         reason = "given" if dwell_s is not None else "default; pass targets to derive it"
+        if dwell > max_dwell_s:  # --dwell 1e9 printed a 0.00023 deg/h gyro bias 1σ, exit 0
+            raise OptinavError(
+                f"--dwell {dwell:g} s is more than --max-dwell {max_dwell_s:g} s: past the Allan-deviation minimum "
+                "more averaging does not help (bias instability), so the plan could not keep its predicted 1-sigma",
+                "shorten --dwell, or raise --max-dwell up to your sensor's Allan minimum",
+            )
     final = _design.evaluate_scheme(up, criterion=d.criterion, noise_density=acc_n, rate_hz=rate_hz, dwell_s=dwell, g=g)
     acc_std = [None if not np.isfinite(s) else float(s) for s in final.predicted_std]
     turns = []
