@@ -402,3 +402,19 @@ def test_an_axis_that_reads_one_value_throughout_is_refused(tmp_path, capsys):
     assert err.count("\n") == 1 and "the gyroscope reads one value in every sample (z = 0 rad/s)" in err, err
     assert "--columns" in err and "--sensor acc" in err
     assert main(["--quiet", "allan", str(f), "--sensor", "acc", "--out", str(tmp_path / "a.json")]) == 0
+
+
+def test_one_corrupted_gyro_sample_is_named_where_it_is_not_a_unit(tmp_path, capsys):
+    """One sample of 30 rad/s in a 30-min rest (a corrupted line) raised the gyro's mean-square noise past any MEMS
+    gyro's, and the error said the log looked like deg/s (--gyro-unit deg/s); the jump is named with its time."""
+    rng = np.random.default_rng(3)
+    n = 180_000
+    t = np.arange(n) / 100.0
+    gyr = rng.normal(0, 1e-3, (n, 3))
+    gyr[90_000, 1] = 30.0
+    f = tmp_path / "spike.csv"
+    _write_log(f, t, rng.normal(0, 0.01, (n, 3)) + [0, 0, 9.81], gyr)
+    assert main(["allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the gyroscope is not at rest throughout" in err and "t = 900 s" in err, err
+    assert "deg/s" not in err
