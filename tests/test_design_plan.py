@@ -281,3 +281,23 @@ def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "gyro noise density" in err and "is not a positive number" in err, err
     assert "--gyro-noise-density" in err
+
+
+@pytest.mark.parametrize("poses", [9, 18, 26])
+def test_the_figure_title_clears_the_pose_titles(tmp_path, monkeypatch, poses):
+    """The figure's title was drawn over the first row's pose titles in an 18-pose plan (5 rows)."""
+    import matplotlib.pyplot as plt
+
+    from optinav.multipos.plan import plot_plan
+
+    figs = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figs.append(fig))
+    plot_plan(plan_poses(poses, acc_noise_density=1e-3, rng=0), tmp_path / "p.png")
+    fig = figs[0]
+    r = fig.canvas.get_renderer()
+    top = fig._suptitle.get_window_extent(r)
+    for ax in fig.axes:
+        box = ax.title.get_window_extent(r)
+        assert not top.overlaps(box), (poses, ax.get_title())
+    monkeypatch.undo()
+    plt.close(fig)
