@@ -418,3 +418,63 @@ def test_one_corrupted_gyro_sample_is_named_where_it_is_not_a_unit(tmp_path, cap
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the gyroscope is not at rest throughout" in err and "t = 900 s" in err, err
     assert "deg/s" not in err
+
+
+def _broad_rest(name):
+    import os
+    from pathlib import Path
+
+    shared = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    trial = shared / "attitude" / "broad" / name
+    if not trial.is_file():
+        pytest.skip("BROAD data absent")
+    import h5py
+
+    with h5py.File(trial, "r") as f:
+        a, g, rest = f["imu_acc"][:], f["imu_gyr"][:], ~f["movement"][:].astype(bool)
+        rate = float(f.attrs["sampling_rate"])
+    end = int(np.flatnonzero(~rest)[0])  # the first rest
+    return a[:end], g[:end], rate
+
+
+def test_a_rest_touched_at_its_end_is_refused_naming_when(tmp_path, capsys):
+    """BROAD's rests are touched in their first or last seconds in six of nine trials (the spread within 1-s windows
+    3-22× the rest's; the mean barely moves): their gyro N came out up to 6× the untouched rests', exit 0. Refused
+    naming when; the rest cut before it runs, and an untouched rest is not refused."""
+    a, g, rate = _broad_rest("02_undisturbed_slow_rotation_B.hdf5")
+    n = a.shape[0]
+    f = tmp_path / "rest.csv"
+    _write_log(f, np.arange(n) / rate, a, g)
+    assert main(["allan", str(f), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the gyroscope is not at rest throughout: from t = 39.06 s" in err, err
+    assert "spread within 1.01-s windows" in err and "cut the static part" in err
+    k = int(38.0 * rate)
+    _write_log(f, np.arange(k) / rate, a[:k], g[:k])
+    assert main(["--quiet", "allan", str(f), "--out", str(tmp_path / "a.json")]) == 0
+    a, g, rate = _broad_rest("03_undisturbed_slow_rotation_C.hdf5")
+    _write_log(f, np.arange(a.shape[0]) / rate, a, g)
+    assert main(["--quiet", "allan", str(f), "--out", str(tmp_path / "a.json")]) == 0
+
+
+def test_a_rest_in_counts_with_noise_below_a_count_runs(tmp_path, capsys):
+    """Samples that rarely leave one count have window means that differ by rounding only: the jump check's scatter
+    was ~1e-16 and an hour at rest was refused as moving at 3e14 sigma; the scatter is floored at the resolution."""
+    rng = np.random.default_rng(3)
+    n = 360_000
+    acc = np.round(rng.normal(0, 0.15, (n, 3)) + [0.3, -0.2, 2048.4])
+    gyr = np.round(rng.normal(0, 0.15, (n, 3)) + [0.2, 0.1, -0.3])
+    f = tmp_path / "q.csv"
+    _write_log(f, np.arange(n) / 100.0, acc, gyr)
+    argv = [
+        "--quiet",
+        "allan",
+        str(f),
+        "--acc-unit",
+        "counts",
+        "--gyro-unit",
+        "counts",
+        "--out",
+        str(tmp_path / "a.json"),
+    ]
+    assert main(argv) == 0, capsys.readouterr().err

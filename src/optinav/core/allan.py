@@ -1411,11 +1411,14 @@ STILL_WINDOW_S = 1.0
 STILL_Z = 50.0
 
 
-def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str) -> None:
+def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str, step=None) -> None:
     """Refuse a log that moves somewhere in it: the means over :data:`STILL_WINDOW_S` (a sixteenth of a shorter
     log) of an axis jump between neighbours by more than :data:`STILL_Z` robust σ of such jumps. A few seconds of
     motion in an hour at rest leave the gravity direction's mean in place (:class:`_AtRest`), and the Allan fit then
-    took the motion for noise: N = 0 with K 10⁴× the truth, exit 0 (BROAD's rests joined by 5 s of motion)."""
+    took the motion for noise: N = 0 with K 10⁴× the truth, exit 0 (BROAD's rests joined by 5 s of motion).
+    ``step`` (k,): the data's resolution (smallest step between samples); the scatter is taken no smaller than
+    step/√window, as means of samples that rarely leave one count differ by rounding only (a rest in counts with
+    noise below a count was refused at 3e14 σ)."""
     dt = acc.dt
     w = max(1, int(round(min(STILL_WINDOW_S, acc.n * dt / 16.0) / dt)))
     nw = acc.n // w
@@ -1424,6 +1427,10 @@ def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str) -> None
     d = np.diff(acc.theta()[: nw * w + 1 : w], n=2, axis=0)  # differences of neighbouring window sums
     d -= np.median(d, axis=0)  # a steady drift of the rate is no motion
     s = 1.4826 * np.median(np.abs(d), axis=0)
+    if step is not None:
+        s = np.maximum(
+            s, np.where(np.isfinite(step), step, 0.0) * (acc.dt if acc.kind == "rate" else 1.0) * math.sqrt(w)
+        )
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(s > 0, np.abs(d) / np.where(s > 0, s, 1.0), 0.0)
     rows, cols = np.nonzero(z > STILL_Z)
@@ -1440,6 +1447,77 @@ def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str) -> None
         f"cut the static part out of the log (before t = {ta:.6g} s or after t = {tb:.6g} s), or record the sensor "
         "still",
     )
+
+
+#: how far the variance within one window may rise above the median window's in a log at rest: real rests (imucal's
+#: twelve poses, four BROAD rests, simulated hours of white + flicker + random walk + ramp + quantization) reach
+#: 4.6; BROAD's rests touched at their ends reach 36-500 (their N 1.6-6× the untouched rests')
+STILL_SPREAD = 10.0
+#: s, the sub-window whose sums the spread check keeps (16 per second: 1.5 kB per second with both triads)
+_SPREAD_STEP_S = 1.0 / 16.0
+
+
+class _Spread:
+    """Sums of x and x² at every :data:`_SPREAD_STEP_S` of a streamed triad, for the variance within windows."""
+
+    def __init__(self):
+        self.step = self.off = self.last = None
+        self.c = None
+        self.n = 0
+        self.marks: list[np.ndarray] = []
+        self.q = None  # per axis the smallest step between neighbouring samples: the data's resolution
+
+    def add(self, x: np.ndarray, dt0: float | None) -> None:
+        if self.step is None:
+            self.step = max(1, int(round(_SPREAD_STEP_S / dt0))) if dt0 else 16
+            self.off = x[0].copy()
+            self.c = np.zeros(2 * x.shape[1])
+            self.q = np.full(x.shape[1], np.inf)
+        steps = np.abs(np.diff(x if self.last is None else np.vstack([self.last, x]), axis=0))
+        self.q = np.minimum(self.q, np.where(steps > 0, steps, np.inf).min(axis=0, initial=np.inf))
+        self.last = x[-1:].copy()
+        y = x - self.off  # keeps x² small: no cancellation in the variance
+        cs = np.cumsum(np.hstack([y, y * y]), axis=0) + self.c
+        at = np.flatnonzero((self.n + np.arange(1, len(y) + 1)) % self.step == 0)
+        if at.size:
+            self.marks.append(cs[at])
+        self.c = cs[-1]
+        self.n += len(y)
+
+    def check(self, name: str, t0: float, dt: float, unit: str) -> None:
+        """Refuse a log whose spread within some window rises :data:`STILL_SPREAD` times over the median window's:
+        a sensor touched, shaken or handled there (the mean may not move: BROAD's rests touched at their ends gave
+        N up to 6× the untouched rests', exit 0)."""
+        if not self.marks:
+            return
+        S = np.vstack([np.zeros((1, self.c.size))] + self.marks)
+        k = self.c.size // 2
+        m = max(1, int(round(min(STILL_WINDOW_S, self.n * dt / 16.0) / (self.step * dt))))
+        nw = (S.shape[0] - 1) // m
+        if nw < 8:
+            return
+        w = m * self.step
+        # windows from the start and, where the log does not end on one, from the end (a touch in its last second)
+        starts = np.unique(np.r_[np.arange(nw) * m, S.shape[0] - 1 - m * np.arange(nw, 0, -1)])
+        sums = S[starts + m] - S[starts]
+        var = (sums[:, k:] - sums[:, :k] ** 2 / w) / w
+        # no smaller than one step of resolution in a window (samples that rarely leave one count)
+        med = np.maximum(np.median(var, axis=0), np.where(np.isfinite(self.q), self.q, 0.0) ** 2 / w)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(med > 0, var / np.where(med > 0, med, 1.0), 0.0)
+        rows, cols = np.nonzero(r > STILL_SPREAD)
+        if rows.size == 0:
+            return
+        i, j = int(rows[0]), int(cols[0])
+        ta, tb = t0 + starts[i] * self.step * dt, t0 + (starts[rows.max()] + m) * self.step * dt
+        raise OptinavError(
+            f"the {name} is not at rest throughout: from t = {ta:.6g} s to {tb:.6g} s its spread within "
+            f"{w * dt:.3g}-s windows rises to {math.sqrt(r[i, j]):.0f}× the rest's on {'xyz'[j] if k == 3 else j} "
+            f"(it was touched or shaken there; {math.sqrt(med[j]):.3g} {unit or 'unit'} in the rest): the Allan "
+            "deviation of a disturbed sensor is not its noise",
+            f"cut the static part out of the log (before t = {ta:.6g} s or after t = {tb:.6g} s), or record the "
+            "sensor undisturbed",
+        )
 
 
 #: the largest mean rate (rad/s) of a gyro at rest that is taken to be in rad/s (20 °/s)
@@ -1494,6 +1572,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     angles: dict = {}
     units: dict[str, str] = {}
     spans: dict = {}  # per sensor the (min, max) of each axis
+    spreads: dict = {}  # per sensor the sums for the variance within windows
     for log in blocks:
         if not angles:
             present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyr, log.gyro_unit)}
@@ -1532,6 +1611,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
                 acc.add(x)
                 lo, hi = spans.get(name, (x[0], x[0]))
                 spans[name] = (np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0)))
+                spreads.setdefault(name, _Spread()).add(x, timing.dt0)
         if log.acc is not None and len(log.acc) and np.all(np.isfinite(log.acc)):
             at_rest.add(log.acc, counts=log.acc_unit == "counts")  # the gyro's analysis too needs the log at rest
         if "gyroscope" in angles and log.gyro_unit == "rad/s":
@@ -1543,7 +1623,8 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     dt = timing.check()
     for name, acc in angles.items():
         acc.set_dt(dt)
-        _check_still(name, acc, timing.t0, units[name])
+        _check_still(name, acc, timing.t0, units[name], spreads[name].q)
+        spreads[name].check(name, timing.t0, dt, units[name])
     gyro_rest.check(dt)  # after the jumps: one corrupted sample of 30 rad/s was taken for a log in deg/s
     out = {}
     kal = {}
