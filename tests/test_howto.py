@@ -107,3 +107,22 @@ def test_hold_out_and_plan_refusals(tmp_path, capsys):
     with __import__("pytest").raises(SystemExit) as exc:
         main(["simulate", "accel-multipos", "--out", str(tmp_path / "x.csv"), "--scheme", "six", "--plan", "p.json"])
     assert exc.value.code == 2 and "not allowed with argument" in capsys.readouterr().err
+
+
+def test_simulate_plan_names_a_file_of_the_wrong_kind(tmp_path, capsys):
+    """The howto's design writes plan.md and plan.json; simulate --plan plan.md said 'result file plan.md is not
+    valid JSON; pass an unmodified optinav result file', an allan result 'pass the right result file': each names
+    --plan and the plan.json it takes."""
+    from optinav.cli.main import main
+
+    md, js = tmp_path / "plan.md", tmp_path / "plan.json"
+    for out in (md, js):
+        assert main(["--quiet", "design", "--poses", "9", "--dwell", "5", "--out", str(out)]) == 0
+    for bad, why in ((md, "is not valid JSON"), (tmp_path / "allan.json", "is not a optinav.pose_plan")):
+        if bad.suffix == ".json":
+            bad.write_text(js.read_text().replace('"optinav.pose_plan"', '"optinav.allan"'))
+        capsys.readouterr()
+        assert main(["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--plan", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--plan {bad}:" in err and why in err, err
+        assert "pass the plan.json of optinav design --out plan.json" in err

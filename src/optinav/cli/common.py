@@ -221,6 +221,33 @@ def require_files(*items: tuple[str | None, str]) -> None:
             raise OptinavError(f"{what} {Path(path)} is a folder", "check the path")
 
 
+def load_option_result(cls, path, option: str, needs: str):
+    """The result file an option takes, loaded as ``cls``; an error names the option and what it needs (a design
+    plan given to export --noise was told to 'upgrade optinav', a plan.md given to simulate --plan to 'pass an
+    unmodified optinav result file', neither naming the option).
+
+    Parameters
+    ----------
+    cls : type
+        The :class:`optinav.core.results.Result` subclass expected.
+    path : str or Path
+        The file.
+    option : str
+        The option that named the file, e.g. ``"--noise"``.
+    needs : str
+        What the option takes, e.g. ``"the ALLAN.json that optinav allan wrote"``.
+
+    Returns
+    -------
+    Result
+        The loaded result.
+    """
+    try:
+        return cls.from_json(path)
+    except OptinavError as exc:
+        raise OptinavError(f"{option} {path}: {exc.cause}", f"pass {needs}") from None
+
+
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:
     """``"0.5,1.0"`` → ``[0.5, 1.0]`` for a comma-list option: finite numbers, exactly ``n`` of them when given.
 

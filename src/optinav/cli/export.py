@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-from optinav.cli.common import POSITIVE, RATE, output_path, print_notes, require_files
+from optinav.cli.common import POSITIVE, RATE, load_option_result, output_path, print_notes, require_files
 from optinav.errors import OptinavError
 
 FORMATS = ("imu_tk", "imucal", "kalibr")
@@ -89,7 +89,11 @@ def run(args) -> int:
     from optinav.multipos.exchange import export_calibration, load_calibration
 
     res = load_calibration(args.result, args.gyro_cal)
-    noise = _load_noise(args.noise) if args.noise else None
+    noise = None
+    if args.noise:
+        from optinav.core.allan import AllanAnalysis
+
+        noise = load_option_result(AllanAnalysis, args.noise, "--noise", _NOISE_NEEDS)
     from optinav.multipos.kalibr import counts_per_si
 
     cps = counts_per_si(args.acc_lsb, args.gyro_lsb)
@@ -108,17 +112,8 @@ def run(args) -> int:
     return 0
 
 
-def _load_noise(path):
-    """The --noise file as an allan result; an error names --noise (a plan, a calibration or Kalibr's YAML was
-    refused as 'the right result file' or 'not valid JSON', the option unnamed)."""
-    from optinav.core.allan import AllanAnalysis
-
-    try:
-        return AllanAnalysis.from_json(path)
-    except OptinavError as exc:
-        raise OptinavError(
-            f"--noise {path}: {exc.cause}", "pass the ALLAN.json that optinav allan wrote (its --out, not --kalibr)"
-        ) from None
+#: what --noise takes
+_NOISE_NEEDS = "the ALLAN.json that optinav allan wrote (its --out, not --kalibr)"
 
 
 def _notes(args, res, noise) -> list[str]:

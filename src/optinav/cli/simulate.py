@@ -15,6 +15,7 @@ from optinav.cli.common import (
     SEED,
     check_disk,
     check_memory,
+    load_option_result,
     number,
     output_path,
     register_system_hooks,
@@ -149,7 +150,7 @@ def run_accel_multipos(args) -> int:
     truth_path(out)
     scheme, dwell = args.scheme or "paper12", args.dwell or 60.0
     if args.plan:
-        plan = PosePlan.from_json(args.plan)
+        plan = load_option_result(PosePlan, args.plan, "--plan", "the plan.json of optinav design --out plan.json")
         scheme, dwell = np.asarray(plan.up_dirs, float), args.dwell or float(plan.dwell_s)
     step("simulate")
     stream = SessionStream(
