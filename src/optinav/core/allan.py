@@ -24,6 +24,7 @@ Howe, Allan & Barnes 1981 / Stein 1985).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
@@ -922,6 +923,25 @@ def _inverted_interval(y, e, S, basis, c, free, i, floor, inflate, z) -> tuple[f
     return lower, math.inf
 
 
+def _past_the_filter(result: AllanDeviation, n_terms: int) -> AllanDeviation:
+    """The deviation from the first cluster time (below 1 s) whose local slope is white noise's or steeper
+    (≤ −0.48) on every axis: the points before it lie below the white-noise line, the rate low-pass filtered inside the sensor (a
+    DLPF, an anti-alias filter), which no term of the model has; fitted, they pulled N 30-45 % low (1 kHz, 40 Hz
+    filter) with intervals excluding the truth. A deviation that never falls so steeply (flicker or random walk
+    from the first point) is kept whole, and so is one that would keep too few points."""
+    adev = np.asarray(result.adev, float)
+    A = adev[:, None] if adev.ndim == 1 else adev
+    tau = np.asarray(result.tau, float)
+    slope = local_slope(tau, A)
+    first = [int(np.argmax(col <= -0.48)) if np.any(col <= -0.48) else 0 for col in slope.T]
+    i0 = max(first)
+    # a filter's corner lies above 1 Hz: a steep point only further out is a noisy slope of flicker, not a filter
+    if i0 == 0 or tau[i0] > 1.0 or tau.size - i0 <= n_terms + 1:
+        return result
+    cut = {n: getattr(result, n)[i0:] for n in ("tau", "adev", "lower", "upper", "edf", "alpha", "m")}
+    return dataclasses.replace(result, **cut)
+
+
 def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int = 4) -> AllanNoiseFit:
     """Fit σ²(τ) = 3Q²/τ² + N²/τ + (2 ln2/π)·B² + K²τ/3 + R²τ²/2 (IEEE Std 952-1997 Annex C) to an Allan deviation.
 
@@ -934,7 +954,8 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     crossings between terms and the correlation of neighbouring points are right), started from the EDF weights
     and iterated so the covariance comes from the model rather than the noisy estimate. The B² column is the Allan variance of *sampled* flicker noise
     (:func:`flicker_avar_factor`: 19 % above the floor at m = 1), so its short-τ excess is not taken for white
-    noise. Where the misfit is significant (χ² above its 1 − :data:`FIT_MISFIT_P` quantile: anti-alias filters,
+    noise. Cluster times before the curve first falls as white noise's (below 1 s: a sensor's low-pass filter) are
+    left out (:func:`_past_the_filter`). Where the misfit is significant (χ² above its 1 − :data:`FIT_MISFIT_P` quantile: anti-alias filters,
     Gauss–Markov bumps, real sensors) a relative model error f on every variance (f²·model² added to it) is raised until
     χ²/dof = 1 (``model_floor``); an exact model keeps f = 0, which a fixed floor made 5 times too wide for N.
     The std of a free term comes from the covariance over the free terms' columns alone: a term NNLS holds at
@@ -972,6 +993,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
     if unknown or not terms:
         raise OptinavError(f"unknown noise term(s) {sorted(unknown)}", f"choose from {', '.join(FIT_TERMS)}")
     use = np.array([t in terms for t in FIT_TERMS])
+    result = _past_the_filter(result, int(use.sum()))
     tau = np.asarray(result.tau, float)
     if tau.size <= int(use.sum()):
         raise OptinavError(
