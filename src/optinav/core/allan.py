@@ -1471,9 +1471,10 @@ def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str, step=No
     )
 
 
-#: how far the variance within one window may rise above the median window's in a log at rest: real rests (imucal's
-#: twelve poses, four BROAD rests, simulated hours of white + flicker + random walk + ramp + quantization) reach
-#: 4.6; BROAD's rests touched at their ends reach 36-500 (their N 1.6-6× the untouched rests')
+#: how far the variance within one window may rise above the median window's in a log at rest: undisturbed rests
+#: (imucal's twelve poses, BROAD's three untouched ones, simulated hours of white + flicker + random walk + ramp +
+#: quantization) reach 3.7; BROAD's six rests touched in their first or last seconds reach 23-450 (their gyro N up
+#: to 6× the untouched rests')
 STILL_SPREAD = 10.0
 #: s, the sub-window whose sums the spread check keeps (16 per second: 1.5 kB per second with both triads)
 _SPREAD_STEP_S = 1.0 / 16.0
