@@ -125,4 +125,4 @@ def test_simulate_plan_names_a_file_of_the_wrong_kind(tmp_path, capsys):
         assert main(["simulate", "accel-multipos", "--out", str(tmp_path / "s.csv"), "--plan", str(bad)]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"--plan {bad}:" in err and why in err, err
-        assert "pass the plan.json of optinav design --out plan.json" in err
+        assert "--plan takes the plan.json of optinav design --out plan.json" in err

@@ -245,7 +245,11 @@ def load_option_result(cls, path, option: str, needs: str):
     try:
         return cls.from_json(path)
     except OptinavError as exc:
-        raise OptinavError(f"{option} {path}: {exc.cause}", f"pass {needs}") from None
+        # the loader's own remedy stays (a damaged file: 'pass an unmodified optinav result file'); the option's need
+        # follows it
+        raise OptinavError(
+            f"{option} {path}: {exc.cause}", (f"{exc.remedy}; " if exc.remedy else "") + f"{option} takes {needs}"
+        ) from None
 
 
 def parse_floats(text: str, n: int | None, option: str, names: str = "") -> list[float]:

@@ -113,7 +113,7 @@ def run(args) -> int:
 
 
 #: what --noise takes
-_NOISE_NEEDS = "the ALLAN.json that optinav allan wrote (its --out, not --kalibr)"
+_NOISE_NEEDS = "the ALLAN.json that optinav allan writes with --out (not its --kalibr YAML)"
 
 
 def _notes(args, res, noise) -> list[str]:
