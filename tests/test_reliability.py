@@ -839,7 +839,7 @@ def test_batch_refuses_a_unit_as_out_and_bad_options_before_work(tmp_path, capsy
         )
         == 2
     )
-    one_line_error(capsys, "gravity 5 m/s^2 is outside")
+    one_line_error(capsys, "gravity 5 m/s^2 is not above 9.7 and below 9.9")
     from optinav.batch import run_batch
     from optinav.multipos.calibrate import FileOptions
 
