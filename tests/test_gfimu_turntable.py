@@ -360,3 +360,26 @@ def test_swapped_rate_labels_are_told_from_negated_outputs():
         calibrate(arr, dataclasses.replace(d, acc=-d.acc))
     assert "swapped" not in str(e.value)
     calibrate(arr, d)  # what either remedy gives back
+
+
+def test_a_sign_inverted_or_swapped_output_column_is_named():
+    """One sensor's sign inverted said 'the table rates disagree … rates 0.849× the stated ones; check table_rate,
+    --rate-unit, --offset' (f7) or 'direction errors up to 3.13 rad' (f3), two swapped columns the same rate
+    message: none of them the cause. Gravity dominates every case mean, so a column that does not read its
+    sensor (while the others do) is named with what it reads, whatever the rates."""
+    import dataclasses
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.random(10, rng=2), rates=(0.5, 1.0), duration=1.0, rng=4)
+    for k in (2, 6):  # an axial sensor (f3) and one whose flip moved the rate check (f7)
+        acc = d.acc.copy()
+        acc[:, k] *= -1
+        with pytest.raises(OptinavError, match=rf"f{k + 1} reads the negative of accelerometer {k + 1}") as e:
+            calibrate(arr, dataclasses.replace(d, acc=acc))
+        assert "--rate-unit" not in str(e.value) and "negate a sensor" in str(e.value)
+    with pytest.raises(OptinavError, match=r"f3 and f4 read each other's accelerometers \(swapped\)"):
+        calibrate(arr, dataclasses.replace(d, acc=d.acc[:, [0, 1, 3, 2, 4, 5, 6, 7, 8, 9]]))
+    # rates 20 % off are not a column's fault: their own message
+    with pytest.raises(OptinavError, match=r"the table rates disagree"):
+        calibrate(arr, dataclasses.replace(d, table_rate=d.table_rate * 1.2), offset="zero")
+    calibrate(arr, d)

@@ -733,6 +733,8 @@ def check_data(
       (within :data:`RATE_SCALE_RANGE`, with the array's centre where ``offsets`` (K, 3) m puts it; 0.5–2 when
       the offsets are to be estimated, ``offset_known`` False); (π/180)² means rates in deg/s labelled rad/s;
     * the units of the gravity column (≈ 1: g, ≈ 1000: mg) and of the outputs, and the wedge in rad;
+    * a few output columns that do not read their sensor while the others do (a sign inverted, two columns
+      swapped), named per column (:func:`_check_channels`);
     * a reversed rate-dependent change (scale ≈ −1): swapped table-rate labels when gravity's part of the case
       means agrees with the nominal (their scale ≈ +1), negated outputs when it flips too (≈ −1).
 
@@ -796,6 +798,7 @@ def check_data(
             f"changes by {span_p[i]:.3g}): stuck or constant outputs",
             "check those channels (or pass the configuration the data was recorded with)",
         )
+    _check_channels(cm.mean, pred)
     lo, hi = RATE_SCALE_RANGE if offset_known else (0.5, 2.0)
     # the case means against the nominal ones: gravity's part dominates them and is the same at both rates, so
     # swapped rate labels leave it (scale +1) and reverse only the change between the rates; negated outputs
@@ -828,6 +831,47 @@ def check_data(
             "check the table_rate column (rad/s; --rate-unit deg/s if it is in deg/s), the configuration, and give "
             "the centre's offset from the axis (--offset X,Y,Z in m, or estimate)",
         )
+
+
+#: a sensor whose case means differ from the nominal array's by more than this share of their size does not read
+#: its configured channel (installation errors within the gates move them by at most about a third of it)
+CHANNEL_MISFIT = 0.5
+
+
+def _check_channels(mean: np.ndarray, pred: np.ndarray) -> None:
+    """A few output columns (at most a third) that do not read what their sensor of the nominal array would, while
+    the others do: a sensor's sign inverted, or two columns swapped (each reads the other's sensor), named per
+    column. ``mean``, ``pred``: (K, N) case means measured and of the nominal array [m/s^2]. Gravity dominates
+    the case means, so this holds whatever the table rates or the centre's offset; a whole array that disagrees
+    is left to the checks of rates and units."""
+    size = np.linalg.norm(pred, axis=0)
+    off = np.linalg.norm(mean[:, :, None] - pred[:, None, :], axis=0) / size  # [i, j]: column i as sensor j
+    bad = np.flatnonzero(np.diag(off) > CHANNEL_MISFIT)
+    if not bad.size or bad.size > mean.shape[1] // 3:
+        return
+    why, told = [], set()
+    for i in bad:
+        fits = np.flatnonzero(off[i] < CHANNEL_MISFIT)  # sensors of one direction read alike: several may fit
+        mate = [j for j in fits if j in bad and off[j, i] < CHANNEL_MISFIT]
+        if i in told:
+            continue
+        if np.linalg.norm(mean[:, i] + pred[:, i]) / size[i] < CHANNEL_MISFIT:
+            why.append(f"f{i + 1} reads the negative of accelerometer {i + 1} (its sign inverted)")
+        elif mate:
+            told.add(mate[0])
+            why.append(f"f{i + 1} and f{mate[0] + 1} read each other's accelerometers (swapped)")
+        elif fits.size:
+            why.append(
+                f"f{i + 1} reads what accelerometer {' or '.join(str(j + 1) for j in fits)} would (out of order)"
+            )
+        else:
+            why.append(f"f{i + 1} is off accelerometer {i + 1}'s case means by {off[i, i]:.2g}× their size")
+    raise OptinavError(
+        f"output column(s) {', '.join(f'f{i + 1}' for i in bad)} do not follow their accelerometers while the "
+        f"others do: {'; '.join(why)}",
+        "put the f columns in the configuration's order and negate a sensor written with the opposite sign (or "
+        "pass the configuration the data was recorded with)",
+    )
 
 
 def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
