@@ -77,3 +77,31 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     assert "only the inner (alpha) axis turns" in err and "Traceback" not in err
     assert main(["--quiet", "simulate", "rins", "--nonorth", "1,2,3", "--out", str(data)]) == 2
     assert main(["--quiet", "calibrate", "rins", str(tmp_path / "none.npz"), "--out", str(tmp_path / "r.json")]) == 2
+
+
+def test_report_reads_the_data_at_the_calibrations_latitude(tmp_path, capsys):
+    """A logger's file states no latitude: calibrate needs --lat, and then `optinav report RESULT --data FILE`
+    ended in 'does not state the latitude; pass --lat DEG', a flag report does not have. The result keeps the
+    site and alignment window it was calibrated with, and the report reads the recording with them."""
+    data = tmp_path / "r.csv"
+    assert (
+        main(
+            ["--quiet", "simulate", "rins", "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4", "--lat", "-33.5"]
+            + ["--seed", "4", "--out", str(data), *ARGS]
+        )
+        == 0
+    )
+    logger = tmp_path / "logger.csv"
+    logger.write_text("".join(x for x in data.read_text().splitlines(True) if "lat_deg" not in x))
+    out = tmp_path / "res.json"
+    assert main(["--quiet", "calibrate", "rins", str(logger), "--out", str(out)]) == 2
+    assert "pass --lat" in capsys.readouterr().err
+    args = ["--quiet", "calibrate", "rins", str(logger), "--lat", "-33.5", "--align", "50", "--out", str(out)]
+    assert main(args) == 0
+    res = RinsCalibration.from_json(out)
+    assert res.lat_deg == -33.5 and res.align_s == 50
+    capsys.readouterr()
+    assert main(["--quiet", "report", str(out), "--data", str(logger), "--out", str(tmp_path / "rep")]) == 0, (
+        capsys.readouterr().err
+    )
+    assert (tmp_path / "rep" / "attitude_error.png").is_file()

@@ -634,7 +634,9 @@ class RinsCalibration(Estimate):
     ``{name, coefficients (θx…ηz), value (rad), std, crlb_std}``; ``observability``: ``{rank, singular_values,
     null_space (vectors ordered θx, θy, θz, ηx, ηy, ηz), statements}``; ``p_used``: the six angles applied in
     compensation (unobservable directions set to zero, they do not change the attitude change);
-    ``rmse_before_deg``/``rmse_after_deg``: RMS of [roll, pitch, yaw] of the extracted attitude change.
+    ``rmse_before_deg``/``rmse_after_deg``: RMS of [roll, pitch, yaw] of the extracted attitude change;
+    ``lat_deg``, ``height_m``: the site the recording was processed at, ``align_s``: the longest alignment window
+    asked for (None: the initial rest) — how the report reads the recording again.
     """
 
     SCHEMA = "optinav.rins.calibration"
@@ -655,6 +657,9 @@ class RinsCalibration(Estimate):
     correlation_time: float = field(default=1.0, metadata={"unit": "samples"})
     n_epochs: int = field(default=0, metadata={"unit": ""})
     residual_rate_hz: float = field(default=float("nan"), metadata={"unit": "Hz"})
+    lat_deg: float | None = field(default=None, metadata={"unit": "deg"})
+    height_m: float | None = field(default=None, metadata={"unit": "m"})
+    align_s: float | None = field(default=None, metadata={"unit": "s"})
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
     convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
@@ -1069,6 +1074,8 @@ def calibrate(
         correlation_time=tau,
         n_epochs=int(prep.alpha.size),
         residual_rate_hz=float(residual_rate or np.nan),
+        lat_deg=float(np.degrees(prep.align.lat)),
+        height_m=float(prep.align.height_m),
         options=info,
         source=source,
         convergence=conv,

@@ -77,13 +77,14 @@ def _error_figure(res: RinsCalibration, prep) -> Figure:
 
 def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
     """Write the report of ``res`` into ``out_dir``; ``data``: the recording it was calibrated from (adds the
-    attitude-change figure; read block by block), read with ``options`` (:class:`optinav.rins.unit.RinsOptions`, default its
-    defaults)."""
+    attitude-change figure; read block by block), read with ``options`` (:class:`optinav.rins.unit.RinsOptions`, default the
+    latitude and alignment window the result was calibrated with)."""
     figures = [_angles_figure(res)]
     if data is not None:
         from optinav.rins.unit import RinsOptions, read
 
-        o = options or RinsOptions()
+        # read as the calibration did: its site (a file without lat_deg needed --lat) and alignment window
+        o = options or RinsOptions(lat_deg=res.lat_deg, align_s=res.align_s)
         # the figure needs the residual epochs only: no gyro re-integrations
         prep = prepare(
             read(data, o), residual_rate=o.residual_rate_hz, align_s=o.align_s, gyro_misalignment=0, gyro_scale=0

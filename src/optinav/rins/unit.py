@@ -53,6 +53,7 @@ def run_unit(path, options: RinsOptions, reference: bool = False) -> tuple[RinsC
     prep = prepare(read(path, options), residual_rate=options.residual_rate_hz, align_s=options.align_s)
     step(f"fit ({options.method})")
     res = calibrate(method=options.method, prep=prep, rng=options.seed, source=str(path))
+    res.align_s = options.align_s
     extra = {"n_samples": int(prep.align.n)}
     for when, v in (("before", res.rmse_before_deg), ("after", res.rmse_after_deg)):
         extra.update({f"rmse_{when}_{ax}_deg": float(x) for ax, x in zip(("roll", "pitch", "yaw"), v)})
