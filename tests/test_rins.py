@@ -290,6 +290,28 @@ def test_declared_encoder_units_are_honoured_or_refused(tmp_path):
                 read_rins(path)
 
 
+def test_units_in_column_names_are_read(tmp_path):
+    """'alpha [deg]', 'alpha_deg', 't_ms', 'dtheta_x_arcsec' (units in the names, as the docs write `_deg`
+    columns) said 'has no column(s) alpha, beta'; each name's unit is now read and converted."""
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    arcsec = np.degrees(d.dtheta) * 3600
+    for header, t, dth, enc in (
+        ("t,dtheta_x,dtheta_y,dtheta_z,dv_x,dv_y,dv_z,alpha [deg],beta [deg]", d.t, d.dtheta, np.degrees),
+        ("t_ms,dtheta_x,dtheta_y,dtheta_z,dv_x,dv_y,dv_z,alpha_deg,beta_deg", d.t * 1e3, d.dtheta, np.degrees),
+        ("t (s),dtheta_x_arcsec,dtheta_y_arcsec,dtheta_z_arcsec,dv_x,dv_y,dv_z,alpha,beta", d.t, arcsec, np.asarray),
+    ):
+        path = tmp_path / "named.csv"
+        cols = np.column_stack([t, *dth.T, *d.dv.T, enc(d.alpha), enc(d.beta)])
+        np.savetxt(
+            path, cols, delimiter=",", header="# optinav rins: lat_deg=28.2\n" + header, comments="", fmt="%.17g"
+        )
+        r = read_rins(path)
+        np.testing.assert_allclose(r.t, d.t, rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(r.dtheta, d.dtheta, rtol=1e-14, atol=1e-18)
+        np.testing.assert_allclose(r.alpha, d.alpha, rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(r.beta, d.beta, rtol=1e-14, atol=1e-15)
+
+
 def test_rest_checks_name_the_sensor_cause_not_only_latitude_or_time():
     """dv in g said 'the time column is off'; a flipped z gyro, swapped x/z gyros or a 10 °/h gyro bias said only
     'check --lat' (following it then failed on the sensors)."""

@@ -24,7 +24,7 @@ from optinav.core.files import atomic_open, atomic_path, csv_writer
 from optinav.core.units import UNITS
 from optinav.errors import OptinavError
 from optinav.io.imu import TIME_UNITS
-from optinav.io.readers import iter_table
+from optinav.io.readers import iter_table, normalize_name
 from optinav.rins.simulate import RinsData
 
 COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
@@ -182,6 +182,24 @@ def _group(col: str) -> str:
     return col.split("_")[0] if col.startswith(("dtheta", "dv")) else col
 
 
+def find_column(tab, name: str) -> tuple[str | None, str | None]:
+    """The key of column ``name`` (a :data:`COLUMNS` name or ``time``) in ``tab`` and the unit its name declares:
+    the name itself (any case), with a unit in brackets (``alpha [deg]``, ``t (ms)``) or a unit suffix the column
+    can be in (``alpha_deg``, ``t_ms``, ``dtheta_x_arcsec``); (None, None) when there is none."""
+    key = tab.find(name)
+    if key is not None:
+        return key, None
+    allowed = DECLARED_UNITS["t" if name == "time" else _group(name)]
+    for k in tab.data:
+        base, unit = normalize_name(k)
+        if unit is not None and base == name:
+            return k, unit
+        for u in allowed:
+            if u.isalnum() and base == f"{name}_{u}":
+                return k, u
+    return None, None
+
+
 def unit_factors(path: Path, declared: dict, names: dict) -> dict:
     """The factor to SI of each column (:data:`COLUMNS`) from the units the file declares: ``declared`` maps
     column names, their groups (``dtheta``, ``dv``) or ``time`` to unit names; ``names``: column → the file's
@@ -327,9 +345,10 @@ class RinsFile:
         for tab in chunks:
             if held is None and rows == 0:
                 # a "time" column (and no "t"): the end of each interval, encoders at that end (the older layout)
-                ends = tab.find("t") is None and tab.find("time") is not None
+                ends = find_column(tab, "t")[0] is None and find_column(tab, "time")[0] is not None
                 names = ("time",) + COLUMNS[1:] if ends else COLUMNS
-                missing = [c for c in names if tab.find(c) is None]
+                keys = {c: find_column(tab, n) for c, n in zip(COLUMNS, names)}
+                missing = [n for c, n in zip(COLUMNS, names) if keys[c][0] is None]
                 if missing:
                     found = ", ".join(list(tab.data)[:12])
                     raise OptinavError(
@@ -338,11 +357,12 @@ class RinsFile:
                     )
                 self._site(tab.meta)
                 declared = {k.lower(): v for k, v in tab.units.items()}
+                declared.update({k.lower(): u for k, u in keys.values() if u is not None})
                 if self.kind == "csv":
                     declared.update(_csv_comments(path)[1])
-                found = {c: tab.find(n) for c, n in zip(COLUMNS, names)}
+                found = {c: k for c, (k, _) in keys.items()}
                 factors = {c: f for c, f in unit_factors(path, declared, found).items() if f != 1.0}
-            col = {c: np.asarray(tab.get(n), dtype=float).ravel() for c, n in zip(COLUMNS, names)}
+            col = {c: np.asarray(tab.get(found[c]), dtype=float).ravel() for c in COLUMNS}
             for c, f in factors.items():
                 col[c] = col[c] * f
             n = col["t"].size
