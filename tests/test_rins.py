@@ -312,6 +312,23 @@ def test_units_in_column_names_are_read(tmp_path):
         np.testing.assert_allclose(r.beta, d.beta, rtol=1e-14, atol=1e-15)
 
 
+def test_nan_rows_of_a_recording_are_named(tmp_path):
+    """NaN cells in a recording said 'dtheta (gyro increments) contains 33 NaN or infinite value(s); remove or
+    interpolate the bad samples before calling': no row, and a remedy for the Python API. The message names the
+    first data rows, whichever block they fall in."""
+    from optinav.rins.process import survey
+    from optinav.rins.io import RinsFile
+
+    d = simulate(P_TRUE, rng=1, scheme="Z+90,Y-90", align_s=20, dwell_s=2, move_s=2, rate_hz=50)
+    for col, rows in (("dtheta", [700, 701]), ("alpha", [1234]), ("t", [d.t.size - 1])):
+        bad = dataclasses.replace(d, **{col: getattr(d, col).copy()})
+        getattr(bad, col)[rows] = np.nan
+        path = write_rins(tmp_path / "nan.csv", bad)
+        first = ", ".join(str(r + 1) for r in rows)
+        with pytest.raises(OptinavError, match=rf"holds NaN/inf in {len(rows)} row\(s\) \(data rows? {first}, counted"):
+            survey(RinsFile(path, block_rows=500))
+
+
 def test_rest_checks_name_the_sensor_cause_not_only_latitude_or_time():
     """dv in g said 'the time column is off'; a flipped z gyro, swapped x/z gyros or a 10 °/h gyro bias said only
     'check --lat' (following it then failed on the sensors)."""

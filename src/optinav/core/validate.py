@@ -7,7 +7,9 @@ import numpy as np
 from optinav.errors import OptinavError
 
 
-def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: bool = True) -> np.ndarray:
+def as_float_array(
+    x, name: str, *, last_dims: tuple[int, ...] = (), finite: bool = True, row0: int | None = None
+) -> np.ndarray:
     """``x`` as a float64 array whose trailing dimensions equal ``last_dims``.
 
     ``last_dims=(3,)`` accepts a single 3-vector or an (N, 3) array; ``(3, 3)`` a matrix or a stack.
@@ -22,6 +24,9 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
         Required trailing shape.
     finite : bool
         Refuse NaN/inf.
+    row0 : int or None
+        The file's row index of ``x[0]`` when ``x`` holds rows of a data file: the message then names the first
+        bad data rows (counted from 1) and the remedy is for the file [-].
 
     Returns
     -------
@@ -37,8 +42,17 @@ def as_float_array(x, name: str, *, last_dims: tuple[int, ...] = (), finite: boo
         raise OptinavError(f"{name} has shape {a.shape}, expected {want}", "check the array's layout")
     if finite and a.size and not np.all(np.isfinite(a)):
         bad = int(np.count_nonzero(~np.isfinite(a)))
+        if row0 is None or a.ndim == 0:
+            raise OptinavError(
+                f"{name} contains {bad} NaN or infinite value(s)",
+                "remove or interpolate the bad samples before calling",
+            )
+        rows = np.flatnonzero(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)) + row0 + 1
+        first = ", ".join(str(r) for r in rows[:3]) + (", ..." if rows.size > 3 else "")
         raise OptinavError(
-            f"{name} contains {bad} NaN or infinite value(s)", "remove or interpolate the bad samples before calling"
+            f"{name} holds NaN/inf in {rows.size} row(s) (data row{'s' if rows.size > 1 else ''} {first}, counted "
+            "from 1)",
+            "remove those rows or fill in their values",
         )
     return a
 

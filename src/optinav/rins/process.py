@@ -73,15 +73,15 @@ def motion_mask(angle, step: float = MOTION_STEP, prev: float | None = None) -> 
 def _check_block(b, prev_t) -> np.ndarray:
     """The bad-input checks of one block: timestamps (with the previous block's last, ``prev_t``, so an
     unsorted pair across the boundary is seen), finite increments and encoder angles; returns t (float)."""
-    t = as_float_array(b.t, "time")
+    t = as_float_array(b.t, "time", row0=b.row0)
     if t.ndim != 1:
         raise OptinavError(f"time must be one-dimensional, got shape {t.shape}", "pass one timestamp per sample")
     tt = t if prev_t is None else np.concatenate([[prev_t], t])
     check_timestamps(tt, "time", min_count=1, index0=b.row0 - (tt.size - t.size), duplicate_remedy=DUPLICATE_REMEDY)
-    as_float_array(b.dtheta, "dtheta (gyro increments)", last_dims=(3,))
-    as_float_array(b.dv, "dv (accelerometer increments)", last_dims=(3,))
+    as_float_array(b.dtheta, "dtheta (gyro increments)", last_dims=(3,), row0=b.row0)
+    as_float_array(b.dv, "dv (accelerometer increments)", last_dims=(3,), row0=b.row0)
     for name, a in (("alpha (inner encoder)", b.alpha), ("beta (outer encoder)", b.beta)):
-        as_float_array(a, name)
+        as_float_array(a, name, row0=b.row0)
     return t
 
 
