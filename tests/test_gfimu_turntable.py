@@ -383,3 +383,16 @@ def test_a_sign_inverted_or_swapped_output_column_is_named():
     with pytest.raises(OptinavError, match=r"the table rates disagree"):
         calibrate(arr, dataclasses.replace(d, table_rate=d.table_rate * 1.2), offset="zero")
     calibrate(arr, d)
+
+
+def test_rates_in_rad_s_read_as_deg_s_are_named():
+    """--rate-unit deg/s on a table_rate column in rad/s predicts almost no centripetal change, so the rate check
+    was skipped and the fit ended in 'implausible installation errors (|dr| up to 135 m) … check table_rate and
+    the units', not naming the flag given in error. The measured change is far above the noise: named."""
+    import dataclasses
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
+    for method in ("lm", "closed-form"):
+        with pytest.raises(OptinavError, match=r"rates look like rad/s read as deg/s.*drop --rate-unit deg/s"):
+            calibrate(arr, dataclasses.replace(d, table_rate=np.radians(d.table_rate)), method=method)

@@ -788,6 +788,12 @@ def check_data(
             f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
             "pass --rate-unit deg/s",
         )
+    if s is not None and abs(s * np.radians(1) ** 2 - 1) < 0.5:
+        raise OptinavError(
+            f"the table rates look like rad/s read as deg/s (the rate-dependent change of the outputs is {s:.3g}× "
+            f"the predicted, (180/π)² = {np.degrees(1) ** 2:.4g})",
+            "drop --rate-unit deg/s: the table_rate column is in rad/s",
+        )
     span_m, span_p = np.ptp(cm.mean, axis=0), np.ptp(pred, axis=0)
     stuck = np.flatnonzero(span_m < 0.1 * span_p)
     if stuck.size:
@@ -877,16 +883,18 @@ def _check_channels(mean: np.ndarray, pred: np.ndarray) -> None:
 def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
     """Least-squares scale of the measured against the predicted change of the case means between the two rates
     of each mounting; None when that change is not well above the noise."""
-    num = den = var = 0.0
+    num = den = var = mm = var_m = 0.0
     for m in np.unique(cm.mounting):
         k = np.flatnonzero(cm.mounting == m)
         if len(k) < 2 or np.ptp(cm.rate[k]) == 0:
             continue
         a, b = k[np.argmin(cm.rate[k])], k[np.argmax(cm.rate[k])]
         d_meas, d_pred = cm.mean[b] - cm.mean[a], pred[b] - pred[a]
-        num, den = num + d_meas @ d_pred, den + d_pred @ d_pred
-        var = var + np.sum(d_pred**2 * (cm.sigma**2) * (1 / cm.count[a] + 1 / cm.count[b]))
-    if den > 0 and np.all(np.isfinite(cm.sigma)) and den > 100 * np.sqrt(var):
+        num, den, mm = num + d_meas @ d_pred, den + d_pred @ d_pred, mm + d_meas @ d_meas
+        w = (cm.sigma**2) * (1 / cm.count[a] + 1 / cm.count[b])
+        var, var_m = var + np.sum(d_pred**2 * w), var_m + np.sum(d_meas**2 * w)
+    # the change is well above the noise, predicted or measured (rates in rad/s read as deg/s predict almost none)
+    if den > 0 and np.all(np.isfinite(cm.sigma)) and (den > 100 * np.sqrt(var) or mm > 100 * np.sqrt(var_m)):
         return float(num / den)
     return None
 
