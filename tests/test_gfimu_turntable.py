@@ -396,3 +396,18 @@ def test_rates_in_rad_s_read_as_deg_s_are_named():
     for method in ("lm", "closed-form"):
         with pytest.raises(OptinavError, match=r"rates look like rad/s read as deg/s.*drop --rate-unit deg/s"):
             calibrate(arr, dataclasses.replace(d, table_rate=np.radians(d.table_rate)), method=method)
+
+
+def test_a_noise_std_far_above_the_outputs_noise_is_refused():
+    """--noise 1e-3 on 1 µg data gave exit 0 with every std 100× too large (z 0.03 against the truth): the fit's
+    reduced χ² against it, 1e-4, is what 10 degrees of freedom give far less than once in 1e6. A noise within a few
+    times the true one is kept (its std stay conservative)."""
+    arr = builtin()
+    e = InstallationErrors.uniform(10)
+    d = simulate(arr, e, rates=(0.5, 1.0), duration=2.0, rng=4)
+    for sigma in (1e-3, 3e-4):
+        for method in ("lm", "closed-form"):
+            with pytest.raises(OptinavError, match=r"--noise is larger than the noise of the outputs.*check --noise"):
+                calibrate(arr, d, sigma=sigma, method=method)
+    res = calibrate(arr, d, sigma=2 * MICRO_G, offset="zero")
+    assert np.abs((res.estimate - e.vector()) / res.std).max() < 4.5

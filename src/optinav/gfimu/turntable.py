@@ -1431,6 +1431,18 @@ def calibrate(
     )
 
 
+#: a reduced χ² against a given noise std this improbable (or less) means the std is too large
+MIN_CHI2_PROBABILITY = 1e-6
+
+
+def _chi2_too_small(chi2: float, dof: int) -> bool:
+    """Whether a reduced χ² ``chi2`` with ``dof`` degrees of freedom is below its :data:`MIN_CHI2_PROBABILITY`
+    quantile: residuals far smaller than the noise std they were weighted with."""
+    from scipy import stats
+
+    return bool(stats.chi2.cdf(chi2 * dof, dof) < MIN_CHI2_PROBABILITY)
+
+
 def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: float) -> tuple[list[dict], float]:
     """After the fit: converged, plausible installation errors (|dr| ≤ ``max_dr`` m, :func:`dr_limit`), residual
     consistent with the noise and redundant data to judge it by; raises on the first that fails, else returns
@@ -1468,6 +1480,13 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: 
             f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
             f"{why}: the model does not explain the data",
             "check --noise (accelerometer noise std in m/s^2), the configuration and --offset",
+        )
+    if not sigma_from_data and _chi2_too_small(chi2, dof):
+        raise OptinavError(
+            f"the fit leaves residuals of only {np.sqrt(chi2):.2g}σ RMS (reduced χ² {chi2:.2g}, below what "
+            f"{dof} degrees of freedom give once in {1 / MIN_CHI2_PROBABILITY:.0e}) against --noise: --noise is "
+            "larger than the noise of the outputs, and every std would be as much too large",
+            "check --noise (accelerometer noise std in m/s^2), or leave it out to use the scatter within the cases",
         )
     gates = [gate("optimizer converged", out.success, None, kind="true")] if out is not None else []
     gates += [
