@@ -329,6 +329,17 @@ def test_nan_rows_of_a_recording_are_named(tmp_path):
             survey(RinsFile(path, block_rows=500))
 
 
+def test_a_latitude_in_radians_is_named():
+    """--lat 0.492 (28.2° in radians) said 'a gyro or accelerometer axis flipped or swapped, or a bias of about
+    7.3 °/h on a gyro': the sensors blamed for the unit of the option. Named, with the value in degrees."""
+    base = simulate(P_TRUE, rng=2, **SHORT)  # at 28.2°
+    lat = np.radians(28.2)
+    _err(
+        dataclasses.replace(base, lat=np.radians(lat)),
+        r"and 0\.4922 rad is 28\.2°: the latitude was given in radians; give --lat .* in degrees: 28\.2",
+    )
+
+
 def test_rest_checks_name_the_sensor_cause_not_only_latitude_or_time():
     """dv in g said 'the time column is off'; a flipped z gyro, swapped x/z gyros or a 10 °/h gyro bias said only
     'check --lat' (following it then failed on the sensors)."""

@@ -309,6 +309,13 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
     if sd < np.radians(10) and abs(meas - lat) > tol:
         d = abs(meas - lat)
         neg = abs(meas + lat) < tol
+        if abs(meas - np.degrees(lat)) < tol:  # the latitude in radians read as degrees
+            raise OptinavError(
+                f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
+                f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest, and {np.degrees(lat):.4g} rad "
+                f"is {np.degrees(np.degrees(lat)):.4g}°: the latitude was given in radians",
+                f"give --lat (or the file's lat_deg) in degrees: {np.degrees(np.degrees(lat)):.6g}",
+            )
         raise OptinavError(
             f"the latitude {np.degrees(lat):.4g}° disagrees with the {np.degrees(meas):.4g}° ± "
             f"{np.degrees(sd):.2g}° the gyros measure from the Earth rate at rest (its angle above the plane the "
