@@ -371,3 +371,28 @@ def test_report_multipos_without_data_and_errors(tmp_path, capsys):
     assert "| row x | 1.01 ± 0.0001 | 0 ± 0.0001 | 0 ± 0.0001 | 0.1 ± 0.001 |" in md
     assert main(["--quiet", "report", str(path), "--data", "a", "--data", "b", "--out", str(tmp_path / "r2")]) == 2
     assert "--data" in capsys.readouterr().err
+
+
+def test_apply_gfimu_reads_the_unit_in_the_time_columns_name(gfimu, capsys):
+    """A log's time column 't [ms]' or 't_us' said 'has no time column t; add a column t in s', and a plain t in ms
+    said the rate solution 'diverges at t = 120 s … check the output columns and --omega0': the unit in the name
+    is converted (the same table as in s) and the divergence names the time unit."""
+    d, _, result = gfimu
+    nominal = builtin("cylinder10")
+    m = spinning_motion(duration=2.0, dt=0.01)
+    f = perturb(nominal, InstallationErrors.uniform(nominal.n)).outputs(m.A, m.wdot, m.omega)
+    w0 = ",".join(f"{v:.17g}" for v in m.omega[0])
+    tables = []
+    for name, scale in (("t", 1.0), ("t [ms]", 1e3), ("t_us", 1e6)):
+        log, out = d / "units.csv", d / f"units_{scale:g}.csv"
+        header = f"{name}," + ",".join(f"f{i + 1}" for i in range(nominal.n))
+        np.savetxt(log, np.column_stack([m.t * scale, f]), delimiter=",", comments="", header=header, fmt="%.17g")
+        assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(out)]) == 0
+        tables.append(np.loadtxt(out, delimiter=",", skiprows=1))
+    np.testing.assert_allclose(tables[1], tables[0], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(tables[2], tables[0], rtol=1e-9, atol=1e-9)
+    capsys.readouterr()
+    header = "t," + ",".join(f"f{i + 1}" for i in range(nominal.n))
+    np.savetxt(log, np.column_stack([m.t * 1e3, f]), delimiter=",", comments="", header=header, fmt="%.17g")
+    assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(d / "x.csv")]) == 2
+    assert "that t is in seconds (or its name gives the unit: t [ms])" in capsys.readouterr().err

@@ -105,7 +105,8 @@ def _check_motion(m, data_path, first: bool) -> None:
         raise OptinavError(
             f"the rate solution of {Path(data_path).name} diverges at t = {m.t[bad[0]]:.6g} s (a rate beyond "
             f"{MAX_RATE:g} rad/s or not finite): the outputs contradict the calibrated geometry",
-            "check the order of the output columns f1..fN against the configuration, and --omega0",
+            "check the order of the output columns f1..fN against the configuration, --omega0, and that t is in "
+            "seconds (or its name gives the unit: t [ms])",
         )
     if first and m.A.shape[0]:
         med = float(np.median(np.linalg.norm(m.A, axis=1)))
@@ -153,7 +154,8 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     from optinav.core.progress import progress_blocks
     from optinav.gfimu.solve import RATE_METHODS, MotionSolver
     from optinav.gfimu.turntable import array_outputs
-    from optinav.io.readers import iter_table
+    from optinav.io.imu import TIME_UNITS
+    from optinav.io.readers import find_with_unit, iter_table
 
     o = options or GfimuApplyOptions()
     if o.rate_method not in RATE_METHODS:
@@ -165,12 +167,17 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     blocks = iter_table(data_path)
     with csv_writer(out, "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g") as write:
         for tab in progress_blocks(blocks, "apply: gfimu"):
-            if tab.find("t") is None:
-                raise OptinavError(f"{data_path} has no time column t", "add a column t in s")
+            key, unit = find_with_unit(tab, "t", TIME_UNITS)  # t in s, or a unit in its name: t [ms], t_us
+            unit = unit or tab.units.get(key) if key is not None else None
+            if key is None or (unit is not None and unit not in TIME_UNITS):
+                raise OptinavError(
+                    f"{data_path} has no time column t" + (f" in s, ms, us or ns ({key} is in {unit})" if key else ""),
+                    "add a column t in s (or name its unit: t [ms], t_us)",
+                )
             f = array_outputs(tab, data_path, len(res.dalpha))
             first = solver.rows == 0
             with np.errstate(over="ignore", invalid="ignore"):  # a diverging solution is named below
-                m = solver(f, np.asarray(tab.get("t"), float))
+                m = solver(f, np.asarray(tab.get(key), float) * TIME_UNITS.get(unit, 1.0))
             _check_motion(m, data_path, first)
             _check_fit(solver.residual_rms, res.sigma, data_path)
             write(np.column_stack([m.t, m.A, m.omega, m.wdot]))

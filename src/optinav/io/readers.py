@@ -724,6 +724,23 @@ def normalize_name(name: str) -> tuple[str, str | None]:
     return re.sub(r"_+", "_", s), unit
 
 
+def find_with_unit(table, name: str, units) -> tuple[str | None, str | None]:
+    """The key of column ``name`` in ``table`` (a :class:`Table`) and the unit its name declares: the name itself
+    (any case; unit None), with a unit in brackets (``alpha [deg]``, ``t (ms)``) or a unit suffix (``alpha_deg``,
+    ``t_ms``) among ``units`` (names a column of this kind can be in); (None, None) when there is none."""
+    key = table.find(name)
+    if key is not None:
+        return key, None
+    for k in table.data:
+        base, unit = normalize_name(k)
+        if unit is not None and base == name:
+            return k, unit
+        for u in units:
+            if u.isalnum() and base == f"{name}_{u}":
+                return k, u
+    return None, None
+
+
 # --- text -----------------------------------------------------------------------------------------------------
 
 

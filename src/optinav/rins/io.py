@@ -24,7 +24,7 @@ from optinav.core.files import atomic_open, atomic_path, csv_writer
 from optinav.core.units import UNITS
 from optinav.errors import OptinavError
 from optinav.io.imu import TIME_UNITS
-from optinav.io.readers import iter_table, normalize_name
+from optinav.io.readers import find_with_unit, iter_table
 from optinav.rins.simulate import RinsData
 
 COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z", "alpha", "beta")
@@ -183,21 +183,9 @@ def _group(col: str) -> str:
 
 
 def find_column(tab, name: str) -> tuple[str | None, str | None]:
-    """The key of column ``name`` (a :data:`COLUMNS` name or ``time``) in ``tab`` and the unit its name declares:
-    the name itself (any case), with a unit in brackets (``alpha [deg]``, ``t (ms)``) or a unit suffix the column
-    can be in (``alpha_deg``, ``t_ms``, ``dtheta_x_arcsec``); (None, None) when there is none."""
-    key = tab.find(name)
-    if key is not None:
-        return key, None
-    allowed = DECLARED_UNITS["t" if name == "time" else _group(name)]
-    for k in tab.data:
-        base, unit = normalize_name(k)
-        if unit is not None and base == name:
-            return k, unit
-        for u in allowed:
-            if u.isalnum() and base == f"{name}_{u}":
-                return k, u
-    return None, None
+    """The key of column ``name`` (a :data:`COLUMNS` name or ``time``) in ``tab`` and the unit its name declares
+    (``alpha [deg]``, ``t_ms``, ``dtheta_x_arcsec``: :func:`optinav.io.readers.find_with_unit`)."""
+    return find_with_unit(tab, name, DECLARED_UNITS["t" if name == "time" else _group(name)])
 
 
 def unit_factors(path: Path, declared: dict, names: dict) -> dict:
