@@ -411,3 +411,25 @@ def test_a_noise_std_far_above_the_outputs_noise_is_refused():
                 calibrate(arr, d, sigma=sigma, method=method)
     res = calibrate(arr, d, sigma=2 * MICRO_G, offset="zero")
     assert np.abs((res.estimate - e.vector()) / res.std).max() < 4.5
+
+
+def test_a_turntable_column_named_with_its_unit_is_named(tmp_path):
+    """'table_rate_deg', 'table_rate [deg/s]' or 'wedge_deg' said 'has no table_rate (found: …); write it with
+    optinav simulate gfimu-turntable': the column is there under its unit's name, and for a rate in deg/s the
+    flag that reads it is --rate-unit deg/s. The message names the column and the remedy."""
+    from optinav.gfimu.turntable import read_cases
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=0.2, rng=4)
+    path = d.save(tmp_path / "tt.csv")
+    text = path.read_text()
+    for old, new, why in (
+        ("table_rate", "table_rate_deg", r"'table_rate_deg' \(in deg\).*name it table_rate.*--rate-unit deg/s"),
+        ("table_rate", "table_rate [deg/s]", r"'table_rate \[deg/s\]' \(in deg/s\).*--rate-unit deg/s"),
+        ("wedge", "wedge_deg", r"names its wedge column 'wedge_deg' \(in deg\).*name it wedge, in rad"),
+    ):
+        bad = tmp_path / "named.csv"
+        head, rest = text.split("\n", 1)
+        bad.write_text(head.replace(old, new) + "\n" + rest)
+        with pytest.raises(OptinavError, match=why):
+            read_cases(bad, arr.n)

@@ -225,9 +225,29 @@ class TurntableData:
         )
 
 
+#: units a turntable column may carry in its name (recognized to name the column, not converted)
+_NAMED_UNITS = ("deg", "rad", "degps", "radps", "rpm", "s", "ms", "us", "ns")
+
+
 def _turntable_constants(tab, path) -> tuple[float, float]:
     """The wedge angle [rad] and gravity [m/s^2] of a turntable table, its required columns checked."""
+    from optinav.io.readers import find_with_unit
+
     missing = [k for k in ("t", "mounting", "table_rate", "wedge") if tab.find(k) is None]
+    # a column named with its unit (table_rate_deg, wedge [deg]): the columns are read by their names only
+    named = {k: find_with_unit(tab, k, _NAMED_UNITS) for k in missing}
+    named = {k: v for k, v in named.items() if v[0] is not None}
+    if named:
+        k, (key, unit) = next(iter(named.items()))
+        fix = {
+            "table_rate": "name it table_rate, in rad/s or deg/s with --rate-unit deg/s",
+            "wedge": "name it wedge, in rad",
+            "t": "name it t, in s",
+        }.get(k, f"name it {k}")
+        raise OptinavError(
+            f"{path} names its {k} column {key!r} (in {unit}); the turntable columns are read by their names",
+            f"{fix} (see docs/methods/gfimu.md)",
+        )
     if missing:
         raise OptinavError(
             f"{path} has no {', '.join(missing)} (found: {tab.names()})",
