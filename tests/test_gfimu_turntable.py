@@ -433,3 +433,28 @@ def test_a_turntable_column_named_with_its_unit_is_named(tmp_path):
         bad.write_text(head.replace(old, new) + "\n" + rest)
         with pytest.raises(OptinavError, match=why):
             read_cases(bad, arr.n)
+
+
+def test_swapped_mounting_labels_a_wrong_wedge_or_gravity_column_are_named():
+    """Mounting labels 2 and 3 swapped said 'the table rates disagree … rates 0.638× the stated ones'; a wedge
+    column of 45° on a 30° wedge said 'implausible installation errors (|dr| up to 4.78 m)', of 0° the same with a
+    numpy divide-by-zero warning; a gravity column 6e-5 off (9.806) said 'check --noise, the configuration and
+    --offset'; mounting 0 printed '[np.int64(0), …]'. The outputs extrapolated to rate 0 are gravity alone, so
+    the table axis they see is compared with the labelled one before the fit, and the gates name gravity."""
+    import dataclasses
+    import warnings
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.random(10, rng=2), rates=(0.5, 1.0), duration=1.0, rng=4)
+    swapped = dataclasses.replace(d, mounting=np.array([1, 3, 2])[d.mounting - 1])
+    with pytest.raises(OptinavError, match=r"labelled mounting 2 see the table axis of mounting 3.*give those rows"):
+        calibrate(arr, swapped)
+    for wedge in (45.0, 0.0):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(OptinavError, match=rf"the wedge column says {wedge:g}°.*a wedge of (29|30)\.\d+°"):
+                calibrate(arr, dataclasses.replace(d, gamma=np.radians(wedge)))
+    with pytest.raises(OptinavError, match=r"the gravity column \(the local gravity"):
+        calibrate(arr, dataclasses.replace(d, gravity=9.806))
+    with pytest.raises(OptinavError, match=r"mounting\(s\) 0 are not among 1, 2, 3"):
+        calibrate(arr, dataclasses.replace(d, mounting=d.mounting - 1))

@@ -106,8 +106,9 @@ def table_axes(gamma: float, mountings=(1, 2, 3)) -> np.ndarray:
     try:
         return np.array([u[int(m)] for m in mountings], float)
     except KeyError:
+        bad = sorted({int(m) for m in mountings} - {1, 2, 3})
         raise OptinavError(
-            f"mountings {list(mountings)} are not among 1, 2, 3", "use 1 (axis in x-z), 2 (y-z), 3 (x-y)"
+            f"mounting(s) {', '.join(map(str, bad))} are not among 1, 2, 3", "use 1 (axis in x-z), 2 (y-z), 3 (x-y)"
         ) from None
 
 
@@ -755,6 +756,8 @@ def check_data(
     * the units of the gravity column (≈ 1: g, ≈ 1000: mg) and of the outputs, and the wedge in rad;
     * a few output columns that do not read their sensor while the others do (a sign inverted, two columns
       swapped), named per column (:func:`_check_channels`);
+    * the table axis the outputs of each mounting see (gravity alone at rate 0) against the labelled one:
+      swapped mounting labels or a wrong wedge column (:func:`_check_axes`);
     * a reversed rate-dependent change (scale ≈ −1): swapped table-rate labels when gravity's part of the case
       means agrees with the nominal (their scale ≈ +1), negated outputs when it flips too (≈ −1).
 
@@ -849,6 +852,7 @@ def check_data(
             "opposite): the outputs do not follow the centripetal terms of this array",
             "check the f columns' order and sign against the configuration, and the table_rate column",
         )
+    _check_axes(nominal, cm, float(np.median(gamma)), float(np.median(g)))
     if s is not None and not lo < s < hi:
         raise OptinavError(
             f"the table rates disagree with the centripetal terms the accelerometers measure (the "
@@ -871,6 +875,7 @@ def _check_channels(mean: np.ndarray, pred: np.ndarray) -> None:
     the case means, so this holds whatever the table rates or the centre's offset; a whole array that disagrees
     is left to the checks of rates and units."""
     size = np.linalg.norm(pred, axis=0)
+    size = np.maximum(size, 0.1 * np.median(size))  # a sensor the nominal cases barely move is judged by the others'
     off = np.linalg.norm(mean[:, :, None] - pred[:, None, :], axis=0) / size  # [i, j]: column i as sensor j
     bad = np.flatnonzero(np.diag(off) > CHANNEL_MISFIT)
     if not bad.size or bad.size > mean.shape[1] // 3:
@@ -898,6 +903,46 @@ def _check_channels(mean: np.ndarray, pred: np.ndarray) -> None:
         "put the f columns in the configuration's order and negate a sensor written with the opposite sign (or "
         "pass the configuration the data was recorded with)",
     )
+
+
+#: the table axis the outputs see farther than this (unit vectors) from the labelled one is another axis; within
+#: :data:`AXIS_FIT` of another mounting's (or the wedge's) it is named (installation errors move it by ~0.01)
+AXIS_OFF, AXIS_FIT = 0.1, 0.05
+
+
+def _check_axes(nominal: AccelerometerArray, cm: CaseMeans, gamma: float, g: float) -> None:
+    """The table axis each mounting's outputs see must be the labelled one: per mounting with two rates the
+    outputs extrapolated to rate 0, ``(w₂² f(w₁) − w₁² f(w₂)) / (w₂² − w₁²)``, are gravity alone, ``g Θ u`` (no
+    centripetal term, whatever the centre's offset), so ``u`` follows by least squares over the nominal directions
+    Θ. Named: mounting labels swapped (u is another mounting's) and a wedge column other than the wedge the outputs
+    see. ``gamma`` [rad], ``g`` [m/s^2]."""
+    theta = np.asarray(nominal.directions, float)
+    for m in np.unique(cm.mounting):
+        k = np.flatnonzero(cm.mounting == m)
+        if len(k) < 2 or np.ptp(cm.rate[k]) == 0:
+            continue
+        a, b = k[np.argmin(cm.rate[k])], k[np.argmax(cm.rate[k])]
+        w1, w2 = cm.rate[a] ** 2, cm.rate[b] ** 2
+        grav = (w2 * cm.mean[a] - w1 * cm.mean[b]) / (w2 - w1)
+        u = np.linalg.lstsq(g * theta, grav, rcond=None)[0]
+        axes = table_axes(gamma)
+        if np.linalg.norm(u - axes[int(m) - 1]) < AXIS_OFF:
+            continue
+        other = [j + 1 for j in range(3) if j + 1 != m and np.linalg.norm(u - axes[j]) < AXIS_FIT]
+        if other:
+            raise OptinavError(
+                f"the cases labelled mounting {int(m)} see the table axis of mounting {other[0]} (gravity in the "
+                f"outputs along body {np.round(u / np.linalg.norm(u), 3).tolist()}): the mounting labels are swapped",
+                f"give those rows mounting {other[0]} (1: axis in x-z, 2: y-z, 3: x-y)",
+            )
+        i, j = {1: (0, 2), 2: (1, 2), 3: (1, 0)}[int(m)]  # u = (…sin γ at i…, cos γ at j)
+        seen = float(np.arctan2(u[i], u[j]))
+        if np.linalg.norm(u - table_axes(seen, [m])[0]) < AXIS_FIT:
+            raise OptinavError(
+                f"the wedge column says {np.degrees(gamma):.4g}°, but the gravity the outputs of mounting {int(m)} "
+                f"see puts the table axis at a wedge of {np.degrees(seen):.4g}°",
+                "write the wedge angle the array was mounted on in the wedge column (rad)",
+            )
 
 
 def _rate_scale(cm: CaseMeans, pred: np.ndarray) -> float | None:
@@ -1484,7 +1529,8 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: 
             f"mean at accelerometer {i + 1}; direction errors up to {da:.3g} rad; limits {MAX_DR_M} m, "
             f"{max_dr:.3g} m, {MAX_DANGLE_RAD} rad): the data do not belong to this configuration, two output "
             "columns are swapped, the table rates are off, or a column is in the wrong unit",
-            "check the output columns' order against the configuration, table_rate and the units",
+            "check the output columns' order against the configuration, table_rate, the gravity column (the local "
+            "gravity) and the units",
         )
     dof = r.size - rank
     if dof <= 0:
@@ -1499,7 +1545,8 @@ def _quality_gates(method, out, x, r, rank: int, sigma_from_data: bool, max_dr: 
         raise OptinavError(
             f"the fit leaves residuals of {np.sqrt(chi2):.3g}σ RMS (reduced χ² {chi2:.3g}) against "
             f"{why}: the model does not explain the data",
-            "check --noise (accelerometer noise std in m/s^2), the configuration and --offset",
+            "check --noise (accelerometer noise std in m/s^2), the configuration, --offset and the gravity column "
+            "(the local gravity: it scales every output, so an error of 1e-5 shows; scale factors are not estimated)",
         )
     if not sigma_from_data and _chi2_too_small(chi2, dof):
         raise OptinavError(
