@@ -458,3 +458,15 @@ def test_swapped_mounting_labels_a_wrong_wedge_or_gravity_column_are_named():
         calibrate(arr, dataclasses.replace(d, gravity=9.806))
     with pytest.raises(OptinavError, match=r"mounting\(s\) 0 are not among 1, 2, 3"):
         calibrate(arr, dataclasses.replace(d, mounting=d.mounting - 1))
+
+
+def test_configuration_positions_in_mm_or_cm_are_named():
+    """A CONFIG.json with the positions in mm (40 for 0.04 m) said 'the table rates disagree … rates 0.0315× the
+    stated ones; check table_rate (--rate-unit deg/s), --offset': the centripetal terms scale with the positions,
+    so a change 1e-3 (1e-2) of the predicted one names the configuration's unit."""
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
+    for unit, k in (("mm", 1e3), ("cm", 1e2)):
+        scaled = arr.with_geometry(np.asarray(arr.positions) * k, arr.directions)
+        with pytest.raises(OptinavError, match=rf"they look like {unit}, not m; write the positions .* in m"):
+            calibrate(scaled, d)

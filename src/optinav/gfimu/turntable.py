@@ -811,6 +811,13 @@ def check_data(
             f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
             "pass --rate-unit deg/s",
         )
+    for unit, k in (("mm", 1e-3), ("cm", 1e-2)):  # the centripetal terms scale with the positions
+        if s is not None and abs(s / k - 1) < 0.1:
+            raise OptinavError(
+                f"the rate-dependent change of the outputs is {s:.3g}× what the configuration's positions predict: "
+                f"they look like {unit}, not m",
+                "write the positions of the configuration in m",
+            )
     if s is not None and abs(s * np.radians(1) ** 2 - 1) < 0.5:
         raise OptinavError(
             f"the table rates look like rad/s read as deg/s (the rate-dependent change of the outputs is {s:.3g}× "
