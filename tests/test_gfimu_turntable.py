@@ -470,3 +470,30 @@ def test_configuration_positions_in_mm_or_cm_are_named():
         scaled = arr.with_geometry(np.asarray(arr.positions) * k, arr.directions)
         with pytest.raises(OptinavError, match=rf"they look like {unit}, not m; write the positions .* in m"):
             calibrate(scaled, d)
+
+
+def test_output_columns_numbered_padded_or_with_a_unit_are_read(tmp_path):
+    """Outputs f0..f9 said 'has 9 accelerometer columns, the configuration 10' (the file has ten); f01..f10 and
+    'f1 [g]' / f1_mg said 'has no accelerometer outputs f1..fN'. Zero-padded numbers and a unit in g, mg or µg
+    in the names are read (converted to m/s²); numbering from 0 is named."""
+    from optinav.gfimu.turntable import read_cases
+
+    arr = builtin()
+    d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=0.2, rng=4)
+    path = d.save(tmp_path / "tt.csv")
+    ref = read_cases(path, arr.n).cases.mean
+    head, rest = path.read_text().split("\n", 1)
+    rows = np.loadtxt(path, delimiter=",", skiprows=1)
+    names = head.split(",")
+    f_cols = [j for j, n in enumerate(names) if n.startswith("f")]
+    for pattern, scale in (("f{:02d}", 1.0), ("f{} [g]", 1 / 9.80665), ("f{}_mg", 1000 / 9.80665)):
+        x = rows.copy()
+        x[:, f_cols] *= scale
+        hdr = [pattern.format(int(n[1:])) if j in f_cols else n for j, n in enumerate(names)]
+        np.savetxt(tmp_path / "named.csv", x, delimiter=",", header=",".join(hdr), comments="", fmt="%.17g")
+        np.testing.assert_allclose(read_cases(tmp_path / "named.csv", arr.n).cases.mean, ref, rtol=1e-12)
+    (tmp_path / "zero.csv").write_text(
+        ",".join(f"f{int(n[1:]) - 1}" if n.startswith("f") else n for n in names) + "\n" + rest
+    )
+    with pytest.raises(OptinavError, match=r"numbers its outputs from f0.*rename the output columns f1, f2"):
+        read_cases(tmp_path / "zero.csv", arr.n)

@@ -397,10 +397,23 @@ def array_outputs(tab, path, n_accelerometers: int | None = None, row0: int = 0)
         if f.ndim == 1:
             f = f[:, None]
     else:
-        k = 1
-        cols = []
-        while tab.find(f"f{k}") is not None:
-            cols.append(np.asarray(tab.get(f"f{k}"), float))
+        from optinav.core.units import UNITS
+        from optinav.io.readers import find_with_unit
+
+        if tab.find("f0") is not None:
+            raise OptinavError(
+                f"{path} numbers its outputs from f0: optinav reads f1..fN, f1 the configuration's first sensor",
+                "rename the output columns f1, f2, ... in the configuration's order",
+            )
+        k, cols, g_units = 1, [], ("g", "mg", "ug")
+        while True:  # f1, f01, 'f1 [g]', f1_mg; a unit in g, mg or µg is converted
+            key, unit = find_with_unit(tab, f"f{k}", g_units)
+            if key is None:
+                key, unit = find_with_unit(tab, f"f{k:02d}", g_units)
+            if key is None:
+                break
+            unit = unit or tab.units.get(key)
+            cols.append(np.asarray(tab.get(key), float) * (UNITS[unit] if unit in g_units else 1.0))
             k += 1
         if not cols:
             raise OptinavError(
