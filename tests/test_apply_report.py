@@ -396,3 +396,25 @@ def test_apply_gfimu_reads_the_unit_in_the_time_columns_name(gfimu, capsys):
     np.savetxt(log, np.column_stack([m.t * 1e3, f]), delimiter=",", comments="", header=header, fmt="%.17g")
     assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(d / "x.csv")]) == 2
     assert "that t is in seconds (or its name gives the unit: t [ms])" in capsys.readouterr().err
+
+
+def test_apply_gfimu_replaces_its_own_output_but_not_a_log(gfimu, capsys):
+    """Running `optinav apply` of a gfimu (or rins) result again with the same --out said '--out … exists and is
+    not a file this command writes (it begins 't,ax,ay,az,gx,…')' — its own table: only the multi-position output
+    carried the mark the check looks for. The system's table header is recognized; a data log is still kept."""
+    d, _, result = gfimu
+    nominal = builtin("cylinder10")
+    m = spinning_motion(duration=1.0, dt=0.01)
+    f = perturb(nominal, InstallationErrors.uniform(nominal.n)).outputs(m.A, m.wdot, m.omega)
+    log, out = d / "again.csv", d / "again_out.csv"
+    header = "t," + ",".join(f"f{i + 1}" for i in range(nominal.n))
+    np.savetxt(log, np.column_stack([m.t, f]), delimiter=",", comments="", header=header, fmt="%.17g")
+    w0 = ",".join(f"{v:.17g}" for v in m.omega[0])
+    for _ in range(2):
+        assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(out)]) == 0
+    other = d / "other_log.csv"
+    other.write_bytes(log.read_bytes())
+    capsys.readouterr()
+    assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(other)]) == 2
+    assert "is not a file this command writes" in capsys.readouterr().err
+    assert other.read_bytes() == log.read_bytes()

@@ -67,10 +67,19 @@ def run(args) -> int:
             f"use it as it is, e.g. optinav report {args.result}",
         )
     _refuse_foreign_options(args, system)
-    out = output_path(args.out, mark=b"source: optinav apply")
+    out = output_path(args.out, mark=_own_output(system))
     options = system_options(system, args, "apply_options") if system.apply_options else None
     print("optinav: " + system.load("apply")(args.result, args.data, out, options))
     return 0
+
+
+def _own_output(system):
+    """``check_replace``'s mark of what apply writes for ``system``: the multi-position log's source line, or the
+    header of the system's table (``APPLY_COLUMNS`` beside its apply function), so a rerun replaces its own output."""
+    columns = getattr(importlib.import_module(system.apply.partition(":")[0]), "APPLY_COLUMNS", None)
+    return lambda head: (
+        b"source: optinav apply" in head or (columns is not None and head.startswith(columns.encode() + b"\n"))
+    )
 
 
 def _refuse_foreign_options(args, system) -> None:

@@ -143,6 +143,10 @@ def _check_fit(residual_rms, sigma, data_path) -> None:
         )
 
 
+#: the header of the table ``optinav apply`` writes for this system (how it knows its own output again)
+APPLY_COLUMNS = "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z"
+
+
 def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = None) -> str:
     """``optinav apply`` for a gfimu result: solve the array outputs of ``data_path`` (t and f1..fN, or an array
     f, m/s²) with the calibrated geometry (the paper's compensation) and write ``out`` (CSV): t (s), specific
@@ -165,7 +169,7 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     res = TurntableCalibration.from_json(result_path)
     solver = MotionSolver(res.calibrated_array(), o.omega0, o.rate_method)
     blocks = iter_table(data_path)
-    with csv_writer(out, "t,ax,ay,az,gx,gy,gz,wdot_x,wdot_y,wdot_z", "%.12g") as write:
+    with csv_writer(out, APPLY_COLUMNS, "%.12g") as write:
         for tab in progress_blocks(blocks, "apply: gfimu"):
             key, unit = find_with_unit(tab, "t", TIME_UNITS)  # t in s, or a unit in its name: t [ms], t_us
             unit = unit or tab.units.get(key) if key is not None else None

@@ -95,6 +95,10 @@ def compensated_attitude(angles, path, options: RinsOptions | None = None):
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
+#: the header of the table ``optinav apply`` writes for this system (how it knows its own output again)
+APPLY_COLUMNS = "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg"
+
+
 def apply_file(result_path, data_path, out, options: RinsOptions | None = None) -> str:
     """``optinav apply`` for a rins result: write ``out`` (CSV, block by block) with t (s), the compensated vehicle
     attitude q_b_n (w, x, y, z; n = ENU) and its roll, pitch, yaw in degrees; returns the one-line account."""
@@ -105,7 +109,7 @@ def apply_file(result_path, data_path, out, options: RinsOptions | None = None) 
         raise OptinavError(f"--out {out}: this result's output is a CSV table", "name it FILE.csv")
     res = RinsCalibration.from_json(result_path)
     n = 0
-    with csv_writer(out, "t,qw,qx,qy,qz,roll_deg,pitch_deg,yaw_deg", "%.12g") as write:
+    with csv_writer(out, APPLY_COLUMNS, "%.12g") as write:
         for t, C_b_n in compensated_blocks(res.p, data_path, options):
             write(np.column_stack([t, quat_from_dcm(C_b_n), np.degrees(euler_from_dcm(C_b_n, "enu"))]))
             n += t.size
