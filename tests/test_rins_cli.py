@@ -105,3 +105,25 @@ def test_report_reads_the_data_at_the_calibrations_latitude(tmp_path, capsys):
         capsys.readouterr().err
     )
     assert (tmp_path / "rep" / "attitude_error.png").is_file()
+
+
+def test_report_refuses_the_recording_of_another_session(tmp_path, capsys):
+    """`optinav report RESULT --data OTHER` drew the attitude-change figure of another session beside the result's
+    numbers, exit 0. The recording's uncompensated attitude change must be the result's rmse_before_deg."""
+    runs = {}
+    for name, nonorth in (("a", "1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4"), ("b", "2e-3,1e-3,-3e-3,1e-3,-2e-3,4e-3")):
+        data = tmp_path / f"{name}.csv"
+        sim = ["--quiet", "simulate", "rins", f"--nonorth={nonorth}", "--seed", "4", "--out", str(data), *ARGS]
+        assert main(sim) == 0
+        out = tmp_path / f"{name}.json"
+        assert main(["--quiet", "calibrate", "rins", str(data), "--residual-rate", "4", "--out", str(out)]) == 0
+        runs[name] = (data, out)
+    capsys.readouterr()
+    assert (
+        main(["--quiet", "report", str(runs["a"][1]), "--data", str(runs["a"][0]), "--out", str(tmp_path / "ok")]) == 0
+    )
+    assert (
+        main(["--quiet", "report", str(runs["a"][1]), "--data", str(runs["b"][0]), "--out", str(tmp_path / "x")]) == 2
+    )
+    err = capsys.readouterr().err
+    assert "not the recording it was calibrated from" in err and not (tmp_path / "x").exists()

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.errors import OptinavError
 from optinav.reports.report import Figure, StudyResult, Table, write_report
 from optinav.rins.calibrate import RinsCalibration, attitude_errors, prepare
 from optinav.rins.model import PARAM_NAMES
@@ -75,6 +76,21 @@ def _error_figure(res: RinsCalibration, prep) -> Figure:
     )
 
 
+def _check_same_recording(res: RinsCalibration, prep, data) -> None:
+    """``--data`` must be the recording ``res`` was calibrated from: its uncompensated attitude change (RMS of
+    [roll, pitch, yaw], deg) is the result's ``rmse_before_deg`` within 10 % (another session gave a figure of its
+    own errors beside the result's numbers, exit 0)."""
+    if len(res.rmse_before_deg) != 3:
+        return
+    seen = np.degrees(np.sqrt(np.mean(attitude_errors(prep, np.zeros(6)) ** 2, axis=0)))
+    if not np.allclose(seen, res.rmse_before_deg, rtol=0.1, atol=1e-6):
+        raise OptinavError(
+            f"{data} gives an uncompensated attitude change of {np.round(seen, 4).tolist()} deg RMS [roll, pitch, "
+            f"yaw], the result {np.round(res.rmse_before_deg, 4).tolist()}: not the recording it was calibrated from",
+            "pass the recording the result was calibrated from with --data",
+        )
+
+
 def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
     """Write the report of ``res`` into ``out_dir``; ``data``: the recording it was calibrated from (adds the
     attitude-change figure; read block by block), read with ``options`` (:class:`optinav.rins.unit.RinsOptions`, default the
@@ -83,12 +99,14 @@ def rins_report(res: RinsCalibration, out_dir, data=None, options=None) -> Path:
     if data is not None:
         from optinav.rins.unit import RinsOptions, read
 
-        # read as the calibration did: its site (a file without lat_deg needed --lat) and alignment window
-        o = options or RinsOptions(lat_deg=res.lat_deg, align_s=res.align_s)
+        # read as the calibration did: its site (a file without lat_deg needed --lat), alignment window and epochs
+        rate = res.residual_rate_hz if np.isfinite(res.residual_rate_hz) else RinsOptions.residual_rate_hz
+        o = options or RinsOptions(lat_deg=res.lat_deg, align_s=res.align_s, residual_rate_hz=rate)
         # the figure needs the residual epochs only: no gyro re-integrations
         prep = prepare(
             read(data, o), residual_rate=o.residual_rate_hz, align_s=o.align_s, gyro_misalignment=0, gyro_scale=0
         )
+        _check_same_recording(res, prep, data)
         figures.append(_error_figure(res, prep))
     study = StudyResult(
         name="rins-calibration",
