@@ -127,3 +127,26 @@ def test_report_refuses_the_recording_of_another_session(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert "not the recording it was calibrated from" in err and not (tmp_path / "x").exists()
+
+
+def test_the_gyro_error_assumption_of_the_std_is_a_flag(tmp_path, capsys):
+    """An IMU whose gyro triad is worse than the 'rlg-nav' preset (60″ misalignment, 50 ppm scale) got std from the
+    preset's 5″ / 2 ppm, exit 0, with θz + ηz 5.4 std off the truth, and no word of the assumption and no way to
+    change it. --gyro-misalignment-arcsec / --gyro-scale-ppm set it; the summary states it."""
+    data = tmp_path / "r.npz"
+    sim = ["--quiet", "simulate", "rins", "--nonorth=1e-4,-2e-4,3e-4,-1e-4,2e-4,4e-4", "--seed", "4"]
+    gyro = ["--gyro-misalignment-arcsec", "60", "--gyro-scale-ppm", "50"]
+    assert main([*sim, *gyro, "--out", str(data), *ARGS]) == 0
+    std = {}
+    for name, extra in (("preset", []), ("given", gyro)):
+        out = tmp_path / f"{name}.json"
+        capsys.readouterr()
+        assert main(["calibrate", "rins", str(data), *extra, "--out", str(out)]) == 0
+        text = capsys.readouterr().out
+        res = RinsCalibration.from_json(out)
+        std[name] = np.array([c["std"] for c in res.combinations])
+        want = "60″ misalignment and 50 ppm" if extra else "5″ misalignment and 2 ppm"
+        assert f"std include the gyro triad's uncalibrated errors at 1σ {want}" in text
+    cmp = Truth.from_json(tmp_path / "r.truth.json").compare(RinsCalibration.from_json(tmp_path / "given.json"))
+    assert all(float(c["z"]) < 4 for c in cmp.values()), cmp
+    assert np.all(std["given"] > 3 * std["preset"])

@@ -199,6 +199,22 @@ def add_batch_options(p) -> None:
         help="epochs per second of the attitude residuals (default 10)",
     )
     p.add_argument("--seed", type=SEED, default=0, help="random seed of PSO (default 0)")
+    p.add_argument(
+        "--gyro-misalignment-arcsec",
+        dest="gyro_misalignment_arcsec",
+        type=NON_NEGATIVE,
+        default=5.0,
+        metavar="ARCSEC",
+        help="1σ of the gyro triad's uncalibrated misalignment in the std (default 5, a navigation-grade RLG)",
+    )
+    p.add_argument(
+        "--gyro-scale-ppm",
+        dest="gyro_scale_ppm",
+        type=NON_NEGATIVE,
+        default=2.0,
+        metavar="PPM",
+        help="1σ of its uncalibrated scale errors in the std (default 2)",
+    )
 
 
 def add_apply_options(g) -> None:

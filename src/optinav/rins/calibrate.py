@@ -636,7 +636,8 @@ class RinsCalibration(Estimate):
     compensation (unobservable directions set to zero, they do not change the attitude change);
     ``rmse_before_deg``/``rmse_after_deg``: RMS of [roll, pitch, yaw] of the extracted attitude change;
     ``lat_deg``, ``height_m``: the site the recording was processed at, ``align_s``: the longest alignment window
-    asked for (None: the initial rest) — how the report reads the recording again.
+    asked for (None: the initial rest) — how the report reads the recording again; ``gyro_misalignment_arcsec``,
+    ``gyro_scale_ppm``: the 1σ gyro triad errors propagated into the std.
     """
 
     SCHEMA = "optinav.rins.calibration"
@@ -660,6 +661,8 @@ class RinsCalibration(Estimate):
     lat_deg: float | None = field(default=None, metadata={"unit": "deg"})
     height_m: float | None = field(default=None, metadata={"unit": "m"})
     align_s: float | None = field(default=None, metadata={"unit": "s"})
+    gyro_misalignment_arcsec: float | None = field(default=None, metadata={"unit": "arcsec"})
+    gyro_scale_ppm: float | None = field(default=None, metadata={"unit": "ppm"})
     options: dict = field(default_factory=dict, metadata={"unit": "-"})
     source: str = field(default="", metadata={"unit": "-"})
     convergence: dict = field(default_factory=dict, metadata={"unit": "-"})
@@ -741,6 +744,12 @@ class RinsCalibration(Estimate):
             lines.append(f"  observability: {s}")
         if self.observability.get("gauge"):
             lines.append(f"  gauge: {self.observability['gauge']}")
+        if self.gyro_misalignment_arcsec is not None and self.gyro_scale_ppm is not None:
+            lines.append(
+                f"  std include the gyro triad's uncalibrated errors at 1σ {self.gyro_misalignment_arcsec:.3g}″ "
+                f"misalignment and {self.gyro_scale_ppm:.3g} ppm scale (--gyro-misalignment-arcsec, "
+                "--gyro-scale-ppm: give your IMU's)"
+            )
         b, a = self.rmse_before_deg, self.rmse_after_deg
         lines.append(
             "  attitude RMSE [roll, pitch, yaw] deg: before "
@@ -1075,6 +1084,8 @@ def calibrate(
         n_epochs=int(prep.alpha.size),
         residual_rate_hz=float(residual_rate or np.nan),
         lat_deg=float(np.degrees(prep.align.lat)),
+        gyro_misalignment_arcsec=float(np.degrees(gyro_misalignment) * 3600),
+        gyro_scale_ppm=float(gyro_scale * 1e6),
         height_m=float(prep.align.height_m),
         options=info,
         source=source,

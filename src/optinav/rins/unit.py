@@ -21,13 +21,16 @@ from optinav.rins.process import strapdown_blocks, survey
 class RinsOptions:
     """The options of ``optinav calibrate rins``: ``method``; ``lat_deg`` latitude in degrees (None: from the
     file); ``align_s`` longest alignment window in s (None: the initial rest); ``residual_rate_hz`` epochs per
-    second of the attitude residuals; ``seed`` of PSO."""
+    second of the attitude residuals; ``seed`` of PSO; ``gyro_misalignment_arcsec`` (″) and ``gyro_scale_ppm``
+    (ppm): 1σ of the gyro triad's uncalibrated errors propagated into the std (default the "rlg-nav" preset's)."""
 
     method: str = "lm"
     lat_deg: float | None = None
     align_s: float | None = None
     residual_rate_hz: float = 10.0
     seed: int = 0
+    gyro_misalignment_arcsec: float = 5.0
+    gyro_scale_ppm: float = 2.0
 
 
 def check(options: RinsOptions) -> None:
@@ -50,9 +53,13 @@ def run_unit(path, options: RinsOptions, reference: bool = False) -> tuple[RinsC
     """Calibrate ``path`` block by block (what ``optinav calibrate rins`` does); extra columns: samples, the RMS
     of the extracted attitude change before/after compensation (deg, [roll, pitch, yaw])."""
     step("prepare")
-    prep = prepare(read(path, options), residual_rate=options.residual_rate_hz, align_s=options.align_s)
+    gyro = {
+        "gyro_misalignment": math.radians(options.gyro_misalignment_arcsec / 3600),
+        "gyro_scale": options.gyro_scale_ppm * 1e-6,
+    }
+    prep = prepare(read(path, options), residual_rate=options.residual_rate_hz, align_s=options.align_s, **gyro)
     step(f"fit ({options.method})")
-    res = calibrate(method=options.method, prep=prep, rng=options.seed, source=str(path))
+    res = calibrate(method=options.method, prep=prep, rng=options.seed, source=str(path), **gyro)
     res.align_s = options.align_s
     extra = {"n_samples": int(prep.align.n)}
     for when, v in (("before", res.rmse_before_deg), ("after", res.rmse_after_deg)):
