@@ -539,3 +539,18 @@ def test_accelerometer_columns_swapped_against_the_gyros_are_refused(noisy):
     assert prep.gravity is None
     biased = dataclasses.replace(d, dv=d.dv + 1e-3 * 9.80665 * np.array([1.0, 0.0, 0.0]) * np.diff(d.t).mean())
     assert prepare(biased).gravity is None
+
+
+def test_encoders_out_of_sync_with_the_imu_are_named():
+    """Encoder angles 2 samples late (or a t column named time, read as the interval ends: one sample) said 'the
+    gimbal model does not fit; check the gyro columns, the encoder columns and --lat', none of them the cause. The
+    fit holds at rest and fails in the moves only: named as unsynchronized time stamps."""
+    base = simulate(P_TRUE, rng=2, **SHORT)
+    for k in (1, 2):
+        late = dataclasses.replace(
+            base,
+            alpha=np.r_[base.alpha[:1].repeat(k), base.alpha[:-k]],
+            beta=np.r_[base.beta[:1].repeat(k), base.beta[:-k]],
+        )
+        _err(late, r"but only [\d.]+× with both gimbals at rest: .* not synchronized.*synchronize the encoder angles")
+    calibrate(base, "lm")

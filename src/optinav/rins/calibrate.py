@@ -884,6 +884,17 @@ def noise_walk(prep: Prepared) -> float:
     return prep.align.rest_sd * np.sqrt(prep.align.n - prep.align.m)
 
 
+def _still_rms(prep: Prepared, e) -> float | None:
+    """RMS (rad) of the attitude residuals ``e`` (epochs 1.., :func:`attitude_errors`) at the epochs where neither
+    encoder moved since the epoch before nor moves to the next; None when there are none."""
+    a, b = np.asarray(prep.alpha, float), np.asarray(prep.beta, float)
+    step = (np.abs(np.diff(a)) > MOTION_STEP) | (np.abs(np.diff(b)) > MOTION_STEP)  # between epochs k and k + 1
+    moving = np.r_[step, False] | np.r_[False, step]  # epoch k next to a move
+    keep = ~moving[1:]
+    e = np.asarray(e, float).reshape(-1, 3)
+    return float(np.sqrt(np.mean(e[keep] ** 2))) if keep.any() else None
+
+
 def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     """A fit that did not converge, an implausible angle or a residual far above the gyro noise ends in a
     one-line error instead of a result (issue 13: no wrong answer with exit 0); else their outcomes."""
@@ -905,6 +916,16 @@ def _quality_gates(method, p, V, C, cnames, res, e_after, prep) -> list[dict]:
     rms = float(np.sqrt(np.mean(np.asarray(e_after) ** 2)))
     walk = noise_walk(prep)
     if walk > 0 and rms > MAX_RESIDUAL_RATIO * walk:
+        still = _still_rms(prep, e_after)
+        if still is not None and still < rms / 3:  # a lag misfits the moves only; other faults last at rest
+            raise OptinavError(
+                f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, {rms / walk:.3g}× the "
+                f"{np.degrees(walk):.2g}° the gyro noise explains (limit {MAX_RESIDUAL_RATIO:g}×), but only "
+                f"{still / walk:.3g}× with both gimbals at rest: the misfit is in the moves, where the encoder angles "
+                "and the gyros disagree in time — the encoder and IMU time stamps are not synchronized (a lag)",
+                "synchronize the encoder angles with the IMU samples before calibrating: each row's alpha, beta at "
+                "its t, the start of its increments (a column named time is read as their end)",
+            )
         raise OptinavError(
             f"after the fit the attitude residual is {np.degrees(rms):.3g}° RMS, "
             f"{rms / walk:.3g}× the {np.degrees(walk):.2g}° the gyro noise explains (limit {MAX_RESIDUAL_RATIO:g}×): "
