@@ -464,12 +464,17 @@ def test_configuration_positions_in_mm_or_cm_are_named():
     """A CONFIG.json with the positions in mm (40 for 0.04 m) said 'the table rates disagree … rates 0.0315× the
     stated ones; check table_rate (--rate-unit deg/s), --offset': the centripetal terms scale with the positions,
     so a change 1e-3 (1e-2) of the predicted one names the configuration's unit."""
+    import dataclasses
+
     arr = builtin()
     d = simulate(arr, InstallationErrors.uniform(10), rates=(0.5, 1.0), duration=1.0, rng=4)
     for unit, k in (("mm", 1e3), ("cm", 1e2)):
         scaled = arr.with_geometry(np.asarray(arr.positions) * k, arr.directions)
         with pytest.raises(OptinavError, match=rf"they look like {unit}, not m; write the positions .* in m"):
             calibrate(scaled, d)
+    # rates in rpm scale it by (2π/60)² = 0.011, 10 % from cm: told apart
+    with pytest.raises(OptinavError, match=r"table_rate column looks like rpm.*convert the table_rate column"):
+        calibrate(arr, dataclasses.replace(d, table_rate=d.table_rate * 60 / (2 * np.pi)))
 
 
 def test_output_columns_numbered_padded_or_with_a_unit_are_read(tmp_path):

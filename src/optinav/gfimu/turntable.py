@@ -824,8 +824,15 @@ def check_data(
             f"outputs is {s:.3g}× the predicted, (π/180)² = {np.radians(1) ** 2:.3g})",
             "pass --rate-unit deg/s",
         )
+    rpm = (2 * np.pi / 60) ** 2  # 0.011: within 10 % of a configuration in cm, told apart at 5 %
+    if s is not None and abs(s / rpm - 1) < 0.05:
+        raise OptinavError(
+            f"the table_rate column looks like rpm labelled rad/s (the rate-dependent change of the outputs is "
+            f"{s:.3g}× the predicted, (2π/60)² = {rpm:.3g})",
+            "convert the table_rate column to rad/s (rpm × 2π/60)",
+        )
     for unit, k in (("mm", 1e-3), ("cm", 1e-2)):  # the centripetal terms scale with the positions
-        if s is not None and abs(s / k - 1) < 0.1:
+        if s is not None and abs(s / k - 1) < 0.05:
             raise OptinavError(
                 f"the rate-dependent change of the outputs is {s:.3g}× what the configuration's positions predict: "
                 f"they look like {unit}, not m",
