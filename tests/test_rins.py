@@ -554,3 +554,17 @@ def test_encoders_out_of_sync_with_the_imu_are_named():
         )
         _err(late, r"but only [\d.]+× with both gimbals at rest: .* not synchronized.*synchronize the encoder angles")
     calibrate(base, "lm")
+
+
+def test_a_frozen_encoder_during_the_first_move_is_not_called_a_unit():
+    """The inner encoder frozen (alpha constant) made the initial rest run through the inner moves: the latitude
+    check said 'the gyros measure 132× the Earth rate: the gyro increments are not in rad', sending the user to
+    the gyro columns. A turn inside the rest (one sample far above the rest's median, which a unit cannot give)
+    names the frozen encoder."""
+    for scheme in ("dual4", "psins16"):
+        base = simulate(P_TRUE, rng=2, **{**SHORT, "scheme": scheme})
+        first = "alpha" if np.abs(np.diff(base.alpha)).max() > 0 else "beta"
+        frozen = dataclasses.replace(base, **{first: np.full_like(getattr(base, first), getattr(base, first)[0])})
+        _err(frozen, r"while both encoders report rest: an encoder channel is frozen or missing")
+    deg = dataclasses.replace(base, dtheta=np.degrees(base.dtheta))  # a unit scales every sample alike
+    _err(deg, r"the gyro increments are not in rad \(degrees read ×57\.3")

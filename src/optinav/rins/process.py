@@ -291,6 +291,15 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
             f"{span:.6g} s: the time column is off by that factor (not in seconds, or another rate)",
             "write the t column in seconds on the samples' own clock",
         )
+    rates = np.linalg.norm(dth, axis=1) / step
+    k = int(np.argmax(rates)) if rates.size else 0
+    if rates.size and rates[k] > 100 * max(float(np.median(rates)), _earth.WGS84.omega_ie):
+        # a turn inside the rest, not a unit (that scales every sample alike): an encoder that did not follow it
+        raise OptinavError(
+            f"the gyros turn at {np.degrees(rates[k]):.3g} °/s at row {k + 1} of the initial rest (the rows before "
+            "the first encoder move) while both encoders report rest: an encoder channel is frozen or missing",
+            "check the alpha/beta columns (and that they belong to this IMU recording)",
+        )
     if sd < 0.1 and not 0.5 < ratio < 2.0:  # a navigation-grade gyro at rest reads the Earth rate, nothing else
         raise OptinavError(
             f"the gyros measure {w:.3g} rad/s at rest, {ratio:.3g}× the Earth rate ({_earth.WGS84.omega_ie:.3g} "
