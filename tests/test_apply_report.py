@@ -418,3 +418,17 @@ def test_apply_gfimu_replaces_its_own_output_but_not_a_log(gfimu, capsys):
     assert main(["--quiet", "apply", str(result), str(log), "--omega0", w0, "--out", str(other)]) == 2
     assert "is not a file this command writes" in capsys.readouterr().err
     assert other.read_bytes() == log.read_bytes()
+
+
+def test_report_gfimu_refuses_data_it_was_not_calibrated_from(gfimu, rins, capsys):
+    """`optinav report GFIMU_RESULT --data X` wrote a report titled 'from X' for any file, a rotational-INS
+    recording included (exit 0): the data must be turntable data of the array with the result's samples per case."""
+    d, data, result = gfimu
+    other = d / "short.npz"
+    argv = ["--quiet", "simulate", "gfimu-turntable", "--builtin", "cylinder10", "--duration", "0.5", "--out"]
+    assert main([*argv, str(other)]) == 0
+    assert main(["--quiet", "report", str(result), "--data", str(data), "--out", str(d / "rep_ok")]) == 0
+    for bad, why in ((other, "samples per case"), (rins[1], "has no mounting")):
+        capsys.readouterr()
+        assert main(["--quiet", "report", str(result), "--data", str(bad), "--out", str(d / "rep_bad")]) == 2
+        assert why in capsys.readouterr().err and not (d / "rep_bad").exists()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.errors import OptinavError
 from optinav.gfimu.turntable import TurntableCalibration
 from optinav.reports.report import Cell, Figure, StudyResult, Table, write_report
 
@@ -63,9 +64,25 @@ def _figure(res: TurntableCalibration) -> Figure:
     return Figure("installation_errors.png", "installation errors with ±2σ", draw, (7.5, 6.0))
 
 
+def _check_same_data(res: TurntableCalibration, data) -> None:
+    """``--data`` names the recording in the report's title: it must be turntable data of ``res``'s array with its
+    samples per case (a rotational-INS file was named the source, exit 0)."""
+    from optinav.gfimu.turntable import read_cases
+
+    counts = [int(x) for x in read_cases(data, len(res.dalpha)).cases.count]
+    if counts != [int(x) for x in res.samples_per_case]:
+        raise OptinavError(
+            f"{data} has {counts} samples per case, the result {[int(x) for x in res.samples_per_case]}: not the "
+            "turntable data it was calibrated from",
+            "pass the data the result was calibrated from with --data",
+        )
+
+
 def gfimu_report(res: TurntableCalibration, out_dir, data=None, options=None) -> Path:
-    """Write the report of ``res`` into ``out_dir`` (``data``: the recording's name for the title; everything
-    plotted is in the result)."""
+    """Write the report of ``res`` into ``out_dir`` (``data``: the recording's name for the title, checked to be
+    the turntable data of the result: its samples per case; everything plotted is in the result)."""
+    if data is not None:
+        _check_same_data(res, data)
     source = f" from {Path(data).name}" if data is not None else ""
     study = StudyResult(
         name="gfimu-calibration",
