@@ -14,6 +14,7 @@ from optinav.multipos.calibrate import calibrate, count_range, saturated_mask
 from optinav.multipos.result import CalibrationResult
 from optinav.multipos.simulate import simulate
 from optinav.multipos.uncertainty import _session_gyro_bias
+from csv_edit import clip_columns
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
 needs_data = pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
@@ -638,18 +639,7 @@ def test_a_gyro_clipped_below_its_integer_range_leaves_its_turns_out(tmp_path, c
     f = tmp_path / "d.csv"
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
-    lines = f.read_text().splitlines()
-    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
-    cols = lines[head].split(",")
-    g = [cols.index(c) for c in cols if c.strip() in ("gx", "gy", "gz")]
-    out = lines[: head + 1]
-    for ln in lines[head + 1 :]:
-        v = ln.split(",")
-        for j in g:
-            v[j] = repr(float(np.clip(float(v[j]), -50.0, 50.0)))
-        out.append(",".join(v))
-    clipped = tmp_path / "c.csv"
-    clipped.write_text("\n".join(out) + "\n")
+    clipped = clip_columns(f, tmp_path / "c.csv", ("gx", "gy", "gz"), 50.0)
     capsys.readouterr()
     res = tmp_path / "r.json"
     assert main(["--quiet", "calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(res)]) == 0
@@ -736,18 +726,7 @@ def test_a_gyro_range_stated_in_deg_s_finds_the_clipped_turns(tmp_path, capsys):
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
     assert (60 * np.pi / 180) * (180 / np.pi) < 60  # the round trip this test is about
-    lines = f.read_text().splitlines()
-    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
-    cols = lines[head].split(",")
-    g = [cols.index(c) for c in cols if c.strip() in ("gx", "gy", "gz")]
-    out = lines[: head + 1]
-    for ln in lines[head + 1 :]:
-        v = ln.split(",")
-        for j in g:
-            v[j] = repr(float(np.clip(float(v[j]), -60.0, 60.0)))
-        out.append(",".join(v))
-    clipped = tmp_path / "c.csv"
-    clipped.write_text("\n".join(out) + "\n")
+    clipped = clip_columns(f, tmp_path / "c.csv", ("gx", "gy", "gz"), 60.0)
     capsys.readouterr()
     res = tmp_path / "r.json"
     argv = ["--quiet", "calibrate", "accel", str(clipped), "--latitude", "38.88", "--gyro-range", "60"]
@@ -798,18 +777,7 @@ def test_poses_left_out_as_clipped_are_named_when_the_gyro_fails(tmp_path, capsy
     f = tmp_path / "d.csv"
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
-    lines = f.read_text().splitlines()
-    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
-    cols = lines[head].split(",")
-    a = [cols.index(c) for c in cols if c.strip() in ("ax", "ay", "az")]
-    out = lines[: head + 1]
-    for ln in lines[head + 1 :]:
-        v = ln.split(",")
-        for j in a:
-            v[j] = repr(float(np.clip(float(v[j]), -1950.0, 1950.0)))
-        out.append(",".join(v))
-    clipped = tmp_path / "c.csv"
-    clipped.write_text("\n".join(out) + "\n")
+    clipped = clip_columns(f, tmp_path / "c.csv", ("ax", "ay", "az"), 1950.0)
     capsys.readouterr()
     err = _cli_error(
         capsys, ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]

@@ -9,6 +9,7 @@ import json
 import os
 from pathlib import Path
 
+from csv_edit import clip_columns
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -847,17 +848,7 @@ def test_turns_mostly_at_the_gyro_rail_are_found_without_a_range(tmp_path, capsy
     from optinav.cli.main import main
 
     src = DATA / "annotated_session.csv"
-    head, *rows = src.read_text().splitlines()
-    cols = head.split(",")
-    g = [cols.index(c) for c in ("gyr_x", "gyr_y", "gyr_z")]
-    out = [head]
-    for row in rows:
-        v = row.split(",")
-        for j in g:
-            v[j] = repr(float(np.clip(float(v[j]), -1000.0, 1000.0)))
-        out.append(",".join(v))
-    path = tmp_path / "clipped.csv"
-    path.write_text("\n".join(out) + "\n")
+    path = clip_columns(src, tmp_path / "clipped.csv", ("gyr_x", "gyr_y", "gyr_z"), 1000.0)
     argv = ["calibrate", "accel", str(path), "--rate", "204.8", "--acc-unit", "counts", "--gyro-unit", "counts"]
     argv += ["--method", "ferraris", "--rotation-angle", "360", "--out", str(tmp_path / "r.json")]
     assert main(argv) == 2
