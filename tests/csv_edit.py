@@ -6,10 +6,10 @@ import numpy as np
 
 
 def clip_columns(src: Path, dst: Path, names: tuple[str, ...], limit: float) -> Path:
-    """Write ``src`` to ``dst`` with the columns ``names`` clipped to ±``limit`` (their header is the last line
-    that starts with a letter: optinav's comment lines before it are kept)."""
+    """Write ``src`` to ``dst`` with the columns ``names`` clipped to ±``limit`` (their header is the first line
+    that is no '#' comment: optinav's comment lines before it are kept)."""
     lines = Path(src).read_text().splitlines()
-    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
+    head = next(i for i, ln in enumerate(lines) if ln and not ln.startswith("#"))
     cols = [c.strip() for c in lines[head].split(",")]
     idx = [cols.index(c) for c in names]
     out = lines[: head + 1]

@@ -743,19 +743,7 @@ def _gyro_clipped_session(tmp_path, limit: float):
     f = tmp_path / "d.csv"
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
-    lines = f.read_text().splitlines()
-    head = [i for i, ln in enumerate(lines) if ln and ln[0].isalpha()][-1]
-    cols = lines[head].split(",")
-    g = [cols.index(c) for c in cols if c.strip() in ("gx", "gy", "gz")]
-    out = lines[: head + 1]
-    for ln in lines[head + 1 :]:
-        v = ln.split(",")
-        for j in g:
-            v[j] = repr(float(np.clip(float(v[j]), -limit, limit)))
-        out.append(",".join(v))
-    clipped = tmp_path / "c.csv"
-    clipped.write_text("\n".join(out) + "\n")
-    return clipped
+    return clip_columns(f, tmp_path / "c.csv", ("gx", "gy", "gz"), limit)
 
 
 @pytest.mark.parametrize("stated", [False, True])

@@ -728,6 +728,17 @@ def test_the_monte_carlo_std_takes_rng():
     assert np.array_equal(runs[2], runs[3]) and np.array_equal(runs[2], runs[4])  # None: seed 0, a run repeats
 
 
+def _sections_argv(tmp_path, **changes) -> list:
+    """``calibrate accel`` of imucal's example session by the Ferraris method with its section list changed
+    (``name={"start": …, "end": …}`` per section, sample rows), without --quiet and --out."""
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    secs.update(changes)
+    sec = tmp_path / "s.json"
+    sec.write_text(json.dumps(secs))
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    return argv + ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+
+
 @needs_data
 @pytest.mark.parametrize("n", [1, 2, 10])
 def test_a_pose_section_of_a_few_samples_is_refused(tmp_path, capsys, n):
@@ -736,12 +747,8 @@ def test_a_pose_section_of_a_few_samples_is_refused(tmp_path, capsys, n):
     error names the pose and --sections."""
     from optinav.cli.main import main
 
-    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-    secs["x_p"]["end"] = secs["x_p"]["start"] + n
-    sec = tmp_path / "s.json"
-    sec.write_text(json.dumps(secs))
-    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
-    argv += ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    x_p = json.loads((DATA / "example_ferraris_session_list.json").read_text())["x_p"]
+    argv = _sections_argv(tmp_path, x_p={"start": x_p["start"], "end": x_p["start"] + n})
     assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.startswith("optinav: error: ") and "x_p" in err and f"holds {n} sample" in err and "--sections" in err
@@ -797,23 +804,22 @@ def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys)
 
 
 @needs_data
-def test_a_short_section_that_is_no_ferraris_pose_is_not_judged_as_one(tmp_path, capsys):
-    """A section list with one more, short section beside imucal's nine (a note of the operator's, 10 samples): the
-    closed form does not use it, and the pose-length gate took it for a pose and refused the session; the nine
-    give imucal's calibration as before."""
+@pytest.mark.parametrize("extra", [(10, 20), (1300, 1500)])
+def test_a_section_beside_the_nine_is_not_judged_as_a_pose(tmp_path, extra):
+    """A section list with one more section beside imucal's nine — a short note of the operator's (10 samples), or
+    one over the move after x_p (samples 1300-1500): the closed form does not use it, but the pose-length gate
+    took the short one for a pose and refused the session, and the long one was refused as 'the Ferraris pose
+    extra is not still' and entered the poses' turns (probe). Only x_p … z_a are poses: imucal's calibration as
+    without it."""
     from optinav.cli.main import main
 
-    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-    secs["extra"] = {"start": 10, "end": 20}
-    sec = tmp_path / "s.json"
-    sec.write_text(json.dumps(secs))
-    argv = ["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
-    argv += ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    argv = _sections_argv(tmp_path, extra={"start": extra[0], "end": extra[1]})
     res = tmp_path / "r.json"
-    assert main([*argv, "--out", str(res)]) == 0
+    assert main(["--quiet", *argv, "--out", str(res)]) == 0
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
-    acc = json.loads(res.read_text())["fields"]["accelerometer"]["value"]
-    np.testing.assert_allclose(acc["b"], ref["b_a"], atol=1e-9)
+    f = json.loads(res.read_text())["fields"]
+    np.testing.assert_allclose(f["accelerometer"]["value"]["b"], ref["b_a"], atol=1e-9)
+    assert len(f["static_intervals"]["value"]) == 6
 
 
 @needs_data
@@ -863,12 +869,7 @@ def test_a_rotation_section_without_its_turn_is_named(tmp_path, capsys):
     It now names the section that does not hold its turn, the axis it turns about, and --sections."""
     from optinav.cli.main import main
 
-    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-    secs["z_rot"] = {"start": 8600, "end": 8900}
-    sec = tmp_path / "s.json"
-    sec.write_text(json.dumps(secs))
-    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
-    argv += ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
+    argv = _sections_argv(tmp_path, z_rot={"start": 8600, "end": 8900})
     assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "section z_rot does not hold the turn about z" in err and "mostly about x" in err, err
@@ -898,24 +899,3 @@ def test_options_the_ferraris_method_does_not_use_are_refused(tmp_path, capsys, 
     assert main([*argv, "--rotation-angle", "360"]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "does not use --rotation-angle" in err and "--method ferraris" in err, err
-
-
-@needs_data
-def test_an_extra_section_over_a_move_is_not_judged_as_a_pose(tmp_path, capsys):
-    """A section list with one more section beside imucal's nine that spans the move after x_p (samples 1300-1500):
-    it was judged as a pose and refused ('the Ferraris pose extra is not still', and it entered the poses' turns;
-    probe). Only x_p … z_a are poses: imucal's calibration as without it."""
-    from optinav.cli.main import main
-
-    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-    secs["extra"] = {"start": 1300, "end": 1500}
-    sec = tmp_path / "s.json"
-    sec.write_text(json.dumps(secs))
-    argv = ["--quiet", "calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4"]
-    argv += ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(sec)]
-    res = tmp_path / "r.json"
-    assert main([*argv, "--out", str(res)]) == 0
-    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
-    f = json.loads(res.read_text())["fields"]
-    np.testing.assert_allclose(f["accelerometer"]["value"]["b"], ref["b_a"], atol=1e-9)
-    assert len(f["static_intervals"]["value"]) == 6
