@@ -712,3 +712,18 @@ def test_apply_refuses_rad_s_under_counts_when_gravity_does_not_turn(tmp_path, c
         out.unlink()
     avg = write("avg.csv", raw_g)  # counts averaged by a logger (no quantization): the user says so
     assert main(["--quiet", "apply", str(res), str(avg), "--gyro-unit", "counts", "--out", str(out)]) == 0
+
+
+def test_export_of_a_result_of_another_kind_says_what_it_is(tmp_path, capsys):
+    """`optinav export ALLAN.json` said 'result schema optinav.allan is not a optinav.multipos.calibration; pass
+    the right result file' (probe): it names the kind of result given and where an allan result goes; results of
+    the calibration's earlier layouts still export."""
+    legacy = Path(__file__).parent / "data" / "legacy"
+    assert (
+        main(["--quiet", "export", str(legacy / "rins_v2.json"), "--to", "imucal", "--out", str(tmp_path / "a.json")])
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert "is an optinav result of 'optinav.rins" in err and "calibrate accel" in err and "--noise" in err, err
+    for name in ("multipos_v1.json", "multipos_v2.json"):
+        assert main(["--quiet", "export", str(legacy / name), "--to", "imucal", "--out", str(tmp_path / name)]) == 0

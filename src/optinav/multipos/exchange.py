@@ -157,7 +157,17 @@ def load_calibration(path, gyro_path=None):
                 "--gyro-cal is for imu_tk's separate gyroscope file; this JSON holds both triads", "drop --gyro-cal"
             )
         if isinstance(data, dict) and "schema" in data:
-            return CalibrationResult.from_json(path)
+            try:
+                return CalibrationResult.from_json(path)
+            except OptinavError as exc:
+                if not exc.cause.startswith("result schema"):
+                    raise
+                # 'result schema X is not a optinav.multipos.calibration; pass the right result file' (probe)
+                raise OptinavError(
+                    f"{path} is an optinav result of {data['schema']!r}, not a calibration of optinav calibrate accel",
+                    "pass the RESULT.json of calibrate accel, an imucal export or imu_tk's file (an allan result goes "
+                    "with export --noise)",
+                ) from None
         if isinstance(data, dict) and "K_a" in data:
             return _from_imucal(read_imucal_json(path), path)
         raise OptinavError(
