@@ -215,3 +215,14 @@ def test_oversized_data_sets_are_refused_up_front(tmp_path, capsys, monkeypatch,
     argv[3] = "10"
     assert main(["--quiet", *argv]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"g{suffix}", "g.truth.json"])
+
+
+def test_analyze_of_a_result_says_it_is_no_configuration(tmp_path, capsys):
+    """`gfimu analyze RESULT.json` (a calibration, not the array's configuration) said the file 'has no
+    accelerometers list; write {...}' (probe): it says what the file is and what the command takes."""
+    res = tmp_path / "r.json"
+    res.write_text(json.dumps({"schema": "optinav.gfimu.calibration", "version": 3, "fields": {}}))
+    assert main(["gfimu", "analyze", str(res), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert "is an optinav result ('optinav.gfimu.calibration'), not an array configuration" in err
+    assert "CONFIG.json" in err and "--builtin" in err

@@ -269,6 +269,12 @@ class AccelerometerArray:
         AccelerometerArray
             The validated array.
         """
+        if isinstance(cfg, dict) and "accelerometers" not in cfg and isinstance(cfg.get("schema"), str):
+            # a RESULT.json (or any optinav result) was told only that it lacks the list (probe)
+            raise OptinavError(
+                f"{source} is an optinav result ({cfg['schema']!r}), not an array configuration",
+                "pass the CONFIG.json of the array (its accelerometers' positions and directions), or --builtin",
+            )
         if not isinstance(cfg, dict) or "accelerometers" not in cfg:
             raise OptinavError(
                 f"{source} has no 'accelerometers' list",
