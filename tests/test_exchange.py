@@ -727,3 +727,25 @@ def test_export_of_a_result_of_another_kind_says_what_it_is(tmp_path, capsys):
     assert "is an optinav result of 'optinav.rins" in err and "calibrate accel" in err and "--noise" in err, err
     for name in ("multipos_v1.json", "multipos_v2.json"):
         assert main(["--quiet", "export", str(legacy / name), "--to", "imucal", "--out", str(tmp_path / name)]) == 0
+
+
+def test_apply_names_an_accelerometer_axis_flipped(tmp_path, capsys):
+    """A log whose accelerometer z column is negated keeps |a| ≈ g and the gyro's unit, so apply wrote it with exit
+    0 (probe): the gyro's axes are judged even when the unit is right, and the error names the axes and
+    --columns. (Not yet: a flip that the session's most turning windows cannot see, e.g. x here.)"""
+    import pandas as pd
+
+    data, res = tmp_path / "d.csv", tmp_path / "r.json"
+    sim = ["--quiet", "simulate", "accel-multipos", "--out", str(data), "--dwell", "6", "--acc-unit", "counts"]
+    assert main([*sim, "--gyro-unit", "deg/s", "--seed", "11"]) == 0
+    assert main(["--quiet", "calibrate", "accel", str(data), "--latitude", "38.88", "--out", str(res)]) == 0
+    lines = data.read_text().splitlines()
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    df = pd.read_csv(data, skiprows=head)
+    out = tmp_path / "o.csv"
+    assert main(["--quiet", "apply", str(res), str(data), "--out", str(out)]) == 0
+    flipped = tmp_path / "f.csv"
+    flipped.write_text("\n".join(lines[:head]) + "\n" + df.assign(az=-df["az"]).to_csv(index=False))
+    assert main(["--quiet", "apply", str(res), str(flipped), "--out", str(tmp_path / "o2.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "does not explain how gravity turns" in err and "reads -" in err and "--columns" in err, err

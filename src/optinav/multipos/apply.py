@@ -209,6 +209,15 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
         return res.correct_gyro(raw[sl] * factors[s], acc[sl])
 
     hint = gyro_unit_hint(gyro, acc, dts, alt=alt, units_only=True)
+    if hint is None:
+        # an accelerometer axis flipped keeps |a| and the units: only the axes show it (exit 0 before; probe)
+        axes = gyro_unit_hint(gyro, acc, dts, alt=alt)
+        if axes is not None and axes.kind == "axes":
+            raise OptinavError(
+                f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
+                f"how gravity turns in the body: {axes.words}",
+                "fix the column order or signs (--columns), or apply the calibration of this sensor",
+            )
     if hint:
         # a gyro that turns about the wrong axes (an axis flipped, in either triad) explains gravity worse than no
         # turn at all, which was taken for "the data look like deg/s" of data in deg/s (probe): axes named first
