@@ -272,6 +272,16 @@ def test_a_dwell_past_the_allan_minimum_is_refused(tmp_path, capsys):
     assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] == 900
 
 
+def test_a_dwell_too_short_for_calibrate_to_find_the_rests_is_refused(tmp_path, capsys):
+    """--dwell 0.001 wrote a plan with exit 0 whose rests calibrate's static detection (2 s at least by default,
+    --min-duration) cannot find; refused naming the shortest dwell; 2 s is taken."""
+    out = tmp_path / "p.json"
+    assert main(["design", "--dwell", "0.001", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "shorter than the 2 s a rest must last" in err and "--min-duration" in err, err
+    assert main(["--quiet", "design", "--dwell", "2", "--out", str(out)]) == 0
+
+
 @pytest.mark.parametrize("value", ["abc", [1e-4, 2e-4], {"value": "x"}])
 def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
     """A gyroscope_noise_density of text (or 2 axes) was dropped and the plan written without the gyro, exit 0."""

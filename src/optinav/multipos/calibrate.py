@@ -351,7 +351,7 @@ def calibrate(
     data: str = "means",
     sections=None,
     window_s: float = 1.0,
-    min_duration_s: float = 2.0,
+    min_duration_s: float = static.MIN_STATIC_S,
     threshold=None,
     acc_range=None,
     gyro_range=None,

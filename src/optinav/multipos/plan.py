@@ -38,6 +38,7 @@ from optinav.core.results import Result
 from optinav.core.rotations import dcm_from_rotvec, skew
 from optinav.core.simulate import describe_pose
 from optinav.core.units import G_STANDARD
+from optinav.multipos.static import MIN_STATIC_S
 from optinav.errors import OptinavError
 from optinav.multipos import design as _design
 from optinav.multipos.gyro import GYRO_PARAMS
@@ -604,6 +605,12 @@ def plan_poses(
     else:
         dwell = 30.0 if dwell_s is None else float(dwell_s)
         reason = "given" if dwell_s is not None else "default; pass targets to derive it"
+        if dwell < MIN_STATIC_S:  # --dwell 0.001 wrote a plan whose rests calibrate cannot find (probe)
+            raise OptinavError(
+                f"--dwell {dwell:g} s is shorter than the {MIN_STATIC_S:g} s a rest must last for optinav calibrate "
+                "to find it (its --min-duration)",
+                f"give --dwell of at least {MIN_STATIC_S:g} s (the plan's predictions assume the whole rest is used)",
+            )
         if dwell > max_dwell_s:  # --dwell 1e9 printed a 0.00023 deg/h gyro bias 1σ, exit 0
             raise OptinavError(
                 f"--dwell {dwell:g} s is more than --max-dwell {max_dwell_s:g} s: past the Allan-deviation minimum "

@@ -172,6 +172,10 @@ class SectionList(Result):
 # --------------------------------------------------------------------------------------------------------
 
 
+#: s, the shortest rest the static detection keeps by default (``--min-duration``): a pose must rest longer
+MIN_STATIC_S = 2.0
+
+
 def _check_t_x(t, x, name: str) -> tuple[np.ndarray, np.ndarray]:
     t = check_timestamps(t, "t", min_count=2)
     x = as_float_array(x, name, last_dims=(3,))
@@ -380,7 +384,7 @@ def threshold_candidates(
     *,
     gyr=None,
     window_s: float = 1.0,
-    min_duration_s: float = 2.0,
+    min_duration_s: float = MIN_STATIC_S,
     trim_s: float | None = None,
     multipliers=None,
     init_rest_s: float | None = None,
@@ -492,7 +496,7 @@ def detect_static(
     window_s: float = 1.0,
     threshold: float | None = None,
     gyro_threshold: float | None = None,
-    min_duration_s: float = 2.0,
+    min_duration_s: float = MIN_STATIC_S,
     trim_s: float | None = None,
     multipliers=None,
     init_rest_s: float | None = None,
