@@ -282,6 +282,21 @@ def test_a_dwell_too_short_for_calibrate_to_find_the_rests_is_refused(tmp_path, 
     assert main(["--quiet", "design", "--dwell", "2", "--out", str(out)]) == 0
 
 
+def test_design_takes_the_noise_of_kalibrs_imu_yaml(tmp_path, capsys):
+    """Kalibr's imu.yaml (as allan_variance_ros / imu_utils write it, comments and all) was 'not valid JSON' to
+    design --allan; its densities are read (SI, continuous time: the plan's convention)."""
+    y = tmp_path / "imu.yaml"
+    y.write_text(
+        "#Accelerometers\naccelerometer_noise_density: 1.86e-03   #Noise density (continuous-time)\n"
+        "accelerometer_random_walk:   4.33e-04\ngyroscope_noise_density:     1.87e-04\n"
+        "gyroscope_random_walk:       2.66e-05\nrostopic: /imu0\nupdate_rate: 200.0  #Hz\n"
+    )
+    out = tmp_path / "p.json"
+    assert main(["--quiet", "design", "--allan", str(y), "--out", str(out)]) == 0
+    f = json.loads(out.read_text())["fields"]
+    assert f["acc_noise_density"]["value"] == [1.86e-3] * 3 and f["gyro_noise_density"]["value"] == [1.87e-4] * 3
+
+
 @pytest.mark.parametrize("value", ["abc", [1e-4, 2e-4], {"value": "x"}])
 def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
     """A gyroscope_noise_density of text (or 2 axes) was dropped and the plan written without the gyro, exit 0."""

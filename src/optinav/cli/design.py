@@ -60,7 +60,9 @@ def register(sub) -> None:
         "of variances (default D)",
     )
     noise = p.add_argument_group("noise (one of; default --preset mems-mti1)")
-    noise.add_argument("--allan", metavar="ALLAN.json", help="noise densities from optinav allan's JSON")
+    noise.add_argument(
+        "--allan", metavar="ALLAN.json", help="noise densities from optinav allan's JSON or Kalibr's imu.yaml"
+    )
     noise.add_argument(
         "--acc-noise-density",
         type=number(1e-12, 10.0, what="a noise density in m/s^2/sqrt(Hz)"),

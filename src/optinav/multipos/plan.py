@@ -210,14 +210,25 @@ def gyro_turn_std(
 
 
 def noise_from_allan(path) -> dict:
-    """Noise densities from a JSON file: the first ``accelerometer_noise_density`` (m/s²/√Hz) and
-    ``gyroscope_noise_density`` (rad/s/√Hz) found at any depth (Kalibr's names and convention), each a number
-    or one per axis. Returns ``{"acc": (3,) or None, "gyro": (3,) or None}``."""
+    """Noise densities from a JSON file or Kalibr's imu.yaml (``.yaml``/``.yml``, read by
+    :func:`optinav.multipos.kalibr.read_kalibr_imu_yaml`: safe YAML, as allan_variance_ros / imu_utils write it):
+    the first ``accelerometer_noise_density`` (m/s²/√Hz) and ``gyroscope_noise_density`` (rad/s/√Hz) found at any
+    depth (Kalibr's names and convention), each a number or one per axis. Returns ``{"acc": (3,) or None, "gyro":
+    (3,) or None}``."""
+    from pathlib import Path
+
     from optinav.core.files import parse_json, read_text
 
-    data = parse_json(
-        read_text(path, "noise file"), str(path), "pass the JSON written by optinav allan, or give --acc-noise-density"
-    )
+    if Path(path).suffix.lower() in (".yaml", ".yml"):
+        from optinav.multipos.kalibr import read_kalibr_imu_yaml
+
+        data = read_kalibr_imu_yaml(path)  # a Kalibr imu.yaml was 'not valid JSON' (probe)
+    else:
+        data = parse_json(
+            read_text(path, "noise file"),
+            str(path),
+            "pass the JSON written by optinav allan or Kalibr's imu.yaml, or give --acc-noise-density",
+        )
     found: dict = {}
 
     def walk(x):
