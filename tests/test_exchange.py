@@ -729,10 +729,12 @@ def test_export_of_a_result_of_another_kind_says_what_it_is(tmp_path, capsys):
         assert main(["--quiet", "export", str(legacy / name), "--to", "imucal", "--out", str(tmp_path / name)]) == 0
 
 
-def test_apply_names_an_accelerometer_axis_flipped(tmp_path, capsys):
-    """A log whose accelerometer z column is negated keeps |a| ≈ g and the gyro's unit, so apply wrote it with exit
-    0 (probe): the gyro's axes are judged even when the unit is right, and the error names the axes and
-    --columns. (Not yet: a flip that the session's most turning windows cannot see, e.g. x here.)"""
+@pytest.mark.parametrize("axis", ["ax", "ay", "az"])
+def test_apply_names_an_accelerometer_axis_flipped(tmp_path, capsys, axis):
+    """A log whose accelerometer x or z column is negated keeps |a| ≈ g and the gyro's unit, so apply wrote it with
+    exit 0 (probe): the gyro's axes are judged even when the unit is right — on the block and on each quarter
+    (the block's most turning windows turned about x, where an x flip does not show) — and the error names the
+    axes and --columns."""
     import pandas as pd
 
     data, res = tmp_path / "d.csv", tmp_path / "r.json"
@@ -745,7 +747,7 @@ def test_apply_names_an_accelerometer_axis_flipped(tmp_path, capsys):
     out = tmp_path / "o.csv"
     assert main(["--quiet", "apply", str(res), str(data), "--out", str(out)]) == 0
     flipped = tmp_path / "f.csv"
-    flipped.write_text("\n".join(lines[:head]) + "\n" + df.assign(az=-df["az"]).to_csv(index=False))
+    flipped.write_text("\n".join(lines[:head]) + "\n" + df.assign(**{axis: -df[axis]}).to_csv(index=False))
     assert main(["--quiet", "apply", str(res), str(flipped), "--out", str(tmp_path / "o2.csv")]) == 2
     err = capsys.readouterr().err
     assert "does not explain how gravity turns" in err and "reads -" in err and "--columns" in err, err

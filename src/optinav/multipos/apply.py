@@ -210,8 +210,26 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
 
     hint = gyro_unit_hint(gyro, acc, dts, alt=alt, units_only=True)
     if hint is None:
-        # an accelerometer axis flipped keeps |a| and the units: only the axes show it (exit 0 before; probe)
-        axes = gyro_unit_hint(gyro, acc, dts, alt=alt)
+        # an accelerometer axis flipped keeps |a| and the units: only the axes show it (exit 0 before; probe),
+        # where the turns involve that axis: judged on each quarter of the block too (each its own windows)
+        n = gyro.shape[0]
+        parts = [slice(0, n)] + [slice(k * n // 4, (k + 1) * n // 4) for k in range(4)]
+        for sl in parts:
+            w = (
+                None
+                if sl.stop - sl.start < 16
+                else gyro_unit_hint(
+                    gyro[sl],
+                    acc[sl],
+                    dts[sl],
+                    alt=lambda s, ss, sl=sl: alt(s, slice(sl.start + ss.start, sl.start + ss.stop)),
+                )
+            )
+            if w is not None and w.kind == "axes":
+                axes = w
+                break
+        else:
+            axes = None
         if axes is not None and axes.kind == "axes":
             raise OptinavError(
                 f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
