@@ -209,43 +209,27 @@ def _check_corrected_gyro(res, acc, gyro, log, data_path, result_path) -> None:
         return res.correct_gyro(raw[sl] * factors[s], acc[sl])
 
     hint = gyro_unit_hint(gyro, acc, dts, alt=alt, units_only=True)
-    if hint is None:
-        # an accelerometer axis flipped keeps |a| and the units: only the axes show it (exit 0 before; probe),
-        # where the turns involve that axis: judged on each quarter of the block too (each its own windows)
-        n = gyro.shape[0]
-        parts = [slice(0, n)] + [slice(k * n // 4, (k + 1) * n // 4) for k in range(4)]
-        for sl in parts:
-            w = (
-                None
-                if sl.stop - sl.start < 16
-                else gyro_unit_hint(
-                    gyro[sl],
-                    acc[sl],
-                    dts[sl],
-                    alt=lambda s, ss, sl=sl: alt(s, slice(sl.start + ss.start, sl.start + ss.stop)),
-                )
-            )
-            if w is not None and w.kind == "axes":
-                axes = w
-                break
-        else:
-            axes = None
-        if axes is not None and axes.kind == "axes":
-            raise OptinavError(
-                f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
-                f"how gravity turns in the body: {axes.words}",
-                "fix the column order or signs (--columns), or apply the calibration of this sensor",
-            )
+
+    def axes_in(sl):
+        w = gyro_unit_hint(
+            gyro[sl], acc[sl], dts[sl], alt=lambda s, ss: alt(s, slice(sl.start + ss.start, sl.start + ss.stop))
+        )
+        return w if w is not None and w.kind == "axes" else None
+
+    # a gyro that turns about the wrong axes (an axis flipped, in either triad) explains gravity worse than no turn
+    # at all, which was taken for "the data look like deg/s" of data in deg/s (probe): axes named first. An
+    # accelerometer axis flipped keeps |a| and the unit (exit 0 before; probe) and shows only where the turns
+    # involve that axis: without a unit hint each quarter of the block is judged too, with its own windows
+    n = gyro.shape[0]
+    parts = [slice(0, n)] + ([] if hint else [slice(k * n // 4, (k + 1) * n // 4) for k in range(4)])
+    axes = next((w for w in (axes_in(sl) for sl in parts if sl.stop - sl.start >= 16) if w is not None), None)
+    if axes is not None:
+        raise OptinavError(
+            f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
+            f"how gravity turns in the body: {axes.words}",
+            "fix the column order or signs (--columns), or apply the calibration of this sensor",
+        )
     if hint:
-        # a gyro that turns about the wrong axes (an axis flipped, in either triad) explains gravity worse than no
-        # turn at all, which was taken for "the data look like deg/s" of data in deg/s (probe): axes named first
-        axes = gyro_unit_hint(gyro, acc, dts, alt=alt)
-        if axes is not None and axes.kind == "axes":
-            raise OptinavError(
-                f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain "
-                f"how gravity turns in the body: {axes.words}",
-                "fix the column order or signs (--columns), or apply the calibration of this sensor",
-            )
         unit = "deg/s" if hint.scale < 1.0 else "rad/s"
         raise OptinavError(
             f"{Path(result_path).name} applied to {Path(data_path).name}: the corrected gyro does not explain how "
