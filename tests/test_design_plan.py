@@ -297,6 +297,31 @@ def test_design_takes_the_noise_of_kalibrs_imu_yaml(tmp_path, capsys):
     assert f["acc_noise_density"]["value"] == [1.86e-3] * 3 and f["gyro_noise_density"]["value"] == [1.87e-4] * 3
 
 
+def test_the_allan_minimum_of_an_allan_result_caps_the_rest(tmp_path, capsys):
+    """design --allan ALLAN.json ignored the Allan minimum it holds: --max-dwell stayed 600 s, so a plan could
+    promise 1/√dwell past the bias instability. The shortest τ at which the result reads its bias instability is
+    the cap now (said in a note), the default 30-s rest shortened to it; --max-dwell still overrides."""
+    from optinav.core.allan import AllanAnalysis
+
+    log, allan = tmp_path / "s.csv", tmp_path / "allan.json"
+    sim = ["--quiet", "simulate", "static", "--out", str(log), "--hours", "0.3", "--rate", "20", "--seed", "1"]
+    assert main(sim) == 0 and main(["--quiet", "allan", str(log), "--out", str(allan)]) == 0
+    res = AllanAnalysis.from_json(allan)
+    taus = [res.sensor(n)["read_off"].bias_instability_tau for n in ("accelerometer", "gyroscope")]
+    cap = float(np.nanmin(np.concatenate(taus)))
+    assert 2.0 < cap < 30.0  # this short log's minimum lies below the default rest
+    out = tmp_path / "p.json"
+    capsys.readouterr()
+    assert main(["--quiet", "design", "--allan", str(allan), "--out", str(out)]) == 0
+    assert f"capped at {cap:.4g} s, the Allan minimum" in capsys.readouterr().err
+    assert json.loads(out.read_text())["fields"]["dwell_s"]["value"] == pytest.approx(cap)
+    assert main(["design", "--allan", str(allan), "--target-bias", "0.001", "--out", str(out)]) == 2
+    assert f"more than --max-dwell {cap:g} s" in capsys.readouterr().err
+    assert (
+        main(["--quiet", "design", "--allan", str(allan), "--max-dwell", "60", "--dwell", "40", "--out", str(out)]) == 0
+    )
+
+
 @pytest.mark.parametrize("value", ["abc", [1e-4, 2e-4], {"value": "x"}])
 def test_a_noise_density_that_is_no_number_is_named(tmp_path, capsys, value):
     """A gyroscope_noise_density of text (or 2 axes) was dropped and the plan written without the gyro, exit 0."""

@@ -107,9 +107,9 @@ def register(sub) -> None:
     p.add_argument(
         "--max-dwell",
         type=POSITIVE,
-        default=600.0,
         metavar="S",
-        help="refuse a --dwell or targets needing more rest per pose (the Allan minimum of the sensor; default 600)",
+        help="refuse a --dwell or targets needing more rest per pose (the Allan minimum of the sensor; default: "
+        "that of the --allan result, else 600)",
     )
     p.add_argument("--seed", type=SEED, default=0, help="seed of the pose search (default 0)")
     p.add_argument("--out", metavar="PLAN.md|.json", help="write the plan as Markdown (.md) or JSON (.json)")
@@ -127,7 +127,7 @@ def run(args) -> int:
     }
     if args.dwell is not None and (any(v is not None for v in targets.values()) or args.target_gyro_bias):
         raise OptinavError("--dwell and a --target-* option both set the rest time", "pass one of them")
-    from optinav.multipos.plan import plan_g_sensitivity, plan_noise, plan_poses, plot_plan
+    from optinav.multipos.plan import plan_g_sensitivity, plan_max_dwell, plan_noise, plan_poses, plot_plan
 
     acc, gyro, text = plan_noise(args.allan, args.preset, args.acc_noise_density, args.gyro_noise_density)
     g_sens, g_text = plan_g_sensitivity(
@@ -146,7 +146,8 @@ def run(args) -> int:
         targets=targets,
         gyro_bias_deg_h=args.target_gyro_bias,
         turn_rate_deg_s=args.turn_rate,
-        max_dwell_s=args.max_dwell,
+        max_dwell_s=(cap := plan_max_dwell(args.allan, args.max_dwell))[0],
+        max_dwell_note=cap[1],
         rng=args.seed,
         gyro_g_sensitivity=g_sens if gyro is not None else 0.0,
     )

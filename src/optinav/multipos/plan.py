@@ -209,6 +209,55 @@ def gyro_turn_std(
 # --- noise ------------------------------------------------------------------------------------------------------
 
 
+#: s, the longest rest per pose when neither --max-dwell nor an allan result's minimum says otherwise
+DEFAULT_MAX_DWELL_S = 600.0
+
+
+def plan_max_dwell(allan=None, max_dwell_s: float | None = None) -> tuple[float, str | None]:
+    """The longest rest per pose a plan may ask for, and a note on where it comes from.
+
+    Parameters
+    ----------
+    allan : str, Path or None
+        ``optinav allan``'s JSON (other noise files carry no Allan minimum).
+    max_dwell_s : float or None
+        Given by the user [s]: taken as it is.
+
+    Returns
+    -------
+    seconds : float
+        ``max_dwell_s``; else the shortest averaging time τ [s] at which the allan result reads a bias
+        instability (the Allan minimum: past it averaging no longer lowers the error the plan predicts as white
+        noise's 1/√dwell); else :data:`DEFAULT_MAX_DWELL_S`.
+    note : str or None
+        Said with the plan when the allan result set it.
+    """
+    if max_dwell_s is not None:
+        return float(max_dwell_s), None
+    if allan:
+        from optinav.core.allan import AllanAnalysis
+        from optinav.core.results import Result
+
+        try:
+            res = Result.from_json(allan)
+        except OptinavError:  # Kalibr's YAML, a plain JSON of densities: no Allan curve
+            res = None
+        if isinstance(res, AllanAnalysis):
+            taus = [
+                np.asarray(s["read_off"].bias_instability_tau, float)
+                for s in (res.sensor(n) for n in ("accelerometer", "gyroscope"))
+                if s is not None
+            ]
+            tau = np.concatenate(taus) if taus else np.array([])
+            if np.any(np.isfinite(tau)):
+                t = float(np.nanmin(tau))
+                return t, (
+                    f"the rest per pose is capped at {t:.4g} s, the Allan minimum of {allan} (its bias instability "
+                    "is read there: longer averaging does not help; --max-dwell sets another cap)"
+                )
+    return DEFAULT_MAX_DWELL_S, None
+
+
 def noise_from_allan(path) -> dict:
     """Noise densities from a JSON file or Kalibr's imu.yaml (``.yaml``/``.yml``, read by
     :func:`optinav.multipos.kalibr.read_kalibr_imu_yaml`: safe YAML, as allan_variance_ros / imu_utils write it):
@@ -538,7 +587,8 @@ def plan_poses(
     targets: dict | None = None,
     gyro_bias_deg_h: float | None = None,
     turn_rate_deg_s: float = 45.0,
-    max_dwell_s: float = 600.0,
+    max_dwell_s: float = DEFAULT_MAX_DWELL_S,
+    max_dwell_note: str | None = None,
     g: float = G_STANDARD,
     rng=0,
     gyro_g_sensitivity: float = 0.0,
@@ -562,7 +612,7 @@ def plan_poses(
     d = _design.design_scheme(
         int(n_poses), criterion=criterion, noise_density=acc_n, rate_hz=rate_hz, dwell_s=ref, g=g, rng=rng
     )
-    notes = []
+    notes = [max_dwell_note] if max_dwell_note else []
     seq = _order(np.asarray(d.up_dirs), np.asarray(d.orientations))
     up, orient = np.asarray(d.up_dirs)[seq], np.asarray(d.orientations)[seq]
     if dwell_s is None and (targets or gyro_bias_deg_h):
@@ -614,7 +664,7 @@ def plan_poses(
                 "--poses; raise --max-dwell only up to your sensor's Allan minimum",
             )
     else:
-        dwell = 30.0 if dwell_s is None else float(dwell_s)
+        dwell = min(30.0, max_dwell_s) if dwell_s is None else float(dwell_s)
         reason = "given" if dwell_s is not None else "default; pass targets to derive it"
         if dwell < MIN_STATIC_S:  # --dwell 0.001 wrote a plan whose rests calibrate cannot find (probe)
             raise OptinavError(
