@@ -1765,3 +1765,23 @@ def test_an_empty_second_imu_topic_leaves_the_one_that_published(tmp_path, kind)
     assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr)
     with pytest.raises(OptinavError, match="'/imu_raw' of b.* holds no messages"):
         read_imu(bag, topic="/imu_raw")
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_three_imus_on_one_topic_keep_their_frame_ids_across_blocks(tmp_path, kind):
+    """Three frame_ids interleaved: a storage block (a ROS 1 chunk of 4 KiB here) may start with any of them, and
+    the decoder's list of frame_ids was reset at every block (to the block's first message's), so a row coded in
+    an earlier block named another frame_id later — --topic /imu@B read other IMUs' rows with exit 0. Each
+    selection reads its own IMU's values."""
+    rng = np.random.default_rng(49)
+    n = 2000
+    names = ("imuA", "imuB", "imuC")
+    parts = []
+    for k, name in enumerate(names):
+        stamps = np.round(np.arange(n) / 100 * 1e9).astype(np.int64) + 1_000_000 * (k + 1) + 123
+        parts.append(imu_topic(rng, n=n, frames=(name,), stamps=stamps))
+    msgs = sorted((m for p in parts for m in p[0]), key=lambda m: m[0])
+    bag = write_bag(tmp_path / "b", kind, {"/imu": (IMU, msgs)}, chunk_threshold=4096 if kind == "ros1" else None)
+    for k, name in enumerate(names):
+        log = read_imu(bag, topic=f"/imu@{name}")
+        assert np.array_equal(log.t, parts[k][1]) and np.array_equal(log.gyr, parts[k][2]), name

@@ -869,7 +869,6 @@ class _Decoder:
         dtype, names, slen, frame = layout
         o = [dtype.fields[k][1] for k in names] + [-1]
         args = [dtype.itemsize, dtype.fields["sec"][1], not self.ros1, dtype.fields["len"][1], slen, o[0], o[1]]
-        self.frames = [_frame_name(frame, self.ros1)]
         return np.array(args + list(frame), dtype=np.int64)
 
     def _fast(self, u8: np.ndarray, off: np.ndarray, size: np.ndarray, layout) -> np.ndarray:
