@@ -108,12 +108,12 @@ def load_bag(path, *, topic=None, only=None):
             except Exception:  # noqa: BLE001 - closing a damaged bag may fail again; the first error was reported
                 pass
     (imu_topic, imu), mag = got
-    t, t_log, (gyr, acc) = _in_stamp_order(path, imu_topic, *_without_copies(path, imu_topic, *imu))
+    t, t_log, (gyr, acc) = _stamps_mended(path, imu_topic, *imu)
     gyr, acc = (None if k in _unmeasured(path, imu_topic, (gyr, acc)) else v for k, v in enumerate((gyr, acc)))
     if mag is None:
         return _bag_table(path, imu_topic, _time_base(path, imu_topic, t, t_log), gyr, acc, None, None, 0)
     mag_topic, mag = mag
-    tm, tm_log, b = _in_stamp_order(path, mag_topic, *_without_copies(path, mag_topic, *mag))
+    tm, tm_log, b = _stamps_mended(path, mag_topic, *mag)
     # one clock for both topics: a topic on its log times beside one on header stamps is offset by the delay
     # between stamping and logging (0.4 s: yaw off by up to 19°)
     both = _stamps_ok(t) and _stamps_ok(tm)
@@ -999,6 +999,12 @@ def _copies(stamp: np.ndarray, vals: tuple) -> np.ndarray:
 REORDER_MAX_S, REORDER_MAX_BACK = 1.0, 0.25
 
 
+def _stamps_mended(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
+    """(stamps s, log times ns, values) of a topic read whole: copies left out (:func:`_without_copies`), then
+    in stamp order (:func:`_in_stamp_order`); the time base then judges the stamps."""
+    return _in_stamp_order(path, topic, *_without_copies(path, topic, stamp, logt, vals))
+
+
 def _in_stamp_order(path: Path, topic: str, stamp: np.ndarray, logt: np.ndarray, vals: tuple) -> tuple:
     """(stamps s, log times ns, values) in header-stamp order when the messages were only logged out of it —
     delivered late or out of order (best-effort transport, a driver publishing in bursts): the stamps, sorted, are
@@ -1243,7 +1249,7 @@ def _stream(path: Path, plan: dict, chunk_rows: int, progress, topic):
         return
     drop = _unmeasured(path, name, (), finite)
     if mag is not None:
-        stamp, logt, (b,) = _in_stamp_order(path, plan["mag"], *_without_copies(path, plan["mag"], *mag[:2], (mag[2],)))
+        stamp, logt, (b,) = _stamps_mended(path, plan["mag"], *mag[:2], (mag[2],))
         mag = stamp, logt, b
     mag_ok = mag is None or _stamps_ok(mag[0])
     if not stamps_ok:

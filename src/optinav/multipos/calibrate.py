@@ -189,8 +189,7 @@ def _drop_creeping(acc, ranges, t_int, st: accel.PoseStatistics, notes: list, g:
     n_bad, n = int(np.count_nonzero(bad)), ranges.shape[0]
     if n_bad and (n - n_bad < 6 or n_bad > n / 3):
         k = int(np.flatnonzero(bad)[0])
-        gyr_means = None if gyro is None else np.array([gyro[a:b].mean(axis=0) for a, b in ranges])
-        if swap := gates.swapped_axis(st.means, gyr_means):
+        if swap := gates.swapped_axis(st.means, None if gyro is None else static.pose_means(gyro, ranges)):
             raise OptinavError(
                 f"{n_bad} of {n} static poses are not still — {swap}", "name the columns in their order with --columns"
             )
@@ -599,8 +598,7 @@ def calibrate(
                 "record with a larger accelerometer range (--acc-range states it)",
             ) from None
         short = _short_still(still, t, acc, gyro, min_duration_s) if "distinct pose directions" in exc.cause else []
-        gyr_means = None if gyro is None else np.array([gyro[a:b].mean(axis=0) for a, b in ranges])
-        if swap := gates.swapped_axis(st.means, gyr_means):
+        if swap := gates.swapped_axis(st.means, None if gyro is None else static.pose_means(gyro, ranges)):
             raise type(exc)(f"{exc.cause} — {swap}", "name the columns in their order with --columns") from None
         if not short and (narrow := gates.narrow_axes(st.means)):
             # poses that all lie near one direction: a fit that fails then fails for that (a 25° cone around
@@ -1309,8 +1307,7 @@ def _ferraris(
     # gates: the six poses agree on g, both matrices are plausible, the turns go the stated way
     pose_rms = float(np.sqrt(np.mean((fc.acc_static_norm - g) ** 2)))
     if pose_rms > gates.MAX_RESIDUAL_G * g:
-        at = [idx[k] for k in static_idx]
-        swap = gates.swapped_axis(*(np.array([x[i0:i1].mean(axis=0) for i0, i1 in at]) for x in (acc, gyro)))
+        swap = gates.swapped_axis(*(static.pose_means(x, idx[static_idx]) for x in (acc, gyro)))
         raise OptinavError(
             f"the six Ferraris poses disagree on g: RMS of |a| - g is {pose_rms:.3g} m/s^2"
             + (f" — {swap}" * bool(swap)),

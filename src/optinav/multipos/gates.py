@@ -124,17 +124,23 @@ def check_swapped_triads(acc_norm: float, acc_unit: str, gyro_norm: float, g: fl
 MIN_AXIS_SPAN = 0.25
 
 
+def _narrow(span: np.ndarray) -> list[int]:
+    """The axes whose span of pose means is below :data:`MIN_AXIS_SPAN` of the widest axis's (none when no span)."""
+    top = float(span.max())
+    return [j for j in range(3) if span[j] < MIN_AXIS_SPAN * top] if top > 0 else []
+
+
 def narrow_axes(means) -> str | None:
     """Words naming the axes that the poses hardly turn (span of the pose means (P, 3), raw units, below
     :data:`MIN_AXIS_SPAN` of the widest axis's span; an offset such as an unsigned ADC's cancels), or None."""
     m = np.asarray(means, float)
     span = np.ptp(m, axis=0) if m.shape[0] else np.zeros(3)
-    if not np.all(np.isfinite(span)) or span.max() <= 0:
+    if not np.all(np.isfinite(span)):
         return None
-    rel = span / span.max()
-    narrow = [j for j in range(3) if rel[j] < MIN_AXIS_SPAN]
+    narrow = _narrow(span)
     if not narrow:
         return None
+    rel = span / span.max()
     return "the poses hardly turn the " + ", ".join(
         f"{'xyz'[j]} axis (its pose means span {rel[j]:.2g}× the {'xyz'[int(np.argmax(span))]} axis's)" for j in narrow
     )
@@ -153,9 +159,9 @@ def swapped_axis(acc_means, gyr_means) -> str | None:
         return None
     sa, sw = np.ptp(a, axis=0), np.ptp(w, axis=0)
     top = float(sa.max())
-    narrow = [j for j in range(3) if sa[j] < MIN_AXIS_SPAN * top]
+    narrow = _narrow(sa)
     k = int(np.argmax(sw))
-    if top <= 0 or len(narrow) != 1 or sw[k] < top / 3 or sw[k] < 20 * np.sort(sw)[-2]:
+    if len(narrow) != 1 or sw[k] < top / 3 or sw[k] < 20 * np.sort(sw)[-2]:
         return None
     j = narrow[0]
     return (

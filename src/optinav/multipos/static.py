@@ -303,7 +303,9 @@ def intervals_from_mask(t, mask, *, min_duration_s: float = 0.0, trim_s: float =
     return np.column_stack([starts, ends]).astype(np.int64).reshape(-1, 2)
 
 
-def _means(x: np.ndarray, ranges: np.ndarray) -> np.ndarray:
+def pose_means(x: np.ndarray, ranges) -> np.ndarray:
+    """(P, 3) means of ``x`` over the sample ranges [i0, i1) of ``ranges`` (P, 2)."""
+    ranges = np.asarray(ranges)
     if ranges.size == 0:
         return np.zeros((0, 3))
     return np.array([x[a:b].mean(axis=0) for a, b in ranges])
@@ -330,8 +332,8 @@ def _detection(t, acc, gyro, va, vg, thr, gthr, window_s, min_duration_s, trim_s
     return StaticDetection(
         t_intervals=ti,
         index_ranges=ranges,
-        acc_means=_means(acc, ranges),
-        gyro_means=_means(gyro, ranges) if gyro is not None else None,
+        acc_means=pose_means(acc, ranges),
+        gyro_means=pose_means(gyro, ranges) if gyro is not None else None,
         counts=(ranges[:, 1] - ranges[:, 0]).astype(np.int64),
         acc_variance=va,
         gyro_variance=vg,
@@ -753,8 +755,8 @@ def detection_from_sections(sections, t, acc, *, gyr=None) -> StaticDetection:
     return StaticDetection(
         t_intervals=np.asarray(sl.t_intervals, dtype=float).reshape(-1, 2),
         index_ranges=r,
-        acc_means=_means(acc, r),
-        gyro_means=_means(gyro, r) if gyro is not None else None,
+        acc_means=pose_means(acc, r),
+        gyro_means=pose_means(gyro, r) if gyro is not None else None,
         counts=(r[:, 1] - r[:, 0]).astype(np.int64),
         acc_variance=None,
         gyro_variance=None,
