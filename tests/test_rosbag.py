@@ -283,6 +283,42 @@ def test_ros1_chunks_decoded_in_rounds_by_two_threads(tmp_path, monkeypatch):
     assert np.array_equal(read_table(bag)["mz"], mag, equal_nan=True)
 
 
+def test_pages_mapped_ahead_of_each_round_only_speed_it_up(tmp_path, monkeypatch):
+    """Each round's byte range is mapped in one call before its kernel reads it (MADV_POPULATE_READ on Linux):
+    the rounds' ranges cover the topic's chunks, and the values are those written whether the OS takes the advice
+    or refuses it (an advice it does not know: switched off for the rest of the process, the reading the same)."""
+    from optinav.io import bagscan
+
+    rng = np.random.default_rng(5)
+    msgs, t, gyr, acc = imu_topic(rng, n=3000, rate=1000.0)
+    bag = write_bag(tmp_path / "b", "ros1", {"/imu": (IMU, msgs)}, chunk_threshold=16384)  # MCAP: the same rounds
+    monkeypatch.setattr(bagscan, "_ROUND", 50_000)
+    spans, real = [], bagscan._populate
+    monkeypatch.setattr(bagscan, "_populate", lambda mm, a, b: (spans.append((a, b)), real(mm, a, b)))
+    monkeypatch.setattr(bagscan, "_POPULATE_READ", [22 if sys.platform == "linux" else 0])
+    log = read_imu(bag)
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+    assert len(spans) >= 8 and all(b > a for a, b in spans)
+    spans.sort()
+    assert all(b0 <= a1 for (_, b0), (a1, _) in zip(spans, spans[1:]))  # no byte mapped twice
+    monkeypatch.setattr(bagscan, "_POPULATE_READ", [0x7FFF])  # no OS has this advice: EINVAL
+    log = read_imu(bag)
+    assert bagscan._POPULATE_READ == [0]
+    assert np.array_equal(log.t, t) and np.array_equal(log.gyr, gyr) and np.array_equal(log.acc, acc)
+
+
+@given(st.lists(st.sampled_from([0.0, -1.0, 0.5, 1.0, 1.0, 2.0, 3.5, np.nan, np.inf, -np.inf]), max_size=8))
+def test_stamps_ok_means_set_and_strictly_increasing(values):
+    """The quick test of header stamps (s) agrees with its definition: every stamp positive, every step
+    positive (NaN neither)."""
+    from optinav.io.rosbag import _stamps_ok
+
+    s = np.array(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        want = bool(s.size and np.all(s > 0) and np.all(np.diff(s) > 0))
+    assert _stamps_ok(s) == want
+
+
 def test_ros1_decode_declines_what_the_blocks_read(tmp_path, monkeypatch):
     """The chunk decoder gives up — and the block reader reads the bag, with the values written — for compressed
     chunks, for a message of another layout in a later chunk, and (called directly) for chunk counts other than the

@@ -1,8 +1,8 @@
-"""Compiled interleave of three sample columns into an (n, 3) row-major triad, with its value range; the range of a
-triad already in one array.
+"""Compiled interleave of three sample columns into an (n, 3) row-major triad, with its value range.
 
 numpy's strided store (``column_stack``) and the separate min and max passes of the reader's value check cost
-about three passes over a triad; this is one (numba, ``cache=True``). Used by :func:`optinav.io.imu._triad` for
+about three passes over a triad; this is one (numba, ``cache=True``). A triad already in one array takes numpy's
+min and max (vectorized: faster than a scalar pass). Used by :func:`optinav.io.imu._triad` for
 long columns only, so a small file never waits for numba's start.
 """
 
@@ -26,23 +26,6 @@ def interleave3(a, b, c, out):
             if v > hi:
                 hi = v
             nan |= v != v
-    if nan:
-        return np.nan, np.nan
-    return lo, hi
-
-
-@numba.njit(cache=True, nogil=True)
-def value_range(flat):
-    """(min, max) of the values of ``flat`` (1-D), both NaN when any value is NaN: one pass where numpy's
-    min and max make two."""
-    lo, hi, nan = np.inf, -np.inf, False
-    for i in range(flat.shape[0]):
-        v = flat[i]
-        if v < lo:
-            lo = v
-        if v > hi:
-            hi = v
-        nan |= v != v
     if nan:
         return np.nan, np.nan
     return lo, hi

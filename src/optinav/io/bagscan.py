@@ -797,6 +797,11 @@ def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
 
     pool = _helper()
     done = _Unmap(mm)
+
+    def mapped(a: int, b: int, buf: tuple) -> bool:
+        _populate(mm, int(pos[a]), int(nxt[b - 1]))
+        return run(a, b, buf)
+
     a = 0
     while a < pos.size:
         b = int(np.searchsorted(pos, pos[a] + _ROUND, side="left"))
@@ -804,14 +809,14 @@ def _rounds(mm, pos: np.ndarray, nxt: np.ndarray, run, scratch: list) -> bool:
         if pool is not None and b - a >= 2:
             h = int(np.searchsorted(pos, (pos[a] + nxt[b - 1]) // 2, side="left"))
             h = min(max(h, a + 1), b - 1)
-            job = pool.submit(run, h, b, scratch[1])
+            job = pool.submit(mapped, h, b, scratch[1])
             try:
-                ok = run(a, h, scratch[0])
+                ok = mapped(a, h, scratch[0])
             finally:
                 wait([job])  # never leave the helper reading a map this returns from
             ok = job.result() and ok
         else:
-            ok = run(a, b, scratch[0])
+            ok = mapped(a, b, scratch[0])
         if not ok:
             return False
         done.add(int(pos[a]), int(nxt[b - 1]))
@@ -1129,6 +1134,26 @@ def _map(path: Path):
     with open(path, "rb") as fh:
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
     return mm, np.frombuffer(mm, dtype=np.uint8)
+
+
+#: Linux's madvise(MADV_POPULATE_READ) (5.14+; not named in Python's mmap module before 3.13; the number means
+#: other things or nothing elsewhere); 0 once refused
+_POPULATE_READ = [22 if sys.platform == "linux" else 0]
+
+
+def _populate(mm, start: int, stop: int) -> None:
+    """Map the pages of ``mm[start:stop]`` in one call before a kernel reads them: faulting them in one by one
+    as the kernel reads costs about twice as long (378 MB of a 1 M-message ROS 1 bag: 23 -> 11 ms on Linux 6.18).
+    Nothing where the OS has no such advice."""
+    import mmap
+
+    if not _POPULATE_READ[0] or stop <= start:
+        return
+    start -= start % mmap.PAGESIZE
+    try:
+        mm.madvise(_POPULATE_READ[0], start, min(stop, len(mm)) - start)
+    except (OSError, ValueError):  # an older kernel or another OS: the pages fault in as the kernel reads them
+        _POPULATE_READ[0] = 0
 
 
 def _release(mm, start: int, stop: int) -> None:
