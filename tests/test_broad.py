@@ -1251,3 +1251,18 @@ def test_a_short_gap_in_motion_does_not_restart_the_tilt():
             q = estimate_q(tr.gyr[keep], tr.acc[keep], dts, frame="ENU", checks=False)
             errs.append(np.degrees(rmse(inclination_error(q, tr.q_ref[keep]), tr.eval_mask[keep])))
     assert np.mean(errs) < 1.8 and max(errs) < 4.0, np.round(errs, 2)
+
+
+@pytest.mark.parametrize("name", ["02_undisturbed_slow_rotation_B.hdf5", "29_disturbed_stationary_magnet_B.mat"])
+def test_a_broad_file_declared_deg_s_is_told_rad_s(name, tmp_path, capsys):
+    """A BROAD trial (rad/s) run with --gyro-unit deg/s was told "the gyro declared rad/s reads 57× less ...;
+    check --gyro-unit" — the unit the user had not given, and no flag: the streamed BROAD reader never said what
+    the gyro was declared in. It names the declared deg/s and the --gyro-unit rad/s that fixes it (HDF5 and MAT)."""
+    from optinav.cli.main import main
+
+    p = SHARED / "attitude" / "broad" / name
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    rc = main(["--quiet", "attitude", str(p), "--gyro-unit", "deg/s", "--out", str(tmp_path / "a.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "the gyro in deg/s does not explain" in err and "--gyro-unit rad/s" in err, err

@@ -49,6 +49,8 @@ class BroadTrial:
     movement: np.ndarray
     rate_hz: float
     name: str
+    #: the gyro's unit as declared (option or file attribute) before the conversion to rad/s: the checks name it
+    gyro_unit: str = "rad/s"
 
     @property
     def dt(self) -> float:
@@ -106,6 +108,13 @@ def has_reference(path) -> bool:
     return {"opt_quat", "movement"} <= _names(Path(path))
 
 
+def broad_declared(key: str, attrs, options=None) -> str | None:
+    """The unit ``key`` (``"acc_unit"``, ``"gyro_unit"``) a BROAD-layout file is read in: the option of that name,
+    else the file's attribute, else None (BROAD's own files: m/s², rad/s)."""
+    unit = (None if options is None else getattr(options, key, None)) or attrs.get(key)
+    return unit.decode() if isinstance(unit, bytes) else unit
+
+
 def broad_units(name: str, attrs, options=None, file_rate=None) -> tuple[float, float, float]:
     """(acc factor, gyro factor, rate Hz) of a BROAD-layout file: the units from the options (``acc_unit``,
     ``gyro_unit`` of :class:`optinav.attitude.unit.AttitudeOptions`) or the file's attributes of those names
@@ -129,9 +138,7 @@ def broad_units(name: str, attrs, options=None, file_rate=None) -> tuple[float, 
     rate = _broad_rate(file_rate if file_rate is not None else given, name)
     out = []
     for key in ("acc_unit", "gyro_unit"):
-        unit = (None if o is None else getattr(o, key, None)) or attrs.get(key)
-        if isinstance(unit, bytes):
-            unit = unit.decode()
+        unit = broad_declared(key, attrs, o)
         if unit is not None and str(unit).strip().lower() == "counts":
             raise OptinavError(f"{name} is in raw counts", "calibrate first (optinav apply), or declare its unit")
         out.append(1.0 if unit is None else factor(str(unit)))
@@ -173,6 +180,7 @@ def load_broad(path, options=None) -> BroadTrial:
         movement=np.asarray(tab.get("movement")).ravel().astype(bool) if "movement" in tab.data else np.zeros(n, bool),
         rate_hz=rate,
         name=p.stem,
+        gyro_unit=str(broad_declared("gyro_unit", attrs, options) or "rad/s"),
     )
 
 

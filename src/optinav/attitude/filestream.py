@@ -514,6 +514,7 @@ class _Blocks:
             else:  # MAT: scipy reads it whole
                 tr = load_broad(self.path, self.o)
                 fa = fg = 1.0
+            self.gyro_unit = tr.gyro_unit  # as declared: the checks' messages name it
             n = tr.gyr.shape[0]
             h = 1.0 / tr.rate_hz
             prev = None
@@ -547,7 +548,7 @@ class _Hdf5Trial:
     def __init__(self, stack, path: Path, options=None):
         import h5py
 
-        from optinav.attitude.data import broad_units
+        from optinav.attitude.data import broad_declared, broad_units
 
         try:
             f = stack.enter_context(h5py.File(path, "r"))
@@ -571,6 +572,7 @@ class _Hdf5Trial:
 
             raise h5_damaged(path, exc) from None
         self.acc_factor, self.gyro_factor, self.rate_hz = broad_units(path.name, attrs, options, rate)
+        self.gyro_unit = str(broad_declared("gyro_unit", attrs, options) or "rad/s")
 
 
 class _Scratch:
