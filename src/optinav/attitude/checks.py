@@ -722,6 +722,11 @@ LOW_BODY_FLOOR, LOW_BODY_TINY = 0.05, 0.7
 #: ... and the declared gyro must drift gravity at least this many times as far as a gyro scaled to nothing does
 #: (those trials as declared 0.3-0.4×, at --rate 100/200 2.1-12×)
 LOW_BODY_TINY_WORSE = 1.5
+#: where gravity hardly turns, a declared gyro drifting it by at least this much (rad; and LOW_BODY_TINY_WORSE ×
+#: a gyro scaled to nothing) is searched for swapped or flipped axes (:func:`_long_axes_hint`; a factor still needs
+#: LOW_BODY_FLOOR): BROAD 27's accelerometer with x and y swapped or x negated drifts 0.040-0.042 rad as declared,
+#: 0.012 with the gyro's axes turned to match (exit 0 at 3.6° before); the nine trials as declared 0.012-0.013
+LOW_AXES_FLOOR = 0.03
 #: a rest (for the gyro bias): over 1 s (declared) the binned gyro's std (rad/s) and norm and the accelerometer's
 #: std (m/s²) below these
 REST_GYR_STD, REST_GYR, REST_ACC_STD = 0.02, 0.1, 0.1
@@ -889,17 +894,14 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     if f > 1:
         coarse = _long_pieces(*merge_bins(bins // f, sums), np.unique(gap_bins // f))
         # (the rest bias alone first: the fitted one only lowers the drift, at 9× the cost)
-        if not coarse or _long_drift(coarse, 1.0) < LONG_FLOOR or _long_drift(coarse, 1.0, True) < LOW_BODY_FLOOR:
+        if not coarse or not _drifts_enough(coarse) or _long_drift(coarse, 1.0, True) < LOW_AXES_FLOOR:
             return None
     pieces = _long_pieces(bins, sums, gap_bins)
-    if not pieces:
-        return None
-    body = [_body_turn(a, T, LONG_MEANS_S) ** 2 for _, a, T in pieces]
-    body = float(np.sqrt(np.average(body, weights=[p[0].shape[0] for p in pieces])))
-    if _long_drift(pieces, 1.0) < LONG_FLOOR:
+    if not pieces or not _drifts_enough(pieces):
         return None  # (the fitted bias only lowers the drift, at 9× the cost)
+    body = _pieces_body(pieces)
     declared = _long_drift(pieces, 1.0, fit_bias=True)
-    if declared < (LONG_FLOOR if body >= LONG_BODY else LOW_BODY_FLOOR):
+    if declared < (LONG_FLOOR if body >= LONG_BODY else LOW_AXES_FLOOR):
         return None
     grid = np.exp(np.arange(np.log(1e-3), np.log(1e3), np.log(1.15)))
     if body < LONG_BODY:
@@ -908,6 +910,8 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
         tiny = _long_drift(pieces, grid[0], fit_bias=True)
         if declared < LOW_BODY_TINY_WORSE * tiny:
             return None
+        if declared < LOW_BODY_FLOOR:
+            return _long_axes_hint(pieces, declared, body, tiny)
     coarse = np.array([_long_drift(pieces, s) for s in grid])
     inner = (coarse <= np.roll(coarse, 1)) & (coarse <= np.roll(coarse, -1))
     found = [
@@ -925,7 +929,7 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
         # well as it turns, so the factor must be a clear minimum below that plateau, and is named as rough
         s, best = _scan(pieces, s * np.exp(np.arange(np.log(0.5), np.log(1.6), 0.05)), fit_bias=True)
         if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * tiny):
-            return None
+            return _long_axes_hint(pieces, declared, body, tiny)
     elif not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
         return _long_axes_hint(pieces, declared, body)
     if abs(np.log(s)) < np.log(SCALE_NEAR):
@@ -938,18 +942,39 @@ def long_time_hint(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, dt:
     return replace(UnitHint("unit", unit) if unit else _time_words(s, dt), rough=rough)
 
 
-def _long_axes_hint(pieces: list[tuple], declared: float, body: float) -> UnitHint | None:
+def _pieces_body(pieces: list[tuple]) -> float:
+    """How far gravity turns in the body over the pieces (rad, RMS of :func:`_body_turn` with
+    :data:`LONG_MEANS_S`-s means, weighted by their bins)."""
+    body = [_body_turn(a, T, LONG_MEANS_S) ** 2 for _, a, T in pieces]
+    return float(np.sqrt(np.average(body, weights=[p[0].shape[0] for p in pieces])))
+
+
+def _drifts_enough(pieces: list[tuple]) -> bool:
+    """Whether the declared gyro with the rest bias drifts gravity far enough for the whole-log search:
+    :data:`LONG_FLOOR`, or :data:`LOW_AXES_FLOOR` where gravity hardly turns in the body (< :data:`LONG_BODY`)."""
+    drift = _long_drift(pieces, 1.0)
+    return drift >= LONG_FLOOR or (drift >= LOW_AXES_FLOOR and _pieces_body(pieces) < LONG_BODY)
+
+
+def _long_axes_hint(pieces: list[tuple], declared: float, body: float, tiny: float | None = None) -> UnitHint | None:
     """The "axes" hint of the whole log (:func:`long_time_hint`'s pieces and judgement): the signed permutation of
     the gyro's axes that holds gravity in the gyro-integrated frame, where no factor does, else None. BROAD 16's
     gyro negated ran with exit 0 at 75°: its fast translation hides gravity's turning over the unit windows (0.23
-    rad), the whole log drifts 0.99 rad as declared and 0.03 with the signs back."""
+    rad), the whole log drifts 0.99 rad as declared and 0.03 with the signs back. ``tiny``: where gravity hardly
+    turns in the body, the drift of a gyro scaled to nothing — the permutation must hold gravity clearly better
+    than it (:data:`LOW_BODY_TINY`), as a factor must: BROAD 11 and 27 (turning about the vertical) with two gyro
+    axes swapped or one negated ran at 4-11° with exit 0; as declared they drift 0.16-0.23 rad, with the axes
+    back 0.012-0.013, a gyro scaled to nothing 0.027-0.036."""
     from optinav.core.rotations import describe_permutation, signed_permutations
 
     perms = signed_permutations()[1:]
     i = int(np.argmin([_long_drift([(g @ P, a, T) for g, a, T in pieces], 1.0) for P in perms]))
     P = perms[i]
     best = _long_drift([(g @ P, a, T) for g, a, T in pieces], 1.0, fit_bias=True)
-    if not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
+    if tiny is not None:
+        if not (best < TIME_RATIO * declared and best < LOW_BODY_TINY * tiny):
+            return None
+    elif not (best < TIME_RATIO * declared and best < CONSISTENCY_BAD and best < 0.5 * body):
         return None
     return UnitHint("axes", 1.0, describe_permutation(P, "gyro", "accelerometer axes"), P)
 
