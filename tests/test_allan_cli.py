@@ -1,6 +1,7 @@
 """`optinav simulate static` → `optinav allan` end to end: JSON result, report, Kalibr imu.yaml read back."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -499,3 +500,37 @@ def test_a_low_pass_filtered_imu_gets_its_white_noise(tmp_path, capsys):
     for sensor, truth in (("accelerometer", 1e-3), ("gyroscope", 1e-4)):
         N = np.asarray(res.sensor(sensor)["fit"].white)
         assert np.all(np.abs(N / truth - 1) < 0.06), (sensor, N / truth)
+
+
+def test_a_slow_nudge_of_the_pose_is_refused(tmp_path, capsys):
+    """A rest nudged by 1° over 10 s (a cable pulling, a hand on the table) is too slow for the jump check and
+    leaves the spread within 1-s windows alone: the 40-min simulated rest ran with exit 0 and accelerometer K 2.9×
+    the truth. Gravity's direction in the 1-s means turns by 1° in 10 s against 0.02° of the rest's own drift:
+    refused, naming when, with the gyroscope's turn there; the rest without the nudge runs, and so does a 0.05°
+    nudge (within the drift)."""
+    rng = np.random.default_rng(5)
+    rate, n = 100.0, 120_000
+    t = np.arange(n) / rate
+    acc = rng.normal(0, 0.01, (n, 3)) + np.cumsum(rng.normal(0, 1e-4, (n, 3)), axis=0) + [0, 0, 9.81]
+    gyr = rng.normal(0, 1e-3, (n, 3)) + np.cumsum(rng.normal(0, 1e-6, (n, 3)), axis=0)
+    i0, i1 = 60_000, 61_000  # 10 s from t = 600 s
+    for deg, code in ((0.0, 0), (0.05, 0), (1.0, 2)):
+        ang = np.zeros(n)
+        ang[i0:i1] = np.radians(deg) * (1 - np.cos(np.linspace(0, np.pi, i1 - i0))) / 2
+        ang[i1:] = np.radians(deg)
+        a, g = acc.copy(), gyr.copy()
+        a[:, 1] += 9.81 * np.sin(ang)
+        a[:, 2] += 9.81 * (np.cos(ang) - 1)
+        g[:, 0] += np.gradient(ang, 1 / rate)
+        f = tmp_path / f"nudge_{deg}.npz"
+        np.savez(f, t=t, acc=a, gyr=g)
+        capsys.readouterr()
+        assert main(["--quiet", "allan", str(f), "--out", str(tmp_path / f"n{deg}.json")]) == code
+        err = capsys.readouterr().err
+        if code:
+            assert err.count("\n") == 1 and "not at rest throughout" in err and "cut the static part" in err, err
+            turn, ta, tb, gyro = re.search(
+                r"turns by ([\d.]+)° between t = (\d+) s and (\d+) s.*?gyroscope turns by ([\d.]+)°", err
+            ).groups()
+            assert abs(float(turn) - 1.0) < 0.05 and 595 <= int(ta) <= 601 and 605 <= int(tb) <= 611, err
+            assert abs(float(gyro) - 1.0) < 0.15, err  # the gyro's noise over 10 s: ~0.02°, its bias drift more

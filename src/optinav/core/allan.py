@@ -1471,6 +1471,51 @@ def _check_still(name: str, acc: AngleAccumulator, t0: float, unit: str, step=No
     )
 
 
+#: a slow change of pose (:func:`_check_tilt`): gravity's direction in the accelerometer's 1-s means turning by
+#: at least TILT_MIN_DEG within TILT_SPAN_S, and by TILT_Z times the median such turn of the log. A 1° nudge over
+#: 10 s in a 40-min simulated rest gave the accelerometer K 2.9× the truth and a gyro B read-off, exit 0 (0.2°: K
+#: 7 % high); a rest's own noise and drift turn it by 0.01-0.02° in 10 s (an accelerometer random walk of
+#: 1e-3 m/s²/√s: 0.018°), a warm-up's bias ramp by far less
+TILT_MIN_DEG, TILT_SPAN_S, TILT_Z = 0.1, 10.0, 20.0
+
+
+def _check_tilt(angles: dict, units: dict, t0: float) -> None:
+    """Refuse a log at rest whose pose changes slowly — a nudge, a cable pulling, a base settling: too slow for the
+    jump check (:func:`_check_still`) and the spread check, it went into the Allan deviation as bias drift and random
+    walk. Judged on the direction of the accelerometer's 1-s means (any unit: an angle), turned through over
+    :data:`TILT_SPAN_S`; the gyroscope's turn there, when it is analysed too, is named beside it."""
+    acc = angles.get("accelerometer")
+    if acc is None:
+        return
+    dt = acc.dt
+    w = max(1, int(round(min(STILL_WINDOW_S, acc.n * dt / 16.0) / dt)))
+    nw = acc.n // w
+    lag = max(1, int(round(TILT_SPAN_S / (w * dt))))
+    if nw < 4 * lag:
+        return
+    A = np.diff(acc.theta()[: nw * w + 1 : w], axis=0) / (w * (dt if acc.kind == "rate" else 1.0)) + acc.offset
+    u = A / (np.linalg.norm(A, axis=1, keepdims=True) + 1e-300)
+    turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", u[lag:], u[:-lag]), -1.0, 1.0)))
+    i = int(np.argmax(turn))
+    if turn[i] < TILT_MIN_DEG or turn[i] < TILT_Z * float(np.median(turn)):
+        return
+    ta, tb = t0 + i * w * dt, t0 + (i + lag) * w * dt
+    gyro = ""
+    g = angles.get("gyroscope")
+    if g is not None and g.n == acc.n and g.kind == "rate" and units.get("gyroscope") in ("rad/s", "deg/s"):
+        phi = g.theta()[: nw * w + 1 : w]
+        d = phi[i + lag] - phi[i] - np.median(phi[lag:] - phi[:-lag], axis=0)  # less the rate it turns at throughout
+        turned = float(np.linalg.norm(d)) * (180.0 / math.pi if units["gyroscope"] == "rad/s" else 1.0)
+        gyro = f"; the gyroscope turns by {turned:.2g}° there"
+    raise OptinavError(
+        f"the sensor is not at rest throughout: gravity's direction turns by {turn[i]:.2g}° between t = {ta:.6g} s "
+        f"and {tb:.6g} s ({turn[i] / max(float(np.median(turn)), 1e-12):.0f}× its median turn in {lag * w * dt:.3g} s"
+        f"{gyro}; a nudge, a cable pulling, a base settling): the Allan deviation would take the tilt for drift",
+        f"cut the static part out of the log (before t = {ta:.6g} s or after t = {tb:.6g} s), or fix the sensor to "
+        "a stable base",
+    )
+
+
 #: how far the variance within one window may rise above the median window's in a log at rest: undisturbed rests
 #: (imucal's twelve poses, BROAD's three untouched ones, simulated hours of white + flicker + random walk + ramp +
 #: quantization) reach 3.7; BROAD's six rests touched in their first or last seconds reach 23-450 (their gyro N up
@@ -1648,6 +1693,7 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
         acc.set_dt(dt)
         _check_still(name, acc, timing.t0, units[name], spreads[name].q)
         spreads[name].check(name, timing.t0, dt, units[name])
+    _check_tilt(angles, units, timing.t0)
     gyro_rest.check(dt)  # after the jumps: one corrupted sample of 30 rad/s was taken for a log in deg/s
     out = {}
     kal = {}
