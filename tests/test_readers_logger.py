@@ -606,3 +606,31 @@ def test_rows_of_words_under_the_header_are_not_all_taken_for_labels(tmp_path):
     f = _w(tmp_path / "q.csv", '"t","ax","ay","az","gx","gy","gz"\n' + rows)
     with pytest.raises(OptinavError, match="line 3"):
         read_imu(f)
+
+
+def test_a_serial_capture_with_start_up_text_above_the_table_reads(tmp_path):
+    """An Arduino serial capture (MPU6050 example sketch): the sketch's start-up lines above the tab-separated
+    table, micros() times, raw counts. Was refused with "no column of numbers in the first data row ('MPU6050
+    connection successful', split at whitespace); check the delimiter option" although the delimiter was right.
+    Now the lines above the table are left out with a note; so is a row cut at the start of a headerless capture
+    (the serial monitor opened mid-line)."""
+    rng = np.random.default_rng(11)
+    n = 400
+    acc = rng.integers(-300, 300, (n, 3)) + [0, 0, 16384]
+    gyr = rng.integers(-40, 40, (n, 3))
+    rows = ["\t".join(map(str, [1_000_123 + 2500 * i, *acc[i], *gyr[i]])) for i in range(n)]
+    start = "Initializing I2C devices...\nTesting device connections...\nMPU6050 connection successful\n"
+    path = _w(tmp_path / "capture.txt", start + "micros\tax\tay\taz\tgx\tgy\tgz\n" + "\n".join(rows) + "\n")
+    log = read_imu(path, acc_unit="counts", gyro_unit="counts")
+    np.testing.assert_array_equal(log.acc, acc)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_allclose(np.diff(log.t), 0.0025, rtol=0, atol=1e-12)
+    assert any("3 line(s) above the table ('Initializing I2C devices...'" in x for x in log.notes), log.notes
+    cut = _w(tmp_path / "cut.txt", "ctions...\n3 -33 16384\n" + "\n".join(r.replace("\t", " ") for r in rows))
+    log = read_imu(cut, columns="t,ax,ay,az,gx,gy,gz", time_unit="us", acc_unit="counts", gyro_unit="counts")
+    np.testing.assert_array_equal(log.acc, acc)
+    assert any("2 line(s) above the table" in x for x in log.notes)
+    # a header with fewer names than the rows have fields is still taken for the header (and named)
+    short = _w(tmp_path / "short.csv", "t,ax,ay\n" + "".join(f"{i},1,2,3\n" for i in range(5)))
+    with pytest.raises(OptinavError, match="line 2 has 4 field"):
+        read_imu(short)

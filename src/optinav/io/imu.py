@@ -1000,6 +1000,8 @@ def _log_of(
     for p in parts:
         if "decimal_comma" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: decimal commas read as decimal points (',' is not its delimiter)")
+        if "banner_lines" in p.table.meta and row0 == 0:
+            notes.append(f"{p.path.name}: {p.table.meta['banner_lines']} were left out")
         if "text_left_out" in p.table.meta and row0 == 0:
             notes.append(
                 f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "

@@ -924,7 +924,12 @@ def _text_layout(
         if not given:
             given, delim = True, excel.group(1)
     preamble = _preamble(lines, content)
-    content = content[int(preamble.pop("_preamble_lines", 0)) :][:10]
+    content = content[int(preamble.pop("_preamble_lines", 0)) :]
+    banner = _banner(lines, content, delim if given else None, given)
+    if banner:
+        shown = _strip_comment(lines[content[0]]).strip()[:40]
+        preamble["banner_lines"] = f"{banner} line(s) above the table ({shown!r}{', …' if banner > 1 else ''})"
+    content = content[banner:][:10]
     sample = [_strip_comment(lines[i]) for i in content]
     if not given:
         delim = _sniff(sample)
@@ -1288,6 +1293,29 @@ def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
         _rate_entry(meta, k, v)
     meta["_preamble_lines"] = str(n)
     return meta
+
+
+def _banner(lines: list[str], content: list[int], delim: str | None, given: bool) -> int:
+    """How many leading ``content`` lines stand above the table with fewer fields than its rows: a serial
+    monitor's start-up text (``Initializing I2C devices...``), a row cut at the start of a capture. The table is
+    the first run of up to 5 lines splitting into the same number (≥ 2) of fields; a line of words right above
+    a headerless run stays (it is read as the header, as before). 0 when the first line fits."""
+    for s in range(min(len(content) - 1, _MAX_PREAMBLE + 1)):
+        block = [_strip_comment(lines[i]) for i in content[s : s + 5]]
+        d = delim if given else _sniff(block)
+        counts = {len(_split(x, d)) for x in block}
+        if len(counts) == 1 and (n := counts.pop()) >= 2:
+            break
+    else:
+        return 0
+    if s == 0:
+        return 0
+    head = [_split(_strip_comment(lines[i]), d) for i in content[: s + 1]]
+    if any(len(toks) >= n for toks in head[:s]):
+        return 0
+    if all(not _is_number(t) for t in head[s - 1]) and all(_is_number(t) for t in head[s]):
+        s -= 1  # a header with fewer names than the rows have fields: read as before
+    return s
 
 
 def _rate_entry(meta: dict[str, str], key: str, value: str) -> None:
