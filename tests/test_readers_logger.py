@@ -634,3 +634,46 @@ def test_a_serial_capture_with_start_up_text_above_the_table_reads(tmp_path):
     short = _w(tmp_path / "short.csv", "t,ax,ay\n" + "".join(f"{i},1,2,3\n" for i in range(5)))
     with pytest.raises(OptinavError, match="line 2 has 4 field"):
         read_imu(short)
+
+
+def _ardupilot_imu_csv(path, t_s, gyr, acc, inst):
+    """ArduPilot's IMU message as ``mavlogdump.py --format csv --types IMU`` writes it (pymavlink 2.4): the
+    wall-clock ``timestamp`` column it adds, then the message's fields (TimeUS in µs since boot, instance I, rad/s,
+    m/s², temperature T, …)."""
+    hdr = "timestamp,TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T,GH,AH,GHz,AHz"
+    rows = [
+        ",".join(
+            ["%.8f" % (1.7e9 + t_s[i]), str(round(t_s[i] * 1e6) + 61_000_000), str(inst[i])]
+            + [repr(float(v)) for v in (*gyr[i], *acc[i])]
+            + ["0", "0", "41.25", "1", "1", "400", "400"]
+        )
+        for i in range(len(t_s))
+    ]
+    return _w(path, "\n".join([hdr, *rows]) + "\n")
+
+
+def test_ardupilot_imu_csv_reads_its_time_and_refuses_interleaved_imus(tmp_path, capsys):
+    """mavlogdump's CSV of ArduPilot's IMU message was refused ("columns 'timestamp' and 'T' both look like 't'",
+    T being the temperature), and with the flag that error named (--columns t=timestamp) a log of two IMUs in
+    alternate rows (instance column I = 0, 1: every flight controller with two IMUs) was read as one 800 Hz log
+    with exit 0. Now TimeUS (µs) is the time, and several instances are refused, naming the export of one."""
+    n = 400
+    gyr, acc = _triads(12, n)
+    t = np.arange(n) / 400.0
+    one = _ardupilot_imu_csv(tmp_path / "00000012_IMU.csv", t, gyr, acc, [0] * n)
+    log = read_imu(one)
+    assert log.t[0] == pytest.approx(61.0, abs=1e-9)
+    np.testing.assert_allclose(np.diff(log.t), 0.0025, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_array_equal(log.acc, acc)
+    two_t = np.repeat(t, 2) + np.tile([0.0, 1e-4], n)
+    two = _ardupilot_imu_csv(
+        tmp_path / "00000013_IMU.csv", two_t, np.repeat(gyr, 2, 0), np.repeat(acc, 2, 0), [0, 1] * n
+    )
+    for cols in (None, "t=timestamp"):
+        with pytest.raises(OptinavError, match="column 'I' holds 2 IMU instances") as exc:
+            read_imu(two, columns=cols)
+        assert "--condition 'IMU.I==0'" in exc.value.remedy
+    code = main(["allan", str(two), "--out", str(tmp_path / "a.json"), "--chunk-rows", "100"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "IMU instances" in err[0]

@@ -138,6 +138,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         for n in (f"time_{unit}", f"t_{unit}", f"timestamp_{unit}", unit):
             al[n] = ("t", unit)
     al["millis"], al["micros"] = ("t", "ms"), ("t", "us")  # Arduino's clocks
+    al["timeus"] = ("t", "us")  # ArduPilot's DataFlash messages: TimeUS, µs since boot
     al["header_stamp"] = ("t", "ns")  # rostopic echo -p prints the header stamp in ns
     for n in (
         "n_samples",
@@ -562,6 +563,31 @@ def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> N
         implied.setdefault(key, "ns")
 
 
+def _ardupilot_imu(table: Table) -> set[str]:
+    """ArduPilot's IMU message as ``mavlogdump.py --format csv --types IMU`` writes it (``timestamp,TimeUS,I,
+    GyrX..GyrZ,AccX..AccZ,EG,EA,T,…``; rad/s, m/s²): its time is TimeUS (µs since boot); the names of the other
+    columns that look like a time (mavlogdump's wall clock ``timestamp``, the temperature ``T``) are returned to
+    be passed over. Several IMUs interleaved in the instance column ``I`` are refused: read as one log, their
+    rows alternate between sensors with exit 0."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if "timeus" not in norm or not all(f"{p}{a}" in norm for p in ("gyr", "acc") for a in "xyz"):
+        return set()
+    inst = norm.get("i")
+    if inst is not None and table.data[inst].dtype.kind == "f" and table.data[inst].ndim == 1:
+        ids = np.unique(table.data[inst][np.isfinite(table.data[inst])])
+        if ids.size > 1:
+            shown = ", ".join(f"{v:g}" for v in ids[:_MAX_IDS])
+            raise OptinavError(
+                f"{table.path.name}: column {inst!r} holds {ids.size} IMU instances ({shown}) in alternate rows; "
+                "read as one log they would mix the sensors",
+                "export one instance: mavlogdump.py --format csv --types IMU --condition 'IMU.I==0' LOG.bin",
+            )
+    return {norm[k] for k in ("t", "timestamp") if k in norm}
+
+
+_MAX_IDS = 8
+
+
 def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> None:
     """A ROS 2 stamp stored as two integer columns (``header.stamp.sec`` and ``header.stamp.nanosec``, a struct
     ``header {stamp {sec, nanosec}}`` flattened, or bare ``sec`` and ``nanosec``) becomes the time, ``sec +
@@ -617,8 +643,9 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         found[std] = (name, table.get(name))
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
+    passed_over = _ardupilot_imu(table)
     for key in table.data:
-        if key in mapped_sources or key in SKIP_NAMES:
+        if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
         hit = ALIASES.get(normalize_name(key)[0])
         if hit is None or hit[0] in found:
