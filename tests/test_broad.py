@@ -1298,3 +1298,59 @@ def test_axes_swapped_on_a_body_turning_about_the_vertical_are_named(name, senso
     with pytest.raises(Exception, match="the gyro axes look swapped or flipped") as exc:
         check_imu(gyr, acc, np.array([tr.dt]))
     assert words in str(exc.value) and "--columns" in exc.value.remedy
+
+
+def test_trial_02_in_loggers_layouts_gives_the_attitude_of_its_plain_csv(trial, tmp_path, capsys):
+    """BROAD trial 02 (40 s) rewritten as loggers write it: SensorLog's iOS CSV (Core Motion: minus the specific
+    force, in g, 6 decimals), ArduPilot's IMU CSV from mavlogdump (TimeUS in µs beside its wall clock and the
+    temperature T) and an Arduino serial capture (start-up text above a micros() table). `optinav attitude` on
+    each writes the attitude of the plain t,ax..gz CSV: was no accelerometer (iOS; with the columns mapped, roll
+    0.2 deg where the trial reads -179.8 deg, exit 0), 'timestamp' and 'T' both look like 't' (ArduPilot), 'no
+    column of numbers … check the delimiter option' (Arduino)."""
+    from optinav.cli.main import main
+
+    n, g0 = int(40 * trial.rate_hz), 9.80665
+    t, acc, gyr = np.arange(n) / trial.rate_hz, trial.acc[:n], trial.gyr[:n]
+    us = np.round(t * 1e6).astype(np.int64)
+    r = lambda v: repr(float(v))  # noqa: E731
+    layouts = {
+        "plain.csv": ["t,ax,ay,az,gx,gy,gz"] + [",".join(map(r, (t[i], *acc[i], *gyr[i]))) for i in range(n)],
+        "2021-01-17_10_34_00_my_iOS_device.csv": [
+            "loggingTime(txt),loggingSample(N),accelerometerTimestamp_sinceReboot(s),accelerometerAccelerationX(G),"
+            "accelerometerAccelerationY(G),accelerometerAccelerationZ(G),gyroTimestamp_sinceReboot(s),"
+            "gyroRotationX(rad/s),gyroRotationY(rad/s),gyroRotationZ(rad/s)"
+        ]
+        + [
+            ",".join(["2021-01-17T10:34:00.000+08:00", str(i), "%.6f" % (900 + t[i])])
+            + "".join(",%.6f" % v for v in -acc[i] / g0)
+            + ",%.6f" % (900 + t[i])
+            + "".join(",%.6f" % v for v in gyr[i])
+            for i in range(n)
+        ],
+        "00000002_IMU.csv": ["timestamp,TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T,GH,AH,GHz,AHz"]
+        + [
+            ",".join(["%.8f" % (1.6e9 + t[i]), str(us[i] + 50_000_000), "0", *map(r, gyr[i]), *map(r, acc[i])])
+            + ",0,0,41.25,1,1,286,286"
+            for i in range(n)
+        ],
+        "capture.txt": [
+            "Initializing I2C devices...",
+            "MPU6050 connection successful",
+            "micros\tax\tay\taz\tgx\tgy\tgz",
+        ]
+        + ["\t".join([str(us[i] + 123), *map(r, acc[i]), *map(r, gyr[i])]) for i in range(n)],
+    }
+    got = {}
+    for name, lines in layouts.items():
+        (tmp_path / name).write_text("\n".join(lines) + "\n")
+        out = tmp_path / f"att_{name}.csv"
+        code = main(["--quiet", "attitude", str(tmp_path / name), "--frame", "ENU", "--out", str(out)])
+        assert code == 0, (name, capsys.readouterr().err)
+        got[name] = np.loadtxt(out, delimiter=",", skiprows=1)
+    ref = got.pop("plain.csv")
+    assert ref.shape == (n, 8) and abs(ref[-1, 5]) < 1.0  # ENU roll of the trial near 0 (not 180°)
+    for name, q in got.items():
+        # the quaternions' angle apart: 6 decimals of g (iOS) move the heading by ~1e-3 deg, the rest by ~1e-7
+        ang = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q[:, 1:5] * ref[:, 1:5], 1)), 0, 1)))
+        assert q.shape == ref.shape and ang.max() < 0.01, (name, ang.max())
+        np.testing.assert_allclose(q[:, 0] - q[0, 0], ref[:, 0] - ref[0, 0], rtol=0, atol=1e-6)

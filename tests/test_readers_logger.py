@@ -677,3 +677,53 @@ def test_ardupilot_imu_csv_reads_its_time_and_refuses_interleaved_imus(tmp_path,
     code = main(["allan", str(two), "--out", str(tmp_path / "a.json"), "--chunk-rows", "100"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "IMU instances" in err[0]
+
+
+SENSORLOG_HEAD = (
+    "loggingTime(txt),loggingSample(N),accelerometerTimestamp_sinceReboot(s),accelerometerAccelerationX(G),"
+    "accelerometerAccelerationY(G),accelerometerAccelerationZ(G),gyroTimestamp_sinceReboot(s),gyroRotationX(rad/s),"
+    "gyroRotationY(rad/s),gyroRotationZ(rad/s),motionTimestamp_sinceReboot(s),motionRotationRateX(rad/s),"
+    "motionRotationRateY(rad/s),motionRotationRateZ(rad/s),motionUserAccelerationX(G),motionUserAccelerationY(G),"
+    "motionUserAccelerationZ(G),motionAttitudeReferenceFrame(txt),motionGravityX(G),motionGravityY(G),"
+    "motionGravityZ(G)"
+)
+
+
+def test_ios_core_motion_acceleration_is_read_as_the_specific_force(tmp_path, capsys):
+    """SensorLog's iOS CSV: Core Motion reports minus the specific force in g (a phone face up reads z = -1 g).
+    It was refused (no accelerometer), and with the columns mapped by name it was read as it stands, +1 g down:
+    attitude then wrote roll 0.2 deg for a BROAD trial at -179.8 deg, exit 0. Now the accelerometer (raw, or
+    userAcceleration + gravity without it) is negated with a note, the gyroscope and its time are found, and a
+    userAcceleration mapped alone (no gravity in it) is refused."""
+    n, g0 = 300, 9.80665
+    gyr, f = _triads(13, n)  # specific force, +9.81 m/s² up on z
+    cm = np.round(-f / g0, 6)  # what Core Motion logs
+    grav = np.round(-f.mean(0) / g0, 6)
+    user = np.round(cm - grav, 6)
+    rows = []
+    for i in range(n):
+        ts = 5000.0 + i / 100.0
+        rows.append(
+            ",".join(
+                ["2023-10-22T10:00:00.000+02:00", str(i), f"{ts:.6f}", *(f"{v:.6f}" for v in cm[i]), f"{ts + 1e-4:.6f}"]
+                + [repr(float(v)) for v in gyr[i]]
+                + [f"{ts + 2e-4:.6f}", *("0.0", "0.0", "0.0"), *(f"{v:.6f}" for v in user[i]), "XArbitraryZVertical"]
+                + [f"{v:.6f}" for v in grav]
+            )
+        )
+    path = _w(tmp_path / "2023-10-22_10_00_00_my_iOS_device.csv", "\n".join([SENSORLOG_HEAD, *rows]) + "\n")
+    columns = ",".join(f"a{a}=accelerometerAcceleration{a.upper()}(G)" for a in "xyz")
+    for log in (read_imu(path), read_imu(path, columns=columns + ",t=accelerometerTimestamp_sinceReboot(s)")):
+        np.testing.assert_allclose(log.acc, -cm * g0, rtol=0, atol=1e-12)
+        assert np.mean(log.acc[:, 2]) == pytest.approx(9.81, abs=0.01)  # up on z, as optinav's specific force
+        assert any("minus the specific force" in x for x in log.notes), log.notes
+    np.testing.assert_array_equal(read_imu(path).gyr, gyr)
+    np.testing.assert_allclose(read_imu(path).t, 5000.0 + np.arange(n) / 100.0, rtol=0, atol=1e-9)
+    split = tmp_path / "split.csv"
+    keep = [j for j, h in enumerate(SENSORLOG_HEAD.split(",")) if not h.startswith(("accelerometer", "gyro"))]
+    lines = [",".join(np.array(x.split(","))[keep]) for x in [SENSORLOG_HEAD, *rows]]
+    log = read_imu(_w(split, "\n".join(lines) + "\n"))
+    np.testing.assert_allclose(log.acc, -(user + grav) * g0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(log.t[0], 5000.0002, rtol=0, atol=1e-9)
+    with pytest.raises(OptinavError, match="Core Motion's userAcceleration .gravity taken out., not the"):
+        read_imu(path, columns=",".join(f"a{a}=motionUserAcceleration{a.upper()}(G)" for a in "xyz"))

@@ -588,6 +588,65 @@ def _ardupilot_imu(table: Table) -> set[str]:
 _MAX_IDS = 8
 
 
+#: iOS Core Motion's triads as SensorLog names them (normalized, axis letter after): the raw accelerometer and
+#: its device-motion split (userAcceleration + gravity, both in g), the raw and the device-motion gyroscope (rad/s)
+_CM_ACC, _CM_SPLIT, _CM_GYRO = "accelerometeracceleration", ("motionuseracceleration", "motiongravity"), "gyrorotation"
+_CM_NAMES = {_CM_SPLIT[0]: "userAcceleration (gravity taken out)", _CM_SPLIT[1]: "gravity"}
+_CM_TIME = {_CM_ACC: "accelerometertimestamp", _CM_SPLIT[0]: "motiontimestamp", _CM_GYRO: "gyrotimestamp"}
+
+
+def _coremotion(table: Table, found: dict, candidates: dict) -> None:
+    """iOS Core Motion as SensorLog logs it (``accelerometerAccelerationX(G)``, ``gyroRotationX(rad/s)``,
+    ``motionUserAccelerationX(G)``, ``motionGravityX(G)``, ``…Timestamp_sinceReboot(s)``). Core Motion's
+    acceleration is minus the specific force (a phone lying face up reads z = -1 g), so the accelerometer is
+    negated, a column mapped by name too; without the raw accelerometer it is -(userAcceleration + gravity). The
+    gyroscope is gyroRotation, else motionRotationRate; the time the accelerometer's (else the gyro's) stamp."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+
+    def triad(prefix: str) -> list[str] | None:
+        keys = [norm.get(prefix + a) for a in "xyz"]
+        return keys if all(keys) else None  # type: ignore[return-value]
+
+    done = []
+    for std in ("ax", "ay", "az"):
+        name, arr = found.get(std, (None, None))
+        base = None if name is None else normalize_name(name)[0]
+        if base and base[:-1] in _CM_SPLIT:
+            raise OptinavError(
+                f"{table.path.name}: {name!r} ({std}) is Core Motion's {_CM_NAMES[base[:-1]]}, not the accelerometer",
+                "map accelerometerAcceleration (X/Y/Z), or drop --columns: userAcceleration + gravity is summed",
+            )
+        if base and base[:-1] == _CM_ACC:
+            found[std] = (name, -arr)
+            done.append(name)
+    source = None
+    if not any(k in found or k in candidates for k in ("ax", "ay", "az", "acc")):
+        raw, user, grav = triad(_CM_ACC), triad(_CM_SPLIT[0]), triad(_CM_SPLIT[1])
+        if raw or (user and grav):
+            source = _CM_ACC if raw else _CM_SPLIT[0]
+            for a, key in zip("xyz", raw or user):
+                other = None if raw else grav["xyz".index(a)]  # type: ignore[index]
+                name = f"-{key}" if other is None else f"-({key} + {other})"
+                table.data[name] = -table.data[key] if other is None else -(table.data[key] + table.data[other])
+                unit = table.units.get(key) or normalize_name(key)[1]
+                if unit:
+                    table.units[name] = unit
+                candidates[f"a{a}"] = name
+                done.append(name)
+    gyro = None
+    if not any(k in found or k in candidates for k in ("gx", "gy", "gz", "gyro")):
+        gyro = triad(_CM_GYRO) or triad("motionrotationrate")
+        for a, key in zip("xyz", gyro or ()):
+            candidates[f"g{a}"] = key
+    if "t" not in found and "t" not in candidates:
+        src = source or (None if gyro is None else _CM_GYRO if triad(_CM_GYRO) else _CM_SPLIT[0])
+        t = None if src is None else norm.get(_CM_TIME[src] + "_sincereboot")
+        if t is not None:
+            candidates["t"] = t
+    if done:
+        table.meta["coremotion"] = ", ".join(done[:3]) + (" …" if len(done) > 3 else "")
+
+
 def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> None:
     """A ROS 2 stamp stored as two integer columns (``header.stamp.sec`` and ``header.stamp.nanosec``, a struct
     ``header {stamp {sec, nanosec}}`` flattened, or bare ``sec`` and ``nanosec``) becomes the time, ``sec +
@@ -660,6 +719,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         if hit[1]:
             implied[key] = hit[1]
     _kalibr_csv(table, found, candidates, implied)
+    _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
@@ -1029,6 +1089,11 @@ def _log_of(
             notes.append(f"{p.path.name}: decimal commas read as decimal points (',' is not its delimiter)")
         if "banner_lines" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: {p.table.meta['banner_lines']} were left out")
+        if "coremotion" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: Core Motion's acceleration is minus the specific force: read as "
+                f"{p.table.meta['coremotion']}"
+            )
         if "text_left_out" in p.table.meta and row0 == 0:
             notes.append(
                 f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "
