@@ -727,3 +727,31 @@ def test_ios_core_motion_acceleration_is_read_as_the_specific_force(tmp_path, ca
     np.testing.assert_allclose(log.t[0], 5000.0002, rtol=0, atol=1e-9)
     with pytest.raises(OptinavError, match="Core Motion's userAcceleration .gravity taken out., not the"):
         read_imu(path, columns=",".join(f"a{a}=motionUserAcceleration{a.upper()}(G)" for a in "xyz"))
+
+
+def test_phyphox_linear_acceleration_is_named_gravity_free(tmp_path, capsys):
+    """phyphox's "Linear Acceleration" export (gravity taken out by the phone) reads about 0 at rest in every
+    unit. allan said "declare the unit with --acc-unit (g, mg, m/s^2, counts)" and calibrate accel "raw counts?;
+    pass --acc-unit counts": flags that cannot help. Both now name the cause and the file to read instead; the
+    same export with gravity ("Acceleration x (m/s^2)", phyphox's comma/tab/semicolon variants) reads as is."""
+    rng = np.random.default_rng(14)
+    n = 3000
+    t = 0.0013 + np.arange(n) / 200.0
+    lin = rng.normal(0, 0.05, (n, 3))
+    head = '"Time (s)","Linear Acceleration x (m/s^2)","Linear Acceleration y (m/s^2)","Linear Acceleration z (m/s^2)"'
+    rows = [",".join("%.9E" % v for v in (t[i], *lin[i])) for i in range(n)]
+    path = _w(tmp_path / "Linear Acceleration.csv", "\n".join([head, *rows]) + "\n")
+    np.testing.assert_allclose(read_imu(path).acc, lin, rtol=1e-9, atol=0)
+    for cmd in (["allan"], ["calibrate", "accel"]):
+        code = main([*cmd, str(path), "--out", str(tmp_path / "r.json")])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and "gravity taken out?" in err[-1] and "TotalAcceleration.csv" in err[-1], err
+        assert "--acc-unit counts" not in err[-1] and "(g, mg, m/s^2, counts)" not in err[-1]
+    acc = lin + [0.1, 0.2, 9.8]
+    for sep, comma in ((",", False), ("\t", False), (";", True)):
+        cell = (lambda v: ("%.9E" % v).replace(".", ",")) if comma else (lambda v: "%.9E" % v)  # noqa: E731
+        head = sep.join(f'"{h}"' for h in ["Time (s)", *(f"Acceleration {a} (m/s^2)" for a in "xyz")])
+        body = "\n".join(sep.join(cell(v) for v in (t[i], *acc[i])) for i in range(n))
+        log = read_imu(_w(tmp_path / "Raw Data.csv", head + "\n" + body + "\n"))
+        np.testing.assert_allclose(log.acc, acc, rtol=1e-9, atol=0)
+        np.testing.assert_allclose(log.t, t, rtol=1e-9, atol=0)

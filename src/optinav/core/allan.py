@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optinav.core.results import Result
-from optinav.core.units import G_STANDARD
+from optinav.core.units import G_STANDARD, GRAVITY_OUT, GRAVITY_OUT_REMEDY
 from optinav.core.validate import as_float_array, check_positive
 from optinav.errors import OptinavError
 
@@ -1359,6 +1359,11 @@ class _AtRest:
             unit = "g" if 0.3 < mean < 3.0 else "mg" if 300.0 < mean < 3000.0 else None
             # whole numbers are a raw log's (2048 counts/g looked like mg, and --acc-unit mg then gave N 2× off)
             counts = self.whole and unit != "g"
+            if mean < 0.3 and not self.whole:
+                raise OptinavError(
+                    f"the accelerometer's mean norm is {mean:.3g} m/s², not about 9.8 at rest, in no unit; {GRAVITY_OUT}",
+                    GRAVITY_OUT_REMEDY,
+                )
             raise OptinavError(
                 f"the accelerometer's mean norm is {mean:.3g} m/s², not about 9.8 at rest"
                 + (f": it looks like {unit}" if unit else "")

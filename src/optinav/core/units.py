@@ -14,6 +14,12 @@ import numpy as np
 from optinav.errors import OptinavError
 
 G_STANDARD = 9.80665  #: m/s², standard gravity for unit conversion
+#: an accelerometer log that reads about 0 at rest in every unit: the cause, and what to do (one shared wording)
+GRAVITY_OUT = "gravity taken out? (a phone's linear or user acceleration reads about 0 at rest)"
+GRAVITY_OUT_REMEDY = (
+    "read the accelerometer with gravity (phyphox: Acceleration with g; Sensor Logger: TotalAcceleration.csv or "
+    "AccelerometerUncalibrated.csv); no --acc-unit makes up for it"
+)
 DEG = math.pi / 180.0  #: rad per degree
 ARCMIN = DEG / 60.0
 ARCSEC = DEG / 3600.0

@@ -24,7 +24,7 @@ import itertools
 
 import numpy as np
 
-from optinav.core.units import DEG, factor
+from optinav.core.units import DEG, GRAVITY_OUT, GRAVITY_OUT_REMEDY, factor
 from optinav.core.rotations import describe_permutation  # noqa: F401 - its home before core
 from optinav.errors import OptinavError, SwappedAxes
 
@@ -82,6 +82,11 @@ def nominal_acc_scale(unit: str, rest_norm: float, g: float) -> float:
     return rest_norm / g if unit == "counts" else 1.0 / factor(unit)
 
 
+#: a raw accelerometer reads g as more counts than this (8-bit at ±16 g: 8); a norm at rest below it that no unit
+#: makes g is an acceleration with gravity taken out
+FEW_COUNTS = 5.0
+
+
 def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-unit") -> None:
     """One-line error when the rest norm (in ``unit``) contradicts g: names the likely unit."""
     if unit == "counts" or not np.isfinite(rest_norm):
@@ -90,6 +95,12 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
     if 1 / UNIT_TOL < si / g < UNIT_TOL:
         return
     likely = [u for u in _ACC_UNITS if 1 / UNIT_TOL < rest_norm * factor(u) / g < UNIT_TOL]
+    if not likely and si < g / UNIT_TOL and rest_norm < FEW_COUNTS:
+        raise OptinavError(
+            f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): no unit makes "
+            f"that g and it is too small for counts; {GRAVITY_OUT}",
+            GRAVITY_OUT_REMEDY,
+        )
     guess = likely[0] if likely else "counts"
     what = "raw counts?" if guess == "counts" else f"data in {guess}?"
     raise OptinavError(
