@@ -755,3 +755,29 @@ def test_phyphox_linear_acceleration_is_named_gravity_free(tmp_path, capsys):
         log = read_imu(_w(tmp_path / "Raw Data.csv", head + "\n" + body + "\n"))
         np.testing.assert_allclose(log.acc, acc, rtol=1e-9, atol=0)
         np.testing.assert_allclose(log.t, t, rtol=1e-9, atol=0)
+
+
+def test_sensor_logger_files_name_their_sensor_and_read_time_in_ns(tmp_path, capsys):
+    """Sensor Logger (Android/iOS) writes one file per sensor: time (ns since the epoch), seconds_elapsed, then
+    z, y, x. The error listed every standard name ("pass --columns 't,ax,ay,az,gx,gy,gz'"); now it names the
+    mapping of x, y, z for either sensor. Mapped, the time was read as seconds (refused: "pass --time-unit ns");
+    beside seconds_elapsed it is ns, and the axes come in x, y, z order whatever the columns' order."""
+    n, t0 = 500, 1698000000123456789
+    gyr, acc = _triads(15, n)
+    text = {}
+    for name, tri in (("Gyroscope.csv", gyr), ("TotalAcceleration.csv", acc)):
+        rows = [
+            f"{t0 + 5_000_000 * i},{5_000_000 * i / 1e9!r}," + ",".join(map(repr, tri[i][::-1].tolist()))
+            for i in range(n)
+        ]
+        text[name] = _w(tmp_path / name, "time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
+    code = main(["allan", str(text["Gyroscope.csv"]), "--out", str(tmp_path / "a.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "columns z, y, x do not say which sensor" in err[0] and "'gx=x,gy=y,gz=z' for a gyroscope" in err[0]
+    g = read_imu(text["Gyroscope.csv"], columns="gx=x,gy=y,gz=z")
+    a = read_imu(text["TotalAcceleration.csv"], columns="ax=x,ay=y,az=z")
+    np.testing.assert_array_equal(g.gyr, gyr)
+    np.testing.assert_array_equal(a.acc, acc)
+    assert g.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
+    np.testing.assert_allclose(np.diff(a.t), 0.005, rtol=0, atol=1e-6)

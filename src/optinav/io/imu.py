@@ -719,6 +719,10 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         if hit[1]:
             implied[key] = hit[1]
     _kalibr_csv(table, found, candidates, implied)
+    if "seconds_elapsed" in {normalize_name(k)[0] for k in table.data}:
+        key = candidates.get("t")  # Sensor Logger: time in ns since the epoch beside seconds_elapsed
+        if key is not None and normalize_name(key)[0] == "time":
+            implied.setdefault(key, "ns")
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
     for std, key in candidates.items():
@@ -811,6 +815,14 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
         names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
+        bare = {normalize_name(k)[0]: k for k in table.data if normalize_name(k)[0] in ("x", "y", "z")}
+        if len(bare) == 3:
+            # one sensor per file, its axes named x, y, z (Sensor Logger, many phone apps): which sensor is unsaid
+            pairs = ",".join(f"{{0}}{a}={bare[a]}" for a in "xyz")
+            raise OptinavError(
+                f"{part.path.name}: columns {', '.join(bare.values())} do not say which sensor they hold",
+                f"name it: columns='{pairs.format('a')}' for an accelerometer, '{pairs.format('g')}' for a gyroscope",
+            )
         raise OptinavError(
             f"{part.path.name} has no {kind} data ({names}; found: {table.names()})",
             "use standard names or aliases in the header, or pass columns='t,ax,ay,az,gx,gy,gz' "
