@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from optinav.cli.main import main
 from optinav.errors import OptinavError
 from optinav.io import iter_imu, read_imu
+from optinav.core.results import Result
 from optinav.multipos.result import CalibrationResult
 from optinav.multipos.simulate import simulate
 
@@ -305,7 +306,8 @@ def test_rostopic_echo_csv_reads_with_header_stamps(tmp_path):
 
 def test_px4_sensor_combined_and_arduino_millis_read(tmp_path):
     """PX4's sensor_combined as pyulog's ulog2csv writes it (gyro_rad[0..2], accelerometer_m_s2[0..2], timestamp
-    in µs since boot: --time-unit us, which the error names) and an Arduino log with a millis() column."""
+    in µs since boot, read as µs: see test_px4_vehicle_imu_increments_read_as_rates) and an Arduino log with a
+    millis() column."""
     n = 300
     gyr, acc = _triads(8, n, down=-9.81)
     hdr = "timestamp,gyro_rad[0],gyro_rad[1],gyro_rad[2],gyro_integral_dt,accelerometer_timestamp_relative,"
@@ -317,12 +319,10 @@ def test_px4_sensor_combined_and_arduino_millis_read(tmp_path):
         for i in range(n)
     ]
     px4 = _w(tmp_path / "log_0_sensor_combined_0.csv", "\n".join([hdr, *rows]) + "\n")
-    with pytest.raises(OptinavError, match="pass --time-unit us"):
-        read_imu(px4)
-    log = read_imu(px4, time_unit="us")
-    np.testing.assert_allclose(np.diff(log.t), 0.004, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(log.gyr, gyr)
-    np.testing.assert_array_equal(log.acc, acc)
+    for log in (read_imu(px4), read_imu(px4, time_unit="us")):  # µs as ulog2csv writes it (was: --time-unit us)
+        np.testing.assert_allclose(np.diff(log.t), 0.004, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(log.gyr, gyr)
+        np.testing.assert_array_equal(log.acc, acc)
     ard = _w(tmp_path / "ard.csv", "millis,ax,ay,az\n" + "".join(f"{1000 + i},{i % 7},0,1000\n" for i in range(n)))
     np.testing.assert_allclose(np.diff(read_imu(ard, acc_unit="counts").t), 0.001, rtol=0, atol=1e-12)
 
@@ -781,3 +781,37 @@ def test_sensor_logger_files_name_their_sensor_and_read_time_in_ns(tmp_path, cap
     np.testing.assert_array_equal(a.acc, acc)
     assert g.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
     np.testing.assert_allclose(np.diff(a.t), 0.005, rtol=0, atol=1e-6)
+
+
+def test_px4_vehicle_imu_increments_read_as_rates(tmp_path, capsys):
+    """PX4's vehicle_imu from ulog2csv: delta_angle[0..2] (rad) and delta_velocity[0..2] (m/s) over
+    delta_angle_dt / delta_velocity_dt (µs), stamped by timestamp_sample (µs). Was refused (no accelerometer or
+    gyroscope, no option helped), and sensor_combined needed --time-unit us; now the increments over their periods
+    are the rates, the sample stamp the time, with no option, through `optinav allan` too."""
+    n = 4000
+    gyr, acc = _triads(16, n, down=-9.81)
+    dt = np.where(np.arange(n) % 7 == 3, 4001, 3999)  # µs: the integration period varies a little
+    stamp = 12_000_000 + np.cumsum(dt)
+    hdr = "timestamp,timestamp_sample,accel_device_id,gyro_device_id,delta_angle[0],delta_angle[1],delta_angle[2],"
+    hdr += "delta_velocity[0],delta_velocity[1],delta_velocity[2],delta_angle_dt,delta_velocity_dt,"
+    hdr += "delta_angle_clipping,delta_velocity_clipping,accel_calibration_count,gyro_calibration_count"
+    rows = [
+        ",".join(
+            [str(stamp[i] + 250), str(stamp[i]), "2490378", "2490634"]
+            + [repr(float(v)) for v in (*(gyr[i] * dt[i] * 1e-6), *(acc[i] * dt[i] * 1e-6))]
+            + [str(dt[i]), str(dt[i]), "0", "0", "1", "1"]
+        )
+        for i in range(n)
+    ]
+    path = _w(tmp_path / "log_3_2024-5-1-10-00-00_vehicle_imu_0.csv", "\n".join([hdr, *rows]) + "\n")
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t, stamp * 1e-6, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(log.gyr, gyr, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(log.acc, acc, rtol=1e-12, atol=1e-15)
+    code = main(["--quiet", "allan", str(path), "--out", str(tmp_path / "a.json")])
+    assert code == 0, capsys.readouterr().err
+    res = Result.from_json(tmp_path / "a.json")
+    assert res.rate_hz == pytest.approx(1e6 / dt.mean(), rel=1e-3)
+    for sensor, sigma in (("accelerometer", 0.02), ("gyroscope", 0.002)):  # white noise N = σ/√rate
+        fit = res.sensor(sensor)["fit"]
+        assert np.all(np.abs(fit.white - sigma / np.sqrt(res.rate_hz)) <= 3.0 * fit.white_std), (sensor, fit.white)

@@ -588,6 +588,37 @@ def _ardupilot_imu(table: Table) -> set[str]:
 _MAX_IDS = 8
 
 
+def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
+    """PX4's uORB topics as pyulog's ``ulog2csv`` writes them (``log_0_sensor_combined_0.csv``,
+    ``…_vehicle_imu_0.csv``): ``timestamp`` and ``timestamp_sample`` are µs since boot (the sample's stamp is the
+    time where there is one). vehicle_imu holds increments over its integration period: ``delta_angle[0..2]`` (rad)
+    over ``delta_angle_dt`` and ``delta_velocity[0..2]`` (m/s) over ``delta_velocity_dt`` (µs) become the mean
+    rate and specific force of each period."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    inc = {
+        kind: ([norm.get(f"{name}_{a}") for a in "xyz"], norm.get(f"{name}_dt"))
+        for kind, name in (("g", "delta_angle"), ("a", "delta_velocity"))
+    }
+    combined = any(all(f"{p}_{a}" in norm for a in "xyz") for p in ("gyro_rad", "accelerometer_m_s2"))
+    imu = any(all(keys) and dt for keys, dt in inc.values())
+    if not (combined or imu):
+        return
+    for kind, (keys, dt) in inc.items():
+        if not (all(keys) and dt) or any(f"{kind}{a}" in found or f"{kind}{a}" in candidates for a in "xyz"):
+            continue
+        period = table.data[dt] * 1e-6
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for a, key in zip("xyz", keys):
+                name = f"{key} / {dt}"
+                table.data[name] = np.where(period > 0, table.data[key] / period, np.nan)
+                candidates[f"{kind}{a}"] = name
+    if "t" not in found:
+        key = norm.get("timestamp_sample") or norm.get("timestamp")
+        if key is not None and candidates.get("t", key) in (key, norm.get("timestamp")):
+            candidates["t"] = key
+            implied.setdefault(key, "us")
+
+
 #: iOS Core Motion's triads as SensorLog names them (normalized, axis letter after): the raw accelerometer and
 #: its device-motion split (userAcceleration + gravity, both in g), the raw and the device-motion gyroscope (rad/s)
 _CM_ACC, _CM_SPLIT, _CM_GYRO = "accelerometeracceleration", ("motionuseracceleration", "motiongravity"), "gyrorotation"
@@ -719,6 +750,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         if hit[1]:
             implied[key] = hit[1]
     _kalibr_csv(table, found, candidates, implied)
+    _px4(table, found, candidates, implied)
     if "seconds_elapsed" in {normalize_name(k)[0] for k in table.data}:
         key = candidates.get("t")  # Sensor Logger: time in ns since the epoch beside seconds_elapsed
         if key is not None and normalize_name(key)[0] == "time":
