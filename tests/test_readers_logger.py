@@ -815,3 +815,25 @@ def test_px4_vehicle_imu_increments_read_as_rates(tmp_path, capsys):
     for sensor, sigma in (("accelerometer", 0.02), ("gyroscope", 0.002)):  # white noise N = σ/√rate
         fit = res.sensor(sensor)["fit"]
         assert np.all(np.abs(fit.white - sigma / np.sqrt(res.rate_hz)) <= 3.0 * fit.white_std), (sensor, fit.white)
+
+
+def test_rows_ending_in_a_delimiter_under_a_header_that_does_not(tmp_path):
+    """An Arduino sketch printing Serial.print(v); Serial.print(",") for every value ends each row in a comma
+    (CRLF from println) under a header printed without one: was "line 2 has 8 field(s), 7 expected (too long or
+    ragged row)" for every file; the empty last column is now left aside, as when the header ends in a comma too.
+    A row that is really longer is still named."""
+    rng = np.random.default_rng(17)
+    n = 600
+    acc = rng.integers(-200, 200, (n, 3)) + [0, 0, 16384]
+    gyr = rng.integers(-30, 30, (n, 3))
+    rows = "".join(",".join(map(str, [5 * i, *acc[i], *gyr[i]])) + ",\r\n" for i in range(n))
+    path = _w(tmp_path / "LOG00042.CSV", "ms,ax,ay,az,gx,gy,gz\r\n" + rows)
+    for log in (read_imu(path, acc_unit="counts", gyro_unit="counts"),):
+        np.testing.assert_array_equal(log.acc, acc)
+        np.testing.assert_array_equal(log.gyr, gyr)
+        np.testing.assert_allclose(log.t, 0.005 * np.arange(n), rtol=0, atol=1e-12)
+    blocks = list(iter_imu(path, acc_unit="counts", gyro_unit="counts", chunk_rows=100))
+    np.testing.assert_array_equal(np.concatenate([b.acc for b in blocks]), acc)
+    bad = _w(tmp_path / "bad.csv", "ms,ax,ay,az\n" + "".join(f"{i},1,2,3,\n" for i in range(20)) + "20,1,2,3,4,5\n")
+    with pytest.raises(OptinavError, match="line 22"):
+        read_imu(bad, acc_unit="counts")

@@ -960,6 +960,12 @@ def _text_layout(
         cand = _split(comments[-1], delim)
         if len(cand) == len(toks0) > 1 and all(t and not _is_number(t) for t in cand):
             header = cand
+    if header is not None and names is None and delim is not None and header[-1] != "":
+        # rows ending in a delimiter under a header that does not (an Arduino sketch's Serial.print(",") after
+        # every value): an empty last column, as when the header ends in one too
+        rows = [_split(x, delim) for i, x in zip(content, sample) if i >= start]
+        if rows and all(len(r) == len(header) + 1 and r[-1] == "" for r in rows):
+            header = [*header, ""]
     ncol = len(header) if header is not None else len(toks0)
     if names is not None:
         if len(names) != ncol:
