@@ -837,3 +837,42 @@ def test_rows_ending_in_a_delimiter_under_a_header_that_does_not(tmp_path):
     bad = _w(tmp_path / "bad.csv", "ms,ax,ay,az\n" + "".join(f"{i},1,2,3,\n" for i in range(20)) + "20,1,2,3,4,5\n")
     with pytest.raises(OptinavError, match="line 22"):
         read_imu(bad, acc_unit="counts")
+
+
+def test_lines_of_named_values_as_arduino_sketches_print_them(tmp_path, capsys):
+    """The classic MPU-6050 sketch prints 'AcX = -1234 | AcY = 56 | … | Tmp = 36.53 | GyX = …' and the Arduino
+    Serial Plotter reads 'ax:12,ay:5,…': refused as "the header names column '=' twice" (and one such line under
+    start-up text was taken for a key: value preamble). The names are now the columns (AcX/GyX as ax/gx), a
+    start-up line above them is left out, a garbled line further down is named; read whole and in blocks."""
+    rng = np.random.default_rng(18)
+    n = 600
+    acc = rng.integers(-200, 200, (n, 3)) + [0, 0, 16384]
+    gyr = rng.integers(-30, 30, (n, 3))
+    mpu = "".join(
+        f"AcX = {acc[i, 0]} | AcY = {acc[i, 1]} | AcZ = {acc[i, 2]} | Tmp = 36.53 | "
+        f"GyX = {gyr[i, 0]} | GyY = {gyr[i, 1]} | GyZ = {gyr[i, 2]}\n"
+        for i in range(n)
+    )
+    plot = "".join(
+        f"t:{5 * i},ax:{acc[i, 0]},ay:{acc[i, 1]},az:{acc[i, 2]},gx:{gyr[i, 0]},gy:{gyr[i, 1]},gz:{gyr[i, 2]}\r\n"
+        for i in range(n)
+    )
+    counts = {"acc_unit": "counts", "gyro_unit": "counts"}
+    for name, text, kw in (
+        ("mpu.txt", mpu, {"rate_hz": 200.0}),
+        ("boot.txt", "MPU6050 connection successful\n" + mpu, {"rate_hz": 200.0}),
+        ("plotter.txt", plot, {"time_unit": "ms"}),
+    ):
+        path = _w(tmp_path / name, text)
+        for log in (read_imu(path, **counts, **kw), *iter_imu(path, **counts, **kw, chunk_rows=10**6)):
+            np.testing.assert_array_equal(log.acc, acc)
+            np.testing.assert_array_equal(log.gyr, gyr)
+            np.testing.assert_allclose(log.t, 0.005 * np.arange(n), rtol=0, atol=1e-12)
+        blocks = list(iter_imu(path, **counts, **kw, chunk_rows=100))
+        np.testing.assert_array_equal(np.concatenate([b.gyr for b in blocks]), gyr)
+    code = main(["allan", str(tmp_path / "mpu.txt"), "--out", str(tmp_path / "a.json")])
+    assert code == 2 and "pass --rate HZ" in capsys.readouterr().err
+    lines = mpu.splitlines(keepends=True)
+    bad = _w(tmp_path / "reset.txt", "".join(lines[:300] + ["MPU6050 reset!\n"] + lines[300:]))
+    with pytest.raises(OptinavError, match="line 301 has 1 field"):
+        read_imu(bad, **counts, rate_hz=200.0)

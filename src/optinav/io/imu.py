@@ -173,6 +173,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "linear_acceleration",
         "imu_acc",
         "accelerometer_m_s2",  # PX4 sensor_combined (pyulog's CSV)
+        "ac",  # the classic MPU-6050 Arduino sketch: AcX = … | GyX = …
     )
     gyro_prefix = (
         "g",
@@ -190,6 +191,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "imu_gyro",
         "imu_gyr",  # BROAD's datasets
         "gyro_rad",  # PX4 sensor_combined (pyulog's CSV)
+        "gy",
     )
     for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
         for p in prefixes:

@@ -884,6 +884,7 @@ class _Layout:
     dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
     loose: set[int] = dataclasses.field(default_factory=set)  # columns nobody reads: a text cell there is NaN
     comma: bool = False  # decimal commas (a ';' or tab file from a German or French Excel): read as points
+    labelled: tuple[str, ...] | None = None  # 'name = value | …' lines: the names, in order (see _labelled)
 
 
 #: Excel's first line naming the delimiter ("sep=;" or "sep=<tab>", quoted or not)
@@ -931,6 +932,9 @@ def _text_layout(
         preamble["banner_lines"] = f"{banner} line(s) above the table ({shown!r}{', …' if banner > 1 else ''})"
     content = content[banner:][:10]
     sample = [_strip_comment(lines[i]) for i in content]
+    pairs = [_labelled(x) for x in sample[:3]]
+    if pairs[0] is not None and all(p is not None and p[0] == pairs[0][0] for p in pairs):
+        return _labelled_layout(path, pairs[0][0], names, content[0], preamble)
     if not given:
         delim = _sniff(sample)
     # decimal commas: only where ',' is not the delimiter, and only when some cell is a decimal-comma number
@@ -1034,6 +1038,54 @@ def _text_layout(
     return _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose, comma)
 
 
+#: one ``name = value`` or ``name: value`` pair of a labelled line (an Arduino sketch's Serial.print output)
+_PAIR = re.compile(r"([A-Za-z_][\w.\[\]()/^-]*)\s*[=:]\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)(?![\w.])")
+#: what may stand between the pairs of a labelled line
+_PAIR_GAP = re.compile(r"^[\s|,;\t]*$")
+
+
+def _labelled(line: str) -> tuple[tuple[str, ...], list[str]] | None:
+    """(names, values) of a line made only of ``name = value`` / ``name: value`` pairs (at least two; between
+    them ``|``, ``,``, ``;`` or white space): the classic MPU-6050 sketch's ``AcX = -1234 | AcY = 56 | …``, the
+    Arduino Serial Plotter's ``ax:12,ay:5``; None for any other line."""
+    pairs, end = [], 0
+    for m in _PAIR.finditer(line):
+        if not _PAIR_GAP.match(line[end : m.start()]):
+            return None
+        pairs.append(m)
+        end = m.end()
+    if len(pairs) < 2 or not _PAIR_GAP.match(line[end:]):
+        return None
+    return tuple(m.group(1) for m in pairs), [m.group(2) for m in pairs]
+
+
+def _unlabel(line: str, names: tuple[str, ...]) -> str:
+    """A labelled line with ``names`` as its comma-separated values; any other line as it is (a ragged or text row
+    is then named at its own line)."""
+    got = _labelled(line) if ("=" in line or ":" in line) else None
+    return ",".join(got[1]) if got is not None and got[0] == names else line
+
+
+def _labelled_layout(path: Path, labels: tuple[str, ...], names, start: int, meta: dict[str, str]) -> _Layout:
+    """The layout of lines of ``name = value`` pairs from ``start`` on: the names are the columns (or ``names``)."""
+    if len(set(labels)) != len(labels):
+        raise OptinavError(
+            f"{path.name}: its lines name {', '.join(sorted({x for x in labels if labels.count(x) > 1}))} twice",
+            "give each value its own name",
+        )
+    if names is not None and len(names) != len(labels):
+        raise OptinavError(
+            f"columns names {len(names)} column(s) but the lines of {path.name} hold {len(labels)} ({', '.join(labels)})",
+            "give one name per value in order, '_' to skip one",
+        )
+    colnames = list(names) if names is not None else list(labels)
+    units = {h: u for h in colnames if (u := normalize_name(h)[1])}
+    keep = [j for j, n in enumerate(colnames) if n not in SKIP_NAMES]
+    if not keep:
+        raise OptinavError("columns skips every column", "name at least one column")
+    return _Layout(",", colnames, units, dict(meta), start, keep, set(), labelled=labels)
+
+
 def _points(line: str, delim: str | None) -> str:
     """``line`` with its decimal-comma numbers written with points (other cells as they are)."""
     if "," not in line:
@@ -1058,6 +1110,8 @@ def _parse_block(
     line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
     the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
     newline (only the block holding it passes False)."""
+    if lay.labelled:  # 'AcX = 12 | AcY = 5' → '12,5' where the names are the layout's (other lines as they are)
+        lines = lines[:start] + [_unlabel(x, lay.labelled) for x in lines[start:]]
     if lay.comma:  # ',' is not the delimiter: every comma in a data line is a decimal one (labels' too)
         lines = lines[:start] + [x.replace(",", ".") for x in lines[start:]]
     data = _parse_fast(lines, start, lay.delim, len(lay.colnames), lay.keep, lay.textable)
@@ -1285,7 +1339,7 @@ def _preamble(lines: list[str], content: list[int]) -> dict[str, str]:
     n = 0
     for i in content[:-1]:
         m = _KEY_VALUE.match(_strip_comment(lines[i]))
-        if not m or _is_number(m.group(1)):
+        if not m or _is_number(m.group(1)) or _labelled(lines[i]) is not None:  # 'AcX = 1 | AcY = 2' is a row
             break
         out[m.group(1).strip()] = m.group(2)
         n += 1
