@@ -677,6 +677,24 @@ def test_ardupilot_imu_csv_reads_its_time_and_refuses_interleaved_imus(tmp_path,
     code = main(["allan", str(two), "--out", str(tmp_path / "a.json"), "--chunk-rows", "100"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "IMU instances" in err[0]
+    # the high-rate ACC message (batch sampling): SampleUS is each sample's time, TimeUS the batch's; two
+    # instances were read as one log with exit 0 (the IMU check did not look at ACC/GYR)
+    for insts in ([0], [0, 1]):
+        rows = [
+            f"{1.6e9 + i / 1e3 + k * 1e-5:.8f},{5_000_000 + i // 10 * 10_000 + k},{k},{5_000_000 + i * 1000 + 3 * k},"
+            + ",".join(map(repr, acc[i % n].tolist()))
+            for i in range(2 * n)
+            for k in insts
+        ]
+        path = _w(tmp_path / f"ACC{len(insts)}.csv", "timestamp,TimeUS,I,SampleUS,AccX,AccY,AccZ\n" + "\n".join(rows))
+        if len(insts) == 1:
+            log = read_imu(path)
+            np.testing.assert_allclose(log.t, 5.0 + np.arange(2 * n) / 1e3, rtol=0, atol=1e-9)
+            np.testing.assert_array_equal(log.acc[:n], acc)
+        else:
+            with pytest.raises(OptinavError, match="holds 2 IMU instances") as exc:
+                read_imu(path)
+            assert "--types ACC --condition 'ACC.I==0'" in exc.value.remedy
 
 
 SENSORLOG_HEAD = (

@@ -138,7 +138,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         for n in (f"time_{unit}", f"t_{unit}", f"timestamp_{unit}", unit):
             al[n] = ("t", unit)
     al["millis"], al["micros"] = ("t", "ms"), ("t", "us")  # Arduino's clocks
-    al["timeus"] = ("t", "us")  # ArduPilot's DataFlash messages: TimeUS, µs since boot
+    al["timeus"] = al["sampleus"] = ("t", "us")  # ArduPilot's DataFlash messages: TimeUS, SampleUS (µs since boot)
     al["header_stamp"] = ("t", "ns")  # rostopic echo -p prints the header stamp in ns
     for n in (
         "n_samples",
@@ -566,25 +566,28 @@ def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> N
 
 
 def _ardupilot_imu(table: Table) -> set[str]:
-    """ArduPilot's IMU message as ``mavlogdump.py --format csv --types IMU`` writes it (``timestamp,TimeUS,I,
-    GyrX..GyrZ,AccX..AccZ,EG,EA,T,…``; rad/s, m/s²): its time is TimeUS (µs since boot); the names of the other
-    columns that look like a time (mavlogdump's wall clock ``timestamp``, the temperature ``T``) are returned to
-    be passed over. Several IMUs interleaved in the instance column ``I`` are refused: read as one log, their
-    rows alternate between sensors with exit 0."""
+    """ArduPilot's IMU, ACC and GYR messages as ``mavlogdump.py --format csv --types IMU`` writes them
+    (``timestamp,TimeUS,I,GyrX..GyrZ,AccX..AccZ,EG,EA,T,…``; ACC/GYR: ``timestamp,TimeUS,I,SampleUS,AccX..``; rad/s,
+    m/s²): the time is SampleUS where there is one, else TimeUS (µs since boot); the names of the other columns
+    that look like a time (mavlogdump's wall clock ``timestamp``, the temperature ``T``, TimeUS beside SampleUS)
+    are returned to be passed over. Several IMUs interleaved in the instance column ``I`` are refused: read as
+    one log, their rows alternate between sensors with exit 0."""
     norm = {normalize_name(k)[0]: k for k in table.data}
-    if "timeus" not in norm or not all(f"{p}{a}" in norm for p in ("gyr", "acc") for a in "xyz"):
+    triads = [p for p in ("gyr", "acc") if all(f"{p}{a}" in norm for a in "xyz")]
+    if "timeus" not in norm or not triads:
         return set()
     inst = norm.get("i")
     if inst is not None and table.data[inst].dtype.kind == "f" and table.data[inst].ndim == 1:
         ids = np.unique(table.data[inst][np.isfinite(table.data[inst])])
         if ids.size > 1:
             shown = ", ".join(f"{v:g}" for v in ids[:_MAX_IDS])
+            msg = "IMU" if len(triads) == 2 else triads[0].upper()
             raise OptinavError(
                 f"{table.path.name}: column {inst!r} holds {ids.size} IMU instances ({shown}) in alternate rows; "
                 "read as one log they would mix the sensors",
-                "export one instance: mavlogdump.py --format csv --types IMU --condition 'IMU.I==0' LOG.bin",
+                f"export one instance: mavlogdump.py --format csv --types {msg} --condition '{msg}.I==0' LOG.bin",
             )
-    return {norm[k] for k in ("t", "timestamp") if k in norm}
+    return {norm[k] for k in ("t", "timestamp", "timeus" if "sampleus" in norm else "") if k in norm}
 
 
 _MAX_IDS = 8
