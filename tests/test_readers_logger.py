@@ -894,3 +894,32 @@ def test_lines_of_named_values_as_arduino_sketches_print_them(tmp_path, capsys):
     bad = _w(tmp_path / "reset.txt", "".join(lines[:300] + ["MPU6050 reset!\n"] + lines[300:]))
     with pytest.raises(OptinavError, match="line 301 has 1 field"):
         read_imu(bad, **counts, rate_hz=200.0)
+
+
+def test_rostopic_csv_of_two_imus_on_one_topic_is_refused(tmp_path, capsys):
+    """`rostopic echo -p` of a topic on which two IMUs publish (field.header.frame_id imu_a, imu_b alternating):
+    the frame id was left out as text and the rows read as one log at twice the rate, exit 0 from the reader (the
+    commands then named the time unit or '--rate' with the time column skipped, which mixes the sensors in
+    silence). Now it is refused naming the frames; a frame_id that changes once (a driver restarted) is read."""
+    n, t0 = 300, 1403636579758555392
+    gyr, acc = _triads(19, 2 * n)
+    hdr = "%time,field.header.seq,field.header.stamp,field.header.frame_id,"
+    hdr += ",".join(f"field.{f}.{a}" for f in ("angular_velocity", "linear_acceleration") for a in "xyz")
+
+    def write(name, frames):
+        rows = [
+            f"{t0 + i * 2_500_000 + 4321},{i},{t0 + i * 2_500_000},{frames[i]},"
+            + ",".join(map(repr, (*gyr[i].tolist(), *acc[i].tolist())))
+            for i in range(2 * n)
+        ]
+        return _w(tmp_path / name, hdr + "\n" + "\n".join(rows) + "\n")
+
+    two = write("two.csv", ["imu_a", "imu_b"] * n)
+    with pytest.raises(OptinavError, match="holds 2 sensor frames \\('imu_a', 'imu_b'\\)") as exc:
+        read_imu(two)
+    assert "--topic TOPIC@FRAME" in exc.value.remedy
+    code = main(["attitude", str(two), "--chunk-rows", "100", "--out", str(tmp_path / "q.csv")])
+    assert code == 2 and "sensor frames" in capsys.readouterr().err
+    log = read_imu(write("restart.csv", ["imu"] * n + ["imu_2"] * n))
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_allclose(np.diff(log.t), 0.0025, rtol=0, atol=1e-6)

@@ -476,7 +476,7 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
     sources = set(mapping.values())
 
     def needed(name: str) -> bool:  # a column read_imu takes (a text column it does not is left out)
-        return name in sources or normalize_name(name)[0] in ALIASES
+        return name in sources or normalize_name(name)[0] in ALIASES or normalize_name(name)[0] in FRAME_COLUMNS
 
     return (
         positional,
@@ -484,7 +484,7 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
         {
             "names": positional,
             "only": list(mapping.values()) or None,
-            "text_columns": LABEL_COLUMNS + label_sources,
+            "text_columns": LABEL_COLUMNS + FRAME_COLUMNS + label_sources,
             "topic": topic,
             "needed": needed,
         },
@@ -591,6 +591,25 @@ def _ardupilot_imu(table: Table) -> set[str]:
 
 
 _MAX_IDS = 8
+#: columns naming each row's sensor frame (``rostopic echo -p``'s field.header.frame_id), normalized
+FRAME_COLUMNS = ("frame_id", "header_frame_id")
+
+
+def _one_frame(table: Table) -> None:
+    """Refuse rows of several sensor frames interleaved in one file (a topic carrying several IMUs, echoed to
+    CSV): read as one log their rows alternate between sensors with exit 0. Runs of one frame after another (a
+    driver restarted under another frame_id), fewer than twice the frames, are kept, as a bag's are."""
+    for key, arr in table.data.items():
+        if normalize_name(key)[0] in FRAME_COLUMNS and arr.ndim == 1 and arr.size:
+            cells = arr.astype(str)
+            frames = np.unique(cells)
+            if frames.size > 1 and 1 + np.count_nonzero(cells[1:] != cells[:-1]) >= 2 * frames.size:
+                shown = ", ".join(map(repr, frames[:_MAX_IDS].tolist()))
+                raise OptinavError(
+                    f"{table.path.name}: column {key!r} holds {frames.size} sensor frames ({shown}) in alternate "
+                    "rows; read as one log they would mix the sensors",
+                    "keep one frame's rows, or read the bag itself with --topic TOPIC@FRAME",
+                )
 
 
 def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
@@ -739,6 +758,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
     passed_over = _ardupilot_imu(table)
+    _one_frame(table)
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
