@@ -651,9 +651,17 @@ _FOREIGN = (
     (b"7z\xbc\xaf", "a 7-Zip archive"),
     (b"\x28\xb5\x2f\xfd", "a zstd archive"),
     (b"\x7fELF", "a program (ELF executable)"),
+    (b"ULog\x01\x12\x35", "a PX4 ULog"),
+    (b"\xa3\x95\x80", "an ArduPilot DataFlash log"),
 )
 
 _EXPORT_REMEDY = "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-formats.md)"
+#: the export of a flight log that optinav reads as it comes out (docs/file-formats.md)
+_ARDUPILOT_EXPORT = "export its IMU message: mavlogdump.py --format csv --types IMU LOG > imu.csv (read as it is)"
+_LOG_REMEDY = {
+    b"ULog\x01\x12\x35": "export its topics with pyulog: ulog2csv LOG.ulg (…_sensor_combined_0.csv reads as it is)",
+    b"\xa3\x95\x80": _ARDUPILOT_EXPORT,
+}
 #: what to do with a bag under another suffix: it is read under its own (a rosbag recording that did not close
 #: is X.bag.active, without its index)
 _BAG_REMEDY = {
@@ -680,7 +688,8 @@ def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     for magic, what in _FOREIGN:
         if head.startswith(magic):
             raise OptinavError(
-                f"the file is {what}, not a data table optinav reads", _BAG_REMEDY.get(magic, _EXPORT_REMEDY)
+                f"the file is {what}, not a data table optinav reads",
+                _BAG_REMEDY.get(magic) or _LOG_REMEDY.get(magic, _EXPORT_REMEDY),
             )
     if by_suffix in ("npz", "npy", "hdf5", "mat") and b"\x00" not in head:
         try:
@@ -887,6 +896,8 @@ class _Layout:
     labelled: tuple[str, ...] | None = None  # 'name = value | …' lines: the names, in order (see _labelled)
 
 
+#: the first line of an ArduPilot DataFlash log as text (Mission Planner's .log): the FMT message's own format
+_DATAFLASH_TEXT = re.compile(r"^\s*FMT,\s*\d+,\s*\d+,\s*FMT,")
 #: Excel's first line naming the delimiter ("sep=;" or "sep=<tab>", quoted or not)
 _EXCEL_SEP = re.compile(r'^"?sep=(.)"?$')
 
@@ -916,6 +927,11 @@ def _text_layout(
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
+    if _DATAFLASH_TEXT.match(lines[content[0]]):
+        raise OptinavError(
+            f"{path.name} is an ArduPilot DataFlash text log (FMT lines, then the rows of every message)",
+            _ARDUPILOT_EXPORT,
+        )
     excel = _EXCEL_SEP.match(lines[content[0]].strip())
     if excel:
         # Excel's delimiter line (a Shimmer Consensys export: '"sep=\t"'): it names the delimiter and is no row
