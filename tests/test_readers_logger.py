@@ -949,3 +949,38 @@ def test_flight_logs_name_the_export_that_reads(tmp_path, capsys, name, head, wh
         assert main([*cmd, str(path), "--out", str(tmp_path / "r.json")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and what in err[0] and export in err[0], err
+
+
+def test_a_serial_capture_starting_in_boot_noise_reads(tmp_path):
+    """An ESP32/Arduino serial capture opened while the board boots: bytes at another baud rate (NULs among them),
+    the ROM's reset lines, then the sketch's table. Was refused as "looks binary (it contains NUL bytes)"; the
+    noise lines are now left out above the table with a note (whole and in blocks). NULs further down, or in a
+    file of no text, still make it binary."""
+    rng = np.random.default_rng(20)
+    n = 600
+    acc = rng.integers(-200, 200, (n, 3)) + [0, 0, 16384]
+    gyr = rng.integers(-30, 30, (n, 3))
+    body = "ax,ay,az,gx,gy,gz\r\n" + "".join(",".join(map(str, [*acc[i], *gyr[i]])) + "\r\n" for i in range(n))
+    boot = b"\xf8\x80\x00\xa5\xa5\r\nets Jun  8 2016 00:22:57\r\n\x00\x00\xe0\r\nrst:0x1 (POWERON_RESET),boot:0x13\r\n"
+    path = _w(tmp_path / "capture.txt", boot + body.encode())
+    kw = {"acc_unit": "counts", "gyro_unit": "counts", "rate_hz": 100.0}
+    log = read_imu(path, **kw)
+    np.testing.assert_array_equal(log.acc, acc)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    assert any("4 line(s) above the table ('(binary noise)'" in x for x in log.notes), log.notes
+    blocks = list(iter_imu(path, **kw, chunk_rows=100))
+    np.testing.assert_array_equal(np.concatenate([b.acc for b in blocks]), acc)
+    lines = body.encode().split(b"\r\n")
+    late = _w(tmp_path / "late.txt", b"\r\n".join(lines[:400] + [b"\x00\x00"] + lines[400:]))
+    for read in (lambda: read_imu(late, **kw), lambda: list(iter_imu(late, **kw, chunk_rows=100))):
+        with pytest.raises(OptinavError, match="looks binary"):
+            read()
+
+
+def test_a_nul_line_inside_a_short_table_is_named_not_taken_for_boot_noise(tmp_path):
+    """Boot noise is only the lines that hold NULs: in a short file (all within the first 4 KiB) a NUL line in the
+    table is an error at its line, the rows above it are not left out as noise."""
+    rows = ["t,ax,ay,az"] + [f"{i / 100},0,0,9.8" for i in range(40)]
+    path = _w(tmp_path / "short.csv", ("\n".join(rows[:21] + ["\x00\x01"] + rows[21:]) + "\n").encode())
+    with pytest.raises(OptinavError, match="line 22"):
+        read_imu(path)

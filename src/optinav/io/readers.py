@@ -476,7 +476,7 @@ class TableChunks:
             if src.peek(2)[:2] in _UTF16_BOMS:  # read as UTF-8 lines (the BOM consumed)
                 wide = io.TextIOWrapper(src, encoding="utf-16", newline="")  # held: collected, it closes the file
                 src = (line.encode("utf-8") for line in wide)
-            state = {"complete": True}
+            state = {"complete": True, "start": True}
 
             def block(k: int = n) -> list[str]:
                 got = list(itertools.islice(src, k))
@@ -484,7 +484,8 @@ class TableChunks:
                 if not got:
                     return []
                 state["complete"] = got[-1].endswith((b"\n", b"\r"))
-                text = _decode(path, b"".join(got))
+                text = _decode(path, b"".join(got), state["start"])
+                state["start"] = False
                 lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
                 if lines and lines[-1] == "" and text.endswith("\n"):
                     lines.pop()  # the split after the last newline
@@ -771,7 +772,23 @@ def _read_bytes(path: Path, gz: bool) -> bytes:
 _UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 
 
-def _decode(path: Path, raw: bytes) -> str:
+#: bytes at the start of a text file within which NUL bytes are a serial capture's start-up noise
+_NOISE_BYTES = 4096
+#: what a line of such noise is read as (a line above the table, left out with a note)
+NOISE_LINE = "(binary noise)"
+
+
+def _decode(path: Path, raw: bytes, start: bool = True) -> str:
+    """Text of a file's bytes (``start``: they begin the file). Lines holding NUL bytes, when all lie within the
+    first :data:`_NOISE_BYTES` of a file (a serial capture of a board's boot at another baud rate), are read as
+    :data:`NOISE_LINE` (left out above the table, or named at their line inside it); elsewhere NULs make the
+    file binary."""
+    if start and b"\x00" in raw[:_NOISE_BYTES] and not raw.startswith(_UTF16_BOMS):
+        last = raw.rfind(b"\x00")
+        cut = raw.find(b"\n", last) + 1
+        if last < _NOISE_BYTES and cut > 0 and raw[cut:].strip():
+            noise = NOISE_LINE.encode()
+            raw = b"\n".join(noise if b"\x00" in x else x for x in raw[: cut - 1].split(b"\n")) + raw[cut - 1 :]
     if raw.startswith(_UTF16_BOMS):
         try:
             return raw.decode("utf-16")
