@@ -984,3 +984,31 @@ def test_a_nul_line_inside_a_short_table_is_named_not_taken_for_boot_noise(tmp_p
     path = _w(tmp_path / "short.csv", ("\n".join(rows[:21] + ["\x00\x01"] + rows[21:]) + "\n").encode())
     with pytest.raises(OptinavError, match="line 22"):
         read_imu(path)
+
+
+def test_a_capture_with_the_serial_monitors_timestamps_reads(tmp_path, capsys):
+    """The Arduino IDE's serial monitor with "Show timestamp" puts '14:23:01.123 -> ' before every line: the
+    header became '14:23:00.000 -> t_ms' and every first cell text, left out ("no accelerometer or gyroscope
+    data"). The receive time is now cut off with a note (the computer's, in bursts of USB packets: no sample
+    time) and the sketch's own millis() column is the time; whole and in blocks."""
+    rng = np.random.default_rng(21)
+    n = 600
+    acc = rng.integers(-200, 200, (n, 3)) + [0, 0, 16384]
+    gyr = rng.integers(-30, 30, (n, 3))
+
+    def stamp(i):
+        s = i * 7 // 1000  # received in bursts
+        return f"14:{23 + s // 60:02d}:{s % 60:02d}.{i * 7 % 1000:03d} -> "
+
+    text = stamp(0) + "MPU6050 connection successful\r\n" + stamp(0) + "t_ms,ax,ay,az,gx,gy,gz\r\n"
+    text += "".join(stamp(i) + ",".join(map(str, [5 * i, *acc[i], *gyr[i]])) + "\r\n" for i in range(n))
+    path = _w(tmp_path / "monitor.txt", text)
+    kw = {"acc_unit": "counts", "gyro_unit": "counts"}
+    log = read_imu(path, **kw)
+    np.testing.assert_array_equal(log.acc, acc)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_allclose(log.t, 0.005 * np.arange(n), rtol=0, atol=1e-12)
+    assert any("serial monitor's receive times" in x for x in log.notes), log.notes
+    blocks = list(iter_imu(path, **kw, chunk_rows=100))
+    np.testing.assert_array_equal(np.concatenate([b.gyr for b in blocks]), gyr)
+    assert any("serial monitor's receive times" in x for x in blocks[0].notes)

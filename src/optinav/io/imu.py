@@ -1156,6 +1156,8 @@ def _log_of(
     for p in parts:
         if "decimal_comma" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: decimal commas read as decimal points (',' is not its delimiter)")
+        if "monitor_stamps" in p.table.meta and row0 == 0:
+            notes.append(f"{p.path.name}: the serial monitor's receive times ('14:23:01.123 -> ') were cut off")
         if "banner_lines" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: {p.table.meta['banner_lines']} were left out")
         if "coremotion" in p.table.meta and row0 == 0:

@@ -476,7 +476,7 @@ class TableChunks:
             if src.peek(2)[:2] in _UTF16_BOMS:  # read as UTF-8 lines (the BOM consumed)
                 wide = io.TextIOWrapper(src, encoding="utf-16", newline="")  # held: collected, it closes the file
                 src = (line.encode("utf-8") for line in wide)
-            state = {"complete": True, "start": True}
+            state = {"complete": True, "start": True, "stamped": False}
 
             def block(k: int = n) -> list[str]:
                 got = list(itertools.islice(src, k))
@@ -485,11 +485,13 @@ class TableChunks:
                     return []
                 state["complete"] = got[-1].endswith((b"\n", b"\r"))
                 text = _decode(path, b"".join(got), state["start"])
-                state["start"] = False
                 lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+                if state["start"]:
+                    state["stamped"] = _monitor_stamped(lines)
+                state["start"] = False
                 if lines and lines[-1] == "" and text.endswith("\n"):
                     lines.pop()  # the split after the last newline
-                return lines
+                return _unstamp(lines) if state["stamped"] else lines
 
             # the layout from the first lines (enough blocks for the preamble and ten table lines)
             head: list[str] = []
@@ -500,6 +502,8 @@ class TableChunks:
                 if not more or content >= _HEAD_CONTENT:
                     break
             lay = _text_layout(path, head, self.names, self.delimiter, labels, self.needed)
+            if state["stamped"]:
+                lay.meta["monitor_stamps"] = "1"
             pending = head[lay.start :]
             offset = lay.start  # file line index of pending[0]
             first = True  # pending[0] is the file's first data line
@@ -1201,12 +1205,32 @@ def _epoch_seconds(path: Path, name: str, cells: np.ndarray) -> np.ndarray:
     return out
 
 
+#: the receive time the Arduino IDE's serial monitor puts before each line ("Show timestamp": '14:23:01.123 -> ')
+_MONITOR_STAMP = re.compile(r"^\d\d:\d\d:\d\d\.\d\d\d -> ")
+
+
+def _monitor_stamped(lines: list[str]) -> bool:
+    """Whether the first non-blank line carries the serial monitor's receive time (then every line's is cut off:
+    the computer's receive time, in bursts of USB packets, is no sample time)."""
+    first = next((x for x in lines if x.strip()), "")
+    return bool(_MONITOR_STAMP.match(first))
+
+
+def _unstamp(lines: list[str]) -> list[str]:
+    return [_MONITOR_STAMP.sub("", x, count=1) for x in lines]
+
+
 def _load_text(
     path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None, labels: set[str], needed=None
 ) -> Table:
     text = _decode(path, raw)
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    stamped = _monitor_stamped(lines)
+    if stamped:
+        lines = _unstamp(lines)
     lay = _text_layout(path, lines, names, delimiter, labels, needed)
+    if stamped:
+        lay.meta["monitor_stamps"] = "1"
     data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start)
     meta = dict(lay.meta)
     if truncated is not None:
