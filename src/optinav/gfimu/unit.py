@@ -124,9 +124,10 @@ def _check_motion(m, data_path, first: bool) -> None:
 MAX_MISFIT = 30.0
 
 
-def _check_fit(residual_rms, sigma, data_path) -> None:
+def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
     """The array's outputs must fit the calibrated geometry (the model's residual per output against the noise the
-    calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged."""
+    calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged. ``culprit``
+    (called only on a misfit) gives the output whose removal lets the others fit (:func:`_culprit`)."""
     if residual_rms is None or sigma is None:
         return
     sigma = np.asarray(sigma, float)
@@ -134,13 +135,46 @@ def _check_fit(residual_rms, sigma, data_path) -> None:
         return
     ratio = float(np.median(residual_rms / sigma))
     if ratio > MAX_MISFIT:
-        worst = int(np.argmax(residual_rms / sigma))
+        # the least-squares residual of one faulty output spreads onto the others (and through the rate onto all):
+        # the output left out is named, not the largest residual (a bias on f5 was named f6)
+        best = culprit() if culprit is not None else None
+        if best is not None and best[1] <= MAX_MISFIT:
+            where = f"without f{best[0] + 1} the others fit ({best[1]:.3g}× the noise): f{best[0] + 1} is off"
+        else:
+            where = "no one output left out makes the others fit"
         raise OptinavError(
             f"the outputs of {Path(data_path).name} do not fit the calibrated geometry: the rigid-body model leaves "
-            f"{ratio:.3g}× the noise measured at calibration (median over the outputs; most at f{worst + 1})",
+            f"{ratio:.3g}× the noise measured at calibration (median over the outputs; {where})",
             "check --omega0 (the rate at the log's first sample; default: at rest), the order of the output "
             "columns f1..fN against the configuration, and that this is the calibrated array",
         )
+
+
+def _culprit(array, f, t, state, method: str, sigma) -> tuple[int, float] | None:
+    """Leave-one-out: per output k, the block ``f`` (T, N) m/s² at ``t`` (T,) s solved again without it from the
+    rate state before the block; the k whose removal leaves the others the smallest misfit (median residual RMS
+    over ``sigma`` (N,) m/s²) and that misfit, or None when no array of N − 1 outputs can be solved."""
+    import copy
+
+    from optinav.gfimu.solve import MotionSolver
+
+    best = None
+    for k in range(array.n):
+        keep = np.arange(array.n) != k
+        noise = None if array.noise is None else np.asarray(array.noise)[keep]
+        try:
+            solver = MotionSolver(
+                AccelerometerArray(array.positions[keep], array.directions[keep], noise), None, method
+            )
+            solver.state = copy.deepcopy(state)
+            with np.errstate(over="ignore", invalid="ignore"):
+                solver(f[:, keep], t)
+        except OptinavError:
+            continue
+        r = solver.residual_rms / np.asarray(sigma, float)[keep]
+        if np.all(np.isfinite(r)) and (best is None or float(np.median(r)) < best[1]):
+            best = (k, float(np.median(r)))
+    return best
 
 
 #: the header of the table ``optinav apply`` writes for this system (how it knows its own output again)
@@ -154,6 +188,8 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
     acceleration wdot_x..z (rad/s²); returns the one-line account. Text logs are read, solved and written block
     by block (:class:`~optinav.gfimu.solve.MotionSolver` carries the rate between blocks), so memory does not grow
     with the log; ``out`` appears only when every block was solved."""
+    import copy
+
     from optinav.core.files import csv_writer
     from optinav.core.progress import progress_blocks
     from optinav.gfimu.solve import RATE_METHODS, MotionSolver
@@ -179,11 +215,17 @@ def apply_file(result_path, data_path, out, options: GfimuApplyOptions | None = 
                     "add a column t in s (or name its unit: t [ms], t_us)",
                 )
             f = array_outputs(tab, data_path, len(res.dalpha))
-            first = solver.rows == 0
+            first, state = solver.rows == 0, copy.deepcopy(solver.state)
             with np.errstate(over="ignore", invalid="ignore"):  # a diverging solution is named below
                 m = solver(f, np.asarray(tab.get(key), float) * TIME_UNITS.get(unit, 1.0))
             _check_motion(m, data_path, first)
-            _check_fit(solver.residual_rms, res.sigma, data_path)
+            tt = m.t
+            _check_fit(
+                solver.residual_rms,
+                res.sigma,
+                data_path,
+                lambda: _culprit(solver.array, f, tt, state, o.rate_method, res.sigma),  # noqa: B023 (called here)
+            )
             write(np.column_stack([m.t, m.A, m.omega, m.wdot]))
         if solver.rows < 2:  # as the whole-log solve: a rate needs two epochs (the file is not written)
             raise OptinavError(f"{data_path} has {solver.rows} sample(s), at least 2 are needed", "record a longer log")
