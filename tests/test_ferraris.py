@@ -566,6 +566,27 @@ def test_a_ferraris_pose_that_creeps_is_an_error(tmp_path, capsys):
     assert "the Ferraris pose y_a is not still" in err[-1] and "--sections" in err[-1]
 
 
+@pytest.mark.parametrize(
+    "pose, sensor, size, n, named",
+    [("x_p", "acc", 100.0, 4, True), ("z_a", "gyr", 60.0, 3, True), ("y_p", "acc", 5.0, 1, False)],
+)
+def test_a_tap_inside_a_ferraris_pose_is_named(tmp_path, capsys, pose, sensor, size, n, named):
+    """A tap on the table inside a pose: n samples ±size counts (200σ of the noise of 0.5 counts) moved the pose
+    mean by 1.3 counts, 46× its noise, and K and b with it, with exit 0 (the std only widened with the scatter).
+    The error names the pose, the time and --sections; one sample 10σ off (0.6σ of the mean) is noise and passes."""
+    truth = _truth(np.random.default_rng(3))
+    t, acc, gyr, labels = _continuous_log(truth)
+    i = np.flatnonzero(labels == pose)[150 : 150 + n]
+    (acc if sensor == "acc" else gyr)[i, 1] += size * np.array([1.0, -0.5, 1.0, -0.5])[:n]
+    code, err, out = _ferraris_cli(tmp_path, (t, acc, gyr, labels), capsys)
+    if not named:
+        assert code == 0 and out.exists(), err
+        return
+    assert code == 2 and not out.exists()
+    assert f"the Ferraris pose {pose} is not still at t = {t[i[0]]:.6g} s" in err[-1], err
+    assert f"{n} {'accelerometer' if sensor == 'acc' else 'gyro'} sample(s)" in err[-1] and "--sections" in err[-1]
+
+
 def test_ferraris_std_covers_the_errors_of_noisy_sessions():
     """Over 20 sessions with white noise in the poses and the turns, the errors divided by ferraris_std are
     about standard normal for every parameter group (rms 0.7-1.3; was: no std at all)."""

@@ -135,6 +135,43 @@ def _clipped_rows(acc: np.ndarray, t: np.ndarray, ranges: np.ndarray, notes: lis
     return out
 
 
+#: a sample of a still pose this many robust σ from the pose's median on an axis is a tap or bump, not noise
+#: (imucal's real poses: at most 4.5σ)
+TAP_SIGMA = 8.0
+#: the taps of a pose are refused when they move its mean by more than this many σ of the mean's white noise
+TAP_MEAN_SIGMA = 3.0
+
+
+def pose_taps(x: np.ndarray, ranges) -> list[tuple[int, int, int, float, float]]:
+    """The still poses (``ranges`` (P, 2) sample ranges of ``x`` (N, 3), any unit) whose mean a few samples far
+    from the rest move: samples beyond :data:`TAP_SIGMA` robust σ of the pose's median (σ by clipping at 5σ, so the
+    spikes do not inflate it) that shift the mean by more than :data:`TAP_MEAN_SIGMA` σ/√n. Per such pose: (pose
+    index, samples, first row, largest shift of the mean in σ/√n, largest deviation [unit of ``x``])."""
+    out = []
+    for k, (i0, i1) in enumerate(np.asarray(ranges, int)):
+        seg = x[i0:i1]
+        seg = seg[np.all(np.isfinite(seg), axis=1)]
+        if seg.shape[0] < 10:
+            continue
+        dev = seg - np.median(seg, axis=0)
+        sig = np.std(dev, axis=0)
+        for _ in range(5):
+            sig = np.array([np.std(dev[np.abs(dev[:, j]) <= 5.0 * sig[j], j]) for j in range(3)])
+        # quantized counts may sit on one value: half the smallest step is the floor of σ
+        steps = np.abs(dev[dev != 0])
+        sig = np.maximum(sig, 0.5 * float(steps.min()) if steps.size else 0.0)
+        if not np.all(sig > 0):
+            continue
+        spike = np.abs(dev) > TAP_SIGMA * sig
+        if not spike.any():
+            continue
+        shift = np.abs(np.where(spike, dev, 0.0).sum(axis=0)) / seg.shape[0] / (sig / np.sqrt(seg.shape[0]))
+        if shift.max() > TAP_MEAN_SIGMA:
+            rows = np.flatnonzero(spike.any(axis=1))
+            out.append((k, int(rows.size), int(i0 + rows[0]), float(shift.max()), float(np.abs(dev[spike]).max())))
+    return out
+
+
 #: a static pose whose gravity direction moves by more than this many σ of its noise (first third against last
 #: third) and by more than MIN_CREEP_DEG is not static: it creeps or tilts slowly, below the variance detector
 CREEP_SIGMA = 6.0
@@ -1290,6 +1327,16 @@ def _ferraris(
             "record with a larger accelerometer range: the closed form needs all six poses (--acc-range states it)",
         )
     notes.extend(_sections_that_lost_samples(t, names, idx))
+    for x, what, unit in ((acc, "accelerometer", acc_unit), (gyro, "gyro", gyro_unit)):
+        for k, n, i, shift, peak in pose_taps(x, idx[static_idx])[:1]:
+            # a tap on the table inside a pose moved its mean, K and b with it, silently (the std only widened)
+            raise OptinavError(
+                f"the Ferraris pose {names[static_idx[k]]} is not still at t = {t[i]:.6g} s: {n} {what} sample(s) "
+                f"up to {peak:.3g} {unit} off the pose's median (a tap or bump) move its mean by {shift:.0f}× the "
+                "noise of the mean",
+                f"let the section {names[static_idx[k]]} hold only the still part of the pose, around the tap "
+                "(--sections, or the label column)",
+            )
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero(creeping(ang, sig))
     if bad.size:
