@@ -810,6 +810,45 @@ def test_a_drifting_gyro_bias_is_refused_in_a_ferraris_session(tmp_path, capsys)
 
 
 @needs_data
+@pytest.mark.parametrize("col, up", [("acc_x", "+x up"), ("acc_z", "+z up")])
+def test_a_drifting_accelerometer_is_refused_in_a_ferraris_session(tmp_path, capsys, col, up):
+    """imucal's session with an accelerometer bias that drifts by 0.05 m/s² over its 101 s (warm-up): each axis'
+    bias and scale come from its two poses alone, the six poses stay exact, and b_x came out 0.5441 ± 0.00046 (the
+    bias went from 0.537 to 0.587) with exit 0. The still rests before and after the rotations, at other times,
+    read |a| 0.023 m/s² off g (9 std; the unmodified session: at most 3.6 std): an error names the rest, the drift
+    and the default method; a drift of 0.005 m/s² still passes, with b within its std of the pose pair's time."""
+    from optinav.cli.main import main
+
+    src = DATA / "example_ferraris_session.csv"
+    head, *rows = src.read_text().splitlines()
+    c = head.split(",").index(col)
+    argv = ["--quiet", "calibrate", "accel", "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    argv += ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    for drift, code in ((0.05, 2), (0.005, 0)):
+        out = [head]
+        for i, row in enumerate(rows):
+            v = row.split(",")
+            v[c] = repr(float(v[c]) + drift * i / (len(rows) - 1))
+            out.append(",".join(v))
+        path = tmp_path / f"drift{drift}.csv"
+        path.write_text("\n".join(out) + "\n")
+        res = tmp_path / f"r{drift}.json"
+        assert main([*argv, str(path), "--out", str(res)]) == code
+        err = capsys.readouterr().err
+        if code:
+            assert "the accelerometer drifts during the session" in err and up in err, err
+            assert "--method ferraris" in err and err.strip().count("\n") == 0, err
+            continue
+        a = json.loads(res.read_text())["fields"]["accelerometer"]["value"]
+        j = "xyz".index(col[-1])
+        secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+        mid = np.mean([secs[f"{col[-1]}_{s}"][e] for s in "pa" for e in ("start", "end")]) / (len(rows) - 1)
+        b_ref = ref["b_a"][j] + drift * mid  # the drifted bias at the mean time of the axis' two poses
+        assert abs(a["b"][j] - b_ref) < 2 * a["b_std"][j], (a["b"][j], b_ref, a["b_std"][j])
+
+
+@needs_data
 def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys):
     """imucal's session with its section list but the default method: the six poses alone (the rotation sections
     are the Ferraris method's) leave the gyro rank-deficient, and the error said 'add poses …, or pass

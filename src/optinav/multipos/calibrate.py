@@ -1172,6 +1172,63 @@ def _check_ferraris_bias_drift(gyro, names: list, idx: np.ndarray, gyr_K, unit: 
         )
 
 
+#: a still rest outside the six Ferraris poses may read |a| this many σ (its noise and the calibration's std) off g
+#: before the accelerometer is taken to drift
+FERRARIS_ACC_DRIFT_SIGMA = 5.0
+
+
+def _ferraris_rest_norms(t, acc, gyr, poses, correct, K, K_std, b_std, g: float) -> list[tuple[int, int, float, float]]:
+    """The still rests of the log outside the six Ferraris ``poses`` ((6, 2) sample ranges; the pauses of a turn
+    in steps, the rests before and after the rotations): per rest (i0, i1, |a| − g [m/s²], that difference in σ).
+    ``correct`` maps raw acc (n, 3) to m/s²; σ combines the rest's noise (lag-1 correlation included) and the
+    calibration's ``K_std`` (3, 3, raw per m/s²) and ``b_std`` (3,) raw along the rest's direction. The closed form
+    fits the six poses exactly, so a bias that drifts leaves no residual there; a rest at another time does."""
+    try:
+        det = static.detect_static(t, acc, gyr=gyr)
+    except OptinavError:
+        return []
+    Kinv_t = np.linalg.inv(np.asarray(K, float)).T
+    out = []
+    for i0, i1 in np.asarray(det.index_ranges, int):
+        if np.any((poses[:, 0] < i1) & (poses[:, 1] > i0)) or i1 - i0 < 10:
+            continue
+        a = correct(acc[i0:i1])
+        a = a[np.all(np.isfinite(a), axis=1)]
+        m = a.mean(axis=0)
+        u = m / np.linalg.norm(m)
+        r = a @ u - m @ u
+        rho = np.clip(np.sum(r[1:] * r[:-1]) / max(float(r @ r), 1e-300), 0.0, 0.95)
+        var_rest = float(r @ r) / r.size**2 * (1 + rho) / (1 - rho)
+        v = Kinv_t @ u  # d|a| = -vᵀ(δK·g·u + δb)
+        var_cal = float(np.sum(v**2 * (np.asarray(b_std) ** 2 + g**2 * (np.asarray(K_std) ** 2 @ u**2))))
+        d = float(np.linalg.norm(m) - g)
+        out.append((int(i0), int(i1), d, abs(d) / np.sqrt(var_rest + var_cal)))
+    return out
+
+
+def _check_ferraris_acc_drift(t, acc, gyro, poses, fc, K_std, b_std, g: float, gate_log: list) -> None:
+    """Error when a still rest outside the six poses reads |a| off g beyond :data:`FERRARIS_ACC_DRIFT_SIGMA` σ
+    (:func:`_ferraris_rest_norms`): each axis' bias and scale come from its two poses alone, so an accelerometer
+    that drifts (warm-up: 0.05 m/s² over imucal's session) leaves the six poses exact and the result biased (b_x
+    0.5441 ± 0.00046 for a bias that went from 0.537 to 0.587, exit 0). Else a gate is logged (with a rest)."""
+    rests = _ferraris_rest_norms(t, acc, gyro, poses, fc.correct_acc, fc.acc_K, K_std, b_std, g)
+    if not rests:
+        return
+    i0, i1, d, z = max(rests, key=lambda r: r[3])
+    if z > FERRARIS_ACC_DRIFT_SIGMA:
+        u = fc.correct_acc(acc[i0:i1]).mean(axis=0)
+        j = int(np.argmax(np.abs(u)))
+        raise OptinavError(
+            f"the accelerometer drifts during the session: the still rest at {t[i0]:.4g}–{t[i1 - 1]:.4g} s "
+            f"({'+-'[int(u[j] < 0)]}{'xyz'[j]} up, outside the six poses) reads |a| {d:+.3g} m/s^2 off g after the "
+            f"calibration ({z:.0f} std of its noise and the calibration's std), while the closed form fits the six "
+            "poses exactly with the bias and scale of their times (a sensor warming up)",
+            "let the sensor warm up and record again, or drop --method ferraris: the default fit takes every rest "
+            "(--acc-bias-instability states a drift in its std)",
+        )
+    gate_log.append(gate("acc largest |a| - g of a rest outside the poses, in std", z, FERRARIS_ACC_DRIFT_SIGMA))
+
+
 def _check_pose_turns(pt, stated: float, rate: float) -> None:
     """Refuse a Ferraris fit whose rotations' K_g does not carry gravity from pose to pose (:func:`ferraris.
     pose_turns`: factor beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA std); ``stated`` deg, ``rate`` Hz."""
@@ -1461,6 +1518,7 @@ def _ferraris(
         acc_K_std, np.abs(np.diag(fc.acc_K))[:, None] * (off * sa / np.sqrt(2.0) + np.eye(3) * sa**2 / 2)
     )
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + np.eye(3) * sa**2 / 2))
+    _check_ferraris_acc_drift(t, acc, gyro, idx[static_idx], fc, acc_K_std, std["acc_b"], g, gate_log)
     # G = (up − down pose)/2g also takes the Earth rate's change between the two poses, at most 2Ω_E per axis
     # (vertical part: sign flip; horizontal: heading): uniform within ±Ω_E·K_ii/g
     gyr_G_std = np.hypot(std["gyr_G"], (OMEGA_E * np.abs(np.diag(fc.gyr_K)) / (g * np.sqrt(3.0)))[:, None])
