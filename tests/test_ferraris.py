@@ -849,6 +849,38 @@ def test_a_drifting_accelerometer_is_refused_in_a_ferraris_session(tmp_path, cap
 
 
 @needs_data
+def test_the_default_method_notes_a_drifting_gyro_bias(tmp_path, capsys):
+    """imucal's session with a gyro z bias that drifts by 0.5 °/s over its 101 s, by the default method: the
+    turns take the bias of the rests around them (K unchanged), and b is the session mean, b_z 0.284 ± 0.0012 °/s
+    for a bias that went 0.06 → 0.56 °/s, without a word. A note now names the drift, its span and
+    --gyro-bias-instability; the unmodified session has none, and the note changes no number."""
+    from optinav.cli.main import main
+
+    src = DATA / "example_ferraris_session.csv"
+    head, *rows = src.read_text().splitlines()
+    col = head.split(",").index("gyr_z")
+    out = [head]
+    for i, row in enumerate(rows):
+        v = row.split(",")
+        v[col] = repr(float(v[col]) + 0.5 * i / (len(rows) - 1))
+        out.append(",".join(v))
+    drifted = tmp_path / "drift.csv"
+    drifted.write_text("\n".join(out) + "\n")
+    argv = ["calibrate", "accel", "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    notes = {}
+    for name, path in (("clean", src), ("drift", drifted)):
+        res = tmp_path / f"{name}.json"
+        assert main([*argv, str(path), "--out", str(res)]) == 0
+        capsys.readouterr()
+        notes[name] = [n for n in json.loads(res.read_text())["fields"]["quality"]["value"]["notes"] if "drifts" in n]
+    assert notes["clean"] == []
+    assert len(notes["drift"]) == 1 and "on gyro z" in notes["drift"][0], notes
+    assert "--gyro-bias-instability" in notes["drift"][0]
+    span = float(notes["drift"][0].split("spanning ")[1].split(" ")[0])
+    assert 0.35 < span < 0.5, span  # the rests' span of the 0.5 °/s drift (first to last rest: 88 of 101 s)
+
+
+@needs_data
 def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys):
     """imucal's session with its section list but the default method: the six poses alone (the rotation sections
     are the Ferraris method's) leave the gyro rank-deficient, and the error said 'add poses …, or pass

@@ -785,6 +785,12 @@ def calibrate(
                 "per m/s^2 per element, 1-sigma): its effect is in the gyro K and b std; pass "
                 "--gyro-g-sensitivity to state the datasheet value"
             )
+        if (
+            gc.bias_mode == "local"
+            and gyro_bias_instability is None
+            and (dn := _gyro_drift_note(t, gyro, ranges, up, g, gc, gyro_unit))
+        ):
+            notes.append(dn)
         # Earth rate is neglected (module docs): "local" and "static" include what the rests hold of it, "estimate"
         # has it in the scatter of the rest means it fits; one rest window holds the projection of Ω_E in one
         # pose, of unknown heading: Ω_E·K_ii/√3 per axis (a random direction)
@@ -1048,6 +1054,31 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
             "those turns are left out of the gyro calibration (turn more slowly, or raise the range)"
         )
     return drop
+
+
+def _gyro_drift_note(t, gyr, ranges, up, g: float, gc, unit: str) -> str | None:
+    """A note when the gyro rest biases follow a trend in time beyond their scatter (χ², p < 0.001) and its span
+    over the session exceeds 3× the b std: ``--gyro-bias local`` tracks the drift through the turns and reports the
+    session mean with the std of that mean, so a bias that went 0.06 → 0.56 °/s over imucal's session was reported
+    b_z 0.284 ± 0.0012 °/s without a word (probe). ``ranges`` the rests, ``up`` (P, 3) their unit specific force,
+    ``unit`` the gyro's raw unit."""
+    from .gyro import _rest_regression
+
+    tc = np.array([t[i0:i1].mean() for i0, i1 in ranges])
+    reg = _rest_regression(static.pose_means(gyr, ranges), tc, np.asarray(up, float), g)
+    if reg is None:
+        return None
+    big = reg["drift_significant"] & (reg["drift_span"] > 3.0 * np.asarray(gc.b_std, float))
+    if not big.any():
+        return None
+    j = int(np.argmax(np.where(big, reg["drift_span"] / np.asarray(gc.b_std, float), -np.inf)))
+    return (
+        f"the gyro bias drifts during the session: on gyro {'xyz'[j]} the rest biases follow a trend spanning "
+        f"{reg['drift_span'][j]:.3g} {unit} over {tc[-1] - tc[0]:.4g} s ({reg['drift_span'][j] / gc.b_std[j]:.0f}× the b "
+        "std); the turns use the bias of the rests around them, and b is the session mean with the std of that "
+        "mean, not the bias at another time (let the sensor warm up, or pass --gyro-bias-instability to put the "
+        "drift in the std)"
+    )
 
 
 def _gyro_gates(gc, gyro_unit: str) -> list[dict]:

@@ -823,7 +823,9 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
     specific force ``g·u_k`` (a g-sensitivity, and the vertical Earth rate, which each pose projects as ``u_k``):
     ``m_k = c₀ + c₁x + c₂x² + G·g·u_k + e_k``. Returns the residual variance ``s2`` (3,) of ``e_k`` (white noise,
     the horizontal Earth rate, drift the quadratic misses), ``G`` (3, 3, raw per m/s²), the pooled 1σ per element of G beyond its
-    estimation noise (``g_sigma``) and whether G differs from zero (χ², 9 dof, p < 0.001); None below 8 rests."""
+    estimation noise (``g_sigma``) and whether G differs from zero (χ², 9 dof, p < 0.001); the span (3,) raw of the
+    time trend over the rests (``drift_span``) and whether it differs from zero (``drift_significant``, χ², 2 dof,
+    p < 0.001); None below 8 rests."""
     from scipy.stats import chi2
 
     n = means.shape[0]
@@ -841,7 +843,19 @@ def _rest_regression(means, tc, u, gravity: float) -> dict | None:
     var_G = s2[:, None] * np.diag(XtX_inv)[None, 3:]  # (3, 3)
     stat = float(np.sum(G**2 / np.maximum(var_G, 1e-300)))
     g_sigma = float(np.sqrt(max(np.mean(G**2 - var_G), 0.0)))
-    return {"s2": s2, "G": G, "g_sigma": g_sigma, "g_significant": bool(stat > chi2.ppf(0.999, 9)) and g_sigma > 0}
+    # the time trend per axis: its span over the rests and its χ² (2 dof) against the residual scatter
+    grid = np.linspace(x.min(), x.max(), 201)
+    trend = np.outer(grid, coef[1]) + np.outer(grid**2, coef[2])
+    C = np.linalg.pinv(XtX_inv[1:3, 1:3])
+    drift_chi2 = np.array([coef[1:3, j] @ C @ coef[1:3, j] / max(s2[j], 1e-300) for j in range(3)])
+    return {
+        "s2": s2,
+        "G": G,
+        "g_sigma": g_sigma,
+        "g_significant": bool(stat > chi2.ppf(0.999, 9)) and g_sigma > 0,
+        "drift_span": np.ptp(trend, axis=0),
+        "drift_significant": drift_chi2 > chi2.ppf(0.999, 2),
+    }
 
 
 def _local_bias_var(sems, w, u, tc, K, bias_instability=None, corr_time: float = float("inf")) -> np.ndarray:
