@@ -571,8 +571,8 @@ def test_a_ferraris_pose_that_creeps_is_an_error(tmp_path, capsys):
     [("x_p", "acc", 100.0, 4, True), ("z_a", "gyr", 60.0, 3, True), ("y_p", "acc", 5.0, 1, False)],
 )
 def test_a_tap_inside_a_ferraris_pose_is_named(tmp_path, capsys, pose, sensor, size, n, named):
-    """A tap on the table inside a pose: n samples ±size counts (200σ of the noise of 0.5 counts) moved the pose
-    mean by 1.3 counts, 46× its noise, and K and b with it, with exit 0 (the std only widened with the scatter).
+    """A tap on the table inside a pose: n samples of +size, −size/2 counts (200σ of the noise of 0.5 counts) moved
+    the pose mean by 11× its noise, and K and b with it, with exit 0 (the std only widened with the scatter).
     The error names the pose, the time and --sections; one sample 10σ off (0.6σ of the mean) is noise and passes."""
     truth = _truth(np.random.default_rng(3))
     t, acc, gyr, labels = _continuous_log(truth)
@@ -583,7 +583,7 @@ def test_a_tap_inside_a_ferraris_pose_is_named(tmp_path, capsys, pose, sensor, s
         assert code == 0 and out.exists(), err
         return
     assert code == 2 and not out.exists()
-    assert f"the Ferraris pose {pose} is not still at t = {t[i[0]]:.6g} s" in err[-1], err
+    assert f"the Ferraris pose {pose} is not still at t = {t[i[0]]:.6g}–{t[i[-1]]:.6g} s" in err[-1], err
     assert f"{n} {'accelerometer' if sensor == 'acc' else 'gyro'} sample(s)" in err[-1] and "--sections" in err[-1]
 
 
@@ -773,6 +773,22 @@ def test_a_pose_section_of_a_few_samples_is_refused(tmp_path, capsys, n):
     assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.startswith("optinav: error: ") and "x_p" in err and f"holds {n} sample" in err and "--sections" in err
+
+
+@needs_data
+@pytest.mark.parametrize("name, grow", [("y_a", (0, 250)), ("z_a", (-200, 0)), ("x_p", (0, 150))])
+def test_a_pose_section_that_runs_into_the_move_is_refused(tmp_path, capsys, name, grow):
+    """imucal's session with one pose section 1.5-2.4 s too long, into the move after (or before) the pose: the
+    pose mean took part of the move and b_y came out -0.066 ± 0.37 for -0.616 (y_a), b_x -0.28 (x_p), exit 0;
+    the creep check compares thirds and missed it. An error names the pose, the time and --sections."""
+    from optinav.cli.main import main
+
+    sec = json.loads((DATA / "example_ferraris_session_list.json").read_text())[name]
+    argv = _sections_argv(tmp_path, **{name: {"start": sec["start"] + grow[0], "end": sec["end"] + grow[1]}})
+    assert main(["--quiet", *argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"the Ferraris pose {name} is not still at t = " in err, err
+    assert "the move into or out of the pose" in err and "--sections" in err, err
 
 
 @needs_data

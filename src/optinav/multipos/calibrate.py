@@ -146,7 +146,7 @@ def pose_taps(x: np.ndarray, ranges) -> list[tuple[int, int, int, float, float]]
     """The still poses (``ranges`` (P, 2) sample ranges of ``x`` (N, 3), any unit) whose mean a few samples far
     from the rest move: samples beyond :data:`TAP_SIGMA` robust σ of the pose's median (σ by clipping at 5σ, so the
     spikes do not inflate it) that shift the mean by more than :data:`TAP_MEAN_SIGMA` σ/√n. Per such pose: (pose
-    index, samples, first row, largest shift of the mean in σ/√n, largest deviation [unit of ``x``])."""
+    index, samples, first and last row, largest shift of the mean in σ/√n, largest deviation [unit of ``x``])."""
     out = []
     for k, (i0, i1) in enumerate(np.asarray(ranges, int)):
         seg = x[i0:i1]
@@ -168,7 +168,8 @@ def pose_taps(x: np.ndarray, ranges) -> list[tuple[int, int, int, float, float]]
         shift = np.abs(np.where(spike, dev, 0.0).sum(axis=0)) / seg.shape[0] / (sig / np.sqrt(seg.shape[0]))
         if shift.max() > TAP_MEAN_SIGMA:
             rows = np.flatnonzero(spike.any(axis=1))
-            out.append((k, int(rows.size), int(i0 + rows[0]), float(shift.max()), float(np.abs(dev[spike]).max())))
+            first, last = int(i0 + rows[0]), int(i0 + rows[-1])
+            out.append((k, int(rows.size), first, last, float(shift.max()), float(np.abs(dev[spike]).max())))
     return out
 
 
@@ -1416,14 +1417,15 @@ def _ferraris(
         )
     notes.extend(_sections_that_lost_samples(t, names, idx))
     for x, what, unit in ((acc, "accelerometer", acc_unit), (gyro, "gyro", gyro_unit)):
-        for k, n, i, shift, peak in pose_taps(x, idx[static_idx])[:1]:
-            # a tap on the table inside a pose moved its mean, K and b with it, silently (the std only widened)
+        for k, n, i, last, shift, peak in pose_taps(x, idx[static_idx])[:1]:
+            # a tap on the table inside a pose, or a section that runs into the move, moved the pose mean, K and b
+            # with it, silently (the std only widened; b_y -0.066 for -0.616 ± 0.37 with y_a 2.4 s too long)
+            nm, when = names[static_idx[k]], f"{t[i]:.6g}" + (f"–{t[last]:.6g}" if last > i else "")
             raise OptinavError(
-                f"the Ferraris pose {names[static_idx[k]]} is not still at t = {t[i]:.6g} s: {n} {what} sample(s) "
-                f"up to {peak:.3g} {unit} off the pose's median (a tap or bump) move its mean by {shift:.0f}× the "
-                "noise of the mean",
-                f"let the section {names[static_idx[k]]} hold only the still part of the pose, around the tap "
-                "(--sections, or the label column)",
+                f"the Ferraris pose {nm} is not still at t = {when} s: {n} {what} sample(s) up to {peak:.3g} {unit} "
+                f"off the pose's median (a tap or bump, or the move into or out of the pose) move its mean by "
+                f"{shift:.0f}× the noise of the mean",
+                f"let the section {nm} hold only the still part of the pose (--sections, or the label column)",
             )
     ang, sig = pose_creep(acc, idx[static_idx], fc.correct_acc)
     bad = np.flatnonzero(creeping(ang, sig))
