@@ -783,7 +783,7 @@ def test_gfimu_apply_names_the_output_that_is_off(turntable, tmp_path, capsys, k
     """One output biased by 0.05 m/s² (thousands of σ): the misfit named the output with the largest residual, and
     the least-squares residual spreads one output's fault onto the others (f5 and f6 nearly mirror each other in
     cylinder10: a bias on f5 was named "most at f6"). Each output left out in turn, the one without which the
-    others fit is named; two swapped columns are no one output."""
+    others fit at the noise level is named; two swapped columns or a wrong --omega0 are no one output."""
     path, d = turntable
     out = tmp_path / "r.json"
     assert main(["--quiet", "calibrate", "gfimu", str(path), "--builtin", "cylinder10", "--out", str(out)]) == 0
@@ -798,6 +798,11 @@ def test_gfimu_apply_names_the_output_that_is_off(turntable, tmp_path, capsys, k
     np.savez(tmp_path / "s.npz", **{**c1, "f": c1["f"][:, [0, 7, 2, 3, 4, 5, 6, 1, 8, 9]]})
     assert main(["--quiet", "apply", str(out), str(tmp_path / "s.npz"), "--out", str(tmp_path / "m.csv"), *w0]) == 2
     one_line_error(capsys, "no one output left out makes the others fit")
+    # the table turning at the first sample but --omega0 left at rest: every output is off, none is named (leaving
+    # one out brought the misfit from 275 to 18× the noise, and f2 was named)
+    np.savez(tmp_path / "ok.npz", **c1)
+    assert main(["--quiet", "apply", str(out), str(tmp_path / "ok.npz"), "--out", str(tmp_path / "m.csv")]) == 2
+    one_line_error(capsys, "no one output left out makes the others fit", "--omega0")
 
 
 # --- batch: inputs, options once, workers that die ---------------------------------------------------------------

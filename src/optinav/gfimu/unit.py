@@ -124,6 +124,11 @@ def _check_motion(m, data_path, first: bool) -> None:
 MAX_MISFIT = 30.0
 
 
+#: the outputs left after one is left out fit when their misfit is within this many times the calibration's noise
+#: (a correct recording: 0.5-0.6; a wrong --omega0 left 12-18 whichever output was left out, and one was named)
+LEFT_OUT_FIT = 3.0
+
+
 def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
     """The array's outputs must fit the calibrated geometry (the model's residual per output against the noise the
     calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged. ``culprit``
@@ -138,7 +143,7 @@ def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
         # the least-squares residual of one faulty output spreads onto the others (and through the rate onto all):
         # the output left out is named, not the largest residual (a bias on f5 was named f6)
         best = culprit() if culprit is not None else None
-        if best is not None and best[1] <= MAX_MISFIT:
+        if best is not None and best[1] <= LEFT_OUT_FIT:
             where = f"without f{best[0] + 1} the others fit ({best[1]:.3g}× the noise): f{best[0] + 1} is off"
         else:
             where = "no one output left out makes the others fit"
