@@ -127,32 +127,41 @@ MAX_MISFIT = 30.0
 #: the outputs left after one is left out fit when their misfit is within this many times the calibration's noise
 #: (a correct recording: 0.5-0.6; a wrong --omega0 left 12-18 whichever output was left out, and one was named)
 LEFT_OUT_FIT = 3.0
+#: a misfit beyond this many times the noise (below MAX_MISFIT) is refused when one output left out lets the others
+#: fit: a faulty sensor (a bias of 0.002 m/s² on f5, 29×, gave a rate 0.013 rad/s off after 1 s, exit 0)
+SUSPECT_MISFIT = 5.0
 
 
 def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
     """The array's outputs must fit the calibrated geometry (the model's residual per output against the noise the
     calibration measured): two columns swapped gave a plausible-looking wrong rate until it diverged. ``culprit``
-    (called only on a misfit) gives the output whose removal lets the others fit (:func:`_culprit`)."""
+    (called only on a misfit beyond :data:`SUSPECT_MISFIT`) gives the output whose removal lets the others fit
+    (:func:`_culprit`): named beyond :data:`MAX_MISFIT`, and refused from SUSPECT_MISFIT on."""
     if residual_rms is None or sigma is None:
         return
     sigma = np.asarray(sigma, float)
     if sigma.shape != residual_rms.shape or not np.all(sigma > 0):
         return
     ratio = float(np.median(residual_rms / sigma))
-    if ratio > MAX_MISFIT:
-        # the least-squares residual of one faulty output spreads onto the others (and through the rate onto all):
-        # the output left out is named, not the largest residual (a bias on f5 was named f6)
-        best = culprit() if culprit is not None else None
-        if best is not None and best[1] <= LEFT_OUT_FIT:
-            where = f"without f{best[0] + 1} the others fit ({best[1]:.3g}× the noise): f{best[0] + 1} is off"
-        else:
-            where = "no one output left out makes the others fit"
-        raise OptinavError(
-            f"the outputs of {Path(data_path).name} do not fit the calibrated geometry: the rigid-body model leaves "
-            f"{ratio:.3g}× the noise measured at calibration (median over the outputs; {where})",
-            "check --omega0 (the rate at the log's first sample; default: at rest), the order of the output "
-            "columns f1..fN against the configuration, and that this is the calibrated array",
-        )
+    if ratio <= SUSPECT_MISFIT:
+        return
+    # the least-squares residual of one faulty output spreads onto the others (and through the rate onto all):
+    # the output left out is named, not the largest residual (a bias on f5 was named f6)
+    best = culprit() if culprit is not None else None
+    one = best is not None and best[1] <= LEFT_OUT_FIT
+    if not one and ratio <= MAX_MISFIT:
+        return
+    where = (
+        f"without f{best[0] + 1} the others fit ({best[1]:.3g}× the noise): f{best[0] + 1} is off"
+        if one
+        else "no one output left out makes the others fit"
+    )
+    raise OptinavError(
+        f"the outputs of {Path(data_path).name} do not fit the calibrated geometry: the rigid-body model leaves "
+        f"{ratio:.3g}× the noise measured at calibration (median over the outputs; {where})",
+        "check --omega0 (the rate at the log's first sample; default: at rest), the order of the output "
+        "columns f1..fN against the configuration, and that this is the calibrated array",
+    )
 
 
 def _culprit(array, f, t, state, method: str, sigma) -> tuple[int, float] | None:
