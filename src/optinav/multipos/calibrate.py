@@ -1261,6 +1261,41 @@ def _check_ferraris_acc_drift(t, acc, gyro, poses, fc, K_std, b_std, g: float, g
     gate_log.append(gate("acc largest |a| - g of a rest outside the poses, in std", z, FERRARIS_ACC_DRIFT_SIGMA))
 
 
+#: a Ferraris pose pair's mean direction may lie this many σ (the --pose-alignment of two poses, and their noise)
+#: off its axis before a pose is taken to be held tilted
+POSE_PAIR_SIGMA = 3.5
+
+
+def _check_ferraris_pose_pairs(fc, acc, ranges, pose_alignment: float) -> dict:
+    """Error when the two poses of an axis are not opposite: their mean output less the bias, K_a⁻¹((U₊ + U₋)/2 − b)
+    across the axis, is g times their mean tilt, which the closed form takes for a misalignment (one pose 5° off
+    moved K_yx by 3.6 std and K_xx by 12 std with exit 0). Its σ is ``pose_alignment`` (rad, 1σ per pose) over
+    √2 and the poses' noise (``acc`` raw, ``ranges`` (6, 2) of x_p … z_a); beyond :data:`POSE_PAIR_SIGMA` σ the
+    error names the pair and --pose-alignment; else the gate's outcome is returned."""
+    U = fc.acc_static_means
+    Kinv = np.linalg.inv(fc.acc_K)
+    worst, where = 0.0, (0, 0.0)
+    for j in range(3):
+        f = Kinv @ ((U[2 * j] + U[2 * j + 1]) / 2 - fc.acc_b) / fc.gravity  # ≈ the pair's mean tilt (rad)
+        tilt = float(np.hypot(*np.delete(f, j)))
+        var = sum(np.mean(np.var(acc[i0:i1], axis=0)) / (i1 - i0) for i0, i1 in ranges[2 * j : 2 * j + 2])
+        noise = np.sqrt(var) / 2 / fc.gravity / float(np.median(np.abs(np.diag(fc.acc_K))))
+        z = tilt / np.hypot(pose_alignment / np.sqrt(2.0), noise)
+        if z > worst:
+            worst, where = z, (j, tilt)
+    j, tilt = where
+    if worst > POSE_PAIR_SIGMA:
+        ax = "xyz"[j]
+        raise OptinavError(
+            f"the poses {ax}_p and {ax}_a are not opposite: their mean direction lies {np.degrees(tilt):.2g}° off "
+            f"the {ax} axis ({worst:.0f} std for poses placed within {np.degrees(pose_alignment):.2g}°), a pose held "
+            "tilted, which the closed form takes for a misalignment of the sensor",
+            "place the poses flat against a square edge and record again, or state the placement error with "
+            f"--pose-alignment {max(1.0, np.ceil(np.degrees(tilt) * np.sqrt(2.0))):g} (degrees; it enters the std)",
+        )
+    return gate("acc largest tilt of a pose pair's mean direction, in std", worst, POSE_PAIR_SIGMA)
+
+
 def _check_pose_turns(pt, stated: float, rate: float) -> None:
     """Refuse a Ferraris fit whose rotations' K_g does not carry gravity from pose to pose (:func:`ferraris.
     pose_turns`: factor beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA std); ``stated`` deg, ``rate`` Hz."""
@@ -1461,6 +1496,7 @@ def _ferraris(
         option="--acc-unit",
         columns_flag="--columns, or the section names",
     )
+    gate_pairs = _check_ferraris_pose_pairs(fc, acc, idx[[names.index(n) for n in ferraris.POSES]], pose_alignment)
     poses = idx[sorted(static_idx, key=lambda k: idx[k][0])]
     dirs = np.array([a[i0:i1].mean(axis=0) for i0, i1 in poses])
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
@@ -1503,6 +1539,7 @@ def _ferraris(
         notes.append(fs)
     gate_log = [
         gate("acc pose residual rms of |a| - g", pose_rms, gates.MAX_RESIDUAL_G * g, unit="m/s^2"),
+        gate_pairs,
         gate(
             "gyr largest turn outside a rotation section",
             float(np.radians(max(r["missed_deg"] for r in turns))),
