@@ -807,6 +807,30 @@ def test_gfimu_apply_names_the_output_that_is_off(turntable, tmp_path, capsys, k
     one_line_error(capsys, "no one output left out makes the others fit", "--omega0")
 
 
+def test_gfimu_apply_leave_one_out_solves_a_bounded_share_of_a_block(turntable, tmp_path, monkeypatch):
+    """The leave-one-out search solved the whole block N times (blocks of 200 000 rows and a rate method of ≈ 1 s
+    per 10⁴ epochs: minutes per block of a log with a misfit of 5-30× the noise); it takes the block's first
+    CULPRIT_EPOCHS epochs, and still names the output off."""
+    from optinav.gfimu import solve, unit
+    from optinav.gfimu.turntable import TurntableCalibration
+
+    path, d = turntable
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "gfimu", str(path), "--builtin", "cylinder10", "--out", str(out)]) == 0
+    res = TurntableCalibration.from_json(out)
+    one = d["case"] == 1
+    f = np.tile(d["f"][one], (30, 1))
+    f[:, 4] += 0.05
+    t = np.arange(f.shape[0]) * float(np.median(np.diff(d["t"][one])))
+    solved = []
+    call = solve.MotionSolver.__call__
+    monkeypatch.setattr(solve.MotionSolver, "__call__", lambda self, a, tt: solved.append(len(a)) or call(self, a, tt))
+    state = solve.RateState(np.array([0.25, 0.0, 0.4330127]))
+    k, fit = unit._culprit(res.calibrated_array(), f, t, state, "integration", res.sigma)
+    assert k == 4 and fit < unit.LEFT_OUT_FIT
+    assert f.shape[0] > unit.CULPRIT_EPOCHS and max(solved) == unit.CULPRIT_EPOCHS, solved
+
+
 # --- batch: inputs, options once, workers that die ---------------------------------------------------------------
 
 

@@ -164,14 +164,21 @@ def _check_fit(residual_rms, sigma, data_path, culprit=None) -> None:
     )
 
 
+#: the leave-one-out solves of :func:`_culprit` take at most this many epochs of a block (the rate methods are
+#: Python loops, ≈ 1 s per 10⁴ epochs: ten solves of a 200 000-row block took minutes)
+CULPRIT_EPOCHS = 2000
+
+
 def _culprit(array, f, t, state, method: str, sigma) -> tuple[int, float] | None:
-    """Leave-one-out: per output k, the block ``f`` (T, N) m/s² at ``t`` (T,) s solved again without it from the
-    rate state before the block; the k whose removal leaves the others the smallest misfit (median residual RMS
-    over ``sigma`` (N,) m/s²) and that misfit, or None when no array of N − 1 outputs can be solved."""
+    """Leave-one-out: per output k, the block ``f`` (T, N) m/s² at ``t`` (T,) s (its first
+    :data:`CULPRIT_EPOCHS`) solved again without it from the rate state before the block; the k whose removal
+    leaves the others the smallest misfit (median residual RMS over ``sigma`` (N,) m/s²) and that misfit, or None
+    when no array of N − 1 outputs can be solved."""
     import copy
 
     from optinav.gfimu.solve import MotionSolver
 
+    f, t = f[:CULPRIT_EPOCHS], t[:CULPRIT_EPOCHS]
     best = None
     for k in range(array.n):
         keep = np.arange(array.n) != k
