@@ -925,6 +925,40 @@ def test_the_default_method_notes_a_drifting_gyro_bias(tmp_path, capsys):
 
 
 @needs_data
+def test_a_gyro_bias_step_after_the_poses_is_refused_in_a_ferraris_session(tmp_path, capsys):
+    """imucal's session with the gyro z bias stepping by 0.3 °/s after the six poses (before x_rot): the pose
+    pairs agree, the closed form integrated z_rot with the poses' bias and gave K_zz 57.05 for 57.19 (16 std), exit
+    0. The rests around each rotation read the bias it turned with: an error names z_rot, the rests and the
+    default method; a step of 0.02 °/s (K_zz within its std) passes."""
+    from optinav.cli.main import main
+
+    src = DATA / "example_ferraris_session.csv"
+    head, *rows = src.read_text().splitlines()
+    col = head.split(",").index("gyr_z")
+    ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
+    argv = ["--quiet", "calibrate", "accel", "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    argv += ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
+    for step, code in ((0.3, 2), (0.02, 0)):
+        out = [head]
+        for i, row in enumerate(rows):
+            v = row.split(",")
+            v[col] = repr(float(v[col]) + (step if i >= 6200 else 0.0))  # z_a ends at 5983, x_rot starts at 6770
+            out.append(",".join(v))
+        path = tmp_path / f"step{step}.csv"
+        path.write_text("\n".join(out) + "\n")
+        res = tmp_path / f"r{step}.json"
+        assert main([*argv, str(path), "--out", str(res)]) == code
+        err = capsys.readouterr().err
+        if code:
+            assert "the gyro bias changes during the session: around z_rot" in err and "K_g[z, z]" in err, err
+            assert "--gyro-bias local" in err and err.strip().count("\n") == 0, err
+        else:
+            g = json.loads(res.read_text())["fields"]["gyroscope"]["value"]
+            k_ref = ref["K_g"][2][2] * ref["R_g"][2][2] * 180 / np.pi
+            assert abs(g["K"][2][2] - k_ref) < 2 * g["K_std"][2][2], (g["K"][2][2], k_ref)
+
+
+@needs_data
 def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys):
     """imucal's session with its section list but the default method: the six poses alone (the rotation sections
     are the Ferraris method's) leave the gyro rank-deficient, and the error said 'add poses …, or pass

@@ -1296,6 +1296,54 @@ def _check_ferraris_pose_pairs(fc, acc, ranges, pose_alignment: float) -> dict:
     return gate("acc largest tilt of a pose pair's mean direction, in std", worst, POSE_PAIR_SIGMA)
 
 
+def _check_ferraris_turn_bias(t, acc, gyr, names: list, idx: np.ndarray, fc, K_std, unit: str, gate_log: list) -> None:
+    """Error when the gyro bias at the rests around a rotation (the still stretches nearest before and after it:
+    a pose, or a rest outside the poses) differs from the poses' bias ``fc.gyr_b`` by more than the Earth rate, so
+    much that the rotation's K_g column moves beyond :data:`FERRARIS_BIAS_DRIFT_SIGMA` of its std ``K_std``: the
+    closed form integrates each turn with the poses' bias (a bias step of 0.3 °/s after imucal's poses: K_zz 57.05
+    for 57.19, 16 std, exit 0; the three pose pairs agree, so the pair check cannot see it). Else a gate."""
+    from . import ferraris
+
+    try:
+        rests = [tuple(r) for r in np.asarray(static.detect_static(t, acc, gyr=gyr).index_ranges, int)]
+    except OptinavError:
+        rests = []
+    where = {str(n): k for k, n in enumerate(names)}
+    rests += [tuple(idx[where[n]]) for n in ferraris.POSES]
+    earth = OMEGA_E * np.abs(np.diag(fc.gyr_K))
+    worst, info = 0.0, None
+    for j, rot in enumerate(ferraris.ROTATIONS):
+        i0, i1 = idx[where[rot]]
+        before = [r for r in rests if r[1] <= i0]
+        after = [r for r in rests if r[0] >= i1]
+        near = ([max(before, key=lambda r: r[1])] if before else []) + ([min(after)] if after else [])
+        if not near:
+            continue
+        bias = [gyr[a:b].mean(axis=0) - fc.gyr_G @ fc.correct_acc(acc[a:b]).mean(axis=0) for a, b in near]
+        shift = np.mean(bias, axis=0) - fc.gyr_b
+        beyond = np.sign(shift) * np.maximum(np.abs(shift) - earth, 0.0)
+        # the turn integrates the bias error over its duration: column j of K_g moves by that over the angle
+        dK = beyond * float(fc.rotation_duration[j]) / abs(float(fc.expected_angle[j]))
+        z = np.abs(dK) / np.maximum(K_std[:, j], 1e-300)
+        i = int(np.argmax(z))
+        if z[i] > worst:
+            worst, info = float(z[i]), (rot, j, i, near, float(shift[i]), float(dK[i]))
+    if worst > FERRARIS_BIAS_DRIFT_SIGMA:
+        rot, j, i, near, shift, dK = info
+        when = " and ".join(f"{t[a]:.4g}–{t[b - 1]:.4g} s" for a, b in near)
+        raise OptinavError(
+            f"the gyro bias changes during the session: around {rot} (the rests at {when}) gyro {'xyz'[i]} reads "
+            f"{shift:+.3g} {unit} off the poses' bias, beyond the Earth rate, and the closed form integrates the turn "
+            f"with the poses' bias: K_g[{'xyz'[i]}, {'xyz'[j]}] would be {dK:+.3g} off ({worst:.0f} "
+            "std)",
+            "let the sensor warm up and record again, or drop --method ferraris: the default fit takes each turn's "
+            "gyro bias from the rests around it (--gyro-bias local)",
+        )
+    gate_log.append(
+        gate("gyr largest shift of K_g by the bias around a rotation, in std", worst, FERRARIS_BIAS_DRIFT_SIGMA)
+    )
+
+
 def _check_pose_turns(pt, stated: float, rate: float) -> None:
     """Refuse a Ferraris fit whose rotations' K_g does not carry gravity from pose to pose (:func:`ferraris.
     pose_turns`: factor beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA std); ``stated`` deg, ``rate`` Hz."""
@@ -1589,6 +1637,7 @@ def _ferraris(
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + np.eye(3) * sa**2 / 2))
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
+    _check_ferraris_turn_bias(t, acc, gyro, names, idx, fc, gyr_K_std, gyro_unit, gate_log)
     _check_ferraris_acc_drift(
         t, acc, gyro, idx[static_idx], fc, np.hypot(std["acc_K"], tilt), std["acc_b"], g, gate_log
     )
