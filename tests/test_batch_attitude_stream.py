@@ -92,3 +92,25 @@ def test_batch_attitude_row_equals_the_whole_log(tmp_path, monkeypatch, offline,
         [float(row["inclination_rmse_deg"]), float(row["heading_rmse_deg"])], np.degrees([inc, head]), rtol=1e-6
     )
     assert int(row["n_reference"]) == n == 1201
+
+
+def test_batch_attitude_truth_of_another_frame(tmp_path):
+    """A simulated NED flight estimated with --frame ENU (the same sensor axes, another navigation frame) scores
+    as with --frame NED: the truth (STEM.truth.json names its frame) is compared in its own frame, so inclination
+    and the roll/pitch errors agree to the estimators' rounding. Before, the ENU estimate was compared with the
+    NED truth as if both were ENU: 175° of inclination error, 2.9 rad of roll error, status ok, exit 0."""
+    d = tmp_path / "units"
+    d.mkdir()
+    assert main(["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "12", "--seed", "4",
+                 "--out", str(d / "f4.csv")]) == 0  # fmt: skip
+    rows = {}
+    for frame in ("NED", "ENU"):
+        out = tmp_path / f"{frame}.csv"
+        argv = ["--quiet", "batch", "attitude", str(d), "--reference", "--workers", "0", "--frame", frame]
+        assert main([*argv, "--out", str(out)]) == 0
+        (rows[frame],) = list(csv.DictReader(out.open()))
+    ned, enu = rows["NED"], rows["ENU"]
+    assert ned["status"] == enu["status"] == "ok"
+    assert float(ned["inclination_rmse_deg"]) < 20.0
+    for k in ("inclination_rmse_deg", "roll_rmse", "pitch_rmse"):
+        np.testing.assert_allclose(float(enu[k]), float(ned[k]), rtol=1e-3, err_msg=k)

@@ -198,6 +198,15 @@ class _Score:
         return float(r[0]), float(r[1]), self.n
 
 
+def truth_frame(truth, default: str) -> str:
+    """The navigation frame of a simulated truth (:class:`~optinav.core.results.Truth`): its ``frame`` entry, else
+    ``default``."""
+    from optinav.core.rotations import frame_name
+
+    f = truth.info.get("frame") if isinstance(getattr(truth, "info", None), dict) else None
+    return frame_name(f, "truth frame") if f else frame_name(default)
+
+
 class _TruthSeries:
     """:meth:`optinav.core.results.Truth.compare` of a simulated truth's per-sample series (q_b_n, roll, pitch, yaw)
     accumulated over blocks as sums of squared errors; its other parameters are compared with the final estimate.
@@ -211,6 +220,9 @@ class _TruthSeries:
 
         self.reader = truth if isinstance(truth, TruthSeriesReader) else None
         self.truth, self.frame = (truth.truth if self.reader is not None else truth), frame
+        # the truth's q_b_n, roll, pitch, yaw are of its navigation frame (a NED flight estimated with --frame ENU
+        # was compared as if both were ENU: 175° of inclination error, exit 0); the estimate is turned into it
+        self.truth_frame = truth_frame(self.truth, frame)
         streamed = self.reader.rows if self.reader is not None else {}
         # the series held in memory, as arrays once (not per block)
         self.inline = {
@@ -231,6 +243,7 @@ class _TruthSeries:
     def add(self, row0: int, q: np.ndarray) -> None:
         from optinav.attitude.estimators import AttitudeEstimate
         from optinav.core.results import Truth
+        from optinav.core.rotations import attitude_in_frame
 
         n = len(q)
         values = {k: v[row0 : row0 + n] for k, v in self.inline.items()}
@@ -242,7 +255,8 @@ class _TruthSeries:
                 raise self._mismatch(k, have, f"at least {row0 + n}")
         params = self.truth.parameters
         part = Truth(self.truth.system, {k: dataclasses.replace(params[k], value=v) for k, v in values.items()})
-        for name, c in part.compare(_Observed(AttitudeEstimate(q_b_n=q, frame=self.frame))).items():
+        q = attitude_in_frame(q, self.frame, self.truth_frame)
+        for name, c in part.compare(_Observed(AttitudeEstimate(q_b_n=q, frame=self.truth_frame))).items():
             e = np.asarray(c["error"], float)
             self.ss[name] = self.ss.get(name, 0.0) + float(np.sum(e**2))
             self.k[name] = self.k.get(name, 0) + e.size
@@ -286,10 +300,11 @@ class _TruthRows:
     """The reference q (n, 4) of a simulator's ``STEM.truth.csv`` (t, qw, qx, qy, qz per log row) read block by
     block beside the log's blocks."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, frame_from: str | None = None, frame_to: str | None = None):
         from optinav.io.readers import iter_table
 
         self.path, self.rows = Path(path), 0
+        self.frames = (frame_from, frame_to) if frame_from and frame_to else None  # truth's, estimate's
         self._blocks = iter(iter_table(path))
         self._buf = np.empty((0, 4))
 
@@ -304,6 +319,10 @@ class _TruthRows:
             self._buf = np.vstack([self._buf, np.column_stack([np.asarray(c, float) for c in cols[1:]])])
         q, self._buf = self._buf[:n], self._buf[n:]
         self.rows += n
+        if self.frames is not None:
+            from optinav.core.rotations import attitude_in_frame
+
+            q = attitude_in_frame(q, *self.frames)
         return q
 
     def finish(self) -> None:
@@ -356,11 +375,12 @@ class _Blocks:
         reference: bool,
         chunk_rows: int,
         truth_csv=None,
+        truth_frame: str | None = None,
     ):
         from optinav.attitude.data import has_reference, is_broad
 
         self.path, self.o, self.mag, self.pol, self.chunk_rows = Path(path), o, mag, pol, max(int(chunk_rows), 2)
-        self.truth_csv = truth_csv
+        self.truth_csv, self.truth_frame = truth_csv, truth_frame
         self.gyro_unit = "rad/s"  # as the file declared it (the checks' messages name it), set by the first block
         self.broad = is_broad(path) and not o.columns and not o.datasets
         if reference and not (self.broad and has_reference(path)):
@@ -403,7 +423,7 @@ class _Blocks:
         )
         self.size = chunks.size
         prev = None
-        truth = None if self.truth_csv is None else _TruthRows(self.truth_csv)
+        truth = None if self.truth_csv is None else _TruthRows(self.truth_csv, self.truth_frame, self.o.frame)
         for log in chunks:
             self.position = chunks.position
             self.notes += [n for n in log.notes if n not in self.notes]
@@ -944,7 +964,11 @@ def stream_attitude(
     if reference and frame != "enu":
         raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     StreamEstimator.check(method, o.options)
-    src = _Blocks(path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows, truth_csv=truth_csv)
+    # a simulator's truth CSV holds q_b_n of the frame its STEM.truth.json names (the CSV does not say it)
+    tf = None if truth is None else truth_frame(getattr(truth, "truth", truth), frame)
+    src = _Blocks(
+        path, o, mag=want_mag, pol=pol, reference=reference, chunk_rows=chunk_rows, truth_csv=truth_csv, truth_frame=tf
+    )
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
 

@@ -700,6 +700,28 @@ def attitude_ned_to_enu(c_b_n_ned) -> np.ndarray:
     return C_ENU_NED.T @ np.asarray(c_b_n_ned, dtype=float) @ C_RFU_FRD
 
 
+def attitude_in_frame(q_b_n, frame_from: str, frame_to: str) -> np.ndarray:
+    """The attitude of the same body axes in another navigation frame: q_b^to = q_from^to ⊗ q_b^from (ENU ↔ NED is
+    π about (1, 1, 0)/√2; unlike :func:`attitude_ned_to_enu` the body axes are kept, they are the sensor's).
+
+    Parameters
+    ----------
+    q_b_n : (..., 4) array
+        Attitude(s) q_b^n [w, x, y, z] [-] in ``frame_from``.
+    frame_from, frame_to : str
+        Navigation frames (``"ned"``/``"enu"``, either case).
+
+    Returns
+    -------
+    (..., 4) ndarray
+        The attitude(s) in ``frame_to`` [-] (the input, as floats, when the frames are one).
+    """
+    q = np.asarray(q_b_n, dtype=float)
+    if frame_name(frame_from) == frame_name(frame_to):
+        return q
+    return quat_multiply(quat_from_dcm(C_ENU_NED), q)  # C_ENU_NED is its own inverse
+
+
 def signed_permutations(*, proper_only: bool = False) -> list[np.ndarray]:
     """The 48 signed axis permutations (3×3, one ±1 per row and column; the 24 rotations among them with
     ``proper_only``), the identity first: the ways a triad's columns can be swapped or flipped.
