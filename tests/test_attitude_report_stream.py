@@ -104,3 +104,27 @@ def test_the_summary_says_how_much_of_the_magnetometer_was_used(tmp_path):
     assert 0 < share <= 50.0 and rows["magnetometer samples used [%]"].value == pytest.approx(share)
     rows = {r[0]: r[1] for r in attitude_tables(estimate(gyr, acc, 0.01, frame="ENU"), n)[0].rows}
     assert "magnetometer samples used [%]" not in rows
+
+
+def test_the_euler_figure_draws_no_line_across_the_wrap(tmp_path, monkeypatch):
+    """A turn at 90 °/s for 20 s wraps the yaw at ±180° five times: the figure drew a vertical line across the
+    panel at each wrap (helper: BROAD trial 02's roll and yaw panels were full of them). Now the line breaks there:
+    no two consecutive points drawn are more than 180° apart, and every sample is still drawn but the wraps."""
+    from matplotlib.figure import Figure as MplFigure
+
+    from optinav.reports import attitude_report
+
+    captured = []
+    monkeypatch.setattr(attitude_report, "write_report", lambda studies, *a, **k: captured.extend(studies))
+    n, dt = 2000, 0.01
+    gyr, acc = np.tile([0.0, 0.0, np.pi / 2], (n, 1)), np.tile([0.0, 0.0, 9.81], (n, 1))
+    res = estimate(gyr, acc, dt, frame="ENU")
+    eul = np.degrees(res.euler())
+    assert np.count_nonzero(np.abs(np.diff(eul[:, 2])) > 180.0) == 5  # the wraps the test is about
+    attitude_report.write_attitude_report(res, np.arange(n) * dt, eul, "log.csv", tmp_path)
+    fig = MplFigure()
+    captured[0].figures[0].draw(fig)
+    y = np.asarray(fig.axes[2].lines[0].get_ydata(), float)
+    drawn = np.isfinite(y[1:]) & np.isfinite(y[:-1])
+    assert np.all(np.abs(np.diff(y))[drawn] <= 180.0)
+    assert np.count_nonzero(~np.isfinite(y)) == 5

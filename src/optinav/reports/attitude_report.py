@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.reports.report import Cell, Figure, StudyResult, Table, write_report
+from optinav.reports.report import Cell, Figure, StudyResult, Table, break_wraps, write_report
 
 
 def _fixed(decimals: int):
@@ -59,7 +59,7 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_sample
     def draw(fig):
         axs = fig.subplots(3, 1, sharex=True)
         for k, name in enumerate(("roll", "pitch", "yaw")):
-            axs[k].plot(t, eul_deg[:, k], lw=0.8)
+            axs[k].plot(*break_wraps(t, eul_deg[:, k]), lw=0.8)  # no vertical lines across ±180°
             axs[k].set_ylabel(f"{name} [deg]")
             axs[k].grid(alpha=0.3)
         axs[-1].set_xlabel(since)

@@ -31,6 +31,7 @@ from optinav.reports.report import (
     Limit,
     StudyResult,
     Table,
+    break_wraps,
     quantity,
     register_study,
     value_at,
@@ -129,13 +130,6 @@ def _nees(fl, r):
 
     rv = rotvec_from_quat(quat_multiply(quat_conjugate(fl["data"].q_b_n), r.q_b_n))
     return np.sum((rv / r.att_std) ** 2, axis=1)
-
-
-def _break_wraps(t, y, jump=90.0):
-    """NaN between samples whose error jumps by more than ``jump`` deg (a ±180° wrap), so no line is drawn."""
-    y = np.asarray(y, float).copy()
-    y[1:][np.abs(np.diff(y)) > jump] = np.nan
-    return t, y
 
 
 def _options(m, opts) -> dict:
@@ -626,7 +620,7 @@ def figures(n) -> list[Figure]:
         axs = fig.subplots(3, 1, sharex=True)
         for k, a in enumerate(ANGLES):
             for m in METHODS:  # GD wide underneath, CG dashed on top: the two coincide
-                axs[k].plot(*_break_wraps(t, errs[m][:, k]), label=LABELS[m], **style[m])
+                axs[k].plot(*break_wraps(t, errs[m][:, k], 90.0), label=LABELS[m], **style[m])
             axs[k].set_ylabel(f"{a} error [deg]")
             axs[k].grid(alpha=0.3)
         axs[0].legend(fontsize=7, ncol=4)
@@ -674,7 +668,7 @@ def figures(n) -> list[Figure]:
         r = d0["mekf"]
         axs = fig.subplots(3, 1, sharex=True)
         for k, a in enumerate(ANGLES):
-            axs[k].plot(*_break_wraps(t, r["err"][:, k]), lw=0.7, label="Euler error")
+            axs[k].plot(*break_wraps(t, r["err"][:, k], 90.0), lw=0.7, label="Euler error")
             sig = 3 * np.degrees(r["res"].att_std[:, k])
             axs[k].fill_between(t, -sig, sig, color="k", alpha=0.15, label="±3σ (body axis)")
             axs[k].set_ylabel(f"{a} [deg]")

@@ -311,6 +311,16 @@ def rounded(decimals: int) -> Callable[[Any], str]:
     return lambda x: _fmt(round(float(x), decimals))
 
 
+def break_wraps(t, y, jump: float = 180.0):
+    """(t, y) of a line plot of an angle wrapped to ±180° [deg], with NaN where consecutive samples differ by more
+    than ``jump`` deg (the shortest way between them crosses the wrap), so no vertical line joins the ±180° edges."""
+    import numpy as np
+
+    y = np.asarray(y, float).copy()
+    y[1:][np.abs(np.diff(y)) > jump] = np.nan
+    return t, y
+
+
 def _md(x: Any) -> str:
     """A Markdown table cell: formatted, with pipes escaped."""
     return _fmt(x).replace("|", "\\|")
