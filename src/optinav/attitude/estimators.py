@@ -180,6 +180,7 @@ class AttitudeEstimate(Estimate):
             self.frame,
             self.q_b_n.shape[0],
             offline=self.offline,
+            input_stage=self.input_stage,
             segments=self.segments,
             rest=None if self.rest is None else float(np.mean(self.rest)),
             mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
@@ -194,6 +195,7 @@ def summary_line(
     n: int,
     *,
     offline: bool = False,
+    input_stage: bool = False,
     segments: int = 1,
     rest: float | None = None,
     mag_used: float | None = None,
@@ -201,10 +203,11 @@ def summary_line(
     pol_skipped: dict | None = None,
 ) -> str:
     """One line on an estimate of ``n`` samples; ``rest``/``mag_used`` the fractions of samples at rest and with
-    the magnetometer used."""
+    the magnetometer used; ``input_stage`` is named for gd/cg/qn/mekf (iframe's own front end is always on)."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
-    s = f"{method}{' offline' if offline else ''}: {n} samples ({frame})"
+    stage = " with the input stage" if input_stage and method != "iframe" else ""
+    s = f"{method}{' offline' if offline else ''}{stage}: {n} samples ({frame})"
     if segments > 1:
         s += f", {segments} segments between time gaps"
     if rest is not None:

@@ -300,6 +300,7 @@ class StreamEstimator:
             self.method,
             self.frame,
             self.n,
+            input_stage=self.input_stage,
             segments=self.segments,
             rest=self.rest / self.n if self.input_stage and self.n else None,
             mag_used=None if self.mag_used is None else self.mag_used / self.n,
