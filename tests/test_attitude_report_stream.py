@@ -144,3 +144,23 @@ def test_the_summary_names_the_input_stage(flight, tmp_path, method):
         assert run.estimate.summary() == res.summary()
         assert ("input stage" in res.summary()) == stage, res.summary()
     assert "input stage" not in estimate(d.gyr, d.acc, dt).summary()
+
+
+def test_the_report_gives_the_estimates_time_not_zero(flight, tmp_path):
+    """The attitude report read "_Study `attitude`, 0.0 s._" whatever the estimate took (helper: 4 s on BROAD 02):
+    a result's report gives the result's elapsed_s, a streamed run (which keeps no time) none."""
+    from optinav.attitude.unit import read_log, steps
+
+    d, path, _ = flight
+    rep = tmp_path / "rep"
+    assert main(["--quiet", "attitude", str(path), "--out", str(tmp_path / "a.csv"), "--report", str(rep)]) == 0
+    text = (rep / "index.md").read_text()
+    assert "_Study `attitude`._" in text and " 0.0 s" not in text
+    t, gyr, acc, _, _ = read_log(path, AttitudeOptions())
+    res = estimate(gyr, acc, steps(t))
+    res.elapsed_s = 2.25
+    res.to_json(tmp_path / "r.json")
+    assert (
+        main(["--quiet", "report", str(tmp_path / "r.json"), "--data", str(path), "--out", str(tmp_path / "r2")]) == 0
+    )
+    assert "_Study `attitude`, 2.2 s._" in (tmp_path / "r2" / "index.md").read_text()

@@ -70,5 +70,6 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_sample
         description=res.summary(),
         tables=attitude_tables(res, n, score),
         figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame}{every})", draw, (8, 6))],
+        elapsed=float(getattr(res, "elapsed_s", 0.0) or 0.0),  # the estimate's time (a streamed run keeps none)
     )
     return write_report([study], out_dir, title="optinav attitude")

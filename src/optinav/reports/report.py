@@ -476,7 +476,8 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
         md += hmd
         h += hh
     for r in results:
-        md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`, {r.elapsed:.1f} s._", ""]
+        took = f", {r.elapsed:.1f} s" if r.elapsed > 0 else ""  # 0: not timed (a report of a result), not "0.0 s"
+        md += [f"## {r.title}", "", r.description, "", f"_Study `{r.name}`{took}._", ""]
         h += [f"<h2>{html.escape(r.title)}</h2>", f"<p>{html.escape(r.description)}</p>"]
         if r.checks:
             md += ["| check | value | limit | unit | result | comment |", "|---|---:|---:|---|---|---|"]
