@@ -4,6 +4,7 @@ the block size bounds what the reader hands out. Memory figures are in benchmark
 from __future__ import annotations
 
 import gzip
+import os
 import hashlib
 from pathlib import Path
 
@@ -604,3 +605,28 @@ def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
         r["fields"].pop("elapsed_s")
         results.append(r)
     assert results[0] == results[1]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="an open file is unnamed only on POSIX")
+def test_a_killed_process_leaves_no_scratch_file(tmp_path):
+    """`batch attitude --offline` killed with SIGKILL (its workers die with it) left a 12.8 MB scratch file per unit
+    in flight in the temporary folder (helper: BROAD 02, one per kill). The scratch file has no name while it is in
+    use, so nothing is left; it still reads back what was written."""
+    import signal
+    import subprocess
+    import sys
+
+    code = (
+        "import os, signal, sys\n"
+        "from optinav.core.files import scratch_file\n"
+        "with scratch_file(sys.argv[1]) as fh:\n"
+        "    fh.write(b'0123456789' * 1000); fh.flush(); fh.seek(5)\n"
+        "    assert fh.read(5) == b'56789'\n"
+        "    print(len(os.listdir(os.path.dirname(sys.argv[1]))), flush=True)\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "a.csv")], capture_output=True, text=True, env=env)
+    assert r.returncode == -signal.SIGKILL, r.stderr
+    assert r.stdout.strip() == "0"  # unnamed while in use
+    assert not any(tmp_path.iterdir())

@@ -393,14 +393,22 @@ def scratch_file(path, option: str = "--out") -> Iterator:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".scratch", dir=path.parent or ".")
     except OSError as exc:
         raise os_error(path, exc, option) from None
+    # POSIX: unnamed at once (only the open file is used), so a process killed with SIGKILL — a batch worker when
+    # its batch is killed — leaves no file behind (each left 200 B per sample of an --offline log in the temp folder)
+    named = True
+    if os.name == "posix":
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+            named = False
     try:
         with os.fdopen(fd, "w+b") as fh:
             yield fh
     except OSError as exc:
         raise os_error(path, exc, option) from None
     finally:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if named:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
 @contextlib.contextmanager
