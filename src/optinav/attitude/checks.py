@@ -52,6 +52,76 @@ def warn_reference_order(rmse: float, rmse_xyzw: float) -> None:
         )
 
 
+#: the reference's turn over windows of REF_TURN_WINDOW_S [s] is compared with the gyro's where the gyro turns faster
+#: than REF_TURN_MIN_RATE [rad/s]; more than REF_TURN_SHARE of at least REF_TURN_MIN_WINDOWS such windows over
+#: REF_TURN_OFF [rad] apart: the reference is not q_b^n of this log. The nine BROAD trials: median 0.9-2.8°, at most
+#: 0.4 % of the windows over 30°; their opt_quat stored [x, y, z, w] or conjugated (q_n^b): median 95° and 172°, all
+#: windows over 30° (and scored 14° and 11° of inclination, status ok)
+REF_TURN_WINDOW_S = 0.035
+REF_TURN_MIN_RATE = 1.0
+REF_TURN_OFF = np.radians(30.0)
+REF_TURN_SHARE = 0.5
+REF_TURN_MIN_WINDOWS = 100
+
+
+class ReferenceTurns:
+    """Whether a reference orientation turns as the gyroscope does, accumulated over blocks of a log: :meth:`add`
+    each block, then :meth:`check` (a reference stored in another quaternion order, conjugated or of another log
+    scores a wrong but plausible inclination RMSE; the heading and vertical at rest may not show it)."""
+
+    #: the reference as given, conjugated (q_n^b), read as [x, y, z, w]
+    READINGS = ("as given", "conjugate", "xyzw")
+
+    def __init__(self):
+        self.n = 0
+        self.off = np.zeros(len(self.READINGS), dtype=np.int64)
+
+    def add(self, q_ref, gyr, dts) -> None:
+        """One block: ``q_ref`` (n, 4) q_b^n [-] (NaN rows: no reference), ``gyr`` (n, 3) rad/s, ``dts`` (n,) the
+        step before each sample [s]."""
+        from optinav.core.rotations import quat_conjugate, quat_multiply, rotvec_from_quat
+
+        q = np.asarray(q_ref, float)
+        h = np.asarray(dts, float)
+        good = h[np.isfinite(h) & (h > 0)]
+        if not good.size:
+            return
+        step = float(np.median(good))
+        lag = max(1, int(round(REF_TURN_WINDOW_S / step)))
+        if q.shape[0] <= lag + 1:
+            return
+        c = np.cumsum(np.vstack([np.zeros(3), np.asarray(gyr, float) * h[:, None]]), axis=0)
+        turn = c[lag + 1 :] - c[1:-lag]  # the gyro's turn from sample i to i + lag
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        q0, q1 = q[:-lag], q[lag:]
+        fast = np.isfinite(q0).all(axis=1) & np.isfinite(q1).all(axis=1) & np.isfinite(turn).all(axis=1)
+        fast &= np.linalg.norm(turn, axis=1) > REF_TURN_MIN_RATE * lag * step
+        if not np.any(fast):
+            return
+        g = turn[fast] / np.linalg.norm(turn[fast], axis=1, keepdims=True)
+        for j, (a, b) in enumerate(((q0, q1), (quat_conjugate(q0), quat_conjugate(q1)), (q0[:, XYZW], q1[:, XYZW]))):
+            r = rotvec_from_quat(quat_multiply(quat_conjugate(a[fast]), b[fast]))
+            nr = np.linalg.norm(r, axis=1)
+            cos = np.sum(r * g, axis=1) / np.where(nr > 0, nr, 1.0)
+            self.off[j] += int(np.count_nonzero((nr == 0) | (cos < np.cos(REF_TURN_OFF))))
+        self.n += int(np.count_nonzero(fast))
+
+    def check(self) -> None:
+        """Raise :class:`OptinavError` when the reference turns unlike the gyroscope in most windows."""
+        if self.n < REF_TURN_MIN_WINDOWS or self.off[0] <= REF_TURN_SHARE * self.n:
+            return
+        share = 100.0 * self.off[0] / self.n
+        fits = [k for k in (1, 2) if self.off[k] <= REF_TURN_SHARE * self.n * 0.1]
+        why = {1: "it looks conjugated (q_n^b, navigation -> body)", 2: "it looks stored scalar-last [x, y, z, w]"}
+        cause = "; ".join(why[k] for k in fits) or "it is not q_b^n of this log's sensor axes, or not time-aligned"
+        raise OptinavError(
+            f"the reference orientation turns unlike the gyroscope: in {share:.0f} % of {self.n} windows of "
+            f"{1e3 * REF_TURN_WINDOW_S:.0f} ms its turn is more than {np.degrees(REF_TURN_OFF):.0f}° from the gyro's, "
+            f"so its RMSE would score nothing: {cause}",
+            "store the reference as q_b^n [w, x, y, z] (body -> navigation, BROAD's opt_quat), or drop --reference",
+        )
+
+
 class InitialAttitudeWarning(UserWarning):
     """A given initial attitude q0 contradicts the vertical the accelerometer shows at the start."""
 

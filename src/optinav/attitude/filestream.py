@@ -169,10 +169,16 @@ class _Score:
         self.k = np.zeros(3, dtype=np.int64)
         self.n = 0
         self.seen = np.zeros(3, dtype=np.int64)  # rows, rows marked movement, rows with a finite reference
+        from optinav.attitude.checks import ReferenceTurns
 
-    def add(self, q, q_ref, movement) -> None:
+        self.turns = ReferenceTurns()
+
+    def add(self, q, q_ref, movement, gyr=None, dts=None) -> None:
         from optinav.attitude.checks import XYZW
         from optinav.attitude.metrics import heading_error, inclination_error
+
+        if gyr is not None:
+            self.turns.add(q_ref, gyr, dts)
 
         valid = np.all(np.isfinite(q_ref), axis=1)
         mask = movement & valid
@@ -193,6 +199,7 @@ class _Score:
 
         if not np.all(self.k[:2]):
             raise nothing_to_score(*(int(x) for x in self.seen))
+        self.turns.check()
         r = np.sqrt(self.ss / np.maximum(self.k, 1))
         warn_reference_order(float(r[0]), float(r[2]))
         return float(r[0]), float(r[1]), self.n
@@ -709,7 +716,13 @@ def _stream_offline(
                 acc_hits += int(np.count_nonzero(flags[:, 1] == 0))
                 mag_used += int(np.count_nonzero(flags[:, 2]))
                 if score is not None:
-                    score.add(q, store.col(r, "q_ref"), store.col(r, "movement")[:, 0].astype(bool))
+                    score.add(
+                        q,
+                        store.col(r, "q_ref"),
+                        store.col(r, "movement")[:, 0].astype(bool),
+                        store.col(r, "gyr"),
+                        store.col(r, "dts")[:, 0],
+                    )
                 if truth is not None:
                     truth.add(a, q)
             result = None if score is None else score.result()
@@ -1045,7 +1058,7 @@ def stream_attitude(
             if fig is not None:
                 fig.add(row0, rows)
             if score is not None:
-                score.add(q, extra["q_ref"], extra["movement"])
+                score.add(q, extra["q_ref"], extra["movement"], gyr, dts)
             if tcmp is not None:
                 tcmp.add(row0, q)
         checks.finish_second(frame)

@@ -234,7 +234,7 @@ def nothing_to_score(n: int, moving: int, valid: int) -> OptinavError:
     )
 
 
-def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
+def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None) -> tuple[float, float, int]:
     """BROAD's scoring of an estimate against a reference orientation (:mod:`optinav.attitude.metrics`).
 
     Parameters
@@ -243,6 +243,9 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
         Estimated and reference quaternions [w, x, y, z] [-].
     movement : (N,) bool array
         The samples to score (those with a non-finite reference are left out too).
+    gyr, dts : (N, 3) and (N,) arrays or None
+        The log's angular rate [rad/s] and the step before each sample [s]: a reference that turns unlike the
+        gyroscope is refused (:class:`optinav.attitude.checks.ReferenceTurns`).
 
     Returns
     -------
@@ -255,12 +258,16 @@ def reference_rmse(q_b_n, q_ref, movement) -> tuple[float, float, int]:
     """
     from optinav.attitude.metrics import heading_error, inclination_error, rmse
 
-    from optinav.attitude.checks import XYZW, warn_reference_order
+    from optinav.attitude.checks import XYZW, ReferenceTurns, warn_reference_order
 
     valid = np.all(np.isfinite(q_ref), axis=1)
     mask = movement & valid
     if not np.any(mask & np.all(np.isfinite(q_b_n), axis=1)):
         raise nothing_to_score(len(valid), int(np.count_nonzero(movement)), int(np.count_nonzero(valid)))
+    if gyr is not None:
+        turns = ReferenceTurns()
+        turns.add(q_ref, gyr, dts)
+        turns.check()
     incl = float(rmse(inclination_error(q_b_n, q_ref), mask))
     warn_reference_order(incl, float(rmse(inclination_error(q_b_n, np.asarray(q_ref)[:, XYZW]), mask)))
     return incl, float(rmse(heading_error(q_b_n, q_ref), mask)), int(mask.sum())

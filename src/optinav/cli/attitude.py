@@ -289,7 +289,7 @@ def run(args) -> int:
     step("write")
     write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
-    score = reference_rmse(res.q_b_n, *ref) if args.reference else None
+    score = reference_rmse(res.q_b_n, *ref, gyr, dt) if args.reference else None
     if score is not None:
         print(
             f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
