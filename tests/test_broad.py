@@ -1402,3 +1402,23 @@ def test_a_reference_that_turns_unlike_the_gyro_is_refused(trial, tmp_path, caps
             continue
         assert code == 2 and err.count("\n") == 0 and "turns unlike the gyroscope" in err and cause in err, err
         assert not (tmp_path / "a.csv").exists()
+
+
+def test_the_reference_scores_alike_in_ned_and_enu(tmp_path, capsys):
+    """--reference with --frame NED was refused ("the BROAD reference is body -> ENU"), so the same trial could not
+    be scored in both frames. The reference is now turned into the estimate's frame: trial 02 with the magnetometer
+    scores the same inclination and heading RMSE (0.388°, 1.351°) in NED as in ENU."""
+    import re
+
+    from optinav.cli.main import main
+
+    got = {}
+    for frame in ("ENU", "NED"):
+        argv = ["--quiet", "attitude", str(PATH), "--frame", frame, "--mag", "--reference"]
+        assert main([*argv, "--out", str(tmp_path / f"{frame}.csv")]) == 0
+        out = capsys.readouterr().out
+        got[frame] = [
+            float(x) for x in re.search(r"inclination RMSE ([\d.]+) deg, heading RMSE ([\d.]+)", out).groups()
+        ]
+    assert 0.2 < got["ENU"][0] < 0.6 and got["ENU"][1] < 3.0  # VQF's league (README_SOURCE.txt)
+    np.testing.assert_allclose(got["NED"], got["ENU"], atol=2e-3)

@@ -532,6 +532,7 @@ class _Blocks:
         import contextlib
 
         from optinav.attitude.data import load_broad
+        from optinav.core.rotations import attitude_in_frame
 
         with contextlib.ExitStack() as stack:
             if self.path.suffix.lower() in (".h5", ".hdf5"):
@@ -554,7 +555,8 @@ class _Blocks:
                 try:
                     gyr, acc = np.asarray(tr.gyr[s], float) * fg, np.asarray(tr.acc[s], float) * fa
                     extra = {
-                        "q_ref": np.asarray(tr.q_ref[s], float),
+                        # body -> ENU; compared in the estimate's frame (--frame NED was refused)
+                        "q_ref": attitude_in_frame(np.asarray(tr.q_ref[s], float), "enu", self.o.frame),
                         "movement": np.asarray(tr.movement[s]).ravel().astype(bool),
                     }
                     if self.mag:
@@ -974,8 +976,6 @@ def stream_attitude(
     want_mag = o.mag or bool(o.mag_columns)
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
-    if reference and frame != "enu":
-        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     StreamEstimator.check(method, o.options)
     # a simulator's truth CSV holds q_b_n of the frame its STEM.truth.json names (the CSV does not say it)
     tf = None if truth is None else truth_frame(getattr(truth, "truth", truth), frame)

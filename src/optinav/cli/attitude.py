@@ -211,8 +211,6 @@ def _checked(args):
     if out.exists() and out.resolve() == Path(args.data).resolve():
         raise OptinavError(f"--out {out} is the input file", "write the attitude to another file")
     prepare_report(args)
-    if args.reference and frame_name(args.frame) != "enu":  # before the estimate, not after it
-        raise OptinavError("the BROAD reference is body -> ENU", "use --frame ENU with --reference")
     q0 = None
     if args.q0_deg:
         e = parse_floats(args.q0_deg, 3, "--q0-deg", "ROLL,PITCH,YAW")
@@ -255,6 +253,7 @@ def run(args) -> int:
     from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse
     from optinav.attitude.unit import AttitudeOptions, read_log, steps
     from optinav.core.progress import step
+    from optinav.core.rotations import attitude_in_frame
 
     method, options, q0, out = _checked(args)
     require_files((args.data, "data file"))
@@ -289,7 +288,7 @@ def run(args) -> int:
     step("write")
     write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
-    score = reference_rmse(res.q_b_n, *ref, gyr, dt) if args.reference else None
+    score = reference_rmse(attitude_in_frame(res.q_b_n, args.frame, "enu"), *ref, gyr, dt) if args.reference else None
     if score is not None:
         print(
             f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
