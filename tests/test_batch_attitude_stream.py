@@ -114,3 +114,23 @@ def test_batch_attitude_truth_of_another_frame(tmp_path):
     assert float(ned["inclination_rmse_deg"]) < 20.0
     for k in ("inclination_rmse_deg", "roll_rmse", "pitch_rmse"):
         np.testing.assert_allclose(float(enu[k]), float(ned[k]), rtol=1e-3, err_msg=k)
+
+
+def test_batch_attitude_rows_say_how_they_were_estimated(tmp_path):
+    """Tables of several runs merged to compare methods (online/offline, with/without the magnetometer, input
+    stage, frame) told their rows apart only by the 16-hex options hash; each row now names them, typed."""
+    from optinav.batch import read_results
+
+    d = tmp_path / "units"
+    d.mkdir()
+    _flight_with_mag(d, 5)
+    runs = {
+        "a": (["--offline", "--mag", "--frame", "ENU"], ("iframe", "enu", True, True, True)),
+        "b": (["--method", "gd"], ("gd", "ned", False, False, False)),
+        "c": (["--method", "mekf", "--input-stage"], ("mekf", "ned", False, True, False)),
+    }
+    for name, (extra, want) in runs.items():
+        out = tmp_path / f"{name}.csv"
+        assert main(["--quiet", "batch", "attitude", str(d), "--workers", "0", "--out", str(out), *extra]) == 0
+        (row,) = read_results(out)
+        assert (row["method"], row["frame"], row["offline"], row["input_stage"], row["mag"]) == want, row

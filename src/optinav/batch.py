@@ -103,6 +103,10 @@ _EXTRA_TYPES = {
     "result_sha": "str",
     "lot_outlier": "bool",
     "lot_review": "str",
+    "frame": "str",
+    "offline": "bool",
+    "input_stage": "bool",
+    "mag": "bool",
 }
 
 

@@ -159,7 +159,16 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         chunk_rows=files.CHUNK_ROWS,
         progress=False,
     )
-    extra = {"n_samples": int(run.n), "duration_s": float(run.duration_s)}
+    # how the unit was estimated, beside "method": tables of several runs (online/offline, 6D/9D, input stage,
+    # NED/ENU) merged for a comparison told their rows apart only by the options hash
+    extra = {
+        "n_samples": int(run.n),
+        "duration_s": float(run.duration_s),
+        "frame": o.frame,
+        "offline": bool(o.offline),
+        "input_stage": bool(o.input_stage or _method(o.method, None) == "iframe"),
+        "mag": bool(o.mag or o.mag_columns),
+    }
     if run.score is not None:
         inclination, heading, n = run.score
         extra.update(
