@@ -1422,3 +1422,29 @@ def test_the_reference_scores_alike_in_ned_and_enu(tmp_path, capsys):
         ]
     assert 0.2 < got["ENU"][0] < 0.6 and got["ENU"][1] < 3.0  # VQF's league (README_SOURCE.txt)
     np.testing.assert_allclose(got["NED"], got["ENU"], atol=2e-3)
+
+
+@pytest.mark.parametrize("offline", [False, True])
+def test_the_report_draws_the_error_against_the_reference(tmp_path, monkeypatch, capsys, offline):
+    """--report with --reference gave the RMSE in a table but no error over time, so where an estimator fails
+    (a fast turn, a disturbance) was not visible (helper comparing methods). A second figure draws the inclination
+    and heading error of the scored samples: their RMS is the reported RMSE (trial 02 is drawn whole)."""
+    from matplotlib.figure import Figure as MplFigure
+
+    from optinav.cli.main import main
+    from optinav.reports import attitude_report
+
+    captured = []
+    monkeypatch.setattr(attitude_report, "write_report", lambda studies, *a, **k: captured.extend(studies))
+    argv = ["--quiet", "attitude", str(PATH), "--frame", "ENU", "--mag", "--reference", "--chunk-rows", "7000"]
+    argv += ["--out", str(tmp_path / "a.csv"), "--report", str(tmp_path / "rep")] + ["--offline"] * offline
+    assert main(argv) == 0
+    rows = {r[0]: getattr(r[1], "value", r[1]) for r in captured[0].tables[0].rows}
+    (fig_spec,) = [f for f in captured[0].figures if f.filename == "attitude_error.png"]
+    fig = MplFigure()
+    fig_spec.draw(fig)
+    for ax, name in zip(fig.axes, ("inclination", "heading")):
+        y = np.asarray(ax.lines[0].get_ydata(), float)
+        assert np.count_nonzero(np.isfinite(y)) == 32280  # the movement samples with a valid reference
+        want = rows[f"{name} RMSE vs reference [deg]"]
+        np.testing.assert_allclose(np.sqrt(np.nanmean(y**2)), want, rtol=1e-9)

@@ -143,6 +143,9 @@ class StreamRun:
     figure: tuple[np.ndarray, np.ndarray] | None = None
     duration_s: float = 0.0
     notes: list[str] = field(default_factory=list)
+    #: with ``figure`` and a reference: the same rows' (m, 2) inclination and heading error [deg], NaN where the
+    #: row is not scored (no movement or no valid reference)
+    figure_errors: np.ndarray | None = None
 
 
 class _Decimated:
@@ -151,14 +154,21 @@ class _Decimated:
     def __init__(self, n: int, points: int):
         self.stride = max(1, -(-int(n) // max(int(points), 1)))
         self.parts: list[np.ndarray] = []
+        self.errs: list[np.ndarray] = []
 
-    def add(self, row0: int, rows: np.ndarray) -> None:
+    def add(self, row0: int, rows: np.ndarray, errors: np.ndarray | None = None) -> None:
+        """A block's attitude rows and, when scored, their (n, 2) inclination and heading error [deg]."""
         first = (-row0) % self.stride
         self.parts.append(np.array(rows[first :: self.stride][:, [0, 5, 6, 7]]))
+        if errors is not None:
+            self.errs.append(np.array(errors[first :: self.stride]))
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         a = np.concatenate(self.parts) if self.parts else np.empty((0, 4))
         return a[:, 0], a[:, 1:]
+
+    def errors(self) -> np.ndarray | None:
+        return np.concatenate(self.errs) if self.errs and len(self.errs) == len(self.parts) else None
 
 
 class _Score:
@@ -173,7 +183,8 @@ class _Score:
 
         self.turns = ReferenceTurns()
 
-    def add(self, q, q_ref, movement, gyr=None, dts=None) -> None:
+    def add(self, q, q_ref, movement, gyr=None, dts=None) -> np.ndarray:
+        """One block; returns its (n, 2) inclination and heading error [deg], NaN where not scored."""
         from optinav.attitude.checks import XYZW
         from optinav.attitude.metrics import heading_error, inclination_error
 
@@ -184,6 +195,7 @@ class _Score:
         mask = movement & valid
         self.n += int(mask.sum())
         self.seen += (len(valid), int(np.count_nonzero(movement)), int(np.count_nonzero(valid)))
+        out = np.full((len(mask), 2), np.nan)
         for j, (err, ref) in enumerate(
             ((inclination_error, q_ref), (heading_error, q_ref), (inclination_error, q_ref[:, XYZW]))
         ):
@@ -191,6 +203,9 @@ class _Score:
             ok = np.isfinite(e) & mask
             self.ss[j] += float(np.sum(e[ok] ** 2))
             self.k[j] += int(np.count_nonzero(ok))
+            if j < 2:
+                out[ok, j] = np.degrees(e[ok])
+        return out
 
     def result(self) -> tuple[float, float, int]:
         from optinav.attitude.checks import warn_reference_order
@@ -711,20 +726,21 @@ def _stream_offline(
                     q = quat_multiply(q, quat_from_rotvec((store.col(r, "gyr") - store.col(r, "bias")) * lat))
                 rows = attitude_rows(store.col(r, "t")[:, 0], q, frame)
                 write(rows)
-                if fig is not None:
-                    fig.add(a, rows)
-                flags = store.col(r, "flags")
-                rest += int(np.count_nonzero(flags[:, 0]))
-                acc_hits += int(np.count_nonzero(flags[:, 1] == 0))
-                mag_used += int(np.count_nonzero(flags[:, 2]))
+                errs = None
                 if score is not None:
-                    score.add(
+                    errs = score.add(
                         q,
                         store.col(r, "q_ref"),
                         store.col(r, "movement")[:, 0].astype(bool),
                         store.col(r, "gyr"),
                         store.col(r, "dts")[:, 0],
                     )
+                if fig is not None:
+                    fig.add(a, rows, errs)
+                flags = store.col(r, "flags")
+                rest += int(np.count_nonzero(flags[:, 0]))
+                acc_hits += int(np.count_nonzero(flags[:, 1] == 0))
+                mag_used += int(np.count_nonzero(flags[:, 2]))
                 if truth is not None:
                     truth.add(a, q)
             result = None if score is None else score.result()
@@ -744,7 +760,10 @@ def _stream_offline(
     )
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
-    return StreamRun(line, n, result, est, None if fig is None else fig.arrays(), notes=src.notes)
+    return StreamRun(
+        line, n, result, est, None if fig is None else fig.arrays(), notes=src.notes,
+        figure_errors=None if fig is None else fig.errors(),
+    )  # fmt: skip
 
 
 def _rows_writer(out):
@@ -1055,10 +1074,9 @@ def stream_attitude(
             q = np.concatenate(qs)
             rows = attitude_rows(t, q, frame)
             write(rows)
+            errs = None if score is None else score.add(q, extra["q_ref"], extra["movement"], gyr, dts)
             if fig is not None:
-                fig.add(row0, rows)
-            if score is not None:
-                score.add(q, extra["q_ref"], extra["movement"], gyr, dts)
+                fig.add(row0, rows, errs)
             if tcmp is not None:
                 tcmp.add(row0, q)
         checks.finish_second(frame)
@@ -1081,6 +1099,7 @@ def stream_attitude(
         None if fig is None else fig.arrays(),
         duration_s=duration,
         notes=src.notes,
+        figure_errors=None if fig is None else fig.errors(),
     )
 
 

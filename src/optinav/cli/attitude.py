@@ -343,7 +343,10 @@ def _run_stream(args, options, q0, out, announce) -> int:
 
         t, eul = run.figure
         finish_report(
-            args, lambda d: write_attitude_report(run.estimate, t, eul, args.data, d, run.score, n_samples=run.n)
+            args,
+            lambda d: write_attitude_report(
+                run.estimate, t, eul, args.data, d, run.score, n_samples=run.n, errors=run.figure_errors
+            ),
         )
     return 0
 

@@ -41,11 +41,15 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
     return [Table("Estimation summary", ["item", "value"], rows)]
 
 
-def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_samples: int | None = None) -> Path:
+def write_attitude_report(
+    res, t, eul_deg, source, out_dir, score=None, n_samples: int | None = None, errors=None
+) -> Path:
     """Write index.md/index.html, summary.json and the Euler-angle figure of an attitude estimate into
     ``out_dir``: ``t`` (s) and ``eul_deg`` (m, 3) roll, pitch, yaw in degrees (every k-th sample of a long log:
-    ``n_samples``, default m, is the estimate's length); ``score`` as in :func:`attitude_tables`; ``res`` an
-    :class:`~optinav.attitude.AttitudeEstimate` or :class:`~optinav.attitude.filestream.StreamedEstimate`."""
+    ``n_samples``, default m, is the estimate's length); ``score`` as in :func:`attitude_tables`; ``errors`` the
+    same samples' (m, 2) inclination and heading error against the reference [deg] (NaN: not scored), drawn as a
+    second figure; ``res`` an :class:`~optinav.attitude.AttitudeEstimate` or
+    :class:`~optinav.attitude.filestream.StreamedEstimate`."""
     n = len(t) if n_samples is None else int(n_samples)
     every = "" if n <= len(t) else f"; one sample in {-(-n // max(len(t), 1))} of {n}"
 
@@ -64,12 +68,31 @@ def write_attitude_report(res, t, eul_deg, source, out_dir, score=None, n_sample
             axs[k].grid(alpha=0.3)
         axs[-1].set_xlabel(since)
 
+    figures = [Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame}{every})", draw, (8, 6))]
+    err = None if errors is None else np.asarray(errors, float)
+    if err is not None and score is not None and np.isfinite(err).any():
+
+        def draw_errors(fig):
+            axs = fig.subplots(2, 1, sharex=True)
+            for k, name in enumerate(("inclination", "heading")):
+                axs[k].plot(t, err[:, k], lw=0.8)  # NaN (not scored) breaks the line
+                axs[k].set_ylabel(f"{name} error [deg]")
+                axs[k].set_ylim(bottom=0.0)
+                axs[k].grid(alpha=0.3)
+            axs[-1].set_xlim(t[0], t[-1]) if t.size > 1 else None  # the Euler figure's time span
+            axs[-1].set_xlabel(since)
+
+        rms = f"RMSE {np.degrees(score[0]):.3f}° inclination, {np.degrees(score[1]):.3f}° heading"
+        caption = f"Error against the reference: the scored samples (movement, valid reference; {rms}{every})"
+        if "yaw" in res.unobservable():  # 6D: a number, but of the initial yaw and the gyro's drift
+            caption += "; no heading measurement: the heading error is the start's yaw offset and the gyro's drift"
+        figures.append(Figure("attitude_error.png", caption, draw_errors, (8, 5)))
     study = StudyResult(
         name="attitude",
         title=f"Attitude of {Path(source).name} ({res.method})",
         description=res.summary(),
         tables=attitude_tables(res, n, score),
-        figures=[Figure("attitude_euler.png", f"Roll, pitch, yaw ({res.frame}{every})", draw, (8, 6))],
+        figures=figures,
         elapsed=float(getattr(res, "elapsed_s", 0.0) or 0.0),  # the estimate's time (a streamed run keeps none)
     )
     return write_report([study], out_dir, title="optinav attitude")
