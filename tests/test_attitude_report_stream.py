@@ -164,3 +164,17 @@ def test_the_report_gives_the_estimates_time_not_zero(flight, tmp_path):
         main(["--quiet", "report", str(tmp_path / "r.json"), "--data", str(path), "--out", str(tmp_path / "r2")]) == 0
     )
     assert "_Study `attitude`, 2.2 s._" in (tmp_path / "r2" / "index.md").read_text()
+
+
+def test_the_report_summary_names_its_version(flight, tmp_path):
+    """summary.json held a title and the studies but neither the optinav version nor when it was written (index.md
+    a local time without zone), so two reports' numbers could not be told apart by the code that made them."""
+    import optinav
+
+    _, path, _ = flight
+    rep = tmp_path / "rep"
+    assert main(["--quiet", "attitude", str(path), "--out", str(tmp_path / "a.csv"), "--report", str(rep)]) == 0
+    s = json.loads((rep / "summary.json").read_text())
+    assert (s["schema"], s["version"], s["optinav_version"]) == ("optinav.report_summary", 1, optinav.__version__)
+    assert s["written_utc"].endswith("Z") and s["written_utc"] in (rep / "index.md").read_text()
+    assert f"by optinav {optinav.__version__}." in (rep / "index.md").read_text()

@@ -459,10 +459,17 @@ def prepare_report_dir(out_dir: str | Path, option: str = "--report") -> Path:
     return out
 
 
+#: the layout of a report's summary.json
+REPORT_SCHEMA, REPORT_VERSION = "optinav.report_summary", 1
+
+
 def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str = "optinav report") -> Path:
     """Write ``index.md``, ``index.html``, ``summary.json`` and PNGs for ``results`` into ``out_dir``."""
+    from optinav import __version__
+
     out = prepare_report_dir(out_dir)
-    md = [f"# {title}", "", f"Written {time.strftime('%Y-%m-%d %H:%M:%S')} by optinav.", ""]
+    written = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    md = [f"# {title}", "", f"Written {written} by optinav {__version__}.", ""]
     h = [
         f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
         "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
@@ -470,7 +477,15 @@ def write_report(results: list[StudyResult], out_dir: str | Path, *, title: str 
         ".fail{color:#b00}.pass{color:#070}</style>",
         f"<h1>{html.escape(title)}</h1>",
     ]
-    summary: dict[str, Any] = {"title": title, "studies": {}}
+    # which optinav wrote the numbers, and when (summary.json had neither: reports of two versions compared blind)
+    summary: dict[str, Any] = {
+        "schema": REPORT_SCHEMA,
+        "version": REPORT_VERSION,
+        "optinav_version": __version__,
+        "written_utc": written,
+        "title": title,
+        "studies": {},
+    }
     if any(r.headline or r.checks for r in results):  # a one-log report (calibrate, allan) has nothing to compare
         hmd, hh = _headline(results)
         md += hmd
