@@ -248,6 +248,23 @@ def check_step(dt: float, name: str = "dt") -> None:
         )
 
 
+def default_step(rate_hz: float | None, dt: float | None) -> float | None:
+    """A streaming filter's default step [s] from ``rate_hz`` [Hz] or ``dt`` [s] (``dt`` wins), None without
+    either; a rate below an IMU's (a step given as a rate) or a non-positive step is refused."""
+    if dt is None and rate_hz is not None:
+        dt = 1.0 / float(rate_hz)
+    if dt is not None and not (np.isfinite(dt) and dt > 0):
+        raise OptinavError(f"dt={dt!r} must be a positive step in s", "pass rate_hz or dt > 0")
+    if dt is not None and rate_hz is not None and dt > MAX_STEP_S:
+        raise OptinavError(
+            f"rate_hz = {rate_hz:g} Hz is no IMU sample rate (at least {1 / MAX_STEP_S:g} Hz)",
+            "pass the rate in Hz (dt= takes the step in seconds)",
+        )
+    if dt is not None:
+        check_step(float(dt))
+    return None if dt is None else float(dt)
+
+
 def _as_q0(q0) -> np.ndarray:
     q = as_float_array(q0, "q0", last_dims=(4,))
     if q.shape != (4,) or np.linalg.norm(q) == 0:
@@ -640,7 +657,9 @@ def estimate_q(
 
 
 class _Filter:
-    """Per-sample attitude filter running the same kernel as :func:`estimate` (one sample at a time)."""
+    """Streaming attitude filter running the same kernel as :func:`estimate`: :meth:`update` one sample,
+    :meth:`update_batch` a chunk; ``rate_hz`` [Hz] or ``dt`` [s] gives the default step (as
+    :class:`~optinav.attitude.AttitudeFilter`)."""
 
     METHOD = "qn"
 
@@ -650,11 +669,14 @@ class _Filter:
         q0=None,
         C_b_m=None,
         *,
+        rate_hz: float | None = None,
+        dt: float | None = None,
         min_sun_elevation: float = 0.0,
         min_dop: float = 0.05,
         min_sun_separation: float = np.radians(10.0),
         **options,
     ):
+        self.dt = default_step(rate_hz, dt)
         self.frame = frame_name(frame)
         self.options = _options(self.METHOD, options)
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
@@ -672,12 +694,18 @@ class _Filter:
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
 
-    def update(self, gyr, acc, dt, pol_sample=None) -> np.ndarray:
-        """Process one sample: gyr (3,) rad/s, acc (3,) m/s², dt s; ``pol_sample`` None, (aop, sun_n) or
-        (aop, sun_n, dop). Returns q_b^n (4,)."""
+    def _step(self, dt) -> float | np.ndarray:
+        h = self.dt if dt is None else dt
+        if h is None:
+            raise OptinavError("no time step for this update", "pass dt= or build the filter with rate_hz")
+        return h
+
+    def update(self, gyr, acc, dt=None, pol_sample=None) -> np.ndarray:
+        """Process one sample: gyr (3,) rad/s, acc (3,) m/s², dt s (None: the filter's); ``pol_sample`` None,
+        (aop, sun_n) or (aop, sun_n, dop). Returns q_b^n (4,)."""
         g = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(1, 3)
         a = as_float_array(acc, "acc", last_dims=(3,)).reshape(1, 3)
-        dts = _as_dt(dt, 1)
+        dts = _as_dt(self._step(dt), 1)
         pol = None
         if pol_sample is not None:
             if len(pol_sample) not in (2, 3):
@@ -711,6 +739,45 @@ class _Filter:
             self.counts,
         )
         return self._out[0].copy()
+
+    def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None) -> np.ndarray:
+        """A chunk of samples, with the arithmetic of :func:`estimate` (chunks in turn give its output exactly).
+
+        Parameters
+        ----------
+        gyr : (N, 3) array
+            Angular rate ω_ib^b [rad/s].
+        acc : (N, 3) array
+            Specific force [m/s^2].
+        dt : float, (N,) array or None
+            Steps [s]; None: the filter's.
+        pol : PolarizationMeasurement or None
+            The chunk's polarization samples (N of them).
+
+        Returns
+        -------
+        (N, 4) ndarray
+            q_b^n [w, x, y, z] [-] after each sample.
+        """
+        g = np.ascontiguousarray(as_float_array(gyr, "gyr", last_dims=(3,)).reshape(-1, 3))
+        a = np.ascontiguousarray(as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3))
+        if g.shape != a.shape:
+            raise OptinavError(f"gyr {g.shape} and acc {a.shape} differ in shape", "pass one row per sample")
+        n = g.shape[0]
+        if n == 0:
+            return np.empty((0, 4))
+        dts = _as_dt(self._step(dt), n)
+        use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
+        for k, v in skipped.items():
+            self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
+        if self.state is None:
+            q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
+            self.state = _init_state(self.METHOD, q, self.options)
+        out, std = np.empty((n, 4)), np.empty((n, 3))
+        _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, out, std,
+             self.counts)  # fmt: skip
+        self._out[0], self._std[0] = out[-1], std[-1]
+        return out
 
 
 class GradientDescent(_Filter):

@@ -341,22 +341,11 @@ class AttitudeFilter:
     def __init__(
         self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None, **options
     ):
-        from optinav.attitude.estimators import MAX_STEP_S, _as_q0, _options, check_step
+        from optinav.attitude.estimators import _as_q0, _options, default_step
 
         self.frame = frame_name(frame)
         self.options = _options("iframe", options)
-        if dt is None and rate_hz is not None:
-            dt = 1.0 / float(rate_hz)
-        if dt is not None and not (np.isfinite(dt) and dt > 0):
-            raise OptinavError(f"dt={dt!r} must be a positive step in s", "pass rate_hz or dt > 0")
-        if dt is not None and rate_hz is not None and dt > MAX_STEP_S:
-            raise OptinavError(
-                f"rate_hz = {rate_hz:g} Hz is no IMU sample rate (at least {1 / MAX_STEP_S:g} Hz)",
-                "pass the rate in Hz (dt= takes the step in seconds)",
-            )
-        if dt is not None:
-            check_step(float(dt))
-        self.dt = dt
+        self.dt = default_step(rate_hz, dt)
         self._par = _params(self.frame, self.options)
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
         self._step = _k.step
