@@ -134,3 +134,32 @@ def test_batch_attitude_rows_say_how_they_were_estimated(tmp_path):
         assert main(["--quiet", "batch", "attitude", str(d), "--workers", "0", "--out", str(out), *extra]) == 0
         (row,) = read_results(out)
         assert (row["method"], row["frame"], row["offline"], row["input_stage"], row["mag"]) == want, row
+
+
+def test_single_file_reference_scores_a_simulated_flight(tmp_path, capsys):
+    """`optinav attitude flight.csv --reference` refused a simulated flight ("not a BROAD file") although `batch
+    --reference` scored it against STEM.truth.csv: the single-file command now scores it the same (NED and ENU
+    alike: the truth is compared in its own frame), and a log with neither reference is refused naming both."""
+    import re
+
+    d = tmp_path / "units"
+    d.mkdir()
+    assert main(["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "12", "--seed", "6",
+                 "--out", str(d / "f6.csv")]) == 0  # fmt: skip
+    assert (
+        main(
+            ["--quiet", "batch", "attitude", str(d), "--reference", "--workers", "0", "--out", str(tmp_path / "b.csv")]
+        )
+        == 0
+    )
+    (row,) = list(csv.DictReader((tmp_path / "b.csv").open()))
+    capsys.readouterr()
+    for frame in ("NED", "ENU"):
+        argv = ["--quiet", "attitude", str(d / "f6.csv"), "--reference", "--frame", frame]
+        assert main([*argv, "--out", str(tmp_path / f"{frame}.csv")]) == 0
+        inc = float(re.search(r"inclination RMSE ([\d.]+) deg", capsys.readouterr().out).group(1))
+        assert abs(inc - float(row["inclination_rmse_deg"])) < 2e-3, (frame, inc, row["inclination_rmse_deg"])
+    (d / "f6.truth.csv").unlink()
+    assert main(["--quiet", "attitude", str(d / "f6.csv"), "--reference", "--out", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "not a BROAD trial" in err and "f6.truth.csv" in err, err

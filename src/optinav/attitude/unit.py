@@ -133,6 +133,32 @@ def steps(t, path="") -> np.ndarray:
     return np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.01))
 
 
+def reference_sources(path, options: AttitudeOptions, reference: bool, *, required: bool = False) -> dict:
+    """What a log is scored against with ``reference``, as keywords of
+    :func:`optinav.attitude.filestream.stream_attitude`: a BROAD trial's optical reference, else a simulator's
+    ``STEM.truth.csv`` beside the log (and ``STEM.truth.json``, compared too and naming the truth's frame); none
+    without ``reference``. ``required``: no reference to score against is an error (``optinav attitude
+    --reference``), not an unscored unit (``batch --reference`` scores "where there is one")."""
+    from optinav.attitude.data import is_broad
+    from optinav.attitude.filestream import _TruthSeries
+    from optinav.core.results import TruthSeriesReader
+
+    p, o = Path(path), options
+    broad = is_broad(p) and not o.columns and not o.datasets
+    truth_csv = p.with_name(p.stem + ".truth.csv")
+    truth_json = p.with_name(p.stem + ".truth.json")
+    if reference and required and not broad and not truth_csv.is_file():
+        raise OptinavError(
+            f"{path} is not a BROAD trial (opt_quat, movement) and has no {truth_csv.name} beside it",
+            "drop --reference, or pass a BROAD trial or a log written by optinav simulate flight",
+        )
+    return dict(
+        reference=reference and broad,
+        truth_csv=truth_csv if reference and not broad and truth_csv.is_file() else None,
+        truth=TruthSeriesReader(truth_json, _TruthSeries.SERIES) if reference and truth_json.is_file() else None,
+    )
+
+
 def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[StreamedEstimate, dict]:
     """Estimate the attitude of ``path`` block by block (:func:`optinav.attitude.filestream.stream_attitude`, no
     output file), so a unit's memory does not grow with its log; extra columns: samples, duration (s), and with
@@ -140,25 +166,11 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
     simulated truth (``STEM.truth.csv``), over the samples where it is valid. With ``reference`` a simulated
     ``STEM.truth.json`` beside it is compared too (:attr:`StreamedEstimate.truth_comparison`; its per-sample
     series read block by block beside the log)."""
-    from optinav.attitude.data import is_broad
-    from optinav.attitude.filestream import _TruthSeries, stream_attitude
+    from optinav.attitude.filestream import stream_attitude
     from optinav.core import files
-    from optinav.core.results import TruthSeriesReader
 
     p, o = Path(path), options
-    broad = is_broad(p) and not o.columns and not o.datasets
-    truth_csv = p.with_name(p.stem + ".truth.csv")
-    truth_json = p.with_name(p.stem + ".truth.json")
-    run = stream_attitude(
-        p,
-        None,
-        o,
-        reference=reference and broad,
-        truth_csv=truth_csv if reference and not broad and truth_csv.is_file() else None,
-        truth=TruthSeriesReader(truth_json, _TruthSeries.SERIES) if reference and truth_json.is_file() else None,
-        chunk_rows=files.CHUNK_ROWS,
-        progress=False,
-    )
+    run = stream_attitude(p, None, o, **reference_sources(p, o, reference), chunk_rows=files.CHUNK_ROWS, progress=False)
     # how the unit was estimated, beside "method": tables of several runs (online/offline, 6D/9D, input stage,
     # NED/ENU) merged for a comparison told their rows apart only by the options hash
     extra = {

@@ -105,7 +105,8 @@ def register(sub) -> None:
     p.add_argument(
         "--reference",
         action="store_true",
-        help="score against the file's reference orientation (BROAD: opt_quat, movement): inclination and heading RMSE",
+        help="score against the file's reference orientation (BROAD: opt_quat, movement; a simulated flight: "
+        "STEM.truth.csv beside it): inclination and heading RMSE",
     )
     p.add_argument(
         "--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED; body forward-right-down)"
@@ -313,6 +314,7 @@ REPORT_POINTS = 200_000
 def _run_stream(args, options, q0, out, announce) -> int:
     """The attitude of a log read block by block (:func:`optinav.attitude.filestream.stream_attitude`)."""
     from optinav.attitude.filestream import pol_columns, stream_attitude
+    from optinav.attitude.unit import reference_sources
 
     pol = (
         pol_columns(args.pol_columns, args.frame, aop_unit=args.aop_unit, min_dop=args.min_dop, **_sun(args))
@@ -325,7 +327,7 @@ def _run_stream(args, options, q0, out, announce) -> int:
         options,
         q0=q0,
         pol=pol,
-        reference=args.reference,
+        **reference_sources(args.data, options, args.reference, required=True),  # BROAD, or a simulator's truth
         chunk_rows=args.chunk_rows,
         announce=lambda n, m: announce(n),
         figure_points=REPORT_POINTS if args.report else 0,
