@@ -163,3 +163,25 @@ def test_single_file_reference_scores_a_simulated_flight(tmp_path, capsys):
     assert main(["--quiet", "attitude", str(d / "f6.csv"), "--reference", "--out", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "not a BROAD trial" in err and "f6.truth.csv" in err, err
+
+
+def test_a_truth_of_another_frame_without_its_json_is_refused(tmp_path, capsys):
+    """A NED flight's STEM.truth.csv without STEM.truth.json (which names the frame) scored with --frame ENU as
+    if the truth were ENU: 175° of inclination RMSE, exit 0. The truth's vertical at rest is the accelerometer's
+    reversed, which now refuses it in one line (single file and batch); in its own frame it still scores."""
+    d = tmp_path / "units"
+    d.mkdir()
+    assert main(["--quiet", "simulate", "flight", "--kind", "dynamic", "--duration", "12", "--seed", "6",
+                 "--out", str(d / "f6.csv")]) == 0  # fmt: skip
+    (d / "f6.truth.json").unlink()
+    argv = ["--quiet", "attitude", str(d / "f6.csv"), "--reference", "--out", str(tmp_path / "a.csv")]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main([*argv, "--frame", "ENU"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "warning: the accelerometer reads" not in line]
+    assert len(err) == 1 and "vertical" in err[0] and "not q_b^n in the ENU frame" in err[0], err  # + the frame warning
+    out = tmp_path / "b.csv"
+    assert main(["--quiet", "batch", "attitude", str(d), "--reference", "--frame", "ENU", "--workers", "0",
+                 "--out", str(out)]) == 1  # fmt: skip
+    (row,) = list(csv.DictReader(out.open()))
+    assert row["status"] == "failed" and "vertical" in row["error"] and not row.get("inclination_rmse_deg")

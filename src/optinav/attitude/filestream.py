@@ -174,22 +174,22 @@ class _Decimated:
 class _Score:
     """:func:`optinav.attitude.recording.reference_rmse` accumulated over blocks, from per-block sums of squares."""
 
-    def __init__(self):
+    def __init__(self, frame: str | None = None):
         self.ss = np.zeros(3)  # inclination, heading, inclination with the reference read as [x, y, z, w]
         self.k = np.zeros(3, dtype=np.int64)
         self.n = 0
         self.seen = np.zeros(3, dtype=np.int64)  # rows, rows marked movement, rows with a finite reference
         from optinav.attitude.checks import ReferenceTurns
 
-        self.turns = ReferenceTurns()
+        self.turns = ReferenceTurns(frame)
 
-    def add(self, q, q_ref, movement, gyr=None, dts=None) -> np.ndarray:
+    def add(self, q, q_ref, movement, gyr=None, dts=None, acc=None) -> np.ndarray:
         """One block; returns its (n, 2) inclination and heading error [deg], NaN where not scored."""
         from optinav.attitude.checks import XYZW
         from optinav.attitude.metrics import heading_error, inclination_error
 
         if gyr is not None:
-            self.turns.add(q_ref, gyr, dts)
+            self.turns.add(q_ref, gyr, dts, acc)
 
         valid = np.all(np.isfinite(q_ref), axis=1)
         mask = movement & valid
@@ -734,6 +734,7 @@ def _stream_offline(
                         store.col(r, "movement")[:, 0].astype(bool),
                         store.col(r, "gyr"),
                         store.col(r, "dts")[:, 0],
+                        store.col(r, "acc"),
                     )
                 if fig is not None:
                     fig.add(a, rows, errs)
@@ -1028,7 +1029,7 @@ def stream_attitude(
     gaps = checks.gaps
     if announce is not None:
         announce(checks.n, method)
-    score = _Score() if reference or truth_csv is not None else None
+    score = _Score(frame) if reference or truth_csv is not None else None
     tcmp = None if truth is None else _TruthSeries(truth, frame)
     duration = 0.0 if t_first is None else t_last - t_first
     # the estimators (numba kernels) load only now, so that a bad file is reported within a second of start
@@ -1074,7 +1075,7 @@ def stream_attitude(
             q = np.concatenate(qs)
             rows = attitude_rows(t, q, frame)
             write(rows)
-            errs = None if score is None else score.add(q, extra["q_ref"], extra["movement"], gyr, dts)
+            errs = None if score is None else score.add(q, extra["q_ref"], extra["movement"], gyr, dts, acc)
             if fig is not None:
                 fig.add(row0, rows, errs)
             if tcmp is not None:

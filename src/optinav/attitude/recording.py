@@ -234,7 +234,7 @@ def nothing_to_score(n: int, moving: int, valid: int) -> OptinavError:
     )
 
 
-def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None) -> tuple[float, float, int]:
+def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None, acc=None, frame=None) -> tuple[float, float, int]:
     """BROAD's scoring of an estimate against a reference orientation (:mod:`optinav.attitude.metrics`).
 
     Parameters
@@ -246,6 +246,11 @@ def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None) -> tuple[float, f
     gyr, dts : (N, 3) and (N,) arrays or None
         The log's angular rate [rad/s] and the step before each sample [s]: a reference that turns unlike the
         gyroscope is refused (:class:`optinav.attitude.checks.ReferenceTurns`).
+    acc : (N, 3) array or None
+        Specific force [m/s^2]: with ``frame``, a reference whose vertical is not the accelerometer's at rest is
+        refused.
+    frame : str or None
+        Navigation frame of ``q_b_n`` and ``q_ref``.
 
     Returns
     -------
@@ -265,8 +270,8 @@ def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None) -> tuple[float, f
     if not np.any(mask & np.all(np.isfinite(q_b_n), axis=1)):
         raise nothing_to_score(len(valid), int(np.count_nonzero(movement)), int(np.count_nonzero(valid)))
     if gyr is not None:
-        turns = ReferenceTurns()
-        turns.add(q_ref, gyr, dts)
+        turns = ReferenceTurns(frame)
+        turns.add(q_ref, gyr, dts, acc)
         turns.check()
     incl = float(rmse(inclination_error(q_b_n, q_ref), mask))
     warn_reference_order(incl, float(rmse(inclination_error(q_b_n, np.asarray(q_ref)[:, XYZW]), mask)))

@@ -289,7 +289,8 @@ def run(args) -> int:
     step("write")
     write_csv(out, table, CSV_HEADER, CSV_FORMAT)
     print(res.summary())
-    score = reference_rmse(attitude_in_frame(res.q_b_n, args.frame, "enu"), *ref, gyr, dt) if args.reference else None
+    q_enu = attitude_in_frame(res.q_b_n, args.frame, "enu")  # BROAD's reference is body -> ENU
+    score = reference_rmse(q_enu, *ref, gyr, dt, acc, "enu") if args.reference else None
     if score is not None:
         print(
             f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
