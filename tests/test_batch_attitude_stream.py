@@ -185,3 +185,27 @@ def test_a_truth_of_another_frame_without_its_json_is_refused(tmp_path, capsys):
                  "--out", str(out)]) == 1  # fmt: skip
     (row,) = list(csv.DictReader(out.open()))
     assert row["status"] == "failed" and "vertical" in row["error"] and not row.get("inclination_rmse_deg")
+
+
+def test_a_closed_stderr_does_not_fail_the_units(tmp_path):
+    """`optinav batch attitude ... 2>&1 | head -1`: a unit whose warning (here the frame's) met the closed pipe
+    failed with 'internal error: BrokenPipeError' and was journaled so (a re-run did not retry it). A warning
+    that cannot be shown is lost, as with Python's own showwarning; the units are ok."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    d = tmp_path / "units"
+    d.mkdir()
+    for seed in (1, 2):
+        assert main(["--quiet", "simulate", "flight", "--kind", "static", "--duration", "5", "--seed", str(seed),
+                     "--out", str(d / f"f{seed}.csv")]) == 0  # fmt: skip
+    out = tmp_path / "r.csv"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    cmd = [sys.executable, "-m", "optinav", "batch", "attitude", str(d), "--frame", "ENU", "--workers", "1"]
+    p = subprocess.Popen([*cmd, "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    p.stderr.close()  # the reader is gone before anything is written
+    p.wait(timeout=300)
+    rows = list(csv.DictReader(out.open()))
+    assert [(r["unit"], r["status"], r["error"]) for r in rows] == [("f1", "ok", ""), ("f2", "ok", "")]

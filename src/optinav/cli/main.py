@@ -244,7 +244,10 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     from optinav.errors import Note
 
     kind = "note" if isinstance(category, type) and issubclass(category, Note) else "warning"
-    print(f"optinav: {kind}: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
+    try:
+        print(f"optinav: {kind}: {cli_wording(' '.join(str(message).split()))}", file=sys.stderr)
+    except OSError:  # stderr closed (a pipe to `head`): the warning is lost, as with Python's own showwarning;
+        pass  # a batch unit failed "internal error: BrokenPipeError" and was journaled so
 
 
 #: options that name what a command writes, never what it reads
