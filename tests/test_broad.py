@@ -1448,3 +1448,16 @@ def test_the_report_draws_the_error_against_the_reference(tmp_path, monkeypatch,
         assert np.count_nonzero(np.isfinite(y)) == 32280  # the movement samples with a valid reference
         want = rows[f"{name} RMSE vs reference [deg]"]
         np.testing.assert_allclose(np.sqrt(np.nanmean(y**2)), want, rtol=1e-9)
+
+
+def test_the_reference_line_says_when_the_heading_is_not_measured(tmp_path, capsys):
+    """6D, the reference line read "heading RMSE 0.704 deg" on trial 02 as if the heading were estimated (165° in
+    NED on the same estimate: it is the start's yaw offset and the gyro's drift); it now says so, and with the
+    magnetometer it does not."""
+    from optinav.cli.main import main
+
+    for extra, note in (([], True), (["--mag"], False)):
+        argv = ["--quiet", "attitude", str(PATH), "--frame", "ENU", "--reference", "--out", str(tmp_path / "a.csv")]
+        assert main(argv + extra) == 0
+        (line,) = [s for s in capsys.readouterr().out.splitlines() if s.startswith("reference:")]
+        assert ("no heading measurement" in line) == note, line

@@ -251,7 +251,7 @@ def _announce(args, method):
 
 
 def run(args) -> int:
-    from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse
+    from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows, reference_rmse, score_line
     from optinav.attitude.unit import AttitudeOptions, read_log, steps
     from optinav.core.progress import step
     from optinav.core.rotations import attitude_in_frame
@@ -292,10 +292,7 @@ def run(args) -> int:
     q_enu = attitude_in_frame(res.q_b_n, args.frame, "enu")  # BROAD's reference is body -> ENU
     score = reference_rmse(q_enu, *ref, gyr, dt, acc, "enu") if args.reference else None
     if score is not None:
-        print(
-            f"reference: inclination RMSE {math.degrees(score[0]):.3f} deg, heading RMSE "
-            f"{math.degrees(score[1]):.3f} deg ({score[2]} movement samples with a valid reference)"
-        )
+        print(score_line(score, "yaw" not in res.unobservable()))
     print(f"optinav: attitude written to {out}")
     finish_report(args, lambda d: write_attitude_report(res, t, table[:, 5:], args.data, d, score))
     return 0
@@ -336,10 +333,9 @@ def _run_stream(args, options, q0, out, announce) -> int:
     print_notes(run.notes)
     print(run.summary)
     if run.score is not None:
-        print(
-            f"reference: inclination RMSE {math.degrees(run.score[0]):.3f} deg, heading RMSE "
-            f"{math.degrees(run.score[1]):.3f} deg ({run.score[2]} movement samples with a valid reference)"
-        )
+        from optinav.attitude.recording import score_line
+
+        print(score_line(run.score, "yaw" not in run.estimate.unobservable()))
     print(f"optinav: attitude written to {out}")
     if args.report:
         from optinav.reports.attitude_report import write_attitude_report
