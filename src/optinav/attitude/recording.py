@@ -12,6 +12,7 @@ import contextlib
 
 import numpy as np
 
+from optinav.core.rotations import DEFAULT_FRAME
 from optinav.errors import OptinavError
 
 __all__ = [
@@ -235,7 +236,9 @@ def nothing_to_score(n: int, moving: int, valid: int) -> OptinavError:
     )
 
 
-def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None, acc=None, frame=None) -> tuple[float, float, int]:
+def reference_rmse(
+    q_b_n, q_ref, movement, gyr=None, dts=None, acc=None, frame: str = DEFAULT_FRAME
+) -> tuple[float, float, int]:
     """BROAD's scoring of an estimate against a reference orientation (:mod:`optinav.attitude.metrics`).
 
     Parameters
@@ -248,10 +251,9 @@ def reference_rmse(q_b_n, q_ref, movement, gyr=None, dts=None, acc=None, frame=N
         The log's angular rate [rad/s] and the step before each sample [s]: a reference that turns unlike the
         gyroscope is refused (:class:`optinav.attitude.checks.ReferenceTurns`).
     acc : (N, 3) array or None
-        Specific force [m/s^2]: with ``frame``, a reference whose vertical is not the accelerometer's at rest is
-        refused.
-    frame : str or None
-        Navigation frame of ``q_b_n`` and ``q_ref``.
+        Specific force [m/s^2]: a reference whose vertical is not the accelerometer's at rest is refused.
+    frame : str
+        Navigation frame of ``q_b_n`` and ``q_ref`` (``"ned"``/``"enu"``).
 
     Returns
     -------
