@@ -1,4 +1,5 @@
-"""Test helper: a copy of a CSV log with some columns clipped, as a sensor at the end of its range writes them."""
+"""Test helpers: a copy of a CSV log with some columns clipped, as a sensor at the end of its range writes them, or
+with a column drifting, as a sensor warming up does."""
 
 from pathlib import Path
 
@@ -17,6 +18,20 @@ def clip_columns(src: Path, dst: Path, names: tuple[str, ...], limit: float) -> 
         v = ln.split(",")
         for j in idx:
             v[j] = repr(float(np.clip(float(v[j]), -limit, limit)))
+        out.append(",".join(v))
+    Path(dst).write_text("\n".join(out) + "\n")
+    return Path(dst)
+
+
+def drift_column(src: Path, dst: Path, name: str, drift: float) -> Path:
+    """Write the CSV log ``src`` (a header line, then rows) to ``dst`` with ``drift`` (the column's unit) added to
+    the column ``name`` linearly from 0 at the first row to ``drift`` at the last."""
+    head, *rows = Path(src).read_text().splitlines()
+    c = head.split(",").index(name)
+    out = [head]
+    for i, row in enumerate(rows):
+        v = row.split(",")
+        v[c] = repr(float(v[c]) + drift * i / (len(rows) - 1))
         out.append(",".join(v))
     Path(dst).write_text("\n".join(out) + "\n")
     return Path(dst)

@@ -9,7 +9,7 @@ import json
 import os
 from pathlib import Path
 
-from csv_edit import clip_columns
+from csv_edit import clip_columns, drift_column
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -823,19 +823,11 @@ def test_a_drifting_gyro_bias_is_refused_in_a_ferraris_session(tmp_path, capsys)
     from optinav.cli.main import main
 
     src = DATA / "example_ferraris_session.csv"
-    head, *rows = src.read_text().splitlines()
-    col = head.split(",").index("gyr_z")
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     argv = ["--quiet", "calibrate", "accel", "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
     argv += ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
     for drift, code in ((0.5, 2), (0.03, 0)):
-        out = [head]
-        for i, row in enumerate(rows):
-            v = row.split(",")
-            v[col] = repr(float(v[col]) + drift * i / (len(rows) - 1))
-            out.append(",".join(v))
-        path = tmp_path / f"drift{drift}.csv"
-        path.write_text("\n".join(out) + "\n")
+        path = drift_column(src, tmp_path / f"drift{drift}.csv", "gyr_z", drift)
         res = tmp_path / f"r{drift}.json"
         assert main([*argv, str(path), "--out", str(res)]) == code
         err = capsys.readouterr().err
@@ -860,19 +852,11 @@ def test_a_drifting_accelerometer_is_refused_in_a_ferraris_session(tmp_path, cap
     from optinav.cli.main import main
 
     src = DATA / "example_ferraris_session.csv"
-    head, *rows = src.read_text().splitlines()
-    c = head.split(",").index(col)
     argv = ["--quiet", "calibrate", "accel", "--rate", "102.4", "--gyro-unit", "deg/s", "--gravity", "9.81"]
     argv += ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
     ref = json.loads((DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").read_text())
     for drift, code in ((0.05, 2), (0.005, 0)):
-        out = [head]
-        for i, row in enumerate(rows):
-            v = row.split(",")
-            v[c] = repr(float(v[c]) + drift * i / (len(rows) - 1))
-            out.append(",".join(v))
-        path = tmp_path / f"drift{drift}.csv"
-        path.write_text("\n".join(out) + "\n")
+        path = drift_column(src, tmp_path / f"drift{drift}.csv", col, drift)
         res = tmp_path / f"r{drift}.json"
         assert main([*argv, str(path), "--out", str(res)]) == code
         err = capsys.readouterr().err
@@ -887,7 +871,8 @@ def test_a_drifting_accelerometer_is_refused_in_a_ferraris_session(tmp_path, cap
         a = json.loads(res.read_text())["fields"]["accelerometer"]["value"]
         j = "xyz".index(col[-1])
         secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
-        mid = np.mean([secs[f"{col[-1]}_{s}"][e] for s in "pa" for e in ("start", "end")]) / (len(rows) - 1)
+        rows = len(src.read_text().splitlines()) - 1
+        mid = np.mean([secs[f"{col[-1]}_{s}"][e] for s in "pa" for e in ("start", "end")]) / (rows - 1)
         b_ref = ref["b_a"][j] + drift * mid  # the drifted bias at the mean time of the axis' two poses
         assert abs(a["b"][j] - b_ref) < 2 * a["b_std"][j], (a["b"][j], b_ref, a["b_std"][j])
 
