@@ -563,3 +563,37 @@ def test_one_axis_swapped_between_the_triads_is_named(tmp_path, capsys, acc_col,
         err = capsys.readouterr().err
         words = f"accelerometer's {acc_col[-1]} and the gyroscope's {gyr_col[-1]} columns look swapped"
         assert words in err and "--columns" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_imucal_session_as_two_files_on_their_own_clocks(tmp_path, capsys):
+    """imucal's session logged as a phone app writes it: the accelerometer and the gyroscope in two files, each with
+    its own time stamps (the gyro's 0.3 of a sample later, its values the session's gyro at those times). `calibrate
+    accel --gyro` refused them ("resample both files onto the same time stamps"); the gyro is interpolated onto the
+    accelerometer's times and the calibration is the one-file calibration's within a tenth of its std."""
+    src = DATA / "example_ferraris_session.csv"
+    if not src.is_file():
+        pytest.skip("imucal data absent")
+    raw = np.genfromtxt(src, delimiter=",", names=True)
+    rate = 102.4
+    t = raw["n_samples"] / rate
+    gyr = np.column_stack([raw[f"gyr_{a}"] for a in "xyz"])
+    acc = np.column_stack([raw[f"acc_{a}"] for a in "xyz"])
+    tg = t[:-1] + 0.3 / rate
+    g_at = np.column_stack([np.interp(tg, t, gyr[:, j]) for j in range(3)])
+    fa, fg = tmp_path / "Accelerometer.csv", tmp_path / "Gyroscope.csv"
+    np.savetxt(fa, np.column_stack([t, acc]), delimiter=",", header="t,ax,ay,az", comments="", fmt="%.10g")
+    np.savetxt(fg, np.column_stack([tg, g_at]), delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.10g")
+    one = tmp_path / "one.csv"
+    np.savetxt(one, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.10g")  # fmt: skip
+    argv = ["--quiet", "calibrate", "accel", "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    assert main([*argv, str(one), "--out", str(tmp_path / "one.json")]) == 0
+    capsys.readouterr()
+    assert main([*argv, str(fa), "--gyro", str(fg), "--out", str(tmp_path / "two.json")]) == 0
+    one_r, two_r = (json.loads((tmp_path / f"{n}.json").read_text())["fields"] for n in ("one", "two"))
+    for sensor in ("accelerometer", "gyroscope"):
+        a, b = one_r[sensor]["value"], two_r[sensor]["value"]
+        for key in ("K", "b"):
+            std = np.array(a[f"{key}_std"], dtype=float)  # None (held fixed) → NaN: must be equal there
+            diff = np.abs(np.asarray(a[key], float) - np.asarray(b[key], float))
+            assert np.all(np.where(np.isnan(std), diff <= 1e-12, diff <= 0.1 * std)), (sensor, key, diff, std)
+    assert "interpolated onto the time stamps of Accelerometer.csv" in capsys.readouterr().err

@@ -62,7 +62,10 @@ def register(sub) -> None:
     )
     a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     a.add_argument(
-        "--gyro", dest="gyro_path", metavar="GYRODATA", help="gyroscope in a second file sharing the time column"
+        "--gyro",
+        dest="gyro_path",
+        metavar="GYRODATA",
+        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
     )
     a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_calibration_options(a)

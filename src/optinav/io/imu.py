@@ -1082,10 +1082,13 @@ def _log_of(
                 )
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t if TIME_UNITS[unit] == 1.0 else p.t * TIME_UNITS[unit]))
+    if len(times) == 2 and not block and not _same_times(*times):
+        times = [_gyro_onto_acc_times(main, *times, notes)]
+        parts[1].n = main.n
     if len(parts) == 2 and parts[0].n != parts[1].n:
         raise OptinavError(
             f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
-            "the accelerometer and gyroscope files must hold the same samples",
+            "the accelerometer and gyroscope files must hold the same samples (or both a time column)",
         )
     if len(times) == 2:
         _check_same_time(*times)
@@ -1340,6 +1343,64 @@ class ImuChunks:
         if self.rows < 2:
             what = f"time column {part.t_name!r} of {self.path.name}" if part.t is not None else f"{self.path.name}"
             raise OptinavError(f"{what} has {self.rows} sample(s), at least 2 are needed", "record a longer log")
+
+
+def _same_times(a, b) -> bool:
+    """Whether two parts' times (part, s) are the same samples (to 1e-12 relative, NaN where both are)."""
+    ta, tb = a[1], b[1]
+    if ta.shape != tb.shape:
+        return False
+    with np.errstate(invalid="ignore"):
+        return bool(np.all((np.abs(ta - tb) <= 1e-12 * np.maximum(1.0, np.abs(ta))) | (np.isnan(ta) & np.isnan(tb))))
+
+
+#: a gyroscope step longer than this many median steps (the longer of the two files') is a gap the interpolation
+#: onto the accelerometer's times does not bridge
+GYRO_GAP_STEPS = 5.0
+
+
+def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
+    """The gyroscope of a second file with its own time stamps (phones and apps log each sensor on its own:
+    Sensor Logger, phyphox) interpolated linearly onto the accelerometer's: the rows of ``main`` outside the
+    gyroscope's span are left out, a gap in the gyroscope is refused, ``notes`` say what was done. Returns the
+    accelerometer's (part, times s) kept."""
+    (pa, ta), (pg, tg) = a, g
+    ta = check_timestamps(ta, f"time column {pa.t_name!r} of {pa.path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
+    tg = check_timestamps(tg, f"time column {pg.t_name!r} of {pg.path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
+    lo, hi = max(ta[0], tg[0]), min(ta[-1], tg[-1])
+    keep = (ta >= lo) & (ta <= hi)
+    if np.count_nonzero(keep) < 2:
+        raise OptinavError(
+            f"the times of {pa.path.name} ({ta[0]:.6g}–{ta[-1]:.6g} s) and {pg.path.name} ({tg[0]:.6g}–{tg[-1]:.6g} s) "
+            "do not overlap",
+            "pass the accelerometer and gyroscope files of one recording, their times on one clock",
+        )
+    step = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tg))))
+    i0, i1 = int(np.searchsorted(tg, lo, "right")) - 1, int(np.searchsorted(tg, hi, "left")) + 1
+    d = np.diff(tg[max(i0, 0) : i1])
+    if d.size and float(d.max()) > GYRO_GAP_STEPS * step:
+        k = max(i0, 0) + int(np.argmax(d))
+        raise OptinavError(
+            f"{pg.path.name}: the gyroscope has no sample from t = {tg[k]:.6g} s to {tg[k + 1]:.6g} s, within the "
+            f"accelerometer's times: interpolating it onto them would invent {float(d.max()):.3g} s of rates",
+            "cut the recording at the gap, or pass files holding the same samples",
+        )
+    gyro = np.asarray(main.gyro, float)
+    main.gyro = np.column_stack([np.interp(ta[keep], tg, gyro[:, j]) for j in range(gyro.shape[1])])
+    for name in ("acc", "labels", "sample"):
+        v = getattr(main, name)
+        if v is not None:
+            setattr(main, name, v[keep])
+    n = int(np.count_nonzero(keep))
+    dropped = main.n - n
+    main.n = n
+    main.finite.discard("gyro")
+    notes.append(
+        f"the gyroscope of {pg.path.name} ({tg.size} samples, {1.0 / float(np.median(np.diff(tg))):.4g} Hz) was "
+        f"interpolated onto the time stamps of {pa.path.name} ({1.0 / float(np.median(np.diff(ta))):.4g} Hz)"
+        + (f"; {dropped} accelerometer rows outside the gyroscope's span were left out" if dropped else "")
+    )
+    return pa, ta[keep]
 
 
 def _check_same_time(a, b) -> None:
