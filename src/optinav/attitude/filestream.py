@@ -442,6 +442,8 @@ class _Blocks:
             delimiter=o.delimiter,
             chunk_rows=self.chunk_rows,
             topic=o.topic,
+            gyro_path=o.gyro_path,
+            gyro_columns=o.gyro_columns,
         )
         self.size = chunks.size
         prev = None
@@ -453,8 +455,9 @@ class _Blocks:
                 has = "only the accelerometer" if log.acc is not None else "only the gyroscope"
                 raise OptinavError(
                     f"{self.path} has {has}: the attitude needs the accelerometer and the gyroscope in one file",
-                    "merge the sensors' files on one time column first (phone apps write a file per sensor), or name "
-                    "the columns with --columns t,ax,ay,az,gx,gy,gz",
+                    "pass the other sensor's file with --gyro GYRODATA (phone apps write a file per sensor; its "
+                    "times are interpolated onto the accelerometer's), or name the columns with --columns "
+                    "t,ax,ay,az,gx,gy,gz",
                 )
             if log.acc_unit == "counts" or log.gyro_unit == "counts":
                 raise OptinavError(

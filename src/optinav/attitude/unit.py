@@ -25,7 +25,7 @@ class AttitudeOptions:
     imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
     gyro value are lost samples, left out; the time steps over them), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
-    ``datasets``)."""
+    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file)."""
 
     method: str | None = None
     frame: str = DEFAULT_FRAME
@@ -44,6 +44,8 @@ class AttitudeOptions:
     delimiter: str | None = None
     datasets: str | None = None
     topic: str | None = None
+    gyro_path: str | None = None
+    gyro_columns: str | None = None
 
     def __post_init__(self):
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
@@ -83,6 +85,8 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         datasets=o.datasets or None,
         delimiter=o.delimiter,
         topic=o.topic,
+        gyro_path=o.gyro_path,
+        gyro_columns=o.gyro_columns,
     )
     if log.acc is None or log.gyr is None:
         raise OptinavError(

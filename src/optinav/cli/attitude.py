@@ -77,6 +77,13 @@ def register(sub) -> None:
     )
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     add_input_options(p)
+    p.add_argument(
+        "--gyro",
+        dest="gyro_path",
+        metavar="GYRODATA",
+        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
+    )
+    p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
     p.add_argument(
         "--offline",
@@ -257,7 +264,7 @@ def run(args) -> int:
     from optinav.core.rotations import attitude_in_frame
 
     method, options, q0, out = _checked(args)
-    require_files((args.data, "data file"))
+    require_files((args.data, "data file"), (args.gyro_path, "gyroscope file"))
     o = options_from_args(AttitudeOptions, args, options=options)
     if _streams(args):
         return _run_stream(args, o, q0, out, _announce(args, method))

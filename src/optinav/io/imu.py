@@ -1002,7 +1002,8 @@ def read_imu(
         ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3 array);
         None: recognised by alias.
     gyro_path : str, Path or None
-        A second file with the gyroscope, same samples (time columns must agree).
+        A second file with the gyroscope: the same rows, or its own time column (interpolated linearly onto the
+        accelerometer's times; rows outside its span left out, a gap refused).
     gyro_columns : str, sequence of str or None
         ``columns`` of ``gyro_path``.
     acc_unit : str or None
