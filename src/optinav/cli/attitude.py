@@ -17,6 +17,7 @@ from optinav.cli.common import (
     RATE,
     SEED,
     add_chunk_option,
+    add_gyro_file_options,
     add_input_options,
     add_report_option,
     check_disk,
@@ -77,13 +78,7 @@ def register(sub) -> None:
     )
     p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
     add_input_options(p)
-    p.add_argument(
-        "--gyro",
-        dest="gyro_path",
-        metavar="GYRODATA",
-        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
-    )
-    p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+    add_gyro_file_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")
     p.add_argument(
         "--offline",

@@ -17,6 +17,7 @@ from optinav.cli.common import (
     SEED,
     TIME,
     add_chunk_option,
+    add_gyro_file_options,
     add_input_options,
     add_report_option,
     finish_report,
@@ -61,13 +62,7 @@ def register(sub) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
-    a.add_argument(
-        "--gyro",
-        dest="gyro_path",
-        metavar="GYRODATA",
-        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
-    )
-    a.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+    add_gyro_file_options(a)
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")
     a.add_argument(

@@ -167,6 +167,17 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     )
 
 
+def add_gyro_file_options(p) -> None:
+    """--gyro GYRODATA (destination ``gyro_path``) and --gyro-columns: the gyroscope in a second file."""
+    p.add_argument(
+        "--gyro",
+        dest="gyro_path",
+        metavar="GYRODATA",
+        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
+    )
+    p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+
+
 def add_chunk_option(p, keeps: str | None = None) -> None:
     """--chunk-rows: rows of a text log read and parsed at a time; ``keeps``: what the command holds per sample
     beyond them (None: nothing, so memory does not grow with the log's length)."""
