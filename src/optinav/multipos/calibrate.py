@@ -1209,19 +1209,25 @@ def _check_ferraris_bias_drift(gyro, names: list, idx: np.ndarray, gyr_K, unit: 
 FERRARIS_ACC_DRIFT_SIGMA = 5.0
 
 
-def _ferraris_rest_norms(t, acc, gyr, poses, correct, K, K_std, b_std, g: float) -> list[tuple[int, int, float, float]]:
-    """The still rests of the log outside the six Ferraris ``poses`` ((6, 2) sample ranges; the pauses of a turn
-    in steps, the rests before and after the rotations): per rest (i0, i1, |a| − g [m/s²], that difference in σ).
+def _still_rests(t, acc, gyr) -> list[tuple[int, int]]:
+    """The still stretches (sample ranges) the static detection finds in a Ferraris log, none when it finds none:
+    the rests the accelerometer-drift and turn-bias checks judge by (detected once for both)."""
+    try:
+        return [(int(a), int(b)) for a, b in np.asarray(static.detect_static(t, acc, gyr=gyr).index_ranges, int)]
+    except OptinavError:
+        return []
+
+
+def _ferraris_rest_norms(acc, rests, poses, correct, K, K_std, b_std, g: float) -> list[tuple[int, int, float, float]]:
+    """The still ``rests`` (:func:`_still_rests`) of the log outside the six Ferraris ``poses`` ((6, 2) sample
+    ranges; the pauses of a turn in steps, the rests before and after the rotations): per rest (i0, i1, |a| − g
+    [m/s²], that difference in σ).
     ``correct`` maps raw acc (n, 3) to m/s²; σ combines the rest's noise (lag-1 correlation included) and the
     calibration's ``K_std`` (3, 3, raw per m/s²) and ``b_std`` (3,) raw along the rest's direction. The closed form
     fits the six poses exactly, so a bias that drifts leaves no residual there; a rest at another time does."""
-    try:
-        det = static.detect_static(t, acc, gyr=gyr)
-    except OptinavError:
-        return []
     Kinv_t = np.linalg.inv(np.asarray(K, float)).T
     out = []
-    for i0, i1 in np.asarray(det.index_ranges, int):
+    for i0, i1 in rests:
         if np.any((poses[:, 0] < i1) & (poses[:, 1] > i0)) or i1 - i0 < 10:
             continue
         a = correct(acc[i0:i1])
@@ -1238,15 +1244,15 @@ def _ferraris_rest_norms(t, acc, gyr, poses, correct, K, K_std, b_std, g: float)
     return out
 
 
-def _check_ferraris_acc_drift(t, acc, gyro, poses, fc, K_std, b_std, g: float, gate_log: list) -> None:
+def _check_ferraris_acc_drift(t, acc, rests, poses, fc, K_std, b_std, g: float, gate_log: list) -> None:
     """Error when a still rest outside the six poses reads |a| off g beyond :data:`FERRARIS_ACC_DRIFT_SIGMA` σ
     (:func:`_ferraris_rest_norms`): each axis' bias and scale come from its two poses alone, so an accelerometer
     that drifts (warm-up: 0.05 m/s² over imucal's session) leaves the six poses exact and the result biased (b_x
     0.5441 ± 0.00046 for a bias that went from 0.537 to 0.587, exit 0). Else a gate is logged (with a rest)."""
-    rests = _ferraris_rest_norms(t, acc, gyro, poses, fc.correct_acc, fc.acc_K, K_std, b_std, g)
-    if not rests:
+    norms = _ferraris_rest_norms(acc, rests, poses, fc.correct_acc, fc.acc_K, K_std, b_std, g)
+    if not norms:
         return
-    i0, i1, d, z = max(rests, key=lambda r: r[3])
+    i0, i1, d, z = max(norms, key=lambda r: r[3])
     if z > FERRARIS_ACC_DRIFT_SIGMA:
         u = fc.correct_acc(acc[i0:i1]).mean(axis=0)
         j = int(np.argmax(np.abs(u)))
@@ -1296,7 +1302,9 @@ def _check_ferraris_pose_pairs(fc, acc, ranges, pose_alignment: float) -> dict:
     return gate("acc largest tilt of a pose pair's mean direction, in std", worst, POSE_PAIR_SIGMA)
 
 
-def _check_ferraris_turn_bias(t, acc, gyr, names: list, idx: np.ndarray, fc, K_std, unit: str, gate_log: list) -> None:
+def _check_ferraris_turn_bias(
+    t, acc, gyr, rests, names: list, idx: np.ndarray, fc, K_std, unit: str, gate_log: list
+) -> None:
     """Error when the gyro bias at the rests around a rotation (the still stretches nearest before and after it:
     a pose, or a rest outside the poses) differs from the poses' bias ``fc.gyr_b`` by more than the Earth rate, so
     much that the rotation's K_g column moves beyond :data:`FERRARIS_BIAS_DRIFT_SIGMA` of its std ``K_std``: the
@@ -1304,12 +1312,8 @@ def _check_ferraris_turn_bias(t, acc, gyr, names: list, idx: np.ndarray, fc, K_s
     for 57.19, 16 std, exit 0; the three pose pairs agree, so the pair check cannot see it). Else a gate."""
     from . import ferraris
 
-    try:
-        rests = [tuple(r) for r in np.asarray(static.detect_static(t, acc, gyr=gyr).index_ranges, int)]
-    except OptinavError:
-        rests = []
     where = {str(n): k for k, n in enumerate(names)}
-    rests += [tuple(idx[where[n]]) for n in ferraris.POSES]
+    rests = list(rests) + [tuple(idx[where[n]]) for n in ferraris.POSES]
     earth = OMEGA_E * np.abs(np.diag(fc.gyr_K))
     worst, info = 0.0, None
     for j, rot in enumerate(ferraris.ROTATIONS):
@@ -1637,9 +1641,10 @@ def _ferraris(
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + np.eye(3) * sa**2 / 2))
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
-    _check_ferraris_turn_bias(t, acc, gyro, names, idx, fc, gyr_K_std, gyro_unit, gate_log)
+    rests = _still_rests(t, acc, gyro)
+    _check_ferraris_turn_bias(t, acc, gyro, rests, names, idx, fc, gyr_K_std, gyro_unit, gate_log)
     _check_ferraris_acc_drift(
-        t, acc, gyro, idx[static_idx], fc, np.hypot(std["acc_K"], tilt), std["acc_b"], g, gate_log
+        t, acc, rests, idx[static_idx], fc, np.hypot(std["acc_K"], tilt), std["acc_b"], g, gate_log
     )
     # G = (up − down pose)/2g also takes the Earth rate's change between the two poses, at most 2Ω_E per axis
     # (vertical part: sign flip; horizontal: heading): uniform within ±Ω_E·K_ii/g
