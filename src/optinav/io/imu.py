@@ -1083,7 +1083,9 @@ def _log_of(
                 )
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t if TIME_UNITS[unit] == 1.0 else p.t * TIME_UNITS[unit]))
-    if len(times) == 2 and not block and not _same_times(*times):
+    if len(times) == 2 and not _same_times(*times):
+        if block:
+            _check_same_time(*times)  # a block of a streamed log is not interpolated: the error names the rows
         times = [_gyro_onto_acc_times(main, *times, notes)]
         parts[1].n = main.n
     if len(parts) == 2 and parts[0].n != parts[1].n:
@@ -1091,8 +1093,6 @@ def _log_of(
             f"{parts[0].path.name} has {parts[0].n} rows but {parts[1].path.name} has {parts[1].n}",
             "the accelerometer and gyroscope files must hold the same samples (or both a time column)",
         )
-    if len(times) == 2:
-        _check_same_time(*times)
     if times:
         p, t = times[0]
         what = f"time column {p.t_name!r} of {p.path.name}"
@@ -1346,13 +1346,15 @@ class ImuChunks:
             raise OptinavError(f"{what} has {self.rows} sample(s), at least 2 are needed", "record a longer log")
 
 
-def _same_times(a, b) -> bool:
-    """Whether two parts' times (part, s) are the same samples (to 1e-12 relative, NaN where both are)."""
-    ta, tb = a[1], b[1]
-    if ta.shape != tb.shape:
-        return False
+def _times_differ(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
+    """The samples whose times (s, same shape) differ beyond 1e-12 relative (equal or NaN in both: the same)."""
     with np.errstate(invalid="ignore"):
-        return bool(np.all((np.abs(ta - tb) <= 1e-12 * np.maximum(1.0, np.abs(ta))) | (np.isnan(ta) & np.isnan(tb))))
+        return ~(np.abs(ta - tb) <= 1e-12 * np.maximum(1.0, np.abs(ta))) & ~((ta == tb) | (np.isnan(ta) & np.isnan(tb)))
+
+
+def _same_times(a, b) -> bool:
+    """Whether two parts' times (part, s) are the same samples (:func:`_times_differ` nowhere)."""
+    return a[1].shape == b[1].shape and not np.any(_times_differ(a[1], b[1]))
 
 
 #: a gyroscope step longer than this many median steps (the longer of the two files') is a gap the interpolation
@@ -1411,9 +1413,7 @@ def _check_same_time(a, b) -> None:
         raise OptinavError(
             f"{where} differ in length: {ta.size} vs {tb.size} samples", "pass files holding the same samples"
         )
-    tol = 1e-12 * np.maximum(1.0, np.abs(ta))
-    with np.errstate(invalid="ignore"):
-        bad = ~(np.abs(ta - tb) <= tol) & ~((ta == tb) | (np.isnan(ta) & np.isnan(tb)))
+    bad = _times_differ(ta, tb)
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise OptinavError(
