@@ -51,7 +51,7 @@ def test_cli_attitude_with_polarization(flight, capsys):
                 "--start-time",
                 times["dynamic"],
                 "--option",
-                "acc_noise=0.4",
+                "acc_noise_density=0.04",
                 "--q0-deg",
                 ",".join(str(v) for v in np.degrees(d.euler[0])),
                 "--out",

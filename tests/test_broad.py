@@ -77,14 +77,14 @@ def test_broad_heading_with_synthesized_polarization(trial):
 
 @pytest.mark.parametrize(
     "options",
-    [{}, {"acc_noise": 0.02}, {"bias_noise": 2e-3}, {"couple_heading": 1}],
-    ids=["defaults", "acc_noise=0.02", "bias_noise=2e-3", "couple_heading=1"],
+    [{}, {"acc_noise_density": 0.0012}, {"bias_noise": 2e-3}, {"couple_heading": 1}],
+    ids=["defaults", "acc_noise_density=0.0012", "bias_noise=2e-3", "couple_heading=1"],
 )
 def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
     """Gyro + accelerometer only: heading is unobservable from gravity, so the MEKF must not do worse than
     integrating the gyro alone (z bias ≈ 0.22 °/s: ≈ 13.6° RMS). Both start from the optical truth at the first
     valid sample; RMSE over the movement samples. Before the null-space-consistent propagation the MEKF gave
-    4.5° (defaults), 50° (acc_noise 0.02) and 48° (bias_noise 2e-3): the heading variance leaked into tilt and
+    4.5° (defaults), 50° (acc_noise_density 0.0012, a σ of 0.02 per sample) and 48° (bias_noise 2e-3): the heading variance leaked into tilt and
     the gravity update corrected heading through spurious correlations. Now ≈ 10° (heading from the
     bias-corrected gyro) or, with couple_heading=1, ≈ 2–3° (heading corrected through its correlation with the
     bias, which the rotations reveal); inclination as without the fix."""

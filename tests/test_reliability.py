@@ -1278,16 +1278,18 @@ def test_batch_journal_on_a_full_disk(tmp_path, capsys, monkeypatch, counts_sess
 @pytest.mark.parametrize(
     ("argv", "why"),
     [
-        (["--method", "mekf", "--option", "acc_noise=0"], "acc_noise=0.0 must be > 0"),
+        (["--method", "mekf", "--option", "acc_noise_density=0"], "acc_noise_density=0.0 must be > 0"),
         (["--method", "mekf", "--option", "acc_inflate=0"], "acc_inflate=0.0 must be > 0"),
-        (["--method", "mekf", "--option", "acc_noise=1e-300"], "acc_noise=1e-300 must be > 0"),
+        (["--method", "mekf", "--option", "acc_noise_density=1e-300"], "acc_noise_density=1e-300 must be > 0"),
+        (["--method", "mekf", "--option", "acc_noise=0.1"], "is now acc_noise_density (1/√Hz"),
         (["--option", "latency=100"], "latency=100.0 s must be within 0…1 s"),
         (["--sun-elevation=-1000"], "--sun-elevation: -1000 is out of range"),
         (["--lat", "95"], "--lat: 95 is out of range"),
     ],
 )
 def test_attitude_options_that_divide_by_zero_or_make_no_sense(tmp_path, capsys, argv, why, counts_session):
-    """acc_noise=0 was a ZeroDivisionError (internal error); a 100 s latency or a sun 1000° high ran with exit 0."""
+    """acc_noise=0 was a ZeroDivisionError (internal error; the option is now acc_noise_density, and the old name
+    is refused with the conversion); a 100 s latency or a sun 1000° high ran with exit 0."""
     f = counts_session[0] / "flight.csv"
     if not f.exists():
         assert main(["--quiet", "simulate", "flight", "--out", str(f), "--duration", "2", "--seed", "1"]) == 0

@@ -526,7 +526,7 @@ def run_mekf(
     min_d2,
     gyro_noise,
     bias_noise,
-    acc_noise,
+    acc_noise_density,
     pol_noise,
     g_ref,
     acc_threshold,
@@ -542,8 +542,8 @@ def run_mekf(
 
     Predict q ← q ⊗ exp((ω − b)dt/2) = q ⊗ Δq, Φ = [[C(Δq)ᵀ, −I dt], [0, I]], Q = diag(σ_g² dt I, σ_b² dt I)
     (σ_g rad/s/√Hz, σ_b rad/s²/√Hz). Update with the shared model rows (body-frame Jacobian): gravity with
-    variance acc_noise² (× acc_inflate² when |‖a‖ − g_ref| > acc_threshold), polarization (doubled angle,
-    weight 1) with variance (2·pol_noise)². Scalar sequential updates; reset q ← q ⊗ exp(δθ/2) = q ⊗ Δr.
+    variance acc_noise_density²/h (a density in 1/√Hz: the trust per second is the same at every rate; × acc_inflate²
+    when |‖a‖ − g_ref| > acc_threshold), polarization (doubled angle, weight 1) with variance (2·pol_noise)². Scalar sequential updates; reset q ← q ⊗ exp(δθ/2) = q ⊗ Δr.
 
     Heading is unobservable from gravity: its error is a rotation about the navigation vertical, along
     v_b = C_n^b u_n in body axes, whatever the heading error's size. The exact transition C(Δq)ᵀ (not
@@ -613,7 +613,7 @@ def run_mekf(
             elif rows == -3:
                 counts[C_POL_NEAR_ZENITH] += 1
             nr = 5 if rows == 5 else 3
-            ra = acc_noise * acc_noise
+            ra = acc_noise_density * acc_noise_density / h
             if abs(na - g_ref) > acc_threshold:
                 ra *= acc_inflate * acc_inflate
                 counts[C_ACC_SHRUNK] += 1

@@ -404,7 +404,7 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
             min_d2,
             opts["gyro_noise"],
             opts["bias_noise"],
-            opts["acc_noise"],
+            opts["acc_noise_density"],
             opts["pol_noise"],
             opts["gravity"],
             opts["acc_threshold"],

@@ -60,13 +60,15 @@ DEFAULTS: dict[str, dict[str, float]] = {
         "h_reset": 100.0,
         "pol_weight": 1.0,
     },
-    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a (unit-vector), σ_α rad, g, ε m/s², inflation, initial σ (rad, rad/s),
+    # σ_g rad/s/√Hz, σ_b rad/s²/√Hz, σ_a 1/√Hz (the measured gravity direction's noise density: a sample's σ is
+    # σ_a·√(1/dt), so the trust in the accelerometer per second does not depend on the rate), σ_α rad (per
+    # polarization sample), g, ε m/s², inflation, initial σ (rad, rad/s),
     # bound on the heading σ (rad) while no heading measurement is used (a heading error is at most π), and
     # couple_heading 0/1: 1 lets the gravity update correct the heading through its correlation with the bias
     "mekf": {
         "gyro_noise": 0.002,
         "bias_noise": 5e-5,
-        "acc_noise": 0.1,
+        "acc_noise_density": 0.01,
         "pol_noise": np.radians(1.0),
         "gravity": G_STANDARD,
         "acc_threshold": 0.8,
@@ -80,7 +82,17 @@ DEFAULTS: dict[str, dict[str, float]] = {
 
 
 #: options a method divides by (a noise σ enters as 1/σ², g as 1/g): 0 is refused, not a division by zero
-_DIVISORS = {"mekf": ("acc_noise", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
+_DIVISORS = {"mekf": ("acc_noise_density", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
+
+
+#: options that were replaced: (method, old name) → (what changed, the remedy)
+RENAMED = {
+    ("mekf", "acc_noise"): (
+        "mekf's option acc_noise (a per-sample σ, whose meaning changed with the sampling rate) is now "
+        "acc_noise_density (1/√Hz, the same at every rate)",
+        "pass acc_noise_density = acc_noise·√dt, e.g. acc_noise=0.1 at 100 Hz is acc_noise_density=0.01",
+    ),
+}
 
 
 def _options(method: str, options: dict) -> dict:
@@ -88,6 +100,8 @@ def _options(method: str, options: dict) -> dict:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
     opts = dict(DEFAULTS[method])
     for k, v in options.items():
+        if (method, k) in RENAMED:
+            raise OptinavError(*RENAMED[method, k])
         if k not in opts:
             raise OptinavError(
                 f"option {k!r} does not apply to method {method!r}", f"valid options: {', '.join(sorted(opts))}"

@@ -51,7 +51,7 @@ GRID = {
     "gd": {"gain": [0.01, 0.02, 0.033, 0.06, 0.1, 0.2], "pol_weight": [0.3, 1.0, 3.0]},
     "cg": {"gain": [0.01, 0.02, 0.033, 0.06, 0.1, 0.2], "pol_weight": [0.3, 1.0, 3.0]},
     "qn": {"gain": [0.05, 0.1, 0.2, 0.5, 1.0, 2.0], "rate_gain": [0.0, 0.1, 0.3]},
-    "mekf": {"acc_noise": [0.02, 0.05, 0.1, 0.2, 0.4, 0.8], "bias_noise": [5e-6, 5e-5, 5e-4]},
+    "mekf": {"acc_noise_density": [0.002, 0.005, 0.01, 0.02, 0.04, 0.08], "bias_noise": [5e-6, 5e-5, 5e-4]},
 }
 ACCEL_LEVEL = 4.0  # m/s², the simulated manoeuvres
 SKIP = 500  # the first 5 s: the simulated vehicle rests, the estimators settle from the true start
@@ -61,7 +61,7 @@ OPTION_UNITS = {
     ("cg", "gain"): "rad/s",
     ("qn", "gain"): "1/s",
     ("qn", "rate_gain"): "1/rad",
-    ("mekf", "acc_noise"): "",
+    ("mekf", "acc_noise_density"): "1/√Hz",
     ("mekf", "bias_noise"): "rad/s²/√Hz",
 }
 
