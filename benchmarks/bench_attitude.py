@@ -59,7 +59,9 @@ def _methods():
     for meth in ("gd", "cg", "qn", "mekf"):
         m[f"optinav {meth} (as published)"] = (
             "6d",
-            lambda g, a, mg, dt, meth=meth: estimate_q(g, a, dt, frame="ENU", method=meth, checks=False),
+            lambda g, a, mg, dt, meth=meth: estimate_q(
+                g, a, dt, frame="ENU", method=meth, input_stage=False, checks=False
+            ),
         )
     for meth in ("qn", "mekf"):
         m[f"optinav {meth} + input stage"] = (

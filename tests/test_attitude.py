@@ -304,6 +304,7 @@ def test_mekf_estimates_gyro_bias_and_reports_consistent_sigma():
         gyro_noise=0.005 * np.sqrt(0.01),
         acc_noise_density=0.05 / G * np.sqrt(0.01),
         pol_noise=np.radians(0.5),
+        input_stage=False,  # the filter's own bias state and σ
     )
     assert np.max(np.abs(r.gyr_bias - bias)) < 1.5e-3
     # normalized estimation error squared (3 dof) averaged over the second half: ≈ 3 when consistent
@@ -330,7 +331,7 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     opts = dict(gyro_noise=sigma * np.sqrt(d["dt"]), acc_noise_density=0.05 / G * np.sqrt(d["dt"]))
     t = np.arange(1, n + 1) * d["dt"]
     bound = np.linalg.norm(bias) * t + 4 * sigma * np.sqrt(3 * d["dt"] * t)
-    r = estimate(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], **opts)
+    r = estimate(d["gyr"], d["acc"], d["dt"], method="mekf", q0=d["q_start"], input_stage=False, **opts)
     head = heading_error(r.q_b_n, d["q"])
     assert np.all(head <= bound), f"{np.degrees(np.max(head - bound)):.2f} deg above the gyro-only bound"
     # tilt: better than one accelerometer sample (0.05/g rad = 0.29°); a heading leak would show here first
@@ -338,11 +339,19 @@ def test_mekf_6d_heading_within_gyro_drift_bound_and_converges_with_polarization
     # the rotation makes every bias component observable (the filter's σ of it ≈ 0.03 °/s)
     assert np.max(np.abs(r.gyr_bias - bias)) < np.radians(0.1)
     # the gyro alone is near its bound at the end of the rest (the vertical bias is unobservable at rest)
-    q_gyro = estimate_q(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"])
+    q_gyro = estimate_q(d["gyr"], d["acc"], d["dt"], method="gd", gain=0.0, q0=d["q_start"], input_stage=False)
     assert heading_error(q_gyro[rest - 1], d["q"][rest - 1]) > 0.5 * bound[rest - 1]
     pol = PolarizationMeasurement(d["aop"], d["sun"])
     rp = estimate(
-        d["gyr"], d["acc"], d["dt"], pol=pol, method="mekf", q0=d["q_start"], pol_noise=np.radians(0.5), **opts
+        d["gyr"],
+        d["acc"],
+        d["dt"],
+        pol=pol,
+        method="mekf",
+        q0=d["q_start"],
+        pol_noise=np.radians(0.5),
+        input_stage=False,
+        **opts,
     )
     assert np.degrees(np.max(heading_error(rp.q_b_n[rest:], d["q"][rest:]))) < 0.5
 
@@ -379,19 +388,28 @@ def test_streaming_filters_take_a_rate_and_chunks_like_iframe(method):
     """make_filter(method, rate_hz=...) refused the rate for gd/cg/qn/mekf ("option 'rate_hz' does not apply")
     and they had no update_batch, so one streaming loop could not run every method (a helper comparing methods).
     Now rate_hz/dt give the default step, and chunks of update_batch (polarization included) give the batch
-    estimate exactly, as per-sample updates without dt do."""
+    estimate exactly, as per-sample updates without dt do — with the input stage (default, as estimate's) and
+    without."""
     d = synth(300, amp=1.5, seed=5, gyro_sigma=0.01, acc_sigma=0.1, aop_sigma=0.01)
     pol = PolarizationMeasurement(d["aop"], d["sun"], dop=np.full(300, 0.4))
-    q_b = estimate_q(d["gyr"], d["acc"], d["dt"], pol=pol, method=method)
-    f = make_filter(method, rate_hz=1.0 / d["dt"])
-    cuts = [0, 1, 37, 200, 300]
-    q_c = np.vstack([f.update_batch(d["gyr"][a:b], d["acc"][a:b], pol=pol.select(slice(a, b))) for a, b in
-                     zip(cuts[:-1], cuts[1:])])  # fmt: skip
-    assert np.array_equal(q_c, q_b) and np.array_equal(f.q_b_n, q_b[-1])
-    g = make_filter(method, dt=d["dt"])
-    q_s = np.array([g.update(d["gyr"][i], d["acc"][i], pol_sample=(d["aop"][i], d["sun"], 0.4)) for i in range(300)])
-    assert np.max(np.abs(q_s - q_b)) < 1e-13
-    assert f.counts.tolist() == g.counts.tolist() and f.pol_skipped == g.pol_skipped
+    for stage in (True, False):  # with the input stage (the default) and as published
+        r = estimate(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, input_stage=stage)
+        q_b = r.q_b_n
+        f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=stage)
+        cuts = [0, 1, 37, 200, 300]
+        q_c = np.vstack([f.update_batch(d["gyr"][a:b], d["acc"][a:b], pol=pol.select(slice(a, b))) for a, b in
+                         zip(cuts[:-1], cuts[1:])])  # fmt: skip
+        assert np.array_equal(q_c, q_b) and np.array_equal(f.q_b_n, q_b[-1])
+        g = make_filter(method, dt=d["dt"], input_stage=stage)
+        q_s = np.array(
+            [g.update(d["gyr"][i], d["acc"][i], pol_sample=(d["aop"][i], d["sun"], 0.4)) for i in range(300)]
+        )
+        assert np.max(np.abs(q_s - q_b)) < 1e-13
+        assert f.counts.tolist() == g.counts.tolist() and f.pol_skipped == g.pol_skipped
+        if r.gyr_bias is None:
+            assert f.gyr_bias is None and g.gyr_bias is None
+        else:
+            assert np.max(np.abs(f.gyr_bias - r.gyr_bias)) < 1e-13 and np.max(np.abs(g.gyr_bias - r.gyr_bias)) < 1e-13
 
 
 def test_streaming_classes_and_state():
@@ -466,7 +484,7 @@ def test_gd_close_to_ahrs_madgwick():
     q0 = quat_from_dcm(C_ENU_NED @ dcm_from_quat(d["q_start"]) @ C_RFU_FRD)
     theirs = ahrs.filters.Madgwick(gyr=gyr, acc=acc, frequency=100.0, gain=0.033, q0=q0).Q
     # ahrs keeps Q[0] = q0 and processes samples 1..N−1; ours processes every sample from q0
-    ours = estimate_q(gyr[1:], acc[1:], d["dt"], method="gd", frame="ENU", q0=q0, gain=0.033)
+    ours = estimate_q(gyr[1:], acc[1:], d["dt"], method="gd", frame="ENU", q0=q0, gain=0.033, input_stage=False)
     theirs = theirs[1:]
     # same filter, different Jacobian normalization (ours is tangent to the unit sphere): agree to ~0.1°
     assert np.max(np.degrees(quat_angle_between(ours, theirs))) < 0.2

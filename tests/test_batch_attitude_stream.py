@@ -126,8 +126,8 @@ def test_batch_attitude_rows_say_how_they_were_estimated(tmp_path):
     _flight_with_mag(d, 5)
     runs = {
         "a": (["--offline", "--mag", "--frame", "ENU"], ("iframe", "enu", True, True, True)),
-        "b": (["--method", "gd"], ("gd", "ned", False, False, False)),
-        "c": (["--method", "mekf", "--input-stage"], ("mekf", "ned", False, True, False)),
+        "b": (["--method", "gd", "--no-input-stage"], ("gd", "ned", False, False, False)),
+        "c": (["--method", "mekf"], ("mekf", "ned", False, True, False)),  # the input stage is on by default
     }
     for name, (extra, want) in runs.items():
         out = tmp_path / f"{name}.csv"

@@ -469,7 +469,7 @@ def estimate(
     q0=None,
     mag=None,
     offline: bool = False,
-    input_stage: bool = False,
+    input_stage: bool = True,
     allow_gaps: bool = False,
     checks: bool = True,
     **options,
@@ -501,7 +501,8 @@ def estimate(
     offline : bool
         Use the whole recording (iframe).
     input_stage : bool
-        Put the iframe front end before gd/cg/qn/mekf.
+        Put the iframe front end (gyro bias, accelerometer filtered in an almost-inertial frame) before
+        gd/cg/qn/mekf (default); False runs them exactly as published. iframe has it built in.
     allow_gaps : bool
         Restart after a time gap instead of refusing it.
     checks : bool
@@ -659,7 +660,8 @@ def estimate_q(
 class _Filter:
     """Streaming attitude filter running the same kernel as :func:`estimate`: :meth:`update` one sample,
     :meth:`update_batch` a chunk; ``rate_hz`` [Hz] or ``dt`` [s] gives the default step (as
-    :class:`~optinav.attitude.AttitudeFilter`)."""
+    :class:`~optinav.attitude.AttitudeFilter`); ``input_stage`` as :func:`estimate` (default on; False: the
+    method exactly as published)."""
 
     METHOD = "qn"
 
@@ -674,11 +676,19 @@ class _Filter:
         min_sun_elevation: float = 0.0,
         min_dop: float = 0.05,
         min_sun_separation: float = np.radians(10.0),
+        input_stage: bool = True,
         **options,
     ):
         self.dt = default_step(rate_hz, dt)
         self.frame = frame_name(frame)
         self.options = _options(self.METHOD, options)
+        self.input_stage = bool(input_stage)
+        self._front = self._front_par = self._front_bias = None
+        if self.input_stage:  # iframe's state, run sample by sample as estimate() runs it on the whole chunk
+            from optinav.attitude import iframe as _if
+
+            self._front_par = _if._params(self.frame, dict(_if.IFRAME_DEFAULTS))
+            self._front = _if._new_state(dict(_if.IFRAME_DEFAULTS), None)
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)
@@ -693,6 +703,25 @@ class _Filter:
     def q_b_n(self) -> np.ndarray | None:
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
+
+    @property
+    def gyr_bias(self) -> np.ndarray | None:
+        """Gyro bias estimate [rad/s] after the last update: the input stage's plus the MEKF's state (None
+        for gd/cg/qn as published)."""
+        own = self.state[4:7].copy() if self.METHOD == "mekf" and self.state is not None else None
+        if self._front_bias is None:
+            return own
+        return self._front_bias + (0.0 if own is None else own)
+
+    def _front_step(self, g: np.ndarray, a: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The input stage on a chunk (its state carried): bias-corrected gyro and filtered specific force."""
+        if self._front is None:
+            return g, a
+        from optinav.attitude import iframe as _if
+
+        r = _if._run(self._front, self._front_par, g, a, np.zeros((0, 3)), dts)
+        self._front_bias = r.gyr_bias[-1].copy()
+        return _if.front_outputs(r, g, a, self.frame)
 
     def _step(self, dt) -> float | np.ndarray:
         h = self.dt if dt is None else dt
@@ -714,6 +743,7 @@ class _Filter:
             pol = PolarizationMeasurement(
                 np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m, self.frame, **self._pol_kw
             )
+        g, a = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
         for k, v in skipped.items():
             self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
@@ -767,6 +797,7 @@ class _Filter:
         if n == 0:
             return np.empty((0, 4))
         dts = _as_dt(self._step(dt), n)
+        g, a = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
         for k, v in skipped.items():
             self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
@@ -807,10 +838,6 @@ class MEKF(_Filter):
     def att_std(self) -> np.ndarray:
         """Attitude-error σ (rad, body axes) after the last update."""
         return self._std[0].copy()
-
-    @property
-    def gyr_bias(self) -> np.ndarray:
-        return self.state[4:7].copy()
 
 
 _CLASSES = {"iframe": AttitudeFilter, "gd": GradientDescent, "cg": ConjugateGradient, "qn": QuasiNewton, "mekf": MEKF}

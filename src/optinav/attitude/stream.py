@@ -193,7 +193,7 @@ class StreamEstimator:
             raise OptinavError(f"method {method!r} does not run on a stream", f"use one of {STREAM_METHODS}")
         return _options(method, dict(options))
 
-    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = False, **options):
+    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = True, **options):
         from optinav.attitude import iframe as _if  # the kernels load on the first estimator
         from optinav.attitude.estimators import _as_q0
 

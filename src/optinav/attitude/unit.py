@@ -30,7 +30,7 @@ class AttitudeOptions:
     method: str | None = None
     frame: str = DEFAULT_FRAME
     offline: bool = False
-    input_stage: bool = False
+    input_stage: bool = True
     mag: bool = False
     mag_columns: str | None = None
     allow_gaps: bool = False

@@ -57,9 +57,9 @@ def register(sub) -> None:
             (default: accelerometer filtered in an almost-inertial frame, rest detection, gyro bias, optional
             magnetometer with --mag, --offline smoothing; after VQF, Laidig & Seel 2023), the quasi-Newton
             filter of Jin et al. 2021 (qn), gradient descent (gd, Madgwick), conjugate gradient (cg) or a
-            multiplicative EKF with gyro bias (mekf; the default with --pol-columns). gd/cg/qn/mekf run as
-            published unless --input-stage. Without polarization or magnetometer the roll and pitch are
-            observed and the heading follows the gyro. With --pol-columns the file's angle of
+            multiplicative EKF with gyro bias (mekf; the default with --pol-columns). gd/cg/qn/mekf run after
+            iframe's input stage unless --no-input-stage (then exactly as published). Without polarization or
+            magnetometer the roll and pitch are observed and the heading follows the gyro. With --pol-columns the file's angle of
             polarization (a zenith-viewing sensor, reference axis forward; see docs/methods/attitude.md)
             corrects the heading; the sun comes from --lat/--lon/--start-time (NREL SPA at every sample)
             or from --sun-azimuth/--sun-elevation. Output CSV columns: t [s], qw, qx, qy, qz,
@@ -87,8 +87,10 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--input-stage",
-        action="store_true",
-        help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="gd/cg/qn/mekf: iframe's gyro bias and accelerometer filtering before the method (default); "
+        "--no-input-stage runs them exactly as published",
     )
     p.add_argument(
         "--mag",
@@ -175,8 +177,10 @@ def add_batch_options(p) -> None:
     p.add_argument("--offline", action="store_true", help="iframe: use the whole recording (forward-backward)")
     p.add_argument(
         "--input-stage",
-        action="store_true",
-        help="gd/cg/qn/mekf: gyro bias and accelerometer filtering of iframe before the method",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="gd/cg/qn/mekf: iframe's gyro bias and accelerometer filtering before the method (default); "
+        "--no-input-stage runs them exactly as published",
     )
     p.add_argument("--mag", action="store_true", help="iframe: heading from the magnetometer")
     p.add_argument(
