@@ -521,6 +521,23 @@ def test_utf16_text_reads(tmp_path, enc, gz):
             read_imu(f)
 
 
+@pytest.mark.parametrize("noise", [b"\xff\xfe\x00\x8c\r\n", b"\xff\xfe\xa5", b"\xfe\xff\x13\r\nets boot\r\n"])
+def test_boot_noise_starting_like_a_utf16_mark_reads_as_the_ascii_it_is(tmp_path, noise):
+    """An Arduino's boot noise starting with FF FE (or FE FF) was taken for a UTF-16 byte-order mark: the file
+    was decoded as UTF-16 (an internal UnicodeDecodeError, or 'a header but no data rows'). The mark is UTF-16
+    only when NUL high bytes follow; here the noise (also when the header follows it on its line) is left out
+    with a note, whole and in blocks."""
+    rng = np.random.default_rng(31)
+    v = rng.integers(-2000, 2000, (900, 6))
+    body = "ax,ay,az,gx,gy,gz\r\n" + "".join(",".join(map(str, r)) + "\r\n" for r in v)
+    f = _w(tmp_path / "cap.csv", noise + body.encode())
+    kw = {"acc_unit": "counts", "gyro_unit": "counts", "rate_hz": 100.0}
+    log = read_imu(f, **kw)
+    assert np.array_equal(log.acc, v[:, :3]) and np.array_equal(log.gyr, v[:, 3:])
+    assert any("above the table ('(binary noise)'" in n for n in log.notes), log.notes
+    assert np.array_equal(np.concatenate([b.gyr for b in iter_imu(f, chunk_rows=200, **kw)]), v[:, 3:])
+
+
 def test_a_zip_that_is_not_npz_is_named(tmp_path):
     """A phone app's export (a zip of CSV files) or an openpyxl workbook (its content-types entry last, beyond
     the first 4 kB) was read as NPZ: 'holds no numeric arrays'."""

@@ -473,7 +473,7 @@ class TableChunks:
         labels = {normalize_name(c)[0] for c in self.text_columns}
         with open(path, "rb") as raw:
             src = gzip.GzipFile(fileobj=raw, mode="rb") if self.gz else raw
-            if src.peek(2)[:2] in _UTF16_BOMS:  # read as UTF-8 lines (the BOM consumed)
+            if _wide(src.peek(_NOISE_BYTES)[:_NOISE_BYTES]):  # read as UTF-8 lines (the BOM consumed)
                 wide = io.TextIOWrapper(src, encoding="utf-16", newline="")  # held: collected, it closes the file
                 src = (line.encode("utf-8") for line in wide)
             state = {"complete": True, "start": True, "stamped": False}
@@ -782,18 +782,44 @@ _NOISE_BYTES = 4096
 NOISE_LINE = "(binary noise)"
 
 
+def _wide(head: bytes) -> bool:
+    """Whether bytes that start a file are UTF-16 text: a byte-order mark, then NUL as the high byte of most
+    characters (a table's digits, delimiters and names are ASCII). A mark followed by 8-bit text is a serial
+    capture's boot noise that happens to begin with FF FE (or FE FF), not UTF-16."""
+    if not head.startswith(_UTF16_BOMS):
+        return False
+    sample = head[2:402]
+    high = sample[1::2] if head.startswith(b"\xff\xfe") else sample[0::2]
+    return not high or high.count(0) > 0.5 * len(high)
+
+
+def _bom_noise(raw: bytes) -> bytes:
+    """``raw`` (the start of a file that begins with a UTF-16 byte-order mark but is no UTF-16 text) with its first
+    line's noise (up to its last byte that is no printable ASCII) read as :data:`NOISE_LINE`; the rest of that line
+    (a header the noise ran into) as a line of its own."""
+    end = raw.find(b"\n")
+    end = len(raw) if end < 0 else end
+    first = raw[:end]
+    bad = max(i for i, b in enumerate(first) if b >= 0x7F or (b < 0x20 and b not in b"\t\r"))
+    rest = first[bad + 1 :]
+    return NOISE_LINE.encode() + (b"\n" + rest if rest.strip() else b"") + raw[end:]
+
+
 def _decode(path: Path, raw: bytes, start: bool = True) -> str:
     """Text of a file's bytes (``start``: they begin the file). Lines holding NUL bytes, when all lie within the
     first :data:`_NOISE_BYTES` of a file (a serial capture of a board's boot at another baud rate), are read as
     :data:`NOISE_LINE` (left out above the table, or named at their line inside it); elsewhere NULs make the
-    file binary."""
+    file binary. A file is UTF-16 when :func:`_wide` says so; a byte-order mark before 8-bit text starts a line
+    of noise (:func:`_bom_noise`)."""
+    if start and raw.startswith(_UTF16_BOMS) and not _wide(raw[:_NOISE_BYTES]):
+        raw = _bom_noise(raw)
     if start and b"\x00" in raw[:_NOISE_BYTES] and not raw.startswith(_UTF16_BOMS):
         last = raw.rfind(b"\x00")
         cut = raw.find(b"\n", last) + 1
         if last < _NOISE_BYTES and cut > 0 and raw[cut:].strip():
             noise = NOISE_LINE.encode()
             raw = b"\n".join(noise if b"\x00" in x else x for x in raw[: cut - 1].split(b"\n")) + raw[cut - 1 :]
-    if raw.startswith(_UTF16_BOMS):
+    if start and raw.startswith(_UTF16_BOMS):
         try:
             return raw.decode("utf-16")
         except UnicodeDecodeError:
