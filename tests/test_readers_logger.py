@@ -3,6 +3,7 @@ and variables, an incomplete last line, an empty column, absurd cells — read, 
 
 import datetime
 import gzip
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from optinav.core.results import Result
 from optinav.multipos.result import CalibrationResult
 from optinav.multipos.simulate import simulate
 
+DATA_IMUCAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal"
 ROWS = "1,2,3,4,5,6\n2,3,4,5,6,7\n3,4,5,6,7,8\n"
 
 
@@ -1029,3 +1031,99 @@ def test_a_capture_with_the_serial_monitors_timestamps_reads(tmp_path, capsys):
     blocks = list(iter_imu(path, **kw, chunk_rows=100))
     np.testing.assert_array_equal(np.concatenate([b.gyr for b in blocks]), gyr)
     assert any("serial monitor's receive times" in x for x in blocks[0].notes)
+
+
+def _garbled(tmp_path, rng, n=1200, time=True, bad=(301, 702, 703)):
+    """A serial capture of ``n`` rows with a garbled cell, a cut line and two lines run together at the file lines
+    ``bad`` (1-based, header = line 1): (path, t, acc, gyr, the rows that lines ``bad`` held)."""
+    t = np.arange(n) / 100.0
+    v = np.round(rng.normal(0, 0.05, (n, 6)) + [0, 0, 9.81, 0, 0, 0], 5)  # at rest, z up
+    rows = [",".join(f"{x:g}" for x in ([t[i]] if time else []) + list(v[i])) for i in range(n)]
+    lines = [("t," if time else "") + "ax,ay,az,gx,gy,gz", *rows]
+    lines[bad[0] - 1] = lines[bad[0] - 1].replace(".", "x", 2)  # '0x31…': a byte flipped on the line
+    lines[bad[1] - 1] = lines[bad[1] - 1][:9]  # cut short
+    lines[bad[2] - 1] = lines[bad[2] - 1] + lines[bad[2] - 1]  # a newline lost: two lines run together
+    f = tmp_path / ("cap.csv" if time else "cap_rate.csv")
+    f.write_text("\n".join(lines) + "\n")
+    return f, t, v[:, :3], v[:, 3:], [b - 2 for b in bad]
+
+
+def test_garbled_lines_are_named_or_skipped_with_a_note(tmp_path, capsys):
+    """A serial capture with corrupted lines mid-file was refused with no way through; the error now names the
+    line and --skip-bad-lines, which leaves such lines out with a note naming them (whole and in blocks): with a
+    time column the rows are gone and the other rows keep their times; without one they are NaN rows where they
+    stood, so the rate keeps timing the rows after them. More than 1 % of the lines unreadable is refused."""
+    rng = np.random.default_rng(41)
+    f, t, acc, gyr, lost = _garbled(tmp_path, rng)
+    assert main(["attitude", str(f), "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "line 301, column 1" in err[0] and "--skip-bad-lines" in err[0], err
+    keep = np.setdiff1d(np.arange(t.size), lost)
+    whole = read_imu(f, skip_bad_lines=True)
+    blocks = list(iter_imu(f, skip_bad_lines=True, chunk_rows=250))
+    for log in (whole, blocks):
+        got = (
+            (lambda k: np.concatenate([getattr(b, k) for b in log])) if isinstance(log, list) else log.__getattribute__
+        )
+        assert np.array_equal(got("t"), t[keep]) and np.array_equal(got("acc"), acc[keep])
+        assert np.array_equal(got("gyr"), gyr[keep])
+    assert any("3 unreadable lines 301, 702, 703 left out" in n for n in whole.notes), whole.notes
+    assert sum(len(b.notes) for b in blocks) >= 1
+    g, t, acc, gyr, lost = _garbled(tmp_path, rng, time=False)
+    for log in (
+        read_imu(g, rate_hz=100.0, skip_bad_lines=True),
+        list(iter_imu(g, rate_hz=100.0, skip_bad_lines=True, chunk_rows=250)),
+    ):
+        got = (
+            (lambda k: np.concatenate([getattr(b, k) for b in log])) if isinstance(log, list) else log.__getattribute__
+        )
+        np.testing.assert_allclose(got("t"), t, rtol=0, atol=1e-12)
+        assert np.isnan(got("acc")[lost]).all() and np.array_equal(got("gyr")[keep], gyr[keep])
+    h, *_ = _garbled(tmp_path, rng, n=200, bad=(50, 90, 91))
+    for read in (
+        lambda: read_imu(h, skip_bad_lines=True),
+        lambda: list(iter_imu(h, skip_bad_lines=True, chunk_rows=60)),
+    ):
+        with pytest.raises(
+            OptinavError, match=r"3 of 200 data lines are unreadable \(lines 50, 90, 91\), more than 1%"
+        ):
+            read()
+
+
+def test_skip_bad_lines_reaches_every_command_that_reads_a_log(tmp_path, capsys):
+    """attitude (whole and in blocks), allan and calibrate accel take --skip-bad-lines (before: unknown option)."""
+    rng = np.random.default_rng(42)
+    f, *_ = _garbled(tmp_path, rng, n=3000, bad=(1501, 2001, 2002))
+    for extra in ([], ["--chunk-rows", "700"]):
+        assert (
+            main(["attitude", str(f), "--frame", "ENU", "--skip-bad-lines", "--out", str(tmp_path / "a.csv"), *extra])
+            == 0
+        )
+        assert "3 unreadable lines 1501, 2001, 2002 left out" in capsys.readouterr().err
+    # allan needs a regular record: the lines left out are a gap it names, no wrong deviation
+    assert main(["allan", str(f), "--skip-bad-lines", "--out", str(tmp_path / "n.json")]) == 2
+    assert "not regularly sampled" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not (DATA_IMUCAL / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
+def test_imucal_session_with_a_garbled_line_calibrates_as_the_clean_one(tmp_path, capsys):
+    """imucal's Ferraris session (no time column: --rate 102.4) with one line garbled mid-file: refused naming the
+    line and --skip-bad-lines; with it the sample is lost where it stood (the rate keeps the turns' timing) and
+    every parameter is within 1 % of its std of the clean file's."""
+    import json
+
+    src = DATA_IMUCAL / "example_ferraris_session.csv"
+    lines = src.read_text().split("\n")
+    lines[5001] = lines[5001].replace(".", "x", 1)
+    bad = tmp_path / "session.csv"
+    bad.write_text("\n".join(lines))
+    argv = ["calibrate", "accel", "--rate", "102.4", "--gravity", "9.81", "--gyro-unit", "deg/s", "--out"]
+    assert main([*argv, str(tmp_path / "clean.json"), str(src)]) == 0
+    assert main([*argv, str(tmp_path / "bad.json"), str(bad)]) == 2
+    assert "line 5002" in capsys.readouterr().err
+    assert main([*argv, str(tmp_path / "bad.json"), str(bad), "--skip-bad-lines"]) == 0
+    assert "1 unreadable line 5002 read as lost samples" in capsys.readouterr().err
+    a, b = (json.loads((tmp_path / n).read_text())["parameters"] for n in ("clean.json", "bad.json"))
+    for k, p in a.items():
+        if p["value"] is not None:
+            assert abs(b[k]["value"] - p["value"]) <= 0.01 * p["std"], k

@@ -444,6 +444,7 @@ class _Blocks:
             topic=o.topic,
             gyro_path=o.gyro_path,
             gyro_columns=o.gyro_columns,
+            skip_bad_lines=o.skip_bad_lines,
         )
         self.size = chunks.size
         prev = None
@@ -526,6 +527,7 @@ class _Blocks:
                     columns=",".join(f"{k}={v}" for k, v in self.names.items()),
                     delimiter=self.o.delimiter,
                     topic=self.o.topic,
+                    skip_bad_lines=self.o.skip_bad_lines,
                 )
                 self._whole = {k: _column(k, v) for k, v in tab.items()}
             cols = {k: v[row0 : row0 + n] for k, v in self._whole.items()}

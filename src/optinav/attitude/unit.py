@@ -25,7 +25,7 @@ class AttitudeOptions:
     imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
     gyro value are lost samples, left out; the time steps over them), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
-    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file)."""
+    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``)."""
 
     method: str | None = None
     frame: str = DEFAULT_FRAME
@@ -46,6 +46,7 @@ class AttitudeOptions:
     topic: str | None = None
     gyro_path: str | None = None
     gyro_columns: str | None = None
+    skip_bad_lines: bool = False
 
     def __post_init__(self):
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
@@ -87,6 +88,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         topic=o.topic,
         gyro_path=o.gyro_path,
         gyro_columns=o.gyro_columns,
+        skip_bad_lines=o.skip_bad_lines,
     )
     if log.acc is None or log.gyr is None:
         raise OptinavError(
@@ -104,7 +106,11 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         names = _mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
         tab = read_table(
-            path, columns=",".join(f"{k}={v}" for k, v in zip(keys, names)), delimiter=o.delimiter, topic=o.topic
+            path,
+            columns=",".join(f"{k}={v}" for k, v in zip(keys, names)),
+            delimiter=o.delimiter,
+            topic=o.topic,
+            skip_bad_lines=o.skip_bad_lines,
         )
         mag = np.column_stack([_column(k, tab[k]) for k in keys])
         if mag.shape[0] != log.t.size:

@@ -94,6 +94,7 @@ def run(args) -> int:
         delimiter=args.delimiter,
         chunk_rows=args.chunk_rows,
         topic=args.topic,
+        skip_bad_lines=args.skip_bad_lines,
     )
     notes = ReaderNotes()
     res = analyse_blocks(

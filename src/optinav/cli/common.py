@@ -133,7 +133,8 @@ def check_disk(n_rows: float, bytes_per_row: float, path, what: str, remedy: str
 
 
 def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = ("m/s^2", "rad/s")) -> None:
-    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic; ``unit_default``
+    """--columns, --acc-unit, --gyro-unit, --time-unit, --rate, --delimiter, --datasets, --topic, --skip-bad-lines;
+    ``unit_default``
     names the units of a file that declares none, in the help."""
     p.add_argument(
         "--columns",
@@ -157,6 +158,12 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     )
     p.add_argument("--delimiter", help="column delimiter of text files (default: detected)")
     p.add_argument("--datasets", help="HDF5/MAT/NPZ names as std=name pairs, e.g. t=imu/time,acc=imu/acc")
+    p.add_argument(
+        "--skip-bad-lines",
+        action="store_true",
+        help="text files: leave unreadable lines (a garbled cell, a cut or merged line) out as lost samples, "
+        "with a note naming them (at most 1%% of the lines; without a time column they stay as NaN rows)",
+    )
     p.add_argument(
         "--topic",
         metavar="IMU[,MAG]",

@@ -468,7 +468,7 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | None, dict, dict]:
+def _part_spec(columns, datasets, what: str, topic=None, skip_bad_lines=False) -> tuple[list[str] | None, dict, dict]:
     """(positional names, std=name mapping, keyword arguments of load_table/iter_table) of a column option."""
     positional, mapping = parse_columns(columns, what)
     merge_datasets(mapping, datasets, what)
@@ -487,12 +487,15 @@ def _part_spec(columns, datasets, what: str, topic=None) -> tuple[list[str] | No
             "text_columns": LABEL_COLUMNS + FRAME_COLUMNS + label_sources,
             "topic": topic,
             "needed": needed,
+            "skip_bad_lines": bool(skip_bad_lines),
         },
     )
 
 
-def _read_part(path, columns, datasets, delimiter, need: str | None, what: str, topic=None) -> _Part:
-    _, mapping, kw = _part_spec(columns, datasets, what, topic)
+def _read_part(
+    path, columns, datasets, delimiter, need: str | None, what: str, topic=None, skip_bad_lines=False
+) -> _Part:
+    _, mapping, kw = _part_spec(columns, datasets, what, topic, skip_bad_lines)
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
 
 
@@ -869,6 +872,8 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         s = found["sample"][1]
         part.sample = s.astype(np.int64) if np.all(np.isfinite(s)) and np.all(s == np.round(s)) else s
     part.n = next(iter(lengths.values())) if lengths else 0
+    if table.bad_rows.size and part.t is None:
+        _lost_rows(part, table.bad_rows)
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
         names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
@@ -886,6 +891,22 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             "(one name per column, '_' to skip) or std=name entries",
         )
     return part
+
+
+def _lost_rows(part: _Part, rows: np.ndarray) -> None:
+    """Put the rows of the lines left out as unreadable back as lost samples (NaN; the label of the row before, a
+    counter NaN) at
+    ``rows`` (``numpy.insert`` positions), so that a rate times the rows after them as it did before."""
+    for kind in ("acc", "gyro"):
+        v = getattr(part, kind)
+        if v is not None:
+            setattr(part, kind, np.insert(np.asarray(v, dtype=float), rows, np.nan, axis=0))
+    if part.labels is not None:
+        part.labels = np.insert(part.labels, rows, part.labels[np.clip(rows - 1, 0, max(part.labels.size - 1, 0))])
+    if part.sample is not None:
+        part.sample = np.insert(np.asarray(part.sample, dtype=float), rows, np.nan)
+    part.n += rows.size
+    part.finite.clear()
 
 
 def _labels(path: Path, name: str, arr: np.ndarray) -> np.ndarray:
@@ -986,6 +1007,7 @@ def read_imu(
     delimiter: str | None = None,
     topic=None,
     unit_defaults: tuple[str, str] | None = None,
+    skip_bad_lines: bool = False,
 ) -> ImuLog:
     """Read accelerometer and/or gyroscope samples into an :class:`ImuLog`.
 
@@ -1025,6 +1047,11 @@ def read_imu(
     unit_defaults : (str, str) or None
         The accelerometer and gyroscope units of a file that declares none and for which no unit is passed
         (default m/s^2 and rad/s; ``optinav apply`` passes the calibration's raw units).
+    skip_bad_lines : bool
+        Leave a text table's unreadable lines out (a garbled cell, too few or too many fields: a serial capture's
+        corrupted line) instead of refusing the file, with a note naming them; at most 1 % of its lines. With a
+        time column the rows are gone (the times keep the timing); without one they are NaN rows (lost samples)
+        where they stood, so that the rate still times the rows after them.
 
     Returns
     -------
@@ -1032,10 +1059,11 @@ def read_imu(
         ``t`` [s], ``acc`` [m/s^2 or counts], ``gyr`` [rad/s or counts].
     """
     opts = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults)
-    main = _read_part(path, columns, datasets, delimiter, "acc" if gyro_path is not None else None, "columns", topic)
+    need = "acc" if gyro_path is not None else None
+    main = _read_part(path, columns, datasets, delimiter, need, "columns", topic, skip_bad_lines)
     parts = [main]
     if gyro_path is not None:
-        gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns")
+        gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns", None, skip_bad_lines)
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
@@ -1174,6 +1202,16 @@ def _log_of(
                 f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "
                 "with label=NAME in columns if it names the poses)"
             )
+        if p.table.bad_lines:
+            from optinav.io.readers import _bad_shown
+
+            bad = list(zip(p.table.bad_rows.tolist(), p.table.bad_lines))
+            kept = (
+                "left out (the time column keeps the timing)"
+                if p.t is not None
+                else "read as lost samples (NaN rows) where they stood, so that the rate times the rows after them"
+            )
+            notes.append(f"{p.path.name}: {len(bad)} unreadable {_bad_shown(bad)} {kept}")
         if "truncated_line" in p.table.meta:
             notes.append(
                 f"{p.path.name}: the last line ({p.table.meta['truncated_line']}) is incomplete and was left out"
@@ -1225,6 +1263,7 @@ def iter_imu(
     chunk_rows: int = CHUNK_ROWS,
     topic=None,
     unit_defaults: tuple[str, str] | None = None,
+    skip_bad_lines: bool = False,
 ) -> "ImuChunks":
     """:func:`read_imu` in blocks of at most ``chunk_rows`` samples.
 
@@ -1238,6 +1277,8 @@ def iter_imu(
     ----------
     path, columns, gyro_path, gyro_columns, acc_unit, gyro_unit, time_unit, datasets, delimiter, topic, unit_defaults
         As :func:`read_imu`.
+    skip_bad_lines : bool
+        As :func:`read_imu`; each block notes its own lines left out.
     rate_hz : float or None
         Sample rate [Hz] for files without a time column, as :func:`read_imu`.
     chunk_rows : int
@@ -1262,6 +1303,7 @@ def iter_imu(
         chunk_rows=chunk_rows,
         topic=topic,
         unit_defaults=unit_defaults,
+        skip_bad_lines=skip_bad_lines,
     )
 
 
@@ -1280,7 +1322,9 @@ class ImuChunks:
             kw["gyro_columns"],
             kw.get("unit_defaults"),
         )
-        _, self.mapping, tkw = _part_spec(kw["columns"], kw["datasets"], "columns", kw.get("topic"))
+        _, self.mapping, tkw = _part_spec(
+            kw["columns"], kw["datasets"], "columns", kw.get("topic"), kw.get("skip_bad_lines", False)
+        )
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
         self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0

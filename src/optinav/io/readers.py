@@ -99,6 +99,10 @@ class Table:
     #: names of a streamed binary file's arrays that are not of the blocks' length (such as a 3×3 matrix beside
     #: the samples): whole in the first block, empty in the others, so that each name's blocks join to the file's
     fixed: frozenset = frozenset()
+    #: lines of a text table left out as unreadable (``skip_bad_lines``): where each was among the rows kept
+    #: (``numpy.insert`` positions) and its file line number
+    bad_rows: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    bad_lines: tuple = ()
 
     def names(self, limit: int = _MAX_LISTED) -> str:
         """The available names as one short comma list (for error messages)."""
@@ -218,6 +222,7 @@ def read_table(
     datasets=None,
     text_columns: Sequence[str] = LABEL_COLUMNS,
     topic=None,
+    skip_bad_lines: bool = False,
 ) -> dict[str, np.ndarray]:
     r"""Read a data file into ``{name: array}``.
 
@@ -242,6 +247,8 @@ def read_table(
         The only columns allowed to hold text cells (labels, returned as str arrays); elsewhere text is an error.
     topic : str or None
         A ROS bag's Imu[,MagneticField] topic; None: its only one.
+    skip_bad_lines : bool
+        Leave a text table's unreadable lines out (at most 1 % of them) instead of refusing the file.
 
     Returns
     -------
@@ -258,6 +265,7 @@ def read_table(
         only=list(mapping.values()) or None,
         text_columns=text_columns,
         topic=topic,
+        skip_bad_lines=skip_bad_lines,
     )
     if mapping:
         return {std: table.get(name) for std, name in mapping.items()}
@@ -281,13 +289,16 @@ def load_table(
     text_columns: Sequence[str] = LABEL_COLUMNS,
     topic=None,
     needed=None,
+    skip_bad_lines: bool = False,
 ) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
     ``names``: positional column names (skip names dropped); ``only``: the names/dataset paths needed (lets the
     HDF5 reader read just those); ``topic``: the ROS bag topic(s) (bags only); ``needed(name)``: whether a text
     file's column is used — one that is not and holds text in the first data row is left out (a frame id
-    beside the values), instead of being an error.
+    beside the values), instead of being an error; ``skip_bad_lines``: a text table's unreadable lines (a
+    garbled cell, too few or too many fields) are left out and listed in ``bad_rows``/``bad_lines`` instead of
+    being an error, up to :data:`MAX_BAD_FRACTION` of its lines.
     """
     path = Path(path)
     kind, gz = _file_kind(path)
@@ -301,7 +312,7 @@ def load_table(
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         try:
-            table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels, needed)
+            table = _load_text(path, _read_bytes(path, gz), names, delimiter, labels, needed, skip_bad_lines)
         except OptinavError as exc:
             raise _text_despite_suffix(path, exc) from None
     else:
@@ -338,6 +349,7 @@ def iter_table(
     chunk_rows: int | None = None,
     topic=None,
     needed=None,
+    skip_bad_lines: bool = False,
 ) -> "TableChunks":
     """:func:`load_table` in blocks, so that memory does not grow with the file.
 
@@ -367,13 +379,16 @@ def iter_table(
     needed : callable or None
         ``needed(name)``: whether a text file's column is used; one that is not and holds text in the first data
         row is left out (see :func:`load_table`). None: every column is parsed.
+    skip_bad_lines : bool
+        Leave a text table's unreadable lines out (see :func:`load_table`); each block lists its own, and the
+        file's share is checked at its end.
 
     Returns
     -------
     TableChunks
         An iterable of :class:`Table` (``row0``: the block's first row in the file).
     """
-    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic, needed)
+    return TableChunks(Path(path), names, delimiter, only, text_columns, chunk_rows, topic, needed, skip_bad_lines)
 
 
 class TableChunks:
@@ -381,14 +396,23 @@ class TableChunks:
     compressed file for ``.gz``) tell the progress."""
 
     def __init__(
-        self, path: Path, names, delimiter, only, text_columns, chunk_rows: int | None, topic=None, needed=None
+        self,
+        path: Path,
+        names,
+        delimiter,
+        only,
+        text_columns,
+        chunk_rows: int | None,
+        topic=None,
+        needed=None,
+        skip_bad_lines: bool = False,
     ):
         chunk_rows = CHUNK_ROWS if chunk_rows is None else chunk_rows
         if int(chunk_rows) < 1:
             raise OptinavError(f"chunk_rows={chunk_rows} must be >= 1", "pass a positive number of rows")
         self.path, self.names, self.delimiter, self.only = path, names, delimiter, only
         self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
-        self.needed = needed
+        self.needed, self.skip_bad_lines = needed, skip_bad_lines
         self.kind, self.gz = _file_kind(path)
         if topic is not None and self.kind != "rosbag":  # as load_table: a text file read in blocks ignored it
             raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
@@ -508,6 +532,7 @@ class TableChunks:
             offset = lay.start  # file line index of pending[0]
             first = True  # pending[0] is the file's first data line
             rows = 0
+            bad_total: list[tuple[int, int]] = []  # (row, line) of every line left out so far
             held = None  # the last parsed block, yielded once the next one is known (an empty last block
             nxt = block()  # may still carry the incomplete-line note)
             while pending or nxt:
@@ -518,6 +543,7 @@ class TableChunks:
                     nxt = block(max(n - len(pending), 1))
                 lines, pending = pending[:n], pending[n:]
                 last = not pending and not nxt
+                bad = [] if self.skip_bad_lines else None
                 data, truncated = _parse_block(
                     path,
                     lay,
@@ -526,10 +552,14 @@ class TableChunks:
                     complete=state["complete"] or not last,
                     offset=offset,
                     first=0 if first else None,
+                    bad=bad,
                 )
                 offset += len(lines)
                 first = False
                 k = len(data[lay.keep[0]])
+                if bad:
+                    bad_total += bad
+                    _check_bad(path, bad_total, rows + k + len(bad), final=False)
                 if k == 0:
                     if truncated is not None and held is not None:
                         held.meta["truncated_line"] = str(truncated)
@@ -547,9 +577,12 @@ class TableChunks:
                     meta=meta,
                     row0=rows,
                 )
-                rows += k
+                if bad:
+                    _mark_bad(held, bad)
+                rows += k + len(bad or ())  # the rows of the lines left out count: lost samples of a rate
             if held is None:
                 raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
+            _check_bad(path, bad_total, rows, final=True)
             yield held
 
 
@@ -1168,11 +1201,13 @@ def _parse_block(
     complete: bool = True,
     offset: int = 0,
     first: int | None = None,
+    bad: list | None = None,
 ) -> tuple[dict[int, np.ndarray], int | None]:
     """Columns of ``lines[start:]`` (numpy's C parser; the exact line parser when that fails, which names the
     line and column of a bad cell). ``offset``: file line index of ``lines[0]``; ``first``: index in ``lines`` of
     the file's first data line (None: not in this block); ``complete``: whether the file's last line ends in a
-    newline (only the block holding it passes False)."""
+    newline (only the block holding it passes False); ``bad``: a list to collect (row, line number) of the lines
+    left out as unreadable (None: such a line is an error)."""
     if lay.labelled:  # 'AcX = 12 | AcY = 5' → '12,5' where the names are the layout's (other lines as they are)
         lines = lines[:start] + [_unlabel(x, lay.labelled) for x in lines[start:]]
     if lay.comma:  # ',' is not the delimiter: every comma in a data line is a decimal one (labels' too)
@@ -1191,6 +1226,7 @@ def _parse_block(
             complete=complete,
             offset=offset,
             first=first,
+            bad=bad,
         )
     for j in lay.dates:
         data[j] = _epoch_seconds(path, lay.colnames[j], data[j])
@@ -1247,7 +1283,13 @@ def _unstamp(lines: list[str]) -> list[str]:
 
 
 def _load_text(
-    path: Path, raw: bytes, names: Sequence[str] | None, delimiter: str | None, labels: set[str], needed=None
+    path: Path,
+    raw: bytes,
+    names: Sequence[str] | None,
+    delimiter: str | None,
+    labels: set[str],
+    needed=None,
+    skip_bad_lines: bool = False,
 ) -> Table:
     text = _decode(path, raw)
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
@@ -1257,7 +1299,10 @@ def _load_text(
     lay = _text_layout(path, lines, names, delimiter, labels, needed)
     if stamped:
         lay.meta["monitor_stamps"] = "1"
-    data, truncated = _parse_block(path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start)
+    bad = [] if skip_bad_lines else None
+    data, truncated = _parse_block(
+        path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start, bad=bad
+    )
     meta = dict(lay.meta)
     if truncated is not None:
         meta["truncated_line"] = str(truncated)
@@ -1267,7 +1312,43 @@ def _load_text(
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
         raise OptinavError(f"{path} has a header but no data rows", "pass a file with data")
+    if bad:
+        _check_bad(path, bad, n + len(bad), final=True)
+        _mark_bad(table, bad)
     return table
+
+
+#: the largest share of a text table's lines that ``skip_bad_lines`` leaves out (more: the file is not the table
+#: its first lines say, or the delimiter or columns are wrong)
+MAX_BAD_FRACTION = 0.01
+#: line numbers named in a note or an error
+_MAX_BAD_SHOWN = 5
+#: what the errors of an unreadable line offer
+SKIP_BAD_REMEDY = "or pass --skip-bad-lines (skip_bad_lines=True) to leave such lines out as lost samples"
+
+
+def _bad_shown(bad: list) -> str:
+    """``line 12`` / ``lines 12, 40, …`` of (row, line) pairs."""
+    shown = ", ".join(str(x[1]) for x in bad[:_MAX_BAD_SHOWN]) + (", …" if len(bad) > _MAX_BAD_SHOWN else "")
+    return f"line{'s' if len(bad) > 1 else ''} {shown}"
+
+
+def _check_bad(path: Path, bad: list, lines: int, *, final: bool) -> None:
+    """Refuse a table whose unreadable lines are more than :data:`MAX_BAD_FRACTION` of its ``lines`` data lines
+    (one is always allowed); a block of a streamed file (``final`` False) stops early only once 100 are out."""
+    if len(bad) <= 1 or len(bad) <= MAX_BAD_FRACTION * lines or (not final and len(bad) < 100):
+        return
+    raise OptinavError(
+        f"{path.name}: {len(bad)} of {lines} data lines are unreadable ({_bad_shown(bad)}), more than "
+        f"{MAX_BAD_FRACTION:.0%} --skip-bad-lines leaves out",
+        "check the delimiter (--delimiter) and columns (--columns), or repair the file",
+    )
+
+
+def _mark_bad(table: Table, bad: list) -> None:
+    """Record the (row, line) pairs of the lines left out in ``table`` (positions among its kept rows)."""
+    table.bad_rows = np.asarray([r for r, _ in bad], dtype=np.int64)
+    table.bad_lines = tuple(line for _, line in bad)
 
 
 def _loadtxt(lines, delim, dtype, usecols=None):
@@ -1341,11 +1422,13 @@ def _parse_slow(
     complete: bool = True,
     offset: int = 0,
     first: int | None = None,
+    bad: list | None = None,
 ) -> tuple[dict[int, np.ndarray], int | None]:
     """Line-by-line parser: exact line numbers in errors; empty cells become NaN. Without a final newline
     (``complete`` False: a logger stopped mid-write) a last line with too few fields is dropped and its line
     number returned with the columns. ``offset``: file line index of ``lines[0]`` (a block of a streamed file);
-    ``first``: index of the file's first data line in ``lines`` (None: not in ``lines``)."""
+    ``first``: index of the file's first data line in ``lines`` (None: not in ``lines``); ``bad``: a list that
+    collects (row, line number) of an unreadable line instead of its error (None: the error)."""
     ncol = len(colnames)
     first = -1 if first is None else first
     cols: dict[int, list] = {j: [] for j in keep}
@@ -1361,32 +1444,43 @@ def _parse_slow(
             truncated = offset + i + 1  # a logger stopped mid-line: the row is dropped and reported, not half-read
             break
         if len(toks) != ncol:
+            if bad is not None:
+                bad.append((len(cols[keep[0]]), offset + i + 1))
+                continue
             how = "truncated" if len(toks) < ncol else "too long"
             raise OptinavError(
                 f"{path.name} line {offset + i + 1} has {len(toks)} field(s), {ncol} expected ({how} or ragged row)",
-                "fix or delete that row, or check the delimiter",
+                f"fix or delete that row, or check the delimiter, {SKIP_BAD_REMEDY}",
             )
-        for j in textable:
-            cols[j].append(toks[j])
+        row = {}
         for j in numeric:
             tok = toks[j]
             if tok == "":
-                cols[j].append(np.nan)
+                row[j] = np.nan
                 continue
             try:
-                cols[j].append(float(tok))
+                row[j] = float(tok)
             except ValueError:
+                if bad is not None:
+                    break
                 hint = (
                     "decimal commas are not supported: write decimal points"
                     if _DECIMAL_COMMA.match(tok)
                     else "fix the cell or skip the column ('_' in columns); text is kept only in label "
-                    "columns (part, label, section, …)"
+                    f"columns (part, label, section, …); {SKIP_BAD_REMEDY}"
                 )
                 raise OptinavError(
                     f"{path.name} line {offset + i + 1}, column {j + 1} ({colnames[j]!r}): "
                     f"{tok[:40]!r} is not a number",
                     hint,
                 ) from None
+        else:
+            for j in textable:
+                cols[j].append(toks[j])
+            for j, v in row.items():
+                cols[j].append(v)
+            continue
+        bad.append((len(cols[keep[0]]), offset + i + 1))
     out = {}
     for j in keep:
         out[j] = _text_column(np.asarray(cols[j], dtype=str)) if j in textable else np.asarray(cols[j], dtype=float)

@@ -32,7 +32,7 @@ MAX_OFFSET = 2.0**32
 class ApplyOptions:
     """How the raw log is read (the reading options of :func:`optinav.io.imu.iter_imu`: ``columns``, units
     (None: those the calibration was made in), ``time_unit``, ``rate_hz`` Hz, ``datasets``, ``delimiter``,
-    ``topic``), ``chunk_rows`` rows per block, and ``gyro_cal``: imu_tk's gyroscope parameter file when the
+    ``topic``, ``skip_bad_lines``), ``chunk_rows`` rows per block, and ``gyro_cal``: imu_tk's gyroscope parameter file when the
     result is imu_tk's accelerometer file."""
 
     columns: str | None = None
@@ -43,6 +43,7 @@ class ApplyOptions:
     datasets: str | None = None
     delimiter: str | None = None
     topic: str | None = None
+    skip_bad_lines: bool = False
     chunk_rows: int | None = None
     gyro_cal: str | None = None
 
@@ -81,6 +82,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
         delimiter=o.delimiter,
         chunk_rows=o.chunk_rows or CHUNK_ROWS,
         topic=o.topic,
+        skip_bad_lines=o.skip_bad_lines,
     )
     source = f"optinav apply {Path(result_path).name} {Path(data_path).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not

@@ -1731,6 +1731,7 @@ class FileOptions:
     delimiter: str | None = None
     datasets: str | None = None
     topic: str | None = None
+    skip_bad_lines: bool = False
     gravity: float | None = None
     lat_deg: float | None = None
     height_m: float = 0.0
@@ -1863,6 +1864,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
         delimiter=o.delimiter,
         topic=o.topic,
         chunk_rows=chunk_rows,
+        skip_bad_lines=o.skip_bad_lines,
     )
     parts = {key: _Gather() for key in ("t", "acc", "gyro")}
     labels: list = []
