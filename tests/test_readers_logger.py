@@ -716,6 +716,42 @@ def test_ardupilot_imu_csv_reads_its_time_and_refuses_interleaved_imus(tmp_path,
             assert "--types ACC --condition 'ACC.I==0'" in exc.value.remedy
 
 
+def test_one_ardupilot_imu_instance_is_read_with_topic_name_at_id(tmp_path, capsys):
+    """mavlogdump's IMU CSV of a flight controller with two IMUs (instance column I = 0, 1 in alternate rows) was
+    refused with only mavlogdump's --condition as remedy, and a column named ``Instance`` was not recognised at
+    all: the two sensors read as one 800 Hz log with exit 0. ``--topic IMU@1`` (the bag's TOPIC@FRAME: one sensor
+    of several) reads that instance alone, whole and in blocks, and the refusal names it."""
+    n = 400
+    gyr, acc = _triads(13, n)
+    t = np.arange(n) / 400.0
+    two_t = np.repeat(t, 2) + np.tile([0.0, 1e-4], n)
+    gyr2, acc2 = gyr + 0.01, acc - 0.1  # the second IMU: other biases
+    g, a = np.empty((2 * n, 3)), np.empty((2 * n, 3))
+    g[0::2], g[1::2], a[0::2], a[1::2] = gyr, gyr2, acc, acc2
+    two = _ardupilot_imu_csv(tmp_path / "00000013_IMU.csv", two_t, g, a, [0, 1] * n)
+    named = _w(tmp_path / "inst.csv", two.read_text().replace(",I,", ",Instance,", 1))
+    for path in (two, named):
+        with pytest.raises(OptinavError, match="holds 2 IMU instances") as exc:
+            read_imu(path)
+        assert "--topic IMU@0" in exc.value.remedy
+        for topic, (gy, ac, t0) in {"IMU@1": (gyr2, acc2, 61.0001), "@0": (gyr, acc, 61.0)}.items():
+            for log in (read_imu(path, topic=topic), *iter_imu(path, topic=topic, chunk_rows=2 * n)):
+                np.testing.assert_array_equal(log.gyr, gy)
+                np.testing.assert_array_equal(log.acc, ac)
+                np.testing.assert_allclose(log.t, t0 + t, rtol=0, atol=1e-9)
+    for topic, msg in (
+        ("ACC@1", "holds ArduPilot's IMU message, not ACC"),
+        ("IMU@2", r"no row .* I == 2 \(found: 0, 1\)"),
+    ):
+        with pytest.raises(OptinavError, match=msg):
+            read_imu(two, topic=topic)
+    assert main(["attitude", str(two), "--topic", "IMU@1", "--frame", "ENU", "--out", str(tmp_path / "q.csv")]) == 0
+    capsys.readouterr()
+    assert main(["allan", str(two), "--chunk-rows", "100", "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--topic IMU@0" in err[0]
+
+
 SENSORLOG_HEAD = (
     "loggingTime(txt),loggingSample(N),accelerometerTimestamp_sinceReboot(s),accelerometerAccelerationX(G),"
     "accelerometerAccelerationY(G),accelerometerAccelerationZ(G),gyroTimestamp_sinceReboot(s),gyroRotationX(rad/s),"
@@ -938,7 +974,12 @@ def test_rostopic_csv_of_two_imus_on_one_topic_is_refused(tmp_path, capsys):
         read_imu(two)
     assert "--topic TOPIC@FRAME" in exc.value.remedy
     code = main(["attitude", str(two), "--chunk-rows", "100", "--out", str(tmp_path / "q.csv")])
-    assert code == 2 and "sensor frames" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 2 and "sensor frames" in err and "--topic @imu_a" in err
+    # --topic @FRAME reads one frame's rows (as TOPIC@FRAME does in a bag), whole and in blocks
+    for log in (read_imu(two, topic="@imu_b"), *iter_imu(two, topic="@imu_b", chunk_rows=10 * n)):
+        np.testing.assert_array_equal(log.gyr, gyr[1::2])
+        np.testing.assert_allclose(np.diff(log.t), 0.005, rtol=0, atol=1e-6)
     log = read_imu(write("restart.csv", ["imu"] * n + ["imu_2"] * n))
     np.testing.assert_array_equal(log.gyr, gyr)
     np.testing.assert_allclose(np.diff(log.t), 0.0025, rtol=0, atol=1e-6)

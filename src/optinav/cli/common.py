@@ -170,7 +170,9 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
         help="ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder): the "
         "sensor_msgs/Imu topic, optionally a MagneticField topic "
         "after a comma (default: the bag's only Imu topic); TOPIC@FRAME reads "
-        "only the messages of header frame_id FRAME (several IMUs on one topic)",
+        "only the messages of header frame_id FRAME (several IMUs on one topic); for a table of several "
+        "sensors in alternate rows, NAME@ID reads one: ArduPilot's instance (IMU@1, ACC@0, GYR@2 of a mavlogdump "
+        "CSV) or a frame_id column's FRAME (@FRAME)",
     )
 
 

@@ -575,22 +575,75 @@ def _ardupilot_imu(table: Table) -> set[str]:
     that look like a time (mavlogdump's wall clock ``timestamp``, the temperature ``T``, TimeUS beside SampleUS)
     are returned to be passed over. Several IMUs interleaved in the instance column ``I`` are refused: read as
     one log, their rows alternate between sensors with exit 0."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
-    triads = [p for p in ("gyr", "acc") if all(f"{p}{a}" in norm for a in "xyz")]
-    if "timeus" not in norm or not triads:
+    msg, inst = _ardupilot_message(table)
+    if msg is None:
         return set()
-    inst = norm.get("i")
+    norm = {normalize_name(k)[0]: k for k in table.data}
     if inst is not None and table.data[inst].dtype.kind == "f" and table.data[inst].ndim == 1:
         ids = np.unique(table.data[inst][np.isfinite(table.data[inst])])
         if ids.size > 1:
             shown = ", ".join(f"{v:g}" for v in ids[:_MAX_IDS])
-            msg = "IMU" if len(triads) == 2 else triads[0].upper()
             raise OptinavError(
                 f"{table.path.name}: column {inst!r} holds {ids.size} IMU instances ({shown}) in alternate rows; "
                 "read as one log they would mix the sensors",
-                f"export one instance: mavlogdump.py --format csv --types {msg} --condition '{msg}.I==0' LOG.bin",
+                f"read one with --topic {msg}@{ids[0]:g} (topic='{msg}@{ids[0]:g}'), or export one: mavlogdump.py "
+                f"--format csv --types {msg} --condition '{msg}.I=={ids[0]:g}' LOG.bin",
             )
     return {norm[k] for k in ("t", "timestamp", "timeus" if "sampleus" in norm else "") if k in norm}
+
+
+def _ardupilot_message(table: Table) -> tuple[str | None, str | None]:
+    """(message name IMU/ACC/GYR, its instance column or None) of a mavlogdump CSV of ArduPilot's IMU, ACC or GYR
+    message (TimeUS and a GyrX..Z or AccX..Z triad); (None, None) for another table."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    triads = [p for p in ("gyr", "acc") if all(f"{p}{a}" in norm for a in "xyz")]
+    if "timeus" not in norm or not triads:
+        return None, None
+    return ("IMU" if len(triads) == 2 else triads[0].upper()), norm.get("i", norm.get("instance"))
+
+
+def _select_instance(table: Table) -> None:
+    """Keep the rows of one sensor of a table holding several in alternate rows, as ``--topic NAME@ID``
+    (``table.meta['select']``) names it: ArduPilot's instance column (``I``/``Instance``; NAME the message IMU,
+    ACC or GYR, or empty) or a ``frame_id`` column (``rostopic echo -p`` of a topic two IMUs publish: ID the
+    frame_id, as a bag's ``TOPIC@FRAME``). Every column of the table's length is cut to those rows."""
+    sel = table.meta.get("select")
+    if sel is None:
+        return
+    name, _, ident = sel.rpartition("@")
+    name, ident = name.strip(), ident.strip()
+    msg, inst = _ardupilot_message(table)
+    frame = next((k for k in table.data if normalize_name(k)[0] in FRAME_COLUMNS), None)
+    if inst is not None:
+        if name and name.upper() != msg:
+            raise OptinavError(
+                f"--topic {sel}: {table.path.name} holds ArduPilot's {msg} message, not {name}",
+                f"write --topic {msg}@{ident}",
+            )
+        try:
+            keep = table.data[inst] == float(ident)
+        except ValueError:
+            raise OptinavError(
+                f"--topic {sel}: ArduPilot's instance is a number, not {ident!r}", f"write e.g. --topic {msg}@0"
+            ) from None
+        what = f"{inst} == {ident}"
+        cells = table.data[inst]
+    elif frame is not None:
+        cells = table.data[frame].astype(str)
+        keep, what = cells == ident, f"{frame} == {ident!r}"
+    else:
+        raise OptinavError(
+            f"--topic {sel}: {table.path.name} has no instance column (ArduPilot's I) or frame_id column to pick rows by",
+            "drop --topic",
+        )
+    if cells.size and not keep.any():
+        found = np.unique(cells)
+        shown = ", ".join(f"{v:g}" if isinstance(v, float) else repr(str(v)) for v in found[:_MAX_IDS].tolist())
+        raise OptinavError(
+            f"--topic {sel}: no row of {table.path.name} has {what} (found: {shown})", "pick one of the values found"
+        )
+    n = cells.shape[0]
+    table.data = {k: v[keep] if v.ndim and v.shape[0] == n else v for k, v in table.data.items()}
 
 
 _MAX_IDS = 8
@@ -611,7 +664,7 @@ def _one_frame(table: Table) -> None:
                 raise OptinavError(
                     f"{table.path.name}: column {key!r} holds {frames.size} sensor frames ({shown}) in alternate "
                     "rows; read as one log they would mix the sensors",
-                    "keep one frame's rows, or read the bag itself with --topic TOPIC@FRAME",
+                    f"read one with --topic @{frames[0]} (its rows alone), or the bag itself with --topic TOPIC@FRAME",
                 )
 
 
@@ -760,6 +813,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         found[std] = (name, table.get(name))
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
+    _select_instance(table)
     passed_over = _ardupilot_imu(table)
     _one_frame(table)
     for key in table.data:
@@ -872,6 +926,11 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         s = found["sample"][1]
         part.sample = s.astype(np.int64) if np.all(np.isfinite(s)) and np.all(s == np.round(s)) else s
     part.n = next(iter(lengths.values())) if lengths else 0
+    if "select" in table.meta and part.t is None and lengths:
+        raise OptinavError(
+            f"--topic {table.meta['select']}: {part.path.name} has no time column, so the rows kept could not be timed",
+            "name the time column (--columns t=NAME) to read one sensor's rows",
+        )
     if table.bad_rows.size and part.t is None:
         _lost_rows(part, table.bad_rows)
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):

@@ -307,8 +307,7 @@ def load_table(
 
         _no_option(path, delimiter=delimiter, names=names)
         return load_bag(path, topic=topic)
-    if topic is not None:
-        raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
+    _check_select(path, topic)
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         try:
@@ -321,7 +320,7 @@ def load_table(
         if kind == "parquet":
             from optinav.io.parquet import load_parquet
 
-            return load_parquet(path, names=names, only=only)
+            return _selected(load_parquet(path, names=names, only=only), topic)
         if kind in ("npz", "npy"):
             table = _load_numpy(path)
         elif kind == "hdf5":
@@ -331,6 +330,23 @@ def load_table(
         table = _split_single_table(table)
         if names is not None:
             table = _name_table_columns(table, names)
+    return _selected(table, topic)
+
+
+def _check_select(path: Path, topic) -> None:
+    """A topic given for a file that is no ROS bag: only ``NAME@ID`` (one instance of a table holding several, see
+    :func:`optinav.io.imu`'s instance selection) applies."""
+    if topic is not None and "@" not in str(topic):
+        raise OptinavError(
+            f"a topic applies to ROS bags, not to {path.name}",
+            "drop --topic (NAME@ID picks one sensor of a table of several: --topic IMU@1 for ArduPilot's instance 1)",
+        )
+
+
+def _selected(table: Table, topic) -> Table:
+    """``table`` with the ``NAME@ID`` selection recorded in ``meta['select']`` (applied by read_imu)."""
+    if topic is not None:
+        table.meta["select"] = str(topic)
     return table
 
 
@@ -414,8 +430,8 @@ class TableChunks:
         self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
         self.needed, self.skip_bad_lines = needed, skip_bad_lines
         self.kind, self.gz = _file_kind(path)
-        if topic is not None and self.kind != "rosbag":  # as load_table: a text file read in blocks ignored it
-            raise OptinavError(f"a topic applies to ROS bags, not to {path.name}", "drop --topic")
+        if self.kind != "rosbag":  # as load_table: a text file read in blocks ignored it
+            _check_select(path, topic)
         self.size = path.stat().st_size
         self.position = 0
 
@@ -569,6 +585,8 @@ class TableChunks:
                 meta = dict(lay.meta)
                 if truncated is not None:
                     meta["truncated_line"] = str(truncated)
+                if self.topic is not None:
+                    meta["select"] = str(self.topic)
                 held = Table(
                     path=path,
                     kind="text",
