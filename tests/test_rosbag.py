@@ -1821,3 +1821,40 @@ def test_three_imus_on_one_topic_keep_their_frame_ids_across_blocks(tmp_path, ki
     for k, name in enumerate(names):
         log = read_imu(bag, topic=f"/imu@{name}")
         assert np.array_equal(log.t, parts[k][1]) and np.array_equal(log.gyr, parts[k][2]), name
+
+
+@pytest.mark.parametrize("kind", ("sqlite3", "mcap"))
+def test_two_imus_on_one_topic_under_one_frame_id_are_refused(tmp_path, kind, capsys):
+    """Two IMU drivers publishing /imu with the same frame_id (a copied launch file): rosbag2 keeps no publisher per
+    message, so the messages of both — 100 Hz each, stamps 3 ms apart — were read as one IMU at 200 Hz with exit 0,
+    its samples alternating between two sensors. Their bias difference (0.05 m/s², 0.003 rad/s, noise 0.02 m/s²,
+    0.002 rad/s) alternates: refused, naming what helps, whole and in blocks. Each IMU alone (a slow rotation, a
+    straight drift) still reads."""
+    rng = np.random.default_rng(47)
+    n, t0 = 600, 1_700_000_000
+    ts = np.arange(n) / 100.0
+    motion = np.column_stack([0.3 * np.sin(2 * np.pi * 0.2 * ts), 0.01 * ts, np.zeros(n)])
+
+    def sensor(bias_a, bias_g, offset_ns):
+        acc = [0, 0, 9.81] + bias_a + rng.normal(0, 0.02, (n, 3))
+        gyr = motion + bias_g + rng.normal(0, 0.002, (n, 3))
+        ns = np.round(ts * 1e9).astype(np.int64) + offset_ns
+        msgs = [
+            (
+                int(t0 * 10**9 + ns[i] + 5_000_000),
+                lambda s, i=i: imu_msg(s, t0 + ns[i] // 10**9, ns[i] % 10**9, gyr[i], acc[i]),
+            )
+            for i in range(n)
+        ]
+        return msgs, gyr
+
+    a, gyr_a = sensor(np.array([0.05, -0.03, 0.0]), np.array([0.003, 0.0, 0.0]), 123)
+    b, _ = sensor(np.zeros(3), np.zeros(3), 3_000_123)
+    both = write_bag(tmp_path / "both", kind, {"/imu": (IMU, sorted(a + b, key=lambda m: m[0]))})
+    with pytest.raises(OptinavError, match="alternate between two sensors.*own topic or frame_id"):
+        read_imu(both)
+    assert main(["attitude", str(both), "--chunk-rows", "500", "--out", str(tmp_path / "q.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "alternate between two sensors" in err[0], err
+    one = write_bag(tmp_path / "one", kind, {"/imu": (IMU, a)})
+    assert np.array_equal(read_imu(one).gyr, gyr_a)
