@@ -1858,3 +1858,25 @@ def test_two_imus_on_one_topic_under_one_frame_id_are_refused(tmp_path, kind, ca
     assert len(err) == 1 and "alternate between two sensors" in err[0], err
     one = write_bag(tmp_path / "one", kind, {"/imu": (IMU, a)})
     assert np.array_equal(read_imu(one).gyr, gyr_a)
+
+
+def test_alternation_of_one_real_imu_stays_far_below_the_refusal():
+    """The two-sensor check on real data: BROAD's nine trials (one IMU each: rotations, translations, tapping,
+    vibration) stay below half the threshold; each interleaved with itself offset by a small bias difference on
+    every axis (0.05, -0.03, 0.04 m/s²; 0.003 rad/s: two units of one type) goes beyond it."""
+    from optinav.attitude.data import load_broad
+    from optinav.io.imu import _ALTERNATE_Z, alternation
+
+    broad = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "attitude" / "broad"
+    trials = sorted(p for p in broad.glob("*") if p.suffix in (".hdf5", ".mat"))
+    if not trials:
+        pytest.skip("BROAD data absent")
+    for path in trials:
+        tr = load_broad(path)
+        z = []
+        for x, bias in ((tr.acc, [0.05, -0.03, 0.04]), (tr.gyr, 0.003)):
+            assert alternation(x)[0].max() < _ALTERNATE_Z / 2, path.name
+            mixed = x.copy()
+            mixed[1::2] += bias
+            z.append(alternation(mixed)[0].max())
+        assert max(z) > _ALTERNATE_Z, path.name

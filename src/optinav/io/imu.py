@@ -962,6 +962,23 @@ _ALTERNATE_Z = 20.0
 _ALTERNATE_MIN = 100
 
 
+def alternation(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far every other sample departs from the mean of its two neighbours, per axis: (that mean over its
+    standard error, the mean itself [unit of ``x``]) of an (N, K) array; zeros when fewer than
+    :data:`_ALTERNATE_MIN` pairs are finite. Two sensors in alternate rows give their bias difference there, one
+    sensor (a straight trend cancels) nothing but noise."""
+    zero = np.zeros(x.shape[1])
+    k = (x.shape[0] - 1) // 2
+    if k < _ALTERNATE_MIN:
+        return zero, zero
+    h = x[1 : 2 * k : 2] - 0.5 * (x[0 : 2 * k : 2] + x[2 : 2 * k + 1 : 2])
+    h = h[np.isfinite(h).all(axis=1)]
+    if h.shape[0] < _ALTERNATE_MIN:
+        return zero, zero
+    mean, se = h.mean(axis=0), h.std(axis=0) / np.sqrt(h.shape[0])
+    return np.abs(mean) / np.where(se > 0, se, np.inf), mean
+
+
 def _one_source(part: _Part, table: Table) -> None:
     """Refuse a bag topic whose messages alternate between two sensors under one frame_id (two IMU drivers
     publishing one topic: rosbag2 keeps no publisher per message, so neither a connection nor a frame_id tells
@@ -970,15 +987,9 @@ def _one_source(part: _Part, table: Table) -> None:
     some axis (:data:`_ALTERNATE_Z`), i.e. the two sensors' bias difference; one sensor's has none."""
     for kind, unit in (("acc", "m/s^2"), ("gyro", "rad/s")):
         x = getattr(part, kind)
-        if x is None or x.ndim != 2 or x.shape[0] < 2 * _ALTERNATE_MIN + 1:
+        if x is None or x.ndim != 2:
             continue
-        k = (x.shape[0] - 1) // 2
-        h = x[1 : 2 * k : 2] - 0.5 * (x[0 : 2 * k : 2] + x[2 : 2 * k + 1 : 2])
-        h = h[np.isfinite(h).all(axis=1)]
-        if h.shape[0] < _ALTERNATE_MIN:
-            continue
-        mean, se = h.mean(axis=0), h.std(axis=0) / np.sqrt(h.shape[0])
-        z = np.abs(mean) / np.where(se > 0, se, np.inf)
+        z, mean = alternation(x)
         j = int(np.argmax(z))
         if z[j] > _ALTERNATE_Z:
             raise OptinavError(
