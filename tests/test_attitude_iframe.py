@@ -604,3 +604,49 @@ def test_a_correct_flight_that_hardly_tilts_skips_the_whole_log_search(monkeypat
     d = _simulate("dynamic", 60.0, 9)["data"]  # gravity's 5-s means turn 0.14 rad; declared 0.11, tiny 0.14
     C.check_imu(d.gyr, d.acc, np.array([d.dt]))
     assert not calls
+
+
+def _yawing(n=6000, seed=3, mag_noise=0.5):
+    """100 Hz FRD body that only yaws (rate 0.6-1 rad/s sinusoids about z, level): gyr (rad/s), acc (exact
+    gravity + 0.02 m/s² noise), field (the 60°-dip field of :func:`_mag_n` in µT + ``mag_noise`` µT noise)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    rate = 0.6 * np.sin(2 * np.pi * 0.13 * t) + 0.4 * np.sin(2 * np.pi * 0.31 * t + 1.0)
+    psi = np.cumsum(rate) * DT
+    c, s = np.cos(psi), np.sin(psi)
+    m = _mag_n()
+    mag = np.column_stack([c * m[0] + s * m[1], -s * m[0] + c * m[1], np.full(n, m[2])])  # Rz(psi)ᵀ m
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), rate]) + rng.normal(0.0, 0.005, (n, 3))
+    acc = np.array([0.0, 0.0, -G]) + rng.normal(0.0, 0.02, (n, 3))
+    return gyr, acc, mag + rng.normal(0.0, mag_noise, (n, 3))
+
+
+def test_a_gyro_reading_57_times_too_little_on_a_yawing_body_is_named_by_the_field():
+    """A body that only yaws turns gravity not at all: its rad/s read as deg/s (1/57.3 of the rotation) passes the
+    gravity checks (as BROAD 11 and 27 did, at 5.6° RMS with exit 0), but the field turns in the body 57.3× as
+    far as that gyro says. Noise of the factor: the field's 0.1-s means move ~0.005 rad against ~0.05 rad a step
+    over ~600 steps (≈ 0.4 %): 2 % is five of it. The correct gyro's factor is 1 within the same."""
+    from optinav.attitude.checks import check_imu, check_mag_axes
+
+    gyr, acc, mag = _yawing()
+    slow = gyr * np.pi / 180.0
+    check_imu(slow, acc, np.array([DT]))  # the gap: gravity cannot tell
+    with pytest.raises(OptinavError, match=r"57\.\d× as far as the gyro in rad/s"):
+        check_mag_axes(acc, mag, DT, slow)
+    from optinav.attitude.checks import field_rate_sums, mag_gyro_scale, scale_bin_rows
+
+    r = scale_bin_rows(DT)
+    s, explained, turned = mag_gyro_scale(*field_rate_sums(slow, mag, r), r * DT)
+    assert abs(s / np.degrees(1.0) - 1.0) < 0.02 and explained > 0.9 and turned > 10.0, (s, explained, turned)
+    with pytest.raises(OptinavError, match=r"57\.\d× as far as the gyro in deg/s") as exc:
+        check_mag_axes(acc, mag, DT, slow, "deg/s")
+    assert "--gyro-unit rad/s" in exc.value.remedy
+    s1 = mag_gyro_scale(*field_rate_sums(gyr, mag, r), r * DT)[0]
+    assert abs(s1 - 1.0) < 0.02, s1
+    check_mag_axes(acc, mag, DT, gyr, "rad/s")
+    # a magnet passing (half the field for 10 s) is left out, not taken for the body's turning
+    bump = mag.copy()
+    bump[2000:3000] += 25.0 * np.array([0.6, -0.8, 0.0])
+    check_mag_axes(acc, bump, DT, gyr, "rad/s")
+    with pytest.raises(OptinavError, match="as far as the gyro"):
+        check_mag_axes(acc, bump, DT, slow, "deg/s")

@@ -355,13 +355,13 @@ def tilt_sums(acc: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return bins, np.add.reduceat(acc, first, axis=0)
 
 
-def _bin_starts(n: int, row0: int) -> tuple[np.ndarray, np.ndarray]:
-    """Bin numbers and first rows (both (k,)) of the TILT_BIN-sample bins that a block of ``n`` > 0 rows starting
-    at row ``row0`` touches: the block's first row, then every TILT_BIN-th global row (no sort needed)."""
-    first = np.arange((-row0) % TILT_BIN, n, TILT_BIN)
+def _bin_starts(n: int, row0: int, size: int = TILT_BIN) -> tuple[np.ndarray, np.ndarray]:
+    """Bin numbers and first rows (both (k,)) of the ``size``-sample bins that a block of ``n`` > 0 rows starting
+    at row ``row0`` touches: the block's first row, then every ``size``-th global row (no sort needed)."""
+    first = np.arange((-row0) % size, n, size)
     if first.size == 0 or first[0] != 0:
         first = np.concatenate([[0], first])
-    return row0 // TILT_BIN + np.arange(first.size), first
+    return row0 // size + np.arange(first.size), first
 
 
 def _grouped_tilt_sums(bins: np.ndarray, sums: np.ndarray, m: int) -> np.ndarray:
@@ -1625,6 +1625,27 @@ def gyro_sums(gyr: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, n
     return bins, np.add.reduceat(gyr, first, axis=0), np.diff(np.append(first, gyr.shape[0])).astype(float)
 
 
+def _field_and_rate(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts):
+    """The TILT_BIN bins with both sensors: bin numbers (k,), mean field (k, 3) (NaN where no finite row) and mean
+    rate (k, 3) (rad/s) from the sums of :func:`mag_sums` and :func:`gyro_sums` (a bin split between blocks comes
+    twice: merged as the time-base bins are)."""
+    ub, MC = merge_bins(np.asarray(mag_bins), np.column_stack([mag_sums_, counts]))
+    ug, GN = merge_bins(np.asarray(g_bins), np.column_stack([g_sums, g_counts]))
+    both, im, ig = np.intersect1d(ub, ug, return_indices=True)
+    M, C, G, N = MC[im, :3], MC[im, 3], GN[ig, :3], GN[ig, 3]
+    m = np.where((C > 0)[:, None], M / np.maximum(C, 1.0)[:, None], np.nan)
+    return both, m, G / np.maximum(N, 1.0)[:, None]
+
+
+def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per neighbouring bins (``pair``: the k − 1 pairs kept) the unit field's step Δu and the step the gyro
+    predicts, −ω̄ × ū · ``h`` (``h`` s a bin; ``w`` rad/s), both (j, 3), rows with a NaN left out."""
+    du = (u[1:] - u[:-1])[pair]
+    pred = -np.cross(0.5 * (w[1:] + w[:-1]), 0.5 * (u[1:] + u[:-1]))[pair] * h
+    ok = np.all(np.isfinite(du), axis=1) & np.all(np.isfinite(pred), axis=1)
+    return du[ok], pred[ok]
+
+
 def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float) -> str:
     """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
     signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin the
@@ -1635,14 +1656,7 @@ def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: flo
 
     if len(mag_bins) == 0 or len(g_bins) == 0:
         return ""
-    # a bin split between blocks comes twice: merged as the time-base bins are
-    ub, MC = merge_bins(np.asarray(mag_bins), np.column_stack([mag_sums_, counts]))
-    ug, GN = merge_bins(np.asarray(g_bins), np.column_stack([g_sums, g_counts]))
-    M, C, G, N = MC[:, :3], MC[:, 3], GN[:, :3], GN[:, 3]
-    both, im, ig = np.intersect1d(ub, ug, return_indices=True)
-    M, C, G, N = M[im], C[im], G[ig], N[ig]
-    m = np.where((C > 0)[:, None], M / np.maximum(C, 1.0)[:, None], np.nan)
-    w = G / np.maximum(N, 1.0)[:, None]
+    both, m, w = _field_and_rate(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts)
     nxt = np.diff(both) == 1
     if np.count_nonzero(nxt) < 30:
         return ""
@@ -1650,12 +1664,9 @@ def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: flo
 
     def residual(P) -> tuple[float, float]:
         u = m @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
-        u = u / np.maximum(_norm(u), 1e-300)[:, None]
-        du = (u[1:] - u[:-1])[nxt]
-        pred = -np.cross(0.5 * (w[1:] + w[:-1]), 0.5 * (u[1:] + u[:-1]))[nxt] * h
-        ok = np.all(np.isfinite(du), axis=1)
-        turn = float(np.sum(du[ok] ** 2))
-        return float(np.sum((du[ok] - pred[ok]) ** 2)) / max(turn, 1e-300), float(np.sum(_norm(du[ok])))
+        du, pred = _turns(u / np.maximum(_norm(u), 1e-300)[:, None], w, nxt, h)
+        turn = float(np.sum(du**2))
+        return float(np.sum((du - pred) ** 2)) / max(turn, 1e-300), float(np.sum(_norm(du)))
 
     declared, turned = residual(np.eye(3))
     if turned < MAG_TURN_MIN or declared <= MAG_TURN_BAD:
@@ -1671,14 +1682,113 @@ def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: flo
     )
 
 
-def check_mag_axes(acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray | None = None) -> None:
+#: bins whose field norm is off its median by more than this share are magnetically disturbed (a magnet, steel
+#: nearby) and left out of the gyro-scale check: the field turns there without the body
+MAG_QUIET = 0.1
+#: s, the gyro-scale check compares the field's and the gyro's turning between bins this long: in TILT_BIN rows
+#: (0.22 s at BROAD's rate, 0.67 s at a third of it) a fast turn leaves the step linear in ω no more, and the check
+#: judged 58 % of BROAD's cuts at full rate, 12 % at a third; in 0.1-s bins 69 % at full rate, a third and a tenth
+MAG_SCALE_BIN_S = 0.1
+#: the gyro-scale check judges only where the field turned by at least this much in the quiet bins (rad, summed
+#: |Δu|) and the gyro's rotation explains at least MAG_SCALE_EXPLAINED of that turning up to a factor
+MAG_SCALE_TURN = 2.0
+MAG_SCALE_EXPLAINED = 0.5
+#: the field turning this many times as far as the gyro says is refused. The nine BROAD trials as recorded and
+#: their 10-s, 20-s, 30-s, 60-s and half cuts, at a third, a tenth and a thirtieth of the rate, with and without a
+#: hard-iron offset and magnets passing: 0.41-2.5 where judged; their rad/s declared deg/s 24-140. A gyro reading
+#: too much (deg/s declared rad/s) is the peak's and gravity's to find: a hard-iron field turns less than the body,
+#: so a small factor is no evidence
+MAG_SCALE_FAR = 8.0
+
+
+def scale_bin_rows(dt: float) -> int:
+    """Rows per bin of the gyro-scale check (:data:`MAG_SCALE_BIN_S`) at the median step ``dt`` (s)."""
+    return max(1, int(round(MAG_SCALE_BIN_S / dt))) if dt > 0 else 1
+
+
+def field_rate_sums(gyr: np.ndarray, mag: np.ndarray, rows: int, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Bin numbers (k,) and per ``rows``-sample bin of a block starting at row ``row0``: the field's sum over its
+    finite rows, their count, the gyro's sum (rad/s) and the row count, as (k, 8) columns (a bin split between
+    blocks comes twice: :func:`merge_bins` sums it)."""
+    n = gyr.shape[0]
+    if not n:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 8))
+    ok = np.all(np.isfinite(mag), axis=1)
+    bins, first = _bin_starts(n, row0, rows)
+    return bins, np.add.reduceat(np.column_stack([np.where(ok[:, None], mag, 0.0), ok, gyr, np.ones(n)]), first, axis=0)
+
+
+def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float, float, float]:
+    """(s, explained, turned): the factor s by which the field turns in the body beyond what the gyro says (least
+    squares of the unit field's steps Δu between neighbouring bins on the gyro's −ω̄ × ū · ``h``; ``h`` s a bin,
+    the gyro in rad/s), the share of the turning that s times the gyro's explains, and the turning seen (rad,
+    Σ|Δu|), over the magnetically quiet bins (:data:`MAG_QUIET`); NaNs when under 30 pairs of bins. ``bins``,
+    ``sums`` as :func:`field_rate_sums` gives them."""
+    nan = (float("nan"),) * 3
+    if len(bins) == 0:
+        return nan
+    both, S = merge_bins(np.asarray(bins), np.asarray(sums))
+    m = np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
+    w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
+    nm = _norm(m)
+    finite = np.isfinite(nm)
+    if not np.any(finite):
+        return nan
+    with np.errstate(invalid="ignore"):
+        quiet = np.abs(nm / np.median(nm[finite]) - 1.0) < MAG_QUIET
+    pair = (np.diff(both) == 1) & quiet[1:] & quiet[:-1]
+    if np.count_nonzero(pair) < 30:
+        return nan
+    du, pred = _turns(m / np.where(quiet, nm, 1.0)[:, None], w, pair, h)
+    pp, dp, dd = float(np.sum(pred * pred)), float(np.sum(du * pred)), float(np.sum(du * du))
+    if not (pp > 0 and dd > 0):
+        return nan
+    return dp / pp, dp * dp / (pp * dd), float(np.sum(_norm(du)))
+
+
+def gyro_scale_error(s: float, explained: float, turned: float, gyro_unit: str | None = None) -> OptinavError | None:
+    """The error for a field that turns ``s`` times as far as the gyro (declared in ``gyro_unit``; None: not known)
+    says (:func:`mag_gyro_scale`), None when not judged or within :data:`MAG_SCALE_FAR`. BROAD 11 and 27 (a body
+    that mostly yaws: gravity barely turns in it) ran their rad/s declared deg/s with exit 0 at 5.6° RMS."""
+    if not (turned >= MAG_SCALE_TURN and explained >= MAG_SCALE_EXPLAINED and s > MAG_SCALE_FAR):
+        return None
+    seen = (
+        f"the magnetic field turns in the body {s:.3g}× as far as the gyro in {gyro_unit or 'rad/s'} says "
+        f"({turned:.3g} rad of turning where the field is undisturbed, {explained:.0%} of it about the gyro's axes)"
+    )
+    if abs(np.log(s * np.pi / 180.0)) < np.log(1.5) and gyro_unit != "rad/s":
+        return OptinavError(
+            f"{seen}: a unit factor of 180/π",
+            f"it looks like rad/s declared {gyro_unit or 'deg/s (converted twice)'}: --gyro-unit rad/s",
+        )
+    return OptinavError(
+        f"{seen}: the gyro reads too little by that factor",
+        "check --gyro-unit (raw counts need their calibration, optinav apply), --rate or the time column's unit "
+        "(--time-unit)",
+    )
+
+
+def check_mag_axes(
+    acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray | None = None, gyro_unit: str | None = None
+) -> None:
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
     gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field turns against the gyro
-    (:func:`mag_turn_hint`); ``dt`` the median step (s)."""
+    (:func:`mag_turn_hint`) or a gyro that reads far less than the field turns (:func:`gyro_scale_error`;
+    ``gyro_unit`` as declared); ``dt`` the median step (s)."""
     b, as_, ms, c = mag_sums(acc, mag)
     warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dt))
     if gyr is not None:
         warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
+        rows = scale_bin_rows(dt)
+        check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit)
+
+
+def check_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> None:
+    """Raise :func:`gyro_scale_error` of :func:`mag_gyro_scale` (``bins``, ``sums`` of :func:`field_rate_sums`,
+    ``h`` s a bin) when it has one (helper)."""
+    err = gyro_scale_error(*mag_gyro_scale(bins, sums, h), gyro_unit)
+    if err is not None:
+        raise err
 
 
 def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:

@@ -46,6 +46,8 @@ class StreamChecks:
         self._mag_any = False  # a magnetometer row with three finite values seen
         self._mag_sums: list[tuple] = []  # per TILT_BIN rows: gravity and field sums (the magnetometer-axes check)
         self._gyr_sums: list[tuple] = []  # per TILT_BIN rows: gyro sums (the field turning as the gyro says)
+        self._scale_sums: list[tuple] = []  # field and gyro sums per _scale_rows rows (the gyro-scale check)
+        self._scale_rows = 0
 
     def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
@@ -55,6 +57,9 @@ class StreamChecks:
             self._mag_sums.append(_c.mag_sums(acc, mag, self.n - mag.shape[0]))
         if gyr is not None:
             self._gyr_sums.append(_c.gyro_sums(gyr, self.n - mag.shape[0]))
+            if not self._scale_rows:  # the first block's step sets the bins of the gyro-scale check
+                self._scale_rows = _c.scale_bin_rows(float(np.median(self._dts[-1])))
+            self._scale_sums.append(_c.field_rate_sums(gyr, mag, self._scale_rows, self.n - mag.shape[0]))
         self._mag_any = self._mag_any or bool(np.isfinite(mag).all(axis=1).any())
         first = (-self._mag_seen) % self._mag_stride
         self._mag.append(mag[first :: self._mag_stride].copy())
@@ -179,6 +184,9 @@ class StreamChecks:
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
                 _c.warn_or_refuse_mag_axes(_c.mag_turn_hint(sums[0], sums[2], sums[3], *gyro, self.median_dt), True)
+        if self._scale_sums:
+            bins, sums = (np.concatenate(x) for x in zip(*self._scale_sums))
+            _c.check_gyro_scale(bins, sums, self._scale_rows * self.median_dt, self.gyro_unit)
 
 
 class StreamEstimator:
