@@ -650,3 +650,7 @@ def test_a_gyro_reading_57_times_too_little_on_a_yawing_body_is_named_by_the_fie
     check_mag_axes(acc, bump, DT, gyr, "rad/s")
     with pytest.raises(OptinavError, match="as far as the gyro"):
         check_mag_axes(acc, bump, DT, slow, "deg/s")
+    # the gyro's signs flipped (or every sensor mirrored): the field turns against it, factor −1
+    with pytest.raises(OptinavError, match="the opposite way to the gyro") as exc:
+        check_mag_axes(acc, mag, DT, -gyr, "rad/s")
+    assert "left-handed" in str(exc.value)

@@ -4,6 +4,7 @@ with polarization synthesized from the optical truth by the Rayleigh model, the 
 static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -520,11 +521,11 @@ def test_gyro_axes_flipped_on_fast_translation_are_named_from_the_whole_log(perm
         pytest.skip("trial 16 absent")
     tr = load_broad(p)
     P = signed_permutations()[perm]
-    with pytest.raises(Exception, match="the gyro axes look swapped or flipped") as exc:
+    # all three negated: so reads a gyro with its signs flipped or a mirrored frame (the message names both)
+    words = "(all three of its axes negated)" if perm == 7 else "the gyro axes look swapped or flipped"
+    with pytest.raises(Exception, match=re.escape(words)) as exc:
         check_imu(tr.gyr @ P, tr.acc, np.array([tr.dt]))
     assert "--columns" in exc.value.remedy
-    if perm == 7:
-        assert "gyro x reads -x, gyro y reads -y, gyro z reads -z" in str(exc.value)
 
 
 def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
@@ -1531,3 +1532,36 @@ def test_the_gyro_scale_by_the_field_raises_no_false_alarm_on_broad():
                     judged.append(got[0])
     assert 0.5 < min(judged) and max(judged) < MAG_SCALE_FAR / 4, (min(judged), max(judged))
     assert refused > 0.75 * cuts, (refused, cuts)
+
+
+def test_a_mirrored_frame_is_named_as_such_not_blamed_on_the_gyro(tmp_path, capsys):
+    """Both triads with x and y swapped (a left-handed file): a rotation is a pseudovector, so the gyro reads every
+    axis negated against the accelerometer, and the error said "gyro x reads -x, gyro y reads -y, gyro z reads -z"
+    and told to fix the gyro alone. Gravity cannot tell a mirrored frame from a gyro with its signs flipped: both
+    are named, with the swap of every sensor alike. 20 s of trial 11 (it yaws: gravity turns too little to see
+    it) so mirrored, magnetometer too, ran with exit 0 and its heading turning the wrong way: the field turns
+    against the gyro there (factor −1.1); the columns swapped back pass."""
+    from optinav.attitude.checks import check_imu
+    from optinav.cli.main import main
+    from optinav.errors import OptinavError
+
+    tr = load_broad(PATH)
+    sl = slice(int(60.0 / tr.dt), int(100.0 / tr.dt))
+    swap = [1, 0, 2]
+    with pytest.raises(OptinavError, match=r"left-handed \(mirrored\) frame") as exc:
+        check_imu(tr.gyr[sl][:, swap], tr.acc[sl][:, swap], np.array([tr.dt]))
+    assert "gyro x reads" not in str(exc.value) and "swap two axes of every sensor alike" in exc.value.remedy
+    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 11 absent")
+    tr = load_broad(p)
+    sl = slice(int(30.0 / tr.dt), int(50.0 / tr.dt))
+    csv = tmp_path / "mirrored.csv"
+    t = np.arange(sl.stop - sl.start) * tr.dt
+    rows = np.column_stack([t, tr.acc[sl][:, swap], tr.gyr[sl][:, swap], tr.mag[sl][:, swap]])
+    np.savetxt(csv, rows, delimiter=",", header="t,ax,ay,az,gx,gy,gz,mx,my,mz", comments="")
+    argv = ["--quiet", "attitude", str(csv), "--frame", "ENU", "--mag", "--out", str(tmp_path / "a.csv")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "turns in the body the opposite way to the gyro" in err and "left-handed" in err, err
+    assert main([*argv, "--columns", "t,ay,ax,az,gy,gx,gz,my,mx,mz"]) == 0

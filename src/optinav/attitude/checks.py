@@ -1211,10 +1211,12 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
             f"column's unit (--time-unit), or --gyro-unit{_unit_and_rate(hint, gyro_unit)} (raw counts need their "
             "calibration, optinav apply)",
         )
-    perm = f"{AXES_HINT}: {hint.words}" if hint.kind == "axes" else ""
+    mirrored = hint.kind == "axes" and hint.P is not None and np.array_equal(hint.P, -np.eye(3))
+    perm = (MIRROR_HINT if mirrored else f"{AXES_HINT}: {hint.words}") if hint.kind == "axes" else ""
+    fix = MIRROR_REMEDY if mirrored else "fix the gyro's column order or signs (--columns)"
     seen = f" ({hint.words})" if hint.kind == "unit" and hint.words else ""
     if hint.scale == 1.0:
-        return OptinavError(perm, "fix the gyro's column order or signs (--columns)")
+        return OptinavError(perm, fix)
     want = "deg/s" if hint.scale < 1.0 else "rad/s"
     seen_as = gyro_unit or "rad/s"  # the library takes rad/s: what it was declared in before is not known
     if gyro_unit is None:
@@ -1224,7 +1226,7 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
         if perm:
             return OptinavError(
                 f"{perm}, and {want} declared {gyro_unit}",
-                f"fix the gyro's column order or signs (--columns) and pass --gyro-unit {want}",
+                f"{fix}, and pass --gyro-unit {want}",
             )
         factor = "π/180" if want == "deg/s" else "180/π"
         extra = ""
@@ -1259,6 +1261,17 @@ def _unit_and_rate(hint: UnitHint, gyro_unit: str | None) -> str:
 
 #: the axes hint's first words
 AXES_HINT = "the gyro axes look swapped or flipped"
+#: a gyro that reads every axis negated against the accelerometer: so reads a gyro whose three signs are flipped,
+#: and so read both triads in one left-handed frame (two axes swapped, or one negated, in both: a rotation is a
+#: pseudovector, it changes sign under a mirror that the specific force follows). Gravity cannot tell the two apart
+MIRROR_HINT = (
+    "the gyro turns the opposite way to how gravity turns in the accelerometer's axes (all three of its axes "
+    "negated): both sensors in one left-handed (mirrored) frame read so, as does a gyro with its three signs flipped"
+)
+MIRROR_REMEDY = (
+    "if the frame is mirrored, swap two axes of every sensor alike (--columns, e.g. t,ay,ax,az,gy,gx,gz[,my,mx,mz]) "
+    "or negate one axis of each; if only the gyro's signs are flipped, negate its three columns"
+)
 
 
 def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float:
@@ -1749,13 +1762,21 @@ def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float,
 def gyro_scale_error(s: float, explained: float, turned: float, gyro_unit: str | None = None) -> OptinavError | None:
     """The error for a field that turns ``s`` times as far as the gyro (declared in ``gyro_unit``; None: not known)
     says (:func:`mag_gyro_scale`), None when not judged or within :data:`MAG_SCALE_FAR`. BROAD 11 and 27 (a body
-    that mostly yaws: gravity barely turns in it) ran their rad/s declared deg/s with exit 0 at 5.6° RMS."""
-    if not (turned >= MAG_SCALE_TURN and explained >= MAG_SCALE_EXPLAINED and s > MAG_SCALE_FAR):
+    that mostly yaws: gravity barely turns in it) ran their rad/s declared deg/s with exit 0 at 5.6° RMS. A field
+    that turns against the gyro (s < 0: BROAD's nine trials mirrored, −0.96 to −1.34) is a mirrored frame or a
+    gyro with its signs flipped; 20 s of trial 11 so ran with exit 0, its heading turning the wrong way."""
+    if not (turned >= MAG_SCALE_TURN and explained >= MAG_SCALE_EXPLAINED and (s > MAG_SCALE_FAR or s < 0)):
         return None
-    seen = (
-        f"the magnetic field turns in the body {s:.3g}× as far as the gyro in {gyro_unit or 'rad/s'} says "
-        f"({turned:.3g} rad of turning where the field is undisturbed, {explained:.0%} of it about the gyro's axes)"
-    )
+    unit = gyro_unit or "rad/s"
+    where = f"{turned:.3g} rad of turning where the field is undisturbed, {explained:.0%} of it about the gyro's axes"
+    if s < 0:
+        factor = f", and by {-s:.3g}× as far: check --gyro-unit too" if -s > MAG_SCALE_FAR else ""
+        return OptinavError(
+            f"the magnetic field turns in the body the opposite way to the gyro in {unit} ({where}): both sensors in "
+            "one left-handed (mirrored) frame read so, as does a gyro with its three signs flipped" + factor,
+            MIRROR_REMEDY,
+        )
+    seen = f"the magnetic field turns in the body {s:.3g}× as far as the gyro in {unit} says ({where})"
     if abs(np.log(s * np.pi / 180.0)) < np.log(1.5) and gyro_unit != "rad/s":
         return OptinavError(
             f"{seen}: a unit factor of 180/π",
@@ -1778,9 +1799,11 @@ def check_mag_axes(
     b, as_, ms, c = mag_sums(acc, mag)
     warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dt))
     if gyr is not None:
-        warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
+        # the gyro's scale and sense first: a field that turns about the gyro's axes by a clear factor is no
+        # magnetometer in other axes (those leave the turning unexplained), and a mirrored frame was blamed on one
         rows = scale_bin_rows(dt)
         check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit)
+        warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
 
 
 def check_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> None:

@@ -178,15 +178,15 @@ class StreamChecks:
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
         if self._mag:
             _c.check_mag(np.concatenate(self._mag))
-        if self._mag_sums:
+        if self._mag_sums:  # in the order of check_mag_axes
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
             _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
+            if self._scale_sums:
+                bins, scale = (np.concatenate(x) for x in zip(*self._scale_sums))
+                _c.check_gyro_scale(bins, scale, self._scale_rows * self.median_dt, self.gyro_unit)
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
                 _c.warn_or_refuse_mag_axes(_c.mag_turn_hint(sums[0], sums[2], sums[3], *gyro, self.median_dt), True)
-        if self._scale_sums:
-            bins, sums = (np.concatenate(x) for x in zip(*self._scale_sums))
-            _c.check_gyro_scale(bins, sums, self._scale_rows * self.median_dt, self.gyro_unit)
 
 
 class StreamEstimator:
