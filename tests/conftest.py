@@ -16,6 +16,31 @@ settings.register_profile("dev", deadline=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
 
 
+_BACKGROUND = []
+
+
+def pytest_sessionstart(session):
+    """A run of whole folders (the README's command) starts the quick report in the background at once: its 50 s
+    then overlap the other tests instead of holding a worker (or two, one waiting on the other's lock)."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return  # the controller (or a plain session) starts it; the workers share its folder
+    from pathlib import Path
+
+    args = [a.split("::")[0] for a in session.config.args] or ["tests"]
+    if not all(Path(a).is_dir() for a in args):
+        return  # single files or tests: the fixture builds it only if asked for
+    from report_fixture import start_in_background
+
+    _BACKGROUND.append(start_in_background(session.config._tmp_path_factory.getbasetemp()))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    for proc in _BACKGROUND:  # an interrupted run leaves no report running
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+
+
 def pytest_collection_modifyitems(config, items):
     if os.environ.get("OPTINAV_FULL"):
         return
