@@ -521,6 +521,23 @@ def step6(st, par, g, a, h):
 
 
 @numba.njit(**_NJ)
+def front_force(q, up, acc, out):
+    """The input stage's specific force: ``out[i] = C(q[i])ᵀ up · ‖acc[i]‖`` — the estimated vertical in body axes
+    with the measured norm; q (N, 4) q_b^n, up (3,), acc (N, 3) m/s², out (N, 3) m/s² (one loop for a chunk and
+    for one streamed sample alike)."""
+    for i in range(q.shape[0]):
+        # rotate up by q*: t = 2 u×v, v' = v + w t + u×t with u = −q_vec
+        w, ux, uy, uz = q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3]
+        tx = 2.0 * (uy * up[2] - uz * up[1])
+        ty = 2.0 * (uz * up[0] - ux * up[2])
+        tz = 2.0 * (ux * up[1] - uy * up[0])
+        na = math.sqrt(acc[i, 0] * acc[i, 0] + acc[i, 1] * acc[i, 1] + acc[i, 2] * acc[i, 2])
+        out[i, 0] = (up[0] + w * tx + (uy * tz - uz * ty)) * na
+        out[i, 1] = (up[1] + w * ty + (uz * tx - ux * tz)) * na
+        out[i, 2] = (up[2] + w * tz + (ux * ty - uy * tx)) * na
+
+
+@numba.njit(**_NJ)
 def strapdown(gyr, bias, dt, out, q):
     """q_g = q_b^I of the bias-corrected gyro for every sample, the arithmetic of :func:`step`, from ``q`` (4,),
     the attitude before the first sample (the identity for a whole log), which is left at the last sample's (a

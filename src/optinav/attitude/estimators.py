@@ -230,7 +230,7 @@ def _as_dt(dt, n: int) -> np.ndarray:
             f"dt has {int(np.count_nonzero(d <= 0))} non-positive step(s)",
             "pass strictly positive time steps in s (check the time column)",
         )
-    check_step(float(np.median(d)))
+    check_step(float(d[0]) if d.size == 1 else float(np.median(d)))  # one step: no median (a streamed sample)
     return np.ascontiguousarray(d)
 
 
@@ -717,9 +717,22 @@ class _Filter:
         """The input stage on a chunk (its state carried): bias-corrected gyro and filtered specific force."""
         if self._front is None:
             return g, a
+        from types import SimpleNamespace
+
         from optinav.attitude import iframe as _if
 
-        r = _if._run(self._front, self._front_par, g, a, np.zeros((0, 3)), dts)
+        if g.shape[0] == 1:  # one sample: the streaming filter's step (same arithmetic, no per-chunk arrays)
+            k = _if._k
+            if not k.step6(self._front, self._front_par, g[0], a[0], float(dts[0])):
+                raise OptinavError(
+                    f"a sample with a non-finite gyr {g[0].tolist()} or acc {a[0].tolist()} was not used",
+                    "skip it: give the next sample dt= the time since the last one used",
+                )
+            r = SimpleNamespace(
+                q_b_n=self._front[k.S_Q : k.S_Q + 4][None].copy(), gyr_bias=self._front[k.S_BIAS : k.S_BIAS + 3][None]
+            )
+        else:
+            r = _if._run(self._front, self._front_par, g, a, np.zeros((0, 3)), dts)
         self._front_bias = r.gyr_bias[-1].copy()
         return _if.front_outputs(r, g, a, self.frame)
 

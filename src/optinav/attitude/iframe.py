@@ -321,12 +321,10 @@ def input_stage(gyr, acc, dts, frame: str = DEFAULT_FRAME, **options) -> tuple[n
 
 def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.ndarray]:
     """The input stage's (bias-corrected gyro, filtered specific force) of the samples ``r`` ran on."""
-    from optinav.core.rotations import quat_conjugate, quat_rotate
-
     # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
-    # the measured norm's low-pass so the published methods' norm checks still see the dynamics
-    up = _UP[frame_name(frame)]
-    acc_f = quat_rotate(quat_conjugate(r.q_b_n), np.broadcast_to(up, gyr.shape)) * np.linalg.norm(acc, axis=1)[:, None]
+    # the measured norm so the published methods' norm checks still see the dynamics
+    acc_f = np.empty((r.q_b_n.shape[0], 3))
+    _k.front_force(r.q_b_n, _UP[frame_name(frame)], np.ascontiguousarray(acc, dtype=float), acc_f)
     return gyr - r.gyr_bias, acc_f
 
 
