@@ -534,3 +534,43 @@ def test_a_slow_nudge_of_the_pose_is_refused(tmp_path, capsys):
             ).groups()
             assert abs(float(turn) - 1.0) < 0.05 and 595 <= int(ta) <= 601 and 605 <= int(tb) <= 611, err
             assert abs(float(gyro) - 1.0) < 0.15, err  # the gyro's noise over 10 s: ~0.02°, its bias drift more
+
+
+def test_accelerometer_and_gyroscope_in_two_files_on_their_own_clocks(tmp_path, capsys):
+    """A phone app logs a file per sensor, each with its own time stamps: `allan` read one file, and a Kalibr
+    imu.yaml needs both triads. ``--gyro GYRODATA`` analyses each triad on its own clock (the gyro's stamps 3 ms
+    later here): the same numbers and the same imu.yaml as the one file; a gyroscope at another rate is named
+    (Kalibr's update_rate is the accelerometer's); --sensor is refused beside --gyro."""
+    from optinav.io import read_imu
+
+    one = tmp_path / "one.csv"
+    assert main(["--quiet", "simulate", "static", "--out", str(one), "--hours", "0.1", "--rate", "50",
+                 "--gyro-rrw", "200", "--accel-rrw", "20", "--seed", "7"]) == 0  # fmt: skip
+    log = read_imu(one)
+    acc, gyr, gyr2 = tmp_path / "Accelerometer.csv", tmp_path / "Gyroscope.csv", tmp_path / "Gyroscope25.csv"
+    np.savetxt(acc, np.column_stack([log.t, log.acc]), delimiter=",", header="t,ax,ay,az", comments="", fmt="%.17g")
+    rows = np.column_stack([log.t + 0.003, log.gyr])
+    np.savetxt(gyr, rows, delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.17g")
+    np.savetxt(gyr2, rows[::2], delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.17g")
+    res = {}
+    for name, argv in {
+        "one": [str(one)],
+        "two": [str(acc), "--gyro", str(gyr)],
+        "25": [str(acc), "--gyro", str(gyr2)],
+    }.items():
+        out, yml = tmp_path / f"{name}.json", tmp_path / f"{name}.yaml"
+        assert main(["--quiet", "allan", *argv, "--out", str(out), "--kalibr", str(yml)]) == 0
+        res[name] = (Result.from_json(out), yaml.safe_load(yml.read_text()), capsys.readouterr().err)
+    (r1, y1, _), (r2, y2, e2), (_, y3, e3) = res["one"], res["two"], res["25"]
+    assert y1 == y2
+    for sensor in ("accelerometer", "gyroscope"):
+        np.testing.assert_array_equal(r2.sensor(sensor)["fit"].white, r1.sensor(sensor)["fit"].white)
+        np.testing.assert_array_equal(r2.sensor(sensor)["deviation"].adev, r1.sensor(sensor)["deviation"].adev)
+    assert "ran at" not in e2
+    assert "gyroscope (Gyroscope25.csv) ran at 25 Hz" in e3 and y3["update_rate"] == 50
+    assert y3["accelerometer_noise_density"] == y1["accelerometer_noise_density"]
+    assert (
+        main(["--quiet", "allan", str(acc), "--gyro", str(gyr), "--sensor", "gyro", "--out", str(tmp_path / "x.json")])
+        == 2
+    )
+    assert "--sensor does not apply" in capsys.readouterr().err

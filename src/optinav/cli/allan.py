@@ -64,6 +64,13 @@ def register(sub) -> None:
         help="the IMU topic written into --kalibr (default: a bag's Imu topic, else /imu0)",
     )
     add_input_options(p)
+    p.add_argument(
+        "--gyro",
+        dest="gyro_path",
+        metavar="GYRODATA",
+        help="gyroscope in a second file (a file per sensor): each triad analysed on its own clock, not interpolated",
+    )
+    p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
     add_chunk_option(
         p, "the angle sums are kept: 8 B per sample and axis (48 B with both triads; 0.5 GB per hour at 1 kHz)"
     )
@@ -72,40 +79,21 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    require_files((args.data, "data file"))
+    require_files((args.data, "data file"), (args.gyro_path, "--gyro file"))
+    if args.gyro_path and args.sensor != "both":
+        raise OptinavError(
+            "--gyro gives the gyroscope and DATA the accelerometer: --sensor does not apply", "drop --sensor"
+        )
     out = output_path(args.out, (".json",), "allan.json", mark=RESULT_MARK)
     kalibr = output_path(args.kalibr, (".yaml", ".yml"), "imu.yaml", option="--kalibr") if args.kalibr else None
     if kalibr is not None and kalibr.resolve() == out.resolve():
         raise OptinavError("--kalibr and --out name the same file", "give --kalibr another name, e.g. imu.yaml")
     prepare_report(args)
-    from optinav.core.allan import analyse_blocks
-    from optinav.core.progress import progress_blocks, step
-    from optinav.io.imu import iter_imu
+    from optinav.core.progress import step
 
     step("read")
-    blocks = iter_imu(
-        args.data,
-        columns=args.columns,
-        acc_unit=args.acc_unit,
-        gyro_unit=args.gyro_unit,
-        time_unit=args.time_unit,
-        rate_hz=args.rate_hz,
-        datasets=args.datasets or None,
-        delimiter=args.delimiter,
-        chunk_rows=args.chunk_rows,
-        topic=args.topic,
-        skip_bad_lines=args.skip_bad_lines,
-    )
     notes = ReaderNotes()
-    res = analyse_blocks(
-        notes.watch(progress_blocks(blocks, "allan: read")),
-        args.sensor,
-        source=str(args.data),
-        rostopic=args.rostopic or "",
-        need_kalibr=kalibr is not None,
-    )
-    # the Kalibr rostopic: --rostopic, else a bag's Imu topic (not a placeholder)
-    res.rostopic = res.rostopic or (blocks.table.meta.get("topic", "") if blocks.table is not None else "")
+    res = _analyse(args, notes, need_kalibr=kalibr is not None)
     step("write")
     res.to_json(out)
     notes.print()
@@ -124,3 +112,53 @@ def run(args) -> int:
 
         print(f"optinav: report written to {write_allan_report(res, args.report)}/index.md")
     return 0
+
+
+def _analyse(args, notes: ReaderNotes, need_kalibr: bool):
+    """The analysis of DATA (and of --gyro GYRODATA), with Kalibr's rostopic: --rostopic, else a bag's Imu topic."""
+    from optinav.core.allan import analyse_blocks, analyse_pair
+
+    blocks = _blocks(args, args.data, args.columns, notes)
+    topic = args.rostopic or ""
+    if args.gyro_path:
+        gyro = _blocks(args, args.gyro_path, args.gyro_columns, notes)
+        res = analyse_pair(
+            blocks, gyro, sources=(str(args.data), str(args.gyro_path)), rostopic=topic, need_kalibr=need_kalibr
+        )
+    else:
+        res = analyse_blocks(blocks, args.sensor, source=str(args.data), rostopic=topic, need_kalibr=need_kalibr)
+    table = blocks.chunks.table  # not a placeholder: a bag's topic
+    res.rostopic = res.rostopic or (table.meta.get("topic", "") if table is not None else "")
+    return res
+
+
+class _Watched:
+    """A file's blocks with progress and their notes gathered; ``chunks`` keeps the reader (its table's meta)."""
+
+    def __init__(self, chunks, notes: ReaderNotes, what: str):
+        from optinav.core.progress import progress_blocks
+
+        self.chunks, self._it = chunks, notes.watch(progress_blocks(chunks, what))
+
+    def __iter__(self):
+        return iter(self._it)
+
+
+def _blocks(args, path, columns, notes: ReaderNotes) -> _Watched:
+    """The blocks of one file read with the command's input options."""
+    from optinav.io.imu import iter_imu
+
+    chunks = iter_imu(
+        path,
+        columns=columns,
+        acc_unit=args.acc_unit,
+        gyro_unit=args.gyro_unit,
+        time_unit=args.time_unit,
+        rate_hz=args.rate_hz,
+        datasets=args.datasets or None,
+        delimiter=args.delimiter,
+        chunk_rows=args.chunk_rows,
+        topic=args.topic,
+        skip_bad_lines=args.skip_bad_lines,
+    )
+    return _Watched(chunks, notes, "allan: read")

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -1618,7 +1619,15 @@ def _check_alive(spans: dict, units: dict) -> None:
             )
 
 
-def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: str = "", need_kalibr: bool = False):
+def analyse_blocks(
+    blocks,
+    sensor: str = "both",
+    *,
+    source: str = "",
+    rostopic: str = "",
+    need_kalibr: bool = False,
+    kalibr_sensors: tuple = ("accelerometer", "gyroscope"),
+):
     """The noise characterisation of a static log given in blocks (what ``optinav allan`` computes).
 
     Each block is folded into the angle sums and dropped, so memory holds one float per sample and axis.
@@ -1632,7 +1641,9 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
     source, rostopic : str
         Recorded in the result (``rostopic`` for the Kalibr file).
     need_kalibr : bool
-        Refuse at the first block unless both triads are there in SI units.
+        Refuse at the first block unless the triads of ``kalibr_sensors`` (both) are there in SI units.
+    kalibr_sensors : tuple of str
+        The triads ``need_kalibr`` asks of these blocks (one, when the other comes from a second file).
 
     Returns
     -------
@@ -1651,8 +1662,8 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
             present = {"accelerometer": (log.acc, log.acc_unit), "gyroscope": (log.gyr, log.gyro_unit)}
             wanted = {"both": ("accelerometer", "gyroscope"), "acc": ("accelerometer",), "gyro": ("gyroscope",)}[sensor]
             if need_kalibr:
-                missing = [n for n in ("accelerometer", "gyroscope") if present[n][0] is None or n not in wanted]
-                counts = [n for n in ("accelerometer", "gyroscope") if present[n][1] == "counts"]
+                missing = [n for n in kalibr_sensors if present[n][0] is None or n not in wanted]
+                counts = [n for n in kalibr_sensors if present[n][1] == "counts"]
                 if missing or counts:
                     raise OptinavError(
                         "--kalibr: Kalibr needs both triads in SI units, and the log has "
@@ -1744,6 +1755,53 @@ def analyse_blocks(blocks, sensor: str = "both", *, source: str = "", rostopic: 
         duration_s=float(timing.t_last - timing.t0),
         kalibr=kal,
         source=source,
+        rostopic=rostopic,
+        notes=notes,
+    )
+
+
+def analyse_pair(acc_blocks, gyro_blocks, *, sources: tuple = ("", ""), rostopic: str = "", need_kalibr: bool = False):
+    """:func:`analyse_blocks` of an accelerometer and a gyroscope logged in two files, each on its own clock
+    (a phone app's file per sensor): each triad's deviation comes from its own samples and rate — none is
+    interpolated onto the other's times, which would low-pass its noise.
+
+    Parameters
+    ----------
+    acc_blocks, gyro_blocks : iterable of ImuLog
+        The accelerometer's and the gyroscope's logs in blocks (regular sampling, no NaN).
+    sources : (str, str)
+        The two files' names (recorded and named in the messages).
+    rostopic : str
+        Recorded for the Kalibr file.
+    need_kalibr : bool
+        Refuse unless both triads are in SI units.
+
+    Returns
+    -------
+    AllanAnalysis
+        The accelerometer's analysis beside the gyroscope's; ``rate_hz``, ``n_samples``, ``duration_s`` and
+        Kalibr's ``update_rate`` are the accelerometer file's, a note names the gyroscope's when they differ.
+    """
+    kw = dict(need_kalibr=need_kalibr)
+    a = analyse_blocks(acc_blocks, "acc", source=sources[0], kalibr_sensors=("accelerometer",), **kw)
+    g = analyse_blocks(gyro_blocks, "gyro", source=sources[1], kalibr_sensors=("gyroscope",), **kw)
+    names = [os.path.basename(s) or s for s in sources]
+    notes = [f"accelerometer ({names[0]}): {n}" for n in a.notes] + [f"gyroscope ({names[1]}): {n}" for n in g.notes]
+    if abs(g.rate_hz / a.rate_hz - 1.0) > 0.01:
+        notes.append(
+            f"the gyroscope ({names[1]}) ran at {g.rate_hz:.6g} Hz over {g.duration_s / 3600:.3g} h, the "
+            f"accelerometer at {a.rate_hz:.6g} Hz: Kalibr's update_rate is the accelerometer's; set it to the rate "
+            "of the Imu messages Kalibr reads"
+        )
+    kal = {k: v for k, v in {**a.kalibr, **g.kalibr}.items() if k != "update_rate"}
+    return AllanAnalysis(
+        accelerometer=a.accelerometer,
+        gyroscope=g.gyroscope,
+        rate_hz=a.rate_hz,
+        n_samples=a.n_samples,
+        duration_s=a.duration_s,
+        kalibr={**kal, "update_rate": a.kalibr["update_rate"]},
+        source=f"{sources[0]} + {sources[1]}",
         rostopic=rostopic,
         notes=notes,
     )
