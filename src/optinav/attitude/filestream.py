@@ -532,7 +532,9 @@ class _Blocks:
                 self._whole = {k: _column(k, v) for k, v in tab.items()}
             cols = {k: v[row0 : row0 + n] for k, v in self._whole.items()}
         else:
-            cols = {k: _column(k, table.get(v)) for k, v in self.names.items()}
+            from optinav.io.readers import with_lost_rows
+
+            cols = {k: _column(k, with_lost_rows(table.get(v), table.bad_rows, n)) for k, v in self.names.items()}
         for k, v in cols.items():
             if v.shape[0] != n:
                 what = "the magnetometer" if k.startswith("m") else f"{k.upper()} column"

@@ -111,6 +111,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
             delimiter=o.delimiter,
             topic=o.topic,
             skip_bad_lines=o.skip_bad_lines,
+            rows=log.t.size,
         )
         mag = np.column_stack([_column(k, tab[k]) for k in keys])
         if mag.shape[0] != log.t.size:

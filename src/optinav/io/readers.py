@@ -223,6 +223,7 @@ def read_table(
     text_columns: Sequence[str] = LABEL_COLUMNS,
     topic=None,
     skip_bad_lines: bool = False,
+    rows: int | None = None,
 ) -> dict[str, np.ndarray]:
     r"""Read a data file into ``{name: array}``.
 
@@ -249,6 +250,9 @@ def read_table(
         A ROS bag's Imu[,MagneticField] topic; None: its only one.
     skip_bad_lines : bool
         Leave a text table's unreadable lines out (at most 1 % of them) instead of refusing the file.
+    rows : int or None
+        With ``skip_bad_lines``: the rows the IMU of the same file kept (:func:`with_lost_rows`), so that extra
+        columns (magnetometer, polarization) line up with its rows.
 
     Returns
     -------
@@ -267,9 +271,19 @@ def read_table(
         topic=topic,
         skip_bad_lines=skip_bad_lines,
     )
-    if mapping:
-        return {std: table.get(name) for std, name in mapping.items()}
-    return dict(table.data)
+    out = {std: table.get(name) for std, name in mapping.items()} if mapping else dict(table.data)
+    if rows is not None:
+        out = {k: with_lost_rows(v, table.bad_rows, rows) for k, v in out.items()}
+    return out
+
+
+def with_lost_rows(values: np.ndarray, bad_rows: np.ndarray, rows: int) -> np.ndarray:
+    """A column of a table read with ``skip_bad_lines``, with NaN rows where its unreadable lines stood when the
+    IMU's rows kept them (a log without a time column keeps a lost line as a NaN row, so that the rate times
+    the rows after it): ``values`` short of ``rows`` by exactly the lines left out; otherwise as it is."""
+    if bad_rows.size and values.shape[0] + bad_rows.size == rows:
+        return np.insert(np.asarray(values, dtype=float), bad_rows, np.nan, axis=0)
+    return values
 
 
 def _text_despite_suffix(path: Path, exc: OptinavError) -> OptinavError:
