@@ -35,3 +35,16 @@ def drift_column(src: Path, dst: Path, name: str, drift: float) -> Path:
         out.append(",".join(v))
     Path(dst).write_text("\n".join(out) + "\n")
     return Path(dst)
+
+
+def add_to_rows(src: Path, dst: Path, name: str, rows: range, delta: float) -> Path:
+    """Write the CSV log ``src`` (a header line, then rows) to ``dst`` with ``delta`` added to the column ``name`` in
+    the data rows ``rows`` (0: the first row after the header): a spike, or a dropout when it cancels the value."""
+    head, *lines = Path(src).read_text().splitlines()
+    c = head.split(",").index(name)
+    for i in rows:
+        v = lines[i].split(",")
+        v[c] = repr(float(v[c]) + delta)
+        lines[i] = ",".join(v)
+    Path(dst).write_text("\n".join([head, *lines]) + "\n")
+    return Path(dst)

@@ -1465,23 +1465,45 @@ def _ferraris(
             "give the gyro columns and either a label column naming the sections or --sections FILE",
         )
     sl = static.sections_from_list(sections, t) if not isinstance(sections, dict) else None
-    fc, std = ferraris.ferraris_from_sections(
-        t,
-        acc,
-        gyro,
-        sl if sl is not None else sections,
-        gravity=g,
-        expected_angle=rotation_angle,
-        with_std=True,
-        rng=0 if rng is None else rng,
-    )
     if sl is None:
         names = list(sections)
         idx = np.array([sections[n] for n in names], int)
         t_iv = np.column_stack([t[idx[:, 0]], t[idx[:, 1] - 1]])
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
+    glitch, fixed = None, []
+    if all(n in names for n in ferraris.ROTATIONS) and np.all(
+        (0 <= idx[:, 0]) & (idx[:, 0] < idx[:, 1]) & (idx[:, 1] <= len(t))
+    ):
+        # (ranges out of the log are refused by ferraris_from_sections)
+        try:
+            repaired, fixed = ferraris.repair_rotation_glitches(
+                gyro, {n: tuple(idx[names.index(n)]) for n in names}, t, gyro_unit
+            )
+        except OptinavError as e:
+            glitch = e
+
+    def closed_form(gyr):
+        return ferraris.ferraris_from_sections(
+            t,
+            acc,
+            gyr,
+            sl if sl is not None else sections,
+            gravity=g,
+            expected_angle=rotation_angle,
+            with_std=True,
+            rng=0 if rng is None else rng,
+        )
+
+    fc, std = closed_form(gyro)
     _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
+    # a clipped turn is named as such above; a spike or dropout inside a turn after it
+    if glitch is not None:
+        raise glitch
+    if fixed:
+        gyro = repaired
+        notes.extend(fixed)
+        fc, std = closed_form(gyro)
     # the six poses: a section of another name is not the closed form's and is not judged as a pose (one that
     # spans a move was refused as 'the Ferraris pose extra is not still', and entered the poses' turns; probe)
     static_idx = [k for k, nm in enumerate(names) if str(nm) in ferraris.POSES]

@@ -50,6 +50,7 @@ __all__ = [
     "IMUCAL_GRAVITY",
     "check_rotations",
     "ferraris_std",
+    "repair_rotation_glitches",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -721,6 +722,87 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
             {"name": name, "missed_deg": float(np.degrees(before + after)), "acc_turn_deg": float(np.degrees(acc_turn))}
         )
     return out
+
+
+#: a run of up to GLITCH_RUN gyro samples inside a rotation that leaves the samples around it and comes back (its
+#: departure: the smaller of the two jumps, less the jumps inside the run) is a glitch when the departure exceeds
+#: GLITCH_FRACTION of the section's 95th-percentile rate and GLITCH_OUTLIER times the section's 5th-largest
+#: one-sample departure (the turn's own roughness at this rate). Measured on imucal's six real rotations at their
+#: rates and at 1/2, 1/4, 1/8 of them (every phase; sections of ≥ GLITCH_MIN_SAMPLES): at most 6.9×, for one real
+#: 40-ms burst of annotated y_rot that its 51.2-Hz copies hold in one sample; at the native rates ≤ 0.20 and ≤ 2.8×.
+#: A spike of 300 deg/s in imucal's z_rot is 0.75 and 12×; one of 150 deg/s (K_zz 0.41 % off) is 0.37 and 5.8×,
+#: like that burst, and passes: the gyro alone cannot tell it from the turn.
+GLITCH_FRACTION = 0.3
+GLITCH_OUTLIER = 8.0
+GLITCH_RUN = 3
+#: a rotation of fewer samples has too few to tell its roughness (imucal's sessions at 12.8 Hz: 40-68 samples a
+#: turn, real departures up to 37× the 5th largest) and is not judged
+GLITCH_MIN_SAMPLES = 100
+#: spikes repaired per rotation section before it is refused
+MAX_SPIKES = 3
+
+
+def _worst_glitch(w: np.ndarray) -> tuple[float, float, int, int, int]:
+    """The largest departure-and-return of ``w`` (M, 3) as a fraction of its 95th-percentile rate:
+    (fraction, fraction over the section's 5th-largest one-sample departure, first row, run length, axis); a
+    run's samples differ from each other by less than it departs."""
+    scale = float(np.percentile(np.abs(w).max(axis=1), 95))
+    d = np.diff(w, axis=0)
+    best = (0.0, 0.0, 0, 0, 0)
+    if scale <= 0.0 or w.shape[0] < GLITCH_MIN_SAMPLES:
+        return best
+    fifth = 0.0
+    for L in range(1, GLITCH_RUN + 1):
+        n = w.shape[0] - L - 1  # runs starting at rows 1 .. M-L-1, with a sample on each side
+        if n < 1:
+            break
+        din, dout = d[:n], d[L : L + n]
+        inner = np.zeros_like(din)
+        for i in range(1, L):
+            inner = np.maximum(inner, np.abs(d[i : i + n]))
+        m = np.where(np.sign(din) == -np.sign(dout), np.minimum(np.abs(din), np.abs(dout)) - inner, 0.0) / scale
+        if L == 1:
+            fifth = float(np.sort(m.ravel())[-5])
+        k, c = np.unravel_index(int(np.argmax(m)), m.shape)
+        if m[k, c] > best[0]:
+            best = (float(m[k, c]), 0.0, int(k) + 1, L, int(c))
+    return (best[0], best[0] / max(fifth, 1e-12), *best[2:])
+
+
+def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tuple[np.ndarray, list[str]]:
+    """Gyro samples (N, 3, raw) with one-sample spikes inside the rotation sections replaced by their neighbours'
+    mean, and a note per repair. The closed form scales K_g so that each section integrates to the stated angle,
+    so a glitch inside a turn scales K_g by its share (a spike of 150 deg/s in imucal's z_rot: K_zz −0.41 %, exit
+    0). A run of 2–:data:`GLITCH_RUN` samples (a dropout: the true rates are unknown) is refused. Smaller glitches
+    than :data:`GLITCH_FRACTION` / :data:`GLITCH_OUTLIER` pass unseen. ``ranges`` name → (i0, i1) rows; ``t`` (N,) s names the
+    times (None: rows), ``unit`` the raw unit."""
+    w = np.array(gyr, float)
+    notes = []
+    for j, name in enumerate(ROTATIONS):
+        i0, i1 = ranges[name]
+        for count in range(MAX_SPIKES + 1):
+            frac, outlier, k, L, c = _worst_glitch(w[i0:i1])
+            if frac <= GLITCH_FRACTION or outlier <= GLITCH_OUTLIER:
+                break
+            row = i0 + k
+            when = f"t = {t[row]:.6g} s" if t is not None else f"row {row}"
+            size = float(w[row : row + L, c].mean() - 0.5 * (w[row - 1, c] + w[row + L, c]))
+            share = abs(size) * L / max(abs(float(w[i0:i1, j].sum())), 1e-300)
+            what = (
+                f"{L} gyro {'xyz'[c]} sample(s) at {when} in {name} depart from the turn by {size:.4g} {unit} and "
+                f"come back ({frac:.2f} of the section's 95th-percentile rate, {outlier:.1f}× its 5th-largest such "
+                f"departure; {share:.2%} of its turn)"
+            )
+            if L > 1 or count == MAX_SPIKES:
+                why = "a dropout or glitch" if L > 1 else f"a spike after {MAX_SPIKES} others"
+                raise OptinavError(
+                    f"{what}: {why}; the closed form would scale K_g by that share",
+                    f"record the turn {name} again, or drop --method ferraris and --sections (the default fit finds "
+                    "the rests and judges each turn between them)",
+                )
+            w[row, c] = 0.5 * (w[row - 1, c] + w[row + 1, c])
+            notes.append(f"{what}: a spike, replaced by its neighbours' mean")
+    return w, notes
 
 
 #: the gyro's turns between the six poses may give the rotations' angle this far (fraction) from the stated one
