@@ -4,6 +4,7 @@ imucal's reference calibrations (reference/*.json, imucal 2.6.0)."""
 import json
 from pathlib import Path
 
+from csv_edit import drift_column
 import numpy as np
 import pytest
 
@@ -597,3 +598,21 @@ def test_imucal_session_as_two_files_on_their_own_clocks(tmp_path, capsys):
             diff = np.abs(np.asarray(a[key], float) - np.asarray(b[key], float))
             assert np.all(np.where(np.isnan(std), diff <= 1e-12, diff <= 0.1 * std)), (sensor, key, diff, std)
     assert "interpolated onto the time stamps of Accelerometer.csv" in capsys.readouterr().err
+
+
+def test_a_drifting_accelerometer_is_refused_on_the_default_route(tmp_path, capsys):
+    """imucal's session with acc_z drifting by 0.1 m/s² over its 101 s (warm-up), no --method: the automatic
+    threshold takes the most rests whose fit has an acceptable χ², so it left out the two last rests, the ones that
+    show the drift, and gave b_z 0.4488 ± 0.0034 (undrifted 0.3983 ± 0.0025) with exit 0. The rest at 94-101 s,
+    judged with the calibration, reads |a| 0.048 m/s² off g (10 std; the undrifted session leaves no rest out): an
+    error names it and --acc-bias-instability, which then states the drift in the std (b_z 0.449 ± 0.05, exit 0)."""
+    path = drift_column(DATA / "example_ferraris_session.csv", tmp_path / "drift.csv", "acc_z", 0.1)
+    args = [*EXAMPLE[:2], str(path), *EXAMPLE[3:]]
+    assert main(["--quiet", *args, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert "the accelerometer drifts during the session: the still rest at 93.86" in err and "+z up" in err, err
+    assert "--acc-bias-instability" in err and err.count("\n") == 1, err
+    assert main(["--quiet", *args, "--acc-bias-instability", "0.05", "--out", str(tmp_path / "r.json")]) == 0
+    acc = json.loads((tmp_path / "r.json").read_text())["fields"]["accelerometer"]["value"]
+    # the bias went from 0.398 to 0.498 over the session: b_z lies on that way, and its std spans it
+    assert 0.3983 < acc["b"][2] < 0.4983 and acc["b_std"][2] >= 0.05, (acc["b"], acc["b_std"])
