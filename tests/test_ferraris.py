@@ -1076,6 +1076,7 @@ def test_a_gyro_spike_inside_a_rotation_is_repaired_and_a_dropout_refused(tmp_pa
     assert main([*argv, "--out", str(tmp_path / "r.json")]) == 0
     err = capsys.readouterr().err
     assert "gyro z sample(s) at t = 91.4062 s in z_rot" in err and "replaced by its neighbours' mean" in err, err
+    assert "could not run" not in err and "taken as stated" not in err, err  # rests and pose turns judge it
     g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
     k_ref = ref["K_g"][2][2] * ref["R_g"][2][2] * 180 / np.pi  # imucal's K_g·R_g in deg/s per rad/s
     assert abs(g["K"][2][2] - k_ref) < g["K_std"][2][2], (g["K"][2][2], k_ref)
@@ -1101,3 +1102,21 @@ def test_a_gyro_spike_inside_a_rotation_is_repaired_and_a_dropout_refused(tmp_pa
         assert repair_rotation_glitches(np.vstack([parts[n] for n in ROTATIONS]), cut)[1] == []
         d = d[::2]
         ranges = {n: (i0 // 2, i1 // 2) for n, (i0, i1) in ranges.items()}
+
+
+@needs_data
+def test_a_file_of_cut_sections_says_which_checks_could_not_run(tmp_path, capsys):
+    """imucal's annotated session holds only the nine sections, its turns about vertical axes: no rest outside the
+    poses judges an accelerometer drift (acc_x drifting by 20 counts moved b_x from −6.02 to −3.78 ± 0.15 without a
+    word) and no turn between the poses checks the rotation angle (--rotation-angle 180 for its 360° turns doubled
+    K_g, exit 0). Nothing in the log can tell either, so the run says that both checks could not run."""
+    from optinav.cli.main import main
+
+    argv = ["calibrate", "accel", str(DATA / "annotated_session.csv"), "--rate", "204.8", "--acc-unit", "counts"]
+    argv += ["--gyro-unit", "counts", "--method", "ferraris", "--rotation-angle", "180"]
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 0
+    err = capsys.readouterr().err
+    assert "the accelerometer drift check could not run: the log holds no still rest outside the six poses" in err
+    assert "the rotation angle 180° is taken as stated for x_rot, y_rot, z_rot" in err and "--rotation-angle" in err
+    notes = json.loads((tmp_path / "r.json").read_text())["fields"]["quality"]["value"]["notes"]
+    assert sum("could not run" in n or "taken as stated" in n for n in notes) == 2, notes

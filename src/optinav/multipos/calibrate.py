@@ -1246,13 +1246,20 @@ def _ferraris_rest_norms(acc, rests, poses, correct, K, K_std, b_std, g: float) 
     return out
 
 
-def _check_ferraris_acc_drift(t, acc, rests, poses, fc, K_std, b_std, g: float, gate_log: list) -> None:
+def _check_ferraris_acc_drift(t, acc, rests, poses, fc, K_std, b_std, g: float, gate_log: list, notes: list) -> None:
     """Error when a still rest outside the six poses reads |a| off g beyond :data:`FERRARIS_ACC_DRIFT_SIGMA` σ
     (:func:`_ferraris_rest_norms`): each axis' bias and scale come from its two poses alone, so an accelerometer
     that drifts (warm-up: 0.05 m/s² over imucal's session) leaves the six poses exact and the result biased (b_x
-    0.5441 ± 0.00046 for a bias that went from 0.537 to 0.587, exit 0). Else a gate is logged (with a rest)."""
+    0.5441 ± 0.00046 for a bias that went from 0.537 to 0.587, exit 0). Else a gate is logged (with a rest), or a
+    note when the log holds no rest to judge by (a file of cut sections: acc_x drifting by 20 counts over imucal's
+    annotated session moved b_x from −6.02 to −3.78 ± 0.15 counts without a word)."""
     norms = _ferraris_rest_norms(acc, rests, poses, fc.correct_acc, fc.acc_K, K_std, b_std, g)
     if not norms:
+        notes.append(
+            "the accelerometer drift check could not run: the log holds no still rest outside the six poses (a file "
+            "of cut sections?), and the closed form fits the poses exactly whatever the bias did between them; "
+            "record still rests before and after the rotations (as imucal's example session does) to have it checked"
+        )
         return
     i0, i1, d, z = max(norms, key=lambda r: r[3])
     if z > FERRARIS_ACC_DRIFT_SIGMA:
@@ -1641,6 +1648,14 @@ def _ferraris(
     pose_turn = ferraris.pose_turns(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, gyro_clipped)
     if pose_turn:
         _check_pose_turns(pose_turn, stated, 1.0 / step_s)
+    elif unseen := [r["name"] for r in turns if not np.isfinite(r["acc_turn_deg"])]:
+        # a file of cut sections with the turns about vertical axes: --rotation-angle 180 for imucal's 360° turns
+        # doubled K_g with exit 0 and no word (the angle is what the closed form scales K_g by)
+        notes.append(
+            f"the rotation angle {stated:g}° is taken as stated for {', '.join(unseen)}: the accelerometer does not "
+            "see those turns (about a vertical axis) and the log holds no turn between the poses to check it by (a "
+            "file of cut sections?); K_g scales with it, so check --rotation-angle"
+        )
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     _check_ferraris_bias_drift(gyro, names, idx, fc.gyr_K, gyro_unit)
     gates.check_matrix(
@@ -1709,7 +1724,7 @@ def _ferraris(
     rests = _still_rests(t, acc, gyro)
     _check_ferraris_turn_bias(t, acc, gyro, rests, names, idx, fc, gyr_K_std, gyro_unit, gate_log)
     _check_ferraris_acc_drift(
-        t, acc, rests, idx[static_idx], fc, np.hypot(std["acc_K"], tilt), std["acc_b"], g, gate_log
+        t, acc, rests, idx[static_idx], fc, np.hypot(std["acc_K"], tilt), std["acc_b"], g, gate_log, notes
     )
     # G = (up − down pose)/2g also takes the Earth rate's change between the two poses, at most 2Ω_E per axis
     # (vertical part: sign flip; horizontal: heading): uniform within ±Ω_E·K_ii/g
