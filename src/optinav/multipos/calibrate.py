@@ -1352,6 +1352,39 @@ def _check_ferraris_pose_pairs(fc, acc, ranges, pose_alignment: float) -> dict:
     return gate("acc largest tilt of a pose pair's mean direction, in std", worst, POSE_PAIR_SIGMA)
 
 
+def _check_ferraris_turn_axes(fc, acc, ranges: dict, turns: list, pose_alignment: float) -> dict | None:
+    """Error when a rotation about a vertical axis (the accelerometer does not see it turn) has gravity, and so the
+    turn's axis, off its sensor axis beyond :data:`POSE_PAIR_SIGMA` × ``pose_alignment`` (rad): the closed form
+    takes the gyro's turn for one about that axis, so a turn about an axis tilted by δ puts sin δ into K_g's column as
+    a misalignment and lowers its scale by 1 − cos δ (imucal's z_rot turned about an axis 10° off: K_yz −10.1 ± 0.98,
+    K_zz −1.5 %, exit 0; its real turns: ≤ 0.42°, the annotated session's ≤ 1.4°). ``ranges`` name → (i0, i1),
+    ``turns`` :func:`ferraris.check_rotations`' outcome. Returns the gate's outcome (None: no such rotation)."""
+    worst, where = 0.0, None
+    pose_alignment = max(float(pose_alignment), np.radians(0.1))  # (0 given: a turn placed within 0.1°)
+    for j, r in enumerate(turns):
+        if np.isfinite(r["acc_turn_deg"]):
+            continue
+        i0, i1 = ranges[r["name"]]
+        f = fc.correct_acc(acc[i0:i1])
+        m = np.mean(f / np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300), axis=0)
+        tilt = float(np.arctan2(np.linalg.norm(np.delete(m, j)), abs(m[j])))
+        if tilt / pose_alignment >= worst:
+            worst, where = tilt / pose_alignment, (r["name"], j, tilt)
+    if where is None:
+        return None
+    name, j, tilt = where
+    if worst > POSE_PAIR_SIGMA:
+        raise OptinavError(
+            f"the rotation {name} turned about an axis {np.degrees(tilt):.2g}° off the sensor's {'xyz'[j]} axis "
+            f"(gravity lies that far from it during the turn; {worst:.0f} std for a placement within "
+            f"{np.degrees(pose_alignment):.2g}°): the closed form would take the tilt for a gyro misalignment and "
+            f"lower K_{'xyz'[j] * 2} by {1 - np.cos(tilt):.2%}",
+            "turn the sensor flat against a square edge about its own axis and record again, or state the placement "
+            f"error with --pose-alignment {np.ceil(np.degrees(tilt)):g} (degrees; the std then holds the tilt)",
+        )
+    return gate("gyr largest tilt of a rotation axis from its sensor axis, in std", worst, POSE_PAIR_SIGMA)
+
+
 def _check_ferraris_turn_bias(
     t, acc, gyr, rests, names: list, idx: np.ndarray, fc, K_std, unit: str, gate_log: list
 ) -> None:
@@ -1641,6 +1674,9 @@ def _ferraris(
     _check_rotations_turn(t, gyro, fc.gyr_b, names, idx)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
+    gate_axes = _check_ferraris_turn_axes(
+        fc, acc, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns, pose_alignment
+    )
     step_s = float(np.median(np.diff(t)))
     gyro_clipped = clipped_gyro_rows(gyro, step_s)
     if sat_g is not None:
@@ -1653,8 +1689,9 @@ def _ferraris(
         # doubled K_g with exit 0 and no word (the angle is what the closed form scales K_g by)
         notes.append(
             f"the rotation angle {stated:g}° is taken as stated for {', '.join(unseen)}: the accelerometer does not "
-            "see those turns (about a vertical axis) and the log holds no turn between the poses to check it by (a "
-            "file of cut sections?); K_g scales with it, so check --rotation-angle"
+            "see those turns (about a vertical axis) and no turns between the poses check it (none recorded, as in a "
+            "file of cut sections, or they do not carry gravity from pose to pose); K_g scales with it, so check "
+            "--rotation-angle"
         )
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     _check_ferraris_bias_drift(gyro, names, idx, fc.gyr_K, gyro_unit)
@@ -1672,6 +1709,7 @@ def _ferraris(
     gate_log = [
         gate("acc pose residual rms of |a| - g", pose_rms, gates.MAX_RESIDUAL_G * g, unit="m/s^2"),
         gate_pairs,
+        *([gate_axes] if gate_axes else []),
         gate(
             "gyr largest turn outside a rotation section",
             float(np.radians(max(r["missed_deg"] for r in turns))),
