@@ -1149,3 +1149,21 @@ def test_a_turn_about_a_tilted_axis_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "the rotation z_rot turned about an axis 11° off the sensor's z axis" in err, err
     assert "--pose-alignment 11" in err, err
+
+
+@needs_data
+def test_a_rotation_section_ending_in_a_pause_of_the_turn_names_sections(tmp_path, capsys):
+    """imucal's z turn is made in four 90° steps; z_rot cut at sample 9400, in a pause between steps, holds part of
+    the turn (the turn check sees none going on after the pause): K_zz came out 0.72× nominal and the error named
+    only the time base and --rotation-angle. It now names the section and --sections as well."""
+    from optinav.cli.main import main
+
+    sec = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    sec["z_rot"]["end"] = 9400
+    (tmp_path / "s.json").write_text(json.dumps(sec))
+    argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "102.4", "--gyro-unit"]
+    argv += ["deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", str(tmp_path / "s.json")]
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "K_zz is 0.72× its nominal value" in err and "rotation section may hold only part" in err, err
+    assert "--sections" in err, err

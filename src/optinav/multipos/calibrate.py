@@ -1702,7 +1702,10 @@ def _ferraris(
         gyro_unit,
         option="--gyro-unit",
         columns_flag=gyro_flags,
-        time_flags="--rate, --time-unit, or the turn angle --rotation-angle",
+        # one axis off alone is rather a rotation section that holds part of its turn (z_rot ending in a pause
+        # between the 90° steps of imucal's turn gave K_zz 0.72× and named only the time base; probe)
+        time_flags="--rate, --time-unit, or the turn angle --rotation-angle; with one axis off alone, its rotation "
+        "section may hold only part of the turn: let it span the whole turn from rest to rest (--sections)",
     )
     if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, fc.gyr_K, "--rate, --time-unit, --rotation-angle")):
         notes.append(fs)
