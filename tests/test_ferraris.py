@@ -1092,6 +1092,12 @@ def test_a_gyro_spike_inside_a_rotation_is_repaired_and_a_dropout_refused(tmp_pa
     with pytest.raises(OptinavError, match=r"3 gyro x sample\(s\) at row 68\d\d in x_rot .* dropout") as e:
         repair_rotation_glitches(gyro, ranges)
     assert "record the turn x_rot again" in e.value.remedy and "drop --method ferraris" in e.value.remedy
+    # a NaN row in the section (--skip-bad-lines) hid every glitch of it (the percentile and the departures NaN)
+    gyro = _cols(d, "gyr")
+    gyro[9300] = np.nan
+    gyro[9350, 2] += 400.0
+    (note,) = repair_rotation_glitches(gyro, ranges)[1]
+    assert "gyro z sample(s) at row 9350 in z_rot depart from the turn by 400 raw" in note and "nan" not in note
     # the real sessions, at their rates and decimated (a turn's burst sampled too slowly looks alike), hold none
     ann = np.genfromtxt(DATA / "annotated_session.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
     for step in (1, 2, 4, 8):

@@ -746,10 +746,10 @@ def _worst_glitch(w: np.ndarray) -> tuple[float, float, int, int, int]:
     """The largest departure-and-return of ``w`` (M, 3) as a fraction of its 95th-percentile rate:
     (fraction, fraction over the section's 5th-largest one-sample departure, first row, run length, axis); a
     run's samples differ from each other by less than it departs."""
-    scale = float(np.percentile(np.abs(w).max(axis=1), 95))
+    scale = float(np.nanpercentile(np.abs(w).max(axis=1), 95)) if np.isfinite(w).any() else 0.0
     d = np.diff(w, axis=0)
     best = (0.0, 0.0, 0, 0, 0)
-    if scale <= 0.0 or w.shape[0] < GLITCH_MIN_SAMPLES:
+    if not scale > 0.0 or w.shape[0] < GLITCH_MIN_SAMPLES:
         return best
     fifth = 0.0
     for L in range(1, GLITCH_RUN + 1):
@@ -761,6 +761,7 @@ def _worst_glitch(w: np.ndarray) -> tuple[float, float, int, int, int]:
         for i in range(1, L):
             inner = np.maximum(inner, np.abs(d[i : i + n]))
         m = np.where(np.sign(din) == -np.sign(dout), np.minimum(np.abs(din), np.abs(dout)) - inner, 0.0) / scale
+        m = np.nan_to_num(m, nan=0.0)  # (a NaN row, left by --skip-bad-lines, judges nothing)
         if L == 1:
             fifth = float(np.sort(m.ravel())[-5])
         k, c = np.unravel_index(int(np.argmax(m)), m.shape)
@@ -787,7 +788,7 @@ def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tu
             row = i0 + k
             when = f"t = {t[row]:.6g} s" if t is not None else f"row {row}"
             size = float(w[row : row + L, c].mean() - 0.5 * (w[row - 1, c] + w[row + L, c]))
-            share = abs(size) * L / max(abs(float(w[i0:i1, j].sum())), 1e-300)
+            share = abs(size) * L / max(abs(float(np.nansum(w[i0:i1, j]))), 1e-300)
             what = (
                 f"{L} gyro {'xyz'[c]} sample(s) at {when} in {name} depart from the turn by {size:.4g} {unit} and "
                 f"come back ({frac:.2f} of the section's 95th-percentile rate, {outlier:.1f}× its 5th-largest such "
