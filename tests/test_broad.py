@@ -1565,3 +1565,65 @@ def test_a_mirrored_frame_is_named_as_such_not_blamed_on_the_gyro(tmp_path, caps
     err = capsys.readouterr().err
     assert "turns in the body the opposite way to the gyro" in err and "left-handed" in err, err
     assert main([*argv, "--columns", "t,ay,ax,az,gy,gx,gz,my,mx,mz"]) == 0
+
+
+def _cut_csv(path, tr, start_s, seconds, mag=True, axes=(0, 1, 2), mag_of=lambda m: m):
+    """``seconds`` of a BROAD trial from ``start_s`` as a CSV (t, acc, gyr in rad/s, and mx,my,mz with ``mag``),
+    every triad's columns in the order ``axes``; ``mag_of`` makes the magnetometer's columns of the field."""
+    sl = slice(int(start_s / tr.dt), int((start_s + seconds) / tr.dt))
+    ax = list(axes)
+    cols = [np.arange(sl.stop - sl.start) * tr.dt, tr.acc[sl][:, ax], tr.gyr[sl][:, ax]]
+    cols += [mag_of(tr.mag[sl][:, ax])] if mag else []
+    head = "t,ax,ay,az,gx,gy,gz" + (",mx,my,mz" if mag else "")
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header=head, comments="", fmt="%.9g")
+    return str(path)
+
+
+def test_a_magnetometer_not_asked_for_witnesses_the_gyro_unit_and_a_mirrored_frame(tmp_path, capsys):
+    """Without --mag the gyro-scale check had no field: 20 s of trial 11 (it mostly yaws, gravity barely turns in
+    the body) ran with exit 0 in rad/s declared deg/s, and with every sensor's x and y swapped (a mirrored file).
+    The file's mx, my, mz now witness the gyro (the field turns 61× as far as that gyro says; against a mirrored
+    one) while the estimate stays 6D: the cut as recorded writes the same attitude as without the columns."""
+    from optinav.cli.main import main
+
+    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 11 absent")
+    tr = load_broad(p)
+    out = tmp_path / "a.csv"
+    argv = ["--quiet", "attitude", "--frame", "ENU", "--out", str(out)]
+    assert main([*argv, _cut_csv(tmp_path / "u.csv", tr, 30.0, 20.0), "--gyro-unit", "deg/s"]) == 2
+    err = capsys.readouterr().err
+    assert re.search(r"turns in the body (5[6-9]|6[0-6])\.?\d*× as far as the gyro in deg/s", err), err
+    assert "--gyro-unit rad/s" in err
+    assert main([*argv, _cut_csv(tmp_path / "m.csv", tr, 30.0, 20.0, axes=(1, 0, 2))]) == 2
+    err = capsys.readouterr().err
+    assert "turns in the body the opposite way to the gyro" in err and "left-handed" in err, err
+    assert main([*argv, _cut_csv(tmp_path / "ok.csv", tr, 30.0, 20.0)]) == 0
+    with_mag = out.read_bytes()
+    assert main([*argv, _cut_csv(tmp_path / "no.csv", tr, 30.0, 20.0, mag=False)]) == 0
+    assert out.read_bytes() == with_mag
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("kind", ["noise", "nan", "zero", "own left-handed axes"])
+def test_a_magnetometer_not_asked_for_that_is_garbage_raises_no_alarm(tmp_path, capsys, kind):
+    """A magnetometer the estimate does not take must never fail a right run: noise, NaN or zeros leave it
+    unjudged; one in a left-handed layout of its own (x negated: 20 s of trial 16, where the field so turns against
+    the gyro at −1.0 with 82 % explained) is undone by another order of its axes, so it names no mirrored frame."""
+    from optinav.cli.main import main
+
+    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 16 absent")
+    tr = load_broad(p)
+    rng = np.random.default_rng(1)
+    mag_of = {
+        "noise": lambda m: rng.normal(size=m.shape) * 1e3,
+        "nan": lambda m: np.full(m.shape, np.nan),
+        "zero": np.zeros_like,
+        "own left-handed axes": lambda m: m * [-1.0, 1.0, 1.0],
+    }[kind]
+    csv = _cut_csv(tmp_path / "g.csv", tr, 62.0, 20.0, mag_of=mag_of)
+    assert main(["--quiet", "attitude", csv, "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
+    assert capsys.readouterr().err == ""

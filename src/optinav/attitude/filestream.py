@@ -413,6 +413,10 @@ class _Blocks:
         self.position = 0
         self.notes: list[str] = []  # the reader's notes (optinav.io.ImuLog.notes), each once
         self._whole: dict | None = None
+        #: read the magnetometer the readers find unasked (mx, my, mz; BROAD's imu_mag) as the checks' "witness"
+        #: when the estimate does not take one; None once it is absent or unreadable (then it stays absent)
+        self.witness: dict | None = {} if not mag and o.gyro_path is None else None
+        self._witness_whole: np.ndarray | None = None
         names = {}
         if mag:
             m = _mag_names(o.mag_columns)
@@ -471,6 +475,9 @@ class _Blocks:
             first = t[0] - (t[1] - t[0] if t.size > 1 else 0.01) if prev is None else prev
             prev = t[-1]
             extra = self._extra(chunks.table, row0, len(log))
+            w = self._witness_rows(chunks.table, row0, len(log))
+            if w is not None:
+                extra["witness"] = w
             if truth is not None:
                 extra.update(q_ref=truth.take(len(log)), movement=np.ones(len(log), bool))
             yield (row0, t, log.gyr, log.acc, np.diff(t, prepend=first), log.finite, extra)
@@ -502,20 +509,40 @@ class _Blocks:
     def _resolve_mag(self, found: list) -> bool:
         """Whether the magnetometer's names were found again among the file's columns ``found`` by their alias key
         (a unit in brackets, case, spaces: ``mx [G]`` for mx, ``Mag_X`` for mag_x); then ``names`` holds them."""
-        from optinav.io.readers import normalize_name
-
         keys = [k for k in ("mx", "my", "mz", "mag") if k in self.names]
-        by_key: dict = {}
-        for c in found:
-            by_key.setdefault(normalize_name(c)[0], []).append(c)
-        hits = [by_key.get(normalize_name(self.names[k])[0], []) for k in keys]
-        if not all(len(h) == 1 for h in hits) or len({h[0] for h in hits}) != len(keys):
-            return False
-        new = {k: h[0] for k, h in zip(keys, hits)}
-        if all(new[k] == self.names[k] for k in keys):
+        new = _by_alias_key({k: self.names[k] for k in keys}, found)
+        if new is None or all(new[k] == self.names[k] for k in keys):
             return False
         self.names.update(new)
         return True
+
+    def _witness_rows(self, table, row0: int, n: int) -> np.ndarray | None:
+        """The (n, 3) rows of the magnetometer ``--mag`` would read by default (columns mx, my, mz, found as
+        :meth:`_resolve_mag` finds them; a bag's MagneticField topic) when the estimate takes none, for the checks
+        only; None when there is none or it cannot be read (then none is looked for again: no error, no note)."""
+        from optinav.io.readers import read_table
+
+        if self.witness is None:
+            return None
+        keys = ("mx", "my", "mz")
+        try:
+            if table is None:  # a format read whole by its library: the columns once, then cut
+                if self._witness_whole is None:
+                    tab = read_table(self.path, delimiter=self.o.delimiter, topic=self.o.topic,
+                                     skip_bad_lines=self.o.skip_bad_lines)  # fmt: skip
+                    names = _by_alias_key(dict(zip(keys, keys)), list(tab.data))
+                    self._witness_whole = np.column_stack([np.asarray(tab.data[names[k]], float) for k in keys])
+                m = self._witness_whole[row0 : row0 + n]
+            else:
+                names = self.witness or _by_alias_key(dict(zip(keys, keys)), list(table.data))
+                m = np.column_stack([np.asarray(table.data[names[k]], float) for k in keys])
+                self.witness = names
+            if m.shape != (n, 3):
+                raise ValueError("not the IMU's rows")
+            return m
+        except (OptinavError, ValueError, TypeError, KeyError, IndexError, OSError):
+            self.witness = None  # absent, not numbers or not the IMU's rows: no witness
+            return None
 
     def _extra_columns(self, table, row0: int, n: int) -> dict:
         if table is None:  # a format read whole by its library: its columns once, then cut
@@ -584,6 +611,14 @@ class _Blocks:
                     if self.mag:
                         m = tr.mag
                         extra["mag"] = np.asarray(m[s], float) if m is not None else np.full(gyr.shape, np.nan)
+                    elif self.witness is not None and tr.mag is not None:
+                        try:  # the magnetometer the estimate does not take: the checks' witness, if readable
+                            w = np.asarray(tr.mag[s], float)
+                            extra["witness"] = w if w.shape == gyr.shape else None
+                        except (OSError, ValueError, TypeError, IndexError):
+                            extra["witness"] = None
+                        if extra["witness"] is None:
+                            self.witness = extra.pop("witness")
                 except OSError as exc:  # h5py: a damaged block (a chunk's filter fails) from this row on
                     from optinav.io.readers import h5_damaged
 
@@ -940,6 +975,21 @@ def _short(names: list) -> list:
     return keys if len(set(keys)) == len(keys) and all(keys) else list(names)
 
 
+def _by_alias_key(names: dict, found: list) -> dict | None:
+    """``names`` (key → column name) found again among the file's columns ``found`` by their alias key
+    (:func:`optinav.io.readers.normalize_name`: a unit in brackets, case, spaces), one distinct column each;
+    None when one is missing or ambiguous."""
+    from optinav.io.readers import normalize_name
+
+    by_key: dict = {}
+    for c in found:
+        by_key.setdefault(normalize_name(c)[0], []).append(c)
+    hits = {k: by_key.get(normalize_name(v)[0], []) for k, v in names.items()}
+    if not all(len(h) == 1 for h in hits.values()) or len({h[0] for h in hits.values()}) != len(names):
+        return None
+    return {k: h[0] for k, h in hits.items()}
+
+
 def _mag_names(mag_columns: str | None) -> list[str]:
     """The magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array."""
     names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
@@ -1023,6 +1073,8 @@ def stream_attitude(
             checks.add(gyr, acc, dts)
             if "mag" in extra:
                 checks.add_mag(extra["mag"], acc, gyr)
+            elif "witness" in extra:
+                checks.add_witness(extra["witness"], gyr)
         if pol is not None:
             a = extra["aop"][np.isfinite(extra["aop"])]
             if a.size:
@@ -1032,6 +1084,7 @@ def stream_attitude(
     if pol is not None and aop_n:
         aop_range(aop_lo, aop_hi, aop_n, pol.aop_unit)
     checks.gyro_unit = src.gyro_unit
+    src.witness = None  # the checks have its sums: the second pass reads no magnetometer the estimate does not take
     checks.finish_first()
     gaps = checks.gaps
     if announce is not None:

@@ -48,6 +48,7 @@ class StreamChecks:
         self._gyr_sums: list[tuple] = []  # per TILT_BIN rows: gyro sums (the field turning as the gyro says)
         self._scale_sums: list[tuple] = []  # field and gyro sums per _scale_rows rows (the gyro-scale check)
         self._scale_rows = 0
+        self._witness: list[tuple] = []  # the same sums of a magnetometer the estimate does not use (add_witness)
 
     def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
@@ -68,6 +69,14 @@ class StreamChecks:
         if self._mag_kept > 2 * _c.MAG_FIT_ROWS:
             kept = np.concatenate(self._mag)[::2]
             self._mag, self._mag_kept, self._mag_stride = [kept], kept.shape[0], 2 * self._mag_stride
+
+    def add_witness(self, mag: np.ndarray, gyr: np.ndarray) -> None:
+        """Pass 1, after :meth:`add` of the same block: the rows (n, 3, any unit) of a magnetometer the file has but
+        the estimate does not use, kept as 0.1-s field and gyro sums for the gyro's scale and sense only
+        (:func:`~optinav.attitude.checks.witness_error`; nothing else is judged on it)."""
+        if not self._scale_rows:
+            self._scale_rows = _c.scale_bin_rows(float(np.median(self._dts[-1])))
+        self._witness.append(_c.field_rate_sums(gyr, mag, self._scale_rows, self.n - mag.shape[0]))
 
     def add(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 1: one block of gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s."""
@@ -187,6 +196,11 @@ class StreamChecks:
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
                 _c.warn_or_refuse_mag_axes(_c.mag_turn_hint(sums[0], sums[2], sums[3], *gyro, self.median_dt), True)
+        elif self._witness:
+            err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
+                                   self.gyro_unit)  # fmt: skip
+            if err is not None:
+                raise err
 
 
 class StreamEstimator:
