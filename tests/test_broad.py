@@ -1606,24 +1606,29 @@ def test_a_magnetometer_not_asked_for_witnesses_the_gyro_unit_and_a_mirrored_fra
     assert capsys.readouterr().err == ""
 
 
-@pytest.mark.parametrize("kind", ["noise", "nan", "zero", "own left-handed axes"])
+@pytest.mark.parametrize("kind", ["noise", "nan", "zero", "own left-handed axes", "0.2 s late"])
 def test_a_magnetometer_not_asked_for_that_is_garbage_raises_no_alarm(tmp_path, capsys, kind):
     """A magnetometer the estimate does not take must never fail a right run: noise, NaN or zeros leave it
     unjudged; one in a left-handed layout of its own (x negated: 20 s of trial 16, where the field so turns against
-    the gyro at −1.0 with 82 % explained) is undone by another order of its axes, so it names no mirrored frame."""
+    the gyro at −1.0 with 82 % explained) is undone by another order of its axes, and one 0.2 s late on trial 07's
+    fast rotation (30 s: −1.13, 72 % explained) by moving it in time, so neither names a mirrored frame."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    trial, start_s, seconds = ("07_undisturbed_fast_rotation_B", 45.0, 30.0) if kind == "0.2 s late" else (
+        "16_undisturbed_fast_translation_B", 62.0, 20.0)  # fmt: skip
+    p = SHARED / "attitude" / "broad" / f"{trial}.hdf5"
     if not p.is_file():
-        pytest.skip("trial 16 absent")
+        pytest.skip(f"{trial} absent")
     tr = load_broad(p)
     rng = np.random.default_rng(1)
+    if kind == "0.2 s late":
+        tr.mag[:] = np.roll(tr.mag, int(round(0.2 / tr.dt)), axis=0)
     mag_of = {
         "noise": lambda m: rng.normal(size=m.shape) * 1e3,
         "nan": lambda m: np.full(m.shape, np.nan),
         "zero": np.zeros_like,
         "own left-handed axes": lambda m: m * [-1.0, 1.0, 1.0],
-    }[kind]
-    csv = _cut_csv(tmp_path / "g.csv", tr, 62.0, 20.0, mag_of=mag_of)
+    }.get(kind, lambda m: m)
+    csv = _cut_csv(tmp_path / "g.csv", tr, start_s, seconds, mag_of=mag_of)
     assert main(["--quiet", "attitude", csv, "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
     assert capsys.readouterr().err == ""

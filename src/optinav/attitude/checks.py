@@ -1797,14 +1797,17 @@ def gyro_scale_error(s: float, explained: float, turned: float, gyro_unit: str |
 #: negated, x and y swapped or in the AK8963 layout: 1.09-47 (trial 16 with x negated turned against the gyro at
 #: −1.01, 82 % explained)
 WITNESS_MIRROR_SHARE = 0.5
+#: s, the lags of a witness's field against the gyro tried before a field turning against it is called a mirror: a
+#: magnetometer 0.2 s late on BROAD 07's fast rotation turned against the gyro (no signed order undid it)
+WITNESS_LAG_S = 1.0
 
 
 def witness_error(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> OptinavError | None:
     """:func:`gyro_scale_error` judged by a magnetometer the file has but the estimate does not use (``bins``,
     ``sums`` of :func:`field_rate_sums`, ``h`` s a bin): its axes may be its own chip's, not the IMU's, so a
     factor beyond :data:`MAG_SCALE_FAR` either way is the gyro's scale, and a field turning against the gyro names
-    a mirrored frame only when no signed order of the magnetometer's axes turns it with the gyro nearly as well
-    (:data:`WITNESS_MIRROR_SHARE`). None when not judged (too little turning, disturbed or garbage values)."""
+    a mirrored frame only when no signed order of the magnetometer's axes, nor the field moved in time by up to
+    :data:`WITNESS_LAG_S`, turns it with the gyro nearly as well (:data:`WITNESS_MIRROR_SHARE`). None when not judged (too little turning, disturbed or garbage values)."""
     from optinav.core.rotations import signed_permutations
 
     bins, sums = np.asarray(bins), np.asarray(sums, float)
@@ -1816,10 +1819,21 @@ def witness_error(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str |
             return gyro_scale_error(abs(s), explained, turned, gyro_unit)
         if s >= 0:
             return None
-        other = 0.0  # the most any order of the magnetometer's axes explains with the field turning as the gyro
+        bins, sums = merge_bins(bins, sums)
+        tried = []  # the field in every other order of its axes, and moved by up to WITNESS_LAG_S either way
         for P in signed_permutations()[1:]:
             q = sums.copy()
             q[:, :3] = sums[:, :3] @ P
+            tried.append(q)
+        lag = max(1, int(round(WITNESS_LAG_S / h)))
+        for j in (*range(-lag, 0), *range(1, lag + 1)):
+            at = np.minimum(np.searchsorted(bins, bins + j), bins.size - 1)
+            ok = bins[at] == bins + j  # the field of bin i + j beside the gyro of bin i
+            q = sums.copy()
+            q[:, :4] = np.where(ok[:, None], sums[at, :4], 0.0)
+            tried.append(q)
+        other = 0.0  # the most any of those explains with the field turning as the gyro
+        for q in tried:
             sp, ep, _ = mag_gyro_scale(bins, q, h)
             if np.isfinite(sp) and sp > 0:
                 other = max(other, ep)
