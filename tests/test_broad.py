@@ -1611,7 +1611,9 @@ def test_a_magnetometer_not_asked_for_that_is_garbage_raises_no_alarm(tmp_path, 
     """A magnetometer the estimate does not take must never fail a right run: noise, NaN or zeros leave it
     unjudged; one in a left-handed layout of its own (x negated: 20 s of trial 16, where the field so turns against
     the gyro at −1.0 with 82 % explained) is undone by another order of its axes, and one 0.2 s late on trial 07's
-    fast rotation (30 s: −1.13, 72 % explained) by moving it in time, so neither names a mirrored frame."""
+    fast rotation (30 s: −1.13, 72 % explained) by moving it in time, so neither names a mirrored frame. With
+    --mag both were refused as a mirrored frame or a gyro with its signs flipped (fix every sensor or the gyro);
+    the error now names first what turns the field with the gyro (96 %, 95 % explained)."""
     from optinav.cli.main import main
 
     trial, start_s, seconds = ("07_undisturbed_fast_rotation_B", 45.0, 30.0) if kind == "0.2 s late" else (
@@ -1630,5 +1632,11 @@ def test_a_magnetometer_not_asked_for_that_is_garbage_raises_no_alarm(tmp_path, 
         "own left-handed axes": lambda m: m * [-1.0, 1.0, 1.0],
     }.get(kind, lambda m: m)
     csv = _cut_csv(tmp_path / "g.csv", tr, start_s, seconds, mag_of=mag_of)
-    assert main(["--quiet", "attitude", csv, "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
+    argv = ["--quiet", "attitude", csv, "--frame", "ENU", "--out", str(tmp_path / "a.csv")]
+    assert main(argv) == 0
     assert capsys.readouterr().err == ""
+    if kind in ("own left-handed axes", "0.2 s late"):  # with --mag they are refused, naming the likelier cause
+        assert main([*argv, "--mag"]) == 2
+        err = capsys.readouterr().err
+        words = "magnetometer's axes read as" if kind != "0.2 s late" else "with the field taken 0.2 s later"
+        assert words in err and "that is the likelier cause" in err, err

@@ -1802,42 +1802,51 @@ WITNESS_MIRROR_SHARE = 0.5
 WITNESS_LAG_S = 1.0
 
 
+def _turns_with_gyro_otherwise(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float, str, str]:
+    """(explained, how, remedy): the most of the field's turning that the field turning as the gyro explains
+    (:func:`mag_gyro_scale`, factor > 0) with the magnetometer's axes in another signed order, or the field moved
+    in time by up to :data:`WITNESS_LAG_S`, what reading does it and its remedy; (0, "", "") when none does.
+    ``bins``, ``sums`` of :func:`field_rate_sums`, ``h`` s a bin."""
+    from optinav.core.rotations import describe_permutation, signed_permutations
+
+    bins, sums = merge_bins(np.asarray(bins), np.asarray(sums, float))
+    tried = []
+    for P in signed_permutations()[1:]:
+        q = sums.copy()
+        q[:, :3] = sums[:, :3] @ P
+        tried.append((q, f"with the magnetometer's axes read as {describe_permutation(P, 'magnetometer', 'IMU axes')}",
+                      MAG_AXES_REMEDY))  # fmt: skip
+    lag = max(1, int(round(WITNESS_LAG_S / h)))
+    for j in (*range(-lag, 0), *range(1, lag + 1)):
+        at = np.minimum(np.searchsorted(bins, bins + j), bins.size - 1)
+        ok = bins[at] == bins + j  # the field of bin i + j beside the gyro of bin i
+        q = sums.copy()
+        q[:, :4] = np.where(ok[:, None], sums[at, :4], 0.0)
+        tried.append((q, f"with the field taken {abs(j) * h:.2g} s {'later' if j > 0 else 'earlier'}",
+                      "align the magnetometer's time stamps with the IMU's"))  # fmt: skip
+    best = (0.0, "", "")
+    with np.errstate(all="ignore"):
+        for q, how, remedy in tried:
+            sp, ep, _ = mag_gyro_scale(bins, q, h)
+            if np.isfinite(sp) and sp > 0 and ep > best[0]:
+                best = (ep, how, remedy)
+    return best
+
+
 def witness_error(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> OptinavError | None:
     """:func:`gyro_scale_error` judged by a magnetometer the file has but the estimate does not use (``bins``,
     ``sums`` of :func:`field_rate_sums`, ``h`` s a bin): its axes may be its own chip's, not the IMU's, so a
     factor beyond :data:`MAG_SCALE_FAR` either way is the gyro's scale, and a field turning against the gyro names
     a mirrored frame only when no signed order of the magnetometer's axes, nor the field moved in time by up to
-    :data:`WITNESS_LAG_S`, turns it with the gyro nearly as well (:data:`WITNESS_MIRROR_SHARE`). None when not judged (too little turning, disturbed or garbage values)."""
-    from optinav.core.rotations import signed_permutations
-
-    bins, sums = np.asarray(bins), np.asarray(sums, float)
+    :data:`WITNESS_LAG_S`, turns it with the gyro nearly as well (:data:`WITNESS_MIRROR_SHARE`). None when not
+    judged (too little turning, disturbed or garbage values)."""
     with np.errstate(all="ignore"):
         s, explained, turned = mag_gyro_scale(bins, sums, h)
-        if not (np.isfinite(s) and turned >= MAG_SCALE_TURN and explained >= MAG_SCALE_EXPLAINED):
-            return None
-        if abs(s) > MAG_SCALE_FAR:
-            return gyro_scale_error(abs(s), explained, turned, gyro_unit)
-        if s >= 0:
-            return None
-        bins, sums = merge_bins(bins, sums)
-        tried = []  # the field in every other order of its axes, and moved by up to WITNESS_LAG_S either way
-        for P in signed_permutations()[1:]:
-            q = sums.copy()
-            q[:, :3] = sums[:, :3] @ P
-            tried.append(q)
-        lag = max(1, int(round(WITNESS_LAG_S / h)))
-        for j in (*range(-lag, 0), *range(1, lag + 1)):
-            at = np.minimum(np.searchsorted(bins, bins + j), bins.size - 1)
-            ok = bins[at] == bins + j  # the field of bin i + j beside the gyro of bin i
-            q = sums.copy()
-            q[:, :4] = np.where(ok[:, None], sums[at, :4], 0.0)
-            tried.append(q)
-        other = 0.0  # the most any of those explains with the field turning as the gyro
-        for q in tried:
-            sp, ep, _ = mag_gyro_scale(bins, q, h)
-            if np.isfinite(sp) and sp > 0:
-                other = max(other, ep)
-    if 1.0 - explained > WITNESS_MIRROR_SHARE * (1.0 - other):
+    if not (np.isfinite(s) and turned >= MAG_SCALE_TURN and explained >= MAG_SCALE_EXPLAINED):
+        return None
+    if abs(s) > MAG_SCALE_FAR:
+        return gyro_scale_error(abs(s), explained, turned, gyro_unit)
+    if s >= 0 or 1.0 - explained > WITNESS_MIRROR_SHARE * (1.0 - _turns_with_gyro_otherwise(bins, sums, h)[0]):
         return None
     return gyro_scale_error(s, explained, turned, gyro_unit)
 
@@ -1862,7 +1871,17 @@ def check_mag_axes(
 def check_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> None:
     """Raise :func:`gyro_scale_error` of :func:`mag_gyro_scale` (``bins``, ``sums`` of :func:`field_rate_sums`,
     ``h`` s a bin) when it has one (helper)."""
-    err = gyro_scale_error(*mag_gyro_scale(bins, sums, h), gyro_unit)
+    s, explained, turned = got = mag_gyro_scale(bins, sums, h)
+    err = gyro_scale_error(*got, gyro_unit)
+    if err is not None and -MAG_SCALE_FAR <= s < 0:
+        # a magnetometer in axes of its own or off the IMU's time turns against the gyro too: named where a
+        # reading of it turns the field with the gyro about as well (WITNESS_MIRROR_SHARE), first where better
+        other, how, remedy = _turns_with_gyro_otherwise(bins, sums, h)
+        if 1.0 - explained > WITNESS_MIRROR_SHARE * (1.0 - other):
+            alt = f"it turns with the gyro {how} ({other:.0%} explained)"
+            if other > explained:
+                raise OptinavError(f"{err.cause}; {alt}: that is the likelier cause", f"{remedy}; or {err.remedy}")
+            raise OptinavError(f"{err.cause}; or {alt}", f"{err.remedy}; or {remedy}")
     if err is not None:
         raise err
 
