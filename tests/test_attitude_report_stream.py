@@ -146,6 +146,31 @@ def test_the_summary_names_the_input_stage(flight, tmp_path, method):
     assert "input stage" not in estimate(d.gyr, d.acc, dt).summary()
 
 
+def test_the_report_table_and_title_name_the_variant(flight, tmp_path):
+    """The report's summary table and title read "method qn" for qn as published and behind the input stage alike
+    (BROAD 02: 0.687° / 0.400° inclination under one label in summary.json); both now name the variant, and so does
+    the summary line of the published one (the default is the input stage since 21408c0)."""
+    _, path, _ = flight
+    seen = {}
+    for flag in ("--input-stage", "--no-input-stage"):
+        rep = tmp_path / flag
+        argv = ["--quiet", "attitude", str(path), "--method", "qn", flag, "--out", str(tmp_path / "a.csv")]
+        assert main([*argv, "--report", str(rep)]) == 0
+        st = json.loads((rep / "summary.json").read_text())["studies"]["attitude"]
+        rows = dict(map(tuple, st["tables"][0]["rows"]))
+        seen[flag] = (st["title"], rows["method"], rows["input stage"])
+    assert seen["--input-stage"] == (
+        "Attitude of flight.csv (qn with the input stage)",
+        "qn with the input stage",
+        "on",
+    )
+    assert seen["--no-input-stage"] == (
+        "Attitude of flight.csv (qn as published)",
+        "qn as published",
+        "off (as published)",
+    )
+
+
 def test_the_report_gives_the_estimates_time_not_zero(flight, tmp_path):
     """The attitude report read "_Study `attitude`, 0.0 s._" whatever the estimate took (helper: 4 s on BROAD 02):
     a result's report gives the result's elapsed_s, a streamed run (which keeps no time) none."""

@@ -18,7 +18,7 @@ Methods (one measurement model, :mod:`optinav.attitude.measurement`; per-sample 
 Inputs: gyr (N, 3) rad/s, acc (N, 3) m/s² (specific force, body axes), dt scalar or (N,) s (the step from
 the previous sample to this one), mag (N, 3) any unit (``iframe`` only). ``input_stage=True`` puts the
 iframe front end (gyro bias from rest and motion, accelerometer low-passed in the almost-inertial frame) before
-gd/cg/qn/mekf; off (default) they run as published. Output q_b^n (N, 4) [w, x, y, z] with n = ``frame`` ("NED": body
+gd/cg/qn/mekf (default); ``input_stage=False`` runs them as published. Output q_b^n (N, 4) [w, x, y, z] with n = ``frame`` ("NED": body
 forward-right-down; "ENU": body right-forward-up). Without polarization the heading is the gyro's.
 """
 
@@ -43,7 +43,7 @@ from optinav.attitude.checks import (
 )
 from optinav.attitude.iframe import AttitudeFilter, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
-from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options
+from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, variant
 from optinav.attitude.measurement import (
     PolarizationMeasurement,
     as_c_b_m,
@@ -202,12 +202,11 @@ def summary_line(
     pol_used: int = 0,
     pol_skipped: dict | None = None,
 ) -> str:
-    """One line on an estimate of ``n`` samples; ``rest``/``mag_used`` the fractions of samples at rest and with
-    the magnetometer used; ``input_stage`` is named for gd/cg/qn/mekf (iframe's own front end is always on)."""
+    """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
+    fractions of samples at rest and with the magnetometer used."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
-    stage = " with the input stage" if input_stage and method != "iframe" else ""
-    s = f"{method}{' offline' if offline else ''}{stage}: {n} samples ({frame})"
+    s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
     if segments > 1:
         s += f", {segments} segments between time gaps"
     if rest is not None:

@@ -92,6 +92,8 @@ class StreamedEstimate:
     mag_used: int | None = None
     truth_comparison: dict | None = None
     gates: list = field(default_factory=list)
+    input_stage: bool = True  # gd/cg/qn/mekf: behind iframe's input stage (False: as published)
+    offline: bool = False
 
     @property
     def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
@@ -799,8 +801,9 @@ def _stream_offline(
         mag_used=mag_used / n if src.mag else None,
     )
     est = StreamedEstimate(
-        "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None
-    )
+        "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
+        offline=True,
+    )  # fmt: skip
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
     return StreamRun(
@@ -1181,4 +1184,5 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         acc_threshold_hits=e.acc_threshold_hits,
         gyr_bias=None if e.gyr_bias is None else np.array(e.gyr_bias),
         mag_used=e.mag_used,
+        input_stage=bool(e.input_stage),
     )

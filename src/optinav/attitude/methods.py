@@ -81,6 +81,14 @@ DEFAULTS: dict[str, dict[str, float]] = {
 }
 
 
+def variant(method: str, *, offline: bool = False, input_stage: bool = True) -> str:
+    """Which variant of ``method`` ran, as every output names it: ``"qn with the input stage"``, ``"qn as
+    published"`` (gd/cg/qn/mekf without it), ``"iframe"`` or ``"iframe offline"`` (its front end is built in)."""
+    if method == "iframe":
+        return "iframe offline" if offline else "iframe"
+    return f"{method} with the input stage" if input_stage else f"{method} as published"
+
+
 #: options a method divides by (a noise σ enters as 1/σ², g as 1/g): 0 is refused, not a division by zero
 _DIVISORS = {"mekf": ("acc_noise_density", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.attitude.methods import variant
 from optinav.reports.report import Cell, Figure, StudyResult, Table, break_wraps, write_report
 
 
@@ -15,12 +16,19 @@ def _fixed(decimals: int):
     return lambda v: " ".join(f"{x:.{decimals}f}" for x in np.atleast_1d(v))
 
 
+def _variant(res) -> str:
+    """The variant that ran (:func:`~optinav.attitude.methods.variant`): 'qn as published', 'iframe offline', …"""
+    return variant(res.method, offline=res.offline, input_stage=res.input_stage)
+
+
 def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
     """The estimation summary of an :class:`~optinav.attitude.AttitudeEstimate` of ``n_samples`` samples;
     ``score``: (inclination RMSE rad, heading RMSE rad, samples) against a reference, or None. Cells hold
     numbers (degrees, as the report shows them); the text is written at render time."""
+    stage = "built in" if res.method == "iframe" else "on" if res.input_stage else "off (as published)"
     rows = [
-        ["method", res.method],
+        ["method", _variant(res)],
+        ["input stage", stage],
         ["frame", res.frame],
         ["samples", int(n_samples)],
         ["polarization used", res.pol_used],
@@ -89,7 +97,7 @@ def write_attitude_report(
         figures.append(Figure("attitude_error.png", caption, draw_errors, (8, 5)))
     study = StudyResult(
         name="attitude",
-        title=f"Attitude of {Path(source).name} ({res.method})",
+        title=f"Attitude of {Path(source).name} ({_variant(res)})",
         description=res.summary(),
         tables=attitude_tables(res, n, score),
         figures=figures,
