@@ -209,3 +209,31 @@ def test_a_closed_stderr_does_not_fail_the_units(tmp_path):
     p.wait(timeout=300)
     rows = list(csv.DictReader(out.open()))
     assert [(r["unit"], r["status"], r["error"]) for r in rows] == [("f1", "ok", ""), ("f2", "ok", "")]
+
+
+def test_a_changed_default_recomputes_the_journaled_units(tmp_path, monkeypatch):
+    """mekf's acc_noise (0.1 per sample) became acc_noise_density (0.01/√Hz) and the journal's options hash, over the
+    options given only, stayed the same (29c872981c8e9f77 for --method mekf --no-input-stage before and after): a
+    re-run reused rows computed with the old meaning (at BROAD's 286 Hz another filter). The hash now covers the
+    options with the defaults filled in, and the input stage's when it runs, so a changed default recomputes."""
+    from optinav.attitude.methods import DEFAULTS, IFRAME_DEFAULTS
+
+    d = tmp_path / "units"
+    d.mkdir()
+    assert main(["--quiet", "simulate", "flight", "--duration", "3", "--seed", "1", "--out", str(d / "f.csv")]) == 0
+    out = tmp_path / "r.csv"
+    argv = ["--quiet", "batch", "attitude", str(d), "--workers", "0", "--out", str(out), "--method", "mekf"]
+
+    from optinav.batch import read_results
+
+    for extra, key, table in (
+        (["--no-input-stage"], "acc_noise_density", DEFAULTS["mekf"]),
+        ([], "tau_acc", IFRAME_DEFAULTS),
+    ):
+        assert main([*argv, *extra]) == 0
+        h0 = read_results(out)[0]["options_hash"]
+        assert main([*argv, *extra]) == 0 and read_results(out)[0]["options_hash"] == h0  # resumed: same hash
+        monkeypatch.setitem(table, key, 2.0 * table[key])
+        assert main([*argv, *extra]) == 0
+        assert read_results(out)[0]["options_hash"] != h0, key
+        monkeypatch.undo()

@@ -281,7 +281,8 @@ def _not_a_file(p: Path) -> str:
 
 
 def options_hash(job) -> str:
-    """A short hash of the job (system, options, reference) and the row layout: a journal row is reused only
+    """A short hash of the job (system, options, reference), the defaults its options leave to the method (an
+    options object's ``resolved_options()``, where it has one) and the row layout: a journal row is reused only
     under the same ones."""
     if not isinstance(job, BatchJob):
         job = BatchJob("multipos", job)
@@ -289,6 +290,9 @@ def options_hash(job) -> str:
     fields.pop("results_dir", None)
     if not fields.get("option_files"):
         fields.pop("option_files", None)  # the hash of a job without option files as before they were hashed
+    resolved = getattr(job.options, "resolved_options", None)
+    if callable(resolved):  # the defaults the options leave to the method: a changed default recomputes the units
+        fields["resolved"] = resolved()
     text = json.dumps({"layout": LAYOUT, **fields}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

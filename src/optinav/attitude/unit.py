@@ -52,6 +52,18 @@ class AttitudeOptions:
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
         self.frame = frame_name(self.frame)
 
+    def resolved_options(self) -> dict:
+        """The method and every option it runs with, defaults filled in (and the input stage's, when it runs):
+        part of the batch options hash, so units journaled before a default changed its value or meaning (mekf's
+        per-sample acc_noise became acc_noise_density, the same default 0.01 at every rate) are recomputed."""
+        from optinav.attitude.methods import IFRAME_DEFAULTS
+
+        m = _method(self.method, None)
+        out = {"method": m, "options": _options(m, dict(self.options))}
+        if self.input_stage and m != "iframe":
+            out["input_stage"] = dict(IFRAME_DEFAULTS)
+        return out
+
 
 def check(options: AttitudeOptions) -> None:
     _options(_method(options.method, None), dict(options.options))
