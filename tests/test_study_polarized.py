@@ -28,3 +28,17 @@ def test_polarized_seed_is_honoured():
 
     a, b = (int(as_rng(np.random.default_rng(s)).integers(2**31)) for s in (1, 2))
     assert a != b  # the study draws its flight seeds from the generator reproduce derives from --seed
+
+
+def test_polarized_labels_name_the_variant_that_ran():
+    """Since the input stage became estimate()'s default (21408c0) the study ran the four methods with
+    input_stage=False under the labels 'GD (Madgwick)', 'QN (paper)', …, and its BROAD note said 'every method at
+    its defaults': a reader comparing them with optinav's defaults compared two variants. Each label now names the
+    variant that actually ran (a short flight through the study's own _estimate)."""
+    from optinav.attitude.methods import variant
+    from optinav.reports import polarized_study as ps
+
+    fl = ps._simulate("dynamic", 2.0, 1)
+    for m in ps.METHODS:
+        res = ps._estimate(fl, m, {})["res"]
+        assert res.method == m and ps.LABELS[m].endswith(variant(m, input_stage=res.input_stage).split(" ", 1)[1])
