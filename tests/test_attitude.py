@@ -498,3 +498,17 @@ def test_euler_errors_keep_nan_reference_rows():
     e = euler_errors(q_est, q_ref)
     assert np.isnan(e[0]).all()
     np.testing.assert_allclose(e[1], [0.1, -0.2, 0.3], atol=1e-12)
+
+
+def test_make_filter_takes_input_stage_for_every_method_as_estimate_does():
+    """estimate(method=m, input_stage=True) runs for every method (iframe has the stage built in), but
+    make_filter("iframe", input_stage=True) raised "option 'input_stage' does not apply to method 'iframe'", so one
+    streaming loop over METHODS could not pass the flag; each filter now gives estimate()'s output."""
+    d = synth(300, amp=1.5, seed=5, gyro_sigma=0.01, acc_sigma=0.1)
+    for method in ("iframe", *METHODS):
+        r = estimate(d["gyr"], d["acc"], d["dt"], method=method, input_stage=True)
+        f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=True)
+        q = f.update_batch(d["gyr"], d["acc"])
+        q = q.q_b_n if method == "iframe" else q  # iframe's chunk returns its IframeRun (flags, bias)
+        assert np.max(np.abs(q - r.q_b_n)) < 1e-13, method
+        assert r.input_stage

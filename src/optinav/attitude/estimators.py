@@ -863,7 +863,7 @@ def make_filter(method: str = "iframe", **kwargs):
     method : str
         One of :data:`METHODS`.
     **kwargs
-        Options as :func:`estimate`.
+        Options as :func:`estimate` (``input_stage`` too: iframe has it built in and takes it as estimate() does).
 
     Returns
     -------
@@ -873,6 +873,8 @@ def make_filter(method: str = "iframe", **kwargs):
     m = str(method).lower()
     if m not in _CLASSES:
         raise OptinavError(f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    if m == "iframe":  # one loop over METHODS with input_stage=... as estimate() takes it (iframe: built in)
+        kwargs.pop("input_stage", None)
     return _CLASSES[m](**kwargs)
 
 
