@@ -512,3 +512,24 @@ def test_make_filter_takes_input_stage_for_every_method_as_estimate_does():
         q = q.q_b_n if method == "iframe" else q  # iframe's chunk returns its IframeRun (flags, bias)
         assert np.max(np.abs(q - r.q_b_n)) < 1e-13, method
         assert r.input_stage
+
+
+@pytest.mark.parametrize("stage", [True, False])
+def test_streaming_filters_give_the_rest_flag_of_estimate(stage):
+    """estimate(method="qn") behind the input stage gives the per-sample rest flags, but make_filter("qn") had no rest
+    (issue 12: a filter's per-sample outputs are the rest flag, the bias, …; only iframe's AttitudeFilter gave it).
+    Each filter behind the stage now gives its flag after every update; as published there is none (None)."""
+    d = synth(300, amp=1.5, seed=5, gyro_sigma=0.01, acc_sigma=0.1)
+    d["gyr"][:200] *= 0.0  # still for 2 s: rest after rest_time
+    d["acc"][:200] = d["acc"][0]
+    for method in METHODS:
+        r = estimate(d["gyr"], d["acc"], d["dt"], method=method, input_stage=stage)
+        f = make_filter(method, dt=d["dt"], input_stage=stage)
+        flags = []
+        for i in range(300):
+            f.update(d["gyr"][i], d["acc"][i])
+            flags.append(f.rest)
+        if stage:
+            assert np.array_equal(flags, r.rest) and 0 < np.count_nonzero(r.rest) < 300, method
+        else:
+            assert r.rest is None and set(flags) == {None}, method

@@ -712,6 +712,16 @@ class _Filter:
             return own
         return self._front_bias + (0.0 if own is None else own)
 
+    @property
+    def rest(self) -> bool | None:
+        """Whether the input stage detected rest at the last sample (as :attr:`AttitudeEstimate.rest`); None for
+        gd/cg/qn/mekf as published, which detect none."""
+        if self._front is None:
+            return None
+        from optinav.attitude import _iframe
+
+        return bool(self._front[_iframe.S_REST])
+
     def _front_step(self, g: np.ndarray, a: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The input stage on a chunk (its state carried): bias-corrected gyro and filtered specific force."""
         if self._front is None:
