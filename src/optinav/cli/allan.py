@@ -7,6 +7,7 @@ import textwrap
 
 from optinav.cli.common import (
     add_chunk_option,
+    add_gyro_file_options,
     add_input_options,
     ReaderNotes,
     add_report_option,
@@ -64,13 +65,7 @@ def register(sub) -> None:
         help="the IMU topic written into --kalibr (default: a bag's Imu topic, else /imu0)",
     )
     add_input_options(p)
-    p.add_argument(
-        "--gyro",
-        dest="gyro_path",
-        metavar="GYRODATA",
-        help="gyroscope in a second file (a file per sensor): each triad analysed on its own clock, not interpolated",
-    )
-    p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
+    add_gyro_file_options(p, "each triad analysed on its own clock and rate (not interpolated)")
     add_chunk_option(
         p, "the angle sums are kept: 8 B per sample and axis (48 B with both triads; 0.5 GB per hour at 1 kHz)"
     )

@@ -176,14 +176,12 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     )
 
 
-def add_gyro_file_options(p) -> None:
-    """--gyro GYRODATA (destination ``gyro_path``) and --gyro-columns: the gyroscope in a second file."""
-    p.add_argument(
-        "--gyro",
-        dest="gyro_path",
-        metavar="GYRODATA",
-        help="gyroscope in a second file: the same rows, or its own time column (interpolated onto the accelerometer's)",
-    )
+def add_gyro_file_options(
+    p, how: str = "the same rows, or its own time column (interpolated onto the accelerometer's)"
+) -> None:
+    """--gyro GYRODATA (destination ``gyro_path``) and --gyro-columns: the gyroscope in a second file, read as
+    ``how`` says."""
+    p.add_argument("--gyro", dest="gyro_path", metavar="GYRODATA", help=f"gyroscope in a second file: {how}")
     p.add_argument("--gyro-columns", help="column names of GYRODATA (like --columns)")
 
 

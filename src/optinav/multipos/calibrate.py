@@ -1263,17 +1263,26 @@ def _check_ferraris_acc_drift(t, acc, rests, poses, fc, K_std, b_std, g: float, 
         return
     i0, i1, d, z = max(norms, key=lambda r: r[3])
     if z > FERRARIS_ACC_DRIFT_SIGMA:
-        u = fc.correct_acc(acc[i0:i1]).mean(axis=0)
-        j = int(np.argmax(np.abs(u)))
         raise OptinavError(
-            f"the accelerometer drifts during the session: the still rest at {t[i0]:.4g}–{t[i1 - 1]:.4g} s "
-            f"({'+-'[int(u[j] < 0)]}{'xyz'[j]} up, outside the six poses) reads |a| {d:+.3g} m/s^2 off g after the "
-            f"calibration ({z:.0f} std of its noise and the calibration's std), while the closed form fits the six "
-            "poses exactly with the bias and scale of their times (a sensor warming up)",
+            _drift_cause(t, i0, i1, d, z, fc.correct_acc(acc[i0:i1]), "outside the six poses")
+            + ", while the closed form fits the six poses exactly with the bias and scale of their times (a sensor "
+            "warming up)",
             "let the sensor warm up and record again, or drop --method ferraris: the default fit takes every rest "
             "(--acc-bias-instability states a drift in its std)",
         )
     gate_log.append(gate("acc largest |a| - g of a rest outside the poses, in std", z, FERRARIS_ACC_DRIFT_SIGMA))
+
+
+def _drift_cause(t, i0: int, i1: int, d: float, z: float, corrected: np.ndarray, where: str) -> str:
+    """The start of a drift error: the still rest ``i0:i1`` (its up axis from the ``corrected`` specific force),
+    ``where`` it lies, its |a| − g ``d`` (m/s²) after the calibration and ``z`` (std)."""
+    u = corrected.mean(axis=0)
+    j = int(np.argmax(np.abs(u)))
+    return (
+        f"the accelerometer drifts during the session: the still rest at {t[i0]:.4g}–{t[i1 - 1]:.4g} s "
+        f"({'+-'[int(u[j] < 0)]}{'xyz'[j]} up, {where}) reads |a| {d:+.3g} m/s^2 off g after the calibration "
+        f"({z:.0f} std of its noise and the calibration's std)"
+    )
 
 
 def _check_left_out_rests(t, acc, gyro, ranges, valid, fit, g, window_s, min_duration_s, acc_unit, gyro_unit) -> None:
@@ -1305,13 +1314,9 @@ def _check_left_out_rests(t, acc, gyro, ranges, valid, fit, g, window_s, min_dur
         return
     i0, i1, d, z = max(norms, key=lambda r: r[3])
     if z > FERRARIS_ACC_DRIFT_SIGMA:
-        u = correct(acc[i0:i1]).mean(axis=0)
-        j = int(np.argmax(np.abs(u)))
         raise OptinavError(
-            f"the accelerometer drifts during the session: the still rest at {t[i0]:.4g}–{t[i1 - 1]:.4g} s "
-            f"({'+-'[int(u[j] < 0)]}{'xyz'[j]} up), left out of the fit because the poses do not agree with it, "
-            f"reads |a| {d:+.3g} m/s^2 off g after the calibration ({z:.0f} std of its noise and the calibration's "
-            "std): the fit holds the bias of the other rests' times (a sensor warming up)",
+            _drift_cause(t, i0, i1, d, z, correct(acc[i0:i1]), "left out of the fit because the poses do not agree")
+            + ": the fit holds the bias of the other rests' times (a sensor warming up)",
             "let the sensor warm up and record again, or pass --acc-bias-instability with the drift to state it in "
             "the std",
         )
