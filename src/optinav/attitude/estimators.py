@@ -693,7 +693,8 @@ class _Filter:
         self._q0 = None if q0 is None else _as_q0(q0)
         self.state = None
         self.counts = np.zeros(3, dtype=np.int64)
-        self.pol_skipped: dict[str, int] = {}
+        self._skipped: dict[str, int] = {}
+        self._pol_seen = False
         self._out = np.empty((1, 4))
         self._std = np.empty((1, 3))
         self._un = up_vector(self.frame)
@@ -702,6 +703,19 @@ class _Filter:
     def q_b_n(self) -> np.ndarray | None:
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
+
+    @property
+    def pol_skipped(self) -> dict[str, int]:
+        """Polarization samples left out so far, by reason, as :func:`estimate` counts them (with the samples whose
+        sun was near the sensor's zenith once a polarization sample was given)."""
+        if not self._pol_seen:
+            return dict(self._skipped)
+        return {**self._skipped, "sun_near_sensor_zenith": int(self.counts[_kernels.C_POL_NEAR_ZENITH])}
+
+    def _add_skipped(self, skipped: dict, pol) -> None:
+        self._pol_seen = self._pol_seen or pol is not None
+        for k, v in skipped.items():
+            self._skipped[k] = self._skipped.get(k, 0) + v
 
     @property
     def gyr_bias(self) -> np.ndarray | None:
@@ -767,8 +781,7 @@ class _Filter:
             )
         g, a = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
-        for k, v in skipped.items():
-            self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
+        self._add_skipped(skipped, pol)
         if self.state is None:
             q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
             self.state = _init_state(self.METHOD, q, self.options)
@@ -821,8 +834,7 @@ class _Filter:
         dts = _as_dt(self._step(dt), n)
         g, a = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
-        for k, v in skipped.items():
-            self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
+        self._add_skipped(skipped, pol)
         if self.state is None:
             q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
             self.state = _init_state(self.METHOD, q, self.options)
