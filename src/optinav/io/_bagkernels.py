@@ -645,3 +645,44 @@ def warm() -> None:
     v = np.zeros((1, 3))
     gather(buf, i64[:0], i64[:0], 64, 0, True, 8, 0, 16, -1, i64[:0], np.zeros(1), v, v, 0)
     zstd_sizes(buf, i64[:0], i64[:0], i64[:0])
+
+
+@numba.njit(**_NJ)
+def alternation_sums(x, mean, m2):
+    """Every other row's departure from the mean of its two neighbours, h_i = x[2i+1] − (x[2i] + x[2i+2])/2, over
+    the pairs whose K values are all finite: their count (returned), per column their mean (``mean``, (K,)) and
+    sum of squared deviations from it (``m2``, (K,)); two passes, no (N, K) temporaries (the two-IMU check of a
+    bag topic ran three full-size array operations: 120 ms per million messages, more than the decode)."""
+    k = (x.shape[0] - 1) // 2
+    nc = x.shape[1]
+    count = 0
+    for c in range(nc):
+        mean[c] = 0.0
+        m2[c] = 0.0
+    for i in range(k):
+        ok = True
+        for c in range(nc):
+            h = x[2 * i + 1, c] - 0.5 * (x[2 * i, c] + x[2 * i + 2, c])
+            if not np.isfinite(h):
+                ok = False
+                break
+        if ok:
+            count += 1
+            for c in range(nc):
+                mean[c] += x[2 * i + 1, c] - 0.5 * (x[2 * i, c] + x[2 * i + 2, c])
+    if count == 0:
+        return 0
+    for c in range(nc):
+        mean[c] /= count
+    for i in range(k):
+        ok = True
+        for c in range(nc):
+            h = x[2 * i + 1, c] - 0.5 * (x[2 * i, c] + x[2 * i + 2, c])
+            if not np.isfinite(h):
+                ok = False
+                break
+        if ok:
+            for c in range(nc):
+                d = x[2 * i + 1, c] - 0.5 * (x[2 * i, c] + x[2 * i + 2, c]) - mean[c]
+                m2[c] += d * d
+    return count

@@ -968,14 +968,15 @@ def alternation(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     :data:`_ALTERNATE_MIN` pairs are finite. Two sensors in alternate rows give their bias difference there, one
     sensor (a straight trend cancels) nothing but noise."""
     zero = np.zeros(x.shape[1])
-    k = (x.shape[0] - 1) // 2
-    if k < _ALTERNATE_MIN:
+    if (x.shape[0] - 1) // 2 < _ALTERNATE_MIN:
         return zero, zero
-    h = x[1 : 2 * k : 2] - 0.5 * (x[0 : 2 * k : 2] + x[2 : 2 * k + 1 : 2])
-    h = h[np.isfinite(h).all(axis=1)]
-    if h.shape[0] < _ALTERNATE_MIN:
+    from optinav.io._bagkernels import alternation_sums
+
+    mean, m2 = np.zeros(x.shape[1]), np.zeros(x.shape[1])
+    n = alternation_sums(np.ascontiguousarray(x, dtype=float), mean, m2)
+    if n < _ALTERNATE_MIN:
         return zero, zero
-    mean, se = h.mean(axis=0), h.std(axis=0) / np.sqrt(h.shape[0])
+    se = np.sqrt(m2 / n) / np.sqrt(n)
     return np.abs(mean) / np.where(se > 0, se, np.inf), mean
 
 
