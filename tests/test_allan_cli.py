@@ -574,3 +574,44 @@ def test_accelerometer_and_gyroscope_in_two_files_on_their_own_clocks(tmp_path, 
         == 2
     )
     assert "--sensor does not apply" in capsys.readouterr().err
+
+
+def test_lost_samples_are_bridged_with_fill_gaps(tmp_path, capsys):
+    """A static log with one garbled line (or a logger's dropped samples) had no way through: --skip-bad-lines left
+    the line out and the timing check then refused the 2-step gap ("cut the log at the gap"). --fill-gaps bridges
+    runs of up to 5 lost samples by linear interpolation, also across the blocks of a streamed read, with a note:
+    the noise terms stay those of the clean log (N within 0.2 %, against its own 68 % interval of ±0.5 % on 18 000
+    samples: 4 bridged samples carry no noise, 0.02 % of the variance); more than 0.1 % bridged is refused."""
+    one = tmp_path / "one.csv"
+    assert main(["--quiet", "simulate", "static", "--out", str(one), "--hours", "0.1", "--rate", "50",
+                 "--gyro-rrw", "200", "--seed", "7"]) == 0  # fmt: skip
+    lines = one.read_text().splitlines()
+    body = [i for i, line in enumerate(lines) if not line.startswith("#")][1:]  # data rows after the header
+    bad, dropped, many = (tmp_path / f"{n}.csv" for n in ("bad", "dropped", "many"))
+    garbled = list(lines)
+    garbled[body[5000]] = garbled[body[5000]].replace(",", ",x", 1)
+    bad.write_text("\n".join(garbled) + "\n")
+    gone = {body[i] for i in (8000, 8001, 8002, 12000)}
+    dropped.write_text("\n".join(x for i, x in enumerate(lines) if i not in gone) + "\n")
+    many.write_text("\n".join(x for i, x in enumerate(lines) if i not in set(body[1000:17000:100])) + "\n")
+
+    def allan(path, *extra):
+        out = tmp_path / f"{path.stem}{len(extra)}.json"
+        rc = main(["--quiet", "allan", str(path), "--out", str(out), *extra])
+        return rc, (Result.from_json(out) if rc == 0 else None), capsys.readouterr().err
+
+    _, clean, _ = allan(one)
+    rc, _, err = allan(bad, "--skip-bad-lines")
+    assert rc == 2 and "--fill-gaps" in err
+    for path, extra, lost in (
+        (bad, ("--skip-bad-lines",), 1),
+        (dropped, (), 4),
+        (dropped, ("--chunk-rows", "8001"), 4),
+    ):
+        rc, res, err = allan(path, *extra, "--fill-gaps")
+        assert rc == 0, err
+        assert f"{lost} lost sample(s)" in err and "bridged by linear interpolation" in err
+        for s in ("accelerometer", "gyroscope"):
+            np.testing.assert_allclose(res.sensor(s)["fit"].white, clean.sensor(s)["fit"].white, rtol=2e-3)
+    rc, _, err = allan(many, "--fill-gaps")
+    assert rc == 2 and "more than --fill-gaps bridges" in err
