@@ -41,7 +41,7 @@ from optinav.attitude.checks import (
     check_q0,
     find_gaps,
 )
-from optinav.attitude.iframe import AttitudeFilter, run_iframe
+from optinav.attitude.iframe import AttitudeFilter, front_outputs, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, variant
 from optinav.attitude.measurement import (
@@ -682,12 +682,8 @@ class _Filter:
         self.frame = frame_name(frame)
         self.options = _options(self.METHOD, options)
         self.input_stage = bool(input_stage)
-        self._front = self._front_par = self._front_bias = None
-        if self.input_stage:  # iframe's state, run sample by sample as estimate() runs it on the whole chunk
-            from optinav.attitude import iframe as _if
-
-            self._front_par = _if._params(self.frame, dict(_if.IFRAME_DEFAULTS))
-            self._front = _if._new_state(dict(_if.IFRAME_DEFAULTS), None)
+        # the input stage: iframe's own streaming filter, fed the samples estimate() feeds it on the whole log
+        self._front = AttitudeFilter(dt=self.dt, frame=self.frame) if self.input_stage else None
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)
@@ -721,20 +717,18 @@ class _Filter:
     def gyr_bias(self) -> np.ndarray | None:
         """Gyro bias estimate [rad/s] after the last update: the input stage's plus the MEKF's state (None
         for gd/cg/qn as published)."""
-        own = self.state[4:7].copy() if self.METHOD == "mekf" and self.state is not None else None
-        if self._front_bias is None:
+        if self.state is None:
+            return None
+        own = self.state[4:7].copy() if self.METHOD == "mekf" else None
+        if self._front is None:
             return own
-        return self._front_bias + (0.0 if own is None else own)
+        return self._front.gyr_bias + (0.0 if own is None else own)
 
     @property
     def rest(self) -> bool | None:
         """Whether the input stage detected rest at the last sample (as :attr:`AttitudeEstimate.rest`); None for
         gd/cg/qn/mekf as published, which detect none."""
-        if self._front is None:
-            return None
-        from optinav.attitude import _iframe
-
-        return bool(self._front[_iframe.S_REST])
+        return None if self._front is None else self._front.rest
 
     def _front_step(self, g: np.ndarray, a: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The input stage on a chunk (its state carried): bias-corrected gyro and filtered specific force."""
@@ -742,22 +736,12 @@ class _Filter:
             return g, a
         from types import SimpleNamespace
 
-        from optinav.attitude import iframe as _if
-
-        if g.shape[0] == 1:  # one sample: the streaming filter's step (same arithmetic, no per-chunk arrays)
-            k = _if._k
-            if not k.step6(self._front, self._front_par, g[0], a[0], float(dts[0])):
-                raise OptinavError(
-                    f"a sample with a non-finite gyr {g[0].tolist()} or acc {a[0].tolist()} was not used",
-                    "skip it: give the next sample dt= the time since the last one used",
-                )
-            r = SimpleNamespace(
-                q_b_n=self._front[k.S_Q : k.S_Q + 4][None].copy(), gyr_bias=self._front[k.S_BIAS : k.S_BIAS + 3][None]
-            )
+        if g.shape[0] == 1:  # one sample: the filter's step (same arithmetic, no per-chunk arrays)
+            self._front.update(g[0], a[0], dt=float(dts[0]))
+            r = SimpleNamespace(q_b_n=self._front.q_b_n[None], gyr_bias=self._front.gyr_bias[None])
         else:
-            r = _if._run(self._front, self._front_par, g, a, np.zeros((0, 3)), dts)
-        self._front_bias = r.gyr_bias[-1].copy()
-        return _if.front_outputs(r, g, a, self.frame)
+            r = self._front.update_batch(g, a, dt=dts if dts.size > 1 else float(dts[0]))  # (1,): one step for all
+        return front_outputs(r, g, a, self.frame)
 
     def _step(self, dt) -> float | np.ndarray:
         h = self.dt if dt is None else dt
