@@ -1197,3 +1197,38 @@ def test_a_garbled_line_of_a_nine_axis_capture_without_time_keeps_the_magnetomet
         assert main([*common, str(bad), "--skip-bad-lines", "--chunk-rows", chunk, "--out", str(out)]) == 0
         np.testing.assert_array_equal(np.loadtxt(out, delimiter=",", skiprows=1), ref)
     assert "line 1501" in capsys.readouterr().err
+
+
+def test_skip_bad_lines_alone_takes_a_capture_without_time_through_attitude(tmp_path, capsys):
+    """A capture without a time column with one corrupted line: `attitude --skip-bad-lines` read the line as a lost
+    sample (a NaN row, so that the rate times the rows after it) and then refused that row, asking for --drop-nan
+    as well — two flags for one request. --skip-bad-lines alone now leaves the row out, the step over it two
+    samples long (streamed or not, and through read_log): the same estimate as the file with that line written as
+    NaN and --drop-nan, without the lost sample's time; a NaN row without --skip-bad-lines is still refused."""
+    from optinav.attitude.unit import AttitudeOptions, read_log
+
+    rng = np.random.default_rng(3)
+    n = 3000
+    t = np.arange(n) / 100.0
+    # turning about the vertical (the accelerometer sees gravity still)
+    gyr = np.column_stack([np.zeros(n), np.zeros(n), 0.3 * np.sin(0.7 * t)]) + rng.normal(0, 2e-3, (n, 3))
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    lines = ["ax,ay,az,gx,gy,gz"] + [",".join(f"{v:.6f}" for v in r) for r in np.column_stack([acc, gyr])]
+    bad, nan = tmp_path / "bad.csv", tmp_path / "nan.csv"
+    nan.write_text("\n".join([*lines[:1201], ",".join(["nan"] * 6), *lines[1202:]]) + "\n")
+    lines[1201] = "0.01,0.02,9.8x1,0.001,0.1,0.1"
+    bad.write_text("\n".join(lines) + "\n")
+    common = ["--quiet", "attitude", "--frame", "ENU", "--rate", "100"]
+    assert main([*common, str(nan), "--out", str(tmp_path / "refused.csv")]) == 2
+    assert "--drop-nan" in capsys.readouterr().err
+    assert main([*common, str(nan), "--drop-nan", "--out", str(tmp_path / "ref.csv")]) == 0
+    ref = np.loadtxt(tmp_path / "ref.csv", delimiter=",", skiprows=1)
+    assert ref.shape[0] == n - 1 and not np.any(np.isclose(ref[:, 0], t[1200]))
+    for chunk in ("1000000", "700"):
+        out = tmp_path / f"o{chunk}.csv"
+        assert main([*common, str(bad), "--skip-bad-lines", "--chunk-rows", chunk, "--out", str(out)]) == 0
+        np.testing.assert_array_equal(np.loadtxt(out, delimiter=",", skiprows=1), ref)
+    assert "left out (--skip-bad-lines)" in capsys.readouterr().err
+    with pytest.warns(UserWarning, match="--skip-bad-lines"):
+        tt, g, a, _, _ = read_log(bad, AttitudeOptions(rate_hz=100.0, skip_bad_lines=True))
+    assert tt.size == n - 1 and np.all(np.isfinite(g)) and np.all(np.isfinite(a))

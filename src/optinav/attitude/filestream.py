@@ -361,9 +361,9 @@ class _TruthRows:
         )
 
 
-def _finite_rows(blocks, notes: list[str]):
+def _finite_rows(blocks, notes: list[str], o: AttitudeOptions):
     """The ``blocks`` (see :class:`_Blocks`) without their rows that hold a NaN accelerometer or gyro value — lost
-    samples (``--drop-nan``): rows numbered and steps taken over the rows kept; how many were left out is added to
+    samples (``--drop-nan``, implied by ``--skip-bad-lines``): rows numbered and steps taken over the rows kept; how many were left out is added to
     ``notes`` at the end."""
     from optinav.attitude.unit import nan_rows_note
 
@@ -379,8 +379,8 @@ def _finite_rows(blocks, notes: list[str]):
         yield (row, tk, gyr[keep], acc[keep], np.diff(tk, prepend=first), finite[keep],
                {k: v[keep] for k, v in extra.items()})  # fmt: skip
         row += keep.size
-    if lost and nan_rows_note(lost) not in notes:
-        notes.append(nan_rows_note(lost))
+    if lost and nan_rows_note(lost, o) not in notes:
+        notes.append(nan_rows_note(lost, o))
 
 
 class _Blocks:
@@ -431,7 +431,7 @@ class _Blocks:
 
     def __iter__(self):
         blocks = self._broad() if self.broad else self._text()
-        yield from _finite_rows(blocks, self.notes) if self.o.drop_nan else blocks
+        yield from _finite_rows(blocks, self.notes, self.o) if self.o.drops_nan else blocks
 
     def _text(self):
         from optinav.io.imu import iter_imu

@@ -23,7 +23,8 @@ class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
     ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
     imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
-    gyro value are lost samples, left out; the time steps over them), ``options`` (estimator options, SI), and the
+    gyro value are lost samples, left out; the time steps over them; implied by ``skip_bad_lines``, whose unreadable
+    lines are such rows), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
     ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``)."""
 
@@ -51,6 +52,13 @@ class AttitudeOptions:
     def __post_init__(self):
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
         self.frame = frame_name(self.frame)
+
+    @property
+    def drops_nan(self) -> bool:
+        """Whether rows with a NaN accelerometer or gyro value are left out as lost samples: ``drop_nan``, or
+        ``skip_bad_lines`` (a file without a time column gets a NaN row for each line it leaves out, so that the
+        rate times the rows after it; asking for those lines to be left out asks for their rows to be)."""
+        return self.drop_nan or self.skip_bad_lines
 
     def resolved_options(self) -> dict:
         """The method and every option it runs with, defaults filled in (and the input stage's, when it runs):
@@ -109,7 +117,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     if log.acc_unit == "counts" or log.gyro_unit == "counts":
         raise OptinavError("the log is in raw counts", "calibrate first (optinav apply) or give --acc-unit/--gyro-unit")
     ok = log.finite
-    if not np.all(ok) and not o.drop_nan:
+    if not np.all(ok) and not o.drops_nan:
         raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))
     mag = None
     if want_mag:
@@ -129,7 +137,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
     if not np.all(ok):
-        warnings.warn(nan_rows_note(int(np.count_nonzero(~ok))), stacklevel=2)
+        warnings.warn(nan_rows_note(int(np.count_nonzero(~ok)), o), stacklevel=2)
         return log.t[ok], log.gyr[ok], log.acc[ok], None if mag is None else mag[ok], None
     return log.t, log.gyr, log.acc, mag, None
 
@@ -142,8 +150,10 @@ def nan_rows_error(path, n: int) -> tuple[str, str]:
     )
 
 
-def nan_rows_note(n: int) -> str:
-    return f"{n} rows with NaN accelerometer/gyro values left out (--drop-nan): lost samples, the time steps over them"
+def nan_rows_note(n: int, o: AttitudeOptions) -> str:
+    """The note of ``n`` rows left out as lost samples, naming the option that asked for it."""
+    flag = "--drop-nan" if o.drop_nan else "--skip-bad-lines"
+    return f"{n} rows with NaN accelerometer/gyro values left out ({flag}): lost samples, the time steps over them"
 
 
 def steps(t, path="") -> np.ndarray:

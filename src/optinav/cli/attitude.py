@@ -40,7 +40,10 @@ METHOD_NAMES = ("iframe", "qn", "gd", "cg", "mekf")
 
 
 #: help of --drop-nan (optinav attitude and batch attitude)
-DROP_NAN_HELP = "leave out rows with a NaN accelerometer/gyro value as lost samples instead of refusing the file"
+DROP_NAN_HELP = (
+    "leave out rows with a NaN accelerometer/gyro value as lost samples instead of refusing the file (implied by "
+    "--skip-bad-lines, which leaves unreadable lines out so)"
+)
 
 
 def register_commands(sub) -> None:
