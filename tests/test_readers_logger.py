@@ -1232,3 +1232,41 @@ def test_skip_bad_lines_alone_takes_a_capture_without_time_through_attitude(tmp_
     with pytest.warns(UserWarning, match="--skip-bad-lines"):
         tt, g, a, _, _ = read_log(bad, AttitudeOptions(rate_hz=100.0, skip_bad_lines=True))
     assert tt.size == n - 1 and np.all(np.isfinite(g)) and np.all(np.isfinite(a))
+
+
+def test_imu_tk_data_one_sensor_per_headerless_file_calibrates_as_one_table(tmp_path, capsys):
+    """imu_tk's data (its "Matlab matrix" .mat files: text lines ``timestamp x y z``, one sensor per file, raw
+    counts of an offset-binary ADC around 32768): `calibrate accel xsens_acc.mat --gyro xsens_gyro.mat` was refused
+    ("no accelerometer data; found col1..col4") with an example of seven column names for a file of four. The
+    pair is now read as t,ax,ay,az and t,gx,gy,gz with a note, and calibrates exactly as the same samples in one
+    named table; a file of four without --gyro names the four names and --gyro; a first column that decreases is
+    no time, and is not taken for one."""
+    import json
+
+    session = tmp_path / "s.csv"
+    sim = ["--quiet", "simulate", "accel-multipos", "--out", str(session), "--dwell", "4", "--seed", "2"]
+    assert main([*sim, "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
+    d = np.loadtxt(session, delimiter=",", comments="#", skiprows=3)
+    t, acc, gyr = d[:, 0] + 1.4e9, np.round(d[:, 1:4]) + 32768, np.round(d[:, 4:7]) + 32768
+    one = tmp_path / "one.csv"
+    np.savetxt(one, np.column_stack([t, acc, gyr]), fmt="%.6f", delimiter=",", header="t,ax,ay,az,gx,gy,gz",
+               comments="")  # fmt: skip
+    a, g = tmp_path / "xsens_acc.mat", tmp_path / "xsens_gyro.mat"
+    np.savetxt(a, np.column_stack([t, acc]), fmt="%.6f %d %d %d")
+    np.savetxt(g, np.column_stack([t, gyr]), fmt="%.6f %d %d %d")
+    units = ["--acc-unit", "counts", "--gyro-unit", "counts"]
+    assert main(["--quiet", "calibrate", "accel", str(one), *units, "--out", str(tmp_path / "one.json")]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", "accel", str(a), "--gyro", str(g), *units, "--out", str(tmp_path / "pair.json")]) == 0
+    err = capsys.readouterr().err
+    assert "xsens_acc.mat: no header; its 4 columns read as t,ax,ay,az" in err
+    assert "xsens_gyro.mat: no header; its 4 columns read as t,gx,gy,gz" in err
+    p1, p2 = (json.loads((tmp_path / n).read_text())["parameters"] for n in ("one.json", "pair.json"))
+    for k, v in p1.items():
+        assert v["value"] == p2[k]["value"] or (v["value"] is None and p2[k]["value"] is None), k
+    assert main(["calibrate", "accel", str(a), *units, "--out", str(tmp_path / "x.json")]) == 2
+    assert "--columns 't,ax,ay,az' and the gyroscope's file as --gyro GYRODATA" in capsys.readouterr().err
+    rev = tmp_path / "rev_acc.txt"
+    np.savetxt(rev, np.column_stack([t[::-1], acc]), fmt="%.6f %d %d %d")
+    assert main(["calibrate", "accel", str(rev), "--gyro", str(g), *units, "--out", str(tmp_path / "y.json")]) == 2
+    assert "has no accelerometer data" in capsys.readouterr().err

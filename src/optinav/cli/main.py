@@ -226,6 +226,7 @@ _FLAGS = {
     "acc_unit": "--acc-unit",
     "gyro_unit": "--gyro-unit",
     "gyro_columns": "--gyro-columns",
+    "gyro_path": "--gyro",
     "mag_columns": "--mag-columns",
     "columns": "--columns",
     "delimiter": "--delimiter",

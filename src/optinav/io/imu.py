@@ -706,6 +706,43 @@ _CM_NAMES = {_CM_SPLIT[0]: "userAcceleration (gravity taken out)", _CM_SPLIT[1]:
 _CM_TIME = {_CM_ACC: "accelerometertimestamp", _CM_SPLIT[0]: "motiontimestamp", _CM_GYRO: "gyrotimestamp"}
 
 
+def _columns_example(table: Table) -> tuple[str, str]:
+    """(an example ``columns``, a remark after it) for a table the readers found no sensor in: one name per column
+    of a file without a header (4 columns: a time and one sensor; 6/7: both sensors, with a time first), else the
+    full list."""
+    k = len(table.data)
+    if list(table.data) == [f"col{j + 1}" for j in range(k)]:
+        if k == 4:
+            return "t,ax,ay,az", " and the gyroscope's file as gyro_path=GYRODATA (one sensor per file)"
+        if k in (6, 7):
+            return ",".join(["t"] * (k == 7) + ["ax", "ay", "az", "gx", "gy", "gz"]), ""
+    return "t,ax,ay,az,gx,gy,gz", ""
+
+
+def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str | None) -> None:
+    """A file of one sensor of a pair (``need``: "acc" for the main file beside ``gyro_path``, "gyro" for that one)
+    without a header: 4 columns are imu_tk's layout (``timestamp x y z``, its "Matlab matrix" .mat text files), 3
+    the triad alone, when nothing else names a column and (4 columns) the first never decreases. Read so, named
+    in the file's notes (``table.meta["one_sensor_layout"]``)."""
+    if need not in ("acc", "gyro") or found or candidates:
+        return
+    keys = list(table.data)
+    if len(keys) not in (3, 4) or keys != [f"col{j + 1}" for j in range(len(keys))]:
+        return
+    cols = [table.data[k] for k in keys]
+    if any(c.ndim != 1 or c.dtype.kind != "f" for c in cols):
+        return
+    names = [f"{need[0]}{a}" for a in "xyz"]
+    if len(keys) == 4:
+        t = cols[0][np.isfinite(cols[0])]
+        if t.size < 2 or np.any(np.diff(t) < 0):
+            return
+        names = ["t", *names]
+    for std, key in zip(names, keys):
+        found[std] = (key, table.data[key])
+    table.meta["one_sensor_layout"] = ",".join(names)
+
+
 def _coremotion(table: Table, found: dict, candidates: dict) -> None:
     """iOS Core Motion as SensorLog logs it (``accelerometerAccelerationX(G)``, ``gyroRotationX(rad/s)``,
     ``motionUserAccelerationX(G)``, ``motionGravityX(G)``, ``…Timestamp_sinceReboot(s)``). Core Motion's
@@ -839,6 +876,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             implied.setdefault(key, "ns")
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
+    _one_sensor_columns(table, found, candidates, need)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
     _unreadable_triad(table, found)
@@ -948,8 +986,8 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             )
         raise OptinavError(
             f"{part.path.name} has no {kind} data ({names}; found: {table.names()})",
-            "use standard names or aliases in the header, or pass columns='t,ax,ay,az,gx,gy,gz' "
-            "(one name per column, '_' to skip) or std=name entries",
+            "use standard names or aliases in the header, or pass columns='{}'{} (one name per column, '_' to skip) "
+            "or std=name entries".format(*_columns_example(table)),
         )
     return part
 
@@ -1301,6 +1339,12 @@ def _log_of(
             notes.append(f"{p.path.name}: the serial monitor's receive times ('14:23:01.123 -> ') were cut off")
         if "banner_lines" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: {p.table.meta['banner_lines']} were left out")
+        if "one_sensor_layout" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: no header; its {len(p.table.data)} columns read as "
+                f"{p.table.meta['one_sensor_layout']} (one sensor per file, as imu_tk's data; name them with "
+                "--columns/--gyro-columns if not)"
+            )
         if "coremotion" in p.table.meta and row0 == 0:
             notes.append(
                 f"{p.path.name}: Core Motion's acceleration is minus the specific force: read as "
