@@ -459,11 +459,15 @@ def _cap_heading(P, v, cap2, w):
 
 
 @numba.njit(**_NJ)
-def _scalar_update_consider(P, hrow, z, r, dx, Ph, v):
-    """:func:`_scalar_update` with the attitude error along the unit body vector v (the vertical: heading) as
-    a Schmidt "consider" state: its gain is removed, k = P hᵀ/s − c v̄ with c = v̄ᵀP hᵀ/s, and P is updated
-    with that gain (Joseph form, which reduces to P − P hᵀh P/s + s c² v̄v̄ᵀ), so it stays the covariance of
-    the estimate actually made."""
+def _scalar_update_consider(P, hrow, z, r, dx, Ph, v, heading, bias):
+    """:func:`_scalar_update` whose row leaves some states' estimates where they are.
+
+    ``heading``: the attitude error along the unit body vector v (the vertical: heading) is a Schmidt "consider"
+    state: its gain is removed, k = P hᵀ/s − c v̄ with c = v̄ᵀP hᵀ/s, and P is updated with that gain (Joseph
+    form, which reduces to P − P hᵀh P/s + s c² v̄v̄ᵀ), so it stays the covariance of the estimate actually made.
+    ``bias``: the gyro-bias estimate is not moved (its gain is zero) while P takes the row's information as
+    if it were: the bias is estimated elsewhere (the input stage) from the same accelerometer information, and
+    P keeps the tilt's trust in the accelerometer that estimating it gives."""
     s = r
     for a in range(6):
         t = 0.0
@@ -474,19 +478,20 @@ def _scalar_update_consider(P, hrow, z, r, dx, Ph, v):
     innov = z
     for a in range(6):
         innov -= hrow[a] * dx[a]
-    c = (v[0] * Ph[0] + v[1] * Ph[1] + v[2] * Ph[2]) / s
-    for a in range(6):
+    c = (v[0] * Ph[0] + v[1] * Ph[1] + v[2] * Ph[2]) / s if heading else 0.0
+    for a in range(6 if not bias else 3):
         k = Ph[a] / s
-        if a < 3:
+        if a < 3 and heading:
             k -= c * v[a]
         dx[a] += k * innov
     for a in range(6):
         for b in range(6):
             P[a, b] -= Ph[a] * Ph[b] / s
-    sc2 = s * c * c
-    for a in range(3):
-        for b in range(3):
-            P[a, b] += sc2 * v[a] * v[b]
+    if heading:
+        sc2 = s * c * c
+        for a in range(3):
+            for b in range(3):
+                P[a, b] += sc2 * v[a] * v[b]
 
 
 @numba.njit(**_NJ)
@@ -533,6 +538,7 @@ def run_mekf(
     acc_inflate,
     max_heading_std,
     consider_heading,
+    consider_bias,
     state,
     out,
     std_out,
@@ -558,7 +564,12 @@ def run_mekf(
     samples (:func:`_scalar_update_consider`): the gravity rows correct tilt and bias but never the heading,
     which then follows the bias-corrected gyro; otherwise they also correct it through the heading–bias
     correlation (right when the model is, but a bias transient at motion onset then swings the heading by up
-    to its σ).
+    to its σ). With ``consider_bias`` (behind the input stage, which has already estimated the gyro bias from
+    the same accelerometer and passes its filtered specific force here) the gravity rows leave the bias estimate
+    where it is, P taking their information as before (:func:`_scalar_update_consider`); only the polarization
+    rows, whose information the stage has not used, move it. Gravity rows re-estimating the bias took the
+    stage's low-passed, time-correlated force for white noise and turned the bias about the vertical, which no
+    gravity row corrects, so it drove the heading (81° after 60 s on a simulated flight, the stage alone 0.1°).
     state = [q(4), b(3), P(36)]; std_out (N, 3) = attitude-error σ (rad, body axes).
     """
     n = gyr.shape[0]
@@ -627,8 +638,10 @@ def run_mekf(
                 hrow[1] = J[r, 1]
                 hrow[2] = J[r, 2]
                 # residual z − h(x̂) = −F (the model's error is prediction − measurement)
-                if nr == 3 and consider_heading:
-                    _scalar_update_consider(P, hrow, -F[r], ra, dx, Ph, vb)
+                hv = nr == 3 and consider_heading
+                hb = consider_bias and r < 3
+                if hv or hb:
+                    _scalar_update_consider(P, hrow, -F[r], ra if r < 3 else rp, dx, Ph, vb, hv, hb)
                 else:
                     _scalar_update(P, hrow, -F[r], ra if r < 3 else rp, dx, Ph)
             _right_rotate(q, dx[0], dx[1], dx[2], dq, tmp)

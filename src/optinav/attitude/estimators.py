@@ -343,7 +343,8 @@ def _init_state(method: str, q: np.ndarray, opts: dict) -> np.ndarray:
     return s
 
 
-def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts):
+def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts, staged):
+    """One method's kernel over a chunk; ``staged``: behind the input stage (mekf: gravity rows leave the bias)."""
     if method in ("gd", "cg"):
         _kernels.run_gd_cg(
             gyr,
@@ -410,6 +411,7 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
             opts["acc_inflate"],
             opts["max_heading_std"],
             opts["couple_heading"] == 0.0,
+            staged,
             state,
             out,
             std,
@@ -605,7 +607,25 @@ def estimate(
     out = np.empty((n, 4))
     std = np.empty((n, 3))
     counts = np.zeros(3, dtype=np.int64)
-    _run(method, opts, state, gyr, acc, dts, up_vector(frame), use, sn, cbm, c2, s2, min_d2, out, std, counts)
+    _run(
+        method,
+        opts,
+        state,
+        gyr,
+        acc,
+        dts,
+        up_vector(frame),
+        use,
+        sn,
+        cbm,
+        c2,
+        s2,
+        min_d2,
+        out,
+        std,
+        counts,
+        bool(input_stage),
+    )
     if pol is not None:
         skipped = dict(skipped)
         skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
@@ -786,6 +806,7 @@ class _Filter:
             self._out,
             self._std,
             self.counts,
+            self.input_stage,
         )
         return self._out[0].copy()
 
@@ -824,7 +845,7 @@ class _Filter:
             self.state = _init_state(self.METHOD, q, self.options)
         out, std = np.empty((n, 4)), np.empty((n, 3))
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, out, std,
-             self.counts)  # fmt: skip
+             self.counts, self.input_stage)  # fmt: skip
         self._out[0], self._std[0] = out[-1], std[-1]
         return out
 

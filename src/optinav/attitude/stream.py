@@ -296,6 +296,7 @@ class StreamEstimator:
             out,
             std,
             self.counts,
+            bool(self.input_stage),
         )
         bias = self._state[4:7].copy() if self.method == "mekf" else None
         if front_bias is not None:
