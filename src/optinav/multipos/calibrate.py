@@ -1560,10 +1560,14 @@ def _ferraris(
     else:
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
     glitch, fixed = None, []
-    if all(n in names for n in ferraris.ROTATIONS) and np.all(
-        (0 <= idx[:, 0]) & (idx[:, 0] < idx[:, 1]) & (idx[:, 1] <= len(t))
-    ):
+    inside = bool(np.all((0 <= idx[:, 0]) & (idx[:, 0] < idx[:, 1]) & (idx[:, 1] <= len(t))))
+    if inside:
         # (ranges out of the log are refused by ferraris_from_sections)
+        poses = {n: tuple(idx[names.index(n)]) for n in names if n in ferraris.POSES}
+        acc, spikes = ferraris.repair_pose_spikes(acc, poses, t, "accelerometer", acc_unit)
+        gyro, more = ferraris.repair_pose_spikes(gyro, poses, t, "gyro", gyro_unit)
+        notes.extend(spikes + more)
+    if inside and all(n in names for n in ferraris.ROTATIONS):
         try:
             repaired, fixed = ferraris.repair_rotation_glitches(
                 gyro, {n: tuple(idx[names.index(n)]) for n in names}, t, gyro_unit

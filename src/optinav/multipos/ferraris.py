@@ -51,6 +51,7 @@ __all__ = [
     "check_rotations",
     "ferraris_std",
     "repair_rotation_glitches",
+    "repair_pose_spikes",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -875,6 +876,52 @@ def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tu
                 )
             w[row, c] = 0.5 * (w[row - 1, c] + w[row + 1, c])
             notes.append(f"{what}: a spike, replaced by its neighbours' mean")
+    return w, notes
+
+
+#: a sample of a still pose is a spike when its departure (:func:`_departures`) exceeds POSE_SPIKE_SIGMA times the
+#: pose's noise (robust σ of the second difference, at least half its smallest step) and GLITCH_ISOLATION times
+#: every departure within GLITCH_WINDOW rows of it. imucal's 12 real poses, also at 1/2 and 1/4 of their rates:
+#: at most 5.4σ, and 4.0 for the smaller of the two multiples. A tap rings over several samples: not isolated, it
+#: is left to :func:`optinav.multipos.calibrate.pose_taps`, which refuses it.
+POSE_SPIKE_SIGMA = 10.0
+
+
+def repair_pose_spikes(x, ranges: dict, t=None, what: str = "gyro", unit: str = "raw") -> tuple[np.ndarray, list[str]]:
+    """Samples (N, 3, ``unit``) with isolated one-sample spikes inside the still poses (``ranges`` pose name → (i0,
+    i1) rows) replaced by their neighbours' mean, and a note per repair: one sample 5 m/s^2 off in imucal's x_p
+    moved its mean by 14× its noise and the run was refused as a tap. A pose with more than :data:`MAX_SPIKES` per
+    axis is left as it is. ``t`` (N,) s names the times (None: rows); ``what`` names the sensor."""
+    w = np.array(x, float)
+    notes = []
+    for name, (i0, i1) in ranges.items():
+        seg = w[i0:i1]
+        if name not in POSES or seg.shape[0] < 2 * GLITCH_WINDOW + 5 or not np.isfinite(seg).any():
+            continue
+        e = seg[1:-1] - 0.5 * (seg[:-2] + seg[2:])
+        sig = 1.4826 * np.nanmedian(np.abs(e - np.nanmedian(e, axis=0)), axis=0)
+        steps = np.abs(np.diff(seg, axis=0))
+        steps = steps[np.isfinite(steps) & (steps > 0)]
+        sig = np.maximum(sig, 0.5 * float(steps.min()) if steps.size else 0.0)
+        d1 = _departures(seg, 1)
+        pad = np.pad(d1, ((GLITCH_WINDOW, GLITCH_WINDOW), (0, 0)))
+        win = np.lib.stride_tricks.sliding_window_view(pad, 2 * GLITCH_WINDOW + 1, 0)
+        around = np.maximum(win[..., :GLITCH_WINDOW].max(-1), win[..., GLITCH_WINDOW + 1 :].max(-1))
+        spike = (d1 > POSE_SPIKE_SIGMA * np.maximum(sig, 1e-300)) & (d1 > GLITCH_ISOLATION * around)
+        for c in range(3):
+            rows = np.flatnonzero(spike[:, c])
+            if rows.size > MAX_SPIKES:
+                continue
+            for k in rows:
+                row = i0 + int(k)
+                size = float(w[row, c] - 0.5 * (w[row - 1, c] + w[row + 1, c]))
+                when = f"t = {t[row]:.6g} s" if t is not None else f"row {row}"
+                notes.append(
+                    f"1 {what} {'xyz'[c]} sample at {when} in the still pose {name} departs from its neighbours by "
+                    f"{size:.4g} {unit} ({d1[k, c] / sig[c]:.0f}× the pose's noise, alone among quiet samples): a "
+                    "spike, replaced by its neighbours' mean"
+                )
+                w[row, c] = 0.5 * (w[row - 1, c] + w[row + 1, c])
     return w, notes
 
 
