@@ -732,7 +732,7 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
 #: rates and at 1/2, 1/4, 1/8 of them (every phase; sections of ≥ GLITCH_MIN_SAMPLES): at most 6.9×, for one real
 #: 40-ms burst of annotated y_rot that its 51.2-Hz copies hold in one sample; at the native rates ≤ 0.20 and ≤ 2.8×.
 #: A spike of 300 deg/s in imucal's z_rot is 0.75 and 12×; one of 150 deg/s (K_zz 0.41 % off) is 0.37 and 5.8×,
-#: like that burst, and passes: the gyro alone cannot tell it from the turn.
+#: like that burst, and passes this test (the test by isolation below tells it).
 GLITCH_FRACTION = 0.3
 GLITCH_OUTLIER = 8.0
 GLITCH_RUN = 3
