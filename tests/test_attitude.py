@@ -571,3 +571,21 @@ def test_streaming_filters_give_the_rest_flag_of_estimate(stage):
             assert np.array_equal(flags, r.rest) and 0 < np.count_nonzero(r.rest) < 300, method
         else:
             assert r.rest is None and set(flags) == {None}, method
+
+
+def test_large_divisor_options_are_accepted_without_an_overflow():
+    """A divisor option (mekf acc_noise_density, pol_noise, …) was checked by σ²·max(float) > 1: from σ > 1 that
+    product overflowed (a RuntimeWarning on stderr for acc_noise_density=2, which a tuning search reaches) and from
+    σ ≈ 1.3e154 Python's σ² raised OverflowError (an internal error). The bound is now σ > 1/√max(float); the
+    filter runs on (a large σ only means the accelerometer is hardly trusted) and tiny σ are still refused."""
+    import warnings
+
+    from optinav.attitude.methods import _options
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for v in (2.0, 1e200):
+            assert _options("mekf", {"acc_noise_density": v})["acc_noise_density"] == v
+    assert _options("mekf", {"pol_noise": 1e-150})["pol_noise"] == 1e-150
+    with pytest.raises(OptinavError, match="must be > 0"):
+        _options("mekf", {"acc_noise_density": 1e-160})

@@ -91,6 +91,8 @@ def variant(method: str, *, offline: bool = False, input_stage: bool = True) -> 
 
 #: options a method divides by (a noise σ enters as 1/σ², g as 1/g): 0 is refused, not a division by zero
 _DIVISORS = {"mekf": ("acc_noise_density", "pol_noise", "gravity", "acc_inflate"), "qn": ("gravity",)}
+#: the smallest divisor whose 1/σ² is finite
+_MIN_DIVISOR = 1.0 / np.sqrt(np.finfo(float).max)
 
 
 #: options that were replaced: (method, old name) → (what changed, the remedy)
@@ -120,7 +122,7 @@ def _options(method: str, options: dict) -> dict:
             fv = float("nan")
         if not np.isfinite(fv) or fv < 0:
             raise OptinavError(f"option {k}={v!r} must be a finite non-negative number", f"pass a valid {k}")
-        if k in _DIVISORS.get(method, ()) and not (fv**2 > 0 and fv**2 * np.finfo(float).max > 1.0):
+        if k in _DIVISORS.get(method, ()) and not fv > _MIN_DIVISOR:
             raise OptinavError(f"option {k}={v!r} must be > 0 (the filter divides by it)", f"pass a positive {k}")
         opts[k] = fv
     if method == "mekf" and opts["max_heading_std"] <= 0:
