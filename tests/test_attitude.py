@@ -386,7 +386,7 @@ def test_mekf_behind_the_stage_heading_is_the_stages_gyro_bias_drift(seed, incl_
     # without a heading aid the bias is the stage's alone (the MEKF's own states stay 0)
     np.testing.assert_array_equal(r.gyr_bias, front.gyr_bias[-1])
     flt = make_filter("mekf", dt=f.dt, frame=f.frame, q0=f.q_b_n[0])
-    q_s = np.concatenate([flt.update_batch(f.gyr[i : i + 777], f.acc[i : i + 777]) for i in range(0, n, 777)])
+    q_s = np.concatenate([flt.update_batch(f.gyr[i : i + 777], f.acc[i : i + 777]).q_b_n for i in range(0, n, 777)])
     np.testing.assert_array_equal(q_s, r.q_b_n)
 
 
@@ -435,7 +435,7 @@ def test_streaming_filters_take_a_rate_and_chunks_like_iframe(method):
         q_b = r.q_b_n
         f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=stage)
         cuts = [0, 1, 37, 200, 300]
-        q_c = np.vstack([f.update_batch(d["gyr"][a:b], d["acc"][a:b], pol=pol.select(slice(a, b))) for a, b in
+        q_c = np.vstack([f.update_batch(d["gyr"][a:b], d["acc"][a:b], pol=pol.select(slice(a, b))).q_b_n for a, b in
                          zip(cuts[:-1], cuts[1:])])  # fmt: skip
         assert np.array_equal(q_c, q_b) and np.array_equal(f.q_b_n, q_b[-1])
         g = make_filter(method, dt=d["dt"], input_stage=stage)
@@ -546,8 +546,7 @@ def test_make_filter_takes_input_stage_for_every_method_as_estimate_does():
     for method in ("iframe", *METHODS):
         r = estimate(d["gyr"], d["acc"], d["dt"], method=method, input_stage=True)
         f = make_filter(method, rate_hz=1.0 / d["dt"], input_stage=True)
-        q = f.update_batch(d["gyr"], d["acc"])
-        q = q.q_b_n if method == "iframe" else q  # iframe's chunk returns its IframeRun (flags, bias)
+        q = f.update_batch(d["gyr"], d["acc"]).q_b_n
         assert np.max(np.abs(q - r.q_b_n)) < 1e-13, method
         assert r.input_stage
 
@@ -589,3 +588,87 @@ def test_large_divisor_options_are_accepted_without_an_overflow():
     assert _options("mekf", {"pol_noise": 1e-150})["pol_noise"] == 1e-150
     with pytest.raises(OptinavError, match="must be > 0"):
         _options("mekf", {"acc_noise_density": 1e-160})
+
+
+@pytest.mark.parametrize("stage", [True, False])
+def test_every_filter_chunk_returns_one_run_type_with_estimate_outputs(stage):
+    """make_filter("iframe").update_batch returned an IframeRun (q_b_n, rest, gyr_bias … per sample) but gd/cg/qn/mekf
+    a bare (N, 4) array, so one loop over the methods reading ``.q_b_n`` raised AttributeError, and their per-sample
+    rest flag and bias (issue 12) were only had by one update() at a time. Every chunk is now a FilterRun: q_b_n
+    (N, 4); rest (N,) and gyr_bias (N, 3) rad/s where the method has them (the input stage; mekf adds its own bias
+    state; None as published); acc_used/mag_used where the method decides them (iframe), else None as in
+    estimate(); att_std (N, 3) rad for mekf. Chunks (dt per sample, given positionally) equal estimate() and the
+    properties read after each single update(); an empty chunk gives an empty run."""
+    from optinav.attitude import METHODS as ALL_METHODS
+    from optinav.attitude import FilterRun
+
+    n = 300
+    d = synth(n, amp=1.5, seed=5, gyro_sigma=0.01, acc_sigma=0.1)
+    d["gyr"][:170] *= 0.0  # still for 1.7 s: rest after rest_time (1.5 s)
+    d["acc"][:170] = d["acc"][0]
+    dts = d["dt"] * np.linspace(0.9, 1.1, n)
+    cuts = [0, 1, 37, 200, n]
+    for method in ALL_METHODS:
+        r = estimate(d["gyr"], d["acc"], dts, method=method, input_stage=stage)
+        f = make_filter(method, input_stage=stage)
+        runs = [f.update_batch(d["gyr"][a:b], d["acc"][a:b], dts[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+        assert all(type(x) is FilterRun for x in runs), method
+        empty = f.update_batch(np.empty((0, 3)), np.empty((0, 3)))
+        assert type(empty) is FilterRun and empty.q_b_n.shape == (0, 4), method
+        got = {}
+        for name in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std"):
+            parts = [getattr(x, name) for x in (*runs, empty)]
+            assert all(p is None for p in parts) or all(p is not None for p in parts), (method, name)
+            got[name] = None if parts[0] is None else np.concatenate(parts)
+        # the reference per sample: one update() at a time, its properties read after each
+        g = make_filter(method, input_stage=stage)
+        ref = {k: [] for k in ("rest", "gyr_bias", "acc_used", "mag_used", "att_std")}
+        for i in range(n):
+            g.update(d["gyr"][i], d["acc"][i], dt=dts[i])
+            for k in ref:
+                ref[k].append(getattr(g, k))
+        assert got["q_b_n"].shape == (n, 4) and np.array_equal(got["q_b_n"], r.q_b_n), method
+        staged = stage or method == "iframe"
+        if staged:
+            assert got["rest"].shape == (n,) and got["rest"].dtype == bool, method
+            assert np.array_equal(got["rest"], r.rest) and np.array_equal(got["rest"], ref["rest"]), method
+            assert 0 < np.count_nonzero(got["rest"]) < n, method
+        else:
+            assert got["rest"] is None and r.rest is None and set(ref["rest"]) == {None}, method
+        if staged or method == "mekf":
+            assert got["gyr_bias"].shape == (n, 3), method
+            assert np.max(np.abs(got["gyr_bias"] - np.array(ref["gyr_bias"]))) < 1e-15, method
+            assert np.max(np.abs(got["gyr_bias"][-1] - r.gyr_bias)) < 1e-15, method
+            assert np.ptp(got["gyr_bias"], axis=0).max() > 0, method  # a per-sample estimate, not one value
+        else:
+            assert got["gyr_bias"] is None and r.gyr_bias is None and ref["gyr_bias"][-1] is None, method
+        if method == "iframe":
+            assert got["acc_used"].dtype == bool and np.array_equal(got["acc_used"], r.acc_used)
+            assert np.array_equal(got["acc_used"], ref["acc_used"])
+            assert got["mag_used"].shape == (n,) and not got["mag_used"].any()  # no magnetometer: never used
+        else:
+            assert got["acc_used"] is None and got["mag_used"] is None and r.acc_used is None, method
+            assert set(ref["acc_used"]) == {None} and set(ref["mag_used"]) == {None}, method
+        if method == "mekf":
+            assert got["att_std"].shape == (n, 3) and np.array_equal(got["att_std"], r.att_std)
+            assert np.array_equal(got["att_std"], ref["att_std"])
+        else:
+            assert got["att_std"] is None and r.att_std is None and ref["att_std"][-1] is None, method
+        assert np.array_equal(f.q_b_n, r.q_b_n[-1]), method
+        if method == "iframe":  # each chunk's end state, not the filter's live one (all chunks showed the last)
+            assert not np.array_equal(runs[0].state, runs[-1].state)
+            with pytest.raises(OptinavError, match="step twice"):
+                f.update_batch(d["gyr"][:5], d["acc"][:5], d["dt"], dt=d["dt"])
+
+
+def test_every_filter_has_no_attitude_before_its_first_sample():
+    """Before its first update AttitudeFilter gave q_b_n = [0, 0, 0, 0] (no rotation at all) and a bias of 0
+    rad/s, the other filters None. Every filter gives None for each per-sample output until it has a sample."""
+    from optinav.attitude import METHODS as ALL_METHODS
+
+    for method in ALL_METHODS:
+        f = make_filter(method, rate_hz=100.0, input_stage=True)
+        for k in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std"):
+            assert getattr(f, k) is None, (method, k)
+        f.update(np.zeros(3), np.array([0.0, 0.0, -G]))
+        assert np.isclose(np.linalg.norm(f.q_b_n), 1.0) and f.rest is not None, method

@@ -163,7 +163,7 @@ FIELD_EXCEPTIONS: dict[str, str] = {}
 #: (a spec's or an option's ``gyro_bias`` elsewhere is a setting, named like its CLI flag)
 ATTITUDE_CLASSES = (
     "optinav.attitude.estimators.AttitudeEstimate",
-    "optinav.attitude.iframe.IframeRun",
+    "optinav.attitude.iframe.FilterRun",
     "optinav.attitude.iframe.AttitudeFilter",
     "optinav.attitude.estimators.GradientDescent",
     "optinav.attitude.estimators.MEKF",

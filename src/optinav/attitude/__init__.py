@@ -2,7 +2,7 @@
 
 Public API: :func:`estimate` (batch, an :class:`AttitudeEstimate`; default method ``iframe``), :func:`estimate_q`
 (its (N, 4) quaternions only), :func:`simulate` (a simulated flight with truth), streaming filters :class:`AttitudeFilter` (iframe), :class:`QuasiNewton`,
-:class:`GradientDescent`, :class:`ConjugateGradient`, :class:`MEKF`, the shared measurement model (:class:`PolarizationMeasurement`, :func:`measurement_error`,
+:class:`GradientDescent`, :class:`ConjugateGradient`, :class:`MEKF` (each chunk a :class:`FilterRun`), the shared measurement model (:class:`PolarizationMeasurement`, :func:`measurement_error`,
 :data:`DEFAULT_C_B_M`) and error metrics (:mod:`optinav.attitude.metrics`). The flight simulator and its constants live in the module
 ``optinav/attitude/simulate.py`` (import them with ``from optinav.attitude.simulate import PAPER_SITE``; the
 package attribute ``optinav.attitude.simulate`` is the function).
@@ -19,6 +19,7 @@ _EXPORTS = {
             "AttitudeEstimate",
             "AttitudeFilter",
             "ConjugateGradient",
+            "FilterRun",
             "GradientDescent",
             "QuasiNewton",
             "estimate",
@@ -52,6 +53,7 @@ __all__ = [
     "AttitudeEstimate",
     "AttitudeFilter",
     "ConjugateGradient",
+    "FilterRun",
     "GradientDescent",
     "QuasiNewton",
     "estimate",

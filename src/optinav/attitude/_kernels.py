@@ -542,6 +542,7 @@ def run_mekf(
     state,
     out,
     std_out,
+    bias_out,
     counts,
 ):
     """Multiplicative EKF: error state [δθ_b (body-frame attitude error), δb (gyro bias)].
@@ -570,9 +571,11 @@ def run_mekf(
     rows, whose information the stage has not used, move it. Gravity rows re-estimating the bias took the
     stage's low-passed, time-correlated force for white noise and turned the bias about the vertical, which no
     gravity row corrects, so it drove the heading (81° after 60 s on a simulated flight, the stage alone 0.1°).
-    state = [q(4), b(3), P(36)]; std_out (N, 3) = attitude-error σ (rad, body axes).
+    state = [q(4), b(3), P(36)]; std_out (N, 3) = attitude-error σ (rad, body axes); bias_out (N, 3) = the bias
+    state after each sample (rad/s), or 0 rows: not kept.
     """
     n = gyr.shape[0]
+    keep_bias = bias_out.shape[0] == n
     q = state[0:4].copy()
     bias = state[4:7].copy()
     P = state[7:43].copy().reshape(6, 6)
@@ -662,6 +665,10 @@ def run_mekf(
         std_out[i, 0] = math.sqrt(max(P[0, 0], 0.0))
         std_out[i, 1] = math.sqrt(max(P[1, 1], 0.0))
         std_out[i, 2] = math.sqrt(max(P[2, 2], 0.0))
+        if keep_bias:
+            bias_out[i, 0] = bias[0]
+            bias_out[i, 1] = bias[1]
+            bias_out[i, 2] = bias[2]
     state[0:4] = q
     state[4:7] = bias
     state[7:43] = P.ravel()

@@ -41,7 +41,7 @@ from optinav.attitude.checks import (
     check_q0,
     find_gaps,
 )
-from optinav.attitude.iframe import AttitudeFilter, front_outputs, run_iframe
+from optinav.attitude.iframe import AttitudeFilter, FilterRun, front_outputs, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, variant
 from optinav.attitude.measurement import (
@@ -78,6 +78,7 @@ __all__ = [
     "DEFAULTS",
     "AttitudeFilter",
     "AttitudeEstimate",
+    "FilterRun",
     "estimate",
     "estimate_q",
     "initial_attitude",
@@ -343,8 +344,15 @@ def _init_state(method: str, q: np.ndarray, opts: dict) -> np.ndarray:
     return s
 
 
-def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts, staged):
-    """One method's kernel over a chunk; ``staged``: behind the input stage (mekf: gravity rows leave the bias)."""
+#: no per-sample rows wanted (mekf's own bias state per sample: estimate() and update() keep only the last)
+_NO_ROWS = np.empty((0, 3))
+
+
+def _run(
+    method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, out, std, counts, staged, own_bias=_NO_ROWS
+):
+    """One method's kernel over a chunk; ``staged``: behind the input stage (mekf: gravity rows leave the bias);
+    ``own_bias`` (N, 3) rad/s gets mekf's bias state after each sample, or has 0 rows (not kept)."""
     if method in ("gd", "cg"):
         _kernels.run_gd_cg(
             gyr,
@@ -415,6 +423,7 @@ def _run(method, opts, state, gyr, acc, dt, un, use, sn, cbm, c2, s2, min_d2, ou
             state,
             out,
             std,
+            own_bias,
             counts,
         )
 
@@ -747,21 +756,36 @@ class _Filter:
     @property
     def rest(self) -> bool | None:
         """Whether the input stage detected rest at the last sample (as :attr:`AttitudeEstimate.rest`); None for
-        gd/cg/qn/mekf as published, which detect none."""
+        gd/cg/qn/mekf as published, which detect none, and before the first update."""
         return None if self._front is None else self._front.rest
 
-    def _front_step(self, g: np.ndarray, a: np.ndarray, dts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The input stage on a chunk (its state carried): bias-corrected gyro and filtered specific force."""
-        if self._front is None:
-            return g, a
-        from types import SimpleNamespace
+    @property
+    def acc_used(self) -> None:
+        """None: gd/cg/qn/mekf take every accelerometer sample (as :attr:`AttitudeEstimate.acc_used`)."""
+        return None
 
+    @property
+    def mag_used(self) -> None:
+        """None: gd/cg/qn/mekf take no magnetometer."""
+        return None
+
+    @property
+    def att_std(self) -> np.ndarray | None:
+        """Attitude-error σ [rad] about the body axes after the last update: mekf's; None for gd/cg/qn."""
+        return None
+
+    def _front_step(self, g: np.ndarray, a: np.ndarray, dts: np.ndarray):
+        """The input stage on a chunk (its state carried): bias-corrected gyro, filtered specific force and the
+        stage's :class:`FilterRun` (None without the stage)."""
+        if self._front is None:
+            return g, a, None
         if g.shape[0] == 1:  # one sample: the filter's step (same arithmetic, no per-chunk arrays)
-            self._front.update(g[0], a[0], dt=float(dts[0]))
-            r = SimpleNamespace(q_b_n=self._front.q_b_n[None], gyr_bias=self._front.gyr_bias[None])
+            f = self._front
+            f.update(g[0], a[0], dt=float(dts[0]))
+            r = FilterRun(f.q_b_n[None], np.array([f.rest]), gyr_bias=f.gyr_bias[None])
         else:
             r = self._front.update_batch(g, a, dt=dts if dts.size > 1 else float(dts[0]))  # (1,): one step for all
-        return front_outputs(r, g, a, self.frame)
+        return (*front_outputs(r, g, a, self.frame), r)
 
     def _step(self, dt) -> float | np.ndarray:
         h = self.dt if dt is None else dt
@@ -783,7 +807,7 @@ class _Filter:
             pol = PolarizationMeasurement(
                 np.array([pol_sample[0]], dtype=float), pol_sample[1], dop, self.C_b_m, self.frame, **self._pol_kw
             )
-        g, a = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
+        g, a, _ = self._front_step(np.ascontiguousarray(g), np.ascontiguousarray(a), dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, 1, self.frame)
         self._add_skipped(skipped, pol)
         if self.state is None:
@@ -810,7 +834,7 @@ class _Filter:
         )
         return self._out[0].copy()
 
-    def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None) -> np.ndarray:
+    def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None) -> FilterRun:
         """A chunk of samples, with the arithmetic of :func:`estimate` (chunks in turn give its output exactly).
 
         Parameters
@@ -826,28 +850,37 @@ class _Filter:
 
         Returns
         -------
-        (N, 4) ndarray
-            q_b^n [w, x, y, z] [-] after each sample.
+        FilterRun
+            ``q_b_n`` (N, 4) q_b^n [-] after each sample; behind the input stage its ``rest`` (N,) and
+            ``gyr_bias`` (N, 3) [rad/s] (mekf: plus its own bias state; as published mekf's own, gd/cg/qn None);
+            mekf's ``att_std`` (N, 3) [rad]; ``acc_used``/``mag_used`` None. N = 0 gives empty arrays.
         """
         g = np.ascontiguousarray(as_float_array(gyr, "gyr", last_dims=(3,)).reshape(-1, 3))
         a = np.ascontiguousarray(as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3))
         if g.shape != a.shape:
             raise OptinavError(f"gyr {g.shape} and acc {a.shape} differ in shape", "pass one row per sample")
         n = g.shape[0]
+        mekf = self.METHOD == "mekf"
         if n == 0:
-            return np.empty((0, 4))
+            rows = np.empty((0, 3))
+            bias = rows if self.input_stage or mekf else None
+            rest = np.zeros(0, bool) if self.input_stage else None
+            return FilterRun(np.empty((0, 4)), rest, gyr_bias=bias, att_std=rows.copy() if mekf else None)
         dts = _as_dt(self._step(dt), n)
-        g, a = self._front_step(g, a, dts)
+        g, a, front = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
         self._add_skipped(skipped, pol)
         if self.state is None:
             q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
             self.state = _init_state(self.METHOD, q, self.options)
-        out, std = np.empty((n, 4)), np.empty((n, 3))
+        out, std, own = np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)) if mekf else _NO_ROWS
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, out, std,
-             self.counts, self.input_stage)  # fmt: skip
+             self.counts, self.input_stage, own)  # fmt: skip
         self._out[0], self._std[0] = out[-1], std[-1]
-        return out
+        bias = None if front is None else front.gyr_bias
+        if mekf:  # the stage's bias plus the MEKF's own state, as gyr_bias after each update()
+            bias = own if bias is None else bias + own
+        return FilterRun(out, None if front is None else front.rest, gyr_bias=bias, att_std=std if mekf else None)
 
 
 class GradientDescent(_Filter):
@@ -874,9 +907,9 @@ class MEKF(_Filter):
     METHOD = "mekf"
 
     @property
-    def att_std(self) -> np.ndarray:
-        """Attitude-error σ (rad, body axes) after the last update."""
-        return self._std[0].copy()
+    def att_std(self) -> np.ndarray | None:
+        """Attitude-error σ [rad] about the body axes after the last update (None before the first)."""
+        return None if self.state is None else self._std[0].copy()
 
 
 _CLASSES = {"iframe": AttitudeFilter, "gd": GradientDescent, "cg": ConjugateGradient, "qn": QuasiNewton, "mekf": MEKF}
@@ -895,7 +928,10 @@ def make_filter(method: str = "iframe", **kwargs):
     Returns
     -------
     AttitudeFilter or a filter of the method
-        Feed it with ``update`` / ``update_batch``.
+        Feed it with ``update`` (one sample; gd/cg/qn/mekf return q_b^n (4,), iframe None for speed) or
+        ``update_batch`` (a chunk: a :class:`FilterRun` for every method); after either, every filter has
+        ``q_b_n``, ``rest``, ``gyr_bias`` [rad/s], ``acc_used``, ``mag_used``, ``att_std`` [rad] (None where the
+        method has no such output, and before the first sample).
     """
     m = str(method).lower()
     if m not in _CLASSES:

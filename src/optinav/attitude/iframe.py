@@ -56,7 +56,7 @@ from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
-__all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "IframeRun", "run_iframe", "input_stage"]
+__all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "FilterRun", "IframeRun", "run_iframe", "input_stage"]
 
 _ORDER = (
     "tau_acc",
@@ -118,25 +118,39 @@ def _new_state(opts: dict, q0=None) -> np.ndarray:
 
 
 @dataclass
-class IframeRun:
-    """Per-sample outputs of the ``iframe`` estimator."""
+class FilterRun:
+    """Per-sample outputs of a chunk of samples, the same type for every method (``update_batch`` of each
+    streaming filter, :func:`run_iframe`); an output the method does not have is None.
 
-    q_b_n: np.ndarray  # (N, 4) q_b^n
-    rest: np.ndarray  # (N,) bool
-    acc_used: np.ndarray  # (N,) bool
-    mag_used: np.ndarray  # (N,) bool
-    gyr_bias: np.ndarray  # (N, 3) rad/s
-    state: np.ndarray  # final state
+    ``q_b_n`` (N, 4) q_b^n [w, x, y, z]; ``rest`` (N,) bool, rest detected (the input stage's for gd/cg/qn/mekf);
+    ``acc_used``/``mag_used`` (N,) bool, the accelerometer / magnetometer sample corrected the attitude (iframe's
+    decisions; ``mag_used`` all False without a magnetometer); ``gyr_bias`` (N, 3) rad/s, the gyro-bias estimate
+    after each sample (mekf: the input stage's plus its own state); ``state`` iframe's final state;
+    ``att_std`` (N, 3) rad, mekf's attitude-error σ about the body axes. The names are those of
+    :class:`~optinav.attitude.AttitudeEstimate`, whose ``gyr_bias`` is the last row's.
+    """
+
+    q_b_n: np.ndarray
+    rest: np.ndarray | None = None
+    acc_used: np.ndarray | None = None
+    mag_used: np.ndarray | None = None
+    gyr_bias: np.ndarray | None = None
+    state: np.ndarray | None = None
+    att_std: np.ndarray | None = None
 
 
-def _run(st, par, gyr, acc, mag, dts) -> IframeRun:
+#: the name of :class:`FilterRun` while only iframe's chunks returned one
+IframeRun = FilterRun
+
+
+def _run(st, par, gyr, acc, mag, dts) -> FilterRun:
     n = gyr.shape[0]
     out = np.empty((n, 4))
     flags = np.empty((n, 4), np.int8)
     bias = np.empty((n, 3))
     _k.run(st, par, gyr, acc, mag, dts, out, flags, bias)
     f = flags.astype(bool)
-    return IframeRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st)
+    return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st)
 
 
 def _reverse(gyr, acc, mag, dts):
@@ -192,7 +206,7 @@ def _fuse(qf, qb, share):
 
 def run_iframe(
     gyr, acc, dts, *, mag=None, frame: str = DEFAULT_FRAME, q0=None, offline: bool = False, **options
-) -> IframeRun:
+) -> FilterRun:
     """Run the estimator on checked (N, 3) float arrays; ``dts`` (1,) or (N,) s; ``mag`` (N, 3) any unit or
     None. Options override :data:`IFRAME_DEFAULTS`."""
     opts = dict(IFRAME_DEFAULTS)
@@ -227,7 +241,7 @@ def run_iframe(
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
-    return IframeRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, used, bias, fwd.state)
+    return FilterRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, used, bias, fwd.state)
 
 
 def field_azimuth(q, mag, frame) -> np.ndarray:
@@ -312,14 +326,14 @@ def tilt_halfway(q, up_b, frame):
     return quat_multiply(quat_from_rotvec(rv), q)
 
 
-def input_stage(gyr, acc, dts, frame: str = DEFAULT_FRAME, **options) -> tuple[np.ndarray, np.ndarray, IframeRun]:
+def input_stage(gyr, acc, dts, frame: str = DEFAULT_FRAME, **options) -> tuple[np.ndarray, np.ndarray, FilterRun]:
     """The iframe front end for other estimators: bias-corrected gyro (rad/s) and the specific force low-passed
     in the almost-inertial frame, expressed back in body axes (m/s²)."""
     r = run_iframe(gyr, acc, dts, frame=frame, **options)
     return (*front_outputs(r, gyr, acc, frame), r)
 
 
-def front_outputs(r: IframeRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.ndarray]:
+def front_outputs(r: FilterRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.ndarray]:
     """The input stage's (bias-corrected gyro, filtered specific force) of the samples ``r`` ran on."""
     # the low-passed specific force in n is (along) up; back to the body with the estimated attitude, scaled by
     # the measured norm so the published methods' norm checks still see the dynamics
@@ -332,8 +346,10 @@ class AttitudeFilter:
     """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
 
     ``rate_hz`` or ``dt`` (s) gives the default step. After each update: :attr:`q_b_n`, :attr:`rest`,
-    :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used`. :meth:`update_batch` runs chunks with the same
-    arithmetic as :func:`optinav.attitude.estimate`.
+    :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
+    None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
+    the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
+    filter does.
     """
 
     def __init__(
@@ -346,6 +362,8 @@ class AttitudeFilter:
         self.dt = default_step(rate_hz, dt)
         self._par = _params(self.frame, self.options)
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
+        # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
+        self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
         self._step = _k.step
         self._step6 = _k.step6
 
@@ -384,8 +402,8 @@ class AttitudeFilter:
                 "skip it: give the next sample dt= the time since the last one used",
             )
 
-    def update_batch(self, gyr, acc, mag=None, dt=None) -> IframeRun:
-        """A chunk of samples, with per-sample outputs.
+    def update_batch(self, gyr, acc, mag=None, dt=None) -> FilterRun:
+        """A chunk of samples, with per-sample outputs (the arithmetic of :meth:`update`).
 
         Parameters
         ----------
@@ -393,40 +411,61 @@ class AttitudeFilter:
             Angular rate ω_ib^b [rad/s].
         acc : (N, 3) array
             Specific force [m/s^2].
-        mag : (N, 3) array or None
-            Magnetometer [any unit].
+        mag : (N, 3) array, float, (N,) array or None
+            Magnetometer [any unit]; a number or (N,) array here is the step dt [s] (``update_batch(gyr, acc,
+            dt)``, the form of the other methods' filters).
         dt : float, (N,) array or None
             Steps [s]; None: the filter's.
 
         Returns
         -------
-        IframeRun
-            ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` flags, gyro ``gyr_bias`` (N, 3) [rad/s].
+        FilterRun
+            ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` (N,) flags, ``gyr_bias`` (N, 3) [rad/s]
+            after each sample; N = 0 gives empty arrays.
         """
         from optinav.attitude.estimators import _as_dt, _checked_imu
 
+        if mag is not None and np.ndim(mag) < 2:  # a step in mag's place, as update() takes it
+            if dt is not None:
+                raise OptinavError("update_batch got the step twice (third argument and dt=)", "pass dt= only")
+            mag, dt = None, mag
+        if np.shape(gyr)[:1] == (0,) and np.shape(acc)[:1] == (0,):  # an empty chunk (a stream's last read)
+            no = np.zeros(0, bool)
+            return FilterRun(np.empty((0, 4)), no, no.copy(), no.copy(), np.empty((0, 3)), self._state.copy())
         g, a, m = _checked_imu(gyr, acc, mag)
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
-        return _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
+        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
+        r.state = self._state.copy()  # the chunk's end state, not the filter's live one
+        return r
 
     @property
-    def q_b_n(self) -> np.ndarray:
-        return self._state[_k.S_Q : _k.S_Q + 4].copy()
+    def q_b_n(self) -> np.ndarray | None:
+        """q_b^n [w, x, y, z] after the last update (None before the first)."""
+        return self._q.copy() if self._state[_k.S_INIT] else None
 
     @property
-    def rest(self) -> bool:
-        return bool(self._state[_k.S_REST])
+    def rest(self) -> bool | None:
+        """Whether rest was detected at the last sample (None before the first)."""
+        return bool(self._state[_k.S_REST]) if self._state[_k.S_INIT] else None
 
     @property
-    def gyr_bias(self) -> np.ndarray:
-        return self._state[_k.S_BIAS : _k.S_BIAS + 3].copy()
+    def gyr_bias(self) -> np.ndarray | None:
+        """Gyro-bias estimate [rad/s] after the last update (None before the first)."""
+        return self._bias.copy() if self._state[_k.S_INIT] else None
 
     @property
-    def acc_used(self) -> bool:
-        return bool(self._state[_k.S_ACC_USED])
+    def acc_used(self) -> bool | None:
+        """Whether the last accelerometer sample corrected the tilt (None before the first)."""
+        return bool(self._state[_k.S_ACC_USED]) if self._state[_k.S_INIT] else None
 
     @property
-    def mag_used(self) -> bool:
-        return bool(self._state[_k.S_MAG_USED])
+    def mag_used(self) -> bool | None:
+        """Whether the last magnetometer sample corrected the heading (None before the first)."""
+        return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_INIT] else None
+
+    @property
+    def att_std(self) -> None:
+        """None: iframe has no attitude covariance (mekf's filter has, as :attr:`FilterRun.att_std`)."""
+        return None
