@@ -672,3 +672,25 @@ def test_every_filter_has_no_attitude_before_its_first_sample():
             assert getattr(f, k) is None, (method, k)
         f.update(np.zeros(3), np.array([0.0, 0.0, -G]))
         assert np.isclose(np.linalg.norm(f.q_b_n), 1.0) and f.rest is not None, method
+
+
+def test_every_filter_refuses_the_input_its_method_takes_not_in_one_line():
+    """iframe's update_batch takes mag= and the others' pol=, so a loop over the methods passing either keyword
+    ended in a TypeError (an unexpected keyword) where estimate() gives a one-line error naming the method.
+    Each filter takes both keywords now and refuses the one its method does not use as estimate() does."""
+    from optinav.attitude import METHODS as ALL_METHODS
+
+    d = synth(20, amp=1.0, seed=2)
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    mag = np.tile([20.0, 0.0, 40.0], (20, 1))
+    for method in ALL_METHODS:
+        f = make_filter(method, rate_hz=100.0)
+        bad = dict(pol=pol) if method == "iframe" else dict(mag=mag)
+        with pytest.raises(OptinavError, match="takes no polarization" if method == "iframe" else "no magnetometer"):
+            f.update_batch(d["gyr"], d["acc"], **bad)
+        with pytest.raises(OptinavError):
+            estimate(d["gyr"], d["acc"], d["dt"], method=method, **bad)
+        if method != "iframe":
+            with pytest.raises(OptinavError, match="no magnetometer"):
+                f.update(d["gyr"][0], d["acc"][0], mag=mag[0])
+        assert f.q_b_n is None, method  # nothing was used

@@ -793,9 +793,14 @@ class _Filter:
             raise OptinavError("no time step for this update", "pass dt= or build the filter with rate_hz")
         return h
 
-    def update(self, gyr, acc, dt=None, pol_sample=None) -> np.ndarray:
+    def _no_mag(self, mag) -> None:
+        if mag is not None:  # as estimate() refuses it (a keyword of iframe's filter, so one loop can pass it)
+            raise OptinavError(f"method {self.METHOD} takes no magnetometer", "use make_filter('iframe') with mag")
+
+    def update(self, gyr, acc, dt=None, pol_sample=None, mag=None) -> np.ndarray:
         """Process one sample: gyr (3,) rad/s, acc (3,) m/s², dt s (None: the filter's); ``pol_sample`` None,
-        (aop, sun_n) or (aop, sun_n, dop). Returns q_b^n (4,)."""
+        (aop, sun_n) or (aop, sun_n, dop); ``mag`` only None (refused: iframe's). Returns q_b^n (4,)."""
+        self._no_mag(mag)
         g = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(1, 3)
         a = as_float_array(acc, "acc", last_dims=(3,)).reshape(1, 3)
         dts = _as_dt(self._step(dt), 1)
@@ -834,7 +839,7 @@ class _Filter:
         )
         return self._out[0].copy()
 
-    def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None) -> FilterRun:
+    def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None, mag=None) -> FilterRun:
         """A chunk of samples, with the arithmetic of :func:`estimate` (chunks in turn give its output exactly).
 
         Parameters
@@ -847,6 +852,8 @@ class _Filter:
             Steps [s]; None: the filter's.
         pol : PolarizationMeasurement or None
             The chunk's polarization samples (N of them).
+        mag : None
+            Refused unless None: these methods take no magnetometer (iframe's filter does).
 
         Returns
         -------
@@ -855,6 +862,7 @@ class _Filter:
             ``gyr_bias`` (N, 3) [rad/s] (mekf: plus its own bias state; as published mekf's own, gd/cg/qn None);
             mekf's ``att_std`` (N, 3) [rad]; ``acc_used``/``mag_used`` None. N = 0 gives empty arrays.
         """
+        self._no_mag(mag)
         g = np.ascontiguousarray(as_float_array(gyr, "gyr", last_dims=(3,)).reshape(-1, 3))
         a = np.ascontiguousarray(as_float_array(acc, "acc", last_dims=(3,)).reshape(-1, 3))
         if g.shape != a.shape:

@@ -402,7 +402,7 @@ class AttitudeFilter:
                 "skip it: give the next sample dt= the time since the last one used",
             )
 
-    def update_batch(self, gyr, acc, mag=None, dt=None) -> FilterRun:
+    def update_batch(self, gyr, acc, mag=None, dt=None, pol=None) -> FilterRun:
         """A chunk of samples, with per-sample outputs (the arithmetic of :meth:`update`).
 
         Parameters
@@ -416,6 +416,8 @@ class AttitudeFilter:
             dt)``, the form of the other methods' filters).
         dt : float, (N,) array or None
             Steps [s]; None: the filter's.
+        pol : None
+            Refused unless None: iframe takes no polarization (the other methods' filters do).
 
         Returns
         -------
@@ -424,7 +426,10 @@ class AttitudeFilter:
             after each sample; N = 0 gives empty arrays.
         """
         from optinav.attitude.estimators import _as_dt, _checked_imu
+        from optinav.attitude.methods import _method
 
+        if pol is not None:
+            _method("iframe", pol)  # refused as estimate() refuses it
         if mag is not None and np.ndim(mag) < 2:  # a step in mag's place, as update() takes it
             if dt is not None:
                 raise OptinavError("update_batch got the step twice (third argument and dt=)", "pass dt= only")
