@@ -670,3 +670,26 @@ def test_rest_is_detected_at_every_rate(rate):
     res = estimate(d.gyr, d.acc, d.dt, frame=d.frame)
     settle = d.t >= d.t[0] + IFRAME_DEFAULTS["rest_time"] + 2.0 / rate
     assert res.rest[settle].all() and not res.rest[d.t < d.t[0] + 1.4].any()
+
+
+def test_streaming_update_takes_lists_and_tuples_as_arrays_without_a_numba_warning():
+    """AttitudeFilter.update(gyr, acc) with Python lists (a sensor driver's reading) handed them to the compiled step
+    as reflected lists: a NumbaPendingDeprecationWarning on every new type and a compile of its own. Lists and
+    tuples now go in as numbers: the same attitude as arrays, bit for bit, and no warning."""
+    import warnings
+
+    from optinav.attitude import AttitudeFilter
+
+    rng = np.random.default_rng(4)
+    g = rng.normal(0, 0.2, (50, 3))
+    a = np.array([0.0, 0.0, -9.81]) + rng.normal(0, 0.3, (50, 3))
+    ref, lst = AttitudeFilter(rate_hz=100.0), AttitudeFilter(rate_hz=100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for i in range(50):
+            ref.update(g[i], a[i])
+            if i % 2:
+                lst.update(g[i].tolist(), tuple(a[i].tolist()))
+            else:
+                lst.update(tuple(g[i].tolist()), a[i].tolist())
+            assert np.array_equal(lst.q_b_n, ref.q_b_n) and np.array_equal(lst.gyr_bias, ref.gyr_bias), i
