@@ -16,8 +16,10 @@ from optinav.core.rotations import (
     dcm_from_quat,
     quat_angle_between,
     quat_from_dcm,
+    quat_conjugate,
     quat_from_rotvec,
     quat_multiply,
+    quat_rotate,
 )
 from optinav.errors import OptinavError
 
@@ -693,3 +695,29 @@ def test_streaming_update_takes_lists_and_tuples_as_arrays_without_a_numba_warni
             else:
                 lst.update(tuple(g[i].tolist()), a[i].tolist())
             assert np.array_equal(lst.q_b_n, ref.q_b_n) and np.array_equal(lst.gyr_bias, ref.gyr_bias), i
+
+
+def test_streaming_chunk_without_a_magnetometer_sample_runs_as_the_whole_recording():
+    """A magnetometer at 1/25 of the IMU's rate (NaN rows between) streamed in chunks of 20 samples: a chunk that held
+    no magnetometer sample was refused by AttitudeFilter.update_batch ("the magnetometer has no sample with three
+    finite values"), a check meant for a whole recording. Chunks now run, and equal estimate() on the whole log
+    (which still refuses a recording whose magnetometer never gives a sample)."""
+    rng = np.random.default_rng(6)
+    n = 1000
+    t = np.arange(n) * 0.01
+    g = np.column_stack([0.2 * np.sin(t), 0.1 * np.cos(0.7 * t), 0.3 * np.ones(n)]) + rng.normal(0, 1e-3, (n, 3))
+    q = np.empty((n, 4))
+    q[0] = [1.0, 0.0, 0.0, 0.0]
+    for i in range(1, n):
+        q[i] = quat_multiply(q[i - 1], quat_from_rotvec(g[i] * 0.01))
+    up, field = np.array([0.0, 0.0, -9.81]), np.array([20.0, 0.0, 40.0])  # NED: specific force up, field down-north
+    acc = quat_rotate(quat_conjugate(q), up) + rng.normal(0, 0.02, (n, 3))
+    mag = quat_rotate(quat_conjugate(q), field) + rng.normal(0, 0.3, (n, 3))
+    mag[np.arange(n) % 25 != 0] = np.nan
+    whole = estimate(g, acc, 0.01, mag=mag, checks=False)
+    f = AttitudeFilter(rate_hz=100.0)
+    chunks = [f.update_batch(g[a : a + 20], acc[a : a + 20], mag[a : a + 20]) for a in range(0, n, 20)]
+    assert any(not np.isfinite(mag[a : a + 20]).any() for a in range(0, n, 20))
+    np.testing.assert_array_equal(np.concatenate([c.q_b_n for c in chunks]), whole.q_b_n)
+    with pytest.raises(OptinavError, match="no sample with three finite values"):
+        estimate(g, acc, 0.01, mag=np.full((n, 3), np.nan), checks=False)

@@ -436,8 +436,9 @@ def no_mag_error() -> OptinavError:
     )
 
 
-def _checked_imu(gyr, acc, mag=None):
-    """(N, 3) float arrays gyr, acc (and mag or None) with matching N >= 1."""
+def _checked_imu(gyr, acc, mag=None, *, whole: bool = True):
+    """(N, 3) float arrays gyr, acc (and mag or None) with matching N >= 1; ``whole``: the whole recording, whose
+    magnetometer must have a finite sample (a chunk of a stream may have none: a slow magnetometer's NaN rows)."""
     gyr = as_float_array(gyr, "gyr", last_dims=(3,))
     acc = as_float_array(acc, "acc", last_dims=(3,))
     if gyr.ndim != 2 or acc.ndim != 2 or gyr.shape[0] == 0:
@@ -448,7 +449,7 @@ def _checked_imu(gyr, acc, mag=None):
         mag = as_float_array(mag, "mag", last_dims=(3,), finite=False)
         if mag.shape != gyr.shape:
             raise OptinavError(f"mag has shape {mag.shape}, expected {gyr.shape}", "align the magnetometer")
-        if not np.isfinite(mag).all(axis=1).any():
+        if whole and not np.isfinite(mag).all(axis=1).any():
             raise no_mag_error()
         mag = np.ascontiguousarray(mag)
     return np.ascontiguousarray(gyr), np.ascontiguousarray(acc), mag

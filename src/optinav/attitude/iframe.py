@@ -444,7 +444,7 @@ class AttitudeFilter:
         if np.shape(gyr)[:1] == (0,) and np.shape(acc)[:1] == (0,):  # an empty chunk (a stream's last read)
             no = np.zeros(0, bool)
             return FilterRun(np.empty((0, 4)), no, no.copy(), no.copy(), np.empty((0, 3)), self._state.copy())
-        g, a, m = _checked_imu(gyr, acc, mag)
+        g, a, m = _checked_imu(gyr, acc, mag, whole=False)  # a chunk: a slow magnetometer may give it none
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
