@@ -216,17 +216,12 @@ class StreamEstimator:
         return _options(method, dict(options))
 
     def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = True, **options):
-        from optinav.attitude import iframe as _if  # the kernels load on the first estimator
         from optinav.attitude.estimators import _as_q0
 
         self.opts = self.check(method, options)
         self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
         self.input_stage = input_stage or method == "iframe"
-        self.front_opts = dict(_if.IFRAME_DEFAULTS)
-        if method == "iframe":
-            self.front_opts.update(self.opts)
-        self.par = _if._params(self.frame, self.front_opts)
-        self.counts = np.zeros(3, dtype=np.int64)
+        self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
         self.n = self.rest = self.acc_hits = self.segments = 0
         self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
@@ -234,75 +229,45 @@ class StreamEstimator:
         self.restart()
 
     def restart(self) -> None:
-        self._front = self._state = None
+        self._filter = None
+
+    def _new_filter(self):
+        """The streaming filter of :func:`~optinav.attitude.make_filter` for a new segment (q0 for the first)."""
+        from optinav.attitude.estimators import make_filter
+
+        kw = dict(self.opts, frame=self.frame, q0=self.q0 if self.segments == 0 else None)
+        return make_filter(self.method, input_stage=self.input_stage, **kw)
 
     def run(
         self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None, pol=None
     ) -> np.ndarray:
         """q_b^n (n, 4) of the next block: gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s, ``mag`` (n, 3) any unit
-        (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe)."""
-        from optinav.attitude import iframe as _if
-        from optinav.attitude.estimators import _init_state, _pol_arrays, _run, initial_attitude
-        from optinav.attitude.measurement import up_vector
-
-        gyr, acc = np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float)
+        (iframe) and ``pol`` a :class:`~optinav.attitude.PolarizationMeasurement` of the block (not iframe): the
+        segment's filter's :meth:`update_batch`, its per-block outputs summed for :meth:`summary`."""
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
-        dts = np.ascontiguousarray(dts, dtype=float)
-        n = gyr.shape[0]
-        first_segment = self.segments == 0
-        if self._front is None and self._state is None:
+        if self._filter is None:
+            self._filter = self._new_filter()
             self.segments += 1
-        self.n += n
-        front_bias = None
-        if self.input_stage:
-            if self._front is None:
-                q0 = self.q0 if first_segment and self.method == "iframe" else None
-                self._front = _if._new_state(self.front_opts, q0)
-            m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
-            r = _if._run(self._front, self.par, gyr, acc, m, dts)
+        f, dts = self._filter, np.ascontiguousarray(dts, dtype=float)
+        self.n += dts.shape[0]
+        if self.method == "iframe":
+            r = f.update_batch(gyr, acc, mag, dt=dts)
+            self.acc_hits += int(np.count_nonzero(~r.acc_used))
+            if mag is not None:
+                self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
+        else:
+            counts, skipped = f.counts.copy(), dict(f._skipped)
+            r = f.update_batch(gyr, acc, dts, pol=pol)
+            self.counts += f.counts - counts
+            if pol is not None:
+                self.pol_skipped = self.pol_skipped or {}
+                for k, v in f._skipped.items():
+                    self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v - skipped.get(k, 0)
+        if r.rest is not None:
             self.rest += int(np.count_nonzero(r.rest))
-            front_bias = r.gyr_bias[-1].copy()
-            if self.method == "iframe":
-                if mag is not None:
-                    self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
-                self.acc_hits += int(np.count_nonzero(~r.acc_used))
-                self.gyr_bias = front_bias
-                return r.q_b_n
-            gyr, acc = _if.front_outputs(r, gyr, acc, self.frame)
-        if self._state is None:
-            q = self.q0 if self.q0 is not None and first_segment else initial_attitude(acc[0], self.frame, pol, 0)
-            self._state = _init_state(self.method, q, self.opts)
-        use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
-        if pol is not None:
-            self.pol_skipped = self.pol_skipped or {}
-            for k, v in skipped.items():
-                self.pol_skipped[k] = self.pol_skipped.get(k, 0) + v
-        out, std = np.empty((n, 4)), np.empty((n, 3))
-        _run(
-            self.method,
-            self.opts,
-            self._state,
-            gyr,
-            acc,
-            dts,
-            up_vector(self.frame),
-            use,
-            sn,
-            cbm,
-            c2,
-            s2,
-            min_d2,
-            out,
-            std,
-            self.counts,
-            bool(self.input_stage),
-        )
-        bias = self._state[4:7].copy() if self.method == "mekf" else None
-        if front_bias is not None:
-            bias = front_bias + (0.0 if bias is None else bias)
-        self.gyr_bias = bias
-        return out
+        self.gyr_bias = f.gyr_bias
+        return r.q_b_n
 
     @property
     def acc_threshold_hits(self) -> int:
