@@ -617,25 +617,8 @@ def estimate(
     out = np.empty((n, 4))
     std = np.empty((n, 3))
     counts = np.zeros(3, dtype=np.int64)
-    _run(
-        method,
-        opts,
-        state,
-        gyr,
-        acc,
-        dts,
-        up_vector(frame),
-        use,
-        sn,
-        cbm,
-        c2,
-        s2,
-        min_d2,
-        out,
-        std,
-        counts,
-        bool(input_stage),
-    )
+    _run(method, opts, state, gyr, acc, dts, up_vector(frame), use, sn, cbm, c2, s2, min_d2, out, std, counts,
+         bool(input_stage))  # fmt: skip
     if pol is not None:
         skipped = dict(skipped)
         skipped["sun_near_sensor_zenith"] = int(counts[_kernels.C_POL_NEAR_ZENITH])
@@ -819,25 +802,8 @@ class _Filter:
         if self.state is None:
             q = self._q0 if self._q0 is not None else initial_attitude(a[0], self.frame, pol, 0)
             self.state = _init_state(self.METHOD, q, self.options)
-        _run(
-            self.METHOD,
-            self.options,
-            self.state,
-            g,
-            a,
-            dts,
-            self._un,
-            use,
-            sn,
-            cbm,
-            c2,
-            s2,
-            min_d2,
-            self._out,
-            self._std,
-            self.counts,
-            self.input_stage,
-        )
+        _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
+             self._std, self.counts, self.input_stage)  # fmt: skip
         return self._out[0].copy()
 
     def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None, mag=None) -> FilterRun:
