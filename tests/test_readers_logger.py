@@ -1270,3 +1270,41 @@ def test_imu_tk_data_one_sensor_per_headerless_file_calibrates_as_one_table(tmp_
     np.savetxt(rev, np.column_stack([t[::-1], acc]), fmt="%.6f %d %d %d")
     assert main(["calibrate", "accel", str(rev), "--gyro", str(g), *units, "--out", str(tmp_path / "y.json")]) == 2
     assert "has no accelerometer data" in capsys.readouterr().err
+
+
+def _dot_export(s, tail=",,,,,,,,,,,,,,,,,"):
+    """A Movella DOT app/SDK CSV export of session ``s`` (m/s^2, deg/s): Excel's 'sep=,' line, 'Key:,value' lines
+    padded with commas, the copyright line, a blank line, then the table without a time column."""
+    head = ["DeviceTag:,Left wrist", "FirmwareVersion:,2.4.0", "AppVersion:,2023.3.0", "SyncStatus:,Synced"]
+    head += ["OutputRate:,100Hz", "FilterProfile:,General", "Measurement Mode:,Custom Mode 27"]
+    head += ["StartTime:,2023-11-14 14:13:20.000 +0100", "Movella Technologies B. V. 2005-2023,"]
+    rows = "".join(
+        f"{i},{123456 + 10_000 * i},0.5,-0.25,10.0,{','.join(f'{v:.6f}' for v in (*s.acc[i], *s.gyr[i]))},0\n"
+        for i in range(len(s.t))
+    )
+    cols = "PacketCounter,SampleTimeFine,Euler_X,Euler_Y,Euler_Z,Acc_X,Acc_Y,Acc_Z,Gyr_X,Gyr_Y,Gyr_Z,Flag\n"
+    return "sep=,\n" + "".join(h + tail + "\n" for h in head) + "\n" + cols + rows
+
+
+@pytest.mark.parametrize("tail", [",,,,,,,,,,,,,,,,,", ""])
+def test_a_movella_dot_export_reads_its_rate_and_names_the_gyro_unit(tmp_path, capsys, tail):
+    """A Movella DOT export ('Key:,value' settings lines padded with commas above the table, the rate in
+    'OutputRate:,100Hz', Gyr_* in deg/s) was refused as a ragged row ('line 12 has 12 field(s), 19 expected'; unpadded
+    'line 12 has 12 field(s), 2 expected'), naming --skip-bad-lines, which cannot help. Its settings are a preamble now, the
+    rate read from it; calibrate names the gyro's unit, and with it gives the truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="deg/s", rng=7)
+    path = _w(tmp_path / "Left wrist_20231114_141320_000.csv", _dot_export(s, tail).encode())
+    log = read_imu(path, gyro_unit="deg/s")
+    np.testing.assert_allclose(log.t - log.t[0], np.arange(len(s.t)) / 100.0, atol=1e-12)
+    np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
+    assert any("OutputRate" in n and "100 Hz" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    argv = ["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]
+    assert main(argv) == 2
+    assert "--gyro-unit deg/s" in capsys.readouterr().err
+    assert main([*argv, "--gyro-unit", "deg/s"]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))

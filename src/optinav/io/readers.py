@@ -1523,7 +1523,8 @@ def _parse_slow(
 _MAX_PREAMBLE = 50
 #: non-blank, non-comment lines that :func:`_text_layout` looks at (a preamble, then 10 table lines)
 _HEAD_CONTENT = 10 + _MAX_PREAMBLE
-_KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*[,;:=\t]\s*([^,;\t]*?)\s*[,;\t]*\s*$")
+#: a ``key,value`` line; ``key:,value`` too (a Movella DOT export: ``OutputRate:,60Hz,,,,``)
+_KEY_VALUE = re.compile(r"^\s*([A-Za-z][\w .()\[\]/-]*?)\s*(?::\s*[,;\t]|[,;:=\t])\s*([^,;\t]*?)\s*[,;\t]*\s*$")
 #: preamble keys (normalized) that give the sample rate in Hz
 RATE_KEYS = (
     "fs",
@@ -1537,7 +1538,9 @@ RATE_KEYS = (
     "frequency",
     "odr",
     "update_rate",
+    "updaterate",
     "output_rate",
+    "outputrate",  # a Movella DOT export's 'OutputRate:,60Hz'
 )
 
 
