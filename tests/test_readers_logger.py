@@ -1308,3 +1308,52 @@ def test_a_movella_dot_export_reads_its_rate_and_names_the_gyro_unit(tmp_path, c
 
     U, _ = model.upper_triangular_form(s.acc_K)
     np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+
+
+def _metabase(t, values, unit):
+    """A MetaWear MetaBase CSV of one sensor: epoch (ms), the local clock as text under its UTC offset, elapsed (s),
+    then the axes with the unit in brackets."""
+    head = f"epoch (ms),time (-08:00),elapsed (s),x-axis ({unit}),y-axis ({unit}),z-axis ({unit})\n"
+    rows = []
+    for ti, v in zip(t, values):
+        ms = 1_700_000_000_000 + int(round(ti * 1000))
+        clock = datetime.datetime.fromtimestamp(ms / 1000, datetime.timezone(datetime.timedelta(hours=-8)))
+        rows.append(
+            f"{ms},{clock.strftime('%Y-%m-%dT%H.%M.%S.%f')[:-3]},{ti - t[0]:.3f},{v[0]:.6f},{v[1]:.6f},{v[2]:.6f}\n"
+        )
+    return head + "".join(rows)
+
+
+def test_metawear_metabase_files_read_by_the_units_of_their_axes(tmp_path, capsys):
+    """MetaWear's MetaBase writes one file per sensor, 'epoch (ms),time (-08:00),elapsed (s),x-axis (g),…' (the gyro's
+    'x-axis (deg/s)'): refused at the first row ("'2023-11-14T14.13.20.000' is not a number"), the local clock under
+    its UTC offset taken for the time; and with it skipped, 'x-axis' named no sensor. The clock is left out as text,
+    elapsed (s) is the time and the unit in brackets names the sensor: the pair calibrates to the truth, as the
+    session in one file does."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="g", gyro_unit="deg/s", rng=3)
+    acc = _w(tmp_path / "MetaWear_Accelerometer.csv", _metabase(s.t, s.acc, "g").encode())
+    gyro = _w(tmp_path / "MetaWear_Gyroscope.csv", _metabase(s.t, s.gyr, "deg/s").encode())
+    log = read_imu(acc, gyro_path=gyro)
+    assert log.acc_input_unit == "g" and log.gyro_input_unit == "deg/s"
+    np.testing.assert_allclose(log.t, np.round(s.t - s.t[0], 3), atol=1e-9)
+    np.testing.assert_allclose(log.gyr, np.radians(np.round(s.gyr, 6)), atol=1e-12)
+    out = tmp_path / "r.json"
+    assert (
+        main(["calibrate", "accel", str(acc), "--gyro", str(gyro), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    )
+    assert "'time (-08:00)' hold text and were left out" in capsys.readouterr().err
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
+
+
+@pytest.mark.parametrize("unit", ["a.u.", "T", ""])
+def test_axes_whose_unit_names_no_sensor_stay_unnamed(tmp_path, unit):
+    """A magnetometer's, raw counts' or no unit on 'x-axis' says nothing of the sensor: the error asks for the mapping."""
+    head = ",".join(f"{a}-axis ({unit})" if unit else f"{a}-axis" for a in "xyz")
+    f = _w(tmp_path / "m.csv", "elapsed (s)," + head + "\n" + "".join(f"{i / 100},1,2,3\n" for i in range(20)))
+    with pytest.raises(OptinavError, match="no accelerometer or gyroscope"):
+        read_imu(f)

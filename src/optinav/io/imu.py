@@ -9,6 +9,7 @@ docs/file-formats.md.
 from __future__ import annotations
 
 import contextlib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -476,7 +477,11 @@ def _part_spec(columns, datasets, what: str, topic=None, skip_bad_lines=False) -
     sources = set(mapping.values())
 
     def needed(name: str) -> bool:  # a column read_imu takes (a text column it does not is left out)
-        return name in sources or normalize_name(name)[0] in ALIASES or normalize_name(name)[0] in FRAME_COLUMNS
+        if name in sources:
+            return True
+        return not _local_clock(name) and (
+            normalize_name(name)[0] in ALIASES or normalize_name(name)[0] in FRAME_COLUMNS
+        )
 
     return (
         positional,
@@ -743,6 +748,42 @@ def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str |
     table.meta["one_sensor_layout"] = ",".join(names)
 
 
+#: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
+_UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
+
+
+def _local_clock(name: str) -> bool:
+    """Whether column ``name`` is a time of day named with its UTC offset (``time (-08:00)``, MetaBase's local
+    clock as text, ``2023-11-14T14.13.20.000``): not the samples' time, which the file holds beside it."""
+    base, unit = normalize_name(name)
+    return base in ("time", "timestamp") and unit is not None and bool(_UTC_OFFSET.match(unit.strip()))
+
+
+def _axes_by_unit(table: Table, found: dict, candidates: dict) -> None:
+    """One sensor per file, its axes named ``x-axis (g)`` … (MetaWear's MetaBase: ``epoch (ms), time (-08:00),
+    elapsed (s), x-axis (deg/s), …``) or ``x (deg/s)``: the unit in brackets, the same on all three, says which
+    sensor (an accelerometer's or a gyroscope's unit; raw counts or a field's unit say nothing). Nothing else in
+    the file may look like a sensor."""
+    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+        return
+    axes: dict[str, tuple[str, str | None]] = {}
+    for key in table.data:
+        base, unit = normalize_name(key)
+        if base in ("x", "y", "z", "x_axis", "y_axis", "z_axis"):
+            if base[0] in axes:
+                return
+            axes[base[0]] = (key, table.units.get(key) or unit)
+    units = {u.strip().lower() if u else None for _, u in axes.values()}
+    if len(axes) != 3 or len(units) != 1:
+        return
+    unit = units.pop()
+    acc, gyro = ACC_UNITS.get(unit or ""), GYRO_UNITS.get(unit or "")
+    if acc == gyro or "counts" in (acc, gyro):  # no unit, or counts: either sensor
+        return
+    for a in "xyz":
+        candidates[f"{'a' if acc else 'g'}{a}"] = axes[a][0]
+
+
 def _coremotion(table: Table, found: dict, candidates: dict) -> None:
     """iOS Core Motion as SensorLog logs it (``accelerometerAccelerationX(G)``, ``gyroRotationX(rad/s)``,
     ``motionUserAccelerationX(G)``, ``motionGravityX(G)``, ``…Timestamp_sinceReboot(s)``). Core Motion's
@@ -857,7 +898,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
         hit = ALIASES.get(normalize_name(key)[0])
-        if hit is None or hit[0] in found:
+        if hit is None or hit[0] in found or _local_clock(key):
             continue
         std = hit[0]
         if std in candidates:
@@ -877,6 +918,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
     _one_sensor_columns(table, found, candidates, need)
+    _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
     _unreadable_triad(table, found)
