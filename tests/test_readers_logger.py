@@ -1357,3 +1357,44 @@ def test_axes_whose_unit_names_no_sensor_stay_unnamed(tmp_path, unit):
     f = _w(tmp_path / "m.csv", "elapsed (s)," + head + "\n" + "".join(f"{i / 100},1,2,3\n" for i in range(20)))
     with pytest.raises(OptinavError, match="no accelerometer or gyroscope"):
         read_imu(f)
+
+
+def test_androsensor_export_takes_the_accelerometer_and_its_clock(tmp_path, capsys):
+    """AndroSensor's CSV (';', 'ACCELEROMETER X (m/s²)', 'GRAVITY X (m/s²)', 'LINEAR ACCELERATION X (m/s²)' — the
+    phone's gravity-free acceleration —, 'GYROSCOPE X (rad/s)', 'Time since start in ms ', a local date-time) was
+    refused as 'ACCELEROMETER X and LINEAR ACCELERATION X both look like ax', one axis per run, and then as a file
+    without time. The linear acceleration is passed over (a note says so), the time read in ms: the session
+    calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=5)
+    ms = np.round((s.t - s.t[0]) * 1000).astype(int)
+    head = ";".join(
+        [f"ACCELEROMETER {a} (m/s²)" for a in "XYZ"]
+        + [f"GRAVITY {a} (m/s²)" for a in "XYZ"]
+        + [f"LINEAR ACCELERATION {a} (m/s²)" for a in "XYZ"]
+        + [f"GYROSCOPE {a} (rad/s)" for a in "XYZ"]
+        + ["Time since start in ms ", "YYYY-MO-DD HH-MI-SS_SSS"]
+    )
+    rows = "".join(
+        ";".join(f"{v:.6f}" for v in (*s.acc[i], *s.acc[i], *(0.01 * s.acc[i]), *s.gyr[i]))
+        + f";{ms[i]};2023-11-14 14:13:{20 + ms[i] // 1000:02d}:{ms[i] % 1000:03d}\n"
+        for i in range(len(s.t))
+    )
+    path = _w(tmp_path / "Sensor_record_20231114_141320_AndroSensor.csv", (head + "\n" + rows).encode())
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t, ms / 1000.0, atol=1e-12)
+    np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
+    assert any("LINEAR ACCELERATION X (m/s²)" in n and "passed over" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+
+
+def test_ros_linear_acceleration_alone_is_the_accelerometer(tmp_path):
+    """ROS's linear_acceleration holds gravity: without an ACCELEROMETER triad beside it, it is still read."""
+    head = "t,linear_acceleration_x,linear_acceleration_y,linear_acceleration_z\n"
+    log = read_imu(_w(tmp_path / "r.csv", head + "".join(f"{i / 100},0.1,0.2,9.8\n" for i in range(20))))
+    np.testing.assert_allclose(log.acc[0], [0.1, 0.2, 9.8])

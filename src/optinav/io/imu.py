@@ -141,6 +141,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
     al["millis"], al["micros"] = ("t", "ms"), ("t", "us")  # Arduino's clocks
     al["timeus"] = al["sampleus"] = ("t", "us")  # ArduPilot's DataFlash messages: TimeUS, SampleUS (µs since boot)
     al["header_stamp"] = ("t", "ns")  # rostopic echo -p prints the header stamp in ns
+    al["time_since_start_in_ms"] = ("t", "ms")  # AndroSensor (Android)
     for n in (
         "n_samples",
         "n_sample",
@@ -752,6 +753,19 @@ def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str |
 _UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
 
+def _android_linear(table: Table) -> set[str]:
+    """The columns of Android's linear acceleration (``LINEAR ACCELERATION X (m/s²)``: gravity taken out) in a
+    file that holds the accelerometer (``ACCELEROMETER X``) too, as AndroSensor writes them: passed over, named in
+    ``table.meta["gravity_free"]``. (ROS's ``linear_acceleration`` holds gravity, and stands alone.)"""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if not all(f"accelerometer_{a}" in norm for a in "xyz"):
+        return set()
+    keys = {norm[f"linear_acceleration_{a}"] for a in "xyz" if f"linear_acceleration_{a}" in norm}
+    if keys:
+        table.meta["gravity_free"] = norm["linear_acceleration_x"] if len(keys) == 1 else ", ".join(sorted(keys))
+    return keys
+
+
 def _local_clock(name: str) -> bool:
     """Whether column ``name`` is a time of day named with its UTC offset (``time (-08:00)``, MetaBase's local
     clock as text, ``2023-11-14T14.13.20.000``): not the samples' time, which the file holds beside it."""
@@ -892,7 +906,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
     _select_instance(table)
-    passed_over = _ardupilot_imu(table)
+    passed_over = _ardupilot_imu(table) | _android_linear(table)
     _one_frame(table)
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
@@ -1391,6 +1405,11 @@ def _log_of(
             notes.append(
                 f"{p.path.name}: Core Motion's acceleration is minus the specific force: read as "
                 f"{p.table.meta['coremotion']}"
+            )
+        if "gravity_free" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: {p.table.meta['gravity_free']} (the phone's linear acceleration, gravity taken out) "
+                "passed over for the accelerometer"
             )
         if "text_left_out" in p.table.meta and row0 == 0:
             notes.append(
