@@ -1398,3 +1398,44 @@ def test_ros_linear_acceleration_alone_is_the_accelerometer(tmp_path):
     head = "t,linear_acceleration_x,linear_acceleration_y,linear_acceleration_z\n"
     log = read_imu(_w(tmp_path / "r.csv", head + "".join(f"{i / 100},0.1,0.2,9.8\n" for i in range(20))))
     np.testing.assert_allclose(log.acc[0], [0.1, 0.2, 9.8])
+
+
+def test_a_shimmer_export_reads_without_columns(tmp_path, capsys):
+    """A Shimmer Consensys export ('"sep=;"', 'Shimmer_40AC_Timestamp_Unix_CAL;…_Accel_LN_X_CAL;…_Accel_WR_X_CAL;…
+    _Gyro_X_CAL;…_Mag_X_CAL;', a units row ms, m/(s^2), deg/s, local_flux) was refused as having no accelerometer,
+    the remedy a 7-name --columns for its 14 columns. The low-noise accelerometer, the gyroscope and the Unix time
+    are read (the wide-range accelerometer named in a note): the session calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="deg/s", rng=9)
+    p = "Shimmer_40AC_"
+    names = ["Timestamp_Unix_CAL", *(f"Accel_{r}_{a}_CAL" for r in ("LN", "WR") for a in "XYZ")]
+    names += [f"Gyro_{a}_CAL" for a in "XYZ"] + [f"Mag_{a}_CAL" for a in "XYZ"]
+    units = ["ms"] + ["m/(s^2)"] * 6 + ["deg/s"] * 3 + ["local_flux"] * 3
+    ms = 1_700_000_000_000 + (s.t - s.t[0]) * 1000
+    rows = "".join(
+        ";".join([f"{ms[i]:.3f}", *(f"{v:.6f}" for v in (*s.acc[i], *(s.acc[i] + 0.3), *s.gyr[i])), "-0.1;-0.9;0.05"])
+        + ";\n"
+        for i in range(len(s.t))
+    )
+    text = '"sep=;"\n' + ";".join(p + n for n in names) + ";\n" + ";".join(units) + ";\n" + rows
+    path = _w(tmp_path / "2023-11-14_14.13.20_Session1_Shimmer_40AC_Calibrated_PC.csv", text.encode())
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t - log.t[0], s.t - s.t[0], atol=2e-6)
+    np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
+    np.testing.assert_allclose(log.gyr, np.radians(np.round(s.gyr, 6)), atol=1e-12)
+    assert any("Accel_WR_X_CAL" in n and "passed over" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
+
+
+def test_two_shimmers_in_one_export_are_not_guessed(tmp_path):
+    """Two devices' columns in one export: which one is the log is not guessed (the error lists the columns)."""
+    names = [f"Shimmer_{d}_{s}_{a}_CAL" for d in ("40AC", "9F6D") for s in ("Accel_LN", "Gyro") for a in "XYZ"]
+    f = _w(tmp_path / "two.csv", ",".join(names) + "\n" + "".join("0,0,9.8,0,0,0,0,0,9.8,0,0,0\n" for _ in range(20)))
+    with pytest.raises(OptinavError, match="no accelerometer or gyroscope data"):
+        read_imu(f, rate_hz=100.0)

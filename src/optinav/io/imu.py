@@ -753,6 +753,48 @@ def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str |
 _UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
 
+#: a Shimmer Consensys column (normalized): the device's prefix, the signal, an axis, calibrated (``_cal``)
+_SHIMMER = re.compile(
+    r"^(.*?)_?(accel_ln|accel_wr|accel|gyro|timestamp_unix|timestampsync_unix|timestamp)(?:_([xyz]))?_cal$"
+)
+#: Shimmer's signals in the order they are taken: the low-noise accelerometer before the wide-range one, the Unix
+#: timestamp before the synchronized one and the one since the start
+_SHIMMER_ORDER = {
+    "a": ("accel_ln", "accel", "accel_wr"),
+    "g": ("gyro",),
+    "t": ("timestamp_unix", "timestampsync_unix", "timestamp"),
+}
+
+
+def _shimmer(table: Table, found: dict, candidates: dict) -> None:
+    """A Shimmer Consensys export: ``Shimmer_40AC_Accel_LN_X_CAL``, ``…_Accel_WR_X_CAL``, ``…_Gyro_X_CAL``,
+    ``…_Timestamp_Unix_CAL`` (the device's name first; units in the row under the header: ms, m/(s^2), deg/s). The
+    low-noise accelerometer is taken (the wide-range one named in ``table.meta["shimmer_passed"]``), the gyroscope,
+    and the Unix timestamp, when nothing else names a sensor and one device's prefix heads every such column."""
+    if any(k in found or k in candidates for k in ("t", "ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+        return
+    hits: dict[tuple[str, str | None], str] = {}
+    prefixes = set()
+    for key in table.data:
+        m = _SHIMMER.match(normalize_name(key)[0])
+        if m:
+            prefixes.add(m.group(1))
+            hits[(m.group(2), m.group(3))] = key
+    if len(prefixes) != 1:
+        return
+    taken: list[str] = []
+    for kind, signals in _SHIMMER_ORDER.items():
+        for sig in signals:
+            keys = [hits.get((sig, a)) for a in "xyz"] if kind != "t" else [hits.get((sig, None))]
+            if all(keys):
+                for a, key in zip("xyz" if kind != "t" else "t", keys):
+                    candidates[a if kind == "t" else f"{kind}{a}"] = key
+                taken.append(sig)
+                break
+    if "accel_ln" in taken and all(("accel_wr", a) in hits for a in "xyz"):
+        table.meta["shimmer_passed"] = hits[("accel_wr", "x")]
+
+
 def _android_linear(table: Table) -> set[str]:
     """The columns of Android's linear acceleration (``LINEAR ACCELERATION X (m/s²)``: gravity taken out) in a
     file that holds the accelerometer (``ACCELEROMETER X``) too, as AndroSensor writes them: passed over, named in
@@ -931,6 +973,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             implied.setdefault(key, "ns")
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
+    _shimmer(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
@@ -1405,6 +1448,11 @@ def _log_of(
             notes.append(
                 f"{p.path.name}: Core Motion's acceleration is minus the specific force: read as "
                 f"{p.table.meta['coremotion']}"
+            )
+        if "shimmer_passed" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one "
+                f"({p.table.meta['shimmer_passed']} …) was passed over (map it with --columns ax=…,ay=…,az=…)"
             )
         if "gravity_free" in p.table.meta and row0 == 0:
             notes.append(
