@@ -1439,3 +1439,47 @@ def test_two_shimmers_in_one_export_are_not_guessed(tmp_path):
     f = _w(tmp_path / "two.csv", ",".join(names) + "\n" + "".join("0,0,9.8,0,0,0,0,0,9.8,0,0,0\n" for _ in range(20)))
     with pytest.raises(OptinavError, match="no accelerometer or gyroscope data"):
         read_imu(f, rate_hz=100.0)
+
+
+def test_ronin_hdf5_reads_its_synced_arrays(tmp_path, capsys):
+    """RoNIN's data.hdf5 (synced/time in s, synced/acce and synced/gyro N×3; raw/imu/acce, raw/imu/gyro … N'×4 on
+    their own clocks) was refused as "'raw/imu/gyro' and 'synced/gyro' both look like 'gyro'", its remedy naming the
+    raw array (time in its first column), and 'acce' named no accelerometer. The synced arrays are read (a note
+    says so): the session calibrates to its truth."""
+    h5py = pytest.importorskip("h5py")
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=13)
+    n = len(s.t)
+    path = tmp_path / "data.hdf5"
+    with h5py.File(path, "w") as f:
+        f["synced/time"] = 1234.5 + s.t - s.t[0]
+        f["synced/acce"], f["synced/gyro"] = s.acc, s.gyr
+        f["synced/gyro_uncalib"], f["synced/linacce"] = s.gyr + 0.01, s.acc * 0
+        f["synced/game_rv"] = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+        f["raw/imu/acce"], f["raw/imu/gyro"] = np.ones((n + 37, 4)), np.ones((n - 11, 4))
+        f["pose/tango_pos"] = np.zeros((n, 3))
+    log = read_imu(path)
+    np.testing.assert_array_equal(log.acc, s.acc)
+    assert any("synced/acce" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+
+
+def test_ridi_csv_reads_acce_and_its_ns_time(tmp_path):
+    """RIDI's CSV (pandas' index, time in ns, gyro_x…, acce_x…, linacce_x…, grav_x…) named no accelerometer ('acce')
+    and, its time read as seconds, was refused naming --time-unit ns; both are the layout's, now read so."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=17)
+    head = ",time," + ",".join(f"{q}_{a}" for q in ("gyro", "acce", "linacce", "grav") for a in "xyz")
+    ns = 1_500_000_000_000_000_000 + np.round((s.t - s.t[0]) * 1e9).astype(np.int64)
+    rows = "".join(
+        f"{i},{ns[i]}," + ",".join(f"{v:.6f}" for v in (*s.gyr[i], *s.acc[i], 0.0, 0.0, 0.0, *s.acc[i])) + "\n"
+        for i in range(len(s.t))
+    )
+    log = read_imu(_w(tmp_path / "dan_body1.csv", head + "\n" + rows))
+    np.testing.assert_allclose(np.diff(log.t), np.diff(s.t), atol=1e-6)
+    np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
+    np.testing.assert_allclose(log.gyr, np.round(s.gyr, 6), atol=1e-12)

@@ -176,6 +176,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "imu_acc",
         "accelerometer_m_s2",  # PX4 sensor_combined (pyulog's CSV)
         "ac",  # the classic MPU-6050 Arduino sketch: AcX = … | GyX = …
+        "acce",  # RIDI's CSV, RoNIN's HDF5 (Android's accelerometer, gravity in it)
     )
     gyro_prefix = (
         "g",
@@ -212,6 +213,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "sf",
         "linear_acceleration",
         "imu_acc",
+        "acce",
     ):
         al[n] = ("acc", None)
     for n in (
@@ -795,6 +797,18 @@ def _shimmer(table: Table, found: dict, candidates: dict) -> None:
         table.meta["shimmer_passed"] = hits[("accel_wr", "x")]
 
 
+def _ronin(table: Table) -> set[str]:
+    """RoNIN's ``data.hdf5``: ``synced/time`` (s), ``synced/acce`` and ``synced/gyro`` (N×3, m/s² and rad/s, on that
+    one clock) are the log; the other arrays named like a time or a sensor (``raw/imu/gyro``, ``synced/gyro_uncalib``
+    …, each on its own clock) are passed over, named in ``table.meta["ronin"]``."""
+    if not all(k in table.data for k in ("synced/time", "synced/acce", "synced/gyro")):
+        return set()
+    keep = {"synced/time", "synced/acce", "synced/gyro"}
+    out = {k for k in table.data if k not in keep and normalize_name(k)[0] in ALIASES}
+    table.meta["ronin"] = "1"
+    return out
+
+
 def _android_linear(table: Table) -> set[str]:
     """The columns of Android's linear acceleration (``LINEAR ACCELERATION X (m/s²)``: gravity taken out) in a
     file that holds the accelerometer (``ACCELEROMETER X``) too, as AndroSensor writes them: passed over, named in
@@ -948,7 +962,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
     _select_instance(table)
-    passed_over = _ardupilot_imu(table) | _android_linear(table)
+    passed_over = _ardupilot_imu(table) | _android_linear(table) | _ronin(table)
     _one_frame(table)
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
@@ -967,6 +981,10 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             implied[key] = hit[1]
     _kalibr_csv(table, found, candidates, implied)
     _px4(table, found, candidates, implied)
+    if {"acce_x", "linacce_x"} <= {normalize_name(k)[0] for k in table.data}:
+        key = candidates.get("t")  # RIDI's CSV: Android's event time, ns
+        if key is not None and normalize_name(key)[0] == "time":
+            implied.setdefault(key, "ns")
     if "seconds_elapsed" in {normalize_name(k)[0] for k in table.data}:
         key = candidates.get("t")  # Sensor Logger: time in ns since the epoch beside seconds_elapsed
         if key is not None and normalize_name(key)[0] == "time":
@@ -1454,6 +1472,8 @@ def _log_of(
                 f"{p.path.name}: Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one "
                 f"({p.table.meta['shimmer_passed']} …) was passed over (map it with --columns ax=…,ay=…,az=…)"
             )
+        if "ronin" in p.table.meta and row0 == 0:
+            notes.append(f"{p.path.name}: RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)")
         if "gravity_free" in p.table.meta and row0 == 0:
             notes.append(
                 f"{p.path.name}: {p.table.meta['gravity_free']} (the phone's linear acceleration, gravity taken out) "
