@@ -1483,3 +1483,37 @@ def test_ridi_csv_reads_acce_and_its_ns_time(tmp_path):
     np.testing.assert_allclose(np.diff(log.t), np.diff(s.t), atol=1e-6)
     np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
     np.testing.assert_allclose(log.gyr, np.round(s.gyr, 6), atol=1e-12)
+
+
+def test_an_adis_register_export_reads_and_its_counts_are_named(tmp_path, capsys):
+    """An ADIS16470's evaluation export names its columns by register (X_GYRO_OUT, …, X_ACCL_OUT, …) and holds raw
+    counts: 800 per g, 10 per deg/s. The columns named no sensor; mapped, 800 at rest was told 'data in mg?; pass
+    --acc-unit mg', which calibrated with exit 0 to K 20 % below the nominal mg scale. The register names are
+    recognised, and a rest norm that a physical unit makes more than 10 % off g names counts first: with
+    --acc-unit counts the session calibrates to its truth."""
+    per_g, per_dps = 800.0, 10.0
+    s = simulate(
+        "18",
+        dwell_s=6,
+        rest_s=3,
+        acc_unit="counts",
+        gyro_unit="counts",
+        rng=19,
+        acc_counts_per_si=per_g / 9.80665,
+        gyro_counts_per_si=per_dps * 180 / np.pi,
+    )
+    head = "X_GYRO_OUT,Y_GYRO_OUT,Z_GYRO_OUT,X_ACCL_OUT,Y_ACCL_OUT,Z_ACCL_OUT,TEMP_OUT\n"
+    raw = np.round(np.column_stack([s.gyr, s.acc])).astype(int)
+    path = _w(tmp_path / "adis16470.csv", head + "".join(",".join(map(str, r)) + ",2500\n" for r in raw))
+    rate = f"{1 / np.median(np.diff(s.t)):g}"
+    out = tmp_path / "r.json"
+    argv = ["calibrate", "accel", str(path), "--rate", rate, "--gravity", str(s.gravity), "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "raw counts? (" in err and "per g" in err and "pass --acc-unit counts" in err
+    assert main([*argv, "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=2e-3)

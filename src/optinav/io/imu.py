@@ -202,6 +202,8 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
                 al[f"{p}{axis}"] = al[f"{p}_{axis}"] = (f"{std}{axis}", None)
     for axis in "xyz":  # the ASL/EuRoC dataset format (EuRoC, TUM-VI): a_RS_S_x, w_RS_S_x of the sensor S
         al[f"a_rs_s_{axis}"], al[f"w_rs_s_{axis}"] = (f"a{axis}", None), (f"g{axis}", None)
+        # Analog Devices' iSensor register names (ADIS164xx/165xx evaluation exports): X_ACCL_OUT, X_GYRO_OUT
+        al[f"{axis}_accl_out"], al[f"{axis}_gyro_out"] = (f"a{axis}", None), (f"g{axis}", None)
     for n in (
         "acc",
         "accel",

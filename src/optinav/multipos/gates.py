@@ -82,6 +82,11 @@ def nominal_acc_scale(unit: str, rest_norm: float, g: float) -> float:
     return rest_norm / g if unit == "counts" else 1.0 / factor(unit)
 
 
+#: how far from g a rest norm in a physical unit (g, mg, m/s²) may read when that unit is guessed for an undeclared
+#: one: a sensor in such a unit reads g within a few % (uncalibrated MEMS scale tolerance ±3 %); farther, raw counts
+#: are named first
+PHYSICAL_SCALE_TOL = 0.1
+
 #: a raw accelerometer reads g as more counts than this (8-bit at ±16 g: 8); a norm at rest below it that no unit
 #: makes g is an acceleration with gravity taken out
 FEW_COUNTS = 5.0
@@ -102,10 +107,17 @@ def check_acc_unit(rest_norm: float, unit: str, g: float, option: str = "--acc-u
             GRAVITY_OUT_REMEDY,
         )
     guess = likely[0] if likely else "counts"
-    what = "raw counts?" if guess == "counts" else f"data in {guess}?"
+    what, remedy = ("raw counts?" if guess == "counts" else f"data in {guess}?"), f"pass {option} {guess}"
+    off = 0.0 if guess == "counts" else abs(rest_norm * factor(guess) / g - 1.0)
+    if off > PHYSICAL_SCALE_TOL:
+        # a sensor in a physical unit reads g within a few %: 800 (an ADIS16470's counts per g) as mg is 0.82 g
+        what = (
+            f"raw counts? ({rest_norm:.4g} per g; read as {guess} it would be {rest_norm * factor(guess) / g:.3g} g, "
+            f"{off:.0%} off)"
+        )
+        remedy = f"pass {option} counts (or {option} {guess} if the data are in {guess})"
     raise OptinavError(
-        f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}",
-        f"pass {option} {guess}",
+        f"the accelerometer reads {rest_norm:.4g} {unit} at rest ({si:.4g} m/s^2, g = {g:.5g}): {what}", remedy
     )
 
 
