@@ -1517,3 +1517,50 @@ def test_an_adis_register_export_reads_and_its_counts_are_named(tmp_path, capsys
 
     U, _ = model.upper_triangular_form(s.acc_K)
     np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=2e-3)
+
+
+def _vn_line(name, values):
+    body = f"{name}," + ",".join(values)
+    check = 0
+    for ch in body:
+        check ^= ord(ch)
+    return f"${body}*{check:02X}\n"
+
+
+def test_a_vectornav_ascii_capture_reads_by_its_sentence(tmp_path, capsys):
+    """A VN-100's ASCII output captured from its serial port ('$VNYMR,yaw,pitch,roll,magX..Z,accelX..Z,gyroX..Z*5C',
+    m/s^2 and rad/s) was refused as naming no sensor, and mapped by position, its gyro z cell ('+00.000660*64')
+    was text. The checksum is checked and cut, the fields named by the sentence's layout; a line whose checksum
+    fails is unreadable at its line (--skip-bad-lines leaves it out). The session calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=23)
+    lines = [
+        _vn_line(
+            "VNYMR",
+            ["+010.071", "-002.111", "-000.778", "-00.7810", "+00.1620", "+00.4630"]
+            + [f"{v:+07.3f}" for v in s.acc[i]]
+            + [f"{v:+09.6f}" for v in s.gyr[i]],
+        )
+        for i in range(len(s.t))
+    ]
+    path = _w(tmp_path / "vn100.txt", "".join(lines))
+    rate = 1 / np.median(np.diff(s.t))
+    log = read_imu(path, rate_hz=rate)
+    np.testing.assert_allclose(log.acc, np.round(s.acc, 3), atol=1e-12)
+    np.testing.assert_allclose(log.gyr, np.round(s.gyr, 6), atol=1e-12)
+    assert any("$VNYMR" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    assert (
+        main(["calibrate", "accel", str(path), "--rate", f"{rate:g}", "--gravity", str(s.gravity), "--out", str(out)])
+        == 0
+    )
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    lines[40] = lines[40].replace("+", "-", 1)  # a bit flipped on the wire: the checksum fails
+    bad = _w(tmp_path / "vn100_bad.txt", "".join(lines))
+    with pytest.raises(OptinavError, match="line 41.*--skip-bad-lines"):
+        read_imu(bad, rate_hz=rate)
+    log = read_imu(bad, rate_hz=rate, skip_bad_lines=True)
+    assert np.isnan(log.acc[40]).all() and np.isfinite(log.acc[41]).all()

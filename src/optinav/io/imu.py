@@ -799,6 +799,25 @@ def _shimmer(table: Table, found: dict, candidates: dict) -> None:
         table.meta["shimmer_passed"] = hits[("accel_wr", "x")]
 
 
+#: the fields of VectorNav's ASCII sentences that hold the IMU (VN-100/200/300 user manuals): (first accelerometer
+#: field, first gyroscope field, number of fields); accelerometer in m/s², gyroscope in rad/s, magnetometer in gauss
+_VN_LAYOUT = {"VNYMR": (6, 9, 12), "VNQMR": (7, 10, 13), "VNMAR": (3, 6, 9), "VNIMU": (3, 6, 11), "VNACC": (0, None, 3)}
+
+
+def _vectornav_fields(table: Table, found: dict, candidates: dict) -> None:
+    """A capture of VectorNav ASCII sentences (``$VNYMR,yaw,pitch,roll,magX..Z,accelX..Z,gyroX..Z*CS``, checksum
+    held, ``table.meta["vectornav"]`` the sentence): its fields ``col1…`` named by the sentence's layout."""
+    layout = _VN_LAYOUT.get(table.meta.get("vectornav", ""))
+    keys = list(table.data)
+    if layout is None or found or candidates or keys != [f"col{j + 1}" for j in range(layout[2])]:
+        return
+    for kind, first in zip("ag", layout[:2]):
+        if first is not None:
+            for j, a in enumerate("xyz"):
+                candidates[f"{kind}{a}"] = keys[first + j]
+                table.units.setdefault(keys[first + j], "m/s^2" if kind == "a" else "rad/s")
+
+
 def _ronin(table: Table) -> set[str]:
     """RoNIN's ``data.hdf5``: ``synced/time`` (s), ``synced/acce`` and ``synced/gyro`` (N×3, m/s² and rad/s, on that
     one clock) are the log; the other arrays named like a time or a sensor (``raw/imu/gyro``, ``synced/gyro_uncalib``
@@ -994,6 +1013,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
     _shimmer(table, found, candidates)
+    _vectornav_fields(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
@@ -1473,6 +1493,10 @@ def _log_of(
             notes.append(
                 f"{p.path.name}: Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one "
                 f"({p.table.meta['shimmer_passed']} …) was passed over (map it with --columns ax=…,ay=…,az=…)"
+            )
+        if "vectornav" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: VectorNav ${p.table.meta['vectornav']} sentences read by their fields (checksums held)"
             )
         if "ronin" in p.table.meta and row0 == 0:
             notes.append(f"{p.path.name}: RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import gzip
 import io
 import itertools
@@ -530,7 +531,7 @@ class TableChunks:
             if _wide(src.peek(_NOISE_BYTES)[:_NOISE_BYTES]):  # read as UTF-8 lines (the BOM consumed)
                 wide = io.TextIOWrapper(src, encoding="utf-16", newline="")  # held: collected, it closes the file
                 src = (line.encode("utf-8") for line in wide)
-            state = {"complete": True, "start": True, "stamped": False}
+            state = {"complete": True, "start": True, "stamped": False, "sentence": None}
 
             def block(k: int = n) -> list[str]:
                 got = list(itertools.islice(src, k))
@@ -545,7 +546,10 @@ class TableChunks:
                 state["start"] = False
                 if lines and lines[-1] == "" and text.endswith("\n"):
                     lines.pop()  # the split after the last newline
-                return _unstamp(lines) if state["stamped"] else lines
+                lines = _unstamp(lines) if state["stamped"] else lines
+                if state["sentence"] is None:
+                    state["sentence"] = _vectornav(lines) or ""
+                return _vn_fields(lines, state["sentence"]) if state["sentence"] else lines
 
             # the layout from the first lines (enough blocks for the preamble and ten table lines)
             head: list[str] = []
@@ -558,6 +562,8 @@ class TableChunks:
             lay = _text_layout(path, head, self.names, self.delimiter, labels, self.needed)
             if state["stamped"]:
                 lay.meta["monitor_stamps"] = "1"
+            if state["sentence"]:
+                lay.meta["vectornav"] = state["sentence"]
             pending = head[lay.start :]
             offset = lay.start  # file line index of pending[0]
             first = True  # pending[0] is the file's first data line
@@ -1303,6 +1309,32 @@ def _epoch_seconds(path: Path, name: str, cells: np.ndarray) -> np.ndarray:
 _MONITOR_STAMP = re.compile(r"^\d\d:\d\d:\d\d\.\d\d\d -> ")
 
 
+#: a VectorNav ASCII output sentence (``$VNYMR,+010.071,…,-00.000140*64``): its name, its fields and the checksum
+#: (XOR of the bytes between '$' and '*', in hex)
+_VN_SENTENCE = re.compile(r"^\$(VN[A-Z]{3}),(.*)\*([0-9A-Fa-f]{2})\s*$")
+
+
+def _vectornav(lines: list[str]) -> str | None:
+    """The sentence name when the first non-blank line is a VectorNav ASCII sentence (``VNYMR``), else None."""
+    first = next((x for x in lines if x.strip()), "")
+    m = _VN_SENTENCE.match(first.strip())
+    return m.group(1) if m else None
+
+
+def _vn_fields(lines: list[str], name: str) -> list[str]:
+    """Each sentence ``name`` whose checksum holds reduced to its fields (``-00.053,+00.056,…``); another line (a
+    damaged one, another sentence, a command's reply) is kept as it is, unreadable at its line."""
+    out = []
+    for x in lines:
+        m = _VN_SENTENCE.match(x.strip())
+        if m and m.group(1) == name:
+            body = f"{name},{m.group(2)}"
+            if functools.reduce(lambda c, ch: c ^ ord(ch), body, 0) == int(m.group(3), 16):
+                x = m.group(2)
+        out.append(x)
+    return out
+
+
 def _monitor_stamped(lines: list[str]) -> bool:
     """Whether the first non-blank line carries the serial monitor's receive time (then every line's is cut off:
     the computer's receive time, in bursts of USB packets, is no sample time)."""
@@ -1328,9 +1360,14 @@ def _load_text(
     stamped = _monitor_stamped(lines)
     if stamped:
         lines = _unstamp(lines)
+    sentence = _vectornav(lines)
+    if sentence:
+        lines = _vn_fields(lines, sentence)
     lay = _text_layout(path, lines, names, delimiter, labels, needed)
     if stamped:
         lay.meta["monitor_stamps"] = "1"
+    if sentence:
+        lay.meta["vectornav"] = sentence
     bad = [] if skip_bad_lines else None
     data, truncated = _parse_block(
         path, lay, lines, lay.start, complete=text.endswith(("\n", "\r")), first=lay.start, bad=bad
