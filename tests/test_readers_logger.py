@@ -1564,3 +1564,19 @@ def test_a_vectornav_ascii_capture_reads_by_its_sentence(tmp_path, capsys):
         read_imu(bad, rate_hz=rate)
     log = read_imu(bad, rate_hz=rate, skip_bad_lines=True)
     assert np.isnan(log.acc[40]).all() and np.isfinite(log.acc[41]).all()
+
+
+def test_a_pair_given_the_wrong_way_round_is_named(tmp_path, capsys):
+    """A file per sensor given the wrong way round (MetaWear's Gyroscope.csv as DATA, its Accelerometer.csv as
+    --gyro) was told to map ax/ay/az with --columns (calibrate, attitude: the deg/s axes as an accelerometer) or to
+    check --columns/--sensor (allan); the errors now say which sensor each file holds and to swap them."""
+    rng = np.random.default_rng(2)
+    t = np.arange(3000) / 100.0
+    acc = _w(tmp_path / "Accelerometer.csv", _metabase(t, rng.normal(0, 1e-3, (3000, 3)) + [0, 0, 1], "g").encode())
+    gyr = _w(tmp_path / "Gyroscope.csv", _metabase(t, rng.normal(0, 0.05, (3000, 3)), "deg/s").encode())
+    for cmd, out in ((["calibrate", "accel"], "r.json"), (["attitude"], "a.csv"), (["allan"], "n.json")):
+        assert main([*cmd, str(gyr), "--gyro", str(acc), "--out", str(tmp_path / out)]) == 2
+        err = capsys.readouterr().err
+        assert "Gyroscope.csv" in err and "holds the gyroscope" in err and "--gyro" in err and "--columns" not in err, (
+            err
+        )

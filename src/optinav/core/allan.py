@@ -1759,6 +1759,13 @@ def analyse_blocks(
                     angles[name] = AngleAccumulator(1.0)
                     units[name] = present[name][1]
             if not angles:
+                held = [n for n in present if present[n][0] is not None]
+                if held and sensor != "both":  # the other triad: a pair of files given the wrong way round
+                    raise OptinavError(
+                        f"{source or 'the log'} holds the {held[0]}, not the {wanted[0]}",
+                        "give the accelerometer's file as DATA and the gyroscope's with --gyro (or --sensor for one "
+                        "file)",
+                    )
                 raise OptinavError(
                     f"{source or 'the log'} has no {'data' if sensor == 'both' else sensor + ' data'} to analyse",
                     "check --columns (t,ax,ay,az,gx,gy,gz) or --sensor",

@@ -1114,6 +1114,14 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         _lost_rows(part, table.bad_rows)
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
+        other = {"acc": "gyro", "gyro": "acc"}.get(need or "")
+        if other and getattr(part, other) is not None and not mapping:
+            # the pair given the wrong way round (phone apps, MetaWear: a file per sensor)
+            held = "gyroscope" if other == "gyro" else "accelerometer"
+            raise OptinavError(
+                f"{part.path.name} has no {kind} data: it holds the {held} ({', '.join(part.srcs[other])})",
+                "give the accelerometer's file first and the gyroscope's as gyro_path=GYRODATA",
+            )
         names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
         bare = {normalize_name(k)[0]: k for k in table.data if normalize_name(k)[0] in ("x", "y", "z")}
         if len(bare) == 3:
