@@ -1580,3 +1580,38 @@ def test_a_pair_given_the_wrong_way_round_is_named(tmp_path, capsys):
         assert "Gyroscope.csv" in err and "holds the gyroscope" in err and "--gyro" in err and "--columns" not in err, (
             err
         )
+
+
+def test_xsens_increments_read_as_rates(tmp_path, capsys):
+    """A Movella DOT's high-fidelity export (and MT Manager's) holds increments per output period: dq_W..dq_Z, the
+    orientation increment, and dv[1]..dv[3] (m/s, axes counted from 1; 'dv[1]' read as 'dv_y', 'dv[3]' as a unit).
+    It named no sensor; now the mean rate and specific force of each period (1 / OutputRate) are read, and a
+    simulated session so written gives the rates it was written from and calibrates to its truth; without a
+    stated rate the increments are refused, naming it."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=29)
+    dt = 1 / 100.0
+    th = s.gyr * dt
+    ang = np.linalg.norm(th, axis=1)
+    dq = np.column_stack([np.cos(ang / 2), th * (np.sin(ang / 2) / np.where(ang > 0, ang, 1))[:, None]])
+    head = ["DeviceTag:,1", "OutputRate:,100Hz", "Measurement Mode:,Custom Mode 4"]
+    cols = "PacketCounter,SampleTimeFine,dq_W,dq_X,dq_Y,dq_Z,dv[1],dv[2],dv[3],Mag_X,Mag_Y,Mag_Z,Status\n"
+    rows = "".join(
+        f"{i},{10_000 * i}," + ",".join(f"{v:.12g}" for v in (*dq[i], *(s.acc[i] * dt))) + ",0.1,0.2,0.3,0\n"
+        for i in range(len(s.t))
+    )
+    path = _w(tmp_path / "dot_hf.csv", "sep=,\n" + "".join(h + ",,,\n" for h in head) + "\n" + cols + rows)
+    log = read_imu(path)
+    np.testing.assert_allclose(log.gyr, s.gyr, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(log.acc, s.acc, rtol=0, atol=1e-8)
+    assert log.gyro_input_unit == "rad/s" and any("dq_*/dv[*]" in n for n in log.notes)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    r = CalibrationResult.from_json(out)
+    from optinav.multipos import model
+
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
+    bare = _w(tmp_path / "bare.csv", cols + rows)
+    with pytest.raises(OptinavError, match="states no rate"):
+        read_imu(bare, rate_hz=100.0)

@@ -818,6 +818,43 @@ def _vectornav_fields(table: Table, found: dict, candidates: dict) -> None:
                 table.units.setdefault(keys[first + j], "m/s^2" if kind == "a" else "rad/s")
 
 
+def _xsens_sdi(table: Table, found: dict, candidates: dict) -> None:
+    """Xsens' strapdown-integrated increments (MT Manager's and a Movella DOT's exports: ``dq_W … dq_Z``, the
+    orientation increment over one output period, and ``dv[1] … dv[3]``, the velocity increment in m/s, its axes
+    counted from 1) become the mean rate (rad/s) and specific force (m/s²) of each period; the period is one over
+    the rate the export states (``OutputRate:,60Hz``, ``// Update Rate: 100.0Hz``)."""
+    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+        return
+    low = {k.strip().lower(): k for k in table.data}
+    dq = [low.get(f"dq_{c}") for c in "wxyz"]
+    dv = [low.get(f"dv[{i}]") for i in (1, 2, 3)]
+    if not (all(dq) or all(dv)):
+        return
+    if "rate" not in table.meta:
+        raise OptinavError(
+            f"{table.path.name}: Xsens' increments (dq_*, dv[*]) are per output period, and the export states no rate",
+            "export it with its settings lines ('OutputRate' / 'Update Rate'), or export Acc_* and Gyr_*",
+        )
+    rate = float(table.meta["rate"])
+    if all(dv):
+        for a, key in zip("xyz", dv):
+            name = f"{key} * rate"
+            table.data[name] = table.data[key] * rate  # type: ignore[index]
+            table.units[name] = "m/s^2"
+            candidates[f"a{a}"] = name
+    if all(dq):
+        w, v = table.data[dq[0]], np.column_stack([table.data[k] for k in dq[1:]])  # type: ignore[index]
+        half = np.linalg.norm(v, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(half > 0, 2.0 * np.arctan2(half, w) / half, 2.0) * rate  # rotation vector per second
+        for j, a in enumerate("xyz"):
+            name = f"{dq[j + 1]} as rad/s"
+            table.data[name] = v[:, j] * scale
+            table.units[name] = "rad/s"
+            candidates[f"g{a}"] = name
+    table.meta["xsens_sdi"] = f"{rate:g}"
+
+
 def _ronin(table: Table) -> set[str]:
     """RoNIN's ``data.hdf5``: ``synced/time`` (s), ``synced/acce`` and ``synced/gyro`` (N×3, m/s² and rad/s, on that
     one clock) are the log; the other arrays named like a time or a sensor (``raw/imu/gyro``, ``synced/gyro_uncalib``
@@ -1014,6 +1051,7 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
     _split_stamp(table, found, candidates, implied)
     _shimmer(table, found, candidates)
     _vectornav_fields(table, found, candidates)
+    _xsens_sdi(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
@@ -1501,6 +1539,11 @@ def _log_of(
             notes.append(
                 f"{p.path.name}: Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one "
                 f"({p.table.meta['shimmer_passed']} …) was passed over (map it with --columns ax=…,ay=…,az=…)"
+            )
+        if "xsens_sdi" in p.table.meta and row0 == 0:
+            notes.append(
+                f"{p.path.name}: Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each "
+                f"1/{p.table.meta['xsens_sdi']}-s period"
             )
         if "vectornav" in p.table.meta and row0 == 0:
             notes.append(
