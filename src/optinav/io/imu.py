@@ -753,10 +753,6 @@ def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str |
     table.meta["one_sensor_layout"] = ",".join(names)
 
 
-#: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
-_UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
-
-
 #: a Shimmer Consensys column (normalized): the device's prefix, the signal, an axis, calibrated (``_cal``)
 _SHIMMER = re.compile(
     r"^(.*?)_?(accel_ln|accel_wr|accel|gyro|timestamp_unix|timestampsync_unix|timestamp)(?:_([xyz]))?_cal$"
@@ -878,6 +874,10 @@ def _android_linear(table: Table) -> set[str]:
     if keys:
         table.meta["gravity_free"] = norm["linear_acceleration_x"] if len(keys) == 1 else ", ".join(sorted(keys))
     return keys
+
+
+#: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
+_UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
 
 def _local_clock(name: str) -> bool:
