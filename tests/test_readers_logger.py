@@ -1615,3 +1615,17 @@ def test_xsens_increments_read_as_rates(tmp_path, capsys):
     bare = _w(tmp_path / "bare.csv", cols + rows)
     with pytest.raises(OptinavError, match="states no rate"):
         read_imu(bare, rate_hz=100.0)
+
+
+def test_a_wide_headerless_file_is_offered_one_name_per_column(tmp_path):
+    """A headerless file of more than 7 columns (OxIOD's 16: time, attitude, rates, gravity, user acceleration,
+    field) was offered --columns 't,ax,ay,az,gx,gy,gz', which its next error refused as 7 names for 16 columns; the
+    example now holds one name per column."""
+    rows = "".join(f"{i / 100},0.1,0.2,0.3,{0.01 * i},0,0,0,0,-1,0,0,0,10,20,30\n" for i in range(30))
+    f = _w(tmp_path / "imu1.csv", rows)
+    with pytest.raises(OptinavError) as exc:
+        read_imu(f)
+    example = exc.value.remedy.split("'")[1]
+    assert len(example.split(",")) == 16
+    log = read_imu(f, columns="t,_,_,_,gx,gy,gz,ax,ay,az,_,_,_,_,_,_")
+    np.testing.assert_allclose(log.acc[0], [0, 0, -1])

@@ -726,6 +726,8 @@ def _columns_example(table: Table) -> tuple[str, str]:
             return "t,ax,ay,az", " and the gyroscope's file as gyro_path=GYRODATA (one sensor per file)"
         if k in (6, 7):
             return ",".join(["t"] * (k == 7) + ["ax", "ay", "az", "gx", "gy", "gz"]), ""
+        if k > 7:  # one name per column: a wider file (OxIOD's 16, KITTI's oxts 30) gets '_' for the rest
+            return "t,ax,ay,az,gx,gy,gz" + ",_" * (k - 7), f" for its {k} columns, each name where its column stands"
     return "t,ax,ay,az,gx,gy,gz", ""
 
 
