@@ -1629,3 +1629,17 @@ def test_a_wide_headerless_file_is_offered_one_name_per_column(tmp_path):
     assert len(example.split(",")) == 16
     log = read_imu(f, columns="t,_,_,_,gx,gy,gz,ax,ay,az,_,_,_,_,_,_")
     np.testing.assert_allclose(log.acc[0], [0, 0, -1])
+
+
+def test_a_sample_printed_over_several_lines_is_named(tmp_path):
+    """Adafruit's BNO055 sketches print each sensor on its own line ('Gyro:\\tx= 0.00 |\\ty= …', then 'Accl:', …): the
+    capture was refused as "no column of numbers in the first data row …; check the delimiter option", which cannot
+    help. The error now says a sample spans several lines and how to print one per line."""
+    labels = ("Orient", "Gyro", "Linear", "Mag", "Accl")
+    rows = ["".join(f"{lab}:\tx= {i * 0.01:.2f} |\ty= 0.04 |\tz= 9.85\n" for lab in labels) + "\n" for i in range(20)]
+    f = _w(tmp_path / "bno055.txt", "".join(rows))
+    with pytest.raises(OptinavError, match="prints each sensor on its own line .*Gyro, Linear") as exc:
+        read_imu(f, rate_hz=100.0)
+    assert "delimiter" not in str(exc.value)
+    one = _w(tmp_path / "plotter.txt", "".join(f"ax:0.1,ay:0.2,az:9.8,gx:{i},gy:0,gz:0\n" for i in range(20)))
+    assert read_imu(one, rate_hz=100.0).acc.shape == (20, 3)

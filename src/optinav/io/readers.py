@@ -1016,6 +1016,12 @@ class _Layout:
 
 #: the first line of an ArduPilot DataFlash log as text (Mission Planner's .log): the FMT message's own format
 _DATAFLASH_TEXT = re.compile(r"^\s*FMT,\s*\d+,\s*\d+,\s*FMT,")
+_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+#: a line of one sensor's triad under its label (Adafruit's BNO055 sketches: 'Accl:\tx= -0.27 |\ty= 0.04 |\tz= 9.85')
+_SENSOR_LINE = re.compile(
+    rf"^\s*([A-Za-z][\w ]*?)\s*:\s*x\s*[=:]\s*{_NUM}\s*[|,;]?\s*y\s*[=:]\s*{_NUM}\s*[|,;]?\s*z\s*[=:]\s*{_NUM}\s*$",
+    re.IGNORECASE,
+)
 #: Excel's first line naming the delimiter ("sep=;" or "sep=<tab>", quoted or not)
 _EXCEL_SEP = re.compile(r'^"?sep=(.)"?$')
 
@@ -1045,6 +1051,13 @@ def _text_layout(
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
+    labels = [m.group(1) for i in content[:12] if (m := _SENSOR_LINE.match(lines[i]))]
+    if len(labels) >= 2 and len(set(labels)) >= 2:
+        raise OptinavError(
+            f"{path.name} prints each sensor on its own line ({', '.join(dict.fromkeys(labels))}: "
+            f"{lines[content[0]].strip()[:40]!r}), a sample over several lines",
+            "print one sample per line: a CSV row (t,ax,ay,az,gx,gy,gz) or named values ('ax:0.1,ay:0.2,…,gz:0.3')",
+        )
     if _DATAFLASH_TEXT.match(lines[content[0]]):
         raise OptinavError(
             f"{path.name} is an ArduPilot DataFlash text log (FMT lines, then the rows of every message)",
