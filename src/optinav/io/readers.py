@@ -1051,10 +1051,10 @@ def _text_layout(
             break
     if not content:
         raise OptinavError(f"{path} has no data rows (only blank or '#' comment lines)", "pass a file with data")
-    labels = [m.group(1) for i in content[:12] if (m := _SENSOR_LINE.match(lines[i]))]
-    if len(labels) >= 2 and len(set(labels)) >= 2:
+    per_sensor = [m.group(1) for i in content[:12] if (m := _SENSOR_LINE.match(lines[i]))]
+    if len(per_sensor) >= 2 and len(set(per_sensor)) >= 2:
         raise OptinavError(
-            f"{path.name} prints each sensor on its own line ({', '.join(dict.fromkeys(labels))}: "
+            f"{path.name} prints each sensor on its own line ({', '.join(dict.fromkeys(per_sensor))}: "
             f"{lines[content[0]].strip()[:40]!r}), a sample over several lines",
             "print one sample per line: a CSV row (t,ax,ay,az,gx,gy,gz) or named values ('ax:0.1,ay:0.2,…,gz:0.3')",
         )
