@@ -29,3 +29,22 @@ def test_paper_ga_operators_converge():
     )
     r = minimize(problem, method="ga", rng=0, operators="paper", generations=300)
     assert np.allclose(r.x, [2.0, 3.0], atol=0.05)
+
+
+def test_accel_ga_every_method_budget_and_ga_seeds(quick_report):
+    """Both GAs run on one seed set with the same population and generations, and the headline quotes the
+    median over those seeds (not one run)."""
+    import numpy as np
+
+    st = quick_report.study("accel-ga")
+    seeds, budget = st["summary"]["ga_seeds"], st["summary"]["budget"]
+    paper, ours = seeds["ga"]["seeds"]["value"], seeds["ga_optinav"]["seeds"]["value"]
+    assert len(paper) >= 9 and len(ours) >= 3 and ours == paper[: len(ours)]
+    for k in ("generations", "population"):
+        assert budget["ga"][k]["value"] == budget["ga_optinav"][k]["value"]
+    assert {"newton", "lm"} <= set(budget) and all(budget[m]["iterations"]["value"] >= 1 for m in ("newton", "lm"))
+    head = {h["quantity"]: h for h in st["headline"]}
+    for part in ("bias", "scale"):
+        runs = seeds["ga"][f"worst_{part}_error"]["value"]
+        name = "worst bias relative error" if part == "bias" else "worst scale-factor relative error"
+        assert head[name]["rebuild"] == float(np.median(runs))

@@ -26,6 +26,7 @@ from optinav.core.simulate import static_positions
 from optinav.multipos import accel, design, model
 from optinav.multipos.simulate import paper_accelerometer, simulate
 from optinav.reports.report import (
+    Cell,
     Check,
     Figure,
     Headline,
@@ -49,6 +50,13 @@ PAPER_TIME_S = {"ga": 164.28, "newton": 421.92}
 #: Table 4: mean static attitude error after calibration (deg), pitch and roll
 PAPER_LEVEL_DEG = {"traditional": (0.015, 0.109), "newton": (0.24, -0.191), "ga": (0.062, -0.051)}
 RATE_HZ = 100.0
+#: seeds of each GA (quick, full run): one set, the optinav-operator GA (no claim rests on it; 5× the
+#: evaluations) on its first few. The paper's GA's worst scale-factor error spreads over 0.17–1.7 % across
+#: seeds (30 seeds, 200 generations): a median over 9 seeds falls within ±20 % of the 30 seeds' median
+GA_SEEDS = {"ga": {True: 9, False: 25}, "ga_optinav": {True: 3, False: 7}}
+GA_POPULATION = 50  # optinav's GA default, the population of Table 2's note
+#: the paper's parameter groups: biases, scale factors, misalignments (indices of NAMES)
+PARTS = {"bias": slice(0, 3), "scale": slice(3, 6), "misalignment": slice(6, 9)}
 #: the calibrations of the levelling test (Table 4), by the key of their fit (None: uncalibrated)
 LEVELLING = {
     "uncalibrated": None,
@@ -152,13 +160,44 @@ def _fits(quick, rng) -> dict:
     samples = [sess.acc[i0:i1] for i0, i1 in idx]
     fits = {}
     gens = 200 if quick else 500
+    # a GA's result depends on its seed: both GAs run on one fixed set of seeds (drawn once, the same for
+    # both), and the study reports the median run (worst scale-factor error) and the spread over the seeds
+    seeds = [int(x) for x in rng.integers(0, 2**31, size=GA_SEEDS["ga"][quick])]
+    truth_theta = model.Kb_to_theta(sess.acc_K, sess.acc_b)
+    ga_runs = {}
     for key, ops in (("ga", "paper"), ("ga_optinav", "optinav")):
-        step(f"GA ({ops} operators)")
-        t0 = time.perf_counter()
-        fits[key] = accel.fit_accel(
-            st, g, method="ga", data="samples", samples=samples, rng=rng, generations=gens, operators=ops
-        )
-        fits[key].elapsed_s = time.perf_counter() - t0
+        key_seeds = seeds[: GA_SEEDS[key][quick]]
+        step(f"GA ({ops} operators, {len(key_seeds)} seeds)")
+        runs = []
+        for seed in key_seeds:
+            t0 = time.perf_counter()
+            f = accel.fit_accel(
+                st,
+                g,
+                method="ga",
+                data="samples",
+                samples=samples,
+                rng=seed,
+                generations=gens,
+                population=GA_POPULATION,
+                operators=ops,
+            )
+            f.elapsed_s = time.perf_counter() - t0
+            runs.append(f)
+        rel = np.array([100 * (_paper_vector(f.K, f.b, g) - _paper_vector(sess.acc_K, sess.acc_b, g)) for f in runs])
+        rel /= _paper_vector(sess.acc_K, sess.acc_b, g)
+        worst = {part: np.abs(rel[:, sl]).max(axis=1) for part, sl in PARTS.items()}
+        median_run = int(np.argsort(worst["scale"])[len(runs) // 2])
+        fits[key] = runs[median_run]
+        fits[key].elapsed_s = float(np.median([f.elapsed_s for f in runs]))  # the time: median over the seeds
+        ga_runs[key] = {
+            "seeds": key_seeds,
+            "worst": worst,
+            "elapsed": np.array([f.elapsed_s for f in runs]),
+            "nfev": np.array([f.nfev for f in runs]),
+            "median_run": median_run,
+            "final_error": np.array([np.abs(f.theta - truth_theta).max() for f in runs]),
+        }
     step("Newton and LM")
     t0 = time.perf_counter()
     fits["newton"] = accel.fit_accel(st, g, method="newton", data="samples", samples=samples)
@@ -173,6 +212,8 @@ def _fits(quick, rng) -> dict:
     fits["lm"].elapsed_s = min(lm_times)
     truth = _paper_vector(sess.acc_K, sess.acc_b, g)
     vec = {k: _paper_vector(f.K, f.b, g) for k, f in fits.items()}
+    budget = {k: {"generations": gens, "population": GA_POPULATION, "evaluations": ga_runs[k]["nfev"]} for k in ga_runs}
+    budget.update({k: {"iterations": fits[k].nit, "evaluations": np.array([fits[k].nfev])} for k in ("newton", "lm")})
     lm = fits["lm"]
     # Table 4: levelling with each calibration on a static test pose outside the calibration set
     unit = preset("mems-mti1").draw(rng)
@@ -198,6 +239,8 @@ def _fits(quick, rng) -> dict:
         "dwell": dwell,
         "generations": gens,
         "fits": fits,
+        "ga_runs": ga_runs,
+        "budget": budget,
         "truth": truth,
         "vec": vec,
         "rel": {k: 100 * (v - truth) / truth for k, v in vec.items()},
@@ -305,6 +348,11 @@ def _design_ratio(n) -> float:
     return float(np.max(d["paper12"].predicted_std[3:6]) / np.max(d["D"].predicted_std[3:6]))
 
 
+def _spread(v) -> str:
+    """A median and its range over seeds, ``[median, min, max]``, as 'median [min, max]'."""
+    return f"{v[0]:.3g} [{v[1]:.3g}, {v[2]:.3g}]"
+
+
 def _worst(v, sl) -> float:
     return float(np.max(np.abs(np.asarray(v)[sl])))
 
@@ -320,6 +368,22 @@ def summary(n) -> dict:
         "time": {k: quantity(f.elapsed_s, "s") for k, f in n["fits"].items()},
         "levelling_error": {k: quantity(v, "deg") for k, v in n["levelling"].items()},
         "findings_reproduced": quantity(sum(f["reproduced"] for f in n["findings"]), ""),
+        "ga_seeds": {
+            k: {
+                "seeds": quantity(np.array(r["seeds"], dtype=float), ""),
+                **{f"worst_{part}_error": quantity(v, "%") for part, v in r["worst"].items()},
+                "elapsed": quantity(r["elapsed"], "s"),
+                "median_run": quantity(r["median_run"], ""),
+            }
+            for k, r in n["ga_runs"].items()
+        },
+        "budget": {
+            k: {
+                nm: quantity(np.asarray(v, dtype=float), "generations" if nm == "generations" else "")
+                for nm, v in b.items()
+            }
+            for k, b in n["budget"].items()
+        },
         "efficiency": quantity(n["efficiency"]["efficiency"], ""),
     }
 
@@ -445,6 +509,59 @@ def tables(n) -> list[Table]:
             "misalignments (empty cells).",
         )
     )
+    rows = []
+    for key, label in (("ga", "adaptive GA (paper's operators)"), ("ga_optinav", "adaptive GA (optinav operators)")):
+        r, b = n["ga_runs"][key], n["budget"][key]
+        spread = [
+            Cell([float(np.median(r["worst"][p])), float(r["worst"][p].min()), float(r["worst"][p].max())], _spread)
+            for p in PARTS
+        ]
+        rows.append(
+            [
+                label,
+                len(r["seeds"]),
+                *spread,
+                f"{b['population']} × {b['generations']} generations",
+                float(np.median(b["evaluations"])),
+                float(np.median(r["elapsed"])),
+            ]
+        )
+    for key, label in (("newton", "Newton (samples)"), ("lm", "optinav LM (pose means)")):
+        w = [Cell(_worst(rel[key], sl), "{:.3g}") for sl in PARTS.values()]
+        b = n["budget"][key]
+        rows.append(
+            [
+                label,
+                1,
+                *w,
+                f"{b['iterations']} iterations (to convergence)",
+                float(b["evaluations"][0]),
+                fits[key].elapsed_s,
+            ]
+        )
+    out.append(
+        Table(
+            "Every method's budget and, for the GAs, the spread over seeds",
+            [
+                "method",
+                "seeds",
+                "worst |bias err.| [%] median [min, max]",
+                "worst |scale err.| [%] median [min, max]",
+                "worst |misal. err.| [%] median [min, max]",
+                "budget",
+                "objective evaluations (median)",
+                "time [s] (median)",
+            ],
+            rows,
+            "The same session and the same start (the closed-form estimate, the centre of the GAs' search interval) "
+            f"for every method; both GAs run on one set of seeds (the paper's GA on {len(n['ga_runs']['ga']['seeds'])}, "
+            f"optinav's on the first {len(n['ga_runs']['ga_optinav']['seeds'])}) with the same population and "
+            "generations (the paper's operators evaluate fewer new individuals: identical children are not "
+            "re-evaluated); Newton and LM are deterministic and run to convergence. Table 2, "
+            "the levelling and the findings use each GA's median run (worst scale-factor error).",
+            formats=[None, None, None, None, None, None, "{:.0f}", "{:.3g}"],
+        )
+    )
     out.append(
         Table(
             "Table 3 — computation time",
@@ -554,7 +671,7 @@ def figures(n) -> list[Figure]:
             "Convergence of the GA's best individual, per parameter (paper's "
             "operators): gene exchange only recombines values the population "
             "already holds, and the adaptive mutation rate of the fitter half "
-            "is near zero, so the search stalls early",
+            "is near zero, so the search advances in rare steps between long plateaus",
             draw_conv,
         ),
     ]
@@ -564,23 +681,26 @@ def headline(s) -> list[Headline]:
     """The headline rows, from the summary's quantities."""
     rel = lambda m: value_at(s, f"relative_error.{m}")  # noqa: E731
     lev = lambda m: float(np.max(np.abs(value_at(s, f"levelling_error.{m}"))))  # noqa: E731
+    ga_median = lambda part: float(np.median(value_at(s, f"ga_seeds.ga.worst_{part}_error")))  # noqa: E731
+    n_seeds = len(value_at(s, "ga_seeds.ga.seeds"))
     pga = [x for x in PAPER_REL_ERR["ga"] if x is not None]
     return [
         Headline(
             "worst bias relative error",
             "%",
-            _worst(pga, slice(0, 3)),
-            _worst(rel("ga"), slice(0, 3)),
-            _worst(rel("lm"), slice(0, 3)),
-            "rebuild = GA with the paper's operators; best = LM; same session",
+            _worst(pga, PARTS["bias"]),
+            ga_median("bias"),
+            _worst(rel("lm"), PARTS["bias"]),
+            f"rebuild = GA with the paper's operators, median over {n_seeds} seeds; best = LM (deterministic); "
+            "same session",
         ),
         Headline(
             "worst scale-factor relative error",
             "%",
-            _worst(pga, slice(3, 6)),
-            _worst(rel("ga"), slice(3, 6)),
-            _worst(rel("lm"), slice(3, 6)),
-            "",
+            _worst(pga, PARTS["scale"]),
+            ga_median("scale"),
+            _worst(rel("lm"), PARTS["scale"]),
+            f"GA: median over {n_seeds} seeds",
         ),
         Headline(
             "calibration time",
@@ -588,7 +708,7 @@ def headline(s) -> list[Headline]:
             PAPER_TIME_S["ga"],
             value_at(s, "time.ga"),
             value_at(s, "time.lm"),
-            "paper: MATLAB; ours: this machine",
+            f"paper: MATLAB; ours: this machine (GA: median over {n_seeds} seeds; LM: best of 5)",
         ),
         Headline(
             "worst levelling error",
@@ -596,7 +716,7 @@ def headline(s) -> list[Headline]:
             max(map(abs, PAPER_LEVEL_DEG["ga"])),
             lev("adaptive GA"),
             lev("optinav LM"),
-            "",
+            "GA: its median run (worst scale-factor error)",
         ),
         Headline(
             "paper's head-to-head findings reproduced (of 5)",
