@@ -676,8 +676,9 @@ def test_rest_is_detected_at_every_rate(rate):
 
 def test_streaming_update_takes_lists_and_tuples_as_arrays_without_a_numba_warning():
     """AttitudeFilter.update(gyr, acc) with Python lists (a sensor driver's reading) handed them to the compiled step
-    as reflected lists: a NumbaPendingDeprecationWarning on every new type and a compile of its own. Lists and
-    tuples now go in as numbers: the same attitude as arrays, bit for bit, and no warning."""
+    as reflected lists: a NumbaPendingDeprecationWarning on every new type and a compile of its own. Lists now go
+    in as numbers (tuples, which numba takes as they are, and arrays as before): the same attitude as arrays, bit
+    for bit, and no warning."""
     import warnings
 
     from optinav.attitude import AttitudeFilter

@@ -81,9 +81,6 @@ _ORDER = (
 )  # then latency, bias_loop and mag_current_tau at P_LATENCY, P_BIAS_LOOP, P_MAG_CUR_TAU
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
-#: the array type the compiled 6D step takes as it is (lists and tuples go in as numbers)
-_ARRAY = np.ndarray
-
 #: the largest ``latency`` (s) taken: the output is predicted that far with the gyro, which only holds for a
 #: delay far shorter than the motion's time scale
 MAX_LATENCY = 1.0
@@ -394,9 +391,9 @@ class AttitudeFilter:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
         if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
-        if mag is None and type(gyr) is _ARRAY and type(acc) is _ARRAY:
+        if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
-        elif mag is None:  # lists or tuples: numbers, not a reflected list (deprecated in numba, compiled anew)
+        elif mag is None:  # lists: numbers, not a reflected list (deprecated in numba, compiled anew)
             g0, g1, g2, a0, a1, a2 = (float(v) for v in (*gyr, *acc))
             ok = self._step(self._state, self._par, g0, g1, g2, a0, a1, a2, math.nan, math.nan, math.nan, float(h))
         else:
