@@ -167,11 +167,7 @@ def test_a_raw_logger_file_calibrates_with_the_unit_options_alone(tmp_path, caps
     )
     err = capsys.readouterr().err
     assert "sample rate 100 Hz from the preamble line 'Fs'" in err and "is incomplete" in err
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=5e-4)
+    r = _acc_scales_match(out, s, rtol=5e-4)
     np.testing.assert_allclose(r.accelerometer["b"], s.acc_b + 32768, atol=0.5)
     assert r.excluded["saturated_acc"] == 0 and r.excluded["saturated_gyro"] == 0
 
@@ -1303,11 +1299,7 @@ def test_a_movella_dot_export_reads_its_rate_and_names_the_gyro_unit(tmp_path, c
     assert main(argv) == 2
     assert "--gyro-unit deg/s" in capsys.readouterr().err
     assert main([*argv, "--gyro-unit", "deg/s"]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    _acc_scales_match(out, s)
 
 
 def _metabase(t, values, unit):
@@ -1342,11 +1334,7 @@ def test_metawear_metabase_files_read_by_the_units_of_their_axes(tmp_path, capsy
         main(["calibrate", "accel", str(acc), "--gyro", str(gyro), "--gravity", str(s.gravity), "--out", str(out)]) == 0
     )
     assert "'time (-08:00)' hold text and were left out" in capsys.readouterr().err
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    r = _acc_scales_match(out, s)
     np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
 
 
@@ -1386,11 +1374,7 @@ def test_androsensor_export_takes_the_accelerometer_and_its_clock(tmp_path, caps
     assert any("LINEAR ACCELERATION X (m/s²)" in n and "passed over" in n for n in log.notes)
     out = tmp_path / "r.json"
     assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    _acc_scales_match(out, s)
 
 
 def test_ros_linear_acceleration_alone_is_the_accelerometer(tmp_path):
@@ -1425,11 +1409,7 @@ def test_a_shimmer_export_reads_without_columns(tmp_path, capsys):
     assert any("Accel_WR_X_CAL" in n and "passed over" in n for n in log.notes)
     out = tmp_path / "r.json"
     assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    r = _acc_scales_match(out, s)
     np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
 
 
@@ -1462,11 +1442,7 @@ def test_ronin_hdf5_reads_its_synced_arrays(tmp_path, capsys):
     assert any("synced/acce" in n for n in log.notes)
     out = tmp_path / "r.json"
     assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    _acc_scales_match(out, s)
 
 
 def test_ridi_csv_reads_acce_and_its_ns_time(tmp_path):
@@ -1512,11 +1488,7 @@ def test_an_adis_register_export_reads_and_its_counts_are_named(tmp_path, capsys
     err = capsys.readouterr().err
     assert "raw counts? (" in err and "per g" in err and "pass --acc-unit counts" in err
     assert main([*argv, "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), rtol=2e-3)
+    _acc_scales_match(out, s, rtol=2e-3)
 
 
 def _vn_line(name, values):
@@ -1553,11 +1525,7 @@ def test_a_vectornav_ascii_capture_reads_by_its_sentence(tmp_path, capsys):
         main(["calibrate", "accel", str(path), "--rate", f"{rate:g}", "--gravity", str(s.gravity), "--out", str(out)])
         == 0
     )
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    _acc_scales_match(out, s)
     lines[40] = lines[40].replace("+", "-", 1)  # a bit flipped on the wire: the checksum fails
     bad = _w(tmp_path / "vn100_bad.txt", "".join(lines))
     with pytest.raises(OptinavError, match="line 41.*--skip-bad-lines"):
@@ -1606,11 +1574,7 @@ def test_xsens_increments_read_as_rates(tmp_path, capsys):
     assert log.gyro_input_unit == "rad/s" and any("dq_*/dv[*]" in n for n in log.notes)
     out = tmp_path / "r.json"
     assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
-    r = CalibrationResult.from_json(out)
-    from optinav.multipos import model
-
-    U, _ = model.upper_triangular_form(s.acc_K)
-    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), atol=4 * np.max(r.accelerometer["K_std"]))
+    r = _acc_scales_match(out, s)
     np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
     bare = _w(tmp_path / "bare.csv", cols + rows)
     with pytest.raises(OptinavError, match="states no rate"):
@@ -1643,3 +1607,15 @@ def test_a_sample_printed_over_several_lines_is_named(tmp_path):
     assert "delimiter" not in str(exc.value)
     one = _w(tmp_path / "plotter.txt", "".join(f"ax:0.1,ay:0.2,az:9.8,gx:{i},gy:0,gz:0\n" for i in range(20)))
     assert read_imu(one, rate_hz=100.0).acc.shape == (20, 3)
+
+
+def _acc_scales_match(out, s, **tol):
+    """The calibration written to ``out`` has the simulated session ``s``'s accelerometer scales (the diagonal of its
+    K in upper-triangular form) within ``tol`` (default: 4 × the largest K std it reports); returns it."""
+    from optinav.multipos import model
+
+    r = CalibrationResult.from_json(out)
+    U, _ = model.upper_triangular_form(s.acc_K)
+    tol = tol or {"atol": 4 * np.max(r.accelerometer["K_std"])}
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), **tol)
+    return r

@@ -1520,48 +1520,11 @@ def _log_of(
         notes=notes,
     )
     for p in parts:
-        if "decimal_comma" in p.table.meta and row0 == 0:
-            notes.append(f"{p.path.name}: decimal commas read as decimal points (',' is not its delimiter)")
-        if "monitor_stamps" in p.table.meta and row0 == 0:
-            notes.append(f"{p.path.name}: the serial monitor's receive times ('14:23:01.123 -> ') were cut off")
-        if "banner_lines" in p.table.meta and row0 == 0:
-            notes.append(f"{p.path.name}: {p.table.meta['banner_lines']} were left out")
-        if "one_sensor_layout" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: no header; its {len(p.table.data)} columns read as "
-                f"{p.table.meta['one_sensor_layout']} (one sensor per file, as imu_tk's data; name them with "
-                "--columns/--gyro-columns if not)"
-            )
-        if "coremotion" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: Core Motion's acceleration is minus the specific force: read as "
-                f"{p.table.meta['coremotion']}"
-            )
-        if "shimmer_passed" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one "
-                f"({p.table.meta['shimmer_passed']} …) was passed over (map it with --columns ax=…,ay=…,az=…)"
-            )
-        if "xsens_sdi" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each "
-                f"1/{p.table.meta['xsens_sdi']}-s period"
-            )
-        if "vectornav" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: VectorNav ${p.table.meta['vectornav']} sentences read by their fields (checksums held)"
-            )
-        if "ronin" in p.table.meta and row0 == 0:
-            notes.append(f"{p.path.name}: RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)")
-        if "gravity_free" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: {p.table.meta['gravity_free']} (the phone's linear acceleration, gravity taken out) "
-                "passed over for the accelerometer"
-            )
-        if "text_left_out" in p.table.meta and row0 == 0:
-            notes.append(
-                f"{p.path.name}: column(s) {p.table.meta['text_left_out']} hold text and were left out (map one "
-                "with label=NAME in columns if it names the poses)"
+        if row0 == 0:  # what a reader assumed about the file, once: the first block's notes
+            notes.extend(
+                f"{p.path.name}: {note.format(v=p.table.meta[key], n=len(p.table.data))}"
+                for key, note in _LAYOUT_NOTES.items()
+                if key in p.table.meta
             )
         if p.table.bad_lines:
             from optinav.io.readers import _bad_shown
@@ -1581,6 +1544,26 @@ def _log_of(
     known = all(kind in main.finite for kind, v in (("acc", main.acc), ("gyro", main.gyro)) if v is not None)
     log.nan_rows = 0 if known else int(np.count_nonzero(~log.finite))
     return log
+
+
+#: notes of what a reader assumed about a file (the key its Table's ``meta`` holds when it did): ``{v}`` the value
+#: there, ``{n}`` the number of columns read
+_LAYOUT_NOTES = {
+    "decimal_comma": "decimal commas read as decimal points (',' is not its delimiter)",
+    "monitor_stamps": "the serial monitor's receive times ('14:23:01.123 -> ') were cut off",
+    "banner_lines": "{v} were left out",
+    "one_sensor_layout": "no header; its {n} columns read as {v} (one sensor per file, as imu_tk's data; name them "
+    "with --columns/--gyro-columns if not)",
+    "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
+    "shimmer_passed": "Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one ({v} …) was passed "
+    "over (map it with --columns ax=…,ay=…,az=…)",
+    "xsens_sdi": "Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each 1/{v}-s period",
+    "vectornav": "VectorNav ${v} sentences read by their fields (checksums held)",
+    "ronin": "RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)",
+    "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
+    "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "
+    "the poses)",
+}
 
 
 #: sample rates (Hz) an IMU log can have: a time column read as seconds because nothing states its unit, whose
