@@ -1,6 +1,7 @@
 """Quality gates of `calibrate accel`: each bad input that used to give a wrong result with exit 0 now gives the
 right answer (with a note) or a one-line error naming the cause and a flag that exists."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 from optinav.cli.main import main
 from optinav.core.imu_model import preset
+from optinav.core.units import factor
 from optinav.errors import OptinavError
 from optinav.multipos import gates, model
 from optinav.multipos.calibrate import calibrate, count_range, saturated_mask
@@ -540,7 +542,9 @@ def test_scales_std_covers_an_unknown_local_gravity(lat_deg):
 
 
 def test_gyro_scale_window_of_a_physical_unit_is_tight_and_counts_have_none():
-    """A gyro in deg/s reads within ×GYRO_SCALE_FACTOR of 1; the accelerometer keeps the wide window."""
+    """A gyro in deg/s reads within ×GYRO_SCALE_FACTOR of 1, an accelerometer in m/s², g or mg within
+    ×ACC_SCALE_FACTOR (it had the wide ×1.5 window: raw counts of 800 per g declared mg calibrated to 0.82× with exit
+    0); counts have no nominal scale."""
     nom = 180.0 / np.pi  # deg/s per rad/s
     kw = {"option": "--gyro-unit", "columns_flag": "--columns"}
     for r in (1.0, 1.14, 1 / 1.14):
@@ -549,7 +553,16 @@ def test_gyro_scale_window_of_a_physical_unit_is_tight_and_counts_have_none():
         with pytest.raises(OptinavError, match="wrong time base") as e:
             gates.check_matrix(np.diag([nom, nom * r, nom]), nom, "gyroscope", "deg/s", **kw)
         assert "--rate" in e.value.remedy and "K_yy" in str(e.value)
-    gates.check_matrix(np.eye(3) * 1.4, 1.0, "accelerometer", "m/s^2", **kw)
+    akw = {"option": "--acc-unit", "columns_flag": "--columns"}
+    for unit in ("m/s^2", "g", "mg"):
+        nom = 1.0 / factor(unit)
+        for r in (1.0, 1.14, 1 / 1.14):
+            gates.check_matrix(np.eye(3) * nom * r, nom, "accelerometer", unit, **akw)
+        for r in (1.16, 1 / 1.16, 1.4):
+            with pytest.raises(OptinavError, match=re.escape(f"nominal value in {unit}")) as e:
+                gates.check_matrix(np.diag([nom, nom, nom * r]), nom, "accelerometer", unit, **akw)
+            assert "K_zz" in str(e.value) and "--acc-unit counts" in e.value.remedy
+    gates.check_matrix(np.diag([1.0, 1.4, 1.0]), 1.0, "accelerometer", "counts", **akw)
     gates.check_matrix(np.diag([1.0, 1.4, 1.0]), 1.0, "gyroscope", "counts", **kw)
 
 

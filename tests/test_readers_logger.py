@@ -3,6 +3,7 @@ and variables, an incomplete last line, an empty column, absurd cells — read, 
 
 import datetime
 import gzip
+import re
 from pathlib import Path
 
 import numpy as np
@@ -1489,6 +1490,28 @@ def test_an_adis_register_export_reads_and_its_counts_are_named(tmp_path, capsys
     assert "raw counts? (" in err and "per g" in err and "pass --acc-unit counts" in err
     assert main([*argv, "--acc-unit", "counts", "--gyro-unit", "counts"]) == 0
     _acc_scales_match(out, s, rtol=2e-3)
+    # declared mg (as the old hint said), the counts calibrated with exit 0 to a scale 0.82x of mg's: an
+    # accelerometer in a physical unit reads g within x1.15, beyond it the fit is refused naming counts
+    capsys.readouterr()
+    assert main([*argv, "--acc-unit", "mg", "--gyro-unit", "counts"]) == 2
+    err = capsys.readouterr().err
+    assert re.search(r"0\.8\d*× its nominal value in mg", err) and re.search(r"\((79\d|80\d)(\.\d+)? per g\)", err), err
+    assert "pass --acc-unit counts" in err
+
+
+def test_an_accelerometer_a_few_percent_off_in_a_physical_unit_still_calibrates(tmp_path):
+    """The physical-unit scale gate (x1.15) leaves a real sensor's scale error alone: 8 % off in g calibrates to it."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="g", gyro_unit="rad/s", rng=23)
+    path = tmp_path / "s.csv"
+    rows = np.column_stack([s.t, 1.08 * s.acc, s.gyr])
+    np.savetxt(path, rows, delimiter=",", header="t,ax [g],ay [g],az [g],gx,gy,gz", comments="", fmt="%.9g")
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    from optinav.multipos import model
+
+    r = CalibrationResult.from_json(out)
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(r.accelerometer["K"]), 1.08 * np.diag(U), rtol=2e-3)
 
 
 def _vn_line(name, values):

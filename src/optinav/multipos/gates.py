@@ -9,7 +9,8 @@ After each fit (:mod:`optinav.multipos.calibrate`):
 * **residual** — the pose residual RMS is within :data:`MAX_RESIDUAL_G` × g: a larger one means motion in a
   "static" interval or data that no ellipsoid fits (the within-pose noise already inflates the std);
 * **plausibility** — diagonal scales within ×:data:`SCALE_FACTOR` of the nominal scale of the declared unit
-  (×:data:`GYRO_SCALE_FACTOR` for a gyroscope in deg/s or rad/s: beyond it the time base is wrong),
+  (×:data:`ACC_SCALE_FACTOR` for an accelerometer in m/s², g or mg: beyond it raw counts were read as that unit;
+  ×:data:`GYRO_SCALE_FACTOR` for a gyroscope in deg/s or rad/s: beyond it the time base is wrong),
   couplings ``|K_ij|/K_ii`` ≤ :data:`MAX_COUPLING`, corrected pose directions within :data:`MAX_TURN_DEG` of
   the raw ones (no axis swap or sign flip), and for the gyroscope a K close to a positive diagonal; when it is
   close to a signed axis permutation instead, :func:`axis_permutation` names it (48 signed permutations).
@@ -38,6 +39,10 @@ SCALE_FACTOR = 1.5
 #: a diagonal scale outside nominal/GYRO_SCALE_FACTOR … nominal·GYRO_SCALE_FACTOR means a wrong time base
 #: (--rate, --time-unit) or turn angle, which scale the integrated turns, not the sensor
 GYRO_SCALE_FACTOR = 1.15
+#: an accelerometer declared in a physical unit (m/s², g, mg) reads g to a few % (sensitivity tolerance ±1–5 %);
+#: a diagonal scale outside nominal/ACC_SCALE_FACTOR … nominal·ACC_SCALE_FACTOR is raw counts read as that unit
+#: (an ADIS16470's 800 per g declared mg: 0.82×, which calibrated with exit 0) or a wrong conversion upstream
+ACC_SCALE_FACTOR = 1.15
 #: largest accepted |K_ij| / K_ii (misalignment or cross-coupling, rad)
 MAX_COUPLING = 0.2
 #: largest accepted angle (degrees) between a corrected pose direction and its raw direction
@@ -269,6 +274,18 @@ def check_matrix(
                 f"(diagonal {', '.join(f'{r:.3g}' for r in ratio)}×; a gyro reads within "
                 f"×{GYRO_SCALE_FACTOR:g}): the turns were integrated over a wrong time base or angle",
                 f"check the sample rate or time column ({time_flags})",
+            )
+        return
+    if sensor == "accelerometer" and unit in _ACC_UNITS and not np.any(bad):
+        off = (ratio > ACC_SCALE_FACTOR) | (ratio < 1 / ACC_SCALE_FACTOR)
+        if np.any(off):
+            k = int(np.flatnonzero(off)[0])
+            per_g = float(np.median(d)) * 9.80665
+            raise OptinavError(
+                f"the accelerometer scale K_{'xyz'[k]}{'xyz'[k]} is {ratio[k]:.3g}× its nominal value in {unit} "
+                f"(diagonal {', '.join(f'{r:.3g}' for r in ratio)}×; an accelerometer reads g within "
+                f"×{ACC_SCALE_FACTOR:g}): not data in {unit} — raw counts ({per_g:.4g} per g) or a wrong conversion",
+                f"pass {option} counts (it also takes a sensor whose scale is truly that far off)",
             )
         return
     if not np.any(bad):
