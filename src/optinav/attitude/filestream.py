@@ -434,24 +434,10 @@ class _Blocks:
         yield from _finite_rows(blocks, self.notes, self.o) if self.o.drops_nan else blocks
 
     def _text(self):
-        from optinav.io.imu import iter_imu
+        from optinav.io.imu import iter_imu, reader_options
 
         o = self.o
-        chunks = iter_imu(
-            self.path,
-            columns=o.columns,
-            acc_unit=o.acc_unit,
-            gyro_unit=o.gyro_unit,
-            time_unit=o.time_unit,
-            rate_hz=o.rate_hz,
-            datasets=o.datasets or None,
-            delimiter=o.delimiter,
-            chunk_rows=self.chunk_rows,
-            topic=o.topic,
-            gyro_path=o.gyro_path,
-            gyro_columns=o.gyro_columns,
-            skip_bad_lines=o.skip_bad_lines,
-        )
+        chunks = iter_imu(self.path, chunk_rows=self.chunk_rows, **reader_options(o))
         self.size = chunks.size
         prev = None
         truth = None if self.truth_csv is None else _TruthRows(self.truth_csv, self.truth_frame, self.o.frame)

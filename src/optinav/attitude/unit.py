@@ -94,22 +94,10 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
     from optinav.io import read_imu
+    from optinav.io.imu import reader_options
     from optinav.io.readers import read_table
 
-    log = read_imu(
-        path,
-        columns=o.columns,
-        acc_unit=o.acc_unit,
-        gyro_unit=o.gyro_unit,
-        time_unit=o.time_unit,
-        rate_hz=o.rate_hz,
-        datasets=o.datasets or None,
-        delimiter=o.delimiter,
-        topic=o.topic,
-        gyro_path=o.gyro_path,
-        gyro_columns=o.gyro_columns,
-        skip_bad_lines=o.skip_bad_lines,
-    )
+    log = read_imu(path, **reader_options(o))
     if log.acc is None or log.gyr is None:
         raise OptinavError(
             f"{path} needs accelerometer and gyroscope columns", "name them with --columns t,ax,ay,az,gx,gy,gz"

@@ -153,19 +153,9 @@ class _Watched:
 
 def _blocks(args, path, columns, notes: ReaderNotes) -> _Watched:
     """The blocks of one file read with the command's input options."""
-    from optinav.io.imu import iter_imu
+    from optinav.io.imu import iter_imu, reader_options
 
-    chunks = iter_imu(
-        path,
-        columns=columns,
-        acc_unit=args.acc_unit,
-        gyro_unit=args.gyro_unit,
-        time_unit=args.time_unit,
-        rate_hz=args.rate_hz,
-        datasets=args.datasets or None,
-        delimiter=args.delimiter,
-        chunk_rows=args.chunk_rows,
-        topic=args.topic,
-        skip_bad_lines=args.skip_bad_lines,
-    )
+    # each file on its own (the gyroscope's file is read as a second log on its own clock, not paired)
+    kw = reader_options(args, columns=columns, gyro_path=None, gyro_columns=None)
+    chunks = iter_imu(path, chunk_rows=args.chunk_rows, **kw)
     return _Watched(chunks, notes, "allan: read", fill=args.fill_gaps)

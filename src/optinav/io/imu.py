@@ -26,6 +26,7 @@ from optinav.io.readers import (
     RATE_KEYS,
     SKIP_NAMES,
     Table,
+    generic_names,
     iter_table,
     load_table,
     merge_datasets,
@@ -716,12 +717,22 @@ _CM_NAMES = {_CM_SPLIT[0]: "userAcceleration (gravity taken out)", _CM_SPLIT[1]:
 _CM_TIME = {_CM_ACC: "accelerometertimestamp", _CM_SPLIT[0]: "motiontimestamp", _CM_GYRO: "gyrotimestamp"}
 
 
+def _headerless(table: Table) -> bool:
+    """Whether no header named ``table``'s columns (``col1`` … ``colN``: :func:`optinav.io.readers.generic_names`)."""
+    return list(table.data) == generic_names(len(table.data))
+
+
+def _sensor_named(found: dict, candidates: dict, *more: str) -> bool:
+    """Whether a column was already taken (mapped or by its name) for a sensor component or triad (or ``more``)."""
+    return any(k in found or k in candidates for k in ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro", *more))
+
+
 def _columns_example(table: Table) -> tuple[str, str]:
     """(an example ``columns``, a remark after it) for a table the readers found no sensor in: one name per column
     of a file without a header (4 columns: a time and one sensor; 6/7: both sensors, with a time first), else the
     full list."""
     k = len(table.data)
-    if list(table.data) == [f"col{j + 1}" for j in range(k)]:
+    if _headerless(table):
         if k == 4:
             return "t,ax,ay,az", " and the gyroscope's file as gyro_path=GYRODATA (one sensor per file)"
         if k in (6, 7):
@@ -739,7 +750,7 @@ def _one_sensor_columns(table: Table, found: dict, candidates: dict, need: str |
     if need not in ("acc", "gyro") or found or candidates:
         return
     keys = list(table.data)
-    if len(keys) not in (3, 4) or keys != [f"col{j + 1}" for j in range(len(keys))]:
+    if len(keys) not in (3, 4) or not _headerless(table):
         return
     cols = [table.data[k] for k in keys]
     if any(c.ndim != 1 or c.dtype.kind != "f" for c in cols):
@@ -773,7 +784,7 @@ def _shimmer(table: Table, found: dict, candidates: dict) -> None:
     ``…_Timestamp_Unix_CAL`` (the device's name first; units in the row under the header: ms, m/(s^2), deg/s). The
     low-noise accelerometer is taken (the wide-range one named in ``table.meta["shimmer_passed"]``), the gyroscope,
     and the Unix timestamp, when nothing else names a sensor and one device's prefix heads every such column."""
-    if any(k in found or k in candidates for k in ("t", "ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+    if _sensor_named(found, candidates, "t"):
         return
     hits: dict[tuple[str, str | None], str] = {}
     prefixes = set()
@@ -807,7 +818,7 @@ def _vectornav_fields(table: Table, found: dict, candidates: dict) -> None:
     held, ``table.meta["vectornav"]`` the sentence): its fields ``col1…`` named by the sentence's layout."""
     layout = _VN_LAYOUT.get(table.meta.get("vectornav", ""))
     keys = list(table.data)
-    if layout is None or found or candidates or keys != [f"col{j + 1}" for j in range(layout[2])]:
+    if layout is None or found or candidates or len(keys) != layout[2] or not _headerless(table):
         return
     for kind, first in zip("ag", layout[:2]):
         if first is not None:
@@ -821,7 +832,7 @@ def _xsens_sdi(table: Table, found: dict, candidates: dict) -> None:
     orientation increment over one output period, and ``dv[1] … dv[3]``, the velocity increment in m/s, its axes
     counted from 1) become the mean rate (rad/s) and specific force (m/s²) of each period; the period is one over
     the rate the export states (``OutputRate:,60Hz``, ``// Update Rate: 100.0Hz``)."""
-    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+    if _sensor_named(found, candidates):
         return
     low = {k.strip().lower(): k for k in table.data}
     dq = [low.get(f"dq_{c}") for c in "wxyz"]
@@ -894,7 +905,7 @@ def _axes_by_unit(table: Table, found: dict, candidates: dict) -> None:
     elapsed (s), x-axis (deg/s), …``) or ``x (deg/s)``: the unit in brackets, the same on all three, says which
     sensor (an accelerometer's or a gyroscope's unit; raw counts or a field's unit say nothing). Nothing else in
     the file may look like a sensor."""
-    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc", "gx", "gy", "gz", "gyro")):
+    if _sensor_named(found, candidates):
         return
     axes: dict[str, tuple[str, str | None]] = {}
     for key in table.data:
@@ -1325,6 +1336,33 @@ def _file_rate(table: Table) -> tuple[float, str] | None:
         if normalize_name(k)[0] in RATE_KEYS and np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
             return float(np.asarray(v).ravel()[0]), f"the variable {k!r}"
     return None
+
+
+#: the keywords of :func:`read_imu`/:func:`iter_imu` that the commands' option objects (AttitudeOptions,
+#: FileOptions, ApplyOptions, the allan command's arguments) carry under the same names
+READ_OPTIONS = (
+    "columns",
+    "acc_unit",
+    "gyro_unit",
+    "time_unit",
+    "rate_hz",
+    "datasets",
+    "delimiter",
+    "topic",
+    "gyro_path",
+    "gyro_columns",
+    "skip_bad_lines",
+)
+
+
+def reader_options(o, **over) -> dict:
+    """The keywords of :func:`read_imu`/:func:`iter_imu` from ``o``'s attributes of the same names
+    (:data:`READ_OPTIONS`, those it has; an empty ``datasets`` is None), then ``over``."""
+    kw = {k: getattr(o, k) for k in READ_OPTIONS if hasattr(o, k)}
+    if "datasets" in kw:
+        kw["datasets"] = kw["datasets"] or None
+    kw.update(over)
+    return kw
 
 
 def read_imu(

@@ -747,6 +747,11 @@ _BAG_REMEDY = {
 }
 
 
+def generic_names(n: int) -> list[str]:
+    """The names of ``n`` columns that no header names: ``col1`` … ``colN``."""
+    return [f"col{j + 1}" for j in range(n)]
+
+
 def _sniff_kind(head: bytes, by_suffix: str | None, gz: bool) -> str | None:
     """The format from the first bytes before the suffix: binary formats by their magic numbers (MATLAB v7.3
     files start with "MATLAB" too), and a file under a binary suffix (.mat, .npz, .npy, .h5) that is text
@@ -1127,7 +1132,7 @@ def _text_layout(
             )
         colnames = list(names)
     elif header is not None:
-        colnames = [h if h else f"col{j + 1}" for j, h in enumerate(header)]
+        colnames = [h if h else g for h, g in zip(header, generic_names(len(header)))]
         seen: dict[str, int] = {}
         for j, h in enumerate(colnames):
             if h in seen:
@@ -1137,7 +1142,7 @@ def _text_layout(
                 )
             seen[h] = j
     else:
-        colnames = [f"col{j + 1}" for j in range(ncol)]
+        colnames = generic_names(ncol)
     if header is not None and names is not None:
         # names given over a header keep the header's units (its units row, or a unit in brackets: EuRoC's
         # 'timestamp [ns]'); a unit in a given name overrides
@@ -1999,7 +2004,7 @@ def _split_single_table(table: Table) -> Table:
     if len(numeric) == 1 and table.data[numeric[0]].ndim == 2 and table.data[numeric[0]].shape[1] >= 2:
         name = numeric[0]
         arr = table.data.pop(name)
-        cols = {f"col{j + 1}": arr[:, j] for j in range(arr.shape[1])}
+        cols = dict(zip(generic_names(arr.shape[1]), arr.T))
         table.data = {**cols, **table.data}
         table.table, table.table_array = name, arr
     return table

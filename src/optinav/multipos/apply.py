@@ -54,7 +54,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
     from optinav.core.files import CHUNK_ROWS
     from optinav.core.progress import progress_blocks
     from optinav.io import ImuLog
-    from optinav.io.imu import iter_imu, open_imu_writer
+    from optinav.io.imu import iter_imu, open_imu_writer, reader_options
     from optinav.multipos.exchange import load_calibration
 
     o = options or ApplyOptions()
@@ -70,20 +70,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
         res.units.get("accelerometer_raw") if res.accelerometer else None,
         res.units.get("gyroscope_raw") if res.gyroscope else None,
     )
-    blocks = iter_imu(
-        data_path,
-        columns=o.columns,
-        acc_unit=o.acc_unit,
-        gyro_unit=o.gyro_unit,
-        unit_defaults=defaults,
-        time_unit=o.time_unit,
-        rate_hz=o.rate_hz,
-        datasets=o.datasets or None,
-        delimiter=o.delimiter,
-        chunk_rows=o.chunk_rows or CHUNK_ROWS,
-        topic=o.topic,
-        skip_bad_lines=o.skip_bad_lines,
-    )
+    blocks = iter_imu(data_path, unit_defaults=defaults, chunk_rows=o.chunk_rows or CHUNK_ROWS, **reader_options(o))
     source = f"optinav apply {Path(result_path).name} {Path(data_path).name}"
     # block by block: read, correct, append to the (temporary, renamed at the end) output, so memory does not
     # grow with the log; a bad row fails when its block is read and leaves no output

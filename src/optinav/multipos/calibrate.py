@@ -35,6 +35,7 @@ from optinav.core.units import G_STANDARD, factor
 from optinav.core.validate import as_float_array, check_positive, check_timestamps
 from optinav.errors import OptinavError, SwappedAxes
 from optinav.io import iter_imu, raw_units
+from optinav.io.imu import reader_options
 
 from . import accel, gates, model, static
 from .result import CalibrationResult
@@ -1981,21 +1982,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     and only time, accelerometer, gyroscope and labels are kept, so the peak while reading is those arrays plus
     one block of ``chunk_rows`` rows, not the parsed table (about 530 B per row before)."""
     o = options
-    blocks = iter_imu(
-        path,
-        columns=o.columns,
-        gyro_path=o.gyro_path,
-        gyro_columns=o.gyro_columns,
-        acc_unit=o.acc_unit,
-        gyro_unit=o.gyro_unit,
-        time_unit=o.time_unit,
-        rate_hz=o.rate_hz,
-        datasets=o.datasets or None,
-        delimiter=o.delimiter,
-        topic=o.topic,
-        chunk_rows=chunk_rows,
-        skip_bad_lines=o.skip_bad_lines,
-    )
+    blocks = iter_imu(path, chunk_rows=chunk_rows, **reader_options(o))
     parts = {key: _Gather() for key in ("t", "acc", "gyro")}
     labels: list = []
     counter: list = []
