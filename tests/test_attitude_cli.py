@@ -328,3 +328,34 @@ def test_nan_rows_left_out_as_lost_samples(flight, tmp_path, capsys):
         t, gyr, acc, _, _ = read_log(tmp_path / "bad.csv", AttitudeOptions(gyro_unit="deg/s", drop_nan=True))
     on_file = np.loadtxt(tmp_path / "kept.csv", delimiter=",", skiprows=1)
     np.testing.assert_allclose(np.column_stack([t, acc, np.degrees(gyr)]), on_file, rtol=1e-14, atol=0)
+
+
+def test_magnetometer_columns_take_a_sign(tmp_path, capsys):
+    """A magnetometer mounted with an axis flipped (the frame's MIRROR remedy: negate one axis of every sensor)
+    could not be mapped: --mag-columns took names only, and the flipped field turned the heading with exit 0. A
+    '-' before a name now reads it negated: the estimate equals the same log's with the axis as it should be,
+    streamed and read whole (the reader behind the report)."""
+    from optinav.attitude.unit import AttitudeOptions, read_log
+    from optinav.cli.main import main
+
+    n = 1500
+    rng = np.random.default_rng(3)
+    t = np.arange(n) * 0.01
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    gyr = rng.normal(0, 0.002, (n, 3))
+    mag = np.tile([12.0, 15.0, -40.0], (n, 1)) + rng.normal(0, 0.2, (n, 3))
+    files = {}
+    for name, m in (("right", mag), ("flipped", mag * [1, -1, 1])):
+        files[name] = tmp_path / f"{name}.csv"
+        np.savetxt(files[name], np.column_stack([t, acc, gyr, m]), delimiter=",", header="t,ax,ay,az,gx,gy,gz,mx,my,mz")
+    out = {}
+    for name, path, cols in (("right", files["right"], "mx,my,mz"), ("as logged", files["flipped"], "mx,my,mz"),
+                             ("signed", files["flipped"], "mx,-my,mz")):  # fmt: skip
+        out[name] = tmp_path / f"{name}.out.csv"
+        argv = ["--quiet", "attitude", str(path), "--frame", "ENU", "--mag-columns", cols, "--out", str(out[name])]
+        assert main(argv) == 0, capsys.readouterr().err
+    yaw = {k: np.genfromtxt(v, delimiter=",", names=True)["yaw_deg"] for k, v in out.items()}
+    np.testing.assert_array_equal(yaw["signed"], yaw["right"])
+    assert abs(yaw["as logged"][-1] - yaw["right"][-1]) > 40.0  # 2 atan(15/12) of heading, with exit 0
+    whole = read_log(files["flipped"], AttitudeOptions(mag_columns="mx,-my,mz"))[3]
+    np.testing.assert_array_equal(whole, read_log(files["right"], AttitudeOptions(mag=True))[3])

@@ -1642,3 +1642,74 @@ def _acc_scales_match(out, s, **tol):
     tol = tol or {"atol": 4 * np.max(r.accelerometer["K_std"])}
     np.testing.assert_allclose(np.diag(r.accelerometer["K"]), np.diag(U), **tol)
     return r
+
+
+def _inclination_deg(out, q_b_n):
+    """Median and largest inclination error (deg) of the attitude CSV ``out`` against ``q_b_n`` (its frame)."""
+    from optinav.attitude.metrics import inclination_error
+
+    d = np.genfromtxt(out, delimiter=",", names=True)
+    e = np.degrees(inclination_error(np.column_stack([d[k] for k in ("qw", "qx", "qy", "qz")]), q_b_n))
+    return float(np.median(e)), float(np.max(e))
+
+
+def test_columns_negate_the_acceleration_core_motion_logs(tmp_path, capsys):
+    """Apple's Core Motion logs minus the specific force (a phone face up reads -1 g on z; OxIOD's headerless
+    imu*.csv: time, attitude, rotation rate rad/s, gravity and user acceleration in g, field µT). --columns could
+    not negate a column: the raw accelerometer read as it stands put a simulated flight 179° off (inclination)
+    with exit 0, under a warning whose only remedy was the other frame. Now '-' before a name (t,-ax,… or
+    ax=-NAME) reads it negated, with a note; the warning names the negation; OxIOD's file reads by Core Motion's
+    names, which sum gravity and user acceleration and negate them (docs/file-formats.md)."""
+    from optinav.attitude.simulate import simulate as fly
+
+    d = fly("dynamic", duration_s=12, rate_hz=100, rng=4, frame="enu")  # RFU body: a phone face up
+    f = d.acc / 9.80665
+    apple = tmp_path / "apple.csv"
+    np.savetxt(apple, np.column_stack([d.t, -f, d.gyr]), delimiter=",", fmt="%.9g")
+    grav = -np.cumsum(f, axis=0) / np.arange(1, len(f) + 1)[:, None]  # any split of -f: Core Motion sums them
+    ox = tmp_path / "imu1.csv"
+    np.savetxt(ox, np.column_stack([d.t, 0 * f, d.gyr, grav, -f - grav, 0 * f + 30.0]), delimiter=",", fmt="%.9g")
+    cm = ",".join(f"motion{k}{a}" for k in ("Gravity", "UserAcceleration") for a in "XYZ")
+    ours = tmp_path / "ours.csv"  # the same flight in optinav's sign
+    np.savetxt(ours, np.column_stack([d.t, np.round(f, 9), d.gyr]), delimiter=",", fmt="%.9g")
+    runs = {
+        "ours": (ours, "t,ax,ay,az,gx,gy,gz"),
+        "as logged": (apple, "t,ax,ay,az,gx,gy,gz"),
+        "negated": (apple, "t,-ax,-ay,-az,gx,gy,gz"),
+        "negated by name": (apple, "t=col1,ax=-col2,ay=-col3,az=-col4,gx=col5,gy=col6,gz=col7"),
+        "OxIOD": (ox, f"t,_,_,_,gx,gy,gz,{cm},_,_,_"),
+    }
+    errs = {}
+    for k, (path, cols) in runs.items():
+        out = tmp_path / f"{k} attitude.csv"
+        assert main(["--quiet", "attitude", str(path), "--columns", cols, "--acc-unit", "g", "--frame", "ENU",
+                     "--out", str(out)]) == 0  # fmt: skip
+        errs[k] = (_inclination_deg(out, d.q_b_n), capsys.readouterr().err)
+    assert errs["ours"][0][0] < 5.0 and errs["as logged"][0][0] > 170.0
+    assert "negate the accelerometer's columns, e.g. --columns t,-ax,-ay,-az" in errs["as logged"][1]
+    for k in ("negated", "negated by name", "OxIOD"):
+        np.testing.assert_allclose(errs[k][0], errs["ours"][0], atol=1e-3)
+        assert "down-pointing" not in errs[k][1]
+    assert "read negated as the columns option asks: -ax, -ay, -az" in errs["negated"][1]
+    assert "-(motionUserAccelerationX + motionGravityX)" in errs["OxIOD"][1]
+    log = read_imu(apple, columns="t,-ax,-ay,-az,gx,gy,gz", acc_unit="g")
+    np.testing.assert_allclose(log.acc, np.round(f, 9) * 9.80665, rtol=1e-8, atol=1e-8)
+    for bad, match in (("t,-t,ay,az,gx,gy,gz", "no accelerometer or gyroscope column"), ("t,-_,ay", "signs no")):
+        with pytest.raises(OptinavError, match=match):
+            read_imu(apple, columns=bad)
+
+
+def test_a_negated_column_calibrates_to_the_truth(tmp_path, capsys):
+    """A session logged in Core Motion's sign (minus the specific force): the norm fit cannot see the sign, so as
+    logged it calibrated with every accelerometer bias negated, exit 0; '-' in --columns gives the truth's, and
+    the result records the mapping in its notes."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=11)
+    path = tmp_path / "apple.csv"
+    np.savetxt(path, np.column_stack([s.t, -s.acc, -s.gyr]), delimiter=",", fmt="%.12g")
+    out = tmp_path / "r.json"
+    cmd = ["--quiet", "calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]
+    assert main([*cmd, "--columns", "t,-ax,-ay,-az,-gx,-gy,-gz"]) == 0
+    r = _acc_scales_match(out, s)
+    tol = 4 * np.max(r.accelerometer["b_std"])
+    np.testing.assert_allclose(r.accelerometer["b"], s.acc_b, atol=tol)
+    assert "apple.csv: read negated as the columns option asks: -ax, -ay, -az, -gx, -gy, -gz" in r.quality["notes"]

@@ -1270,7 +1270,8 @@ MIRROR_HINT = (
 )
 MIRROR_REMEDY = (
     "if the frame is mirrored, swap two axes of every sensor alike (--columns, e.g. t,ay,ax,az,gy,gx,gz[,my,mx,mz]) "
-    "or negate one axis of each; if only the gyro's signs are flipped, negate its three columns"
+    "or negate one axis of each (t,-ax,ay,az,-gx,gy,gz); if only the gyro's signs are flipped, negate its three "
+    "columns (--columns t,ax,ay,az,-gx,-gy,-gz)"
 )
 
 
@@ -1475,6 +1476,15 @@ def aop_range(lo: float, hi: float, n: int, unit: str = "rad") -> None:
         )
 
 
+#: the frame warning's other remedy: an accelerometer that logs minus the specific force reads the other sign of
+#: gravity on every axis, which the data alone cannot tell from the other frame (negating a triad commutes with
+#: every rotation, so the gyro turns it alike either way)
+NEGATED_ACC = (
+    "; or, if body z is as the frame has it and the logger records minus the specific force (Apple's Core Motion: "
+    "a phone face up reads −1 g on z), negate the accelerometer's columns, e.g. --columns t,-ax,-ay,-az,gx,gy,gz"
+)
+
+
 def check_frame(acc: np.ndarray, frame: str, mean=None) -> None:
     """Warn once when the first second's specific force (a body at rest reads +g along body up) contradicts the
     frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g) — and
@@ -1493,14 +1503,14 @@ def check_frame(acc: np.ndarray, frame: str, mean=None) -> None:
     if frame == "ned" and z > 0.9:
         warnings.warn(
             "the accelerometer reads +g along body z at the start: that is an up-pointing z "
-            "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')",
+            "(right-forward-up body), not NED's forward-right-down; use --frame ENU (frame='ENU')" + NEGATED_ACC,
             FrameWarning,
             stacklevel=3,
         )
     elif frame == "enu" and z < -0.9:
         warnings.warn(
             "the accelerometer reads −g along body z at the start: that is a down-pointing z "
-            "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')",
+            "(forward-right-down body), not ENU's right-forward-up; use --frame NED (frame='NED')" + NEGATED_ACC,
             FrameWarning,
             stacklevel=3,
         )

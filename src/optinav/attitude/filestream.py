@@ -422,6 +422,7 @@ class _Blocks:
         names = {}
         if mag:
             m = _mag_names(o.mag_columns)
+            self.mag_signs = _mag_signs(o.mag_columns)
             names = {"mag": m[0]} if len(m) == 1 else {f"m{k}": v for k, v in zip("xyz", m)}
         if pol is not None:
             names["aop"] = pol.aop
@@ -560,6 +561,7 @@ class _Blocks:
         out = {}
         if self.mag:
             out["mag"] = cols["mag"] if "mag" in cols else np.column_stack([cols["mx"], cols["my"], cols["mz"]])
+            out["mag"] = out["mag"] * self.mag_signs if np.any(self.mag_signs < 0) else out["mag"]
         for k in ("aop", "dop"):
             if k in cols:
                 out[k] = cols[k]
@@ -980,14 +982,23 @@ def _by_alias_key(names: dict, found: list) -> dict | None:
 
 
 def _mag_names(mag_columns: str | None) -> list[str]:
-    """The magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array."""
+    """The magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array (a '-'
+    before one: :func:`_mag_signs`)."""
     names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
+    names = [s[1:].strip() if s[:1] in "+-" else s for s in names]
     if len(names) not in (1, 3) or not all(names):
         raise OptinavError(
             f"--mag-columns {mag_columns!r} needs three names or one (N×3) array",
             "write e.g. mx,my,mz, or mag for an N×3 array",
         )
     return names
+
+
+def _mag_signs(mag_columns: str | None) -> np.ndarray:
+    """(3,) the signs of the magnetometer's axes in ``--mag-columns`` (``mx,-my,mz``: an axis mounted flipped; a
+    '-' before one array's name negates it whole) [-]."""
+    signs = [-1.0 if s.strip()[:1] == "-" else 1.0 for s in (mag_columns or "mx,my,mz").split(",")]
+    return np.array(signs * 3 if len(signs) == 1 else signs)
 
 
 def _column(key: str, values) -> np.ndarray:

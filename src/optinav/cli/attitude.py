@@ -103,7 +103,7 @@ def register(sub) -> None:
     p.add_argument(
         "--mag-columns",
         metavar="MX,MY,MZ",
-        help="names of the magnetometer columns, or of its N×3 array (implies --mag)",
+        help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
     p.add_argument(
         "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
@@ -189,7 +189,7 @@ def add_batch_options(p) -> None:
     p.add_argument(
         "--mag-columns",
         metavar="MX,MY,MZ",
-        help="names of the magnetometer columns, or of its N×3 array (implies --mag)",
+        help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
     p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)

@@ -138,8 +138,9 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
     names the units of a file that declares none, in the help."""
     p.add_argument(
         "--columns",
-        help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one), "
-        "or std=name pairs for named columns/arrays; default: recognised headers",
+        help="names of the file's columns in order (t,ax,ay,az,gx,gy,gz; '_' skips one; '-' before a sensor's "
+        "name reads it negated: t,-ax,-ay,-az,…), or std=name pairs for named columns/arrays (ax=-NAME); "
+        "default: recognised headers",
     )
     p.add_argument(
         "--acc-unit",

@@ -475,10 +475,66 @@ def _std(name: str, what: str) -> str:
     return hit[0]
 
 
-def _part_spec(columns, datasets, what: str, topic=None, skip_bad_lines=False) -> tuple[list[str] | None, dict, dict]:
-    """(positional names, std=name mapping, keyword arguments of load_table/iter_table) of a column option."""
+#: the standard names a '-' in ``columns`` may negate: a sensor's axes or its N×3 array
+_SIGNED = ("ax", "ay", "az", "gx", "gy", "gz", "acc", "gyro")
+
+
+def _unsigned(entry: str, what: str) -> tuple[str, bool]:
+    """(``entry`` without a leading sign, whether that sign was '-')."""
+    if entry[:1] not in ("-", "+") or len(entry) == 1:
+        return entry, False
+    name = entry[1:].strip()
+    if not name or name in SKIP_NAMES:
+        raise OptinavError(f"{what} entry {entry!r} signs no column", "put '-' before a sensor column, e.g. -az")
+    return name, entry[0] == "-"
+
+
+def _negated_std(key: str, name: str, what: str) -> str:
+    """The standard name ``key`` whose column ``name`` a '-' negates, checked: a sensor axis or triad, and not
+    Core Motion's acceleration (read negated already)."""
+    base = normalize_name(name)[0]
+    if base[:-1] in (_CM_ACC, *_CM_SPLIT):
+        raise OptinavError(
+            f"{what}: {name!r} is Core Motion's acceleration, which is read negated already (minus the specific force)",
+            f"drop the '-' before {name!r}",
+        )
+    hit = ALIASES.get(normalize_name(key)[0])
+    if hit is None or hit[0] not in _SIGNED:
+        raise OptinavError(
+            f"{what}: '-{name}' negates {key!r}, which is no accelerometer or gyroscope column",
+            "put '-' only before sensor columns (ax..az, gx..gz, acc, gyro)",
+        )
+    return hit[0]
+
+
+def _signed_columns(columns, what: str) -> tuple[list[str] | None, dict, list[str]]:
+    """:func:`~optinav.io.readers.parse_columns` of ``columns`` whose entries may carry a sign (``t,-ax,ay,…``,
+    ``ax=-NAME``: that column read negated, for an axis mounted flipped or a logger that logs minus the specific
+    force): (positional names, std=name mapping, the standard names negated)."""
     positional, mapping = parse_columns(columns, what)
-    merge_datasets(mapping, datasets, what)
+    negated = []
+    if positional is not None:
+        for i, entry in enumerate(positional):
+            positional[i], minus = _unsigned(entry, what)
+            if minus:
+                negated.append(_negated_std(positional[i], positional[i], what))
+    for key, entry in mapping.items():
+        mapping[key], minus = _unsigned(entry, what)
+        if minus:
+            negated.append(_negated_std(key, mapping[key], what))
+    return positional, mapping, negated
+
+
+def _part_spec(
+    columns, datasets, what: str, topic=None, skip_bad_lines=False
+) -> tuple[list[str] | None, dict, list[str], dict]:
+    """(positional names, std=name mapping, the standard names read negated, keyword arguments of
+    load_table/iter_table) of a column option."""
+    positional, mapping, negated = _signed_columns(columns, what)
+    if datasets is not None:
+        _, arrays, more = _signed_columns(datasets, "datasets")
+        merge_datasets(mapping, arrays or datasets, what)
+        negated += more
     label_sources = tuple(name for key, name in mapping.items() if _std(key, what) == "label")
     sources = set(mapping.values())
 
@@ -492,6 +548,7 @@ def _part_spec(columns, datasets, what: str, topic=None, skip_bad_lines=False) -
     return (
         positional,
         mapping,
+        negated,
         {
             "names": positional,
             "only": list(mapping.values()) or None,
@@ -506,8 +563,8 @@ def _part_spec(columns, datasets, what: str, topic=None, skip_bad_lines=False) -
 def _read_part(
     path, columns, datasets, delimiter, need: str | None, what: str, topic=None, skip_bad_lines=False
 ) -> _Part:
-    _, mapping, kw = _part_spec(columns, datasets, what, topic, skip_bad_lines)
-    return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what)
+    _, mapping, negated, kw = _part_spec(columns, datasets, what, topic, skip_bad_lines)
+    return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what, negated=negated)
 
 
 #: columns at least this long are interleaved by the compiled kernel (shorter ones by numpy: no numba start)
@@ -1020,9 +1077,11 @@ def _unreadable_triad(table: Table, found: dict) -> None:
             )
 
 
-def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False) -> _Part:
+def _part_of(
+    path, table: Table, mapping: dict, need: str | None, what: str, *, block: bool = False, negated=()
+) -> _Part:
     """What ``table`` holds for read_imu; ``block``: one block of a streamed file (a column may be empty there,
-    the file's check of that is the caller's)."""
+    the file's check of that is the caller's); ``negated``: the standard names read negated."""
     found: dict[str, tuple[str, np.ndarray]] = {}  # std → (source name, array)
     implied: dict[str, str] = {}
     for key, name in mapping.items():
@@ -1075,7 +1134,9 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
         hit = ALIASES.get(normalize_name(table.table)[0])
         if hit and hit[0] in _COMPONENTS and table.table_array.shape[1] == 3:
             found[hit[0]] = (table.table, table.table_array)
-    part = _Part(path=Path(path), table=table, n=0, used={name for name, _ in found.values()})
+    used = {name for name, _ in found.values()}
+    _negate(table, found, negated, what)
+    part = _Part(path=Path(path), table=table, n=0, used=used)
     lengths: dict[str, int] = {}
     for std, (name, arr) in found.items():
         if std not in ("acc", "gyro") and arr.ndim != 1:
@@ -1188,6 +1249,24 @@ def _part_of(path, table: Table, mapping: dict, need: str | None, what: str, *, 
             "or std=name entries".format(*_columns_example(table)),
         )
     return part
+
+
+def _negate(table: Table, found: dict, negated, what: str) -> None:
+    """The columns of the standard names ``negated`` (a '-' in ``what``) read negated, named ``-NAME``, and
+    listed in ``table.meta["negated"]``."""
+    for std in negated:
+        if std not in found:
+            raise OptinavError(
+                f"{what} negates {std!r}, but no column of {table.path.name} was read as {std!r}",
+                f"put the '-' before the name that stands for {std}",
+            )
+        name, arr = found[std]
+        found[std] = (f"-{name}", -arr)
+        unit = table.units.get(name) or normalize_name(name)[1]
+        if unit:
+            table.units[f"-{name}"] = unit
+    if negated:
+        table.meta["negated"] = ", ".join(found[std][0] for std in negated)
 
 
 #: standard errors by which every other sample's mean departure from its neighbours' must exceed, on some axis, for
@@ -1593,6 +1672,7 @@ _LAYOUT_NOTES = {
     "one_sensor_layout": "no header; its {n} columns read as {v} (one sensor per file, as imu_tk's data; name them "
     "with --columns/--gyro-columns if not)",
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
+    "negated": "read negated as the columns option asks: {v}",
     "shimmer_passed": "Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one ({v} …) was passed "
     "over (map it with --columns ax=…,ay=…,az=…)",
     "xsens_sdi": "Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each 1/{v}-s period",
@@ -1704,7 +1784,7 @@ class ImuChunks:
             kw["gyro_columns"],
             kw.get("unit_defaults"),
         )
-        _, self.mapping, tkw = _part_spec(
+        _, self.mapping, self.negated, tkw = _part_spec(
             kw["columns"], kw["datasets"], "columns", kw.get("topic"), kw.get("skip_bad_lines", False)
         )
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
@@ -1744,7 +1824,7 @@ class ImuChunks:
         tables = iter(self.tables)
         for table in tables:
             try:
-                part = _part_of(self.path, table, self.mapping, None, "columns", block=True)
+                part = _part_of(self.path, table, self.mapping, None, "columns", block=True, negated=self.negated)
             except OptinavError:
                 if not (table.row0 == 0 and table.fixed):
                     raise
