@@ -1271,7 +1271,7 @@ def test_imu_tk_data_one_sensor_per_headerless_file_calibrates_as_one_table(tmp_
 
 def _dot_export(s, tail=",,,,,,,,,,,,,,,,,"):
     """A Movella DOT app/SDK CSV export of session ``s`` (m/s^2, deg/s): Excel's 'sep=,' line, 'Key:,value' lines
-    padded with commas, the copyright line, a blank line, then the table without a time column."""
+    padded with commas, the copyright line, a blank line, then the table timed by SampleTimeFine (µs)."""
     head = ["DeviceTag:,Left wrist", "FirmwareVersion:,2.4.0", "AppVersion:,2023.3.0", "SyncStatus:,Synced"]
     head += ["OutputRate:,100Hz", "FilterProfile:,General", "Measurement Mode:,Custom Mode 27"]
     head += ["StartTime:,2023-11-14 14:13:20.000 +0100", "Movella Technologies B. V. 2005-2023,"]
@@ -1294,7 +1294,7 @@ def test_a_movella_dot_export_reads_its_rate_and_names_the_gyro_unit(tmp_path, c
     log = read_imu(path, gyro_unit="deg/s")
     np.testing.assert_allclose(log.t - log.t[0], np.arange(len(s.t)) / 100.0, atol=1e-12)
     np.testing.assert_allclose(log.acc, np.round(s.acc, 6), atol=1e-12)
-    assert any("OutputRate" in n and "100 Hz" in n for n in log.notes)
+    assert any("SampleTimeFine read as the time, in ticks of 1 µs" in n for n in log.notes), log.notes
     out = tmp_path / "r.json"
     argv = ["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]
     assert main(argv) == 2
@@ -1578,7 +1578,7 @@ def test_xsens_increments_read_as_rates(tmp_path, capsys):
     orientation increment, and dv[1]..dv[3] (m/s, axes counted from 1; 'dv[1]' read as 'dv_y', 'dv[3]' as a unit).
     It named no sensor; now the mean rate and specific force of each period (1 / OutputRate) are read, and a
     simulated session so written gives the rates it was written from and calibrates to its truth; without a
-    stated rate the increments are refused, naming it."""
+    stated rate or a time the increments are refused, naming --rate."""
     s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=29)
     dt = 1 / 100.0
     th = s.gyr * dt
@@ -1600,8 +1600,8 @@ def test_xsens_increments_read_as_rates(tmp_path, capsys):
     r = _acc_scales_match(out, s)
     np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
     bare = _w(tmp_path / "bare.csv", cols + rows)
-    with pytest.raises(OptinavError, match="states no rate"):
-        read_imu(bare, rate_hz=100.0)
+    with pytest.raises(OptinavError, match="pass --rate HZ"):
+        read_imu(bare)
 
 
 def test_a_wide_headerless_file_is_offered_one_name_per_column(tmp_path):
@@ -1713,3 +1713,56 @@ def test_a_negated_column_calibrates_to_the_truth(tmp_path, capsys):
     tol = 4 * np.max(r.accelerometer["b_std"])
     np.testing.assert_allclose(r.accelerometer["b"], s.acc_b, atol=tol)
     assert "apple.csv: read negated as the columns option asks: -ax, -ay, -az, -gx, -gy, -gz" in r.quality["notes"]
+
+
+def _dot_increments(path, s, head, stf, rate_hz=100.0, columns="PacketCounter,SampleTimeFine,"):
+    """A Movella DOT increments export of the simulated session ``s`` (``head``: its settings lines, ``stf``: its
+    SampleTimeFine per row, or None for none)."""
+    dt = 1 / rate_hz
+    th = s.gyr * dt
+    ang = np.linalg.norm(th, axis=1)
+    dq = np.column_stack([np.cos(ang / 2), th * (np.sin(ang / 2) / np.where(ang > 0, ang, 1))[:, None]])
+    cols = columns + "dq_W,dq_X,dq_Y,dq_Z,dv[1],dv[2],dv[3],Status\n"
+    rows = "".join(
+        f"{i}," + ("" if stf is None else f"{stf[i]},") + ",".join(f"{v:.12g}" for v in (*dq[i], *(s.acc[i] * dt)))
+        + ",0\n"
+        for i in range(len(s.t))
+    )  # fmt: skip
+    return _w(path, head + (cols if stf is not None else cols.replace("SampleTimeFine,", "")) + rows)
+
+
+def test_xsens_increments_without_a_rate_line(tmp_path, capsys):
+    """A DOT export of increments without its OutputRate line was refused, --rate or not ("the export states no
+    rate"), and its SampleTimeFine (µs, a 32-bit counter) was never read as time. Now SampleTimeFine times a DOT
+    export that names no other time, its wrap at 2^32 µs unwrapped (within a file read whole and between the blocks
+    of a streamed one), and the increments' period is its step; without the DOT's settings lines (the tick, µs or
+    an MTi's 100 µs, unknown) --rate decides it, a rate that fits neither tick is refused, and a file without
+    SampleTimeFine reads at the rate given. The session calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=29)
+    n, wrap_row = len(s.t), 4000
+    stf = (2**32 + (np.arange(n) - wrap_row) * 10_000) % 2**32  # wraps at row 4000
+    dot = _dot_increments(tmp_path / "dot.csv", s, "sep=,\nDeviceTag:,1,,\nMeasurement Mode:,Custom Mode 4,,\n\n", stf)
+    log = read_imu(dot)
+    np.testing.assert_allclose(np.diff(log.t), 0.01, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(log.gyr, s.gyr, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(log.acc, s.acc, rtol=0, atol=1e-8)
+    assert any("1/100-s period (the step of its time column 'SampleTimeFine')" in x for x in log.notes), log.notes
+    blocks = list(iter_imu(dot, chunk_rows=wrap_row))  # the wrap between two blocks
+    assert len(blocks) > 1
+    np.testing.assert_allclose(np.concatenate([b.t for b in blocks]), log.t, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.concatenate([b.gyr for b in blocks]), s.gyr, rtol=0, atol=1e-9)
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(dot), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    _acc_scales_match(out, s)
+    bare = _dot_increments(tmp_path / "bare.csv", s, "", stf)
+    with pytest.raises(OptinavError, match="tick of 'SampleTimeFine' is not known .*pass --rate HZ"):
+        read_imu(bare)
+    np.testing.assert_allclose(read_imu(bare, rate_hz=100.0).gyr, s.gyr, rtol=0, atol=1e-9)
+    with pytest.raises(OptinavError, match="rate_hz=60 contradicts its time column 'SampleTimeFine'"):
+        read_imu(bare, rate_hz=60.0)
+    none = _dot_increments(tmp_path / "none.csv", s, "", None)
+    with pytest.raises(OptinavError, match="neither the export nor a time column .* states the period"):
+        read_imu(none)
+    log = read_imu(none, rate_hz=100.0)
+    np.testing.assert_allclose(log.gyr, s.gyr, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(log.t[-1], (n - 1) / 100.0, rtol=0, atol=1e-9)

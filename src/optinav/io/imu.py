@@ -896,15 +896,11 @@ def _xsens_sdi(table: Table, found: dict, candidates: dict) -> None:
     dv = [low.get(f"dv[{i}]") for i in (1, 2, 3)]
     if not (all(dq) or all(dv)):
         return
-    if "rate" not in table.meta:
-        raise OptinavError(
-            f"{table.path.name}: Xsens' increments (dq_*, dv[*]) are per output period, and the export states no rate",
-            "export it with its settings lines ('OutputRate' / 'Update Rate'), or export Acc_* and Gyr_*",
-        )
-    rate = float(table.meta["rate"])
+    # without a stated rate the increments stay per period: the rate given or the time's step scales them (_log_of)
+    rate = float(table.meta.get("rate", 1.0))
     if all(dv):
         for a, key in zip("xyz", dv):
-            name = f"{key} * rate"
+            name = f"{key} * rate" if "rate" in table.meta else f"{key} per period"
             table.data[name] = table.data[key] * rate  # type: ignore[index]
             table.units[name] = "m/s^2"
             candidates[f"a{a}"] = name
@@ -914,11 +910,62 @@ def _xsens_sdi(table: Table, found: dict, candidates: dict) -> None:
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(half > 0, 2.0 * np.arctan2(half, w) / half, 2.0) * rate  # rotation vector per second
         for j, a in enumerate("xyz"):
-            name = f"{dq[j + 1]} as rad/s"
+            name = f"{dq[j + 1]} as rad/s" if "rate" in table.meta else f"{dq[j + 1]} per period"
             table.data[name] = v[:, j] * scale
             table.units[name] = "rad/s"
             candidates[f"g{a}"] = name
-    table.meta["xsens_sdi"] = f"{rate:g}"
+    if "rate" in table.meta:
+        table.meta["xsens_sdi"] = f"{rate:g}"
+    else:
+        table.meta["xsens_per_period"] = "1"
+
+
+#: Xsens' SampleTimeFine: a 32-bit tick counter, µs on a Movella DOT, 100 µs (10 kHz) on an MTi, which wraps at
+#: 2^32 ticks (an MTi 10/100 after one day, 864e6 ticks)
+_STF_TICKS = {"1 µs": 1e-6, "100 µs": 1e-4}
+_STF_WRAPS = (2.0**32, 864e6)
+#: preamble keys of a Movella DOT export (``DeviceTag:,1``, ``OutputRate:,60Hz``): its SampleTimeFine is in µs
+_DOT_KEYS = ("devicetag", "outputrate", "measurement_mode", "firmwareversion", "appversion", "syncstatus")
+
+
+def _xsens_time(table: Table, found: dict, candidates: dict) -> None:
+    """Xsens' ``SampleTimeFine`` as the time when nothing else names one and it holds a number on every row: its
+    wraps unwrapped (:data:`_STF_WRAPS`), in s when its tick is known (a DOT export's µs; else the rate the export
+    states fits one tick), else in ticks (``table.meta["stf_tick"]`` unset: the rate given decides, _log_of)."""
+    if "t" in found or "t" in candidates:
+        return
+    key = next((k for k in table.data if normalize_name(k)[0] == "sampletimefine"), None)
+    if key is None or not _sensor_named(found, candidates):
+        return
+    v = np.asarray(table.data[key], dtype=float)
+    if v.ndim != 1 or v.size == 0 or not np.all(np.isfinite(v)):
+        return
+    d = np.diff(v)
+    back = np.flatnonzero(d < 0)
+    if back.size:
+        step = float(np.median(d[d > 0])) if np.any(d > 0) else 0.0
+        # an MTi 10/100 wraps after one day: the value before its wrap is within a step of 864e6 ticks
+        add = np.where(v[back] + 2 * step >= _STF_WRAPS[1], _STF_WRAPS[1], _STF_WRAPS[0])
+        add = np.where(v[back] >= _STF_WRAPS[1] + 2 * step, _STF_WRAPS[0], add)
+        jump = np.zeros(v.size)
+        jump[back + 1] = add
+        v = v + np.cumsum(jump)
+    keys = {normalize_name(k.removeprefix("preamble:"))[0] for k in table.meta if k.startswith("preamble:")}
+    tick = "1 µs" if keys & set(_DOT_KEYS) else None
+    if tick is None and "rate" in table.meta and v.size > 1:
+        step = float(np.median(np.diff(v))) * float(table.meta["rate"])
+        tick = next((k for k, f in _STF_TICKS.items() if abs(step * f - 1.0) <= 0.01), None)
+        if tick is None:  # ticks that fit no tick at the stated rate: the rate times the samples, as before
+            return
+    name = f"{key} unwrapped"
+    if tick is not None:
+        table.data[name] = v * _STF_TICKS[tick]
+        table.units[name] = "s"
+        table.meta["stf_tick"] = tick
+    else:
+        table.data[name] = v
+    table.meta["stf"] = key
+    candidates["t"] = name
 
 
 def _ronin(table: Table) -> set[str]:
@@ -1124,6 +1171,7 @@ def _part_of(
     _shimmer(table, found, candidates)
     _vectornav_fields(table, found, candidates)
     _xsens_sdi(table, found, candidates)
+    _xsens_time(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
@@ -1552,6 +1600,7 @@ def _log_of(
     (``block``) starts at row ``row0`` after the time ``prev_t`` (s) of the previous block's last row."""
     notes: list[str] = []
     main = parts[0]
+    given, rate = rate, _stf_rate(main, rate)
     times = []
     for p in parts:
         if p.t is not None:
@@ -1588,10 +1637,18 @@ def _log_of(
                         f"{1.0 / steps:.6g} Hz: the time column is used"
                     )
         else:
+            if "stf_tick" in main.table.meta and t.size and t[0] <= prev_t:
+                t = _stf_block_wrap(t, prev_t, _STF_TICKS[main.table.meta["stf_tick"]])
             check_timestamps(
                 np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1, duplicate_remedy=COARSE_TIME_REMEDY
             )
     elif rate is None and _file_rate(main.table) is None:
+        if "xsens_per_period" in main.table.meta:
+            raise OptinavError(
+                f"{main.path.name}: Xsens' increments (dq_*, dv[*]) are per output period, and neither the export "
+                "nor a time column (SampleTimeFine) states the period",
+                "pass --rate HZ (the output rate), or export Acc_* and Gyr_*",
+            )
         raise OptinavError(
             f"{main.path.name} has no time column (found: {main.table.names()})",
             "pass --rate HZ (the sampling rate) or name the time column (t, time, timestamp, …)",
@@ -1613,6 +1670,8 @@ def _log_of(
         t = (np.arange(main.n) + row0) / rate if row0 else np.arange(main.n) / rate
         if not block:
             check_timestamps(t, f"{main.path.name}")
+    if "xsens_per_period" in main.table.meta:
+        _per_period(main, given, t, block, notes)
     acc = gyro = None
     acc_in = gyro_in = None
     if main.acc is not None:
@@ -1663,6 +1722,74 @@ def _log_of(
     return log
 
 
+def _stf_rate(main: _Part, rate: float | None) -> float | None:
+    """The rate to time ``main`` with when its time is Xsens' SampleTimeFine (:func:`_xsens_time`): None (the
+    ticks time it, converted to s here when only ``rate`` tells their tick); a ``rate`` that fits neither tick is
+    refused. Any other file: ``rate`` as given."""
+    table = main.table
+    if main.t is None or "stf" not in table.meta or not main.t_name.endswith(" unwrapped"):
+        return rate
+    key, tick = table.meta["stf"], table.meta.get("stf_tick")
+    step = float(np.median(np.diff(main.t))) if main.t.size > 1 else float("nan")
+    if rate is None:
+        if tick is None:
+            raise OptinavError(
+                f"{main.path.name}: the tick of {key!r} is not known (µs on a Movella DOT, 100 µs on an MTi) and "
+                "the export states no rate",
+                "pass --rate HZ (the output rate), or export with its settings lines",
+            )
+        return None
+    if tick is None:  # the rate decides the tick: its step must fit one of the two
+        tick = next((k for k, f in _STF_TICKS.items() if abs(step * f * rate - 1.0) <= 0.01), None)
+        if tick is not None:
+            main.t = main.t * _STF_TICKS[tick]
+            step *= _STF_TICKS[tick]
+            table.meta["stf_tick"] = tick
+    elif not abs(step * rate - 1.0) <= 0.01:
+        tick = None
+    if tick is None:
+        raise OptinavError(
+            f"{main.path.name}: rate_hz={rate:g} contradicts its time column {key!r}, which steps "
+            + (f"{step:.6g} s ({1.0 / step:.6g} Hz)" if "stf_tick" in table.meta else f"{step:.6g} ticks")
+            + (" (µs on a Movella DOT, 100 µs on an MTi)" if "stf_tick" not in table.meta else ""),
+            "drop the rate (the time column times the samples), or skip the time column with '_' in columns",
+        )
+    return None
+
+
+def _stf_block_wrap(t: np.ndarray, prev_t: float, tick: float) -> np.ndarray:
+    """``t`` (s) of a block of SampleTimeFine whose counter wrapped since the previous block's last time ``prev_t``
+    (s): the wrap (:data:`_STF_WRAPS` ticks) that puts its first sample nearest one step after ``prev_t``."""
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    wraps = [w * tick * np.ceil((prev_t - t[0]) / (w * tick) + 1e-12) for w in _STF_WRAPS]
+    return t + min(wraps, key=lambda w: abs(t[0] + w - prev_t - step))
+
+
+def _per_period(main: _Part, rate: float | None, t: np.ndarray, block: bool, notes: list) -> None:
+    """Xsens' increments read per output period (:func:`_xsens_sdi` without a stated rate) as rates: times the
+    rate given, else one over the median step of the time column."""
+    if rate is None:
+        d = np.diff(t)
+        d = d[d < 1.5 * np.median(d)] if d.size else d  # the mean step (ticks rounded to µs), lost samples left out
+        rate = 1.0 / float(np.mean(d)) if d.size else float("nan")
+        where = f"the step of its time column {main.table.meta.get('stf', main.t_name)!r}"
+    else:
+        where = "the rate given"
+    if not np.isfinite(rate):
+        raise OptinavError(
+            f"{main.path.name}: Xsens' increments (dq_*, dv[*]) are per output period, and one row does not time it",
+            "pass --rate HZ (the output rate), or export Acc_* and Gyr_*",
+        )
+    for kind in ("acc", "gyro"):
+        if getattr(main, kind) is not None:
+            setattr(main, kind, getattr(main, kind) * rate)
+    if not block or t.size and main.table.row0 == 0:
+        notes.append(
+            f"{main.path.name}: Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each "
+            f"1/{rate:.6g}-s period ({where})"
+        )
+
+
 #: notes of what a reader assumed about a file (the key its Table's ``meta`` holds when it did): ``{v}`` the value
 #: there, ``{n}`` the number of columns read
 _LAYOUT_NOTES = {
@@ -1673,6 +1800,7 @@ _LAYOUT_NOTES = {
     "with --columns/--gyro-columns if not)",
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
+    "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",
     "shimmer_passed": "Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one ({v} …) was passed "
     "over (map it with --columns ax=…,ay=…,az=…)",
     "xsens_sdi": "Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each 1/{v}-s period",
