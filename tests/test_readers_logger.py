@@ -1766,3 +1766,32 @@ def test_xsens_increments_without_a_rate_line(tmp_path, capsys):
     log = read_imu(none, rate_hz=100.0)
     np.testing.assert_allclose(log.gyr, s.gyr, rtol=0, atol=1e-9)
     np.testing.assert_allclose(log.t[-1], (n - 1) / 100.0, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(("head", "fmt"), [("datetime", "%Y-%m-%dT%H:%M:%S.%f"), ("Date", "%Y-%m-%d %H:%M:%S.%f"),
+                                          ("UTC", "%Y-%m-%dT%H:%M:%S.%f+02:00")])  # fmt: skip
+def test_a_date_time_column_of_any_name_is_the_time_when_nothing_else_is(tmp_path, head, fmt):
+    """A logger's only time as ISO 8601 date-times under a name no alias takes (datetime, Date, UTC) was parsed,
+    then passed over: "has no time column, pass --rate", which drops the real timing. It is the time now, whole and
+    in blocks, with a note; beside a numeric time column, or beside a second date-time column, it is not."""
+    n = 120
+    gyr, acc = _triads(10, n)
+    t0 = datetime.datetime(2024, 5, 1, 12, 0, 0)
+    when = [t0 + datetime.timedelta(milliseconds=10 * i + (25 if i > 60 else 0)) for i in range(n)]  # a lost sample
+    stamps = [w.strftime(fmt) for w in when]
+    rows = [f"{s},{','.join(map(repr, [*acc[i].tolist(), *gyr[i].tolist()]))}" for i, s in enumerate(stamps)]
+    path = _w(tmp_path / "d.csv", f"{head},ax,ay,az,gx,gy,gz\n" + "\n".join(rows) + "\n")
+    want = np.array([(w - datetime.datetime(1970, 1, 1)).total_seconds() for w in when])
+    want -= 7200.0 if fmt.endswith("+02:00") else 0.0  # s since the epoch, the UTC offset applied
+    for log in (read_imu(path), *iter_imu(path, chunk_rows=50)):
+        k = np.searchsorted(want, log.t[0] - 1e-4)
+        np.testing.assert_allclose(log.t, want[k : k + len(log)], rtol=0, atol=2e-6)
+        np.testing.assert_array_equal(log.acc, acc[k : k + len(log)])
+    assert any(f"date-times {head!r} read as the time" in x for x in read_imu(path).notes)
+    both = _w(tmp_path / "b.csv", f"{head},t,ax,ay,az,gx,gy,gz\n" + "".join(
+        f"{s},{i * 0.01},{r.split(',', 1)[1]}\n" for i, (s, r) in enumerate(zip(stamps, rows))))  # fmt: skip
+    np.testing.assert_allclose(read_imu(both).t, np.arange(n) * 0.01)
+    two = _w(tmp_path / "2.csv", f"{head},stamp2,ax,ay,az,gx,gy,gz\n" + "".join(
+        f"{s},{s},{r.split(',', 1)[1]}\n" for s, r in zip(stamps, rows)))  # fmt: skip
+    with pytest.raises(OptinavError, match="has no time column"):
+        read_imu(two)

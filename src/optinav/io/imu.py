@@ -928,6 +928,16 @@ _STF_WRAPS = (2.0**32, 864e6)
 _DOT_KEYS = ("devicetag", "outputrate", "measurement_mode", "firmwareversion", "appversion", "syncstatus")
 
 
+def _date_time(table: Table, found: dict, candidates: dict) -> None:
+    """The one column of ISO 8601 date-times (read as s since the epoch, ``table.meta["date_columns"]``) as the
+    time when nothing else names one (``datetime``, ``Date``, ``UTC``: names no alias takes for a time)."""
+    if "t" in found or "t" in candidates or "date_columns" not in table.meta:
+        return
+    keys = [k for k in table.meta["date_columns"].split("\t") if k in table.data]
+    if len(keys) == 1 and _sensor_named(found, candidates):
+        candidates["t"] = keys[0]
+
+
 def _xsens_time(table: Table, found: dict, candidates: dict) -> None:
     """Xsens' ``SampleTimeFine`` as the time when nothing else names one and it holds a number on every row: its
     wraps unwrapped (:data:`_STF_WRAPS`), in s when its tick is known (a DOT export's µs; else the rate the export
@@ -1172,6 +1182,7 @@ def _part_of(
     _vectornav_fields(table, found, candidates)
     _xsens_sdi(table, found, candidates)
     _xsens_time(table, found, candidates)
+    _date_time(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
     for std, key in candidates.items():
@@ -1250,6 +1261,8 @@ def _part_of(
             part.declared[kind]["the file's unit record"] = table.meta[f"{kind}_unit"]
     if "t" in found:
         part.t_name, part.t = found["t"]
+        if "date_columns" in table.meta and part.t_name in table.meta["date_columns"].split("\t"):
+            table.meta["date_time"] = part.t_name
         unit = table.units.get(part.t_name) or normalize_name(part.t_name)[1]
         if unit:
             part.declared["time"][f"column {part.t_name!r}"] = unit
@@ -1800,6 +1813,8 @@ _LAYOUT_NOTES = {
     "with --columns/--gyro-columns if not)",
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
+    "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "
+    "taken as UTC)",
     "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",
     "shimmer_passed": "Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one ({v} …) was passed "
     "over (map it with --columns ax=…,ay=…,az=…)",

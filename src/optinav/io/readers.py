@@ -1184,6 +1184,8 @@ def _text_layout(
     meta = _comment_meta(comments)
     if needed is not None and out:
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
+    if dates:
+        meta["date_columns"] = "\t".join(colnames[j] for j in sorted(dates))
     if comma:
         meta["decimal_comma"] = "1"
     meta.update(preamble)
