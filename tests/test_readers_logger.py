@@ -1795,3 +1795,44 @@ def test_a_date_time_column_of_any_name_is_the_time_when_nothing_else_is(tmp_pat
         f"{s},{s},{r.split(',', 1)[1]}\n" for s, r in zip(stamps, rows)))  # fmt: skip
     with pytest.raises(OptinavError, match="has no time column"):
         read_imu(two)
+
+
+def test_a_kitti_raw_oxts_folder_is_read_as_one_log(tmp_path, capsys):
+    """KITTI raw's oxts/ folder (data/NNNNNNNNNN.txt with the 30 values of one sample each, timestamps.txt of
+    date-times to the ns) was refused as 'a folder; check the path', and one of its files offered 7 names for 30
+    columns of a single sample. The folder (or its data/) is one log now: the time from timestamps.txt, ax..az and
+    wx..wz (the vehicle's forward-left-up axes); a simulated flight so written gives the attitude of the same data
+    in a CSV, near the truth of those axes."""
+    from optinav.attitude.simulate import simulate as fly
+    from optinav.core.rotations import quat_from_euler, quat_multiply
+
+    d = fly("dynamic", duration_s=12, rate_hz=100, rng=5, frame="enu")  # right-forward-up body
+    flu = lambda v: np.column_stack([v[:, 1], -v[:, 0], v[:, 2]])  # noqa: E731 (KITTI's forward-left-up axes)
+    acc, gyr = flu(d.acc), flu(d.gyr)
+    oxts = tmp_path / "2011_09_26_drive_0001_extract" / "oxts"
+    (oxts / "data").mkdir(parents=True)
+    t0 = datetime.datetime(2011, 9, 26, 13, 2, 25)
+    when = [t0 + datetime.timedelta(seconds=float(x)) for x in d.t]
+    (oxts / "timestamps.txt").write_text("".join(w.strftime("%Y-%m-%d %H:%M:%S.%f") + "123\n" for w in when))
+    for i in range(len(d.t)):
+        v = [49.0, 8.4, 116.4, 0, 0, 0, 0, 0, 0, 0, 0, *acc[i], *acc[i], *gyr[i], *gyr[i], 0.5, 0.05, 4, 10, 4, 4, 6]
+        (oxts / "data" / f"{i:010d}.txt").write_text(" ".join(f"{x:.12g}" for x in v) + "\n")
+    log = read_imu(oxts / "data")
+    epoch = (t0 - datetime.datetime(1970, 1, 1)).total_seconds()
+    np.testing.assert_allclose(log.t - epoch, d.t + 123e-9, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(log.acc, acc, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(log.gyr, gyr, rtol=1e-11, atol=1e-11)
+    assert any("KITTI's oxts folder read" in x for x in log.notes)
+    csv = tmp_path / "same.csv"
+    np.savetxt(csv, np.column_stack([log.t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", fmt="%.17g")
+    q_flu = quat_multiply(d.q_b_n, quat_from_euler([0.0, 0.0, np.pi / 2], "enu"))  # the truth of those axes
+    errs = {}
+    for name, path in (("kitti", oxts), ("csv", csv)):
+        out = tmp_path / f"{name}.out.csv"
+        assert main(["--quiet", "attitude", str(path), "--frame", "ENU", "--out", str(out)]) == 0
+        errs[name] = _inclination_deg(out, q_flu)
+    assert errs["csv"][0] < 5.0
+    np.testing.assert_allclose(errs["kitti"], errs["csv"], atol=1e-3)
+    (oxts / "data" / "0000000000.txt").unlink()
+    with pytest.raises(OptinavError, match="lines in timestamps.txt for .* files in data/"):
+        read_imu(oxts)

@@ -519,8 +519,8 @@ class _Blocks:
                 if self._witness_whole is None:
                     tab = read_table(self.path, delimiter=self.o.delimiter, topic=self.o.topic,
                                      skip_bad_lines=self.o.skip_bad_lines)  # fmt: skip
-                    names = _by_alias_key(dict(zip(keys, keys)), list(tab.data))
-                    self._witness_whole = np.column_stack([np.asarray(tab.data[names[k]], float) for k in keys])
+                    names = _by_alias_key(dict(zip(keys, keys)), list(tab))  # read_table gives {name: array}
+                    self._witness_whole = np.column_stack([np.asarray(tab[names[k]], float) for k in keys])
                 m = self._witness_whole[row0 : row0 + n]
             else:
                 names = self.witness or _by_alias_key(dict(zip(keys, keys)), list(table.data))

@@ -226,11 +226,11 @@ def output_path(
 def require_files(*items: tuple[str | None, str]) -> None:
     """``(path, what)`` pairs that must name existing files, checked before a command imports its numerical
     modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped."""
-    from optinav.core.files import input_kind
+    from optinav.core.files import input_kind, kitti_oxts_folder
     from optinav.io.rosbag import is_bag
 
     for path, what in items:
-        if path is not None and input_kind(path, what) == "dir" and not is_bag(path):
+        if path is not None and input_kind(path, what) == "dir" and not is_bag(path) and not kitti_oxts_folder(path):
             if any(Path(path).glob("*.db3")) or any(Path(path).glob("*.mcap")):
                 raise OptinavError(
                     f"{what} {Path(path)} is a folder of ROS 2 bag files without metadata.yaml (a recording still "

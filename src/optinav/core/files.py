@@ -628,6 +628,27 @@ def input_kind(path, what: str = "data file", remedy: str = "check the path") ->
     raise OptinavError(f"{what} {p} is {kind}, not a file", "save the data to a file and pass that")
 
 
+def kitti_oxts_folder(path) -> Path | None:
+    """The KITTI raw ``oxts`` folder that ``path`` is (``timestamps.txt`` beside ``data/NNNNNNNNNN.txt``), or
+    whose ``data`` folder it is; None otherwise.
+
+    Parameters
+    ----------
+    path : str or Path
+        A folder.
+
+    Returns
+    -------
+    Path or None
+        The ``oxts`` folder.
+    """
+    p = Path(path)
+    for d in (p, p.parent):
+        if (d / "timestamps.txt").is_file() and (d / "data").is_dir() and (p == d or p.name == "data"):
+            return d
+    return None
+
+
 def read_text(path, what: str = "file", remedy: str = "check the path") -> str:
     """The UTF-8 text of ``path``; a missing file, a folder, an OS error or bytes that are not UTF-8 become a one-line
     :class:`OptinavError` naming ``what``.

@@ -1813,6 +1813,8 @@ _LAYOUT_NOTES = {
     "with --columns/--gyro-columns if not)",
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
+    "kitti_oxts": "KITTI's oxts folder read: times from timestamps.txt (taken as UTC), ax..az and wx..wz in the "
+    "vehicle's axes (x forward, y left, z up; --frame ENU), one sample per data/ file",
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "
     "taken as UTC)",
     "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",

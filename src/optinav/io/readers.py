@@ -323,6 +323,13 @@ def load_table(
         _no_option(path, delimiter=delimiter, names=names)
         return load_bag(path, topic=topic)
     _check_select(path, topic)
+    if kind == "kitti_oxts":
+        if names is not None or delimiter is not None:
+            raise OptinavError(
+                f"{path.name} is a KITTI oxts folder, read by its fields' names (ax … wz, af … wu)",
+                "drop the delimiter and positional columns; map a field with std=name entries (ax=af, …)",
+            )
+        return _selected(_load_kitti_oxts(path), topic)
     labels = {normalize_name(n)[0] for n in text_columns}
     if kind == "text":
         try:
@@ -348,6 +355,44 @@ def load_table(
     return _selected(table, topic)
 
 
+#: the 30 values of each file of a KITTI raw ``oxts/data`` folder (the devkit's dataformat.txt): position, attitude
+#: (rad), velocities; ``ax ay az`` the specific force (m/s², gravity in it) and ``wx wy wz`` the rate (rad/s) in the
+#: vehicle's axes (x forward, y left, z up); ``af al au``/``wf wl wu`` the same in axes levelled to the road
+KITTI_OXTS_FIELDS = (
+    "lat lon alt roll pitch yaw vn ve vf vl vu ax ay az af al au wx wy wz wf wl wu "
+    "pos_accuracy vel_accuracy navstat numsats posmode velmode orimode"
+).split()
+
+
+def _load_kitti_oxts(path: Path) -> Table:
+    """A KITTI raw ``oxts`` folder as one table: ``time`` (s since the epoch, from ``timestamps.txt``, taken as
+    UTC) and the 30 values of each ``data/NNNNNNNNNN.txt`` (one sample per file) under :data:`KITTI_OXTS_FIELDS`."""
+    d = kitti_oxts_folder(path)
+    files = sorted((d / "data").glob("*.txt"))
+    stamps = [x for x in (d / "timestamps.txt").read_text(errors="replace").splitlines() if x.strip()]
+    if not files or len(stamps) != len(files):
+        raise OptinavError(
+            f"{d}: {len(stamps)} lines in timestamps.txt for {len(files)} files in data/",
+            "pass a KITTI oxts folder as extracted (one time per data file)",
+        )
+    rows = np.empty((len(files), len(KITTI_OXTS_FIELDS)))
+    for i, f in enumerate(files):
+        cells = f.read_text(errors="replace").split()
+        try:
+            if len(cells) != rows.shape[1]:
+                raise ValueError
+            rows[i] = [float(c) for c in cells]
+        except ValueError:
+            raise OptinavError(
+                f"{f}: {len(cells)} values, not KITTI's {rows.shape[1]} numbers of an oxts sample",
+                "pass a KITTI raw oxts folder as extracted",
+            ) from None
+    data = {"time": _epoch_seconds(d / "timestamps.txt", "time", np.array(stamps))}
+    data.update({k: rows[:, j] for j, k in enumerate(KITTI_OXTS_FIELDS)})
+    units = {"time": "s", **{k: "m/s^2" for k in ("ax", "ay", "az")}, **{k: "rad/s" for k in ("wx", "wy", "wz")}}
+    return Table(path, "kitti_oxts", data, units, {"kitti_oxts": d.name})
+
+
 def _check_select(path: Path, topic) -> None:
     """A topic given for a file that is no ROS bag: only ``NAME@ID`` (one instance of a table holding several, see
     :func:`optinav.io.imu`'s instance selection) applies."""
@@ -367,7 +412,7 @@ def _selected(table: Table, topic) -> Table:
 
 #: lines per block of the streamed text reader (:func:`iter_table`), defined beside the atomic writers so that the
 #: CLI's parser can show it without loading numpy
-from optinav.core.files import CHUNK_ROWS, HDF5_MAGIC as _HDF5_MAGIC  # noqa: E402
+from optinav.core.files import CHUNK_ROWS, HDF5_MAGIC as _HDF5_MAGIC, kitti_oxts_folder  # noqa: E402
 
 
 def iter_table(
@@ -457,6 +502,8 @@ class TableChunks:
             return True
         if self.kind == "rosbag":  # (a bag the scanners do not read comes as one table)
             return self.delimiter is None and self.names is None
+        if self.kind == "kitti_oxts":  # a file per sample: one table
+            return False
         if self.kind == "mat":
             from optinav.io.arrayblocks import is_mat5
 
@@ -641,6 +688,8 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     node = input_kind(path)
     if is_bag(path):  # a ROS 2 bag is a folder; rosbags checks the files itself
         return "rosbag", False
+    if node == "dir" and kitti_oxts_folder(path) is not None:
+        return "kitti_oxts", False
     if node == "dir":
         raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
     gz = path.suffix.lower() == ".gz"
