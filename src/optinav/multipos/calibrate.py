@@ -1358,31 +1358,41 @@ def _check_ferraris_pose_pairs(fc, acc, ranges, pose_alignment: float) -> dict:
     return gate("acc largest tilt of a pose pair's mean direction, in std", worst, POSE_PAIR_SIGMA)
 
 
-def _check_ferraris_turn_axes(fc, acc, ranges: dict, turns: list, pose_alignment: float) -> dict | None:
-    """Error when a rotation about a vertical axis (the accelerometer does not see it turn) has gravity, and so the
-    turn's axis, off its sensor axis beyond :data:`POSE_PAIR_SIGMA` × ``pose_alignment`` (rad): the closed form
-    takes the gyro's turn for one about that axis, so a turn about an axis tilted by δ puts sin δ into K_g's column as
-    a misalignment and lowers its scale by 1 − cos δ (imucal's z_rot turned about an axis 10° off: K_yz −10.1 ± 0.98,
-    K_zz −1.5 %, exit 0; its real turns: ≤ 0.42°, the annotated session's ≤ 1.4°). ``ranges`` name → (i0, i1),
-    ``turns`` :func:`ferraris.check_rotations`' outcome. Returns the gate's outcome (None: no such rotation)."""
-    worst, where = 0.0, None
-    pose_alignment = max(float(pose_alignment), np.radians(0.1))  # (0 given: a turn placed within 0.1°)
+def _turn_axis_tilts(fc, acc, ranges: dict, turns: list) -> list[tuple[str, int, float]]:
+    """Per rotation (``turns``: :func:`ferraris.check_rotations`' outcome, ``ranges`` name → (i0, i1)): its name,
+    axis j and the angle (rad) between the axis it turned about and the sensor's j axis, both in the calibrated
+    accelerometer's frame. About a vertical axis (the accelerometer does not see the turn) the axis is gravity's mean
+    direction; about an axis the accelerometer sees turn, gravity sweeps the plane across the axis, whose normal
+    (the least-variance direction of gravity's unit direction over the section) is the axis."""
+    out = []
     for j, r in enumerate(turns):
-        if np.isfinite(r["acc_turn_deg"]):
-            continue
         i0, i1 = ranges[r["name"]]
         f = fc.correct_acc(acc[i0:i1])
-        m = np.mean(f / np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300), axis=0)
-        tilt = float(np.arctan2(np.linalg.norm(np.delete(m, j)), abs(m[j])))
-        if tilt / pose_alignment >= worst:
-            worst, where = tilt / pose_alignment, (r["name"], j, tilt)
-    if where is None:
+        u = f / np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300)
+        u = u[np.all(np.isfinite(u), axis=1)]
+        if np.isfinite(r["acc_turn_deg"]):
+            m = np.linalg.eigh(np.cov(u.T))[1][:, 0]  # (eigenvalues ascending)
+        else:
+            m = np.mean(u, axis=0)
+        out.append((r["name"], j, float(np.arctan2(np.linalg.norm(np.delete(m, j)), abs(m[j])))))
+    return out
+
+
+def _check_ferraris_turn_axes(tilts: list, pose_alignment: float) -> dict | None:
+    """Error when a rotation turned about an axis off its sensor axis (``tilts``: :func:`_turn_axis_tilts`) beyond
+    :data:`POSE_PAIR_SIGMA` × ``pose_alignment`` (rad): the closed form takes the gyro's turn for one about that axis,
+    so a turn about an axis tilted by δ puts sin δ into K_g's column as a misalignment and lowers its scale by
+    1 − cos δ (imucal's z_rot turned about an axis 10° off: K_yz −10.1 ± 0.98, K_zz −1.5 %, exit 0; its real turns:
+    ≤ 0.42°, the annotated session's ≤ 1.4°). Returns the gate's outcome (None: no rotation)."""
+    pose_alignment = max(float(pose_alignment), np.radians(0.1))  # (0 given: a turn placed within 0.1°)
+    if not tilts:
         return None
-    name, j, tilt = where
+    name, j, tilt = max(tilts, key=lambda x: x[2])
+    worst = tilt / pose_alignment
     if worst > POSE_PAIR_SIGMA:
         raise OptinavError(
             f"the rotation {name} turned about an axis {np.degrees(tilt):.2g}° off the sensor's {'xyz'[j]} axis "
-            f"(gravity lies that far from it during the turn; {worst:.0f} std for a placement within "
+            f"(gravity shows the turn's axis that far from it; {worst:.0f} std for a placement within "
             f"{np.degrees(pose_alignment):.2g}°): the closed form would take the tilt for a gyro misalignment and "
             f"lower K_{'xyz'[j] * 2} by {1 - np.cos(tilt):.2%}",
             "turn the sensor flat against a square edge about its own axis and record again, or state the placement "
@@ -1684,9 +1694,8 @@ def _ferraris(
     _check_rotations_turn(t, gyro, fc.gyr_b, names, idx)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
-    gate_axes = _check_ferraris_turn_axes(
-        fc, acc, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns, pose_alignment
-    )
+    tilts = _turn_axis_tilts(fc, acc, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns)
+    gate_axes = _check_ferraris_turn_axes(tilts, pose_alignment)
     step_s = float(np.median(np.diff(t)))
     gyro_clipped = clipped_gyro_rows(gyro, step_s)
     if sat_g is not None:
@@ -1769,7 +1778,13 @@ def _ferraris(
     off = 1.0 - np.eye(3)
     tilt = np.abs(np.diag(fc.acc_K))[:, None] * (off * sa / np.sqrt(2.0) + np.eye(3) * sa**2 / 2)
     acc_K_std = np.hypot(acc_K_std, tilt)
-    gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + np.eye(3) * sa**2 / 2))
+    # a turn about an axis δ off reads K_jj·cos δ: the placement's σ²/2, or the loss of the tilt measured if larger
+    # (a 3° tilt passes the tilt test at 1° placement and left K_zz 8.7 std low with exit 0)
+    loss = np.zeros(3)
+    for _, j, off_axis in tilts:
+        loss[j] = 1.0 - np.cos(off_axis)
+    diag = np.diag(np.maximum(sa**2 / 2, loss))
+    gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + diag))
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
     rests = _still_rests(t, acc, gyro)
