@@ -1401,6 +1401,46 @@ def _check_ferraris_turn_axes(tilts: list, pose_alignment: float) -> dict | None
     return gate("gyr largest tilt of a rotation axis from its sensor axis, in std", worst, POSE_PAIR_SIGMA)
 
 
+#: a step of a turn against the accelerometer's (:func:`ferraris.turn_step`) is refused when it moves its K_jj by more
+#: than this many std (a step beyond the noise that moves K less is harmless)
+TURN_STEP_K_SIGMA = 3.0
+
+
+def _check_ferraris_turn_steps(t, acc, gyr, ranges: dict, turns: list, fc, K_std) -> dict:
+    """Error when the gyro's turn in a rotation the accelerometer sees (about an axis off gravity) steps against the
+    gravity the accelerometer measures (:func:`ferraris.turn_step`, beyond :data:`ferraris.STEP_SIGMA` of the
+    section's spread) by an angle that moves that column's scale K_jj beyond :data:`TURN_STEP_K_SIGMA` of its std
+    ``K_std``: a glitch amid the turn's own jerks, which the gyro's tests by departure and isolation cannot tell from
+    the turn (one sample 0.5 rad/s off in a simulated hand turn: K_jj 5 std off, exit 0). ``ranges`` name →
+    (i0, i1); ``turns`` :func:`ferraris.check_rotations`' outcome. Returns the gate's outcome: the largest such shift
+    in std (0 when no step is beyond the noise)."""
+    from . import ferraris
+
+    worst = 0.0
+    for j, r in enumerate(turns):
+        if not np.isfinite(r["acc_turn_deg"]):
+            continue  # about a vertical axis the accelerometer sees no turn
+        i0, i1 = ranges[r["name"]]
+        f = fc.correct_acc(acc[i0:i1])
+        ratio, step, row = ferraris.turn_step(t[i0:i1], f, fc.correct_gyro(gyr[i0:i1], f))
+        if ratio <= ferraris.STEP_SIGMA:
+            continue
+        z = abs(step) / abs(float(fc.expected_angle[j])) * abs(fc.gyr_K[j, j]) / max(float(K_std[j, j]), 1e-300)
+        if z > TURN_STEP_K_SIGMA:
+            ax = "xyz"[j]
+            raise OptinavError(
+                f"in {r['name']} the gyro's turn steps by {np.degrees(step):+.3g}° against the gravity the "
+                f"accelerometer sees, at t = {t[i0 + row]:.6g} s ({ratio:.0f}× the section's spread of such steps): "
+                f"a glitch amid the turn's jerks, which scales K_{ax * 2} by its share of the turn ({z:.0f} std)",
+                f"record the turn {r['name']} again, or drop --method ferraris and --sections (the default fit finds "
+                "the rests and judges each turn between them)",
+            )
+        worst = max(worst, z)
+    return gate(
+        "gyr largest K_jj shift from a turn stepping against the accelerometer, in std", worst, TURN_STEP_K_SIGMA
+    )
+
+
 def _check_ferraris_turn_bias(
     t, acc, gyr, rests, names: list, idx: np.ndarray, fc, K_std, unit: str, gate_log: list
 ) -> None:
@@ -1785,6 +1825,9 @@ def _ferraris(
         loss[j] = 1.0 - np.cos(off_axis)
     diag = np.diag(np.maximum(sa**2 / 2, loss))
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + diag))
+    gate_log.append(
+        _check_ferraris_turn_steps(t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns, fc, gyr_K_std)
+    )
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
     rests = _still_rests(t, acc, gyro)
