@@ -885,8 +885,10 @@ def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tu
 #: fitted), a small linear map between the two sensors' frames and a scale error (a ramp); a step between the
 #: STEP_WINDOW samples on either side of a row (STEP_GAP rows left out around it) beyond STEP_SIGMA times the
 #: section's robust spread of such steps is a glitch. Simulated hand turns (rate jerking by 0.5-0.8 of itself at
-#: ~15 Hz, the sensor 0-10 cm off the axis, poses placed exactly or within 1°; 230 clean turns): at most 5.1×; one
-#: sample 0.5 rad/s off amid the jerks (K_jj 3-5 std off, unseen by the gyro's own tests): 8.6-41×
+#: ~15 Hz, the sensor 0-10 cm off the axis, poses placed exactly or within 1°; 230 clean turns): at most 4.6×; one
+#: sample 0.5 rad/s off amid the jerks (K_jj 2-5 std off, unseen by the gyro's own tests) is refused in 37 of 45
+#: turns, the 8 others (poses placed within 1°) moved K_jj 2.0-3.7 std. Samples far off the fit (an accelerometer
+#: spike) are left out of it and of the windows.
 STEP_WINDOW = 20
 STEP_GAP = 2
 STEP_SIGMA = 8.0
@@ -897,8 +899,8 @@ def turn_step(t, f, w) -> tuple[float, float, int]:
     ends at rest: ``t`` (M,) s, ``f`` (M, 3) corrected specific force (m/s²), ``w`` (M, 3) corrected rate (rad/s).
     Gravity of the first samples is carried along the turn by ``w``; the measured ``f`` less it, less the lever arm's
     accelerations (r fitted), a small linear map between the two sensors' frames and a ramp along the turn (a scale
-    error), is an angle about the turn's axis, whose step
-    between the windows on either side of each row is compared with the spread of such steps (robust σ). Returns
+    error), is an angle about the turn's axis, whose step between the means of the windows on either side of each row
+    is compared with the spread of such steps (robust σ); samples far off the fit are left out of it. Returns
     (step over its σ, step [rad], row of the step); (0, 0, 0) when the section is too short to judge."""
     from optinav.core.rotations import quat_conjugate, quat_rotate, skew
     from optinav.core.strapdown import attitude_update
@@ -909,7 +911,7 @@ def turn_step(t, f, w) -> tuple[float, float, int]:
         return 0.0, 0.0, 0
     h = np.diff(t)
     q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), 0.5 * (w[:-1] + w[1:]) * h[:, None], dt=h)
-    g0 = f[: STEP_WINDOW // 2].mean(axis=0)
+    g0 = np.median(f[: STEP_WINDOW // 2], axis=0)
     gb = quat_rotate(quat_conjugate(q), np.broadcast_to(g0, (M, 3)))  # gravity carried along the turn (body axes)
     axis = np.sum(w, axis=0)
     axis /= max(float(np.linalg.norm(axis)), 1e-300)
@@ -923,16 +925,33 @@ def turn_step(t, f, w) -> tuple[float, float, int]:
     E = (np.eye(3)[None, :, :, None] * gb[:, None, None, :]).reshape(M, 3, 9)
     A = np.concatenate([lever, E, (tang * turned[:, None])[..., None]], -1)
     res = f - gb
-    coef, *_ = np.linalg.lstsq(A.reshape(-1, A.shape[-1]), res.reshape(-1), rcond=None)
+
+    def fit(res, keep):
+        coef, *_ = np.linalg.lstsq(A[keep].reshape(-1, A.shape[-1]), res[keep].reshape(-1), rcond=None)
+        return coef
+
+    keep = np.ones(M, bool)
+    coef = fit(res, keep)
+    # samples far off the fit (an accelerometer spike, the rows around a gyro glitch) do not steer it
+    e = np.linalg.norm(res - A @ coef, axis=1)
+    keep = e <= 8.0 * 1.4826 * float(np.median(e)) + 1e-300
+    coef = fit(res, keep)
     # the map also acts on the lever arm's accelerations (jerks of 3 m/s² through a 1° skew: 0.1° steps): once more
     # with E·(ω×(ω×r) + α×r) of the first fit taken out
     res = res - (lever @ coef[:3]) @ coef[3:12].reshape(3, 3).T
-    coef, *_ = np.linalg.lstsq(A.reshape(-1, A.shape[-1]), res.reshape(-1), rcond=None)
+    coef = fit(res, keep)
     ang = np.einsum("ij,ij->i", res - A @ coef, tang) / float(np.linalg.norm(g0))
-    cs = np.r_[0.0, np.cumsum(ang)]
+    # means of the windows over the samples the fit kept: a spike of the accelerometer (a few samples far off the
+    # fit) moves neither, a step of the gyro every sample after it
     W, G = STEP_WINDOW, STEP_GAP
+    cs = np.r_[0.0, np.cumsum(np.where(keep, ang, 0.0))]
+    cn = np.r_[0, np.cumsum(keep)]
     k = np.arange(W + G, M - W - G)
-    d = (cs[k + G + W] - cs[k + G]) / W - (cs[k - G] - cs[k - G - W]) / W
+
+    def mean(a, b):
+        return (cs[b] - cs[a]) / np.maximum(cn[b] - cn[a], 1)
+
+    d = mean(k + G, k + G + W) - mean(k - G - W, k - G)
     sig = 1.4826 * float(np.median(np.abs(d - np.median(d))))
     i = int(np.argmax(np.abs(d)))
     return float(abs(d[i]) / max(sig, 1e-300)), float(d[i]), int(k[i])
