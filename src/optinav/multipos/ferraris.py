@@ -708,7 +708,11 @@ def check_rotations(cal: FerrarisCalibration, t, acc, gyr, ranges: dict) -> list
         acc_turn = np.nan
         if sees:
             # gravity turns the other way in the sensor frame: −(angle of its component across the axis)
-            phi = np.unwrap(np.arctan2(f[:, p[1]], f[:, p[0]]))
+            # (a sample far from g is no gravity direction: an accelerometer spike of 10 g turned the unwrapped
+            # angle by 360°, and the run was refused as a turn of 720° or 0°)
+            g_med = float(np.median(np.linalg.norm(f, axis=1)))
+            ok = np.abs(np.linalg.norm(f, axis=1) - g_med) < 0.5 * g_med
+            phi = np.interp(np.arange(f.shape[0]), np.flatnonzero(ok), np.unwrap(np.arctan2(f[ok, p[1]], f[ok, p[0]])))
             m = max(1, min(f.shape[0] // 10, int(np.ceil(0.1 / max(float(np.median(dt[i0:i1])), 1e-9)))))
             acc_turn = -float(phi[-m:].mean() - phi[:m].mean())
             if abs(acc_turn - cal.expected_angle[j]) > np.radians(MAX_TURN_MISMATCH_DEG):
