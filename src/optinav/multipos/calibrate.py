@@ -718,6 +718,11 @@ def calibrate(
         if gapped:
             notes.append(f"{_gap_words(t, ranges, gapped)}: those turns are left out of the gyro calibration")
         drop = drop + gapped
+        # a gyro glitch inside a turn (a sample 300 deg/s off in a move of imucal's session: K 4.4 std off, exit 0)
+        # turns gravity by its share: the turn is left out (the others observe K), as the Ferraris rotations repair it
+        glitched = _glitched_turns(t, gyro, ranges, drop, gyro_unit, notes)
+        excluded["glitch_turns"] = len(glitched)
+        drop = drop + glitched
         up = model.corrected(fit.theta, st.means)
         up /= np.linalg.norm(up, axis=1, keepdims=True)
         step("fit gyroscope and gates")
@@ -1058,6 +1063,39 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
             "those turns are left out of the gyro calibration (turn more slowly, or raise the range)"
         )
     return drop
+
+
+#: turns sampled slower than this are not judged for glitches: imucal's moves at 25.6 and 12.8 Hz (its 102.4-Hz
+#: session decimated) hold a real 40 deg/s burst in one sample, 129× the departures around it; at 51.2 and 102.4 Hz
+#: none
+GLITCH_MIN_RATE_HZ = 50.0
+
+
+def _glitched_turns(t, gyro, ranges, drop, unit: str, notes: list) -> list[int]:
+    """The turns between consecutive static intervals (``ranges`` (P, 2) rows; those in ``drop`` not judged) whose
+    gyro holds a glitch by the tests of the Ferraris rotations (:func:`ferraris.find_glitch`: a run of 1-3 samples
+    that leaves the turn and comes back far beyond its own roughness), with a note per turn: the fit carries gravity
+    through each turn, so a glitch moves K by its share of that turn."""
+    from . import ferraris
+
+    out = []
+    if _typical_step(t) > 1.0 / GLITCH_MIN_RATE_HZ:
+        return out
+    for k in range(len(ranges) - 1):
+        a, b = int(ranges[k, 1]), int(ranges[k + 1, 0])
+        if k in drop or b - a < ferraris.GLITCH_MIN_SAMPLES:
+            continue
+        hit = ferraris.find_glitch(np.asarray(gyro[a:b], float))
+        if hit is None:
+            continue
+        why, i, L, c = hit
+        size = float(np.mean(gyro[a + i : a + i + L, c]) - 0.5 * (gyro[a + i - 1, c] + gyro[a + i + L, c]))
+        out.append(k)
+        notes.append(
+            f"{L} gyro {'xyz'[c]} sample(s) at t = {t[a + i]:.6g} s, in the turn {t[a]:.6g}-{t[b]:.6g} s, depart from "
+            f"it by {size:.4g} {unit} and come back ({why}): a glitch; that turn is left out of the gyro calibration"
+        )
+    return out
 
 
 def _gyro_drift_note(t, gyr, ranges, up, g: float, gc, unit: str) -> str | None:

@@ -842,6 +842,25 @@ def _worst_isolated(w: np.ndarray) -> tuple[float, float, int, int, int]:
     return best
 
 
+def find_glitch(w) -> tuple[str, int, int, int] | None:
+    """The worst glitch of a turn's gyro samples ``w`` (M, 3, any unit) by the tests of
+    :func:`repair_rotation_glitches` (a departure beyond :data:`GLITCH_FRACTION` of the rate and
+    :data:`GLITCH_OUTLIER` × the turn's roughness, or one far beyond the departures around it), or None: (why, in
+    words; first row; run length; axis)."""
+    frac, outlier, k, L, c = _worst_glitch(w)
+    if frac > GLITCH_FRACTION and outlier > GLITCH_OUTLIER:
+        return (
+            f"{frac:.2f} of the section's 95th-percentile rate, {outlier:.1f}× its 5th-largest such departure",
+            k,
+            L,
+            c,
+        )
+    iso, frac, k, L, c = _worst_isolated(w)
+    if not iso:
+        return None
+    return f"{frac:.2f} of the section's 95th-percentile rate, {iso:.0f}× the departures around it", k, L, c
+
+
 def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tuple[np.ndarray, list[str]]:
     """Gyro samples (N, 3, raw) with one-sample spikes inside the rotation sections replaced by their neighbours'
     mean, and a note per repair. The closed form scales K_g so that each section integrates to the stated angle,
@@ -855,14 +874,10 @@ def repair_rotation_glitches(gyr, ranges: dict, t=None, unit: str = "raw") -> tu
     for j, name in enumerate(ROTATIONS):
         i0, i1 = ranges[name]
         for count in range(MAX_SPIKES + 1):
-            frac, outlier, k, L, c = _worst_glitch(w[i0:i1])
-            if frac > GLITCH_FRACTION and outlier > GLITCH_OUTLIER:
-                why = f"{frac:.2f} of the section's 95th-percentile rate, {outlier:.1f}× its 5th-largest such departure"
-            else:
-                iso, frac, k, L, c = _worst_isolated(w[i0:i1])
-                if not iso:
-                    break
-                why = f"{frac:.2f} of the section's 95th-percentile rate, {iso:.0f}× the departures around it"
+            hit = find_glitch(w[i0:i1])
+            if hit is None:
+                break
+            why, k, L, c = hit
             row = i0 + k
             when = f"t = {t[row]:.6g} s" if t is not None else f"row {row}"
             size = float(w[row : row + L, c].mean() - 0.5 * (w[row - 1, c] + w[row + L, c]))
