@@ -722,3 +722,37 @@ def test_streaming_chunk_without_a_magnetometer_sample_runs_as_the_whole_recordi
     np.testing.assert_array_equal(np.concatenate([c.q_b_n for c in chunks]), whole.q_b_n)
     with pytest.raises(OptinavError, match="no sample with three finite values"):
         estimate(g, acc, 0.01, mag=np.full((n, 3), np.nan), checks=False)
+
+
+def test_mag_used_is_none_without_a_magnetometer_in_every_output():
+    """Without a magnetometer estimate() reported mag_used None but AttitudeFilter.update_batch and run_iframe an
+    all-False array (and the filter's property False), so code that tells "no magnetometer" from "never used" got
+    two answers. Every output is None now where no magnetometer was given; with one, the chunks' flags equal
+    estimate()'s and are False next to a magnet (10 s, +42 µT: the simulated truth of the disturbed samples)."""
+    from optinav.attitude.iframe import run_iframe
+
+    n = 6000
+    w, acc, q_true = motion(n, seed=5, amp=0.8)
+    mag = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n())
+    dist = slice(3000, 4000)
+    mag[dist] += np.einsum("nji,j->ni", dcm_from_quat(q_true[dist]), [30.0, 30.0, 0.0])
+    cuts = [0, 1, 2500, 3500, n, n]  # the last chunk is empty
+    for m in (None, mag):
+        r = estimate(w, acc, DT, mag=m, checks=False)
+        f = AttitudeFilter(RATE)
+        chunks = [f.update_batch(w[a:b], acc[a:b], None if m is None else m[a:b]) for a, b in zip(cuts, cuts[1:])]
+        runs = [run_iframe(w, acc, np.array([DT]), mag=m, offline=off) for off in (False, True)]
+        if m is None:
+            assert r.mag_used is None and all(x.mag_used is None for x in chunks + runs)
+            assert f.mag_used is None
+        else:
+            used = np.concatenate([x.mag_used for x in chunks])
+            np.testing.assert_array_equal(used, r.mag_used)
+            np.testing.assert_array_equal(runs[0].mag_used, r.mag_used)
+            assert not used[dist][100:].any() and used[5000:].all() and f.mag_used is True
+    # a magnetometer that starts late: the property is None until its first sample, then its decision
+    f = AttitudeFilter(RATE)
+    f.update(w[0], acc[0])
+    assert f.mag_used is None
+    f.update(w[1], acc[1], mag[1])
+    assert f.mag_used is True

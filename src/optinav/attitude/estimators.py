@@ -603,7 +603,7 @@ def estimate(
             gyr_bias=r.gyr_bias[-1].copy(),
             rest=r.rest,
             acc_used=r.acc_used,
-            mag_used=r.mag_used if mag is not None else None,
+            mag_used=r.mag_used,
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),

@@ -125,7 +125,7 @@ class FilterRun:
 
     ``q_b_n`` (N, 4) q_b^n [w, x, y, z]; ``rest`` (N,) bool, rest detected (the input stage's for gd/cg/qn/mekf);
     ``acc_used``/``mag_used`` (N,) bool, the accelerometer / magnetometer sample corrected the attitude (iframe's
-    decisions; ``mag_used`` all False without a magnetometer); ``gyr_bias`` (N, 3) rad/s, the gyro-bias estimate
+    decisions; ``mag_used`` None where no magnetometer was given, as in the estimate); ``gyr_bias`` (N, 3) rad/s, the gyro-bias estimate
     after each sample (mekf: the input stage's plus its own state); ``state`` iframe's final state;
     ``att_std`` (N, 3) rad, mekf's attitude-error σ about the body axes. The names are those of
     :class:`~optinav.attitude.AttitudeEstimate`, whose ``gyr_bias`` is the last row's.
@@ -215,7 +215,9 @@ def run_iframe(
     par = _params(frame, opts)
     m = np.zeros((0, 3)) if mag is None else np.ascontiguousarray(mag, dtype=float)
     if not offline:
-        return _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+        r = _run(_new_state(opts, q0), par, gyr, acc, m, dts)
+        r.mag_used = None if mag is None else r.mag_used
+        return r
     # the passes estimate the attitude at the sample times; the latency is applied once, to the smoothed result
     lat = par[_k.P_LATENCY]
     par[_k.P_LATENCY] = 0.0
@@ -242,7 +244,7 @@ def run_iframe(
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
         q = quat_multiply(q, quat_from_rotvec((gyr - bias) * lat))
-    return FilterRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, used, bias, fwd.state)
+    return FilterRun(q, fwd.rest | bwd.rest[::-1], fwd.acc_used, None if mag is None else used, bias, fwd.state)
 
 
 def field_azimuth(q, mag, frame) -> np.ndarray:
@@ -426,8 +428,8 @@ class AttitudeFilter:
         Returns
         -------
         FilterRun
-            ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` (N,) flags, ``gyr_bias`` (N, 3) [rad/s]
-            after each sample; N = 0 gives empty arrays.
+            ``q_b_n`` (N, 4) q_b^n, ``rest``/``acc_used``/``mag_used`` (N,) flags (``mag_used`` None without
+            ``mag``), ``gyr_bias`` (N, 3) [rad/s] after each sample; N = 0 gives empty arrays.
         """
         from optinav.attitude.estimators import _as_dt, _checked_imu
         from optinav.attitude.methods import _method
@@ -440,13 +442,15 @@ class AttitudeFilter:
             mag, dt = None, mag
         if np.shape(gyr)[:1] == (0,) and np.shape(acc)[:1] == (0,):  # an empty chunk (a stream's last read)
             no = np.zeros(0, bool)
-            return FilterRun(np.empty((0, 4)), no, no.copy(), no.copy(), np.empty((0, 3)), self._state.copy())
+            used = None if mag is None else no.copy()
+            return FilterRun(np.empty((0, 4)), no, no.copy(), used, np.empty((0, 3)), self._state.copy())
         g, a, m = _checked_imu(gyr, acc, mag, whole=False)  # a chunk: a slow magnetometer may give it none
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
         r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
+        r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r
 
     @property
@@ -471,8 +475,8 @@ class AttitudeFilter:
 
     @property
     def mag_used(self) -> bool | None:
-        """Whether the last magnetometer sample corrected the heading (None before the first)."""
-        return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_INIT] else None
+        """Whether the last sample's magnetometer corrected the heading (None until a magnetometer sample came)."""
+        return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_M_SEEN] else None
 
     @property
     def att_std(self) -> None:
