@@ -29,3 +29,42 @@ def test_logo_cv_chooses_on_the_other_groups_only():
     err = np.array([[1.0, 1.0, 5.0], [3.0, 3.0, 2.0]])
     out, chosen = cv.logo_cv(err, ["a", "a", "b"])
     assert chosen == {"a": 1, "b": 0} and np.allclose(out, [3.0, 3.0, 5.0])
+
+
+def test_every_method_gets_a_9d_grid_of_the_same_factors_around_its_own_magnetometer_defaults():
+    import pytest
+
+    for quick, wide in ((True, False), (False, False), (False, True)):
+        grids = cv.mag_grids(quick, wide)
+        assert len(grids["iframe"]) == len(grids["vqf"]) >= 8
+        assert {k: IFRAME_DEFAULTS[k] for k in cv.IFRAME_MAG} in grids["iframe"]
+        assert cv.VQF_MAG_DEFAULTS in grids["vqf"]
+        for a, b in zip(cv.IFRAME_MAG, cv.VQF_MAG):  # option by option, the same factors of each default
+            fa = {round(p[a] / IFRAME_DEFAULTS[a], 9) for p in grids["iframe"]}
+            fb = {round(p[b] / cv.VQF_MAG_DEFAULTS[b], 9) for p in grids["vqf"]}
+            assert fa == fb and len(fa) >= 2 and 1.0 in fa
+    vqf = pytest.importorskip("vqf")
+    params = vqf.VQF(0.01).params
+    assert {k: params[k] for k in cv.VQF_MAG} == cv.VQF_MAG_DEFAULTS  # VQF's own defaults
+
+
+def test_cv_rows_score_an_offline_mode_also_at_the_online_choice():
+    import numpy as np
+
+    grid = [{"x": 1.0}, {"x": 2.0}]
+    err = {
+        "9D online": np.array([[1.0, 1.0, 5.0], [3.0, 3.0, 2.0]]),  # folds choose: a → 1, b → 0
+        "9D offline": np.array([[1.0, 1.0, 1.0], [2.0, 2.0, 9.0]]),  # folds choose: a → 0, b → 0
+    }
+    rows = cv._cv_rows("m", "x", err, ["a", "a", "b"], grid, grid[0], lambda c: [("x", c["x"], "")])
+    val = {(r["group"].split(",")[0], r["method"], r["metric"]): r["value"] for r in rows}
+    assert val["attitude m 9D online", "m, grid of 2 (x)", "cross-validated mean heading RMSE"] == 11.0 / 3
+    assert val["attitude m 9D offline", "m, grid of 2 (x)", "cross-validated mean heading RMSE"] == 1.0
+    assert (
+        val["attitude m 9D offline", "m, grid point chosen on the online error", "cross-validated mean heading RMSE"]
+        == 5.0 / 3
+    )
+    assert val["attitude m 9D online", "fold without a", "chosen x"] == 2.0
+    assert val["attitude m 9D online", "fold without a", "held-out mean heading RMSE, chosen point"] == 3.0
+    assert val["attitude m 9D online", "fold without a", "held-out mean heading RMSE, defaults"] == 1.0
+    assert val["attitude m 9D online", "m defaults", "training mean heading RMSE"] == 7.0 / 3
