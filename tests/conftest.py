@@ -8,8 +8,14 @@ belongs in benchmarks/, and a loaded machine made the 200 ms default fail exampl
 import json
 import os
 
-import pytest
-from hypothesis import settings
+# The README's command runs two workers on two cores (and the quick report beside them): BLAS threads of their own
+# only oversubscribe the cores (a 201×201 matrix product test took 2.6× the CPU with OpenBLAS's default threads).
+# Set before numpy loads in the workers, which inherit this environment; a value the caller set is kept.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)
