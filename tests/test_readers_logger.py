@@ -1836,3 +1836,91 @@ def test_a_kitti_raw_oxts_folder_is_read_as_one_log(tmp_path, capsys):
     (oxts / "data" / "0000000000.txt").unlink()
     with pytest.raises(OptinavError, match="lines in timestamps.txt for .* files in data/"):
         read_imu(oxts)
+
+
+def _stamp(when: datetime.datetime, style: str) -> str:
+    """A logger's time stamp of ``when``: WitMotion's PC software (fields not zero-padded, ms), its newer exports
+    (the ms after a ':'), an RTC logger's slash date, or the time of day alone."""
+    ms = f"{when.microsecond // 1000:03d}"
+    if style == "wit":
+        return f"{when.year}-{when.month}-{when.day} {when.hour}:{when.minute:02d}:{when.second:02d}.{ms}"
+    if style == "wit_colon":
+        return f"{when.year}-{when.month}-{when.day} {when.hour}:{when.minute}:{when.second}:{ms}"
+    if style == "slash":
+        return when.strftime("%Y/%m/%d %H:%M:%S.") + ms
+    return when.strftime("%H:%M:%S.") + ms
+
+
+@pytest.mark.parametrize("style", ["time_of_day", "slash", "wit"])
+def test_time_of_day_and_slash_date_stamps_time_the_samples(tmp_path, capsys, style):
+    """An RTC/Arduino logger's only time column as the time of day ('23:59:59.990', a day rollover inside), or with
+    a slash date ('2024/05/01 12:00:00.010'), was refused ("… is not a number"). It times the samples now, whole
+    and in blocks (a rollover between two blocks too): times of day count from the midnight before the first row,
+    a step back of more than 12 h being the next day. A simulated flight so logged gives the attitude of the same
+    samples in a plain CSV."""
+    from optinav.attitude.simulate import simulate as fly
+
+    d = fly("dynamic", duration_s=12, rate_hz=100, rng=4, frame="enu")
+    t0 = datetime.datetime(2024, 5, 1, 23, 59, 55)  # midnight 5 s in, inside the second block of 400 rows
+    when = [t0 + datetime.timedelta(milliseconds=round(1000 * x)) for x in d.t]
+    values = np.column_stack([d.acc, d.gyr])
+    rows = "".join(f"{_stamp(w, style)},{','.join(f'{v:.9g}' for v in values[i])}\n" for i, w in enumerate(when))
+    path = _w(tmp_path / "rtc.csv", "time,ax,ay,az,gx,gy,gz\n" + rows)
+    plain = tmp_path / "plain.csv"
+    np.savetxt(plain, np.column_stack([d.t, values]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="",
+               fmt="%.9g")  # fmt: skip
+    start = t0 - (t0.replace(hour=0, minute=0, second=0) if style == "time_of_day" else datetime.datetime(1970, 1, 1))
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t - start.total_seconds(), d.t, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(log.acc, read_imu(plain).acc)
+    np.testing.assert_array_equal(np.concatenate([b.t for b in iter_imu(path, chunk_rows=400)]), log.t)
+    if style == "time_of_day":
+        assert any("its times of day 'time' read as the time" in x for x in log.notes)
+    q = {}
+    for name, p in (("logger", path), ("plain", plain)):
+        out = tmp_path / f"{name}.q.csv"
+        assert main(["--quiet", "attitude", str(p), "--frame", "ENU", "--out", str(out)]) == 0
+        q[name] = np.genfromtxt(out, delimiter=",", names=True)
+    for k in ("qw", "qx", "qy", "qz"):
+        np.testing.assert_allclose(q["logger"][k], q["plain"][k], rtol=0, atol=1e-6)
+    assert _inclination_deg(tmp_path / "logger.q.csv", d.q_b_n)[0] < 5.0
+    back = _w(
+        tmp_path / "back.csv", "time,ax,ay,az\n12:00:00.000,0,0,9.8\n12:00:00.010,0,0,9.8\n11:59:59.000,0,0,9.8\n"
+    )
+    with pytest.raises(OptinavError, match="back"):  # an hour or a second back is no rollover
+        read_imu(back)
+
+
+def test_headerless_files_of_one_sensor_timed_by_the_time_of_day(tmp_path, capsys):
+    """A pair of headerless files, one per sensor, whose first column is the time of day of an RTC logger
+    ('23:59:58.000 0.01 -0.02 9.81', imu_tk's layout with a clock): that column was left out as text and the pair
+    refused as having no time column. The first column is the time now (a day rollover inside), the other three
+    the sensor as imu_tk's rule reads them, and a simulated flight so logged gives the attitude of the same
+    samples in one plain CSV; a first column that steps back by an hour is no time and is not taken for one."""
+    from optinav.attitude.simulate import simulate as fly
+
+    d = fly("dynamic", duration_s=8, rate_hz=100, rng=6, frame="enu")
+    t0 = datetime.datetime(2024, 5, 1, 23, 59, 58)
+    stamps = [_stamp(t0 + datetime.timedelta(milliseconds=round(1000 * x)), "time_of_day") for x in d.t]
+    a, g = tmp_path / "acc.txt", tmp_path / "gyro.txt"
+    for path, v in ((a, d.acc), (g, d.gyr)):
+        _w(path, "".join(f"{s} {' '.join(f'{x:.9g}' for x in row)}\n" for s, row in zip(stamps, v)))
+    log = read_imu(a, gyro_path=g)
+    np.testing.assert_allclose(log.t - (23 * 3600 + 59 * 60 + 58), d.t, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(log.gyr, d.gyr, rtol=1e-8, atol=1e-12)
+    assert any("its 4 columns read as t,gx,gy,gz" in x for x in log.notes)
+    plain = tmp_path / "plain.csv"
+    np.savetxt(plain, np.column_stack([d.t, np.array([[float(f"{x:.9g}") for x in r] for r in np.column_stack(
+        [d.acc, d.gyr])])]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.17g")  # fmt: skip
+    q = {}
+    for name, args in (("pair", [str(a), "--gyro", str(g)]), ("plain", [str(plain)])):
+        out = tmp_path / f"{name}.q.csv"
+        assert main(["--quiet", "attitude", *args, "--frame", "ENU", "--out", str(out)]) == 0
+        q[name] = np.genfromtxt(out, delimiter=",", names=True)
+    for k in ("qw", "qx", "qy", "qz"):
+        np.testing.assert_allclose(q["pair"][k], q["plain"][k], rtol=0, atol=1e-6)
+    back = _w(
+        tmp_path / "back.txt", "".join(f"{s} 0 0 9.8\n" for s in ("12:00:00.000", "12:00:00.010", "11:00:00.020"))
+    )
+    with pytest.raises(OptinavError, match="has no accelerometer data"):
+        read_imu(back, gyro_path=g)

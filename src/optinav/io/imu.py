@@ -1261,7 +1261,9 @@ def _part_of(
             part.declared[kind]["the file's unit record"] = table.meta[f"{kind}_unit"]
     if "t" in found:
         part.t_name, part.t = found["t"]
-        if "date_columns" in table.meta and part.t_name in table.meta["date_columns"].split("\t"):
+        if part.t_name in table.meta.get("time_of_day_columns", "").split("\t"):
+            table.meta["day_time"] = part.t_name
+        elif "date_columns" in table.meta and part.t_name in table.meta["date_columns"].split("\t"):
             table.meta["date_time"] = part.t_name
         unit = table.units.get(part.t_name) or normalize_name(part.t_name)[1]
         if unit:
@@ -1817,6 +1819,8 @@ _LAYOUT_NOTES = {
     "vehicle's axes (x forward, y left, z up; --frame ENU), one sample per data/ file",
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "
     "taken as UTC)",
+    "day_time": "its times of day {v!r} read as the time (s since the midnight before its first row; a step back "
+    "of more than 12 h read as the next day)",
     "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",
     "shimmer_passed": "Shimmer's low-noise accelerometer (Accel_LN) read; the wide-range one ({v} …) was passed "
     "over (map it with --columns ax=…,ay=…,az=…)",

@@ -1062,10 +1062,12 @@ class _Layout:
     start: int
     keep: list[int]
     textable: set[int]
-    dates: set[int] = dataclasses.field(default_factory=set)  # ISO 8601 date-time columns (→ s since the epoch)
+    dates: set[int] = dataclasses.field(default_factory=set)  # date-time columns (→ s since the epoch, _epoch_seconds)
     loose: set[int] = dataclasses.field(default_factory=set)  # columns nobody reads: a text cell there is NaN
     comma: bool = False  # decimal commas (a ';' or tab file from a German or French Excel): read as points
     labelled: tuple[str, ...] | None = None  # 'name = value | …' lines: the names, in order (see _labelled)
+    lax: set[int] = dataclasses.field(default_factory=set)  # date columns nobody reads: NaN where unreadable
+    clocks: dict = dataclasses.field(default_factory=dict)  # a time-of-day column's days counted so far, by column
 
 
 #: the first line of an ArduPilot DataFlash log as text (Mission Planner's .log): the FMT message's own format
@@ -1209,7 +1211,7 @@ def _text_layout(
     row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
     row = row if row is not None and len(row) == ncol else None
     # ISO 8601 date-times (pandas' to_csv of a DatetimeIndex, many loggers): seconds since the epoch
-    dates = {j for j in keep if row is not None and j not in textable and _DATETIME.match(row[j])}
+    dates = {j for j in keep if row is not None and j not in textable and _is_stamp(row[j])}
     for j in sorted(dates):
         if header is not None and names is None and header[j] == "" and "time" not in colnames:
             colnames[j] = "time"  # pandas' to_csv of an unnamed DatetimeIndex: the samples' times
@@ -1235,10 +1237,15 @@ def _text_layout(
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
     if dates:
         meta["date_columns"] = "\t".join(colnames[j] for j in sorted(dates))
+        days = [colnames[j] for j in sorted(dates) if (m := _STAMP.match(row[j])) and not m.group(1)]
+        if days:
+            meta["time_of_day_columns"] = "\t".join(days)
     if comma:
         meta["decimal_comma"] = "1"
     meta.update(preamble)
-    return _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose, comma)
+    lay = _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose, comma)
+    lay.lax = set() if needed is None else {j for j in dates if not needed(colnames[j])}
+    return lay
 
 
 #: one ``name = value`` or ``name: value`` pair of a labelled line (an Arduino sketch's Serial.print output)
@@ -1336,7 +1343,12 @@ def _parse_block(
             bad=bad,
         )
     for j in lay.dates:
-        data[j] = _epoch_seconds(path, lay.colnames[j], data[j])
+        try:
+            data[j] = _epoch_seconds(path, lay.colnames[j], data[j], lay.clocks.setdefault(j, {}))
+        except OptinavError:
+            if j not in lay.lax:
+                raise
+            data[j] = np.full(len(data[j]), np.nan)  # a clock nobody reads (AndroSensor's local date-time) as NaN
     for j in lay.loose:
         data[j] = _loose_numbers(data[j])
     return data, truncated
@@ -1354,23 +1366,123 @@ def _loose_numbers(cells: np.ndarray) -> np.ndarray:
 
 
 _DATETIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}(:\d{2}(\.\d+)?)?\s*(Z|[+-]\d{2}:?\d{2})?$")
+#: the date-times and times of day loggers write beside ISO 8601: a date with '-' or '/' whose fields need not be
+#: zero-padded (WitMotion's PC software: '2023-5-16 15:30:35.760'; RTC loggers: '2024/05/01 12:00:00.010'), the
+#: milliseconds after a ':' (WitMotion's newer exports: '2024-1-5 9:3:7:250'), or a time of day alone
+#: ('15:30:35.760'; seconds required): groups year, month, day, hour, minute, second, fraction digits
+_STAMP = re.compile(
+    r"^(?:(\d{4})[-/](\d{1,2})[-/](\d{1,2})[T ]+(\d{1,2}):(\d{1,2})(?::(\d{1,2})(?:[.:](\d{1,9}))?)?"
+    r"|(\d{1,2}):(\d{2}):(\d{2})(?:[.:](\d{1,9}))?)$"
+)
+#: seconds of a day, and the backward step of a time-of-day column that is a day rollover (23:59:59.9 → 00:00:00.0)
+#: rather than a clock set back
+_DAY_S = 86400.0
+_ROLLOVER_S = 43200.0
 
 
-def _epoch_seconds(path: Path, name: str, cells: np.ndarray) -> np.ndarray:
-    """ISO 8601 date-time cells (a UTC offset applied; none: taken as UTC) → float seconds since the Unix epoch
-    (resolution about 0.2 µs today); an empty cell is NaN."""
+def _is_stamp(cell: str) -> bool:
+    """Whether a cell is a date-time or a time of day :func:`_epoch_seconds` reads."""
+    return bool(_DATETIME.match(cell) or _STAMP.match(cell))
+
+
+def _epoch_seconds(path: Path, name: str, cells: np.ndarray, clock: dict | None = None) -> np.ndarray:
+    """Date-time cells → float seconds since the Unix epoch (resolution about 0.2 µs today); an empty cell is NaN.
+
+    ISO 8601 (a UTC offset applied; none: taken as UTC), or the forms of :data:`_STAMP` (taken as UTC). A column of
+    times of day alone gives seconds since the midnight before its first row, a backward step of more than 12 h
+    being a day rollover (+24 h); ``clock`` carries the last time of day and the days counted from one block of a
+    streamed file to the next."""
     cells = np.char.strip(np.asarray(cells, dtype=str))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # numpy's note that it converts a UTC offset instead of keeping it
         try:
             ns = cells.astype("datetime64[ns]")
         except ValueError as exc:
-            raise OptinavError(
-                f"{path.name}: column {name!r} holds date-times and other text ({str(exc)[:120]})",
-                "fix the cell, or skip the column ('_' in columns)",
-            ) from None
+            out = _stamp_seconds(cells, clock)
+            if out is None:
+                raise OptinavError(
+                    f"{path.name}: column {name!r} holds date-times and other text ({str(exc)[:120]})",
+                    "fix the cell, or skip the column ('_' in columns)",
+                ) from None
+            return out
     out = ns.astype(np.int64) * 1e-9
     out[np.isnat(ns)] = np.nan
+    return out
+
+
+#: the two forms of :data:`_STAMP` a column holds on every row in practice, read in one pass over the column (its
+#: separators made spaces for numpy's number parser) instead of cell by cell: a date with the time to the second
+#: (a fraction after '.' or ':'), and a time of day alone
+_STAMP_ROWS = (
+    (re.compile(r"^\d{4}[-/]\d{1,2}[-/]\d{1,2}[T ]+\d{1,2}:\d{1,2}:\d{1,2}(?:[.:]\d{1,9})?$", re.M), True),
+    (re.compile(r"^\d{1,2}:\d{2}:\d{2}(?:[.:]\d{1,9})?$", re.M), False),
+)
+#: a fraction of a second after a ':' (WitMotion's '9:3:7:250'), written after a '.' for the number parser
+_COLON_FRACTION = re.compile(r"(\d:\d{1,2}:\d{1,2}):(\d+)$", re.M)
+_STAMP_SEPARATORS = str.maketrans({"-": " ", "/": " ", ":": " ", "T": " "})
+
+
+def _stamp_fields(cells: np.ndarray) -> tuple[np.ndarray, bool] | None:
+    """(n, 6) year, month, day, hour, minute, second (its fraction in it) of :data:`_STAMP` cells, NaN rows for
+    empty cells, and whether they hold dates (else times of day: NaN dates); None when a cell is of another form
+    or the column mixes dates with times of day."""
+    filled = np.char.str_len(cells) > 0
+    kept = cells[filled].tolist()
+    out = np.full((cells.size, 6), np.nan)
+    joined = "\n".join(kept)
+    for rx, dated in _STAMP_ROWS:
+        if len(rx.findall(joined)) == len(kept):
+            text = _COLON_FRACTION.sub(r"\1.\2", joined).translate(_STAMP_SEPARATORS)
+            k = 6 if dated else 3
+            v = np.fromstring(text, sep=" ") if kept else np.zeros(0)
+            if v.size == k * len(kept):
+                out[filled, 6 - k :] = v.reshape(-1, k)
+                return out, dated
+    matches = [_STAMP.match(c) for c in kept]  # the other forms (minutes without seconds), cell by cell
+    if any(m is None for m in matches) or len({m.group(1) is None for m in matches}) > 1:
+        return None
+    for i, m in zip(np.flatnonzero(filled), matches):
+        g = m.groups()
+        y, mo, d, h, mi, sec, frac = g[:7] if g[0] is not None else (None, None, None, *g[7:])
+        fields = (y, mo, d, h, mi, sec or "0")
+        out[i] = [np.nan if x is None else float(x) for x in fields]
+        out[i, 5] += float("0." + frac) if frac else 0.0
+    return out, bool(matches) and matches[0].group(1) is not None
+
+
+def _stamp_seconds(cells: np.ndarray, clock: dict | None) -> np.ndarray | None:
+    """Seconds of the :data:`_STAMP` cells (see :func:`_epoch_seconds`); None when a cell is of another form, or
+    the column mixes dates with times of day alone."""
+    got = _stamp_fields(cells)
+    if got is None:
+        return None
+    f, dated = got
+    if np.any((f[:, 3] > 23) | (f[:, 4] > 59) | (f[:, 5] >= 61)):  # (a leap second is 60.x)
+        return None
+    sec = f[:, 3] * 3600.0 + f[:, 4] * 60.0 + f[:, 5]
+    if not dated:
+        return _unroll_days(sec, {} if clock is None else clock)
+    ok = np.isfinite(f[:, 0])
+    y, mo, d = (np.where(ok, f[:, k], 1.0).astype(np.int64) for k in (0, 1, 2))
+    if np.any((mo < 1) | (mo > 12) | (d < 1) | (d > 31)):
+        return None
+    # the day from numpy's calendar: months since 1970 → the first day of that month, then the day of the month
+    days = ((y - 1970) * 12 + mo - 1).astype("datetime64[M]").astype("datetime64[D]").astype(np.int64) + d - 1
+    return np.where(ok, days * _DAY_S + sec, np.nan)
+
+
+def _unroll_days(sec: np.ndarray, clock: dict) -> np.ndarray:
+    """Times of day (s) with a day added at each backward step of more than :data:`_ROLLOVER_S` (``clock``: the
+    previous block's last time of day and days, updated)."""
+    ok = np.flatnonzero(np.isfinite(sec))
+    if not ok.size:
+        return sec
+    v = sec[ok]
+    prev = np.concatenate([[clock.get("last", v[0])], v[:-1]])
+    days = clock.get("days", 0) + np.cumsum(v - prev < -_ROLLOVER_S)
+    clock["last"], clock["days"] = float(v[-1]), int(days[-1])
+    out = sec.copy()
+    out[ok] = v + days * _DAY_S
     return out
 
 
