@@ -1851,6 +1851,73 @@ def _stamp(when: datetime.datetime, style: str) -> str:
     return when.strftime("%H:%M:%S.") + ms
 
 
+def _witmotion(path, t, acc_g, gyr_dps, t0, head="old", delim="\t", encoding="utf-8"):
+    """A WitMotion PC-software export (WT901/BWT901CL/HWT905) of samples at ``t`` (s after ``t0``): the computer's
+    receive ``time`` (packets in bursts of four) and the sensor's ``ChipTime``, acceleration in g, angular velocity
+    in deg/s, angles, the temperature ``T(°)`` and the magnetometer's counts. The layouts are those of gyroflow's
+    telemetry-parser (src/witmotion/txt.rs, txt4.rs), which reads the vendor's files: ``head="old"``: ``time,
+    ChipTime, ax(g) … wx(deg/s) … AngleX(deg) … T(°), hx, hy, hz``, stamps '2023-5-16 15:30:35.760'; ``"new"``:
+    ``time, Device name, Chip Time(), Acceleration X(g) … Angular velocity X(°/s) … Angle X(°) … Magnetic field
+    X(uT) … Temperature(°C)``, stamps '2023-5-16 15:30:35:760', written in GBK by Chinese Windows."""
+    n = len(t)
+    chip = [t0 + datetime.timedelta(milliseconds=round(1000 * x)) for x in t]
+    pc = [chip[min(n - 1, (i // 4) * 4 + 3)] + datetime.timedelta(milliseconds=23) for i in range(n)]  # bursts
+    if head == "old":
+        names = ["time", "ChipTime", *(f"a{a}(g)" for a in "xyz"), *(f"w{a}(deg/s)" for a in "xyz")]
+        names += [*(f"Angle{a}(deg)" for a in "XYZ"), "T(°)", "hx", "hy", "hz"]
+        stamps = [(_stamp(p, "wit"), _stamp(c, "wit")) for p, c in zip(pc, chip)]
+    else:
+        names = ["time", "Device name", "Chip Time()", *(f"Acceleration {a}(g)" for a in "XYZ")]
+        names += [*(f"Angular velocity {a}(°/s)" for a in "XYZ"), *(f"Angle {a}(°)" for a in "XYZ")]
+        names += [*(f"Magnetic field {a}(uT)" for a in "XYZ"), "Temperature(°C)"]
+        stamps = [(_stamp(p, "wit_colon"), "WT5300002296(COM3)", _stamp(c, "wit_colon")) for p, c in zip(pc, chip)]
+    rows = [
+        delim.join(
+            [*st, *(f"{v:.6f}" for v in (*acc_g[i], *gyr_dps[i])), "1.5", "-0.7", "123.4", "25.31", "-12", "34", "-56"]
+        )  # fmt: skip
+        for i, st in enumerate(stamps)
+    ]
+    path.write_bytes((delim.join(names) + "\r\n" + "\r\n".join(rows) + "\r\n").encode(encoding))
+    return path
+
+
+def test_a_witmotion_export_calibrates_to_the_truth_without_columns_or_units(tmp_path, capsys):
+    """WitMotion's PC software exports (WT901, BWT901CL, HWT905, WT61…) were refused at their first time stamp
+    ("'2023-5-16 15:30:35.760' is not a number": a date whose fields are not zero-padded), and their temperature
+    T(°) was taken for a second time column. Now the log reads as the header says: the sensor's ChipTime is
+    the time (the computer's receive time, in USB bursts, passed over with a note), g and deg/s from the brackets,
+    T(°) a temperature; tab- or comma-separated; the newer export ('Chip Time()', 'Angular velocity X(°/s)', the
+    ms after a ':', GBK as Chinese Windows writes it) reads to the same samples. A simulated multi-position recording
+    so written calibrates to its truth with no --columns and no unit flag."""
+    s = simulate("18", dwell_s=4, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=11)
+    acc_g, gyr_dps = s.acc / 9.80665, np.degrees(s.gyr)
+    t0 = datetime.datetime(2023, 5, 16, 15, 30, 35, 760000)
+    epoch = (t0 - datetime.datetime(1970, 1, 1)).total_seconds()
+    old = _witmotion(tmp_path / "20230516153035.txt", s.t, acc_g, gyr_dps, t0)
+    log = read_imu(old)
+    np.testing.assert_allclose(log.t - epoch, s.t, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(log.acc, s.acc, rtol=0, atol=1e-5)  # 1e-6 g cells
+    np.testing.assert_allclose(log.gyr, s.gyr, rtol=0, atol=1e-7)
+    assert "WitMotion's 'ChipTime' (the sensor's clock) read as the time; 'time' (the computer's receive time) " \
+        "passed over" in " ".join(log.notes)  # fmt: skip
+    comma = _witmotion(tmp_path / "comma.csv", s.t[:500], acc_g, gyr_dps, t0, delim=",")
+    new = _witmotion(tmp_path / "new.txt", s.t, acc_g, gyr_dps, t0, head="new", encoding="gbk")
+    for got in (read_imu(comma), read_imu(new), *iter_imu(new, chunk_rows=5000)):
+        k = np.searchsorted(log.t, got.t[0])
+        for name in ("t", "acc", "gyr"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(log, name)[k : k + len(got)])
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(old), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    assert "ChipTime" in capsys.readouterr().err
+    from optinav.multipos import model
+
+    r = CalibrationResult.from_json(out)
+    acc, g = r.accelerometer, 9.80665  # raw = K·x + b in the file's g
+    U, _ = model.upper_triangular_form(s.acc_K)
+    np.testing.assert_allclose(np.diag(acc["K"]) * g, np.diag(U), rtol=0, atol=4 * g * np.max(np.diag(acc["K_std"])))
+    np.testing.assert_allclose(acc["b"] * g, s.acc_b, rtol=0, atol=4 * g * np.max(acc["b_std"]))
+
+
 @pytest.mark.parametrize("style", ["time_of_day", "slash", "wit"])
 def test_time_of_day_and_slash_date_stamps_time_the_samples(tmp_path, capsys, style):
     """An RTC/Arduino logger's only time column as the time of day ('23:59:59.990', a day rollover inside), or with

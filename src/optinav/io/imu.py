@@ -196,6 +196,7 @@ def _build_aliases() -> dict[str, tuple[str, str | None]]:
         "imu_gyr",  # BROAD's datasets
         "gyro_rad",  # PX4 sensor_combined (pyulog's CSV)
         "gy",
+        "as",  # WitMotion's register names (AsX: angular speed)
     )
     for std, prefixes in (("a", acc_prefix), ("g", gyro_prefix)):
         for p in prefixes:
@@ -541,7 +542,7 @@ def _part_spec(
     def needed(name: str) -> bool:  # a column read_imu takes (a text column it does not is left out)
         if name in sources:
             return True
-        return not _local_clock(name) and (
+        return not (_local_clock(name) or _temperature(name)) and (
             normalize_name(name)[0] in ALIASES or normalize_name(name)[0] in FRAME_COLUMNS
         )
 
@@ -1014,6 +1015,36 @@ def _local_clock(name: str) -> bool:
     return base in ("time", "timestamp") and unit is not None and bool(_UTC_OFFSET.match(unit.strip()))
 
 
+#: units in brackets after ``T`` that make it a temperature (WitMotion's ``T(°)``, ``T (°C)``), not the time
+_TEMPERATURE_UNITS = ("°", "°c", "℃", "c", "degc", "deg c", "°f", "k")
+
+
+def _temperature(name: str) -> bool:
+    """Whether column ``name`` is a temperature named ``T``/``t`` with a temperature unit (``T(°)``), not the time."""
+    base, unit = normalize_name(name)
+    return base == "t" and unit is not None and unit.strip().lower() in _TEMPERATURE_UNITS
+
+
+#: WitMotion's column of the sensor's own clock (its PC software: ``ChipTime``; newer exports: ``Chip Time()``)
+_CHIP_TIME = ("chiptime", "chip_time")
+
+
+def _chip_time(table: Table, found: dict, candidates: dict) -> None:
+    """WitMotion's ``ChipTime`` (date-times of the sensor's clock, its 0x50 time packet) as the time when the file
+    holds it and nothing was mapped to ``t``: its ``time`` column is the computer's receive time, in bursts of USB
+    packets. Named in ``table.meta["chip_time"]``."""
+    if "t" in found or not _sensor_named(found, candidates):
+        return
+    key = next((k for k in table.data if normalize_name(k)[0] in _CHIP_TIME), None)
+    if key is None or key not in table.meta.get("date_columns", "").split("\t"):
+        return
+    prev = candidates.get("t")
+    candidates["t"] = key
+    table.meta["chip_time"] = f"{key!r} (the sensor's clock) read as the time" + (
+        f"; {prev!r} (the computer's receive time) passed over" if prev else ""
+    )
+
+
 def _axes_by_unit(table: Table, found: dict, candidates: dict) -> None:
     """One sensor per file, its axes named ``x-axis (g)`` … (MetaWear's MetaBase: ``epoch (ms), time (-08:00),
     elapsed (s), x-axis (deg/s), …``) or ``x (deg/s)``: the unit in brackets, the same on all three, says which
@@ -1155,7 +1186,7 @@ def _part_of(
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
             continue
         hit = ALIASES.get(normalize_name(key)[0])
-        if hit is None or hit[0] in found or _local_clock(key):
+        if hit is None or hit[0] in found or _local_clock(key) or _temperature(key):
             continue
         std = hit[0]
         if std in candidates:
@@ -1182,6 +1213,7 @@ def _part_of(
     _vectornav_fields(table, found, candidates)
     _xsens_sdi(table, found, candidates)
     _xsens_time(table, found, candidates)
+    _chip_time(table, found, candidates)
     _date_time(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
@@ -1819,6 +1851,7 @@ _LAYOUT_NOTES = {
     "vehicle's axes (x forward, y left, z up; --frame ENU), one sample per data/ file",
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "
     "taken as UTC)",
+    "chip_time": "WitMotion's {v}",
     "day_time": "its times of day {v!r} read as the time (s since the midnight before its first row; a step back "
     "of more than 12 h read as the next day)",
     "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",

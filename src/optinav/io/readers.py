@@ -930,6 +930,10 @@ def _bom_noise(raw: bytes) -> bytes:
     return NOISE_LINE.encode() + (b"\n" + rest if rest.strip() else b"") + raw[end:]
 
 
+#: '°' in GBK, the code page of Chinese Windows (read as latin-1 it is '¡ã')
+_GBK_DEGREE = "°".encode("gbk")
+
+
 def _decode(path: Path, raw: bytes, start: bool = True) -> str:
     """Text of a file's bytes (``start``: they begin the file). Lines holding NUL bytes, when all lie within the
     first :data:`_NOISE_BYTES` of a file (a serial capture of a board's boot at another baud rate), are read as
@@ -962,7 +966,13 @@ def _decode(path: Path, raw: bytes, start: bool = True) -> str:
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        return raw.decode("latin-1")  # e.g. '°' written by Windows tools; only names can hold such bytes
+        pass
+    if _GBK_DEGREE in raw:  # a Chinese Windows tool's '(°/s)' (WitMotion's exports): GBK, else latin-1 would misread it
+        try:
+            return raw.decode("gbk")
+        except UnicodeDecodeError:
+            pass
+    return raw.decode("latin-1")  # e.g. '°' written by Windows tools; only names can hold such bytes
 
 
 def _delimiter_option(delimiter: str | None) -> tuple[bool, str | None]:
