@@ -20,6 +20,16 @@ def flight(tmp_path_factory):
     return d, folder, path, PAPER_SITE, PAPER_TIMES
 
 
+def _level_at_rest(n: int, seed: int, field) -> tuple:
+    """(t s, acc m/s², gyr rad/s, mag) of a level IMU at rest for n samples at 100 Hz, seeded, in the field ``field``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    gyr = rng.normal(0, 0.002, (n, 3))
+    mag = np.tile(field, (n, 1)) + rng.normal(0, 0.2, (n, 3))
+    return t, acc, gyr, mag
+
+
 def _read(path):
     data = np.genfromtxt(path, delimiter=",", names=True)
     return data
@@ -192,12 +202,7 @@ def test_magnetometer_columns_with_units_in_brackets(tmp_path, capsys):
 
     from optinav.cli.main import main
 
-    n = 3000
-    rng = np.random.default_rng(0)
-    t = np.arange(n) * 0.01
-    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
-    gyr = rng.normal(0, 0.002, (n, 3))
-    mag = np.tile([20.0, 0.0, -40.0], (n, 1)) + rng.normal(0, 0.2, (n, 3))
+    t, acc, gyr, mag = _level_at_rest(3000, 0, [20.0, 0.0, -40.0])
     out = {}
     for name, head in (
         ("plain", "mx,my,mz"),
@@ -338,12 +343,7 @@ def test_magnetometer_columns_take_a_sign(tmp_path, capsys):
     from optinav.attitude.unit import AttitudeOptions, read_log
     from optinav.cli.main import main
 
-    n = 1500
-    rng = np.random.default_rng(3)
-    t = np.arange(n) * 0.01
-    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
-    gyr = rng.normal(0, 0.002, (n, 3))
-    mag = np.tile([12.0, 15.0, -40.0], (n, 1)) + rng.normal(0, 0.2, (n, 3))
+    t, acc, gyr, mag = _level_at_rest(1500, 3, [12.0, 15.0, -40.0])
     files = {}
     for name, m in (("right", mag), ("flipped", mag * [1, -1, 1])):
         files[name] = tmp_path / f"{name}.csv"
