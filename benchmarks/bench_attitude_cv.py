@@ -22,7 +22,8 @@ The 9D heading (heading RMSE, BROAD metric) the same way, both methods' 6D optio
 method's grid varies its own three magnetometer options its mean heading error moves most with (measured, see
 :data:`IFRAME_MAG`) by the same factors of its own defaults — the heading correction's time constant ×0.5, ×0.71,
 ×1, ×1.41, ×2, the two rejection options ×0.5, ×1, ×2 (45 points each; iframe ``tau_mag``, ``mag_norm_th``,
-``mag_dip_th``; VQF ``tauMag``, ``magRejectionFactor``, ``magDipTh``). Rows per fold also give the held-out
+``mag_dip_th``, with the offline heading's ``tau_mag_smooth`` scaled as ``tau_mag``; VQF ``tauMag``,
+``magRejectionFactor``, ``magDipTh``). Rows per fold also give the held-out
 group's heading with the chosen point and with the defaults. ``--no-mag`` skips this part, ``--wide`` takes
 ×0.25 … ×4 on all three (343 points each, whether the grid's edges capped a choice).
 ``python benchmarks/bench_attitude_cv.py [--quick] [--no-mag] [--wide] [--json FILE]`` (progress on stderr).
@@ -104,6 +105,9 @@ def grids(quick: bool) -> dict[str, list[dict]]:
 #: constant, the dip gate, and the rejection option the method is most sensitive to
 IFRAME_MAG, IFRAME_MAG_UNITS = ("tau_mag", "mag_norm_th", "mag_dip_th"), ("s", "", "rad")
 VQF_MAG, VQF_MAG_UNITS = ("tauMag", "magRejectionFactor", "magDipTh"), ("s", "", "deg")
+#: iframe's offline heading has its own time constant: it moves with the heading's, by the same factor (VQF's
+#: offline mode has one ``tauMag`` for both), so the grid keeps the size of VQF's
+IFRAME_MAG_TIED = {"tau_mag_smooth": "tau_mag"}
 #: VQF's defaults of the options its 9D grid varies (magDipTh in °)
 VQF_MAG_DEFAULTS = {"tauMag": 9.0, "magRejectionFactor": 2.0, "magDipTh": 10.0}
 #: factors of every 9D grid around each method's own defaults: the time constant, then the two rejection options
@@ -118,11 +122,18 @@ def mag_grids(quick: bool, wide: bool = False) -> dict[str, list[dict]]:
     out = {}
     fac = (_MAG_WIDE_F,) * 3 if wide else (_MAG_TAU_F[quick], _MAG_REJ_F[quick], _MAG_REJ_F[quick])
     for name, keys, default in (
-        ("iframe", IFRAME_MAG, {k: IFRAME_DEFAULTS[k] for k in IFRAME_MAG}),
+        ("iframe", IFRAME_MAG, iframe_mag_defaults()),
         ("vqf", VQF_MAG, VQF_MAG_DEFAULTS),
     ):
         out[name] = [{k: default[k] * x for k, x in zip(keys, fs)} for fs in itertools.product(*fac)]
+    for p in out["iframe"]:
+        p.update({k: IFRAME_DEFAULTS[k] * p[a] / IFRAME_DEFAULTS[a] for k, a in IFRAME_MAG_TIED.items()})
     return out
+
+
+def iframe_mag_defaults() -> dict:
+    """iframe's defaults of the options its 9D grid sets (:data:`IFRAME_MAG` and :data:`IFRAME_MAG_TIED`)."""
+    return {k: IFRAME_DEFAULTS[k] for k in (*IFRAME_MAG, *IFRAME_MAG_TIED)}
 
 
 def _iframe_run(tr, cfg: dict, offline: bool, nine: bool = False) -> np.ndarray:
@@ -247,7 +258,7 @@ def _mag_rows(trials, groups, quick: bool, with_vqf: bool, wide: bool = False) -
     rows = []
     grid = mag_grids(quick, wide)
     for name, run_one, names, units, default in (
-        ("iframe", _iframe_run, IFRAME_MAG, IFRAME_MAG_UNITS, {k: IFRAME_DEFAULTS[k] for k in IFRAME_MAG}),
+        ("iframe", _iframe_run, IFRAME_MAG, IFRAME_MAG_UNITS, iframe_mag_defaults()),
         ("vqf", _vqf_run, VQF_MAG, VQF_MAG_UNITS, VQF_MAG_DEFAULTS),
     ):
         if name == "vqf" and not with_vqf:

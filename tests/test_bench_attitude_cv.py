@@ -32,12 +32,15 @@ def test_logo_cv_chooses_on_the_other_groups_only():
 
 
 def test_every_method_gets_a_9d_grid_of_the_same_factors_around_its_own_magnetometer_defaults():
+    import numpy as np
     import pytest
 
     for quick, wide in ((True, False), (False, False), (False, True)):
         grids = cv.mag_grids(quick, wide)
         assert len(grids["iframe"]) == len(grids["vqf"]) >= 8
-        assert {k: IFRAME_DEFAULTS[k] for k in cv.IFRAME_MAG} in grids["iframe"]
+        assert cv.iframe_mag_defaults() in grids["iframe"]
+        for k, a in cv.IFRAME_MAG_TIED.items():  # a tied option moves by its axis's factor
+            assert all(np.isclose(p[k] / IFRAME_DEFAULTS[k], p[a] / IFRAME_DEFAULTS[a]) for p in grids["iframe"])
         assert cv.VQF_MAG_DEFAULTS in grids["vqf"]
         for a, b in zip(cv.IFRAME_MAG, cv.VQF_MAG):  # option by option, the same factors of each default
             fa = {round(p[a] / IFRAME_DEFAULTS[a], 9) for p in grids["iframe"]}

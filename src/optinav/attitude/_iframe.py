@@ -576,22 +576,74 @@ def strapdown(gyr, bias, dt, out, q):
 
 
 @numba.njit(**_NJ)
-def smooth_azimuth(d, used, dt, tau, state, out, backward):
-    """One direction of the offline heading smoothing: ``out`` (N,) the running first-order mean (time constant
-    ``tau`` s, gain at least 1/n of the n samples so far) of the angles ``d`` (N,) rad over the samples ``used``,
-    held across the others; ``state`` (2,) [mean, count] is carried from block to block (count 0: not started;
-    ``out`` is then NaN); ``dt`` 1 or N steps (s); ``backward``: from the last sample to the first."""
-    n = d.shape[0]
-    for j in range(n):
-        i = n - 1 - j if backward else j
-        if used[i] and math.isfinite(d[i]):
-            if state[1] == 0.0:
-                state[0] = d[i]
-                state[1] = 1.0
-            else:
-                state[1] += 1.0
-                h = dt[i] if dt.shape[0] > 1 else dt[0]
-                g = max(h / tau, 1.0 / state[1])
-                e = d[i] - state[0]
-                state[0] += g * math.atan2(math.sin(e), math.cos(e))
-        out[i] = state[0] if state[1] > 0.0 else math.nan
+def heading_forward(d, used, sb, dt, tau, sa2, state, x, p):
+    """Forward Kalman filter of the offline heading offset: ``d`` (N,) rad, the field's azimuth in the attitude
+    whose heading the gyro carries, measures an offset x that is a random walk; ``x``, ``p`` (N,) its filtered
+    value and variance (NaN before the first sample ``used``). Variance unit: the azimuth's noise density, taken
+    as its scatter ``sa2`` (rad²) correlated over ``tau`` s. A magnetometer sample after a step hm has variance
+    1/hm, so a slow magnetometer weighs as much per second; the walk grows 1/tau² per s (with a perfect gyro the
+    smoother averages over about ``tau`` s at any rate) plus sb²·tau/(sa2·tau): a vertical gyro-bias error ``sb``
+    (N,) rad/s held over tau s (``sa2`` 0: that term off). ``state`` (3,) [x, P, s since the previous finite
+    sample] carried from block to block (P 0: not started); ``dt`` 1 or N steps (s)."""
+    for i in range(d.shape[0]):
+        h = dt[i] if dt.shape[0] > 1 else dt[0]
+        state[2] += h
+        if state[1] > 0.0:
+            state[1] += h * _walk(sb[i], tau, sa2)
+        if math.isfinite(d[i]):
+            hm = state[2]
+            state[2] = 0.0
+            if used[i]:
+                r = 1.0 / hm
+                if state[1] == 0.0:
+                    state[0] = d[i]
+                    state[1] = r
+                else:
+                    e = d[i] - state[0]
+                    k = state[1] / (state[1] + r)
+                    state[0] += k * math.atan2(math.sin(e), math.cos(e))
+                    state[1] *= 1.0 - k
+        x[i] = state[0] if state[1] > 0.0 else math.nan
+        p[i] = state[1] if state[1] > 0.0 else math.nan
+
+
+@numba.njit(**_NJ)
+def _walk(sb, tau, sa2):
+    """The heading offset's random-walk density per s in :func:`heading_forward`'s unit."""
+    w = 1.0 / (tau * tau)
+    if sa2 > 0.0:
+        w *= 1.0 + sb * sb * tau * tau / sa2
+    return w
+
+
+@numba.njit(**_NJ)
+def heading_backward(x, p, sb, dt, tau, sa2, state, out):
+    """Rauch–Tung–Striebel pass over :func:`heading_forward`'s ``x``, ``p`` (N,) (the same ``sb``, ``tau``,
+    ``sa2``), from the last sample to the first: ``out`` (N,) the smoothed offset (rad; NaN where no sample was
+    used at all). ``state`` (3,) [smoothed offset of the next sample, 1 once started, that sample's walk
+    variance (step × density)] carried from block to block (later block first)."""
+    for j in range(x.shape[0]):
+        i = x.shape[0] - 1 - j
+        h = dt[i] if dt.shape[0] > 1 else dt[0]
+        if not math.isfinite(x[i]):
+            out[i] = state[0] if state[1] > 0.0 else math.nan  # before the first used sample: held from it
+        elif state[1] == 0.0:
+            out[i] = x[i]
+            state[1] = 1.0
+        else:
+            c = p[i] / (p[i] + state[2])
+            out[i] = x[i] + c * (state[0] - x[i])
+        state[0] = out[i]
+        state[2] = h * _walk(sb[i], tau, sa2)
+
+
+@numba.njit(**_NJ)
+def azimuth_scatter(d, out, used, acc):
+    """Adds to ``acc`` (2,) [Σ e², count] the squared azimuth residuals e = d − out (wrapped, rad) of the samples
+    ``used`` with finite values, in order (a log in blocks sums alike)."""
+    for i in range(d.shape[0]):
+        if used[i] and math.isfinite(d[i]) and math.isfinite(out[i]):
+            e = d[i] - out[i]
+            e = math.atan2(math.sin(e), math.cos(e))
+            acc[0] += e * e
+            acc[1] += 1.0

@@ -707,7 +707,7 @@ def _stream_offline(
     blk = max(int(chunk_rows), 2)
     fields = {"t": 1, "gyr": 3, "acc": 3, "dts": 1, "q": 4, "bias": 3, "flags": 3, "qg": 4, "v": 3}
     if src.mag:
-        fields["mag"] = 3
+        fields.update(mag=3, bfw=3)  # bfw: the forward pass's bias (the offline heading's rate uncertainty)
     if score is not None:
         fields.update(q_ref=4, movement=1)
     # without an output file (a batch unit) the scratch file goes to the temporary folder
@@ -853,6 +853,8 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
         r[:, c["q"]] = f.q_b_n
         r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
+        if "bfw" in c:
+            r[:, c["bfw"]] = f.gyr_bias
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
     st = _if.reversed_state(st)
@@ -875,7 +877,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         store.write(s, r)
     n = b - a
     if n < 16 or not finite:
-        _offline_heading(store, a, b, opts, frame, blk)
+        _offline_heading(store, a, b, opts, frame, blk, False)
         return lat
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
@@ -918,14 +920,16 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
             r = store.read(s, min(s + blk, b)).copy()
             r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
             store.write(s, r)
-    _offline_heading(store, a, b, opts, frame, blk)
+    _offline_heading(store, a, b, opts, frame, blk, True)
     return lat
 
 
-def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, blk: int) -> None:
-    """The offline heading smoothing of :func:`optinav.attitude.iframe.run_iframe` on the rows [a, b) of
-    ``store`` (with a magnetometer): the field's azimuth in the smoothed attitude, its running mean forward (kept
-    in "v") and then backward, in blocks with the states carried; the same arithmetic."""
+def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, blk: int, have_qg: bool) -> None:
+    """The offline heading of :func:`optinav.attitude.iframe.run_iframe` on the rows [a, b) of ``store`` (with a
+    magnetometer), in blocks with the states carried, the same arithmetic: the attitude with the heading the gyro
+    carries (its strapdown in "qg", made here unless ``have_qg``), the field's azimuth in it ("v": offset, its
+    variance, azimuth) filtered forward and smoothed backward, the azimuth's scatter around that, and the two
+    passes again with it."""
     from optinav.attitude import _iframe as _k
     from optinav.attitude import iframe as _if
 
@@ -933,28 +937,56 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
     tau = opts["tau_mag_smooth"]
     if "mag" not in c or not tau > 0.0:
         return
-    st, seen = np.zeros(2), False
-    for s in range(a, b, blk):
-        r = store.read(s, min(s + blk, b)).copy()
-        used = col(r, "flags")[:, 2].astype(bool)
-        seen |= bool(used.any())
-        out = np.empty(r.shape[0])
-        _k.smooth_azimuth(
-            _if.field_azimuth(col(r, "q"), col(r, "mag"), frame), used, col(r, "dts")[:, 0], tau, st, out, False
-        )
-        r[:, c["v"].start] = out
-        store.write(s, r)
-    if not seen:
-        return
-    st = np.zeros(2)
-    for e in range(b, a, -blk):
-        s = max(e - blk, a)
+    v = c["v"].start
+    seen, qg0 = False, np.array([1.0, 0.0, 0.0, 0.0])
+
+    def rows(s, e):
         r = store.read(s, e).copy()
-        fwd = r[:, c["v"].start].copy()
-        out = np.empty(r.shape[0])
-        _k.smooth_azimuth(fwd, col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0], tau, st, out, True)
-        r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, fwd, frame)
-        store.write(s, r)
+        sb = _if.bias_gap(col(r, "q"), col(r, "bfw") - col(r, "bias"), frame)
+        return r, sb, col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0]
+
+    def forward(sa2, first):
+        nonlocal seen
+        st = np.zeros(3)
+        for s in range(a, b, blk):
+            r, sb, used, h = rows(s, min(s + blk, b))
+            if first:
+                if not have_qg:
+                    qg = np.empty((r.shape[0], 4))
+                    _k.strapdown(col(r, "gyr"), col(r, "bias"), h, qg, qg0)
+                    r[:, c["qg"]] = qg
+                seen |= bool(used.any())
+                psi = _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
+                r[:, v + 2] = _if.field_azimuth(col(r, "q"), col(r, "mag"), frame) - psi
+            x, p = np.empty(r.shape[0]), np.empty(r.shape[0])
+            _k.heading_forward(r[:, v + 2].copy(), used, sb, h, tau, sa2, st, x, p)
+            r[:, v], r[:, v + 1] = x, p
+            store.write(s, r)
+
+    def backward(sa2, last):
+        st = np.zeros(3)
+        for e in range(b, a, -blk):
+            s = max(e - blk, a)
+            r, sb, _, h = rows(s, e)
+            out = np.empty(r.shape[0])
+            _k.heading_backward(r[:, v].copy(), r[:, v + 1].copy(), sb, h, tau, sa2, st, out)
+            if last:
+                out += _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
+                r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, out, frame)
+            else:
+                r[:, v] = out
+            store.write(s, r)
+
+    forward(0.0, True)
+    if not seen:  # no sample used: the attitude as the passes left it, as in memory
+        return
+    backward(0.0, False)
+    acc = np.zeros(2)
+    for s in range(a, b, blk):
+        r = store.read(s, min(s + blk, b))
+        _k.azimuth_scatter(r[:, v + 2].copy(), r[:, v].copy(), col(r, "flags")[:, 2].astype(bool), acc)
+    forward(acc[0] / acc[1], False)
+    backward(acc[0] / acc[1], True)
 
 
 def _short(names: list) -> list:
