@@ -4,7 +4,7 @@ Data: every BROAD trial in ``../shared/data/attitude/broad`` ($OPTINAV_SHARED_DA
 4.0), gyro + accelerometer (6D) and + magnetometer (9D), default options of every method, BROAD's metric
 (inclination / heading RMSE over the movement samples with a valid optical reference). Rows, per trial and
 mean: 6D online inclination, 6D offline inclination, 9D heading. Methods: optinav iframe (default; online,
-offline, 9D), the published gd/cg/qn/mekf (as published, and qn/mekf with the input stage), VQF 2.x online
+offline, 9D online and offline), the published gd/cg/qn/mekf (as published, and qn/mekf with the input stage), VQF 2.x online
 (``VQF.updateBatch``) and offline (``offlineVQF``), imufusion's AHRS (its example's settings), ahrs Madgwick
 (gain 0.033) and Mahony (defaults) — the comparison methods are the ``bench`` extra. Throughput in samples/s,
 side by side in one run: batch on trial 02 tiled to ≥ 1 M samples, and streaming (one Python call per sample,
@@ -55,6 +55,10 @@ def _methods():
             lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", offline=True, checks=False),
         ),
         "optinav iframe 9D": ("9d", lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", mag=mg, checks=False)),
+        "optinav iframe offline 9D": (
+            "9d",
+            lambda g, a, mg, dt: estimate_q(g, a, dt, frame="ENU", mag=mg, offline=True, checks=False),
+        ),
     }
     for meth in ("gd", "cg", "qn", "mekf"):
         m[f"optinav {meth} (as published)"] = (
