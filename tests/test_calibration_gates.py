@@ -9,7 +9,7 @@ import pytest
 
 from optinav.cli.main import main
 from optinav.core.imu_model import preset
-from optinav.core.units import factor
+from optinav.core.units import G_STANDARD, factor
 from optinav.errors import OptinavError
 from optinav.multipos import gates, model
 from optinav.multipos.calibrate import calibrate, count_range, saturated_mask
@@ -881,3 +881,26 @@ def test_gravity_outside_earths_range_is_named_with_its_bounds(g):
         local_gravity(g)
     for ok in (9.764, 9.8322):
         assert local_gravity(ok) == (ok, "given")
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+def test_a_drifting_accelerometer_bias_is_noted_with_its_size(axis):
+    """An accelerometer bias drifting linearly by 2 mg over the session: the fit reports the session's mean bias
+    (honest as a mean), and a note names the drift, its axis and its size over the poses (within 3σ of the trend's
+    z); the same session undrifted gets no note."""
+    s = simulate("18", dwell_s=6, rest_s=3, rng=4)
+    clean = calibrate(s.t, s.acc, g=s.gravity)
+    assert not [n for n in clean.quality["notes"] if "accelerometer drifts" in n]
+    drift = 2e-3 * G_STANDARD * (s.t - s.t[0]) / (s.t[-1] - s.t[0])
+    acc = s.acc.copy()
+    acc[:, axis] += drift
+    r = calibrate(s.t, acc, g=s.gravity)
+    (note,) = [n for n in r.quality["notes"] if "accelerometer drifts" in n]
+    m = re.search(r"on acc (\w) .* \(([-+\d.e]+) mg\) over the poses' ([\d.]+) min .*, (\d+) std;", note)
+    assert m and m[1] == "xyz"[axis], note
+    # the true drift between the first and last pose centres
+    ranges = [np.flatnonzero((s.t >= a) & (s.t <= b)) for a, b in np.asarray(r.static_intervals)]
+    tc = [s.t[i].mean() for i in ranges]
+    true_mg = 2.0 * (tc[-1] - tc[0]) / (s.t[-1] - s.t[0])
+    # 0.05 mg: the note rounds the size to two digits
+    assert abs(float(m[2]) - true_mg) < 3 * true_mg / float(m[4]) + 0.05, (note, true_mg)
