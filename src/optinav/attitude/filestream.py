@@ -421,8 +421,7 @@ class _Blocks:
         self._witness_whole: np.ndarray | None = None
         names = {}
         if mag:
-            m = _mag_names(o.mag_columns)
-            self.mag_signs = _mag_signs(o.mag_columns)
+            m, self.mag_signs = _mag_names(o.mag_columns)
             names = {"mag": m[0]} if len(m) == 1 else {f"m{k}": v for k, v in zip("xyz", m)}
         if pol is not None:
             names["aop"] = pol.aop
@@ -972,7 +971,7 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
             _k.heading_backward(r[:, v].copy(), r[:, v + 1].copy(), sb, h, tau, sa2, st, out)
             if last:
                 out += _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
-                r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, out, frame)
+                r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, frame)
             else:
                 r[:, v] = out
             store.write(s, r)
@@ -1013,24 +1012,19 @@ def _by_alias_key(names: dict, found: list) -> dict | None:
     return {k: h[0] for k, h in hits.items()}
 
 
-def _mag_names(mag_columns: str | None) -> list[str]:
-    """The magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array (a '-'
-    before one: :func:`_mag_signs`)."""
-    names = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
-    names = [s[1:].strip() if s[:1] in "+-" else s for s in names]
+def _mag_names(mag_columns: str | None) -> tuple[list[str], np.ndarray]:
+    """(the magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array; (3,) the
+    signs of its axes [-]): a '-' before a name reads that axis negated (``mx,-my,mz``: an axis mounted flipped;
+    before one array's name: the whole array)."""
+    entries = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
+    names = [s[1:].strip() if s[:1] in "+-" else s for s in entries]
     if len(names) not in (1, 3) or not all(names):
         raise OptinavError(
             f"--mag-columns {mag_columns!r} needs three names or one (N×3) array",
             "write e.g. mx,my,mz, or mag for an N×3 array",
         )
-    return names
-
-
-def _mag_signs(mag_columns: str | None) -> np.ndarray:
-    """(3,) the signs of the magnetometer's axes in ``--mag-columns`` (``mx,-my,mz``: an axis mounted flipped; a
-    '-' before one array's name negates it whole) [-]."""
-    signs = [-1.0 if s.strip()[:1] == "-" else 1.0 for s in (mag_columns or "mx,my,mz").split(",")]
-    return np.array(signs * 3 if len(signs) == 1 else signs)
+    signs = [-1.0 if s[:1] == "-" else 1.0 for s in entries]
+    return names, np.array(signs * 3 if len(signs) == 1 else signs)
 
 
 def _column(key: str, values) -> np.ndarray:

@@ -248,7 +248,7 @@ def run_iframe(
         acc = np.zeros(2)
         _k.azimuth_scatter(d, out, used, acc)
         out = psi + _smoothed_offset(d, used, sb, dts, tau, acc[0] / acc[1])
-        q = heading_turned(q, out, out, frame)
+        q = heading_turned(q, out, frame)
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
@@ -298,12 +298,12 @@ def gyro_heading(q, qg, frame) -> np.ndarray:
     return 2.0 * np.arctan2(r[:, 1:] @ _UP[frame_name(frame)], r[:, 0])
 
 
-def heading_turned(q, out, fwd, frame) -> np.ndarray:
-    """``q`` (N, 4) turned about up by −``out`` (N,) rad (the smoothed field azimuth; where the backward pass had
-    not started, the forward one's ``fwd``, else 0): the offline heading correction."""
+def heading_turned(q, out, frame) -> np.ndarray:
+    """``q`` (N, 4) turned about up by −``out`` (N,) rad (the offline heading correction; NaN, where no
+    magnetometer sample was used at all: 0)."""
     from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
-    a = np.where(np.isfinite(out), out, np.where(np.isfinite(fwd), fwd, 0.0))
+    a = np.where(np.isfinite(out), out, 0.0)
     return quat_multiply(quat_from_rotvec(-a[:, None] * _UP[frame_name(frame)][None, :]), q)
 
 

@@ -109,9 +109,9 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))
     mag = None
     if want_mag:
-        from optinav.attitude.filestream import _column, _mag_names, _mag_signs
+        from optinav.attitude.filestream import _column, _mag_names
 
-        names = _mag_names(o.mag_columns)
+        names, signs = _mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
         tab = read_table(
             path,
@@ -121,7 +121,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
             skip_bad_lines=o.skip_bad_lines,
             rows=log.t.size,
         )
-        mag = np.column_stack([_column(k, tab[k]) for k in keys]) * _mag_signs(o.mag_columns)
+        mag = np.column_stack([_column(k, tab[k]) for k in keys]) * signs
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")
     if not np.all(ok):
