@@ -1826,8 +1826,9 @@ def _ferraris(
     # gate would blame on the time base (helper)
     _check_rotations_turn(t, gyro, fc.gyr_b, names, idx)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
-    turns = ferraris.check_rotations(fc, t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)})
-    tilts = _turn_axis_tilts(fc, acc, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns)
+    section_ranges = {n: tuple(idx[k]) for k, n in enumerate(names)}
+    turns = ferraris.check_rotations(fc, t, acc, gyro, section_ranges)
+    tilts = _turn_axis_tilts(fc, acc, section_ranges, turns)
     gate_axes = _check_ferraris_turn_axes(tilts, pose_alignment)
     step_s = float(np.median(np.diff(t)))
     gyro_clipped = clipped_gyro_rows(gyro, step_s)
@@ -1918,9 +1919,7 @@ def _ferraris(
         loss[j] = 1.0 - np.cos(off_axis)
     diag = np.diag(np.maximum(sa**2 / 2, loss))
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + diag))
-    gate_log.append(
-        _check_ferraris_turn_steps(t, acc, gyro, {n: tuple(idx[k]) for k, n in enumerate(names)}, turns, fc, gyr_K_std)
-    )
+    gate_log.append(_check_ferraris_turn_steps(t, acc, gyro, section_ranges, turns, fc, gyr_K_std))
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
     rests = _still_rests(t, acc, gyro)

@@ -929,14 +929,15 @@ def turn_step(t, f, w) -> tuple[float, float, int]:
     if M < 4 * (STEP_WINDOW + STEP_GAP) or not (np.all(np.isfinite(f)) and np.all(np.isfinite(w))):
         return 0.0, 0.0, 0
     h = np.diff(t)
-    q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), 0.5 * (w[:-1] + w[1:]) * h[:, None], dt=h)
+    wm = 0.5 * (w[:-1] + w[1:])  # the rate over each step (trapezoid)
+    q = attitude_update(np.array([1.0, 0.0, 0.0, 0.0]), wm * h[:, None], dt=h)
     g0 = np.median(f[: STEP_WINDOW // 2], axis=0)
     gb = quat_rotate(quat_conjugate(q), np.broadcast_to(g0, (M, 3)))  # gravity carried along the turn (body axes)
     axis = np.sum(w, axis=0)
     axis /= max(float(np.linalg.norm(axis)), 1e-300)
     tang = np.cross(axis, gb) / float(np.linalg.norm(g0))  # direction gravity moves by a turn about the axis
     # angle turned so far (rad): a scale error grows with it
-    turned = np.r_[0.0, np.cumsum(0.5 * (w[:-1] + w[1:]) @ axis * h)]
+    turned = np.r_[0.0, np.cumsum(wm @ axis * h)]
     # regressors: the lever arm r (ω×(ω×r) + α×r), a small linear map E·g between the accelerometer's frame and the
     # gyro's (poses placed tilted leave the calibrated axes skewed against the gyro's: a smooth error over the turn,
     # 0.7° "steps" with exit 2 before E), and the ramp
