@@ -1831,10 +1831,7 @@ def _per_period(main: _Part, rate: float | None, t: np.ndarray, block: bool, not
         if getattr(main, kind) is not None:
             setattr(main, kind, getattr(main, kind) * rate)
     if not block or t.size and main.table.row0 == 0:
-        notes.append(
-            f"{main.path.name}: Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each "
-            f"1/{rate:.6g}-s period ({where})"
-        )
+        notes.append(f"{main.path.name}: {_LAYOUT_NOTES['xsens_sdi'].format(v=f'{rate:.6g}')} ({where})")
 
 
 #: notes of what a reader assumed about a file (the key its Table's ``meta`` holds when it did): ``{v}`` the value
