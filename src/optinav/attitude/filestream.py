@@ -881,7 +881,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
     bf, af, pad = _if.zero_phase_filter(dts, opts["tau_acc"], n)
-    q = np.array([1.0, 0.0, 0.0, 0.0])
+    q = col(store.read(a, a + 1), "q")[0].copy()  # iframe.run_iframe: q_g starts at the first attitude
     for s in range(a, b, blk):
         r = store.read(s, min(s + blk, b)).copy()
         qg = np.empty((r.shape[0], 4))
@@ -937,7 +937,7 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
     if "mag" not in c or not tau > 0.0:
         return
     v = c["v"].start
-    seen, qg0 = False, np.array([1.0, 0.0, 0.0, 0.0])
+    seen, qg0 = False, col(store.read(a, a + 1), "q")[0].copy()
 
     def rows(s, e):
         r = store.read(s, e).copy()

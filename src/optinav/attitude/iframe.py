@@ -236,7 +236,9 @@ def run_iframe(
     t = np.cumsum(h)
     q = _fuse(fwd.q_b_n, bwd.q_b_n[::-1], backward_share(t, t[-1], h[-1], opts["tau_acc"]))
     qg = np.empty((gyr.shape[0], 4))
-    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, np.array([1.0, 0.0, 0.0, 0.0]))
+    # started at the first attitude, not the identity: q ⊗ q_g* then stays near the identity and its twist about
+    # up (gyro_heading) is defined whatever the mounting (an upside-down body made it a 180° tilt, undefined)
+    _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, q[0].copy())
     q = _zero_phase_tilt(q, qg, acc, dts, frame, opts["tau_acc"])
     used = fwd.mag_used | bwd.mag_used[::-1]
     if m.shape[0] and opts["tau_mag_smooth"] > 0.0 and used.any():
@@ -288,7 +290,8 @@ def bias_gap(q, db, frame) -> np.ndarray:
 
 def gyro_heading(q, qg, frame) -> np.ndarray:
     """Angle ψ (N,) rad about up that turns ``q`` (N, 4) to the heading the gyro carries: the twist about up of
-    q ⊗ q_g* (q_g (N, 4) the strapdown of the smoothed bias from the identity); turned by −ψ, q ⊗ q_g* keeps only
+    q ⊗ q_g* (q_g (N, 4) the strapdown of the smoothed bias from the first attitude, so that q ⊗ q_g* is near the
+    identity: its twist is undefined at a 180° tilt); turned by −ψ, q ⊗ q_g* keeps only
     its tilt and the heading changes only as the bias-corrected gyro turns it (the offline heading's base: the
     passes' own magnetometer corrections, which followed a disturbed field wherever the gates let it through, are
     removed)."""
