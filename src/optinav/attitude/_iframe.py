@@ -44,7 +44,8 @@ S_LP_T0 = 104  # s, when the low-passes' running-mean start began last: 0, or th
 S_HNOM = 105  # s, the typical step (a slow mean of the steps that are no gap)
 S_M_SEEN, S_M_T1, S_M_LAST = 106, 107, 108  # 1 once a mag sample came; s: time before the first, of the last
 S_RN = 109  # gyr (3) and acc (3) through the rest detector's band limit (REST_BAND_TAU), then its α (1)
-STATE_SIZE = 116
+S_STEP_T = 116  # s per axis: how long the rest innovation has been beyond 3σ (a bias step once it lasts rest_tau)
+STATE_SIZE = 119
 
 #: s, the rest detector reads gyro and accelerometer through a first-order low-pass of this time constant (a band
 #: of about 1/(4·REST_BAND_TAU) = 250 Hz): white noise of a given density (rad/s/√Hz, m/s²/√Hz) then deviates from
@@ -87,7 +88,8 @@ P_UP, P_NORTH = 18, 21  # unit up and north of the navigation frame
 P_LATENCY = 24  # s, output predicted forward by the sensor latency
 P_BIAS_LOOP = 25  # -, the motion bias loop's time constant is at least this many tau_acc
 P_MAG_CUR_TAU = 26  # s, low-pass of |m| and dip for the new-field candidate; 0 = none
-PAR_SIZE = 27
+P_MOTION_GATE = 27  # -, a motion update whose correction rate exceeds this many σ of what bias explains is skipped
+PAR_SIZE = 28
 
 
 @numba.njit(**_NJ)
@@ -285,6 +287,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         st[S_REST_T] = 0.0
     rest = st[S_REST_T] >= par[P_REST_TIME]
     st[S_REST] = 1.0 if rest else 0.0
+    if not rest:
+        st[S_STEP_T] = st[S_STEP_T + 1] = st[S_STEP_T + 2] = 0.0
     # --- bias: random walk, rest measurement -------------------------------------------------------------
     qrw = par[P_BIAS_RW] ** 2 * h
     st[S_P] += qrw
@@ -293,10 +297,18 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if rest:
         r = par[P_BIAS_REST] ** 2 / h
         for j in range(3):
-            # a bias step (innovation beyond 3σ of the low-passed gyro) resets that axis to its prior σ
+            # a bias step (innovation beyond 3σ of the low-passed gyro for rest_tau s) resets that axis to its
+            # prior σ. Until it has lasted that long the sample teaches nothing: it may be the start of a motion
+            # the rest detector has not seen yet (it lags ~0.25 s behind a smooth start), and a reset there took
+            # the turning gyro for the bias (simulated flight: 0.3 °/s bias learned at rest, 0.005 °/s after
+            # the first 0.25 s of motion, and the 60-s inclination 1.4 -> 2.8° behind the motion gate)
             z = st[S_RG + j] - st[S_BIAS + j]
             if z * z > 9.0 * (st[S_P + 4 * j] + par[P_BIAS_REST] ** 2 / par[P_REST_TAU]):
+                st[S_STEP_T + j] += h
+                if st[S_STEP_T + j] < par[P_REST_TAU]:
+                    continue
                 st[S_P + 4 * j] = max(st[S_P + 4 * j], par[P_BIAS_SIGMA0] ** 2, z * z)
+            st[S_STEP_T + j] = 0.0
             hj0 = 1.0 if j == 0 else 0.0
             hj1 = 1.0 if j == 1 else 0.0
             hj2 = 1.0 if j == 2 else 0.0
@@ -373,7 +385,19 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     # both rows (R = r·I), so that the update does not depend on the heading (per-row clips and
                     # floors made the tilt error 3.6-5.0° by the initial heading on one simulated flight).
                     zn = math.sqrt(z0 * z0 + z1 * z1)
-                    if zn > clip:
+                    # a correction rate far beyond what the bias's uncertainty and the update's noise (its density
+                    # over tau_acc, a rate: no dependence on the sampling rate) explain is a sustained acceleration,
+                    # not bias: a vehicle's turns and braking held the low-passed force off the vertical for seconds,
+                    # and the update took it as bias (simulated 60-s flights from rest: 6D heading drift up to 14°
+                    # online and 70° offline, the bias at the 2 °/s clip; VQF ≤ 2.4°). Skipped beyond motion_gate
+                    # σ: ≤ 1.3°. Hand-held BROAD motion seldom reaches it (nine trials: 0.568 -> 0.571° online)
+                    gate = par[P_MOTION_GATE]
+                    skip = gate > 0.0 and zn * zn > gate * gate * (
+                        par[P_BIAS_MOTION] ** 2 / par[P_TAU_ACC] + 0.5 * s_tr
+                    )
+                    if skip:
+                        st[S_BIAS_MOTION] = 0.0
+                    elif zn > clip:
                         z0 *= clip / zn
                         z1 *= clip / zn
                     # the bias closes a loop through the low-pass (bias → q_g → LP → correction → bias): with the
@@ -381,9 +405,10 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     # faster than tau_acc, and the bias rings between the clips (BROAD cut in motion: ±2 °/s for a
                     # minute; heading 10–18° off). The variance is floored so that the loop's time constant P/r·h
                     # is at least bias_loop·tau_acc (P the mean of the two rows'); once P is small it is r0.
-                    r = max(r0, par[P_BIAS_LOOP] * par[P_TAU_ACC] * 0.5 * s_tr / h)
-                    _bias_update(st, ax_, ay_, az_, z0, r, clip)
-                    _bias_update(st, bx_, by_, bz_, z1, r, clip)
+                    if not skip:
+                        r = max(r0, par[P_BIAS_LOOP] * par[P_TAU_ACC] * 0.5 * s_tr / h)
+                        _bias_update(st, ax_, ay_, az_, z0, r, clip)
+                        _bias_update(st, bx_, by_, bz_, z1, r, clip)
     # --- magnetometer heading ------------------------------------------------------------------------------
     t0, t1, t2, t3 = _qmul(c0, c1, c2, c3, g0, g1, g2, g3)
     st[S_MAG_USED] = 0.0

@@ -17,7 +17,9 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s, or after as long as the
   reference was seen (at least ``tau_acc``), judged on norm and dip low-passed over ``mag_current_tau``;
 * the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
-  variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion);
+  variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion); a
+  correction rate beyond ``motion_gate`` σ of what the bias uncertainty explains is a sustained acceleration (a
+  vehicle's turn), not bias, and updates nothing;
 * start: the low-passes begin as the running mean of the first ``tau_acc`` seconds (as VQF's), so a recording
   that starts in motion is not levelled by its first, accelerated sample; the magnetic reference is the mean of
   the second half of that time, the heading follows the field (low-passed over 0.2 s) until then and converges from then on with a
@@ -82,7 +84,7 @@ _ORDER = (
     "mag_dip_th",
     "mag_new_time",
     "tau_mag_ref",
-)  # then latency, bias_loop and mag_current_tau at P_LATENCY, P_BIAS_LOOP, P_MAG_CUR_TAU
+)  # then latency, bias_loop, mag_current_tau, motion_gate at P_LATENCY, P_BIAS_LOOP, P_MAG_CUR_TAU, P_MOTION_GATE
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
 #: the largest ``latency`` (s) taken: the output is predicted that far with the gyro, which only holds for a
@@ -110,6 +112,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     p[_k.P_LATENCY] = opts["latency"]
     p[_k.P_BIAS_LOOP] = opts["bias_loop"]
     p[_k.P_MAG_CUR_TAU] = opts["mag_current_tau"]
+    p[_k.P_MOTION_GATE] = opts["motion_gate"]
     return p
 
 

@@ -28,6 +28,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "bias_loop": 2.0,  # -, the motion bias loop's time constant is at least this many tau_acc
     "motion_max_gyr": 0.0,  # rad/s, no motion bias update above this rate; 0 = no limit
     "motion_max_acc": 1.0,  # m/s², ... or when the low-passed |acc| is this far from g
+    "motion_gate": 25.0,  # -, ... or when the correction rate is beyond this many σ of bias (sustained accel.); 0 = off
     "gravity": 9.81,  # m/s²
     "tau_mag": 10.0,  # s, heading correction time constant
     "mag_norm_th": 0.05,  # relative deviation of |m| from the reference
