@@ -1991,3 +1991,110 @@ def test_headerless_files_of_one_sensor_timed_by_the_time_of_day(tmp_path, capsy
     )
     with pytest.raises(OptinavError, match="has no accelerometer data"):
         read_imu(back, gyro_path=g)
+
+
+def _logger_rows(stamps, values, delim=","):
+    return "".join(f"{s}{delim}{delim.join(f'{v:.9g}' for v in row)}\n" for s, row in zip(stamps, values))
+
+
+def _utc(when: datetime.datetime) -> float:
+    return when.replace(tzinfo=datetime.timezone.utc).timestamp()
+
+
+def test_a_date_and_a_time_in_two_fields_are_one_time_column(tmp_path, capsys):
+    """Loggers write the date and the time of day as two fields: '2024-05-01 12:00:00.010 0.01 …' split at white
+    space (headerless, or under 'date time ax …' or 'timestamp ax …'), 'Date,Time,AccX,…' in a CSV. Headerless, the
+    --columns the error offered ('t,ax,ay,az,gx,gy,gz') were refused as 7 names for 8 columns; under a header the
+    date was left out and the time of day read alone, or the 7-name header taken as a line above the table. Both
+    fields are one column of date-times now (s since the epoch, UTC), counted as one column, whole and in blocks;
+    a headerless file whose first column is a date-time in one field reads alike with the same --columns. A
+    simulated flight so logged gives the attitude of the plain CSV."""
+    from optinav.attitude.simulate import simulate as fly
+
+    d = fly("dynamic", duration_s=6, rate_hz=100, rng=5, frame="enu")
+    t0 = datetime.datetime(2024, 5, 1, 23, 59, 57)  # a midnight inside: the date changes
+    when = [t0 + datetime.timedelta(milliseconds=round(1000 * x)) for x in d.t]
+    values = np.column_stack([d.acc, d.gyr])
+    iso = [w.strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] for w in when]
+    files = {
+        "bare.txt": (None, _logger_rows(iso, values, " ")),
+        "both.txt": ("date time ax ay az gx gy gz\n", _logger_rows(iso, values, " ")),
+        "one.txt": ("timestamp ax ay az gx gy gz\n", _logger_rows(iso, values, " ")),
+        "columns.csv": ("Date,Time,AccX,AccY,AccZ,GyrX,GyrY,GyrZ\n", _logger_rows([s.replace(" ", ",") for s in iso], values)),
+        "iso.csv": (None, _logger_rows([s.replace(" ", "T") for s in iso], values)),
+    }  # fmt: skip
+    for name, (head, rows) in files.items():
+        path = _w(tmp_path / name, (head or "") + rows)
+        columns = None
+        if head is None:
+            with pytest.raises(OptinavError) as exc:
+                read_imu(path)
+            columns = exc.value.remedy.split("'")[1]
+            assert columns == "t,ax,ay,az,gx,gy,gz", name
+        log = read_imu(path, columns=columns)
+        np.testing.assert_allclose(log.t - _utc(t0), d.t, rtol=0, atol=1e-6, err_msg=name)
+        np.testing.assert_allclose(log.acc, values[:, :3], rtol=1e-8, err_msg=name)
+        np.testing.assert_allclose(log.gyr, values[:, 3:], rtol=1e-8, err_msg=name)
+        blocks = list(iter_imu(path, columns=columns, chunk_rows=97))
+        np.testing.assert_array_equal(np.concatenate([b.t for b in blocks]), log.t)
+    assert any(
+        "two fields a row, read as one column of date-times 'time'" in x for x in read_imu(tmp_path / "both.txt").notes
+    )
+    # a serial monitor's line of words above such rows is still no header
+    capture = _w(tmp_path / "capture.txt", "MPU6050 connection successful\n" + files["bare.txt"][1])
+    log = read_imu(capture, columns="t,ax,ay,az,gx,gy,gz")
+    assert len(log) == len(d.t) and any("'MPU6050 connection successful') were left out" in x for x in log.notes)
+    plain = tmp_path / "plain.csv"  # the same samples at the same times (s since the epoch)
+    np.savetxt(plain, np.column_stack([_utc(t0) + d.t, values]), delimiter=",", header="t,ax,ay,az,gx,gy,gz",
+               comments="", fmt=["%.3f"] + ["%.9g"] * 6)  # fmt: skip
+    q = {}
+    for name, args in (("both", [str(tmp_path / "both.txt")]), ("plain", [str(plain)])):
+        out = tmp_path / f"{name}.q.csv"
+        assert main(["--quiet", "attitude", *args, "--frame", "ENU", "--out", str(out)]) == 0
+        q[name] = np.genfromtxt(out, delimiter=",", names=True)
+    for k in ("qw", "qx", "qy", "qz"):  # (the times differ by an ulp at 1.7e9 s, 0.24 µs: the filter moves 1e-4)
+        np.testing.assert_allclose(q["both"][k], q["plain"][k], rtol=0, atol=2e-3)
+
+
+@pytest.mark.parametrize(
+    "fmt, day, two",
+    [
+        ("%d/%m/%Y", 13, False),  # day first: the first field above 12
+        ("%m/%d/%Y", 13, False),  # month first: the second
+        ("%d.%m.%Y", 1, True),  # dots: day first (German loggers), in two fields
+        ("%m/%d/%Y", 20, True),
+    ],
+)
+def test_slash_dates_day_or_month_first_are_told_from_the_data(tmp_path, fmt, day, two):
+    """Dates with the year last ('13/05/2024 12:00:00.010', '05/13/2024 …', '01.05.2024 …') were not date-times: the
+    file was refused. A field above 12 in the first rows tells the day from the month; a '.' date is day first.
+    The samples are timed in s since the epoch, whole and in blocks."""
+    t0 = datetime.datetime(2024, 5, day, 9, 30, 0)
+    when = [t0 + datetime.timedelta(milliseconds=10 * i) for i in range(300)]
+    stamps = [w.strftime(f"{fmt} %H:%M:%S.%f")[:-3] for w in when]
+    values = np.tile([0.01, -0.02, 9.8, 0.001, 0.002, 0.003], (300, 1))
+    head = "date time ax ay az gx gy gz\n" if two else "time,ax,ay,az,gx,gy,gz\n"
+    path = _w(tmp_path / "rtc.txt", head + _logger_rows(stamps, values, " " if two else ","))
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t - _utc(t0), 0.01 * np.arange(300), rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(np.concatenate([b.t for b in iter_imu(path, chunk_rows=64)]), log.t)
+
+
+def test_slash_dates_that_do_not_tell_day_from_month_time_by_the_time_of_day(tmp_path):
+    """'01/05/2024' is 1 May or 5 January: with no field above 12 in the first rows, the date does not time the
+    samples (a note says so) and the times of day do, from the midnight before the first row, across a midnight
+    where the date changes too (whole and in blocks); a date no order reads ('13/13/2024') is a one-line error."""
+    t0 = datetime.datetime(2024, 5, 1, 23, 59, 58)
+    when = [t0 + datetime.timedelta(milliseconds=10 * i) for i in range(400)]
+    values = np.tile([0.01, -0.02, 9.8, 0.001, 0.002, 0.003], (400, 1))
+    stamps = [w.strftime("%d/%m/%Y %H:%M:%S.%f")[:-3] for w in when]
+    path = _w(tmp_path / "rtc.csv", "time,ax,ay,az,gx,gy,gz\n" + _logger_rows(stamps, values))
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t, 86398.0 + 0.01 * np.arange(400), rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(np.concatenate([b.t for b in iter_imu(path, chunk_rows=50)]), log.t)
+    assert any("'time' (01/05/2024) do not tell the day from the month" in x for x in log.notes)
+    bad = _w(
+        tmp_path / "bad.csv", "time,ax,ay,az\n" + "".join(f"13/13/2024 12:00:0{i}.000,0,0,9.8\n" for i in range(5))
+    )
+    with pytest.raises(OptinavError, match="13/13/2024"):
+        read_imu(bad)

@@ -1849,6 +1849,9 @@ _LAYOUT_NOTES = {
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "
     "taken as UTC)",
     "chip_time": "WitMotion's {v}",
+    "date_and_time": "its dates and times of day, two fields a row, read as one column of date-times {v!r}",
+    "undated": "the dates of {v} do not tell the day from the month (neither field is above 12 in its first rows): "
+    "only their times of day are read",
     "day_time": "its times of day {v!r} read as the time (s since the midnight before its first row; a step back "
     "of more than 12 h read as the next day)",
     "stf_tick": "Xsens' SampleTimeFine read as the time, in ticks of {v} (its 32-bit wraps unwrapped)",

@@ -657,7 +657,7 @@ class TableChunks:
                 held = Table(
                     path=path,
                     kind="text",
-                    data={lay.colnames[j]: data[j] for j in lay.keep},
+                    data={lay.colnames[j]: data[j] for j in lay.shown()},
                     units=dict(lay.units),
                     meta=meta,
                     row0=rows,
@@ -1077,7 +1077,12 @@ class _Layout:
     comma: bool = False  # decimal commas (a ';' or tab file from a German or French Excel): read as points
     labelled: tuple[str, ...] | None = None  # 'name = value | …' lines: the names, in order (see _labelled)
     lax: set[int] = dataclasses.field(default_factory=set)  # date columns nobody reads: NaN where unreadable
-    clocks: dict = dataclasses.field(default_factory=dict)  # a time-of-day column's days counted so far, by column
+    clocks: dict = dataclasses.field(default_factory=dict)  # a date column's day order, days counted so far …
+    merged: dict = dataclasses.field(default_factory=dict)  # a time's column → its date's (two fields, one time)
+
+    def shown(self) -> list[int]:
+        """The columns of the table read: the kept ones but a date read into its time's column."""
+        return [j for j in self.keep if j not in self.merged.values()]
 
 
 #: the first line of an ArduPilot DataFlash log as text (Mission Planner's .log): the FMT message's own format
@@ -1184,6 +1189,28 @@ def _text_layout(
         if rows and all(len(r) == len(header) + 1 and r[-1] == "" for r in rows):
             header = [*header, ""]
     ncol = len(header) if header is not None else len(toks0)
+    # a date and a time of day as two fields ('2024-05-01 12:00:00.010' split at white space, 'Date,Time' columns):
+    # one column of date-times, named by the time's header name (or the one name a header gives both), counted
+    # as one by a header or columns that name one column fewer than the rows hold
+    row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
+    pair = _date_pair(row) if row is not None and len(row) in (ncol, ncol + 1) else None
+    merged: dict[int, int] = {}
+    if pair is not None:
+        given_names = names if names is not None else header
+        if given_names is None:
+            given_names = generic_names(len(row) - 1)
+        if len(given_names) == len(row) - 1:
+            given_names = [*given_names[:pair], "", *given_names[pair:]]
+        if len(given_names) == len(row) and (names is None or not given_names[pair]):
+            time_name = given_names[pair + 1] or given_names[pair] or "time"
+            skipped = time_name in SKIP_NAMES
+            date_name = time_name if skipped else given_names[pair] or f"{time_name}:date"
+            given_names = [*given_names[:pair], date_name, time_name, *given_names[pair + 2 :]]
+            if names is not None:
+                names = given_names
+            else:
+                header = given_names
+            ncol, merged = len(row), {} if skipped else {pair + 1: pair}
     if names is not None:
         if len(names) != ncol:
             shown = f"header: {','.join(header)}" if header is not None else f"first row: {','.join(toks0)}"
@@ -1217,6 +1244,8 @@ def _text_layout(
     if not keep:
         raise OptinavError("columns skips every column", "name at least one column")
     textable = {j for j in keep if normalize_name(colnames[j])[0] in labels}
+    merged = {j: d for j, d in merged.items() if j in keep and d in keep}
+    textable |= set(merged.values())  # a date read into its time's column, never a column of its own
     out: list[int] = []
     row = next((_split(x, delim) for i, x in zip(content, sample) if i >= start), None)
     row = row if row is not None and len(row) == ncol else None
@@ -1245,17 +1274,44 @@ def _text_layout(
     meta = _comment_meta(comments)
     if needed is not None and out:
         meta["text_left_out"] = ", ".join(repr(colnames[j]) for j in out)
+    clocks: dict[int, dict] = {}
     if dates:
         meta["date_columns"] = "\t".join(colnames[j] for j in sorted(dates))
-        days = [colnames[j] for j in sorted(dates) if (m := _STAMP.match(row[j])) and not m.group(1)]
+        rows = [r for i, x in zip(content, sample) if i >= start and len(r := _split(x, delim)) == ncol]
+        days, undated = [], []
+        for j in sorted(dates):
+            cells = [f"{r[merged[j]]} {r[j]}" if j in merged else r[j] for r in rows]
+            if (m := _STAMP.match(cells[0])) and not m.group(1):
+                days.append(colnames[j])
+            ends = [m.groups() for c in cells if (m := _YEAR_LAST.match(c))]
+            if ends and len(ends) == len(cells):
+                first, second = (np.array([float(g[k]) for g in ends]) for k in (0, 2))
+                clocks[j] = {"order": _date_order(first, second, ends[0][1] == ".")}
+                if clocks[j]["order"] == "?":  # only the times of day time the samples
+                    days.append(colnames[j])
+                    undated.append(f"{colnames[j]!r} ({cells[0].split()[0]})")
         if days:
             meta["time_of_day_columns"] = "\t".join(days)
+        if undated:
+            meta["undated"] = ", ".join(undated)
+        if merged:
+            meta["date_and_time"] = "\t".join(colnames[j] for j in merged)
     if comma:
         meta["decimal_comma"] = "1"
     meta.update(preamble)
     lay = _Layout(delim, colnames, units, meta, start, keep, textable | dates | loose, dates, loose, comma)
     lay.lax = set() if needed is None else {j for j in dates if not needed(colnames[j])}
+    lay.clocks, lay.merged = clocks, merged
     return lay
+
+
+def _date_pair(row: list[str]) -> int | None:
+    """The index of a field holding a date alone followed by one holding a time of day alone (see
+    :data:`_DATE_ONLY`), else None."""
+    for j in range(len(row) - 1):
+        if _DATE_ONLY.match(row[j]) and _TIME_ONLY.match(row[j + 1]):
+            return j
+    return None
 
 
 #: one ``name = value`` or ``name: value`` pair of a labelled line (an Arduino sketch's Serial.print output)
@@ -1352,6 +1408,8 @@ def _parse_block(
             first=first,
             bad=bad,
         )
+    for j, d in lay.merged.items():  # '2024-05-01' and '12:00:00.010' → '2024-05-01 12:00:00.010'
+        data[j] = np.char.add(np.char.add(np.asarray(data[d], dtype=str), " "), np.asarray(data[j], dtype=str))
     for j in lay.dates:
         try:
             data[j] = _epoch_seconds(path, lay.colnames[j], data[j], lay.clocks.setdefault(j, {}))
@@ -1390,18 +1448,37 @@ _DAY_S = 86400.0
 _ROLLOVER_S = 43200.0
 
 
+#: a date-time whose year comes last (``01/05/2024 12:00:00.010``, day or month first; ``01.05.2024 …``, day first as
+#: German loggers write it): groups first field, separator, second field, year, hour, minute, second, fraction
+_YEAR_LAST = re.compile(r"^(\d{1,2})([/.])(\d{1,2})\2(\d{4})[T ]+(\d{1,2}):(\d{1,2}):(\d{1,2})(?:[.:](\d{1,9}))?$")
+#: a date alone and a time of day alone, the two tokens a logger may write them as (``2024-05-01 12:00:00.010`` in a
+#: file split at white space, or ``Date,Time`` columns)
+_DATE_ONLY = re.compile(r"^(?:\d{4}[-/]\d{1,2}[-/]\d{1,2}|\d{1,2}([/.])\d{1,2}\1\d{4})$")
+_TIME_ONLY = re.compile(r"^\d{1,2}:\d{2}:\d{2}(?:[.:]\d{1,9})?$")
+
+
 def _is_stamp(cell: str) -> bool:
     """Whether a cell is a date-time or a time of day :func:`_epoch_seconds` reads."""
-    return bool(_DATETIME.match(cell) or _STAMP.match(cell))
+    return bool(_DATETIME.match(cell) or _STAMP.match(cell) or _YEAR_LAST.match(cell))
+
+
+def _date_order(first: np.ndarray, second: np.ndarray, dotted: bool) -> str | None:
+    """Which field of year-last dates is the day: "dmy" or "mdy" where a field above 12 says so (a '.' date is
+    day first), "?" where none does, None where both do (no date)."""
+    day1, day2 = bool(np.any(first > 12)), bool(np.any(second > 12))
+    if day1 and day2 or (dotted and day2):
+        return None
+    return "dmy" if day1 or dotted else "mdy" if day2 else "?"
 
 
 def _epoch_seconds(path: Path, name: str, cells: np.ndarray, clock: dict | None = None) -> np.ndarray:
     """Date-time cells → float seconds since the Unix epoch (resolution about 0.2 µs today); an empty cell is NaN.
 
-    ISO 8601 (a UTC offset applied; none: taken as UTC), or the forms of :data:`_STAMP` (taken as UTC). A column of
-    times of day alone gives seconds since the midnight before its first row, a backward step of more than 12 h
-    being a day rollover (+24 h); ``clock`` carries the last time of day and the days counted from one block of a
-    streamed file to the next."""
+    ISO 8601 (a UTC offset applied; none: taken as UTC), or the forms of :data:`_STAMP` and :data:`_YEAR_LAST`
+    (taken as UTC). A column of times of day alone gives seconds since the midnight before its first row, a
+    backward step of more than 12 h being a day rollover (+24 h); so does a year-last column whose dates do not
+    tell the day from the month (:func:`_year_last_fields`). ``clock`` carries the day order, the last time of day
+    and the days counted from one block of a streamed file to the next."""
     cells = np.char.strip(np.asarray(cells, dtype=str))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # numpy's note that it converts a UTC offset instead of keeping it
@@ -1409,6 +1486,14 @@ def _epoch_seconds(path: Path, name: str, cells: np.ndarray, clock: dict | None 
             ns = cells.astype("datetime64[ns]")
         except ValueError as exc:
             out = _stamp_seconds(cells, clock)
+            days = [] if out is not None else [c for c in cells.tolist() if _YEAR_LAST.match(c)]
+            odd = [c for c in days if max(map(int, re.split("[/.]", c)[:2])) > 12]
+            if odd:  # a field above 12 in either place, or in both
+                raise OptinavError(
+                    f"{path.name}: column {name!r} holds dates ({odd[0].split()[0]} …) that read neither day first "
+                    "nor month first throughout",
+                    "fix the dates, or skip the column ('_' in columns) and give --rate",
+                )
             if out is None:
                 raise OptinavError(
                     f"{path.name}: column {name!r} holds date-times and other text ({str(exc)[:120]})",
@@ -1463,7 +1548,10 @@ def _stamp_fields(cells: np.ndarray) -> tuple[np.ndarray, bool] | None:
 def _stamp_seconds(cells: np.ndarray, clock: dict | None) -> np.ndarray | None:
     """Seconds of the :data:`_STAMP` cells (see :func:`_epoch_seconds`); None when a cell is of another form, or
     the column mixes dates with times of day alone."""
-    got = _stamp_fields(cells)
+    clock = {} if clock is None else clock
+    filled = cells[np.char.str_len(cells) > 0]
+    first = str(filled[0]) if filled.size else ""
+    got = _year_last_fields(cells, clock) if _YEAR_LAST.match(first) else _stamp_fields(cells)
     if got is None:
         return None
     f, dated = got
@@ -1471,7 +1559,7 @@ def _stamp_seconds(cells: np.ndarray, clock: dict | None) -> np.ndarray | None:
         return None
     sec = f[:, 3] * 3600.0 + f[:, 4] * 60.0 + f[:, 5]
     if not dated:
-        return _unroll_days(sec, {} if clock is None else clock)
+        return _unroll_days(sec, clock)
     ok = np.isfinite(f[:, 0])
     y, mo, d = (np.where(ok, f[:, k], 1.0).astype(np.int64) for k in (0, 1, 2))
     if np.any((mo < 1) | (mo > 12) | (d < 1) | (d > 31)):
@@ -1479,6 +1567,35 @@ def _stamp_seconds(cells: np.ndarray, clock: dict | None) -> np.ndarray | None:
     # the day from numpy's calendar: months since 1970 → the first day of that month, then the day of the month
     days = ((y - 1970) * 12 + mo - 1).astype("datetime64[M]").astype("datetime64[D]").astype(np.int64) + d - 1
     return np.where(ok, days * _DAY_S + sec, np.nan)
+
+
+def _year_last_fields(cells: np.ndarray, clock: dict) -> tuple[np.ndarray, bool] | None:
+    """The fields of :data:`_YEAR_LAST` date-times as :func:`_stamp_fields` gives them, the day told from the month
+    by ``clock["order"]`` (set from the file's first rows; else from these cells, :func:`_date_order`). Where no
+    field tells ("?": all of them 12 or less), only the times of day are taken (dates NaN, read as a column of
+    times of day); None when a cell is of another form."""
+    filled = np.char.str_len(cells) > 0
+    kept = cells[filled].tolist()
+    joined = "\n".join(kept)
+    if not kept or len(_YEAR_LAST_ROWS.findall(joined)) != len(kept):
+        return None
+    text = _YEAR_LAST_DATE.sub(r"\1 \2 \3 ", joined)
+    v = np.fromstring(_COLON_FRACTION.sub(r"\1.\2", text).translate(_STAMP_SEPARATORS), sep=" ")
+    if v.size != 6 * len(kept):
+        return None
+    v = v.reshape(-1, 6)
+    order = clock.setdefault("order", _date_order(v[:, 0], v[:, 1], "." in kept[0][:6]))
+    out = np.full((cells.size, 6), np.nan)
+    out[filled, 3:] = v[:, 3:]
+    if order in ("dmy", "mdy"):
+        out[filled, 0] = v[:, 2]
+        out[filled, 1:3] = v[:, [1, 0]] if order == "dmy" else v[:, [0, 1]]
+    return (out, order in ("dmy", "mdy")) if order is not None else None
+
+
+#: :data:`_YEAR_LAST` on every line of a column, and its date (written year, first and second field for the parser)
+_YEAR_LAST_ROWS = re.compile(r"^\d{1,2}([/.])\d{1,2}\1\d{4}[T ]+\d{1,2}:\d{1,2}:\d{1,2}(?:[.:]\d{1,9})?$", re.M)
+_YEAR_LAST_DATE = re.compile(r"^(\d{1,2})[/.](\d{1,2})[/.](\d{4})[T ]+", re.M)
 
 
 def _unroll_days(sec: np.ndarray, clock: dict) -> np.ndarray:
@@ -1567,7 +1684,7 @@ def _load_text(
     if truncated is not None:
         meta["truncated_line"] = str(truncated)
     table = Table(
-        path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.keep}, units=dict(lay.units), meta=meta
+        path=path, kind="text", data={lay.colnames[j]: data[j] for j in lay.shown()}, units=dict(lay.units), meta=meta
     )
     n = len(next(iter(table.data.values()))) if table.data else 0
     if n == 0:
@@ -1813,8 +1930,11 @@ def _banner(lines: list[str], content: list[int], delim: str | None, given: bool
     head = [_split(_strip_comment(lines[i]), d) for i in content[: s + 1]]
     if any(len(toks) >= n for toks in head[:s]):
         return 0
-    if all(not _is_number(t) for t in head[s - 1]) and all(_is_number(t) for t in head[s]):
-        s -= 1  # a header with fewer names than the rows have fields: read as before
+    # a header with fewer names than the rows have fields: read as before; so is one that names a date and a time
+    # of day in two fields as one column
+    dated = len(head[s - 1]) == n - 1 and _date_pair(head[s]) is not None
+    if all(not _is_number(t) for t in head[s - 1]) and (all(_is_number(t) for t in head[s]) or dated):
+        s -= 1
     return s
 
 
