@@ -2098,3 +2098,41 @@ def test_slash_dates_that_do_not_tell_day_from_month_time_by_the_time_of_day(tmp
     )
     with pytest.raises(OptinavError, match="13/13/2024"):
         read_imu(bad)
+
+
+def test_a_gps_clock_to_the_second_is_no_sample_time(tmp_path, capsys):
+    """A 100 Hz log whose only time is a GPS clock to the second ('12:00:07', a hundred samples a stamp) was refused
+    as holding duplicate timestamps, and --rate refused beside its time column. A clock coarser than the samples
+    is no time now: without --rate a one-line error names --rate and the rate its stamps say; with --rate the
+    samples are timed by it (the clock set aside, with a note) when the stamps agree, and a rate they contradict
+    is refused. A simulated flight so logged gives the attitude of the plain CSV."""
+    from optinav.attitude.simulate import simulate as fly
+
+    d = fly("dynamic", duration_s=10, rate_hz=100, rng=7, frame="enu")
+    values = np.column_stack([d.acc, d.gyr])
+    sec = 12 * 3600 + 0.37 + d.t  # the first sample 0.37 s into its second
+    stamps = [f"{int(s) // 3600:02d}:{int(s) % 3600 // 60:02d}:{int(s) % 60:02d}" for s in sec]
+    path = _w(tmp_path / "gps.csv", "gps_time,ax,ay,az,gx,gy,gz\n" + _logger_rows(stamps, values))
+    with pytest.raises(OptinavError, match="coarser than the samples") as exc:
+        read_imu(path)
+    assert "--rate" in exc.value.remedy and "about 100 Hz" in exc.value.remedy
+    log = read_imu(path, rate_hz=100.0)
+    np.testing.assert_allclose(log.t, d.t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(log.gyr, values[:, 3:], rtol=1e-8)
+    assert any("'gps_time' (steps of 1 s, 100 samples a stamp) set aside" in x for x in log.notes)
+    np.testing.assert_array_equal(np.concatenate([b.t for b in iter_imu(path, rate_hz=100.0, chunk_rows=150)]), log.t)
+    for rate in (50.0, 102.0):
+        with pytest.raises(OptinavError, match=f"says 100 Hz but --rate {rate:g}"):
+            read_imu(path, rate_hz=rate)
+    out = tmp_path / "gps.q.csv"
+    assert main(["attitude", str(path), "--frame", "ENU", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--rate" in err
+    plain = tmp_path / "plain.csv"
+    np.savetxt(plain, np.column_stack([d.t, values]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="",
+               fmt="%.9g")  # fmt: skip
+    assert main(["--quiet", "attitude", str(path), "--rate", "100", "--frame", "ENU", "--out", str(out)]) == 0
+    assert main(["--quiet", "attitude", str(plain), "--frame", "ENU", "--out", str(tmp_path / "p.q.csv")]) == 0
+    a, b = (np.genfromtxt(f, delimiter=",", names=True) for f in (out, tmp_path / "p.q.csv"))
+    for k in ("t", "qw", "qx", "qy", "qz"):
+        np.testing.assert_allclose(a[k], b[k], rtol=0, atol=1e-6)

@@ -1650,6 +1650,8 @@ def _log_of(
     given, rate = rate, _stf_rate(main, rate)
     times = []
     for p in parts:
+        if p.t is not None and _coarse_clock(p, rate, time_u, notes, first=row0 == 0):
+            p.t = None  # --rate times the samples, the stamps agreeing with it
         if p.t is not None:
             if rate is not None:
                 raise OptinavError(
@@ -1767,6 +1769,58 @@ def _log_of(
     known = all(kind in main.finite for kind, v in (("acc", main.acc), ("gyro", main.gyro)) if v is not None)
     log.nan_rows = 0 if known else int(np.count_nonzero(~log.finite))
     return log
+
+
+#: the first samples whose steps tell a clock coarser than the samples (:func:`_coarse_clock`)
+_COARSE_HEAD = 4097
+
+
+def _coarse_clock(p: _Part, rate: float | None, time_u, notes: list, *, first: bool) -> bool:
+    """Whether ``p``'s time column is a clock coarser than its samples (most of its steps zero: a GPS
+    time of day to the second in a 100 Hz log), which ``rate`` (Hz) then times instead, named in ``notes`` (when
+    ``first``: the first block of a file). Refused without a rate, or when the rate contradicts the stamps: the
+    samples between the first and the last change of stamp over the time between them give its rate. Told from
+    the first :data:`_COARSE_HEAD` samples."""
+    head = p.t[:_COARSE_HEAD]
+    step = np.diff(head[np.isfinite(head)])
+    if step.size < 2 or 2 * np.count_nonzero(step == 0) <= step.size:
+        # a later block of a file whose first block's clock was set aside for the rate (a time column beside a
+        # rate is refused otherwise) is timed alike
+        return not first and rate is not None
+    t = p.t[np.isfinite(p.t)]
+    step = np.diff(t)
+    unit = TIME_UNITS[_resolve_unit("time", time_u, p, "time_unit", "s")]
+    moved = np.flatnonzero(step != 0) + 1  # the first sample of each new stamp
+    res = float(np.median(step[step != 0])) * unit if moved.size else float("nan")
+    clock = None
+    if moved.size >= 2 and t[moved[-1]] > t[moved[0]]:
+        clock = (moved[-1] - moved[0]) / ((t[moved[-1]] - t[moved[0]]) * unit)
+    what = f"{p.path.name}: its time column {p.t_name!r}"
+    held = f"steps of {res:.3g} s" if np.isfinite(res) else "one stamp"
+    each = (moved[-1] - moved[0]) / (moved.size - 1) if moved.size >= 2 else t.size
+    shared = f"{each:.0f} samples a stamp"
+    if rate is None:
+        raise OptinavError(
+            f"{what} is a clock coarser than the samples ({held}, about {shared}), which it cannot time",
+            "pass --rate HZ (the sampling rate"
+            + (f"; its stamps say about {clock:.4g} Hz)" if clock is not None else ")")
+            + ", the column is then set aside",
+        )
+    if clock is not None:
+        tol = max(RATE_AGREE, 2.0 / (moved[-1] - moved[0]))  # a change of stamp is placed to a sample
+        if not abs(rate / clock - 1.0) <= tol:
+            raise OptinavError(
+                f"{what} ({held}) says {clock:.6g} Hz but --rate {rate:g} was given (or the log lost samples, "
+                "which a clock this coarse cannot place)",
+                f"pass the rate the stamps say (--rate {clock:.6g}) if the sensor samples at it; lost samples "
+                "need a finer time column",
+            )
+    for key in ("day_time", "date_time"):  # (not the time: no note that it was read as one)
+        p.table.meta.pop(key, None)
+    if first:
+        agree = f"; its stamps agree, {clock:.6g} Hz" if clock is not None else ""
+        notes.append(f"{what} ({held}, {shared}) set aside: --rate {rate:g} times the samples{agree}")
+    return True
 
 
 def _stf_rate(main: _Part, rate: float | None) -> float | None:
