@@ -601,18 +601,30 @@ def strapdown(gyr, bias, dt, out, q):
 
 
 @numba.njit(**_NJ)
-def heading_forward(d, used, sb, dt, tau, sa2, state, x, p):
+def heading_forward(d, u, used, sb, dt, tau, sa2, state, x, p, xr, phi, normal):
     """Forward Kalman filter of the offline heading offset: ``d`` (N,) rad, the field's azimuth in the attitude
     whose heading the gyro carries, measures an offset x that is a random walk; ``x``, ``p`` (N,) its filtered
     value and variance (NaN before the first sample ``used``). Variance unit: the azimuth's noise density, taken
     as its scatter ``sa2`` (rad²) correlated over ``tau`` s. A magnetometer sample after a step hm has variance
     1/hm, so a slow magnetometer weighs as much per second; the walk grows 1/tau² per s (with a perfect gyro the
     smoother averages over about ``tau`` s at any rate) plus sb²·tau/(sa2·tau): a vertical gyro-bias error ``sb``
-    (N,) rad/s held over tau s (``sa2`` 0: that term off). ``state`` (3,) [x, P, s since the previous finite
-    sample] carried from block to block (P 0: not started); ``dt`` 1 or N steps (s)."""
+    (N,) rad/s held over tau s (``sa2`` 0: that term off).
+
+    With ``u`` (N, 3), the up direction in body axes, the offset is that walk plus Φᵀδb, Φ = ∫u dt (s, ``phi``
+    (N, 3)): the heading a constant error δb (rad/s, body axes) of the gyro bias turns. The same gains filter the
+    columns of Φ (``xr`` (N, 3)), and ``normal`` (12,) sums their innovations' normal equations
+    [Σ ν_Φ ν_Φᵀ/F (9), Σ ν_Φ ν_d/F (3)] (F the innovation variance): δb's information (de Jong's augmented
+    filter), so that the smoothed offset is linear in δb (:func:`heading_backward`). ``u`` (0, 3): none.
+    ``state`` (9,) [x, P, s since the previous finite sample, Φ (3), filtered Φ (3)] carried from block to block
+    (P 0: not started); ``dt`` 1 or N steps (s)."""
+    reg = u.shape[0] > 0
     for i in range(d.shape[0]):
         h = dt[i] if dt.shape[0] > 1 else dt[0]
         state[2] += h
+        if reg:
+            for j in range(3):
+                state[3 + j] += h * u[i, j]
+                phi[i, j] = state[3 + j]
         if state[1] > 0.0:
             state[1] += h * _walk(sb[i], tau, sa2)
         if math.isfinite(d[i]):
@@ -623,13 +635,36 @@ def heading_forward(d, used, sb, dt, tau, sa2, state, x, p):
                 if state[1] == 0.0:
                     state[0] = d[i]
                     state[1] = r
+                    for j in range(3):
+                        state[6 + j] = state[3 + j]
                 else:
                     e = d[i] - state[0]
-                    k = state[1] / (state[1] + r)
-                    state[0] += k * math.atan2(math.sin(e), math.cos(e))
+                    e = math.atan2(math.sin(e), math.cos(e))
+                    f = state[1] + r
+                    k = state[1] / f
+                    state[0] += k * e
                     state[1] *= 1.0 - k
+                    if reg:
+                        e0 = state[3] - state[6]
+                        e1 = state[4] - state[7]
+                        e2 = state[5] - state[8]
+                        normal[0] += e0 * e0 / f
+                        normal[1] += e0 * e1 / f
+                        normal[2] += e0 * e2 / f
+                        normal[4] += e1 * e1 / f
+                        normal[5] += e1 * e2 / f
+                        normal[8] += e2 * e2 / f
+                        normal[9] += e0 * e / f
+                        normal[10] += e1 * e / f
+                        normal[11] += e2 * e / f
+                        state[6] += k * e0
+                        state[7] += k * e1
+                        state[8] += k * e2
         x[i] = state[0] if state[1] > 0.0 else math.nan
         p[i] = state[1] if state[1] > 0.0 else math.nan
+        if reg:
+            for j in range(3):
+                xr[i, j] = state[6 + j] if state[1] > 0.0 else math.nan
 
 
 @numba.njit(**_NJ)
@@ -642,24 +677,49 @@ def _walk(sb, tau, sa2):
 
 
 @numba.njit(**_NJ)
-def heading_backward(x, p, sb, dt, tau, sa2, state, out):
+def heading_backward(x, p, xr, sb, dt, tau, sa2, state, out, outr):
     """Rauch–Tung–Striebel pass over :func:`heading_forward`'s ``x``, ``p`` (N,) (the same ``sb``, ``tau``,
     ``sa2``), from the last sample to the first: ``out`` (N,) the smoothed offset (rad; NaN where no sample was
-    used at all). ``state`` (3,) [smoothed offset of the next sample, 1 once started, that sample's walk
-    variance (step × density)] carried from block to block (later block first)."""
+    used at all), and with the same gains ``outr`` (N, 3) the smoothed columns ``xr`` (N, 3) of Φ ((0, 3): none).
+    ``state`` (6,) [smoothed offset of the next sample, 1 once started, that sample's walk variance (step ×
+    density), smoothed Φ of the next sample (3)] carried from block to block (later block first)."""
+    reg = xr.shape[0] > 0
     for j in range(x.shape[0]):
         i = x.shape[0] - 1 - j
         h = dt[i] if dt.shape[0] > 1 else dt[0]
         if not math.isfinite(x[i]):
             out[i] = state[0] if state[1] > 0.0 else math.nan  # before the first used sample: held from it
+            if reg:
+                for m in range(3):
+                    outr[i, m] = state[3 + m] if state[1] > 0.0 else math.nan
         elif state[1] == 0.0:
             out[i] = x[i]
+            if reg:
+                for m in range(3):
+                    outr[i, m] = xr[i, m]
             state[1] = 1.0
         else:
             c = p[i] / (p[i] + state[2])
             out[i] = x[i] + c * (state[0] - x[i])
+            if reg:
+                for m in range(3):
+                    outr[i, m] = xr[i, m] + c * (state[3 + m] - xr[i, m])
         state[0] = out[i]
+        if reg:
+            for m in range(3):
+                state[3 + m] = outr[i, m]
         state[2] = h * _walk(sb[i], tau, sa2)
+
+
+@numba.njit(**_NJ)
+def outer_sum(v, acc):
+    """Adds to ``acc`` (10,) [Σ v vᵀ (9, row-major), count] the rows of ``v`` (N, 3), in order (a log in blocks
+    sums alike)."""
+    for i in range(v.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                acc[3 * a + b] += v[i, a] * v[i, b]
+        acc[9] += 1.0
 
 
 @numba.njit(**_NJ)

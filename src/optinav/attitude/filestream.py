@@ -706,7 +706,9 @@ def _stream_offline(
     blk = max(int(chunk_rows), 2)
     fields = {"t": 1, "gyr": 3, "acc": 3, "dts": 1, "q": 4, "bias": 3, "flags": 3, "qg": 4, "v": 3}
     if src.mag:
-        fields.update(mag=3, bfw=3)  # bfw: the forward pass's bias (the offline heading's rate uncertainty)
+        # bfw: the forward pass's bias (the offline heading's rate uncertainty); hx: the offline heading's Φ = ∫up_b dt
+        # and its filtered series (iframe._smoothed_offset)
+        fields.update(mag=3, bfw=3, hx=6)
     if score is not None:
         fields.update(q_ref=4, movement=1)
     # without an output file (a batch unit) the scratch file goes to the temporary folder
@@ -875,8 +877,9 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         r[:, c["flags"]] = np.column_stack([flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | w.mag_used[::-1]])
         store.write(s, r)
     n = b - a
+    p_bias = st[_k.S_P : _k.S_P + 9].copy()  # the smoothed bias's covariance (the offline heading's prior)
     if n < 16 or not finite:
-        _offline_heading(store, a, b, opts, frame, blk, False)
+        _offline_heading(store, a, b, opts, frame, blk, False, p_bias)
         return lat
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")
     dts = np.concatenate([col(store.read(s, min(s + blk, b)), "dts")[:, 0] for s in range(a, b, blk)])
@@ -919,16 +922,19 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
             r = store.read(s, min(s + blk, b)).copy()
             r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
             store.write(s, r)
-    _offline_heading(store, a, b, opts, frame, blk, True)
+    _offline_heading(store, a, b, opts, frame, blk, True, p_bias)
     return lat
 
 
-def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, blk: int, have_qg: bool) -> None:
+def _offline_heading(
+    store: _Scratch, a: int, b: int, opts: dict, frame: str, blk: int, have_qg: bool, p_bias: np.ndarray
+) -> None:
     """The offline heading of :func:`optinav.attitude.iframe.run_iframe` on the rows [a, b) of ``store`` (with a
     magnetometer), in blocks with the states carried, the same arithmetic: the attitude with the heading the gyro
     carries (its strapdown in "qg", made here unless ``have_qg``), the field's azimuth in it ("v": offset, its
     variance, azimuth) filtered forward and smoothed backward, the azimuth's scatter around that, and the two
-    passes again with it."""
+    passes again with it and the gyro-bias error's regressors ("hx"; ``p_bias`` (9,) the backward pass's bias
+    covariance at row a)."""
     from optinav.attitude import _iframe as _k
     from optinav.attitude import iframe as _if
 
@@ -936,40 +942,49 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
     tau = opts["tau_mag_smooth"]
     if "mag" not in c or not tau > 0.0:
         return
-    v = c["v"].start
-    seen, qg0 = False, col(store.read(a, a + 1), "q")[0].copy()
+    v, hx = c["v"].start, c["hx"].start
+    seen, qg0, mom, none = False, col(store.read(a, a + 1), "q")[0].copy(), np.zeros(10), np.zeros((0, 3))
 
     def rows(s, e):
         r = store.read(s, e).copy()
-        sb = _if.bias_gap(col(r, "q"), col(r, "bfw") - col(r, "bias"), frame)
-        return r, sb, col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0]
+        db = np.ascontiguousarray(col(r, "bfw") - col(r, "bias"))
+        return r, db, _if.bias_gap(col(r, "q"), db, frame), col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0]
 
     def forward(sa2, first):
         nonlocal seen
-        st = np.zeros(3)
+        st, normal = np.zeros(9), np.zeros(12)
         for s in range(a, b, blk):
-            r, sb, used, h = rows(s, min(s + blk, b))
+            r, db, sb, used, h = rows(s, min(s + blk, b))
             if first:
                 if not have_qg:
                     qg = np.empty((r.shape[0], 4))
                     _k.strapdown(col(r, "gyr"), col(r, "bias"), h, qg, qg0)
                     r[:, c["qg"]] = qg
                 seen |= bool(used.any())
+                _k.outer_sum(db, mom)
                 psi = _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
                 r[:, v + 2] = _if.field_azimuth(col(r, "q"), col(r, "mag"), frame) - psi
-            x, p = np.empty(r.shape[0]), np.empty(r.shape[0])
-            _k.heading_forward(r[:, v + 2].copy(), used, sb, h, tau, sa2, st, x, p)
+            n = r.shape[0] * (not first)
+            x, p, xr, phi = np.empty(r.shape[0]), np.empty(r.shape[0]), np.empty((n, 3)), np.empty((n, 3))
+            u = none if first else np.ascontiguousarray(_if.body_up(col(r, "q"), frame))
+            _k.heading_forward(r[:, v + 2].copy(), u, used, sb, h, tau, sa2, st, x, p, xr, phi, normal)
             r[:, v], r[:, v + 1] = x, p
+            if not first:
+                r[:, hx : hx + 3], r[:, hx + 3 : hx + 6] = xr, phi
             store.write(s, r)
+        return normal
 
-    def backward(sa2, last):
-        st = np.zeros(3)
+    def backward(sa2, db_err):
+        st = np.zeros(6)
         for e in range(b, a, -blk):
             s = max(e - blk, a)
-            r, sb, _, h = rows(s, e)
-            out = np.empty(r.shape[0])
-            _k.heading_backward(r[:, v].copy(), r[:, v + 1].copy(), sb, h, tau, sa2, st, out)
-            if last:
+            r, _, sb, _, h = rows(s, e)
+            n = r.shape[0] * (db_err is not None)
+            out, outr = np.empty(r.shape[0]), np.empty((n, 3))
+            xr = r[:, hx : hx + 3].copy() if n else none
+            _k.heading_backward(r[:, v].copy(), r[:, v + 1].copy(), xr, sb, h, tau, sa2, st, out, outr)
+            if db_err is not None:
+                out += _if.bias_turn(r[:, hx + 3 : hx + 6] - outr, db_err)
                 out += _if.gyro_heading(col(r, "q"), col(r, "qg"), frame)
                 r[:, c["q"]] = _if.heading_turned(col(r, "q"), out, frame)
             else:
@@ -979,13 +994,14 @@ def _offline_heading(store: _Scratch, a: int, b: int, opts: dict, frame: str, bl
     forward(0.0, True)
     if not seen:  # no sample used: the attitude as the passes left it, as in memory
         return
-    backward(0.0, False)
+    backward(0.0, None)
     acc = np.zeros(2)
     for s in range(a, b, blk):
         r = store.read(s, min(s + blk, b))
         _k.azimuth_scatter(r[:, v + 2].copy(), r[:, v].copy(), col(r, "flags")[:, 2].astype(bool), acc)
-    forward(acc[0] / acc[1], False)
-    backward(acc[0] / acc[1], True)
+    sa2 = acc[0] / acc[1]
+    normal = forward(sa2, False)
+    backward(sa2, _if.bias_error(normal, _if.bias_prior(p_bias, mom), sa2, tau))
 
 
 def _short(names: list) -> list:

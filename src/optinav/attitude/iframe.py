@@ -37,7 +37,10 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   field's azimuth, a random walk smoothed by a Kalman filter and its Rauch–Tung–Striebel pass over the samples
   either pass used: time constant ``tau_mag_smooth`` with a perfect gyro, shorter where the forward pass's
   vertical bias differs from the smoothed one (that difference over ``tau_mag_smooth`` against the azimuth's
-  scatter); a disturbed stretch the gates reject is carried by the gyro.
+  scatter), plus the heading a constant error δb of the smoothed bias turns (Φᵀδb, Φ = ∫up_b dt; δb from the
+  whole recording, its prior the bias filter's covariance plus the forward bias's scatter about the smoothed
+  one: a recording that starts in motion has no rest to fix the vertical bias); a disturbed stretch the gates
+  reject is carried by the gyro.
 * lost samples (a step beyond 1.75 typical steps, shorter than the gaps :func:`optinav.attitude.checks.find_gaps`
   refuses): the low-passes take the step in sub-steps of the typical step, their input interpolated, so that
   their memory keeps its spacing; a gap of 0.05 s or more restarts them as at the start (the running mean over
@@ -248,11 +251,15 @@ def run_iframe(
         tau = opts["tau_mag_smooth"]
         psi = gyro_heading(q, qg, frame)
         d = field_azimuth(q, m, frame) - psi  # the azimuth in the attitude whose heading the gyro carries
-        sb = bias_gap(q, fwd.gyr_bias - bias, frame)
+        db = np.ascontiguousarray(fwd.gyr_bias - bias)
+        sb = bias_gap(q, db, frame)
         out = _smoothed_offset(d, used, sb, dts, tau, 0.0)
-        acc = np.zeros(2)
+        acc, mom = np.zeros(2), np.zeros(10)
         _k.azimuth_scatter(d, out, used, acc)
-        out = psi + _smoothed_offset(d, used, sb, dts, tau, acc[0] / acc[1])
+        _k.outer_sum(db, mom)
+        pb = bias_prior(bwd.state[_k.S_P : _k.S_P + 9], mom)
+        u = np.ascontiguousarray(body_up(q, frame))
+        out = psi + _smoothed_offset(d, used, sb, dts, tau, acc[0] / acc[1], u, pb)
         q = heading_turned(q, out, frame)
     if lat != 0.0:
         from optinav.core.rotations import quat_from_rotvec, quat_multiply
@@ -272,13 +279,68 @@ def field_azimuth(q, mag, frame) -> np.ndarray:
     return np.arctan2(v @ np.cross(up, north), v @ north)
 
 
-def _smoothed_offset(d, used, sb, dts, tau, sa2):
-    """The offline heading offset (N,) rad: :func:`_iframe.heading_forward`, then its RTS pass."""
+def _smoothed_offset(d, used, sb, dts, tau, sa2, u=None, pb=None):
+    """The offline heading offset (N,) rad: :func:`_iframe.heading_forward`, then its RTS pass; with the body up
+    vectors ``u`` (N, 3) and the prior ``pb`` (3, 3) of the gyro-bias error (:func:`bias_prior`), plus the heading
+    the estimated error turns (:func:`bias_error`)."""
     n = d.shape[0]
-    x, p, out = np.empty(n), np.empty(n), np.empty(n)
-    _k.heading_forward(d, used, sb, dts, tau, sa2, np.zeros(3), x, p)
-    _k.heading_backward(x, p, sb, dts, tau, sa2, np.zeros(3), out)
+    m = 0 if u is None else n
+    x, p, out, xr, phi, outr = (
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty((m, 3)),
+        np.empty((m, 3)),
+        np.empty((m, 3)),
+    )
+    normal = np.zeros(12)
+    _k.heading_forward(
+        d, np.zeros((0, 3)) if u is None else u, used, sb, dts, tau, sa2, np.zeros(9), x, p, xr, phi, normal
+    )
+    _k.heading_backward(x, p, xr, sb, dts, tau, sa2, np.zeros(6), out, outr)
+    if u is not None:
+        out += bias_turn(phi - outr, bias_error(normal, pb, sa2, tau))
     return out
+
+
+def bias_turn(dphi, db) -> np.ndarray:
+    """Heading (N,) rad that the gyro-bias error ``db`` (3,) rad/s turns over ``dphi`` (N, 3) s (Φ minus its
+    smoothed value), row by row in a fixed order (a log in blocks gives the same digits)."""
+    return dphi[:, 0] * db[0] + dphi[:, 1] * db[1] + dphi[:, 2] * db[2]
+
+
+def body_up(q, frame) -> np.ndarray:
+    """The up direction (N, 3) in body axes of the attitudes ``q`` (N, 4): the axis about which a gyro-bias error
+    turns the heading (its rate is up_bᵀ δb)."""
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    return quat_rotate(quat_conjugate(q), np.broadcast_to(_UP[frame_name(frame)], (q.shape[0], 3)))
+
+
+def bias_prior(p_bias, moment) -> np.ndarray:
+    """Covariance (3, 3) (rad/s)², body axes, of the smoothed gyro bias's error, the prior of the offline heading's
+    δb: the bias filter's own (``p_bias`` (9,), the backward pass's at the first sample: the axes it could not see,
+    e.g. vertical while the body stays level) plus the mean outer product of the forward pass's bias about the
+    smoothed one (``moment`` (10,), :func:`_iframe.outer_sum`): where the two disagree, the filter's covariance
+    is too small (BROAD cuts that start in motion: the smoothed vertical bias 0.2–0.8 °/s off, the filter's σ
+    0.04–0.1 °/s, the two biases 0.3–0.5 °/s apart)."""
+    p = np.asarray(p_bias, float).reshape(3, 3)
+    if moment[9] > 0.0:
+        p = p + np.asarray(moment[:9]).reshape(3, 3) / moment[9]
+    return 0.5 * (p + p.T)
+
+
+def bias_error(normal, pb, sa2: float, tau: float) -> np.ndarray:
+    """δb (3,) rad/s: the gyro-bias error that the field's azimuth shows over the whole recording, from the
+    normal equations ``normal`` (12,) of :func:`_iframe.heading_forward` (in its variance unit, the azimuth's
+    scatter ``sa2`` rad² over ``tau`` s) and the prior ``pb`` (3, 3) (rad/s)²: (I + P₀A)⁻¹P₀b, P₀ in that unit.
+    Zero without scatter (a field without noise gives no scale)."""
+    if not sa2 > 0.0:
+        return np.zeros(3)
+    a = np.asarray(normal[:9]).reshape(3, 3)
+    a = np.triu(a) + np.triu(a, 1).T
+    p0 = np.asarray(pb, float) / (sa2 * tau)
+    return np.linalg.solve(np.eye(3) + p0 @ a, p0 @ np.asarray(normal[9:]))
 
 
 def bias_gap(q, db, frame) -> np.ndarray:
