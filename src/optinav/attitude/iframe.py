@@ -285,18 +285,10 @@ def _smoothed_offset(d, used, sb, dts, tau, sa2, u=None, pb=None):
     the estimated error turns (:func:`bias_error`)."""
     n = d.shape[0]
     m = 0 if u is None else n
-    x, p, out, xr, phi, outr = (
-        np.empty(n),
-        np.empty(n),
-        np.empty(n),
-        np.empty((m, 3)),
-        np.empty((m, 3)),
-        np.empty((m, 3)),
-    )
-    normal = np.zeros(12)
-    _k.heading_forward(
-        d, np.zeros((0, 3)) if u is None else u, used, sb, dts, tau, sa2, np.zeros(9), x, p, xr, phi, normal
-    )
+    x, p, out = np.empty(n), np.empty(n), np.empty(n)
+    xr, phi, outr, normal = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3)), np.zeros(12)
+    reg = np.zeros((0, 3)) if u is None else u
+    _k.heading_forward(d, reg, used, sb, dts, tau, sa2, np.zeros(9), x, p, xr, phi, normal)
     _k.heading_backward(x, p, xr, sb, dts, tau, sa2, np.zeros(6), out, outr)
     if u is not None:
         out += bias_turn(phi - outr, bias_error(normal, pb, sa2, tau))
