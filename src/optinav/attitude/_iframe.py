@@ -390,7 +390,7 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     # not bias: a vehicle's turns and braking held the low-passed force off the vertical for seconds,
                     # and the update took it as bias (simulated 60-s flights from rest: 6D heading drift up to 14°
                     # online and 70° offline, the bias at the 2 °/s clip; VQF ≤ 2.4°). Skipped beyond motion_gate
-                    # σ: ≤ 1.3°. Hand-held BROAD motion seldom reaches it (nine trials: 0.568 -> 0.571° online)
+                    # σ: ≤ 1.8°. Hand-held BROAD motion seldom reaches it (nine trials: 0.568 -> 0.570° online)
                     gate = par[P_MOTION_GATE]
                     skip = gate > 0.0 and zn * zn > gate * gate * (
                         par[P_BIAS_MOTION] ** 2 / par[P_TAU_ACC] + 0.5 * s_tr
