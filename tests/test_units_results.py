@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import assume, given
+from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from optinav import OptinavError
@@ -128,6 +128,7 @@ def test_check_positive():
     t0=st.floats(0.0, 1e5),
     n=st.integers(50, 2000),
 )
+@example(rate=128.0, tick=1e-3, t0=0.0, n=204)  # stamps exactly half a tick off the line: the band is q exactly
 def test_integration_steps_undo_the_rounding_of_uniform_stamps(rate, tick, t0, n):
     """Uniform sampling, stamps rounded to a coarse tick: the steps are the true step within the fit's error
     (tick/n), not a tick off; the integral of a constant rate is the duration."""
