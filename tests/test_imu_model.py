@@ -276,6 +276,24 @@ def test_quantized_increment_sum_stays_within_one_lsb():
     assert np.all(np.abs(yr - y) <= lsb / 2 * (1 + 1e-12))
 
 
+def test_rate_and_increment_lsbs_share_one_compiled_kernel():
+    """A rate LSB (scaled by each dt) and an increment LSB reach the carry kernel as the same array type: the rate
+    LSB's was a read-only view and compiled the kernel a second time. Both keep the carried sum within LSB/2."""
+    from optinav.core.imu_model import _quantize_carry_kernel
+
+    rng = np.random.default_rng(11)
+    dt = rng.uniform(0.004, 0.006, 500)
+    v = rng.normal(2e-5, 4e-5, (500, 3))
+    lsb = np.array([1e-5, 3e-5, 7e-6])
+    q = quantize(v, lsb, dt, kind="increment", lsb_kind="increment", carry=True)
+    assert np.all(np.abs(np.cumsum(q - v, 0)) <= lsb * (0.5 + 1e-6))
+    compiled = set(_quantize_carry_kernel.signatures)  # other tests of the process may have called it before
+    y = v / dt[:, None]
+    yq = quantize(y, lsb, dt, kind="rate", lsb_kind="rate", carry=True)
+    assert np.all(np.abs(np.cumsum((yq - y) * dt[:, None], 0)) <= lsb * dt[:, None] * (0.5 + 1e-6))
+    assert set(_quantize_carry_kernel.signatures) == compiled, "the rate LSB compiled a signature of its own"
+
+
 def test_quantization_through_model():
     spec = ImuSpec(gyro_lsb=(1e-4), acc_lsb=1e-3, lsb_kind="increment", rate_hz=200.0)
     unit = spec.draw(errors=False)

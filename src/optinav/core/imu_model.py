@@ -827,7 +827,8 @@ def quantize(
     # otherwise work on the integral (increment) scale, where the carried residual is an angle/velocity
     d = _dt(dt, (y.shape[0],))[:, None] if "rate" in (kind, lsb_kind) else None
     v = y * d if kind == "rate" else y
-    h = np.ascontiguousarray(np.broadcast_to(q[None, :] * d if lsb_kind == "rate" else q, y.shape))
+    h = np.empty(y.shape)  # writable whatever the broadcast: one compiled signature of the kernel
+    h[...] = q[None, :] * d if lsb_kind == "rate" else q
     if carry:
         r = np.zeros(3) if residual is None else residual
         out = _quantize_carry_kernel(np.ascontiguousarray(v), h, r)

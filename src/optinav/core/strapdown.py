@@ -493,7 +493,9 @@ def attitude_update(
         if w.ndim == 1 and d.ndim == 0:
             zeta, zstep = (w * d)[None, :], 0
         else:
-            zeta = np.ascontiguousarray(np.broadcast_to(w * (d[..., None] if d.ndim else d), (n_samp, 3)))
+            # a new writable array in every case: a read-only broadcast view when w·dt had the full shape
+            # already compiled the kernels a second time (a second type signature)
+            zeta = np.multiply(w, d[..., None] if d.ndim else d, out=np.empty((n_samp, 3)))
             zstep = 1
     hs = np.ascontiguousarray(d) if d is not None and d.ndim == 1 else np.empty(0)
     if n == 1:
