@@ -138,8 +138,10 @@ def _butter(st, par, h):
     return ns
 
 
-@numba.njit(**_NJ)
-def _lp(st, j, x, base=S_LP, n=0.0, ns=1):
+# one signature: numba typed each call's constant channel and base as literals and compiled _lp twelve times (on
+# a cold cache: a first estimate() 12.0 s, now 7.2 s)
+@numba.njit("float64(float64[::1], int64, float64, int64, float64, int64)", **_NJ)
+def _lp(st, j, x, base, n, ns):
     """One Butterworth step (direct form I) on channel j of the memory at ``base``; ``n`` ≥ 1: the start, the
     mean of the n samples so far instead, kept as the filter's steady state for that input (every memory equal),
     so that one accelerated first sample does not weigh for seconds (as VQF starts its low-pass). ``ns`` > 1: the
