@@ -1510,7 +1510,7 @@ def _epoch_seconds(path: Path, name: str, cells: np.ndarray, clock: dict | None 
 #: (a fraction after '.' or ':'), and a time of day alone
 _STAMP_ROWS = (
     (re.compile(r"^\d{4}[-/]\d{1,2}[-/]\d{1,2}[T ]+\d{1,2}:\d{1,2}:\d{1,2}(?:[.:]\d{1,9})?$", re.M), True),
-    (re.compile(r"^\d{1,2}:\d{2}:\d{2}(?:[.:]\d{1,9})?$", re.M), False),
+    (re.compile(_TIME_ONLY.pattern, re.M), False),
 )
 #: a fraction of a second after a ':' (WitMotion's '9:3:7:250'), written after a '.' for the number parser
 _COLON_FRACTION = re.compile(r"(\d:\d{1,2}:\d{1,2}):(\d+)$", re.M)
@@ -1594,7 +1594,7 @@ def _year_last_fields(cells: np.ndarray, clock: dict) -> tuple[np.ndarray, bool]
 
 
 #: :data:`_YEAR_LAST` on every line of a column, and its date (written year, first and second field for the parser)
-_YEAR_LAST_ROWS = re.compile(r"^\d{1,2}([/.])\d{1,2}\1\d{4}[T ]+\d{1,2}:\d{1,2}:\d{1,2}(?:[.:]\d{1,9})?$", re.M)
+_YEAR_LAST_ROWS = re.compile(_YEAR_LAST.pattern, re.M)
 _YEAR_LAST_DATE = re.compile(r"^(\d{1,2})[/.](\d{1,2})[/.](\d{4})[T ]+", re.M)
 
 
