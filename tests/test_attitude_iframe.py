@@ -186,8 +186,10 @@ def test_magnetometer_heading_and_disturbance_rejected():
     r = estimate(w + bias, acc, DT, mag=mag_d, q0=q0)
     h = np.degrees(heading_error(r.q_b_n, q_true))
     # the first magnetometer sample removes the 29° at once; until the vertical bias is learned (≈ 40 s) the
-    # heading lags the 0.3 °/s drift by ≈ tau_mag·0.3 °/s ≈ 1.5°; later < 0.5°, also through the disturbance
-    assert h[100:4000].max() < 2.0 and h[4000:].max() < 0.5
+    # heading lags the 0.3 °/s drift by ≈ tau_mag·0.3 °/s ≈ 1.5°; later < 0.6°, also through the disturbance
+    # (0.54° at 40 s, 0.04° after 80 s; 0.26° at 40 s while the motion update's gain grew without bound as its
+    # rows shortened — see test_broad's cut in fast rotation for what that cost on real data)
+    assert h[100:4000].max() < 2.0 and h[4000:].max() < 0.6 and h[8000:].max() < 0.1
     assert not r.mag_used[dist][100:].any() and r.mag_used[8000:].all()
     ungated = estimate_q(w + bias, acc, DT, mag=mag_d, q0=q0, mag_norm_th=10.0, mag_dip_th=np.pi)
     assert np.degrees(heading_error(ungated, q_true))[dist].max() > 10.0
