@@ -840,7 +840,8 @@ def test_sensor_logger_files_name_their_sensor_and_read_time_in_ns(tmp_path, cap
             f"{t0 + 5_000_000 * i},{5_000_000 * i / 1e9!r}," + ",".join(map(repr, tri[i][::-1].tolist()))
             for i in range(n)
         ]
-        text[name] = _w(tmp_path / name, "time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
+        # renamed: the name no longer says which sensor (Sensor Logger's own names do, below)
+        text[name] = _w(tmp_path / f"phone_{name}", "time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
     code = main(["allan", str(text["Gyroscope.csv"]), "--out", str(tmp_path / "a.json")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1, err
@@ -851,6 +852,90 @@ def test_sensor_logger_files_name_their_sensor_and_read_time_in_ns(tmp_path, cap
     np.testing.assert_array_equal(a.acc, acc)
     assert g.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
     np.testing.assert_allclose(np.diff(a.t), 0.005, rtol=0, atol=1e-6)
+
+
+def _sensor_logger_file(path, t, xyz, t0=1698000000123456789):
+    """One Sensor Logger file (tszheichoi/awesome-sensor-logger UNITS.md: ``time`` in ns since the epoch,
+    ``seconds_elapsed`` in s, then the axes in the order z, y, x)."""
+    rows = [
+        f"{t0 + round(ti * 1e9)},{float(ti)!r}," + ",".join(repr(float(v)) for v in x[::-1]) for ti, x in zip(t, xyz)
+    ]
+    return _w(path, "time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
+
+
+def test_sensor_logger_files_read_by_their_names(tmp_path, capsys):
+    """Sensor Logger's export, a file per sensor under fixed names: TotalAcceleration.csv (Android, gravity in it,
+    m/s²), Gyroscope.csv (rad/s), Accelerometer.csv (gravity taken out), AccelerometerUncalibrated.csv (iOS: g and
+    minus the specific force by default; Android: m/s²), Gravity.csv (awesome-sensor-logger UNITS.md,
+    COORDINATES.md). Every command ended in "columns z, y, x do not say which sensor they hold". The file's name
+    says it: the pair calibrates to its truth as it is, x, y, z in order and the time in s; the files that hold no
+    accelerometer with gravity are refused naming the ones that do, and the uncalibrated one naming the flags of
+    each platform."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=4)
+    d = tmp_path / "2024-05-01_10-00-00"
+    d.mkdir()
+    acc = _sensor_logger_file(d / "TotalAcceleration.csv", s.t, s.acc)
+    gyro = _sensor_logger_file(d / "Gyroscope.csv", s.t + 0.002, s.gyr)  # its own clock: interpolated onto acc's
+    log = read_imu(acc, gyro_path=gyro)
+    inside = s.t >= s.t[0] + 0.002  # the accelerometer's rows within the gyroscope's span
+    np.testing.assert_array_equal(log.acc, s.acc[inside])
+    np.testing.assert_allclose(log.t, 1698000000.123456789 + s.t[inside], rtol=0, atol=2e-6)
+    want = np.array([np.interp(s.t[inside], s.t + 0.002, g) for g in s.gyr.T]).T
+    np.testing.assert_allclose(log.gyr, want, rtol=0, atol=1e-6)  # the stamps' ns rounding
+    assert any("read by its name as the gyroscope" in x for x in log.notes), log.notes
+    out = tmp_path / "r.json"
+    assert (
+        main(["calibrate", "accel", str(acc), "--gyro", str(gyro), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    )
+    r = _acc_scales_match(out, s)
+    np.testing.assert_allclose(np.diag(r.gyroscope["K"]), np.diag(s.gyr_K), rtol=5e-3)
+    capsys.readouterr()
+    for name, msg in (("Accelerometer.csv", "with gravity taken out"), ("Gravity.csv", "gravity vector")):
+        f = _sensor_logger_file(d / name, s.t[:300], s.acc[:300] - 9.8 * (name == "Accelerometer.csv"))
+        assert main(["attitude", str(f), "--gyro", str(gyro), "--out", str(tmp_path / "q.csv")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and msg in err[0] and "TotalAcceleration.csv" in err[0], err
+    ios = _sensor_logger_file(d / "AccelerometerUncalibrated.csv", s.t, -s.acc / 9.80665)  # iOS: g, negated
+    code = main(["attitude", str(ios), "--gyro", str(gyro), "--out", str(tmp_path / "q.csv")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "norm reads 0.996, so g: iOS" in err[0] and "--columns 'ax=-x,ay=-y,az=-z' --acc-unit 'g' (iOS)" in err[0]
+    log = read_imu(ios, gyro_path=gyro, columns="ax=-x,ay=-y,az=-z", acc_unit="g")
+    np.testing.assert_allclose(log.acc, s.acc[inside], rtol=1e-12, atol=1e-12)
+
+
+def test_physics_toolbox_g_force_is_the_accelerometer(tmp_path, capsys):
+    """Physics Toolbox Sensor Suite: the g-force meter gFx, gFy, gFz (the specific force in g) and, in a multi
+    record, the linear accelerometer ax, ay, az (m/s², gravity taken out) beside the gyroscope wx, wy, wz (rad/s):
+    ``time,gFx,gFy,gFz,ax,ay,az,wx,wy,wz,…`` (headers as read by several users' scripts on GitHub, e.g.
+    ``time,gFx,gFy,gFz,ax,ay,az,wx,wy,wz,Azimuth,Pitch,Roll,Latitude,Longitude,Speed (m/s)``), the g-force meter
+    alone ``time,gFx,gFy,gFz,TgF``. The linear acceleration was read as the accelerometer (attitude: "gravity looks
+    removed"), and the g-force meter alone not at all. Now gF is the accelerometer in g, the linear one passed over
+    with a note: the recording calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="g", gyro_unit="rad/s", rng=6)
+    rng = np.random.default_rng(6)
+    gf = np.round(s.acc, 5)
+    lin = np.round(rng.normal(0, 0.03, s.acc.shape), 4)  # the phone's linear acceleration: about 0 at rest
+    head = "time,gFx,gFy,gFz,ax,ay,az,wx,wy,wz,Bx,By,Bz,Azimuth,Pitch,Roll\n"
+    rows = [
+        ",".join([f"{s.t[i]:.6f}", *(f"{v:.5f}" for v in gf[i]), *(f"{v:.4f}" for v in lin[i])])
+        + "," + ",".join(repr(float(v)) for v in s.gyr[i]) + ",20.1,-3.2,-40.5,12.0,3.0,1.0"
+        for i in range(len(s.t))
+    ]  # fmt: skip
+    multi = _w(tmp_path / "Physics Toolbox multi record.csv", head + "\n".join(rows) + "\n")
+    log = read_imu(multi)
+    assert log.acc_input_unit == "g"
+    np.testing.assert_allclose(log.acc, gf * 9.80665, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(log.gyr, s.gyr)
+    np.testing.assert_allclose(log.t, np.round(s.t, 6), rtol=0, atol=1e-12)
+    assert any("ax, ay, az (the phone's linear acceleration" in x for x in log.notes), log.notes
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(multi), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    _acc_scales_match(out, s)
+    capsys.readouterr()
+    body = "".join(f"{s.t[i]:.6f},{gf[i, 0]:.5f},{gf[i, 1]:.5f},{gf[i, 2]:.5f},1.0\n" for i in range(len(s.t)))
+    log = read_imu(_w(tmp_path / "gforce.csv", "time,gFx,gFy,gFz,TgF\n" + body))
+    np.testing.assert_allclose(log.acc, gf * 9.80665, rtol=0, atol=1e-12)
 
 
 def test_px4_vehicle_imu_increments_read_as_rates(tmp_path, capsys):

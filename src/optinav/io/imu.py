@@ -1004,6 +1004,92 @@ def _android_linear(table: Table) -> set[str]:
     return keys
 
 
+#: Physics Toolbox Sensor Suite's columns (normalized): its g-force meter ``gFx``… (the specific force in g, gravity
+#: in it), beside which its ``ax``… are the linear accelerometer's (m/s², gravity taken out)
+_PTB_GFORCE, _PTB_LINEAR = ("gfx", "gfy", "gfz"), ("ax", "ay", "az")
+
+
+def _gforce_linear(table: Table) -> set[str]:
+    """The linear accelerometer's columns (``ax``…, gravity taken out) of a Physics Toolbox export that holds its
+    g-force meter (``gFx``…) too (``time,gFx,gFy,gFz,ax,ay,az,wx,wy,wz,…``): passed over, named in
+    ``table.meta["gravity_free"]``; :func:`_gforce` takes the g-force meter."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if not all(k in norm for k in _PTB_GFORCE) or not all(k in norm for k in _PTB_LINEAR):
+        return set()
+    keys = {norm[k] for k in _PTB_LINEAR}
+    table.meta["gravity_free"] = ", ".join(norm[k] for k in _PTB_LINEAR)
+    return keys
+
+
+def _gforce(table: Table, found: dict, candidates: dict) -> None:
+    """Physics Toolbox's g-force meter ``gFx, gFy, gFz`` (the specific force over g, +1 up on z for a phone lying
+    face up; ``time,gFx,gFy,gFz,TgF`` alone or beside its other sensors) as the accelerometer, in g unless its
+    columns state a unit, when nothing else was taken for it."""
+    if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc")):
+        return
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if not all(k in norm for k in _PTB_GFORCE):
+        return
+    for a, k in zip("xyz", _PTB_GFORCE):
+        key = norm[k]
+        if not (table.units.get(key) or normalize_name(key)[1]):
+            table.units[key] = "g"
+        candidates[f"a{a}"] = key
+
+
+#: Sensor Logger's files (one per sensor: ``time`` in ns since the epoch, ``seconds_elapsed``, then ``z, y, x``;
+#: tszheichoi/awesome-sensor-logger UNITS.md, COORDINATES.md) by name: the sensor of the ones optinav reads, or why
+#: the file is none of them
+_SENSOR_LOGGER = {
+    "gyroscope": "g",
+    "gyroscopeuncalibrated": "g",
+    "totalacceleration": "a",
+    "accelerometer": "Sensor Logger's acceleration with gravity taken out (the phone's user acceleration)",
+    "gravity": "Sensor Logger's gravity vector (the phone's estimate of where down is), not the accelerometer",
+    "magnetometer": "Sensor Logger's magnetometer (µT), not the accelerometer or gyroscope",
+    "magnetometeruncalibrated": "Sensor Logger's magnetometer (µT), not the accelerometer or gyroscope",
+}
+
+
+def _sensor_logger(table: Table, found: dict, candidates: dict) -> None:
+    """A Sensor Logger file (``time, seconds_elapsed, z, y, x``): its axes name no sensor, its file name does
+    (``Gyroscope.csv``, ``TotalAcceleration.csv``; a copy's `` (1)`` after it is fine). ``Accelerometer.csv``
+    (gravity taken out), ``Gravity.csv`` and the magnetometer's are refused naming what they hold, and
+    ``AccelerometerUncalibrated.csv`` naming the columns and unit to read it with: Sensor Logger writes it in g and
+    as minus the specific force on iOS by default, in m/s² as it is on Android (and on iOS with "Standardise Units &
+    Frames")."""
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    if _sensor_named(found, candidates) or not {"x", "y", "z"} <= set(norm):
+        return
+    stem = re.sub(r"\s*\(\d+\)$", "", table.path.name.split(".")[0]).lower()
+    hit = _SENSOR_LOGGER.get(stem)
+    if hit in ("a", "g"):
+        for a in "xyz":
+            candidates[f"{hit}{a}"] = norm[a]
+        table.meta["sensor_logger"] = "accelerometer" if hit == "a" else "gyroscope"
+        return
+    cols = ",".join(f"a{a}={{s}}{norm[a]}" for a in "xyz")
+    if hit is not None:
+        raise OptinavError(
+            f"{table.path.name} is {hit}",
+            "read TotalAcceleration.csv (Android) or AccelerometerUncalibrated.csv, which hold gravity, as the "
+            "accelerometer, and Gyroscope.csv as gyro_path=GYRODATA",
+        )
+    if stem == "accelerometeruncalibrated":
+        xyz = np.column_stack([table.data[norm[a]][:1000] for a in "xyz"])
+        xyz = xyz[np.all(np.isfinite(xyz), axis=1)]
+        size = float(np.median(np.linalg.norm(xyz, axis=1))) if xyz.size else float("nan")
+        seen = f"its norm reads {size:.3g}" + (
+            ", so g: iOS" if 0.5 < size < 2 else ", so m/s^2" if 5 < size < 20 else ""
+        )
+        raise OptinavError(
+            f"{table.path.name}: Sensor Logger writes its uncalibrated accelerometer in g and as minus the specific "
+            f"force on iOS (by default), in m/s^2 as it is on Android or with 'Standardise Units & Frames' ({seen})",
+            f"say which: columns='{cols.format(s='-')}' acc_unit='g' (iOS), or columns='{cols.format(s='')}' "
+            "acc_unit='m/s^2'",
+        )
+
+
 #: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
 _UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
@@ -1180,7 +1266,7 @@ def _part_of(
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
     _select_instance(table)
-    passed_over = _ardupilot_imu(table) | _android_linear(table) | _ronin(table)
+    passed_over = _ardupilot_imu(table) | _android_linear(table) | _gforce_linear(table) | _ronin(table)
     _one_frame(table)
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
@@ -1207,6 +1293,7 @@ def _part_of(
         key = candidates.get("t")  # Sensor Logger: time in ns since the epoch beside seconds_elapsed
         if key is not None and normalize_name(key)[0] == "time":
             implied.setdefault(key, "ns")
+        _sensor_logger(table, found, candidates)
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
     _shimmer(table, found, candidates)
@@ -1217,6 +1304,7 @@ def _part_of(
     _date_time(table, found, candidates)
     _one_sensor_columns(table, found, candidates, need)
     _axes_by_unit(table, found, candidates)
+    _gforce(table, found, candidates)
     for std, key in candidates.items():
         found[std] = (key, table.data[key])
     _unreadable_triad(table, found)
@@ -1914,6 +2002,7 @@ _LAYOUT_NOTES = {
     "xsens_sdi": "Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each 1/{v}-s period",
     "vectornav": "VectorNav ${v} sentences read by their fields (checksums held)",
     "ronin": "RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)",
+    "sensor_logger": "Sensor Logger's file read by its name as the {v} (its columns z, y, x are the axes)",
     "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "
     "the poses)",
