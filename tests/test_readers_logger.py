@@ -938,6 +938,34 @@ def test_physics_toolbox_g_force_is_the_accelerometer(tmp_path, capsys):
     np.testing.assert_allclose(log.acc, gf * 9.80665, rtol=0, atol=1e-12)
 
 
+def test_hyperimu_file_reads_by_its_sensors_line(tmp_path, capsys):
+    """HyperIMU's log file (ianovir/HIMUServer README.md, HIMU-filetest.csv): '@' header lines ('@Sensors:
+    MPLAccelerometer - MPLLinearAcceleration', '@ SamplingTime: 100ms'), then three values per sensor in that order,
+    no header, a first row of zeros. Was 'line 5 has 1 field(s), 3 expected' (the '@' lines taken for the table).
+    Now the '@' lines are its header: the accelerometer's triad is ax..az (the linear acceleration's is not), the
+    gyroscope's gx..gz, the rate 1 / SamplingTime, the zeros left out; the recording calibrates to its truth."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=8)
+    head = "@ HyperIMU - ianovir - 2013\n@ Date: Sat Aug 02 17:32:42 CEST 2014\n"
+    head += "@Sensors: MPLAccelerometer - MPLLinearAcceleration - MPLGyroscope\n@ SamplingTime: 10ms\n"
+    lin = s.acc - s.acc.mean(0)
+    rows = [",".join(repr(float(v)) for v in (*s.acc[i], *lin[i], *s.gyr[i])) for i in range(len(s.t))]
+    path = _w(tmp_path / "HIMU-2024-05-01_10-00-00.csv", head + "0.0," * 8 + "0.0\n" + "\n".join(rows) + "\n")
+    log = read_imu(path)
+    np.testing.assert_array_equal(log.acc, s.acc)
+    np.testing.assert_array_equal(log.gyr, s.gyr)
+    np.testing.assert_allclose(log.t, np.arange(len(s.t)) / 100.0, rtol=0, atol=1e-12)
+    assert any("zeros written before the sensors" in x for x in log.notes), log.notes
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    _acc_scales_match(out, s)
+    test = "@ HyperIMU - ianovir - 2013\n@Sensors: MPLAccelerometer - MPLLinearAcceleration\n@ SamplingTime: 100ms\n"
+    test += "0.0,0.0,0.0,0.0,0.0,0.0\n0.13322297,9.381591,0.8710387,0.36958146,-0.38709503,0.0040415954\n"
+    test += "-0.20881577,9.42485,0.7918533,-0.3580554,-0.34982255,-0.026045837\n"
+    log = read_imu(_w(tmp_path / "HIMU-filetest.csv", test))
+    np.testing.assert_array_equal(log.acc, [[0.13322297, 9.381591, 0.8710387], [-0.20881577, 9.42485, 0.7918533]])
+    assert log.t.tolist() == [0.0, 0.1] and log.gyr is None
+
+
 def test_px4_vehicle_imu_increments_read_as_rates(tmp_path, capsys):
     """PX4's vehicle_imu from ulog2csv: delta_angle[0..2] (rad) and delta_velocity[0..2] (m/s) over
     delta_angle_dt / delta_velocity_dt (µs), stamped by timestamp_sample (µs). Was refused (no accelerometer or

@@ -2002,6 +2002,7 @@ _LAYOUT_NOTES = {
     "xsens_sdi": "Xsens' increments dq_*/dv[*] read as the mean rate and specific force of each 1/{v}-s period",
     "vectornav": "VectorNav ${v} sentences read by their fields (checksums held)",
     "ronin": "RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)",
+    "hyperimu_zeros": "HyperIMU's first row, zeros written before the sensors gave a value, left out",
     "sensor_logger": "Sensor Logger's file read by its name as the {v} (its columns z, y, x are the axes)",
     "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "

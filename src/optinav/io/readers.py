@@ -1110,9 +1110,10 @@ def _text_layout(
         s = line.strip()
         if not s:
             continue
-        if s.startswith("#") or (not content and s.startswith("//")):  # '//' heads an Xsens MT Manager export
+        # '//' heads an Xsens MT Manager export, '@' a HyperIMU file
+        if s.startswith("#") or (not content and s.startswith(("//", "@"))):
             if not content:
-                comments.append(s.lstrip("#/").strip())
+                comments.append(s.lstrip("#/@").strip())
                 last_comment = i
             continue
         if not _strip_comment(s).strip():
@@ -1182,6 +1183,12 @@ def _text_layout(
         cand = _split(comments[-1], delim)
         if len(cand) == len(toks0) > 1 and all(t and not _is_number(t) for t in cand):
             header = cand
+    if header is None and names is None and (himu := _hyperimu_names(comments, len(toks0))):
+        header = himu
+        if all(_is_number(t) and float(t) == 0 for t in toks0) and len(content) > 1:
+            # its first row is zeros, written before the sensors delivered a value: no sample
+            start = content[1]
+            preamble["hyperimu_zeros"] = "1"
     if header is not None and names is None and delim is not None and header[-1] != "":
         # rows ending in a delimiter under a header that does not (an Arduino sketch's Serial.print(",") after
         # every value): an empty last column, as when the header ends in one too
@@ -1950,6 +1957,39 @@ def _rate_entry(meta: dict[str, str], key: str, value: str) -> None:
     meta["rate"], meta["rate_key"] = repr(rate), key.strip()
 
 
+#: HyperIMU's header line naming its sensors in the order of their triads (``@Sensors: MPLAccelerometer -
+#: MPLGyroscope``; ianovir/HIMUServer README.md and HIMU-filetest.csv)
+_HYPERIMU_SENSORS = re.compile(r"^sensors\s*:\s*(.+)$", re.IGNORECASE)
+
+
+def _hyperimu_names(comments: list[str], ncol: int) -> list[str] | None:
+    """Column names of a HyperIMU file from its ``@Sensors: A - B - …`` line: three values per sensor in that order
+    (a ``timestamp`` first when the row holds one more): an accelerometer's ``ax ay az`` (not a linear
+    acceleration's or gravity's), a gyroscope's ``gx gy gz``, a magnetometer's ``mx my mz``, any other sensor's
+    ``NAME_x`` …; None when no such line gives ``ncol`` columns."""
+    m = next((m for c in comments if (m := _HYPERIMU_SENSORS.match(c))), None)
+    if m is None:
+        return None
+    sensors = [x.strip() for x in m.group(1).split(" - ") if x.strip()]
+    if ncol not in (3 * len(sensors), 3 * len(sensors) + 1):
+        return None
+    names = ["timestamp"] if ncol % 3 else []
+    for sensor in sensors:
+        low = sensor.lower().replace(" ", "")
+        stem = next(
+            (
+                k
+                for k, hit in (("a", "accel" in low), ("g", "gyro" in low), ("m", "magnet" in low))
+                if hit and not any(w in low for w in ("linear", "gravity", "uncalibrated"))
+            ),
+            None,
+        )
+        if stem is None or f"{stem}x" in names:
+            stem = re.sub(r"\W+", "_", sensor) + "_"
+        names += [f"{stem}{a}" for a in "xyz"]
+    return names
+
+
 def _comment_meta(comments: list[str]) -> dict[str, str]:
     """``# units: t=s acc=m/s^2 gyro=rad/s`` (as written by write_imu) → {time_unit, acc_unit, gyro_unit}; a
     ``key: value`` comment with a rate key (``// Update Rate: 100.0Hz``) → rate (Hz), as a preamble line."""
@@ -1959,6 +1999,9 @@ def _comment_meta(comments: list[str]) -> dict[str, str]:
         kv = _KEY_VALUE.match(c)
         if kv:
             _rate_entry(meta, kv.group(1), kv.group(2))
+        period = re.match(r"^samplingtime\s*:\s*(\d+(?:\.\d*)?)\s*ms$", c.replace(" ", "").lower())
+        if period and float(period.group(1)) > 0 and "rate" not in meta:  # HyperIMU's '@ SamplingTime: 100ms'
+            meta["rate"], meta["rate_key"] = repr(1000.0 / float(period.group(1))), "SamplingTime"
         m = re.search(r"\bunits?\s*:\s*(.*)$", c, re.IGNORECASE)
         if not m:
             continue
