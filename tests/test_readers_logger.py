@@ -966,6 +966,57 @@ def test_hyperimu_file_reads_by_its_sensors_line(tmp_path, capsys):
     assert log.t.tolist() == [0.0, 0.1] and log.gyr is None
 
 
+def _mat5_element(body: bytes, compress: bool) -> bytes:
+    """One top-level MAT v5 miMATRIX element around ``body`` (its subelements), zlib-compressed (miCOMPRESSED) as
+    MATLAB's default -v7 writes it when ``compress``."""
+    import struct
+    import zlib
+
+    el = struct.pack("<II", 14, len(body)) + body
+    return struct.pack("<II", 15, len(z := zlib.compress(el))) + z if compress else el
+
+
+def _mat5_sub(typ: int, payload: bytes) -> bytes:
+    import struct
+
+    return struct.pack("<II", typ, len(payload)) + payload + b"\0" * (-len(payload) % 8)
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_matlab_mobile_timetables_are_named_with_the_way_out(tmp_path, compress):
+    """MATLAB Mobile logs to sensorlog_*.mat, each sensor a timetable (Acceleration, AngularVelocity, …; read in
+    MATLAB as Acceleration.X, Acceleration.Timestamp by users' scripts on GitHub): MATLAB objects (opaque MCOS
+    arrays: the variable's name, 'MCOS', the class name, then a uint32 reference) that scipy returns as an opaque
+    'None' without numbers. Was 'not a readable MATLAB file (the variable at byte 128: dimensions of another type or
+    size); save it again from MATLAB (-v7)', which cannot help. Now the objects are named with the MATLAB lines that
+    save their numbers, and the files those lines write read to their truth."""
+    import struct
+
+    sub = _mat5_sub
+    ref = sub(6, struct.pack("<II", 13, 0)) + sub(5, struct.pack("<ii", 6, 1)) + sub(1, b"")
+    ref = struct.pack("<II", 14, len(ref + sub(6, bytes(24)))) + ref + sub(6, bytes(24))
+    objects = [
+        _mat5_element(sub(6, struct.pack("<II", 17, 0)) + sub(1, n.encode()) + sub(1, b"MCOS") + sub(1, b"timetable") + ref, compress)
+        for n in ("Acceleration", "AngularVelocity", "MagneticField")
+    ]  # fmt: skip
+    head = b"MATLAB 5.0 MAT-file, Platform: MACI64, Created on: Wed May  1 10:00:00 2024".ljust(116) + bytes(8)
+    path = _w(tmp_path / "sensorlog_20240501_100000.mat", head + struct.pack("<H", 0x0100) + b"IM" + b"".join(objects))
+    with pytest.raises(OptinavError, match=r"holds MATLAB objects.*Acceleration \(timetable\), AngularVelocity") as err:
+        read_imu(path)
+    assert "posixtime(Acceleration.Timestamp)" in err.value.remedy and "gyro_path=gyro.mat" in err.value.remedy
+    from scipy.io import savemat  # what the remedy's MATLAB lines write: t (N×1, s since 1970), acc / gyro (N×3)
+
+    gyr, acc = _triads(19, 400)
+    t = 1714557600.0 + np.arange(400) / 100.0
+    savemat(tmp_path / "acc.mat", {"t": t[:, None], "acc": acc})
+    savemat(tmp_path / "gyro.mat", {"t": t[:, None] + 0.004, "gyro": gyr})
+    log = read_imu(tmp_path / "acc.mat", gyro_path=tmp_path / "gyro.mat")
+    np.testing.assert_array_equal(log.acc, acc[1:])  # the first row lies before the gyroscope's first
+    np.testing.assert_allclose(log.t, t[1:], rtol=0, atol=1e-9)
+    want = np.array([np.interp(t[1:], t + 0.004, g) for g in gyr.T]).T
+    np.testing.assert_allclose(log.gyr, want, rtol=0, atol=1e-9)
+
+
 def test_px4_vehicle_imu_increments_read_as_rates(tmp_path, capsys):
     """PX4's vehicle_imu from ulog2csv: delta_angle[0..2] (rad) and delta_velocity[0..2] (m/s) over
     delta_angle_dt / delta_velocity_dt (µs), stamped by timestamp_sample (µs). Was refused (no accelerometer or

@@ -502,8 +502,13 @@ def check_mat5(path: Path) -> None:
         e = _mat5_endian(fh.read(128))
         if e is None:
             return
+        objects: list[str] = []
         try:
             for pos, typ, n, head in _variables(fh, e, path.stat().st_size, limit):
+                obj = _mcos_object(head, e)
+                if obj is not None:
+                    objects.append(obj)
+                    continue
                 if typ != _MI_COMPRESSED:
                     whole = n + 8 <= limit
                 else:  # whole when the inflated element ends inside the head
@@ -516,6 +521,37 @@ def check_mat5(path: Path) -> None:
                     )
         except zlib.error:
             return  # scipy raises its own (Python) error for a damaged stream
+    if objects:
+        raise OptinavError(
+            f"{path.name} holds MATLAB objects, which only MATLAB reads ({', '.join(objects)}; MATLAB Mobile's sensor "
+            "log keeps each sensor as a timetable)",
+            "save their numbers in MATLAB: t = posixtime(Acceleration.Timestamp); acc = Acceleration{:,:}; "
+            "save('acc.mat','t','acc'); t = posixtime(AngularVelocity.Timestamp); gyro = AngularVelocity{:,:}; "
+            "save('gyro.mat','t','gyro'); then give acc.mat with gyro_path=gyro.mat",
+        )
+
+
+def _mcos_object(buf: bytes, e: str) -> str | None:
+    """``NAME (CLASS)`` of a top-level MATLAB object (an opaque array of MATLAB's class system, MCOS: a
+    ``timetable``, ``table``, ``string``, ``datetime``) whose miMATRIX element starts ``buf``; None for any other
+    element. Its header holds the variable's name, ``MCOS`` and the class name where an array holds dimensions and
+    a name (what scipy.io.loadmat returns for it, a MatlabOpaque named 'None', holds no numbers)."""
+    try:
+        typ, n, off, _ = _element(buf, 0, e)
+        if typ != _MI_MATRIX or n == 0:
+            return None
+        _, _, d, off = _element(buf, off, e)
+        if struct.unpack_from(e + "I", buf, d)[0] & 0xFF != 17:
+            return None
+        parts = []
+        for _ in range(3):
+            ptyp, pn, d, off = _element(buf, off, e)
+            if ptyp != 1:
+                return None
+            parts.append(buf[d : d + pn].decode("latin-1"))
+    except struct.error:
+        return None
+    return f"{parts[0]} ({parts[2]})" if parts[1] == "MCOS" else None
 
 
 #: nesting of cell and struct arrays that :func:`_mat5_header_fault` follows
