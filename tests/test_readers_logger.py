@@ -904,6 +904,36 @@ def test_sensor_logger_files_read_by_their_names(tmp_path, capsys):
     np.testing.assert_allclose(log.acc, s.acc[inside], rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize("standardised", [False, True])
+def test_sensor_logger_wrist_motion_is_the_watch_imu(tmp_path, standardised):
+    """Sensor Logger's WristMotion.csv (Apple Watch, Core Motion device motion; awesome-sensor-logger UNITS.md and
+    COORDINATES.md): rotationRate (rad/s), gravity and acceleration (gravity taken out) in g and Core Motion's sign
+    by default, in m/s² and Android's sign with 'Standardise Units & Frames'. Its user acceleration was read as the
+    accelerometer (about 0) and its gyroscope not at all ('has only the accelerometer'). Now the gyroscope is
+    rotationRate and the specific force acceleration + gravity, negated in g by default, as it is in m/s²; the
+    gravity's norm (1 or 9.81) tells which."""
+    n, g0 = 400, 9.80665
+    gyr, f = _triads(21, n)  # the specific force, +9.81 up on z
+    down = f.mean(0) / np.linalg.norm(f.mean(0))
+    grav, user = (down * g0, f - down * g0) if standardised else (-down, -f / g0 + down)
+    head = "time,seconds_elapsed,rotationRateX,rotationRateY,rotationRateZ,gravityX,gravityY,gravityZ,"
+    head += "accelerationX,accelerationY,accelerationZ,quaternionW,quaternionX,quaternionY,quaternionZ,pitch,roll,yaw\n"
+    rows = [
+        f"{1698000000000000000 + 10_000_000 * i},{i / 100}," + ",".join(repr(float(v)) for v in (*gyr[i], *grav, *user[i]))
+        + ",1,0,0,0,0,0,0"
+        for i in range(n)
+    ]  # fmt: skip
+    log = read_imu(_w(tmp_path / "WristMotion.csv", head + "\n".join(rows) + "\n"))
+    np.testing.assert_allclose(log.acc, f, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_allclose(log.t - log.t[0], np.arange(n) / 100, rtol=0, atol=1e-6)
+    assert any("WristMotion read" in x for x in log.notes), log.notes
+    bad = list(rows)
+    bad[5] = ",".join(bad[5].split(",")[:5] + ["0.5", "0.5", "0.5"] + bad[5].split(",")[8:])
+    with pytest.raises(OptinavError, match="gravity's norm is neither 1"):
+        read_imu(_w(tmp_path / "WristMotion (1).csv", head + "\n".join(bad) + "\n"))
+
+
 def test_physics_toolbox_g_force_is_the_accelerometer(tmp_path, capsys):
     """Physics Toolbox Sensor Suite: the g-force meter gFx, gFy, gFz (the specific force in g) and, in a multi
     record, the linear accelerometer ax, ay, az (m/s², gravity taken out) beside the gyroscope wx, wy, wz (rad/s):

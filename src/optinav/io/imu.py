@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from optinav.core.results import Result, nested_kwargs, register_legacy
-from optinav.core.units import factor, from_si, to_si
+from optinav.core.units import G_STANDARD, factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
 from optinav.io.readers import (
@@ -1090,6 +1090,47 @@ def _sensor_logger(table: Table, found: dict, candidates: dict) -> None:
         )
 
 
+def _wrist_motion_split(table: Table) -> set[str]:
+    """The user acceleration's columns (``accelerationX``…, gravity taken out) of Sensor Logger's
+    ``WristMotion.csv`` (the watch's Core Motion device motion: ``rotationRateX``…, ``gravityX``…,
+    ``accelerationX``…, ``quaternionW``…): passed over, :func:`_wrist_motion` sums them with gravity."""
+    norm = {normalize_name(k)[0] for k in table.data}
+    if not table.path.name.lower().startswith("wristmotion") or "seconds_elapsed" not in norm:
+        return set()
+    if not all(f"{p}{a}" in norm for p in ("rotationrate", "gravity", "acceleration") for a in "xyz"):
+        return set()
+    return {k for k in table.data if normalize_name(k)[0] in ("accelerationx", "accelerationy", "accelerationz")}
+
+
+def _wrist_motion(table: Table, found: dict, candidates: dict) -> None:
+    """Sensor Logger's ``WristMotion.csv`` (awesome-sensor-logger UNITS.md, COORDINATES.md): the gyroscope is
+    ``rotationRate`` (rad/s); the accelerometer is ``acceleration + gravity`` — by default in g and in Core
+    Motion's sign (minus the specific force: negated), with "Standardise Units & Frames" in m/s² as it is. Its
+    gravity, a unit vector of either, tells which (norm 1 or 9.81 in every row)."""
+    if not _wrist_motion_split(table) or _sensor_named(found, candidates):
+        return
+    norm = {normalize_name(k)[0]: k for k in table.data}
+    grav = np.column_stack([table.data[norm[f"gravity{a}"]] for a in "xyz"])
+    size = np.linalg.norm(grav, axis=1)
+    size = size[np.isfinite(size)]
+    standard = bool(size.size and np.all(np.abs(size - G_STANDARD) < 0.1 * G_STANDARD))
+    if not size.size or not (standard or np.all(np.abs(size - 1.0) < 0.1)):
+        raise OptinavError(
+            f"{table.path.name}: its gravity's norm is neither 1 (g, Sensor Logger's default) nor 9.81 (m/s^2, "
+            "'Standardise Units & Frames') in every row, so the unit and sign of its acceleration are unknown",
+            "map the columns yourself: columns='gx=rotationRateX,…' and an accelerometer with gravity",
+        )
+    for a in "xyz":
+        user, g = norm[f"acceleration{a}"], norm[f"gravity{a}"]
+        name = f"({user} + {g})" if standard else f"-({user} + {g})"
+        total = table.data[user] + table.data[g]
+        table.data[name] = total if standard else -total
+        table.units[name] = "m/s^2" if standard else "g"
+        candidates[f"a{a}"] = name
+        candidates[f"g{a}"] = norm[f"rotationrate{a}"]
+    table.meta["wrist_motion"] = "m/s^2, as it is" if standard else "g, negated (Core Motion's sign)"
+
+
 #: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
 _UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
@@ -1266,7 +1307,8 @@ def _part_of(
     mapped_sources = {table.find(n) for n in mapping.values()}
     candidates: dict[str, str] = {}
     _select_instance(table)
-    passed_over = _ardupilot_imu(table) | _android_linear(table) | _gforce_linear(table) | _ronin(table)
+    passed_over = _ardupilot_imu(table) | _android_linear(table) | _gforce_linear(table) | _wrist_motion_split(table)
+    passed_over |= _ronin(table)
     _one_frame(table)
     for key in table.data:
         if key in mapped_sources or key in SKIP_NAMES or key in passed_over:
@@ -1293,6 +1335,7 @@ def _part_of(
         key = candidates.get("t")  # Sensor Logger: time in ns since the epoch beside seconds_elapsed
         if key is not None and normalize_name(key)[0] == "time":
             implied.setdefault(key, "ns")
+        _wrist_motion(table, found, candidates)
         _sensor_logger(table, found, candidates)
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
@@ -2003,6 +2046,8 @@ _LAYOUT_NOTES = {
     "vectornav": "VectorNav ${v} sentences read by their fields (checksums held)",
     "ronin": "RoNIN's synced/time, synced/acce and synced/gyro read (raw/ left aside)",
     "hyperimu_zeros": "HyperIMU's first row, zeros written before the sensors gave a value, left out",
+    "wrist_motion": "Sensor Logger's WristMotion read: rotationRate as the gyroscope, acceleration + gravity as "
+    "the accelerometer, in {v}",
     "sensor_logger": "Sensor Logger's file read by its name as the {v} (its columns z, y, x are the axes)",
     "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "
