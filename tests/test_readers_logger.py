@@ -548,6 +548,15 @@ def test_a_zip_that_is_not_npz_is_named(tmp_path):
         w.writestr("Gyroscope.csv", "time,x,y,z\n0,1,2,3\n")
     with pytest.raises(OptinavError, match=r"zip archive of 2 text table\(s\) \(Accelerometer.csv, Gyroscope.csv\)"):
         read_imu(z)
+    z = tmp_path / "2024-05-01_10-00-00.zip"  # Sensor Logger's export: the accelerometer with gravity named
+    with zipfile.ZipFile(z, "w") as w:
+        for name in ("Accelerometer.csv", "Gravity.csv", "Gyroscope.csv", "Metadata.csv", "TotalAcceleration.csv"):
+            w.writestr(f"2024-05-01_10-00-00/{name}", "time,seconds_elapsed,z,y,x\n0,0,1,2,3\n")
+    with pytest.raises(OptinavError) as err:
+        read_imu(z)
+    assert "pass 2024-05-01_10-00-00/TotalAcceleration.csv (the accelerometer with gravity) with gyro_path=" in str(
+        err.value
+    )
     x = tmp_path / "log.xlsx"
     with zipfile.ZipFile(x, "w") as w:
         w.writestr("xl/worksheets/sheet1.xml", "<x/>" * 2000)

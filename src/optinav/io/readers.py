@@ -736,9 +736,14 @@ def _zip_is_npz(path: Path) -> None:
     tables = [n for n in names if n.lower().endswith((".csv", ".txt", ".tsv"))]
     if tables:
         shown = ", ".join(tables[:4]) + (", …" if len(tables) > 4 else "")
-        raise OptinavError(
-            f"{path.name} is a zip archive of {len(tables)} text table(s) ({shown})", "extract it and pass one table"
-        )
+        base = {Path(n).name.lower(): n for n in tables}
+        acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
+        remedy = "extract it and pass one table"
+        if acc and "gyroscope.csv" in base:  # Sensor Logger's export: Accelerometer.csv has gravity taken out
+            remedy = (
+                f"extract it and pass {acc} (the accelerometer with gravity) with gyro_path={base['gyroscope.csv']}"
+            )
+        raise OptinavError(f"{path.name} is a zip archive of {len(tables)} text table(s) ({shown})", remedy)
     raise OptinavError(
         f"{path.name} is a zip archive ({', '.join(names[:3])}{', …' if len(names) > 3 else ''}), not NumPy's .npz",
         "extract the data and pass it as CSV, NPZ, HDF5 or MAT",
