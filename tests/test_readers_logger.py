@@ -904,6 +904,7 @@ def test_sensor_logger_files_read_by_their_names(tmp_path, capsys):
         assert main(["attitude", str(f), "--gyro", str(gyro), "--out", str(tmp_path / "q.csv")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and msg in err[0] and "TotalAcceleration.csv" in err[0], err
+        assert ("--columns 'ax=x,ay=y,az=z'" in err[0]) == (name == "Accelerometer.csv"), err  # another app's file
     ios = _sensor_logger_file(d / "AccelerometerUncalibrated.csv", s.t, -s.acc / 9.80665)  # iOS: g, negated
     code = main(["attitude", str(ios), "--gyro", str(gyro), "--out", str(tmp_path / "q.csv")])
     err = capsys.readouterr().err.strip().splitlines()

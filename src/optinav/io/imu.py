@@ -1070,10 +1070,11 @@ def _sensor_logger(table: Table, found: dict, candidates: dict) -> None:
         return
     cols = ",".join(f"a{a}={{s}}{norm[a]}" for a in "xyz")
     if hit is not None:
+        mine = f" (a file of another app that holds gravity: columns='{cols.format(s='')}')" if stem[0] == "a" else ""
         raise OptinavError(
             f"{table.path.name} is {hit}",
             "read TotalAcceleration.csv (Android) or AccelerometerUncalibrated.csv, which hold gravity, as the "
-            "accelerometer, and Gyroscope.csv as gyro_path=GYRODATA",
+            f"accelerometer, and Gyroscope.csv as gyro_path=GYRODATA{mine}",
         )
     if stem == "accelerometeruncalibrated":
         xyz = np.column_stack([table.data[norm[a]][:1000] for a in "xyz"])
