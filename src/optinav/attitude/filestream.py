@@ -499,6 +499,10 @@ class _Blocks:
         (a unit in brackets, case, spaces: ``mx [G]`` for mx, ``Mag_X`` for mag_x); then ``names`` holds them."""
         keys = [k for k in ("mx", "my", "mz", "mag") if k in self.names]
         new = _by_alias_key({k: self.names[k] for k in keys}, found)
+        if new is None and self.o.mag_columns is None:  # --mag alone: the magnetometer's usual names
+            new = mag_triad(found)
+            if new is not None:
+                self.notes.append(f"magnetometer: columns {', '.join(new[k] for k in ('mx', 'my', 'mz'))}")
         if new is None or all(new[k] == self.names[k] for k in keys):
             return False
         self.names.update(new)
@@ -518,11 +522,15 @@ class _Blocks:
                 if self._witness_whole is None:
                     tab = read_table(self.path, delimiter=self.o.delimiter, topic=self.o.topic,
                                      skip_bad_lines=self.o.skip_bad_lines)  # fmt: skip
-                    names = _by_alias_key(dict(zip(keys, keys)), list(tab))  # read_table gives {name: array}
+                    names = _by_alias_key(dict(zip(keys, keys)), list(tab)) or mag_triad(list(tab))
                     self._witness_whole = np.column_stack([np.asarray(tab[names[k]], float) for k in keys])
                 m = self._witness_whole[row0 : row0 + n]
             else:
-                names = self.witness or _by_alias_key(dict(zip(keys, keys)), list(table.data))
+                names = (
+                    self.witness
+                    or _by_alias_key(dict(zip(keys, keys)), list(table.data))
+                    or mag_triad(list(table.data))
+                )
                 m = np.column_stack([np.asarray(table.data[names[k]], float) for k in keys])
                 self.witness = names
             if m.shape != (n, 3):
@@ -1026,6 +1034,30 @@ def _by_alias_key(names: dict, found: list) -> dict | None:
     if not all(len(h) == 1 for h in hits.values()) or len({h[0] for h in hits.values()}) != len(names):
         return None
     return {k: h[0] for k, h in hits.items()}
+
+
+#: name stems of a magnetometer triad (normalized, the axis letter after, with or without '_'): what ``--mag`` finds
+#: without --mag-columns (``Mag X (uT)``, ``magnetometer_x``, Xsens' ``Mag_X``, ``magneticField_x``, BROAD's
+#: ``imu_mag``). Not Physics Toolbox's ``Bx``: a B is as often a bias or a body axis, so that one is only suggested
+MAG_STEMS = ("m", "mag", "magn", "magnetometer", "magnetic", "magnetic_field", "magneticfield", "imu_mag", "compass")
+
+
+def mag_triad(found: list) -> dict | None:
+    """{mx, my, mz} → the file's magnetometer columns among ``found`` by :data:`MAG_STEMS` (a unit in brackets, case
+    and spaces aside, :func:`optinav.io.readers.normalize_name`); None unless exactly one stem gives all three axes
+    (two triads, e.g. a calibrated and a raw magnetometer, are for --mag-columns to choose)."""
+    from optinav.io.readers import normalize_name
+
+    keys = {normalize_name(c)[0]: c for c in found}
+    hits = []
+    for stem in MAG_STEMS:
+        for sep in ("", "_"):
+            cols = [keys.get(f"{stem}{sep}{a}") for a in "xyz"]
+            if all(cols) and cols not in hits:
+                hits.append(cols)
+    if len(hits) != 1:
+        return None
+    return dict(zip(("mx", "my", "mz"), hits[0]))
 
 
 def _mag_names(mag_columns: str | None) -> tuple[list[str], np.ndarray]:

@@ -109,18 +109,29 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))
     mag = None
     if want_mag:
-        from optinav.attitude.filestream import _column, _mag_names
+        from optinav.attitude.filestream import _column, _mag_names, mag_triad
+        from optinav.io.readers import MissingColumn
 
         names, signs = _mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
-        tab = read_table(
-            path,
-            columns=",".join(f"{k}={v}" for k, v in zip(keys, names)),
-            delimiter=o.delimiter,
-            topic=o.topic,
-            skip_bad_lines=o.skip_bad_lines,
-            rows=log.t.size,
-        )
+
+        def mag_table(names):
+            return read_table(
+                path,
+                columns=",".join(f"{k}={v}" for k, v in zip(keys, names)),
+                delimiter=o.delimiter,
+                topic=o.topic,
+                skip_bad_lines=o.skip_bad_lines,
+                rows=log.t.size,
+            )
+
+        try:
+            tab = mag_table(names)
+        except MissingColumn as exc:  # --mag alone: the magnetometer's usual names (as the streamed path finds them)
+            found = mag_triad(exc.found) if o.mag_columns is None else None
+            if found is None:
+                raise
+            tab = mag_table([found[k] for k in keys])
         mag = np.column_stack([_column(k, tab[k]) for k in keys]) * signs
         if mag.shape[0] != log.t.size:
             raise OptinavError(f"the magnetometer has {mag.shape[0]} rows, the IMU {log.t.size}", "check --mag-columns")

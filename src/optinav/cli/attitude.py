@@ -98,7 +98,8 @@ def register(sub) -> None:
     p.add_argument(
         "--mag",
         action="store_true",
-        help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz)",
+        help="iframe: heading from the magnetometer (BROAD: imu_mag; else columns mx,my,mz or one triad by the usual "
+        "names: mag_x, 'Mag X (uT)', magnetometer_x, magneticField_x, ...)",
     )
     p.add_argument(
         "--mag-columns",
