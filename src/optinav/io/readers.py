@@ -1762,7 +1762,7 @@ def _parse_fast(lines, start, delim, ncol, keep, textable) -> dict[int, np.ndarr
         return None
     numeric = [j for j in keep if j not in textable]
     try:
-        if delim is not None and _uniform(body, delim, ncol):
+        if _uniform(body, delim, ncol):
             # usecols would let ragged rows pass, hence the field count check above
             out = {}
             if numeric:
@@ -1781,8 +1781,11 @@ def _parse_fast(lines, start, delim, ncol, keep, textable) -> dict[int, np.ndarr
         return None
 
 
-def _uniform(body: list[str], delim: str, ncol: int) -> bool:
-    """Every non-blank line has ncol fields and no quotes or comments."""
+def _uniform(body: list[str], delim: str | None, ncol: int) -> bool:
+    """Every non-blank line has ncol fields (``delim`` None: white space between them) and no quotes or comments."""
+    if delim is None:
+        odd = [line for line in body if len(line.split()) != ncol or '"' in line or "#" in line]
+        return all(not line.strip() for line in odd)
     k = ncol - 1
     odd = [line for line in body if line.count(delim) != k or '"' in line or "#" in line]
     return all(not line.strip() for line in odd)
