@@ -699,3 +699,42 @@ def test_every_filter_refuses_the_input_its_method_takes_not_in_one_line():
             with pytest.raises(OptinavError, match="no magnetometer"):
                 f.update(d["gyr"][0], d["acc"][0], mag=mag[0])
         assert f.q_b_n is None, method  # nothing was used
+
+
+def _model_mode_arguments(kernel):
+    """The definitions of the ``mode`` arguments (the 11th) of every call to ``_model`` in ``kernel``'s bytecode."""
+    from numba.core import ir
+    from numba.core.compiler import run_frontend
+
+    fir = run_frontend(kernel.py_func)
+    out = []
+    for block in fir.blocks.values():
+        for e in block.find_exprs("call"):
+            f = fir.get_definition(e.func)
+            if isinstance(f, ir.Global) and f.name == "_model":
+                out.append(fir.get_definition(e.args[10]))
+    return out
+
+
+def test_the_measurement_model_is_compiled_once():
+    """gd/cg handed the shared model its error-angle mode as the constant 2, qn as 1, mekf as 0 and
+    measurement_error as a variable: numba typed each constant as a literal and compiled the model four times
+    (~1 s each on a cold cache). Every caller passes an int64 value now (its bytecode is read, so the check does
+    not depend on what numba's on-disk cache holds), this process compiled at most one signature, and every
+    method still follows a noise-free motion with polarization."""
+    from numba.core import ir
+
+    from optinav.attitude import _kernels
+
+    d = synth(1000, amp=1.0, seed=3)
+    pol = PolarizationMeasurement(d["aop"], d["sun"])
+    for method in METHODS:
+        q = estimate_q(d["gyr"], d["acc"], d["dt"], pol=pol, method=method, q0=d["q_start"], input_stage=False)
+        # gd/cg lag behind the motion by their fixed gain (0.85°); qn and mekf follow it to rounding
+        assert np.degrees(quat_angle_between(q, d["q"])).max() < (1.0 if method in ("gd", "cg") else 1e-9), method
+    for mode in ("quat", "body", "nav"):
+        F, _, rows = measurement_error(d["q"], d["acc"], pol=pol, jacobian=mode)
+        assert (rows == 5).sum() > 900 and np.abs(F[rows == 5]).max() < 1e-12
+    modes = [a for k in ("run_gd_cg", "run_qn", "run_mekf") for a in _model_mode_arguments(getattr(_kernels, k))]
+    assert len(modes) == 4 and not any(isinstance(a, ir.Const) for a in modes), modes
+    assert len(_kernels._model.signatures) <= 1

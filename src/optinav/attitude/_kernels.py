@@ -25,6 +25,11 @@ _NJ = dict(cache=True, nogil=True, fastmath=False)
 #: counts vector layout written by the loop kernels
 C_POL_USED, C_POL_NEAR_ZENITH, C_ACC_SHRUNK = 0, 1, 2
 
+#: the modes of :func:`_model` as int64 values, not int constants: numba types a constant argument as a literal and
+#: compiled the model once per caller's mode (gd/cg, qn, mekf and measurement_error's variable: four times, ~1 s
+#: each on a cold cache)
+MODE_BODY, MODE_NAV, MODE_QUAT = np.int64(0), np.int64(1), np.int64(2)
+
 
 @numba.njit(**_NJ)
 def _dcm(q, C):
@@ -241,7 +246,7 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
         qd[3] = 0.5 * (q[0] * wz + q[1] * wy - q[2] * wx)
         if na > 0.0:
             j = i if sn.shape[0] > 1 else 0
-            rows = _model(q, ah, un, use_pol[i], sn[j], Cbm, c2[i], s2[i], wpol, min_d2, 2, F, J, C, vb, sb)
+            rows = _model(q, ah, un, use_pol[i], sn[j], Cbm, c2[i], s2[i], wpol, min_d2, MODE_QUAT, F, J, C, vb, sb)
             if rows == 5:
                 counts[C_POL_USED] += 1
             elif rows == -3:
@@ -358,7 +363,7 @@ def run_qn(
         if na > 0.0:
             j = i if sn.shape[0] > 1 else 0
             upol = use_pol[i]
-            rows = _model(q, ah, un, upol, sn[j], Cbm, c2[i], s2[i], wpol, min_d2, 1, F, J, C, vb, sb)
+            rows = _model(q, ah, un, upol, sn[j], Cbm, c2[i], s2[i], wpol, min_d2, MODE_NAV, F, J, C, vb, sb)
             if rows == 5:
                 counts[C_POL_USED] += 1
             elif rows == -3:
@@ -383,7 +388,7 @@ def run_qn(
                     d[k] *= lam
                 _left_rotate(q, d[0], d[1], d[2], dq, tmp)
                 # BFGS on the same sample's objective: y = g(q⁺) − g(q⁻), s = λD
-                _model(q, ah, un, upol and nr == 5, sn[j], Cbm, c2[i], s2[i], wpol, min_d2, 1, F, J, C, vb, sb)
+                _model(q, ah, un, upol and nr == 5, sn[j], Cbm, c2[i], s2[i], wpol, min_d2, MODE_NAV, F, J, C, vb, sb)
                 _grad3(J, F, nr, g2)
                 sy = 0.0
                 ss = 0.0
@@ -621,7 +626,7 @@ def run_mekf(
             P[3 + a, 3 + a] += qb
         if na > 0.0:
             j = i if sn.shape[0] > 1 else 0
-            rows = _model(q, ah, un, use_pol[i], sn[j], Cbm, c2[i], s2[i], 1.0, min_d2, 0, F, J, C, vb, sb)
+            rows = _model(q, ah, un, use_pol[i], sn[j], Cbm, c2[i], s2[i], 1.0, min_d2, MODE_BODY, F, J, C, vb, sb)
             if rows == 5:
                 counts[C_POL_USED] += 1
             elif rows == -3:

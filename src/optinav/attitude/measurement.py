@@ -57,7 +57,7 @@ __all__ = [
 DEFAULT_C_B_M = np.diag([1.0, -1.0, -1.0])
 #: the same mounting for a right-forward-up body (frame="ENU" users): X_m = y_b (forward), Z_m = z_b (up)
 DEFAULT_C_B_M_ENU = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-_JAC_MODES = {"body": 0, "nav": 1, "quat": 2}
+_JAC_MODES = {"body": _kernels.MODE_BODY, "nav": _kernels.MODE_NAV, "quat": _kernels.MODE_QUAT}
 
 
 def up_vector(frame: str = DEFAULT_FRAME) -> np.ndarray:
