@@ -101,7 +101,8 @@ def _rot(q0, q1, q2, q3, x, y, z):
     return (x + q0 * tx + q2 * tz - q3 * ty, y + q0 * ty + q3 * tx - q1 * tz, z + q0 * tz + q1 * ty - q2 * tx)
 
 
-@numba.njit(**_NJ)
+# one signature: numba typed each call's constant offset k (S_QC, S_QG, S_Q) as a literal and compiled it three times
+@numba.njit("void(float64[::1], int64, float64, float64, float64, float64)", **_NJ)
 def _store_q(st, k, q0, q1, q2, q3):
     n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
     st[k] = q0 / n
