@@ -571,10 +571,21 @@ def run(st, par, gyr, acc, mag, dt, out, flags, bias):
             bias[i, k] = st[S_BIAS + k]
 
 
+# step6 and step9 hand step float64 values whatever the sequences hold: a float32 array, an int step or a float32
+# magnetometer each compiled the whole step again (~7 s on a cold cache, its helpers with it) and ran part of it in
+# float32; these small wrappers still compile once per kind of sequence (0.25 s)
 @numba.njit(**_NJ)
 def step6(st, par, g, a, h):
     """:func:`step` with gyr and acc as 3-sequences (arrays or tuples) and no magnetometer."""
-    return step(st, par, g[0], g[1], g[2], a[0], a[1], a[2], np.nan, np.nan, np.nan, h)
+    f = np.float64  # numba's float() keeps a float32 a float32
+    return step(st, par, f(g[0]), f(g[1]), f(g[2]), f(a[0]), f(a[1]), f(a[2]), np.nan, np.nan, np.nan, f(h))
+
+
+@numba.njit(**_NJ)
+def step9(st, par, g, a, m, h):
+    """:func:`step` with gyr, acc and mag as 3-sequences (arrays or tuples)."""
+    f = np.float64  # numba's float() keeps a float32 a float32
+    return step(st, par, f(g[0]), f(g[1]), f(g[2]), f(a[0]), f(a[1]), f(a[2]), f(m[0]), f(m[1]), f(m[2]), f(h))
 
 
 @numba.njit(**_NJ)

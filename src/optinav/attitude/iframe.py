@@ -467,6 +467,7 @@ class AttitudeFilter:
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
         self._step = _k.step
         self._step6 = _k.step6
+        self._step9 = _k.step9
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
         """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
@@ -493,13 +494,12 @@ class AttitudeFilter:
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
         if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
-        elif mag is None:  # lists: numbers, not a reflected list (deprecated in numba, compiled anew)
-            g0, g1, g2, a0, a1, a2 = (float(v) for v in (*gyr, *acc))
-            ok = self._step(self._state, self._par, g0, g1, g2, a0, a1, a2, math.nan, math.nan, math.nan, float(h))
-        else:
-            ok = self._step(
-                self._state, self._par, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], mag[0], mag[1], mag[2], h
-            )
+        elif mag is not None and type(gyr) is not list and type(acc) is not list and type(mag) is not list:
+            ok = self._step9(self._state, self._par, gyr, acc, mag, h)
+        else:  # lists: numbers, not a reflected list (deprecated in numba, compiled anew)
+            m = (math.nan,) * 3 if mag is None else mag
+            g0, g1, g2, a0, a1, a2, m0, m1, m2 = (float(v) for v in (*gyr, *acc, *m))
+            ok = self._step(self._state, self._par, g0, g1, g2, a0, a1, a2, m0, m1, m2, float(h))
         if not ok:
             raise OptinavError(
                 f"a sample with a non-finite gyr {list(gyr)}, acc {list(acc)} or dt {h} was not used (state unchanged)",
