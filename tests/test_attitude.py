@@ -738,3 +738,38 @@ def test_the_measurement_model_is_compiled_once():
     modes = [a for k in ("run_gd_cg", "run_qn", "run_mekf") for a in _model_mode_arguments(getattr(_kernels, k))]
     assert len(modes) == 4 and not any(isinstance(a, ir.Const) for a in modes), modes
     assert len(_kernels._model.signatures) <= 1
+
+
+def test_the_paper_kernels_copy_arrays_without_slice_assignment():
+    """numba compiles a slice assignment's shape-mismatch message (string formatting) on first use: 2.4 s of a
+    cold process's first gd/cg/qn/mekf call went to ``q[:] = tmp`` and ``state[0:4] = q``. The kernels copy element
+    by element (their bytecode is read: what numba's on-disk cache holds does not matter), with the same results
+    as before (the BROAD comparison in the commit)."""
+    from numba.core import ir
+    from numba.core.compiler import run_frontend
+    from numba.core.registry import CPUDispatcher
+
+    from optinav.attitude import _kernels
+
+    def guard(get, var):
+        try:
+            return get(var)
+        except KeyError:  # a loop variable: defined more than once, never a slice
+            return None
+
+    def is_slice(fir, st):
+        if isinstance(st, ir.StaticSetItem):
+            return isinstance(st.index, slice)
+        if isinstance(st, ir.SetItem):  # a[i:j] = b: the index is a call of the global slice
+            d = guard(fir.get_definition, st.index)
+            f = guard(fir.get_definition, d.func) if isinstance(d, ir.Expr) and d.op == "call" else None
+            return getattr(f, "value", None) is slice
+        return False
+
+    kernels = {k: v for k, v in vars(_kernels).items() if isinstance(v, CPUDispatcher)}
+    assert {"run_gd_cg", "run_qn", "run_mekf", "_right_rotate", "_left_rotate"} <= set(kernels)
+    found = []
+    for name, k in kernels.items():
+        fir = run_frontend(k.py_func)
+        found += [name for b in fir.blocks.values() for st in b.body if is_slice(fir, st)]
+    assert not found, found

@@ -6,6 +6,9 @@ numpy functions of :mod:`optinav.attitude.measurement`. Per-sample loops allocat
 kernels run at ~1 µs per sample or less. Every loop kernel takes a ``state`` array that it reads at the
 start and writes back at the end: the streaming classes call the same kernel with one sample.
 
+Arrays are copied element by element, never by slice assignment (``a[0:4] = b``): numba compiles that one's
+shape-mismatch message (string formatting) on first use, 2.4 s of a cold process's first gd/cg/qn/mekf call.
+
 Quaternions ``[w, x, y, z]``, ``q`` = q_b^n. Error-angle parameterizations (``mode``):
 0 = body frame (right perturbation, ``q ⊗ exp(δθ/2)``), 1 = navigation frame (left, ``exp(φ/2) ⊗ q``),
 2 = quaternion tangent (4 columns, ``d/dq`` of the model on the unit sphere).
@@ -64,11 +67,19 @@ def _qmul_into(p, r, out):
 
 
 @numba.njit(**_NJ)
+def _copy(dst, src):
+    """dst[:] = src, element by element (module docstring). A function of its own: the same loops written out at
+    the end of run_gd_cg made its per-sample loop 8 % slower (LLVM optimized it otherwise)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@numba.njit(**_NJ)
 def _right_rotate(q, vx, vy, vz, dq, tmp):
     """q ← q ⊗ exp(v/2) (body-frame rotation vector v)."""
     _rotvec_quat(vx, vy, vz, dq)
     _qmul_into(q, dq, tmp)
-    q[:] = tmp
+    q[0], q[1], q[2], q[3] = tmp[0], tmp[1], tmp[2], tmp[3]
     _normalize(q)
 
 
@@ -77,7 +88,7 @@ def _left_rotate(q, vx, vy, vz, dq, tmp):
     """q ← exp(v/2) ⊗ q (navigation-frame rotation vector v)."""
     _rotvec_quat(vx, vy, vz, dq)
     _qmul_into(dq, q, tmp)
-    q[:] = tmp
+    q[0], q[1], q[2], q[3] = tmp[0], tmp[1], tmp[2], tmp[3]
     _normalize(q)
 
 
@@ -288,9 +299,9 @@ def run_gd_cg(gyr, acc, dt, un, use_pol, sn, Cbm, c2, s2, wpol, min_d2, gain, co
         out[i, 1] = q[1]
         out[i, 2] = q[2]
         out[i, 3] = q[3]
-    state[0:4] = q
-    state[4:8] = gp
-    state[8:12] = dp
+    _copy(state[0:4], q)
+    _copy(state[4:8], gp)
+    _copy(state[8:12], dp)
     state[12] = it
 
 
@@ -417,8 +428,8 @@ def run_qn(
         out[i, 1] = q[1]
         out[i, 2] = q[2]
         out[i, 3] = q[3]
-    state[0:4] = q
-    state[4:13] = H.ravel()
+    _copy(state[0:4], q)
+    _copy(state[4:13], H.ravel())
 
 
 # --- multiplicative EKF with gyro bias ---------------------------------------------------------------------
@@ -674,6 +685,6 @@ def run_mekf(
             bias_out[i, 0] = bias[0]
             bias_out[i, 1] = bias[1]
             bias_out[i, 2] = bias[2]
-    state[0:4] = q
-    state[4:7] = bias
-    state[7:43] = P.ravel()
+    _copy(state[0:4], q)
+    _copy(state[4:7], bias)
+    _copy(state[7:43], P.ravel())
