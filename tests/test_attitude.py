@@ -701,28 +701,34 @@ def test_every_filter_refuses_the_input_its_method_takes_not_in_one_line():
         assert f.q_b_n is None, method  # nothing was used
 
 
-def _model_mode_arguments(kernel):
-    """The definitions of the ``mode`` arguments (the 11th) of every call to ``_model`` in ``kernel``'s bytecode."""
-    from numba.core import ir
-    from numba.core.compiler import run_frontend
+def _source_tree(kernel):
+    """The syntax tree of a compiled kernel's Python source (the standard library's ast: what the kernel passes and
+    assigns, whatever numba's on-disk cache holds)."""
+    import ast
+    import inspect
+    import textwrap
 
-    fir = run_frontend(kernel.py_func)
-    out = []
-    for block in fir.blocks.values():
-        for e in block.find_exprs("call"):
-            f = fir.get_definition(e.func)
-            if isinstance(f, ir.Global) and f.name == "_model":
-                out.append(fir.get_definition(e.args[10]))
-    return out
+    return ast.parse(textwrap.dedent(inspect.getsource(kernel.py_func)))
+
+
+def _model_mode_arguments(kernel):
+    """The ``mode`` arguments (the 11th) of every call to ``_model`` in ``kernel``'s source."""
+    import ast
+
+    return [
+        c.args[10]
+        for c in ast.walk(_source_tree(kernel))
+        if isinstance(c, ast.Call) and isinstance(c.func, ast.Name) and c.func.id == "_model"
+    ]
 
 
 def test_the_measurement_model_is_compiled_once():
     """gd/cg handed the shared model its error-angle mode as the constant 2, qn as 1, mekf as 0 and
     measurement_error as a variable: numba typed each constant as a literal and compiled the model four times
-    (~1 s each on a cold cache). Every caller passes an int64 value now (its bytecode is read, so the check does
+    (~1 s each on a cold cache). Every caller passes an int64 value now (its source is read, so the check does
     not depend on what numba's on-disk cache holds), this process compiled at most one signature, and every
     method still follows a noise-free motion with polarization."""
-    from numba.core import ir
+    import ast
 
     from optinav.attitude import _kernels
 
@@ -736,40 +742,31 @@ def test_the_measurement_model_is_compiled_once():
         F, _, rows = measurement_error(d["q"], d["acc"], pol=pol, jacobian=mode)
         assert (rows == 5).sum() > 900 and np.abs(F[rows == 5]).max() < 1e-12
     modes = [a for k in ("run_gd_cg", "run_qn", "run_mekf") for a in _model_mode_arguments(getattr(_kernels, k))]
-    assert len(modes) == 4 and not any(isinstance(a, ir.Const) for a in modes), modes
+    assert len(modes) == 4 and not any(isinstance(a, ast.Constant) for a in modes), [ast.dump(a) for a in modes]
     assert len(_kernels._model.signatures) <= 1
 
 
 def test_the_paper_kernels_copy_arrays_without_slice_assignment():
     """numba compiles a slice assignment's shape-mismatch message (string formatting) on first use: 2.4 s of a
     cold process's first gd/cg/qn/mekf call went to ``q[:] = tmp`` and ``state[0:4] = q``. The kernels copy element
-    by element (their bytecode is read: what numba's on-disk cache holds does not matter), with the same results
+    by element (their source is read: what numba's on-disk cache holds does not matter), with the same results
     as before (the BROAD comparison in the commit)."""
-    from numba.core import ir
-    from numba.core.compiler import run_frontend
+    import ast
+
     from numba.core.registry import CPUDispatcher
 
     from optinav.attitude import _kernels
-
-    def guard(get, var):
-        try:
-            return get(var)
-        except KeyError:  # a loop variable: defined more than once, never a slice
-            return None
-
-    def is_slice(fir, st):
-        if isinstance(st, ir.StaticSetItem):
-            return isinstance(st.index, slice)
-        if isinstance(st, ir.SetItem):  # a[i:j] = b: the index is a call of the global slice
-            d = guard(fir.get_definition, st.index)
-            f = guard(fir.get_definition, d.func) if isinstance(d, ir.Expr) and d.op == "call" else None
-            return getattr(f, "value", None) is slice
-        return False
 
     kernels = {k: v for k, v in vars(_kernels).items() if isinstance(v, CPUDispatcher)}
     assert {"run_gd_cg", "run_qn", "run_mekf", "_right_rotate", "_left_rotate"} <= set(kernels)
     found = []
     for name, k in kernels.items():
-        fir = run_frontend(k.py_func)
-        found += [name for b in fir.blocks.values() for st in b.body if is_slice(fir, st)]
+        for node in ast.walk(_source_tree(k)):
+            targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+            for t in targets:
+                if isinstance(t, ast.Subscript) and (
+                    isinstance(t.slice, ast.Slice)
+                    or (isinstance(t.slice, ast.Tuple) and any(isinstance(e, ast.Slice) for e in t.slice.elts))
+                ):
+                    found.append(f"{name}: {ast.unparse(node)[:60]}")
     assert not found, found
