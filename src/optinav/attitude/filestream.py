@@ -712,11 +712,12 @@ def _stream_offline(
     opts = dict(IFRAME_DEFAULTS)
     opts.update(_options("iframe", dict(o.options)))
     blk = max(int(chunk_rows), 2)
-    fields = {"t": 1, "gyr": 3, "acc": 3, "dts": 1, "q": 4, "bias": 3, "flags": 3, "qg": 4, "v": 3}
+    # bfw: the forward pass's bias (the 6D heading's blended bias; with a magnetometer the offline heading's rate
+    # uncertainty)
+    fields = {"t": 1, "gyr": 3, "acc": 3, "dts": 1, "q": 4, "bias": 3, "flags": 3, "qg": 4, "v": 3, "bfw": 3}
     if src.mag:
-        # bfw: the forward pass's bias (the offline heading's rate uncertainty); hx: the offline heading's Φ = ∫up_b dt
-        # and its filtered series (iframe._smoothed_offset)
-        fields.update(mag=3, bfw=3, hx=6)
+        # hx: the offline heading's Φ = ∫up_b dt and its filtered series (iframe._smoothed_offset)
+        fields.update(mag=3, hx=6)
     if score is not None:
         fields.update(q_ref=4, movement=1)
     # without an output file (a batch unit) the scratch file goes to the temporary folder
@@ -862,8 +863,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
         r[:, c["q"]] = f.q_b_n
         r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
-        if "bfw" in c:
-            r[:, c["bfw"]] = f.gyr_bias
+        r[:, c["bfw"]] = f.gyr_bias
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
     st = _if.reversed_state(st)
@@ -929,6 +929,20 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         for s in range(a, b, blk):
             r = store.read(s, min(s + blk, b)).copy()
             r[:, c["q"]] = _if.tilt_halfway(col(r, "q"), col(r, "v"), frame)
+            store.write(s, r)
+    if "mag" not in c:  # 6D: iframe.blended_bias's heading, the elapsed times summed again as in the forward pass
+        q, t0, psi0 = col(store.read(a, a + 1), "q")[0].copy(), 0.0, None
+        for s in range(a, b, blk):
+            r = store.read(s, min(s + blk, b)).copy()
+            h = col(r, "dts")[:, 0]
+            t = np.cumsum(np.r_[t0, h])[1:]
+            t0 = float(t[-1])
+            share = _if.backward_share(t, t_run, h_last, opts["tau_acc"])
+            qg = np.empty((r.shape[0], 4))
+            _k.strapdown(col(r, "gyr"), _if.blended_bias(col(r, "bfw"), col(r, "bias"), share), h, qg, q)
+            psi = _if.gyro_heading(col(r, "q"), qg, frame)
+            psi0 = psi[0] if psi0 is None else psi0
+            r[:, c["q"]] = _if.heading_turned(col(r, "q"), psi - psi0, frame)
             store.write(s, r)
     _offline_heading(store, a, b, opts, frame, blk, True, p_bias)
     return lat
