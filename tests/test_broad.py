@@ -315,31 +315,6 @@ def test_a_9d_recording_cut_in_motion_keeps_its_bias_and_heading(name, after_s, 
     assert np.degrees(np.abs(est.gyr_bias[: int(60 / tr.dt)])).max() < 1.0
 
 
-def test_a_cut_in_fast_rotation_keeps_its_bias():
-    """Trial 29 (about 400 °/s about changing axes, a lever arm's centripetal acceleration) cut to start 10 s into
-    its motion, no rest to learn the bias from. The low-passed C_b^I of so fast a rotation is small, so the motion
-    update's rows are short; its variance floor grew with |row|² and the gain per unit correction rate with
-    1/|row|: the lever arm's correction rates became bias, z at the 2 °/s clip within 10 s, 6D heading drift
-    34.8° RMSE and 9D heading 6.1° (VQF 5.0° and 2.3°; the whole trial's bias is about 0.2 °/s). The floor now
-    bounds that gain: 12.0° and 2.9°."""
-    p = SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat"
-    if not p.is_file():
-        pytest.skip("trial 29 absent")
-    tr = load_broad(p)
-    mv = np.flatnonzero(tr.eval_mask)
-    s = slice(int(mv[0] + 10.0 / tr.dt), int(mv[-1] - 10.0 / tr.dt))
-    est = estimate(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", checks=False)
-    e = earth_error_quaternion(est.q_b_n, tr.q_ref[s])
-    ok = np.isfinite(e[:, 0])
-    psi = np.unwrap(2.0 * np.arctan2(e[ok, 3], e[ok, 0]))
-    drift = np.degrees(rmse(psi - psi[0], tr.eval_mask[s][ok]))
-    assert drift < 15.0, drift  # VQF 5.0
-    b = run_iframe(tr.gyr[s], tr.acc[s], np.array([tr.dt]), frame="ENU").gyr_bias
-    assert np.degrees(np.abs(b)).max() < 1.0  # 0.75; 1.97 before (the clip is 2)
-    est = estimate(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", mag=tr.mag[s], checks=False)
-    assert np.degrees(rmse(heading_error(est.q_b_n, tr.q_ref[s]), tr.eval_mask[s])) < 3.5  # VQF 2.3
-
-
 def _heading_drift_deg(q, q_ref, mask) -> float:
     """RMSE (deg) over ``mask`` of BROAD's heading error less its value at the first sample with a reference."""
     e = earth_error_quaternion(q, q_ref)
@@ -348,17 +323,41 @@ def _heading_drift_deg(q, q_ref, mask) -> float:
     return float(np.degrees(rmse(psi - psi[0], mask[ok])))
 
 
+def _cut_in_motion(name: str, start_s: float):
+    """(trial, slice): BROAD trial ``name`` from ``start_s`` s after its first movement sample to 10 s before its
+    last (benchmarks/bench_attitude_cuts.py's cuts); skips when the trial is absent."""
+    p = next((SHARED / "attitude" / "broad" / f"{name}{x}" for x in (".hdf5", ".mat")
+              if (SHARED / "attitude" / "broad" / f"{name}{x}").is_file()), None)  # fmt: skip
+    if p is None:
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    mv = np.flatnonzero(tr.eval_mask)
+    return tr, slice(int(mv[0] + start_s / tr.dt), int(mv[-1] - 10.0 / tr.dt))
+
+
+def test_a_cut_in_fast_rotation_keeps_its_bias():
+    """Trial 29 (about 400 °/s about changing axes, a lever arm's centripetal acceleration) cut to start 10 s into
+    its motion, no rest to learn the bias from. The low-passed C_b^I of so fast a rotation is small, so the motion
+    update's rows are short; its variance floor grew with |row|² and the gain per unit correction rate with
+    1/|row|: the lever arm's correction rates became bias, z at the 2 °/s clip within 10 s, 6D heading drift
+    34.8° RMSE and 9D heading 6.1° (VQF 5.0° and 2.3°; the whole trial's bias is about 0.2 °/s). The floor now
+    bounds that gain: 12.0° and 2.9°."""
+    tr, s = _cut_in_motion("29_disturbed_stationary_magnet_B", 10.0)
+    est = estimate(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", checks=False)
+    drift = _heading_drift_deg(est.q_b_n, tr.q_ref[s], tr.eval_mask[s])
+    assert drift < 15.0, drift  # VQF 5.0
+    b = run_iframe(tr.gyr[s], tr.acc[s], np.array([tr.dt]), frame="ENU").gyr_bias
+    assert np.degrees(np.abs(b)).max() < 1.0  # 0.75; 1.97 before (the clip is 2)
+    est = estimate(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", mag=tr.mag[s], checks=False)
+    assert np.degrees(rmse(heading_error(est.q_b_n, tr.q_ref[s]), tr.eval_mask[s])) < 3.5  # VQF 2.3
+
+
 def test_the_offline_6d_heading_of_a_cut_in_motion_drifts_less_than_the_online_one():
     """Trial 11 (slow translation) cut 30 s into its motion, 6D: the fused heading came from the forward pass at
     the end and from the backward one at the start, which carried the forward end's heading back with its own bias:
     18.1° drift RMSE offline against 11.5° online (VQF offline 11.5°). The heading is now the gyro's with each
     pass's bias where that pass has run longer (iframe.blended_bias): 0.3°. The tilt is untouched."""
-    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 11 absent")
-    tr = load_broad(p)
-    mv = np.flatnonzero(tr.eval_mask)
-    s = slice(int(mv[0] + 30.0 / tr.dt), int(mv[-1] - 10.0 / tr.dt))
+    tr, s = _cut_in_motion("11_undisturbed_slow_translation_B", 30.0)
     ref, mask = tr.q_ref[s], tr.eval_mask[s]
     on = estimate_q(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", checks=False)
     off = estimate_q(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", offline=True, checks=False)
