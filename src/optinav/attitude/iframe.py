@@ -33,9 +33,10 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   zero-phase refinement: the specific force in the almost-inertial frame of the smoothed bias, low-passed
   forward and backward (Butterworth, same ``tau_acc``, each end extended by its first ``tau_acc`` s' mean), gives
   a lag-free up direction; the fused estimate is turned halfway towards it (tilt only). Without a magnetometer
-  the heading is then the gyro's with :func:`blended_bias` (each pass's bias where that pass has run longer). With a magnetometer the
-  heading is then the gyro's (the strapdown of the smoothed bias, :func:`gyro_heading`) plus its offset to the
-  field's azimuth, a random walk smoothed by a Kalman filter and its Rauch–Tung–Striebel pass over the samples
+  the heading is then the gyro's with :func:`blended_bias` (each pass's bias where that pass has run longer).
+  With a magnetometer the heading is the gyro's (the strapdown of the smoothed bias, :func:`gyro_heading`) plus
+  its offset to the field's azimuth, a random walk smoothed by a Kalman filter and its Rauch–Tung–Striebel pass
+  over the samples
   either pass used: time constant ``tau_mag_smooth`` with a perfect gyro, shorter where the forward pass's
   vertical bias differs from the smoothed one (that difference over ``tau_mag_smooth`` against the azimuth's
   scatter), plus the heading a constant error δb of the smoothed bias turns (Φᵀδb, Φ = ∫up_b dt; δb from the
