@@ -382,7 +382,8 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     bx_, by_, bz_ = _motion_row(st, L, c0, c1, c2, c3, wx, wy, wz)
                     z0 = -(ex * nx + ey * ny + ez * nz) / h
                     z1 = -(ex * wx + ey * wy + ez * wz) / h
-                    s_tr = _quad(P, ax_, ay_, az_) + _quad(P, bx_, by_, bz_)
+                    qa, qb = _quad(P, ax_, ay_, az_), _quad(P, bx_, by_, bz_)
+                    s_tr = qa + qb
                     # a correction rate beyond the bias bound is not bias (VQF clips it too): the start's levelling,
                     # an acceleration the low-pass let through. Clipped as a horizontal vector and one variance for
                     # both rows (R = r·I), so that the update does not depend on the heading (per-row clips and
@@ -418,9 +419,7 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
                     if not skip:
                         na = max(ax_ * ax_ + ay_ * ay_ + az_ * az_, 1e-24)
                         nb = max(bx_ * bx_ + by_ * by_ + bz_ * bz_, 1e-24)
-                        s_dir = 0.5 * (
-                            _quad(P, ax_, ay_, az_) / math.sqrt(na) + _quad(P, bx_, by_, bz_) / math.sqrt(nb)
-                        )
+                        s_dir = 0.5 * (qa / math.sqrt(na) + qb / math.sqrt(nb))
                         r = max(r0, par[P_BIAS_LOOP] * par[P_TAU_ACC] * s_dir / h)
                         _bias_update(st, ax_, ay_, az_, z0, r, clip)
                         _bias_update(st, bx_, by_, bz_, z1, r, clip)

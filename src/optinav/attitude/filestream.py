@@ -886,7 +886,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         store.write(s, r)
     n = b - a
     p_bias = st[_k.S_P : _k.S_P + 9].copy()  # the smoothed bias's covariance (the offline heading's prior)
-    if n < 16 or not finite:
+    if n < _if.MIN_REFINE_ROWS or not finite:  # iframe.refinable, the rows' finiteness gathered block by block
         _offline_heading(store, a, b, opts, frame, blk, False, p_bias)
         return lat
     # zero-phase refinement: strapdown with the smoothed bias, the specific force in its frame ("v")

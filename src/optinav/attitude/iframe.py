@@ -261,7 +261,7 @@ def run_iframe(
     _k.strapdown(gyr, np.ascontiguousarray(bias), dts, qg, q[0].copy())
     q = _zero_phase_tilt(q, qg, acc, dts, frame, opts["tau_acc"])
     used = fwd.mag_used | bwd.mag_used[::-1]
-    if not m.shape[0] and gyr.shape[0] >= 16 and np.isfinite(acc).all():
+    if not m.shape[0] and refinable(acc):
         # 6D: the heading the gyro carries with each pass's bias where that pass has run longer
         _k.strapdown(gyr, blended_bias(fwd.gyr_bias, bias, share), dts, qg, q[0].copy())
         psi = gyro_heading(q, qg, frame)
@@ -386,6 +386,16 @@ def heading_turned(q, out, frame) -> np.ndarray:
     return quat_multiply(quat_from_rotvec(-a[:, None] * _UP[frame_name(frame)][None, :]), q)
 
 
+#: the fewest samples the offline refinements (zero-phase tilt, 6D gyro heading) take
+MIN_REFINE_ROWS = 16
+
+
+def refinable(acc) -> bool:
+    """Whether the offline refinements run on a recording with the accelerometer ``acc`` (N, 3): at least
+    :data:`MIN_REFINE_ROWS` samples, every one finite (else the fused passes are the result)."""
+    return acc.shape[0] >= MIN_REFINE_ROWS and bool(np.isfinite(acc).all())
+
+
 def _zero_phase_tilt(q, qg, acc, dts, frame, tau):
     """Offline tilt refinement: the specific force low-passed in the almost-inertial frame ``qg`` (N, 4) of the
     smoothed bias (:func:`_iframe.strapdown`) with a zero-phase (forward–backward) Butterworth filter of the same time constant, its input extended at each
@@ -397,7 +407,7 @@ def _zero_phase_tilt(q, qg, acc, dts, frame, tau):
     from optinav.core.rotations import quat_conjugate, quat_rotate
 
     n = qg.shape[0]
-    if n < 16 or not np.isfinite(acc).all():
+    if not refinable(acc):
         return q
     b, a, pad = zero_phase_filter(dts, tau, n)
     x = quat_rotate(qg, acc)
