@@ -625,7 +625,7 @@ def _kalibr_csv(table: Table, found: dict, candidates: dict, implied: dict) -> N
     """Kalibr's IMU CSV (``kalibr_bagcreater``: ``timestamp,omega_x..z,alpha_x..z``; ns, rad/s, m/s²), where
     ``alpha`` is the accelerometer: its columns become ``ax..az`` and its timestamp ns, when the file holds
     omega and alpha triads and nothing else looks like an accelerometer."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if not all(f"{p}_{a}" in norm for p in ("omega", "alpha") for a in "xyz"):
         return
     if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc")):
@@ -647,7 +647,7 @@ def _ardupilot_imu(table: Table) -> set[str]:
     msg, inst = _ardupilot_message(table)
     if msg is None:
         return set()
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if inst is not None and table.data[inst].dtype.kind == "f" and table.data[inst].ndim == 1:
         ids = np.unique(table.data[inst][np.isfinite(table.data[inst])])
         if ids.size > 1:
@@ -664,7 +664,7 @@ def _ardupilot_imu(table: Table) -> set[str]:
 def _ardupilot_message(table: Table) -> tuple[str | None, str | None]:
     """(message name IMU/ACC/GYR, its instance column or None) of a mavlogdump CSV of ArduPilot's IMU, ACC or GYR
     message (TimeUS and a GyrX..Z or AccX..Z triad); (None, None) for another table."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     triads = [p for p in ("gyr", "acc") if all(f"{p}{a}" in norm for a in "xyz")]
     if "timeus" not in norm or not triads:
         return None, None
@@ -743,7 +743,7 @@ def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
     time where there is one). vehicle_imu holds increments over its integration period: ``delta_angle[0..2]`` (rad)
     over ``delta_angle_dt`` and ``delta_velocity[0..2]`` (m/s) over ``delta_velocity_dt`` (µs) become the mean
     rate and specific force of each period."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     inc = {
         kind: ([norm.get(f"{name}_{a}") for a in "xyz"], norm.get(f"{name}_dt"))
         for kind, name in (("g", "delta_angle"), ("a", "delta_velocity"))
@@ -995,7 +995,7 @@ def _android_linear(table: Table) -> set[str]:
     """The columns of Android's linear acceleration (``LINEAR ACCELERATION X (m/s²)``: gravity taken out) in a
     file that holds the accelerometer (``ACCELEROMETER X``) too, as AndroSensor writes them: passed over, named in
     ``table.meta["gravity_free"]``. (ROS's ``linear_acceleration`` holds gravity, and stands alone.)"""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if not all(f"accelerometer_{a}" in norm for a in "xyz"):
         return set()
     keys = {norm[f"linear_acceleration_{a}"] for a in "xyz" if f"linear_acceleration_{a}" in norm}
@@ -1013,7 +1013,7 @@ def _gforce_linear(table: Table) -> set[str]:
     """The linear accelerometer's columns (``ax``…, gravity taken out) of a Physics Toolbox export that holds its
     g-force meter (``gFx``…) too (``time,gFx,gFy,gFz,ax,ay,az,wx,wy,wz,…``): passed over, named in
     ``table.meta["gravity_free"]``; :func:`_gforce` takes the g-force meter."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if not all(k in norm for k in _PTB_GFORCE) or not all(k in norm for k in _PTB_LINEAR):
         return set()
     keys = {norm[k] for k in _PTB_LINEAR}
@@ -1027,7 +1027,7 @@ def _gforce(table: Table, found: dict, candidates: dict) -> None:
     columns state a unit, when nothing else was taken for it."""
     if any(k in found or k in candidates for k in ("ax", "ay", "az", "acc")):
         return
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if not all(k in norm for k in _PTB_GFORCE):
         return
     for a, k in zip("xyz", _PTB_GFORCE):
@@ -1058,7 +1058,7 @@ def _sensor_logger(table: Table, found: dict, candidates: dict) -> None:
     ``AccelerometerUncalibrated.csv`` naming the columns and unit to read it with: Sensor Logger writes it in g and
     as minus the specific force on iOS by default, in m/s² as it is on Android (and on iOS with "Standardise Units &
     Frames")."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     if _sensor_named(found, candidates) or not {"x", "y", "z"} <= set(norm):
         return
     stem = re.sub(r"\s*\(\d+\)$", "", table.path.name.split(".")[0]).lower()
@@ -1110,7 +1110,7 @@ def _wrist_motion(table: Table, found: dict, candidates: dict) -> None:
     gravity, a unit vector of either, tells which (norm 1 or 9.81 in every row)."""
     if not _wrist_motion_split(table) or _sensor_named(found, candidates):
         return
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     grav = np.column_stack([table.data[norm[f"gravity{a}"]] for a in "xyz"])
     size = np.linalg.norm(grav, axis=1)
     size = size[np.isfinite(size)]
@@ -1204,7 +1204,7 @@ def _coremotion(table: Table, found: dict, candidates: dict) -> None:
     acceleration is minus the specific force (a phone lying face up reads z = -1 g), so the accelerometer is
     negated, a column mapped by name too; without the raw accelerometer it is -(userAcceleration + gravity). The
     gyroscope is gyroRotation, else motionRotationRate; the time the accelerometer's (else the gyro's) stamp."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
 
     def triad(prefix: str) -> list[str] | None:
         keys = [norm.get(prefix + a) for a in "xyz"]
@@ -1255,7 +1255,7 @@ def _split_stamp(table: Table, found: dict, candidates: dict, implied: dict) -> 
     ``header {stamp {sec, nanosec}}`` flattened, or bare ``sec`` and ``nanosec``) becomes the time, ``sec +
     nanosec·1e-9`` s as a bag's header stamp is read, when nothing else is the time (the file was refused as one
     without time, pass --rate) or the time is that ``sec`` (whole seconds: duplicate timestamps)."""
-    norm = {normalize_name(k)[0]: k for k in table.data}
+    norm = table.normal_names()
     pairs = {
         k[: -len("sec")]: (norm[k], norm[k[: -len("sec")] + frac])
         for k in norm
@@ -1462,7 +1462,7 @@ def _part_of(
                 "give the accelerometer's file first and the gyroscope's as gyro_path=GYRODATA",
             )
         names = "ax, ay, az" if need == "acc" else "gx, gy, gz" if need == "gyro" else "ax..az, gx..gz"
-        bare = {normalize_name(k)[0]: k for k in table.data if normalize_name(k)[0] in ("x", "y", "z")}
+        bare = {n: k for n, k in table.normal_names().items() if n in ("x", "y", "z")}
         if len(bare) == 3:
             # one sensor per file, its axes named x, y, z (Sensor Logger, many phone apps): which sensor is unsaid
             pairs = ",".join(f"{{0}}{a}={bare[a]}" for a in "xyz")

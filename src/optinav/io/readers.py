@@ -127,6 +127,11 @@ class Table:
         low = [k for k in self.data if k.lower() == name.lstrip("/").lower()]
         return low[0] if len(low) == 1 else None
 
+    def normal_names(self) -> dict[str, str]:
+        """{normalized name (:func:`normalize_name`: a unit in brackets, case, spaces aside) → key} of the arrays
+        now in ``data`` (a later key with the same normalized name wins)."""
+        return {normalize_name(k)[0]: k for k in self.data}
+
     def get(self, name: str) -> np.ndarray:
         """The array called ``name`` (see :meth:`find`); a clear error listing what exists otherwise."""
         key = self.find(name)
