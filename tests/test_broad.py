@@ -163,8 +163,30 @@ def test_nine_trials_offline_better_than_online(nine):
 
 
 def test_nine_trials_9d_heading_meets_target(nine):
-    """9D heading (magnetometer, disturbed trials included) meets the ≤ 2.0° target (VQF online 2.21°)."""
-    assert nine[:, 2].mean() <= 2.0, nine[:, 2]
+    """9D heading (magnetometer, disturbed trials included) meets the ≤ 2.0° target (VQF online 2.21°): 1.75°
+    (1.93° before the field less a body-fixed offset was used through trial 33's attached magnet)."""
+    assert nine[:, 2].mean() <= 1.8, nine[:, 2]
+
+
+def test_an_attached_magnet_is_fitted_and_the_heading_holds():
+    """Trial 33: a magnet attached 2 cm from the IMU from about 40 s to 100 s while it turns (~130 °/s). The field
+    read in the body less the reference turned with the attitude is a constant (−3, −0.3, +27) µT, scatter
+    1.3 µT per axis. The gates rejected it all and the online heading followed the gyro, 5° off by 95 s: 9D
+    2.69° RMSE (VQF 3.70°). The offset fitted on the disturbed samples (hard_iron_tau) lets the field less it be
+    used from ~65 s: 1.10°; off, the stretch is the gyro's alone again."""
+    name = "33_disturbed_attached_magnet_2cm"
+    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
+    if not p.is_file():
+        pytest.skip(f"{name} absent")
+    tr = load_broad(p)
+    f = lambda **o: run_iframe(tr.gyr, tr.acc, np.array([tr.dt]), mag=tr.mag, frame="ENU", **o)  # noqa: E731
+    r, r0 = f(), f(hard_iron_tau=0.0)
+    on, on0 = (np.degrees(rmse(heading_error(x.q_b_n, tr.q_ref), tr.eval_mask)) for x in (r, r0))
+    assert on < 1.3 and on0 > 2.5, (on, on0)
+    stretch = slice(int(65 / tr.dt), int(95 / tr.dt))
+    assert r.mag_used[stretch].mean() > 0.9 and r0.mag_used[stretch].mean() < 0.1
+    fitted = r.mag_offset[stretch][r.mag_offset[stretch].any(axis=1)]
+    assert np.abs(np.median(fitted, axis=0) - [-3.0, -0.3, 26.7]).max() < 1.0, np.median(fitted, axis=0)
 
 
 def test_output_lags_the_reference_by_half_a_sample_not_by_the_integration():

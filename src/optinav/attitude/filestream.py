@@ -862,7 +862,7 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         finite &= bool(np.isfinite(acc).all())
         f = _if._run(st, par, col(r, "gyr"), acc, mag(r), col(r, "dts")[:, 0])
         r[:, c["q"]] = f.q_b_n
-        r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, f.mag_used])
+        r[:, c["flags"]] = np.column_stack([f.rest, f.acc_used, _if.measured_used(f)])
         r[:, c["bfw"]] = f.gyr_bias
         store.write(s, r)
     # backward: reversed step j runs from sample i + 1 to i with −ω_{i+1} over dt_{i+1} (the last: 0 over dt_{b−1})
@@ -882,7 +882,9 @@ def _offline_segment(store: _Scratch, a: int, b: int, opts: dict, frame: str, q0
         share = _if.backward_share(col(r, "v")[:, 0], t_run, h_last, opts["tau_acc"])
         r[:, c["q"]] = _if._fuse(col(r, "q"), w.q_b_n[::-1], share)
         r[:, c["bias"]] = -w.gyr_bias[::-1]
-        r[:, c["flags"]] = np.column_stack([flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | w.mag_used[::-1]])
+        r[:, c["flags"]] = np.column_stack(
+            [flags[:, 0] | w.rest[::-1], flags[:, 1], flags[:, 2] | _if.measured_used(w)[::-1]]
+        )
         store.write(s, r)
     n = b - a
     p_bias = st[_k.S_P : _k.S_P + 9].copy()  # the smoothed bias's covariance (the offline heading's prior)

@@ -36,6 +36,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "mag_new_time": 20.0,  # s, a steady new field becomes the reference after this time
     "tau_mag_ref": 30.0,  # s, averaging time of the learned reference
     "tau_mag_smooth": 20.0,  # s, offline: the heading offset's smoother (gyro-carried heading vs field); 0 = off
+    "hard_iron_tau": 10.0,  # s, averaging time of a body-fixed field offset fitted while disturbed; 0 = off
     "mag_current_tau": 0.05,  # s, low-pass of the field's norm and dip seen by the new-field candidate; 0 = none
     "latency": 0.0,  # s, how late the IMU's samples are: the output is predicted that far ahead
 }
