@@ -428,6 +428,13 @@ class _Blocks:
             if pol.dop:
                 names["dop"] = pol.dop
         self.names = names
+        if not self.broad and (names or self.witness is not None):
+            from optinav.io.imu import MULTI_RECORD_BESIDE, multi_record, reader_options
+
+            if multi_record(self.path, **reader_options(o, gyro_path=None, gyro_columns=None)):
+                if names:
+                    raise OptinavError(f"{self.path.name}: {MULTI_RECORD_BESIDE[0]}", MULTI_RECORD_BESIDE[1])
+                self.witness = None  # its rows are not the samples': no magnetometer to check against
 
     def __iter__(self):
         blocks = self._broad() if self.broad else self._text()

@@ -110,7 +110,11 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     mag = None
     if want_mag:
         from optinav.attitude.filestream import _column, _mag_names, mag_triad
+        from optinav.io.imu import MULTI_RECORD_BESIDE, multi_record
         from optinav.io.readers import MissingColumn
+
+        if o.gyro_path is None and multi_record(path, **reader_options(o)):
+            raise OptinavError(f"{Path(path).name}: {MULTI_RECORD_BESIDE[0]}", MULTI_RECORD_BESIDE[1])
 
         names, signs = _mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]

@@ -119,8 +119,24 @@ def _analyse(args, notes: ReaderNotes, need_kalibr: bool):
     """The analysis of DATA (and of --gyro GYRODATA), with Kalibr's rostopic: --rostopic, else a bag's Imu topic."""
     from optinav.core.allan import analyse_blocks, analyse_pair
 
-    blocks = _blocks(args, args.data, args.columns, notes)
     topic = args.rostopic or ""
+    if not args.gyro_path:
+        from optinav.io.imu import reader_options, sensor_logs
+
+        # several sensors' rows in one file: each triad on its own rows and clock, as two files are
+        pair = sensor_logs(args.data, **reader_options(args, gyro_path=None, gyro_columns=None))
+        if pair is not None:
+            acc, gyr = (list(notes.watch([log])) for log in pair)
+            if args.sensor != "both":
+                return analyse_blocks(
+                    acc if args.sensor == "acc" else gyr,
+                    args.sensor,
+                    source=str(args.data),
+                    rostopic=topic,
+                    need_kalibr=need_kalibr,
+                )
+            return analyse_pair(acc, gyr, sources=(str(args.data),) * 2, rostopic=topic, need_kalibr=need_kalibr)
+    blocks = _blocks(args, args.data, args.columns, notes)
     if args.gyro_path:
         gyro = _blocks(args, args.gyro_path, args.gyro_columns, notes)
         res = analyse_pair(

@@ -1037,6 +1037,75 @@ def _gforce(table: Table, found: dict, candidates: dict) -> None:
         candidates[f"a{a}"] = key
 
 
+#: Physics Toolbox's gyroscope (rad/s) beside its g-force meter: a multi record, several sensors in one file
+_PTB_GYRO = ("wx", "wy", "wz")
+
+
+def _sensor_rows(v: np.ndarray) -> np.ndarray:
+    """The rows of a multi record that hold a new sample of the triad ``v`` (N×3): its rows not left blank where
+    others are (the other sensors' rows), else the rows where it differs from the row above (the other sensors'
+    rows repeat its last sample; exact zeros before its first)."""
+    finite = np.all(np.isfinite(v), axis=1)
+    if not finite.all():
+        return finite
+    new = np.ones(v.shape[0], bool)
+    new[1:] = np.any(v[1:] != v[:-1], axis=1)
+    nonzero = np.any(v != 0, axis=1)
+    new[: int(np.argmax(nonzero)) if nonzero.any() else v.shape[0]] = False
+    return new
+
+
+def _multi_record(part: _Part) -> bool:
+    """Whether ``part`` holds Physics Toolbox's g-force meter and gyroscope (``gFx…``, ``wx…``) with a time column:
+    its multi record, each row written when one of its sensors gives a sample (:func:`_split_sensors`)."""
+    names = {k: [normalize_name(s)[0] for s in part.srcs.get(k, ())] for k in ("acc", "gyro")}
+    return part.t is not None and names["acc"] == list(_PTB_GFORCE) and names["gyro"] == list(_PTB_GYRO)
+
+
+def _split_sensors(part: _Part) -> _Part | None:
+    """Physics Toolbox Sensor Suite's multi record (``time,gFx,gFy,gFz,…,wx,wy,wz,…``; each row written at one
+    sensor's sample, the other sensors' cells blank, or holding their last sample and 0 before their first:
+    d33pk3rn3l/Navigation_23FS_ETHZ read_sensor_output.py, the 0.0000 rows of a multi record's start in
+    vehicle-classification README's example) read as two sensors on their own rows: ``part`` is cut to the
+    accelerometer's rows and the gyroscope's part returned on its own rows and times (None when every row holds a
+    sample of both). Read as one log, the rows would pair each sample with a repeated or a blank one."""
+    if not _multi_record(part):
+        return None
+    rows = {"accelerometer": _sensor_rows(part.acc), "gyroscope": _sensor_rows(part.gyro)}
+    if all(r.all() for r in rows.values()):
+        return None
+    for kind, r in rows.items():
+        if np.count_nonzero(r) < 2:
+            raise OptinavError(
+                f"{part.path.name}: a multi record whose {kind} holds {np.count_nonzero(r)} sample(s)",
+                "record for longer, with the sensor switched on in the app",
+            )
+    ra, rg = rows["accelerometer"], rows["gyroscope"]
+    n = part.n
+    table = part.table
+    gyro = _Part(
+        path=part.path,
+        table=Table(path=table.path, kind=table.kind, data=table.data, units=table.units),
+        n=int(np.count_nonzero(rg)),
+        t=part.t[rg],
+        t_name=part.t_name,
+        gyro=part.gyro[rg],
+        declared=part.declared,
+        implied=part.implied,
+        srcs={"gyro": part.srcs["gyro"]},
+        used=part.used,
+    )
+    part.t, part.acc, part.gyro, part.n = part.t[ra], part.acc[ra], gyro.gyro, gyro.n
+    for name in ("labels", "sample"):
+        v = getattr(part, name)
+        if v is not None:
+            setattr(part, name, v[ra])
+    part.n = int(np.count_nonzero(ra))
+    part.finite.discard("gyro")
+    table.meta["multi_record"] = f"{part.n} of its {n} rows, the gyroscope on its {gyro.n}"
+    return gyro
+
+
 #: Sensor Logger's files (one per sensor: ``time`` in ns since the epoch, ``seconds_elapsed``, then ``z, y, x``;
 #: tszheichoi/awesome-sensor-logger UNITS.md, COORDINATES.md) by name: the sensor of the ones optinav reads, or why
 #: the file is none of them
@@ -1740,12 +1809,70 @@ def read_imu(
     need = "acc" if gyro_path is not None else None
     main = _read_part(path, columns, datasets, delimiter, need, "columns", topic, skip_bad_lines)
     parts = [main]
+    split = _split_sensors(main)  # several sensors' rows in one file: main cut to the accelerometer's
+    if split is not None and gyro_path is None:
+        parts.append(split)
     if gyro_path is not None:
         gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns", None, skip_bad_lines)
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
     return _log_of(parts, *opts)
+
+
+def multi_record(path, **kw) -> bool:
+    """Whether ``path`` holds several sensors' rows in one file (Physics Toolbox's multi record,
+    :func:`_split_sensors`), judged on its first rows: its samples are then not its rows, and a column beside the
+    IMU (a magnetometer) is not on the accelerometer's rows. ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
+    from optinav.io.readers import _file_kind
+
+    try:
+        if _file_kind(Path(path))[0] != "text":  # the app writes CSV; a bag's or an archive's first rows cost more
+            return False
+    except OptinavError:
+        return False  # read_imu names what is wrong with the file
+    _, mapping, negated, tkw = _part_spec(
+        kw.get("columns"), kw.get("datasets"), "columns", kw.get("topic"), kw.get("skip_bad_lines", False)
+    )
+    blocks = iter(iter_table(Path(path), delimiter=kw.get("delimiter"), chunk_rows=64, **tkw))
+    try:
+        first = next(blocks, None)
+        part = None if first is None else _part_of(path, first, mapping, None, "columns", block=True, negated=negated)
+    except OptinavError:
+        return False  # read_imu names what is wrong with the file
+    finally:
+        blocks.close()
+    return part is not None and _multi_record(part)
+
+
+def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
+    """The accelerometer and the gyroscope of a file holding several sensors' rows (Physics Toolbox's multi record,
+    :func:`_split_sensors`) as two logs, each on its own rows and clock: what the Allan deviation needs (either
+    interpolated onto the other's times is low-passed); None for another file, of which only the first rows are
+    read. ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
+    if not multi_record(path, **kw):
+        return None
+    opts = _imu_options(
+        kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
+        kw.get("unit_defaults"),
+    )  # fmt: skip
+    main = _read_part(
+        path, kw.get("columns"), kw.get("datasets"), kw.get("delimiter"), None, "columns", kw.get("topic"),
+        kw.get("skip_bad_lines", False),
+    )  # fmt: skip
+    gyro = _split_sensors(main)
+    if gyro is None:
+        return None
+    main.gyro = None
+    return _log_of([main], *opts), _log_of([gyro], *opts)
+
+
+#: what to do with a magnetometer (or any column read beside the IMU by its row) of a multi record
+MULTI_RECORD_BESIDE = (
+    "a Physics Toolbox multi record writes each row at one sensor's sample, so a column read beside the IMU row by "
+    "row (the magnetometer Bx, By, Bz) is not on the accelerometer's rows",
+    "drop --mag/--mag-columns (the attitude from the accelerometer and gyroscope alone)",
+)
 
 
 def _imu_options(acc_unit, gyro_unit, time_unit, rate, gyro_path, gyro_columns, unit_defaults=None):
@@ -1868,7 +1995,7 @@ def _log_of(
         gyr=gyro,
         acc_unit="counts" if acc_in == "counts" else "m/s^2",
         gyro_unit="counts" if gyro_in == "counts" else "rad/s",
-        source=" + ".join(str(p.path) for p in parts),
+        source=" + ".join(dict.fromkeys(str(p.path) for p in parts)),
         n_rows_read=main.n,
         labels=main.labels,
         sample=main.sample,
@@ -2051,6 +2178,8 @@ _LAYOUT_NOTES = {
     "the accelerometer, in {v}",
     "sensor_logger": "Sensor Logger's file read by its name as the {v} (its columns z, y, x are the axes)",
     "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
+    "multi_record": "Physics Toolbox's multi record (each row one sensor's sample, the others' cells blank or "
+    "repeated): the accelerometer read on {v}",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "
     "the poses)",
 }
@@ -2201,6 +2330,11 @@ class ImuChunks:
                 if not (table.row0 == 0 and table.fixed):
                     raise
                 part = None
+            if table.row0 == 0 and part is not None and _multi_record(part):
+                # several sensors' rows in one file: each sensor's rows found over the whole file (read_imu)
+                tables.close()
+                yield from self._whole()
+                return
             if table.row0 == 0 and table.fixed and (part is None or part.used & table.fixed):
                 # an array taken is not of the samples' length: read whole (read_imu's result or error)
                 tables.close()
