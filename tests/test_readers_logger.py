@@ -567,6 +567,63 @@ def test_a_zip_that_is_not_npz_is_named(tmp_path):
     assert read_imu(tmp_path / "ok.npz").acc.shape == (3, 3)
 
 
+def _phyphox_set(t, xyz, label, unit):
+    """One export set as phyphox writes it into its CSV zip (phyphox-android DataExport.java: quoted names, values
+    as 0.000000000E0; the simple experiment's names, SimpleExperimentCreator.java)."""
+    head = ",".join(f'"{h}"' for h in ["Time (s)", *(f"{label} {a} ({unit})" for a in "xyz")])
+    return head + "\n" + "".join(",".join("%.9E" % v for v in (ti, *x)) + "\n" for ti, x in zip(t, xyz))
+
+
+def test_phyphox_export_of_several_sensors_names_the_files_to_pass(tmp_path, capsys):
+    """phyphox exports an experiment of several sensors (its 'simple experiment' of accelerometer, gyroscope and
+    magnetometer) as a zip of one CSV per sensor, each on its own times, beside meta/device.csv and meta/time.csv, or
+    as an Excel workbook of one sheet per sensor. The zip was 'a zip archive of 5 text table(s) …; extract it and
+    pass one table', the folder it unzips to 'is a folder; check the path', the workbook 'save the sheet as CSV'
+    (which sheet, and the gyroscope?). Each now names the files and the flag: Accelerometer.csv with --gyro
+    Gyroscope.csv, which read to the truth (time in s, m/s², rad/s interpolated onto the accelerometer's times)."""
+    import zipfile
+
+    gyr, acc = _triads(31, 400)
+    ta, tg = 0.0031 + np.arange(400) / 200.0, 0.0007 + np.arange(400) / 200.0
+    files = {
+        "Accelerometer.csv": _phyphox_set(ta, acc, "Acceleration", "m/s^2"),
+        "Gyroscope.csv": _phyphox_set(tg, gyr, "Gyroscope", "rad/s"),
+        "Magnetometer.csv": _phyphox_set(ta[::4], np.tile([0.0, 20.0, -40.0], (100, 1)), "Magnetic field", "µT"),
+        "meta/device.csv": '"property","value"\n"version","1.1.16"\n',
+        "meta/time.csv": '"event","experiment time","system time","system time text"\n',
+    }
+    z = tmp_path / "Simple 2025-01-01 10-00-00.zip"
+    folder = tmp_path / "Simple"
+    with zipfile.ZipFile(z, "w") as w:
+        for name, text in files.items():
+            w.writestr(name, text)
+    with zipfile.ZipFile(z) as w:
+        w.extractall(folder)
+    x = tmp_path / "Simple.xlsx"
+    with zipfile.ZipFile(x, "w") as w:
+        sheets = ("Accelerometer", "Gyroscope", "Magnetometer", "Metadata Device", "Metadata Time")
+        xml = "".join(f'<sheet name="{n}" sheetId="{i}" r:id="rId{i}"/>' for i, n in enumerate(sheets, 1))
+        w.writestr("xl/workbook.xml", f"<workbook><sheets>{xml}</sheets></workbook>")
+        w.writestr("[Content_Types].xml", "<Types/>")
+    for path, where in ((z, ""), (folder, f"{folder}/"), (x, "")):
+        for cmd in (["allan"], ["calibrate", "accel"], ["attitude"]):
+            out = tmp_path / ("o.csv" if cmd == ["attitude"] else "o.json")
+            assert main([*cmd, str(path), "--out", str(out)]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and "phyphox's" in err[0], err
+            assert (
+                f"pass {where}Accelerometer.csv (the accelerometer with gravity) with --gyro {where}Gyroscope.csv"
+                in err[0]
+            )
+    assert "export it as 'CSV (Comma, decimal point)'" in str(pytest.raises(OptinavError, read_imu, x).value)
+    log = read_imu(folder / "Accelerometer.csv", gyro_path=folder / "Gyroscope.csv")
+    keep = ta <= tg[-1]  # the accelerometer's rows within the gyroscope's span
+    np.testing.assert_allclose(log.t, ta[keep], rtol=1e-9, atol=0)
+    np.testing.assert_allclose(log.acc, acc[keep], rtol=1e-9, atol=1e-12)
+    want = np.column_stack([np.interp(ta[keep], tg, gyr[:, j]) for j in range(3)])
+    np.testing.assert_allclose(log.gyr, want, rtol=1e-9, atol=1e-12)
+
+
 @pytest.mark.parametrize("sep", [";", "\t", " "])
 def test_decimal_commas_read_where_comma_is_not_the_delimiter(tmp_path, sep):
     """A German / French Excel or LibreOffice export, phyphox's "CSV (semicolon, decimal comma)": ';' (or tab)

@@ -237,7 +237,9 @@ def require_files(*items: tuple[str | None, str]) -> None:
                     "running, or one that did not close)",
                     "pass one of its .db3/.mcap files, or reindex the bag (ros2 bag reindex)",
                 )
-            raise OptinavError(f"{what} {Path(path)} is a folder", "check the path")
+            from optinav.io.readers import _folder_error
+
+            raise _folder_error(Path(path), what) or OptinavError(f"{what} {Path(path)} is a folder", "check the path")
 
 
 def load_option_result(cls, path, option: str, needs: str):

@@ -696,7 +696,9 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     if node == "dir" and kitti_oxts_folder(path) is not None:
         return "kitti_oxts", False
     if node == "dir":
-        raise OptinavError(f"{path} is a directory, not a data file", "pass the file inside it")
+        raise _folder_error(path, "data file") or OptinavError(
+            f"{path} is a directory, not a data file", "pass the file inside it"
+        )
     gz = path.suffix.lower() == ".gz"
     suffix = _suffix(path)
     try:
@@ -707,6 +709,8 @@ def _file_kind(path: Path) -> tuple[str, bool]:
         raise OptinavError(f"cannot read {path} ({exc.strerror})", "check the file and its permissions") from None
     if size == 0:
         raise OptinavError(f"data file {path} is empty", "pass a file with data rows")
+    if head.startswith(b"PK\x03\x04"):
+        _zip_is_npz(path)  # an .xlsx or a phone app's zip named for what it is, whatever its suffix
     try:
         kind = _sniff_kind(head, SUFFIXES.get(suffix), gz)
     except OptinavError as exc:
@@ -724,31 +728,109 @@ def _file_kind(path: Path) -> tuple[str, bool]:
     return kind, gz
 
 
+#: phyphox's export sets (phyphox-android DataExport.java: a CSV per set in the zip, a sheet per set in the Excel
+#: export, beside meta/device.csv and meta/time.csv or the sheets "Metadata Device" and "Metadata Time"), as its
+#: simple experiment names them (SimpleExperimentCreator.java: Accelerometer — "Acceleration x (m/s^2)", gravity
+#: in it —, Gyroscope, Magnetometer, Linear Acceleration — gravity taken out); a built-in experiment's one set is
+#: "Raw Data"
+_PHYPHOX_META = ("meta/device.csv", "meta/time.csv", "Metadata Device", "Metadata Time")
+
+
+def export_files(names, header=None, prefix: str = "") -> tuple[str, str] | None:
+    """(what it is, what to do) for the files of a phone app's export of several sensors — a zip's members, a
+    folder's files or a workbook's sheets, ``names`` — that optinav reads one file at a time: Sensor Logger's
+    (TotalAcceleration.csv or AccelerometerUncalibrated.csv beside Gyroscope.csv; awesome-sensor-logger UNITS.md)
+    or phyphox's (:data:`_PHYPHOX_META`); None for other names. ``header(name)`` gives a table's first line (the
+    sensor of phyphox's "Raw Data"); ``prefix`` goes before the names to pass (a folder's path)."""
+    base = {Path(n).name.lower(): n for n in names}
+    acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
+    if acc and "gyroscope.csv" in base:  # Accelerometer.csv has gravity taken out
+        return (
+            "Sensor Logger's export",
+            f"pass {prefix}{acc} (the accelerometer with gravity) with gyro_path={prefix}{base['gyroscope.csv']}",
+        )
+    if not any(n.strip("/") in _PHYPHOX_META for n in names):
+        return None
+    # a set's file (a sheet of the Excel export is the same set's .csv in the CSV export)
+    stem = {Path(n).stem.lower(): n if n.lower().endswith(".csv") else f"{n}.csv" for n in names}
+    stem = {k: v for k, v in stem.items() if not v.startswith("meta/") and "metadata" not in k}
+    sets = [Path(v).stem for v in stem.values()]
+    what = f"phyphox's export of {len(sets)} sensor set(s) ({', '.join(sorted(sets))})"
+    raw = stem.get("raw data")
+    if raw is not None:
+        if header is not None and "linear acceleration" in (header(raw) or "").lower():
+            return what, "it holds the linear acceleration (gravity taken out): record with 'Acceleration with g'"
+        return what, f"pass {prefix}{raw}"
+    if "accelerometer" in stem and "gyroscope" in stem:
+        return (
+            what,
+            f"pass {prefix}{stem['accelerometer']} (the accelerometer with gravity) with "
+            f"gyro_path={prefix}{stem['gyroscope']} (each on its own times)",
+        )
+    if "accelerometer" in stem or "gyroscope" in stem:
+        return what, f"pass {prefix}{stem.get('accelerometer') or stem['gyroscope']}"
+    if "linear acceleration" in stem:
+        return what, "Linear Acceleration has gravity taken out: add the Accelerometer (with g) to the experiment"
+    return what, "it holds neither an accelerometer nor a gyroscope"
+
+
+def _folder_error(path: Path, what: str) -> OptinavError | None:
+    """The error for a folder that is a phone app's unzipped export (:func:`export_files`), else None."""
+    try:
+        names = [p.name for p in path.glob("*.csv")] + [f"meta/{p.name}" for p in (path / "meta").glob("*.csv")]
+    except OSError:
+        return None
+
+    def header(name):
+        with open(path / name, encoding="utf-8", errors="replace") as fh:
+            return fh.readline()
+
+    found = export_files(names, header, prefix=f"{path}/")
+    return None if found is None else OptinavError(f"{what} {path} is a folder, {found[0]}", found[1])
+
+
 def _zip_is_npz(path: Path) -> None:
-    """A zip that is not NumPy's .npz named for what it is: an Office workbook (whose content-types entry
-    openpyxl writes last), a zip of CSV files (a phone app's export), anything else."""
+    """A zip that is not NumPy's .npz named for what it is: an Office workbook (phyphox's Excel export named as such;
+    openpyxl writes the content-types entry last), a zip of CSV files (a phone app's export: the files to pass),
+    anything else."""
     import zipfile
 
     try:
         with zipfile.ZipFile(path) as z:
             names = z.namelist()
-    except (zipfile.BadZipFile, OSError, ValueError):
+            tables = [n for n in names if n.lower().endswith((".csv", ".txt", ".tsv"))]
+            sheets = (
+                re.findall(r'<sheet [^>]*name="([^"]+)"', z.read("xl/workbook.xml").decode("utf-8", "replace"))
+                if "xl/workbook.xml" in names
+                else []
+            )
+
+            def header(name):
+                with z.open(name) as fh:
+                    return fh.readline(4096).decode("utf-8", "replace")
+
+            found = export_files(tables, header) if tables else None
+    except (zipfile.BadZipFile, OSError, ValueError, KeyError):
         return  # the NPZ reader names the damage
     if not names or all(n.endswith(".npy") for n in names):
         return
     if "[Content_Types].xml" in names or any(n.startswith("xl/") for n in names):
+        phyphox = export_files(sheets)
+        if phyphox is not None:
+            raise OptinavError(
+                f"{path.name} is an Office (.xlsx) workbook, {phyphox[0].replace('export', 'Excel export', 1)}",
+                "export it as 'CSV (Comma, decimal point)' instead"
+                + (f", extract that zip and {phyphox[1]}" if phyphox[1].startswith("pass") else f"; {phyphox[1]}"),
+            )
         raise OptinavError(f"{path.name} is an Office (.xlsx) workbook, not a data table", "save the sheet as CSV")
-    tables = [n for n in names if n.lower().endswith((".csv", ".txt", ".tsv"))]
     if tables:
         shown = ", ".join(tables[:4]) + (", …" if len(tables) > 4 else "")
-        base = {Path(n).name.lower(): n for n in tables}
-        acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
-        remedy = "extract it and pass one table"
-        if acc and "gyroscope.csv" in base:  # Sensor Logger's export: Accelerometer.csv has gravity taken out
-            remedy = (
-                f"extract it and pass {acc} (the accelerometer with gravity) with gyro_path={base['gyroscope.csv']}"
-            )
-        raise OptinavError(f"{path.name} is a zip archive of {len(tables)} text table(s) ({shown})", remedy)
+        if found is not None:
+            remedy = f"extract it and {found[1]}" if found[1].startswith("pass") else found[1]
+            raise OptinavError(f"{path.name} is a zip archive, {found[0]}", remedy)
+        raise OptinavError(
+            f"{path.name} is a zip archive of {len(tables)} text table(s) ({shown})", "extract it and pass one table"
+        )
     raise OptinavError(
         f"{path.name} is a zip archive ({', '.join(names[:3])}{', …' if len(names) > 3 else ''}), not NumPy's .npz",
         "extract the data and pass it as CSV, NPZ, HDF5 or MAT",
