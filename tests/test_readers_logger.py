@@ -929,6 +929,46 @@ def _sensor_logger_file(path, t, xyz, t0=1698000000123456789):
     return _w(path, "time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
 
 
+def test_sensor_logger_headphone_is_its_own_imu_never_the_phones(tmp_path, capsys):
+    """Sensor Logger's Headphone.csv (AirPods; awesome-sensor-logger UNITS.md: time in ns, seconds_elapsed,
+    rotationRate rad/s, gravity m/s², acceleration with gravity taken out in g by default, quaternion, devicelocation)
+    was read as an accelerometer: its gravity-free acceleration in g taken for the specific force in m/s² (allan:
+    exit 0 on it). Now it is the headphones' own IMU: its gyroscope (allan reads it, x, y, z, 200 Hz); calibrate and
+    attitude, alone or paired with the phone's TotalAcceleration.csv, end in one line naming it another device."""
+    n, t0 = 600, 1698000000123456789
+    gyr, acc = _triads(41, n)
+    t = np.arange(n) / 200.0
+    grav = np.tile([0.0, 0.0, -9.80665], (n, 1))
+    user = np.random.default_rng(41).normal(0, 0.002, (n, 3))
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    head = "time,seconds_elapsed,rotationRateX,rotationRateY,rotationRateZ,gravityX,gravityY,gravityZ,accelerationX,"
+    head += "accelerationY,accelerationZ,quaternionW,quaternionX,quaternionY,quaternionZ,roll,pitch,yaw,devicelocation"
+    rows = [
+        ",".join([str(t0 + 5_000_000 * i), *(repr(float(v)) for v in np.r_[t[i], gyr[i], grav[i], user[i], quat[i]])])
+        + ",0,0,0,left"
+        for i in range(n)
+    ]
+    path = _w(tmp_path / "Headphone.csv", head + "\n" + "\n".join(rows) + "\n")
+    log = read_imu(path)
+    assert log.acc is None
+    np.testing.assert_array_equal(log.gyr, gyr)
+    np.testing.assert_allclose(log.t - log.t[0], t, rtol=0, atol=1e-6)
+    assert log.t[0] == pytest.approx(t0 * 1e-9, abs=1e-6)
+    assert main(["allan", str(path), "--out", str(tmp_path / "a.json")]) == 0
+    assert "600 samples at 200 Hz" in capsys.readouterr().out
+    phone = _sensor_logger_file(tmp_path / "TotalAcceleration.csv", t, acc, t0=t0)
+    for argv in (
+        ["calibrate", "accel", str(path), "--out", str(tmp_path / "r.json")],
+        ["attitude", str(path), "--out", str(tmp_path / "o.csv")],
+        ["attitude", str(phone), "--gyro", str(path), "--out", str(tmp_path / "o.csv")],
+        ["calibrate", "accel", str(path), "--gyro", str(path), "--out", str(tmp_path / "r.json")],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "Headphone.csv is Sensor Logger's headphone motion" in err[0], err
+        assert "another device than the phone" in err[0] and "TotalAcceleration.csv with --gyro Gyroscope.csv" in err[0]
+
+
 def test_sensor_logger_files_read_by_their_names(tmp_path, capsys):
     """Sensor Logger's export, a file per sensor under fixed names: TotalAcceleration.csv (Android, gravity in it,
     m/s²), Gyroscope.csv (rad/s), Accelerometer.csv (gravity taken out), AccelerometerUncalibrated.csv (iOS: g and

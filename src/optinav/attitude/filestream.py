@@ -452,6 +452,10 @@ class _Blocks:
             self.position = chunks.position
             self.notes += [n for n in log.notes if n not in self.notes]
             if log.acc is None or log.gyr is None:
+                from optinav.io.imu import headphone_error
+
+                if log.acc is None and headphone_error(chunks) is not None:
+                    raise headphone_error(chunks)
                 has = "only the accelerometer" if log.acc is not None else "only the gyroscope"
                 raise OptinavError(
                     f"{self.path} has {has}: the attitude needs the accelerometer and the gyroscope in one file",

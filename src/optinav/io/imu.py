@@ -1201,6 +1201,47 @@ def _wrist_motion(table: Table, found: dict, candidates: dict) -> None:
     table.meta["wrist_motion"] = "m/s^2, as it is" if standard else "g, negated (Core Motion's sign)"
 
 
+def _headphone_split(table: Table) -> set[str]:
+    """Sensor Logger's ``Headphone.csv`` (AirPods' motion, awesome-sensor-logger UNITS.md: ``rotationRateX…`` in
+    rad/s, ``accelerationX…`` with gravity taken out, in g — in m/s² with "Standardise Units & Frames" —,
+    ``gravityX…`` in m/s² either way, ``quaternionW…``, ``devicelocation``): its acceleration and gravity columns,
+    passed over (nothing in the file says the acceleration's unit, so no sum of the two is the specific force);
+    :func:`_headphone` takes its gyroscope. Named in ``table.meta["headphone"]``."""
+    norm = {normalize_name(k)[0] for k in table.data}
+    if not table.path.name.lower().startswith("headphone") or "seconds_elapsed" not in norm:
+        return set()
+    if not all(f"{p}{a}" in norm for p in ("rotationrate", "gravity", "acceleration") for a in "xyz"):
+        return set()
+    table.meta["headphone"] = table.path.name
+    return {k for k in table.data if normalize_name(k)[0][:-1] in ("acceleration", "gravity")}
+
+
+def _headphone(table: Table, found: dict, candidates: dict) -> None:
+    """The gyroscope ``rotationRate`` (rad/s) of Sensor Logger's ``Headphone.csv`` (:func:`_headphone_split`): the
+    headphones' own IMU, another device than the phone's."""
+    if "headphone" not in table.meta or _sensor_named(found, candidates):
+        return
+    norm = table.normal_names()
+    for a in "xyz":
+        candidates[f"g{a}"] = norm[f"rotationrate{a}"]
+
+
+#: the headphones' motion is another device than the phone: never paired with the phone's sensors
+HEADPHONE = (
+    "{name} is Sensor Logger's headphone motion (AirPods), another device than the phone, and holds no accelerometer "
+    "with gravity (its acceleration has gravity taken out, in g or m/s² as 'Standardise Units & Frames' was set)",
+    "read it on its own (optinav allan {name}: its gyroscope), and the phone's TotalAcceleration.csv with "
+    "gyro_path=Gyroscope.csv for the attitude or a calibration",
+)
+
+
+def headphone_error(chunks) -> OptinavError | None:
+    """The error for a command that needs an accelerometer given Sensor Logger's ``Headphone.csv``
+    (:data:`HEADPHONE`; ``chunks`` the :class:`ImuChunks` that read it), else None."""
+    name = None if chunks.table is None else chunks.table.meta.get("headphone")
+    return None if name is None else OptinavError(*(x.format(name=name) for x in HEADPHONE))
+
+
 #: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
 _UTC_OFFSET = re.compile(r"^(?:utc|gmt)?\s*[+-]\d{1,2}(?::?\d{2})?$", re.IGNORECASE)
 
@@ -1378,6 +1419,7 @@ def _part_of(
     candidates: dict[str, str] = {}
     _select_instance(table)
     passed_over = _ardupilot_imu(table) | _android_linear(table) | _gforce_linear(table) | _wrist_motion_split(table)
+    passed_over |= _headphone_split(table)
     passed_over |= _ronin(table)
     _one_frame(table)
     for key in table.data:
@@ -1406,6 +1448,7 @@ def _part_of(
         if key is not None and normalize_name(key)[0] == "time":
             implied.setdefault(key, "ns")
         _wrist_motion(table, found, candidates)
+        _headphone(table, found, candidates)
         _sensor_logger(table, found, candidates)
     _coremotion(table, found, candidates)
     _split_stamp(table, found, candidates, implied)
@@ -1520,6 +1563,8 @@ def _part_of(
         )
     if table.bad_rows.size and part.t is None:
         _lost_rows(part, table.bad_rows)
+    if need is not None and "headphone" in table.meta:  # paired with another file: the phone's
+        raise OptinavError(*(x.format(name=part.path.name) for x in HEADPHONE))
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
         other = {"acc": "gyro", "gyro": "acc"}.get(need or "")
@@ -2178,6 +2223,8 @@ _LAYOUT_NOTES = {
     "the accelerometer, in {v}",
     "sensor_logger": "Sensor Logger's file read by its name as the {v} (its columns z, y, x are the axes)",
     "gravity_free": "{v} (the phone's linear acceleration, gravity taken out) passed over for the accelerometer",
+    "headphone": "Sensor Logger's headphone motion read as its own IMU: rotationRate the gyroscope (rad/s); its "
+    "acceleration (gravity taken out) and gravity passed over, no accelerometer",
     "multi_record": "Physics Toolbox's multi record (each row one sensor's sample, the others' cells blank or "
     "repeated): the accelerometer read on {v}",
     "text_left_out": "column(s) {v} hold text and were left out (map one with label=NAME in columns if it names "

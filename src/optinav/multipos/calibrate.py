@@ -2141,7 +2141,11 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     notes: list = []
     for log in progress_blocks(blocks, "read"):
         if log.acc is None:
-            raise OptinavError(f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,...")
+            from optinav.io.imu import headphone_error
+
+            raise headphone_error(blocks) or OptinavError(
+                f"{path} has no accelerometer columns", "name them with --columns t,ax,ay,az,..."
+            )
         acc, acc_unit = raw_units(log, "acc")
         gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
         # the rows of the whole file from the bytes per row since the first block (text files: the reader reads
