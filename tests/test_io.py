@@ -596,6 +596,41 @@ def test_mat_v73_is_read_transposed_back(tmp_path):
     assert read_table(tmp_path / "tab.mat", columns="t,ax,ay,az")["ay"].tolist() == acc[:, 1].tolist()
 
 
+@needs_h5py
+def test_mat_v73_objects_name_the_matlab_lines_that_save_their_numbers(tmp_path, capsys):
+    """MATLAB Mobile's sensor log saved with -v7.3 keeps each sensor as a timetable, a MATLAB object (MCOS): a dataset
+    of uint32 (0xDD000000, dims, object id, class id) with MATLAB_class 'timetable' and MATLAB_object_decode 3, its
+    content in '#subsystem#' (matio's mat73 reader; MATLAB's v7.3 layout). Its metadata was read as the data:
+    "'Acceleration' has shape (6,), expected (N, 3)". Now, as a v5 file's objects, one line naming them and the MATLAB
+    lines that save plain arrays (which read)."""
+    from optinav.cli.main import main
+
+    path = tmp_path / "sensorlog_20240501_100000.mat"
+    _write_mat73(path, {"note": "phone"})
+    with h5py.File(path, "r+") as f:
+        for i, name in enumerate(("Acceleration", "AngularVelocity"), 1):
+            ds = f.create_dataset(name, data=np.array([[0xDD000000, 2, 1, 1, i, 1]], dtype=np.uint32).T)
+            ds.attrs["MATLAB_class"] = np.bytes_("timetable")
+            ds.attrs["MATLAB_object_decode"] = np.int32(3)
+        f.create_dataset("#subsystem#/MCOS", data=np.zeros((4, 1), np.uint32)).attrs["MATLAB_class"] = np.bytes_(
+            "FileWrapper__"
+        )
+    for cmd in (["allan"], ["calibrate", "accel"], ["attitude"]):
+        out = tmp_path / ("o.csv" if cmd == ["attitude"] else "o.json")
+        assert main([*cmd, str(path), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "holds MATLAB objects" in err[0] and "Acceleration (timetable)" in err[0], err
+        assert "acc = Acceleration{:,:}; save('acc.mat','t','acc')" in err[0] and "--gyro gyro.mat" in err[0]
+    with pytest.raises(OptinavError, match="AngularVelocity .timetable."):
+        read_imu(path, datasets={"gyro": "AngularVelocity"})
+    t = np.arange(5) * 0.01
+    acc = np.arange(15.0).reshape(5, 3)
+    _write_mat73(tmp_path / "acc.mat", {"t": t, "acc": acc})  # what the MATLAB lines save (-v7.3 too)
+    log = read_imu(tmp_path / "acc.mat")
+    np.testing.assert_array_equal(log.t, t)
+    np.testing.assert_array_equal(log.acc, acc)
+
+
 # --- real data ------------------------------------------------------------------------------------------------
 
 

@@ -522,13 +522,19 @@ def check_mat5(path: Path) -> None:
         except zlib.error:
             return  # scipy raises its own (Python) error for a damaged stream
     if objects:
-        raise OptinavError(
-            f"{path.name} holds MATLAB objects, which only MATLAB reads ({', '.join(objects)}; MATLAB Mobile's sensor "
-            "log keeps each sensor as a timetable)",
-            "save their numbers in MATLAB: t = posixtime(Acceleration.Timestamp); acc = Acceleration{:,:}; "
-            "save('acc.mat','t','acc'); t = posixtime(AngularVelocity.Timestamp); gyro = AngularVelocity{:,:}; "
-            "save('gyro.mat','t','gyro'); then give acc.mat with gyro_path=gyro.mat",
-        )
+        raise mat_objects_error(path, objects)
+
+
+def mat_objects_error(path: Path, objects: list[str]) -> OptinavError:
+    """The error for a MATLAB file (v5/v7 or v7.3) holding MATLAB objects, ``NAME (CLASS)`` each: the MATLAB lines
+    that save their numbers as plain arrays."""
+    return OptinavError(
+        f"{path.name} holds MATLAB objects, which only MATLAB reads ({', '.join(objects)}; MATLAB Mobile's sensor "
+        "log keeps each sensor as a timetable)",
+        "save their numbers in MATLAB: t = posixtime(Acceleration.Timestamp); acc = Acceleration{:,:}; "
+        "save('acc.mat','t','acc'); t = posixtime(AngularVelocity.Timestamp); gyro = AngularVelocity{:,:}; "
+        "save('gyro.mat','t','gyro'); then give acc.mat with gyro_path=gyro.mat",
+    )
 
 
 def _mcos_object(buf: bytes, e: str) -> str | None:

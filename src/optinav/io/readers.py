@@ -2234,17 +2234,29 @@ def _h5_open(path: Path, only: Sequence[str] | None, *, matlab: bool):
             elif np.size(v) == 1 and np.asarray(v).dtype.kind in "iuf":
                 table.meta[k] = repr(float(np.asarray(v).ravel()[0]))  # e.g. a sampling_rate attribute
         found: list[str] = []
+        objects: dict[str, str] = {}  # MATLAB objects (MCOS: timetable, table, string …), opaque without MATLAB
 
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset) and not (matlab and name.startswith("#")):
-                found.append(name)
+                if matlab and "MATLAB_object_decode" in obj.attrs:
+                    objects[name] = f"{name} ({_matlab_class(obj)})"
+                else:
+                    found.append(name)
 
         fh.visititems(visit)
+        if objects and not only:
+            from optinav.io.arrayblocks import mat_objects_error
+
+            raise mat_objects_error(path, list(objects.values()))
         wanted = found
         if only:
             wanted = []
             for name in only:
                 key = _h5_find(fh, found, name, h5py)
+                if key in objects:
+                    from optinav.io.arrayblocks import mat_objects_error
+
+                    raise mat_objects_error(path, [objects[key]])
                 if key is None:
                     listed = ", ".join(found[:_MAX_LISTED]) + (" …" if len(found) > _MAX_LISTED else "")
                     raise OptinavError(
