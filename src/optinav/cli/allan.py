@@ -135,7 +135,9 @@ def _analyse(args, notes: ReaderNotes, need_kalibr: bool):
                     rostopic=topic,
                     need_kalibr=need_kalibr,
                 )
-            return analyse_pair(acc, gyr, sources=(str(args.data),) * 2, rostopic=topic, need_kalibr=need_kalibr)
+            res = analyse_pair(acc, gyr, sources=(str(args.data),) * 2, rostopic=topic, need_kalibr=need_kalibr)
+            res.source = str(args.data)  # one file
+            return res
     blocks = _blocks(args, args.data, args.columns, notes)
     if args.gyro_path:
         gyro = _blocks(args, args.gyro_path, args.gyro_columns, notes)
