@@ -942,6 +942,20 @@ def test_a_magnet_fixed_to_the_body_is_fitted_and_the_field_used_less_it():
     assert len(fitted) > 0.98 * 4500 and np.abs(fitted - magnet).max() < 0.3 and not r.mag_offset[:6000].any()
     h, h0 = (np.degrees(heading_error(x.q_b_n, q_true)) for x in (r, r0))
     assert rmse(h[s]) < 0.25 * rmse(h0[s]) and rmse(h[12500:]) < 0.1, (rmse(h[s]), rmse(h0[s]), rmse(h[12500:]))
+    # the estimate and a stream in blocks say how much of the field was used less the offset
+    from optinav.attitude.stream import StreamEstimator
+
+    est = estimate(gyr, acc, DT, mag=mag)
+    part = np.count_nonzero(r.mag_offset.any(axis=1)) / n
+    assert (
+        est.mag_offset_used == part
+        and 0.25 < part < 1 / 3
+        and f"({100 * part:.0f} % less a body-fixed" in est.summary()
+    )
+    se = StreamEstimator("iframe", frame="NED")
+    for a in range(0, n, 5000):
+        se.run(gyr[a : a + 5000], acc[a : a + 5000], np.full(len(gyr[a : a + 5000]), DT), mag=mag[a : a + 5000])
+    assert se.summary() == est.summary()
     w[6000:12000] = 0.0  # still: the same motion before and after, none during the stretch
     q_still = np.empty((n, 4))
     cur, steps = np.array([1.0, 0.0, 0.0, 0.0]), quat_from_rotvec(w * DT)

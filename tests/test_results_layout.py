@@ -222,8 +222,18 @@ def test_attitude_estimate_v4_with_the_old_field_names_loads():
     np.testing.assert_array_equal(res.q_b_n, old["fields"]["q"]["value"])
     np.testing.assert_array_equal(res.gyr_bias, old["fields"]["gyro_bias"]["value"])
     new = json.loads(res.to_json())
-    assert new["version"] == AttitudeEstimate.VERSION == 5 and "q_b_n" in new["fields"] and "q" not in new["fields"]
+    assert new["version"] == AttitudeEstimate.VERSION == 6 and "q_b_n" in new["fields"] and "q" not in new["fields"]
     assert new["parameters"] == old["parameters"]
+
+
+def test_attitude_estimate_v5_without_the_offset_fraction_loads():
+    """v5 (before ``mag_offset_used``) reads into v6 with it None (not reported), the rest as written."""
+    old = _old("attitude_v5.json")
+    assert old["version"] == 5 and "mag_offset_used" not in old["fields"]
+    res = AttitudeEstimate.from_json(LEGACY / "attitude_v5.json")
+    np.testing.assert_array_equal(res.q_b_n, old["fields"]["q_b_n"]["value"])
+    assert res.mag_offset_used is None and res.method == old["fields"]["method"]["value"]
+    assert json.loads(res.to_json())["version"] == 6
 
 
 def test_a_fresh_interpreter_reads_every_file_through_the_base_class():

@@ -108,7 +108,7 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 5
+    VERSION: ClassVar[int] = 6
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
     #: checked when a file is loaded: a number or null for q_b_n, nulls or text in rest, gyr_bias or pol_skipped
@@ -136,6 +136,9 @@ class AttitudeEstimate(Estimate):
     rest: np.ndarray | None = field(default=None, metadata={"unit": ""})
     acc_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
     mag_used: np.ndarray | None = field(default=None, metadata={"unit": ""})
+    #: iframe online: the fraction of samples whose field was used less a body-fixed offset fitted while disturbed
+    #: (a magnet on the board); None without a magnetometer or where not fitted (offline, other methods)
+    mag_offset_used: float | None = field(default=None, metadata={"unit": ""})
     offline: bool = False
     input_stage: bool = False
     segments: int = 1
@@ -185,6 +188,7 @@ class AttitudeEstimate(Estimate):
             segments=self.segments,
             rest=None if self.rest is None else float(np.mean(self.rest)),
             mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
+            mag_offset_used=self.mag_offset_used,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
         )
@@ -202,9 +206,11 @@ def summary_line(
     mag_used: float | None = None,
     pol_used: int = 0,
     pol_skipped: dict | None = None,
+    mag_offset_used: float | None = None,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
-    fractions of samples at rest and with the magnetometer used."""
+    fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
+    body-fixed offset."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
     s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
@@ -214,6 +220,8 @@ def summary_line(
         s += f"; rest {100 * rest:.0f} %"
     if mag_used is not None:
         s += f"; magnetometer used {100 * mag_used:.0f} %"
+        if mag_offset_used:
+            s += f" ({100 * mag_offset_used:.0f} % less a body-fixed offset fitted while disturbed, e.g. a magnet on the board)"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
     return s
@@ -587,6 +595,9 @@ def estimate(
             rest=cat("rest"),
             acc_used=cat("acc_used"),
             mag_used=cat("mag_used"),
+            mag_offset_used=None
+            if first.mag_offset_used is None
+            else sum(p.mag_offset_used * p.q_b_n.shape[0] for p in parts) / max(n, 1),
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
@@ -604,6 +615,7 @@ def estimate(
             rest=r.rest,
             acc_used=r.acc_used,
             mag_used=r.mag_used,
+            mag_offset_used=None if r.mag_offset is None else float(np.mean(r.mag_offset.any(axis=1))),
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
@@ -922,6 +934,8 @@ for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
     register_legacy(
         AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d, _V4_NAMES)
     )
+# 5: before mag_offset_used (None: not reported)
+register_legacy(AttitudeEstimate, "optinav.attitude.estimate", 5, lambda d: nested_kwargs(AttitudeEstimate, d))
 
 
 #: the series of a simulated attitude's truth (:func:`attitude_truth`) and their units

@@ -224,6 +224,7 @@ class StreamEstimator:
         self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
         self.n = self.rest = self.acc_hits = self.segments = 0
         self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
+        self.mag_offset_used = 0  # ... of them less a body-fixed offset fitted while disturbed (iframe)
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
         self.gyr_bias = None
         self.restart()
@@ -256,6 +257,7 @@ class StreamEstimator:
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
+                self.mag_offset_used += int(np.count_nonzero(r.mag_offset.any(axis=1)))
         else:
             counts, skipped = f.counts.copy(), dict(f._skipped)
             r = f.update_batch(gyr, acc, dts, pol=pol)
@@ -294,4 +296,5 @@ class StreamEstimator:
             mag_used=None if self.mag_used is None else self.mag_used / self.n,
             pol_used=int(self.counts[0]) if skipped is not None else 0,
             pol_skipped=skipped,
+            mag_offset_used=self.mag_offset_used / self.n if self.n else None,
         )
