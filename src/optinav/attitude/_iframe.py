@@ -235,9 +235,9 @@ def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     """Add a disturbed field sample to the body-fixed offset fit and solve it: m − Cᵀe(φ̂) = Cᵀ∂e/∂φ·δφ + b, e the
     reference field (norm, dip) at the azimuth φ̂ = −δ the heading holds, C = C(t) body → the frame before δ,
     weights exponentially forgotten over P_HI_TAU s. Sets st[S_HI_B:+3] and st[S_HI_V] (1: the fit has seen half
-    its time, rotation spread ≥ HI_MIN_SPREAD and a residual within HI_RMS_GATE of the field). Returns the azimuth (rad, as
-    step's φ) of the field less the offset when the fit is valid and that field passes the norm and dip gates,
-    else NaN."""
+    its time, rotation spread ≥ HI_MIN_SPREAD and a residual within HI_RMS_GATE of the field). Returns the
+    azimuth (rad, as step's φ) of the field less the offset when the fit is valid and that field passes the norm
+    and dip gates, else NaN."""
     ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
     nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
     wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
@@ -348,9 +348,10 @@ def _init(st, par, ax, ay, az):
 
 @numba.njit(**_NJ)
 def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
-    """The heading correction δ from one magnetometer sample (|m| = nm > 0, step h s) in the frame of t = q_c ⊗ q_g: the
-    reference's start, gates, new-field candidate and the body-fixed offset's fit. Out of :func:`step`, which calls
-    it only for a sample with a field: inlined there, its code made the 6D loop 25 % slower."""
+    """The heading correction δ from one magnetometer sample (|m| = nm > 0, step h s) in the frame of
+    t = q_c ⊗ q_g: the reference's start, gates, new-field candidate and the body-fixed offset's fit. Out of
+    :func:`step`, which calls it only for a sample with a field: inlined there, its code made the 6D loop 25 %
+    slower."""
     ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
     nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
     wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
@@ -463,6 +464,11 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
             st[S_M_DIP] = st[S_M_C_DIP]
             st[S_M_REF_T] = hm
             st[S_M_DIST_T] = 0.0
+            # the offset's fit was against the old reference
+            for j in range(10):
+                st[S_HI + j] = 0.0
+            st[S_HI_V] = 0.0
+            corr = False
         if corr:
             # the field less the fitted body-fixed offset agrees with the reference: it holds the heading
             err = -phc - st[S_DELTA]
