@@ -17,8 +17,8 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s, or after as long as the
   reference was seen (at least ``tau_acc``), judged on norm and dip low-passed over ``mag_current_tau``; while
   disturbed, a body-fixed offset (a magnet on the board) is fitted over ``hard_iron_tau`` s with the heading's
-  error (m − Cᵀe = Cᵀ∂e/∂φ·δφ + b) and, once the body has turned enough to tell them apart and the residual is
-  small, the field less it goes through the same gates (the offline heading uses the measured fields only);
+  error (m − Cᵀe = Cᵀ∂e/∂φ·δφ + b) and, once the body has turned and tilted enough to tell them apart and the
+  residual is small and below that of a field fixed in the room, the field less it goes through the same gates (the offline heading uses the measured fields only);
 * the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
   variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion); a
   correction rate beyond ``motion_gate`` σ of what the bias uncertainty explains is a sustained acceleration (a
