@@ -621,13 +621,13 @@ def test_every_filter_chunk_returns_one_run_type_with_estimate_outputs(stage):
         empty = f.update_batch(np.empty((0, 3)), np.empty((0, 3)))
         assert type(empty) is FilterRun and empty.q_b_n.shape == (0, 4), method
         got = {}
-        for name in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std"):
+        for name in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std", "mag_offset"):
             parts = [getattr(x, name) for x in (*runs, empty)]
             assert all(p is None for p in parts) or all(p is not None for p in parts), (method, name)
             got[name] = None if parts[0] is None else np.concatenate(parts)
         # the reference per sample: one update() at a time, its properties read after each
         g = make_filter(method, input_stage=stage)
-        ref = {k: [] for k in ("rest", "gyr_bias", "acc_used", "mag_used", "att_std")}
+        ref = {k: [] for k in ("rest", "gyr_bias", "acc_used", "mag_used", "att_std", "mag_offset")}
         for i in range(n):
             g.update(d["gyr"][i], d["acc"][i], dt=dts[i])
             for k in ref:
@@ -651,6 +651,7 @@ def test_every_filter_chunk_returns_one_run_type_with_estimate_outputs(stage):
             assert got["acc_used"].dtype == bool and np.array_equal(got["acc_used"], r.acc_used)
             assert np.array_equal(got["acc_used"], ref["acc_used"])
             assert got["mag_used"] is None and r.mag_used is None and set(ref["mag_used"]) == {None}  # none given
+            assert got["mag_offset"] is None and set(ref["mag_offset"]) == {None}
         else:
             assert got["acc_used"] is None and got["mag_used"] is None and r.acc_used is None, method
             assert set(ref["acc_used"]) == {None} and set(ref["mag_used"]) == {None}, method
@@ -673,7 +674,7 @@ def test_every_filter_has_no_attitude_before_its_first_sample():
 
     for method in ALL_METHODS:
         f = make_filter(method, rate_hz=100.0, input_stage=True)
-        for k in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std"):
+        for k in ("q_b_n", "rest", "gyr_bias", "acc_used", "mag_used", "att_std", "mag_offset"):
             assert getattr(f, k) is None, (method, k)
         f.update(np.zeros(3), np.array([0.0, 0.0, -G]))
         assert np.isclose(np.linalg.norm(f.q_b_n), 1.0) and f.rest is not None, method

@@ -952,6 +952,11 @@ def test_a_magnet_fixed_to_the_body_is_fitted_and_the_field_used_less_it():
         and 0.25 < part < 1 / 3
         and f"({100 * part:.0f} % less a body-fixed" in est.summary()
     )
+    one = AttitudeFilter(RATE, frame="NED")  # one sample at a time: the same offsets
+    one.update_batch(gyr[:6000], acc[:6000], mag[:6000])
+    for i in range(6000, 8000):
+        one.update(gyr[i], acc[i], mag[i])
+        assert np.array_equal(one.mag_offset, r.mag_offset[i]), i
     se = StreamEstimator("iframe", frame="NED")
     for a in range(0, n, 5000):
         se.run(gyr[a : a + 5000], acc[a : a + 5000], np.full(len(gyr[a : a + 5000]), DT), mag=mag[a : a + 5000])

@@ -766,6 +766,11 @@ class _Filter:
         return None
 
     @property
+    def mag_offset(self) -> None:
+        """None: gd/cg/qn/mekf take no magnetometer (iframe's filter gives the body-fixed offset it took out)."""
+        return None
+
+    @property
     def att_std(self) -> np.ndarray | None:
         """Attitude-error σ [rad] about the body axes after the last update: mekf's; None for gd/cg/qn."""
         return None

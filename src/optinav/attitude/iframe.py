@@ -625,6 +625,15 @@ class AttitudeFilter:
         return bool(self._state[_k.S_MAG_USED]) if self._state[_k.S_M_SEEN] else None
 
     @property
+    def mag_offset(self) -> np.ndarray | None:
+        """The body-fixed offset (3,) [the magnetometer's unit] the last sample's field was used less (zeros where it
+        was used as measured or not at all; :attr:`FilterRun.mag_offset`); None until a magnetometer sample came."""
+        if not self._state[_k.S_M_SEEN]:
+            return None
+        used = self._state[_k.S_MAG_CORR] != 0.0
+        return self._state[_k.S_HI_B : _k.S_HI_B + 3].copy() if used else np.zeros(3)
+
+    @property
     def att_std(self) -> None:
         """None: iframe has no attitude covariance (mekf's filter has, as :attr:`FilterRun.att_std`)."""
         return None
