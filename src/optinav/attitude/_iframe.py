@@ -234,6 +234,48 @@ def _bias_update(st, h0, h1, h2, z, r, clip):
     P[8] -= k2 * ph2
 
 
+@numba.njit(inline="always", **_NJ)
+def _axes(par):
+    """Up, north and west (up × north) of the navigation frame: nine numbers."""
+    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
+    nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
+    return ux, uy, uz, nx, ny, nz, uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx
+
+
+@numba.njit(inline="always", **_NJ)
+def _dip_azimuth(par, t0, t1, t2, t3, mx, my, mz, nm):
+    """Dip (rad, down positive) and azimuth φ (rad, from north toward west, positive about up) of the field m
+    (norm nm) carried by t = q_c ⊗ q_g into the frame before the heading correction δ."""
+    ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
+    vx, vy, vz = _rot(t0, t1, t2, t3, mx, my, mz)
+    dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
+    return dip, math.atan2(vx * wx + vy * wy + vz * wz, vx * nx + vy * ny + vz * nz)
+
+
+@numba.njit(inline="always", **_NJ)
+def _field_agrees(st, par, nm, dip):
+    """The gates: norm within mag_norm_th (relative) and dip within mag_dip_th of the learned reference."""
+    return abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM] and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH]
+
+
+@numba.njit(inline="always", **_NJ)
+def _heading_gain(st, par, hm, age):
+    """The heading correction's gain for a field sample after hm s: 1/n over the running mean since the heading's
+    start (S_M_T0, else tau_acc), growing to hm/tau_mag."""
+    tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
+    return min(1.0, hm / min(par[P_TAU_MAG], max(age - tm0, hm)))
+
+
+@numba.njit(**_NJ)
+def _hi_reset(st):
+    """Forget the body-fixed offset's fit (its sums and its validity)."""
+    for j in range(10):
+        st[S_HI + j] = 0.0
+    for j in range(6):
+        st[S_HI_U + j] = 0.0
+    st[S_HI_V] = 0.0
+
+
 @numba.njit(**_NJ)
 def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     """Add a disturbed field sample to the body-fixed offset fit and solve it: m − Cᵀe(φ̂) = Cᵀ∂e/∂φ·δφ + b, e the
@@ -243,9 +285,7 @@ def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     HI_RMS_GATE of the field and below that of a field fixed in the room, m − Cᵀe = Cᵀd). Returns the azimuth
     (rad, as step's φ) of the field less the offset when the fit is valid and that field passes the norm and dip
     gates, else NaN."""
-    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
-    nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
-    wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
+    ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
     nr, dp = st[S_M_NORM], st[S_M_DIP]
     cd, sd = nr * math.cos(dp), nr * math.sin(dp)
     cp, sp = math.cos(st[S_DELTA]), -math.sin(st[S_DELTA])
@@ -321,11 +361,8 @@ def _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm):
     # the field less the offset, through the same gates as a measured one
     cx, cy, cz = mx - bx, my - by, mz - bz
     nc = math.sqrt(cx * cx + cy * cy + cz * cz)
-    kx, ky, kz = _rot(t0, t1, t2, t3, cx, cy, cz)
-    dc = math.asin(max(-1.0, min(1.0, -(kx * ux + ky * uy + kz * uz) / nc)))
-    if abs(nc - nr) < par[P_MAG_NORM_TH] * nr and abs(dc - dp) < par[P_MAG_DIP_TH]:
-        return math.atan2(kx * wx + ky * wy + kz * wz, kx * nx + ky * ny + kz * nz)
-    return math.nan
+    dc, phc = _dip_azimuth(par, t0, t1, t2, t3, cx, cy, cz, nc)
+    return phc if _field_agrees(st, par, nc, dc) else math.nan
 
 
 @numba.njit(**_NJ)
@@ -371,14 +408,7 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
     t = q_c ⊗ q_g: the reference's start, gates, new-field candidate and the body-fixed offset's fit. Out of
     :func:`step`, which calls it only for a sample with a field: inlined there, its code made the 6D loop 25 %
     slower."""
-    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
-    nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
-    wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
-    vx, vy, vz = _rot(t0, t1, t2, t3, mx, my, mz)
-    mn = vx * nx + vy * ny + vz * nz
-    mw = vx * wx + vy * wy + vz * wz
-    dip = math.asin(max(-1.0, min(1.0, -(vx * ux + vy * uy + vz * uz) / nm)))
-    phi = math.atan2(mw, mn)  # azimuth of the field, from north toward west (positive about up)
+    dip, phi = _dip_azimuth(par, t0, t1, t2, t3, mx, my, mz, nm)
     # the magnetometer's own clock: its start-up counts from its first sample (one that starts late, after the
     # tilt settled, got none: heading 11.6° vs VQF 1.9° on BROAD trial 07 with the field from 30 s; helper),
     # and each sample weighs the time since the previous one (a magnetometer at 1/30 of the IMU rate, its rows
@@ -410,20 +440,14 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
         st[S_M_NORM] = nm
         st[S_M_DIP] = dip
         st[S_M_REF_T] = 0.0
-    ok = settling or (
-        abs(nm - st[S_M_NORM]) < par[P_MAG_NORM_TH] * st[S_M_NORM] and abs(dip - st[S_M_DIP]) < par[P_MAG_DIP_TH]
-    )
+    ok = settling or _field_agrees(st, par, nm, dip)
     corr = False
     phc = 0.0
     st[S_MAG_CORR] = 0.0
     if ok:
         st[S_HI_OK] += hm
         if st[S_HI_OK] > HI_RESET_TIME:
-            for j in range(10):
-                st[S_HI + j] = 0.0
-            for j in range(6):
-                st[S_HI_U + j] = 0.0
-            st[S_HI_V] = 0.0
+            _hi_reset(st)
     elif par[P_HI_TAU] > 0.0 and not settling:
         st[S_HI_OK] = 0.0
         phc = _hard_iron(st, par, t0, t1, t2, t3, mx, my, mz, hm)
@@ -445,9 +469,7 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
             # start's tilt would take tau_mag's several times to fade)
             st[S_DELTA] += hm / max(min(age, MAG_SETTLE_TAU), hm) * err
         else:
-            tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
-            k = min(1.0, hm / min(par[P_TAU_MAG], max(age - tm0, hm)))
-            st[S_DELTA] += k * err
+            st[S_DELTA] += _heading_gain(st, par, hm, age) * err
         st[S_MAG_USED] = 1.0
     else:
         if st[S_M_T0] == 0.0 and age < par[P_TAU_ACC] + par[P_TAU_MAG] and st[S_M_T1] < par[P_TAU_ACC]:
@@ -485,19 +507,13 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
             st[S_M_DIP] = st[S_M_C_DIP]
             st[S_M_REF_T] = hm
             st[S_M_DIST_T] = 0.0
-            # the offset's fit was against the old reference
-            for j in range(10):
-                st[S_HI + j] = 0.0
-            for j in range(6):
-                st[S_HI_U + j] = 0.0
-            st[S_HI_V] = 0.0
+            _hi_reset(st)  # the offset's fit was against the old reference
             corr = False
         if corr:
             # the field less the fitted body-fixed offset agrees with the reference: it holds the heading
             err = -phc - st[S_DELTA]
             err = math.atan2(math.sin(err), math.cos(err))
-            tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
-            st[S_DELTA] += min(1.0, hm / min(par[P_TAU_MAG], max(age - tm0, hm))) * err
+            st[S_DELTA] += _heading_gain(st, par, hm, age) * err
             st[S_MAG_USED] = 1.0
             st[S_MAG_CORR] = 1.0
 
@@ -512,9 +528,7 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
     if st[S_INIT] == 0.0:
         _init(st, par, ax, ay, az)
     st[S_TIME] += h
-    ux, uy, uz = par[P_UP], par[P_UP + 1], par[P_UP + 2]
-    nx, ny, nz = par[P_NORTH], par[P_NORTH + 1], par[P_NORTH + 2]
-    wx, wy, wz = uy * nz - uz * ny, uz * nx - ux * nz, ux * ny - uy * nx  # up × north (west)
+    ux, uy, uz, nx, ny, nz, wx, wy, wz = _axes(par)
     # --- rest detection: deviation from first-order low-passes, in physical units -----------------------
     if st[S_RDT] != h:
         st[S_RDT] = h
