@@ -615,7 +615,7 @@ def estimate(
             rest=r.rest,
             acc_used=r.acc_used,
             mag_used=r.mag_used,
-            mag_offset_used=None if r.mag_offset is None else float(np.mean(r.mag_offset.any(axis=1))),
+            mag_offset_used=None if r.offset_used is None else float(np.mean(r.offset_used)),
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),

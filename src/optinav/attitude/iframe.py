@@ -18,7 +18,8 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   reference was seen (at least ``tau_acc``), judged on norm and dip low-passed over ``mag_current_tau``; while
   disturbed, a body-fixed offset (a magnet on the board) is fitted over ``hard_iron_tau`` s with the heading's
   error (m − Cᵀe = Cᵀ∂e/∂φ·δφ + b) and, once the body has turned and tilted enough to tell them apart and the
-  residual is small and below that of a field fixed in the room, the field less it goes through the same gates (the offline heading uses the measured fields only);
+  residual is small and below that of a field fixed in the room, the field less it goes through the same gates
+  (the offline heading uses the measured fields only);
 * the motion bias update closes a loop through the low-pass: its innovation is clipped at ``bias_clip`` and its
   variance floored so that the loop is never faster than ``bias_loop`` × ``tau_acc`` (a start in motion); a
   correction rate beyond ``motion_gate`` σ of what the bias uncertainty explains is a sustained acceleration (a
@@ -157,6 +158,12 @@ class FilterRun:
     state: np.ndarray | None = None
     att_std: np.ndarray | None = None
     mag_offset: np.ndarray | None = None
+
+    @property
+    def offset_used(self) -> np.ndarray | None:
+        """The samples (N,) whose field was used less a fitted body-fixed offset (its row of ``mag_offset`` not 0);
+        None without ``mag_offset``."""
+        return None if self.mag_offset is None else self.mag_offset.any(axis=1)
 
 
 #: the name of :class:`FilterRun` while only iframe's chunks returned one
@@ -299,7 +306,7 @@ def measured_used(r: FilterRun) -> np.ndarray:
     """The samples (N,) whose field a pass used as measured. The offline heading takes only these: the gyro with the
     smoothed bias carries it through a disturbance better than the field less a fitted body-fixed offset (its
     azimuth off by ±3° over seconds in motion on BROAD trial 33, as the measured field's is)"""
-    return r.mag_used if r.mag_offset is None else r.mag_used & ~r.mag_offset.any(axis=1)
+    return r.mag_used if r.mag_offset is None else r.mag_used & ~r.offset_used
 
 
 def field_azimuth(q, mag, frame) -> np.ndarray:

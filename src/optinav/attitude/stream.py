@@ -257,7 +257,7 @@ class StreamEstimator:
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
-                self.mag_offset_used += int(np.count_nonzero(r.mag_offset.any(axis=1)))
+                self.mag_offset_used += int(np.count_nonzero(r.offset_used))
         else:
             counts, skipped = f.counts.copy(), dict(f._skipped)
             r = f.update_batch(gyr, acc, dts, pol=pol)
