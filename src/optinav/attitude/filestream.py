@@ -454,8 +454,9 @@ class _Blocks:
             if log.acc is None or log.gyr is None:
                 from optinav.io.imu import headphone_error
 
-                if log.acc is None and headphone_error(chunks) is not None:
-                    raise headphone_error(chunks)
+                err = headphone_error(chunks) if log.acc is None else None
+                if err is not None:
+                    raise err
                 has = "only the accelerometer" if log.acc is not None else "only the gyroscope"
                 raise OptinavError(
                     f"{self.path} has {has}: the attitude needs the accelerometer and the gyroscope in one file",

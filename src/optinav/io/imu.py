@@ -1095,7 +1095,7 @@ def _split_sensors(part: _Part) -> _Part | None:
         srcs={"gyro": part.srcs["gyro"]},
         used=part.used,
     )
-    part.t, part.acc, part.gyro, part.n = part.t[ra], part.acc[ra], gyro.gyro, gyro.n
+    part.t, part.acc, part.gyro = part.t[ra], part.acc[ra], gyro.gyro  # gyro: as a second file's, on its own times
     for name in ("labels", "sample"):
         v = getattr(part, name)
         if v is not None:
@@ -1235,11 +1235,16 @@ HEADPHONE = (
 )
 
 
+def _headphone_refusal(name: str) -> OptinavError:
+    """:data:`HEADPHONE` for the file ``name``."""
+    return OptinavError(*(x.format(name=name) for x in HEADPHONE))
+
+
 def headphone_error(chunks) -> OptinavError | None:
     """The error for a command that needs an accelerometer given Sensor Logger's ``Headphone.csv``
     (:data:`HEADPHONE`; ``chunks`` the :class:`ImuChunks` that read it), else None."""
     name = None if chunks.table is None else chunks.table.meta.get("headphone")
-    return None if name is None else OptinavError(*(x.format(name=name) for x in HEADPHONE))
+    return None if name is None else _headphone_refusal(name)
 
 
 #: a UTC offset in brackets after a time column's name: MetaWear's MetaBase ``time (-08:00)``, the local clock as text
@@ -1564,7 +1569,7 @@ def _part_of(
     if table.bad_rows.size and part.t is None:
         _lost_rows(part, table.bad_rows)
     if need is not None and "headphone" in table.meta:  # paired with another file: the phone's
-        raise OptinavError(*(x.format(name=part.path.name) for x in HEADPHONE))
+        raise _headphone_refusal(part.path.name)
     if (need is not None and getattr(part, need) is None) or (part.acc is None and part.gyro is None):
         kind = {"acc": "accelerometer", "gyro": "gyroscope"}.get(need, "accelerometer or gyroscope")
         other = {"acc": "gyro", "gyro": "acc"}.get(need or "")
