@@ -1003,3 +1003,18 @@ def test_a_field_fixed_in_the_room_is_not_taken_for_a_magnet_on_the_body():
         h, h0 = (np.abs(np.degrees(heading_error(x.q_b_n, q_true)))[3000:] for x in (r, r0))
         assert not r.mag_offset.any() and h.max() < h0.max() + 0.05, (level, h.max(), h0.max())
         assert h0.max() < (3.0 if level else 0.5), h0.max()  # the gyro's drift (vertical bias 0.1 °/s)
+
+
+def test_the_hard_iron_fit_leaves_out_an_axis_the_field_does_not_turn_about():
+    """A level body that only yaws: the field's vertical part never changes in the body, so an offset along body
+    z is unobservable (any one leaves the norm as constant). The least-squares minimum-norm fit put an arbitrary
+    one there (here -12 µT of a true 20); now none, and the horizontal part is fitted."""
+    from optinav.attitude.checks import hard_iron
+
+    rng = np.random.default_rng(3)
+    yaw = np.cumsum(np.full(20000, 0.5 * 0.01)) + 0.3 * np.sin(np.arange(20000) * 0.001)
+    q = quat_from_rotvec(np.column_stack([np.zeros_like(yaw), np.zeros_like(yaw), yaw]))
+    field = 50.0 * np.array([np.cos(np.radians(60.0)), 0.0, np.sin(np.radians(60.0))])
+    mag = np.einsum("nji,j->ni", dcm_from_quat(q), field) + [10.0, -5.0, 20.0] + rng.normal(0, 0.3, (20000, 3))
+    b = hard_iron(mag)[0]
+    np.testing.assert_allclose(b, [10.0, -5.0, 0.0], atol=0.1)

@@ -13,8 +13,11 @@ import pytest
 from optinav.attitude import estimate, estimate_q
 from optinav.attitude.data import BROAD_TRIAL_02, load_broad, synthesize_polarization
 from optinav.attitude.iframe import run_iframe
+from optinav.attitude.checks import hard_iron
+from optinav.attitude.estimators import AttitudeEstimate
 from optinav.attitude.metrics import earth_error_quaternion, heading_error, inclination_error, rmse
 from optinav.core.strapdown import attitude_update
+from optinav.errors import OptinavError
 
 #: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
 SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
@@ -233,47 +236,73 @@ def test_a_recording_that_starts_in_fast_motion():
     assert np.nanmean(head[-int(30 / tr.dt) :]) < 2.0 and np.nanmax(head[at(5, 10)]) < 5.0
 
 
-def test_an_uncalibrated_magnetometer_is_named():
+def test_an_uncalibrated_magnetometer_is_refused_online_and_subtracted_offline(tmp_path):
     """A hard-iron offset (+30 µT on body x of trial 02) turned the 9D heading 62° with exit 0 and only
-    'magnetometer used 67 %' (VQF is as wrong: no estimator can tell the offset from the field). The field norm
-    then follows the orientation, which a constant offset explains: warned, with the offset; none of the nine
-    trials (the magnet trials included) is taken for one."""
-    import warnings
-
-    from optinav.attitude.checks import MagnetometerWarning, hard_iron
-
+    'magnetometer used 67 %' (VQF is as wrong: no estimator can tell the offset from the field); then a warning
+    with exit 0 and no way to subtract it. The field norm follows the orientation, which a constant offset
+    explains: online the estimate is refused naming the fitted offset and the option that subtracts it (fitted
+    from future samples, it is the user's to give); given, and offline (fitted from the whole recording), the
+    heading is as good as the trial's own. None of the nine trials (the magnet trials included) is taken for one."""
     if len(NINE) != 9:
         pytest.skip("the nine BROAD trials are not all present")
     for p in NINE:
         assert hard_iron(load_broad(p).mag) is None, p.name
     tr = load_broad(PATH)
     mag = tr.mag + [30.0, 0.0, 0.0]
-    with pytest.warns(MagnetometerWarning, match=r"varies by 17% .* offset of \[29.\d+, .*hard-iron"):
+    head = lambda est: rmse(np.degrees(heading_error(est.q_b_n, tr.q_ref)), tr.eval_mask)
+    with pytest.raises(OptinavError, match=r"varies by 17% .* offset of \[29.\d+, .*hard-iron.*--mag-hard-iron=29\."):
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
     b = hard_iron(mag)[0]
     np.testing.assert_allclose(b, [30.0, 0.0, 0.0], atol=1.0)
+    for offline in (False, True):
+        own = head(estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, offline=offline))
+        kw = {} if offline else {"mag_hard_iron": b}
+        est = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=offline, **kw)
+        # the trial's own magnetometer keeps a fraction of a µT of offset (the fit's b is 29.7, not 30): better
+        assert head(est) < own + 0.1 and est.mag_hard_iron_fitted == offline
+        np.testing.assert_array_equal(est.mag_hard_iron, b)
+        how = "fitted from the recording's rotations" if offline else "given"
+        assert f"magnetometer offset [29.69, -0.1118, 0.3866] subtracted ({how})" in est.summary()
+        back = AttitudeEstimate.from_json(est.to_json(tmp_path / f"e{offline}.json"))
+        np.testing.assert_array_equal(back.mag_hard_iron, b)
     # 5 µT turned the heading 12-16° with no word (helper): the fit takes the norm's spread 5.4 % down to 1.8 %
-    with pytest.warns(MagnetometerWarning, match=r"offset of \[[45]\.\d+, -2\.\d+, 1\.\d+\]"):
+    with pytest.raises(OptinavError, match=r"offset of \[[45]\.\d+, -2\.\d+, 1\.\d+\]"):
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag + [5.0, -2.5, 1.5])
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", MagnetometerWarning)
-        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag)
+    est = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag)
+    assert est.mag_hard_iron is None and "magnetometer offset" not in est.summary()
+    with pytest.raises(OptinavError, match="mag_hard_iron was given without a magnetometer"):
+        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag_hard_iron=b)
+    with pytest.raises(OptinavError, match="mag_hard_iron contains 1 NaN"):
+        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, mag_hard_iron=[1.0, np.nan, 0.0])
 
 
-def test_an_uncalibrated_magnetometer_is_named_on_a_streamed_file(tmp_path, capsys):
+def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
+    """The same on a log read in blocks: refused online (exit 2, no output), the offset given or --offline
+    subtract it, and the rows the fit reads are gathered while the file streams."""
     from optinav.cli.main import main
 
     tr = load_broad(PATH)
     mag = tr.mag + [30.0, 0.0, 0.0]
-    n = 40000  # the first 20 000 samples turn too little for a fit (no warning then)
+    n = 40000  # the first 20 000 samples turn too little for a fit
     rows = np.column_stack([np.arange(n) * tr.dt, tr.gyr[:n], tr.acc[:n], mag[:n]])
     f = tmp_path / "hi.csv"
     np.savetxt(f, rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz", comments="", fmt="%.9g")
     out = tmp_path / "o.csv"
-    assert main(["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "3000", "--out", str(out)]) == 0
-    # 40 000 rows in blocks of 3 000: the check's rows are gathered while the file streams
+    cmd = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "3000", "--out", str(out)]
+    assert main(cmd) == 2 and not out.exists()
     err = capsys.readouterr().err
-    assert err.count("hard-iron") == 1 and "offset of [29." in err
+    assert err.count("hard-iron)") == 1 and "offset of [29." in err
+    given = err.split("--mag-hard-iron=")[1].split()[0]
+    b = hard_iron(mag[:n])[0]
+    for extra, how in (([f"--mag-hard-iron={given}"], "given"), (["--offline"], "fitted from the recording's")):
+        assert main([*cmd, *extra]) == 0
+        line = capsys.readouterr().out
+        assert f"magnetometer offset [{', '.join(f'{v:.4g}' for v in b)}] subtracted ({how}" in line
+        q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
+        est = estimate(tr.gyr[:n], tr.acc[:n], tr.dt, frame="ENU", mag=tr.mag[:n], offline=extra == ["--offline"])
+        assert np.nanmax(np.degrees(heading_error(q, est.q_b_n))) < 3.0
+    assert main(["attitude", str(f), "--frame", "ENU", "--mag-hard-iron", "1,2,3", "--out", str(out)]) == 2
+    assert "--mag-hard-iron was given without a magnetometer" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("block", [999, 4096, 65536])

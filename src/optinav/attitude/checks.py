@@ -1522,6 +1522,9 @@ MAG_SPREAD = 0.03
 #: heading 12-16° with no word (the norm's spread 4.4-5.4 %, the fit's 1.8-2.2 % on BROAD; as recorded the fit
 #: takes out nothing: 1.8-2.3 % either way)
 MAG_OFFSET = 0.08
+#: the field's direction must spread by this share of its norm (std along a body axis) for the offset along that
+#: axis to be fitted: about ±10° of turn about the others
+MAG_SEEN_SPREAD = 0.15
 #: the hard-iron check fits about this many magnetometer rows, evenly spaced
 MAG_FIT_ROWS = 100_000
 
@@ -1529,7 +1532,9 @@ MAG_FIT_ROWS = 100_000
 def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     """(offset b, relative spread of |m| (std / median), relative spread of |m − b|) when a constant offset b
     (sphere fit, linear least squares) explains most of a field norm that varies with the orientation; None
-    otherwise. ``mag`` (n, 3) in any unit; NaN rows are left out."""
+    otherwise. ``mag`` (n, 3) in any unit; NaN rows are left out. Along a body axis the field hardly turns about
+    (a body that only yaws) the offset is unobservable — the norm is the same for any offset there — and b has no
+    part along it (the least-squares minimum-norm solution had put an arbitrary one there)."""
     m = mag[np.all(np.isfinite(mag), axis=1)]
     if m.shape[0] < 100:
         return None
@@ -1537,12 +1542,15 @@ def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     s0 = float(np.std(n0) / np.median(n0))
     if s0 <= MAG_SPREAD:
         return None
-    A = np.column_stack([2.0 * m, np.ones(m.shape[0])])
-    x = np.linalg.lstsq(A, np.einsum("ij,ij->i", m, m), rcond=None)[0]
-    b = x[:3]
-    r2 = float(x[3] + b @ b)
-    if not r2 > 0:
+    # |m − b|² = r² is linear in b once centred: 2 (m − m̄)·b = |m|² − mean |m|²
+    mc = m - m.mean(axis=0)
+    y = np.einsum("ij,ij->i", m, m)
+    lam, V = np.linalg.eigh(mc.T @ mc / m.shape[0])
+    seen = V[:, np.sqrt(np.maximum(lam, 0.0)) > MAG_SEEN_SPREAD * float(np.median(n0))]
+    if not seen.shape[1]:
         return None
+    b = seen @ np.linalg.lstsq(2.0 * mc @ seen, y - y.mean(), rcond=None)[0]
+    r2 = float(np.mean(np.einsum("ij,ij->i", m - b, m - b)))
     s1 = float(np.std(_norm(m - b)) / np.sqrt(r2))
     # a disturbance (a magnet passing, steel nearby) is no constant offset: the fit does not explain it
     return (b, s0, s1) if s1 < s0 / 2 and np.linalg.norm(b) > MAG_OFFSET * np.sqrt(r2) else None
@@ -1906,17 +1914,23 @@ def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
     warnings.warn(f"{hint}; {MAG_AXES_REMEDY}", MagnetometerWarning, stacklevel=3)
 
 
-def check_mag(mag: np.ndarray) -> None:
-    """Warn once when the field norm varies with the orientation as a constant offset makes it (an uncalibrated
-    magnetometer: its heading is wrong by tens of degrees, and the disturbance gate cannot tell)."""
+def check_mag(mag: np.ndarray, offline: bool = False) -> np.ndarray | None:
+    """None when the field norm does not vary with the orientation as a constant offset makes it (:func:`hard_iron`);
+    else the offset of an uncalibrated (hard-iron) magnetometer, whose heading is wrong by tens of degrees and which
+    the disturbance gates cannot tell: offline (the whole recording is used anyway) the fitted offset b, for the
+    estimate to subtract; online refused, naming b and the option that subtracts it (fitted from future samples,
+    it is the user's to give)."""
     got = hard_iron(mag)
     if got is None:
-        return
+        return None
     b, s0, s1 = got
-    warnings.warn(
+    if offline:
+        return b
+    given = ",".join(f"{v:.4g}" for v in b)
+    raise OptinavError(
         f"the magnetometer's field norm varies by {s0:.0%} (std/median) with the orientation, and a constant "
-        f"offset of [{b[0]:.4g}, {b[1]:.4g}, {b[2]:.4g}] (its unit) explains it down to {s1:.1%}: an "
-        "uncalibrated (hard-iron) magnetometer gives a wrong heading; calibrate it (subtract the offset) first",
-        MagnetometerWarning,
-        stacklevel=3,
+        f"offset of [{', '.join(f'{v:.4g}' for v in b)}] (its unit) explains it down to {s1:.1%}: an uncalibrated "
+        "(hard-iron) magnetometer turns the heading by up to tens of degrees",
+        f"subtract the offset: --mag-hard-iron={given} (fitted from this recording; mag_hard_iron= in Python), or pass "
+        "--offline, which fits and subtracts it",
     )

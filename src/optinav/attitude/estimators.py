@@ -108,7 +108,7 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 6
+    VERSION: ClassVar[int] = 7
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
     #: checked when a file is loaded: a number or null for q_b_n, nulls or text in rest, gyr_bias or pol_skipped
@@ -121,6 +121,7 @@ class AttitudeEstimate(Estimate):
         "rest": Array((None,), finite=True),
         "acc_used": Array((None,), finite=True),
         "mag_used": Array((None,), finite=True),
+        "mag_hard_iron": Array((3,), finite=True),
         "pol_skipped": Entries(others="count"),
     }
 
@@ -139,6 +140,10 @@ class AttitudeEstimate(Estimate):
     #: iframe online: the fraction of samples whose field was used less a body-fixed offset fitted while disturbed
     #: (a magnet on the board); None without a magnetometer or where not fitted (offline, other methods)
     mag_offset_used: float | None = field(default=None, metadata={"unit": ""})
+    #: the magnetometer's hard-iron offset subtracted from every row (its unit), given (``mag_hard_iron=``) or, offline,
+    #: fitted from the recording (``mag_hard_iron_fitted``); None: none subtracted
+    mag_hard_iron: np.ndarray | None = field(default=None, metadata={"unit": "magnetometer's"})
+    mag_hard_iron_fitted: bool = False
     offline: bool = False
     input_stage: bool = False
     segments: int = 1
@@ -189,6 +194,8 @@ class AttitudeEstimate(Estimate):
             rest=None if self.rest is None else float(np.mean(self.rest)),
             mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
             mag_offset_used=self.mag_offset_used,
+            mag_hard_iron=self.mag_hard_iron,
+            mag_hard_iron_fitted=self.mag_hard_iron_fitted,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
         )
@@ -207,10 +214,12 @@ def summary_line(
     pol_used: int = 0,
     pol_skipped: dict | None = None,
     mag_offset_used: float | None = None,
+    mag_hard_iron=None,
+    mag_hard_iron_fitted: bool = False,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
-    body-fixed offset."""
+    body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given)."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
     s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
@@ -222,9 +231,23 @@ def summary_line(
         s += f"; magnetometer used {100 * mag_used:.0f} %"
         if mag_offset_used:
             s += f" ({100 * mag_offset_used:.0f} % less a body-fixed offset fitted while disturbed, e.g. a magnet on the board)"
+        if mag_hard_iron is not None:
+            b = ", ".join(f"{v:.4g}" for v in np.asarray(mag_hard_iron, float))
+            how = "fitted from the recording's rotations" if mag_hard_iron_fitted else "given"
+            s += f"; magnetometer offset [{b}] subtracted ({how})"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
     return s
+
+
+def _hard_iron(offset, mag) -> np.ndarray:
+    """The hard-iron offset ``mag_hard_iron`` as a finite (3,) array; refused without a magnetometer."""
+    if mag is None:
+        raise OptinavError("mag_hard_iron was given without a magnetometer", "pass mag= (--mag or --mag-columns)")
+    b = as_float_array(offset, "mag_hard_iron", last_dims=(3,))
+    if b.shape != (3,):
+        raise OptinavError(f"mag_hard_iron has shape {b.shape}, expected (3,)", "give one offset BX,BY,BZ")
+    return b
 
 
 def _as_dt(dt, n: int) -> np.ndarray:
@@ -487,6 +510,7 @@ def estimate(
     frame: str = DEFAULT_FRAME,
     q0=None,
     mag=None,
+    mag_hard_iron=None,
     offline: bool = False,
     input_stage: bool = True,
     allow_gaps: bool = False,
@@ -517,6 +541,10 @@ def estimate(
         else 0.
     mag : (N, 3) array or None
         Magnetometer [any unit] (iframe).
+    mag_hard_iron : (3,) array or None
+        The magnetometer's hard-iron offset [its unit], subtracted from every row. None: with ``checks``, a field
+        norm that follows the orientation as a constant offset makes it is fitted (:func:`checks.hard_iron`):
+        subtracted offline, refused online (naming the offset to pass here).
     offline : bool
         Use the whole recording (iframe).
     input_stage : bool
@@ -540,6 +568,9 @@ def estimate(
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]
     dts = _as_dt(dt, n)
+    fitted = False
+    if mag_hard_iron is not None:
+        mag_hard_iron = _hard_iron(mag_hard_iron, mag)
     if mag is not None and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
@@ -550,8 +581,12 @@ def estimate(
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
-            check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)])
+            if mag_hard_iron is None:
+                mag_hard_iron = check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)], offline)
+                fitted = mag_hard_iron is not None
             check_mag_axes(acc, mag, float(np.median(dts)), gyr)
+    if mag_hard_iron is not None:
+        mag = mag - mag_hard_iron
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])
@@ -598,6 +633,8 @@ def estimate(
             mag_offset_used=None
             if first.mag_offset_used is None
             else sum(p.mag_offset_used * p.q_b_n.shape[0] for p in parts) / max(n, 1),
+            mag_hard_iron=mag_hard_iron,
+            mag_hard_iron_fitted=fitted,
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
@@ -616,6 +653,8 @@ def estimate(
             acc_used=r.acc_used,
             mag_used=r.mag_used,
             mag_offset_used=None if r.offset_used is None else float(np.mean(r.offset_used)),
+            mag_hard_iron=mag_hard_iron,
+            mag_hard_iron_fitted=fitted,
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
@@ -939,8 +978,9 @@ for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
     register_legacy(
         AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d, _V4_NAMES)
     )
-# 5: before mag_offset_used (None: not reported)
-register_legacy(AttitudeEstimate, "optinav.attitude.estimate", 5, lambda d: nested_kwargs(AttitudeEstimate, d))
+# 5: before mag_offset_used (None: not reported); 6: before mag_hard_iron (None: none subtracted)
+for _v in (5, 6):
+    register_legacy(AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d))
 
 
 #: the series of a simulated attitude's truth (:func:`attitude_truth`) and their units

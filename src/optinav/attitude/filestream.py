@@ -710,10 +710,11 @@ class _Scratch:
 
 
 def _stream_offline(
-    src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None
+    src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points=0, truth=None, hard_iron=(None, False)
 ) -> StreamRun:
     """``--offline`` of a log read block by block: the second pass over the file keeps the inputs in a scratch
-    file beside ``out`` (None: in the temporary folder); each segment (between time gaps) then runs
+    file beside ``out`` (None: in the temporary folder), the magnetometer less ``hard_iron`` ((offset or None,
+    whether it was fitted)); each segment (between time gaps) then runs
     :func:`_offline_segment` over it, and a last forward pass writes the CSV (none when ``out`` is None). The
     output is the in-memory ``estimate(..., offline=True)``'s byte for byte."""
     from optinav.attitude.estimators import summary_line
@@ -749,6 +750,8 @@ def _stream_offline(
             checks.collect(row0, gyr, acc, dts)
             if not (checks.gaps.size and not o.allow_gaps):
                 more = {k: extra[k] for k in ("mag", "q_ref", "movement") if k in store.cols}
+                if "mag" in more and hard_iron[0] is not None:
+                    more["mag"] = more["mag"] - hard_iron[0]
                 store.append(t=t, gyr=gyr, acc=acc, dts=dts, **more)
         checks.finish_second(frame)
         gaps = checks.gaps
@@ -809,6 +812,8 @@ def _stream_offline(
         segments=len(bounds),
         rest=rest / n,
         mag_used=mag_used / n if src.mag else None,
+        mag_hard_iron=hard_iron[0] if src.mag else None,
+        mag_hard_iron_fitted=hard_iron[1],
     )
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
@@ -1163,6 +1168,8 @@ def stream_attitude(
     )
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
+    if o.mag_hard_iron is not None and not src.mag:
+        raise OptinavError("--mag-hard-iron was given without a magnetometer", "add --mag (or --mag-columns)")
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
@@ -1188,6 +1195,11 @@ def stream_attitude(
     checks.gyro_unit = src.gyro_unit
     src.witness = None  # the checks have its sums: the second pass reads no magnetometer the estimate does not take
     checks.finish_first()
+    hard_iron, fitted = o.mag_hard_iron, False
+    if src.mag and hard_iron is None and o.offline:
+        hard_iron = checks.hard_iron()
+        fitted = hard_iron is not None
+    checks.refuse_hard_iron = hard_iron is None
     gaps = checks.gaps
     if announce is not None:
         announce(checks.n, method)
@@ -1199,9 +1211,13 @@ def stream_attitude(
 
     if o.offline:
         step("estimate (iframe offline), write")
-        run = _stream_offline(src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp)
+        run = _stream_offline(
+            src, out, o, frame, q0, checks, score, chunk_rows, progress, figure_points, tcmp, (hard_iron, fitted)
+        )
         return dataclasses.replace(run, duration_s=duration)
-    estimator = StreamEstimator(method, frame=frame, q0=q0, input_stage=o.input_stage, **dict(o.options))
+    estimator = StreamEstimator(
+        method, frame=frame, q0=q0, input_stage=o.input_stage, mag_hard_iron=hard_iron, **dict(o.options)
+    )
     step(f"estimate ({method}), write")  # one pass does both
     fig = _Decimated(checks.n, figure_points) if figure_points else None
     with _rows_writer(out) as write:

@@ -94,6 +94,14 @@ class StreamChecks:
             self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
 
+    #: refuse an uncalibrated magnetometer in :meth:`finish_second` (an online estimate not given its offset)
+    refuse_hard_iron = True
+
+    def hard_iron(self) -> np.ndarray | None:
+        """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline), for
+        an offline estimate to subtract in pass 2; None when the field shows none."""
+        return _c.check_mag(np.concatenate(self._mag), offline=True) if self._mag else None
+
     def finish_first(self) -> None:
         """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
         ``median_dt`` (s) and the windows the second pass gathers."""
@@ -185,7 +193,7 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
-        if self._mag:
+        if self._mag and self.refuse_hard_iron:
             _c.check_mag(np.concatenate(self._mag))
         if self._mag_sums:  # in the order of check_mag_axes
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
@@ -215,10 +223,23 @@ class StreamEstimator:
             raise OptinavError(f"method {method!r} does not run on a stream", f"use one of {STREAM_METHODS}")
         return _options(method, dict(options))
 
-    def __init__(self, method: str, *, frame: str = DEFAULT_FRAME, q0=None, input_stage: bool = True, **options):
+    def __init__(
+        self,
+        method: str,
+        *,
+        frame: str = DEFAULT_FRAME,
+        q0=None,
+        input_stage: bool = True,
+        mag_hard_iron=None,
+        mag_hard_iron_fitted: bool = False,
+        **options,
+    ):
         from optinav.attitude.estimators import _as_q0
 
         self.opts = self.check(method, options)
+        #: the hard-iron offset subtracted from every magnetometer row (its unit; fitted from the log or given)
+        self.mag_hard_iron = None if mag_hard_iron is None else np.asarray(mag_hard_iron, float)
+        self.mag_hard_iron_fitted = mag_hard_iron_fitted
         self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
         self.input_stage = input_stage or method == "iframe"
         self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
@@ -247,6 +268,8 @@ class StreamEstimator:
         segment's filter's :meth:`update_batch`, its per-block outputs summed for :meth:`summary`."""
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
+        if mag is not None and self.mag_hard_iron is not None:
+            mag = mag - self.mag_hard_iron
         if self._filter is None:
             self._filter = self._new_filter()
             self.segments += 1
@@ -297,4 +320,6 @@ class StreamEstimator:
             pol_used=int(self.counts[0]) if skipped is not None else 0,
             pol_skipped=skipped,
             mag_offset_used=self.mag_offset_used / self.n if self.n else None,
+            mag_hard_iron=self.mag_hard_iron if self.mag_used is not None else None,
+            mag_hard_iron_fitted=self.mag_hard_iron_fitted,
         )

@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
     ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
-    imu_mag or ``mag_columns``, default mx,my,mz), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
+    imu_mag or ``mag_columns``, default mx,my,mz), ``mag_hard_iron`` (the magnetometer's offset to subtract,
+    its unit; None: an uncalibrated one is refused online, fitted and subtracted offline), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
     gyro value are lost samples, left out; the time steps over them; implied by ``skip_bad_lines``, whose unreadable
     lines are such rows), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
@@ -34,6 +35,7 @@ class AttitudeOptions:
     input_stage: bool = True
     mag: bool = False
     mag_columns: str | None = None
+    mag_hard_iron: tuple | None = None
     allow_gaps: bool = False
     drop_nan: bool = False
     options: dict = dataclasses.field(default_factory=dict)

@@ -106,6 +106,7 @@ def register(sub) -> None:
         metavar="MX,MY,MZ",
         help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
+    _add_hard_iron(p)
     p.add_argument(
         "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
     )
@@ -173,6 +174,25 @@ class _OptionsAction(argparse.Action):
         setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **new})
 
 
+def _hard_iron_arg(text: str) -> tuple:
+    """--mag-hard-iron BX,BY,BZ as three finite numbers."""
+    try:
+        return tuple(parse_floats(text, 3, "--mag-hard-iron", "BX,BY,BZ"))
+    except OptinavError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _add_hard_iron(p) -> None:
+    p.add_argument(
+        "--mag-hard-iron",
+        type=_hard_iron_arg,
+        metavar="BX,BY,BZ",
+        help="the magnetometer's hard-iron offset (its unit) to subtract from every row (write --mag-hard-iron=-1,2,3 "
+        "when the first is negative); default: an offset the field shows is refused online, fitted and subtracted "
+        "with --offline",
+    )
+
+
 def add_batch_options(p) -> None:
     """``optinav batch attitude``: the options of ``optinav attitude`` a folder shares (registry hook;
     destinations are the fields of :class:`optinav.attitude.unit.AttitudeOptions`)."""
@@ -192,6 +212,7 @@ def add_batch_options(p) -> None:
         metavar="MX,MY,MZ",
         help="names of the magnetometer columns ('-' before one reads it negated), or of its N×3 array (implies --mag)",
     )
+    _add_hard_iron(p)
     p.add_argument("--allow-gaps", action="store_true", help="restart the estimate after a time gap")
     p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)
     p.add_argument("--frame", choices=["NED", "ENU"], default="NED", help="navigation frame (default NED)")
@@ -290,6 +311,7 @@ def run(args) -> int:
         frame=args.frame,
         q0=q0,
         mag=mag,
+        mag_hard_iron=o.mag_hard_iron,
         offline=args.offline,
         input_stage=args.input_stage,
         allow_gaps=args.allow_gaps,
