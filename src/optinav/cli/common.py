@@ -231,6 +231,10 @@ def require_files(*items: tuple[str | None, str]) -> None:
 
     for path, what in items:
         if path is not None and input_kind(path, what) == "dir" and not is_bag(path) and not kitti_oxts_folder(path):
+            from optinav.io.phone import phone_export
+
+            if phone_export(path) is not None:  # a phone app's unzipped export, read file by file
+                continue
             if any(Path(path).glob("*.db3")) or any(Path(path).glob("*.mcap")):
                 raise OptinavError(
                     f"{what} {Path(path)} is a folder of ROS 2 bag files without metadata.yaml (a recording still "

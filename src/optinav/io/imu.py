@@ -20,6 +20,7 @@ from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import G_STANDARD, factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
+from optinav.io.phone import ExportMember, phone_export
 from optinav.io.readers import (
     CHUNK_ROWS,
     LABEL_COLUMNS,
@@ -565,6 +566,8 @@ def _read_part(
     path, columns, datasets, delimiter, need: str | None, what: str, topic=None, skip_bad_lines=False
 ) -> _Part:
     _, mapping, negated, kw = _part_spec(columns, datasets, what, topic, skip_bad_lines)
+    if isinstance(path, ExportMember):  # a file of a phone export (a zip's member read in memory)
+        return _part_of(path.path, path.load(delimiter=delimiter, **kw), mapping, need, what, negated=negated)
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what, negated=negated)
 
 
@@ -1855,6 +1858,14 @@ def read_imu(
     ImuLog
         ``t`` [s], ``acc`` [m/s^2 or counts], ``gyr`` [rad/s or counts].
     """
+    export = phone_export(path)
+    if export is not None:  # the accelerometer and gyroscope files of a phone app's export, paired as gyro_path
+        if gyro_path is not None:
+            raise OptinavError(
+                f"{export.path.name} is {export.what}, which holds the gyroscope ({export.gyro})",
+                "drop gyro_path (--gyro): the export's gyroscope is read",
+            )
+        path, gyro_path = export.member(export.acc), export.member(export.gyro)
     opts = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults)
     need = "acc" if gyro_path is not None else None
     main = _read_part(path, columns, datasets, delimiter, need, "columns", topic, skip_bad_lines)
@@ -1867,7 +1878,11 @@ def read_imu(
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
         gpart.acc = None
-    return _log_of(parts, *opts)
+    log = _log_of(parts, *opts)
+    if export is not None:
+        log.source = str(export.path)
+        log.notes.insert(0, export.note())
+    return log
 
 
 def multi_record(path, **kw) -> bool:
@@ -1899,13 +1914,26 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
     """The accelerometer and the gyroscope of a file holding several sensors' rows (Physics Toolbox's multi record,
     :func:`_split_sensors`) as two logs, each on its own rows and clock: what the Allan deviation needs (either
     interpolated onto the other's times is low-passed); None for another file, of which only the first rows are
-    read. ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
-    if not multi_record(path, **kw):
+    read; a phone export's accelerometer and gyroscope files (:mod:`optinav.io.phone`) each on its own clock.
+    ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
+    export = phone_export(path)
+    if export is None and not multi_record(path, **kw):
         return None
     opts = _imu_options(
         kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
         kw.get("unit_defaults"),
     )  # fmt: skip
+    if export is not None:
+        logs = []
+        for need, name, columns in (("acc", export.acc, kw.get("columns")), ("gyro", export.gyro, None)):
+            part = _read_part(
+                export.member(name), columns, None, kw.get("delimiter"), need, "columns", kw.get("topic"),
+                kw.get("skip_bad_lines", False),
+            )  # fmt: skip
+            setattr(part, "gyro" if need == "acc" else "acc", None)
+            logs.append(_log_of([part], *opts))
+        logs[0].notes.insert(0, export.note())
+        return logs[0], logs[1]
     main = _read_part(
         path, kw.get("columns"), kw.get("datasets"), kw.get("delimiter"), None, "columns", kw.get("topic"),
         kw.get("skip_bad_lines", False),
@@ -2322,6 +2350,15 @@ def iter_imu(
     )
 
 
+class _WholeRead:
+    """What :class:`ImuChunks` knows of a source read whole by :func:`read_imu` (a phone export): its size."""
+
+    blockwise = False
+
+    def __init__(self, size: int):
+        self.size, self.position = size, 0
+
+
 class ImuChunks:
     """The blocks of :func:`iter_imu`; ``size``/``position`` (bytes of the file, read so far) tell the progress
     and ``rows`` the samples yielded so far."""
@@ -2341,7 +2378,11 @@ class ImuChunks:
             kw["columns"], kw["datasets"], "columns", kw.get("topic"), kw.get("skip_bad_lines", False)
         )
         self.chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
-        self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
+        export = phone_export(self.path)
+        if export is not None:  # a phone export: its files read whole and paired (read_imu), then cut
+            self.tables = _WholeRead(export.size)
+        else:
+            self.tables = iter_table(self.path, delimiter=kw["delimiter"], chunk_rows=self.chunk_rows, **tkw)
         self.size, self.rows = self.tables.size, 0
         #: the raw table of the block last yielded (None for files read whole): its other columns
         self.table = None

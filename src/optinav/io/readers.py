@@ -360,6 +360,26 @@ def load_table(
     return _selected(table, topic)
 
 
+def load_text_bytes(
+    path,
+    raw: bytes,
+    *,
+    names: Sequence[str] | None = None,
+    delimiter: str | None = None,
+    only: Sequence[str] | None = None,
+    text_columns: Sequence[str] = LABEL_COLUMNS,
+    topic=None,
+    needed=None,
+    skip_bad_lines: bool = False,
+) -> Table:
+    """:func:`load_table` of a text table given as its bytes ``raw`` (a zip's member, read in memory); ``path``
+    names it in messages and notes. ``only`` is unused, as for any text file."""
+    path = Path(path)
+    _check_select(path, topic)
+    labels = {normalize_name(n)[0] for n in text_columns}
+    return _selected(_load_text(path, raw, names, delimiter, labels, needed, skip_bad_lines), topic)
+
+
 #: the 30 values of each file of a KITTI raw ``oxts/data`` folder (the devkit's dataformat.txt): position, attitude
 #: (rad), velocities; ``ax ay az`` the specific force (m/s², gravity in it) and ``wx wy wz`` the rate (rad/s) in the
 #: vehicle's axes (x forward, y left, z up); ``af al au``/``wf wl wu`` the same in axes levelled to the road
@@ -736,42 +756,67 @@ def _file_kind(path: Path) -> tuple[str, bool]:
 _PHYPHOX_META = ("meta/device.csv", "meta/time.csv", "Metadata Device", "Metadata Time")
 
 
-def export_files(names, header=None, prefix: str = "") -> tuple[str, str] | None:
-    """(what it is, what to do) for the files of a phone app's export of several sensors — a zip's members, a
-    folder's files or a workbook's sheets, ``names`` — that optinav reads one file at a time: Sensor Logger's
-    (TotalAcceleration.csv or AccelerometerUncalibrated.csv beside Gyroscope.csv; awesome-sensor-logger UNITS.md)
-    or phyphox's (:data:`_PHYPHOX_META`); None for other names. ``header(name)`` gives a table's first line (the
-    sensor of phyphox's "Raw Data"); ``prefix`` goes before the names to pass (a folder's path)."""
+def export_sets(names, header=None) -> dict | None:
+    """The sensors' files of a phone app's export of several sensors — a zip's members, a folder's files or a
+    workbook's sheets, ``names`` —: Sensor Logger's (TotalAcceleration.csv or AccelerometerUncalibrated.csv beside
+    Gyroscope.csv, Magnetometer.csv or MagnetometerUncalibrated.csv; awesome-sensor-logger UNITS.md) or phyphox's
+    (:data:`_PHYPHOX_META`), as ``{"what", "acc", "gyro", "mag", "single", "remedy"}``: the names of the
+    accelerometer with gravity, the gyroscope and the magnetometer (None where absent), the one set to pass when
+    there is no pair, and what to do when there is neither (else None); None for other names. ``header(name)``
+    gives a table's first line (the sensor of phyphox's "Raw Data")."""
+    out = dict.fromkeys(("acc", "gyro", "mag", "single", "remedy"))
     base = {Path(n).name.lower(): n for n in names}
     acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
     if acc and "gyroscope.csv" in base:  # Accelerometer.csv has gravity taken out
-        return (
-            "Sensor Logger's export",
-            f"pass {prefix}{acc} (the accelerometer with gravity) with gyro_path={prefix}{base['gyroscope.csv']}",
-        )
+        mag = next((base[k] for k in ("magnetometer.csv", "magnetometeruncalibrated.csv") if k in base), None)
+        return {**out, "what": "Sensor Logger's export", "acc": acc, "gyro": base["gyroscope.csv"], "mag": mag}
+    if acc and "metadata.csv" in base:
+        return {**out, "what": "Sensor Logger's export without Gyroscope.csv", "single": acc, "lacks": "gyroscope"}
     if not any(n.strip("/") in _PHYPHOX_META for n in names):
         return None
     # a set's file (a sheet of the Excel export is the same set's .csv in the CSV export)
     stem = {Path(n).stem.lower(): n if n.lower().endswith(".csv") else f"{n}.csv" for n in names}
     stem = {k: v for k, v in stem.items() if not v.startswith("meta/") and "metadata" not in k}
     sets = [Path(v).stem for v in stem.values()]
-    what = f"phyphox's export of {len(sets)} sensor set(s) ({', '.join(sorted(sets))})"
+    out["what"] = f"phyphox's export of {len(sets)} sensor set(s) ({', '.join(sorted(sets))})"
     raw = stem.get("raw data")
     if raw is not None:
         if header is not None and "linear acceleration" in (header(raw) or "").lower():
-            return what, "it holds the linear acceleration (gravity taken out): record with 'Acceleration with g'"
-        return what, f"pass {prefix}{raw}"
-    if "accelerometer" in stem and "gyroscope" in stem:
+            out["remedy"] = "it holds the linear acceleration (gravity taken out): record with 'Acceleration with g'"
+        else:
+            out["single"] = raw
+    elif "accelerometer" in stem and "gyroscope" in stem:
+        out.update(acc=stem["accelerometer"], gyro=stem["gyroscope"], mag=stem.get("magnetometer"))
+    elif "accelerometer" in stem or "gyroscope" in stem:
+        out["single"] = stem.get("accelerometer") or stem["gyroscope"]
+    elif "linear acceleration" in stem:
+        out["remedy"] = "Linear Acceleration has gravity taken out: add the Accelerometer (with g) to the experiment"
+    else:
+        out["remedy"] = "it holds neither an accelerometer nor a gyroscope"
+    return out
+
+
+def export_files(names, header=None, prefix: str = "") -> tuple[str, str] | None:
+    """(what it is, what to do) for the files of a phone app's export of several sensors (:func:`export_sets`)
+    when they are passed one at a time; None for other names. ``prefix`` goes before the names to pass (a
+    folder's path)."""
+    found = export_sets(names, header)
+    if found is None:
+        return None
+    if found["acc"] is not None:
+        times = "" if found["what"].startswith("Sensor Logger") else " (each on its own times)"
         return (
-            what,
-            f"pass {prefix}{stem['accelerometer']} (the accelerometer with gravity) with "
-            f"gyro_path={prefix}{stem['gyroscope']} (each on its own times)",
+            found["what"],
+            f"pass {prefix}{found['acc']} (the accelerometer with gravity) with "
+            f"gyro_path={prefix}{found['gyro']}{times}",
         )
-    if "accelerometer" in stem or "gyroscope" in stem:
-        return what, f"pass {prefix}{stem.get('accelerometer') or stem['gyroscope']}"
-    if "linear acceleration" in stem:
-        return what, "Linear Acceleration has gravity taken out: add the Accelerometer (with g) to the experiment"
-    return what, "it holds neither an accelerometer nor a gyroscope"
+    if found.get("lacks"):
+        return (
+            found["what"],
+            f"pass {prefix}{found['single']} for the accelerometer alone (calibrate accel, allan), or record again "
+            f"with the {found['lacks']} switched on (the attitude needs both)",
+        )
+    return found["what"], found["remedy"] or f"pass {prefix}{found['single']}"
 
 
 def _folder_error(path: Path, what: str) -> OptinavError | None:
