@@ -1091,7 +1091,8 @@ def test_physics_toolbox_multi_record_reads_each_sensor_on_its_rows(tmp_path, ca
     with a repeated or a blank one: 2 N rows at twice the rate, the first accelerometer row 0 (held), or every row NaN
     in one sensor (blank; calibrate: "time has 0 sample(s)"). Now each sensor is read on its own rows (time in s, gF
     in g → m/s², x, y, z in order), the gyroscope interpolated onto the accelerometer's times as from two files;
-    --mag-columns (the magnetometer is on neither's rows) is a one-line error."""
+    a magnetometer column that never changes holds one sample (its own rows: tests/test_phone.py), a one-line
+    error."""
     n = 500
     gyr, acc = _triads(21, n)
     gf, gyr = np.round(acc / 9.80665, 5), np.round(gyr, 5)
@@ -1109,7 +1110,7 @@ def test_physics_toolbox_multi_record_reads_each_sensor_on_its_rows(tmp_path, ca
     argv = ["attitude", str(path), "--mag-columns", "Bx,By,Bz", "--out", str(tmp_path / "a.csv")]
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "not on the accelerometer's rows" in err[0] and "drop --mag" in err[0], err
+    assert len(err) == 1 and "magnetometer holds 1 sample(s)" in err[0] and "drop --mag" in err[0], err
     assert main(argv[:2] + argv[4:]) == 0  # without the magnetometer
     capsys.readouterr()
 

@@ -290,6 +290,9 @@ def options_hash(job) -> str:
     fields.pop("results_dir", None)
     if not fields.get("option_files"):
         fields.pop("option_files", None)  # the hash of a job without option files as before they were hashed
+    opts = fields.get("options")
+    if isinstance(opts, dict) and opts.get("mag_path", 0) is None:
+        opts.pop("mag_path")  # the hash of attitude options without a magnetometer file as before that option
     resolved = getattr(job.options, "resolved_options", None)
     if callable(resolved):  # the defaults the options leave to the method: a changed default recomputes the units
         fields["resolved"] = resolved()

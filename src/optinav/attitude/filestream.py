@@ -15,6 +15,7 @@ yaw for its figure (at most ``figure_points`` rows), so the report too is bounde
 from __future__ import annotations
 
 import contextlib
+import itertools
 import dataclasses
 import os
 import tempfile
@@ -419,8 +420,21 @@ class _Blocks:
         #: when the estimate does not take one; None once it is absent or unreadable (then it stays absent)
         self.witness: dict | None = {} if not mag and o.gyro_path is None else None
         self._witness_whole: np.ndarray | None = None
+        #: a magnetometer on its own time stamps (a file of its own, a phone export's, a multi record's rows)
+        self.own_mag = None
+        if self.broad and o.mag_path is not None:
+            raise OptinavError(f"{self.path.name} is a BROAD trial, which holds its magnetometer", "drop --mag-file")
+        if mag and not self.broad:
+            from optinav.attitude.unit import separate_mag
+
+            self.own_mag = separate_mag(self.path, o)
+        if self.witness is not None:
+            from optinav.io.phone import phone_export
+
+            if phone_export(self.path) is not None:
+                self.witness = None  # its magnetometer is not on the IMU's rows
         names = {}
-        if mag:
+        if mag and self.own_mag is None:
             m, self.mag_signs = _mag_names(o.mag_columns)
             names = {"mag": m[0]} if len(m) == 1 else {f"m{k}": v for k, v in zip("xyz", m)}
         if pol is not None:
@@ -441,6 +455,31 @@ class _Blocks:
         yield from _finite_rows(blocks, self.notes, self.o) if self.o.drops_nan else blocks
 
     def _text(self):
+        blocks = self._text_blocks()
+        yield from blocks if self.own_mag is None else self._with_own_mag(blocks)
+
+    def _with_own_mag(self, blocks):
+        """``blocks`` with the magnetometer on its own time stamps put on their rows (extra "mag",
+        :meth:`optinav.io.imu.MagSamples.on_rows`), each block held until the next one's first time is known (a
+        sample between two blocks goes on the nearer row); what was done is noted at the end."""
+        ms, held, before, step, used, n = self.own_mag, None, -np.inf, None, 0, 0
+        for block in itertools.chain(blocks, [None]):
+            if held is not None:
+                t = held[1]
+                m = ms.on_rows(t, step, before, np.inf if block is None else float(block[1][0]))
+                held[6]["mag"] = m
+                used += int(np.count_nonzero(np.isfinite(m).all(axis=1)))
+                n += t.size
+                before = float(t[-1])
+                yield held
+            if block is not None and step is None:
+                step = float(np.median(block[4]))  # the IMU's step: its first block's
+            held = block
+        note = ms.note(step, used, n)
+        if note not in self.notes:
+            self.notes.append(note)
+
+    def _text_blocks(self):
         from optinav.io.imu import iter_imu, reader_options
 
         o = self.o
@@ -1157,7 +1196,7 @@ def stream_attitude(
     method = _method(o.method, True if pol is not None else None)
     if o.offline and method != "iframe":
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
-    want_mag = o.mag or bool(o.mag_columns)
+    want_mag = o.uses_mag
     if want_mag and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     StreamEstimator.check(method, o.options)

@@ -27,7 +27,9 @@ class AttitudeOptions:
     gyro value are lost samples, left out; the time steps over them; implied by ``skip_bad_lines``, whose unreadable
     lines are such rows), ``options`` (estimator options, SI), and the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
-    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``)."""
+    ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``);
+    ``mag_path``: the magnetometer in a file of its own, on its own time stamps (:func:`separate_mag`; its columns
+    ``mag_columns``)."""
 
     method: str | None = None
     frame: str = DEFAULT_FRAME
@@ -50,10 +52,16 @@ class AttitudeOptions:
     gyro_path: str | None = None
     gyro_columns: str | None = None
     skip_bad_lines: bool = False
+    mag_path: str | None = None
 
     def __post_init__(self):
         # one spelling, so that "NED" from the CLI and "ned" from Python are the same batch job (options hash)
         self.frame = frame_name(self.frame)
+
+    @property
+    def uses_mag(self) -> bool:
+        """Whether the estimate takes a magnetometer: ``mag``, ``mag_columns`` or ``mag_path``."""
+        return self.mag or bool(self.mag_columns) or self.mag_path is not None
 
     @property
     def drops_nan(self) -> bool:
@@ -85,13 +93,15 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     from optinav.attitude.data import has_reference, is_broad, load_broad
 
     o = options
-    want_mag = o.mag or bool(o.mag_columns)
+    want_mag = o.uses_mag
     broad = is_broad(path) and not o.columns and not o.datasets
     if reference and not (broad and has_reference(path)):
         raise OptinavError(
             f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"
         )
     if broad:
+        if o.mag_path is not None:
+            raise OptinavError(f"{Path(path).name} is a BROAD trial, which holds its magnetometer", "drop --mag-file")
         tr = load_broad(path, o)
         t = np.arange(tr.gyr.shape[0]) / tr.rate_hz
         return t, tr.gyr, tr.acc, tr.mag if want_mag else None, (tr.q_ref, tr.movement)
@@ -110,13 +120,12 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     if not np.all(ok) and not o.drops_nan:
         raise OptinavError(*nan_rows_error(path, int(np.count_nonzero(~ok))))
     mag = None
-    if want_mag:
+    own = separate_mag(path, o) if want_mag else None
+    if own is not None:
+        mag = own.on_rows(log.t, float(np.median(np.diff(log.t))))
+    elif want_mag:
         from optinav.attitude.filestream import _column, _mag_names, mag_triad
-        from optinav.io.imu import MULTI_RECORD_BESIDE, multi_record
         from optinav.io.readers import MissingColumn
-
-        if o.gyro_path is None and multi_record(path, **reader_options(o)):
-            raise OptinavError(f"{Path(path).name}: {MULTI_RECORD_BESIDE[0]}", MULTI_RECORD_BESIDE[1])
 
         names, signs = _mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
@@ -145,6 +154,35 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
         warnings.warn(nan_rows_note(int(np.count_nonzero(~ok)), o), stacklevel=2)
         return log.t[ok], log.gyr[ok], log.acc[ok], None if mag is None else mag[ok], None
     return log.t, log.gyr, log.acc, mag, None
+
+
+def separate_mag(path, options: AttitudeOptions):
+    """The magnetometer of the log ``path`` that is on its own time stamps, as
+    :class:`optinav.io.imu.MagSamples` (its samples are put on the IMU's rows by
+    :meth:`~optinav.io.imu.MagSamples.on_rows`): ``mag_path`` (columns ``mag_columns``, else found by name), else
+    with ``mag``/``mag_columns`` a phone export's magnetometer file (Sensor Logger's Magnetometer.csv, else
+    MagnetometerUncalibrated.csv; phyphox's Magnetometer.csv; µT) or the magnetometer rows of Physics Toolbox's
+    multi record (Bx, By, Bz, µT); None when the magnetometer is read from the IMU's rows (columns of its file)."""
+    from optinav.io.imu import multi_record, read_mag, reader_options
+    from optinav.io.phone import phone_export
+
+    o = options
+    kw = dict(columns=o.mag_columns, time_unit=o.time_unit, delimiter=o.delimiter, skip_bad_lines=o.skip_bad_lines)
+    if o.mag_path is not None:
+        return read_mag(o.mag_path, **kw)
+    if not o.uses_mag:
+        return None
+    export = phone_export(path)
+    if export is not None:
+        if export.mag is None:
+            raise OptinavError(
+                f"{export.path.name} is {export.what} without a magnetometer file",
+                "record with the magnetometer switched on, or drop --mag (the heading then follows the gyro)",
+            )
+        return read_mag(export.member(export.mag), **kw)
+    if o.gyro_path is None and multi_record(path, **reader_options(o)):
+        return read_mag(path, multi_record=True, **kw)
+    return None
 
 
 def nan_rows_error(path, n: int) -> tuple[str, str]:
@@ -217,7 +255,7 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         "frame": o.frame,
         "offline": bool(o.offline),
         "input_stage": bool(o.input_stage or _method(o.method, None) == "iframe"),
-        "mag": bool(o.mag or o.mag_columns),
+        "mag": o.uses_mag,
     }
     if run.score is not None:
         inclination, heading, n = run.score

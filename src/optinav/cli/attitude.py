@@ -108,6 +108,15 @@ def register(sub) -> None:
     )
     _add_hard_iron(p)
     p.add_argument(
+        "--mag-file",
+        dest="mag_path",
+        metavar="MAGDATA",
+        help="the magnetometer in a file of its own with a time column on the IMU's clock (implies --mag; "
+        "--mag-columns names its columns): a slower one is put each sample on its nearest IMU row, a faster one "
+        "interpolated; a phone export's Magnetometer.csv and a Physics Toolbox multi record's Bx,By,Bz are read so "
+        "with --mag",
+    )
+    p.add_argument(
         "--allow-gaps", action="store_true", help="restart the estimate after a time gap instead of refusing the file"
     )
     p.add_argument("--drop-nan", action="store_true", help=DROP_NAN_HELP)
@@ -288,7 +297,7 @@ def run(args) -> int:
     from optinav.core.rotations import attitude_in_frame
 
     method, options, q0, out = _checked(args)
-    require_files((args.data, "data file"), (args.gyro_path, "gyroscope file"))
+    require_files((args.data, "data file"), (args.gyro_path, "gyroscope file"), (args.mag_path, "magnetometer file"))
     o = options_from_args(AttitudeOptions, args, options=options)
     if _streams(args):
         return _run_stream(args, o, q0, out, _announce(args, method))

@@ -43,6 +43,8 @@ __all__ = [
     "write_imu",
     "open_imu_writer",
     "ImuWriter",
+    "read_mag",
+    "MagSamples",
     "ACC_UNITS",
     "GYRO_UNITS",
     "TIME_UNITS",
@@ -2509,6 +2511,199 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
         + (f"; {dropped} accelerometer rows outside the gyroscope's span were left out" if dropped else "")
     )
     return pa, ta[keep]
+
+
+#: a magnetometer whose median step is longer than this many of the IMU's is slower than it (phones' nominal rates
+#: jitter by a few per cent): each of its samples goes on one IMU row, else it is interpolated onto the IMU's times
+MAG_SLOWER = 1.1
+
+
+@dataclass
+class MagSamples:
+    """A magnetometer on its own time stamps (a file of its own, a phone export's Magnetometer.csv, the magnetometer
+    rows of a multi record): ``t`` (M,) [s, strictly increasing, the IMU's clock], ``mag`` (M, 3) [the file's unit,
+    µT for the phone apps], ``source`` (what was read, for the notes)."""
+
+    t: np.ndarray
+    mag: np.ndarray
+    source: str
+
+    @property
+    def step(self) -> float:
+        """The median step between its samples [s]."""
+        return float(np.median(np.diff(self.t)))
+
+    def slower(self, imu_step: float) -> bool:
+        """Whether it is slower than the IMU (its median step more than :data:`MAG_SLOWER` of the IMU's).
+
+        Parameters
+        ----------
+        imu_step : float
+            The IMU's median step [s].
+
+        Returns
+        -------
+        bool
+            True: each sample goes on one row (:meth:`on_rows`).
+        """
+        return self.step > MAG_SLOWER * imu_step
+
+    def on_rows(self, t, imu_step: float, t_before: float = -np.inf, t_after: float = np.inf) -> np.ndarray:
+        """The magnetometer on the IMU's rows, NaN where it gives none (the attitude filter skips such rows and
+        weighs a sample by the time since the previous one).
+
+        No sample is invented: slower than the IMU (:meth:`slower`), each sample goes on its nearest row only,
+        within ``imu_step`` of it (the nearer of two on one row wins; one in a gap of the IMU is left out); as fast
+        or faster, it is interpolated linearly onto ``t`` (a faster field is smooth on the IMU's step), NaN
+        outside its span and across its gaps (a step longer than :data:`GYRO_GAP_STEPS` of its median).
+
+        Parameters
+        ----------
+        t : (N,) array
+            The IMU rows' times [s]: a whole log, or a block of one.
+        imu_step : float
+            The IMU's median step [s].
+        t_before, t_after : float
+            The times of the rows just before and after a block [s] (a sample nearer to those is theirs);
+            -inf and inf for a whole log.
+
+        Returns
+        -------
+        (N, 3) ndarray
+            The field on the rows [the file's unit], NaN rows without a sample.
+        """
+        t = np.asarray(t, float)
+        out = np.full((t.size, 3), np.nan)
+        if not t.size:
+            return out
+        if self.slower(imu_step):
+            i0, i1 = np.searchsorted(self.t, [t_before, t_after])
+            s, m = self.t[i0:i1], self.mag[i0:i1]
+            tt = np.concatenate([[t_before], t, [t_after]])
+            k = np.clip(np.searchsorted(tt, s), 1, tt.size - 1)
+            j = np.where(s - tt[k - 1] <= tt[k] - s, k - 1, k)  # the nearest row (of the block with its neighbours)
+            dist = np.abs(tt[j] - s)
+            ok = (j >= 1) & (j <= t.size) & (dist <= imu_step)
+            rows, dist, m = j[ok] - 1, dist[ok], m[ok]
+            order = np.lexsort((dist, rows))
+            _, first = np.unique(rows[order], return_index=True)
+            pick = order[first]
+            out[rows[pick]] = m[pick]
+            return out
+        for a in range(3):
+            out[:, a] = np.interp(t, self.t, self.mag[:, a])
+        k = np.clip(np.searchsorted(self.t, t, "right"), 1, self.t.size - 1)
+        gap = self.t[k] - self.t[k - 1] > GYRO_GAP_STEPS * self.step
+        out[(t < self.t[0]) | (t > self.t[-1]) | gap] = np.nan
+        return out
+
+    def note(self, imu_step: float, rows: int, n: int) -> str:
+        """What was done, for the attitude's notes.
+
+        Parameters
+        ----------
+        imu_step : float
+            The IMU's median step [s].
+        rows, n : int
+            The IMU rows that hold a sample, of its ``n`` rows.
+
+        Returns
+        -------
+        str
+            The note, with both rates.
+        """
+        how = (
+            "each sample put on its nearest IMU row (NaN between: no sample invented)"
+            if self.slower(imu_step)
+            else "interpolated linearly onto the IMU's times"
+        )
+        return (
+            f"magnetometer of {self.source}: {self.t.size} samples at {1.0 / self.step:.4g} Hz on its own time "
+            f"stamps, {how}: {rows} of the {n} IMU rows ({1.0 / imu_step:.4g} Hz) hold a sample"
+        )
+
+
+def read_mag(
+    source,
+    *,
+    columns=None,
+    time_unit: str | None = None,
+    delimiter: str | None = None,
+    skip_bad_lines: bool = False,
+    multi_record: bool = False,
+) -> MagSamples:
+    """The magnetometer of a file (or a phone export's member) with its own time column, as :class:`MagSamples`.
+
+    Parameters
+    ----------
+    source : str, Path or ExportMember
+        The file.
+    columns : str or None
+        Its magnetometer's three columns, or the name of its (N, 3) array ('-' before one reads it negated, as
+        ``--mag-columns``); None: one triad by the usual names (``mx``, ``mag_x``, ``Magnetic field x (µT)``,
+        ``magneticField_x`` …), else a phone app's bare ``x, y, z``, else Physics Toolbox's ``Bx, By, Bz``.
+    time_unit : str or None
+        The time column's unit when the file does not say it (s, ms, us, ns; default s; Sensor Logger's ``time``
+        is ns).
+    delimiter : str or None
+        Text delimiter; None: auto-detected.
+    skip_bad_lines : bool
+        As :func:`read_imu`.
+    multi_record : bool
+        The file is Physics Toolbox's multi record (a row at each sensor's sample): only the rows that hold a new
+        magnetometer sample are taken (as its accelerometer's and gyroscope's are).
+
+    Returns
+    -------
+    MagSamples
+        ``t`` [s], ``mag`` [the file's unit].
+    """
+    from optinav.attitude.filestream import _mag_names, mag_triad
+
+    path = source.path if isinstance(source, ExportMember) else Path(source)
+    kw = {"delimiter": delimiter, "skip_bad_lines": bool(skip_bad_lines)}
+    table = source.load(**kw) if isinstance(source, ExportMember) else load_table(path, **kw)
+    found = list(table.data)
+    if columns is not None:
+        names, signs = _mag_names(columns)
+    else:
+        signs = np.ones(3)
+        triad = mag_triad(found)
+        norm = table.normal_names()
+        if triad is None and {"x", "y", "z"} <= set(norm):
+            triad = {f"m{a}": norm[a] for a in "xyz"}  # a phone app's file of one sensor
+        if triad is None and {"bx", "by", "bz"} <= set(norm) and multi_record:
+            triad = {f"m{a}": norm[f"b{a}"] for a in "xyz"}  # Physics Toolbox: the field B
+        if triad is None:
+            raise OptinavError(
+                f"{path.name}: no magnetometer columns found (found: {table.names()})",
+                "name its three columns with --mag-columns X,Y,Z",
+            )
+        names = [triad[k] for k in ("mx", "my", "mz")]
+    mapping = {"gyro": names[0]} if len(names) == 1 else dict(zip(("gx", "gy", "gz"), names))
+    part = _part_of(path, table, mapping, "gyro", "mag_columns")  # the time column found as for the IMU
+    if part.t is None:
+        raise OptinavError(
+            f"{path.name} has no time column beside its magnetometer, which must carry its own time stamps",
+            "pass a magnetometer file with a time column, or the magnetometer's columns of the IMU's file "
+            "with --mag-columns",
+        )
+    unit = _resolve_unit("time", None if time_unit is None else _canonical("time", time_unit, "time_unit"), part,
+                         "time_unit", "s")  # fmt: skip
+    t = np.asarray(part.t, float) * TIME_UNITS[unit]
+    mag = np.asarray(part.gyro, float) * signs
+    what = f"{path.name} (columns {', '.join(names)})"
+    if multi_record:
+        rows = _sensor_rows(mag)
+        if np.count_nonzero(rows) < 2:
+            raise OptinavError(
+                f"{path.name}: a multi record whose magnetometer holds {np.count_nonzero(rows)} sample(s)",
+                "record for longer with the magnetometer switched on in the app, or drop --mag",
+            )
+        t, mag = t[rows], mag[rows]
+        what = f"{path.name} (columns {', '.join(names)}, the rows of a new sample)"
+    t = check_timestamps(t, f"time column {part.t_name!r} of {path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
+    return MagSamples(t, mag, what)
 
 
 def _check_same_time(a, b) -> None:
