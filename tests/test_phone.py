@@ -300,3 +300,34 @@ def test_magnetometer_on_the_imu_rows_invents_no_sample():
     gap = MagSamples(np.delete(fast.t, np.arange(100, 120)), np.delete(fast.mag, np.arange(100, 120), 0), "m")
     g = gap.on_rows(np.arange(80) * 0.01, 0.01)
     assert np.isnan(g[41:48]).all() and np.isfinite(g[:40]).all() and np.isfinite(g[49:]).all()
+
+
+def test_an_export_s_files_are_inputs_and_its_magnetometer_errors_name_the_flag(tmp_path, capsys):
+    """An export folder's files are the command's inputs: --out onto its Gyroscope.csv is refused (a folder was not
+    an input file to protect). --mag on an export without a magnetometer file, --mag-columns that the magnetometer
+    file lacks and a magnetometer file without a time column end in one line naming what to do."""
+    t = np.arange(300) / 100.0
+    xyz = np.tile([0.0, 0.0, 9.8], (300, 1))
+    files = {"TotalAcceleration.csv": _sensor_logger(t, xyz), "Gyroscope.csv": _sensor_logger(t, xyz * 0)}
+    _, folder = _export(tmp_path, "rec", files)
+    gyro = (folder / "Gyroscope.csv").read_bytes()
+    cases = [
+        (["attitude", str(folder), "--out", str(folder / "Gyroscope.csv")], "would destroy the input"),
+        (["attitude", str(folder), "--mag", "--out", str(tmp_path / "a.csv")],
+         "Sensor Logger's export without a magnetometer file; record with the magnetometer switched on, or drop --mag"),
+        (["attitude", str(folder), "--mag-file", str(folder / "Gyroscope.csv"), "--mag-columns", "p,q,r", "--out",
+          str(tmp_path / "a.csv")], "no column named 'p' (found: time, seconds_elapsed, z, y, x); name the "
+         "magnetometer's columns of that file with --mag-columns X,Y,Z"),
+    ]  # fmt: skip
+    (tmp_path / "m.csv").write_text("mx,my,mz\n" + "20,0,-40\n" * 10)
+    cases.append(
+        (
+            ["attitude", str(folder), "--mag-file", str(tmp_path / "m.csv"), "--out", str(tmp_path / "a.csv")],
+            "m.csv has no time column beside its magnetometer",
+        )  # fmt: skip
+    )
+    for argv, msg in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and msg in err[0], err
+    assert (folder / "Gyroscope.csv").read_bytes() == gyro

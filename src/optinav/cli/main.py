@@ -265,6 +265,12 @@ def _input_paths(args) -> list[str]:
         for v in value if isinstance(value, (list, tuple)) else [value]:
             if isinstance(v, str) and v and os.path.isfile(v):
                 found.append(v)
+            elif isinstance(v, str) and v and os.path.isdir(v):  # a phone export's folder: the files read from it
+                from optinav.io.phone import phone_export
+
+                export = phone_export(v)
+                if export is not None:
+                    found += [str(export.path / m) for m in (export.acc, export.gyro, export.mag) if m]
     return found
 
 

@@ -2680,6 +2680,12 @@ def read_mag(
                 "name its three columns with --mag-columns X,Y,Z",
             )
         names = [triad[k] for k in ("mx", "my", "mz")]
+    missing = [n for n in names if table.find(n) is None]
+    if missing:
+        raise OptinavError(
+            f"{path.name} has no column named {missing[0]!r} (found: {table.names()})",
+            "name the magnetometer's columns of that file with mag_columns=X,Y,Z",
+        )
     mapping = {"gyro": names[0]} if len(names) == 1 else dict(zip(("gx", "gy", "gz"), names))
     part = _part_of(path, table, mapping, "gyro", "mag_columns")  # the time column found as for the IMU
     if part.t is None:
