@@ -102,7 +102,8 @@ def test_a_phyphox_export_is_read_and_allan_takes_each_sensor_on_its_clock(tmp_p
     """phyphox's CSV export of its simple experiment (Accelerometer.csv with g, Gyroscope.csv, Magnetometer.csv on
     their own times, meta/device.csv, meta/time.csv) as a zip or a folder: read as the accelerometer with the
     gyroscope interpolated onto its times; allan analyses each sensor on its own clock (interpolating white noise
-    onto other times low-passes it): the white noise N within 5 % of the simulated std × √dt."""
+    onto other times low-passes it): the white noise N within 5 % of the simulated std × √dt; attitude --mag takes
+    its Magnetometer.csv (µT) on its own clock."""
     rng = np.random.default_rng(12)
     n, sa, sg = 6000, 0.02, 0.003
     ta, tg = 0.0031 + np.arange(n) / 100.0, 0.0077 + np.arange(n) / 100.0
@@ -130,6 +131,10 @@ def test_a_phyphox_export_is_read_and_allan_takes_each_sensor_on_its_clock(tmp_p
         for sensor, truth in (("accelerometer", sa * 0.1), ("gyroscope", sg * 0.1)):
             np.testing.assert_allclose(res.sensor(sensor)["fit"].white, truth, rtol=0.05)
     capsys.readouterr()
+    assert main(["attitude", str(z), "--mag", "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "magnetometer of Magnetometer.csv (columns Magnetic field x (µT), Magnetic field y (µT), " in err, err
+    assert f"{n // 4} samples at 25 Hz" in err and "(100 Hz) hold a sample" in err, err
 
 
 def test_an_export_that_cannot_be_read_names_the_remedy(tmp_path, capsys):
