@@ -53,7 +53,7 @@ def test_a_sensor_logger_export_is_read_as_its_file_pair(tmp_path, capsys):
     Accelerometer.csv, Gravity.csv, Metadata.csv) given as its zip or folder ended in 'extract it and pass
     TotalAcceleration.csv with --gyro Gyroscope.csv'. Now read as exactly that pair (the gyroscope interpolated
     onto the accelerometer's times), whole and in blocks, with a note naming the files; calibrate recovers the
-    simulated session's scales; nothing is written into the folder or beside the zip."""
+    simulated multi-position recording's scales; nothing is written into the folder or beside the zip."""
     s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=4)
     files = {
         "TotalAcceleration.csv": _sensor_logger(s.t, s.acc),
