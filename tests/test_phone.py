@@ -336,3 +336,30 @@ def test_an_export_s_files_are_inputs_and_its_magnetometer_errors_name_the_flag(
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and msg in err[0], err
     assert (folder / "Gyroscope.csv").read_bytes() == gyro
+
+
+def test_batch_takes_phone_exports_as_units(tmp_path, capsys):
+    """optinav batch listed a folder's data files by suffix: a phone export (its zip, or the folder it unzips to)
+    was no unit ('holds no data files'). Each is one unit now, read as optinav attitude reads it: the 9D rows of
+    the zip and the folder agree and count the accelerometer rows the gyroscope spans."""
+    from optinav.batch import read_results
+
+    f, mag, ia, ig, im = _phone_flight(duration_s=20.0)
+    files = {
+        "TotalAcceleration.csv": _sensor_logger(f.t[ia], f.acc[ia]),
+        "Gyroscope.csv": _sensor_logger(f.t[ig], f.gyr[ig]),
+        "Magnetometer.csv": _sensor_logger(f.t[im], mag[im]),
+        "Metadata.csv": "version,device name\n1.30,Pixel 7\n",
+    }
+    d = tmp_path / "units"
+    d.mkdir()
+    _export(d, "walk", files)
+    (d / "walk.zip").rename(d / "walk-shared.zip")
+    out = tmp_path / "b.csv"
+    assert main(["--quiet", "batch", "attitude", str(d), "--mag", "--workers", "0", "--out", str(out)]) == 0
+    rows = {r["unit"]: r for r in read_results(out)}
+    assert sorted(rows) == ["walk", "walk-shared"], rows
+    spanned = int(np.count_nonzero((f.t[ia] >= f.t[ig[0]]) & (f.t[ia] <= f.t[ig[-1]])))
+    for r in rows.values():
+        assert r["status"] == "ok" and r["n_samples"] == spanned and r["mag"] is True, r
+    assert [rows["walk"][f"gyr_bias_{a}"] for a in "xyz"] == [rows["walk-shared"][f"gyr_bias_{a}"] for a in "xyz"]

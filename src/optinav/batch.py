@@ -3,7 +3,8 @@ resumable (``optinav batch calibrate accel|rins|gfimu DIR``, ``optinav batch att
 
 A *unit* is one data file directly inside the folder (no recursion) whose suffix the readers know
 (:data:`optinav.io.readers.SUFFIXES`: text, NumPy, HDF5, MAT, Parquet, ROS bag files; text also as .gz) or a
-ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), in sorted file-name order; hidden files (leading
+ROS 2 bag folder (a sub-folder holding ``metadata.yaml``), or a phone app's export (its zip or the sub-folder it
+unzips to, :mod:`optinav.io.phone`), in sorted file-name order; hidden files (leading
 "."), the batch's own output/journal, any results table an earlier batch wrote there and .txt/.log notes
 without a line of numbers are skipped
 (``*.truth.json`` is not a data suffix, so simulation truths are skipped too). The unit name is the file name
@@ -185,6 +186,7 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
     ``skipped``: a list that receives (name, why) of the entries with a data suffix that are no regular file (a
     named pipe, a broken or looping link), which are not units either."""
     from optinav.core.files import input_kind
+    from optinav.io.phone import phone_export
 
     d = Path(directory)
     if input_kind(d, "folder", "pass the folder holding one data file per unit") != "dir":
@@ -197,6 +199,13 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
                 continue
             if p.is_dir() and (p / "metadata.yaml").is_file():
                 found.append((p.name, p, _folder_stat(p)))  # a ROS 2 bag: a folder of metadata and storage files
+                continue
+            if p.is_dir() and phone_export(p) is not None:
+                found.append((p.name, p, _folder_stat(p)))  # a phone app's export unzipped
+                continue
+            if p.is_file() and p.suffix.lower() == ".zip" and p.resolve() not in skip and phone_export(p) is not None:
+                st = p.stat()
+                found.append((p.name[:-4], p, st))  # a phone app's export as it shares it
                 continue
             if not p.is_file():
                 if skipped is not None and _data_suffix(p.name) is not None and not p.is_dir():
@@ -267,7 +276,7 @@ def data_kinds() -> str:
     """The data files a batch folder's units may be, in words (from :data:`optinav.io.readers.SUFFIXES`)."""
     from optinav.io.readers import SUFFIXES
 
-    return " ".join(SUFFIXES) + " (text also as .gz), or a ROS 2 bag folder"
+    return " ".join(SUFFIXES) + " (text also as .gz), a ROS 2 bag folder, or a phone app's export (zip or folder)"
 
 
 def _not_a_file(p: Path) -> str:
