@@ -15,8 +15,8 @@ yaw for its figure (at most ``figure_points`` rows), so the report too is bounde
 from __future__ import annotations
 
 import contextlib
-import itertools
 import dataclasses
+import itertools
 import os
 import tempfile
 from collections.abc import Callable

@@ -1820,7 +1820,8 @@ def read_imu(
     Parameters
     ----------
     path : str or Path
-        The data file (formats of :func:`optinav.io.read_table`).
+        The data file (formats of :func:`optinav.io.read_table`), or a phone app's export of several sensors (its
+        zip or folder, :mod:`optinav.io.phone`): its accelerometer file with its gyroscope file as ``gyro_path``.
     columns : str, sequence of str or None
         The file's columns in order (standard names ``t, ax, ay, az, gx, gy, gz, sample, label`` or aliases,
         ``_`` skips), or ``std=name`` entries (``"t=Zeit,ax=AccX"``, also ``acc=imu/acc`` for an N×3 array);
