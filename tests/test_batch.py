@@ -215,6 +215,19 @@ def _hash_with_names(job, names: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def test_attitude_options_added_later_leave_an_unset_job_s_hash_as_it_was():
+    """An attitude job that sets neither ``mag_path`` nor ``mag_hard_iron`` (added since) hashes as optinav 85b3215
+    hashed it, so its journal is resumed, not recomputed; setting one changes the hash."""
+    from optinav.attitude.unit import AttitudeOptions
+
+    assert batch.options_hash(batch.BatchJob("attitude", AttitudeOptions(), False)) == "7f4fdb3bc2c2429f"
+    job = batch.BatchJob("attitude", AttitudeOptions(mag=True, offline=True), True)
+    assert batch.options_hash(job) == "adc5f01b92c1c597"
+    for k, v in (("mag_path", "m.csv"), ("mag_hard_iron", (1.0, 2.0, 3.0))):
+        other = batch.BatchJob("attitude", AttitudeOptions(mag=True, offline=True, **{k: v}), True)
+        assert batch.options_hash(other) != batch.options_hash(job)
+
+
 def test_journal_of_the_old_option_names_is_recomputed_not_mixed(units, tmp_path):
     """Rows journaled when the options were named ``rate``/``height``/``gyro``/``latitude`` carry another options
     hash: the next run recomputes every unit and the table holds only rows of the current options."""

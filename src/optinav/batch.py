@@ -289,6 +289,10 @@ def _not_a_file(p: Path) -> str:
     return "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
 
 
+#: option fields added after journals were written (attitude: a magnetometer file, a hard-iron offset to subtract)
+LATER_OPTIONS = ("mag_path", "mag_hard_iron")
+
+
 def options_hash(job) -> str:
     """A short hash of the job (system, options, reference), the defaults its options leave to the method (an
     options object's ``resolved_options()``, where it has one) and the row layout: a journal row is reused only
@@ -300,8 +304,9 @@ def options_hash(job) -> str:
     if not fields.get("option_files"):
         fields.pop("option_files", None)  # the hash of a job without option files as before they were hashed
     opts = fields.get("options")
-    if isinstance(opts, dict) and opts.get("mag_path", 0) is None:
-        opts.pop("mag_path")  # the hash of attitude options without a magnetometer file as before that option
+    for k in LATER_OPTIONS if isinstance(opts, dict) else ():
+        if k in opts and opts[k] is None:
+            opts.pop(k)  # unset, it hashes as before the option existed: a journal of then is still current
     resolved = getattr(job.options, "resolved_options", None)
     if callable(resolved):  # the defaults the options leave to the method: a changed default recomputes the units
         fields["resolved"] = resolved()
