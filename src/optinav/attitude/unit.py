@@ -124,10 +124,11 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     if own is not None:
         mag = own.on_rows(log.t, float(np.median(np.diff(log.t))))
     elif want_mag:
-        from optinav.attitude.filestream import _column, _mag_names, mag_triad
+        from optinav.attitude.filestream import _column
+        from optinav.io.imu import mag_names, mag_triad
         from optinav.io.readers import MissingColumn
 
-        names, signs = _mag_names(o.mag_columns)
+        names, signs = mag_names(o.mag_columns)
         keys = ["mag"] if len(names) == 1 else ["mx", "my", "mz"]
 
         def mag_table(names):

@@ -2624,6 +2624,43 @@ class MagSamples:
         )
 
 
+#: name stems of a magnetometer triad (normalized, the axis letter after, with or without '_'): what ``--mag`` finds
+#: without --mag-columns (``Mag X (uT)``, ``magnetometer_x``, Xsens' ``Mag_X``, ``magneticField_x``, BROAD's
+#: ``imu_mag``). Not Physics Toolbox's ``Bx``: a B is as often a bias or a body axis, so that one is only suggested
+MAG_STEMS = ("m", "mag", "magn", "magnetometer", "magnetic", "magnetic_field", "magneticfield", "imu_mag", "compass")
+
+
+def mag_triad(found: list) -> dict | None:
+    """{mx, my, mz} → the file's magnetometer columns among ``found`` by :data:`MAG_STEMS` (a unit in brackets, case
+    and spaces aside, :func:`optinav.io.readers.normalize_name`); None unless exactly one stem gives all three axes
+    (two triads, e.g. a calibrated and a raw magnetometer, are for --mag-columns to choose)."""
+    keys = {normalize_name(c)[0]: c for c in found}
+    hits = []
+    for stem in MAG_STEMS:
+        for sep in ("", "_"):
+            cols = [keys.get(f"{stem}{sep}{a}") for a in "xyz"]
+            if all(cols) and cols not in hits:
+                hits.append(cols)
+    if len(hits) != 1:
+        return None
+    return dict(zip(("mx", "my", "mz"), hits[0]))
+
+
+def mag_names(mag_columns: str | None) -> tuple[list[str], np.ndarray]:
+    """(the magnetometer's three column names of ``--mag-columns``, or the one name of its (N, 3) array; (3,) the
+    signs of its axes [-]): a '-' before a name reads that axis negated (``mx,-my,mz``: an axis mounted flipped;
+    before one array's name: the whole array)."""
+    entries = [s.strip() for s in (mag_columns or "mx,my,mz").split(",")]
+    names = [s[1:].strip() if s[:1] in "+-" else s for s in entries]
+    if len(names) not in (1, 3) or not all(names):
+        raise OptinavError(
+            f"--mag-columns {mag_columns!r} needs three names or one (N×3) array",
+            "write e.g. mx,my,mz, or mag for an N×3 array",
+        )
+    signs = [-1.0 if s[:1] == "-" else 1.0 for s in entries]
+    return names, np.array(signs * 3 if len(signs) == 1 else signs)
+
+
 def read_mag(
     source,
     *,
@@ -2659,14 +2696,12 @@ def read_mag(
     MagSamples
         ``t`` [s], ``mag`` [the file's unit].
     """
-    from optinav.attitude.filestream import _mag_names, mag_triad
-
     path = source.path if isinstance(source, ExportMember) else Path(source)
     kw = {"delimiter": delimiter, "skip_bad_lines": bool(skip_bad_lines)}
     table = source.load(**kw) if isinstance(source, ExportMember) else load_table(path, **kw)
     found = list(table.data)
     if columns is not None:
-        names, signs = _mag_names(columns)
+        names, signs = mag_names(columns)
     else:
         signs = np.ones(3)
         triad = mag_triad(found)
