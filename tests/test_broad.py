@@ -307,8 +307,9 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
 
 @pytest.mark.parametrize("block", [999, 4096, 65536])
 def test_streamed_hard_iron_rows_are_evenly_spaced(block):
-    """The streamed check keeps rows 0, s, 2s, … of the whole log (s doubling as it fills), whatever the blocks."""
-    from optinav.attitude.checks import MAG_FIT_ROWS
+    """The streamed check keeps rows 0, s, 2s, … of the whole log (s doubling as it fills), whatever the blocks,
+    and the in-memory estimate the same rows (an offset fitted offline is the same, the outputs identical)."""
+    from optinav.attitude.checks import MAG_FIT_ROWS, mag_fit_stride
     from optinav.attitude.stream import StreamChecks
 
     n = 5 * MAG_FIT_ROWS + 123
@@ -319,6 +320,10 @@ def test_streamed_hard_iron_rows_are_evenly_spaced(block):
     kept = np.concatenate(c._mag)
     s = c._mag_stride
     assert s == 4 and np.array_equal(kept, mag[::s])
+    # a log in memory is fitted on the same rows (it took every n // MAG_FIT_ROWS-th: 5, another fit)
+    assert (
+        mag_fit_stride(n) == s and mag_fit_stride(2 * MAG_FIT_ROWS) == 1 and mag_fit_stride(2 * MAG_FIT_ROWS + 1) == 2
+    )
 
 
 def test_a_deg_s_gyro_on_a_log_at_rest_is_refused():

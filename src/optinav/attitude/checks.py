@@ -1529,6 +1529,16 @@ MAG_SEEN_SPREAD = 0.15
 MAG_FIT_ROWS = 100_000
 
 
+def mag_fit_stride(n: int) -> int:
+    """The spacing of the magnetometer rows the hard-iron fit reads of ``n`` (0, s, 2s, …): the smallest power of
+    two that keeps at most twice :data:`MAG_FIT_ROWS` — the spacing a log streamed in blocks ends with
+    (:meth:`optinav.attitude.stream.StreamChecks.add_mag`), so that a log in memory is fitted on the same rows."""
+    s = 1
+    while -(-n // s) > 2 * MAG_FIT_ROWS:
+        s *= 2
+    return s
+
+
 def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     """(offset b, relative spread of |m| (std / median), relative spread of |m − b|) when a constant offset b
     (sphere fit, linear least squares) explains most of a field norm that varies with the orientation; None

@@ -33,13 +33,13 @@ import numpy as np
 
 from optinav.attitude import _kernels
 from optinav.attitude.checks import (
-    MAG_FIT_ROWS,
     check_frame,
     check_imu,
     check_mag,
     check_mag_axes,
     check_q0,
     find_gaps,
+    mag_fit_stride,
 )
 from optinav.attitude.iframe import AttitudeFilter, FilterRun, front_outputs, run_iframe
 from optinav.attitude.iframe import input_stage as _input_stage
@@ -582,7 +582,7 @@ def estimate(
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
             if mag_hard_iron is None:
-                mag_hard_iron = check_mag(mag[:: max(1, mag.shape[0] // MAG_FIT_ROWS)], offline)
+                mag_hard_iron = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline)
                 fitted = mag_hard_iron is not None
             check_mag_axes(acc, mag, float(np.median(dts)), gyr)
     if mag_hard_iron is not None:
