@@ -12,6 +12,7 @@ disturbance rejection", Information Fusion 91, 2023); written here from the pape
   m/s² over ``rest_time`` s); a 3-state Kalman filter estimates the gyro bias from rest (all three axes) and,
   in motion, from the tilt-correction rate (its horizontal part is −C_b^n δb, so rotations reveal every
   axis; at any rotation rate unless ``motion_max_gyr`` > 0 sets a limit); the bias is clipped at ``bias_clip``;
+  at rest the specific force (gravity alone) is low-passed over ``rest_tau_acc`` s instead of ``tau_acc``;
 * the magnetometer sets the heading correction δ (first-order, ``tau_mag`` s) when its norm and dip agree with
   a learned reference (``mag_norm_th`` relative, ``mag_dip_th`` rad); while disturbed the heading follows the
   gyro alone; a new steady field becomes the reference after ``mag_new_time`` s, or after as long as the
@@ -93,7 +94,7 @@ _ORDER = (
     "mag_dip_th",
     "mag_new_time",
     "tau_mag_ref",
-)  # then latency, bias_loop, mag_current_tau, motion_gate, hard_iron_tau at P_LATENCY … P_HI_TAU
+)  # then latency, bias_loop, mag_current_tau, motion_gate, hard_iron_tau, rest_tau_acc at P_LATENCY … P_REST_TAU_ACC
 _POSITIVE = ("tau_acc", "rest_tau", "bias_rest", "gravity", "tau_mag", "tau_mag_ref")
 
 #: the largest ``latency`` (s) taken: the output is predicted that far with the gyro, which only holds for a
@@ -123,6 +124,7 @@ def _params(frame: str, opts: dict) -> np.ndarray:
     p[_k.P_MAG_CUR_TAU] = opts["mag_current_tau"]
     p[_k.P_MOTION_GATE] = opts["motion_gate"]
     p[_k.P_HI_TAU] = opts["hard_iron_tau"]
+    p[_k.P_REST_TAU_ACC] = opts["rest_tau_acc"]
     return p
 
 

@@ -20,6 +20,7 @@ IFRAME_DEFAULTS: dict[str, float] = {
     "rest_gyr": 2.0 * _D2R,  # rad/s, max gyro deviation at rest
     "rest_acc": 0.5,  # m/s², max accelerometer deviation at rest
     "rest_time": 1.5,  # s, minimum still time before rest is declared
+    "rest_tau_acc": 2.0,  # s, accelerometer low-pass time constant while at rest (gravity alone); 0 = tau_acc
     "bias_sigma0": 0.5 * _D2R,  # rad/s, initial bias σ
     "bias_rw": 0.003 * _D2R,  # rad/s/√s, bias random walk
     "bias_rest": 0.05 * _D2R,  # rad/s·√s, rest measurement noise density
