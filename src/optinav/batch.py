@@ -296,7 +296,14 @@ LATER_OPTIONS = ("mag_path", "mag_hard_iron")
 def options_hash(job) -> str:
     """A short hash of the job (system, options, reference), the defaults its options leave to the method (an
     options object's ``resolved_options()``, where it has one) and the row layout: a journal row is reused only
-    under the same ones."""
+    under the same ones (:func:`hashed_fields`)."""
+    text = json.dumps(hashed_fields(job), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def hashed_fields(job) -> dict:
+    """What :func:`options_hash` hashes of ``job``: the layout, the job's fields (without where results go; option
+    files only when there are some; an option of :data:`LATER_OPTIONS` only when set) and the resolved defaults."""
     if not isinstance(job, BatchJob):
         job = BatchJob("multipos", job)
     fields = dataclasses.asdict(job)
@@ -310,8 +317,7 @@ def options_hash(job) -> str:
     resolved = getattr(job.options, "resolved_options", None)
     if callable(resolved):  # the defaults the options leave to the method: a changed default recomputes the units
         fields["resolved"] = resolved()
-    text = json.dumps({"layout": LAYOUT, **fields}, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return {"layout": LAYOUT, **fields}
 
 
 def _option_files(options) -> dict:
