@@ -1346,7 +1346,6 @@ def test_rostopic_csv_of_two_imus_on_one_topic_is_refused(tmp_path, capsys):
     "name, head, what, export",
     [
         ("00000042.BIN", b"\xa3\x95\x80\x80\x59FMT\x00", "an ArduPilot DataFlash log", "mavlogdump.py --format csv"),
-        ("log_7_2024-5-1-10-00-00.ulg", b"ULog\x01\x12\x35\x01", "a PX4 ULog", "ulog2csv LOG.ulg"),
         (
             "00000042.log",
             b"FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns\n",
@@ -1356,9 +1355,10 @@ def test_rostopic_csv_of_two_imus_on_one_topic_is_refused(tmp_path, capsys):
     ],
 )
 def test_flight_logs_name_the_export_that_reads(tmp_path, capsys, name, head, what, export):
-    """ArduPilot's DataFlash logs (.BIN; Mission Planner's text .log) and PX4's ULog as they come off the flight
-    controller: "unknown data file type .BIN / .ulg" (use one of .csv, …) and, for the text log, "the header names
-    column 'FMT' twice". Each is now named with the export whose CSV optinav reads as it is."""
+    """ArduPilot's DataFlash logs (.BIN; Mission Planner's text .log) as they come off the flight controller:
+    "unknown data file type .BIN" (use one of .csv, …) and, for the text log, "the header names column 'FMT'
+    twice". Each is now named with the export whose CSV optinav reads as it is (PX4's ULog is read as it comes:
+    tests/test_ulog.py)."""
     rows = "".join(f"IMU, {60000000 + 2500 * i}, 0, 0.001, -0.002, 0.0, 0.01, -0.02, -9.8\n" for i in range(50))
     body = rows.encode() if head.startswith(b"FMT") else bytes(range(256)) * 8
     path = _w(tmp_path / name, head + body)

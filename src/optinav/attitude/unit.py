@@ -162,10 +162,12 @@ def separate_mag(path, options: AttitudeOptions):
     :class:`optinav.io.imu.MagSamples` (its samples are put on the IMU's rows by
     :meth:`~optinav.io.imu.MagSamples.on_rows`): ``mag_path`` (columns ``mag_columns``, else found by name), else
     with ``mag``/``mag_columns`` a phone export's magnetometer file (Sensor Logger's Magnetometer.csv, else
-    MagnetometerUncalibrated.csv; phyphox's Magnetometer.csv; µT) or the magnetometer rows of Physics Toolbox's
-    multi record (Bx, By, Bz, µT); None when the magnetometer is read from the IMU's rows (columns of its file)."""
+    MagnetometerUncalibrated.csv; phyphox's Magnetometer.csv; µT), a PX4 ULog's magnetometer topic (gauss,
+    :func:`optinav.io.ulog.ulog_mag`) or the magnetometer rows of Physics Toolbox's multi record (Bx, By, Bz, µT);
+    None when the magnetometer is read from the IMU's rows (columns of its file)."""
     from optinav.io.imu import multi_record, read_mag, reader_options
     from optinav.io.phone import phone_export
+    from optinav.io.ulog import is_ulog, ulog_mag
 
     o = options
     kw = dict(columns=o.mag_columns, time_unit=o.time_unit, delimiter=o.delimiter, skip_bad_lines=o.skip_bad_lines)
@@ -173,6 +175,13 @@ def separate_mag(path, options: AttitudeOptions):
         return read_mag(o.mag_path, **kw)
     if not o.uses_mag:
         return None
+    if is_ulog(path):  # a PX4 log's magnetometer topic, on its own time stamps
+        if o.mag_columns:
+            raise OptinavError(
+                f"--mag-columns names columns of a table; {Path(path).name} is a ULog",
+                "drop --mag-columns: name the magnetometer topic with --topic (vehicle_magnetometer or sensor_mag)",
+            )
+        return ulog_mag(path, o.topic)
     export = phone_export(path)
     if export is not None:
         if export.mag is None:

@@ -46,7 +46,11 @@ def register(sub) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("data", help="static log: CSV/TSV/text, NPZ, HDF5 or MAT (columns and units as in calibrate)")
+    p.add_argument(
+        "data",
+        help="static log: CSV/TSV/text, NPZ, HDF5, MAT, Parquet, a ROS bag or a PX4 ULog (columns and units as in "
+        "calibrate)",
+    )
     p.add_argument("--out", required=True, metavar="ALLAN.json", help="result file (JSON)")
     p.add_argument(
         "--sensor",

@@ -79,7 +79,7 @@ def register(sub) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
+    p.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet, a ROS bag or a PX4 ULog (--topic)")
     add_input_options(p)
     add_gyro_file_options(p)
     p.add_argument("--method", choices=METHOD_NAMES, help="estimator (default iframe; mekf with --pol-columns)")

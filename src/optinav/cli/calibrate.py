@@ -61,7 +61,7 @@ def register(sub) -> None:
             """),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet or a ROS bag (--topic)")
+    a.add_argument("data", help="log file: CSV/TSV/text, NPZ, HDF5, MAT, Parquet, a ROS bag or a PX4 ULog (--topic)")
     add_gyro_file_options(a)
     add_calibration_options(a)
     a.add_argument("--out", required=True, metavar="RESULT.json", help="result file (JSON)")

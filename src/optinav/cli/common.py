@@ -173,7 +173,9 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
         "after a comma (default: the bag's only Imu topic); TOPIC@FRAME reads "
         "only the messages of header frame_id FRAME (several IMUs on one topic); for a table of several "
         "sensors in alternate rows, NAME@ID reads one: ArduPilot's instance (IMU@1, ACC@0, GYR@2 of a mavlogdump "
-        "CSV) or a frame_id column's FRAME (@FRAME)",
+        "CSV) or a frame_id column's FRAME (@FRAME); PX4 ULog (.ulg): the uORB topic(s) (default sensor_combined; "
+        "vehicle_imu, the pair sensor_accel,sensor_gyro, and for --mag vehicle_magnetometer or sensor_mag; NAME@K "
+        "for instance K of a topic logged several times)",
     )
 
 

@@ -21,6 +21,7 @@ from optinav.core.units import G_STANDARD, factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
 from optinav.io.phone import ExportMember, phone_export
+from optinav.io.ulog import UlogTopic, ulog_pair
 from optinav.io.readers import (
     CHUNK_ROWS,
     LABEL_COLUMNS,
@@ -568,7 +569,7 @@ def _read_part(
     path, columns, datasets, delimiter, need: str | None, what: str, topic=None, skip_bad_lines=False
 ) -> _Part:
     _, mapping, negated, kw = _part_spec(columns, datasets, what, topic, skip_bad_lines)
-    if isinstance(path, ExportMember):  # a file of a phone export (a zip's member read in memory)
+    if isinstance(path, ExportMember | UlogTopic):  # a phone export's file, a ULog's topic: read in memory
         return _part_of(path.path, path.load(delimiter=delimiter, **kw), mapping, need, what, negated=negated)
     return _part_of(path, load_table(path, delimiter=delimiter, **kw), mapping, need, what, negated=negated)
 
@@ -747,15 +748,17 @@ def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
     ``…_vehicle_imu_0.csv``): ``timestamp`` and ``timestamp_sample`` are µs since boot (the sample's stamp is the
     time where there is one). vehicle_imu holds increments over its integration period: ``delta_angle[0..2]`` (rad)
     over ``delta_angle_dt`` and ``delta_velocity[0..2]`` (m/s) over ``delta_velocity_dt`` (µs) become the mean
-    rate and specific force of each period."""
+    rate and specific force of each period. A ``.ulg`` read directly (:mod:`optinav.io.ulog`) gives the same
+    names, and its raw ``sensor_accel``/``sensor_gyro`` topics are read by :func:`_px4_raw`."""
     norm = table.normal_names()
+    _px4_raw(table, found, candidates)
     inc = {
         kind: ([norm.get(f"{name}_{a}") for a in "xyz"], norm.get(f"{name}_dt"))
         for kind, name in (("g", "delta_angle"), ("a", "delta_velocity"))
     }
     combined = any(all(f"{p}_{a}" in norm for a in "xyz") for p in ("gyro_rad", "accelerometer_m_s2"))
     imu = any(all(keys) and dt for keys, dt in inc.values())
-    if not (combined or imu):
+    if not (combined or imu or table.meta.get("px4_topic") in _PX4_RAW):
         return
     for kind, (keys, dt) in inc.items():
         if not (all(keys) and dt) or any(f"{kind}{a}" in found or f"{kind}{a}" in candidates for a in "xyz"):
@@ -771,6 +774,22 @@ def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
         if key is not None and candidates.get("t", key) in (key, norm.get("timestamp")):
             candidates["t"] = key
             implied.setdefault(key, "us")
+
+
+#: PX4's raw sensor topics, one sensor each (x, y, z at timestamp_sample): the standard names of their axes
+_PX4_RAW = {"sensor_accel": "a", "sensor_gyro": "g"}
+
+
+def _px4_raw(table: Table, found: dict, candidates: dict) -> None:
+    """PX4's ``sensor_accel`` (m/s²) or ``sensor_gyro`` (rad/s): fields ``x, y, z``, which name no sensor by
+    themselves, read as the topic's sensor when the ULog reader says which topic it is (``meta["px4_topic"]``)."""
+    kind = _PX4_RAW.get(table.meta.get("px4_topic", ""))
+    if kind is None or _sensor_named(found, candidates):
+        return
+    norm = table.normal_names()
+    if all(a in norm for a in "xyz"):
+        for a in "xyz":
+            candidates[f"{kind}{a}"] = norm[a]
 
 
 #: iOS Core Motion's triads as SensorLog names them (normalized, axis letter after): the raw accelerometer and
@@ -1845,7 +1864,9 @@ def read_imu(
     delimiter : str or None
         Text delimiter; None: auto-detected.
     topic : str or None
-        A ROS bag's Imu topic (``"/imu"``); None: its only one (:mod:`optinav.io.rosbag`).
+        A ROS bag's Imu topic (``"/imu"``); None: its only one (:mod:`optinav.io.rosbag`). A PX4 ULog's topic
+        (``vehicle_imu@1``, or the pair ``sensor_accel,sensor_gyro``); None: ``sensor_combined``
+        (:mod:`optinav.io.ulog`).
 
     unit_defaults : (str, str) or None
         The accelerometer and gyroscope units of a file that declares none and for which no unit is passed
@@ -1869,6 +1890,11 @@ def read_imu(
                 "drop gyro_path (--gyro): the export's gyroscope is read",
             )
         path, gyro_path = export.member(export.acc), export.member(export.gyro)
+    pair = ulog_pair(path, topic)
+    if pair is not None:  # a ULog's sensor_accel and sensor_gyro, each on its own times, paired as gyro_path
+        if gyro_path is not None:
+            raise OptinavError(f"--topic {topic} reads the gyroscope of {Path(path).name}", "drop gyro_path (--gyro)")
+        path, gyro_path = pair
     opts = _imu_options(acc_unit, gyro_unit, time_unit, rate_hz, gyro_path, gyro_columns, unit_defaults)
     need = "acc" if gyro_path is not None else None
     main = _read_part(path, columns, datasets, delimiter, need, "columns", topic, skip_bad_lines)
@@ -1920,6 +1946,18 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
     read; a phone export's accelerometer and gyroscope files (:mod:`optinav.io.phone`) each on its own clock.
     ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
     export = phone_export(path)
+    pair = ulog_pair(path, kw.get("topic"))
+    if pair is not None:  # a ULog's raw accelerometer and gyroscope, each on its own clock
+        opts = _imu_options(
+            kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
+            kw.get("unit_defaults"),
+        )  # fmt: skip
+        logs = []
+        for need, member in zip(("acc", "gyro"), pair):
+            part = _read_part(member, None, None, None, need, "columns")
+            setattr(part, "gyro" if need == "acc" else "acc", None)
+            logs.append(_log_of([part], *opts))
+        return logs[0], logs[1]
     if export is None and not multi_record(path, **kw):
         return None
     opts = _imu_options(
@@ -2238,6 +2276,8 @@ _LAYOUT_NOTES = {
     "with --columns/--gyro-columns if not)",
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
+    "ulog_topic": "PX4 topic {v} read (pyulog)",
+    "ulog_damaged": "damaged messages were skipped by pyulog ({v}); a gap they leave is checked as any gap",
     "kitti_oxts": "KITTI's oxts folder read: times from timestamps.txt (taken as UTC), ax..az and wx..wz in the "
     "vehicle's axes (x forward, y left, z up; --frame ENU), one sample per data/ file",
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "

@@ -54,6 +54,7 @@ SUFFIXES: dict[str, str] = {
     ".bag": "rosbag",
     ".db3": "rosbag",
     ".mcap": "rosbag",
+    ".ulg": "ulog",
 }
 #: column names (normalized, see :func:`normalize_name`) whose cells may be text: kept as a str array
 LABEL_COLUMNS = ("part", "label", "labels", "section", "segment", "pose", "phase")
@@ -237,7 +238,7 @@ def read_table(
     delimiter ``, \t ;`` or whitespace auto-detected), ``.npz``/``.npy`` (no pickles), ``.h5``/``.hdf5`` (h5py),
     ``.mat`` (v4/v5 via scipy, v7.3 via h5py, transposed back to MATLAB's row/column layout), ``.parquet``/``.pq``
     (pyarrow; :mod:`optinav.io.parquet`), ROS bags ``.bag``, ``.db3``, ``.mcap`` or a ROS 2 bag folder
-    (rosbags; :mod:`optinav.io.rosbag`).
+    (rosbags; :mod:`optinav.io.rosbag`), PX4 ULog files ``.ulg`` (pyulog; :mod:`optinav.io.ulog`).
 
     Parameters
     ----------
@@ -253,7 +254,8 @@ def read_table(
     text_columns : sequence of str
         The only columns allowed to hold text cells (labels, returned as str arrays); elsewhere text is an error.
     topic : str or None
-        A ROS bag's Imu[,MagneticField] topic; None: its only one.
+        A ROS bag's Imu[,MagneticField] topic; None: its only one. A ULog's topic (``vehicle_imu@1``); None:
+        ``sensor_combined``.
     skip_bad_lines : bool
         Leave a text table's unreadable lines out (at most 1 % of them) instead of refusing the file.
     rows : int or None
@@ -327,6 +329,11 @@ def load_table(
 
         _no_option(path, delimiter=delimiter, names=names)
         return load_bag(path, topic=topic)
+    if kind == "ulog":
+        from optinav.io.ulog import load_ulog
+
+        _no_option(path, True, delimiter=delimiter, names=names)
+        return load_ulog(path, topic=topic)
     _check_select(path, topic)
     if kind == "kitti_oxts":
         if names is not None or delimiter is not None:
@@ -515,7 +522,7 @@ class TableChunks:
         self.text_columns, self.chunk_rows, self.topic = text_columns, int(chunk_rows), topic
         self.needed, self.skip_bad_lines = needed, skip_bad_lines
         self.kind, self.gz = _file_kind(path)
-        if self.kind != "rosbag":  # as load_table: a text file read in blocks ignored it
+        if self.kind not in ("rosbag", "ulog"):  # as load_table: a text file read in blocks ignored it
             _check_select(path, topic)
         self.size = path.stat().st_size
         self.position = 0
@@ -527,7 +534,7 @@ class TableChunks:
             return True
         if self.kind == "rosbag":  # (a bag the scanners do not read comes as one table)
             return self.delimiter is None and self.names is None
-        if self.kind == "kitti_oxts":  # a file per sample: one table
+        if self.kind in ("kitti_oxts", "ulog"):  # a file per sample; a ULog pyulog parses whole: one table
             return False
         if self.kind == "mat":
             from optinav.io.arrayblocks import is_mat5
@@ -882,12 +889,17 @@ def _zip_is_npz(path: Path) -> None:
     )
 
 
-def _no_option(path: Path, **given) -> None:
+def _no_option(path: Path, ulog: bool = False, **given) -> None:
     for name, value in given.items():
         if value is not None:
             raise OptinavError(
-                f"{name} applies to text and array files, not to the ROS bag {path.name}",
-                f"drop the {name} option (a bag's columns are t, ax..az, gx..gz, mx..mz)",
+                f"{name} applies to text and array files, not to the {'ULog' if ulog else 'ROS bag'} {path.name}",
+                f"drop the {name} option "
+                + (
+                    "(a ULog topic's fields are read by name)"
+                    if ulog
+                    else "(a bag's columns are t, ax..az, gx..gz, mx..mz)"
+                ),
             )
 
 
@@ -898,6 +910,7 @@ _MAGIC = (
     (b"\x93NUMPY", "npy"),
     (b"\x1f\x8b", "gztext"),
     (b"PAR1", "parquet"),
+    (b"ULog\x01\x12\x35", "ulog"),  # a PX4 flight log (optinav.io.ulog), whatever its suffix
 )
 #: signatures of formats optinav does not read, named in the error (checked after :data:`_MAGIC`)
 _FOREIGN = (
@@ -913,7 +926,6 @@ _FOREIGN = (
     (b"7z\xbc\xaf", "a 7-Zip archive"),
     (b"\x28\xb5\x2f\xfd", "a zstd archive"),
     (b"\x7fELF", "a program (ELF executable)"),
-    (b"ULog\x01\x12\x35", "a PX4 ULog"),
     (b"\xa3\x95\x80", "an ArduPilot DataFlash log"),
 )
 
@@ -921,7 +933,6 @@ _EXPORT_REMEDY = "export the IMU data to CSV, NPZ, HDF5 or MAT (docs/file-format
 #: the export of a flight log that optinav reads as it comes out (docs/file-formats.md)
 _ARDUPILOT_EXPORT = "export its IMU message: mavlogdump.py --format csv --types IMU LOG > imu.csv (read as it is)"
 _LOG_REMEDY = {
-    b"ULog\x01\x12\x35": "export its topics with pyulog: ulog2csv LOG.ulg (…_sensor_combined_0.csv reads as it is)",
     b"\xa3\x95\x80": _ARDUPILOT_EXPORT,
 }
 #: what to do with a bag under another suffix: it is read under its own (a rosbag recording that did not close

@@ -1,0 +1,293 @@
+"""PX4 ULog (.ulg) files as input: logs written here from the ULog specification (PX4 "ULog File Format":
+header, flag bits, formats, subscriptions, data), checked against pyulog's own parser, then read by optinav as
+sensor_combined, vehicle_imu increments, a raw sensor_accel/sensor_gyro pair and a magnetometer topic; every
+refusal is a one-line error."""
+
+import struct
+import sys
+
+import numpy as np
+import pytest
+
+from optinav.cli.main import main
+from optinav.errors import OptinavError
+from optinav.io import read_imu
+from optinav.io.readers import load_table
+
+#: numpy types of the ULog field types written here (little endian, packed: pyulog reads without alignment)
+_NP = {"uint64_t": "<u8", "int32_t": "<i4", "uint32_t": "<u4", "uint8_t": "u1", "float": "<f4"}
+COMBINED = [
+    ("uint64_t", "timestamp"),
+    ("float[3]", "gyro_rad"),
+    ("uint32_t", "gyro_integral_dt"),
+    ("int32_t", "accelerometer_timestamp_relative"),
+    ("float[3]", "accelerometer_m_s2"),
+    ("uint32_t", "accelerometer_integral_dt"),
+    ("uint8_t", "accelerometer_clipping"),
+    ("uint8_t", "gyro_clipping"),
+]
+VEHICLE_IMU = [
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("uint32_t", "accel_device_id"),
+    ("uint32_t", "gyro_device_id"),
+    ("float[3]", "delta_angle"),
+    ("float[3]", "delta_velocity"),
+    ("uint32_t", "delta_angle_dt"),
+    ("uint32_t", "delta_velocity_dt"),
+]
+RAW = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("uint32_t", "device_id")]
+RAW += [("float", "x"), ("float", "y"), ("float", "z"), ("float", "temperature")]
+VEHICLE_MAG = [("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("uint32_t", "device_id")]
+VEHICLE_MAG += [("float[3]", "magnetometer_ga")]
+FORMATS = {
+    "sensor_combined": COMBINED,
+    "vehicle_imu": VEHICLE_IMU,
+    "sensor_accel": RAW,
+    "sensor_gyro": RAW,
+    "sensor_mag": RAW,
+    "vehicle_magnetometer": VEHICLE_MAG,
+}
+
+
+def _dtype(fields) -> np.dtype:
+    out = []
+    for typ, name in fields:
+        base, _, n = typ.partition("[")
+        out.append((name, _NP[base], (int(n[:-1]),)) if n else (name, _NP[base]))
+    return np.dtype(out)
+
+
+def _msg(kind: str, payload: bytes) -> bytes:
+    """A ULog message: uint16 size of the payload, uint8 type, the payload."""
+    return struct.pack("<HB", len(payload), ord(kind)) + payload
+
+
+def write_ulog(path, topics, *, start_us=1_000_000, version=1):
+    """A ULog file of ``topics`` [(name, multi_id, {field: values})] (fields of :data:`FORMATS`; a missing field is
+    zero), its data messages interleaved in time order as the logger writes them; returns the path."""
+    head = b"ULog\x01\x12\x35" + bytes([version]) + struct.pack("<Q", start_us)
+    defs = _msg("B", bytes(8) + bytes(8) + bytes(24)) if version >= 1 else b""  # no flags, nothing appended
+    defs += _msg("I", bytes([len("char[6] sys_name")]) + b"char[6] sys_nameoptnav")
+    for name in dict.fromkeys(t[0] for t in topics):
+        defs += _msg("F", f"{name}:{''.join(f'{t} {n};' for t, n in FORMATS[name])}".encode())
+    subs, rows = b"", []
+    for msg_id, (name, multi_id, values) in enumerate(topics):
+        subs += _msg("A", struct.pack("<BH", multi_id, msg_id) + name.encode())
+        dt = _dtype(FORMATS[name])
+        n = len(values["timestamp"])
+        arr = np.zeros(n, dt)
+        for k, v in values.items():
+            arr[k] = v
+        raw = arr.tobytes()
+        for i in range(n):
+            payload = struct.pack("<H", msg_id) + raw[i * dt.itemsize : (i + 1) * dt.itemsize]
+            rows.append((int(arr["timestamp"][i]), msg_id, _msg("D", payload)))
+    rows.sort(key=lambda r: (r[0], r[1]))
+    path.write_bytes(head + defs + subs + b"".join(r[2] for r in rows))
+    return path
+
+
+def _combined(t, acc, gyr, t0_us=5_000_000):
+    """sensor_combined's fields for samples at ``t`` (s after ``t0_us``)."""
+    return {
+        "timestamp": np.round(t * 1e6).astype(np.int64) + t0_us,
+        "gyro_rad": gyr,
+        "accelerometer_m_s2": acc,
+        "gyro_integral_dt": np.full(t.size, 4000),
+        "accelerometer_integral_dt": np.full(t.size, 4000),
+    }
+
+
+def _session(seed=2, dwell_s=3.0):
+    from optinav.multipos.simulate import simulate
+
+    return simulate("paper12", dwell_s=dwell_s, rate_hz=250.0, acc_unit="m/s^2", gyro_unit="rad/s", rng=seed)
+
+
+def test_written_ulog_is_parsed_by_pyulog_to_the_values_written(tmp_path):
+    """The writer above against the reference parser: every topic, instance and field as written."""
+    pyulog = pytest.importorskip("pyulog")
+    rng = np.random.default_rng(1)
+    t = np.arange(50) / 250.0
+    comb = _combined(t, rng.normal(size=(50, 3)), rng.normal(size=(50, 3)))
+    mag = {"timestamp": comb["timestamp"][::5] + 7, "timestamp_sample": comb["timestamp"][::5] + 3}
+    mag |= {"x": rng.normal(size=10), "y": rng.normal(size=10), "z": rng.normal(size=10)}
+    topics = [("sensor_combined", 0, comb), ("sensor_mag", 0, mag), ("sensor_mag", 1, mag)]
+    log = pyulog.ULog(str(write_ulog(tmp_path / "a.ulg", topics)))
+    assert not log.file_corruption
+    assert [(d.name, d.multi_id) for d in log.data_list] == [
+        ("sensor_combined", 0),
+        ("sensor_mag", 0),
+        ("sensor_mag", 1),
+    ]
+    d = log.get_dataset("sensor_combined").data
+    np.testing.assert_array_equal(d["timestamp"], comb["timestamp"])
+    for k in range(3):
+        np.testing.assert_array_equal(d[f"gyro_rad[{k}]"], comb["gyro_rad"][:, k].astype(np.float32))
+        np.testing.assert_array_equal(
+            d[f"accelerometer_m_s2[{k}]"], comb["accelerometer_m_s2"][:, k].astype(np.float32)
+        )
+    m = log.get_dataset("sensor_mag", 1).data
+    np.testing.assert_array_equal(m["timestamp_sample"], mag["timestamp_sample"])
+    np.testing.assert_array_equal(m["y"], mag["y"].astype(np.float32))
+    assert log.msg_info_dict["sys_name"] == "optnav"
+
+
+def test_sensor_combined_reads_and_calibrates_to_the_simulated_truth(tmp_path, capsys):
+    """A simulated 250 Hz multi-position session written as sensor_combined: read_imu gives its float32 values at
+    timestamp (µs → s), and ``optinav calibrate accel LOG.ulg`` recovers the simulated scale factors and biases
+    within 5 of the standard deviations it reports (before: "not a data table optinav reads")."""
+    pytest.importorskip("pyulog")
+    s = _session()
+    path = write_ulog(tmp_path / "flight.ulg", [("sensor_combined", 0, _combined(s.t, s.acc, s.gyr))])
+    log = read_imu(path)
+    np.testing.assert_allclose(log.t, 5.0 + np.round(s.t * 1e6) * 1e-6, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(log.acc, s.acc.astype(np.float32))
+    np.testing.assert_array_equal(log.gyr, s.gyr.astype(np.float32))
+    assert any("PX4 topic sensor_combined@0 read" in n for n in log.notes), log.notes
+    out = tmp_path / "r.json"
+    assert main(["--quiet", "calibrate", "accel", str(path), "--gravity", str(s.gravity), "--out", str(out)]) == 0
+    from optinav.multipos.result import CalibrationResult
+
+    r = CalibrationResult.from_json(out)
+    for sensor, K, b in (("accelerometer", s.acc_K, s.acc_b), ("gyroscope", s.gyr_K, s.gyr_b)):
+        d = getattr(r, sensor)
+        assert np.all(np.abs(d["b"] - b) <= 5 * d["b_std"] + 1e-12), (sensor, d["b"] - b, d["b_std"])
+        diag = np.diag(d["K"]) - np.diag(K)
+        assert np.all(np.abs(diag) <= 5 * np.diag(d["K_std"]) + 1e-12), (sensor, diag, np.diag(d["K_std"]))
+
+
+def test_vehicle_imu_increments_and_instances(tmp_path, capsys):
+    """vehicle_imu's increments over delta_*_dt become the mean rate and specific force at timestamp_sample (the
+    conversion of pyulog's CSV export); two instances are refused naming both, and one is read with NAME@K."""
+    pytest.importorskip("pyulog")
+    rng = np.random.default_rng(3)
+    n = 400
+    gyr, acc = rng.normal(0, 0.5, (n, 3)), rng.normal(0, 3, (n, 3)) + [0, 0, -9.8]
+    dt_us = rng.integers(3900, 4100, n)
+    ts = 2_000_000 + np.cumsum(dt_us)
+    dtheta, dv = (gyr * dt_us[:, None] * 1e-6).astype(np.float32), (acc * dt_us[:, None] * 1e-6).astype(np.float32)
+    imu = {"timestamp": ts + 150, "timestamp_sample": ts, "delta_angle": dtheta, "delta_velocity": dv}
+    imu |= {"delta_angle_dt": dt_us, "delta_velocity_dt": dt_us}
+    other = dict(imu, delta_angle=dtheta * 2)
+    path = write_ulog(tmp_path / "v.ulg", [("vehicle_imu", 0, imu), ("vehicle_imu", 1, other)])
+    with pytest.raises(
+        OptinavError, match=r"logs 2 instances of 'vehicle_imu' \(vehicle_imu@0 \(400 msgs\), vehicle_imu@1"
+    ):
+        read_imu(path, topic="vehicle_imu")
+    for k, want in ((0, dtheta), (1, dtheta * 2)):
+        log = read_imu(path, topic=f"vehicle_imu@{k}")
+        np.testing.assert_allclose(log.t, ts * 1e-6, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(log.gyr, want.astype(float) / (dt_us[:, None] * 1e-6), rtol=1e-12)
+        np.testing.assert_allclose(log.acc, dv.astype(float) / (dt_us[:, None] * 1e-6), rtol=1e-12)
+    np.testing.assert_allclose(read_imu(path, topic="vehicle_imu@0").gyr, gyr, rtol=1e-6, atol=1e-6)
+    # the default topic is missing: the error lists what the log holds
+    assert main(["--quiet", "allan", str(path), "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "optinav: error: v.ulg has no default topic 'sensor_combined' (IMU and magnetometer topics: vehicle_imu@0 "
+        "(400 msgs), vehicle_imu@1 (400 msgs)); pass one of the listed topics with --topic (NAME or NAME@INSTANCE; "
+        "sensor_accel,sensor_gyro as a pair)"
+    ], err
+
+
+def test_raw_sensor_pair_each_on_its_own_times(tmp_path):
+    """sensor_accel and sensor_gyro sample on their own clocks (here the gyro 1.5 ms after the accelerometer, at
+    the same 250 Hz): the gyroscope is interpolated onto the accelerometer's timestamp_sample, as a second file's
+    is. A session's static rates come back within the interpolation of its noise."""
+    pytest.importorskip("pyulog")
+    s = _session(seed=5, dwell_s=2.0)
+    us = 3_000_000 + np.round(s.t * 1e6).astype(np.int64)
+    acc = {"timestamp": us + 200, "timestamp_sample": us, "x": s.acc[:, 0], "y": s.acc[:, 1], "z": s.acc[:, 2]}
+    gus = us + 1500
+    gyr = {"timestamp": gus + 200, "timestamp_sample": gus, "x": s.gyr[:, 0], "y": s.gyr[:, 1], "z": s.gyr[:, 2]}
+    path = write_ulog(tmp_path / "raw.ulg", [("sensor_accel", 0, acc), ("sensor_gyro", 0, gyr)])
+    log = read_imu(path, topic="sensor_accel,sensor_gyro")
+    keep = (us >= gus[0]) & (us <= gus[-1])
+    np.testing.assert_allclose(log.t, us[keep] * 1e-6, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(log.acc, s.acc[keep].astype(np.float32))
+    want = np.column_stack([np.interp(us[keep], gus, s.gyr[:, k].astype(np.float32)) for k in range(3)])
+    np.testing.assert_allclose(log.gyr, want, rtol=0, atol=1e-12)
+    assert any("raw.ulg:sensor_gyro@0" in n and "interpolated onto the time stamps" in n for n in log.notes)
+    with pytest.raises(OptinavError, match="names sensor_accel without sensor_gyro"):
+        read_imu(path, topic="sensor_accel")
+
+
+def _flight(seed=1, duration_s=30.0):
+    """A simulated dynamic flight (NED, 250 Hz) and a magnetometer at each sample (0.5 gauss at 60° dip, 0.003 gauss
+    noise)."""
+    from optinav.attitude.simulate import simulate
+    from optinav.core.rotations import quat_conjugate, quat_rotate
+
+    f = simulate("dynamic", duration_s=duration_s, rate_hz=250.0, frame="ned", rng=seed)
+    field = 0.5 * np.array([np.cos(np.radians(60.0)), 0.0, np.sin(np.radians(60.0))])
+    mag = quat_rotate(quat_conjugate(f.q_b_n), field) + np.random.default_rng(seed).normal(0, 0.003, (f.t.size, 3))
+    return f, mag
+
+
+def test_attitude_mag_takes_the_magnetometer_topic_on_its_own_times(tmp_path, capsys):
+    """``optinav attitude LOG.ulg --mag``: sensor_combined with vehicle_magnetometer (gauss, 50 Hz, its own
+    timestamp_sample 1 ms after an IMU sample) on the IMU's rows. Each sample goes on its row: the attitude equals
+    the estimate with the magnetometer given on those rows directly, its heading error against the simulation's
+    truth is under a tenth of the gyro-only heading's, and the note names the topic, its unit and both rates."""
+    pytest.importorskip("pyulog")
+    from optinav.attitude import estimate
+    from optinav.attitude.metrics import heading_error, rmse
+
+    f, mag = _flight(duration_s=20.0)
+    comb = _combined(f.t, f.acc, f.gyr)
+    im = np.arange(0, f.t.size, 5)
+    vm = {"timestamp": comb["timestamp"][im] + 300, "timestamp_sample": comb["timestamp"][im] + 1000}
+    vm["magnetometer_ga"] = mag[im]
+    path = write_ulog(tmp_path / "f.ulg", [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, vm)])
+    out = tmp_path / "q.csv"
+    assert main(["attitude", str(path), "--mag", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"magnetometer of f.ulg (topic vehicle_magnetometer@0, gauss): {im.size} samples at 50 Hz" in err, err
+    assert f"{im.size} of the {f.t.size} IMU rows (250 Hz) hold a sample" in err, err
+    q = np.loadtxt(out, delimiter=",", skiprows=1, usecols=(1, 2, 3, 4))
+    log = read_imu(path)
+    direct = np.full((f.t.size, 3), np.nan)
+    direct[im] = mag[im].astype(np.float32)
+    dt = np.diff(log.t, prepend=log.t[0] - 0.004)
+    np.testing.assert_allclose(q, estimate(log.gyr, log.acc, dt, mag=direct, frame="ned").q_b_n, atol=1e-6)
+    gyro_only = estimate(log.gyr, log.acc, dt, frame="ned").q_b_n
+    heading = [rmse(np.degrees(heading_error(x, f.q_b_n))[1250:]) for x in (q, gyro_only)]  # after 5 s
+    assert heading[0] < 0.1 * heading[1], heading
+
+
+def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
+    """Without pyulog, a damaged or truncated log, a topic that is no IMU topic, a magnetometer asked of a log
+    without one: each a one-line error naming what helps, never a traceback."""
+    t = np.arange(20) / 250.0
+    good = write_ulog(tmp_path / "g.ulg", [("sensor_combined", 0, _combined(t, np.ones((20, 3)), np.zeros((20, 3))))])
+    raw = good.read_bytes()
+    with monkeypatch.context() as m:
+        m.setitem(sys.modules, "pyulog", None)
+        with pytest.raises(OptinavError, match=r"needs the pyulog library.*pip install 'optinav\[ulog\]', or export"):
+            load_table(good)
+        assert main(["allan", str(good), "--out", str(tmp_path / "a.json")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "ulog2csv LOG.ulg" in err[0], err
+    pytest.importorskip("pyulog")
+    cases = {
+        "short.ulg": (raw[:10], "short.ulg is not a readable ULog (Invalid file format (Header too short))"),
+        "defs.ulg": (raw[:40], "defs.ulg holds no message of an IMU or magnetometer topic"),  # cut in the definitions
+        "junk.ulg": (raw[:16] + bytes(range(256)) * 4, "junk.ulg holds no message of an IMU or magnetometer topic"),
+        "junk2.ulg": (raw[:200] + bytes(range(256)) * 4, "junk2.ulg is not a readable ULog"),
+    }
+    for name, (data, what) in cases.items():
+        (tmp_path / name).write_bytes(data)
+        assert main(["--quiet", "allan", str(tmp_path / name), "--out", str(tmp_path / "x.json")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"optinav: error: {what}"), (name, err)
+    renamed = tmp_path / "renamed.csv"  # a ULog under another suffix is read as one (by its first bytes)
+    renamed.write_bytes(raw)
+    np.testing.assert_array_equal(read_imu(renamed).acc, read_imu(good).acc)
+    assert main(["--quiet", "allan", str(good), "--topic", "vehicle_attitude", "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'vehicle_attitude' is not a PX4 IMU or magnetometer topic" in err[0], err
+    assert main(["--quiet", "attitude", str(good), "--mag", "--out", str(tmp_path / "q.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "g.ulg logs no magnetometer" in err[0] and "drop --mag" in err[0], err
