@@ -273,7 +273,7 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     pytest.importorskip("pyulog")
     cases = {
         "short.ulg": (raw[:10], "short.ulg is not a readable ULog (Invalid file format (Header too short))"),
-        "defs.ulg": (raw[:40], "defs.ulg holds no message of an IMU or magnetometer topic"),  # cut in the definitions
+        "defs.ulg": (raw[:40], "defs.ulg is damaged: pyulog skipped messages"),  # cut in the definitions
         "junk.ulg": (raw[:16] + bytes(range(256)) * 4, "junk.ulg holds no message of an IMU or magnetometer topic"),
         "junk2.ulg": (raw[:200] + bytes(range(256)) * 4, "junk2.ulg is not a readable ULog"),
     }
@@ -282,6 +282,19 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
         assert main(["--quiet", "allan", str(tmp_path / name), "--out", str(tmp_path / "x.json")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(f"optinav: error: {what}"), (name, err)
+    # a data message's type byte damaged in the middle: pyulog finds no sync marker after it and loses the rest
+    n = 400
+    t = np.arange(n) / 250.0
+    full = write_ulog(tmp_path / "f.ulg", [("sensor_combined", 0, _combined(t, np.ones((n, 3)), np.zeros((n, 3))))])
+    data = bytearray(full.read_bytes())
+    data[data.index(b"D", len(data) // 2)] = 0
+    (tmp_path / "hole.ulg").write_bytes(bytes(data))
+    assert main(["--quiet", "allan", str(tmp_path / "hole.ulg"), "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "hole.ulg is damaged" in err[0] and "pass --skip-bad-lines" in err[0], err
+    log = read_imu(tmp_path / "hole.ulg", skip_bad_lines=True)
+    assert 0 < len(log) < n and any("damaged, read as pyulog recovers it" in x for x in log.notes), log.notes
+    np.testing.assert_array_equal(log.t, read_imu(full).t[: len(log)])
     renamed = tmp_path / "renamed.csv"  # a ULog under another suffix is read as one (by its first bytes)
     renamed.write_bytes(raw)
     np.testing.assert_array_equal(read_imu(renamed).acc, read_imu(good).acc)

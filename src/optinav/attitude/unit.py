@@ -181,7 +181,7 @@ def separate_mag(path, options: AttitudeOptions):
                 f"--mag-columns names columns of a table; {Path(path).name} is a ULog",
                 "drop --mag-columns: name the magnetometer topic with --topic (vehicle_magnetometer or sensor_mag)",
             )
-        return ulog_mag(path, o.topic)
+        return ulog_mag(path, o.topic, o.skip_bad_lines)
     export = phone_export(path)
     if export is not None:
         if export.mag is None:

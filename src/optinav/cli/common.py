@@ -163,7 +163,8 @@ def add_input_options(p, *, gyro: bool = True, unit_default: tuple[str, str] = (
         "--skip-bad-lines",
         action="store_true",
         help="text files: leave unreadable lines (a garbled cell, a cut or merged line) out as lost samples, "
-        "with a note naming them (at most 1%% of the lines; without a time column they stay as NaN rows)",
+        "with a note naming them (at most 1%% of the lines; without a time column they stay as NaN rows); a damaged "
+        "PX4 ULog: read what pyulog recovers, with a note",
     )
     p.add_argument(
         "--topic",

@@ -1890,7 +1890,7 @@ def read_imu(
                 "drop gyro_path (--gyro): the export's gyroscope is read",
             )
         path, gyro_path = export.member(export.acc), export.member(export.gyro)
-    pair = ulog_pair(path, topic)
+    pair = ulog_pair(path, topic, skip_bad_lines)
     if pair is not None:  # a ULog's sensor_accel and sensor_gyro, each on its own times, paired as gyro_path
         if gyro_path is not None:
             raise OptinavError(f"--topic {topic} reads the gyroscope of {Path(path).name}", "drop gyro_path (--gyro)")
@@ -1946,7 +1946,7 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
     read; a phone export's accelerometer and gyroscope files (:mod:`optinav.io.phone`) each on its own clock.
     ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
     export = phone_export(path)
-    pair = ulog_pair(path, kw.get("topic"))
+    pair = ulog_pair(path, kw.get("topic"), kw.get("skip_bad_lines", False))
     if pair is not None:  # a ULog's raw accelerometer and gyroscope, each on its own clock
         opts = _imu_options(
             kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
@@ -1954,7 +1954,7 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
         )  # fmt: skip
         logs = []
         for need, member in zip(("acc", "gyro"), pair):
-            part = _read_part(member, None, None, None, need, "columns")
+            part = _read_part(member, None, None, None, need, "columns", None, kw.get("skip_bad_lines", False))
             setattr(part, "gyro" if need == "acc" else "acc", None)
             logs.append(_log_of([part], *opts))
         return logs[0], logs[1]
@@ -2277,7 +2277,8 @@ _LAYOUT_NOTES = {
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
     "ulog_topic": "PX4 topic {v} read (pyulog)",
-    "ulog_damaged": "damaged messages were skipped by pyulog ({v}); a gap they leave is checked as any gap",
+    "ulog_damaged": "damaged, read as pyulog recovers it (--skip-bad-lines): {v}; messages after the damage may be "
+    "lost, and a gap they leave is checked as any gap",
     "kitti_oxts": "KITTI's oxts folder read: times from timestamps.txt (taken as UTC), ax..az and wx..wz in the "
     "vehicle's axes (x forward, y left, z up; --frame ENU), one sample per data/ file",
     "date_time": "its date-times {v!r} read as the time (s since 1970-01-01 UTC; a stamp without a UTC offset is "

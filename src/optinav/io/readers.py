@@ -333,7 +333,7 @@ def load_table(
         from optinav.io.ulog import load_ulog
 
         _no_option(path, True, delimiter=delimiter, names=names)
-        return load_ulog(path, topic=topic)
+        return load_ulog(path, topic=topic, skip_bad_lines=skip_bad_lines)
     _check_select(path, topic)
     if kind == "kitti_oxts":
         if names is not None or delimiter is not None:
@@ -574,6 +574,7 @@ class TableChunks:
                 only=self.only,
                 text_columns=self.text_columns,
                 topic=self.topic,
+                skip_bad_lines=self.skip_bad_lines,
             )
 
         def progress(fraction: float) -> None:

@@ -141,9 +141,11 @@ class _Log:
         return name, inst[0] if ident is None else ident
 
 
-def _read(path: Path, names) -> _Log:
+def _read(path: Path, names, skip_bad: bool = False) -> _Log:
     """The topics ``names`` of the ULog ``path`` (all their instances), parsed by pyulog; one-line errors for a file
-    that is not a readable ULog. pyulog's printed warnings (damage skipped) are kept in ``damaged``."""
+    that is not a readable ULog, and for one pyulog found damaged unless ``skip_bad`` (``--skip-bad-lines``: what
+    it recovers is read, the damage in ``damaged``): it skips what it cannot read and, without a sync marker after
+    the damage, everything after it (half of a log read with exit 0)."""
     if not path.exists():
         raise OptinavError(f"data file {path} does not exist", "check the path")
     ULog = _pyulog()
@@ -160,9 +162,16 @@ def _read(path: Path, names) -> _Log:
     for d in log.data_list:
         if "timestamp" in d.data:
             data[(d.name, int(d.multi_id))] = d.data
-    damaged = " ".join(out.getvalue().split())
+    damaged = " ".join(out.getvalue().split())[:200] if log.file_corruption else ""
     if log.file_corruption and not damaged:
         damaged = "damaged messages skipped"
+    if damaged and not skip_bad:
+        raise OptinavError(
+            f"{path.name} is damaged: pyulog skipped messages it could not read ({damaged}), and what follows the "
+            "damage may be lost with them",
+            "pass --skip-bad-lines to read what pyulog recovers (a note names the damage); check that the log was "
+            "copied whole",
+        )
     return _Log(path, data, damaged)
 
 
@@ -175,14 +184,15 @@ def _table(path: Path, log: _Log, key: tuple[str, int]):
     units = {k: "us" for k in ("timestamp", "timestamp_sample") if k in data}
     meta = {"px4_topic": key[0], "ulog_topic": f"{key[0]}@{key[1]}"}
     if log.damaged:
-        meta["ulog_damaged"] = log.damaged[:200]
+        meta["ulog_damaged"] = log.damaged
     return Table(path, "ulog", data, units, meta)
 
 
-def load_ulog(path, *, topic=None):
+def load_ulog(path, *, topic=None, skip_bad_lines: bool = False):
     """The Table of the IMU topic of the ULog ``path``: ``topic`` as ``--topic`` (its IMU item), default
     ``sensor_combined`` (see the module docs); the fields under pyulog's names, read by :func:`optinav.io.read_imu`
-    as pyulog's CSV export of the topic. A pair of raw sensor topics is read by :func:`ulog_pair` instead."""
+    as pyulog's CSV export of the topic. A pair of raw sensor topics is read by :func:`ulog_pair` instead. A log
+    pyulog finds damaged is refused unless ``skip_bad_lines``."""
     path = Path(path)
     wanted = _parse_topic(path, topic)
     if "acc" in wanted:
@@ -191,7 +201,7 @@ def load_ulog(path, *, topic=None):
             "read them with optinav.io.read_imu (or any command) and --topic sensor_accel,sensor_gyro",
         )
     name, ident = wanted.get("imu", ("sensor_combined", None))
-    log = _read(path, set(_ROLES) | {name})
+    log = _read(path, set(_ROLES) | {name}, skip_bad_lines)
     return _table(path, log, log.pick(name, ident, "imu" in wanted))
 
 
@@ -219,28 +229,29 @@ class UlogTopic:
         return _table(self.path, self.log, self.key)
 
 
-def ulog_pair(path, topic) -> tuple[UlogTopic, UlogTopic] | None:
+def ulog_pair(path, topic, skip_bad_lines: bool = False) -> tuple[UlogTopic, UlogTopic] | None:
     """(accelerometer, gyroscope) topics of a ULog when ``topic`` names ``sensor_accel`` and ``sensor_gyro``; None
-    for anything else."""
+    for anything else. ``skip_bad_lines`` as :func:`load_ulog`."""
     if topic is None or not isinstance(path, str | Path) or not is_ulog(path):
         return None
     path = Path(path)
     wanted = _parse_topic(path, topic)
     if "acc" not in wanted:
         return None
-    log = _read(path, {wanted["acc"][0], wanted["gyro"][0]})
+    log = _read(path, {wanted["acc"][0], wanted["gyro"][0]}, skip_bad_lines)
     return tuple(UlogTopic(path, log.pick(*wanted[r], True), log) for r in ("acc", "gyro"))
 
 
-def ulog_mag(path, topic=None):
+def ulog_mag(path, topic=None, skip_bad_lines: bool = False):
     """The magnetometer of the ULog ``path`` on its own time stamps (:class:`optinav.io.imu.MagSamples`, gauss):
-    the magnetometer topic of ``topic``, else ``vehicle_magnetometer``, else ``sensor_mag`` (its only instance)."""
+    the magnetometer topic of ``topic``, else ``vehicle_magnetometer``, else ``sensor_mag`` (its only instance).
+    ``skip_bad_lines`` as :func:`load_ulog`."""
     from optinav.core.validate import check_timestamps
     from optinav.io.imu import MagSamples
 
     path = Path(path)
     wanted = _parse_topic(path, topic).get("mag")
-    log = _read(path, set(_MAG_FIELDS))
+    log = _read(path, set(_MAG_FIELDS), skip_bad_lines)
     if wanted is None:
         present = [n for n in _MAG_FIELDS if any(k[0] == n for k in log.data)]
         if not present:
