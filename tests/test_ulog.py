@@ -304,3 +304,34 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     assert main(["--quiet", "attitude", str(good), "--mag", "--out", str(tmp_path / "q.csv")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "g.ulg logs no magnetometer" in err[0] and "drop --mag" in err[0], err
+
+
+def test_invalid_accelerometer_rows_are_nan_in_the_log_and_its_csv_export(tmp_path):
+    """sensor_combined rows whose accelerometer_timestamp_relative is RELATIVE_TIMESTAMP_INVALID (0x7fffffff: "the
+    associated sensor values are invalid", SensorCombined.msg; PX4 publishes it before the first accelerometer
+    sample) were read as measurements; now their accelerometer is NaN (lost samples), in the .ulg and in the CSV
+    ulog2csv writes of it alike, with a note."""
+    pytest.importorskip("pyulog")
+    n = 50
+    t = np.arange(n) / 250.0
+    rng = np.random.default_rng(6)
+    acc, gyr = rng.normal(0, 1, (n, 3)) + [0, 0, -9.8], rng.normal(0, 0.1, (n, 3))
+    comb = _combined(t, acc, gyr)
+    comb["accelerometer_timestamp_relative"] = np.where(np.arange(n) < 3, 2147483647, 0)
+    path = write_ulog(tmp_path / "i.ulg", [("sensor_combined", 0, comb)])
+    names = ["timestamp", *(f"gyro_rad[{k}]" for k in range(3)), "accelerometer_timestamp_relative"]
+    names += [f"accelerometer_m_s2[{k}]" for k in range(3)]
+    cols = [comb["timestamp"], *gyr.astype(np.float32).T, comb["accelerometer_timestamp_relative"]]
+    cols += list(acc.astype(np.float32).T)
+    csv = tmp_path / "i_sensor_combined_0.csv"
+    csv.write_text(
+        ",".join(names) + "\n" + "".join(",".join(map(repr, r)) + "\n" for r in zip(*(c.tolist() for c in cols)))
+    )
+    for src in (path, csv):
+        log = read_imu(src)
+        assert np.all(np.isnan(log.acc[:3])) and log.nan_rows == 3, src
+        np.testing.assert_array_equal(log.acc[3:], acc[3:].astype(np.float32))
+        np.testing.assert_array_equal(log.gyr, gyr.astype(np.float32))
+        assert any(
+            "3 rows whose accelerometer_timestamp_relative is PX4's RELATIVE_TIMESTAMP_INVALID" in x for x in log.notes
+        )

@@ -760,6 +760,15 @@ def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
     imu = any(all(keys) and dt for keys, dt in inc.values())
     if not (combined or imu or table.meta.get("px4_topic") in _PX4_RAW):
         return
+    rel = norm.get("accelerometer_timestamp_relative")
+    acc_keys = [norm.get(f"accelerometer_m_s2_{a}") for a in "xyz"]
+    if rel is not None and all(acc_keys) and table.data[rel].dtype.kind == "f":
+        # SensorCombined.msg: RELATIVE_TIMESTAMP_INVALID "means the associated sensor values are invalid"
+        bad = table.data[rel] == PX4_RELATIVE_TIMESTAMP_INVALID
+        if bad.any():
+            for key in acc_keys:
+                table.data[key] = np.where(bad, np.nan, table.data[key])
+            table.meta["px4_acc_invalid"] = str(int(np.count_nonzero(bad)))
     for kind, (keys, dt) in inc.items():
         if not (all(keys) and dt) or any(f"{kind}{a}" in found or f"{kind}{a}" in candidates for a in "xyz"):
             continue
@@ -775,6 +784,9 @@ def _px4(table: Table, found: dict, candidates: dict, implied: dict) -> None:
             candidates["t"] = key
             implied.setdefault(key, "us")
 
+
+#: sensor_combined's accelerometer_timestamp_relative of a row whose accelerometer values are invalid (0x7fffffff)
+PX4_RELATIVE_TIMESTAMP_INVALID = 2147483647
 
 #: PX4's raw sensor topics, one sensor each (x, y, z at timestamp_sample): the standard names of their axes
 _PX4_RAW = {"sensor_accel": "a", "sensor_gyro": "g"}
@@ -2277,6 +2289,8 @@ _LAYOUT_NOTES = {
     "coremotion": "Core Motion's acceleration is minus the specific force: read as {v}",
     "negated": "read negated as the columns option asks: {v}",
     "ulog_topic": "PX4 topic {v} read (pyulog)",
+    "px4_acc_invalid": "{v} rows whose accelerometer_timestamp_relative is PX4's RELATIVE_TIMESTAMP_INVALID (their "
+    "accelerometer values invalid) read as NaN",
     "ulog_damaged": "damaged, read as pyulog recovers it (--skip-bad-lines): {v}; messages after the damage may be "
     "lost, and a gap they leave is checked as any gap",
     "kitti_oxts": "KITTI's oxts folder read: times from timestamps.txt (taken as UTC), ax..az and wx..wz in the "
