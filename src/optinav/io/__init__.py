@@ -6,7 +6,8 @@ NPZ, HDF5 or MAT. ``iter_imu``/``iter_table`` read logs in blocks (text, NPY, NP
 independent of their length) and
 ``open_imu_writer`` writes logs block by block; ``read_mag`` reads a magnetometer on its own time stamps, which
 :class:`MagSamples` puts on a log's rows. A phone app's export (Sensor Logger, phyphox; its zip or folder) is read
-as one log (:mod:`optinav.io.phone`). Formats, column aliases and units: docs/file-formats.md.
+as one log (:mod:`optinav.io.phone`); ROS bags (:mod:`optinav.io.rosbag`) and PX4 flight logs
+(:mod:`optinav.io.ulog`) as they are recorded. Formats, column aliases and units: docs/file-formats.md.
 """
 
 from optinav.io.imu import (
