@@ -298,6 +298,12 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     renamed = tmp_path / "renamed.csv"  # a ULog under another suffix is read as one (by its first bytes)
     renamed.write_bytes(raw)
     np.testing.assert_array_equal(read_imu(renamed).acc, read_imu(good).acc)
+    pair = [("sensor_accel", 0, {"timestamp": 10 + np.arange(5), "timestamp_sample": np.arange(5) + 1, "x": t[:5]})]
+    pair += [("sensor_gyro", 0, {"timestamp": 10 + np.arange(5), "timestamp_sample": np.arange(5) + 2, "y": t[:5]})]
+    raw_pair = write_ulog(tmp_path / "pair.ulg", pair).read_bytes()
+    (tmp_path / "pair.dat").write_bytes(raw_pair)
+    got = read_imu(tmp_path / "pair.dat", topic="sensor_accel,sensor_gyro").acc[:, 0]
+    np.testing.assert_array_equal(got, t[1:5].astype(np.float32))
     assert main(["--quiet", "allan", str(good), "--topic", "vehicle_attitude", "--out", str(tmp_path / "a.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'vehicle_attitude' is not a PX4 IMU or magnetometer topic" in err[0], err

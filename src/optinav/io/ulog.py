@@ -50,8 +50,15 @@ _MAG_FIELDS = {"vehicle_magnetometer": [f"magnetometer_ga[{k}]" for k in range(3
 
 
 def is_ulog(path) -> bool:
-    """True for a path with a ULog suffix (``.ulg``)."""
-    return Path(path).suffix.lower() in ULOG_SUFFIXES
+    """True for a ULog: a ``.ulg`` path, or a file that starts with :data:`ULOG_MAGIC` (a log renamed)."""
+    p = Path(path)
+    if p.suffix.lower() in ULOG_SUFFIXES:
+        return True
+    try:
+        with open(p, "rb") as fh:
+            return fh.read(len(ULOG_MAGIC)) == ULOG_MAGIC
+    except OSError:
+        return False
 
 
 def _pyulog():
