@@ -304,6 +304,12 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     (tmp_path / "pair.dat").write_bytes(raw_pair)
     got = read_imu(tmp_path / "pair.dat", topic="sensor_accel,sensor_gyro").acc[:, 0]
     np.testing.assert_array_equal(got, t[1:5].astype(np.float32))
+    assert main(["--quiet", "allan", str(good), "--columns", "t,ax,ay,az", "--out", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "optinav: error: positional columns (--columns t,ax,…) apply to text and array files, not to the ULog g.ulg; "
+        "drop them (a ULog topic's fields are read by name)"
+    ], err
     assert main(["--quiet", "allan", str(good), "--topic", "vehicle_attitude", "--out", str(tmp_path / "a.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'vehicle_attitude' is not a PX4 IMU or magnetometer topic" in err[0], err

@@ -891,11 +891,12 @@ def _zip_is_npz(path: Path) -> None:
 
 
 def _no_option(path: Path, ulog: bool = False, **given) -> None:
-    for name, value in given.items():
+    for key, value in given.items():
+        name = {"names": "positional columns (--columns t,ax,…)", "delimiter": "--delimiter"}.get(key, key)
         if value is not None:
             raise OptinavError(
-                f"{name} applies to text and array files, not to the {'ULog' if ulog else 'ROS bag'} {path.name}",
-                f"drop the {name} option "
+                f"{name} apply to text and array files, not to the {'ULog' if ulog else 'ROS bag'} {path.name}",
+                "drop them "
                 + (
                     "(a ULog topic's fields are read by name)"
                     if ulog
