@@ -100,8 +100,20 @@ def test_the_summary_says_how_much_of_the_magnetometer_was_used(tmp_path):
     mag[::2] = np.nan  # a magnetometer at half the rate
     res = estimate(gyr, acc, 0.01, frame="ENU", mag=mag)
     rows = {r[0]: r[1] for r in attitude_tables(res, n)[0].rows}
-    share = 100.0 * np.count_nonzero(res.mag_used) / n
-    assert 0 < share <= 50.0 and rows["magnetometer samples used [%]"].value == pytest.approx(share)
+    # of the magnetometer's own samples (it said 50 % at most, as if half the field had been rejected)
+    share = 100.0 * np.count_nonzero(res.mag_used) / (n // 2)
+    assert 50.0 < share <= 100.0 and rows["magnetometer samples used [%]"].value == pytest.approx(share)
+    assert res.mag_rows == n // 2 and f"magnetometer used {share:.0f} % of its {n // 2} samples" in res.summary()
+    csv = tmp_path / "half.csv"
+    t = np.arange(n) * 0.01
+    np.savetxt(csv, np.column_stack([t, gyr, acc, mag]), delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz")
+    for extra in ([], ["--offline"]):
+        from optinav.attitude.filestream import stream_attitude
+        from optinav.attitude.unit import AttitudeOptions
+
+        run = stream_attitude(csv, tmp_path / "o.csv", AttitudeOptions(frame="ENU", mag=True, offline=bool(extra)))
+        want = estimate(gyr, acc, 0.01, frame="ENU", mag=mag, offline=bool(extra))
+        assert run.estimate.mag_rows == n // 2 and run.summary == want.summary(), (run.summary, want.summary())
     rows = {r[0]: r[1] for r in attitude_tables(estimate(gyr, acc, 0.01, frame="ENU"), n)[0].rows}
     assert "magnetometer samples used [%]" not in rows
 

@@ -144,6 +144,9 @@ class AttitudeEstimate(Estimate):
     #: fitted from the recording (``mag_hard_iron_fitted``); None: none subtracted
     mag_hard_iron: np.ndarray | None = field(default=None, metadata={"unit": "magnetometer's"})
     mag_hard_iron_fitted: bool = False
+    #: rows holding a magnetometer sample (a slower magnetometer on the IMU's rows has NaN rows between); None: no
+    #: magnetometer
+    mag_rows: int | None = None
     offline: bool = False
     input_stage: bool = False
     segments: int = 1
@@ -193,6 +196,7 @@ class AttitudeEstimate(Estimate):
             segments=self.segments,
             rest=None if self.rest is None else float(np.mean(self.rest)),
             mag_used=None if self.mag_used is None else float(np.mean(self.mag_used)),
+            mag_rows=self.mag_rows,
             mag_offset_used=self.mag_offset_used,
             mag_hard_iron=self.mag_hard_iron,
             mag_hard_iron_fitted=self.mag_hard_iron_fitted,
@@ -216,10 +220,13 @@ def summary_line(
     mag_offset_used: float | None = None,
     mag_hard_iron=None,
     mag_hard_iron_fitted: bool = False,
+    mag_rows: int | None = None,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
-    body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given)."""
+    body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given);
+    ``mag_rows`` the rows holding a magnetometer sample: fewer than ``n`` (a slower magnetometer), the share is
+    of those."""
     pol_skipped = pol_skipped or {}
     skipped = sum(pol_skipped.values())
     s = f"{variant(method, offline=offline, input_stage=input_stage)}: {n} samples ({frame})"
@@ -228,7 +235,10 @@ def summary_line(
     if rest is not None:
         s += f"; rest {100 * rest:.0f} %"
     if mag_used is not None:
-        s += f"; magnetometer used {100 * mag_used:.0f} %"
+        if mag_rows is not None and 0 < mag_rows < n:
+            s += f"; magnetometer used {100 * mag_used * n / mag_rows:.0f} % of its {mag_rows} samples"
+        else:
+            s += f"; magnetometer used {100 * mag_used:.0f} %"
         if mag_offset_used:
             s += f" ({100 * mag_offset_used:.0f} % less a body-fixed offset fitted while disturbed, e.g. a magnet on the board)"
         if mag_hard_iron is not None:
@@ -635,6 +645,7 @@ def estimate(
             else sum(p.mag_offset_used * p.q_b_n.shape[0] for p in parts) / max(n, 1),
             mag_hard_iron=mag_hard_iron,
             mag_hard_iron_fitted=fitted,
+            mag_rows=None if first.mag_rows is None else sum(p.mag_rows for p in parts),
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
@@ -655,6 +666,7 @@ def estimate(
             mag_offset_used=None if r.offset_used is None else float(np.mean(r.offset_used)),
             mag_hard_iron=mag_hard_iron,
             mag_hard_iron_fitted=fitted,
+            mag_rows=None if mag is None else int(np.count_nonzero(np.isfinite(mag).all(axis=1))),
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),

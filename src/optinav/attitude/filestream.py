@@ -92,6 +92,7 @@ class StreamedEstimate:
     acc_threshold_hits: int = 0
     gyr_bias: np.ndarray | None = None  # rad/s, the final estimate
     mag_used: int | None = None
+    mag_rows: int | None = None  # rows holding a magnetometer sample (a slower magnetometer: NaN rows between)
     truth_comparison: dict | None = None
     gates: list = field(default_factory=list)
     input_stage: bool = True  # gd/cg/qn/mekf: behind iframe's input stage (False: as published)
@@ -811,7 +812,7 @@ def _stream_offline(
         lat = 0.0
         for k, (a, b) in enumerate(bounds):
             lat = _offline_segment(store, int(a), int(b), opts, frame, q0 if k == 0 else None, blk)
-        rest = mag_used = acc_hits = 0
+        rest = mag_used = acc_hits = mag_rows = 0
         fig = _Decimated(store.n, figure_points) if figure_points else None
         with _rows_writer(out) as write:
             for a in range(0, store.n, blk):
@@ -839,6 +840,8 @@ def _stream_offline(
                 rest += int(np.count_nonzero(flags[:, 0]))
                 acc_hits += int(np.count_nonzero(flags[:, 1] == 0))
                 mag_used += int(np.count_nonzero(flags[:, 2]))
+                if src.mag:
+                    mag_rows += int(np.count_nonzero(np.isfinite(store.col(r, "mag")).all(axis=1)))
                 if truth is not None:
                     truth.add(a, q)
             result = None if score is None else score.result()
@@ -852,12 +855,13 @@ def _stream_offline(
         segments=len(bounds),
         rest=rest / n,
         mag_used=mag_used / n if src.mag else None,
+        mag_rows=mag_rows if src.mag else None,
         mag_hard_iron=hard_iron[0] if src.mag else None,
         mag_hard_iron_fitted=hard_iron[1],
     )
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
-        offline=True,
+        mag_rows=mag_rows if src.mag else None, offline=True,
     )  # fmt: skip
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
@@ -1300,5 +1304,6 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         acc_threshold_hits=e.acc_threshold_hits,
         gyr_bias=None if e.gyr_bias is None else np.array(e.gyr_bias),
         mag_used=e.mag_used,
+        mag_rows=None if e.mag_used is None else e.mag_rows,
         input_stage=bool(e.input_stage),
     )

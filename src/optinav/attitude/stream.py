@@ -245,6 +245,7 @@ class StreamEstimator:
         self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
         self.n = self.rest = self.acc_hits = self.segments = 0
         self.mag_used: int | None = None  # samples with the magnetometer used (None: no magnetometer given)
+        self.mag_rows = 0  # ... and those holding a magnetometer sample
         self.mag_offset_used = 0  # ... of them less a body-fixed offset fitted while disturbed (iframe)
         self.pol_skipped: dict[str, int] | None = None  # None: no polarization given
         self.gyr_bias = None
@@ -280,6 +281,7 @@ class StreamEstimator:
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
+                self.mag_rows += int(np.count_nonzero(np.isfinite(mag).all(axis=1)))
                 self.mag_offset_used += int(np.count_nonzero(r.offset_used))
         else:
             counts, skipped = f.counts.copy(), dict(f._skipped)
@@ -317,6 +319,7 @@ class StreamEstimator:
             segments=self.segments,
             rest=self.rest / self.n if self.input_stage and self.n else None,
             mag_used=None if self.mag_used is None else self.mag_used / self.n,
+            mag_rows=None if self.mag_used is None else self.mag_rows,
             pol_used=int(self.counts[0]) if skipped is not None else 0,
             pol_skipped=skipped,
             mag_offset_used=self.mag_offset_used / self.n if self.n else None,

@@ -38,7 +38,9 @@ def attitude_tables(res, n_samples: int, score=None) -> list[Table]:
     used = getattr(res, "mag_used", None)  # per-sample flags (in memory) or a count (streamed); None: no magnetometer
     if used is not None:
         k = int(np.count_nonzero(used)) if np.ndim(used) else int(used)
-        rows.append(["magnetometer samples used [%]", Cell(100.0 * k / max(int(n_samples), 1), _fixed(1))])
+        # of the rows holding a sample: a magnetometer slower than the IMU has NaN rows between (not rejections)
+        m = getattr(res, "mag_rows", None) or int(n_samples)
+        rows.append(["magnetometer samples used [%]", Cell(100.0 * k / max(m, 1), _fixed(1))])
     if score is not None:
         rows += [
             ["inclination RMSE vs reference [deg]", Cell(float(np.degrees(score[0])), _fixed(3))],
