@@ -29,7 +29,7 @@ class ExportMember:
 
     def load(self, **kw):
         """The member's :class:`~optinav.io.readers.Table` (``kw`` as :func:`~optinav.io.readers.load_table`)."""
-        from optinav.io.readers import load_table, load_text_bytes
+        from optinav.io.readers import load_table
 
         if not self.export.zipped:
             return load_table(self.path, **kw)
@@ -40,7 +40,7 @@ class ExportMember:
             raise OptinavError(
                 f"cannot read {self.name} in the zip {self.export.path.name} ({exc})", "re-export or extract it"
             ) from None
-        return load_text_bytes(self.path, raw, **kw)
+        return load_table(self.path, raw=raw, **kw)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -312,6 +312,7 @@ def load_table(
     topic=None,
     needed=None,
     skip_bad_lines: bool = False,
+    raw: bytes | None = None,
 ) -> Table:
     """Read ``path`` into a :class:`Table` (see :func:`read_table`).
 
@@ -320,9 +321,14 @@ def load_table(
     file's column is used — one that is not and holds text in the first data row is left out (a frame id
     beside the values), instead of being an error; ``skip_bad_lines``: a text table's unreadable lines (a
     garbled cell, too few or too many fields) are left out and listed in ``bad_rows``/``bad_lines`` instead of
-    being an error, up to :data:`MAX_BAD_FRACTION` of its lines.
+    being an error, up to :data:`MAX_BAD_FRACTION` of its lines; ``raw``: a text table's bytes, ``path`` only
+    naming it (a zip's member read in memory).
     """
     path = Path(path)
+    if raw is not None:
+        _check_select(path, topic)
+        labels = {normalize_name(n)[0] for n in text_columns}
+        return _selected(_load_text(path, raw, names, delimiter, labels, needed, skip_bad_lines), topic)
     kind, gz = _file_kind(path)
     if kind == "rosbag":
         from optinav.io.rosbag import load_bag
@@ -365,26 +371,6 @@ def load_table(
         if names is not None:
             table = _name_table_columns(table, names)
     return _selected(table, topic)
-
-
-def load_text_bytes(
-    path,
-    raw: bytes,
-    *,
-    names: Sequence[str] | None = None,
-    delimiter: str | None = None,
-    only: Sequence[str] | None = None,
-    text_columns: Sequence[str] = LABEL_COLUMNS,
-    topic=None,
-    needed=None,
-    skip_bad_lines: bool = False,
-) -> Table:
-    """:func:`load_table` of a text table given as its bytes ``raw`` (a zip's member, read in memory); ``path``
-    names it in messages and notes. ``only`` is unused, as for any text file."""
-    path = Path(path)
-    _check_select(path, topic)
-    labels = {normalize_name(n)[0] for n in text_columns}
-    return _selected(_load_text(path, raw, names, delimiter, labels, needed, skip_bad_lines), topic)
 
 
 #: the 30 values of each file of a KITTI raw ``oxts/data`` folder (the devkit's dataformat.txt): position, attitude
