@@ -137,6 +137,43 @@ def test_a_phyphox_export_is_read_and_allan_takes_each_sensor_on_its_clock(tmp_p
     assert f"{n // 4} samples at 25 Hz" in err and "(100 Hz) hold a sample" in err, err
 
 
+def test_a_zip_of_two_recordings_is_refused_and_a_zipped_folder_is_read(tmp_path, capsys):
+    """A zip of two Sensor Logger recordings' folders (A/, B/) was read as B's pair with exit 0 (the members keyed by
+    their base names, the last one kept): refused naming both folders. phyphox's export zipped with its folder
+    (Simple/meta/device.csv) ended in 'extract it and pass one table': read as the same export at the top."""
+    t = np.arange(300) / 100.0
+    meta = "version,device name\n1.30,Pixel 7\n"
+    rec = {
+        f"{r}/{n}": _sensor_logger(t, np.tile([0.0, 0.0, 9.8] if n[0] == "T" else [g, 0.0, 0.0], (t.size, 1)))
+        for r, g in (("A", 0.1), ("B", 0.2))
+        for n in ("TotalAcceleration.csv", "Gyroscope.csv", "Metadata.csv")
+    }
+    rec.update({k: meta for k in rec if k.endswith("Metadata.csv")})
+    z, _ = _export(tmp_path, "two", rec)
+    for path in (z, tmp_path / "two" / "A"):
+        if path == z:
+            with pytest.raises(OptinavError, match=r"2 recordings' exports \(A/, B/\)"):
+                read_imu(path)
+            assert main(["attitude", str(path), "--out", str(tmp_path / "a.csv")]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and "extract it and pass one recording's folder" in err[0], err
+        else:
+            np.testing.assert_allclose(read_imu(path).gyr[:, 0], 0.1)
+    rng = np.random.default_rng(3)
+    acc, gyr = rng.normal([0, 0, 9.8], 0.01, (300, 3)), rng.normal(0, 0.01, (300, 3))
+    files = {
+        "Accelerometer.csv": _phyphox(t, acc, "Acceleration", "m/s^2"),
+        "Gyroscope.csv": _phyphox(t, gyr, "Gyroscope", "rad/s"),
+        "meta/device.csv": '"property","value"\n',
+        "meta/time.csv": '"event","experiment time"\n',
+    }
+    z, _ = _export(tmp_path, "Simple", files, top="Simple/")
+    log = read_imu(z)
+    np.testing.assert_allclose(log.acc, acc, rtol=1e-9)
+    np.testing.assert_allclose(log.gyr, gyr, rtol=1e-9, atol=1e-12)
+    assert "read Simple/Accelerometer.csv" in log.notes[0], log.notes
+
+
 def test_an_export_that_cannot_be_read_names_the_remedy(tmp_path, capsys):
     """An export without the pair keeps its one-line error with the remedy: Sensor Logger's without Gyroscope.csv
     (was a bare 'zip archive of 4 text tables; extract it and pass one table'), phyphox's Linear Acceleration (gravity

@@ -14,6 +14,7 @@ import functools
 import gzip
 import io
 import itertools
+import posixpath
 import re
 import zlib
 import warnings
@@ -757,7 +758,42 @@ def export_sets(names, header=None) -> dict | None:
     (:data:`_PHYPHOX_META`), as ``{"what", "acc", "gyro", "mag", "single", "remedy"}``: the names of the
     accelerometer with gravity, the gyroscope and the magnetometer (None where absent), the one set to pass when
     there is no pair, and what to do when there is neither (else None); None for other names. ``header(name)``
-    gives a table's first line (the sensor of phyphox's "Raw Data")."""
+    gives a table's first line (the sensor of phyphox's "Raw Data"). A zip may hold the export in a folder (phyphox's
+    meta/ beside its sets there); a zip of several recordings' folders is named as such, not read as one."""
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        parent = posixpath.dirname(n.strip("/"))
+        if posixpath.basename(parent) == "meta":
+            parent = posixpath.dirname(parent)
+        groups.setdefault(parent, []).append(n)
+    if len(groups) <= 1 and "" in groups:
+        return _export_set(names, header)
+    found = {}
+    for parent, members in groups.items():
+        cut = len(parent) + 1 if parent else 0
+        one = _export_set(
+            [m.strip("/")[cut:] for m in members], None if header is None else lambda n, p=parent: header(f"{p}/{n}")
+        )
+        if one is not None:
+            found[parent] = {k: f"{parent}/{v}" if k in _SET_FILES and v and parent else v for k, v in one.items()}
+    if len(found) == 1:
+        return next(iter(found.values()))
+    if len(found) > 1:
+        shown = ", ".join(f"{p or '.'}/" for p in sorted(found))
+        return {
+            **dict.fromkeys(("acc", "gyro", "mag", "single")),
+            "what": f"{len(found)} recordings' exports ({shown})",
+            "remedy": "extract it and pass one recording's folder",
+        }
+    return None
+
+
+#: the keys of :func:`export_sets` that name files
+_SET_FILES = ("acc", "gyro", "mag", "single")
+
+
+def _export_set(names, header=None) -> dict | None:
+    """:func:`export_sets` of one recording's files (at the top or under meta/)."""
     out = dict.fromkeys(("acc", "gyro", "mag", "single", "remedy"))
     base = {Path(n).name.lower(): n for n in names}
     acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
