@@ -283,6 +283,36 @@ def test_9d_attitude_of_a_phone_export_takes_its_magnetometer_on_its_own_clock(t
     assert phone < 0.05 * rmse(np.degrees(heading_error(gyro_only.q_b_n, f.q_b_n[rows]))[1000:])
 
 
+def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
+    """--mag-file whose time column is in ms (read as s) put the 2 samples of its first 40 ms on the rows of a 40 s
+    flight: 9D with exit 0 and a heading from those. Now refused naming how many of its samples lie within the
+    IMU's span, in memory and streamed alike; its column named 't (ms)' (the remedy) gives the heading of the same
+    magnetometer in seconds."""
+    f, mag, ia, ig, im = _phone_flight()
+    imu = tmp_path / "imu.csv"
+    np.savetxt(imu, np.column_stack([f.t[ia], f.acc[ia], f.gyr[ia]]), delimiter=",", comments="",
+               header="t,ax,ay,az,gx,gy,gz")  # fmt: skip
+    outs = {}
+    for name, head, scale in (("s", "t", 1.0), ("ms", "t", 1e3), ("named", "t (ms)", 1e3)):
+        path = tmp_path / f"mag_{name}.csv"
+        np.savetxt(path, np.column_stack([f.t[im] * scale, mag[im]]), delimiter=",", comments="",
+                   header=f"{head},mx,my,mz", fmt="%.10g")  # fmt: skip
+        for chunk in ([], ["--chunk-rows", "701"]):
+            out = tmp_path / f"{name}{len(chunk)}.csv"
+            code = main(["attitude", str(imu), "--mag-file", str(path), "--out", str(out), *chunk])
+            err = capsys.readouterr().err
+            if name == "ms":
+                inside = int(np.count_nonzero(f.t[im] * 1e3 <= f.t[ia[-1]] + 0.01))
+                assert code == 2 and not out.exists(), err
+                assert f"{inside} of its {im.size} samples lie within the IMU's time span" in err, err
+                assert "name its unit (e.g. 't (ms)')" in err and len(err.strip().splitlines()) == 1, err
+            else:
+                assert code == 0, err
+                outs[name, len(chunk)] = out.read_bytes()
+    assert outs["named", 0] == outs["s", 0] == outs["s", 2] == outs["named", 2]
+    assert _heading_rmse_deg(tmp_path / "s0.csv", f.q_b_n[ia]) <= _bound_deg(f, mag, ia, read_imu(imu))
+
+
 def _ptb_multi(t_rows: dict, values: dict) -> str:
     """Physics Toolbox Sensor Suite's multi record ``time,gFx,gFy,gFz,wx,wy,wz,Bx,By,Bz``: a row at each sensor's
     sample, the other sensors' cells repeating their last sample (0 before their first: the 0.0000 rows of a

@@ -465,9 +465,12 @@ class _Blocks:
         :meth:`optinav.io.imu.MagSamples.on_rows`), each block held until the next one's first time is known (a
         sample between two blocks goes on the nearer row); what was done is noted at the end."""
         ms, held, before, step, used, n = self.own_mag, None, -np.inf, None, 0, 0
+        t0 = None
         for block in itertools.chain(blocks, [None]):
             if held is not None:
                 t = held[1]
+                if block is None:
+                    ms.check_clock(t0, float(t[-1]), step)
                 m = ms.on_rows(t, step, before, np.inf if block is None else float(block[1][0]))
                 held[6]["mag"] = m
                 used += int(np.count_nonzero(np.isfinite(m).all(axis=1)))
@@ -476,6 +479,7 @@ class _Blocks:
                 yield held
             if block is not None and step is None:
                 step = float(np.median(block[4]))  # the IMU's step: its first block's
+                t0 = float(block[1][0])
             held = block
         note = ms.note(step, used, n)
         if note not in self.notes:

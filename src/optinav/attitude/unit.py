@@ -122,7 +122,9 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     mag = None
     own = separate_mag(path, o) if want_mag else None
     if own is not None:
-        mag = own.on_rows(log.t, float(np.median(np.diff(log.t))))
+        step = float(np.median(np.diff(log.t)))
+        own.check_clock(float(log.t[0]), float(log.t[-1]), step)
+        mag = own.on_rows(log.t, step)
     elif want_mag:
         from optinav.attitude.filestream import _column
         from optinav.io.imu import mag_names, mag_triad

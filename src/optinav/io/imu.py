@@ -2653,6 +2653,26 @@ class MagSamples:
         out[(t < self.t[0]) | (t > self.t[-1]) | gap] = np.nan
         return out
 
+    def check_clock(self, t0: float, t1: float, imu_step: float) -> None:
+        """Refuse a magnetometer of which fewer than half the samples lie within the IMU's span ``t0``..``t1`` [s]
+        (give or take its step): its time stamps are on another clock or in another unit (a file's ms read as s put
+        9 of 8874 samples on the rows, exit 0 with a heading from those).
+
+        Parameters
+        ----------
+        t0, t1 : float
+            The IMU's first and last time [s].
+        imu_step : float
+            The IMU's median step [s].
+        """
+        inside = int(np.count_nonzero((self.t >= t0 - imu_step) & (self.t <= t1 + imu_step)))
+        if 2 * inside < self.t.size:
+            raise OptinavError(
+                f"magnetometer of {self.source}: {inside} of its {self.t.size} samples lie within the IMU's time span "
+                f"({t0:.6g} to {t1:.6g} s; its own {self.t[0]:.6g} to {self.t[-1]:.6g} s): not on the IMU's clock",
+                "put its time column on the IMU's clock in seconds or name its unit (e.g. 't (ms)'), or drop --mag",
+            )
+
     def note(self, imu_step: float, rows: int, n: int) -> str:
         """What was done, for the attitude's notes.
 
