@@ -287,7 +287,7 @@ def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
     """--mag-file whose time column is in ms (read as s) put the 2 samples of its first 40 ms on the rows of a 40 s
     flight: 9D with exit 0 and a heading from those. Now refused naming how many of its samples lie within the
     IMU's span, in memory and streamed alike; its column named 't (ms)' (the remedy) gives the heading of the same
-    magnetometer in seconds."""
+    magnetometer in seconds. A duplicate time stamp in it names no option of the IMU's file."""
     f, mag, ia, ig, im = _phone_flight()
     imu = tmp_path / "imu.csv"
     np.savetxt(imu, np.column_stack([f.t[ia], f.acc[ia], f.gyr[ia]]), delimiter=",", comments="",
@@ -310,6 +310,12 @@ def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
                 assert code == 0, err
                 outs[name, len(chunk)] = out.read_bytes()
     assert outs["named", 0] == outs["s", 0] == outs["s", 2] == outs["named", 2]
+    dup = tmp_path / "mag_dup.csv"  # its remedy named --columns and --rate, options of the IMU's file
+    dup.write_text("t,mx,my,mz\n0.0,1,2,3\n0.04,1,2,3\n0.04,1,2,3\n0.08,1,2,3\n")
+    assert main(["attitude", str(imu), "--mag-file", str(dup), "--out", str(tmp_path / "d.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "mag_dup.csv has a duplicate timestamp at index 2 (t = 0.04 s); drop the duplicated samples" in err, err
+    assert "--rate" not in err and "--columns" not in err, err
     assert _heading_rmse_deg(tmp_path / "s0.csv", f.q_b_n[ia]) <= _bound_deg(f, mag, ia, read_imu(imu))
 
 

@@ -2819,7 +2819,8 @@ def read_mag(
             )
         t, mag = t[rows], mag[rows]
         what = f"{path.name} (columns {', '.join(names)}, the rows of a new sample)"
-    t = check_timestamps(t, f"time column {part.t_name!r} of {path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
+    # its own time stamps are what puts each sample on a row: no rate or skipped time column can stand in
+    t = check_timestamps(t, f"time column {part.t_name!r} of {path.name}")
     return MagSamples(t, mag, what)
 
 
