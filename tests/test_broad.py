@@ -305,6 +305,41 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
     assert "--mag-hard-iron was given without a magnetometer" in capsys.readouterr().err
 
 
+def test_a_wrong_given_hard_iron_offset_is_refused(tmp_path, capsys):
+    """--mag-hard-iron was subtracted unchecked: trial 02 given 20,-10,5 (its magnetometer calibrated) gave a 39° RMS
+    heading with exit 0, online and offline; +30 µT given with the wrong sign was taken as well. Now the field less
+    the given offset is judged as an ungiven one is: refused, in memory and streamed, online and offline, naming the
+    offset that explains the field; that offset, typed, gives the heading of the correctly given one."""
+    from optinav.cli.main import main
+
+    tr = load_broad(PATH)
+    head = lambda est: rmse(np.degrees(heading_error(est.q_b_n, tr.q_ref)), tr.eval_mask)
+    for offline in (False, True):
+        with pytest.raises(OptinavError, match=r"less the given offset \[20, -10, 5\] .*--mag-hard-iron=-0\.3"):
+            estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, mag_hard_iron=[20.0, -10.0, 5.0], offline=offline)
+    mag = tr.mag + [30.0, 0.0, 0.0]
+    b = hard_iron(mag)[0]
+    n = 40000
+    rows = np.column_stack([np.arange(n) * tr.dt, tr.gyr[:n], tr.acc[:n], mag[:n]])
+    f = tmp_path / "hi.csv"
+    np.savetxt(f, rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz", comments="", fmt="%.9g")
+    out = tmp_path / "o.csv"
+    cmd = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "3000", "--out", str(out)]
+    wrong = ",".join(f"{v:.4g}" for v in -hard_iron(mag[:n])[0])
+    for extra in ([], ["--offline"]):
+        assert main([*cmd, f"--mag-hard-iron={wrong}", *extra]) == 2 and not out.exists()
+        err = [e for e in capsys.readouterr().err.splitlines() if "error" in e]
+        assert len(err) == 1 and "a further offset of [59." in err[0], err
+    given = err[0].split("--mag-hard-iron=")[1].split()[0]
+    np.testing.assert_allclose([float(v) for v in given.split(",")], hard_iron(mag[:n])[0], atol=0.01)
+    assert main([*cmd, f"--mag-hard-iron={given}"]) == 0
+    q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
+    est = estimate(tr.gyr[:n], tr.acc[:n], tr.dt, frame="ENU", mag=tr.mag[:n])
+    assert np.nanmax(np.degrees(heading_error(q, est.q_b_n))) < 3.0
+    own = head(estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag))
+    assert head(estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, mag_hard_iron=b)) < own + 0.1
+
+
 @pytest.mark.parametrize("block", [999, 4096, 65536])
 def test_streamed_hard_iron_rows_are_evenly_spaced(block):
     """The streamed check keeps rows 0, s, 2s, … of the whole log (s doubling as it fills), whatever the blocks,

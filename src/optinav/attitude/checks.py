@@ -1924,12 +1924,27 @@ def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
     warnings.warn(f"{hint}; {MAG_AXES_REMEDY}", MagnetometerWarning, stacklevel=3)
 
 
-def check_mag(mag: np.ndarray, offline: bool = False) -> np.ndarray | None:
+def check_mag(mag: np.ndarray, offline: bool = False, given: np.ndarray | None = None) -> np.ndarray | None:
     """None when the field norm does not vary with the orientation as a constant offset makes it (:func:`hard_iron`);
     else the offset of an uncalibrated (hard-iron) magnetometer, whose heading is wrong by tens of degrees and which
     the disturbance gates cannot tell: offline (the whole recording is used anyway) the fitted offset b, for the
     estimate to subtract; online refused, naming b and the option that subtracts it (fitted from future samples,
-    it is the user's to give)."""
+    it is the user's to give). With the offset ``given`` (its unit) the field less it is judged, online and offline
+    alike: one that still shows an offset is refused, naming the offset that explains it (a given offset 20 µT off
+    turned BROAD's heading by 39° RMS with exit 0)."""
+    if given is not None:
+        got = hard_iron(mag - given)
+        if got is None:
+            return None
+        r, s0, s1 = got
+        total = ",".join(f"{v:.4g}" for v in given + r)
+        raise OptinavError(
+            f"the magnetometer less the given offset [{', '.join(f'{v:.4g}' for v in given)}] still varies by "
+            f"{s0:.0%} (std/median) with the orientation, and a further offset of [{', '.join(f'{v:.4g}' for v in r)}]"
+            f" explains it down to {s1:.1%}: the given offset is wrong (a sign, a unit, another magnetometer's?)",
+            f"give --mag-hard-iron={total} (fitted from this recording; mag_hard_iron= in Python), or drop it and pass "
+            "--offline, which fits and subtracts it",
+        )
     got = hard_iron(mag)
     if got is None:
         return None

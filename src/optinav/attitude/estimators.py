@@ -594,6 +594,8 @@ def estimate(
             if mag_hard_iron is None:
                 mag_hard_iron = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline)
                 fitted = mag_hard_iron is not None
+            else:
+                check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron)
             check_mag_axes(acc, mag, float(np.median(dts)), gyr)
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron

@@ -1209,6 +1209,7 @@ def stream_attitude(
         hard_iron = checks.hard_iron()
         fitted = hard_iron is not None
     checks.refuse_hard_iron = hard_iron is None
+    checks.given_hard_iron = None if o.mag_hard_iron is None else np.asarray(o.mag_hard_iron, float)
     gaps = checks.gaps
     if announce is not None:
         announce(checks.n, method)

@@ -96,6 +96,8 @@ class StreamChecks:
 
     #: refuse an uncalibrated magnetometer in :meth:`finish_second` (an online estimate not given its offset)
     refuse_hard_iron = True
+    #: the hard-iron offset given (its unit; None: none): the field less it is judged in :meth:`finish_second`
+    given_hard_iron: np.ndarray | None = None
 
     def hard_iron(self) -> np.ndarray | None:
         """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline), for
@@ -193,8 +195,8 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
-        if self._mag and self.refuse_hard_iron:
-            _c.check_mag(np.concatenate(self._mag))
+        if self._mag and (self.refuse_hard_iron or self.given_hard_iron is not None):
+            _c.check_mag(np.concatenate(self._mag), given=self.given_hard_iron)
         if self._mag_sums:  # in the order of check_mag_axes
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
             _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
