@@ -318,6 +318,39 @@ def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     assert len(err) == 1 and "g.ulg logs no magnetometer" in err[0] and "drop --mag" in err[0], err
 
 
+def test_a_duplicated_time_stamp_names_a_remedy_a_ulog_takes(tmp_path, capsys):
+    """A sensor_combined message logged twice (its timestamp repeated) ended in 'skipped with '_' in --columns, the
+    sample rate given with --rate': --columns given for a ULog is refused. Now the remedy is the CSV export, whose
+    rows less the repeated one read as the log's other samples; the same for the raw pair's topics."""
+    pytest.importorskip("pyulog")
+    from pyulog.ulog2csv import convert_ulog2csv
+
+    n = 200
+    t = np.arange(n) / 250.0
+    rng = np.random.default_rng(5)
+    comb = _combined(t, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)))
+    comb["timestamp"][100] = comb["timestamp"][99]
+    raw_t = comb["timestamp"]
+    pair = [("sensor_accel", 0, {"timestamp": raw_t, "timestamp_sample": raw_t, "x": t})]
+    pair += [("sensor_gyro", 0, {"timestamp": raw_t + 1, "timestamp_sample": raw_t + 1, "y": t})]
+    for name, topics, topic in (("dup", [("sensor_combined", 0, comb)], []),
+                                ("pair", pair, ["--topic", "sensor_accel,sensor_gyro"])):  # fmt: skip
+        log = write_ulog(tmp_path / f"{name}.ulg", topics)
+        for chunk in ([], ["--chunk-rows", "64"]):
+            assert main(["--quiet", "allan", str(log), *topic, *chunk, "--out", str(tmp_path / "a.json")]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and "duplicate timestamp at index 100 (t = 5.396 s)" in err[0], err
+            assert "--columns" not in err[0] and err[0].endswith("drop the duplicated rows of its CSV"), err
+    convert_ulog2csv(str(tmp_path / "dup.ulg"), "sensor_combined", str(tmp_path), ",", None, None)
+    csv = tmp_path / "dup_sensor_combined_0.csv"
+    lines = csv.read_text().splitlines()
+    csv.write_text("\n".join(lines[:101] + lines[102:]) + "\n")
+    got = read_imu(csv)
+    want = np.delete(comb["gyro_rad"], 100, axis=0).astype(np.float32)
+    np.testing.assert_allclose(got.gyr, want, rtol=1e-6)  # ulog2csv writes float32 to 8 digits
+    assert got.t.size == n - 1
+
+
 def test_invalid_accelerometer_rows_are_nan_in_the_log_and_its_csv_export(tmp_path):
     """sensor_combined rows whose accelerometer_timestamp_relative is RELATIVE_TIMESTAMP_INVALID (0x7fffffff: "the
     associated sensor values are invalid", SensorCombined.msg; PX4 publishes it before the first accelerometer

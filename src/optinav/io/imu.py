@@ -96,6 +96,15 @@ COARSE_TIME_REMEDY = (
     "drop duplicated samples; a time column too coarse for the rate (whole ms at hundreds of Hz) can be "
     "skipped with '_' in --columns, the sample rate given with --rate"
 )
+
+
+def _duplicate_remedy(table) -> str:
+    """The remedy of a duplicate timestamp in ``table``: a ULog's fields are read by name (no '_' in --columns)."""
+    if table.kind == "ulog":
+        return "export the topic with ulog2csv LOG.ulg and drop the duplicated rows of its CSV"
+    return COARSE_TIME_REMEDY
+
+
 _TIME_SPELLINGS = {
     "s": "s",
     "sec": "s",
@@ -2064,7 +2073,8 @@ def _log_of(
         p, t = times[0]
         what = f"time column {p.t_name!r} of {p.path.name}"
         if prev_t is None:
-            t = check_timestamps(t, what, min_count=1 if block else 2, duplicate_remedy=COARSE_TIME_REMEDY)
+            remedy = _duplicate_remedy(p.table)
+            t = check_timestamps(t, what, min_count=1 if block else 2, duplicate_remedy=remedy)
             _check_time_unit(t, what, defaulted=time_u is None and not p.declared["time"] and not p.implied["time"])
             stated = _file_rate(main.table)
             if stated is not None and t.size > 1:
@@ -2079,7 +2089,11 @@ def _log_of(
             if "stf_tick" in main.table.meta and t.size and t[0] <= prev_t:
                 t = _stf_block_wrap(t, prev_t, _STF_TICKS[main.table.meta["stf_tick"]])
             check_timestamps(
-                np.concatenate([[prev_t], t]), what, min_count=1, index0=row0 - 1, duplicate_remedy=COARSE_TIME_REMEDY
+                np.concatenate([[prev_t], t]),
+                what,
+                min_count=1,
+                index0=row0 - 1,
+                duplicate_remedy=_duplicate_remedy(p.table),
             )
     elif rate is None and _file_rate(main.table) is None:
         if "xsens_per_period" in main.table.meta:
@@ -2531,8 +2545,12 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
     gyroscope's span are left out, a gap in the gyroscope is refused, ``notes`` say what was done. Returns the
     accelerometer's (part, times s) kept."""
     (pa, ta), (pg, tg) = a, g
-    ta = check_timestamps(ta, f"time column {pa.t_name!r} of {pa.path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
-    tg = check_timestamps(tg, f"time column {pg.t_name!r} of {pg.path.name}", duplicate_remedy=COARSE_TIME_REMEDY)
+    ta = check_timestamps(
+        ta, f"time column {pa.t_name!r} of {pa.path.name}", duplicate_remedy=_duplicate_remedy(pa.table)
+    )
+    tg = check_timestamps(
+        tg, f"time column {pg.t_name!r} of {pg.path.name}", duplicate_remedy=_duplicate_remedy(pg.table)
+    )
     lo, hi = max(ta[0], tg[0]), min(ta[-1], tg[-1])
     keep = (ta >= lo) & (ta <= hi)
     if np.count_nonzero(keep) < 2:
