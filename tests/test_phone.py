@@ -436,3 +436,32 @@ def test_batch_takes_phone_exports_as_units(tmp_path, capsys):
     for r in rows.values():
         assert r["status"] == "ok" and r["n_samples"] == spanned and r["mag"] is True, r
     assert [rows["walk"][f"gyr_bias_{a}"] for a in "xyz"] == [rows["walk-shared"][f"gyr_bias_{a}"] for a in "xyz"]
+
+
+def test_batch_names_an_export_it_cannot_read_as_a_failed_unit(tmp_path, capsys):
+    """A zip of two recordings' exports and a Sensor Logger folder without Gyroscope.csv beside a readable export
+    were passed over without a word (only exports with the pair were units): a batch of four reported two. Each
+    is a unit now, failed with the one-line error the single command gives."""
+    from optinav.batch import read_results
+
+    f, mag, ia, ig, im = _phone_flight(duration_s=20.0)
+    files = {
+        "TotalAcceleration.csv": _sensor_logger(f.t[ia], f.acc[ia]),
+        "Gyroscope.csv": _sensor_logger(f.t[ig], f.gyr[ig]),
+        "Metadata.csv": "version,device name\n1.30,Pixel 7\n",
+    }
+    d = tmp_path / "units"
+    d.mkdir()
+    _export(d, "walk", files)
+    (d / "walk").rename(d / "walk-folder")
+    _export(d, "two", {f"{r}/{k}": v for r in ("A", "B") for k, v in files.items()})
+    _export(d, "nogyro", {k: v for k, v in files.items() if k != "Gyroscope.csv"})
+    for x in ("two", "nogyro.zip"):
+        (d / x).rename(tmp_path / x) if (d / x).is_dir() else (d / x).unlink()
+    out = tmp_path / "b.csv"
+    assert main(["--quiet", "batch", "attitude", str(d), "--workers", "0", "--out", str(out)]) == 1
+    rows = {r["unit"]: r for r in read_results(out)}
+    assert sorted(rows) == ["nogyro", "two", "walk", "walk-folder"], rows
+    assert rows["walk"]["status"] == rows["walk-folder"]["status"] == "ok"
+    assert rows["two"]["status"] == "failed" and "2 recordings' exports (A/, B/)" in rows["two"]["error"], rows
+    assert rows["nogyro"]["status"] == "failed" and "without Gyroscope.csv" in rows["nogyro"]["error"], rows

@@ -186,7 +186,7 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
     ``skipped``: a list that receives (name, why) of the entries with a data suffix that are no regular file (a
     named pipe, a broken or looping link), which are not units either."""
     from optinav.core.files import input_kind
-    from optinav.io.phone import phone_export
+    from optinav.io.phone import looks_like_export
 
     d = Path(directory)
     if input_kind(d, "folder", "pass the folder holding one data file per unit") != "dir":
@@ -200,10 +200,10 @@ def find_units(directory, *, exclude=(), skipped: list | None = None) -> list[Un
             if p.is_dir() and (p / "metadata.yaml").is_file():
                 found.append((p.name, p, _folder_stat(p)))  # a ROS 2 bag: a folder of metadata and storage files
                 continue
-            if p.is_dir() and phone_export(p) is not None:
+            if p.is_dir() and looks_like_export(p):
                 found.append((p.name, p, _folder_stat(p)))  # a phone app's export unzipped
                 continue
-            if p.is_file() and p.suffix.lower() == ".zip" and p.resolve() not in skip and phone_export(p) is not None:
+            if p.is_file() and p.suffix.lower() == ".zip" and p.resolve() not in skip and looks_like_export(p):
                 st = p.stat()
                 found.append((p.name[:-4], p, st))  # a phone app's export as it shares it
                 continue

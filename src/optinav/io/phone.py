@@ -67,24 +67,20 @@ class PhoneExport:
         )
 
 
-def phone_export(path) -> PhoneExport | None:
-    """The phone export that ``path`` is (a folder, or a zip whatever its suffix) when it holds an accelerometer
-    with gravity and a gyroscope (:func:`optinav.io.readers.export_sets`); None for anything else — another file,
-    a ROS 2 bag or KITTI folder, an Office workbook, NumPy's .npz, an export without that pair (whose one-line error
-    the readers name as before)."""
+def _listing(p: Path):
+    """(CSV names, zipped, bytes) of a folder (its top and meta/) or a zip whatever its suffix; None for anything
+    else: another file, a ROS 2 bag or KITTI folder, an Office workbook, NumPy's .npz, one unreadable."""
     from optinav.core.files import kitti_oxts_folder
-    from optinav.io.readers import export_sets
     from optinav.io.rosbag import is_bag
 
-    p = Path(path)
     try:
         if p.is_dir():
             if is_bag(p) or kitti_oxts_folder(p) is not None:
                 return None
             files = list(p.glob("*.csv"))
             names = [f.name for f in files] + [f"meta/{f.name}" for f in (p / "meta").glob("*.csv")]
-            zipped, size = False, sum(f.stat().st_size for f in files)
-        elif p.is_file():
+            return names, False, sum(f.stat().st_size for f in files)
+        if p.is_file():
             with open(p, "rb") as fh:
                 if fh.read(4) != ZIP_MAGIC:
                     return None
@@ -92,13 +88,35 @@ def phone_export(path) -> PhoneExport | None:
                 names = [n for n in z.namelist() if not n.endswith("/")]
             if any(n.startswith("xl/") or n == "[Content_Types].xml" for n in names):
                 return None  # an Office workbook (phyphox's Excel export): named by the readers
-            names = [n for n in names if n.lower().endswith(".csv")]
-            zipped, size = True, p.stat().st_size
-        else:
-            return None
+            return [n for n in names if n.lower().endswith(".csv")], True, p.stat().st_size
     except (OSError, zipfile.BadZipFile, ValueError):
-        return None  # the readers name what is wrong with it
+        pass  # the readers name what is wrong with it
+    return None
+
+
+def phone_export(path) -> PhoneExport | None:
+    """The phone export that ``path`` is (a folder, or a zip whatever its suffix) when it holds an accelerometer
+    with gravity and a gyroscope (:func:`optinav.io.readers.export_sets`); None for anything else — another file,
+    a ROS 2 bag or KITTI folder, an Office workbook, NumPy's .npz, an export without that pair (whose one-line error
+    the readers name as before)."""
+    from optinav.io.readers import export_sets
+
+    p = Path(path)
+    got = _listing(p)
+    if got is None:
+        return None
+    names, zipped, size = got
     found = export_sets(names)
     if found is None or found["acc"] is None:
         return None
     return PhoneExport(p, found["what"], found["acc"], found["gyro"], found["mag"], zipped, max(size, 1))
+
+
+def looks_like_export(path) -> bool:
+    """Whether ``path`` (a folder or zip) holds a phone app's export by its files' names, readable or not (without
+    the accelerometer and gyroscope pair, several recordings): a unit of a batch, which fails with the readers'
+    one-line error rather than being passed over."""
+    from optinav.io.readers import export_sets
+
+    got = _listing(Path(path))
+    return got is not None and export_sets(got[0]) is not None
