@@ -257,6 +257,38 @@ def test_attitude_mag_takes_the_magnetometer_topic_on_its_own_times(tmp_path, ca
     assert heading[0] < 0.1 * heading[1], heading
 
 
+def test_a_raw_sensor_mag_that_hardly_turns_is_refused(tmp_path, capsys):
+    """A still log whose only magnetometer is sensor_mag (the sensor's output before CAL_MAG*: 0.15, 0.1, -0.05 gauss
+    of offset) was read with exit 0 and its heading off by the offset's angle. Now refused naming
+    vehicle_magnetometer; the same field as vehicle_magnetometer (calibrated) is read."""
+    pytest.importorskip("pyulog")
+    n = 2500
+    t = np.arange(n) / 250.0
+    rng = np.random.default_rng(4)
+    comb = _combined(t, [0.0, 0.0, -9.80665] + rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.003, (n, 3)))
+    im = np.arange(0, n, 5)
+    field = 0.5 * np.array([np.cos(np.radians(60.0)), 0.0, np.sin(np.radians(60.0))]) + rng.normal(
+        0, 0.003, (im.size, 3)
+    )
+    ts = {"timestamp": comb["timestamp"][im] + 300, "timestamp_sample": comb["timestamp"][im] + 1000}
+    raw = dict(ts, **{a: field[:, k] + [0.15, 0.1, -0.05][k] for k, a in enumerate("xyz")})
+    out = tmp_path / "q.csv"
+    path = write_ulog(tmp_path / "raw.ulg", [("sensor_combined", 0, comb), ("sensor_mag", 0, raw)])
+    assert main(["attitude", str(path), "--mag", "--out", str(out)]) == 2 and not out.exists()
+    err = [e for e in capsys.readouterr().err.splitlines() if "error" in e]
+    assert len(err) == 1 and "raw.ulg (topic sensor_mag@0, gauss) is an uncalibrated magnetometer" in err[0], err
+    assert "vehicle_magnetometer (--topic IMU,vehicle_magnetometer)" in err[0], err
+    cal = write_ulog(
+        tmp_path / "cal.ulg",
+        [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, dict(ts, magnetometer_ga=field))],
+    )
+    assert main(["attitude", str(cal), "--mag", "--out", str(out)]) == 0
+    q = np.loadtxt(out, delimiter=",", skiprows=1, usecols=(1, 2, 3, 4))
+    from optinav.attitude.metrics import heading_error
+
+    assert np.abs(heading_error(q, np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)))[-500:]).max() < np.radians(2.0)
+
+
 def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     """Without pyulog, a damaged or truncated log, a topic that is no IMU topic, a magnetometer asked of a log
     without one: each a one-line error naming what helps, never a traceback."""

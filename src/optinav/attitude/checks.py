@@ -1555,8 +1555,8 @@ def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     # |m − b|² = r² is linear in b once centred: 2 (m − m̄)·b = |m|² − mean |m|²
     mc = m - m.mean(axis=0)
     y = np.einsum("ij,ij->i", m, m)
-    lam, V = np.linalg.eigh(mc.T @ mc / m.shape[0])
-    seen = V[:, np.sqrt(np.maximum(lam, 0.0)) > MAG_SEEN_SPREAD * float(np.median(n0))]
+    spread, V = _field_spread(m)
+    seen = V[:, spread > MAG_SEEN_SPREAD]
     if not seen.shape[1]:
         return None
     b = seen @ np.linalg.lstsq(2.0 * mc @ seen, y - y.mean(), rcond=None)[0]
@@ -1564,6 +1564,33 @@ def hard_iron(mag: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     s1 = float(np.std(_norm(m - b)) / np.sqrt(r2))
     # a disturbance (a magnet passing, steel nearby) is no constant offset: the fit does not explain it
     return (b, s0, s1) if s1 < s0 / 2 and np.linalg.norm(b) > MAG_OFFSET * np.sqrt(r2) else None
+
+
+def _field_spread(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The field's spread (std) along its principal body axes relative to its median norm (3,), and those axes
+    (columns of V), of the finite rows ``m`` (n, 3): how far the recording turns the field about each."""
+    mc = m - m.mean(axis=0)
+    lam, V = np.linalg.eigh(mc.T @ mc / m.shape[0])
+    return np.sqrt(np.maximum(lam, 0.0)) / float(np.median(_norm(m))), V
+
+
+def check_offset_seen(mag: np.ndarray, source: str, calibrated: str) -> None:
+    """Refuse a magnetometer known to carry its hard-iron offset (``source``; ``calibrated``: where its calibrated
+    field is) when the recording turns it too little for :func:`hard_iron` to fit the offset along any axis: the
+    heading would carry the offset's angle with no word (a still phone's MagnetometerUncalibrated.csv 15, 10, -5 µT
+    off gave a 26° heading RMSE with exit 0)."""
+    m = mag[np.all(np.isfinite(mag), axis=1)]
+    if m.shape[0] < 2:
+        return  # no field: refused as such
+    spread = float(_field_spread(m)[0].max())
+    if spread <= MAG_SEEN_SPREAD:
+        raise OptinavError(
+            f"{source} is an uncalibrated magnetometer (its hard-iron offset not taken out), and the recording turns "
+            f"it too little for the offset to be fitted (the field's direction spreads by {spread:.0%} of its norm, "
+            f"{MAG_SEEN_SPREAD:.0%} needed): the heading would be off by the offset's angle",
+            f"give --mag-hard-iron=BX,BY,BZ (what optinav attitude --mag names on a recording that turns the sensor "
+            f"every way), {calibrated}, or drop --mag",
+        )
 
 
 def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -166,7 +166,18 @@ def separate_mag(path, options: AttitudeOptions):
     with ``mag``/``mag_columns`` a phone export's magnetometer file (Sensor Logger's Magnetometer.csv, else
     MagnetometerUncalibrated.csv; phyphox's Magnetometer.csv; µT), a PX4 ULog's magnetometer topic (gauss,
     :func:`optinav.io.ulog.ulog_mag`) or the magnetometer rows of Physics Toolbox's multi record (Bx, By, Bz, µT);
-    None when the magnetometer is read from the IMU's rows (columns of its file)."""
+    None when the magnetometer is read from the IMU's rows (columns of its file). One known to carry its hard-iron
+    offset (MagnetometerUncalibrated.csv, sensor_mag) is refused, without ``mag_hard_iron``, when the recording turns
+    it too little for the offset to be fitted (:func:`optinav.attitude.checks.check_offset_seen`)."""
+    own = _separate_mag(path, options)
+    if own is not None and own.calibrated and options.mag_hard_iron is None:
+        from optinav.attitude.checks import check_offset_seen
+
+        check_offset_seen(own.mag, own.source, own.calibrated)
+    return own
+
+
+def _separate_mag(path, options: AttitudeOptions):
     from optinav.io.imu import multi_record, read_mag, reader_options
     from optinav.io.phone import phone_export
     from optinav.io.ulog import is_ulog, ulog_mag
@@ -191,7 +202,10 @@ def separate_mag(path, options: AttitudeOptions):
                 f"{export.path.name} is {export.what} without a magnetometer file",
                 "record with the magnetometer switched on, or drop --mag (the heading then follows the gyro)",
             )
-        return read_mag(export.member(export.mag), **kw)
+        own = read_mag(export.member(export.mag), **kw)
+        if Path(export.mag).name.lower() == "magnetometeruncalibrated.csv":
+            own = dataclasses.replace(own, calibrated="record with the calibrated magnetometer (Magnetometer.csv)")
+        return own
     if o.gyro_path is None and multi_record(path, **reader_options(o)):
         return read_mag(path, multi_record=True, **kw)
     return None

@@ -2596,11 +2596,14 @@ MAG_SLOWER = 1.1
 class MagSamples:
     """A magnetometer on its own time stamps (a file of its own, a phone export's Magnetometer.csv, the magnetometer
     rows of a multi record): ``t`` (M,) [s, strictly increasing, the IMU's clock], ``mag`` (M, 3) [the file's unit,
-    µT for the phone apps], ``source`` (what was read, for the notes)."""
+    µT for the phone apps], ``source`` (what was read, for the notes), ``calibrated``: where the same sensor's
+    calibrated field is, for a magnetometer known to carry its hard-iron offset (Sensor Logger's
+    MagnetometerUncalibrated.csv, PX4's sensor_mag); empty for the others."""
 
     t: np.ndarray
     mag: np.ndarray
     source: str
+    calibrated: str = ""
 
     @property
     def step(self) -> float:

@@ -275,4 +275,8 @@ def ulog_mag(path, topic=None, skip_bad_lines: bool = False):
         np.asarray(fields[tkey], np.float64) * 1e-6, f"{tkey} of {key[0]}@{key[1]} in {path.name}", min_count=2
     )
     mag = np.column_stack([np.asarray(fields[f], np.float64) for f in _MAG_FIELDS[key[0]]])
-    return MagSamples(t, mag, f"{path.name} (topic {key[0]}@{key[1]}, gauss)")
+    # sensor_mag is the sensor's own output, before CAL_MAG* (its offsets) and the board rotation
+    calibrated = (
+        "read the calibrated vehicle_magnetometer (--topic IMU,vehicle_magnetometer)" if key[0] == "sensor_mag" else ""
+    )
+    return MagSamples(t, mag, f"{path.name} (topic {key[0]}@{key[1]}, gauss)", calibrated)
