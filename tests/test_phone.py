@@ -322,7 +322,8 @@ def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
 def test_an_uncalibrated_magnetometer_that_hardly_turns_is_refused(tmp_path, capsys):
     """A still phone's Sensor Logger export with only MagnetometerUncalibrated.csv (15, 10, -5 µT of hard-iron
     offset) gave a 26° heading RMSE with exit 0: the field hardly turns, so the fit cannot see the offset, and
-    nothing said so. Now refused, in memory, streamed and offline, naming --mag-hard-iron and Magnetometer.csv; the
+    nothing said so. Now refused, in memory, streamed, offline and as --mag-file, naming --mag-hard-iron and
+    Magnetometer.csv; the
     offset given (the remedy) gives the heading of the calibrated file, within 0.5°."""
     from optinav.attitude.simulate import simulate
     from optinav.core.rotations import quat_conjugate, quat_rotate
@@ -339,9 +340,12 @@ def test_an_uncalibrated_magnetometer_that_hardly_turns_is_refused(tmp_path, cap
     }
     cal, _ = _export(tmp_path, "cal", {**base, "Magnetometer.csv": _sensor_logger(f.t[im], mag[im])})
     raw, _ = _export(tmp_path, "raw", {**base, "MagnetometerUncalibrated.csv": _sensor_logger(f.t[im], mag[im] + off)})
-    for extra in ([], ["--chunk-rows", "701"], ["--offline"]):
+    loose = tmp_path / "raw" / "MagnetometerUncalibrated.csv"  # the same file given as --mag-file
+    for path, extra in ((raw, []), (raw, ["--chunk-rows", "701"]), (raw, ["--offline"]),
+                        (tmp_path / "raw" / "TotalAcceleration.csv", ["--gyro", str(loose.with_name("Gyroscope.csv")),
+                                                                      "--mag-file", str(loose)])):  # fmt: skip
         out = tmp_path / "r.csv"
-        assert main(["attitude", str(raw), "--mag", *extra, "--out", str(out)]) == 2 and not out.exists()
+        assert main(["attitude", str(path), "--mag", *extra, "--out", str(out)]) == 2 and not out.exists()
         err = [e for e in capsys.readouterr().err.splitlines() if "error" in e]
         assert len(err) == 1 and "MagnetometerUncalibrated.csv (columns x, y, z) is an uncalibrated" in err[0], err
         assert "--mag-hard-iron=BX,BY,BZ" in err[0] and "(Magnetometer.csv)" in err[0], err

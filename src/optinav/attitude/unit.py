@@ -202,10 +202,7 @@ def _separate_mag(path, options: AttitudeOptions):
                 f"{export.path.name} is {export.what} without a magnetometer file",
                 "record with the magnetometer switched on, or drop --mag (the heading then follows the gyro)",
             )
-        own = read_mag(export.member(export.mag), **kw)
-        if Path(export.mag).name.lower() == "magnetometeruncalibrated.csv":
-            own = dataclasses.replace(own, calibrated="record with the calibrated magnetometer (Magnetometer.csv)")
-        return own
+        return read_mag(export.member(export.mag), **kw)
     if o.gyro_path is None and multi_record(path, **reader_options(o)):
         return read_mag(path, multi_record=True, **kw)
     return None

@@ -2842,7 +2842,9 @@ def read_mag(
         what = f"{path.name} (columns {', '.join(names)}, the rows of a new sample)"
     # its own time stamps are what puts each sample on a row: no rate or skipped time column can stand in
     t = check_timestamps(t, f"time column {part.t_name!r} of {path.name}")
-    return MagSamples(t, mag, what)
+    # Sensor Logger's uncalibrated field (Android's TYPE_MAGNETIC_FIELD_UNCALIBRATED) keeps its hard-iron offset
+    raw = path.name.lower() == "magnetometeruncalibrated.csv"
+    return MagSamples(t, mag, what, "record with the calibrated magnetometer (Magnetometer.csv)" if raw else "")
 
 
 def _check_same_time(a, b) -> None:
