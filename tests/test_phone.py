@@ -174,6 +174,42 @@ def test_a_zip_of_two_recordings_is_refused_and_a_zipped_folder_is_read(tmp_path
     assert "read Simple/Accelerometer.csv" in log.notes[0], log.notes
 
 
+def test_a_pause_of_both_sensors_is_a_gap_and_a_gyroscope_gap_alone_is_refused(tmp_path, capsys):
+    """phyphox paused 10 s (both sensors stop; their times go on): the gyroscope's gap was refused as 'interpolating
+    it would invent 10 s of rates' for the one accelerometer row at its edge, and --allow-gaps did not help. Now
+    that row is left out (noted) and the pause is a time gap as any log's: refused without --allow-gaps, with it the
+    inclination within 0.5° of the simulation's, whole and streamed alike. A gap of the gyroscope alone (the
+    accelerometer sampling on) is still refused."""
+    from optinav.attitude.metrics import inclination_error, rmse
+    from optinav.attitude.simulate import simulate
+
+    f = simulate("static", duration_s=40.0, rate_hz=100.0, frame="enu", rng=3)
+    keep = (f.t < 15) | (f.t > 25)
+    meta = {"meta/device.csv": '"property","value"\n', "meta/time.csv": '"event","experiment time"\n'}
+    acc = _phyphox(f.t[keep], f.acc[keep], "Acceleration", "m/s^2")
+    z, _ = _export(tmp_path, "pause", {**meta, "Accelerometer.csv": acc,
+                                       "Gyroscope.csv": _phyphox(f.t[keep] + 0.003, f.gyr[keep], "Gyroscope", "rad/s")})  # fmt: skip
+    out = tmp_path / "a.csv"
+    assert main(["attitude", str(z), "--frame", "ENU", "--out", str(out)]) == 2
+    assert "time gap of 10 s" in capsys.readouterr().err
+    got = {}
+    for extra in ([], ["--chunk-rows", "500"]):
+        assert main(["attitude", str(z), "--frame", "ENU", "--allow-gaps", *extra, "--out", str(out)]) == 0
+        err = capsys.readouterr().err
+        assert "; 1 at the edges of a pause of both sensors" in err, err
+        got[len(extra)] = out.read_bytes()
+        data = np.loadtxt(out, delimiter=",", skiprows=1)
+        rows = np.searchsorted(f.t, data[:, 0] - 1e-9)
+        assert rmse(np.degrees(inclination_error(data[:, 1:5], f.q_b_n[rows]))) < 0.5
+    assert got[0] == got[2]
+    gk = (f.t < 15) | (f.t > 25) | (np.arange(f.t.size) % 2 == 0)  # the accelerometer samples on, at 50 Hz
+    files = {**meta, "Accelerometer.csv": _phyphox(f.t[gk], f.acc[gk], "Acceleration", "m/s^2"),
+             "Gyroscope.csv": _phyphox(f.t[keep] + 0.003, f.gyr[keep], "Gyroscope", "rad/s")}  # fmt: skip
+    z, _ = _export(tmp_path, "gyrogap", files)
+    assert main(["attitude", str(z), "--frame", "ENU", "--allow-gaps", "--out", str(out)]) == 2
+    assert "the gyroscope has no sample from t = 14.993 s to 25.013 s" in capsys.readouterr().err
+
+
 def test_an_export_that_cannot_be_read_names_the_remedy(tmp_path, capsys):
     """An export without the pair keeps its one-line error with the remedy: Sensor Logger's without Gyroscope.csv
     (was a bare 'zip archive of 4 text tables; extract it and pass one table'), phyphox's Linear Acceleration (gravity

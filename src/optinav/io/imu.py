@@ -2562,13 +2562,22 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
     step = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tg))))
     i0, i1 = int(np.searchsorted(tg, lo, "right")) - 1, int(np.searchsorted(tg, hi, "left")) + 1
     d = np.diff(tg[max(i0, 0) : i1])
-    if d.size and float(d.max()) > GYRO_GAP_STEPS * step:
-        k = max(i0, 0) + int(np.argmax(d))
-        raise OptinavError(
-            f"{pg.path.name}: the gyroscope has no sample from t = {tg[k]:.6g} s to {tg[k + 1]:.6g} s, within the "
-            f"accelerometer's times: interpolating it onto them would invent {float(d.max()):.3g} s of rates",
-            "cut the recording at the gap, or pass files holding the same samples",
-        )
+    paused = 0
+    for k in max(i0, 0) + np.flatnonzero(d > GYRO_GAP_STEPS * step):
+        a, b = np.searchsorted(ta, [tg[k], tg[k + 1]], side="right")
+        inside = ta[a:b][ta[a:b] < tg[k + 1]]
+        # both sensors paused (phyphox's pause, a logger's hiccup): the accelerometer's rows in the gyroscope's
+        # gap are only those at its edges, left out; the accelerometer's own gap is then judged as any log's
+        edge = GYRO_GAP_STEPS * step
+        if inside.size and np.any((inside > tg[k] + edge) & (inside < tg[k + 1] - edge)):
+            raise OptinavError(
+                f"{pg.path.name}: the gyroscope has no sample from t = {tg[k]:.6g} s to {tg[k + 1]:.6g} s, within "
+                f"the accelerometer's times: interpolating it onto them would invent {tg[k + 1] - tg[k]:.3g} s of "
+                "rates",
+                "cut the recording at the gap, or pass files holding the same samples",
+            )
+        keep[a : a + inside.size] = False
+        paused += inside.size
     gyro = np.asarray(main.gyro, float)
     main.gyro = np.column_stack([np.interp(ta[keep], tg, gyro[:, j]) for j in range(gyro.shape[1])])
     for name in ("acc", "labels", "sample"):
@@ -2582,7 +2591,12 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
     notes.append(
         f"the gyroscope of {pg.path.name} ({tg.size} samples, {1.0 / float(np.median(np.diff(tg))):.4g} Hz) was "
         f"interpolated onto the time stamps of {pa.path.name} ({1.0 / float(np.median(np.diff(ta))):.4g} Hz)"
-        + (f"; {dropped} accelerometer rows outside the gyroscope's span were left out" if dropped else "")
+        + (
+            f"; {dropped - paused} accelerometer rows outside the gyroscope's span were left out"
+            if dropped > paused
+            else ""
+        )
+        + (f"; {paused} at the edges of a pause of both sensors, where the gyroscope has no sample" if paused else "")
     )
     return pa, ta[keep]
 
