@@ -340,7 +340,8 @@ def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
             if name == "ms":
                 inside = int(np.count_nonzero(f.t[im] * 1e3 <= f.t[ia[-1]] + 0.01))
                 assert code == 2 and not out.exists(), err
-                assert f"{inside} of its {im.size} samples lie within the IMU's time span" in err, err
+                assert "40 s apart) do not fit the IMU's (0 to 40 s, 0.01 s apart;" in err, err
+                assert f"{inside} of its {im.size} samples within): another clock or another time unit" in err, err
                 assert "name its unit (e.g. 't (ms)')" in err and len(err.strip().splitlines()) == 1, err
             else:
                 assert code == 0, err
@@ -353,6 +354,16 @@ def test_a_magnetometer_file_on_another_clock_is_refused(tmp_path, capsys):
     assert "mag_dup.csv has a duplicate timestamp at index 2 (t = 0.04 s); drop the duplicated samples" in err, err
     assert "--rate" not in err and "--columns" not in err, err
     assert _heading_rmse_deg(tmp_path / "s0.csv", f.q_b_n[ia]) <= _bound_deg(f, mag, ia, read_imu(imu))
+    cut = tmp_path / "cut.csv"  # the IMU cut to 20-30 s, the magnetometer's file whole: fits
+    rows = ia[(f.t[ia] >= 20.0) & (f.t[ia] < 30.0)]
+    np.savetxt(cut, np.column_stack([f.t[rows], f.acc[rows], f.gyr[rows]]), delimiter=",", comments="",
+               header="t,ax,ay,az,gx,gy,gz")  # fmt: skip
+    assert main(["attitude", str(cut), "--mag-file", str(tmp_path / "mag_s.csv"), "--out", str(out)]) == 0
+    assert f"{rows.size // 4} of the {rows.size} IMU rows (100 Hz) hold a sample" in capsys.readouterr().err
+    late = tmp_path / "mag_late.csv"  # on another clock: 1000 s later
+    np.savetxt(late, np.column_stack([f.t[im] + 1000.0, mag[im]]), delimiter=",", comments="", header="t,mx,my,mz")
+    assert main(["attitude", str(imu), "--mag-file", str(late), "--out", str(out)]) == 2
+    assert f"0 of its {im.size} samples within): another clock" in capsys.readouterr().err
 
 
 def test_an_uncalibrated_magnetometer_that_hardly_turns_is_refused(tmp_path, capsys):

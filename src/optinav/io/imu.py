@@ -2604,6 +2604,9 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
 #: a magnetometer whose median step is longer than this many of the IMU's is slower than it (phones' nominal rates
 #: jitter by a few per cent): each of its samples goes on one IMU row, else it is interpolated onto the IMU's times
 MAG_SLOWER = 1.1
+#: a magnetometer whose median step is longer than this many of the IMU's is on another time unit (a ms column
+#: read as s is 1000 times its rate ratio; a phone's or autopilot's magnetometer runs at 1/2 to 1/160 of the IMU)
+MAG_CLOCK_RATIO = 500.0
 
 
 @dataclass
@@ -2689,9 +2692,10 @@ class MagSamples:
         return out
 
     def check_clock(self, t0: float, t1: float, imu_step: float) -> None:
-        """Refuse a magnetometer of which fewer than half the samples lie within the IMU's span ``t0``..``t1`` [s]
-        (give or take its step): its time stamps are on another clock or in another unit (a file's ms read as s put
-        9 of 8874 samples on the rows, exit 0 with a heading from those).
+        """Refuse a magnetometer whose time stamps do not fit the IMU's span ``t0``..``t1`` [s]: its span covers
+        under half of the IMU's while most of its samples lie outside it (another clock), or its samples are over
+        :data:`MAG_CLOCK_RATIO` of the IMU's steps apart (another unit: a file's ms read as s put 1 of 1000 samples
+        on a 40 s flight's rows, 9D with exit 0). An IMU log cut from the magnetometer's recording fits.
 
         Parameters
         ----------
@@ -2700,11 +2704,14 @@ class MagSamples:
         imu_step : float
             The IMU's median step [s].
         """
+        cover = min(t1, float(self.t[-1])) - max(t0, float(self.t[0]))
         inside = int(np.count_nonzero((self.t >= t0 - imu_step) & (self.t <= t1 + imu_step)))
-        if 2 * inside < self.t.size:
+        other_clock = cover < 0.5 * (t1 - t0) and 2 * inside < self.t.size
+        if other_clock or self.step > MAG_CLOCK_RATIO * imu_step:
             raise OptinavError(
-                f"magnetometer of {self.source}: {inside} of its {self.t.size} samples lie within the IMU's time span "
-                f"({t0:.6g} to {t1:.6g} s; its own {self.t[0]:.6g} to {self.t[-1]:.6g} s): not on the IMU's clock",
+                f"magnetometer of {self.source}: its time stamps ({self.t[0]:.6g} to {self.t[-1]:.6g} s, "
+                f"{self.step:.3g} s apart) do not fit the IMU's ({t0:.6g} to {t1:.6g} s, {imu_step:.3g} s apart; "
+                f"{inside} of its {self.t.size} samples within): another clock or another time unit",
                 "put its time column on the IMU's clock in seconds or name its unit (e.g. 't (ms)'), or drop --mag",
             )
 
