@@ -150,15 +150,13 @@ def test_a_zip_of_two_recordings_is_refused_and_a_zipped_folder_is_read(tmp_path
     }
     rec.update({k: meta for k in rec if k.endswith("Metadata.csv")})
     z, _ = _export(tmp_path, "two", rec)
-    for path in (z, tmp_path / "two" / "A"):
-        if path == z:
-            with pytest.raises(OptinavError, match=r"2 recordings' exports \(A/, B/\)"):
-                read_imu(path)
-            assert main(["attitude", str(path), "--out", str(tmp_path / "a.csv")]) == 2
-            err = capsys.readouterr().err.strip().splitlines()
-            assert len(err) == 1 and "extract it and pass one recording's folder" in err[0], err
-        else:
-            np.testing.assert_allclose(read_imu(path).gyr[:, 0], 0.1)
+    for path, remedy in ((z, "extract it and pass one recording's folder"), (tmp_path / "two", "; pass one rec")):
+        with pytest.raises(OptinavError, match=r"2 recordings' exports \(A/, B/\)"):
+            read_imu(path)  # the folder it unzips to was 'data file two is a folder; check the path'
+        assert main(["attitude", str(path), "--out", str(tmp_path / "a.csv")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and remedy in err[0], err
+    np.testing.assert_allclose(read_imu(tmp_path / "two" / "A").gyr[:, 0], 0.1)
     rng = np.random.default_rng(3)
     acc, gyr = rng.normal([0, 0, 9.8], 0.01, (300, 3)), rng.normal(0, 0.01, (300, 3))
     files = {

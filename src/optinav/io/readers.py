@@ -783,7 +783,7 @@ def export_sets(names, header=None) -> dict | None:
         return {
             **dict.fromkeys(("acc", "gyro", "mag", "single")),
             "what": f"{len(found)} recordings' exports ({shown})",
-            "remedy": "extract it and pass one recording's folder",
+            "remedy": "pass one recording's folder",
         }
     return None
 
@@ -853,6 +853,9 @@ def _folder_error(path: Path, what: str) -> OptinavError | None:
     """The error for a folder that is a phone app's unzipped export (:func:`export_files`), else None."""
     try:
         names = [p.name for p in path.glob("*.csv")] + [f"meta/{p.name}" for p in (path / "meta").glob("*.csv")]
+        if not names:  # a zip of several recordings unzipped: their folders
+            names = [str(p.relative_to(path)) for p in path.glob("*/*.csv")]
+            names += [str(p.relative_to(path)) for p in path.glob("*/meta/*.csv")]
     except OSError:
         return None
 
