@@ -289,6 +289,37 @@ def test_a_raw_sensor_mag_that_hardly_turns_is_refused(tmp_path, capsys):
     assert np.abs(heading_error(q, np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)))[-500:]).max() < np.radians(2.0)
 
 
+def test_a_magnetometer_topic_named_without_mag_is_refused(tmp_path, capsys):
+    """``attitude LOG.ulg --topic vehicle_magnetometer@1`` (a second magnetometer, as docs/file-formats.md names it)
+    without --mag wrote the gyro-only (6D) attitude with exit 0, the named topic left out. Now refused naming --mag,
+    streamed and in memory; with --mag the heading is the one of that instance's field (within 1° of north)."""
+    pytest.importorskip("pyulog")
+    from optinav.attitude.metrics import heading_error
+    from optinav.attitude.unit import AttitudeOptions, read_log
+
+    n = 2500
+    t = np.arange(n) / 250.0
+    rng = np.random.default_rng(6)
+    comb = _combined(t, [0.0, 0.0, -9.80665] + rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.003, (n, 3)))
+    im = np.arange(0, n, 5)
+    ts = {"timestamp": comb["timestamp"][im], "timestamp_sample": comb["timestamp"][im]}
+    mags = [dict(ts, magnetometer_ga=np.tile(f, (im.size, 1)) + rng.normal(0, 0.003, (im.size, 3)))
+            for f in ([0.0, 0.2, 0.4], [0.2, 0.0, 0.4])]  # fmt: skip
+    topics = [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, mags[0]), ("vehicle_magnetometer", 1, mags[1])]
+    path = write_ulog(tmp_path / "two.ulg", topics)
+    out = tmp_path / "q.csv"
+    cmd = ["attitude", str(path), "--topic", "vehicle_magnetometer@1", "--out", str(out)]
+    assert main(cmd) == 2 and not out.exists()
+    err = [e for e in capsys.readouterr().err.splitlines() if "error" in e]
+    assert len(err) == 1 and "magnetometer topic vehicle_magnetometer@1 of two.ulg" in err[0], err
+    assert "add --mag (9D)" in err[0], err
+    with pytest.raises(OptinavError, match="--mag was not given"):
+        read_log(path, AttitudeOptions(topic="vehicle_magnetometer@1"))
+    assert main([*cmd, "--mag"]) == 0
+    q = np.loadtxt(out, delimiter=",", skiprows=1, usecols=(1, 2, 3, 4))
+    assert np.abs(heading_error(q, np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)))[-500:]).max() < np.radians(1.0)
+
+
 def test_refusals_are_one_line_errors(tmp_path, capsys, monkeypatch):
     """Without pyulog, a damaged or truncated log, a topic that is no IMU topic, a magnetometer asked of a log
     without one: each a one-line error naming what helps, never a traceback."""

@@ -410,6 +410,10 @@ class _Blocks:
         self.truth_csv, self.truth_frame = truth_csv, truth_frame
         self.gyro_unit = "rad/s"  # as the file declared it (the checks' messages name it), set by the first block
         self.broad = is_broad(path) and not o.columns and not o.datasets
+        if not mag:
+            from optinav.attitude.unit import refuse_unused_mag_topic
+
+            refuse_unused_mag_topic(path, o)
         if reference and not (self.broad and has_reference(path)):
             raise OptinavError(
                 f"{path} is not a BROAD file with opt_quat and movement", "drop --reference or pass a BROAD trial"

@@ -87,6 +87,26 @@ def check(options: AttitudeOptions) -> None:
     _options(_method(options.method, None), dict(options.options))
 
 
+def refuse_unused_mag_topic(path, options: AttitudeOptions) -> None:
+    """Refuse a ULog's magnetometer topic named in ``topic`` without ``mag``: the estimate left it out, 6D with exit
+    0 (``attitude LOG.ulg --topic vehicle_magnetometer@1``)."""
+    o = options
+    if o.uses_mag or not o.topic:
+        return
+    from optinav.io.ulog import _parse_topic, is_ulog
+
+    if not is_ulog(path):
+        return
+    named = _parse_topic(Path(path), o.topic).get("mag")
+    if named is not None:
+        shown = named[0] if named[1] is None else f"{named[0]}@{named[1]}"
+        raise OptinavError(
+            f"--topic names the magnetometer topic {shown} of {Path(path).name}, and --mag was not given: the "
+            "estimate would leave it out",
+            f"add --mag (9D), or drop {shown} from --topic (6D)",
+        )
+
+
 def read_log(path, options: AttitudeOptions, *, reference: bool = False):
     """(t s, gyr rad/s, acc m/s², mag or None, (q_ref, movement) or None) from a BROAD trial as published
     (its optical reference when ``reference``) or any IMU log in SI units."""
@@ -94,6 +114,7 @@ def read_log(path, options: AttitudeOptions, *, reference: bool = False):
 
     o = options
     want_mag = o.uses_mag
+    refuse_unused_mag_topic(path, o)
     broad = is_broad(path) and not o.columns and not o.datasets
     if reference and not (broad and has_reference(path)):
         raise OptinavError(
