@@ -1716,6 +1716,26 @@ def test_a_write_ahead_log_beside_a_db3_is_refused(tmp_path):
             read(db3)
 
 
+def test_a_mag_topic_named_without_mag_is_refused(tmp_path, capsys):
+    """``attitude BAG --topic /imu,/mag`` without --mag wrote the gyro-only attitude with exit 0, the MagneticField
+    topic named and left out. Now refused naming --mag; with it the magnetometer is used, as with --mag alone."""
+    topics, _ = _imu_and_mag(np.random.default_rng(1), n=600)
+    bag = write_bag(tmp_path / "m", "sqlite3", topics)
+    out = tmp_path / "o.csv"
+    assert main(["--quiet", "attitude", str(bag), "--topic", "/imu,/mag", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "optinav: error: --topic names the magnetometer topic /mag of m, and --mag was not given: the estimate would "
+        "leave it out; add --mag (9D), or drop /mag from --topic (6D)"
+    ], err
+    assert not out.exists()
+    assert main(["--quiet", "attitude", str(bag), "--topic", "/imu,/mag", "--mag", "--out", str(out)]) == 0
+    both = out.read_bytes()
+    assert main(["--quiet", "attitude", str(bag), "--mag", "--out", str(out)]) == 0
+    assert out.read_bytes() == both
+    assert main(["--quiet", "attitude", str(bag), "--topic", "/imu", "--out", str(out)]) == 0
+
+
 def test_mag_topic_on_another_clock_and_missing(tmp_path, capsys):
     """A MagneticField topic stamped 150 s off the Imu's gave 'magnetometer used 0 %' and a gyro-only heading with
     exit 0 under --mag (helper): a warning from the reader, and attitude --mag refuses a magnetometer without a

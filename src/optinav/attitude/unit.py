@@ -88,18 +88,23 @@ def check(options: AttitudeOptions) -> None:
 
 
 def refuse_unused_mag_topic(path, options: AttitudeOptions) -> None:
-    """Refuse a ULog's magnetometer topic named in ``topic`` without ``mag``: the estimate left it out, 6D with exit
-    0 (``attitude LOG.ulg --topic vehicle_magnetometer@1``)."""
+    """Refuse a magnetometer topic of a ULog or a ROS bag named in ``topic`` without ``mag``: the estimate left it
+    out, 6D with exit 0 (``attitude LOG.ulg --topic vehicle_magnetometer@1``, ``attitude BAG --topic /imu,/mag``)."""
     o = options
     if o.uses_mag or not o.topic:
         return
+    from optinav.io.rosbag import _parse_topics, is_bag
     from optinav.io.ulog import _parse_topic, is_ulog
 
-    if not is_ulog(path):
-        return
-    named = _parse_topic(Path(path), o.topic).get("mag")
-    if named is not None:
-        shown = named[0] if named[1] is None else f"{named[0]}@{named[1]}"
+    shown = None
+    if is_ulog(path):
+        named = _parse_topic(Path(path), o.topic).get("mag")
+        if named is not None:
+            shown = named[0] if named[1] is None else f"{named[0]}@{named[1]}"
+    elif is_bag(path):
+        items = _parse_topics(o.topic)
+        shown = items[1] if len(items) == 2 else None
+    if shown is not None:
         raise OptinavError(
             f"--topic names the magnetometer topic {shown} of {Path(path).name}, and --mag was not given: the "
             "estimate would leave it out",
