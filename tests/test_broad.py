@@ -302,7 +302,9 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
         est = estimate(tr.gyr[:n], tr.acc[:n], tr.dt, frame="ENU", mag=tr.mag[:n], offline=extra == ["--offline"])
         assert np.nanmax(np.degrees(heading_error(q, est.q_b_n))) < 3.0
     assert main(["attitude", str(f), "--frame", "ENU", "--mag-hard-iron", "1,2,3", "--out", str(out)]) == 2
-    assert "--mag-hard-iron was given without a magnetometer" in capsys.readouterr().err
+    assert "--mag-hard-iron was given without a magnetometer; add --mag (or --mag-columns, --mag-file)" in (
+        capsys.readouterr().err
+    )
 
 
 def test_a_wrong_given_hard_iron_offset_is_refused(tmp_path, capsys):

@@ -253,7 +253,9 @@ def summary_line(
 def _hard_iron(offset, mag) -> np.ndarray:
     """The hard-iron offset ``mag_hard_iron`` as a finite (3,) array; refused without a magnetometer."""
     if mag is None:
-        raise OptinavError("mag_hard_iron was given without a magnetometer", "pass mag= (--mag or --mag-columns)")
+        raise OptinavError(
+            "mag_hard_iron was given without a magnetometer", "pass mag= (--mag, --mag-columns or --mag-file)"
+        )
     b = as_float_array(offset, "mag_hard_iron", last_dims=(3,))
     if b.shape != (3,):
         raise OptinavError(f"mag_hard_iron has shape {b.shape}, expected (3,)", "give one offset BX,BY,BZ")

@@ -1182,7 +1182,9 @@ def stream_attitude(
     if pol is not None:
         pol.sun(np.zeros(1), 0.0)  # a bad sun specification fails before the log is read
     if o.mag_hard_iron is not None and not src.mag:
-        raise OptinavError("--mag-hard-iron was given without a magnetometer", "add --mag (or --mag-columns)")
+        raise OptinavError(
+            "--mag-hard-iron was given without a magnetometer", "add --mag (or --mag-columns, --mag-file)"
+        )
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
