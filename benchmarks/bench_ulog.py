@@ -4,8 +4,8 @@ The log is written here from the ULog format (PX4 "ULog File Format"), its messa
 logger writes them: ``sensor_combined`` at 250 Hz (900 000 messages), ``vehicle_magnetometer`` at 50 Hz, and
 20 other topics of 40-byte messages at 50 Hz each (what a logging profile adds beside the IMU: 3.6 M messages),
 about 190 MB. Each reading runs in a fresh process with optinav and pyulog imported before the timing: the time of
-``read_imu`` (sensor_combined, best of ``REPEAT``), of ``optinav.io.ulog.ulog_mag`` (the magnetometer of
-``attitude --mag``), and of pyulog's own parse of the whole log (``ULog(path)``, every topic: what ``ulog2csv``
+``read_imu`` (sensor_combined, best of ``REPEAT``), of ``read_imu`` then ``optinav.io.ulog.ulog_mag`` (what
+``attitude --mag`` reads: the magnetometer from the same parse), and of pyulog's own parse of the whole log (``ULog(path)``, every topic: what ``ulog2csv``
 costs before writing), and the growth of the peak resident set over the resident set after the imports
 (``VmHWM``/``VmRSS`` of ``/proc/self/status``, the peak reset through ``/proc/self/clear_refs``; Linux).
 Quick: 5 minutes of log. ``python benchmarks/bench_ulog.py [--quick] [--out RESULTS.json]``.
@@ -30,11 +30,11 @@ kind, path, repeat = sys.argv[1], sys.argv[2], int(sys.argv[3])
 import numpy as np
 import pyulog
 from optinav.io import read_imu
-from optinav.io.ulog import ulog_mag
+from optinav.io import ulog
 if kind == "optinav":
-    read = lambda: len(read_imu(path))
-elif kind == "optinav-mag":
-    read = lambda: ulog_mag(path).t.size
+    read = lambda: (ulog._LAST.clear(), len(read_imu(path)))[1]
+elif kind == "optinav-mag":  # what attitude --mag reads: the IMU's topic, then the magnetometer's of one parse
+    read = lambda: (ulog._LAST.clear(), len(read_imu(path)), ulog.ulog_mag(path).t.size)[2]
 else:
     read = lambda: sum(d.data["timestamp"].size for d in pyulog.ULog(path).data_list)
 
