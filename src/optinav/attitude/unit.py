@@ -23,9 +23,10 @@ class AttitudeOptions:
     """The options of ``optinav attitude`` that a folder of recordings shares: ``method`` (None: iframe),
     ``frame`` ("ned"/"enu", either case), ``offline``, ``input_stage``, ``mag`` (use the magnetometer: BROAD's
     imu_mag or ``mag_columns``, default mx,my,mz), ``mag_hard_iron`` (the magnetometer's offset to subtract,
-    its unit; None: an uncalibrated one is refused online, fitted and subtracted offline), ``allow_gaps``, ``drop_nan`` (rows with a NaN accelerometer or
-    gyro value are lost samples, left out; the time steps over them; implied by ``skip_bad_lines``, whose unreadable
-    lines are such rows), ``options`` (estimator options, SI), and the
+    its unit; None: an uncalibrated one is refused online, fitted and subtracted offline), ``allow_gaps``,
+    ``drop_nan`` (rows with a NaN accelerometer or gyro value are lost samples, left out; the time steps over them;
+    implied by ``skip_bad_lines``, whose unreadable lines are such rows), ``options`` (estimator options, SI), and
+    the
     reading options of :func:`optinav.io.read_imu` (``columns``, units, ``time_unit``, ``rate_hz`` Hz, ``delimiter``,
     ``datasets``, ``gyro_path`` and ``gyro_columns``: the gyroscope in a second file, ``skip_bad_lines``);
     ``mag_path``: the magnetometer in a file of its own, on its own time stamps (:func:`separate_mag`; its columns
