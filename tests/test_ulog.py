@@ -227,6 +227,17 @@ def _flight(seed=1, duration_s=30.0):
     return f, mag
 
 
+def _flight_log(tmp_path, duration_s):
+    """A simulated flight as f.ulg: sensor_combined at 250 Hz, vehicle_magnetometer at 50 Hz on its own
+    timestamp_sample 1 ms after an IMU sample; (flight, magnetometer at each sample, its rows logged, path)."""
+    f, mag = _flight(duration_s=duration_s)
+    comb = _combined(f.t, f.acc, f.gyr)
+    im = np.arange(0, f.t.size, 5)
+    vm = {"timestamp": comb["timestamp"][im] + 300, "timestamp_sample": comb["timestamp"][im] + 1000}
+    vm["magnetometer_ga"] = mag[im]
+    return f, mag, im, write_ulog(tmp_path / "f.ulg", [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, vm)])
+
+
 def test_attitude_mag_takes_the_magnetometer_topic_on_its_own_times(tmp_path, capsys):
     """``optinav attitude LOG.ulg --mag``: sensor_combined with vehicle_magnetometer (gauss, 50 Hz, its own
     timestamp_sample 1 ms after an IMU sample) on the IMU's rows. Each sample goes on its row: the attitude equals
@@ -236,12 +247,7 @@ def test_attitude_mag_takes_the_magnetometer_topic_on_its_own_times(tmp_path, ca
     from optinav.attitude import estimate
     from optinav.attitude.metrics import heading_error, rmse
 
-    f, mag = _flight(duration_s=20.0)
-    comb = _combined(f.t, f.acc, f.gyr)
-    im = np.arange(0, f.t.size, 5)
-    vm = {"timestamp": comb["timestamp"][im] + 300, "timestamp_sample": comb["timestamp"][im] + 1000}
-    vm["magnetometer_ga"] = mag[im]
-    path = write_ulog(tmp_path / "f.ulg", [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, vm)])
+    f, mag, im, path = _flight_log(tmp_path, 20.0)
     out = tmp_path / "q.csv"
     assert main(["attitude", str(path), "--mag", "--out", str(out)]) == 0
     err = capsys.readouterr().err
@@ -258,15 +264,19 @@ def test_attitude_mag_takes_the_magnetometer_topic_on_its_own_times(tmp_path, ca
     assert heading[0] < 0.1 * heading[1], heading
 
 
+def _still(seed, n=2500):
+    """A level FRD body at rest for n samples at 250 Hz as sensor_combined: (n, its generator, the topic)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 250.0
+    return n, rng, _combined(t, [0.0, 0.0, -9.80665] + rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.003, (n, 3)))
+
+
 def test_a_raw_sensor_mag_that_hardly_turns_is_refused(tmp_path, capsys):
     """A still log whose only magnetometer is sensor_mag (the sensor's output before CAL_MAG*: 0.15, 0.1, -0.05 gauss
     of offset) was read with exit 0 and its heading off by the offset's angle. Now refused naming
     vehicle_magnetometer; the same field as vehicle_magnetometer (calibrated) is read."""
     pytest.importorskip("pyulog")
-    n = 2500
-    t = np.arange(n) / 250.0
-    rng = np.random.default_rng(4)
-    comb = _combined(t, [0.0, 0.0, -9.80665] + rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.003, (n, 3)))
+    n, rng, comb = _still(4)
     im = np.arange(0, n, 5)
     field = 0.5 * np.array([np.cos(np.radians(60.0)), 0.0, np.sin(np.radians(60.0))]) + rng.normal(
         0, 0.003, (im.size, 3)
@@ -298,10 +308,7 @@ def test_a_magnetometer_topic_named_without_mag_is_refused(tmp_path, capsys):
     from optinav.attitude.metrics import heading_error
     from optinav.attitude.unit import AttitudeOptions, read_log
 
-    n = 2500
-    t = np.arange(n) / 250.0
-    rng = np.random.default_rng(6)
-    comb = _combined(t, [0.0, 0.0, -9.80665] + rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.003, (n, 3)))
+    n, rng, comb = _still(6)
     im = np.arange(0, n, 5)
     ts = {"timestamp": comb["timestamp"][im], "timestamp_sample": comb["timestamp"][im]}
     mags = [dict(ts, magnetometer_ga=np.tile(f, (im.size, 1)) + rng.normal(0, 0.003, (im.size, 3)))
@@ -477,12 +484,7 @@ def test_attitude_mag_parses_the_log_once(tmp_path, monkeypatch, capsys):
     pytest.importorskip("pyulog")
     import pyulog
 
-    f, mag = _flight(duration_s=10.0)
-    comb = _combined(f.t, f.acc, f.gyr)
-    im = np.arange(0, f.t.size, 5)
-    vm = {"timestamp": comb["timestamp"][im] + 300, "timestamp_sample": comb["timestamp"][im] + 1000}
-    vm["magnetometer_ga"] = mag[im]
-    path = write_ulog(tmp_path / "f.ulg", [("sensor_combined", 0, comb), ("vehicle_magnetometer", 0, vm)])
+    f, mag, im, path = _flight_log(tmp_path, 10.0)
     parses = []
     real = pyulog.ULog
 
