@@ -550,3 +550,39 @@ def test_batch_names_an_export_it_cannot_read_as_a_failed_unit(tmp_path, capsys)
     assert rows["walk"]["status"] == rows["walk-folder"]["status"] == "ok"
     assert rows["two"]["status"] == "failed" and "2 recordings' exports (A/, B/)" in rows["two"]["error"], rows
     assert rows["nogyro"]["status"] == "failed" and "without Gyroscope.csv" in rows["nogyro"]["error"], rows
+
+
+def test_an_export_given_as_one_sensor_s_file_names_the_data_file(tmp_path, capsys):
+    """A phone export given as --gyro or --mag-file (attitude, allan, read_imu, read_mag) was named as if only its
+    extraction were missing: 'rec.zip is a zip archive, Sensor Logger's export; extract it and pass
+    TotalAcceleration.csv ... with --gyro Gyroscope.csv' (for a folder: 'data file rec is a folder, ...'), and
+    allan's --gyro read the whole export, judging its accelerometer ('the gravity direction moves'). Now: pass the
+    export itself as the data file."""
+    from optinav.io import read_mag
+
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=4)
+    files = {
+        "TotalAcceleration.csv": _sensor_logger(s.t, s.acc),
+        "Gyroscope.csv": _sensor_logger(s.t + 0.002, s.gyr),
+        "Magnetometer.csv": _sensor_logger(s.t[::4], np.tile([20.0, 0.0, -40.0], (s.t[::4].size, 1))),
+        "Metadata.csv": "version,device name\n1.30,Pixel 7\n",
+    }
+    z, folder = _export(tmp_path, "rec", files)
+    acc = tmp_path / "acc.csv"
+    np.savetxt(acc, np.column_stack([s.t, s.acc]), delimiter=",", header="t,ax,ay,az", comments="")
+    for path in (z, folder):
+        with pytest.raises(OptinavError, match=rf"--gyro {path.name} is Sensor Logger's export.*as the data file"):
+            read_imu(acc, gyro_path=path)
+        with pytest.raises(OptinavError, match=rf"--mag-file {path.name} is Sensor Logger's export.*--mag reads"):
+            read_mag(path)
+    still = tmp_path / "still.csv"
+    rng = np.random.default_rng(0)
+    t = np.arange(20000) / 100.0
+    np.savetxt(still, np.column_stack([t, rng.normal(0, 0.02, (t.size, 2)), 9.81 + rng.normal(0, 0.02, t.size)]),
+               delimiter=",", header="t,ax,ay,az", comments="")  # fmt: skip
+    for cmd in (["allan", str(still), "--gyro", str(z), "--out", str(tmp_path / "a.json")],
+                ["attitude", str(acc), "--gyro", str(z), "--out", str(tmp_path / "q.csv")],
+                ["attitude", str(z), "--mag-file", str(folder), "--out", str(tmp_path / "q.csv")]):  # fmt: skip
+        assert main(["--quiet", *cmd]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "is Sensor Logger's export, which holds the accelerometer" in err, err

@@ -20,7 +20,7 @@ from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.units import G_STANDARD, factor, from_si, to_si
 from optinav.core.validate import check_positive, check_timestamps
 from optinav.errors import OptinavError
-from optinav.io.phone import ExportMember, phone_export
+from optinav.io.phone import ExportMember, phone_export, refuse_as_one_sensor
 from optinav.io.ulog import UlogTopic, ulog_pair
 from optinav.io.readers import (
     CHUNK_ROWS,
@@ -1924,6 +1924,7 @@ def read_imu(
     if split is not None and gyro_path is None:
         parts.append(split)
     if gyro_path is not None:
+        refuse_as_one_sensor(gyro_path, "--gyro")
         gpart = _read_part(gyro_path, gyro_columns, None, delimiter, "gyro", "gyro_columns", None, skip_bad_lines)
         parts.append(gpart)
         main.gyro, main.declared["gyro"] = gpart.gyro, gpart.declared["gyro"]
@@ -2813,6 +2814,7 @@ def read_mag(
     MagSamples
         ``t`` [s], ``mag`` [the file's unit].
     """
+    refuse_as_one_sensor(source, "--mag-file")
     path = source.path if isinstance(source, ExportMember) else Path(source)
     kw = {"delimiter": delimiter, "skip_bad_lines": bool(skip_bad_lines)}
     table = source.load(**kw) if isinstance(source, ExportMember) else load_table(path, **kw)

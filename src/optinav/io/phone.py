@@ -120,3 +120,20 @@ def looks_like_export(path) -> bool:
 
     got = _listing(Path(path))
     return got is not None and export_sets(got[0]) is not None
+
+
+def refuse_as_one_sensor(path, option: str) -> None:
+    """Refuse a phone export given as one sensor's file (``option``: ``--gyro``, ``--mag-file``): it is read whole
+    as the data file (its accelerometer, gyroscope and magnetometer files paired). The readers named it as if only
+    its extraction were missing ("extract it and pass TotalAcceleration.csv with --gyro Gyroscope.csv")."""
+    if isinstance(path, ExportMember):
+        return
+    export = phone_export(path)
+    if export is None:
+        return
+    holds = "the accelerometer, the gyroscope and the magnetometer" if export.mag else "the accelerometer and gyroscope"
+    raise OptinavError(
+        f"{option} {Path(path).name} is {export.what}, which holds {holds}",
+        f"pass {Path(path).name} itself as the data file, without {option}"
+        + (" (--mag reads its magnetometer)" if export.mag and option == "--mag-file" else ""),
+    )
