@@ -126,8 +126,8 @@ def refuse_as_one_sensor(path, option: str) -> None:
     """Refuse a phone export given as one sensor's file (``option``: ``--gyro``, ``--mag-file``): it is read whole
     as the data file (its accelerometer, gyroscope and magnetometer files paired). The readers named it as if only
     its extraction were missing ("extract it and pass TotalAcceleration.csv with --gyro Gyroscope.csv")."""
-    if isinstance(path, ExportMember):
-        return
+    if not isinstance(path, str | Path):
+        return  # a member of an export or a topic of a flight log, read as one sensor's
     export = phone_export(path)
     if export is None:
         return
