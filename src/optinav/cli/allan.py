@@ -85,10 +85,6 @@ def register(sub) -> None:
 
 def run(args) -> int:
     require_files((args.data, "data file"), (args.gyro_path, "--gyro file"))
-    if args.gyro_path:
-        from optinav.io.phone import refuse_as_one_sensor
-
-        refuse_as_one_sensor(args.gyro_path, "--gyro")
     if args.gyro_path and args.sensor != "both":
         raise OptinavError(
             "--gyro gives the gyroscope and DATA the accelerometer: --sensor does not apply", "drop --sensor"

@@ -226,13 +226,22 @@ def output_path(
     return out
 
 
+#: the ``what`` of :func:`require_files` that names one sensor's file → its option: a phone export given there is
+#: refused (it is read whole, as the data file)
+ONE_SENSOR = {"--gyro file": "--gyro", "gyroscope file": "--gyro", "magnetometer file": "--mag-file"}
+
+
 def require_files(*items: tuple[str | None, str]) -> None:
     """``(path, what)`` pairs that must name existing files, checked before a command imports its numerical
-    modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped."""
+    modules (seconds of imports), so a mistyped name fails at once. ``None`` paths are skipped; a phone export
+    where one sensor's file is wanted (:data:`ONE_SENSOR`) is refused."""
     from optinav.core.files import input_kind, kitti_oxts_folder
+    from optinav.io.phone import refuse_as_one_sensor
     from optinav.io.rosbag import is_bag
 
     for path, what in items:
+        if path is not None and what in ONE_SENSOR:
+            refuse_as_one_sensor(path, ONE_SENSOR[what])
         if path is not None and input_kind(path, what) == "dir" and not is_bag(path) and not kitti_oxts_folder(path):
             from optinav.io.phone import phone_export
 
