@@ -1968,39 +1968,34 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
     read; a phone export's accelerometer and gyroscope files (:mod:`optinav.io.phone`) each on its own clock.
     ``kw`` as :func:`read_imu` (without ``gyro_path``)."""
     export = phone_export(path)
-    pair = ulog_pair(path, kw.get("topic"), kw.get("skip_bad_lines", False))
-    if pair is not None:  # a ULog's raw accelerometer and gyroscope, each on its own clock
-        opts = _imu_options(
-            kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
-            kw.get("unit_defaults"),
-        )  # fmt: skip
-        logs = []
-        for need, member in zip(("acc", "gyro"), pair):
-            part = _read_part(member, None, None, None, need, "columns", None, kw.get("skip_bad_lines", False))
-            setattr(part, "gyro" if need == "acc" else "acc", None)
-            logs.append(_log_of([part], *opts))
-        return logs[0], logs[1]
-    if export is None and not multi_record(path, **kw):
+    skip = kw.get("skip_bad_lines", False)
+    pair = ulog_pair(path, kw.get("topic"), skip)
+    if pair is None and export is None and not multi_record(path, **kw):
         return None
     opts = _imu_options(
         kw.get("acc_unit"), kw.get("gyro_unit"), kw.get("time_unit"), kw.get("rate_hz"), None, None,
         kw.get("unit_defaults"),
     )  # fmt: skip
-    if export is not None:
+    if pair is not None or export is not None:  # two files or topics, each sensor on its own clock
+        if pair is not None:  # a ULog's raw accelerometer and gyroscope topics, read by their fields' names
+            sources = [("acc", pair[0], None, None, None), ("gyro", pair[1], None, None, None)]
+        else:
+            d, topic = kw.get("delimiter"), kw.get("topic")
+            sources = [
+                ("acc", export.member(export.acc), kw.get("columns"), d, topic),
+                ("gyro", export.member(export.gyro), None, d, topic),
+            ]
         logs = []
-        for need, name, columns in (("acc", export.acc, kw.get("columns")), ("gyro", export.gyro, None)):
-            part = _read_part(
-                export.member(name), columns, None, kw.get("delimiter"), need, "columns", kw.get("topic"),
-                kw.get("skip_bad_lines", False),
-            )  # fmt: skip
+        for need, source, columns, delimiter, topic in sources:
+            part = _read_part(source, columns, None, delimiter, need, "columns", topic, skip)
             setattr(part, "gyro" if need == "acc" else "acc", None)
             logs.append(_log_of([part], *opts))
-        logs[0].notes.insert(0, export.note())
+        if export is not None:
+            logs[0].notes.insert(0, export.note())
         return logs[0], logs[1]
     main = _read_part(
-        path, kw.get("columns"), kw.get("datasets"), kw.get("delimiter"), None, "columns", kw.get("topic"),
-        kw.get("skip_bad_lines", False),
-    )  # fmt: skip
+        path, kw.get("columns"), kw.get("datasets"), kw.get("delimiter"), None, "columns", kw.get("topic"), skip
+    )
     gyro = _split_sensors(main)
     if gyro is None:
         return None
@@ -2011,8 +2006,8 @@ def sensor_logs(path, **kw) -> tuple[ImuLog, ImuLog] | None:
 #: what to do with a magnetometer (or any column read beside the IMU by its row) of a multi record
 MULTI_RECORD_BESIDE = (
     "a Physics Toolbox multi record writes each row at one sensor's sample, so a column read beside the IMU row by "
-    "row (the magnetometer Bx, By, Bz) is not on the accelerometer's rows",
-    "drop --mag/--mag-columns (the attitude from the accelerometer and gyroscope alone)",
+    "row (--pol-columns, or --mag-columns beside a --gyro file) is not on the accelerometer's rows",
+    "drop those columns (its magnetometer Bx, By, Bz is read on its own rows with --mag alone)",
 )
 
 
