@@ -1214,7 +1214,7 @@ def stream_attitude(
     if src.mag and hard_iron is None and o.offline:
         hard_iron = checks.hard_iron()
         fitted = hard_iron is not None
-    checks.refuse_hard_iron = hard_iron is None
+    checks.offline = o.offline
     checks.given_hard_iron = None if o.mag_hard_iron is None else np.asarray(o.mag_hard_iron, float)
     gaps = checks.gaps
     if announce is not None:

@@ -94,10 +94,10 @@ class StreamChecks:
             self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
 
-    #: refuse an uncalibrated magnetometer in :meth:`finish_second` (an online estimate not given its offset)
-    refuse_hard_iron = True
-    #: the hard-iron offset given (its unit; None: none): the field less it is judged in :meth:`finish_second`
+    #: the hard-iron offset given (its unit; None: none): :meth:`finish_second` judges the field less it, and
+    #: refuses one that shows an offset, unless ``offline`` (then :meth:`hard_iron` fitted it after pass 1)
     given_hard_iron: np.ndarray | None = None
+    offline = False
 
     def hard_iron(self) -> np.ndarray | None:
         """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline), for
@@ -195,7 +195,7 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
-        if self._mag and (self.refuse_hard_iron or self.given_hard_iron is not None):
+        if self._mag and (not self.offline or self.given_hard_iron is not None):
             _c.check_mag(np.concatenate(self._mag), given=self.given_hard_iron)
         if self._mag_sums:  # in the order of check_mag_axes
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
