@@ -499,7 +499,8 @@ def front_outputs(r: FilterRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.nd
 class AttitudeFilter:
     """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
 
-    ``rate_hz`` or ``dt`` (s) gives the default step. After each update: :attr:`q_b_n`, :attr:`rest`,
+    ``rate_hz`` or ``dt`` (s) gives the default step. ``mag_hard_iron`` (3,) [the magnetometer's unit, body axes]:
+    a hard-iron offset subtracted from every magnetometer sample, as :func:`optinav.attitude.estimate` takes it. After each update: :attr:`q_b_n`, :attr:`rest`,
     :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
     None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
     the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
@@ -507,14 +508,24 @@ class AttitudeFilter:
     """
 
     def __init__(
-        self, rate_hz: float | None = None, *, dt: float | None = None, frame: str = DEFAULT_FRAME, q0=None, **options
+        self,
+        rate_hz: float | None = None,
+        *,
+        dt: float | None = None,
+        frame: str = DEFAULT_FRAME,
+        q0=None,
+        mag_hard_iron=None,
+        **options,
     ):
-        from optinav.attitude.estimators import _as_q0, _options, default_step
+        from optinav.attitude.estimators import _as_q0, _hard_iron, _options, default_step
 
         self.frame = frame_name(frame)
         self.options = _options("iframe", options)
         self.dt = default_step(rate_hz, dt)
         self._par = _params(self.frame, self.options)
+        #: the hard-iron offset subtracted from every magnetometer sample (its unit), or None
+        self.mag_hard_iron = None if mag_hard_iron is None else _hard_iron(mag_hard_iron, True)
+        self._hi = None if self.mag_hard_iron is None else tuple(float(v) for v in self.mag_hard_iron)
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
         # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
@@ -545,6 +556,9 @@ class AttitudeFilter:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
         if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
+        if mag is not None and self._hi is not None:
+            b = self._hi
+            mag = (mag[0] - b[0], mag[1] - b[1], mag[2] - b[2])
         if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
         elif mag is not None and type(gyr) is not list and type(acc) is not list and type(mag) is not list:
@@ -603,6 +617,8 @@ class AttitudeFilter:
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
+        if m is not None and self.mag_hard_iron is not None:
+            m = m - self.mag_hard_iron
         r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
