@@ -17,6 +17,9 @@ import math
 import numba
 import numpy as np
 
+from optinav.attitude.checks import MAG_OFFSET as HF_MAG_OFFSET
+from optinav.attitude.checks import MAG_SEEN_SPREAD as HF_SEEN_SPREAD
+from optinav.attitude.checks import MAG_SPREAD as HF_MAG_SPREAD
 from optinav.core._quat import qmul as _qmul
 from optinav.core._quat import rv2q as _rotvec_q
 
@@ -965,3 +968,117 @@ def azimuth_scatter(d, out, used, acc):
             e = math.atan2(math.sin(e), math.cos(e))
             acc[0] += e * e
             acc[1] += 1.0
+
+
+# --- a hard-iron offset fitted online from past samples (an uncalibrated magnetometer) ---------------------------
+# the sphere fit |m − b|² = r² of checks.hard_iron, accumulated sample by sample as moments about the first field
+# c: n, Σm', Σm'm'ᵀ (6: xx yy zz xy xz yz), Σy, Σy·m' (3), Σy² with m' = m − c, y = |m'|²; then the time since the
+# last solve (s), the offset b (3), 1 once valid, the rows seen and the row from which the field was used less b
+HF_C, HF_SET, HF_N, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 4, 5, 8, 14, 15, 18
+HF_T, HF_B, HF_OK, HF_ROWS, HF_FROM = 19, 20, 23, 24, 25
+HF_SIZE = 26
+#: s between two solves of the online fit (a 3×3 eigenvalue problem: out of the per-sample loop)
+HF_EVERY = 0.25
+
+
+@numba.njit(**_NJ)
+def _hf_stats(fs, b0, b1, b2):
+    """Mean and variance of |m − b|² over the fit's samples, from its moments (b in the field's unit)."""
+    n = fs[HF_N]
+    p0, p1, p2 = b0 - fs[HF_C], b1 - fs[HF_C + 1], b2 - fs[HF_C + 2]  # b about the first field
+    m0, m1, m2 = fs[HF_M] / n, fs[HF_M + 1] / n, fs[HF_M + 2] / n
+    c00, c11, c22 = fs[HF_MM] / n - m0 * m0, fs[HF_MM + 1] / n - m1 * m1, fs[HF_MM + 2] / n - m2 * m2
+    c01, c02, c12 = fs[HF_MM + 3] / n - m0 * m1, fs[HF_MM + 4] / n - m0 * m2, fs[HF_MM + 5] / n - m1 * m2
+    yb = fs[HF_Y] / n
+    cy0, cy1, cy2 = fs[HF_YM] / n - m0 * yb, fs[HF_YM + 1] / n - m1 * yb, fs[HF_YM + 2] / n - m2 * yb
+    vy = fs[HF_YY] / n - yb * yb
+    mean = yb - 2.0 * (p0 * m0 + p1 * m1 + p2 * m2) + p0 * p0 + p1 * p1 + p2 * p2
+    pcp = p0 * p0 * c00 + p1 * p1 * c11 + p2 * p2 * c22 + 2.0 * (p0 * p1 * c01 + p0 * p2 * c02 + p1 * p2 * c12)
+    var = vy - 4.0 * (p0 * cy0 + p1 * cy1 + p2 * cy2) + 4.0 * pcp
+    return mean, var
+
+
+@numba.njit(**_NJ)
+def _hf_solve(fs):
+    """Solve the online fit from its moments and judge it with the gates of ``checks.hard_iron`` (norm spread
+    beyond MAG_SPREAD, halved by the offset, which is beyond MAG_OFFSET of the field), every body axis seen
+    (the field's spread beyond MAG_SEEN_SPREAD along each: an axis not yet turned about leaves the offset along
+    it unknown) and the field less the offset as steady as a calibrated one (its norm's spread at most
+    MAG_SPREAD). Spreads from the moments: std |m − b| ≈ std |m − b|² / (2 mean |m − b|²). Sets the offset and
+    returns True when it passes; else leaves the last one."""
+    n = fs[HF_N]
+    if n < 100.0:
+        return False
+    mz0, vz0 = _hf_stats(fs, 0.0, 0.0, 0.0)
+    if not mz0 > 0.0:
+        return False
+    s0 = math.sqrt(max(vz0, 0.0)) / (2.0 * mz0)
+    if s0 <= HF_MAG_SPREAD:
+        return False
+    m0, m1, m2 = fs[HF_M] / n, fs[HF_M + 1] / n, fs[HF_M + 2] / n
+    C = np.empty((3, 3))
+    C[0, 0], C[1, 1], C[2, 2] = fs[HF_MM] / n - m0 * m0, fs[HF_MM + 1] / n - m1 * m1, fs[HF_MM + 2] / n - m2 * m2
+    C[0, 1] = C[1, 0] = fs[HF_MM + 3] / n - m0 * m1
+    C[0, 2] = C[2, 0] = fs[HF_MM + 4] / n - m0 * m2
+    C[1, 2] = C[2, 1] = fs[HF_MM + 5] / n - m1 * m2
+    if np.linalg.eigvalsh(C)[0] <= (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * mz0:
+        return False
+    yb = fs[HF_Y] / n
+    cy = np.array([fs[HF_YM] / n - m0 * yb, fs[HF_YM + 1] / n - m1 * yb, fs[HF_YM + 2] / n - m2 * yb])
+    # 2 (m − m̄)·(b − c) = y − ȳ in the least-squares sense: C (b − c) = cov(m, y) / 2
+    d = np.linalg.solve(C, 0.5 * cy)
+    b0, b1, b2 = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
+    r2, vz1 = _hf_stats(fs, b0, b1, b2)
+    if not r2 > 0.0:
+        return False
+    s1 = math.sqrt(max(vz1, 0.0)) / (2.0 * r2)
+    if not (s1 < 0.5 * s0 and s1 <= HF_MAG_SPREAD and b0 * b0 + b1 * b1 + b2 * b2 > HF_MAG_OFFSET**2 * r2):
+        return False
+    fs[HF_B], fs[HF_B + 1], fs[HF_B + 2] = b0, b1, b2
+    return True
+
+
+@numba.njit(**_NJ)
+def hard_iron_online(fs, mx, my, mz, h):
+    """One magnetometer sample (any unit; NaN: none) after a step of h s into the online offset fit ``fs``
+    (HF_SIZE): the field less the offset fitted from this and the earlier samples, NaN until the fit has passed
+    its gates (:func:`_hf_solve`, every HF_EVERY s), then refined at each solve that passes."""
+    fs[HF_T] += h
+    fs[HF_ROWS] += 1.0
+    if not math.isfinite(mx + my + mz):
+        return math.nan, math.nan, math.nan
+    if fs[HF_SET] == 0.0:
+        fs[HF_C], fs[HF_C + 1], fs[HF_C + 2], fs[HF_SET] = mx, my, mz, 1.0
+    x, y, z = mx - fs[HF_C], my - fs[HF_C + 1], mz - fs[HF_C + 2]
+    q = x * x + y * y + z * z
+    fs[HF_N] += 1.0
+    fs[HF_M] += x
+    fs[HF_M + 1] += y
+    fs[HF_M + 2] += z
+    fs[HF_MM] += x * x
+    fs[HF_MM + 1] += y * y
+    fs[HF_MM + 2] += z * z
+    fs[HF_MM + 3] += x * y
+    fs[HF_MM + 4] += x * z
+    fs[HF_MM + 5] += y * z
+    fs[HF_Y] += q
+    fs[HF_YM] += q * x
+    fs[HF_YM + 1] += q * y
+    fs[HF_YM + 2] += q * z
+    fs[HF_YY] += q * q
+    if fs[HF_T] >= HF_EVERY:
+        fs[HF_T] = 0.0
+        if _hf_solve(fs) and fs[HF_OK] == 0.0:
+            fs[HF_OK] = 1.0
+            fs[HF_FROM] = fs[HF_ROWS] - 1.0
+    if fs[HF_OK] == 0.0:
+        return math.nan, math.nan, math.nan
+    return mx - fs[HF_B], my - fs[HF_B + 1], mz - fs[HF_B + 2]
+
+
+@numba.njit(**_NJ)
+def hard_iron_online_run(fs, mag, dt, out):
+    """:func:`hard_iron_online` over the rows of ``mag`` (N, 3) with the steps ``dt`` (1 or N s): ``out`` (N, 3)."""
+    one = dt.shape[0] == 1
+    for i in range(mag.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = hard_iron_online(fs, mag[i, 0], mag[i, 1], mag[i, 2], dt[0] if one else dt[i])

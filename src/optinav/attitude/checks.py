@@ -1951,14 +1951,18 @@ def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
     warnings.warn(f"{hint}; {MAG_AXES_REMEDY}", MagnetometerWarning, stacklevel=3)
 
 
-def check_mag(mag: np.ndarray, offline: bool = False, given: np.ndarray | None = None) -> np.ndarray | None:
+def check_mag(
+    mag: np.ndarray, offline: bool = False, given: np.ndarray | None = None, online: bool = False
+) -> np.ndarray | None:
     """None when the field norm does not vary with the orientation as a constant offset makes it (:func:`hard_iron`);
     else the offset of an uncalibrated (hard-iron) magnetometer, whose heading is wrong by tens of degrees and which
     the disturbance gates cannot tell: offline (the whole recording is used anyway) the fitted offset b, for the
-    estimate to subtract; online refused, naming b and the option that subtracts it (fitted from future samples,
-    it is the user's to give). With the offset ``given`` (its unit) the field less it is judged, online and offline
-    alike: one that still shows an offset is refused, naming the offset that explains it (a given offset 20 µT off
-    turned BROAD's heading by 39° RMS with exit 0)."""
+    estimate to subtract; online (``online``) b too, as the sign that the online estimate fits the offset from past
+    samples itself (:func:`optinav.attitude.iframe.hard_iron_online`; :func:`online_fit_failed` when that never
+    passes its gates); without either refused, naming b and the option that subtracts it. With the offset
+    ``given`` (its unit) the field less it is judged, online and offline alike: one that still shows an offset is
+    refused, naming the offset that explains it (a given offset 20 µT off turned BROAD's heading by 39° RMS with
+    exit 0)."""
     if given is not None:
         got = hard_iron(mag - given)
         if got is None:
@@ -1975,14 +1979,35 @@ def check_mag(mag: np.ndarray, offline: bool = False, given: np.ndarray | None =
     got = hard_iron(mag)
     if got is None:
         return None
-    b, s0, s1 = got
-    if offline:
-        return b
+    if offline or online:
+        return got[0]
+    raise _hard_iron_error(*got)
+
+
+def online_fit_failed(mag: np.ndarray) -> OptinavError:
+    """The refusal of an online estimate whose magnetometer shows a hard-iron offset (:func:`hard_iron` on the rows
+    ``mag``) that the fit from past samples never took: the recording does not turn the sensor about every body
+    axis in a steady field before its end."""
+    got = hard_iron(mag)
+    if got is None:  # not expected (the caller found one): the plain refusal of a field that varies
+        return OptinavError(
+            "the magnetometer's hard-iron offset could not be fitted online from past samples",
+            "pass --mag-hard-iron=BX,BY,BZ (mag_hard_iron= in Python) or --offline",
+        )
+    return _hard_iron_error(
+        *got,
+        why="; fitted online from past samples it never passed its gates (the sensor turned about every body axis "
+        "in a steady field, the norm then steady)",
+    )
+
+
+def _hard_iron_error(b, s0: float, s1: float, why: str = "") -> OptinavError:
+    """The refusal of a magnetometer whose norm a constant offset ``b`` explains (spread ``s0`` down to ``s1``)."""
     given = ",".join(f"{v:.4g}" for v in b)
-    raise OptinavError(
+    return OptinavError(
         f"the magnetometer's field norm varies by {s0:.0%} (std/median) with the orientation, and a constant "
         f"offset of [{', '.join(f'{v:.4g}' for v in b)}] (its unit) explains it down to {s1:.1%}: an uncalibrated "
-        "(hard-iron) magnetometer turns the heading by up to tens of degrees",
+        "(hard-iron) magnetometer turns the heading by up to tens of degrees" + why,
         f"subtract the offset: --mag-hard-iron={given} (fitted from this recording; mag_hard_iron= in Python), or pass "
         "--offline, which fits and subtracts it",
     )

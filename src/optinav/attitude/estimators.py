@@ -40,8 +40,16 @@ from optinav.attitude.checks import (
     check_q0,
     find_gaps,
     mag_fit_stride,
+    online_fit_failed,
 )
-from optinav.attitude.iframe import AttitudeFilter, FilterRun, front_outputs, run_iframe
+from optinav.attitude.iframe import (
+    AttitudeFilter,
+    FilterRun,
+    front_outputs,
+    hard_iron_online,
+    online_fit_result,
+    run_iframe,
+)
 from optinav.attitude.iframe import input_stage as _input_stage
 from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, variant
 from optinav.attitude.measurement import (
@@ -108,7 +116,7 @@ class AttitudeEstimate(Estimate):
     initial heading) and ``gyr_bias`` (3,) rad/s, the final gyro-bias estimate, where the method has one."""
 
     SCHEMA: ClassVar[str] = "optinav.attitude.estimate"
-    VERSION: ClassVar[int] = 7
+    VERSION: ClassVar[int] = 8
     SYSTEM: ClassVar[str] = "attitude"
     KIND: ClassVar[str] = "estimate"
     #: checked when a file is loaded: a number or null for q_b_n, nulls or text in rest, gyr_bias or pol_skipped
@@ -144,6 +152,10 @@ class AttitudeEstimate(Estimate):
     #: fitted from the recording (``mag_hard_iron_fitted``); None: none subtracted
     mag_hard_iron: np.ndarray | None = field(default=None, metadata={"unit": "magnetometer's"})
     mag_hard_iron_fitted: bool = False
+    #: online, an uncalibrated magnetometer: the sample from which the field was used less ``mag_hard_iron``, fitted
+    #: from that sample and those before it (:func:`~optinav.attitude.iframe.hard_iron_online`; refined since, the
+    #: offset the last one); the magnetometer unused before it, the heading the gyro's. None: not fitted online
+    mag_hard_iron_from: int | None = None
     #: rows holding a magnetometer sample (a slower magnetometer on the IMU's rows has NaN rows between); None: no
     #: magnetometer
     mag_rows: int | None = None
@@ -200,6 +212,7 @@ class AttitudeEstimate(Estimate):
             mag_offset_used=self.mag_offset_used,
             mag_hard_iron=self.mag_hard_iron,
             mag_hard_iron_fitted=self.mag_hard_iron_fitted,
+            mag_hard_iron_from=self.mag_hard_iron_from,
             pol_used=self.pol_used,
             pol_skipped=self.pol_skipped,
         )
@@ -221,10 +234,12 @@ def summary_line(
     mag_hard_iron=None,
     mag_hard_iron_fitted: bool = False,
     mag_rows: int | None = None,
+    mag_hard_iron_from: int | None = None,
 ) -> str:
     """One line on an estimate of ``n`` samples, starting with its :func:`variant`; ``rest``/``mag_used`` the
     fractions of samples at rest and with the magnetometer used, ``mag_offset_used`` of those used less a fitted
-    body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given);
+    body-fixed offset; ``mag_hard_iron`` the hard-iron offset subtracted (fitted from the recording or given; with
+    ``mag_hard_iron_from``, fitted online from past samples and used from that sample on);
     ``mag_rows`` the rows holding a magnetometer sample: fewer than ``n`` (a slower magnetometer), the share is
     of those."""
     pol_skipped = pol_skipped or {}
@@ -244,6 +259,11 @@ def summary_line(
         if mag_hard_iron is not None:
             b = ", ".join(f"{v:.4g}" for v in np.asarray(mag_hard_iron, float))
             how = "fitted from the recording's rotations" if mag_hard_iron_fitted else "given"
+            if mag_hard_iron_from is not None:
+                how = (
+                    f"fitted online from past samples; the magnetometer used from sample {mag_hard_iron_from} on, "
+                    "the heading before it the gyro's from the start"
+                )
             s += f"; magnetometer offset [{b}] subtracted ({how})"
     if pol_used or skipped:
         s += f"; polarization used {pol_used}, skipped {skipped} " + str(pol_skipped)
@@ -251,11 +271,14 @@ def summary_line(
 
 
 def _hard_iron(offset, mag) -> np.ndarray:
-    """The hard-iron offset ``mag_hard_iron`` as a finite (3,) array; refused without a magnetometer."""
+    """The hard-iron offset ``mag_hard_iron`` as a finite (3,) array, or ``"online"``; refused without a
+    magnetometer."""
     if mag is None:
         raise OptinavError(
             "mag_hard_iron was given without a magnetometer", "pass mag= (--mag, --mag-columns or --mag-file)"
         )
+    if isinstance(offset, str) and offset == "online":
+        return offset
     b = as_float_array(offset, "mag_hard_iron", last_dims=(3,))
     if b.shape != (3,):
         raise OptinavError(f"mag_hard_iron has shape {b.shape}, expected (3,)", "give one offset BX,BY,BZ")
@@ -553,10 +576,13 @@ def estimate(
         else 0.
     mag : (N, 3) array or None
         Magnetometer [any unit] (iframe).
-    mag_hard_iron : (3,) array or None
+    mag_hard_iron : (3,) array, "online" or None
         The magnetometer's hard-iron offset [its unit], subtracted from every row. None: with ``checks``, a field
         norm that follows the orientation as a constant offset makes it is fitted (:func:`checks.hard_iron`):
-        subtracted offline, refused online (naming the offset to pass here).
+        subtracted offline; online fitted from past samples instead (as ``"online"`` does, iframe:
+        :func:`~optinav.attitude.iframe.hard_iron_online`), the magnetometer unused until that fit passes its
+        gates (``mag_hard_iron_from`` of the result), and refused when it never does (naming the offset to pass
+        here).
     offline : bool
         Use the whole recording (iframe).
     input_stage : bool
@@ -580,9 +606,16 @@ def estimate(
     gyr, acc, mag = _checked_imu(gyr, acc, mag)
     n = gyr.shape[0]
     dts = _as_dt(dt, n)
-    fitted = False
+    fitted, online_fit = False, False
     if mag_hard_iron is not None:
         mag_hard_iron = _hard_iron(mag_hard_iron, mag)
+        online_fit = isinstance(mag_hard_iron, str)
+        mag_hard_iron = None if online_fit else mag_hard_iron
+        if online_fit and (offline or method != "iframe"):
+            raise OptinavError(
+                'mag_hard_iron="online" fits the offset in the online iframe estimate only',
+                "drop it: offline the offset is fitted from the whole recording",
+            )
     if mag is not None and method != "iframe":
         raise OptinavError(f"method {method} takes no magnetometer", "use --method iframe with --mag-columns")
     if offline and method != "iframe":
@@ -593,14 +626,33 @@ def estimate(
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
-            if mag_hard_iron is None:
-                mag_hard_iron = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline)
+            if online_fit:
+                pass  # an uncalibrated magnetometer said so: fitted from past samples below
+            elif mag_hard_iron is None:
+                b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe")
+                online_fit = b is not None and not offline
+                mag_hard_iron = None if online_fit else b
                 fitted = mag_hard_iron is not None
             else:
                 check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron)
             check_mag_axes(acc, mag, float(np.median(dts)), gyr)
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
+    hi_from = None
+    if online_fit:
+        # the offset from each sample and those before it: the gaps' segments continue one fit (a sensor property)
+        raw, (mag, fs) = mag, hard_iron_online(mag, dts)
+        mag_hard_iron, hi_from = online_fit_result(fs)
+        if hi_from is None:
+            if checks:
+                raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
+            raise OptinavError(
+                "the magnetometer's hard-iron offset fitted online from past samples never passed its gates (the "
+                "sensor turned about every body axis in a steady field)",
+                "pass mag_hard_iron=(BX, BY, BZ), offline=True, or no magnetometer",
+            )
+        fitted = True
+    mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
     gaps = find_gaps(dts)
     if gaps.size and not allow_gaps:
         i = int(gaps[0])
@@ -649,7 +701,8 @@ def estimate(
             else sum(p.mag_offset_used * p.q_b_n.shape[0] for p in parts) / max(n, 1),
             mag_hard_iron=mag_hard_iron,
             mag_hard_iron_fitted=fitted,
-            mag_rows=None if first.mag_rows is None else sum(p.mag_rows for p in parts),
+            mag_hard_iron_from=hi_from,
+            mag_rows=mag_rows,
             offline=offline,
             input_stage=first.input_stage,
             segments=len(parts),
@@ -670,7 +723,8 @@ def estimate(
             mag_offset_used=None if r.offset_used is None else float(np.mean(r.offset_used)),
             mag_hard_iron=mag_hard_iron,
             mag_hard_iron_fitted=fitted,
-            mag_rows=None if mag is None else int(np.count_nonzero(np.isfinite(mag).all(axis=1))),
+            mag_hard_iron_from=hi_from,
+            mag_rows=mag_rows,
             offline=offline,
             input_stage=True,
             acc_threshold_hits=int(np.count_nonzero(~r.acc_used)),
@@ -994,8 +1048,9 @@ for _v in (2, 3, 4):  # 2, 3: arrays as {"__ndarray__"}; 4: plain arrays
     register_legacy(
         AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d, _V4_NAMES)
     )
-# 5: before mag_offset_used (None: not reported); 6: before mag_hard_iron (None: none subtracted)
-for _v in (5, 6):
+# 5: before mag_offset_used (None: not reported); 6: before mag_hard_iron (None: none subtracted); 7: before
+# mag_hard_iron_from (None: not fitted online)
+for _v in (5, 6, 7):
     register_legacy(AttitudeEstimate, "optinav.attitude.estimate", _v, lambda d: nested_kwargs(AttitudeEstimate, d))
 
 

@@ -73,7 +73,15 @@ from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
 
-__all__ = ["IFRAME_DEFAULTS", "AttitudeFilter", "FilterRun", "IframeRun", "run_iframe", "input_stage"]
+__all__ = [
+    "IFRAME_DEFAULTS",
+    "AttitudeFilter",
+    "FilterRun",
+    "IframeRun",
+    "run_iframe",
+    "input_stage",
+    "hard_iron_online",
+]
 
 _ORDER = (
     "tau_acc",
@@ -181,6 +189,26 @@ def _run(st, par, gyr, acc, mag, dts) -> FilterRun:
     _k.run(st, par, gyr, acc, mag, dts, out, flags, bias, moff)
     f = flags.astype(bool)
     return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None)
+
+
+def hard_iron_online(mag, dts, fit=None) -> tuple[np.ndarray, np.ndarray]:
+    """The magnetometer (N, 3, any unit) less its hard-iron offset fitted online, each row from itself and the rows
+    before it (:func:`_iframe.hard_iron_online`: the sphere fit of :func:`optinav.attitude.checks.hard_iron` as
+    running moments, solved every 0.25 s of the steps ``dts`` (s, 1 or N), used once it passes the same gates with
+    every body axis turned about and the corrected norm as steady as a calibrated one; NaN rows before); and the
+    fit's state ``fit`` (:data:`_iframe.HF_SIZE`; a new one when None, else continued in place)."""
+    fs = np.zeros(_k.HF_SIZE) if fit is None else fit
+    out = np.empty(mag.shape)
+    _k.hard_iron_online_run(fs, np.ascontiguousarray(mag, dtype=float), np.ascontiguousarray(dts, dtype=float), out)
+    return out, fs
+
+
+def online_fit_result(fs) -> tuple[np.ndarray | None, int | None]:
+    """(offset (3,) fitted online, the row from which the field was used less it) of the fit state ``fs``; (None,
+    None) while it has not passed its gates."""
+    if not fs[_k.HF_OK]:
+        return None, None
+    return fs[_k.HF_B : _k.HF_B + 3].copy(), int(fs[_k.HF_FROM])
 
 
 def _reverse(gyr, acc, mag, dts):
@@ -500,7 +528,11 @@ class AttitudeFilter:
     """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
 
     ``rate_hz`` or ``dt`` (s) gives the default step. ``mag_hard_iron`` (3,) [the magnetometer's unit, body axes]:
-    a hard-iron offset subtracted from every magnetometer sample, as :func:`optinav.attitude.estimate` takes it. After each update: :attr:`q_b_n`, :attr:`rest`,
+    a hard-iron offset subtracted from every magnetometer sample, as :func:`optinav.attitude.estimate` takes it;
+    ``"online"``: an uncalibrated magnetometer whose offset is fitted from the samples so far
+    (:func:`hard_iron_online`, as the online estimate does when its check finds one), the magnetometer unused (the
+    heading the gyro's) until the fit passes its gates; :attr:`mag_hard_iron` and :attr:`mag_hard_iron_from` then
+    say the offset and the sample from which it was subtracted. After each update: :attr:`q_b_n`, :attr:`rest`,
     :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
     None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
     the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
@@ -523,9 +555,11 @@ class AttitudeFilter:
         self.options = _options("iframe", options)
         self.dt = default_step(rate_hz, dt)
         self._par = _params(self.frame, self.options)
-        #: the hard-iron offset subtracted from every magnetometer sample (its unit), or None
-        self.mag_hard_iron = None if mag_hard_iron is None else _hard_iron(mag_hard_iron, True)
-        self._hi = None if self.mag_hard_iron is None else tuple(float(v) for v in self.mag_hard_iron)
+        online = isinstance(mag_hard_iron, str) and mag_hard_iron == "online"
+        self._given = None if mag_hard_iron is None or online else _hard_iron(mag_hard_iron, True)
+        self._hi = None if self._given is None else tuple(float(v) for v in self._given)
+        self._fit = np.zeros(_k.HF_SIZE) if online else None
+        self._fit_step = _k.hard_iron_online
         self._state = _new_state(self.options, None if q0 is None else _as_q0(q0))
         # views of the state's q and bias: a read copies them without slicing (the state is never replaced)
         self._q, self._bias = self._state[_k.S_Q : _k.S_Q + 4], self._state[_k.S_BIAS : _k.S_BIAS + 3]
@@ -559,6 +593,8 @@ class AttitudeFilter:
         if mag is not None and self._hi is not None:
             b = self._hi
             mag = (mag[0] - b[0], mag[1] - b[1], mag[2] - b[2])
+        elif mag is not None and self._fit is not None:
+            mag = self._fit_step(self._fit, float(mag[0]), float(mag[1]), float(mag[2]), float(h))
         if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
         elif mag is not None and type(gyr) is not list and type(acc) is not list and type(mag) is not list:
@@ -617,12 +653,28 @@ class AttitudeFilter:
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
-        if m is not None and self.mag_hard_iron is not None:
-            m = m - self.mag_hard_iron
+        if m is not None and self._given is not None:
+            m = m - self._given
+        elif m is not None and self._fit is not None:
+            m, _ = hard_iron_online(m, _as_dt(h, g.shape[0]), self._fit)
         r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r
+
+    @property
+    def mag_hard_iron(self) -> np.ndarray | None:
+        """The hard-iron offset (3,) [the magnetometer's unit] subtracted from the magnetometer: the one given, or
+        the one fitted online so far (None until its fit passed its gates, and without either)."""
+        if self._fit is not None:
+            return online_fit_result(self._fit)[0]
+        return None if self._given is None else self._given.copy()
+
+    @property
+    def mag_hard_iron_from(self) -> int | None:
+        """With ``mag_hard_iron="online"``: the sample (counted from 0 over every update) from which the field was
+        used less the offset fitted online; None before (the magnetometer unused) and otherwise."""
+        return None if self._fit is None else online_fit_result(self._fit)[1]
 
     @property
     def q_b_n(self) -> np.ndarray | None:
