@@ -1112,10 +1112,13 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_from_past_samples(tmp_pat
         np.testing.assert_array_equal(f.mag_hard_iron, est.mag_hard_iron)
 
 
-def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_online():
+def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_online(tmp_path, capsys):
     """A level body that only yaws: the offset along body z is unobservable from the norm, so the online fit never
-    passes its gates and the estimate is refused, naming the offset fitted from the recording and the options;
-    the streaming filter never uses that magnetometer (its heading the gyro's) and says no offset."""
+    passes its gates and the estimate is refused, naming the offset fitted from the recording and the options (in
+    memory and on a file read in blocks: exit 2, no output); the streaming filter never uses that magnetometer
+    (its heading the gyro's) and says no offset."""
+    from optinav.cli.main import main
+
     n = 12000
     rng = np.random.default_rng(3)
     rate = np.full(n, 0.5) + 0.3 * np.sin(np.arange(n) * 0.002)
@@ -1132,3 +1135,9 @@ def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_o
     f = AttitudeFilter(RATE, frame="NED", mag_hard_iron="online")
     r = f.update_batch(gyr, acc, mag)
     assert not r.mag_used.any() and f.mag_hard_iron is None and f.mag_hard_iron_from is None
+    rows = np.column_stack([np.arange(n) * DT, gyr, acc, mag])
+    log, out = tmp_path / "yaw.csv", tmp_path / "o.csv"
+    np.savetxt(log, rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz", comments="", fmt="%.9g")
+    assert main(["attitude", str(log), "--mag", "--chunk-rows", "5000", "--out", str(out)]) == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "fitted online from past samples it never passed its gates" in err and "--mag-hard-iron=" in err, err

@@ -290,8 +290,8 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_and_subtracted_offline(tm
 
 
 def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
-    """The same on a log read in blocks: refused online (exit 2, no output), the offset given or --offline
-    subtract it, and the rows the fit reads are gathered while the file streams."""
+    """The same on a log read in blocks: online the offset fitted from past samples (the same as in memory), the
+    offset given or --offline subtract it, and the rows the fit reads are gathered while the file streams."""
     from optinav.cli.main import main
 
     tr = load_broad(PATH)
@@ -302,11 +302,17 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
     np.savetxt(f, rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz", comments="", fmt="%.9g")
     out = tmp_path / "o.csv"
     cmd = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "3000", "--out", str(out)]
-    assert main(cmd) == 2 and not out.exists()
-    err = capsys.readouterr().err
-    assert err.count("hard-iron)") == 1 and "offset of [29." in err
-    given = err.split("--mag-hard-iron=")[1].split()[0]
+    assert main(cmd) == 0
+    line = capsys.readouterr().out
+    back = np.loadtxt(f, delimiter=",", skiprows=1)
+    mem = estimate(back[:, 1:4], back[:, 4:7], tr.dt, frame="ENU", mag=back[:, 7:10])
+    k = mem.mag_hard_iron_from
+    b = ", ".join(f"{v:.4g}" for v in mem.mag_hard_iron)
+    assert f"[{b}] subtracted (fitted online from past samples; the magnetometer used from sample {k} on" in line
+    q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
+    assert k == 30311 and np.nanmax(np.degrees(heading_error(q, mem.q_b_n))) < 1e-3
     b = hard_iron(mag[:n])[0]
+    given = ",".join(f"{v:.4g}" for v in b)
     for extra, how in (([f"--mag-hard-iron={given}"], "given"), (["--offline"], "fitted from the recording's")):
         assert main([*cmd, *extra]) == 0
         line = capsys.readouterr().out

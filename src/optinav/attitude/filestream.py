@@ -1210,11 +1210,14 @@ def stream_attitude(
     checks.gyro_unit = src.gyro_unit
     src.witness = None  # the checks have its sums: the second pass reads no magnetometer the estimate does not take
     checks.finish_first()
-    hard_iron, fitted = o.mag_hard_iron, False
-    if src.mag and hard_iron is None and o.offline:
+    hard_iron, fitted, online_fit = o.mag_hard_iron, False, False
+    if src.mag and hard_iron is None and (o.offline or method == "iframe"):
         hard_iron = checks.hard_iron()
         fitted = hard_iron is not None
+        # online the offset the whole log shows is fitted from past samples instead (as estimate() does)
+        online_fit, hard_iron = (fitted, None) if not o.offline else (False, hard_iron)
     checks.offline = o.offline
+    checks.online_fit = online_fit
     checks.given_hard_iron = None if o.mag_hard_iron is None else np.asarray(o.mag_hard_iron, float)
     gaps = checks.gaps
     if announce is not None:
@@ -1232,7 +1235,13 @@ def stream_attitude(
         )
         return dataclasses.replace(run, duration_s=duration)
     estimator = StreamEstimator(
-        method, frame=frame, q0=q0, input_stage=o.input_stage, mag_hard_iron=hard_iron, **dict(o.options)
+        method,
+        frame=frame,
+        q0=q0,
+        input_stage=o.input_stage,
+        mag_hard_iron=hard_iron,
+        mag_hard_iron_online=online_fit,
+        **dict(o.options),
     )
     step(f"estimate ({method}), write")  # one pass does both
     fig = _Decimated(checks.n, figure_points) if figure_points else None
@@ -1275,6 +1284,8 @@ def stream_attitude(
             if tcmp is not None:
                 tcmp.add(row0, q)
         checks.finish_second(frame)
+        if online_fit and estimator.mag_hard_iron_from is None and not (gaps.size and not o.allow_gaps):
+            raise checks.online_fit_failed()
         if gaps.size and not o.allow_gaps:
             i = int(gaps[0])
             raise OptinavError(

@@ -98,6 +98,13 @@ class StreamChecks:
     #: refuses one that shows an offset, unless ``offline`` (then :meth:`hard_iron` fitted it after pass 1)
     given_hard_iron: np.ndarray | None = None
     offline = False
+    #: the online estimate fits the offset :meth:`hard_iron` found from past samples itself: not refused here
+    online_fit = False
+
+    def online_fit_failed(self) -> OptinavError:
+        """The refusal of an online estimate whose offset fitted from past samples never passed its gates
+        (:func:`checks.online_fit_failed` on the rows of pass 1)."""
+        return _c.online_fit_failed(np.concatenate(self._mag))
 
     def hard_iron(self) -> np.ndarray | None:
         """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline), for
@@ -195,7 +202,7 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
-        if self._mag and (not self.offline or self.given_hard_iron is not None):
+        if self._mag and ((not self.offline and not self.online_fit) or self.given_hard_iron is not None):
             _c.check_mag(np.concatenate(self._mag), given=self.given_hard_iron)
         if self._mag_sums:  # in the order of check_mag_axes
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
@@ -234,6 +241,7 @@ class StreamEstimator:
         input_stage: bool = True,
         mag_hard_iron=None,
         mag_hard_iron_fitted: bool = False,
+        mag_hard_iron_online: bool = False,
         **options,
     ):
         from optinav.attitude.estimators import _as_q0
@@ -242,6 +250,13 @@ class StreamEstimator:
         #: the hard-iron offset subtracted from every magnetometer row (its unit; fitted from the log or given)
         self.mag_hard_iron = None if mag_hard_iron is None else np.asarray(mag_hard_iron, float)
         self.mag_hard_iron_fitted = mag_hard_iron_fitted
+        #: an uncalibrated magnetometer's offset fitted from past samples over every segment (iframe online, as
+        #: :func:`~optinav.attitude.estimate` fits it): its state, or None
+        self._fit = None
+        if mag_hard_iron_online:
+            from optinav.attitude import _iframe
+
+            self._fit = np.zeros(_iframe.HF_SIZE)
         self.method, self.frame, self.q0 = method, frame_name(frame), None if q0 is None else _as_q0(q0)
         self.input_stage = input_stage or method == "iframe"
         self.counts = np.zeros(3, dtype=np.int64)  # the kernels' counts over every segment
@@ -271,8 +286,13 @@ class StreamEstimator:
         segment's filter's :meth:`update_batch`, its per-block outputs summed for :meth:`summary`."""
         if mag is not None and self.method != "iframe":
             raise OptinavError(f"method {self.method} takes no magnetometer", "use --method iframe with --mag-columns")
+        raw = mag
         if mag is not None and self.mag_hard_iron is not None:
             mag = mag - self.mag_hard_iron
+        elif mag is not None and self._fit is not None:
+            from optinav.attitude.iframe import hard_iron_online
+
+            raw, (mag, _) = mag, hard_iron_online(mag, dts, self._fit)
         if self._filter is None:
             self._filter = self._new_filter()
             self.segments += 1
@@ -283,7 +303,7 @@ class StreamEstimator:
             self.acc_hits += int(np.count_nonzero(~r.acc_used))
             if mag is not None:
                 self.mag_used = (self.mag_used or 0) + int(np.count_nonzero(r.mag_used))
-                self.mag_rows += int(np.count_nonzero(np.isfinite(mag).all(axis=1)))
+                self.mag_rows += int(np.count_nonzero(np.isfinite(raw if self._fit is not None else mag).all(axis=1)))
                 self.mag_offset_used += int(np.count_nonzero(r.offset_used))
         else:
             counts, skipped = f.counts.copy(), dict(f._skipped)
@@ -297,6 +317,24 @@ class StreamEstimator:
             self.rest += int(np.count_nonzero(r.rest))
         self.gyr_bias = f.gyr_bias
         return r.q_b_n
+
+    @property
+    def hard_iron_used(self) -> np.ndarray | None:
+        """The hard-iron offset subtracted (given, fitted from the log, or fitted online so far), or None."""
+        if self._fit is None:
+            return self.mag_hard_iron
+        from optinav.attitude.iframe import online_fit_result
+
+        return online_fit_result(self._fit)[0]
+
+    @property
+    def mag_hard_iron_from(self) -> int | None:
+        """The row from which the field was used less the offset fitted online (None: not, or not yet)."""
+        if self._fit is None:
+            return None
+        from optinav.attitude.iframe import online_fit_result
+
+        return online_fit_result(self._fit)[1]
 
     @property
     def acc_threshold_hits(self) -> int:
@@ -325,6 +363,7 @@ class StreamEstimator:
             pol_used=int(self.counts[0]) if skipped is not None else 0,
             pol_skipped=skipped,
             mag_offset_used=self.mag_offset_used / self.n if self.n else None,
-            mag_hard_iron=self.mag_hard_iron if self.mag_used is not None else None,
-            mag_hard_iron_fitted=self.mag_hard_iron_fitted,
+            mag_hard_iron=self.hard_iron_used if self.mag_used is not None else None,
+            mag_hard_iron_fitted=self.mag_hard_iron_fitted or self._fit is not None,
+            mag_hard_iron_from=self.mag_hard_iron_from,
         )
