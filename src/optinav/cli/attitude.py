@@ -197,8 +197,9 @@ def _add_hard_iron(p) -> None:
         type=_hard_iron_arg,
         metavar="BX,BY,BZ",
         help="the magnetometer's hard-iron offset (its unit) to subtract from every row (write --mag-hard-iron=-1,2,3 "
-        "when the first is negative); default: an offset the field shows is refused online, fitted and subtracted "
-        "with --offline",
+        "when the first is negative); default: an offset the field shows is fitted from the whole recording and "
+        "subtracted with --offline, and online fitted from past samples (the magnetometer used once that fit holds; "
+        "refused when it never does)",
     )
 
 
