@@ -1110,6 +1110,13 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_from_past_samples(tmp_pat
         assert np.max(np.abs(qs - est.q_b_n)) < 1e-12 and np.max(np.abs(np.vstack(chunks) - est.q_b_n)) < 1e-12
         assert f.mag_hard_iron_from == g.mag_hard_iron_from == k
         np.testing.assert_array_equal(f.mag_hard_iron, est.mag_hard_iron)
+    # a time gap before the fit passed: a segment with no field to use (it was refused as having no magnetometer)
+    dts = np.full(n, DT)
+    dts[200] = 1.0
+    gap = estimate(gyr, acc, dts, mag=mag, allow_gaps=True)
+    h = np.degrees(heading_error(gap.q_b_n, q_true))
+    assert gap.segments == 2 and gap.mag_hard_iron_from == k and not gap.mag_used[:k].any()
+    assert h[k + 500 :].max() < 0.4, h[k + 500 :].max()
 
 
 def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_online(tmp_path, capsys):

@@ -638,10 +638,21 @@ def estimate(
             check_mag_axes(acc, mag, float(np.median(dts)), gyr)
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
+    gaps = find_gaps(dts)
+    if gaps.size and not allow_gaps:
+        i = int(gaps[0])
+        raise OptinavError(
+            f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
+            "gyro across it would be wrong",
+            "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
+        )
     hi_from = None
     if online_fit:
-        # the offset from each sample and those before it: the gaps' segments continue one fit (a sensor property)
-        raw, (mag, fs) = mag, hard_iron_online(mag, dts)
+        # the offset from each sample and those before it: the gaps' segments continue one fit (a sensor property),
+        # each gap a typical step (as the segments take it, and a log read in blocks)
+        fit_dt = dts.copy() if gaps.size else dts
+        fit_dt[gaps] = np.median(dts)
+        raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt)
         mag_hard_iron, hi_from = online_fit_result(fs)
         if hi_from is None:
             if checks:
@@ -653,19 +664,15 @@ def estimate(
             )
         fitted = True
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
-    gaps = find_gaps(dts)
-    if gaps.size and not allow_gaps:
-        i = int(gaps[0])
-        raise OptinavError(
-            f"time gap of {dts[i]:.3g} s before sample {i} ({gaps.size} gap(s)): integrating the "
-            "gyro across it would be wrong",
-            "pass --allow-gaps (allow_gaps=True) to restart the estimate after each gap",
-        )
     if gaps.size:
         seg_dt = dts.copy()
         seg_dt[gaps] = np.median(dts)  # each segment starts afresh: its first step is a normal one
-        parts = [
-            estimate(
+
+        def part(a, b):
+            m = None if mag is None else mag[a:b]
+            # a segment before the online hard-iron fit passed has no field to use: run without, none used
+            none = m is not None and not np.isfinite(m).all(axis=1).any()
+            p = estimate(
                 gyr[a:b],
                 acc[a:b],
                 seg_dt[a:b],
@@ -673,14 +680,17 @@ def estimate(
                 method=method,
                 frame=frame,
                 q0=q0 if a == 0 else None,
-                mag=None if mag is None else mag[a:b],
+                mag=None if none else m,
                 offline=offline,
                 input_stage=input_stage,
                 checks=False,
                 **options,
             )
-            for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])
-        ]
+            if none:
+                p.mag_used, p.mag_offset_used = np.zeros(b - a, bool), 0.0
+            return p
+
+        parts = [part(a, b) for a, b in zip(np.r_[0, gaps], np.r_[gaps, n])]
         first = parts[0]
         cat = lambda name: None if getattr(first, name) is None else np.concatenate([getattr(p, name) for p in parts])
         return AttitudeEstimate(
