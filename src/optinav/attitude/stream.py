@@ -98,7 +98,8 @@ class StreamChecks:
     #: refuses one that shows an offset, unless ``offline`` (then :meth:`hard_iron` fitted it after pass 1)
     given_hard_iron: np.ndarray | None = None
     offline = False
-    #: the online estimate fits the offset :meth:`hard_iron` found from past samples itself: not refused here
+    #: iframe online without an offset given: :meth:`hard_iron` judged the field after pass 1 and the estimate fits
+    #: an offset found from past samples itself (:meth:`online_fit_failed` when it cannot): not judged again here
     online_fit = False
 
     def online_fit_failed(self) -> OptinavError:
