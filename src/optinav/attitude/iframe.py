@@ -532,7 +532,9 @@ class AttitudeFilter:
     ``"online"``: an uncalibrated magnetometer whose offset is fitted from the samples so far
     (:func:`hard_iron_online`, as the online estimate does when its check finds one), the magnetometer unused (the
     heading the gyro's) until the fit passes its gates; :attr:`mag_hard_iron` and :attr:`mag_hard_iron_from` then
-    say the offset and the sample from which it was subtracted. After each update: :attr:`q_b_n`, :attr:`rest`,
+    say the offset and the sample from which it was subtracted. Only for a magnetometer known to carry an offset
+    (a raw sensor, or one the estimate found so): a calibrated one shows none to fit and stays unused (BROAD
+    trial 02 as recorded: 0 % used). After each update: :attr:`q_b_n`, :attr:`rest`,
     :attr:`gyr_bias` (rad/s), :attr:`acc_used`, :attr:`mag_used` (None before the first); ``update`` itself returns
     None (a copy of q would cost a third of its time: read :attr:`q_b_n`). :meth:`update_batch` runs chunks with
     the same arithmetic as :func:`optinav.attitude.estimate` and returns a :class:`FilterRun`, as every method's
