@@ -1148,3 +1148,77 @@ def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_o
     assert main(["attitude", str(log), "--mag", "--chunk-rows", "5000", "--out", str(out)]) == 2 and not out.exists()
     err = capsys.readouterr().err
     assert "fitted online from past samples it never passed its gates" in err and "--mag-hard-iron=" in err, err
+def _turning_in_field(n=6000, seed=5):
+    """100 Hz FRD body turning in 3-D (:func:`motion`) with noisy gyro and accelerometer, and the 60°-dip field of
+    :func:`_mag_n` (µT) with 0.3 µT noise: gyr, acc, mag, q_true."""
+    rng = np.random.default_rng(seed)
+    w, acc, q_true = motion(n, seed=seed, amp=0.8)
+    mag = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n()) + rng.normal(0.0, 0.3, (n, 3))
+    return w + rng.normal(0.0, 0.002, w.shape), acc + rng.normal(0.0, 0.02, acc.shape), mag, q_true
+
+
+def _write_log(path, gyr, acc, mag):
+    t = np.arange(gyr.shape[0]) * DT
+    cols = np.column_stack([t, acc, gyr, mag])
+    np.savetxt(path, cols, delimiter=",", header="t,ax,ay,az,gx,gy,gz,mx,my,mz", comments="", fmt="%.10g")
+
+
+def test_a_magnetometer_stuck_at_one_value_is_refused(tmp_path):
+    """A field held at one value while the body turns (a stuck sensor, a logger repeating its last sample) passed
+    every check: the heading followed a field fixed in the body, 28° RMS off on BROAD trial 02 with exit 0 (here
+    over 20°, against 0.3° from the true field). It turns in the body by nothing where the gyro says ~100 rad:
+    refused, in memory and streamed, as is a field that a magnet on the board 20× as strong turns by 1/20 (the
+    heading 48° off offline, 65° online, before)."""
+    from optinav.attitude.filestream import stream_attitude
+    from optinav.attitude.unit import AttitudeOptions
+
+    gyr, acc, mag, q_true = _turning_in_field()
+    stuck = np.tile(mag[0], (mag.shape[0], 1))
+    good = estimate(gyr, acc, DT, mag=mag)
+    blind = estimate(gyr, acc, DT, mag=stuck, checks=False)  # what was written before
+    h_good, h_blind = (rmse(np.degrees(heading_error(r.q_b_n, q_true))[1000:]) for r in (good, blind))
+    assert h_good < 0.5 and h_blind > 20.0, (h_good, h_blind)
+    with pytest.raises(OptinavError, match="hardly turns in the body") as exc:
+        estimate(gyr, acc, DT, mag=stuck)
+    assert "--mag-columns" in exc.value.remedy and "drop --mag" in exc.value.remedy
+    path = tmp_path / "stuck.csv"
+    _write_log(path, gyr, acc, stuck)
+    with pytest.raises(OptinavError, match="hardly turns in the body"):
+        stream_attitude(path, tmp_path / "a.csv", AttitudeOptions(mag=True), chunk_rows=1000)
+    assert not (tmp_path / "a.csv").exists()
+    magnet = 20.0 * np.linalg.norm(_mag_n()) * np.array([0.6, 0.0, 0.8])  # a magnet on the board, 20× the field
+    with pytest.raises(OptinavError, match="hardly turns in the body"):
+        estimate(gyr, acc, DT, mag=mag + magnet, offline=True)
+
+
+def test_magnetometer_rows_of_zeros_are_no_sample(tmp_path):
+    """A logger that pads a slower magnetometer's rows with (0, 0, 0) instead of NaN: the padding was read as a
+    field, the hard-iron check named an offset fitted to it ('varies by inf%', a remedy that cannot help), and a
+    magnetometer of zeros throughout ran 6D with exit 0 and numpy's divide warnings. A row of zeros is no sample
+    now: the estimate equals the NaN-padded one's, in memory and streamed, and all zeros is refused."""
+    from optinav.attitude.filestream import stream_attitude
+    from optinav.attitude.unit import AttitudeOptions
+
+    gyr, acc, mag, q_true = _turning_in_field()
+    nan_pad, zero_pad = np.full_like(mag, np.nan), np.zeros_like(mag)
+    nan_pad[::10] = zero_pad[::10] = mag[::10]
+    want = estimate(gyr, acc, DT, mag=nan_pad)
+    assert rmse(np.degrees(heading_error(want.q_b_n, q_true))[1000:]) < 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = estimate(gyr, acc, DT, mag=zero_pad)
+    assert np.array_equal(got.q_b_n, want.q_b_n) and got.summary() == want.summary()
+    assert got.mag_rows == mag.shape[0] // 10
+    for path, m in ((tmp_path / "nan.csv", nan_pad), (tmp_path / "zero.csv", zero_pad)):
+        _write_log(path, gyr, acc, m)
+    runs = [
+        stream_attitude(tmp_path / f"{k}.csv", tmp_path / f"{k}.out.csv", AttitudeOptions(mag=True), chunk_rows=1000)
+        for k in ("nan", "zero")
+    ]
+    assert runs[0].estimate.summary() == runs[1].estimate.summary()
+    assert (tmp_path / "nan.out.csv").read_text() == (tmp_path / "zero.out.csv").read_text()
+    with pytest.raises(OptinavError, match="no sample with three finite values, not all zero"):
+        estimate(gyr, acc, DT, mag=np.zeros_like(mag))
+    _write_log(tmp_path / "zeros.csv", gyr, acc, np.zeros_like(mag))
+    with pytest.raises(OptinavError, match="no sample with three finite values, not all zero"):
+        stream_attitude(tmp_path / "zeros.csv", tmp_path / "z.csv", AttitudeOptions(mag=True), chunk_rows=1000)

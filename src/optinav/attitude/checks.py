@@ -1593,6 +1593,19 @@ def check_offset_seen(mag: np.ndarray, source: str, calibrated: str) -> None:
         )
 
 
+def zero_rows_missing(mag: np.ndarray) -> np.ndarray:
+    """``mag`` (n, 3) with its rows of exactly (0, 0, 0) as NaN, no sample (a copy where there are any): no
+    magnetometer in the Earth's field reads zero on three axes at once; a logger writes it for a sample it has not
+    got (a slower magnetometer padded with zeros) or a sensor that is not there. Read as a field, the padding made
+    the hard-iron check name an offset fitted to it ('varies by inf%'), and a field of zeros ran 6D with exit 0."""
+    zero = ~np.any(mag, axis=1)  # NaN is not zero
+    if not zero.any():
+        return mag
+    out = np.array(mag, dtype=float)
+    out[zero] = np.nan
+    return out
+
+
 def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Bin numbers (k,), and per TILT_BIN-sample bin the specific-force and field sums (k, 3) over the rows with
     a finite field, and their count (k,), of a block starting at row ``row0`` (as :func:`tilt_sums`)."""
@@ -1714,21 +1727,51 @@ def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float) -> tuple[np
     return du[ok], pred[ok]
 
 
-def mag_turn_hint(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float) -> str:
-    """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
-    signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin the
-    unit mean field m and mean rate ω (rad/s), neighbours' Δm against −ω × m · TILT_BIN·dt (``dt`` s). A layout that
-    keeps the field's angle to gravity on a body that mostly yaws (the AK8963's x and y swapped, z negated: BROAD
-    11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off) turns the field against the gyro."""
-    from optinav.core.rotations import describe_permutation, signed_permutations
-
+def _field_turn_bins(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float):
+    """(mean field (k, 3), mean rate (k, 3) rad/s, which neighbours are consecutive bins (k − 1,), bin length s) of
+    the TILT_BIN bins with both sensors (:func:`_field_and_rate`), or None under 30 neighbouring pairs."""
     if len(mag_bins) == 0 or len(g_bins) == 0:
-        return ""
+        return None
     both, m, w = _field_and_rate(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts)
     nxt = np.diff(both) == 1
-    if np.count_nonzero(nxt) < 30:
-        return ""
-    h = TILT_BIN * dt
+    return None if np.count_nonzero(nxt) < 30 else (m, w, nxt, TILT_BIN * dt)
+
+
+#: a field that turns in the body by less than this share of what the gyro turns it (summed steps of the unit
+#: field between TILT_BIN bins against −ω × m) is not measured on this body: the nine BROAD trials as recorded
+#: 1.05-2.5, each held at its first value 0 (which had passed every check: a 28° heading RMSE on trial 02, exit 0)
+MAG_STILL_SHARE = 0.1
+
+
+def check_mag_turns(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float) -> None:
+    """Refuse a field that hardly turns in the body while the gyro turns the body by :data:`MAG_TURN_MIN` or more
+    (:data:`MAG_STILL_SHARE`), then one that turns against the gyro (:func:`mag_turn_hint`). The sums as :func:`mag_sums` and
+    :func:`gyro_sums` give them; ``dt`` the median step (s)."""
+    got = _field_turn_bins(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt)
+    if got is None:
+        return
+    m, w, nxt, h = got
+    du, pred = _turns(m / np.maximum(_norm(m), 1e-300)[:, None], w, nxt, h)
+    turned, predicted = float(np.sum(_norm(du))), float(np.sum(_norm(pred)))
+    if predicted >= MAG_TURN_MIN and turned < MAG_STILL_SHARE * predicted:
+        raise OptinavError(
+            f"the magnetic field hardly turns in the body ({turned:.1f} rad in all) while the gyro turns the body by "
+            f"{predicted:.0f} rad: the magnetometer does not measure the field on this body (a sensor stuck at one "
+            "value, a column that is not the magnetometer's, a field logged in another frame, a magnet on the board "
+            "far stronger than the Earth's field)",
+            "check the magnetometer's columns (--mag-columns, --mag-file) and its logging, or drop --mag",
+        )
+    warn_or_refuse_mag_axes(mag_turn_hint(*got), True)
+
+
+def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> str:
+    """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
+    signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin of
+    :func:`_field_turn_bins` the unit mean field m and mean rate ω (rad/s), neighbours' Δm against −ω × m · ``h``
+    (s). A layout that keeps the field's angle to gravity on a body that mostly yaws (the AK8963's x and y swapped,
+    z negated: BROAD 11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off) turns the field against the
+    gyro."""
+    from optinav.core.rotations import describe_permutation, signed_permutations
 
     def residual(P) -> tuple[float, float]:
         u = m @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
@@ -1910,9 +1953,9 @@ def check_mag_axes(
     acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray | None = None, gyro_unit: str | None = None
 ) -> None:
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
-    gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field turns against the gyro
-    (:func:`mag_turn_hint`) or a gyro that reads far less than the field turns (:func:`gyro_scale_error`;
-    ``gyro_unit`` as declared); ``dt`` the median step (s)."""
+    gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field does not turn or turns
+    against the gyro (:func:`check_mag_turns`) or a gyro that reads far less than the field turns
+    (:func:`gyro_scale_error`; ``gyro_unit`` as declared); ``dt`` the median step (s)."""
     b, as_, ms, c = mag_sums(acc, mag)
     warn_or_refuse_mag_axes(*mag_axes_hint(b, as_, ms, c, dt))
     if gyr is not None:
@@ -1920,7 +1963,7 @@ def check_mag_axes(
         # magnetometer in other axes (those leave the turning unexplained), and a mirrored frame was blamed on one
         rows = scale_bin_rows(dt)
         check_gyro_scale(*field_rate_sums(gyr, mag, rows), rows * dt, gyro_unit)
-        warn_or_refuse_mag_axes(mag_turn_hint(b, ms, c, *gyro_sums(gyr), dt), True)
+        check_mag_turns(b, ms, c, *gyro_sums(gyr), dt)
 
 
 def check_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> None:

@@ -40,6 +40,7 @@ from optinav.attitude.checks import (
     check_q0,
     find_gaps,
     mag_fit_stride,
+    zero_rows_missing,
     online_fit_failed,
 )
 from optinav.attitude.iframe import (
@@ -497,7 +498,8 @@ def _run(
 def no_mag_error() -> OptinavError:
     """A magnetometer given without one usable sample: the heading would come from the gyro alone."""
     return OptinavError(
-        "the magnetometer has no sample with three finite values: the heading would come from the gyro alone",
+        "the magnetometer has no sample with three finite values, not all zero: the heading would come from the "
+        "gyro alone",
         "check --mag-columns or the MagneticField topic's time stamps (another clock?), or drop --mag",
     )
 
@@ -515,6 +517,7 @@ def _checked_imu(gyr, acc, mag=None, *, whole: bool = True):
         mag = as_float_array(mag, "mag", last_dims=(3,), finite=False)
         if mag.shape != gyr.shape:
             raise OptinavError(f"mag has shape {mag.shape}, expected {gyr.shape}", "align the magnetometer")
+        mag = zero_rows_missing(mag)
         if whole and not np.isfinite(mag).all(axis=1).any():
             raise no_mag_error()
         mag = np.ascontiguousarray(mag)

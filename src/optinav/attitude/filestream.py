@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from optinav.attitude.checks import zero_rows_missing
 from optinav.attitude.stream import StreamChecks, StreamEstimator
 from optinav.attitude.unit import AttitudeOptions, nan_rows_error
 from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows
@@ -458,7 +459,10 @@ class _Blocks:
 
     def __iter__(self):
         blocks = self._broad() if self.broad else self._text()
-        yield from _finite_rows(blocks, self.notes, self.o) if self.o.drops_nan else blocks
+        for block in _finite_rows(blocks, self.notes, self.o) if self.o.drops_nan else blocks:
+            if "mag" in block[6]:  # a row of zeros is no sample (checks.zero_rows_missing), as estimate() reads it
+                block[6]["mag"] = zero_rows_missing(block[6]["mag"])
+            yield block
 
     def _text(self):
         blocks = self._text_blocks()

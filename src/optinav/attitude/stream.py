@@ -213,7 +213,7 @@ class StreamChecks:
                 _c.check_gyro_scale(bins, scale, self._scale_rows * self.median_dt, self.gyro_unit)
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
-                _c.warn_or_refuse_mag_axes(_c.mag_turn_hint(sums[0], sums[2], sums[3], *gyro, self.median_dt), True)
+                _c.check_mag_turns(sums[0], sums[2], sums[3], *gyro, self.median_dt)
         elif self._witness:
             err = _c.witness_error(*(np.concatenate(x) for x in zip(*self._witness)), self._scale_rows * self.median_dt,
                                    self.gyro_unit)  # fmt: skip
