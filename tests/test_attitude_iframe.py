@@ -1222,3 +1222,50 @@ def test_magnetometer_rows_of_zeros_are_no_sample(tmp_path):
     _write_log(tmp_path / "zeros.csv", gyr, acc, np.zeros_like(mag))
     with pytest.raises(OptinavError, match="no sample with three finite values, not all zero"):
         stream_attitude(tmp_path / "zeros.csv", tmp_path / "z.csv", AttitudeOptions(mag=True), chunk_rows=1000)
+
+
+@pytest.mark.parametrize(
+    ("sensor", "columns", "signs", "first"),
+    [
+        ("acc", [0, 1, 2], [-1, 1, 1], "acc"),
+        ("acc", [1, 0, 2], [1, 1, 1], "acc"),
+        ("gyr", [0, 1, 2], [1, -1, -1], "gyr"),
+    ],
+)
+def test_an_accelerometer_read_as_a_mirror_image_is_named_beside_the_gyro(
+    tmp_path, capsys, sensor, columns, signs, first
+):
+    """A gyro that reads a rotation of the accelerometer's axes (two flipped, or a cyclic order) reads so as well
+    beside an accelerometer with one axis negated or two swapped (a mirror image: a rotation is a pseudovector).
+    The message named only the gyro: BROAD 02 with its accelerometer's x negated was told 'gyro y reads -y, gyro z
+    reads -z ... fix the gyro's column order or signs', and the gyro so fixed ran with exit 0 at 58° inclination
+    RMSE. Both triads are named now, the one with fewer axes off first, each with its --columns; the right one
+    gives the attitude of the log as recorded, the other a mirror image of the motion (here > 20° off)."""
+    import re
+
+    from optinav.cli.main import main
+
+    gyr, acc, _, q_true = _turning_in_field()
+    if sensor == "acc":
+        acc = acc[:, columns] * signs
+    else:
+        gyr = gyr[:, columns] * signs
+    path = tmp_path / "log.csv"
+    t = np.arange(gyr.shape[0]) * DT
+    np.savetxt(path, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    out = tmp_path / "a.csv"
+    assert main(["--quiet", "attitude", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the accelerometer's" in err and "gyro" in err, err
+    fixes = re.findall(r"--columns (t,[^) ]+)", err)
+    assert len(fixes) == 2, err
+    tilt = []
+    for cols in fixes:
+        assert main(["--quiet", "attitude", str(path), "--columns", cols, "--out", str(out)]) == 0
+        q = np.genfromtxt(out, delimiter=",", names=True)
+        q = np.column_stack([q["qw"], q["qx"], q["qy"], q["qz"]])
+        tilt.append(tilt_deg(q, q_true, slice(1000, None)))
+    acc_fix = 0 if fixes[0].endswith(",gx,gy,gz") else 1
+    assert acc_fix == 0, fixes  # one accelerometer axis off against two of the gyro's: named first
+    right = acc_fix if sensor == "acc" else 1 - acc_fix
+    assert tilt[right] < 0.5 and tilt[1 - right] > 20.0, (fixes, tilt)

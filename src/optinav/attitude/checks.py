@@ -1214,6 +1214,8 @@ def unit_error(hint: UnitHint, gyro_unit: str | None = None) -> OptinavError:
     mirrored = hint.kind == "axes" and hint.P is not None and np.array_equal(hint.P, -np.eye(3))
     perm = (MIRROR_HINT if mirrored else f"{AXES_HINT}: {hint.words}") if hint.kind == "axes" else ""
     fix = MIRROR_REMEDY if mirrored else "fix the gyro's column order or signs (--columns)"
+    if hint.kind == "axes" and hint.P is not None and not mirrored and np.linalg.det(hint.P) > 0:
+        perm, fix = _either_triad(hint.P, hint.words)
     seen = f" ({hint.words})" if hint.kind == "unit" and hint.words else ""
     if hint.scale == 1.0:
         return OptinavError(perm, fix)
@@ -1261,6 +1263,38 @@ def _unit_and_rate(hint: UnitHint, gyro_unit: str | None) -> str:
 
 #: the axes hint's first words
 AXES_HINT = "the gyro axes look swapped or flipped"
+
+
+def _either_triad(P: np.ndarray, words: str) -> tuple[str, str]:
+    """(cause, remedy) of a gyro that reads the rotation ``P`` (det +1; ``words`` say it) of the accelerometer's
+    axes: so reads a gyro with two axes flipped or its columns in another order, and as well an accelerometer with
+    one axis negated or two swapped — a mirror image of the gyro's frame, in which a rotation (a pseudovector)
+    reads −Pᵀ: its raw axes read M = −Pᵀ of the gyro's. Gravity cannot tell the two apart, and fixing the wrong
+    one gives a consistent pair that turns as a mirror image of the body (BROAD 02 with its accelerometer's x
+    negated was told to fix the gyro's y and z: 58° inclination RMSE with exit 0). The triad with fewer axes off is
+    named first; the remedy gives the --columns of both for a file of columns t,ax,ay,az,gx,gy,gz."""
+    from optinav.core.rotations import describe_permutation
+
+    M = -P.T
+    acc_words = describe_permutation(M, "accelerometer", "gyro axes")
+
+    def names(Q, stem: str) -> str:  # raw column i holds ±(true axis j): name it so
+        js = [int(np.flatnonzero(row)[0]) for row in Q]
+        return ",".join(("-" if Q[i, j] < 0 else "") + stem + "xyz"[j] for i, j in enumerate(js))
+
+    gyro_fix = f"the gyro's (--columns t,ax,ay,az,{names(P, 'g')})"
+    acc_fix = f"the accelerometer's (--columns t,{names(M, 'a')},gx,gy,gz)"
+    off = lambda Q: int(np.count_nonzero(np.diag(Q) != 1.0))  # noqa: E731
+    acc_first = off(M) < off(P)
+    first, second = (acc_fix, gyro_fix) if acc_first else (gyro_fix, acc_fix)
+    return (
+        f"{AXES_HINT}: {words}; or the accelerometer's, one axis negated or two swapped (a mirror image, which "
+        f"gravity cannot tell from that): {acc_words}",
+        f"fix the column order or signs of {first}, or if that triad is right, of {second}; for the one you fix "
+        "wrongly the pair turns as a mirror image of the body",
+    )
+
+
 #: a gyro that reads every axis negated against the accelerometer: so reads a gyro whose three signs are flipped,
 #: and so read both triads in one left-handed frame (two axes swapped, or one negated, in both: a rotation is a
 #: pseudovector, it changes sign under a mirror that the specific force follows). Gravity cannot tell the two apart
