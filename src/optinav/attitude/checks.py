@@ -2088,3 +2088,117 @@ def _hard_iron_error(b, s0: float, s1: float, why: str = "") -> OptinavError:
         f"subtract the offset: --mag-hard-iron={given} (fitted from this recording; mag_hard_iron= in Python), or pass "
         "--offline, which fits and subtracts it",
     )
+
+
+#: a hard-iron offset b is seen in how the field turns (dm/dt = −ω × (m − b): the field turns about b, not about
+#: zero) where b explains at least this share of what the gyro leaves of its turning, over the whole log and ...
+MAG_TURN_OFFSET_EXPLAINED = 0.7
+#: ... at least this share in each of MAG_TURN_OFFSET_PIECES pieces of the log holding equal parts of the turning
+#: it explains: an offset on the board all along, not a magnet for a while (BROAD 33 as recorded: 0.95 over the
+#: whole log, −1.0 where the magnet is gone). As recorded the nine BROAD trials explain 0.00-0.47 but for 33; an
+#: offset of the field's size 0.78-0.99 on every trial, the sphere fit only on those that turn every way (a body
+#: that hardly tilts, BROAD 11, 16, 27, ran at a 118-138° heading RMSE with exit 0)
+MAG_TURN_OFFSET_PIECE = 0.5
+MAG_TURN_OFFSET_PIECES = 4
+#: rad, the steps between bins are linear in the rotation only where it turns the body by at most this much per bin
+#: (BROAD 07's fast rotation, up to 0.7 rad per 0.1-s bin, explained a third of its turning by a false offset)
+MAG_TURN_OFFSET_STEP = 0.2
+#: the offset has no part along a direction whose singular value is under this share of the largest
+MAG_TURN_OFFSET_RCOND = 0.1
+#: the gyro-scale check's factor from which a gyro off by it is named rather than an offset
+MAG_TURN_OFFSET_FACTOR = 0.5
+#: the field less the offset must keep more than this share of the offset's norm (a field of 50× the Earth's is no
+#: offset the recording can be trusted beside; a stuck field leaves its noise)
+MAG_TURN_OFFSET_LEFT = 0.02
+
+
+def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.ndarray, float] | None:
+    """(b, explained) when a constant offset b (the field's unit) explains how the field turns in the body against
+    the gyro (least squares of Δm + ω̄ × m̄ · h = ω̄ × b · h between neighbouring bins, twice trimmed of steps beyond
+    three median residuals: a disturbance is no offset) by :data:`MAG_TURN_OFFSET_EXPLAINED` over the log and
+    :data:`MAG_TURN_OFFSET_PIECE` in each piece, and b exceeds :data:`MAG_OFFSET` of the field's norm less it; else
+    None. Unlike :func:`hard_iron` it needs no turn about every axis: on a body that only yaws the offset across
+    the vertical shows (the part along it, not seen, does not turn the heading and is left out).
+    ``bins``, ``sums`` as :func:`field_rate_sums` gives them, ``h`` s a bin, the gyro in rad/s."""
+    if len(bins) == 0:
+        return None
+    both, S = merge_bins(np.asarray(bins), np.asarray(sums))
+    m = np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
+    w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
+    pair = np.diff(both) == 1
+    wb = (0.5 * (w[1:] + w[:-1]))[pair]
+    r0 = (m[1:] - m[:-1])[pair] + np.cross(wb, (0.5 * (m[1:] + m[:-1]))[pair]) * h
+    ok = np.all(np.isfinite(r0), axis=1) & (_norm(wb) * h <= MAG_TURN_OFFSET_STEP)
+    r0, wb = r0[ok], wb[ok] * h
+    if r0.shape[0] < 30 * MAG_TURN_OFFSET_PIECES:
+        return None
+    # ω × b = −[b]× ω = [ω]× b: rows of the three skew matrices stacked
+    z = np.zeros(wb.shape[0])
+    A = np.stack([np.column_stack([z, -wb[:, 2], wb[:, 1]]), np.column_stack([wb[:, 2], z, -wb[:, 0]]),
+                  np.column_stack([-wb[:, 1], wb[:, 0], z])], axis=1)  # fmt: skip
+    keep = np.ones(r0.shape[0], bool)
+    for trim in (True, True, False):
+        # no part along a direction the body hardly turns about (its singular value under a tenth of the largest):
+        # the minimum-norm solution there, as hard_iron leaves it out (lstsq put hundreds of µT along a yaw axis)
+        b = np.linalg.lstsq(A[keep].reshape(-1, 3), r0[keep].ravel(), rcond=MAG_TURN_OFFSET_RCOND)[0]
+        res = _norm(r0 - np.cross(wb, b))
+        if trim:
+            keep = res <= 3.0 * np.median(res)
+    e0, e1 = np.sum(r0[keep] ** 2, axis=1), res[keep] ** 2
+    explained = 1.0 - float(e1.sum()) / max(float(e0.sum()), 1e-300)
+    left, nb = float(np.nanmedian(_norm(m - b))), float(np.linalg.norm(b))
+    # b = the field itself explains a field stuck at one value: nothing is left of it (check_mag_turns names that)
+    if explained < MAG_TURN_OFFSET_EXPLAINED or not MAG_TURN_OFFSET_LEFT * nb < left < nb / MAG_OFFSET:
+        return None
+    # each piece holding an equal share of the turning b predicts must be explained by it too, every step counted
+    # (where a magnet on the board has gone, the trimmed steps are those the offset fails)
+    e0, e1 = np.sum(r0**2, axis=1), res**2
+    ep = np.sum(np.cross(wb, b) ** 2, axis=1)
+    part = np.minimum((np.cumsum(ep) / max(float(np.sum(ep)), 1e-300) * MAG_TURN_OFFSET_PIECES).astype(int),
+                      MAG_TURN_OFFSET_PIECES - 1)  # fmt: skip
+    for k in range(MAG_TURN_OFFSET_PIECES):
+        s0, s1 = float(np.sum(e0[part == k])), float(np.sum(e1[part == k]))
+        if s0 <= 0.0 or 1.0 - s1 / s0 < MAG_TURN_OFFSET_PIECE:
+            return None
+    # a gyro off by a clear factor (57× too small, its sense flipped: |s| ≥ MAG_TURN_OFFSET_FACTOR) leaves turning an
+    # offset mimics in part (BROAD 11, 16, 27 as recorded: 73-94 % explained by one 2-60× the field): the gyro-scale
+    # check names it. An offset makes that check see a small factor instead (the nine with one of 1-20× the field:
+    # |s| ≤ 0.21 where it would name one)
+    s, share, turned = mag_gyro_scale(bins, sums, h)
+    if gyro_scale_error(s, share, turned) is not None and abs(s) >= MAG_TURN_OFFSET_FACTOR:
+        return None
+    return b, explained
+
+
+def check_turning_offset(
+    bins: np.ndarray, sums: np.ndarray, h: float, offline: bool = False, given: np.ndarray | None = None
+) -> np.ndarray | None:
+    """:func:`check_mag` for an offset seen in how the field turns (:func:`turning_offset`) where the sphere fit saw
+    none: offline the offset b for the estimate to subtract, online refused naming it; with the offset ``given``
+    (its unit) the field less it is judged, and one that still turns about a point off zero is refused."""
+    if given is not None:
+        sums = np.array(sums, dtype=float)
+        sums[:, :3] -= sums[:, 3:4] * np.asarray(given, float)
+    got = turning_offset(bins, sums, h)
+    if got is None:
+        return None
+    b, explained = got
+    shown = ", ".join(f"{v:.4g}" for v in b)
+    if given is not None:
+        total = ",".join(f"{v:.4g}" for v in np.asarray(given, float) + b)
+        raise OptinavError(
+            f"the magnetometer less the given offset [{', '.join(f'{v:.4g}' for v in given)}] still turns in the body "
+            f"about a point off zero: a further offset of [{shown}] explains {explained:.0%} of what the gyro leaves "
+            "of its turning: the given offset is wrong (a sign, a unit, another magnetometer's?)",
+            f"give --mag-hard-iron={total} (fitted from this recording; mag_hard_iron= in Python), or drop it and pass "
+            "--offline, which fits and subtracts it",
+        )
+    if offline:
+        return b
+    raise OptinavError(
+        f"the magnetic field turns in the body about [{shown}] (its unit), not about zero: that offset explains "
+        f"{explained:.0%} of what the gyro leaves of its turning; an uncalibrated (hard-iron) magnetometer turns the "
+        "heading by up to tens of degrees",
+        f"subtract the offset: --mag-hard-iron={','.join(f'{v:.4g}' for v in b)} (fitted from this recording; "
+        "mag_hard_iron= in Python), or pass --offline, which fits and subtracts it",
+    )

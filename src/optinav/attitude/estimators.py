@@ -38,8 +38,11 @@ from optinav.attitude.checks import (
     check_mag,
     check_mag_axes,
     check_q0,
+    check_turning_offset,
+    field_rate_sums,
     find_gaps,
     mag_fit_stride,
+    scale_bin_rows,
     zero_rows_missing,
     online_fit_failed,
 )
@@ -629,16 +632,24 @@ def estimate(
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
+            step = float(np.median(dts))
+            rows = scale_bin_rows(step)
+            turns = (*field_rate_sums(gyr, mag, rows), rows * step)
+            checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
             if online_fit:
                 pass  # an uncalibrated magnetometer said so: fitted from past samples below
             elif mag_hard_iron is None:
                 b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe")
                 online_fit = b is not None and not offline
+                if b is None:  # an offset the recording does not turn every way about
+                    b = check_turning_offset(*turns, offline)
                 mag_hard_iron = None if online_fit else b
-                fitted = mag_hard_iron is not None
+                checked, fitted = b, b is not None
             else:
                 check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron)
-            check_mag_axes(acc, mag, float(np.median(dts)), gyr)
+                check_turning_offset(*turns, given=mag_hard_iron)
+            # the field the estimate uses: less the offset it subtracts
+            check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
     if mag_hard_iron is not None:
         mag = mag - mag_hard_iron
     gaps = find_gaps(dts)

@@ -1216,7 +1216,7 @@ def stream_attitude(
     checks.finish_first()
     hard_iron, fitted, online_fit = o.mag_hard_iron, False, False
     if src.mag and hard_iron is None and (o.offline or method == "iframe"):
-        hard_iron = checks.hard_iron()
+        hard_iron = checks.hard_iron(online=not o.offline)
         fitted = hard_iron is not None
         # online the offset the whole log shows is fitted from past samples instead (as estimate() does)
         online_fit, hard_iron = (fitted, None) if not o.offline else (False, hard_iron)

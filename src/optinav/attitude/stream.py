@@ -107,10 +107,29 @@ class StreamChecks:
         (:func:`checks.online_fit_failed` on the rows of pass 1)."""
         return _c.online_fit_failed(np.concatenate(self._mag))
 
-    def hard_iron(self) -> np.ndarray | None:
-        """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline), for
-        an offline estimate to subtract in pass 2; None when the field shows none."""
-        return _c.check_mag(np.concatenate(self._mag), offline=True) if self._mag else None
+    def hard_iron(self, online: bool = False) -> np.ndarray | None:
+        """The hard-iron offset fitted over the magnetometer rows of pass 1 (:func:`checks.check_mag` offline, else
+        :func:`checks.check_turning_offset` from how the field turns), for an offline estimate to subtract in pass 2
+        (``online``: for the checks, the estimate fits it from past samples; one only the turning shows is refused);
+        None when the field shows none."""
+        if not self._mag:
+            return None
+        b = _c.check_mag(np.concatenate(self._mag), offline=True)
+        if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
+            b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
+        self.fitted_hard_iron = b
+        return b
+
+    #: the offset :meth:`hard_iron` fitted (None: none, or not asked): the later checks judge the field less it
+    fitted_hard_iron: np.ndarray | None = None
+
+    def _turn_sums(self, offset=None) -> tuple[np.ndarray, np.ndarray, float]:
+        """(bins, sums, h) of the gyro-scale bins (:func:`checks.field_rate_sums`), the field less ``offset``."""
+        bins, sums = (np.concatenate(x) for x in zip(*self._scale_sums))
+        if offset is not None:
+            sums = sums.copy()
+            sums[:, :3] -= sums[:, 3:4] * np.asarray(offset, float)
+        return bins, sums, self._scale_rows * self.median_dt
 
     def finish_first(self) -> None:
         """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
@@ -203,14 +222,20 @@ class StreamChecks:
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
-        if self._mag and ((not self.offline and not self.online_fit) or self.given_hard_iron is not None):
-            _c.check_mag(np.concatenate(self._mag), given=self.given_hard_iron)
-        if self._mag_sums:  # in the order of check_mag_axes
+        given = self.given_hard_iron
+        if self._mag and ((not self.offline and not self.online_fit) or given is not None):
+            _c.check_mag(np.concatenate(self._mag), given=given)
+            if self._scale_sums:
+                _c.check_turning_offset(*self._turn_sums(), given=given)
+        # online with an offset fitted from past samples, the checks take off the whole recording's
+        offset = given if given is not None else self.fitted_hard_iron if self.offline or self.online_fit else None
+        if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
+            if offset is not None:
+                sums[2] = sums[2] - sums[3][:, None] * np.asarray(offset, float)
             _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
             if self._scale_sums:
-                bins, scale = (np.concatenate(x) for x in zip(*self._scale_sums))
-                _c.check_gyro_scale(bins, scale, self._scale_rows * self.median_dt, self.gyro_unit)
+                _c.check_gyro_scale(*self._turn_sums(offset), self.gyro_unit)
             if self._gyr_sums:
                 gyro = [np.concatenate(x) for x in zip(*self._gyr_sums)]
                 _c.check_mag_turns(sums[0], sums[2], sums[3], *gyro, self.median_dt)
