@@ -524,6 +524,19 @@ def test_every_streaming_filter_takes_update_gyr_acc_dt():
             AttitudeFilter(dt=bad)
 
 
+@pytest.mark.parametrize("rate", [0.0, -100.0, float("nan")])
+def test_a_streaming_filter_built_with_no_positive_rate_is_refused_naming_rate_hz(rate):
+    """AttitudeFilter(0.0) raised ZeroDivisionError (a traceback), AttitudeFilter(-100) named 'dt=-0.01', which the
+    user did not give; every method's filter (make_filter) takes its step the same way."""
+    from optinav.attitude import METHODS, make_filter
+
+    for m in METHODS:
+        with pytest.raises(OptinavError, match=r"rate_hz=.* must be a positive sample rate in Hz"):
+            make_filter(m, rate_hz=rate)
+    with pytest.raises(OptinavError, match="rate_hz="):
+        AttitudeFilter(rate)
+
+
 def test_a_scalar_last_q0_is_named():
     from optinav.attitude.checks import InitialAttitudeWarning
 

@@ -322,6 +322,8 @@ def default_step(rate_hz: float | None, dt: float | None) -> float | None:
     """A streaming filter's default step [s] from ``rate_hz`` [Hz] or ``dt`` [s] (``dt`` wins), None without
     either; a rate below an IMU's (a step given as a rate) or a non-positive step is refused."""
     if dt is None and rate_hz is not None:
+        if not (np.isfinite(rate_hz) and rate_hz > 0):  # 0 raised ZeroDivisionError, -100 named "dt=-0.01"
+            raise OptinavError(f"rate_hz={rate_hz!r} must be a positive sample rate in Hz", "pass rate_hz > 0 or dt")
         dt = 1.0 / float(rate_hz)
     if dt is not None and not (np.isfinite(dt) and dt > 0):
         raise OptinavError(f"dt={dt!r} must be a positive step in s", "pass rate_hz or dt > 0")
