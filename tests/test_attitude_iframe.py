@@ -1333,3 +1333,41 @@ def test_a_hard_iron_offset_on_a_body_that_only_yaws_is_seen_in_how_the_field_tu
         run.summary,
         r.summary(),
     )
+
+
+def test_a_gyro_bias_beyond_the_tracked_range_is_named_with_the_option_that_holds_it(tmp_path):
+    """iframe tracks a gyro bias of at most bias_clip (2 °/s) per axis; beyond it the estimate is clipped and the
+    rest drifts, and a gyro reading over rest_gyr at rest finds no rest: BROAD 02 with 0.1 rad/s (5.7 °/s) added ran
+    at 8.5° inclination RMSE with exit 0 and no word, 0.39° (as recorded) with bias_clip raised. Read where the body
+    is still (gyro and accelerometer steady for over 1 s), a bias beyond the clip is refused, in memory and
+    streamed, naming a clip that holds it; with it the tilt is the truth's. A bias within the clip passes, and so
+    does a steady 90 °/s turn about the vertical (which reads as a rest's gyro)."""
+    import re
+
+    from optinav.attitude.filestream import stream_attitude
+    from optinav.attitude.unit import AttitudeOptions
+
+    rng = np.random.default_rng(4)
+    w, acc, q_true = motion(6000, seed=4, amp=0.8, rest=1500)
+    acc = acc + rng.normal(0.0, 0.02, acc.shape)
+    noisy = w + rng.normal(0.0, 0.003, w.shape)
+    bias = np.array([0.06, -0.03, 0.045])  # rad/s: 3.4, -1.7, 2.6 °/s
+    assert tilt_deg(estimate_q(noisy + bias, acc, DT, checks=False), q_true, slice(1500, None)) > 3.0
+    with pytest.raises(OptinavError, match=r"a bias beyond the ±0\.03491 rad/s the estimator tracks") as exc:
+        estimate(noisy + bias, acc, DT)
+    seen = [float(v) for v in re.search(r"reads \[([^\]]+)\]", str(exc.value)).group(1).split(",")]
+    assert np.allclose(seen, bias, atol=0.005), seen
+    clip = float(re.search(r"--option bias_clip=([0-9.]+)", exc.value.remedy).group(1))
+    assert tilt_deg(estimate_q(noisy + bias, acc, DT, bias_clip=clip), q_true, slice(1500, None)) < 0.3
+    with pytest.raises(OptinavError, match="--method iframe --option bias_clip="):
+        estimate(noisy + bias, acc, DT, method="qn")
+    path = tmp_path / "bias.csv"
+    t = np.arange(w.shape[0]) * DT
+    np.savetxt(path, np.column_stack([t, acc, noisy + bias]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    with pytest.raises(OptinavError, match="a bias beyond") as streamed:
+        stream_attitude(path, tmp_path / "a.csv", AttitudeOptions(), chunk_rows=1000)
+    assert streamed.value.remedy == exc.value.remedy
+    estimate(noisy + np.radians([1.5, -1.0, 1.8]), acc, DT)  # within the clip: judged, not refused
+    # a steady turn about the vertical throughout reads as a rest's gyro: beyond REST_GYR it is no bias
+    n = 2000
+    estimate(np.tile([0.0, 0.0, np.pi / 2], (n, 1)), np.tile([0.0, 0.0, G], (n, 1)), DT, frame="ENU")

@@ -33,6 +33,7 @@ import numpy as np
 
 from optinav.attitude import _kernels
 from optinav.attitude.checks import (
+    check_bias_range,
     check_frame,
     check_imu,
     check_mag,
@@ -43,6 +44,7 @@ from optinav.attitude.checks import (
     find_gaps,
     mag_fit_stride,
     scale_bin_rows,
+    still_sums,
     zero_rows_missing,
     online_fit_failed,
 )
@@ -55,7 +57,7 @@ from optinav.attitude.iframe import (
     run_iframe,
 )
 from optinav.attitude.iframe import input_stage as _input_stage
-from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, variant
+from optinav.attitude.methods import DEFAULTS, METHODS, _method, _options, bias_clip, variant
 from optinav.attitude.measurement import (
     PolarizationMeasurement,
     as_c_b_m,
@@ -630,6 +632,9 @@ def estimate(
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     if checks:
         check_imu(gyr, acc, dts)
+        clip = bias_clip(method, opts, input_stage)
+        if clip is not None:
+            check_bias_range(*still_sums(gyr, acc), float(np.median(dts)), clip, method)
         check_frame(acc, frame)
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)

@@ -1165,7 +1165,7 @@ def stream_attitude(
     :class:`~optinav.core.results.Truth` compared with the estimate (:attr:`StreamedEstimate.truth_comparison`).
     Bad input raises :class:`OptinavError` before anything is written under ``out``."""
     from optinav.attitude.checks import aop_range
-    from optinav.attitude.methods import _method
+    from optinav.attitude.methods import _method, _options, bias_clip
     from optinav.core.progress import progress_blocks, step
     from optinav.core.rotations import frame_name
 
@@ -1192,6 +1192,7 @@ def stream_attitude(
 
     step("checks")
     checks, bad, aop_lo, aop_hi, aop_n, t_first, t_last = StreamChecks(), 0, np.inf, -np.inf, 0, None, None
+    checks.bias_clip, checks.method = bias_clip(method, _options(method, dict(o.options)), o.input_stage), method
     for _, t, gyr, acc, dts, finite, extra in progress_blocks(src, "attitude: checks", progress):
         if t_first is None:
             t_first = float(t[0])

@@ -149,3 +149,11 @@ def _method(method, pol) -> str:
             "method iframe takes no polarization input", "use --method mekf (or gd, cg, qn) with --pol-columns"
         )
     return m
+
+
+def bias_clip(method: str, opts: dict, input_stage: bool) -> float | None:
+    """The gyro bias (rad/s, per axis) the estimate tracks: iframe's ``bias_clip`` (``opts``), the front end's
+    default before gd/cg/qn/mekf with the input stage; None where no iframe bias is estimated."""
+    if method == "iframe":
+        return float(opts["bias_clip"])
+    return float(IFRAME_DEFAULTS["bias_clip"]) if input_stage else None

@@ -49,6 +49,7 @@ class StreamChecks:
         self._scale_sums: list[tuple] = []  # field and gyro sums per _scale_rows rows (the gyro-scale check)
         self._scale_rows = 0
         self._witness: list[tuple] = []  # the same sums of a magnetometer the estimate does not use (add_witness)
+        self._still: list[tuple] = []  # per TILT_BIN rows: gyro, accelerometer and their squares (the rest bias)
 
     def add_mag(self, mag: np.ndarray, acc: np.ndarray | None = None, gyr: np.ndarray | None = None) -> None:
         """Pass 1, after :meth:`add` of the same block: its magnetometer rows (n, 3); evenly spaced rows are kept,
@@ -84,6 +85,8 @@ class StreamChecks:
         self._na.append(_c._norm(acc))
         self._ng.append(_c._norm(gyr))
         self._tilt.append(_c.tilt_sums(acc, self.n))
+        if self.bias_clip is not None:
+            self._still.append(_c.still_sums(gyr, acc, self.n))
         self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
         if self._head_n < 200:
@@ -93,6 +96,11 @@ class StreamChecks:
             self._gyr_head.append(_c.axis_steps(gyr, 256))
             self._gyr_head_n += self._gyr_head[-1].shape[0]
         self.n += gyr.shape[0]
+
+    #: the gyro bias (rad/s) the estimate tracks (:func:`~optinav.attitude.estimators.bias_clip`; None: not judged)
+    bias_clip: float | None = None
+    #: the estimator (the bias message names iframe's option for another)
+    method: str = "iframe"
 
     #: the hard-iron offset given (its unit; None: none): :meth:`finish_second` judges the field less it, and
     #: refuses one that shows an offset, unless ``offline`` (then :meth:`hard_iron` fitted it after pass 1)
@@ -221,6 +229,9 @@ class StreamChecks:
             steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
+        if self._still:  # after the units and the clipping, as estimate() judges it after check_imu
+            still = (np.concatenate(x) for x in zip(*self._still))
+            _c.check_bias_range(*still, self.median_dt, self.bias_clip, self.method)
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
         given = self.given_hard_iron
         if self._mag and ((not self.offline and not self.online_fit) or given is not None):
