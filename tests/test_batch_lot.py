@@ -213,3 +213,31 @@ def test_result_files_belong_to_their_rows(tmp_path):
     (d / "u2.csv").write_text("t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n")  # the unit's log is now broken
     s = run_batch(d, tmp_path / "a.csv", OPTIONS, workers=0, results_dir=res, show_progress=False)
     assert s.n_failed == 1 and not (res / "u2.json").exists() and (res / "u1.json").exists()
+
+
+def test_results_dir_never_replaces_or_removes_a_file_that_is_no_result(tmp_path):
+    """--results-dir the units' own folder, which also holds u1.json, u1's section list: the batch wrote u1's
+    result over it (exit 1 only because the other units then read that result as their sections), and a unit
+    that fails removed its UNIT.json whatever it held. Such a file is refused before any unit runs; an earlier
+    run's result files are replaced as before."""
+    d = tmp_path / "units"
+    d.mkdir()
+    for seed in (1, 2):
+        _session(d, f"u{seed}.csv", seed)
+    sections = d / "u1.json"
+    sections.write_text('{"x_p": {"start": 540, "end": 1271}}')
+    note = d / "u2.json"
+    note.write_text('{"operator": "A. N.", "table": 3}')
+    out = tmp_path / "r.csv"
+    args = ["--quiet", "batch", "calibrate", "accel", str(d), "--acc-unit", "counts", "--gyro-unit", "counts"]
+    assert main([*args, "--out", str(out), "--workers", "0", "--results-dir", str(d)]) == 2
+    assert sections.read_text() == '{"x_p": {"start": 540, "end": 1271}}'
+    assert note.read_text() == '{"operator": "A. N.", "table": 3}' and not out.exists()
+    with pytest.raises(OptinavError, match=r"--results-dir .*u1\.json exists and is not a file this command writes"):
+        run_batch(d, out, OPTIONS, workers=0, results_dir=d, show_progress=False)
+    sections.unlink()
+    note.unlink()
+    s = run_batch(d, out, OPTIONS, workers=0, results_dir=d, show_progress=False)
+    assert s.n_ok == 2 and Result.from_json(d / "u1.json").accelerometer is not None
+    again = run_batch(d, out, OPTIONS, workers=0, results_dir=d, show_progress=False, fresh=True)
+    assert again.n_computed == 2  # its own result files are replaced

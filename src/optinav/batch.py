@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from optinav.core.files import atomic_open, atomic_path, check_output, describe, os_error
+from optinav.core.files import RESULT_MARK, atomic_open, atomic_path, check_output, check_replace, describe, os_error
 from optinav.errors import OptinavError
 
 JOURNAL_SCHEMA = "optinav.batch_journal"
@@ -1089,6 +1089,12 @@ def run_batch(
             f"{directory} holds no data files ({data_kinds()})",
             "pass the folder with one data file per unit",
         )
+    if results_dir is not None:
+        for u in units:
+            # a unit's result file replaces (or, when the unit fails, removes) UNIT.json in the folder: a section
+            # list or note of that name beside the logs was overwritten and the other units read the result as
+            # their sections
+            check_replace(Path(results_dir) / f"{u.name}.json", "--results-dir", RESULT_MARK)
     client = None
     if scheduler is not None:
         _require_distributed()
@@ -1164,8 +1170,10 @@ def _run_batch(units, out, journal_path, options, workers, client, fresh, retry_
                     # folder could pick up, an earlier run's neither (a lot-failed unit is computed again on resume)
                     r.pop("result_file", None)
                     r.pop("result_sha", None)
-                    with contextlib.suppress(OSError):
-                        (Path(options.results_dir) / f"{r['unit']}.json").unlink(missing_ok=True)
+                    with contextlib.suppress(OSError, OptinavError):
+                        rp = Path(options.results_dir) / f"{r['unit']}.json"
+                        check_replace(rp, "--results-dir", RESULT_MARK)  # one put there during the run stays
+                        rp.unlink(missing_ok=True)
         write_table(rows, out)
     n_ok = sum(r["status"] == "ok" for r in rows)
     return BatchSummary(
