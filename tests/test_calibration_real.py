@@ -262,6 +262,36 @@ def _read_out(path):
     return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)
 
 
+def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, capsys):
+    """imucal's calibration of its example session applied to that log with the accelerometer's x column negated
+    wrote the corrected log with exit 0 (y or z negated were refused): its only windows where gravity turns about
+    another axis than x are turns about the vertical (not judged: they cannot tell the gyro's unit) and flips by
+    180°, whose ends a flipped axis keeps. The axes are judged there too; the log as it is passes unchanged
+    (imucal's own corrected rows)."""
+    cal = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    c = head.split(",").index("acc_x")
+    flipped = []
+    for row in rows:
+        v = row.split(",")
+        v[c] = repr(-float(v[c]))
+        flipped.append(",".join(v))
+    bad = tmp_path / "acc_x_negated.csv"
+    bad.write_text("\n".join([head, *flipped]) + "\n")
+    out = tmp_path / "out.csv"
+    assert main(["--quiet", "apply", str(cal), str(bad), "--rate", "102.4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "does not explain how gravity turns" in err and "--columns" in err, err
+    assert not out.exists()
+    plain = DATA / "example_ferraris_session.csv"
+    assert main(["--quiet", "apply", str(cal), str(plain), "--rate", "102.4", "--out", str(out)]) == 0
+    got = _read_out(out)
+    ref = np.genfromtxt(DATA / "reference" / "ferraris_example_calibrated_head50.csv", delimiter=",", names=True)
+    for a in "xyz":
+        np.testing.assert_allclose(got[f"a{a}"][:50], ref[f"acc_{a}"], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(np.degrees(got[f"g{a}"][:50]), ref[f"gyr_{a}"], rtol=0, atol=1e-9)
+
+
 def test_mistakes_on_the_real_session_name_the_flag_that_helps(tmp_path, capsys):
     """Errors that named the wrong flag (helper): acc and gyro columns swapped led to '--acc-unit counts' and then
     to a fit that 'did not converge — pass --method lm' (lm in use); twice the rate named --gyro-unit and the

@@ -494,7 +494,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
         # a body that turns mostly about the vertical (a car) does not turn gravity: a gyro 57× too large spun the
         # frame fast enough to average the car's sustained accelerations out of the 2-s means and was taken for the
         # right unit (a helper's level-car logs: 9 of 36 refused as rad/s declared deg/s)
-        return None
+        return None if units_only else _vertical_turns_axes_hint(g, a, d)
     spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
@@ -769,6 +769,19 @@ def _time_words(s: float, dt: float) -> UnitHint:
         else f"the gyro, over these time steps, turns gravity ×{1 / s:.3g} as far as the accelerometer sees it turn"
     )
     return UnitHint("time", s, words, rate_hz=1.0 / (s * dt))
+
+
+def _vertical_turns_axes_hint(g, a, d) -> UnitHint | None:
+    """The axes hint of a window whose gyro turns mostly about the vertical, which cannot tell the unit: where
+    gravity still turns in the body and the declared gyro (bias fitted) leaves it drifting beyond
+    :data:`CONSISTENCY_BAD`, a signed permutation that holds it (:func:`_axes_hint`). imucal's session with the
+    accelerometer's x negated passed attitude and apply with exit 0: its window of turns about the vertical and
+    one 90° move drifts gravity 1.27 rad as declared, 0.05 with the axes matched, and the other windows turn
+    gravity about x only or by 180° (a flipped axis keeps both ends of such a move)."""
+    if _body_turn(a, d) < CONSISTENCY_STILL:
+        return None
+    drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
+    return _axes_hint(g, a, d, drift1) if drift1 > CONSISTENCY_BAD else None
 
 
 def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
