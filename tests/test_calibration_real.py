@@ -630,6 +630,30 @@ def test_imucal_session_as_two_files_on_their_own_clocks(tmp_path, capsys):
     assert "interpolated onto the time stamps of Accelerometer.csv" in capsys.readouterr().err
 
 
+def test_a_gyro_file_timed_in_ms_beside_an_accelerometer_file_in_s_is_named(tmp_path, capsys):
+    """imucal's session as two files, the gyroscope's time column in ms (no unit in its name) and the
+    accelerometer's in s: the gyro's first 0.1 s overlapped the accelerometer's 101 s, were interpolated as a
+    constant, and the Ferraris route said 'the gyroscope is at its full scale in 324 samples of the section y_rot'
+    (the default route: 'at its full scale at rest'), naming no clock. Each file's clock is judged before they
+    are merged; with the unit in the gyro file's column name the calibration is imucal's."""
+    raw = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    t = raw["n_samples"] / 102.4
+    fa, fg = tmp_path / "acc.csv", tmp_path / "gyr.csv"
+    acc = np.column_stack([t] + [raw[f"acc_{a}"] for a in "xyz"])
+    np.savetxt(fa, acc, delimiter=",", header="t,ax,ay,az", comments="", fmt="%.12g")
+    gyr = np.column_stack([t * 1000.0] + [raw[f"gyr_{a}"] for a in "xyz"])
+    np.savetxt(fg, gyr, delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.12g")
+    args = ["--quiet", "calibrate", "accel", str(fa), "--gyro", str(fg), *EXAMPLE[5:], *FERRARIS]
+    assert main([*args, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "time column 't' of gyr.csv steps 9.77 s" in err and "--gyro-columns" in err, err
+    assert "t_ms" in err
+    r = _run(tmp_path, args[1:] + ["--gyro-columns", "t_ms,gx,gy,gz"])
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
+    np.testing.assert_allclose(r.accelerometer["K"], ref["acc_K"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(r.gyroscope["K"], ref["gyr_K"], rtol=1e-6)
+
+
 def test_a_drifting_accelerometer_is_refused_on_the_default_route(tmp_path, capsys):
     """imucal's session with acc_z drifting by 0.1 m/s² over its 101 s (warm-up), no --method: the automatic
     threshold takes the most rests whose fit has an acceptable χ², so it left out the two last rests, the ones that

@@ -2055,6 +2055,19 @@ def _log_of(
                 )
             unit = _resolve_unit("time", time_u, p, "time_unit", "s")
             times.append((p, p.t if TIME_UNITS[unit] == 1.0 else p.t * TIME_UNITS[unit]))
+    if len(times) == 2 and prev_t is None:
+        # each file's clock on its own before they are merged: a gyro file timed in ms beside an accelerometer's
+        # in s overlapped it for its first 0.1 s and was interpolated as a constant ('the gyroscope is at its full
+        # scale in 324 samples of the section y_rot', exit 2, the clock unnamed)
+        plausible = [_RATE_RANGE[0] <= 1.0 / float(np.median(np.diff(t[:65537]))) for _, t in times if t.size > 1]
+        for k, (p, t) in enumerate(times):
+            what = f"time column {p.t_name!r} of {p.path.name}"
+            _check_time_unit(
+                check_timestamps(t, what, min_count=2, duplicate_remedy=_duplicate_remedy(p.table)),
+                what,
+                defaulted=time_u is None and not p.declared["time"] and not p.implied["time"],
+                own=("--columns", "--gyro-columns")[k] if any(plausible) else None,
+            )
     if len(times) == 2 and not _same_times(*times):
         if block:
             _check_same_time(*times)  # a block of a streamed log is not interpolated: the error names the rows
@@ -2340,9 +2353,10 @@ _LAYOUT_NOTES = {
 _RATE_RANGE = (10.0, 1e7)
 
 
-def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool) -> None:
+def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool, own: str | None = None) -> None:
     """Refuse times whose median step (over the first 65 536) gives an implausible IMU rate (:data:`_RATE_RANGE`);
-    below the range only when the unit was not stated (``--time-unit s`` accepts a slow log)."""
+    below the range only when the unit was not stated (``--time-unit s`` accepts a slow log). ``own``: the option
+    naming this file's columns, for one of two files whose other clock is right (``--time-unit`` sets both)."""
     if t.size < 2:
         return
     step = float(np.median(np.diff(t[:65537])))
@@ -2353,7 +2367,10 @@ def _check_time_unit(t: np.ndarray, what: str, *, defaulted: bool) -> None:
         return
     fits = [u for u, f in TIME_UNITS.items() if f != 1.0 and low <= 1.0 / (step * f) <= 1e5] if defaulted else []
     hint = f"pass --time-unit {'|'.join(fits)}" if fits else "pass the right --time-unit (s, ms, us, ns)"
-    if rate < low:
+    if own is not None and fits:
+        # --time-unit sets both files' unit, and the other file's clock is right
+        hint = f"name its time column with the unit in {own} (t_{fits[0]} in its place, the other names as they are)"
+    elif rate < low:
         hint += " (or --time-unit s if that rate is right)"
     read = "read as seconds (no unit stated)" if defaulted else "in its stated unit"
     raise OptinavError(f"{what} steps {step:.3g} s {read}: a {rate:.3g} Hz IMU log", hint)
