@@ -1037,6 +1037,28 @@ def test_a_rotation_section_without_its_turn_is_named(tmp_path, capsys):
 
 
 @needs_data
+def test_a_rotation_section_at_rest_is_no_glitch(tmp_path, capsys):
+    """x_rot placed on imucal's still rows after z_rot (a quantized gyro: most one-sample departures 0): one
+    count's step was taken for a glitch '6103515625000000930…× the departures around it' (a 300-digit number)
+    and the error sent the user to record x_rot again. The isolation test is floored at the gyro's resolution
+    (no still pose of the session holds a 'glitch' then; each did), and the section without its turn is named."""
+    from optinav.cli.main import main
+    from optinav.multipos.ferraris import find_glitch
+
+    argv = _sections_argv(tmp_path, x_rot={"start": 9700, "end": 10300})
+    assert main([*argv, "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "section x_rot does not hold the turn about x" in err and "--sections" in err, err
+    raw = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
+    gyr = np.column_stack([raw[f"gyr_{a}"] for a in "xyz"])
+    for start, end in ((540, 1271), (1620, 2361), (2814, 3298), (3740, 4152), (4522, 4975), (5376, 5983)):
+        assert find_glitch(gyr[start:end]) is None, (start, find_glitch(gyr[start:end]))
+    spiked = gyr[9205:9512].copy()
+    spiked[20, 2] += 150.0  # a real spike in z_rot's still start is still one (19-58x its surroundings)
+    assert find_glitch(spiked) is not None
+
+
+@needs_data
 @pytest.mark.parametrize(
     "extra, named",
     [

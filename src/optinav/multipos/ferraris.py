@@ -813,6 +813,15 @@ def _departures(w: np.ndarray, L: int) -> np.ndarray:
     return out
 
 
+def _resolution(w: np.ndarray) -> np.ndarray:
+    """Per axis of ``w`` (M, 3) the smallest nonzero step between samples, the readings' resolution (one count of
+    a quantized gyro; 1e-300 where the axis never changes)."""
+    d = np.abs(np.diff(w, axis=0))
+    d = np.where(np.isfinite(d) & (d > 0.0), d, np.inf)
+    r = d.min(axis=0) if d.shape[0] else np.full(w.shape[1], np.inf)
+    return np.where(np.isfinite(r), r, 1e-300)
+
+
 def _worst_isolated(w: np.ndarray) -> tuple[float, float, int, int, int]:
     """The run of 1–:data:`GLITCH_RUN` samples of ``w`` (M, 3) that departs (:func:`_departures`) most beyond the
     one-sample departures within :data:`GLITCH_WINDOW` rows around it (floored at the section's median one): a
@@ -824,7 +833,10 @@ def _worst_isolated(w: np.ndarray) -> tuple[float, float, int, int, int]:
     scale = float(np.nanpercentile(np.abs(w).max(axis=1), 95)) if np.isfinite(w).any() else 0.0
     if not scale > 0.0 or w.shape[0] < GLITCH_MIN_SAMPLES:
         return best
-    floor = np.maximum(np.median(_departures(w, 1)[2:-2], axis=0), 1e-300)
+    # floored at the gyro's resolution too: where it reads one value for most samples (a section at rest, quantized
+    # to whole counts) the median departure is 0, and one count's step was 'a glitch 6e+303× the departures
+    # around it'
+    floor = np.maximum(np.median(_departures(w, 1)[2:-2], axis=0), _resolution(w))
     h = GLITCH_WINDOW + 2
     for L in range(1, GLITCH_RUN + 1):
         limit = GLITCH_ISOLATION if L == 1 else GLITCH_RUN_ISOLATION
