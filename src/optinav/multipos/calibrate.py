@@ -343,11 +343,12 @@ def _select_threshold(t, acc, gyro, g, valid, *, window_s, min_duration_s, acc_u
     }
 
 
-def _sections_on_kept_rows(sections, keep: np.ndarray, method: str):
+def _sections_on_kept_rows(sections, keep: np.ndarray, method: str, lost: tuple | None = None):
     """Sections given by sample index (imucal's section list, a label column's ranges) moved onto the rows left
     once the non-finite ones are dropped: the indices count the rows as written, so every section after an empty
     row pointed one row later (10 empty cells in a pose: gyro K_zz 1.1 % off, exit 0). Sections in seconds are
-    returned as given (they select by time)."""
+    returned as given (they select by time). ``lost``: (why, remedy) of a section left without rows, when they
+    were left out for another reason than non-finite values."""
     pos = np.concatenate([[0], np.cumsum(keep)])  # kept rows before each row as written
     if (
         isinstance(sections, dict)
@@ -364,14 +365,32 @@ def _sections_on_kept_rows(sections, keep: np.ndarray, method: str):
         if not (0 <= a < b <= keep.size):
             return sections  # out of the log: the section check names it
         if pos[b] == pos[a]:
-            raise OptinavError(
-                f"section {name!r} (rows {a}-{b - 1}) holds no sample with finite values",
+            why, remedy = lost or (
+                "holds no sample with finite values",
                 "fill or cut the empty rows, or give the sections in seconds (--sections FILE)",
             )
+            raise OptinavError(f"section {name!r} (rows {a}-{b - 1}) {why}", remedy)
         i0, i1 = int(pos[a]), int(pos[b])
         # the Ferraris route takes {name: (i0, i1)}; the section list reads a pair as seconds, so imucal's layout
         moved[name] = (i0, i1) if method == "ferraris" else {"start": i0, "end": i1}
     return moved
+
+
+def _sections_on_file_rows(sections, rows: np.ndarray, method: str):
+    """Sections by sample index, which count the data file's rows, moved onto the samples read where the reader
+    left rows out (``rows``: each sample's row in the file, :attr:`SessionData.rows`): an accelerometer file whose
+    first rows lie before the gyroscope file's first sample (:func:`_sections_on_kept_rows`). Sections in seconds
+    are returned as given."""
+    given, kind, _ = static._load_sections(sections)
+    if kind != "index":
+        return sections
+    keep = np.zeros(max([int(rows[-1]) + 1] + [int(b) for _, _, b in given]), bool)
+    keep[rows] = True
+    lost = (
+        "lies where the log has no sample: those rows were left out (outside the gyroscope file's span)",
+        "give the gyroscope file of the whole recording, or the sections in seconds (--sections FILE)",
+    )
+    return _sections_on_kept_rows(sections, keep, method, lost)
 
 
 def calibrate(
@@ -2123,6 +2142,8 @@ class SessionData(NamedTuple):
     #: rows per step of the file's sample counter where it steps by more than one on nearly every row (a
     #: decimated log timed by the counter at --rate), else 1
     counter_step: int = 1
+    #: each sample's data row in the file where the reader left rows out (ImuLog.row), else None
+    rows: np.ndarray | None = None
 
 
 def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) -> SessionData:
@@ -2136,6 +2157,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     parts = {key: _Gather() for key in ("t", "acc", "gyro")}
     labels: list = []
     counter: list = []
+    file_rows: list = []
     start = None
     acc_unit = gyro_unit = None
     notes: list = []
@@ -2162,6 +2184,8 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
             labels.append(log.labels)
         if getattr(log, "sample", None) is not None:
             counter.append(np.asarray(log.sample))
+        if getattr(log, "row", None) is not None:
+            file_rows.append(np.asarray(log.row))
         notes += log.notes
     t = parts["t"].array()
     step = 1
@@ -2177,6 +2201,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
         np.concatenate(labels) if labels else None,
         tuple(notes),
         step,
+        np.concatenate(file_rows) if file_rows else None,
     )
 
 
@@ -2253,6 +2278,8 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
     o.check()
     method_options = {} if o.generations is None else {"generations": o.generations}
     sections = o.sections
+    if sections is not None and data.rows is not None:
+        sections = _sections_on_file_rows(sections, data.rows, o.method)
     if sections is None and o.method == "ferraris":
         from .ferraris import sections_from_labels
 
