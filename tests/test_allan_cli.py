@@ -1,6 +1,7 @@
 """`optinav simulate static` → `optinav allan` end to end: JSON result, report, Kalibr imu.yaml read back."""
 
 import json
+from pathlib import Path
 import re
 
 import numpy as np
@@ -403,6 +404,25 @@ def test_an_axis_that_reads_one_value_throughout_is_refused(tmp_path, capsys):
     assert err.count("\n") == 1 and "the gyroscope reads one value in every sample (z = 0 rad/s)" in err, err
     assert "--columns" in err and "--sensor acc" in err
     assert main(["--quiet", "allan", str(f), "--sensor", "acc", "--out", str(tmp_path / "a.json")]) == 0
+
+
+def test_a_log_of_a_few_samples_is_named_short_not_dead(tmp_path):
+    """Three rows of imucal's still pose x_p (gyro in deg/s, quantized to 1/16.4 deg/s) were refused as 'the
+    gyroscope reads one value in every sample ... a dead axis, a column that is not the sensor's', sending the user
+    to --columns; too few samples is the cause."""
+    from optinav.core.allan import analyse_blocks
+    from optinav.errors import OptinavError
+    from optinav.io import read_imu
+
+    data = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "imucal" / "example_ferraris_session.csv"
+    if not data.is_file():
+        pytest.skip("imucal data absent")
+    head, *rows = data.read_text().splitlines()
+    f = tmp_path / "three.csv"
+    f.write_text("\n".join([head, *rows[540:543]]) + "\n")
+    log = read_imu(f, rate_hz=102.4, gyro_unit="deg/s")
+    with pytest.raises(OptinavError, match=r"the log has 3 samples; an Allan deviation needs thousands"):
+        analyse_blocks([log])
 
 
 def test_one_corrupted_gyro_sample_is_named_where_it_is_not_a_unit(tmp_path, capsys):

@@ -1316,12 +1316,15 @@ class _RegularTiming:
         self.t_last = float(t[-1])
         self.n += t.size
 
-    def check(self) -> float:
+    def check_length(self) -> None:
         if self.n < 64:
             raise OptinavError(
                 f"the log has {self.n} samples; an Allan deviation needs thousands (hours at rest)",
                 "record a longer static log",
             )
+
+    def check(self) -> float:
+        self.check_length()
         if self.bad:
             t, d = self.first_bad
             raise OptinavError(
@@ -1794,6 +1797,7 @@ def analyse_blocks(
     if not angles:
         raise OptinavError(f"{source or 'the log'} holds no samples", "pass a static log")
     at_rest.check()
+    timing.check_length()  # 3 samples of a quantized log read one value: too short, not a dead axis
     _check_alive(spans, units)
     dt = timing.check()
     for name, acc in angles.items():
