@@ -1037,6 +1037,35 @@ def test_a_rotation_section_without_its_turn_is_named(tmp_path, capsys):
 
 
 @needs_data
+def test_section_names_in_capitals_are_imucal_names(tmp_path, capsys):
+    """imucal's section list with its names in capitals ('X_P' ... 'Z_ROT') was refused as 'sections lacks x_p,
+    ...', and a label column so written (the annotated session's part column) as 'the Ferraris method needs
+    gyroscope data and the nine named sections' of a log with its gyro. They are imucal's names: the calibration
+    is imucal's; a name given twice (x_p and X_P) is refused."""
+    from optinav.cli.main import main
+    from optinav.multipos.convert import read_imucal_json
+    from optinav.multipos.ferraris import sections_from_labels
+    from optinav.multipos.result import CalibrationResult
+
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    upper = tmp_path / "upper.json"
+    upper.write_text(json.dumps({f" {k.upper()}": v for k, v in secs.items()}))
+    argv = _sections_argv(tmp_path)[:-1] + [str(upper), "--out", str(tmp_path / "r.json")]
+    assert main(["--quiet", *argv]) == 0
+    r = CalibrationResult.from_json(tmp_path / "r.json")
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
+    np.testing.assert_allclose(r.accelerometer["K"], ref["acc_K"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.gyroscope["K"], ref["gyr_K"], rtol=1e-12)
+    upper.write_text(json.dumps({**secs, "X_P": {"start": 10000, "end": 10100}}))
+    capsys.readouterr()
+    assert main(["--quiet", *argv]) == 2
+    assert "the sections name x_p twice" in capsys.readouterr().err
+    part = np.genfromtxt(DATA / "annotated_session.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    labels = part["part"]
+    assert sections_from_labels(np.char.upper(labels)) == sections_from_labels(labels)
+
+
+@needs_data
 def test_a_rotation_section_at_rest_is_no_glitch(tmp_path, capsys):
     """x_rot placed on imucal's still rows after z_rot (a quantized gyro: most one-sample departures 0): one
     count's step was taken for a glitch '6103515625000000930…× the departures around it' (a 300-digit number)

@@ -1721,7 +1721,13 @@ def _ferraris(
         idx = np.array([sections[n] for n in names], int)
         t_iv = np.column_stack([t[idx[:, 0]], t[idx[:, 1] - 1]])
     else:
+        sl.as_dict()  # sections without a name, or a name given twice, are named as such
         names, idx, t_iv = list(sl.names), np.asarray(sl.index_ranges, int), np.asarray(sl.t_intervals, float)
+    names = [ferraris.section_name(n) for n in names]
+    twice = sorted({n for n in names if n in ferraris.SECTIONS and names.count(n) > 1})
+    if twice:
+        raise OptinavError(f"the sections name {', '.join(twice)} twice", "give each Ferraris section once")
+    ranges = {n: (int(i0), int(i1)) for n, (i0, i1) in zip(names, idx)}
     glitch, fixed = None, []
     inside = bool(np.all((0 <= idx[:, 0]) & (idx[:, 0] < idx[:, 1]) & (idx[:, 1] <= len(t))))
     if inside:
@@ -1743,7 +1749,7 @@ def _ferraris(
             t,
             acc,
             gyr,
-            sl if sl is not None else sections,
+            ranges,
             gravity=g,
             expected_angle=rotation_angle,
             with_std=True,

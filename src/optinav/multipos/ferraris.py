@@ -496,13 +496,22 @@ def _seq3(x):
     return items
 
 
+def section_name(name) -> str:
+    """imucal's name of a section written in capitals or with blanks around it ('X_P ' → 'x_p': the label column
+    and the section list named no section before, 'the Ferraris method needs ... the nine named sections'); any
+    other name as given."""
+    key = str(name).strip().lower()
+    return key if key in SECTIONS else str(name)
+
+
 def sections_from_labels(labels) -> dict | None:
     """The nine sections ``x_p … z_rot`` as {name: (i0, i1)} half-open sample ranges from a per-sample label
     column (imucal's annotated ``part`` column); None when the labels name none of them. Each named section
     must be one contiguous run, and all nine must be present."""
     if labels is None:
         return None
-    lab = np.asarray(labels).astype(str)
+    uniq, inv = np.unique(np.asarray(labels).astype(str), return_inverse=True)
+    lab = np.array([section_name(u) for u in uniq])[inv.reshape(-1)]
     present = [n for n in SECTIONS if np.any(lab == n)]
     if not present:
         return None
