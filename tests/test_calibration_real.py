@@ -683,6 +683,28 @@ def test_a_gyro_file_that_starts_later_keeps_the_sample_index_sections_on_their_
             assert "section 'x_p' (rows 540-1270) lies where the log has no sample" in err, err
 
 
+@pytest.mark.parametrize("change, named", [(10, "+6.0% off"), (-50, "-12.0% off")])
+def test_rows_repeated_or_lost_inside_a_turn_of_a_log_without_time_are_named(tmp_path, capsys, change, named):
+    """imucal's session without its counter, 10 rows inside x_rot written twice (a logger's buffer) or 50 lost, and
+    its section list made on the log as it is: the closed form integrated x_rot 6 % long or 12 % short, K_xx 62.40
+    or 51.79 for imucal's 58.89 (375 / 762 std) with exit 0 — the gyro's turns between the poses, which check the
+    rotation angle, were left out when no common factor on K_g carried gravity ('the rotation angle -360° is
+    taken as stated'). A factor per axis does (the others 0.997): x_rot is named."""
+    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    rows = [r.split(",", 1)[1] for r in rows]  # no n_samples counter
+    at = 6950  # inside x_rot (6770-7093)
+    rows = rows[:at] + rows[at - change : at] + rows[at:] if change > 0 else rows[: at + change] + rows[at:]
+    f = tmp_path / "log.csv"
+    f.write_text("\n".join([head.split(",", 1)[1], *rows]) + "\n")
+    secs = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    moved = {n: {k: i + change * (i >= at) for k, i in v.items()} for n, v in secs.items()}
+    (tmp_path / "s.json").write_text(json.dumps(moved))
+    args = ["calibrate", "accel", str(f), *EXAMPLE[3:], "--method", "ferraris", "--sections", str(tmp_path / "s.json")]
+    _run(tmp_path, args, code=2)
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"over x_rot is {named}" in err and "rows lost or repeated" in err and "--sections" in err, err
+
+
 def test_a_drifting_accelerometer_is_refused_on_the_default_route(tmp_path, capsys):
     """imucal's session with acc_z drifting by 0.1 m/s² over its 101 s (warm-up), no --method: the automatic
     threshold takes the most rests whose fit has an acceptable χ², so it left out the two last rests, the ones that

@@ -1624,6 +1624,24 @@ def _check_pose_turns(pt, stated: float, rate: float) -> None:
     )
 
 
+def _check_pose_turn_axes(pt, stated: float) -> None:
+    """Refuse a Ferraris fit one of whose rotation sections scaled its gyro axis off what carries gravity from pose
+    to pose (:func:`ferraris.pose_turn_axes`, where no common factor does); ``stated`` deg."""
+    off = pt.off()
+    if not off:
+        return
+    j = max(off, key=lambda k: abs(pt.factors[k] - 1.0))
+    a = "xyz"[j]
+    others = ", ".join(f"{'xyz'[k]} ×{pt.factors[k]:.4f}" for k in range(3) if k != j)
+    raise OptinavError(
+        f"the gyro's turns between the {pt.transitions + 1} poses need K_{a}{a} ×{pt.factors[j]:.4f} (± "
+        f"{pt.std[j]:.2g}; {others}) to carry gravity from pose to pose: the turn integrated over {a}_rot is "
+        f"{1.0 / pt.factors[j] - 1.0:+.1%} off the stated {stated:g}° — rows lost or repeated inside it (a log "
+        "without time stamps or a sample counter cannot show them), or a section that misses part of its turn",
+        f"check the rows of {a}_rot in the log, and that the section runs from rest to rest (--sections)",
+    )
+
+
 def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
     the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, flat at the log's extreme
@@ -1862,6 +1880,8 @@ def _ferraris(
     pose_turn = ferraris.pose_turns(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, gyro_clipped)
     if pose_turn:
         _check_pose_turns(pose_turn, stated, 1.0 / step_s)
+    elif axes := ferraris.pose_turn_axes(fc.gyr_K, fc.gyr_b, t, dirs, gyro, poses, gyro_clipped):
+        _check_pose_turn_axes(axes, stated)  # (no axis off: the axes' turns checked the angle)
     elif unseen := [r["name"] for r in turns if not np.isfinite(r["acc_turn_deg"])]:
         # a file of cut sections with the turns about vertical axes: --rotation-angle 180 for imucal's 360° turns
         # doubled K_g with exit 0 and no word (the angle is what the closed form scales K_g by)

@@ -1068,16 +1068,24 @@ class PoseTurns(NamedTuple):
         return max(MAX_POSE_TURN, MIN_POSE_TURN_SIGMA * self.std)
 
 
-def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
-    """The gyro (raw, K raw per rad/s, b raw) over the motions between consecutive still poses (``poses`` (P, 2)
-    sample ranges in time order, ``acc_dirs`` (P, 3) their unit gravity directions in the body) must turn gravity
-    from one pose's direction to the next's: the factor λ (K_g → λ·K_g) that does it best. The closed form takes
-    each rotation section as exactly the stated angle, whatever was turned (imucal's session with
-    --rotation-angle -330 gave K_g 9 % off at 530 std, exit 0); the poses' own turns tell. Transitions with a time
-    gap (a log of cut sections) or a clipped gyro sample (``clipped`` (N,) bool rows) are left out; None under two
-    transitions or when they turn gravity by < 30°."""
-    from scipy.optimize import minimize_scalar
+class PoseTurnAxes(NamedTuple):
+    """Per gyro axis j the factor λ_j (row j of K_g → λ_j × it) that, with the others', carries gravity from pose
+    to pose through the gyro's turns where no common factor does (:func:`pose_turn_axes`), their std and the
+    transitions used."""
 
+    factors: np.ndarray
+    std: np.ndarray
+    transitions: int
+
+    def off(self) -> list[int]:
+        """The axes whose factor is beyond MAX_POSE_TURN and MIN_POSE_TURN_SIGMA of its std from 1."""
+        limit = np.maximum(MAX_POSE_TURN, MIN_POSE_TURN_SIGMA * self.std)
+        return [j for j in range(3) if abs(self.factors[j] - 1.0) > limit[j]]
+
+
+def _pose_transitions(K, b, t, acc_dirs, gyr, poses, clipped):
+    """(transitions, the ones used, the angles gravity turned through in them) of :func:`pose_turns`, or None
+    under two transitions or when they turn gravity by < 30°."""
     from .transitions import Transitions
 
     t = np.asarray(t, float)
@@ -1093,7 +1101,6 @@ def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
     if not keep:
         return None
     u = np.asarray(acc_dirs, float)
-    K, b = np.asarray(K, float), np.asarray(b, float)
     tr = Transitions(t, np.asarray(gyr, float), poses, u, "previous", keep)
     # a transition the gyro does not turn through (sections cut and joined end to end) is no evidence
     turned = np.arccos(np.clip(np.einsum("ij,ij->i", tr.u0, tr.u1), -1.0, 1.0))
@@ -1102,6 +1109,54 @@ def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
     turned = turned[used]
     if turned.size < 2 or turned.max() < np.radians(30.0):
         return None
+    return tr, used, turned
+
+
+def pose_turn_axes(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurnAxes | None:
+    """Where no common factor on K_g carries gravity between the poses (:func:`pose_turns` None), a factor per gyro
+    axis that does (within :data:`POSE_TURN_RMS`), else None. One rotation section whose turn was not the stated
+    angle scales its axis alone: 10 rows repeated inside imucal's x_rot (a log without time or counter) gave K_xx
+    6 % high and 50 lost 12 % low with exit 0 — one factor left gravity 4.9 and 11.6° off, the axes' factors
+    0.944 and 1.137 (the others 0.997) carry it within 0.6°, as the right K_g does."""
+    from scipy.optimize import least_squares
+
+    got = _pose_transitions(K, b, t, acc_dirs, gyr, poses, clipped)
+    if got is None:
+        return None
+    tr, used, turned = got
+    K, b = np.asarray(K, float), np.asarray(b, float)
+
+    def res(x: np.ndarray) -> np.ndarray:
+        return tr.residuals(np.exp(x)[:, None] * K, b)[used].ravel()
+
+    r = least_squares(res, np.zeros(3), x_scale=0.1)
+    e = r.fun
+    if np.sqrt(float(e @ e) / turned.size) > POSE_TURN_RMS:
+        return None
+    lam = np.exp(r.x)
+    s2 = float(e @ e) / max(e.size - 3, 1)
+    try:
+        cov = s2 * np.linalg.inv(r.jac.T @ r.jac)
+    except np.linalg.LinAlgError:
+        return None
+    return PoseTurnAxes(lam, lam * np.sqrt(np.maximum(np.diag(cov), 0.0)), int(turned.size))
+
+
+def pose_turns(K, b, t, acc_dirs, gyr, poses, clipped=None) -> PoseTurns | None:
+    """The gyro (raw, K raw per rad/s, b raw) over the motions between consecutive still poses (``poses`` (P, 2)
+    sample ranges in time order, ``acc_dirs`` (P, 3) their unit gravity directions in the body) must turn gravity
+    from one pose's direction to the next's: the factor λ (K_g → λ·K_g) that does it best. The closed form takes
+    each rotation section as exactly the stated angle, whatever was turned (imucal's session with
+    --rotation-angle -330 gave K_g 9 % off at 530 std, exit 0); the poses' own turns tell. Transitions with a time
+    gap (a log of cut sections) or a clipped gyro sample (``clipped`` (N,) bool rows) are left out; None under two
+    transitions or when they turn gravity by < 30°."""
+    from scipy.optimize import minimize_scalar
+
+    got = _pose_transitions(K, b, t, acc_dirs, gyr, poses, clipped)
+    if got is None:
+        return None
+    tr, used, turned = got
+    K, b = np.asarray(K, float), np.asarray(b, float)
 
     def res(lam: float) -> np.ndarray:
         # per transition used C_kᵀu_k − u_{k+1}: ≈ the angle off (rad); each transition's rotation is its own
