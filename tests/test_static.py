@@ -245,6 +245,20 @@ def test_sections_from_imucal_section_list():
         assert (i0, i1) == (sec[n]["start"], sec[n]["end"])  # half-open, as imucal's iloc
 
 
+@pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
+def test_imucal_section_list_the_other_way_round(tmp_path):
+    """imucal's list as pandas writes the table pd.read_json(...).T reads it into ({"start": {name: i0}, "end":
+    {name: i1}}) was refused as "section 'start' has no 'start'/'end' keys"; it is the same sections."""
+    sec = json.loads((DATA / "example_ferraris_session_list.json").read_text())
+    other = tmp_path / "t.json"
+    other.write_text(json.dumps({k: {n: v[k] for n, v in sec.items()} for k in ("start", "end")}))
+    t = np.arange(10376) / 102.4
+    assert (
+        sections_from_list(other, t).as_dict()
+        == sections_from_list(DATA / "example_ferraris_session_list.json", t).as_dict()
+    )
+
+
 @pytest.mark.parametrize(
     "sections, match",
     [

@@ -621,6 +621,15 @@ def _load_sections(sections):
             return rows, "time", any(r[0] for r in rows)
     if isinstance(sections, SectionList):
         return [(n, int(a), int(b)) for n, (a, b) in zip(sections.names, sections.index_ranges)], "index", True
+    if (
+        isinstance(sections, dict)
+        and set(sections) == {"start", "end"}
+        and all(isinstance(v, dict) for v in sections.values())
+        and set(sections["start"]) == set(sections["end"])
+    ):
+        # imucal's section list the other way round, {"start": {name: i0}, "end": {name: i1}} (pandas' to_json of
+        # the table that pd.read_json(...).T reads it into): it named a section 'start' without keys
+        sections = {n: {"start": sections["start"][n], "end": sections["end"][n]} for n in sections["start"]}
     if isinstance(sections, dict):
         rows, kinds = [], set()
         for name, v in sections.items():
