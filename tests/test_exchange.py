@@ -353,6 +353,22 @@ SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"  # ../sh
 DATA = Path(os.environ.get("OPTINAV_SHARED_DATA", SHARED)) / "imucal"
 
 
+@pytest.mark.skipif(not (DATA / "example_ferraris_session.csv").is_file(), reason="imucal data absent")
+def test_a_data_log_given_as_the_calibration_is_named(tmp_path, capsys):
+    """apply's two files swapped (imucal's session given as the calibration, the result as the data) and export of
+    the session said '... holds non-numeric text; pass a file written by imu_tk's CalibratedTriad::save'. A text
+    file of more lines than imu_tk's is named a data log."""
+    log = DATA / "example_ferraris_session.csv"
+    cal = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(log), str(cal), "--rate", "102.4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "holds 10377 lines: a data log, not a calibration" in err, err
+    assert "before the data file" in err and not out.exists()
+    assert main(["export", str(log), "--to", "imucal", "--out", str(tmp_path / "c.json")]) == 2
+    assert "a data log, not a calibration" in capsys.readouterr().err
+
+
 @pytest.mark.skipif(
     not (DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").is_file(), reason="imucal data absent"
 )

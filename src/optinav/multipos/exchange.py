@@ -133,6 +133,11 @@ def _raw_unit(sensor: str, unit) -> str | None:
     return table.get(key) or table.get(key.lower())
 
 
+#: lines (not blank, not '#') beyond which a text file given as a calibration is a data log: imu_tk's parameter
+#: file holds 9 (T, S, B rows) and writes blank lines between them
+IMU_TK_MAX_LINES = 20
+
+
 def load_calibration(path, gyro_path=None):
     """A :class:`~optinav.multipos.result.CalibrationResult` from optinav's RESULT.json, an imucal JSON or HDF5
     export or an imu_tk accelerometer parameter file (``gyro_path``: imu_tk's gyroscope file). The format is recognised
@@ -182,6 +187,15 @@ def load_calibration(path, gyro_path=None):
             f"{path} is a Kalibr file, which holds no biases (Kalibr estimates them along its "
             "trajectory), so it cannot correct raw data",
             "apply the optinav, imucal or imu_tk calibration it was exported from",
+        )
+    rows = sum(1 for ln in head.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
+    if rows > IMU_TK_MAX_LINES:
+        # a data log given as the calibration (apply's two files swapped) was told it 'holds non-numeric text;
+        # pass a file written by imu_tk's CalibratedTriad::save'
+        raise OptinavError(
+            f"{path} holds {rows} lines: a data log, not a calibration (imu_tk's parameter file holds 9 rows of numbers)",
+            "pass RESULT.json of optinav calibrate accel (run it on this log first), an imucal export or imu_tk's "
+            "parameter file as the calibration — for apply before the data file",
         )
     acc = read_imu_tk(path)
     acc_K, acc_b = from_imu_tk(_imu_tk_params(acc))
