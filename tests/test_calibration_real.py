@@ -292,6 +292,25 @@ def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, ca
         np.testing.assert_allclose(np.degrees(got[f"g{a}"][:50]), ref[f"gyr_{a}"], rtol=0, atol=1e-9)
 
 
+def test_apply_refuses_another_sensors_calibration_by_the_rests(tmp_path, capsys):
+    """imucal's calibration of its example session's sensor applied to another sensor's log in the same units
+    (imucal's annotated session converted at its nominal 2048 counts per g and 16.4 per deg/s): |a| read
+    9.28-10.43 m/s^2 at its rests (the biases 0.5 m/s^2 apart), exit 0 — only the median norm was checked (within
+    x2 of g). The rests' |a| must be g within 0.2 m/s^2 (median); the sensor's own session reads 9.8096-9.8106."""
+    cal = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
+    raw = np.genfromtxt(DATA / "annotated_session.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    acc = np.column_stack([raw[f"acc_{a}"] for a in "xyz"]) / 2048.0 * 9.81
+    gyr = np.column_stack([raw[f"gyr_{a}"] for a in "xyz"]) / 16.4
+    other = tmp_path / "other.csv"
+    t = np.arange(acc.shape[0]) / 204.8
+    np.savetxt(other, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    out = tmp_path / "o.csv"
+    assert main(["--quiet", "apply", str(cal), str(other), "--gyro-unit", "deg/s", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "at the log's 7 rests" in err and "another sensor's" in err, err
+    assert not out.exists()
+
+
 def test_mistakes_on_the_real_session_name_the_flag_that_helps(tmp_path, capsys):
     """Errors that named the wrong flag (helper): acc and gyro columns swapped led to '--acc-unit counts' and then
     to a fit that 'did not converge — pass --method lm' (lm in use); twice the rate named --gyro-unit and the

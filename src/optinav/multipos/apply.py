@@ -95,6 +95,7 @@ def apply_file(result_path, data_path, out, options: ApplyOptions | None = None)
                 left = [name for name, raw, x in pairs if x is None and raw is not None]
             if writer.rows == 0 and acc is not None:
                 _check_corrected_norm(acc, log, data_path, result_path)
+                _check_rest_norm(res, acc, log, data_path, result_path)
                 if gyro is not None:
                     _check_corrected_gyro(res, acc, gyro, log, data_path, result_path)
             if writer.rows == 0 and gyro is not None and o.gyro_unit is None:
@@ -136,6 +137,51 @@ def _check_corrected_norm(acc, log, data_path, result_path) -> None:
             f"first {acc.shape[0]} samples), not about g: the data's raw unit ({log.acc_input_unit or 'unstated'}) "
             "is not the one the calibration was made for",
             "state the data's unit with --acc-unit (counts, g, mg, m/s^2), or apply the calibration of this sensor",
+        )
+
+
+#: the corrected |a| of the first block's rests may differ from the calibration's g by this much (m/s², the median
+#: over the rests: a vehicle's steady acceleration found as a rest is one of many; and REST_NORM_RESIDUALS × the
+#: calibration's own residual) before the calibration is taken for another sensor's: imucal's example
+#: calibration on its own session 0.0004 (rests 9.8096-9.8106), on another sensor's log in the same units
+#: (imucal's annotated session at its nominal 2048 counts per g) 0.47 (9.28-10.43). A MEMS bias that moved with
+#: temperature by 10-20 mg stays below it
+REST_NORM_MAX = 0.2
+REST_NORM_RESIDUALS = 10.0
+#: rests needed to judge by, found in at most the first REST_NORM_ROWS rows (the static detection of a block of
+#: 200 000 rows takes 0.25 s)
+REST_NORM_MIN_RESTS = 3
+REST_NORM_ROWS = 65536
+
+
+def _check_rest_norm(res, acc, log, data_path, result_path) -> None:
+    """The corrected specific force must read g at the log's rests (those of its first block): a calibration of
+    another sensor of the same units (biases 0.5 m/s² apart) read 9.28-10.43 m/s² at rest with exit 0, passing
+    the check of the median norm (within ×2)."""
+    from optinav.core.units import G_STANDARD
+    from optinav.multipos.static import detect_static
+
+    n = min(acc.shape[0], REST_NORM_ROWS)
+    ok = np.isfinite(acc[:n]).all(axis=1)
+    if log.t is None or np.count_nonzero(ok) < 100:
+        return
+    try:
+        det = detect_static(log.t[:n][ok], acc[:n][ok])
+    except OptinavError:
+        return  # too short or too irregular to find rests in: the median check above is what remains
+    if len(det.counts) < REST_NORM_MIN_RESTS:
+        return
+    norms = np.linalg.norm(np.asarray(det.acc_means, float), axis=1)
+    g = float(res.gravity) if np.isfinite(res.gravity) else G_STANDARD
+    slack = 0.0 if np.isfinite(res.gravity) else 0.03  # a local g the file does not state: 9.78-9.83
+    off = float(np.median(np.maximum(np.abs(norms - g) - slack, 0.0)))
+    residual = float(res.residual_rms) if np.isfinite(res.residual_rms) else 0.0
+    if off > max(REST_NORM_MAX, REST_NORM_RESIDUALS * residual):
+        raise OptinavError(
+            f"{Path(result_path).name} applied to {Path(data_path).name} reads |a| = {norms.min():.4g}-"
+            f"{norms.max():.4g} m/s^2 at the log's {norms.size} rests, {off:.2g} m/s^2 off g = {g:.5g} (median; "
+            f"the calibration's own residual {residual:.2g}): the calibration is another sensor's, or its biases moved",
+            "apply the calibration of this sensor, or calibrate it again",
         )
 
 
