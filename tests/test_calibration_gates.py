@@ -883,6 +883,19 @@ def test_gravity_outside_earths_range_is_named_with_its_bounds(g):
         assert local_gravity(ok) == (ok, "given")
 
 
+def test_a_latitude_that_reads_as_radians_too_is_named():
+    """--latitude 0.86 (imucal's Erlangen, 49.3°, in radians) gave normal gravity 9.7803 for 9.8103 — every
+    accelerometer scale 0.3 % off (12-16 std on imucal's session) with only 'normal gravity at 0.86°' said. A
+    latitude within ±π/2 degrees names its reading as radians; 49.6° and the equator say nothing more."""
+    from optinav.multipos.calibrate import local_gravity
+
+    g, how = local_gravity(lat=np.radians(0.86))
+    assert g == pytest.approx(9.7803, abs=1e-4)
+    assert "if 0.86 is the latitude in radians, it is 49.27°: --latitude takes degrees" in how, how
+    for deg in (49.6, 0.0, -12.0, 1.6):
+        assert "radians" not in local_gravity(lat=np.radians(deg))[1]
+
+
 @pytest.mark.parametrize("axis", [0, 2])
 def test_a_drifting_accelerometer_bias_is_noted_with_its_size(axis):
     """An accelerometer bias drifting linearly by 2 mg over the session: the fit reports the session's mean bias
