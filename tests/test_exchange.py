@@ -444,6 +444,28 @@ def _imu_tk_text(T, S, B) -> str:
     return "\n".join(rows[:3]) + "\n\n" + "\n".join(rows[3:]) + "\n\n" + "\n".join(f"{v:g}" for v in B) + "\n\n"
 
 
+def test_export_of_one_imu_tk_file_to_imucal_or_kalibr_names_the_other_file(tmp_path, capsys):
+    """imu_tk's gyroscope file given to export as RESULT, or its accelerometer file without --gyro-cal, to imucal
+    or Kalibr (both need both triads) were told 'calibrate with gyroscope data, or export the accelerometer to
+    imu_tk': the pair exists, --gyro-cal is what is missing. With it, imucal's file holds imu_tk's numbers."""
+    m = float(np.radians(1.0))
+    Ta = np.array([[1.0, -m, m], [0.0, 1.0, -m], [0.0, 0.0, 1.0]])
+    Tg = np.array([[1.0, -m, m], [m, 1.0, -m], [-m, m, 1.0]])
+    acc_f, gyro_f = tmp_path / "acc.calib", tmp_path / "gyro.calib"
+    acc_f.write_text(_imu_tk_text(Ta, np.diag([1.05, 0.98, 1.02]), np.array([0.12, -0.08, 0.05])))
+    gyro_f.write_text(_imu_tk_text(Tg, np.diag([1.05, 1.01, 0.97]), np.array([0.002, -0.001, 0.003])))
+    for fmt, out in (("imucal", "c.json"), ("kalibr", "imu.yaml")):
+        assert main(["export", str(gyro_f), "--to", fmt, "--out", str(tmp_path / out)]) == 2
+        err = capsys.readouterr().err
+        assert "gyro.calib has six misalignments (imu_tk's gyroscope form" in err and "--gyro-cal" in err, err
+        assert main(["export", str(acc_f), "--to", fmt, "--out", str(tmp_path / out)]) == 2
+        err = capsys.readouterr().err
+        assert f"acc.calib is imu_tk's accelerometer file alone, and {fmt} needs" in err and "--gyro-cal" in err
+    both = ["--quiet", "export", str(acc_f), "--gyro-cal", str(gyro_f), "--to", "imucal"]
+    assert main([*both, "--out", str(tmp_path / "c.json")]) == 0
+    assert main(["--quiet", "export", str(acc_f), "--to", "imu_tk", "--out", str(tmp_path / "a2.calib")]) == 0
+
+
 def test_apply_imu_tk_pair_is_imu_tks_model_and_refuses_the_files_mixed_up(tmp_path, capsys):
     """imu_tk's own files (accelerometer T upper triangular, gyroscope T full; scale 1.05, misalignments 1°) on
     SI data: apply gives imu_tk's x' = T·S·(raw − B) of each triad (computed here from the file's numbers). The

@@ -86,9 +86,9 @@ def run(args) -> int:
     gyro_out = output_path(args.gyro_out, option="--gyro-out", mark=mark) if args.gyro_out else None
     if gyro_out is not None and gyro_out.resolve() == out.resolve():
         raise OptinavError("--gyro-out and --out name the same file", "give the gyroscope file another name")
-    from optinav.multipos.exchange import export_calibration, load_calibration
+    from optinav.multipos.exchange import export_calibration, load_export_source
 
-    res = load_calibration(args.result, args.gyro_cal)
+    res = load_export_source(args.result, args.gyro_cal, args.to)
     noise = None
     if args.noise:
         from optinav.core.allan import AllanAnalysis

@@ -255,6 +255,29 @@ def imu_tk_triangular(params: dict) -> bool:
     )
 
 
+def load_export_source(path, gyro_path, fmt: str):
+    """:func:`load_calibration` for ``optinav export --to fmt``: an imu_tk file given alone is read as the
+    accelerometer's, which imucal and Kalibr cannot take alone; they were told to 'calibrate with gyroscope data',
+    for imu_tk's gyroscope file too (given as RESULT) and for its accelerometer file, which only lacks --gyro-cal.
+    (--to imu_tk writes a file given alone back as it is.)"""
+    from optinav.multipos.convert import read_imu_tk
+
+    res = load_calibration(path, gyro_path)
+    if res.method != "imu_tk" or gyro_path is not None or fmt not in ("imucal", "kalibr"):
+        return res
+    if not imu_tk_triangular(read_imu_tk(path)):
+        raise OptinavError(
+            f"{Path(path).name} has six misalignments (imu_tk's gyroscope form; imu_tk writes the accelerometer's "
+            f"three), and {fmt} needs both triads",
+            "pass imu_tk's accelerometer file as RESULT and this one with --gyro-cal (an accelerometer file with six "
+            "misalignments: add its gyroscope file with --gyro-cal)",
+        )
+    raise OptinavError(
+        f"{Path(path).name} is imu_tk's accelerometer file alone, and {fmt} needs the gyroscope's calibration too",
+        "add imu_tk's gyroscope file with --gyro-cal, or export to imu_tk",
+    )
+
+
 def check_imu_tk_alone(path, data_path) -> None:
     """Refuse an imu_tk file with six misalignments (imu_tk's gyroscope form) given alone, without --gyro-cal,
     for data that hold a gyroscope: taken as the accelerometer calibration, imu_tk's gyroscope file corrected
