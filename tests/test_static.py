@@ -245,6 +245,17 @@ def test_sections_from_imucal_section_list():
         assert (i0, i1) == (sec[n]["start"], sec[n]["end"])  # half-open, as imucal's iloc
 
 
+def test_sample_indices_written_as_pairs_are_named(tmp_path):
+    """imucal's section list written as pairs ({"x_p": [540, 1271]}) is read in seconds, and was refused only as
+    'outside the log; give times in seconds'; the error now shows how sample indices are written."""
+    t = np.arange(10376) / 102.4
+    with pytest.raises(OptinavError, match=r'outside the log .* \{"x_p": \{"start": 540, "end": 1271\}\}'):
+        sections_from_list({"x_p": [540, 1271]}, t)
+    with pytest.raises(OptinavError) as e:
+        sections_from_list({"x_p": [540.5, 1271]}, t)  # not whole: no such hint
+    assert "start" not in str(e.value)
+
+
 @pytest.mark.skipif(not DATA.is_dir(), reason="shared imucal data not available")
 def test_imucal_section_list_the_other_way_round(tmp_path):
     """imucal's list as pandas writes the table pd.read_json(...).T reads it into ({"start": {name: i0}, "end":

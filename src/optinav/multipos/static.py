@@ -28,6 +28,8 @@ about the vertical; pass ``gyro`` to exclude such turns.
 
 from __future__ import annotations
 
+import json
+
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -716,9 +718,18 @@ def sections_from_list(sections, t) -> SectionList:
                 raise OptinavError(f"{label} has start {a:g} s ≥ end {b:g} s", "give start < end in seconds")
             tol = 1e-9 * max(1.0, abs(t[-1]))
             if a < t[0] - tol or b > t[-1] + tol:
+                # [540, 1271] for imucal's x_p were sample indices written as a pair, read as seconds
+                rows = float(a).is_integer() and float(b).is_integer() and 0 <= a < b <= N
                 raise OptinavError(
                     f"{label} [{a:g}, {b:g}] s is outside the log [{t[0]:g}, {t[-1]:g}] s",
-                    "give times in seconds on the log's time axis",
+                    "give times in seconds on the log's time axis"
+                    + (
+                        " (sample indices are written as imucal's list writes them: "
+                        + json.dumps({name or "NAME": {"start": int(a), "end": int(b)}})
+                        + ")"
+                        if rows
+                        else ""
+                    ),
                 )
             i0 = int(np.searchsorted(t, a - tol, side="left"))
             i1 = int(np.searchsorted(t, b + tol, side="right"))
