@@ -455,6 +455,19 @@ def test_a_delimiter_that_splits_nothing_is_a_one_line_error(tmp_path, capsys):
     assert err.count("\n") == 1 and "no column of numbers" in err and "--delimiter" in err
 
 
+def test_rows_written_twice_are_named_not_unsorted(tmp_path):
+    """imucal's session with a time column and 10 rows inside x_rot written twice (a logger's buffer) was told
+    'is not sorted ...; sort the samples by time', which leaves ten duplicated stamps: the repeat is named, as in
+    any log (here 30 rows at 100 Hz repeated)."""
+    n = 3000
+    body = "".join("{},0,0,9.81,0,0,0\n" for _ in range(n + 30))
+    t = np.r_[np.arange(1000), np.arange(970, 1000), np.arange(1000, n)] * 0.01
+    with pytest.raises(
+        OptinavError, match=r"the 30 rows from there repeat the stamps from 9.7 s .*; drop the repeated"
+    ):
+        read_imu(_w(tmp_path / "twice.csv", "t,ax,ay,az,gx,gy,gz\n" + body.format(*t)))
+
+
 def test_a_time_step_back_is_named_for_what_it_is(tmp_path, capsys):
     """A wrapping µs counter (an Arduino's micros() after 71.6 min) or a second recording appended was met with
     'sort the samples by time', which would scramble the log: the error names the wrap (with the unwrap) or the

@@ -84,6 +84,17 @@ def _backwards(t: np.ndarray, i: int) -> tuple[str, str]:
             f" (a jump back by {back:.6g} s, {back / step:.3g} steps: a second recording or a clock reset)",
             "cut the log at that sample and read each part alone",
         )
+    # rows written twice (a logger's buffer): the stamps after the step repeat earlier ones, which sorting would
+    # only make duplicates of ('sort the samples by time' for 10 repeated rows of imucal's session)
+    k = int(np.searchsorted(t[: i + 1], t[i + 1]))
+    n = 0
+    while i + 1 + n < t.size and k + n <= i and t[k + n] == t[i + 1 + n]:
+        n += 1
+    if n >= 2:
+        return (
+            f": the {n} rows from there repeat the stamps from {t[k]:.6g} s (rows written twice)",
+            "drop the repeated rows",
+        )
     return "", "sort the samples by time"
 
 
