@@ -1244,16 +1244,10 @@ def test_magnetometer_rows_of_zeros_are_no_sample(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("sensor", "columns", "signs", "first"),
-    [
-        ("acc", [0, 1, 2], [-1, 1, 1], "acc"),
-        ("acc", [1, 0, 2], [1, 1, 1], "acc"),
-        ("gyr", [0, 1, 2], [1, -1, -1], "gyr"),
-    ],
+    ("sensor", "columns", "signs"),
+    [("acc", [0, 1, 2], [-1, 1, 1]), ("acc", [1, 0, 2], [1, 1, 1]), ("gyr", [0, 1, 2], [1, -1, -1])],
 )
-def test_an_accelerometer_read_as_a_mirror_image_is_named_beside_the_gyro(
-    tmp_path, capsys, sensor, columns, signs, first
-):
+def test_an_accelerometer_read_as_a_mirror_image_is_named_beside_the_gyro(tmp_path, capsys, sensor, columns, signs):
     """A gyro that reads a rotation of the accelerometer's axes (two flipped, or a cyclic order) reads so as well
     beside an accelerometer with one axis negated or two swapped (a mirror image: a rotation is a pseudovector).
     The message named only the gyro: BROAD 02 with its accelerometer's x negated was told 'gyro y reads -y, gyro z
