@@ -2169,6 +2169,12 @@ MAG_TURN_OFFSET_PIECES = 4
 MAG_TURN_OFFSET_STEP = 0.2
 #: the offset has no part along a direction whose singular value is under this share of the largest
 MAG_TURN_OFFSET_RCOND = 0.1
+#: the field less the offset must keep its norm within this share (std / median over the log's 0.1-s bins, rests
+#: included): an offset on the board all along leaves 1-5 % on the nine BROAD trials with one of 1-20x the field
+#: added (9 % on 29, beside a magnet); BROAD 33 cut at 95 s — the magnet put on at 40 s, in the rest before the
+#: motion, there through all of it — was refused online (27 %; online iframe 1.02 deg as it is, its disturbance
+#: handling fits the magnet's offset while it is on)
+MAG_TURN_OFFSET_STEADY = 0.1
 #: the gyro-scale check's factor from which a gyro off by it is named rather than an offset
 MAG_TURN_OFFSET_FACTOR = 0.5
 #: the field less the offset must keep more than this share of the offset's norm (a field of 50× the Earth's is no
@@ -2210,9 +2216,14 @@ def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.nda
             keep = res <= 3.0 * np.median(res)
     e0, e1 = np.sum(r0[keep] ** 2, axis=1), res[keep] ** 2
     explained = 1.0 - float(e1.sum()) / max(float(e0.sum()), 1e-300)
-    left, nb = float(np.nanmedian(_norm(m - b))), float(np.linalg.norm(b))
+    kept = _norm(m - b)
+    left, nb = float(np.nanmedian(kept)), float(np.linalg.norm(b))
     # b = the field itself explains a field stuck at one value: nothing is left of it (check_mag_turns names that)
     if explained < MAG_TURN_OFFSET_EXPLAINED or not MAG_TURN_OFFSET_LEFT * nb < left < nb / MAG_OFFSET:
+        return None
+    # an offset on the board all along leaves the field less it steady at every row, the still ones too: a magnet
+    # put on while the body rested, there through all the motion, explains the turning but not the field before it
+    if float(np.nanstd(kept)) > MAG_TURN_OFFSET_STEADY * left:
         return None
     # each piece holding an equal share of the turning b predicts must be explained by it too, every step counted
     # (where a magnet on the board has gone, the trimmed steps are those the offset fails)
