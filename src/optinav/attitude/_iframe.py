@@ -1002,8 +1002,8 @@ def _hf_stats(fs, b0, b1, b2):
 def _hf_solve(fs):
     """Solve the online fit from its moments and judge it with the gates of ``checks.hard_iron`` (norm spread
     beyond MAG_SPREAD, halved by the offset, which is beyond MAG_OFFSET of the field), every body axis seen
-    (the field's spread beyond MAG_SEEN_SPREAD along each: an axis not yet turned about leaves the offset along
-    it unknown) and the field less the offset as steady as a calibrated one (its norm's spread at most
+    (the field's spread beyond MAG_SEEN_SPREAD of its fitted radius along each: an axis not yet turned about
+    leaves the offset along it unknown) and the field less the offset as steady as a calibrated one (its norm's spread at most
     MAG_SPREAD). Spreads from the moments: std |m − b| ≈ std |m − b|² / (2 mean |m − b|²). Sets the offset and
     returns True when it passes; else leaves the last one."""
     n = fs[HF_N]
@@ -1021,7 +1021,8 @@ def _hf_solve(fs):
     C[0, 1] = C[1, 0] = fs[HF_MM + 3] / n - m0 * m1
     C[0, 2] = C[2, 0] = fs[HF_MM + 4] / n - m0 * m2
     C[1, 2] = C[2, 1] = fs[HF_MM + 5] / n - m1 * m2
-    if np.linalg.eigvalsh(C)[0] <= (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * mz0:
+    low = np.linalg.eigvalsh(C)[0]
+    if not low > 1e-12 * mz0:  # not turned at all about one axis: no fit
         return False
     yb = fs[HF_Y] / n
     cy = np.array([fs[HF_YM] / n - m0 * yb, fs[HF_YM + 1] / n - m1 * yb, fs[HF_YM + 2] / n - m2 * yb])
@@ -1029,7 +1030,11 @@ def _hf_solve(fs):
     d = np.linalg.solve(C, 0.5 * cy)
     b0, b1, b2 = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
     r2, vz1 = _hf_stats(fs, b0, b1, b2)
-    if not r2 > 0.0:
+    # every axis turned about by MAG_SEEN_SPREAD of the field, r, not of |m|, which the offset inflates (BROAD 02
+    # with (100, -80, 60) µT never passed: refused, though the offset is fitted within 0.5 µT). A wrong offset δ
+    # along an axis the field spreads σ along leaves |m − b| spread by about δσ/r², so with the spread gate below
+    # δ stays under 0.03 r² / σ < 0.2 r
+    if not (r2 > 0.0 and low > (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * r2):
         return False
     s1 = math.sqrt(max(vz1, 0.0)) / (2.0 * r2)
     if not (s1 < 0.5 * s0 and s1 <= HF_MAG_SPREAD and b0 * b0 + b1 * b1 + b2 * b2 > HF_MAG_OFFSET**2 * r2):

@@ -1642,19 +1642,21 @@ def _hard_iron_rows(m: np.ndarray) -> tuple[np.ndarray, float, float] | None:
         return b, r2, float(np.std(_norm(m - b)) / np.sqrt(r2))
 
     seen = spread > MAG_SEEN_SPREAD
-    if not seen.any():
-        return None
-    b, r2, s1 = fit(V[:, seen])
+    b, r2, s1 = fit(V[:, seen] if seen.any() else V)
     # the spreads are of |m|, which the offset inflates: an axis turned about by less than MAG_SEEN_SPREAD of |m|
     # may be turned about by more of the field itself (BROAD 07 with +30 µT on x and 5 % soft iron: 14.7 % of |m|,
     # 18 % of the field; the offset fitted without it left the norm's 12 % spread unexplained, nothing was said and
-    # the heading was 52° off with exit 0). Such an axis joins when the fit with it leaves the norm as steady as a
-    # calibrated field's (a wrong offset along an axis that turns little would not: see _iframe._hf_solve)
+    # the heading was 52° off with exit 0; with (100, -80, 60) µT no axis was seen: 119°). Such an axis joins when
+    # the fit with it leaves the norm as steady as a calibrated field's (a wrong offset along an axis that turns
+    # little would not: see _iframe._hf_solve)
     more = spread * float(np.median(_norm(m))) / np.sqrt(r2) > MAG_SEEN_SPREAD
-    if not s1 < s0 / 2 and (more & ~seen).any():
+    if not (seen.any() and s1 < s0 / 2) and (more & ~seen).any():
         got = fit(V[:, more])
         if got[2] <= MAG_SPREAD:
             b, r2, s1 = got
+            seen = more
+    if not seen.any():
+        return None
     # a disturbance (a magnet passing, steel nearby) is no constant offset: the fit does not explain it
     return (b, s0, s1) if s1 < s0 / 2 and np.linalg.norm(b) > MAG_OFFSET * np.sqrt(r2) else None
 
