@@ -360,6 +360,20 @@ def test_an_offset_larger_than_the_field_is_fitted(name, offset):
     assert head(off) < 2.5
 
 
+@pytest.mark.parametrize("name", ["02", "03", "24"])
+def test_the_whole_recordings_offset_does_not_depend_on_the_offset(name):
+    """The sphere fit is the same wherever the offset puts the sphere: (100, -80, 60) µT less the fit is +30 µT on x
+    less its fit within 0.01 µT. The axes were judged turned about against the radius of a fit along the axes
+    turned by 15 % of |m| only, which keeps the offset along the others: no offset was seen on the rows, and the
+    recording's distinct fields gave one 0.3-0.7 µT from the +30 µT fit's."""
+    p = next((q for q in NINE if q.name.startswith(name + "_")), None)
+    if p is None:
+        pytest.skip(f"BROAD trial {name} is not present")
+    mag = load_broad(p).mag
+    big, small = np.array([100.0, -80.0, 60.0]), np.array([30.0, 0.0, 0.0])
+    np.testing.assert_allclose(hard_iron(mag + big)[0] - big, hard_iron(mag + small)[0] - small, atol=0.01)
+
+
 def test_an_offset_after_a_long_rest_is_not_diluted_out_of_sight():
     """A logger left at rest for 10 min before the motion (BROAD 02's first 5 s of rest repeated, then the trial)
     with +30 µT on body x: the norm's and the field's spreads were taken over the rows, which the rest outnumbers

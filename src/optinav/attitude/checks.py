@@ -1649,8 +1649,9 @@ def _hard_iron_rows(m: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     # the heading was 52° off with exit 0; with (100, -80, 60) µT no axis was seen: 119°). Such an axis joins when
     # the fit with it leaves the norm as steady as a calibrated field's (a wrong offset along an axis that turns
     # little would not: see _iframe._hf_solve)
-    more = spread * float(np.median(_norm(m))) / np.sqrt(r2) > MAG_SEEN_SPREAD
-    if not (seen.any() and s1 < s0 / 2) and (more & ~seen).any():
+    r2_all = r2 if seen.all() else fit(V)[1]  # a fit along fewer axes leaves the offset along the others in r
+    more = spread * float(np.median(_norm(m))) / np.sqrt(r2_all) > MAG_SEEN_SPREAD
+    if (more & ~seen).any():
         got = fit(V[:, more])
         if got[2] <= MAG_SPREAD:
             b, r2, s1 = got
