@@ -430,6 +430,38 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
     )
 
 
+def test_a_batch_row_says_the_hard_iron_offset_and_from_which_sample(tmp_path):
+    """``optinav batch attitude --mag`` on an uncalibrated magnetometer (trial 02's first 40 000 rows, +30 µT on x):
+    the row said nothing of the offset subtracted nor that the heading was the gyro's until the online fit passed
+    (the summary line of ``optinav attitude`` says both). It now holds the offset (``mag_hard_iron_x/y/z``, the
+    magnetometer's unit) and ``mag_hard_iron_from``, those of the estimate in memory; offline the offset fitted
+    from the recording; a calibrated magnetometer leaves them empty."""
+    from optinav.batch import read_results
+    from optinav.cli.main import main
+
+    tr = load_broad(PATH)
+    n = 40000
+    d = tmp_path / "units"
+    d.mkdir()
+    for name, off, k in (("raw", [30.0, 0.0, 0.0], n), ("calibrated", [0.0, 0.0, 0.0], 5000)):
+        rows = np.column_stack([np.arange(k) * tr.dt, tr.gyr[:k], tr.acc[:k], tr.mag[:k] + off])
+        np.savetxt(
+            d / f"{name}.csv", rows, delimiter=",", header="t,gx,gy,gz,ax,ay,az,mx,my,mz", comments="", fmt="%.9g"
+        )
+    back = np.loadtxt(d / "raw.csv", delimiter=",", skiprows=1)
+    for extra in ([], ["--offline"]):
+        out = tmp_path / f"b{len(extra)}.csv"
+        argv = ["--quiet", "batch", "attitude", str(d), "--frame", "ENU", "--mag", "--workers", "0", *extra]
+        assert main([*argv, "--out", str(out)]) == 0
+        got = {r["unit"]: r for r in read_results(out)}
+        mem = estimate(back[:, 1:4], back[:, 4:7], tr.dt, frame="ENU", mag=back[:, 7:10], offline=bool(extra))
+        raw = got["raw"]
+        np.testing.assert_allclose([raw[f"mag_hard_iron_{a}"] for a in "xyz"], mem.mag_hard_iron, atol=1e-6)
+        assert raw.get("mag_hard_iron_from") == mem.mag_hard_iron_from == (None if extra else 29951), raw
+        cal = got["calibrated"]
+        assert all(cal.get(k) is None for k in ("mag_hard_iron_x", "mag_hard_iron_from")), cal
+
+
 def test_a_wrong_given_hard_iron_offset_is_refused(tmp_path, capsys):
     """--mag-hard-iron was subtracted unchecked: trial 02 given 20,-10,5 (its magnetometer calibrated) gave a 39° RMS
     heading with exit 0, online and offline; +30 µT given with the wrong sign was taken as well. Now the field less

@@ -110,6 +110,7 @@ _EXTRA_TYPES = {
     "offline": "bool",
     "input_stage": "bool",
     "mag": "bool",
+    "mag_hard_iron_from": "int",
 }
 
 

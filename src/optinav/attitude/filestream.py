@@ -98,6 +98,10 @@ class StreamedEstimate:
     gates: list = field(default_factory=list)
     input_stage: bool = True  # gd/cg/qn/mekf: behind iframe's input stage (False: as published)
     offline: bool = False
+    #: the hard-iron offset subtracted from the magnetometer (its unit; given, fitted from the log or fitted online),
+    #: and the row from which the field was used less the one fitted online (None: not fitted online)
+    mag_hard_iron: np.ndarray | None = None
+    mag_hard_iron_from: int | None = None
 
     @property
     def SCHEMA(self) -> str:  # noqa: N802 - the attribute every result has
@@ -874,6 +878,7 @@ def _stream_offline(
     est = StreamedEstimate(
         "iframe", frame, line, acc_threshold_hits=acc_hits, gyr_bias=bias, mag_used=mag_used if src.mag else None,
         mag_rows=mag_rows if src.mag else None, offline=True,
+        mag_hard_iron=None if hard_iron[0] is None or not src.mag else np.asarray(hard_iron[0], float),
     )  # fmt: skip
     if truth is not None:
         est.truth_comparison = truth.result(est, n)
@@ -1333,4 +1338,6 @@ def _estimate(e: StreamEstimator) -> StreamedEstimate:
         mag_used=e.mag_used,
         mag_rows=None if e.mag_used is None else e.mag_rows,
         input_stage=bool(e.input_stage),
+        mag_hard_iron=e.hard_iron_used if e.mag_used is not None else None,
+        mag_hard_iron_from=e.mag_hard_iron_from,
     )

@@ -307,6 +307,13 @@ def run_unit(path, options: AttitudeOptions, reference: bool = False) -> tuple[S
         "input_stage": bool(o.input_stage or _method(o.method, None) == "iframe"),
         "mag": o.uses_mag,
     }
+    # the offset subtracted from an uncalibrated magnetometer, and from which row the field was used less the one
+    # fitted online (the heading the gyro's before it): the summary line says so, the table did not
+    e = run.estimate
+    if e.mag_hard_iron is not None:
+        extra.update(zip(("mag_hard_iron_x", "mag_hard_iron_y", "mag_hard_iron_z"), map(float, e.mag_hard_iron)))
+        if e.mag_hard_iron_from is not None:
+            extra["mag_hard_iron_from"] = int(e.mag_hard_iron_from)
     if run.score is not None:
         inclination, heading, n = run.score
         extra.update(
