@@ -2166,14 +2166,10 @@ def check_mag(
             _warn_soft_iron(mag - given)
             return None
         r, s0, s1 = got
-        total = ",".join(f"{v:.4g}" for v in given + r)
-        raise OptinavError(
-            f"the magnetometer less the given offset [{', '.join(f'{v:.4g}' for v in given)}] still varies by "
-            f"{s0:.0%} (std/median) with the orientation, and a further offset of [{', '.join(f'{v:.4g}' for v in r)}]"
-            f" explains it down to {s1:.1%}: the given offset is wrong (a sign, a unit, another magnetometer's?)",
-            f"give --mag-hard-iron={total} (fitted from this recording; mag_hard_iron= in Python), or drop it and pass "
-            "--offline, which fits and subtracts it",
-        )
+        raise _given_offset_error(
+            given, r, f"still varies by {s0:.0%} (std/median) with the orientation, and a further offset of "
+            f"[{_vec(r)}] explains it down to {s1:.1%}"
+        )  # fmt: skip
     got = hard_iron(mag)
     if got is None:
         _warn_soft_iron(mag)
@@ -2202,13 +2198,34 @@ def online_fit_failed(mag: np.ndarray) -> OptinavError:
 
 def _hard_iron_error(b, s0: float, s1: float, why: str = "") -> OptinavError:
     """The refusal of a magnetometer whose norm a constant offset ``b`` explains (spread ``s0`` down to ``s1``)."""
-    given = ",".join(f"{v:.4g}" for v in b)
+    return _offset_error(
+        b, f"the magnetometer's field norm varies by {s0:.0%} (std/median) with the orientation, and a constant "
+        f"offset of [{_vec(b)}] (its unit) explains it down to {s1:.1%}: an uncalibrated (hard-iron) magnetometer "
+        "turns the heading by up to tens of degrees" + why
+    )  # fmt: skip
+
+
+def _vec(v, sep: str = ", ") -> str:
+    """An offset (3,) as its messages show it, 4 significant digits."""
+    return sep.join(f"{x:.4g}" for x in np.asarray(v, float))
+
+
+def _offset_error(b, what: str) -> OptinavError:
+    """The refusal (``what`` the cause) of a magnetometer that shows a hard-iron offset ``b``, naming it to give."""
     return OptinavError(
-        f"the magnetometer's field norm varies by {s0:.0%} (std/median) with the orientation, and a constant "
-        f"offset of [{', '.join(f'{v:.4g}' for v in b)}] (its unit) explains it down to {s1:.1%}: an uncalibrated "
-        "(hard-iron) magnetometer turns the heading by up to tens of degrees" + why,
-        f"subtract the offset: --mag-hard-iron={given} (fitted from this recording; mag_hard_iron= in Python), or pass "
-        "--offline, which fits and subtracts it",
+        what,
+        f"subtract the offset: --mag-hard-iron={_vec(b, ',')} (fitted from this recording; mag_hard_iron= in Python),"
+        " or pass --offline, which fits and subtracts it",
+    )
+
+
+def _given_offset_error(given, more, still: str) -> OptinavError:
+    """The refusal of a ``given`` offset that leaves the field showing a further offset ``more`` (``still``: how)."""
+    return OptinavError(
+        f"the magnetometer less the given offset [{_vec(given)}] {still}: the given offset is wrong (a sign, a unit, "
+        "another magnetometer's?)",
+        f"give --mag-hard-iron={_vec(np.asarray(given, float) + more, ',')} (fitted from this recording; "
+        "mag_hard_iron= in Python), or drop it and pass --offline, which fits and subtracts it",
     )
 
 
@@ -2310,25 +2327,18 @@ def check_turning_offset(
     if got is None:
         return None
     b, explained = got
-    shown = ", ".join(f"{v:.4g}" for v in b)
     if given is not None:
-        total = ",".join(f"{v:.4g}" for v in np.asarray(given, float) + b)
-        raise OptinavError(
-            f"the magnetometer less the given offset [{', '.join(f'{v:.4g}' for v in given)}] still turns in the body "
-            f"about a point off zero: a further offset of [{shown}] explains {explained:.0%} of what the gyro leaves "
-            "of its turning: the given offset is wrong (a sign, a unit, another magnetometer's?)",
-            f"give --mag-hard-iron={total} (fitted from this recording; mag_hard_iron= in Python), or drop it and pass "
-            "--offline, which fits and subtracts it",
-        )
+        raise _given_offset_error(
+            given, b, f"still turns in the body about a point off zero: a further offset of [{_vec(b)}] explains "
+            f"{explained:.0%} of what the gyro leaves of its turning"
+        )  # fmt: skip
     if offline:
         return b
-    raise OptinavError(
-        f"the magnetic field turns in the body about [{shown}] (its unit), not about zero: that offset explains "
+    raise _offset_error(
+        b, f"the magnetic field turns in the body about [{_vec(b)}] (its unit), not about zero: that offset explains "
         f"{explained:.0%} of what the gyro leaves of its turning; an uncalibrated (hard-iron) magnetometer turns the "
-        "heading by up to tens of degrees",
-        f"subtract the offset: --mag-hard-iron={','.join(f'{v:.4g}' for v in b)} (fitted from this recording; "
-        "mag_hard_iron= in Python), or pass --offline, which fits and subtracts it",
-    )
+        "heading by up to tens of degrees"
+    )  # fmt: skip
 
 
 def still_sums(gyr: np.ndarray, acc: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray]:
