@@ -511,7 +511,7 @@ def test_fit_interval_coverage_full(design, term):
 def test_a_long_white_and_random_walk_record_fits_without_an_internal_error():
     """1 M samples at 1 kHz of white noise and random walk (no flicker): neighbouring estimates correlated to within
     rounding of 1 made the covariance a hair from positive definite, and the fit ended in an internal error
-    (LinAlgError, exit 1; helper). The whitener takes the smallest jitter that factors it; K is recovered."""
+    (LinAlgError, exit 1). The whitener takes the smallest jitter that factors it; K is recovered."""
     rng = np.random.default_rng(0)
     n, dt = 1_000_000, 0.001
     x = rng.standard_normal((n, 3)) * 1e-2 + np.cumsum(rng.standard_normal((n, 3)), axis=0) * 1e-6
@@ -523,7 +523,7 @@ def test_a_long_white_and_random_walk_record_fits_without_an_internal_error():
 
 def test_the_ramp_note_judges_the_ramp_with_the_random_walk_free():
     """Where NNLS held K at 0 the ramp took the random walk's upturn, and its std without K's column made about
-    1 % of ramp-free axes "drift steadily" (helper: seed 1042, 1 h at 100 Hz, z 3.8 on x). With K's column free in
+    1 % of ramp-free axes "drift steadily" (seed 1042, 1 h at 100 Hz, z 3.8 on x). With K's column free in
     the test (``rate_ramp_z``) it is 2.9: no note. A five-point curve fits the four noise terms (it was refused
     as too short for five)."""
     from optinav.core.allan import _ramp_note

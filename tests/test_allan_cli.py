@@ -201,7 +201,7 @@ def test_allan_refuses_an_accelerometer_not_in_m_s2_and_a_moving_log(tmp_path, c
 
 def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
     """A static pose of imucal's real session (gyro in deg/s, no unit stated): read as rad/s its noise density
-    (0.0045 'rad/s/√Hz') would have gone into a Kalibr file with exit 0 (helper); its rest rate (0.7) and noise are
+    (0.0045 'rad/s/√Hz') would have gone into a Kalibr file with exit 0; its rest rate (0.7) and noise are
     beyond any MEMS gyro in rad/s. Stated as deg/s it runs."""
     from pathlib import Path
 
@@ -226,7 +226,7 @@ def test_a_deg_s_gyro_read_as_rad_s_is_named(tmp_path, capsys):
 
 def test_a_moving_log_in_counts_is_refused(tmp_path, capsys):
     """A multi-position session in raw counts gave noise figures with exit 0 (the at-rest check judged only logs
-    in m/s^2; helper): the gravity direction's steadiness needs no unit."""
+    in m/s^2): the gravity direction's steadiness needs no unit."""
     f = tmp_path / "u.csv"
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "4", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "counts", "--seed", "1"]) == 0
@@ -236,7 +236,7 @@ def test_a_moving_log_in_counts_is_refused(tmp_path, capsys):
 
 
 def test_a_short_log_says_its_random_walk_is_not_reliable(tmp_path, capsys):
-    """30-s logs gave a random walk 29-86× the truth with 68 % intervals 10× off it, with no word (helper)."""
+    """30-s logs gave a random walk 29-86× the truth with 68 % intervals 10× off it, with no word."""
     log = tmp_path / "short.csv"
     assert main(["--quiet", "simulate", "static", "--out", str(log), "--hours", "0.01", "--seed", "3"]) == 0
     assert main(["allan", str(log), "--out", str(tmp_path / "a.json")]) == 0
@@ -280,8 +280,8 @@ def test_a_warm_up_ramp_is_fitted_apart_from_the_random_walk_and_named(tmp_path,
 
 def test_a_warm_up_that_settles_early_is_named_not_stationary(tmp_path, capsys):
     """A warm-up that settles in the first minutes (the bias −A·e^(−t/τ), τ = T/20, A = 10·K·√T on x) has no ramp's
-    slope: the fit took it for random walk (K_x 3.3× the truth over 3.6 h, its interval excluding it) with no word
-    (helper). The two halves of the log (here 2 h) now give K apart (99 % intervals), and a note says the noise is
+    slope: the fit took it for random walk (K_x 3.3× the truth over 3.6 h, its interval excluding it) with no word.
+    The two halves of the log (here 2 h) now give K apart (99 % intervals), and a note says the noise is
     not stationary; the ramp-free y and z are not named."""
     from optinav.core.allan import FLICKER_FLOOR
     from optinav.core.imu_model import static_noise
@@ -359,8 +359,8 @@ def test_a_log_that_moves_in_the_middle_is_refused(tmp_path, capsys):
 
 def test_a_raw_log_read_as_si_is_named_raw_counts(tmp_path, capsys):
     """imucal's annotated session holds raw counts (~2048/g, ~16.7/(deg/s)); read as SI, the accelerometer was said
-    to look like mg and the gyro like deg/s, and following either hint ran with exit 0 and noise 2× or 16× off
-    (helper). Whole-number samples name raw counts and --acc-unit/--gyro-unit counts."""
+    to look like mg and the gyro like deg/s, and following either hint ran with exit 0 and noise 2× or 16× off.
+    Whole-number samples name raw counts and --acc-unit/--gyro-unit counts."""
     import os
     from pathlib import Path
 

@@ -429,7 +429,7 @@ def test_streaming_equals_batch(method):
 @pytest.mark.parametrize("method", ["gd", "cg", "qn", "mekf"])
 def test_streaming_filters_take_a_rate_and_chunks_like_iframe(method):
     """make_filter(method, rate_hz=...) refused the rate for gd/cg/qn/mekf ("option 'rate_hz' does not apply")
-    and they had no update_batch, so one streaming loop could not run every method (a helper comparing methods).
+    and they had no update_batch, so one streaming loop could not run every method.
     Now rate_hz/dt give the default step, and chunks of update_batch (polarization included) give the batch
     estimate exactly, as per-sample updates without dt do — with the input stage (default, as estimate's) and
     without."""

@@ -164,7 +164,7 @@ def test_cli_simulate_flight_then_attitude(tmp_path, capsys):
 
 def test_cli_aop_in_radians_declared_degrees_is_named(flight, tmp_path, capsys):
     """An AoP column in rad passed with --aop-unit deg ran to exit 0 with roll/pitch/yaw errors of 37/31/84°
-    (only degrees declared rad were checked; helper). Its values never leave ±π/2 "degrees"."""
+    (only degrees declared rad were checked). Its values never leave ±π/2 "degrees"."""
     d, folder, path, site, times = flight
     data = np.genfromtxt(path, delimiter=",", names=True)
     rad = tmp_path / "aop_rad.csv"
@@ -195,8 +195,8 @@ def test_check_aop_both_ways():
 
 def test_magnetometer_columns_with_units_in_brackets(tmp_path, capsys):
     """A header ``mx [G]`` (the field's unit in brackets, as ``acc_x [g]`` is read) was not found by --mag and the
-    error asked for "--mag-columns X,Y,Z"; ``mag_x [uT]`` was suggested with its brackets, for the shell to quote
-    (helper). Magnetometer names are matched as the other columns are (a unit in brackets, case, spaces), the
+    error asked for "--mag-columns X,Y,Z"; ``mag_x [uT]`` was suggested with its brackets, for the shell to quote.
+    Magnetometer names are matched as the other columns are (a unit in brackets, case, spaces), the
     estimate equal to the same file's without units (Xsens' ``Mag_X [uT]``: by the magnetometer's usual names)."""
     import numpy as np
 
@@ -267,8 +267,8 @@ def test_two_magnetometer_triads_are_for_mag_columns_to_choose(tmp_path, capsys)
 
 def test_magnetometer_and_single_sensor_files_name_the_flag_that_helps(tmp_path, capsys):
     """--mag on an Xsens export (Mag_X, ...) or Physics Toolbox (Bx, ...) listed the file's columns without naming
-    --mag-columns; a phone app's accelerometer-only file was told to use --columns, which cannot add a gyro
-    (helper)."""
+    --mag-columns; a phone app's accelerometer-only file was told to use --columns, which cannot add a gyro.
+    """
     import numpy as np
 
     from optinav.cli.main import main

@@ -68,8 +68,8 @@ def test_cli_report_streams(flight, tmp_path):
 
 
 def test_the_euler_figure_of_a_log_timed_since_the_epoch_starts_at_its_first_sample(tmp_path, monkeypatch):
-    """A time column since the epoch (1.7e9 s) drew an axis labelled "+1.7e9" whose ticks all read the same
-    (helper): the figure's time now runs from the log's first sample, which the axis label states."""
+    """A time column since the epoch (1.7e9 s) drew an axis labelled "+1.7e9" whose ticks all read the same:
+    the figure's time now runs from the log's first sample, which the axis label states."""
     from matplotlib.figure import Figure as MplFigure
 
     from optinav.attitude import estimate
@@ -90,7 +90,7 @@ def test_the_euler_figure_of_a_log_timed_since_the_epoch_starts_at_its_first_sam
 
 
 def test_the_summary_says_how_much_of_the_magnetometer_was_used(tmp_path):
-    """With a magnetometer the report's summary had no line on it (helper); it now gives the share of samples
+    """With a magnetometer the report's summary had no line on it; it now gives the share of samples
     whose field was used, in memory and streamed alike, and none without one."""
     from optinav.reports.attitude_report import attitude_tables
 
@@ -120,7 +120,7 @@ def test_the_summary_says_how_much_of_the_magnetometer_was_used(tmp_path):
 
 def test_the_euler_figure_draws_no_line_across_the_wrap(tmp_path, monkeypatch):
     """A turn at 90 °/s for 20 s wraps the yaw at ±180° five times: the figure drew a vertical line across the
-    panel at each wrap (helper: BROAD trial 02's roll and yaw panels were full of them). Now the line breaks there:
+    panel at each wrap (BROAD trial 02's roll and yaw panels were full of them). Now the line breaks there:
     no two consecutive points drawn are more than 180° apart, and every sample is still drawn but the wraps."""
     from matplotlib.figure import Figure as MplFigure
 
@@ -145,7 +145,7 @@ def test_the_euler_figure_draws_no_line_across_the_wrap(tmp_path, monkeypatch):
 @pytest.mark.parametrize("method", ["gd", "mekf"])
 def test_the_summary_names_the_input_stage(flight, tmp_path, method):
     """gd/cg/qn/mekf with and without --input-stage gave the same summary line and report title ("gd: 1201
-    samples (ned)"; helper comparing methods on BROAD: 0.597° against 0.314° under one label); the line now says
+    samples (ned)"; methods compared on BROAD: 0.597° against 0.314° under one label); the line now says
     it, in memory and streamed alike, and iframe (whose front end is always on) does not."""
     d, path, _ = flight
     dt = np.r_[d.t[1] - d.t[0], np.diff(d.t)]
@@ -184,7 +184,7 @@ def test_the_report_table_and_title_name_the_variant(flight, tmp_path):
 
 
 def test_the_report_gives_the_estimates_time_not_zero(flight, tmp_path):
-    """The attitude report read "_Study `attitude`, 0.0 s._" whatever the estimate took (helper: 4 s on BROAD 02):
+    """The attitude report read "_Study `attitude`, 0.0 s._" whatever the estimate took (4 s on BROAD 02):
     a result's report gives the result's elapsed_s, a streamed run (which keeps no time) none."""
     from optinav.attitude.unit import read_log, steps
 

@@ -393,7 +393,7 @@ def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):
 
 def test_batch_keeps_the_hold_out_check_and_the_notes(tmp_path, capsys):
     """``batch --hold-out K`` fitted every unit without pose K but tabulated nothing of the held-out check, and
-    the notes calibrate prints (a time base off by a factor, turns left out, …) were lost (helper)."""
+    the notes calibrate prints (a time base off by a factor, turns left out, …) were lost."""
     d = tmp_path / "units"
     d.mkdir()
     for seed in (1, 2):
@@ -411,7 +411,7 @@ def test_batch_keeps_the_hold_out_check_and_the_notes(tmp_path, capsys):
 
 def test_an_earlier_batch_table_in_the_folder_is_no_unit(tmp_path, capsys):
     """A results table of an earlier batch (another --out) left in the units folder was taken as a unit and
-    failed the whole lot ('no accelerometer or gyroscope data', exit 1; helper)."""
+    failed the whole lot ('no accelerometer or gyroscope data', exit 1)."""
     d = tmp_path / "units"
     d.mkdir()
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(d / "u1.csv"), "--dwell", "4"]

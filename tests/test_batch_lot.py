@@ -63,7 +63,7 @@ def test_lot_check_flags_the_parameter_that_stands_out_and_keeps_the_unit_ok():
 
 def test_lot_check_compares_units_of_the_same_raw_units_only():
     """Units in counts and in m/s² are not one population: the lot's median over both failed the good units of
-    the smaller group, and a unit declared in g among units in m/s² was flagged (helper)."""
+    the smaller group, and a unit declared in g among units in m/s² was flagged."""
     rng = np.random.default_rng(4)
     counts = _rows({"acc_K_xx": 208.8 + rng.normal(0, 0.5, 8), "acc_b_x": rng.normal(0, 10, 8)}, unit_kind="counts")
     si = _rows({"acc_K_xx": 1.0 + rng.normal(0, 2e-3, 3), "acc_b_x": rng.normal(0, 0.05, 3)})
@@ -171,7 +171,7 @@ def test_lot_check_on_a_lot_of_simulated_units_flags_none(tmp_path):
 
 def test_an_edited_section_file_recomputes_its_units(tmp_path):
     """The options hash held the --sections file's name only: a section list edited between two runs resumed
-    every unit from the journal with the old sections (helper). The files the options name are hashed by content,
+    every unit from the journal with the old sections. The files the options name are hashed by content,
     read once by the batch (a worker computes the same hash from the job)."""
     d = tmp_path / "units"
     d.mkdir()
@@ -192,7 +192,7 @@ def test_an_edited_section_file_recomputes_its_units(tmp_path):
 
 
 def test_result_files_belong_to_their_rows(tmp_path):
-    """Two defects a helper found: a unit that failed on a re-run kept the result file of its earlier ok run (an
+    """Two defects: a unit that failed on a re-run kept the result file of its earlier ok run (an
     `export` of the folder would use it), and a resumed batch took a result file another run with other options
     had written into the same folder. A failed unit's file is removed; a row takes its file only if it is the one
     it wrote (its SHA-256 in the row)."""

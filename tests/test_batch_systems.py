@@ -222,7 +222,7 @@ def test_registry_system_options_are_checked_once(folders, tmp_path):
 
 def test_reference_far_from_the_truth_fails_the_unit(tmp_path, capsys):
     """With --reference a unit whose result lies far outside its std from the simulated truth was "ok" (the truth
-    columns said 42 000 σ, the summary "0 failed", exit 0; found by a helper): it fails, with the reason."""
+    columns said 42 000 σ, the summary "0 failed", exit 0): it fails, with the reason."""
     import json
 
     d = tmp_path / "units"

@@ -645,7 +645,7 @@ def test_a_quiet_axis_mid_range_is_not_called_clipped():
 
 def test_a_gyro_clipped_below_its_integer_range_leaves_its_turns_out(tmp_path, capsys):
     """A gyro in deg/s clipped at ±50 °/s (its turns peak at 64): without --gyro-range nothing saw it, and gyro
-    K_xx came out 4 % low with exit 0 (helper). Flat runs at an axis's extreme entered steeply are saturation
+    K_xx came out 4 % low with exit 0. Flat runs at an axis's extreme entered steeply are saturation
     whatever the unit: those turns are left out with a note, and K is right."""
     import json
 
@@ -667,7 +667,7 @@ def test_a_gyro_clipped_below_its_integer_range_leaves_its_turns_out(tmp_path, c
 def test_a_doubled_rate_that_leaves_too_few_poses_names_rate(tmp_path, capsys):
     """imucal's example session at 102.4 Hz given --rate 204.8 (the annotated session's rate): its still stretches
     halve and too few reach --min-duration; the error listed --window, --threshold, --min-duration and --sections
-    but not --rate (helper)."""
+    but not --rate."""
     argv = ["calibrate", "accel", str(DATA / "example_ferraris_session.csv"), "--rate", "204.8"]
     err = _cli_error(capsys, argv + ["--gyro-unit", "deg/s", "--out", str(tmp_path / "r.json")])
     assert "static interval(s)" in err and "--rate" in err
@@ -731,7 +731,7 @@ def test_the_swap_hint_follows_the_error_type_not_its_words(sim, monkeypatch, na
 def test_a_gyro_range_stated_in_deg_s_finds_the_clipped_turns(tmp_path, capsys):
     """A gyro in deg/s clipped at ±60 °/s (its turns peak at 64) with --gyro-range 60: the reader's deg/s → rad/s →
     deg/s round trip turned 60 into 59.99999999999999, below the range, so no turn was left out and gyro K came out
-    0.8 % off (4 std) with exit 0, worse than without the flag (helper). Values within a few ulp of the range are
+    0.8 % off (4 std) with exit 0, worse than without the flag. Values within a few ulp of the range are
     at it: the turns are left out with a note, and K is right."""
     import json
 
@@ -763,7 +763,7 @@ def _gyro_clipped_session(tmp_path, limit: float):
 def test_turns_too_fast_for_the_gyro_range_are_named(tmp_path, capsys, stated):
     """Turns far too fast for the gyro's ±30 °/s: every turn (or all but a few) saturates and is left out, and the
     error said '0 transition(s) usable … record at least 6 static poses' or 'rank-deficient … add poses', naming
-    neither the saturation nor --gyro-range (helper). The error now says the turns saturate and what helps."""
+    neither the saturation nor --gyro-range. The error now says the turns saturate and what helps."""
     clipped = _gyro_clipped_session(tmp_path, 30.0)
     capsys.readouterr()
     argv = ["calibrate", "accel", str(clipped), "--latitude", "38.88", "--out", str(tmp_path / "r.json")]
@@ -774,7 +774,7 @@ def test_turns_too_fast_for_the_gyro_range_are_named(tmp_path, capsys, stated):
 def test_poses_left_out_as_clipped_are_named_when_the_gyro_fails(tmp_path, capsys):
     """An accelerometer clipped at 1950 counts (g reads about 2040): the six axis poses are left out and the gyro
     fit of the turns between the six tilted poses left is rank-deficient; the error named the gyro's rank and
-    'add poses', not the clipping (helper). It now names the poses at the accelerometer's full scale."""
+    'add poses', not the clipping. It now names the poses at the accelerometer's full scale."""
     f = tmp_path / "d.csv"
     argv = ["--quiet", "simulate", "accel-multipos", "--out", str(f), "--dwell", "6", "--acc-unit", "counts"]
     assert main(argv + ["--gyro-unit", "deg/s", "--seed", "11"]) == 0
@@ -789,7 +789,7 @@ def test_poses_left_out_as_clipped_are_named_when_the_gyro_fails(tmp_path, capsy
 def test_poses_that_all_lie_near_one_axis_are_named(tmp_path, capsys):
     """Nine poses all within 25° of z up: z's scale and bias cannot be told apart, and the fit ended in 'K_zz … 1e6×
     its nominal … check --acc-unit … or use --model diagonal' or 'did not converge … pass --model diagonal', which
-    failed alike (helper). The error now names the axis the poses hardly turn and what to record (both models);
+    failed alike. The error now names the axis the poses hardly turn and what to record (both models);
     axis poses, with or without an ADC's offset, are not named."""
     rng = np.random.default_rng(0)
     tilt, az = np.radians(rng.uniform(5, 25, 9)), rng.uniform(0, 2 * np.pi, 9)

@@ -129,7 +129,7 @@ def test_a_wrong_sample_rate_is_refused_by_the_gyro_scale(tmp_path, capsys, rate
 def test_a_ferraris_rotation_section_cut_inside_the_turn_is_refused(tmp_path, capsys, end):
     """imucal's z_rot (a 360° turn about the vertical) labelled only to 85 % of its samples: the closed form
     integrated the rest into K_zz 14 % too large — the turn the gyro makes after the section is the evidence.
-    A section 0.6 s short (K_zz 0.79×) was blamed on the time base (--rate, --time-unit; helper)."""
+    A section 0.6 s short (K_zz 0.79×) was blamed on the time base (--rate, --time-unit)."""
     import json
 
     sections = json.loads((DATA / "example_ferraris_session_list.json").read_text())
@@ -213,7 +213,7 @@ def test_ferraris_with_time_stamps_is_imucal(tmp_path, cut, stamp_ms):
 
 
 def test_apply_converts_stated_units_and_refuses_a_wrong_gyro_unit(tmp_path, capsys):
-    """imucal's example session calibrated in m/s^2 and deg/s, applied to the same log (helper): with its gyro in
+    """imucal's example session calibrated in m/s^2 and deg/s, applied to the same log: with its gyro in
     rad/s the corrected gyro was 57x small with exit 0 (the session's turns are about the vertical, which gravity
     does not see; the flips between poses show it); a header declaring g and rad/s, or --acc-unit g, was refused
     ('--acc-unit m/s^2 was passed', which nobody passed). Stated units are converted now."""
@@ -312,7 +312,7 @@ def test_apply_refuses_another_sensors_calibration_by_the_rests(tmp_path, capsys
 
 
 def test_mistakes_on_the_real_session_name_the_flag_that_helps(tmp_path, capsys):
-    """Errors that named the wrong flag (helper): acc and gyro columns swapped led to '--acc-unit counts' and then
+    """Errors that named the wrong flag: acc and gyro columns swapped led to '--acc-unit counts' and then
     to a fit that 'did not converge — pass --method lm' (lm in use); twice the rate named --gyro-unit and the
     static intervals, not the time base; swapped rotation sections named only the columns."""
     import json
@@ -394,7 +394,7 @@ def _with_empty_rows(tmp_path, rows_from: int, n: int):
 @pytest.mark.parametrize("route", ["ferraris", "lm"])
 def test_empty_rows_do_not_shift_sample_index_sections(tmp_path, route):
     """10 empty rows inside pose x_p: they were dropped before imucal's section list (sample indices of the rows
-    as written) was read, so every later section pointed 10 rows on — gyro K_zz 1.1 % off, exit 0 (helper)."""
+    as written) was read, so every later section pointed 10 rows on — gyro K_zz 1.1 % off, exit 0."""
     sections = ["--sections", str(DATA / "example_ferraris_session_list.json")]
     # the default route with imucal's poses: the accelerometer (its turns about the vertical leave the gyro
     # rank-deficient, a refusal of its own)
@@ -413,7 +413,7 @@ def test_empty_rows_do_not_shift_sample_index_sections(tmp_path, route):
 
 def test_empty_rows_inside_a_turn_widen_its_std(tmp_path, capsys):
     """10 empty rows inside x_rot (0.1 s of a hand turn at ~270 °/s): the gap was bridged with the rate before
-    it, 4.3° of the 28.4° it held lost — K_xx 1.2 % off at a std of 0.016 % (74 std), exit 0 (helper). The gap
+    it, 4.3° of the 28.4° it held lost — K_xx 1.2 % off at a std of 0.016 % (74 std), exit 0. The gap
     now takes the mean of the rates on both sides and the std the turn's own rate changes over as long."""
     sections = ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_session_list.json")]
     base = _run(tmp_path, EXAMPLE + sections)
@@ -429,7 +429,7 @@ def test_empty_rows_inside_a_turn_widen_its_std(tmp_path, capsys):
 
 def test_default_route_leaves_out_turns_that_lost_samples(tmp_path, capsys):
     """The default route (norm observation + turns): 4 samples lost in a jerky hand turn (t 50.42-50.46 s, time
-    in whole ms) moved gyro K_xx by 6 std with exit 0 and no word (helper). Turns whose duration holds more
+    in whole ms) moved gyro K_xx by 6 std with exit 0 and no word. Turns whose duration holds more
     samples than they have are left out with a note; stamps jittered by ±3 ms lose none."""
     rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
     t = np.arange(rows.size) / 102.4
@@ -461,7 +461,7 @@ def test_default_route_leaves_out_turns_that_lost_samples(tmp_path, capsys):
 
 def test_a_pose_held_shorter_than_min_duration_is_named(tmp_path, capsys):
     """The second pose cut to 1.9 s: the detection left it out under --min-duration 2 and the error asked to
-    'record at least 6 distinct poses' the log holds (helper). It names the short still stretches and the flag."""
+    'record at least 6 distinct poses' the log holds. It names the short still stretches and the flag."""
     rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
     t = np.arange(rows.size) / 102.4
     keep = ~((t >= 17.5) & (t < 23.5))
@@ -477,7 +477,7 @@ def test_a_pose_held_shorter_than_min_duration_is_named(tmp_path, capsys):
 
 def test_rows_lost_inside_a_turn_are_placed_by_the_sample_counter(tmp_path, capsys):
     """20 rows deleted at the peak of the annotated session's x_rot (its `samples` counter jumps by 21 there):
-    timed at --rate as if contiguous, gyro K_xx came out 6.5 % off with exit 0 and no word (helper). The counter
+    timed at --rate as if contiguous, gyro K_xx came out 6.5 % off with exit 0 and no word. The counter
     places them: the gap is noted and bridged, its std covering the error within the turn's peak bump."""
     args = ANNOTATED[3:] + ["--method", "ferraris", "--rotation-angle", "360"]
     base = _run(tmp_path, ANNOTATED + ["--method", "ferraris", "--rotation-angle", "360"])
@@ -500,7 +500,7 @@ FERRARIS = ["--method", "ferraris", "--sections", str(DATA / "example_ferraris_s
 def test_a_wrong_rotation_angle_is_named_by_the_turns_between_the_poses(tmp_path, capsys, angle):
     """The closed form takes each rotation section as the stated angle, whatever was turned: --rotation-angle
     -350 or -330 on imucal's session (turns about the vertical: the accelerometer cannot see them) gave K_g 3-9 %
-    off at 178-530 std with exit 0, and 180 was told "pass -180", which failed on the gyro scale (helper). The
+    off at 178-530 std with exit 0, and 180 was told "pass -180", which failed on the gyro scale. The
     gyro's turns between the six poses must carry gravity from pose to pose: they give the angle turned."""
     assert main(["--quiet", *EXAMPLE, *FERRARIS, "--rotation-angle", angle, "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
@@ -519,7 +519,7 @@ def test_the_right_rotation_angle_keeps_imucal_and_its_std(tmp_path):
 
 def test_a_ferraris_log_sampled_too_slowly_for_its_turns_is_refused(tmp_path, capsys):
     """Every 4th row of imucal's session (25.6 Hz, timed by its sample counter at 102.4): the rotations integrate
-    short, K_zz 2.7 % off at 174 std with exit 0 (helper); the poses' turns need K_g ×1.022: refused, --rate named."""
+    short, K_zz 2.7 % off at 174 std with exit 0; the poses' turns need K_g ×1.022: refused, --rate named."""
     import json
 
     rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
@@ -541,7 +541,7 @@ def test_a_ferraris_log_sampled_too_slowly_for_its_turns_is_refused(tmp_path, ca
 def test_a_clipped_accelerometer_axis_is_named_without_acc_range(tmp_path, capsys, route):
     """acc_x clipped at ±9.6 m/s² (pose x_p reads 9.6 in every sample): the Ferraris route gave acc K_xx 0.960
     (imucal 0.997) at 1100 std with exit 0, the default route left the pose out and then advised --min-duration,
-    which cannot bring it back (helper). Both name the clipping and the range."""
+    which cannot bring it back. Both name the clipping and the range."""
     rows = np.genfromtxt(DATA / "example_ferraris_session.csv", delimiter=",", names=True)
     names = rows.dtype.names
     data = np.column_stack([rows[n] for n in names])
@@ -559,7 +559,7 @@ def test_a_clipped_accelerometer_axis_is_named_without_acc_range(tmp_path, capsy
 
 def test_a_decimated_log_with_a_sample_counter_names_the_rate_of_its_rows(tmp_path, capsys):
     """Every 4th row of the annotated session (its counter steps by 4): --rate is the counter's rate, and 51.2 Hz
-    (the rows' rate) gave K_g 3.97× with exit 0 and only a note of skipped samples (helper). The note now says
+    (the rows' rate) gave K_g 3.97× with exit 0 and only a note of skipped samples. The note now says
     which rate --rate was taken as and what to pass if it was the rows'."""
     rows = (DATA / "annotated_session.csv").read_text().splitlines()
     f = tmp_path / "dec4.csv"

@@ -204,7 +204,7 @@ def test_calibrate_export_then_apply_each_format(session, capsys):
     assert (
         main(["--quiet", "export", str(out), "--to", "kalibr", "--acc-lsb", "2048", "--out", str(d / "imu.yaml")]) == 0
     )
-    # a sensitivity of another range setting (4096 LSB/g at ±8 g) gave M ≈ 0.5 with exit 0 (helper)
+    # a sensitivity of another range setting (4096 LSB/g at ±8 g) gave M ≈ 0.5 with exit 0
     assert main(["export", str(out), "--to", "kalibr", "--acc-lsb", "4096", "--out", str(d / "x.yaml")]) == 2
     assert "implies about 20" in capsys.readouterr().err and not (d / "x.yaml").exists()
     ref = d / "ref.npz"

@@ -647,7 +647,7 @@ def test_ferraris_g_sensitivity_std_includes_the_earth_rate(tmp_path, capsys):
 
 def test_a_turn_in_steps_cut_before_its_last_step_is_an_error(tmp_path, capsys):
     """A 360° turn made as 4 × 90° with pauses (imucal's practice), x_rot labelled up to the pause before its
-    last step: the scan stopped at the pause, K_xx 25 % off with exit 0 (helper); the whole turn passes."""
+    last step: the scan stopped at the pause, K_xx 25 % off with exit 0; the whole turn passes."""
     truth = _truth(np.random.default_rng(3))
     code, err, out = _ferraris_cli(tmp_path, _continuous_log(truth, quarters=True), capsys)
     assert code == 0, err
@@ -719,7 +719,7 @@ def test_a_ferraris_pose_held_tilted_is_refused_or_in_the_std(tmp_path, capsys, 
 
 def test_a_gyro_clipped_in_a_turn_is_an_error_and_a_knock_outside_the_sections_is_not(tmp_path, capsys):
     """A turn faster than the gyro's range reads flat at the log's extreme: its integral fell short and K_xx came
-    out 7 % small with exit 0 (also with --gyro-range; helper). An accelerometer at full scale between the
+    out 7 % small with exit 0 (also with --gyro-range). An accelerometer at full scale between the
     sections (a knock while moving the unit) refused the whole calibration; only the sections matter."""
     truth = _truth(np.random.default_rng(3))
     t, acc, gyr, labels = _continuous_log(truth)
@@ -740,7 +740,7 @@ def test_a_gyro_clipped_in_a_turn_is_an_error_and_a_knock_outside_the_sections_i
 
 def test_a_turn_a_few_degrees_off_enters_the_gyro_scale_std(tmp_path, capsys):
     """363° turned by hand about horizontal axes, stated 360°: below the 5° gate, K_g 0.8 % off, which the
-    accelerometer measured and the std left out (52σ with exit 0; helper). Now in the std of that column."""
+    accelerometer measured and the std left out (52σ with exit 0). Now in the std of that column."""
     from optinav.multipos.result import CalibrationResult
 
     truth = _truth(np.random.default_rng(3))
@@ -952,7 +952,7 @@ def test_a_gyro_bias_step_after_the_poses_is_refused_in_a_ferraris_session(tmp_p
 def test_imucal_sections_with_the_default_method_name_ferraris(tmp_path, capsys):
     """imucal's session with its section list but the default method: the six poses alone (the rotation sections
     are the Ferraris method's) leave the gyro rank-deficient, and the error said 'add poses …, or pass
-    --allow-unobservable' though the log holds the turns (helper). It now names the rotations left unused,
+    --allow-unobservable' though the log holds the turns. It now names the rotations left unused,
     --method ferraris and dropping --sections."""
     from optinav.cli.main import main
 

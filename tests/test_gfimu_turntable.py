@@ -43,7 +43,7 @@ def test_paper_setup_errors_and_crlb():
 
 def test_a_table_rate_error_is_stated_and_its_accuracy_goes_into_the_std():
     """A table rate 0.1 % off scales every centripetal term by 1.002, which the positions absorb (Δr_i ≈ 2e·r_i):
-    converged, every gate passed, positions 68 std off (helper). Not separable from the data: the result says
+    converged, every gate passed, positions 68 std off. Not separable from the data: the result says
     so, and the rates' stated accuracy enters the std."""
     import dataclasses
 

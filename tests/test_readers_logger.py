@@ -666,7 +666,7 @@ def test_a_hash_inside_a_cell_is_no_comment(tmp_path):
 def test_a_shimmer_consensys_export_reads_with_its_names(tmp_path):
     """Shimmer Consensys writes Excel's '"sep=<tab>"' line, the header with a trailing tab, a row of "CAL" labels
     and a row of units (ms, m/(s^2), deg/s): the sep line was read as the only column ("1 expected"), and --delimiter
-    tab then found one column named 'sep=' (helper). Read now, its units converted."""
+    tab then found one column named 'sep='. Read now, its units converted."""
     p = "Shimmer_9F6D_"
     names = ["Timestamp_Unix_CAL"] + [f"Accel_LN_{a}_CAL" for a in "XYZ"] + [f"Gyro_{a}_CAL" for a in "XYZ"]
     rows = [[1000.0 + 10 * i, 0.1, 0.2, 9.8, 1.0 * i, 0.0, -2.0] for i in range(5)]

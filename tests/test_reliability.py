@@ -89,7 +89,7 @@ def test_apply_and_calibrate_refuse_out_onto_inputs(tmp_path, capsys):
 def test_out_onto_a_file_of_another_kind_is_refused(tmp_path, capsys):
     """--out replaced any existing file that was not an input of the same command: a simulated log by an attitude
     table, a simulator's truth by a calibration, a raw log by apply or simulate, a sections list by a result, all
-    with exit 0 (helper). An output is replaced only by the command's own kind; a rerun still replaces its own."""
+    with exit 0. An output is replaced only by the command's own kind; a rerun still replaces its own."""
     assert main(["--quiet", "simulate", "accel-multipos", "--out", str(tmp_path / "mp.csv")]) == 0
     assert main(["--quiet", "simulate", "flight", "--duration", "20", "--out", str(tmp_path / "fl.csv")]) == 0
     raw = _data(tmp_path)
@@ -169,7 +169,7 @@ def test_bad_output_locations(tmp_path, capsys):
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
 def test_a_named_pipe_as_output_is_refused_not_replaced(tmp_path, capsys):
     """Every writer renamed its temporary file over a FIFO at --out: the pipe a reader waited on became a
-    regular file, exit 0 (helper). The atomic writer refuses a pipe, socket or device."""
+    regular file, exit 0. The atomic writer refuses a pipe, socket or device."""
     import stat
 
     fifo = tmp_path / "pipe.json"
@@ -485,13 +485,13 @@ def test_rins_swapped_encoders_are_refused(rins_file, tmp_path, capsys):
     ],
 )
 def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, case, why):
-    """Found by a helper: a gyro column's sign flipped passed the residual gate (73× the noise walk, limit 100)
+    """A gyro column's sign flipped passed the residual gate (73× the noise walk, limit 100)
     with every angle 82σ off; gyro increments in degrees or given as rates, and encoders in degrees, were refused
     with messages about the encoders or the rest; a time column in ms or doubled, about the gyro or --lat."""
     import numpy as np
 
     d = dict(np.load(rins_file))
-    if case == "flip gx":  # the helper's scheme (psins16, 20 s dwells): the flip shows in the residual
+    if case == "flip gx":  # the scheme that showed it (psins16, 20 s dwells): the flip shows in the residual
         src = tmp_path / "p.npz"
         argv = ["--quiet", "simulate", "rins", "--nonorth=-2e-4,-9e-4,-2e-3,7e-4,-8e-4,-9e-3", "--seed", "3"]
         assert main(argv + ["--align", "300", "--dwell", "20", "--out", str(src)]) == 0
@@ -508,7 +508,7 @@ def test_rins_gyro_and_encoder_mistakes_are_named(rins_file, tmp_path, capsys, c
     elif case == "gyro rate":
         h = float(np.median(np.diff(d["t"])))
         d.update({f"dtheta_{k}": d[f"dtheta_{k}"] / h for k in "xyz"})
-    elif case.startswith("t "):  # were blamed on the gyro increments' unit and on --lat (helper)
+    elif case.startswith("t "):  # were blamed on the gyro increments' unit and on --lat
         d["t"] = d["t"] * (1000.0 if case == "t in ms" else 2.0)
     else:
         d["alpha"], d["beta"] = np.degrees(d["alpha"]), np.degrees(d["beta"])
@@ -625,7 +625,7 @@ def turntable(tmp_path_factory):
         ("stuck4", [], "accelerometer(s) 4 barely change"),
         ("deg", [], "looks like deg/s labelled rad/s (the rate-dependent change of the outputs is 0.0003"),
         ("good", ["--noise", "1e-9"], "against --noise"),
-        # found by a helper: each fitted "exactly" (χ² 1.5) with tens of thousands of σ of error, exit 0
+        # each fitted "exactly" (χ² 1.5) with tens of thousands of σ of error, exit 0
         ("swap18", [], "0.04 m about their mean at accelerometer 8"),
         ("swap4_10", [], "two output columns are swapped"),
         ("rate+20%", [], "× the stated ones"),
@@ -711,7 +711,7 @@ def test_a_gfimu_result_with_a_damaged_array_is_named(turntable, tmp_path, capsy
 
 def test_gfimu_rate_check_knows_the_offset(tmp_path, capsys):
     """An array 10-30 cm off the table axis, the offset given: the rate-scale check predicted the outputs with the
-    centre on the axis and refused correct data as "table rates 1.2x the stated ones" (found by a helper); without
+    centre on the axis and refused correct data as "table rates 1.2x the stated ones"; without
     the offset the error names it too."""
     f = tmp_path / "o.npz"
     argv = ["--quiet", "simulate", "gfimu-turntable", "--out", str(f), "--seed", "14", "--offset", "0.3,0.2,0.1"]
@@ -1146,7 +1146,7 @@ def test_calibrate_rins_refuses_a_session_that_cannot_fit(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["huge.npz"]
 
 
-# --- faults a helper found as a demanding user (pipes, unreadable folders, damaged HDF5, full disks) ----------
+# --- faults a demanding user meets (pipes, unreadable folders, damaged HDF5, full disks) ----------
 
 
 @pytest.fixture(scope="module")
@@ -1446,7 +1446,7 @@ def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     assert "pose" in (tmp_path / "r" / "index.md").read_text()
     assert main(["report", str(res), "--rate", "102.4", "--out", str(tmp_path / "r2")]) == 2
     one_line_error(capsys, "--rate is the sampling rate of the --data recordings")
-    # a time column in ms: calibrate takes --time-unit ms, and report had no such flag (helper)
+    # a time column in ms: calibrate takes --time-unit ms, and report had no such flag
     rows = np.genfromtxt(data, delimiter=",", names=True)
     ms = tmp_path / "ms.csv"
     cols = [np.arange(rows.size) * 1000 / 102.4] + [rows[f"acc_{a}"] for a in "xyz"] + [rows[f"gyr_{a}"] for a in "xyz"]
@@ -1478,7 +1478,7 @@ def test_report_data_without_a_time_column_takes_rate(tmp_path, capsys):
     ]
     assert main(argv_rep) == 0
     capsys.readouterr()
-    # a wrong rate put the static intervals on the moves: two '+x up' rows, one with motion, exit 0 (helper)
+    # a wrong rate put the static intervals on the moves: two '+x up' rows, one with motion, exit 0
     assert main(["report", str(res), "--data", str(data), "--rate", "50", "--out", str(tmp_path / "r3")]) == 2
     one_line_error(capsys, "static interval 0", "is not still", "--rate")
 
@@ -1493,7 +1493,7 @@ def _read_out(path):
 
 def test_gfimu_negated_outputs_and_a_single_sample_are_named(turntable, tmp_path, capsys):
     """All outputs negated gave a numpy warning and 'rates nan× the stated ones'; a one-row NPZ was 'has no t,
-    mounting, … (found: f)' (one-element arrays are read as the file's settings; helper)."""
+    mounting, … (found: f)' (one-element arrays are read as the file's settings)."""
     d = dict(turntable[1])
     neg = tmp_path / "neg.npz"
     np.savez(neg, **{**d, "f": -d["f"]})
@@ -1508,7 +1508,7 @@ def test_gfimu_negated_outputs_and_a_single_sample_are_named(turntable, tmp_path
 
 def test_batch_names_data_entries_that_are_no_file(tmp_path, capsys, counts_session):
     """A named pipe and broken or looping links with a data suffix were dropped without a word ('2 units' of a
-    folder of five entries; helper): the summary names them."""
+    folder of five entries): the summary names them."""
     d = tmp_path / "units"
     d.mkdir()
     (d / "u1.csv").write_bytes(counts_session[1].read_bytes())
@@ -1525,7 +1525,7 @@ def test_batch_names_data_entries_that_are_no_file(tmp_path, capsys, counts_sess
 
 def test_apply_says_how_many_rows_were_not_finite(tmp_path, capsys, counts_session):
     """Rows with NaN or infinite cells went through apply as NaN with exit 0 and no word, while attitude and
-    allan refuse them (helper): they are kept row for row, and counted in a note."""
+    allan refuse them: they are kept row for row, and counted in a note."""
     _, data, res = counts_session
     lines = data.read_text().splitlines()
     first = next(i for i, line in enumerate(lines) if line[:1].isdigit())

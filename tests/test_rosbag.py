@@ -1691,7 +1691,7 @@ def _imu_and_mag(rng, n=300, delay_ns=400_000_000, mag_shift_ns=0, dup_mag=None)
 @pytest.mark.parametrize("chunk", [64, 10_000])
 def test_one_topic_on_log_times_puts_both_there(tmp_path, chunk):
     """One repeated MagneticField stamp moved the magnetometer to the bag's log times while the Imu stayed on its
-    header stamps: 0.4 s apart, the yaw off by up to 19° with exit 0 (helper). One clock for both now."""
+    header stamps: 0.4 s apart, the yaw off by up to 19° with exit 0. One clock for both now."""
     rng = np.random.default_rng(31)
     topics, st = _imu_and_mag(rng, dup_mag=10)
     bag = write_bag(tmp_path / "b", "sqlite3", topics)
@@ -1706,7 +1706,7 @@ def test_one_topic_on_log_times_puts_both_there(tmp_path, chunk):
 
 def test_a_write_ahead_log_beside_a_db3_is_refused(tmp_path):
     """A recording in WAL mode copied while running: half its messages were only in X.db3-wal, which neither the
-    scanners nor rosbags read — 10 000 of 20 000 messages with exit 0 (helper)."""
+    scanners nor rosbags read — 10 000 of 20 000 messages with exit 0."""
     rng = np.random.default_rng(32)
     msgs, *_ = imu_topic(rng, n=50)
     db3 = write_bag(tmp_path / "w", "sqlite3-file", {"/imu": (IMU, msgs)})
@@ -1738,7 +1738,7 @@ def test_a_mag_topic_named_without_mag_is_refused(tmp_path, capsys):
 
 def test_mag_topic_on_another_clock_and_missing(tmp_path, capsys):
     """A MagneticField topic stamped 150 s off the Imu's gave 'magnetometer used 0 %' and a gyro-only heading with
-    exit 0 under --mag (helper): a warning from the reader, and attitude --mag refuses a magnetometer without a
+    exit 0 under --mag: a warning from the reader, and attitude --mag refuses a magnetometer without a
     finite sample (a CSV of NaN mag columns too); without --mag the bag runs. A bag without any MagneticField
     topic named a missing array 'mx'; a folder of .db3 files without metadata.yaml was 'a folder'."""
     rng = np.random.default_rng(33)

@@ -627,7 +627,7 @@ def test_calibrate_reads_in_blocks_exactly_as_the_whole_file(session, case):
 @pytest.mark.skipif(os.name != "posix", reason="an open file is unnamed only on POSIX")
 def test_a_killed_process_leaves_no_scratch_file(tmp_path):
     """`batch attitude --offline` killed with SIGKILL (its workers die with it) left a 12.8 MB scratch file per unit
-    in flight in the temporary folder (helper: BROAD 02, one per kill). The scratch file has no name while it is in
+    in flight in the temporary folder (BROAD 02, one per kill). The scratch file has no name while it is in
     use, so nothing is left; it still reads back what was written."""
     import signal
     import subprocess

@@ -398,7 +398,7 @@ def result_columns(res) -> dict:
     quality = getattr(res, "quality", None)
     if isinstance(quality, dict):
         # what calibrate prints beside the numbers (a time base off by a factor, turns left out, …) and the
-        # held-out pose's check (--hold-out): the table kept neither (helper)
+        # held-out pose's check (--hold-out): the table kept neither
         for k, v in (quality.get("held_out") or {}).items():
             row[f"held_out_{k}"] = _num(v) if isinstance(v, (int, float)) else v
         row["notes"] = " | ".join(str(n) for n in quality.get("notes") or [])
@@ -438,7 +438,7 @@ def truth_columns(res, path: Path) -> dict:
 
 #: with ``reference``, a unit whose largest |error|/std against its truth exceeds this fails: a gross error its
 #: std and gates missed (swapped columns gave 42 000); honest std put the largest of 24-50 parameters at 5-5.6 in
-#: a few per cent of simulated units (a helper's batches), which are not failures
+#: a few per cent of simulated units (simulated batches), which are not failures
 MAX_TRUTH_Z = 10.0
 
 
@@ -569,7 +569,7 @@ def lot_check(rows: list[dict], alpha: float = LOT_ALPHA) -> str:
 
     Units are compared within groups of the same raw units (``acc_unit``, ``gyr_unit``: parameters in counts and
     in m/s² are not one population; a unit in g among units in m/s² was flagged, and a lot's mixed medians failed
-    good units; helper). In each group of at least :data:`LOT_MIN_UNITS` ok units, every parameter column with a
+    good units). In each group of at least :data:`LOT_MIN_UNITS` ok units, every parameter column with a
     std (``NAME`` beside ``NAME_std``) is tested for outlying units by the generalized ESD test at ``alpha / P``
     (P parameters: the group's false-alarm probability is at most about ``alpha`` when its units' parameters are
     normal). A flagged unit keeps status ok — its calibration passed its own gates — and gets ``lot_outlier``

@@ -176,7 +176,7 @@ def _lp(st, j, x, base, n, ns):
     so that one accelerated first sample does not weigh for seconds (as VQF starts its low-pass). ``ns`` > 1: the
     step is a gap taken in ``ns`` sub-steps, the input interpolated linearly from the last one (a 0.3-s gap
     filtered as one step with its own coefficients left an increment that the next, short step read as its own:
-    the tilt overshot by 100° for seconds; helper)."""
+    the tilt overshot by 100° for seconds)."""
     m = base + 4 * j
     if n > 0.0:
         y = st[m] + (x - st[m]) / n
@@ -415,7 +415,7 @@ def _mag_update(st, par, t0, t1, t2, t3, mx, my, mz, nm, h):
     slower."""
     dip, phi = _dip_azimuth(par, t0, t1, t2, t3, mx, my, mz, nm)
     # the magnetometer's own clock: its start-up counts from its first sample (one that starts late, after the
-    # tilt settled, got none: heading 11.6° vs VQF 1.9° on BROAD trial 07 with the field from 30 s; helper),
+    # tilt settled, got none: heading 11.6° vs VQF 1.9° on BROAD trial 07 with the field from 30 s),
     # and each sample weighs the time since the previous one (a magnetometer at 1/30 of the IMU rate, its rows
     # NaN between, had every time constant 30× longer: 2.0° vs VQF 0.55°)
     if st[S_M_SEEN] == 0.0:

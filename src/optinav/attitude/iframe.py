@@ -225,7 +225,7 @@ def reversed_state(state: np.ndarray) -> np.ndarray:
     −ω − b), and each Butterworth memory (the specific force's and C_b^I's) held at its last output. Its two past
     inputs and outputs carry the forward slope, which reversed time turns around: the backward pass of a
     recording that ends in motion took ~10 s to settle from it (tilt 5° off at 4 s before the end: offline 1.69°
-    against online 0.55° on BROAD trial 16 cut 5 s into its motion; helper)."""
+    against online 0.55° on BROAD trial 16 cut 5 s into its motion)."""
     st = state.copy()
     st[_k.S_BIAS : _k.S_BIAS + 3] *= -1.0
     for base, n in ((_k.S_LP, 3), (_k.S_LPC, 9)):

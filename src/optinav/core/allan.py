@@ -819,7 +819,7 @@ def _whitener(c: np.ndarray, S: np.ndarray, basis: np.ndarray, floor: float, lea
     R = cov / np.outer(d0, d0)
     # neighbouring estimates of a long white-noise record are correlated to within rounding of 1 (and the lag
     # sums approximate): a matrix a hair from positive definite gets the smallest diagonal jitter that makes it so
-    # (1 M samples at 1 kHz of white noise and random walk ended in an internal error; helper)
+    # (1 M samples at 1 kHz of white noise and random walk ended in an internal error)
     for eps in (1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
         try:
             C = np.linalg.cholesky(R * np.outer(d, d) + np.diag((eps * d) ** 2))
@@ -1037,7 +1037,7 @@ def fit_noise_model(result: AllanDeviation, *, terms=FIT_TERMS, iterations: int 
         var = np.diag(np.linalg.pinv(Aw.T @ Aw))
         if use[-1]:
             # the ramp's significance with every term free: where NNLS holds K at 0 the ramp takes the random
-            # walk's upturn, and its std without K's column made 1 % of ramp-free axes "drift steadily" (helper)
+            # walk's upturn, and its std without K's column made 1 % of ramp-free axes "drift steadily"
             ramp_z[j] = c[-1] / math.sqrt(max(var[-1] * max(chi2[j], 1.0), np.finfo(float).tiny))
         free = c > 0
         if free.any() and not free.all():
@@ -1193,7 +1193,7 @@ def _halves_note(name: str, acc: AngleAccumulator, unit: str) -> str | None:
     """A note naming the axes whose random walk K differs between the log's two halves (their
     :data:`HALVES_CONFIDENCE` intervals apart, the values :data:`HALVES_RATIO` apart), or None: a warm-up that
     settles early in the log (an exponential drift of the bias) has no ramp's slope, and the whole log's fit took
-    it for random walk — 3.3× K over 3.6 h with its interval excluding the truth, and no word (helper)."""
+    it for random walk — 3.3× K over 3.6 h with its interval excluding the truth, and no word."""
     half = acc.n // 2
     fits = []
     for a, b in ((0, half), (half, 2 * half)):
@@ -1834,8 +1834,8 @@ def analyse_blocks(
     span = float(timing.t_last - timing.t0)
     notes = []
     if span < SHORT_LOG_S:
-        # 30-s logs gave K 29-86× the truth with 68 % intervals 10× off it (flicker taken for a random walk;
-        # helper): the figures stand, the note says what they rest on
+        # 30-s logs gave K 29-86× the truth with 68 % intervals 10× off it (flicker taken for a random walk):
+        # the figures stand, the note says what they rest on
         notes.append(
             f"the log spans {span / 60:.3g} min: the bias instability B and random walk K need hours at rest (their "
             f"τ reach a tenth of the log, here {span / 10:.3g} s): K mostly takes flicker noise here, and neither K "

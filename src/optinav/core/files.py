@@ -262,7 +262,7 @@ def _head(path: Path, n: int) -> bytes | None:
 
 def check_replace(path, option: str = "--out", mark: bytes | str | None = None) -> None:
     """Refuse to replace an existing data file that is not what the command writes (a raw log, a sections list, a
-    simulator's truth): ``optinav attitude flight.csv --out mp.csv`` replaced a simulated log, exit 0 (helper).
+    simulator's truth): ``optinav attitude flight.csv --out mp.csv`` replaced a simulated log, exit 0.
 
     Parameters
     ----------

@@ -106,7 +106,7 @@ def clipped_gyro_rows(gyr: np.ndarray, dt: float) -> np.ndarray:
     """Rows (N,) at an axis's extreme in runs that look saturated (the attitude input check's rule,
     :func:`optinav.attitude.checks.saturated_extremes`: flat for ≥ 3 samples and entered or left steeply, at least
     two runs or one of ≥ 5), whatever the unit: a gyro clipped at ±50 °/s, not at its integer type's ends, left
-    K_xx 4 % low with exit 0 (helper). ``dt`` the median step (s)."""
+    K_xx 4 % low with exit 0. ``dt`` the median step (s)."""
     from optinav.attitude.checks import saturated_extremes
 
     out = np.zeros(gyr.shape[0], bool)
@@ -656,7 +656,7 @@ def calibrate(
         )
     except OptinavError as exc:
         if clipped and "distinct pose directions" in exc.cause:
-            # the pose missing was left out as clipped: --min-duration cannot bring it back (helper)
+            # the pose missing was left out as clipped: --min-duration cannot bring it back
             raise type(exc)(
                 f"{exc.cause} — {len(clipped)} pose(s) left out as clipped: {clipped[0]}",
                 "record with a larger accelerometer range (--acc-range states it)",
@@ -666,7 +666,7 @@ def calibrate(
             raise type(exc)(f"{exc.cause} — {swap}", "name the columns in their order with --columns") from None
         if not short and (narrow := gates.narrow_axes(st.means)):
             # poses that all lie near one direction: a fit that fails then fails for that (a 25° cone around
-            # z up was told 'did not converge, pass --model diagonal', which failed alike; helper)
+            # z up was told 'did not converge, pass --model diagonal', which failed alike)
             raise type(exc)(
                 f"{exc.cause} — {narrow}",
                 "record poses with each axis both up and down (e.g. ±x, ±y, ±z up; optinav design plans them)",
@@ -781,7 +781,7 @@ def calibrate(
         except OptinavError as exc:
             if rot_names and not (gapped or saturated or n_clipped):
                 # imucal's section list: its six poses alone, with the rotations left out, cannot calibrate the
-                # gyro ('add poses' was all the error said, and the log holds the turns; helper)
+                # gyro ('add poses' was all the error said, and the log holds the turns)
                 raise type(exc)(
                     f"{exc.cause} — the sections' rotations {', '.join(rot_names)} are not used by --method "
                     f"{method}, only their {len(ranges)} poses",
@@ -1019,7 +1019,7 @@ def _accel_gates(fit: accel.AccelFit, st: accel.PoseStatistics, acc_unit: str) -
 def _short_still(still, t, acc, gyro, min_duration_s: float) -> list[tuple[float, float]]:
     """The still stretches (s) at the detection's ``still`` = (threshold, gyro threshold, window s, trim s) that
     are at least 0.5 s long but shorter than ``min_duration_s``, which the detection left out (a pose held 1.9 s
-    under the default 2 s: its direction went missing and the error asked for poses that were recorded; helper)."""
+    under the default 2 s: its direction went missing and the error asked for poses that were recorded)."""
     if still is None or still[0] is None or min_duration_s <= 0.5:
         return []
     thr, gthr, window_s, trim_s = still
@@ -1686,7 +1686,7 @@ def _sections_that_lost_samples(t, names, idx) -> list[str]:
     """A note per rotation section that lost samples (its duration over the sample step, less the samples it
     holds, :data:`LOST_SAMPLES`): its integral bridges the gap (:func:`optinav.multipos.ferraris._gap_variance`), and a
     section list in sample indices made on the log before samples were lost no longer covers the turn (5 lost rows shifted imucal's
-    x_rot: gyro K_xx 1.9 % off, exit 0; helper)."""
+    x_rot: gyro K_xx 1.9 % off, exit 0)."""
     h = _typical_step(t)
     out = []
     for nm, (i0, i1) in zip(names, idx):
@@ -1804,7 +1804,7 @@ def _ferraris(
         )
     clipped: list[str] = []
     if np.any(_clipped_rows(acc, t, idx[static_idx], clipped)):
-        # without --acc-range a clipped pose went through: acc K_xx 0.960 for 0.997 at 1100 std, exit 0 (helper)
+        # without --acc-range a clipped pose went through: acc K_xx 0.960 for 0.997 at 1100 std, exit 0
         raise OptinavError(
             clipped[0].replace("the static pose at", "the Ferraris pose at"),
             "record with a larger accelerometer range: the closed form needs all six poses (--acc-range states it)",
@@ -1872,7 +1872,7 @@ def _ferraris(
     gyro_flags = "--columns or --gyro-columns, the rotation sections' names (x_rot, y_rot, z_rot), or --rotation-angle"
     # swapped sections or axes first (no nominal: the shape of K only), then the turns: a section that misses part
     # of its turn scales K_g by the share it holds (0.6 s short of a hand turn: K_zz 0.79×), which the scale's
-    # gate would blame on the time base (helper)
+    # gate would blame on the time base
     _check_rotations_turn(t, gyro, fc.gyr_b, names, idx)
     gates.check_matrix(fc.gyr_K, None, "gyroscope", gyro_unit, option="--gyro-unit", columns_flag=gyro_flags)
     section_ranges = {n: tuple(idx[k]) for k, n in enumerate(names)}
@@ -2241,7 +2241,7 @@ def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list
     """Times from the file's sample counter where the time came from ``--rate`` (``t`` uniform) and the counter
     skips values, and the counter's step k per row where nearly every row steps by the same k > 1 (else 1): rows
     lost by the logger are then gaps in time, which the turns' integrals bridge and note (20 rows lost at a hand
-    turn's peak left gyro K_xx 6.5 % off with exit 0; helper). Only skips inside a labelled
+    turn's peak left gyro K_xx 6.5 % off with exit 0). Only skips inside a labelled
     section (anywhere, without labels) place rows; any other step of the counter (a wrap, a reset, the meeting of
     sections cut from a longer log) counts as one sample, as before."""
     if sample.shape != t.shape or t.size < 3:
@@ -2263,7 +2263,7 @@ def _counter_time(t: np.ndarray, sample: np.ndarray, rate_hz: float, notes: list
     k = k if k > 1 and np.mean(d == k) > 0.9 else 1
     if k > 1:
         # every row k counts on: a decimated log, whose row rate is not --rate (an annotated session's every 4th
-        # row with --rate 51.2, its row rate, gave K_g 3.97× with exit 0; helper)
+        # row with --rate 51.2, its row rate, gave K_g 3.97× with exit 0)
         notes.append(
             f"the sample counter steps by {k} on nearly every row: --rate {rate_hz:g} is taken as the counter's rate, "
             f"so the rows come at {rate_hz / k:.4g} Hz; if {rate_hz:g} Hz is the rate of the rows, pass "

@@ -314,7 +314,7 @@ def _gap_variance(w: np.ndarray, h: np.ndarray, k: int) -> np.ndarray:
     scale = (h[k] / np.mean(ch[i + L] - ch[i])) ** 2
     whole = np.mean(dev**2, axis=0) * scale
     # and the stretches around the gap alone: a hand turn's rate changes most near its peak, and the mean over the
-    # whole section (its slow ends too) left a gap there 4-5 std off (helper)
+    # whole section (its slow ends too) left a gap there 4-5 std off
     near = np.abs(i + 0.5 * L - (k + 0.5)) <= GAP_NEIGHBOURHOOD * L
     local = np.mean(dev[near] ** 2, axis=0) * scale if np.count_nonzero(near) >= 3 else whole
     return np.maximum(np.maximum(whole, local), fallback)

@@ -117,7 +117,7 @@ def kalibr_intrinsics(cal, counts_per_si: dict | None = None) -> dict:
     ):
         d = float(np.median(np.diag(M)))
         if cps.get(sensor) and not (1.0 / SCALE_FACTOR <= d <= SCALE_FACTOR):
-            # a sensitivity for another range setting gave M ≈ 0.5 or 0.125 with exit 0 (helper)
+            # a sensitivity for another range setting gave M ≈ 0.5 or 0.125 with exit 0
             implied = d * float(cps[sensor]) / per  # the LSB per g (per deg/s) the calibration implies
             raise OptinavError(
                 f"with {flag} {float(cps[sensor]) / per:.6g} Kalibr's {sensor} M is {d:.3g} on its diagonal (≈ 1 for "
@@ -139,7 +139,7 @@ def _factor(unit, factor, counts_per_si=None, sensor: str = "", flag: str = "") 
         return 1.0 / float(counts_per_si)
     if flag:
         # Kalibr's M is dimensionless against data in m/s² and rad/s: counts per SI unit (M ≈ 208, 937) would be
-        # misread with exit 0 (helper)
+        # misread with exit 0
         raise OptinavError(
             f"the {sensor} calibration is of raw counts, and Kalibr reads m/s^2 and rad/s (sensor_msgs/Imu): its M "
             "is relative to the driver's conversion",

@@ -310,7 +310,7 @@ def noise_from_allan(path) -> dict:
         out[kind] = arr
     if out["acc"] is None and out["gyro"] is None:
         if isinstance(data, dict) and data.get("schema") == "optinav.allan":
-            # optinav's own allan result of a log in raw units: Kalibr's densities need SI (helper)
+            # optinav's own allan result of a log in raw units: Kalibr's densities need SI
             raise OptinavError(
                 f"{path} is the allan result of a log in raw units: it has no noise densities in SI units",
                 "run optinav allan on the log corrected by optinav apply (m/s^2, rad/s), or pass "

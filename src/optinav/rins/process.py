@@ -285,7 +285,7 @@ def latitude_check(dth, dv, span: float, lat: float) -> None:
                 "write dv_x, dv_y, dv_z as velocity increments in m/s over each sample step",
             )
         # gyro and accelerometer increments both divided by the span: a wrong time base scales both alike, a
-        # wrong gyro unit the gyro alone (a t column in ms was blamed on the gyro increments, 2× on --lat; helper)
+        # wrong gyro unit the gyro alone (a t column in ms was blamed on the gyro increments, 2× on --lat)
         raise OptinavError(
             f"the accelerometer increments give a specific force of {f:.3g} g at rest over the time column's "
             f"{span:.6g} s: the time column is off by that factor (not in seconds, or another rate)",
