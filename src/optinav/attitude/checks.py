@@ -2164,8 +2164,29 @@ def warn_or_refuse_mag_axes(hint: str, refuse: bool) -> None:
     warnings.warn(f"{hint}; {MAG_AXES_REMEDY}", MagnetometerWarning, stacklevel=3)
 
 
+#: the body must turn by this much (rad, the gyro's 0.1-s means where faster than STILL_RATE) for the field's norm
+#: to vary "with the orientation": a body at rest while a magnet is brought near (BROAD 29 and 33, 5-20 s before
+#: their motion: the gyro turns 0 rad, the field's norm 41-87 µT) was refused online as an uncalibrated
+#: magnetometer, and offline the sphere fitted to it was subtracted (33: heading 13.7° RMSE against 1.06° without)
+MAG_TURNED = 1.0
+
+
+def body_turned(bins: np.ndarray, sums: np.ndarray, h: float) -> float:
+    """The body's turning (rad) by the gyro: Σ |ω̄| ``h`` over the bins of :func:`field_rate_sums` (``h`` s each)
+    whose mean rate ω̄ exceeds :data:`STILL_RATE` (a still gyro's bias is no turning)."""
+    if len(bins) == 0:
+        return 0.0
+    _, S = merge_bins(np.asarray(bins), np.asarray(sums))
+    w = _norm(S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None])
+    return float(np.sum(w[w > STILL_RATE]) * h)
+
+
 def check_mag(
-    mag: np.ndarray, offline: bool = False, given: np.ndarray | None = None, online: bool = False
+    mag: np.ndarray,
+    offline: bool = False,
+    given: np.ndarray | None = None,
+    online: bool = False,
+    turned: float = float("inf"),
 ) -> np.ndarray | None:
     """None when the field norm does not vary with the orientation as a constant offset makes it (:func:`hard_iron`);
     else the offset of an uncalibrated (hard-iron) magnetometer, whose heading is wrong by tens of degrees and which
@@ -2175,7 +2196,9 @@ def check_mag(
     passes its gates); without either refused, naming b and the option that subtracts it. With the offset
     ``given`` (its unit) the field less it is judged, online and offline alike: one that still shows an offset is
     refused, naming the offset that explains it (a given offset 20 µT off turned BROAD's heading by 39° RMS with
-    exit 0)."""
+    exit 0). ``turned``: the body's turning (rad, :func:`body_turned`); under :data:`MAG_TURNED` nothing is judged."""
+    if turned < MAG_TURNED:
+        return None  # the norm varies with something else than the orientation (a magnet brought near)
     if given is not None:
         got = hard_iron(mag - given)
         if got is None:

@@ -36,6 +36,7 @@ from optinav.attitude.checks import (
     check_bias_range,
     check_frame,
     check_imu,
+    body_turned,
     check_mag,
     check_mag_axes,
     check_q0,
@@ -646,14 +647,15 @@ def estimate(
             if online_fit:
                 pass  # an uncalibrated magnetometer said so: fitted from past samples below
             elif mag_hard_iron is None:
-                b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe")
+                turned = body_turned(*turns)
+                b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe", turned=turned)
                 online_fit = b is not None and not offline
                 if b is None:  # an offset the recording does not turn every way about
                     b = check_turning_offset(*turns, offline)
                 mag_hard_iron = None if online_fit else b
                 checked, fitted = b, b is not None
             else:
-                check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron)
+                check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron, turned=body_turned(*turns))
                 check_turning_offset(*turns, given=mag_hard_iron)
             # the field the estimate uses: less the offset it subtracts
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)

@@ -122,7 +122,7 @@ class StreamChecks:
         None when the field shows none."""
         if not self._mag:
             return None
-        b = _c.check_mag(np.concatenate(self._mag), offline=True)
+        b = _c.check_mag(np.concatenate(self._mag), offline=True, turned=self._turned())
         if b is None and self._scale_sums:  # online refused: the fit from past samples needs every axis turned
             b = _c.check_turning_offset(*self._turn_sums(), offline=not online)
         self.fitted_hard_iron = b
@@ -130,6 +130,10 @@ class StreamChecks:
 
     #: the offset :meth:`hard_iron` fitted (None: none, or not asked): the later checks judge the field less it
     fitted_hard_iron: np.ndarray | None = None
+
+    def _turned(self) -> float:
+        """The body's turning (rad, :func:`checks.body_turned`); inf when the gyro-scale sums were not kept."""
+        return _c.body_turned(*self._turn_sums()) if self._scale_sums else float("inf")
 
     def _turn_sums(self, offset=None) -> tuple[np.ndarray, np.ndarray, float]:
         """(bins, sums, h) of the gyro-scale bins (:func:`checks.field_rate_sums`), the field less ``offset``."""
@@ -235,7 +239,7 @@ class StreamChecks:
         _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
         given = self.given_hard_iron
         if self._mag and ((not self.offline and not self.online_fit) or given is not None):
-            _c.check_mag(np.concatenate(self._mag), given=given)
+            _c.check_mag(np.concatenate(self._mag), given=given, turned=self._turned())
             if self._scale_sums:
                 _c.check_turning_offset(*self._turn_sums(), given=given)
         # online with an offset fitted from past samples, the checks take off the whole recording's
