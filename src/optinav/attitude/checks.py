@@ -1892,6 +1892,13 @@ def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float) -> tuple[np
     return du[ok], pred[ok]
 
 
+#: the largest turn (rad) between neighbouring TILT_BIN bins taken as the gyro predicts it (−ω̄ × ū h): the mean
+#: field of a bin that turns farther is shrunk and no longer stepped so (64 rows are 1.28 s at 50 Hz: BROAD 29
+#: averaged to 50 Hz, turning at 3 rad/s, "turned 10 rad where the gyro 113" and was refused as a stuck field; at
+#: its own 285.7 Hz 1.35). The stuck-field check counts each step at most this, the axes check leaves those out
+MAG_TURN_STEP = 1.0
+
+
 def _field_turn_bins(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float):
     """(mean field (k, 3), mean rate (k, 3) rad/s, which neighbours are consecutive bins (k − 1,), bin length s) of
     the TILT_BIN bins with both sensors (:func:`_field_and_rate`), or None under 30 neighbouring pairs."""
@@ -1917,7 +1924,8 @@ def check_mag_turns(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: f
         return
     m, w, nxt, h = got
     du, pred = _turns(m / np.maximum(_norm(m), 1e-300)[:, None], w, nxt, h)
-    turned, predicted = float(np.sum(_norm(du))), float(np.sum(_norm(pred)))
+    turned = float(np.sum(np.minimum(_norm(du), MAG_TURN_STEP)))
+    predicted = float(np.sum(np.minimum(_norm(pred), MAG_TURN_STEP)))
     if predicted >= MAG_TURN_MIN and turned < MAG_STILL_SHARE * predicted:
         raise OptinavError(
             f"the magnetic field hardly turns in the body ({turned:.1f} rad in all) while the gyro turns the body by "
@@ -1937,6 +1945,8 @@ def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> st
     z negated: BROAD 11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off) turns the field against the
     gyro."""
     from optinav.core.rotations import describe_permutation, signed_permutations
+
+    nxt = nxt & (_norm(0.5 * (w[1:] + w[:-1])) * h <= MAG_TURN_STEP)
 
     def residual(P) -> tuple[float, float]:
         u = m @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
