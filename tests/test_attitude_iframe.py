@@ -224,7 +224,7 @@ def test_streaming_equals_batch_and_online_is_causal():
 
 def test_a_non_finite_sample_streamed_is_refused_and_leaves_the_state():
     """AttitudeFilter.update took a NaN gyro or accelerometer sample (a logger's dropped read) silently and every
-    later output was NaN (helper). It is refused now with the state as it was, so skipping it and giving the next
+    later output was NaN. It is refused now with the state as it was, so skipping it and giving the next
     sample the time since the last one used matches the batch estimate without that sample."""
     n = 1500
     w, acc, _ = motion(n, seed=3, amp=1.0, rest=200)
@@ -490,7 +490,7 @@ def test_the_heading_while_the_tilt_settles_is_the_fields_low_pass(seed):
 def test_the_tilt_does_not_depend_on_the_heading():
     """The same flight turned about the vertical (q0 and truth rotated by a yaw): the motion bias update used a
     per-row clip and variance floor along north and west, so the tilt error was 5.04 / 3.56 / 4.31 / 5.04° at a yaw
-    of 0 / 30 / 60 / 90° (helper); now one horizontal clip and one variance (R = r·I): the same at every yaw."""
+    of 0 / 30 / 60 / 90°; now one horizontal clip and one variance (R = r·I): the same at every yaw."""
     from optinav import attitude
 
     fl = attitude.simulate("dynamic", duration_s=20.0, rng=1)
@@ -505,7 +505,7 @@ def test_the_tilt_does_not_depend_on_the_heading():
 
 def test_every_streaming_filter_takes_update_gyr_acc_dt():
     """make_filter(m).update(gyr, acc, dt) is the published filters' form; iframe's third argument is mag, and a
-    step there raised "object of type 'float' has no len()" (helper). A number in its place is the step now."""
+    step there raised "object of type 'float' has no len()". A number in its place is the step now."""
     from optinav.attitude import METHODS, make_filter
 
     w, acc, _ = motion(300, seed=3)
@@ -540,7 +540,7 @@ def test_a_streaming_filter_built_with_no_positive_rate_is_refused_naming_rate_h
 def test_a_scalar_last_q0_is_named():
     from optinav.attitude.checks import InitialAttitudeWarning
 
-    """A q0 stored [x, y, z, w] tilted the start by 111° with no word, and gd kept 74° of it (helper)."""
+    """A q0 stored [x, y, z, w] tilted the start by 111° with no word, and gd kept 74° of it."""
     q0 = quat_multiply(quat_from_rotvec([0.6, -0.4, 1.0]), [1.0, 0, 0, 0])
     acc = np.einsum("ij,nj->ni", dcm_from_quat(q0).T, np.tile([0.0, 0.0, -G], (500, 1)))  # at rest in pose q0
     with pytest.warns(InitialAttitudeWarning, match=r"stored scalar-last"):
@@ -572,7 +572,7 @@ def _flight(seed=1, duration=30):
 
 def test_a_time_base_off_by_two_is_named():
     """A time column at half the rate (t doubled, no unit header) gave roll/pitch/yaw errors of 40/24/24° with
-    exit 0: the unit check tried only the factors 1, π/180 and 180/π (helper). (A time base half as long is
+    exit 0: the unit check tried only the factors 1, π/180 and 180/π. (A time base half as long is
     judged on BROAD in test_broad.py: a flight's sustained accelerations hide its smaller drift.)"""
     from optinav.attitude.checks import check_imu
 
@@ -585,7 +585,7 @@ def test_a_time_base_off_by_two_is_named():
 
 def test_swapped_gyro_axes_are_named_not_blamed_on_the_unit():
     """gx and gy swapped: named "deg/s declared rad/s", and the --gyro-unit deg/s it advised gave 14° roll/pitch
-    errors with exit 0 (helper)."""
+    errors with exit 0."""
     from optinav.attitude.checks import check_imu
 
     gyr, acc = _flight()
@@ -616,7 +616,7 @@ def _biased_flight(n=12000):
 
 def test_a_magnetometer_slower_than_the_imu_keeps_its_time_constants():
     """A magnetometer sample every 30th row (NaN between, as loggers write a slower sensor): each sample weighed
-    one IMU step, so every magnetic time constant was 30× longer (BROAD trial 16: 2.0° vs VQF 0.55°; helper).
+    one IMU step, so every magnetic time constant was 30× longer (BROAD trial 16: 2.0° vs VQF 0.55°).
     Each sample now weighs the time since the previous one: the heading follows as with every row."""
     w, acc, q_true, q0, mag = _biased_flight()
     sparse = np.full_like(mag, np.nan)
@@ -628,7 +628,7 @@ def test_a_magnetometer_slower_than_the_imu_keeps_its_time_constants():
 
 def test_a_start_upside_down_is_no_frame_mistake_when_the_rest_is_upright():
     """A cut that starts while the body is upside down (BROAD trial 03 from 76.2 s) was told to use the other frame
-    (the first 200 samples only were judged; helper): the whole recording's mean specific force must lean the same
+    (the first 200 samples only were judged): the whole recording's mean specific force must lean the same
     way."""
     from optinav.attitude.checks import check_frame
 
@@ -644,7 +644,7 @@ def test_a_start_upside_down_is_no_frame_mistake_when_the_rest_is_upright():
 def test_a_level_car_turning_and_braking_is_not_refused(seed, seconds):
     """A level car (yaw rate up to 0.3 rad/s, 0.3 g sustained fore-aft, its centripetal pull in the turns) was
     refused as "rad/s declared deg/s": a gyro 57× too large spun the frame fast enough to average the car's
-    sustained accelerations out of the 2-s means (helper: 9 of 36 such logs). A body turning mostly about the
+    sustained accelerations out of the 2-s means (9 of 36 such logs). A body turning mostly about the
     vertical does not turn gravity, and the gravity-based unit check leaves it alone."""
     from optinav.attitude.checks import check_imu
 

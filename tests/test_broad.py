@@ -302,7 +302,7 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_and_subtracted_offline(tm
         assert f"magnetometer offset [29.69, -0.1118, 0.3866] subtracted ({how})" in est.summary()
         back = AttitudeEstimate.from_json(est.to_json(tmp_path / f"e{offline}.json"))
         np.testing.assert_array_equal(back.mag_hard_iron, b)
-    # 5 µT turned the heading 12-16° with no word (helper): the fit takes the norm's spread 5.4 % down to 1.8 %
+    # 5 µT turned the heading 12-16° with no word: the fit takes the norm's spread 5.4 % down to 1.8 %
     small = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag + [5.0, -2.5, 1.5])
     np.testing.assert_allclose(small.mag_hard_iron, [5.0, -2.5, 1.5], atol=0.5)
     est = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag)
@@ -680,7 +680,7 @@ def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
     """An HDF5 in BROAD's layout without the optical reference was refused ('lacks opt_quat, movement') even
     without --reference; its units in the file's attributes or in --acc-unit/--gyro-unit were ignored (an
     accelerometer in g then refused with "declare the unit with --acc-unit"), --time-unit and a contradicting
-    --rate passed silently; the generic reader found no gyroscope in imu_gyr (helper)."""
+    --rate passed silently; the generic reader found no gyroscope in imu_gyr."""
     from optinav.cli.main import main
     from optinav.io import read_imu
 
@@ -716,7 +716,7 @@ def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
 
 def test_a_gyro_logged_in_whole_deg_s_is_not_taken_for_clipped():
     """Trial 02's gyro rounded to whole deg/s (a logger's CSV): a 411 °/s peak held 3 samples and entered by
-    3 °/s (0.7 % of the peak, above the 0.5 % rule) was refused as clipped, with no way round it (helper); the
+    3 °/s (0.7 % of the peak, above the 0.5 % rule) was refused as clipped, with no way round it; the
     quantum of the output now bounds a natural step. A real clip of the same data at 300 °/s is still named."""
     from optinav.attitude.checks import _check_clipping, axis_steps, quantum
     from optinav.errors import OptinavError
@@ -753,14 +753,14 @@ def test_a_rad_s_gyro_declared_deg_s_is_named_on_dynamic_recordings(name):
     if not p.is_file():
         pytest.skip(f"{name} absent")
     tr = load_broad(p)
-    # from Python the data are rad/s by contract: the cause says so (it said "in deg/s" for a day; helper)
+    # from Python the data are rad/s by contract: the cause says so (it said "in deg/s" for a day)
     with pytest.raises(OptinavError, match="the gyro in rad/s does not explain.*rad/s declared deg/s"):
         check_imu(tr.gyr * np.pi / 180.0, tr.acc, np.array([tr.dt]))
     check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
 
 
 def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
-    """opt_quat stored [x, y, z, w] (scipy's order) scored 102° with no hint (helper): a warning then said that
+    """opt_quat stored [x, y, z, w] (scipy's order) scored 102° with no hint: a warning then said that
     read so it scores 0.39°; now its turns against the gyro refuse it, naming the order (exit 2, no score); BROAD's
     own order scores with no word on it."""
     import h5py
@@ -784,7 +784,7 @@ def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
 
 def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     """Trial 29's gyro turns at a median 3.6 rad/s (over 0.3 g as a number): its triads swapped were blamed on
-    "gravity removed (a linear-acceleration output)" (helper). An accelerometer never reads near zero but in free
+    "gravity removed (a linear-acceleration output)". An accelerometer never reads near zero but in free
     fall; a gyro at rest does: that names the swap, in memory and streamed; the trial as recorded passes."""
     from optinav.attitude.checks import check_imu
     from optinav.cli.main import main
@@ -805,7 +805,7 @@ def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
 
 def test_a_magnetometer_stored_as_one_n_by_3_array(tmp_path, capsys):
     """An NPZ/HDF5 with the magnetometer as one (N, 3) array ``mag`` (as acc and gyro are) could not be used: --mag
-    looked for mx,my,mz and the error asked for three names, which --mag-columns refused for one array (helper).
+    looked for mx,my,mz and the error asked for three names, which --mag-columns refused for one array.
     One name now takes the array, with the attitude of the same field in three columns; --mag names it."""
     import h5py
 
@@ -842,7 +842,7 @@ def test_a_magnetometer_stored_as_one_n_by_3_array(tmp_path, capsys):
 @pytest.mark.parametrize("perm", [7, 37, 40])
 def test_gyro_axes_flipped_on_fast_translation_are_named_from_the_whole_log(perm):
     """BROAD 16 (fast translation) with its gyro negated or its axes swapped ran with exit 0 at 75°, 46° and 22°
-    inclination RMSE (helper): over the unit window gravity turns too little to judge (0.23 rad), and the whole-log
+    inclination RMSE: over the unit window gravity turns too little to judge (0.23 rad), and the whole-log
     check searched factors only. Over minutes the signed order that holds gravity is named."""
     from optinav.attitude.checks import check_imu
     from optinav.core.rotations import signed_permutations
@@ -861,7 +861,7 @@ def test_gyro_axes_flipped_on_fast_translation_are_named_from_the_whole_log(perm
 
 def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
     """Trial 02 cut to its first 20 s (at rest: no sample marked movement) with --reference ran the whole estimate
-    and ended in "no finite samples to average; check the reference data and the mask" (helper): the error now
+    and ended in "no finite samples to average; check the reference data and the mask": the error now
     says what the reference lacks and the flag to drop."""
     import h5py
 
@@ -890,7 +890,7 @@ def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
 def test_a_mems_gyro_bias_is_no_unit_error(bias_deg_s):
     """Trial 11 (slow translation: little turning) with an ordinary MEMS bias of 2-3 °/s added: the unit check
     refused it as 'deg/s declared rad/s' (the bias drifts gravity in the gyro-integrated frame by 0.20 rad over
-    the window, beyond the 0.2 floor; the advised --gyro-unit deg/s then ran with exit 0 at 5.6°; helper). The
+    the window, beyond the 0.2 floor; the advised --gyro-unit deg/s then ran with exit 0 at 5.6°). The
     drift is now judged with the constant bias (≤ 5 °/s) that steadies it most; a deg/s gyro is still named."""
     from optinav.attitude.checks import check_imu
     from optinav.errors import OptinavError
@@ -914,7 +914,7 @@ def test_a_mems_gyro_bias_is_no_unit_error(bias_deg_s):
     ],
 )
 def test_excerpts_pass_the_input_checks(tmp_path, capsys, name, row, seconds):
-    """Excerpts of real trials were refused (helper): 5 s of trial 24 as 'gyro axis y clipped at 3.225 rad/s' —
+    """Excerpts of real trials were refused: 5 s of trial 24 as 'gyro axis y clipped at 3.225 rad/s' —
     the logger held one whole sample four times at the excerpt's peak (every channel repeats: no clip); 1 s of
     trial 16's fast translation as 'rad/s declared deg/s' with rad/s declared (too short to judge the unit by how
     gravity turns); 5 s of trial 11 as 'clipped at 1.16 rad/s', a sharp natural peak three samples flat (one run
@@ -940,8 +940,8 @@ def test_excerpts_pass_the_input_checks(tmp_path, capsys, name, row, seconds):
 
 @pytest.mark.parametrize("row, seconds", [(20000, 1.0), (20000, 2.0), (10000, 1.0)])
 def test_offline_on_a_recording_shorter_than_tau_acc(tmp_path, row, seconds):
-    """Offline on 1-2 s of BROAD's fast rotation (trial 07) gave 11° against online 6° and VQF offline 0.95°
-    (helper): the zero-phase filter's reflected ends took the edge samples' direction. Its ends are extended at
+    """Offline on 1-2 s of BROAD's fast rotation (trial 07) gave 11° against online 6° and VQF offline 0.95°:
+    the zero-phase filter's reflected ends took the edge samples' direction. Its ends are extended at
     the mean of their first tau_acc s now — within 1.5° (and never worse than online); streamed the same."""
     from optinav.cli.main import main
 
@@ -977,7 +977,7 @@ def test_offline_on_a_recording_shorter_than_tau_acc(tmp_path, row, seconds):
 def test_offline_9d_heading_of_a_recording_in_motion(name, start_s, end_s, before, vqf):
     """Offline 9D on a recording that starts (and ends) in motion: both passes read the field through tilts that
     lag, and a dip of 68° turns 1° of tilt into 2.5° of heading — the offline heading was no better than the
-    online one (helper). The field's azimuth is now taken in the smoothed attitude and averaged forward and
+    online one. The field's azimuth is now taken in the smoothed attitude and averaged forward and
     backward over tau_mag_smooth (40 s); the nine whole trials unchanged (1.60°)."""
     p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
     if not p.is_file():
@@ -991,7 +991,7 @@ def test_offline_9d_heading_of_a_recording_in_motion(name, start_s, end_s, befor
 
 
 def test_an_excerpt_in_rad_s_declared_deg_s_is_named_and_a_right_q0_is_not():
-    """60 s of trial 07 (880 °/s peaks) with its rad/s gyro declared deg/s ran with exit 0 at 22° (helper): the
+    """60 s of trial 07 (880 °/s peaks) with its rad/s gyro declared deg/s ran with exit 0 at 22°: the
     drift criterion's floor, which allows for a bias, held it back — a bias cannot steady a gyro that reads 57×
     too small, so that comparison has no floor now. And a right q0 at a start in motion was warned about (34°):
     the q0 check judges only a still start."""
@@ -1020,7 +1020,7 @@ def test_an_excerpt_in_rad_s_declared_deg_s_is_named_and_a_right_q0_is_not():
 @pytest.mark.parametrize(("end_s", "limit", "before"), [(5.0, 1.35, 1.69), (15.0, 0.75, 0.85), (60.0, 0.62, 0.69)])
 def test_offline_of_a_recording_that_ends_in_fast_motion(end_s, limit, before):
     """Trial 16 cut to end 5-60 s into its fast translation: offline 1.69 / 0.85 / 0.69° against online 0.55° and
-    VQF offline 0.42-0.46° (helper). The backward pass began with the forward low-pass memories, whose slope
+    VQF offline 0.42-0.46°. The backward pass began with the forward low-pass memories, whose slope
     reversed time turns around (it took ~10 s to settle), and was blended in at 40 % 5 s after its start: the
     memories are now held at their last output, and each pass weighs by its running time over 3 tau_acc."""
     p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
@@ -1046,7 +1046,7 @@ def _with_lost_samples(tr, stretches):
 def test_lost_samples_in_motion_do_not_throw_the_tilt():
     """0.3 s lost 60 s into BROAD trial 16 (fast translation; the stamps right): the low-pass took the gap as one
     step with its own coefficients, and the next, short step read the gap's increment as its own — the tilt
-    overshot to 134° for seconds (RMSE 34.7°, VQF 2.8°; helper). The gap is now low-passed in sub-steps and the
+    overshot to 134° for seconds (RMSE 34.7°, VQF 2.8°). The gap is now low-passed in sub-steps and the
     low-pass restarts as at the start (its running mean over the next tau_acc s): RMSE 3.8°, 1.1° 8 s after the
     gap; VQF, which leaves the gap out, 2.8° and 0.8°."""
     p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
@@ -1067,7 +1067,7 @@ def test_lost_samples_in_motion_do_not_throw_the_tilt():
 def test_a_correct_gyro_unit_is_not_refused_for_lost_samples():
     """0.36 s lost in motion inside the window the gyro-unit check judges: the strapdown turned by the rate after
     the gap for all of it, which no unit factor explains — the correct rad/s was refused as deg/s, and as rad/s
-    when declared deg/s (helper). The check judges the longest stretch without lost samples."""
+    when declared deg/s. The check judges the longest stretch without lost samples."""
     from optinav.attitude.checks import check_imu
 
     p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
@@ -1102,10 +1102,9 @@ def test_a_time_base_off_by_two_is_named_on_broad(name, factor, words):
 def test_a_magnetometer_that_starts_late_gets_its_own_start(name, start_s, limit):
     """The field from 30 s on (NaN before, a magnetometer that starts late): its start-up (reference from its
     first tau_acc s, a running mean for tau_mag) ran on the filter's age, so the late first sample, taken in fast
-    rotation, became a one-sample reference and was followed at the full tau_mag: heading 11.6° (VQF 1.89°;
-    helper). It now runs on the magnetometer's age: 2.5°. The start's every-sample mean (for a tilt that is still
+    rotation, became a one-sample reference and was followed at the full tau_mag: heading 11.6° (VQF 1.89°). It now runs on the magnetometer's age: 2.5°. The start's every-sample mean (for a tilt that is still
     settling) is not taken by a late magnetometer: in trial 33 a magnet comes 8 s after the field, and that mean
-    followed it (8.8°, VQF 3.7°; helper): 2.5°."""
+    followed it (8.8°, VQF 3.7°): 2.5°."""
     p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
     if not p.is_file():
         pytest.skip(f"{name} absent")
@@ -1117,7 +1116,7 @@ def test_a_magnetometer_that_starts_late_gets_its_own_start(name, start_s, limit
 
 
 def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
-    """The AK8963 layout of an MPU-9250 (x and y swapped, z negated) gave a heading 77° off with exit 0 (helper):
+    """The AK8963 layout of an MPU-9250 (x and y swapped, z negated) gave a heading 77° off with exit 0:
     the field's angle to gravity spans 77° as the body turns, 4° in the IMU's axes. The nine trials as recorded,
     and their 40-s cuts every 20 s, pass without a warning."""
     from optinav.attitude.checks import check_mag_axes
@@ -1135,7 +1134,7 @@ def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
         for p in NINE:
             tr = load_broad(p)
             check_mag_axes(tr.acc, tr.mag, tr.dt, tr.gyr)
-            # cuts of fast translation: the accelerometer's 1-s means are no gravity there (a helper's false alarms)
+            # cuts of fast translation: the accelerometer's 1-s means are no gravity there
             n = int(40.0 / tr.dt)
             for i0 in range(0, tr.acc.shape[0] - n, n // 2):
                 sl = slice(i0, i0 + n)
@@ -1162,7 +1161,7 @@ def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
 @pytest.mark.parametrize("name", ["11_undisturbed_slow_translation_B", "16_undisturbed_fast_translation_B"])
 def test_a_magnetometer_in_other_axes_on_a_yawing_body_is_named(tmp_path, capsys, name):
     """The AK8963 layout on trials that mostly yaw keeps the field's angle to gravity (11, 16, 27, 29, 33 passed
-    the check above) and ran with exit 0 at a heading 111° and 117° off (helper): the field turns in the body
+    the check above) and ran with exit 0 at a heading 111° and 117° off: the field turns in the body
     against the gyro there. Named in memory and streamed, at full rate and at a tenth of it (NaN between); the
     trial as recorded passes (also a tenth of the rate, and with a hard-iron offset of half the field)."""
     from optinav.attitude.checks import check_mag_axes
@@ -1191,7 +1190,7 @@ def test_a_magnetometer_in_other_axes_on_a_yawing_body_is_named(tmp_path, capsys
 def test_a_correct_gyro_unit_with_several_short_gaps_is_not_refused():
     """20 s of trial 29 with four stretches lost (0.42, 0.21, 0.11, 0.31 s): the unit check judged the longest
     stretch without lost samples, 7.5 s — three 2-s means, over which a gyro 57× too large spun gravity steady —
-    and refused the correct rad/s as "rad/s declared deg/s" (helper). A stretch under 12 s is not judged."""
+    and refused the correct rad/s as "rad/s declared deg/s". A stretch under 12 s is not judged."""
     from optinav.attitude.checks import check_imu
 
     p = SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat"
@@ -1209,7 +1208,7 @@ def test_a_correct_gyro_unit_with_several_short_gaps_is_not_refused():
 
 def test_a_cut_that_starts_upside_down_gets_no_frame_warning(tmp_path, capsys):
     """Trial 03 from 76.2 s starts with the body upside down: judged on its first 200 samples alone it was told to
-    use NED (helper); the whole recording's mean specific force must lean the same way — also block by block in
+    use NED; the whole recording's mean specific force must lean the same way — also block by block in
     `optinav attitude`, which had dropped the whole log's sums after its first pass (found on review)."""
     from optinav.cli.main import main
 
@@ -1239,7 +1238,7 @@ def test_a_cut_that_starts_upside_down_gets_no_frame_warning(tmp_path, capsys):
 )
 def test_a_wrong_sample_rate_is_named_with_the_rate_the_data_fit(name, rate):
     """Only a rate off by 2 was named: --rate 1000, 200 or 400 for BROAD's 285.7 Hz ran with exit 0 at 80°, 40° and
-    14° inclination RMSE, and --rate 100 was blamed on the gyro unit, whose flag then gave 80° (helper). The
+    14° inclination RMSE, and --rate 100 was blamed on the gyro unit, whose flag then gave 80°. The
     factor is searched now, and the message names --rate with the rate the data fit."""
     from optinav.attitude.checks import check_imu
 
@@ -1264,7 +1263,7 @@ def _rate_named(name: str, rate: float, roughly: str = "") -> tuple:
 
 def test_a_time_column_in_ticks_or_an_epoch_read_in_the_wrong_unit_is_named():
     """Xsens' SampleTimeFine (100-µs ticks) read as µs made the log 100× too fast and too short (1.9 s) for the
-    unit check: exit 0 at 18°; an epoch in ns read as s gave steps of 3.5e6 s, integrated with exit 0 (helper)."""
+    unit check: exit 0 at 18°; an epoch in ns read as s gave steps of 3.5e6 s, integrated with exit 0."""
     from optinav.attitude.checks import check_imu
 
     tr = load_broad(PATH)
@@ -1446,7 +1445,7 @@ def test_the_whole_log_time_base_check_passes_the_nine_trials_and_splits_at_gaps
 
 def test_a_linear_acceleration_output_is_refused_in_any_unit():
     """A phone's 'linear acceleration' (gravity removed) was hinted as 'g', and --acc-unit g then ran with exit 0
-    at 77° inclination RMSE (helper): while the gyro is still, its 2-s means keep ~10 % of its norm (the nine
+    at 77° inclination RMSE: while the gyro is still, its 2-s means keep ~10 % of its norm (the nine
     BROAD trials ≥ 99 %), and it is refused with the cause named."""
     from optinav.attitude.checks import check_imu
     from optinav.core.rotations import quat_conjugate, quat_rotate
@@ -1461,7 +1460,7 @@ def test_a_linear_acceleration_output_is_refused_in_any_unit():
 
 def test_a_gyro_in_a_finer_unit_does_not_get_the_flag_the_user_gave(tmp_path, capsys):
     """A gyro in mdps declared deg/s was told 'it looks like deg/s declared rad/s: --gyro-unit deg/s', the flag
-    it already had (helper): with the declared unit known, the message names another unit."""
+    it already had: with the declared unit known, the message names another unit."""
     from optinav.cli.main import main
 
     tr = load_broad(PATH)
@@ -1483,7 +1482,7 @@ def test_a_gyro_in_a_finer_unit_does_not_get_the_flag_the_user_gave(tmp_path, ca
 def test_short_cuts_in_fast_rotation_or_vibration_are_not_refused(name, start_s, seconds):
     """The short-log time check counted every turn of the accelerometer's 0.1-s means as gravity turning: a lever
     arm's pull and vibration gave ratios of 28-50× with the gyro right, and correct 2-s and 5-s cuts were refused
-    as "roughly 10 Hz" (helper: 20 of 3341 cuts). It now needs the gyro's rotations to match the accelerometer's
+    as "roughly 10 Hz" (20 of 3341 cuts). It now needs the gyro's rotations to match the accelerometer's
     turns (correlation ≥ 0.7)."""
     from optinav.attitude.checks import check_imu
 
@@ -1499,7 +1498,7 @@ def test_short_cuts_in_fast_rotation_or_vibration_are_not_refused(name, start_s,
 def test_a_still_car_or_a_vibrating_mount_is_not_refused():
     """A level car speeding up and braking at 0.25 g with its gyro still (5 s) was refused by the short-log check
     ("roughly 0.24 Hz"); a still IMU on a mount vibrating at 2-2.5 g was refused as "gravity removed" (its median
-    norm twice g; helper). Both pass now."""
+    norm twice g). Both pass now."""
     from optinav.attitude.checks import check_imu
 
     rng = np.random.default_rng(0)
@@ -1516,7 +1515,7 @@ def test_a_still_car_or_a_vibrating_mount_is_not_refused():
 
 def test_a_linear_acceleration_output_in_continuous_motion_is_refused():
     """With no still 2-s window, the gravity check had nothing to judge by: 20 s of trial 07's motion as a
-    linear-acceleration output ran with exit 0 at 65° (helper). Such a log is judged in the gyro-integrated frame
+    linear-acceleration output ran with exit 0 at 65°. Such a log is judged in the gyro-integrated frame
     (the nine trials' unit windows keep ≥ 99 % of the norm there)."""
     from optinav.attitude.checks import check_imu
     from optinav.core.rotations import quat_conjugate, quat_rotate
@@ -1534,7 +1533,7 @@ def test_a_linear_acceleration_output_in_continuous_motion_is_refused():
 
 @pytest.mark.parametrize(("name", "start_s", "seconds"), [("03_undisturbed_slow_rotation_C", 0.0, 60.0), ("02_undisturbed_slow_rotation_B", 40.0, 20.0)])  # fmt: skip
 def test_a_rate_too_high_on_a_cut_is_named(name, start_s, seconds):
-    """--rate 1000 for 285.7 Hz on cuts (helper): 60 s of trial 03 ran at 65° (gravity drifted within the 2-s means'
+    """--rate 1000 for 285.7 Hz on cuts: 60 s of trial 03 ran at 65° (gravity drifted within the 2-s means'
     tolerance), 20 s of 02 at 48° (17 s declared: too short for them). The gyro's rotations against the
     accelerometer's turns, bin by bin where they correlate, name the factor; the cuts at their true rate pass."""
     from optinav.attitude.checks import check_imu
@@ -1770,7 +1769,7 @@ def test_the_reference_scores_alike_in_ned_and_enu(tmp_path, capsys):
 @pytest.mark.parametrize("offline", [False, True])
 def test_the_report_draws_the_error_against_the_reference(tmp_path, monkeypatch, capsys, offline):
     """--report with --reference gave the RMSE in a table but no error over time, so where an estimator fails
-    (a fast turn, a disturbance) was not visible (helper comparing methods). A second figure draws the inclination
+    (a fast turn, a disturbance) was not visible. A second figure draws the inclination
     and heading error of the scored samples: their RMS is the reported RMSE (trial 02 is drawn whole)."""
     from matplotlib.figure import Figure as MplFigure
 

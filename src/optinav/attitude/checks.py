@@ -467,7 +467,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
     if d.shape[0] > 1:
         # the longest stretch without lost samples: across a gap the strapdown turns by the rate after it for the
         # whole gap, which no unit factor explains (a correct rad/s log with 0.36 s lost in motion was refused as
-        # deg/s, and as rad/s when declared deg/s; helper)
+        # deg/s, and as rad/s when declared deg/s)
         cut = np.flatnonzero(d > LOST_STEPS * float(np.median(d)))
         if cut.size:
             edges = np.concatenate([[0], cut, [k]])
@@ -480,11 +480,11 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
                 alt = lambda s, sl=sl: alt0(s)[sl]  # noqa: E731
             if k * float(np.median(d)) < 2 * UNIT_MIN_S:
                 # a stretch of three 2-s means: a gyro 57× too large spun gravity steady there and a correct
-                # rad/s log with four short gaps was refused (helper); the unit is judged elsewhere or not at all
+                # rad/s log with four short gaps was refused; the unit is judged elsewhere or not at all
                 return None
     if k * float(np.median(d)) < UNIT_MIN_S:
         # too few 2-s means to tell a translation from a turn (1 s of BROAD's fast translation: refused); only a
-        # gyro far too slow for the turns gravity makes is named (time in 100-µs ticks read as µs: exit 0, helper)
+        # gyro far too slow for the turns gravity makes is named (time in 100-µs ticks read as µs: exit 0)
         return None if units_only else (_slip_hint(g, a, d) or _short_time_hint(g, a, d))
     if steady >= 0.9:
         # a specific force steady in the body while the gyro turns is a steady turn (its centripetal pull turning
@@ -493,7 +493,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
     if _perp_share(g, a, d) < PERP_SHARE_MIN:
         # a body that turns mostly about the vertical (a car) does not turn gravity: a gyro 57× too large spun the
         # frame fast enough to average the car's sustained accelerations out of the 2-s means and was taken for the
-        # right unit (a helper's level-car logs: 9 of 36 refused as rad/s declared deg/s)
+        # right unit (simulated level-car logs: 9 of 36 refused as rad/s declared deg/s)
         return None if units_only else _vertical_turns_axes_hint(g, a, d)
     spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
@@ -512,7 +512,7 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
             if best == np.pi / 180 and not units_only:
                 # a gyro too small to turn anything explains gravity better than the declared one also when the
                 # declared one turns about the wrong axes (gx and gy swapped: "deg/s declared rad/s", and the
-                # flag that hint names gave garbage with exit 0; helper)
+                # flag that hint names gave garbage with exit 0)
                 other = _time_hint(g, a, d, spread[best]) or _axes_hint(g, a, d, spread[best])
                 if other:
                     return other
@@ -794,8 +794,8 @@ def _time_or_axes_hint(g, a, d, drift1: float) -> UnitHint | None:
     if _body_turn(a, d) < CONSISTENCY_STILL:
         return None  # gravity hardly turns in the body: nothing to judge by
     drift1 = _gravity_spread(g, a, d, 1.0, fit_bias=True)[1]
-    # a rate 40 % too high steadied gravity within 0.15 rad on fast rotation (BROAD 07: 13.5° with exit 0;
-    # helper): the time base is judged also below CONSISTENCY_BAD, against a stricter share
+    # a rate 40 % too high steadied gravity within 0.15 rad on fast rotation (BROAD 07: 13.5° with exit 0):
+    # the time base is judged also below CONSISTENCY_BAD, against a stricter share
     time = _time_hint(g, a, d, drift1)
     if time:
         return time
@@ -1127,7 +1127,7 @@ RATE_RANGE_HZ = (0.5, 100_000.0)
 
 def check_rate(dt: float) -> None:
     """Refuse a median step ``dt`` (s) no IMU samples at (:data:`RATE_RANGE_HZ`): an epoch in ns read as s gave
-    steps of 3.5e6 s, integrated with exit 0 (helper)."""
+    steps of 3.5e6 s, integrated with exit 0."""
     lo, hi = RATE_RANGE_HZ
     if not (1.0 / hi <= dt <= 1.0 / lo):
         raise OptinavError(
@@ -1192,7 +1192,7 @@ def check_norms(
             "check the column order of --columns (t,ax,ay,az,gx,gy,gz), or for HDF5/MAT/NPZ --datasets (acc=NAME,gyro=NAME)",
         )
     if share < GRAVITY_SHARE:
-        # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77° (helper)
+        # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77°
         raise _gravity_removed(share, med_a, "while the gyro is still")
     if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
         unit = "g" if 0.3 < med_a < 3 else "another unit"
@@ -1371,7 +1371,7 @@ def check_gyro_unit(
 
 def _check_moving_gravity(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> None:
     """A log in motion throughout has no still window to judge gravity by (:func:`gravity_share` NaN): a
-    linear-acceleration output of 20-60 s of BROAD's motion ran with exit 0 at 48-110° (helper). Judged in the
+    linear-acceleration output of 20-60 s of BROAD's motion ran with exit 0 at 48-110°. Judged in the
     gyro-integrated frame instead, once the gyro's unit has passed."""
     share = inertial_gravity_share(g, a, d)
     if share < GRAVITY_SHARE:
@@ -1492,7 +1492,7 @@ def check_aop(aop: np.ndarray, unit: str = "rad") -> None:
     """The angle of polarization as read (``aop`` in its declared ``unit``, "rad" or "deg"): AoP lies in [−π, π]
     rad, so values beyond 2π are degrees declared rad; values in "degrees" that never leave ±π/2 yet span more than
     one of them (:data:`AOP_RAD_SPAN`) over :data:`AOP_MIN_ROWS` samples are radians declared deg (its 37-84°
-    errors passed with exit 0; helper)."""
+    errors passed with exit 0)."""
     a = np.asarray(aop, float)
     a = a[np.isfinite(a)]
     if a.size:
@@ -1536,7 +1536,7 @@ def check_frame(acc: np.ndarray, frame: str, mean=None) -> None:
     """Warn once when the first second's specific force (a body at rest reads +g along body up) contradicts the
     frame: NED bodies are forward-right-down (z reads −g level), ENU bodies right-forward-up (z reads +g) — and
     the whole recording's mean specific force (``mean``, default the mean of ``acc``) leans the same way: a
-    recording that starts upside down and then turns upright (a cut) is no frame mistake (helper)."""
+    recording that starts upside down and then turns upright (a cut) is no frame mistake."""
     frame = frame_name(frame)
     a = np.median(acc[: max(1, min(acc.shape[0], 200))], axis=0)
     na = float(np.linalg.norm(a))
@@ -2133,7 +2133,7 @@ def check_mag_axes(
     acc: np.ndarray, mag: np.ndarray, dt: float, gyr: np.ndarray | None = None, gyro_unit: str | None = None
 ) -> None:
     """Refuse (or warn about) a magnetometer whose axes are not the IMU's (:func:`mag_axes_hint`; a swapped layout
-    gave a heading 77° off with exit 0; helper), and with ``gyr`` (rad/s) one whose field does not turn or turns
+    gave a heading 77° off with exit 0), and with ``gyr`` (rad/s) one whose field does not turn or turns
     against the gyro (:func:`check_mag_turns`) or a gyro that reads far less than the field turns
     (:func:`gyro_scale_error`; ``gyro_unit`` as declared); ``dt`` the median step (s)."""
     b, as_, ms, c = mag_sums(acc, mag)
@@ -2148,7 +2148,7 @@ def check_mag_axes(
 
 def check_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float, gyro_unit: str | None = None) -> None:
     """Raise :func:`gyro_scale_error` of :func:`mag_gyro_scale` (``bins``, ``sums`` of :func:`field_rate_sums`,
-    ``h`` s a bin) when it has one (helper)."""
+    ``h`` s a bin) when it has one."""
     s, explained, turned = got = mag_gyro_scale(bins, sums, h)
     err = gyro_scale_error(*got, gyro_unit)
     if err is not None and -MAG_SCALE_FAR <= s < 0:
