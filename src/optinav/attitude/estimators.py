@@ -43,6 +43,7 @@ from optinav.attitude.checks import (
     check_turning_offset,
     field_rate_sums,
     find_gaps,
+    hard_iron,
     mag_fit_stride,
     scale_bin_rows,
     still_sums,
@@ -644,8 +645,9 @@ def estimate(
             rows = scale_bin_rows(step)
             turns = (*field_rate_sums(gyr, mag, rows), rows * step)
             checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
-            if online_fit:
-                pass  # an uncalibrated magnetometer said so: fitted from past samples below
+            if online_fit:  # an uncalibrated magnetometer said so: fitted from past samples below
+                got = hard_iron(mag[:: mag_fit_stride(mag.shape[0])])
+                checked = None if got is None else got[0]
             elif mag_hard_iron is None:
                 turned = body_turned(*turns)
                 b = check_mag(mag[:: mag_fit_stride(mag.shape[0])], offline, online=method == "iframe", turned=turned)
