@@ -1771,6 +1771,21 @@ def zero_rows_missing(mag: np.ndarray) -> np.ndarray:
     return out
 
 
+def field_less_offset(field_sums: np.ndarray, counts: np.ndarray, offset) -> np.ndarray:
+    """Per-bin field sums (k, 3) over ``counts`` (k,) rows each (:func:`mag_sums`, :func:`field_rate_sums`) of the
+    field less a hard-iron ``offset`` (3,, the field's unit; None: as they are)."""
+    return field_sums if offset is None else field_sums - counts[:, None] * np.asarray(offset, float)
+
+
+def rate_sums_less_offset(sums: np.ndarray, offset) -> np.ndarray:
+    """:func:`field_rate_sums`' sums (k, 8) with the field's columns less ``offset`` (:func:`field_less_offset`)."""
+    if offset is None:
+        return sums
+    out = np.array(sums, dtype=float)
+    out[:, :3] = field_less_offset(out[:, :3], out[:, 3], offset)
+    return out
+
+
 def mag_sums(acc: np.ndarray, mag: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Bin numbers (k,), and per TILT_BIN-sample bin the specific-force and field sums (k, 3) over the rows with
     a finite field, and their count (k,), of a block starting at row ``row0`` (as :func:`tilt_sums`)."""
@@ -2369,10 +2384,7 @@ def check_turning_offset(
     """:func:`check_mag` for an offset seen in how the field turns (:func:`turning_offset`) where the sphere fit saw
     none: offline the offset b for the estimate to subtract, online refused naming it; with the offset ``given``
     (its unit) the field less it is judged, and one that still turns about a point off zero is refused."""
-    if given is not None:
-        sums = np.array(sums, dtype=float)
-        sums[:, :3] -= sums[:, 3:4] * np.asarray(given, float)
-    got = turning_offset(bins, sums, h)
+    got = turning_offset(bins, rate_sums_less_offset(sums, given), h)
     if got is None:
         return None
     b, explained = got

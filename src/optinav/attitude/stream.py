@@ -138,10 +138,7 @@ class StreamChecks:
     def _turn_sums(self, offset=None) -> tuple[np.ndarray, np.ndarray, float]:
         """(bins, sums, h) of the gyro-scale bins (:func:`checks.field_rate_sums`), the field less ``offset``."""
         bins, sums = (np.concatenate(x) for x in zip(*self._scale_sums))
-        if offset is not None:
-            sums = sums.copy()
-            sums[:, :3] -= sums[:, 3:4] * np.asarray(offset, float)
-        return bins, sums, self._scale_rows * self.median_dt
+        return bins, _c.rate_sums_less_offset(sums, offset), self._scale_rows * self.median_dt
 
     def finish_first(self) -> None:
         """The checks that need only the first pass, in the order of check_imu; sets ``gaps`` (indices),
@@ -246,8 +243,7 @@ class StreamChecks:
         offset = given if given is not None else self.fitted_hard_iron if self.offline or self.online_fit else None
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
-            if offset is not None:
-                sums[2] = sums[2] - sums[3][:, None] * np.asarray(offset, float)
+            sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
             _c.warn_or_refuse_mag_axes(*_c.mag_axes_hint(*sums, self.median_dt))
             if self._scale_sums:
                 _c.check_gyro_scale(*self._turn_sums(offset), self.gyro_unit)
