@@ -2247,17 +2247,14 @@ def online_fit_failed(mag: np.ndarray) -> OptinavError:
     """The refusal of an online estimate whose magnetometer shows a hard-iron offset (:func:`hard_iron` on the rows
     ``mag``) that the fit from past samples never took: the recording does not turn the sensor about every body
     axis in a steady field before its end."""
+    gates = "never passed its gates (the sensor turned about every body axis in a steady field, the norm then steady)"
     got = hard_iron(mag)
-    if got is None:  # not expected (the caller found one): the plain refusal of a field that varies
+    if got is None:  # asked for without the checks (mag_hard_iron="online"), or a field the checks found none in
         return OptinavError(
-            "the magnetometer's hard-iron offset could not be fitted online from past samples",
-            "pass --mag-hard-iron=BX,BY,BZ (mag_hard_iron= in Python) or --offline",
+            f"the magnetometer's hard-iron offset fitted online from past samples {gates}",
+            "pass --mag-hard-iron=BX,BY,BZ (mag_hard_iron= in Python), --offline, or no magnetometer",
         )
-    return _hard_iron_error(
-        *got,
-        why="; fitted online from past samples it never passed its gates (the sensor turned about every body axis "
-        "in a steady field, the norm then steady)",
-    )
+    return _hard_iron_error(*got, why=f"; fitted online from past samples it {gates}")
 
 
 def _hard_iron_error(b, s0: float, s1: float, why: str = "") -> OptinavError:

@@ -680,13 +680,7 @@ def estimate(
         raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt)
         mag_hard_iron, hi_from = online_fit_result(fs)
         if hi_from is None:
-            if checks:
-                raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
-            raise OptinavError(
-                "the magnetometer's hard-iron offset fitted online from past samples never passed its gates (the "
-                "sensor turned about every body axis in a steady field)",
-                "pass mag_hard_iron=(BX, BY, BZ), offline=True, or no magnetometer",
-            )
+            raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
         fitted = True
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
     if gaps.size:
