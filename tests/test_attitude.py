@@ -4,6 +4,8 @@ Truth: a minimal local synthesis (piecewise-constant body rate integrated exactl
 computed independently with np.cross) so these tests do not depend on the flight simulator.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -771,3 +773,39 @@ def test_the_paper_kernels_copy_arrays_without_slice_assignment():
                 ):
                     found.append(f"{name}: {ast.unparse(node)[:60]}")
     assert not found, found
+
+
+def test_every_filter_refuses_a_time_gap_and_reset_starts_anew_as_estimate_does():
+    """AttitudeFilter.update took a 12-s step (a logger's dropout) and integrated the gyro across it with no word;
+    the other filters named it "no IMU sample step". Every filter now refuses a step beyond the gap limit of
+    :func:`estimate` (5 typical steps and 0.5 s) with its state unchanged, and ``reset()`` starts anew: a stream
+    reset at the gap, its next step the usual one, gives ``estimate(allow_gaps=True)`` to the last bit, per sample
+    and in chunks."""
+    from optinav.attitude import METHODS as ALL_METHODS
+
+    d = synth(300, amp=1.5, seed=6, gyro_sigma=0.01, acc_sigma=0.1)
+    dts = np.full(300, d["dt"])
+    dts[150] = 2.0
+    for method in ALL_METHODS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            q_b = estimate(d["gyr"], d["acc"], dts, method=method, allow_gaps=True).q_b_n
+        for rate in (1.0 / d["dt"], None):  # the typical step: the filter's, or the step before
+            f = make_filter(method, rate_hz=rate)
+            step = lambda i, h: (f.update(d["gyr"][i], d["acc"][i], dt=h), f.q_b_n)[1]
+            q = [step(i, dts[i]) for i in range(150)]
+            with pytest.raises(OptinavError, match=r"step of 2 s is a time gap .*reset\(\)"):
+                f.update(d["gyr"][150], d["acc"][150], dt=2.0)
+            assert np.array_equal(f.q_b_n, q[-1])  # unchanged
+            f.reset()
+            assert f.q_b_n is None or method == "iframe"
+            q += [step(i, d["dt"]) for i in range(150, 300)]
+            assert np.max(np.abs(np.array(q) - q_b)) < 1e-13, (method, rate)
+        f = make_filter(method)
+        with pytest.raises(OptinavError, match="before row 150 of the chunk"):
+            f.update_batch(d["gyr"], d["acc"], dt=dts)
+        assert f.q_b_n is None
+        first = f.update_batch(d["gyr"][:150], d["acc"][:150], dt=dts[:150]).q_b_n
+        f.reset()
+        rest = f.update_batch(d["gyr"][150:], d["acc"][150:], dt=d["dt"]).q_b_n
+        assert np.max(np.abs(np.vstack([first, rest]) - q_b)) < 1e-13, method

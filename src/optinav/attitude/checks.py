@@ -199,12 +199,17 @@ def check_q0(q0: np.ndarray, acc: np.ndarray, frame: str) -> None:
     )
 
 
+def gap_limit(step: float) -> float:
+    """The longest step (s) that is no time gap, for a typical step ``step`` (s): GAP_FACTOR × it, at least
+    MIN_GAP_S."""
+    return max(GAP_FACTOR * step, MIN_GAP_S)
+
+
 def find_gaps(dts: np.ndarray) -> np.ndarray:
-    """Indices i whose step dt[i] (from sample i−1, s) is a time gap: > GAP_FACTOR × median and > MIN_GAP_S."""
+    """Indices i whose step dt[i] (from sample i−1, s) is a time gap: beyond :func:`gap_limit` of the median."""
     if dts.shape[0] < 3:
         return np.zeros(0, dtype=np.int64)
-    med = float(np.median(dts[1:]))
-    return np.flatnonzero((dts > GAP_FACTOR * med) & (dts > MIN_GAP_S))
+    return np.flatnonzero(dts > gap_limit(float(np.median(dts[1:]))))
 
 
 #: gyro unit factors tried against the declared unit (the check sees rad/s): ×π/180 (deg/s declared rad/s) and

@@ -53,6 +53,7 @@ from optinav.attitude.checks import (
 from optinav.attitude.iframe import (
     AttitudeFilter,
     FilterRun,
+    StreamGaps,
     front_outputs,
     hard_iron_online,
     online_fit_result,
@@ -819,11 +820,11 @@ def estimate_q(
 # --- streaming ------------------------------------------------------------------------------------------------
 
 
-class _Filter:
+class _Filter(StreamGaps):
     """Streaming attitude filter running the same kernel as :func:`estimate`: :meth:`update` one sample,
-    :meth:`update_batch` a chunk; ``rate_hz`` [Hz] or ``dt`` [s] gives the default step (as
-    :class:`~optinav.attitude.AttitudeFilter`); ``input_stage`` as :func:`estimate` (default on; False: the
-    method exactly as published)."""
+    :meth:`update_batch` a chunk, :meth:`reset` a new start; ``rate_hz`` [Hz] or ``dt`` [s] gives the default step
+    (as :class:`~optinav.attitude.AttitudeFilter`, and a time gap is refused as there); ``input_stage`` as
+    :func:`estimate` (default on; False: the method exactly as published)."""
 
     METHOD = "qn"
 
@@ -847,6 +848,9 @@ class _Filter:
         self.input_stage = bool(input_stage)
         # the input stage: iframe's own streaming filter, fed the samples estimate() feeds it on the whole log
         self._front = AttitudeFilter(dt=self.dt, frame=self.frame) if self.input_stage else None
+        if self._front is not None:
+            self._front._gap_check = False  # this filter judges the steps
+        self._gaps_init()
         self.C_b_m = as_c_b_m(C_b_m, self.frame)  # a bad mounting fails here, not at the first sample
         self._pol_kw = dict(min_sun_elevation=min_sun_elevation, min_dop=min_dop, min_sun_separation=min_sun_separation)
         self._q0 = None if q0 is None else _as_q0(q0)
@@ -862,6 +866,14 @@ class _Filter:
     def q_b_n(self) -> np.ndarray | None:
         """Current q_b^n (None before the first update)."""
         return None if self.state is None else self.state[:4].copy()
+
+    def reset(self, q0=None) -> None:
+        """Start the estimate anew (after a time gap, or a new recording), levelled from the next sample (or from
+        ``q0``, q_b^n, when given), its input stage too; the counts of :attr:`pol_skipped` go on."""
+        self.state, self._q0 = None, None if q0 is None else _as_q0(q0)
+        if self._front is not None:
+            self._front.reset()
+        self._gaps_init()
 
     @property
     def pol_skipped(self) -> dict[str, int]:
@@ -942,7 +954,10 @@ class _Filter:
         self._no_mag(mag)
         g = as_float_array(gyr, "gyr", last_dims=(3,)).reshape(1, 3)
         a = as_float_array(acc, "acc", last_dims=(3,)).reshape(1, 3)
-        dts = _as_dt(self._step(dt), 1)
+        h = self._step(dt)
+        if self._gap_check and np.ndim(h) == 0 and h > self._gap_s:
+            self._judge_gap(float(h))
+        dts = _as_dt(h, 1)
         pol = None
         if pol_sample is not None:
             if len(pol_sample) not in (2, 3):
@@ -959,6 +974,7 @@ class _Filter:
             self.state = _init_state(self.METHOD, q, self.options)
         _run(self.METHOD, self.options, self.state, g, a, dts, self._un, use, sn, cbm, c2, s2, min_d2, self._out,
              self._std, self.counts, self.input_stage)  # fmt: skip
+        self._prev = float(dts[-1])
         return self._out[0].copy()
 
     def update_batch(self, gyr, acc, dt=None, pol: PolarizationMeasurement | None = None, mag=None) -> FilterRun:
@@ -997,6 +1013,7 @@ class _Filter:
             rest = np.zeros(0, bool) if self.input_stage else None
             return FilterRun(np.empty((0, 4)), rest, gyr_bias=bias, att_std=rows.copy() if mekf else None)
         dts = _as_dt(self._step(dt), n)
+        self._chunk_gaps(dts)
         g, a, front = self._front_step(g, a, dts)
         use, sn, cbm, c2, s2, min_d2, skipped = _pol_arrays(pol, n, self.frame)
         self._add_skipped(skipped, pol)

@@ -69,6 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optinav.attitude import _iframe as _k
+from optinav.attitude.checks import MIN_GAP_S, gap_limit
 from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import DEFAULT_FRAME, frame_name
 from optinav.errors import OptinavError
@@ -524,7 +525,45 @@ def front_outputs(r: FilterRun, gyr, acc, frame: str) -> tuple[np.ndarray, np.nd
     return gyr - r.gyr_bias, acc_f
 
 
-class AttitudeFilter:
+class StreamGaps:
+    """Time gaps in a stream, the same for every method's streaming filter: a step beyond
+    :func:`~optinav.attitude.checks.gap_limit` of the typical one (the filter's ``dt``; without it the step
+    before, or a chunk's median) is refused with the state unchanged, as :func:`~optinav.attitude.estimate`
+    refuses a gap: the gyro's turn across it is unknown. :meth:`reset` starts the estimate anew."""
+
+    def _gaps_init(self) -> None:
+        self._gap_check = True  # off where the caller cuts the gaps itself (a file's, judged on its whole median)
+        # a step beyond _gap_s is judged (_judge_gap); without the filter's dt against the step before, _prev
+        self._gap_s = MIN_GAP_S if self.dt is None else gap_limit(self.dt)
+        self._prev = math.inf
+
+    def _judge_gap(self, h: float) -> None:
+        lim = self._gap_s if self.dt is not None else gap_limit(self._prev)
+        if lim < h < math.inf:  # an infinite step is refused as a non-finite sample
+            self._gap(h, lim)
+
+    def _gap(self, h: float, lim: float, row: int | None = None) -> None:
+        where = "" if row is None else f" before row {row} of the chunk"
+        raise OptinavError(
+            f"a step of {h:.3g} s{where} is a time gap (more than {lim:.3g} s): the gyro's turn across it "
+            "is unknown (the filter's state is unchanged)",
+            "call reset() for a new start levelled from the next sample, then give the samples after the gap with "
+            "dt= their usual step" + ("" if row is None else " (update_batch: the chunk from that row)"),
+        )
+
+    def _chunk_gaps(self, d: np.ndarray) -> None:
+        """Refuse a chunk whose steps ``d`` (N,) s hold a gap; without the filter's ``dt`` the typical step is the
+        chunk's median (as :func:`~optinav.attitude.checks.find_gaps`), or the step before for one or two rows."""
+        if not self._gap_check or d.size == 1 and self.dt is not None:  # one step for every row: check_step's
+            return
+        lim = self._gap_s if self.dt is not None else gap_limit(self._prev if d.size < 3 else float(np.median(d[1:])))
+        big = np.flatnonzero(d > lim)
+        if big.size:
+            self._gap(float(d[big[0]]), lim, int(big[0]))
+        self._prev = float(d[-1])
+
+
+class AttitudeFilter(StreamGaps):
     """Streaming ``iframe`` filter: ``update(gyr, acc, mag=None, dt=None)`` per sample (one numba call).
 
     ``rate_hz`` or ``dt`` (s) gives the default step. ``mag_hard_iron`` (3,) [the magnetometer's unit, body axes]:
@@ -568,6 +607,17 @@ class AttitudeFilter:
         self._step = _k.step
         self._step6 = _k.step6
         self._step9 = _k.step9
+        self._gaps_init()
+
+    def reset(self, q0=None) -> None:
+        """Start the estimate anew (after a time gap, or a new recording): the state as built, levelled from the
+        next sample's accelerometer, or from ``q0`` (q_b^n) when given. The options, the hard-iron offset given,
+        and one fitted online (a property of the sensor, as :func:`~optinav.attitude.estimate` keeps it across
+        gaps) stay."""
+        from optinav.attitude.estimators import _as_q0
+
+        self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0))
+        self._gaps_init()
 
     def update(self, gyr, acc, mag=None, dt=None) -> None:
         """One sample; then read :attr:`q_b_n`, :attr:`rest`, … Only the lengths are checked in Python (speed); a
@@ -590,6 +640,8 @@ class AttitudeFilter:
         h = self.dt if dt is None else dt
         if h is None or not h > 0:
             raise OptinavError("no positive time step for this update", "pass dt= or build with rate_hz")
+        if h > self._gap_s and self._gap_check:
+            self._judge_gap(h)
         if len(gyr) != 3 or len(acc) != 3 or (mag is not None and len(mag) != 3):
             raise OptinavError("gyr, acc and mag must have 3 components each", "pass one sample (x, y, z)")
         if mag is not None and self._hi is not None:
@@ -610,6 +662,7 @@ class AttitudeFilter:
                 f"a sample with a non-finite gyr {list(gyr)}, acc {list(acc)} or dt {h} was not used (state unchanged)",
                 "skip it: give the next sample dt= the time since the last one used",
             )
+        self._prev = h
 
     def update_batch(self, gyr, acc, mag=None, dt=None, pol=None) -> FilterRun:
         """A chunk of samples, with per-sample outputs (the arithmetic of :meth:`update`).
@@ -655,11 +708,13 @@ class AttitudeFilter:
         h = self.dt if dt is None else dt
         if h is None:
             raise OptinavError("no time step for this chunk", "pass dt= or build with rate_hz")
+        d = _as_dt(h, g.shape[0])
+        self._chunk_gaps(d)
         if m is not None and self._given is not None:
             m = m - self._given
         elif m is not None and self._fit is not None:
-            m, _ = hard_iron_online(m, _as_dt(h, g.shape[0]), self._fit)
-        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, _as_dt(h, g.shape[0]))
+            m, _ = hard_iron_online(m, d, self._fit)
+        r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, d)
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it
         return r

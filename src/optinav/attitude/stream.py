@@ -313,7 +313,9 @@ class StreamEstimator:
         from optinav.attitude.estimators import make_filter
 
         kw = dict(self.opts, frame=self.frame, q0=self.q0 if self.segments == 0 else None)
-        return make_filter(self.method, input_stage=self.input_stage, **kw)
+        f = make_filter(self.method, input_stage=self.input_stage, **kw)
+        f._gap_check = False  # the file's gaps, judged on its whole median, are cut here (restart)
+        return f
 
     def run(
         self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, mag: np.ndarray | None = None, pol=None
