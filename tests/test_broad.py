@@ -2106,3 +2106,21 @@ def test_a_fast_turn_at_50_hz_is_no_stuck_magnetometer():
     sl = slice(int(124.6 * tr.rate_hz), int(164.6 * tr.rate_hz))
     (g, _), (a, _), (m, _) = (_averaged_to(x[sl], tr.rate_hz, 50.0) for x in (tr.gyr, tr.acc, tr.mag))
     estimate(g, a, 0.02, frame="ENU", mag=m)
+
+
+def test_a_gyro_bias_beyond_rest_gyr_off_the_vertical_is_refused_as_a_bias(trial):
+    """A gyro bias beyond rest_gyr (0.1 rad/s) was not judged (a steady turn about the vertical reads the same), so
+    BROAD 02 with [0.15, -0.075, 0.11] rad/s (8.8 °/s on x) added ran at 25.8° inclination RMSE with exit 0. A
+    steady turn with a steady specific force turns about it (within the tilt a centripetal acceleration gives,
+    and that raises |f| above g): a still reading this far off the accelerometer's axis, with |f| ≈ g, is a bias
+    and is refused naming the clip that holds it; with it the tilt is the recording's (0.39°). A turn about the
+    specific force (a tilted turntable) still passes."""
+    bias = np.array([0.15, -0.075, 0.11])
+    with pytest.raises(OptinavError, match=r"8\.8 °/s on its worst axis.*a bias beyond") as exc:
+        estimate(trial.gyr + bias, trial.acc, trial.dt, frame="ENU")
+    clip = float(re.search(r"bias_clip=([0-9.]+)", exc.value.remedy).group(1))
+    q = estimate_q(trial.gyr + bias, trial.acc, trial.dt, frame="ENU", bias_clip=clip)
+    assert np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask)) < 0.5
+    n, dt = 3000, 0.01
+    up = np.array([0.0, 0.3, 1.0]) / np.hypot(0.3, 1.0)
+    estimate(np.tile(0.3 * up, (n, 1)), np.tile(9.81 * up, (n, 1)), dt, frame="ENU")  # not refused

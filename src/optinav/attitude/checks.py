@@ -2422,12 +2422,28 @@ def still_sums(gyr: np.ndarray, acc: np.ndarray, row0: int = 0) -> tuple[np.ndar
 STILL_RUN_S = 1.0
 
 
+#: a steady turn with a steady specific force turns about it, but for the tilt a centripetal acceleration gives:
+#: tan(angle) = a_c / g, so |f| >= g / cos(angle); beyond TURN_ANGLE from f with |f| within TURN_NORM of g (a scale
+#: error of an uncalibrated accelerometer, a centripetal acceleration of 0.45 g at most) no turn explains the gyro
+TURN_ANGLE, TURN_NORM = np.radians(30.0), 0.1
+
+
+def _turn_like(w: np.ndarray, f: np.ndarray) -> bool:
+    """Whether a steady gyro reading ``w`` (3,) rad/s with the steady specific force ``f`` (3,) m/s² may be a steady
+    turn of the body (about the vertical, as on a turntable or in a vehicle's curve) rather than a bias."""
+    nf = float(np.linalg.norm(f))
+    if abs(nf / G_STANDARD - 1.0) > TURN_NORM:
+        return True
+    return float(np.linalg.norm(np.cross(w, f))) <= np.sin(TURN_ANGLE) * float(np.linalg.norm(w)) * nf
+
+
 def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray, float] | None:
     """(median gyro over the still bins (3,) rad/s, seconds of them) from :func:`still_sums`: bins whose gyro and
     accelerometer hardly vary (std under :data:`REST_GYR_STD` rad/s and :data:`REST_ACC_STD` m/s²), in runs of at least
     :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree within REST_GYR_STD; None under
     :data:`STILL_RUN_S` of them, where the runs' means disagree beyond REST_GYR_STD or their median exceeds
-    :data:`REST_GYR` (steady turns of a vehicle or a turntable, not a constant bias; as :func:`_rest_bias`)."""
+    :data:`REST_GYR` about an axis a steady turn may have (:func:`_turn_like`: a vehicle's or a turntable's, not a
+    constant bias; as :func:`_rest_bias`)."""
     if len(bins) == 0:
         return None
     b, S = merge_bins(np.asarray(bins), np.asarray(sums))
@@ -2448,7 +2464,9 @@ def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray
     bias = np.median(gm[rows], axis=0)
     # a steady turn about the vertical (a turntable, a vehicle) reads as a rest's: one beyond REST_GYR is no bias
     # (a 90 °/s turn throughout was refused as one), and turns besides rests disagree with them
-    if np.linalg.norm(bias) > REST_GYR or np.max(_norm(means - bias)) > REST_GYR_STD:
+    if np.linalg.norm(bias) > REST_GYR and _turn_like(bias, np.median(am[rows], axis=0)):
+        return None
+    if np.max(_norm(means - bias)) > REST_GYR_STD:
         return None
     return bias, float(np.sum(S[rows, 12]) * dt)
 
