@@ -2317,14 +2317,11 @@ MAG_TURN_OFFSET_FACTOR = 0.5
 MAG_TURN_OFFSET_LEFT = 0.02
 
 
-def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.ndarray, float] | None:
-    """(b, explained) when a constant offset b (the field's unit) explains how the field turns in the body against
-    the gyro (least squares of Δm + ω̄ × m̄ · h = ω̄ × b · h between neighbouring bins, twice trimmed of steps beyond
-    three median residuals: a disturbance is no offset) by :data:`MAG_TURN_OFFSET_EXPLAINED` over the log and
-    :data:`MAG_TURN_OFFSET_PIECE` in each piece, and b exceeds :data:`MAG_OFFSET` of the field's norm less it; else
-    None. Unlike :func:`hard_iron` it needs no turn about every axis: on a body that only yaws the offset across
-    the vertical shows (the part along it, not seen, does not turn the heading and is left out).
-    ``bins``, ``sums`` as :func:`field_rate_sums` gives them, ``h`` s a bin, the gyro in rad/s."""
+def _turn_steps(bins: np.ndarray, sums: np.ndarray, h: float):
+    """The steps between neighbouring bins of :func:`field_rate_sums` (``h`` s each) that :func:`turning_offset`
+    fits: (the bins' mean fields m (k, 3), the steps' residuals Δm + ω̄ × m̄ · h (j, 3), the rotations ω̄ · h (j, 3)
+    (rad), their fields m̄ (j, 3) and the bin number of each step's first bin (j,)), over the steps whose both bins
+    have a field and that turn by at most :data:`MAG_TURN_OFFSET_STEP`; None without bins."""
     if len(bins) == 0:
         return None
     both, S = merge_bins(np.asarray(bins), np.asarray(sums))
@@ -2332,11 +2329,16 @@ def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.nda
     w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
     pair = np.diff(both) == 1
     wb = (0.5 * (w[1:] + w[:-1]))[pair]
-    r0 = (m[1:] - m[:-1])[pair] + np.cross(wb, (0.5 * (m[1:] + m[:-1]))[pair]) * h
+    mb = (0.5 * (m[1:] + m[:-1]))[pair]
+    r0 = (m[1:] - m[:-1])[pair] + np.cross(wb, mb) * h
     ok = np.all(np.isfinite(r0), axis=1) & (_norm(wb) * h <= MAG_TURN_OFFSET_STEP)
-    r0, wb = r0[ok], wb[ok] * h
-    if r0.shape[0] < 30 * MAG_TURN_OFFSET_PIECES:
-        return None
+    return m, r0[ok], wb[ok] * h, mb[ok], both[:-1][pair][ok]
+
+
+def _offset_fit(r0: np.ndarray, wb: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(b, |residual| per step, explained): the offset b that the steps' residuals ``r0`` (j, 3) show against the
+    rotations ``wb`` (j, 3) rad (:func:`_turn_steps`), r0 = ω̄h × b, twice trimmed of steps beyond three median
+    residuals (a disturbance is no offset), and the share of the kept steps' residual it explains."""
     # ω × b = −[b]× ω = [ω]× b: rows of the three skew matrices stacked
     z = np.zeros(wb.shape[0])
     A = np.stack([np.column_stack([z, -wb[:, 2], wb[:, 1]]), np.column_stack([wb[:, 2], z, -wb[:, 0]]),
@@ -2350,7 +2352,24 @@ def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.nda
         if trim:
             keep = res <= 3.0 * np.median(res)
     e0, e1 = np.sum(r0[keep] ** 2, axis=1), res[keep] ** 2
-    explained = 1.0 - float(e1.sum()) / max(float(e0.sum()), 1e-300)
+    return b, res, 1.0 - float(e1.sum()) / max(float(e0.sum()), 1e-300)
+
+
+def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.ndarray, float] | None:
+    """(b, explained) when a constant offset b (the field's unit) explains how the field turns in the body against
+    the gyro (least squares of Δm + ω̄ × m̄ · h = ω̄ × b · h between neighbouring bins, twice trimmed of steps beyond
+    three median residuals: a disturbance is no offset) by :data:`MAG_TURN_OFFSET_EXPLAINED` over the log and
+    :data:`MAG_TURN_OFFSET_PIECE` in each piece, and b exceeds :data:`MAG_OFFSET` of the field's norm less it; else
+    None. Unlike :func:`hard_iron` it needs no turn about every axis: on a body that only yaws the offset across
+    the vertical shows (the part along it, not seen, does not turn the heading and is left out).
+    ``bins``, ``sums`` as :func:`field_rate_sums` gives them, ``h`` s a bin, the gyro in rad/s."""
+    steps = _turn_steps(bins, sums, h)
+    if steps is None:
+        return None
+    m, r0, wb, _, _ = steps
+    if r0.shape[0] < 30 * MAG_TURN_OFFSET_PIECES:
+        return None
+    b, res, explained = _offset_fit(r0, wb)
     kept = _norm(m - b)
     left, nb = float(np.nanmedian(kept)), float(np.linalg.norm(b))
     # b = the field itself explains a field stuck at one value: nothing is left of it (check_mag_turns names that)
