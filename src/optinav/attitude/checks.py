@@ -2399,6 +2399,100 @@ def turning_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[np.nda
     return b, explained
 
 
+#: s, the windows in which :func:`offset_pieces` fits the offset the field turns about, each on its own
+MAG_PIECE_S = 10.0
+#: rad, a window is judged where the body turned by at least this much in it (Σ |ω̄| h over its steps)
+MAG_PIECE_TURN = 2.0
+#: two windows' offsets are different ones when they are this share of the field apart: one offset fitted in
+#: windows of BROAD 24 (tapping) scatters by up to 14 % of the field; a magnet on the board 2 cm away adds 60 %
+MAG_PIECE_APART = 0.25
+
+
+def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[int, np.ndarray | None, float]]:
+    """The offset the field turns about in each window of :data:`MAG_PIECE_S` s that turns the body by
+    :data:`MAG_PIECE_TURN` or more: (its first bin number, b) with b (3,, the field's unit) where it explains
+    :data:`MAG_TURN_OFFSET_EXPLAINED` of what the gyro leaves of the turning, exceeds :data:`MAG_OFFSET` of the
+    field less it, and leaves that field steady (:data:`MAG_STEADY`) — a body-fixed offset there — or None where
+    the offset fitted is within :data:`MAG_OFFSET` of the field (it turns about zero), and the median norm of the
+    field less b; a window that shows neither (a disturbance, a turn too fast for the bins) is left out. The whole log's fits (:func:`hard_iron`, :func:`turning_offset`)
+    assume one offset for the whole recording; these tell whether it holds everywhere. ``bins``, ``sums``, ``h`` as
+    :func:`turning_offset` takes them."""
+    steps = _turn_steps(bins, sums, h)
+    if steps is None:
+        return []
+    _, r0, wb, mb, first = steps
+    per = max(1, int(round(MAG_PIECE_S / h)))
+    win = first // per
+    out = []
+    for k in np.unique(win):
+        at = win == k
+        if np.count_nonzero(at) < 30 or float(np.sum(_norm(wb[at]))) < MAG_PIECE_TURN:
+            continue
+        b, _, explained = _offset_fit(r0[at], wb[at])
+        left = _norm(mb[at] - b)
+        lm = float(np.median(left))
+        if float(np.linalg.norm(b)) <= MAG_OFFSET * lm:
+            out.append((int(k) * per, None, lm))
+        elif (
+            explained >= MAG_TURN_OFFSET_EXPLAINED
+            and float(np.std(left)) <= MAG_STEADY * lm
+            and lm > MAG_TURN_OFFSET_LEFT * float(np.linalg.norm(b))  # not a stuck field (check_mag_turns names it)
+        ):
+            out.append((int(k) * per, b, lm))
+    return out
+
+
+def offset_change_error(
+    pieces: list[tuple[int, np.ndarray | None, float]], rows: int, h: float, offset=None, offline: bool = False
+) -> OptinavError | None:
+    """The refusal of a field whose hard-iron offset changes within the recording, from the windows of
+    :func:`offset_pieces` (``rows`` samples and ``h`` s per bin) of the field less the ``offset`` the estimate
+    subtracts (None: none); None when it holds. Refused: a window that still turns about a point off zero where an
+    offset is subtracted (the whole log's fit, or the one given, is wrong there); without an offset, windows about
+    two points :data:`MAG_PIECE_APART` apart and none about zero (no part of the log shows the Earth's field);
+    offline, windows about a point off zero from the last one about zero to the end (the backward pass learns its
+    field there and takes it for the Earth's). BROAD 02 with +30 µT on x from 60 s (a magnet put on the board):
+    online the offset fitted from past samples, a mean of both fields, turned the heading by 40° RMS with exit 0,
+    offline 21°; BROAD 33 (a magnet on the board from 40 to 99 s) with (30, 0, 0) µT added everywhere: 62°, 64°."""
+    if not any(b is not None for _, b, _ in pieces):
+        return None
+    field = float(np.median([f for _, _, f in pieces]))
+    zero = np.zeros(3) if offset is None else np.asarray(offset, float)
+    about = [(k, zero if b is None else zero + b) for k, b, _ in pieces]  # the point each window turns about
+
+    def error(i: int, j: int | None, why: str, remedy: str = "") -> OptinavError:
+        def at(i):
+            return f"about [{_vec(about[i][1])}] from sample {about[i][0] * rows} ({about[i][0] * h:.1f} s)"
+
+        return OptinavError(
+            f"the magnetic field turns in the body {at(i)}{'' if j is None else ' and ' + at(j)}{why}: its hard-iron "
+            "offset changes within the recording (a magnet put on or taken off the body?); the heading would be "
+            "off by up to tens of degrees",
+            remedy + "cut the recording where the offset changes and run each part (optinav attitude --mag names "
+            "the offset of a part that shows one), or drop --mag",
+        )
+
+    def apart(i: int, j: int, share: float) -> bool:
+        return float(np.linalg.norm(about[i][1] - about[j][1])) > share * field
+
+    if offset is not None:
+        i = next(i for i, (_, b, _) in enumerate(pieces) if b is not None)
+        j = next((j for j in range(len(about)) if apart(i, j, MAG_OFFSET)), None)
+        why = f", not about the offset [{_vec(offset)}] subtracted (fitted over the whole recording or given)"
+        return error(i, None, why) if j is None else error(*sorted((i, j)), why)
+    if all(b is not None for _, b, _ in pieces):
+        j = next((j for j in range(len(about)) if apart(0, j, MAG_PIECE_APART)), None)
+        if j is not None:
+            return error(0, j, ", and about zero nowhere (no part of it shows the Earth's field)")
+    last = max(i for i, (_, b, _) in enumerate(pieces) if b is None) if any(b is None for _, b, _ in pieces) else -1
+    if offline and 0 <= last < len(pieces) - 2:
+        return error(
+            last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
+            "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",
+        )  # fmt: skip
+    return None
+
+
 def check_turning_offset(
     bins: np.ndarray, sums: np.ndarray, h: float, offline: bool = False, given: np.ndarray | None = None
 ) -> np.ndarray | None:

@@ -48,7 +48,10 @@ from optinav.attitude.checks import (
     scale_bin_rows,
     still_sums,
     zero_rows_missing,
+    offset_change_error,
+    offset_pieces,
     online_fit_failed,
+    rate_sums_less_offset,
 )
 from optinav.attitude.iframe import (
     AttitudeFilter,
@@ -660,6 +663,13 @@ def estimate(
             else:
                 check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron, turned=body_turned(*turns))
                 check_turning_offset(*turns, given=mag_hard_iron)
+            # one offset for the whole recording, or none, must hold in every part of it
+            err = offset_change_error(
+                offset_pieces(turns[0], rate_sums_less_offset(turns[1], checked), turns[2]), rows, turns[2],
+                checked, offline,
+            )  # fmt: skip
+            if err is not None:
+                raise err
             # the field the estimate uses: less the offset it subtracts
             check_mag_axes(acc, mag if checked is None else mag - checked, step, gyr)
     if mag_hard_iron is not None:
