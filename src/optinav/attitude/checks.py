@@ -2421,13 +2421,17 @@ def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[in
     if steps is None:
         return []
     _, r0, wb, mb, first = steps
+    if not first.shape[0]:
+        return []
     per = max(1, int(round(MAG_PIECE_S / h)))
-    win = first // per
+    win = first // per  # ascending: each window's steps are one slice
+    cut = np.r_[0, np.flatnonzero(np.diff(win)) + 1, win.shape[0]]
+    turn = np.add.reduceat(_norm(wb), cut[:-1])
     out = []
-    for k in np.unique(win):
-        at = win == k
-        if np.count_nonzero(at) < 30 or float(np.sum(_norm(wb[at]))) < MAG_PIECE_TURN:
+    for k, a, e, t in zip(win[cut[:-1]], cut[:-1], cut[1:], turn):
+        if e - a < 30 or t < MAG_PIECE_TURN:
             continue
+        at = slice(a, e)
         b, _, explained = _offset_fit(r0[at], wb[at])
         left = _norm(mb[at] - b)
         lm = float(np.median(left))
