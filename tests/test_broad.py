@@ -2124,6 +2124,8 @@ def test_a_gyro_bias_beyond_rest_gyr_off_the_vertical_is_refused_as_a_bias(trial
     n, dt = 3000, 0.01
     up = np.array([0.0, 0.3, 1.0]) / np.hypot(0.3, 1.0)
     estimate(np.tile(0.3 * up, (n, 1)), np.tile(9.81 * up, (n, 1)), dt, frame="ENU")  # not refused
+
+
 def _about(msg: str) -> list[np.ndarray]:
     """The points a refusal says the field turns about, in its order."""
     return [np.array(v.split(", "), float) for v in re.findall(r"about \[([^\]]+)\]", msg)]

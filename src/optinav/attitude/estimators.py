@@ -878,8 +878,14 @@ class _Filter(StreamGaps):
         return None if self.state is None else self.state[:4].copy()
 
     def reset(self, q0=None) -> None:
-        """Start the estimate anew (after a time gap, or a new recording), levelled from the next sample (or from
-        ``q0``, q_b^n, when given), its input stage too; the counts of :attr:`pol_skipped` go on."""
+        """Start the estimate anew (after a time gap, or a new recording), its input stage too; the counts of
+        :attr:`pol_skipped` go on.
+
+        Parameters
+        ----------
+        q0 : (4,) array or None
+            q_b^n [w, x, y, z] [-] to start from; None: levelled from the next sample's accelerometer.
+        """
         self.state, self._q0 = None, None if q0 is None else _as_q0(q0)
         if self._front is not None:
             self._front.reset()

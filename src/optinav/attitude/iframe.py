@@ -610,10 +610,15 @@ class AttitudeFilter(StreamGaps):
         self._gaps_init()
 
     def reset(self, q0=None) -> None:
-        """Start the estimate anew (after a time gap, or a new recording): the state as built, levelled from the
-        next sample's accelerometer, or from ``q0`` (q_b^n) when given. The options, the hard-iron offset given,
-        and one fitted online (a property of the sensor, as :func:`~optinav.attitude.estimate` keeps it across
-        gaps) stay."""
+        """Start the estimate anew (after a time gap, or a new recording): the state as built. The options, the
+        hard-iron offset given, and one fitted online (a property of the sensor, as
+        :func:`~optinav.attitude.estimate` keeps it across gaps) stay.
+
+        Parameters
+        ----------
+        q0 : (4,) array or None
+            q_b^n [w, x, y, z] [-] to start from; None: levelled from the next sample's accelerometer.
+        """
         from optinav.attitude.estimators import _as_q0
 
         self._state[:] = _new_state(self.options, None if q0 is None else _as_q0(q0))
