@@ -292,6 +292,49 @@ def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, ca
         np.testing.assert_allclose(np.degrees(got[f"g{a}"][:50]), ref[f"gyr_{a}"], rtol=0, atol=1e-9)
 
 
+ATTITUDE = ["--quiet", "attitude", "--rate", "102.4", "--gyro-unit", "deg/s"]
+
+
+@pytest.mark.parametrize(
+    ("column", "fix"),
+    [
+        ("acc_x", "t,-ax,ay,az,gx,gy,gz"),
+        ("acc_y", "t,ax,-ay,az,gx,gy,gz"),
+        ("gyr_x", "t,ax,ay,az,-gx,gy,gz"),
+    ],
+)
+def test_attitude_names_the_one_negated_column_of_the_session(tmp_path, capsys, column, fix):
+    """`optinav attitude` on imucal's example session with one column negated. Its 20-s windows hold turns about x
+    and about the vertical, where the accelerometer's x negated does not show: exit 0 (the gyro's y and z read
+    against gravity's turns there). The accelerometer's y negated was named a mirrored frame (the gyro's three
+    signs), the gyro's x named with its y (t,ax,ay,az,-gx,-gy,gz). Judged by the turns about each body axis over
+    the whole session (the moves between its six poses), the column negated is named first; the session as
+    recorded runs, and its columns so fixed give its attitude (the same output)."""
+    out = tmp_path / "a.csv"
+    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    c = head.split(",").index(column)
+    flipped = []
+    for row in rows:
+        v = row.split(",")
+        v[c] = repr(-float(v[c]))
+        flipped.append(",".join(v))
+    bad = tmp_path / "negated.csv"
+    bad.write_text("\n".join([head, *flipped]) + "\n")
+    assert main([*ATTITUDE, str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"(--columns {fix})" in err, err
+    assert not out.exists()
+    if column == "acc_x":  # the fix in this file's own column order: n_samples,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z
+        assert main([*ATTITUDE, str(bad), "--columns=_,gx,gy,gz,-ax,ay,az", "--out", str(out)]) == 0
+        fixed = np.genfromtxt(out, delimiter=",", names=True)
+        plain = tmp_path / "plain.csv"
+        assert main([*ATTITUDE, str(DATA / "example_ferraris_session.csv"), "--out", str(plain)]) == 0
+        ref = np.genfromtxt(plain, delimiter=",", names=True)
+        assert ref.shape[0] == len(rows)
+        for k in ("qw", "qx", "qy", "qz"):
+            np.testing.assert_array_equal(fixed[k], ref[k])
+
+
 def test_apply_refuses_another_sensors_calibration_by_the_rests(tmp_path, capsys):
     """imucal's calibration of its example session's sensor applied to another sensor's log in the same units
     (imucal's annotated session converted at its nominal 2048 counts per g and 16.4 per deg/s): |a| read

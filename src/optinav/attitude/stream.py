@@ -180,6 +180,9 @@ class StreamChecks:
             _c.long_bin_rows(self.n, self.median_dt, rms_rate) if self.n * self.median_dt >= _c.LONG_MIN_S else 0
         )
         self._long: list[tuple[np.ndarray, np.ndarray]] = []
+        # and in bins of AXES_BIN_S (the order of the gyro's axes judged axis by axis)
+        self._axes_m = _c.axes_bin_rows(self.median_dt)
+        self._axes: list[tuple[np.ndarray, np.ndarray]] = []
 
     def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
@@ -190,6 +193,7 @@ class StreamChecks:
                 got.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
         if self._long_m:
             self._long.append(_c.time_bins(gyr, acc, dts, self._long_m, row0))
+        self._axes.append(_c.time_bins(gyr, acc, dts, self._axes_m, row0))
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             y = gyr[:, k] if j == 0 else -gyr[:, k]
             m = self._max[k, j]
@@ -210,12 +214,19 @@ class StreamChecks:
         bins, sums = _c.merge_bins(*(np.concatenate(x) for x in zip(*self._long)))
         return _c.long_time_hint(bins, sums, np.unique(self.gaps // self._long_m), self.median_dt)
 
+    def _axes_hint(self) -> _c.UnitHint | None:
+        """The order of the gyro's axes judged axis by axis (:func:`~optinav.attitude.checks.axes_turn_hint`)."""
+        if not self._axes:
+            return None
+        bins, sums = _c.merge_bins(*(np.concatenate(x) for x in zip(*self._axes)))
+        return _c.axes_turn_hint(bins, sums, self._axes_m, self.median_dt)
+
     def finish_second(self, frame: str) -> None:
         """The checks that need the second pass, in the order of check_imu, then the frame warning."""
         windows = (
             (*(np.concatenate(x) for x in zip(*got)), peak) for got, peak in zip(self._win, self.window_max) if got
         )
-        _c.check_time_base(windows, self._long_hint, self.gyro_unit, self.gravity_share)
+        _c.check_time_base(windows, self._long_hint, self.gyro_unit, self.gravity_share, self._axes_hint)
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             keys, first = np.unique(np.concatenate(keys), return_index=True)
             vals = np.concatenate(vals)[first]
