@@ -2247,3 +2247,36 @@ def test_the_magnetometer_axes_are_judged_where_the_accelerometer_reads_gravity(
         (g, _), (a, _), (m, _) = (_averaged_to(x, tr.rate_hz, 100.0) for x in (tr.gyr, tr.acc, tr.mag))
         with pytest.raises(OptinavError, match="angle to gravity.*its axes are not the IMU's"):
             check_mag_axes(a[sl], _ak8963(m[sl]), 0.01, g[sl])
+
+
+def test_a_body_shaken_by_several_g_is_not_taken_for_another_accelerometer_unit(tmp_path, capsys):
+    """BROAD 16, 5 s from 56.1 s: shaken at a median norm of 38 m/s² (3.9 g) and turning at 5 rad/s (no still 2-s
+    window), it was refused as "another unit", at 285.7 Hz and at a third of it, in memory and streamed. Gravity's
+    norm is judged instead: the still windows' 2-s means, or without one the 2-s means in the gyro-integrated frame
+    (9.9 m/s² here). The cut in mg or in m/s² declared g, the whole trial in mg (its rests) and a shaken stretch too
+    short to judge gravity by (3 s) in mg are still refused."""
+    from optinav.attitude.checks import check_imu
+    from optinav.cli.main import main
+    from optinav.core.units import G_STANDARD
+
+    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    if not p.is_file():
+        pytest.skip("trial 16 absent")
+    tr = load_broad(p)
+    sl = slice(int(56.1 / tr.dt), int(61.1 / tr.dt))
+    mg = 1000.0 / G_STANDARD
+    for k in (1, 3):
+        g, a = (x[sl][: (sl.stop - sl.start) // k * k].reshape(-1, k, 3).mean(axis=1) for x in (tr.gyr, tr.acc))
+        assert np.median(np.linalg.norm(a, axis=1)) > 3.5 * G_STANDARD
+        check_imu(g, a, np.array([k * tr.dt]))
+        for factor in (mg, G_STANDARD):
+            with pytest.raises(OptinavError, match="it looks like another unit.*--acc-unit"):
+                check_imu(g, a * factor, np.array([k * tr.dt]))
+    with pytest.raises(OptinavError, match="--acc-unit"):
+        check_imu(g[: int(3.0 / (3 * tr.dt))], a[: int(3.0 / (3 * tr.dt))] * mg, np.array([3 * tr.dt]))
+    with pytest.raises(OptinavError, match="where the gyro is still .*--acc-unit"):
+        check_imu(tr.gyr, tr.acc * mg, np.array([tr.dt]))
+    argv = ["attitude", "--frame", "ENU", "--out", str(tmp_path / "a.csv")]
+    assert main([*argv, _csv(tmp_path / "ok.csv", tr.dt, tr.acc[sl], tr.gyr[sl])]) == 0
+    assert main([*argv, _csv(tmp_path / "mg.csv", tr.dt, tr.acc[sl] * mg, tr.gyr[sl])]) == 2
+    assert "--acc-unit" in capsys.readouterr().err

@@ -1298,8 +1298,9 @@ def check_norms(
 ) -> None:
     """The part of :func:`check_imu` judged on the median norms of acc (m/s²) and gyr (rad/s), the gyro's peak
     norm and the accelerometer's :func:`gravity_share`: swapped triads, gravity removed, an accelerometer not in
-    m/s², a gyro beyond any range (``gyro_unit`` the declared one); ``low``: the :data:`LOW_PERCENTILE` of the acc
-    and gyr row norms (NaN: not known)."""
+    m/s² (a median over 3 g by gravity's norm where the gyro is still; with no still window that is left to
+    :func:`check_gyro_unit`), a gyro beyond any range (``gyro_unit`` the declared one); ``low``: the
+    :data:`LOW_PERCENTILE` of the acc and gyr row norms (NaN: not known)."""
     # swapped: the gyro columns read about g, and the accelerometer's are small or, where its norm falls near zero
     # (a gyro at rest) while the gyro's never does (an accelerometer), a fast-turning gyro's (BROAD 29, median
     # 3.6 rad/s: its swap was blamed on a linear-acceleration output)
@@ -1312,12 +1313,14 @@ def check_norms(
     if share < GRAVITY_SHARE:
         # a phone's linear acceleration was hinted as "g", and --acc-unit g then ran at 77°
         raise _gravity_removed(share, med_a, "while the gyro is still")
-    if med_a < 0.3 * G_STANDARD or med_a > 3 * G_STANDARD:
-        unit = "g" if 0.3 < med_a < 3 else "another unit"
-        raise OptinavError(
-            f"the accelerometer's median norm is {med_a:.3g} m/s², not about 9.8: it looks like {unit}",
-            "declare the unit with --acc-unit (g, mg, m/s^2)",
-        )
+    if med_a < 0.3 * G_STANDARD:
+        raise _acc_unit_error(med_a)
+    if med_a > 3 * G_STANDARD and share >= 0.0:
+        # a body shaken by several g reads so in m/s² (BROAD 16, 5 s from 56 s: median 38 m/s²): judged on gravity,
+        # the still windows' 2-s means; without one, in the gyro-integrated frame (_check_moving_gravity)
+        gravity = share * G_STANDARD
+        if gravity > 3 * G_STANDARD:
+            raise _acc_unit_error(med_a, gravity, "where the gyro is still")
     if peak > 70.0:  # 4000 °/s: beyond any MEMS gyro range in rad/s
         if gyro_unit in (None, "rad/s"):
             raise OptinavError(
@@ -1455,6 +1458,17 @@ def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float
     return float(np.median(_norm(m))) / min(float(np.median(_norm(a))), G_STANDARD)
 
 
+def _acc_unit_error(med_a: float, gravity: float = float("nan"), where: str = "") -> OptinavError:
+    """The accelerometer not in m/s²: its median norm ``med_a`` and, where judged (``where``), gravity's norm (its
+    2-s means') ``gravity`` are not about g."""
+    unit = "g" if 0.3 < med_a < 3 else "another unit"
+    seen = f" and its 2-s means {where} {gravity:.3g}" if gravity >= 0.0 else ""
+    return OptinavError(
+        f"the accelerometer's median norm is {med_a:.3g} m/s²{seen}, not about 9.8: it looks like {unit}",
+        "declare the unit with --acc-unit (g, mg, m/s^2)",
+    )
+
+
 def _gravity_removed(share: float, med_a: float, where: str) -> OptinavError:
     return OptinavError(
         f"{where}, the accelerometer's 2-s means keep {share:.0%} of its norm (median {med_a:.3g} m/s²): gravity "
@@ -1496,13 +1510,20 @@ def _check_moving_gravity(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> None:
     linear-acceleration output of 20-60 s of BROAD's motion ran with exit 0 at 48-110°. Judged in the
     gyro-integrated frame instead, once the gyro's unit has passed."""
     share = inertial_gravity_share(g, a, d)
+    med_a = float(np.median(_norm(a)))
     if share < GRAVITY_SHARE:
         raise _gravity_removed(
             share,
-            float(np.median(_norm(a))),
+            med_a,
             "in the gyro-integrated frame (which holds gravity only if the gyro's unit and time base are right: "
             "check --rate and --gyro-unit too)",
         )
+    # the accelerometer's unit where its median norm is over 3 g (check_norms left it to gravity's norm here): a
+    # shaken body's gravity stays about g in this frame (BROAD 16's 5-s cuts: 9.4-10.3 m/s² at medians up to
+    # 38), a unit's factor does not; a window too short to judge (NaN) is judged on its median norm
+    gravity = share * min(med_a, G_STANDARD)
+    if gravity > 3 * G_STANDARD or (not gravity >= 0.0 and med_a > 3 * G_STANDARD):
+        raise _acc_unit_error(med_a, gravity, "in the gyro-integrated frame")
 
 
 #: samples of each axis from which its quantum (the output's least significant bit) is estimated
