@@ -2280,3 +2280,45 @@ def test_a_body_shaken_by_several_g_is_not_taken_for_another_accelerometer_unit(
     assert main([*argv, _csv(tmp_path / "ok.csv", tr.dt, tr.acc[sl], tr.gyr[sl])]) == 0
     assert main([*argv, _csv(tmp_path / "mg.csv", tr.dt, tr.acc[sl] * mg, tr.gyr[sl])]) == 2
     assert "--acc-unit" in capsys.readouterr().err
+
+
+def test_a_body_turning_over_gets_no_frame_warning_unless_it_lies_level_against_the_frame(tmp_path, capsys):
+    """Cuts of the rotating trials that start upside down and lean so on average were told to use NED (their first
+    200 samples were judged): BROAD 02 at a third of its rate, 5 s from 90.7 s (turning over and over: 1.2 s lying
+    level upside down, 1.1 s upright), 03 for 20 s from 80 s (1.7 s, 1.3 s), 24 for 10 s from 142.5 s (1.0 s,
+    0.9 s). The warning now needs 3 s lying level against the frame and three times the time with it; declared
+    NED — a frame mistake — the whole of 02 and 20 s of 11 (15 s level) are still warned about, in memory and
+    streamed."""
+    from optinav.attitude.checks import FrameWarning
+    from optinav.cli.main import main
+
+    broad = SHARED / "attitude" / "broad"
+    names = ("02_undisturbed_slow_rotation_B", "03_undisturbed_slow_rotation_C", "24_disturbed_tapping_A")
+    if not all((broad / f"{n}.hdf5").is_file() for n in (*names, "11_undisturbed_slow_translation_B")):
+        pytest.skip("BROAD 02, 03, 11 or 24 absent")
+    tr = load_broad(broad / f"{names[0]}.hdf5")
+    n = tr.acc.shape[0] // 3 * 3
+    g, a = (x[:n].reshape(-1, 3, 3).mean(axis=1) for x in (tr.gyr, tr.acc))
+    sl = slice(int(90.7 / (3 * tr.dt)), int(95.7 / (3 * tr.dt)))
+    cuts = [(3 * tr.dt, a[sl], g[sl])]
+    for name, start, seconds in ((names[1], 80.0, 20.0), (names[2], 142.5, 10.0)):
+        t = load_broad(broad / f"{name}.hdf5")
+        s = slice(int(start / t.dt), int((start + seconds) / t.dt))
+        cuts.append((t.dt, t.acc[s], t.gyr[s]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FrameWarning)
+        for dt, acc, gyr in cuts:
+            estimate(gyr, acc, dt, frame="ENU")
+    assert (
+        main(["attitude", _csv(tmp_path / "c.csv", *cuts[0]), "--frame", "ENU", "--out", str(tmp_path / "a.csv")]) == 0
+    )
+    assert "use --frame NED" not in capsys.readouterr().err
+    with pytest.warns(FrameWarning, match="--frame ENU"):
+        estimate(tr.gyr, tr.acc, tr.dt, frame="NED")
+    t = load_broad(broad / "11_undisturbed_slow_translation_B.hdf5")
+    s = slice(int(60.0 / t.dt), int(80.0 / t.dt))
+    with pytest.warns(FrameWarning, match="--frame ENU"):
+        estimate(t.gyr[s], t.acc[s], t.dt, frame="NED")
+    csv = _csv(tmp_path / "11.csv", t.dt, t.acc[s], t.gyr[s])
+    assert main(["attitude", csv, "--frame", "NED", "--out", str(tmp_path / "b.csv")]) == 0
+    assert "use --frame ENU" in capsys.readouterr().err

@@ -641,7 +641,7 @@ def estimate(
         clip = bias_clip(method, opts, input_stage)
         if clip is not None:
             check_bias_range(*still_sums(gyr, acc), float(np.median(dts)), clip, method)
-        check_frame(acc, frame)
+        check_frame(acc, frame, dt=float(np.median(dts)))
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:

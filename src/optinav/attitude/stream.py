@@ -36,8 +36,7 @@ class StreamChecks:
         self._ng: list[np.ndarray] = []
         self._tilt: list[tuple[np.ndarray, np.ndarray]] = []  # specific-force sums per TILT_BIN samples
         self._max = np.full((3, 2), -np.inf)  # per axis, the largest of +ω and of −ω
-        self._head: list[np.ndarray] = []  # the first 200 accelerometer rows (frame check)
-        self._head_n = 0
+        self._level = np.zeros(2, dtype=np.int64)  # samples lying level, body z up and down (frame check)
         self._gyr_head: list[np.ndarray] = []  # gyro steps spread over the blocks (each axis's quantum)
         self._gyr_head_n = 0
         self.n = 0
@@ -82,16 +81,15 @@ class StreamChecks:
     def add(self, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 1: one block of gyr (n, 3) rad/s, acc (n, 3) m/s², dts (n,) s."""
         self._dts.append(np.array(dts, dtype=float))
-        self._na.append(_c._norm(acc))
+        na = _c._norm(acc)
+        self._na.append(na)
+        self._level += _c.frame_counts(acc, na)
         self._ng.append(_c._norm(gyr))
         self._tilt.append(_c.tilt_sums(acc, self.n))
         if self.bias_clip is not None:
             self._still.append(_c.still_sums(gyr, acc, self.n))
         self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
-        if self._head_n < 200:
-            self._head.append(acc[: 200 - self._head_n].copy())
-            self._head_n += self._head[-1].shape[0]
         if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
             self._gyr_head.append(_c.axis_steps(gyr, 256))
             self._gyr_head_n += self._gyr_head[-1].shape[0]
@@ -244,7 +242,7 @@ class StreamChecks:
         if self._still:  # after the units and the clipping, as estimate() judges it after check_imu
             still = (np.concatenate(x) for x in zip(*self._still))
             _c.check_bias_range(*still, self.median_dt, self.bias_clip, self.method)
-        _c.check_frame(np.concatenate(self._head), frame, self._acc_sum)
+        _c.check_frame(None, frame, self._acc_sum, self.median_dt, self._level)
         given = self.given_hard_iron
         if self._mag and ((not self.offline and not self.online_fit) or given is not None):
             _c.check_mag(np.concatenate(self._mag), given=given, turned=self._turned())
