@@ -2743,10 +2743,35 @@ def _turn_like(w: np.ndarray, f: np.ndarray) -> bool:
     return float(np.linalg.norm(np.cross(w, f))) <= np.sin(TURN_ANGLE) * float(np.linalg.norm(w)) * nf
 
 
+#: a run of still bins is a slow steady turn, not a rest, where its accelerometer turns by this share of the angle
+#: its gyro (across the specific force) says: a bias leaves the specific force put, a turn turns it as much
+STILL_TURN_SHARE = 0.5
+
+
+def _turning_run(gm: np.ndarray, am: np.ndarray, secs: np.ndarray, above: float = 0.0) -> bool:
+    """Whether a run of still bins (gyro means ``gm`` (k, 3) rad/s, accelerometer means ``am`` (k, 3) m/s², ``secs``
+    (k,) s each) is a steady turn beyond ``above`` rad/s about an axis off the specific force, not a rest: at a high
+    rate a bin is short, and a turn of 0.1–0.5 rad/s about a horizontal axis varies the accelerometer too little
+    within one, but between the run's first and last bins the specific force turns as the gyro says (a bias: not)."""
+    w = np.mean(gm, axis=0)
+    if float(np.linalg.norm(w)) <= above:
+        return False
+    f0, f1 = am[0], am[-1]
+    span = float(np.sum(secs) - 0.5 * (secs[0] + secs[-1]))  # s between the first and the last bin's centres
+    f = 0.5 * (f0 + f1)
+    nf = float(np.linalg.norm(f))
+    if not nf > 0.0:
+        return False
+    said = float(np.linalg.norm(np.cross(w, f / nf))) * span  # rad across f
+    seen = float(np.arctan2(np.linalg.norm(np.cross(f0, f1)), np.dot(f0, f1)))
+    return seen >= STILL_TURN_SHARE * said and said > 0.0
+
+
 def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray, float] | None:
     """(median gyro over the still bins (3,) rad/s, seconds of them) from :func:`still_sums`: bins whose gyro and
     accelerometer hardly vary (std under :data:`REST_GYR_STD` rad/s and :data:`REST_ACC_STD` m/s²), in runs of at least
-    :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree within REST_GYR_STD; None under
+    :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree within REST_GYR_STD and whose accelerometer does
+    not turn as the gyro says (:func:`_turning_run`: a slow steady turn); None under
     :data:`STILL_RUN_S` of them, where the runs' means disagree beyond REST_GYR_STD or their median exceeds
     :data:`REST_GYR` about an axis a steady turn may have (:func:`_turn_like`: a vehicle's or a turntable's, not a
     constant bias; as :func:`_rest_bias`)."""
@@ -2763,6 +2788,8 @@ def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray
     edges = np.flatnonzero(np.diff(np.concatenate([[0], joined.astype(np.int8), [0]])))
     need = max(2, int(np.ceil(STILL_RUN_S / (TILT_BIN * dt))))
     runs = [(s, e + 1) for s, e in zip(edges[::2], edges[1::2]) if e + 1 - s >= need]
+    # beyond REST_GYR only: a slower turn is taken for a rest by the estimator as well, its bias judged as one
+    runs = [(s, e) for s, e in runs if not _turning_run(gm[s:e], am[s:e], S[s:e, 12] * dt, REST_GYR)]
     if not runs:
         return None
     means = np.array([np.median(gm[s:e], axis=0) for s, e in runs])
