@@ -2506,6 +2506,19 @@ MAG_TURN_OFFSET_FACTOR = 0.5
 MAG_TURN_OFFSET_LEFT = 0.02
 
 
+def _mean_fields(S: np.ndarray) -> np.ndarray:
+    """Each bin's mean field (k, 3) from merged :func:`field_rate_sums` ``S`` (k, 8); NaN where it has none."""
+    return np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
+
+
+def bin_fields(bins: np.ndarray, sums: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(bin numbers (k,), mean field (k, 3), the field's unit) of :func:`field_rate_sums`' bins, split bins merged."""
+    if len(bins) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    both, S = merge_bins(np.asarray(bins), np.asarray(sums))
+    return both, _mean_fields(S)
+
+
 def _turn_steps(bins: np.ndarray, sums: np.ndarray, h: float):
     """The steps between neighbouring bins of :func:`field_rate_sums` (``h`` s each) that :func:`turning_offset`
     fits: (the bins' mean fields m (k, 3), the steps' residuals Δm + ω̄ × m̄ · h (j, 3), the rotations ω̄ · h (j, 3)
@@ -2514,7 +2527,7 @@ def _turn_steps(bins: np.ndarray, sums: np.ndarray, h: float):
     if len(bins) == 0:
         return None
     both, S = merge_bins(np.asarray(bins), np.asarray(sums))
-    m = np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
+    m = _mean_fields(S)
     w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
     pair = np.diff(both) == 1
     wb = (0.5 * (w[1:] + w[:-1]))[pair]
@@ -2635,16 +2648,50 @@ def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[in
     return out
 
 
+#: s, a steady field at rest becomes the estimate's reference after this time (iframe's ``mag_new_time``): a body-fixed
+#: offset held that long at the end of a recording is learned by the offline backward pass as the Earth's field
+MAG_NEW_S = 20.0
+
+
+def _learned_at_end(pieces, fields, h: float, field: float) -> bool:
+    """Whether the offline backward pass learns the field with the last window's offset b for the Earth's: after
+    the last window judged (``pieces``) the field, bin by bin (``fields`` of :func:`bin_fields`, ``h`` s each), is
+    told with b (its norm less b is the Earth's, ``field``, and without b it is off by :data:`MAG_OFFSET`) from the
+    Earth's; the pass learns it where it ends the recording or holds :data:`MAG_NEW_S` (a steady new field is taken
+    for the reference then). A magnet taken off in the rest after the motion leaves the Earth's field to learn."""
+    b = next(b for _, b, _ in reversed(pieces) if b is not None)
+    nums, m = fields
+    per = max(1, int(round(MAG_PIECE_S / h)))
+    tail = nums >= pieces[-1][0] + per
+    nm, nb = _norm(m[tail]), _norm(m[tail] - b)
+    ok = np.isfinite(nm)
+    with_b = (np.abs(nb - field) < np.abs(nm - field)) & (np.abs(nm - field) > MAG_OFFSET * field)
+    with_b, nums = with_b[ok], nums[tail][ok]
+    if not with_b.size:
+        return pieces[-1][1] is not None  # it ends in the last window: about b to the end
+    if with_b[-max(1, int(round(1.0 / h))) :].mean() > 0.5:  # the last second: the backward pass starts there
+        return True
+    # the longest run of bins with b (bins without a field between them do not break it)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], with_b.astype(np.int8), [0]])))
+    return any((nums[e - 1] - nums[s] + 1) * h >= MAG_NEW_S for s, e in zip(edges[::2], edges[1::2]))
+
+
 def offset_change_error(
-    pieces: list[tuple[int, np.ndarray | None, float]], rows: int, h: float, offset=None, offline: bool = False
+    pieces: list[tuple[int, np.ndarray | None, float]],
+    rows: int,
+    h: float,
+    offset=None,
+    offline: bool = False,
+    fields: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> OptinavError | None:
     """The refusal of a field whose hard-iron offset changes within the recording, from the windows of
     :func:`offset_pieces` (``rows`` samples and ``h`` s per bin) of the field less the ``offset`` the estimate
     subtracts (None: none); None when it holds. Refused: a window that still turns about a point off zero where an
     offset is subtracted (the whole log's fit, or the one given, is wrong there); without an offset, windows about
     two points :data:`MAG_PIECE_APART` apart and none about zero (no part of the log shows the Earth's field);
-    offline, windows about a point off zero from the last one about zero to the end (the backward pass learns its
-    field there and takes it for the Earth's). BROAD 02 with +30 µT on x from 60 s (a magnet put on the board):
+    offline, windows about a point off zero after the last one about zero, where the backward pass learns that
+    field for the Earth's (:func:`_learned_at_end`, with ``fields`` (:func:`bin_fields` of the field less the
+    offset); without them: two windows or more, to the end). BROAD 02 with +30 µT on x from 60 s (a magnet put on the board):
     online the offset fitted from past samples, a mean of both fields, turned the heading by 40° RMS with exit 0,
     offline 21°; BROAD 33 (a magnet on the board from 40 to 99 s) with (30, 0, 0) µT added everywhere: 62°, 64°."""
     if not any(b is not None for _, b, _ in pieces):
@@ -2678,7 +2725,17 @@ def offset_change_error(
         if j is not None:
             return error(0, j, ", and about zero nowhere (no part of it shows the Earth's field)")
     last = max(i for i, (_, b, _) in enumerate(pieces) if b is None) if any(b is None for _, b, _ in pieces) else -1
-    if offline and 0 <= last < len(pieces) - 2:
+    after = len(pieces) - 1 - last  # windows after the last one about zero: all about a point off it
+    if (
+        offline
+        and last >= 0
+        and (
+            after >= 2
+            if fields is None
+            else after >= 1
+            and _learned_at_end(pieces, fields, h, float(np.median([f for _, b, f in pieces if b is None])))
+        )
+    ):
         return error(
             last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
             "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",

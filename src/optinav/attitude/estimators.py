@@ -48,6 +48,7 @@ from optinav.attitude.checks import (
     scale_bin_rows,
     still_sums,
     zero_rows_missing,
+    bin_fields,
     offset_change_error,
     offset_pieces,
     online_fit_failed,
@@ -664,10 +665,10 @@ def estimate(
                 check_mag(mag[:: mag_fit_stride(mag.shape[0])], given=mag_hard_iron, turned=body_turned(*turns))
                 check_turning_offset(*turns, given=mag_hard_iron)
             # one offset for the whole recording, or none, must hold in every part of it
+            less = rate_sums_less_offset(turns[1], checked)
             err = offset_change_error(
-                offset_pieces(turns[0], rate_sums_less_offset(turns[1], checked), turns[2]), rows, turns[2],
-                checked, offline,
-            )  # fmt: skip
+                offset_pieces(turns[0], less, turns[2]), rows, turns[2], checked, offline, bin_fields(turns[0], less)
+            )
             if err is not None:
                 raise err
             # the field the estimate uses: less the offset it subtracts

@@ -252,7 +252,9 @@ class StreamChecks:
         offset = given if given is not None else self.fitted_hard_iron if self.offline or self.online_fit else None
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, sums, h = self._turn_sums(offset)
-            err = _c.offset_change_error(_c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline)
+            err = _c.offset_change_error(
+                _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums)
+            )
             if err is not None:
                 raise err
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
