@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import frame_name
 from optinav.core.units import G_STANDARD
 from optinav.errors import OptinavError
@@ -2648,9 +2649,9 @@ def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[in
     return out
 
 
-#: s, a steady field at rest becomes the estimate's reference after this time (iframe's ``mag_new_time``): a body-fixed
-#: offset held that long at the end of a recording is learned by the offline backward pass as the Earth's field
-MAG_NEW_S = 20.0
+#: s, a steady field at rest becomes the estimate's reference after this time (iframe's default ``mag_new_time``):
+#: a body-fixed offset held that long beside the windows judged is learned as the Earth's field
+MAG_NEW_S = float(IFRAME_DEFAULTS["mag_new_time"])
 
 
 def _learned_at_end(pieces, fields, h: float, field: float) -> bool:
