@@ -269,15 +269,7 @@ def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, ca
     180°, whose ends a flipped axis keeps. The axes are judged there too; the log as it is passes unchanged
     (imucal's own corrected rows)."""
     cal = DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json"
-    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
-    c = head.split(",").index("acc_x")
-    flipped = []
-    for row in rows:
-        v = row.split(",")
-        v[c] = repr(-float(v[c]))
-        flipped.append(",".join(v))
-    bad = tmp_path / "acc_x_negated.csv"
-    bad.write_text("\n".join([head, *flipped]) + "\n")
+    bad = _negated_session(tmp_path, "acc_x")
     out = tmp_path / "out.csv"
     assert main(["--quiet", "apply", str(cal), str(bad), "--rate", "102.4", "--out", str(out)]) == 2
     err = capsys.readouterr().err
@@ -290,6 +282,20 @@ def test_apply_refuses_the_session_with_its_accelerometer_x_negated(tmp_path, ca
     for a in "xyz":
         np.testing.assert_allclose(got[f"a{a}"][:50], ref[f"acc_{a}"], rtol=0, atol=1e-9)
         np.testing.assert_allclose(np.degrees(got[f"g{a}"][:50]), ref[f"gyr_{a}"], rtol=0, atol=1e-9)
+
+
+def _negated_session(tmp_path, column: str):
+    """imucal's example session with one ``column`` negated (a sign wired wrong), as a new file."""
+    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
+    c = head.split(",").index(column)
+    flipped = []
+    for row in rows:
+        v = row.split(",")
+        v[c] = repr(-float(v[c]))
+        flipped.append(",".join(v))
+    bad = tmp_path / f"{column}_negated.csv"
+    bad.write_text("\n".join([head, *flipped]) + "\n")
+    return bad
 
 
 ATTITUDE = ["--quiet", "attitude", "--rate", "102.4", "--gyro-unit", "deg/s"]
@@ -311,15 +317,7 @@ def test_attitude_names_the_one_negated_column_of_the_session(tmp_path, capsys, 
     the whole session (the moves between its six poses), the column negated is named first; the session as
     recorded runs, and its columns so fixed give its attitude (the same output)."""
     out = tmp_path / "a.csv"
-    head, *rows = (DATA / "example_ferraris_session.csv").read_text().splitlines()
-    c = head.split(",").index(column)
-    flipped = []
-    for row in rows:
-        v = row.split(",")
-        v[c] = repr(-float(v[c]))
-        flipped.append(",".join(v))
-    bad = tmp_path / "negated.csv"
-    bad.write_text("\n".join([head, *flipped]) + "\n")
+    bad = _negated_session(tmp_path, column)
     assert main([*ATTITUDE, str(bad), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"(--columns {fix})" in err, err
@@ -330,7 +328,9 @@ def test_attitude_names_the_one_negated_column_of_the_session(tmp_path, capsys, 
         plain = tmp_path / "plain.csv"
         assert main([*ATTITUDE, str(DATA / "example_ferraris_session.csv"), "--out", str(plain)]) == 0
         ref = np.genfromtxt(plain, delimiter=",", names=True)
-        assert ref.shape[0] == len(rows)
+        assert (
+            ref.shape[0] == fixed.shape[0] == len((DATA / "example_ferraris_session.csv").read_text().splitlines()) - 1
+        )
         for k in ("qw", "qx", "qy", "qz"):
             np.testing.assert_array_equal(fixed[k], ref[k])
 
