@@ -2228,9 +2228,7 @@ def mag_gyro_scale(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[float,
     nan = (float("nan"),) * 3
     if len(bins) == 0:
         return nan
-    both, S = merge_bins(np.asarray(bins), np.asarray(sums))
-    m = np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
-    w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
+    both, m, w = bin_fields(bins, sums)
     nm = _norm(m)
     finite = np.isfinite(nm)
     if not np.any(finite):
@@ -2507,18 +2505,14 @@ MAG_TURN_OFFSET_FACTOR = 0.5
 MAG_TURN_OFFSET_LEFT = 0.02
 
 
-def _mean_fields(S: np.ndarray) -> np.ndarray:
-    """Each bin's mean field (k, 3) from merged :func:`field_rate_sums` ``S`` (k, 8); NaN where it has none."""
-    return np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)
-
-
 def bin_fields(bins: np.ndarray, sums: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(bin numbers (k,), mean field (k, 3) [the field's unit], mean gyro (k, 3) [rad/s]) of
     :func:`field_rate_sums`' bins, split bins merged."""
     if len(bins) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3))
     both, S = merge_bins(np.asarray(bins), np.asarray(sums))
-    return both, _mean_fields(S), S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
+    m = np.where((S[:, 3] > 0)[:, None], S[:, :3] / np.maximum(S[:, 3], 1.0)[:, None], np.nan)  # NaN: no field
+    return both, m, S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
 
 
 def _turn_steps(bins: np.ndarray, sums: np.ndarray, h: float):
@@ -2528,9 +2522,7 @@ def _turn_steps(bins: np.ndarray, sums: np.ndarray, h: float):
     have a field and that turn by at most :data:`MAG_TURN_OFFSET_STEP`; None without bins."""
     if len(bins) == 0:
         return None
-    both, S = merge_bins(np.asarray(bins), np.asarray(sums))
-    m = _mean_fields(S)
-    w = S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None]
+    both, m, w = bin_fields(bins, sums)
     pair = np.diff(both) == 1
     wb = (0.5 * (w[1:] + w[:-1]))[pair]
     mb = (0.5 * (m[1:] + m[:-1]))[pair]
