@@ -2063,9 +2063,10 @@ def mag_axes_hint(bins, acc_sums, mag_sums, counts, dev_sums, dt: float) -> tupl
 
 #: the field must turn in the body as the gyro says (dm/dt = −ω × m, per TILT_BIN bin): another order of the
 #: magnetometer's axes is named where the declared one leaves more than MAG_TURN_BAD of the field's turning
-#: unexplained and the other less than MAG_TURN_SHARE of what it leaves. The nine BROAD trials as recorded 0.01-0.29
-#: (07, fast rotation over 0.22-s bins, 0.98: not judged against its best other order's 0.94); in the AK8963 layout
-#: 1.5-2.0 against 0.02-0.29. A field negated whole turns the same way and cannot be told.
+#: unexplained and the other less than MAG_TURN_SHARE of what it leaves. The nine BROAD trials as recorded 0.00-0.28
+#: at their rate, 0.01-0.76 at a third of it (16's fast translation; with the two bins' mean rate for the step
+#: instead of :func:`_turns`' triangle 0.01-0.29 and 0.06-3.8); in the AK8963 layout 1.6-2.6. A field negated whole
+#: turns the same way and cannot be told.
 MAG_TURN_BAD, MAG_TURN_SHARE = 0.5, 0.25
 #: the field must turn in the body by at least this much in all (rad, summed over the bins) to judge by (the nine
 #: trials 32-431)
@@ -2073,31 +2074,46 @@ MAG_TURN_MIN = 5.0
 
 
 def gyro_sums(gyr: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Bin numbers (k,), gyro sums (k, 3) and row counts (k,) of the TILT_BIN-sample bins a block starting at row
-    ``row0`` touches (as :func:`mag_sums`)."""
-    if not gyr.shape[0]:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0)
-    bins, first = _bin_starts(gyr.shape[0], row0)
-    return bins, np.add.reduceat(gyr, first, axis=0), np.diff(np.append(first, gyr.shape[0])).astype(float)
+    """Bin numbers (k,), gyro sums (k, 6) and row counts (k,) of the TILT_BIN-sample bins a block starting at row
+    ``row0`` touches (as :func:`mag_sums`): Σω (rad/s) and Σ p·ω, p the row's place in its bin from 0 to 1 (the
+    ramp of :func:`_turns`' triangle)."""
+    n = gyr.shape[0]
+    if not n:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 6)), np.zeros(0)
+    bins, first = _bin_starts(n, row0)
+    p = ((row0 + np.arange(n)) % TILT_BIN + 0.5) / TILT_BIN
+    out = np.empty((first.shape[0], 6))
+    out[:, :3] = np.add.reduceat(gyr, first, axis=0)
+    out[:, 3:] = np.add.reduceat(gyr * p[:, None], first, axis=0)
+    return bins, out, np.diff(np.append(first, n)).astype(float)
 
 
 def _field_and_rate(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts):
     """The TILT_BIN bins with both sensors: bin numbers (k,), mean field (k, 3) (NaN where no finite row) and mean
-    rate (k, 3) (rad/s) from the sums of :func:`mag_sums` and :func:`gyro_sums` (a bin split between blocks comes
-    twice: merged as the time-base bins are)."""
+    rate ω̄ and mean p·ω (k, 6) (rad/s, :func:`gyro_sums`) from the sums of :func:`mag_sums` and :func:`gyro_sums`
+    (a bin split between blocks comes twice: merged as the time-base bins are)."""
     ub, MC = merge_bins(np.asarray(mag_bins), np.column_stack([mag_sums_, counts]))
     ug, GN = merge_bins(np.asarray(g_bins), np.column_stack([g_sums, g_counts]))
     both, im, ig = np.intersect1d(ub, ug, return_indices=True)
-    M, C, G, N = MC[im, :3], MC[im, 3], GN[ig, :3], GN[ig, 3]
+    M, C, G, N = MC[im, :3], MC[im, 3], GN[ig, :6], GN[ig, 6]
     m = np.where((C > 0)[:, None], M / np.maximum(C, 1.0)[:, None], np.nan)
     return both, m, G / np.maximum(N, 1.0)[:, None]
 
 
 def _turns(u: np.ndarray, w: np.ndarray, pair: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Per neighbouring bins (``pair``: the k − 1 pairs kept) the unit field's step Δu and the step the gyro
-    predicts, −ω̄ × ū · ``h`` (``h`` s a bin; ``w`` rad/s), both (j, 3), rows with a NaN left out."""
+    predicts, −θ × ū, both (j, 3), rows with a NaN left out; ``w`` (k, 6) the bins' mean ω and p·ω (rad/s,
+    :func:`_field_and_rate`; (k, 3) the mean ω alone: θ = h × the two bins' mean ω), ``h`` s a bin. The step between two bins' means weighs each instant's rotation by
+    the share of row pairs across it, a triangle rising over the first bin and falling over the second: θ =
+    h (mean p·ω of the first + mean ω − mean p·ω of the second). Taken as the two bins' mean rate times h, a rate
+    that swings within the bins left BROAD 16's fast translation (20 s at half its rate) with 350 % of the
+    field's turning unexplained and refused as a magnetometer in other axes; 39 % so."""
     du = (u[1:] - u[:-1])[pair]
-    pred = -np.cross(0.5 * (w[1:] + w[:-1]), 0.5 * (u[1:] + u[:-1]))[pair] * h
+    if w.shape[1] == 6:
+        theta = (w[:-1, 3:] + w[1:, :3] - w[1:, 3:]) * h
+    else:
+        theta = 0.5 * (w[1:] + w[:-1]) * h
+    pred = -np.cross(theta, 0.5 * (u[1:] + u[:-1]))[pair]
     ok = np.all(np.isfinite(du), axis=1) & np.all(np.isfinite(pred), axis=1)
     return du[ok], pred[ok]
 
@@ -2110,7 +2126,7 @@ MAG_TURN_STEP = 1.0
 
 
 def _field_turn_bins(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: float):
-    """(mean field (k, 3), mean rate (k, 3) rad/s, which neighbours are consecutive bins (k − 1,), bin length s) of
+    """(mean field (k, 3), mean ω and p·ω (k, 6) rad/s, which neighbours are consecutive bins (k − 1,), bin length s) of
     the TILT_BIN bins with both sensors (:func:`_field_and_rate`), or None under 30 neighbouring pairs."""
     if len(mag_bins) == 0 or len(g_bins) == 0:
         return None
@@ -2150,13 +2166,13 @@ def check_mag_turns(mag_bins, mag_sums_, counts, g_bins, g_sums, g_counts, dt: f
 def mag_turn_hint(m: np.ndarray, w: np.ndarray, nxt: np.ndarray, h: float) -> str:
     """'' when the field turns in the body as the gyro says (or too little to judge), else the text naming the
     signed order of the magnetometer's axes that does (:data:`MAG_TURN_BAD`, :data:`MAG_TURN_SHARE`): per bin of
-    :func:`_field_turn_bins` the unit mean field m and mean rate ω (rad/s), neighbours' Δm against −ω × m · ``h``
-    (s). A layout that keeps the field's angle to gravity on a body that mostly yaws (the AK8963's x and y swapped,
-    z negated: BROAD 11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off) turns the field against the
-    gyro."""
+    :func:`_field_turn_bins` the unit mean field m and mean ω and p·ω (rad/s), neighbours' Δm against −θ × m
+    (:func:`_turns`; ``h`` s a bin). A layout that keeps the field's angle to gravity on a body that mostly yaws
+    (the AK8963's x and y swapped, z negated: BROAD 11, 16, 27, 29, 33 ran with exit 0 at a heading 101-131° off)
+    turns the field against the gyro."""
     from optinav.core.rotations import describe_permutation, signed_permutations
 
-    nxt = nxt & (_norm(0.5 * (w[1:] + w[:-1])) * h <= MAG_TURN_STEP)
+    nxt = nxt & (_norm(0.5 * (w[1:, :3] + w[:-1, :3])) * h <= MAG_TURN_STEP)
 
     def residual(P) -> tuple[float, float]:
         u = m @ P  # raw rows m = P b: b = Pᵀ m, as rows m @ P
