@@ -2454,3 +2454,25 @@ def test_a_rate_swinging_within_the_bins_is_no_magnetometer_in_other_axes():
     blocks = [np.concatenate(z) for z in zip(C.gyro_sums(g[:cut]), C.gyro_sums(g[cut:], cut))]
     (b0, s0), (b1, s1) = (C.merge_bins(b, np.column_stack([s, c])) for b, s, c in (whole, blocks))
     assert np.array_equal(b0, b1) and np.allclose(s0, s1)
+
+
+def test_a_fast_turn_that_spins_gravity_away_is_no_unit_factor():
+    """BROAD 29, 10 s from 82.5 s at its own 285.7 Hz, turning at 7.4 rad/s RMS: the gyro × 180/π spins the frame
+    so fast that the 2-s means of the specific force in it average gravity away but for its part along the spin's
+    axis (29 % of gravity kept), and those short means stayed put (0.021 rad) better than the declared unit's
+    (0.076 rad, all of gravity kept): refused as rad/s declared deg/s. A scale whose means keep under half of
+    gravity is no evidence: it runs, offline within the whole recording's online inclination RMSE over those
+    samples (1.25°); the cut's rad/s declared deg/s and deg/s declared rad/s are still refused."""
+    tr = load_broad(SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat")
+    s = slice(int(82.5 / tr.dt), int(92.5 / tr.dt))
+    ok = tr.eval_mask[s] & np.isfinite(tr.q_ref[s]).all(axis=1)
+    whole = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU")
+    limit = rmse(np.degrees(inclination_error(whole.q_b_n[s], tr.q_ref[s])), ok)
+    g, a = tr.gyr[s], tr.acc[s]
+    for mag in (None, tr.mag[s]):
+        r = estimate(g, a, tr.dt, frame="ENU", mag=mag, offline=True)
+        assert rmse(np.degrees(inclination_error(r.q_b_n, tr.q_ref[s])), ok) < limit
+    with pytest.raises(OptinavError, match="180/π"):
+        estimate(g * np.pi / 180, a, tr.dt, frame="ENU")
+    with pytest.raises(OptinavError, match="deg/s declared rad/s"):
+        estimate(g * 180 / np.pi, a, tr.dt, frame="ENU")

@@ -272,15 +272,18 @@ def _in_gyro_frame(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> np.ndar
     return quat_rotate(attitude_update([1.0, 0.0, 0.0, 0.0], gyr * h, coning="none")[1:], acc)
 
 
-def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray]:
-    """The per-sample spread (rad) and the unit 2-s means (M, 3) of the specific force carried into the frame the
-    gyro rates ``gyr`` (rad/s) integrate to."""
+def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple[float, np.ndarray, float]:
+    """The per-sample spread (rad), the unit 2-s means (M, 3) of the specific force carried into the frame the
+    gyro rates ``gyr`` (rad/s) integrate to, and the share of gravity those means keep (their median norm over
+    the specific force's median norm or g, the smaller, as :func:`inertial_gravity_share`)."""
     a_i = _in_gyro_frame(gyr, acc, dts)
     m = _moving_means(a_i, w)
     x = a_i[w // 2 : w // 2 + m.shape[0]]
-    cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * np.linalg.norm(m, axis=1) + 1e-300)
+    nm = np.linalg.norm(m, axis=1)
+    cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * nm + 1e-300)
     per_sample = float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
-    return per_sample, m / (np.linalg.norm(m, axis=1, keepdims=True) + 1e-300)
+    kept = float(np.median(nm)) / max(min(float(np.median(_norm(acc))), G_STANDARD), 1e-300)
+    return per_sample, m / (nm[:, None] + 1e-300), kept
 
 
 def _drift(u: np.ndarray) -> float:
@@ -292,19 +295,19 @@ def _drift(u: np.ndarray) -> float:
 
 def _gravity_spread(
     gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, scale: float, fit_bias: bool = False, span: float = 2.0
-) -> tuple[float, float]:
+) -> tuple[float, float, float]:
     """How well the gyro (× scale) explains how gravity turns in the body: the RMS angle (rad) between the
     specific force carried into the gyro-integrated frame and its 2-s moving mean, and the RMS angle of those
     2-s means about their mean over the window (translation averages out of them: a wrong scale leaves gravity
     wandering in the frame by tens of degrees, a right one by the bias's drift). ``fit_bias``: the second is
     taken with the constant bias (at most UNIT_BIAS_MAX, two Gauss–Newton steps from zero) that steadies the
     means most — a bias is no unit error, and a gyro 57× too large cannot be steadied by one. ``span``: the
-    means' length (s) instead of 2 s."""
+    means' length (s) instead of 2 s. Third: the share of gravity the means keep (:func:`_spreads`)."""
     w = _means_window(dts, gyr.shape[0], span)
     g = gyr * scale
-    per_sample, u = _spreads(g, acc, dts, w)
+    per_sample, u, kept = _spreads(g, acc, dts, w)
     if not fit_bias:
-        return per_sample, _drift(u)
+        return per_sample, _drift(u), kept
     b = np.zeros(3)
     eps = 1e-3 * UNIT_BIAS_MAX
     ub = u
@@ -321,7 +324,7 @@ def _gravity_spread(
         if nb > UNIT_BIAS_MAX:
             b *= UNIT_BIAS_MAX / nb
         ub = _spreads(g - b, acc, dts, w)[1]
-    return per_sample, min(_drift(u), _drift(ub))
+    return per_sample, min(_drift(u), _drift(ub)), kept
 
 
 #: the gyro-unit check looks at this many seconds of the recording, where the gyro turns most
@@ -502,6 +505,12 @@ def _unit_hint_window(g, a, d, window_max: float, alt=None, units_only: bool = F
         # right unit (simulated level-car logs: 9 of 36 refused as rad/s declared deg/s)
         return None if units_only else _vertical_turns_axes_hint(g, a, d)
     spreads = {s: _gravity_spread(g if s == 1.0 else (g * s if alt is None else alt(s)), a, d, 1.0) for s in _SCALES}
+    # a gyro too large spins the frame so fast that the 2-s means average gravity away but for its part along the
+    # spin's axis, which stays put: steady means that keep under GRAVITY_SHARE of gravity hold nothing and are no
+    # evidence for their scale (BROAD 29, 10 s turning at 7.4 rad/s RMS: ×180/π kept 29 % of gravity and its means
+    # drifted 0.021 rad against the declared unit's 0.076 with all of it kept, and was refused as rad/s declared
+    # deg/s)
+    spreads = {s: v for s, v in spreads.items() if s == 1.0 or not v[2] < GRAVITY_SHARE}
     # per sample; then the drift of the 2-s means (translation averaged out), counted beyond 0.2 rad (11°) in
     # the window: what a gyro bias of 0.5 °/s drifts in 20 s, on a body that hardly turns, stays below
     for i, floor in ((0, 0.0), (1, 0.2)):
