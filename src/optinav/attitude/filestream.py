@@ -1227,7 +1227,7 @@ def stream_attitude(
         # online the offset the whole log shows is fitted from past samples instead (as estimate() does)
         online_fit, hard_iron = (fitted, None) if not o.offline else (False, hard_iron)
     checks.offline = o.offline
-    checks.online_fit = bool(src.mag) and o.mag_hard_iron is None and not o.offline and method == "iframe"
+    checks.hard_iron_judged = bool(src.mag) and o.mag_hard_iron is None and not o.offline and method == "iframe"
     checks.given_hard_iron = None if o.mag_hard_iron is None else np.asarray(o.mag_hard_iron, float)
     gaps = checks.gaps
     if announce is not None:

@@ -106,7 +106,8 @@ class StreamChecks:
     offline = False
     #: iframe online without an offset given: :meth:`hard_iron` judged the field after pass 1 and the estimate fits
     #: an offset found from past samples itself (:meth:`online_fit_failed` when it cannot): not judged again here
-    online_fit = False
+    #: (the filestream's local ``online_fit`` says whether the estimate fits one)
+    hard_iron_judged = False
 
     def online_fit_failed(self) -> OptinavError:
         """The refusal of an online estimate whose offset fitted from past samples never passed its gates
@@ -244,12 +245,14 @@ class StreamChecks:
             _c.check_bias_range(*still, self.median_dt, self.bias_clip, self.method)
         _c.check_frame(None, frame, self._acc_sum, self.median_dt, self._level)
         given = self.given_hard_iron
-        if self._mag and ((not self.offline and not self.online_fit) or given is not None):
+        if self._mag and ((not self.offline and not self.hard_iron_judged) or given is not None):
             _c.check_mag(np.concatenate(self._mag), given=given, turned=self._turned())
             if self._scale_sums:
                 _c.check_turning_offset(*self._turn_sums(), given=given)
         # online with an offset fitted from past samples, the checks take off the whole recording's
-        offset = given if given is not None else self.fitted_hard_iron if self.offline or self.online_fit else None
+        offset = (
+            given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
+        )
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, sums, h = self._turn_sums(offset)
             err = _c.offset_change_error(
