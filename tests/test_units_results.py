@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from optinav import OptinavError
 from optinav.core import units
 from optinav.core.results import Result
-from optinav.core.validate import as_float_array, check_timestamps, integration_steps
+from optinav.core.validate import as_float_array, check_timestamps, integration_steps, mask_runs
 
 
 def test_unit_conversions_by_hand():
@@ -164,3 +164,17 @@ def test_a_version_that_is_no_whole_number_is_named():
     d["version"] = str(d["version"])
     with pytest.raises(OptinavError, match=r"version '\d+' is not a whole number"):
         Result.from_dict(d)
+
+
+@given(st.lists(st.booleans(), max_size=60))
+def test_mask_runs_are_the_mask_s_true_runs(bits):
+    """mask_runs (the runs of rests, still bins, gap-free pieces …, written out five times before) gives half-open
+    ranges, each a maximal run of True, whose union is the mask."""
+    m = np.array(bits, dtype=bool)
+    runs = mask_runs(m)
+    back = np.zeros(m.shape, bool)
+    for s, e in runs:
+        assert s < e and m[s:e].all()
+        assert (s == 0 or not m[s - 1]) and (e == m.size or not m[e])
+        back[s:e] = True
+    assert np.array_equal(back, m)

@@ -15,6 +15,7 @@ import numpy as np
 from optinav.attitude.methods import IFRAME_DEFAULTS
 from optinav.core.rotations import frame_name
 from optinav.core.units import G_STANDARD
+from optinav.core.validate import mask_runs
 from optinav.errors import OptinavError
 
 __all__ = ["find_gaps", "check_imu", "check_aop", "check_frame", "check_mag", "FrameWarning", "MagnetometerWarning"]
@@ -965,9 +966,8 @@ def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray) -> li
     ok = (T > 0) & ~np.isin(bins, gap_bins)
     g = np.divide(sums[:, :3], T[:, None], out=np.zeros((T.shape[0], 3)), where=ok[:, None])
     a = sums[:, 4:7] / np.maximum(sums[:, 7:8], 1.0)
-    runs = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
     pieces = []
-    for i, j in zip(runs[::2], runs[1::2]):
+    for i, j in mask_runs(ok):
         span = float(T[i:j].sum())
         if span >= LONG_PIECE_MIN_S:
             pieces += np.array_split(np.arange(i, j), int(np.ceil(span / LONG_PIECE_S)))
@@ -2711,9 +2711,8 @@ def _learned(pieces, fields, h: float, field: float, at_end: bool) -> bool:
         return True
     # the longest run of still bins with b (bins without a field between them do not break it)
     run = with_b & still
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], run.astype(np.int8), [0]])))
     # 10 % more: the estimate's new-field candidate starts once the field has settled (a magnet put on takes 1-2 s)
-    return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in zip(edges[::2], edges[1::2]))
+    return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
 
 
 def offset_change_error(
@@ -2886,9 +2885,8 @@ def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray
     still = (sg < REST_GYR_STD) & (sa < REST_ACC_STD) & (S[:, 12] >= TILT_BIN / 2)
     # runs of consecutive still bins whose means agree with their neighbour's
     joined = still[1:] & still[:-1] & (np.diff(b) == 1) & (_norm(np.diff(gm, axis=0)) < REST_GYR_STD)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], joined.astype(np.int8), [0]])))
     need = max(2, int(np.ceil(STILL_RUN_S / (TILT_BIN * dt))))
-    runs = [(s, e + 1) for s, e in zip(edges[::2], edges[1::2]) if e + 1 - s >= need]
+    runs = [(s, e + 1) for s, e in mask_runs(joined) if e + 1 - s >= need]
     # beyond REST_GYR only: a slower turn is taken for a rest by the estimator as well, its bias judged as one
     runs = [(s, e) for s, e in runs if not _turning_run(gm[s:e], am[s:e], S[s:e, 12] * dt, REST_GYR)]
     if not runs:

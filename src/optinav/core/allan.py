@@ -34,7 +34,7 @@ import numpy as np
 
 from optinav.core.results import Result
 from optinav.core.units import G_STANDARD, GRAVITY_OUT, GRAVITY_OUT_REMEDY
-from optinav.core.validate import as_float_array, check_positive
+from optinav.core.validate import as_float_array, check_positive, mask_runs
 from optinav.errors import OptinavError
 
 #: √(2 ln 2 / π): the Allan-deviation floor of flicker (bias-instability) noise is 0.664·B (IEEE 952 C.1.3).
@@ -496,8 +496,7 @@ def allan_deviation_model(
 
 def _runs(mask: np.ndarray) -> list[slice]:
     """Contiguous True runs of a 1-D mask."""
-    idx = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
-    return [slice(i, j) for i, j in zip(idx[::2], idx[1::2])]
+    return [slice(i, j) for i, j in mask_runs(mask)]
 
 
 def _line_read(log_tau, log_adev, slope, edf, target, tol, at_tau, eligible):

@@ -266,3 +266,10 @@ def check_positive(value, name: str) -> float:
     if not np.isfinite(v) or v <= 0:
         raise OptinavError(f"{name} must be a positive finite number, got {value!r}", f"pass a valid {name}")
     return v
+
+
+def mask_runs(mask) -> np.ndarray:
+    """Half-open index ranges (K, 2) [start, end) of the runs of True in the 1-D boolean ``mask``."""
+    m = np.asarray(mask, dtype=bool)
+    zero = np.zeros(1, np.int8)  # int8 edges: a Python 0 would promote the padded copy to int64
+    return np.flatnonzero(np.diff(np.concatenate([zero, m.view(np.int8), zero]))).reshape(-1, 2)

@@ -37,7 +37,7 @@ import numpy as np
 
 from optinav.core.files import parse_json, read_text
 from optinav.core.results import Result
-from optinav.core.validate import as_float_array, check_positive, check_timestamps
+from optinav.core.validate import as_float_array, check_positive, check_timestamps, mask_runs
 from optinav.errors import OptinavError
 
 __all__ = [
@@ -288,11 +288,7 @@ def intervals_from_mask(t, mask, *, min_duration_s: float = 0.0, trim_s: float =
     kept when its duration (last − first sample time) is at least ``min_duration_s``."""
     t = np.asarray(t, dtype=float)
     m = np.asarray(mask, dtype=bool)
-    # int8 edges: a Python 0 beside the mask would promote the whole padded copy (and its diff) to int64
-    zero = np.zeros(1, np.int8)
-    d = np.diff(np.concatenate([zero, m.view(np.int8), zero]))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1)  # exclusive
+    starts, ends = mask_runs(m).T  # ends exclusive
     if trim_s > 0 and starts.size:
         starts = np.searchsorted(t, t[starts] + trim_s, side="left")
         ends = np.searchsorted(t, t[ends - 1] - trim_s, side="right")
