@@ -2432,10 +2432,7 @@ MAG_TURNED = 1.0
 def body_turned(bins: np.ndarray, sums: np.ndarray, h: float) -> float:
     """The body's turning (rad) by the gyro: Σ |ω̄| ``h`` over the bins of :func:`field_rate_sums` (``h`` s each)
     whose mean rate ω̄ exceeds :data:`STILL_RATE` (a still gyro's bias is no turning)."""
-    if len(bins) == 0:
-        return 0.0
-    _, S = merge_bins(np.asarray(bins), np.asarray(sums))
-    w = _norm(S[:, 4:7] / np.maximum(S[:, 7], 1.0)[:, None])
+    w = _norm(bin_fields(bins, sums)[2])
     return float(np.sum(w[w > STILL_RATE]) * h)
 
 
