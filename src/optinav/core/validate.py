@@ -269,7 +269,18 @@ def check_positive(value, name: str) -> float:
 
 
 def mask_runs(mask) -> np.ndarray:
-    """Half-open index ranges (K, 2) [start, end) of the runs of True in the 1-D boolean ``mask``."""
+    """The runs of True in a 1-D mask, as half-open index ranges.
+
+    Parameters
+    ----------
+    mask : (N,) array_like of bool
+        The mask [-].
+
+    Returns
+    -------
+    ndarray
+        (K, 2) int [start, end) [-] of each maximal run of True, in order.
+    """
     m = np.asarray(mask, dtype=bool)
     zero = np.zeros(1, np.int8)  # int8 edges: a Python 0 would promote the padded copy to int64
     return np.flatnonzero(np.diff(np.concatenate([zero, m.view(np.int8), zero]))).reshape(-1, 2)
