@@ -639,14 +639,14 @@ def estimate(
         raise OptinavError(f"method {method} has no offline mode", "use --method iframe with --offline")
     if checks:
         check_imu(gyr, acc, dts)
+        step = float(np.median(dts))  # the typical step (s) the checks judge by
         clip = bias_clip(method, opts, input_stage)
         if clip is not None:
-            check_bias_range(*still_sums(gyr, acc), float(np.median(dts)), clip, method)
-        check_frame(acc, frame, dt=float(np.median(dts)))
+            check_bias_range(*still_sums(gyr, acc), step, clip, method)
+        check_frame(acc, frame, dt=step)
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)
         if mag is not None:
-            step = float(np.median(dts))
             rows = scale_bin_rows(step)
             turns = (*field_rate_sums(gyr, mag, rows), rows * step)
             checked = mag_hard_iron  # the offset the field checks take off: fitted online, the whole recording's
