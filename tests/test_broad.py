@@ -17,6 +17,7 @@ from optinav.attitude.iframe import run_iframe
 from optinav.attitude.checks import hard_iron
 from optinav.attitude.estimators import AttitudeEstimate
 from optinav.attitude.metrics import earth_error_quaternion, heading_error, inclination_error, rmse
+from optinav.core.rotations import quat_conjugate, quat_rotate
 from optinav.core.strapdown import attitude_update
 from optinav.errors import OptinavError
 
@@ -1432,15 +1433,15 @@ def test_the_whole_log_time_base_check_passes_the_nine_trials_and_splits_at_gaps
         pytest.skip("the nine BROAD trials are not all present")
     for p in NINE:
         tr = load_broad(p)
-        assert C.long_time_hint(*C._whole_log_bins(tr.gyr, tr.acc, np.array([tr.dt])), tr.dt) is None, p.name
+        assert C.long_time_hint(*C.whole_log_bins(tr.gyr, tr.acc, np.array([tr.dt])), tr.dt) is None, p.name
     tr = load_broad(SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5")
     wrong = np.full(tr.gyr.shape[0], 0.01)  # --rate 100
-    bins, sums, gaps = C._whole_log_bins(tr.gyr, tr.acc, wrong)
+    bins, sums, gaps = C.whole_log_bins(tr.gyr, tr.acc, wrong)
     assert C.long_time_hint(bins, sums, gaps, 0.01) is not None
     every = np.unique(np.searchsorted(np.cumsum(sums[:, 3]), np.arange(15.0, 600.0, 15.0)))
     assert C.long_time_hint(bins, sums, bins[every[every < bins.shape[0]]], 0.01) is None  # 15-s pieces: not judged
     wrong[np.arange(1, 6) * int(60.0 / 0.01)] = 2.0  # five 2-s gaps: pieces of 60 s (declared)
-    bins, sums, gaps = C._whole_log_bins(tr.gyr, tr.acc, wrong)
+    bins, sums, gaps = C.whole_log_bins(tr.gyr, tr.acc, wrong)
     assert gaps.size == 5
     hint = C.long_time_hint(bins, sums, gaps, 0.01)
     assert hint is not None and abs(hint.rate_hz / tr.rate_hz - 1) < 0.06
@@ -2124,6 +2125,55 @@ def test_a_gyro_bias_beyond_rest_gyr_off_the_vertical_is_refused_as_a_bias(trial
     n, dt = 3000, 0.01
     up = np.array([0.0, 0.3, 1.0]) / np.hypot(0.3, 1.0)
     estimate(np.tile(0.3 * up, (n, 1)), np.tile(9.81 * up, (n, 1)), dt, frame="ENU")  # not refused
+
+
+def test_a_gyro_bias_beyond_the_unit_checks_allowance_is_named_a_bias_not_a_unit(tmp_path, capsys):
+    """BROAD 27 (translation, hardly turning) with [0.15, -0.075, 0.11] rad/s added was told "a unit factor of π/180
+    explains it: --gyro-unit deg/s" (the unit checks allow for 5 °/s of bias), and 11 with [0.3, 0.2, -0.1] "axes
+    swapped and deg/s": wrong causes, whose remedies run. The reading at rest beyond rest_gyr, off the specific
+    force, is taken off before the unit, time base and axes are judged, then named as the bias it is — in memory and
+    streamed from a file alike. A gyro in deg/s declared rad/s with its bias is still named a unit error."""
+    from optinav.cli.main import main
+
+    root = SHARED / "attitude" / "broad"
+    for name, bias in (
+        ("27_disturbed_phone_vibration_B", [0.15, -0.075, 0.11]),
+        ("11_undisturbed_slow_translation_B", [0.3, 0.2, -0.1]),
+    ):
+        p = root / f"{name}.hdf5"
+        if not p.is_file():
+            pytest.skip(f"{name} absent")
+        tr = load_broad(p)
+        with pytest.raises(OptinavError, match=r"at rest: a bias beyond"):
+            estimate(tr.gyr + bias, tr.acc, tr.dt, frame="ENU")
+    f = _csv(tmp_path / "b.csv", tr.dt, tr.acc, tr.gyr + bias)
+    assert main(["attitude", f, "--frame", "ENU", "--chunk-rows", "20000", "--out", str(tmp_path / "o.csv")]) == 2
+    assert "at rest: a bias beyond" in capsys.readouterr().err
+    with pytest.raises(
+        OptinavError, match="deg/s declared rad/s"
+    ):  # 0.6–1.1 °/s of bias, the gyro in deg/s read as rad/s
+        estimate((tr.gyr + [0.01, -0.02, 0.005]) * (180.0 / np.pi), tr.acc, tr.dt, frame="ENU")
+
+
+def test_a_gyro_bias_about_the_vertical_is_told_from_a_turntable_by_the_whole_log(trial, tmp_path, capsys):
+    """A still reading beyond rest_gyr along the vertical may be a steady turn (a turntable), so it was not judged:
+    BROAD 02 with 0.154 rad/s (8.8 °/s) added on z ran at 8.7° inclination RMSE with exit 0. Once the body tilts, a
+    bias turns gravity in the gyro-integrated frame and a turn about the world's vertical does not: taken off the
+    whole log, this reading cuts that drift to a tenth, so it is refused as the bias it is (in memory and streamed).
+    The same trial on a turntable turning at 0.154 rad/s about the vertical throughout still runs, at its own
+    accuracy."""
+    from optinav.cli.main import main
+
+    gyr = trial.gyr + [0.0, 0.0, 0.154]
+    with pytest.raises(OptinavError, match=r"a bias beyond.*not a steady turn"):
+        estimate(gyr, trial.acc, trial.dt, frame="ENU")
+    f = _csv(tmp_path / "z.csv", trial.dt, trial.acc, gyr)
+    assert main(["attitude", f, "--frame", "ENU", "--chunk-rows", "20000", "--out", str(tmp_path / "o.csv")]) == 2
+    assert "not a steady turn" in capsys.readouterr().err
+    q = estimate_q(trial.gyr, trial.acc, trial.dt, frame="ENU")
+    up = quat_rotate(quat_conjugate(q), np.tile([0.0, 0.0, 0.154], (q.shape[0], 1)))  # the turn in the body
+    q = estimate_q(trial.gyr + up, trial.acc, trial.dt, frame="ENU")
+    assert np.degrees(rmse(inclination_error(q, trial.q_ref), trial.eval_mask)) < 0.6
 
 
 def _about(msg: str) -> list[np.ndarray]:

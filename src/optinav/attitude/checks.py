@@ -960,8 +960,9 @@ def _rest_bias(g: np.ndarray, a: np.ndarray, T: np.ndarray) -> np.ndarray | None
     return np.median(mg[rest], axis=0) if np.count_nonzero(rest) >= w else None
 
 
-def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray) -> list[tuple]:
-    """The gap-free pieces (rates rad/s less their rest bias, specific force, durations) of the merged bins."""
+def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, debias: bool = True) -> list[tuple]:
+    """The gap-free pieces (rates rad/s less their rest bias unless not ``debias``, specific force, durations) of
+    the merged bins."""
     T = sums[:, 3]
     ok = (T > 0) & ~np.isin(bins, gap_bins)
     g = np.divide(sums[:, :3], T[:, None], out=np.zeros((T.shape[0], 3)), where=ok[:, None])
@@ -973,6 +974,8 @@ def _long_pieces(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray) -> li
             pieces += np.array_split(np.arange(i, j), int(np.ceil(span / LONG_PIECE_S)))
     if not pieces or sum(float(T[p].sum()) for p in pieces) < LONG_MIN_S:
         return []
+    if not debias:
+        return [(g[p], a[p], T[p]) for p in pieces]
     every = _rest_bias(g[ok], a[ok], T[ok])
     out = []
     for p in pieces:
@@ -1000,7 +1003,7 @@ def _scan(pieces: list[tuple], scales: np.ndarray, fit_bias: bool = False) -> tu
     return (float(np.exp(r.x)), float(r.fun)) if r.fun < drift[i] else (float(scales[i]), float(drift[i]))
 
 
-def _whole_log_bins(
+def whole_log_bins(
     gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, ng: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`merge_bins` of a whole log (by blocks of 2²⁰ rows) and its gap bins, for :func:`long_time_hint`
@@ -1222,13 +1225,20 @@ def axes_turn_margin(bins: np.ndarray, sums: np.ndarray, m: int, dt: float) -> t
 
 
 def check_imu(
-    gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, *, gyro_range: float | None = None, gyro_unit: str | None = None
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    dts: np.ndarray,
+    *,
+    gyro_range: float | None = None,
+    gyro_unit: str | None = None,
+    rest: np.ndarray | None = None,
 ) -> None:
     """Refuse inputs whose magnitudes contradict their declared units (acc m/s², gyr rad/s), swapped triads, an
     axis of either triad negated or out of order (:func:`axes_turn_hint`), an accelerometer without gravity and a
     clipped (saturated) gyro. ``gyro_range`` rad/s: the sensor's range if
     known; ``gyro_unit``: the unit the gyro was declared in before it was converted (named in the messages; None:
-    not known, the messages name the usual deg/s ↔ rad/s mix-up)."""
+    not known, the messages name the usual deg/s ↔ rad/s mix-up); ``rest``: a bias (3,) rad/s the gyro reads at
+    rest (:func:`rest_offset`), taken off before its unit, time base and axes are judged."""
     na = _norm(acc)
     ng = _norm(gyr)
     dt = float(np.median(dts))
@@ -1237,14 +1247,15 @@ def check_imu(
     share = gravity_share(bins, sums, dt, na, ng)
     low = (float(np.percentile(na, LOW_PERCENTILE)), float(np.percentile(ng, LOW_PERCENTILE)))
     check_norms(float(np.median(na)), float(np.median(ng)), float(np.max(ng)), gyro_unit, share, low)
+    gu = gyr if rest is None else gyr - rest  # (the windows and bins are placed by the gyro as read)
     # window by window as a streamed log is (StreamChecks.finish_second): no still window, gravity judged there too
     windows = (
-        (gyr[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
+        (gu[sl], acc[sl], dts[sl] if dts.shape[0] > 1 else dts, float(np.max(ng[sl])))
         for sl in unit_windows(ng, dts, bins, sums)
     )
     m = axes_bin_rows(dt)
-    axes = lambda: axes_turn_hint(*time_bins(gyr, acc, dts, m), m, dt)  # noqa: E731
-    whole = lambda: long_time_hint(*_whole_log_bins(gyr, acc, dts, ng), dt)  # noqa: E731
+    axes = lambda: axes_turn_hint(*time_bins(gu, acc, dts, m), m, dt)  # noqa: E731
+    whole = lambda: long_time_hint(*whole_log_bins(gu, acc, dts, ng), dt)  # noqa: E731
     check_time_base(windows, whole, gyro_unit, share, axes)
     _check_clipping(gyr, gyro_range, dt, acc)
 
@@ -2864,14 +2875,12 @@ def _turning_run(gm: np.ndarray, am: np.ndarray, secs: np.ndarray, above: float 
     return seen >= STILL_TURN_SHARE * said and said > 0.0
 
 
-def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray, float] | None:
-    """(median gyro over the still bins (3,) rad/s, seconds of them) from :func:`still_sums`: bins whose gyro and
-    accelerometer hardly vary (std under :data:`REST_GYR_STD` rad/s and :data:`REST_ACC_STD` m/s²), in runs of at least
-    :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree within REST_GYR_STD and whose accelerometer does
-    not turn as the gyro says (:func:`_turning_run`: a slow steady turn); None under
-    :data:`STILL_RUN_S` of them, where the runs' means disagree beyond REST_GYR_STD or their median exceeds
-    :data:`REST_GYR` about an axis a steady turn may have (:func:`_turn_like`: a vehicle's or a turntable's, not a
-    constant bias; as :func:`_rest_bias`)."""
+def rest_reading(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """(median gyro over the still bins (3,) rad/s, their median specific force (3,) m/s², seconds of them) from
+    :func:`still_sums`: bins whose gyro and accelerometer hardly vary (std under :data:`REST_GYR_STD` rad/s and
+    :data:`REST_ACC_STD` m/s²), in runs of at least :data:`STILL_RUN_S` whose neighbouring bins' gyro means agree
+    within REST_GYR_STD and whose accelerometer does not turn as the gyro says (:func:`_turning_run`: a slow steady
+    turn); None under STILL_RUN_S of them or where the runs' means disagree beyond REST_GYR_STD."""
     if len(bins) == 0:
         return None
     b, S = merge_bins(np.asarray(bins), np.asarray(sums))
@@ -2891,34 +2900,78 @@ def rest_gyro(bins: np.ndarray, sums: np.ndarray, dt: float) -> tuple[np.ndarray
     means = np.array([np.median(gm[s:e], axis=0) for s, e in runs])
     rows = np.concatenate([np.arange(s, e) for s, e in runs])
     bias = np.median(gm[rows], axis=0)
-    # a steady turn about the vertical (a turntable, a vehicle) reads as a rest's: one beyond REST_GYR is no bias
-    # (a 90 °/s turn throughout was refused as one), and turns besides rests disagree with them
-    if np.linalg.norm(bias) > REST_GYR and _turn_like(bias, np.median(am[rows], axis=0)):
-        return None
     if np.max(_norm(means - bias)) > REST_GYR_STD:
         return None
-    return bias, float(np.sum(S[rows, 12]) * dt)
+    return bias, np.median(am[rows], axis=0), float(np.sum(S[rows, 12]) * dt)
 
 
-def check_bias_range(bins: np.ndarray, sums: np.ndarray, dt: float, clip: float, method: str = "iframe") -> None:
-    """Refuse a gyro whose bias at rest (:func:`rest_gyro`) exceeds on an axis the ``clip`` (rad/s) the estimator
-    tracks (iframe's ``bias_clip``, default 2 °/s): the estimate is clipped there and the rest is drift — BROAD 02
-    with [0.06, -0.03, 0.045] rad/s added ran at 5.9° inclination RMSE with exit 0, 0.39° with bias_clip raised
-    (beyond :data:`REST_GYR` a bias is not told from a steady turn and not judged: 6.2 °/s, 10°). The remedy names a clip that holds it (an option of iframe; gd/cg/qn/mekf have the bias from
-    iframe's front end at its default clip, ``method``)."""
-    got = rest_gyro(bins, sums, dt)
-    if got is None:
+def _turn_or_bias(reading: tuple[np.ndarray, np.ndarray, float]) -> bool:
+    """Whether a :func:`rest_reading` exceeds :data:`REST_GYR` about an axis a steady turn may have
+    (:func:`_turn_like`: a vehicle's or a turntable's, not only a constant bias; as :func:`_rest_bias`)."""
+    return float(np.linalg.norm(reading[0])) > REST_GYR and _turn_like(reading[0], reading[1])
+
+
+def rest_offset(reading: tuple[np.ndarray, np.ndarray, float] | None) -> np.ndarray | None:
+    """The gyro's :func:`rest_reading` (3,) rad/s where it is beyond :data:`REST_GYR` about an axis no steady turn
+    has — a bias, which the unit, time-base and axes checks take off the gyro before they judge how it turns
+    gravity (their own bias allowances end at 5.7 °/s: BROAD 27 with [0.15, −0.075, 0.11] rad/s added was told
+    "deg/s declared rad/s", and the gyro then declared so ran) — else None."""
+    if reading is None or float(np.linalg.norm(reading[0])) <= REST_GYR or _turn_or_bias(reading):
+        return None
+    return reading[0]
+
+
+#: a rest reading beyond REST_GYR about the vertical is a bias, not a steady turn, where taking it off the whole log's
+#: gyro at most halves how far gravity drifts in the gyro-integrated frame (the motion between tilts the body: a
+#: bias about its vertical then turns gravity, a turntable's turn about the world's vertical does not). BROAD's nine
+#: with 0.11–0.3 rad/s added on z: 0.07–0.85 (0.85 on trial 11, which hardly tilts: not judged); a turntable's
+#: 0.154 rad/s under each of them: 2.7–20. The drift must also fall by LOW_AXES_FLOOR (BROAD: 0.04–1.1 rad)
+VERTICAL_BIAS_SHARE = 0.5
+
+
+def bias_not_turn(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, reading: np.ndarray) -> bool:
+    """Whether the whole log (:func:`whole_log_bins` of the gyro as read) shows a rest ``reading`` (3,) rad/s about
+    the vertical to be a bias (:data:`VERTICAL_BIAS_SHARE`); False where the log is too short to tell."""
+    pieces = _long_pieces(bins, sums, gap_bins, debias=False)
+    if not pieces:
+        return False
+    less = [(g - reading, a, T) for g, a, T in pieces]
+    raw, after = _long_drift(pieces, 1.0), _long_drift(less, 1.0)
+    # and by more than a right gyro's drift on a tilting body: on a level one both are noise (a turn's steady peak
+    # read as a rest, taken off, steadied gravity by 0.1° of 0.2°)
+    return after <= VERTICAL_BIAS_SHARE * raw and raw - after >= LOW_AXES_FLOOR
+
+
+def check_bias_range(
+    reading: tuple[np.ndarray, np.ndarray, float] | None, clip: float, method: str = "iframe", whole=None
+) -> None:
+    """Refuse a gyro whose bias at rest exceeds on an axis the ``clip`` (rad/s) the estimator tracks (iframe's
+    ``bias_clip``, default 2 °/s): the estimate is clipped there and the rest is drift — BROAD 02 with [0.06, -0.03,
+    0.045] rad/s added ran at 5.9° inclination RMSE with exit 0, 0.39° with bias_clip raised. The rest reading is
+    :func:`rest_reading` (None: no rest); beyond :data:`REST_GYR` about the vertical it may be a steady turn, judged by the whole log
+    where ``whole()`` gives its bins (:func:`bias_not_turn`; BROAD 02 with 0.154 rad/s on z ran at 8.7° with exit
+    0), else left alone. The remedy names a clip that holds it (an option of iframe; gd/cg/qn/mekf have the bias
+    from iframe's front end at its default clip, ``method``)."""
+    if reading is None:
         return
-    bias, seconds = got
+    bias, _, seconds = reading
+    turn = _turn_or_bias(reading)
+    if turn and (whole is None or not bias_not_turn(*whole(), bias)):
+        return
     worst = float(np.max(np.abs(bias)))
     if worst <= clip:
         return
     wanted = float(np.ceil(2.0 * worst * 100.0) / 100.0)
     option = f"--option bias_clip={wanted:g} (bias_clip={wanted:g} in Python)"
+    why = (
+        "not a steady turn: taken off, gravity drifts far less in the gyro's frame over the motion"
+        if turn
+        else "unless the body turned steadily about the vertical there"
+    )
     raise OptinavError(
         f"the gyro reads [{', '.join(f'{v:.4g}' for v in bias)}] rad/s ({np.degrees(worst):.3g} °/s on its worst axis) "
         f"over {seconds:.3g} s at rest: a bias beyond the ±{clip:.4g} rad/s the estimator tracks (bias_clip), "
-        "so the attitude would drift (unless the body turned steadily about the vertical there)",
+        f"so the attitude would drift ({why})",
         "subtract the bias from the gyro (calibrate it, optinav apply), or pass "
         + (option if method == "iframe" else f"--method iframe {option}"),
     )

@@ -182,17 +182,24 @@ class StreamChecks:
         # and in bins of AXES_BIN_S (the order of the gyro's axes judged axis by axis)
         self._axes_m = _c.axes_bin_rows(self.median_dt)
         self._axes: list[tuple[np.ndarray, np.ndarray]] = []
+        # a bias beyond what the unit checks allow for, taken off the gyro they judge (as estimate()'s check_imu)
+        self._reading = (
+            _c.rest_reading(*(np.concatenate(x) for x in zip(*self._still)), self.median_dt) if self._still else None
+        )
+        self._still = []
+        self._rest = _c.rest_offset(self._reading)
 
     def collect(self, row0: int, gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray) -> None:
         """Pass 2: the block starting at row ``row0`` (the same blocks as pass 1)."""
         n = gyr.shape[0]
+        gu = gyr if self._rest is None else gyr - self._rest
         for win, got in zip(self.windows, self._win):
             a, b = max(win.start - row0, 0), min(win.stop - row0, n)
             if a < b:
-                got.append((gyr[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
+                got.append((gu[a:b].copy(), acc[a:b].copy(), np.array(dts[a:b], dtype=float)))
         if self._long_m:
-            self._long.append(_c.time_bins(gyr, acc, dts, self._long_m, row0))
-        self._axes.append(_c.time_bins(gyr, acc, dts, self._axes_m, row0))
+            self._long.append(_c.time_bins(gu, acc, dts, self._long_m, row0))
+        self._axes.append(_c.time_bins(gu, acc, dts, self._axes_m, row0))
         for (k, j), (idx, keys, vals, rows) in self._clip.items():
             y = gyr[:, k] if j == 0 else -gyr[:, k]
             m = self._max[k, j]
@@ -206,12 +213,18 @@ class StreamChecks:
             vals.append(y[near])
             rows.append(np.hstack([gyr[at], acc[at]]))  # whole samples at the extreme: a held one repeats them all
 
+    def _long_bins(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pass 2's whole-log bins, their sums and the bins holding a gap (as
+        :func:`~optinav.attitude.checks.whole_log_bins`; empty for a log under LONG_MIN_S)."""
+        if not self._long:
+            return np.zeros(0, dtype=np.int64), np.zeros((0, 8)), np.zeros(0, dtype=np.int64)
+        bins, sums = _c.merge_bins(*(np.concatenate(x) for x in zip(*self._long)))
+        return bins, sums, np.unique(self.gaps // self._long_m)
+
     def _long_hint(self) -> _c.UnitHint | None:
         """The whole log's time-base hint (:func:`~optinav.attitude.checks.long_time_hint`) from pass 2's bins."""
-        if not self._long:
-            return None
-        bins, sums = _c.merge_bins(*(np.concatenate(x) for x in zip(*self._long)))
-        return _c.long_time_hint(bins, sums, np.unique(self.gaps // self._long_m), self.median_dt)
+        bins, sums, gap_bins = self._long_bins()
+        return _c.long_time_hint(bins, sums, gap_bins, self.median_dt) if bins.shape[0] else None
 
     def _axes_hint(self) -> _c.UnitHint | None:
         """The order of the gyro's axes judged axis by axis (:func:`~optinav.attitude.checks.axes_turn_hint`)."""
@@ -240,9 +253,8 @@ class StreamChecks:
             steep = _c.steep_runs(idx, lambda i: vals[np.searchsorted(keys, i)], self.n, m, self.median_dt, q, held)
             if steep:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
-        if self._still:  # after the units and the clipping, as estimate() judges it after check_imu
-            still = (np.concatenate(x) for x in zip(*self._still))
-            _c.check_bias_range(*still, self.median_dt, self.bias_clip, self.method)
+        if self.bias_clip is not None:  # after the units and the clipping, as estimate() judges it after check_imu
+            _c.check_bias_range(self._reading, self.bias_clip, self.method, self._long_bins)
         _c.check_frame(None, frame, self._acc_sum, self.median_dt, self._level)
         given = self.given_hard_iron
         if self._mag and ((not self.offline and not self.hard_iron_judged) or given is not None):
