@@ -783,3 +783,60 @@ def test_a_drifting_accelerometer_is_refused_on_the_default_route(tmp_path, caps
     acc = json.loads((tmp_path / "r.json").read_text())["fields"]["accelerometer"]["value"]
     # the bias went from 0.398 to 0.498 over the session: b_z lies on that way, and its std spans it
     assert 0.3983 < acc["b"][2] < 0.4983 and acc["b_std"][2] >= 0.05, (acc["b"], acc["b_std"])
+
+
+def _gyro_on_its_own_clock(tmp_path, up: int, down: int, phase: float, add=None):
+    """imucal's example session as two files, each with its time column: the accelerometer at 102.4 Hz and the
+    gyroscope resampled to up/down × 102.4 Hz by scipy's polyphase filter (band-limited, as a sensor's decimation
+    filter: each turn integrates on the new samples within 0.3e-4 of the original's), its clock ``phase`` s after
+    the accelerometer's; ``add`` (section, axis, deg/s, samples): a rate added to that many gyro samples 1.5 s
+    into the section. Returns the command's arguments after ``calibrate accel``."""
+    from scipy.signal import resample_poly
+
+    rows = np.loadtxt(DATA / "example_ferraris_session.csv", delimiter=",", skiprows=1)
+    t = np.arange(rows.shape[0]) / 102.4
+    gyr = resample_poly(rows[:, 1:4], up, down, axis=0, padtype="line")
+    tg = np.arange(gyr.shape[0]) / (102.4 * up / down) + phase
+    sections = str(DATA / "example_ferraris_session_list.json")
+    if add is not None:
+        name, axis, rate, n = add
+        k = int(np.searchsorted(tg, t[json.loads(Path(sections).read_text())[name]["start"]] + 1.5))
+        gyr[k : k + n, axis] += rate
+    acc_file, gyro_file = tmp_path / "acc.csv", tmp_path / "gyro.csv"
+    np.savetxt(acc_file, np.column_stack([t, rows[:, 4:7]]), delimiter=",", header="t,ax,ay,az", comments="")
+    np.savetxt(gyro_file, np.column_stack([tg, gyr]), delimiter=",", header="t,gx,gy,gz", comments="")
+    flags = ["--gyro-unit", "deg/s", "--gravity", "9.81", "--method", "ferraris", "--sections", sections]
+    return [str(acc_file), "--gyro", str(gyro_file), *flags]
+
+
+@pytest.mark.parametrize("up, down, phase", [(1, 2, 0.0), (9, 10, 0.0013)])
+def test_ferraris_gyro_file_on_its_own_clock_is_the_one_file_result(tmp_path, up, down, phase):
+    """The session's gyroscope as a second file on its own clock, interpolated onto the accelerometer's times.
+    At half the rate, every other row on a gyro sample (acc 200 Hz beside gyro 100 Hz), each row between was the
+    line through its neighbours, and a real jerk of x_rot stood '18997× the departures around it': refused as a
+    glitch, exit 2. At 0.9× the rows' sum of the interpolated rates gave K_zz 0.052 off (5.7 std of the one-file
+    result; 1.2 of its own, 0.045, widened by the turns between the poses). Both are judged on the gyroscope's own
+    samples now: imucal's scales within 0.2 of the std."""
+    r = _run(tmp_path, ["calibrate", "accel", *_gyro_on_its_own_clock(tmp_path, up, down, phase)])
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
+    std = np.diag(np.asarray(r.gyroscope["K_std"]))
+    dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(ref["gyr_K"]))
+    assert np.all(dev < 0.5 * std), (dev, std)
+
+
+@pytest.mark.parametrize("samples, code", [(1, 0), (2, 2)])
+def test_a_glitch_in_a_gyro_file_on_its_own_clock_is_judged_on_its_samples(tmp_path, capsys, samples, code):
+    """300 °/s added to one sample of the 0.9× gyro file 1.5 s into y_rot: interpolated onto the accelerometer's
+    rows it spread over two, unseen (K_yy 0.50 off, 18 std, exit 0); 150 °/s on two samples alike. On the file's
+    own samples the spike is repaired (imucal's K_yy within 0.04 std) and the two-sample dropout refused."""
+    rate = 300.0 if samples == 1 else 150.0
+    args = _gyro_on_its_own_clock(tmp_path, 9, 10, 0.0013, add=("y_rot", 1, rate, samples))
+    r = _run(tmp_path, ["calibrate", "accel", *args], code=code)
+    err = capsys.readouterr().err
+    if code:
+        assert f"{samples} gyro y sample(s)" in err and "a dropout or glitch" in err, err
+        return
+    assert "1 gyro y sample(s)" in err and "a spike, replaced by its neighbours' mean" in err, err
+    ref = read_imucal_json(DATA / "reference" / "example_ferraris_session_cal_102p4Hz.json").to_optinav()
+    std = np.asarray(r.gyroscope["K_std"])[1, 1]
+    assert abs(r.gyroscope["K"][1][1] - ref["gyr_K"][1][1]) < 0.5 * std

@@ -269,6 +269,10 @@ class ImuLog(Result):
     ``row`` (N,) each sample's data row in the (accelerometer's) file where the reader left rows out (those outside
     a second file's span, or in a pause of both), else None: sample indices counted on the file's rows (imucal's
     section list) are moved onto the samples by it.
+    ``gyr_clock`` (not saved with the log): ``(t_g, gyr_g)``, the gyroscope's own sample times (M,) [s] and samples
+    (M, 3) [gyro_unit] where it came from a second file on its own clock and ``gyr`` holds it linearly interpolated
+    onto ``t``, else None; interpolation low-passes the samples by a share that follows the phase of the two clocks,
+    so a turn's glitches are judged and its integral taken on these.
     Version 2 renamed the version-1 field ``gyro`` to ``gyr`` (version-1 files still load).
     """
 
@@ -290,6 +294,8 @@ class ImuLog(Result):
     gyro_input_unit: str | None = field(default=None, metadata={"unit": "-"})
     #: what the reader inferred or left out (rate from the file, an incomplete last line), one line each
     notes: list = field(default_factory=list, metadata={"unit": "-"})
+    #: the gyroscope on its own clock where ``gyr`` was interpolated from it (class docstring); not a field
+    gyr_clock: ClassVar[tuple | None] = None
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float)
@@ -387,6 +393,8 @@ class ImuLog(Result):
             gyro_input_unit=self.gyro_input_unit,
         )
         out.nan_rows = int(np.count_nonzero(~out.finite))
+        if self.gyr_clock is not None:
+            out.gyr_clock = self.gyr_clock  # the gyroscope's own samples, whatever rows of t are kept
         return out
 
     def summary(self) -> str:
@@ -439,6 +447,8 @@ class _Part:
     srcs: dict = field(default_factory=dict)  # kind → the source names of its three components
     used: set = field(default_factory=set)  # the names of every array taken
     finite: set = field(default_factory=set)  # the kinds whose every value is known to be finite
+    #: the gyroscope's own (times s, samples) where it was interpolated onto the accelerometer's times
+    gyro_clock: tuple | None = None
 
 
 def _canonical(kind: str, unit: str, option: str) -> str:
@@ -2149,6 +2159,9 @@ def _log_of(
         gpart = parts[-1]
         gyro_in = _resolve_unit("gyro", gyro_u, gpart if len(parts) == 2 else main, "gyro_unit", gyro_d)
         gyro = main.gyro if gyro_in != "deg/s" else to_si(main.gyro, "deg/s")
+        if main.gyro_clock is not None:
+            tg, own = main.gyro_clock
+            main.gyro_clock = (tg, own if gyro_in != "deg/s" else to_si(own, "deg/s"))
     log = ImuLog(
         t=t,
         acc=acc,
@@ -2164,6 +2177,8 @@ def _log_of(
         gyro_input_unit=gyro_in,
         notes=notes,
     )
+    if main.gyro_clock is not None:
+        log.gyr_clock = main.gyro_clock
     for p in parts:
         if row0 == 0:  # what a reader assumed about the file, once: the first block's notes
             notes.extend(
@@ -2599,6 +2614,7 @@ def _gyro_onto_acc_times(main: _Part, a: tuple, g: tuple, notes: list) -> tuple:
         keep[a : a + inside.size] = False
         paused += inside.size
     gyro = np.asarray(main.gyro, float)
+    main.gyro_clock = (tg, gyro)
     main.gyro = np.column_stack([np.interp(ta[keep], tg, gyro[:, j]) for j in range(gyro.shape[1])])
     for name in ("acc", "labels", "sample"):
         v = getattr(main, name)
@@ -3181,7 +3197,7 @@ def open_imu_writer(path, *, acc_unit: str | None = None, gyro_unit: str | None 
         w._close()
 
 
-def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
+def raw_units(log, kind: str, values=None) -> tuple[np.ndarray, str]:
     """The log's values in the file's own unit (the unit a calibration's K and b are expressed in).
 
     Readers convert g and deg/s to SI; a calibration is stated in the user's raw unit, so convert back.
@@ -3192,6 +3208,8 @@ def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
         Samples as read.
     kind : str
         ``"acc"`` or ``"gyro"``.
+    values : (M, 3) array or None
+        Other samples of that triad [the log's unit] (the gyroscope's own, ``gyr_clock``); None: the log's.
 
     Returns
     -------
@@ -3200,7 +3218,8 @@ def raw_units(log, kind: str) -> tuple[np.ndarray, str]:
     unit : str
         That unit.
     """
-    values = log.acc if kind == "acc" else log.gyr
+    if values is None:
+        values = log.acc if kind == "acc" else log.gyr
     unit = log.acc_unit if kind == "acc" else log.gyro_unit
     file_unit = (log.acc_input_unit if kind == "acc" else log.gyro_input_unit) or unit
     if file_unit == unit or values is None:

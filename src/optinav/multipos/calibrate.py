@@ -431,6 +431,7 @@ def calibrate(
     gyro_g_sensitivity=None,
     gyro_bias_instability=None,
     gyro_bias_corr_time: float = float("inf"),
+    gyr_clock=None,
 ) -> CalibrationResult:
     """Calibrate the accelerometer (and gyroscope) of a multi-position log; see the module docstring.
 
@@ -504,6 +505,11 @@ def calibrate(
         long-term bias instead of this session's. The gyro bias std also holds the neglected Earth rate.
     gyro_bias_corr_time : float
         Correlation time of that Gauss–Markov bias [s] (default ∞: a constant offset per run).
+    gyr_clock : (t_g (M,) array, gyr_g (M, 3) array) or None
+        The gyroscope's own sample times [s] and samples [gyro_unit] where ``gyr`` holds them interpolated onto
+        ``t`` (a second file on its own clock, :attr:`optinav.io.ImuLog.gyr_clock`): Ferraris judges each turn's
+        glitches and takes its integral on them (interpolation smooths samples by a share that follows the two
+        clocks' phase). None: ``gyr`` are the gyroscope's samples.
 
     Returns
     -------
@@ -579,6 +585,7 @@ def calibrate(
             float(pose_alignment),
             sat_g,
             rng=rng,
+            gyr_clock=gyr_clock,
         )
     selection = {}
     step("detect static intervals")
@@ -1728,9 +1735,10 @@ def _ferraris(
     sat_g=None,
     *,
     rng=None,
+    gyr_clock=None,
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated;
-    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats)."""
+    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`."""
     from . import ferraris
 
     if gyro is None or sections is None:
@@ -1760,15 +1768,39 @@ def _ferraris(
         acc, spikes = ferraris.repair_pose_spikes(acc, poses, t, "accelerometer", acc_unit)
         gyro, more = ferraris.repair_pose_spikes(gyro, poses, t, "gyro", gyro_unit)
         notes.extend(spikes + more)
+    own = None
+    if gyr_clock is not None:
+        tg, wg = (np.asarray(v, float) for v in gyr_clock)
+        ok = np.isfinite(tg) & np.all(np.isfinite(wg), axis=1)
+        own = (tg[ok], wg[ok])
+    repaired_own = None
     if inside and all(n in names for n in ferraris.ROTATIONS):
         try:
-            repaired, fixed = ferraris.repair_rotation_glitches(
-                gyro, {n: tuple(idx[names.index(n)]) for n in names}, t, gyro_unit
-            )
+            if own is None:
+                repaired, fixed = ferraris.repair_rotation_glitches(
+                    gyro, {n: tuple(idx[names.index(n)]) for n in names}, t, gyro_unit
+                )
+            else:
+                # judged on the gyroscope's own samples: interpolated onto the accelerometer's times, a sample
+                # keeps its noise where a row meets it and is averaged between, so the departures around a real
+                # jerk of a hand turn changed with the clocks' phase (a gyro file at half the rate, every other row
+                # on a sample: a jerk of x_rot 18997x the departures around it, refused as a glitch; at 0.9x 25x),
+                # and a spike of the file spread over two rows (300 deg/s unseen, K_yy 18 std off)
+                tg, wg = own
+                span = {
+                    n: tuple(np.searchsorted(tg, [t[idx[names.index(n)][0]], t[idx[names.index(n)][1] - 1]]))
+                    for n in ferraris.ROTATIONS
+                }
+                span = {n: (int(a), int(b) + 1) for n, (a, b) in span.items()}
+                repaired_own, fixed = ferraris.repair_rotation_glitches(wg, span, tg, gyro_unit)
+                repaired = gyro.copy()  # (the poses keep their repaired spikes)
+                for n in ferraris.ROTATIONS:
+                    i0, i1 = idx[names.index(n)]
+                    repaired[i0:i1] = np.column_stack([np.interp(t[i0:i1], tg, repaired_own[:, j]) for j in range(3)])
         except OptinavError as e:
             glitch = e
 
-    def closed_form(gyr):
+    def closed_form(gyr, gyr_own=None if own is None else own[1]):
         return ferraris.ferraris_from_sections(
             t,
             acc,
@@ -1778,6 +1810,7 @@ def _ferraris(
             expected_angle=rotation_angle,
             with_std=True,
             rng=0 if rng is None else rng,
+            gyr_clock=None if own is None else (own[0], gyr_own),
         )
 
     fc, std = closed_form(gyro)
@@ -1788,7 +1821,7 @@ def _ferraris(
     if fixed:
         gyro = repaired
         notes.extend(fixed)
-        fc, std = closed_form(gyro)
+        fc, std = closed_form(gyro, repaired_own)
     # the six poses: a section of another name is not the closed form's and is not judged as a pose (one that
     # spans a move was refused as 'the Ferraris pose extra is not still', and entered the poses' turns; probe)
     static_idx = [k for k, nm in enumerate(names) if str(nm) in ferraris.POSES]
@@ -2176,6 +2209,8 @@ class SessionData(NamedTuple):
     counter_step: int = 1
     #: each sample's data row in the file where the reader left rows out (ImuLog.row), else None
     rows: np.ndarray | None = None
+    #: the gyroscope's own (times s, samples in gyro_unit) where it was interpolated onto ``t`` (ImuLog.gyr_clock)
+    gyr_clock: tuple | None = None
 
 
 def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) -> SessionData:
@@ -2193,6 +2228,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
     start = None
     acc_unit = gyro_unit = None
     notes: list = []
+    clock = None
     for log in progress_blocks(blocks, "read"):
         if log.acc is None:
             from optinav.io.imu import headphone_error
@@ -2202,6 +2238,8 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
             )
         acc, acc_unit = raw_units(log, "acc")
         gyro, gyro_unit = (None, None) if o.no_gyro or log.gyr is None else raw_units(log, "gyro")
+        if gyro is not None and log.gyr_clock is not None:  # (a second file is read in one block)
+            clock = (log.gyr_clock[0], raw_units(log, "gyro", log.gyr_clock[1])[0])
         # the rows of the whole file from the bytes per row since the first block (text files: the reader reads
         # ahead, so the position is not that of the rows yielded; other formats are read whole at once)
         rows = 0
@@ -2234,6 +2272,7 @@ def read_session_file(path, options: FileOptions, chunk_rows: int = CHUNK_ROWS) 
         tuple(notes),
         step,
         np.concatenate(file_rows) if file_rows else None,
+        clock,
     )
 
 
@@ -2416,6 +2455,7 @@ def _calibrate_data(data: SessionData, o: FileOptions, sections, method_options,
         gyro_g_sensitivity=o.gyro_g_sensitivity,
         gyro_bias_instability=o.gyro_bias_instability,
         gyro_bias_corr_time=o.gyro_bias_corr_time,
+        gyr_clock=data.gyr_clock,
     )
 
 
