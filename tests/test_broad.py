@@ -384,7 +384,6 @@ def test_the_magnetometer_axes_are_judged_on_the_field_less_its_offset(tmp_path,
     unlike the body, and refused it as turning against the gyro (a mirrored frame), in memory and streamed. It now
     judges the field less the offset the hard-iron check found (or was given): fitted online and offline, in
     memory as streamed (the heading within 1e-3° of each other)."""
-    from optinav.cli.main import main
 
     p = next((q for q in NINE if q.name.startswith("03_")), None)
     if p is None:
@@ -398,12 +397,7 @@ def test_the_magnetometer_axes_are_judged_on_the_field_less_its_offset(tmp_path,
     for offline in (False, True):
         est = estimate(back[:, 1:4], back[:, 4:7], tr.dt, frame="ENU", mag=back[:, 7:10], offline=offline)
         np.testing.assert_allclose(est.mag_hard_iron, off, atol=1.5)
-        out = tmp_path / "o.csv"
-        extra = ["--offline"] if offline else []
-        argv = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "7000", "--out", str(out), *extra]
-        assert main(argv) == 0, capsys.readouterr().err
-        q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
-        assert np.nanmax(np.degrees(np.abs(heading_error(q, est.q_b_n)))) < 1e-3
+        _streamed_as_in_memory(f, est.q_b_n, offline, 7000, tmp_path, capsys)
         if not offline:  # the fit asked for (mag_hard_iron="online") is judged alike: it was refused as mirrored
             said = estimate(back[:, 1:4], back[:, 4:7], tr.dt, frame="ENU", mag=back[:, 7:10], mag_hard_iron="online")
             assert said.mag_hard_iron_from == est.mag_hard_iron_from and np.array_equal(said.q_b_n, est.q_b_n)
@@ -2528,6 +2522,19 @@ def test_a_fast_turn_that_spins_gravity_away_is_no_unit_factor():
         estimate(g * 180 / np.pi, a, tr.dt, frame="ENU")
 
 
+def _streamed_as_in_memory(f, q_b_n, offline: bool, chunk: int, tmp_path, capsys) -> None:
+    """``optinav attitude f --frame ENU --mag`` in blocks of ``chunk`` rows (``--offline``) gives the heading of
+    the in-memory estimate ``q_b_n`` within 1e-3°."""
+    from optinav.cli.main import main
+
+    out = tmp_path / "o.csv"
+    extra = ["--offline"] if offline else []
+    argv = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", str(chunk), "--out", str(out), *extra]
+    assert main(argv) == 0, capsys.readouterr().err
+    q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
+    assert np.nanmax(np.degrees(np.abs(heading_error(q, q_b_n)))) < 1e-3
+
+
 def test_a_gap_in_motion_restarts_the_heading_online_and_frees_it_offline(tmp_path, capsys):
     """BROAD 16 (fast translation) at 47.7 Hz (6-sample means) with 14 samples lost every 20 s (a 0.3-s step, under
     the gap rule's 0.5 s, carried by the rate after it): the turn across each gap put the heading off by tens of
@@ -2535,8 +2542,6 @@ def test_a_gap_in_motion_restarts_the_heading_online_and_frees_it_offline(tmp_pa
     offline the smoother's gyro-carried heading held the jump, 20.3° (0.53°). The heading's running mean now
     restarts once the tilt settles after such a gap (online 9.0°), and the offline smoother's walk gains the
     turn across it (5.1°) — streamed from a file as in memory."""
-    from optinav.cli.main import main
-
     p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
     if not p.is_file():
         pytest.skip("trial 16 absent")
@@ -2557,9 +2562,4 @@ def test_a_gap_in_motion_restarts_the_heading_online_and_frees_it_offline(tmp_pa
     for offline, bound in ((False, 12.0), (True, 8.0)):
         r = estimate(g, a, dts, frame="ENU", mag=m, offline=offline)
         assert rmse(np.degrees(heading_error(r.q_b_n, q_ref)), mask) < bound, offline
-        out = tmp_path / "o.csv"
-        extra = ["--offline"] if offline else []
-        argv = ["attitude", str(f), "--frame", "ENU", "--mag", "--chunk-rows", "3000", "--out", str(out), *extra]
-        assert main(argv) == 0, capsys.readouterr().err
-        q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
-        assert np.nanmax(np.degrees(np.abs(heading_error(q, r.q_b_n)))) < 1e-3
+        _streamed_as_in_memory(f, r.q_b_n, offline, 3000, tmp_path, capsys)
