@@ -2695,25 +2695,35 @@ def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[in
 MAG_NEW_S = float(IFRAME_DEFAULTS["mag_new_time"])
 
 
-def _learned(pieces, fields, h: float, field: float, at_end: bool) -> bool:
+def _learned(pieces, fields, h: float, field: float, at_end: bool, b=None, without=None, close=None) -> bool:
     """Whether the estimate learns the field with an offset b for the Earth's: beyond the windows judged
     (``pieces``; before the first one, or after the last one ``at_end``: the offline backward pass) the field, bin by
     bin (``fields`` of :func:`bin_fields`, ``h`` s each), is told with b, the offset of the window nearest (its norm
-    less b is the Earth's, ``field``, and without b it is off by :data:`MAG_OFFSET`); it is learned where it starts
-    the recording (ends it, for the backward pass) or is held still for :data:`MAG_NEW_S` (a steady new field is
-    taken for the reference then). A magnet taken off in the rest after the motion leaves the Earth's field to learn
-    there, one put on 5 s before it (BROAD 33) too."""
+    less b is the Earth's, ``field``, and less ``without`` (default zero) it is off by :data:`MAG_OFFSET`); it is
+    learned where it starts the recording (ends it, for the backward pass) or is held still for :data:`MAG_NEW_S` (a
+    steady new field is taken for the reference then). A magnet taken off in the rest after the motion leaves the
+    Earth's field to learn there, one put on 5 s before it (BROAD 33) too. ``b`` given: that point instead (a
+    window about zero counts as about it where ``b`` is zero); ``close``: its norm less b within that share of
+    ``field`` too."""
     order = pieces[::-1] if at_end else pieces
-    b = next(b for _, b, _ in order if b is not None)
+    if b is None:
+        b = next(b for _, b, _ in order if b is not None)
+        near = order[0][1] is not None
+    else:
+        near = (order[0][1] is None) == (not np.any(b))
     nums, m, w = fields
     per = max(1, int(round(MAG_PIECE_S / h)))
     sel = nums >= pieces[-1][0] + per if at_end else nums < pieces[0][0]
-    nm, nb = _norm(m[sel]), _norm(m[sel] - b)
+    nm = _norm(m[sel] if without is None else m[sel] - without)
+    nb = _norm(m[sel] - b)
     ok = np.isfinite(nm)
-    with_b = ((np.abs(nb - field) < np.abs(nm - field)) & (np.abs(nm - field) > MAG_OFFSET * field))[ok]
+    with_b = (np.abs(nb - field) < np.abs(nm - field)) & (np.abs(nm - field) > MAG_OFFSET * field)
+    if close is not None:
+        with_b &= np.abs(nb - field) < close * field
+    with_b = with_b[ok]
     nums, still = nums[sel][ok], (_norm(w[sel]) < REST_GYR)[ok]
     if not with_b.size:
-        return order[0][1] is not None  # the recording starts (ends) in that window: about b there
+        return near  # the recording starts (ends) in that window: about b there
     edge = max(1, int(round(1.0 / h)))  # the first (last) second: the pass starts there
     if (with_b[-edge:] if at_end else with_b[:edge]).mean() > 0.5:
         return True
@@ -2791,6 +2801,59 @@ def offset_change_error(
             last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
             "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",
         )  # fmt: skip
+    return None
+
+
+def offset_held_error(
+    bins: np.ndarray, sums: np.ndarray, h: float, rows: int, offset, offline: bool = False
+) -> OptinavError | None:
+    """The refusal of an ``offset`` subtracted from every row (fitted over the whole recording, or given) that the
+    field as measured shows not to hold everywhere; None when it holds. Judged on the windows of
+    :func:`offset_pieces` of the field as measured (``bins``, ``sums``: :func:`field_rate_sums`, not less the
+    offset; ``rows`` samples, ``h`` s per bin): their offsets are those of the field less it plus it, but each is
+    judged by how much of the turning it explains against zero, not against the offset (a window 8 µT off the
+    offset explained a quarter of that: none was judged). Refused: a window about zero where the offset is
+    :data:`MAG_PIECE_APART` of the field (the median norm of the windows' fields less their points); where the
+    estimate learns its reference, the start (offline also the end: the backward pass), a field told without the
+    offset (:func:`_learned`: its norm the Earth's, less the offset off by :data:`MAG_OFFSET`). BROAD with an offset
+    from 30-120 s, offline: the whole recording's fit, a mean of no offset and the offset (11 with (30, 0, 0) µT
+    from 60 s: (13.8, 0, 0)), or the offset where the motion after it dominates (24 with (0, 20, 0) µT from 60 s),
+    subtracted from the field before it too, turned the heading by 10-68° RMS with exit 0."""
+    pieces = offset_pieces(bins, sums, h)
+    if offset is None or not pieces:
+        return None
+    b = np.asarray(offset, float)
+    field = float(np.median([f for _, _, f in pieces]))
+
+    subtracted = f"the offset [{_vec(b)}] subtracted (fitted over the whole recording or given)"
+
+    def refusal(cause: str) -> OptinavError:
+        return OptinavError(
+            f"{cause}: its hard-iron offset changes within the recording (a magnet put on or taken off the body?); "
+            "the heading would be off by up to tens of degrees",
+            "cut the recording where the offset changes and run each part (optinav attitude --mag names the offset "
+            "of a part that shows one), or drop --mag",
+        )
+
+    def error(i: int, where: str) -> OptinavError:
+        k, p, _ = pieces[i]
+        return refusal(
+            f"the magnetic field {where} is the Earth's as measured, not less {subtracted}, and from sample "
+            f"{k * rows} ({k * h:.1f} s) it turns in the body about [{_vec(np.zeros(3) if p is None else p)}]"
+        )
+
+    zero = next((i for i, (_, p, _) in enumerate(pieces) if p is None), None)
+    if zero is not None and float(np.linalg.norm(b)) > MAG_PIECE_APART * field:
+        k = pieces[zero][0]
+        return refusal(f"the magnetic field turns in the body about zero from sample {k * rows} ({k * h:.1f} s), "
+                       f"not about {subtracted}")  # fmt: skip
+    # the field as measured within half MAG_OFFSET of the windows' norm: an offset fitted a few µT off on a body
+    # that hardly tilts leaves the field less it 8-12 % off (BROAD 11, 16 with (30, 0, 0) µT all along)
+    fields, told = bin_fields(bins, sums), {"b": np.zeros(3), "without": b, "close": 0.5 * MAG_OFFSET}
+    if _learned(pieces, fields, h, field, False, **told):
+        return error(0, "at the start of the recording (where the estimate learns its reference)")
+    if offline and _learned(pieces, fields, h, field, True, **told):
+        return error(len(pieces) - 1, "at the end of the recording (where the backward pass learns its reference)")
     return None
 
 

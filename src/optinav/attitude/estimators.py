@@ -53,6 +53,7 @@ from optinav.attitude.checks import (
     zero_rows_missing,
     bin_fields,
     offset_change_error,
+    offset_held_error,
     offset_pieces,
     online_fit_failed,
     rate_sums_less_offset,
@@ -674,6 +675,8 @@ def estimate(
             err = offset_change_error(
                 offset_pieces(turns[0], less, turns[2]), rows, turns[2], checked, offline, bin_fields(turns[0], less)
             )
+            if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
+                err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)
             if err is not None:
                 raise err
             # the field the estimate uses: less the offset it subtracts

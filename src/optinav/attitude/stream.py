@@ -270,6 +270,10 @@ class StreamChecks:
             err = _c.offset_change_error(
                 _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums)
             )
+            # subtracted from every row (given, or fitted offline): it must be there at each
+            subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
+            if err is None and subtracted is not None:
+                err = _c.offset_held_error(*self._turn_sums()[:2], h, self._scale_rows, subtracted, self.offline)
             if err is not None:
                 raise err
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
