@@ -2228,12 +2228,14 @@ def test_no_recording_of_the_nine_nor_its_cuts_is_taken_for_an_offset_that_chang
     """The windowed offsets (offset_pieces) of the nine trials as recorded, their halves and 40-s cuts, at the full
     rate and a third of it: none is refused, online or offline — the magnet trial 33 included (its magnet on the
     board from 40 to 99 s, a disturbance the estimate handles: 1.1° online, 1.2° offline) — but online the cuts
-    of 33 that start with its magnet on: the estimate learns that field for the Earth's (13.7-68° heading RMSE)."""
+    of 33 that start with its magnet on: the estimate learns that field for the Earth's (13.7-68° heading RMSE),
+    and offline its 40-s cut from 40 s may be, as the magnet is put on (the Earth's field at its start, the magnet's
+    to its end: 31.7° offline with exit 0, refused at the full rate)."""
     from optinav.attitude.checks import bin_fields, field_rate_sums, offset_change_error, offset_pieces, scale_bin_rows
 
     if len(NINE) != 9:
         pytest.skip("the nine BROAD trials are not all present")
-    judged, magnet = 0, []
+    judged, magnet, put_on = 0, [], []
     for p in NINE:
         tr = load_broad(p)
         for step in (1, 3):
@@ -2247,9 +2249,11 @@ def test_no_recording_of_the_nine_nor_its_cuts_is_taken_for_an_offset_that_chang
                     err = offset_change_error(pieces, r, r * dt, None, offline, fields)
                     if err is not None and p.name.startswith("33_") and not offline and 40.0 < a * dt < 99.0:
                         magnet.append(a * dt)
+                    elif err is not None and p.name.startswith("33_") and offline and 39.9 < a * dt < 41.0:
+                        put_on.append(b - a)
                     else:
                         assert err is None, (p.name, step, a, b, offline)
-    assert judged > 300 and magnet, (judged, magnet)
+    assert judged > 300 and magnet and len(put_on) <= 2, (judged, magnet, put_on)
     tr = load_broad(next(p for p in NINE if p.name.startswith("33_")))
     s = slice(int(min(magnet) / tr.dt), None)
     with pytest.raises(OptinavError, match="at the start, for the Earth's"):
@@ -2294,6 +2298,26 @@ def test_an_offset_fitted_over_a_recording_it_came_partway_into_is_refused(tmp_p
     mag[int(90.0 * tr.rate_hz) :] += [30.0, 0.0, 0.0]
     with pytest.raises(OptinavError, match=r"about zero from sample \d+ \(40\.2 s\).*changes within"):
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
+
+
+def test_an_offset_that_comes_before_the_first_window_judged_is_refused_offline():
+    """BROAD 24 with (-20, 15, 40) µT from 60 s: its motion starts at 40 s, no window before 60 s turns enough to be
+    judged, every one after turns about the offset, and the whole recording's fits find none (it is not there at the
+    start): offline the backward pass took the end's field for the Earth's, 21.9° heading RMSE with exit 0. The
+    start holds the Earth's field as measured, the end the field with the offset: refused offline, naming the
+    offset and "drop --offline"; online the field at the start is the reference (1.9°)."""
+    p24 = SHARED / "attitude" / "broad" / "24_disturbed_tapping_A.hdf5"
+    if not p24.is_file():
+        pytest.skip("trial 24 absent")
+    tr = load_broad(p24)
+    mag = tr.mag.copy()
+    mag[int(60.0 * tr.rate_hz) :] += [-20.0, 15.0, 40.0]
+    with pytest.raises(OptinavError, match="to the end, and at its start.*changes within") as e:
+        estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
+    assert "drop --offline" in e.value.remedy
+    assert np.linalg.norm(_about(str(e.value))[0] - [-20.0, 15.0, 40.0]) < 6.0, str(e.value)
+    r = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
+    assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < 3.0
 
 
 def test_an_offset_on_the_board_all_along_is_not_taken_for_one_that_came_partway():

@@ -2695,7 +2695,9 @@ def offset_pieces(bins: np.ndarray, sums: np.ndarray, h: float) -> list[tuple[in
 MAG_NEW_S = float(IFRAME_DEFAULTS["mag_new_time"])
 
 
-def _learned(pieces, fields, h: float, field: float, at_end: bool, b=None, without=None, close=None) -> bool:
+def _learned(
+    pieces, fields, h: float, field: float, at_end: bool, b=None, without=None, close=None, edge: bool = True
+) -> bool:
     """Whether the estimate learns the field with an offset b for the Earth's: beyond the windows judged
     (``pieces``; before the first one, or after the last one ``at_end``: the offline backward pass) the field, bin by
     bin (``fields`` of :func:`bin_fields`, ``h`` s each), is told with b, the offset of the window nearest (its norm
@@ -2704,7 +2706,7 @@ def _learned(pieces, fields, h: float, field: float, at_end: bool, b=None, witho
     steady new field is taken for the reference then). A magnet taken off in the rest after the motion leaves the
     Earth's field to learn there, one put on 5 s before it (BROAD 33) too. ``b`` given: that point instead (a
     window about zero counts as about it where ``b`` is zero); ``close``: its norm less b within that share of
-    ``field`` too."""
+    ``field`` too; ``edge`` False: only a still run counts (not the first or last second)."""
     order = pieces[::-1] if at_end else pieces
     if b is None:
         b = next(b for _, b, _ in order if b is not None)
@@ -2724,8 +2726,8 @@ def _learned(pieces, fields, h: float, field: float, at_end: bool, b=None, witho
     nums, still = nums[sel][ok], (_norm(w[sel]) < REST_GYR)[ok]
     if not with_b.size:
         return near  # the recording starts (ends) in that window: about b there
-    edge = max(1, int(round(1.0 / h)))  # the first (last) second: the pass starts there
-    if (with_b[-edge:] if at_end else with_b[:edge]).mean() > 0.5:
+    k = max(1, int(round(1.0 / h)))  # the first (last) second: the pass starts there
+    if edge and (with_b[-k:] if at_end else with_b[:k]).mean() > 0.5:
         return True
     # the longest run of still bins with b (bins without a field between them do not break it)
     run = with_b & still
@@ -2800,6 +2802,23 @@ def offset_change_error(
         return error(
             last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
             "drop --offline (online the field before it is the reference, the offset a disturbance to it), or ",
+        )  # fmt: skip
+    # no window about zero (the part before the offset does not turn enough to be judged), every one about a point
+    # off it: the start, as measured, holds the Earth's field (the close test of offset_held_error) and a rest at
+    # the end the field with the offset (BROAD 24 with (-20, 15, 40) µT from 60 s: 21.9° offline, 1.9° online). A
+    # recording that ends in motion with it is not judged: 33's first half at 95 Hz, its magnet on from 40 s to the
+    # end at 84 s, ran at 3.6° offline
+    if (
+        offline
+        and fields is not None
+        and last < 0
+        and _learned(pieces, fields, h, earth, at_end=True, edge=False)
+        and _learned(pieces, fields, h, earth, False, b=np.zeros(3), without=about[0][1], close=0.5 * MAG_OFFSET)
+    ):
+        return error(
+            0, None, " to the end, and at its start the field as measured is the Earth's; offline the backward pass "
+            "takes the field with the offset for the Earth's",
+            "drop --offline (online the field at the start is the reference, the offset a disturbance to it), or ",
         )  # fmt: skip
     return None
 
