@@ -2735,6 +2735,20 @@ def _learned(
     return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
 
 
+def _rest_off_earth(pieces, fields, h: float, field: float) -> bool:
+    """Whether after the windows judged (``pieces``) the field, bin by bin (``fields`` of :func:`bin_fields`, ``h``
+    s each), rests for 1.1 × :data:`MAG_NEW_S` with a norm off the Earth's (``field``) by twice :data:`MAG_OFFSET`:
+    the backward pass takes it for the Earth's, whatever offset it carries (a window's offset fitted in fast
+    rotation can be 20 µT off, so the field is not told with it)."""
+    nums, m, w = fields
+    sel = nums >= pieces[-1][0] + max(1, int(round(MAG_PIECE_S / h)))
+    nm = _norm(m[sel])
+    ok = np.isfinite(nm)
+    run = ((np.abs(nm - field) > 2.0 * MAG_OFFSET * field) & (_norm(w[sel]) < REST_GYR))[ok]
+    nums = nums[sel][ok]
+    return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
+
+
 def offset_change_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
     rows: int,
@@ -2797,7 +2811,12 @@ def offset_change_error(
     if (
         offline
         and last >= 0
-        and (after >= 2 if fields is None else after >= 1 and _learned(pieces, fields, h, earth, at_end=True))
+        and (
+            after >= 2
+            if fields is None
+            else after >= 1
+            and (_learned(pieces, fields, h, earth, at_end=True) or _rest_off_earth(pieces, fields, h, earth))
+        )
     ):
         return error(
             last, last + 1, " to the end; offline the backward pass takes that field for the Earth's",
