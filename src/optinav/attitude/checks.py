@@ -2735,6 +2735,29 @@ def _learned(
     return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
 
 
+#: rad, offline the backward pass takes the field at the end for the Earth's; an offset that turns its horizontal
+#: part by less than this there (one along the field's horizontal direction or along the vertical) leaves that
+#: reference's heading right: BROAD 02/03/11/16/24 with (0, 20, 0) µT from 60-120 s turned the end's field by 0.2-0.6°
+#: and ran offline at 0.3-3.9° (refused before), 29 offline runs with an offset that turned it by under 2° at 0.3-3.5°
+#: but one (5.1°), those turning it by 2.2-2.8° up to 6.9°
+MAG_END_TURN = np.radians(2.0)
+
+
+def end_turn(fields, h: float, b, up) -> float:
+    """The angle (rad) by which the offset ``b`` turns the horizontal part of the field over the last second
+    (``fields`` of :func:`bin_fields`, ``h`` s a bin) about ``up`` (3,), the specific force's direction there (body
+    axes): how far the backward pass's reference, the field with b, is from the Earth's in heading; inf without a
+    field there."""
+    m = fields[1][-max(1, int(round(1.0 / h))) :]
+    m = m[np.all(np.isfinite(m), axis=1)]
+    nu = float(np.linalg.norm(up)) if up is not None else 0.0
+    if not m.shape[0] or not nu > 0.0:
+        return float("inf")
+    u, m = np.asarray(up, float) / nu, m.mean(axis=0)
+    h1, h0 = m - (m @ u) * u, (m - b) - ((m - b) @ u) * u
+    return float(np.arctan2(np.linalg.norm(np.cross(h1, h0)), h1 @ h0))
+
+
 def _rest_off_earth(pieces, fields, h: float, field: float) -> bool:
     """Whether after the windows judged (``pieces``) the field, bin by bin (``fields`` of :func:`bin_fields`, ``h``
     s each), rests for 1.1 × :data:`MAG_NEW_S` with a norm off the Earth's (``field``) by twice :data:`MAG_OFFSET`:
@@ -2756,6 +2779,7 @@ def offset_change_error(
     offset=None,
     offline: bool = False,
     fields: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    up: np.ndarray | None = None,
 ) -> OptinavError | None:
     """The refusal of a field whose hard-iron offset changes within the recording, from the windows of
     :func:`offset_pieces` (``rows`` samples and ``h`` s per bin) of the field less the ``offset`` the estimate
@@ -2767,7 +2791,9 @@ def offset_change_error(
     about a point off zero after the last one about zero, where the backward pass learns it (without ``fields``:
     two windows or more, to the end). BROAD 02 with +30 µT on x from 60 s (a magnet put on the board):
     online the offset fitted from past samples, a mean of both fields, turned the heading by 40° RMS with exit 0,
-    offline 21°; BROAD 33 (a magnet on the board from 40 to 99 s) with (30, 0, 0) µT added everywhere: 62°, 64°."""
+    offline 21°; BROAD 33 (a magnet on the board from 40 to 99 s) with (30, 0, 0) µT added everywhere: 62°, 64°.
+    ``up`` (3,): the specific force's direction over the last second (body axes); offline, an offset to the end
+    that turns the field there by under :data:`MAG_END_TURN` (:func:`end_turn`) is not refused."""
     if not any(b is not None for _, b, _ in pieces):
         return None
     field = float(np.median([f for _, _, f in pieces]))
@@ -2808,8 +2834,11 @@ def offset_change_error(
         )  # fmt: skip
     last = zeros[-1] if zeros else -1
     after = len(pieces) - 1 - last  # windows after the last one about zero: all about a point off it
+    # the backward pass's reference, the field at the end with the offset of the last window, turned in heading
+    turned = fields is None or up is None or end_turn(fields, h, about[-1][1], up) > MAG_END_TURN
     if (
         offline
+        and turned
         and last >= 0
         and (
             after >= 2
@@ -2829,6 +2858,7 @@ def offset_change_error(
     # end at 84 s, ran at 3.6° offline
     if (
         offline
+        and turned
         and fields is not None
         and last < 0
         and _learned(pieces, fields, h, earth, at_end=True, edge=False)

@@ -672,8 +672,15 @@ def estimate(
                 check_turning_offset(*turns, given=mag_hard_iron)
             # one offset for the whole recording, or none, must hold in every part of it
             less = rate_sums_less_offset(turns[1], checked)
+            up = acc[-max(1, int(round(1.0 / step))) :].mean(axis=0)  # the specific force over the last second
             err = offset_change_error(
-                offset_pieces(turns[0], less, turns[2]), rows, turns[2], checked, offline, bin_fields(turns[0], less)
+                offset_pieces(turns[0], less, turns[2]),
+                rows,
+                turns[2],
+                checked,
+                offline,
+                bin_fields(turns[0], less),
+                up,
             )
             if err is None and mag_hard_iron is not None:  # subtracted from every row: it must be there at each
                 err = offset_held_error(*turns[:2], turns[2], rows, mag_hard_iron, offline)

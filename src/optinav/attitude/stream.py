@@ -267,9 +267,15 @@ class StreamChecks:
         )
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, sums, h = self._turn_sums(offset)
+            up = None
+            if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
+                _, acc, _, count, _ = (np.concatenate(x) for x in zip(*self._mag_sums[-4:]))
+                k = max(1, int(np.ceil(1.0 / (_c.TILT_BIN * self.median_dt))))
+                up = acc[-k:].sum(axis=0) / max(float(count[-k:].sum()), 1.0)
             err = _c.offset_change_error(
-                _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums)
-            )
+                _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums),
+                up,
+            )  # fmt: skip
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
