@@ -2862,13 +2862,38 @@ def offset_change_error(
         and fields is not None
         and last < 0
         and _learned(pieces, fields, h, earth, at_end=True, edge=False)
-        and _learned(pieces, fields, h, earth, False, b=np.zeros(3), without=about[0][1], close=0.5 * MAG_OFFSET)
+        and (
+            _learned(pieces, fields, h, earth, False, b=np.zeros(3), without=about[0][1], close=0.5 * MAG_OFFSET)
+            or _rest_step(fields, h, earth, about[0][1]) is not None  # put on in a rest before the windows
+        )
     ):
         return error(
             0, None, " to the end, and at its start the field as measured is the Earth's; offline the backward pass "
             "takes the field with the offset for the Earth's",
             "drop --offline (online the field at the start is the reference, the offset a disturbance to it), or ",
         )  # fmt: skip
+    return None
+
+
+def _rest_step(fields, h: float, field: float, b: np.ndarray):
+    """(first bin, last bin, step (3,)) of a rest (bins of :func:`bin_fields`, ``h`` s each, whose mean rate is
+    under :data:`REST_GYR`, 3 s or more, turning by under half :data:`MAG_OFFSET` rad in all, less its median rate)
+    whose field's last
+    second differs from its first by :data:`MAG_OFFSET` of ``field`` or more and within half of ``b`` from ±``b``;
+    None without one."""
+    nums, m, w = fields
+    k = max(1, int(round(1.0 / h)))
+    ok = np.all(np.isfinite(m), axis=1)
+    rest = ok & (_norm(w) < REST_GYR)
+    rest[1:] &= np.diff(nums) == 1  # a run is consecutive bins
+    nb = float(np.linalg.norm(b))
+    for s, e in mask_runs(rest):
+        # the turn less the gyro's bias (its median over the rest: 0.24 rad over BROAD 02's 40 s)
+        if e - s < 3 * k or float(np.sum(_norm(w[s:e] - np.median(w[s:e], axis=0)))) * h >= 0.5 * MAG_OFFSET:
+            continue
+        d = np.median(m[e - k : e], axis=0) - np.median(m[s : s + k], axis=0)
+        if float(np.linalg.norm(d)) >= MAG_OFFSET * field and min(_norm(np.array([d - b, d + b]))) < 0.5 * nb:
+            return int(nums[s]), int(nums[e - 1]), d
     return None
 
 
@@ -2915,9 +2940,19 @@ def offset_held_error(
         k = pieces[zero][0]
         return refusal(f"the magnetic field turns in the body about zero from sample {k * rows} ({k * h:.1f} s), "
                        f"not about {subtracted}")  # fmt: skip
+    # a rest in which the field steps by the offset (put on, or taken off) while the body does not turn: the field
+    # on one side of the step carries none (BROAD with it put on in the rest before the motion, 30 s: the whole
+    # recording's fit the offset, the windows agree with it, and the rest before it told by its norm by under 8 %)
+    fields = bin_fields(bins, sums)
+    step = _rest_step(fields, h, field, b)
+    if step is not None:
+        i, j, d = step
+        return refusal(f"the magnetic field steps by [{_vec(d)}] within a rest from sample {i * rows} ({i * h:.1f} s) "
+                       f"to {j * rows} ({j * h:.1f} s) while the body does not turn: {subtracted} is not there on "
+                       "one side of the step")  # fmt: skip
     # the field as measured within half MAG_OFFSET of the windows' norm: an offset fitted a few µT off on a body
     # that hardly tilts leaves the field less it 8-12 % off (BROAD 11, 16 with (30, 0, 0) µT all along)
-    fields, told = bin_fields(bins, sums), {"b": np.zeros(3), "without": b, "close": 0.5 * MAG_OFFSET}
+    told = {"b": np.zeros(3), "without": b, "close": 0.5 * MAG_OFFSET}
     if _learned(pieces, fields, h, field, False, **told):
         return error(0, "at the start of the recording (where the estimate learns its reference)")
     if offline and _learned(pieces, fields, h, field, True, **told):
