@@ -268,8 +268,6 @@ def _heading_gain(st, par, hm, age):
     """The heading correction's gain for a field sample after hm s: 1/n over the running mean since the heading's
     start (S_M_T0, else tau_acc), growing to hm/tau_mag."""
     tm0 = st[S_M_T0] if st[S_M_T0] > 0.0 else par[P_TAU_ACC]
-    if age < tm0:  # after a gap, while the tilt settles again: the field low-passed as at the start
-        return min(1.0, hm / MAG_SETTLE_TAU)
     return min(1.0, hm / min(par[P_TAU_MAG], max(age - tm0, hm)))
 
 
@@ -635,13 +633,6 @@ def step(st, par, gx, gy, gz, ax, ay, az, mx, my, mz, h):
         if ns > 1 and h - hn >= GAP_RESTART_S:
             st[S_LP_T0] = st[S_TIME] - h  # the running mean starts again with this sample
             st[S_AVG_N] = 0.0
-            if st[S_M_SEEN] != 0.0:
-                # and the heading's once the tilt has settled again (magnetometer age; see _heading_gain): the
-                # turn across the gap put it off by as much as the tilt, and the gain of tau_mag took tens of
-                # seconds to undo it (a 0.3-s gap every 20 s on the nine BROAD trials at 48 Hz, 9D online heading
-                # RMSE 15.1 -> 6.8° mean: 07 41 -> 9°, 16 22 -> 9°, 29 47 -> 19°; 11, 24 and 33, whose gaps
-                # turned them little, 2.4-2.9 -> 3.2-4.8°)
-                st[S_M_T0] = st[S_LP_T0] - st[S_M_T1] + par[P_TAU_ACC]
         n = 0.0  # the first tau_acc seconds (from the start or a gap's end): the running mean (see _lp)
         if st[S_TIME] - st[S_LP_T0] <= par[P_TAU_ACC]:
             st[S_AVG_N] += 1.0

@@ -1050,10 +1050,7 @@ def _offline_heading(
     def rows(s, e):
         r = store.read(s, e).copy()
         db = np.ascontiguousarray(col(r, "bfw") - col(r, "bias"))
-        h = col(r, "dts")[:, 0]
-        before = float(col(store.read(s - 1, s), "dts")[0, 0]) if s > a else None
-        sb = _if.gap_walk(_if.bias_gap(col(r, "q"), db, frame), col(r, "gyr"), col(r, "bias"), h, tau, before)
-        return r, db, sb, col(r, "flags")[:, 2].astype(bool), h
+        return r, db, _if.bias_gap(col(r, "q"), db, frame), col(r, "flags")[:, 2].astype(bool), col(r, "dts")[:, 0]
 
     def forward(sa2, first):
         nonlocal seen

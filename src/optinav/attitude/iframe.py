@@ -317,7 +317,7 @@ def run_iframe(
         psi = gyro_heading(q, qg, frame)
         d = field_azimuth(q, m, frame) - psi  # the azimuth in the attitude whose heading the gyro carries
         db = np.ascontiguousarray(fwd.gyr_bias - bias)
-        sb = gap_walk(bias_gap(q, db, frame), gyr, bias, dts, tau)
+        sb = bias_gap(q, db, frame)
         out = _smoothed_offset(d, used, sb, dts, tau, 0.0)
         acc, mom = np.zeros(2), np.zeros(10)
         _k.azimuth_scatter(d, out, used, acc)
@@ -415,28 +415,6 @@ def bias_gap(q, db, frame) -> np.ndarray:
     from optinav.core.rotations import quat_rotate
 
     return quat_rotate(q, db) @ _UP[frame_name(frame)]
-
-
-def gap_walk(sb, gyr, bias, h, tau: float, h_before: float | None = None) -> np.ndarray:
-    """``sb`` (N,) rad/s (:func:`bias_gap`) with the turn across each gap folded in: the passes carried a step
-    ``h`` (1 or N, s) of at least GAP_RESTART_S more than the step before it (``h_before`` for the first; lost
-    samples) by the rate after it, so the turn over it is unknown by as much as that turn, σ = |ω − b|·h
-    (``gyr``, ``bias`` (N, 3) rad/s): the heading offset's walk gains σ² there (as sb² h over tau s does, the
-    unit of :func:`_iframe.heading_forward`): the smoother takes the heading after a gap from the field, not
-    from a turn it cannot know. A 0.3-s gap every 20 s on the nine BROAD trials at 48 Hz, 9D offline heading
-    RMSE: 15.4 -> 7.9° mean (07 35 -> 22°, 16 20 -> 5.1°, 29 61 -> 24°; trial 33, gaps inside its magnet's
-    disturbance: 3.2 -> 8.5°)."""
-    if np.size(h) == 1:
-        return sb
-    h = np.asarray(h, dtype=float)
-    prev = np.concatenate([[h[0] if h_before is None else h_before], h[:-1]])
-    gap = h - prev >= _k.GAP_RESTART_S
-    if not gap.any():
-        return sb
-    turn = np.linalg.norm(gyr[gap] - bias[gap], axis=1) * h[gap]
-    out = np.array(sb, dtype=float)
-    out[gap] = np.sqrt(out[gap] ** 2 + turn**2 / (h[gap] * tau))
-    return out
 
 
 def gyro_heading(q, qg, frame) -> np.ndarray:
