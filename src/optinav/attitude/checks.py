@@ -3088,11 +3088,15 @@ def rest_offset(reading: tuple[np.ndarray, np.ndarray, float] | None) -> np.ndar
 
 
 #: a rest reading beyond REST_GYR about the vertical is a bias, not a steady turn, where taking it off the whole log's
-#: gyro at most halves how far gravity drifts in the gyro-integrated frame (the motion between tilts the body: a
-#: bias about its vertical then turns gravity, a turntable's turn about the world's vertical does not). BROAD's nine
-#: with 0.11–0.3 rad/s added on z: 0.07–0.85 (0.85 on trial 11, which hardly tilts: not judged); a turntable's
-#: 0.154 rad/s under each of them: 2.7–20. The drift must also fall by LOW_AXES_FLOOR (BROAD: 0.04–1.1 rad)
-VERTICAL_BIAS_SHARE = 0.5
+#: gyro lowers how far gravity drifts in the gyro-integrated frame, to at most this share (the motion between tilts
+#: the body: a bias about its vertical then turns gravity, a turntable's turn about the world's vertical does not).
+#: The drift a bias leaves is bounded by the tilt (gravity's cone about body z), so the share stays high where the
+#: body tilts little: BROAD's nine, upside down or not, cut to their last two thirds or not, at 1, 1/3 and 1/6 of
+#: their rate, with 0.11-1.0 rad/s added on z: 0.07-0.82 (0.5 let trial 29 upside down with 0.154 rad/s run 4.7°
+#: off with exit 0, at 0.60); a turntable's 0.11-1.0 rad/s about the vertical under each of those: 1.35-20. The
+#: drift must also fall by LOW_AXES_FLOOR (trial 11, which hardly tilts, cut: by 0.01-0.02 rad, not judged), so
+#: the share is the turn's side of the gap between 0.82 and 1.35: whichever explains gravity better, by that floor
+VERTICAL_BIAS_SHARE = 1.0
 
 
 def bias_not_turn(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, reading: np.ndarray) -> bool:
