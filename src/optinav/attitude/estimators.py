@@ -48,6 +48,7 @@ from optinav.attitude.checks import (
     scale_bin_rows,
     still_sums,
     whole_log_bins,
+    check_untracked_bias,
     rest_offset,
     rest_reading,
     zero_rows_missing,
@@ -644,11 +645,13 @@ def estimate(
     if checks:
         step = float(np.median(dts))  # the typical step (s) the checks judge by
         clip = bias_clip(method, opts, input_stage)
-        reading = rest_reading(*still_sums(gyr, acc), step) if clip is not None else None
+        reading = rest_reading(*still_sums(gyr, acc), step)
         # a bias beyond what the unit checks allow for is taken off for them: it is judged as a bias just after
         check_imu(gyr, acc, dts, rest=rest_offset(reading))
         if clip is not None:
             check_bias_range(reading, clip, method, whole=lambda: whole_log_bins(gyr, acc, dts))
+        else:
+            check_untracked_bias(reading, method)
         check_frame(acc, frame, dt=step)
         if q0 is not None:
             check_q0(_as_q0(q0), acc, frame)

@@ -86,8 +86,7 @@ class StreamChecks:
         self._level += _c.frame_counts(acc, na)
         self._ng.append(_c._norm(gyr))
         self._tilt.append(_c.tilt_sums(acc, self.n))
-        if self.bias_clip is not None:
-            self._still.append(_c.still_sums(gyr, acc, self.n))
+        self._still.append(_c.still_sums(gyr, acc, self.n))  # (the rest offset the unit checks take off, too)
         self._max[:, 0] = np.maximum(self._max[:, 0], gyr.max(axis=0))
         self._max[:, 1] = np.maximum(self._max[:, 1], (-gyr).max(axis=0))
         if self._gyr_head_n < _c.QUANTUM_ROWS:  # steps between samples spread over the blocks: each axis's quantum
@@ -255,6 +254,8 @@ class StreamChecks:
                 raise _c.clipped(k, m if j == 0 else -m, steep)
         if self.bias_clip is not None:  # after the units and the clipping, as estimate() judges it after check_imu
             _c.check_bias_range(self._reading, self.bias_clip, self.method, self._long_bins)
+        else:
+            _c.check_untracked_bias(self._reading, self.method)
         _c.check_frame(None, frame, self._acc_sum, self.median_dt, self._level)
         given = self.given_hard_iron
         if self._mag and ((not self.offline and not self.hard_iron_judged) or given is not None):
