@@ -863,3 +863,16 @@ def test_default_route_judges_a_gyro_file_on_its_own_clock_on_its_samples(tmp_pa
     std = np.diag(np.asarray(one.gyroscope["K_std"], float))
     dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one.gyroscope["K"]))
     assert np.all(dev < 0.3 * std), (dev, std)
+
+
+def test_a_gyro_file_with_every_sample_written_twice_is_refused_as_duplicates(tmp_path, capsys):
+    """imucal's example recording with its gyroscope file (0.9x, its own clock) holding every sample twice (a
+    logger that writes each sample twice): the check of each file's clock divided by its median step, 0, and the
+    command ended in an internal error (ZeroDivisionError, exit 1). It is refused as the duplicates it holds."""
+    args = _gyro_on_its_own_clock(tmp_path, 9, 10, 0.0013)
+    gyro_file = Path(args[2])
+    rows = np.loadtxt(gyro_file, delimiter=",", skiprows=1)
+    np.savetxt(gyro_file, np.repeat(rows, 2, axis=0), delimiter=",", header="t,gx,gy,gz", comments="")
+    _run(tmp_path, ["calibrate", "accel", *args], code=2)
+    err = capsys.readouterr().err
+    assert "has a duplicate timestamp" in err and "gyro.csv" in err, err

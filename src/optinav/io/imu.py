@@ -2075,7 +2075,9 @@ def _log_of(
         # each file's clock on its own before they are merged: a gyro file timed in ms beside an accelerometer's
         # in s overlapped it for its first 0.1 s and was interpolated as a constant ('the gyroscope is at its full
         # scale in 324 samples of the section y_rot', exit 2, the clock unnamed)
-        plausible = [_RATE_RANGE[0] <= 1.0 / float(np.median(np.diff(t[:65537]))) for _, t in times if t.size > 1]
+        steps = [float(np.median(np.diff(t[:65537]))) for _, t in times if t.size > 1]
+        # (a median step of 0, every sample written twice, is refused as duplicates just below, not divided by)
+        plausible = [m <= 0.0 or _RATE_RANGE[0] * m <= 1.0 for m in steps]
         for k, (p, t) in enumerate(times):
             what = f"time column {p.t_name!r} of {p.path.name}"
             _check_time_unit(
