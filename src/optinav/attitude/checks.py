@@ -3112,6 +3112,15 @@ def bias_not_turn(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, read
     return after <= VERTICAL_BIAS_SHARE * raw and raw - after >= LOW_AXES_FLOOR
 
 
+def _reads_at_rest(bias: np.ndarray, seconds: float) -> str:
+    """The words of a refusal for the gyro's ``bias`` (3,) rad/s read over ``seconds`` s at rest."""
+    worst = float(np.max(np.abs(bias)))
+    return (
+        f"the gyro reads [{', '.join(f'{v:.4g}' for v in bias)}] rad/s ({np.degrees(worst):.3g} °/s on its worst axis) "
+        f"over {seconds:.3g} s at rest"
+    )
+
+
 def check_bias_range(
     reading: tuple[np.ndarray, np.ndarray, float] | None, clip: float, method: str = "iframe", whole=None
 ) -> None:
@@ -3139,8 +3148,7 @@ def check_bias_range(
         else "unless the body turned steadily about the vertical there"
     )
     raise OptinavError(
-        f"the gyro reads [{', '.join(f'{v:.4g}' for v in bias)}] rad/s ({np.degrees(worst):.3g} °/s on its worst axis) "
-        f"over {seconds:.3g} s at rest: a bias beyond the ±{clip:.4g} rad/s the estimator tracks (bias_clip), "
+        f"{_reads_at_rest(bias, seconds)}: a bias beyond the ±{clip:.4g} rad/s the estimator tracks (bias_clip), "
         f"so the attitude would drift ({why})",
         "subtract the bias from the gyro (calibrate it, optinav apply), or pass "
         + (option if method == "iframe" else f"--method iframe {option}"),
@@ -3161,8 +3169,7 @@ def check_untracked_bias(reading: tuple[np.ndarray, np.ndarray, float] | None, m
         return
     worst = float(np.max(np.abs(bias)))
     raise OptinavError(
-        f"the gyro reads [{', '.join(f'{v:.4g}' for v in bias)}] rad/s ({np.degrees(worst):.3g} °/s on its worst axis) "
-        f"over {reading[2]:.3g} s at rest: a bias, which {method} as published does not estimate, so the attitude "
+        f"{_reads_at_rest(bias, reading[2])}: a bias, which {method} as published does not estimate, so the attitude "
         "would drift",
         "subtract the bias from the gyro (calibrate it, optinav apply), or drop --no-input-stage (its front end "
         f"estimates the bias; beyond 2 °/s with --method iframe --option bias_clip={np.ceil(2.0 * worst * 100.0) / 100.0:g})",
