@@ -3087,29 +3087,21 @@ def rest_offset(reading: tuple[np.ndarray, np.ndarray, float] | None) -> np.ndar
     return reading[0]
 
 
-#: a rest reading beyond REST_GYR about the vertical is a bias, not a steady turn, where taking it off the whole log's
-#: gyro lowers how far gravity drifts in the gyro-integrated frame, to at most this share (the motion between tilts
-#: the body: a bias about its vertical then turns gravity, a turntable's turn about the world's vertical does not).
-#: The drift a bias leaves is bounded by the tilt (gravity's cone about body z), so the share stays high where the
-#: body tilts little: BROAD's nine, upside down or not, cut to their last two thirds or not, at 1, 1/3 and 1/6 of
-#: their rate, with 0.11-1.0 rad/s added on z: 0.07-0.82 (0.5 let trial 29 upside down with 0.154 rad/s run 4.7°
-#: off with exit 0, at 0.60); a turntable's 0.11-1.0 rad/s about the vertical under each of those: 1.35-20. The
-#: drift must also fall by LOW_AXES_FLOOR (trial 11, which hardly tilts, cut: by 0.01-0.02 rad, not judged), so
-#: the share is the turn's side of the gap between 0.82 and 1.35: whichever explains gravity better, by that floor
-VERTICAL_BIAS_SHARE = 1.0
-
-
 def bias_not_turn(bins: np.ndarray, sums: np.ndarray, gap_bins: np.ndarray, reading: np.ndarray) -> bool:
     """Whether the whole log (:func:`whole_log_bins` of the gyro as read) shows a rest ``reading`` (3,) rad/s about
-    the vertical to be a bias (:data:`VERTICAL_BIAS_SHARE`); False where the log is too short to tell."""
+    the vertical to be a bias, not a steady turn: taking it off the gyro lowers how far gravity drifts in the
+    gyro-integrated frame by :data:`LOW_AXES_FLOOR` or more (the motion between tilts the body: a bias about its
+    vertical then turns gravity, a turntable's turn about the world's vertical does not; on a level body both drifts
+    are noise: a turn's steady peak read as a rest, taken off, steadied gravity by 0.1° of 0.2°). BROAD's nine,
+    upside down or not, cut to their last two thirds or not, at 1, 1/3 and 1/6 of their rate, with 0.11–1.0 rad/s
+    added on z: the drift falls to 0.07–0.82 of itself (trial 11 cut, which hardly tilts, by 0.01–0.02 rad: not
+    judged); a turntable's 0.11–1.0 rad/s about the vertical under each of those raises it 1.35–20×. False where
+    the log is too short to tell."""
     pieces = _long_pieces(bins, sums, gap_bins, debias=False)
     if not pieces:
         return False
     less = [(g - reading, a, T) for g, a, T in pieces]
-    raw, after = _long_drift(pieces, 1.0), _long_drift(less, 1.0)
-    # and by more than a right gyro's drift on a tilting body: on a level one both are noise (a turn's steady peak
-    # read as a rest, taken off, steadied gravity by 0.1° of 0.2°)
-    return after <= VERTICAL_BIAS_SHARE * raw and raw - after >= LOW_AXES_FLOOR
+    return _long_drift(pieces, 1.0) - _long_drift(less, 1.0) >= LOW_AXES_FLOOR
 
 
 def _reads_at_rest(bias: np.ndarray, seconds: float) -> str:
