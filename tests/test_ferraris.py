@@ -227,6 +227,26 @@ def test_noisy_session_errors_match_the_noise():
     assert np.any(np.abs(cal.acc_K - truth[0]) > 0.1 * sa * np.sqrt(2 / n) / (2 * g))  # noise did enter
 
 
+def test_the_std_solves_a_stack_of_draws_as_one_call_each():
+    """The Monte Carlo std solves its 2000 draws as one stack: each draw's K_a, b_a, G, b_g, K_g are bit for bit
+    those of the closed form on that draw alone, a draw with a singular accelerometer matrix (pinv) among them."""
+    from optinav.multipos.ferraris import _closed_form, _prepare
+
+    rng = np.random.default_rng(9)
+    sess = _session(_truth(rng), 9.81, 100.0, 200, np.full(3, -2 * np.pi), rng=rng, sa=2.0, sg=0.5)
+    p = _prepare(*sess, 100.0, None, -2 * np.pi, 9.81, None)
+    n = 5
+    Ua = p.Ua + rng.normal(scale=0.2, size=(n, 6, 3))
+    Ua[2, 1] = Ua[2, 0]  # x up and x down alike: K_a singular
+    Ug = p.Ug + rng.normal(scale=0.05, size=(n, 6, 3))
+    Sw, Sa = p.Sw + rng.normal(size=(n, 3, 3)), p.Sa + rng.normal(size=(n, 3, 3))
+    stack = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
+    for i in range(n):
+        one = _closed_form(Ua[i], Ug[i], p.cg, Sw[i], Sa[i], p.D, p.th, p.g)
+        for a, b in zip(one, stack):
+            assert np.array_equal(a, b[i])
+
+
 def test_irregular_timestamps_integrate_exactly():
     rng = np.random.default_rng(2)
     truth = _truth(rng)

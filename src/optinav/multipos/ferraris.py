@@ -393,19 +393,26 @@ def _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate, dt, expected_angl
 
 def _closed_form(Ua, Ug, cg, Sw, Sa, D, th, g):
     """K_a, b_a, G, b_g, K_g of the module docstring from the pose means and the rotation sums (the integral of
-    the offset-free gyro output is linear in them: ∫c dt = Sw − G K_a⁻¹ (Sa − b_a D) − b_g D)."""
+    the offset-free gyro output is linear in them: ∫c dt = Sw − G K_a⁻¹ (Sa − b_a D) − b_g D). ``Ua``, ``Ug``,
+    ``Sw`` and ``Sa`` may carry a leading axis of draws (each draw solved alone, as one call of its own would)."""
     # accelerometer (Ferraris eqs. 19-23): columns are the x, y, z poses
-    Up, Un = Ua[0::2].T, Ua[1::2].T
+    Up, Un = np.swapaxes(Ua[..., 0::2, :], -1, -2), np.swapaxes(Ua[..., 1::2, :], -1, -2)
     acc_K = (Up - Un) / (2.0 * g)
-    acc_b = 0.5 * np.diag(Up + Un)
+    acc_b = 0.5 * np.diagonal(Up + Un, axis1=-2, axis2=-1)
     # gyroscope g-sensitivity (eq. 9) and bias (all static samples)
-    G = (Ug[0::2].T - Ug[1::2].T) / (2.0 * g)
-    gyr_b = Ug.mean(axis=0) if cg is None else (cg[:, None] * Ug).sum(axis=0) / cg.sum()
+    G = (np.swapaxes(Ug[..., 0::2, :], -1, -2) - np.swapaxes(Ug[..., 1::2, :], -1, -2)) / (2.0 * g)
+    gyr_b = Ug.mean(axis=-2) if cg is None else (cg[:, None] * Ug).sum(axis=-2) / cg.sum()
     # rotations (eqs. 12-15)
+    sing = _singular(acc_K)
     with np.errstate(all="ignore"):
-        Kinv = np.linalg.pinv(acc_K) if _singular(acc_K) else np.linalg.inv(acc_K)
-    W = Sw - G @ Kinv @ (Sa - np.outer(acc_b, D)) - np.outer(gyr_b, D)
-    return acc_K, acc_b, G, gyr_b, W / th[None, :]
+        if np.ndim(sing) == 0:
+            Kinv = np.linalg.pinv(acc_K) if sing else np.linalg.inv(acc_K)
+        else:
+            Kinv = np.empty_like(acc_K)
+            Kinv[~sing] = np.linalg.inv(acc_K[~sing])
+            Kinv[sing] = np.linalg.pinv(acc_K[sing])
+    W = Sw - G @ Kinv @ (Sa - acc_b[..., :, None] * D) - gyr_b[..., :, None] * D
+    return acc_K, acc_b, G, gyr_b, W / th
 
 
 def _mean_cov(x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
@@ -463,22 +470,27 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     h2 = np.array([(x.shape[0] / p.rate**2) if h is None else float(h @ h) for x, h in zip(p.rot[1], p.steps)])
     w, V = np.linalg.eigh(np.stack(covs))  # a square root that a zero-variance (clipped) axis cannot break
     chol = V * np.sqrt(np.clip(w, 0.0, None))[..., None, :]
-    draws = {k: np.empty((n_draws, *v)) for k, v in shapes.items()}
-    for i in range(n_draws):
-        Ua = p.Ua + np.einsum("pij,pj->pi", chol[0], gen.standard_normal((6, 3)))
-        Ug = p.Ug + np.einsum("pij,pj->pi", chol[1], gen.standard_normal((6, 3)))
-        Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * gen.standard_normal((3, 3))
-        Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var) * gen.standard_normal((3, 3))
-        out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
-        for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out):
-            draws[k][i] = v
-    return {k: v.std(axis=0, ddof=1) for k, v in draws.items()}
+    # all draws at once, in the order a draw-by-draw loop takes them: per draw 6×3, 6×3, 3×3 and 3×3 normals
+    z = gen.standard_normal((n_draws, 54))
+    Ua = p.Ua + np.einsum("pij,npj->npi", chol[0], z[:, :18].reshape(n_draws, 6, 3))
+    Ug = p.Ug + np.einsum("pij,npj->npi", chol[1], z[:, 18:36].reshape(n_draws, 6, 3))
+    Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * z[:, 36:45].reshape(n_draws, 3, 3)
+    Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var) * z[:, 45:].reshape(n_draws, 3, 3)
+    out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
+    return {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
 
 
-def _singular(M: np.ndarray) -> bool:
-    if not np.all(np.isfinite(M)) or not np.any(M):
-        return True
-    return bool(np.linalg.cond(M) > 1e10)
+def _singular(M: np.ndarray):
+    """Whether a (3, 3) matrix is singular or not finite (condition number above 1e10); for a stack (n, 3, 3)
+    the (n,) booleans."""
+    if M.ndim == 2:
+        if not np.all(np.isfinite(M)) or not np.any(M):
+            return True
+        return bool(np.linalg.cond(M) > 1e10)
+    out = ~np.all(np.isfinite(M), axis=(-2, -1)) | ~np.any(M, axis=(-2, -1))
+    with np.errstate(all="ignore"):
+        out[~out] = np.linalg.cond(M[~out]) > 1e10
+    return out
 
 
 def _seq3(x):
