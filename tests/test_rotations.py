@@ -54,6 +54,19 @@ def test_skew_is_cross_product(a, b):
     np.testing.assert_allclose(R.vee(R.skew(a)), a)
 
 
+def test_quat_rotate_is_the_cross_product_formula_bit_for_bit():
+    """quat_rotate writes its cross products out (np.cross's axis moves cost 1.8× on long arrays): the same
+    products and differences as v + 2w(u×v) + u×(2u×v) with np.cross, bit for bit, under broadcasting."""
+    rng = np.random.default_rng(2)
+    q = R.quat_normalize(rng.normal(size=(6, 4)))
+    v = rng.normal(size=(6, 3)) * 10.0 ** rng.uniform(-8, 8, (6, 1))
+    for qq, vv in ((q, v), (q[0], v), (q, v[0]), (q[:, None], v[None, :4]), (q[0], v[0])):
+        t = 2.0 * np.cross(qq[..., 1:], vv)
+        want = vv + qq[..., :1] * t + np.cross(qq[..., 1:], t)
+        got = R.quat_rotate(qq, vv)
+        assert got.shape == want.shape and np.array_equal(got, want)
+
+
 def test_vectorized_shapes():
     rng = np.random.default_rng(0)
     e = rng.uniform(-1, 1, (4, 5, 3))
