@@ -3,6 +3,7 @@ reference figures of README_SOURCE.txt (VQF 0.43°, ahrs Madgwick(0.033) 0.61°,
 with polarization synthesized from the optical truth by the Rayleigh model, the sun at the paper's place and
 static-test time (Dalian, 2021-01-17 10:34 +08:00, SPA)."""
 
+import copy
 import os
 import re
 import warnings
@@ -12,7 +13,8 @@ import numpy as np
 import pytest
 
 from optinav.attitude import estimate, estimate_q
-from optinav.attitude.data import BROAD_TRIAL_02, load_broad, synthesize_polarization
+from optinav.attitude.data import BROAD_TRIAL_02, synthesize_polarization
+from optinav.attitude.data import load_broad as _load_broad
 from optinav.attitude.iframe import run_iframe
 from optinav.attitude.checks import hard_iron
 from optinav.attitude.estimators import AttitudeEstimate
@@ -25,6 +27,21 @@ from optinav.errors import OptinavError
 SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 PATH = SHARED / BROAD_TRIAL_02
 pytestmark = pytest.mark.skipif(not PATH.is_file(), reason=f"BROAD data absent ({PATH})")
+
+_READ: dict = {}
+
+
+def load_broad(path, options=None):
+    """:func:`optinav.attitude.data.load_broad`, each shared trial read once in this module (a hundred tests read
+    the nine files); every call gets its own copy of the arrays, which tests change."""
+    p = Path(path).resolve()
+    if options is not None or SHARED.resolve() not in p.parents:
+        return _load_broad(path, options)
+    key = (p, p.stat().st_mtime_ns)
+    if key not in _READ:
+        _READ[key] = _load_broad(path)
+    return copy.deepcopy(_READ[key])
+
 
 #: BROAD inclination RMSE limits (deg), defaults of each method. GD/CG are Madgwick's filter with ahrs's gain:
 #: the ahrs reference 0.61° + 15 %. QN (as published: proportional correction, no gyro-bias state; this IMU has
