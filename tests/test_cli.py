@@ -70,3 +70,26 @@ def test_building_the_parser_loads_no_numpy():
     code = "import sys; from optinav.cli.main import build_parser; build_parser(); print('numpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_the_parser_is_built_once_per_set_of_systems_and_each_call_owns_its_defaults():
+    """main() built argparse's 370 options on every call (20-35 ms); now once, again when a system is registered
+    or removed (its commands are in the parser). A default list (``calibrate accel --export``) is the parser's
+    object: each call gets its own copy, so a command that appends to it leaves the next call's default empty."""
+    from optinav import registry
+    from optinav.cli import main as cli_main
+
+    parser = cli_main._parser()
+    assert cli_main._parser() is parser
+    argv = ["calibrate", "accel", "s.csv", "--out", "r.json"]
+    first = cli_main._own_defaults(parser.parse_args(argv))
+    first.export.append("imucal:x.json")
+    second = cli_main._own_defaults(parser.parse_args(argv))
+    assert second.export == [] and second.export is not first.export
+    toy = registry.System(name="toy2", command="toy2", kind="estimate", result="optinav.core.results:Estimate")
+    registry.register(toy)
+    try:
+        assert cli_main._parser() is not parser
+    finally:
+        registry.unregister("toy2")
+    assert cli_main._parser().parse_args(argv).command == "calibrate"

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import errno
+import functools
 import io
 import os
 import re
@@ -82,6 +84,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _parser() -> argparse.ArgumentParser:
+    """The parser of :func:`main`, built again only when the registered systems changed (their commands and
+    options are in it): argparse takes 20-35 ms to build its 370 options (a formatter and gettext look-ups per
+    option), which a process calling main() many times paid on each call."""
+    from optinav import registry
+
+    return _parser_of(tuple(registry.systems()))
+
+
+@functools.lru_cache(maxsize=1)
+def _parser_of(systems: tuple) -> argparse.ArgumentParser:
+    return build_parser()
+
+
+def _own_defaults(args: argparse.Namespace) -> argparse.Namespace:
+    """``args`` with copies of its lists, dicts and sets: a default one is the parser's object, kept for the next
+    call, which a command that changes it must not see."""
+    for key, value in vars(args).items():
+        if isinstance(value, (list, dict, set)):
+            setattr(args, key, copy.deepcopy(value))
+    return args
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if sys.stderr is None:
@@ -89,8 +114,8 @@ def main(argv: list[str] | None = None) -> int:
         # wrote them) nor into the first file the command opens (fd 2), and not an AttributeError (isatty)
         _reserve_fd(2)
         sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    parser = _parser()
+    args = _own_defaults(parser.parse_args(argv))
     if args.command is None:
         parser.print_help()
         return 2
