@@ -2239,6 +2239,13 @@ def test_a_gyro_bias_about_the_vertical_of_a_body_mounted_upside_down_is_no_turn
     assert np.degrees(rmse(inclination_error(q, ref), tr.eval_mask)) < 1.1
 
 
+def _offset_from(tr, start_s: float, offset) -> np.ndarray:
+    """The trial's magnetometer rows with ``offset`` (3,) µT added from ``start_s`` s on (a magnet put on the board)."""
+    mag = tr.mag.copy()
+    mag[int(start_s * tr.rate_hz) :] += offset
+    return mag
+
+
 def _about(msg: str) -> list[np.ndarray]:
     """The points a refusal says the field turns about, in its order."""
     return [np.array(v.split(", "), float) for v in re.findall(r"about \[([^\]]+)\]", msg)]
@@ -2260,8 +2267,7 @@ def test_a_hard_iron_offset_that_changes_within_the_recording_is_refused(tmp_pat
     if not (p33.is_file() and p03.is_file()):
         pytest.skip("trials 33 / 03 absent")
     tr = load_broad(PATH)
-    mag = tr.mag.copy()
-    mag[int(60.0 * tr.rate_hz) :] += [30.0, 0.0, 0.0]
+    mag = _offset_from(tr, 60.0, [30.0, 0.0, 0.0])
     for offline in (False, True):
         with pytest.raises(OptinavError, match="changes within the recording") as e:
             estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=offline)
@@ -2285,8 +2291,7 @@ def test_a_hard_iron_offset_that_changes_within_the_recording_is_refused(tmp_pat
     assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < 3.5
 
     tr = load_broad(p03)
-    mag = tr.mag.copy()
-    mag[int(60.0 * tr.rate_hz) :] += [-20.0, 15.0, 40.0]
+    mag = _offset_from(tr, 60.0, [-20.0, 15.0, 40.0])
     r = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
     assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < 3.0
     with pytest.raises(OptinavError, match="drop --offline"):
@@ -2348,8 +2353,7 @@ def test_an_offset_fitted_over_a_recording_it_came_partway_into_is_refused(tmp_p
     if not (p24.is_file() and p11.is_file()):
         pytest.skip("trials 24 / 11 absent")
     tr = load_broad(p24)
-    mag = tr.mag.copy()
-    mag[int(60.0 * tr.rate_hz) :] += [30.0, 0.0, 0.0]
+    mag = _offset_from(tr, 60.0, [30.0, 0.0, 0.0])
     with pytest.raises(OptinavError, match="start of the recording.*changes within the recording") as e:
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
     assert np.linalg.norm(_about(str(e.value))[-1] - [30.0, 0.0, 0.0]) < 5.0, str(e.value)
@@ -2363,8 +2367,7 @@ def test_an_offset_fitted_over_a_recording_it_came_partway_into_is_refused(tmp_p
     assert "changes within the recording" in err and not (tmp_path / "o.csv").exists(), err
 
     tr = load_broad(p11)
-    mag = tr.mag.copy()
-    mag[int(90.0 * tr.rate_hz) :] += [30.0, 0.0, 0.0]
+    mag = _offset_from(tr, 90.0, [30.0, 0.0, 0.0])
     with pytest.raises(OptinavError, match=r"about zero from sample \d+ \(40\.2 s\).*changes within"):
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
 
@@ -2379,8 +2382,7 @@ def test_an_offset_that_comes_before_the_first_window_judged_is_refused_offline(
     if not p24.is_file():
         pytest.skip("trial 24 absent")
     tr = load_broad(p24)
-    mag = tr.mag.copy()
-    mag[int(60.0 * tr.rate_hz) :] += [-20.0, 15.0, 40.0]
+    mag = _offset_from(tr, 60.0, [-20.0, 15.0, 40.0])
     with pytest.raises(OptinavError, match="to the end, and at its start.*changes within") as e:
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
     assert "drop --offline" in e.value.remedy
@@ -2399,8 +2401,7 @@ def test_an_offset_fitted_poorly_in_fast_rotation_is_refused_by_the_rest_after_i
     if not p07.is_file():
         pytest.skip("trial 07 absent")
     tr = load_broad(p07)
-    mag = tr.mag.copy()
-    mag[int(60.0 * tr.rate_hz) :] += [-20.0, 15.0, 40.0]
+    mag = _offset_from(tr, 60.0, [-20.0, 15.0, 40.0])
     with pytest.raises(OptinavError, match=r"about \[0, 0, 0\].*to the end.*changes within") as e:
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
     assert "drop --offline" in e.value.remedy
@@ -2415,12 +2416,10 @@ def test_an_offset_to_the_end_that_leaves_the_heading_of_the_end_is_not_refused_
     Now run; (30, 0, 0) µT from 90 s turns it by tens of degrees and is still refused."""
     tr = load_broad(PATH)
     for start_s, limit in ((90.0, 1.5), (120.0, 1.0)):
-        mag = tr.mag.copy()
-        mag[int(start_s * tr.rate_hz) :] += [0.0, 20.0, 0.0]
+        mag = _offset_from(tr, start_s, [0.0, 20.0, 0.0])
         r = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
         assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < limit, start_s
-    mag = tr.mag.copy()
-    mag[int(90.0 * tr.rate_hz) :] += [30.0, 0.0, 0.0]
+    mag = _offset_from(tr, 90.0, [30.0, 0.0, 0.0])
     with pytest.raises(OptinavError, match="changes within the recording"):
         estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
 
@@ -2437,8 +2436,7 @@ def test_an_offset_put_on_in_the_rest_before_the_motion_is_refused_offline():
         pytest.skip("trial 16 absent")
     for path, off in ((PATH, [0.0, 20.0, 0.0]), (p16, [30.0, 0.0, 0.0])):
         tr = load_broad(path)
-        mag = tr.mag.copy()
-        mag[int(30.0 * tr.rate_hz) :] += off
+        mag = _offset_from(tr, 30.0, off)
         with pytest.raises(OptinavError, match=r"steps by \[.*within a rest.*changes within") as e:
             estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
         step = np.array(re.search(r"steps by \[([^\]]+)\]", str(e.value)).group(1).split(", "), float)
