@@ -2758,3 +2758,21 @@ def _streamed_as_in_memory(f, q_b_n, offline: bool, chunk: int, tmp_path, capsys
     assert main(argv) == 0, capsys.readouterr().err
     q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
     assert np.nanmax(np.degrees(np.abs(heading_error(q, q_b_n)))) < 1e-3
+
+
+def test_the_end_s_specific_force_is_the_same_in_memory_and_streamed(trial):
+    """The offline end-turn rule reads the specific force over the last second: in memory it was the mean of the
+    last second's samples, streamed the last bins of the last four blocks (a decision near its 2° could differ,
+    and blocks shorter than a second saw less). Both now take the same bins (checks.end_up): alike to rounding
+    (a bin split between blocks summed in two parts) for blocks of 7000 and 100 rows."""
+    from optinav.attitude import checks as C
+
+    n = trial.acc.shape[0]
+    i = C.end_tail(n, trial.dt)
+    b, a, _, c, _ = C.mag_sums(trial.acc[i:], trial.mag[i:], i)
+    whole = C.end_up(b, a, c, trial.dt)
+    np.testing.assert_allclose(whole, trial.acc[-int(round(1.0 / trial.dt)) :].mean(axis=0), atol=0.01)
+    for rows in (7000, 100):
+        parts = [C.mag_sums(trial.acc[s : s + rows], trial.mag[s : s + rows], s) for s in range(0, n, rows)]
+        b, a, _, c, _ = (np.concatenate(x) for x in zip(*parts))
+        np.testing.assert_allclose(C.end_up(b, a, c, trial.dt), whole, rtol=1e-12, atol=0)  # (a split bin's sum)

@@ -2743,6 +2743,22 @@ def _learned(
 MAG_END_TURN = np.radians(2.0)
 
 
+def end_up(bins: np.ndarray, acc_sums: np.ndarray, counts: np.ndarray, dt: float) -> np.ndarray | None:
+    """The specific force (3,) m/s² over the last second of rows with a field: the last ⌈1 s / TILT_BIN rows⌉ bins
+    of :func:`mag_sums` (``bins``, ``acc_sums``, ``counts``; bins split between blocks merged), for :func:`end_turn`
+    alike in memory and streamed; None without such rows."""
+    b, S = merge_bins(np.asarray(bins), np.column_stack([acc_sums, counts]))
+    k = max(1, int(np.ceil(1.0 / (TILT_BIN * dt))))
+    c = float(S[-k:, 3].sum())
+    return S[-k:, :3].sum(axis=0) / c if c > 0.0 else None
+
+
+def end_tail(n: int, dt: float) -> int:
+    """The first row of the bins :func:`end_up` reads in a log of ``n`` rows (bins of TILT_BIN rows from row 0)."""
+    k = max(1, int(np.ceil(1.0 / (TILT_BIN * dt))))
+    return max(0, ((n - 1) // TILT_BIN - k + 1) * TILT_BIN)
+
+
 def end_turn(fields, h: float, b, up) -> float:
     """The angle (rad) by which the offset ``b`` turns the horizontal part of the field over the last second
     (``fields`` of :func:`bin_fields`, ``h`` s a bin) about ``up`` (3,), the specific force's direction there (body

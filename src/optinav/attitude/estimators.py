@@ -51,6 +51,9 @@ from optinav.attitude.checks import (
     check_untracked_bias,
     rest_offset,
     rest_reading,
+    end_tail,
+    end_up,
+    mag_sums,
     zero_rows_missing,
     bin_fields,
     offset_change_error,
@@ -675,7 +678,9 @@ def estimate(
                 check_turning_offset(*turns, given=mag_hard_iron)
             # one offset for the whole recording, or none, must hold in every part of it
             less = rate_sums_less_offset(turns[1], checked)
-            up = acc[-max(1, int(round(1.0 / step))) :].mean(axis=0)  # the specific force over the last second
+            i = end_tail(n, step)  # the specific force over the last second (as streamed)
+            end_bins, end_acc, _, end_count, _ = mag_sums(acc[i:], mag[i:], i)
+            up = end_up(end_bins, end_acc, end_count, step)
             err = offset_change_error(
                 offset_pieces(turns[0], less, turns[2]),
                 rows,

@@ -270,9 +270,8 @@ class StreamChecks:
             bins, sums, h = self._turn_sums(offset)
             up = None
             if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
-                _, acc, _, count, _ = (np.concatenate(x) for x in zip(*self._mag_sums[-4:]))
-                k = max(1, int(np.ceil(1.0 / (_c.TILT_BIN * self.median_dt))))
-                up = acc[-k:].sum(axis=0) / max(float(count[-k:].sum()), 1.0)
+                m_bins, m_acc, _, m_count, _ = (np.concatenate(x) for x in zip(*self._mag_sums))
+                up = _c.end_up(m_bins, m_acc, m_count, self.median_dt)
             err = _c.offset_change_error(
                 _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums),
                 up,
