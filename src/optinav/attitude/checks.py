@@ -283,8 +283,13 @@ def _spreads(gyr: np.ndarray, acc: np.ndarray, dts: np.ndarray, w: int) -> tuple
     nm = np.linalg.norm(m, axis=1)
     cosang = np.einsum("ij,ij->i", x, m) / (np.linalg.norm(x, axis=1) * nm + 1e-300)
     per_sample = float(np.sqrt(np.mean(np.arccos(np.clip(cosang, -1.0, 1.0)) ** 2)))
-    kept = float(np.median(nm)) / max(min(float(np.median(_norm(acc))), G_STANDARD), 1e-300)
-    return per_sample, m / (nm[:, None] + 1e-300), kept
+    return per_sample, m / (nm[:, None] + 1e-300), _kept_share(nm, acc)
+
+
+def _kept_share(nm: np.ndarray, acc: np.ndarray) -> float:
+    """The share of gravity the specific force's 2-s means keep in the gyro-integrated frame: their median norm
+    ``nm`` over the median norm of ``acc`` (n, 3) m/s² or g, the smaller."""
+    return float(np.median(nm)) / max(min(float(np.median(_norm(acc))), G_STANDARD), 1e-300)
 
 
 def _drift(u: np.ndarray) -> float:
@@ -1475,8 +1480,7 @@ def inertial_gravity_share(g: np.ndarray, a: np.ndarray, d: np.ndarray) -> float
     w = _means_window(d, g.shape[0])
     if g.shape[0] < 2 * w:
         return float("nan")
-    m = _moving_means(_in_gyro_frame(g, a, d), w)
-    return float(np.median(_norm(m))) / min(float(np.median(_norm(a))), G_STANDARD)
+    return _kept_share(_norm(_moving_means(_in_gyro_frame(g, a, d), w)), a)
 
 
 def _acc_unit_error(med_a: float, gravity: float = float("nan"), where: str = "") -> OptinavError:
@@ -2729,9 +2733,13 @@ def _learned(
     k = max(1, int(round(1.0 / h)))  # the first (last) second: the pass starts there
     if edge and (with_b[-k:] if at_end else with_b[:k]).mean() > 0.5:
         return True
-    # the longest run of still bins with b (bins without a field between them do not break it)
-    run = with_b & still
-    # 10 % more: the estimate's new-field candidate starts once the field has settled (a magnet put on takes 1-2 s)
+    # a run of still bins with b (bins without a field between them do not break it)
+    return _held_new(nums, with_b & still, h)
+
+
+def _held_new(nums: np.ndarray, run: np.ndarray, h: float) -> bool:
+    """Whether the bins ``nums`` (``h`` s each) hold a run of ``run`` (True bins) for 1.1 × :data:`MAG_NEW_S`: 10 %
+    more, as the estimate's new-field candidate starts once the field has settled (a magnet put on takes 1-2 s)."""
     return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
 
 
@@ -2748,15 +2756,19 @@ def end_up(bins: np.ndarray, acc_sums: np.ndarray, counts: np.ndarray, dt: float
     of :func:`mag_sums` (``bins``, ``acc_sums``, ``counts``; bins split between blocks merged), for :func:`end_turn`
     alike in memory and streamed; None without such rows."""
     b, S = merge_bins(np.asarray(bins), np.column_stack([acc_sums, counts]))
-    k = max(1, int(np.ceil(1.0 / (TILT_BIN * dt))))
+    k = _end_bins(dt)
     c = float(S[-k:, 3].sum())
     return S[-k:, :3].sum(axis=0) / c if c > 0.0 else None
 
 
 def end_tail(n: int, dt: float) -> int:
     """The first row of the bins :func:`end_up` reads in a log of ``n`` rows (bins of TILT_BIN rows from row 0)."""
-    k = max(1, int(np.ceil(1.0 / (TILT_BIN * dt))))
-    return max(0, ((n - 1) // TILT_BIN - k + 1) * TILT_BIN)
+    return max(0, ((n - 1) // TILT_BIN - _end_bins(dt) + 1) * TILT_BIN)
+
+
+def _end_bins(dt: float) -> int:
+    """The TILT_BIN bins that hold the last second at the step ``dt`` s (:func:`end_up`)."""
+    return max(1, int(np.ceil(1.0 / (TILT_BIN * dt))))
 
 
 def end_turn(fields, h: float, b, up) -> float:
@@ -2784,8 +2796,18 @@ def _rest_off_earth(pieces, fields, h: float, field: float) -> bool:
     nm = _norm(m[sel])
     ok = np.isfinite(nm)
     run = ((np.abs(nm - field) > 2.0 * MAG_OFFSET * field) & (_norm(w[sel]) < REST_GYR))[ok]
-    nums = nums[sel][ok]
-    return any((nums[e - 1] - nums[s] + 1) * h >= 1.1 * MAG_NEW_S for s, e in mask_runs(run))
+    return _held_new(nums[sel][ok], run, h)
+
+
+def _offset_changes(cause: str, remedy: str = "") -> OptinavError:
+    """The refusal of a field whose hard-iron offset changes within the recording, ``cause`` saying where it shows
+    (``remedy``: a first remedy before the usual ones)."""
+    return OptinavError(
+        f"{cause}: its hard-iron offset changes within the recording (a magnet put on or taken off the body?); the "
+        "heading would be off by up to tens of degrees",
+        remedy + "cut the recording where the offset changes and run each part (optinav attitude --mag names the "
+        "offset of a part that shows one), or drop --mag",
+    )
 
 
 def offset_change_error(
@@ -2820,12 +2842,8 @@ def offset_change_error(
         def at(i):
             return f"about [{_vec(about[i][1])}] from sample {about[i][0] * rows} ({about[i][0] * h:.1f} s)"
 
-        return OptinavError(
-            f"the magnetic field turns in the body {at(i)}{'' if j is None else ' and ' + at(j)}{why}: its hard-iron "
-            "offset changes within the recording (a magnet put on or taken off the body?); the heading would be "
-            "off by up to tens of degrees",
-            remedy + "cut the recording where the offset changes and run each part (optinav attitude --mag names "
-            "the offset of a part that shows one), or drop --mag",
+        return _offset_changes(
+            f"the magnetic field turns in the body {at(i)}{'' if j is None else ' and ' + at(j)}{why}", remedy
         )
 
     def apart(i: int, j: int, share: float) -> bool:
@@ -2936,17 +2954,9 @@ def offset_held_error(
 
     subtracted = f"the offset [{_vec(b)}] subtracted (fitted over the whole recording or given)"
 
-    def refusal(cause: str) -> OptinavError:
-        return OptinavError(
-            f"{cause}: its hard-iron offset changes within the recording (a magnet put on or taken off the body?); "
-            "the heading would be off by up to tens of degrees",
-            "cut the recording where the offset changes and run each part (optinav attitude --mag names the offset "
-            "of a part that shows one), or drop --mag",
-        )
-
     def error(i: int, where: str) -> OptinavError:
         k, p, _ = pieces[i]
-        return refusal(
+        return _offset_changes(
             f"the magnetic field {where} is the Earth's as measured, not less {subtracted}, and from sample "
             f"{k * rows} ({k * h:.1f} s) it turns in the body about [{_vec(np.zeros(3) if p is None else p)}]"
         )
@@ -2954,7 +2964,7 @@ def offset_held_error(
     zero = next((i for i, (_, p, _) in enumerate(pieces) if p is None), None)
     if zero is not None and float(np.linalg.norm(b)) > MAG_PIECE_APART * field:
         k = pieces[zero][0]
-        return refusal(f"the magnetic field turns in the body about zero from sample {k * rows} ({k * h:.1f} s), "
+        return _offset_changes(f"the magnetic field turns in the body about zero from sample {k * rows} ({k * h:.1f} s), "
                        f"not about {subtracted}")  # fmt: skip
     # a rest in which the field steps by the offset (put on, or taken off) while the body does not turn: the field
     # on one side of the step carries none (BROAD with it put on in the rest before the motion, 30 s: the whole
@@ -2963,7 +2973,7 @@ def offset_held_error(
     step = _rest_step(fields, h, field, b)
     if step is not None:
         i, j, d = step
-        return refusal(f"the magnetic field steps by [{_vec(d)}] within a rest from sample {i * rows} ({i * h:.1f} s) "
+        return _offset_changes(f"the magnetic field steps by [{_vec(d)}] within a rest from sample {i * rows} ({i * h:.1f} s) "
                        f"to {j * rows} ({j * h:.1f} s) while the body does not turn: {subtracted} is not there on "
                        "one side of the step")  # fmt: skip
     # the field as measured within half MAG_OFFSET of the windows' norm: an offset fitted a few µT off on a body

@@ -267,7 +267,8 @@ class StreamChecks:
             given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
         )
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
-            bins, sums, h = self._turn_sums(offset)
+            bins, raw, h = self._turn_sums()
+            sums = _c.rate_sums_less_offset(raw, offset)
             up = None
             if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
                 m_bins, m_acc, _, m_count, _ = (np.concatenate(x) for x in zip(*self._mag_sums))
@@ -279,7 +280,7 @@ class StreamChecks:
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
-                err = _c.offset_held_error(*self._turn_sums()[:2], h, self._scale_rows, subtracted, self.offline)
+                err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
             if err is not None:
                 raise err
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
