@@ -1661,6 +1661,32 @@ def _check_pose_turns(pt, stated: float, rate: float) -> None:
     )
 
 
+def _check_turn_sampling(share: float, rate: float, notes: list) -> None:
+    """Refuse a Ferraris fit whose rotations' integrals their sampling leaves uncertain beyond
+    :data:`ferraris.MAX_TURN_SAMPLING` of each turn (:func:`ferraris.turn_sampling`: the gyro's noise at rest shows no
+    anti-alias filter, and the integrals on every 2nd and 4th sample tell the error on all of them); below it, a note
+    (K_g's std includes it). ``share`` that uncertainty, ``rate`` the gyro's sample rate [Hz]."""
+    from . import ferraris
+
+    if not share > 0.0:
+        return
+    why = (
+        f"the gyro's noise at rest stays white up to the Nyquist frequency ({rate / 2:.3g} Hz: no anti-alias filter), so "
+        "what the hand turns held above it folded into their integrals"
+    )
+    if share > ferraris.MAX_TURN_SAMPLING:
+        raise OptinavError(
+            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their integrals "
+            f"on every 2nd and 4th sample put K_g's error from it at ±{share:.2%} (beyond "
+            f"{ferraris.MAX_TURN_SAMPLING:.0%})",
+            "record at the sensor's own output rate; to lower the rate, low-pass before decimating (e.g. "
+            "scipy.signal.decimate) instead of keeping every n-th row",
+        )
+    notes.append(
+        f"{why}: K_g's std includes ±{share:.2g} of each turn for it (its integrals on every 2nd and 4th sample)"
+    )
+
+
 def _check_pose_turn_axes(pt, stated: float) -> None:
     """Refuse a Ferraris fit one of whose rotation sections scaled its gyro axis off what carries gravity from pose
     to pose (:func:`ferraris.pose_turn_axes`, where no common factor does); ``stated`` deg."""
@@ -1970,6 +1996,7 @@ def _ferraris(
             "file of cut sections, or they do not carry gravity from pose to pose); K_g scales with it, so check "
             "--rotation-angle"
         )
+    _check_turn_sampling(std["gyr_turn_sampling"], 1.0 / pt[4], notes)
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     _check_ferraris_bias_drift(gyro, names, idx, fc.gyr_K, gyro_unit)
     gates.check_matrix(

@@ -52,6 +52,8 @@ __all__ = [
     "ferraris_std",
     "repair_rotation_glitches",
     "repair_pose_spikes",
+    "noise_roll_off",
+    "turn_sampling",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -290,6 +292,8 @@ class _Inputs(NamedTuple):
     Sa: np.ndarray  # (3, 3) column j: Σ acc dt over rotation j (raw·s)
     D: np.ndarray  # (3,) rotation durations (s)
     gap_var: np.ndarray  # (3, 3) column j: variance of Σ gyro dt over the gaps of rotation j (raw·s)²
+    #: the gyroscope's own samples where the rows hold them interpolated: ([(w, h)] per rotation, [w] per pose)
+    own: tuple | None = None
 
 
 def _gap_variance(w: np.ndarray, h: np.ndarray, k: int) -> np.ndarray:
@@ -442,10 +446,12 @@ def ferraris_std(
 
     The pose means vary by their within-pose covariance over the samples (lag-1 correlation taken into account)
     and the rotation integrals by the gyro's and accelerometer's white noise measured in the poses, integrated
-    over each rotation (Σ dt²). Not included (add them where known): the unknown local g, the Earth rate in the
-    bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not means);
-    ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
-    result's units (NaN when the poses are given as means)."""
+    over each rotation (Σ dt²); where the gyro's noise at rest shows no anti-alias filter, the rotation integrals
+    also by their sampling (:func:`turn_sampling`). Not included (add them where known): the unknown local g, the
+    Earth rate in the bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not
+    means); ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
+    result's units (NaN when the poses are given as means) and ``gyr_turn_sampling``, that sampling's std as a
+    share of each turn (0: filtered, or not judged)."""
     p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
     return _std(p, rng, n_draws)
 
@@ -456,7 +462,7 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
 
     shapes = {"acc_K": (3, 3), "acc_b": (3,), "gyr_G": (3, 3), "gyr_b": (3,), "gyr_K": (3, 3)}
     if p.ca is None or np.any(p.ca < 3):
-        return {k: np.full(v, np.nan) for k, v in shapes.items()}
+        return {**{k: np.full(v, np.nan) for k, v in shapes.items()}, "gyr_turn_sampling": 0.0}
     gen = as_rng(rng)
     covs = []
     noise = []
@@ -475,9 +481,102 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     Ua = p.Ua + np.einsum("pij,npj->npi", chol[0], z[:, :18].reshape(n_draws, 6, 3))
     Ug = p.Ug + np.einsum("pij,npj->npi", chol[1], z[:, 18:36].reshape(n_draws, 6, 3))
     Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * z[:, 36:45].reshape(n_draws, 3, 3)
-    Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var) * z[:, 45:].reshape(n_draws, 3, 3)
+    if p.own is None:
+        turns = [(w, np.full(w.shape[0], 1.0 / p.rate) if h is None else h) for w, h in zip(p.rot[1], p.steps)]
+        share, samp = turn_sampling(turns, p.static[1])
+    else:
+        share, samp = turn_sampling(*p.own)
+    Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var + samp**2) * z[:, 45:].reshape(n_draws, 3, 3)
     out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
-    return {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
+    std = {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
+    return {**std, "gyr_turn_sampling": share}
+
+
+#: the gyro's noise at rest shows an anti-alias filter when its power over the top tenth of the band below the Nyquist
+#: frequency falls below its power over 0.4-0.8 of it by more than ROLL_OFF_SIGMA times the scatter of that ratio for
+#: white noise (:func:`noise_roll_off`). imucal's session at 102.4 Hz: 10.7; its every 2nd, 3rd or 4th row (no filter,
+#: the noise above the new Nyquist frequency folded back): -2.8 to 1.3; low-passed before decimating
+#: (scipy.signal.decimate's FIR, resample_poly): 3.8 to 5.8
+ROLL_OFF_SIGMA = 3.0
+#: the turns' sampling (:func:`turn_sampling`) may leave each turn's integral uncertain by this share before the
+#: calibration is refused: the share by which the poses' turns may give the angle off (MAX_POSE_TURN)
+MAX_TURN_SAMPLING = 0.01
+
+
+def noise_roll_off(poses) -> float:
+    """How far the noise power of still samples falls from 0.4-0.8 to 0.9-1 of the Nyquist frequency, in units of
+    that ratio's scatter for white noise (0: white up to the Nyquist frequency, no anti-alias filter; NaN: no
+    noise to judge). ``poses`` a sequence of (N_i, 3) still samples on a uniform clock [any unit]."""
+    top = mid = 0.0
+    n_top = n_mid = 0
+    for x in poses:
+        x = np.asarray(x, float)
+        if x.ndim != 2 or x.shape[0] < 20 or not np.all(np.isfinite(x)):
+            continue
+        P = np.abs(np.fft.rfft(x - x.mean(axis=0), axis=0)) ** 2
+        f = np.fft.rfftfreq(x.shape[0]) * 2.0  # in units of the Nyquist frequency
+        t, m = f > 0.9, (f > 0.4) & (f < 0.8)
+        top, mid = top + float(P[t].sum()), mid + float(P[m].sum())
+        n_top, n_mid = n_top + 3 * int(np.count_nonzero(t)), n_mid + 3 * int(np.count_nonzero(m))
+    if not (n_top and n_mid and mid > 0.0):
+        return float("nan")
+    return (1.0 - (top / n_top) / (mid / n_mid)) / float(np.sqrt(1.0 / n_top + 1.0 / n_mid))
+
+
+def _phase_spread(w: np.ndarray, h: np.ndarray, q: int, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean square (3,) over the q phases of the turn's integral on every q-th sample (× q) less its integral on all
+    samples, and the white noise's share of it ((q − 1) Σh² σ²); ``w`` (M, 3), ``h`` (M,) s, ``noise`` (3,) σ²."""
+    M = (w.shape[0] // q) * q
+    w, h = w[:M], h[:M]
+    full = h @ w
+    sub = np.array([q * (h[k::q] @ w[k::q]) for k in range(q)])
+    return np.mean((sub - full) ** 2, axis=0), (q - 1) * float(h @ h) * noise
+
+
+def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
+    """The uncertainty of the rotations' integrals from their sampling, where the still samples show no anti-alias
+    filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`): a turn's content above the Nyquist frequency then
+    folds into its integral (imucal's session on every 2nd row, 51.2 Hz: K_g 4-5 std off with exit 0; low-passed before
+    decimating, within 0.4). Its size by Richardson's rule with the observed order: the integrals on every 2nd and
+    every 4th sample (RMS over the phases, less the noise's share, pooled over the turns as shares of each) differ
+    from the integral on all samples by e₂ and e₄, the order is p = log₂(e₄/e₂), and the error on all samples
+    e₂/(2ᵖ − 1); none where e₂ is within the noise (below the 99.9 % point of its spread for noise alone). ``turns``
+    the three rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error
+    as a share of each turn, inf when the integrals do not converge with the rate; (3, 3) std of Σ w h [raw·s],
+    column j rotation j); (0, zeros) with a filter or nothing to judge."""
+    from scipy.stats import chi2
+
+    none = (0.0, np.zeros((3, 3)))
+    if not noise_roll_off(poses) < ROLL_OFF_SIGMA:
+        return none
+    noise = np.median([np.var(np.asarray(x, float), axis=0) for x in poses if np.ndim(x) == 2 and len(x) > 2], axis=0)
+    ms = {2: [], 4: []}
+    floor = {2: [], 4: []}
+    e2, S = [], []
+    for j, (w, h) in enumerate(turns):
+        w, h = np.asarray(w, float), np.asarray(h, float)
+        if w.shape[0] < 8 or not np.all(np.isfinite(w)):
+            return none
+        h = np.minimum(h, np.median(h))  # (a gap's step: the bridge's own variance covers it)
+        s = h @ w
+        S.append(s)
+        size = max(float(s[j]) ** 2, 1e-300)
+        for q in ms:
+            m, n = _phase_spread(w, h, q, noise)
+            ms[q].append(m[j] / size)
+            floor[q].append(n[j] / size)
+            if q == 2:
+                e2.append(np.sqrt(np.maximum(m - n, 0.0)))
+    m2, n2 = float(np.mean(ms[2])), float(np.mean(floor[2]))
+    if not m2 > chi2.ppf(0.999, len(turns)) / len(turns) * n2:
+        return none  # the half-rate integrals differ by what the noise makes them differ
+    r2, r4 = np.sqrt(m2 - n2), np.sqrt(max(float(np.mean(ms[4])) - float(np.mean(floor[4])), 0.0))
+    order = float(np.log2(r4 / r2)) if r4 > 0.0 else 0.0
+    if order <= 0.0:
+        return float("inf"), np.full((3, 3), np.inf)
+    factor = 1.0 / (2.0**order - 1.0)
+    std = np.column_stack([np.maximum(e * factor, r2 * factor * np.abs(s)) for e, s in zip(e2, S)])
+    return float(r2 * factor), std
 
 
 def _singular(M: np.ndarray):
@@ -655,10 +754,23 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
         for j, (n, h) in enumerate(zip(ROTATIONS, timing["dt"])):
             a = t[idx[n][0]] - 0.5 * h[0]  # the rows' steps, each centred on its row
             Sw[:, j] = _own_clock_integral(gyr_clock[0], gyr_clock[1], a, a + float(h.sum()))
-        p = p._replace(Sw=Sw)
+        p = p._replace(Sw=Sw, own=_own_samples(gyr_clock, t, idx, timing["dt"]))
         if not with_std:
             return _calibration(p, **units)
     return _calibration(p, **units), _std(p, rng, 2000)
+
+
+def _own_samples(gyr_clock, t, idx: dict, steps: list) -> tuple:
+    """The gyroscope's own samples (``gyr_clock``) of each rotation, with their steps, over the span its rows stand
+    for, and of each pose within its rows' times: :func:`turn_sampling` judges the samples the integrals use."""
+    tg, wg = (np.asarray(v, float) for v in gyr_clock)
+    turns = []
+    for n, h in zip(ROTATIONS, steps):
+        a = t[idx[n][0]] - 0.5 * h[0]
+        k0, k1 = np.searchsorted(tg, [a, a + float(h.sum())])
+        turns.append((wg[k0:k1], integration_steps(tg[k0:k1], tg[k1] if k1 < tg.size else None)))
+    poses = [wg[slice(*np.searchsorted(tg, [t[idx[n][0]], t[idx[n][1] - 1]], "right"))] for n in POSES]
+    return turns, poses
 
 
 def _own_clock_integral(t, w, a: float, b: float) -> np.ndarray:
