@@ -1662,28 +1662,26 @@ def _check_pose_turns(pt, stated: float, rate: float) -> None:
 
 
 def _check_turn_sampling(share: float, rate: float, notes: list) -> None:
-    """Refuse a Ferraris fit whose rotations' integrals their sampling leaves uncertain beyond
-    :data:`ferraris.MAX_TURN_SAMPLING` of each turn (:func:`ferraris.turn_sampling`: the gyro's noise at rest shows no
-    anti-alias filter, and the integrals on every 2nd and 4th sample tell the error on all of them); below it, a note
-    (K_g's std includes it). ``share`` that uncertainty, ``rate`` the gyro's sample rate [Hz]."""
-    from . import ferraris
-
+    """Refuse a Ferraris fit whose rotations' spectra do not fall off toward the Nyquist frequency where the gyro's
+    noise at rest shows no anti-alias filter (:func:`ferraris.turn_sampling` inf: nothing bounds what folded into
+    their integrals); where they do, a note (K_g's std includes it). ``share`` that uncertainty as a share of each
+    turn, ``rate`` the gyro's sample rate [Hz]."""
     if not share > 0.0:
         return
     why = (
         f"the gyro's noise at rest stays white up to the Nyquist frequency ({rate / 2:.3g} Hz: no anti-alias filter), so "
-        "what the hand turns held above it folded into their integrals"
+        "what the hand turns held at the sample rate folded into their integrals"
     )
-    if share > ferraris.MAX_TURN_SAMPLING:
+    if not np.isfinite(share):
         raise OptinavError(
-            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their integrals "
-            f"on every 2nd and 4th sample put K_g's error from it at ±{share:.2%} (beyond "
-            f"{ferraris.MAX_TURN_SAMPLING:.0%})",
+            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their spectra do "
+            "not fall off toward the Nyquist frequency, so nothing bounds that share of K_g",
             "record at the sensor's own output rate; to lower the rate, low-pass before decimating (e.g. "
             "scipy.signal.decimate) instead of keeping every n-th row",
         )
     notes.append(
-        f"{why}: K_g's std includes ±{share:.2g} of each turn for it (its integrals on every 2nd and 4th sample)"
+        f"{why}: K_g's std includes ±{share:.2g} of each turn for it (the turns' spectra near the Nyquist frequency "
+        "carried to the sample rate); record at the sensor's own rate, or low-pass before decimating, to take it out"
     )
 
 
@@ -2435,6 +2433,15 @@ def calibrate_data(data: SessionData, options: FileOptions, source: str = "") ->
                 f"rows as {r / k:.4g} Hz; timed so, the calibration fails ({exc.cause}), with the rows at {r:g} Hz "
                 "it passes its gates",
                 f"if {r:g} Hz is the rate of the rows, pass --rate {r * k:g}",
+            ) from exc
+        if data.counter_step > 1 and o.rate_hz and not isinstance(exc, SwappedAxes):
+            # the note that says how the rows were timed is lost with the error (a decimated annotated session at
+            # --rate 51.2, its rows' rate, refused for its turns at 12.8 Hz without a word of the counter)
+            k, r = data.counter_step, o.rate_hz
+            raise OptinavError(
+                f"{exc.cause} (the sample counter steps by {k} on nearly every row, so --rate {r:g} was taken as its "
+                f"rate and the rows as {r / k:.4g} Hz)",
+                f"{exc.remedy}; if {r:g} Hz is the rate of the rows, pass --rate {r * k:g}" if exc.remedy else None,
             ) from exc
         raise
     res.quality["notes"] = list(data.notes) + list(res.quality.get("notes", []))

@@ -486,9 +486,13 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
         share, samp = turn_sampling(turns, p.static[1])
     else:
         share, samp = turn_sampling(*p.own)
-    Sw = p.Sw + np.sqrt(noise[1][:, None] * h2[None, :] + p.gap_var + samp**2) * z[:, 45:].reshape(n_draws, 3, 3)
+    finite = bool(np.all(np.isfinite(samp)))
+    var = noise[1][:, None] * h2[None, :] + p.gap_var + (samp**2 if finite else 0.0)
+    Sw = p.Sw + np.sqrt(var) * z[:, 45:].reshape(n_draws, 3, 3)
     out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
     std = {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
+    if not finite:  # (the turns' spectra do not fall off: no std bounds K_g)
+        std["gyr_K"] = np.full((3, 3), np.inf)
     return {**std, "gyr_turn_sampling": share}
 
 
@@ -498,9 +502,6 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
 #: the noise above the new Nyquist frequency folded back): -2.8 to 1.3; low-passed before decimating
 #: (scipy.signal.decimate's FIR, resample_poly): 3.8 to 5.8
 ROLL_OFF_SIGMA = 3.0
-#: the turns' sampling (:func:`turn_sampling`) may leave each turn's integral uncertain by this share before the
-#: calibration is refused: the share by which the poses' turns may give the angle off (MAX_POSE_TURN)
-MAX_TURN_SAMPLING = 0.01
 
 
 def noise_roll_off(poses) -> float:
@@ -523,60 +524,58 @@ def noise_roll_off(poses) -> float:
     return (1.0 - (top / n_top) / (mid / n_mid)) / float(np.sqrt(1.0 / n_top + 1.0 / n_mid))
 
 
-def _phase_spread(w: np.ndarray, h: np.ndarray, q: int, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean square (3,) over the q phases of the turn's integral on every q-th sample (× q) less its integral on all
-    samples, and the white noise's share of it ((q − 1) Σh² σ²); ``w`` (M, 3), ``h`` (M,) s, ``noise`` (3,) σ²."""
-    M = (w.shape[0] // q) * q
-    w, h = w[:M], h[:M]
-    full = h @ w
-    sub = np.array([q * (h[k::q] @ w[k::q]) for k in range(q)])
-    return np.mean((sub - full) ** 2, axis=0), (q - 1) * float(h @ h) * noise
+def _band_levels(w: np.ndarray, h: float, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Mean power (3,) of a turn's samples ``w`` (M, 3) over 0.8-1 and 0.4-0.5 of the Nyquist frequency (|h·DFT|²,
+    the ends' line taken out), the white noise's level there (M h² σ², ``noise`` (3,) σ²) and the bins of the top."""
+    M = w.shape[0]
+    k = max(1, min(5, M // 10))
+    x = w - np.linspace(w[:k].mean(axis=0), w[-k:].mean(axis=0), M)
+    P = np.abs(np.fft.rfft(x, axis=0) * h) ** 2
+    f = np.fft.rfftfreq(M) * 2.0
+    top, mid = f > 0.8, (f > 0.4) & (f <= 0.5)
+    return P[top].mean(axis=0), P[mid].mean(axis=0), M * h * h * noise, int(np.count_nonzero(top))
 
 
 def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     """The uncertainty of the rotations' integrals from their sampling, where the still samples show no anti-alias
-    filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`): a turn's content above the Nyquist frequency then
-    folds into its integral (imucal's session on every 2nd row, 51.2 Hz: K_g 4-5 std off with exit 0; low-passed before
-    decimating, within 0.4). Its size by Richardson's rule with the observed order: the integrals on every 2nd and
-    every 4th sample (RMS over the phases, less the noise's share, pooled over the turns as shares of each) differ
-    from the integral on all samples by e₂ and e₄, the order is p = log₂(e₄/e₂), and the error on all samples
-    e₂/(2ᵖ − 1); none where e₂ is within the noise (below the 99.9 % point of its spread for noise alone). ``turns``
-    the three rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error
-    as a share of each turn, inf when the integrals do not converge with the rate; (3, 3) std of Σ w h [raw·s],
-    column j rotation j); (0, zeros) with a filter or nothing to judge."""
+    filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`): a turn's content at the sample rate then folds
+    into its integral (imucal's session on every 2nd row, 51.2 Hz: K_g 4-5 std off with exit 0; low-passed before
+    decimating, within 0.4). Its size from the turns' spectra (noise level taken out, pooled over the turns as
+    shares of each): the amplitude over the top fifth of the band, carried to the sample rate and its multiples by
+    the decay from 0.4-0.5 of the Nyquist frequency to there (an octave), as the turn integral's error on sampling
+    at a random phase (Σ over m ≠ 0 of |W(m f_s)|²); none where the top is within the noise (below the 99.9 % point
+    of its level for noise alone), inf where the spectrum does not fall faster than 1/f. ``turns`` the three
+    rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error as a share
+    of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0, zeros) with a filter or nothing to judge."""
     from scipy.stats import chi2
 
     none = (0.0, np.zeros((3, 3)))
     if not noise_roll_off(poses) < ROLL_OFF_SIGMA:
         return none
     noise = np.median([np.var(np.asarray(x, float), axis=0) for x in poses if np.ndim(x) == 2 and len(x) > 2], axis=0)
-    ms = {2: [], 4: []}
-    floor = {2: [], 4: []}
-    e2, S = [], []
+    top, mid, size, over = [], [], [], False
     for j, (w, h) in enumerate(turns):
         w, h = np.asarray(w, float), np.asarray(h, float)
-        if w.shape[0] < 8 or not np.all(np.isfinite(w)):
+        if w.shape[0] < 20 or not np.all(np.isfinite(w)):
             return none
-        h = np.minimum(h, np.median(h))  # (a gap's step: the bridge's own variance covers it)
-        s = h @ w
-        S.append(s)
-        size = max(float(s[j]) ** 2, 1e-300)
-        for q in ms:
-            m, n = _phase_spread(w, h, q, noise)
-            ms[q].append(m[j] / size)
-            floor[q].append(n[j] / size)
-            if q == 2:
-                e2.append(np.sqrt(np.maximum(m - n, 0.0)))
-    m2, n2 = float(np.mean(ms[2])), float(np.mean(floor[2]))
-    if not m2 > chi2.ppf(0.999, len(turns)) / len(turns) * n2:
-        return none  # the half-rate integrals differ by what the noise makes them differ
-    r2, r4 = np.sqrt(m2 - n2), np.sqrt(max(float(np.mean(ms[4])) - float(np.mean(floor[4])), 0.0))
-    order = float(np.log2(r4 / r2)) if r4 > 0.0 else 0.0
-    if order <= 0.0:
+        hm = float(np.median(h))
+        t, m, floor, n = _band_levels(w, hm, noise)
+        # a top within the noise's 99.9 % point (its mean over n bins of 2 degrees of freedom each) is no evidence
+        over |= bool(t[j] > floor[j] * chi2.ppf(0.999, 2 * n) / (2 * n))
+        top.append(np.maximum(t - floor, 0.0))
+        mid.append(np.maximum(m - floor, 0.0))
+        size.append(np.abs(np.minimum(h, hm) @ w))
+    if not over:
+        return none
+    rel_top = float(np.mean([top[j][j] / max(size[j][j], 1e-300) ** 2 for j in range(3)]))
+    rel_mid = float(np.mean([mid[j][j] / max(size[j][j], 1e-300) ** 2 for j in range(3)]))
+    order = 0.5 * np.log2(rel_mid / rel_top) if rel_top > 0.0 and rel_mid > 0.0 else 0.0  # amplitude ∝ f^-order
+    if order <= 0.5:
         return float("inf"), np.full((3, 3), np.inf)
-    factor = 1.0 / (2.0**order - 1.0)
-    std = np.column_stack([np.maximum(e * factor, r2 * factor * np.abs(s)) for e, s in zip(e2, S)])
-    return float(r2 * factor), std
+    # from the top's centre (0.9 f_N) to m f_s = 2m f_N: |W|² × (2m/0.9)^(-2 order), both signs of m
+    carry = 2.0 * float(np.sum((2.0 * np.arange(1, 1001) / 0.9) ** (-2.0 * order)))
+    std = np.column_stack([np.sqrt(t * carry) for t in top])
+    return float(np.sqrt(rel_top * carry)), std
 
 
 def _singular(M: np.ndarray):
