@@ -547,7 +547,7 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     of its level for noise alone), inf where the spectrum does not fall faster than 1/f. ``turns`` the three
     rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error as a share
     of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0, zeros) with a filter or nothing to judge."""
-    from scipy.stats import chi2
+    from scipy.special import gammaincinv
 
     none = (0.0, np.zeros((3, 3)))
     if not noise_roll_off(poses) < ROLL_OFF_SIGMA:
@@ -561,7 +561,7 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
         hm = float(np.median(h))
         t, m, floor, n = _band_levels(w, hm, noise)
         # a top within the noise's 99.9 % point (its mean over n bins of 2 degrees of freedom each) is no evidence
-        over |= bool(t[j] > floor[j] * chi2.ppf(0.999, 2 * n) / (2 * n))
+        over |= bool(t[j] > floor[j] * gammaincinv(n, 0.999) / n)  # (χ²₂ₙ's 99.9 % point over 2n)
         top.append(np.maximum(t - floor, 0.0))
         mid.append(np.maximum(m - floor, 0.0))
         size.append(np.abs(np.minimum(h, hm) @ w))
