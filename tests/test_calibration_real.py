@@ -923,6 +923,27 @@ def test_a_gyro_file_of_every_other_sample_on_its_own_clock_is_in_its_std(tmp_pa
     assert np.all(dev < 0.5 * std), dev / std
 
 
+def test_a_gyro_file_interpolated_from_the_accelerometers_clock_is_in_its_std(tmp_path, capsys, one_file_ferraris):
+    """imucal's gyroscope linearly interpolated onto 0.8x the accelerometer's rate (a second file on its own clock):
+    the interpolant's kinks put an image of the turns' content at 20.5 Hz at the file's rate, which its samples fold
+    into the turn integrals: K_yy 4.0 std off the one file's with exit 0. The file's noise at rest varies with its
+    samples' phase on the accelerometer's clock as a linear interpolation's does (7 std of that regression), so the
+    image's bound enters K_g's std: every scale within 1.5 std (1.15), and a note says why."""
+    rows = np.loadtxt(DATA / "example_ferraris_session.csv", delimiter=",", skiprows=1)
+    t = np.arange(rows.shape[0]) / 102.4
+    tg = np.arange(0.0, t[-1], 1.0 / (0.8 * 102.4)) + 0.0013
+    gyr = np.column_stack([np.interp(tg, t, rows[:, 1 + j]) for j in range(3)])
+    acc_file, gyro_file = tmp_path / "acc.csv", tmp_path / "gyro.csv"
+    np.savetxt(acc_file, np.column_stack([t, rows[:, 4:7]]), delimiter=",", header="t,ax,ay,az", comments="")
+    np.savetxt(gyro_file, np.column_stack([tg, gyr]), delimiter=",", header="t,gx,gy,gz", comments="")
+    args = ["calibrate", "accel", str(acc_file), "--gyro", str(gyro_file), "--gyro-unit", "deg/s", "--gravity", "9.81"]
+    r = _run(tmp_path, [*args, *FERRARIS])
+    assert "its samples were interpolated from samples on that clock" in capsys.readouterr().err
+    std = np.diag(np.asarray(r.gyroscope["K_std"], float))
+    dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one_file_ferraris.gyroscope["K"]))
+    assert np.all(dev < 1.5 * std), dev / std
+
+
 @pytest.fixture(scope="module")
 def one_file_default(tmp_path_factory):
     """The example recording's default-route calibration from its one file."""

@@ -1995,6 +1995,13 @@ def _ferraris(
             "--rotation-angle"
         )
     _check_turn_sampling(std["gyr_turn_sampling"], 1.0 / pt[4], notes)
+    if std["gyr_images"] > 0.0:
+        notes.append(
+            "the gyro file's noise at rest varies with its samples' phase on the accelerometer's clock as a linear "
+            "interpolation's does: its samples were interpolated from samples on that clock, and each turn's integral "
+            f"holds the interpolant's image of the turn: K_g's std includes up to ±{std['gyr_images']:.2g} of a turn "
+            "for it; give the gyroscope's own samples to take it out"
+        )
     gyro_nominal = float(np.median(np.abs(np.diag(fc.gyr_K)))) if gyro_unit == "counts" else 1.0 / factor(gyro_unit)
     _check_ferraris_bias_drift(gyro, names, idx, fc.gyr_K, gyro_unit)
     gates.check_matrix(

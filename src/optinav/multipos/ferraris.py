@@ -294,6 +294,10 @@ class _Inputs(NamedTuple):
     gap_var: np.ndarray  # (3, 3) column j: variance of Σ gyro dt over the gaps of rotation j (raw·s)²
     #: the gyroscope's own samples where the rows hold them interpolated: ([(w, h)] per rotation, [w] per pose)
     own: tuple | None = None
+    #: (3, 3) column j: variance of Σ gyro dt over rotation j from a linear interpolation's images (raw·s)², and the
+    #: largest as a share of its turn (:func:`interpolation_images`)
+    image_var: np.ndarray | None = None
+    image_share: float = 0.0
 
 
 def _gap_variance(w: np.ndarray, h: np.ndarray, k: int) -> np.ndarray:
@@ -462,7 +466,7 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
 
     shapes = {"acc_K": (3, 3), "acc_b": (3,), "gyr_G": (3, 3), "gyr_b": (3,), "gyr_K": (3, 3)}
     if p.ca is None or np.any(p.ca < 3):
-        return {**{k: np.full(v, np.nan) for k, v in shapes.items()}, "gyr_turn_sampling": 0.0}
+        return {**{k: np.full(v, np.nan) for k, v in shapes.items()}, "gyr_turn_sampling": 0.0, "gyr_images": 0.0}
     gen = as_rng(rng)
     covs = []
     noise = []
@@ -488,12 +492,14 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
         share, samp = turn_sampling(*p.own)
     finite = bool(np.all(np.isfinite(samp)))
     var = noise[1][:, None] * h2[None, :] + p.gap_var + (samp**2 if finite else 0.0)
+    if p.image_var is not None:
+        var = var + p.image_var
     Sw = p.Sw + np.sqrt(var) * z[:, 45:].reshape(n_draws, 3, 3)
     out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
     std = {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
     if not finite:  # (the turns' spectra do not fall off: no std bounds K_g)
         std["gyr_K"] = np.full((3, 3), np.inf)
-    return {**std, "gyr_turn_sampling": share}
+    return {**std, "gyr_turn_sampling": share, "gyr_images": p.image_share}
 
 
 #: the gyro's noise at rest shows an anti-alias filter when its power over the top tenth of the band below the Nyquist
@@ -753,10 +759,71 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
         for j, (n, h) in enumerate(zip(ROTATIONS, timing["dt"])):
             a = t[idx[n][0]] - 0.5 * h[0]  # the rows' steps, each centred on its row
             Sw[:, j] = _own_clock_integral(gyr_clock[0], gyr_clock[1], a, a + float(h.sum()))
-        p = p._replace(Sw=Sw, own=_own_samples(gyr_clock, t, idx, timing["dt"]))
+        own_samples = _own_samples(gyr_clock, t, idx, timing["dt"])
+        img, share = interpolation_images(gyr_clock, t, idx, timing["dt"])
+        p = p._replace(Sw=Sw, own=own_samples, image_var=None if img is None else img**2, image_share=share)
         if not with_std:
             return _calibration(p, **units)
     return _calibration(p, **units), _std(p, rng, 2000)
+
+
+#: a gyro file's still samples whose noise variance follows their phase on the accelerometer's clock as a linear
+#: interpolation's does, beyond this many std of that regression's slope, were interpolated from that clock
+#: (imucal's gyro interpolated onto 0.7-1.3x the rate: 7.2-14; resampled by a polyphase filter, or its own: below 2.0)
+INTERPOLATED_SIGMA = 5.0
+
+
+def interpolation_images(gyr_clock, t, idx: dict, steps: list) -> tuple[np.ndarray | None, float]:
+    """Where a second file's gyro samples (``gyr_clock`` = (times (M,) s, samples (M, 3) raw)) were linearly
+    interpolated from samples on the accelerometer's clock (``t`` (N,) s, rate f₀; ``idx`` the sections' rows,
+    ``steps`` the rotations' steps as :func:`ferraris_from_sections` takes them), the std (3, 3) of each rotation's
+    integral (column j) from the interpolant's images, and its largest share of a turn; (None, 0) when the still
+    samples do not show it. Between the clock's samples a linear interpolant averages their noise, whose variance
+    goes as α² + (1 − α)² of its phase α on that clock: that modulation beyond :data:`INTERPOLATED_SIGMA` std of the
+    regression's slope tells it. The interpolant's kinks put an image of the turn's content at |f' − f₀| (f' the
+    file's rate) at f', where the file's samples fold it into the integral, weighed sinc²(f'/f₀): at most
+    2|W(|f' − f₀|)| sinc²(f'/f₀) / sinc²(|f' − f₀|/f₀), W read from the file (imucal's gyro interpolated onto 0.8x
+    the rate: K_yy 4.0 std off with exit 0; every turn's error within that bound at 0.7-1.3x)."""
+    tg, wg = (np.asarray(v, float) for v in gyr_clock)
+    t = np.asarray(t, float)
+    f0 = 1.0 / float(np.median(np.diff(t)))
+    fp = 1.0 / float(np.median(np.diff(tg)))
+    r2, g = [], []
+    for n in POSES:
+        k0, k1 = np.searchsorted(tg, [t[idx[n][0]], t[idx[n][1] - 1]], "right")
+        x = wg[k0:k1]
+        if x.shape[0] < 20 or not np.all(np.isfinite(x)):
+            continue
+        alpha = np.mod((tg[k0:k1] - t[0]) * f0, 1.0)
+        r2.append(np.sum((x - x.mean(axis=0)) ** 2, axis=1))
+        g.append(alpha**2 + (1.0 - alpha) ** 2)
+    if not r2:
+        return None, 0.0
+    r2, g = np.concatenate(r2), np.concatenate(g)
+    if r2.size < 50 or np.std(g) < 0.01:  # (one phase on the clock throughout: the same rate, no images)
+        return None, 0.0
+    A = np.column_stack([np.ones_like(g), g - g.mean()])
+    coef, *_ = np.linalg.lstsq(A, r2, rcond=None)
+    e = r2 - A @ coef
+    slope_std = float(np.sqrt(e @ e / (r2.size - 2) * np.linalg.inv(A.T @ A)[1, 1]))
+    if not coef[1] > INTERPOLATED_SIGMA * slope_std:
+        return None, 0.0
+    fb = abs(fp - f0)
+    fa = abs(fb - round(fb / fp) * fp)  # where the file's samples show the content at fb
+    weight = np.sinc(fp / f0) ** 2 / max(float(np.sinc(fb / f0) ** 2), 1e-12)
+    std = np.zeros((3, 3))
+    share = 0.0
+    for j, (n, h) in enumerate(zip(ROTATIONS, steps)):
+        a = t[idx[n][0]] - 0.5 * h[0]
+        k0, k1 = np.searchsorted(tg, [a, a + float(h.sum())])
+        w = wg[k0:k1]
+        if w.shape[0] < 4:
+            continue
+        k = np.arange(w.shape[0])
+        W = np.abs(np.exp(-2j * np.pi * fa * k / fp) @ (w - w.mean(axis=0))) / fp
+        std[:, j] = 2.0 * W * weight
+        share = max(share, float(std[j, j] / max(abs(float(w[:, j].sum())) / fp, 1e-300)))
+    return std, share
 
 
 def _own_samples(gyr_clock, t, idx: dict, steps: list) -> tuple:
