@@ -454,8 +454,9 @@ def ferraris_std(
     also by their sampling (:func:`turn_sampling`). Not included (add them where known): the unknown local g, the
     Earth rate in the bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not
     means); ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
-    result's units (NaN when the poses are given as means) and ``gyr_turn_sampling``, that sampling's std as a
-    share of each turn (0: filtered, or not judged)."""
+    result's units (NaN when the poses are given as means), ``gyr_turn_sampling``, that sampling's std as a share
+    of each turn (0: filtered, or not judged), and ``gyr_images``, the largest share of a turn from a linear
+    interpolation's images (:func:`interpolation_images`; 0 here, where no second file's clock is given)."""
     p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
     return _std(p, rng, n_draws)
 
@@ -675,7 +676,9 @@ def ferraris_from_sections(t_or_rate, acc, gyr, sections, *, with_std: bool = Fa
     gyr_clock : (t_g (M,) array, gyr_g (M, 3) array) or None
         The gyroscope's own times [s] and samples [input units] where ``gyr`` holds them interpolated onto the
         timestamps (a second file on its own clock): each rotation sums them over the span its rows stand for
-        (:func:`_own_clock_integral`). None, or with a rate: the rows.
+        (:func:`_own_clock_integral`), their sampling and, where they were interpolated from the timestamps' clock,
+        that interpolation's images enter the std (:func:`turn_sampling`, :func:`interpolation_images`). None, or
+        with a rate: the rows.
 
     Returns
     -------
