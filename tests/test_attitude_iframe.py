@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from optinav.attitude import AttitudeFilter, estimate_q, estimate
+from optinav.attitude import _iframe as _k
 from optinav.attitude.checks import FrameWarning, _check_clipping
 from optinav.attitude.metrics import heading_error, inclination_error, rmse
 from optinav.attitude.methods import IFRAME_DEFAULTS
@@ -1130,6 +1131,47 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_from_past_samples(tmp_pat
     h = np.degrees(heading_error(gap.q_b_n, q_true))
     assert gap.segments == 2 and gap.mag_hard_iron_from == k and not gap.mag_used[:k].any()
     assert h[k + 500 :].max() < 0.4, h[k + 500 :].max()
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_an_offset_that_appears_mid_recording_is_learned_online(seed):
+    """A magnet put on the board (+30, −20, +15 µT on a 50 µT field, 0.3 µT noise) 5 s before the end of a 20-s
+    rest, then 3-D turning; and one whose offset changes in motion (to −10, 25, 5 µT at 50 s). The online fit summed
+    every sample from the start: the 15 s of rest without the offset pulled it off the sphere, so it never passed
+    its gates (seed 1: the field never used, the heading the gyro's, 57° off) or passed with an offset 42 µT off
+    (seed 3: heading 2.6° off to the end); a change in motion kept the first offset (reported with exit 0). Now
+    only samples taken while the gyro turns enter the fit, and blocks of 2.5 s whose norm spread about the offset
+    in use exceeds the 3 % of a calibrated magnetometer open a candidate fit of the blocks after them (the field
+    unused meanwhile) that replaces the old one once it passes the same gates: the offset within 0.1 µT (measured
+    ≤ 0.03), the heading within 0.5° from 10 s after the fit passed and after the change (measured ≤ 0.32°), the
+    same per sample, in chunks and in :func:`estimate`."""
+    from optinav.attitude.iframe import hard_iron_online
+
+    n, rest, b1, b2 = 9000, 2000, np.array([30.0, -20.0, 15.0]), np.array([-10.0, 25.0, 5.0])
+    w, acc, q = motion(n, seed=seed, amp=0.8, rest=rest)
+    q_true = quat_multiply(quat_from_rotvec([0.0, 0.0, 1.0]), q)
+    rng = np.random.default_rng(seed)
+    field = np.einsum("nji,j->ni", dcm_from_quat(q_true), _mag_n()) + rng.normal(0.0, 0.3, (n, 3))
+    gyr, acc = w + rng.normal(0.0, 0.002, w.shape), acc + rng.normal(0.0, 0.02, acc.shape)
+    on, change = np.arange(n)[:, None] >= 1500, np.arange(n)[:, None] >= 5000
+    for mag, last in ((field + on * b1, b1), (field + np.where(change, b2, b1), b2)):
+        f = AttitudeFilter(RATE, frame="NED", mag_hard_iron="online")
+        r = f.update_batch(gyr, acc, mag)
+        k = f.mag_hard_iron_from
+        assert k is not None and k > rest, k
+        assert np.abs(f.mag_hard_iron - last).max() < 0.1, f.mag_hard_iron
+        h = np.degrees(heading_error(r.q_b_n, q_true))
+        assert h[k + 1000 : 5000].max() < 0.5 and h[6000:].max() < 0.5, (h[k + 1000 : 5000].max(), h[6000:].max())
+        _, fs = hard_iron_online(mag, np.array([DT]), gyr=gyr)
+        assert fs[_k.HF_RESTARTS] == (last is b2), fs[_k.HF_RESTARTS]
+        g = AttitudeFilter(RATE, frame="NED", mag_hard_iron="online")
+        qs = np.empty((n, 4))
+        for i in range(n):
+            g.update(gyr[i], acc[i], mag[i])
+            qs[i] = g.q_b_n
+        est = estimate(gyr, acc, DT, mag=mag, mag_hard_iron="online", checks=False)
+        assert np.max(np.abs(qs - r.q_b_n)) < 1e-12 and np.max(np.abs(est.q_b_n - r.q_b_n)) < 1e-12
+        np.testing.assert_array_equal(est.mag_hard_iron, f.mag_hard_iron)
 
 
 def test_an_uncalibrated_magnetometer_never_turned_about_every_axis_is_refused_online(tmp_path, capsys):

@@ -284,8 +284,8 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_and_subtracted_offline(tm
     with exit 0 and no way to subtract it. The field norm follows the orientation, which a constant offset
     explains. Online it was refused (the whole recording's fit uses future samples); now the offset is fitted from
     past samples and used from the sample where that fit passes its gates (trial 02 turns about its x axis only
-    from 105 s: the magnetometer is unused before), the heading from there within 0.5° of the offset given's
-    (measured 1.00° vs 1.67°); a trial whose field is disturbed throughout (29, a magnet beside it) never passes
+    from 104 s: the magnetometer is unused before), the heading from there within 0.5° of the offset given's
+    (measured 1.07° vs 1.67°); a trial whose field is disturbed throughout (29, a magnet beside it) never passes
     the gates and is refused, naming the offset and the options. Given, and offline (fitted from the whole
     recording), the heading is as good as the trial's own. None of the nine trials (the magnet trials included) is
     taken for one."""
@@ -300,7 +300,7 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_and_subtracted_offline(tm
     k = est.mag_hard_iron_from
     after = np.arange(mag.shape[0]) >= k
     given = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, mag_hard_iron=[30.0, 0.0, 0.0])
-    assert abs(k * tr.dt - 104.8) < 1.0 and not est.mag_used[:k].any()
+    assert abs(k * tr.dt - 103.8) < 1.0 and not est.mag_used[:k].any()
     assert head(est, after) < head(given, after) + 0.5, (head(est, after), head(given, after))
     assert f"(fitted online from past samples; the magnetometer used from sample {k} on" in est.summary()
     disturbed = load_broad(next(p for p in NINE if p.name.startswith("29_")))
@@ -308,7 +308,9 @@ def test_an_uncalibrated_magnetometer_is_fitted_online_and_subtracted_offline(tm
         estimate(disturbed.gyr, disturbed.acc, disturbed.dt, frame="ENU", mag=disturbed.mag + [30.0, 0.0, 0.0])
     b = hard_iron(mag)[0]
     np.testing.assert_allclose(b, [30.0, 0.0, 0.0], atol=1.0)
-    np.testing.assert_allclose(est.mag_hard_iron, b, atol=0.01)  # the fit from past samples ends at the whole one
+    # the fit from past samples, of the rows taken while the gyro turns, ends near the whole one of every row
+    # (29.73, -0.06, 0.09 against 29.69, -0.11, 0.39)
+    np.testing.assert_allclose(est.mag_hard_iron, b, atol=0.5)
     for offline in (False, True):
         own = head(estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=tr.mag, offline=offline))
         kw = {} if offline else {"mag_hard_iron": b}
@@ -337,8 +339,8 @@ def test_an_offset_on_a_magnetometer_with_soft_iron_is_seen_along_every_axis_the
     15 % of |m| left it unexplained (the third by 14.7 % of |m|, which the offset inflates; 18 % of the field), so
     nothing was fitted or said and the online heading was 52° off with exit 0 (offline 48°). Judged against the
     field the fit finds, that axis is seen: the offset is fitted (within 1 µT of the one added, measured 0.7 µT),
-    the online heading after the fit passed (52 s) within 1° of the offset given's (measured 1.80° vs 2.11°), and
-    offline 2.42°."""
+    the online heading after the fit passed (42 s) within 1° of the offset given's and under 3.5° (measured 2.77°
+    vs 2.64°), and offline 2.42°."""
     p = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
     if not p.is_file():
         pytest.skip("BROAD trial 07 is not present")
@@ -351,7 +353,7 @@ def test_an_offset_on_a_magnetometer_with_soft_iron_is_seen_along_every_axis_the
     est = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)
     after = np.arange(mag.shape[0]) >= est.mag_hard_iron_from
     given = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, mag_hard_iron=[30.0, 0.0, 0.0])
-    assert head(est, after) < head(given, after) + 1.0 < 3.5, (head(est, after), head(given, after))
+    assert head(est, after) < min(head(given, after) + 1.0, 3.5), (head(est, after), head(given, after))
     assert head(estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)) < 3.0
 
 
@@ -425,15 +427,19 @@ def test_an_offset_after_a_long_rest_is_not_diluted_out_of_sight():
     with +30 µT on body x: the norm's and the field's spreads were taken over the rows, which the rest outnumbers
     3 to 1, so one axis spread by 12 % (32 % without the rest), no offset was seen, and the online heading was 63°
     off with exit 0. Judged on its distinct fields too, the offset is seen (within 1 µT): offline subtracted (the
-    heading within 1°, measured 0.50°), online refused, naming it, as the fit from past samples, whose sums the
-    rest dilutes too, never passes its gates."""
+    heading within 1°, measured 0.50°). Online it was refused, as the fit from past samples, whose sums the rest
+    diluted too, never passed its gates; it takes only the rows where the gyro turns now, passes as on the trial
+    without the rest (from its 104th s of motion) and the heading is within 1.5° (measured 0.86°, the offset given
+    1.36°)."""
     tr = load_broad(PATH)
     rest = np.tile(np.arange(int(5 * tr.rate_hz)), 120)
     idx = np.r_[rest, np.arange(tr.gyr.shape[0])]
     gyr, acc, mag = tr.gyr[idx], tr.acc[idx], tr.mag[idx] + [30.0, 0.0, 0.0]
     mask = np.r_[np.zeros(rest.size, bool), tr.eval_mask]
-    with pytest.raises(OptinavError, match=r"offset of \[29\.\d+, .*never passed its gates.*--mag-hard-iron=29\."):
-        estimate(gyr, acc, tr.dt, frame="ENU", mag=mag)
+    est = estimate(gyr, acc, tr.dt, frame="ENU", mag=mag)
+    np.testing.assert_allclose(est.mag_hard_iron, [30.0, 0.0, 0.0], atol=1.0)
+    assert abs((est.mag_hard_iron_from - rest.size) * tr.dt - 103.8) < 1.0
+    assert rmse(np.degrees(heading_error(est.q_b_n, tr.q_ref[idx])), mask) < 1.5
     est = estimate(gyr, acc, tr.dt, frame="ENU", mag=mag, offline=True)
     np.testing.assert_allclose(est.mag_hard_iron, [30.0, 0.0, 0.0], atol=1.0)
     assert rmse(np.degrees(heading_error(est.q_b_n, tr.q_ref[idx])), mask) < 1.0
@@ -460,7 +466,7 @@ def test_an_uncalibrated_magnetometer_on_a_streamed_file(tmp_path, capsys):
     b = ", ".join(f"{v:.4g}" for v in mem.mag_hard_iron)
     assert f"[{b}] subtracted (fitted online from past samples; the magnetometer used from sample {k} on" in line
     q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1:5]
-    assert k == 29951 and np.nanmax(np.degrees(heading_error(q, mem.q_b_n))) < 1e-3
+    assert k == 29663 and np.nanmax(np.degrees(heading_error(q, mem.q_b_n))) < 1e-3
     b = hard_iron(mag[:n])[0]
     given = ",".join(f"{v:.4g}" for v in b)
     for extra, how in (([f"--mag-hard-iron={given}"], "given"), (["--offline"], "fitted from the recording's")):
@@ -503,7 +509,7 @@ def test_a_batch_row_says_the_hard_iron_offset_and_from_which_sample(tmp_path):
         mem = estimate(back[:, 1:4], back[:, 4:7], tr.dt, frame="ENU", mag=back[:, 7:10], offline=bool(extra))
         raw = got["raw"]
         np.testing.assert_allclose([raw[f"mag_hard_iron_{a}"] for a in "xyz"], mem.mag_hard_iron, atol=1e-6)
-        assert raw.get("mag_hard_iron_from") == mem.mag_hard_iron_from == (None if extra else 29951), raw
+        assert raw.get("mag_hard_iron_from") == mem.mag_hard_iron_from == (None if extra else 29663), raw
         cal = got["calibrated"]
         assert all(cal.get(k) is None for k in ("mag_hard_iron_x", "mag_hard_iron_from")), cal
 
@@ -2647,6 +2653,23 @@ def test_a_magnet_taken_off_in_the_rest_after_the_motion_runs_offline_one_kept_o
                 estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag, offline=True)
             r = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=mag)  # online the field before it is the reference
             assert rmse(np.degrees(heading_error(r.q_b_n, tr.q_ref)), tr.eval_mask) < 1.5
+
+
+@pytest.mark.parametrize(("name", "limit"), [("02", 1.5), ("24", 2.5)])
+def test_a_magnet_put_on_in_the_rest_before_the_motion_is_learned_online(name, limit):
+    """+30 µT on body x from 30 s, in the rest before the motion (02 turns from 38 s, 24 from 40 s): the online fit
+    summed every sample from the start, so the 30 s of rest without the offset, a cluster off the sphere of the
+    field with it, held it at 18.5 and 16.1 µT (its refinements then failed the spread gate) and the heading ran at
+    35.7° and 25.2° RMSE with exit 0 (as recorded 1.35° and 1.14°). Only samples taken while the gyro turns enter
+    the fit now: the offset within 1 µT (measured 29.7 and 29.5 on x), the heading at 0.86° and 1.89°."""
+    p = next((q for q in NINE if q.name.startswith(name + "_")), None)
+    if p is None:
+        pytest.skip(f"BROAD trial {name} is not present")
+    tr = load_broad(p)
+    est = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU", mag=_offset_from(tr, 30.0, [30.0, 0.0, 0.0]))
+    np.testing.assert_allclose(est.mag_hard_iron, [30.0, 0.0, 0.0], atol=1.5)
+    assert abs(est.mag_hard_iron[0] - 30.0) < 1.0 and est.mag_hard_iron_from * tr.dt > 38.0
+    assert rmse(np.degrees(heading_error(est.q_b_n, tr.q_ref)), tr.eval_mask) < limit
 
 
 def test_a_magnet_held_at_rest_before_the_motion_is_learned_online_and_refused():

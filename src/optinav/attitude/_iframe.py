@@ -20,6 +20,7 @@ import numpy as np
 from optinav.attitude.checks import MAG_OFFSET as HF_MAG_OFFSET
 from optinav.attitude.checks import MAG_SEEN_SPREAD as HF_SEEN_SPREAD
 from optinav.attitude.checks import MAG_SPREAD as HF_MAG_SPREAD
+from optinav.attitude.checks import STILL_RATE as HF_STILL_RATE
 from optinav.core._quat import qmul as _qmul
 from optinav.core._quat import rv2q as _rotvec_q
 
@@ -976,27 +977,38 @@ def azimuth_scatter(d, out, used, acc):
 
 
 # --- a hard-iron offset fitted online from past samples (an uncalibrated magnetometer) ---------------------------
-# the sphere fit |m − b|² = r² of checks.hard_iron, accumulated sample by sample as moments about the first field
-# c: n, Σm', Σm'm'ᵀ (6: xx yy zz xy xz yz), Σy, Σy·m' (3), Σy² with m' = m − c, y = |m'|²; then the time since the
-# last solve (s), the offset b (3), 1 once valid, the rows seen and the row from which the field was used less b
+# the sphere fit |m − b|² = r² of checks.hard_iron over the samples taken while the body turns, accumulated as
+# moments about the first field c, each block of HF_MOM numbers n, Σm', Σm'm'ᵀ (6: xx yy zz xy xz yz), Σy, Σy·m'
+# (3), Σy² with m' = m − c, y = |m'|²: the fit's block; the time since the last solve (s), the offset b (3), 1 once
+# valid, the rows seen and the row from which the field was used less b; the current block (HF_BLOCK s), a
+# candidate fit (the blocks since the offset stopped explaining them), a scratch block; the current block's time
+# (s), 1 while a candidate is open, the restarts, the row of the last one and the row the open candidate was
+# opened at
 HF_C, HF_SET, HF_N, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 4, 5, 8, 14, 15, 18
 HF_T, HF_B, HF_OK, HF_ROWS, HF_FROM = 19, 20, 23, 24, 25
-HF_SIZE = 26
+HF_MOM = 15
+HF_BLK, HF_CAND, HF_TMP = 26, 41, 56
+HF_BLK_T, HF_OPEN, HF_RESTARTS, HF_RESTART_ROW, HF_OPEN_ROW = 71, 72, 73, 74, 75
+HF_SIZE = 76
 #: s between two solves of the online fit (a 3×3 eigenvalue problem: out of the per-sample loop)
 HF_EVERY = 0.25
+#: s of samples judged together against the offset in use (BROAD's 2.5-s blocks in motion spread the field by
+#: 3-37 % of its norm along their widest axis: an offset change of a tenth of the field spreads its norm about the
+#: old offset beyond the 3 % of MAG_SPREAD where they turn it by a third)
+HF_BLOCK = 2.5
 
 
 @numba.njit(**_NJ)
-def _hf_stats(fs, b0, b1, b2):
-    """Mean and variance of |m − b|² over the fit's samples, from its moments (b in the field's unit)."""
-    n = fs[HF_N]
+def _hf_stats(fs, k, b0, b1, b2):
+    """Mean and variance of |m − b|² over the samples of the moments block at ``fs[k:]`` (b in the field's unit)."""
+    n = fs[k]
     p0, p1, p2 = b0 - fs[HF_C], b1 - fs[HF_C + 1], b2 - fs[HF_C + 2]  # b about the first field
-    m0, m1, m2 = fs[HF_M] / n, fs[HF_M + 1] / n, fs[HF_M + 2] / n
-    c00, c11, c22 = fs[HF_MM] / n - m0 * m0, fs[HF_MM + 1] / n - m1 * m1, fs[HF_MM + 2] / n - m2 * m2
-    c01, c02, c12 = fs[HF_MM + 3] / n - m0 * m1, fs[HF_MM + 4] / n - m0 * m2, fs[HF_MM + 5] / n - m1 * m2
-    yb = fs[HF_Y] / n
-    cy0, cy1, cy2 = fs[HF_YM] / n - m0 * yb, fs[HF_YM + 1] / n - m1 * yb, fs[HF_YM + 2] / n - m2 * yb
-    vy = fs[HF_YY] / n - yb * yb
+    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
+    c00, c11, c22 = fs[k + 4] / n - m0 * m0, fs[k + 5] / n - m1 * m1, fs[k + 6] / n - m2 * m2
+    c01, c02, c12 = fs[k + 7] / n - m0 * m1, fs[k + 8] / n - m0 * m2, fs[k + 9] / n - m1 * m2
+    yb = fs[k + 10] / n
+    cy0, cy1, cy2 = fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb
+    vy = fs[k + 14] / n - yb * yb
     mean = yb - 2.0 * (p0 * m0 + p1 * m1 + p2 * m2) + p0 * p0 + p1 * p1 + p2 * p2
     pcp = p0 * p0 * c00 + p1 * p1 * c11 + p2 * p2 * c22 + 2.0 * (p0 * p1 * c01 + p0 * p2 * c02 + p1 * p2 * c12)
     var = vy - 4.0 * (p0 * cy0 + p1 * cy1 + p2 * cy2) + 4.0 * pcp
@@ -1004,91 +1016,188 @@ def _hf_stats(fs, b0, b1, b2):
 
 
 @numba.njit(**_NJ)
-def _hf_solve(fs):
-    """Solve the online fit from its moments and judge it with the gates of ``checks.hard_iron`` (norm spread
-    beyond MAG_SPREAD, halved by the offset, which is beyond MAG_OFFSET of the field), every body axis seen
-    (the field's spread beyond MAG_SEEN_SPREAD of its fitted radius along each: an axis not yet turned about
-    leaves the offset along it unknown) and the field less the offset as steady as a calibrated one (its norm's spread at most
-    MAG_SPREAD). Spreads from the moments: std |m − b| ≈ std |m − b|² / (2 mean |m − b|²). Sets the offset and
-    returns True when it passes; else leaves the last one."""
-    n = fs[HF_N]
-    if n < 100.0:
-        return False
-    mz0, vz0 = _hf_stats(fs, 0.0, 0.0, 0.0)
-    if not mz0 > 0.0:
-        return False
-    s0 = math.sqrt(max(vz0, 0.0)) / (2.0 * mz0)
-    if s0 <= HF_MAG_SPREAD:
-        return False
-    m0, m1, m2 = fs[HF_M] / n, fs[HF_M + 1] / n, fs[HF_M + 2] / n
+def _hf_spread(fs, k, b0, b1, b2):
+    """The norm spread std |m − b| / mean |m − b| of the block at ``fs[k:]`` from its moments (std |m − b| ≈ std
+    |m − b|² / (2 mean |m − b|²)); inf when it holds no sample."""
+    if fs[k] < 1.0:
+        return math.inf
+    mean, var = _hf_stats(fs, k, b0, b1, b2)
+    if not mean > 0.0:
+        return math.inf
+    return math.sqrt(max(var, 0.0)) / (2.0 * mean)
+
+
+@numba.njit(**_NJ)
+def _hf_cov(fs, k):
+    """The field's covariance (3, 3) over the samples of the block at ``fs[k:]``."""
+    n = fs[k]
+    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
     C = np.empty((3, 3))
-    C[0, 0], C[1, 1], C[2, 2] = fs[HF_MM] / n - m0 * m0, fs[HF_MM + 1] / n - m1 * m1, fs[HF_MM + 2] / n - m2 * m2
-    C[0, 1] = C[1, 0] = fs[HF_MM + 3] / n - m0 * m1
-    C[0, 2] = C[2, 0] = fs[HF_MM + 4] / n - m0 * m2
-    C[1, 2] = C[2, 1] = fs[HF_MM + 5] / n - m1 * m2
+    C[0, 0], C[1, 1], C[2, 2] = fs[k + 4] / n - m0 * m0, fs[k + 5] / n - m1 * m1, fs[k + 6] / n - m2 * m2
+    C[0, 1] = C[1, 0] = fs[k + 7] / n - m0 * m1
+    C[0, 2] = C[2, 0] = fs[k + 8] / n - m0 * m2
+    C[1, 2] = C[2, 1] = fs[k + 9] / n - m1 * m2
+    return C
+
+
+@numba.njit(**_NJ)
+def _hf_fit(fs, k, out):
+    """The sphere fit of the block at ``fs[k:]`` into ``out`` (3) when its samples turned the field about every
+    body axis by MAG_SEEN_SPREAD of the fitted radius r, not of |m|, which the offset inflates (BROAD 02 with (100,
+    -80, 60) µT never passed: refused, though the offset is fitted within 0.5 µT; a wrong offset δ along an axis the
+    field spreads σ along leaves |m − b| spread by about δσ/r², so with a spread gate of MAG_SPREAD δ stays under
+    0.03 r² / σ < 0.2 r). Returns the norm spread about ``out`` (:func:`_hf_spread`), inf when not fitted."""
+    n = fs[k]
+    if n < 100.0:
+        return math.inf
+    mz0, _ = _hf_stats(fs, k, 0.0, 0.0, 0.0)
+    if not mz0 > 0.0:
+        return math.inf
+    C = _hf_cov(fs, k)
     low = np.linalg.eigvalsh(C)[0]
     if not low > 1e-12 * mz0:  # not turned at all about one axis: no fit
-        return False
-    yb = fs[HF_Y] / n
-    cy = np.array([fs[HF_YM] / n - m0 * yb, fs[HF_YM + 1] / n - m1 * yb, fs[HF_YM + 2] / n - m2 * yb])
+        return math.inf
+    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
+    yb = fs[k + 10] / n
+    cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
     # 2 (m − m̄)·(b − c) = y − ȳ in the least-squares sense: C (b − c) = cov(m, y) / 2
     d = np.linalg.solve(C, 0.5 * cy)
-    b0, b1, b2 = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
-    r2, vz1 = _hf_stats(fs, b0, b1, b2)
-    # every axis turned about by MAG_SEEN_SPREAD of the field, r, not of |m|, which the offset inflates (BROAD 02
-    # with (100, -80, 60) µT never passed: refused, though the offset is fitted within 0.5 µT). A wrong offset δ
-    # along an axis the field spreads σ along leaves |m − b| spread by about δσ/r², so with the spread gate below
-    # δ stays under 0.03 r² / σ < 0.2 r
+    out[0], out[1], out[2] = fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2]
+    r2, _ = _hf_stats(fs, k, out[0], out[1], out[2])
     if not (r2 > 0.0 and low > (HF_SEEN_SPREAD * HF_SEEN_SPREAD) * r2):
+        return math.inf
+    return _hf_spread(fs, k, out[0], out[1], out[2])
+
+
+@numba.njit(**_NJ)
+def _hf_solve(fs, k):
+    """Solve the online fit from the moments at ``fs[k:]`` and judge it with the gates of ``checks.hard_iron``
+    (norm spread beyond MAG_SPREAD, halved by the offset, which is beyond MAG_OFFSET of the field), every body axis
+    seen (:func:`_hf_fit`: an axis not yet turned about leaves the offset along it unknown) and the field less the
+    offset as steady as a calibrated one (its norm's spread at most MAG_SPREAD). Sets the offset and returns True
+    when it passes; else leaves the last one."""
+    s0 = _hf_spread(fs, k, 0.0, 0.0, 0.0)
+    if not (fs[k] >= 100.0 and HF_MAG_SPREAD < s0 < math.inf):
         return False
-    s1 = math.sqrt(max(vz1, 0.0)) / (2.0 * r2)
-    if not (s1 < 0.5 * s0 and s1 <= HF_MAG_SPREAD and b0 * b0 + b1 * b1 + b2 * b2 > HF_MAG_OFFSET**2 * r2):
+    b = np.empty(3)
+    s1 = _hf_fit(fs, k, b)
+    if not (s1 < 0.5 * s0 and s1 <= HF_MAG_SPREAD):
         return False
-    fs[HF_B], fs[HF_B + 1], fs[HF_B + 2] = b0, b1, b2
+    r2, _ = _hf_stats(fs, k, b[0], b[1], b[2])
+    if not b[0] * b[0] + b[1] * b[1] + b[2] * b[2] > HF_MAG_OFFSET**2 * r2:
+        return False
+    fs[HF_B], fs[HF_B + 1], fs[HF_B + 2] = b[0], b[1], b[2]
     return True
 
 
 @numba.njit(**_NJ)
-def hard_iron_online(fs, mx, my, mz, h):
-    """One magnetometer sample (any unit; NaN: none) after a step of h s into the online offset fit ``fs``
-    (HF_SIZE): the field less the offset fitted from this and the earlier samples, NaN until the fit has passed
-    its gates (:func:`_hf_solve`, every HF_EVERY s), then refined at each solve that passes."""
+def _hf_add(fs, k, x, y, z, q):
+    """Add the sample m' = (x, y, z) with q = |m'|² to the moments block at ``fs[k:]``."""
+    fs[k] += 1.0
+    fs[k + 1] += x
+    fs[k + 2] += y
+    fs[k + 3] += z
+    fs[k + 4] += x * x
+    fs[k + 5] += y * y
+    fs[k + 6] += z * z
+    fs[k + 7] += x * y
+    fs[k + 8] += x * z
+    fs[k + 9] += y * z
+    fs[k + 10] += q
+    fs[k + 11] += q * x
+    fs[k + 12] += q * y
+    fs[k + 13] += q * z
+    fs[k + 14] += q * q
+
+
+@numba.njit(**_NJ)
+def _hf_merge(fs, dst, a, b):
+    """The moments block at ``fs[dst:]`` set to the sum of those at ``fs[a:]`` and ``fs[b:]`` (b < 0: none)."""
+    for j in range(HF_MOM):
+        fs[dst + j] = fs[a + j] + (fs[b + j] if b >= 0 else 0.0)
+
+
+@numba.njit(**_NJ)
+def _hf_close(fs):
+    """Close the candidate of :func:`_hf_block_end` (its moments cleared)."""
+    fs[HF_OPEN] = 0.0
+    for j in range(HF_MOM):
+        fs[HF_CAND + j] = 0.0
+
+
+@numba.njit(**_NJ)
+def _hf_block_end(fs):
+    """Close the current block into the fit. With an offset in use, a block of at least 100 samples whose norm
+    spread about it exceeds MAG_SPREAD opens a candidate (the field unused meanwhile: the heading the gyro's), which
+    gathers the blocks after it (not that one, which may straddle the change) until their own fit passes the gates
+    of :func:`_hf_fit` with a spread at most MAG_SPREAD and under half the old offset's: it then becomes the fit
+    with its offset (a restart). Once its samples have turned about every axis (:func:`_hf_fit` finite) and the old
+    offset explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset)."""
+    if fs[HF_OPEN] == 0.0:
+        _hf_merge(fs, HF_N, HF_N, HF_BLK)
+    if fs[HF_OK] != 0.0 and fs[HF_BLK] >= 100.0:
+        b0, b1, b2 = fs[HF_B], fs[HF_B + 1], fs[HF_B + 2]
+        if fs[HF_OPEN] == 0.0:
+            if _hf_spread(fs, HF_BLK, b0, b1, b2) > HF_MAG_SPREAD:
+                fs[HF_OPEN] = 1.0
+                fs[HF_OPEN_ROW] = fs[HF_ROWS] - 1.0
+        else:
+            _hf_merge(fs, HF_CAND, HF_CAND, HF_BLK)
+            b = np.empty(3)
+            s1 = _hf_fit(fs, HF_CAND, b)
+            s_old = _hf_spread(fs, HF_CAND, b0, b1, b2)
+            if s1 <= HF_MAG_SPREAD and s1 < 0.5 * s_old:
+                _hf_merge(fs, HF_N, HF_CAND, -1)
+                fs[HF_B], fs[HF_B + 1], fs[HF_B + 2] = b[0], b[1], b[2]
+                fs[HF_RESTARTS] += 1.0
+                fs[HF_RESTART_ROW] = fs[HF_ROWS] - 1.0
+                _hf_close(fs)
+            elif s1 < math.inf and s_old <= HF_MAG_SPREAD:
+                _hf_close(fs)
+    for j in range(HF_MOM):
+        fs[HF_BLK + j] = 0.0
+
+
+@numba.njit(**_NJ)
+def hard_iron_online(fs, mx, my, mz, h, w):
+    """One magnetometer sample (any unit; NaN: none) after a step of h s, the body turning at ``w`` rad/s (|ω|;
+    NaN: not known), into the online offset fit ``fs`` (HF_SIZE): the field less the offset fitted from this and
+    the earlier samples, NaN until the fit has passed its gates (:func:`_hf_solve`, every HF_EVERY s), then refined
+    at each solve that passes; NaN while the recent samples show another offset, until their own fit restarts it
+    (:func:`_hf_block_end`). Only samples taken while the body turns faster than STILL_RATE enter the fit: at rest
+    the field sits at one point of the sphere and says nothing of the offset but, weighted by its time, pulls the
+    fit there (30 s of rest before a magnet came on held BROAD 02's online fit at 18.5 of 30 µT, heading 35.7°)."""
     fs[HF_T] += h
+    fs[HF_BLK_T] += h
     fs[HF_ROWS] += 1.0
-    if not math.isfinite(mx + my + mz):
-        return math.nan, math.nan, math.nan
-    if fs[HF_SET] == 0.0:
-        fs[HF_C], fs[HF_C + 1], fs[HF_C + 2], fs[HF_SET] = mx, my, mz, 1.0
-    x, y, z = mx - fs[HF_C], my - fs[HF_C + 1], mz - fs[HF_C + 2]
-    q = x * x + y * y + z * z
-    fs[HF_N] += 1.0
-    fs[HF_M] += x
-    fs[HF_M + 1] += y
-    fs[HF_M + 2] += z
-    fs[HF_MM] += x * x
-    fs[HF_MM + 1] += y * y
-    fs[HF_MM + 2] += z * z
-    fs[HF_MM + 3] += x * y
-    fs[HF_MM + 4] += x * z
-    fs[HF_MM + 5] += y * z
-    fs[HF_Y] += q
-    fs[HF_YM] += q * x
-    fs[HF_YM + 1] += q * y
-    fs[HF_YM + 2] += q * z
-    fs[HF_YY] += q * q
+    finite = math.isfinite(mx + my + mz)
+    if finite and not w <= HF_STILL_RATE:
+        if fs[HF_SET] == 0.0:
+            fs[HF_C], fs[HF_C + 1], fs[HF_C + 2], fs[HF_SET] = mx, my, mz, 1.0
+        x, y, z = mx - fs[HF_C], my - fs[HF_C + 1], mz - fs[HF_C + 2]
+        _hf_add(fs, HF_BLK, x, y, z, x * x + y * y + z * z)
     if fs[HF_T] >= HF_EVERY:
         fs[HF_T] = 0.0
-        if _hf_solve(fs) and fs[HF_OK] == 0.0:
-            fs[HF_OK] = 1.0
-            fs[HF_FROM] = fs[HF_ROWS] - 1.0
-    if fs[HF_OK] == 0.0:
+        if fs[HF_OPEN] == 0.0:
+            _hf_merge(fs, HF_TMP, HF_N, HF_BLK)  # the fit's blocks and the current one so far
+            if _hf_solve(fs, HF_TMP) and fs[HF_OK] == 0.0:
+                fs[HF_OK] = 1.0
+                fs[HF_FROM] = fs[HF_ROWS] - 1.0
+    if fs[HF_BLK_T] >= HF_BLOCK:
+        fs[HF_BLK_T] = 0.0
+        _hf_block_end(fs)
+    if fs[HF_OK] == 0.0 or fs[HF_OPEN] != 0.0 or not finite:
         return math.nan, math.nan, math.nan
     return mx - fs[HF_B], my - fs[HF_B + 1], mz - fs[HF_B + 2]
 
 
 @numba.njit(**_NJ)
-def hard_iron_online_run(fs, mag, dt, out):
-    """:func:`hard_iron_online` over the rows of ``mag`` (N, 3) with the steps ``dt`` (1 or N s): ``out`` (N, 3)."""
+def hard_iron_online_run(fs, mag, dt, gyr, out):
+    """:func:`hard_iron_online` over the rows of ``mag`` (N, 3) with the steps ``dt`` (1 or N s) and the gyro
+    ``gyr`` (N, 3 rad/s; 0 rows: not known): ``out`` (N, 3)."""
     one = dt.shape[0] == 1
+    has = gyr.shape[0] > 0
     for i in range(mag.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = hard_iron_online(fs, mag[i, 0], mag[i, 1], mag[i, 2], dt[0] if one else dt[i])
+        w = math.sqrt(gyr[i, 0] ** 2 + gyr[i, 1] ** 2 + gyr[i, 2] ** 2) if has else math.nan
+        h = dt[0] if one else dt[i]
+        out[i, 0], out[i, 1], out[i, 2] = hard_iron_online(fs, mag[i, 0], mag[i, 1], mag[i, 2], h, w)

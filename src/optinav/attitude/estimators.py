@@ -712,7 +712,7 @@ def estimate(
         # each gap a typical step (as the segments take it, and a log read in blocks)
         fit_dt = dts.copy() if gaps.size else dts
         fit_dt[gaps] = np.median(dts)
-        raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt)
+        raw, (mag, fs) = mag, hard_iron_online(mag, fit_dt, gyr=gyr)
         mag_hard_iron, hi_from = online_fit_result(fs)
         if hi_from is None:
             raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])

@@ -192,15 +192,19 @@ def _run(st, par, gyr, acc, mag, dts) -> FilterRun:
     return FilterRun(out, f[:, 0], f[:, 1], f[:, 2], bias, st, mag_offset=moff if mag.shape[0] else None)
 
 
-def hard_iron_online(mag, dts, fit=None) -> tuple[np.ndarray, np.ndarray]:
+def hard_iron_online(mag, dts, fit=None, gyr=None) -> tuple[np.ndarray, np.ndarray]:
     """The magnetometer (N, 3, any unit) less its hard-iron offset fitted online, each row from itself and the rows
     before it (:func:`_iframe.hard_iron_online`: the sphere fit of :func:`optinav.attitude.checks.hard_iron` as
-    running moments, solved every 0.25 s of the steps ``dts`` (s, 1 or N), used once it passes the same gates with
-    every body axis turned about and the corrected norm as steady as a calibrated one; NaN rows before); and the
-    fit's state ``fit`` (:data:`_iframe.HF_SIZE`; a new one when None, else continued in place)."""
+    running moments over the rows where the gyro ``gyr`` (N, 3) [rad/s] turns faster than
+    :data:`~optinav.attitude.checks.STILL_RATE` (None: every row), solved every 0.25 s of the steps ``dts`` (s, 1
+    or N), used once it passes the same gates with every body axis turned about and the corrected norm as steady
+    as a calibrated one, and restarted from the recent rows when they show another offset; NaN rows before, and
+    while the recent rows show another offset not yet fitted); and the fit's state ``fit``
+    (:data:`_iframe.HF_SIZE`; a new one when None, else continued in place)."""
     fs = np.zeros(_k.HF_SIZE) if fit is None else fit
     out = np.empty(mag.shape)
-    _k.hard_iron_online_run(fs, np.ascontiguousarray(mag, dtype=float), np.ascontiguousarray(dts, dtype=float), out)
+    w = np.zeros((0, 3)) if gyr is None else np.ascontiguousarray(gyr, dtype=float)
+    _k.hard_iron_online_run(fs, np.ascontiguousarray(mag, dtype=float), np.ascontiguousarray(dts, dtype=float), w, out)
     return out, fs
 
 
@@ -653,7 +657,8 @@ class AttitudeFilter(StreamGaps):
             b = self._hi
             mag = (mag[0] - b[0], mag[1] - b[1], mag[2] - b[2])
         elif mag is not None and self._fit is not None:
-            mag = self._fit_step(self._fit, float(mag[0]), float(mag[1]), float(mag[2]), float(h))
+            w = math.sqrt(float(gyr[0]) ** 2 + float(gyr[1]) ** 2 + float(gyr[2]) ** 2)
+            mag = self._fit_step(self._fit, float(mag[0]), float(mag[1]), float(mag[2]), float(h), w)
         if mag is None and type(gyr) is not list and type(acc) is not list:  # arrays and tuples as they are
             ok = self._step6(self._state, self._par, gyr, acc, h)
         elif mag is not None and type(gyr) is not list and type(acc) is not list and type(mag) is not list:
@@ -718,7 +723,7 @@ class AttitudeFilter(StreamGaps):
         if m is not None and self._given is not None:
             m = m - self._given
         elif m is not None and self._fit is not None:
-            m, _ = hard_iron_online(m, d, self._fit)
+            m, _ = hard_iron_online(m, d, self._fit, g)
         r = _run(self._state, self._par, g, a, np.zeros((0, 3)) if m is None else m, d)
         r.state = self._state.copy()  # the chunk's end state, not the filter's live one
         r.mag_used = None if m is None else r.mag_used  # no magnetometer given: None, as estimate() reports it

@@ -373,7 +373,7 @@ class StreamEstimator:
         elif mag is not None and self._fit is not None:
             from optinav.attitude.iframe import hard_iron_online
 
-            raw, (mag, _) = mag, hard_iron_online(mag, dts, self._fit)
+            raw, (mag, _) = mag, hard_iron_online(mag, dts, self._fit, gyr)
         if self._filter is None:
             self._filter = self._new_filter()
             self.segments += 1
