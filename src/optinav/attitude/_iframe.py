@@ -982,14 +982,16 @@ def azimuth_scatter(d, out, used, acc):
 # (3), Σy² with m' = m − c, y = |m'|²: the fit's block; the time since the last solve (s), the offset b (3), 1 once
 # valid, the rows seen and the row from which the field was used less b; the current block (HF_BLOCK s), a
 # candidate fit (the blocks since the offset stopped explaining them), a scratch block; the current block's time
-# (s), 1 while a candidate is open, the restarts, the row of the last one and the row the open candidate was
-# opened at
+# (s), 1 while a candidate is open, the restarts, the row of the last one, the row the open candidate was opened
+# at, 1 while a younger fit gathers blocks beside one that turned every way and never passed; the last block; the
+# time (s) the field has been held unused, and 1 while it is (the open candidate shows another offset)
 HF_C, HF_SET, HF_N, HF_M, HF_MM, HF_Y, HF_YM, HF_YY = 0, 3, 4, 5, 8, 14, 15, 18
 HF_T, HF_B, HF_OK, HF_ROWS, HF_FROM = 19, 20, 23, 24, 25
 HF_MOM = 15
 HF_BLK, HF_CAND, HF_TMP = 26, 41, 56
-HF_BLK_T, HF_OPEN, HF_RESTARTS, HF_RESTART_ROW, HF_OPEN_ROW = 71, 72, 73, 74, 75
-HF_SIZE = 76
+HF_BLK_T, HF_OPEN, HF_RESTARTS, HF_RESTART_ROW, HF_OPEN_ROW, HF_YOUNG = 71, 72, 73, 74, 75, 76
+HF_LAST, HF_OPEN_T, HF_HELD = 77, 92, 93
+HF_SIZE = 94
 #: s between two solves of the online fit (a 3×3 eigenvalue problem: out of the per-sample loop)
 HF_EVERY = 0.25
 #: s of samples judged together against the offset in use (BROAD's 2.5-s blocks in motion spread the field by
@@ -1070,6 +1072,35 @@ def _hf_fit(fs, k, out):
 
 
 @numba.njit(**_NJ)
+def _hf_partial(fs, k, b0, b1, b2):
+    """The norm spread of the block at ``fs[k:]`` about the offset fitted along the directions its samples turned
+    the field along by MAG_SEEN_SPREAD of the field (|m − b| about b = (b0, b1, b2)), b kept along the others: how
+    well another offset explains samples that have not turned about every axis (inf when along none)."""
+    n = fs[k]
+    if n < 100.0:
+        return math.inf
+    r2, _ = _hf_stats(fs, k, b0, b1, b2)
+    w, V = np.linalg.eigh(_hf_cov(fs, k))
+    m0, m1, m2 = fs[k + 1] / n, fs[k + 2] / n, fs[k + 3] / n
+    yb = fs[k + 10] / n
+    cy = np.array([fs[k + 11] / n - m0 * yb, fs[k + 12] / n - m1 * yb, fs[k + 13] / n - m2 * yb])
+    # b − c = Σ over seen directions v (v·cov(m, y)/2)/λ v, plus the old offset's part along the unseen ones
+    p = np.array([b0 - fs[HF_C], b1 - fs[HF_C + 1], b2 - fs[HF_C + 2]])
+    d = np.zeros(3)
+    seen = 0
+    for i in range(3):
+        v = V[:, i]
+        if w[i] > HF_SEEN_SPREAD * HF_SEEN_SPREAD * r2:
+            d += (0.5 * np.dot(v, cy) / w[i]) * v
+            seen += 1
+        else:
+            d += np.dot(v, p) * v
+    if seen == 0:
+        return math.inf
+    return _hf_spread(fs, k, fs[HF_C] + d[0], fs[HF_C + 1] + d[1], fs[HF_C + 2] + d[2])
+
+
+@numba.njit(**_NJ)
 def _hf_solve(fs, k):
     """Solve the online fit from the moments at ``fs[k:]`` and judge it with the gates of ``checks.hard_iron``
     (norm spread beyond MAG_SPREAD, halved by the offset, which is beyond MAG_OFFSET of the field), every body axis
@@ -1118,9 +1149,26 @@ def _hf_merge(fs, dst, a, b):
 
 
 @numba.njit(**_NJ)
+def _hf_first(fs, k):
+    """The first offset from the moments at ``fs[k:]`` (:func:`_hf_solve`), taken only when the last block and
+    the current one (those of 100 samples or more) are explained by it too (norm spread about it within
+    MAG_SPREAD): a fit over samples of two offsets can pass the gates between them (BROAD 07 with +30 µT on x
+    from 60 s: 16.8 µT from 10 s before the change and 5 s after, the heading 20° off at once). Sets the offset in
+    use and the row it is used from; returns True then."""
+    if not _hf_solve(fs, k):
+        return False
+    for j in (HF_LAST, HF_BLK):
+        if fs[j] >= 100.0 and _hf_spread(fs, j, fs[HF_B], fs[HF_B + 1], fs[HF_B + 2]) > HF_MAG_SPREAD:
+            return False
+    fs[HF_OK], fs[HF_YOUNG] = 1.0, 0.0
+    fs[HF_FROM] = fs[HF_ROWS] - 1.0
+    return True
+
+
+@numba.njit(**_NJ)
 def _hf_close(fs):
     """Close the candidate of :func:`_hf_block_end` (its moments cleared)."""
-    fs[HF_OPEN] = 0.0
+    fs[HF_OPEN] = fs[HF_HELD] = 0.0
     for j in range(HF_MOM):
         fs[HF_CAND + j] = 0.0
 
@@ -1132,15 +1180,29 @@ def _hf_block_end(fs):
     gathers the blocks after it (not that one, which may straddle the change) until their own fit passes the gates
     of :func:`_hf_fit` with a spread at most MAG_SPREAD and under half the old offset's: it then becomes the fit
     with its offset (a restart). Once its samples have turned about every axis (:func:`_hf_fit` finite) and the old
-    offset explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset)."""
+    offset explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset).
+
+    Before any offset is in use, a fit that has turned about every axis and still fails the gates holds samples
+    of another offset (BROAD 07 turns from 29.3 s: +30 µT on x from 30 s left 0.7 s without it in the sums, and the
+    fit never passed): a younger fit gathers the blocks from then on and, once it has turned about every axis
+    itself, replaces the older one (used at once if it passes the gates), the next younger one starting anew."""
     if fs[HF_OPEN] == 0.0:
         _hf_merge(fs, HF_N, HF_N, HF_BLK)
+    if fs[HF_OK] == 0.0:
+        b = np.empty(3)
+        if fs[HF_YOUNG] != 0.0:
+            _hf_merge(fs, HF_CAND, HF_CAND, HF_BLK)
+            if _hf_fit(fs, HF_CAND, b) < math.inf:
+                _hf_merge(fs, HF_N, HF_CAND, -1)
+                _hf_close(fs)
+                _hf_first(fs, HF_N)
+        elif _hf_fit(fs, HF_N, b) < math.inf:
+            fs[HF_YOUNG] = 1.0
     if fs[HF_OK] != 0.0 and fs[HF_BLK] >= 100.0:
         b0, b1, b2 = fs[HF_B], fs[HF_B + 1], fs[HF_B + 2]
         if fs[HF_OPEN] == 0.0:
             if _hf_spread(fs, HF_BLK, b0, b1, b2) > HF_MAG_SPREAD:
                 fs[HF_OPEN] = 1.0
-                fs[HF_OPEN_ROW] = fs[HF_ROWS] - 1.0
         else:
             _hf_merge(fs, HF_CAND, HF_CAND, HF_BLK)
             b = np.empty(3)
@@ -1154,8 +1216,17 @@ def _hf_block_end(fs):
                 _hf_close(fs)
             elif s1 < math.inf and s_old <= HF_MAG_SPREAD:
                 _hf_close(fs)
+            else:
+                # held unused while another offset explains the candidate along the axes it turned about; a field
+                # that none explains is disturbed there, used less the old offset (the norm and dip gates judge it)
+                sp = _hf_partial(fs, HF_CAND, b0, b1, b2)
+                held = sp <= HF_MAG_SPREAD and sp < 0.5 * s_old
+                if held and fs[HF_HELD] == 0.0:
+                    fs[HF_OPEN_T] = 0.0
+                    fs[HF_OPEN_ROW] = fs[HF_ROWS] - 1.0
+                fs[HF_HELD] = 1.0 if held else 0.0
     for j in range(HF_MOM):
-        fs[HF_BLK + j] = 0.0
+        fs[HF_LAST + j], fs[HF_BLK + j] = fs[HF_BLK + j], 0.0
 
 
 @numba.njit(**_NJ)
@@ -1170,6 +1241,8 @@ def hard_iron_online(fs, mx, my, mz, h, w):
     fs[HF_T] += h
     fs[HF_BLK_T] += h
     fs[HF_ROWS] += 1.0
+    if fs[HF_HELD] != 0.0:
+        fs[HF_OPEN_T] += h
     finite = math.isfinite(mx + my + mz)
     if finite and not w <= HF_STILL_RATE:
         if fs[HF_SET] == 0.0:
@@ -1180,13 +1253,14 @@ def hard_iron_online(fs, mx, my, mz, h, w):
         fs[HF_T] = 0.0
         if fs[HF_OPEN] == 0.0:
             _hf_merge(fs, HF_TMP, HF_N, HF_BLK)  # the fit's blocks and the current one so far
-            if _hf_solve(fs, HF_TMP) and fs[HF_OK] == 0.0:
-                fs[HF_OK] = 1.0
-                fs[HF_FROM] = fs[HF_ROWS] - 1.0
+            if fs[HF_OK] != 0.0:
+                _hf_solve(fs, HF_TMP)
+            else:
+                _hf_first(fs, HF_TMP)
     if fs[HF_BLK_T] >= HF_BLOCK:
         fs[HF_BLK_T] = 0.0
         _hf_block_end(fs)
-    if fs[HF_OK] == 0.0 or fs[HF_OPEN] != 0.0 or not finite:
+    if fs[HF_OK] == 0.0 or fs[HF_HELD] != 0.0 or not finite:
         return math.nan, math.nan, math.nan
     return mx - fs[HF_B], my - fs[HF_B + 1], mz - fs[HF_B + 2]
 

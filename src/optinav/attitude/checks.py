@@ -2502,6 +2502,23 @@ def online_fit_failed(mag: np.ndarray) -> OptinavError:
     return _hard_iron_error(*got, why=f"; fitted online from past samples it {gates}")
 
 
+def online_offset_changed(row: int, held_s: float) -> OptinavError:
+    """The refusal of an online estimate whose field, from sample ``row`` on and for ``held_s`` s to the end, no
+    longer fitted the hard-iron offset fitted from past samples, while the samples since never turned the sensor
+    about every body axis to fit another (:func:`optinav.attitude.iframe.online_fit_held`): the heading there was
+    the gyro's alone. The offset changed (BROAD 07 with +30 µT on x from 60 s: a fit across the change, 13 µT off,
+    passed its gates and the heading ran at 10.8° RMSE with exit 0), or the field is disturbed there (BROAD 29 beside
+    a magnet, with an offset added: no fit of its own holds)."""
+    return OptinavError(
+        f"the magnetometer's field from sample {row} on no longer fits the hard-iron offset fitted online from past "
+        f"samples, and the {held_s:.0f} s after it to the end never turned the sensor about every body axis to fit "
+        "another (the heading there the gyro's alone): the offset changed (a magnet put on or taken off the body?) "
+        "or the field is disturbed there",
+        "cut the recording where it changes and run each part (optinav attitude --mag names the offset of a part "
+        "that shows one), give --mag-hard-iron=BX,BY,BZ if the offset is known, or drop --mag",
+    )
+
+
 def _hard_iron_error(b, s0: float, s1: float, why: str = "") -> OptinavError:
     """The refusal of a magnetometer whose norm a constant offset ``b`` explains (spread ``s0`` down to ``s1``)."""
     return _offset_error(

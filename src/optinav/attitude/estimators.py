@@ -60,6 +60,7 @@ from optinav.attitude.checks import (
     offset_held_error,
     offset_pieces,
     online_fit_failed,
+    online_offset_changed,
     rate_sums_less_offset,
 )
 from optinav.attitude.iframe import (
@@ -68,6 +69,7 @@ from optinav.attitude.iframe import (
     StreamGaps,
     front_outputs,
     hard_iron_online,
+    online_fit_held,
     online_fit_result,
     run_iframe,
 )
@@ -716,6 +718,9 @@ def estimate(
         mag_hard_iron, hi_from = online_fit_result(fs)
         if hi_from is None:
             raise online_fit_failed(raw[:: mag_fit_stride(raw.shape[0])])
+        held = online_fit_held(fs)
+        if held is not None and held[1] >= opts["mag_new_time"]:  # as long as a new field takes to be believed
+            raise online_offset_changed(*held)
         fitted = True
     mag_rows = None if mag is None else int(np.count_nonzero(np.isfinite(raw if online_fit else mag).all(axis=1)))
     if gaps.size:

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optinav.attitude.checks import zero_rows_missing
+from optinav.attitude.checks import online_offset_changed, zero_rows_missing
 from optinav.attitude.stream import StreamChecks, StreamEstimator
 from optinav.attitude.unit import AttitudeOptions, nan_rows_error
 from optinav.attitude.recording import CSV_FORMAT, CSV_HEADER, attitude_rows
@@ -1296,6 +1296,9 @@ def stream_attitude(
         checks.finish_second(frame)
         if online_fit and estimator.mag_hard_iron_from is None and not (gaps.size and not o.allow_gaps):
             raise checks.online_fit_failed()
+        held = estimator.mag_hard_iron_held
+        if online_fit and held is not None and held[1] >= estimator.opts["mag_new_time"]:
+            raise online_offset_changed(*held)
         if gaps.size and not o.allow_gaps:
             i = int(gaps[0])
             raise OptinavError(

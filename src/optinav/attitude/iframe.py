@@ -82,6 +82,7 @@ __all__ = [
     "run_iframe",
     "input_stage",
     "hard_iron_online",
+    "online_fit_held",
 ]
 
 _ORDER = (
@@ -214,6 +215,15 @@ def online_fit_result(fs) -> tuple[np.ndarray | None, int | None]:
     if not fs[_k.HF_OK]:
         return None, None
     return fs[_k.HF_B : _k.HF_B + 3].copy(), int(fs[_k.HF_FROM])
+
+
+def online_fit_held(fs) -> tuple[int, float] | None:
+    """(row, s) of the fit state ``fs``: the sample from which the field has been left unused, as it no longer fits
+    the offset in use and the samples since have not fitted another (:func:`_iframe.hard_iron_online`), and for how
+    long; None while the offset in use fits."""
+    if not fs[_k.HF_HELD]:
+        return None
+    return int(fs[_k.HF_OPEN_ROW]), float(fs[_k.HF_OPEN_T])
 
 
 def _reverse(gyr, acc, mag, dts):

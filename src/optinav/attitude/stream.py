@@ -409,6 +409,16 @@ class StreamEstimator:
         return online_fit_result(self._fit)[0]
 
     @property
+    def mag_hard_iron_held(self) -> tuple[int, float] | None:
+        """(row, s): the field left unused from that row on, as it no longer fits the offset fitted online
+        (:func:`~optinav.attitude.iframe.online_fit_held`); None while it fits, and without an online fit."""
+        if self._fit is None:
+            return None
+        from optinav.attitude.iframe import online_fit_held
+
+        return online_fit_held(self._fit)
+
+    @property
     def mag_hard_iron_from(self) -> int | None:
         """The row from which the field was used less the offset fitted online (None: not, or not yet)."""
         if self._fit is None:
