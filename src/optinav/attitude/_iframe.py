@@ -1176,11 +1176,13 @@ def _hf_close(fs):
 @numba.njit(**_NJ)
 def _hf_block_end(fs):
     """Close the current block into the fit. With an offset in use, a block of at least 100 samples whose norm
-    spread about it exceeds MAG_SPREAD opens a candidate (the field unused meanwhile: the heading the gyro's), which
-    gathers the blocks after it (not that one, which may straddle the change) until their own fit passes the gates
-    of :func:`_hf_fit` with a spread at most MAG_SPREAD and under half the old offset's: it then becomes the fit
-    with its offset (a restart). Once its samples have turned about every axis (:func:`_hf_fit` finite) and the old
-    offset explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset).
+    spread about it exceeds MAG_SPREAD opens a candidate, which gathers the blocks after it (not that one, which may
+    straddle the change) until their own fit passes the gates of :func:`_hf_fit` with a spread at most MAG_SPREAD
+    and under half the old offset's: it then becomes the fit with its offset (a restart). Meanwhile the field is
+    held unused (the heading the gyro's) while another offset explains the candidate along the axes it turned
+    about (:func:`_hf_partial`), and used less the old offset where none does (a disturbed field, which the norm and
+    dip gates judge). Once its samples have turned about every axis (:func:`_hf_fit` finite) and the old offset
+    explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset).
 
     Before any offset is in use, a fit that has turned about every axis and still fails the gates holds samples
     of another offset (BROAD 07 turns from 29.3 s: +30 µT on x from 30 s left 0.7 s without it in the sums, and the

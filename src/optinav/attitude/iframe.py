@@ -200,7 +200,8 @@ def hard_iron_online(mag, dts, fit=None, gyr=None) -> tuple[np.ndarray, np.ndarr
     :data:`~optinav.attitude.checks.STILL_RATE` (None: every row), solved every 0.25 s of the steps ``dts`` (s, 1
     or N), used once it passes the same gates with every body axis turned about and the corrected norm as steady
     as a calibrated one, and restarted from the recent rows when they show another offset; NaN rows before, and
-    while the recent rows show another offset not yet fitted); and the fit's state ``fit``
+    while another offset explains the recent rows but is not fitted yet: :func:`online_fit_held`); and the fit's
+    state ``fit``
     (:data:`_iframe.HF_SIZE`; a new one when None, else continued in place)."""
     fs = np.zeros(_k.HF_SIZE) if fit is None else fit
     out = np.empty(mag.shape)
