@@ -1181,8 +1181,8 @@ def _hf_block_end(fs):
     and under half the old offset's: it then becomes the fit with its offset (a restart). Meanwhile the field is
     held unused (the heading the gyro's) while another offset explains the candidate along the axes it turned
     about (:func:`_hf_partial`), and used less the old offset where none does (a disturbed field, which the norm and
-    dip gates judge). Once its samples have turned about every axis (:func:`_hf_fit` finite) and the old offset
-    explains them (spread within MAG_SPREAD), it is closed (a disturbance, not a new offset).
+    dip gates judge), until a block fits the old offset again. Once its samples have turned about every axis
+    (:func:`_hf_fit` finite) and the old offset explains them (spread within MAG_SPREAD), it is closed too.
 
     Before any offset is in use, a fit that has turned about every axis and still fails the gates holds samples
     of another offset (BROAD 07 turns from 29.3 s: +30 µT on x from 30 s left 0.7 s without it in the sums, and the
@@ -1202,9 +1202,13 @@ def _hf_block_end(fs):
             fs[HF_YOUNG] = 1.0
     if fs[HF_OK] != 0.0 and fs[HF_BLK] >= 100.0:
         b0, b1, b2 = fs[HF_B], fs[HF_B + 1], fs[HF_B + 2]
+        fits = _hf_spread(fs, HF_BLK, b0, b1, b2) <= HF_MAG_SPREAD
         if fs[HF_OPEN] == 0.0:
-            if _hf_spread(fs, HF_BLK, b0, b1, b2) > HF_MAG_SPREAD:
+            if not fits:
                 fs[HF_OPEN] = 1.0
+        elif fits and fs[HF_HELD] == 0.0:
+            # a disturbance over (no other offset explained it): the next change gets a candidate of its own
+            _hf_close(fs)
         else:
             _hf_merge(fs, HF_CAND, HF_CAND, HF_BLK)
             b = np.empty(3)
