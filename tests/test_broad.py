@@ -26,9 +26,19 @@ from optinav.errors import OptinavError
 #: the shared data folder: ../shared/data relative to the project root ($OPTINAV_SHARED_DATA overrides)
 SHARED = Path(os.environ.get("OPTINAV_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
 PATH = SHARED / BROAD_TRIAL_02
+#: the shared BROAD trials' folder
+BROAD = SHARED / "attitude" / "broad"
 pytestmark = pytest.mark.skipif(not PATH.is_file(), reason=f"BROAD data absent ({PATH})")
 
 _READ: dict = {}
+
+
+def _present(*paths):
+    """The shared trials' ``paths`` (one path: itself), or the test skipped where one is absent."""
+    absent = [p.name for p in paths if not p.is_file()]
+    if absent:
+        pytest.skip(f"BROAD data absent: {', '.join(absent)}")
+    return paths[0] if len(paths) == 1 else paths
 
 
 def load_broad(path, options=None):
@@ -138,7 +148,7 @@ def test_broad_mekf_6d_heading_not_worse_than_gyro_alone(trial, options):
 
 # --- the nine BROAD trials in shared/ (issue 12): default iframe against the targets and VQF --------------------
 
-NINE = sorted(p for p in (SHARED / "attitude" / "broad").glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
+NINE = sorted(p for p in BROAD.glob("[0-9][0-9]_*") if p.suffix in (".hdf5", ".mat"))
 #: VQF 2.1.2 on the same nine trials, default options (issue 12; benchmarks/bench_attitude.py measures it again)
 VQF_ONLINE_DEG, VQF_OFFLINE_DEG, VQF_HEADING_9D_DEG = 0.608, 0.488, 2.21
 
@@ -197,9 +207,7 @@ def test_an_attached_magnet_is_fitted_and_the_heading_holds():
     2.69° RMSE (VQF 3.70°). The offset fitted on the disturbed samples (hard_iron_tau) lets the field less it be
     used from ~65 s: 1.10°; off, the stretch is the gyro's alone again."""
     name = "33_disturbed_attached_magnet_2cm"
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     f = lambda **o: run_iframe(tr.gyr, tr.acc, np.array([tr.dt]), mag=tr.mag, frame="ENU", **o)  # noqa: E731
     r, r0 = f(), f(hard_iron_tau=0.0)
@@ -218,10 +226,9 @@ def test_a_magnet_put_on_before_the_motion_is_no_hard_iron_offset_to_refuse():
     (1.02° heading RMSE); cut at 100 s the sphere fit took it for one too (0.98°). The field less that offset is not
     steady over the log (27 % and 12 % norm spread: the rest before the magnet): no offset on the board all along. An offset added to the whole trial 11 (a level body) still is
     one (1 % spread) and refused online, naming it."""
-    root = SHARED / "attitude" / "broad"
-    p33, p11 = root / "33_disturbed_attached_magnet_2cm.hdf5", root / "11_undisturbed_slow_translation_B.hdf5"
-    if not (p33.is_file() and p11.is_file()):
-        pytest.skip("trials 33 / 11 absent")
+    p33, p11 = _present(
+        BROAD / "33_disturbed_attached_magnet_2cm.hdf5", BROAD / "11_undisturbed_slow_translation_B.hdf5"
+    )
     tr = load_broad(p33)
     for end in (95.0, 100.0):  # 100 s: the sphere fit's too (12 % left, 31 % before it)
         s = slice(0, int(end / tr.dt))
@@ -239,9 +246,7 @@ def test_output_lags_the_reference_by_half_a_sample_not_by_the_integration():
     forward by h/2 with the gyro: 1.00° → 0.51°), yet the centred trapezoid (gyr[k−1] + gyr[k])/2 is worse
     (1.62°), not better: the lag is in the recording's timing, and gyr[k] over (t[k−1], t[k]] is already the
     least lagging causal convention (docs/methods/attitude.md, "Timing")."""
-    path = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
-    if not path.is_file():
-        pytest.skip(f"BROAD trial 07 absent ({path})")
+    path = _present(BROAD / "07_undisturbed_fast_rotation_B.hdf5")
     from optinav.core.rotations import quat_from_rotvec, quat_multiply
 
     tr = load_broad(path)
@@ -260,9 +265,7 @@ def test_a_recording_that_starts_in_fast_motion():
     magnetometer rejected on 98 % of the samples and the heading 28° off after a minute. Now the low-pass starts
     as the running mean of its first tau_acc seconds, the reference is learned once the tilt has settled and the
     heading converges from then on (as VQF starts)."""
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     s0 = 18081
     g, a, m, ref = tr.gyr[s0:], tr.acc[s0:], tr.mag[s0:], tr.q_ref[s0:]
@@ -343,9 +346,7 @@ def test_an_offset_on_a_magnetometer_with_soft_iron_is_seen_along_every_axis_the
     field the fit finds, that axis is seen: the offset is fitted (within 1 µT of the one added, measured 0.7 µT),
     the online heading after the fit passed (42 s) within 1° of the offset given's and under 3.5° (measured 2.77°
     vs 2.64°), and offline 2.42°."""
-    p = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("BROAD trial 07 is not present")
+    p = _present(BROAD / "07_undisturbed_fast_rotation_B.hdf5")
     tr = load_broad(p)
     soft = np.eye(3) + np.random.default_rng(1).uniform(-0.05, 0.05, (3, 3))
     mag = tr.mag @ soft.T + [30.0, 0.0, 0.0]
@@ -605,9 +606,7 @@ def test_a_9d_recording_cut_in_motion_keeps_its_bias_and_heading(name, after_s, 
     innovation is now clipped and its loop kept slower than 2 tau_acc: 2.9° and 5.0°; with the heading of the
     first tau_acc s low-passed over MAG_SETTLE_TAU (which helps cuts on average: 36 cuts' first minute 8.41 ->
     8.31°) 2.8° and 6.5° — trial 16's limit is VQF's."""
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     s0 = int(np.flatnonzero(tr.eval_mask)[0] + after_s / tr.dt)
     est = estimate(tr.gyr[s0:], tr.acc[s0:], tr.dt, frame="ENU", mag=tr.mag[s0:], checks=False)
@@ -628,8 +627,8 @@ def _heading_drift_deg(q, q_ref, mask) -> float:
 def _cut_in_motion(name: str, start_s: float):
     """(trial, slice): BROAD trial ``name`` from ``start_s`` s after its first movement sample to 10 s before its
     last (benchmarks/bench_attitude_cuts.py's cuts); skips when the trial is absent."""
-    p = next((SHARED / "attitude" / "broad" / f"{name}{x}" for x in (".hdf5", ".mat")
-              if (SHARED / "attitude" / "broad" / f"{name}{x}").is_file()), None)  # fmt: skip
+    p = next((BROAD / f"{name}{x}" for x in (".hdf5", ".mat")
+              if (BROAD / f"{name}{x}").is_file()), None)  # fmt: skip
     if p is None:
         pytest.skip(f"{name} absent")
     tr = load_broad(p)
@@ -675,9 +674,7 @@ def test_offline_on_a_recording_that_ends_or_starts_in_motion(start_s, end_s, be
     accelerated end sample, and the fusion kept half of the forward pass's start: offline 6.55° and 2.36° (online
     0.53° and 8.3°, VQF offline 0.46° on both). Even padding and fusion weights that grow with each pass's
     running time: below 0.8°."""
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     m0 = np.flatnonzero(tr.eval_mask)[0]
     s = slice(max(0, int(m0 + start_s / tr.dt)), None if end_s is None else int(m0 + end_s / tr.dt))
@@ -707,9 +704,7 @@ def test_broad_layout_files_as_users_make_them(tmp_path, capsys):
     from optinav.cli.main import main
     from optinav.io import read_imu
 
-    p = SHARED / BROAD_TRIAL_02
-    if not p.is_file():
-        pytest.skip("trial 02 absent")
+    p = _present(SHARED / BROAD_TRIAL_02)
     out = str(tmp_path / "x.csv")
 
     def run(path, *extra):
@@ -744,9 +739,7 @@ def test_a_gyro_logged_in_whole_deg_s_is_not_taken_for_clipped():
     from optinav.attitude.checks import _check_clipping, axis_steps, quantum
     from optinav.errors import OptinavError
 
-    p = SHARED / BROAD_TRIAL_02
-    if not p.is_file():
-        pytest.skip("trial 02 absent")
+    p = _present(SHARED / BROAD_TRIAL_02)
     tr = load_broad(p)
     whole = np.radians(np.round(np.degrees(tr.gyr)))
     assert quantum(axis_steps(whole[:, 0])) == pytest.approx(np.radians(1.0))
@@ -772,9 +765,7 @@ def test_a_rad_s_gyro_declared_deg_s_is_named_on_dynamic_recordings(name):
     from optinav.attitude.checks import check_imu
     from optinav.errors import OptinavError
 
-    p = SHARED / "attitude" / "broad" / name
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / name)
     tr = load_broad(p)
     # from Python the data are rad/s by contract: the cause says so (it said "in deg/s" for a day)
     with pytest.raises(OptinavError, match="the gyro in rad/s does not explain.*rad/s declared deg/s"):
@@ -790,9 +781,7 @@ def test_a_reference_stored_scalar_last_is_named(tmp_path, capsys):
 
     from optinav.cli.main import main
 
-    p = SHARED / BROAD_TRIAL_02
-    if not p.is_file():
-        pytest.skip("trial 02 absent")
+    p = _present(SHARED / BROAD_TRIAL_02)
     bad = _broad_copy(p, tmp_path / "xyzw.hdf5")
     with h5py.File(bad, "r+") as f:
         q = f["opt_quat"][()]
@@ -812,9 +801,7 @@ def test_swapped_triads_of_a_fast_turning_log_are_named(tmp_path, capsys):
     from optinav.attitude.checks import check_imu
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat"
-    if not p.is_file():
-        pytest.skip("trial 29 absent")
+    p = _present(BROAD / "29_disturbed_stationary_magnet_B.mat")
     tr = load_broad(p)
     with pytest.raises(Exception, match="the two triads look swapped"):
         check_imu(tr.acc, tr.gyr, np.array([tr.dt]))
@@ -834,9 +821,7 @@ def test_a_magnetometer_stored_as_one_n_by_3_array(tmp_path, capsys):
 
     from optinav.cli.main import main
 
-    p = SHARED / BROAD_TRIAL_02
-    if not p.is_file():
-        pytest.skip("trial 02 absent")
+    p = _present(SHARED / BROAD_TRIAL_02)
     tr = load_broad(p)
     n = int(40 * tr.rate_hz)
     t, gyr, acc, mag = np.arange(n) * tr.dt, tr.gyr[:n], tr.acc[:n], tr.mag[:n]
@@ -870,9 +855,7 @@ def test_gyro_axes_flipped_on_fast_translation_are_named_from_the_whole_log(perm
     from optinav.attitude.checks import check_imu
     from optinav.core.rotations import signed_permutations
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     P = signed_permutations()[perm]
     # all three negated: so reads a gyro with its signs flipped or a mirrored frame (the message names both)
@@ -892,9 +875,7 @@ def test_a_reference_without_movement_samples_is_named(tmp_path, capsys):
     from optinav.cli.main import main
     from optinav.errors import OptinavError
 
-    p = SHARED / BROAD_TRIAL_02
-    if not p.is_file():
-        pytest.skip("trial 02 absent")
+    p = _present(SHARED / BROAD_TRIAL_02)
     cut = tmp_path / "first20s.hdf5"
     with h5py.File(p, "r") as src, h5py.File(cut, "w") as dst:
         n = int(20 * src.attrs["sampling_rate"])
@@ -918,9 +899,7 @@ def test_a_mems_gyro_bias_is_no_unit_error(bias_deg_s):
     from optinav.attitude.checks import check_imu
     from optinav.errors import OptinavError
 
-    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 11 absent")
+    p = _present(BROAD / "11_undisturbed_slow_translation_B.hdf5")
     tr = load_broad(p)
     gyr = tr.gyr + np.radians(bias_deg_s)
     check_imu(gyr, tr.acc, np.array([tr.dt]))
@@ -945,9 +924,7 @@ def test_excerpts_pass_the_input_checks(tmp_path, capsys, name, row, seconds):
     from optinav.attitude.checks import check_imu
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / name
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / name)
     tr = load_broad(p)
     sl = slice(row, row + int(round(seconds / tr.dt)))
     check_imu(tr.gyr[sl], tr.acc[sl], np.array([tr.dt]))
@@ -968,9 +945,7 @@ def test_offline_on_a_recording_shorter_than_tau_acc(tmp_path, row, seconds):
     the mean of their first tau_acc s now — within 1.5° (and never worse than online); streamed the same."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 07 absent")
+    p = _present(BROAD / "07_undisturbed_fast_rotation_B.hdf5")
     tr = load_broad(p)
     sl = slice(row, row + int(round(seconds / tr.dt)))
     g, a, q = tr.gyr[sl], tr.acc[sl], tr.q_ref[sl]
@@ -1002,9 +977,7 @@ def test_offline_9d_heading_of_a_recording_in_motion(name, start_s, end_s, befor
     lag, and a dip of 68° turns 1° of tilt into 2.5° of heading — the offline heading was no better than the
     online one. The field's azimuth is now taken in the smoothed attitude and averaged forward and
     backward over tau_mag_smooth (40 s); the nine whole trials unchanged (1.60°)."""
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     mv = np.flatnonzero(tr.eval_mask)
     sl = slice(int(mv[0] + start_s / tr.dt), int(mv[-1] - end_s / tr.dt))
@@ -1023,10 +996,7 @@ def test_an_excerpt_in_rad_s_declared_deg_s_is_named_and_a_right_q0_is_not():
     from optinav.attitude.checks import check_imu
     from optinav.errors import OptinavError
 
-    p = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
-    q = SHARED / "attitude" / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
-    if not (p.is_file() and q.is_file()):
-        pytest.skip("trials 07 / 02 absent")
+    p, q = _present(BROAD / "07_undisturbed_fast_rotation_B.hdf5", BROAD / "02_undisturbed_slow_rotation_B.hdf5")
     tr = load_broad(p)
     sl = slice(35376, 35376 + int(60 / tr.dt))
     d = np.array([tr.dt])
@@ -1046,9 +1016,7 @@ def test_offline_of_a_recording_that_ends_in_fast_motion(end_s, limit, before):
     VQF offline 0.42-0.46°. The backward pass began with the forward low-pass memories, whose slope
     reversed time turns around (it took ~10 s to settle), and was blended in at 40 % 5 s after its start: the
     memories are now held at their last output, and each pass weighs by its running time over 3 tau_acc."""
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     m0 = np.flatnonzero(tr.eval_mask)[0]
     s = slice(None, int(m0 + end_s / tr.dt))
@@ -1072,9 +1040,7 @@ def test_lost_samples_in_motion_do_not_throw_the_tilt():
     overshot to 134° for seconds (RMSE 34.7°, VQF 2.8°). The gap is now low-passed in sub-steps and the
     low-pass restarts as at the start (its running mean over the next tau_acc s): RMSE 3.8°, 1.1° 8 s after the
     gap; VQF, which leaves the gap out, 2.8° and 0.8°."""
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     s = int(60.0 / tr.dt)
     k, dts = _with_lost_samples(tr, [(s, int(0.3 / tr.dt))])
@@ -1093,9 +1059,7 @@ def test_a_correct_gyro_unit_is_not_refused_for_lost_samples():
     when declared deg/s. The check judges the longest stretch without lost samples."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     k, dts = _with_lost_samples(tr, [(15142, 103)])
     check_imu(tr.gyr[k], tr.acc[k], dts)
@@ -1110,9 +1074,7 @@ def test_a_time_base_off_by_two_is_named_on_broad(name, factor, words):
     saw and passed (or, on fast rotation, was blamed on the gyro unit)."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     with pytest.raises(Exception, match=words):
         check_imu(tr.gyr, tr.acc, np.array([tr.dt * factor]))
@@ -1128,9 +1090,7 @@ def test_a_magnetometer_that_starts_late_gets_its_own_start(name, start_s, limit
     rotation, became a one-sample reference and was followed at the full tau_mag: heading 11.6° (VQF 1.89°). It now runs on the magnetometer's age: 2.5°. The start's every-sample mean (for a tilt that is still
     settling) is not taken by a late magnetometer: in trial 33 a magnet comes 8 s after the field, and that mean
     followed it (8.8°, VQF 3.7°): 2.5°."""
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     mag = tr.mag.copy()
     mag[: int(start_s / tr.dt)] = np.nan
@@ -1162,7 +1122,7 @@ def test_a_magnetometer_in_other_axes_is_named(tmp_path, capsys):
             for i0 in range(0, tr.acc.shape[0] - n, n // 2):
                 sl = slice(i0, i0 + n)
                 check_mag_axes(tr.acc[sl], tr.mag[sl], tr.dt, tr.gyr[sl])
-    p = SHARED / "attitude" / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+    p = BROAD / "02_undisturbed_slow_rotation_B.hdf5"
     tr = load_broad(p)
     ak = np.column_stack([tr.mag[:, 1], tr.mag[:, 0], -tr.mag[:, 2]])
     with pytest.raises(
@@ -1191,9 +1151,7 @@ def test_a_magnetometer_in_other_axes_on_a_yawing_body_is_named(tmp_path, capsys
     from optinav.cli.main import main
     from optinav.errors import OptinavError
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     ak = np.column_stack([tr.mag[:, 1], tr.mag[:, 0], -tr.mag[:, 2]])
     slow = np.arange(len(ak)) % 10 == 0
@@ -1216,9 +1174,7 @@ def test_a_correct_gyro_unit_with_several_short_gaps_is_not_refused():
     and refused the correct rad/s as "rad/s declared deg/s". A stretch under 12 s is not judged."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat"
-    if not p.is_file():
-        pytest.skip("trial 29 absent")
+    p = _present(BROAD / "29_disturbed_stationary_magnet_B.mat")
     tr = load_broad(p)
     i0 = int(77.0 / tr.dt)
     keep = np.ones(int(20.0 / tr.dt), bool)
@@ -1235,9 +1191,7 @@ def test_a_cut_that_starts_upside_down_gets_no_frame_warning(tmp_path, capsys):
     `optinav attitude`, which had dropped the whole log's sums after its first pass (found on review)."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "03_undisturbed_slow_rotation_C.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 03 absent")
+    p = _present(BROAD / "03_undisturbed_slow_rotation_C.hdf5")
     tr = load_broad(p)
     sl = slice(int(76.2 / tr.dt), int(176.2 / tr.dt))
     assert tr.acc[sl][0, 2] < 0  # z reads −g at the start of the cut
@@ -1274,9 +1228,7 @@ def _rate_named(name: str, rate: float, roughly: str = "") -> tuple:
     """The rate (Hz) the checks name for BROAD trial ``name`` declared at ``rate`` Hz, and the trial."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
         check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
@@ -1311,9 +1263,7 @@ def test_a_time_unit_1000_times_too_small_at_a_low_rate_is_named(name, every):
     inclination RMSE. The steps 1000× further apart are judged too; the message names the rate the data fit."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     g, a, h = tr.gyr[::every], tr.acc[::every], tr.dt * every
     with pytest.raises(Exception, match="×0.001 as far") as exc:
@@ -1349,9 +1299,7 @@ def test_a_wrong_rate_on_fast_translation_is_named_from_the_whole_log(rate):
     a factor leaves gravity wandering in the gyro-integrated frame; the factor that holds it is the rate named."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     with pytest.raises(Exception, match="the time column, the sample rate or the gyro's unit is off") as exc:
         check_imu(tr.gyr, tr.acc, np.array([1.0 / rate]))
@@ -1389,9 +1337,7 @@ def test_a_window_s_axes_finding_gives_way_to_the_whole_log_s_rate():
     from optinav.attitude.checks import check_imu
 
     for name in ("33_disturbed_attached_magnet_2cm", "02_undisturbed_slow_rotation_B"):
-        p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-        if not p.is_file():
-            pytest.skip(f"{name} absent")
+        p = _present(BROAD / f"{name}.hdf5")
         tr = load_broad(p)
         if name.startswith("33"):
             with pytest.raises(Exception, match="the sample rate or the gyro's unit is off") as exc:
@@ -1415,7 +1361,7 @@ def test_the_whole_log_check_is_skipped_where_a_window_shows_the_time_base(monke
     tr = load_broad(PATH)
     C.check_imu(tr.gyr, tr.acc, np.array([tr.dt]))
     assert not called
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
+    p = BROAD / "16_undisturbed_fast_translation_B.hdf5"
     if p.is_file():
         t16 = load_broad(p)
         with pytest.raises(Exception, match="the data fit 28"):
@@ -1428,9 +1374,7 @@ def test_a_wrong_rate_on_fast_translation_is_named_on_a_streamed_file(tmp_path, 
     its second pass (trial 16 without its time column, --rate 100: exit 0 at 66° before)."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     f = tmp_path / "t16.csv"
     np.savetxt(f, np.hstack([tr.acc, tr.gyr]), delimiter=",", header="ax,ay,az,gx,gy,gz", comments="", fmt="%.6g")
@@ -1453,7 +1397,7 @@ def test_the_whole_log_time_base_check_passes_the_nine_trials_and_splits_at_gaps
     for p in NINE:
         tr = load_broad(p)
         assert C.long_time_hint(*C.whole_log_bins(tr.gyr, tr.acc, np.array([tr.dt])), tr.dt) is None, p.name
-    tr = load_broad(SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5")
+    tr = load_broad(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     wrong = np.full(tr.gyr.shape[0], 0.01)  # --rate 100
     bins, sums, gaps = C.whole_log_bins(tr.gyr, tr.acc, wrong)
     assert C.long_time_hint(bins, sums, gaps, 0.01) is not None
@@ -1509,9 +1453,7 @@ def test_short_cuts_in_fast_rotation_or_vibration_are_not_refused(name, start_s,
     turns (correlation ≥ 0.7)."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     i = int(round(start_s / tr.dt))
     j = i + int(round(seconds / tr.dt))
@@ -1543,7 +1485,7 @@ def test_a_linear_acceleration_output_in_continuous_motion_is_refused():
     from optinav.attitude.checks import check_imu
     from optinav.core.rotations import quat_conjugate, quat_rotate
 
-    tr = load_broad(SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5")
+    tr = load_broad(BROAD / "07_undisturbed_fast_rotation_B.hdf5")
     i = int(round(65.0 / tr.dt))
     j = i + int(round(20.0 / tr.dt))
     q = tr.q_ref[i:j]
@@ -1561,7 +1503,7 @@ def test_a_rate_too_high_on_a_cut_is_named(name, start_s, seconds):
     accelerometer's turns, bin by bin where they correlate, name the factor; the cuts at their true rate pass."""
     from optinav.attitude.checks import check_imu
 
-    tr = load_broad(SHARED / "attitude" / "broad" / f"{name}.hdf5")
+    tr = load_broad(BROAD / f"{name}.hdf5")
     i = int(round(start_s / tr.dt))
     j = i + int(round(seconds / tr.dt))
     with pytest.raises(Exception, match="as far as the accelerometer sees it turn") as exc:
@@ -1598,7 +1540,7 @@ def test_a_short_gap_in_motion_does_not_restart_the_tilt():
 
     names = ("07_undisturbed_fast_rotation_B.hdf5", "16_undisturbed_fast_translation_B.hdf5",
              "24_disturbed_tapping_A.hdf5", "29_disturbed_stationary_magnet_B.mat")  # fmt: skip
-    paths = [SHARED / "attitude" / "broad" / n for n in names]
+    paths = [BROAD / n for n in names]
     if not all(p.is_file() for p in paths):
         pytest.skip("BROAD trials 07/16/24/29 absent")
     assert _iframe.GAP_RESTART_S == 0.1
@@ -1624,9 +1566,7 @@ def test_a_broad_file_declared_deg_s_is_told_rad_s(name, tmp_path, capsys):
     the gyro was declared in. It names the declared deg/s and the --gyro-unit rad/s that fixes it (HDF5 and MAT)."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / name
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / name)
     rc = main(["--quiet", "attitude", str(p), "--gyro-unit", "deg/s", "--out", str(tmp_path / "a.csv")])
     err = capsys.readouterr().err
     assert rc == 2 and "the gyro in deg/s does not explain" in err and "--gyro-unit rad/s" in err, err
@@ -1650,9 +1590,7 @@ def test_axes_swapped_on_a_body_turning_about_the_vertical_are_named(name, senso
     nine trials' fixture checks every trial as published)."""
     from optinav.attitude.checks import check_imu
 
-    p = SHARED / "attitude" / "broad" / name
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / name)
     tr = load_broad(p)
     gyr, acc = tr.gyr, tr.acc
     if sensor == "gyr":
@@ -1840,9 +1778,7 @@ def test_rad_s_declared_deg_s_on_a_yawing_body_is_named_by_the_magnetometer(tmp_
     from optinav.cli.main import main
     from optinav.errors import OptinavError
 
-    p = SHARED / "attitude" / "broad" / f"{name}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{name} absent")
+    p = _present(BROAD / f"{name}.hdf5")
     tr = load_broad(p)
     sl = slice(int(start_s / tr.dt), int((start_s + 20.0) / tr.dt))
     gyr, acc, mag = tr.gyr[sl], tr.acc[sl], tr.mag[sl]
@@ -1904,9 +1840,7 @@ def test_a_mirrored_frame_is_named_as_such_not_blamed_on_the_gyro(tmp_path, caps
     with pytest.raises(OptinavError, match=r"left-handed \(mirrored\) frame") as exc:
         check_imu(tr.gyr[sl][:, swap], tr.acc[sl][:, swap], np.array([tr.dt]))
     assert "gyro x reads" not in str(exc.value) and "swap two axes of every sensor alike" in exc.value.remedy
-    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 11 absent")
+    p = _present(BROAD / "11_undisturbed_slow_translation_B.hdf5")
     tr = load_broad(p)
     sl = slice(int(30.0 / tr.dt), int(50.0 / tr.dt))
     csv = tmp_path / "mirrored.csv"
@@ -1939,9 +1873,7 @@ def test_a_magnetometer_not_asked_for_witnesses_the_gyro_unit_and_a_mirrored_fra
     one) while the estimate stays 6D: the cut as recorded writes the same attitude as without the columns."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "11_undisturbed_slow_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 11 absent")
+    p = _present(BROAD / "11_undisturbed_slow_translation_B.hdf5")
     tr = load_broad(p)
     out = tmp_path / "a.csv"
     argv = ["--quiet", "attitude", "--frame", "ENU", "--out", str(out)]
@@ -1971,9 +1903,7 @@ def test_a_magnetometer_not_asked_for_that_is_garbage_raises_no_alarm(tmp_path, 
 
     trial, start_s, seconds = ("07_undisturbed_fast_rotation_B", 45.0, 30.0) if kind == "0.2 s late" else (
         "16_undisturbed_fast_translation_B", 62.0, 20.0)  # fmt: skip
-    p = SHARED / "attitude" / "broad" / f"{trial}.hdf5"
-    if not p.is_file():
-        pytest.skip(f"{trial} absent")
+    p = _present(BROAD / f"{trial}.hdf5")
     tr = load_broad(p)
     rng = np.random.default_rng(1)
     if kind == "0.2 s late":
@@ -2042,7 +1972,7 @@ def test_a_cut_of_a_calibrated_magnetometer_is_not_warned_as_soft_iron(name, sta
     soft-iron matrix of the soft-iron test (correction 6°) are still warned."""
     from optinav.attitude.checks import MagnetometerWarning
 
-    tr = load_broad(SHARED / "attitude" / "broad" / name)
+    tr = load_broad(BROAD / name)
     sl = slice(int(start_s / tr.dt), int((start_s + seconds) / tr.dt))
     g, a, m, q = tr.gyr[sl], tr.acc[sl], tr.mag[sl], tr.q_ref[sl]
     with warnings.catch_warnings():
@@ -2066,7 +1996,7 @@ def test_a_magnet_brought_near_a_body_at_rest_is_no_hard_iron_offset(tmp_path, c
 
     from optinav.cli.main import main
 
-    tr = load_broad(SHARED / "attitude" / "broad" / "33_disturbed_attached_magnet_2cm.hdf5")
+    tr = load_broad(BROAD / "33_disturbed_attached_magnet_2cm.hdf5")
     h = tr.dt
     sl = slice(int(25.3 / h), int(45.3 / h))
     g, a, m, q = tr.gyr[sl], tr.acc[sl], tr.mag[sl], tr.q_ref[sl]
@@ -2109,7 +2039,7 @@ def test_a_fast_turn_at_50_hz_is_no_stuck_magnetometer():
     "turned 10 rad where the gyro 113": refused as a stuck magnetometer. Bins turning more than 1 rad are left out:
     the estimate runs, its heading RMSE what the recording at its own 285.7 Hz gives (14°, beside the magnet).
     The same field held at its first value is still refused at 50 Hz; 125-165 s, refused as swapped axes, runs."""
-    tr = load_broad(SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat")
+    tr = load_broad(BROAD / "29_disturbed_stationary_magnet_B.mat")
     sl = slice(int(45.4 * tr.rate_hz), int(85.4 * tr.rate_hz))
     full = estimate(tr.gyr[sl], tr.acc[sl], tr.dt, frame="ENU", mag=tr.mag[sl])
     ok = tr.eval_mask[sl] & np.isfinite(tr.q_ref[sl]).all(axis=1)
@@ -2154,14 +2084,11 @@ def test_a_gyro_bias_beyond_the_unit_checks_allowance_is_named_a_bias_not_a_unit
     streamed from a file alike. A gyro in deg/s declared rad/s with its bias is still named a unit error."""
     from optinav.cli.main import main
 
-    root = SHARED / "attitude" / "broad"
     for name, bias in (
         ("27_disturbed_phone_vibration_B", [0.15, -0.075, 0.11]),
         ("11_undisturbed_slow_translation_B", [0.3, 0.2, -0.1]),
     ):
-        p = root / f"{name}.hdf5"
-        if not p.is_file():
-            pytest.skip(f"{name} absent")
+        p = _present(BROAD / f"{name}.hdf5")
         tr = load_broad(p)
         with pytest.raises(OptinavError, match=r"at rest: a bias beyond"):
             estimate(tr.gyr + bias, tr.acc, tr.dt, frame="ENU")
@@ -2181,9 +2108,7 @@ def test_a_gyro_bias_beyond_the_unit_checks_allowance_is_named_a_bias_by_the_met
     without the bias). It is named a bias now, in memory and streamed; mekf as published estimates it and runs."""
     from optinav.cli.main import main
 
-    p = SHARED / "attitude" / "broad" / "27_disturbed_phone_vibration_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 27 absent")
+    p = _present(BROAD / "27_disturbed_phone_vibration_B.hdf5")
     tr = load_broad(p)
     gyr = tr.gyr + [0.15, -0.075, 0.11]
     with pytest.raises(OptinavError, match=r"at rest: a bias, which qn as published does not estimate"):
@@ -2229,9 +2154,7 @@ def test_a_gyro_bias_about_the_vertical_of_a_body_mounted_upside_down_is_no_turn
     from optinav.cli.main import main
     from optinav.core.rotations import quat_multiply
 
-    p = SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat"
-    if not p.is_file():
-        pytest.skip("trial 29 absent")
+    p = _present(BROAD / "29_disturbed_stationary_magnet_B.mat")
     tr = load_broad(p)
     g, a = tr.gyr * [1.0, -1.0, -1.0], tr.acc * [1.0, -1.0, -1.0]
     ref = quat_multiply(tr.q_ref, np.array([0.0, 1.0, 0.0, 0.0]))  # the body turned 180° about x
@@ -2270,10 +2193,7 @@ def test_a_hard_iron_offset_that_changes_within_the_recording_is_refused(tmp_pat
     and is refused offline (16°: the backward pass learns the field with the offset at the end)."""
     from optinav.cli.main import main
 
-    root = SHARED / "attitude" / "broad"
-    p33, p03 = root / "33_disturbed_attached_magnet_2cm.hdf5", root / "03_undisturbed_slow_rotation_C.hdf5"
-    if not (p33.is_file() and p03.is_file()):
-        pytest.skip("trials 33 / 03 absent")
+    p33, p03 = _present(BROAD / "33_disturbed_attached_magnet_2cm.hdf5", BROAD / "03_undisturbed_slow_rotation_C.hdf5")
     tr = load_broad(PATH)
     mag = _offset_from(tr, 60.0, [30.0, 0.0, 0.0])
     for offline in (False, True):
@@ -2356,10 +2276,7 @@ def test_an_offset_fitted_over_a_recording_it_came_partway_into_is_refused(tmp_p
     offset; 11's turn about zero before 90 s. Refused, in memory and streamed."""
     from optinav.cli.main import main
 
-    root = SHARED / "attitude" / "broad"
-    p24, p11 = root / "24_disturbed_tapping_A.hdf5", root / "11_undisturbed_slow_translation_B.hdf5"
-    if not (p24.is_file() and p11.is_file()):
-        pytest.skip("trials 24 / 11 absent")
+    p24, p11 = _present(BROAD / "24_disturbed_tapping_A.hdf5", BROAD / "11_undisturbed_slow_translation_B.hdf5")
     tr = load_broad(p24)
     mag = _offset_from(tr, 60.0, [30.0, 0.0, 0.0])
     with pytest.raises(OptinavError, match="start of the recording.*changes within the recording") as e:
@@ -2386,9 +2303,7 @@ def test_an_offset_that_comes_before_the_first_window_judged_is_refused_offline(
     start): offline the backward pass took the end's field for the Earth's, 21.9° heading RMSE with exit 0. The
     start holds the Earth's field as measured, the end the field with the offset: refused offline, naming the
     offset and "drop --offline"; online the field at the start is the reference (1.9°)."""
-    p24 = SHARED / "attitude" / "broad" / "24_disturbed_tapping_A.hdf5"
-    if not p24.is_file():
-        pytest.skip("trial 24 absent")
+    p24 = _present(BROAD / "24_disturbed_tapping_A.hdf5")
     tr = load_broad(p24)
     mag = _offset_from(tr, 60.0, [-20.0, 15.0, 40.0])
     with pytest.raises(OptinavError, match="to the end, and at its start.*changes within") as e:
@@ -2405,9 +2320,7 @@ def test_an_offset_fitted_poorly_in_fast_rotation_is_refused_by_the_rest_after_i
     told with it (|m| 37 µT, less it 62, the Earth's 47) and nothing was said: 17.2° heading RMSE with exit 0
     (online 2.1°). The backward pass takes the end's rest for the Earth's whatever offset it carries: where a window
     after the last one about zero shows an offset, a rest of 22 s with a norm 16 % off the Earth's is refused."""
-    p07 = SHARED / "attitude" / "broad" / "07_undisturbed_fast_rotation_B.hdf5"
-    if not p07.is_file():
-        pytest.skip("trial 07 absent")
+    p07 = _present(BROAD / "07_undisturbed_fast_rotation_B.hdf5")
     tr = load_broad(p07)
     mag = _offset_from(tr, 60.0, [-20.0, 15.0, 40.0])
     with pytest.raises(OptinavError, match=r"about \[0, 0, 0\].*to the end.*changes within") as e:
@@ -2438,10 +2351,7 @@ def test_an_offset_put_on_in_the_rest_before_the_motion_is_refused_offline():
     the 8 % the start's test needs): subtracted there too, 15.7° heading RMSE offline with exit 0. The field steps
     by the offset within the rest while the body does not turn (the gyro less its median): refused. BROAD 16 with
     (30, 0, 0) µT from 30 s (21.0°) alike; 02 with it from 0 s (one offset all along) runs (0.4°)."""
-    root = SHARED / "attitude" / "broad"
-    p16 = root / "16_undisturbed_fast_translation_B.hdf5"
-    if not p16.is_file():
-        pytest.skip("trial 16 absent")
+    p16 = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     for path, off in ((PATH, [0.0, 20.0, 0.0]), (p16, [30.0, 0.0, 0.0])):
         tr = load_broad(path)
         mag = _offset_from(tr, 30.0, off)
@@ -2516,11 +2426,10 @@ def test_the_magnetometer_axes_are_judged_where_the_accelerometer_reads_gravity(
     from optinav.attitude.checks import MagnetometerWarning, check_mag_axes
     from optinav.cli.main import main
 
-    broad = SHARED / "attitude" / "broad"
     names = ("16_undisturbed_fast_translation_B", "02_undisturbed_slow_rotation_B", "24_disturbed_tapping_A")
-    if not all((broad / f"{n}.hdf5").is_file() for n in names):
+    if not all((BROAD / f"{n}.hdf5").is_file() for n in names):
         pytest.skip("BROAD 02, 16 or 24 absent")
-    tr = load_broad(broad / f"{names[0]}.hdf5")
+    tr = load_broad(BROAD / f"{names[0]}.hdf5")
     (g, _), (a, _), (m, _) = (_averaged_to(x, tr.rate_hz, 100.0) for x in (tr.gyr, tr.acc, tr.mag))
     g, a, m = g[2000:6000], a[2000:6000], m[2000:6000]
     with warnings.catch_warnings():
@@ -2530,7 +2439,7 @@ def test_the_magnetometer_axes_are_judged_where_the_accelerometer_reads_gravity(
     assert main(["attitude", csv, "--frame", "ENU", "--mag", "--out", str(tmp_path / "a.csv")]) == 0
     assert "IMU's" not in capsys.readouterr().err
     for name, sl in ((names[1], slice(None)), (names[1], slice(2000, 6000)), (names[2], slice(None))):
-        tr = load_broad(broad / f"{name}.hdf5")
+        tr = load_broad(BROAD / f"{name}.hdf5")
         (g, _), (a, _), (m, _) = (_averaged_to(x, tr.rate_hz, 100.0) for x in (tr.gyr, tr.acc, tr.mag))
         with pytest.raises(OptinavError, match="angle to gravity.*its axes are not the IMU's"):
             check_mag_axes(a[sl], _ak8963(m[sl]), 0.01, g[sl])
@@ -2546,9 +2455,7 @@ def test_a_body_shaken_by_several_g_is_not_taken_for_another_accelerometer_unit(
     from optinav.cli.main import main
     from optinav.core.units import G_STANDARD
 
-    p = SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5"
-    if not p.is_file():
-        pytest.skip("trial 16 absent")
+    p = _present(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     tr = load_broad(p)
     sl = slice(int(56.1 / tr.dt), int(61.1 / tr.dt))
     mg = 1000.0 / G_STANDARD
@@ -2579,17 +2486,16 @@ def test_a_body_turning_over_gets_no_frame_warning_unless_it_lies_level_against_
     from optinav.attitude.checks import FrameWarning
     from optinav.cli.main import main
 
-    broad = SHARED / "attitude" / "broad"
     names = ("02_undisturbed_slow_rotation_B", "03_undisturbed_slow_rotation_C", "24_disturbed_tapping_A")
-    if not all((broad / f"{n}.hdf5").is_file() for n in (*names, "11_undisturbed_slow_translation_B")):
+    if not all((BROAD / f"{n}.hdf5").is_file() for n in (*names, "11_undisturbed_slow_translation_B")):
         pytest.skip("BROAD 02, 03, 11 or 24 absent")
-    tr = load_broad(broad / f"{names[0]}.hdf5")
+    tr = load_broad(BROAD / f"{names[0]}.hdf5")
     n = tr.acc.shape[0] // 3 * 3
     g, a = (x[:n].reshape(-1, 3, 3).mean(axis=1) for x in (tr.gyr, tr.acc))
     sl = slice(int(90.7 / (3 * tr.dt)), int(95.7 / (3 * tr.dt)))
     cuts = [(3 * tr.dt, a[sl], g[sl])]
     for name, start, seconds in ((names[1], 80.0, 20.0), (names[2], 142.5, 10.0)):
-        t = load_broad(broad / f"{name}.hdf5")
+        t = load_broad(BROAD / f"{name}.hdf5")
         s = slice(int(start / t.dt), int((start + seconds) / t.dt))
         cuts.append((t.dt, t.acc[s], t.gyr[s]))
     with warnings.catch_warnings():
@@ -2602,7 +2508,7 @@ def test_a_body_turning_over_gets_no_frame_warning_unless_it_lies_level_against_
     assert "use --frame NED" not in capsys.readouterr().err
     with pytest.warns(FrameWarning, match="--frame ENU"):
         estimate(tr.gyr, tr.acc, tr.dt, frame="NED")
-    t = load_broad(broad / "11_undisturbed_slow_translation_B.hdf5")
+    t = load_broad(BROAD / "11_undisturbed_slow_translation_B.hdf5")
     s = slice(int(60.0 / t.dt), int(80.0 / t.dt))
     with pytest.warns(FrameWarning, match="--frame ENU"):
         estimate(t.gyr[s], t.acc[s], t.dt, frame="NED")
@@ -2621,10 +2527,7 @@ def test_a_magnet_taken_off_in_the_rest_after_the_motion_runs_offline_one_kept_o
     there, the field less the offset being the Earth's."""
     from optinav.cli.main import main
 
-    root = SHARED / "attitude" / "broad"
-    p33 = root / "33_disturbed_attached_magnet_2cm.hdf5"
-    if not p33.is_file():
-        pytest.skip("trial 33 absent")
+    p33 = _present(BROAD / "33_disturbed_attached_magnet_2cm.hdf5")
     magnet = np.array([-2.9, -0.3, 27.1])
 
     def on(tr, t1, t2):  # the magnet's field, put on at t1 and taken off at t2 (2-s ramps), body axes
@@ -2732,7 +2635,7 @@ def test_a_reference_learned_in_a_disturbed_start_is_replaced_once_the_field_is_
     the 5 % gate of the old reference and restarted the candidate's time: 3 % of the samples after 110 s used, the
     heading 25° off to the end. A disturbance ends once the field has agreed for HI_RESET_TIME without a break
     (as the body-fixed offset's fit already took it): 98 % used, 2° over the motion's last 16 s."""
-    tr = load_broad(SHARED / "attitude" / "broad" / "33_disturbed_attached_magnet_2cm.hdf5")
+    tr = load_broad(BROAD / "33_disturbed_attached_magnet_2cm.hdf5")
     s = slice(int(38.0 / tr.dt), None)
     r = estimate(tr.gyr[s], tr.acc[s], tr.dt, frame="ENU", mag=tr.mag[s], checks=False)
     t = 38.0 + np.arange(r.q_b_n.shape[0]) * tr.dt
@@ -2757,7 +2660,7 @@ def test_a_rate_swinging_within_the_bins_is_no_magnetometer_in_other_axes():
     layout is still refused, as is a mirrored frame, and the sums of a log streamed in blocks are the whole's."""
     from optinav.attitude import checks as C
 
-    tr = load_broad(SHARED / "attitude" / "broad" / "16_undisturbed_fast_translation_B.hdf5")
+    tr = load_broad(BROAD / "16_undisturbed_fast_translation_B.hdf5")
     errs = []
     for k, (g, a, m) in ((1, (tr.gyr, tr.acc, tr.mag)), (2, map(_pairs_averaged, (tr.gyr, tr.acc, tr.mag)))):
         s = slice(int(28.0 * tr.rate_hz / k), int(48.0 * tr.rate_hz / k))
@@ -2786,7 +2689,7 @@ def test_a_fast_turn_that_spins_gravity_away_is_no_unit_factor():
     (0.076 rad, all of gravity kept): refused as rad/s declared deg/s. A scale whose means keep under half of
     gravity is no evidence: it runs, offline within the whole recording's online inclination RMSE over those
     samples (1.25°); the cut's rad/s declared deg/s and deg/s declared rad/s are still refused."""
-    tr = load_broad(SHARED / "attitude" / "broad" / "29_disturbed_stationary_magnet_B.mat")
+    tr = load_broad(BROAD / "29_disturbed_stationary_magnet_B.mat")
     s = slice(int(82.5 / tr.dt), int(92.5 / tr.dt))
     ok = tr.eval_mask[s] & np.isfinite(tr.q_ref[s]).all(axis=1)
     whole = estimate(tr.gyr, tr.acc, tr.dt, frame="ENU")
