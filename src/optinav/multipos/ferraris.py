@@ -433,6 +433,15 @@ def _mean_cov(x: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
     return cov / n * (1 + rho) / (1 - rho), rho, np.diag(cov)
 
 
+def _step(sections) -> np.ndarray:
+    """The readings' resolution (3,) over ``sections`` of (N_i, 3) samples: the smallest step any of them takes per
+    axis (:func:`_resolution`; 0 where none moves)."""
+    r = [_resolution(np.asarray(x, float)) for x in sections if np.ndim(x) == 2 and len(x) > 1]
+    r = np.array(r) if r else np.full((1, 3), 1e-300)
+    r = np.where(r > 1e-300, r, np.inf).min(axis=0)
+    return np.where(np.isfinite(r), r, 0.0)
+
+
 def ferraris_std(
     acc_static,
     gyro_static,
@@ -560,6 +569,11 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     if not noise_roll_off(poses) < ROLL_OFF_SIGMA:
         return none
     noise = np.median([np.var(np.asarray(x, float), axis=0) for x in poses if np.ndim(x) == 2 and len(x) > 2], axis=0)
+    # a reading's quantization error, within ±Δ/2, adds up to Δ²/4 to its noise by where it falls between two steps,
+    # which the poses need not show where their noise is below a step (a 16-bit gyro with 0.2 counts of noise at
+    # rest: a motorized turn's noise 1.5x the poses', refused as spectra not falling off)
+    step = _step([w for w, _ in turns])
+    noise = noise + step**2 / 4.0
     top, mid, size, over = [], [], [], False
     for j, (w, h) in enumerate(turns):
         w, h = np.asarray(w, float), np.asarray(h, float)
