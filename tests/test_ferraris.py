@@ -1539,6 +1539,48 @@ def test_turn_sampling_covers_what_folds_into_the_turns_without_a_filter(rate):
         assert turn_sampling(turns, poses) == (0.0, pytest.approx(np.zeros((3, 3))))
 
 
+def _quantized_session(rng, rate: float, sigma: float, dur: float = 8.0):
+    """A Ferraris session of a 16-bit gyro in counts (939.6 counts per rad/s, 0.5 s ramps into a constant-rate 2π
+    turn of ``dur`` s about each vertical axis, 1 s rests at its ends) with ``sigma`` counts of white noise, read
+    without an anti-alias filter and rounded to whole counts; poses 5 s. Returns (rows acc, gyr, sections,
+    true K_g)."""
+    K_a, b_a, K_g, G, b_g = _truth(rng)
+    K_g = 939.6 * K_g / np.diag(K_g).mean()
+    n, f_rows, w_rows, secs = int(5 * rate), [], [], {}
+    for i, ax in enumerate("xyz"):
+        for s, suf in ((1, "p"), (-1, "a")):
+            secs[f"{ax}_{suf}"] = (len(f_rows), len(f_rows) + n)
+            f_rows += [np.eye(3)[i] * s * 9.81] * n
+            w_rows += [np.zeros(3)] * n
+    tt = np.arange(int((dur + 2.0) * rate)) / rate
+    ramp = np.clip(np.minimum(tt - 1.0, dur + 1.0 - tt) / 0.5, 0.0, 1.0)
+    for j, ax in enumerate("xyz"):
+        w = np.zeros((tt.size, 3))
+        w[:, j] = ramp * 2 * np.pi / (ramp.sum() / rate)
+        secs[f"{ax}_rot"] = (len(f_rows), len(f_rows) + tt.size)
+        f_rows += [np.eye(3)[j] * 9.81] * tt.size
+        w_rows += list(w)
+    f, w = np.array(f_rows), np.array(w_rows)
+    acc = np.round(f @ K_a.T + b_a + rng.normal(0.0, sigma, f.shape))
+    gyr = np.round(w @ K_g.T + f @ G.T + b_g + rng.normal(0.0, sigma, f.shape))
+    return acc, gyr, secs, K_g
+
+
+def test_a_gyro_quantized_below_its_noise_holds_its_quantization_in_the_std():
+    """A 16-bit gyro whose noise at rest is below a count (0.15 counts) reads each pose and each constant-rate turn
+    with a quantization bias its noise does not average out (up to 0.3 counts a sample): K_xx and K_zz 8.1 and 8.7 std
+    off the truth with the noise's std alone (seed 0; exit 0). With that bias in the poses' and turns' std (quantized_mean_var) every
+    scale is within 3 std; with 1.5 counts of noise the bias vanishes and the std is the noise's."""
+    for seed in range(3):
+        acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(seed), 100.0, 0.15)
+        cal, sd = ferraris_from_sections(100.0, acc, gyr, secs, with_std=True, expected_angle=2 * np.pi, gravity=9.81)
+        z = (np.diag(cal.gyr_K) - np.diag(K_g)) / np.diag(sd["gyr_K"])
+        assert np.all(np.abs(z) < 3.0), (seed, z)
+    from optinav.multipos.ferraris import quantized_mean_var
+
+    assert np.all(quantized_mean_var(np.full(3, 1.5**2 + 1 / 12), np.ones(3)) < 1e-18)
+
+
 def test_a_quantized_gyros_turns_are_no_spectra_that_do_not_fall_off():
     """A 16-bit gyro without an anti-alias filter, noise 0.2 counts, at rest on a whole count (its readings hardly
     move) and turned by a motor at a constant rate that falls between two counts: the turns' quantization noise

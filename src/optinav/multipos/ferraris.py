@@ -442,6 +442,20 @@ def _step(sections) -> np.ndarray:
     return np.where(np.isfinite(r), r, 0.0)
 
 
+def quantized_mean_var(var, step):
+    """Variance [unit²] (3,) of a reading's bias from its quantization, which the noise does not average out where
+    it is below about half a step: the mean of Q(x + n) misses x by up to (Δ/π) exp(−2π²σ²/Δ²) (Widrow's first
+    harmonic; σ² the readings' variance less Δ²/12, Δ the step), taken as uniform within that bound. It holds
+    for a still pose's mean and for every sample of a turn at a constant rate. ``var`` (3,) the readings'
+    variance, ``step`` (3,) Δ, in the readings' unit (Δ 0: none). A 16-bit gyro with 0.15 counts of noise: K_g
+    8.7 std off the truth without it."""
+    var, step = np.asarray(var, float), np.asarray(step, float)
+    sig2 = np.maximum(var - step**2 / 12.0, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        bound = step / np.pi * np.exp(-2.0 * np.pi**2 * np.where(step > 0.0, sig2 / step**2, np.inf))
+    return np.nan_to_num(bound) ** 2 / 3.0
+
+
 def ferraris_std(
     acc_static,
     gyro_static,
@@ -460,7 +474,8 @@ def ferraris_std(
     The pose means vary by their within-pose covariance over the samples (lag-1 correlation taken into account)
     and the rotation integrals by the gyro's and accelerometer's white noise measured in the poses, integrated
     over each rotation (Σ dt²); where the gyro's noise at rest shows no anti-alias filter, the rotation integrals
-    also by their sampling (:func:`turn_sampling`). Not included (add them where known): the unknown local g, the
+    also by their sampling (:func:`turn_sampling`); both, where the readings' noise is below their step, by the
+    quantization's bias (:func:`quantized_mean_var`). Not included (add them where known): the unknown local g, the
     Earth rate in the bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not
     means); ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
     result's units (NaN when the poses are given as means), ``gyr_turn_sampling``, that sampling's std as a share
@@ -480,12 +495,15 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     gen = as_rng(rng)
     covs = []
     noise = []
-    for secs in p.static:
+    quant = []  # per sensor: a reading's quantization bias, as a variance (3,), where the noise does not dither it
+    for secs, rot in zip(p.static, p.rot):
         c = [_mean_cov(x) for x in secs]
-        covs.append(np.array([ci[0] for ci in c]))
+        step = _step((*secs, *rot))
+        covs.append(np.array([ci[0] + np.diag(quantized_mean_var(ci[2], step)) for ci in c]))
         rho = float(np.median([ci[1] for ci in c]))
         var = np.median([ci[2] for ci in c], axis=0)  # per-sample white noise, pooled over the poses
         noise.append(var * (1 + rho) / (1 - rho))
+        quant.append(quantized_mean_var(var, step))
     # Σ dt² per rotation: the variance of an integral of white noise
     h2 = np.array([(x.shape[0] / p.rate**2) if h is None else float(h @ h) for x, h in zip(p.rot[1], p.steps)])
     w, V = np.linalg.eigh(np.stack(covs))  # a square root that a zero-variance (clipped) axis cannot break
@@ -494,14 +512,17 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     z = gen.standard_normal((n_draws, 54))
     Ua = p.Ua + np.einsum("pij,npj->npi", chol[0], z[:, :18].reshape(n_draws, 6, 3))
     Ug = p.Ug + np.einsum("pij,npj->npi", chol[1], z[:, 18:36].reshape(n_draws, 6, 3))
-    Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :]) * z[:, 36:45].reshape(n_draws, 3, 3)
+    # a turn held at a constant rate reads one quantization bias throughout: that bias over its duration
+    Sa = p.Sa + np.sqrt(noise[0][:, None] * h2[None, :] + quant[0][:, None] * p.D**2) * z[:, 36:45].reshape(
+        n_draws, 3, 3
+    )
     if p.own is None:
         turns = [(w, np.full(w.shape[0], 1.0 / p.rate) if h is None else h) for w, h in zip(p.rot[1], p.steps)]
         share, samp = turn_sampling(turns, p.static[1])
     else:
         share, samp = turn_sampling(*p.own)
     finite = bool(np.all(np.isfinite(samp)))
-    var = noise[1][:, None] * h2[None, :] + p.gap_var + (samp**2 if finite else 0.0)
+    var = noise[1][:, None] * h2[None, :] + quant[1][:, None] * p.D**2 + p.gap_var + (samp**2 if finite else 0.0)
     if p.image_var is not None:
         var = var + p.image_var
     Sw = p.Sw + np.sqrt(var) * z[:, 45:].reshape(n_draws, 3, 3)
