@@ -496,14 +496,21 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     covs = []
     noise = []
     quant = []  # per sensor: a reading's quantization bias, as a variance (3,), where the noise does not dither it
-    for secs, rot in zip(p.static, p.rot):
+    for k, (secs, rot) in enumerate(zip(p.static, p.rot)):
         c = [_mean_cov(x) for x in secs]
-        step = _step((*secs, *rot))
-        covs.append(np.array([ci[0] + np.diag(quantized_mean_var(ci[2], step)) for ci in c]))
+        # a gyro file on its own clock: its quantization is its own samples' (interpolated rows fall between steps)
+        read = (*secs, *rot) if k == 0 or p.own is None else (*p.own[1], *(w for w, _ in p.own[0]))
+        step = _step(read)
+        rvar = (
+            [ci[2] for ci in c]
+            if k == 0 or p.own is None
+            else [np.var(x, axis=0) if len(x) > 1 else ci[2] for x, ci in zip(p.own[1], c)]
+        )
+        covs.append(np.array([ci[0] + np.diag(quantized_mean_var(v, step)) for ci, v in zip(c, rvar)]))
         rho = float(np.median([ci[1] for ci in c]))
         var = np.median([ci[2] for ci in c], axis=0)  # per-sample white noise, pooled over the poses
         noise.append(var * (1 + rho) / (1 - rho))
-        quant.append(quantized_mean_var(var, step))
+        quant.append(quantized_mean_var(np.median(rvar, axis=0), step))
     # Σ dt² per rotation: the variance of an integral of white noise
     h2 = np.array([(x.shape[0] / p.rate**2) if h is None else float(h @ h) for x, h in zip(p.rot[1], p.steps)])
     w, V = np.linalg.eigh(np.stack(covs))  # a square root that a zero-variance (clipped) axis cannot break
