@@ -1329,14 +1329,18 @@ def _check_ferraris_bias_drift(gyro, names: list, idx: np.ndarray, gyr_K, unit: 
     """Error when the gyro bias of the pose pairs x_p/x_a, y_p/y_a, z_p/z_a differs beyond their noise: the
     closed form takes one bias, the poses' mean, for the three rotations after them, so a bias that drifts
     (warm-up) scales K_g (0.5 °/s over imucal's session: K_zz 0.27 % off at 17 std, exit 0)."""
-    from .ferraris import _mean_cov
+    from .ferraris import _mean_cov, _step, quantized_mean_var
 
     where = {str(n): k for k, n in enumerate(names)}
+    # a gyro whose noise is below its step reads each pose with a quantization bias of its own (0.2 counts of noise:
+    # pose pairs 6 std apart by the noise alone, refused as a drifting bias)
+    step = _step([np.asarray(gyro[slice(*r)], float) for r in idx])
     pair_mean, pair_var = [], []
     for ax in "xyz":
         poses = [np.asarray(gyro[slice(*idx[where[f"{ax}_{s}"]])], float) for s in "pa"]
         pair_mean.append((poses[0].mean(axis=0) + poses[1].mean(axis=0)) / 2)
-        pair_var.append(sum(np.diag(_mean_cov(x)[0]) for x in poses) / 4)
+        c = [_mean_cov(x) for x in poses]
+        pair_var.append(sum(np.diag(ci[0]) + quantized_mean_var(ci[2], step) for ci in c) / 4)
     m, v = np.array(pair_mean), np.array(pair_var)
     earth = 2.0 * OMEGA_E * np.abs(np.diag(gyr_K))
     worst, where_ = 0.0, None
