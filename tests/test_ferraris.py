@@ -1568,9 +1568,9 @@ def _quantized_session(rng, rate: float, sigma: float, dur: float = 8.0):
 
 def test_a_gyro_quantized_below_its_noise_holds_its_quantization_in_the_std():
     """A 16-bit gyro whose noise at rest is below a count (0.15 counts) reads each pose and each constant-rate turn
-    with a quantization bias its noise does not average out (up to 0.3 counts a sample): K_xx and K_zz 8.1 and 8.7 std
-    off the truth with the noise's std alone (seed 0; exit 0). With that bias in the poses' and turns' std (quantized_mean_var) every
-    scale is within 3 std; with 1.5 counts of noise the bias vanishes and the std is the noise's."""
+    with a quantization bias its noise does not average out (up to 0.3 counts a sample): K_xx and K_zz 8.1 and 8.7
+    std off the truth with the noise's std alone (seed 0; exit 0). With that bias in the poses' and turns' std
+    (quantized_mean_var) every scale is within 3 std; with 1.5 counts of noise the bias vanishes."""
     for seed in range(3):
         acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(seed), 100.0, 0.15)
         cal, sd = ferraris_from_sections(100.0, acc, gyr, secs, with_std=True, expected_angle=2 * np.pi, gravity=9.81)
@@ -1607,8 +1607,8 @@ def test_a_quantized_gyros_turns_are_no_spectra_that_do_not_fall_off():
 def test_a_quantized_gyro_file_on_its_own_clock_holds_its_quantization_in_the_std():
     """The gyro of the session above as a second file at twice the accelerometer's rate (200 Hz, its own clock,
     0.37 of its step after the accelerometer's): the rows hold it interpolated between counts, where no
-    quantization shows, and K_g was 11-17 std off the truth (seed 0, exit 0). Its quantization is its own samples': within
-    3 std."""
+    quantization shows, and K_g was 11-17 std off the truth (seed 0, exit 0). Its quantization is its own
+    samples': within 3 std."""
     for seed in range(3):
         acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(seed), 200.0, 0.15)
         tg = np.arange(gyr.shape[0]) / 200.0 + 0.37 / 200.0
