@@ -1659,3 +1659,25 @@ def test_a_motorized_turn_at_a_constant_rate_is_no_rest(tmp_path, capsys):
     g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
     z = (np.diag(g["K"]) - np.diag(K_g)) / np.diag(g["K_std"])
     assert np.all(np.abs(z) < 3.0), z
+
+
+def test_a_stated_gyro_range_judges_a_constant_rate_turn_by_the_range(tmp_path, capsys):
+    """A 16-bit gyro with 0.1 counts of noise turned by a motor at a constant rate reads the same count for seconds,
+    at the log's extreme: flat like a clipped peak, refused as 'at its full scale' with --gyro-range as the way
+    out, which the Ferraris route did not honour (the same refusal with --gyro-range 32767). With the range stated
+    the gyro is judged by it alone, as on the default route; without it the refusal stays."""
+    from optinav.cli.main import main
+
+    acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(0), 100.0, 0.1)
+    acc = acc + np.round(np.random.default_rng(1).normal(0.0, 3.0, acc.shape))  # an accelerometer's few counts
+    labels = np.full(acc.shape[0], "", dtype=object)
+    for n, (a, b) in secs.items():
+        labels[a:b] = n
+    path = _write_labelled(tmp_path / "log.csv", np.arange(acc.shape[0]) / 100.0, acc, gyr, labels)
+    argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
+    argv += ["--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    assert main(argv) == 2 and "full scale" in capsys.readouterr().err
+    assert main([*argv, "--gyro-range", "32767"]) == 0, capsys.readouterr().err
+    g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
+    z = (np.diag(g["K"]) - np.diag(K_g)) / np.diag(g["K_std"])
+    assert np.all(np.abs(z) < 3.0), z

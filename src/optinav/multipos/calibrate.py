@@ -586,6 +586,7 @@ def calibrate(
             sat_g,
             rng=rng,
             gyr_clock=gyr_clock,
+            range_given=gyro_range is not None,
         )
     selection = {}
     step("detect static intervals")
@@ -1715,12 +1716,14 @@ def _check_pose_turn_axes(pt, stated: float) -> None:
     )
 
 
-def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b) -> None:
+def _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, gyr_b, flat: bool = True) -> None:
     """One-line errors for a sensor at its full scale inside a Ferraris section (outside them it is harmless):
     the accelerometer (integer type or --acc-range), the gyro likewise or, in a turn, flat at the log's extreme
-    above the turn's typical rate (a clipped peak: the turn's integral falls short, K too small)."""
+    above the turn's typical rate (a clipped peak: the turn's integral falls short, K too small); ``flat`` False
+    (--gyro-range stated) judges the gyro by its range alone: a turntable's constant rate read by a gyro whose
+    noise is below a count is flat at the log's extreme too."""
     sat_g = np.zeros(gyro.shape[0], bool) if sat_g is None else sat_g.copy()
-    for j in range(3):
+    for j in range(3 if flat else 0):
         v = gyro[:, j] - gyr_b[j]
         runs = flat_runs(gyro[:, j])
         flat = np.zeros(gyro.shape[0], bool)
@@ -1796,9 +1799,11 @@ def _ferraris(
     *,
     rng=None,
     gyr_clock=None,
+    range_given: bool = False,
 ):
     """The closed-form Ferraris calibration (6 axis poses + 3 rotations named as imucal names them), gated;
-    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`."""
+    ``rng`` seeds the Monte Carlo std (None: 0, so that a run repeats); ``gyr_clock`` as :func:`calibrate`;
+    ``range_given``: the gyro's range was stated (``sat_g`` from it), so no flat run is taken for clipping."""
     from . import ferraris
 
     if gyro is None or sections is None:
@@ -1874,7 +1879,7 @@ def _ferraris(
         )
 
     fc, std = closed_form(gyro)
-    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b)
+    _ferraris_saturation(t, acc, gyro, sat_a, sat_g, names, idx, fc.gyr_b, flat=not range_given)
     # a clipped turn is named as such above; a spike or dropout inside a turn after it
     if glitch is not None:
         raise glitch
