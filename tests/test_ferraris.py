@@ -1641,6 +1641,22 @@ def test_a_quantized_gyros_poses_are_no_drifting_bias():
             _check_ferraris_bias_drift(drift, names, idx, K_g, "counts")
 
 
+def _motor_session_cli(tmp_path, seed: int, noise: float, acc_noise: float = 0.0) -> tuple[list, np.ndarray]:
+    """(the Ferraris command line, the true K_g) of :func:`_quantized_session` at 100 Hz (seed ``seed``, the gyro's
+    ``noise`` counts; ``acc_noise`` counts of rounded noise added to the accelerometer's) written as one labelled
+    log; the result goes to r.json in ``tmp_path``."""
+    acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(seed), 100.0, noise)
+    if acc_noise:
+        acc = acc + np.round(np.random.default_rng(seed + 1).normal(0.0, acc_noise, acc.shape))
+    labels = np.full(acc.shape[0], "", dtype=object)
+    for n, (a, b) in secs.items():
+        labels[a:b] = n
+    path = _write_labelled(tmp_path / "log.csv", np.arange(acc.shape[0]) / 100.0, acc, gyr, labels)
+    argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
+    argv += ["--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    return argv, K_g
+
+
 def test_a_motorized_turn_at_a_constant_rate_is_no_rest(tmp_path, capsys):
     """A turntable's constant-rate turns (8 s each at 45 deg/s about a vertical axis) read a steady gyro and a
     steady accelerometer, still to the rest detection: x_rot's and z_rot's plateaus were taken for the rests around
@@ -1648,13 +1664,7 @@ def test_a_motorized_turn_at_a_constant_rate_is_no_rest(tmp_path, capsys):
     mostly inside a rotation section is no rest: every gyro scale within 3 std."""
     from optinav.cli.main import main
 
-    acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(3), 100.0, 1.0)
-    labels = np.full(acc.shape[0], "", dtype=object)
-    for n, (a, b) in secs.items():
-        labels[a:b] = n
-    path = _write_labelled(tmp_path / "log.csv", np.arange(acc.shape[0]) / 100.0, acc, gyr, labels)
-    argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
-    argv += ["--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    argv, K_g = _motor_session_cli(tmp_path, 3, 1.0)
     assert main(argv) == 0, capsys.readouterr().err
     g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
     z = (np.diag(g["K"]) - np.diag(K_g)) / np.diag(g["K_std"])
@@ -1668,14 +1678,7 @@ def test_a_stated_gyro_range_judges_a_constant_rate_turn_by_the_range(tmp_path, 
     the gyro is judged by it alone, as on the default route; without it the refusal stays."""
     from optinav.cli.main import main
 
-    acc, gyr, secs, K_g = _quantized_session(np.random.default_rng(0), 100.0, 0.1)
-    acc = acc + np.round(np.random.default_rng(1).normal(0.0, 3.0, acc.shape))  # an accelerometer's few counts
-    labels = np.full(acc.shape[0], "", dtype=object)
-    for n, (a, b) in secs.items():
-        labels[a:b] = n
-    path = _write_labelled(tmp_path / "log.csv", np.arange(acc.shape[0]) / 100.0, acc, gyr, labels)
-    argv = ["--quiet", "calibrate", "accel", str(path), "--acc-unit", "counts", "--gyro-unit", "counts"]
-    argv += ["--method", "ferraris", "--rotation-angle", "360", "--gravity", "9.81", "--out", str(tmp_path / "r.json")]
+    argv, K_g = _motor_session_cli(tmp_path, 0, 0.1, acc_noise=3.0)  # an accelerometer's few counts of noise
     assert main(argv) == 2 and "full scale" in capsys.readouterr().err
     assert main([*argv, "--gyro-range", "32767"]) == 0, capsys.readouterr().err
     g = json.loads((tmp_path / "r.json").read_text())["fields"]["gyroscope"]["value"]
