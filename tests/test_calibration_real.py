@@ -866,16 +866,14 @@ def test_default_route_judges_a_gyro_file_on_its_own_clock_on_its_samples(tmp_pa
 
 
 @pytest.mark.parametrize("how, q, phase", [("rows", 2, 0), ("rows", 2, 1), ("decimate", 2, 0), ("rows", 4, 1)])
-def test_a_ferraris_log_decimated_without_a_filter_is_refused_or_in_its_std(
-    tmp_path, capsys, one_file_ferraris, how, q, phase
-):
+def test_a_ferraris_log_decimated_without_a_filter_is_in_its_std(tmp_path, capsys, one_file_ferraris, how, q, phase):
     """imucal's session with every q-th row kept, or low-passed first (scipy.signal.decimate). Kept rows fold what
     the hand turns held at the new rate into their integrals: at 51.2 Hz K_g 4.1, 3.7 and 4.9 std off the 102.4 Hz
     result with exit 0 (either phase; the std unchanged), at 25.6 Hz (phase 1) 31, 49 and 18 std. The gyro's noise at
-    rest, white up to the new Nyquist frequency, shows no anti-alias filter, and the turns' spectra give the error:
-    ±0.3-0.4 % at 51.2 Hz (K_g within 0.4 of its std, 12-30x the 102.4 Hz one); at 25.6 Hz they do not fall off
-    (refused, naming the remedy). Low-passed first, the noise rolls off and the std and K stay (within 0.4 std, the
-    std within 10 %)."""
+    rest, white up to the new Nyquist frequency, shows no anti-alias filter, and the turns' content near it, carried
+    to the sample rate at the slowest decay a turn can have (1/f), gives the error: at 51.2 Hz K_g within 0.14 of its
+    std (30-64x the 102.4 Hz one), at 25.6 Hz within 0.27 (±3.4 % of each turn; it was refused as spectra not falling
+    off). Low-passed first, the noise rolls off and the std and K stay (within 0.4 std, the std within 10 %)."""
     from scipy.signal import decimate
 
     rows = np.loadtxt(DATA / "example_ferraris_session.csv", delimiter=",", skiprows=1)[:, 1:]
@@ -888,18 +886,14 @@ def test_a_ferraris_log_decimated_without_a_filter_is_refused_or_in_its_std(
     )
     args = [*EXAMPLE, "--method", "ferraris", "--sections", str(tmp_path / "s.json")]
     args[2], args[4] = str(f), f"{102.4 / q:g}"
-    r = _run(tmp_path, args, code=2 if q == 4 else 0)
+    r = _run(tmp_path, args)
     err = capsys.readouterr().err
-    if r is None:
-        assert err.count("\n") == 1 and "sampled too slowly for how fast they turn (25.6 Hz)" in err, err
-        assert "no anti-alias filter" in err and "low-pass before decimating" in err
-        return
     one = one_file_ferraris.gyroscope
     std1 = np.diag(np.asarray(one["K_std"], float))
     std = np.diag(np.asarray(r.gyroscope["K_std"], float))
     dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one["K"]))
     if how == "rows":
-        assert np.all(dev < 0.5 * std) and np.all(std < 40 * std1), (dev / std, std / std1)
+        assert np.all(dev < 0.5 * std) and np.all(std < (100 if q == 2 else 400) * std1), (dev / std, std / std1)
         assert "no anti-alias filter" in err and "K_g's std includes" in err
     else:
         assert np.all(dev < 0.5 * std) and np.allclose(std, std1, rtol=0.1), (dev / std, std / std1)

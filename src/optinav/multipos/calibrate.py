@@ -1675,10 +1675,11 @@ def _check_pose_turns(pt, stated: float, rate: float) -> None:
 
 
 def _check_turn_sampling(share: float, rate: float, notes: list) -> None:
-    """Refuse a Ferraris fit whose rotations' spectra do not fall off toward the Nyquist frequency where the gyro's
-    noise at rest shows no anti-alias filter (:func:`ferraris.turn_sampling` inf: nothing bounds what folded into
-    their integrals); where they do, a note (K_g's std includes it). ``share`` that uncertainty as a share of each
-    turn, ``rate`` the gyro's sample rate [Hz]."""
+    """A note where the gyro's noise at rest shows no anti-alias filter and the rotations hold content near the
+    Nyquist frequency (:func:`ferraris.turn_sampling`: that content carried to the sample rate at the slowest decay
+    a turn's rate can have, 1/f, is in K_g's std); a refusal only where that bound is not finite (nothing bounds
+    what folded into the turns' integrals). ``share`` that uncertainty as a share of each turn, ``rate`` the gyro's
+    sample rate [Hz]."""
     if not share > 0.0:
         return
     why = (
@@ -1687,14 +1688,16 @@ def _check_turn_sampling(share: float, rate: float, notes: list) -> None:
     )
     if not np.isfinite(share):
         raise OptinavError(
-            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their spectra do "
-            "not fall off toward the Nyquist frequency, so nothing bounds that share of K_g",
+            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their content "
+            "near the Nyquist frequency gives no finite bound on that share of K_g",
             "record at the sensor's own output rate; to lower the rate, low-pass before decimating (e.g. "
             "scipy.signal.decimate) instead of keeping every n-th row",
         )
     notes.append(
-        f"{why}: K_g's std includes ±{share:.2g} of each turn for it (the turns' spectra near the Nyquist frequency "
-        "carried to the sample rate); record at the sensor's own rate, or low-pass before decimating, to take it out"
+        f"{why}: K_g's std includes ±{share:.2g} of each turn for it (the turns' content near the Nyquist frequency "
+        "carried to the sample rate as a jump in rate's would be, the slowest a turn's spectrum falls off; a vibration "
+        "line near a multiple of the sample rate folds beyond it); record at the sensor's own rate, or low-pass before "
+        "decimating, to take it out"
     )
 
 
@@ -2092,7 +2095,13 @@ def _ferraris(
         loss[j] = 1.0 - np.cos(off_axis)
     diag = np.diag(np.maximum(sa**2 / 2, loss))
     gyr_K_std = np.hypot(gyr_K_std, np.abs(np.diag(fc.gyr_K))[:, None] * (off * sa + diag))
-    gate_log.append(_check_ferraris_turn_steps(t, acc, gyro, section_ranges, turns, fc, gyr_K_std))
+    # a glitch in a turn raises its content near the Nyquist frequency, and so the turn-sampling term of the std it
+    # is judged against (one sample 0.5 rad/s off: K_xx 1.2 std off, no refusal): judged without that term
+    each = std["gyr_turn_sampling_each"]
+    samp = np.where(np.isfinite(each), each, 0.0) * np.abs(np.diag(fc.gyr_K))
+    step_std = gyr_K_std.copy()
+    np.fill_diagonal(step_std, np.sqrt(np.maximum(np.diag(gyr_K_std) ** 2 - samp**2, 0.0)))
+    gate_log.append(_check_ferraris_turn_steps(t, acc, gyro, section_ranges, turns, fc, step_std))
     # an unknown local g scales K and every rest's |a| alike: it is no part of a rest's difference from g (with it,
     # a drift of 0.05 m/s² passed when --gravity was not given)
     rests = _still_rests(t, acc, gyro)

@@ -479,7 +479,8 @@ def ferraris_std(
     Earth rate in the bias, a turn missed by the sections. Arguments as :func:`ferraris_calibration` (samples, not
     means); ``rng`` seed or Generator. Returns ``acc_K``, ``acc_b``, ``gyr_K``, ``gyr_G``, ``gyr_b`` std in the
     result's units (NaN when the poses are given as means), ``gyr_turn_sampling``, that sampling's std as a share
-    of each turn (0: filtered, or not judged), and ``gyr_images``, the largest share of a turn from a linear
+    of each turn (0: filtered, or not judged), ``gyr_turn_sampling_each`` (3,) that share of turn j's integral on its
+    own axis, and ``gyr_images``, the largest share of a turn from a linear
     interpolation's images (:func:`interpolation_images`; 0 here, where no second file's clock is given)."""
     p = _prepare(acc_static, gyro_static, acc_rot, gyro_rot, rate_hz, dt, expected_angle, gravity, None)
     return _std(p, rng, n_draws)
@@ -491,7 +492,8 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
 
     shapes = {"acc_K": (3, 3), "acc_b": (3,), "gyr_G": (3, 3), "gyr_b": (3,), "gyr_K": (3, 3)}
     if p.ca is None or np.any(p.ca < 3):
-        return {**{k: np.full(v, np.nan) for k, v in shapes.items()}, "gyr_turn_sampling": 0.0, "gyr_images": 0.0}
+        nan = {k: np.full(v, np.nan) for k, v in shapes.items()}
+        return {**nan, "gyr_turn_sampling": 0.0, "gyr_turn_sampling_each": np.zeros(3), "gyr_images": 0.0}
     gen = as_rng(rng)
     covs = []
     noise = []
@@ -537,7 +539,8 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
     std = {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
     if not finite:  # (the turns' spectra do not fall off: no std bounds K_g)
         std["gyr_K"] = np.full((3, 3), np.inf)
-    return {**std, "gyr_turn_sampling": share, "gyr_images": p.image_share}
+    each = np.diag(samp) / np.maximum(np.abs(np.diag(p.Sw)), 1e-300) if finite else np.full(3, np.inf)
+    return {**std, "gyr_turn_sampling": share, "gyr_turn_sampling_each": each, "gyr_images": p.image_share}
 
 
 #: the gyro's noise at rest shows an anti-alias filter when its power over the top tenth of the band below the Nyquist
@@ -568,16 +571,20 @@ def noise_roll_off(poses) -> float:
     return (1.0 - (top / n_top) / (mid / n_mid)) / float(np.sqrt(1.0 / n_top + 1.0 / n_mid))
 
 
-def _band_levels(w: np.ndarray, h: float, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Mean power (3,) of a turn's samples ``w`` (M, 3) over 0.8-1 and 0.4-0.5 of the Nyquist frequency (|h·DFT|²,
-    the ends' line taken out), the white noise's level there (M h² σ², ``noise`` (3,) σ²) and the bins of the top."""
+def _top_level(w: np.ndarray, h: float, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Mean power (3,) of a turn's samples ``w`` (M, 3) over the top fifth of the band below the Nyquist frequency
+    (|h·DFT|², the ends' line taken out), the white noise's level there (M h² σ², ``noise`` (3,) σ²) and its bins."""
     M = w.shape[0]
     k = max(1, min(5, M // 10))
     x = w - np.linspace(w[:k].mean(axis=0), w[-k:].mean(axis=0), M)
     P = np.abs(np.fft.rfft(x, axis=0) * h) ** 2
-    f = np.fft.rfftfreq(M) * 2.0
-    top, mid = f > 0.8, (f > 0.4) & (f <= 0.5)
-    return P[top].mean(axis=0), P[mid].mean(axis=0), M * h * h * noise, int(np.count_nonzero(top))
+    top = np.fft.rfftfreq(M) * 2.0 > 0.8
+    return P[top].mean(axis=0), M * h * h * noise, int(np.count_nonzero(top))
+
+
+#: the top's power carried from its centre (0.9 f_N) to the sample rate and its multiples m f_s = 2m f_N (both signs
+#: of m) at the slowest decay a turn's rate can have, |W| ∝ 1/f (a jump in rate): Σ 2 (2m/0.9)^-2 = 0.9² π²/12
+TOP_CARRY = 0.9**2 * np.pi**2 / 12.0
 
 
 def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
@@ -585,12 +592,16 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`): a turn's content at the sample rate then folds
     into its integral (imucal's session on every 2nd row, 51.2 Hz: K_g 4-5 std off with exit 0; low-passed before
     decimating, within 0.4). Its size from the turns' spectra (noise level taken out, pooled over the turns as
-    shares of each): the amplitude over the top fifth of the band, carried to the sample rate and its multiples by
-    the decay from 0.4-0.5 of the Nyquist frequency to there (an octave), as the turn integral's error on sampling
-    at a random phase (Σ over m ≠ 0 of |W(m f_s)|²); none where the top is within the noise (below the 99.9 % point
-    of its level for noise alone), inf where the spectrum does not fall faster than 1/f. ``turns`` the three
-    rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error as a share
-    of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0, zeros) with a filter or nothing to judge."""
+    shares of each): the power over the top fifth of the band carried to the sample rate and its multiples at the
+    slowest decay a turn's rate can have, 1/f (:data:`TOP_CARRY`; a jump in rate, sampled at a random phase, errs by
+    its size × step / √12), as the turn integral's error on sampling at a random phase (Σ over m ≠ 0 of
+    |W(m f_s)|²); none where the top is within the noise (below the 99.9 % point of its level for noise alone). The
+    decay is not measured from the band below: a vibration line or a ring folded into it made it look flat (refused,
+    though K_g was within 2 std) or steep (K_g up to 23 std off with exit 0). Content above the Nyquist frequency that
+    the top does not show (a line near a multiple of the sample rate, folding near 0 Hz) is beyond it. ``turns`` the
+    three rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error as
+    a share of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0, zeros) with a filter or nothing to
+    judge."""
     from scipy.special import gammaincinv
 
     none = (0.0, np.zeros((3, 3)))
@@ -602,29 +613,22 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     # rest: a motorized turn's noise 1.5x the poses', refused as spectra not falling off)
     step = _step([w for w, _ in turns])
     noise = noise + step**2 / 4.0
-    top, mid, size, over = [], [], [], False
+    top, size, over = [], [], False
     for j, (w, h) in enumerate(turns):
         w, h = np.asarray(w, float), np.asarray(h, float)
         if w.shape[0] < 20 or not np.all(np.isfinite(w)):
             return none
         hm = float(np.median(h))
-        t, m, floor, n = _band_levels(w, hm, noise)
+        t, floor, n = _top_level(w, hm, noise)
         # a top within the noise's 99.9 % point (its mean over n bins of 2 degrees of freedom each) is no evidence
         over |= bool(t[j] > floor[j] * gammaincinv(n, 0.999) / n)  # (χ²₂ₙ's 99.9 % point over 2n)
         top.append(np.maximum(t - floor, 0.0))
-        mid.append(np.maximum(m - floor, 0.0))
         size.append(np.abs(np.minimum(h, hm) @ w))
     if not over:
         return none
     rel_top = float(np.mean([top[j][j] / max(size[j][j], 1e-300) ** 2 for j in range(3)]))
-    rel_mid = float(np.mean([mid[j][j] / max(size[j][j], 1e-300) ** 2 for j in range(3)]))
-    order = 0.5 * np.log2(rel_mid / rel_top) if rel_top > 0.0 and rel_mid > 0.0 else 0.0  # amplitude ∝ f^-order
-    if order <= 0.5:
-        return float("inf"), np.full((3, 3), np.inf)
-    # from the top's centre (0.9 f_N) to m f_s = 2m f_N: |W|² × (2m/0.9)^(-2 order), both signs of m
-    carry = 2.0 * float(np.sum((2.0 * np.arange(1, 1001) / 0.9) ** (-2.0 * order)))
-    std = np.column_stack([np.sqrt(t * carry) for t in top])
-    return float(np.sqrt(rel_top * carry)), std
+    std = np.column_stack([np.sqrt(t * TOP_CARRY) for t in top])
+    return float(np.sqrt(rel_top * TOP_CARRY)), std
 
 
 def _singular(M: np.ndarray):
