@@ -1674,25 +1674,17 @@ def _check_pose_turns(pt, stated: float, rate: float) -> None:
     )
 
 
-def _check_turn_sampling(share: float, rate: float, notes: list) -> None:
+def _note_turn_sampling(share: float, rate: float, notes: list) -> None:
     """A note where the gyro's noise at rest shows no anti-alias filter and the rotations hold content near the
     Nyquist frequency (:func:`ferraris.turn_sampling`: that content carried to the sample rate at the slowest decay
-    a turn's rate can have, 1/f, is in K_g's std); a refusal only where that bound is not finite (nothing bounds
-    what folded into the turns' integrals). ``share`` that uncertainty as a share of each turn, ``rate`` the gyro's
-    sample rate [Hz]."""
+    a turn's rate can have, 1/f, is in K_g's std). ``share`` that uncertainty as a share of each turn, ``rate`` the
+    gyro's sample rate [Hz]."""
     if not share > 0.0:
         return
     why = (
         f"the gyro's noise at rest stays white up to the Nyquist frequency ({rate / 2:.3g} Hz: no anti-alias filter), so "
         "what the hand turns held at the sample rate folded into their integrals"
     )
-    if not np.isfinite(share):
-        raise OptinavError(
-            f"the rotations are sampled too slowly for how fast they turn ({rate:.3g} Hz): {why}, and their content "
-            "near the Nyquist frequency gives no finite bound on that share of K_g",
-            "record at the sensor's own output rate; to lower the rate, low-pass before decimating (e.g. "
-            "scipy.signal.decimate) instead of keeping every n-th row",
-        )
     notes.append(
         f"{why}: K_g's std includes ±{share:.2g} of each turn for it (the turns' content near the Nyquist frequency "
         "carried to the sample rate as a jump in rate's would be, the slowest a turn's spectrum falls off; a vibration "
@@ -2014,7 +2006,7 @@ def _ferraris(
             "file of cut sections, or they do not carry gravity from pose to pose); K_g scales with it, so check "
             "--rotation-angle"
         )
-    _check_turn_sampling(std["gyr_turn_sampling"], 1.0 / pt[4], notes)
+    _note_turn_sampling(std["gyr_turn_sampling"], 1.0 / pt[4], notes)
     if std["gyr_images"] > 0.0:
         notes.append(
             "the gyro file's noise at rest varies with its samples' phase on the accelerometer's clock as a linear "

@@ -530,16 +530,13 @@ def _std(p: _Inputs, rng, n_draws: int) -> dict:
         share, samp = turn_sampling(turns, p.static[1])
     else:
         share, samp = turn_sampling(*p.own)
-    finite = bool(np.all(np.isfinite(samp)))
-    var = noise[1][:, None] * h2[None, :] + quant[1][:, None] * p.D**2 + p.gap_var + (samp**2 if finite else 0.0)
+    var = noise[1][:, None] * h2[None, :] + quant[1][:, None] * p.D**2 + p.gap_var + samp**2
     if p.image_var is not None:
         var = var + p.image_var
     Sw = p.Sw + np.sqrt(var) * z[:, 45:].reshape(n_draws, 3, 3)
     out = _closed_form(Ua, Ug, p.cg, Sw, Sa, p.D, p.th, p.g)
     std = {k: v.std(axis=0, ddof=1) for k, v in zip(("acc_K", "acc_b", "gyr_G", "gyr_b", "gyr_K"), out)}
-    if not finite:  # (the turns' spectra do not fall off: no std bounds K_g)
-        std["gyr_K"] = np.full((3, 3), np.inf)
-    each = np.diag(samp) / np.maximum(np.abs(np.diag(p.Sw)), 1e-300) if finite else np.full(3, np.inf)
+    each = np.diag(samp) / np.maximum(np.abs(np.diag(p.Sw)), 1e-300)
     return {**std, "gyr_turn_sampling": share, "gyr_turn_sampling_each": each, "gyr_images": p.image_share}
 
 
