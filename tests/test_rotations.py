@@ -67,6 +67,19 @@ def test_quat_rotate_is_the_cross_product_formula_bit_for_bit():
         assert got.shape == want.shape and np.array_equal(got, want)
 
 
+def test_closed_forms_of_the_filter_loops_are_scipys_bit_for_bit():
+    """The fine alignment's per-step conversions without the checks and Rotation objects: the same numbers as
+    dcm_from_quat (quaternions of any norm, 1e-150 … 1e150) and quat_from_rotvec (either side of scipy's series
+    switch at 1e-3 rad, beyond π, zero), bit for bit."""
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4000, 4)) * 10.0 ** rng.uniform(-150, 150, (4000, 1))
+    assert np.array_equal(R._dcm_of_quats(q), R.dcm_from_quat(q))
+    angle = np.concatenate([10.0 ** rng.uniform(-12, 1.2, 3000), 1e-3 * (1 + rng.uniform(-1e-12, 1e-12, 50)), [0.0]])
+    axis = R.quat_normalize(rng.normal(size=(angle.size, 4)))[:, 1:]  # any direction, not unit
+    for r in angle[:, None] * axis:
+        assert np.array_equal(R._quat_of_rotvec(r), R.quat_from_rotvec(r)), r
+
+
 def test_vectorized_shapes():
     rng = np.random.default_rng(0)
     e = rng.uniform(-1, 1, (4, 5, 3))

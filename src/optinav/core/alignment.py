@@ -26,11 +26,13 @@ from optinav.core import earth as _earth
 from optinav.core.results import Result, nested_kwargs, register_legacy
 from optinav.core.rotations import (
     DEFAULT_FRAME,
+    _cross,
+    _dcm_of_quats,
+    _quat_of_rotvec,
     frame_name,
     dcm_from_quat,
     euler_from_dcm,
     quat_from_dcm,
-    quat_from_rotvec,
     quat_multiply,
     rotvec_from_dcm,
     skew,
@@ -320,8 +322,8 @@ def fine_alignment(
     x_bias = np.zeros(6)  # fed-back bias estimates [ε (rad/s), ∇ (m/s²)]
     v = np.zeros(3)
     qn = np.diag(np.concatenate([np.full(3, gyro_white**2), np.full(3, acc_white**2)]))
-    H = np.zeros((3, 12))
-    H[:, 3:6] = np.eye(3)
+    eye12, eye3 = np.eye(12), np.eye(3)
+    q_gm = np.diag(gm_psd)
     hist_t, hist_q, hist_s = [], [], []
     # the Earth terms of the error model are constant on a static base: built once, the attitude blocks per step
     F, G = _error_model_static(lat, h, frame, earth)
@@ -331,23 +333,27 @@ def fine_alignment(
         d_th = dth[a:b] - x_bias[:3] * dt[a:b, None]
         d_v = dvv[a:b] - x_bias[3:] * dt[a:b, None]
         qs = attitude_update(q, d_th, omega_in_n=w_ie, dt=dt[a:b])
-        c_all = dcm_from_quat(qs[:-1])
+        # the step's attitudes are unit quaternions of the update: the closed forms of dcm_from_quat, np.cross and
+        # quat_from_rotvec, bit for bit, without their checks and scipy objects (which were half of each step)
+        c_all = _dcm_of_quats(qs)
         # velocity: rotate each increment at its start attitude (rotation/sculling terms vanish on a static base)
-        v = v + np.einsum("kij,kj->i", c_all, d_v) + g_n * T - 2 * np.cross(w_ie, v) * T
+        v = v + np.einsum("kij,kj->i", c_all[:-1], d_v) + g_n * T - 2 * _cross(w_ie, v) * T
         q = qs[-1]
-        _error_model_attitude(F, G, dcm_from_quat(q))
-        Phi = np.eye(12) + F * T + F @ F * (T * T / 2)
+        _error_model_attitude(F, G, c_all[-1])
+        Phi = eye12 + F * T + F @ F * (T * T / 2)
         Qd = G @ qn @ G.T * T
-        Qd[6:12, 6:12] += np.diag(gm_psd) * T
+        Qd[6:12, 6:12] += q_gm * T
         P = Phi @ P @ Phi.T + Qd
         r_std = velocity_noise if velocity_noise is not None else max(acc_white * np.sqrt(T), 1e-6)
-        S = H @ P @ H.T + np.eye(3) * r_std**2
-        K = P @ H.T @ np.linalg.inv(S)
+        # the measurement H = [0 I 0 0] picks the velocity states: H P Hᵀ, P Hᵀ and K H as slices
+        S = P[3:6, 3:6] + eye3 * r_std**2
+        K = P[:, 3:6] @ np.linalg.inv(S)
         x = K @ v  # measurement: computed velocity minus zero
-        I_KH = np.eye(12) - K @ H
+        I_KH = eye12.copy()
+        I_KH[:, 3:6] -= K
         P = I_KH @ P @ I_KH.T + K @ K.T * r_std**2  # Joseph form keeps P symmetric positive
         # feedback: C_true = (I + [φ×]) C_computed, δv removed, biases accumulated
-        q = quat_multiply(quat_from_rotvec(x[0:3]), q)
+        q = quat_multiply(_quat_of_rotvec(x[0:3]), q)
         v = v - x[3:6]
         x_bias = x_bias + x[6:12]
         hist_t.append(t[b])

@@ -17,6 +17,7 @@ Euler conventions (angles always returned and accepted as ``[roll, pitch, yaw]``
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import TYPE_CHECKING
 
@@ -360,6 +361,36 @@ def _rotation():
     from scipy.spatial.transform import Rotation
 
     return Rotation
+
+
+def _dcm_of_quats(q) -> np.ndarray:
+    """``C`` of (n, 4) quaternions known to be finite and nonzero: scipy's normalization and matrix written out,
+    bit for bit :func:`dcm_from_quat` without its checks and Rotation object (tests/test_rotations.py). For loops
+    over short steps, where those cost more than the arithmetic (the fine alignment's filter)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    n = np.sqrt(x * x + y * y + z * z + w * w)
+    w, x, y, z = w / n, x / n, y / n, z / n
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    c = np.empty((q.shape[0], 3, 3))
+    c[:, 0, 0], c[:, 0, 1], c[:, 0, 2] = x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)
+    c[:, 1, 0], c[:, 1, 1], c[:, 1, 2] = 2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)
+    c[:, 2, 0], c[:, 2, 1], c[:, 2, 2] = 2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2
+    return c
+
+
+def _quat_of_rotvec(r) -> np.ndarray:
+    """:func:`quat_from_rotvec` of one finite rotation vector (3,) without its checks and Rotation object, bit for
+    bit (scipy's series 1/2 − θ²/48 + θ⁴/3840 for sin(θ/2)/θ up to θ = 1e-3 rad; tests/test_rotations.py)."""
+    x, y, z = float(r[0]), float(r[1]), float(r[2])
+    angle = math.sqrt(x * x + y * y + z * z)
+    if angle <= 1e-3:
+        a2 = angle * angle
+        s = 0.5 - a2 / 48 + a2 * a2 / 3840
+    else:
+        s = math.sin(angle / 2) / angle
+    q = np.array([math.cos(angle / 2), s * x, s * y, s * z])
+    return -q if q[0] < 0 else q
 
 
 def _rot_from_quat(q) -> tuple[Rotation, tuple[int, ...]]:
