@@ -362,6 +362,20 @@ def test_notes_beside_the_recordings_are_skipped_not_failed(tmp_path):
     assert all("without a line of numbers" in why for _, why in skipped)
 
 
+def test_the_workers_fork_with_their_systems_unit_module_imported():
+    """Each pool's workers imported scipy and the system themselves (a pool of 2 took 3-6 s for two 0.1 s units):
+    the fork server preloads the module of the system's run_unit, for every registered system."""
+    import importlib
+
+    from optinav.registry import SYSTEMS
+
+    assert batch._unit_modules(OPTIONS) == ["optinav.multipos.unit"]
+    for name, system in SYSTEMS.items():
+        if system.run_unit:
+            (module,) = batch._unit_modules(batch.BatchJob(name, None))
+            assert importlib.import_module(module) is sys.modules[system.load("run_unit").__module__], name
+
+
 def test_bad_requests_are_one_line_errors(units, tmp_path, monkeypatch, capsys):
     d, _ = units
     for argv in (

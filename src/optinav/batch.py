@@ -305,9 +305,7 @@ def options_hash(job) -> str:
 def hashed_fields(job) -> dict:
     """What :func:`options_hash` hashes of ``job``: the layout, the job's fields (without where results go; option
     files only when there are some; an option of :data:`LATER_OPTIONS` only when set) and the resolved defaults."""
-    if not isinstance(job, BatchJob):
-        job = BatchJob("multipos", job)
-    fields = dataclasses.asdict(job)
+    fields = dataclasses.asdict(_as_job(job))
     fields.pop("results_dir", None)
     if not fields.get("option_files"):
         fields.pop("option_files", None)  # the hash of a job without option files as before they were hashed
@@ -442,6 +440,11 @@ def truth_columns(res, path: Path) -> dict:
 MAX_TRUTH_Z = 10.0
 
 
+def _as_job(job) -> BatchJob:
+    """``job`` as a :class:`BatchJob`: multipos options alone are the multipos system's."""
+    return job if isinstance(job, BatchJob) else BatchJob("multipos", job)
+
+
 def calibrate_unit(path: str, job, name: str = "") -> dict:
     """Run one unit's file through its system (``job``: a :class:`BatchJob`, or multipos options) and return its
     table row; never raises for a bad unit (status "failed" and the one-line error instead). Runs in a worker
@@ -449,7 +452,7 @@ def calibrate_unit(path: str, job, name: str = "") -> dict:
     from optinav import __version__
     from optinav.registry import SYSTEMS
 
-    job = job if isinstance(job, BatchJob) else BatchJob("multipos", job)
+    job = _as_job(job)
     p = Path(path)
     row = {
         "unit": name or p.name,
@@ -860,15 +863,31 @@ def _default_workers() -> int:
         return os.cpu_count() or 1
 
 
-def _mp_context():
+#: what every system's first unit imports lazily in a worker (scipy's optimizers and distributions)
+_WORKER_PRELOAD = ("scipy.optimize", "scipy.stats")
+
+
+def _mp_context(preload=()):
     import multiprocessing as mp
 
     # forkserver/spawn rather than fork: the parent may hold threads (a dask client, numba), which fork copies badly
     if "forkserver" in mp.get_all_start_methods():
         ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["optinav.batch"])  # workers start with numpy and optinav imported: cheap restarts
+        # workers start with numpy, optinav, the system's unit module (``preload``) and the scipy parts every
+        # system's first unit imports lazily (1.5 s of it) already imported: a pool's workers no longer import
+        # them each. The list of the pool that starts the fork server holds while it runs (the process's
+        # lifetime); a module it lacks is imported by the worker.
+        ctx.set_forkserver_preload(["optinav.batch", *_WORKER_PRELOAD, *preload])
         return ctx
     return mp.get_context("spawn")
+
+
+def _unit_modules(job) -> list[str]:
+    """The module of the ``run_unit`` that :func:`calibrate_unit` runs for ``job``."""
+    from optinav.registry import SYSTEMS
+
+    ref = getattr(SYSTEMS.get(_as_job(job).system), "run_unit", None)
+    return [ref.partition(":")[0]] if ref else []
 
 
 def _require_distributed():
@@ -941,7 +960,7 @@ def _run_local(jobs, options, workers, fn=None):
         for group in groups:
             pool = ProcessPoolExecutor(
                 max_workers=min(workers, len(group)),
-                mp_context=_mp_context(),
+                mp_context=_mp_context(_unit_modules(options) if fn is calibrate_unit else ()),
                 initializer=_worker_init,
                 initargs=(os.getpid(), _picklable(warnings.showwarning)),
             )
