@@ -139,3 +139,51 @@ def test_attitude_unit_scores_a_long_truth_read_in_blocks(tmp_path, monkeypatch)
     truth.to_json(tp)
     with pytest.raises(OptinavError, match="the truth.s roll has 2996 samples, the log at least 3001"):
         run_unit(data, AttitudeOptions(), reference=True)
+
+
+# --- writing: json_text is json.dumps, the long lists of numbers joined ----------------------------------------
+
+_NUMBER = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False), st.integers(-(2**70), 2**70), st.none(), st.booleans()
+)
+_ROWS = st.lists(st.one_of(_NUMBER, st.lists(_NUMBER, max_size=4)), min_size=28, max_size=40)
+_JSON = st.recursive(
+    st.one_of(_NUMBER, _STRINGS, st.just("@@optinav-numbers:0@@"), _ROWS),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(_STRINGS, inner, max_size=4),
+    max_leaves=12,
+)
+
+
+@settings(suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(_JSON, st.sampled_from([0, 1, 2, 4, None, "\t"]))
+def test_json_text_is_json_dumps_byte_for_byte(data, indent):
+    """The long lists of plain numbers (a result's arrays, where json's indented encoder took ~2 µs a number) are
+    joined from their reprs, at any depth and indentation; lists with booleans, strings holding the placeholder
+    and the rest go through json.dumps: the same text either way."""
+    from optinav.core.files import json_text
+
+    assert json_text(data, indent) == json.dumps(data, indent=indent, allow_nan=False)
+
+
+def test_json_text_refuses_what_json_dumps_refuses():
+    from optinav.core.files import json_text
+
+    for bad in ([1.0] * 40 + [float("nan")], {"a": [[1.0, 2.0]] * 40 + [[float("inf"), 0.0]]}):
+        with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
+            json_text(bad)
+
+
+def test_the_depth_limit_of_json_inputs_counts_the_numbers_in_the_deepest_list():
+    """parse_json walks only the containers now: a number in a list at the deepest level allowed (64) is one level
+    too deep, as before; that list empty, or its number one level up, is read."""
+    from optinav.core.files import MAX_JSON_DEPTH, parse_json
+
+    def nested(depth, leaf):
+        return "[" * (depth - 1) + leaf + "]" * (depth - 1)
+
+    assert parse_json(nested(MAX_JSON_DEPTH, "[]"), "x", "") is not None
+    assert parse_json(nested(MAX_JSON_DEPTH, "1"), "x", "") is not None
+    for text in (nested(MAX_JSON_DEPTH, "[1]"), nested(MAX_JSON_DEPTH + 1, "[]"), nested(MAX_JSON_DEPTH, '{"a": 1}')):
+        with pytest.raises(OptinavError, match="nested more than 64 levels deep"):
+            parse_json(text, "x", "")
+    assert parse_json("1.5", "x", "") == 1.5

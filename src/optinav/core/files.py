@@ -463,6 +463,88 @@ def write_text(path, text: str, option: str = "--out") -> Path:
     return Path(path)
 
 
+#: lists of at least this many values go through :func:`_number_list_text` in :func:`json_text`
+_LONG_LIST = 32
+#: placeholder of such a list in the skeleton json.dumps writes (a string no result holds; checked)
+_LIST_MARK = "@@optinav-numbers:"
+
+
+def _plain_numbers(values: list) -> bool:
+    """True when every leaf of the nested list is a finite float, an int (not a bool) or None."""
+    for v in values:
+        t = type(v)
+        if t is float:
+            if v - v != 0.0:  # inf or NaN: json.dumps(allow_nan=False) must refuse it
+                return False
+        elif t is list:
+            if not _plain_numbers(v):
+                return False
+        elif t is not int and v is not None:
+            return False
+    return True
+
+
+def _number_list_text(values: list, level: int, indent: str) -> str:
+    """The text json.dumps writes for a nested list of plain numbers at indentation ``level``."""
+    if not values:
+        return "[]"
+    inner = "\n" + indent * (level + 1)
+    items = [
+        _number_list_text(v, level + 1, indent) if type(v) is list else "null" if v is None else repr(v) for v in values
+    ]
+    return "[" + inner + ("," + inner).join(items) + "\n" + indent * level + "]"
+
+
+def json_text(data, indent: int = 2) -> str:
+    """``json.dumps(data, indent=indent, allow_nan=False)``, the same text, with the long lists of plain numbers
+    (a result's arrays) joined from their reprs: json's indented encoder is pure Python, about 2 µs a number
+    (seconds for the estimate of a long log). The rest goes through json.dumps, with each such list as a
+    placeholder string put back at its line's indentation.
+
+    Parameters
+    ----------
+    data : Any
+        Plain JSON types.
+    indent : int, str or None
+        Spaces per level (a string or None: json.dumps's own handling).
+
+    Returns
+    -------
+    str
+        The JSON text.
+    """
+    if type(indent) is not int:  # None (compact) or a string: json.dumps as it is
+        return json.dumps(data, indent=indent, allow_nan=False)
+    lists: list[list] = []
+
+    def skeleton(node):
+        if type(node) is dict:
+            return {k: skeleton(v) for k, v in node.items()}
+        if type(node) is list:
+            if len(node) >= _LONG_LIST and _plain_numbers(node):
+                lists.append(node)
+                return f"{_LIST_MARK}{len(lists) - 1}@@"
+            return [skeleton(v) for v in node]
+        return node
+
+    head = skeleton(data)
+    text = json.dumps(head, indent=indent, allow_nan=False)
+    if not lists:
+        return text
+    if text.count(_LIST_MARK) != len(lists):  # a string of the data holds the mark: no placeholders
+        return json.dumps(data, indent=indent, allow_nan=False)
+    pad = " " * indent
+
+    def put(m: re.Match) -> str:
+        line = end = text.rfind("\n", 0, m.start()) + 1
+        while text[end] == " ":
+            end += 1
+        level = (end - line) // indent if indent else 0
+        return _number_list_text(lists[int(m.group(1))], level, pad)
+
+    return re.sub(f'"{_LIST_MARK}(\\d+)@@"', put, text)
+
+
 def write_json(path, data, option: str = "--out", **kwargs) -> Path:
     """Write ``data`` as indented JSON (strict: no NaN) to ``path`` atomically.
 
@@ -482,7 +564,8 @@ def write_json(path, data, option: str = "--out", **kwargs) -> Path:
     Path
         The file written.
     """
-    return write_text(path, json.dumps(data, indent=2, allow_nan=False, **kwargs) + "\n", option)
+    text = json.dumps(data, indent=2, allow_nan=False, **kwargs) if kwargs else json_text(data)
+    return write_text(path, text + "\n", option)
 
 
 def write_csv(
@@ -730,13 +813,13 @@ def parse_json(text: str, src: str, remedy: str):
         raise OptinavError(f"{src} is JSON nested too deeply to read", remedy) from None
     except ValueError as exc:  # e.g. an integer literal with thousands of digits
         raise OptinavError(f"{src} is not readable JSON ({' '.join(str(exc).split())[:80]})", remedy) from None
-    stack = [(data, 1)]
+    # the containers only go on the stack (every number did, seconds on long logs); one at the deepest level
+    # allowed must be empty, as its values would be a level deeper
+    stack = [(data, 1)] if isinstance(data, (dict, list)) else []
     while stack:
         node, depth = stack.pop()
-        if depth > MAX_JSON_DEPTH:
+        if depth > MAX_JSON_DEPTH or (depth == MAX_JSON_DEPTH and node):
             raise OptinavError(f"{src} is JSON nested more than {MAX_JSON_DEPTH} levels deep", remedy)
-        if isinstance(node, dict):
-            stack.extend((v, depth + 1) for v in node.values())
-        elif isinstance(node, list):
-            stack.extend((v, depth + 1) for v in node)
+        values = node.values() if isinstance(node, dict) else node
+        stack.extend((v, depth + 1) for v in values if isinstance(v, (dict, list)))
     return data

@@ -87,10 +87,10 @@ def dump_json(data: dict, path: str | Path | None = None, *, indent: int = 2) ->
     str
         The JSON text.
     """
-    text = json.dumps(data, indent=indent, allow_nan=False)
-    if path is not None:
-        from optinav.core.files import write_text
+    from optinav.core.files import json_text, write_text
 
+    text = json_text(data, indent)
+    if path is not None:
         write_text(path, text + "\n")
     return text
 
@@ -112,6 +112,8 @@ def plain(value: Any) -> Any:
         The same value in plain JSON types (units unchanged).
     """
     if isinstance(value, np.ndarray):
+        if value.dtype.kind in "biuU" or (value.dtype.kind == "f" and np.isfinite(value).all()):
+            return value.tolist()  # plain already: walking its elements changed none (it took seconds on long logs)
         return plain(value.tolist())
     if isinstance(value, (np.floating, float)):
         f = float(value)
@@ -199,11 +201,13 @@ def _array_of(value: Any, dtype: str) -> np.ndarray:
     if dt.kind == "f":
 
         def fix(x):
-            if isinstance(x, list):
-                return [fix(y) for y in x]
-            if x is None:
-                return np.nan
-            return float(x) if isinstance(x, str) else x  # "inf", "-inf"
+            if not isinstance(x, list):
+                return np.nan if x is None else float(x) if isinstance(x, str) else x  # "inf", "-inf"
+            # the numbers of a row in the comprehension, not one call each (seconds on long logs)
+            return [
+                fix(y) if isinstance(y, list) else np.nan if y is None else float(y) if isinstance(y, str) else y
+                for y in x
+            ]
 
         return np.asarray(fix(value), dtype=dt)
     if dt.kind == "c":
@@ -228,7 +232,8 @@ def _decode(value: Any, where: str = "") -> Any:
                 raise InvalidResult(f"{exc.detail}, inside {where!r}" if where else exc.detail) from None
         return {k: _decode(v, f"{where}.{k}" if where else str(k)) for k, v in value.items()}
     if isinstance(value, list):
-        return [_decode(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        # numbers are themselves: only containers are decoded (a path string per number took seconds on long logs)
+        return [_decode(v, f"{where}[{i}]") if isinstance(v, (dict, list)) else v for i, v in enumerate(value)]
     return value
 
 
