@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from optinav.cli.main import main
+from optinav.core.files import write_csv
 from optinav.core.allan import AllanAnalysis
 from optinav.core.results import Result
 
@@ -178,8 +179,8 @@ def test_allan_refuses_an_accelerometer_not_in_m_s2_and_a_moving_log(tmp_path, c
     gyr = rng.normal(0, 0.002, (n, 3))
     head = "t,ax,ay,az,gx,gy,gz"
     si, g = tmp_path / "si.csv", tmp_path / "g.csv"
-    np.savetxt(si, np.c_[t, acc, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
-    np.savetxt(g, np.c_[t, acc / 9.80665, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
+    write_csv(si, np.c_[t, acc, gyr], head, "%.17g")
+    write_csv(g, np.c_[t, acc / 9.80665, gyr], head, "%.17g")
     assert main(["allan", str(g), "--out", str(tmp_path / "g.json")]) == 2
     err = capsys.readouterr().err
     assert "mean norm is 0.999 m/s², not about 9.8 at rest: it looks like g" in err and "--acc-unit g" in err
@@ -190,7 +191,7 @@ def test_allan_refuses_an_accelerometer_not_in_m_s2_and_a_moving_log(tmp_path, c
     # turned by 90° halfway (a second pose): not at rest
     moved = np.r_[acc[: n // 2], acc[n // 2 :][:, [2, 1, 0]]]
     mv = tmp_path / "moved.csv"
-    np.savetxt(mv, np.c_[t, moved, gyr], delimiter=",", header=head, comments="", fmt="%.17g")
+    write_csv(mv, np.c_[t, moved, gyr], head, "%.17g")
     for extra in ([], ["--sensor", "gyro"]):
         capsys.readouterr()
         assert main(["allan", str(mv), "--out", str(tmp_path / "m.json"), *extra]) == 2
@@ -267,7 +268,7 @@ def test_a_warm_up_ramp_is_fitted_apart_from_the_random_walk_and_named(tmp_path,
     gyr[:, 0] += R * t
     acc = np.array([0.0, 0.0, 9.81]) + static_noise(n, dt, white=np.full(3, 1e-3), rng=6)
     log = tmp_path / "warm.csv"
-    np.savetxt(log, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    write_csv(log, np.column_stack([t, acc, gyr]), "t,ax,ay,az,gx,gy,gz", "%.18e")
     out = tmp_path / "a.json"
     assert main(["allan", str(log), "--out", str(out), "--sensor", "gyro"]) == 0
     err = capsys.readouterr().err
@@ -295,7 +296,7 @@ def test_a_warm_up_that_settles_early_is_named_not_stationary(tmp_path, capsys):
     gyr[:, 0] -= 10.0 * K[0] * np.sqrt(n * dt) * np.exp(-t / (n * dt / 20))
     acc = np.array([0.0, 0.0, 9.81]) + static_noise(n, dt, white=np.full(3, 1e-3), rng=9)
     log = tmp_path / "warm.csv"
-    np.savetxt(log, np.column_stack([t, acc, gyr]), delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    write_csv(log, np.column_stack([t, acc, gyr]), "t,ax,ay,az,gx,gy,gz", "%.18e")
     assert main(["allan", str(log), "--out", str(tmp_path / "a.json"), "--sensor", "gyro"]) == 0
     err = capsys.readouterr().err
     assert "random walk differs between the log's halves (x K = " in err and "not stationary" in err
@@ -303,7 +304,7 @@ def test_a_warm_up_that_settles_early_is_named_not_stationary(tmp_path, capsys):
 
 
 def _write_log(path, t, acc, gyr):
-    np.savetxt(path, np.c_[t, acc, gyr], delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.10g")
+    write_csv(path, np.c_[t, acc, gyr], "t,ax,ay,az,gx,gy,gz", "%.10g")
 
 
 def test_a_log_that_moves_in_the_middle_is_refused(tmp_path, capsys):
@@ -568,10 +569,10 @@ def test_accelerometer_and_gyroscope_in_two_files_on_their_own_clocks(tmp_path, 
                  "--gyro-rrw", "200", "--accel-rrw", "20", "--seed", "7"]) == 0  # fmt: skip
     log = read_imu(one)
     acc, gyr, gyr2 = tmp_path / "Accelerometer.csv", tmp_path / "Gyroscope.csv", tmp_path / "Gyroscope25.csv"
-    np.savetxt(acc, np.column_stack([log.t, log.acc]), delimiter=",", header="t,ax,ay,az", comments="", fmt="%.17g")
+    write_csv(acc, np.column_stack([log.t, log.acc]), "t,ax,ay,az", "%.17g")
     rows = np.column_stack([log.t + 0.003, log.gyr])
-    np.savetxt(gyr, rows, delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.17g")
-    np.savetxt(gyr2, rows[::2], delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.17g")
+    write_csv(gyr, rows, "t,gx,gy,gz", "%.17g")
+    write_csv(gyr2, rows[::2], "t,gx,gy,gz", "%.17g")
     res = {}
     for name, argv in {
         "one": [str(one)],
