@@ -172,3 +172,29 @@ def test_progress_of_the_blocks_on_a_terminal(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     # the task's steps and the bar of the blocks (drawn at its start; nested, it is cleared when done)
     assert "simulate accel-multipos: " in err and "/1 [" in err and ", truth" in err
+
+
+def test_first_order_sequences_kernel_is_the_recurrence_bit_for_bit():
+    """The kernel of the Gauss–Markov and flicker sequences (a static record's 75 flicker sequences: half of it was
+    branches and an index division per value): the recurrence b = φ·b₋₁ + σ√(1 − φ²)·w from a stationary start
+    or a carried state, summed per group in column order, bit for bit, with φ constant or per sample."""
+    from optinav.core.imu_model import _ar1_kernel
+
+    rng = np.random.default_rng(6)
+    n, k, groups = 40, 6, 3
+    w, sigma = rng.normal(size=(n, k)), rng.uniform(0.5, 2.0, k)
+    for phi in (np.exp(-1.0 / rng.uniform(1, 50, (1, k))), np.exp(-1.0 / rng.uniform(1, 50, (n, k)))):
+        for fresh in (True, False):
+            state0 = rng.normal(size=k)
+            want, s = np.zeros((n, groups)), state0.copy()
+            for i in range(n):
+                p = phi[min(i, phi.shape[0] - 1)]
+                for j in range(k):
+                    if fresh and i == 0:
+                        s[j] = sigma[j] * w[0, j]
+                    else:
+                        s[j] = p[j] * s[j] + sigma[j] * np.sqrt(1.0 - p[j] * p[j]) * w[i, j]
+                    want[i, j // (k // groups)] += s[j]
+            state = state0.copy()
+            got = _ar1_kernel(w, np.ascontiguousarray(phi), sigma, state, fresh, groups)
+            assert np.array_equal(got, want) and np.array_equal(state, s)

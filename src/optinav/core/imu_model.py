@@ -419,23 +419,43 @@ class TriadErrors(Result):
 def _ar1_kernel(w, phi, sigma, state, fresh, groups):  # pragma: no cover - compiled
     # first-order Gauss–Markov sequences, column j of w (n, k) the unit normals of sequence j; phi (n, k) per sample
     # or (1, k) constant; state (k,) the values before w[0] (ignored when fresh: a stationary start), left at the
-    # last values; out (n, groups): sequence j added into column j // (k / groups) (groups = k: each its own column)
+    # last values; out (n, groups): the sequences of group g (columns g·k/groups …) summed in column order (groups
+    # = k: each its own column). The branches are outside the loops and each group's sum is one accumulator: the
+    # same additions in the same order as one `out[i, j // per] += b` per value, at half its time (the 75 flicker
+    # sequences of a static record)
     n, k = w.shape
     per = k // groups
-    const = phi.shape[0] == 1
     gain = sigma * np.sqrt(1.0 - phi[0] * phi[0])
-    out = np.zeros((n, groups))
-    for i in range(n):
-        for j in range(k):
-            if fresh and i == 0:
+    out = np.empty((n, groups))
+    i0 = 0
+    if fresh and n > 0:
+        for g in range(groups):
+            acc = 0.0
+            for j in range(g * per, (g + 1) * per):
                 b = sigma[j] * w[0, j]  # stationary start
-            elif const:
-                b = phi[0, j] * state[j] + gain[j] * w[i, j]
-            else:
-                p = phi[i, j]
-                b = p * state[j] + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
-            state[j] = b
-            out[i, j // per] += b
+                state[j] = b
+                acc += b
+            out[0, g] = acc
+        i0 = 1
+    if phi.shape[0] == 1:
+        for i in range(i0, n):
+            for g in range(groups):
+                acc = 0.0
+                for j in range(g * per, (g + 1) * per):
+                    b = phi[0, j] * state[j] + gain[j] * w[i, j]
+                    state[j] = b
+                    acc += b
+                out[i, g] = acc
+    else:
+        for i in range(i0, n):
+            for g in range(groups):
+                acc = 0.0
+                for j in range(g * per, (g + 1) * per):
+                    p = phi[i, j]
+                    b = p * state[j] + sigma[j] * np.sqrt(1.0 - p * p) * w[i, j]
+                    state[j] = b
+                    acc += b
+                out[i, g] = acc
     return out
 
 
