@@ -75,6 +75,22 @@ def test_result_json_errors(tmp_path):
         Result.from_json('{"schema": "optinav.test_demo", "version": 1, "fields": {}}')
 
 
+@pytest.mark.parametrize("cost", [2, -(2**63) - 1, 10**400], ids=["2", "below int64", "beyond a double"])
+def test_a_whole_number_in_a_float_field_is_read_as_that_float(cost):
+    """JSON writes 2.0 as 2: a float field takes a whole number as its float. One beyond int64 (-2⁶³ − 1, found by
+    hypothesis in a damaged calibration's gravity) stayed a Python int and ended apply's np.isfinite in an internal
+    TypeError; one beyond a double's range is refused naming the field."""
+    text = json.dumps(
+        {"schema": "optinav.test_demo", "version": 1, "fields": {"bias": {"value": [0.0]}, "cost": {"value": cost}}}
+    )
+    if cost == 10**400:
+        with pytest.raises(OptinavError, match="'cost' is a number beyond a double's range"):
+            Result.from_json(text)
+        return
+    back = Result.from_json(text)
+    assert type(back.cost) is float and back.cost == float(cost) and np.isfinite(back.cost)
+
+
 def test_timestamps_checks():
     check_timestamps([0.0, 0.1, 0.25])
     with pytest.raises(OptinavError, match="duplicate"):

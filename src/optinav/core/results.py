@@ -499,7 +499,9 @@ def _check_types(target: type, kwargs: dict) -> None:
     """Every field value of a result being loaded has its field's declared kind (``dict | None`` takes an object
     or null, ``float`` a number, a nested result its class, ``Any`` anything): a value of another kind (null for
     the units, text for a matrix) raises :class:`InvalidResult` naming the field, instead of failing later in
-    whatever reads it (an AttributeError in ``apply``)."""
+    whatever reads it (an AttributeError in ``apply``). A whole number in a ``float`` field becomes that float in
+    ``kwargs`` (JSON writes 2.0 as 2): one beyond int64 stayed a Python int and ended ``apply``'s ``np.isfinite``
+    in an internal TypeError; one beyond a double's range is refused."""
     import types
     import typing
 
@@ -521,6 +523,11 @@ def _check_types(target: type, kwargs: dict) -> None:
                 ok = True
             elif h in _ACCEPTS:
                 ok = isinstance(value, _ACCEPTS[h]) and not (h is not bool and isinstance(value, bool))
+                if ok and h is float and isinstance(value, int):
+                    try:
+                        kwargs[name] = float(value)
+                    except OverflowError:
+                        raise InvalidResult(f"field {name!r} is a number beyond a double's range") from None
             elif isinstance(h, type):
                 ok = isinstance(value, h)
             else:
