@@ -970,3 +970,34 @@ def test_a_gyro_file_with_every_sample_written_twice_is_refused_as_duplicates(tm
     _run(tmp_path, ["calibrate", "accel", *args], code=2)
     err = capsys.readouterr().err
     assert "has a duplicate timestamp" in err and "gyro.csv" in err, err
+
+
+@pytest.mark.parametrize("how, phase", [("rows", 0), ("rows", 3), ("decimate", 0)])
+def test_default_route_on_a_log_decimated_without_a_filter_is_in_its_std(
+    tmp_path, capsys, one_file_default, how, phase
+):
+    """imucal's session on every 4th row (25.6 Hz, no filter) by the default route: the turns fold what they held at
+    the new rate into their integrals, K_yy 2.55 (phase 0) and 1.92 (phase 3) std off the 102.4 Hz result with
+    exit 0. The rests' noise shows no anti-alias filter, and the turns' sampling term (as the Ferraris route's)
+    enters K's std: within 0.8 of it (0.77, 0.51), with a note. Low-passed first (scipy.signal.decimate) the std
+    stays the full rate's (1.01x) and K within 0.4 of it."""
+    from scipy.signal import decimate
+
+    rows = np.loadtxt(DATA / "example_ferraris_session.csv", delimiter=",", skiprows=1)[:, 1:]
+    part = rows[phase::4] if how == "rows" else decimate(rows, 4, ftype="fir", axis=0, zero_phase=True)
+    f = tmp_path / "part.csv"
+    np.savetxt(f, part, delimiter=",", header="gx,gy,gz,ax,ay,az", comments="", fmt="%.10g")
+    args = list(EXAMPLE)
+    args[2], args[4] = str(f), "25.6"
+    r = _run(tmp_path, args)
+    err = capsys.readouterr().err
+    one = one_file_default.gyroscope
+    std1 = np.diag(np.asarray(one["K_std"], float))
+    std = np.diag(np.asarray(r.gyroscope["K_std"], float))
+    dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one["K"]))
+    if how == "rows":
+        assert np.all(dev < 0.8 * std) and np.all(std < 40 * std1), (dev / std, std / std1)
+        assert "no anti-alias filter" in err and "K_g's std includes" in err
+    else:
+        assert np.all(dev < 0.4 * std) and np.allclose(std, std1, rtol=0.05), (dev / std, std / std1)
+        assert "anti-alias" not in err

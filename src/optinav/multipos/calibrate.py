@@ -817,6 +817,7 @@ def calibrate(
                 f"{', '.join(fix)}, or record the turns again",
             ) from None
         gate_log += _gyro_gates(gc, gyro_unit)
+        _note_turn_sampling(gc.turn_sampling, 1.0 / float(np.median(np.diff(tg))), notes)
         if gyro_unit == "counts" and (fs := gyro_full_scale_note(gyro, gc.K)):
             notes.append(fs)
         if gc.unobservable:

@@ -54,6 +54,7 @@ __all__ = [
     "repair_pose_spikes",
     "noise_roll_off",
     "turn_sampling",
+    "turn_sampling_std",
 ]
 
 #: static pose names in imucal's order: axis x/y/z pointing up (p, reads +g) or down (a, reads −g)
@@ -588,44 +589,57 @@ def turn_sampling(turns, poses) -> tuple[float, np.ndarray]:
     """The uncertainty of the rotations' integrals from their sampling, where the still samples show no anti-alias
     filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`): a turn's content at the sample rate then folds
     into its integral (imucal's session on every 2nd row, 51.2 Hz: K_g 4-5 std off with exit 0; low-passed before
-    decimating, within 0.4). Its size from the turns' spectra (noise level taken out, pooled over the turns as
-    shares of each): the power over the top fifth of the band carried to the sample rate and its multiples at the
-    slowest decay a turn's rate can have, 1/f (:data:`TOP_CARRY`; a jump in rate, sampled at a random phase, errs by
-    its size × step / √12), as the turn integral's error on sampling at a random phase (Σ over m ≠ 0 of
-    |W(m f_s)|²); none where the top is within the noise (below the 99.9 % point of its level for noise alone). The
-    decay is not measured from the band below: a vibration line or a ring folded into it made it look flat (refused,
-    though K_g was within 2 std) or steep (K_g up to 23 std off with exit 0). Content above the Nyquist frequency that
-    the top does not show (a line near a multiple of the sample rate, folding near 0 Hz) is beyond it. ``turns`` the
-    three rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still samples. Returns (that error as
-    a share of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0, zeros) with a filter or nothing to
-    judge."""
+    decimating, within 0.4). Its size from the turns' spectra (:func:`turn_sampling_std`), pooled over the turns as
+    shares of each. ``turns`` the three rotations' (w (M, 3) raw, h (M,) steps s), ``poses`` the six (N, 3) still
+    samples. Returns (that error as a share of each turn; (3, 3) std of Σ w h [raw·s], column j rotation j); (0,
+    zeros) with a filter or nothing to judge."""
+    none = (0.0, np.zeros((3, 3)))
+    turns = [(np.asarray(w, float), np.asarray(h, float)) for w, h in turns]
+    if any(w.shape[0] < 20 or not np.all(np.isfinite(w)) for w, _ in turns):
+        return none
+    std = turn_sampling_std(turns, poses, axes=range(3))
+    if std is None:
+        return none
+    size = [np.abs(np.minimum(h, float(np.median(h))) @ w)[j] for j, (w, h) in enumerate(turns)]
+    rel_top = float(np.mean([std[j, j] ** 2 / max(size[j], 1e-300) ** 2 for j in range(3)]))
+    return float(np.sqrt(rel_top)), std
+
+
+def turn_sampling_std(turns, poses, axes=None) -> np.ndarray | None:
+    """Std (3, T) [raw·s] of the integrals Σ w h of T turns from their sampling, column k turn k, where the still
+    samples show no anti-alias filter (:func:`noise_roll_off` below :data:`ROLL_OFF_SIGMA`); None with a filter or
+    where no turn's top is above the noise. The power over the top fifth of the band below the Nyquist frequency
+    (noise level taken out) carried to the sample rate and its multiples at the slowest decay a turn's rate can have,
+    1/f (:data:`TOP_CARRY`; a jump in rate, sampled at a random phase, errs by its size × step / √12), as the turn
+    integral's error on sampling at a random phase (Σ over m ≠ 0 of |W(m f_s)|²); none where the top is within the
+    noise (below the 99.9 % point of its level for noise alone) on the axis judged. The decay is not measured from
+    the band below: a vibration line or a ring folded into it made it look flat (refused, though K_g was within 2
+    std) or steep (K_g up to 23 std off with exit 0). Content above the Nyquist frequency that the top does not show
+    (a line near a multiple of the sample rate, folding near 0 Hz) is beyond it. ``turns`` (w (M, 3) raw, h (M,)
+    steps s) each, ``poses`` (N, 3) still samples [raw]; ``axes`` per turn the axis judged against the noise (None:
+    the axis it turns most about). Turns under 20 samples or not finite get 0."""
     from scipy.special import gammaincinv
 
-    none = (0.0, np.zeros((3, 3)))
     if not noise_roll_off(poses) < ROLL_OFF_SIGMA:
-        return none
+        return None
     noise = np.median([np.var(np.asarray(x, float), axis=0) for x in poses if np.ndim(x) == 2 and len(x) > 2], axis=0)
     # a reading's quantization error, within ±Δ/2, adds up to Δ²/4 to its noise by where it falls between two steps,
     # which the poses need not show where their noise is below a step (a 16-bit gyro with 0.2 counts of noise at
     # rest: a motorized turn's noise 1.5x the poses', refused as spectra not falling off)
     step = _step([w for w, _ in turns])
     noise = noise + step**2 / 4.0
-    top, size, over = [], [], False
-    for j, (w, h) in enumerate(turns):
+    std, over = np.zeros((3, len(turns))), False
+    for k, (w, h) in enumerate(turns):
         w, h = np.asarray(w, float), np.asarray(h, float)
         if w.shape[0] < 20 or not np.all(np.isfinite(w)):
-            return none
+            continue
         hm = float(np.median(h))
         t, floor, n = _top_level(w, hm, noise)
+        j = int(np.argmax(np.abs(np.minimum(h, hm) @ w))) if axes is None else list(axes)[k]
         # a top within the noise's 99.9 % point (its mean over n bins of 2 degrees of freedom each) is no evidence
         over |= bool(t[j] > floor[j] * gammaincinv(n, 0.999) / n)  # (χ²₂ₙ's 99.9 % point over 2n)
-        top.append(np.maximum(t - floor, 0.0))
-        size.append(np.abs(np.minimum(h, hm) @ w))
-    if not over:
-        return none
-    rel_top = float(np.mean([top[j][j] / max(size[j][j], 1e-300) ** 2 for j in range(3)]))
-    std = np.column_stack([np.sqrt(t * TOP_CARRY) for t in top])
-    return float(np.sqrt(rel_top * TOP_CARRY)), std
+        std[:, k] = np.sqrt(np.maximum(t - floor, 0.0) * TOP_CARRY)
+    return std if over else None
 
 
 def _singular(M: np.ndarray):

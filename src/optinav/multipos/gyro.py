@@ -52,7 +52,9 @@ Uncertainty. ``σ̂² = Σ‖r_k‖²/(2T − n)`` (the residual-estimated noise
 transitions, n fitted parameters); covariance ``σ̂²(JᵀJ)⁻¹`` (Gauss–Newton at the solution; on the
 observable subspace, from :func:`optinav.core.observability.analyze`). With a fixed bias from data the
 bias' standard error is propagated into K (``G Σ_b Gᵀ`` with ``G = −(JᵀJ)⁻¹Jᵀ ∂r/∂b``). In
-``"estimate"`` mode the joint whitened residuals give the variance factor.
+``"estimate"`` mode the joint whitened residuals give the variance factor. Where the gyro's noise at rest shows
+no anti-alias filter, each turn's integral also errs by its sampling (:func:`_turn_sampling`, the Ferraris
+route's term): propagated into K, and the residual power it explains taken out of σ̂ (counted once).
 
 Earth rate is neglected: the navigation frame turns by at most ``Ω_E·T_k`` during transition k, and a bias
 taken from static data absorbs the projected Earth rate (at most ``Ω_E`` rad/s), which integrates to at
@@ -158,6 +160,8 @@ class GyroCalibration(Result):
     #: 1σ per element of the gyro g-sensitivity in the std (given, or revealed by the rests in "local" mode)
     g_sensitivity: float | None = field(default=None, metadata={"unit": "raw/(m/s^2)"})
     g_sensitivity_source: str = field(default="none", metadata={"unit": "-"})
+    #: the turns' sampling error in the std (no anti-alias filter), as a share of each turn (RMS; 0: none)
+    turn_sampling: float = field(default=0.0, metadata={"unit": "-"})
 
     def correct(self, gyro_raw) -> np.ndarray:
         """Calibrated rate ω = K⁻¹(raw − b), rad/s, for raw (..., 3)."""
@@ -710,6 +714,18 @@ def calibrate_gyro(
             cov[9:, :9] = cov[:9, 9:].T
     g_sens = g_sensitivity_std
     g_sens_source = "given" if g_sensitivity_std else "none"
+    # residual power (Σr²) that a modelled error source puts there: counted once, in its own term, not in σ̂ too
+    explained = 0.0
+    b_turn = b_fixed if mode == "local" else b_hat
+    samp_share, samp = _turn_sampling(tr, raw, idx, K_hat, b_turn, k0)
+    if samp is not None:
+        # δr = Js·δΘ per transition; in "estimate" the angle residuals are weighted by 1/σ_w
+        dr = np.zeros((J.shape[0], samp.shape[1]))
+        dr[: 3 * n_tr] = samp / (sigma_w if mode == "estimate" else 1.0)
+        M_s = A @ dr
+        cov[:n_par, :n_par] += M_s @ M_s.T
+        P_s = dr - J @ M_s
+        explained += float(np.sum(P_s * P_s))
     if mode == "static":
         # the mean of the rests holds each rest's Earth rate, which points a different way in each pose: the
         # session-mean model of "local" without its drift terms (a full Ω_E·K_ii bound overstated it 4-5×)
@@ -743,14 +759,15 @@ def calibrate_gyro(
             L[:9] = A @ J_G
             # the part of G's turn errors that K cannot absorb is already in σ̂ (the residuals): count it once
             P = J_G - J @ L[:9]
-            sig2 = sig_hat**2
-            if sig2 > 0:
-                keep = max(sig2 - float(g_sens) ** 2 * float(np.sum(P * P)) / max(dof, 1), 0.0) / sig2
-                cov[:9, :9] -= (1.0 - keep) * cov_fit
+            explained += float(g_sens) ** 2 * float(np.sum(P * P))
             for i in range(3):
                 L[9 + i, 3 * i : 3 * i + 3] = gravity * ubar
             cov += float(g_sens) ** 2 * (L @ L.T)
-    elif bias_instability is not None and mode != "given":
+    sig2 = sig_hat**2
+    if explained > 0.0 and sig2 > 0:
+        keep = max(sig2 - explained / max(dof, 1), 0.0) / sig2
+        cov[:n_par, :n_par] -= (1.0 - keep) * cov_fit
+    if mode != "local" and bias_instability is not None and mode != "given":
         # a drift common to the whole session leaves no trace in the rests: only a noise model can bound it
         cov[9:, 9:] += np.diag(np.broadcast_to(np.square(np.asarray(bias_instability, float)), (3,)))
     if g_sensitivity_std and mode != "local":
@@ -815,7 +832,41 @@ def calibrate_gyro(
         elapsed_s=time.perf_counter() - t_start,
         g_sensitivity=float(g_sens) if g_sens else None,
         g_sensitivity_source=g_sens_source,
+        turn_sampling=float(samp_share),
     )
+
+
+def _turn_sampling(tr: Transitions, raw, idx, K, b, k0: float) -> tuple[float, np.ndarray | None]:
+    """The turns' sampling error where the gyro's noise at rest shows no anti-alias filter
+    (:func:`optinav.multipos.ferraris.turn_sampling_std`: the content near the Nyquist frequency carried to the sample
+    rate at 1/f folds into each turn's integral), as independent sources in the residuals: (3T, 3T), column 3k + i
+    the change of the residuals by turn k's 1σ error of its integral about axis i (spread over the turn as a bias),
+    and that error as a share of each turn (RMS over the turns); (0, None) with a filter or no content to judge.
+    ``b`` (3,) or one per row of ``tr`` [raw]; ``k0`` the scale [raw/(rad/s)] that sets the difference step.
+    imucal's session on every 4th row (25.6 Hz, no filter): K_yy 2.6 std off the full rate's with exit 0 without it."""
+    from .ferraris import turn_sampling_std
+
+    n = tr.keep.size
+    turns = []
+    for s, e in zip(tr.starts, tr.ends):
+        h = tr.h[s:e]
+        turns.append((tr.raw[s : e + 1], np.r_[h, h[-1:]]))
+    std = turn_sampling_std(turns, [raw[i0:i1] for i0, i1 in idx])
+    if std is None:
+        return 0.0, None
+    b_rows = np.broadcast_to(np.asarray(b, float), tr.raw.shape).copy()
+    r0 = tr.residuals(K, b_rows)
+    hs = k0 * _B_SCALE * 1e-3
+    out = np.zeros((3 * n, 3 * n))
+    for i in range(3):
+        bb = b_rows.copy()
+        bb[:, i] += hs / tr.durations[tr.seg]  # each turn's integral about axis i moved by hs [raw·s]
+        d = (tr.residuals(K, bb) - r0) / hs
+        for k in range(n):
+            out[3 * k : 3 * k + 3, 3 * k + i] = d[k] * std[i, k]
+    size = np.maximum(tr.raw_rotation(b_rows), 1e-300)
+    share = float(np.sqrt(np.mean(np.sum(std**2, axis=0) / size**2)))
+    return share, out
 
 
 def _rest_regression(means, tc, u, gravity: float) -> dict | None:
