@@ -2827,11 +2827,6 @@ def _offset_changes(cause: str, remedy: str = "") -> OptinavError:
     )
 
 
-#: windows (10 s each), all about one point off zero, that show an offset all along (online, learned at the start): one late
-#: window of BROAD 11 with its magnetometer's axes swapped turns about a point off zero (the axes check names that)
-MAG_ALONG_WINDOWS = 2
-
-
 def offset_change_error(
     pieces: list[tuple[int, np.ndarray | None, float]],
     rows: int,
@@ -2890,7 +2885,7 @@ def offset_change_error(
     if (
         not offline
         and fields is not None
-        and (zeros[0] >= 1 if zeros else len(pieces) >= MAG_ALONG_WINDOWS)
+        and (not zeros or zeros[0] >= 1)
         and _learned(pieces, fields, h, earth, False)
     ):
         return error(
