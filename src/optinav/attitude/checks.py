@@ -2879,18 +2879,9 @@ def offset_change_error(
     earth = float(np.median([pieces[i][2] for i in zeros])) if zeros else field
     # online only: offline the backward pass, from a clean end, takes some of it back (33 cut in its magnet: online
     # 13.7-68° heading RMSE, offline 0.8-21°)
-    # no window about zero, all about one point: an offset all along that the whole log's fits declined (a magnet
-    # held by the board in a rest left its field unsteady: BROAD 11 with (25, -15, 35) µT and 30 µT more on x for
-    # 10 s of the first rest ran at 91° heading RMSE with exit 0)
-    if (
-        not offline
-        and fields is not None
-        and (not zeros or zeros[0] >= 1)
-        and _learned(pieces, fields, h, earth, False)
-    ):
+    if not offline and fields is not None and zeros and zeros[0] >= 1 and _learned(pieces, fields, h, earth, False):
         return error(
-            0, zeros[0] if zeros else None, "; the estimate learns the field with that offset, at the start, for the "
-            "Earth's",
+            0, zeros[0], "; the estimate learns the field with that offset, at the start, for the Earth's",
         )  # fmt: skip
     last = zeros[-1] if zeros else -1
     after = len(pieces) - 1 - last  # windows after the last one about zero: all about a point off it
