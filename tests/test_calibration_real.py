@@ -888,16 +888,20 @@ def test_a_ferraris_log_decimated_without_a_filter_is_in_its_std(tmp_path, capsy
     args[2], args[4] = str(f), f"{102.4 / q:g}"
     r = _run(tmp_path, args)
     err = capsys.readouterr().err
-    one = one_file_ferraris.gyroscope
-    std1 = np.diag(np.asarray(one["K_std"], float))
-    std = np.diag(np.asarray(r.gyroscope["K_std"], float))
-    dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one["K"]))
+    dev, std, std1 = _gyro_scales_against(r, one_file_ferraris)
     if how == "rows":
         assert np.all(dev < 0.5 * std) and np.all(std < (100 if q == 2 else 400) * std1), (dev / std, std / std1)
         assert "no anti-alias filter" in err and "K_g's std includes" in err
     else:
         assert np.all(dev < 0.5 * std) and np.allclose(std, std1, rtol=0.1), (dev / std, std / std1)
         assert "anti-alias" not in err
+
+
+def _gyro_scales_against(r, one) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(|K_g diagonal − ``one``'s|, the diagonal's std, ``one``'s std) (3,) each, of the result ``r``."""
+    std1 = np.diag(np.asarray(one.gyroscope["K_std"], float))
+    std = np.diag(np.asarray(r.gyroscope["K_std"], float))
+    return np.abs(np.diag(r.gyroscope["K"]) - np.diag(one.gyroscope["K"])), std, std1
 
 
 def _gyro_file_ferraris(tmp_path, rows, tg, gyr, one_file) -> np.ndarray:
@@ -991,10 +995,7 @@ def test_default_route_on_a_log_decimated_without_a_filter_is_in_its_std(
     args[2], args[4] = str(f), "25.6"
     r = _run(tmp_path, args)
     err = capsys.readouterr().err
-    one = one_file_default.gyroscope
-    std1 = np.diag(np.asarray(one["K_std"], float))
-    std = np.diag(np.asarray(r.gyroscope["K_std"], float))
-    dev = np.abs(np.diag(r.gyroscope["K"]) - np.diag(one["K"]))
+    dev, std, std1 = _gyro_scales_against(r, one_file_default)
     if how == "rows":
         assert np.all(dev < 0.8 * std) and np.all(std < 40 * std1), (dev / std, std / std1)
         assert "no anti-alias filter" in err and "K_g's std includes" in err
