@@ -848,9 +848,9 @@ def interpolation_images(gyr_clock, t, idx: dict, steps: list) -> tuple[np.ndarr
     t = np.asarray(t, float)
     f0 = 1.0 / float(np.median(np.diff(t)))
     fp = 1.0 / float(np.median(np.diff(tg)))
+    turn_spans, pose_spans = _own_spans(tg, t, idx, steps)
     r2, g = [], []
-    for n in POSES:
-        k0, k1 = np.searchsorted(tg, [t[idx[n][0]], t[idx[n][1] - 1]], "right")
+    for k0, k1 in pose_spans:
         x = wg[k0:k1]
         if x.shape[0] < 20 or not np.all(np.isfinite(x)):
             continue
@@ -873,9 +873,7 @@ def interpolation_images(gyr_clock, t, idx: dict, steps: list) -> tuple[np.ndarr
     weight = np.sinc(fp / f0) ** 2 / max(float(np.sinc(fb / f0) ** 2), 1e-12)
     std = np.zeros((3, 3))
     share = 0.0
-    for j, (n, h) in enumerate(zip(ROTATIONS, steps)):
-        a = t[idx[n][0]] - 0.5 * h[0]
-        k0, k1 = np.searchsorted(tg, [a, a + float(h.sum())])
+    for j, (k0, k1) in enumerate(turn_spans):
         w = wg[k0:k1]
         if w.shape[0] < 4:
             continue
@@ -890,12 +888,20 @@ def _own_samples(gyr_clock, t, idx: dict, steps: list) -> tuple:
     """The gyroscope's own samples (``gyr_clock``) of each rotation, with their steps, over the span its rows stand
     for, and of each pose within its rows' times: :func:`turn_sampling` judges the samples the integrals use."""
     tg, wg = (np.asarray(v, float) for v in gyr_clock)
+    turn_spans, pose_spans = _own_spans(tg, t, idx, steps)
+    turns = [(wg[k0:k1], integration_steps(tg[k0:k1], tg[k1] if k1 < tg.size else None)) for k0, k1 in turn_spans]
+    return turns, [wg[k0:k1] for k0, k1 in pose_spans]
+
+
+def _own_spans(tg, t, idx: dict, steps: list) -> tuple[list, list]:
+    """Index ranges (k0, k1) into a gyro file's own times ``tg`` (M,) s: per rotation the samples within the span
+    its rows stand for (from its first row less half a step, for the sum of its ``steps``), per pose those within
+    its rows' times (``t`` (N,) s, ``idx`` the sections' rows)."""
     turns = []
     for n, h in zip(ROTATIONS, steps):
         a = t[idx[n][0]] - 0.5 * h[0]
-        k0, k1 = np.searchsorted(tg, [a, a + float(h.sum())])
-        turns.append((wg[k0:k1], integration_steps(tg[k0:k1], tg[k1] if k1 < tg.size else None)))
-    poses = [wg[slice(*np.searchsorted(tg, [t[idx[n][0]], t[idx[n][1] - 1]], "right"))] for n in POSES]
+        turns.append(tuple(int(k) for k in np.searchsorted(tg, [a, a + float(h.sum())])))
+    poses = [tuple(int(k) for k in np.searchsorted(tg, [t[idx[n][0]], t[idx[n][1] - 1]], "right")) for n in POSES]
     return turns, poses
 
 
