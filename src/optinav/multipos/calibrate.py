@@ -1108,6 +1108,14 @@ def _saturated_turns(t, sat_g, ranges, notes: list) -> list[int]:
 GLITCH_MIN_RATE_HZ = 50.0
 
 
+def _finite_clock(gyr_clock) -> tuple[np.ndarray, np.ndarray]:
+    """A gyro file's own (times (M,) s, samples (M, 3)) (:func:`calibrate`'s ``gyr_clock``), its rows with a
+    non-finite time or sample left out."""
+    tg, wg = (np.asarray(v, float) for v in gyr_clock)
+    ok = np.isfinite(tg) & np.all(np.isfinite(wg), axis=1)
+    return tg[ok], wg[ok]
+
+
 def _on_own_clock(t, gyro, ranges, gyr_clock):
     """The gyro fit's times, samples and static intervals (P, 2) on the gyroscope's own samples where it has them
     (``gyr_clock``, :func:`calibrate`): interpolated onto the accelerometer's rows a linear interpolant's kinks at a
@@ -1116,9 +1124,7 @@ def _on_own_clock(t, gyro, ranges, gyr_clock):
     rows where an interval would hold none, or without ``gyr_clock``."""
     if gyr_clock is None:
         return t, gyro, ranges
-    tg, wg = (np.asarray(v, float) for v in gyr_clock)
-    ok = np.isfinite(tg) & np.all(np.isfinite(wg), axis=1)
-    tg, wg = tg[ok], wg[ok]
+    tg, wg = _finite_clock(gyr_clock)
     r = np.asarray(ranges, int)
     rg = np.column_stack([np.searchsorted(tg, t[r[:, 0]]), np.searchsorted(tg, t[r[:, 1] - 1], "right")])
     if tg.size < 2 or np.any(rg[:, 1] - rg[:, 0] < 2) or np.any(rg[1:, 0] < rg[:-1, 1]):
@@ -1829,11 +1835,7 @@ def _ferraris(
         acc, spikes = ferraris.repair_pose_spikes(acc, poses, t, "accelerometer", acc_unit)
         gyro, more = ferraris.repair_pose_spikes(gyro, poses, t, "gyro", gyro_unit)
         notes.extend(spikes + more)
-    own = None
-    if gyr_clock is not None:
-        tg, wg = (np.asarray(v, float) for v in gyr_clock)
-        ok = np.isfinite(tg) & np.all(np.isfinite(wg), axis=1)
-        own = (tg[ok], wg[ok])
+    own = None if gyr_clock is None else _finite_clock(gyr_clock)
     repaired_own = None
     if inside and all(n in names for n in ferraris.ROTATIONS):
         try:
