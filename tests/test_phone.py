@@ -98,6 +98,32 @@ def test_a_sensor_logger_export_is_read_as_its_file_pair(tmp_path, capsys):
     ]
 
 
+def test_a_sensor_logger_export_with_only_the_uncalibrated_gyroscope_is_read(tmp_path):
+    """Sensor Logger writes GyroscopeUncalibrated.csv (the rates with the phone's bias estimate left in) where the
+    calibrated gyroscope is switched off: such an export ended in 'Sensor Logger's export without Gyroscope.csv'.
+    Now its pair is TotalAcceleration.csv with GyroscopeUncalibrated.csv, read as that pair given by hand;
+    Gyroscope.csv is still the one taken where both are there."""
+    s = simulate("18", dwell_s=6, rest_s=3, acc_unit="m/s^2", gyro_unit="rad/s", rng=5)
+    bias = np.array([0.01, -0.02, 0.005])
+    files = {
+        "TotalAcceleration.csv": _sensor_logger(s.t, s.acc),
+        "GyroscopeUncalibrated.csv": _sensor_logger(s.t + 0.002, s.gyr + bias),
+        "Metadata.csv": "version,device name\n1.30,Pixel 7\n",
+    }
+    z, folder = _export(tmp_path, "uncal", files)
+    want = read_imu(folder / "TotalAcceleration.csv", gyro_path=folder / "GyroscopeUncalibrated.csv")
+    for path in (z, folder):
+        log = read_imu(path)
+        for k in ("t", "acc", "gyr"):
+            np.testing.assert_array_equal(getattr(log, k), getattr(want, k))
+        assert "GyroscopeUncalibrated.csv" in log.notes[0], log.notes
+    files["Gyroscope.csv"] = _sensor_logger(s.t + 0.002, s.gyr)
+    z, folder = _export(tmp_path, "both", files)
+    log = read_imu(z)
+    np.testing.assert_array_equal(log.gyr, read_imu(folder / "TotalAcceleration.csv",
+                                                    gyro_path=folder / "Gyroscope.csv").gyr)  # fmt: skip
+
+
 def test_a_phyphox_export_is_read_and_allan_takes_each_sensor_on_its_clock(tmp_path, capsys):
     """phyphox's CSV export of its simple experiment (Accelerometer.csv with g, Gyroscope.csv, Magnetometer.csv on
     their own times, meta/device.csv, meta/time.csv) as a zip or a folder: read as the accelerometer with the

@@ -754,7 +754,7 @@ _PHYPHOX_META = ("meta/device.csv", "meta/time.csv", "Metadata Device", "Metadat
 def export_sets(names, header=None) -> dict | None:
     """The sensors' files of a phone app's export of several sensors — a zip's members, a folder's files or a
     workbook's sheets, ``names`` —: Sensor Logger's (TotalAcceleration.csv or AccelerometerUncalibrated.csv beside
-    Gyroscope.csv, Magnetometer.csv or MagnetometerUncalibrated.csv; awesome-sensor-logger UNITS.md) or phyphox's
+    Gyroscope.csv — else GyroscopeUncalibrated.csv —, Magnetometer.csv or MagnetometerUncalibrated.csv; awesome-sensor-logger UNITS.md) or phyphox's
     (:data:`_PHYPHOX_META`), as ``{"what", "acc", "gyro", "mag", "single", "remedy"}``: the names of the
     accelerometer with gravity, the gyroscope and the magnetometer (None where absent), the one set to pass when
     there is no pair, and what to do when there is neither (else None); None for other names. ``header(name)``
@@ -797,9 +797,12 @@ def _export_set(names, header=None) -> dict | None:
     out = dict.fromkeys(("acc", "gyro", "mag", "single", "remedy"))
     base = {Path(n).name.lower(): n for n in names}
     acc = next((base[k] for k in ("totalacceleration.csv", "accelerometeruncalibrated.csv") if k in base), None)
-    if acc and "gyroscope.csv" in base:  # Accelerometer.csv has gravity taken out
+    # an export with only the uncalibrated gyroscope holds the rates with the phone's bias estimate left in, which
+    # every optinav command estimates itself
+    gyro = next((base[k] for k in ("gyroscope.csv", "gyroscopeuncalibrated.csv") if k in base), None)
+    if acc and gyro:  # Accelerometer.csv has gravity taken out
         mag = next((base[k] for k in ("magnetometer.csv", "magnetometeruncalibrated.csv") if k in base), None)
-        return {**out, "what": "Sensor Logger's export", "acc": acc, "gyro": base["gyroscope.csv"], "mag": mag}
+        return {**out, "what": "Sensor Logger's export", "acc": acc, "gyro": gyro, "mag": mag}
     if acc and "metadata.csv" in base:
         return {**out, "what": "Sensor Logger's export without Gyroscope.csv", "single": acc, "lacks": "gyroscope"}
     if not any(n.strip("/") in _PHYPHOX_META for n in names):
