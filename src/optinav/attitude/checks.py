@@ -2926,6 +2926,116 @@ def offset_change_error(
     return None
 
 
+#: rad, the steps between bins in which the body turns (mean rate over :data:`STILL_RATE`) must turn it by this much
+#: in all for :func:`moving_offset` to judge the offset they show
+MAG_UNSEEN_TURN = 0.3
+#: the share of those steps' turning (less the gyro's) that the offset must explain: BROAD's cuts (40, 70, 120 s and
+#: whole, every half length, at 1/1 and 1/3 of the rate) as recorded 0.00-0.36 outside the magnet trial 33 (whose
+#: magnet on the board is an offset: 0.46-0.95); with (25, -15, 35) µT 0.6 or more in 215 of the 218 that turn the
+#: body by 2 rad (07's fast rotation aside: its 0.1-s bins turn too far), 27 (a phone vibrating on it) 0.65-0.69,
+#: 29 beside its magnet 0.37-0.59
+MAG_UNSEEN_EXPLAINED = 0.6
+
+
+def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, int, np.ndarray, float, float] | None:
+    """(first bin, last bin, b, median norm of the field less b, explained) of the offset b (3,, the field's unit)
+    that the field turns about over the steps between bins in which the body turns (:func:`_turn_steps`, mean rate
+    over :data:`STILL_RATE`): the fit of :func:`turning_offset` on those steps alone, where a few seconds of motion
+    in a log at rest hold it (the still steps' noise set its trim and hid it: BROAD's last 40 s, 0.4-2 rad of
+    turning, with (25, -15, 35) µT). None where they turn the body by under :data:`MAG_UNSEEN_TURN` rad, b explains
+    under :data:`MAG_UNSEEN_EXPLAINED` of them or under :data:`MAG_TURN_OFFSET_PIECE` of the steps it keeps in
+    either half of the turning it predicts, or b is within :data:`MAG_OFFSET` of the field less it (about zero). ``bins``, ``sums``,
+    ``h`` as :func:`turning_offset` takes them."""
+    steps = _turn_steps(bins, sums, h)
+    if steps is None:
+        return None
+    _, r0, wb, mb, first = steps
+    mov = _norm(wb) >= STILL_RATE * h
+    if np.count_nonzero(mov) < 10 or float(np.sum(_norm(wb[mov]))) < MAG_UNSEEN_TURN:
+        return None
+    r0, wb, mb, first = r0[mov], wb[mov], mb[mov], first[mov]
+    b, res, explained = _offset_fit(r0, wb)
+    left, nb = float(np.median(_norm(mb - b))), float(np.linalg.norm(b))
+    if explained < MAG_UNSEEN_EXPLAINED or not MAG_OFFSET * left < nb < left / MAG_TURN_OFFSET_LEFT:
+        return None
+    e0, e1, ep = np.sum(r0**2, axis=1), res**2, np.sum(np.cross(wb, b) ** 2, axis=1)
+    late = np.cumsum(ep) > 0.5 * float(np.sum(ep))
+    # the steps the fit keeps (a room-fixed magnet the body passes is no offset: BROAD 29 with (25, -15, 35) µT,
+    # 20-25 % of its steps beside it, explained 10-30 % in a half with them, 62-96 % without; as recorded 1-24 %)
+    kept = res <= 3.0 * np.median(res)
+    for part in (~late & kept, late & kept):
+        s0 = float(np.sum(e0[part]))
+        if s0 <= 0.0 or 1.0 - float(np.sum(e1[part])) / s0 < MAG_TURN_OFFSET_PIECE:
+            return None
+    return int(first[0]), int(first[-1]) + 1, b, left, explained
+
+
+def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool) -> bool:
+    """Whether the field the estimate takes for its reference at the start of the recording (``at_end``: at its
+    end, the backward pass) carries the offset ``b`` that the motion from bin ``k`` (to bin ``k``) shows: that
+    second is no more than a second from it; or its norm less b is the Earth's (``field``, the motion's field less
+    b) and as measured off it by :data:`MAG_OFFSET` (:func:`_learned`'s test; BROAD 33 from 20 s, a magnet put on
+    before the motion, starts at the Earth's 44.4 µT, 69.9 µT less the magnet's offset); or, its norm telling
+    neither, it is the field at ``k`` within :data:`MAG_OFFSET` of ``field`` across bins over which the body turns
+    by under half :data:`MAG_OFFSET` rad (their rates summed less the median rate, the gyro's bias: each bin's
+    noise summed as a path crossed that in 40 s). ``fields`` of :func:`bin_fields`, ``h`` s a bin; False where
+    the rest between turns more (not judged)."""
+    nums, m, w = fields
+    ok = (nums > k if at_end else nums < k) & np.all(np.isfinite(m), axis=1)
+    s = max(1, int(round(1.0 / h)))
+    if not ok.any() or (nums[ok][-1] - nums[ok][0] + 1) <= s:
+        return True
+    mm, ww = m[ok], w[ok]
+    edge = np.median(mm[-s:] if at_end else mm[:s], axis=0)
+    nm, nb = abs(float(np.linalg.norm(edge)) - field), abs(float(np.linalg.norm(edge - b)) - field)
+    if nm > MAG_OFFSET * field and nb < nm:
+        return True
+    if nm <= MAG_OFFSET * field and nm < nb:
+        return False
+    if float(np.linalg.norm(np.sum(ww - np.median(ww, axis=0), axis=0))) * h >= 0.5 * MAG_OFFSET:
+        return False
+    return float(np.linalg.norm(np.median(mm[:s], axis=0) - np.median(mm[-s:], axis=0))) < MAG_OFFSET * field
+
+
+def offset_unseen_error(
+    pieces: list[tuple[int, np.ndarray | None, float]],
+    moving: tuple[int, int, np.ndarray, float, float] | None,
+    rows: int,
+    h: float,
+    fields: tuple[np.ndarray, np.ndarray, np.ndarray],
+    offline: bool = False,
+) -> OptinavError | None:
+    """The refusal of a field, no offset subtracted, that turns about one point off zero wherever it is judged and
+    about zero nowhere: the windows of :func:`offset_pieces` (``pieces``, ``rows`` samples and ``h`` s a bin) all
+    about it, or, with none judged, the steps in which the body turns (:func:`moving_offset`, ``moving``), and the
+    estimate takes that field for the Earth's at its start (offline at its end too: :func:`_carried`). An
+    uncalibrated magnetometer in a log that turns it too little for the whole log's fits: BROAD's last 40 s with
+    (25, -15, 35) µT ran at 78-94° heading RMSE with exit 0. None otherwise (a window about zero shows the Earth's
+    field; a magnet put on in the rest before the motion leaves the start's reference clean: BROAD 33 from 20 s)."""
+    if any(b is None for _, b, _ in pieces):
+        return None
+    if pieces:
+        field = float(np.median([f for _, _, f in pieces]))
+        if moving is not None and np.linalg.norm(moving[2] - pieces[0][1]) <= MAG_PIECE_APART * field:
+            k0, k1, b, _, explained = moving
+        else:
+            (k0, b, _), k1, explained = pieces[0], pieces[-1][0] + max(1, int(round(MAG_PIECE_S / h))), None
+    elif moving is not None:
+        k0, k1, b, field, explained = moving
+    else:
+        return None
+    if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
+        return None
+    share = "" if explained is None else f", that offset explaining {explained:.0%} of what the gyro leaves of it"
+    return OptinavError(
+        f"the magnetic field turns in the body about [{_vec(b)}] (its unit), not about zero, wherever the body "
+        f"turns{share}, from sample {k0 * rows} ({k0 * h:.1f} s): an uncalibrated (hard-iron) magnetometer, and the "
+        "recording turns it too little for the offset to be fitted; the heading would be off by up to tens of degrees",
+        "give --mag-hard-iron=BX,BY,BZ from a calibration that turns the sensor every way (mag_hard_iron= in "
+        "Python), a calibrated magnetometer, or drop --mag",
+    )
+
+
 def _rest_step(fields, h: float, field: float, b: np.ndarray):
     """(first bin, last bin, step (3,)) of a rest (bins of :func:`bin_fields`, ``h`` s each, whose mean rate is
     under :data:`REST_GYR`, 3 s or more, turning by under half :data:`MAG_OFFSET` rad in all, less its median rate)

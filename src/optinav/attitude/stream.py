@@ -266,6 +266,7 @@ class StreamChecks:
         offset = (
             given if given is not None else self.fitted_hard_iron if self.offline or self.hard_iron_judged else None
         )
+        unseen = None
         if self._mag and self._scale_sums:  # one offset for the whole recording, or none, must hold in every part
             bins, raw, h = self._turn_sums()
             sums = _c.rate_sums_less_offset(raw, offset)
@@ -273,16 +274,18 @@ class StreamChecks:
             if self._mag_sums:  # the specific force over the last second (as estimate() takes it)
                 m_bins, m_acc, _, m_count, _ = (np.concatenate(x) for x in zip(*self._mag_sums))
                 up = _c.end_up(m_bins, m_acc, m_count, self.median_dt)
-            err = _c.offset_change_error(
-                _c.offset_pieces(bins, sums, h), self._scale_rows, h, offset, self.offline, _c.bin_fields(bins, sums),
-                up,
-            )  # fmt: skip
+            pieces, fields = _c.offset_pieces(bins, sums, h), _c.bin_fields(bins, sums)
+            err = _c.offset_change_error(pieces, self._scale_rows, h, offset, self.offline, fields, up)
             # subtracted from every row (given, or fitted offline): it must be there at each
             subtracted = given if given is not None else self.fitted_hard_iron if self.offline else None
             if err is None and subtracted is not None:
                 err = _c.offset_held_error(bins, raw, h, self._scale_rows, subtracted, self.offline)
             if err is not None:
                 raise err
+            if offset is None:  # no offset taken out: the field must turn about zero (raised after the axes check)
+                unseen = _c.offset_unseen_error(
+                    pieces, _c.moving_offset(bins, sums, h), self._scale_rows, h, fields, self.offline
+                )
         if self._mag_sums:  # in the order of check_mag_axes, on the field less the offset the estimate subtracts
             sums = [np.concatenate(x) for x in zip(*self._mag_sums)]
             sums[2] = _c.field_less_offset(sums[2], sums[3], offset)
@@ -297,6 +300,8 @@ class StreamChecks:
                                    self.gyro_unit)  # fmt: skip
             if err is not None:
                 raise err
+        if unseen is not None:
+            raise unseen
 
 
 class StreamEstimator:
