@@ -2971,15 +2971,16 @@ def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, in
 
 
 def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool) -> bool:
-    """Whether the field the estimate takes for its reference at the start of the recording (``at_end``: at its
-    end, the backward pass) carries the offset ``b`` that the motion from bin ``k`` (to bin ``k``) shows: that
-    second is no more than a second from it; or its norm less b is the Earth's (``field``, the motion's field less
-    b) and as measured off it by :data:`MAG_OFFSET` (:func:`_learned`'s test; BROAD 33 from 20 s, a magnet put on
-    before the motion, starts at the Earth's 44.4 µT, 69.9 µT less the magnet's offset); or, its norm telling
-    neither, it is the field at ``k`` within :data:`MAG_OFFSET` of ``field`` across bins over which the body turns
-    by under half :data:`MAG_OFFSET` rad (their rates summed less the median rate, the gyro's bias: each bin's
-    noise summed as a path crossed that in 40 s). ``fields`` of :func:`bin_fields`, ``h`` s a bin; False where
-    the rest between turns more (not judged)."""
+    """Whether the field the estimate takes for its reference at the start of the recording (``at_end``: the
+    backward pass's, at its end) carries the offset ``b`` that the field turns about from bin ``k`` on (up to bin
+    ``k``): the recording starts within a second of ``k``; or its first second's norm less b is the Earth's
+    (``field``, the motion's field less b) and as measured off it by :data:`MAG_OFFSET` (:func:`_learned`'s test;
+    BROAD 33 from 20 s, its magnet put on before the motion, starts at the Earth's 44.4 µT, 69.9 µT less the
+    magnet's offset); or, the norm telling neither, the body turns throughout up to ``k`` (no still second in which
+    a magnet was put on or taken off), or across a rest (the bins' rates summed less their median, the gyro's
+    bias, under half :data:`MAG_OFFSET` rad: each bin's noise summed as a path crossed that in 40 s) the field at
+    ``k`` is the first second's within :data:`MAG_OFFSET` of ``field``. ``fields`` of :func:`bin_fields`, ``h`` s a
+    bin; False otherwise."""
     nums, m, w = fields
     ok = (nums > k if at_end else nums < k) & np.all(np.isfinite(m), axis=1)
     s = max(1, int(round(1.0 / h)))
@@ -2993,7 +2994,8 @@ def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool
     if nm <= MAG_OFFSET * field and nm < nb:
         return False
     if float(np.linalg.norm(np.sum(ww - np.median(ww, axis=0), axis=0))) * h >= 0.5 * MAG_OFFSET:
-        return False
+        still = _norm(ww) < STILL_RATE
+        return not any(e - st >= s for st, e in mask_runs(still))
     return float(np.linalg.norm(np.median(mm[:s], axis=0) - np.median(mm[-s:], axis=0))) < MAG_OFFSET * field
 
 
