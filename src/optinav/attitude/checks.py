@@ -3028,10 +3028,10 @@ def offset_unseen_error(
         return None
     if not _carried(fields, h, k0, b, field, False) or (offline and not _carried(fields, h, k1 - 1, b, field, True)):
         return None
-    share = "" if explained is None else f", that offset explaining {explained:.0%} of what the gyro leaves of it"
+    share = "" if explained is None else f" (that offset explains {explained:.0%} of what the gyro leaves of it)"
     return OptinavError(
         f"the magnetic field turns in the body about [{_vec(b)}] (its unit), not about zero, wherever the body "
-        f"turns{share}, from sample {k0 * rows} ({k0 * h:.1f} s): an uncalibrated (hard-iron) magnetometer, and the "
+        f"turns from sample {k0 * rows} ({k0 * h:.1f} s){share}: an uncalibrated (hard-iron) magnetometer, and the "
         "recording turns it too little for the offset to be fitted; the heading would be off by up to tens of degrees",
         "give --mag-hard-iron=BX,BY,BZ from a calibration that turns the sensor every way (mag_hard_iron= in "
         "Python), a calibrated magnetometer, or drop --mag",
