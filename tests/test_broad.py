@@ -2794,7 +2794,7 @@ def test_a_magnet_on_the_board_is_refused_where_the_estimate_starts_in_it_not_wh
     field turns about the magnet's offset wherever judged and the estimate starts in it: 39.5° heading RMSE online,
     63° offline, with exit 0; refused. From 20 s to 60 s the motion shows the same offset, but the start, before
     the magnet, holds the Earth's field (44.4 µT; less the offset 70 µT): the reference is clean and the heading
-    right (1.0°), not refused."""
+    right (1.0°), not refused. A start off the Earth's norm either way is refused (below)."""
     tr = load_broad(_present(BROAD / "33_disturbed_attached_magnet_2cm.hdf5"))
 
     def cut(a, b):
@@ -2808,6 +2808,11 @@ def test_a_magnet_on_the_board_is_refused_where_the_estimate_starts_in_it_not_wh
         g, a, dt, m, q, mask = cut(20.0, 60.0)
         r = estimate(g, a, dt, frame="ENU", mag=m, offline=offline)
         assert rmse(np.degrees(heading_error(r.q_b_n, q)), mask) < 1.5
+        # with a (25, -15, 35) µT offset too, from 40 s: the start holds that offset but not the magnet's (31.4 µT,
+        # less both 70.7, the Earth's 45.0): a reference off either way, 99° online and 103° offline with exit 0
+        g, a, dt, m, _, _ = cut(40.0, 80.0)
+        with pytest.raises(OptinavError, match="not about zero, wherever the body turns"):
+            estimate(g, a, dt, frame="ENU", mag=m + [25.0, -15.0, 35.0], offline=offline)
 
 
 def test_an_offset_shown_in_one_window_of_a_log_turning_throughout_is_refused():

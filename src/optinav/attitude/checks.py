@@ -2973,11 +2973,13 @@ def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, in
 def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool) -> bool:
     """Whether the field the estimate takes for its reference at the start of the recording (``at_end``: the
     backward pass's, at its end) carries the offset ``b`` that the field turns about from bin ``k`` on (up to bin
-    ``k``): the recording starts within a second of ``k``; or its first second's norm less b is the Earth's
-    (``field``, the motion's field less b) and as measured off it by :data:`MAG_OFFSET` (:func:`_learned`'s test;
-    BROAD 33 from 20 s, its magnet put on before the motion, starts at the Earth's 44.4 µT, 69.9 µT less the
-    magnet's offset); or, the norm telling neither, the body turns throughout up to ``k`` (no still second in which
-    a magnet was put on or taken off), or across a rest (the bins' rates summed less their median, the gyro's
+    ``k``): the recording starts within a second of ``k``; or its first second's norm as measured is off the
+    Earth's (``field``, the motion's field less b) by :data:`MAG_OFFSET` (less b it is the Earth's, or neither is:
+    a reference off either way; BROAD 33 from 40 s with (25, -15, 35) µT starts at 31.4 µT, 70.7 less the offset
+    its magnet adds, the Earth's 45.0, and ran at 99° with exit 0), not where it is the Earth's and less b further
+    off (33 from 20 s, its magnet put on before the motion: 44.4 µT, 69.9 less it); or, the norm telling neither
+    (within that of the Earth's as measured and less b nearer), the body turns throughout up to ``k`` (no still
+    second in which a magnet was put on or taken off), or across a rest (the bins' rates summed less their median, the gyro's
     bias, under half :data:`MAG_OFFSET` rad: each bin's noise summed as a path crossed that in 40 s) the field at
     ``k`` is the first second's within :data:`MAG_OFFSET` of ``field``. ``fields`` of :func:`bin_fields`, ``h`` s a
     bin; False otherwise."""
@@ -2989,9 +2991,9 @@ def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool
     mm, ww = m[ok], w[ok]
     edge = np.median(mm[-s:] if at_end else mm[:s], axis=0)
     nm, nb = abs(float(np.linalg.norm(edge)) - field), abs(float(np.linalg.norm(edge - b)) - field)
-    if nm > MAG_OFFSET * field and nb < nm:
+    if nm > MAG_OFFSET * field:  # not the Earth's as measured: with b, or neither (a reference off either way)
         return True
-    if nm <= MAG_OFFSET * field and nm < nb:
+    if nm < nb:
         return False
     if float(np.linalg.norm(np.sum(ww - np.median(ww, axis=0), axis=0))) * h >= 0.5 * MAG_OFFSET:
         still = _norm(ww) < STILL_RATE
