@@ -2939,13 +2939,13 @@ MAG_UNSEEN_EXPLAINED = 0.6
 
 def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, int, np.ndarray, float, float] | None:
     """(first bin, last bin, b, median norm of the field less b, explained) of the offset b (3,, the field's unit)
-    that the field turns about over the steps between bins in which the body turns (:func:`_turn_steps`, mean rate
-    over :data:`STILL_RATE`): the fit of :func:`turning_offset` on those steps alone, where a few seconds of motion
-    in a log at rest hold it (the still steps' noise set its trim and hid it: BROAD's last 40 s, 0.4-2 rad of
-    turning, with (25, -15, 35) µT). None where they turn the body by under :data:`MAG_UNSEEN_TURN` rad, b explains
-    under :data:`MAG_UNSEEN_EXPLAINED` of them or under :data:`MAG_TURN_OFFSET_PIECE` of the steps it keeps in
-    either half of the turning it predicts, or b is within :data:`MAG_OFFSET` of the field less it (about zero). ``bins``, ``sums``,
-    ``h`` as :func:`turning_offset` takes them."""
+    that the field turns about over the steps of :func:`_turn_steps` in which the body turns (mean rate over
+    :data:`STILL_RATE`): :func:`turning_offset`'s fit on those steps alone, which holds a few seconds of motion in a
+    log at rest (the still steps' noise set its trim and hid them: BROAD's last 40 s, 0.4-2 rad of turning, with
+    (25, -15, 35) µT). None where they turn the body by under :data:`MAG_UNSEEN_TURN` rad, b explains under
+    :data:`MAG_UNSEEN_EXPLAINED` of their turning or under :data:`MAG_TURN_OFFSET_PIECE` of the kept steps' in
+    either half of what it predicts, or b is within :data:`MAG_OFFSET` of the field less it (about zero).
+    ``bins``, ``sums``, ``h`` as :func:`turning_offset` takes them."""
     steps = _turn_steps(bins, sums, h)
     if steps is None:
         return None
@@ -2972,17 +2972,16 @@ def moving_offset(bins: np.ndarray, sums: np.ndarray, h: float) -> tuple[int, in
 
 def _carried(fields, h: float, k: int, b: np.ndarray, field: float, at_end: bool) -> bool:
     """Whether the field the estimate takes for its reference at the start of the recording (``at_end``: the
-    backward pass's, at its end) carries the offset ``b`` that the field turns about from bin ``k`` on (up to bin
-    ``k``): the recording starts within a second of ``k``; or its first second's norm as measured is off the
-    Earth's (``field``, the motion's field less b) by :data:`MAG_OFFSET` (less b it is the Earth's, or neither is:
-    a reference off either way; BROAD 33 from 40 s with (25, -15, 35) µT starts at 31.4 µT, 70.7 less the offset
-    its magnet adds, the Earth's 45.0, and ran at 99° with exit 0), not where it is the Earth's and less b further
-    off (33 from 20 s, its magnet put on before the motion: 44.4 µT, 69.9 less it); or, the norm telling neither
-    (within that of the Earth's as measured and less b nearer), the body turns throughout up to ``k`` (no still
-    second in which a magnet was put on or taken off), or across a rest (the bins' rates summed less their median, the gyro's
-    bias, under half :data:`MAG_OFFSET` rad: each bin's noise summed as a path crossed that in 40 s) the field at
-    ``k`` is the first second's within :data:`MAG_OFFSET` of ``field``. ``fields`` of :func:`bin_fields`, ``h`` s a
-    bin; False otherwise."""
+    backward pass's, at its end) carries the offset ``b`` the field turns about from bin ``k`` on (up to bin ``k``).
+    Yes where the recording starts within a second of ``k``, or its first second's norm is off the Earth's
+    (``field``, the motion's field less b) by :data:`MAG_OFFSET` (with b, or neither: a reference off either way;
+    BROAD 33 from 40 s with (25, -15, 35) µT: 31.4 µT, 70.7 less its magnet's offset too, the Earth's 45.0; 99°
+    with exit 0). No where it is the Earth's and less b further off (33 from 20 s, its magnet put on before the
+    motion: 44.4 µT, 69.9 less it). The norm telling neither: yes where the body turns throughout up to ``k`` (no
+    still second for a magnet to be put on or taken off in), or the field at ``k`` is the first second's within
+    :data:`MAG_OFFSET` of ``field`` across a rest (the bins' rates summed less their median, the gyro's bias, under
+    half :data:`MAG_OFFSET` rad; each bin's noise summed as a path crossed that in 40 s). ``fields`` of
+    :func:`bin_fields`, ``h`` s a bin."""
     nums, m, w = fields
     ok = (nums > k if at_end else nums < k) & np.all(np.isfinite(m), axis=1)
     s = max(1, int(round(1.0 / h)))
